@@ -1,0 +1,53 @@
+"""The ``wbc`` command line: one sub-command per capability.
+
+Each sub-command lives in its own module exposing ``add_arguments(parser)`` and
+``run(args) -> int``; modules are imported only when their command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+# command -> (module, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("wbc.demo", "load the robot and print mass, CoM and sole poses at Walk Ready"),
+    "bench": ("wbc.bench.cli", "compare solver families on the same trajectories"),
+    "walk": ("wbc.walking.cli", "run a task stack along a walking reference and record it"),
+    "deploy": ("wbc.servos.deploy", "play a trajectory on AX-12A servos (or a dry run)"),
+    "view": ("wbc.viewer.cli", "show the robot or a recording in meshcat"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.set_defaults(_module=module)
+        try:
+            importlib.import_module(module).add_arguments(p)
+        except ModuleNotFoundError as exc:
+            if exc.name and exc.name.startswith("wbc"):
+                p.set_defaults(_missing=str(exc))
+            else:
+                raise
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    if getattr(args, "_missing", None):
+        print(f"wbc {args.command}: not available ({args._missing})", file=sys.stderr)
+        return 2
+    return int(importlib.import_module(args._module).run(args) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

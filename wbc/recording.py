@@ -1,0 +1,141 @@
+"""Recordings: a run's joint trajectory with its references, saved as one ``.npz`` file.
+
+Every tool (benchmark, viewer, servo deployment, physics) reads this one format. Required
+arrays: ``t`` (N,), ``q`` (N, nq) full floating-base configurations and ``joint_names``.
+Optional channels use these names when present:
+
+``com`` / ``com_ref`` (N, 3), ``swing`` / ``swing_ref`` (N, 3) swing-sole position,
+``l_sole`` / ``r_sole`` (N, 7) sole placements as xyz + quaternion (x, y, z, w),
+``support`` (N,) int8 (:data:`SUPPORT_DOUBLE`, :data:`SUPPORT_LEFT`, :data:`SUPPORT_RIGHT`),
+``zmp`` / ``zmp_ref`` (N, 2), ``com_margin`` / ``zmp_margin`` (N,) signed distance (m) to the
+support polygon's edge (positive inside), ``limit_margin`` (N, n_joints) distance (rad) to the
+nearest joint limit (negative = violated), ``solve_time`` (N,) seconds, ``err/<task>`` (N, k)
+task errors. ``meta`` is a JSON dict (solver, trajectory, robot, ...).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .exceptions import TrajectoryError
+
+SUPPORT_DOUBLE = 0
+SUPPORT_LEFT = 1
+SUPPORT_RIGHT = 2
+SUPPORT_NAMES = {SUPPORT_DOUBLE: "double", SUPPORT_LEFT: "left", SUPPORT_RIGHT: "right"}
+
+
+@dataclass
+class Recording:
+    """A time-indexed joint trajectory plus named channels and metadata."""
+
+    t: np.ndarray
+    q: np.ndarray
+    joint_names: tuple[str, ...]
+    channels: dict[str, np.ndarray] = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=float)
+        self.q = np.asarray(self.q, dtype=float)
+        self.joint_names = tuple(self.joint_names)
+        if self.t.ndim != 1 or self.t.size == 0:
+            raise TrajectoryError(f"recording: t must be a non-empty 1-D array, got {self.t.shape}")
+        if self.q.ndim != 2 or self.q.shape[0] != self.t.size:
+            raise TrajectoryError(
+                f"recording: q must have shape (N={self.t.size}, nq), got {self.q.shape}"
+            )
+        if self.q.shape[1] != 7 + len(self.joint_names):
+            raise TrajectoryError(
+                f"recording: q has {self.q.shape[1]} columns but {len(self.joint_names)} joint "
+                f"names (expected 7 + {len(self.joint_names)})"
+            )
+        if not np.all(np.isfinite(self.t)) or np.any(np.diff(self.t) <= 0):
+            raise TrajectoryError("recording: t must be finite and strictly increasing")
+        for name, values in self.channels.items():
+            arr = np.asarray(values)
+            if arr.shape[:1] != (self.t.size,):
+                raise TrajectoryError(
+                    f"recording: channel {name!r} has {arr.shape[:1]} rows, expected {self.t.size}"
+                )
+            self.channels[name] = arr
+
+    def __len__(self) -> int:
+        return self.t.size
+
+    @property
+    def joints(self) -> np.ndarray:
+        """(N, n_joints) actuated joint angles."""
+        return self.q[:, 7:]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.channels[name]
+        except KeyError:
+            raise KeyError(
+                f"recording has no channel {name!r}; channels: {sorted(self.channels)}"
+            ) from None
+
+    def save(self, path: str | Path) -> Path:
+        """Write the recording as ``.npz`` (no pickled objects)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {
+            "t": self.t,
+            "q": self.q,
+            "joint_names": np.array(self.joint_names),
+            "meta": np.array(json.dumps(self.meta, default=_json_default)),
+        }
+        for name, values in self.channels.items():
+            if name in arrays:
+                raise TrajectoryError(f"recording: channel name {name!r} is reserved")
+            arrays[name] = values
+        np.savez_compressed(path, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Recording:
+        """Read a recording written by :meth:`save`; names what is missing if malformed."""
+        path = Path(path)
+        if not path.is_file():
+            raise TrajectoryError(f"recording not found: {path}")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {k: data[k] for k in data.files}
+        except Exception as exc:
+            raise TrajectoryError(f"cannot read recording {path}: {exc}") from exc
+        missing = [k for k in ("t", "q", "joint_names") if k not in arrays]
+        if missing:
+            raise TrajectoryError(f"recording {path} lacks required arrays {missing}")
+        meta = json.loads(str(arrays.pop("meta"))) if "meta" in arrays else {}
+        t = arrays.pop("t")
+        q = arrays.pop("q")
+        names = tuple(str(n) for n in arrays.pop("joint_names"))
+        return cls(t, q, names, arrays, meta)
+
+    @classmethod
+    def from_rows(
+        cls,
+        t: Sequence[float],
+        q: Sequence[np.ndarray],
+        joint_names: Sequence[str],
+        channels: Mapping[str, Sequence] | None = None,
+        meta: Mapping[str, Any] | None = None,
+    ) -> Recording:
+        """Build from per-tick lists (convenient for loops that append each tick)."""
+        ch = {k: np.asarray(v) for k, v in (channels or {}).items()}
+        return cls(np.asarray(t), np.asarray(q), tuple(joint_names), ch, dict(meta or {}))
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")

@@ -1,0 +1,208 @@
+"""Servo map: joint angle (rad, our URDF frames) <-> Dynamixel ticks.
+
+AX-12A goal/present positions are 0..1023 ticks over 300 degrees, so one tick is
+300/1023 degrees. For each joint the map holds its Dynamixel ID, a sign and the tick at which
+our joint angle is zero::
+
+    q = sign * (ticks - zero_tick) * RAD_PER_TICK
+    ticks = round(zero_tick + sign * q / RAD_PER_TICK)
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .exceptions import ServoMapError
+
+TICK_MIN = 0
+TICK_MAX = 1023
+CENTER_TICK = 512
+DEG_PER_TICK = 300.0 / 1023.0
+RAD_PER_TICK = math.radians(DEG_PER_TICK)
+
+
+@dataclass(frozen=True)
+class ServoSpec:
+    """One joint's servo: Dynamixel ID, direction sign and the tick where q = 0."""
+
+    joint: str
+    id: int
+    sign: int
+    zero_tick: float
+
+
+class ServoMap:
+    """Joint <-> servo mapping for a whole robot, in the robot model's joint order."""
+
+    def __init__(
+        self,
+        specs: Sequence[ServoSpec],
+        poses: Mapping[str, Mapping[int, int]] | None = None,
+        baudrate: int = 1_000_000,
+        source: str = "<memory>",
+    ) -> None:
+        self.source = source
+        self.specs = tuple(specs)
+        self.baudrate = baudrate
+        self._validate()
+        self.joint_names = tuple(s.joint for s in self.specs)
+        self.ids = np.array([s.id for s in self.specs], dtype=int)
+        self.signs = np.array([s.sign for s in self.specs], dtype=float)
+        self.zero_ticks = np.array([s.zero_tick for s in self.specs], dtype=float)
+        self._by_id = {s.id: i for i, s in enumerate(self.specs)}
+        self._by_joint = {s.joint: i for i, s in enumerate(self.specs)}
+        self.poses = {name: dict(p) for name, p in (poses or {}).items()}
+        for name, pose in self.poses.items():
+            unknown = sorted(set(pose) - set(self._by_id))
+            if unknown:
+                raise ServoMapError(f"{source}: pose {name!r} names unknown servo IDs {unknown}")
+            missing = sorted(set(self._by_id) - set(pose))
+            if missing:
+                raise ServoMapError(f"{source}: pose {name!r} lacks servo IDs {missing}")
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_file(cls, path: str | Path, joint_names: Sequence[str] | None = None) -> ServoMap:
+        """Load a servo map TOML; with ``joint_names``, reorder to (and check against) them."""
+        path = Path(path)
+        if not path.is_file():
+            raise ServoMapError(f"servo map not found: {path}")
+        try:
+            with open(path, "rb") as f:
+                raw = tomllib.load(f)
+        except tomllib.TOMLDecodeError as exc:
+            raise ServoMapError(f"servo map {path} is not valid TOML: {exc}") from exc
+        joints = raw.get("joints")
+        if not isinstance(joints, dict) or not joints:
+            raise ServoMapError(f"servo map {path} has no [joints] table")
+        specs = []
+        for joint, entry in joints.items():
+            if not isinstance(entry, dict):
+                raise ServoMapError(f"servo map {path}: joint {joint!r} must be a table")
+            for key in ("id", "sign", "zero_tick"):
+                if key not in entry:
+                    raise ServoMapError(f"servo map {path}: joint {joint!r} lacks {key!r}")
+            extra = set(entry) - {"id", "sign", "zero_tick"}
+            if extra:
+                raise ServoMapError(
+                    f"servo map {path}: joint {joint!r} has unknown keys {sorted(extra)}"
+                )
+            specs.append(ServoSpec(joint, entry["id"], entry["sign"], entry["zero_tick"]))
+        if joint_names is not None:
+            by_name = {s.joint: s for s in specs}
+            missing = [j for j in joint_names if j not in by_name]
+            extra = [j for j in by_name if j not in set(joint_names)]
+            if missing or extra:
+                raise ServoMapError(
+                    f"servo map {path} does not match the robot model: "
+                    f"missing joints {missing}, joints not in the model {extra}"
+                )
+            specs = [by_name[j] for j in joint_names]
+        poses = {}
+        for name, pose in raw.get("poses", {}).items():
+            try:
+                poses[name] = {int(k): int(v) for k, v in pose.items()}
+            except (TypeError, ValueError) as exc:
+                raise ServoMapError(f"servo map {path}: pose {name!r}: {exc}") from exc
+        baud = raw.get("bus", {}).get("baudrate", 1_000_000)
+        return cls(specs, poses, baudrate=baud, source=str(path))
+
+    def _validate(self) -> None:
+        seen: dict[int, str] = {}
+        names: set[str] = set()
+        for s in self.specs:
+            where = f"{self.source}: joint {s.joint!r}"
+            if s.joint in names:
+                raise ServoMapError(f"{where} appears twice")
+            names.add(s.joint)
+            if isinstance(s.id, bool) or not isinstance(s.id, int) or not 0 <= s.id <= 253:
+                raise ServoMapError(f"{where}: id {s.id!r} is not an integer in 0..253")
+            if s.id in seen:
+                raise ServoMapError(f"{where}: duplicate servo id {s.id} (also {seen[s.id]!r})")
+            seen[s.id] = s.joint
+            if s.sign not in (1, -1) or isinstance(s.sign, bool):
+                raise ServoMapError(f"{where}: sign must be 1 or -1, got {s.sign!r}")
+            if not isinstance(s.zero_tick, (int, float)) or isinstance(s.zero_tick, bool):
+                raise ServoMapError(f"{where}: zero_tick must be a number, got {s.zero_tick!r}")
+            if not TICK_MIN <= s.zero_tick <= TICK_MAX:
+                raise ServoMapError(f"{where}: zero_tick {s.zero_tick} outside 0..1023")
+
+    # ------------------------------------------------------------------ lookups
+    def __len__(self) -> int:
+        return len(self.specs)
+
+    def spec(self, joint: str) -> ServoSpec:
+        """The servo of a joint, by joint name."""
+        try:
+            return self.specs[self._by_joint[joint]]
+        except KeyError:
+            raise ServoMapError(
+                f"unknown joint {joint!r}; known joints: {', '.join(self.joint_names)}"
+            ) from None
+
+    def index_of_id(self, servo_id: int) -> int:
+        """Position (model joint order) of a servo ID."""
+        try:
+            return self._by_id[servo_id]
+        except KeyError:
+            raise ServoMapError(f"unknown servo id {servo_id}") from None
+
+    # ------------------------------------------------------------------ conversions
+    def ticks_to_angles(self, ticks: Sequence[float] | np.ndarray) -> np.ndarray:
+        """Joint angles (rad, model order) from ticks (model order)."""
+        t = self._as_vector(ticks, "ticks")
+        bad = np.flatnonzero((t < TICK_MIN) | (t > TICK_MAX))
+        if bad.size:
+            raise ServoMapError(self._range_message(t, bad, "ticks"))
+        return self.signs * (t - self.zero_ticks) * RAD_PER_TICK
+
+    def angles_to_ticks_float(self, q: Sequence[float] | np.ndarray) -> np.ndarray:
+        """Unrounded ticks for joint angles (rad, model order); no range check."""
+        q = self._as_vector(q, "angles")
+        return self.zero_ticks + self.signs * q / RAD_PER_TICK
+
+    def angles_to_ticks(self, q: Sequence[float] | np.ndarray) -> np.ndarray:
+        """Integer goal ticks for joint angles (rad, model order).
+
+        Raises :class:`ServoMapError` naming the joint if a tick falls outside 0..1023.
+        """
+        t = np.rint(self.angles_to_ticks_float(q))
+        bad = np.flatnonzero((t < TICK_MIN) | (t > TICK_MAX))
+        if bad.size:
+            raise ServoMapError(self._range_message(t, bad, "angles"))
+        return t.astype(int)
+
+    def pose_ticks(self, name: str) -> np.ndarray:
+        """A named pose of the map (e.g. ``walk_ready``) as ticks in model order."""
+        try:
+            pose = self.poses[name]
+        except KeyError:
+            raise ServoMapError(
+                f"unknown pose {name!r}; poses in {self.source}: {sorted(self.poses)}"
+            ) from None
+        return np.array([pose[s.id] for s in self.specs], dtype=int)
+
+    def ticks_by_id(self, ticks: Sequence[int] | np.ndarray) -> dict[int, int]:
+        """Model-order ticks as ``{servo_id: tick}``."""
+        return {int(i): int(t) for i, t in zip(self.ids, ticks, strict=True)}
+
+    def _as_vector(self, values, what: str) -> np.ndarray:
+        v = np.asarray(values, dtype=float)
+        if v.shape != (len(self.specs),):
+            raise ServoMapError(
+                f"{what}: expected {len(self.specs)} values (one per joint), got shape {v.shape}"
+            )
+        if not np.all(np.isfinite(v)):
+            bad = [self.specs[i].joint for i in np.flatnonzero(~np.isfinite(v))]
+            raise ServoMapError(f"{what}: non-finite values for joints {bad}")
+        return v
+
+    def _range_message(self, ticks: np.ndarray, bad: np.ndarray, what: str) -> str:
+        parts = [f"{self.specs[i].joint} (id {self.specs[i].id}) -> tick {ticks[i]:g}" for i in bad]
+        return f"{what} outside the servo range 0..1023: " + "; ".join(parts)
