@@ -1,1 +1,30 @@
-"""wbc.tasks."""
+"""Tasks: each gives an error e(q) = x* − x(q) and its Jacobian J(q).
+
+The same task objects serve the weighted and hierarchical QP solvers (:mod:`wbc.solvers`) and
+the thesis's pseudo-inverse baselines (:mod:`wbc.pinv`).
+"""
+
+from .com import ComTask
+from .contact import ContactTask
+from .frame_orientation import FrameOrientationTask
+from .frame_pose import FramePoseTask
+from .frame_position import FramePositionTask
+from .frame_task import FrameTask
+from .posture import DampingTask, PostureTask
+from .task import Objective, Task
+from .thesis_orientation import SwingFootOrientationTask, TorsoOrientationTask
+
+__all__ = [
+    "ComTask",
+    "ContactTask",
+    "DampingTask",
+    "FrameOrientationTask",
+    "FramePoseTask",
+    "FramePositionTask",
+    "FrameTask",
+    "Objective",
+    "PostureTask",
+    "SwingFootOrientationTask",
+    "Task",
+    "TorsoOrientationTask",
+]

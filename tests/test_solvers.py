@@ -1,0 +1,339 @@
+"""Weighted and hierarchical QP solvers: laws that must hold for any configuration/target."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from proxsuite import proxqp
+
+from wbc import ConfigurationError, InfeasibleError, Kinematics, SolverError, TaskError
+from wbc.limits import ComPolygonConstraint
+from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
+from wbc.tasks import (
+    ComTask,
+    ContactTask,
+    FrameOrientationTask,
+    FramePoseTask,
+    FramePositionTask,
+    PostureTask,
+)
+
+BACKENDS = ["daqp", "proxqp", "quadprog", "osqp"]
+
+
+def walking_stack(
+    robot, q, rng=None, com_shift=(0.0, 0.0, 0.0), lift=0.0, polygon=False, velocity_limits=True
+):
+    """Contact (hard), swing foot 6-D + CoM, torso + posture: the walking stack."""
+    stack = TaskStack(robot, velocity_limits=velocity_limits)
+    kin = Kinematics(robot, q)
+    contact = stack.add(ContactTask(robot, "l_sole"), level=0, hard=True)
+    contact.make_contact(kin)
+    swing = stack.add(FramePoseTask(robot, "r_sole", name="swing"), level=1, weight=10.0)
+    swing.set_target_from(kin)
+    swing.set_position_target(swing.target_position + [0.0, 0.0, lift])
+    com = stack.add(ComTask(robot), level=1, weight=100.0)
+    com.set_target(kin.com + np.asarray(com_shift))
+    torso = stack.add(FrameOrientationTask(robot, "torso", name="torso"), level=2)
+    torso.set_target_from(kin)
+    stack.add(PostureTask(robot, robot.configuration("walk_ready")), level=2, weight=1e-2)
+    if polygon:
+        stack.add_constraint(
+            ComPolygonConstraint(robot, ["l_sole", "r_sole"], margin=0.02), level=1
+        )
+    return stack
+
+
+def random_start(robot, seed, outside=0.0):
+    """Walk Ready with joint noise; with ``outside`` > 0 some joints start outside limits."""
+    rng = np.random.default_rng(seed)
+    q = robot.configuration("walk_ready")
+    q[7:] += rng.uniform(-0.05, 0.05, robot.n_joints)
+    q[7:] = np.clip(q[7:], robot.q_min, robot.q_max)
+    if outside:
+        idx = rng.choice(robot.n_joints, 3, replace=False)
+        for i in idx:
+            q[7 + i] = robot.q_max[i] + outside if rng.random() < 0.5 else robot.q_min[i] - outside
+    return robot.place_on_ground(q, "l_sole"), rng
+
+
+targets = st.tuples(st.floats(-0.03, 0.03), st.floats(-0.03, 0.03), st.floats(-0.02, 0.01))
+
+
+# ---------------------------------------------------------------------------- limits
+@given(
+    seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.04), hierarchical=st.booleans()
+)
+def test_joint_limits_never_violated(robot, seed, shift, lift, hierarchical):
+    q, _ = random_start(robot, seed)
+    stack = walking_stack(robot, q, com_shift=shift, lift=lift)
+    solver = (HierarchicalQP if hierarchical else WeightedQP)(stack, "daqp")
+    for _ in range(3):
+        q_next = solver.step(q, dt=0.01)
+        assert np.all(q_next[7:] >= robot.q_min) and np.all(q_next[7:] <= robot.q_max)
+        # velocity limits: |Δq_j| <= v_max dt
+        assert np.all(np.abs(q_next[7:] - q[7:]) <= robot.v_max * 0.01 + 1e-9)
+        q = q_next
+    result = solver.solve_pose(q, max_iterations=30)
+    assert robot.within_limits(result.q)
+
+
+@given(seed=st.integers(0, 10_000), outside=st.floats(0.001, 0.2), hierarchical=st.booleans())
+def test_start_outside_limits_moves_back_inside(robot, seed, outside, hierarchical):
+    """Servo readings can sit outside the URDF limits: the QP must not fail (pink #206)."""
+    q, _ = random_start(robot, seed, outside=outside)
+    stack = walking_stack(robot, q)
+    solver = (HierarchicalQP if hierarchical else WeightedQP)(stack, "daqp")
+    dt = 0.01
+    step = robot.v_max * dt
+    before = np.maximum(robot.q_min - q[7:], 0) + np.maximum(q[7:] - robot.q_max, 0)
+    q_next = solver.step(q, dt)
+    after = np.maximum(robot.q_min - q_next[7:], 0) + np.maximum(q_next[7:] - robot.q_max, 0)
+    # outside joints come back by a full servo step (or all the way in); none goes out
+    assert np.all(after <= np.maximum(before - step, 0) + 1e-9)
+
+
+# ---------------------------------------------------------------------------- weighted QP law
+@given(seed=st.integers(0, 10_000), shift=targets)
+def test_weighted_qp_without_active_bound_is_weighted_damped_least_squares(robot, seed, shift):
+    q, _ = random_start(robot, seed)
+    stack = TaskStack(robot)  # soft tasks only
+    kin = Kinematics(robot, q)
+    com = stack.add(ComTask(robot, kin.com + 0.1 * np.asarray(shift)), level=0, weight=3.0)
+    foot = stack.add(FramePositionTask(robot, "r_sole"), level=0, weight=[1.0, 2.0, 0.5])
+    foot.set_target(kin.placement(robot.frame_id("r_sole")).translation + 0.1 * np.asarray(shift))
+    post = stack.add(PostureTask(robot, q, gain=0.5), level=1, weight=1e-2)
+    mu = 1e-3
+    solver = WeightedQP(stack, "daqp", regularization=mu)
+    dq = solver.solve(q)  # no time step: position limits only, far from active here
+    assert robot.within_limits(robot.integrate(q, dq), tol=-1e-6)
+    H = mu * np.eye(robot.nv)
+    g = np.zeros(robot.nv)
+    for task in (com, foot, post):
+        J, e = task.compute(kin)
+        W = np.diag(task.weight)
+        H += J.T @ W @ J
+        g += J.T @ W @ (task.gain * e)
+    assert np.allclose(dq, np.linalg.solve(H, g), atol=1e-9)
+
+
+# ---------------------------------------------------------------------------- backends agree
+@given(seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.03), polygon=st.booleans())
+def test_all_backends_agree_on_the_weighted_qp(robot, seed, shift, lift, polygon):
+    q, _ = random_start(robot, seed)
+    results = {}
+    for backend in BACKENDS:
+        stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
+        results[backend] = WeightedQP(stack, backend).solve(q, dt=0.01)
+    for backend in BACKENDS[1:]:
+        assert np.allclose(results[backend], results["daqp"], atol=1e-6), backend
+
+
+@given(seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.03), polygon=st.booleans())
+def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon):
+    """The active-set solvers agree to 1e-6; ProxQP (ALM, eps 1e-8) to 1e-4: the lower levels
+    of a hierarchy are degenerate (many active bounds) and its feasibility tolerance on them
+    moves the solution by up to ~1e-5. OSQP (ADMM) agrees when it converges and may instead
+    stop at its iteration limit on those levels (a SolverError, never a wrong answer)."""
+    q, _ = random_start(robot, seed)
+    results = {}
+    for backend in BACKENDS:
+        stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
+        try:
+            results[backend] = HierarchicalQP(stack, backend).solve(q, dt=0.01)
+        except SolverError as exc:
+            assert backend == "osqp" and "maximum iterations" in str(exc)
+    assert np.allclose(results["quadprog"], results["daqp"], atol=1e-6)
+    assert np.allclose(results["proxqp"], results["daqp"], atol=1e-4)
+    if "osqp" in results:
+        assert np.allclose(results["osqp"], results["daqp"], atol=1e-4)
+
+
+# ---------------------------------------------------------------------------- hierarchy laws
+def _level_alone_residual(problems, k, dq_star, lower, upper):
+    """min ‖J_k Δq − b_k‖² s.t. J_j Δq = J_j Δq* (j < k), G_j Δq <= h_j + s_j*, bounds —
+    solved directly over Δq with explicit equalities (an independent formulation)."""
+    nv = lower.size
+    J, b = problems[k].J, problems[k].b
+    A = np.vstack([p.J for p in problems[:k]] or [np.zeros((0, nv))])
+    beq = A @ dq_star
+    G = np.vstack([p.G for p in problems[: k + 1]] or [np.zeros((0, nv))])
+    h = np.concatenate([p.h for p in problems[: k + 1]] or [np.zeros(0)])
+    # higher levels' inequalities keep the slack they needed; level k's own are soft: give
+    # them the slack at the cascade's optimum (the ε-regularised ‖s‖² is part of its cost)
+    h = np.maximum(h, G @ dq_star)
+    tol = 1e-12
+    qp = proxqp.dense.QP(nv, A.shape[0], G.shape[0], True)
+    qp.settings.eps_abs = 1e-12
+    qp.settings.eps_rel = 0.0
+    qp.settings.eps_primal_inf = 1e-14
+    qp.settings.max_iter = 100_000
+    qp.init(
+        J.T @ J + 1e-12 * np.eye(nv),
+        -(J.T @ b),
+        A,
+        beq,
+        G,
+        np.full(len(h), -1e20),
+        h + tol,
+        lower - tol,
+        upper + tol,
+    )
+    qp.solve()
+    assert qp.results.info.status == proxqp.QPSolverOutput.PROXQP_SOLVED
+    return np.linalg.norm(J @ qp.results.x - b)
+
+
+@given(seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.03), polygon=st.booleans())
+def test_each_level_optimal_given_the_levels_above(robot, seed, shift, lift, polygon):
+    q, _ = random_start(robot, seed)
+    stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
+    solver = HierarchicalQP(stack, "daqp", regularization=1e-12)
+    dq = solver.solve(q, dt=0.01)
+    problems, sols = solver.problems, solver.solutions
+    lower, upper = np.empty(robot.nv), np.empty(robot.nv)
+    solver.compute_bounds(solver.kin, 0.01, lower, upper)
+    for k in range(len(problems)):
+        alone = _level_alone_residual(problems, k, dq, lower, upper)
+        assert np.linalg.norm(sols[k].residual) == pytest.approx(alone, abs=1e-8), k
+
+
+@given(seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.03))
+def test_lower_levels_never_degrade_higher_ones(robot, seed, shift, lift):
+    q, _ = random_start(robot, seed)
+    full = walking_stack(robot, q, com_shift=shift, lift=lift)
+    solver = HierarchicalQP(full, "daqp")
+    solver.solve(q, dt=0.01)
+    with_low = [np.linalg.norm(s.residual) for s in solver.solutions]
+    top = walking_stack(robot, q, com_shift=shift, lift=lift)
+    top.set_active(["torso", "posture"], False)
+    solver_top = HierarchicalQP(top, "daqp")
+    solver_top.solve(q, dt=0.01)
+    without_low = [np.linalg.norm(s.residual) for s in solver_top.solutions]
+    assert np.allclose(with_low[:2], without_low, atol=1e-8)
+
+
+def test_hierarchy_puts_the_top_level_first(robot):
+    """Conflicting CoM and swing targets: whichever is higher is met exactly."""
+    q = robot.configuration("walk_ready")
+    for first in ("com", "swing"):
+        stack = walking_stack(
+            robot, q, com_shift=(0.0, 0.03, -0.01), lift=0.03, velocity_limits=False
+        )
+        stack.task(first).active = True
+        # move the other task one level down
+        other = "swing" if first == "com" else "com"
+        task = stack.task(other)
+        stack.level(1).tasks.remove(task)
+        stack.add(task, level=2)
+        solver = HierarchicalQP(stack, "daqp")
+        solver.solve(q)
+        residual = {
+            name: np.linalg.norm(sol.residual[sl])
+            for prob, sol in zip(solver.problems, solver.solutions, strict=True)
+            for name, sl in prob.task_rows
+        }
+        assert residual[first] < 1e-9
+        assert residual[other] > 1e-4
+
+
+# ---------------------------------------------------------------------------- modes
+def test_solve_pose_converges_to_a_reachable_target(robot):
+    q = robot.configuration("walk_ready")
+    for cls in (WeightedQP, HierarchicalQP):
+        stack = walking_stack(robot, q, com_shift=(0.005, 0.01, -0.005), lift=0.01)
+        stack.set_active(["posture"], False)  # a posture target would conflict with the rest
+        result = cls(stack, "daqp").solve_pose(q, tol=1e-6, max_iterations=100)
+        assert result.converged, (cls, result.errors)
+        assert result.iterations < 100
+        q_final = result.q
+        kin = Kinematics(robot, q_final)
+        assert np.allclose(kin.com, stack.task("com").target, atol=1e-5)
+        assert robot.within_limits(q_final)
+
+
+def test_targets_update_in_place_without_replanning(robot):
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    solver = WeightedQP(stack, "daqp")
+    solver.step(q, 0.01)
+    ws = solver.ws
+    com = stack.task("com")
+    for _ in range(5):
+        com.set_target(com.target + [0.001, 0, 0])
+        q = solver.step(q, 0.01)
+        assert solver.ws is ws  # same preallocated workspace
+    errors = stack.errors()
+    assert set(errors) == {"contact_l_sole", "swing", "com", "torso", "posture"}
+    assert errors["com"].shape == (3,)
+
+
+def test_support_switch_replans(robot):
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    right = stack.add(ContactTask(robot, "r_sole"), level=0)
+    right.make_contact(Kinematics(robot, q))
+    solver = WeightedQP(stack, "daqp")
+    solver.step(q, 0.01)
+    assert solver.ws.A.shape[0] == 12  # double support: two hard contacts
+    stack.set_active(["contact_r_sole"], False)
+    solver.step(q, 0.01)
+    assert solver.ws.A.shape[0] == 6
+
+
+# ---------------------------------------------------------------------------- diagnostics
+def test_infeasible_hard_level_names_the_tasks(robot):
+    q = robot.configuration("walk_ready")
+    for cls in (WeightedQP, HierarchicalQP):
+        stack = walking_stack(robot, q)
+        far = stack.add(FramePositionTask(robot, "r_hand", name="reach_far"), level=3, hard=True)
+        far.set_target([1.0, -0.5, 0.3])  # a metre away: impossible within one servo step
+        with pytest.raises(InfeasibleError, match="reach_far"):
+            cls(stack, "daqp").step(q, 0.01)
+        relaxed = cls(stack, "daqp", on_infeasible="relax")
+        dq = relaxed.solve(q, 0.01)
+        assert relaxed.relaxed
+        assert robot.within_limits(relaxed.integrate(q, dq))
+        assert "reach_far" in relaxed.diagnosis
+        # the relaxed solution still meets the feasible hard level above (the contact)
+        J, e = stack.task("contact_l_sole").compute(Kinematics(robot, q))
+        assert np.linalg.norm(J @ dq - e) < 1e-8
+
+
+def test_infeasible_hard_inequality_is_named(robot):
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    # the CoM can't reach a polygon 10 cm away within one step
+    from wbc.limits import LinearInequality
+
+    G = np.zeros((1, robot.nv))
+    G[0] = -Kinematics(robot, q).com_jacobian[0]
+    stack.add_constraint(LinearInequality(G, np.array([-0.1]), name="com_far_forward"), level=0)
+    with pytest.raises(InfeasibleError, match="com_far_forward"):
+        HierarchicalQP(stack, "daqp").step(q, 0.01)
+    with pytest.raises(InfeasibleError, match="com_far_forward"):
+        WeightedQP(stack, "daqp").step(q, 0.01)
+
+
+def test_bad_input_is_rejected(robot):
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    solver = WeightedQP(stack, "daqp")
+    bad = q.copy()
+    bad[10] = np.nan
+    with pytest.raises(ConfigurationError, match="non-finite"):
+        solver.step(bad, 0.01)
+    with pytest.raises(ConfigurationError, match="size nq"):
+        solver.step(q[:-1], 0.01)
+    with pytest.raises(ConfigurationError, match="dt"):
+        solver.step(q, -0.01)
+    with pytest.raises(TaskError, match="non-finite"):
+        stack.task("com").set_target([0, np.inf, 0])
+    with pytest.raises(TaskError, match="already in the stack"):
+        stack.add(ComTask(robot))
+    with pytest.raises(SolverError, match="unknown QP backend"):
+        WeightedQP(stack, "cplex")
+    with pytest.raises(SolverError, match="unknown hierarchical method"):
+        HierarchicalQP(stack, method="magic")

@@ -1,0 +1,75 @@
+"""Swing-foot ground clearance: no sole corner below the ground."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..exceptions import TaskError
+from ..model import Kinematics, Robot
+from .limit import Constraint, Inequality
+from .support_polygon import FOOT_LENGTH, FOOT_WIDTH
+
+
+class GroundClearanceConstraint(Constraint):
+    """z of each sole corner after the step >= ``clearance`` (4 rows):
+
+    z_c + J_c,z Δq >= clearance  ⇔  −J_c,z Δq <= z_c − clearance,
+    with J_c = J_v − [R r_c]× J_ω for corner offset r_c in the sole frame.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        frame: str,
+        clearance: float = 0.0,
+        length: float = FOOT_LENGTH,
+        width: float = FOOT_WIDTH,
+        name: str | None = None,
+    ) -> None:
+        super().__init__(name or f"ground_clearance_{frame}")
+        self.robot = robot
+        self.clearance = clearance
+        self.set_frame(frame)
+        hl, hw = 0.5 * length, 0.5 * width
+        self.corners = np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
+        self._G = np.zeros((4, robot.nv))
+        self._h = np.zeros(4)
+
+    def set_frame(self, frame: str) -> None:
+        self.frame_id = self.robot.frame_id(frame)
+        self.frame = frame
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        M = kin.placement(self.frame_id)
+        J = kin.frame_jacobian(self.frame_id)
+        for k, r in enumerate(self.corners):
+            world_r = M.rotation @ r
+            # z row of J_v − [world_r]x J_w  =  J_v,z − (world_r x J_w)_z
+            self._G[k] = -(J[2] - (world_r[0] * J[4] - world_r[1] * J[3]))
+            self._h[k] = M.translation[2] + world_r[2] - self.clearance
+        return Inequality(self._G, self._h)
+
+    def lowest_point(self, kin: Kinematics) -> float:
+        """Height (m) of the lowest sole corner."""
+        M = kin.placement(self.frame_id)
+        return float(np.min(M.translation[2] + self.corners @ M.rotation[2]))
+
+
+class LinearInequality(Constraint):
+    """A user-supplied G Δq <= h (fixed, or updated in place with :meth:`set`)."""
+
+    def __init__(self, G: np.ndarray, h: np.ndarray, name: str = "linear_inequality") -> None:
+        super().__init__(name)
+        self.set(G, h)
+
+    def set(self, G: np.ndarray, h: np.ndarray) -> None:
+        G = np.atleast_2d(np.asarray(G, dtype=float))
+        h = np.atleast_1d(np.asarray(h, dtype=float))
+        if G.shape[0] != h.shape[0]:
+            raise TaskError(f"constraint {self.name!r}: G has {G.shape[0]} rows, h {h.shape[0]}")
+        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(h))):
+            raise TaskError(f"constraint {self.name!r}: non-finite values in G or h")
+        self.G, self.h = G, h
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        return Inequality(self.G, self.h)

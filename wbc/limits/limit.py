@@ -1,0 +1,57 @@
+"""Limits and constraints: they only provide bounds or inequality rows on Δq.
+
+Two kinds, mirroring pink: a :class:`BoxLimit` bounds each coordinate of Δq
+(``lower <= Δq <= upper``, intersected over all box limits); a :class:`Constraint` gives
+inequality rows ``G Δq <= h``. Solvers stack them, independently of the QP backend.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import NamedTuple
+
+import numpy as np
+
+from ..model import Kinematics
+
+
+class Bounds(NamedTuple):
+    """lower <= Δq <= upper (nv each; ±inf where unbounded)."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+class Inequality(NamedTuple):
+    """G Δq <= h."""
+
+    G: np.ndarray
+    h: np.ndarray
+
+
+class BoxLimit(ABC):
+    """A limit that bounds every coordinate of Δq."""
+
+    name: str = "box"
+
+    @abstractmethod
+    def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
+        """Bounds on Δq at the configuration of ``kin`` for a step of ``dt`` seconds
+        (``dt=None``: iterating to convergence, no time step)."""
+
+
+class Constraint(ABC):
+    """Linear inequality rows on Δq, usable at any priority level."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.active = True
+
+    @abstractmethod
+    def compute(self, kin: Kinematics) -> Inequality:
+        """(G, h) at the configuration of ``kin``."""
+
+    def violation(self, kin: Kinematics, dq: np.ndarray) -> np.ndarray:
+        """max(0, G Δq − h) per row (for diagnostics and tests)."""
+        G, h = self.compute(kin)
+        return np.maximum(G @ dq - h, 0.0)

@@ -1,0 +1,317 @@
+"""QP backends behind one interface, called through their native APIs.
+
+Every backend solves::
+
+    min ½ xᵀ H x + cᵀ x   s.t.   A x = b,   G x <= h,   lower <= x <= upper
+
+(``lower``/``upper`` may hold ±inf). A backend object keeps state between calls of the same
+shape (ProxQP and OSQP warm-start from the previous solution).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ..exceptions import InfeasibleError, SolverError
+
+INF = 1e30  # what DAQP and OSQP read as infinity
+
+
+class QPWorkspace:
+    """Preallocated problem arrays of a fixed shape, filled in place by a solver each tick.
+
+    For some backends the arrays are views into the solver's own packed buffers, so filling
+    them is the only copy made.
+    """
+
+    def __init__(self, n: int, m_eq: int, m_in: int) -> None:
+        self.shape = (n, m_eq, m_in)
+        self.H = np.zeros((n, n))
+        self.c = np.zeros(n)
+        self.A = np.zeros((m_eq, n))
+        self.b = np.zeros(m_eq)
+        self.G = np.zeros((m_in, n))
+        self.h = np.zeros(m_in)
+        self.lower = np.full(n, -np.inf)
+        self.upper = np.full(n, np.inf)
+
+
+class QPBackend(ABC):
+    """One QP solver; ``solve`` raises InfeasibleError or SolverError on failure."""
+
+    name: str = "backend"
+
+    def __init__(self, eps: float = 1e-9) -> None:
+        self.eps = eps
+        self.iterations = 0
+
+    def workspace(self, n: int, m_eq: int, m_in: int) -> QPWorkspace:
+        """Arrays to fill in place before :meth:`solve_workspace`."""
+        return QPWorkspace(n, m_eq, m_in)
+
+    def solve_workspace(self, ws: QPWorkspace) -> np.ndarray:
+        """Solve the problem held by a workspace from :meth:`workspace`."""
+        return self.solve(ws.H, ws.c, ws.A, ws.b, ws.G, ws.h, ws.lower, ws.upper)
+
+    @abstractmethod
+    def solve(
+        self,
+        H: np.ndarray,
+        c: np.ndarray,
+        A: np.ndarray,
+        b: np.ndarray,
+        G: np.ndarray,
+        h: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+    ) -> np.ndarray:
+        """Return the minimiser x (a new array)."""
+
+    def reset(self) -> None:  # noqa: B027 (optional hook: stateless backends keep it)
+        """Forget any warm-start state."""
+
+
+class DaqpBackend(QPBackend):
+    """DAQP (dual active set) via ``daqp.solve``: simple bounds, equalities by sense."""
+
+    name = "daqp"
+
+    def __init__(self, eps: float = 1e-9) -> None:
+        super().__init__(eps)
+        import daqp
+
+        self._daqp = daqp
+        self._shape: tuple[int, int, int] | None = None
+
+    def workspace(self, n: int, m_eq: int, m_in: int) -> QPWorkspace:
+        """Workspace whose A, G, b, h, lower, upper are views into DAQP's packed arrays."""
+        ws = QPWorkspace(n, m_eq, m_in)
+        m = m_eq + m_in
+        ws.C = np.zeros((m, n))
+        ws.bu = np.zeros(n + m)
+        ws.bl = np.zeros(n + m)
+        ws.sense = np.zeros(n + m, dtype=np.intc)
+        ws.sense[n : n + m_eq] = 5  # equality rows
+        ws.bl[n + m_eq :] = -np.inf
+        ws.A, ws.G = ws.C[:m_eq], ws.C[m_eq:]
+        ws.upper, ws.lower = ws.bu[:n], ws.bl[:n]
+        ws.b, ws.h = ws.bu[n : n + m_eq], ws.bu[n + m_eq :]
+        ws.upper[:] = np.inf
+        ws.lower[:] = -np.inf
+        return ws
+
+    def solve_workspace(self, ws: QPWorkspace) -> np.ndarray:
+        n, m_eq, _ = ws.shape
+        ws.bl[n : n + m_eq] = ws.b
+        return self._call(ws.H, ws.c, ws.C, ws.bu, ws.bl, ws.sense)
+
+    def solve(self, H, c, A, b, G, h, lower, upper):
+        n, m_eq, m_in = H.shape[0], A.shape[0], G.shape[0]
+        if self._shape != (n, m_eq, m_in):
+            self._ws = self.workspace(n, m_eq, m_in)
+            self._shape = (n, m_eq, m_in)
+        ws = self._ws
+        ws.A[:] = A
+        ws.G[:] = G
+        ws.upper[:] = upper
+        ws.lower[:] = lower
+        ws.b[:] = b
+        ws.h[:] = h
+        ws.H, ws.c = H, c
+        return self.solve_workspace(ws)
+
+    def _call(self, H, c, C, bu, bl, sense) -> np.ndarray:
+        x, _, exitflag, info = self._daqp.solve(
+            H, c, C, bu, bl, sense, primal_tol=self.eps, sing_tol=1e-11
+        )
+        if exitflag == -1:
+            # DAQP 0.11 can report a feasible but degenerate problem (many rows active at the
+            # same point, as on the lower levels of a hierarchy) infeasible; its proximal mode
+            # solves those, and still reports a truly infeasible problem as infeasible
+            x, _, exitflag, info = self._daqp.solve(
+                H, c, C, bu, bl, sense, primal_tol=self.eps, sing_tol=1e-11, eps_prox=1e-6
+            )
+        self.iterations = int(info.get("iterations", 0)) if isinstance(info, dict) else 0
+        if exitflag in (1, 2):
+            return np.asarray(x, dtype=float)
+        if exitflag == -1:
+            raise InfeasibleError("daqp: the QP is infeasible")
+        raise SolverError(f"daqp failed with exit flag {exitflag}")
+
+
+class ProxqpBackend(QPBackend):
+    """ProxQP dense API, one solver object reused with warm start while the shape holds."""
+
+    name = "proxqp"
+
+    def __init__(self, eps: float = 1e-9) -> None:
+        super().__init__(eps)
+        from proxsuite import proxqp
+
+        self._proxqp = proxqp
+        self._qp = None
+        self._shape: tuple[int, int, int] | None = None
+
+    def reset(self) -> None:
+        self._qp = None
+        self._shape = None
+
+    def solve(self, H, c, A, b, G, h, lower, upper):
+        proxqp = self._proxqp
+        n, m_eq, m_in = H.shape[0], A.shape[0], G.shape[0]
+        Aq = A if m_eq else None
+        bq = b if m_eq else None
+        Gq = G if m_in else None
+        lq = np.full(m_in, -1e20) if m_in else None  # -inf upsets its infeasibility test
+        uq = h if m_in else None
+        if self._shape != (n, m_eq, m_in):
+            qp = proxqp.dense.QP(n, m_eq, m_in, True)
+            # ProxQP 0.8 reports some feasible but degenerate problems (many active bounds,
+            # e.g. the lower levels of a hierarchy) as primal infeasible unless its
+            # infeasibility certificate is made much stricter than the default 1e-4, and
+            # below eps_abs = 1e-8 even then
+            qp.settings.eps_abs = max(self.eps, 1e-8)
+            qp.settings.eps_rel = 0.0
+            qp.settings.eps_primal_inf = 1e-12
+            qp.settings.verbose = False
+            qp.init(H, c, Aq, bq, Gq, lq, uq, lower, upper)
+            self._qp, self._shape = qp, (n, m_eq, m_in)
+            qp.solve()
+            # warm start only once a previous result exists (ProxQP 0.8 crashes otherwise)
+            qp.settings.initial_guess = proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+        else:
+            qp = self._qp
+            qp.update(H, c, Aq, bq, Gq, lq, uq, lower, upper)
+            qp.solve()
+        status = qp.results.info.status
+        self.iterations = int(qp.results.info.iter)
+        if status == proxqp.QPSolverOutput.PROXQP_SOLVED:
+            return qp.results.x.copy()
+        self.reset()  # do not warm start from a failed solve
+        if status in (
+            proxqp.QPSolverOutput.PROXQP_PRIMAL_INFEASIBLE,
+            proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE,
+        ):
+            raise InfeasibleError("proxqp: the QP is primal infeasible")
+        raise SolverError(f"proxqp failed: {status}")
+
+
+class QuadprogBackend(QPBackend):
+    """quadprog (Goldfarb–Idnani): constraints as Cᵀx >= b, finite bounds as rows."""
+
+    name = "quadprog"
+    #: room granted on a retry when quadprog calls a degenerate problem inconsistent
+    RETRY_ROOM = 1e-9
+
+    def __init__(self, eps: float = 1e-9) -> None:
+        super().__init__(eps)
+        import quadprog
+
+        self._quadprog = quadprog
+
+    def solve(self, H, c, A, b, G, h, lower, upper):
+        lo = np.flatnonzero(np.isfinite(lower))
+        hi = np.flatnonzero(np.isfinite(upper))
+        n = H.shape[0]
+        rows = [A, -G]
+        rhs = [b, -h]
+        if lo.size:
+            rows.append(np.eye(n)[lo])
+            rhs.append(lower[lo])
+        if hi.size:
+            rows.append(-np.eye(n)[hi])
+            rhs.append(-upper[hi])
+        C = np.vstack(rows).T.copy()
+        rhs = np.concatenate(rhs)
+        m_eq = A.shape[0]
+        try:
+            x, *_, iters, _, _ = self._quadprog.solve_qp(H, -c, C, rhs, m_eq)
+        except ValueError as exc:
+            if "inconsistent" not in str(exc):
+                raise SolverError(f"quadprog: {exc}") from exc
+            # Goldfarb–Idnani gives up on feasible problems with many rows active at one
+            # point (the lower levels of a hierarchy); a little room on the inequalities
+            # (not the equalities) lets it through, a truly infeasible problem still fails
+            rhs[m_eq:] -= self.RETRY_ROOM
+            try:
+                x, *_, iters, _, _ = self._quadprog.solve_qp(H, -c, C, rhs, m_eq)
+            except ValueError as exc2:
+                raise InfeasibleError(f"quadprog: {exc2}") from exc2
+        self.iterations = int(iters[0])
+        return np.asarray(x, dtype=float)
+
+
+class OsqpBackend(QPBackend):
+    """OSQP (ADMM) with a fixed dense sparsity pattern, updated and warm-started each call."""
+
+    name = "osqp"
+
+    def __init__(self, eps: float = 1e-9) -> None:
+        super().__init__(eps)
+        import osqp
+        from scipy import sparse
+
+        self._osqp = osqp
+        self._sparse = sparse
+        self._solver = None
+        self._shape: tuple[int, int, int] | None = None
+
+    def reset(self) -> None:
+        self._solver = None
+        self._shape = None
+
+    def solve(self, H, c, A, b, G, h, lower, upper):
+        sparse = self._sparse
+        n, m_eq, m_in = H.shape[0], A.shape[0], G.shape[0]
+        K = np.vstack([A, G, np.eye(n)])
+        lo = np.concatenate([b, np.full(m_in, -np.inf), np.clip(lower, -INF, INF)])
+        up = np.concatenate([b, h, np.clip(upper, -INF, INF)])
+        # dense patterns so that values can be updated in place
+        P = sparse.csc_matrix(np.triu(H) + np.triu(np.ones((n, n))) * 1e-300)
+        Kc = sparse.csc_matrix(K + 1e-300 * (K == 0))
+        if self._shape != (n, m_eq, m_in):
+            solver = self._osqp.OSQP()
+            solver.setup(
+                P,
+                c,
+                Kc,
+                lo,
+                up,
+                verbose=False,
+                eps_abs=max(self.eps, 1e-6),
+                eps_rel=1e-6,
+                polishing=True,
+                max_iter=50000,
+                warm_starting=True,
+                polish_refine_iter=10,
+            )
+            self._solver, self._shape = solver, (n, m_eq, m_in)
+        else:
+            self._solver.update(q=c, l=lo, u=up, Px=P.data, Ax=Kc.data)
+        res = self._solver.solve()
+        status = res.info.status
+        self.iterations = int(res.info.iter)
+        if status in ("solved", "solved inaccurate") and res.x is not None:
+            return np.asarray(res.x, dtype=float)
+        self.reset()
+        if "infeasible" in status:
+            raise InfeasibleError(f"osqp: {status}")
+        raise SolverError(f"osqp: {status}")
+
+
+BACKENDS: dict[str, type[QPBackend]] = {
+    "daqp": DaqpBackend,
+    "proxqp": ProxqpBackend,
+    "quadprog": QuadprogBackend,
+    "osqp": OsqpBackend,
+}
+
+
+def make_backend(name: str, eps: float = 1e-9) -> QPBackend:
+    """A backend by name: ``daqp``, ``proxqp``, ``quadprog`` or ``osqp``."""
+    try:
+        return BACKENDS[name](eps)
+    except KeyError:
+        raise SolverError(f"unknown QP backend {name!r}; choose from {sorted(BACKENDS)}") from None

@@ -1,0 +1,177 @@
+"""What every stack solver shares: kinematics, bounds, stepping and iterating to convergence."""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..exceptions import ConfigurationError, WbcError
+from ..limits import Bounds, intersect_bounds
+from ..model import Kinematics
+from .backends import QPBackend, make_backend
+from .stack import TaskStack
+
+
+@dataclass
+class PoseResult:
+    """Outcome of :meth:`StackSolver.solve_pose`."""
+
+    q: np.ndarray
+    iterations: int
+    converged: bool
+    errors: dict[str, np.ndarray] = field(default_factory=dict)
+    time: float = 0.0
+
+    def max_error(self) -> float:
+        return max((float(np.max(np.abs(e))) for e in self.errors.values()), default=0.0)
+
+
+class StackSolver(ABC):
+    """Solve a :class:`TaskStack` for a configuration increment Δq (size nv).
+
+    * :meth:`solve` — one QP at q (``dt``: time step for velocity limits, None = none);
+    * :meth:`step` — one control tick: q ⊕ Δq, joints kept inside their limits;
+    * :meth:`solve_pose` — iterate on one pose until the task errors converge.
+    """
+
+    def __init__(
+        self,
+        stack: TaskStack,
+        backend: str | QPBackend = "daqp",
+        regularization: float = 1e-6,
+        on_infeasible: str = "raise",
+    ) -> None:
+        if on_infeasible not in ("raise", "relax"):
+            raise WbcError(f"on_infeasible must be 'raise' or 'relax', got {on_infeasible!r}")
+        self.stack = stack
+        self.robot = stack.robot
+        self.backend = make_backend(backend) if isinstance(backend, str) else backend
+        self.regularization = regularization
+        self.on_infeasible = on_infeasible
+        self.kin = Kinematics(self.robot)
+        self._q_min = self.robot.q_min
+        self._q_max = self.robot.q_max
+        self._vdt_for: float | None = None
+        self._vdt = np.zeros(self.robot.n_joints)
+        self._box: tuple[np.ndarray, np.ndarray] | None = None
+        #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
+        self.solve_time = 0.0
+        #: True if the last solve had to relax an infeasible hard level
+        self.relaxed = False
+
+    @property
+    def name(self) -> str:
+        return f"{type(self).__name__}[{self.backend.name}]"
+
+    # ------------------------------------------------------------------ interface
+    @abstractmethod
+    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
+        """Δq at the configuration of ``kin`` (kinematics already updated)."""
+
+    def solve(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
+        """Δq (nv) for one QP at configuration q; ``dt`` enables the velocity limits."""
+        start = time.perf_counter()
+        if dt is not None and not (np.isfinite(dt) and dt > 0):
+            raise ConfigurationError(f"dt must be a positive number, got {dt}")
+        self.kin.update(q)
+        dq = self._solve(self.kin, dt)
+        self.solve_time = time.perf_counter() - start
+        return dq
+
+    def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
+        """One control tick: q ⊕ Δq with the joints inside their limits.
+
+        The QP keeps Δq inside its box bounds up to the solver's tolerance (~1e-9); before
+        integrating, the joint increments are projected onto that box exactly, and the joints
+        onto their limits, so that no returned configuration ever exceeds a limit (a joint that
+        started outside is moved back towards its range, never further out).
+        """
+        dq = self.solve(q, dt)
+        return self.integrate(q, dq)
+
+    def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """q ⊕ dq with dq's joint part clipped to the last solve's box bounds and the joints
+        to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances)."""
+        if self._box is not None:
+            lower, upper = self._box
+            dq = dq.copy()
+            np.clip(dq[6:], lower[6:], upper[6:], out=dq[6:])
+        q_next = self.robot.integrate(q, dq)
+        j_prev = q[7:]
+        j = q_next[7:]
+        np.clip(j, np.minimum(self._q_min, j_prev), np.maximum(self._q_max, j_prev), out=j)
+        return q_next
+
+    def solve_pose(
+        self,
+        q: np.ndarray,
+        tol: float = 1e-6,
+        max_iterations: int = 200,
+        dt: float | None = None,
+        stall_tol: float = 1e-12,
+    ) -> PoseResult:
+        """Iterate Δq until every task error is below ``tol`` (or progress stalls).
+
+        This is the per-pose iterative mode used to compare with the thesis's solutions.
+        """
+        start = time.perf_counter()
+        q = self.robot.check_configuration(q).copy()
+        converged = False
+        it = 0
+        for it in range(1, max_iterations + 1):
+            dq = self.solve(q, dt)
+            if self._converged(tol):
+                converged = True
+                it -= 1
+                break
+            q = self.integrate(q, dq)
+            if np.max(np.abs(dq)) < stall_tol:
+                break
+        self.kin.update(q)
+        errors = self.stack.evaluate(self.kin)
+        if not converged:
+            converged = all(
+                float(np.max(np.abs(errors[t.name]))) <= tol
+                for t in self.stack.tasks()
+                if t.active and t.blocks_convergence
+            )
+        return PoseResult(q, it, converged, errors, time.perf_counter() - start)
+
+    def _converged(self, tol: float) -> bool:
+        return all(
+            np.max(np.abs(t.last_error)) <= tol
+            for t in self.stack.tasks()
+            if t.active and t.blocks_convergence
+        )
+
+    # ------------------------------------------------------------------ helpers
+    def compute_bounds(
+        self, kin: Kinematics, dt: float | None, lower: np.ndarray, upper: np.ndarray
+    ) -> None:
+        """Box bounds on Δq, written into ``lower``/``upper`` (nv each, base unbounded).
+
+        Joint position: q_min − q <= Δq <= q_max − q. With a time step and velocity limits both
+        are clipped into [−v_max·dt, v_max·dt]; a joint outside its range then moves back at
+        the servo's speed (the bounds never cross). Other box limits are intersected after.
+        """
+        self._box = (lower, upper)
+        j = kin.q[7:]
+        lo, hi = lower[6:], upper[6:]
+        np.subtract(self._q_min, j, out=lo)
+        np.subtract(self._q_max, j, out=hi)
+        lower[:6] = -np.inf
+        upper[:6] = np.inf
+        if dt is not None and self.stack.velocity_limit is not None:
+            if dt != self._vdt_for:
+                np.multiply(self.robot.v_max, self.stack.velocity_limit.scale * dt, out=self._vdt)
+                self._vdt_for = dt
+            vdt = self._vdt
+            np.clip(lo, -vdt, vdt, out=lo)
+            np.clip(hi, -vdt, vdt, out=hi)
+        if self.stack.extra_limits:
+            position = Bounds(lower.copy(), upper.copy())
+            others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]
+            intersect_bounds(position, others, lower, upper)

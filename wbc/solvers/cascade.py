@@ -1,0 +1,258 @@
+"""Lexicographic least squares with inequalities: a cascade of QPs (Kanoun et al. 2011).
+
+Level k minimises ‖J_k Δq − b_k‖² + ‖s_k‖² subject to everything the levels above fixed:
+
+* their equality residuals — kept by searching Δq = x + Z u in the null space of the stacked
+  higher-level Jacobians (redundant or conflicting rows never become ill-posed equality
+  constraints),
+* their inequalities ``G_j Δq <= h_j + s_j*`` with the slacks s_j* they could not avoid,
+* the box bounds (always hard).
+
+Each level is solved in the coordinates of a rank-revealing QR of (J_k Z)ᵀ = Q R: u = [y; w]
+with y along the level's row space (where its cost is well conditioned, R Rᵀ) and w along its
+null space (free for the levels below, kept small by a tiny ridge that cannot bias the level's
+optimum). The last level instead uses the damping μ‖Δq‖² of the weighted QP, on the whole Δq,
+so the result does not depend on how the levels above split it. A level whose unconstrained
+optimum already satisfies every bound and inherited inequality skips its QP.
+
+A *hard* level's inequalities get no slack (infeasible ⇒ :class:`InfeasibleError` unless
+``relax``); a hard level's equality residual is checked by the caller.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import lapack
+
+from ..exceptions import InfeasibleError
+from .backends import QPBackend
+
+#: ridge along the null space of an intermediate level, relative to its mean curvature
+NULL_RIDGE = 1e-8
+#: proximal refinements of a constrained intermediate level (see :func:`solve_cascade`)
+PROXIMAL_STEPS = 2
+#: relative threshold of the rank decision on R's diagonal
+RANK_RTOL = 1e-9
+
+
+@dataclass
+class LevelProblem:
+    """Rows of one level: J Δq ≈ b (already weighted) and G Δq <= h."""
+
+    priority: int
+    J: np.ndarray
+    b: np.ndarray
+    G: np.ndarray
+    h: np.ndarray
+    hard: bool = False
+    task_rows: list[tuple[str, slice]] = field(default_factory=list)
+    constraint_rows: list[tuple[str, slice]] = field(default_factory=list)
+
+
+@dataclass
+class LevelSolution:
+    priority: int
+    residual: np.ndarray  # J Δq − b at the final Δq
+    slack: np.ndarray  # s* (>= 0) of this level's inequalities
+    relaxed: bool = False
+    margin: np.ndarray = field(default_factory=lambda: np.zeros(0))  # G Δq − h at the final Δq
+
+
+def row_space_qr(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Rank-revealing QR of Mᵀ: returns (Q, R_k, perm, rank) with Mᵀ[:, perm] = Q R.
+
+    Q (r x r) is orthonormal: its first ``rank`` columns span the row space of M, the others
+    its null space; R_k (rank x m) holds the first ``rank`` rows of R.
+    """
+    m, r = M.shape
+    if m == 0:
+        return np.eye(r), np.zeros((0, 0)), np.zeros(0, dtype=int), 0
+    qr, jpvt, tau, _, _ = lapack.dgeqp3(np.array(M.T, order="F"))
+    k = min(m, r)
+    d = np.abs(np.diagonal(qr)[:k])
+    rank = int(np.count_nonzero(d > RANK_RTOL * d[0])) if d[0] > 1e-12 else 0
+    a = np.zeros((r, r), order="F")
+    a[:, :k] = qr[:, :k]
+    Q, _, _ = lapack.dorgqr(a, tau[:k]) if k else (np.eye(r), None, None)
+    R_k = np.triu(qr[:rank, :])
+    return Q, R_k, jpvt - 1, rank
+
+
+def null_space(M: np.ndarray) -> tuple[np.ndarray, int]:
+    """Orthonormal basis of ker(M) and rank(M)."""
+    Q, _, _, rank = row_space_qr(M)
+    return Q[:, rank:], rank
+
+
+class _Feasible:
+    """The constraints every level inherits: box bounds and frozen higher-level inequalities."""
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray) -> None:
+        self.lower, self.upper = lower, upper
+        self.lo_idx = np.flatnonzero(np.isfinite(lower))
+        self.hi_idx = np.flatnonzero(np.isfinite(upper))
+        self.G: list[np.ndarray] = []
+        self.h: list[np.ndarray] = []
+        #: False until a level has solved: x = 0 may violate the bounds (a joint outside its
+        #: range), which the first level must then enforce rather than take as met
+        self.bounds_met = False
+
+    def holds(self, dq: np.ndarray, x: np.ndarray) -> bool:
+        if np.any(dq < self.lower) or np.any(dq > self.upper):
+            return False
+        return all(
+            np.all(G @ dq <= np.maximum(h, G @ x)) for G, h in zip(self.G, self.h, strict=True)
+        )
+
+    def rows(self, x: np.ndarray, B: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Inherited rows in the coordinates u of Δq = x + B u (B None: u = Δq − x)."""
+        Gs, hs = [], []
+        for G, h in zip(self.G, self.h, strict=True):  # met above (to tolerance): keep them
+            Gs.append(G if B is None else G @ B)
+            hs.append(np.maximum(h - G @ x, 0.0))
+        if B is not None:  # bounds become rows in u
+            floor = 0.0 if self.bounds_met else -np.inf
+            Gs.append(B[self.hi_idx])
+            hs.append(np.maximum(self.upper[self.hi_idx] - x[self.hi_idx], floor))
+            Gs.append(-B[self.lo_idx])
+            hs.append(np.maximum(x[self.lo_idx] - self.lower[self.lo_idx], floor))
+        if not Gs:
+            return np.zeros((0, x.size if B is None else B.shape[1])), np.zeros(0)
+        G_all = np.vstack(Gs)
+        h_all = np.concatenate(hs)
+        # rows the remaining freedom cannot move (fixed by the levels above) only make the QP
+        # degenerate (quadprog then reports inconsistent constraints): drop them; scale the
+        # others to unit norm (an equivalent constraint, better conditioned)
+        norms = np.sqrt(np.einsum("ij,ij->i", G_all, G_all))
+        keep = norms > 1e-9
+        return G_all[keep] / norms[keep, None], h_all[keep] / norms[keep]
+
+
+def solve_cascade(
+    levels: list[LevelProblem],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    backends: list[QPBackend],
+    relax: bool = False,
+    final_regularization: float = 1e-6,
+) -> tuple[np.ndarray, list[LevelSolution]]:
+    """Solve the levels in order; returns Δq and each level's residual and slacks.
+
+    ``backends[k]`` solves level k (one object per level keeps warm starts per shape).
+    """
+    n = lower.size
+    x = np.zeros(n)
+    Z: np.ndarray | None = None  # None = identity (nothing fixed yet)
+    pinned = lower == upper  # e.g. a joint outside its range, moving back at full speed
+    if pinned.any():  # fixed variables: eliminate them up front (a pair of opposite active
+        x[pinned] = lower[pinned]  # bound rows would make every level's QP degenerate)
+        Z = np.eye(n)[:, ~pinned]
+    feasible = _Feasible(lower, upper)
+    slacks: list[np.ndarray] = []
+    relaxed_flags: list[bool] = []
+    last = len(levels) - 1
+    for k, lvl in enumerate(levels):
+        p = lvl.G.shape[0]
+        if Z is not None and Z.shape[1] == 0:  # nothing left to move
+            slacks.append(np.maximum(lvl.G @ x - lvl.h, 0.0) if p else np.zeros(0))
+            relaxed_flags.append(False)
+            continue
+        M = lvl.J if Z is None else lvl.J @ Z
+        v = lvl.b - lvl.J @ x
+        if k == last:  # damped least squares on the whole Δq (as the weighted QP)
+            mu = final_regularization
+            B = Z
+            H = M.T @ M
+            H.reshape(-1)[:: H.shape[0] + 1] += mu
+            c = mu * (x if Z is None else Z.T @ x) - M.T @ v
+            Q = rank = None
+        else:  # ridge only along the level's own null space N: its optimum is not biased
+            Q, _, _, rank = row_space_qr(M)
+            B = Z
+            N = Q[:, rank:]
+            H = M.T @ M
+            ridge = NULL_RIDGE * max(1.0, float(np.trace(H)) / max(rank, 1))
+            H += ridge * (N @ N.T)
+            c = -(M.T @ v)
+        was_relaxed = False
+        u = None
+        if p == 0:  # unconstrained optimum, if it meets every inherited constraint
+            u = _unconstrained(H, c)
+            if u is not None and not feasible.holds(x + (u if B is None else B @ u), x):
+                u = None
+        if u is not None:
+            s = np.zeros(0)
+        else:
+            args = (lvl, x, B, H, c, feasible, backends[k])
+            slack = p > 0 and not lvl.hard
+            try:
+                u, s = _solve_qp(*args, slack=slack)
+            except InfeasibleError:
+                if not (lvl.hard and p and relax):
+                    raise
+                slack = was_relaxed = True
+                u, s = _solve_qp(*args, slack=True)
+            if Q is not None and rank < Q.shape[0]:
+                # the constraints couple the null-space ridge to the level's optimum: proximal
+                # refinement (ridge on the change of the null-space part) removes that bias
+                for _ in range(PROXIMAL_STEPS):
+                    c_prox = c - ridge * (N @ (N.T @ u))
+                    u, s = _solve_qp(lvl, x, B, H, c_prox, feasible, backends[k], slack=slack)
+        x = x + (u if B is None else B @ u)
+        feasible.bounds_met = True
+        if p:
+            s = np.maximum(s, 0.0)
+            feasible.G.append(lvl.G)
+            feasible.h.append(lvl.h + s)
+        slacks.append(s)
+        relaxed_flags.append(was_relaxed)
+        if k < last and Q is not None:
+            N = Q[:, rank:]
+            Z = N if Z is None else Z @ N
+    sols = [
+        LevelSolution(lvl.priority, lvl.J @ x - lvl.b, s, rf, lvl.G @ x - lvl.h)
+        for lvl, s, rf in zip(levels, slacks, relaxed_flags, strict=True)
+    ]
+    return x, sols
+
+
+def _unconstrained(H: np.ndarray, c: np.ndarray) -> np.ndarray | None:
+    """argmin ½uᵀHu + cᵀu for positive-definite H (Cholesky); None if H is not."""
+    _, u, info = lapack.dposv(H, -c)
+    return u if info == 0 else None
+
+
+def _solve_qp(
+    lvl: LevelProblem,
+    x: np.ndarray,
+    B: np.ndarray | None,
+    H: np.ndarray,
+    c: np.ndarray,
+    feasible: _Feasible,
+    backend: QPBackend,
+    slack: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One level's QP over [u; s] (Δq = x + B u); returns (u, s)."""
+    r = H.shape[0]
+    p = lvl.G.shape[0]
+    ns = p if slack else 0
+    G_all, h_all = feasible.rows(x, B)
+    if p:  # this level's own inequalities, with slacks unless hard
+        G_all = np.vstack([G_all, lvl.G if B is None else lvl.G @ B])
+        h_all = np.concatenate([h_all, lvl.h - lvl.G @ x])
+    if ns:
+        H = np.block([[H, np.zeros((r, ns))], [np.zeros((ns, r)), np.eye(ns)]])
+        c = np.concatenate([c, np.zeros(ns)])
+        slack_cols = np.zeros((G_all.shape[0], ns))
+        slack_cols[G_all.shape[0] - p :] = -np.eye(p)
+        G_all = np.hstack([G_all, slack_cols])
+    if B is None:
+        lo = np.concatenate([feasible.lower - x, np.full(ns, -np.inf)])
+        hi = np.concatenate([feasible.upper - x, np.full(ns, np.inf)])
+    else:
+        lo = np.full(r + ns, -np.inf)
+        hi = np.full(r + ns, np.inf)
+    y = backend.solve(H, c, np.zeros((0, r + ns)), np.zeros(0), G_all, h_all, lo, hi)
+    return y[:r], (y[r:] if ns else np.zeros(p))

@@ -1,0 +1,175 @@
+"""Lexicographic (hierarchical) QP: the thesis's hierarchical control (CJ) as a QP.
+
+Levels are solved in priority order; each level is optimal without changing the optimum of
+the levels above. Equalities (tasks) and inequalities (constraints) may sit at any level;
+box limits are hard at every level. Two methods:
+
+* ``"cascade"`` — one QP per level over the null space of the levels above, inequality
+  slacks frozen for the levels below (Kanoun et al. 2011), any backend;
+* ``"daqp"`` — DAQP's native hierarchical mode (one call, ``break_points``).
+
+A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the solve raises
+:class:`InfeasibleError` naming the level and the tasks/constraints involved, or, with
+``on_infeasible="relax"``, keeps its least-squares best and goes on with the lower levels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..exceptions import InfeasibleError, SolverError
+from ..model import Kinematics
+from ..tasks.task import STRUCTURE_EPOCH
+from .assembly import TaskBlock, stack_constraints
+from .backends import INF, QPBackend, make_backend
+from .base import StackSolver
+from .cascade import LevelProblem, LevelSolution, solve_cascade
+from .diagnostics import infeasible_message
+
+METHODS = ("cascade", "daqp")
+
+
+class HierarchicalQP(StackSolver):
+    """Lexicographic QP over the stack's levels (see the module docstring)."""
+
+    def __init__(
+        self,
+        stack,
+        backend: str | QPBackend = "daqp",
+        method: str = "cascade",
+        regularization: float = 1e-6,
+        on_infeasible: str = "raise",
+        hard_tol: float = 1e-6,
+    ) -> None:
+        if method not in METHODS:
+            raise SolverError(f"unknown hierarchical method {method!r}; choose from {METHODS}")
+        if method == "daqp" and (backend if isinstance(backend, str) else backend.name) != "daqp":
+            raise SolverError("method='daqp' uses DAQP's native hierarchy: backend must be daqp")
+        super().__init__(stack, backend, regularization, on_infeasible)
+        self.method = method
+        self.hard_tol = hard_tol
+        self._backends: list[QPBackend] = []
+        self._key = None
+        self.problems: list[LevelProblem] = []
+        self.solutions: list[LevelSolution] = []
+        self.diagnosis = ""
+
+    @property
+    def name(self) -> str:
+        return f"HierarchicalQP[{self.method}:{self.backend.name}]"
+
+    def _plan(self) -> None:
+        nv = self.robot.nv
+        self._levels = self.stack.levels
+        self._blocks = [TaskBlock(lv.active_tasks(), nv) for lv in self._levels]
+        self._constraints = [lv.active_constraints() for lv in self._levels]
+        self._lower, self._upper = np.empty(nv), np.empty(nv)
+        self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+
+    def _level_problems(self, kin: Kinematics) -> list[LevelProblem]:
+        nv = self.robot.nv
+        problems = []
+        for lv, block, cons in zip(self._levels, self._blocks, self._constraints, strict=True):
+            block.fill_weighted(kin)
+            G, h, cslices = stack_constraints(cons, kin, nv)
+            problems.append(
+                LevelProblem(lv.priority, block.J, block.b, G, h, lv.hard, block.slices, cslices)
+            )
+        return problems
+
+    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
+        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+            self._plan()
+        self.problems = self._level_problems(kin)
+        lower, upper = self._lower, self._upper
+        self.compute_bounds(kin, dt, lower, upper)
+        relax = self.on_infeasible == "relax"
+        if self.method == "daqp":
+            dq = self._solve_daqp(self.problems, lower, upper)
+        else:
+            while len(self._backends) < len(self.problems) + 1:
+                self._backends.append(make_backend(self.backend.name, self.backend.eps))
+            try:
+                dq, self.solutions = solve_cascade(
+                    self.problems,
+                    lower,
+                    upper,
+                    self._backends,
+                    final_regularization=self.regularization,
+                    relax=relax,
+                )
+            except InfeasibleError as exc:
+                raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+        self.relaxed = any(s.relaxed for s in self.solutions)
+        self._check_hard_levels(relax)
+        return dq
+
+    # ------------------------------------------------------------------ hard levels
+    def _check_hard_levels(self, relax: bool) -> None:
+        messages = [
+            infeasible_message(p, s, self.hard_tol)
+            for p, s in zip(self.problems, self.solutions, strict=True)
+            if p.hard
+            and (
+                (s.residual.size and np.max(np.abs(s.residual)) > self.hard_tol)
+                or (s.slack.size and np.max(s.slack) > self.hard_tol)
+            )
+        ]
+        self.diagnosis = "; ".join(messages)
+        if messages:
+            if not relax:
+                raise InfeasibleError(self.diagnosis)
+            self.relaxed = True
+
+    def _hard_inequality_message(self, kin, lower, upper) -> str:
+        """A hard level's inequalities clash with the bounds: re-solve with slacks to name them."""
+        backends = [make_backend(self.backend.name, self.backend.eps) for _ in self.problems]
+        backends.append(make_backend(self.backend.name, self.backend.eps))
+        _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
+        msgs = [
+            infeasible_message(p, s, self.hard_tol)
+            for p, s in zip(self.problems, sols, strict=True)
+            if p.hard and s.relaxed
+        ]
+        return "; ".join(msgs) or "the bounds are infeasible"
+
+    # ------------------------------------------------------------------ DAQP native
+    def _solve_daqp(self, problems, lower, upper) -> np.ndarray:
+        import daqp
+
+        n = lower.size
+        rows = [np.vstack([p.J, p.G]) for p in problems]
+        A = np.vstack(rows) if rows else np.zeros((0, n))
+        bu = [np.clip(upper, -INF, INF)]
+        bl = [np.clip(lower, -INF, INF)]
+        sense = [np.zeros(n, dtype=np.intc)]
+        breaks = [0]
+        for p in problems:
+            m, k = p.J.shape[0], p.G.shape[0]
+            bu += [p.b, p.h]
+            bl += [p.b, np.full(k, -INF)]
+            sense.append(np.zeros(m + k, dtype=np.intc))
+            breaks.append(breaks[-1] + m + k)
+        H = self.regularization * np.eye(n)
+        x, _, exitflag, _ = daqp.solve(
+            H,
+            np.zeros(n),
+            A,
+            np.concatenate(bu),
+            np.concatenate(bl),
+            np.concatenate(sense),
+            break_points=np.array(breaks, dtype=np.intc),
+            primal_tol=self.backend.eps,
+        )
+        if exitflag not in (1, 2):
+            if exitflag == -1:
+                raise InfeasibleError("daqp hierarchical: the bounds are infeasible")
+            raise SolverError(f"daqp hierarchical failed with exit flag {exitflag}")
+        x = np.asarray(x, dtype=float)
+        self.solutions = [
+            LevelSolution(
+                p.priority, p.J @ x - p.b, np.maximum(p.G @ x - p.h, 0.0), margin=p.G @ x - p.h
+            )
+            for p in problems
+        ]
+        return x

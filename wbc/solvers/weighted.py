@@ -1,0 +1,135 @@
+"""Weighted QP: the thesis's augmented task vector (VAT) as a QP.
+
+    min_Δq  Σ_soft w_i ‖J_i Δq − α_i e_i‖² + μ ‖Δq‖²
+    s.t.    J_h Δq = α_h e_h          (tasks of hard levels)
+            G Δq <= h                  (every constraint, at any level)
+            lower <= Δq <= upper       (joint position, and velocity when stepping in time)
+
+Priority levels other than "hard or soft" are ignored: this is a single weighted problem.
+The hot path writes every task's rows straight into preallocated arrays (for DAQP, views
+into the solver's own packed buffers) and re-plans only when the stack's structure changes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..exceptions import InfeasibleError
+from ..model import Kinematics
+from ..tasks.task import STRUCTURE_EPOCH
+from .assembly import TaskBlock, stack_constraints
+from .base import StackSolver
+from .cascade import LevelProblem, solve_cascade
+from .diagnostics import conflicts, infeasible_message
+
+
+class WeightedQP(StackSolver):
+    """One QP per solve over all tasks; see the module docstring for the formulation.
+
+    ``on_infeasible="relax"``: if the hard tasks/constraints admit no solution, return the
+    lexicographic best instead (hard rows in least squares first, soft tasks next) and set
+    :attr:`relaxed` and :attr:`diagnosis`.
+    """
+
+    def __init__(
+        self,
+        stack,
+        backend="daqp",
+        regularization=1e-6,
+        on_infeasible="raise",
+        hard_tol: float = 1e-6,
+    ) -> None:
+        super().__init__(stack, backend, regularization, on_infeasible)
+        self.hard_tol = hard_tol
+        self._key = None
+        self.ws = None
+        self.diagnosis = ""
+
+    def _plan(self, m_in: int) -> None:
+        levels = self.stack.levels
+        nv = self.robot.nv
+        self.soft = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
+        self.hard = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
+        self.constraints = [c for lv in levels for c in lv.active_constraints()]
+        self.ws = self.backend.workspace(nv, self.hard.m, m_in)
+        self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+
+    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
+        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+            self._plan(0)
+        G, h = None, None
+        if self.constraints:
+            G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)
+            if G.shape[0] != self.ws.shape[2]:
+                self._plan(G.shape[0])
+        ws, soft = self.ws, self.soft
+        soft.fill_weighted(kin)
+        self.hard.fill_into(kin, ws.A, ws.b)
+        np.dot(soft.J.T, soft.J, out=ws.H)
+        ws.H.flat[:: ws.H.shape[0] + 1] += self.regularization
+        np.dot(soft.J.T, soft.b, out=ws.c)
+        np.negative(ws.c, out=ws.c)
+        if G is not None:
+            ws.G[:] = G
+            ws.h[:] = h
+        self.compute_bounds(kin, dt, ws.lower, ws.upper)
+        self.relaxed = False
+        try:
+            return self.backend.solve_workspace(ws)
+        except InfeasibleError:
+            return self._relax(kin)
+
+    def _relax(self, kin: Kinematics) -> np.ndarray:
+        """The hard levels in priority order, each in least squares, then the soft tasks
+        (a cascade); names what the first unmet hard level could not satisfy."""
+        nv = self.robot.nv
+        ws = self.ws
+        problems = []
+        for lv in self.stack.levels:
+            if lv.hard:
+                block = TaskBlock(lv.active_tasks(), nv)
+                block.fill_into(kin, block.J, block.b)
+                G, h, cslices = stack_constraints(lv.active_constraints(), kin, nv)
+                problems.append(
+                    LevelProblem(
+                        lv.priority,
+                        block.J,
+                        block.b,
+                        G,
+                        h,
+                        hard=False,
+                        task_rows=block.slices,
+                        constraint_rows=cslices,
+                    )
+                )
+        soft_constraints = [
+            c for lv in self.stack.levels if not lv.hard for c in lv.active_constraints()
+        ]
+        G, h, cslices = stack_constraints(soft_constraints, kin, nv)
+        problems.append(
+            LevelProblem(1 << 30, self.soft.J, self.soft.b, G, h, constraint_rows=cslices)
+        )
+        backends = [type(self.backend)(self.backend.eps) for _ in problems]
+        dq, sols = solve_cascade(
+            problems,
+            ws.lower.copy(),
+            ws.upper.copy(),
+            backends,
+            final_regularization=self.regularization,
+        )
+        messages = [
+            infeasible_message(p, s, self.hard_tol, f"hard level {p.priority}")
+            for p, s in zip(problems[:-1], sols[:-1], strict=True)
+            if conflicts(p, s, self.hard_tol)
+        ]
+        constraint_clash = conflicts(problems[-1], sols[-1], self.hard_tol, tasks=False)
+        if constraint_clash:
+            messages.append(
+                "the constraints are infeasible: cannot satisfy "
+                + ", ".join(f"{n} (violation {v:.3g})" for n, v in constraint_clash)
+            )
+        self.diagnosis = "; ".join(messages) or "infeasible (no task or constraint stands out)"
+        if self.on_infeasible == "raise":
+            raise InfeasibleError(self.diagnosis)
+        self.relaxed = True
+        return dq

@@ -1,0 +1,354 @@
+"""Declarative task stacks: TOML files in ``tasks/`` turned into a stack and its solver.
+
+A file names the solver (``weighted`` or ``hierarchical``), its options and a list of levels::
+
+    name = "cj_foot"
+    solver = "hierarchical"
+    [[levels]]
+    hard = true
+    tasks = [{ type = "contact", frame = "support" }]
+    [[levels]]
+    tasks = [{ type = "frame_position", frame = "swing", weight = 1.0 }]
+    constraints = [{ type = "com_polygon", margin = 0.01 }]
+
+``frame = "support"`` / ``"swing"`` bind a task to whichever sole has that role; a walking
+controller re-binds them at every support change (:meth:`ControlStack.set_phase`).
+``phases = ["double"]`` (or ``["single"]``) makes a task active only in those phases.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .exceptions import TaskError
+from .limits import ComPolygonConstraint, Constraint, GroundClearanceConstraint
+from .model import Kinematics, Robot
+from .paths import stacks_dir
+from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
+from .tasks import (
+    ComTask,
+    ContactTask,
+    DampingTask,
+    FrameOrientationTask,
+    FramePoseTask,
+    FramePositionTask,
+    PostureTask,
+    SwingFootOrientationTask,
+    Task,
+    TorsoOrientationTask,
+)
+
+ROLES = ("support", "swing")
+PHASES = ("double", "single")
+SOLVERS = ("weighted", "hierarchical")
+_TASK_KEYS = {"type", "name", "frame", "weight", "gain", "mask", "phases"}
+
+
+def _frame_task(cls) -> Callable[..., Task]:
+    def make(robot: Robot, frame: str, name: str | None, **kw) -> Task:
+        return cls(robot, frame, name=name, **kw)
+
+    return make
+
+
+def _frameless(cls, default_name: str) -> Callable[..., Task]:
+    def make(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
+        if frame is not None:
+            raise TaskError(f"task type for {cls.__name__} takes no 'frame'")
+        return cls(robot, name=name or default_name, **kw)
+
+    return make
+
+
+def _torso(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
+    return TorsoOrientationTask(robot, frame or "torso", name=name, **kw)
+
+
+TASK_TYPES: dict[str, Callable[..., Task]] = {
+    "com": _frameless(ComTask, "com"),
+    "frame_position": _frame_task(FramePositionTask),
+    "frame_orientation": _frame_task(FrameOrientationTask),
+    "frame_pose": _frame_task(FramePoseTask),
+    "contact": _frame_task(ContactTask),
+    "swing_foot_orientation": _frame_task(SwingFootOrientationTask),
+    "torso_orientation": _torso,
+    "posture": _frameless(PostureTask, "posture"),
+    "damping": _frameless(DampingTask, "damping"),
+}
+CONSTRAINT_TYPES = ("com_polygon", "ground_clearance")
+
+
+@dataclass
+class RoleBinding:
+    """A task or constraint whose frame follows a sole role and/or is limited to phases."""
+
+    role: str | None
+    phases: tuple[str, ...]
+
+
+@dataclass
+class ControlStack:
+    """A loaded stack: the :class:`TaskStack`, its solver and the role bindings."""
+
+    name: str
+    description: str
+    robot: Robot
+    stack: TaskStack
+    solver: StackSolver
+    bindings: dict[str, RoleBinding] = field(default_factory=dict)
+    source: str = ""
+    phase: str | None = None
+    support: str | None = None
+    swing: str | None = None
+    _anchored: dict[str, str] = field(default_factory=dict)  # contact task -> anchored sole
+
+    # ------------------------------------------------------------------ by kind
+    def tasks_of(self, cls: type) -> list[Task]:
+        return [t for t in self.stack.tasks() if isinstance(t, cls)]
+
+    def role_tasks(self, role: str) -> list[Task]:
+        return [t for t in self.stack.tasks() if self.bindings.get(t.name, _NO).role == role]
+
+    # ------------------------------------------------------------------ phases
+    def set_phase(
+        self,
+        phase: str,
+        support: str,
+        swing: str | None,
+        kin: Kinematics,
+        anchors: Mapping[str, Any] | None = None,
+    ) -> None:
+        """Bind role frames and switch phase-limited tasks; anchor contacts that start.
+
+        ``phase``: "double" or "single"; ``support``/``swing``: sole frame names (in double
+        support the "swing" sole is the one that will lift next, or the trailing one).
+        ``anchors``: optional {sole frame: pinocchio.SE3} where a contact should be held
+        (default: where the sole is now).
+        """
+        if phase not in PHASES:
+            raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
+        roles = {"support": support, "swing": swing}
+        for item in [*self.stack.tasks(), *self.stack.constraints()]:
+            binding = self.bindings.get(item.name)
+            if binding is None:
+                continue
+            was_active = item.active
+            frame = roles.get(binding.role) if binding.role else None
+            if binding.role and frame is None:
+                item.active = False
+                continue
+            if frame is not None:
+                if isinstance(item, ComPolygonConstraint):
+                    item.set_support([frame])
+                else:
+                    item.set_frame(frame)
+            item.active = phase in binding.phases
+            if (
+                isinstance(item, ContactTask)
+                and item.active
+                and (not was_active or self._anchored.get(item.name) != item.frame)
+            ):
+                anchor = (anchors or {}).get(item.frame)
+                if anchor is None:
+                    item.make_contact(kin)
+                else:
+                    item.set_target(anchor)
+                self._anchored[item.name] = item.frame
+        for c in self.stack.constraints():
+            if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None:
+                soles = [support] if phase == "single" or swing is None else [support, swing]
+                c.set_support(soles)
+        self.phase, self.support, self.swing = phase, support, swing
+
+
+_NO = RoleBinding(None, PHASES)
+
+
+def available_stacks() -> list[str]:
+    """Names of the stack files in ``tasks/``."""
+    return sorted(p.stem for p in stacks_dir().glob("*.toml"))
+
+
+def load_stack(
+    name_or_path: str | Path,
+    robot: Robot,
+    q: np.ndarray | None = None,
+    backend: str | None = None,
+    **solver_options: Any,
+) -> ControlStack:
+    """Build a stack and its solver from a TOML file (by name in ``tasks/`` or by path).
+
+    ``q`` (default Walk Ready) gives the initial targets (contacts anchored where the soles
+    are, posture = q); ``backend`` and ``solver_options`` override the file's settings.
+    """
+    path = Path(name_or_path)
+    if path.suffix != ".toml":
+        path = stacks_dir() / f"{name_or_path}.toml"
+    if not path.is_file():
+        raise TaskError(
+            f"unknown task stack {str(name_or_path)!r}; available: {available_stacks()}"
+        )
+    try:
+        with open(path, "rb") as f:
+            spec = tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise TaskError(f"task stack {path} is not valid TOML: {exc}") from exc
+    return build_stack(spec, robot, q, backend, source=str(path), **solver_options)
+
+
+def build_stack(
+    spec: Mapping[str, Any],
+    robot: Robot,
+    q: np.ndarray | None = None,
+    backend: str | None = None,
+    source: str = "<dict>",
+    **solver_options: Any,
+) -> ControlStack:
+    """Build from an already parsed spec (see the module docstring for the format)."""
+    where = f"task stack {source}"
+    unknown = set(spec) - {
+        "name",
+        "description",
+        "solver",
+        "backend",
+        "velocity_limits",
+        "regularization",
+        "method",
+        "levels",
+        "on_infeasible",
+    }
+    if unknown:
+        raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
+    solver_kind = spec.get("solver", "weighted")
+    if solver_kind not in SOLVERS:
+        raise TaskError(f"{where}: solver must be one of {SOLVERS}, got {solver_kind!r}")
+    levels = spec.get("levels")
+    if not isinstance(levels, list) or not levels:
+        raise TaskError(f"{where}: needs at least one [[levels]] entry")
+    q = robot.configuration("walk_ready") if q is None else robot.check_configuration(q)
+    kin = Kinematics(robot, q)
+    stack = TaskStack(robot, velocity_limits=bool(spec.get("velocity_limits", True)))
+    bindings: dict[str, RoleBinding] = {}
+    for priority, level in enumerate(levels):
+        if not isinstance(level, dict):
+            raise TaskError(f"{where}: level {priority} must be a table")
+        extra = set(level) - {"hard", "tasks", "constraints"}
+        if extra:
+            raise TaskError(f"{where}: level {priority} has unknown keys {sorted(extra)}")
+        hard = bool(level.get("hard", False))
+        stack.level(priority, hard)
+        for entry in level.get("tasks", []):
+            task, binding = _make_task(entry, robot, where, priority)
+            stack.add(task, level=priority)
+            if binding is not None:
+                bindings[task.name] = binding
+        for entry in level.get("constraints", []):
+            constraint, binding = _make_constraint(entry, robot, where, priority)
+            stack.add_constraint(constraint, level=priority)
+            if binding is not None:
+                bindings[constraint.name] = binding
+    options = {k: spec[k] for k in ("regularization", "on_infeasible") if k in spec}
+    options.update(solver_options)
+    be = backend or spec.get("backend", "daqp")
+    if solver_kind == "weighted":
+        solver: StackSolver = WeightedQP(stack, be, **options)
+    else:
+        if "method" in spec:
+            options.setdefault("method", spec["method"])
+        solver = HierarchicalQP(stack, be, **options)
+    control = ControlStack(
+        spec.get("name", Path(source).stem),
+        spec.get("description", ""),
+        robot,
+        stack,
+        solver,
+        bindings,
+        source,
+    )
+    _initial_targets(control, kin)
+    return control
+
+
+def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, RoleBinding | None]:
+    if not isinstance(entry, dict) or "type" not in entry:
+        raise TaskError(f"{where}: level {priority}: each task needs a 'type'")
+    kind = entry["type"]
+    if kind not in TASK_TYPES:
+        raise TaskError(f"{where}: unknown task type {kind!r}; known: {sorted(TASK_TYPES)}")
+    extra = set(entry) - _TASK_KEYS - ({"axis"} if kind == "torso_orientation" else set())
+    if extra:
+        raise TaskError(f"{where}: task {kind!r} has unknown keys {sorted(extra)}")
+    frame = entry.get("frame")
+    role = frame if frame in ROLES else None
+    phases = tuple(entry.get("phases", PHASES))
+    if not set(phases) <= set(PHASES):
+        raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    name = entry.get("name")
+    if name is None:
+        name = kind if frame is None else f"{kind}_{frame}"
+    kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
+    if "axis" in entry:
+        kw["axis"] = entry["axis"]
+    task = TASK_TYPES[kind](robot, actual, name, **kw)
+    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
+    return task, binding
+
+
+def _make_constraint(entry, robot: Robot, where: str, priority: int):
+    if not isinstance(entry, dict) or entry.get("type") not in CONSTRAINT_TYPES:
+        raise TaskError(
+            f"{where}: level {priority}: constraint type must be one of "
+            f"{CONSTRAINT_TYPES}, got {entry!r}"
+        )
+    kind = entry["type"]
+    extra = set(entry) - {"type", "name", "frame", "margin", "clearance", "phases"}
+    if extra:
+        raise TaskError(f"{where}: constraint {kind!r} has unknown keys {sorted(extra)}")
+    frame = entry.get("frame")
+    role = frame if frame in ROLES else None
+    phases = tuple(entry.get("phases", PHASES))
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    constraint: Constraint
+    if kind == "com_polygon":
+        soles = [actual] if actual else ["l_sole", "r_sole"]
+        constraint = ComPolygonConstraint(
+            robot, soles, margin=entry.get("margin", 0.01), name=entry.get("name", "com_polygon")
+        )
+    else:
+        if actual is None:
+            raise TaskError(f"{where}: ground_clearance needs a 'frame'")
+        constraint = GroundClearanceConstraint(
+            robot,
+            actual,
+            entry.get("clearance", 0.0),
+            name=entry.get("name", f"ground_clearance_{frame}"),
+        )
+    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
+    return constraint, binding
+
+
+def _initial_targets(control: ControlStack, kin: Kinematics) -> None:
+    """Targets = the current state: contacts where the soles are, posture = q."""
+    for task in control.stack.tasks():
+        if isinstance(task, ContactTask):
+            task.make_contact(kin)
+        elif isinstance(
+            task,
+            (
+                ComTask,
+                FramePositionTask,
+                FrameOrientationTask,
+                FramePoseTask,
+                SwingFootOrientationTask,
+                PostureTask,
+            ),
+        ):
+            task.set_target_from(kin)
+    control.set_phase("double", "l_sole", "r_sole", kin)
