@@ -60,30 +60,43 @@ class LevelSolution:
     margin: np.ndarray = field(default_factory=lambda: np.zeros(0))  # G Δq − h at the final Δq
 
 
-def row_space_qr(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Rank-revealing QR of Mᵀ: returns (Q, R_k, perm, rank) with Mᵀ[:, perm] = Q R.
+class PivotedQR:
+    """Rank-revealing QR of Mᵀ (r x m): Mᵀ[:, perm] = Q R, Q (r x r) orthonormal.
 
-    Q (r x r) is orthonormal: its first ``rank`` columns span the row space of M, the others
-    its null space; R_k (rank x m) holds the first ``rank`` rows of R.
+    The first ``rank`` columns of Q span the row space of M, the others its null space.
     """
-    m, r = M.shape
-    if m == 0:
-        return np.eye(r), np.zeros((0, 0)), np.zeros(0, dtype=int), 0
-    qr, jpvt, tau, _, _ = lapack.dgeqp3(np.array(M.T, order="F"))
-    k = min(m, r)
-    d = np.abs(np.diagonal(qr)[:k])
-    rank = int(np.count_nonzero(d > RANK_RTOL * d[0])) if d[0] > 1e-12 else 0
-    a = np.zeros((r, r), order="F")
-    a[:, :k] = qr[:, :k]
-    Q, _, _ = lapack.dorgqr(a, tau[:k]) if k else (np.eye(r), None, None)
-    R_k = np.triu(qr[:rank, :])
-    return Q, R_k, jpvt - 1, rank
+
+    def __init__(self, M: np.ndarray) -> None:
+        m, r = M.shape
+        self.m = m
+        if m == 0:
+            self.Q, self.rank = np.eye(r), 0
+            return
+        qr, jpvt, tau, _, _ = lapack.dgeqp3(M.T)
+        k = min(m, r)
+        d = np.abs(np.diagonal(qr)[:k])
+        self.rank = int(np.count_nonzero(d > RANK_RTOL * d[0])) if d[0] > 1e-12 else 0
+        a = np.zeros((r, r), order="F")
+        a[:, :k] = qr[:, :k]
+        self.Q = lapack.dorgqr(a, tau[:k])[0] if k else np.eye(r)
+        self._qr, self._perm = qr, jpvt - 1
+
+    @property
+    def null_space(self) -> np.ndarray:
+        return self.Q[:, self.rank :]
+
+    def least_squares(self, v: np.ndarray) -> np.ndarray | None:
+        """The minimum-norm z with M z = v when M has full row rank (else None)."""
+        if self.rank != self.m or self.m == 0:
+            return None
+        y, info = lapack.dtrtrs(self._qr[: self.m, : self.m], v[self._perm], lower=0, trans=1)
+        return self.Q[:, : self.m] @ y if info == 0 else None
 
 
 def null_space(M: np.ndarray) -> tuple[np.ndarray, int]:
     """Orthonormal basis of ker(M) and rank(M)."""
-    Q, _, _, rank = row_space_qr(M)
-    return Q[:, rank:], rank
+    qr = PivotedQR(M)
+    return qr.null_space, qr.rank
 
 
 class _Feasible:
@@ -161,45 +174,54 @@ def solve_cascade(
             continue
         M = lvl.J if Z is None else lvl.J @ Z
         v = lvl.b - lvl.J @ x
+        B = Z
+        qr: PivotedQR | None = None
+        H = c = None
+        u = None
         if k == last:  # damped least squares on the whole Δq (as the weighted QP)
             mu = final_regularization
-            B = Z
             H = M.T @ M
             H.reshape(-1)[:: H.shape[0] + 1] += mu
             c = mu * (x if Z is None else Z.T @ x) - M.T @ v
-            Q = rank = None
-        else:  # ridge only along the level's own null space N: its optimum is not biased
-            Q, _, _, rank = row_space_qr(M)
-            B = Z
-            N = Q[:, rank:]
-            H = M.T @ M
-            ridge = NULL_RIDGE * max(1.0, float(np.trace(H)) / max(rank, 1))
-            H += ridge * (N @ N.T)
-            c = -(M.T @ v)
+            if p == 0:
+                u = _unconstrained(H, c)
+        else:
+            qr = PivotedQR(M)
+            if p == 0:  # exact least squares in the level's row space, nothing in its null space
+                u = qr.least_squares(v)
+        if u is not None and not feasible.holds(x + (u if B is None else B @ u), x):
+            u = None
         was_relaxed = False
-        u = None
-        if p == 0:  # unconstrained optimum, if it meets every inherited constraint
-            u = _unconstrained(H, c)
-            if u is not None and not feasible.holds(x + (u if B is None else B @ u), x):
-                u = None
         if u is not None:
             s = np.zeros(0)
         else:
-            args = (lvl, x, B, H, c, feasible, backends[k])
-            slack = p > 0 and not lvl.hard
-            try:
-                u, s = _solve_qp(*args, slack=slack)
-            except InfeasibleError:
-                if not (lvl.hard and p and relax):
-                    raise
-                slack = was_relaxed = True
-                u, s = _solve_qp(*args, slack=True)
-            if Q is not None and rank < Q.shape[0]:
-                # the constraints couple the null-space ridge to the level's optimum: proximal
-                # refinement (ridge on the change of the null-space part) removes that bias
-                for _ in range(PROXIMAL_STEPS):
-                    c_prox = c - ridge * (N @ (N.T @ u))
-                    u, s = _solve_qp(lvl, x, B, H, c_prox, feasible, backends[k], slack=slack)
+            if H is None:  # ridge only along the level's null space N: no bias on its optimum
+                N = qr.null_space
+                H = M.T @ M
+                ridge = NULL_RIDGE * max(1.0, float(np.trace(H)) / max(qr.rank, 1))
+                H += ridge * (N @ N.T)
+                c = -(M.T @ v)
+                if p == 0 and (u := _unconstrained(H, c)) is not None:
+                    if not feasible.holds(x + (u if B is None else B @ u), x):
+                        u = None
+            if u is not None:
+                s = np.zeros(0)
+            else:
+                args = (lvl, x, B, H, c, feasible, backends[k])
+                slack = p > 0 and not lvl.hard
+                try:
+                    u, s = _solve_qp(*args, slack=slack)
+                except InfeasibleError:
+                    if not (lvl.hard and p and relax):
+                        raise
+                    slack = was_relaxed = True
+                    u, s = _solve_qp(*args, slack=True)
+                if qr is not None and qr.rank < M.shape[1]:
+                    # the constraints couple the null-space ridge to the level's optimum:
+                    # proximal steps (ridge on the change of the null-space part) remove the bias
+                    for _ in range(PROXIMAL_STEPS):
+                        c_prox = c - ridge * (N @ (N.T @ u))
+                        u, s = _solve_qp(lvl, x, B, H, c_prox, feasible, backends[k], slack)
         x = x + (u if B is None else B @ u)
         feasible.bounds_met = True
         if p:
@@ -208,9 +230,8 @@ def solve_cascade(
             feasible.h.append(lvl.h + s)
         slacks.append(s)
         relaxed_flags.append(was_relaxed)
-        if k < last and Q is not None:
-            N = Q[:, rank:]
-            Z = N if Z is None else Z @ N
+        if qr is not None:
+            Z = qr.null_space if Z is None else Z @ qr.null_space
     sols = [
         LevelSolution(lvl.priority, lvl.J @ x - lvl.b, s, rf, lvl.G @ x - lvl.h)
         for lvl, s, rf in zip(levels, slacks, relaxed_flags, strict=True)
