@@ -193,7 +193,7 @@ def test_each_level_optimal_given_the_levels_above(robot, seed, shift, lift, pol
     solver = HierarchicalQP(stack, "daqp", regularization=1e-12)
     dq = solver.solve(q, dt=0.01)
     problems, sols = solver.problems, solver.solutions
-    lower, upper = np.empty(robot.nv), np.empty(robot.nv)
+    lower, upper = np.full(robot.nv, -np.inf), np.full(robot.nv, np.inf)
     solver.compute_bounds(solver.kin, 0.01, lower, upper)
     for k in range(len(problems)):
         alone = _level_alone_residual(problems, k, dq, lower, upper)

@@ -56,6 +56,7 @@ class StackSolver(ABC):
         self._q_max = self.robot.q_max
         self._vdt_for: float | None = None
         self._vdt = np.zeros(self.robot.n_joints)
+        self._neg_vdt = np.zeros(self.robot.n_joints)
         self._box: tuple[np.ndarray, np.ndarray] | None = None
         #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
         self.solve_time = 0.0
@@ -98,7 +99,7 @@ class StackSolver(ABC):
         if self._box is not None:
             lower, upper = self._box
             dq = dq.copy()
-            np.clip(dq[6:], lower[6:], upper[6:], out=dq[6:])
+            np.minimum(np.maximum(dq[6:], lower[6:], out=dq[6:]), upper[6:], out=dq[6:])
         q_next = self.robot.integrate(q, dq)
         j_prev = q[7:]
         j = q_next[7:]
@@ -151,7 +152,8 @@ class StackSolver(ABC):
     def compute_bounds(
         self, kin: Kinematics, dt: float | None, lower: np.ndarray, upper: np.ndarray
     ) -> None:
-        """Box bounds on Δq, written into ``lower``/``upper`` (nv each, base unbounded).
+        """Box bounds on Δq, written into the joint rows of ``lower``/``upper`` (nv each; their
+        base rows must hold ±inf: the floating base is unbounded).
 
         Joint position: q_min − q <= Δq <= q_max − q. With a time step and velocity limits both
         are clipped into [−v_max·dt, v_max·dt]; a joint outside its range then moves back at
@@ -162,15 +164,15 @@ class StackSolver(ABC):
         lo, hi = lower[6:], upper[6:]
         np.subtract(self._q_min, j, out=lo)
         np.subtract(self._q_max, j, out=hi)
-        lower[:6] = -np.inf
-        upper[:6] = np.inf
+        # the base rows stay at ±inf: callers allocate lower/upper that way (QPWorkspace does)
         if dt is not None and self.stack.velocity_limit is not None:
             if dt != self._vdt_for:
                 np.multiply(self.robot.v_max, self.stack.velocity_limit.scale * dt, out=self._vdt)
+                np.negative(self._vdt, out=self._neg_vdt)
                 self._vdt_for = dt
-            vdt = self._vdt
-            np.clip(lo, -vdt, vdt, out=lo)
-            np.clip(hi, -vdt, vdt, out=hi)
+            vdt, neg = self._vdt, self._neg_vdt
+            np.minimum(np.maximum(lo, neg, out=lo), vdt, out=lo)
+            np.minimum(np.maximum(hi, neg, out=hi), vdt, out=hi)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]

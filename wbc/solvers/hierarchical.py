@@ -63,7 +63,7 @@ class HierarchicalQP(StackSolver):
         self._levels = self.stack.levels
         self._blocks = [TaskBlock(lv.active_tasks(), nv) for lv in self._levels]
         self._constraints = [lv.active_constraints() for lv in self._levels]
-        self._lower, self._upper = np.empty(nv), np.empty(nv)
+        self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self._key = (self.stack.version, STRUCTURE_EPOCH[0])
 
     def _level_problems(self, kin: Kinematics) -> list[LevelProblem]:
