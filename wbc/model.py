@@ -282,7 +282,8 @@ class Kinematics:
         self.model = robot.model
         self.data = robot.model.createData()
         self.q = robot.neutral()
-        self._jac = np.zeros((6, robot.nv))
+        self._rotations: dict[int, np.ndarray] = {}
+        self._translations: dict[int, np.ndarray] = {}
         self.update(self.q if q is None else q)
 
     def update(self, q: np.ndarray) -> None:
@@ -307,6 +308,22 @@ class Kinematics:
     def placement(self, frame_id: int) -> pin.SE3:
         """World placement of a frame (a reference into the Pinocchio data)."""
         return self.data.oMf[frame_id]
+
+    def rotation(self, frame_id: int) -> np.ndarray:
+        """World rotation of a frame: a cached view that follows every :meth:`update`."""
+        try:
+            return self._rotations[frame_id]
+        except KeyError:
+            view = self._rotations[frame_id] = self.data.oMf[frame_id].rotation
+            return view
+
+    def translation(self, frame_id: int) -> np.ndarray:
+        """World position of a frame: a cached view that follows every :meth:`update`."""
+        try:
+            return self._translations[frame_id]
+        except KeyError:
+            view = self._translations[frame_id] = self.data.oMf[frame_id].translation
+            return view
 
     def frame_jacobian(self, frame_id: int, reference=LOCAL_WORLD_ALIGNED) -> np.ndarray:
         """6 x nv frame Jacobian from the cached joint Jacobians."""

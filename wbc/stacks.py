@@ -180,12 +180,14 @@ def load_stack(
     robot: Robot,
     q: np.ndarray | None = None,
     backend: str | None = None,
+    solver: str | None = None,
     **solver_options: Any,
 ) -> ControlStack:
     """Build a stack and its solver from a TOML file (by name in ``tasks/`` or by path).
 
     ``q`` (default Walk Ready) gives the initial targets (contacts anchored where the soles
-    are, posture = q); ``backend`` and ``solver_options`` override the file's settings.
+    are, posture = q); ``backend``, ``solver`` ("weighted"/"hierarchical") and
+    ``solver_options`` override the file's settings.
     """
     path = Path(name_or_path)
     if path.suffix != ".toml":
@@ -199,6 +201,8 @@ def load_stack(
             spec = tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise TaskError(f"task stack {path} is not valid TOML: {exc}") from exc
+    if solver is not None:
+        spec = {**spec, "solver": solver}
     return build_stack(spec, robot, q, backend, source=str(path), **solver_options)
 
 

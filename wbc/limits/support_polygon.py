@@ -92,10 +92,7 @@ class SupportPolygon:
         width: float = FOOT_WIDTH,
     ) -> SupportPolygon:
         corners = np.vstack(
-            [
-                foot_corners(kin.placement(f).rotation, kin.placement(f).translation, length, width)
-                for f in sole_ids
-            ]
+            [foot_corners(kin.rotation(f), kin.translation(f), length, width) for f in sole_ids]
         )
         return cls(convex_hull(corners), margin)
 

@@ -41,11 +41,11 @@ class FrameOrientationTask(FrameTask):
         self.target[:] = check_rotation(self, rotation)
 
     def set_target_from(self, kin: Kinematics) -> None:
-        self.target[:] = kin.placement(self.frame_id).rotation
+        self.target[:] = kin.rotation(self.frame_id)
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return pin.log3(self.target @ kin.placement(self.frame_id).rotation.T)
+        return pin.log3(self.target @ kin.rotation(self.frame_id).T)
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        R = kin.placement(self.frame_id).rotation
+        R = kin.rotation(self.frame_id)
         return pin.Jlog3(self.target @ R.T) @ kin.frame_jacobian(self.frame_id)[3:]

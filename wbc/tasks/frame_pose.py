@@ -50,33 +50,30 @@ class FramePoseTask(FrameTask):
         self.target_rotation[:] = check_rotation(self, rotation)
 
     def set_target_from(self, kin: Kinematics) -> None:
-        M = kin.placement(self.frame_id)
-        self.target_position[:] = M.translation
-        self.target_rotation[:] = M.rotation
+        self.target_position[:] = kin.translation(self.frame_id)
+        self.target_rotation[:] = kin.rotation(self.frame_id)
 
     @property
     def target(self) -> pin.SE3:
         return pin.SE3(self.target_rotation, self.target_position)
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
-        M = kin.placement(self.frame_id)
         e = np.empty(6)
-        np.subtract(self.target_position, M.translation, out=e[:3])
-        e[3:] = pin.log3(self.target_rotation @ M.rotation.T)
+        np.subtract(self.target_position, kin.translation(self.frame_id), out=e[:3])
+        e[3:] = pin.log3(self.target_rotation @ kin.rotation(self.frame_id).T)
         return e
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         J = kin.frame_jacobian(self.frame_id).copy()
-        A = self.target_rotation @ kin.placement(self.frame_id).rotation.T
+        A = self.target_rotation @ kin.rotation(self.frame_id).T
         J[3:] = pin.Jlog3(A) @ J[3:]
         return J
 
     def fill(self, kin: Kinematics, J_out: np.ndarray, e_out: np.ndarray) -> None:
         if not self._all:
             return super().fill(kin, J_out, e_out)
-        M = kin.placement(self.frame_id)
-        A = self.target_rotation @ M.rotation.T
-        np.subtract(self.target_position, M.translation, out=e_out[:3])
+        A = self.target_rotation @ kin.rotation(self.frame_id).T
+        np.subtract(self.target_position, kin.translation(self.frame_id), out=e_out[:3])
         e_out[3:] = pin.log3(A)
         J = kin.frame_jacobian(self.frame_id)
         J_out[:3] = J[:3]

@@ -35,10 +35,10 @@ class FramePositionTask(FrameTask):
         self.target[:] = check_vector(self, target, 3)
 
     def set_target_from(self, kin: Kinematics) -> None:
-        self.target[:] = kin.placement(self.frame_id).translation
+        self.target[:] = kin.translation(self.frame_id)
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return self.target - kin.placement(self.frame_id).translation
+        return self.target - kin.translation(self.frame_id)
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         return kin.frame_jacobian(self.frame_id)[:3]

@@ -43,14 +43,14 @@ class SwingFootOrientationTask(FrameTask):
         self.target[:] = check_rotation(self, rotation)
 
     def set_target_from(self, kin: Kinematics) -> None:
-        self.target[:] = kin.placement(self.frame_id).rotation
+        self.target[:] = kin.rotation(self.frame_id)
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
-        R = kin.placement(self.frame_id).rotation
+        R = kin.rotation(self.frame_id)
         return np.array([1.0 - self.target[:, 2] @ R[:, 2], 1.0 - self.target[:, 0] @ R[:, 0]])
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        R = kin.placement(self.frame_id).rotation
+        R = kin.rotation(self.frame_id)
         Jw = kin.frame_jacobian(self.frame_id)[3:]
         np.dot(np.cross(R[:, 2], self.target[:, 2]), Jw, out=self._J[0])
         np.dot(np.cross(R[:, 0], self.target[:, 0]), Jw, out=self._J[1])
@@ -77,11 +77,11 @@ class TorsoOrientationTask(FrameTask):
         self._J = np.zeros((1, robot.nv))
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
-        kt = kin.placement(self.frame_id).rotation[:, 2]
+        kt = kin.rotation(self.frame_id)[:, 2]
         return np.array([1.0 - self.axis @ kt])
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        kt = kin.placement(self.frame_id).rotation[:, 2]
+        kt = kin.rotation(self.frame_id)[:, 2]
         Jw = kin.frame_jacobian(self.frame_id)[3:]
         np.dot(np.cross(kt, self.axis), Jw, out=self._J[0])
         return self._J
