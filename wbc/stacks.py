@@ -38,6 +38,7 @@ from .tasks import (
     FrameOrientationTask,
     FramePoseTask,
     FramePositionTask,
+    JointLimitDampingTask,
     PostureTask,
     SwingFootOrientationTask,
     Task,
@@ -80,6 +81,7 @@ TASK_TYPES: dict[str, Callable[..., Task]] = {
     "torso_orientation": _torso,
     "posture": _frameless(PostureTask, "posture"),
     "damping": _frameless(DampingTask, "damping"),
+    "joint_limit_damping": _frameless(JointLimitDampingTask, "joint_limit_damping"),
 }
 CONSTRAINT_TYPES = ("com_polygon", "ground_clearance")
 

@@ -10,6 +10,7 @@ from .frame_orientation import FrameOrientationTask
 from .frame_pose import FramePoseTask
 from .frame_position import FramePositionTask
 from .frame_task import FrameTask
+from .limit_damping import JointLimitDampingTask
 from .posture import DampingTask, PostureTask
 from .task import Objective, Task
 from .thesis_orientation import SwingFootOrientationTask, TorsoOrientationTask
@@ -22,6 +23,7 @@ __all__ = [
     "FramePoseTask",
     "FramePositionTask",
     "FrameTask",
+    "JointLimitDampingTask",
     "Objective",
     "PostureTask",
     "SwingFootOrientationTask",

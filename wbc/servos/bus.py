@@ -1,0 +1,294 @@
+"""Backend-independent servo bus: angle <-> command codec, servo status and the bus interface.
+
+Every backend (Dynamixel AX-12A, Lynxmotion SSC-32, the dry-run simulator) drives the joints in
+the robot model's order with integer *commands* (AX ticks, SSC-32 pulse widths in µs). A
+:class:`Codec` is the per-joint affine map between joint angle and command::
+
+    cmd = offset + scale * q          q = (cmd - offset) / scale
+
+:meth:`Codec.safe_range` turns URDF joint limits into the integer command interval whose every
+command decodes to an angle inside the limits (and inside the hardware range); the safety layer
+never lets a command out of it and :meth:`ServoBus.write_goals` checks it again before sending.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import ServoError
+
+# a command this close (in command units) to an exact limit counts as on the limit (float noise)
+_LIMIT_EPS = 1e-6
+
+COMM_OK = "ok"
+COMM_TIMEOUT = "timeout"
+COMM_CORRUPT = "corrupt"
+COMM_TX_FAIL = "tx_fail"
+
+
+@dataclass(frozen=True)
+class Codec:
+    """Per-joint affine map joint angle (rad) <-> integer command, and the hardware range."""
+
+    offset: np.ndarray
+    scale: np.ndarray  # command units per radian, signed
+    cmd_min: int
+    cmd_max: int
+    unit: str = "tick"
+
+    def encode_float(self, q: np.ndarray) -> np.ndarray:
+        """Unrounded commands for joint angles (model order)."""
+        return self.offset + self.scale * np.asarray(q, dtype=float)
+
+    def decode(self, cmd: np.ndarray) -> np.ndarray:
+        """Joint angles (rad) of commands (model order)."""
+        return (np.asarray(cmd, dtype=float) - self.offset) / self.scale
+
+    def safe_range(
+        self, q_min: np.ndarray, q_max: np.ndarray, names: Sequence[str]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Integer command bounds ``(lo, hi)`` whose commands all decode inside the limits.
+
+        ``lo = ceil(min(c(q_min), c(q_max)))``, ``hi = floor(max(...))``, intersected with the
+        hardware range. Raises :class:`ServoError` naming the joint if the interval is empty.
+        """
+        a = self.encode_float(q_min)
+        b = self.encode_float(q_max)
+        lo = np.ceil(np.minimum(a, b) - _LIMIT_EPS).astype(int)
+        hi = np.floor(np.maximum(a, b) + _LIMIT_EPS).astype(int)
+        lo = np.maximum(lo, self.cmd_min)
+        hi = np.minimum(hi, self.cmd_max)
+        bad = np.flatnonzero(lo > hi)
+        if bad.size:
+            parts = [
+                f"{names[i]}: limits [{q_min[i]:.4f}, {q_max[i]:.4f}] rad map to "
+                f"[{min(a[i], b[i]):.1f}, {max(a[i], b[i]):.1f}] {self.unit}s"
+                for i in bad
+            ]
+            raise ServoError(
+                f"joint limits fall outside the servo range {self.cmd_min}..{self.cmd_max} "
+                f"{self.unit}s: " + "; ".join(parts)
+            )
+        return lo, hi
+
+
+@dataclass
+class ServoStatus:
+    """What one exchange with one servo told us (``comm`` is ``ok`` when a valid reply came).
+
+    ``index`` is the servo's position in model joint order, or None for the bus/board itself.
+    """
+
+    index: int | None
+    comm: str = COMM_OK
+    faults: tuple[str, ...] = ()
+    error_byte: int = 0
+    position: float | None = None  # command units
+    voltage: float | None = None  # volt
+    temperature: float | None = None  # degC
+    load: float | None = None  # fraction of max torque, signed
+
+    @property
+    def ok(self) -> bool:
+        return self.comm == COMM_OK and not self.faults
+
+
+@dataclass(frozen=True)
+class BudgetItem:
+    """One kind of bus transaction in a control tick."""
+
+    what: str
+    count: int
+    bytes_out: int  # per transaction, host -> servos
+    bytes_in: int  # per transaction, servos -> host (status packet), 0 if none
+    replies: int  # status packets per transaction (each costs return delay + turnaround)
+
+
+@dataclass(frozen=True)
+class BusBudget:
+    """Bus time of one control tick: wire bytes at the baud rate plus per-reply delays.
+
+    ``t = Σ count · ((bytes_out + bytes_in) · bits_per_byte / baud + replies · (delay + turn))``
+    where ``delay`` is the servos' return delay and ``turn`` the host's reply turnaround
+    (e.g. the USB latency of an FTDI adapter; 0 for a bus driven directly by a UART).
+    """
+
+    name: str
+    baud: int
+    items: tuple[BudgetItem, ...]
+    bits_per_byte: int = 10
+    return_delay_s: float = 0.0
+
+    @property
+    def bytes_per_tick(self) -> int:
+        return sum(i.count * (i.bytes_out + i.bytes_in) for i in self.items)
+
+    @property
+    def replies_per_tick(self) -> int:
+        return sum(i.count * i.replies for i in self.items)
+
+    def wire_time(self) -> float:
+        """Seconds the bytes of one tick occupy the wire."""
+        return self.bytes_per_tick * self.bits_per_byte / self.baud
+
+    def tick_time(self, turnaround_s: float = 0.0) -> float:
+        """Seconds of bus time per tick with a host turnaround per reply."""
+        return self.wire_time() + self.replies_per_tick * (self.return_delay_s + turnaround_s)
+
+    def max_rate(self, turnaround_s: float = 0.0) -> float:
+        """Highest tick rate (Hz) the bus allows."""
+        return 1.0 / self.tick_time(turnaround_s)
+
+
+class ServoBus(ABC):
+    """A bus of servos driven in the robot model's joint order with integer commands.
+
+    Life cycle used by the deployment: ``open`` -> ``identify`` -> ``configure`` ->
+    ``read_positions`` (if ``can_read``) -> ``set_speed`` / ``set_torque(True)`` ->
+    ``write_goals`` + ``poll`` / ``read_positions`` each tick -> ``set_torque(False)`` or hold
+    -> ``close``. Communication problems come back as :class:`ServoStatus` values (the
+    watchdog decides); set-up problems and bad arguments raise :class:`ServoError`.
+    """
+
+    name: str = "bus"
+    can_read: bool = False
+    servo_speed: float = float("inf")  # rad/s, the servos' own top speed
+    turnaround_s: float = 0.0  # host delay per status reply (e.g. USB latency), for budgets
+
+    def __init__(self, codec: Codec, labels: Sequence[str]) -> None:
+        self.codec = codec
+        self.labels = tuple(labels)
+        self.cmd_lo: np.ndarray | None = None
+        self.cmd_hi: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        return len(self.labels)
+
+    def set_command_limits(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """The command interval ``write_goals`` enforces (from :meth:`Codec.safe_range`)."""
+        lo = np.asarray(lo, dtype=int)
+        hi = np.asarray(hi, dtype=int)
+        if lo.shape != (self.n,) or hi.shape != (self.n,) or np.any(lo > hi):
+            raise ServoError(f"{self.name}: invalid command limits {lo} .. {hi}")
+        self.cmd_lo, self.cmd_hi = lo, hi
+
+    def check_goals(self, cmds: np.ndarray) -> np.ndarray:
+        """Last line of defence before the wire: integer commands inside the safe range."""
+        cmds = np.asarray(cmds)
+        if self.cmd_lo is None or self.cmd_hi is None:
+            raise ServoError(f"{self.name}: goals written before the command limits were set")
+        if cmds.shape != (self.n,):
+            raise ServoError(f"{self.name}: expected {self.n} goals, got shape {cmds.shape}")
+        if not np.issubdtype(cmds.dtype, np.integer):
+            raise ServoError(f"{self.name}: goals must be integer commands, got {cmds.dtype}")
+        bad = np.flatnonzero((cmds < self.cmd_lo) | (cmds > self.cmd_hi))
+        if bad.size:
+            parts = [
+                f"{self.labels[i]} -> {cmds[i]} (allowed {self.cmd_lo[i]}..{self.cmd_hi[i]})"
+                for i in bad
+            ]
+            raise ServoError(f"{self.name}: refusing goals outside the limits: " + "; ".join(parts))
+        return cmds
+
+    # ------------------------------------------------------------------ life cycle
+    @abstractmethod
+    def open(self) -> None:
+        """Open the port; :class:`ServoError` naming the port or baud rate if impossible."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the port (safe to call twice)."""
+
+    @abstractmethod
+    def identify(self) -> None:
+        """Check that every servo (or the board) answers; :class:`ServoError` if not."""
+
+    @abstractmethod
+    def configure(self) -> None:
+        """Write start-up settings (limits in servo memory, return delay); torque stays off."""
+
+    # ------------------------------------------------------------------ motion
+    @abstractmethod
+    def set_torque(self, enabled: bool) -> None:
+        """Enable or disable torque on every servo."""
+
+    @abstractmethod
+    def set_speed(self, rad_per_s: float) -> None:
+        """Servo-side speed limit (a second line behind the software rate limit)."""
+
+    @abstractmethod
+    def write_goals(self, cmds: np.ndarray) -> str:
+        """Send all goals in one bus transaction; returns a COMM_* result."""
+
+    # ------------------------------------------------------------------ feedback
+    def read_positions(self, indices: Sequence[int] | None = None) -> list[ServoStatus]:
+        """Present positions (command units) of the given servos (default: all)."""
+        raise ServoError(f"{self.name}: this bus cannot read servo positions")
+
+    @abstractmethod
+    def poll(self, index: int) -> ServoStatus:
+        """A health check of one servo (or of the board)."""
+
+    def budget(self, read_positions: bool) -> BusBudget:
+        """Bus time of one tick (see :class:`BusBudget`)."""
+        raise NotImplementedError
+
+    def __enter__(self) -> ServoBus:
+        self.open()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class DryRunBus(ServoBus):
+    """In-memory ideal servos for ``--dry-run``: goals are reached at once, nothing fails."""
+
+    name = "dry-run"
+    can_read = True
+
+    def __init__(self, codec: Codec, labels: Sequence[str], start_cmds: np.ndarray) -> None:
+        super().__init__(codec, labels)
+        self.positions = np.asarray(start_cmds, dtype=float).copy()
+        self.torque = False
+        self.goals_written = 0
+
+    def open(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def identify(self) -> None:
+        pass
+
+    def configure(self) -> None:
+        pass
+
+    def set_torque(self, enabled: bool) -> None:
+        self.torque = enabled
+
+    def set_speed(self, rad_per_s: float) -> None:
+        pass
+
+    def write_goals(self, cmds: np.ndarray) -> str:
+        cmds = self.check_goals(cmds)
+        if self.torque:
+            self.positions = cmds.astype(float)
+        self.goals_written += 1
+        return COMM_OK
+
+    def read_positions(self, indices: Sequence[int] | None = None) -> list[ServoStatus]:
+        idx = range(self.n) if indices is None else indices
+        return [ServoStatus(i, position=float(self.positions[i])) for i in idx]
+
+    def poll(self, index: int) -> ServoStatus:
+        return ServoStatus(index, position=float(self.positions[index]))
+
+    def budget(self, read_positions: bool) -> BusBudget:
+        return BusBudget("dry-run", 1_000_000, ())
