@@ -1,1 +1,1 @@
-"""wbc.bench."""
+"""The benchmark: every solver family on the same trajectories (``wbc bench``)."""

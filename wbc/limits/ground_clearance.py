@@ -40,19 +40,18 @@ class GroundClearanceConstraint(Constraint):
         self.frame = frame
 
     def compute(self, kin: Kinematics) -> Inequality:
-        M = kin.placement(self.frame_id)
+        R = kin.rotation(self.frame_id)
         J = kin.frame_jacobian(self.frame_id)
-        for k, r in enumerate(self.corners):
-            world_r = M.rotation @ r
-            # z row of J_v − [world_r]x J_w  =  J_v,z − (world_r x J_w)_z
-            self._G[k] = -(J[2] - (world_r[0] * J[4] - world_r[1] * J[3]))
-            self._h[k] = M.translation[2] + world_r[2] - self.clearance
+        w = self.corners @ R.T  # corner offsets in world axes (4 x 3)
+        # z row of J_v − [w]x J_ω  =  J_v,z − (w_x J_ω,y − w_y J_ω,x)
+        np.subtract(np.outer(w[:, 0], J[4]) - np.outer(w[:, 1], J[3]), J[2], out=self._G)
+        np.add(w[:, 2], kin.translation(self.frame_id)[2] - self.clearance, out=self._h)
         return Inequality(self._G, self._h)
 
     def lowest_point(self, kin: Kinematics) -> float:
         """Height (m) of the lowest sole corner."""
-        M = kin.placement(self.frame_id)
-        return float(np.min(M.translation[2] + self.corners @ M.rotation[2]))
+        R = kin.rotation(self.frame_id)
+        return float(np.min(kin.translation(self.frame_id)[2] + self.corners @ R[2]))
 
 
 class LinearInequality(Constraint):

@@ -616,6 +616,16 @@ def plan_lines(bus: ServoBus, rate: float, turnaround_s: float) -> list[str]:
 # ---------------------------------------------------------------------- command line
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording .npz to play (t, q columns)")
+    parser.add_argument(
+        "--live",
+        metavar="STACK",
+        help="run this task stack live (e.g. walk) instead of a recording",
+    )
+    parser.add_argument(
+        "--trajectory",
+        default="walk10",
+        help="--live: the walking reference to follow (see wbc bench --list)",
+    )
     parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
     parser.add_argument("--servo-map", help="servo map TOML (default: the robot's servos.toml)")
     parser.add_argument(
@@ -713,6 +723,23 @@ def _dry_bus(bus: ServoBus, robot: Robot) -> DryRunBus:
     return DryRunBus(bus.codec, bus.labels, start)
 
 
+def _live_source(args: argparse.Namespace, robot) -> tuple[CallableSource, str, float]:
+    """A task stack solved live along a walking reference, one solve per deploy tick."""
+    from ..bench.trajectories import build
+    from ..stacks import load_stack
+    from ..walking.loop import Session, StackController
+
+    ref = build(args.trajectory, robot)
+    session = Session(StackController(load_stack(args.live, robot)), robot, ref)
+
+    def targets(tick: int, t: float) -> np.ndarray | None:
+        q = session.at_time(t)
+        return None if q is None else q[7:].copy()
+
+    source = CallableSource(targets, session.q[7:].copy(), robot.joint_names)
+    return source, f"live {args.live} on {args.trajectory}", ref.duration
+
+
 def run(args: argparse.Namespace) -> int:
     err = sys.stderr
     try:
@@ -737,15 +764,19 @@ def run(args: argparse.Namespace) -> int:
                 print(line)
             if args.recording is None:
                 return EXIT_OK
-        if args.recording is None:
-            raise TrajectoryError("give a RECORDING.npz to play (or --plan)")
-        source = RecordingSource(Recording.load(args.recording), robot, tol=args.limit_tol)
+        if args.recording is None and args.live is None:
+            raise TrajectoryError("give a RECORDING.npz to play, --live STACK (or --plan)")
+        if args.live is not None:
+            source, what, duration = _live_source(args, robot)
+        else:
+            source = RecordingSource(Recording.load(args.recording), robot, tol=args.limit_tol)
+            what, duration = Path(args.recording).name, source.duration
         if args.dry_run:
             bus = _dry_bus(bus, robot)
         elif not args.port:
             raise ServoError("give --port (or --dry-run)")
         print(
-            f"deploy {Path(args.recording).name}: {source.duration:.2f} s at {args.rate:g} Hz on "
+            f"deploy {what}: {duration:.2f} s at {args.rate:g} Hz on "
             f"{bus.name}{'' if args.dry_run else ' ' + args.port}"
         )
         result = deploy(bus, source, robot, config)

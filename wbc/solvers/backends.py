@@ -126,12 +126,23 @@ class DaqpBackend(QPBackend):
         x, _, exitflag, info = self._daqp.solve(
             H, c, C, bu, bl, sense, primal_tol=self.eps, sing_tol=1e-11
         )
-        if exitflag == -1:
+        for eps_prox in (1e-6, 1e-4):
+            if exitflag != -1:
+                break
             # DAQP 0.11 can report a feasible but degenerate problem (many rows active at the
             # same point, as on the lower levels of a hierarchy) infeasible; its proximal mode
-            # solves those, and still reports a truly infeasible problem as infeasible
+            # (with a primal tolerance it can meet) solves those, and still reports a truly
+            # infeasible problem as infeasible
             x, _, exitflag, info = self._daqp.solve(
-                H, c, C, bu, bl, sense, primal_tol=self.eps, sing_tol=1e-11, eps_prox=1e-6
+                H,
+                c,
+                C,
+                bu,
+                bl,
+                sense,
+                primal_tol=max(self.eps, 1e-8),
+                sing_tol=1e-11,
+                eps_prox=eps_prox,
             )
         self.iterations = int(info.get("iterations", 0)) if isinstance(info, dict) else 0
         if exitflag in (1, 2):
@@ -159,43 +170,62 @@ class ProxqpBackend(QPBackend):
         self._shape = None
 
     def solve(self, H, c, A, b, G, h, lower, upper):
-        proxqp = self._proxqp
-        n, m_eq, m_in = H.shape[0], A.shape[0], G.shape[0]
-        Aq = A if m_eq else None
-        bq = b if m_eq else None
-        Gq = G if m_in else None
-        lq = np.full(m_in, -1e20) if m_in else None  # -inf upsets its infeasibility test
-        uq = h if m_in else None
-        if self._shape != (n, m_eq, m_in):
-            qp = proxqp.dense.QP(n, m_eq, m_in, True)
+        args = self._arguments(H, c, A, b, G, h, lower, upper)
+        out = self._proxqp.QPSolverOutput
+        status = self._solve(args, self.eps)
+        if status in (out.PROXQP_PRIMAL_INFEASIBLE, out.PROXQP_MAX_ITER_REACHED):
             # ProxQP 0.8 reports some feasible but degenerate problems (many active bounds,
-            # e.g. the lower levels of a hierarchy) as primal infeasible unless its
-            # infeasibility certificate is made much stricter than the default 1e-4, and
-            # below eps_abs = 1e-8 even then
-            qp.settings.eps_abs = max(self.eps, 1e-8)
+            # e.g. the lower levels of a hierarchy) primal infeasible at eps_abs < 1e-8, or
+            # stalls on them from a warm start; a cold solve at 1e-8 gets most of them
+            # through, and a truly infeasible problem stays infeasible
+            self.reset()
+            status = self._solve(args, max(self.eps, 1e-8))
+        self.iterations = int(self._qp.results.info.iter)
+        if status == self._proxqp.QPSolverOutput.PROXQP_SOLVED:
+            return self._qp.results.x.copy()
+        self.reset()  # do not warm start from a failed solve
+        if status in (
+            self._proxqp.QPSolverOutput.PROXQP_PRIMAL_INFEASIBLE,
+            self._proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE,
+        ):
+            raise InfeasibleError("proxqp: the QP is primal infeasible")
+        raise SolverError(f"proxqp failed: {status}")
+
+    @staticmethod
+    def _arguments(H, c, A, b, G, h, lower, upper) -> tuple:
+        m_eq, m_in = A.shape[0], G.shape[0]
+        lq = np.full(m_in, -1e20) if m_in else None  # -inf upsets its infeasibility test
+        return (
+            H,
+            c,
+            A if m_eq else None,
+            b if m_eq else None,
+            G if m_in else None,
+            lq,
+            h if m_in else None,
+            lower,
+            upper,
+        )
+
+    def _solve(self, args: tuple, eps: float):
+        proxqp = self._proxqp
+        H, A, G = args[0], args[2], args[4]
+        shape = (H.shape[0], 0 if A is None else A.shape[0], 0 if G is None else G.shape[0])
+        if self._shape != shape or self._qp.settings.eps_abs != eps:
+            qp = proxqp.dense.QP(*shape, True)
+            qp.settings.eps_abs = eps
             qp.settings.eps_rel = 0.0
-            qp.settings.eps_primal_inf = 1e-12
+            qp.settings.eps_primal_inf = 1e-12  # the default 1e-4 fires on feasible problems
             qp.settings.verbose = False
-            qp.init(H, c, Aq, bq, Gq, lq, uq, lower, upper)
-            self._qp, self._shape = qp, (n, m_eq, m_in)
+            qp.init(*args)
+            self._qp, self._shape = qp, shape
             qp.solve()
             # warm start only once a previous result exists (ProxQP 0.8 crashes otherwise)
             qp.settings.initial_guess = proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
         else:
-            qp = self._qp
-            qp.update(H, c, Aq, bq, Gq, lq, uq, lower, upper)
-            qp.solve()
-        status = qp.results.info.status
-        self.iterations = int(qp.results.info.iter)
-        if status == proxqp.QPSolverOutput.PROXQP_SOLVED:
-            return qp.results.x.copy()
-        self.reset()  # do not warm start from a failed solve
-        if status in (
-            proxqp.QPSolverOutput.PROXQP_PRIMAL_INFEASIBLE,
-            proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE,
-        ):
-            raise InfeasibleError("proxqp: the QP is primal infeasible")
-        raise SolverError(f"proxqp failed: {status}")
+            self._qp.update(*args)
+            self._qp.solve()
+        return self._qp.results.info.status
 
 
 class QuadprogBackend(QPBackend):

@@ -7,6 +7,9 @@ import numpy as np
 from ..model import Kinematics, Robot
 from .task import Task
 
+#: largest Chan–Dubey weight used (1 at mid-range; 1e4 ≈ within ~1% of the range from a limit)
+WEIGHT_CAP = 1e4
+
 
 class JointLimitDampingTask(Task):
     """e = 0, J = diag(√w(q)) on the joints: penalises Σ w_i(q) Δq_i².
@@ -41,5 +44,7 @@ class JointLimitDampingTask(Task):
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         w = self.chan_dubey.update(np.clip(kin.q[7:], self.chan_dubey.lower, self.chan_dubey.upper))
-        self._J[self._diag, 6 + self._diag] = np.sqrt(np.minimum(w, 1e12))
+        # the weight is infinite at a limit; the QP's bounds already hold the joint there, so a
+        # cap keeps the Hessian well conditioned (DAQP stops with exit -4 otherwise)
+        self._J[self._diag, 6 + self._diag] = np.sqrt(np.minimum(w, WEIGHT_CAP))
         return self._J

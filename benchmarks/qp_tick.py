@@ -1,0 +1,91 @@
+"""Per-tick cost of the walking stack: our weighted and 3-level hierarchical QPs vs placo and pink.
+
+The stack (issue 3): support contact(s) hard, swing sole 6-D, CoM, torso orientation, posture,
+joint position and servo velocity limits — the ``walk`` stack of ``tasks/walk.toml`` without
+its CoM-polygon and ground-clearance constraints, which the peers do not get either. All four
+controllers follow the same 10-step reference through the same control loop
+(:func:`wbc.walking.loop.run`), which times each tick the same way (targets, kinematics,
+assembly, solve, integration). Rounds are interleaved so that the machine's load hits every
+controller alike; the figures are medians over rounds of each controller's per-tick median/p99.
+
+Run: ``python benchmarks/qp_tick.py [--rounds 5]`` (writes nothing; paste into qp_tick.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from wbc import load_robot
+from wbc.bench.peers import PinkController, PlacoController, available
+from wbc.bench.trajectories import build
+from wbc.paths import stacks_dir
+from wbc.stacks import build_stack
+from wbc.walking.loop import StackController, run
+
+
+def core_walk_spec() -> dict:
+    """tasks/walk.toml without its inequality constraints (what the peers can express)."""
+    with open(stacks_dir() / "walk.toml", "rb") as f:
+        spec = tomllib.load(f)
+    for level in spec["levels"]:
+        level.pop("constraints", None)
+    return spec
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--trajectory", default="walk10")
+    args = parser.parse_args()
+    robot = load_robot()
+    ref = build(args.trajectory, robot)
+    spec = core_walk_spec()
+    makers = {
+        "wqp-daqp (weighted)": lambda: StackController(
+            build_stack({**spec, "solver": "weighted"}, robot)
+        ),
+        "hqp-daqp (3 levels)": lambda: StackController(
+            build_stack({**spec, "solver": "hierarchical"}, robot)
+        ),
+    }
+    have = available()
+    if have["placo"]:
+        makers["placo 0.10.2"] = PlacoController
+    if have["pink"]:
+        makers["pink (daqp)"] = PinkController
+    stats: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in makers}
+    for _ in range(args.rounds):
+        for name, make in makers.items():
+            rec = run(make(), robot, ref)
+            t = rec["solve_time"] * 1e6
+            com = np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() * 1e3
+            foot = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1).max() * 1e3
+            stats[name].append((np.median(t), np.percentile(t, 99), com, foot))
+    rows = {k: np.median(np.array(v), axis=0) for k, v in stats.items()}
+    ref_name = "placo 0.10.2" if "placo 0.10.2" in rows else next(iter(rows))
+    print(f"{len(ref)} ticks of {args.trajectory}, {args.rounds} interleaved rounds")
+    print(
+        f"| controller | median µs | p99 µs | median / {ref_name} | CoM err max mm |"
+        " swing err max mm |"
+    )
+    print("|---|---|---|---|---|---|")
+    for name, (med, p99, com, foot) in rows.items():
+        print(
+            f"| {name} | {med:.0f} | {p99:.0f} | {med / rows[ref_name][0]:.2f} | {com:.3f} |"
+            f" {foot:.3f} |"
+        )
+    w = rows["wqp-daqp (weighted)"][0]
+    h = rows["hqp-daqp (3 levels)"][0]
+    print(f"hierarchical / weighted = {h / w:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,165 @@
+"""The solvers the benchmark compares, by name and family.
+
+Every entry builds a :class:`~wbc.walking.loop.Controller` for a robot:
+
+* ``wqp-<backend>`` / ``hqp-<backend>`` — the recommended ``walk`` stack as a weighted or a
+  lexicographic QP, for each backend (daqp, proxqp, quadprog, osqp);
+* ``qp-<scheme>`` — the QP counterparts of the thesis's six walking schemes (``tasks/``);
+* ``pinv-<scheme>`` — the thesis's pseudo-inverse schemes themselves (:mod:`wbc.pinv`);
+* ``placo``, ``pink`` — the peers, same URDF and tasks (optional extra);
+* ``nlp-ipopt`` / ``nlp-ipopt-hard`` — each pose as one nonlinear program (casadi + IPOPT),
+  weighted like the ``walk`` stack or with the CoM and swing sole as equalities: the accuracy
+  references of the converged mode.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import WbcError
+from ..model import Robot
+from ..solvers.backends import BACKENDS
+from ..stacks import load_stack
+from ..walking.loop import Controller, StackController, TickTargets
+from ..walking.reference import WalkingReference
+from .peers import PEERS, available
+
+THESIS_SCHEMES = ("vat", "vatl", "cj_foot", "cj_com", "cjl_foot", "cjl_com")
+FAMILIES = ("qp-weighted", "qp-hierarchical", "qp-thesis", "pinv", "peer", "nlp")
+
+
+@dataclass(frozen=True)
+class SolverEntry:
+    name: str
+    family: str
+    make: Callable[[Robot], Controller]
+    real_time: bool = True  # False: only meaningful in converged mode (the NLP)
+    needs: str | None = None  # optional module that must be importable
+
+
+class PinvController(Controller):
+    """A thesis pseudo-inverse scheme; the support root switches with the walking phases."""
+
+    family = "pinv"
+
+    def __init__(self, scheme: str) -> None:
+        self.scheme_name = scheme
+        self.name = f"pinv-{scheme}"
+
+    def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
+        from ..pinv import ThesisScheme
+
+        self.schemes = {
+            sup: ThesisScheme.make(self.scheme_name, robot, support=sup, swing=sw)
+            for sup, sw in (("l_sole", "r_sole"), ("r_sole", "l_sole"))
+        }
+        self.active = None
+
+    def _prepare(self, q: np.ndarray, targets: TickTargets, phase_changed: bool):
+        scheme = self.schemes[targets.support]
+        if scheme is not self.active:
+            scheme.reset(q)  # anchor the new support sole where it is
+            self.active = scheme
+        swing = targets.swing_placement
+        scheme.set_targets(targets.com, swing.translation, swing.rotation)
+        return scheme
+
+    def track(self, q, targets, dt, phase_changed):
+        return self._prepare(q, targets, phase_changed).step(q)
+
+    def converge(self, q, targets, tol, max_iterations, phase_changed):
+        scheme = self._prepare(q, targets, phase_changed)
+        q_next, info = scheme.solve_pose(q, tol=tol, max_iterations=max_iterations)
+        return q_next, info.iterations
+
+
+def _stack(
+    name: str, backend: str, solver: str | None, label: str
+) -> Callable[[Robot], Controller]:
+    def make(robot: Robot) -> Controller:
+        return StackController(load_stack(name, robot, backend=backend, solver=solver), label)
+
+    return make
+
+
+def _nlp(hard: bool) -> Callable[[Robot], Controller]:
+    def make(robot: Robot) -> Controller:
+        from .nlp import NlpController
+
+        return NlpController(hard_com_and_swing=hard)
+
+    return make
+
+
+def registry() -> dict[str, SolverEntry]:
+    """Every solver the benchmark knows, in display order."""
+    entries: list[SolverEntry] = []
+    for backend in BACKENDS:
+        entries.append(
+            SolverEntry(
+                f"wqp-{backend}",
+                "qp-weighted",
+                _stack("walk", backend, "weighted", f"wqp-{backend}"),
+            )
+        )
+    for backend in BACKENDS:
+        entries.append(
+            SolverEntry(
+                f"hqp-{backend}",
+                "qp-hierarchical",
+                _stack("walk", backend, "hierarchical", f"hqp-{backend}"),
+            )
+        )
+    for scheme in THESIS_SCHEMES:
+        entries.append(
+            SolverEntry(f"qp-{scheme}", "qp-thesis", _stack(scheme, "daqp", None, f"qp-{scheme}"))
+        )
+    for scheme in THESIS_SCHEMES:
+        entries.append(
+            SolverEntry(f"pinv-{scheme}", "pinv", lambda robot, s=scheme: PinvController(s))
+        )
+    for name, cls in PEERS.items():
+        entries.append(SolverEntry(name, "peer", lambda robot, c=cls: c(), needs=name))
+    # the weighted reference (the walk stack's weights, as the weighted QP and the peers) and
+    # the hard one (CoM and swing sole as equalities: what the hierarchies should reach)
+    entries.append(SolverEntry("nlp-ipopt", "nlp", _nlp(False), real_time=False))
+    entries.append(SolverEntry("nlp-ipopt-hard", "nlp", _nlp(True), real_time=False))
+    return {e.name: e for e in entries}
+
+
+def select(
+    names: list[str] | None, families: list[str] | None, mode: str
+) -> tuple[list[SolverEntry], list[str]]:
+    """Entries matching names (exact or prefix) and families; returns (entries, notes) where
+    notes say what was skipped and why (a peer not installed, the NLP in tick mode)."""
+    reg = registry()
+    notes: list[str] = []
+    chosen = list(reg.values())
+    if families:
+        unknown = [f for f in families if f not in FAMILIES]
+        if unknown:
+            raise WbcError(f"unknown families {unknown}; choose from {list(FAMILIES)}")
+        chosen = [e for e in chosen if e.family in families]
+    if names:
+        picked = []
+        for n in names:
+            matches = [e for e in chosen if e.name == n] or [
+                e for e in chosen if e.name.startswith(n)
+            ]
+            if not matches:
+                raise WbcError(f"unknown solver {n!r}; known: {list(reg)}")
+            picked += [m for m in matches if m not in picked]
+        chosen = picked
+    have = available()
+    out = []
+    for e in chosen:
+        if e.needs and not have.get(e.needs, False):
+            notes.append(f"{e.name}: not installed (pip install 'wbc[peers]'), skipped")
+        elif mode == "tick" and not e.real_time:
+            notes.append(f"{e.name}: an accuracy reference, run only with --mode converge")
+        else:
+            out.append(e)
+    return out, notes

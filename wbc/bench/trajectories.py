@@ -1,0 +1,37 @@
+"""The trajectories the benchmark runs every solver on."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ..exceptions import WbcError
+from ..model import Robot
+from ..walking.gait import forward_walk, lateral_walk, turning_walk
+from ..walking.reference import StandingState, WalkingReference
+from ..walking.thesis_step import thesis_step
+
+#: name -> (builder, description)
+TRAJECTORIES: dict[str, tuple[Callable[[StandingState], WalkingReference], str]] = {
+    "thesis_step": (lambda s: thesis_step(s), "the thesis's one step: 100 poses, cubic splines"),
+    "walk10": (lambda s: forward_walk(s, n_steps=10), "10 steps forward, ZMP preview control"),
+    "turn": (lambda s: turning_walk(s), "a turning walk, ZMP preview control"),
+    "lateral": (lambda s: lateral_walk(s), "sideways steps, ZMP preview control"),
+}
+#: the static CoM placement set of ch. 3 (not a walking reference: see wbc.bench.runner)
+STATIC_COM = "static_com"
+DEFAULT = ("thesis_step", "walk10")
+
+
+def names() -> list[str]:
+    return [*TRAJECTORIES, STATIC_COM]
+
+
+def build(name: str, robot: Robot) -> WalkingReference:
+    """A walking reference by name, starting from the robot's Walk Ready stance."""
+    try:
+        builder, _ = TRAJECTORIES[name]
+    except KeyError:
+        raise WbcError(f"unknown trajectory {name!r}; choose from {names()}") from None
+    ref = builder(StandingState.from_robot(robot))
+    ref.name = name
+    return ref

@@ -1,0 +1,164 @@
+"""Is a reference kinematically feasible? Track it with a small bounded IK and measure.
+
+The pre-motion checks (:mod:`.checks`) use a simplified leg model. This module is the
+independent judge: at every tick it iterates a weighted least-squares IK step with the
+joint limits as hard bounds (quadprog via qpsolvers),
+
+    min_dq  sum_k w_k |J_k dq - e_k|^2 + eps |dq|^2    s.t.  q_min <= q + dq <= q_max,
+
+on both sole poses (6 + 6), the CoM (3) and the torso orientation (3: the start pitch/roll,
+the reference's heading), from Walk Ready placed at the reference's start, and reports the
+worst task errors and the smallest joint-limit margin. A feasible reference is tracked to
+numerical precision; an infeasible one leaves millimetre errors with joints on their limits.
+It is a check, not a controller: the control loop (:mod:`.loop`) runs the real stacks.
+
+    python -m wbc.walking.feasibility            # the standard references
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import SolverError
+from .reference import WalkingReference
+
+ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
+
+
+@dataclass(frozen=True)
+class FeasibilityReport:
+    """Worst errors over the reference (m, rad) and the smallest joint-limit margin (rad)."""
+
+    max_com_error: float
+    max_sole_error: float
+    max_torso_error: float
+    min_limit_margin: float
+    ticks: int
+
+    @property
+    def feasible(self) -> bool:
+        return max(self.max_com_error, self.max_sole_error, self.max_torso_error) < 1e-6
+
+
+def kinematic_feasibility(
+    robot: Any,
+    ref: WalkingReference,
+    q0: np.ndarray | None = None,
+    hold_arms: bool = True,
+    iterations: int = 8,
+    weights: tuple[float, float, float] = (1e4, 1e2, 1e3),
+) -> FeasibilityReport:
+    """Track ``ref`` with the bounded IK (soles, CoM, torso weights ``weights``); the arms
+    are held at their start angles if ``hold_arms``."""
+    from qpsolvers import solve_qp
+
+    model, data = robot.model, robot.data
+    if q0 is None:
+        q0 = robot.place_on_ground(
+            robot.configuration("walk_ready"), "l_sole", ref.sole_placement(0, "left")
+        )
+    q = robot.check_configuration(q0).copy()
+    fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]
+    R0 = robot.frame_placement(q, "torso").rotation
+    pitch_roll = pin.rpy.rpyToMatrix(0, 0, -np.arctan2(R0[1, 0], R0[0, 0])) @ R0
+    w_sole, w_com, w_torso = weights
+    W = np.array([w_sole] * 12 + [w_com] * 3 + [w_torso] * 3)
+    held = [robot.v_index(f"{s}_{j}") for s in "lr" for j in ARM_JOINTS] if hold_arms else []
+    free = np.setdiff1d(np.arange(model.nv), held)
+    worst = np.zeros(3)
+    min_margin = np.inf
+    for i in range(ref.n):
+        targets = [ref.sole_placement(i, "left"), ref.sole_placement(i, "right")]
+        R_torso = pin.rpy.rpyToMatrix(0, 0, float(ref.torso_yaw[i])) @ pitch_roll
+        for _ in range(iterations):
+            J, e, _ = _tasks(model, data, q, fids, targets, ref.com[i], R_torso)
+            H = J.T @ (W[:, None] * J) + 1e-4 * np.eye(model.nv)
+            g = -J.T @ (W * e)
+            lb = np.full(model.nv, -1e3)
+            ub = np.full(model.nv, 1e3)
+            lb[6:] = robot.q_min - q[7:]
+            ub[6:] = robot.q_max - q[7:]
+            sol = solve_qp(
+                H[np.ix_(free, free)],
+                g[free],
+                lb=np.minimum(lb[free], 0.0),
+                ub=np.maximum(ub[free], 0.0),
+                solver="quadprog",
+            )
+            if sol is None:
+                raise SolverError(f"feasibility IK: quadprog failed at tick {i}")
+            dq = np.zeros(model.nv)
+            dq[free] = sol
+            q = pin.integrate(model, q, dq)
+        _, e, _ = _tasks(model, data, q, fids, targets, ref.com[i], R_torso)
+        worst = np.maximum(
+            worst,
+            [
+                np.linalg.norm(e[12:15]),
+                max(np.linalg.norm(e[:6]), np.linalg.norm(e[6:12])),
+                np.linalg.norm(e[15:]),
+            ],
+        )
+        j = q[7:]
+        min_margin = min(min_margin, float(np.min(np.minimum(j - robot.q_min, robot.q_max - j))))
+    return FeasibilityReport(float(worst[0]), float(worst[1]), float(worst[2]), min_margin, ref.n)
+
+
+def _tasks(model, data, q, fids, soles, com_target, R_torso):
+    pin.forwardKinematics(model, data, q)
+    pin.updateFramePlacements(model, data)
+    com = pin.centerOfMass(model, data, q)
+    Jc = pin.jacobianCenterOfMass(model, data, q)
+    J = np.vstack(
+        [
+            pin.computeFrameJacobian(model, data, q, fids[0], pin.LOCAL),
+            pin.computeFrameJacobian(model, data, q, fids[1], pin.LOCAL),
+            Jc,
+            pin.computeFrameJacobian(model, data, q, fids[2], pin.LOCAL)[3:],
+        ]
+    )
+    e = np.concatenate(
+        [
+            pin.log6(data.oMf[fids[0]].inverse() * soles[0]).vector,
+            pin.log6(data.oMf[fids[1]].inverse() * soles[1]).vector,
+            com_target - com,
+            pin.log3(data.oMf[fids[2]].rotation.T @ R_torso),
+        ]
+    )
+    return J, e, com
+
+
+def main(argv: list[str] | None = None) -> int:
+    from ..model import load_robot
+    from .gait import forward_walk, lateral_walk, turning_walk
+    from .reference import StandingState
+    from .thesis_step import thesis_lipm_step, thesis_step
+
+    robot = load_robot("bioloid")
+    start = StandingState.from_robot(robot)
+    refs = [thesis_step(start), thesis_lipm_step(start)]
+    for gen in ("preview", "mpc", "lipm"):
+        refs += [
+            forward_walk(start, 10, generator=gen, name=f"forward-10-{gen}"),
+            turning_walk(start, 8, generator=gen, name=f"turning-8-{gen}"),
+            lateral_walk(start, 6, 0.015, generator=gen, name=f"lateral-6-{gen}"),
+        ]
+    for ref in refs:
+        for hold in (True, False):
+            rep = kinematic_feasibility(robot, ref, hold_arms=hold)
+            print(
+                f"{ref.name:22s} arms {'held' if hold else 'free':4s}  CoM err "
+                f"{rep.max_com_error * 1e3:7.4f} mm  sole err {rep.max_sole_error:.1e}  torso "
+                f"err {rep.max_torso_error:.1e}  min joint-limit margin "
+                f"{rep.min_limit_margin:.4f} rad  {'feasible' if rep.feasible else 'INFEASIBLE'}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

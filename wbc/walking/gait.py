@@ -1,0 +1,228 @@
+"""Multi-step walking: footsteps -> a checked, time-indexed :class:`WalkingReference`.
+
+:func:`walk` builds the phases (:mod:`.schedule`), both soles' targets with swing
+trajectories, the planned ZMP path, and the CoM from one of three ZMP-based generators:
+
+* ``"preview"``: Kajita 2003 preview control of the cart-table model (:mod:`.preview`);
+* ``"mpc"``: LIPM MPC over the CoM jerk with the ZMP-in-support-polygon inequalities,
+  a casadi QP (:mod:`.mpc`);
+* ``"lipm"``: the 3-D LIPM closed form (eqs. 1.65-1.68) around the moving ZMP, initial
+  velocities solved per phase, starting from rest (:func:`.lipm.lipm_walk_com`).
+
+The CoM height is constant (the standing CoM height by default). The torso heading is the
+mean of the two soles' headings. The reference is checked (:func:`.checks.check_reference`)
+before it is returned: bad input raises :class:`~wbc.exceptions.TrajectoryError`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Literal
+
+import numpy as np
+
+from ..exceptions import TrajectoryError
+from .checks import LegGeometry, check_reference
+from .footsteps import FootstepPlan, Side, plan_footsteps
+from .geometry import Foot
+from .lipm import GRAVITY, lipm_walk_com
+from .mpc import LipmMpc, MpcParams
+from .preview import PreviewController, PreviewParams
+from .reference import StandingState, WalkingReference
+from .schedule import GaitTiming, SwingParams, build_phases, sample_knots, sole_tracks, zmp_knots
+from .spline import min_jerk
+
+Generator = Literal["preview", "mpc", "lipm"]
+GENERATORS: tuple[str, ...] = ("preview", "mpc", "lipm")
+
+
+def walk(
+    start: StandingState,
+    plan: FootstepPlan,
+    timing: GaitTiming | None = None,
+    swing: SwingParams | None = None,
+    generator: Generator = "preview",
+    com_height: float | None = None,
+    margin: float = 0.001,
+    zmp_offset: tuple[float, float] = (0.0, 0.0285),
+    min_clearance: float = 0.005,
+    foot: Foot | None = None,
+    legs: LegGeometry | None = None,
+    preview: PreviewParams | None = None,
+    mpc: MpcParams | None = None,
+    check: bool = True,
+    name: str | None = None,
+) -> WalkingReference:
+    """A dynamic-gait reference for ``plan`` starting from ``start`` (at rest).
+
+    ``margin`` (m) is the ZMP's required distance inside the support polygon (a constraint
+    for the MPC, checked for all generators). ``zmp_offset`` places the planned ZMP in each
+    stance sole's frame (x forward, y toward the other foot).
+
+    The defaults fit the Bioloid's narrow lateral window: its hips roll only 5.6 deg inward
+    (Annex A), so with the torso upright the CoM may move only ~11 mm sideways from the
+    mid-stance (:class:`.checks.LegGeometry`), while the feet's inner edges are 11 mm from
+    it. The ZMP path therefore runs 2 mm inside the inner edges (28.5 mm in from the sole
+    centres), steps are short and quick (0.4 s, 40 % double support; :class:`GaitTiming`)
+    and the margin is 1 mm. ``mpc`` takes :class:`.mpc.MpcParams`; the MPC also keeps the
+    hips within their roll limits as constraints, so it copes with other settings too.
+    """
+    timing = timing or GaitTiming()
+    swing = swing or SwingParams()
+    foot = foot or Foot()
+    legs = legs or LegGeometry()
+    if generator not in GENERATORS:
+        raise TrajectoryError(f"unknown CoM generator {generator!r}; use one of {GENERATORS}")
+    timing.validate()
+    swing.validate()
+    if not (np.isfinite(margin) and margin >= 0):
+        raise TrajectoryError(f"walk: the margin must be >= 0, got {margin}")
+    height = float(start.com[2]) if com_height is None else float(com_height)
+    legs.check_com_height(height, "walk")
+    for a, b in ((start.left, plan.start_left), (start.right, plan.start_right)):
+        if np.linalg.norm(a.position - b.position) > 1e-6 or abs(a.yaw - b.yaw) > 1e-6:
+            raise TrajectoryError(
+                f"walk: the plan's start placement of the {a.side} sole differs from the start "
+                "state's (the robot would have to jump)"
+            )
+    plan.validate(foot, legs, height, min_clearance)
+
+    _check_double_support(generator, timing, mpc, len(plan.steps))
+
+    phases = build_phases(plan, timing)
+    dt = timing.dt
+    soles = sole_tracks(plan, phases, dt, swing)
+    t = soles.t
+    kt, kp = zmp_knots(plan, phases, start.com[:2], zmp_offset)
+    zref = sample_knots(kt, kp, t)
+    # torso heading: the mean of the soles' headings
+    torso_yaw = soles.l_yaw + 0.5 * ((soles.r_yaw - soles.l_yaw + np.pi) % (2 * np.pi) - np.pi)
+
+    meta: dict[str, Any] = {
+        "generator": generator,
+        "timing": timing.__dict__,
+        "swing": swing.__dict__,
+        "zmp_offset": list(zmp_offset),
+    }
+    if generator == "preview":
+        ctrl = PreviewController(dt, height, preview)
+        x0 = np.zeros((3, 2))
+        x0[0] = start.com[:2]
+        pos, vel, acc, _ = ctrl.run(zref, x0)
+        meta["preview"] = ctrl.params.__dict__
+    elif generator == "lipm":
+        tc = float(np.sqrt(height / GRAVITY))
+        pos, vel, acc = lipm_walk_com(kt, kp, start.com[:2], tc, t, phases[0].t1)
+        meta["lipm_tc"] = tc
+    else:
+        params = mpc or MpcParams()
+        solver = LipmMpc(height, params)
+        hip_legs = legs if params.hip_roll else None
+        result = solver.solve_walk(t, soles, foot, zref, start.com[:2], margin, hip_legs, torso_yaw)
+        pos, vel, acc = result.pos, result.vel, result.acc
+        meta["mpc"] = {
+            **params.__dict__,
+            "solve_time": result.solve_time,
+            "build_time": result.build_time,
+            "n_qp": result.n_qp,
+            "n_variables": result.n_variables,
+            "n_constraints": result.n_constraints,
+            "status": result.status,
+        }
+
+    com = np.column_stack([pos, np.full(len(t), height)])
+    com_vel = np.column_stack([vel, np.zeros(len(t))])
+    com_acc = np.column_stack([acc, np.zeros(len(t))])
+    if abs(height - start.com[2]) > 1e-9:  # move to the walking height during the start phase
+        s = t / phases[0].t1
+        f, df, ddf = min_jerk(s)
+        com[:, 2] = start.com[2] + (height - start.com[2]) * f
+        com_vel[:, 2] = (height - start.com[2]) * df / phases[0].t1
+        com_acc[:, 2] = (height - start.com[2]) * ddf / phases[0].t1 ** 2
+    ref = WalkingReference(
+        t=t,
+        com=com,
+        com_vel=com_vel,
+        com_acc=com_acc,
+        l_sole=soles.l_pos,
+        l_sole_yaw=soles.l_yaw,
+        r_sole=soles.r_pos,
+        r_sole_yaw=soles.r_yaw,
+        support=soles.support,
+        torso_yaw=torso_yaw,
+        com_height=height,
+        plan=plan,
+        gait="dynamic",
+        name=name or f"walk-{generator}",
+        l_sole_vel=soles.l_vel,
+        r_sole_vel=soles.r_vel,
+        zmp_ref=zref,
+        foot=foot,
+        margin=margin,
+        meta=meta,
+    )
+    if check:
+        report = check_reference(ref, margin=margin, min_clearance=min_clearance, legs=legs)
+        ref.meta["check"] = report.as_dict()
+    return ref
+
+
+def _check_double_support(
+    generator: str, timing: GaitTiming, mpc: MpcParams | None, n_steps: int
+) -> None:
+    """The cart-table ZMP of a jerk-driven CoM is continuous: it cannot jump from foot to
+    foot, so the preview and MPC generators need double-support phases (for the MPC, at
+    least two samples long: a shorter transfer asks for extreme jerks)."""
+    if generator == "lipm" or n_steps < 2:
+        return
+    ds = timing.double_support_time
+    if generator == "mpc":
+        sample = timing.dt * 2 if mpc is None or mpc.sample_time is None else mpc.sample_time
+        need = 2 * sample
+    else:
+        need = timing.dt
+    if ds < need - 1e-12:
+        raise TrajectoryError(
+            f"walk: the {generator!r} generator needs double support of at least "
+            f"{need:.3f} s between steps (the ZMP of a jerk-driven CoM cannot jump between "
+            f"feet), got {ds:.3f} s; raise double_support_ratio or use generator 'lipm'"
+        )
+
+
+def walk_steps(
+    start: StandingState,
+    n_steps: int = 10,
+    stride: Sequence[float] = (0.035, 0.0, 0.0),
+    first_side: Side | None = None,
+    close: bool = True,
+    **kwargs: Any,
+) -> WalkingReference:
+    """:func:`walk` along :func:`.footsteps.plan_footsteps` (``stride = (dx, dy, dyaw)``)."""
+    plan = plan_footsteps(start.left, start.right, n_steps, stride, first_side, close)
+    ref = walk(start, plan, **kwargs)
+    ref.meta["stride"] = [float(v) for v in stride]
+    return ref
+
+
+def forward_walk(
+    start: StandingState, n_steps: int = 10, step_length: float = 0.035, **kw: Any
+) -> WalkingReference:
+    """Straight walk (backward with a negative ``step_length``)."""
+    kw.setdefault("name", f"forward-{n_steps}" if step_length >= 0 else f"backward-{n_steps}")
+    return walk_steps(start, n_steps, (step_length, 0.0, 0.0), **kw)
+
+
+def lateral_walk(
+    start: StandingState, n_steps: int = 6, step_width: float = 0.02, **kw: Any
+) -> WalkingReference:
+    """Side-stepping (to the left for a positive ``step_width``)."""
+    kw.setdefault("name", f"lateral-{n_steps}")
+    return walk_steps(start, n_steps, (0.0, step_width, 0.0), **kw)
+
+
+def turning_walk(
+    start: StandingState, n_steps: int = 8, step_length: float = 0.02, turn: float = 0.2, **kw: Any
+) -> WalkingReference:
+    """Walking on an arc: ``turn`` rad per step (to the left if positive)."""
+    kw.setdefault("name", f"turning-{n_steps}")
+    return walk_steps(start, n_steps, (step_length, 0.0, turn), **kw)

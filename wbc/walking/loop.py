@@ -1,0 +1,403 @@
+"""The control loop: drive a controller along a walking reference, tick by tick, and record.
+
+Every solver family (QP stacks, the thesis's pseudo-inverse schemes, placo, pink) plugs in
+through :class:`Controller`; the loop gives each the same targets, switches contacts at
+support changes, times everything a user's tick costs (targets, kinematics, assembly, solve,
+integration) with the same clock, and measures errors from forward kinematics of the returned
+configurations, never from a solver's own residuals.
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import ConfigurationError, WbcError
+from ..model import Kinematics, Robot
+from ..recording import SUPPORT_DOUBLE, Recording
+from ..stacks import ControlStack
+from ..tasks import (
+    ComTask,
+    FrameOrientationTask,
+    FramePoseTask,
+    FramePositionTask,
+    SwingFootOrientationTask,
+)
+from .reference import WalkingReference
+
+SOLES = {"left": "l_sole", "right": "r_sole"}
+MODES = ("tick", "converge")
+
+
+@dataclass
+class TickTargets:
+    """What every controller is asked to track at one tick (world frame)."""
+
+    i: int
+    t: float
+    phase: str  # "double" or "single"
+    support: str  # sole frame of the support foot (in double support: the stance foot of the
+    swing: str  # neighbouring single-support phase) and of the other foot
+    com: np.ndarray
+    l_sole: pin.SE3
+    r_sole: pin.SE3
+    torso_yaw: float
+
+    @property
+    def swing_placement(self) -> pin.SE3:
+        return self.l_sole if self.swing == "l_sole" else self.r_sole
+
+    @property
+    def support_placement(self) -> pin.SE3:
+        return self.l_sole if self.support == "l_sole" else self.r_sole
+
+
+def support_roles(ref: WalkingReference) -> tuple[list[str], list[str]]:
+    """Support and swing sole per tick; double support takes the roles of the next single
+    support phase (or of the previous one at the end of the walk)."""
+    n = ref.n
+    swing_side: list[str | None] = [ref.swing_side(i) for i in range(n)]
+    nxt: str | None = None
+    filled: list[str | None] = [None] * n
+    for i in range(n - 1, -1, -1):
+        if swing_side[i] is not None:
+            nxt = swing_side[i]
+        filled[i] = swing_side[i] or nxt
+    prev: str | None = None
+    for i in range(n):
+        if swing_side[i] is not None:
+            prev = swing_side[i]
+        if filled[i] is None:
+            filled[i] = prev or "right"
+    swing = [SOLES[s] for s in filled]
+    support = ["r_sole" if s == "l_sole" else "l_sole" for s in swing]
+    return support, swing
+
+
+class Controller(ABC):
+    """A solver family behind one interface (see the module docstring)."""
+
+    name: str = "controller"
+    family: str = "family"
+
+    def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:  # noqa: B027
+        """Reset internal state before a run."""
+
+    @abstractmethod
+    def track(
+        self, q: np.ndarray, targets: TickTargets, dt: float, phase_changed: bool
+    ) -> np.ndarray:
+        """One control tick (one QP or one iteration): the next configuration."""
+
+    def converge(
+        self,
+        q: np.ndarray,
+        targets: TickTargets,
+        tol: float,
+        max_iterations: int,
+        phase_changed: bool,
+    ) -> tuple[np.ndarray, int]:
+        """Iterate on one pose until its errors converge; returns (q, iterations)."""
+        raise WbcError(f"{self.name} has no converged mode")
+
+    def task_errors(self) -> dict[str, np.ndarray]:
+        """Task errors at the last solve, for the recording (optional)."""
+        return {}
+
+
+class StackController(Controller):
+    """A declarative task stack (:mod:`wbc.stacks`) driven by the walking targets."""
+
+    family = "qp"
+
+    def __init__(self, control: ControlStack, name: str | None = None) -> None:
+        self.control = control
+        self.solver = control.solver
+        solver_kind = (
+            "hierarchical" if "Hierarchical" in type(self.solver).__name__ else ("weighted")
+        )
+        self.family = f"qp-{solver_kind}"
+        self.name = name or f"{control.name}[{self.solver.backend.name}]"
+        robot = control.robot
+        stack = control.stack
+        self._com = [t for t in stack.tasks() if isinstance(t, ComTask)]
+        swing_tasks = control.role_tasks("swing")
+        self._swing_pos = [t for t in swing_tasks if isinstance(t, FramePositionTask)]
+        self._swing_pose = [
+            t
+            for t in swing_tasks
+            if isinstance(t, FramePoseTask) and not type(t).__name__ == "ContactTask"
+        ]
+        self._swing_rot = [
+            t
+            for t in swing_tasks
+            if isinstance(t, (SwingFootOrientationTask, FrameOrientationTask))
+        ]
+        torso = robot.frame_id("torso")
+        self._torso = [
+            t
+            for t in stack.tasks()
+            if isinstance(t, FrameOrientationTask) and t.frame_id == torso and t not in swing_tasks
+        ]
+        self._kin = Kinematics(robot)
+        self._torso_pitch_roll = np.eye(3)
+
+    def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
+        self._kin.update(q0)
+        R = self._kin.placement(robot.frame_id("torso")).rotation
+        yaw = np.arctan2(R[1, 0], R[0, 0])
+        self._torso_pitch_roll = pin.rpy.rpyToMatrix(0, 0, -yaw) @ R  # heading removed
+        for task in self.control.stack.tasks():  # posture etc. from the start pose
+            if hasattr(task, "set_target_from") and task not in self._com:
+                task.set_target_from(self._kin)
+
+    def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
+        if phase_changed:
+            self._kin.update(q)
+            anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
+            self.control.set_phase(
+                targets.phase, targets.support, targets.swing, self._kin, anchors
+            )
+        for t in self._com:
+            t.set_target(targets.com)
+        swing = targets.swing_placement
+        for t in self._swing_pos:
+            t.set_target(swing.translation)
+        for t in self._swing_pose:
+            t.set_target(swing)
+        for t in self._swing_rot:
+            t.set_target(swing.rotation)
+        if self._torso:
+            R = pin.rpy.rpyToMatrix(0, 0, targets.torso_yaw) @ self._torso_pitch_roll
+            for t in self._torso:
+                t.set_target(R)
+
+    def track(self, q, targets, dt, phase_changed):
+        self._set_targets(q, targets, phase_changed)
+        return self.solver.step(q, dt)
+
+    def converge(self, q, targets, tol, max_iterations, phase_changed):
+        self._set_targets(q, targets, phase_changed)
+        result = self.solver.solve_pose(q, tol=tol, max_iterations=max_iterations)
+        return result.q, result.iterations
+
+    def task_errors(self) -> dict[str, np.ndarray]:
+        return self.control.stack.errors()
+
+
+@dataclass
+class RunOptions:
+    """How to run a reference: one QP per tick in real time, or converged per pose."""
+
+    mode: str = "tick"
+    tol: float = 1e-6
+    max_iterations: int = 100
+    stop_on_failure: bool = False
+    record_task_errors: bool = True
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+class Session:
+    """A controller stepping along a reference one tick at a time (live use, and :func:`run`).
+
+    ``tick(i)`` computes the configuration for reference tick ``i`` (ticks may be skipped, as
+    a live loop running slower than the reference does); a solve raising a
+    :class:`~wbc.WbcError` is a failure: the robot holds its last configuration.
+    """
+
+    def __init__(
+        self,
+        controller: Controller,
+        robot: Robot,
+        ref: WalkingReference,
+        q0: np.ndarray | None = None,
+        options: RunOptions | None = None,
+    ) -> None:
+        self.options = options or RunOptions()
+        if self.options.mode not in MODES:
+            raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
+        self.controller, self.robot, self.ref = controller, robot, ref
+        self.q = (
+            start_configuration(robot, ref) if q0 is None else robot.check_configuration(q0).copy()
+        )
+        self.support, self.swing = support_roles(ref)
+        controller.start(robot, self.q, ref)
+        self._previous: tuple[str, str, str] | None = None
+        self.failed = False
+        self.iterations = 0
+        self.solve_time = 0.0
+
+    def targets(self, i: int) -> TickTargets:
+        ref = self.ref
+        phase = "double" if ref.support[i] == SUPPORT_DOUBLE else "single"
+        return TickTargets(
+            i,
+            float(ref.t[i]),
+            phase,
+            self.support[i],
+            self.swing[i],
+            ref.com[i],
+            ref.sole_placement(i, "left"),
+            ref.sole_placement(i, "right"),
+            float(ref.torso_yaw[i]),
+        )
+
+    def tick(self, i: int) -> np.ndarray:
+        """The configuration for reference tick ``i`` (timed in :attr:`solve_time`)."""
+        targets = self.targets(i)
+        key = (targets.phase, targets.support, targets.swing)
+        changed = key != self._previous
+        self._previous = key
+        opts = self.options
+        start = time.perf_counter()
+        self.failed = False
+        try:
+            if opts.mode == "tick":
+                self.q = self.controller.track(self.q, targets, self.ref.dt, changed)
+                self.iterations = 1
+            else:
+                self.q, self.iterations = self.controller.converge(
+                    self.q, targets, opts.tol, opts.max_iterations, changed
+                )
+        except WbcError:
+            self.failed = True
+            if opts.stop_on_failure:
+                raise
+        self.solve_time = time.perf_counter() - start
+        return self.q
+
+    def at_time(self, t: float) -> np.ndarray | None:
+        """The configuration for time ``t`` (s) from the start, None past the end."""
+        if t > self.ref.t[-1] - self.ref.t[0] + 1e-9:
+            return None
+        return self.tick(self.ref.index_at(self.ref.t[0] + t))
+
+
+def run(
+    controller: Controller,
+    robot: Robot,
+    ref: WalkingReference,
+    q0: np.ndarray | None = None,
+    options: RunOptions | None = None,
+    on_tick: Callable[[int, np.ndarray, TickTargets], None] | None = None,
+) -> Recording:
+    """Drive ``controller`` along ``ref`` and return the recording of the run.
+
+    ``q0`` defaults to Walk Ready placed so that its soles sit where the reference starts.
+    A tick whose solve raises a :class:`~wbc.WbcError` is counted as a failure: the robot holds
+    its last configuration (or the run stops with ``stop_on_failure``).
+    """
+    session = Session(controller, robot, ref, q0, options)
+    options = session.options
+    kin = Kinematics(robot, session.q)
+    n, dt = ref.n, ref.dt
+    l_id, r_id = robot.frame_id("l_sole"), robot.frame_id("r_sole")
+    Q = np.zeros((n, robot.nq))
+    com = np.zeros((n, 3))
+    soles = {"l_sole": np.zeros((n, 7)), "r_sole": np.zeros((n, 7))}
+    solve_time = np.zeros(n)
+    iterations = np.zeros(n, dtype=int)
+    failed = np.zeros(n, dtype=bool)
+    errors: dict[str, np.ndarray] = {}
+    for i in range(n):
+        q = session.tick(i)
+        failed[i], iterations[i], solve_time[i] = (
+            session.failed,
+            session.iterations,
+            session.solve_time,
+        )
+        Q[i] = q
+        kin.update(q)
+        com[i] = kin.com
+        soles["l_sole"][i] = pin.SE3ToXYZQUAT(kin.placement(l_id))
+        soles["r_sole"][i] = pin.SE3ToXYZQUAT(kin.placement(r_id))
+        if options.record_task_errors:
+            for name, e in controller.task_errors().items():
+                if name not in errors:
+                    errors[name] = np.full((n, e.size), np.nan)
+                if errors[name].shape[1] == e.size:
+                    errors[name][i] = e
+        if on_tick is not None:
+            on_tick(i, q, session.targets(i))
+    channels = _channels(robot, ref, Q, com, soles, session.support, session.swing)
+    channels.update(solve_time=solve_time, iterations=iterations, failed=failed)
+    for name, e in errors.items():
+        channels[f"err/{name}"] = e
+    meta = {
+        "controller": controller.name,
+        "family": controller.family,
+        "trajectory": ref.name,
+        "mode": options.mode,
+        "robot": robot.name,
+        "dt": dt,
+        **options.meta,
+    }
+    return Recording(ref.t.copy(), Q, robot.joint_names, channels, meta)
+
+
+def start_configuration(robot: Robot, ref: WalkingReference) -> np.ndarray:
+    """Walk Ready with the left sole placed where the reference's left sole starts."""
+    q = robot.configuration("walk_ready")
+    return robot.place_on_ground(q, "l_sole", ref.sole_placement(0, "left"))
+
+
+def _channels(
+    robot: Robot,
+    ref: WalkingReference,
+    Q: np.ndarray,
+    com: np.ndarray,
+    soles: dict[str, np.ndarray],
+    support: list[str],
+    swing: list[str],
+) -> dict[str, np.ndarray]:
+    """Everything measured from forward kinematics, next to the references."""
+    n = ref.n
+    swing_idx = np.array([s == "l_sole" for s in swing])
+    swing_pos = np.where(swing_idx[:, None], soles["l_sole"][:, :3], soles["r_sole"][:, :3])
+    swing_ref = np.where(swing_idx[:, None], ref.l_sole, ref.r_sole)
+    j = Q[:, 7:]
+    limit_margin = np.minimum(j - robot.q_min, robot.q_max - j)
+    com_margin = np.array([ref.signed_distance(i, com[i, :2]) for i in range(n)])
+    # ZMP of the achieved CoM motion (cart-table model), from its finite-difference acceleration
+    acc = np.gradient(np.gradient(com, ref.t, axis=0), ref.t, axis=0)
+    zmp = com[:, :2] - com[:, 2:3] * acc[:, :2] / (ref.g + acc[:, 2:3])
+    zmp_margin = np.array([ref.signed_distance(i, zmp[i]) for i in range(n)])
+    # the swing sole's lowest corner (penetration below the ground is negative)
+    lowest = np.zeros(n)
+    for k, (name, arr) in enumerate(soles.items()):
+        low = _lowest_corner(arr, ref)
+        lowest = low if k == 0 else np.where(swing_idx == (name == "l_sole"), low, lowest)
+    return {
+        "com": com,
+        "com_ref": ref.com.copy(),
+        "swing": swing_pos,
+        "swing_ref": swing_ref,
+        "swing_is_left": swing_idx,
+        "support": ref.support.copy(),
+        "l_sole": soles["l_sole"],
+        "r_sole": soles["r_sole"],
+        "l_sole_ref": ref.sole_xyzquat("left"),
+        "r_sole_ref": ref.sole_xyzquat("right"),
+        "com_margin": com_margin,
+        "zmp": zmp,
+        "zmp_margin": zmp_margin,
+        "zmp_ref": ref.zmp.copy(),
+        "limit_margin": limit_margin,
+        "swing_lowest": lowest,
+    }
+
+
+def _lowest_corner(xyzquat: np.ndarray, ref: WalkingReference) -> np.ndarray:
+    hl, hw = 0.5 * ref.foot.length, 0.5 * ref.foot.width
+    corners = np.array([[hl, hw, 0], [-hl, hw, 0], [-hl, -hw, 0], [hl, -hw, 0]])
+    out = np.zeros(len(xyzquat))
+    for i, row in enumerate(xyzquat):
+        R = pin.Quaternion(row[6], row[3], row[4], row[5]).toRotationMatrix()
+        out[i] = row[2] + np.min(corners @ R[2])
+    return out
