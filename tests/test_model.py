@@ -103,7 +103,7 @@ def test_walk_ready_stands_flat_and_parallel(robot):
         assert np.degrees(np.arccos(sole.rotation[:, 2] @ z)) < 0.35
         assert abs(sole.translation[2]) < 0.5e-3
     # parallel: the official ticks leave 0.29 deg of pitch (the mirrored pitch ticks differ
-    # by one) and ~0.2 deg of toe-out per foot (hip roll x torso pitch coupling)
+    # by one) and ~0.2 deg of toe-in per foot (hip roll x torso pitch coupling)
     assert np.degrees(np.linalg.norm(pin.log3(left.rotation.T @ right.rotation))) < 0.75
     # feet about 77 mm apart laterally (hip spacing 77 mm; Walk Ready rolls each leg ~1.3 deg out)
     lateral = left.translation[1] - right.translation[1]

@@ -46,7 +46,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "_missing", None):
         print(f"wbc {args.command}: not available ({args._missing})", file=sys.stderr)
         return 2
-    return int(importlib.import_module(args._module).run(args) or 0)
+    from .exceptions import WbcError
+
+    try:
+        return int(importlib.import_module(args._module).run(args) or 0)
+    except WbcError as exc:
+        print(f"wbc {args.command}: {exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -89,7 +89,7 @@ def _nlp(hard: bool) -> Callable[[Robot], Controller]:
     def make(robot: Robot) -> Controller:
         from .nlp import NlpController
 
-        return NlpController(hard_com_and_swing=hard)
+        return NlpController(hard_com_and_swing=hard, com_margin=None)  # as tasks/walk.toml
 
     return make
 

@@ -112,9 +112,10 @@ class StackSolver(ABC):
         tol: float = 1e-6,
         max_iterations: int = 200,
         dt: float | None = None,
-        stall_tol: float = 1e-12,
+        stall_tol: float = 1e-9,
     ) -> PoseResult:
-        """Iterate Δq until every task error is below ``tol`` (or progress stalls).
+        """Iterate Δq until every task error is below ``tol``, or the steps stall (max |Δq| <
+        ``stall_tol``: a weighted compromise or an unreachable target has its fixed point).
 
         This is the per-pose iterative mode used to compare with the thesis's solutions.
         """

@@ -95,6 +95,9 @@ class Controller(ABC):
     ) -> np.ndarray:
         """One control tick (one QP or one iteration): the next configuration."""
 
+    #: the reference's time step, set by the loop before :meth:`start`
+    dt: float = 0.01
+
     def converge(
         self,
         q: np.ndarray,
@@ -103,8 +106,20 @@ class Controller(ABC):
         max_iterations: int,
         phase_changed: bool,
     ) -> tuple[np.ndarray, int]:
-        """Iterate on one pose until its errors converge; returns (q, iterations)."""
-        raise WbcError(f"{self.name} has no converged mode")
+        """Iterate on one pose until it converges; returns (q, iterations).
+
+        Default: repeat :meth:`track` on the same targets until the configuration stops moving
+        (max |Δq| < ``tol``): the fixed point of the per-tick controller.
+        """
+        for iteration in range(1, max_iterations + 1):
+            q_next = self.track(q, targets, self.dt, phase_changed and iteration == 1)
+            if (
+                np.max(np.abs(q_next[7:] - q[7:])) < tol
+                and np.max(np.abs(q_next[:3] - q[:3])) < tol
+            ):
+                return q_next, iteration
+            q = q_next
+        return q, max_iterations
 
     def task_errors(self) -> dict[str, np.ndarray]:
         """Task errors at the last solve, for the recording (optional)."""
@@ -227,6 +242,7 @@ class Session:
             start_configuration(robot, ref) if q0 is None else robot.check_configuration(q0).copy()
         )
         self.support, self.swing = support_roles(ref)
+        controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
         self.failed = False

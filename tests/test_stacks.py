@@ -1,0 +1,95 @@
+"""Declarative stacks: every file in tasks/ loads and solves; bad files are rejected clearly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wbc import Kinematics, TaskError
+from wbc.solvers import HierarchicalQP, WeightedQP
+from wbc.stacks import available_stacks, build_stack, load_stack
+from wbc.tasks import ContactTask, FramePoseTask
+
+THESIS = {"vat", "vatl", "cj_foot", "cj_com", "cjl_foot", "cjl_com"}
+
+
+def test_the_thesis_schemes_and_the_walking_stack_exist():
+    assert THESIS | {"walk"} <= set(available_stacks())
+
+
+@pytest.mark.parametrize("name", sorted(THESIS | {"walk"}))
+def test_every_stack_loads_and_steps_within_limits(robot, name):
+    control = load_stack(name, robot)
+    q = robot.configuration("walk_ready")
+    for _ in range(3):
+        q = control.solver.step(q, 0.01)
+        assert robot.within_limits(q)
+    expected = WeightedQP if name in ("vat", "vatl") else HierarchicalQP
+    assert isinstance(control.solver, expected)
+
+
+def test_the_thesis_priorities(robot):
+    foot_first = load_stack("cj_foot", robot).stack.levels
+    com_first = load_stack("cj_com", robot).stack.levels
+    assert [t.name for t in foot_first[2].tasks] == ["com"]
+    assert "com" in [t.name for t in com_first[1].tasks]
+    assert [t.name for t in com_first[2].tasks] == ["frame_position_swing"]
+    assert foot_first[0].hard and isinstance(foot_first[0].tasks[0], ContactTask)
+
+
+def test_phases_rebind_roles_and_switch_contacts(robot):
+    control = load_stack("walk", robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    swing_pose = control.stack.task("frame_pose_swing")
+    swing_contact = control.stack.task("contact_swing")
+    control.set_phase("double", "l_sole", "r_sole", kin)
+    assert swing_contact.active and not swing_pose.active
+    control.set_phase("single", "r_sole", "l_sole", kin)
+    assert not swing_contact.active and swing_pose.active
+    assert swing_pose.frame == "l_sole"
+    assert control.stack.task("contact_support").frame == "r_sole"
+    # a contact that starts is anchored where its sole is
+    contact = control.stack.task("contact_support")
+    assert np.allclose(contact.compute(kin)[1], 0)
+
+
+def test_solver_and_backend_overrides(robot):
+    control = load_stack("walk", robot, backend="quadprog", solver="weighted")
+    assert isinstance(control.solver, WeightedQP)
+    assert control.solver.backend.name == "quadprog"
+
+
+@pytest.mark.parametrize(
+    "spec, match",
+    [
+        ({"levels": []}, "at least one"),
+        ({"solver": "magic", "levels": [{"tasks": []}]}, "solver must be one of"),
+        ({"levels": [{"tasks": [{"type": "teleport"}]}]}, "unknown task type 'teleport'"),
+        ({"levels": [{"tasks": [{"type": "com", "colour": 1}]}]}, "unknown keys"),
+        ({"levels": [{"tasks": [{"frame": "l_sole"}]}]}, "needs a 'type'"),
+        ({"levels": [{"constraints": [{"type": "wall"}]}]}, "constraint type"),
+        ({"levels": [{"tasks": [{"type": "com", "phases": ["flying"]}]}]}, "phases"),
+        ({"speed": 3, "levels": [{"tasks": []}]}, "unknown keys"),
+    ],
+)
+def test_bad_stack_files_are_rejected(robot, spec, match):
+    with pytest.raises(TaskError, match=match):
+        build_stack(spec, robot)
+
+
+def test_unknown_or_malformed_files(robot, tmp_path):
+    with pytest.raises(TaskError, match="unknown task stack 'nope'"):
+        load_stack("nope", robot)
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[levels]\n")
+    with pytest.raises(TaskError, match="not valid TOML"):
+        load_stack(bad, robot)
+    with pytest.raises(Exception, match="unknown frame"):
+        build_stack({"levels": [{"tasks": [{"type": "frame_pose", "frame": "nose"}]}]}, robot)
+    assert isinstance(
+        build_stack(
+            {"levels": [{"tasks": [{"type": "frame_pose", "frame": "l_hand"}]}]}, robot
+        ).stack.task("frame_pose_l_hand"),
+        FramePoseTask,
+    )

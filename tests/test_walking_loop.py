@@ -1,0 +1,95 @@
+"""The control loop: a 10-step walk through the QP stack, recorded and measured."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wbc.bench import metrics
+from wbc.bench.trajectories import build
+from wbc.recording import Recording
+from wbc.stacks import load_stack
+from wbc.walking.loop import RunOptions, Session, StackController, run, support_roles
+
+
+@pytest.fixture(scope="module")
+def walk10(robot):
+    return build("walk10", robot)
+
+
+@pytest.fixture(scope="module")
+def walk_run(robot, walk10):
+    return run(StackController(load_stack("walk", robot)), robot, walk10)
+
+
+def test_ten_step_walk_has_zero_limit_violations(robot, walk10, walk_run):
+    rec = walk_run
+    assert len(walk10.footsteps) >= 10
+    joints = rec.q[:, 7:]
+    assert np.all(joints >= robot.q_min) and np.all(joints <= robot.q_max)
+    assert not rec["failed"].any()
+    # velocity limits between ticks
+    assert np.all(np.abs(np.diff(joints, axis=0)) <= robot.v_max * walk10.dt + 1e-9)
+    m = metrics.compute(rec, robot)
+    assert m["limit_violations"] == 0
+    assert m["com_err_max_mm"] < 1.0 and m["foot_err_max_mm"] < 1.0
+    assert m["penetration_max_mm"] < 0.05
+    assert m["zmp_margin_min_mm"] > 0.0  # the achieved ZMP stays inside the support polygon
+
+
+def test_recording_round_trip_and_channels(walk_run, tmp_path):
+    path = walk_run.save(tmp_path / "walk.npz")
+    rec = Recording.load(path)
+    for name in (
+        "com",
+        "com_ref",
+        "swing",
+        "swing_ref",
+        "support",
+        "l_sole",
+        "r_sole",
+        "com_margin",
+        "zmp_margin",
+        "limit_margin",
+        "solve_time",
+    ):
+        assert rec[name].shape[0] == len(rec)
+    assert rec.joint_names == walk_run.joint_names
+    assert any(k.startswith("err/") for k in rec.channels)
+    assert rec.meta["trajectory"] == "walk10"
+
+
+def test_errors_are_measured_from_forward_kinematics(robot, walk_run):
+    i = len(walk_run) // 2
+    q = walk_run.q[i]
+    assert np.allclose(walk_run["com"][i], robot.com(q))
+    sole = robot.frame_placement(q, "l_sole").translation
+    assert np.allclose(walk_run["l_sole"][i, :3], sole)
+
+
+def test_support_roles_follow_the_phases(walk10):
+    support, swing = support_roles(walk10)
+    for i in range(walk10.n):
+        side = walk10.swing_side(i)
+        if side is not None:
+            assert swing[i] == {"left": "l_sole", "right": "r_sole"}[side]
+            assert support[i] != swing[i]
+
+
+def test_session_ticks_live_and_stops_at_the_end(robot, walk10):
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10)
+    q = session.at_time(0.0)
+    assert q is not None and robot.within_limits(q)
+    assert session.at_time(walk10.duration + 1.0) is None
+
+
+def test_converged_mode_runs(robot):
+    ref = build("thesis_step", robot)
+    rec = run(
+        StackController(load_stack("cj_com", robot)),
+        robot,
+        ref,
+        options=RunOptions(mode="converge", max_iterations=30),
+    )
+    assert rec["iterations"].max() <= 30
+    assert np.all(rec.q[:, 7:] >= robot.q_min) and np.all(rec.q[:, 7:] <= robot.q_max)
