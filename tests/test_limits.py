@@ -9,6 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc import Kinematics, TaskError
+from wbc.geometry import convex_hull, halfplanes, signed_distance
 from wbc.limits import (
     Bounds,
     ComPolygonConstraint,
@@ -16,10 +17,7 @@ from wbc.limits import (
     JointPositionLimit,
     JointVelocityLimit,
     LinearInequality,
-    convex_hull,
-    halfspaces,
     intersect_bounds,
-    signed_distance,
 )
 
 
@@ -53,16 +51,16 @@ def test_convex_hull_contains_every_point(points):
     hull = convex_hull(pts)
     if len(hull) < 3:
         return
-    A, b = halfspaces(hull)
+    A, b = halfplanes(hull)
     assert np.all(A @ pts.T <= b[:, None] + 1e-9)
 
 
 def test_signed_distance_inside_and_outside():
     square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    assert signed_distance([0.5, 0.5], square) == pytest.approx(0.5)
-    assert signed_distance([0.5, 0.1], square) == pytest.approx(0.1)
-    assert signed_distance([2.0, 0.5], square) == pytest.approx(-1.0)
-    assert signed_distance([2.0, 2.0], square) == pytest.approx(-np.sqrt(2.0))
+    assert signed_distance(square, [0.5, 0.5]) == pytest.approx(0.5)
+    assert signed_distance(square, [0.5, 0.1]) == pytest.approx(0.1)
+    assert signed_distance(square, [2.0, 0.5]) == pytest.approx(-1.0)
+    assert signed_distance(square, [2.0, 2.0]) == pytest.approx(-np.sqrt(2.0))
 
 
 def test_com_polygon_rows_keep_the_com_inside(robot):

@@ -74,7 +74,15 @@ def recording(robot, tmp_path_factory):
 def run_deploy(port, recording, *extra, capsys=None):
     parser = argparse.ArgumentParser()
     deploy_cmd.add_arguments(parser)
-    argv = [recording, "--port", port, "--rate", str(RATE), *LATENCY, *extra]  # last wins
+    argv = [
+        *([recording] if recording else []),
+        "--port",
+        port,
+        "--rate",
+        str(RATE),
+        *LATENCY,
+        *extra,
+    ]  # last wins
     rc = deploy_cmd.run(parser.parse_args(argv))
     out, err = capsys.readouterr() if capsys else ("", "")
     return rc, out, err
@@ -429,3 +437,16 @@ def test_plan_prints_the_bus_budget(capsys):
     assert write_wire > read_wire and write_usb > read_usb
     assert read_usb == pytest.approx(1 / (350e-5 + 18 * 22e-6 + 18e-3), rel=0.01)
     assert write_wire == pytest.approx(1 / (84e-5 + 22e-6), rel=0.01)
+
+
+# ---------------------------------------------------------------- live controller
+def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks, capsys):
+    """`wbc deploy --live walk`: the walk stack solved tick by tick, goals sent to the bus."""
+    with Emulator(positions=walk_ready_ticks) as emu:
+        rc, out, err = run_deploy(
+            emu.port, None, "--live", "walk", "--trajectory", "thesis_step", capsys=capsys
+        )
+    assert rc == 0, err
+    assert "live walk on thesis_step" in out
+    n_goals = assert_goals_safe(emu, robot, walk_ready_ticks)
+    assert n_goals >= 18 * 250  # the 3 s step at 100 Hz, every servo

@@ -4,13 +4,16 @@ Every tool (benchmark, viewer, servo deployment, physics) reads this one format.
 arrays: ``t`` (N,), ``q`` (N, nq) full floating-base configurations and ``joint_names``.
 Optional channels use these names when present:
 
-``com`` / ``com_ref`` (N, 3), ``swing`` / ``swing_ref`` (N, 3) swing-sole position,
-``l_sole`` / ``r_sole`` (N, 7) sole placements as xyz + quaternion (x, y, z, w),
+``com`` / ``com_ref`` (N, 3), ``swing`` / ``swing_ref`` (N, 3) swing-sole position (the sole
+with the swing role; ``swing_is_left`` (N,) says which), ``l_sole`` / ``r_sole`` and
+``l_sole_ref`` / ``r_sole_ref`` (N, 7) sole placements as xyz + quaternion (x, y, z, w),
 ``support`` (N,) int8 (:data:`SUPPORT_DOUBLE`, :data:`SUPPORT_LEFT`, :data:`SUPPORT_RIGHT`),
 ``zmp`` / ``zmp_ref`` (N, 2), ``com_margin`` / ``zmp_margin`` (N,) signed distance (m) to the
 support polygon's edge (positive inside), ``limit_margin`` (N, n_joints) distance (rad) to the
-nearest joint limit (negative = violated), ``solve_time`` (N,) seconds, ``err/<task>`` (N, k)
-task errors. ``meta`` is a JSON dict (solver, trajectory, robot, ...).
+nearest joint limit (negative = violated), ``swing_lowest`` (N,) height of the swing sole's
+lowest corner (m), ``torso_yaw_ref`` (N,), ``solve_time`` (N,) seconds, ``iterations`` and
+``failed`` (N,), ``err/<task>`` (N, k) task errors. ``meta`` is a JSON dict (solver,
+trajectory, robot, ...).
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError
-from ..limits import FOOT_LENGTH, FOOT_WIDTH
+from ..geometry import FOOT_LENGTH, FOOT_WIDTH
 from ..model import Robot
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference

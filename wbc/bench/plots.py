@@ -28,14 +28,13 @@ def run_figure(rec: Recording, path: Path) -> Path:
     plt = _pyplot()
     i = np.arange(len(rec))
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
-    for k, axis in enumerate("xyz"):
-        axes[0, 0].plot(i, rec["com_ref"][:, k] * 1e3, "--", label=f"{axis} ref")
-        axes[0, 0].plot(i, rec["com"][:, k] * 1e3, label=f"{axis}")
-    axes[0, 0].set_title("CoM (mm)")
-    for k, axis in enumerate("xyz"):
-        axes[0, 1].plot(i, rec["swing_ref"][:, k] * 1e3, "--", label=f"{axis} ref")
-        axes[0, 1].plot(i, rec["swing"][:, k] * 1e3, label=f"{axis}")
-    axes[0, 1].set_title("swing sole (mm)")
+    for ax, name in ((axes[0, 0], "com"), (axes[0, 1], "swing")):
+        origin = rec[f"{name}_ref"][0]  # displacements: x, y and z share one scale
+        for k, axis in enumerate("xyz"):
+            ax.plot(i, (rec[f"{name}_ref"][:, k] - origin[k]) * 1e3, "--", label=f"{axis} ref")
+            ax.plot(i, (rec[name][:, k] - origin[k]) * 1e3, label=f"{axis}")
+    axes[0, 0].set_title("CoM, from its start (mm)")
+    axes[0, 1].set_title("swing sole, from its start (mm)")
     axes[1, 0].semilogy(i, np.linalg.norm(rec["com"] - rec["com_ref"], axis=1) * 1e3 + 1e-9)
     axes[1, 0].set_title("CoM error (mm)")
     axes[1, 1].semilogy(i, np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1) * 1e3 + 1e-9)

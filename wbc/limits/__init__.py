@@ -3,20 +3,9 @@
 from .ground_clearance import GroundClearanceConstraint, LinearInequality
 from .joint_limits import JointPositionLimit, JointVelocityLimit, intersect_bounds
 from .limit import Bounds, BoxLimit, Constraint, Inequality
-from .support_polygon import (
-    FOOT_LENGTH,
-    FOOT_WIDTH,
-    ComPolygonConstraint,
-    SupportPolygon,
-    convex_hull,
-    foot_corners,
-    halfspaces,
-    signed_distance,
-)
+from .support_polygon import ComPolygonConstraint, SupportPolygon, foot_corners
 
 __all__ = [
-    "FOOT_LENGTH",
-    "FOOT_WIDTH",
     "Bounds",
     "BoxLimit",
     "ComPolygonConstraint",
@@ -27,9 +16,6 @@ __all__ = [
     "JointVelocityLimit",
     "LinearInequality",
     "SupportPolygon",
-    "convex_hull",
     "foot_corners",
-    "halfspaces",
     "intersect_bounds",
-    "signed_distance",
 ]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import TaskError
+from ..geometry import FOOT_LENGTH, FOOT_WIDTH
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
-from .support_polygon import FOOT_LENGTH, FOOT_WIDTH
 
 
 class GroundClearanceConstraint(Constraint):

@@ -14,6 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, ModelError
+from ..geometry import convex_hull, polygon_area  # noqa: F401 (polygon_area: re-exported)
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 
@@ -136,24 +137,7 @@ def convex_hull_2d(points: np.ndarray) -> np.ndarray:
         raise ConfigurationError(f"convex_hull_2d: expected (n >= 1, 2) points, got {pts.shape}")
     if not np.all(np.isfinite(pts)):
         raise ConfigurationError("convex_hull_2d: points must be finite")
-    uniq = sorted({(float(x), float(y)) for x, y in pts})
-    if len(uniq) <= 2:
-        return np.array(uniq)
-
-    def cross(o, a, b) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[tuple[float, float]] = []
-    for p in uniq:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[tuple[float, float]] = []
-    for p in reversed(uniq):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
+    return convex_hull(pts)
 
 
 def sole_corners(placement: np.ndarray, rect: Sequence[float]) -> np.ndarray:
@@ -195,12 +179,6 @@ def support_polygon(
             f"(left) or {SUPPORT_RIGHT} (right)"
         )
     return convex_hull_2d(pts)
-
-
-def polygon_area(poly: np.ndarray) -> float:
-    """Signed area (shoelace), positive for counter-clockwise vertices."""
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
 @dataclass(frozen=True)

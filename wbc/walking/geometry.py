@@ -13,10 +13,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import TrajectoryError
+from ..geometry import (  # the plane geometry shared with wbc.limits and the viewer
+    FOOT_LENGTH,
+    FOOT_WIDTH,
+    convex_hull,
+    foot_rectangle,
+    halfplanes,
+    polygon_area,
+    polygon_distance,
+    rot2,
+    shrink_polygon,
+    signed_distance,
+)
 
-# Bioloid Premium foot plate (mm -> m).
-FOOT_LENGTH = 0.101
-FOOT_WIDTH = 0.061
+__all__ = [
+    "FOOT_LENGTH",
+    "FOOT_WIDTH",
+    "Foot",
+    "convex_hull",
+    "foot_rectangle",
+    "halfplanes",
+    "polygon_area",
+    "polygon_distance",
+    "rot2",
+    "shrink_polygon",
+    "signed_distance",
+    "support_polygon",
+]
 
 
 @dataclass(frozen=True)
@@ -33,138 +56,6 @@ class Foot:
     def rectangle(self, xy: np.ndarray, yaw: float) -> np.ndarray:
         """The 4 corners (counter-clockwise) of the foot at sole ``xy``, heading ``yaw``."""
         return foot_rectangle(xy, yaw, self.length, self.width)
-
-
-def rot2(yaw: float) -> np.ndarray:
-    """2-D rotation matrix."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s], [s, c]])
-
-
-def foot_rectangle(
-    xy: np.ndarray, yaw: float, length: float = FOOT_LENGTH, width: float = FOOT_WIDTH
-) -> np.ndarray:
-    """Corners (4, 2), counter-clockwise, of a ``length x width`` rectangle centred at ``xy``."""
-    hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
-    return np.asarray(xy, dtype=float)[:2] + local @ rot2(yaw).T
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull (Andrew's monotone chain); collinear points dropped."""
-    pts = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 12), axis=0)
-    if len(pts) < 3:
-        return pts
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[np.ndarray] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 1e-15:
-            lower.pop()
-        lower.append(p)
-    upper: list[np.ndarray] = []
-    for p in pts[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 1e-15:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def halfplanes(polygon: np.ndarray, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Half-plane form ``A p <= b`` of a counter-clockwise convex polygon shrunk by ``margin``.
-
-    Row i of ``A`` is the unit outward normal of edge (v_i, v_i+1); ``b_i = a_i . v_i - margin``.
-    """
-    poly = np.asarray(polygon, dtype=float)
-    edges = np.roll(poly, -1, axis=0) - poly
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
-    lengths = np.linalg.norm(normals, axis=1)
-    keep = lengths > 1e-12
-    normals = normals[keep] / lengths[keep, None]
-    b = np.einsum("ij,ij->i", normals, poly[keep]) - margin
-    return normals, b
-
-
-def signed_distance(polygon: np.ndarray, points: np.ndarray) -> np.ndarray | float:
-    """Signed distance from point(s) to a convex polygon's boundary: positive inside.
-
-    Inside, it is the distance to the nearest edge line, ``min_i (b_i - a_i . p)``; outside,
-    minus the Euclidean distance to the polygon.
-    """
-    poly = np.asarray(polygon, dtype=float)
-    pts = np.asarray(points, dtype=float)
-    single = pts.ndim == 1
-    pts = np.atleast_2d(pts)[:, :2]
-    A, b = halfplanes(poly)
-    inside = np.min(b[None, :] - pts @ A.T, axis=1)
-    out = inside.copy()
-    outside = inside < 0
-    if np.any(outside):
-        out[outside] = -_distance_to_boundary(poly, pts[outside])
-    return float(out[0]) if single else out
-
-
-def _distance_to_boundary(poly: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Euclidean distance from each point to the polygon's edges (segments)."""
-    a = poly
-    d = np.roll(poly, -1, axis=0) - poly
-    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-30)
-    rel = pts[:, None, :] - a[None, :, :]
-    s = np.clip(np.einsum("pij,ij->pi", rel, d) / dd, 0.0, 1.0)
-    closest = a[None] + s[..., None] * d[None]
-    return np.min(np.linalg.norm(pts[:, None, :] - closest, axis=2), axis=1)
-
-
-def polygon_distance(p: np.ndarray, q: np.ndarray) -> float:
-    """Distance between two convex polygons; minus the penetration depth if they overlap.
-
-    Separated: the Euclidean distance between the closest points. Overlapping: the
-    separating-axis value (the smallest translation along an edge normal that separates them),
-    negated.
-    """
-    p = np.asarray(p, dtype=float)
-    q = np.asarray(q, dtype=float)
-    sep = -np.inf
-    for a, b in (p, q), (q, p):
-        A, bb = halfplanes(a)
-        # max over b's vertices is the worst; separation along normal n: min_v (n.v) - b_n
-        sep = max(sep, float(np.max(np.min(b @ A.T, axis=0) - bb)))
-    if sep <= 0:
-        return sep
-    return float(min(np.min(_distance_to_boundary(p, q)), np.min(_distance_to_boundary(q, p))))
-
-
-def shrink_polygon(polygon: np.ndarray, margin: float) -> np.ndarray:
-    """Vertices of the convex polygon shrunk by ``margin`` (empty (0, 2) if nothing is left)."""
-    poly = np.asarray(polygon, dtype=float)
-    if margin == 0.0:
-        return poly.copy()
-    A, b = halfplanes(poly, margin)
-    # Vertices of {A p <= b}: intersections of every pair of lines that satisfy all rows.
-    verts = []
-    m = len(b)
-    for i in range(m):
-        for j in range(i + 1, m):
-            M = np.array([A[i], A[j]])
-            if abs(np.linalg.det(M)) < 1e-12:
-                continue
-            v = np.linalg.solve(M, np.array([b[i], b[j]]))
-            if np.all(A @ v <= b + 1e-12):
-                verts.append(v)
-    if len(verts) < 3:
-        return np.zeros((0, 2))
-    return convex_hull(np.array(verts))
-
-
-def polygon_area(polygon: np.ndarray) -> float:
-    """Area of a simple polygon (shoelace)."""
-    p = np.asarray(polygon, dtype=float)
-    if len(p) < 3:
-        return 0.0
-    x, y = p[:, 0], p[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 def support_polygon(
