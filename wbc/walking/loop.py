@@ -242,6 +242,10 @@ class Session:
             start_configuration(robot, ref) if q0 is None else robot.check_configuration(q0).copy()
         )
         self.support, self.swing = support_roles(ref)
+        # the sole targets of every tick, built once (not part of any controller's tick time)
+        self._soles = [
+            (ref.sole_placement(i, "left"), ref.sole_placement(i, "right")) for i in range(ref.n)
+        ]
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
@@ -252,6 +256,7 @@ class Session:
     def targets(self, i: int) -> TickTargets:
         ref = self.ref
         phase = "double" if ref.support[i] == SUPPORT_DOUBLE else "single"
+        left, right = self._soles[i]
         return TickTargets(
             i,
             float(ref.t[i]),
@@ -259,8 +264,8 @@ class Session:
             self.support[i],
             self.swing[i],
             ref.com[i],
-            ref.sole_placement(i, "left"),
-            ref.sole_placement(i, "right"),
+            left,
+            right,
             float(ref.torso_yaw[i]),
         )
 
