@@ -125,7 +125,7 @@ class Robot:
                 f"{what}: expected a configuration of size nq={self.nq} (7 base + "
                 f"{self.n_joints} joints), got shape {q.shape}"
             )
-        if not np.all(np.isfinite(q)):
+        if not np.isfinite(q).all():
             idx = np.flatnonzero(~np.isfinite(q))
             names = [self._q_name(i) for i in idx]
             raise ConfigurationError(f"{what}: non-finite values at {names}")

@@ -64,6 +64,9 @@ def stack_constraints(
     """(G, h, row slices) of the constraints at ``kin`` (sizes may change between calls)."""
     if not constraints:
         return np.zeros((0, nv)), np.zeros(0), []
+    if len(constraints) == 1:  # the common case: no stacking copies
+        G, h = constraints[0].compute(kin)
+        return G, h, [(constraints[0].name, slice(0, len(h)))]
     Gs, hs, slices = [], [], []
     r = 0
     for c in constraints:

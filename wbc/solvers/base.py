@@ -130,7 +130,7 @@ class StackSolver(ABC):
                 it -= 1
                 break
             q = self.integrate(q, dq)
-            if np.max(np.abs(dq)) < stall_tol:
+            if abs(dq).max() < stall_tol:
                 break
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
@@ -144,7 +144,7 @@ class StackSolver(ABC):
 
     def _converged(self, tol: float) -> bool:
         return all(
-            np.max(np.abs(t.last_error)) <= tol
+            abs(t.last_error).max() <= tol
             for t in self.stack.tasks()
             if t.active and t.blocks_convergence
         )

@@ -111,8 +111,8 @@ class HierarchicalQP(StackSolver):
             for p, s in zip(self.problems, self.solutions, strict=True)
             if p.hard
             and (
-                (s.residual.size and np.max(np.abs(s.residual)) > self.hard_tol)
-                or (s.slack.size and np.max(s.slack) > self.hard_tol)
+                (s.residual.size and abs(s.residual).max() > self.hard_tol)
+                or (s.slack.size and s.slack.max() > self.hard_tol)
             )
         ]
         self.diagnosis = "; ".join(messages)

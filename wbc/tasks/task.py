@@ -183,7 +183,7 @@ def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarr
     v = np.asarray(value, dtype=float)
     if v.shape != (size,):
         raise TaskError(f"task {task.name!r}: {what} must have shape ({size},), got {v.shape}")
-    if not np.all(np.isfinite(v)):
+    if not np.isfinite(v).all():
         raise TaskError(f"task {task.name!r}: {what} has non-finite values: {v}")
     return v
 
