@@ -22,15 +22,18 @@ class JointPositionLimit(BoxLimit):
         self._lower = np.full(robot.nv, -np.inf)
         self._upper = np.full(robot.nv, np.inf)
 
+    def joint_bounds_into(self, joints: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        """The joint rows only, written in place (the solvers' hot path)."""
+        np.subtract(self.robot.q_min, joints, out=lower)
+        np.subtract(self.robot.q_max, joints, out=upper)
+
     def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
-        j = kin.q[7:]
-        np.subtract(self.robot.q_min, j, out=self._lower[6:])
-        np.subtract(self.robot.q_max, j, out=self._upper[6:])
+        self.joint_bounds_into(kin.q[7:], self._lower[6:], self._upper[6:])
         return Bounds(self._lower, self._upper)
 
 
 class JointVelocityLimit(BoxLimit):
-    """|Δq_j| <= v_max · dt (servo speed); inactive when iterating without a time step."""
+    """|Δq_j| <= scale · v_max · dt (servo speed); inactive when iterating without a time step."""
 
     name = "joint_velocity_limit"
 
@@ -39,14 +42,35 @@ class JointVelocityLimit(BoxLimit):
         self.scale = scale
         self._lower = np.full(robot.nv, -np.inf)
         self._upper = np.full(robot.nv, np.inf)
+        self._dt: float | None = None
+        self._step = np.zeros(robot.n_joints)
+        self._neg_step = np.zeros(robot.n_joints)
+
+    def _steps(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        if dt != self._dt:
+            np.multiply(self.robot.v_max, self.scale * dt, out=self._step)
+            np.negative(self._step, out=self._neg_step)
+            self._dt = dt
+        return self._step, self._neg_step
+
+    def clip_joint_bounds(self, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
+        """Clip joint position bounds into [−v dt, v dt] in place.
+
+        The two never cross: a joint outside its range gets lower = upper = ±v dt, i.e. it
+        moves back towards its range at the servo's full speed.
+        """
+        step, neg = self._steps(dt)
+        np.minimum(np.maximum(lower, neg, out=lower), step, out=lower)
+        np.minimum(np.maximum(upper, neg, out=upper), step, out=upper)
 
     def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
         if dt is None:
             self._lower[6:] = -np.inf
             self._upper[6:] = np.inf
         else:
-            np.multiply(self.robot.v_max, self.scale * dt, out=self._upper[6:])
-            np.negative(self._upper[6:], out=self._lower[6:])
+            step, neg = self._steps(dt)
+            self._upper[6:] = step
+            self._lower[6:] = neg
         return Bounds(self._lower, self._upper)
 
 

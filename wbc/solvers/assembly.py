@@ -9,8 +9,6 @@ import numpy as np
 from ..limits import Constraint
 from ..model import Kinematics
 from ..tasks import Task
-from .cascade import LevelProblem
-from .stack import Level
 
 
 class TaskBlock:
@@ -76,11 +74,3 @@ def stack_constraints(
         slices.append((c.name, slice(r, r + len(h))))
         r += len(h)
     return np.vstack(Gs), np.concatenate(hs), slices
-
-
-def level_problem(level: Level, kin: Kinematics, nv: int) -> LevelProblem:
-    """A level's weighted rows and constraint rows at ``kin`` (for the cascade)."""
-    block = TaskBlock(level.active_tasks(), nv)
-    block.fill_weighted(kin)
-    G, h, cslices = stack_constraints(level.active_constraints(), kin, nv)
-    return LevelProblem(level.priority, block.J, block.b, G, h, level.hard, block.slices, cslices)

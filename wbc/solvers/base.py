@@ -54,9 +54,6 @@ class StackSolver(ABC):
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
-        self._vdt_for: float | None = None
-        self._vdt = np.zeros(self.robot.n_joints)
-        self._neg_vdt = np.zeros(self.robot.n_joints)
         self._box: tuple[np.ndarray, np.ndarray] | None = None
         #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
         self.solve_time = 0.0
@@ -161,19 +158,10 @@ class StackSolver(ABC):
         the servo's speed (the bounds never cross). Other box limits are intersected after.
         """
         self._box = (lower, upper)
-        j = kin.q[7:]
-        lo, hi = lower[6:], upper[6:]
-        np.subtract(self._q_min, j, out=lo)
-        np.subtract(self._q_max, j, out=hi)
-        # the base rows stay at ±inf: callers allocate lower/upper that way (QPWorkspace does)
+        lo, hi = lower[6:], upper[6:]  # the base rows stay at ±inf (callers allocate them so)
+        self.stack.position_limit.joint_bounds_into(kin.q[7:], lo, hi)
         if dt is not None and self.stack.velocity_limit is not None:
-            if dt != self._vdt_for:
-                np.multiply(self.robot.v_max, self.stack.velocity_limit.scale * dt, out=self._vdt)
-                np.negative(self._vdt, out=self._neg_vdt)
-                self._vdt_for = dt
-            vdt, neg = self._vdt, self._neg_vdt
-            np.minimum(np.maximum(lo, neg, out=lo), vdt, out=lo)
-            np.minimum(np.maximum(hi, neg, out=hi), vdt, out=hi)
+            self.stack.velocity_limit.clip_joint_bounds(dt, lo, hi)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]

@@ -94,12 +94,6 @@ class PivotedQR:
         return self.Q[:, : self.m] @ y if info == 0 else None
 
 
-def null_space(M: np.ndarray) -> tuple[np.ndarray, int]:
-    """Orthonormal basis of ker(M) and rank(M)."""
-    qr = PivotedQR(M)
-    return qr.null_space, qr.rank
-
-
 class _Feasible:
     """The constraints every level inherits: box bounds and frozen higher-level inequalities."""
 

@@ -141,13 +141,6 @@ class TaskStack:
                 return c
         raise TaskError(f"no constraint named {name!r}")
 
-    def box_limits(self, dt: float | None) -> list[BoxLimit]:
-        """Box limits other than the joint position limit that apply for a step of ``dt``."""
-        extra = list(self.extra_limits)
-        if self.velocity_limit is not None and dt is not None:
-            extra.insert(0, self.velocity_limit)
-        return extra
-
     def structure(self) -> tuple:
         """A key that changes whenever the active tasks/constraints or their sizes change."""
         return tuple(
