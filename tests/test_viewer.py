@@ -160,7 +160,10 @@ def live_children(pid: int | None = None) -> set[int]:
     """Live child processes of a process (default: this one; the meshcat servers we start)."""
     out = set()
     for task in Path(f"/proc/{pid or os.getpid()}/task").iterdir():
-        text = (task / "children").read_text().split()
+        try:
+            text = (task / "children").read_text().split()
+        except OSError:  # the thread ended between listing and reading
+            continue
         out.update(int(p) for p in text)
     return {p for p in out if Path(f"/proc/{p}").exists() and process_state(p) != "Z"}
 
