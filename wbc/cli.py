@@ -21,6 +21,19 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+# optional dependency -> the extra that installs it
+OPTIONAL = {
+    "meshcat": "viewer",
+    "playwright": "viewer",
+    "dynamixel_sdk": "servos",
+    "serial": "servos",
+    "placo": "peers",
+    "pink": "peers",
+    "matplotlib": "plots",
+    "mujoco": "physics",
+}
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -52,6 +65,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(importlib.import_module(args._module).run(args) or 0)
     except WbcError as exc:
         print(f"wbc {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as exc:
+        extra = OPTIONAL.get((exc.name or "").split(".")[0])
+        if extra is None:
+            raise
+        print(
+            f"wbc {args.command}: needs the optional package {exc.name!r}: "
+            f"pip install 'wbc[{extra}]' (or 'wbc[all]')",
+            file=sys.stderr,
+        )
         return 2
 
 

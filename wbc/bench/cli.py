@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -164,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     entries, notes = select(args.solvers, args.families, args.mode)
     for note in notes:
-        console.print(f"[yellow]note[/]: {note}")
+        console.print(f"[yellow]note[/]: {escape(note)}")
     walking = [t for t in args.trajectories if t != traj.STATIC_COM]
     for t in walking:  # fail fast on a bad name, before any run
         if t not in traj.TRAJECTORIES:
