@@ -1,12 +1,12 @@
 """Where the robot descriptions and declarative task stacks live.
 
 In a source checkout (and an editable install) they are the top-level ``robots/`` and
-``tasks/`` folders; a wheel ships them as the ``wbc.robots`` and ``wbc.stacks`` packages.
+``tasks/`` folders; a wheel ships them as the ``wbc.robots`` and ``wbc.task_stacks`` packages.
 """
 
 from __future__ import annotations
 
-from importlib import resources
+import importlib
 from pathlib import Path
 
 _REPO = Path(__file__).resolve().parent.parent
@@ -16,7 +16,8 @@ def _data_dir(repo_name: str, package: str) -> Path:
     candidate = _REPO / repo_name
     if candidate.is_dir():
         return candidate
-    return Path(str(resources.files(package)))
+    # installed wheel: a data-only (namespace) package inside wbc
+    return Path(next(iter(importlib.import_module(package).__path__)))
 
 
 def robots_dir() -> Path:
@@ -26,4 +27,4 @@ def robots_dir() -> Path:
 
 def stacks_dir() -> Path:
     """Folder holding the declarative task-stack files (``*.toml``)."""
-    return _data_dir("tasks", "wbc.stacks")
+    return _data_dir("tasks", "wbc.task_stacks")
