@@ -110,10 +110,7 @@ class ControlStack:
     swing: str | None = None
     _anchored: dict[str, str] = field(default_factory=dict)  # contact task -> anchored sole
 
-    # ------------------------------------------------------------------ by kind
-    def tasks_of(self, cls: type) -> list[Task]:
-        return [t for t in self.stack.tasks() if isinstance(t, cls)]
-
+    # ------------------------------------------------------------------ roles
     def role_tasks(self, role: str) -> list[Task]:
         return [t for t in self.stack.tasks() if self.bindings.get(t.name, _NO).role == role]
 

@@ -36,7 +36,7 @@ import pinocchio as pin
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError
 from ..geometry import FOOT_LENGTH, FOOT_WIDTH
 from ..model import Robot
-from ..walking.loop import Controller, TickTargets
+from ..walking.loop import Controller, TickTargets, heading_free, torso_target
 from ..walking.reference import WalkingReference
 from .casadi_kinematics import CasadiKinematics
 from .peers import COM_WEIGHT, POSTURE_WEIGHT, SWING_WEIGHT, TORSO_WEIGHT
@@ -448,12 +448,6 @@ def _rotation(R: Any, what: str) -> np.ndarray:
     return R
 
 
-def heading_free(R: np.ndarray) -> np.ndarray:
-    """R with its heading (yaw) removed: Rz(−yaw) R."""
-    yaw = np.arctan2(R[1, 0], R[0, 0])
-    return pin.rpy.rpyToMatrix(0, 0, -yaw) @ R
-
-
 class NlpController(Controller):
     """:class:`PoseNLP` behind the benchmark loop's :class:`Controller` interface.
 
@@ -518,7 +512,7 @@ class NlpController(Controller):
             com=np.asarray(targets.com, dtype=float),
             l_sole=targets.l_sole,
             r_sole=targets.r_sole,
-            torso=pin.rpy.rpyToMatrix(0, 0, targets.torso_yaw) @ self._pitch_roll,
+            torso=torso_target(targets.torso_yaw, self._pitch_roll),
             posture=self._posture,
             phase=targets.phase,
             support=targets.support,

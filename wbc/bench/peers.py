@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from ..exceptions import SolverError
 from ..model import Robot
-from ..walking.loop import Controller, TickTargets
+from ..walking.loop import Controller, TickTargets, heading_free, torso_target
 from ..walking.reference import WalkingReference
 
 # the weights of tasks/walk.toml
@@ -34,15 +34,6 @@ def available() -> dict[str, bool]:
         name: importlib.util.find_spec(mod) is not None
         for name, mod in (("placo", "placo"), ("pink", "pink"))
     }
-
-
-def _torso_target(yaw: float, pitch_roll: np.ndarray) -> np.ndarray:
-    return pin.rpy.rpyToMatrix(0, 0, yaw) @ pitch_roll
-
-
-def _heading_free(R: np.ndarray) -> np.ndarray:
-    yaw = np.arctan2(R[1, 0], R[0, 0])
-    return pin.rpy.rpyToMatrix(0, 0, -yaw) @ R
 
 
 class PlacoController(Controller):
@@ -70,7 +61,7 @@ class PlacoController(Controller):
         self.com = solver.add_com_task(self.pr.com_world())
         self.com.configure("com", "soft", COM_WEIGHT)
         R0 = self.pr.get_T_world_frame("torso")[:3, :3]
-        self.pitch_roll = _heading_free(R0)
+        self.pitch_roll = heading_free(R0)
         self.torso = solver.add_orientation_task("torso", R0)
         self.torso.configure("torso", "soft", TORSO_WEIGHT)
         posture = solver.add_joints_task()
@@ -90,7 +81,7 @@ class PlacoController(Controller):
         if targets.phase == "single":
             self.feet[targets.swing].T_world_frame = targets.swing_placement.homogeneous
         self.com.target_world = targets.com
-        self.torso.R_world_frame = _torso_target(targets.torso_yaw, self.pitch_roll)
+        self.torso.R_world_frame = torso_target(targets.torso_yaw, self.pitch_roll)
 
     def track(self, q, targets, dt, phase_changed):
         self._set(q, targets, phase_changed)
@@ -129,7 +120,7 @@ class PinkController(Controller):
         self.com.set_target(robot.com(q0))
         self.torso = FrameTask("torso", position_cost=0.0, orientation_cost=np.sqrt(TORSO_WEIGHT))
         self.torso.set_target(self.config.get_transform_frame_to_world("torso"))
-        self.pitch_roll = _heading_free(self.torso.transform_target_to_world.rotation)
+        self.pitch_roll = heading_free(self.torso.transform_target_to_world.rotation)
         self.posture = PostureTask(cost=np.sqrt(POSTURE_WEIGHT))
         self.posture.set_target(q0.copy())
         self.limits = [ConfigurationLimit(self.model), VelocityLimit(self.model)]
@@ -152,7 +143,7 @@ class PinkController(Controller):
             self.feet[targets.swing].set_target(targets.swing_placement)
         self.com.set_target(targets.com)
         self.torso.set_target(
-            pin.SE3(_torso_target(targets.torso_yaw, self.pitch_roll), np.zeros(3))
+            pin.SE3(torso_target(targets.torso_yaw, self.pitch_roll), np.zeros(3))
         )
         self.config.update(q)
         try:

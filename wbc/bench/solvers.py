@@ -97,22 +97,13 @@ def _nlp(hard: bool) -> Callable[[Robot], Controller]:
 def registry() -> dict[str, SolverEntry]:
     """Every solver the benchmark knows, in display order."""
     entries: list[SolverEntry] = []
-    for backend in BACKENDS:
-        entries.append(
-            SolverEntry(
-                f"wqp-{backend}",
-                "qp-weighted",
-                _stack("walk", backend, "weighted", f"wqp-{backend}"),
-            )
-        )
-    for backend in BACKENDS:
-        entries.append(
-            SolverEntry(
-                f"hqp-{backend}",
-                "qp-hierarchical",
-                _stack("walk", backend, "hierarchical", f"hqp-{backend}"),
-            )
-        )
+    for prefix, family, kind in (
+        ("wqp", "qp-weighted", "weighted"),
+        ("hqp", "qp-hierarchical", "hierarchical"),
+    ):
+        for backend in BACKENDS:
+            name = f"{prefix}-{backend}"
+            entries.append(SolverEntry(name, family, _stack("walk", backend, kind, name)))
     for scheme in THESIS_SCHEMES:
         entries.append(
             SolverEntry(f"qp-{scheme}", "qp-thesis", _stack(scheme, "daqp", None, f"qp-{scheme}"))

@@ -37,9 +37,6 @@ class Level:
     def active_constraints(self) -> list[Constraint]:
         return [c for c in self.constraints if c.active]
 
-    def names(self) -> list[str]:
-        return [t.name for t in self.active_tasks()] + [c.name for c in self.active_constraints()]
-
 
 class TaskStack:
     """Levels of tasks/constraints plus box limits (joint position always; velocity optional).

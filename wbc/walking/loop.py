@@ -32,6 +32,19 @@ from ..tasks import (
 from .reference import WalkingReference
 
 SOLES = {"left": "l_sole", "right": "r_sole"}
+
+
+def heading_free(R: np.ndarray) -> np.ndarray:
+    """R with its heading (yaw) removed: Rz(−yaw) R."""
+    return pin.rpy.rpyToMatrix(0.0, 0.0, -np.arctan2(R[1, 0], R[0, 0])) @ R
+
+
+def torso_target(yaw: float, pitch_roll: np.ndarray) -> np.ndarray:
+    """The torso rotation every controller is asked for: Rz(yaw) · (start rotation with its
+    heading removed), so the torso keeps its start lean and turns with the walk."""
+    return pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ pitch_roll
+
+
 MODES = ("tick", "converge")
 
 
@@ -165,9 +178,7 @@ class StackController(Controller):
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         self._kin.update(q0)
-        R = self._kin.placement(robot.frame_id("torso")).rotation
-        yaw = np.arctan2(R[1, 0], R[0, 0])
-        self._torso_pitch_roll = pin.rpy.rpyToMatrix(0, 0, -yaw) @ R  # heading removed
+        self._torso_pitch_roll = heading_free(self._kin.rotation(robot.frame_id("torso")))
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
                 task.set_target_from(self._kin)
@@ -189,7 +200,7 @@ class StackController(Controller):
         for t in self._swing_rot:
             t.set_target(swing.rotation)
         if self._torso:
-            R = pin.rpy.rpyToMatrix(0, 0, targets.torso_yaw) @ self._torso_pitch_roll
+            R = torso_target(targets.torso_yaw, self._torso_pitch_roll)
             for t in self._torso:
                 t.set_target(R)
 
@@ -322,6 +333,9 @@ def run(
     Q = np.zeros((n, robot.nq))
     com = np.zeros((n, 3))
     soles = {"l_sole": np.zeros((n, 7)), "r_sole": np.zeros((n, 7))}
+    lowest = {"l_sole": np.zeros(n), "r_sole": np.zeros(n)}  # lowest sole corner height
+    hl, hw = 0.5 * ref.foot.length, 0.5 * ref.foot.width
+    corners = np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
     solve_time = np.zeros(n)
     iterations = np.zeros(n, dtype=int)
     failed = np.zeros(n, dtype=bool)
@@ -336,8 +350,9 @@ def run(
         Q[i] = q
         kin.update(q)
         com[i] = kin.com
-        soles["l_sole"][i] = pin.SE3ToXYZQUAT(kin.placement(l_id))
-        soles["r_sole"][i] = pin.SE3ToXYZQUAT(kin.placement(r_id))
+        for name, fid in (("l_sole", l_id), ("r_sole", r_id)):
+            soles[name][i] = pin.SE3ToXYZQUAT(kin.placement(fid))
+            lowest[name][i] = kin.translation(fid)[2] + (corners @ kin.rotation(fid)[2]).min()
         if options.record_task_errors:
             for name, e in controller.task_errors().items():
                 if name not in errors:
@@ -346,7 +361,7 @@ def run(
                     errors[name][i] = e
         if on_tick is not None:
             on_tick(i, q, session.targets(i))
-    channels = _channels(robot, ref, Q, com, soles, session.support, session.swing)
+    channels = _channels(robot, ref, Q, com, soles, lowest, session.swing)
     channels.update(solve_time=solve_time, iterations=iterations, failed=failed)
     for name, e in errors.items():
         channels[f"err/{name}"] = e
@@ -374,7 +389,7 @@ def _channels(
     Q: np.ndarray,
     com: np.ndarray,
     soles: dict[str, np.ndarray],
-    support: list[str],
+    lowest: dict[str, np.ndarray],
     swing: list[str],
 ) -> dict[str, np.ndarray]:
     """Everything measured from forward kinematics, next to the references."""
@@ -389,11 +404,6 @@ def _channels(
     acc = np.gradient(np.gradient(com, ref.t, axis=0), ref.t, axis=0)
     zmp = com[:, :2] - com[:, 2:3] * acc[:, :2] / (ref.g + acc[:, 2:3])
     zmp_margin = np.array([ref.signed_distance(i, zmp[i]) for i in range(n)])
-    # the swing sole's lowest corner (penetration below the ground is negative)
-    lowest = np.zeros(n)
-    for k, (name, arr) in enumerate(soles.items()):
-        low = _lowest_corner(arr, ref)
-        lowest = low if k == 0 else np.where(swing_idx == (name == "l_sole"), low, lowest)
     return {
         "com": com,
         "com_ref": ref.com.copy(),
@@ -410,15 +420,6 @@ def _channels(
         "zmp_margin": zmp_margin,
         "zmp_ref": ref.zmp.copy(),
         "limit_margin": limit_margin,
-        "swing_lowest": lowest,
+        # the swing sole's lowest corner (penetration below the ground is negative)
+        "swing_lowest": np.where(swing_idx, lowest["l_sole"], lowest["r_sole"]),
     }
-
-
-def _lowest_corner(xyzquat: np.ndarray, ref: WalkingReference) -> np.ndarray:
-    hl, hw = 0.5 * ref.foot.length, 0.5 * ref.foot.width
-    corners = np.array([[hl, hw, 0], [-hl, hw, 0], [-hl, -hw, 0], [hl, -hw, 0]])
-    out = np.zeros(len(xyzquat))
-    for i, row in enumerate(xyzquat):
-        R = pin.Quaternion(row[6], row[3], row[4], row[5]).toRotationMatrix()
-        out[i] = row[2] + np.min(corners @ R[2])
-    return out
