@@ -14,6 +14,13 @@ FOOT_LENGTH = 0.101
 FOOT_WIDTH = 0.061
 
 
+def sole_corners(length: float = FOOT_LENGTH, width: float = FOOT_WIDTH) -> np.ndarray:
+    """The 4 corners (4, 3) of a ``length x width`` sole in its own frame, counter-clockwise
+    seen from above (front-left first), on the sole plane z = 0."""
+    hl, hw = 0.5 * length, 0.5 * width
+    return np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
+
+
 def rot2(yaw: float) -> np.ndarray:
     """2-D rotation matrix."""
     c, s = np.cos(yaw), np.sin(yaw)
@@ -24,9 +31,7 @@ def foot_rectangle(
     xy: np.ndarray, yaw: float, length: float = FOOT_LENGTH, width: float = FOOT_WIDTH
 ) -> np.ndarray:
     """Corners (4, 2), counter-clockwise, of a ``length x width`` rectangle centred at ``xy``."""
-    hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
-    return np.asarray(xy, dtype=float)[:2] + local @ rot2(yaw).T
+    return np.asarray(xy, dtype=float)[:2] + sole_corners(length, width)[:, :2] @ rot2(yaw).T
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:

@@ -7,6 +7,7 @@ In a source checkout (and an editable install) they are the top-level ``robots/`
 from __future__ import annotations
 
 import importlib
+import tomllib
 from pathlib import Path
 
 _REPO = Path(__file__).resolve().parent.parent
@@ -28,3 +29,14 @@ def robots_dir() -> Path:
 def stacks_dir() -> Path:
     """Folder holding the declarative task-stack files (``*.toml``)."""
     return _data_dir("tasks", "wbc.task_stacks")
+
+
+def read_toml(path: Path, what: str, error: type[Exception]) -> dict:
+    """A TOML file as a dict; ``error`` (naming ``what`` and the path) if missing or invalid."""
+    if not path.is_file():
+        raise error(f"{what} not found: {path}")
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{what} {path} is not valid TOML: {exc}") from exc

@@ -11,7 +11,6 @@ our joint angle is zero::
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .exceptions import ServoMapError
+from .paths import read_toml
 
 TICK_MIN = 0
 TICK_MAX = 1023
@@ -71,13 +71,7 @@ class ServoMap:
     def from_file(cls, path: str | Path, joint_names: Sequence[str] | None = None) -> ServoMap:
         """Load a servo map TOML; with ``joint_names``, reorder to (and check against) them."""
         path = Path(path)
-        if not path.is_file():
-            raise ServoMapError(f"servo map not found: {path}")
-        try:
-            with open(path, "rb") as f:
-                raw = tomllib.load(f)
-        except tomllib.TOMLDecodeError as exc:
-            raise ServoMapError(f"servo map {path} is not valid TOML: {exc}") from exc
+        raw = read_toml(path, "servo map", ServoMapError)
         joints = raw.get("joints")
         if not isinstance(joints, dict) or not joints:
             raise ServoMapError(f"servo map {path} has no [joints] table")

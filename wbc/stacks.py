@@ -18,7 +18,6 @@ controller re-binds them at every support change (:meth:`ControlStack.set_phase`
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,7 +28,7 @@ import numpy as np
 from .exceptions import TaskError
 from .limits import ComPolygonConstraint, Constraint, GroundClearanceConstraint
 from .model import Kinematics, Robot
-from .paths import stacks_dir
+from .paths import read_toml, stacks_dir
 from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
 from .tasks import (
     ComTask,
@@ -195,11 +194,7 @@ def load_stack(
         raise TaskError(
             f"unknown task stack {str(name_or_path)!r}; available: {available_stacks()}"
         )
-    try:
-        with open(path, "rb") as f:
-            spec = tomllib.load(f)
-    except tomllib.TOMLDecodeError as exc:
-        raise TaskError(f"task stack {path} is not valid TOML: {exc}") from exc
+    spec = read_toml(path, "task stack", TaskError)
     if solver is not None:
         spec = {**spec, "solver": solver}
     return build_stack(spec, robot, q, backend, source=str(path), **solver_options)

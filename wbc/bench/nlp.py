@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError
-from ..geometry import FOOT_LENGTH, FOOT_WIDTH
+from ..geometry import FOOT_LENGTH, FOOT_WIDTH, sole_corners
 from ..model import Robot
 from ..walking.loop import Controller, TickTargets, heading_free, torso_target
 from ..walking.reference import WalkingReference
@@ -157,8 +157,7 @@ class PoseNLP:
         self.hard_torso = bool(hard_torso)
         self.weights = weights or NlpWeights()
         self.ground_clearance = bool(ground_clearance)
-        hl, hw = 0.5 * foot[0], 0.5 * foot[1]
-        self.corners = np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
+        self.corners = sole_corners(*foot)
         self.tol = float(tol)
         self.feasibility_tol = float(feasibility_tol)
         self.max_iterations = int(max_iterations)

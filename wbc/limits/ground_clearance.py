@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import TaskError
-from ..geometry import FOOT_LENGTH, FOOT_WIDTH
+from ..geometry import FOOT_LENGTH, FOOT_WIDTH, sole_corners
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
 
@@ -30,8 +30,7 @@ class GroundClearanceConstraint(Constraint):
         self.robot = robot
         self.clearance = clearance
         self.set_frame(frame)
-        hl, hw = 0.5 * length, 0.5 * width
-        self.corners = np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
+        self.corners = sole_corners(length, width)
         self._G = np.zeros((4, robot.nv))
         self._h = np.zeros(4)
 

@@ -6,7 +6,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..geometry import FOOT_LENGTH, FOOT_WIDTH, convex_hull, halfplanes, signed_distance
+from ..geometry import (
+    FOOT_LENGTH,
+    FOOT_WIDTH,
+    convex_hull,
+    halfplanes,
+    signed_distance,
+    sole_corners,
+)
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
 
@@ -18,9 +25,7 @@ def foot_corners(
     width: float = FOOT_WIDTH,
 ) -> np.ndarray:
     """The four sole corners in the world (4 x 3), counter-clockwise seen from above."""
-    hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
-    return placement_translation + local @ placement_rotation.T
+    return placement_translation + sole_corners(length, width) @ placement_rotation.T
 
 
 class SupportPolygon:

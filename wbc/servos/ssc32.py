@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 import os
 import time
-import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import ServoError
+from ..paths import read_toml
 from .bus import (
     COMM_OK,
     COMM_TIMEOUT,
@@ -110,13 +110,7 @@ class Ssc32Map:
     def from_file(cls, path: str | Path, joint_names: Sequence[str]) -> Ssc32Map:
         """Load a TOML map; every joint of the model must appear, no other."""
         path = Path(path)
-        if not path.is_file():
-            raise ServoError(f"SSC-32 map not found: {path}")
-        try:
-            with open(path, "rb") as f:
-                raw = tomllib.load(f)
-        except tomllib.TOMLDecodeError as exc:
-            raise ServoError(f"SSC-32 map {path} is not valid TOML: {exc}") from exc
+        raw = read_toml(path, "SSC-32 map", ServoError)
         joints = raw.get("joints", {})
         missing = [j for j in joint_names if j not in joints]
         extra = [j for j in joints if j not in set(joint_names)]

@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, WbcError
+from ..geometry import sole_corners
 from ..model import Kinematics, Robot
 from ..recording import SUPPORT_DOUBLE, Recording
 from ..stacks import ControlStack
@@ -334,8 +335,7 @@ def run(
     com = np.zeros((n, 3))
     soles = {"l_sole": np.zeros((n, 7)), "r_sole": np.zeros((n, 7))}
     lowest = {"l_sole": np.zeros(n), "r_sole": np.zeros(n)}  # lowest sole corner height
-    hl, hw = 0.5 * ref.foot.length, 0.5 * ref.foot.width
-    corners = np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
+    corners = sole_corners(ref.foot.length, ref.foot.width)
     solve_time = np.zeros(n)
     iterations = np.zeros(n, dtype=int)
     failed = np.zeros(n, dtype=bool)
