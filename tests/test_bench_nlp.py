@@ -180,9 +180,12 @@ def test_com_shift_double_support_holds_soles_and_beats_the_qp_stacks(robot, nlp
     assert robot.within_limits(sol.q)
     # the weighted optimum trades a little CoM error for torso and posture
     assert np.linalg.norm(robot.com(sol.q) - targets.com) < 1e-4
+    torso = heading_free(robot.frame_placement(q0, "torso").rotation)
+    swing = targets.r_sole
     tick = TickTargets(
-        0, 0.0, "double", "l_sole", "r_sole", targets.com, targets.l_sole, targets.r_sole, 0.0
-    )
+        0, 0.0, "double", "l_sole", "r_sole", targets.com, targets.l_sole, targets.r_sole, 0.0,
+        torso, swing.translation.copy(), swing.rotation.copy(),
+    )  # fmt: skip
     for kind in ("hierarchical", "weighted"):
         qp = StackController(load_stack("walk", robot, solver=kind))
         qp.start(robot, q0, None)

@@ -134,21 +134,29 @@ def test_all_backends_agree_on_the_weighted_qp(robot, seed, shift, lift, polygon
 @given(seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.03), polygon=st.booleans())
 def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon):
     """The active-set solvers (DAQP, quadprog) agree to 1e-6 and ProxQP to 1e-4. OSQP (ADMM,
-    eps 1e-6) agrees to 1e-3: its polishing fails on the degenerate lower levels of a hierarchy
-    (many active bounds), leaving errors up to ~2e-4, and it may stop at its iteration limit
-    there (a SolverError, never a silently wrong answer)."""
+    eps 1e-6) meets each level's optimum to its tolerance, but not Δq: its polishing fails on
+    the degenerate lower levels of a hierarchy (many active bounds), and a bound met to 1e-6
+    instead of exactly moves Δq by up to ~1e-2 along the nearly flat directions of the last
+    level. So for OSQP the test compares what ADMM guarantees: every level's residual (1e-4)
+    and the bounds (1e-5). It may also stop at its iteration limit there (a SolverError,
+    never a silently wrong answer)."""
     q, _ = random_start(robot, seed)
-    results = {}
+    results, residuals = {}, {}
     for backend in BACKENDS:
         stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
+        solver = HierarchicalQP(stack, backend)
         try:
-            results[backend] = HierarchicalQP(stack, backend).solve(q, dt=0.01)
+            results[backend] = solver.solve(q, dt=0.01)
         except SolverError as exc:
             assert backend == "osqp" and "maximum iterations" in str(exc)
+            continue
+        residuals[backend] = [np.linalg.norm(s.residual) for s in solver.solutions]
+        lower, upper = solver._box
+        assert np.all(results[backend] >= lower - 1e-5) and np.all(results[backend] <= upper + 1e-5)
     assert np.allclose(results["quadprog"], results["daqp"], atol=1e-6)
     assert np.allclose(results["proxqp"], results["daqp"], atol=1e-4)
     if "osqp" in results:
-        assert np.allclose(results["osqp"], results["daqp"], atol=1e-3)
+        assert np.allclose(residuals["osqp"], residuals["daqp"], atol=1e-4)
 
 
 # ---------------------------------------------------------------------------- hierarchy laws

@@ -8,6 +8,7 @@ joints...]`` (nq = 7 + n) and velocities/increments ``v = [v_lin, v_ang, joint r
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -116,16 +117,32 @@ class Robot:
             raise ModelError(f"unknown frame {name!r}; frames of {self.name}: {known}")
         return self.model.getFrameId(name)
 
+    def frame_support(self, frame_id: int) -> np.ndarray:
+        """The velocity coordinates (nv bools) that move a frame: its joint's ancestors and
+        the joint itself (cached; read-only)."""
+        cache = self.__dict__.setdefault("_frame_supports", {})
+        if frame_id not in cache:
+            model = self.model
+            mask = np.zeros(self.nv, dtype=np.bool_)
+            for j in model.supports[model.frames[frame_id].parentJoint]:
+                if j:
+                    joint = model.joints[j]
+                    mask[joint.idx_v : joint.idx_v + joint.nv] = True
+            mask.flags.writeable = False
+            cache[frame_id] = mask
+        return cache[frame_id]
+
     # ------------------------------------------------------------------ configurations
     def check_configuration(self, q: Sequence[float] | np.ndarray, what: str = "q") -> np.ndarray:
-        """Return ``q`` as a float array after checking its size and finiteness."""
-        q = np.asarray(q, dtype=float)
+        """Return ``q`` as a C-contiguous float array after checking its size and finiteness."""
+        q = np.ascontiguousarray(q, dtype=float)
         if q.shape != (self.nq,):
             raise ConfigurationError(
                 f"{what}: expected a configuration of size nq={self.nq} (7 base + "
                 f"{self.n_joints} joints), got shape {q.shape}"
             )
-        if not np.isfinite(q).all():
+        # q·q is finite when every entry is (and cheap): the exact test only when it is not
+        if not math.isfinite(q.dot(q)) and not np.isfinite(q).all():
             idx = np.flatnonzero(~np.isfinite(q))
             names = [self._q_name(i) for i in idx]
             raise ConfigurationError(f"{what}: non-finite values at {names}")

@@ -36,7 +36,7 @@ import pinocchio as pin
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError
 from ..geometry import FOOT_LENGTH, FOOT_WIDTH, sole_corners
 from ..model import Robot
-from ..walking.loop import Controller, TickTargets, heading_free, torso_target
+from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference
 from .casadi_kinematics import CasadiKinematics
 from .peers import COM_WEIGHT, POSTURE_WEIGHT, SWING_WEIGHT, TORSO_WEIGHT
@@ -489,7 +489,6 @@ class NlpController(Controller):
         self.last: PoseSolution | None = None
         self._ref: WalkingReference | None = None
         self._posture = np.zeros(0)
-        self._pitch_roll = np.eye(3)
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         if self.nlp is None or self.nlp.robot is not robot:
@@ -498,12 +497,11 @@ class NlpController(Controller):
         self.nlp.reset()
         q0 = robot.check_configuration(q0)
         self._posture = q0[7:].copy()
-        self._pitch_roll = heading_free(robot.frame_placement(q0, self.nlp.torso).rotation)
         self._ref = ref
         self.last = None
 
     def pose_targets(self, targets: TickTargets) -> PoseTargets:
-        """The NLP targets of a tick: the torso target is Rz(yaw) · (start torso, heading-free)."""
+        """The NLP targets of a tick (the torso's: Rz(yaw) · start torso, heading-free)."""
         polygon = None
         if self.com_margin is not None and self._ref is not None:
             polygon = self._ref.support_halfplanes(targets.i, self.com_margin)
@@ -511,7 +509,7 @@ class NlpController(Controller):
             com=np.asarray(targets.com, dtype=float),
             l_sole=targets.l_sole,
             r_sole=targets.r_sole,
-            torso=torso_target(targets.torso_yaw, self._pitch_roll),
+            torso=targets.torso_rotation,
             posture=self._posture,
             phase=targets.phase,
             support=targets.support,

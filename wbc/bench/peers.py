@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from ..exceptions import SolverError
 from ..model import Robot
-from ..walking.loop import Controller, TickTargets, heading_free, torso_target
+from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference
 
 # the weights of tasks/walk.toml
@@ -61,7 +61,6 @@ class PlacoController(Controller):
         self.com = solver.add_com_task(self.pr.com_world())
         self.com.configure("com", "soft", COM_WEIGHT)
         R0 = self.pr.get_T_world_frame("torso")[:3, :3]
-        self.pitch_roll = heading_free(R0)
         self.torso = solver.add_orientation_task("torso", R0)
         self.torso.configure("torso", "soft", TORSO_WEIGHT)
         posture = solver.add_joints_task()
@@ -81,7 +80,7 @@ class PlacoController(Controller):
         if targets.phase == "single":
             self.feet[targets.swing].T_world_frame = targets.swing_placement.homogeneous
         self.com.target_world = targets.com
-        self.torso.R_world_frame = torso_target(targets.torso_yaw, self.pitch_roll)
+        self.torso.R_world_frame = targets.torso_rotation
 
     def track(self, q, targets, dt, phase_changed):
         self._set(q, targets, phase_changed)
@@ -120,7 +119,6 @@ class PinkController(Controller):
         self.com.set_target(robot.com(q0))
         self.torso = FrameTask("torso", position_cost=0.0, orientation_cost=np.sqrt(TORSO_WEIGHT))
         self.torso.set_target(self.config.get_transform_frame_to_world("torso"))
-        self.pitch_roll = heading_free(self.torso.transform_target_to_world.rotation)
         self.posture = PostureTask(cost=np.sqrt(POSTURE_WEIGHT))
         self.posture.set_target(q0.copy())
         self.limits = [ConfigurationLimit(self.model), VelocityLimit(self.model)]
@@ -142,9 +140,7 @@ class PinkController(Controller):
         if targets.phase == "single":
             self.feet[targets.swing].set_target(targets.swing_placement)
         self.com.set_target(targets.com)
-        self.torso.set_target(
-            pin.SE3(torso_target(targets.torso_yaw, self.pitch_roll), np.zeros(3))
-        )
+        self.torso.set_target(pin.SE3(targets.torso_rotation, np.zeros(3)))
         self.config.update(q)
         try:
             v = solve_ik(

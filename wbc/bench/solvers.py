@@ -63,8 +63,7 @@ class PinvController(Controller):
         if scheme is not self.active:
             scheme.reset(q)  # anchor the new support sole where it is
             self.active = scheme
-        swing = targets.swing_placement
-        scheme.set_targets(targets.com, swing.translation, swing.rotation)
+        scheme.set_targets(targets.com, targets.swing_position, targets.swing_rotation)
         return scheme
 
     def track(self, q, targets, dt, phase_changed):

@@ -53,6 +53,10 @@ class JointVelocityLimit(BoxLimit):
             self._dt = dt
         return self._step, self._neg_step
 
+    def step(self, dt: float) -> np.ndarray:
+        """The largest joint increment in one time step, scale · v_max · dt (cached)."""
+        return self._steps(dt)[0]
+
     def clip_joint_bounds(self, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
         """Clip joint position bounds into [−v dt, v dt] in place.
 

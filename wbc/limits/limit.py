@@ -45,7 +45,21 @@ class Constraint(ABC):
 
     def __init__(self, name: str) -> None:
         self.name = name
-        self.active = True
+        self._active = True
+
+    @property
+    def active(self) -> bool:
+        """Inactive constraints are skipped by every solver (e.g. the swing sole's clearance
+        in double support); switching re-plans the solvers' layouts."""
+        return self._active
+
+    @active.setter
+    def active(self, value: bool) -> None:
+        from ..tasks.task import bump_structure
+
+        if bool(value) != self._active:
+            self._active = bool(value)
+            bump_structure()
 
     @abstractmethod
     def compute(self, kin: Kinematics) -> Inequality:

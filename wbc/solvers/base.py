@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -13,6 +14,10 @@ from ..limits import Bounds, intersect_bounds
 from ..model import Kinematics
 from .backends import QPBackend, make_backend
 from .stack import TaskStack
+
+#: violation up to which a compiled solution counts as meeting the inequality rows (the
+#: backends' own primal tolerance is of the same order)
+CONSTRAINT_TOL = 1e-9
 
 
 @dataclass
@@ -43,14 +48,30 @@ class StackSolver(ABC):
         backend: str | QPBackend = "daqp",
         regularization: float = 1e-6,
         on_infeasible: str = "raise",
+        compiled: bool | None = None,
     ) -> None:
         if on_infeasible not in ("raise", "relax"):
             raise WbcError(f"on_infeasible must be 'raise' or 'relax', got {on_infeasible!r}")
+        if compiled not in (None, True, False):
+            raise ConfigurationError(f"compiled must be None, True or False, got {compiled!r}")
         self.stack = stack
         self.robot = stack.robot
         self.backend = make_backend(backend) if isinstance(backend, str) else backend
         self.regularization = regularization
         self.on_infeasible = on_infeasible
+        #: None: the compiled hot path when the backend is DAQP (the default) and the stack
+        #: allows it (see :meth:`compiled_reason`), with DAQP for the ticks it hands back;
+        #: True: required, whatever the backend (ConfigurationError if the stack does not
+        #: allow it); False: numpy assembly and the backend on every tick
+        self.compiled = compiled
+        #: the compiled plan of the current layout (None: the numpy path)
+        self.fast = None
+        #: solves done by the compiled kernels / handed back by them to the numpy path (an
+        #: active inequality row, an active set that did not settle, an infeasible level)
+        self.compiled_ticks = 0
+        self.handed_back_ticks = 0
+        self._layouts: dict = {}
+        self._stepped: np.ndarray | None = None
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
@@ -71,9 +92,14 @@ class StackSolver(ABC):
 
     def solve(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """Δq (nv) for one QP at configuration q; ``dt`` enables the velocity limits."""
+        dq = self._timed_solve(q, dt)
+        return dq.copy() if self._stepped is not None else dq  # a kernel's buffer: copy
+
+    def _timed_solve(self, q: np.ndarray, dt: float | None) -> np.ndarray:
         start = time.perf_counter()
-        if dt is not None and not (np.isfinite(dt) and dt > 0):
+        if dt is not None and not (math.isfinite(dt) and dt > 0):
             raise ConfigurationError(f"dt must be a positive number, got {dt}")
+        self._stepped = None  # the compiled path sets it to q ⊕ Δq
         self.kin.update(q)
         dq = self._solve(self.kin, dt)
         self.solve_time = time.perf_counter() - start
@@ -87,12 +113,21 @@ class StackSolver(ABC):
         onto their limits, so that no returned configuration ever exceeds a limit (a joint that
         started outside is moved back towards its range, never further out).
         """
-        dq = self.solve(q, dt)
-        return self.integrate(q, dq)
+        dq = self._timed_solve(q, dt)
+        if self._stepped is not None:  # integrated by the kernel, the same way
+            return self._stepped.copy()
+        return self.integrate(self.kin.q, dq)
 
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """q ⊕ dq with dq's joint part clipped to the last solve's box bounds and the joints
         to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances)."""
+        if self.fast is not None:  # the same operations, compiled
+            lower, upper = self._box if self._box is not None else self.fast.unbounded
+            q = np.ascontiguousarray(q, dtype=float)
+            dq = np.ascontiguousarray(dq, dtype=float)
+            q_next = np.empty_like(q)
+            self.fast.integrate(q, dq, lower, upper, self._q_min, self._q_max, q_next)
+            return q_next
         if self._box is not None:
             lower, upper = self._box
             dq = dq.copy()
@@ -145,6 +180,75 @@ class StackSolver(ABC):
             for t in self.stack.tasks()
             if t.active and t.blocks_convergence
         )
+
+    # ------------------------------------------------------------------ layouts
+    def _layout_key(self) -> tuple:
+        """What a solver's preallocated layout depends on: the active tasks (with their gains,
+        masks, weights and frames) and constraints, level by level. Switching between support
+        phases alternates between a few layouts, which are kept (:meth:`_cached_layout`)."""
+        return (
+            self.stack.version,
+            tuple(
+                (
+                    lv.priority,
+                    lv.hard,
+                    tuple(
+                        (id(t), t.params_version, getattr(t, "frame_id", -1))
+                        for t in lv.active_tasks()
+                    ),
+                    tuple(id(c) for c in lv.active_constraints()),
+                )
+                for lv in self.stack.levels
+            ),
+        )
+
+    def _cached_layout(self, key: tuple):
+        """The layout kept for ``key`` (None if none); a reused compiled plan re-points the
+        tasks' errors at its rows before its next solve."""
+        layout = self._layouts.get(key)
+        if layout is not None and getattr(layout, "fast", None) is not None:
+            layout.fast.rebind = True
+        return layout
+
+    def _keep_layout(self, key: tuple, layout) -> None:
+        if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh
+            self._layouts.clear()
+        self._layouts[key] = layout
+
+    # ------------------------------------------------------------------ compiled path
+    def compiled_reason(self) -> str:
+        """Why the compiled hot path cannot serve this stack ("" if it can)."""
+        from ..compiled.plan import KINDS, numba_available
+
+        if not numba_available():
+            return "numba is not installed (pip install numba)"
+        others = sorted(
+            {type(t).__name__ for lv in self.stack.levels for t in lv.active_tasks()}
+            - {k.__name__ for k in KINDS}
+        )
+        if others:
+            return f"no compiled form for the task types {others}"
+        if self.stack.extra_limits:
+            return "extra box limits are not compiled"
+        return ""
+
+    def _use_compiled(self) -> bool:
+        """Decide at (re)planning time whether the compiled path serves the new layout."""
+        if self.compiled is False or (self.compiled is None and self.backend.name != "daqp"):
+            return False  # by default the kernel stands in for DAQP only (its fallback)
+        reason = self.compiled_reason()
+        if reason and self.compiled:
+            raise ConfigurationError(f"{self.name}: compiled=True but {reason}")
+        return not reason
+
+    def _constraints_hold(self, kin: Kinematics, constraints, dq: np.ndarray) -> bool:
+        """The compiled kernels leave inequality rows out: their solution is the solution
+        of the whole problem when it meets those rows (they are then inactive)."""
+        for c in constraints:
+            G, h = c.compute(kin)
+            if h.size and (G @ dq - h).max() > CONSTRAINT_TOL:
+                return False
+        return True
 
     # ------------------------------------------------------------------ helpers
     def compute_bounds(

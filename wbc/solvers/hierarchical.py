@@ -15,6 +15,8 @@ A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the sol
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..exceptions import InfeasibleError, SolverError
@@ -29,6 +31,16 @@ from .diagnostics import infeasible_message
 METHODS = ("cascade", "daqp")
 
 
+class _Layout(NamedTuple):
+    """One layout of the stack (see :meth:`StackSolver._layout_key`)."""
+
+    levels: list
+    blocks: list[TaskBlock]
+    constraints: list[list]
+    all_constraints: list
+    fast: object  # the compiled plan, or None
+
+
 class HierarchicalQP(StackSolver):
     """Lexicographic QP over the stack's levels (see the module docstring)."""
 
@@ -40,31 +52,95 @@ class HierarchicalQP(StackSolver):
         regularization: float = 1e-6,
         on_infeasible: str = "raise",
         hard_tol: float = 1e-6,
+        compiled: bool | None = None,
     ) -> None:
         if method not in METHODS:
             raise SolverError(f"unknown hierarchical method {method!r}; choose from {METHODS}")
         if method == "daqp" and (backend if isinstance(backend, str) else backend.name) != "daqp":
             raise SolverError("method='daqp' uses DAQP's native hierarchy: backend must be daqp")
-        super().__init__(stack, backend, regularization, on_infeasible)
+        super().__init__(stack, backend, regularization, on_infeasible, compiled)
         self.method = method
         self.hard_tol = hard_tol
         self._backends: list[QPBackend] = []
         self._key = None
-        self.problems: list[LevelProblem] = []
-        self.solutions: list[LevelSolution] = []
+        self._problems: list[LevelProblem] = []
+        self._solutions: list[LevelSolution] = []
+        self._lazy_dq: np.ndarray | None = None  # set when the compiled path solved last
+        nv = self.robot.nv
+        self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self.diagnosis = ""
 
     @property
     def name(self) -> str:
         return f"HierarchicalQP[{self.method}:{self.backend.name}]"
 
+    def compiled_reason(self) -> str:
+        if self.method != "cascade":
+            return "DAQP's native hierarchy has no compiled form"
+        return super().compiled_reason()
+
     def _plan(self) -> None:
-        nv = self.robot.nv
-        self._levels = self.stack.levels
-        self._blocks = [TaskBlock(lv.active_tasks(), nv) for lv in self._levels]
-        self._constraints = [lv.active_constraints() for lv in self._levels]
-        self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        key = self._layout_key()
+        layout = self._cached_layout(key)
+        if layout is None:
+            layout = self._build_layout()
+            self._keep_layout(key, layout)
+        self._levels, self._blocks, self._constraints, self._all_constraints, self.fast = layout
         self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+
+    def _build_layout(self) -> _Layout:
+        nv = self.robot.nv
+        levels = self.stack.levels
+        constraints = [lv.active_constraints() for lv in levels]
+        fast = None
+        if levels and self._use_compiled():
+            from ..compiled.plan import CascadePlan
+
+            fast = CascadePlan(
+                self, self.kin, [lv.active_tasks() for lv in levels], [lv.hard for lv in levels]
+            )
+        return _Layout(
+            levels,
+            [TaskBlock(lv.active_tasks(), nv) for lv in levels],
+            constraints,
+            [c for cons in constraints for c in cons],
+            fast,
+        )
+
+    # ------------------------------------------------------------------ per-level results
+    @property
+    def problems(self) -> list[LevelProblem]:
+        """Each level's rows at the last solve."""
+        if self._lazy_dq is not None:
+            self._materialize()
+        return self._problems
+
+    @property
+    def solutions(self) -> list[LevelSolution]:
+        """Each level's residual, slacks and constraint margins at the last solve."""
+        if self._lazy_dq is not None:
+            self._materialize()
+        return self._solutions
+
+    def _materialize(self) -> None:
+        """Build problems/solutions of a compiled solve (only when someone asks for them)."""
+        dq, self._lazy_dq = self._lazy_dq, None
+        fast, nv = self.fast, self.robot.nv
+        self._problems, self._solutions = [], []
+        for k, (lv, cons) in enumerate(zip(self._levels, self._constraints, strict=True)):
+            r0, r1 = fast.level_rows[k], fast.level_rows[k + 1]
+            G, h, cslices = stack_constraints(cons, self.kin, nv)
+            slices = [
+                (name, slice(sl.start - r0, sl.stop - r0))
+                for name, sl in fast.rows.slices
+                if r0 <= sl.start < r1
+            ]
+            J, b = fast.rows.J[r0:r1].copy(), fast.rows.b[r0:r1].copy()
+            self._problems.append(LevelProblem(lv.priority, J, b, G, h, lv.hard, slices, cslices))
+            margin = G @ dq - h if h.size else np.zeros(0)
+            self._solutions.append(
+                LevelSolution(lv.priority, J @ dq - b, np.zeros(h.size), margin=margin)
+            )
 
     def _level_problems(self, kin: Kinematics) -> list[LevelProblem]:
         nv = self.robot.nv
@@ -80,7 +156,25 @@ class HierarchicalQP(StackSolver):
     def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
         if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
             self._plan()
-        self.problems = self._level_problems(kin)
+        fast = self.fast
+        if fast is not None:
+            if fast.rebind:
+                fast.rebind_errors()
+            if fast.solve(kin, dt) == 0 and (
+                not self._all_constraints
+                or self._constraints_hold(kin, self._all_constraints, fast.dq)
+            ):
+                self.compiled_ticks += 1
+                self._box = fast.box
+                self.relaxed = False
+                self.diagnosis = ""
+                self._stepped = fast.q_next
+                self._lazy_dq = fast.dq  # valid until the next solve, which resets it
+                return fast.dq
+            self.handed_back_ticks += 1
+            fast.rebind = True  # the numpy path points last_error at its own rows
+        self._lazy_dq = None
+        self._problems = self._level_problems(kin)
         lower, upper = self._lower, self._upper
         self.compute_bounds(kin, dt, lower, upper)
         relax = self.on_infeasible == "relax"
@@ -90,7 +184,7 @@ class HierarchicalQP(StackSolver):
             while len(self._backends) < len(self.problems) + 1:
                 self._backends.append(make_backend(self.backend.name, self.backend.eps))
             try:
-                dq, self.solutions = solve_cascade(
+                dq, self._solutions = solve_cascade(
                     self.problems,
                     lower,
                     upper,
@@ -166,7 +260,7 @@ class HierarchicalQP(StackSolver):
                 raise InfeasibleError("daqp hierarchical: the bounds are infeasible")
             raise SolverError(f"daqp hierarchical failed with exit flag {exitflag}")
         x = np.asarray(x, dtype=float)
-        self.solutions = [
+        self._solutions = [
             LevelSolution(
                 p.priority, p.J @ x - p.b, np.maximum(p.G @ x - p.h, 0.0), margin=p.G @ x - p.h
             )

@@ -12,6 +12,8 @@ into the solver's own packed buffers) and re-plans only when the stack's structu
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..exceptions import InfeasibleError
@@ -21,6 +23,16 @@ from .assembly import TaskBlock, stack_constraints
 from .base import StackSolver
 from .cascade import LevelProblem, solve_cascade
 from .diagnostics import conflicts, infeasible_message
+
+
+class _Layout(NamedTuple):
+    """One layout of the stack (see :meth:`StackSolver._layout_key`)."""
+
+    soft: TaskBlock
+    hard: TaskBlock
+    constraints: list
+    fast: object  # the compiled plan, or None
+    ws: object  # the backend's workspace
 
 
 class WeightedQP(StackSolver):
@@ -38,25 +50,58 @@ class WeightedQP(StackSolver):
         regularization=1e-6,
         on_infeasible="raise",
         hard_tol: float = 1e-6,
+        compiled: bool | None = None,
     ) -> None:
-        super().__init__(stack, backend, regularization, on_infeasible)
+        super().__init__(stack, backend, regularization, on_infeasible, compiled)
         self.hard_tol = hard_tol
         self._key = None
         self.ws = None
         self.diagnosis = ""
 
     def _plan(self, m_in: int) -> None:
+        """(Re)build the layout when the stack's structure changed; resize the workspace to
+        ``m_in`` inequality rows."""
+        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+            key = self._layout_key()
+            layout = self._cached_layout(key)
+            if layout is None:
+                layout = self._build_layout()
+                self._keep_layout(key, layout)
+            self.soft, self.hard, self.constraints, self.fast, self.ws = layout
+            self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+        if self.ws.shape[2] != m_in:
+            self.ws = self.backend.workspace(self.robot.nv, self.hard.m, m_in)
+
+    def _build_layout(self) -> _Layout:
         levels = self.stack.levels
         nv = self.robot.nv
-        self.soft = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
-        self.hard = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
-        self.constraints = [c for lv in levels for c in lv.active_constraints()]
-        self.ws = self.backend.workspace(nv, self.hard.m, m_in)
-        self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+        soft = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
+        hard = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
+        constraints = [c for lv in levels for c in lv.active_constraints()]
+        fast = None
+        if self._use_compiled():
+            from ..compiled.plan import WeightedPlan
+
+            fast = WeightedPlan(self, self.kin, soft.tasks, hard.tasks)
+        return _Layout(soft, hard, constraints, fast, self.backend.workspace(nv, hard.m, 0))
 
     def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
         if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
-            self._plan(0)
+            self._plan(self.ws.shape[2] if self.ws is not None else 0)
+        fast = self.fast
+        if fast is not None:
+            if fast.rebind:
+                fast.rebind_errors()
+            if fast.solve(kin, dt) == 0 and (
+                not self.constraints or self._constraints_hold(kin, self.constraints, fast.dq)
+            ):
+                self.compiled_ticks += 1
+                self._box = fast.box
+                self.relaxed = False
+                self._stepped = fast.q_next
+                return fast.dq
+            self.handed_back_ticks += 1
+            fast.rebind = True  # the numpy path points last_error at its own rows
         G, h = None, None
         if self.constraints:
             G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)

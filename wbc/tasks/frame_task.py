@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ..model import Robot
-from .task import Task
+from .task import Task, bump_structure
 
 
 class FrameTask(Task):
@@ -31,5 +31,8 @@ class FrameTask(Task):
 
     def set_frame(self, frame: str) -> None:
         """Attach the task to another frame (raises ModelError for unknown names)."""
-        self.frame_id = self.robot.frame_id(frame)
+        frame_id = self.robot.frame_id(frame)
+        if frame_id != getattr(self, "frame_id", None):
+            bump_structure()  # compiled plans hold the frame's placement views
+        self.frame_id = frame_id
         self.frame = frame

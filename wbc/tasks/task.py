@@ -65,6 +65,11 @@ class Task(ABC):
         self.weight = weight
 
     # ------------------------------------------------------------------ parameters
+    def _changed(self) -> None:
+        """A parameter baked into the solvers' layouts changed (gain, mask or weight)."""
+        self.params_version = getattr(self, "params_version", 0) + 1
+        bump_structure()
+
     @property
     def active(self) -> bool:
         """Inactive tasks are skipped by every solver (e.g. the swing task in double support)."""
@@ -85,7 +90,7 @@ class Task(ABC):
         if not np.isfinite(value) or value < 0:
             raise TaskError(f"task {self.name!r}: gain must be finite and >= 0, got {value}")
         self._gain = float(value)
-        bump_structure()
+        self._changed()
 
     @property
     def mask(self) -> np.ndarray:
@@ -101,7 +106,7 @@ class Task(ABC):
         if not m.any():
             raise TaskError(f"task {self.name!r}: mask selects no row")
         self._mask = m
-        bump_structure()
+        self._changed()
         self._rows = np.flatnonzero(m)
         self._all = bool(m.all())
         self.last_error = np.zeros(self._rows.size)
@@ -131,7 +136,7 @@ class Task(ABC):
             raise TaskError(f"task {self.name!r}: weights must be finite and >= 0, got {w}")
         self._weight_full = w
         self._weight = w[self._rows]
-        bump_structure()
+        self._changed()
 
     # ------------------------------------------------------------------ to implement
     @abstractmethod
@@ -183,7 +188,7 @@ def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarr
     v = np.asarray(value, dtype=float)
     if v.shape != (size,):
         raise TaskError(f"task {task.name!r}: {what} must have shape ({size},), got {v.shape}")
-    if not np.isfinite(v).all():
+    if not all(map(math.isfinite, v.tolist())):  # 4x np.isfinite(v).all() on short vectors
         raise TaskError(f"task {task.name!r}: {what} has non-finite values: {v}")
     return v
 
@@ -191,20 +196,42 @@ def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarr
 def check_rotation(task: Task, value, what: str = "target rotation") -> np.ndarray:
     """Validate a 3x3 rotation matrix (finite, orthonormal columns to 1e-6, det +1).
 
-    Scalar arithmetic on the nine entries: this runs on every target update of the hot path,
-    where numpy's allclose/det would cost tens of microseconds.
+    This runs on every target update of the hot path: compiled when numba is available,
+    else scalar arithmetic on the nine entries (numpy's allclose/det would cost tens of µs).
     """
     R = np.asarray(value, dtype=float)
     if R.shape != (3, 3):
         raise TaskError(f"task {task.name!r}: {what} must be a 3x3 matrix, got {R.shape}")
+    defect = _rotation_defect(R)
+    if defect > 1e-6:
+        if not np.isfinite(R).all():
+            raise TaskError(f"task {task.name!r}: {what} has non-finite values")
+        raise TaskError(f"task {task.name!r}: {what} is not a rotation matrix")
+    return R
+
+
+def _python_rotation_defect(R: np.ndarray) -> float:
     a, b, c, d, e, f, g, h, i = R.ravel().tolist()
-    if not all(map(math.isfinite, (a, b, c, d, e, f, g, h, i))):
-        raise TaskError(f"task {task.name!r}: {what} has non-finite values")
+    if not math.isfinite(a + b + c + d + e + f + g + h + i):  # NaN and ±inf propagate
+        return math.inf
     gram = (
         a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0,
         a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i,
     )  # fmt: skip
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    if max(map(abs, gram)) > 1e-6 or det < 0:
-        raise TaskError(f"task {task.name!r}: {what} is not a rotation matrix")
-    return R
+    return math.inf if det < 0 else max(map(abs, gram))
+
+
+def _first_rotation_defect(R: np.ndarray) -> float:
+    """Pick the compiled check if numba imports (once), else the Python one."""
+    global _rotation_defect
+    try:
+        from ..compiled.checks import entry
+
+        _rotation_defect = entry()
+    except ImportError:
+        _rotation_defect = _python_rotation_defect
+    return _rotation_defect(R)
+
+
+_rotation_defect = _first_rotation_defect

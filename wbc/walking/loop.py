@@ -51,7 +51,11 @@ MODES = ("tick", "converge")
 
 @dataclass
 class TickTargets:
-    """What every controller is asked to track at one tick (world frame)."""
+    """What every controller is asked to track at one tick (world frame).
+
+    The arrays are computed once per run (they are the reference, not part of a tick's cost)
+    and shared by every controller: read them, never write them.
+    """
 
     i: int
     t: float
@@ -62,6 +66,11 @@ class TickTargets:
     l_sole: pin.SE3
     r_sole: pin.SE3
     torso_yaw: float
+    #: the torso rotation asked for: Rz(yaw) · the start rotation with its heading removed
+    torso_rotation: np.ndarray
+    #: the swing sole's target position and rotation (arrays of :attr:`swing_placement`)
+    swing_position: np.ndarray
+    swing_rotation: np.ndarray
 
     @property
     def swing_placement(self) -> pin.SE3:
@@ -175,11 +184,9 @@ class StackController(Controller):
             if isinstance(t, FrameOrientationTask) and t.frame_id == torso and t not in swing_tasks
         ]
         self._kin = Kinematics(robot)
-        self._torso_pitch_roll = np.eye(3)
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         self._kin.update(q0)
-        self._torso_pitch_roll = heading_free(self._kin.rotation(robot.frame_id("torso")))
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
                 task.set_target_from(self._kin)
@@ -193,17 +200,16 @@ class StackController(Controller):
             )
         for t in self._com:
             t.set_target(targets.com)
-        swing = targets.swing_placement
+        position, rotation = targets.swing_position, targets.swing_rotation
         for t in self._swing_pos:
-            t.set_target(swing.translation)
+            t.set_target(position)
         for t in self._swing_pose:
-            t.set_target(swing)
+            t.set_position_target(position)
+            t.set_rotation_target(rotation)
         for t in self._swing_rot:
-            t.set_target(swing.rotation)
-        if self._torso:
-            R = torso_target(targets.torso_yaw, self._torso_pitch_roll)
-            for t in self._torso:
-                t.set_target(R)
+            t.set_target(rotation)
+        for t in self._torso:
+            t.set_target(targets.torso_rotation)
 
     def track(self, q, targets, dt, phase_changed):
         self._set_targets(q, targets, phase_changed)
@@ -254,10 +260,18 @@ class Session:
             start_configuration(robot, ref) if q0 is None else robot.check_configuration(q0).copy()
         )
         self.support, self.swing = support_roles(ref)
-        # the sole targets of every tick, built once (not part of any controller's tick time)
+        # the targets of every tick, built once (not part of any controller's tick time)
         self._soles = [
             (ref.sole_placement(i, "left"), ref.sole_placement(i, "right")) for i in range(ref.n)
         ]
+        self._swing = [
+            (sole.translation.copy(), sole.rotation.copy())
+            for i, (left, right) in enumerate(self._soles)
+            for sole in [left if self.swing[i] == "l_sole" else right]
+        ]
+        start = robot.frame_placement(self.q, "torso").rotation
+        pitch_roll = heading_free(start)
+        self._torso = [torso_target(float(yaw), pitch_roll) for yaw in ref.torso_yaw]
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
@@ -279,6 +293,8 @@ class Session:
             left,
             right,
             float(ref.torso_yaw[i]),
+            self._torso[i],
+            *self._swing[i],
         )
 
     def tick(self, i: int) -> np.ndarray:

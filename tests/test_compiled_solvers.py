@@ -1,0 +1,147 @@
+"""The compiled hot path gives the numpy path's answers (wbc.compiled through the solvers).
+
+The solvers' laws (limits, hierarchy, backends agreeing) are tested in test_solvers.py, where
+the default DAQP solvers run through the compiled path; here the two paths are compared
+directly, and the hand-back to the numpy path is exercised.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+pytest.importorskip("numba")
+
+from test_solvers import random_start, targets, walking_stack
+
+from wbc import ConfigurationError, Kinematics
+from wbc.bench.trajectories import build
+from wbc.limits import LinearInequality
+from wbc.solvers import HierarchicalQP, WeightedQP
+from wbc.stacks import load_stack
+from wbc.tasks import SwingFootOrientationTask
+from wbc.walking.loop import StackController, run
+
+SOLVERS = {"weighted": WeightedQP, "hierarchical": HierarchicalQP}
+
+
+def pair(robot, q, kind, **stack_args):
+    """The same stack twice: a compiled solver and a numpy one."""
+    fast = SOLVERS[kind](walking_stack(robot, q, **stack_args), compiled=True)
+    slow = SOLVERS[kind](walking_stack(robot, q, **stack_args), compiled=False)
+    return fast, slow
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    shift=targets,
+    lift=st.floats(0, 0.04),
+    kind=st.sampled_from(sorted(SOLVERS)),
+    dt=st.sampled_from([0.01, None]),
+)
+def test_compiled_solve_and_step_equal_the_numpy_path(robot, seed, shift, lift, kind, dt):
+    q, _ = random_start(robot, seed)
+    fast, slow = pair(robot, q, kind, com_shift=shift, lift=lift)
+    for _ in range(3):
+        dq_fast, dq_slow = fast.solve(q, dt), slow.solve(q, dt)
+        assert fast.fast is not None
+        if kind == "weighted":  # one strictly convex QP: one answer
+            assert np.allclose(dq_fast, dq_slow, atol=1e-7), np.abs(dq_fast - dq_slow).max()
+        else:
+            # every level above the last at least as well met; the numpy cascade meets a
+            # level with active bounds to ~1e-9 in J Δq, sometimes leaving ~1e-8 on it (the
+            # kernels to ~1e-12: test_solvers checks both against an independent solve), which
+            # moves the last level's damped optimum to first order (~1e-8) and Δq by up to
+            # ~1e-6 along its flat directions
+            res_fast = [np.linalg.norm(s.residual) for s in fast.solutions]
+            res_slow = [np.linalg.norm(s.residual) for s in slow.solutions]
+            assert all(a <= b + 1e-9 for a, b in zip(res_fast[:-1], res_slow[:-1], strict=True))
+            assert abs(res_fast[-1] - res_slow[-1]) <= 1e-6
+            assert np.allclose(dq_fast, dq_slow, atol=1e-5), np.abs(dq_fast - dq_slow).max()
+        errors_fast, errors_slow = fast.stack.errors(), slow.stack.errors()
+        for name, e in errors_slow.items():
+            assert np.allclose(errors_fast[name], e, atol=1e-12), name
+        q_fast, q_slow = fast.step(q, dt), slow.step(q, dt)
+        assert np.allclose(q_fast, q_slow, atol=1e-7 if kind == "weighted" else 1e-5)
+        assert robot.within_limits(q_fast)
+        q = q_slow
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    outside=st.floats(0.001, 0.2),
+    kind=st.sampled_from(["weighted", "hierarchical"]),
+)
+def test_compiled_path_brings_joints_back_inside(robot, seed, outside, kind):
+    q, _ = random_start(robot, seed, outside=outside)
+    fast, slow = pair(robot, q, kind)
+    q_fast, q_slow = fast.step(q, 0.01), slow.step(q, 0.01)
+    assert np.allclose(q_fast, q_slow, atol=1e-7)
+    before = np.maximum(robot.q_min - q[7:], 0) + np.maximum(q[7:] - robot.q_max, 0)
+    after = np.maximum(robot.q_min - q_fast[7:], 0) + np.maximum(q_fast[7:] - robot.q_max, 0)
+    assert np.all(after <= np.maximum(before - robot.v_max * 0.01, 0) + 1e-12)
+
+
+@pytest.mark.parametrize("kind", sorted(SOLVERS))
+def test_an_active_inequality_hands_the_tick_back(robot, kind):
+    """The kernels leave inequality rows out; when the solution violates one, the numpy path
+    solves the tick (same answer as a numpy-only solver), and the next tick is compiled."""
+    q = robot.configuration("walk_ready")
+    fast, slow = pair(robot, q, kind, com_shift=(0.0, 0.02, 0.0))
+    for solver in (fast, slow):  # the CoM may not move left more than 5 mm in one tick
+        G = np.zeros((1, robot.nv))
+        G[0] = Kinematics(robot, q).com_jacobian[1]
+        solver.stack.add_constraint(LinearInequality(G, np.array([0.005]), name="cap"), level=1)
+    dq_fast, dq_slow = fast.solve(q, 0.01), slow.solve(q, 0.01)
+    assert fast.handed_back_ticks == 1
+    assert np.allclose(dq_fast, dq_slow, atol=1e-7)
+    if kind == "weighted":  # a hard row there (a soft level's row may keep a slack)
+        assert (G @ dq_fast)[0] <= 0.005 + 1e-9
+    errors = fast.stack.errors()
+    kin = Kinematics(robot, q)
+    for task in fast.stack.tasks():
+        assert np.allclose(errors[task.name], task.compute(kin)[1], atol=1e-12)
+    fast.stack.constraint("cap").active = False
+    fast.solve(q, 0.01)
+    assert fast.compiled_ticks >= 1
+    for task in fast.stack.tasks():  # errors read back from the compiled rows again
+        assert np.allclose(fast.stack.errors()[task.name], task.compute(kin)[1], atol=1e-12)
+
+
+def test_compiled_true_names_what_it_cannot_compile(robot):
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    stack.add(SwingFootOrientationTask(robot, "r_sole"), level=2)
+    with pytest.raises(ConfigurationError, match="SwingFootOrientationTask"):
+        WeightedQP(stack, compiled=True).solve(q)
+    solver = WeightedQP(stack)  # default: the numpy path, silently
+    solver.solve(q)
+    assert solver.fast is None and "SwingFootOrientationTask" in solver.compiled_reason()
+    with pytest.raises(ConfigurationError, match="compiled"):
+        WeightedQP(stack, compiled="yes")
+    assert WeightedQP(walking_stack(robot, q), backend="proxqp").compiled is None
+    proxqp = WeightedQP(walking_stack(robot, q), backend="proxqp")
+    proxqp.solve(q)
+    assert proxqp.fast is None  # by default only DAQP's solvers run the kernels
+
+
+@pytest.mark.parametrize("kind", sorted(SOLVERS))
+def test_a_walk_is_the_same_compiled_or_not(robot, kind):
+    ref = build("walk10", robot)
+    recordings = {}
+    for compiled in (True, False):
+        controller = StackController(load_stack("walk", robot, solver=kind))
+        controller.solver.compiled = compiled
+        recordings[compiled] = run(controller, robot, ref)
+        if compiled:  # every tick of a real walk is solved by the kernels
+            assert controller.solver.compiled_ticks == ref.n
+            assert controller.solver.handed_back_ticks == 0
+    a, b = recordings[True], recordings[False]
+    assert not a["failed"].any() and not b["failed"].any()
+    # the hierarchy's numpy cascade leaves up to ~1e-8 on levels with active bounds, which
+    # 565 closed-loop ticks carry to ~1e-6 rad; the weighted QP has one answer per tick
+    assert np.abs(a.q - b.q).max() < (1e-7 if kind == "weighted" else 1e-5)
+    for channel in ("com", "swing"):
+        assert np.abs(a[channel] - b[channel]).max() < 1e-6

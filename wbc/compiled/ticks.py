@@ -1,0 +1,246 @@
+"""One compiled call per control tick: every task row, the box bounds and the QP(s).
+
+* :func:`weighted_tick` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
+  rows as equalities, joint position/velocity bounds;
+* :func:`cascade_tick` — the lexicographic QP: level k in least squares subject to the bounds
+  and to every level above kept at its achieved values (``J_i Δq = J_i Δq_i``, the exact
+  optimal set of a least-squares level), the last level damped by μ‖Δq‖² as the weighted QP.
+
+Both return a status; anything but :data:`~wbc.compiled.lsq.OK` sends the caller back to the
+numpy path, which handles (and names) infeasible problems.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .lsq import MAX_ITER, NUMERICAL, OK, solve_level
+from .rows import fill_rows
+
+#: the hard rows of the last solve missed their targets by more than the caller's tolerance
+HARD_MISSED = 100
+#: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
+PROXIMAL_RIDGE = 1e-8
+#: at most this many proximal steps (the residual's bias shrinks by ε/(σ² + ε) per step)
+PROXIMAL_STEPS = 12
+
+
+@njit(cache=True)
+def joint_bounds(
+    joints: np.ndarray,
+    q_min: np.ndarray,
+    q_max: np.ndarray,
+    step: np.ndarray,
+    use_step: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> None:
+    """Box bounds on Δq (base rows unbounded): q_min − q <= Δq_j <= q_max − q, clipped into
+    [−v dt, v dt] when stepping in time (a joint outside its range moves back at servo speed),
+    as :meth:`wbc.solvers.base.StackSolver.compute_bounds`."""
+    nb = lower.shape[0] - joints.shape[0]
+    for i in range(nb):
+        lower[i] = -np.inf
+        upper[i] = np.inf
+    for j in range(joints.shape[0]):
+        lo = q_min[j] - joints[j]
+        hi = q_max[j] - joints[j]
+        if use_step:
+            s = step[j]
+            lo = min(max(lo, -s), s)
+            hi = min(max(hi, -s), s)
+        lower[nb + j] = lo
+        upper[nb + j] = hi
+
+
+@njit(cache=True)
+def weighted_tick(
+    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
+    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
+    targets, frame_R, frame_p, frame_support, Jw, com, Jcom, q,
+    q_min, q_max, step, params, lower, upper, state, dq, q_next,
+) -> int:  # fmt: skip
+    """Fill the rows and bounds, then solve min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
+    hard_J Δq = hard_b and the bounds; Δq into ``dq``, q ⊕ Δq into ``q_next`` (see
+    :func:`integrate`). ``params``: [use the velocity steps, μ, (unused)]."""
+    joints = q[q.shape[0] - q_min.shape[0] :]
+    fill_rows(
+        soft_spec, soft_sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
+        soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
+    )  # fmt: skip
+    fill_rows(
+        hard_spec, hard_sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
+        hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
+    )  # fmt: skip
+    joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
+    status = solve_level(hard_J, hard_b, soft_J, soft_b, params[1], lower, upper, state, dq)
+    if status == OK:
+        integrate(q, dq, lower, upper, q_min, q_max, q_next)
+    return status
+
+
+@njit(cache=True)
+def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
+    """min ‖B x − r‖² s.t. A x = a and the bounds, from a feasible x, by proximal steps:
+    y = argmin ‖B (x + y) − r‖² + ε‖y‖² (same constraints), x += y, until y vanishes.
+
+    Each step is strictly convex (the active set settles), and the ridge only pulls towards
+    the last iterate, so the steps converge to the exact least-squares optimum (closest to
+    the start among the optima) instead of leaving a ridge's bias on the level's residual.
+    ε is relative to the rows' mean squared norm.
+    """
+    m, n = B.shape
+    scale = 0.0
+    for i in range(m):
+        for j in range(n):
+            scale += B[i, j] * B[i, j]
+    ridge = PROXIMAL_RIDGE * max(1.0, scale / max(m, 1))
+    a_s = np.empty(a.shape[0])
+    r_s = np.empty(m)
+    lo = np.empty(n)
+    hi = np.empty(n)
+    y = np.zeros(n)
+    status = OK
+    for _ in range(PROXIMAL_STEPS):
+        for i in range(a.shape[0]):
+            a_s[i] = a[i] - np.dot(A[i], x)
+        for i in range(m):
+            r_s[i] = r[i] - np.dot(B[i], x)
+        for j in range(n):
+            lo[j] = lower[j] - x[j]
+            hi[j] = upper[j] - x[j]
+        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y)
+        if status != OK:
+            return status
+        step = 0.0
+        for j in range(n):
+            x[j] = min(max(x[j] + y[j], lower[j]), upper[j])
+            step = max(step, abs(y[j]))
+        if step <= 1e-13:
+            break
+    return status
+
+
+@njit(cache=True)
+def cascade_tick(
+    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard,
+    targets, frame_R, frame_p, frame_support, Jw, com, Jcom, q,
+    q_min, q_max, step, params, lower, upper, states, achieved, dq, q_next,
+) -> int:  # fmt: skip
+    """Fill every level's rows (weighted) and the bounds, then solve the levels in order.
+
+    ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``states[k]``: the
+    active set of level k (the last tick's: a warm start; updated); ``achieved``: J Δq of
+    each solved level; ``params``: [use the velocity steps, μ, tolerance of hard levels];
+    q ⊕ Δq into ``q_next``.
+    """
+    joints = q[q.shape[0] - q_min.shape[0] :]
+    fill_rows(
+        spec, sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
+        sqrt_w, gain_w, J, E, b,
+    )  # fmt: skip
+    joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
+    mu = params[1]
+    hard_tol = params[2]
+    n_levels = level_rows.shape[0] - 1
+    nv = dq.shape[0]
+    for i in range(nv):
+        dq[i] = 0.0
+    for k in range(n_levels):
+        r0 = level_rows[k]
+        r1 = level_rows[k + 1]
+        if r1 == r0 and k < n_levels - 1:
+            continue  # constraints only: nothing to optimise (they are checked by the caller)
+        A, a, B, r = J[:r0], achieved[:r0], J[r0:r1], b[r0:r1]
+        if k == n_levels - 1:
+            status = solve_level(A, a, B, r, mu, lower, upper, states[k], dq)
+        else:
+            # exact least squares (no ridge) when the level's rows are independent in the
+            # remaining freedom; else, or when the active set cycles on the flat directions of
+            # the unregularised problem, proximal steps (below)
+            previous = dq.copy()
+            status = solve_level(A, a, B, r, 0.0, lower, upper, states[k], dq, 1e-9, 12)
+            if status == NUMERICAL or status == MAX_ITER:
+                dq[:] = previous
+                status = _proximal_level(A, a, B, r, lower, upper, states[k], dq)
+        if status != OK:
+            return status
+        for i in range(r0, r1):
+            s = 0.0
+            for j in range(nv):
+                s += J[i, j] * dq[j]
+            achieved[i] = s
+            if level_hard[k] and abs(s - b[i]) > hard_tol:
+                return HARD_MISSED
+    integrate(q, dq, lower, upper, q_min, q_max, q_next)
+    return OK
+
+
+@njit(cache=True)
+def integrate(
+    q: np.ndarray,
+    dq: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    q_min: np.ndarray,
+    q_max: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """out = q ⊕ Δq for a free-flyer root and revolute joints, as
+    :meth:`wbc.solvers.base.StackSolver.integrate`: the joint increments clipped to the box
+    [lower, upper], the joints to [min(q_min, q_j), max(q_max, q_j)], the base moved by the
+    SE(3) exponential of its local twist Δq[:6] (Pinocchio's free-flyer integration)."""
+    vx, vy, vz = dq[0], dq[1], dq[2]
+    wx, wy, wz = dq[3], dq[4], dq[5]
+    t2 = wx * wx + wy * wy + wz * wz
+    t = math.sqrt(t2)
+    # V(ω) v = v + a (ω × v) + b (ω × (ω × v)), a = (1 − cos t)/t², b = (t − sin t)/t³
+    if t < 1e-4:
+        a = 0.5 - t2 / 24.0
+        b = 1.0 / 6.0 - t2 / 120.0
+        half = 0.5 - t2 / 48.0  # sin(t/2)/t
+        cw = 1.0 - t2 / 8.0  # cos(t/2)
+    else:
+        a = (1.0 - math.cos(t)) / t2
+        b = (t - math.sin(t)) / (t2 * t)
+        half = math.sin(0.5 * t) / t
+        cw = math.cos(0.5 * t)
+    cx = wy * vz - wz * vy
+    cy = wz * vx - wx * vz
+    cz = wx * vy - wy * vx
+    ux = vx + a * cx + b * (wy * cz - wz * cy)
+    uy = vy + a * cy + b * (wz * cx - wx * cz)
+    uz = vz + a * cz + b * (wx * cy - wy * cx)
+    # base rotation from its quaternion (x, y, z, w)
+    qx, qy, qz, qw = q[3], q[4], q[5], q[6]
+    r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
+    r01 = 2.0 * (qx * qy - qz * qw)
+    r02 = 2.0 * (qx * qz + qy * qw)
+    r10 = 2.0 * (qx * qy + qz * qw)
+    r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
+    r12 = 2.0 * (qy * qz - qx * qw)
+    r20 = 2.0 * (qx * qz - qy * qw)
+    r21 = 2.0 * (qy * qz + qx * qw)
+    r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
+    out[0] = q[0] + r00 * ux + r01 * uy + r02 * uz
+    out[1] = q[1] + r10 * ux + r11 * uy + r12 * uz
+    out[2] = q[2] + r20 * ux + r21 * uy + r22 * uz
+    # q ⊗ exp(ω/2), normalised
+    ex, ey, ez, ew = half * wx, half * wy, half * wz, cw
+    nx = qw * ex + qx * ew + qy * ez - qz * ey
+    ny = qw * ey - qx * ez + qy * ew + qz * ex
+    nz = qw * ez + qx * ey - qy * ex + qz * ew
+    nw = qw * ew - qx * ex - qy * ey - qz * ez
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
+    out[3] = nx / norm
+    out[4] = ny / norm
+    out[5] = nz / norm
+    out[6] = nw / norm
+    nb = dq.shape[0] - q_min.shape[0]
+    for j in range(q_min.shape[0]):
+        d = min(max(dq[nb + j], lower[nb + j]), upper[nb + j])
+        qj = q[7 + j]
+        out[7 + j] = min(max(qj + d, min(q_min[j], qj)), max(q_max[j], qj))
