@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 pytest.importorskip("numba")
 
-from wbc.compiled.plan import Frames, Rows, Targets, frame_ids
+from wbc.compiled.plan import KINDS, Frames, Rows, Targets, frame_ids
 from wbc.compiled.rows import fill_rows, frame_jacobian, jlog3, log3
 from wbc.model import Kinematics
 from wbc.tasks import (
@@ -21,6 +21,8 @@ from wbc.tasks import (
     FramePoseTask,
     FramePositionTask,
     PostureTask,
+    SwingFootOrientationTask,
+    TorsoOrientationTask,
 )
 
 seeds = st.integers(0, 2**31 - 1)
@@ -85,6 +87,8 @@ def make_tasks(robot, rng):
         ContactTask(robot, "r_sole", mask=[1, 1, 1, 0, 1, 1]),
         PostureTask(robot, rng.normal(scale=0.3, size=robot.n_joints), weight=0.01),
         DampingTask(robot, weight=1e-3, mask=[True] * 6 + [False] * robot.n_joints),
+        SwingFootOrientationTask(robot, "r_sole", rot(), weight=[3.0, 0.5]),
+        TorsoOrientationTask(robot, axis=rng.normal(size=3), weight=2.0, gain=0.3),
     ]
     return tasks
 
@@ -96,6 +100,7 @@ def test_fill_rows_equals_task_fill(robot, seed, weighted):
     kin = Kinematics(robot, robot.random_configuration(rng))
     tasks = make_tasks(robot, rng)
     tasks[4].make_contact(Kinematics(robot, robot.random_configuration(rng)))
+    assert {type(t) for t in tasks} == set(KINDS)  # every compiled kind is checked
     targets = Targets()
     frames = Frames(robot, kin, frame_ids(tasks))
     rows = Rows(tasks, robot.nv, frames, targets, weighted=weighted)

@@ -2,7 +2,7 @@
 column meanings. No numba import here, so that plans can be inspected without it."""
 
 # task kinds (spec column KIND)
-COM, POSITION, ORIENTATION, POSE, POSTURE, DAMPING = range(6)
+COM, POSITION, ORIENTATION, POSE, POSTURE, DAMPING, SWING_AXES, TORSO_AXIS = range(8)
 # spec columns: kind, frame slot (-1: none), target offset, first output row, first mask index,
 # number of output rows
 KIND, FRAME, TARGET, ROW, SEL, ROWS = range(6)

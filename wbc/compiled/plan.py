@@ -23,7 +23,9 @@ from ..tasks import (
     FramePoseTask,
     FramePositionTask,
     PostureTask,
+    SwingFootOrientationTask,
     Task,
+    TorsoOrientationTask,
 )
 from . import layout as R
 
@@ -46,6 +48,8 @@ KINDS: dict[type, int] = {
     ContactTask: R.POSE,
     PostureTask: R.POSTURE,
     DampingTask: R.DAMPING,
+    SwingFootOrientationTask: R.SWING_AXES,
+    TorsoOrientationTask: R.TORSO_AXIS,
 }
 
 
@@ -60,6 +64,8 @@ def _target_attributes(task: Task) -> tuple[str, ...]:
         return ("target_position", "target_rotation")
     if isinstance(task, DampingTask):
         return ()
+    if isinstance(task, TorsoOrientationTask):
+        return ("axis",)
     return ("target",)
 
 

@@ -24,7 +24,9 @@ from .layout import (
     ROW,
     ROWS,
     SEL,
+    SWING_AXES,
     TARGET,
+    TORSO_AXIS,
 )
 
 
@@ -186,6 +188,25 @@ def fill_rows(
         elif kind == ORIENTATION:
             frame_jacobian(Jw, frame_support[f], frame_p[f], Jf)
             _rotation_error(targets[o : o + 9], frame_R[f], Jf, efull[0:3], Jfull[0:3])
+        elif kind == SWING_AXES or kind == TORSO_AXIS:
+            # the thesis's errors 1 − a·b_f (eqs. 4.3, 4.4), Jacobian (b_f × a)ᵀ J_ω
+            R = frame_R[f]
+            frame_jacobian(Jw, frame_support[f], frame_p[f], Jf)
+            n_axes = 2 if kind == SWING_AXES else 1
+            for i in range(n_axes):
+                if kind == SWING_AXES:  # sole z then x axes against the target rotation's
+                    c = 2 if i == 0 else 0
+                    a0, a1, a2 = targets[o + c], targets[o + 3 + c], targets[o + 6 + c]
+                else:  # torso z axis against the target axis
+                    c = 2
+                    a0, a1, a2 = targets[o], targets[o + 1], targets[o + 2]
+                b0, b1, b2 = R[0, c], R[1, c], R[2, c]
+                efull[i] = 1.0 - (a0 * b0 + a1 * b1 + a2 * b2)
+                x0 = b1 * a2 - b2 * a1
+                x1 = b2 * a0 - b0 * a2
+                x2 = b0 * a1 - b1 * a0
+                for k in range(nv):
+                    Jfull[i, k] = x0 * Jf[3, k] + x1 * Jf[4, k] + x2 * Jf[5, k]
         elif kind == POSTURE:
             for i in range(nj):
                 efull[i] = targets[o + i] - joints[i]
