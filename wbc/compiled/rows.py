@@ -9,10 +9,12 @@ the CoM and its Jacobian. The tests check every kind against its Python task to 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit
 
+from ._cache import refresh
 from .layout import (
     COM,
     FRAME,
@@ -230,3 +232,10 @@ def fill_rows(
             w = sqrt_w[r]
             for k in range(nv):
                 J_out[r, k] = w * Jfull[src, k]
+
+
+# numba caches these on rows.py alone: flush them when the layout constants change
+refresh(
+    [log3, jlog3, frame_jacobian, _rotation_error, fill_rows],
+    [Path(__file__).with_name("layout.py")],
+)

@@ -13,10 +13,12 @@ numpy path, which handles (and names) infeasible problems.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit
 
+from ._cache import refresh
 from .lsq import MAX_ITER, NUMERICAL, OK, solve_level
 from .rows import fill_rows
 
@@ -244,3 +246,10 @@ def integrate(
         d = min(max(dq[nb + j], lower[nb + j]), upper[nb + j])
         qj = q[7 + j]
         out[7 + j] = min(max(qj + d, min(q_min[j], qj)), max(q_max[j], qj))
+
+
+# numba caches these on ticks.py alone: flush them when the kernels they call change
+refresh(
+    [joint_bounds, weighted_tick, _proximal_level, cascade_tick, integrate],
+    [Path(__file__).with_name(f) for f in ("rows.py", "lsq.py", "layout.py")],
+)
