@@ -22,7 +22,7 @@ from wbc.limits import LinearInequality
 from wbc.solvers import HierarchicalQP, WeightedQP
 from wbc.stacks import load_stack
 from wbc.tasks import JointLimitDampingTask
-from wbc.walking.loop import Session, StackController, run
+from wbc.walking.loop import RunOptions, Session, StackController, run
 
 SOLVERS = {"weighted": WeightedQP, "hierarchical": HierarchicalQP}
 
@@ -166,3 +166,21 @@ def test_thesis_schemes_tick_the_same_compiled_or_not(robot, stack):
     assert fast.solver.compiled_ticks == ref.n and fast.solver.handed_back_ticks == 0
     # one answer per tick for the weighted QP; for a hierarchy see the first test
     assert worst < (1e-9 if isinstance(fast.solver, WeightedQP) else 1e-5)
+
+
+@pytest.mark.parametrize(("stack", "kind"), [("walk", "hierarchical"), ("vat", None)])
+def test_converged_mode_is_the_same_compiled_or_not(robot, stack, kind):
+    """Iterating each pose reads the tasks' errors after every solve, and re-evaluates them
+    (Task.compute) at the end of each pose: the compiled rows must stay what they read."""
+    ref = build("thesis_step", robot)
+    options = RunOptions(mode="converge")
+    recordings = {}
+    for compiled in (True, False):
+        controller = StackController(load_stack(stack, robot, solver=kind))
+        controller.solver.compiled = compiled
+        recordings[compiled] = run(controller, robot, ref, options=options)
+    a, b = recordings[True], recordings[False]
+    assert np.array_equal(a["iterations"], b["iterations"])
+    for channel in ("com", "swing"):
+        assert np.abs(a[channel] - b[channel]).max() < 1e-8
+    assert np.linalg.norm(a["com"] - a["com_ref"], axis=1).max() < 1e-4

@@ -213,8 +213,11 @@ class Rows:
 
     def bind_errors(self) -> None:
         """Every task's :attr:`~wbc.tasks.Task.last_error` becomes a view of its rows of E."""
-        for t, (_, sl) in zip(self.tasks, self.slices, strict=True):
-            t.last_error = self.E[sl]
+        for t, view in self.error_views():
+            t.last_error = view
+
+    def error_views(self) -> list[tuple[Task, np.ndarray]]:
+        return [(t, self.E[sl]) for t, (_, sl) in zip(self.tasks, self.slices, strict=True)]
 
     @property
     def args(self) -> tuple:
@@ -257,8 +260,9 @@ class _Plan:
         from .ticks import integrate
 
         self.integrate = Kernel(integrate)
-        #: the tasks' last_error must be pointed back at this plan's rows before a solve
-        self.rebind = False
+        #: (task, view of its rows of E): re-pointed at every solve, since anything may have
+        #: re-pointed a task's last_error meanwhile (Task.compute, the numpy path, another plan)
+        self.error_views: list[tuple[Task, np.ndarray]] = []
         self.args: tuple = ()
 
     def _shared_args(self) -> tuple:
@@ -270,6 +274,8 @@ class _Plan:
 
     def solve(self, kin: Kinematics, dt: float | None) -> int:
         """Fill the per-tick inputs and run the kernel; returns its status (0: solved)."""
+        for task, view in self.error_views:
+            task.last_error = view
         if self.targets.binding != _BINDINGS[0]:
             self.targets.bind()
         np.copyto(self.q, kin.q)
@@ -294,6 +300,7 @@ class WeightedPlan(_Plan):
         self.soft = Rows(soft, nv, self.frames, self.targets, weighted=True)
         self.hard = Rows(hard, nv, self.frames, self.targets, weighted=False)
         self.targets.seal()
+        self.error_views = self.soft.error_views() + self.hard.error_views()
         self.state = np.zeros(nv, dtype=np.int8)
         from .ticks import weighted_tick
 
@@ -303,11 +310,6 @@ class WeightedPlan(_Plan):
             self.q_next,
         )  # fmt: skip
 
-    def rebind_errors(self) -> None:
-        """Point every task's last_error back at this plan's rows (after a numpy solve)."""
-        self.soft.bind_errors()
-        self.hard.bind_errors()
-        self.rebind = False
 
 
 class CascadePlan(_Plan):
@@ -322,6 +324,7 @@ class CascadePlan(_Plan):
         bounds = np.cumsum([0] + [sum(t.rows for t in lv) for lv in levels])
         self.level_rows = bounds.astype(np.int64)
         self.level_hard = np.array(hard, dtype=np.bool_)
+        self.error_views = self.rows.error_views()
         self.states = np.zeros((len(levels), nv), dtype=np.int8)
         self.achieved = np.zeros(self.rows.m)
         from .ticks import cascade_tick
@@ -332,6 +335,3 @@ class CascadePlan(_Plan):
             self.states, self.achieved, self.dq, self.q_next,
         )  # fmt: skip
 
-    def rebind_errors(self) -> None:
-        self.rows.bind_errors()
-        self.rebind = False

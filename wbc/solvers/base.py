@@ -105,6 +105,17 @@ class StackSolver(ABC):
         self.solve_time = time.perf_counter() - start
         return dq
 
+    def prepare(self, q: np.ndarray, dt: float | None = None) -> None:
+        """Pay the one-off costs of a first solve now (building the layout, loading the
+        compiled kernels from numba's cache: milliseconds), e.g. before a control loop starts.
+        Solves once at q with the current targets; counts no tick."""
+        ticks = self.compiled_ticks, self.handed_back_ticks
+        try:
+            self.solve(q, dt)
+        except WbcError:
+            pass  # targets not set yet may be infeasible: the layout is built all the same
+        self.compiled_ticks, self.handed_back_ticks = ticks
+
     def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """One control tick: q ⊕ Δq with the joints inside their limits.
 
@@ -203,12 +214,8 @@ class StackSolver(ABC):
         )
 
     def _cached_layout(self, key: tuple):
-        """The layout kept for ``key`` (None if none); a reused compiled plan re-points the
-        tasks' errors at its rows before its next solve."""
-        layout = self._layouts.get(key)
-        if layout is not None and getattr(layout, "fast", None) is not None:
-            layout.fast.rebind = True
-        return layout
+        """The layout kept for ``key`` (None if none)."""
+        return self._layouts.get(key)
 
     def _keep_layout(self, key: tuple, layout) -> None:
         if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh

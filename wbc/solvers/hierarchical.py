@@ -158,8 +158,6 @@ class HierarchicalQP(StackSolver):
             self._plan()
         fast = self.fast
         if fast is not None:
-            if fast.rebind:
-                fast.rebind_errors()
             if fast.solve(kin, dt) == 0 and (
                 not self._all_constraints
                 or self._constraints_hold(kin, self._all_constraints, fast.dq)
@@ -172,7 +170,6 @@ class HierarchicalQP(StackSolver):
                 self._lazy_dq = fast.dq  # valid until the next solve, which resets it
                 return fast.dq
             self.handed_back_ticks += 1
-            fast.rebind = True  # the numpy path points last_error at its own rows
         self._lazy_dq = None
         self._problems = self._level_problems(kin)
         lower, upper = self._lower, self._upper

@@ -90,8 +90,6 @@ class WeightedQP(StackSolver):
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
         if fast is not None:
-            if fast.rebind:
-                fast.rebind_errors()
             if fast.solve(kin, dt) == 0 and (
                 not self.constraints or self._constraints_hold(kin, self.constraints, fast.dq)
             ):
@@ -101,7 +99,6 @@ class WeightedQP(StackSolver):
                 self._stepped = fast.q_next
                 return fast.dq
             self.handed_back_ticks += 1
-            fast.rebind = True  # the numpy path points last_error at its own rows
         G, h = None, None
         if self.constraints:
             G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)

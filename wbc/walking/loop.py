@@ -190,6 +190,7 @@ class StackController(Controller):
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
                 task.set_target_from(self._kin)
+        self.solver.prepare(q0, self.dt)  # setup, not the first tick's cost
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         if phase_changed:
