@@ -311,7 +311,6 @@ class WeightedPlan(_Plan):
         )  # fmt: skip
 
 
-
 class CascadePlan(_Plan):
     """Every level's rows (weighted) in one block, solved level by level in one call."""
 
@@ -334,4 +333,3 @@ class CascadePlan(_Plan):
             *self.rows.args, self.level_rows, self.level_hard, *self._shared_args(),
             self.states, self.achieved, self.dq, self.q_next,
         )  # fmt: skip
-
