@@ -170,6 +170,22 @@ def test_random_levels_are_solved_like_daqp(seed, m, p, ridge):
     assert_close(x, reference)
 
 
+@given(seed=seeds, m=st.sampled_from([1, 3, 5, 7, 15]), p=st.sampled_from([1, 5, 21, 29, 31]))
+def test_odd_ranks_and_row_counts(seed, m, p):
+    # an odd rank leaves one reflector unpaired, p not a multiple of 4 pads the rows of (B_F Q)ᵀ,
+    # and p < d or p >= d picks the row or the normal form
+    problem = random_level(seed, m, p, 1e-6)
+    status, x, state, _ = solve(*problem, max_iter=100)
+    assert status == OK
+    assert_kkt(x, state, *problem)
+    if m + p >= N:  # B has full column rank on the null space of A: DAQP is accurate
+        assert_close(x, daqp(*problem))
+    status2, x2, state2, count = solve(*problem, state=state)
+    assert (status2, count) == (OK, 1)
+    np.testing.assert_array_equal(state2, state)
+    np.testing.assert_allclose(x2, x, rtol=0, atol=1e-12)
+
+
 def test_lifted_daqp_reference_is_accurate_on_the_ill_conditioned_class():
     # where the direct DAQP reference is off (see above), the lifted one agrees with us, and
     # our objective is never above the direct one's

@@ -17,7 +17,8 @@ solved in the null space of ``A_F``:
   ``(MᵀM + ridge·I) z = Mᵀ r'`` (normal form, p ≥ d = dim z) or
   ``z = Mᵀ (M Mᵀ + ridge·I)⁻¹ r'`` (row form, p < d: accurate for a tiny ridge when M has full
   row rank), by Cholesky; ``ridge·‖z‖²`` is the ridge on all of x_F since Y ⟂ Z. Z is never
-  formed: ``(B_F Q)ᵀ = Qᵀ B_Fᵀ`` comes from the compact WY form of the reflectors (BLAS);
+  formed: ``(B_F Q)ᵀ = Qᵀ B_Fᵀ`` comes from the reflectors, applied two at a time (compact
+  WY with blocks of two) to ``B_Fᵀ``, stored with its rows padded to a multiple of 4;
 * multipliers ``A_Fᵀ λ = −g_F`` (g the gradient, same QR) and the bounds' reduced gradients
   ``μ_X = g_X + A_Xᵀ λ``: a variable at its upper bound is optimal iff μ ≤ 0, at its lower
   bound iff μ ≥ 0.
@@ -31,9 +32,11 @@ the equalities inconsistent, the solver switches to a dual active set method (Go
 on the bounds): from the current set less its wrong-signed bounds (a dual feasible point) it
 adds the most violated bound, moving along the subproblem's solution, which is affine in the
 value the added variable is held at, and releasing a bound whose multiplier reaches zero on the
-way; when the added bound depends on the active ones and the equalities, a pure dual step
-releases one of those instead. Each completed addition strictly raises the dual objective of a
-strictly convex problem, so the method is finite.
+way; when the added bound depends on the active ones and the equalities (holding it drops the
+rank of A_F), a pure dual step releases one of those instead, or, if none can go and the
+variable meets its bound already to roundoff (a degenerate vertex), the bound is held with a
+zero multiplier. Each completed addition strictly raises the dual objective of a strictly
+convex problem, so the method is finite.
 
 ``state`` is an int8 array (any integer dtype compiles too): -1 = at the lower bound, 0 = free,
 +1 = at the upper bound. It is the warm start on input and the final active set on output; a
@@ -45,20 +48,31 @@ Tolerances: the equalities are inconsistent when the dependent rows miss by more
 (a returned solution is then clipped onto the box exactly); a multiplier has the wrong sign by
 more than 1e-9 × the sum of the magnitudes of its terms.
 
-Limits: ``max_iter`` counts subproblem solves (about 5 µs each at n = 24). From a cold start
-PDAS needs 2–7 of them on well-conditioned levels; levels with p < d, a tiny ridge and many
-active bounds can need 10–30 or more (that is where the dual method takes over); a warm start
-from the previous tick's active set usually needs 1. With ridge = 0 the problem must be
-strictly convex on the visited faces (B_F Z of full column rank): a singular normal form
-returns NUMERICAL, and with p < d the row form returns the minimum-norm z, for which the
-active set iteration is not guaranteed to settle (MAX_ITER). Pass float64 C-contiguous arrays:
-other layouts or dtypes compile another specialisation (~10 s, cached afterwards).
+Limits: ``max_iter`` counts subproblem solves (about 3.5 µs each at n = 24, m = 6, p = 30).
+From a cold start PDAS needs 2–7 of them on well-conditioned levels; levels with p < d, a tiny
+ridge and many active bounds can need 10–30 or more (that is where the dual method takes
+over); a warm start from the previous tick's active set usually needs 1. With ridge = 0 the
+problem must be strictly convex on the visited faces (B_F Z of full column rank): a singular
+normal form returns NUMERICAL, and with p < d the row form returns the minimum-norm z, for
+which the active set iteration is not guaranteed to settle (MAX_ITER). Pass float64
+C-contiguous arrays: other layouts or dtypes compile another specialisation (~15 s, cached
+afterwards).
+
+Implementation: at these sizes (n ≈ 24, p ≈ 30) the time goes to loop overheads and memory
+traffic rather than to arithmetic. Hence hand-written loops (a BLAS call costs more than it
+saves); the work space in two blocks allocated once per call; the small kernels inlined into
+their callers (``inline="always"``: numba links separately compiled functions, which LLVM does
+not inline);
+vectors kept as rows of 2-d arrays and indexed by row (a view created and handed to another
+function costs two atomic reference count updates); column loops counted with unsigned
+integers (numba wraps a negative signed index, which stops vectorisation); each loaded row
+reused by four rows of output, and the reflectors applied two at a time.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, uint64
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
 
@@ -66,31 +80,135 @@ _X_TOL = 1e-12  # a free x_i is beyond a bound b when by more than _X_TOL·(1 + 
 _MU_TOL = 1e-9  # a multiplier has the wrong sign when by more than _MU_TOL × its terms' size
 _EQ_TOL = 1e-9  # equalities are inconsistent when ‖residual‖ > _EQ_TOL·(1 + ‖a‖ + ‖A_X x_X‖)
 _SING_TOL = 1e-13  # with ridge = 0, a Cholesky pivot ≤ _SING_TOL·max diagonal is singular
-_SMALL_K = 8  # up to this rank VᵀV is formed by loops rather than BLAS
 
 _SUB_OK, _SUB_INCONSISTENT, _SUB_SINGULAR = 0, 1, 2
 _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
 
-# Inner loops run over 1-d row views (numba vectorises those, not 2-d indexing; views of views
-# in a loop are slow: their reference counts are not elided), and dot products allow
-# reassociation so that they vectorise too; everything else is plain IEEE arithmetic.
+# Work space, allocated once per call: float matrices W (reflectors, m × n), T ((B_F Q)ᵀ,
+# n × p rounded up to a multiple of 4 and zero-padded, so that its rows vectorise without a
+# scalar tail), N (Cholesky factor) and V, whose rows are the float vectors below (1/L_jj in
+# V[_V_DINV], work rows V[_V_W], V[_V_W2]); an integer matrix ind whose rows are the index
+# vectors below (row permutation of the QR, free and fixed variables, active set, its previous
+# value in PDAS, pinned variables).
+(_V_TAU, _V_NRM, _V_NRM_REF, _V_CVEC, _V_LAM, _V_RP, _V_E, _V_W, _V_W2, _V_T, _V_DINV,
+ _V_MU, _V_MU_TOL, _V_X0, _V_MU0, _V_NU) = range(16)  # fmt: skip
+_N_VEC = 16
+_I_PERM, _I_FREE, _I_FIX, _I_FIXED, _I_PREV, _I_PINNED = range(6)
+_N_IVEC = 6
+
+# The linear algebra allows reassociation (so that reductions vectorise) and fused
+# multiply-adds; numba inlines a function with its caller's flags, hence on the callers too.
+# The active set logic (_solve) is plain IEEE arithmetic.
 _FAST = {"reassoc", "contract"}
 
 
-@njit(cache=True, fastmath=_FAST)
-def _dot(u, v, n):
-    """u[:n]·v[:n] for 1-d arrays."""
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _dot(X, i, Y, j, c0, c1):
+    """Σ X[i, c]·Y[j, c] over c0 ≤ c < c1."""
     s = 0.0
-    for c in range(n):
-        s += u[c] * v[c]
+    for c in range(uint64(c0), uint64(c1)):
+        s += X[i, c] * Y[j, c]
     return s
 
 
-@njit(cache=True)
-def _copy(src, dst):
-    """dst[:] = src (a loop: numba's slice assignment is slow on short arrays)."""
-    for i in range(src.shape[0]):
-        dst[i] = src[i]
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _axpy(f, X, i, Y, j, c0, c1):
+    """Y[j, c] += f·X[i, c] over c0 ≤ c < c1."""
+    for c in range(uint64(c0), uint64(c1)):
+        Y[j, c] += f * X[i, c]
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _dot4(X, j, Y, i, c0, c1):
+    """X[j]·Y[i + l] (l = 0…3) over columns c0 ≤ c < c1, in one pass."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    for c in range(uint64(c0), uint64(c1)):
+        v = X[j, c]
+        s0 += v * Y[i, c]
+        s1 += v * Y[i + 1, c]
+        s2 += v * Y[i + 2, c]
+        s3 += v * Y[i + 3, c]
+    return s0, s1, s2, s3
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _axpy4(s0, s1, s2, s3, X, j, Y, i, c0, c1):
+    """Y[i + l, c] −= s_l·X[j, c] (l = 0…3) over c0 ≤ c < c1, in one pass."""
+    for c in range(uint64(c0), uint64(c1)):
+        v = X[j, c]
+        Y[i, c] -= s0 * v
+        Y[i + 1, c] -= s1 * v
+        Y[i + 2, c] -= s2 * v
+        Y[i + 3, c] -= s3 * v
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _sum4(f0, f1, f2, f3, X, i, Y, j, c1):
+    """Y[j, c] += Σ_l f_l·X[i + l, c] over c < c1, in one pass."""
+    for c in range(uint64(0), uint64(c1)):
+        Y[j, c] += f0 * X[i, c] + f1 * X[i + 1, c] + f2 * X[i + 2, c] + f3 * X[i + 3, c]
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _dot22(X, a, b, c1):
+    """X[a + l]·X[b + l'] (l, l' = 0, 1) over c < c1, in one pass."""
+    s00 = 0.0
+    s01 = 0.0
+    s10 = 0.0
+    s11 = 0.0
+    for c in range(uint64(0), uint64(c1)):
+        x0 = X[a, c]
+        x1 = X[a + 1, c]
+        y0 = X[b, c]
+        y1 = X[b + 1, c]
+        s00 += x0 * y0
+        s01 += x0 * y1
+        s10 += x1 * y0
+        s11 += x1 * y1
+    return s00, s01, s10, s11
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _sum24(W, j, X, c, Y, r, n):
+    """Y[r] += Σ_q W[j, c+q]·X[c+q] and Y[r+1] += Σ_q W[j+1, c+q]·X[c+q] (q < 4), one pass."""
+    f0 = W[j, c]
+    f1 = W[j, c + 1]
+    f2 = W[j, c + 2]
+    f3 = W[j, c + 3]
+    g0 = W[j + 1, c]
+    g1 = W[j + 1, c + 1]
+    g2 = W[j + 1, c + 2]
+    g3 = W[j + 1, c + 3]
+    for i in range(uint64(0), uint64(n)):
+        x0 = X[c, i]
+        x1 = X[c + 1, i]
+        x2 = X[c + 2, i]
+        x3 = X[c + 3, i]
+        Y[r, i] += f0 * x0 + f1 * x1 + f2 * x2 + f3 * x3
+        Y[r + 1, i] += g0 * x0 + g1 * x1 + g2 * x2 + g3 * x3
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _sub24(W, j, Y, r, X, c, n):
+    """X[c+q] −= W[j, c+q]·Y[r] + W[j+1, c+q]·Y[r+1] (q < 4), one pass."""
+    f0 = W[j, c]
+    f1 = W[j, c + 1]
+    f2 = W[j, c + 2]
+    f3 = W[j, c + 3]
+    g0 = W[j + 1, c]
+    g1 = W[j + 1, c + 1]
+    g2 = W[j + 1, c + 2]
+    g3 = W[j + 1, c + 3]
+    for i in range(uint64(0), uint64(n)):
+        a = Y[r, i]
+        b = Y[r + 1, i]
+        X[c, i] -= f0 * a + g0 * b
+        X[c + 1, i] -= f1 * a + g1 * b
+        X[c + 2, i] -= f2 * a + g2 * b
+        X[c + 3, i] -= f3 * a + g3 * b
 
 
 @njit(cache=True)
@@ -99,28 +217,119 @@ def _fill(dst, value):
         dst[i] = value
 
 
-@njit(cache=True)
-def _pivoted_qr_rows(W, m, nf, tau, perm, nrm, nrm_ref, rank_rtol):
+@njit(cache=True, fastmath=_FAST)
+def _reflect_rows(W, j, nf, tj, i0, m):
+    """Rows i0…m−1 of W times the reflector I − tj v vᵀ, v = (0…0, 1, W[j, j+1:nf])."""
+    i = i0
+    while i + 4 <= m:
+        s0, s1, s2, s3 = _dot4(W, j, W, i, j + 1, nf)
+        s0 = tj * (W[i, j] + s0)
+        s1 = tj * (W[i + 1, j] + s1)
+        s2 = tj * (W[i + 2, j] + s2)
+        s3 = tj * (W[i + 3, j] + s3)
+        W[i, j] -= s0
+        W[i + 1, j] -= s1
+        W[i + 2, j] -= s2
+        W[i + 3, j] -= s3
+        _axpy4(s0, s1, s2, s3, W, j, W, i, j + 1, nf)
+        i += 4
+    while i < m:
+        s = tj * (W[i, j] + _dot(W, j, W, i, j + 1, nf))
+        W[i, j] -= s
+        _axpy(-s, W, j, W, i, j + 1, nf)
+        i += 1
+
+
+@njit(cache=True, fastmath=_FAST)
+def _reflect_vector(W, j, nf, tj, V, row):
+    """V[row, :nf] ← (I − tj v vᵀ) V[row, :nf], v = (0…0, 1, W[j, j+1:nf])."""
+    s = tj * (V[row, j] + _dot(W, j, V, row, j + 1, nf))
+    V[row, j] -= s
+    _axpy(-s, W, j, V, row, j + 1, nf)
+
+
+@njit(cache=True, fastmath=_FAST)
+def _reflect_columns(T, W, j, nf, tj, V, pp):
+    """Rows j…nf−1 of T (length pp) ← (I − tj v vᵀ) applied from the left,
+    v = (1, W[j, j+1:nf]); V[_V_W] is work space."""
+    for i in range(pp):  # w = tj·vᵀ T
+        V[_V_W, i] = T[j, i]
+    c = j + 1
+    while c + 4 <= nf:
+        _sum4(W[j, c], W[j, c + 1], W[j, c + 2], W[j, c + 3], T, c, V, _V_W, pp)
+        c += 4
+    while c < nf:
+        _axpy(W[j, c], T, c, V, _V_W, 0, pp)
+        c += 1
+    for i in range(pp):
+        V[_V_W, i] *= tj
+        T[j, i] -= V[_V_W, i]
+    c = j + 1  # T −= v w
+    while c + 4 <= nf:
+        _axpy4(W[j, c], W[j, c + 1], W[j, c + 2], W[j, c + 3], V, _V_W, T, c, 0, pp)
+        c += 4
+    while c < nf:
+        _axpy(-W[j, c], V, _V_W, T, c, 0, pp)
+        c += 1
+
+
+@njit(cache=True, fastmath=_FAST)
+def _reflect_columns2(T, W, j, nf, t1, t2, V, pp):
+    """Rows j…nf−1 of T (length pp) ← H_{j+1} H_j T, two reflectors in one pass each way
+    (compact WY): with u = v_jᵀ T, u' = v_{j+1}ᵀ T and γ = v_{j+1}·v_j,
+    ``T −= v_j a + v_{j+1} b``, a = t1·u, b = t2·(u' − γ a). V[_V_W], V[_V_W2] are work space."""
+    w = W[j, j + 1]  # v_j at row j+1 (v_{j+1} is 1 there)
+    for i in range(pp):
+        V[_V_W, i] = T[j, i] + w * T[j + 1, i]
+        V[_V_W2, i] = T[j + 1, i]
+    c = j + 2
+    while c + 4 <= nf:
+        _sum24(W, j, T, c, V, _V_W, pp)
+        c += 4
+    while c < nf:
+        _axpy(W[j, c], T, c, V, _V_W, 0, pp)
+        _axpy(W[j + 1, c], T, c, V, _V_W2, 0, pp)
+        c += 1
+    gamma = w + _dot(W, j + 1, W, j, j + 2, nf)
+    for i in range(pp):
+        a = t1 * V[_V_W, i]
+        b = t2 * (V[_V_W2, i] - gamma * a)
+        V[_V_W, i] = a
+        V[_V_W2, i] = b
+        T[j, i] -= a
+        T[j + 1, i] -= w * a + b
+    c = j + 2
+    while c + 4 <= nf:
+        _sub24(W, j, V, _V_W, T, c, pp)
+        c += 4
+    while c < nf:
+        _axpy(-W[j, c], V, _V_W, T, c, 0, pp)
+        _axpy(-W[j + 1, c], V, _V_W2, T, c, 0, pp)
+        c += 1
+
+
+@njit(cache=True, fastmath=_FAST)
+def _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol):
     """Householder QR with column pivoting of ``W[:m, :nf]ᵀ`` (the rows of W are the columns).
 
-    On return rows are permuted (``perm`` follows), ``W[i, j] = R[j, i]`` for j ≤ i < m, j < k,
-    and reflector j is ``I − tau[j] v vᵀ`` with ``v = (0…0, 1, W[j, j+1:nf])`` (τ = 2/‖v‖²).
-    Returns the numerical rank k: the first pivot whose remaining norm is ≤ rank_rtol·|R_00|
-    stops the factorisation.
+    On return rows are permuted (``ind[_I_PERM]`` follows, from its initial value),
+    ``W[i, j] = R[j, i]`` for j ≤ i < m, j < k,
+    and reflector j is ``I − τ_j v vᵀ`` with ``v = (0…0, 1, W[j, j+1:nf])`` (τ = 2/‖v‖², in
+    ``V[_V_TAU]``). Returns the numerical rank k: the first pivot whose remaining norm is
+    ≤ rank_rtol·|R_00| stops the factorisation.
     """
     kmax = min(m, nf)
     for i in range(m):
-        wi = W[i]
-        s = _dot(wi, wi, nf)
-        nrm[i] = s
-        nrm_ref[i] = s
+        s = _dot(W, i, W, i, 0, nf)
+        V[_V_NRM, i] = s
+        V[_V_NRM_REF, i] = s
     r00 = 0.0
     for j in range(kmax):
         piv = j
-        best = nrm[j]
+        best = V[_V_NRM, j]
         for i in range(j + 1, m):
-            if nrm[i] > best:
-                best = nrm[i]
+            if V[_V_NRM, i] > best:
+                best = V[_V_NRM, i]
                 piv = i
         norm = np.sqrt(max(best, 0.0))
         if j == 0:
@@ -134,49 +343,57 @@ def _pivoted_qr_rows(W, m, nf, tau, perm, nrm, nrm_ref, rank_rtol):
                 tmp = W[j, c]
                 W[j, c] = W[piv, c]
                 W[piv, c] = tmp
-            itmp = perm[j]
-            perm[j] = perm[piv]
-            perm[piv] = itmp
-            tmp = nrm[j]
-            nrm[j] = nrm[piv]
-            nrm[piv] = tmp
-            tmp = nrm_ref[j]
-            nrm_ref[j] = nrm_ref[piv]
-            nrm_ref[piv] = tmp
+            itmp = ind[_I_PERM, j]
+            ind[_I_PERM, j] = ind[_I_PERM, piv]
+            ind[_I_PERM, piv] = itmp
+            for row in (_V_NRM, _V_NRM_REF):
+                tmp = V[row, j]
+                V[row, j] = V[row, piv]
+                V[row, piv] = tmp
         alpha = W[j, j]
-        length = nf - j - 1
-        vj = W[j, j + 1 : nf]  # the reflector's tail (after scaling)
-        sigma = _dot(vj, vj, length)
+        sigma = _dot(W, j, W, j, j + 1, nf)
         if sigma == 0.0:
-            tau[j] = 0.0
+            V[_V_TAU, j] = 0.0
         else:
             beta = np.sqrt(alpha * alpha + sigma)
             if alpha >= 0.0:
                 beta = -beta
             inv = 1.0 / (alpha - beta)
-            for c in range(length):
-                vj[c] *= inv
+            for c in range(uint64(j + 1), uint64(nf)):
+                W[j, c] *= inv
             tj = (beta - alpha) / beta
-            tau[j] = tj
+            V[_V_TAU, j] = tj
             W[j, j] = beta
-            for i in range(j + 1, m):
-                ui = W[i, j + 1 : nf]
-                s = tj * (W[i, j] + _dot(vj, ui, length))
-                W[i, j] -= s
-                for c in range(length):
-                    ui[c] -= s * vj[c]
+            _reflect_rows(W, j, nf, tj, j + 1, m)
         for i in range(j + 1, m):  # downdate the remaining norms, recompute on cancellation
-            nrm[i] -= W[i, j] * W[i, j]
-            if nrm[i] <= 1.5e-8 * nrm_ref[i]:
-                ui = W[i, j + 1 : nf]
-                nrm[i] = _dot(ui, ui, length)
-                nrm_ref[i] = nrm[i]
+            V[_V_NRM, i] -= W[i, j] * W[i, j]
+            if V[_V_NRM, i] <= 1.5e-8 * V[_V_NRM_REF, i]:
+                V[_V_NRM, i] = _dot(W, i, W, i, j + 1, nf)
+                V[_V_NRM_REF, i] = V[_V_NRM, i]
     return kmax
 
 
-@njit(cache=True)
-def _cholesky(N, dim, ridge):
-    """In place N[:dim, :dim] = L Lᵀ (L in the lower triangle); False if not positive definite.
+@njit(cache=True, fastmath=_FAST)
+def _gram(T, k, d, pp, N):
+    """Lower triangle of N[:d, :d] = M Mᵀ for the rows M = T[k:k+d] (length pp), 2 × 2 at once."""
+    a = 0
+    while a + 2 <= d:
+        for b in range(0, a + 1, 2):
+            s00, s01, s10, s11 = _dot22(T, k + a, k + b, pp)
+            N[a, b] = s00
+            N[a, b + 1] = s01  # (the upper entry N[a, a+1] when b = a: unused)
+            N[a + 1, b] = s10
+            N[a + 1, b + 1] = s11
+        a += 2
+    if a < d:
+        for b in range(a + 1):
+            N[a, b] = _dot(T, k + a, T, k + b, 0, pp)
+
+
+@njit(cache=True, fastmath=_FAST)
+def _cholesky(N, dim, ridge, V):
+    """In place N[:dim, :dim] = L Lᵀ (L in the lower triangle, 1/L_jj in ``V[_V_DINV, j]``);
+    False if not positive definite.
 
     With ridge = 0 a pivot ≤ _SING_TOL × the largest diagonal entry counts as singular.
     """
@@ -184,52 +401,58 @@ def _cholesky(N, dim, ridge):
     for j in range(dim):
         dmax = max(dmax, N[j, j])
     for j in range(dim):  # column by column: the dots of one column are independent
-        lj = N[j]
-        piv = lj[j] - _dot(lj, lj, j)
+        piv = N[j, j] - _dot(N, j, N, j, 0, j)
         if not piv > 0.0 or (ridge == 0.0 and piv <= _SING_TOL * dmax):
             return False
         ljj = np.sqrt(piv)
-        lj[j] = ljj
+        N[j, j] = ljj
         inv = 1.0 / ljj
-        for i in range(j + 1, dim):
-            li = N[i]
-            li[j] = (li[j] - _dot(li, lj, j)) * inv
+        V[_V_DINV, j] = inv
+        i = j + 1
+        while i + 4 <= dim:
+            s0, s1, s2, s3 = _dot4(N, j, N, i, 0, j)
+            N[i, j] = (N[i, j] - s0) * inv
+            N[i + 1, j] = (N[i + 1, j] - s1) * inv
+            N[i + 2, j] = (N[i + 2, j] - s2) * inv
+            N[i + 3, j] = (N[i + 3, j] - s3) * inv
+            i += 4
+        while i < dim:
+            N[i, j] = (N[i, j] - _dot(N, i, N, j, 0, j)) * inv
+            i += 1
     return True
 
 
-@njit(cache=True)
-def _cholesky_solve(N, dim, b):
-    """Solve L Lᵀ w = b in place (L from :func:`_cholesky`)."""
+@njit(cache=True, fastmath=_FAST)
+def _cholesky_solve(N, dim, V, row):
+    """Solve L Lᵀ w = V[row, :dim] in place (L from :func:`_cholesky`)."""
     for i in range(dim):
-        li = N[i]
-        b[i] = (b[i] - _dot(li, b, i)) / li[i]
+        V[row, i] = (V[row, i] - _dot(N, i, V, row, 0, i)) * V[_V_DINV, i]
     for j in range(dim - 1, -1, -1):
-        lj = N[j]
-        f = b[j] / lj[j]
-        b[j] = f
-        for i in range(j):
-            b[i] -= f * lj[i]
+        f = V[row, j] * V[_V_DINV, j]
+        V[row, j] = f
+        _axpy(-f, N, j, V, row, 0, j)
 
 
-@njit(cache=True)
-def _subproblem(A, a, B, r, ridge, lower, upper, fixed, x, mu, mu_tol, rank_rtol, ws):
-    """Solve the equality-constrained subproblem for the fixed set ``fixed`` (-1/+1 = at bound).
+@njit(cache=True, fastmath=_FAST)
+def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
+    """Solve the equality-constrained subproblem for the fixed set ``ind[_I_FIXED]`` (-1/+1 = at
+    the lower/upper bound).
 
-    Writes x, and for fixed i the multiplier ``mu[i]`` with its tolerance ``mu_tol[i]``.
-    Returns _SUB_OK, _SUB_INCONSISTENT or _SUB_SINGULAR.
+    Writes x, and for fixed i the multiplier ``V[_V_MU, i]`` with its tolerance
+    ``V[_V_MU_TOL, i]``. Returns (_SUB_OK, _SUB_INCONSISTENT or _SUB_SINGULAR; the rank of A_F).
     """
-    W, BqT, Mbuf, fs, tau, nrm, nrm_ref, cvec, lam, rp, e, t, perm, free, fix = ws
     m, n = A.shape
     p = B.shape[0]
+    pp = (p + 3) & ~3
     nf = 0
     nx = 0
     for i in range(n):
-        if fixed[i] == 0:
-            free[nf] = i
+        if ind[_I_FIXED, i] == 0:
+            ind[_I_FREE, nf] = i
             nf += 1
         else:
-            x[i] = lower[i] if fixed[i] < 0 else upper[i]
-            fix[nx] = i
+            x[i] = lower[i] if ind[_I_FIXED, i] < 0 else upper[i]
+            ind[_I_FIX, nx] = i
             nx += 1
     # equalities restricted to F: A_F x_F = a − A_X x_X
     a_norm = 0.0
@@ -237,268 +460,211 @@ def _subproblem(A, a, B, r, ridge, lower, upper, fixed, x, mu, mu_tol, rank_rtol
     for i in range(m):
         s = 0.0
         for c in range(nx):
-            s += A[i, fix[c]] * x[fix[c]]
-        cvec[i] = a[i] - s
+            s += A[i, ind[_I_FIX, c]] * x[ind[_I_FIX, c]]
+        V[_V_CVEC, i] = a[i] - s
         a_norm += a[i] * a[i]
         ax_norm += s * s
-        perm[i] = i
-        wi = W[i]
-        ai = A[i]
+        ind[_I_PERM, i] = i
         for c in range(nf):
-            wi[c] = ai[free[c]]
-    k = _pivoted_qr_rows(W, m, nf, tau, perm, nrm, nrm_ref, rank_rtol)
+            W[i, c] = A[i, ind[_I_FREE, c]]
+    k = _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol)
     # y₀ from R11ᵀ y₀ = (Πᵀ c)[:k]; the dependent rows must agree
     for i in range(k):
-        wi = W[i]
-        t[i] = (cvec[perm[i]] - _dot(wi, t, i)) / wi[i]
+        V[_V_T, i] = (V[_V_CVEC, ind[_I_PERM, i]] - _dot(W, i, V, _V_T, 0, i)) / W[i, i]
     res = 0.0
     for i in range(k, m):
-        d_i = cvec[perm[i]] - _dot(W[i], t, k)
+        d_i = V[_V_CVEC, ind[_I_PERM, i]] - _dot(W, i, V, _V_T, 0, k)
         res += d_i * d_i
     if np.sqrt(res) > _EQ_TOL * (1.0 + np.sqrt(a_norm) + np.sqrt(ax_norm)):
-        return _SUB_INCONSISTENT
+        return _SUB_INCONSISTENT, k
     d = nf - k
-    # (B_F Q)ᵀ = Qᵀ B_Fᵀ = B_Fᵀ − V Tᵀ Vᵀ B_Fᵀ (compact WY form of Q = H_0 ⋯ H_{k-1})
-    # Mc = M (p × d, C order) is kept alongside for the BLAS products below
-    Mc = Mbuf[: p * d].reshape((p, d))
-    for c in range(nf):
-        fc = free[c]
-        bq = BqT[c]
-        for i in range(p):
-            bq[i] = B[i, fc]
-        if k == 0:
-            for i in range(p):
-                Mc[i, c] = bq[i]
-    if k > 0 and p > 0:
-        o = 0
-        Vt = fs[o : o + k * nf].reshape((k, nf))
-        o += k * nf
-        V = fs[o : o + nf * k].reshape((nf, k))
-        o += nf * k
-        S = fs[o : o + k * k].reshape((k, k))
-        o += k * k
-        C = fs[o : o + k * p].reshape((k, p))
-        o += k * p
-        BV = fs[o : o + nf * p].reshape((nf, p))
-        for j in range(k):
-            vj = Vt[j]
-            wj = W[j]
-            for c in range(j):
-                vj[c] = 0.0
-                V[c, j] = 0.0
-            vj[j] = 1.0
-            V[j, j] = 1.0
-            for c in range(j + 1, nf):
-                vj[c] = wj[c]
-                V[c, j] = wj[c]
-        # T⁻¹ = S = strict upper part of VᵀV + diag(1/τ) (the UT transform, τ_j = 2/‖v_j‖²),
-        # so C' = Tᵀ Vᵀ B_Fᵀ solves Sᵀ C' = Vᵀ B_Fᵀ
-        if k <= _SMALL_K:
-            for i in range(k):
-                for j in range(i + 1, k):
-                    S[i, j] = _dot(Vt[i, j:nf], Vt[j, j:nf], nf - j)
-        else:
-            np.dot(Vt, V, S)
-        np.dot(Vt, BqT[:nf], C)
-        for j in range(k):
-            cj = C[j]
-            for row in range(j):
-                f = S[row, j]
-                cr = C[row]
-                for i in range(p):
-                    cj[i] -= f * cr[i]
-            f = tau[j]
-            for i in range(p):
-                cj[i] *= f
-        np.dot(V, C, BV)  # C-ordered operands: OpenBLAS is slower on transposed ones
+    # T = (B_F Q)ᵀ = Qᵀ B_Fᵀ = H_{k−1} ⋯ H_0 B_Fᵀ: rows 0…k−1 are (B_F Y)ᵀ, rows k…nf−1 are Mᵀ
+    i = 0
+    while i + 4 <= p:  # (four rows of B at a time: a quarter of the loop overhead)
         for c in range(nf):
-            bq = BqT[c]
-            bv = BV[c]
-            for i in range(p):
-                bq[i] -= bv[i]
-            if c >= k:
-                for i in range(p):
-                    Mc[i, c - k] = bq[i]
+            fc = ind[_I_FREE, c]
+            T[c, i] = B[i, fc]
+            T[c, i + 1] = B[i + 1, fc]
+            T[c, i + 2] = B[i + 2, fc]
+            T[c, i + 3] = B[i + 3, fc]
+        i += 4
+    while i < p:
+        for c in range(nf):
+            T[c, i] = B[i, ind[_I_FREE, c]]
+        i += 1
+    for c in range(nf):
+        for i in range(p, pp):
+            T[c, i] = 0.0
+    for j in range(0, k - 1, 2):
+        _reflect_columns2(T, W, j, nf, V[_V_TAU, j], V[_V_TAU, j + 1], V, pp)
+    if k % 2 == 1 and V[_V_TAU, k - 1] != 0.0:
+        _reflect_columns(T, W, k - 1, nf, V[_V_TAU, k - 1], V, pp)
     # r' = r − B x₀, x₀ = (x_X, Y y₀)
-    _copy(r, rp)
     for i in range(p):
-        brow = B[i]
         s = 0.0
         for c in range(nx):
-            s += brow[fix[c]] * x[fix[c]]
-        rp[i] -= s
+            s += B[i, ind[_I_FIX, c]] * x[ind[_I_FIX, c]]
+        V[_V_RP, i] = r[i] - s
+    for i in range(p, pp):
+        V[_V_RP, i] = 0.0
     for j in range(k):
-        f = t[j]
-        brow = BqT[j]
-        for i in range(p):
-            rp[i] -= f * brow[i]
-    # null-space least squares for z (stored in t[k:nf]), and the residual e = B x − r
-    if d > 0 and p >= d:
-        N = fs[: d * d].reshape((d, d))
-        np.dot(BqT[k:nf], Mc, N)  # MᵀM (BqT[k:nf] = Mᵀ)
-        z = t[k:nf]
+        _axpy(-V[_V_T, j], T, j, V, _V_RP, 0, pp)
+    # null-space least squares for z (into t[k:nf]), and the residual e = B x − r
+    if d > 0 and p >= d:  # normal form: (MᵀM + ridge·I) z = Mᵀ r'
+        _gram(T, k, d, pp, N)
         for c in range(d):
             N[c, c] += ridge
-            z[c] = _dot(BqT[k + c], rp, p)
-        if not _cholesky(N, d, ridge):
-            return _SUB_SINGULAR
-        _cholesky_solve(N, d, z)
-        for i in range(p):  # e = M z − r'
-            e[i] = -rp[i]
+            V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
+        if not _cholesky(N, d, ridge, V):
+            return _SUB_SINGULAR, k
+        _cholesky_solve(N, d, V, _V_W)
+        for i in range(pp):  # e = M z − r'
+            V[_V_E, i] = -V[_V_RP, i]
         for c in range(d):
-            f = z[c]
-            brow = BqT[k + c]
+            V[_V_T, k + c] = V[_V_W, c]
+            _axpy(V[_V_W, c], T, k + c, V, _V_E, 0, pp)
+    elif d > 0:  # row form: z = Mᵀ (M Mᵀ + ridge·I)⁻¹ r'
+        for i in range(p):
+            for i2 in range(i + 1):
+                N[i, i2] = 0.0
+        for c in range(d):
             for i in range(p):
-                e[i] += f * brow[i]
-    elif d > 0:
-        N = fs[: p * p].reshape((p, p))
-        if p > 0:
-            np.dot(Mc, BqT[k:nf], N)  # M Mᵀ
+                _axpy(T[k + c, i], T, k + c, N, i, 0, i + 1)
         for i in range(p):
             N[i, i] += ridge
-            e[i] = rp[i]
-        if not _cholesky(N, p, ridge):
-            return _SUB_SINGULAR
-        _cholesky_solve(N, p, e)  # w = (M Mᵀ + ridge I)⁻¹ r'
+            V[_V_E, i] = V[_V_RP, i]
+        if not _cholesky(N, p, ridge, V):
+            return _SUB_SINGULAR, k
+        _cholesky_solve(N, p, V, _V_E)  # w = (M Mᵀ + ridge I)⁻¹ r'
+        for i in range(p, pp):
+            V[_V_E, i] = 0.0
         for c in range(d):
-            t[k + c] = _dot(BqT[k + c], e, p)  # z = Mᵀ w
+            V[_V_T, k + c] = _dot(T, k + c, V, _V_E, 0, pp)  # z = Mᵀ w
         for i in range(p):  # e = M z − r' = −ridge·w, without the cancellation
-            e[i] *= -ridge
+            V[_V_E, i] *= -ridge
     else:
-        for i in range(p):
-            e[i] = -rp[i]
-    # λ' (permuted, basic): R11 λ' = −(Qᵀ g_F)[:k], (Qᵀ g_F)_j = (B_F Q)_jᵀ e + ridge·y₀_j
-    for j in range(k):
-        lam[j] = -(_dot(BqT[j], e, p) + ridge * t[j])
-    for j in range(k - 1, -1, -1):
-        s = lam[j]
-        for i in range(j + 1, k):
-            s -= W[i, j] * lam[i]
-        lam[j] = s / W[j, j]
+        for i in range(pp):
+            V[_V_E, i] = -V[_V_RP, i]
+    if nx > 0:  # λ' (permuted, basic): R11 λ' = −(Qᵀ g_F)[:k], (Qᵀ g_F)_j = T_j·e + ridge·y₀_j
+        for j in range(k):
+            V[_V_LAM, j] = -(_dot(T, j, V, _V_E, 0, pp) + ridge * V[_V_T, j])
+        for j in range(k - 1, -1, -1):
+            s = V[_V_LAM, j]
+            for i in range(j + 1, k):
+                s -= W[i, j] * V[_V_LAM, i]
+            V[_V_LAM, j] = s / W[j, j]
     # x_F = Q (y₀, z): the reflectors in reverse order
     for j in range(k - 1, -1, -1):
-        tj = tau[j]
-        if tj == 0.0:
-            continue
-        vj = W[j, j + 1 : nf]
-        tt = t[j + 1 : nf]
-        s = tj * (t[j] + _dot(vj, tt, nf - j - 1))
-        t[j] -= s
-        for c in range(nf - j - 1):
-            tt[c] -= s * vj[c]
+        if V[_V_TAU, j] != 0.0:
+            _reflect_vector(W, j, nf, V[_V_TAU, j], V, _V_T)
     for c in range(nf):
-        x[free[c]] = t[c]
+        x[ind[_I_FREE, c]] = V[_V_T, c]
     # reduced gradients of the fixed variables: μ = B_iᵀ e + ridge x_i + A_iᵀ λ
     for c in range(nx):
-        i = fix[c]
+        i = ind[_I_FIX, c]
         g = 0.0
         for j in range(p):
-            g += B[j, i] * e[j]
+            g += B[j, i] * V[_V_E, j]
         size = abs(g) + ridge * abs(x[i])
         s = g + ridge * x[i]
         for j in range(k):
-            term = lam[j] * A[perm[j], i]
+            term = V[_V_LAM, j] * A[ind[_I_PERM, j], i]
             s += term
             size += abs(term)
-        mu[i] = s
-        mu_tol[i] = _MU_TOL * size
-    return _SUB_OK
+        V[_V_MU, i] = s
+        V[_V_MU_TOL, i] = _MU_TOL * size
+    return _SUB_OK, k
 
 
-@njit(cache=True)
-def _dependency(A, fixed, i, rank_rtol, nu, W, tau, nrm, nrm_ref, lam, t, perm, free):
+@njit(cache=True, fastmath=_FAST)
+def _dependency(A, i, rank_rtol, W, V, ind):
     """ν with e_i = Aᵀλ' + Σ_X ν_j e_j, for a free i whose bound depends on the active ones.
 
-    λ' solves A_Fᵀ λ' = e_i restricted to F (basic solution from the pivoted QR of A_Fᵀ), and
-    ν_j = −(Aᵀλ')_j on the fixed variables (nu is 0 elsewhere). The other arrays are work
-    space (shared with :func:`_subproblem`).
+    λ' solves A_Fᵀ λ' = e_i restricted to F (basic solution from the pivoted QR of A_Fᵀ; F and
+    X from ``ind[_I_FIXED]``), and ν_j = −(Aᵀλ')_j on the fixed variables (0 elsewhere), into
+    ``V[_V_NU]``. The rest of the work space is shared with :func:`_subproblem`.
     """
     m, n = A.shape
     nf = 0
     pos = -1
     for j in range(n):
-        nu[j] = 0.0
-        if fixed[j] == 0:
+        V[_V_NU, j] = 0.0
+        if ind[_I_FIXED, j] == 0:
             if j == i:
                 pos = nf
-            free[nf] = j
+            ind[_I_FREE, nf] = j
             nf += 1
     for row in range(m):
-        perm[row] = row
-        wr = W[row]
-        ar = A[row]
+        ind[_I_PERM, row] = row
         for c in range(nf):
-            wr[c] = ar[free[c]]
-    k = _pivoted_qr_rows(W, m, nf, tau, perm, nrm, nrm_ref, rank_rtol)
+            W[row, c] = A[row, ind[_I_FREE, c]]
+    k = _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol)
     for c in range(nf):  # u = Qᵀ e_pos (reflectors in order)
-        t[c] = 0.0
-    t[pos] = 1.0
+        V[_V_T, c] = 0.0
+    V[_V_T, pos] = 1.0
     for j in range(k):
-        tj = tau[j]
-        if tj == 0.0:
-            continue
-        vj = W[j, j + 1 : nf]
-        tt = t[j + 1 : nf]
-        s = tj * (t[j] + _dot(vj, tt, nf - j - 1))
-        t[j] -= s
-        for c in range(nf - j - 1):
-            tt[c] -= s * vj[c]
+        if V[_V_TAU, j] != 0.0:
+            _reflect_vector(W, j, nf, V[_V_TAU, j], V, _V_T)
     for j in range(k - 1, -1, -1):  # R11 λ'' = u[:k]
-        s = t[j]
+        s = V[_V_T, j]
         for row in range(j + 1, k):
-            s -= W[row, j] * lam[row]
-        lam[j] = s / W[j, j]
+            s -= W[row, j] * V[_V_LAM, row]
+        V[_V_LAM, j] = s / W[j, j]
     for j in range(n):
-        if fixed[j] != 0:
+        if ind[_I_FIXED, j] != 0:
             s = 0.0
             for row in range(k):
-                s += lam[row] * A[perm[row], j]
-            nu[j] = -s
+                s += V[_V_LAM, row] * A[ind[_I_PERM, row], j]
+            V[_V_NU, j] = -s
 
 
-@njit(cache=True)
-def _wrong_sign(fixed, mu, mu_tol, i):
-    """True when the bound multiplier of fixed variable i has the wrong sign."""
-    if fixed[i] > 0:
-        return mu[i] > mu_tol[i]
-    return mu[i] < -mu_tol[i]
+@njit(cache=True, fastmath=_FAST)
+def _rank_with(A, i, rank_rtol, W, V, ind):
+    """Numerical rank of A restricted to the free variables and variable i (W, V and ind are
+    work space, as in :func:`_dependency`)."""
+    m, n = A.shape
+    nf = 0
+    for j in range(n):
+        if ind[_I_FIXED, j] == 0 or j == i:
+            ind[_I_FREE, nf] = j
+            nf += 1
+    for row in range(m):
+        ind[_I_PERM, row] = row
+        for c in range(nf):
+            W[row, c] = A[row, ind[_I_FREE, c]]
+    return _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol)
 
 
-@njit(cache=True)
-def _violation(x, lower, upper, i):
-    """How far x_i lies beyond its box relative to 1 + |bound| (0 inside, or within _X_TOL)."""
-    if x[i] > upper[i] + _X_TOL * (1.0 + abs(upper[i])):
-        return (x[i] - upper[i]) / (1.0 + abs(upper[i]))
-    if x[i] < lower[i] - _X_TOL * (1.0 + abs(lower[i])):
-        return (lower[i] - x[i]) / (1.0 + abs(lower[i]))
+@njit(cache=True, inline="always")
+def _wrong_sign(side, mu, tol):
+    """True when the multiplier ``mu`` of a bound on ``side`` (±1) has the wrong sign."""
+    if side > 0:
+        return mu > tol
+    return mu < -tol
+
+
+@njit(cache=True, inline="always")
+def _violation(xi, lo, up):
+    """How far xi lies beyond [lo, up] relative to 1 + |bound| (0 inside, or within _X_TOL)."""
+    if xi > up + _X_TOL * (1.0 + abs(up)):
+        return (xi - up) / (1.0 + abs(up))
+    if xi < lo - _X_TOL * (1.0 + abs(lo)):
+        return (lo - xi) / (1.0 + abs(lo))
     return 0.0
 
 
 @njit(cache=True)
-def _finish(x, lower, upper, fixed, pinned, mu, state, clip):
+def _finish(x, lower, upper, V, mu_row, ind, state, clip):
     """Write the active set into state; with ``clip``, put the free variables (within _X_TOL of
-    the box at a solution) exactly on it. Pinned variables report the sign of their multiplier."""
+    the box at a solution) exactly on it. Pinned variables report the sign of their multiplier
+    (``V[mu_row]``)."""
     for i in range(x.shape[0]):
-        if pinned[i]:
-            state[i] = -1 if mu[i] >= 0.0 else 1
+        if ind[_I_PINNED, i]:
+            state[i] = -1 if V[mu_row, i] >= 0.0 else 1
         else:
-            state[i] = fixed[i]
-            if clip and fixed[i] == 0:
+            state[i] = ind[_I_FIXED, i]
+            if clip and ind[_I_FIXED, i] == 0:
                 x[i] = min(max(x[i], lower[i]), upper[i])
-
-
-@njit(cache=True)
-def _most_violated(x, lower, upper, fixed):
-    """The free variable farthest beyond its box (relative to 1 + |bound|), or -1."""
-    i_add = -1
-    worst = 0.0
-    for i in range(x.shape[0]):
-        if fixed[i] == 0:
-            v = _violation(x, lower, upper, i)
-            if v > worst:
-                worst = v
-                i_add = i
-    return i_add
 
 
 @njit(cache=True)
@@ -517,55 +683,29 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
         raise ValueError("solve_level: lower, upper, state and x must have n entries")
     if not ridge >= 0.0:
         raise ValueError("solve_level: ridge must be >= 0")
-    q = min(p, n)
-    size_fs = max(2 * m * n + m * m + m * p + n * p, q * q + p * n)
-    fbuf = np.empty(m * n + 2 * n * p + size_fs + 5 * m + 2 * p + 6 * n)
-    W = fbuf[: m * n].reshape((m, n))
-    o = m * n
-    Mbuf = fbuf[o : o + n * p]
-    o += n * p
-    BqT = fbuf[o : o + n * p].reshape((n, p))
-    o += n * p
-    fs = fbuf[o : o + size_fs]
-    o += size_fs
-    tau = fbuf[o : o + m]
-    nrm = fbuf[o + m : o + 2 * m]
-    nrm_ref = fbuf[o + 2 * m : o + 3 * m]
-    cvec = fbuf[o + 3 * m : o + 4 * m]
-    lam = fbuf[o + 4 * m : o + 5 * m]
-    o += 5 * m
-    rp = fbuf[o : o + p]
-    e = fbuf[o + p : o + 2 * p]
-    o += 2 * p
-    t = fbuf[o : o + n]
-    mu = fbuf[o + n : o + 2 * n]
-    mu_tol = fbuf[o + 2 * n : o + 3 * n]
-    x0 = fbuf[o + 3 * n : o + 4 * n]
-    mu0 = fbuf[o + 4 * n : o + 5 * n]
-    nu = fbuf[o + 5 * n : o + 6 * n]
-    ibuf = np.empty(m + 5 * n, dtype=np.int64)
-    perm = ibuf[:m]
-    free = ibuf[m : m + n]
-    fix = ibuf[m + n : m + 2 * n]
-    fixed = ibuf[m + 2 * n : m + 3 * n]
-    prev = ibuf[m + 3 * n : m + 4 * n]
-    pinned = ibuf[m + 4 * n :]
-    ws = (W, BqT, Mbuf, fs, tau, nrm, nrm_ref, cvec, lam, rp, e, t, perm, free, fix)
+    pp = (p + 3) & ~3
+    work = np.empty((4, max(m, n, _N_VEC), max(m, n, pp)))
+    W = work[0]
+    T = work[1]
+    N = work[2]
+    V = work[3]
+    # (the vectors are used as rows of V and ind: a view per vector costs reference counting)
+    ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
     warm = False
     for i in range(n):
         if not lower[i] <= upper[i] or lower[i] == np.inf or upper[i] == -np.inf:
             raise ValueError("solve_level: need lower <= upper, no NaN, and finite if equal")
-        mu[i] = 0.0
-        pinned[i] = 0
-        fixed[i] = 0
+        V[_V_MU, i] = 0.0
+        ind[_I_PINNED, i] = 0
+        ind[_I_FIXED, i] = 0
         if lower[i] == upper[i]:
-            pinned[i] = 1
-            fixed[i] = -1
+            ind[_I_PINNED, i] = 1
+            ind[_I_FIXED, i] = -1
         elif state[i] > 0 and upper[i] < np.inf:
-            fixed[i] = 1
+            ind[_I_FIXED, i] = 1
             warm = True
         elif state[i] < 0 and lower[i] > -np.inf:
-            fixed[i] = -1
+            ind[_I_FIXED, i] = -1
             warm = True
     # phases: PDAS; then, if it stalls, the dual active set method (Goldfarb–Idnani on the
     # bounds), which first releases wrong-signed bounds (DUAL_START) and then adds violated
@@ -579,12 +719,13 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     while True:
         if count >= max_iter:
             if phase == _DUAL_ADD:  # the last point on the path meets the equalities
-                _copy(x0, x)
-                _copy(mu0, mu)
-            _finish(x, lower, upper, fixed, pinned, mu, state, False)
+                for i in range(n):
+                    x[i] = V[_V_X0, i]
+                    V[_V_MU, i] = V[_V_MU0, i]
+            _finish(x, lower, upper, V, _V_MU, ind, state, False)
             return MAX_ITER, count
         count += 1
-        sub = _subproblem(A, a, B, r, ridge, lower, upper, fixed, x, mu, mu_tol, rank_rtol, ws)
+        sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
         if sub == _SUB_SINGULAR:
             _fill(x, np.nan)
             return NUMERICAL, count
@@ -594,86 +735,101 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                     warm = False
                     max_iter += 1
                     for i in range(n):
-                        fixed[i] = -1 if pinned[i] else 0
+                        ind[_I_FIXED, i] = -1 if ind[_I_PINNED, i] else 0
                     continue
                 if best > n:  # even the cold start is inconsistent
                     _fill(x, np.nan)
                     for i in range(n):
-                        state[i] = -1 if pinned[i] else 0
+                        state[i] = -1 if ind[_I_PINNED, i] else 0
                     return INCONSISTENT, count
                 # the last exchange fixed too many variables: back to the previous set (which
                 # was consistent), and on with the dual method
-                _copy(prev, fixed)
+                for i in range(n):
+                    ind[_I_FIXED, i] = ind[_I_PREV, i]
                 phase = _DUAL_START
                 continue
             n_inf = 0
             for i in range(n):
-                if pinned[i]:
+                if ind[_I_PINNED, i]:
                     continue
-                if fixed[i] == 0:
-                    n_inf += _violation(x, lower, upper, i) > 0.0
+                if ind[_I_FIXED, i] == 0:
+                    n_inf += _violation(x[i], lower[i], upper[i]) > 0.0
                 else:
-                    n_inf += _wrong_sign(fixed, mu, mu_tol, i)
+                    n_inf += _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i])
             if n_inf == 0:
-                _finish(x, lower, upper, fixed, pinned, mu, state, True)
+                _finish(x, lower, upper, V, _V_MU, ind, state, True)
                 return OK, count
             if n_inf < best:
                 best = n_inf
-                _copy(fixed, prev)
                 for i in range(n):
-                    if pinned[i]:
+                    ind[_I_PREV, i] = ind[_I_FIXED, i]
+                    if ind[_I_PINNED, i]:
                         continue
-                    if fixed[i] == 0:
-                        if _violation(x, lower, upper, i) > 0.0:
-                            fixed[i] = 1 if x[i] > upper[i] else -1
-                    elif _wrong_sign(prev, mu, mu_tol, i):
-                        fixed[i] = 0
+                    if ind[_I_FIXED, i] == 0:
+                        if _violation(x[i], lower[i], upper[i]) > 0.0:
+                            ind[_I_FIXED, i] = 1 if x[i] > upper[i] else -1
+                    elif _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i]):
+                        ind[_I_FIXED, i] = 0
                 continue
             phase = _DUAL_START  # PDAS is not making progress (it may cycle)
         if phase == _DUAL_START:
             if sub == _SUB_INCONSISTENT:  # cannot happen: only releases since a consistent set
-                _finish(x, lower, upper, fixed, pinned, mu, state, False)
+                _finish(x, lower, upper, V, _V_MU, ind, state, False)
                 return MAX_ITER, count
             released = False  # a dual feasible start: no bound with the wrong multiplier sign
             for i in range(n):
-                if fixed[i] != 0 and not pinned[i] and _wrong_sign(fixed, mu, mu_tol, i):
-                    fixed[i] = 0
-                    released = True
+                side_i = ind[_I_FIXED, i]
+                if side_i != 0 and not ind[_I_PINNED, i]:
+                    if _wrong_sign(side_i, V[_V_MU, i], V[_V_MU_TOL, i]):
+                        ind[_I_FIXED, i] = 0
+                        released = True
             if released:
                 continue
-            _copy(x, x0)
-            _copy(mu, mu0)
+            for i in range(n):
+                V[_V_X0, i] = x[i]
+                V[_V_MU0, i] = V[_V_MU, i]
             phase = _DUAL_ADD
-        elif sub == _SUB_INCONSISTENT:
+        elif sub == _SUB_INCONSISTENT or rank < _rank_with(A, i_add, rank_rtol, W, V, ind):
             # the bound being added is a combination e_i = Aᵀλ' + Σ_X ν_j e_j of the equalities
-            # and the active bounds, so x cannot move: a pure dual step instead. Raising the
-            # added multiplier by s·τ (s its right sign) shifts μ_j by −s·τ·ν_j; the first
-            # active bound whose multiplier reaches zero is released
-            fixed[i_add] = 0
-            _dependency(A, fixed, i_add, rank_rtol, nu, W, tau, nrm, nrm_ref, lam, t, perm, free)
+            # and the active bounds (holding x_i at it drops the rank of A_F; the subproblem is
+            # inconsistent, or consistent only because x_i is at the bound to roundoff already,
+            # and then its multipliers are not unique), so x cannot move: a pure dual step
+            # instead. Raising the added multiplier by s·τ (s its right sign) shifts μ_j by
+            # −s·τ·ν_j; the first active bound whose multiplier reaches zero is released
+            ind[_I_FIXED, i_add] = 0
+            _dependency(A, i_add, rank_rtol, W, V, ind)
             sgn = -side
             tau_min = np.inf
             j_drop = -1
             for j in range(n):
-                if fixed[j] == 0 or pinned[j]:
+                side_j = ind[_I_FIXED, j]
+                if side_j == 0 or ind[_I_PINNED, j]:
                     continue
-                rate = fixed[j] * sgn * nu[j]  # d(−fixed_j μ_j)/dτ
-                if rate < -1e-12 * (1.0 + abs(nu[j])):
-                    tj = max(-fixed[j] * mu0[j], 0.0) / -rate
+                nu_j = V[_V_NU, j]
+                rate = side_j * sgn * nu_j  # d(−fixed_j μ_j)/dτ
+                if rate < -1e-12 * (1.0 + abs(nu_j)):
+                    tj = max(-side_j * V[_V_MU0, j], 0.0) / -rate
                     if tj < tau_min:
                         tau_min = tj
                         j_drop = j
-            if j_drop < 0:  # the bounds and the equalities have no common point
-                _copy(x0, x)
-                _finish(x, lower, upper, fixed, pinned, mu0, state, False)
+            if j_drop >= 0:
+                for j in range(n):
+                    if ind[_I_FIXED, j] != 0:
+                        V[_V_MU0, j] -= sgn * tau_min * V[_V_NU, j]
+                V[_V_MU0, i_add] += sgn * tau_min
+                ind[_I_FIXED, j_drop] = 0
+                ind[_I_FIXED, i_add] = side
+                continue
+            if sub == _SUB_INCONSISTENT:  # the bounds and the equalities have no common point
+                for i in range(n):
+                    x[i] = V[_V_X0, i]
+                _finish(x, lower, upper, V, _V_MU0, ind, state, False)
                 return MAX_ITER, count
-            for j in range(n):
-                if fixed[j] != 0:
-                    mu0[j] -= sgn * tau_min * nu[j]
-            mu0[i_add] += sgn * tau_min
-            fixed[j_drop] = 0
-            fixed[i_add] = side
-            continue
+            # x_i meets its bound already (to roundoff): hold it there, with μ_i = 0
+            ind[_I_FIXED, i_add] = side
+            V[_V_MU0, i_add] = 0.0
+            for i in range(n):
+                V[_V_X0, i] = x[i]
         else:
             # x, mu solve the problem with i_add on its bound; the segment from (x0, mu0) to
             # them is the path as x_i moves to the bound. Stop where a multiplier first
@@ -681,43 +837,55 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             theta = 1.0
             j_drop = -1
             for j in range(n):
-                if fixed[j] == 0 or pinned[j] or j == i_add:
+                side_j = ind[_I_FIXED, j]
+                if side_j == 0 or ind[_I_PINNED, j] or j == i_add:
                     continue
-                if _wrong_sign(fixed, mu, mu_tol, j):
+                if _wrong_sign(side_j, V[_V_MU, j], V[_V_MU_TOL, j]):
                     # margins of the right sign (−fixed·μ ≥ 0), at the start and at the end
-                    m0 = max(-fixed[j] * mu0[j], 0.0)
-                    m1 = -fixed[j] * mu[j]
+                    m0 = max(-side_j * V[_V_MU0, j], 0.0)
+                    m1 = -side_j * V[_V_MU, j]
                     th = m0 / (m0 - m1)
                     if th < theta:
                         theta = th
                         j_drop = j
             if j_drop >= 0:
                 for j in range(n):
-                    x0[j] += theta * (x[j] - x0[j])
-                    mu0[j] += theta * (mu[j] - mu0[j])
-                fixed[j_drop] = 0
+                    V[_V_X0, j] += theta * (x[j] - V[_V_X0, j])
+                    V[_V_MU0, j] += theta * (V[_V_MU, j] - V[_V_MU0, j])
+                ind[_I_FIXED, j_drop] = 0
                 continue
-            _copy(x, x0)
-            _copy(mu, mu0)
-        # (DUAL_ADD) x0, mu0 solve the current set with the right signs: add the most violated
-        # bound, or stop
-        i_add = _most_violated(x0, lower, upper, fixed)
+            for i in range(n):
+                V[_V_X0, i] = x[i]
+                V[_V_MU0, i] = V[_V_MU, i]
+        # (DUAL_ADD) x0, mu0 solve the current set with the right signs: add the bound farthest
+        # beyond (relative to 1 + |bound|), or stop
+        i_add = -1
+        worst = 0.0
+        for i in range(n):
+            if ind[_I_FIXED, i] == 0:
+                v = _violation(V[_V_X0, i], lower[i], upper[i])
+                if v > worst:
+                    worst = v
+                    i_add = i
         if i_add < 0:
             wrong = False  # (guards against roundoff: the dual method keeps the signs right)
             for i in range(n):
-                if fixed[i] != 0 and not pinned[i] and _wrong_sign(fixed, mu0, mu_tol, i):
-                    fixed[i] = 0
-                    wrong = True
+                side_i = ind[_I_FIXED, i]
+                if side_i != 0 and not ind[_I_PINNED, i]:
+                    if _wrong_sign(side_i, V[_V_MU0, i], V[_V_MU_TOL, i]):
+                        ind[_I_FIXED, i] = 0
+                        wrong = True
             if wrong:
                 phase = _DUAL_START
                 continue
-            _copy(x0, x)
-            _copy(mu0, mu)
-            _finish(x, lower, upper, fixed, pinned, mu, state, True)
+            for i in range(n):
+                x[i] = V[_V_X0, i]
+                V[_V_MU, i] = V[_V_MU0, i]
+            _finish(x, lower, upper, V, _V_MU, ind, state, True)
             return OK, count
-        side = 1 if x0[i_add] > upper[i_add] else -1
-        fixed[i_add] = side
-        mu0[i_add] = 0.0
+        side = 1 if V[_V_X0, i_add] > upper[i_add] else -1
+        ind[_I_FIXED, i_add] = side
+        V[_V_MU0, i_add] = 0.0
 
 
 @njit(cache=True)
