@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc import ServoMap, ServoMapError, ServoSpec
-from wbc.servo_map import DEG_PER_TICK
+from wbc import ServoMap, ServoMapError, ServoSpec, load_robot
+from wbc.servo_map import DEG_PER_TICK, ServoSettings
 
 # Annex A start pose of the thesis (servo degrees from tick 512), by Robotis ID (facts §8)
 ANNEX_A_START = {
@@ -110,3 +110,32 @@ def test_malformed_servo_maps(tmp_path):
     bad.write_text("[joints]\na = { id = 1, sign = 1 }\n")
     with pytest.raises(ServoMapError, match="lacks 'zero_tick'"):
         ServoMap.from_file(bad)
+
+
+def test_settings_are_read_with_per_joint_overrides():
+    robot = load_robot("bioloid")
+    settings = robot.servo_map.settings
+    names = list(robot.servo_map.joint_names)
+    assert settings.compliance_slope[names.index("l_hip_roll")] == 32
+    assert settings.compliance_slope[names.index("r_shoulder_pitch")] == 128
+    assert settings.compliance_slope[names.index("l_ankle_roll")] == 64
+    assert np.all(settings.compliance_margin == 1)
+    assert np.all(settings.torque_limit == 1023)
+    assert settings.alarm_shutdown == 36
+
+
+@pytest.mark.parametrize(
+    "table, message",
+    [
+        ({"compliance_slope": 0}, "compliance_slope = 0: must be an integer in 1..254"),
+        ({"punch": "hard"}, "punch = 'hard'"),
+        ({"stiffness": 3}, "unknown keys ['stiffness']"),
+        ({"joints": {"nope": {"punch": 40}}}, "unknown joint 'nope'"),
+        ({"joints": {"a": {"slope": 40}}}, "unknown key 'slope'"),
+    ],
+)
+def test_bad_settings_name_the_key(table, message):
+    with pytest.raises(ServoMapError) as err:
+        ServoSettings.from_table(table, ["a", "b"], "x.toml")
+    assert message in str(err.value)
+    assert "x.toml" in str(err.value)

@@ -27,6 +27,86 @@ DEG_PER_TICK = 300.0 / 1023.0
 RAD_PER_TICK = math.radians(DEG_PER_TICK)
 
 
+#: registers written from :class:`ServoSettings`: name -> (address, size, allowed range, default)
+SETTING_REGISTERS: dict[str, tuple[int, int, tuple[int, int], int]] = {
+    "compliance_margin": (26, 1, (0, 254), 1),  # and 27 (CCW), same value
+    "compliance_slope": (28, 1, (1, 254), 32),  # and 29 (CCW), same value
+    "punch": (48, 2, (32, 1023), 32),
+    "torque_limit": (34, 2, (0, 1023), 1023),
+}
+#: error bits that cut torque (register 18); 36 = overload (0x20) + overheating (0x04)
+ALARM_SHUTDOWN_DEFAULT = 36
+
+
+@dataclass(frozen=True)
+class ServoSettings:
+    """Per-joint servo settings (model joint order): the one config read by the real servo
+    layer, which writes them to the control table at start-up, and by the simulator's actuator
+    model, which derives stiffness, dead band, punch and torque cap from them.
+
+    All values are register units: ticks for the compliance margin/slope, 0..1023 for punch and
+    torque limit (fraction of the maximum × 1023); ``alarm_shutdown`` is a bit mask.
+    """
+
+    compliance_margin: np.ndarray
+    compliance_slope: np.ndarray
+    punch: np.ndarray
+    torque_limit: np.ndarray
+    alarm_shutdown: int = ALARM_SHUTDOWN_DEFAULT
+
+    @classmethod
+    def defaults(cls, n: int) -> ServoSettings:
+        """The AX-12A factory values for ``n`` joints."""
+        return cls(
+            *(np.full(n, SETTING_REGISTERS[k][3], dtype=int) for k in SETTING_REGISTERS),
+        )
+
+    @classmethod
+    def from_table(
+        cls, table: Mapping, joint_names: Sequence[str], source: str = "<memory>"
+    ) -> ServoSettings:
+        """Parse a ``[settings]`` table: global values plus ``[settings.joints]`` overrides."""
+        where = f"servo map {source}: [settings]"
+        known = set(SETTING_REGISTERS) | {"alarm_shutdown", "joints"}
+        extra = sorted(set(table) - known)
+        if extra:
+            raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
+        n = len(joint_names)
+        values = {}
+        for key, (_, _, (lo, hi), default) in SETTING_REGISTERS.items():
+            v = _register_value(table.get(key, default), lo, hi, f"{where} {key}")
+            values[key] = np.full(n, v, dtype=int)
+        index = {j: i for i, j in enumerate(joint_names)}
+        overrides = table.get("joints", {})
+        if not isinstance(overrides, Mapping):
+            raise ServoMapError(f"{where}.joints must be a table of joint = {{ key = value }}")
+        for joint, entry in overrides.items():
+            if joint not in index:
+                raise ServoMapError(f"{where}.joints: unknown joint {joint!r}")
+            if not isinstance(entry, Mapping):
+                raise ServoMapError(f"{where}.joints.{joint} must be a table")
+            for key, v in entry.items():
+                if key not in SETTING_REGISTERS:
+                    raise ServoMapError(
+                        f"{where}.joints.{joint}: unknown key {key!r}; "
+                        f"allowed: {sorted(SETTING_REGISTERS)}"
+                    )
+                lo, hi = SETTING_REGISTERS[key][2]
+                values[key][index[joint]] = _register_value(
+                    v, lo, hi, f"{where}.joints.{joint}.{key}"
+                )
+        alarm = _register_value(
+            table.get("alarm_shutdown", ALARM_SHUTDOWN_DEFAULT), 0, 127, f"{where} alarm_shutdown"
+        )
+        return cls(**values, alarm_shutdown=alarm)
+
+
+def _register_value(value, lo: int, hi: int, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ServoMapError(f"{where} = {value!r}: must be an integer in {lo}..{hi}")
+    return value
+
+
 @dataclass(frozen=True)
 class ServoSpec:
     """One joint's servo: Dynamixel ID, direction sign and the tick where q = 0."""
@@ -46,6 +126,7 @@ class ServoMap:
         poses: Mapping[str, Mapping[int, int]] | None = None,
         baudrate: int = 1_000_000,
         source: str = "<memory>",
+        settings: ServoSettings | None = None,
     ) -> None:
         self.source = source
         self.specs = tuple(specs)
@@ -57,6 +138,8 @@ class ServoMap:
         self.zero_ticks = np.array([s.zero_tick for s in self.specs], dtype=float)
         self._by_id = {s.id: i for i, s in enumerate(self.specs)}
         self._by_joint = {s.joint: i for i, s in enumerate(self.specs)}
+        #: compliance, punch, torque limit and alarm shutdown per joint (model order)
+        self.settings = settings or ServoSettings.defaults(len(self.specs))
         self.poses = {name: dict(p) for name, p in (poses or {}).items()}
         for name, pose in self.poses.items():
             unknown = sorted(set(pose) - set(self._by_id))
@@ -105,7 +188,10 @@ class ServoMap:
             except (TypeError, ValueError) as exc:
                 raise ServoMapError(f"servo map {path}: pose {name!r}: {exc}") from exc
         baud = raw.get("bus", {}).get("baudrate", 1_000_000)
-        return cls(specs, poses, baudrate=baud, source=str(path))
+        settings = ServoSettings.from_table(
+            raw.get("settings", {}), [s.joint for s in specs], str(path)
+        )
+        return cls(specs, poses, baudrate=baud, source=str(path), settings=settings)
 
     def _validate(self) -> None:
         seen: dict[int, str] = {}
