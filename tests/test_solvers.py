@@ -151,7 +151,7 @@ def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon
             assert backend == "osqp" and "maximum iterations" in str(exc)
             continue
         residuals[backend] = [np.linalg.norm(s.residual) for s in solver.solutions]
-        lower, upper = solver._box
+        lower, upper = solver.last.lower, solver.last.upper
         assert np.all(results[backend] >= lower - 1e-5) and np.all(results[backend] <= upper + 1e-5)
     assert np.allclose(results["quadprog"], results["daqp"], atol=1e-6)
     assert np.allclose(results["proxqp"], results["daqp"], atol=1e-4)
@@ -276,6 +276,30 @@ def test_targets_update_in_place_without_replanning(robot):
     errors = stack.errors()
     assert set(errors) == {"contact_l_sole", "swing", "com", "torso", "posture"}
     assert errors["com"].shape == (3,)
+
+
+@pytest.mark.parametrize("solver_class", [WeightedQP, HierarchicalQP])
+@pytest.mark.parametrize("compiled", [None, False])
+def test_a_target_handle_taken_before_the_first_solve_is_honoured(robot, solver_class, compiled):
+    """Tasks own their target arrays on every path: nothing re-binds them."""
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    com, swing = stack.task("com"), stack.task("swing")
+    handles = com.target, swing.target_position, swing.target_rotation
+    solver = solver_class(stack, compiled=compiled)
+    before = solver.solve(q, 0.01)  # the first solve builds the layout
+    handles[0][:] += [0.004, -0.002, 0.0]
+    handles[1][:] += [0.0, 0.0, 0.01]
+    dq = solver.solve(q, 0.01)
+    assert (solver.fast is not None) == (compiled is None)
+    reference = walking_stack(robot, q)  # the same targets, set before any solve
+    reference.task("com").set_target(handles[0])
+    reference.task("swing").set_position_target(handles[1])
+    expected = solver_class(reference, compiled=False).solve(q, 0.01)
+    assert np.abs(dq - before).max() > 1e-3  # the handles moved the answer ...
+    assert np.allclose(dq, expected, atol=1e-9)  # ... to the one of the new targets
+    assert com.target is handles[0] and swing.target_position is handles[1]
+    assert swing.target_rotation is handles[2]
 
 
 def test_support_switch_replans(robot):

@@ -1,13 +1,14 @@
-"""One compiled call per control tick: every task row, the box bounds and the QP(s).
+"""The compiled solve of a tick, once the rows are filled: box bounds, the QP(s), integration.
 
-* :func:`weighted_tick` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
+* :func:`weighted_solve` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
   rows as equalities, joint position/velocity bounds;
-* :func:`cascade_tick` — the lexicographic QP: level k in least squares subject to the bounds
+* :func:`cascade_solve` — the lexicographic QP: level k in least squares subject to the bounds
   and to every level above kept at its achieved values (``J_i Δq = J_i Δq_i``, the exact
   optimal set of a least-squares level), the last level damped by μ‖Δq‖² as the weighted QP.
 
 Both return a status; anything but :data:`~wbc.compiled.lsq.OK` sends the caller back to the
-numpy path, which handles (and names) infeasible problems.
+numpy path, which handles (and names) infeasible problems. The tick itself (rows, then one of
+these) is generated per set of row kernels by :mod:`wbc.compiled.dispatch`.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from numba import njit
 
 from ._cache import refresh
 from .lsq import MAX_ITER, NUMERICAL, OK, solve_level
-from .rows import fill_rows
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
@@ -59,24 +59,14 @@ def joint_bounds(
 
 
 @njit(cache=True)
-def weighted_tick(
-    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
-    targets, frame_R, frame_p, frame_support, Jw, com, Jcom, q,
-    q_min, q_max, step, params, lower, upper, state, dq, q_next,
+def weighted_solve(
+    soft_J, soft_b, hard_J, hard_b, q, q_min, q_max, step, params, lower, upper, state, dq,
+    q_next,
 ) -> int:  # fmt: skip
-    """Fill the rows and bounds, then solve min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
+    """With the rows filled: the bounds, then min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
     hard_J Δq = hard_b and the bounds; Δq into ``dq``, q ⊕ Δq into ``q_next`` (see
     :func:`integrate`). ``params``: [use the velocity steps, μ, (unused)]."""
     joints = q[q.shape[0] - q_min.shape[0] :]
-    fill_rows(
-        soft_spec, soft_sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
-        soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    )  # fmt: skip
-    fill_rows(
-        hard_spec, hard_sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
-        hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
-    )  # fmt: skip
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     status = solve_level(hard_J, hard_b, soft_J, soft_b, params[1], lower, upper, state, dq)
     if status == OK:
@@ -127,12 +117,11 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
 
 
 @njit(cache=True)
-def cascade_tick(
-    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard,
-    targets, frame_R, frame_p, frame_support, Jw, com, Jcom, q,
-    q_min, q_max, step, params, lower, upper, states, achieved, dq, q_next,
+def cascade_solve(
+    J, b, level_rows, level_hard, q, q_min, q_max, step, params, lower, upper, states,
+    achieved, dq, q_next,
 ) -> int:  # fmt: skip
-    """Fill every level's rows (weighted) and the bounds, then solve the levels in order.
+    """With every level's rows filled (weighted): the bounds, then the levels in order.
 
     ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``states[k]``: the
     active set of level k (the last tick's: a warm start; updated); ``achieved``: J Δq of
@@ -140,10 +129,6 @@ def cascade_tick(
     q ⊕ Δq into ``q_next``.
     """
     joints = q[q.shape[0] - q_min.shape[0] :]
-    fill_rows(
-        spec, sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
-        sqrt_w, gain_w, J, E, b,
-    )  # fmt: skip
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     mu = params[1]
     hard_tol = params[2]
@@ -250,6 +235,6 @@ def integrate(
 
 # numba caches these on ticks.py alone: flush them when the kernels they call change
 refresh(
-    [joint_bounds, weighted_tick, _proximal_level, cascade_tick, integrate],
-    [Path(__file__).with_name(f) for f in ("rows.py", "lsq.py", "layout.py")],
+    [joint_bounds, weighted_solve, _proximal_level, cascade_solve, integrate],
+    [Path(__file__).with_name("lsq.py")],
 )

@@ -233,7 +233,7 @@ class ThesisScheme:
             self.tasks[name].set_target_from(kin)
         sole = self.root.contact.target_rotation
         self.tasks["foot_ori"].set_target(sole)
-        self.tasks["torso"].axis = sole[:, 2].copy()
+        self.tasks["torso"].set_axis(sole[:, 2])
         if self.chan_dubey is not None:
             self.chan_dubey.reset()
 

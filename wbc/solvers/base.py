@@ -6,6 +6,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -32,6 +33,16 @@ class PoseResult:
 
     def max_error(self) -> float:
         return max((float(np.max(np.abs(e))) for e in self.errors.values()), default=0.0)
+
+
+class Solution(NamedTuple):
+    """What one solve returns: Δq, the box it was solved in, and q ⊕ Δq when the compiled
+    tick integrated it already (None: not yet)."""
+
+    dq: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    q_next: np.ndarray | None = None
 
 
 class StackSolver(ABC):
@@ -71,11 +82,11 @@ class StackSolver(ABC):
         self.compiled_ticks = 0
         self.handed_back_ticks = 0
         self._layouts: dict = {}
-        self._stepped: np.ndarray | None = None
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
-        self._box: tuple[np.ndarray, np.ndarray] | None = None
+        #: the last solve's result (None before the first)
+        self.last: Solution | None = None
         #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
         self.solve_time = 0.0
         #: True if the last solve had to relax an infeasible hard level
@@ -87,23 +98,22 @@ class StackSolver(ABC):
 
     # ------------------------------------------------------------------ interface
     @abstractmethod
-    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
-        """Δq at the configuration of ``kin`` (kinematics already updated)."""
+    def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        """The solution at the configuration of ``kin`` (kinematics already updated)."""
 
     def solve(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """Δq (nv) for one QP at configuration q; ``dt`` enables the velocity limits."""
-        dq = self._timed_solve(q, dt)
-        return dq.copy() if self._stepped is not None else dq  # a kernel's buffer: copy
+        return self._timed_solve(q, dt).dq.copy()  # may be a plan's buffer: copy
 
-    def _timed_solve(self, q: np.ndarray, dt: float | None) -> np.ndarray:
+    def _timed_solve(self, q: np.ndarray, dt: float | None) -> Solution:
         start = time.perf_counter()
         if dt is not None and not (math.isfinite(dt) and dt > 0):
             raise ConfigurationError(f"dt must be a positive number, got {dt}")
-        self._stepped = None  # the compiled path sets it to q ⊕ Δq
+        self.last = None
         self.kin.update(q)
-        dq = self._solve(self.kin, dt)
+        self.last = solution = self._solve(self.kin, dt)
         self.solve_time = time.perf_counter() - start
-        return dq
+        return solution
 
     def prepare(self, q: np.ndarray, dt: float | None = None) -> None:
         """Pay the one-off costs of a first solve now (building the layout, loading the
@@ -124,29 +134,25 @@ class StackSolver(ABC):
         onto their limits, so that no returned configuration ever exceeds a limit (a joint that
         started outside is moved back towards its range, never further out).
         """
-        dq = self._timed_solve(q, dt)
-        if self._stepped is not None:  # integrated by the kernel, the same way
-            return self._stepped.copy()
-        return self.integrate(self.kin.q, dq)
+        solution = self._timed_solve(q, dt)
+        if solution.q_next is not None:  # integrated by the compiled tick, the same way
+            return solution.q_next.copy()
+        return self.integrate(self.kin.q, solution.dq)
 
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """q ⊕ dq with dq's joint part clipped to the last solve's box bounds and the joints
-        to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances)."""
-        if self.fast is not None:  # the same operations, compiled
-            lower, upper = self._box if self._box is not None else self.fast.unbounded
-            q = np.ascontiguousarray(q, dtype=float)
-            dq = np.ascontiguousarray(dq, dtype=float)
-            q_next = np.empty_like(q)
-            self.fast.integrate(q, dq, lower, upper, self._q_min, self._q_max, q_next)
-            return q_next
-        if self._box is not None:
-            lower, upper = self._box
-            dq = dq.copy()
-            np.minimum(np.maximum(dq[6:], lower[6:], out=dq[6:]), upper[6:], out=dq[6:])
-        q_next = self.robot.integrate(q, dq)
-        j_prev = q[7:]
-        j = q_next[7:]
-        np.clip(j, np.minimum(self._q_min, j_prev), np.maximum(self._q_max, j_prev), out=j)
+        to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances);
+        :func:`wbc.compiled.ticks.integrate`, as the compiled tick does."""
+        from ..compiled.ticks import integrate
+
+        if self.last is not None:
+            lower, upper = self.last.lower, self.last.upper
+        else:
+            lower, upper = np.full(dq.shape, -np.inf), np.full(dq.shape, np.inf)
+        q = np.ascontiguousarray(q, dtype=float)
+        dq = np.ascontiguousarray(dq, dtype=float)
+        q_next = np.empty_like(q)
+        integrate(q, dq, lower, upper, self._q_min, self._q_max, q_next)
         return q_next
 
     def solve_pose(
@@ -225,16 +231,14 @@ class StackSolver(ABC):
     # ------------------------------------------------------------------ compiled path
     def compiled_reason(self) -> str:
         """Why the compiled hot path cannot serve this stack ("" if it can)."""
-        from ..compiled.plan import KINDS, numba_available
+        from ..compiled.plan import compiled, numba_available
 
         if not numba_available():
             return "numba is not installed (pip install numba)"
-        others = sorted(
-            {type(t).__name__ for lv in self.stack.levels for t in lv.active_tasks()}
-            - {k.__name__ for k in KINDS}
-        )
+        active = [t for lv in self.stack.levels for t in lv.active_tasks()]
+        others = sorted({type(t).__name__ for t in active if not compiled(t)})
         if others:
-            return f"no compiled form for the task types {others}"
+            return f"no row kernel (compiled form) for the task types {others}"
         if self.stack.extra_limits:
             return "extra box limits are not compiled"
         return ""
@@ -268,7 +272,6 @@ class StackSolver(ABC):
         are clipped into [−v_max·dt, v_max·dt]; a joint outside its range then moves back at
         the servo's speed (the bounds never cross). Other box limits are intersected after.
         """
-        self._box = (lower, upper)
         lo, hi = lower[6:], upper[6:]  # the base rows stay at ±inf (callers allocate them so)
         self.stack.position_limit.joint_bounds_into(kin.q[7:], lo, hi)
         if dt is not None and self.stack.velocity_limit is not None:

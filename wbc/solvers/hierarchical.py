@@ -21,10 +21,9 @@ import numpy as np
 
 from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
-from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
 from .backends import INF, QPBackend, make_backend
-from .base import StackSolver
+from .base import Solution, StackSolver
 from .cascade import LevelProblem, LevelSolution, solve_cascade
 from .diagnostics import infeasible_message
 
@@ -65,7 +64,8 @@ class HierarchicalQP(StackSolver):
         self._key = None
         self._problems: list[LevelProblem] = []
         self._solutions: list[LevelSolution] = []
-        self._lazy_dq: np.ndarray | None = None  # set when the compiled path solved last
+        #: the compiled solution whose problems/solutions were built (on demand)
+        self._built_for: Solution | None = None
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self.diagnosis = ""
@@ -86,7 +86,7 @@ class HierarchicalQP(StackSolver):
             layout = self._build_layout()
             self._keep_layout(key, layout)
         self._levels, self._blocks, self._constraints, self._all_constraints, self.fast = layout
-        self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+        self._key = self.stack.revision
 
     def _build_layout(self) -> _Layout:
         nv = self.robot.nv
@@ -111,20 +111,22 @@ class HierarchicalQP(StackSolver):
     @property
     def problems(self) -> list[LevelProblem]:
         """Each level's rows at the last solve."""
-        if self._lazy_dq is not None:
-            self._materialize()
+        self._build_compiled()
         return self._problems
 
     @property
     def solutions(self) -> list[LevelSolution]:
         """Each level's residual, slacks and constraint margins at the last solve."""
-        if self._lazy_dq is not None:
-            self._materialize()
+        self._build_compiled()
         return self._solutions
 
-    def _materialize(self) -> None:
+    def _build_compiled(self) -> None:
         """Build problems/solutions of a compiled solve (only when someone asks for them)."""
-        dq, self._lazy_dq = self._lazy_dq, None
+        last = self.last
+        if last is None or last.q_next is None or self._built_for is last:
+            return
+        self._built_for = last
+        dq = last.dq
         fast, nv = self.fast, self.robot.nv
         self._problems, self._solutions = [], []
         for k, (lv, cons) in enumerate(zip(self._levels, self._constraints, strict=True)):
@@ -153,8 +155,8 @@ class HierarchicalQP(StackSolver):
             )
         return problems
 
-    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
-        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+    def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        if self._key != self.stack.revision:
             self._plan()
         fast = self.fast
         if fast is not None:
@@ -163,14 +165,10 @@ class HierarchicalQP(StackSolver):
                 or self._constraints_hold(kin, self._all_constraints, fast.dq)
             ):
                 self.compiled_ticks += 1
-                self._box = fast.box
                 self.relaxed = False
                 self.diagnosis = ""
-                self._stepped = fast.q_next
-                self._lazy_dq = fast.dq  # valid until the next solve, which resets it
-                return fast.dq
+                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
             self.handed_back_ticks += 1
-        self._lazy_dq = None
         self._problems = self._level_problems(kin)
         lower, upper = self._lower, self._upper
         self.compute_bounds(kin, dt, lower, upper)
@@ -193,7 +191,7 @@ class HierarchicalQP(StackSolver):
                 raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
-        return dq
+        return Solution(dq, lower, upper)
 
     # ------------------------------------------------------------------ hard levels
     def _check_hard_levels(self, relax: bool) -> None:

@@ -18,9 +18,8 @@ import numpy as np
 
 from ..exceptions import InfeasibleError
 from ..model import Kinematics
-from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
-from .base import StackSolver
+from .base import Solution, StackSolver
 from .cascade import LevelProblem, solve_cascade
 from .diagnostics import conflicts, infeasible_message
 
@@ -61,14 +60,14 @@ class WeightedQP(StackSolver):
     def _plan(self, m_in: int) -> None:
         """(Re)build the layout when the stack's structure changed; resize the workspace to
         ``m_in`` inequality rows."""
-        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+        if self._key != self.stack.revision:
             key = self._layout_key()
             layout = self._cached_layout(key)
             if layout is None:
                 layout = self._build_layout()
                 self._keep_layout(key, layout)
             self.soft, self.hard, self.constraints, self.fast, self.ws = layout
-            self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+            self._key = self.stack.revision
         if self.ws.shape[2] != m_in:
             self.ws = self.backend.workspace(self.robot.nv, self.hard.m, m_in)
 
@@ -85,8 +84,8 @@ class WeightedQP(StackSolver):
             fast = WeightedPlan(self, self.kin, soft.tasks, hard.tasks)
         return _Layout(soft, hard, constraints, fast, self.backend.workspace(nv, hard.m, 0))
 
-    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
-        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+    def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
         if fast is not None:
@@ -94,10 +93,8 @@ class WeightedQP(StackSolver):
                 not self.constraints or self._constraints_hold(kin, self.constraints, fast.dq)
             ):
                 self.compiled_ticks += 1
-                self._box = fast.box
                 self.relaxed = False
-                self._stepped = fast.q_next
-                return fast.dq
+                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
             self.handed_back_ticks += 1
         G, h = None, None
         if self.constraints:
@@ -117,9 +114,10 @@ class WeightedQP(StackSolver):
         self.compute_bounds(kin, dt, ws.lower, ws.upper)
         self.relaxed = False
         try:
-            return self.backend.solve_workspace(ws)
+            dq = self.backend.solve_workspace(ws)
         except InfeasibleError:
-            return self._relax(kin)
+            dq = self._relax(kin)
+        return Solution(dq, ws.lower, ws.upper)
 
     def _relax(self, kin: Kinematics) -> np.ndarray:
         """The hard levels in priority order, each in least squares, then the soft tasks
