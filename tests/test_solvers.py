@@ -71,11 +71,13 @@ def test_joint_limits_never_violated(robot, seed, shift, lift, hierarchical):
     stack = walking_stack(robot, q, com_shift=shift, lift=lift)
     solver = (HierarchicalQP if hierarchical else WeightedQP)(stack, "daqp")
     for _ in range(3):
-        q_next = solver.step(q, dt=0.01)
-        assert np.all(q_next[7:] >= robot.q_min) and np.all(q_next[7:] <= robot.q_max)
+        # the QP's own answer (step() then clips onto the limits, which would hide a miss)
+        dq = solver.solve(q, dt=0.01)
+        joints = q[7:] + dq[6:]
+        assert np.all(joints >= robot.q_min - 1e-9) and np.all(joints <= robot.q_max + 1e-9)
         # velocity limits: |Δq_j| <= v_max dt
-        assert np.all(np.abs(q_next[7:] - q[7:]) <= robot.v_max * 0.01 + 1e-9)
-        q = q_next
+        assert np.all(np.abs(dq[6:]) <= robot.v_max * 0.01 + 1e-9)
+        q = solver.step(q, dt=0.01)
     result = solver.solve_pose(q, max_iterations=30)
     assert robot.within_limits(result.q)
 
@@ -341,7 +343,7 @@ def test_infeasible_hard_inequality_is_named(robot):
     from wbc.limits import LinearInequality
 
     G = np.zeros((1, robot.nv))
-    G[0] = -Kinematics(robot, q).com_jacobian[0]
+    G[0] = -robot.com_jacobian(q)[0]
     stack.add_constraint(LinearInequality(G, np.array([-0.1]), name="com_far_forward"), level=0)
     with pytest.raises(InfeasibleError, match="com_far_forward"):
         HierarchicalQP(stack, "daqp").step(q, 0.01)
@@ -365,7 +367,11 @@ def test_bad_input_is_rejected(robot):
         stack.task("com").set_target([0, np.inf, 0])
     with pytest.raises(TaskError, match="already in the stack"):
         stack.add(ComTask(robot))
-    with pytest.raises(SolverError, match="unknown QP backend"):
+    with pytest.raises(ConfigurationError, match="unknown QP backend"):
         WeightedQP(stack, "cplex")
-    with pytest.raises(SolverError, match="unknown hierarchical method"):
+    with pytest.raises(ConfigurationError, match="unknown hierarchical method"):
         HierarchicalQP(stack, method="magic")
+    with pytest.raises(ConfigurationError, match="unknown hierarchical method"):
+        HierarchicalQP(stack, method="daqp")  # DAQP's native hierarchy was dropped (issue 17)
+    with pytest.raises(ConfigurationError, match="on_infeasible"):
+        WeightedQP(stack, on_infeasible="ignore")

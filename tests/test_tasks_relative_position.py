@@ -112,7 +112,7 @@ class ComHeightTask(Task):
 
 def test_a_task_defined_outside_the_package_runs_compiled(robot):
     q = robot.configuration("walk_ready")
-    height = Kinematics(robot, q).com[2] - 0.01
+    height = robot.com(q)[2] - 0.01
     steps = {}
     for compiled in (None, False):
         task = ComHeightTask(height)
@@ -123,5 +123,5 @@ def test_a_task_defined_outside_the_package_runs_compiled(robot):
         steps[compiled] = s.step(q, dt=0.01)
         assert (s.compiled_ticks == 2) == (compiled is None)
     assert np.allclose(steps[None], steps[False], atol=1e-9)
-    moved = Kinematics(robot, steps[None]).com[2] - Kinematics(robot, q).com[2]
+    moved = robot.com(steps[None])[2] - robot.com(q)[2]
     assert moved < -1e-3  # it followed the updated handle downwards

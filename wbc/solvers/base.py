@@ -62,7 +62,9 @@ class StackSolver(ABC):
         compiled: bool | None = None,
     ) -> None:
         if on_infeasible not in ("raise", "relax"):
-            raise WbcError(f"on_infeasible must be 'raise' or 'relax', got {on_infeasible!r}")
+            raise ConfigurationError(
+                f"on_infeasible must be 'raise' or 'relax', got {on_infeasible!r}"
+            )
         if compiled not in (None, True, False):
             raise ConfigurationError(f"compiled must be None, True or False, got {compiled!r}")
         self.stack = stack
@@ -251,15 +253,6 @@ class StackSolver(ABC):
         if reason and self.compiled:
             raise ConfigurationError(f"{self.name}: compiled=True but {reason}")
         return not reason
-
-    def _constraints_hold(self, kin: Kinematics, constraints, dq: np.ndarray) -> bool:
-        """The compiled kernels leave inequality rows out: their solution is the solution
-        of the whole problem when it meets those rows (they are then inactive)."""
-        for c in constraints:
-            G, h = c.compute(kin)
-            if h.size and (G @ dq - h).max() > CONSTRAINT_TOL:
-                return False
-        return True
 
     # ------------------------------------------------------------------ helpers
     def compute_bounds(

@@ -2,11 +2,10 @@
 
 Levels are solved in priority order; each level is optimal without changing the optimum of
 the levels above. Equalities (tasks) and inequalities (constraints) may sit at any level;
-box limits are hard at every level. Two methods:
-
-* ``"cascade"`` — one QP per level over the null space of the levels above, inequality
-  slacks frozen for the levels below (Kanoun et al. 2011), any backend;
-* ``"daqp"`` — DAQP's native hierarchical mode (one call, ``break_points``).
+box limits are hard at every level. One method, ``"cascade"``: one QP per level over the
+null space of the levels above, inequality slacks frozen for the levels below (Kanoun et al.
+2011), any backend. (DAQP's native hierarchical mode was dropped: it reports feasible
+hierarchies infeasible.)
 
 A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the solve raises
 :class:`InfeasibleError` naming the level and the tasks/constraints involved, or, with
@@ -19,15 +18,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..exceptions import InfeasibleError, SolverError
+from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
-from .backends import INF, QPBackend, make_backend
-from .base import Solution, StackSolver
+from .backends import QPBackend, make_backend
+from .base import CONSTRAINT_TOL, Solution, StackSolver
 from .cascade import LevelProblem, LevelSolution, solve_cascade
 from .diagnostics import infeasible_message
 
-METHODS = ("cascade", "daqp")
+METHODS = ("cascade",)
 
 
 class _Layout(NamedTuple):
@@ -54,9 +53,9 @@ class HierarchicalQP(StackSolver):
         compiled: bool | None = None,
     ) -> None:
         if method not in METHODS:
-            raise SolverError(f"unknown hierarchical method {method!r}; choose from {METHODS}")
-        if method == "daqp" and (backend if isinstance(backend, str) else backend.name) != "daqp":
-            raise SolverError("method='daqp' uses DAQP's native hierarchy: backend must be daqp")
+            raise ConfigurationError(
+                f"unknown hierarchical method {method!r}; choose from {METHODS}"
+            )
         super().__init__(stack, backend, regularization, on_infeasible, compiled)
         self.method = method
         self.hard_tol = hard_tol
@@ -73,11 +72,6 @@ class HierarchicalQP(StackSolver):
     @property
     def name(self) -> str:
         return f"HierarchicalQP[{self.method}:{self.backend.name}]"
-
-    def compiled_reason(self) -> str:
-        if self.method != "cascade":
-            return "DAQP's native hierarchy has no compiled form"
-        return super().compiled_reason()
 
     def _plan(self) -> None:
         key = self._layout_key()
@@ -121,74 +115,91 @@ class HierarchicalQP(StackSolver):
         return self._solutions
 
     def _build_compiled(self) -> None:
-        """Build problems/solutions of a compiled solve (only when someone asks for them)."""
+        """Each level's residuals of a compiled solve (only when someone asks for them), with
+        its rows copied (the plan's arrays are refilled at the next tick)."""
         last = self.last
         if last is None or last.q_next is None or self._built_for is last:
             return
         self._built_for = last
         dq = last.dq
-        fast, nv = self.fast, self.robot.nv
-        self._problems, self._solutions = [], []
-        for k, (lv, cons) in enumerate(zip(self._levels, self._constraints, strict=True)):
-            r0, r1 = fast.level_rows[k], fast.level_rows[k + 1]
-            G, h, cslices = stack_constraints(cons, self.kin, nv)
-            slices = [
-                (name, slice(sl.start - r0, sl.stop - r0))
-                for name, sl in fast.rows.slices
-                if r0 <= sl.start < r1
-            ]
-            J, b = fast.rows.J[r0:r1].copy(), fast.rows.b[r0:r1].copy()
-            self._problems.append(LevelProblem(lv.priority, J, b, G, h, lv.hard, slices, cslices))
-            margin = G @ dq - h if h.size else np.zeros(0)
-            self._solutions.append(
-                LevelSolution(lv.priority, J @ dq - b, np.zeros(h.size), margin=margin)
+        self._problems = [
+            LevelProblem(
+                p.priority,
+                p.J.copy(),
+                p.b.copy(),
+                p.G.copy(),
+                p.h.copy(),
+                p.hard,
+                p.task_rows,
+                p.constraint_rows,
             )
+            for p in self._problems
+        ]
+        self._solutions = [
+            LevelSolution(
+                p.priority,
+                p.J @ dq - p.b,
+                np.zeros(p.h.size),
+                margin=p.G @ dq - p.h if p.h.size else np.zeros(0),
+            )
+            for p in self._problems
+        ]
 
-    def _level_problems(self, kin: Kinematics) -> list[LevelProblem]:
+    def _assemble(self, kin: Kinematics, dt: float | None):
+        """The QP value: each level's rows (J, b weighted by √w; the plan's arrays, which the
+        compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
         nv = self.robot.nv
+        fast = self.fast
         problems = []
-        for lv, block, cons in zip(self._levels, self._blocks, self._constraints, strict=True):
-            block.fill_weighted(kin)
+        for k, (lv, block, cons) in enumerate(
+            zip(self._levels, self._blocks, self._constraints, strict=True)
+        ):
             G, h, cslices = stack_constraints(cons, kin, nv)
-            problems.append(
-                LevelProblem(lv.priority, block.J, block.b, G, h, lv.hard, block.slices, cslices)
-            )
-        return problems
+            if fast is not None:
+                r0, r1 = fast.level_rows[k], fast.level_rows[k + 1]
+                J, b = fast.rows.J[r0:r1], fast.rows.b[r0:r1]
+            else:
+                block.fill_weighted(kin)
+                J, b = block.J, block.b
+            problems.append(LevelProblem(lv.priority, J, b, G, h, lv.hard, block.slices, cslices))
+        if fast is not None:
+            return problems, fast.lower, fast.upper
+        self.compute_bounds(kin, dt, self._lower, self._upper)
+        return problems, self._lower, self._upper
 
     def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        """kinematics → one assembly into a QP value → the compiled cascade (bounds and
+        equalities) or, with active inequality rows, the cascade of backend QPs on the same
+        arrays."""
         if self._key != self.stack.revision:
             self._plan()
+        problems, lower, upper = self._assemble(kin, dt)
+        self._problems = problems
         fast = self.fast
         if fast is not None:
-            if fast.solve(kin, dt) == 0 and (
-                not self._all_constraints
-                or self._constraints_hold(kin, self._all_constraints, fast.dq)
+            status = fast.solve(kin, dt)  # fills the plan's rows and bounds
+            if status == 0 and all(
+                p.h.size == 0 or (p.G @ fast.dq - p.h).max() <= CONSTRAINT_TOL for p in problems
             ):
                 self.compiled_ticks += 1
                 self.relaxed = False
                 self.diagnosis = ""
                 return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
             self.handed_back_ticks += 1
-        self._problems = self._level_problems(kin)
-        lower, upper = self._lower, self._upper
-        self.compute_bounds(kin, dt, lower, upper)
         relax = self.on_infeasible == "relax"
-        if self.method == "daqp":
-            dq = self._solve_daqp(self.problems, lower, upper)
-        else:
-            while len(self._backends) < len(self.problems) + 1:
-                self._backends.append(make_backend(self.backend.name, self.backend.eps))
-            try:
-                dq, self._solutions = solve_cascade(
-                    self.problems,
-                    lower,
-                    upper,
-                    self._backends,
-                    final_regularization=self.regularization,
-                    relax=relax,
-                )
-            except InfeasibleError as exc:
-                raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+        while len(self._backends) < len(problems) + 1:
+            self._backends.append(make_backend(self.backend.name, self.backend.eps))
+        try:
+            dq, self._solutions = solve_cascade(
+                problems,
+                lower,
+                upper,
+                self._backends,
+                final_regularization=self.regularization,
+                relax=relax,
+            )
+        except InfeasibleError as exc:
+            raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return Solution(dq, lower, upper)
@@ -221,44 +232,3 @@ class HierarchicalQP(StackSolver):
             if p.hard and s.relaxed
         ]
         return "; ".join(msgs) or "the bounds are infeasible"
-
-    # ------------------------------------------------------------------ DAQP native
-    def _solve_daqp(self, problems, lower, upper) -> np.ndarray:
-        import daqp
-
-        n = lower.size
-        rows = [np.vstack([p.J, p.G]) for p in problems]
-        A = np.vstack(rows) if rows else np.zeros((0, n))
-        bu = [np.clip(upper, -INF, INF)]
-        bl = [np.clip(lower, -INF, INF)]
-        sense = [np.zeros(n, dtype=np.intc)]
-        breaks = [0]
-        for p in problems:
-            m, k = p.J.shape[0], p.G.shape[0]
-            bu += [p.b, p.h]
-            bl += [p.b, np.full(k, -INF)]
-            sense.append(np.zeros(m + k, dtype=np.intc))
-            breaks.append(breaks[-1] + m + k)
-        H = self.regularization * np.eye(n)
-        x, _, exitflag, _ = daqp.solve(
-            H,
-            np.zeros(n),
-            A,
-            np.concatenate(bu),
-            np.concatenate(bl),
-            np.concatenate(sense),
-            break_points=np.array(breaks, dtype=np.intc),
-            primal_tol=self.backend.eps,
-        )
-        if exitflag not in (1, 2):
-            if exitflag == -1:
-                raise InfeasibleError("daqp hierarchical: the bounds are infeasible")
-            raise SolverError(f"daqp hierarchical failed with exit flag {exitflag}")
-        x = np.asarray(x, dtype=float)
-        self._solutions = [
-            LevelSolution(
-                p.priority, p.J @ x - p.b, np.maximum(p.G @ x - p.h, 0.0), margin=p.G @ x - p.h
-            )
-            for p in problems
-        ]
-        return x
