@@ -11,6 +11,11 @@ controller alike; the figures are medians over rounds of each controller's per-t
 Our solvers run twice: through the compiled kernels (:mod:`wbc.compiled`, the default) and
 through the numpy assembly with DAQP on every tick (``compiled=False``).
 
+Then the cost of an active inequality row: the ``walk`` stack in single support (its swing
+ground-clearance constraint included), one tick at the same configuration repeated, with the
+swing sole's target above the ground (the row inactive: the compiled tick alone) and 5 mm
+below it (the row active: the compiled tick, then the backend on the plan's rows).
+
 Run: ``python benchmarks/qp_tick.py [--rounds 5]`` (writes nothing; paste into qp_tick.md).
 """
 
@@ -18,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 import tomllib
 from pathlib import Path
 
@@ -25,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from wbc import load_robot
+from wbc import Kinematics, load_robot
 from wbc.bench.peers import PinkController, PlacoController, available
 from wbc.bench.trajectories import build
 from wbc.paths import stacks_dir
@@ -43,6 +49,33 @@ def core_walk_spec() -> dict:
     for level in spec["levels"]:
         level.pop("constraints", None)
     return spec
+
+
+def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, float, int]:
+    """Median µs of a tick with the swing sole's ground-clearance row inactive and active, and
+    how many of the active ticks were handed to the backend (all, if the row is active)."""
+    with open(stacks_dir() / "walk.toml", "rb") as f:
+        spec = tomllib.load(f)
+    control = build_stack({**spec, "solver": kind}, robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    control.set_phase("single", "l_sole", "r_sole", kin)
+    swing = control.stack.task("frame_pose_swing")
+    swing.set_target_from(kin)
+    solver = control.solver
+    above = swing.target_position.copy()
+    medians = []
+    for dz in (0.002, -0.005):  # 2 mm up: the row stays inactive; 5 mm down: it binds
+        swing.set_position_target(above + [0.0, 0.0, dz])
+        solver.prepare(q, 0.01)
+        before = solver.handed_back_ticks
+        times = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            solver.step(q, 0.01)
+            times.append(time.perf_counter() - t)
+        medians.append(float(np.median(times[repeats // 5 :])) * 1e6)
+    return medians[0], medians[1], solver.handed_back_ticks - before
 
 
 def main() -> int:
@@ -99,6 +132,12 @@ def main() -> int:
     print(
         f"{rows['hierarchical, numpy path (daqp)'][0] / rows['weighted, numpy path (daqp)'][0]:.2f}"
     )
+    print("\nan active inequality row (walk stack, single support, swing ground clearance):")
+    print("| solver | row inactive µs | row active µs | active / inactive | handed to DAQP |")
+    print("|---|---|---|---|---|")
+    for kind in ("weighted", "hierarchical"):
+        off, on, handed = inequality_ticks(robot, kind)
+        print(f"| {kind} | {off:.0f} | {on:.0f} | {on / off:.2f} | {handed} |")
     return 0
 
 

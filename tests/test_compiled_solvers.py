@@ -8,8 +8,9 @@ directly, and the hand-back to the numpy path is exercised.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 pytest.importorskip("numba")
@@ -86,8 +87,8 @@ def test_compiled_path_brings_joints_back_inside(robot, seed, outside, kind):
 
 @pytest.mark.parametrize("kind", sorted(SOLVERS))
 def test_an_active_inequality_hands_the_tick_back(robot, kind):
-    """The kernels leave inequality rows out; when the solution violates one, the numpy path
-    solves the tick (same answer as a numpy-only solver), and the next tick is compiled."""
+    """An active inequality row: the weighted QP solves it compiled, the hierarchy on the
+    backend (same answer as a numpy-only solver either way), and the next tick is compiled."""
     q = robot.configuration("walk_ready")
     fast, slow = pair(robot, q, kind, com_shift=(0.0, 0.02, 0.0))
     for solver in (fast, slow):  # the CoM may not move left more than 5 mm in one tick
@@ -95,7 +96,10 @@ def test_an_active_inequality_hands_the_tick_back(robot, kind):
         G[0] = robot.com_jacobian(q)[1]
         solver.stack.add_constraint(LinearInequality(G, np.array([0.005]), name="cap"), level=1)
     dq_fast, dq_slow = fast.solve(q, 0.01), slow.solve(q, 0.01)
-    assert fast.handed_back_ticks == 1
+    # the weighted QP's rows join the compiled least squares (an active set on them); the
+    # hierarchy hands the tick to the backend cascade, on the plan's own rows
+    assert fast.handed_back_ticks == (1 if kind == "hierarchical" else 0)
+    assert fast.compiled_ticks == (0 if kind == "hierarchical" else 1)
     assert np.allclose(dq_fast, dq_slow, atol=1e-7)
     if kind == "weighted":  # a hard row there (a soft level's row may keep a slack)
         assert (G @ dq_fast)[0] <= 0.005 + 1e-9
@@ -183,3 +187,33 @@ def test_converged_mode_is_the_same_compiled_or_not(robot, stack, kind):
     for channel in ("com", "swing"):
         assert np.abs(a[channel] - b[channel]).max() < 1e-8
     assert np.linalg.norm(a["com"] - a["com_ref"], axis=1).max() < 1e-4
+
+
+@settings(max_examples=15)
+@given(seed=st.integers(0, 10_000), dz=st.floats(-0.01, 0.002), tilt=st.floats(-0.2, 0.2))
+def test_inequality_rows_in_the_compiled_least_squares(robot, seed, dz, tilt):
+    """The swing sole pushed into the ground (tilted): the compiled active set on the
+    ground-clearance rows gives DAQP's answer and keeps every corner above the ground."""
+    q, _ = random_start(robot, seed)
+    steps = {}
+    for compiled in (None, False):
+        control = load_stack("walk", robot, solver="weighted")
+        control.solver.compiled = compiled
+        kin = Kinematics(robot, q)
+        control.set_phase("single", "l_sole", "r_sole", kin)
+        swing = control.stack.task("frame_pose_swing")
+        swing.set_target_from(kin)
+        swing.set_position_target(swing.target_position + [0.0, 0.0, dz])
+        swing.set_rotation_target(
+            pin.exp3(np.array([tilt, 0.5 * tilt, 0.0])) @ swing.target_rotation
+        )
+        dq = control.solver.solve(q, 0.01)
+        clearance = control.stack.constraint("ground_clearance_swing")
+        G, h = clearance.compute(kin)
+        assert np.all(G @ dq <= h + 1e-8)
+        steps[compiled] = dq
+        if compiled is None:
+            assert control.solver.handed_back_ticks == 0  # solved by the kernels
+    assert np.allclose(steps[None], steps[False], atol=1e-7), np.abs(
+        steps[None] - steps[False]
+    ).max()

@@ -139,7 +139,8 @@ def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon
     eps 1e-6) meets each level's optimum to its tolerance, but not Δq: its polishing fails on
     the degenerate lower levels of a hierarchy (many active bounds), and a bound met to 1e-6
     instead of exactly moves Δq by up to ~1e-2 along the nearly flat directions of the last
-    level. So for OSQP the test compares what ADMM guarantees: every level's residual (1e-4)
+    level. So for OSQP the test compares what ADMM guarantees: every level's residual (1e-4,
+    lexicographically: a level above met less well may leave a level below a better residual)
     and the bounds (1e-5). It may also stop at its iteration limit there (a SolverError,
     never a silently wrong answer)."""
     q, _ = random_start(robot, seed)
@@ -157,8 +158,13 @@ def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon
         assert np.all(results[backend] >= lower - 1e-5) and np.all(results[backend] <= upper + 1e-5)
     assert np.allclose(results["quadprog"], results["daqp"], atol=1e-6)
     assert np.allclose(results["proxqp"], results["daqp"], atol=1e-4)
-    if "osqp" in results:
-        assert np.allclose(residuals["osqp"], residuals["daqp"], atol=1e-4)
+    if "osqp" in results:  # lexicographic: never worse than ADMM's accuracy on any level, and
+        # better on a level only by giving up some of a level above (within that accuracy)
+        osqp, daqp = residuals["osqp"], residuals["daqp"]
+        for k in range(len(daqp)):
+            assert osqp[k] <= daqp[k] + 1e-4, (k, osqp, daqp)
+            if osqp[k] < daqp[k] - 1e-4:
+                assert any(osqp[j] > daqp[j] + 1e-9 for j in range(k)), (k, osqp, daqp)
 
 
 # ---------------------------------------------------------------------------- hierarchy laws

@@ -17,6 +17,7 @@ import functools
 import hashlib
 import importlib.util
 import inspect
+import logging
 import os
 import sys
 import tempfile
@@ -24,6 +25,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ._cache import refresh
+
+log = logging.getLogger(__name__)
 
 #: spec columns of a task: kernel index, target offset and size, frame-slot offset and count,
 #: first output row, first mask index, number of output rows
@@ -123,6 +126,13 @@ _BRANCH = """\
 """
 
 
+def _on_disk(dispatcher) -> bool:
+    """True if numba holds a cached compilation of ``dispatcher`` (its index file exists)."""
+    cache = getattr(dispatcher, "_cache", None)
+    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+    return bool(index) and os.path.exists(index)
+
+
 def cache_dir() -> Path:
     """Where generated modules (and numba's cache of them) live."""
     env = os.environ.get("WBC_CACHE_DIR")
@@ -170,6 +180,12 @@ class Ticks:
         if entry is not None:
             return entry(*args)
         dispatcher = getattr(self, name)
+        if not _on_disk(dispatcher):
+            log.warning(
+                "wbc: compiling the control tick (numba; once per installation and set of "
+                "task types, up to a minute; cached in %s)",
+                Path(self.module.__file__).parent,
+            )
         result = dispatcher(*args)
         try:
             from numba import typeof

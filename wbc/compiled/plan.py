@@ -254,6 +254,29 @@ class WeightedPlan(_Plan):
             self.q_next,
         )  # fmt: skip
 
+    def solve_inequalities(self, G: np.ndarray, h: np.ndarray, tol: float) -> bool:
+        """With the rows, bounds and the solution without inequality rows filled by
+        :meth:`solve`: the weighted QP with ``G Δq <= h`` too, compiled
+        (:func:`~wbc.compiled.ticks.solve_with_inequalities`). False if that fails (the tick
+        then goes to the backend); Δq into ``dq``, q ⊕ Δq into ``q_next``."""
+        from .lsq import OK
+        from .ticks import integrate, solve_with_inequalities
+
+        x = self.dq.copy()
+        state = self.state.copy()
+        G = np.ascontiguousarray(G, dtype=float)
+        h = np.ascontiguousarray(h, dtype=float)
+        status = solve_with_inequalities(
+            self.hard.J, self.hard.b, self.soft.J, self.soft.b, self.params[1], self.lower,
+            self.upper, state, x, G, h, tol,
+        )  # fmt: skip
+        if status != OK:
+            return False
+        np.copyto(self.dq, x)
+        np.copyto(self.state, state)
+        integrate(self.q, self.dq, self.lower, self.upper, self.q_min, self.q_max, self.q_next)
+        return True
+
 
 class CascadePlan(_Plan):
     """Every level's rows (weighted) in one block, solved level by level in one call."""

@@ -75,6 +75,92 @@ def weighted_solve(
 
 
 @njit(cache=True)
+def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol) -> int:
+    """min ‖B x − r‖² + μ‖x‖² s.t. A0 x = a0, G x <= h and the bounds, from the solution
+    without the G rows in ``x``: a primal active set on those rows around :func:`solve_level`
+    (a row of the working set is an equality).
+
+    The most violated row joins the working set; once every row holds to ``tol``, the working
+    rows' multipliers (stationarity on the free variables, ``A_Fᵀ λ = −∇f_F``, by least
+    squares) must be >= 0 (to ``tol`` relative), else the most negative row leaves. Returns OK
+    (x optimal, ``state`` its bounds' active set), NUMERICAL (dependent working rows: λ is
+    not determined), MAX_ITER or the status of a failed least squares.
+    """
+    m0, n = A0.shape
+    p = G.shape[0]
+    A = np.empty((m0 + p, n))
+    a = np.empty(m0 + p)
+    for i in range(m0):
+        a[i] = a0[i]
+        for j in range(n):
+            A[i, j] = A0[i, j]
+    working = np.empty(p, np.int64)
+    inw = np.zeros(p, np.bool_)
+    nw = 0
+    for _ in range(2 * p + 4):
+        k = -1
+        worst = tol
+        for i in range(p):
+            if not inw[i]:
+                v = -h[i]
+                for j in range(n):
+                    v += G[i, j] * x[j]
+                if v > worst:
+                    worst = v
+                    k = i
+        if k >= 0:
+            working[nw] = k
+            inw[k] = True
+            nw += 1
+        else:
+            if nw == 0:
+                return OK
+            res = B @ x - r
+            grad = B.T @ res + mu * x
+            nf = 0
+            for j in range(n):
+                if state[j] == 0:
+                    nf += 1
+            cols = m0 + nw
+            if nf < cols:
+                return NUMERICAL
+            M = np.empty((nf, cols))
+            rhs = np.empty(nf)
+            c = 0
+            for j in range(n):
+                if state[j] == 0:
+                    for i in range(m0):
+                        M[c, i] = A0[i, j]
+                    for w in range(nw):
+                        M[c, m0 + w] = G[working[w], j]
+                    rhs[c] = -grad[j]
+                    c += 1
+            lam, _, rank, _ = np.linalg.lstsq(M, rhs)
+            if rank < cols:
+                return NUMERICAL
+            jmin = 0
+            scale = 0.0
+            for w in range(nw):
+                scale = max(scale, abs(lam[m0 + w]))
+                if lam[m0 + w] < lam[m0 + jmin]:
+                    jmin = w
+            if lam[m0 + jmin] >= -tol * (1.0 + scale):
+                return OK
+            inw[working[jmin]] = False
+            for w in range(jmin, nw - 1):
+                working[w] = working[w + 1]
+            nw -= 1
+        for w in range(nw):
+            a[m0 + w] = h[working[w]]
+            for j in range(n):
+                A[m0 + w, j] = G[working[w], j]
+        status = solve_level(A[: m0 + nw], a[: m0 + nw], B, r, mu, lower, upper, state, x)
+        if status != OK:
+            return status
+    return MAX_ITER
+
+
+@njit(cache=True)
 def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
     """min ‖B x − r‖² s.t. A x = a and the bounds, from a feasible x, by proximal steps:
     y = argmin ‖B (x + y) − r‖² + ε‖y‖² (same constraints), x += y, until y vanishes.
@@ -235,6 +321,13 @@ def integrate(
 
 # numba caches these on ticks.py alone: flush them when the kernels they call change
 refresh(
-    [joint_bounds, weighted_solve, _proximal_level, cascade_solve, integrate],
+    [
+        joint_bounds,
+        weighted_solve,
+        solve_with_inequalities,
+        _proximal_level,
+        cascade_solve,
+        integrate,
+    ],
     [Path(__file__).with_name("lsq.py")],
 )

@@ -67,6 +67,8 @@ class HierarchicalQP(StackSolver):
         self._built_for: Solution | None = None
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
+        self._inequalities: list | None = None
         self.diagnosis = ""
 
     @property
@@ -115,13 +117,14 @@ class HierarchicalQP(StackSolver):
         return self._solutions
 
     def _build_compiled(self) -> None:
-        """Each level's residuals of a compiled solve (only when someone asks for them), with
-        its rows copied (the plan's arrays are refilled at the next tick)."""
+        """Each level's rows and residuals of a compiled solve (only when someone asks for
+        them), with the rows copied (the plan's arrays are refilled at the next tick)."""
         last = self.last
         if last is None or last.q_next is None or self._built_for is last:
             return
         self._built_for = last
         dq = last.dq
+        problems, _, _ = self._assemble(self.kin, None, self._inequalities)
         self._problems = [
             LevelProblem(
                 p.priority,
@@ -133,7 +136,7 @@ class HierarchicalQP(StackSolver):
                 p.task_rows,
                 p.constraint_rows,
             )
-            for p in self._problems
+            for p in problems
         ]
         self._solutions = [
             LevelSolution(
@@ -145,16 +148,20 @@ class HierarchicalQP(StackSolver):
             for p in self._problems
         ]
 
-    def _assemble(self, kin: Kinematics, dt: float | None):
-        """The QP value: each level's rows (J, b weighted by √w; the plan's arrays, which the
-        compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
+    def _inequalities_at(self, kin: Kinematics) -> list | None:
+        """Each level's (G, h, row slices) at ``kin`` (None: the stack has no constraint)."""
+        if not self._all_constraints:
+            return None
         nv = self.robot.nv
+        return [stack_constraints(cons, kin, nv) for cons in self._constraints]
+
+    def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None):
+        """The QP value: each level's rows (J, b weighted by √w: the plan's arrays, which the
+        compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
         fast = self.fast
         problems = []
-        for k, (lv, block, cons) in enumerate(
-            zip(self._levels, self._blocks, self._constraints, strict=True)
-        ):
-            G, h, cslices = stack_constraints(cons, kin, nv)
+        for k, (lv, block) in enumerate(zip(self._levels, self._blocks, strict=True)):
+            G, h, cslices = self._no_rows if inequalities is None else inequalities[k]
             if fast is not None:
                 r0, r1 = fast.level_rows[k], fast.level_rows[k + 1]
                 J, b = fast.rows.J[r0:r1], fast.rows.b[r0:r1]
@@ -173,19 +180,24 @@ class HierarchicalQP(StackSolver):
         arrays."""
         if self._key != self.stack.revision:
             self._plan()
-        problems, lower, upper = self._assemble(kin, dt)
-        self._problems = problems
+        self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
         if fast is not None:
             status = fast.solve(kin, dt)  # fills the plan's rows and bounds
-            if status == 0 and all(
-                p.h.size == 0 or (p.G @ fast.dq - p.h).max() <= CONSTRAINT_TOL for p in problems
+            if status == 0 and (
+                inequalities is None
+                or all(
+                    h.size == 0 or (G @ fast.dq - h).max() <= CONSTRAINT_TOL
+                    for G, h, _ in inequalities
+                )
             ):
                 self.compiled_ticks += 1
                 self.relaxed = False
                 self.diagnosis = ""
                 return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
             self.handed_back_ticks += 1
+        problems, lower, upper = self._assemble(kin, dt, inequalities)
+        self._problems = problems
         relax = self.on_infeasible == "relax"
         while len(self._backends) < len(problems) + 1:
             self._backends.append(make_backend(self.backend.name, self.backend.eps))

@@ -73,6 +73,7 @@ class WeightedQP(StackSolver):
         self.diagnosis = ""
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
 
     def _plan(self, m_in: int) -> None:
         """(Re)build the layout when the stack's structure changed; resize the workspace to
@@ -106,12 +107,14 @@ class WeightedQP(StackSolver):
         equalities) or, with active inequality rows, the backend fed from the same arrays."""
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
-        value = self._assemble(kin, dt)
         fast = self.fast
         if fast is not None:
             status = fast.solve(kin, dt)  # fills the plan's rows and bounds: the QP value
+            value = self._assemble(kin, dt)  # the inequality rows
             if status == 0 and (
-                value.h.size == 0 or (value.G @ fast.dq - value.h).max() <= CONSTRAINT_TOL
+                value.h.size == 0
+                or (value.G @ fast.dq - value.h).max() <= CONSTRAINT_TOL
+                or fast.solve_inequalities(value.G, value.h, CONSTRAINT_TOL)
             ):
                 self.compiled_ticks += 1
                 self.relaxed = False
@@ -121,13 +124,17 @@ class WeightedQP(StackSolver):
                 J=fast.soft.J, b=fast.soft.b, A=fast.hard.J, a=fast.hard.b,
                 lower=fast.lower, upper=fast.upper,
             )  # fmt: skip
+        else:
+            value = self._assemble(kin, dt)
         return self._solve_value(kin, value)
 
     def _assemble(self, kin: Kinematics, dt: float | None) -> WeightedValue:
         """The QP value: the inequality rows, and on the numpy path every row and the bounds
         (the compiled tick fills those itself, into its plan)."""
-        nv = self.robot.nv
-        G, h, _ = stack_constraints(self.constraints, kin, nv)
+        if self.constraints:
+            G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)
+        else:
+            G, h, _ = self._no_rows
         if self.fast is not None:
             return WeightedValue(None, None, None, None, G, h, None, None)
         soft, hard = self.soft, self.hard
