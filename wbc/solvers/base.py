@@ -212,7 +212,7 @@ class StackSolver(ABC):
                     lv.priority,
                     lv.hard,
                     tuple(
-                        (id(t), t.params_version, getattr(t, "frame_id", -1))
+                        (id(t), t.params_version, t.frame_ids())
                         for t in lv.active_tasks()
                     ),
                     tuple(id(c) for c in lv.active_constraints()),

@@ -36,4 +36,4 @@ class FrameTask(Task):
         self.frame_id = frame_id
         self.frame = frame
         if changed:
-            self._changed()  # compiled plans hold the frame's placement views
+            self._restructured()  # compiled plans hold the frame's placement views

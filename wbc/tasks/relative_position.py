@@ -79,7 +79,7 @@ class RelativeFramePositionTask(Task):
         self._ids = ids
         self.frame, self.reference = frame, reference
         if changed:
-            self._changed()  # compiled plans hold the frames' placement views
+            self._restructured()  # compiled plans hold the frames' placement views
 
     def frame_ids(self) -> tuple[int, ...]:
         return self._ids

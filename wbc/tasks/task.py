@@ -106,9 +106,14 @@ class Task:
 
     # ------------------------------------------------------------------ parameters
     def _changed(self) -> None:
-        """A parameter baked into the solvers' layouts changed (gain, mask, weight, frame or
-        active): the stacks holding the task re-plan."""
+        """A parameter baked into the solvers' layouts changed (gain, mask or weight): a new
+        layout (:attr:`params_version` is part of its key), re-planned by the stacks' solvers."""
         self.params_version = getattr(self, "params_version", 0) + 1
+        self._restructured()
+
+    def _restructured(self) -> None:
+        """The task was switched on/off or moved to another frame: the solvers of the stacks
+        holding it re-plan (into a layout they may have kept, e.g. per support phase)."""
         for stack in getattr(self, "_stacks", ()):
             stack.revision += 1
 
@@ -121,7 +126,7 @@ class Task:
     def active(self, value: bool) -> None:
         if bool(value) != self._active:
             self._active = bool(value)
-            self._changed()
+            self._restructured()
 
     @property
     def gain(self) -> float:
