@@ -14,7 +14,7 @@ through the numpy assembly with DAQP on every tick (``compiled=False``).
 Then the cost of an active inequality row: the ``walk`` stack in single support (its swing
 ground-clearance constraint included), one tick at the same configuration repeated, with the
 swing sole's target above the ground (the row inactive: the compiled tick alone) and 5 mm
-below it (the row active: the compiled tick, then the backend on the plan's rows).
+below it (the row active). Last, the first tick after a support switch against the next one.
 
 Run: ``python benchmarks/qp_tick.py [--rounds 5]`` (writes nothing; paste into qp_tick.md).
 """
@@ -78,6 +78,27 @@ def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, floa
     return medians[0], medians[1], solver.handed_back_ticks - before
 
 
+def phase_switch_ticks(robot, repeats: int = 50) -> tuple[float, float]:
+    """Median µs of the first tick after a support switch and of the tick after it (weighted
+    ``walk`` stack, the four phases of a walk in turn)."""
+    control = build_stack({**core_walk_spec(), "solver": "weighted"}, robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    phases = [
+        ("double", "l_sole", "r_sole"), ("single", "l_sole", "r_sole"),
+        ("double", "r_sole", "l_sole"), ("single", "r_sole", "l_sole"),
+    ]  # fmt: skip
+    first, next_ = [], []
+    for i in range(repeats * len(phases)):
+        control.set_phase(*phases[i % len(phases)], kin)
+        for out in (first, next_):
+            t = time.perf_counter()
+            control.solver.step(q, 0.01)
+            out.append(time.perf_counter() - t)
+    skip = 2 * len(phases)  # the first visit of each phase builds its layout
+    return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
@@ -138,6 +159,8 @@ def main() -> int:
     for kind in ("weighted", "hierarchical"):
         off, on, handed = inequality_ticks(robot, kind)
         print(f"| {kind} | {off:.0f} | {on:.0f} | {on / off:.2f} | {handed} |")
+    first, after = phase_switch_ticks(robot)
+    print(f"\nsupport switch (weighted): first tick {first:.0f} µs, the next {after:.0f} µs")
     return 0
 
 
