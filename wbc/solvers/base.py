@@ -211,10 +211,7 @@ class StackSolver(ABC):
                 (
                     lv.priority,
                     lv.hard,
-                    tuple(
-                        (id(t), t.params_version, t.frame_ids())
-                        for t in lv.active_tasks()
-                    ),
+                    tuple((id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()),
                     tuple(id(c) for c in lv.active_constraints()),
                 )
                 for lv in self.stack.levels
