@@ -198,6 +198,10 @@ class HierarchicalQP(StackSolver):
             self.handed_back_ticks += 1
         problems, lower, upper = self._assemble(kin, dt, inequalities)
         self._problems = problems
+        if fast is None and inequalities is None and not self.stack.extra_limits:
+            dq = self._level_solver(problems, kin, dt, lower, upper)
+            if dq is not None:
+                return Solution(dq, lower, upper)
         relax = self.on_infeasible == "relax"
         while len(self._backends) < len(problems) + 1:
             self._backends.append(make_backend(self.backend.name, self.backend.eps))
@@ -215,6 +219,44 @@ class HierarchicalQP(StackSolver):
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return Solution(dq, lower, upper)
+
+    def _level_solver(self, problems, kin: Kinematics, dt: float | None, lower, upper):
+        """The levels without inequality rows, on the numpy path: the compiled tick's own level
+        algorithm (:func:`wbc.compiled.ticks.cascade_solve`) on these rows, so that one
+        hierarchy algorithm serves every path; the backends solve the levels that have
+        inequality rows. None if it cannot finish (the backend cascade then names why)."""
+        from ..compiled.lsq import OK
+        from ..compiled.ticks import cascade_solve
+
+        nv = self.robot.nv
+        J = np.vstack([p.J for p in problems]) if problems else np.zeros((0, nv))
+        b = np.concatenate([p.b for p in problems]) if problems else np.zeros(0)
+        level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
+        level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
+        limit = self.stack.velocity_limit
+        use = dt is not None and limit is not None
+        step = limit.step(dt) if use else np.zeros(self.robot.n_joints)
+        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol])
+        states = np.zeros((len(problems), nv), dtype=np.int8)
+        achieved = np.zeros(J.shape[0])
+        dq = np.zeros(nv)
+        q_next = np.zeros(self.robot.nq)
+        q = np.ascontiguousarray(kin.q, dtype=float)
+        status = cascade_solve(
+            J, b, level_rows, level_hard, q, self._q_min, self._q_max,
+            np.ascontiguousarray(step, dtype=float), params, lower, upper, states, achieved,
+            dq, q_next,
+        )  # fmt: skip
+        if status != OK:
+            self.compute_bounds(kin, dt, lower, upper)  # the backend cascade starts afresh
+            return None
+        self._solutions = [
+            LevelSolution(p.priority, p.J @ dq - p.b, np.zeros(0), margin=np.zeros(0))
+            for p in problems
+        ]
+        self.relaxed = False
+        self.diagnosis = ""
+        return dq
 
     # ------------------------------------------------------------------ hard levels
     def _check_hard_levels(self, relax: bool) -> None:
