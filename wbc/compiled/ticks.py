@@ -80,11 +80,12 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
     without the G rows in ``x``: a primal active set on those rows around :func:`solve_level`
     (a row of the working set is an equality).
 
-    The most violated row joins the working set; once every row holds to ``tol``, the working
-    rows' multipliers (stationarity on the free variables, ``A_Fᵀ λ = −∇f_F``, by least
-    squares) must be >= 0 (to ``tol`` relative), else the most negative row leaves. Returns OK
-    (x optimal, ``state`` its bounds' active set), NUMERICAL (dependent working rows: λ is
-    not determined), MAX_ITER or the status of a failed least squares.
+    The most violated row joins the working set; once every row holds to ``tol``, multipliers of
+    the working rows are found from the stationarity on the free variables
+    (``A_Fᵀ λ = −∇f_F``, least squares, minimum norm if the rows are dependent): if they are
+    all >= 0 (to ``tol`` relative) they prove x optimal, else the most negative row leaves.
+    Returns OK (x optimal, ``state`` its bounds' active set), NUMERICAL (the stationarity has
+    no solution: no certificate), MAX_ITER or the status of a failed least squares.
     """
     m0, n = A0.shape
     p = G.shape[0]
@@ -108,7 +109,7 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
                 if v > worst:
                     worst = v
                     k = i
-        if k >= 0:
+        if k >= 0:  # the most violated row joins (one at a time: the set stays independent)
             working[nw] = k
             inw[k] = True
             nw += 1
@@ -122,8 +123,6 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
                 if state[j] == 0:
                     nf += 1
             cols = m0 + nw
-            if nf < cols:
-                return NUMERICAL
             M = np.empty((nf, cols))
             rhs = np.empty(nf)
             c = 0
@@ -135,8 +134,9 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
                         M[c, m0 + w] = G[working[w], j]
                     rhs[c] = -grad[j]
                     c += 1
-            lam, _, rank, _ = np.linalg.lstsq(M, rhs)
-            if rank < cols:
+            lam = np.linalg.lstsq(M, rhs)[0]
+            miss = M @ lam - rhs
+            if np.sqrt(np.dot(miss, miss)) > 1e-7 * (1.0 + np.sqrt(np.dot(rhs, rhs))):
                 return NUMERICAL
             jmin = 0
             scale = 0.0
