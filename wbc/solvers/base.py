@@ -255,17 +255,19 @@ class StackSolver(ABC):
     def compute_bounds(
         self, kin: Kinematics, dt: float | None, lower: np.ndarray, upper: np.ndarray
     ) -> None:
-        """Box bounds on Δq, written into the joint rows of ``lower``/``upper`` (nv each; their
-        base rows must hold ±inf: the floating base is unbounded).
+        """Box bounds on Δq, written into ``lower``/``upper`` (nv each; the floating base's rows
+        are unbounded), by :func:`wbc.compiled.ticks.joint_bounds` as the compiled tick does.
 
         Joint position: q_min − q <= Δq <= q_max − q. With a time step and velocity limits both
         are clipped into [−v_max·dt, v_max·dt]; a joint outside its range then moves back at
         the servo's speed (the bounds never cross). Other box limits are intersected after.
         """
-        lo, hi = lower[6:], upper[6:]  # the base rows stay at ±inf (callers allocate them so)
-        self.stack.position_limit.joint_bounds_into(kin.q[7:], lo, hi)
-        if dt is not None and self.stack.velocity_limit is not None:
-            self.stack.velocity_limit.clip_joint_bounds(dt, lo, hi)
+        from ..compiled.ticks import joint_bounds  # the compiled tick's own, one definition
+
+        limit = self.stack.velocity_limit
+        use = dt is not None and limit is not None
+        step = limit.step(dt) if use else self._q_min  # (not read without a time step)
+        joint_bounds(kin.q[7:], self._q_min, self._q_max, step, use, lower, upper)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]
