@@ -128,6 +128,14 @@ class StackSolver(ABC):
             pass  # targets not set yet may be infeasible: the layout is built all the same
         self.compiled_ticks, self.handed_back_ticks = ticks
 
+    def forget_warm_starts(self) -> None:
+        """Start the compiled level solvers' active sets afresh (as after building a layout)."""
+        for layout in self._layouts.values():
+            plan = getattr(layout, "fast", None)
+            for name in ("state", "states"):
+                if plan is not None and hasattr(plan, name):
+                    getattr(plan, name)[...] = 0
+
     def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """One control tick: q ⊕ Δq with the joints inside their limits.
 
