@@ -206,6 +206,9 @@ def test_inequality_rows_in_the_compiled_least_squares(robot, seed, dz, tilt):
         steps[compiled] = dq
         if compiled is None:
             assert control.solver.handed_back_ticks == 0  # solved by the kernels
+            # again, from the working set of the first solve (the warm start)
+            assert np.allclose(control.solver.solve(q, 0.01), dq, atol=1e-9)
+            assert control.solver.handed_back_ticks == 0
     assert np.allclose(steps[None], steps[False], atol=1e-7), np.abs(
         steps[None] - steps[False]
     ).max()

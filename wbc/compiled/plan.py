@@ -248,6 +248,8 @@ class WeightedPlan(_Plan):
         self.targets.seal()
         self.error_views = self.soft.error_views() + self.hard.error_views()
         self.state = np.zeros(nv, dtype=np.int8)
+        #: the inequality rows' working set of the last tick that had one (a warm start)
+        self.working = np.zeros(0, dtype=np.bool_)
         self.tick_name = "weighted_tick"
         self.args = (
             *self.soft.args, *self.hard.args, *self._shared_args(), self.state, self.dq,
@@ -266,12 +268,17 @@ class WeightedPlan(_Plan):
         state = self.state.copy()
         G = np.ascontiguousarray(G, dtype=float)
         h = np.ascontiguousarray(h, dtype=float)
+        if self.working.shape != h.shape:  # the rows changed (e.g. the polygon's edges)
+            self.working = np.zeros(h.shape, dtype=np.bool_)
+        working = self.working.copy()
         status = solve_with_inequalities(
             self.hard.J, self.hard.b, self.soft.J, self.soft.b, self.params[1], self.lower,
-            self.upper, state, x, G, h, tol,
+            self.upper, state, x, G, h, tol, working,
         )  # fmt: skip
         if status != OK:
+            self.working[:] = False
             return False
+        np.copyto(self.working, working)
         np.copyto(self.dq, x)
         np.copyto(self.state, state)
         integrate(self.q, self.dq, self.lower, self.upper, self.q_min, self.q_max, self.q_next)

@@ -75,17 +75,66 @@ def weighted_solve(
 
 
 @njit(cache=True)
-def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol) -> int:
+def _basic_least_squares(M, rhs):
+    """A least-squares solution of M λ = rhs (M: rows >= columns, ~10 columns) by the normal
+    equations and a Cholesky factorisation that skips dependent columns (their λ = 0): a
+    basic solution, exact when M λ = rhs is consistent (the caller checks the residual)."""
+    k = M.shape[1]
+    N = M.T @ M
+    g = M.T @ rhs
+    scale = 0.0
+    for j in range(k):
+        scale = max(scale, N[j, j])
+    keep = np.ones(k, np.bool_)
+    L = np.zeros((k, k))
+    for j in range(k):
+        d = N[j, j]
+        for t in range(j):
+            if keep[t]:
+                d -= L[j, t] * L[j, t]
+        if d <= 1e-12 * scale:
+            keep[j] = False
+            continue
+        L[j, j] = np.sqrt(d)
+        for i in range(j + 1, k):
+            v = N[i, j]
+            for t in range(j):
+                if keep[t]:
+                    v -= L[i, t] * L[j, t]
+            L[i, j] = v / L[j, j]
+    y = np.zeros(k)
+    for j in range(k):
+        if keep[j]:
+            v = g[j]
+            for t in range(j):
+                if keep[t]:
+                    v -= L[j, t] * y[t]
+            y[j] = v / L[j, j]
+    lam = np.zeros(k)
+    for j in range(k - 1, -1, -1):
+        if keep[j]:
+            v = y[j]
+            for t in range(j + 1, k):
+                if keep[t]:
+                    v -= L[t, j] * lam[t]
+            lam[j] = v / L[j, j]
+    return lam
+
+
+@njit(cache=True)
+def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol, start) -> int:
     """min ‖B x − r‖² + μ‖x‖² s.t. A0 x = a0, G x <= h and the bounds, from the solution
     without the G rows in ``x``: a primal active set on those rows around :func:`solve_level`
     (a row of the working set is an equality).
 
     The most violated row joins the working set; once every row holds to ``tol``, multipliers of
     the working rows are found from the stationarity on the free variables
-    (``A_Fᵀ λ = −∇f_F``, least squares, minimum norm if the rows are dependent): if they are
+    (``A_Fᵀ λ = −∇f_F``, least squares, a basic solution if the rows are dependent): if they are
     all >= 0 (to ``tol`` relative) they prove x optimal, else the most negative row leaves.
-    Returns OK (x optimal, ``state`` its bounds' active set), NUMERICAL (the stationarity has
-    no solution: no certificate), MAX_ITER or the status of a failed least squares.
+    ``start`` (p bools): the working set to begin with (the last tick's: a warm start, all
+    its rows join at once); on OK it holds the final working set. Returns OK (x optimal,
+    ``state`` its bounds' active set), NUMERICAL (the stationarity has no solution: no
+    certificate), MAX_ITER or the status of a failed least squares.
     """
     m0, n = A0.shape
     p = G.shape[0]
@@ -98,7 +147,22 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
     working = np.empty(p, np.int64)
     inw = np.zeros(p, np.bool_)
     nw = 0
+    for i in range(p):
+        if start[i]:
+            working[nw] = i
+            inw[i] = True
+            nw += 1
+    warm = nw > 0
     for _ in range(2 * p + 4):
+        if warm:  # solve with the warm working set first
+            warm = False
+            for w in range(nw):
+                a[m0 + w] = h[working[w]]
+                for j in range(n):
+                    A[m0 + w, j] = G[working[w], j]
+            status = solve_level(A[: m0 + nw], a[: m0 + nw], B, r, mu, lower, upper, state, x)
+            if status != OK:
+                return status
         k = -1
         worst = tol
         for i in range(p):
@@ -115,6 +179,8 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
             nw += 1
         else:
             if nw == 0:
+                for i in range(p):
+                    start[i] = False
                 return OK
             res = B @ x - r
             grad = B.T @ res + mu * x
@@ -134,7 +200,7 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
                         M[c, m0 + w] = G[working[w], j]
                     rhs[c] = -grad[j]
                     c += 1
-            lam = np.linalg.lstsq(M, rhs)[0]
+            lam = _basic_least_squares(M, rhs)
             miss = M @ lam - rhs
             if np.sqrt(np.dot(miss, miss)) > 1e-7 * (1.0 + np.sqrt(np.dot(rhs, rhs))):
                 return NUMERICAL
@@ -145,6 +211,8 @@ def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol)
                 if lam[m0 + w] < lam[m0 + jmin]:
                     jmin = w
             if lam[m0 + jmin] >= -tol * (1.0 + scale):
+                for i in range(p):
+                    start[i] = inw[i]
                 return OK
             inw[working[jmin]] = False
             for w in range(jmin, nw - 1):
