@@ -320,6 +320,54 @@ def largest_push(rec: Recording, robot: Robot, direction: Sequence[float]) -> fl
 
 
 # ---------------------------------------------------------------------- bench hook
+def add_physics_arguments(parser) -> None:
+    """The ``wbc bench`` options of the physics benchmark."""
+    parser.add_argument(
+        "--physics",
+        action="store_true",
+        help="play every run through the deploy path on the simulated robot (wbc[physics])",
+    )
+    parser.add_argument(
+        "--robustness", type=int, default=0, metavar="N", help="--physics: N randomised models"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="--robustness: random seed")
+    parser.add_argument(
+        "--push", action="store_true", help="--physics: largest survived torso impulse (N·s)"
+    )
+
+
+def run_physics_command(args, console, robot: Robot, entries) -> int:
+    """``wbc bench --physics``: the table, and the records in ``--json``."""
+    import json
+    import platform
+    import sys
+    from datetime import UTC, datetime
+
+    from . import trajectories as traj
+
+    if args.robustness < 0:
+        raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
+    names = [t for t in args.trajectories if t != traj.STATIC_COM]
+    refs = {t: traj.build(t, robot) for t in names}
+    started = time.perf_counter()
+    records = run_physics(args, console, robot, entries, refs)
+    elapsed = time.perf_counter() - started
+    console.print(f"{len(records)} simulated runs in {elapsed:.1f} s on {platform.node()}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        payload = {
+            "date": datetime.now(UTC).isoformat(timespec="seconds"),
+            "machine": f"{platform.node()} {platform.machine()}".strip(),
+            "python": sys.version.split()[0],
+            "command": "wbc bench " + " ".join(sys.argv[2:]),
+            "elapsed_s": elapsed,
+            "records": records,
+        }
+        args.json.write_text(json.dumps(payload, indent=1))
+        console.print(f"records in {args.json}")
+    return 0
+
+
 def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[str, Any]]:
     """Called by ``wbc bench --physics``: every entry on every trajectory in the simulator."""
     from rich.table import Table

@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 
 from ..servo_map import RAD_PER_TICK, ServoMap, ServoSettings
@@ -150,7 +151,20 @@ class ServoArray:
         return np.rint(self.sensed(q))
 
     def law(self, q: np.ndarray, dt: float) -> np.ndarray:
-        """Advance the tracked goals by ``dt`` and return the joint torques (N·m) at ``q``."""
+        """Advance the tracked goals by ``dt`` and return the joint torques (N·m) at ``q``
+        (the compiled :func:`servo_law`; :meth:`law_numpy` is the same law in numpy)."""
+        p = self.params
+        servo_law(
+            np.ascontiguousarray(q, dtype=np.float64), dt, self.goal, self.tracked, self.speed,
+            self.zero, self.signs, p.margin, p.slope, p.punch, p.stall_torque, p.torque_cap,
+            self.enabled, self.shutdown, self.error, self.at_limit_time, p.overload_time,
+            p.alarm_shutdown, self.motor, 0.5 * p.backlash * self._scale, self._scale,
+            self.torque,
+        )  # fmt: skip
+        return self.torque
+
+    def law_numpy(self, q: np.ndarray, dt: float) -> np.ndarray:
+        """The servo law in numpy (the reference of :func:`servo_law`)."""
         p = self.params
         step = self.speed * dt
         self.tracked += np.clip(self.goal - self.tracked, -step, step)
@@ -170,3 +184,39 @@ class ServoArray:
                 active = active & ~over
         self.torque = np.where(active, self.signs * tau, 0.0)
         return self.torque
+
+
+@numba.njit(cache=True)
+def servo_law(
+    q, dt, goal, tracked, speed, zero, signs, margin, slope, punch, stall, cap, enabled,
+    shutdown, error, at_limit_time, overload_time, alarm, motor, half_backlash, ticks_per_rad,
+    torque,
+):  # fmt: skip
+    """The servo law of the module docstring, in place over all joints (one physics step)."""
+    for i in range(q.size):
+        step = speed[i] * dt
+        d = goal[i] - tracked[i]
+        tracked[i] += min(max(d, -step), step)
+        sensed = zero[i] + signs[i] * q[i] * ticks_per_rad
+        if half_backlash > 0.0:
+            motor[i] = min(max(motor[i], sensed - half_backlash), sensed + half_backlash)
+            sensed = motor[i]
+        e = tracked[i] - np.rint(sensed)
+        ae = abs(e)
+        u = 0.0
+        if ae > margin[i]:
+            u = min(1.0, punch[i] + (ae - margin[i]) / slope[i])
+        drive = stall * u
+        at_limit = drive >= cap[i] - 1e-12
+        tau = np.sign(e) * min(drive, cap[i])
+        active = enabled[i] and not shutdown[i]
+        if active and at_limit:
+            at_limit_time[i] += dt
+        else:
+            at_limit_time[i] = 0.0
+        if at_limit_time[i] >= overload_time:
+            error[i] |= ERR_OVERLOAD
+            if alarm & ERR_OVERLOAD:
+                shutdown[i] = True
+                active = False
+        torque[i] = signs[i] * tau if active else 0.0

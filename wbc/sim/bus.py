@@ -170,17 +170,11 @@ class SimServoBus(ServoBus):
         if self.sim.silent[i]:
             return ServoStatus(i, COMM_TIMEOUT)
         err = int(self.sim.servos.error[i])
-        cap = self.sim.servos.params.stall_torque
-        return ServoStatus(
-            i,
-            COMM_OK,
-            fault_names(err),
-            err,
-            float(present[i]),
-            load=float(self.sim.servos.torque[i] * self.sim.servos.signs[i] / cap)
-            if load
-            else None,
-        )
+        status = ServoStatus(i, COMM_OK, fault_names(err) if err else (), err, float(present[i]))
+        if load:
+            servos = self.sim.servos
+            status.load = float(servos.torque[i] * servos.signs[i] / servos.params.stall_torque)
+        return status
 
     def read_positions(self, indices: Sequence[int] | None = None) -> list[ServoStatus]:
         self._require_open()

@@ -9,6 +9,7 @@ logs the simulated state (:class:`SimLog`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -53,22 +54,25 @@ class PlayResult:
     sim: Simulation
 
 
-def convex_hull(points: np.ndarray) -> np.ndarray:
+def convex_hull(points: np.ndarray) -> list[tuple[float, float]]:
     """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain)."""
-    pts = np.unique(np.round(np.asarray(points, dtype=float), 9), axis=0)
+    pts = sorted({(round(float(x), 9), round(float(y), 9)) for x, y in np.asarray(points)})
     if len(pts) < 3:
         return pts
 
-    def half(seq: np.ndarray) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
+    def turn(o, a, b) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    def half(seq) -> list[tuple[float, float]]:
+        out: list[tuple[float, float]] = []
         for p in seq:
-            while len(out) >= 2 and np.cross(out[-1] - out[-2], p - out[-2]) <= 0:
+            while len(out) >= 2 and turn(out[-2], out[-1], p) <= 0:
                 out.pop()
             out.append(p)
         return out
 
     lower, upper = half(pts), half(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1])
+    return lower[:-1] + upper[:-1]
 
 
 def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
@@ -77,10 +81,15 @@ def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
     hull = convex_hull(points)
     if len(hull) < 3:
         return 0.0
-    edges = np.roll(hull, -1, axis=0) - hull
-    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)  # outward for a CCW polygon
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return float(np.min(np.einsum("ij,ij->i", hull - p, normals)))
+    px, py = float(p[0]), float(p[1])
+    best = math.inf
+    for k, (ax, ay) in enumerate(hull):
+        bx, by = hull[(k + 1) % len(hull)]
+        ex, ey = bx - ax, by - ay
+        length = math.hypot(ex, ey)
+        # outward normal of a CCW polygon edge: (ey, -ex) / |e|
+        best = min(best, ((ax - px) * ey - (ay - py) * ex) / length)
+    return best
 
 
 class _Logger:

@@ -7,6 +7,7 @@ joint order) stays inside this module.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -52,6 +53,7 @@ class Simulation:
         )
         self.model = build_model(robot, self.model_params)
         self.data = self.mj.MjData(self.model)
+        self._dt = float(self.model.opt.timestep)
         m, mj = self.model, self.mj
         jid = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, n) for n in robot.joint_names]
         self.qadr = np.array([m.jnt_qposadr[j] for j in jid])
@@ -82,7 +84,7 @@ class Simulation:
 
     @property
     def dt(self) -> float:
-        return float(self.model.opt.timestep)
+        return self._dt
 
     def reset(self, q: np.ndarray, torque: bool = False) -> None:
         """Put the robot at configuration ``q`` (wbc convention), at rest; goals there."""
@@ -205,7 +207,7 @@ class Simulation:
     def step(self) -> None:
         """One physics step: servo law, then MuJoCo."""
         d = self.data
-        tau = self.servos.law(d.qpos[self._q_index], self.dt)
+        tau = self.servos.law(d.qpos[self._q_index], self._dt)
         d.ctrl[self._ctrl_index] = tau
         np.maximum(self.peak_torque, np.abs(tau), out=self.peak_torque)
         if self._push is not None:
@@ -223,10 +225,10 @@ class Simulation:
 
     def advance_to(self, t: float) -> None:
         """Step while the next step ends at or before ``t``."""
-        dt = self.dt
-        n = int(np.floor((t - self.time) / dt + 1e-6))
+        n = int(math.floor((t - self.data.time) / self._dt + 1e-6))
+        step = self.step
         for _ in range(n):
-            self.step()
+            step()
 
 
 def _as_slice(index: np.ndarray) -> slice | np.ndarray:
