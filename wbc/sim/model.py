@@ -129,8 +129,9 @@ def build_model(robot: Robot, params: ModelParams | None = None):
 
 
 def link_names(spec) -> list[str]:
-    """Names of the spec's bodies after the world (the links that carry mass)."""
-    return [b.name for b in spec.bodies if b.name != "world"]
+    """Names of the spec's bodies that carry mass (the links; massless fixed frames such as
+    ``l_sole`` are merged into their parent at compile time)."""
+    return [b.name for b in spec.bodies if b.name != "world" and b.mass > 0]
 
 
 def _wxyz(R: np.ndarray) -> np.ndarray:
