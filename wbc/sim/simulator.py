@@ -210,13 +210,14 @@ class Simulation:
         tau = self.servos.law(d.qpos[self._q_index], self._dt)
         d.ctrl[self._ctrl_index] = tau
         np.maximum(self.peak_torque, np.abs(tau), out=self.peak_torque)
-        if self._push is not None:
-            t0, t1, force = self._push
-            on = t0 - 1e-9 <= d.time < t1 - 1e-9
-            d.xfrc_applied[self.root, :3] = force if on else 0.0
-            if d.time >= t1:
-                self._push = None
+        push = self._push
+        if push is not None:
+            on = push[0] - 1e-9 <= d.time < push[1] - 1e-9
+            d.xfrc_applied[self.root, :3] = push[2] if on else 0.0
         self.mj.mj_step(self.model, d)
+        if push is not None and d.time >= push[1] - 1e-9:
+            d.xfrc_applied[self.root, :3] = 0.0
+            self._push = None
         self.steps += 1
 
     def advance(self, duration: float) -> None:
