@@ -8,8 +8,8 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from wbc.sim.model import ModelParams, build_model, build_spec, link_names  # noqa: E402
-from wbc.sim.simulator import Simulation  # noqa: E402
+from wbc.sim.model import ModelParams, build_model, build_spec, link_names
+from wbc.sim.simulator import Simulation
 
 
 @pytest.fixture(scope="module")

@@ -9,9 +9,9 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from wbc.servo_map import RAD_PER_TICK  # noqa: E402
-from wbc.servos.dynamixel import speed_register, speed_ticks_per_s  # noqa: E402
-from wbc.sim.simulator import Simulation  # noqa: E402
+from wbc.servo_map import RAD_PER_TICK
+from wbc.servos.dynamixel import speed_register, speed_ticks_per_s
+from wbc.sim.simulator import Simulation
 
 
 def _tilt_change(R0, R) -> float:

@@ -24,7 +24,6 @@ bisection.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -284,21 +283,33 @@ def simulate(
 
 
 def robustness(
-    rec: Recording, robot: Robot, n: int, seed: int, progress: Callable[[int], None] | None = None
+    rec: Recording,
+    robot: Robot,
+    n: int,
+    seed: int,
+    progress: Callable[[int], None] | None = None,
+    settle: float = 1.0,
 ) -> dict[str, Any]:
     """The share of ``n`` randomised models (seeded) on which the run stays up."""
     up = []
     for k, v in enumerate(models(robot, n, seed)):
-        up.append(not simulate(rec, robot, v)["fell"])
+        up.append(not simulate(rec, robot, v, settle=settle)["fell"])
         if progress:
             progress(k)
     return {"models": n, "seed": seed, "up_fraction": float(np.mean(up)) if up else None,
             "up": [bool(u) for u in up]}  # fmt: skip
 
 
-def largest_push(rec: Recording, robot: Robot, direction: Sequence[float]) -> float | None:
+def largest_push(
+    rec: Recording,
+    robot: Robot,
+    direction: Sequence[float],
+    max_impulse: float = PUSH_MAX_NS,
+    steps: int = PUSH_STEPS,
+    settle: float = 1.0,
+) -> float | None:
     """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
-    (bisection over [0, PUSH_MAX_NS] in PUSH_STEPS steps); None if it falls unpushed."""
+    (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
     t_push = mid_single_support(rec)
     if t_push is None:
         return None
@@ -306,14 +317,14 @@ def largest_push(rec: Recording, robot: Robot, direction: Sequence[float]) -> fl
 
     def survives(impulse: float) -> bool:
         force = u * impulse / PUSH_DURATION
-        return not simulate(rec, robot, push=(t_push, force, PUSH_DURATION))["fell"]
+        return not simulate(rec, robot, push=(t_push, force, PUSH_DURATION), settle=settle)["fell"]
 
     if not survives(0.0):
         return None
-    lo, hi = 0.0, PUSH_MAX_NS
+    lo, hi = 0.0, max_impulse
     if survives(hi):
         return hi
-    for _ in range(PUSH_STEPS):
+    for _ in range(steps):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if survives(mid) else (lo, mid)
     return lo
@@ -497,5 +508,3 @@ def physics_summary_lines(records: list[dict[str, Any]]) -> list[str]:
             f"{_ns(r['push_forward_ns']) if 'push_forward_ns' in r else '-':>7}"
         )
     return out
-
-

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..model import Robot
 from ..recording import Recording
-from ..servos.deploy import DeployConfig, DeployResult, Deployment, RecordingSource
+from ..servos.deploy import DeployConfig, Deployment, DeployResult, RecordingSource
 from .actuator import ServoParams
 from .bus import SimServoBus
 from .model import ModelParams
@@ -99,9 +99,7 @@ class _Logger:
         self.t0 = sim.time
         m = sim.model
         mj = sim.mj
-        self.feet = [
-            mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, b) for b in sim.robot_feet()
-        ]
+        self.feet = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, b) for b in sim.robot_feet()]
 
     def __call__(self, bus: SimServoBus | None = None) -> None:
         sim, log = self.sim, self.log
@@ -143,7 +141,9 @@ def play(
     sim = Simulation(robot, model_params, servo_params)
     sim.reset(recording.q[0])
     if rate is None:
-        rate = min(100.0, 1.0 / float(np.median(np.diff(recording.t)))) if len(recording) > 1 else 50.0
+        rate = (
+            min(100.0, 1.0 / float(np.median(np.diff(recording.t)))) if len(recording) > 1 else 50.0
+        )
     logger = _Logger(sim)
 
     def tick(bus: SimServoBus) -> None:
@@ -165,7 +165,7 @@ def play(
     playback_start = start + result.soft_start_ticks / rate
     if result.completed and settle > 0:
         period = 1.0 / rate
-        for _ in range(int(round(settle * rate))):
+        for _ in range(round(settle * rate)):
             sim.advance(period)
             tick(bus)
     return PlayResult(result, logger.log.arrays(), playback_start - logger.t0, sim)

@@ -226,7 +226,7 @@ class Simulation:
 
     def advance_to(self, t: float) -> None:
         """Step while the next step ends at or before ``t``."""
-        n = int(math.floor((t - self.data.time) / self._dt + 1e-6))
+        n = math.floor((t - self.data.time) / self._dt + 1e-6)
         step = self.step
         for _ in range(n):
             step()
