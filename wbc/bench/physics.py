@@ -252,13 +252,20 @@ def simulated_recording(rec: Recording, result, robot: Robot) -> Recording:
     rec_t = rec.t - rec.t[0]
     tc = np.clip(t, rec_t[0], rec_t[-1])
     channels = {"com": log["com"][keep], "zmp": log["cop"][keep]}
-    for name in ("com", "zmp"):
-        if name in rec.channels:
-            ref = rec.channels[name]
-            channels[f"{name}_ref"] = np.stack(
+    for name, src in (("com_ref", "com"), ("zmp_ref", "zmp"), ("swing_ref", "swing")):
+        if src in rec.channels:
+            ref = np.asarray(rec.channels[src], dtype=float)
+            channels[name] = np.stack(
                 [np.interp(tc, rec_t, ref[:, j]) for j in range(ref.shape[1])], axis=1
             )
-    channels["zmp"] = np.where(np.isfinite(channels["zmp"]), channels["zmp"], np.nan)
+    if "swing_is_left" in rec.channels:  # the real sole of the planned swing side
+        k = np.clip(np.searchsorted(rec_t, tc, side="right") - 1, 0, len(rec_t) - 1)
+        left = np.asarray(rec["swing_is_left"], dtype=bool)[k]
+        soles = log["soles"][keep]
+        channels["swing"] = np.where(left[:, None], soles[:, 0], soles[:, 1])
+    if "support" in rec.channels:
+        k = np.clip(np.searchsorted(rec_t, tc, side="right") - 1, 0, len(rec_t) - 1)
+        channels["support"] = np.asarray(rec["support"])[k]
     meta = dict(rec.meta, simulated=True)
     return Recording(t - t[0], q, robot.joint_names, channels, meta)
 

@@ -18,6 +18,8 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from ..exceptions import WbcError
 
 
@@ -55,7 +57,7 @@ def _live_view(robot, sim, planned=None):
     print(f"meshcat: {viewer.url}", flush=True)
 
     def update(_bus=None) -> None:
-        viewer.update(sim.q())
+        viewer.update(sim.q())  # the deployment plays joints only: no planned CoM here
 
     return update
 
@@ -114,16 +116,26 @@ def run(args: argparse.Namespace) -> int:
         from ..viewer import Viewer
 
         viewer = Viewer(robot)
-        print(f"meshcat: {viewer.url}", flush=True)
+        print(f"meshcat: {viewer.url} (planned CoM and swing sole beside the real ones)")
+        rec_t = rec.t - rec.t[0]
+        planned = {k: rec[k] for k in ("com", "swing") if k in rec.channels}
+        start: list[float] = []
 
         def on_tick(sim) -> None:
-            viewer.update(sim.q(), com=sim.com())
+            start[:] = start or [sim.time]
+            t = sim.time - start[0]
+            ref = {
+                f"{k}_ref": np.array([np.interp(t, rec_t, v[:, j]) for j in range(3)])
+                for k, v in planned.items()
+            }
+            viewer.update(sim.q(), **ref)
 
     result = play(
         rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime or args.view,
         push=push, on_tick=on_tick,
     )  # fmt: skip
     record = physics_record(rec, result, robot)
+    record.pop("_series")
     print(f"simulated {label}: {result.deploy.timing.ticks} ticks")
     for key, (text, unit) in PHYSICS_KEYS.items():
         v = record.get(key)

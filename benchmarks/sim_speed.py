@@ -1,0 +1,63 @@
+"""Speed of the simulated Bioloid (benchmarks/physics.md quotes this script's output).
+
+    python benchmarks/sim_speed.py [--seconds 10] [--sweep 10]
+
+1. physics only: :meth:`Simulation.advance` standing at Walk Ready (servo law + MuJoCo step);
+2. the deploy path: ``walk10`` planned by ``hqp-daqp``, played by :func:`wbc.sim.play.play`
+   (deployment safety layer, per-tick logging of the state and contact forces);
+3. a sweep: the same run on N randomised models (``wbc bench --physics --robustness N``).
+
+Reported as simulated seconds per wall second ("× real time") and physics steps per second.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+from wbc import load_robot
+from wbc.bench.physics import plan, robustness
+from wbc.sim.play import play
+from wbc.sim.simulator import Simulation
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="simulated s, part 1")
+    parser.add_argument("--sweep", type=int, default=10, help="models in part 3 (0: skip)")
+    args = parser.parse_args()
+    robot = load_robot("bioloid")
+    print(f"{platform.node()} {platform.machine()}, Python {platform.python_version()}")
+
+    sim = Simulation(robot)
+    sim.set_torque(True)
+    sim.advance(0.1)  # compile and warm up
+    steps0, start = sim.steps, time.perf_counter()
+    sim.advance(args.seconds)
+    wall = time.perf_counter() - start
+    steps = sim.steps - steps0
+    print(f"1. physics only, standing: {steps / wall:,.0f} steps/s "
+          f"(dt {sim.dt * 1e3:g} ms) = {args.seconds / wall:.1f} x real time")  # fmt: skip
+
+    rec = plan("hqp-daqp", "walk10", robot)
+    start = time.perf_counter()
+    result = play(rec, robot, settle=1.0)
+    wall = time.perf_counter() - start
+    simulated = result.log["t"][-1]
+    print(
+        f"2. walk10 through the deploy path: {simulated:.2f} s simulated in {wall:.2f} s = "
+        f"{simulated / wall:.1f} x real time ({result.sim.steps / wall:,.0f} steps/s)"
+    )
+
+    if args.sweep:
+        start = time.perf_counter()
+        r = robustness(rec, robot, args.sweep, seed=0)
+        wall = time.perf_counter() - start
+        print(f"3. walk10 sweep, {args.sweep} randomised models: {wall:.1f} s "
+              f"({wall / args.sweep:.2f} s per model; 50 models ~ {50 * wall / args.sweep:.0f} s); "
+              f"up fraction {r['up_fraction']:.2f}")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
