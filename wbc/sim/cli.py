@@ -31,7 +31,9 @@ def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--realtime", action="store_true", help="--sim: wall-clock pace (default: lockstep)"
     )
-    parser.add_argument("--view", action="store_true", help="--sim: show it live in meshcat")
+    parser.add_argument(
+        "--view", action="store_true", help="--sim: show it live in meshcat (at real speed)"
+    )
 
 
 def make_sim_bus(args: argparse.Namespace, robot):
@@ -44,9 +46,7 @@ def make_sim_bus(args: argparse.Namespace, robot):
     if getattr(args, "view", False):
         on_tick = _live_view(robot, sim)
     torque_limit = args.torque_limit if getattr(args, "torque_limit", 1023) != 1023 else None
-    return SimServoBus(
-        sim, realtime=args.realtime or args.view, torque_limit=torque_limit, on_tick=on_tick
-    )
+    return SimServoBus(sim, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick)
 
 
 def _live_view(robot, sim, planned=None):
@@ -56,10 +56,31 @@ def _live_view(robot, sim, planned=None):
     viewer = Viewer(robot)
     print(f"meshcat: {viewer.url}", flush=True)
 
+    pace = _Pacer()
+
     def update(_bus=None) -> None:
         viewer.update(sim.q())  # the deployment plays joints only: no planned CoM here
+        pace(sim.time)
 
     return update
+
+
+class _Pacer:
+    """Sleep so that simulated time does not run ahead of the wall clock (lockstep physics,
+    shown at real speed: a slow draw never changes what the physics does)."""
+
+    def __init__(self) -> None:
+        self.start: tuple[float, float] | None = None
+
+    def __call__(self, sim_time: float) -> None:
+        import time
+
+        now = time.perf_counter()
+        if self.start is None:
+            self.start = (now, sim_time)
+        ahead = (sim_time - self.start[1]) - (now - self.start[0])
+        if ahead > 0:
+            time.sleep(ahead)
 
 
 # ---------------------------------------------------------------------- wbc sim
@@ -120,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
         rec_t = rec.t - rec.t[0]
         planned = {k: rec[k] for k in ("com", "swing") if k in rec.channels}
         start: list[float] = []
+        pace = _Pacer()
 
         def on_tick(sim) -> None:
             start[:] = start or [sim.time]
@@ -129,9 +151,10 @@ def run(args: argparse.Namespace) -> int:
                 for k, v in planned.items()
             }
             viewer.update(sim.q(), **ref)
+            pace(sim.time)
 
     result = play(
-        rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime or args.view,
+        rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime,
         push=push, on_tick=on_tick,
     )  # fmt: skip
     record = physics_record(rec, result, robot)
