@@ -213,3 +213,27 @@ def test_imu_noise_and_bias_are_seeded(robot):
     assert not np.allclose(b.linear_acceleration, clean.linear_acceleration)
     with pytest.raises(Exception, match="gyro_noise must be >= 0"):
         SimImu(sim, gyro_noise=-1.0)
+
+
+def test_soft_start_and_rate_limit_act_on_the_simulated_servos(robot):
+    """The robot stands at Walk Ready; the recording starts elsewhere and jumps: the soft
+    start brings the servos over at the soft speed, the rate limit caps the jump."""
+    rec = _sway(robot, duration=0.6)
+    k = robot.q_index("l_elbow")
+    q = rec.q.copy()
+    q[:, k] += 0.3  # first pose 0.3 rad away from the standing pose
+    q[len(q) // 2 :, k] += 0.4  # and a jump of 0.4 rad in one tick mid-way
+    rec = Recording(rec.t, q, robot.joint_names)
+    sim = Simulation(robot)  # at Walk Ready
+    bus = SimServoBus(sim)
+    d = _deploy(robot, bus, rec, read=True, soft_speed=0.5)
+    result = d.run()
+    assert result.completed
+    # 0.3 rad at 0.5 rad/s and 50 Hz: floor(1.95) = 1 AX tick per control tick -> 59 ticks
+    per_tick = max(1, math.floor(0.5 / RATE / RAD_PER_TICK))
+    assert result.soft_start_ticks == pytest.approx(0.3 / RAD_PER_TICK / per_tick, abs=1.5)
+    j = robot.joint_index("l_elbow")
+    assert result.limits.rate_limited[j] >= 1
+    assert result.limits.rate_limited.sum() == result.limits.rate_limited[j]
+    # the servo got there: present position within the compliance ramp of the last goal
+    assert abs(sim.q()[k] - q[-1, k]) < 3 * 32 * RAD_PER_TICK
