@@ -28,6 +28,7 @@ from ..imu import Imu, ImuReading
 from ..servos.bus import COMM_OK, COMM_TIMEOUT, BusBudget, ServoBus, ServoStatus
 from ..servos.dynamixel import (
     AX12_MAX_SPEED,
+    ax_budget,
     ax_codec,
     fault_names,
     speed_register,
@@ -188,7 +189,8 @@ class SimServoBus(ServoBus):
         return self._status(index, self.sim.present_ticks(), load=True)
 
     def budget(self, read_positions: bool) -> BusBudget:
-        return BusBudget("sim", 1_000_000, ())
+        """The budget of the real AX-12A bus at 1 Mbps that the simulated servos stand for."""
+        return ax_budget(self.n, 1_000_000, read_positions)
 
 
 class SimImu(Imu):
