@@ -298,13 +298,17 @@ def robustness(
     settle: float = 1.0,
 ) -> dict[str, Any]:
     """The share of ``n`` randomised models (seeded) on which the run stays up."""
-    up = []
+    up, falls = [], []
     for k, v in enumerate(models(robot, n, seed)):
-        up.append(not simulate(rec, robot, v, settle=settle)["fell"])
+        r = simulate(rec, robot, v, settle=settle)
+        up.append(not r["fell"])
+        if r["fell"]:  # why: when, in which support phase, the most loaded joint
+            falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
+                          "joint": r["fall_joint"], **v.summary})  # fmt: skip
         if progress:
             progress(k)
     return {"models": n, "seed": seed, "up_fraction": float(np.mean(up)) if up else None,
-            "up": [bool(u) for u in up]}  # fmt: skip
+            "up": [bool(u) for u in up], "falls": falls}  # fmt: skip
 
 
 def largest_push(
