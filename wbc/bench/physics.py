@@ -461,10 +461,29 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                     f"  {r['solver']}: fell at {r['fall_time_s']:.2f} s in {r['fall_phase']} "
                     f"support; most loaded: {r['fall_joint']}"
                 )
+            falls = r.get("robustness", {}).get("falls", [])
+            if falls:
+                console.print(f"  {r['solver']}: {fall_summary(falls)}")
     if args.plots:
         for (solver, name), (s, rec, result) in series.items():
             physics_figure(s, rec, result, args.plots / f"physics_{solver}__{name}.png")
     return records
+
+
+def fall_summary(falls: list[dict[str, Any]]) -> str:
+    """One line on why randomised models fell: phases, most loaded joints, latency share."""
+    from collections import Counter
+
+    phases = Counter(f["phase"] for f in falls)
+    joints = Counter(str(f["joint"]).split(" ")[0] for f in falls)
+    late = sum(1 for f in falls if f.get("latency")) / len(falls)
+    return (
+        f"{len(falls)} falls: phase "
+        + ", ".join(f"{k} {v}" for k, v in phases.most_common())
+        + "; most loaded "
+        + ", ".join(f"{k} {v}" for k, v in joints.most_common(3))
+        + f"; {late:.0%} with one-tick latency"
+    )
 
 
 def _ns(v: float | None) -> str:
