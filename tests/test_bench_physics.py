@@ -92,3 +92,14 @@ def test_bench_physics_command(robot, tmp_path, capsys):
     assert 5.0 < record["orientation_dev_max_deg"] < 45.0
     lines = physics.physics_summary_lines([record])
     assert all(len(line) <= 100 for line in lines)
+
+
+def test_fall_summary_counts_phases_and_joints():
+    falls = [
+        {"phase": "left", "joint": "l_hip_roll (1.00 stall)", "latency": 1},
+        {"phase": "left", "joint": "l_hip_roll (0.90 stall)", "latency": 0},
+        {"phase": "double", "joint": "r_knee (0.50 stall)", "latency": 1},
+    ]
+    line = physics.fall_summary(falls)
+    assert line.startswith("3 falls: phase left 2, double 1; most loaded l_hip_roll 2, r_knee 1")
+    assert line.endswith("67% with one-tick latency")
