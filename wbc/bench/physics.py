@@ -9,7 +9,8 @@ deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
   say why;
 * ``orientation_dev_max_deg``: the largest angle between the real and the planned base
   orientation (before any fall);
-* ``distance_ratio``: real base displacement along the planned one / the planned one;
+* ``distance_ratio``: real base displacement along the planned one / the planned one (None
+  after a fall);
 * ``foot_slip_max_mm``: how far a sole slides while planned and loaded as a support;
 * ``tracking_err_max_deg``: the largest |real − planned| joint angle (and its joint);
 * ``torque_peak_ratio``: peak |servo torque| / stall torque (and its joint);
@@ -24,6 +25,7 @@ bisection.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -185,7 +187,7 @@ def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
     play_end = min(upto, int(np.searchsorted(t, rec_t[-1], side="right")))
     d_plan = q_plan[play_end - 1, :2] - q_plan[0, :2] if play_end else np.zeros(2)
     planned = float(np.linalg.norm(d_plan))
-    if planned > 0.01 and play_end:
+    if planned > 0.01 and play_end and fall_k is None:  # none if it fell: not travel
         moved = (q_real[play_end - 1, :2] - q_real[0, :2]) @ d_plan / planned
         record["distance_ratio"] = float(moved / planned)
     else:
@@ -285,7 +287,7 @@ def simulate(
     if variation is not None:
         kw = dict(model_params=variation.model_params, servo_params=variation.servo_params,
                   latency_ticks=variation.latency_ticks)  # fmt: skip
-    result = play(rec, robot, settle=settle, push=push, **kw)
+    result = play(rec, robot, settle=settle, push=push, limit_tol=math.inf, **kw)
     return physics_record(rec, result, robot)
 
 
@@ -410,8 +412,18 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             started = time.perf_counter()
             from ..sim.play import play
 
-            result = play(rec, robot, settle=1.0)
+            excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
+            try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses it
+                # unless --limit-tol allows it)
+                result = play(rec, robot, settle=1.0, limit_tol=math.inf)
+            except WbcError as exc:
+                console.print(f"[red]{entry.name} on {name}: {exc}[/]")
+                records.append({"solver": entry.name, "family": entry.family,
+                                "trajectory": name, "error": str(exc)})  # fmt: skip
+                continue
             r = physics_record(rec, result, robot)
+            r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
+            r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
             wall = time.perf_counter() - started
             r.update(solver=entry.name, family=entry.family, trajectory=name,
                      sim_steps=int(result.sim.steps), wall_s=wall,
@@ -429,7 +441,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 r["push_forward_ns"] = largest_push(rec, robot, (1.0, 0.0, 0.0))
             records.append(r)
     for name in refs:
-        rows = [r for r in records if r["trajectory"] == name]
+        rows = [r for r in records if r["trajectory"] == name and "error" not in r]
         table = Table(title=f"physics: {name} (deploy path, simulated AX-12A)")
         cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "τ/τs", "CoP mm"]
         if args.robustness:
@@ -523,6 +535,7 @@ def physics_figure(series: dict, rec: Recording, result, path: Path) -> Path:
 
 def physics_summary_lines(records: list[dict[str, Any]]) -> list[str]:
     """Plain-text lines (≤ 100 columns) of the physics table."""
+    records = [r for r in records if "error" not in r]
     out = [f"{'solver':<14}{'traj':<12}{'fell s':>7}{'dev°':>7}{'dist':>6}{'slip mm':>8}"
            f"{'err°':>6}{'τ/τs':>6}{'CoP mm':>7}{'up':>6}{'push y':>7}{'push x':>7}"]  # fmt: skip
     for r in records:

@@ -131,12 +131,15 @@ def play(
     push: tuple[float, np.ndarray, float] | None = None,
     before: Callable[[SimServoBus], None] | None = None,
     on_tick: Callable[[Simulation], None] | None = None,
+    limit_tol: float = 1e-3,
 ) -> PlayResult:
     """Play ``recording`` on a simulated ``robot`` (see the module docstring).
 
     ``rate`` defaults to the recording's own (capped at the deployment's 100 Hz); ``push`` =
     ``(time after playback start, force N (3,), duration s)``; ``before`` may inject faults
-    on the bus; ``on_tick`` sees the simulation after every logged tick (a live viewer).
+    on the bus; ``on_tick`` sees the simulation after every logged tick (a live viewer);
+    ``limit_tol`` (rad): targets further beyond a joint limit are refused, as ``wbc deploy
+    --limit-tol`` (``inf``: every target is clamped to the limits by the deployment instead).
     """
     sim = Simulation(robot, model_params, servo_params)
     sim.reset(recording.q[0])
@@ -154,7 +157,7 @@ def play(
     bus = SimServoBus(sim, realtime=realtime, latency_ticks=latency_ticks, on_tick=tick)
     if before is not None:
         before(bus)
-    source = RecordingSource(recording, robot)
+    source = RecordingSource(recording, robot, tol=limit_tol)
     config = DeployConfig(rate=rate, read=True)
     deployment = Deployment(bus, source, robot, config, out=lambda _line: None)
     start = sim.time
