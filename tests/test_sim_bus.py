@@ -237,3 +237,16 @@ def test_soft_start_and_rate_limit_act_on_the_simulated_servos(robot):
     assert result.limits.rate_limited.sum() == result.limits.rate_limited[j]
     # the servo got there: present position within the compliance ramp of the last goal
     assert abs(sim.q()[k] - q[-1, k]) < 3 * 32 * RAD_PER_TICK
+
+
+def test_torque_limit_option_overrides_register_34_at_configure(robot):
+    sim = Simulation(robot)
+    bus = SimServoBus(sim, torque_limit=100)
+    bus.open()
+    bus.configure()
+    np.testing.assert_allclose(sim.servos.params.torque_cap, 1.5 * 100 / 1023)
+    assert not np.any(sim.servos.enabled)  # configure leaves torque off
+    from wbc.exceptions import ServoError
+
+    with pytest.raises(ServoError, match="torque limit must be 0..1023"):
+        SimServoBus(sim, torque_limit=2000)

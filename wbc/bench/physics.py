@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -121,7 +121,7 @@ def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
     sp = ServoParams.from_settings(
         robot.servo_map.settings, damping=damping, armature=armature, friction_loss=friction
     ).scaled(stiffness=stiff, torque=torque)
-    sp = type(sp)(**{**sp.__dict__, "stall_torque": sp.stall_torque * torque})
+    sp = replace(sp, stall_torque=sp.stall_torque * torque)
     latency = int(rng.random() < 0.5)
     summary = dict(stiffness=stiff, damping=damping, armature=armature, friction=friction,
                    torque=torque, floor_friction=mp.floor_friction, latency=latency)  # fmt: skip

@@ -20,6 +20,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -127,7 +128,7 @@ class SimServoBus(ServoBus):
         if self.torque_limit is not None:
             p = self.sim.servos.params
             cap = np.full(self.n, p.stall_torque * self.torque_limit / 1023.0)
-            self.sim.servos.params = type(p)(**{**p.__dict__, "torque_cap": cap})
+            self.sim.servos.params = replace(p, torque_cap=cap)
 
     def _require_open(self) -> None:
         if not self.is_open:
