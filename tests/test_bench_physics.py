@@ -103,3 +103,13 @@ def test_fall_summary_counts_phases_and_joints():
     line = physics.fall_summary(falls)
     assert line.startswith("3 falls: phase left 2, double 1; most loaded l_hip_roll 2, r_knee 1")
     assert line.endswith("67% with one-tick latency")
+
+
+def test_lateral_push_goes_away_from_the_swing_foot(standing):
+    np.testing.assert_array_equal(physics.push_direction(standing, "lateral"), [0, 1, 0])
+    right = Recording(standing.t, standing.q, standing.joint_names,
+                      {"support": np.where(standing["support"] == SUPPORT_LEFT, 2, 0)})  # fmt: skip
+    np.testing.assert_array_equal(physics.push_direction(right, "lateral"), [0, -1, 0])
+    np.testing.assert_array_equal(physics.push_direction(right, "forward"), [1, 0, 0])
+    with pytest.raises(Exception, match="forward' or 'lateral'"):
+        physics.push_direction(right, "up")

@@ -248,5 +248,5 @@ def test_torque_limit_option_overrides_register_34_at_configure(robot):
     assert not np.any(sim.servos.enabled)  # configure leaves torque off
     from wbc.exceptions import ServoError
 
-    with pytest.raises(ServoError, match="torque limit must be 0..1023"):
+    with pytest.raises(ServoError, match=r"torque limit must be 0\.\.1023"):
         SimServoBus(sim, torque_limit=2000)

@@ -19,8 +19,8 @@ deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
 
 Robustness (``--robustness N --seed S``): N randomised models (:func:`random_model`);
 ``up_fraction`` = the share that stay up. Push (``--push``): a 10 ms force on the torso at
-mid single support, lateral (+y) and forward (+x); the largest impulse survived (N·s) by
-bisection.
+mid first single support, lateral (away from the swing foot) and forward (+x); the largest
+impulse survived (N·s) by bisection over 0–1.5 N·s.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIG
 FALL_TILT_DEG = 45.0
 FALL_HEIGHT = 0.6
 PUSH_DURATION = 0.01
-PUSH_MAX_NS = 0.6
+PUSH_MAX_NS = 1.5
 PUSH_STEPS = 6
 #: the default solvers of --physics: one per controller (the QP backends give the same joints)
 DEFAULT_SOLVERS = (
@@ -313,10 +313,25 @@ def robustness(
             "up": [bool(u) for u in up], "falls": falls}  # fmt: skip
 
 
+def push_direction(rec: Recording, kind: str) -> np.ndarray:
+    """``forward`` (+x) or ``lateral``: sideways away from the swing foot (+y when standing
+    on the left sole, −y on the right), the side where no step can catch the robot."""
+    if kind == "forward":
+        return np.array([1.0, 0.0, 0.0])
+    if kind != "lateral":
+        raise WbcError(f"push direction must be 'forward' or 'lateral', got {kind!r}")
+    t = mid_single_support(rec)
+    support = rec.channels.get("support")
+    if t is None or support is None:
+        raise WbcError("a lateral push needs a single-support phase in the recording")
+    k = int(np.clip(np.searchsorted(rec.t - rec.t[0], t, side="right") - 1, 0, len(rec) - 1))
+    return np.array([0.0, 1.0 if support[k] == SUPPORT_LEFT else -1.0, 0.0])
+
+
 def largest_push(
     rec: Recording,
     robot: Robot,
-    direction: Sequence[float],
+    direction: Sequence[float] | str,
     max_impulse: float = PUSH_MAX_NS,
     steps: int = PUSH_STEPS,
     settle: float = 1.0,
@@ -326,6 +341,8 @@ def largest_push(
     t_push = mid_single_support(rec)
     if t_push is None:
         return None
+    if isinstance(direction, str):
+        direction = push_direction(rec, direction)
     u = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
 
     def survives(impulse: float) -> bool:
@@ -437,8 +454,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 r["up_fraction"] = rob["up_fraction"]
                 r["sweep_wall_s"] = time.perf_counter() - started
             if args.push:
-                r["push_lateral_ns"] = largest_push(rec, robot, (0.0, 1.0, 0.0))
-                r["push_forward_ns"] = largest_push(rec, robot, (1.0, 0.0, 0.0))
+                r["push_lateral_ns"] = largest_push(rec, robot, "lateral")
+                r["push_forward_ns"] = largest_push(rec, robot, "forward")
             records.append(r)
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
@@ -447,7 +464,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         if args.robustness:
             cols.append(f"up/{args.robustness}")
         if args.push:
-            cols += ["push y", "push x"]
+            cols += ["push lat", "push fwd"]
         for c in cols:
             table.add_column(c, justify="left" if c == "solver" else "right")
         for r in rows:
@@ -537,7 +554,7 @@ def physics_summary_lines(records: list[dict[str, Any]]) -> list[str]:
     """Plain-text lines (≤ 100 columns) of the physics table."""
     records = [r for r in records if "error" not in r]
     out = [f"{'solver':<14}{'traj':<12}{'fell s':>7}{'dev°':>7}{'dist':>6}{'slip mm':>8}"
-           f"{'err°':>6}{'τ/τs':>6}{'CoP mm':>7}{'up':>6}{'push y':>7}{'push x':>7}"]  # fmt: skip
+           f"{'err°':>6}{'τ/τs':>6}{'CoP mm':>7}{'up':>6}{'p lat':>7}{'p fwd':>7}"]  # fmt: skip
     for r in records:
         fell = f"{r['fall_time_s']:.2f}" if r["fell"] else "-"
         dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
