@@ -1,6 +1,7 @@
 """Speed of the simulated Bioloid (benchmarks/physics.md quotes this script's output).
 
     python benchmarks/sim_speed.py [--seconds 10] [--sweep 10]
+    python benchmarks/sim_speed.py --timesteps      # the physics figures vs the time step
 
 1. physics only: :meth:`Simulation.advance` standing at Walk Ready (servo law + MuJoCo step);
 2. the deploy path: ``walk10`` planned by ``hqp-daqp``, played by :func:`wbc.sim.play.play`
@@ -26,9 +27,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated s, part 1")
     parser.add_argument("--sweep", type=int, default=10, help="models in part 3 (0: skip)")
+    parser.add_argument(
+        "--timesteps", action="store_true", help="hqp-daqp's physics record at 2, 1, 0.5 ms"
+    )
     args = parser.parse_args()
     robot = load_robot("bioloid")
     print(f"{platform.node()} {platform.machine()}, Python {platform.python_version()}")
+    if args.timesteps:
+        timestep_check(robot)
+        return
 
     sim = Simulation(robot)
     sim.set_torque(True)
@@ -70,6 +77,22 @@ def main() -> None:
         print(f"3. walk10 sweep, {args.sweep} randomised models: {wall:.1f} s "
               f"({wall / args.sweep:.2f} s per model; 50 models ~ {50 * wall / args.sweep:.0f} s); "
               f"up fraction {r['up_fraction']:.2f}")  # fmt: skip
+
+
+def timestep_check(robot) -> None:
+    """The physics figures of hqp-daqp's plans at 2 ms (default), 1 ms and 0.5 ms steps."""
+    from wbc.bench.physics import physics_record
+    from wbc.sim.model import ModelParams
+
+    keys = ("orientation_dev_max_deg", "distance_ratio", "foot_slip_max_mm",
+            "tracking_err_max_deg", "torque_peak_ratio", "cop_margin_min_mm")  # fmt: skip
+    print("trajectory   dt ms  " + "  ".join(keys))
+    for trajectory in ("thesis_step", "walk10"):
+        rec = plan("hqp-daqp", trajectory, robot)
+        for dt in (0.002, 0.001, 0.0005):
+            r = physics_record(rec, play(rec, robot, ModelParams(timestep=dt)), robot)
+            values = "  ".join(f"{r[k]:.4g}" if r[k] is not None else "-" for k in keys)
+            print(f"{trajectory:<12} {dt * 1e3:5.1f}  {values}")
 
 
 if __name__ == "__main__":
