@@ -93,3 +93,20 @@ def test_compiled_law_equals_the_numpy_law(robot, q, goal, slope, margin, punch,
         np.testing.assert_allclose(a.tracked, b.tracked, atol=1e-9)
         np.testing.assert_array_equal(a.error, b.error)
         np.testing.assert_array_equal(a.shutdown, b.shutdown)
+
+
+def test_backlash_is_a_play_between_link_and_sensed_motor(robot):
+    from dataclasses import replace
+
+    servos = _array(robot)
+    servos.params = replace(servos.params, backlash=0.02)  # ±0.01 rad of play
+    q = np.zeros(robot.n_joints)
+    servos.reset(q)
+    t0 = servos.sensed(q).copy()
+    q[0] = 0.005  # inside the play: the motor side does not move
+    np.testing.assert_allclose(servos.sensed(q), t0)
+    q[0] = 0.03  # beyond it: the motor side is dragged along, 0.01 rad behind
+    expected = servos.ticks(q)[0] - servos.signs[0] * 0.01 / RAD_PER_TICK
+    assert servos.sensed(q)[0] == pytest.approx(expected)
+    q[0] = 0.025  # back by less than the play: stays
+    assert servos.sensed(q)[0] == pytest.approx(expected)
