@@ -113,3 +113,12 @@ def test_lateral_push_goes_away_from_the_swing_foot(standing):
     np.testing.assert_array_equal(physics.push_direction(right, "forward"), [1, 0, 0])
     with pytest.raises(Exception, match="forward' or 'lateral'"):
         physics.push_direction(right, "up")
+
+
+def test_bench_physics_refuses_bad_options(capsys):
+    from wbc.cli import main
+
+    assert main(["bench", "--physics", "--robustness", "-1"]) == 2
+    assert "--robustness must be >= 0" in capsys.readouterr().err
+    assert main(["bench", "--physics", "--mode", "converge"]) == 2
+    assert "use --mode tick" in capsys.readouterr().err

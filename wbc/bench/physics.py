@@ -388,6 +388,8 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
 
     if args.robustness < 0:
         raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
+    if args.mode != "tick":
+        raise WbcError("--physics plays real-time plans: use --mode tick (the default)")
     names = [t for t in args.trajectories if t != traj.STATIC_COM]
     refs = {t: traj.build(t, robot) for t in names}
     started = time.perf_counter()
@@ -415,8 +417,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
 
     from .runner import run_entry, save_recording
 
-    explicit = args.solvers or args.families
-    if not explicit:
+    entries = [e for e in entries if e.real_time]  # plans are one solve per tick
+    if not (args.solvers or args.families):
         entries = [e for e in entries if e.name in DEFAULT_SOLVERS]
     records: list[dict[str, Any]] = []
     series = {}
@@ -447,6 +449,10 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                      steps_per_s=result.sim.steps / wall,
                      realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
             series[(entry.name, name)] = (r.pop("_series"), rec, result)
+            if args.record:  # the simulated run beside the plan (wbc view replays both)
+                simulated_recording(rec, result, robot).save(
+                    Path(args.record) / f"{entry.name}__{name}__sim.npz"
+                )
             if args.robustness:
                 started = time.perf_counter()
                 rob = robustness(rec, robot, args.robustness, args.seed)
