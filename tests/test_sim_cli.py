@@ -39,3 +39,10 @@ def test_wbc_sim_push_needs_a_single_support(robot, tmp_path, capsys):
     Recording(t, q, robot.joint_names).save(path)
     assert main(["sim", str(path), "--push", "0", "0.1"]) == 2
     assert "no single-support phase" in capsys.readouterr().err
+
+
+def test_wbc_sim_refuses_bad_options(tmp_path, capsys):
+    assert main(["sim", "--settle", "-1"]) == 2
+    assert "--settle must be a time >= 0 s" in capsys.readouterr().err
+    assert main(["sim", str(tmp_path / "missing.npz")]) == 2
+    assert "recording not found" in capsys.readouterr().err

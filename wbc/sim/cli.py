@@ -117,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
     from ..recording import Recording
     from .play import play
 
+    if not (math.isfinite(args.settle) and args.settle >= 0):
+        raise WbcError(f"--settle must be a time >= 0 s, got {args.settle}")
     robot = load_robot(args.robot)
     if args.recording:
         rec = Recording.load(args.recording)
