@@ -397,6 +397,7 @@ class AX12Emulator(_PtyRunner):
 
     _state = (
         "servos",
+        "_to",
         "goals",
         "writes",
         "sync_goal_writes",
@@ -453,6 +454,10 @@ class AX12Emulator(_PtyRunner):
         s = self.servos[servo_id]
         s.refresh(time.monotonic())
         return s.word(address) if size == 2 else s.table[address]
+
+    def packets_to(self, servo_id: int) -> int:
+        """Instruction packets addressed to one servo so far (not broadcasts)."""
+        return self._to.get(servo_id, 0)
 
     def goals_by_id(self) -> dict[int, list[GoalRecord]]:
         out: dict[int, list[GoalRecord]] = {sid: [] for sid in self.servos}

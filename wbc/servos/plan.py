@@ -44,8 +44,12 @@ def load(bus: ServoBus, config: DeployConfig, read: bool, rate: float, turnaroun
 def proposed_rate(
     bus: ServoBus, config: DeployConfig, read: bool, turnaround_s: float
 ) -> float | None:
-    """Highest whole rate (Hz, <= 100) whose tick fits in ``LOAD_LIMIT`` of the period."""
-    for r in range(int(MAX_RATE_HZ), 0, -1):
+    """The whole rate (Hz) nearest below the configured one whose tick fits in ``LOAD_LIMIT``
+    of the period, else the nearest above (<= 100 Hz; fewer health polls are needed at
+    higher rates), else None."""
+    below = range(math.floor(config.rate), 0, -1)
+    above = range(math.floor(config.rate) + 1, int(MAX_RATE_HZ) + 1)
+    for r in (*below, *above):
         if load(bus, config, read, float(r), turnaround_s) <= LOAD_LIMIT:
             return float(r)
     return None

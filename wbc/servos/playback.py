@@ -503,10 +503,11 @@ class Deployment:
                 soft_ticks += 1
             if trip is None:
                 bus.set_speed(float(np.min(self.v_max)))
-            while trip is None:
+            first_target = self.source(0, 0.0)  # before the clock starts: a live controller's
+            while trip is None:  # first solve may be slow (compilation)
                 tick = self.ticker.wait()
                 self._check_interrupt()
-                q = self.source(tick, tick * self.period)
+                q = first_target if tick == 0 else self.source(tick, tick * self.period)
                 if q is None:
                     self.ticker.starts.pop()
                     self.ticker.lateness.pop()
