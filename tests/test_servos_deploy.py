@@ -193,7 +193,7 @@ def test_playback_with_reads_soft_start_and_settings(
     assert t_soft[-1] - t_soft[0] >= 23 / (0.5 / RAD_PER_TICK)
     # one start goal + soft start + playback (101 slots at 100 Hz, minus any skipped), 18 each
     skipped = int(out.split("ticks skipped")[0].rsplit("(", 1)[1])
-    assert play + skipped == 101
+    assert play <= 101 <= play + skipped  # a skip may jump past the end
     assert n_goals == 18 * (1 + soft + play)
     # never faster than the rate (a slow, loaded machine may be slower: see the benchmark)
     times = np.array(emu.sync_goal_times)
@@ -226,7 +226,8 @@ def test_write_only_playback_at_50_hz_ends_with_torque_off(
     assert_goals_safe(emu, robot, walk_ready_ticks)
     out = capsys.readouterr().out
     skipped = int(out.split("ticks skipped")[0].rsplit("(", 1)[1])
-    assert emu.sync_goal_writes == 1 + 51 - skipped  # start goals + 51 slots, none caught up
+    # start goals + 51 slots, none caught up (a skip may jump past the end)
+    assert emu.sync_goal_writes - 1 <= 51 <= emu.sync_goal_writes - 1 + skipped
     assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for s in emu.servos.values())
     assert "completed" in out
     assert "health: 10 servos checked per tick, each servo at least every 2 ticks" in out
@@ -395,7 +396,7 @@ def test_nan_from_a_live_source_ends_in_the_safe_stop(robot, walk_ready_ticks):
     tick = int(result.trip.reason.split("bad target at tick ")[1].split(":")[0])
     assert 10 <= tick <= 10 + result.timing.missed
     assert "l_ankle_roll" in result.trip.reason
-    assert emu.sync_goal_writes == 1 + 10 - result.timing.missed  # start goals, ticks 0..9
+    assert emu.sync_goal_writes == 1 + tick - result.timing.missed  # start goals, ticks < tick
     assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for s in emu.servos.values())
 
 

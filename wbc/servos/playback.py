@@ -158,9 +158,9 @@ class DeployResult:
 class Ticker:
     """Absolute-deadline scheduler on the wall clock: slot ``k`` starts at ``t0 + k·period``.
 
-    A tick that starts more than half a period late runs as the nearest slot; the slots in
-    between are skipped (never caught up in a burst), so two tick starts are at least about
-    half a period apart. :meth:`wait` returns the slot index.
+    A slot that would start more than half a period late, or less than half a period after
+    the last goal was sent (:attr:`last_sent`, set by the caller), is skipped: never caught
+    up in a burst. :meth:`wait` returns the slot.
     """
 
     def __init__(self, period: float) -> None:
@@ -172,22 +172,27 @@ class Ticker:
         self.work: list[float] = []
         self.overruns = 0
         self.missed = 0
+        self.last_sent: float | None = None  # perf_counter time of the last goal sent
 
     def wait(self) -> int:
         now = time.perf_counter()
         if self.t0 is None:
             self.t0 = now
-        deadline = self.t0 + self.k * self.period
+        p = self.period
+        # the slot must start at most p/2 late and at least p/2 after the last goal was sent
+        earliest = now - 0.5 * p
+        if self.last_sent is not None:
+            earliest = max(earliest, self.last_sent + 0.5 * p)
+        k = max(self.k, math.ceil((earliest - self.t0) / p - 1e-9))
+        if k > self.k:
+            self.overruns += 1
+            self.missed += k - self.k
+            self.k = k
+        deadline = self.t0 + self.k * p
         if deadline > now:
             time.sleep(deadline - now)
             now = time.perf_counter()
         late = now - deadline
-        if late > 0.5 * self.period:
-            k = max(self.k + 1, round((now - self.t0) / self.period))
-            self.overruns += 1
-            self.missed += k - self.k
-            self.k = k
-            late = now - (self.t0 + k * self.period)
         slot = self.k
         self.starts.append(now)
         self.lateness.append(late)
@@ -417,6 +422,7 @@ class Deployment:
             if self._interrupted or now > t_end:
                 return False
             cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
+            ticker.last_sent = now
             if bus.write_goals(cmd) != COMM_OK:
                 return False
             if self.config.log_path:
@@ -498,6 +504,7 @@ class Deployment:
                 t_soft = now if t_soft is None else t_soft
                 target = soft_start_target(start, first_cmd, self.soft_cmd_speed, now - t_soft)
                 cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
+                soft_ticker.last_sent = now
                 trip = self._tick(cmd, now, 0)
                 soft_ticker.done()
                 soft_ticks += 1
@@ -519,6 +526,7 @@ class Deployment:
                 except ServoError as exc:
                     trip = Trip(None, "source", f"bad target at tick {tick}: {exc}")
                     break
+                self.ticker.last_sent = now
                 trip = self._tick(cmd, now, 1)
                 self.ticker.done()
         except KeyboardInterrupt:
