@@ -467,13 +467,19 @@ class DynamixelBus(ServoBus):
         self._buf.clear()
 
     def exchange(
-        self, servo_id: int, instruction: int, params: Sequence[int] = (), n_reply: int = 0
+        self,
+        servo_id: int,
+        instruction: int,
+        params: Sequence[int] = (),
+        n_reply: int = 0,
+        patience: float = 1.0,
     ) -> tuple[str, int, bytes]:
         """One matched request/reply: ``(comm, error byte, reply parameters)``.
 
         The status packet must have ``servo_id``, ``n_reply + 2`` as LENGTH and a valid
         checksum, and arrive before :meth:`reply_timeout_s`; a valid packet of another ID is a
-        late reply (logged, skipped); a wrong length or checksum is ``corrupt``."""
+        late reply (logged, skipped); a wrong length or checksum is ``corrupt``. ``patience``
+        multiplies the deadline (start-up retries wait longer each time)."""
         self._require_open()
         port = self.port
         self._flush()
@@ -487,7 +493,7 @@ class DynamixelBus(ServoBus):
             return COMM_TX_FAIL, 0, b""
         if servo_id == BROADCAST_ID:
             return COMM_OK, 0, b""
-        deadline = t0 + self.reply_timeout_s(len(pkt), n_reply + 6)
+        deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + 6)
         ser = port.ser
         fd = ser.fileno()
         while True:
@@ -513,26 +519,31 @@ class DynamixelBus(ServoBus):
             if self.poll_wait_s > 0:  # else busy-wait, like the SDK
                 select.select([fd], [], [], max(min(deadline - now, self.poll_wait_s), 0.0))
 
-    def read(self, i: int, address: int, length: int) -> tuple[str, int, bytes]:
+    def read(
+        self, i: int, address: int, length: int, patience: float = 1.0
+    ) -> tuple[str, int, bytes]:
         """A matched READ of servo ``i`` (model index), in the servo's next form
         (:func:`read_variant`), returning the ``length`` bytes at ``address``."""
         a, n = read_variant(address, length, int(self._reads[i]))
         self._reads[i] += 1
-        comm, error, data = self.exchange(self.ids[i], INST_READ, (a, n), n)
+        comm, error, data = self.exchange(self.ids[i], INST_READ, (a, n), n, patience)
         if comm != COMM_OK:
             return comm, 0, b""
         return comm, error, data[address - a :]
 
-    def write(self, i: int, address: int, data: Sequence[int]) -> tuple[str, int]:
+    def write(
+        self, i: int, address: int, data: Sequence[int], patience: float = 1.0
+    ) -> tuple[str, int]:
         """A matched WRITE (status packet expected: Status Return Level 2)."""
-        comm, error, _ = self.exchange(self.ids[i], INST_WRITE, (address, *data), 0)
+        comm, error, _ = self.exchange(self.ids[i], INST_WRITE, (address, *data), 0, patience)
         return comm, error
 
     def _retry(self, i: int, what: str, call) -> tuple:
-        """A start-up exchange, retried up to ``attempts`` times on timeouts and corrupt
-        replies; raises naming the servo unless it succeeds without error bits."""
-        for _ in range(self.attempts):
-            out = call()
+        """A start-up exchange ``call(patience)``, retried up to ``attempts`` times on timeouts
+        and corrupt replies with a deadline doubled each time (a stalled host or adapter gets
+        longer to answer); raises naming the servo unless it succeeds without error bits."""
+        for k in range(self.attempts):
+            out = call(2.0**k)
             if out[0] == COMM_OK:
                 break
         comm, error = out[0], out[1]
@@ -555,8 +566,8 @@ class DynamixelBus(ServoBus):
         self._require_open()
         results: dict[int, str] = {}
         for i, sid in enumerate(self.ids):
-            for _ in range(self.attempts):
-                results[i] = self.exchange(sid, INST_PING)[0]
+            for k in range(self.attempts):
+                results[i] = self.exchange(sid, INST_PING, patience=2.0**k)[0]
                 if results[i] == COMM_OK:
                     break
             if i == 0 and results[0] == COMM_TIMEOUT:
@@ -573,7 +584,7 @@ class DynamixelBus(ServoBus):
         for i, c in results.items():
             if c != COMM_OK:
                 continue
-            data = self._retry(i, "read model number", lambda i=i: self.read(i, 0, 2))[2]
+            data = self._retry(i, "read model number", lambda p, i=i: self.read(i, 0, 2, p))[2]
             model = data[0] | (data[1] << 8)
             if model != AX12_MODEL_NUMBER:
                 wrong.append(f"{self.labels[i]} reports model {model}")
@@ -613,7 +624,8 @@ class DynamixelBus(ServoBus):
             raise ServoError("torque-off not confirmed by " + ", ".join(unconfirmed))
         st = self.settings
         for i in range(self.n):
-            srl = self._retry(i, "read status return level", lambda i=i: self.read(i, 16, 1))[2]
+            srl = self._retry(i, "read status return level", lambda p, i=i: self.read(i, 16, 1, p))
+            srl = srl[2]
             if srl[0] != 2:  # without level 2, WRITEs get no status and would look like timeouts
                 self.exchange(self.ids[i], INST_WRITE, (ADDR_STATUS_RETURN_LEVEL, 2))
                 self._flush()
@@ -631,11 +643,11 @@ class DynamixelBus(ServoBus):
 
     def _set_block(self, i: int, what: str, address: int, wanted: list[int]) -> None:
         n = len(wanted)
-        data = self._retry(i, f"read {what}", lambda: self.read(i, address, n))[2]
+        data = self._retry(i, f"read {what}", lambda p: self.read(i, address, n, p))[2]
         if list(data) == wanted:
             return
-        self._retry(i, f"write {what}", lambda: self.write(i, address, wanted))
-        data = self._retry(i, f"read back {what}", lambda: self.read(i, address, n))[2]
+        self._retry(i, f"write {what}", lambda p: self.write(i, address, wanted, p))
+        data = self._retry(i, f"read back {what}", lambda p: self.read(i, address, n, p))[2]
         if list(data) != wanted:
             raise ServoError(
                 f"{self.labels[i]}: {what} did not stick: wrote {wanted}, read {list(data)} "
@@ -653,7 +665,9 @@ class DynamixelBus(ServoBus):
                 raise ServoError("torque-off not confirmed by " + ", ".join(unconfirmed))
             return
         for i in range(self.n):
-            self._retry(i, "torque enable", lambda i=i: self.write(i, ADDR_TORQUE_ENABLE, [1]))
+            self._retry(
+                i, "torque enable", lambda p, i=i: self.write(i, ADDR_TORQUE_ENABLE, [1], p)
+            )
 
     def torque_off(self) -> list[str]:
         """Torque off on every servo: a broadcast WRITE (reaches a servo that cannot answer),
@@ -665,11 +679,11 @@ class DynamixelBus(ServoBus):
         unconfirmed = []
         for i in range(self.n):
             ok = False
-            for _ in range(self.attempts):
-                comm, _ = self.write(i, ADDR_TORQUE_ENABLE, [0])
+            for k in range(self.attempts):
+                comm, _ = self.write(i, ADDR_TORQUE_ENABLE, [0], 2.0**k)
                 if comm != COMM_OK:
                     continue
-                comm, _, data = self.read(i, ADDR_TORQUE_ENABLE, 1)
+                comm, _, data = self.read(i, ADDR_TORQUE_ENABLE, 1, 2.0**k)
                 if comm == COMM_OK and data[0] == 0:
                     ok = True
                     break
