@@ -256,6 +256,11 @@ class Deployment:
         self.ticker = Ticker(self.period)
         self.warnings: list[str] = []
         self.crouch_cmd = self._crouch_cmd()
+        if self.crouch_cmd is None and self.config.on_fault in ("auto", "crouch"):
+            self.warn(
+                f"no crouch pose {self.config.crouch_pose!r} in the servo map (--crouch-pose): "
+                "a safe stop that should crouch will cut torque where the robot stands"
+            )
         self._rate_check()
         self._interrupted = False
         self._torque_phase = False  # torque enable in progress: a failure cuts torque
