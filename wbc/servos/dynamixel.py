@@ -9,11 +9,14 @@ the SDK's Protocol-1.0 examples. Packets (bioloid-facts §4.3)::
 All goals go out in one SYNC_WRITE to address 30 (no status reply). The AX series has no
 sync or bulk read: feedback is one READ per servo, which dominates the bus budget.
 
-SDK traps handled here: ``PortHandler`` hard-codes a 16 ms USB latency (packet timeout
-``tx + 2·16 + 2`` ms), so :class:`DynamixelBus` uses a subclass whose latency is a parameter
-(set the FTDI adapter's latency timer to 1 ms to match); a Ctrl-C inside an SDK call leaves
-``port.is_using`` set, which makes every later call fail with COMM_PORT_BUSY, so the safe
-stop resets it before sending torque-off.
+Request/reply exchanges do not use the SDK's ``txRxPacket``, which matches a status packet
+by ID only (a reply that came after its timeout is read as the answer to the next request
+to that servo): :meth:`DynamixelBus.exchange` flushes stale input, checks ID, length and
+checksum against the request, and rotates the form of consecutive READs of a servo so a
+late reply cannot match (:func:`read_variant`). The SDK's ``PortHandler`` (open, baud,
+read, write) and ``GroupSyncWrite`` are used as they are; a subclass replaces the port's
+hard-coded 16 ms USB latency by a parameter, and the safe stop clears ``port.is_using``
+(left set by a Ctrl-C inside an SDK call) before sending torque-off.
 """
 
 from __future__ import annotations

@@ -9,11 +9,13 @@ first-order lag saturated at the Moving Speed::
     dp/dt = clip((goal - p) / tau, -v, +v),   v = Moving Speed (0 = no-load 59 rpm)
 
 Every goal written (SYNC_WRITE or WRITE to address 30) is recorded with a timestamp in
-:attr:`AX12Emulator.goals`. Faults (:class:`Fault`) start after a number of goal SYNC_WRITEs:
-timeouts, corrupted checksums, error bits (with the AX shutdown: an Overload/Overheating bit
-that is in the Shutdown register (18) zeroes the torque limit), a missing servo and garbage
-bytes; ``duplicate_ids`` makes two servos answer at once (a garbled reply). ``on_goal_write``
-calls a function at the n-th goal SYNC_WRITE (e.g. to press Ctrl-C at a known point).
+:attr:`AX12Emulator.goals`. Faults (:class:`Fault`) start after a number of goal SYNC_WRITEs
+and/or of packets addressed to the servo: timeouts (silence), late replies (sent a given
+delay after they were due, while the other servos go on answering), corrupted checksums,
+error bits (with the AX shutdown: an Overload/Overheating bit that is in the Shutdown
+register (18) zeroes the torque limit), a missing servo and garbage bytes; ``duplicate_ids``
+makes two servos answer at once (a garbled reply). ``on_goal_write`` calls a function at the
+n-th goal SYNC_WRITE (e.g. to press Ctrl-C at a known point).
 
 Timing: a pty has no baud rate, bytes arrive at once. With ``timing=True`` the emulator
 models the half-duplex wire: each packet occupies the bus for ``bytes · 10 / baud`` s, a
