@@ -319,8 +319,11 @@ class Deployment:
             )
             return first_cmd.astype(float)
         statuses = bus.read_positions()
-        failed = [s.index for s in statuses if s.comm != COMM_OK]
-        if failed:  # one more try for a reply lost on a loaded machine
+        for k in range(2):  # retries for replies lost on a loaded machine, after a pause
+            failed = [s.index for s in statuses if s.comm != COMM_OK]
+            if not failed:
+                break
+            time.sleep(0.005 * 2**k)
             again = {s.index: s for s in bus.read_positions(failed)}
             statuses = [again.get(s.index, s) for s in statuses]
         bad = [f"{bus.labels[s.index]}: {s.comm} {list(s.faults)}" for s in statuses if not s.ok]
