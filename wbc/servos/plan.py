@@ -99,7 +99,10 @@ def plan_lines(bus: ServoBus, config: DeployConfig, turnaround_s: float) -> list
     mode that overloads the bus."""
     rate = config.rate
     modes = [False] + ([True] if bus.can_read else [])
-    budgets = [(read, tick_budget(bus, config, read)) for read in modes]
+    try:
+        budgets = [(read, tick_budget(bus, config, read)) for read in modes]
+    except NotImplementedError:
+        return [f"bus budget: not available for the {bus.name} backend"]
     b0 = budgets[0][1]
     lines = [
         f"bus budget at {rate:g} Hz ({1e3 / rate:.2f} ms per tick): {bus.n} servos on "
