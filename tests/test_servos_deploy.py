@@ -536,9 +536,12 @@ def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks,
             "--log",
             str(log),
             # the solver runs in this process and can starve the emulator's process for tens
-            # of ms: a long deadline (detection is not what this test is about)
+            # of ms (more while numba compiles): a long deadline and a longer failure streak
+            # (detection is not what this test is about: see tests/test_servos_playback.py)
             "--reply-timeout-ms",
-            "60",
+            "100",
+            "--max-failures",
+            "10",
             capsys=capsys,
         )
     assert rc == 0, err
@@ -550,10 +553,10 @@ def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks,
     data = np.load(log)
     by_id = emu.goals_by_id()
     for j, sid in enumerate(robot.servo_map.ids):
-        assert [g.tick for g in by_id[int(sid)]][1:] == list(data["goal"][:, j])
+        assert [g.tick for g in by_id[int(sid)]][1:] == list(data["goal"][:, j]), (sid, out)
         assert_speed_law(data["t"], data["goal"][:, j], speeds(robot)[j])
     # the 3 s step at 100 Hz: slots played or skipped (the solver may overrun a 10 ms tick;
     # then the step follows the wall clock, never catching up in a burst)
     skipped = int(out.split("ticks skipped")[0].rsplit("(", 1)[1])
-    assert data["goal"].shape[0] + skipped >= 300
-    assert n_goals == 18 * (1 + data["goal"].shape[0])
+    assert data["goal"].shape[0] + skipped >= 300, out
+    assert n_goals == 18 * (1 + data["goal"].shape[0]), out
