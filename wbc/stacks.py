@@ -343,7 +343,7 @@ _SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include
 
 
 def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint:
-    """``{ type = "self_collision", margin = 0.005, trigger = 0.03, damping = 0.4,
+    """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
     include = [[link, link], ...], exclude = [...] }`` (all but ``type`` optional)."""
     extra = set(entry) - _SELF_COLLISION_KEYS
     if extra:

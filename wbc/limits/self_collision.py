@@ -22,8 +22,9 @@ Activation (no chatter): with m = margin, T = trigger and ξ = damping,
 and no row for d >= T. h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
 solution is continuous in d: a row appears with a bound no tick can reach. The linearised
 margin is guaranteed (h(d) <= d − m) for d <= T − ξ (T − m); a pair closes from beyond that
-point to below the margin only if one tick can close (1 − ξ)(T − m) (15 mm with the
-defaults), which the servos' speed limit excludes at control rates (``benchmarks/``).
+point to below the margin only if one tick can close (1 − ξ)(T − m) (with the
+defaults: 9 mm), which the servos' speed limit excludes at the walking speeds measured in
+``benchmarks/self_collision.md``.
 """
 
 from __future__ import annotations
@@ -38,10 +39,10 @@ from ..exceptions import ConfigurationError
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
 
-#: defaults: 5 mm kept between any two links (placo's default), rows below 30 mm, and at most
+#: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
 #: 40 % of the gap to the margin closed per tick near it
 DEFAULT_MARGIN = 0.005
-DEFAULT_TRIGGER = 0.03
+DEFAULT_TRIGGER = 0.02
 DEFAULT_DAMPING = 0.4
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
@@ -159,6 +160,17 @@ def select_pairs(
     ]
 
 
+def _local_corners(geom: pin.GeometryObject) -> np.ndarray:
+    """Corners (8 x 3) of a box, or of a shape's bounding box, in the shape's own frame."""
+    g = geom.geometry
+    g.computeLocalAABB()
+    aabb = g.aabb_local
+    lo, hi = np.asarray(aabb.min_), np.asarray(aabb.max_)
+    return np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
+
+
 def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
     """Corners of a box (8 x 3), or a bounding box's, in its parent joint's frame."""
     g = geom.geometry
@@ -229,9 +241,11 @@ class Witness(NamedTuple):
 class PairDistances:
     """Distances of a fixed pair list at a configuration, with a conservative cache.
 
-    The exact distance (GJK/EPA, ~1 µs per box pair) is recomputed only for pairs whose
-    Lipschitz lower bound d_k(q_k) − Σ_i L_ki |q_i − q_k,i| could be below the query
-    distance, q_k being the configuration of the pair's last exact computation.
+    Each pair keeps a lower bound on its distance: exact when last computed, then lowered
+    by Σ_i L_ki |Δq_i| for every joint motion since (valid along any sequence of
+    configurations, by the triangle inequality). The exact distance (GJK/EPA, ~1 µs per box
+    pair plus the Python call) is computed only for pairs whose bound is below the query
+    distance; far pairs cost a matrix-vector product per call.
     """
 
     def __init__(self, robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]):
@@ -244,34 +258,50 @@ class PairDistances:
         self.gdata = pin.GeometryData(self.geometry)
         self.results = list(self.gdata.distanceResults)
         self.L = lipschitz_bounds(robot, cm, self.pairs)
+        #: box corners of each geometry in its own frame (ngeoms x 8 x 3)
+        self.corners = np.array([_local_corners(g) for g in self.geometry.geometryObjects])
         K = len(self.pairs)
-        self._q_ref = np.zeros((K, robot.n_joints))
-        self._d_ref = np.full(K, -np.inf)  # -inf: never computed
+        self._bound = np.full(K, -np.inf)  # -inf: never computed
+        self._q = np.zeros(robot.n_joints)
         self.joint_1 = cm.joints[[p[0] for p in self.pairs]] if K else np.zeros(0, int)
         self.joint_2 = cm.joints[[p[1] for p in self.pairs]] if K else np.zeros(0, int)
-        self.exact_computations = 0  # for benchmarks and tests
+        #: exact distance computations so far (benchmarks and tests)
+        self.exact_computations = 0
 
     def lower_bounds(self, q: np.ndarray) -> np.ndarray:
-        """A lower bound on every pair's distance at q (exact where just computed)."""
-        dj = np.abs(self._q_ref - q[7:])
-        return self._d_ref - np.einsum("ij,ij->i", self.L, dj)
+        """Move the bounds to configuration q and return them (a view; exact where the
+        last call computed the pair at this same q)."""
+        joints = q[7:]
+        step = np.abs(joints - self._q)
+        if step.any():
+            self._bound -= self.L @ step
+            self._q[:] = joints
+        return self._bound
+
+    def vertices(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """World corners (8 x 3 each) of pair k's two boxes at the last :meth:`below` call
+        that computed it."""
+        i, j = self.pairs[k]
+        out = []
+        for g in (i, j):
+            M = self.gdata.oMg[g]
+            out.append(self.corners[g] @ M.rotation.T + M.translation)
+        return out[0], out[1]
 
     def below(self, kin: Kinematics, distance: float) -> Witness:
         """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
         must be up to date: :meth:`Kinematics.update`)."""
-        q = kin.q
-        todo = np.flatnonzero(self.lower_bounds(q) < distance) if self.pairs else ()
-        if len(todo):
+        bound = self.lower_bounds(kin.q)
+        todo = np.flatnonzero(bound < distance).tolist() if self.pairs else []
+        if todo:
             pin.updateGeometryPlacements(kin.model, kin.data, self.geometry, self.gdata)
         idx, dist, p1, p2, nrm = [], [], [], [], []
-        joints = q[7:]
+        geometry, gdata, results = self.geometry, self.gdata, self.results
         for k in todo:
-            k = int(k)
-            pin.computeDistance(self.geometry, self.gdata, k)
-            r = self.results[k]
+            pin.computeDistance(geometry, gdata, k)
+            r = results[k]
             d = r.min_distance
-            self._d_ref[k] = d
-            self._q_ref[k] = joints
+            bound[k] = d
             if d < distance:
                 idx.append(k)
                 dist.append(d)
@@ -317,6 +347,47 @@ def distance_jacobian(
     row_2 = a + np.cross(p2, normal) @ Jw
     row_1 = a + np.cross(p1, normal) @ Jw
     return np.where(mask_2, row_2, 0.0) - np.where(mask_1, row_1, 0.0)
+
+
+class PlaneRows(NamedTuple):
+    """Points a (on the first body) and b (on the second) whose gap nᵀ(b − a) along the
+    pair's normal n must stay above the margin; ``pair`` indexes the Witness rows."""
+
+    pair: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+
+
+def separating_plane_rows(
+    w: Witness, vertices: Sequence[tuple[np.ndarray, np.ndarray]], below: float
+) -> PlaneRows:
+    """The witness pair of each close pair, plus every box corner nearer than ``below`` to the
+    separating planes through the witness points.
+
+    With n the unit normal from body 1 to body 2 and p1, p2 the witness points, every corner
+    v of body 2 has nᵀ(v − p1) >= d and every corner u of body 1 has nᵀ(p2 − u) >= d: keeping
+    these gaps above the margin (n held for the tick) keeps the bodies apart. The witness
+    alone is not enough for boxes: two nearly parallel faces (the feet side by side) have
+    their witness flip between corners, and a tick that turns one face lets the unprotected
+    corner through.
+    """
+    pair, a, b, nrm, gap = [], [], [], [], []
+    for r in range(w.index.size):
+        n, p1, p2, d = w.normal[r], w.p1[r], w.p2[r], w.distance[r]
+        pair.append(r), a.append(p1), b.append(p2), nrm.append(n), gap.append(d)
+        V1, V2 = vertices[r]
+        for v, g in zip(V2, (V2 - p1) @ n, strict=True):
+            if g < below and np.abs(v - p2).max() > 1e-9:
+                pair.append(r), a.append(p1), b.append(v), nrm.append(n), gap.append(g)
+        for u, g in zip(V1, (p2 - V1) @ n, strict=True):
+            if g < below and np.abs(u - p1).max() > 1e-9:
+                pair.append(r), a.append(u), b.append(p2), nrm.append(n), gap.append(g)
+    if not pair:
+        z = np.zeros((0, 3))
+        return PlaneRows(np.zeros(0, int), z, z, z, np.zeros(0))
+    return PlaneRows(np.array(pair), np.array(a), np.array(b), np.array(nrm), np.array(gap))
 
 
 def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: float):
@@ -410,6 +481,8 @@ class SelfCollisionConstraint(Constraint):
         self._mask_1 = masks[self.distances.joint_1]
         self._mask_2 = masks[self.distances.joint_2]
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
+        self._rows: Inequality | None = None
+        self._rows_q = np.zeros(0)
 
     @property
     def n_pairs(self) -> int:
@@ -425,13 +498,23 @@ class SelfCollisionConstraint(Constraint):
         return float(w.distance.min()) if w.distance.size else np.inf
 
     def compute(self, kin: Kinematics) -> Inequality:
+        """The rows at ``kin`` (kept for a second call at the same configuration, e.g. a
+        tick the compiled path hands back to DAQP)."""
+        if self._rows is not None and np.array_equal(kin.q, self._rows_q):
+            return self._rows
         w = self.last = self.witness(kin)
         if not w.index.size:
-            return Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
-        J_d = distance_jacobian(
-            kin.data.J, self._mask_1[w.index], self._mask_2[w.index], w.p1, w.p2, w.normal
-        )
-        return damper_rows(w.distance, J_d, self.margin, self.trigger, self.damping)
+            rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
+        else:
+            corners = [self.distances.vertices(int(k)) for k in w.index]
+            pr = separating_plane_rows(w, corners, self.trigger)
+            k = w.index[pr.pair]
+            J_gap = distance_jacobian(
+                kin.data.J, self._mask_1[k], self._mask_2[k], pr.a, pr.b, pr.normal
+            )
+            rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
+        self._rows, self._rows_q = rows, kin.q.copy()
+        return rows
 
 
 def _cached_collision_model(robot: Robot) -> CollisionModel:
