@@ -296,7 +296,7 @@ class _OnOff(SelfCollisionConstraint):
 
     def compute(self, kin):
         w = self.last = self.witness(kin)
-        pr = separating_plane_rows(w, [self.distances.vertices(int(k)) for k in w.index], 1.0)
+        pr = separating_plane_rows(w, self.distances.vertices(kin, w.index.tolist()), 1.0)
         k = w.index[pr.pair]
         masks = joint_masks(self.robot)
         J = distance_jacobian(

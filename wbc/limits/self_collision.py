@@ -160,17 +160,6 @@ def select_pairs(
     ]
 
 
-def _local_corners(geom: pin.GeometryObject) -> np.ndarray:
-    """Corners (8 x 3) of a box, or of a shape's bounding box, in the shape's own frame."""
-    g = geom.geometry
-    g.computeLocalAABB()
-    aabb = g.aabb_local
-    lo, hi = np.asarray(aabb.min_), np.asarray(aabb.max_)
-    return np.array(
-        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
-    )
-
-
 def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
     """Corners of a box (8 x 3), or a bounding box's, in its parent joint's frame."""
     g = geom.geometry
@@ -258,8 +247,12 @@ class PairDistances:
         self.gdata = pin.GeometryData(self.geometry)
         self.results = list(self.gdata.distanceResults)
         self.L = lipschitz_bounds(robot, cm, self.pairs)
-        #: box corners of each geometry in its own frame (ngeoms x 8 x 3)
-        self.corners = np.array([_local_corners(g) for g in self.geometry.geometryObjects])
+        #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
+        self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
+        self._geom_joint = np.asarray(cm.joints, dtype=int)
+        self._pair_geoms = np.array(self.pairs, dtype=int).reshape(-1, 2)
+        self._R = np.zeros((robot.model.njoints, 3, 3))  # joint placements of a call
+        self._t = np.zeros((robot.model.njoints, 3))
         K = len(self.pairs)
         self._bound = np.full(K, -np.inf)  # -inf: never computed
         self._q = np.zeros(robot.n_joints)
@@ -278,15 +271,21 @@ class PairDistances:
             self._q[:] = joints
         return self._bound
 
-    def vertices(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """World corners (8 x 3 each) of pair k's two boxes at the last :meth:`below` call
-        that computed it."""
-        i, j = self.pairs[k]
-        out = []
-        for g in (i, j):
-            M = self.gdata.oMg[g]
-            out.append(self.corners[g] @ M.rotation.T + M.translation)
-        return out[0], out[1]
+    def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
+        """World corners (P x 2 x 8 x 3) of the two boxes of each pair, at ``kin``."""
+        if not len(pairs):
+            return np.zeros((0, 2, 8, 3))
+        g = self._pair_geoms[np.asarray(pairs)]  # P x 2 geometry indices
+        joints = self._geom_joint[g]  # P x 2
+        oMi = kin.data.oMi
+        R = self._R
+        t = self._t
+        for j in np.unique(joints).tolist():
+            M = oMi[j]
+            R[j] = M.rotation
+            t[j] = M.translation
+        world = self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
+        return world
 
     def below(self, kin: Kinematics, distance: float) -> Witness:
         """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
@@ -295,19 +294,22 @@ class PairDistances:
         todo = np.flatnonzero(bound < distance).tolist() if self.pairs else []
         if todo:
             pin.updateGeometryPlacements(kin.model, kin.data, self.geometry, self.gdata)
-        idx, dist, p1, p2, nrm = [], [], [], [], []
+        idx, dist, p1, p2, nrm, exact = [], [], [], [], [], []
         geometry, gdata, results = self.geometry, self.gdata, self.results
+        compute = pin.computeDistance
         for k in todo:
-            pin.computeDistance(geometry, gdata, k)
+            compute(geometry, gdata, k)
             r = results[k]
             d = r.min_distance
-            bound[k] = d
+            exact.append(d)
             if d < distance:
                 idx.append(k)
                 dist.append(d)
                 p1.append(r.getNearestPoint1())
                 p2.append(r.getNearestPoint2())
                 nrm.append(r.normal)
+        if todo:
+            bound[todo] = exact
         self.exact_computations += len(todo)
         if not idx:
             z = np.zeros((0, 3))
@@ -324,6 +326,15 @@ def joint_masks(robot: Robot) -> np.ndarray:
             if s:
                 jm = model.joints[s]
                 out[j, jm.idx_v : jm.idx_v + jm.nv] = True
+    return out
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise u × v (K x 3); np.cross's overhead is ~30 µs on small arrays."""
+    out = np.empty_like(u)
+    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
     return out
 
 
@@ -344,8 +355,8 @@ def distance_jacobian(
     """
     Jv, Jw = J_world[:3], J_world[3:]
     a = normal @ Jv
-    row_2 = a + np.cross(p2, normal) @ Jw
-    row_1 = a + np.cross(p1, normal) @ Jw
+    row_2 = a + _cross(p2, normal) @ Jw
+    row_1 = a + _cross(p1, normal) @ Jw
     return np.where(mask_2, row_2, 0.0) - np.where(mask_1, row_1, 0.0)
 
 
@@ -360,9 +371,7 @@ class PlaneRows(NamedTuple):
     gap: np.ndarray
 
 
-def separating_plane_rows(
-    w: Witness, vertices: Sequence[tuple[np.ndarray, np.ndarray]], below: float
-) -> PlaneRows:
+def separating_plane_rows(w: Witness, vertices: np.ndarray, below: float) -> PlaneRows:
     """The witness pair of each close pair, plus every box corner nearer than ``below`` to the
     separating planes through the witness points.
 
@@ -373,21 +382,28 @@ def separating_plane_rows(
     their witness flip between corners, and a tick that turns one face lets the unprotected
     corner through.
     """
-    pair, a, b, nrm, gap = [], [], [], [], []
-    for r in range(w.index.size):
-        n, p1, p2, d = w.normal[r], w.p1[r], w.p2[r], w.distance[r]
-        pair.append(r), a.append(p1), b.append(p2), nrm.append(n), gap.append(d)
-        V1, V2 = vertices[r]
-        for v, g in zip(V2, (V2 - p1) @ n, strict=True):
-            if g < below and np.abs(v - p2).max() > 1e-9:
-                pair.append(r), a.append(p1), b.append(v), nrm.append(n), gap.append(g)
-        for u, g in zip(V1, (p2 - V1) @ n, strict=True):
-            if g < below and np.abs(u - p1).max() > 1e-9:
-                pair.append(r), a.append(u), b.append(p2), nrm.append(n), gap.append(g)
-    if not pair:
+    R = w.index.size
+    if R == 0:
         z = np.zeros((0, 3))
         return PlaneRows(np.zeros(0, int), z, z, z, np.zeros(0))
-    return PlaneRows(np.array(pair), np.array(a), np.array(b), np.array(nrm), np.array(gap))
+    V1, V2 = vertices[:, 0], vertices[:, 1]  # R x 8 x 3 corners of body 1 / body 2
+    n, p1, p2 = w.normal, w.p1, w.p2
+    gap2 = ((V2 - p1[:, None]) @ n[:, :, None])[:, :, 0]  # corners of body 2 vs plane at p1
+    gap1 = ((p2[:, None] - V1) @ n[:, :, None])[:, :, 0]  # corners of body 1 vs plane at p2
+    # a corner that is the witness point itself is the witness row already (other corners
+    # at the same gap stay: parallel faces, where the witness may flip to them)
+    d2 = V2 - p2[:, None]
+    d1 = V1 - p1[:, None]
+    keep2 = (gap2 < below) & ((d2 * d2).sum(axis=2) > 1e-18)
+    keep1 = (gap1 < below) & ((d1 * d1).sum(axis=2) > 1e-18)
+    r2, r1 = np.nonzero(keep2)[0], np.nonzero(keep1)[0]
+    return PlaneRows(
+        np.concatenate([np.arange(R), r2, r1]),
+        np.concatenate([p1, p1[r2], V1[keep1]]),
+        np.concatenate([p2, V2[keep2], p2[r1]]),
+        np.concatenate([n, n[r2], n[r1]]),
+        np.concatenate([w.distance, gap2[keep2], gap1[keep1]]),
+    )
 
 
 def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: float):
@@ -506,7 +522,7 @@ class SelfCollisionConstraint(Constraint):
         if not w.index.size:
             rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
         else:
-            corners = [self.distances.vertices(int(k)) for k in w.index]
+            corners = self.distances.vertices(kin, w.index.tolist())
             pr = separating_plane_rows(w, corners, self.trigger)
             k = w.index[pr.pair]
             J_gap = distance_jacobian(
