@@ -8,8 +8,8 @@ Controllers, all through the same control loop and clock (:func:`wbc.walking.loo
   back to DAQP);
 * placo 0.10.2 — the peer set-up of :mod:`wbc.bench.peers` (walk tasks, joint and velocity
   limits), without collisions, and with ``add_avoid_self_collisions_constraint`` on the same
-  URDF with the same geometry pairs (written to a placo ``collisions.json``) and the same
-  margin / trigger.
+  URDF with the same geometry pairs (written to a placo ``collisions.json``), the same
+  margin / trigger, and hard (placo's default priority is soft, weight 1).
 
 Also printed: the smallest distance between any two of the pairs over the run (our exact
 distances, on every controller's joint trajectory), the ticks handed back to DAQP and the
@@ -87,6 +87,7 @@ class PlacoSelfCollision(PlacoController):
         finally:
             placo.RobotWrapper = make
         c = self.solver.add_avoid_self_collisions_constraint()
+        c.configure("self_collisions", "hard")  # placo's default is soft (weight 1)
         c.self_collisions_margin = self.margin
         c.self_collisions_trigger = self.trigger
 

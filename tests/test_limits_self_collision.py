@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc import Kinematics
+from wbc.bench.trajectories import build
 from wbc.exceptions import ConfigurationError, TaskError
 from wbc.limits import Inequality, SelfCollisionConstraint
 from wbc.limits.self_collision import (
@@ -22,6 +23,7 @@ from wbc.limits.self_collision import (
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
 from wbc.stacks import build_stack, load_stack
 from wbc.tasks import ComTask, ContactTask, FramePositionTask, PostureTask
+from wbc.walking.loop import StackController, run
 
 MARGIN, TRIGGER, DAMPING = 0.005, 0.02, 0.4
 #: second-order error of a linearised tick (the row holds Δq's first-order gap; turning
@@ -344,6 +346,26 @@ def test_stack_file_bad_keys_and_values(robot):
     spec["levels"][0]["constraints"][0]["trigger"] = 0.001
     with pytest.raises(TaskError, match=r"trigger .* must be larger than the margin"):
         build_stack(spec, robot)
+
+
+def test_walk_with_the_limit_is_the_same_compiled_or_not(robot):
+    """Ticks with binding collision rows are handed back to DAQP; the walk is the same."""
+    ref = build("walk10", robot)
+    recordings, back = {}, {}
+    for compiled in (True, False):
+        controller = StackController(load_stack("walk", robot))
+        controller.solver.compiled = compiled
+        recordings[compiled] = run(controller, robot, ref)
+        back[compiled] = controller.solver.handed_back_ticks
+    assert 0 < back[True] < ref.n // 2
+    assert np.abs(recordings[True].q - recordings[False].q).max() < 1e-5
+    kin = Kinematics(robot)
+    limit = SelfCollisionConstraint(robot, 0.005, 0.02)
+    closest = np.inf
+    for q in recordings[True].q[::5]:
+        kin.update(q)
+        closest = min(closest, limit.min_distance(kin))
+    assert closest > 0.005 - LINEARISATION
 
 
 def test_walk_stack_has_the_limit_with_its_hard_level(robot):
