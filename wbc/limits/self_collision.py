@@ -10,6 +10,8 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
   exact computation while a Lipschitz bound proves a pair farther than the trigger;
 * :func:`distance_jacobian` — J_d = nᵀ (J_p2 − J_p1), the witness points' Jacobians
   J_p = J_v − [p]× J_ω from pinocchio's world-frame joint Jacobians;
+* :func:`separating_plane_rows` — the witness pair plus the box corners near the separating
+  plane (parallel faces: the witness flips between corners from one tick to the next);
 * :func:`damper_rows` — the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
   margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
@@ -22,9 +24,11 @@ Activation (no chatter): with m = margin, T = trigger and ξ = damping,
 and no row for d >= T. h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
 solution is continuous in d: a row appears with a bound no tick can reach. The linearised
 margin is guaranteed (h(d) <= d − m) for d <= T − ξ (T − m); a pair closes from beyond that
-point to below the margin only if one tick can close (1 − ξ)(T − m) (with the
-defaults: 9 mm), which the servos' speed limit excludes at the walking speeds measured in
-``benchmarks/self_collision.md``.
+point to below the margin only if one tick closes more than (1 − ξ)(T − m) (9 mm with the
+defaults). The servos' speed limit does not exclude that (one tick of hip roll at 6.2 rad/s
+moves a foot ~12 mm): targets must move at a bounded speed, as walking references do (the
+tests pull links together at <= 0.1 m/s and stay within 0.5 mm of the margin, the rest being
+the second-order error of a linearised tick; the margin absorbs it).
 """
 
 from __future__ import annotations
