@@ -22,7 +22,8 @@ Activation (no chatter): with m = margin, T = trigger and ξ = damping,
     h(d) = ξ (d − m)                      for d < m (the pair is pushed back out),
 
 and no row for d >= T. h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
-solution is continuous in d: a row appears with a bound no tick can reach. The linearised
+solution is continuous in d: a row appears with a bound no tick can reach (rows are left
+out while h exceeds 1 m, ``UNREACHABLE``, a closure no tick asks for). The linearised
 margin is guaranteed (h(d) <= d − m) for d <= T − ξ (T − m); a pair closes from beyond that
 point to below the margin only if one tick closes more than (1 − ξ)(T − m) (9 mm with the
 defaults). The servos' speed limit does not exclude that (one tick of hip roll at 6.2 rad/s
@@ -48,6 +49,9 @@ from .limit import Constraint, Inequality
 DEFAULT_MARGIN = 0.005
 DEFAULT_TRIGGER = 0.02
 DEFAULT_DAMPING = 0.4
+#: a bound past which a row is left out (m of closure in one tick: no two links of a small
+#: humanoid can approach by 1 m; with the defaults, the rows between 19.9 and 20 mm)
+UNREACHABLE = 1.0
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
 
@@ -422,9 +426,12 @@ def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: f
 def damper_rows(
     distance: np.ndarray, J_d: np.ndarray, margin: float, trigger: float, damping: float
 ) -> Inequality:
-    """G Δq <= h: −J_d Δq <= h(d) for the pairs below the trigger."""
-    keep = distance < trigger
-    return Inequality(-J_d[keep], damper_bound(distance[keep], margin, trigger, damping))
+    """G Δq <= h: −J_d Δq <= h(d) for the pairs whose bound is below ``UNREACHABLE`` (the
+    +∞-equivalent: just under the trigger, h(d) passes any closure one tick can ask for; a
+    row with h ~ 1e12 m would only cost the solvers, and stalls ProxQP)."""
+    h = damper_bound(distance, margin, trigger, damping)
+    keep = h < UNREACHABLE
+    return Inequality(-J_d[keep], h[keep])
 
 
 def check_parameters(margin: float, trigger: float, damping: float) -> None:
