@@ -4,7 +4,7 @@ from .ground_clearance import GroundClearanceConstraint, LinearInequality
 from .joint_limits import JointPositionLimit, JointVelocityLimit, intersect_bounds
 from .limit import Bounds, BoxLimit, Constraint, Inequality
 from .self_collision import SelfCollisionConstraint
-from .support_polygon import ComPolygonConstraint, SupportPolygon, foot_corners
+from .support_polygon import ComPolygonConstraint, SupportPolygon
 
 __all__ = [
     "Bounds",
@@ -18,6 +18,5 @@ __all__ = [
     "LinearInequality",
     "SelfCollisionConstraint",
     "SupportPolygon",
-    "foot_corners",
     "intersect_bounds",
 ]
