@@ -271,6 +271,7 @@ class Deployment:
         self._log_goal: list[np.ndarray] = []
         self._log_present: list[np.ndarray] = []
         self._log_phase: list[int] = []  # 0 soft start, 1 playback, 2 crouch
+        self.last_present: np.ndarray | None = None  # rad, NaN unread (with config.read)
         n = robot.n_joints
         self._err_sq = np.zeros(n)
         self._err_n = np.zeros(n, int)
@@ -371,9 +372,8 @@ class Deployment:
                 break  # stop checking: the safe stop comes first
         if self.config.read:
             ok = np.isfinite(present)
-            err = np.where(
-                ok, bus.codec.decode(np.where(ok, present, 0)) - bus.codec.decode(cmd), 0
-            )
+            self.last_present = np.where(ok, bus.codec.decode(np.where(ok, present, 0)), np.nan)
+            err = np.where(ok, self.last_present - bus.codec.decode(cmd), 0)
             self._err_sq += err**2
             self._err_n += ok
             self._err_max = np.maximum(self._err_max, np.abs(err))

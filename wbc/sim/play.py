@@ -132,6 +132,8 @@ def play(
     before: Callable[[SimServoBus], None] | None = None,
     on_tick: Callable[[Simulation], None] | None = None,
     limit_tol: float = 1e-3,
+    compensate: float = 0.0,
+    ki: float = 0.0,
 ) -> PlayResult:
     """Play ``recording`` on a simulated ``robot`` (see the module docstring).
 
@@ -140,6 +142,9 @@ def play(
     on the bus; ``on_tick`` sees the simulation after every logged tick (a live viewer);
     ``limit_tol`` (rad): targets further beyond a joint limit are refused, as ``wbc deploy
     --limit-tol`` (``inf``: every target is clamped to the limits by the deployment instead).
+    ``compensate`` > 0: goals carry that gain × the servo compliance feed-forward
+    (:func:`wbc.balance.compliance.compensated`, nominal servo settings), with an integral
+    gain ``ki`` on the present positions.
     """
     sim = Simulation(robot, model_params, servo_params)
     sim.reset(recording.q[0])
@@ -158,13 +163,18 @@ def play(
     if before is not None:
         before(bus)
     source = RecordingSource(recording, robot, tol=limit_tol)
+    deployment: list[Deployment] = []
+    if compensate > 0:
+        from ..balance.compliance import compensated
+
+        source = compensated(source, recording, robot, compensate, ki, lambda: deployment[0])
     config = DeployConfig(rate=rate, read=True)
-    deployment = Deployment(bus, source, robot, config, out=lambda _line: None)
+    deployment.append(Deployment(bus, source, robot, config, out=lambda _line: None))
     start = sim.time
     if push is not None:
         # the soft start is empty when the robot starts at the first pose (checked below)
         sim.push(push[1], push[2], start=start + push[0])
-    result = deployment.run()
+    result = deployment[0].run()
     playback_start = start + result.soft_start_ticks / rate
     if result.completed and settle > 0:
         period = 1.0 / rate

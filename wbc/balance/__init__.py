@@ -1,0 +1,1 @@
+"""Balance on a body: servo compliance compensation (:mod:`wbc.balance.compliance`)."""

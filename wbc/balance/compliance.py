@@ -1,0 +1,213 @@
+"""Servo compliance compensation: feed forward the deflection of each position servo.
+
+An AX-12A position servo gives way under load: its torque ramps with the position error
+(:mod:`wbc.sim.actuator`, ``u = p + (|e| − m)/s`` outside the dead band ``m``), so holding a
+joint torque ``τ`` costs a steady error. Inverting that law (static, friction ignored)::
+
+    |e|(τ) = m · min(1, |τ| / τ_p) + s · max(0, |τ|/τ_s − p)      (ticks)
+    δ(τ)   = sign(τ) · |e|(τ) · rad_per_tick                        (rad, joint direction)
+
+with ``τ_p = p · τ_s`` the punch torque (below it the dead band is blended in linearly so
+that δ is continuous through τ = 0) and ``|τ|`` capped at the servo's torque cap (no goal
+offset buys more torque than that). For ``p = 0`` this is ``δ = τ / k + m`` with the
+stiffness ``k = τ_s / (s · rad_per_tick)`` of :attr:`wbc.sim.actuator.ServoParams.stiffness`.
+
+The load ``τ`` is the static joint torque of the planned configuration with the support
+contact(s): the stance sole(s) flat on the floor, then::
+
+    τ = g_j(q) − J_c,jᵀ f     with f the least-norm solution of  J_c,bᵀ f = g_b(q)
+
+(``b``: the 6 floating-base rows, ``J_c`` the stacked 6-D sole Jacobians in the world-aligned
+sole frames, ``f`` the contact wrenches). In single support ``f`` is unique (this is the
+inverse dynamics with the base held by the stance foot); in double support ``f`` is the
+weighted least-norm solution ``min Σ_i |f_i|² / w_i`` with ``w_l = α``, ``w_r = 1 − α`` and α
+the CoM's position along the right-to-left sole segment (clipped to 0.02–0.98): the sole
+under the CoM carries the weight, and the load moves continuously into single support.
+The goal is ``q_plan + δ``, clamped into the joint limits. The servo parameters are the
+SAME ones the simulator uses
+(:meth:`ServoParams.from_settings` of ``robot.servo_map.settings``): one definition.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import WbcError
+from ..model import Robot
+from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
+from ..servo_map import RAD_PER_TICK
+from ..sim.actuator import ServoParams
+
+SOLES = {
+    SUPPORT_LEFT: ("l_sole",),
+    SUPPORT_RIGHT: ("r_sole",),
+    SUPPORT_DOUBLE: ("l_sole", "r_sole"),
+}
+
+
+def servo_deflection(tau: np.ndarray, params: ServoParams) -> np.ndarray:
+    """Steady position error δ (rad, joint direction) of servos holding torques ``tau`` (N·m),
+    the static inverse of the servo law (module docstring)."""
+    tau = np.asarray(tau, dtype=float)
+    cap = np.minimum(params.torque_cap, params.stall_torque)
+    mag = np.minimum(np.abs(tau), cap)
+    tau_punch = params.punch * params.stall_torque
+    blend = np.where(tau_punch > 0, np.minimum(1.0, mag / np.maximum(tau_punch, 1e-12)), 1.0)
+    blend = np.where(mag > 0, blend, 0.0)
+    ticks = params.margin * blend + params.slope * np.maximum(
+        0.0, mag / params.stall_torque - params.punch
+    )
+    return np.sign(tau) * ticks * RAD_PER_TICK
+
+
+class ComplianceCompensator:
+    """Goals that pre-load each servo by its expected deflection under the static load.
+
+    ``params`` defaults to the robot's shared servo settings (what the servos are set to).
+    ``gain`` scales the feed-forward (1 = the model's deflection).
+    """
+
+    def __init__(self, robot: Robot, params: ServoParams | None = None, gain: float = 1.0) -> None:
+        if robot.servo_map is None:
+            raise WbcError(f"compliance compensation needs a servo map for {robot.name}")
+        if not np.isfinite(gain) or gain < 0:
+            raise WbcError(f"compensation gain must be a finite number >= 0, got {gain}")
+        self.robot = robot
+        self.params = params or ServoParams.from_settings(robot.servo_map.settings)
+        self.gain = float(gain)
+        self.model = robot.model
+        self.data = robot.model.createData()
+        self.sole_ids = {s: robot.frame_id(s) for s in ("l_sole", "r_sole")}
+
+    def _standing(self, joints: np.ndarray, soles: Sequence[str]) -> np.ndarray:
+        """The configuration with these joints and the first support sole flat on the floor."""
+        q = self.robot.with_joints(joints)
+        return self.robot.place_on_ground(q, soles[0])
+
+    def torques(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
+        """Static joint torques (N·m, model joint order) holding ``joints`` on ``support``."""
+        if support not in SOLES:
+            raise WbcError(f"support must be one of {sorted(SOLES)}, got {support!r}")
+        soles = SOLES[support]
+        q = self._standing(np.asarray(joints, dtype=float), soles)
+        m, d = self.model, self.data
+        g = pin.computeGeneralizedGravity(m, d, q)
+        pin.computeJointJacobians(m, d, q)
+        pin.updateFramePlacements(m, d)
+        jc = np.vstack(
+            [pin.getFrameJacobian(m, d, self.sole_ids[s], pin.LOCAL_WORLD_ALIGNED) for s in soles]
+        )
+        a = jc[:, :6].T  # base rows: a f = g_b
+        if len(soles) == 2:  # weighted least norm: the sole nearer the CoM carries more
+            com = pin.centerOfMass(m, d, q, False)[:2]
+            pl, pr = (d.oMf[self.sole_ids[s]].translation[:2] for s in soles)
+            seg = pl - pr
+            share = float(np.clip((com - pr) @ seg / max(seg @ seg, 1e-12), 0.02, 0.98))
+            w = np.repeat([share, 1.0 - share], 6)  # f = W aᵀ (a W aᵀ)⁻¹ g_b
+            f = w * (a.T @ np.linalg.solve((a * w) @ a.T, g[:6]))
+        else:
+            f = np.linalg.solve(a, g[:6])
+        return g[6:] - jc[:, 6:].T @ f
+
+    def deflection(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
+        """Expected servo deflection (rad) at ``joints`` on ``support`` (× ``gain``)."""
+        return self.gain * servo_deflection(self.torques(joints, support), self.params)
+
+    def goals(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
+        """Planned joints plus their deflection, clamped into the joint limits."""
+        joints = np.asarray(joints, dtype=float)
+        out = joints + self.deflection(joints, support)
+        return np.clip(out, self.robot.q_min, self.robot.q_max)
+
+
+def support_schedule(recording: Recording) -> Callable[[float], int]:
+    """The planned support phase of ``recording`` at playback time t (s from its start):
+    its ``support`` channel, or double support when it has none."""
+    support = recording.channels.get("support")
+    if support is None:
+        return lambda t: SUPPORT_DOUBLE
+    t_rec = recording.t - recording.t[0]
+    codes = np.asarray(support, dtype=int)
+
+    def at(t: float) -> int:
+        k = int(np.clip(np.searchsorted(t_rec, t, side="right") - 1, 0, len(t_rec) - 1))
+        return int(codes[k])
+
+    return at
+
+
+class CompensatedSource:
+    """A target source (:class:`wbc.servos.sources.TargetSource`) whose targets carry the
+    compliance feed-forward of :class:`ComplianceCompensator`.
+
+    ``support(t)`` gives the planned support phase at playback time ``t``. With
+    ``present`` (a function returning the servos' present positions, rad, or None) and
+    ``ki`` > 0, an integral on (planned − present) corrects what the model misses:
+    ``c += ki · period · (q_plan − present)`` clamped to ``±max_correction`` rad.
+    """
+
+    def __init__(
+        self,
+        source,
+        compensator: ComplianceCompensator,
+        support: Callable[[float], int],
+        present: Callable[[], np.ndarray | None] | None = None,
+        ki: float = 0.0,
+        max_correction: float = 0.1,
+    ) -> None:
+        if ki < 0 or not np.isfinite(ki):
+            raise WbcError(f"integral gain ki must be a finite number >= 0, got {ki}")
+        self.source = source
+        self.compensator = compensator
+        self.support = support
+        self.joint_names = tuple(source.joint_names)
+        self.present = present
+        self.ki = float(ki)
+        self.max_correction = float(max_correction)
+        self.correction = np.zeros(len(self.joint_names))
+        self._last_t: float | None = None
+        self._last_plan: np.ndarray | None = None
+        if hasattr(source, "duration"):
+            self.duration = source.duration
+
+    def first(self) -> np.ndarray:
+        return self.compensator.goals(self.source.first(), self.support(0.0))
+
+    def __call__(self, tick: int, t: float) -> np.ndarray | None:
+        q = self.source(tick, t)
+        if q is None:
+            return None
+        if self.present is not None and self.ki > 0 and self._last_plan is not None:
+            now = self.present()
+            if now is not None:
+                dt = t - (self._last_t or 0.0)
+                err = np.where(np.isfinite(now), self._last_plan - now, 0.0)
+                self.correction += self.ki * dt * err
+                np.clip(self.correction, -self.max_correction, self.max_correction,
+                        out=self.correction)  # fmt: skip
+        self._last_t, self._last_plan = t, np.asarray(q, dtype=float).copy()
+        out = self.compensator.goals(q, self.support(t)) + self.correction
+        return np.clip(out, self.compensator.robot.q_min, self.compensator.robot.q_max)
+
+
+def compensated(
+    source,
+    recording: Recording,
+    robot: Robot,
+    gain: float = 1.0,
+    ki: float = 0.0,
+    deployment: Callable[[], object] | None = None,
+) -> CompensatedSource:
+    """``source`` (playing ``recording``) with the compliance feed-forward on its support
+    schedule; ``ki`` > 0 integrates planned − present from ``deployment().last_present``
+    (the :class:`~wbc.servos.playback.Deployment` running it, with ``read`` on)."""
+    present = None
+    if ki > 0:
+        if deployment is None:
+            raise WbcError("an integral correction (ki > 0) needs the deployment's positions")
+        present = lambda: deployment().last_present  # noqa: E731
+    comp = ComplianceCompensator(robot, gain=gain)
+    return CompensatedSource(source, comp, support_schedule(recording), present, ki)
