@@ -65,6 +65,8 @@ PHYSICS_KEYS: dict[str, tuple[str, str]] = {
     "torque_peak_ratio": ("peak servo torque / stall", ""),
     "torque_joint": ("joint of the peak torque", ""),
     "cop_margin_min_mm": ("min real CoP margin in single support", "mm"),
+    "swing_lift_max_mm": ("max lift of the planned swing sole in single support", "mm"),
+    "swing_unloaded_share": ("share of single support with the swing sole unloaded", ""),
     "deploy_completed": ("deployment completed (no safe stop)", ""),
 }
 
@@ -222,6 +224,16 @@ def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
     margins = log["cop_margin"][single]
     margins = margins[np.isfinite(margins)]
     record["cop_margin_min_mm"] = float(margins.min() * 1e3) if margins.size else None
+    # the planned swing sole: how high it rises, how often it carries < 5 % of the weight
+    swing = np.where(sup == SUPPORT_LEFT, 1, 0)  # right support: the left sole swings
+    ks = np.flatnonzero(single)
+    if ks.size:
+        z = log["soles"][ks, swing[ks], 2] - log["soles"][0, swing[ks], 2]
+        record["swing_lift_max_mm"] = float(z.max() * 1e3)
+        force = log["sole_force"][ks, swing[ks]]
+        record["swing_unloaded_share"] = float(np.mean(force < 0.05 * weight))
+    else:
+        record["swing_lift_max_mm"] = record["swing_unloaded_share"] = None
     record["deploy_completed"] = bool(result.deploy.completed)
     if not result.deploy.completed:
         record["deploy_trip"] = str(result.deploy.trip)
@@ -279,11 +291,13 @@ def simulate(
     variation: Variation | None = None,
     push: tuple[float, Sequence[float], float] | None = None,
     settle: float = 1.0,
+    compensate: float = 0.0,
 ) -> dict[str, Any]:
-    """One simulated run of a planned recording: its physics record."""
+    """One simulated run of a planned recording: its physics record (``compensate``: the
+    gain of the servo compliance feed-forward, :mod:`wbc.balance.compliance`; 0 = off)."""
     from ..sim.play import play
 
-    kw = {}
+    kw: dict[str, Any] = {"compensate": compensate}
     if variation is not None:
         kw = dict(model_params=variation.model_params, servo_params=variation.servo_params,
                   latency_ticks=variation.latency_ticks)  # fmt: skip
@@ -298,11 +312,12 @@ def robustness(
     seed: int,
     progress: Callable[[int], None] | None = None,
     settle: float = 1.0,
+    compensate: float = 0.0,
 ) -> dict[str, Any]:
     """The share of ``n`` randomised models (seeded) on which the run stays up."""
     up, falls = [], []
     for k, v in enumerate(models(robot, n, seed)):
-        r = simulate(rec, robot, v, settle=settle)
+        r = simulate(rec, robot, v, settle=settle, compensate=compensate)
         up.append(not r["fell"])
         if r["fell"]:  # why: when, in which support phase, the most loaded joint
             falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
@@ -335,6 +350,7 @@ def largest_push(
     max_impulse: float = PUSH_MAX_NS,
     steps: int = PUSH_STEPS,
     settle: float = 1.0,
+    compensate: float = 0.0,
 ) -> float | None:
     """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
     (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
@@ -347,7 +363,8 @@ def largest_push(
 
     def survives(impulse: float) -> bool:
         force = u * impulse / PUSH_DURATION
-        return not simulate(rec, robot, push=(t_push, force, PUSH_DURATION), settle=settle)["fell"]
+        push = (t_push, force, PUSH_DURATION)
+        return not simulate(rec, robot, push=push, settle=settle, compensate=compensate)["fell"]
 
     if not survives(0.0):
         return None
@@ -375,6 +392,16 @@ def add_physics_arguments(parser) -> None:
     parser.add_argument(
         "--push", action="store_true", help="--physics: largest survived torso impulse (N·s)"
     )
+    parser.add_argument(
+        "--compensate",
+        type=float,
+        nargs="?",
+        const=1.0,
+        default=0.0,
+        metavar="GAIN",
+        help="--physics: servo compliance feed-forward on the goals (gain, default 1; "
+        "wbc.balance.compliance)",
+    )
 
 
 def run_physics_command(args, console, robot: Robot, entries) -> int:
@@ -388,6 +415,8 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
 
     if args.robustness < 0:
         raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
+    if not (math.isfinite(args.compensate) and args.compensate >= 0):
+        raise WbcError(f"--compensate GAIN must be a finite number >= 0, got {args.compensate}")
     if args.mode != "tick":
         raise WbcError("--physics plays real-time plans: use --mode tick (the default)")
     names = [t for t in args.trajectories if t != traj.STATIC_COM]
@@ -422,6 +451,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         entries = [e for e in entries if e.name in DEFAULT_SOLVERS]
     records: list[dict[str, Any]] = []
     series = {}
+    comp = getattr(args, "compensate", 0.0)
     for name, ref in refs.items():
         for entry in entries:
             console.print(f"[dim]physics: {entry.name} on {name}[/]")
@@ -434,7 +464,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
             try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses it
                 # unless --limit-tol allows it)
-                result = play(rec, robot, settle=1.0, limit_tol=math.inf)
+                result = play(rec, robot, settle=1.0, limit_tol=math.inf, compensate=comp)
             except WbcError as exc:
                 console.print(f"[red]{entry.name} on {name}: {exc}[/]")
                 records.append({"solver": entry.name, "family": entry.family,
@@ -444,7 +474,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
             r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
             wall = time.perf_counter() - started
-            r.update(solver=entry.name, family=entry.family, trajectory=name,
+            r.update(solver=entry.name, family=entry.family, trajectory=name, compensate=comp,
                      sim_steps=int(result.sim.steps), wall_s=wall,
                      steps_per_s=result.sim.steps / wall,
                      realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
@@ -455,18 +485,19 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 )
             if args.robustness:
                 started = time.perf_counter()
-                rob = robustness(rec, robot, args.robustness, args.seed)
+                rob = robustness(rec, robot, args.robustness, args.seed, compensate=comp)
                 r["robustness"] = rob
                 r["up_fraction"] = rob["up_fraction"]
                 r["sweep_wall_s"] = time.perf_counter() - started
             if args.push:
-                r["push_lateral_ns"] = largest_push(rec, robot, "lateral")
-                r["push_forward_ns"] = largest_push(rec, robot, "forward")
+                r["push_lateral_ns"] = largest_push(rec, robot, "lateral", compensate=comp)
+                r["push_forward_ns"] = largest_push(rec, robot, "forward", compensate=comp)
             records.append(r)
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
-        table = Table(title=f"physics: {name} (deploy path, simulated AX-12A)")
-        cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "τ/τs", "CoP mm"]
+        title = f"physics: {name} (deploy path, simulated AX-12A)"
+        table = Table(title=title + (f", compliance feed-forward ×{comp:g}" if comp else ""))
+        cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "τ/τs", "CoP mm", "lift mm"]
         if args.robustness:
             cols.append(f"up/{args.robustness}")
         if args.push:
@@ -483,6 +514,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 f"{r['tracking_err_max_deg']:.1f}",
                 f"{r['torque_peak_ratio']:.2f}",
                 "-" if r["cop_margin_min_mm"] is None else f"{r['cop_margin_min_mm']:.1f}",
+                "-" if r["swing_lift_max_mm"] is None else f"{r['swing_lift_max_mm']:.1f}",
             ]
             if args.robustness:
                 cells.append(f"{r['up_fraction']:.2f}")

@@ -19,6 +19,7 @@ Exit codes: 0 played to the end, 2 refused (nothing moved), 3 safe stop after a 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -136,6 +137,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
+    parser.add_argument(
+        "--compensate",
+        type=float,
+        nargs="?",
+        const=1.0,
+        default=0.0,
+        metavar="GAIN",
+        help="add the servos' expected compliance deflection to a recording's goals "
+        "(gain, default 1; wbc.balance.compliance)",
+    )
     from ..sim.cli import add_deploy_arguments  # --sim, --view, --realtime (no mujoco needed)
 
     add_deploy_arguments(parser)
@@ -256,11 +267,22 @@ def run(args: argparse.Namespace) -> int:
                 return EXIT_OK
         if args.recording is None and args.live is None:
             raise TrajectoryError("give a RECORDING.npz to play, --live STACK (or --plan)")
+        if not (math.isfinite(args.compensate) and args.compensate >= 0):
+            raise ServoError(
+                f"--compensate GAIN must be a finite number >= 0, not {args.compensate}"
+            )
         if args.live is not None:
+            if args.compensate:
+                raise ServoError("--compensate applies to a recording, not to --live")
             source, what, duration = _live_source(args, robot)
         else:
-            source = RecordingSource(Recording.load(args.recording), robot, tol=args.limit_tol)
+            recording = Recording.load(args.recording)
+            source = RecordingSource(recording, robot, tol=args.limit_tol)
             what, duration = Path(args.recording).name, source.duration
+            if args.compensate:
+                from ..balance.compliance import compensated
+
+                source = compensated(source, recording, robot, args.compensate)
         if args.dry_run:
             bus = _dry_bus(bus, robot)
         elif not args.port and bus.name != "sim":

@@ -17,7 +17,13 @@ import numpy as np
 
 from ..model import Robot
 from ..recording import Recording
-from ..servos.deploy import DeployConfig, Deployment, DeployResult, RecordingSource
+from ..servos.deploy import (
+    CallableSource,
+    DeployConfig,
+    Deployment,
+    DeployResult,
+    RecordingSource,
+)
 from .actuator import ServoParams
 from .bus import SimServoBus
 from .model import ModelParams
@@ -168,12 +174,21 @@ def play(
         from ..balance.compliance import compensated
 
         source = compensated(source, recording, robot, compensate, ki, lambda: deployment[0])
-    config = DeployConfig(rate=rate, read=True)
-    deployment.append(Deployment(bus, source, robot, config, out=lambda _line: None))
     start = sim.time
-    if push is not None:
+    if push is not None and compensate > 0:  # the soft start to the compensated goals takes
+        inner = source  # time: the push is timed from the playback's first target instead
+
+        def pushed(tick: int, t: float) -> np.ndarray | None:
+            if tick == 0 and t == 0.0:
+                sim.push(push[1], push[2], start=sim.time + push[0])
+            return inner(tick, t)
+
+        source = CallableSource(pushed, inner.first(), inner.joint_names)
+    elif push is not None:
         # the soft start is empty when the robot starts at the first pose (checked below)
         sim.push(push[1], push[2], start=start + push[0])
+    config = DeployConfig(rate=rate, read=True)
+    deployment.append(Deployment(bus, source, robot, config, out=lambda _line: None))
     result = deployment[0].run()
     playback_start = start + result.soft_start_ticks / rate
     if result.completed and settle > 0:

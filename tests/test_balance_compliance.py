@@ -1,0 +1,192 @@
+"""Servo compliance compensation: the deflection law, the static contact torques, goals
+inside the joint limits, and (simulated) smaller tracking error when standing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wbc.balance.compliance import (
+    CompensatedSource,
+    ComplianceCompensator,
+    servo_deflection,
+    support_schedule,
+)
+from wbc.exceptions import WbcError
+from wbc.model import load_robot
+from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
+from wbc.servo_map import RAD_PER_TICK
+from wbc.sim.actuator import ServoParams
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot()
+
+
+@pytest.fixture(scope="module")
+def comp(robot):
+    return ComplianceCompensator(robot)
+
+
+def _params(n: int = 1, margin=1.0, slope=32.0, punch=32.0, limit=1023.0) -> ServoParams:
+    return ServoParams(
+        margin=np.full(n, margin),
+        slope=np.full(n, slope),
+        punch=np.full(n, punch / 1023.0),
+        torque_cap=np.full(n, 1.5 * limit / 1023.0),
+    )
+
+
+def test_deflection_by_hand():
+    # margin 1, slope 32, punch 32/1023, 1.5 N·m stall: 0.5 N·m needs
+    # 1 + 32 (0.5/1.5 - 32/1023) = 10.6656 ticks of error
+    p = _params()
+    ticks = 1.0 + 32.0 * (0.5 / 1.5 - 32.0 / 1023.0)
+    assert servo_deflection(np.array([0.5]), p)[0] == pytest.approx(ticks * RAD_PER_TICK)
+    assert servo_deflection(np.array([-0.5]), p)[0] == pytest.approx(-ticks * RAD_PER_TICK)
+    assert servo_deflection(np.array([0.0]), p)[0] == 0.0
+    # without punch: δ = τ/k + margin, k the simulator's stiffness (one definition)
+    p0 = _params(punch=0.0)
+    k = p0.stiffness[0]
+    assert servo_deflection(np.array([0.3]), p0)[0] == pytest.approx(0.3 / k + RAD_PER_TICK)
+    # above the torque limit no further offset helps
+    pl = _params(limit=511.0)
+    assert servo_deflection(np.array([1.4]), pl)[0] == pytest.approx(
+        servo_deflection(np.array([1.5 * 511 / 1023]), pl)[0]
+    )
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.05, 1.45))
+def test_deflection_inverts_the_servo_law(tau):
+    """The simulator's law, fed the deflection as its error, gives back the torque."""
+    p = _params()
+    e = servo_deflection(np.array([tau]), p)[0] / RAD_PER_TICK  # ticks
+    u = min(1.0, p.punch[0] + (abs(e) - p.margin[0]) / p.slope[0])
+    assert p.stall_torque * u == pytest.approx(tau, rel=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5))
+def test_deflection_odd_monotone(a, b):
+    p = _params()
+    da, db = servo_deflection(np.array([a, b]), _params(2))
+    assert servo_deflection(np.array([-a]), p)[0] == pytest.approx(-da)
+    if a <= b:
+        assert da <= db + 1e-15
+
+
+def _virtual_work(robot, q: np.ndarray, joint: str, sole: str, h: float = 1e-6) -> float:
+    """Hand statics: with the stance sole held flat on the floor, the torque holding joint i
+    is the derivative of the potential energy ``V = m g z_com`` along q_i (virtual work)."""
+
+    def energy(d: float) -> float:
+        qq = q.copy()
+        qq[robot.q_index(joint)] += d
+        return robot.total_mass * 9.81 * robot.com(robot.place_on_ground(qq, sole))[2]
+
+    return (energy(h) - energy(-h)) / (2 * h)
+
+
+@pytest.mark.parametrize("support,side", [(SUPPORT_LEFT, "l"), (SUPPORT_RIGHT, "r")])
+def test_single_support_torques_by_hand(robot, comp, support, side):
+    rng = np.random.default_rng(3)
+    q = robot.random_configuration(rng, margin=0.2)
+    q = robot.place_on_ground(q, f"{side}_sole")
+    tau = comp.torques(robot.joints(q), support)
+    assert np.abs(tau).max() > 0.1  # a loaded case
+    for joint in robot.joint_names:  # stance leg, swing leg and arms
+        expected = _virtual_work(robot, q, joint, f"{side}_sole")
+        assert tau[robot.joint_index(joint)] == pytest.approx(expected, abs=1e-6)
+
+
+def test_double_support_shares_the_weight(robot, comp):
+    joints = robot.joints(robot.configuration("walk_ready"))
+    tau = comp.torques(joints, SUPPORT_DOUBLE)
+    li, ri = robot.joint_index("l_knee"), robot.joint_index("r_knee")
+    assert tau[li] == pytest.approx(tau[ri], rel=0.05)  # symmetric pose, CoM in the middle
+    single = comp.torques(joints, SUPPORT_LEFT)
+    assert abs(tau[li]) < abs(single[li])  # the left knee carries less with two feet down
+    with pytest.raises(WbcError, match="support"):
+        comp.torques(joints, 7)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from([SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT]))
+def test_goals_stay_inside_limits(seed, support):
+    robot = load_robot()
+    comp = ComplianceCompensator(robot, gain=3.0)
+    rng = np.random.default_rng(seed)
+    joints = rng.uniform(robot.q_min, robot.q_max)
+    # push some joints onto their limits: the offset must not take them beyond
+    on = rng.random(robot.n_joints) < 0.5
+    joints[on] = np.where(rng.random(on.sum()) < 0.5, robot.q_min[on], robot.q_max[on])
+    goals = comp.goals(joints, support)
+    assert np.all(goals >= robot.q_min) and np.all(goals <= robot.q_max)
+
+
+class _Const:
+    def __init__(self, q, names):
+        self.q, self.joint_names = q, names
+
+    def first(self):
+        return self.q.copy()
+
+    def __call__(self, tick, t):
+        return None if t > 0.5 else self.q.copy()
+
+
+def test_source_integral_and_limits(robot, comp):
+    plan = robot.joints(robot.configuration("walk_ready")).copy()
+    plan[0] = robot.q_max[0]  # on a limit
+    lag = np.full(robot.n_joints, 0.01)
+    src = CompensatedSource(
+        _Const(plan, robot.joint_names), comp, lambda t: SUPPORT_DOUBLE,
+        present=lambda: plan - lag, ki=20.0, max_correction=0.05,
+    )  # fmt: skip
+    base = comp.goals(plan, SUPPORT_DOUBLE)
+    assert np.allclose(src.first(), base)
+    out = [src(k, k * 0.01) for k in range(4)]
+    # the integral grows by ki · dt · (plan − present) per tick
+    assert np.allclose(src.correction, 3 * 20.0 * 0.01 * 0.01)
+    assert np.allclose(out[3], np.clip(base + src.correction, robot.q_min, robot.q_max))
+    assert out[3][0] <= robot.q_max[0]
+    for k in range(4, 50):
+        q = src(k, k * 0.01)
+        assert np.all(q <= robot.q_max) and np.all(q >= robot.q_min)
+    assert np.allclose(src.correction, 0.05)  # capped
+    assert src(60, 0.6) is None
+    with pytest.raises(WbcError, match="ki"):
+        CompensatedSource(_Const(plan, robot.joint_names), comp, lambda t: 0, ki=-1.0)
+
+
+def test_support_schedule(robot):
+    q = np.tile(robot.configuration("walk_ready"), (4, 1))
+    t = np.array([1.0, 1.1, 1.2, 1.3])
+    rec = Recording(t, q, robot.joint_names, {"support": np.array([0, 1, 1, 2], np.int8)}, {})
+    at = support_schedule(rec)
+    assert [at(x) for x in (0.0, 0.05, 0.15, 0.25, 0.35, 9.0)] == [0, 0, 1, 1, 2, 2]
+    assert support_schedule(Recording(t, q, robot.joint_names, {}, {}))(0.2) == SUPPORT_DOUBLE
+
+
+def test_standing_tracks_better_with_compensation(robot):
+    """1 s standing in Walk Ready on the simulated AX-12As: the joints sag less."""
+    pytest.importorskip("mujoco")
+    from wbc.sim.play import play
+
+    q = robot.configuration("walk_ready")
+    t = np.arange(0.0, 0.6, 0.01)
+    rec = Recording(t, np.tile(q, (len(t), 1)), robot.joint_names, {}, {})
+    rms = {}
+    for gain in (0.0, 1.0):
+        res = play(rec, robot, settle=0.4, limit_tol=math.inf, compensate=gain)
+        err = res.log["q"][-1, 7:] - q[7:]
+        rms[gain] = float(np.sqrt(np.mean(err**2)))
+        assert np.all(res.log["goal"][-1] <= robot.q_max + 1e-9)
+        assert np.all(res.log["goal"][-1] >= robot.q_min - 1e-9)
+    assert rms[1.0] < 0.5 * rms[0.0]
