@@ -190,3 +190,25 @@ def test_standing_tracks_better_with_compensation(robot):
         assert np.all(res.log["goal"][-1] <= robot.q_max + 1e-9)
         assert np.all(res.log["goal"][-1] >= robot.q_min - 1e-9)
     assert rms[1.0] < 0.5 * rms[0.0]
+
+
+def test_deploy_compensate(robot, comp, tmp_path, capsys):
+    """``wbc deploy --compensate``: the playback goals are the compensated ones (dry run)."""
+    from wbc.cli import main as wbc_main
+
+    q = robot.configuration("walk_ready")
+    t = np.arange(0.0, 0.3, 0.02)
+    path = tmp_path / "stand.npz"
+    Recording(t, np.tile(q, (len(t), 1)), robot.joint_names, {}, {}).save(path)
+    log = tmp_path / "log.npz"
+    argv = ["deploy", str(path), "--dry-run", "--compensate", "--log", str(log)]
+    assert wbc_main(argv) == 0
+    data = np.load(log)
+    goal = data["goal"][data["phase"] == 1][-1]
+    assert str(data["unit"]) == "tick"
+    expected = robot.servo_map.angles_to_ticks_float(comp.goals(robot.joints(q), SUPPORT_DOUBLE))
+    plain = robot.servo_map.angles_to_ticks_float(robot.joints(q))
+    assert np.abs(goal - expected).max() <= 0.5 + 1e-9  # rounded to whole ticks
+    assert np.abs(goal - plain).max() >= 3  # and not the plain plan
+    assert wbc_main(["deploy", str(path), "--dry-run", "--compensate", "-1"]) == 2
+    assert "--compensate GAIN must be" in capsys.readouterr().err
