@@ -292,15 +292,17 @@ def simulate(
     push: tuple[float, Sequence[float], float] | None = None,
     settle: float = 1.0,
     compensate: float = 0.0,
+    gyro: float = 0.0,
 ) -> dict[str, Any]:
     """One simulated run of a planned recording: its physics record (``compensate``: the
-    gain of the servo compliance feed-forward, :mod:`wbc.balance.compliance`; 0 = off)."""
+    gain of the servo compliance feed-forward, :mod:`wbc.balance.compliance`; ``gyro``: the
+    scale of the torso gyro feedback, :mod:`wbc.balance.feedback`; 0 = off)."""
     from ..sim.play import play
 
-    kw: dict[str, Any] = {"compensate": compensate}
+    kw: dict[str, Any] = {"compensate": compensate, "gyro": gyro}
     if variation is not None:
-        kw = dict(model_params=variation.model_params, servo_params=variation.servo_params,
-                  latency_ticks=variation.latency_ticks)  # fmt: skip
+        kw.update(model_params=variation.model_params, servo_params=variation.servo_params,
+                  latency_ticks=variation.latency_ticks, imu_noise=variation.imu_noise)  # fmt: skip
     result = play(rec, robot, settle=settle, push=push, limit_tol=math.inf, **kw)
     return physics_record(rec, result, robot)
 
@@ -313,11 +315,12 @@ def robustness(
     progress: Callable[[int], None] | None = None,
     settle: float = 1.0,
     compensate: float = 0.0,
+    gyro: float = 0.0,
 ) -> dict[str, Any]:
     """The share of ``n`` randomised models (seeded) on which the run stays up."""
     up, falls = [], []
     for k, v in enumerate(models(robot, n, seed)):
-        r = simulate(rec, robot, v, settle=settle, compensate=compensate)
+        r = simulate(rec, robot, v, settle=settle, compensate=compensate, gyro=gyro)
         up.append(not r["fell"])
         if r["fell"]:  # why: when, in which support phase, the most loaded joint
             falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
@@ -351,6 +354,7 @@ def largest_push(
     steps: int = PUSH_STEPS,
     settle: float = 1.0,
     compensate: float = 0.0,
+    gyro: float = 0.0,
 ) -> float | None:
     """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
     (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
@@ -364,7 +368,8 @@ def largest_push(
     def survives(impulse: float) -> bool:
         force = u * impulse / PUSH_DURATION
         push = (t_push, force, PUSH_DURATION)
-        return not simulate(rec, robot, push=push, settle=settle, compensate=compensate)["fell"]
+        run = simulate(rec, robot, push=push, settle=settle, compensate=compensate, gyro=gyro)
+        return not run["fell"]
 
     if not survives(0.0):
         return None
@@ -402,6 +407,14 @@ def add_physics_arguments(parser) -> None:
         help="--physics: servo compliance feed-forward on the goals (gain, default 1; "
         "wbc.balance.compliance)",
     )
+    parser.add_argument(
+        "--gyro",
+        type=float,
+        default=0.0,
+        metavar="SCALE",
+        help="--physics: closed loop, torso gyro feedback on the leg goals (OP3 gains x SCALE; "
+        "wbc.balance.feedback)",
+    )
 
 
 def run_physics_command(args, console, robot: Robot, entries) -> int:
@@ -417,6 +430,8 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
         raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise WbcError(f"--compensate GAIN must be a finite number >= 0, got {args.compensate}")
+    if not (math.isfinite(args.gyro) and args.gyro >= 0):
+        raise WbcError(f"--gyro SCALE must be a finite number >= 0, got {args.gyro}")
     if args.mode != "tick":
         raise WbcError("--physics plays real-time plans: use --mode tick (the default)")
     names = [t for t in args.trajectories if t != traj.STATIC_COM]
@@ -452,6 +467,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
     records: list[dict[str, Any]] = []
     series = {}
     comp = getattr(args, "compensate", 0.0)
+    gyro = getattr(args, "gyro", 0.0)
+    loop = {"compensate": comp, "gyro": gyro}
     for name, ref in refs.items():
         for entry in entries:
             console.print(f"[dim]physics: {entry.name} on {name}[/]")
@@ -464,7 +481,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
             try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses it
                 # unless --limit-tol allows it)
-                result = play(rec, robot, settle=1.0, limit_tol=math.inf, compensate=comp)
+                result = play(rec, robot, settle=1.0, limit_tol=math.inf, **loop)
             except WbcError as exc:
                 console.print(f"[red]{entry.name} on {name}: {exc}[/]")
                 records.append({"solver": entry.name, "family": entry.family,
@@ -474,7 +491,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
             r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
             wall = time.perf_counter() - started
-            r.update(solver=entry.name, family=entry.family, trajectory=name, compensate=comp,
+            r.update(solver=entry.name, family=entry.family, trajectory=name, **loop,
                      sim_steps=int(result.sim.steps), wall_s=wall,
                      steps_per_s=result.sim.steps / wall,
                      realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
@@ -485,18 +502,19 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 )
             if args.robustness:
                 started = time.perf_counter()
-                rob = robustness(rec, robot, args.robustness, args.seed, compensate=comp)
+                rob = robustness(rec, robot, args.robustness, args.seed, **loop)
                 r["robustness"] = rob
                 r["up_fraction"] = rob["up_fraction"]
                 r["sweep_wall_s"] = time.perf_counter() - started
             if args.push:
-                r["push_lateral_ns"] = largest_push(rec, robot, "lateral", compensate=comp)
-                r["push_forward_ns"] = largest_push(rec, robot, "forward", compensate=comp)
+                r["push_lateral_ns"] = largest_push(rec, robot, "lateral", **loop)
+                r["push_forward_ns"] = largest_push(rec, robot, "forward", **loop)
             records.append(r)
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
         title = f"physics: {name} (deploy path, simulated AX-12A)"
-        table = Table(title=title + (f", compliance feed-forward ×{comp:g}" if comp else ""))
+        title += f", compliance feed-forward ×{comp:g}" if comp else ""
+        table = Table(title=title + (f", gyro feedback ×{gyro:g}" if gyro else ""))
         cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "τ/τs", "CoP mm", "lift mm"]
         if args.robustness:
             cols.append(f"up/{args.robustness}")

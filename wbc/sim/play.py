@@ -140,6 +140,8 @@ def play(
     limit_tol: float = 1e-3,
     compensate: float = 0.0,
     ki: float = 0.0,
+    gyro: float = 0.0,
+    imu_noise: float = 0.0,
 ) -> PlayResult:
     """Play ``recording`` on a simulated ``robot`` (see the module docstring).
 
@@ -150,7 +152,9 @@ def play(
     --limit-tol`` (``inf``: every target is clamped to the limits by the deployment instead).
     ``compensate`` > 0: goals carry that gain × the servo compliance feed-forward
     (:func:`wbc.balance.compliance.compensated`, nominal servo settings), with an integral
-    gain ``ki`` on the present positions.
+    gain ``ki`` on the present positions. ``gyro`` > 0: closed loop, the torso gyro's feedback
+    on the leg goals (:class:`wbc.balance.feedback.GyroFeedback`, OP3 gains × ``gyro``; gyro
+    noise ``imu_noise`` rad/s).
     """
     sim = Simulation(robot, model_params, servo_params)
     sim.reset(recording.q[0])
@@ -174,6 +178,12 @@ def play(
         from ..balance.compliance import compensated
 
         source = compensated(source, recording, robot, compensate, ki, lambda: deployment[0])
+    if gyro > 0:
+        from ..balance.feedback import FeedbackSource, GyroFeedback
+        from .bus import SimImu
+
+        imu = SimImu(sim, gyro_noise=imu_noise)
+        source = FeedbackSource(source, GyroFeedback(robot, imu, gyro))
     start = sim.time
     if push is not None and compensate > 0:  # the soft start to the compensated goals takes
         inner = source  # time: the push is timed from the playback's first target instead
