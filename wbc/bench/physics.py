@@ -62,6 +62,7 @@ PHYSICS_KEYS: dict[str, tuple[str, str]] = {
     "foot_slip_max_mm": ("max foot slip while in support", "mm"),
     "tracking_err_max_deg": ("max joint tracking error", "deg"),
     "tracking_joint": ("joint of the max tracking error", ""),
+    "tracking_err_rms_deg": ("RMS joint tracking error over the playback", "deg"),
     "torque_peak_ratio": ("peak servo torque / stall", ""),
     "torque_joint": ("joint of the peak torque", ""),
     "cop_margin_min_mm": ("min real CoP margin in single support", "mm"),
@@ -216,6 +217,9 @@ def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
     j = int(np.argmax(err.max(axis=0)))
     record["tracking_err_max_deg"] = float(np.degrees(err.max()))
     record["tracking_joint"] = names[j]
+    played = (t >= 0) & (t <= rec_t[-1]) & (np.arange(n) < upto)
+    sq = (q_real[played, 7:] - q_plan[played, 7:]) ** 2
+    record["tracking_err_rms_deg"] = float(np.degrees(np.sqrt(sq.mean()))) if sq.size else None
     peak = log["peak_torque"][:upto].max(axis=0) if upto else np.zeros(len(names))
     j = int(np.argmax(peak))
     record["torque_peak_ratio"] = float(peak[j] / stall)
@@ -515,7 +519,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         title = f"physics: {name} (deploy path, simulated AX-12A)"
         title += f", compliance feed-forward ×{comp:g}" if comp else ""
         table = Table(title=title + (f", gyro feedback ×{gyro:g}" if gyro else ""))
-        cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "τ/τs", "CoP mm", "lift mm"]
+        cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "rms°", "τ/τs", "CoP mm"]
+        cols.append("lift mm")
         if args.robustness:
             cols.append(f"up/{args.robustness}")
         if args.push:
@@ -530,6 +535,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}",
                 f"{r['foot_slip_max_mm']:.1f}",
                 f"{r['tracking_err_max_deg']:.1f}",
+                "-" if r["tracking_err_rms_deg"] is None else f"{r['tracking_err_rms_deg']:.2f}",
                 f"{r['torque_peak_ratio']:.2f}",
                 "-" if r["cop_margin_min_mm"] is None else f"{r['cop_margin_min_mm']:.1f}",
                 "-" if r["swing_lift_max_mm"] is None else f"{r['swing_lift_max_mm']:.1f}",
