@@ -212,3 +212,25 @@ def test_deploy_compensate(robot, comp, tmp_path, capsys):
     assert np.abs(goal - plain).max() >= 3  # and not the plain plan
     assert wbc_main(["deploy", str(path), "--dry-run", "--compensate", "-1"]) == 2
     assert "--compensate GAIN must be" in capsys.readouterr().err
+
+
+def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypatch):
+    """``simulate`` (robustness sweeps, pushes) hands compensate / gyro to every run."""
+    from wbc.bench import physics
+    from wbc.sim import play as play_module
+
+    seen = []
+
+    def fake_play(rec, robot, **kw):
+        seen.append(kw)
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(play_module, "play", fake_play)
+    q = robot.configuration("walk_ready")
+    rec = Recording(np.array([0.0, 0.1]), np.tile(q, (2, 1)), robot.joint_names, {}, {})
+    variation = physics.models(robot, 1, 0)[0]
+    for v in (None, variation):
+        with pytest.raises(RuntimeError):
+            physics.simulate(rec, robot, v, compensate=0.7, gyro=0.2)
+    assert [(k["compensate"], k["gyro"]) for k in seen] == [(0.7, 0.2), (0.7, 0.2)]
+    assert seen[1]["imu_noise"] == variation.imu_noise
