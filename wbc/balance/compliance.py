@@ -39,6 +39,7 @@ from ..exceptions import WbcError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
 from ..servo_map import RAD_PER_TICK
+from ..servos.sources import TargetSource
 from ..sim.actuator import ServoParams
 
 SOLES = {
@@ -151,7 +152,7 @@ class CompensatedSource:
 
     def __init__(
         self,
-        source,
+        source: TargetSource,
         compensator: ComplianceCompensator,
         support: Callable[[float], int],
         present: Callable[[], np.ndarray | None] | None = None,
@@ -194,7 +195,7 @@ class CompensatedSource:
 
 
 def compensated(
-    source,
+    source: TargetSource,
     recording: Recording,
     robot: Robot,
     gain: float = 1.0,

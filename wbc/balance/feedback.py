@@ -21,6 +21,7 @@ import pinocchio as pin
 from ..exceptions import WbcError
 from ..imu import Imu
 from ..model import Robot
+from ..servos.sources import TargetSource
 
 #: OP3 walking module gyro gains (rad per rad/s), by joint name suffix
 OP3_GAINS = {"hip_roll": 0.35, "knee": 0.3, "ankle_roll": 0.7, "ankle_pitch": 0.9}
@@ -82,7 +83,7 @@ class FeedbackSource:
     """A target source whose targets carry :class:`GyroFeedback` offsets (clamped into the
     joint limits)."""
 
-    def __init__(self, source, feedback: GyroFeedback) -> None:
+    def __init__(self, source: TargetSource, feedback: GyroFeedback) -> None:
         self.source = source
         self.feedback = feedback
         self.joint_names = tuple(source.joint_names)
