@@ -136,11 +136,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
+    from ..sim.cli import add_deploy_arguments  # --sim, --view, --realtime (no mujoco needed)
+
+    add_deploy_arguments(parser)
 
 
 def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoBus:
     """The backend named by ``--backend`` (not opened)."""
     sm = robot.servo_map
+    if getattr(args, "sim", False):
+        from ..sim.cli import make_sim_bus
+
+        return make_sim_bus(args, robot)
     if args.backend == "ssc32":
         from .ssc32 import Ssc32Bus, Ssc32Map
 
@@ -256,11 +263,11 @@ def run(args: argparse.Namespace) -> int:
             what, duration = Path(args.recording).name, source.duration
         if args.dry_run:
             bus = _dry_bus(bus, robot)
-        elif not args.port:
+        elif not args.port and bus.name != "sim":
             raise ServoError("give --port (or --dry-run)")
         print(
             f"deploy {what}: {duration:.2f} s at {args.rate:g} Hz on "
-            f"{bus.name}{'' if args.dry_run else ' ' + args.port}"
+            f"{bus.name}{' ' + args.port if args.port and not args.dry_run else ''}"
         )
         result = deploy(bus, source, robot, config)
     except WbcError as exc:

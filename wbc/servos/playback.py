@@ -163,8 +163,11 @@ class Ticker:
     up in a burst. :meth:`wait` returns the slot.
     """
 
-    def __init__(self, period: float) -> None:
+    def __init__(self, period: float, clock=None) -> None:
         self.period = period
+        # a bus may bring its own clock (the simulator's: ``sleep`` runs the physics)
+        self.now = clock.now if clock is not None else time.perf_counter
+        self.sleep = clock.sleep if clock is not None else time.sleep
         self.t0: float | None = None
         self.k = 0
         self.starts: list[float] = []
@@ -175,7 +178,7 @@ class Ticker:
         self.last_sent: float | None = None  # perf_counter time of the last goal sent
 
     def wait(self) -> int:
-        now = time.perf_counter()
+        now = self.now()
         if self.t0 is None:
             self.t0 = now
         p = self.period
@@ -190,8 +193,8 @@ class Ticker:
             self.k = k
         deadline = self.t0 + self.k * p
         if deadline > now:
-            time.sleep(deadline - now)
-            now = time.perf_counter()
+            self.sleep(deadline - now)
+            now = self.now()
         late = now - deadline
         slot = self.k
         self.starts.append(now)
@@ -200,7 +203,7 @@ class Ticker:
         return slot
 
     def done(self) -> None:
-        self.work.append(time.perf_counter() - self.starts[-1])
+        self.work.append(self.now() - self.starts[-1])
 
     def stats(self, rate: float) -> TimingStats:
         return TimingStats(
@@ -253,7 +256,11 @@ class Deployment:
             self.config.fault_bound_s,
             bus.health_per_servo,
         )
-        self.ticker = Ticker(self.period)
+        # the bus's clock if it has one (the simulator's), else the wall clock: goal times,
+        # rate limit and ticks all run on it
+        self.clock = getattr(bus, "clock", None)
+        self.now = self.clock.now if self.clock is not None else time.perf_counter
+        self.ticker = Ticker(self.period, self.clock)
         self.warnings: list[str] = []
         self.crouch_cmd = self._crouch_cmd()
         if self.crouch_cmd is None and self.config.on_fault in ("auto", "crouch"):
@@ -421,12 +428,12 @@ class Deployment:
         if target is None or lim.prev is None:
             self.warn(f"no crouch pose {self.config.crouch_pose!r} in the servo map")
             return False
-        ticker = Ticker(self.period)
+        ticker = Ticker(self.period, self.clock)
         duration = float(np.max(np.abs(target - lim.prev) / self.soft_cmd_speed, initial=0.0))
-        t_end = time.perf_counter() + duration + 1.0
+        t_end = self.now() + duration + 1.0
         while not np.array_equal(lim.prev, target):
             ticker.wait()
-            now = time.perf_counter()
+            now = self.now()
             if self._interrupted or now > t_end:
                 return False
             cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
@@ -461,7 +468,7 @@ class Deployment:
             for note in getattr(bus, "notes", []):  # e.g. the adapter's measured round trip
                 self.out(f"note: {note}")
             bus.configure()
-            start = lim.reset(self._start_positions(first_cmd), time.perf_counter())
+            start = lim.reset(self._start_positions(first_cmd), self.now())
             if bus.write_goals(start) != COMM_OK:  # hold where they are when torque comes on
                 raise ServoError(f"{bus.name}: writing the start goals failed")
             bus.set_speed(self.soft_speed)
@@ -503,12 +510,12 @@ class Deployment:
             self._torque_phase = True
             bus.set_torque(True)
             self._torque_phase = False
-            soft_ticker = Ticker(self.period)
+            soft_ticker = Ticker(self.period, self.clock)
             t_soft = None
             while trip is None and not np.array_equal(lim.prev, first_cmd):
                 soft_ticker.wait()
                 self._check_interrupt()
-                now = time.perf_counter()
+                now = self.now()
                 t_soft = now if t_soft is None else t_soft
                 target = soft_start_target(start, first_cmd, self.soft_cmd_speed, now - t_soft)
                 cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
@@ -528,7 +535,7 @@ class Deployment:
                     self.ticker.lateness.pop()
                     completed = True
                     break
-                now = time.perf_counter()
+                now = self.now()
                 try:
                     cmd = lim(q, now)
                 except ServoError as exc:
