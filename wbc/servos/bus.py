@@ -13,9 +13,11 @@ never lets a command out of it and :meth:`ServoBus.write_goals` checks it again 
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -142,6 +144,29 @@ class BusBudget:
     def max_rate(self, turnaround_s: float = 0.0) -> float:
         """Highest tick rate (Hz) the bus allows."""
         return 1.0 / self.tick_time(turnaround_s)
+
+
+class Clock(Protocol):
+    """Where a deployment reads time and waits: the wall clock for real servos, simulated time
+    for a lockstep simulator (whose ``sleep`` runs the physics)."""
+
+    def now(self) -> float: ...
+
+    def sleep(self, seconds: float) -> None: ...
+
+
+class WallClock:
+    """The wall clock: ``time.perf_counter`` and ``time.sleep``."""
+
+    def now(self) -> float:
+        return time.perf_counter()
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+WALL_CLOCK = WallClock()
 
 
 class ServoBus(ABC):

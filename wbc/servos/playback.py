@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import signal
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -35,7 +34,7 @@ import numpy as np
 
 from ..exceptions import ServoError
 from ..model import Robot
-from .bus import COMM_OK, ServoBus
+from .bus import COMM_OK, WALL_CLOCK, Clock, ServoBus
 from .safety import (
     GoalLimiter,
     HealthSchedule,
@@ -163,11 +162,10 @@ class Ticker:
     up in a burst. :meth:`wait` returns the slot.
     """
 
-    def __init__(self, period: float, clock=None) -> None:
+    def __init__(self, period: float, clock: Clock | None = None) -> None:
         self.period = period
         # a bus may bring its own clock (the simulator's: ``sleep`` runs the physics)
-        self.now = clock.now if clock is not None else time.perf_counter
-        self.sleep = clock.sleep if clock is not None else time.sleep
+        self.clock = clock or WALL_CLOCK
         self.t0: float | None = None
         self.k = 0
         self.starts: list[float] = []
@@ -178,7 +176,7 @@ class Ticker:
         self.last_sent: float | None = None  # perf_counter time of the last goal sent
 
     def wait(self) -> int:
-        now = self.now()
+        now = self.clock.now()
         if self.t0 is None:
             self.t0 = now
         p = self.period
@@ -193,8 +191,8 @@ class Ticker:
             self.k = k
         deadline = self.t0 + self.k * p
         if deadline > now:
-            self.sleep(deadline - now)
-            now = self.now()
+            self.clock.sleep(deadline - now)
+            now = self.clock.now()
         late = now - deadline
         slot = self.k
         self.starts.append(now)
@@ -203,7 +201,7 @@ class Ticker:
         return slot
 
     def done(self) -> None:
-        self.work.append(self.now() - self.starts[-1])
+        self.work.append(self.clock.now() - self.starts[-1])
 
     def stats(self, rate: float) -> TimingStats:
         return TimingStats(
@@ -238,6 +236,8 @@ class Deployment:
         if self.config.read and not bus.can_read:
             raise ServoError(f"the {bus.name} backend cannot read servo positions (--read)")
         self.period = 1.0 / self.config.rate
+        # a bus may bring its own clock (a lockstep simulator's); real buses run on the wall clock
+        self.clock: Clock = getattr(bus, "clock", None) or WALL_CLOCK
         v = np.minimum(robot.v_max, bus.servo_speed)
         if self.config.max_speed is not None:
             v = np.minimum(v, self.config.max_speed)
@@ -256,10 +256,6 @@ class Deployment:
             self.config.fault_bound_s,
             bus.health_per_servo,
         )
-        # the bus's clock if it has one (the simulator's), else the wall clock: goal times,
-        # rate limit and ticks all run on it
-        self.clock = getattr(bus, "clock", None)
-        self.now = self.clock.now if self.clock is not None else time.perf_counter
         self.ticker = Ticker(self.period, self.clock)
         self.warnings: list[str] = []
         self.crouch_cmd = self._crouch_cmd()
@@ -330,7 +326,7 @@ class Deployment:
             failed = [s.index for s in statuses if s.comm != COMM_OK]
             if not failed:
                 break
-            time.sleep(0.005 * 2**k)
+            self.clock.sleep(0.005 * 2**k)
             again = {s.index: s for s in bus.read_positions(failed)}
             statuses = [again.get(s.index, s) for s in statuses]
         bad = [f"{bus.labels[s.index]}: {s.comm} {list(s.faults)}" for s in statuses if not s.ok]
@@ -430,10 +426,10 @@ class Deployment:
             return False
         ticker = Ticker(self.period, self.clock)
         duration = float(np.max(np.abs(target - lim.prev) / self.soft_cmd_speed, initial=0.0))
-        t_end = self.now() + duration + 1.0
+        t_end = self.clock.now() + duration + 1.0
         while not np.array_equal(lim.prev, target):
             ticker.wait()
-            now = self.now()
+            now = self.clock.now()
             if self._interrupted or now > t_end:
                 return False
             cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
@@ -468,7 +464,7 @@ class Deployment:
             for note in getattr(bus, "notes", []):  # e.g. the adapter's measured round trip
                 self.out(f"note: {note}")
             bus.configure()
-            start = lim.reset(self._start_positions(first_cmd), self.now())
+            start = lim.reset(self._start_positions(first_cmd), self.clock.now())
             if bus.write_goals(start) != COMM_OK:  # hold where they are when torque comes on
                 raise ServoError(f"{bus.name}: writing the start goals failed")
             bus.set_speed(self.soft_speed)
@@ -515,7 +511,7 @@ class Deployment:
             while trip is None and not np.array_equal(lim.prev, first_cmd):
                 soft_ticker.wait()
                 self._check_interrupt()
-                now = self.now()
+                now = self.clock.now()
                 t_soft = now if t_soft is None else t_soft
                 target = soft_start_target(start, first_cmd, self.soft_cmd_speed, now - t_soft)
                 cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
@@ -535,7 +531,7 @@ class Deployment:
                     self.ticker.lateness.pop()
                     completed = True
                     break
-                now = self.now()
+                now = self.clock.now()
                 try:
                     cmd = lim(q, now)
                 except ServoError as exc:
