@@ -314,8 +314,13 @@ class Kinematics:
 
     @property
     def com(self) -> np.ndarray:
-        """Centre of mass (world), a view into the Pinocchio data."""
-        return self.data.com[0]
+        """Centre of mass (world), a copy: safe to keep after this object is gone.
+
+        Pinocchio's ``data.com[0]`` is a view into memory owned by ``data``, which does not keep
+        ``data`` alive (``Kinematics(robot, q).com`` read freed memory); hot paths that want the
+        view use ``kin.data.com[0]`` while ``kin`` lives.
+        """
+        return self.data.com[0].copy()
 
     @property
     def com_jacobian(self) -> np.ndarray:
