@@ -7,9 +7,11 @@ Each sub-command lives in its own module exposing ``add_arguments(parser)`` and
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from typing import NoReturn
 
 # command -> (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -18,7 +20,12 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "walk": ("wbc.walking.cli", "run a task stack along a walking reference and record it"),
     "deploy": ("wbc.servos.deploy", "play a trajectory on AX-12A servos (or a dry run)"),
     "view": ("wbc.viewer.cli", "show the robot or a recording in meshcat"),
+    "robot": ("wbc.robot_folder", "scaffold (init) or check a robot folder from a URDF"),
 }
+
+#: commands that run the compiled (numba) kernels: they announce a cold-cache compile
+COMPILING = frozenset({"bench", "walk", "deploy", "sim"})
+COMPILE_MESSAGE = "wbc: compiling the QP kernels (first use, about a minute; cached afterwards)..."
 
 
 # optional dependency -> the extra that installs it
@@ -34,8 +41,18 @@ OPTIONAL = {
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (no usage dump): what was wrong and where to look."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
+    from . import __version__
+
+    parser = _Parser(prog="wbc", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"wbc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
@@ -62,7 +79,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from .exceptions import WbcError
 
     try:
-        return int(importlib.import_module(args._module).run(args) or 0)
+        with _announce_compile(args.command in COMPILING):
+            return int(importlib.import_module(args._module).run(args) or 0)
     except WbcError as exc:
         print(f"wbc {args.command}: {exc}", file=sys.stderr)
         return 2
@@ -76,6 +94,40 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+
+
+@contextlib.contextmanager
+def _announce_compile(enabled: bool) -> Iterator[None]:
+    """Print :data:`COMPILE_MESSAGE` to stderr once, when numba starts compiling a wbc kernel.
+
+    numba fires its ``numba:compile`` event only on a cache miss (a cached kernel is loaded
+    without it), so the line appears exactly when the on-disk cache is cold or stale and costs
+    nothing otherwise.
+    """
+    if not enabled:
+        yield
+        return
+    try:
+        from numba.core import event
+    except ImportError:  # numba missing or changed: the numpy path runs, nothing to announce
+        yield
+        return
+
+    class _Announce(event.Listener):
+        said = False
+
+        def on_start(self, ev: event.Event) -> None:
+            dispatcher = (ev.data or {}).get("dispatcher")
+            module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+            if not self.said and module.startswith("wbc."):
+                self.said = True
+                print(COMPILE_MESSAGE, file=sys.stderr, flush=True)
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    with event.install_listener("numba:compile", _Announce()):
+        yield
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 import pinocchio as pin
 
-from .model import load_robot
+from .model import load_robot, print_notes
 
 
 def _fmt(v: np.ndarray) -> str:
@@ -21,6 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
+    print_notes(robot, "demo")
     q = robot.configuration(args.pose)
     print(f"robot {robot.name}: {robot.n_joints} actuated joints, mass {robot.total_mass:.4f} kg")
     com = robot.com(q)

@@ -58,10 +58,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="one QP/iteration per control tick (real time), or iterate every pose to convergence",
     )
     parser.add_argument(
-        "--tol", type=float, default=1e-6, help="converged mode: task error tolerance (m / rad)"
+        "--tol",
+        type=positive_float,
+        default=1e-6,
+        help="converged mode: step tolerance, a number > 0 (max |Δq|, m / rad)",
     )
     parser.add_argument(
-        "--max-iterations", type=int, default=100, help="converged mode: iteration cap per pose"
+        "--max-iterations",
+        type=positive_int,
+        default=100,
+        help="converged mode: iteration cap per pose, an integer >= 1",
     )
     parser.add_argument("--json", type=Path, metavar="FILE", help="write one record per run")
     parser.add_argument(
@@ -69,6 +75,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--plots", type=Path, metavar="DIR", help="write figures")
     parser.add_argument("--list", action="store_true", help="list solvers and trajectories")
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
 
 
 def _list(console: Console) -> int:
