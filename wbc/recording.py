@@ -121,7 +121,7 @@ class Recording:
         except ValueError as exc:  # an object (pickled) array inside the archive
             raise TrajectoryError(
                 f"recording {path} holds pickled (object) arrays; a recording holds only "
-                f"numeric and string arrays and is never loaded with pickle ({exc.__class__.__name__})"
+                "numeric and string arrays and is never loaded with pickle"
             ) from exc
         except Exception as exc:  # truncated or corrupted archive
             raise TrajectoryError(f"recording {path} is corrupted ({exc})") from exc

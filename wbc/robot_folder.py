@@ -126,8 +126,8 @@ def servo_template(robot: Robot, urdf_name: str) -> str:
     rows = "\n".join(
         f"# {j:<{width}} = {{ id = ?, sign = 1, zero_tick = 512 }}" for j in robot.joint_names
     )
-    return f"""# Servo map of {urdf_name}: a TEMPLATE. Every line is a comment, so wbc treats the robot
-# as having no servo map (wbc deploy refuses to run) until you fill it in.
+    return f"""# Servo map of {urdf_name}: a TEMPLATE. Every line is a comment, so wbc treats the
+# robot as having no servo map (wbc deploy refuses to run) until you fill it in.
 #
 # For every joint: its Dynamixel ID, the sign between the URDF joint angle and the servo's tick
 # direction, and the tick at which the URDF angle is zero (AX-12A: 0..1023 ticks over 300 deg):
@@ -165,13 +165,17 @@ def poses_template(robot: Robot) -> str:
 def readme_template(name: str, source: str) -> str:
     return f"""# Robot folder `{name}` (made by `wbc robot init {source}`)
 
-| File | Required | What it holds |
-|---|---|---|
-| `{name}.urdf` | yes | links, 1-DOF joints (`revolute`/`prismatic`) with `<limit lower upper velocity effort>`, masses and inertias |
-| `servos.toml` | no | servo map: per joint `id`, `sign`, `zero_tick`; `[poses.<name>]` in ticks by ID; `[settings]` (see `robots/bioloid/servos.toml`). Without it: no `wbc deploy`. |
-| `poses.toml` | no | `[poses.<name>]` joint = radians; `walk_ready` is where every tool starts. Without it: the zero pose. |
-| `stack.toml` | no | the default task stack of `wbc walk` (format of `tasks/*.toml`). Without it: `tasks/walk.toml`. |
-| `robot.toml` | no | `[frames]` `torso`, `l_sole`, `r_sole` = your URDF's names for them, if they differ |
+- `{name}.urdf` (required): links, 1-DOF joints (`revolute`/`prismatic`) with
+  `<limit lower upper velocity effort>`, masses and inertias.
+- `servos.toml` (optional): the servo map; per joint `id`, `sign`, `zero_tick`;
+  `[poses.<name>]` in ticks by ID; `[settings]` (see `robots/bioloid/servos.toml`).
+  Without it: no `wbc deploy`. A file of comments only (the template) counts as absent.
+- `poses.toml` (optional): `[poses.<name>]` joint = radians (joints not listed are 0);
+  `walk_ready` is where every tool starts. Without it: the zero pose.
+- `stack.toml` (optional): the default task stack of `wbc walk` (format of `tasks/*.toml`).
+  Without it: `tasks/walk.toml`.
+- `robot.toml` (optional): `[frames]` `torso`, `l_sole`, `r_sole` = your URDF's names for
+  them, if they differ.
 
 The stacks and the walking code need three frames: `torso` (the body whose orientation is
 held), `l_sole` and `r_sole` (on the sole surfaces, z up, x forward at the standing pose). Add
