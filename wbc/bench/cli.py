@@ -325,7 +325,9 @@ def solver_output(verbose: bool) -> Iterator[TextIO]:
     except OSError:  # no file descriptor 1 (an embedded interpreter): nothing to silence
         yield sys.stdout
         return
-    out = os.fdopen(os.dup(saved), "w", encoding="utf-8", errors="replace")
+    # Python-level stdout replaced (a test, a notebook): keep writing there
+    replaced = sys.stdout is not sys.__stdout__
+    out = sys.stdout if replaced else os.fdopen(os.dup(saved), "w", encoding="utf-8")
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.close(devnull)
@@ -337,7 +339,8 @@ def solver_output(verbose: bool) -> Iterator[TextIO]:
         os.dup2(saved, 1)
         os.close(saved)
         out.flush()
-        out.close()
+        if not replaced:
+            out.close()
 
 
 def _flush_c_stdout() -> None:
@@ -371,6 +374,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         if t not in traj.TRAJECTORIES:
             traj.build(t, robot)
     records: list[dict[str, Any]] = []
+    recordings = []  # kept for the figures only
     started = time.perf_counter()
     with Progress(
         TextColumn("{task.description}"),
@@ -395,9 +399,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
                 if args.record:
                     save_recording(rec, args.record, entry.name, name)
                 if args.plots:
-                    from .plots import run_figure
-
-                    run_figure(rec, args.plots / f"{entry.name}__{name}.png")
+                    recordings.append(rec)
                 bar.advance(job)
         if traj.STATIC_COM in args.trajectories:
             families = {e.family for e in entries}
@@ -412,10 +414,14 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         f"({platform.machine()}, Python {platform.python_version()})"
     )
     if args.plots and records:
-        from .plots import timing_figure
+        from .plots import quantity_figures, timing_figure
 
-        path = timing_figure(records, args.plots / "time_per_tick.png")
-        console.print(f"figures in {args.plots} (time comparison: {path.name})")
+        paths = quantity_figures(recordings, args.plots)
+        paths.append(timing_figure(records, args.plots / "time_per_tick.png"))
+        console.print(
+            f"{len(paths)} figures (PNG and SVG) in {args.plots}: <trajectory>__<quantity>, "
+            "every solver per figure; time_per_tick"
+        )
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         payload = {
