@@ -297,7 +297,7 @@ def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) ->
         cells = [[fn(r) for _, fn in columns] for r in rows]
         keep = [k for k in range(len(columns)) if any(c[k] not in ("-", "- / -") for c in cells)]
         title = f"{name} ({row_mode} mode)" if name != traj.STATIC_COM else f"{name} (ch. 3)"
-        table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1))
+        table = Table(title=title, box=box.SIMPLE_HEAD, show_edge=False, padding=(0, 1, 0, 0))
         for k in keep:
             table.add_column(
                 columns[k][0],
