@@ -182,3 +182,15 @@ def test_bad_names_are_rejected(capsys):
         solvers.select(None, ["magic"], "tick")
     assert main(["bench", "--solvers", "hqp-daqp", "--trajectories", "moonwalk"]) == 2
     assert "unknown trajectory 'moonwalk'" in capsys.readouterr().err
+
+
+def test_identical_motions_are_drawn_once_with_all_names():
+    from wbc.bench.plots import _identical_runs
+
+    t = np.arange(3) * 0.01
+    q = np.zeros((3, 8))
+    recs = [
+        Recording(t, q + d, ("j",), meta={"solver": name})
+        for name, d in (("a", 0.0), ("b", 0.0), ("c", 1e-6), ("d", 1e-12))
+    ]
+    assert _identical_runs(recs) == {"a": "a (= b, d)", "c": "c"}

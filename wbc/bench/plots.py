@@ -103,22 +103,27 @@ def quantity_figures(recordings: Sequence[Recording], folder: Path) -> list[Path
     for trajectory, recs in by_traj.items():
         colour = colours([_label(r) for r in recs])
         mode = recs[0].meta.get("mode", "?")
+        same = _identical_runs(recs)
         for quantity, (title, unit, get, log) in QUANTITIES.items():
-            usable = [r for r in recs if _has(r, quantity)]
+            # identical motions (one stack on several QP backends) are drawn once, labelled
+            # with all their names; times differ, so every run has its own time curve
+            shown = recs if quantity == "time" else [r for r in recs if _label(r) in same]
+            usable = [r for r in shown if _has(r, quantity)]
             if not usable:
                 continue
             axes_names = get(usable[0])[2]
+            height = max(2.6 * len(axes_names) + 0.8, 0.16 * len(usable) + 1.0)
             fig, axes = plt.subplots(
-                len(axes_names), 1, figsize=(11, 2.6 * len(axes_names) + 0.8), sharex=True,
-                squeeze=False,
-            )  # fmt: skip
+                len(axes_names), 1, figsize=(14, height), sharex=True, squeeze=False
+            )
             has_ref = False
             for rec in usable:
                 achieved, ref, _ = get(rec)
                 c = colour[_label(rec)]
                 for k, ax in enumerate(axes[:, 0]):
                     y = achieved[:, k] + (1e-9 if log else 0.0)
-                    ax.plot(rec.t, y, "-", color=c, lw=1.0, label=_label(rec))
+                    label = _label(rec) if quantity == "time" else same[_label(rec)]
+                    ax.plot(rec.t, y, "-", color=c, lw=1.0, label=label)
                     if ref is not None:
                         has_ref = True
                         ax.plot(rec.t, ref[:, k], "--", color=c, lw=1.0, alpha=0.8, zorder=1)
@@ -137,9 +142,28 @@ def quantity_figures(recordings: Sequence[Recording], folder: Path) -> list[Path
                 labels += ["achieved", "reference"]
             fig.legend(handles, labels, loc="center right", fontsize=7, frameon=False)
             fig.suptitle(f"{trajectory} ({mode} mode): {title}")
-            fig.tight_layout(rect=(0, 0, 0.82, 1))
+            fig.tight_layout(rect=(0, 0, 0.72, 1))
             paths.append(_save(fig, Path(folder) / f"{trajectory}__{quantity}.png"))
     return paths
+
+
+def _identical_runs(recs: Sequence[Recording]) -> dict[str, str]:
+    """First run of each group of identical motions -> its label, e.g. ``"wqp-daqp (= wqp-osqp,
+    wqp-proxqp)"``: runs whose configurations agree to 1e-9 (rad, m) at every tick."""
+    groups: list[list[Recording]] = []
+    for rec in recs:
+        for group in groups:
+            head = group[0]
+            if head.q.shape == rec.q.shape and np.allclose(head.q, rec.q, rtol=0, atol=1e-9):
+                group.append(rec)
+                break
+        else:
+            groups.append([rec])
+    out = {}
+    for group in groups:
+        names = [_label(r) for r in group]
+        out[names[0]] = names[0] + (f" (= {', '.join(names[1:])})" if len(names) > 1 else "")
+    return out
 
 
 def _has(rec: Recording, quantity: str) -> bool:
