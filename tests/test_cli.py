@@ -172,3 +172,35 @@ def test_demo_on_a_bare_copy_of_the_urdf(capsys, tmp_path):
     assert len(notes) == 2, err
     assert any("servos.toml missing" in n for n in notes)
     assert any("zero pose" in n for n in notes)
+
+
+def test_walk_uses_the_robot_folders_own_stack(monkeypatch, capsys, tmp_path):
+    import wbc.stacks
+    from wbc.exceptions import TaskError
+
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    for name, target in (("bioloid.urdf", "mine.urdf"), ("servos.toml", "servos.toml")):
+        shutil.copyfile(robots_dir() / "bioloid" / name, folder / target)
+    (folder / "stack.toml").write_text("")
+    seen = []
+
+    def load_stack(name, robot, **kw):
+        seen.append(name)
+        raise TaskError("stop here")
+
+    monkeypatch.setattr(wbc.stacks, "load_stack", load_stack)
+    assert main(["walk", "--robot", str(folder), "--trajectory", "thesis_step"]) == 2
+    assert seen == [folder / "stack.toml"]
+    assert main(["walk", "--robot", str(folder), "--stack", "cj_com"]) == 2
+    assert seen[-1] == "cj_com"
+
+
+def test_demo_on_a_urdf_without_soles_shows_what_exists(capsys, tmp_path):
+    urdf = tmp_path / "nosoles.urdf"
+    text = (robots_dir() / "bioloid" / "bioloid.urdf").read_text()
+    urdf.write_text(text.replace('"l_sole"', '"l_plate"').replace('"r_sole"', '"r_plate"'))
+    assert main(["demo", "--robot", str(urdf)]) == 0
+    out, err = capsys.readouterr()
+    assert "torso" in out and "l_sole" not in out
+    assert "frames ['l_sole', 'r_sole'] not in nosoles.urdf" in err
