@@ -15,7 +15,7 @@ def _fmt(v: np.ndarray) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument("--pose", default="walk_ready", help="named configuration")
 
 

@@ -35,7 +35,7 @@ from .solvers import FAMILIES, registry, select
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument(
         "--solvers",
         nargs="+",

@@ -31,7 +31,7 @@ DEFAULT_FRAMES = ("l_sole", "r_sole", "torso")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording (.npz) to replay")
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument(
         "--pose", default="walk_ready", help="named configuration shown without a recording"
     )

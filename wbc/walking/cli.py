@@ -19,7 +19,7 @@ from ..model import load_robot, print_notes
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument(
         "--stack",
         help="task stack name (tasks/*.toml) or path (default: the robot folder's stack.toml, "
