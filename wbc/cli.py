@@ -25,7 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 #: commands that run the compiled (numba) kernels: they announce a cold-cache compile
 COMPILING = frozenset({"bench", "walk", "deploy", "sim"})
-COMPILE_MESSAGE = "wbc: compiling the QP kernels (first use, about a minute; cached afterwards)..."
+COMPILE_MESSAGE = "wbc: compiling the QP kernels (first use: a minute or two; cached afterwards)..."
 
 
 # optional dependency -> the extra that installs it
