@@ -9,6 +9,8 @@ import os
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from wbc.bench import metrics, solvers
 from wbc.cli import main
@@ -194,3 +196,12 @@ def test_identical_motions_are_drawn_once_with_all_names():
         for name, d in (("a", 0.0), ("b", 0.0), ("c", 1e-6), ("d", 1e-12))
     ]
     assert _identical_runs(recs) == {"a": "a (= b, d)", "c": "c"}
+
+
+@given(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False).filter(lambda x: abs(x) > 1e-12))
+def test_short_cells_keep_two_significant_digits(x):
+    from wbc.bench.cli import _short
+
+    text = _short(x)
+    assert len(text) <= 8
+    assert float(text) == pytest.approx(x, rel=0.05 if abs(x) < 100 else 0.006, abs=0.5)
