@@ -116,7 +116,7 @@ class Recording:
                 "wbc walk --out / wbc bench --record); it is never loaded as a pickle"
             )
         try:
-            with np.load(path, allow_pickle=False) as data:
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
         except ValueError as exc:  # an object (pickled) array inside the archive
             raise TrajectoryError(
