@@ -150,3 +150,21 @@ def test_bad_poses_file_names_file_and_key(bare_urdf, text, match):
     with pytest.raises(ModelError, match=match) as exc:
         load_robot(bare_urdf)
     assert "poses.toml" in str(exc.value)
+
+
+def test_check_reports_a_massless_body_and_the_total(bare_urdf, robot):
+    text = bare_urdf.read_text()
+    text = re.sub(
+        r'(<link name="l_forearm">.*?<mass value=)"[^"]*"(/>\s*<inertia )[^/]*/>',
+        r'\1"0"\2ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>',
+        text,
+        count=1,
+        flags=re.S,
+    )
+    bare_urdf.write_text(text)
+    light = load_robot(bare_urdf)
+    findings = check_folder(bare_urdf)
+    (warning,) = _levels(findings, "warning")
+    assert "body of joint l_elbow: massless" in warning
+    assert any(f"total mass {light.total_mass:.4f} kg" in m for m in _levels(findings, "ok"))
+    assert light.total_mass == pytest.approx(robot.total_mass - 0.0767, abs=1e-9)

@@ -12,7 +12,8 @@ with the swing role; ``swing_is_left`` (N,) says which), ``l_sole`` / ``r_sole``
 support polygon's edge (positive inside), ``limit_margin`` (N, n_joints) distance (rad) to the
 nearest joint limit (negative = violated), ``swing_lowest`` (N,) height of the swing sole's
 lowest corner (m), ``torso_yaw_ref`` (N,), ``solve_time`` (N,) seconds, ``iterations`` and
-``failed`` (N,), ``err/<task>`` (N, k) task errors. ``meta`` is a JSON dict (solver,
+``failed`` (N,), ``err/<task>`` (N, k) task errors (m for position rows, rad for
+orientation and joint rows: :meth:`wbc.solvers.TaskStack.errors`). ``meta`` is a JSON dict (solver,
 trajectory, robot, ...).
 """
 
