@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..walking.gait import forward_walk, lateral_walk, turning_walk
 from ..walking.reference import StandingState, WalkingReference
@@ -33,7 +33,7 @@ def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReferen
     walking reference); the message then lists only the walking references.
     """
     if name == STATIC_COM:
-        raise WbcError(
+        raise ConfigurationError(
             f"trajectory {STATIC_COM!r} is the static CoM placement set (wbc bench "
             f"--trajectories {STATIC_COM}), not a walking reference; walk one of "
             f"{list(TRAJECTORIES)}"
@@ -42,7 +42,7 @@ def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReferen
         builder, _ = TRAJECTORIES[name]
     except KeyError:
         allowed = list(TRAJECTORIES) if walking_only else names()
-        raise WbcError(f"unknown trajectory {name!r}; choose from {allowed}") from None
+        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {allowed}") from None
     ref = builder(StandingState.from_robot(robot))
     ref.name = name
     return ref
