@@ -126,41 +126,6 @@ def test_plain_import_exposes_the_submodules_the_readme_uses():
     assert out.stdout.split() == ["cj_com", "HierarchicalQP", "ComTask"]
 
 
-# ---------------------------------------------------------------------------- first use
-def _probe(module: str):
-    """A fresh numba function that claims to live in ``module`` (never cached on disk)."""
-    numba = pytest.importorskip("numba")
-
-    def probe(x):
-        return x + 1.0
-
-    probe.__module__ = module
-    return numba.njit(probe)
-
-
-def test_compile_message_once_when_a_wbc_kernel_compiles(capsys):
-    from wbc.cli import COMPILE_MESSAGE, _announce_compile
-
-    first, second, foreign = _probe("wbc.compiled.probe"), _probe("wbc.compiled.probe2"), None
-    with _announce_compile(True):
-        assert first(1.0) == 2.0
-        assert second(1.0) == 2.0
-    assert capsys.readouterr().err.count(COMPILE_MESSAGE) == 1
-    foreign = _probe("someone_else")
-    with _announce_compile(True):
-        foreign(1.0)
-        first(2.0)  # already compiled: no event
-    assert COMPILE_MESSAGE not in capsys.readouterr().err
-
-
-def test_no_compile_message_when_disabled(capsys):
-    from wbc.cli import COMPILE_MESSAGE, _announce_compile
-
-    with _announce_compile(False):
-        _probe("wbc.compiled.probe3")(1.0)
-    assert COMPILE_MESSAGE not in capsys.readouterr().err
-
-
 # ---------------------------------------------------------------------------- own robot
 def test_demo_on_a_bare_copy_of_the_urdf(capsys, tmp_path):
     urdf = tmp_path / "my.urdf"

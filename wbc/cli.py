@@ -7,10 +7,9 @@ Each sub-command lives in its own module exposing ``add_arguments(parser)`` and
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from typing import NoReturn
 
 # command -> (module, one-line help)
@@ -20,12 +19,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "walk": ("wbc.walking.cli", "run a task stack along a walking reference and record it"),
     "deploy": ("wbc.servos.deploy", "play a trajectory on AX-12A servos (or a dry run)"),
     "view": ("wbc.viewer.cli", "show the robot or a recording in meshcat"),
+    "sim": ("wbc.sim.cli", "play a plan on the MuJoCo-simulated robot: does it stay up?"),
     "robot": ("wbc.robot_folder", "scaffold (init) or check a robot folder from a URDF"),
 }
-
-#: commands that run the compiled (numba) kernels: they announce a cold-cache compile
-COMPILING = frozenset({"bench", "walk", "deploy", "sim"})
-COMPILE_MESSAGE = "wbc: compiling the QP kernels (first use: a minute or two; cached afterwards)..."
 
 
 # optional dependency -> the extra that installs it
@@ -79,8 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from .exceptions import WbcError
 
     try:
-        with _announce_compile(args.command in COMPILING):
-            return int(importlib.import_module(args._module).run(args) or 0)
+        return int(importlib.import_module(args._module).run(args) or 0)
     except WbcError as exc:
         print(f"wbc {args.command}: {exc}", file=sys.stderr)
         return 2
@@ -94,40 +89,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-
-
-@contextlib.contextmanager
-def _announce_compile(enabled: bool) -> Iterator[None]:
-    """Print :data:`COMPILE_MESSAGE` to stderr once, when numba starts compiling a wbc kernel.
-
-    numba fires its ``numba:compile`` event only on a cache miss (a cached kernel is loaded
-    without it), so the line appears exactly when the on-disk cache is cold or stale and costs
-    nothing otherwise.
-    """
-    if not enabled:
-        yield
-        return
-    try:
-        from numba.core import event
-    except ImportError:  # numba missing or changed: the numpy path runs, nothing to announce
-        yield
-        return
-
-    class _Announce(event.Listener):
-        said = False
-
-        def on_start(self, ev: event.Event) -> None:
-            dispatcher = (ev.data or {}).get("dispatcher")
-            module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
-            if not self.said and module.startswith("wbc."):
-                self.said = True
-                print(COMPILE_MESSAGE, file=sys.stderr, flush=True)
-
-        def on_end(self, ev: event.Event) -> None:
-            pass
-
-    with event.install_listener("numba:compile", _Announce()):
-        yield
 
 
 if __name__ == "__main__":
