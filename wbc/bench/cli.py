@@ -86,6 +86,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--verbose", action="store_true", help="let the solvers print (OSQP, IPOPT, ...)"
     )
 
+    from .physics import add_physics_arguments  # --physics, --robustness, --seed, --push
+
+    add_physics_arguments(parser)
+
 
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0."""
@@ -361,7 +365,8 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, out: TextIO) -> int:
     wide = getattr(args, "wide", False)
     # logs and pipes get the table's own width instead of rich's 80-column default
-    console = Console(file=out, width=None if out.isatty() else (190 if wide else 100))
+    full = wide or getattr(args, "physics", False)  # the physics table keeps its width
+    console = Console(file=out, width=None if out.isatty() else (190 if full else 100))
     if args.list:
         return _list(console)
     robot = load_robot(args.robot)
@@ -369,6 +374,10 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     entries, notes = select(args.solvers, args.families, args.mode)
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
+    if args.physics:
+        from .physics import run_physics_command
+
+        return run_physics_command(args, console, robot, entries)
     walking = [t for t in args.trajectories if t != traj.STATIC_COM]
     for t in walking:  # fail fast on a bad name, before any run
         if t not in traj.TRAJECTORIES:
