@@ -301,11 +301,36 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
     if name is None:
         name = kind if frame is None else f"{kind}_{frame}"
     kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
+    _check_numbers(kw, f"{where}: level {priority}: task {name!r}")
     if "axis" in entry:
         kw["axis"] = entry["axis"]
-    task = TASK_TYPES[kind](robot, actual, name, **kw)
+    try:
+        task = TASK_TYPES[kind](robot, actual, name, **kw)
+    except WbcError as exc:
+        raise TaskError(f"{where}: level {priority}: task {name!r}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
     return task, binding
+
+
+def _check_numbers(kw: Mapping[str, Any], where: str) -> None:
+    """``weight`` (a number or a list of numbers, >= 0), ``gain`` (a number, >= 0) and ``mask``
+    (a list of booleans) before they reach the task: a wrong type is named, not a traceback."""
+
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    if "weight" in kw:
+        w = kw["weight"]
+        if not (number(w) or (isinstance(w, list) and w and all(number(x) for x in w))):
+            raise TaskError(
+                f"{where}: weight = {w!r}: must be a number >= 0 or a list of numbers (one per row)"
+            )
+    if "gain" in kw and not number(kw["gain"]):
+        raise TaskError(f"{where}: gain = {kw['gain']!r}: must be a number >= 0")
+    if "mask" in kw:
+        m = kw["mask"]
+        if not (isinstance(m, list) and m and all(isinstance(x, bool) for x in m)):
+            raise TaskError(f"{where}: mask = {m!r}: must be a list of true/false, one per row")
 
 
 def _make_constraint(entry, robot: Robot, where: str, priority: int):
@@ -324,6 +349,15 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
     role = frame if frame in ROLES else None
     phases = tuple(entry.get("phases", PHASES))
     actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    try:
+        constraint = _build_constraint(kind, entry, robot, where, actual, frame)
+    except WbcError as exc:
+        raise TaskError(f"{where}: level {priority}: constraint {kind!r}: {exc}") from exc
+    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
+    return constraint, binding
+
+
+def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     constraint: Constraint
     if kind == "com_polygon":
         soles = [actual] if actual else ["l_sole", "r_sole"]
@@ -339,8 +373,7 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
             entry.get("clearance", 0.0),
             name=entry.get("name", f"ground_clearance_{frame}"),
         )
-    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
-    return constraint, binding
+    return constraint
 
 
 _SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include", "exclude"}
