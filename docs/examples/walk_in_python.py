@@ -16,5 +16,5 @@ rec = run(StackController(control), robot, ref)  # one QP per 10 ms tick
 com_err_mm = np.linalg.norm(rec["com"] - rec["com_ref"], axis=1) * 1e3
 print(f"{len(rec)} ticks, {rec.t[-1]:.2f} s")
 print(f"CoM error max {com_err_mm.max():.3f} mm")
-print(f"ZMP margin min {rec['zmp_margin'].min() * 1e3:.1f} mm (reference, > 0 inside)")
+print(f"ZMP margin min {rec['zmp_margin'].min() * 1e3:.1f} mm (achieved motion, > 0 inside)")
 rec.save("walk.npz")  # wbc view / wbc deploy --dry-run read this file
