@@ -227,8 +227,11 @@ class DeployResult:
 class _Ticker:
     """Absolute-deadline scheduler; a tick later than one period re-anchors the schedule."""
 
-    def __init__(self, period: float) -> None:
+    def __init__(self, period: float, clock=None) -> None:
         self.period = period
+        # a bus may bring its own clock (the simulator's: ``sleep`` runs the physics)
+        self.now = clock.now if clock is not None else time.perf_counter
+        self.sleep = clock.sleep if clock is not None else time.sleep
         self.t0: float | None = None
         self.k = 0
         self.starts: list[float] = []
@@ -237,13 +240,13 @@ class _Ticker:
         self.overruns = 0
 
     def wait(self) -> None:
-        now = time.perf_counter()
+        now = self.now()
         if self.t0 is None:
             self.t0 = now
         deadline = self.t0 + self.k * self.period
         if deadline > now:
-            time.sleep(deadline - now)
-            now = time.perf_counter()
+            self.sleep(deadline - now)
+            now = self.now()
         late = now - deadline
         if late > self.period:
             self.overruns += 1
@@ -253,7 +256,7 @@ class _Ticker:
         self.k += 1
 
     def done(self) -> None:
-        self.work.append(time.perf_counter() - self.starts[-1])
+        self.work.append(self.now() - self.starts[-1])
 
     def stats(self, rate: float) -> TimingStats:
         return TimingStats(
@@ -300,7 +303,7 @@ class Deployment:
         )
         bus.set_command_limits(self.limiter.lo, self.limiter.hi)
         self.watchdog = Watchdog(bus.labels, self.config.max_failures, bus_label=f"{bus.name} bus")
-        self.ticker = _Ticker(self.period)
+        self.ticker = _Ticker(self.period, getattr(bus, "clock", None))
         self.warnings: list[str] = []
         self._rate_check()
         self._poll_next = 0
@@ -470,7 +473,7 @@ class Deployment:
         try:
             bus.set_torque(True)
             soft = soft_start_targets(start, first_cmd, self.soft_step)
-            soft_ticker = _Ticker(self.period)
+            soft_ticker = _Ticker(self.period, getattr(bus, "clock", None))
             k = 0
             while trip is None:
                 target = soft[k] if k < len(soft) else first_cmd
@@ -657,11 +660,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--torque-limit", type=int, default=1023, help="AX torque limit 0..1023")
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
+    from ..sim.cli import add_deploy_arguments  # --sim, --view, --realtime (no mujoco needed)
+
+    add_deploy_arguments(parser)
 
 
 def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoBus:
     """The backend named by ``--backend`` (not opened)."""
     sm = robot.servo_map
+    if getattr(args, "sim", False):
+        from ..sim.cli import make_sim_bus
+
+        return make_sim_bus(args, robot)
     if args.backend == "ssc32":
         from .ssc32 import Ssc32Bus, Ssc32Map
 
@@ -773,11 +783,11 @@ def run(args: argparse.Namespace) -> int:
             what, duration = Path(args.recording).name, source.duration
         if args.dry_run:
             bus = _dry_bus(bus, robot)
-        elif not args.port:
+        elif not args.port and bus.name != "sim":
             raise ServoError("give --port (or --dry-run)")
         print(
             f"deploy {what}: {duration:.2f} s at {args.rate:g} Hz on "
-            f"{bus.name}{'' if args.dry_run else ' ' + args.port}"
+            f"{bus.name}{' ' + args.port if args.port and not args.dry_run else ''}"
         )
         result = deploy(bus, source, robot, config)
     except WbcError as exc:
