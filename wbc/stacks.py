@@ -137,7 +137,8 @@ class ControlStack:
         if phase not in PHASES:
             raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
         roles = {"support": support, "swing": swing}
-        for item in [*self.stack.tasks(), *self.stack.constraints()]:
+        items: list[Task | Constraint] = [*self.stack.tasks(), *self.stack.constraints()]
+        for item in items:
             binding = self.bindings.get(item.name)
             if binding is None:
                 continue
@@ -150,7 +151,7 @@ class ControlStack:
                 if isinstance(item, ComPolygonConstraint):
                     item.set_support([frame])
                 else:
-                    item.set_frame(frame)
+                    item.set_frame(frame)  # type: ignore[union-attr]  # role-bound: has a frame
             item.active = phase in binding.phases
             if (
                 isinstance(item, ContactTask)
@@ -296,7 +297,7 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
     phases = tuple(entry.get("phases", PHASES))
     if not set(phases) <= set(PHASES):
         raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
     name = entry.get("name")
     if name is None:
         name = kind if frame is None else f"{kind}_{frame}"
@@ -348,7 +349,7 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
     frame = entry.get("frame")
     role = frame if frame in ROLES else None
     phases = tuple(entry.get("phases", PHASES))
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
     try:
         constraint = _build_constraint(kind, entry, robot, where, actual, frame)
     except WbcError as exc:
