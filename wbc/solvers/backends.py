@@ -17,6 +17,12 @@ import numpy as np
 from ..exceptions import InfeasibleError, SolverError
 
 INF = 1e30  # what DAQP and OSQP read as infinity
+#: ProxQP's iteration caps, per variable and constraint row (outer) and per outer iteration
+#: (inner): the defaults (10,000 x 1,500) let one degenerate level of a hierarchy run for
+#: minutes; these bound a solve to ~10,000 inner iterations (~0.5 s for the stacks here),
+#: while the stacks' solves need a few hundred (a capped solve is retried once cold)
+PROXQP_ITER_PER_ROW = 10
+PROXQP_INNER_ITER = 20
 
 
 class QPWorkspace:
@@ -217,6 +223,11 @@ class ProxqpBackend(QPBackend):
             qp.settings.eps_rel = 0.0
             qp.settings.eps_primal_inf = 1e-12  # the default 1e-4 fires on feasible problems
             qp.settings.verbose = False
+            # bounded time per solve: iteration caps scaled to the problem (the defaults,
+            # 10,000 outer x 1,500 inner iterations, let one degenerate level run for minutes);
+            # a solve that hits them fails with PROXQP_MAX_ITER_REACHED (a SolverError)
+            qp.settings.max_iter = PROXQP_ITER_PER_ROW * (shape[0] + shape[1] + shape[2])
+            qp.settings.max_iter_in = PROXQP_INNER_ITER
             qp.init(*args)
             self._qp, self._shape = qp, shape
             qp.solve()

@@ -9,15 +9,35 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import ConfigurationError, WbcError
+from ..exceptions import ConfigurationError, SolverError, TaskError, WbcError
 from ..limits import Bounds, intersect_bounds
 from ..model import Kinematics
+from .assembly import stack_constraints
 from .backends import QPBackend, make_backend
+from .cascade import LevelProblem, solve_cascade
 from .stack import TaskStack
 
 #: violation up to which a compiled solution counts as meeting the inequality rows (the
 #: backends' own primal tolerance is of the same order)
 CONSTRAINT_TOL = 1e-9
+#: hard-task error to which :meth:`StackSolver.solve_pose` projects its final pose
+HARD_PROJECTION_TOL = 1e-10
+#: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
+#: quadratically: two or three steps from a tick's second-order residual)
+HARD_PROJECTION_STEPS = 20
+#: at most this many halvings of a projection step that would not reduce its level's error
+HARD_PROJECTION_HALVINGS = 12
+
+
+def _level_errors(problems: list) -> list[float]:
+    """Each hard level's largest equality error and inequality violation (at δ = 0)."""
+    return [
+        max(
+            float(abs(p.b).max()) if p.b.size else 0.0,
+            float(-p.h.min()) if p.h.size else 0.0,
+        )
+        for p in problems
+    ]
 
 
 @dataclass
@@ -101,9 +121,28 @@ class StackSolver(ABC):
             raise ConfigurationError(f"dt must be a positive number, got {dt}")
         self._stepped = None  # the compiled path sets it to q ⊕ Δq
         self.kin.update(q)
-        dq = self._solve(self.kin, dt)
+        try:
+            dq = self._solve(self.kin, dt)
+        except WbcError:
+            self._check_task_errors()  # a non-finite target is the cause: say so
+            raise
+        if not math.isfinite(dq.dot(dq)):  # nothing non-finite leaves a solver
+            self._stepped = None
+            self._check_task_errors()
+            raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
         self.solve_time = time.perf_counter() - start
         return dq
+
+    def _check_task_errors(self) -> None:
+        """Raise TaskError naming an active task whose error at the last solve is not finite
+        (a target array written in place with NaN or inf bypasses ``set_target``'s check)."""
+        for t in self.stack.tasks():
+            e = t.last_error
+            if t.active and e.size == t.rows and not np.isfinite(e).all():
+                raise TaskError(
+                    f"task {t.name!r}: non-finite error {e} at the last solve (a target holds "
+                    "NaN or inf: set targets with set_target, which checks them)"
+                )
 
     def prepare(self, q: np.ndarray, dt: float | None = None) -> None:
         """Pay the one-off costs of a first solve now (building the layout, loading the
@@ -160,6 +199,13 @@ class StackSolver(ABC):
         """Iterate Δq until every task error is below ``tol``, or the steps stall (max |Δq| <
         ``stall_tol``: a weighted compromise or an unreachable target has its fixed point).
 
+        The hard levels hold at every iterate, not only to first order: a step is one QP on
+        the linearised tasks, so a large step (an unreachable or upside-down target pulls hard
+        on the soft levels) leaves the hard tasks a second-order residual; whenever that
+        residual exceeds ``tol`` the iterate is projected back onto the hard levels
+        (:meth:`project_hard`, Gauss–Newton on the hard rows alone, in priority order), and the
+        final pose is projected to :data:`HARD_PROJECTION_TOL`.
+
         This is the per-pose iterative mode used to compare with the thesis's solutions.
         """
         start = time.perf_counter()
@@ -175,6 +221,8 @@ class StackSolver(ABC):
             q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
                 break
+            q = self.project_hard(q, tol)
+        q = self.project_hard(q, HARD_PROJECTION_TOL)
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
         if not converged:
@@ -184,6 +232,81 @@ class StackSolver(ABC):
                 if t.active and t.blocks_convergence
             )
         return PoseResult(q, it, converged, errors, time.perf_counter() - start)
+
+    def _hard_problems(self, kin: Kinematics) -> list[LevelProblem]:
+        """The hard levels' rows at ``kin``, unweighted and at gain 1 (the whole error)."""
+        nv = self.robot.nv
+        problems = []
+        for lv in self.stack.levels:
+            if not lv.hard:
+                continue
+            tasks = lv.active_tasks()
+            rows = [t.compute(kin) for t in tasks]
+            J = np.vstack([r[0] for r in rows]) if rows else np.zeros((0, nv))
+            e = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
+            G, h, _ = stack_constraints(lv.active_constraints(), kin, nv)
+            problems.append(LevelProblem(lv.priority, J, e, G, h, hard=True))
+        return problems
+
+    def project_hard(
+        self, q: np.ndarray, tol: float = 1e-9, max_steps: int = HARD_PROJECTION_STEPS
+    ) -> np.ndarray:
+        """q moved onto the hard levels, one level after the other: for level k, Gauss–Newton
+        steps δ = argmin ‖δ‖ subject to the hard levels 0..k in priority order (J_j δ = e_j in
+        least squares over the null space of the levels above, their inequalities) and the
+        joint limits, each step halved until it reduces level k's error without raising a
+        level above it beyond ``tol``. A level that cannot be met (relaxed) keeps the best it
+        reaches and ends the projection; it never costs a level above it."""
+        kin = self.kin
+        kin.update(q)
+        problems = self._hard_problems(kin)
+        for k in range(len(problems)):
+            for _ in range(max_steps):
+                errors = _level_errors(problems)
+                if errors[k] <= tol:
+                    break
+                delta = self._hard_step(q, problems[: k + 1])
+                t, accepted = 1.0, False
+                for _ in range(HARD_PROJECTION_HALVINGS):
+                    q_t = self._move_joints(q, t * delta)
+                    kin.update(q_t)
+                    trial = self._hard_problems(kin)
+                    e_t = _level_errors(trial)
+                    if e_t[k] < errors[k] and all(e_t[j] <= max(errors[j], tol) for j in range(k)):
+                        q, problems, accepted = q_t, trial, True
+                        break
+                    t *= 0.5
+                if not accepted or t * abs(delta).max() < 1e-13:
+                    break
+            if _level_errors(problems)[k] > tol:
+                break  # an unmet (relaxed) level: the levels below have no exact target left
+        kin.update(q)
+        return q
+
+    def _hard_step(self, q: np.ndarray, problems: list[LevelProblem]) -> np.ndarray:
+        """One Gauss–Newton step onto the given hard levels (minimum-norm, joint limits)."""
+        nv = self.robot.nv
+        lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        self.stack.position_limit.joint_bounds_into(q[7:], lower[6:], upper[6:])
+        np.minimum(lower[6:], 0.0, out=lower[6:])  # a joint outside its range may stay
+        np.maximum(upper[6:], 0.0, out=upper[6:])
+        none = np.zeros((0, nv))
+        levels = [*problems, LevelProblem(1 << 30, none, np.zeros(0), none, np.zeros(0))]
+        # DAQP whatever the solver's backend: an exact active set (a first-order backend's
+        # 1e-6 accuracy would stop the projection short of its 1e-10)
+        backends = [make_backend("daqp") for _ in levels]
+        try:
+            delta, _ = solve_cascade(levels, lower, upper, backends, relax=True)
+        except WbcError:
+            return np.zeros(nv)  # no step: the projection stops where it is
+        return delta if np.isfinite(delta).all() else np.zeros(nv)
+
+    def _move_joints(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """q ⊕ δ with the joints kept in [min(q_min, q_j), max(q_max, q_j)]."""
+        q_next = self.robot.integrate(q, delta)
+        j, j_prev = q_next[7:], q[7:]
+        np.clip(j, np.minimum(self._q_min, j_prev), np.maximum(self._q_max, j_prev), out=j)
+        return q_next
 
     def _converged(self, tol: float) -> bool:
         return all(

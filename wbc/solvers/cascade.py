@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import lapack
 
-from ..exceptions import InfeasibleError
+from ..exceptions import InfeasibleError, SolverError
 from .backends import QPBackend
 
 #: ridge along the null space of an intermediate level, relative to its mean curvature: it
@@ -209,7 +209,9 @@ def solve_cascade(
                 slack = p > 0 and not lvl.hard
                 try:
                     u, s = _solve_qp(*args, slack=slack)
-                except InfeasibleError:
+                except (InfeasibleError, SolverError):
+                    # an infeasible hard level may also show as a backend failure (OSQP:
+                    # "maximum iterations reached"): relaxing it with slacks is always feasible
                     if not (lvl.hard and p and relax):
                         raise
                     slack = was_relaxed = True
