@@ -15,6 +15,7 @@ A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the sol
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -29,6 +30,13 @@ from .cascade import LevelProblem, LevelSolution, solve_cascade
 from .diagnostics import infeasible_message
 
 METHODS = ("cascade", "daqp")
+
+
+def _unweighted(residual: np.ndarray, sqrt_w: np.ndarray) -> np.ndarray:
+    """A level's residual √w (J Δq − α e) back in task units (zero-weight rows: zero)."""
+    out = np.zeros_like(residual)
+    np.divide(residual, sqrt_w, out=out, where=sqrt_w > 0)
+    return out
 
 
 class _Layout(NamedTuple):
@@ -197,9 +205,15 @@ class HierarchicalQP(StackSolver):
 
     # ------------------------------------------------------------------ hard levels
     def _check_hard_levels(self, relax: bool) -> None:
+        # residuals in the tasks' own units (J Δq − α e, as the weighted QP reports them): the
+        # levels' rows are scaled by √w, which would put a weight-1000 task's residual 31x up
+        solutions = [
+            replace(s, residual=_unweighted(s.residual, block.sqrt_w[:, 0]))
+            for s, block in zip(self.solutions, self._blocks, strict=True)
+        ]
         messages = [
             infeasible_message(p, s, self.hard_tol)
-            for p, s in zip(self.problems, self.solutions, strict=True)
+            for p, s in zip(self.problems, solutions, strict=True)
             if p.hard
             and (
                 (s.residual.size and abs(s.residual).max() > self.hard_tol)
