@@ -162,6 +162,26 @@ def test_cascade_meets_the_contact_with_a_com_target_ahead(robot, compiled):
     assert contact_error(robot, result.q, contact) <= 1e-6
 
 
+# ---------------------------------------------------------------- 7. the log's branch at π
+def test_torso_target_exactly_pi_away_takes_one_branch_on_every_path(robot):
+    """A target π away (about a random axis) gave opposite errors on the two paths."""
+    rng = np.random.default_rng(3)
+    for _ in range(70):  # the 70th draw is one that split the paths
+        noise, axis = rng.uniform(-0.2, 0.2, robot.n_joints), rng.normal(size=3)
+    q = robot.configuration("walk_ready")
+    q[7:] = np.clip(q[7:] + noise, robot.q_min, robot.q_max)
+    axis /= np.linalg.norm(axis)
+    dqs, errors = [], []
+    for compiled in PATHS:
+        solver, _, _, _, torso = readme_stack(robot, q, compiled=compiled)
+        torso.set_target(pin.exp3(np.pi * axis) @ torso.target)
+        dqs.append(solver.solve(q, 0.01))
+        errors.append(torso.last_error.copy())
+    np.testing.assert_allclose(errors[0], errors[1], atol=1e-9)
+    assert errors[0][np.argmax(abs(errors[0]))] > 0  # the rule: largest component positive
+    np.testing.assert_allclose(dqs[0], dqs[1], atol=1e-8)
+
+
 # ---------------------------------------------------------------- 10. bad inputs
 def test_string_target_is_a_one_line_task_error(robot):
     with pytest.raises(TaskError, match=r"'com'.*3 numbers"):

@@ -133,12 +133,13 @@ class DaqpBackend(QPBackend):
             H, c, C, bu, bl, sense, primal_tol=self.eps, sing_tol=1e-11
         )
         for eps_prox in (1e-6, 1e-4):
-            if exitflag != -1:
+            if exitflag in (1, 2):
                 break
             # DAQP 0.11 can report a feasible but degenerate problem (many rows active at the
-            # same point, as on the lower levels of a hierarchy) infeasible; its proximal mode
-            # (with a primal tolerance it can meet) solves those, and still reports a truly
-            # infeasible problem as infeasible
+            # same point, as on the lower levels of a hierarchy) infeasible (-1), cycling (-2)
+            # or with other failure flags (4 was seen); its proximal mode (with a primal
+            # tolerance it can meet) solves those, and still reports a truly infeasible
+            # problem as infeasible
             x, _, exitflag, info = self._daqp.solve(
                 H,
                 c,

@@ -5,10 +5,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import pinocchio as pin
 
 from ..model import Kinematics, Robot
-from .frame_task import FrameTask
+from .frame_task import FrameTask, jlog3, log3
 from .task import check_rotation
 
 
@@ -44,8 +43,8 @@ class FrameOrientationTask(FrameTask):
         self.target[:] = kin.rotation(self.frame_id)
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return pin.log3(self.target @ kin.rotation(self.frame_id).T)
+        return log3(self.target @ kin.rotation(self.frame_id).T)
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         R = kin.rotation(self.frame_id)
-        return pin.Jlog3(self.target @ R.T) @ kin.frame_jacobian(self.frame_id)[3:]
+        return jlog3(self.target @ R.T) @ kin.frame_jacobian(self.frame_id)[3:]

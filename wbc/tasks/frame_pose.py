@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..model import Kinematics, Robot
-from .frame_task import FrameTask
+from .frame_task import FrameTask, jlog3, log3
 from .task import TaskError, check_rotation, check_vector
 
 
@@ -60,13 +60,13 @@ class FramePoseTask(FrameTask):
     def compute_error(self, kin: Kinematics) -> np.ndarray:
         e = np.empty(6)
         np.subtract(self.target_position, kin.translation(self.frame_id), out=e[:3])
-        e[3:] = pin.log3(self.target_rotation @ kin.rotation(self.frame_id).T)
+        e[3:] = log3(self.target_rotation @ kin.rotation(self.frame_id).T)
         return e
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         J = kin.frame_jacobian(self.frame_id).copy()
         A = self.target_rotation @ kin.rotation(self.frame_id).T
-        J[3:] = pin.Jlog3(A) @ J[3:]
+        J[3:] = jlog3(A) @ J[3:]
         return J
 
     def fill(self, kin: Kinematics, J_out: np.ndarray, e_out: np.ndarray) -> None:
@@ -74,9 +74,9 @@ class FramePoseTask(FrameTask):
             return super().fill(kin, J_out, e_out)
         A = self.target_rotation @ kin.rotation(self.frame_id).T
         np.subtract(self.target_position, kin.translation(self.frame_id), out=e_out[:3])
-        e_out[3:] = pin.log3(A)
+        e_out[3:] = log3(A)
         J = kin.frame_jacobian(self.frame_id)
         J_out[:3] = J[:3]
-        np.dot(pin.Jlog3(A), J[3:], out=J_out[3:])
+        np.dot(jlog3(A), J[3:], out=J_out[3:])
         self.last_error = e_out
         return None
