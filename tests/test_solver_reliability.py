@@ -14,6 +14,7 @@ import pytest
 
 from wbc import ConfigurationError, InfeasibleError, Kinematics, TaskError, WbcError, load_robot
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
+from wbc.stacks import load_stack
 from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
 
 SOLVERS = {"hierarchical": HierarchicalQP, "weighted": WeightedQP}
@@ -180,6 +181,41 @@ def test_torso_target_exactly_pi_away_takes_one_branch_on_every_path(robot):
     np.testing.assert_allclose(errors[0], errors[1], atol=1e-9)
     assert errors[0][np.argmax(abs(errors[0]))] > 0  # the rule: largest component positive
     np.testing.assert_allclose(dqs[0], dqs[1], atol=1e-8)
+
+
+# ---------------------------------------------------------------- 9. starts outside the limits
+def start_outside_in_double_support(robot):
+    """Walk Ready with 3-6 leg joints 0.05 rad outside their limits (both soles down)."""
+    legs = [
+        i for i, n in enumerate(robot.joint_names) if ("hip" in n or "knee" in n or "ankle" in n)
+    ]
+    rng = np.random.default_rng(5)
+    q = robot.configuration("walk_ready")
+    for i in rng.choice(legs, rng.integers(3, 7), replace=False):
+        q[7 + i] = robot.q_max[i] + 0.05 if rng.random() < 0.5 else robot.q_min[i] - 0.05
+    return robot.place_on_ground(q, "l_sole")
+
+
+@pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.parametrize("compiled", PATHS)
+def test_start_outside_the_limits_in_double_support_recovers(robot, kind, compiled):
+    """Recovery at full servo speed and both hard contacts were incompatible at tick 0: the
+    recovery now yields to the contacts (as fast as they allow) instead of raising."""
+    q = start_outside_in_double_support(robot)
+    assert not robot.within_limits(q)
+    control = load_stack("walk", robot, q, solver=kind, compiled=compiled)
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+    assert len(contacts) == 2
+    j0 = q[7:].copy()
+    for _ in range(40):
+        q_next = control.solver.step(q, 0.01)
+        j = q_next[7:]  # never further out than before
+        assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+        assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        q = q_next
+    assert robot.within_limits(q), q[7:] - j0
 
 
 # ---------------------------------------------------------------- 10. bad inputs

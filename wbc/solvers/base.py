@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import ConfigurationError, SolverError, TaskError, WbcError
+from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
 from ..limits import Bounds, intersect_bounds
 from ..model import Kinematics
 from .assembly import stack_constraints
@@ -100,6 +100,12 @@ class StackSolver(ABC):
         self.solve_time = 0.0
         #: True if the last solve had to relax an infeasible hard level
         self.relaxed = False
+        #: set while a tick is re-solved with the recovery of joints outside their range
+        #: yielding to the hard levels (:meth:`_solve_yielding_recovery`)
+        self._yield_recovery = False
+        #: (Δq indices, recovery steps) of that re-solve (None otherwise): an objective
+        #: right below the hard levels
+        self.recovery: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def name(self) -> str:
@@ -123,8 +129,11 @@ class StackSolver(ABC):
         self.kin.update(q)
         try:
             dq = self._solve(self.kin, dt)
-        except WbcError:
+        except InfeasibleError as exc:
             self._check_task_errors()  # a non-finite target is the cause: say so
+            dq = self._solve_yielding_recovery(dt, exc)
+        except WbcError:
+            self._check_task_errors()
             raise
         if not math.isfinite(dq.dot(dq)):  # nothing non-finite leaves a solver
             self._stepped = None
@@ -132,6 +141,21 @@ class StackSolver(ABC):
             raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
         self.solve_time = time.perf_counter() - start
         return dq
+
+    def _solve_yielding_recovery(self, dt: float | None, exc: InfeasibleError) -> np.ndarray:
+        """Re-solve an infeasible tick whose joint bounds force joints back into their range
+        (a start outside the limits) with that recovery yielding to the hard levels: those
+        joints may then move back by less (never further out), and the recovery step becomes
+        an objective right below the hard levels (:attr:`recovery`). Re-raises when no joint
+        is outside its range (the hard levels are infeasible on their own)."""
+        joints = self.kin.q[7:]
+        if not ((joints < self._q_min).any() or (joints > self._q_max).any()):
+            raise exc
+        self._yield_recovery = True
+        try:
+            return self._solve(self.kin, dt)
+        finally:
+            self._yield_recovery = False
 
     def _check_task_errors(self) -> None:
         """Raise TaskError naming an active task whose error at the last solve is not finite
@@ -203,7 +227,8 @@ class StackSolver(ABC):
         the linearised tasks, so a large step (an unreachable or upside-down target pulls hard
         on the soft levels) leaves the hard tasks a second-order residual; whenever that
         residual exceeds ``tol`` the iterate is projected back onto the hard levels
-        (:meth:`project_hard`, Gauss–Newton on the hard rows alone, in priority order), and the
+        (:meth:`project_hard`, Gauss–Newton on the hard rows alone, in priority order), the
+        step halved while the projection cannot undo it within the joint limits, and the
         final pose is projected to :data:`HARD_PROJECTION_TOL`.
 
         This is the per-pose iterative mode used to compare with the thesis's solutions.
@@ -218,10 +243,13 @@ class StackSolver(ABC):
                 converged = True
                 it -= 1
                 break
-            q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
+                q = self.integrate(q, dq)
                 break
-            q = self.project_hard(q, tol)
+            q_next = self._hard_step_back(q, dq, tol)
+            if q_next is None:
+                break  # no fraction of the step keeps the hard levels: a fixed point
+            q = q_next
         q = self.project_hard(q, HARD_PROJECTION_TOL)
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
@@ -232,6 +260,22 @@ class StackSolver(ABC):
                 if t.active and t.blocks_convergence
             )
         return PoseResult(q, it, converged, errors, time.perf_counter() - start)
+
+    def _hard_step_back(self, q: np.ndarray, dq: np.ndarray, tol: float) -> np.ndarray | None:
+        """q ⊕ t·Δq projected onto the hard levels (:meth:`project_hard`), for the largest
+        t in 1, ½, ¼, ... after which no hard level is worse than before (or than ``tol``):
+        near the joint limits a long step's second-order residual may be beyond what the
+        projection can undo within the limits, a shorter step's is not. None if none is."""
+        self.kin.update(q)
+        before = _level_errors(self._hard_problems(self.kin))
+        t = 1.0
+        for _ in range(HARD_PROJECTION_HALVINGS):
+            q_next = self.project_hard(self.integrate(q, t * dq), tol)
+            after = _level_errors(self._hard_problems(self.kin))  # kin is at q_next
+            if all(a <= max(b, tol) for a, b in zip(after, before, strict=True)):
+                return q_next
+            t *= 0.5
+        return None
 
     def _hard_problems(self, kin: Kinematics) -> list[LevelProblem]:
         """The hard levels' rows at ``kin``, unweighted and at gain 1 (the whole error)."""
@@ -396,6 +440,12 @@ class StackSolver(ABC):
         self.stack.position_limit.joint_bounds_into(kin.q[7:], lo, hi)
         if dt is not None and self.stack.velocity_limit is not None:
             self.stack.velocity_limit.clip_joint_bounds(dt, lo, hi)
+        self.recovery = None
+        if self._yield_recovery:  # joints outside: move back as far as the hard levels allow
+            out = np.flatnonzero((lo > 0.0) | (hi < 0.0))
+            self.recovery = (6 + out, np.where(lo[out] > 0.0, lo[out], hi[out]))
+            np.minimum(lo, 0.0, out=lo)
+            np.maximum(hi, 0.0, out=hi)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from ..exceptions import InfeasibleError, SolverError
-from .backends import QPBackend
+from .backends import DaqpBackend, QPBackend
 
 #: ridge along the null space of an intermediate level, relative to its mean curvature: it
 #: keeps the QP strictly convex; the level's optimum only feels it through active constraints
@@ -271,5 +271,14 @@ def _solve_qp(
     else:
         lo = np.full(r + ns, -np.inf)
         hi = np.full(r + ns, np.inf)
-    y = backend.solve(H, c, np.zeros((0, r + ns)), np.zeros(0), G_all, h_all, lo, hi)
+    args = (H, c, np.zeros((0, r + ns)), np.zeros(0), G_all, h_all, lo, hi)
+    try:
+        y = backend.solve(*args)
+    except SolverError:
+        if backend.name == "daqp":
+            raise
+        # a first-order backend (OSQP, ProxQP) can stall on the degenerate QPs of the lower
+        # levels (many rows active at one point) and fail for a reason other than
+        # infeasibility: the level goes to DAQP, as a tick the compiled kernels cannot finish
+        y = DaqpBackend(backend.eps).solve(*args)
     return y[:r], (y[r:] if ns else np.zeros(p))

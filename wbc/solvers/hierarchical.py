@@ -165,7 +165,7 @@ class HierarchicalQP(StackSolver):
         if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
             self._plan()
         fast = self.fast
-        if fast is not None:
+        if fast is not None and not self._yield_recovery:
             if fast.solve(kin, dt) == 0 and (
                 not self._all_constraints
                 or self._constraints_hold(kin, self._all_constraints, fast.dq)
@@ -186,11 +186,12 @@ class HierarchicalQP(StackSolver):
         if self.method == "daqp":
             dq = self._solve_daqp(self.problems, lower, upper)
         else:
-            while len(self._backends) < len(self.problems) + 1:
+            problems, at = self._with_recovery(self.problems)
+            while len(self._backends) < len(problems) + 1:
                 self._backends.append(make_backend(self.backend.name, self.backend.eps))
             try:
                 dq, self._solutions = solve_cascade(
-                    self.problems,
+                    problems,
                     lower,
                     upper,
                     self._backends,
@@ -199,9 +200,27 @@ class HierarchicalQP(StackSolver):
                 )
             except InfeasibleError as exc:
                 raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+            if at is not None:
+                del self._solutions[at]
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return dq
+
+    def _with_recovery(self, problems: list[LevelProblem]) -> tuple[list, int | None]:
+        """The levels with the recovery of joints outside their range (when it yields to the
+        hard levels, :meth:`StackSolver._solve_yielding_recovery`) right below the leading
+        hard levels; and where it was inserted (None: not)."""
+        if self.recovery is None:
+            return problems, None
+        idx, step = self.recovery
+        nv = self.robot.nv
+        J = np.zeros((idx.size, nv))
+        J[np.arange(idx.size), idx] = 1.0
+        at = 0
+        while at < len(problems) and problems[at].hard:
+            at += 1
+        recovery = LevelProblem(-1, J, step, np.zeros((0, nv)), np.zeros(0))
+        return [*problems[:at], recovery, *problems[at:]], at
 
     # ------------------------------------------------------------------ hard levels
     def _check_hard_levels(self, relax: bool) -> None:
@@ -230,7 +249,16 @@ class HierarchicalQP(StackSolver):
         """A hard level's inequalities clash with the bounds: re-solve with slacks to name them."""
         backends = [make_backend(self.backend.name, self.backend.eps) for _ in self.problems]
         backends.append(make_backend(self.backend.name, self.backend.eps))
-        _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
+        try:
+            _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
+        except InfeasibleError as exc:  # a lower level's QP failed even so: name the levels
+            names = [
+                name
+                for p in self.problems
+                if p.hard
+                for name, _ in [*p.task_rows, *p.constraint_rows]
+            ]
+            return f"the hard levels ({', '.join(names)}) and the joint limits: {exc}"
         msgs = [
             infeasible_message(p, s, self.hard_tol)
             for p, s in zip(self.problems, sols, strict=True)

@@ -16,13 +16,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..exceptions import InfeasibleError
+from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
 from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
 from .base import StackSolver
 from .cascade import LevelProblem, solve_cascade
 from .diagnostics import conflicts, infeasible_message
+
+#: weight of the recovery of joints outside their range (relative to the largest curvature of
+#: the soft tasks) when it has to yield to the hard tasks
+RECOVERY_WEIGHT = 1e4
 
 
 class _Layout(NamedTuple):
@@ -89,7 +93,7 @@ class WeightedQP(StackSolver):
         if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
-        if fast is not None:
+        if fast is not None and not self._yield_recovery:
             if fast.solve(kin, dt) == 0 and (
                 not self.constraints or self._constraints_hold(kin, self.constraints, fast.dq)
             ):
@@ -115,15 +119,26 @@ class WeightedQP(StackSolver):
             ws.G[:] = G
             ws.h[:] = h
         self.compute_bounds(kin, dt, ws.lower, ws.upper)
+        if self.recovery is not None:  # joints outside their range: a dominant soft objective
+            idx, step = self.recovery
+            w = RECOVERY_WEIGHT * max(1.0, float(ws.H.diagonal().max()))
+            ws.H[idx, idx] += w
+            ws.c[idx] -= w * step
         self.relaxed = False
         try:
             return self.backend.solve_workspace(ws)
         except InfeasibleError:
             return self._relax(kin)
+        except SolverError:  # e.g. OSQP out of iterations: not known to be infeasible
+            return self._relax(kin, failed=True)
 
-    def _relax(self, kin: Kinematics) -> np.ndarray:
+    def _relax(self, kin: Kinematics, failed: bool = False) -> np.ndarray:
         """The hard levels in priority order, each in least squares, then the soft tasks
-        (a cascade); names what the first unmet hard level could not satisfy."""
+        (a cascade); names what the first unmet hard level could not satisfy.
+
+        ``failed``: the backend failed for another reason than infeasibility; if the cascade
+        meets every hard row, its answer is the weighted QP's (hard rows met exactly, the soft
+        ones in least squares over what they leave free) and is returned as a plain solve."""
         nv = self.robot.nv
         ws = self.ws
         problems = []
@@ -170,6 +185,9 @@ class WeightedQP(StackSolver):
                 "the constraints are infeasible: cannot satisfy "
                 + ", ".join(f"{n} (violation {v:.3g})" for n, v in constraint_clash)
             )
+        if failed and not messages:
+            self.diagnosis = ""
+            return dq
         self.diagnosis = "; ".join(messages) or "infeasible (no task or constraint stands out)"
         if self.on_infeasible == "raise":
             raise InfeasibleError(self.diagnosis)
