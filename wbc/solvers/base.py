@@ -20,8 +20,11 @@ from .stack import TaskStack
 #: violation up to which a compiled solution counts as meeting the inequality rows (the
 #: backends' own primal tolerance is of the same order)
 CONSTRAINT_TOL = 1e-9
-#: hard-task error to which :meth:`StackSolver.solve_pose` projects its final pose
-HARD_PROJECTION_TOL = 1e-10
+#: hard-task error (m, rad) beyond which :meth:`StackSolver.solve_pose` projects an iterate
+#: back onto the hard levels (smaller residuals the next QP step corrects to second order)
+HARD_ITERATE_TOL = 1e-3
+#: largest hard-task error at the end of :meth:`StackSolver.solve_pose`
+HARD_POSE_TOL = 1e-6
 #: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
 #: quadratically: two or three steps from a tick's second-order residual)
 HARD_PROJECTION_STEPS = 20
@@ -29,15 +32,11 @@ HARD_PROJECTION_STEPS = 20
 HARD_PROJECTION_HALVINGS = 12
 
 
-def _level_errors(problems: list) -> list[float]:
-    """Each hard level's largest equality error and inequality violation (at δ = 0)."""
-    return [
-        max(
-            float(abs(p.b).max()) if p.b.size else 0.0,
-            float(-p.h.min()) if p.h.size else 0.0,
-        )
-        for p in problems
-    ]
+def _worse(errors: list[float] | None, before: list[float] | None) -> bool:
+    """True if a hard level's error grew beyond max(its error before, HARD_ITERATE_TOL)."""
+    if errors is None or before is None:
+        return False
+    return any(e > max(b, HARD_ITERATE_TOL) for e, b in zip(errors, before, strict=True))
 
 
 @dataclass
@@ -223,13 +222,13 @@ class StackSolver(ABC):
         """Iterate Δq until every task error is below ``tol``, or the steps stall (max |Δq| <
         ``stall_tol``: a weighted compromise or an unreachable target has its fixed point).
 
-        The hard levels hold at every iterate, not only to first order: a step is one QP on
-        the linearised tasks, so a large step (an unreachable or upside-down target pulls hard
-        on the soft levels) leaves the hard tasks a second-order residual; whenever that
-        residual exceeds ``tol`` the iterate is projected back onto the hard levels
-        (:meth:`project_hard`, Gauss–Newton on the hard rows alone, in priority order), the
-        step halved while the projection cannot undo it within the joint limits, and the
-        final pose is projected to :data:`HARD_PROJECTION_TOL`.
+        The hard levels hold at the end, not only to first order: a step is one QP on the
+        linearised tasks, so a long step (an unreachable or upside-down target pulls hard on
+        the soft levels) leaves the hard tasks a second-order residual. An iterate whose hard
+        residual grew beyond :data:`HARD_ITERATE_TOL` (or whose hard levels the QP can no
+        longer meet within the joint limits) is projected back onto the hard levels
+        (:meth:`project_hard`), the step halved while that is not enough; the final pose is
+        projected to min(``tol``, :data:`HARD_POSE_TOL`).
 
         This is the per-pose iterative mode used to compare with the thesis's solutions.
         """
@@ -237,20 +236,27 @@ class StackSolver(ABC):
         q = self.robot.check_configuration(q).copy()
         converged = False
         it = 0
+        q_prev = dq_prev = errors_prev = None
         for it in range(1, max_iterations + 1):
-            dq = self.solve(q, dt)
+            try:
+                dq = self.solve(q, dt)
+                errors = self._hard_errors_of_last_solve()
+                back = q_prev is not None and _worse(errors, errors_prev)
+            except InfeasibleError:
+                if q_prev is None:
+                    raise
+                back = True
+            if back:
+                q, dq, errors = self._shorter_step(q_prev, dq_prev, errors_prev, tol, dt)
             if self._converged(tol):
                 converged = True
                 it -= 1
                 break
+            q_prev, dq_prev, errors_prev = q, dq, errors
+            q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
-                q = self.integrate(q, dq)
                 break
-            q_next = self._hard_step_back(q, dq, tol)
-            if q_next is None:
-                break  # no fraction of the step keeps the hard levels: a fixed point
-            q = q_next
-        q = self.project_hard(q, HARD_PROJECTION_TOL)
+        q = self.project_hard(q, min(tol, HARD_POSE_TOL))
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
         if not converged:
@@ -261,21 +267,56 @@ class StackSolver(ABC):
             )
         return PoseResult(q, it, converged, errors, time.perf_counter() - start)
 
-    def _hard_step_back(self, q: np.ndarray, dq: np.ndarray, tol: float) -> np.ndarray | None:
-        """q ⊕ t·Δq projected onto the hard levels (:meth:`project_hard`), for the largest
-        t in 1, ½, ¼, ... after which no hard level is worse than before (or than ``tol``):
-        near the joint limits a long step's second-order residual may be beyond what the
-        projection can undo within the limits, a shorter step's is not. None if none is."""
-        self.kin.update(q)
-        before = _level_errors(self._hard_problems(self.kin))
-        t = 1.0
-        for _ in range(HARD_PROJECTION_HALVINGS):
-            q_next = self.project_hard(self.integrate(q, t * dq), tol)
-            after = _level_errors(self._hard_problems(self.kin))  # kin is at q_next
-            if all(a <= max(b, tol) for a, b in zip(after, before, strict=True)):
-                return q_next
-            t *= 0.5
-        return None
+    def _shorter_step(self, q_prev, dq_prev, before, tol: float, dt) -> tuple:
+        """(q, Δq, hard errors) from q_prev ⊕ t·Δq_prev projected onto the hard levels, for
+        the largest t in 1, ½, ¼, ... at which the QP meets the hard levels and leaves them no
+        worse than at q_prev: near the joint limits a long step's second-order residual may
+        be beyond what the limits let the projection or the QP undo, a shorter step's is not.
+        Raises the QP's InfeasibleError if even the shortest step fails."""
+        failure = None
+        for k in range(HARD_PROJECTION_HALVINGS):
+            q = self.project_hard(self._move_joints(q_prev, 0.5**k * dq_prev), tol)
+            try:
+                dq = self.solve(q, dt)
+            except InfeasibleError as exc:
+                failure = exc
+                continue
+            errors = self._hard_errors_of_last_solve()
+            if not _worse(errors, before):
+                return q, dq, errors
+            failure = None
+        if failure is not None:
+            raise failure
+        return q, dq, errors
+
+    def _hard_errors_of_last_solve(self) -> list[float] | None:
+        """Each hard level's largest error at the last solve (the tasks' last errors); None
+        if a hard level has inequalities (their violation is not kept)."""
+        out = []
+        for lv in self.stack.levels:
+            if lv.hard:
+                if lv.active_constraints():
+                    return None
+                out.append(
+                    max((float(abs(t.last_error).max()) for t in lv.active_tasks()), default=0.0)
+                )
+        return out
+
+    def _hard_errors(self, kin: Kinematics) -> list[float]:
+        """Each hard level's largest task error and inequality violation at ``kin``."""
+        out = []
+        for lv in self.stack.levels:
+            if not lv.hard:
+                continue
+            worst = 0.0
+            for t in lv.active_tasks():
+                worst = max(worst, float(abs(t.compute_error(kin)[t.mask]).max()))
+            for c in lv.active_constraints():
+                h = c.compute(kin)[1]
+                if h.size:
+                    worst = max(worst, float(-h.min()))
+            out.append(worst)
+        return out
 
     def _hard_problems(self, kin: Kinematics) -> list[LevelProblem]:
         """The hard levels' rows at ``kin``, unweighted and at gain 1 (the whole error)."""
@@ -301,31 +342,37 @@ class StackSolver(ABC):
         joint limits, each step halved until it reduces level k's error without raising a
         level above it beyond ``tol``. A level that cannot be met (relaxed) keeps the best it
         reaches and ends the projection; it never costs a level above it."""
+        return self._project(q, tol, max_steps)[0]
+
+    def _project(
+        self, q: np.ndarray, tol: float, max_steps: int = HARD_PROJECTION_STEPS
+    ) -> tuple[np.ndarray, list[float]]:
+        """:meth:`project_hard` and the hard levels' errors at the result (kin left there)."""
         kin = self.kin
         kin.update(q)
-        problems = self._hard_problems(kin)
-        for k in range(len(problems)):
+        errors = self._hard_errors(kin)
+        for k in range(len(errors)):
             for _ in range(max_steps):
-                errors = _level_errors(problems)
                 if errors[k] <= tol:
                     break
-                delta = self._hard_step(q, problems[: k + 1])
+                kin.update(q)
+                delta = self._hard_step(q, self._hard_problems(kin)[: k + 1])
                 t, accepted = 1.0, False
                 for _ in range(HARD_PROJECTION_HALVINGS):
                     q_t = self._move_joints(q, t * delta)
                     kin.update(q_t)
-                    trial = self._hard_problems(kin)
-                    e_t = _level_errors(trial)
+                    e_t = self._hard_errors(kin)
                     if e_t[k] < errors[k] and all(e_t[j] <= max(errors[j], tol) for j in range(k)):
-                        q, problems, accepted = q_t, trial, True
+                        q, errors, accepted = q_t, e_t, True
                         break
                     t *= 0.5
                 if not accepted or t * abs(delta).max() < 1e-13:
                     break
-            if _level_errors(problems)[k] > tol:
+            if errors[k] > tol:
                 break  # an unmet (relaxed) level: the levels below have no exact target left
-        kin.update(q)
-        return q
+        if kin.q is not q:  # the last evaluation was of a rejected trial
+            kin.update(q)
+        return q, errors
 
     def _hard_step(self, q: np.ndarray, problems: list[LevelProblem]) -> np.ndarray:
         """One Gauss–Newton step onto the given hard levels (minimum-norm, joint limits)."""

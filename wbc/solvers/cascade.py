@@ -235,6 +235,26 @@ def solve_cascade(
     return x, sols
 
 
+def solve_cascade_or_daqp(
+    levels: list[LevelProblem],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    backends: list[QPBackend],
+    **options,
+) -> tuple[np.ndarray, list[LevelSolution]]:
+    """:func:`solve_cascade`; if a first-order backend (OSQP, ProxQP) fails on a level for a
+    reason other than infeasibility (it can stall on the degenerate QPs of the lower levels,
+    many rows active at one point), the whole cascade again with DAQP, as a tick the compiled
+    kernels cannot finish goes to DAQP."""
+    try:
+        return solve_cascade(levels, lower, upper, backends, **options)
+    except SolverError:
+        if all(b.name == "daqp" for b in backends):
+            raise
+        daqp = [DaqpBackend(backends[0].eps) for _ in backends]
+        return solve_cascade(levels, lower, upper, daqp, **options)
+
+
 def _unconstrained(H: np.ndarray, c: np.ndarray) -> np.ndarray | None:
     """argmin ½uᵀHu + cᵀu for positive-definite H (Cholesky); None if H is not."""
     _, u, info = lapack.dposv(H, -c)
@@ -271,14 +291,5 @@ def _solve_qp(
     else:
         lo = np.full(r + ns, -np.inf)
         hi = np.full(r + ns, np.inf)
-    args = (H, c, np.zeros((0, r + ns)), np.zeros(0), G_all, h_all, lo, hi)
-    try:
-        y = backend.solve(*args)
-    except SolverError:
-        if backend.name == "daqp":
-            raise
-        # a first-order backend (OSQP, ProxQP) can stall on the degenerate QPs of the lower
-        # levels (many rows active at one point) and fail for a reason other than
-        # infeasibility: the level goes to DAQP, as a tick the compiled kernels cannot finish
-        y = DaqpBackend(backend.eps).solve(*args)
+    y = backend.solve(H, c, np.zeros((0, r + ns)), np.zeros(0), G_all, h_all, lo, hi)
     return y[:r], (y[r:] if ns else np.zeros(p))

@@ -26,7 +26,7 @@ from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
 from .backends import INF, QPBackend, make_backend
 from .base import StackSolver
-from .cascade import LevelProblem, LevelSolution, solve_cascade
+from .cascade import LevelProblem, LevelSolution, solve_cascade, solve_cascade_or_daqp
 from .diagnostics import infeasible_message
 
 METHODS = ("cascade", "daqp")
@@ -190,7 +190,7 @@ class HierarchicalQP(StackSolver):
             while len(self._backends) < len(problems) + 1:
                 self._backends.append(make_backend(self.backend.name, self.backend.eps))
             try:
-                dq, self._solutions = solve_cascade(
+                dq, self._solutions = solve_cascade_or_daqp(
                     problems,
                     lower,
                     upper,

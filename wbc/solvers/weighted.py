@@ -21,7 +21,7 @@ from ..model import Kinematics
 from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
 from .base import StackSolver
-from .cascade import LevelProblem, solve_cascade
+from .cascade import LevelProblem, solve_cascade_or_daqp
 from .diagnostics import conflicts, infeasible_message
 
 #: weight of the recovery of joints outside their range (relative to the largest curvature of
@@ -167,7 +167,7 @@ class WeightedQP(StackSolver):
             LevelProblem(1 << 30, self.soft.J, self.soft.b, G, h, constraint_rows=cslices)
         )
         backends = [type(self.backend)(self.backend.eps) for _ in problems]
-        dq, sols = solve_cascade(
+        dq, sols = solve_cascade_or_daqp(
             problems,
             ws.lower.copy(),
             ws.upper.copy(),
