@@ -50,6 +50,7 @@ class Tally:
     typed: Counter = field(default_factory=Counter)
     slowest_tick: float = 0.0
     slowest_pose: float = 0.0
+    slowest_pose_trial: int = -1
 
     def ok(self) -> bool:
         return not (
@@ -156,7 +157,9 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
             else:
                 t = time.perf_counter()
                 result = solver.solve_pose(q0, max_iterations=iterations)
-                tally.slowest_pose = max(tally.slowest_pose, time.perf_counter() - t)
+                if time.perf_counter() - t > tally.slowest_pose:
+                    tally.slowest_pose = time.perf_counter() - t
+                    tally.slowest_pose_trial = p.get("trial", -1)
                 tally.poses += 1
                 check(robot, q0, result.q, tally)
                 kin = Kinematics(robot, result.q)
@@ -189,6 +192,7 @@ def run(
     start_time = time.perf_counter()
     for trial in range(n):
         p = draw(robot, np.random.default_rng([seed, trial]), backends)
+        p["trial"] = trial
         run_trial(robot, p, tally, ticks, iterations)
         if every and (trial + 1) % every == 0:
             report(tally, start_time)
@@ -223,7 +227,10 @@ def report(t: Tally, start_time: float) -> None:
         f"hard contact > {POSE_CONTACT_TOL} at the end of a pose: {t.pose_contact_misses} "
         f"(largest {t.max_pose_contact:.3g})"
     )
-    print(f"slowest tick {t.slowest_tick * 1e3:.1f} ms, slowest pose {t.slowest_pose:.2f} s")
+    print(
+        f"slowest tick {t.slowest_tick * 1e3:.1f} ms, slowest pose {t.slowest_pose:.2f} s "
+        f"(trial {t.slowest_pose_trial})"
+    )
     print("typed errors:")
     for what, count in t.typed.most_common(20):
         print(f"  {count:6d}  {what}")

@@ -23,6 +23,10 @@ INF = 1e30  # what DAQP and OSQP read as infinity
 #: while the stacks' solves need a few hundred (a capped solve is retried once cold)
 PROXQP_ITER_PER_ROW = 10
 PROXQP_INNER_ITER = 20
+#: OSQP's iteration cap per variable and constraint row (was a flat 50,000: ~1 s per level,
+#: a minute per converged pose of a hierarchy); a capped solve fails with a SolverError,
+#: which the cascade answers by solving the tick with DAQP (solve_cascade_or_daqp)
+OSQP_ITER_PER_ROW = 100
 
 
 class QPWorkspace:
@@ -325,7 +329,7 @@ class OsqpBackend(QPBackend):
                 eps_abs=max(self.eps, 1e-6),
                 eps_rel=1e-6,
                 polishing=True,
-                max_iter=50000,
+                max_iter=OSQP_ITER_PER_ROW * (n + m_eq + m_in),
                 warm_starting=True,
                 polish_refine_iter=10,
             )
