@@ -19,10 +19,10 @@ from ..exceptions import InfeasibleError, SolverError
 INF = 1e30  # what DAQP and OSQP read as infinity
 #: ProxQP's iteration caps, per variable and constraint row (outer) and per outer iteration
 #: (inner): the defaults (10,000 x 1,500) let one degenerate level of a hierarchy run for
-#: minutes; these bound a solve to ~10,000 inner iterations (~0.5 s for the stacks here),
+#: minutes; these bound a solve to ~2,700 inner iterations (~0.15 s for the stacks here),
 #: while the stacks' solves need a few hundred (a capped solve is retried once cold)
-PROXQP_ITER_PER_ROW = 10
-PROXQP_INNER_ITER = 20
+PROXQP_ITER_PER_ROW = 5
+PROXQP_INNER_ITER = 10
 #: OSQP's iteration cap per variable and constraint row (was a flat 50,000: ~1 s per level,
 #: a minute per converged pose of a hierarchy); a capped solve fails with a SolverError,
 #: which the cascade answers by solving the tick with DAQP (solve_cascade_or_daqp)
