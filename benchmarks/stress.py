@@ -51,6 +51,7 @@ class Tally:
     slowest_tick: float = 0.0
     slowest_pose: float = 0.0
     slowest_pose_trial: int = -1
+    miss_trials: list[int] = field(default_factory=list)
 
     def ok(self) -> bool:
         return not (
@@ -168,6 +169,7 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                     tally.max_pose_contact = max(tally.max_pose_contact, e)
                     if e > POSE_CONTACT_TOL:
                         tally.pose_contact_misses += 1
+                        tally.miss_trials.append(p.get("trial", -1))
         except WbcError as exc:
             tally.typed[f"{mode}: {type(exc).__name__}: {str(exc)[:60]}"] += 1
         except Exception as exc:  # counting what is not typed is the point
@@ -225,7 +227,7 @@ def report(t: Tally, start_time: float) -> None:
     )
     print(
         f"hard contact > {POSE_CONTACT_TOL} at the end of a pose: {t.pose_contact_misses} "
-        f"(largest {t.max_pose_contact:.3g})"
+        f"(largest {t.max_pose_contact:.3g}; trials {t.miss_trials[:10]})"
     )
     print(
         f"slowest tick {t.slowest_tick * 1e3:.1f} ms, slowest pose {t.slowest_pose:.2f} s "

@@ -242,13 +242,13 @@ def solve_cascade_or_daqp(
     backends: list[QPBackend],
     **options,
 ) -> tuple[np.ndarray, list[LevelSolution]]:
-    """:func:`solve_cascade`; if a first-order backend (OSQP, ProxQP) fails on a level for a
-    reason other than infeasibility (it can stall on the degenerate QPs of the lower levels,
-    many rows active at one point), the whole cascade again with DAQP, as a tick the compiled
-    kernels cannot finish goes to DAQP."""
+    """:func:`solve_cascade`; if another backend than DAQP fails on a level (a first-order
+    one can stall on the degenerate QPs of the lower levels, many rows active at one point,
+    or call them primal infeasible), the whole cascade again with DAQP, as a tick the
+    compiled kernels cannot finish goes to DAQP; DAQP's verdict stands."""
     try:
         return solve_cascade(levels, lower, upper, backends, **options)
-    except SolverError:
+    except (SolverError, InfeasibleError):
         if all(b.name == "daqp" for b in backends):
             raise
         daqp = [DaqpBackend(backends[0].eps) for _ in backends]
