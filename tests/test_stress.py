@@ -56,3 +56,14 @@ def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)
     assert not tally.typed, dict(tally.typed)
     assert tally.ok()
+
+
+def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(robot, stress):
+    """Stress trial 1091 (walk stack, double support, targets out of reach, numpy path): its
+    50th step, never checked by a solve, left the contacts 15 mm off, beyond what the final
+    projection could undo within the joint limits."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, 1091]), ["daqp"])
+    stress.run_trial(robot, p, tally, ticks=0, iterations=50)
+    assert tally.poses == 1
+    assert tally.pose_contact_misses == 0, tally.max_pose_contact

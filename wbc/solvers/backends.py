@@ -23,10 +23,10 @@ INF = 1e30  # what DAQP and OSQP read as infinity
 #: while the stacks' solves need a few hundred (a capped solve is retried once cold)
 PROXQP_ITER_PER_ROW = 5
 PROXQP_INNER_ITER = 10
-#: OSQP's iteration cap per variable and constraint row (was a flat 50,000: ~1 s per level,
-#: a minute per converged pose of a hierarchy); a capped solve fails with a SolverError,
-#: which the cascade answers by solving the tick with DAQP (solve_cascade_or_daqp)
-OSQP_ITER_PER_ROW = 100
+#: OSQP's iteration cap per variable and constraint row (was a flat 50,000 whatever the
+#: size); a capped solve fails with a SolverError, which the cascade answers by solving the
+#: tick with DAQP (solve_cascade_or_daqp)
+OSQP_ITER_PER_ROW = 400
 
 
 class QPWorkspace:

@@ -256,7 +256,16 @@ class StackSolver(ABC):
             q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
                 break
-        q = self.project_hard(q, min(tol, HARD_POSE_TOL))
+        pose_tol = min(tol, HARD_POSE_TOL)
+        q_end, errors = self._project(q, pose_tol)
+        if q_prev is not None and any(e > pose_tol for e in errors):
+            # the last step (never checked by a solve) left what the projection cannot undo
+            # within the joint limits: the longest fraction of it that can be
+            for k in range(1, HARD_PROJECTION_HALVINGS + 1):
+                q_end, errors = self._project(self._move_joints(q_prev, 0.5**k * dq_prev), pose_tol)
+                if all(e <= pose_tol for e in errors):
+                    break
+        q = q_end
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
         if not converged:
