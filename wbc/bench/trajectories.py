@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..walking.gait import forward_walk, lateral_walk, turning_walk
 from ..walking.reference import StandingState, WalkingReference
@@ -31,7 +31,7 @@ def build(name: str, robot: Robot) -> WalkingReference:
     try:
         builder, _ = TRAJECTORIES[name]
     except KeyError:
-        raise WbcError(f"unknown trajectory {name!r}; choose from {names()}") from None
+        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {names()}") from None
     ref = builder(StandingState.from_robot(robot))
     ref.name = name
     return ref

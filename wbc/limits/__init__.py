@@ -3,7 +3,8 @@
 from .ground_clearance import GroundClearanceConstraint, LinearInequality
 from .joint_limits import JointPositionLimit, JointVelocityLimit, intersect_bounds
 from .limit import Bounds, BoxLimit, Constraint, Inequality
-from .support_polygon import ComPolygonConstraint, SupportPolygon, foot_corners
+from .self_collision import SelfCollisionConstraint
+from .support_polygon import ComPolygonConstraint, SupportPolygon
 
 __all__ = [
     "Bounds",
@@ -15,7 +16,7 @@ __all__ = [
     "JointPositionLimit",
     "JointVelocityLimit",
     "LinearInequality",
+    "SelfCollisionConstraint",
     "SupportPolygon",
-    "foot_corners",
     "intersect_bounds",
 ]

@@ -14,7 +14,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from ..exceptions import InfeasibleError, SolverError
+from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 
 INF = 1e30  # what DAQP and OSQP read as infinity
 #: ProxQP's iteration caps, per variable and constraint row (outer) and per outer iteration
@@ -360,4 +360,6 @@ def make_backend(name: str, eps: float = 1e-9) -> QPBackend:
     try:
         return BACKENDS[name](eps)
     except KeyError:
-        raise SolverError(f"unknown QP backend {name!r}; choose from {sorted(BACKENDS)}") from None
+        raise ConfigurationError(
+            f"unknown QP backend {name!r}; choose from {sorted(BACKENDS)}"
+        ) from None
