@@ -180,6 +180,7 @@ class Ssc32Bus(ServoBus):
 
     name = "ssc32"
     can_read = False
+    health_per_servo = False  # Q asks the board
     servo_speed = BMS380_SPEED
 
     def __init__(
