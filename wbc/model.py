@@ -17,6 +17,8 @@ import pinocchio as pin
 
 from .exceptions import ConfigurationError, ModelError, ServoMapError
 from .paths import robots_dir
+from .robot_data import FILE_NAME as ROBOT_DATA_FILE
+from .robot_data import RobotData
 from .servo_map import ServoMap
 
 WORLD = pin.ReferenceFrame.WORLD
@@ -34,8 +36,9 @@ def available_robots() -> list[str]:
 def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | None = None) -> Robot:
     """Load a robot by name (``"bioloid"``) or by the path of a URDF file.
 
-    A robot folder holds ``<name>.urdf`` and, optionally, ``servos.toml``; a URDF path picks
-    up a ``servos.toml`` next to it unless ``servo_map`` names another file.
+    A robot folder holds ``<name>.urdf`` and, optionally, ``servos.toml`` and ``robot.toml``
+    (named poses, standing pose, feet: :mod:`wbc.robot_data`); a URDF path picks up the ones
+    next to it (``servo_map`` names another servo map).
     """
     path = Path(name_or_path)
     if path.suffix.lower() == ".urdf" or path.is_file():
@@ -50,13 +53,19 @@ def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | Non
         urdf = folder / f"{folder.name}.urdf"
     if servo_map is None and (urdf.parent / "servos.toml").is_file():
         servo_map = urdf.parent / "servos.toml"
-    return Robot(urdf, servo_map)
+    data = urdf.parent / ROBOT_DATA_FILE
+    return Robot(urdf, servo_map, data if data.is_file() else None)
 
 
 class Robot:
     """A floating-base robot: Pinocchio model and data plus joint/frame bookkeeping."""
 
-    def __init__(self, urdf: str | Path, servo_map: str | Path | None = None) -> None:
+    def __init__(
+        self,
+        urdf: str | Path,
+        servo_map: str | Path | None = None,
+        robot_data: str | Path | None = None,
+    ) -> None:
         urdf = Path(urdf)
         if not urdf.is_file():
             raise ModelError(f"URDF not found: {urdf}")
@@ -91,6 +100,32 @@ class Robot:
                 raise
             except Exception as exc:
                 raise ServoMapError(f"cannot read servo map {servo_map}: {exc}") from exc
+        #: named poses, standing pose and foot size (robot.toml; defaults without one)
+        self.robot_data = (
+            RobotData() if robot_data is None else RobotData.from_file(robot_data, names)
+        )
+
+    @property
+    def stand_pose(self) -> str:
+        """Name of the pose walks, stacks and deployments start from (``robot.toml``'s
+        ``stand``; else ``walk_ready`` if the servo map has it; else ``zero``)."""
+        if self.robot_data.stand is not None:
+            return self.robot_data.stand
+        if self.servo_map is not None and "walk_ready" in self.servo_map.poses:
+            return "walk_ready"
+        return "zero"
+
+    @property
+    def foot_size(self) -> tuple[float, float]:
+        """(length, width) in m of the foot rectangle under each sole frame."""
+        return self.robot_data.foot_length, self.robot_data.foot_width
+
+    def pose_names(self) -> list[str]:
+        """Names accepted by :meth:`configuration`."""
+        names = {"zero", "stand", *self.robot_data.poses}
+        if self.servo_map is not None:
+            names |= set(self.servo_map.poses)
+        return sorted(names)
 
     # ------------------------------------------------------------------ names and indices
     def joint_index(self, name: str) -> int:
@@ -183,15 +218,19 @@ class Robot:
         """A named configuration, standing on the ground.
 
         * ``"zero"``: all joints zero, soles on the ground.
-        * ``"walk_ready"`` (and any other pose of the servo map): the pose's ticks through the
-          servo map; left sole flat at z = 0, the soles' midpoint at the origin.
+        * ``"stand"``: the robot's standing pose (:attr:`stand_pose`).
+        * a pose of ``robot.toml`` (joint angles), or of the servo map (``"walk_ready"``: ticks
+          through the map); left sole flat at z = 0, the soles' midpoint at the origin.
         """
+        if name == "stand":
+            name = self.stand_pose
         if name == "zero":
             q = self.neutral()
+        elif name in self.robot_data.poses:
+            q = self.with_joints(self.robot_data.poses[name])
         else:
             if self.servo_map is None or name not in self.servo_map.poses:
-                known = ["zero"] + (sorted(self.servo_map.poses) if self.servo_map else [])
-                raise ModelError(f"unknown configuration {name!r}; known: {known}")
+                raise ModelError(f"unknown configuration {name!r}; known: {self.pose_names()}")
             q = self.with_joints(self.servo_map.ticks_to_angles(self.servo_map.pose_ticks(name)))
         return self.center_between_soles(self.place_on_ground(q, "l_sole"))
 

@@ -1,0 +1,252 @@
+"""Kokone (2009 thesis, 22 DOF, SSC-32): the robot files and the thesis's worked examples.
+
+The thesis's numbers come from ``../shared/reference/kokone-thesis.md`` (Examples 3 and 4,
+Tables 4.1-4.3, 4.6). Lengths in the thesis are cm; our model is in m.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc import load_robot
+from wbc.exceptions import ModelError, ServoError
+from wbc.paths import robots_dir
+from wbc.pose_ik import StanceIK
+from wbc.robot_data import RobotData
+from wbc.servos.ssc32 import PULSE_MAX, PULSE_MIN, Ssc32Map
+
+KOKONE = robots_dir() / "kokone"
+CM = 0.01
+
+
+@pytest.fixture(scope="module")
+def gen():
+    spec = importlib.util.spec_from_file_location("kokone_make_urdf", KOKONE / "make_urdf.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def kokone():
+    return load_robot("kokone")
+
+
+def thesis_dh(th, d, a, al):
+    """The thesis's eq. 4.15, written again here (degrees), independent of the generator."""
+    t, al = math.radians(th), math.radians(al)
+    c, s, ca, sa = math.cos(t), math.sin(t), math.cos(al), math.sin(al)
+    return np.array(
+        [[c, -ca * s, sa * s, a * c], [s, ca * c, -sa * c, a * s], [0, sa, ca, d], [0, 0, 0, 1]]
+    )
+
+
+# Table 4.1 (d, a, alpha) and the hip frame A_mc of the thesis
+TABLE_4_1 = [(0, 0, 90), (-4.3, 0, 90), (0, -6.1, 0), (0, -6.1, 0), (0, -3.3, 90), (0, -2.0, 0)]
+
+
+def thesis_foot(theta, right: bool, hip=(0.0, 0.0, 21.8)) -> np.ndarray:
+    """A_DPie / A_IPie = A_mc · A_td|ti · prod(A_i) (eqs. 4.31-4.36), in cm."""
+    A = np.array([[0, 0, 1, hip[0]], [0, -1, 0, hip[1]], [1, 0, 0, hip[2]], [0, 0, 0, 1.0]])
+    base = np.eye(4)
+    base[1, 3] = 2.25 if right else -2.25
+    A = A @ base
+    for th, (d, a, al) in zip(theta, TABLE_4_1, strict=True):
+        A = A @ thesis_dh(th, d, a, al)
+    return A
+
+
+def set_legs(robot, gen, q, right_theta, left_theta):
+    for p, th in (("r", right_theta), ("l", left_theta)):
+        for name, v in zip(gen.LEG_JOINTS, gen.dh_to_q(th), strict=True):
+            q[robot.q_index(f"{p}_{name}")] = v
+    return q
+
+
+FOOT_R = np.array([[0, 0, 1], [0, -1, 0], [1, 0, 0.0]])  # the thesis's flat foot / hip rotation
+
+
+# ---------------------------------------------------------------------- the robot files
+def test_committed_files_equal_generator_output(gen):
+    assert (KOKONE / "kokone.urdf").read_text() == gen.build_urdf()
+    assert (KOKONE / "ssc32.toml").read_text() == gen.build_ssc32_map()
+
+
+def test_model_sizes_masses_servo_limits(kokone):
+    assert kokone.n_joints == 22
+    assert kokone.total_mass == pytest.approx(1.2, abs=1e-9)  # thesis: ~1.2 kg (estimate split)
+    for f in ("torso", "l_sole", "r_sole", "l_hand", "r_hand"):
+        kokone.frame_id(f)
+    assert np.allclose(kokone.v_max, math.radians(60) / 0.16)  # 0.16 s/60° (Table 3.1)
+    assert np.allclose(kokone.model.effortLimit[6:], 4.2 * 9.80665 / 100)  # 4.2 kg·cm
+    # height: head top of the estimated head box at 37 cm with straight legs
+    q = kokone.configuration("straight")
+    kin_top = kokone.frame_placement(q, "torso").translation[2]
+    assert kin_top == pytest.approx(0.218, abs=1e-12)  # hip height = 4.3+6.1+6.1+3.3+2.0
+
+
+def test_table_4_3_limits_in_our_angles(kokone, gen):
+    table = [(45, 135), (45, 135), (45, 135), (-90, 0), (-45, 45), (-45, 45)]
+    for p in "lr":
+        for k, name in enumerate(gen.LEG_JOINTS):
+            i = kokone.joint_index(f"{p}_{name}")
+            dh = sorted(
+                gen.q_to_dh(np.where(np.arange(6) == k, v, 0.0))[k]
+                for v in (kokone.q_min[i], kokone.q_max[i])
+            )
+            assert dh == pytest.approx(table[k], abs=1e-9), (p, name)
+    assert kokone.q_max[kokone.joint_index("l_knee")] == pytest.approx(math.pi / 2)  # flexion +
+
+
+def test_straight_legs_put_the_soles_21_8_below_the_hip(kokone, gen):
+    q = kokone.neutral()
+    q[2] = 0.218
+    set_legs(kokone, gen, q, (90, 90, 90, 0, 0, 0), (90, 90, 90, 0, 0, 0))
+    for s, y in (("l_sole", 0.0225), ("r_sole", -0.0225)):
+        M = kokone.frame_placement(q, s)
+        assert np.allclose(M.translation, [0, y, 0], atol=1e-12)
+        assert np.allclose(M.rotation, np.eye(3), atol=1e-12)
+
+
+# ---------------------------------------------------------------------- Example 3 (FK)
+def test_example_3_forward_kinematics(kokone, gen):
+    """Table 4.2 angles, hip lowered to 20.8: A_DPie and A_IPie as printed, to 1e-4 cm."""
+    right, left = (90, 90, 134, -64, 20, 0), (90, 90, 113, -46, 23, 0)
+    q = kokone.neutral()
+    q[2] = 0.208
+    set_legs(kokone, gen, q, right, left)
+    printed = {"r_sole": (2.1511, -2.25, 1.0799), "l_sole": (0.0, 2.25, -0.0302)}
+    # the thesis prints A_IPie's z as 0; the exact value is -0.0302 (kokone-thesis.md §2.6)
+    for frame, p in printed.items():
+        M = kokone.frame_placement(q, frame)
+        assert np.allclose(M.translation / CM, p, atol=1e-4), frame
+        assert np.allclose(M.rotation, np.eye(3), atol=1e-12)  # flat: foot R = hip R
+    # the thesis's own matrices (an independent product of eq. 4.15) agree with our URDF
+    for frame, th, right_leg in (("r_sole", right, True), ("l_sole", left, False)):
+        A = thesis_foot(th, right_leg, hip=(0, 0, 20.8))
+        M = kokone.frame_placement(q, frame)
+        assert np.allclose(A[:3, 3], M.translation / CM, atol=1e-9)
+        assert np.allclose(A[:3, :3], M.rotation @ FOOT_R, atol=1e-12)
+
+
+def test_named_poses(kokone):
+    crouch = kokone.configuration("stand")
+    assert kokone.stand_pose == "crouch"
+    assert kokone.frame_placement(crouch, "torso").translation[2] == pytest.approx(0.208)
+    for s in ("l_sole", "r_sole"):
+        M = kokone.frame_placement(crouch, s)
+        assert np.allclose(M.rotation, np.eye(3), atol=1e-12) and abs(M.translation[2]) < 1e-12
+    hip = kokone.frame_placement(crouch, "torso").translation
+    assert np.allclose(
+        kokone.frame_placement(crouch, "l_sole").translation[:2], hip[:2] + [0, 0.0225]
+    )
+    assert kokone.within_limits(crouch)
+    ex3 = kokone.configuration("example3")
+    r = (
+        kokone.frame_placement(ex3, "r_sole").translation
+        - kokone.frame_placement(ex3, "l_sole").translation
+    )
+    assert r / CM == pytest.approx([2.1511, -4.5, 1.0799 + 0.0302], abs=1e-4)
+
+
+def test_robot_data_bad_input(tmp_path, kokone):
+    bad = tmp_path / "robot.toml"
+    bad.write_text('stand = "sit"\n[poses.crouch]\nl_knee = 10\n')
+    with pytest.raises(ModelError, match=r"stand = 'sit' is not one of its poses \['crouch'\]"):
+        RobotData.from_file(bad, kokone.joint_names)
+    bad.write_text("[poses.x]\nl_kne = 10\n")
+    with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):
+        RobotData.from_file(bad, kokone.joint_names)
+    bad.write_text("[feet]\nlength = 7\n")
+    with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
+        RobotData.from_file(bad, kokone.joint_names)
+    with pytest.raises(ModelError, match="unknown configuration 'walk_ready'"):
+        kokone.configuration("walk_ready")  # Kokone has no Walk Ready: it says so
+
+
+# ---------------------------------------------------------------------- Example 4 (IK)
+# Fig. 4.9's labels (deg); Table 4.6 prints Table 4.2 with theta_d5 negated instead
+FIG_4_9 = {"r": (90, 90, 135, -28, -16, 0), "l": (90, 90, 79, -9, 21, 0)}
+TABLE_4_6 = {"r": (90, 90, 134, -64, -20, 0), "l": (90, 90, 113, -46, 23, 0)}
+
+
+def example_4_targets():
+    T = lambda x, y, z: pin.SE3(np.eye(3), np.array([x, y, z]) * CM)  # noqa: E731
+    return {"torso": T(1, 0, 21.3), "r_sole": T(7, -2.25, 1.5), "l_sole": T(-2.3, 2.25, 0)}
+
+
+def planar_leg(hip_x, hip_z, foot_x, foot_z):
+    """Closed-form sagittal leg with a flat foot (an independent oracle): hip pitch axis 4.3
+    below the hip, ankle pitch axis 5.3 above the sole, thigh = shank = 6.1; DH angles."""
+    dx, dz = foot_x - hip_x, (foot_z + 5.3) - (hip_z - 4.3)
+    r = math.hypot(dx, dz)
+    knee = math.acos((r * r - 2 * 6.1**2) / (2 * 6.1**2))  # flexion, >= 0
+    lean = math.atan2(dx, -dz)  # hip->ankle line, forward positive
+    hip = lean + knee / 2  # thigh forward of the line by half the flexion
+    return (90, 90, 90 + math.degrees(hip), -math.degrees(knee), math.degrees(knee - hip), 0)
+
+
+def test_example_4_inverse_kinematics(kokone, gen):
+    targets = example_4_targets()
+    ik = StanceIK(kokone)
+    res = ik.solve(targets, kokone.configuration("stand"))
+    assert res.converged
+    assert ik.residual(res.q, targets) < 1e-9  # metres and radians
+    assert kokone.within_limits(res.q)
+    got = {
+        p: gen.q_to_dh([res.q[kokone.q_index(f"{p}_{n}")] for n in gen.LEG_JOINTS]) for p in "rl"
+    }
+    # the answer is Fig. 4.9's (its labels are whole degrees) ...
+    for p in "rl":
+        assert np.allclose(got[p], FIG_4_9[p], atol=1.0), (p, got[p])
+    # ... and the closed-form planar leg's, to 1e-6 degrees
+    assert np.allclose(got["r"], planar_leg(1, 21.3, 7, 1.5), atol=1e-6)
+    assert np.allclose(got["l"], planar_leg(1, 21.3, -2.3, 0), atol=1e-6)
+
+
+def test_table_4_6_is_wrong():
+    """The printed Table 4.6 does not reach Example 4's targets (it is Table 4.2 with the
+    sign of theta_d5 flipped): the right foot lands ~9 cm from its target and tilted ~40°."""
+    targets = example_4_targets()
+    hip = (1.0, 0.0, 21.3)
+    for p, frame, right in (("r", "r_sole", True), ("l", "l_sole", False)):
+        table = thesis_foot(TABLE_4_6[p], right, hip)
+        fig = thesis_foot(FIG_4_9[p], right, hip)
+        goal = targets[frame].translation / CM
+        assert np.linalg.norm(table[:3, 3] - goal) > 0.9  # cm: misses by ~1-9 cm
+        assert np.linalg.norm(fig[:3, 3] - goal) < 0.25  # the figure's whole degrees: close
+    tilt = math.degrees(
+        math.acos((np.trace(FOOT_R.T @ thesis_foot(TABLE_4_6["r"], True, hip)[:3, :3]) - 1) / 2)
+    )
+    assert tilt > 30
+
+
+# ---------------------------------------------------------------------- SSC-32 map
+def test_ssc32_map_covers_every_joint_inside_the_pulse_range(kokone):
+    m = Ssc32Map.from_file(KOKONE / "ssc32.toml", kokone.joint_names)
+    assert m.baudrate == 115200
+    codec = m.codec()
+    # 0.075 deg per µs (thesis §4.6.2)
+    assert np.allclose(np.abs(codec.scale), 180 / math.pi / 0.075, rtol=1e-6)
+    for q in (kokone.q_min, kokone.q_max):
+        p = codec.encode_float(q)
+        assert np.all(p >= PULSE_MIN - 1e-6) and np.all(p <= PULSE_MAX + 1e-6)
+    assert len(set(m.channel_numbers)) == 22
+
+
+def test_ssc32_map_us_per_rad_and_bad_keys(tmp_path):
+    f = tmp_path / "m.toml"
+    f.write_text("[joints]\na = { channel = 1, us_per_rad = 600.0 }\n")
+    m = Ssc32Map.from_file(f, ["a"])
+    assert m.channels[0].us_per_deg == pytest.approx(600 * math.pi / 180)
+    f.write_text("[joints]\na = { channel = 1, us_per_rad = 600.0, us_per_deg = 10 }\n")
+    with pytest.raises(ServoError, match="us_per_deg or us_per_rad, not both"):
+        Ssc32Map.from_file(f, ["a"])
+    f.write_text("[bus]\nbaudrate = 1000000\n[joints]\na = { channel = 1 }\n")
+    with pytest.raises(ServoError, match=r"\[bus\] baudrate 1000000 not in"):
+        Ssc32Map.from_file(f, ["a"])
