@@ -250,3 +250,96 @@ def test_ssc32_map_us_per_rad_and_bad_keys(tmp_path):
     f.write_text("[bus]\nbaudrate = 1000000\n[joints]\na = { channel = 1 }\n")
     with pytest.raises(ServoError, match=r"\[bus\] baudrate 1000000 not in"):
         Ssc32Map.from_file(f, ["a"])
+
+
+# ---------------------------------------------------------------------- walking and SSC-32
+@pytest.fixture(scope="module")
+def short_walk(kokone, tmp_path_factory):
+    """Kokone's key-pose walk (crouch, CoM over the right foot, left half step) at 0.4 s per
+    pose, tracked by the project's ``walk`` stack, saved as a recording."""
+    from wbc.bench.trajectories import robot_options
+    from wbc.stacks import load_stack
+    from wbc.walking.keyposes import KeyPoseParams, keypose_walk
+    from wbc.walking.loop import StackController, run
+    from wbc.walking.reference import StandingState
+
+    kw = robot_options(kokone, "keyposes")
+    start = StandingState.from_robot(kokone, kokone.configuration("stand"))
+    params = KeyPoseParams(n_cycles=0, pose_time=0.4, dt=0.02)
+    ref = keypose_walk(start, params, kw["foot"], kw["legs"], min_clearance=0.004)
+    rec = run(StackController(load_stack("walk", kokone)), kokone, ref)
+    path = tmp_path_factory.mktemp("kokone") / "keyposes.npz"
+    rec.save(path)
+    return ref, rec, str(path)
+
+
+def test_keypose_walk_is_statically_stable_and_tracked(kokone, short_walk):
+    ref, rec, _ = short_walk
+    assert ref.gait == "static" and len(ref.meta["key_poses"]) == 4
+    assert ref.com_margin().min() >= 0.005 - 1e-9  # CoM >= 5 mm inside the support polygon
+    # the lifted sole is the left one, 1.2 cm up at pose 3, down half a stride ahead at pose 4
+    assert ref.meta["key_poses"][2]["lifted"] == "left"
+    assert ref.meta["key_poses"][3]["left"] == pytest.approx([0.02, 0.0225, 0.0], abs=1e-12)
+    assert np.max(np.abs(rec["com"] - ref.com)) < 1e-4  # tracked to 0.1 mm
+    q = rec.q[:, 7:]
+    assert np.all(q >= kokone.q_min - 1e-9) and np.all(q <= kokone.q_max + 1e-9)
+
+
+def _deploy(argv):
+    import argparse
+
+    from wbc.servos import deploy as deploy_cmd
+
+    parser = argparse.ArgumentParser()
+    deploy_cmd.add_arguments(parser)
+    return deploy_cmd.run(parser.parse_args(argv))
+
+
+def test_kokone_walk_on_the_ssc32_emulator(kokone, short_walk, capsys):
+    """``wbc deploy --robot kokone --bus ssc32``: the robot folder's map, every pulse inside
+    500..2500 µs and inside the joint limits, one group move per tick with T = the tick, the
+    per-tick step within the servo speed; the safety layer lists what it cannot check."""
+    from wbc.servos.emulator import Ssc32Emulator
+
+    _, _, recording = short_walk
+    rate = 50
+    with Ssc32Emulator(process=True) as board:
+        rc = _deploy(
+            [recording, "--robot", "kokone", "--bus", "ssc32", "--port", board.port,
+             "--rate", str(rate)]
+        )  # fmt: skip
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    for what in ("positions cannot be read", "cannot check that a servo is connected"):
+        assert what in out
+    m = Ssc32Map.from_file(KOKONE / "ssc32.toml", kokone.joint_names)
+    codec = m.codec()
+    moves = [ln for ln in board.lines if ln.startswith(b"#")]
+    assert len(moves) >= 1 + 60  # start pose + 1.2 s at 50 Hz
+    tick_ms = 1000 // rate
+    assert all(ln.endswith(f"T{tick_ms}".encode()) for ln in moves)  # T = one tick
+    by_channel = {c.channel: i for i, c in enumerate(m.channels)}
+    pulses: dict[int, list] = {}
+    for p in board.pulses:
+        assert p.move_ms == tick_ms
+        pulses.setdefault(p.channel, []).append((p.time, p.pulse))
+    assert set(pulses) == set(by_channel)
+    step = np.floor(kokone.v_max / rate * np.abs(codec.scale) + 1e-9)
+    for ch, values in pulses.items():
+        i = by_channel[ch]
+        v = np.array([pw for _, pw in values], dtype=float)
+        assert np.all((v >= PULSE_MIN) & (v <= PULSE_MAX))
+        q = (v - codec.offset[i]) / codec.scale[i]
+        assert np.all(q >= kokone.q_min[i] - 1e-9) and np.all(q <= kokone.q_max[i] + 1e-9)
+        assert np.all(np.abs(np.diff(v)) <= step[i])
+    # the moves arrive one tick apart (median; a loaded machine delays single ticks)
+    times = np.array([t for t, _ in pulses[m.channels[0].channel]])
+    assert np.median(np.diff(times)) == pytest.approx(tick_ms / 1000, rel=0.5)
+
+
+def test_kokone_dry_run_from_the_command_line(short_walk, capsys):
+    _, _, recording = short_walk
+    rc = _deploy([recording, "--robot", "kokone", "--bus", "ssc32", "--dry-run"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert "on dry-run ssc32" in out and "cannot check" in out and "completed" in err + out

@@ -9,6 +9,8 @@ its 101 x 61 mm feet) is read from the robot's folder instead::
     width = 0.04
     [poses.crouch]                   # degrees of our joint angles, by joint (others: 0)
     l_knee = 46.7
+    [walking.walk10]                 # keyword overrides of a walking reference's builder
+    step_length = 0.02
 
 Every key is optional; a robot without the file keeps the defaults (Walk Ready from the servo
 map if it has one, else the zero pose; the Bioloid's feet).
@@ -36,6 +38,8 @@ class RobotData:
     stand: str | None = None
     foot_length: float = FOOT_LENGTH
     foot_width: float = FOOT_WIDTH
+    #: per-trajectory keyword overrides for the walking references (``[walking.<name>]``)
+    walking: Mapping[str, Mapping[str, object]] = field(default_factory=dict)
     source: str = "<defaults>"
 
     @classmethod
@@ -44,9 +48,12 @@ class RobotData:
         path = Path(path)
         raw = read_toml(path, "robot data", ModelError)
         where = f"robot data {path}"
-        extra = sorted(set(raw) - {"stand", "feet", "poses"})
+        extra = sorted(set(raw) - {"stand", "feet", "poses", "walking"})
         if extra:
-            raise ModelError(f"{where}: unknown keys {extra}; allowed: feet, poses, stand")
+            raise ModelError(f"{where}: unknown keys {extra}; allowed: feet, poses, stand, walking")
+        walking = raw.get("walking", {})
+        if not all(isinstance(v, Mapping) for v in walking.values()):
+            raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
         known = set(joint_names)
         poses: dict[str, dict[str, float]] = {}
         for name, pose in raw.get("poses", {}).items():
@@ -76,4 +83,4 @@ class RobotData:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
                 raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
             size[key] = float(v)
-        return cls(poses, stand, size["length"], size["width"], str(path))
+        return cls(poses, stand, size["length"], size["width"], walking, str(path))

@@ -203,6 +203,13 @@ class Ssc32Bus(ServoBus):
     name = "ssc32"
     can_read = False
     servo_speed = BMS380_SPEED
+    #: what the safety layer cannot check on hobby PWM servos (no feedback wire)
+    unchecked = (
+        "the servos' positions: no tracking error, no stall or blocked-joint detection",
+        "that a servo is connected or powered: only the board answers (VER, Q)",
+        "load, temperature or supply voltage: no overload or overheating cut-off",
+        "the speed the servos actually reach: the board's T interpolation is open loop",
+    )
 
     def __init__(
         self,
