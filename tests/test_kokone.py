@@ -309,7 +309,7 @@ def test_kokone_walk_on_the_ssc32_emulator(kokone, short_walk, capsys):
              "--rate", str(rate)]
         )  # fmt: skip
     out, err = capsys.readouterr()
-    assert rc == 0, err
+    assert rc == 0, out + err
     for what in ("positions cannot be read", "cannot check that a servo is connected"):
         assert what in out
     m = Ssc32Map.from_file(KOKONE / "ssc32.toml", kokone.joint_names)
@@ -334,7 +334,7 @@ def test_kokone_walk_on_the_ssc32_emulator(kokone, short_walk, capsys):
         assert np.all(np.abs(np.diff(v)) <= step[i])
     # the moves arrive one tick apart (median; a loaded machine delays single ticks)
     times = np.array([t for t, _ in pulses[m.channels[0].channel]])
-    assert np.median(np.diff(times)) == pytest.approx(tick_ms / 1000, rel=0.5)
+    assert 0.5 * tick_ms / 1000 <= np.median(np.diff(times)) <= 2.0 * tick_ms / 1000
 
 
 def test_kokone_dry_run_from_the_command_line(short_walk, capsys):
@@ -343,3 +343,21 @@ def test_kokone_dry_run_from_the_command_line(short_walk, capsys):
     out, err = capsys.readouterr()
     assert rc == 0, err
     assert "on dry-run ssc32" in out and "cannot check" in out and "completed" in err + out
+
+
+def test_frame_names_map_through_robot_data(tmp_path, kokone):
+    """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml."""
+    from wbc.model import Robot
+
+    data = tmp_path / "robot.toml"
+    data.write_text('[frames]\ntorso = "l_hand"\n')
+    r = Robot(KOKONE / "kokone.urdf", None, data)
+    assert r.frame_id("torso") == kokone.frame_id("l_hand")
+    assert r.stand_pose == "zero"  # no servo map, no stand: the zero pose, not Walk Ready
+
+
+def test_bioloid_closed_form_ik_refuses_kokone_with_a_pointer(kokone):
+    from wbc.ik import leg_ik
+
+    with pytest.raises(ModelError, match=r"closed form is the Bioloid's.*StanceIK"):
+        leg_ik(kokone, "left", pin.SE3.Identity())

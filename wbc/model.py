@@ -146,7 +146,10 @@ class Robot:
         return 6 + self.joint_index(name)
 
     def frame_id(self, name: str) -> int:
-        """Pinocchio frame id of a frame (link or fixed frame) by name."""
+        """Pinocchio frame id of a frame (link or fixed frame) by name; the names of
+        ``robot.toml``'s ``[frames]`` (``torso``, ``l_sole``, ...) map to the URDF's."""
+        if isinstance(name, str):
+            name = self.robot_data.frames.get(name, name)
         if not isinstance(name, str) or not self.model.existFrame(name):
             known = ", ".join(n for n in self.frame_names if not n.endswith("_fixed"))
             raise ModelError(f"unknown frame {name!r}; frames of {self.name}: {known}")

@@ -4,6 +4,9 @@ What the library used to assume of the Bioloid (a Walk Ready pose in the Dynamix
 its 101 x 61 mm feet) is read from the robot's folder instead::
 
     stand = "crouch"                 # the pose every walk/stack/deploy starts from
+    [frames]                         # the frames wbc's stacks use, if the URDF names differ
+    torso = "base_link"
+    l_sole = "left_foot"
     [feet]
     length = 0.07                    # m, foot rectangle centred under each sole frame
     width = 0.04
@@ -38,6 +41,8 @@ class RobotData:
     stand: str | None = None
     foot_length: float = FOOT_LENGTH
     foot_width: float = FOOT_WIDTH
+    #: the project's frame names -> the URDF's (``[frames]``, e.g. ``torso = "base_link"``)
+    frames: Mapping[str, str] = field(default_factory=dict)
     #: per-trajectory keyword overrides for the walking references (``[walking.<name>]``)
     walking: Mapping[str, Mapping[str, object]] = field(default_factory=dict)
     source: str = "<defaults>"
@@ -48,9 +53,13 @@ class RobotData:
         path = Path(path)
         raw = read_toml(path, "robot data", ModelError)
         where = f"robot data {path}"
-        extra = sorted(set(raw) - {"stand", "feet", "poses", "walking"})
+        allowed = ("feet", "frames", "poses", "stand", "walking")
+        extra = sorted(set(raw) - set(allowed))
         if extra:
-            raise ModelError(f"{where}: unknown keys {extra}; allowed: feet, poses, stand, walking")
+            raise ModelError(f"{where}: unknown keys {extra}; allowed: {', '.join(allowed)}")
+        frames = raw.get("frames", {})
+        if not isinstance(frames, Mapping) or not all(isinstance(v, str) for v in frames.values()):
+            raise ModelError(f"{where}: [frames] maps names to URDF frame names (strings)")
         walking = raw.get("walking", {})
         if not all(isinstance(v, Mapping) for v in walking.values()):
             raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
@@ -83,4 +92,4 @@ class RobotData:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
                 raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
             size[key] = float(v)
-        return cls(poses, stand, size["length"], size["width"], walking, str(path))
+        return cls(poses, stand, size["length"], size["width"], frames, walking, str(path))
