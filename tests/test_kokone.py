@@ -12,12 +12,13 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.exceptions import ModelError, ServoError
 from wbc.paths import robots_dir
 from wbc.pose_ik import StanceIK
-from wbc.robot_data import RobotData
 from wbc.servos.ssc32 import PULSE_MAX, PULSE_MIN, Ssc32Map
 
 KOKONE = robots_dir() / "kokone"
@@ -113,6 +114,27 @@ def test_straight_legs_put_the_soles_21_8_below_the_hip(kokone, gen):
         assert np.allclose(M.rotation, np.eye(3), atol=1e-12)
 
 
+@settings(max_examples=25, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    st.lists(st.floats(0.0, 1.0), min_size=12, max_size=12),
+    st.tuples(st.floats(-2, 2), st.floats(-2, 2), st.floats(18, 22)),
+)
+def test_urdf_equals_the_thesis_dh_chain_everywhere(kokone, gen, u, hip):
+    """For any angles inside Table 4.3 and any hip position, our soles are the thesis's feet."""
+    lo = np.array([r[0] for r in gen.DH_RANGE_DEG], dtype=float)
+    hi = np.array([r[1] for r in gen.DH_RANGE_DEG], dtype=float)
+    th = {s: lo + np.array(u[k * 6 : k * 6 + 6]) * (hi - lo) for k, s in enumerate("rl")}
+    q = kokone.neutral()
+    q[:3] = np.array(hip) * CM
+    set_legs(kokone, gen, q, th["r"], th["l"])
+    for frame, s, right in (("r_sole", "r", True), ("l_sole", "l", False)):
+        A = thesis_foot(th[s], right, hip=hip)
+        M = kokone.frame_placement(q, frame)
+        assert np.allclose(A[:3, 3], M.translation / CM, atol=1e-9)
+        assert np.allclose(A[:3, :3], M.rotation @ FOOT_R, atol=1e-12)
+    assert kokone.within_limits(q, tol=1e-9)
+
+
 # ---------------------------------------------------------------------- Example 3 (FK)
 def test_example_3_forward_kinematics(kokone, gen):
     """Table 4.2 angles, hip lowered to 20.8: A_DPie and A_IPie as printed, to 1e-4 cm."""
@@ -152,21 +174,6 @@ def test_named_poses(kokone):
         - kokone.frame_placement(ex3, "l_sole").translation
     )
     assert r / CM == pytest.approx([2.1511, -4.5, 1.0799 + 0.0302], abs=1e-4)
-
-
-def test_robot_data_bad_input(tmp_path, kokone):
-    bad = tmp_path / "robot.toml"
-    bad.write_text('stand = "sit"\n[poses.crouch]\nl_knee = 10\n')
-    with pytest.raises(ModelError, match=r"stand = 'sit' is not one of its poses \['crouch'\]"):
-        RobotData.from_file(bad, kokone.joint_names)
-    bad.write_text("[poses.x]\nl_kne = 10\n")
-    with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):
-        RobotData.from_file(bad, kokone.joint_names)
-    bad.write_text("[feet]\nlength = 7\n")
-    with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
-        RobotData.from_file(bad, kokone.joint_names)
-    with pytest.raises(ModelError, match="unknown configuration 'walk_ready'"):
-        kokone.configuration("walk_ready")  # Kokone has no Walk Ready: it says so
 
 
 # ---------------------------------------------------------------------- Example 4 (IK)
@@ -343,17 +350,6 @@ def test_kokone_dry_run_from_the_command_line(short_walk, capsys):
     out, err = capsys.readouterr()
     assert rc == 0, err
     assert "on dry-run ssc32" in out and "cannot check" in out and "completed" in err + out
-
-
-def test_frame_names_map_through_robot_data(tmp_path, kokone):
-    """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml."""
-    from wbc.model import Robot
-
-    data = tmp_path / "robot.toml"
-    data.write_text('[frames]\ntorso = "l_hand"\n')
-    r = Robot(KOKONE / "kokone.urdf", None, data)
-    assert r.frame_id("torso") == kokone.frame_id("l_hand")
-    assert r.stand_pose == "zero"  # no servo map, no stand: the zero pose, not Walk Ready
 
 
 def test_bioloid_closed_form_ik_refuses_kokone_with_a_pointer(kokone):

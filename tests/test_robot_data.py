@@ -1,0 +1,49 @@
+"""Robot data (``robot.toml``): poses, standing pose, feet, frame names; bad input."""
+
+from __future__ import annotations
+
+import pytest
+
+from wbc import load_robot
+from wbc.exceptions import ModelError
+from wbc.paths import robots_dir
+from wbc.robot_data import RobotData
+
+KOKONE = robots_dir() / "kokone"
+
+
+@pytest.fixture(scope="module")
+def kokone():
+    return load_robot("kokone")
+
+
+def test_bioloid_keeps_walk_ready_and_its_feet(robot):
+    assert robot.stand_pose == "walk_ready"
+    assert robot.foot_size == pytest.approx((0.101, 0.061))
+    assert (robot.configuration("stand") == robot.configuration("walk_ready")).all()
+
+
+def test_robot_data_bad_input(tmp_path, kokone):
+    bad = tmp_path / "robot.toml"
+    bad.write_text('stand = "sit"\n[poses.crouch]\nl_knee = 10\n')
+    with pytest.raises(ModelError, match=r"stand = 'sit' is not one of its poses \['crouch'\]"):
+        RobotData.from_file(bad, kokone.joint_names)
+    bad.write_text("[poses.x]\nl_kne = 10\n")
+    with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):
+        RobotData.from_file(bad, kokone.joint_names)
+    bad.write_text("[feet]\nlength = 7\n")
+    with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
+        RobotData.from_file(bad, kokone.joint_names)
+    with pytest.raises(ModelError, match="unknown configuration 'walk_ready'"):
+        kokone.configuration("walk_ready")  # Kokone has no Walk Ready: it says so
+
+
+def test_frame_names_map_through_robot_data(tmp_path, kokone):
+    """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml."""
+    from wbc.model import Robot
+
+    data = tmp_path / "robot.toml"
+    data.write_text('[frames]\ntorso = "l_hand"\n')
+    r = Robot(KOKONE / "kokone.urdf", None, data)
+    assert r.frame_id("torso") == kokone.frame_id("l_hand")
+    assert r.stand_pose == "zero"  # no servo map, no stand: the zero pose, not Walk Ready
