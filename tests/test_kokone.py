@@ -19,7 +19,7 @@ from wbc import load_robot
 from wbc.exceptions import ModelError, ServoError
 from wbc.paths import robots_dir
 from wbc.pose_ik import StanceIK
-from wbc.servos.ssc32 import PULSE_MAX, PULSE_MIN, Ssc32Map
+from wbc.servos.ssc32 import PULSE_MAX, PULSE_MIN, Ssc32Channel, Ssc32Map
 
 KOKONE = robots_dir() / "kokone"
 CM = 0.01
@@ -244,6 +244,13 @@ def test_ssc32_map_covers_every_joint_inside_the_pulse_range(kokone):
         p = codec.encode_float(q)
         assert np.all(p >= PULSE_MIN - 1e-6) and np.all(p <= PULSE_MAX + 1e-6)
     assert len(set(m.channel_numbers)) == 22
+    assert m.range_warnings(kokone.q_min, kokone.q_max) == []
+    # a knee centred at 1500 µs would lose 30° of its 0..90° (1500 + 1200 > 2500): said so
+    knee = [c.joint for c in m.channels].index("r_knee")
+    chans = list(m.channels)
+    chans[knee] = Ssc32Channel("r_knee", chans[knee].channel, 1, 1500.0)
+    (w,) = Ssc32Map(chans, "test").range_warnings(kokone.q_min, kokone.q_max)
+    assert "r_knee (channel 3) limits map to 1500..2700 µs" in w
 
 
 def test_ssc32_map_us_per_rad_and_bad_keys(tmp_path):

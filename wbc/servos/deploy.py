@@ -678,6 +678,8 @@ def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoB
             ssc_map = Ssc32Map.default(robot.joint_names, sm.signs.astype(int))
         else:
             raise ServoError(f"robot {robot.name} has no ssc32.toml; give --ssc32-map")
+        for warning in ssc_map.range_warnings(robot.q_min, robot.q_max):
+            print(f"warning: {warning}", file=sys.stderr)
         move_ms = max(1, round(1000.0 / args.rate))
         return Ssc32Bus(port or "", ssc_map, args.baud or ssc_map.baudrate, move_time_ms=move_ms)
     from .dynamixel import DynamixelBus

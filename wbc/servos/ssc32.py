@@ -153,6 +153,20 @@ class Ssc32Map:
         out.baudrate = baud
         return out
 
+    def range_warnings(self, q_min: np.ndarray, q_max: np.ndarray) -> list[str]:
+        """One line per joint whose limits (rad, model order) map partly outside the board's
+        500..2500 µs (a centre or scale to recalibrate; the goals are clamped to it)."""
+        codec = self.codec()
+        a, b = codec.encode_float(np.asarray(q_min)), codec.encode_float(np.asarray(q_max))
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        return [
+            f"SSC-32 map {self.source}: {c.joint} (channel {c.channel}) limits map to "
+            f"{lo[i]:.0f}..{hi[i]:.0f} µs, beyond {PULSE_MIN}..{PULSE_MAX}: that part of its "
+            "range is unreachable"
+            for i, c in enumerate(self.channels)
+            if lo[i] < PULSE_MIN - 0.5 or hi[i] > PULSE_MAX + 0.5
+        ]
+
     def codec(self) -> Codec:
         """``pulse = center_us + sign · us_per_deg · degrees(q)``, 500..2500 µs."""
         return Codec(
