@@ -76,6 +76,7 @@ FOOT_R = np.array([[0, 0, 1], [0, -1, 0], [1, 0, 0.0]])  # the thesis's flat foo
 def test_committed_files_equal_generator_output(gen):
     assert (KOKONE / "kokone.urdf").read_text() == gen.build_urdf()
     assert (KOKONE / "ssc32.toml").read_text() == gen.build_ssc32_map()
+    assert (KOKONE / "poses.toml").read_text() == gen.build_poses()
 
 
 def test_model_sizes_masses_servo_limits(kokone):

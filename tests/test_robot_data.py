@@ -24,16 +24,24 @@ def test_bioloid_keeps_walk_ready_and_its_feet(robot):
 
 
 def test_robot_data_bad_input(tmp_path, kokone):
-    bad = tmp_path / "robot.toml"
-    bad.write_text('stand = "sit"\n[poses.crouch]\nl_knee = 10\n')
-    with pytest.raises(ModelError, match=r"stand = 'sit' is not one of its poses \['crouch'\]"):
-        RobotData.from_file(bad, kokone.joint_names)
-    bad.write_text("[poses.x]\nl_kne = 10\n")
-    with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):
-        RobotData.from_file(bad, kokone.joint_names)
-    bad.write_text("[feet]\nlength = 7\n")
+    robot_file, poses_file = tmp_path / "robot.toml", tmp_path / "poses.toml"
+    poses_file.write_text("[poses.crouch]\nl_knee = 0.5\n")
+    robot_file.write_text('stand = "sit"\n')
+    with pytest.raises(ModelError, match=r"stand = 'sit' is not 'zero' or a pose of poses.toml"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.write_text("[feet]\nlength = 7\n")
     with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
-        RobotData.from_file(bad, kokone.joint_names)
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.write_text("[feat]\nlength = 0.1\n")
+    with pytest.raises(ModelError, match=r"unknown keys \['feat'\]; allowed: feet, frames"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.unlink()
+    poses_file.write_text("[poses.x]\nl_kne = 0.1\n")
+    with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    poses_file.write_text('[poses.x]\nl_knee = "bent"\n')
+    with pytest.raises(ModelError, match=r"pose 'x' l_knee = 'bent': not a number"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
     with pytest.raises(ModelError, match="unknown configuration 'walk_ready'"):
         kokone.configuration("walk_ready")  # Kokone has no Walk Ready: it says so
 
@@ -42,8 +50,10 @@ def test_frame_names_map_through_robot_data(tmp_path, kokone):
     """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml."""
     from wbc.model import Robot
 
-    data = tmp_path / "robot.toml"
-    data.write_text('[frames]\ntorso = "l_hand"\n')
-    r = Robot(KOKONE / "kokone.urdf", None, data)
+    (tmp_path / "robot.toml").write_text('[frames]\ntorso = "l_hand"\n')
+    r = Robot(KOKONE / "kokone.urdf", None, tmp_path)
     assert r.frame_id("torso") == kokone.frame_id("l_hand")
     assert r.stand_pose == "zero"  # no servo map, no stand: the zero pose, not Walk Ready
+    (tmp_path / "robot.toml").write_text('[frames]\ntorso = "pelvis"\n')
+    with pytest.raises(ModelError, match=r"maps 'torso' to 'pelvis', which is not a frame"):
+        Robot(KOKONE / "kokone.urdf", None, tmp_path)

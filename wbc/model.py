@@ -17,7 +17,6 @@ import pinocchio as pin
 
 from .exceptions import ConfigurationError, ModelError, ServoMapError
 from .paths import robots_dir
-from .robot_data import FILE_NAME as ROBOT_DATA_FILE
 from .robot_data import RobotData
 from .servo_map import ServoMap
 
@@ -36,9 +35,10 @@ def available_robots() -> list[str]:
 def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | None = None) -> Robot:
     """Load a robot by name (``"bioloid"``) or by the path of a URDF file.
 
-    A robot folder holds ``<name>.urdf`` and, optionally, ``servos.toml`` and ``robot.toml``
-    (named poses, standing pose, feet: :mod:`wbc.robot_data`); a URDF path picks up the ones
-    next to it (``servo_map`` names another servo map).
+    A robot folder holds ``<name>.urdf`` and, optionally, ``servos.toml``, ``poses.toml`` and
+    ``robot.toml`` (named poses, standing pose, feet, frame names, walking settings:
+    :mod:`wbc.robot_data`); a URDF path picks up the ones next to it (``servo_map`` names
+    another servo map).
     """
     path = Path(name_or_path)
     if path.suffix.lower() == ".urdf" or path.is_file():
@@ -53,8 +53,7 @@ def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | Non
         urdf = folder / f"{folder.name}.urdf"
     if servo_map is None and (urdf.parent / "servos.toml").is_file():
         servo_map = urdf.parent / "servos.toml"
-    data = urdf.parent / ROBOT_DATA_FILE
-    return Robot(urdf, servo_map, data if data.is_file() else None)
+    return Robot(urdf, servo_map, urdf.parent)
 
 
 class Robot:
@@ -64,7 +63,7 @@ class Robot:
         self,
         urdf: str | Path,
         servo_map: str | Path | None = None,
-        robot_data: str | Path | None = None,
+        data_dir: str | Path | None = None,
     ) -> None:
         urdf = Path(urdf)
         if not urdf.is_file():
@@ -100,10 +99,17 @@ class Robot:
                 raise
             except Exception as exc:
                 raise ServoMapError(f"cannot read servo map {servo_map}: {exc}") from exc
-        #: named poses, standing pose and foot size (robot.toml; defaults without one)
+        #: named poses, standing pose, feet, frame names, walking settings (the robot folder's
+        #: poses.toml and robot.toml, read from ``data_dir``; defaults without them)
         self.robot_data = (
-            RobotData() if robot_data is None else RobotData.from_file(robot_data, names)
+            RobotData() if data_dir is None else RobotData.from_folder(data_dir, names)
         )
+        for alias, actual in self.robot_data.frames.items():
+            if not self.model.existFrame(actual):
+                raise ModelError(
+                    f"{self.robot_data.source}: [frames] maps {alias!r} to {actual!r}, which is "
+                    f"not a frame of {urdf.name}"
+                )
 
     @property
     def stand_pose(self) -> str:
