@@ -79,17 +79,24 @@ def test_committed_files_equal_generator_output(gen):
     assert (KOKONE / "poses.toml").read_text() == gen.build_poses()
 
 
-def test_model_sizes_masses_servo_limits(kokone):
+def test_model_sizes_masses_servo_limits(kokone, gen):
     assert kokone.n_joints == 22
     assert kokone.total_mass == pytest.approx(1.2, abs=1e-9)  # thesis: ~1.2 kg (estimate split)
     for f in ("torso", "l_sole", "r_sole", "l_hand", "r_hand"):
         kokone.frame_id(f)
     assert np.allclose(kokone.v_max, math.radians(60) / 0.16)  # 0.16 s/60° (Table 3.1)
     assert np.allclose(kokone.model.effortLimit[6:], 4.2 * 9.80665 / 100)  # 4.2 kg·cm
-    # height: head top of the estimated head box at 37 cm with straight legs
+    # height: the hip 21.8 cm up (4.3+6.1+6.1+3.3+2.0), the head box's top at 37 cm (thesis)
     q = kokone.configuration("straight")
-    kin_top = kokone.frame_placement(q, "torso").translation[2]
-    assert kin_top == pytest.approx(0.218, abs=1e-12)  # hip height = 4.3+6.1+6.1+3.3+2.0
+    assert kokone.frame_placement(q, "torso").translation[2] == pytest.approx(0.218, abs=1e-12)
+    head = kokone.frame_placement(q, "head")
+    top = max(
+        (head.rotation @ np.array(c) + head.translation)[2] + size[2] / 2
+        for link in gen.head_links()
+        if link.name == "head"
+        for c, size, _ in link.boxes
+    )
+    assert top == pytest.approx(0.37, abs=1e-9)
 
 
 def test_table_4_3_limits_in_our_angles(kokone, gen):

@@ -215,9 +215,11 @@ def leg_links(p: str) -> list[Link]:
 SHOULDER = (0.0, 5.0, 9.0)  # ESTIMATE: torso 8 cm wide + servo; shoulders 9 cm above the hips
 UPPER_ARM = 6.0
 FOREARM = 6.0
-NECK = (0.0, 0.0, 10.5)  # ESTIMATE: head pan on top of the torso plate
+NECK = (0.0, 0.0, 9.5)  # ESTIMATE: head pan on the torso's top plate, 9.5 cm above the hips
 HEAD_TILT = 2.0  # ESTIMATE: tilt axis above the pan servo
-# torso: hip (z=0) to the top plate (10.5 cm); head to 37 - 21.8 = 15.2 cm above the hips
+# torso: hip (z=0) to the top plate (9.5 cm); head top at 37 - 21.8 = 15.2 cm above the hips
+HEAD_BOX_CM = (4.0, 5.0, 4.5)  # ESTIMATE: a camera-ready head piece
+HEAD_CENTRE_Z = HEIGHT_CM - HIP_HEIGHT - NECK[2] - HEAD_TILT - HEAD_BOX_CM[2] / 2  # 1.45 cm
 
 
 def arm_links(p: str, s: int) -> list[Link]:
@@ -256,9 +258,9 @@ def torso_link(limb_mass_g: float) -> Link:
         "torso",
         TOTAL_MASS_G - limb_mass_g,
         (-0.5, 0, 5.0),  # ESTIMATE: the board on the back moves the CoM ~0.5 cm backward
-        (5.0, 8.0, 10.5),
+        (5.0, 8.0, 9.5),
         [
-            ((0, 0, 5.5), (4.5, 8.0, 9.0), "body"),  # chest + back
+            ((0, 0, 5.0), (4.5, 8.0, 9.0), "body"),  # chest + back
             ((-2.8, 0, 6.0), (0.6, 5.8, 7.6), "board"),  # SSC-32 (2.3 x 3.0 in) on the back
             ((0, 0, 0.5), (3.0, 7.5, 1.5), "servo"),  # hip roll servos
         ],
@@ -269,7 +271,13 @@ def head_links() -> list[Link]:
     sx, sy, sz = SERVO_BOX_CM
     return [
         Link("neck", 22.0, (0, 0, 1.0), (3, 3, 3), [((0, 0, 1.0), (sx, sy, sz), "servo")]),
-        Link("head", 30.0, (0, 0, 2.2), (4, 5, 4.7), [((0.3, 0, 2.2), (4.0, 5.0, 4.7), "head")]),
+        Link(
+            "head",
+            30.0,
+            (0, 0, HEAD_CENTRE_Z),
+            HEAD_BOX_CM,
+            [((0.3, 0, HEAD_CENTRE_Z), HEAD_BOX_CM, "head")],
+        ),
     ]
 
 
