@@ -228,7 +228,7 @@ class Robot:
 
         * ``"zero"``: all joints zero, soles on the ground.
         * ``"stand"``: the robot's standing pose (:attr:`stand_pose`).
-        * a pose of ``robot.toml`` (joint angles), or of the servo map (``"walk_ready"``: ticks
+        * a pose of ``poses.toml`` (radians), or of the servo map (``"walk_ready"``: ticks
           through the map); left sole flat at z = 0, the soles' midpoint at the origin.
         """
         if name == "stand":
