@@ -15,7 +15,7 @@ hard bounds, Gauss-Newton iterations of the hierarchical QP to 1e-11), from the 
 here is this script's reimplementation of the thesis's Algorithms 1-3 (population 100: the
 thesis does not give one), only as a baseline; it runs ``--ga-runs`` times per pose and leg.
 
-Run: ``/work/venv/bin/python benchmarks/kokone_ik.py [--ga-runs 3] [--out FILE]``
+Run: ``/work/venv/bin/python benchmarks/kokone_ik.py [--ga-runs 3] [--restarts 5] [--out FILE]``
 """
 
 from __future__ import annotations
@@ -135,6 +135,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ga-runs", type=int, default=3, help="GA runs per pose and leg")
     ap.add_argument("--generations", type=int, default=8000)
+    ap.add_argument("--restarts", type=int, default=5, help="GA restarts (thesis: up to 5)")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
     robot = load_robot("kokone")
@@ -162,7 +163,13 @@ def main() -> int:
         for _ in range(args.ga_runs):
             for s in "rl":
                 t0 = time.perf_counter()
-                _, f, _ = ga(hip_frame[s], s == "r", rng, generations=args.generations)
+                _, f, _ = ga(
+                    hip_frame[s],
+                    s == "r",
+                    rng,
+                    generations=args.generations,
+                    restarts=args.restarts,
+                )
                 ga_t.append(time.perf_counter() - t0)
                 ga_fit.append(f)
                 ga_fail += f > 1e-3
@@ -179,7 +186,7 @@ def main() -> int:
     lines = [
         f"machine: {platform.machine()} {platform.processor() or ''}, Python "
         f"{platform.python_version()}; GA runs per pose and leg: {args.ga_runs}, "
-        f"generations {args.generations}",
+        f"generations {args.generations}, restarts {args.restarts}",
         "",
         "| pose | ours: pose residual (m, rad) | ours: fitness | iterations | ours ms | "
         "GA fitness mean / worst | GA runs > 0.001 | GA s per leg (median) | GA time / ours |",
