@@ -11,6 +11,11 @@ controller alike; the figures are medians over rounds of each controller's per-t
 Our solvers run twice: through the compiled kernels (:mod:`wbc.compiled`, the default) and
 through the numpy assembly with DAQP on every tick (``compiled=False``).
 
+Then the cost of an active inequality row: the ``walk`` stack in single support (its swing
+ground-clearance constraint included), one tick at the same configuration repeated, with the
+swing sole's target above the ground (the row inactive: the compiled tick alone) and 5 mm
+below it (the row active). Last, the first tick after a support switch against the next one.
+
 Run: ``python benchmarks/qp_tick.py [--rounds 5]`` (writes nothing; paste into qp_tick.md).
 """
 
@@ -18,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 import tomllib
 from pathlib import Path
 
@@ -25,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from wbc import load_robot
+from wbc import Kinematics, load_robot
 from wbc.bench.peers import PinkController, PlacoController, available
 from wbc.bench.trajectories import build
 from wbc.paths import stacks_dir
@@ -43,6 +49,56 @@ def core_walk_spec() -> dict:
     for level in spec["levels"]:
         level.pop("constraints", None)
     return spec
+
+
+def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, float, int]:
+    """Median µs of a tick with the swing sole's ground-clearance row inactive and active, and
+    how many of the active ticks were handed to the backend (all, if the row is active)."""
+    with open(stacks_dir() / "walk.toml", "rb") as f:
+        spec = tomllib.load(f)
+    control = build_stack({**spec, "solver": kind}, robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    control.set_phase("single", "l_sole", "r_sole", kin)
+    swing = control.stack.task("frame_pose_swing")
+    swing.set_target_from(kin)
+    solver = control.solver
+    above = swing.target_position.copy()
+    times: dict[float, list[float]] = {0.002: [], -0.005: []}  # 2 mm up: inactive; 5 down
+    handed = 0
+    for _ in range(repeats // 50):  # blocks of 50 ticks, interleaved: the same machine load
+        for dz, out in times.items():
+            swing.set_position_target(above + [0.0, 0.0, dz])
+            solver.step(q, 0.01)  # the active set settles
+            before = solver.handed_back_ticks
+            for _ in range(50):
+                t = time.perf_counter()
+                solver.step(q, 0.01)
+                out.append(time.perf_counter() - t)
+            handed += (solver.handed_back_ticks - before) if dz < 0 else 0
+    medians = [float(np.median(times[dz])) * 1e6 for dz in (0.002, -0.005)]
+    return medians[0], medians[1], handed
+
+
+def phase_switch_ticks(robot, repeats: int = 50) -> tuple[float, float]:
+    """Median µs of the first tick after a support switch and of the tick after it (weighted
+    ``walk`` stack, the four phases of a walk in turn)."""
+    control = build_stack({**core_walk_spec(), "solver": "weighted"}, robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    phases = [
+        ("double", "l_sole", "r_sole"), ("single", "l_sole", "r_sole"),
+        ("double", "r_sole", "l_sole"), ("single", "r_sole", "l_sole"),
+    ]  # fmt: skip
+    first, next_ = [], []
+    for i in range(repeats * len(phases)):
+        control.set_phase(*phases[i % len(phases)], kin)
+        for out in (first, next_):
+            t = time.perf_counter()
+            control.solver.step(q, 0.01)
+            out.append(time.perf_counter() - t)
+    skip = 2 * len(phases)  # the first visit of each phase builds its layout
+    return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
 
 
 def main() -> int:
@@ -99,6 +155,14 @@ def main() -> int:
     print(
         f"{rows['hierarchical, numpy path (daqp)'][0] / rows['weighted, numpy path (daqp)'][0]:.2f}"
     )
+    print("\nan active inequality row (walk stack, single support, swing ground clearance):")
+    print("| solver | row inactive µs | row active µs | active / inactive | handed to DAQP |")
+    print("|---|---|---|---|---|")
+    for kind in ("weighted", "hierarchical"):
+        off, on, handed = inequality_ticks(robot, kind)
+        print(f"| {kind} | {off:.0f} | {on:.0f} | {on / off:.2f} | {handed} |")
+    first, after = phase_switch_ticks(robot)
+    print(f"\nsupport switch (weighted): first tick {first:.0f} µs, the next {after:.0f} µs")
     return 0
 
 

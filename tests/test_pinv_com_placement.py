@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from wbc.exceptions import SolverError
+from wbc.exceptions import ConfigurationError
 from wbc.pinv import (
     METHODS,
     TABLE_3_3_1,
@@ -94,13 +94,13 @@ def test_adaptive_damping_runs_discard_iterations_that_increase_the_error(robot,
 
 def test_bad_arguments_are_rejected(robot, start):
     q0, target = start
-    with pytest.raises(SolverError, match="method"):
+    with pytest.raises(ConfigurationError, match="method"):
         ComPlacement(robot).solve(q0, target, "XYZ")
-    with pytest.raises(SolverError, match="gain"):
+    with pytest.raises(ConfigurationError, match="gain"):
         ComPlacement(robot).solve(q0, target, "MCMT", 0.1, 0.0)
-    with pytest.raises(SolverError, match="setting"):
+    with pytest.raises(ConfigurationError, match="setting"):
         place_com(robot, q0, target, setting="sim9")
-    with pytest.raises(SolverError, match="weights"):
+    with pytest.raises(ConfigurationError, match="weights"):
         ComPlacement(robot, weights=np.ones(3))
 
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc.exceptions import SolverError
+from wbc.exceptions import ConfigurationError
 from wbc.pinv.joint_limits import (
     COSTS,
     ChanDubeyWeights,
@@ -78,7 +78,7 @@ def test_gradient_projection_keeps_the_primary_task_and_descends_the_cost(seed, 
 
 
 def test_gradient_projection_checks_the_gradient_size():
-    with pytest.raises(SolverError, match="4 entries"):
+    with pytest.raises(ConfigurationError, match="4 entries"):
         gradient_projection(np.ones((1, 4)), np.ones(1), np.ones(3))
 
 
@@ -111,7 +111,7 @@ def test_chan_dubey_weights_are_one_at_mid_range_and_infinite_at_a_limit():
     assert w[0] == 1.0 and w[1] > 1.0 and w[2] == np.inf
     cd.reset()
     assert np.all(cd.weights == 1.0) and np.all(cd.previous == 0.0)
-    with pytest.raises(SolverError, match="shape"):
+    with pytest.raises(ConfigurationError, match="shape"):
         cd.update(np.zeros(2))
-    with pytest.raises(SolverError, match="lower < upper"):
+    with pytest.raises(ConfigurationError, match="lower < upper"):
         ChanDubeyWeights(hi, lo)

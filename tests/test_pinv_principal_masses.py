@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc import Kinematics
-from wbc.exceptions import ModelError, SolverError
+from wbc.exceptions import ConfigurationError, ModelError
 from wbc.pinv import PrincipalMasses, SoleRooted, annex_b_weights
 from wbc.pinv.principal_masses import com_mass_matrix, principal_mass_targets
 from wbc.pinv.thesis_data import THESIS_JOINT_IDS, thesis_joint_index
@@ -48,7 +48,7 @@ def test_annex_b_weights_by_name_and_mirrored_for_a_right_support(robot):
 def test_rooted_increments_keep_the_support_sole_anchored(robot, rng):
     q = robot.configuration("walk_ready")
     root = SoleRooted(robot, "l_sole")
-    with pytest.raises(SolverError, match="anchor"):
+    with pytest.raises(ConfigurationError, match="anchor"):
         root.update(q)
     root.anchor(q)
     sole0 = root.kin.placement(robot.frame_id("l_sole")).copy()

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc import Kinematics
-from wbc.exceptions import SolverError
+from wbc.exceptions import ConfigurationError, SolverError
 from wbc.pinv import SoleRooted
 from wbc.pinv.pseudoinverse import (
     AdaptiveDamping,
@@ -135,17 +135,17 @@ def test_an_infinite_weight_freezes_its_joint():
 
 def test_bad_inputs_raise_clear_errors():
     J = np.ones((2, 3))
-    with pytest.raises(SolverError, match="3 entries"):
+    with pytest.raises(ConfigurationError, match="3 entries"):
         weighted_pinv(J, [1.0, 1.0])
-    with pytest.raises(SolverError, match="> 0"):
+    with pytest.raises(ConfigurationError, match="> 0"):
         inverse_weights(np.array([1.0, 0.0, 1.0]), 3)
-    with pytest.raises(SolverError, match="positive definite"):
+    with pytest.raises(ConfigurationError, match="positive definite"):
         inverse_weights(-np.eye(3), 3)
-    with pytest.raises(SolverError, match="damping"):
+    with pytest.raises(ConfigurationError, match="damping"):
         damped_pinv(J, -1.0)
-    with pytest.raises(SolverError, match="non-finite"):
+    with pytest.raises(ConfigurationError, match="non-finite"):
         moore_penrose(np.array([[np.nan, 1.0]]))
-    with pytest.raises(SolverError, match="2-D"):
+    with pytest.raises(ConfigurationError, match="2-D"):
         moore_penrose(np.ones(3))
 
 

@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from wbc.exceptions import SolverError
+from wbc.exceptions import ConfigurationError
 from wbc.pinv import (
     SCHEME_NAMES,
     ThesisScheme,
@@ -167,15 +167,15 @@ def test_gradient_projection_cost_in_the_null_space(robot, q0, short_step):
 
 
 def test_bad_arguments_are_rejected(robot):
-    with pytest.raises(SolverError, match="unknown scheme"):
+    with pytest.raises(ConfigurationError, match="unknown scheme"):
         ThesisScheme.make("qp", robot)
-    with pytest.raises(SolverError, match="differ"):
+    with pytest.raises(ConfigurationError, match="differ"):
         ThesisScheme.vat(robot, swing="l_sole")
-    with pytest.raises(SolverError, match="secondary_sign"):
+    with pytest.raises(ConfigurationError, match="secondary_sign"):
         ThesisScheme.cj_foot(robot, secondary_sign=0.5)
-    with pytest.raises(SolverError, match="limit cost"):
+    with pytest.raises(ConfigurationError, match="limit cost"):
         ThesisScheme.vat(robot, limit_cost="nope")
-    with pytest.raises(SolverError, match="weights"):
+    with pytest.raises(ConfigurationError, match="weights"):
         ThesisScheme.vat(robot, weights="uniform")
     assert ThesisScheme.vat(robot, weights="annex_b").weights.min() == 0.1
 

@@ -19,11 +19,22 @@ def test_the_thesis_schemes_and_the_walking_stack_exist():
 
 @pytest.mark.parametrize("name", sorted(THESIS | {"walk"}))
 def test_every_stack_loads_and_steps_within_limits(robot, name):
+    """Loaded at its own targets, then asked to move the CoM: the QP's answers (before the
+    step's clip onto the limits) stay inside the joint and velocity limits, and move it."""
     control = load_stack(name, robot)
     q = robot.configuration("walk_ready")
+    com = control.stack.task("com")
+    start = robot.com(q)
+    d = np.array([0.005, 0.003, -0.004])
+    com.set_target(start + d)
     for _ in range(3):
+        dq = control.solver.solve(q, 0.01)
+        joints = q[7:] + dq[6:]
+        assert np.all(joints >= robot.q_min - 1e-9) and np.all(joints <= robot.q_max + 1e-9)
+        assert np.all(np.abs(dq[6:]) <= robot.v_max * 0.01 + 1e-9)
         q = control.solver.step(q, 0.01)
-        assert robot.within_limits(q)
+    moved = robot.com(q) - start
+    assert moved @ d / (d @ d) > 0.2  # at least a fifth of the way to the new target
     expected = WeightedQP if name in ("vat", "vatl") else HierarchicalQP
     assert isinstance(control.solver, expected)
 

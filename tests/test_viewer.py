@@ -22,7 +22,7 @@ from wbc.exceptions import ConfigurationError, ModelError, TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
 from wbc.viewer.geometry import (
     Camera,
-    convex_hull_2d,
+    convex_hull,
     fit_camera,
     polygon_area,
     sole_rectangle,
@@ -39,7 +39,7 @@ coords = st.floats(-1.0, 1.0, allow_nan=False, width=32)
 
 @given(arrays(np.float64, st.tuples(st.integers(3, 30), st.just(2)), elements=coords))
 def test_convex_hull_contains_every_point_and_is_ccw(points):
-    hull = convex_hull_2d(points)
+    hull = convex_hull(points)
     # every hull vertex is an input point
     for v in hull:
         assert np.any(np.all(np.isclose(points, v), axis=1))
@@ -55,15 +55,15 @@ def test_convex_hull_contains_every_point_and_is_ccw(points):
 
 def test_convex_hull_of_a_square_with_inner_points():
     pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5], [0.5, 0], [0.2, 0.7]])
-    hull = convex_hull_2d(pts)
+    hull = convex_hull(pts)
     assert len(hull) == 4 and polygon_area(hull) == pytest.approx(1.0)
 
 
 def test_convex_hull_rejects_bad_input():
     with pytest.raises(ConfigurationError, match="points"):
-        convex_hull_2d(np.zeros((3, 3)))
+        convex_hull(np.zeros((3, 3)))
     with pytest.raises(ConfigurationError, match="finite"):
-        convex_hull_2d(np.array([[0.0, np.nan], [1, 1]]))
+        convex_hull(np.array([[0.0, np.nan], [1, 1]]))
 
 
 def test_visual_shapes_match_the_urdf(robot):

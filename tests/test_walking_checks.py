@@ -10,7 +10,7 @@ import pytest
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT
 from wbc.walking import LegGeometry, StandingState, check_reference, forward_walk, thesis_step
-from wbc.walking.checks import ANKLE_HEIGHT, HIP_HALF_WIDTH, SHIN, THIGH
+from wbc.walking.legs import ANKLE_HEIGHT, HIP_HALF_WIDTH, SHIN, THIGH
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,18 @@
-"""Exception hierarchy: every error raised by wbc derives from :class:`WbcError`."""
+"""Exception hierarchy: every error raised by wbc derives from :class:`WbcError`.
+
+Which error a mistake raises (one rule):
+
+* a bad argument, option or input value — the caller's mistake, found before anything runs —
+  raises the ``ValueError`` subclass of its subject: :class:`TaskError` (tasks, task stacks,
+  constraints, stack files), :class:`ModelError` (robot files, frame and joint names),
+  :class:`ServoMapError` (servo maps), :class:`TrajectoryError` (references, footstep plans),
+  and :class:`ConfigurationError` for everything else (configurations, solver, backend and
+  run options);
+* a failure while computing raises :class:`InfeasibleError` (no solution: the message names
+  what conflicts), :class:`SolverError` (a numerical method failed), :class:`IKError` or
+  :class:`ServoError`;
+* :class:`WbcError` itself is never raised: catch it to catch them all.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +26,8 @@ class ModelError(WbcError, ValueError):
 
 
 class ConfigurationError(WbcError, ValueError):
-    """A configuration vector has the wrong size or non-finite values."""
+    """A bad argument or option outside the other subjects: a configuration vector of the wrong
+    size or with non-finite values, a solver/backend/run option out of its allowed set."""
 
 
 class ServoMapError(WbcError, ValueError):

@@ -21,6 +21,39 @@ def sole_corners(length: float = FOOT_LENGTH, width: float = FOOT_WIDTH) -> np.n
     return np.array([[hl, hw, 0.0], [-hl, hw, 0.0], [-hl, -hw, 0.0], [hl, -hw, 0.0]])
 
 
+def rect_corners(rect: tuple[float, float, float, float]) -> np.ndarray:
+    """The 4 corners (4, 3) of a sole footprint ``(x_min, x_max, y_min, y_max)`` in its own
+    frame (not necessarily centred), counter-clockwise seen from above, on z = 0."""
+    x0, x1, y0, y1 = rect
+    return np.array([[x1, y1, 0.0], [x0, y1, 0.0], [x0, y0, 0.0], [x1, y0, 0.0]])
+
+
+def world_corners(rotation: np.ndarray, translation: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Corners given in a sole's frame (k, 3), in the world: ``t + R c`` (k, 3)."""
+    return np.asarray(translation) + np.asarray(corners) @ np.asarray(rotation).T
+
+
+def support_hull(support: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """The support polygon (k, 2, counter-clockwise): the convex hull of the ground projections
+    of the soles in contact, for a support code of :mod:`wbc.recording` (``SUPPORT_DOUBLE``,
+    ``SUPPORT_LEFT``, ``SUPPORT_RIGHT``); ``left``/``right``: each sole's corners (k, 2 or 3).
+    Raises :class:`~wbc.exceptions.ConfigurationError` for another code."""
+    from .exceptions import ConfigurationError
+    from .recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
+
+    parts = {
+        SUPPORT_DOUBLE: (left, right),
+        SUPPORT_LEFT: (left,),
+        SUPPORT_RIGHT: (right,),
+    }.get(int(support))
+    if parts is None:
+        raise ConfigurationError(
+            f"unknown support code {support}; use {SUPPORT_DOUBLE} (double), {SUPPORT_LEFT} "
+            f"(left) or {SUPPORT_RIGHT} (right)"
+        )
+    return convex_hull(np.vstack([np.asarray(c, dtype=float)[:, :2] for c in parts]))
+
+
 def rot2(yaw: float) -> np.ndarray:
     """2-D rotation matrix."""
     c, s = np.cos(yaw), np.sin(yaw)
@@ -35,8 +68,17 @@ def foot_rectangle(
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull (Andrew's monotone chain); collinear points dropped."""
-    pts = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 12), axis=0)
+    """Counter-clockwise convex hull of 2-D points (n, 2) (Andrew's monotone chain, O(n log n));
+    repeated and collinear points dropped, degenerate inputs give 1 or 2 vertices. Raises
+    :class:`~wbc.exceptions.ConfigurationError` for another shape or non-finite points."""
+    from .exceptions import ConfigurationError
+
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] == 0:
+        raise ConfigurationError(f"convex_hull: expected (n >= 1, 2) points, got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ConfigurationError("convex_hull: points must be finite")
+    pts = np.unique(np.round(pts, 12), axis=0)
     if len(pts) < 3:
         return pts
 

@@ -19,7 +19,6 @@ trajectory, robot, ...).
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -121,19 +120,6 @@ class Recording:
         q = arrays.pop("q")
         names = tuple(str(n) for n in arrays.pop("joint_names"))
         return cls(t, q, names, arrays, meta)
-
-    @classmethod
-    def from_rows(
-        cls,
-        t: Sequence[float],
-        q: Sequence[np.ndarray],
-        joint_names: Sequence[str],
-        channels: Mapping[str, Sequence] | None = None,
-        meta: Mapping[str, Any] | None = None,
-    ) -> Recording:
-        """Build from per-tick lists (convenient for loops that append each tick)."""
-        ch = {k: np.asarray(v) for k, v in (channels or {}).items()}
-        return cls(np.asarray(t), np.asarray(q), tuple(joint_names), ch, dict(meta or {}))
 
 
 def _json_default(obj: Any) -> Any:

@@ -164,6 +164,10 @@ class ControlStack:
                 c.set_support(soles)
         self.phase, self.support, self.swing = phase, support, swing
 
+    def forget_anchors(self) -> None:
+        """The next :meth:`set_phase` anchors every active contact afresh."""
+        self._anchored.clear()
+
 
 _NO = RoleBinding(None, PHASES)
 

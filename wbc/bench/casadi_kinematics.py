@@ -278,7 +278,3 @@ class CasadiKinematics:
         """Numeric ``(p, R)`` of ``frame`` at q (builds a Function; for tests and checks)."""
         p, R = self.frame_placement_function(frame)(self.robot.check_configuration(q))
         return np.array(p).ravel(), np.array(R)
-
-    def com_at(self, q: np.ndarray) -> np.ndarray:
-        """Numeric centre of mass at q (builds a Function; for tests and checks)."""
-        return np.array(self.com_function()(self.robot.check_configuration(q))).ravel()

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..recording import Recording
 
 
@@ -19,7 +19,7 @@ def _pyplot():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on the install
-        raise WbcError("--plots needs matplotlib: pip install 'wbc[plots]'") from exc
+        raise ConfigurationError("--plots needs matplotlib: pip install 'wbc[plots]'") from exc
     return plt
 
 

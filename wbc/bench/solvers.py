@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..solvers.backends import BACKENDS
 from ..stacks import load_stack
@@ -131,7 +131,7 @@ def select(
     if families:
         unknown = [f for f in families if f not in FAMILIES]
         if unknown:
-            raise WbcError(f"unknown families {unknown}; choose from {list(FAMILIES)}")
+            raise ConfigurationError(f"unknown families {unknown}; choose from {list(FAMILIES)}")
         chosen = [e for e in chosen if e.family in families]
     if names:
         picked = []
@@ -140,7 +140,7 @@ def select(
                 e for e in chosen if e.name.startswith(n)
             ]
             if not matches:
-                raise WbcError(f"unknown solver {n!r}; known: {list(reg)}")
+                raise ConfigurationError(f"unknown solver {n!r}; known: {list(reg)}")
             picked += [m for m in matches if m not in picked]
         chosen = picked
     have = available()

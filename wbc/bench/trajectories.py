@@ -5,12 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..model import Robot
-from ..walking.checks import LegGeometry
 from ..walking.gait import forward_walk, lateral_walk, turning_walk
 from ..walking.geometry import Foot
 from ..walking.keyposes import KeyPoseParams, keypose_walk
+from ..walking.legs import LegGeometry
 from ..walking.reference import StandingState, WalkingReference
 from ..walking.schedule import GaitTiming, SwingParams
 from ..walking.thesis_step import ThesisStepParams, thesis_step
@@ -65,7 +65,7 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
             try:
                 value = _TABLES[key](**value)
             except TypeError as exc:
-                raise WbcError(f"{data.source}: [walking.{name}.{key}]: {exc}") from None
+                raise ConfigurationError(f"{data.source}: [walking.{name}.{key}]: {exc}") from None
         kw[key] = tuple(value) if isinstance(value, list) else value
     return kw
 
@@ -75,11 +75,11 @@ def build(name: str, robot: Robot) -> WalkingReference:
     try:
         builder, _ = TRAJECTORIES[name]
     except KeyError:
-        raise WbcError(f"unknown trajectory {name!r}; choose from {names()}") from None
+        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {names()}") from None
     kw = robot_options(robot, name)
     try:
         ref = builder(StandingState.from_robot(robot, robot.configuration("stand")), **kw)
     except TypeError as exc:  # an unknown key in [walking.<name>]
-        raise WbcError(f"{robot.robot_data.source}: [walking.{name}]: {exc}") from None
+        raise ConfigurationError(f"{robot.robot_data.source}: [walking.{name}]: {exc}") from None
     ref.name = name
     return ref

@@ -1,11 +1,13 @@
 """The Python side of the compiled hot path: a stack's tasks laid out for the kernels.
 
 A plan is built when a solver (re)plans its layout (never on a plain target update): every
-task becomes a row of an integer spec table, its target arrays are gathered into one packed
-buffer per tick (one ``np.concatenate``), its error rows become ``task.last_error`` views,
-and the frames' placements are the cached views into Pinocchio's data. Only the task types
-whose ``fill`` the kernels reproduce exactly are compiled (see :data:`KINDS`); a stack with any
-other task, or with extra box limits, keeps the numpy path.
+task becomes a row of an integer spec table (its row kernel, target, frames and output rows),
+its target arrays are copied into one packed buffer per tick (one ``np.concatenate``: the
+tasks keep owning their targets), its error rows become ``task.last_error`` views, and the
+frames' placements are the cached views into Pinocchio's data. Every task with a row kernel
+is compiled, wherever its class is defined (:mod:`wbc.compiled.dispatch` generates the tick
+of the plan's set of kernels); a stack with a task without one, or with extra box limits,
+keeps the numpy path.
 """
 
 from __future__ import annotations
@@ -15,19 +17,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..model import Kinematics, Robot
-from ..tasks import (
-    ComTask,
-    ContactTask,
-    DampingTask,
-    FrameOrientationTask,
-    FramePoseTask,
-    FramePositionTask,
-    PostureTask,
-    SwingFootOrientationTask,
-    Task,
-    TorsoOrientationTask,
-)
-from . import layout as R
+from ..tasks import Task
+from . import dispatch as D
 
 
 def numba_available() -> bool:
@@ -39,138 +30,97 @@ def numba_available() -> bool:
     return True
 
 
-#: exact task types the kernels reproduce (subclasses may override fill: not compiled)
-KINDS: dict[type, int] = {
-    ComTask: R.COM,
-    FramePositionTask: R.POSITION,
-    FrameOrientationTask: R.ORIENTATION,
-    FramePoseTask: R.POSE,
-    ContactTask: R.POSE,
-    PostureTask: R.POSTURE,
-    DampingTask: R.DAMPING,
-    SwingFootOrientationTask: R.SWING_AXES,
-    TorsoOrientationTask: R.TORSO_AXIS,
-}
+def compiled(task: Task) -> bool:
+    """True if the task's rows have a compiled form (a row kernel)."""
+    return type(task).row_kernel is not None
 
 
-def compilable(tasks: Sequence[Task]) -> bool:
-    """True if every task has a compiled counterpart."""
-    return all(type(t) in KINDS for t in tasks)
+def kernel_set(tasks: Sequence[Task]) -> tuple:
+    """The row kernels a tick of ``tasks`` dispatches over: the package's own (so the usual
+    stacks share one compiled tick), then those of other task types among ``tasks``."""
+    from ..tasks.task import PACKAGE_KERNELS
+
+    own = tuple(PACKAGE_KERNELS)
+    others = {type(t).row_kernel for t in tasks} - set(own)
+    key = lambda k: (k.py_func.__module__, k.py_func.__qualname__)  # noqa: E731
+    return own + tuple(sorted(others, key=key))
 
 
-def _target_attributes(task: Task) -> tuple[str, ...]:
-    """The task's target arrays, in the kernel's layout (rotations row-major)."""
-    if isinstance(task, FramePoseTask):
-        return ("target_position", "target_rotation")
-    if isinstance(task, DampingTask):
-        return ()
-    if isinstance(task, TorsoOrientationTask):
-        return ("axis",)
-    return ("target",)
-
-
-#: entry points resolved so far, by (kernel, variant): resolving one costs ~1 ms (numba's
-#: typeof of every argument), far too much to repeat at every support switch
-_ENTRIES: dict[tuple[object, int], object] = {}
-
-
-class Kernel:
-    """A numba function called through the entry point compiled for its argument types, which
-    skips numba's per-call type dispatch (about 1 µs for the ~30 arguments of a tick).
-
-    Only for call sites whose argument types never change: a plan's own arrays and
-    C-contiguous float64 configurations. ``variant`` tells apart the argument types a kernel
-    does get (the number of frame slots: the length of the frame tuples).
-    """
-
-    def __init__(self, dispatcher, variant: int = 0) -> None:
-        self.dispatcher = dispatcher
-        self.key = (dispatcher, variant)
-        self.entry = _ENTRIES.get(self.key)
-
-    def __call__(self, *args):
-        if self.entry is not None:
-            return self.entry(*args)
-        result = self.dispatcher(*args)
-        try:
-            from numba import typeof
-
-            signature = tuple(typeof(a) for a in args)
-            self.entry = self.dispatcher.overloads[signature].entry_point
-        except (KeyError, AttributeError):  # another numba: keep the dispatcher
-            self.entry = self.dispatcher
-        _ENTRIES[self.key] = self.entry
-        return result
-
-
-#: bumped whenever a plan points tasks' target arrays at its buffer
-_BINDINGS = [0]
+#: frame slots of a tick, padded to a multiple of this (see :class:`Frames`)
+FRAME_SLOTS = 8
 
 
 class Targets:
-    """Every compiled task's targets, as views into one buffer: the tasks' target arrays *are*
-    slices of it (their ``set_target`` writes in place), so a tick copies nothing.
-
-    Several plans may hold the same task (a solver keeps one plan per support phase, and a
-    task may sit in two solvers): a plan re-points the tasks at its own buffer, with their
-    current values, whenever another plan did so since its last tick.
-    """
+    """Every compiled task's targets, copied into one buffer at each tick from the tasks' own
+    arrays (never re-bound: a handle on a task's target stays valid on every path)."""
 
     def __init__(self) -> None:
-        self.entries: list[tuple[Task, str, int]] = []
+        self.sources: list[np.ndarray] = []
         self.size = 0
         self.buffer = np.zeros(0)
-        self.binding = -1
 
-    def add(self, task: Task) -> int:
+    def add(self, task: Task) -> tuple[int, int]:
+        """(offset, size) of the task's packed targets."""
         offset = self.size
-        for name in _target_attributes(task):
-            self.entries.append((task, name, self.size))
-            self.size += getattr(task, name).size
-        return offset
+        for name in task.target_fields:
+            view = getattr(task, name).reshape(-1)  # a view of the task's own array
+            if not np.shares_memory(view, getattr(task, name)):
+                raise ValueError(f"task {task.name!r}: target {name!r} must be contiguous")
+            self.sources.append(view)
+            self.size += view.size
+        return offset, self.size - offset
 
     def seal(self) -> None:
         self.buffer = np.zeros(self.size)
-        self.bind()
-
-    def bind(self) -> None:
-        for task, name, offset in self.entries:
-            current = getattr(task, name)
-            view = self.buffer[offset : offset + current.size].reshape(current.shape)
-            view[...] = current
-            setattr(task, name, view)
-        _BINDINGS[0] += 1
-        self.binding = _BINDINGS[0]
+        self.gather()
 
     def gather(self) -> np.ndarray:
-        """The buffer, re-bound first if another plan took the tasks meanwhile."""
-        if self.binding != _BINDINGS[0]:
-            self.bind()
+        """The buffer, holding the tasks' current targets."""
+        if self.sources:
+            np.concatenate(self.sources, out=self.buffer)
         return self.buffer
 
 
 class Frames:
-    """One slot per frame used by a task: its world rotation/position views and joint support."""
+    """One slot per frame used by a task: its world rotation/position views (copied by the
+    tick into ``Rs``/``ps``) and joint support; ``slots`` lists each task's slots."""
 
-    def __init__(self, robot: Robot, kin: Kinematics, frame_ids: Sequence[int]) -> None:
+    def __init__(self, robot: Robot, kin: Kinematics, tasks: Sequence[Task]) -> None:
         self.slot: dict[int, int] = {}
-        for fid in frame_ids:
-            self.slot.setdefault(fid, len(self.slot))
+        for t in tasks:
+            for fid in t.frame_ids():
+                self.slot.setdefault(fid, len(self.slot))
         ids = list(self.slot)
-        self.support = np.zeros((max(len(ids), 1), robot.nv), dtype=np.bool_)
+        n = len(ids) + (-len(ids) % FRAME_SLOTS) if ids else FRAME_SLOTS
+        self.support = np.zeros((n, robot.nv), dtype=np.bool_)
         for s, fid in enumerate(ids):
             self.support[s] = robot.frame_support(fid)
-        # views that follow every Kinematics.update (a 1-frame dummy keeps the types fixed)
+        # views that follow every Kinematics.update, padded to a multiple of FRAME_SLOTS
+        # (repeating a view): the tick's argument types, hence its compiled variants, do not
+        # depend on how many frames a stack uses
         fids = ids or [0]
+        fids = fids + [fids[0]] * (-len(fids) % FRAME_SLOTS)
         self.R = tuple(kin.rotation(f) for f in fids)
         self.p = tuple(kin.translation(f) for f in fids)
+        self.Rs = np.zeros((n, 3, 3))
+        self.ps = np.zeros((n, 3))
+        self._slots: list[int] = []
+        self.slots = np.zeros(0, dtype=np.int64)
+
+    def add(self, task: Task) -> tuple[int, int]:
+        """(offset, count) of the task's frame slots in :attr:`slots`."""
+        offset = len(self._slots)
+        self._slots.extend(self.slot[f] for f in task.frame_ids())
+        self.slots = np.array(self._slots, dtype=np.int64)
+        return offset, len(self._slots) - offset
 
 
 class Rows:
     """A fixed list of tasks as one block of rows: J (m x nv), raw errors E, right side b.
 
     ``weighted``: rows scaled by √w and b = α √w e (costs, and every level of the cascade);
-    otherwise J and b = α e unscaled (the weighted QP's hard equalities).
+    otherwise J and b = α e unscaled (the weighted QP's hard equalities). ``kinds`` maps each
+    row kernel to its index in the generated tick.
     """
 
     def __init__(
@@ -179,6 +129,7 @@ class Rows:
         nv: int,
         frames: Frames,
         targets: Targets,
+        kinds: dict,
         weighted: bool,
     ) -> None:
         self.tasks = list(tasks)
@@ -186,7 +137,7 @@ class Rows:
         self.J = np.zeros((self.m, nv))
         self.E = np.zeros(self.m)
         self.b = np.zeros(self.m)
-        spec = np.zeros((len(self.tasks), R.SPEC_COLUMNS), dtype=np.int64)
+        spec = np.zeros((len(self.tasks), D.SPEC_COLUMNS), dtype=np.int64)
         sel: list[np.ndarray] = []
         sqrt_w = np.ones(self.m)
         gain_w = np.zeros(self.m)
@@ -194,9 +145,10 @@ class Rows:
         r = s = 0
         for i, t in enumerate(self.tasks):
             k = t.rows
-            kind = KINDS[type(t)]
-            frame = frames.slot[t.frame_id] if hasattr(t, "frame_id") else -1
-            spec[i] = (kind, frame, targets.add(t), r, s, k)
+            spec[i, D.KIND] = kinds[type(t).row_kernel]
+            spec[i, D.TARGET], spec[i, D.TARGET_SIZE] = targets.add(t)
+            spec[i, D.SLOT], spec[i, D.SLOTS] = frames.add(t)
+            spec[i, D.ROW], spec[i, D.SEL], spec[i, D.ROWS] = r, s, k
             rows = np.flatnonzero(t.mask)
             sel.append(rows)
             w = np.sqrt(t.weight) if weighted else np.ones(k)
@@ -209,12 +161,6 @@ class Rows:
         self.sel = np.concatenate(sel) if sel else np.zeros(0, dtype=np.int64)
         self.sqrt_w = sqrt_w
         self.gain_w = gain_w
-        self.bind_errors()
-
-    def bind_errors(self) -> None:
-        """Every task's :attr:`~wbc.tasks.Task.last_error` becomes a view of its rows of E."""
-        for t, view in self.error_views():
-            t.last_error = view
 
     def error_views(self) -> list[tuple[Task, np.ndarray]]:
         return [(t, self.E[sl]) for t, (_, sl) in zip(self.tasks, self.slices, strict=True)]
@@ -224,23 +170,28 @@ class Rows:
         return (self.spec, self.sel, self.sqrt_w, self.gain_w, self.J, self.E, self.b)
 
 
-def frame_ids(tasks: Sequence[Task]) -> list[int]:
-    return [t.frame_id for t in tasks if hasattr(t, "frame_id")]
-
-
 class _Plan:
     """What both compiled solvers share: targets, frames, bounds and the output buffer.
 
     Every argument of the kernel call is a buffer of the plan, filled in place before the
-    call (the configuration, the velocity steps and the scalars), so that one prebuilt tuple
-    serves every tick.
+    call (the configuration, the targets, the velocity steps and the scalars), so that one
+    prebuilt tuple serves every tick and a tick allocates nothing.
     """
 
     def __init__(self, solver, kin: Kinematics, tasks: Sequence[Task]) -> None:
         robot = solver.robot
         self.solver = solver
+        kernels = kernel_set(tasks)
+        self.ticks = D.ticks(kernels)
+        self.kinds = {k: i for i, k in enumerate(kernels)}
         self.targets = Targets()
-        self.frames = Frames(robot, kin, frame_ids(tasks))
+        self.frames = Frames(robot, kin, tasks)
+        self.variant = len(self.frames.R)
+        nv = robot.nv
+        dim = max([6, *(t.dim for t in tasks)])
+        self.Jf = np.zeros((6, nv))
+        self.efull = np.zeros(dim)
+        self.Jfull = np.zeros((dim, nv))
         self.Jw = kin.data.J  # views that follow every Kinematics.update
         self.com = kin.com
         self.Jcom = kin.com_jacobian
@@ -250,34 +201,29 @@ class _Plan:
         self._params_key: tuple | None = None
         #: [use the velocity steps (0/1), μ (damping of the last level), hard tolerance]
         self.params = np.zeros(3)
-        self.lower = np.full(robot.nv, -np.inf)
-        self.upper = np.full(robot.nv, np.inf)
-        self.dq = np.zeros(robot.nv)
+        self.lower = np.full(nv, -np.inf)
+        self.upper = np.full(nv, np.inf)
+        self.dq = np.zeros(nv)
         self.q_next = np.zeros(robot.nq)
-        #: the box of the last solve (lower, upper)
-        self.box = (self.lower, self.upper)
-        self.unbounded = (np.full(robot.nv, -np.inf), np.full(robot.nv, np.inf))
-        from .ticks import integrate
-
-        self.integrate = Kernel(integrate)
         #: (task, view of its rows of E): re-pointed at every solve, since anything may have
         #: re-pointed a task's last_error meanwhile (Task.compute, the numpy path, another plan)
         self.error_views: list[tuple[Task, np.ndarray]] = []
         self.args: tuple = ()
+        self.tick_name = ""
 
     def _shared_args(self) -> tuple:
         f = self.frames
         return (
-            self.targets.buffer, f.R, f.p, f.support, self.Jw, self.com, self.Jcom, self.q,
-            self.q_min, self.q_max, self.step, self.params, self.lower, self.upper,
+            self.targets.buffer, f.slots, f.R, f.p, f.Rs, f.ps, f.support, self.Jw, self.com,
+            self.Jcom, self.Jf, self.efull, self.Jfull, self.q, self.q_min, self.q_max,
+            self.step, self.params, self.lower, self.upper,
         )  # fmt: skip
 
     def solve(self, kin: Kinematics, dt: float | None) -> int:
         """Fill the per-tick inputs and run the kernel; returns its status (0: solved)."""
         for task, view in self.error_views:
             task.last_error = view
-        if self.targets.binding != _BINDINGS[0]:
-            self.targets.bind()
+        self.targets.gather()
         np.copyto(self.q, kin.q)
         solver = self.solver
         key = (dt, solver.regularization, solver.hard_tol)
@@ -288,7 +234,7 @@ class _Plan:
                 np.copyto(self.step, limit.step(dt))
             self.params[:] = (1.0 if use else 0.0, solver.regularization, solver.hard_tol)
             self._params_key = key
-        return self.kernel(*self.args)
+        return self.ticks.call(self.tick_name, self.variant, self.args)
 
 
 class WeightedPlan(_Plan):
@@ -297,18 +243,46 @@ class WeightedPlan(_Plan):
     def __init__(self, solver, kin: Kinematics, soft: Sequence[Task], hard: Sequence[Task]):
         super().__init__(solver, kin, [*soft, *hard])
         nv = solver.robot.nv
-        self.soft = Rows(soft, nv, self.frames, self.targets, weighted=True)
-        self.hard = Rows(hard, nv, self.frames, self.targets, weighted=False)
+        self.soft = Rows(soft, nv, self.frames, self.targets, self.kinds, weighted=True)
+        self.hard = Rows(hard, nv, self.frames, self.targets, self.kinds, weighted=False)
         self.targets.seal()
         self.error_views = self.soft.error_views() + self.hard.error_views()
         self.state = np.zeros(nv, dtype=np.int8)
-        from .ticks import weighted_tick
-
-        self.kernel = Kernel(weighted_tick, len(self.frames.R))
+        #: the inequality rows' working set of the last tick that had one (a warm start)
+        self.working = np.zeros(0, dtype=np.bool_)
+        self.tick_name = "weighted_tick"
         self.args = (
             *self.soft.args, *self.hard.args, *self._shared_args(), self.state, self.dq,
             self.q_next,
         )  # fmt: skip
+
+    def solve_inequalities(self, G: np.ndarray, h: np.ndarray, tol: float) -> bool:
+        """With the rows, bounds and the solution without inequality rows filled by
+        :meth:`solve`: the weighted QP with ``G Δq <= h`` too, compiled
+        (:func:`~wbc.compiled.ticks.solve_with_inequalities`). False if that fails (the tick
+        then goes to the backend); Δq into ``dq``, q ⊕ Δq into ``q_next``."""
+        from .lsq import OK
+        from .ticks import integrate, solve_with_inequalities
+
+        x = self.dq.copy()
+        state = self.state.copy()
+        G = np.ascontiguousarray(G, dtype=float)
+        h = np.ascontiguousarray(h, dtype=float)
+        if self.working.shape != h.shape:  # the rows changed (e.g. the polygon's edges)
+            self.working = np.zeros(h.shape, dtype=np.bool_)
+        working = self.working.copy()
+        status = solve_with_inequalities(
+            self.hard.J, self.hard.b, self.soft.J, self.soft.b, self.params[1], self.lower,
+            self.upper, state, x, G, h, tol, working,
+        )  # fmt: skip
+        if status != OK:
+            self.working[:] = False
+            return False
+        np.copyto(self.working, working)
+        np.copyto(self.dq, x)
+        np.copyto(self.state, state)
+        integrate(self.q, self.dq, self.lower, self.upper, self.q_min, self.q_max, self.q_next)
+        return True
 
 
 class CascadePlan(_Plan):
@@ -318,7 +292,7 @@ class CascadePlan(_Plan):
         tasks = [t for lv in levels for t in lv]
         super().__init__(solver, kin, tasks)
         nv = solver.robot.nv
-        self.rows = Rows(tasks, nv, self.frames, self.targets, weighted=True)
+        self.rows = Rows(tasks, nv, self.frames, self.targets, self.kinds, weighted=True)
         self.targets.seal()
         bounds = np.cumsum([0] + [sum(t.rows for t in lv) for lv in levels])
         self.level_rows = bounds.astype(np.int64)
@@ -326,9 +300,7 @@ class CascadePlan(_Plan):
         self.error_views = self.rows.error_views()
         self.states = np.zeros((len(levels), nv), dtype=np.int8)
         self.achieved = np.zeros(self.rows.m)
-        from .ticks import cascade_tick
-
-        self.kernel = Kernel(cascade_tick, len(self.frames.R))
+        self.tick_name = "cascade_tick"
         self.args = (
             *self.rows.args, self.level_rows, self.level_hard, *self._shared_args(),
             self.states, self.achieved, self.dq, self.q_next,

@@ -1,35 +1,16 @@
-"""Task rows in compiled code: the same errors and Jacobians as the task classes' ``fill``.
+"""Building blocks of the tasks' row kernels (numba): the SO(3) logarithm and its Jacobian,
+a frame's Jacobian from Pinocchio's joint Jacobians, the rotation error rows.
 
-Each task of a block is described by one row of an integer ``spec`` table (its kind, frame
-slot, target offset, output rows and mask) so that one call fills every row of a block from
-Pinocchio's buffers: ``data.J`` (joint Jacobians, world frame), the frames' world placements,
-the CoM and its Jacobian. The tests check every kind against its Python task to 1e-12.
+A task's row kernel (see :class:`wbc.tasks.Task`) calls these; the tests check each against
+Pinocchio to 1e-12.
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 from numba import njit
-
-from ._cache import refresh
-from .layout import (
-    COM,
-    FRAME,
-    KIND,
-    ORIENTATION,
-    POSE,
-    POSITION,
-    POSTURE,
-    ROW,
-    ROWS,
-    SEL,
-    SWING_AXES,
-    TARGET,
-    TORSO_AXIS,
-)
 
 
 @njit(cache=True)
@@ -124,8 +105,8 @@ def frame_jacobian(Jw: np.ndarray, support: np.ndarray, p: np.ndarray, out: np.n
 
 
 @njit(cache=True)
-def _rotation_error(target: np.ndarray, R: np.ndarray, Jf: np.ndarray, e: np.ndarray, J) -> None:
-    """e = log(R* Rᵀ) and J = Jlog3(R* Rᵀ) J_ω (R* row-major in ``target``)."""
+def rotation_rows(target: np.ndarray, R: np.ndarray, Jf: np.ndarray, e: np.ndarray, J) -> None:
+    """e = log(R* Rᵀ) and J = Jlog3(R* Rᵀ) J_ω (R* row-major in ``target``, J_ω = Jf[3:])."""
     A = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
@@ -139,103 +120,3 @@ def _rotation_error(target: np.ndarray, R: np.ndarray, Jf: np.ndarray, e: np.nda
         w0, w1, w2 = Jf[3, k], Jf[4, k], Jf[5, k]
         for i in range(3):
             J[i, k] = Jl[i, 0] * w0 + Jl[i, 1] * w1 + Jl[i, 2] * w2
-
-
-@njit(cache=True)
-def fill_rows(
-    spec: np.ndarray,
-    sel: np.ndarray,
-    targets: np.ndarray,
-    frame_R: tuple,
-    frame_p: tuple,
-    frame_support: np.ndarray,
-    Jw: np.ndarray,
-    com: np.ndarray,
-    Jcom: np.ndarray,
-    joints: np.ndarray,
-    sqrt_w: np.ndarray,
-    gain_sqrt_w: np.ndarray,
-    J_out: np.ndarray,
-    E_out: np.ndarray,
-    b_out: np.ndarray,
-) -> None:
-    """Every task of a block: J_out = √w J, E_out = e (raw, masked), b_out = α √w e.
-
-    ``frame_R``/``frame_p``: per frame slot, the world rotation and position (views into
-    Pinocchio's data); ``frame_support[slot]`` its joint support.
-    """
-    nv = Jw.shape[1]
-    nj = joints.shape[0]
-    Jf = np.empty((6, nv))
-    Jfull = np.empty((max(nv, 6), nv))
-    efull = np.empty(max(nv, 6))
-    for t in range(spec.shape[0]):
-        kind = spec[t, KIND]
-        f = spec[t, FRAME]
-        o = spec[t, TARGET]
-        if kind == COM:
-            for i in range(3):
-                efull[i] = targets[o + i] - com[i]
-                for k in range(nv):
-                    Jfull[i, k] = Jcom[i, k]
-        elif kind == POSITION or kind == POSE:
-            p = frame_p[f]
-            frame_jacobian(Jw, frame_support[f], p, Jf)
-            for i in range(3):
-                efull[i] = targets[o + i] - p[i]
-                for k in range(nv):
-                    Jfull[i, k] = Jf[i, k]
-            if kind == POSE:
-                _rotation_error(targets[o + 3 : o + 12], frame_R[f], Jf, efull[3:6], Jfull[3:6])
-        elif kind == ORIENTATION:
-            frame_jacobian(Jw, frame_support[f], frame_p[f], Jf)
-            _rotation_error(targets[o : o + 9], frame_R[f], Jf, efull[0:3], Jfull[0:3])
-        elif kind == SWING_AXES or kind == TORSO_AXIS:
-            # the thesis's errors 1 − a·b_f (eqs. 4.3, 4.4), Jacobian (b_f × a)ᵀ J_ω
-            R = frame_R[f]
-            frame_jacobian(Jw, frame_support[f], frame_p[f], Jf)
-            n_axes = 2 if kind == SWING_AXES else 1
-            for i in range(n_axes):
-                if kind == SWING_AXES:  # sole z then x axes against the target rotation's
-                    c = 2 if i == 0 else 0
-                    a0, a1, a2 = targets[o + c], targets[o + 3 + c], targets[o + 6 + c]
-                else:  # torso z axis against the target axis
-                    c = 2
-                    a0, a1, a2 = targets[o], targets[o + 1], targets[o + 2]
-                b0, b1, b2 = R[0, c], R[1, c], R[2, c]
-                efull[i] = 1.0 - (a0 * b0 + a1 * b1 + a2 * b2)
-                x0 = b1 * a2 - b2 * a1
-                x1 = b2 * a0 - b0 * a2
-                x2 = b0 * a1 - b1 * a0
-                for k in range(nv):
-                    Jfull[i, k] = x0 * Jf[3, k] + x1 * Jf[4, k] + x2 * Jf[5, k]
-        elif kind == POSTURE:
-            for i in range(nj):
-                efull[i] = targets[o + i] - joints[i]
-                for k in range(nv):
-                    Jfull[i, k] = 0.0
-                Jfull[i, nv - nj + i] = 1.0
-        else:  # DAMPING
-            for i in range(nv):
-                efull[i] = 0.0
-                for k in range(nv):
-                    Jfull[i, k] = 0.0
-                Jfull[i, i] = 1.0
-        r0 = spec[t, ROW]
-        s0 = spec[t, SEL]
-        for j in range(spec[t, ROWS]):
-            src = sel[s0 + j]
-            r = r0 + j
-            e = efull[src]
-            E_out[r] = e
-            b_out[r] = gain_sqrt_w[r] * e
-            w = sqrt_w[r]
-            for k in range(nv):
-                J_out[r, k] = w * Jfull[src, k]
-
-
-# numba caches these on rows.py alone: flush them when the layout constants change
-refresh(
-    [log3, jlog3, frame_jacobian, _rotation_error, fill_rows],
-    [Path(__file__).with_name("layout.py")],
-)

@@ -1,13 +1,14 @@
-"""One compiled call per control tick: every task row, the box bounds and the QP(s).
+"""The compiled solve of a tick, once the rows are filled: box bounds, the QP(s), integration.
 
-* :func:`weighted_tick` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
+* :func:`weighted_solve` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
   rows as equalities, joint position/velocity bounds;
-* :func:`cascade_tick` — the lexicographic QP: level k in least squares subject to the bounds
+* :func:`cascade_solve` — the lexicographic QP: level k in least squares subject to the bounds
   and to every level above kept at its achieved values (``J_i Δq = J_i Δq_i``, the exact
   optimal set of a least-squares level), the last level damped by μ‖Δq‖² as the weighted QP.
 
 Both return a status; anything but :data:`~wbc.compiled.lsq.OK` sends the caller back to the
-numpy path, which handles (and names) infeasible problems.
+numpy path, which handles (and names) infeasible problems. The tick itself (rows, then one of
+these) is generated per set of row kernels by :mod:`wbc.compiled.dispatch`.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from numba import njit
 
 from ._cache import refresh
 from .lsq import MAX_ITER, NUMERICAL, OK, solve_level
-from .rows import fill_rows
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
@@ -59,29 +59,173 @@ def joint_bounds(
 
 
 @njit(cache=True)
-def weighted_tick(
-    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
-    targets, frame_R, frame_p, frame_support, Jw, com, Jcom, q,
-    q_min, q_max, step, params, lower, upper, state, dq, q_next,
+def weighted_solve(
+    soft_J, soft_b, hard_J, hard_b, q, q_min, q_max, step, params, lower, upper, state, dq,
+    q_next,
 ) -> int:  # fmt: skip
-    """Fill the rows and bounds, then solve min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
+    """With the rows filled: the bounds, then min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
     hard_J Δq = hard_b and the bounds; Δq into ``dq``, q ⊕ Δq into ``q_next`` (see
     :func:`integrate`). ``params``: [use the velocity steps, μ, (unused)]."""
     joints = q[q.shape[0] - q_min.shape[0] :]
-    fill_rows(
-        soft_spec, soft_sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
-        soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    )  # fmt: skip
-    fill_rows(
-        hard_spec, hard_sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
-        hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
-    )  # fmt: skip
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     status = solve_level(hard_J, hard_b, soft_J, soft_b, params[1], lower, upper, state, dq)
     if status == OK:
         integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return status
+
+
+@njit(cache=True)
+def _basic_least_squares(M, rhs):
+    """A least-squares solution of M λ = rhs (M: rows >= columns, ~10 columns) by the normal
+    equations and a Cholesky factorisation that skips dependent columns (their λ = 0): a
+    basic solution, exact when M λ = rhs is consistent (the caller checks the residual)."""
+    k = M.shape[1]
+    N = M.T @ M
+    g = M.T @ rhs
+    scale = 0.0
+    for j in range(k):
+        scale = max(scale, N[j, j])
+    keep = np.ones(k, np.bool_)
+    L = np.zeros((k, k))
+    for j in range(k):
+        d = N[j, j]
+        for t in range(j):
+            if keep[t]:
+                d -= L[j, t] * L[j, t]
+        if d <= 1e-12 * scale:
+            keep[j] = False
+            continue
+        L[j, j] = np.sqrt(d)
+        for i in range(j + 1, k):
+            v = N[i, j]
+            for t in range(j):
+                if keep[t]:
+                    v -= L[i, t] * L[j, t]
+            L[i, j] = v / L[j, j]
+    y = np.zeros(k)
+    for j in range(k):
+        if keep[j]:
+            v = g[j]
+            for t in range(j):
+                if keep[t]:
+                    v -= L[j, t] * y[t]
+            y[j] = v / L[j, j]
+    lam = np.zeros(k)
+    for j in range(k - 1, -1, -1):
+        if keep[j]:
+            v = y[j]
+            for t in range(j + 1, k):
+                if keep[t]:
+                    v -= L[t, j] * lam[t]
+            lam[j] = v / L[j, j]
+    return lam
+
+
+@njit(cache=True)
+def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol, start) -> int:
+    """min ‖B x − r‖² + μ‖x‖² s.t. A0 x = a0, G x <= h and the bounds, from the solution
+    without the G rows in ``x``: a primal active set on those rows around :func:`solve_level`
+    (a row of the working set is an equality).
+
+    The most violated row joins the working set; once every row holds to ``tol``, multipliers of
+    the working rows are found from the stationarity on the free variables
+    (``A_Fᵀ λ = −∇f_F``, least squares, a basic solution if the rows are dependent): if they are
+    all >= 0 (to ``tol`` relative) they prove x optimal, else the most negative row leaves.
+    ``start`` (p bools): the working set to begin with (the last tick's: a warm start, all
+    its rows join at once); on OK it holds the final working set. Returns OK (x optimal,
+    ``state`` its bounds' active set), NUMERICAL (the stationarity has no solution: no
+    certificate), MAX_ITER or the status of a failed least squares.
+    """
+    m0, n = A0.shape
+    p = G.shape[0]
+    A = np.empty((m0 + p, n))
+    a = np.empty(m0 + p)
+    for i in range(m0):
+        a[i] = a0[i]
+        for j in range(n):
+            A[i, j] = A0[i, j]
+    working = np.empty(p, np.int64)
+    inw = np.zeros(p, np.bool_)
+    nw = 0
+    for i in range(p):
+        if start[i]:
+            working[nw] = i
+            inw[i] = True
+            nw += 1
+    warm = nw > 0
+    for _ in range(2 * p + 4):
+        if warm:  # solve with the warm working set first
+            warm = False
+            for w in range(nw):
+                a[m0 + w] = h[working[w]]
+                for j in range(n):
+                    A[m0 + w, j] = G[working[w], j]
+            status = solve_level(A[: m0 + nw], a[: m0 + nw], B, r, mu, lower, upper, state, x)
+            if status != OK:
+                return status
+        k = -1
+        worst = tol
+        for i in range(p):
+            if not inw[i]:
+                v = -h[i]
+                for j in range(n):
+                    v += G[i, j] * x[j]
+                if v > worst:
+                    worst = v
+                    k = i
+        if k >= 0:  # the most violated row joins (one at a time: the set stays independent)
+            working[nw] = k
+            inw[k] = True
+            nw += 1
+        else:
+            if nw == 0:
+                for i in range(p):
+                    start[i] = False
+                return OK
+            res = B @ x - r
+            grad = B.T @ res + mu * x
+            nf = 0
+            for j in range(n):
+                if state[j] == 0:
+                    nf += 1
+            cols = m0 + nw
+            M = np.empty((nf, cols))
+            rhs = np.empty(nf)
+            c = 0
+            for j in range(n):
+                if state[j] == 0:
+                    for i in range(m0):
+                        M[c, i] = A0[i, j]
+                    for w in range(nw):
+                        M[c, m0 + w] = G[working[w], j]
+                    rhs[c] = -grad[j]
+                    c += 1
+            lam = _basic_least_squares(M, rhs)
+            miss = M @ lam - rhs
+            if np.sqrt(np.dot(miss, miss)) > 1e-7 * (1.0 + np.sqrt(np.dot(rhs, rhs))):
+                return NUMERICAL
+            jmin = 0
+            scale = 0.0
+            for w in range(nw):
+                scale = max(scale, abs(lam[m0 + w]))
+                if lam[m0 + w] < lam[m0 + jmin]:
+                    jmin = w
+            if lam[m0 + jmin] >= -tol * (1.0 + scale):
+                for i in range(p):
+                    start[i] = inw[i]
+                return OK
+            inw[working[jmin]] = False
+            for w in range(jmin, nw - 1):
+                working[w] = working[w + 1]
+            nw -= 1
+        for w in range(nw):
+            a[m0 + w] = h[working[w]]
+            for j in range(n):
+                A[m0 + w, j] = G[working[w], j]
+        status = solve_level(A[: m0 + nw], a[: m0 + nw], B, r, mu, lower, upper, state, x)
+        if status != OK:
+            return status
+    return MAX_ITER
 
 
 @njit(cache=True)
@@ -127,12 +271,11 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
 
 
 @njit(cache=True)
-def cascade_tick(
-    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard,
-    targets, frame_R, frame_p, frame_support, Jw, com, Jcom, q,
-    q_min, q_max, step, params, lower, upper, states, achieved, dq, q_next,
+def cascade_solve(
+    J, b, level_rows, level_hard, q, q_min, q_max, step, params, lower, upper, states,
+    achieved, dq, q_next,
 ) -> int:  # fmt: skip
-    """Fill every level's rows (weighted) and the bounds, then solve the levels in order.
+    """With every level's rows filled (weighted): the bounds, then the levels in order.
 
     ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``states[k]``: the
     active set of level k (the last tick's: a warm start; updated); ``achieved``: J Δq of
@@ -140,10 +283,6 @@ def cascade_tick(
     q ⊕ Δq into ``q_next``.
     """
     joints = q[q.shape[0] - q_min.shape[0] :]
-    fill_rows(
-        spec, sel, targets, frame_R, frame_p, frame_support, Jw, com, Jcom, joints,
-        sqrt_w, gain_w, J, E, b,
-    )  # fmt: skip
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     mu = params[1]
     hard_tol = params[2]
@@ -250,6 +389,13 @@ def integrate(
 
 # numba caches these on ticks.py alone: flush them when the kernels they call change
 refresh(
-    [joint_bounds, weighted_tick, _proximal_level, cascade_tick, integrate],
-    [Path(__file__).with_name(f) for f in ("rows.py", "lsq.py", "layout.py")],
+    [
+        joint_bounds,
+        weighted_solve,
+        solve_with_inequalities,
+        _proximal_level,
+        cascade_solve,
+        integrate,
+    ],
+    [Path(__file__).with_name("lsq.py")],
 )

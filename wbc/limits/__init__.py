@@ -3,7 +3,7 @@
 from .ground_clearance import GroundClearanceConstraint, LinearInequality
 from .joint_limits import JointPositionLimit, JointVelocityLimit, intersect_bounds
 from .limit import Bounds, BoxLimit, Constraint, Inequality
-from .support_polygon import ComPolygonConstraint, SupportPolygon, foot_corners
+from .support_polygon import ComPolygonConstraint, SupportPolygon
 
 __all__ = [
     "Bounds",
@@ -16,6 +16,5 @@ __all__ = [
     "JointVelocityLimit",
     "LinearInequality",
     "SupportPolygon",
-    "foot_corners",
     "intersect_bounds",
 ]

@@ -3,11 +3,26 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
+from ..compiled.rows import frame_jacobian
 from ..exceptions import TaskError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
+
+
+@njit(cache=True)
+def clearance_rows(Jw, support, p, R, corners, clearance, Jf, G, h) -> None:
+    """G, h of :class:`GroundClearanceConstraint` (one row per corner)."""
+    frame_jacobian(Jw, support, p, Jf)
+    for c in range(corners.shape[0]):
+        wx = R[0, 0] * corners[c, 0] + R[0, 1] * corners[c, 1] + R[0, 2] * corners[c, 2]
+        wy = R[1, 0] * corners[c, 0] + R[1, 1] * corners[c, 1] + R[1, 2] * corners[c, 2]
+        wz = R[2, 0] * corners[c, 0] + R[2, 1] * corners[c, 1] + R[2, 2] * corners[c, 2]
+        for k in range(Jf.shape[1]):
+            G[c, k] = wx * Jf[4, k] - wy * Jf[3, k] - Jf[2, k]
+        h[c] = wz + p[2] - clearance
 
 
 class GroundClearanceConstraint(Constraint):
@@ -37,18 +52,18 @@ class GroundClearanceConstraint(Constraint):
         )
         self._G = np.zeros((4, robot.nv))
         self._h = np.zeros(4)
+        self._Jf = np.zeros((6, robot.nv))
 
     def set_frame(self, frame: str) -> None:
         self.frame_id = self.robot.frame_id(frame)
         self.frame = frame
 
     def compute(self, kin: Kinematics) -> Inequality:
-        R = kin.rotation(self.frame_id)
-        J = kin.frame_jacobian(self.frame_id)
-        w = self.corners @ R.T  # corner offsets in world axes (4 x 3)
-        # z row of J_v − [w]x J_ω  =  J_v,z − (w_x J_ω,y − w_y J_ω,x)
-        np.subtract(np.outer(w[:, 0], J[4]) - np.outer(w[:, 1], J[3]), J[2], out=self._G)
-        np.add(w[:, 2], kin.translation(self.frame_id)[2] - self.clearance, out=self._h)
+        fid = self.frame_id
+        clearance_rows(
+            kin.data.J, self.robot.frame_support(fid), kin.translation(fid), kin.rotation(fid),
+            self.corners, float(self.clearance), self._Jf, self._G, self._h,
+        )  # fmt: skip
         return Inequality(self._G, self._h)
 
     def lowest_point(self, kin: Kinematics) -> float:

@@ -55,11 +55,10 @@ class Constraint(ABC):
 
     @active.setter
     def active(self, value: bool) -> None:
-        from ..tasks.task import bump_structure
-
         if bool(value) != self._active:
             self._active = bool(value)
-            bump_structure()
+            for stack in getattr(self, "_stacks", ()):
+                stack.revision += 1
 
     @abstractmethod
     def compute(self, kin: Kinematics) -> Inequality:

@@ -11,21 +11,11 @@ from ..geometry import (
     FOOT_WIDTH,
     convex_hull,
     halfplanes,
-    signed_distance,
     sole_corners,
+    world_corners,
 )
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
-
-
-def foot_corners(
-    placement_rotation: np.ndarray,
-    placement_translation: np.ndarray,
-    length: float = FOOT_LENGTH,
-    width: float = FOOT_WIDTH,
-) -> np.ndarray:
-    """The four sole corners in the world (4 x 3), counter-clockwise seen from above."""
-    return placement_translation + sole_corners(length, width) @ placement_rotation.T
 
 
 class SupportPolygon:
@@ -45,14 +35,11 @@ class SupportPolygon:
         length: float = FOOT_LENGTH,
         width: float = FOOT_WIDTH,
     ) -> SupportPolygon:
+        sole = sole_corners(length, width)
         corners = np.vstack(
-            [foot_corners(kin.rotation(f), kin.translation(f), length, width) for f in sole_ids]
+            [world_corners(kin.rotation(f), kin.translation(f), sole) for f in sole_ids]
         )
         return cls(convex_hull(corners[:, :2]), margin)
-
-    def distance(self, point: Sequence[float]) -> float:
-        """Signed distance of a point's ground projection to the (unshrunk) edge."""
-        return signed_distance(self.vertices, np.asarray(point, dtype=float)[:2])
 
 
 class ComPolygonConstraint(Constraint):

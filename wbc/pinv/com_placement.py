@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import SolverError
+from ..exceptions import ConfigurationError, SolverError
 from ..model import Robot
 from ..tasks import ComTask
 from .principal_masses import PrincipalMasses, principal_mass_targets
@@ -121,7 +121,7 @@ class ComPlacement:
         length_scale: float = 1000.0,
     ) -> None:
         if not (tol > 0 and max_iterations >= 1 and inner_iterations >= 1):
-            raise SolverError("tol must be > 0 and iteration caps >= 1")
+            raise ConfigurationError("tol must be > 0 and iteration caps >= 1")
         self.robot = robot
         self.support, self.swing = support, swing
         self.root = SoleRooted(robot, support)
@@ -131,12 +131,14 @@ class ComPlacement:
             annex_b_weights(robot, support) if weights is None else np.asarray(weights, dtype=float)
         )
         if self.weights.shape != (robot.n_joints,):
-            raise SolverError(f"weights must have {robot.n_joints} entries (model joint order)")
+            raise ConfigurationError(
+                f"weights must have {robot.n_joints} entries (model joint order)"
+            )
         self.tol = float(tol)
         self.max_iterations = int(max_iterations)
         self.inner_iterations = int(inner_iterations)
         if not (np.isfinite(length_scale) and length_scale > 0):
-            raise SolverError(f"length_scale must be > 0, got {length_scale}")
+            raise ConfigurationError(f"length_scale must be > 0, got {length_scale}")
         self.length_scale = float(length_scale)
         self._all = np.arange(robot.n_joints)
         self._swing_fid = robot.frame_id(swing)
@@ -154,9 +156,11 @@ class ComPlacement:
         """Place the CoM at ``com_target`` from ``q0`` with one method and one (λ, α)."""
         method = method.upper()
         if method not in METHODS:
-            raise SolverError(f"unknown CoM placement method {method!r}; use one of {METHODS}")
+            raise ConfigurationError(
+                f"unknown CoM placement method {method!r}; use one of {METHODS}"
+            )
         if not (np.isfinite(gain) and gain > 0):
-            raise SolverError(f"gain α must be > 0, got {gain}")
+            raise ConfigurationError(f"gain α must be > 0, got {gain}")
         q0 = self.robot.check_configuration(q0).copy()
         self.com_task.set_target(com_target)
         self._budget = self.max_iterations
@@ -314,7 +318,7 @@ def place_com(
         try:
             damping, gain = TABLE_3_3_1[setting]
         except KeyError:
-            raise SolverError(
+            raise ConfigurationError(
                 f"unknown setting {setting!r}; use one of {list(TABLE_3_3_1)}"
             ) from None
     return ComPlacement(robot, **options).solve(q0, com_target, method, damping, gain)

@@ -32,7 +32,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..exceptions import SolverError
+from ..exceptions import ConfigurationError
 from .pseudoinverse import moore_penrose, null_space_projector
 
 __all__ = [
@@ -55,7 +55,7 @@ def _limits(theta, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     lower = np.broadcast_to(np.asarray(lower, dtype=float), theta.shape)
     upper = np.broadcast_to(np.asarray(upper, dtype=float), theta.shape)
     if np.any(upper <= lower):
-        raise SolverError("joint limits must satisfy lower < upper for every joint")
+        raise ConfigurationError("joint limits must satisfy lower < upper for every joint")
     return theta, lower, upper
 
 
@@ -150,7 +150,7 @@ def gradient_projection(
     Jp = moore_penrose(J) if J_pinv is None else J_pinv
     grad = np.asarray(grad, dtype=float)
     if grad.shape != (J.shape[1],):
-        raise SolverError(f"gradient must have {J.shape[1]} entries, got {grad.shape}")
+        raise ConfigurationError(f"gradient must have {J.shape[1]} entries, got {grad.shape}")
     return Jp @ dx - null_space_projector(J, Jp) @ (gain * grad)
 
 
@@ -177,7 +177,7 @@ class ChanDubeyWeights:
         """Weights at θ given the previous call's |∂H/∂θ| (eq. 1.52); stores the new one."""
         theta = np.asarray(theta, dtype=float)
         if theta.shape != self.lower.shape:
-            raise SolverError(f"θ must have shape {self.lower.shape}, got {theta.shape}")
+            raise ConfigurationError(f"θ must have shape {self.lower.shape}, got {theta.shape}")
         g = np.abs(zghal_gradient(theta, self.lower, self.upper))
         growing = (g - self.previous) >= 0.0  # inf - inf is nan -> not growing: keep it safe
         growing |= np.isinf(g)

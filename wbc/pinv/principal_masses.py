@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import ModelError, SolverError
+from ..exceptions import ConfigurationError, ModelError
 from ..model import Kinematics, Robot
 from .pseudoinverse import moore_penrose
 
@@ -137,7 +137,7 @@ def principal_mass_targets(
     m = np.asarray(masses, dtype=float)
     x_k = np.array(positions, dtype=float).reshape(-1)
     if x_k.size != 3 * m.size:
-        raise SolverError(f"positions must be ({m.size}, 3), got {np.shape(positions)}")
+        raise ConfigurationError(f"positions must be ({m.size}, 3), got {np.shape(positions)}")
     Jc = com_mass_matrix(m)
     Jc_pinv = moore_penrose(Jc)
     target = np.asarray(com_target, dtype=float)

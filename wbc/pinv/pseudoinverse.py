@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exceptions import SolverError
+from ..exceptions import ConfigurationError, SolverError
 
 __all__ = [
     "AdaptiveDamping",
@@ -41,15 +41,15 @@ __all__ = [
 def _check_jacobian(J: np.ndarray) -> np.ndarray:
     J = np.asarray(J, dtype=float)
     if J.ndim != 2 or J.size == 0:
-        raise SolverError(f"Jacobian must be a non-empty 2-D array, got shape {J.shape}")
+        raise ConfigurationError(f"Jacobian must be a non-empty 2-D array, got shape {J.shape}")
     if not np.all(np.isfinite(J)):
-        raise SolverError("Jacobian has non-finite entries")
+        raise ConfigurationError("Jacobian has non-finite entries")
     return J
 
 
 def _check_damping(damping: float) -> float:
     if not (np.isfinite(damping) and damping >= 0.0):
-        raise SolverError(f"damping λ must be finite and >= 0, got {damping}")
+        raise ConfigurationError(f"damping λ must be finite and >= 0, got {damping}")
     return float(damping)
 
 
@@ -64,18 +64,20 @@ def inverse_weights(W: np.ndarray | float, n: int) -> np.ndarray:
         W = np.full(n, float(W))
     if W.ndim == 1:
         if W.shape != (n,):
-            raise SolverError(f"weights must have {n} entries (one per column), got {W.shape}")
+            raise ConfigurationError(
+                f"weights must have {n} entries (one per column), got {W.shape}"
+            )
         if np.any(np.isnan(W)) or np.any(W <= 0.0):
-            raise SolverError(f"diagonal weights must be > 0 (inf allowed), got {W}")
+            raise ConfigurationError(f"diagonal weights must be > 0 (inf allowed), got {W}")
         return 1.0 / W
     if W.shape != (n, n):
-        raise SolverError(f"weight matrix must be ({n}, {n}), got {W.shape}")
+        raise ConfigurationError(f"weight matrix must be ({n}, {n}), got {W.shape}")
     if not np.all(np.isfinite(W)) or not np.allclose(W, W.T):
-        raise SolverError("weight matrix must be finite and symmetric")
+        raise ConfigurationError("weight matrix must be finite and symmetric")
     try:
         np.linalg.cholesky(W)
     except np.linalg.LinAlgError:
-        raise SolverError("weight matrix must be positive definite") from None
+        raise ConfigurationError("weight matrix must be positive definite") from None
     return np.linalg.inv(W)
 
 
@@ -153,7 +155,7 @@ def null_space_projector(J: np.ndarray, J_pinv: np.ndarray) -> np.ndarray:
     """
     n = J.shape[1]
     if J_pinv.shape != (n, J.shape[0]):
-        raise SolverError(f"J⁺ must have shape {(n, J.shape[0])}, got {J_pinv.shape}")
+        raise ConfigurationError(f"J⁺ must have shape {(n, J.shape[0])}, got {J_pinv.shape}")
     P = -(J_pinv @ J)
     P.flat[:: n + 1] += 1.0
     return P
@@ -171,7 +173,7 @@ class AdaptiveDamping:
 
     def __init__(self, initial: float, minimum: float = 1e-9, maximum: float = 1e6) -> None:
         if not (0.0 < minimum <= maximum):
-            raise SolverError(f"need 0 < minimum <= maximum, got {minimum}, {maximum}")
+            raise ConfigurationError(f"need 0 < minimum <= maximum, got {minimum}, {maximum}")
         self.initial = _check_damping(initial)
         self.minimum = float(minimum)
         self.maximum = float(maximum)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import SolverError
+from ..exceptions import ConfigurationError, SolverError
 from ..model import Kinematics, Robot
 from ..tasks import ContactTask
 
@@ -59,7 +59,9 @@ class SoleRooted:
     def update(self, q: np.ndarray) -> None:
         """Recompute the kinematics and the base elimination at q."""
         if not self.anchored:
-            raise SolverError("SoleRooted.update before anchor(q): the support sole is not fixed")
+            raise ConfigurationError(
+                "SoleRooted.update before anchor(q): the support sole is not fixed"
+            )
         self.kin.update(q)
         self._reduce_contact()
 

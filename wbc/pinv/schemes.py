@@ -61,7 +61,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import SolverError
+from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..tasks import ComTask, FramePositionTask, SwingFootOrientationTask, TorsoOrientationTask
 from ..tasks.task import Task
@@ -137,19 +137,21 @@ class ThesisScheme:
         clip_to_limits: bool = False,
     ) -> None:
         if kind not in _LAYOUT:
-            raise SolverError(f"unknown scheme {kind!r}; use one of {SCHEME_NAMES}")
+            raise ConfigurationError(f"unknown scheme {kind!r}; use one of {SCHEME_NAMES}")
         if support == swing:
-            raise SolverError(f"support and swing must differ, both are {support!r}")
+            raise ConfigurationError(f"support and swing must differ, both are {support!r}")
         if not (np.isfinite(damping) and damping >= 0):
-            raise SolverError(f"damping λ must be >= 0, got {damping}")
+            raise ConfigurationError(f"damping λ must be >= 0, got {damping}")
         if not (np.isfinite(gain) and gain > 0):
-            raise SolverError(f"gain α must be > 0, got {gain}")
+            raise ConfigurationError(f"gain α must be > 0, got {gain}")
         if not (np.isfinite(length_scale) and length_scale > 0):
-            raise SolverError(f"length_scale must be > 0, got {length_scale}")
+            raise ConfigurationError(f"length_scale must be > 0, got {length_scale}")
         if secondary_sign not in (1.0, -1.0):
-            raise SolverError(f"secondary_sign must be +1 or -1, got {secondary_sign}")
+            raise ConfigurationError(f"secondary_sign must be +1 or -1, got {secondary_sign}")
         if limit_cost is not None and limit_cost not in COSTS:
-            raise SolverError(f"unknown limit cost {limit_cost!r}; use one of {sorted(COSTS)}")
+            raise ConfigurationError(
+                f"unknown limit cost {limit_cost!r}; use one of {sorted(COSTS)}"
+            )
         self.robot = robot
         self.kind = kind
         self.support, self.swing = support, swing
@@ -174,12 +176,16 @@ class ThesisScheme:
             self.weights = np.ones(robot.n_joints)
         elif isinstance(weights, str):
             if weights != "annex_b":
-                raise SolverError(f"weights: unknown name {weights!r}; use 'annex_b' or a vector")
+                raise ConfigurationError(
+                    f"weights: unknown name {weights!r}; use 'annex_b' or a vector"
+                )
             self.weights = annex_b_weights(robot, support)
         else:
             self.weights = np.asarray(weights, dtype=float)
         if self.weights.shape != (robot.n_joints,) or np.any(self.weights <= 0):
-            raise SolverError(f"weights must be {robot.n_joints} positive values (model order)")
+            raise ConfigurationError(
+                f"weights must be {robot.n_joints} positive values (model order)"
+            )
         self.chan_dubey = ChanDubeyWeights(robot.q_min, robot.q_max) if limits else None
         self._J: dict[str, np.ndarray] = {}
         self._e: dict[str, np.ndarray] = {}
@@ -233,7 +239,7 @@ class ThesisScheme:
             self.tasks[name].set_target_from(kin)
         sole = self.root.contact.target_rotation
         self.tasks["foot_ori"].set_target(sole)
-        self.tasks["torso"].axis = sole[:, 2].copy()
+        self.tasks["torso"].set_axis(sole[:, 2])
         if self.chan_dubey is not None:
             self.chan_dubey.reset()
 

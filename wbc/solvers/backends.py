@@ -14,7 +14,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from ..exceptions import InfeasibleError, SolverError
+from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 
 INF = 1e30  # what DAQP and OSQP read as infinity
 
@@ -344,4 +344,6 @@ def make_backend(name: str, eps: float = 1e-9) -> QPBackend:
     try:
         return BACKENDS[name](eps)
     except KeyError:
-        raise SolverError(f"unknown QP backend {name!r}; choose from {sorted(BACKENDS)}") from None
+        raise ConfigurationError(
+            f"unknown QP backend {name!r}; choose from {sorted(BACKENDS)}"
+        ) from None

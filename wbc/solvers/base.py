@@ -6,6 +6,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -34,6 +35,16 @@ class PoseResult:
         return max((float(np.max(np.abs(e))) for e in self.errors.values()), default=0.0)
 
 
+class Solution(NamedTuple):
+    """What one solve returns: Δq, the box it was solved in, and q ⊕ Δq when the compiled
+    tick integrated it already (None: not yet)."""
+
+    dq: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    q_next: np.ndarray | None = None
+
+
 class StackSolver(ABC):
     """Solve a :class:`TaskStack` for a configuration increment Δq (size nv).
 
@@ -51,7 +62,9 @@ class StackSolver(ABC):
         compiled: bool | None = None,
     ) -> None:
         if on_infeasible not in ("raise", "relax"):
-            raise WbcError(f"on_infeasible must be 'raise' or 'relax', got {on_infeasible!r}")
+            raise ConfigurationError(
+                f"on_infeasible must be 'raise' or 'relax', got {on_infeasible!r}"
+            )
         if compiled not in (None, True, False):
             raise ConfigurationError(f"compiled must be None, True or False, got {compiled!r}")
         self.stack = stack
@@ -71,11 +84,11 @@ class StackSolver(ABC):
         self.compiled_ticks = 0
         self.handed_back_ticks = 0
         self._layouts: dict = {}
-        self._stepped: np.ndarray | None = None
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
-        self._box: tuple[np.ndarray, np.ndarray] | None = None
+        #: the last solve's result (None before the first)
+        self.last: Solution | None = None
         #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
         self.solve_time = 0.0
         #: True if the last solve had to relax an infeasible hard level
@@ -87,23 +100,22 @@ class StackSolver(ABC):
 
     # ------------------------------------------------------------------ interface
     @abstractmethod
-    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
-        """Δq at the configuration of ``kin`` (kinematics already updated)."""
+    def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        """The solution at the configuration of ``kin`` (kinematics already updated)."""
 
     def solve(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """Δq (nv) for one QP at configuration q; ``dt`` enables the velocity limits."""
-        dq = self._timed_solve(q, dt)
-        return dq.copy() if self._stepped is not None else dq  # a kernel's buffer: copy
+        return self._timed_solve(q, dt).dq.copy()  # may be a plan's buffer: copy
 
-    def _timed_solve(self, q: np.ndarray, dt: float | None) -> np.ndarray:
+    def _timed_solve(self, q: np.ndarray, dt: float | None) -> Solution:
         start = time.perf_counter()
         if dt is not None and not (math.isfinite(dt) and dt > 0):
             raise ConfigurationError(f"dt must be a positive number, got {dt}")
-        self._stepped = None  # the compiled path sets it to q ⊕ Δq
+        self.last = None
         self.kin.update(q)
-        dq = self._solve(self.kin, dt)
+        self.last = solution = self._solve(self.kin, dt)
         self.solve_time = time.perf_counter() - start
-        return dq
+        return solution
 
     def prepare(self, q: np.ndarray, dt: float | None = None) -> None:
         """Pay the one-off costs of a first solve now (building the layout, loading the
@@ -116,6 +128,14 @@ class StackSolver(ABC):
             pass  # targets not set yet may be infeasible: the layout is built all the same
         self.compiled_ticks, self.handed_back_ticks = ticks
 
+    def forget_warm_starts(self) -> None:
+        """Start the compiled level solvers' active sets afresh (as after building a layout)."""
+        for layout in self._layouts.values():
+            plan = getattr(layout, "fast", None)
+            for name in ("state", "states"):
+                if plan is not None and hasattr(plan, name):
+                    getattr(plan, name)[...] = 0
+
     def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """One control tick: q ⊕ Δq with the joints inside their limits.
 
@@ -124,29 +144,25 @@ class StackSolver(ABC):
         onto their limits, so that no returned configuration ever exceeds a limit (a joint that
         started outside is moved back towards its range, never further out).
         """
-        dq = self._timed_solve(q, dt)
-        if self._stepped is not None:  # integrated by the kernel, the same way
-            return self._stepped.copy()
-        return self.integrate(self.kin.q, dq)
+        solution = self._timed_solve(q, dt)
+        if solution.q_next is not None:  # integrated by the compiled tick, the same way
+            return solution.q_next.copy()
+        return self.integrate(self.kin.q, solution.dq)
 
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """q ⊕ dq with dq's joint part clipped to the last solve's box bounds and the joints
-        to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances)."""
-        if self.fast is not None:  # the same operations, compiled
-            lower, upper = self._box if self._box is not None else self.fast.unbounded
-            q = np.ascontiguousarray(q, dtype=float)
-            dq = np.ascontiguousarray(dq, dtype=float)
-            q_next = np.empty_like(q)
-            self.fast.integrate(q, dq, lower, upper, self._q_min, self._q_max, q_next)
-            return q_next
-        if self._box is not None:
-            lower, upper = self._box
-            dq = dq.copy()
-            np.minimum(np.maximum(dq[6:], lower[6:], out=dq[6:]), upper[6:], out=dq[6:])
-        q_next = self.robot.integrate(q, dq)
-        j_prev = q[7:]
-        j = q_next[7:]
-        np.clip(j, np.minimum(self._q_min, j_prev), np.maximum(self._q_max, j_prev), out=j)
+        to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances);
+        :func:`wbc.compiled.ticks.integrate`, as the compiled tick does."""
+        from ..compiled.ticks import integrate
+
+        if self.last is not None:
+            lower, upper = self.last.lower, self.last.upper
+        else:
+            lower, upper = np.full(dq.shape, -np.inf), np.full(dq.shape, np.inf)
+        q = np.ascontiguousarray(q, dtype=float)
+        dq = np.ascontiguousarray(dq, dtype=float)
+        q_next = np.empty_like(q)
+        integrate(q, dq, lower, upper, self._q_min, self._q_max, q_next)
         return q_next
 
     def solve_pose(
@@ -203,10 +219,7 @@ class StackSolver(ABC):
                 (
                     lv.priority,
                     lv.hard,
-                    tuple(
-                        (id(t), t.params_version, getattr(t, "frame_id", -1))
-                        for t in lv.active_tasks()
-                    ),
+                    tuple((id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()),
                     tuple(id(c) for c in lv.active_constraints()),
                 )
                 for lv in self.stack.levels
@@ -225,16 +238,14 @@ class StackSolver(ABC):
     # ------------------------------------------------------------------ compiled path
     def compiled_reason(self) -> str:
         """Why the compiled hot path cannot serve this stack ("" if it can)."""
-        from ..compiled.plan import KINDS, numba_available
+        from ..compiled.plan import compiled, numba_available
 
         if not numba_available():
             return "numba is not installed (pip install numba)"
-        others = sorted(
-            {type(t).__name__ for lv in self.stack.levels for t in lv.active_tasks()}
-            - {k.__name__ for k in KINDS}
-        )
+        active = [t for lv in self.stack.levels for t in lv.active_tasks()]
+        others = sorted({type(t).__name__ for t in active if not compiled(t)})
         if others:
-            return f"no compiled form for the task types {others}"
+            return f"no row kernel (compiled form) for the task types {others}"
         if self.stack.extra_limits:
             return "extra box limits are not compiled"
         return ""
@@ -248,31 +259,23 @@ class StackSolver(ABC):
             raise ConfigurationError(f"{self.name}: compiled=True but {reason}")
         return not reason
 
-    def _constraints_hold(self, kin: Kinematics, constraints, dq: np.ndarray) -> bool:
-        """The compiled kernels leave inequality rows out: their solution is the solution
-        of the whole problem when it meets those rows (they are then inactive)."""
-        for c in constraints:
-            G, h = c.compute(kin)
-            if h.size and (G @ dq - h).max() > CONSTRAINT_TOL:
-                return False
-        return True
-
     # ------------------------------------------------------------------ helpers
     def compute_bounds(
         self, kin: Kinematics, dt: float | None, lower: np.ndarray, upper: np.ndarray
     ) -> None:
-        """Box bounds on Δq, written into the joint rows of ``lower``/``upper`` (nv each; their
-        base rows must hold ±inf: the floating base is unbounded).
+        """Box bounds on Δq, written into ``lower``/``upper`` (nv each; the floating base's rows
+        are unbounded), by :func:`wbc.compiled.ticks.joint_bounds` as the compiled tick does.
 
         Joint position: q_min − q <= Δq <= q_max − q. With a time step and velocity limits both
         are clipped into [−v_max·dt, v_max·dt]; a joint outside its range then moves back at
         the servo's speed (the bounds never cross). Other box limits are intersected after.
         """
-        self._box = (lower, upper)
-        lo, hi = lower[6:], upper[6:]  # the base rows stay at ±inf (callers allocate them so)
-        self.stack.position_limit.joint_bounds_into(kin.q[7:], lo, hi)
-        if dt is not None and self.stack.velocity_limit is not None:
-            self.stack.velocity_limit.clip_joint_bounds(dt, lo, hi)
+        from ..compiled.ticks import joint_bounds  # the compiled tick's own, one definition
+
+        limit = self.stack.velocity_limit
+        use = dt is not None and limit is not None
+        step = limit.step(dt) if use else self._q_min  # (not read without a time step)
+        joint_bounds(kin.q[7:], self._q_min, self._q_max, step, use, lower, upper)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]

@@ -2,11 +2,10 @@
 
 Levels are solved in priority order; each level is optimal without changing the optimum of
 the levels above. Equalities (tasks) and inequalities (constraints) may sit at any level;
-box limits are hard at every level. Two methods:
-
-* ``"cascade"`` — one QP per level over the null space of the levels above, inequality
-  slacks frozen for the levels below (Kanoun et al. 2011), any backend;
-* ``"daqp"`` — DAQP's native hierarchical mode (one call, ``break_points``).
+box limits are hard at every level. One method, ``"cascade"``: one QP per level over the
+null space of the levels above, inequality slacks frozen for the levels below (Kanoun et al.
+2011), any backend. (DAQP's native hierarchical mode was dropped: it reports feasible
+hierarchies infeasible.)
 
 A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the solve raises
 :class:`InfeasibleError` naming the level and the tasks/constraints involved, or, with
@@ -19,16 +18,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..exceptions import InfeasibleError, SolverError
+from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics
-from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
-from .backends import INF, QPBackend, make_backend
-from .base import StackSolver
+from .backends import QPBackend, make_backend
+from .base import CONSTRAINT_TOL, Solution, StackSolver
 from .cascade import LevelProblem, LevelSolution, solve_cascade
 from .diagnostics import infeasible_message
 
-METHODS = ("cascade", "daqp")
+METHODS = ("cascade",)
 
 
 class _Layout(NamedTuple):
@@ -55,9 +53,9 @@ class HierarchicalQP(StackSolver):
         compiled: bool | None = None,
     ) -> None:
         if method not in METHODS:
-            raise SolverError(f"unknown hierarchical method {method!r}; choose from {METHODS}")
-        if method == "daqp" and (backend if isinstance(backend, str) else backend.name) != "daqp":
-            raise SolverError("method='daqp' uses DAQP's native hierarchy: backend must be daqp")
+            raise ConfigurationError(
+                f"unknown hierarchical method {method!r}; choose from {METHODS}"
+            )
         super().__init__(stack, backend, regularization, on_infeasible, compiled)
         self.method = method
         self.hard_tol = hard_tol
@@ -65,19 +63,17 @@ class HierarchicalQP(StackSolver):
         self._key = None
         self._problems: list[LevelProblem] = []
         self._solutions: list[LevelSolution] = []
-        self._lazy_dq: np.ndarray | None = None  # set when the compiled path solved last
+        #: the compiled solution whose problems/solutions were built (on demand)
+        self._built_for: Solution | None = None
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
+        self._inequalities: list | None = None
         self.diagnosis = ""
 
     @property
     def name(self) -> str:
         return f"HierarchicalQP[{self.method}:{self.backend.name}]"
-
-    def compiled_reason(self) -> str:
-        if self.method != "cascade":
-            return "DAQP's native hierarchy has no compiled form"
-        return super().compiled_reason()
 
     def _plan(self) -> None:
         key = self._layout_key()
@@ -86,7 +82,7 @@ class HierarchicalQP(StackSolver):
             layout = self._build_layout()
             self._keep_layout(key, layout)
         self._levels, self._blocks, self._constraints, self._all_constraints, self.fast = layout
-        self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+        self._key = self.stack.revision
 
     def _build_layout(self) -> _Layout:
         nv = self.robot.nv
@@ -111,88 +107,155 @@ class HierarchicalQP(StackSolver):
     @property
     def problems(self) -> list[LevelProblem]:
         """Each level's rows at the last solve."""
-        if self._lazy_dq is not None:
-            self._materialize()
+        self._build_compiled()
         return self._problems
 
     @property
     def solutions(self) -> list[LevelSolution]:
         """Each level's residual, slacks and constraint margins at the last solve."""
-        if self._lazy_dq is not None:
-            self._materialize()
+        self._build_compiled()
         return self._solutions
 
-    def _materialize(self) -> None:
-        """Build problems/solutions of a compiled solve (only when someone asks for them)."""
-        dq, self._lazy_dq = self._lazy_dq, None
-        fast, nv = self.fast, self.robot.nv
-        self._problems, self._solutions = [], []
-        for k, (lv, cons) in enumerate(zip(self._levels, self._constraints, strict=True)):
-            r0, r1 = fast.level_rows[k], fast.level_rows[k + 1]
-            G, h, cslices = stack_constraints(cons, self.kin, nv)
-            slices = [
-                (name, slice(sl.start - r0, sl.stop - r0))
-                for name, sl in fast.rows.slices
-                if r0 <= sl.start < r1
-            ]
-            J, b = fast.rows.J[r0:r1].copy(), fast.rows.b[r0:r1].copy()
-            self._problems.append(LevelProblem(lv.priority, J, b, G, h, lv.hard, slices, cslices))
-            margin = G @ dq - h if h.size else np.zeros(0)
-            self._solutions.append(
-                LevelSolution(lv.priority, J @ dq - b, np.zeros(h.size), margin=margin)
+    def _build_compiled(self) -> None:
+        """Each level's rows and residuals of a compiled solve (only when someone asks for
+        them), with the rows copied (the plan's arrays are refilled at the next tick)."""
+        last = self.last
+        if last is None or last.q_next is None or self._built_for is last:
+            return
+        self._built_for = last
+        dq = last.dq
+        problems, _, _ = self._assemble(self.kin, None, self._inequalities)
+        self._problems = [
+            LevelProblem(
+                p.priority,
+                p.J.copy(),
+                p.b.copy(),
+                p.G.copy(),
+                p.h.copy(),
+                p.hard,
+                p.task_rows,
+                p.constraint_rows,
             )
+            for p in problems
+        ]
+        self._solutions = [
+            LevelSolution(
+                p.priority,
+                p.J @ dq - p.b,
+                np.zeros(p.h.size),
+                margin=p.G @ dq - p.h if p.h.size else np.zeros(0),
+            )
+            for p in self._problems
+        ]
 
-    def _level_problems(self, kin: Kinematics) -> list[LevelProblem]:
+    def _inequalities_at(self, kin: Kinematics) -> list | None:
+        """Each level's (G, h, row slices) at ``kin`` (None: the stack has no constraint)."""
+        if not self._all_constraints:
+            return None
         nv = self.robot.nv
-        problems = []
-        for lv, block, cons in zip(self._levels, self._blocks, self._constraints, strict=True):
-            block.fill_weighted(kin)
-            G, h, cslices = stack_constraints(cons, kin, nv)
-            problems.append(
-                LevelProblem(lv.priority, block.J, block.b, G, h, lv.hard, block.slices, cslices)
-            )
-        return problems
+        return [stack_constraints(cons, kin, nv) for cons in self._constraints]
 
-    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
-        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+    def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None):
+        """The QP value: each level's rows (J, b weighted by √w: the plan's arrays, which the
+        compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
+        fast = self.fast
+        problems = []
+        for k, (lv, block) in enumerate(zip(self._levels, self._blocks, strict=True)):
+            G, h, cslices = self._no_rows if inequalities is None else inequalities[k]
+            if fast is not None:
+                r0, r1 = fast.level_rows[k], fast.level_rows[k + 1]
+                J, b = fast.rows.J[r0:r1], fast.rows.b[r0:r1]
+            else:
+                block.fill_weighted(kin)
+                J, b = block.J, block.b
+            problems.append(LevelProblem(lv.priority, J, b, G, h, lv.hard, block.slices, cslices))
+        if fast is not None:
+            return problems, fast.lower, fast.upper
+        self.compute_bounds(kin, dt, self._lower, self._upper)
+        return problems, self._lower, self._upper
+
+    def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        """kinematics → one assembly into a QP value → the compiled cascade (bounds and
+        equalities) or, with active inequality rows, the cascade of backend QPs on the same
+        arrays."""
+        if self._key != self.stack.revision:
             self._plan()
+        self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
         if fast is not None:
-            if fast.solve(kin, dt) == 0 and (
-                not self._all_constraints
-                or self._constraints_hold(kin, self._all_constraints, fast.dq)
+            status = fast.solve(kin, dt)  # fills the plan's rows and bounds
+            if status == 0 and (
+                inequalities is None
+                or all(
+                    h.size == 0 or (G @ fast.dq - h).max() <= CONSTRAINT_TOL
+                    for G, h, _ in inequalities
+                )
             ):
                 self.compiled_ticks += 1
-                self._box = fast.box
                 self.relaxed = False
                 self.diagnosis = ""
-                self._stepped = fast.q_next
-                self._lazy_dq = fast.dq  # valid until the next solve, which resets it
-                return fast.dq
+                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
             self.handed_back_ticks += 1
-        self._lazy_dq = None
-        self._problems = self._level_problems(kin)
-        lower, upper = self._lower, self._upper
-        self.compute_bounds(kin, dt, lower, upper)
+        problems, lower, upper = self._assemble(kin, dt, inequalities)
+        self._problems = problems
+        if fast is None and inequalities is None and not self.stack.extra_limits:
+            dq = self._level_solver(problems, kin, dt, lower, upper)
+            if dq is not None:
+                return Solution(dq, lower, upper)
         relax = self.on_infeasible == "relax"
-        if self.method == "daqp":
-            dq = self._solve_daqp(self.problems, lower, upper)
-        else:
-            while len(self._backends) < len(self.problems) + 1:
-                self._backends.append(make_backend(self.backend.name, self.backend.eps))
-            try:
-                dq, self._solutions = solve_cascade(
-                    self.problems,
-                    lower,
-                    upper,
-                    self._backends,
-                    final_regularization=self.regularization,
-                    relax=relax,
-                )
-            except InfeasibleError as exc:
-                raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+        while len(self._backends) < len(problems) + 1:
+            self._backends.append(make_backend(self.backend.name, self.backend.eps))
+        try:
+            dq, self._solutions = solve_cascade(
+                problems,
+                lower,
+                upper,
+                self._backends,
+                final_regularization=self.regularization,
+                relax=relax,
+            )
+        except InfeasibleError as exc:
+            raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
+        return Solution(dq, lower, upper)
+
+    def _level_solver(self, problems, kin: Kinematics, dt: float | None, lower, upper):
+        """The levels without inequality rows, on the numpy path: the compiled tick's own level
+        algorithm (:func:`wbc.compiled.ticks.cascade_solve`) on these rows, so that one
+        hierarchy algorithm serves every path; the backends solve the levels that have
+        inequality rows. None if it cannot finish (the backend cascade then names why)."""
+        from ..compiled.lsq import OK
+        from ..compiled.ticks import cascade_solve
+
+        nv = self.robot.nv
+        J = np.vstack([p.J for p in problems]) if problems else np.zeros((0, nv))
+        b = np.concatenate([p.b for p in problems]) if problems else np.zeros(0)
+        level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
+        level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
+        limit = self.stack.velocity_limit
+        use = dt is not None and limit is not None
+        step = limit.step(dt) if use else np.zeros(self.robot.n_joints)
+        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol])
+        states = np.zeros((len(problems), nv), dtype=np.int8)
+        achieved = np.zeros(J.shape[0])
+        dq = np.zeros(nv)
+        q_next = np.zeros(self.robot.nq)
+        q = np.ascontiguousarray(kin.q, dtype=float)
+        status = cascade_solve(
+            J, b, level_rows, level_hard, q, self._q_min, self._q_max,
+            np.ascontiguousarray(step, dtype=float), params, lower, upper, states, achieved,
+            dq, q_next,
+        )  # fmt: skip
+        if status != OK:
+            self.compute_bounds(kin, dt, lower, upper)  # the backend cascade starts afresh
+            return None
+        self._solutions = [
+            LevelSolution(p.priority, p.J @ dq - p.b, np.zeros(0), margin=np.zeros(0))
+            for p in problems
+        ]
+        self.relaxed = False
+        self.diagnosis = ""
         return dq
 
     # ------------------------------------------------------------------ hard levels
@@ -223,44 +286,3 @@ class HierarchicalQP(StackSolver):
             if p.hard and s.relaxed
         ]
         return "; ".join(msgs) or "the bounds are infeasible"
-
-    # ------------------------------------------------------------------ DAQP native
-    def _solve_daqp(self, problems, lower, upper) -> np.ndarray:
-        import daqp
-
-        n = lower.size
-        rows = [np.vstack([p.J, p.G]) for p in problems]
-        A = np.vstack(rows) if rows else np.zeros((0, n))
-        bu = [np.clip(upper, -INF, INF)]
-        bl = [np.clip(lower, -INF, INF)]
-        sense = [np.zeros(n, dtype=np.intc)]
-        breaks = [0]
-        for p in problems:
-            m, k = p.J.shape[0], p.G.shape[0]
-            bu += [p.b, p.h]
-            bl += [p.b, np.full(k, -INF)]
-            sense.append(np.zeros(m + k, dtype=np.intc))
-            breaks.append(breaks[-1] + m + k)
-        H = self.regularization * np.eye(n)
-        x, _, exitflag, _ = daqp.solve(
-            H,
-            np.zeros(n),
-            A,
-            np.concatenate(bu),
-            np.concatenate(bl),
-            np.concatenate(sense),
-            break_points=np.array(breaks, dtype=np.intc),
-            primal_tol=self.backend.eps,
-        )
-        if exitflag not in (1, 2):
-            if exitflag == -1:
-                raise InfeasibleError("daqp hierarchical: the bounds are infeasible")
-            raise SolverError(f"daqp hierarchical failed with exit flag {exitflag}")
-        x = np.asarray(x, dtype=float)
-        self._solutions = [
-            LevelSolution(
-                p.priority, p.J @ x - p.b, np.maximum(p.G @ x - p.h, 0.0), margin=p.G @ x - p.h
-            )
-            for p in problems
-        ]
-        return x

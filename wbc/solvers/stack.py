@@ -54,7 +54,29 @@ class TaskStack:
             JointVelocityLimit(robot) if velocity_limits else None
         )
         self.extra_limits: list[BoxLimit] = []
-        self.version = 0  # bumped on structural change
+        #: bumped when a level, task, constraint or limit is added
+        self.version = 0
+        #: bumped on every change the solvers' layouts depend on: :attr:`version`, and a task's
+        #: or constraint's activity, gain, mask, weight or frame (never a target)
+        self._revision = 0
+
+    @property
+    def version(self) -> int:
+        return self._version
+
+    @version.setter
+    def version(self, value: int) -> None:
+        self._version = value
+        self._revision = getattr(self, "_revision", 0) + 1
+
+    @property
+    def revision(self) -> int:
+        """Changes so far (see the attribute docs in ``__init__``): solvers re-plan on a new one."""
+        return self._revision
+
+    @revision.setter
+    def revision(self, value: int) -> None:
+        self._revision = value
 
     # ------------------------------------------------------------------ building
     def level(self, priority: int, hard: bool | None = None) -> Level:
@@ -90,6 +112,7 @@ class TaskStack:
         if gain is not None:
             task.gain = gain
         self.level(level, hard).tasks.append(task)
+        task._stacks = [*getattr(task, "_stacks", ()), self]  # its changes re-plan this stack
         self.version += 1
         return task
 
@@ -98,6 +121,7 @@ class TaskStack:
         if not isinstance(constraint, Constraint):
             raise TaskError(f"expected a Constraint, got {type(constraint).__name__}")
         self.level(level, hard).constraints.append(constraint)
+        constraint._stacks = [*getattr(constraint, "_stacks", ()), self]
         self.version += 1
         return constraint
 
@@ -137,18 +161,6 @@ class TaskStack:
             if c.name == name:
                 return c
         raise TaskError(f"no constraint named {name!r}")
-
-    def structure(self) -> tuple:
-        """A key that changes whenever the active tasks/constraints or their sizes change."""
-        return tuple(
-            (
-                lvl.priority,
-                lvl.hard,
-                tuple((t.name, t.rows) for t in lvl.active_tasks()),
-                tuple(c.name for c in lvl.active_constraints()),
-            )
-            for lvl in self.levels
-        )
 
     def errors(self) -> dict[str, np.ndarray]:
         """Each active task's error e = x* − x from the last solve (masked rows)."""

@@ -18,11 +18,25 @@ import numpy as np
 
 from ..exceptions import InfeasibleError
 from ..model import Kinematics
-from ..tasks.task import STRUCTURE_EPOCH
 from .assembly import TaskBlock, stack_constraints
-from .base import StackSolver
+from .base import CONSTRAINT_TOL, Solution, StackSolver
 from .cascade import LevelProblem, solve_cascade
 from .diagnostics import conflicts, infeasible_message
+
+
+class WeightedValue(NamedTuple):
+    """One tick's weighted QP: min ‖J Δq − b‖² + μ‖Δq‖² s.t. A Δq = a, G Δq <= h and
+    lower <= Δq <= upper (J, b weighted by √w; rows from the compiled plan or the numpy
+    blocks, never both)."""
+
+    J: np.ndarray | None
+    b: np.ndarray | None
+    A: np.ndarray | None
+    a: np.ndarray | None
+    G: np.ndarray
+    h: np.ndarray
+    lower: np.ndarray | None
+    upper: np.ndarray | None
 
 
 class _Layout(NamedTuple):
@@ -57,18 +71,21 @@ class WeightedQP(StackSolver):
         self._key = None
         self.ws = None
         self.diagnosis = ""
+        nv = self.robot.nv
+        self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
 
     def _plan(self, m_in: int) -> None:
         """(Re)build the layout when the stack's structure changed; resize the workspace to
         ``m_in`` inequality rows."""
-        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+        if self._key != self.stack.revision:
             key = self._layout_key()
             layout = self._cached_layout(key)
             if layout is None:
                 layout = self._build_layout()
                 self._keep_layout(key, layout)
             self.soft, self.hard, self.constraints, self.fast, self.ws = layout
-            self._key = (self.stack.version, STRUCTURE_EPOCH[0])
+            self._key = self.stack.revision
         if self.ws.shape[2] != m_in:
             self.ws = self.backend.workspace(self.robot.nv, self.hard.m, m_in)
 
@@ -85,43 +102,70 @@ class WeightedQP(StackSolver):
             fast = WeightedPlan(self, self.kin, soft.tasks, hard.tasks)
         return _Layout(soft, hard, constraints, fast, self.backend.workspace(nv, hard.m, 0))
 
-    def _solve(self, kin: Kinematics, dt: float | None) -> np.ndarray:
-        if self._key != (self.stack.version, STRUCTURE_EPOCH[0]):
+    def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
+        """kinematics → one assembly into a QP value → the compiled least squares (bounds and
+        equalities) or, with active inequality rows, the backend fed from the same arrays."""
+        if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
         if fast is not None:
-            if fast.solve(kin, dt) == 0 and (
-                not self.constraints or self._constraints_hold(kin, self.constraints, fast.dq)
+            status = fast.solve(kin, dt)  # fills the plan's rows and bounds: the QP value
+            value = self._assemble(kin, dt)  # the inequality rows
+            if status == 0 and (
+                value.h.size == 0
+                or (value.G @ fast.dq - value.h).max() <= CONSTRAINT_TOL
+                or fast.solve_inequalities(value.G, value.h, CONSTRAINT_TOL)
             ):
                 self.compiled_ticks += 1
-                self._box = fast.box
                 self.relaxed = False
-                self._stepped = fast.q_next
-                return fast.dq
+                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
             self.handed_back_ticks += 1
-        G, h = None, None
+            value = value._replace(
+                J=fast.soft.J, b=fast.soft.b, A=fast.hard.J, a=fast.hard.b,
+                lower=fast.lower, upper=fast.upper,
+            )  # fmt: skip
+        else:
+            value = self._assemble(kin, dt)
+        return self._solve_value(kin, value)
+
+    def _assemble(self, kin: Kinematics, dt: float | None) -> WeightedValue:
+        """The QP value: the inequality rows, and on the numpy path every row and the bounds
+        (the compiled tick fills those itself, into its plan)."""
         if self.constraints:
             G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)
-            if G.shape[0] != self.ws.shape[2]:
-                self._plan(G.shape[0])
-        ws, soft = self.ws, self.soft
+        else:
+            G, h, _ = self._no_rows
+        if self.fast is not None:
+            return WeightedValue(None, None, None, None, G, h, None, None)
+        soft, hard = self.soft, self.hard
         soft.fill_weighted(kin)
-        self.hard.fill_into(kin, ws.A, ws.b)
-        np.dot(soft.J.T, soft.J, out=ws.H)
+        hard.fill_into(kin, hard.J, hard.b)
+        self.compute_bounds(kin, dt, self._lower, self._upper)
+        return WeightedValue(soft.J, soft.b, hard.J, hard.b, G, h, self._lower, self._upper)
+
+    def _solve_value(self, kin: Kinematics, value: WeightedValue) -> Solution:
+        """The QP value through the backend (its workspace filled in place)."""
+        if value.h.size != self.ws.shape[2]:
+            self._plan(value.h.size)
+        ws = self.ws
+        np.dot(value.J.T, value.J, out=ws.H)
         ws.H.flat[:: ws.H.shape[0] + 1] += self.regularization
-        np.dot(soft.J.T, soft.b, out=ws.c)
+        np.dot(value.J.T, value.b, out=ws.c)
         np.negative(ws.c, out=ws.c)
-        if G is not None:
-            ws.G[:] = G
-            ws.h[:] = h
-        self.compute_bounds(kin, dt, ws.lower, ws.upper)
+        ws.A[:] = value.A
+        ws.b[:] = value.a
+        ws.G[:] = value.G
+        ws.h[:] = value.h
+        ws.lower[:] = value.lower
+        ws.upper[:] = value.upper
         self.relaxed = False
         try:
-            return self.backend.solve_workspace(ws)
+            dq = self.backend.solve_workspace(ws)
         except InfeasibleError:
-            return self._relax(kin)
+            dq = self._relax(kin, value)
+        return Solution(dq, ws.lower, ws.upper)
 
-    def _relax(self, kin: Kinematics) -> np.ndarray:
+    def _relax(self, kin: Kinematics, value: WeightedValue) -> np.ndarray:
         """The hard levels in priority order, each in least squares, then the soft tasks
         (a cascade); names what the first unmet hard level could not satisfy."""
         nv = self.robot.nv
@@ -148,9 +192,7 @@ class WeightedQP(StackSolver):
             c for lv in self.stack.levels if not lv.hard for c in lv.active_constraints()
         ]
         G, h, cslices = stack_constraints(soft_constraints, kin, nv)
-        problems.append(
-            LevelProblem(1 << 30, self.soft.J, self.soft.b, G, h, constraint_rows=cslices)
-        )
+        problems.append(LevelProblem(1 << 30, value.J, value.b, G, h, constraint_rows=cslices))
         backends = [type(self.backend)(self.backend.eps) for _ in problems]
         dq, sols = solve_cascade(
             problems,

@@ -12,6 +12,7 @@ from .frame_position import FramePositionTask
 from .frame_task import FrameTask
 from .limit_damping import JointLimitDampingTask
 from .posture import DampingTask, PostureTask
+from .relative_position import RelativeFramePositionTask
 from .task import Objective, Task
 from .thesis_orientation import SwingFootOrientationTask, TorsoOrientationTask
 
@@ -26,6 +27,7 @@ __all__ = [
     "JointLimitDampingTask",
     "Objective",
     "PostureTask",
+    "RelativeFramePositionTask",
     "SwingFootOrientationTask",
     "Task",
     "TorsoOrientationTask",

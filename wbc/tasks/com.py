@@ -5,15 +5,27 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
 from ..model import Kinematics, Robot
 from .task import Task, check_vector
+
+
+@njit(cache=True)
+def com_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """e = c* − c, J = J_com."""
+    for i in range(3):
+        e[i] = target[i] - com[i]
+        for k in range(Jcom.shape[1]):
+            J[i, k] = Jcom[i, k]
 
 
 class ComTask(Task):
     """e = c* − c(q), J = J_com (3 x nv); the thesis's Δx = x* − x with J_T (sec. 1.5.4)."""
 
     dim = 3
+    row_kernel = staticmethod(com_rows)
+    target_fields = ("target",)
 
     def __init__(
         self,
@@ -36,17 +48,3 @@ class ComTask(Task):
     def set_target_from(self, kin: Kinematics) -> None:
         """Target = the current CoM."""
         self.target[:] = kin.com
-
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return self.target - kin.com
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        return kin.com_jacobian
-
-    def fill(self, kin: Kinematics, J_out: np.ndarray, e_out: np.ndarray) -> None:
-        if not self._all:
-            return super().fill(kin, J_out, e_out)
-        J_out[:] = kin.com_jacobian
-        np.subtract(self.target, kin.com, out=e_out)
-        self.last_error = e_out
-        return None

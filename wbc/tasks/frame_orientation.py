@@ -5,11 +5,20 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import pinocchio as pin
+from numba import njit
 
+from ..compiled.rows import frame_jacobian, rotation_rows
 from ..model import Kinematics, Robot
 from .frame_task import FrameTask
 from .task import check_rotation
+
+
+@njit(cache=True)
+def orientation_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """e = log(R* Rᵀ), J = Jlog3(R* Rᵀ) J_ω."""
+    f = slots[0]
+    frame_jacobian(Jw, supports[f], ps[f], Jf)
+    rotation_rows(target[0:9], Rs[f], Jf, e[0:3], J[0:3])
 
 
 class FrameOrientationTask(FrameTask):
@@ -21,6 +30,8 @@ class FrameOrientationTask(FrameTask):
     """
 
     dim = 3
+    row_kernel = staticmethod(orientation_rows)
+    target_fields = ("target",)
 
     def __init__(
         self,
@@ -42,10 +53,3 @@ class FrameOrientationTask(FrameTask):
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.rotation(self.frame_id)
-
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return pin.log3(self.target @ kin.rotation(self.frame_id).T)
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        R = kin.rotation(self.frame_id)
-        return pin.Jlog3(self.target @ R.T) @ kin.frame_jacobian(self.frame_id)[3:]

@@ -6,10 +6,25 @@ from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
+from ..compiled.rows import frame_jacobian, rotation_rows
 from ..model import Kinematics, Robot
 from .frame_task import FrameTask
 from .task import TaskError, check_rotation, check_vector
+
+
+@njit(cache=True)
+def pose_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """e = [p* − p; log(R* Rᵀ)], J = [J_v; Jlog3(R* Rᵀ) J_ω] (target: p*, then R* row-major)."""
+    f = slots[0]
+    p = ps[f]
+    frame_jacobian(Jw, supports[f], p, Jf)
+    for i in range(3):
+        e[i] = target[i] - p[i]
+        for k in range(Jf.shape[1]):
+            J[i, k] = Jf[i, k]
+    rotation_rows(target[3:12], Rs[f], Jf, e[3:6], J[3:6])
 
 
 class FramePoseTask(FrameTask):
@@ -20,6 +35,8 @@ class FramePoseTask(FrameTask):
     """
 
     dim = 6
+    row_kernel = staticmethod(pose_rows)
+    target_fields = ("target_position", "target_rotation")
 
     def __init__(
         self,
@@ -56,27 +73,3 @@ class FramePoseTask(FrameTask):
     @property
     def target(self) -> pin.SE3:
         return pin.SE3(self.target_rotation, self.target_position)
-
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        e = np.empty(6)
-        np.subtract(self.target_position, kin.translation(self.frame_id), out=e[:3])
-        e[3:] = pin.log3(self.target_rotation @ kin.rotation(self.frame_id).T)
-        return e
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        J = kin.frame_jacobian(self.frame_id).copy()
-        A = self.target_rotation @ kin.rotation(self.frame_id).T
-        J[3:] = pin.Jlog3(A) @ J[3:]
-        return J
-
-    def fill(self, kin: Kinematics, J_out: np.ndarray, e_out: np.ndarray) -> None:
-        if not self._all:
-            return super().fill(kin, J_out, e_out)
-        A = self.target_rotation @ kin.rotation(self.frame_id).T
-        np.subtract(self.target_position, kin.translation(self.frame_id), out=e_out[:3])
-        e_out[3:] = pin.log3(A)
-        J = kin.frame_jacobian(self.frame_id)
-        J_out[:3] = J[:3]
-        np.dot(pin.Jlog3(A), J[3:], out=J_out[3:])
-        self.last_error = e_out
-        return None

@@ -5,16 +5,32 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
+from ..compiled.rows import frame_jacobian
 from ..model import Kinematics, Robot
 from .frame_task import FrameTask
 from .task import check_vector
+
+
+@njit(cache=True)
+def position_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """e = p* − p, J = J_v (world axes at the frame origin)."""
+    f = slots[0]
+    p = ps[f]
+    frame_jacobian(Jw, supports[f], p, Jf)
+    for i in range(3):
+        e[i] = target[i] - p[i]
+        for k in range(Jf.shape[1]):
+            J[i, k] = Jf[i, k]
 
 
 class FramePositionTask(FrameTask):
     """e = p* − p(q) for the origin of a frame; J = linear rows of its world-aligned Jacobian."""
 
     dim = 3
+    row_kernel = staticmethod(position_rows)
+    target_fields = ("target",)
 
     def __init__(
         self,
@@ -36,9 +52,3 @@ class FramePositionTask(FrameTask):
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.translation(self.frame_id)
-
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return self.target - kin.translation(self.frame_id)
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        return kin.frame_jacobian(self.frame_id)[:3]

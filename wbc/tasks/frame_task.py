@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ..model import Robot
-from .task import Task, bump_structure
+from .task import Task
 
 
 class FrameTask(Task):
@@ -32,7 +32,8 @@ class FrameTask(Task):
     def set_frame(self, frame: str) -> None:
         """Attach the task to another frame (raises ModelError for unknown names)."""
         frame_id = self.robot.frame_id(frame)
-        if frame_id != getattr(self, "frame_id", None):
-            bump_structure()  # compiled plans hold the frame's placement views
+        changed = frame_id != getattr(self, "frame_id", None)
         self.frame_id = frame_id
         self.frame = frame
+        if changed:
+            self._restructured()  # compiled plans hold the frame's placement views

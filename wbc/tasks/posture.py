@@ -5,15 +5,41 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
 from ..model import Kinematics, Robot
 from .task import Task, check_vector
+
+
+@njit(cache=True)
+def posture_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """e = q*_j − q_j, J = [0 I] (the joints are the last coordinates of q and Δq)."""
+    nv = Jw.shape[1]
+    nj = target.shape[0]
+    for i in range(nj):
+        e[i] = target[i] - q[q.shape[0] - nj + i]
+        for k in range(nv):
+            J[i, k] = 0.0
+        J[i, nv - nj + i] = 1.0
+
+
+@njit(cache=True)
+def damping_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """e = 0, J = I (nv)."""
+    nv = Jw.shape[1]
+    for i in range(nv):
+        e[i] = 0.0
+        for k in range(nv):
+            J[i, k] = 0.0
+        J[i, i] = 1.0
 
 
 class PostureTask(Task):
     """e = q*_j − q_j for the actuated joints; J = [0 I] (n_joints x nv)."""
 
     blocks_convergence = False
+    row_kernel = staticmethod(posture_rows)
+    target_fields = ("target",)
 
     def __init__(
         self,
@@ -28,8 +54,6 @@ class PostureTask(Task):
         super().__init__(name, gain, weight, mask)
         self.robot = robot
         self.target = np.zeros(robot.n_joints)
-        self._J = np.zeros((robot.n_joints, robot.nv))
-        self._J[:, 6:] = np.eye(robot.n_joints)
         if target is not None:
             self.set_target(target)
 
@@ -43,20 +67,6 @@ class PostureTask(Task):
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.q[7:]
 
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return self.target - kin.q[7:]
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        return self._J
-
-    def fill(self, kin: Kinematics, J_out: np.ndarray, e_out: np.ndarray) -> None:
-        if not self._all:
-            return super().fill(kin, J_out, e_out)
-        J_out[:] = self._J
-        np.subtract(self.target, kin.q[7:], out=e_out)
-        self.last_error = e_out
-        return None
-
 
 class DampingTask(Task):
     """e = 0, J = I (nv): penalises ‖Δq‖², the regularisation of damped least squares.
@@ -65,6 +75,7 @@ class DampingTask(Task):
     """
 
     blocks_convergence = False
+    row_kernel = staticmethod(damping_rows)
 
     def __init__(
         self,
@@ -75,11 +86,3 @@ class DampingTask(Task):
     ) -> None:
         self.dim = robot.nv
         super().__init__(name, 1.0, weight, mask)
-        self._J = np.eye(robot.nv)
-        self._e = np.zeros(robot.nv)
-
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        return self._e
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        return self._J

@@ -1,30 +1,49 @@
-"""Base class of all tasks: an error e(q) and its Jacobian J(q).
+"""Base class of all tasks: an error e(q) and its Jacobian J(q), written once.
 
 A task asks for ``J Δq = α e`` with ``e = x* − x`` (target minus current, the thesis's
 ``Δx = x* − x``) and gain ``α``. Solvers use the same task object as a weighted cost
 ``w ‖J Δq − α e‖²``, as a hard equality, or at any level of a hierarchy; the pseudo-inverse
 baselines use it through the same :meth:`Task.compute`.
+
+A task type is one class with one **row kernel** (a numba function, see :data:`RowKernel`):
+it writes the full error and Jacobian into preallocated rows. The base class turns it into
+:meth:`Task.compute_error`, :meth:`Task.compute_jacobian` and :meth:`Task.fill` (the numpy
+path, the baselines, the tests), and the compiled tick calls the very same kernel for every
+task of a stack (:mod:`wbc.compiled.plan`), whichever module defines the class. A task whose
+rows cannot be a kernel (they keep state, e.g. :class:`~wbc.tasks.JointLimitDampingTask`)
+overrides ``compute_error``/``compute_jacobian`` instead and runs on the numpy path.
 """
 
 from __future__ import annotations
 
 import math
-from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
 
+from ..compiled.checks import entry as rotation_defect_entry
 from ..exceptions import TaskError
 from ..model import Kinematics
 
-#: bumped whenever a task's structure (active, mask, weight, gain) changes; solvers compare it
-#: to decide when to re-plan their preallocated layout (never on a plain target update)
-STRUCTURE_EPOCH = [0]
+#: ``rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None``, compiled
+#: with ``numba.njit(cache=True)``:
+#:
+#: * ``target`` — the task's targets packed in one vector (the arrays named by
+#:   :attr:`Task.target_fields`, in order, rotations row-major);
+#: * ``slots`` — for each frame of :meth:`Task.frame_ids`, its index into ``Rs`` (world
+#:   rotations, n x 3 x 3), ``ps`` (world positions, n x 3) and ``supports`` (n x nv bools:
+#:   the dofs that move it, for :func:`wbc.compiled.rows.frame_jacobian`);
+#: * ``Jw`` — Pinocchio's joint Jacobians ``data.J`` (6 x nv, world frame); ``com``/``Jcom`` —
+#:   the CoM and its Jacobian; ``q`` — the configuration;
+#: * ``Jf`` — scratch (6 x nv); ``e``/``J`` — outputs: the full (unmasked) error in ``e[:dim]``
+#:   and Jacobian in ``J[:dim]`` (the arrays may be longer).
+RowKernel = Callable[..., None]
 
-
-def bump_structure() -> None:
-    STRUCTURE_EPOCH[0] += 1
+#: the row kernels of the package's own task classes, in definition order (they join when
+#: their class is defined): every compiled tick dispatches over all of them, plus the kernels
+#: of any other task type its stack holds, so that the usual stacks share one compiled tick
+PACKAGE_KERNELS: list[RowKernel] = []
 
 
 class Objective(NamedTuple):
@@ -34,7 +53,7 @@ class Objective(NamedTuple):
     c: np.ndarray
 
 
-class Task(ABC):
+class Task:
     """A task of dimension ``dim`` (before masking).
 
     Args:
@@ -45,6 +64,12 @@ class Task(ABC):
     """
 
     dim: int = 0
+    #: the task's rows (see :data:`RowKernel`), as ``staticmethod(kernel)``; None for a task
+    #: that overrides :meth:`compute_error` and :meth:`compute_jacobian` instead
+    row_kernel: RowKernel | None = None
+    #: names of the target arrays the kernel reads, in order (owned by the task, updated in
+    #: place: a handle ``h = task.target`` stays valid on every path)
+    target_fields: tuple[str, ...] = ()
     #: False for regularisation-like tasks (posture, damping) that never reach zero error;
     #: iterating a pose to convergence ignores them.
     blocks_convergence: bool = True
@@ -64,11 +89,33 @@ class Task(ABC):
         self.mask = mask
         self.weight = weight
 
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        own = cls.__dict__
+        kernel = own.get("row_kernel")
+        if isinstance(kernel, staticmethod):
+            from ..compiled.dispatch import refresh_kernel
+
+            refresh_kernel(kernel.__func__)
+            if cls.__module__.startswith("wbc.") and kernel.__func__ not in PACKAGE_KERNELS:
+                PACKAGE_KERNELS.append(kernel.__func__)
+        if "row_kernel" not in own and any(
+            name in own for name in ("compute_error", "compute_jacobian", "fill")
+        ):
+            cls.row_kernel = None  # its own Python rows: the inherited kernel no longer applies
+
     # ------------------------------------------------------------------ parameters
     def _changed(self) -> None:
-        """A parameter baked into the solvers' layouts changed (gain, mask or weight)."""
+        """A parameter baked into the solvers' layouts changed (gain, mask or weight): a new
+        layout (:attr:`params_version` is part of its key), re-planned by the stacks' solvers."""
         self.params_version = getattr(self, "params_version", 0) + 1
-        bump_structure()
+        self._restructured()
+
+    def _restructured(self) -> None:
+        """The task was switched on/off or moved to another frame: the solvers of the stacks
+        holding it re-plan (into a layout they may have kept, e.g. per support phase)."""
+        for stack in getattr(self, "_stacks", ()):
+            stack.revision += 1
 
     @property
     def active(self) -> bool:
@@ -79,7 +126,7 @@ class Task(ABC):
     def active(self, value: bool) -> None:
         if bool(value) != self._active:
             self._active = bool(value)
-            bump_structure()
+            self._restructured()
 
     @property
     def gain(self) -> float:
@@ -138,14 +185,52 @@ class Task(ABC):
         self._weight = w[self._rows]
         self._changed()
 
-    # ------------------------------------------------------------------ to implement
-    @abstractmethod
+    # ------------------------------------------------------------------ rows
+    def frame_ids(self) -> tuple[int, ...]:
+        """The frames the row kernel reads (in its ``slots`` order)."""
+        fid = getattr(self, "frame_id", None)
+        return () if fid is None else (fid,)
+
+    def packed_target(self) -> np.ndarray:
+        """The target arrays of :attr:`target_fields` in one new vector (the kernel's layout)."""
+        parts = [np.ravel(getattr(self, name)) for name in self.target_fields]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def _kernel_rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        """(e, J), full, from the row kernel at the configuration of ``kin``."""
+        kernel = type(self).row_kernel
+        if kernel is None:
+            raise TaskError(
+                f"task type {type(self).__name__} defines neither a row_kernel nor "
+                "compute_error/compute_jacobian"
+            )
+        nv = kin.model.nv
+        fids = self.frame_ids()
+        n = max(len(fids), 1)
+        Rs = np.zeros((n, 3, 3))
+        ps = np.zeros((n, 3))
+        supports = np.zeros((n, nv), dtype=np.bool_)
+        for s, fid in enumerate(fids):
+            Rs[s] = kin.rotation(fid)
+            ps[s] = kin.translation(fid)
+            supports[s] = kin.robot.frame_support(fid)
+        slots = np.arange(len(fids), dtype=np.int64)
+        e = np.zeros(self.dim)
+        J = np.zeros((self.dim, nv))
+        Jf = np.zeros((6, nv))
+        kernel(
+            self.packed_target(), slots, Rs, ps, supports, kin.data.J, kin.com,
+            kin.com_jacobian, kin.q, Jf, e, J,
+        )  # fmt: skip
+        return e, J
+
     def compute_error(self, kin: Kinematics) -> np.ndarray:
         """Full (unmasked) error e = x* − x at the configuration of ``kin``."""
+        return self._kernel_rows(kin)[0]
 
-    @abstractmethod
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         """Full (unmasked) Jacobian of x (so that ẋ = J v), shape (dim, nv)."""
+        return self._kernel_rows(kin)[1]
 
     # ------------------------------------------------------------------ used by solvers
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
@@ -156,17 +241,18 @@ class Task(ABC):
         return J, e
 
     def fill(self, kin: Kinematics, J_out: np.ndarray, e_out: np.ndarray) -> None:
-        """Write the masked Jacobian and error into preallocated rows (the solvers' hot path).
-
-        :attr:`last_error` becomes ``e_out``. Subclasses may override this for speed; the result
-        must equal :meth:`compute_jacobian` / :meth:`compute_error` masked.
-        """
-        if self._all:
-            J_out[:] = self.compute_jacobian(kin)
-            e_out[:] = self.compute_error(kin)
+        """Write the masked Jacobian and error into preallocated rows; :attr:`last_error`
+        becomes ``e_out``."""
+        if type(self).row_kernel is not None:
+            e, J = self._kernel_rows(kin)
         else:
-            J_out[:] = self.compute_jacobian(kin)[self._rows]
-            e_out[:] = self.compute_error(kin)[self._rows]
+            e, J = self.compute_error(kin), self.compute_jacobian(kin)
+        if self._all:
+            J_out[:] = J
+            e_out[:] = e
+        else:
+            J_out[:] = J[self._rows]
+            e_out[:] = e[self._rows]
         self.last_error = e_out
 
     def objective(self, kin: Kinematics) -> Objective:
@@ -174,10 +260,6 @@ class Task(ABC):
         J, e = self.compute(kin)
         Jw = J * self.weight[:, None]
         return Objective(Jw.T @ J, -self.gain * (Jw.T @ e))
-
-    def error_norm(self) -> float:
-        """‖e‖ at the last :meth:`compute`."""
-        return float(np.linalg.norm(self.last_error))
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, rows={self.rows}, gain={self.gain})"
@@ -194,11 +276,7 @@ def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarr
 
 
 def check_rotation(task: Task, value, what: str = "target rotation") -> np.ndarray:
-    """Validate a 3x3 rotation matrix (finite, orthonormal columns to 1e-6, det +1).
-
-    This runs on every target update of the hot path: compiled when numba is available,
-    else scalar arithmetic on the nine entries (numpy's allclose/det would cost tens of µs).
-    """
+    """Validate a 3x3 rotation matrix (finite, orthonormal columns to 1e-6, det +1)."""
     R = np.asarray(value, dtype=float)
     if R.shape != (3, 3):
         raise TaskError(f"task {task.name!r}: {what} must be a 3x3 matrix, got {R.shape}")
@@ -210,28 +288,6 @@ def check_rotation(task: Task, value, what: str = "target rotation") -> np.ndarr
     return R
 
 
-def _python_rotation_defect(R: np.ndarray) -> float:
-    a, b, c, d, e, f, g, h, i = R.ravel().tolist()
-    if not math.isfinite(a + b + c + d + e + f + g + h + i):  # NaN and ±inf propagate
-        return math.inf
-    gram = (
-        a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0,
-        a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i,
-    )  # fmt: skip
-    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    return math.inf if det < 0 else max(map(abs, gram))
-
-
-def _first_rotation_defect(R: np.ndarray) -> float:
-    """Pick the compiled check if numba imports (once), else the Python one."""
-    global _rotation_defect
-    try:
-        from ..compiled.checks import entry
-
-        _rotation_defect = entry()
-    except ImportError:
-        _rotation_defect = _python_rotation_defect
-    return _rotation_defect(R)
-
-
-_rotation_defect = _first_rotation_defect
+#: max |RᵀR − I| (+inf if not finite or det R < 0), compiled: the check runs on every target
+#: update of the hot path (numpy's allclose/det would cost tens of µs)
+_rotation_defect = rotation_defect_entry()

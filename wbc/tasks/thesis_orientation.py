@@ -11,16 +11,49 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
+from ..compiled.rows import frame_jacobian
 from ..model import Kinematics, Robot
 from .frame_task import FrameTask
-from .task import check_rotation
+from .task import TaskError, check_rotation, check_vector
+
+
+@njit(cache=True)
+def _axis_row(a0, a1, a2, R, c, Jf, e, J, i) -> None:
+    """Row i: e = 1 − a·b_f with b_f = R[:, c], J = (b_f × a)ᵀ J_ω."""
+    b0, b1, b2 = R[0, c], R[1, c], R[2, c]
+    e[i] = 1.0 - (a0 * b0 + a1 * b1 + a2 * b2)
+    x0 = b1 * a2 - b2 * a1
+    x1 = b2 * a0 - b0 * a2
+    x2 = b0 * a1 - b1 * a0
+    for k in range(Jf.shape[1]):
+        J[i, k] = x0 * Jf[3, k] + x1 * Jf[4, k] + x2 * Jf[5, k]
+
+
+@njit(cache=True)
+def swing_axes_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """[1 − k·k_f, 1 − i·i_f] (target: R* row-major, k = its z column, i = its x column)."""
+    f = slots[0]
+    frame_jacobian(Jw, supports[f], ps[f], Jf)
+    _axis_row(target[2], target[5], target[8], Rs[f], 2, Jf, e, J, 0)
+    _axis_row(target[0], target[3], target[6], Rs[f], 0, Jf, e, J, 1)
+
+
+@njit(cache=True)
+def torso_axis_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+    """1 − a·k_t (target: the axis a)."""
+    f = slots[0]
+    frame_jacobian(Jw, supports[f], ps[f], Jf)
+    _axis_row(target[0], target[1], target[2], Rs[f], 2, Jf, e, J, 0)
 
 
 class SwingFootOrientationTask(FrameTask):
     """Δx_of = [1 − k·k_f, 1 − i·i_f] (eq. 4.3): sole z and x axes aligned with the target's."""
 
     dim = 2
+    row_kernel = staticmethod(swing_axes_rows)
+    target_fields = ("target",)
 
     def __init__(
         self,
@@ -36,7 +69,6 @@ class SwingFootOrientationTask(FrameTask):
         self.target = np.eye(3)
         if target is not None:
             self.set_target(target)
-        self._J = np.zeros((2, robot.nv))
 
     def set_target(self, rotation: np.ndarray) -> None:
         """Target axes k = R*[:, 2], i = R*[:, 0]."""
@@ -45,22 +77,13 @@ class SwingFootOrientationTask(FrameTask):
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.rotation(self.frame_id)
 
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        R = kin.rotation(self.frame_id)
-        return np.array([1.0 - self.target[:, 2] @ R[:, 2], 1.0 - self.target[:, 0] @ R[:, 0]])
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        R = kin.rotation(self.frame_id)
-        Jw = kin.frame_jacobian(self.frame_id)[3:]
-        np.dot(np.cross(R[:, 2], self.target[:, 2]), Jw, out=self._J[0])
-        np.dot(np.cross(R[:, 0], self.target[:, 0]), Jw, out=self._J[1])
-        return self._J
-
 
 class TorsoOrientationTask(FrameTask):
     """Δx_ot = 1 − k·k_t (eq. 4.4): the torso's z axis vertical (or along ``axis``)."""
 
     dim = 1
+    row_kernel = staticmethod(torso_axis_rows)
+    target_fields = ("axis",)
 
     def __init__(
         self,
@@ -73,15 +96,13 @@ class TorsoOrientationTask(FrameTask):
         mask: Sequence[bool] | None = None,
     ) -> None:
         super().__init__(robot, frame, name or "thesis_torso_orientation", gain, weight, mask)
-        self.axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-        self._J = np.zeros((1, robot.nv))
+        self.axis = np.zeros(3)
+        self.set_axis(axis)
 
-    def compute_error(self, kin: Kinematics) -> np.ndarray:
-        kt = kin.rotation(self.frame_id)[:, 2]
-        return np.array([1.0 - self.axis @ kt])
-
-    def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
-        kt = kin.rotation(self.frame_id)[:, 2]
-        Jw = kin.frame_jacobian(self.frame_id)[3:]
-        np.dot(np.cross(kt, self.axis), Jw, out=self._J[0])
-        return self._J
+    def set_axis(self, axis: Sequence[float]) -> None:
+        """The target axis (world), normalised and copied in place."""
+        a = check_vector(self, axis, 3, "axis")
+        norm = float(np.linalg.norm(a))
+        if norm < 1e-12:
+            raise TaskError(f"task {self.name!r}: axis must not be zero")
+        self.axis[:] = a / norm

@@ -14,7 +14,13 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, ModelError
-from ..geometry import convex_hull, polygon_area  # noqa: F401 (polygon_area: re-exported)
+from ..geometry import (  # noqa: F401 (convex_hull, polygon_area: re-exported)
+    convex_hull,
+    polygon_area,
+    rect_corners,
+    support_hull,
+    world_corners,
+)
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 
@@ -127,26 +133,6 @@ def _box_corners(size: Sequence[float]) -> np.ndarray:
     return signs * half
 
 
-def convex_hull_2d(points: np.ndarray) -> np.ndarray:
-    """Convex hull of 2-D points, counter-clockwise, no repeated or collinear vertices.
-
-    Andrew's monotone chain, O(n log n). Degenerate inputs give 1 or 2 vertices.
-    """
-    pts = np.asarray(points, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] == 0:
-        raise ConfigurationError(f"convex_hull_2d: expected (n >= 1, 2) points, got {pts.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise ConfigurationError("convex_hull_2d: points must be finite")
-    return convex_hull(pts)
-
-
-def sole_corners(placement: np.ndarray, rect: Sequence[float]) -> np.ndarray:
-    """World (x, y) of a sole rectangle's 4 corners; ``placement`` is the sole's 4x4 pose."""
-    x0, x1, y0, y1 = rect
-    local = np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]])
-    return (local @ placement[:3, :3].T + placement[:3, 3])[:, :2]
-
-
 def support_polygon(
     l_sole: np.ndarray,
     r_sole: np.ndarray,
@@ -154,11 +140,12 @@ def support_polygon(
     l_rect: Sequence[float] = DEFAULT_SOLE_RECT,
     r_rect: Sequence[float] = DEFAULT_SOLE_RECT,
 ) -> np.ndarray:
-    """The support polygon (k, 2), counter-clockwise, from the two sole placements (4x4).
+    """The support polygon (k, 2), counter-clockwise, from the two sole placements (4x4):
+    :func:`wbc.geometry.support_hull` of the footprints ``l_rect``/``r_rect``.
 
     ``support`` is a recording code (:data:`~wbc.recording.SUPPORT_DOUBLE`, ``_LEFT``,
     ``_RIGHT``); ``None`` means "the soles whose origin is within :data:`CONTACT_HEIGHT` of the
-    ground" (both if neither is). Double support is the convex hull of both footprints.
+    ground" (both if neither is).
     """
     if support is None:
         on_ground = [abs(M[2, 3]) <= CONTACT_HEIGHT for M in (l_sole, r_sole)]
@@ -166,19 +153,9 @@ def support_polygon(
             support = SUPPORT_DOUBLE
         else:
             support = SUPPORT_LEFT if on_ground[0] else SUPPORT_RIGHT
-    support = int(support)
-    if support == SUPPORT_LEFT:
-        pts = sole_corners(l_sole, l_rect)
-    elif support == SUPPORT_RIGHT:
-        pts = sole_corners(r_sole, r_rect)
-    elif support == SUPPORT_DOUBLE:
-        pts = np.vstack([sole_corners(l_sole, l_rect), sole_corners(r_sole, r_rect)])
-    else:
-        raise ConfigurationError(
-            f"unknown support code {support}; use {SUPPORT_DOUBLE} (double), {SUPPORT_LEFT} "
-            f"(left) or {SUPPORT_RIGHT} (right)"
-        )
-    return convex_hull_2d(pts)
+    left = world_corners(l_sole[:3, :3], l_sole[:3, 3], rect_corners(tuple(l_rect)))
+    right = world_corners(r_sole[:3, :3], r_sole[:3, 3], rect_corners(tuple(r_rect)))
+    return support_hull(support, left, right)
 
 
 @dataclass(frozen=True)

@@ -15,11 +15,12 @@ roll) and raises :class:`~wbc.exceptions.TrajectoryError` otherwise.
 :func:`kinematic_feasibility` tracks a reference with a bounded IK as an independent check.
 """
 
-from .checks import CheckReport, LegGeometry, check_reference
+from .checks import CheckReport, check_reference
 from .feasibility import FeasibilityReport, kinematic_feasibility
 from .footsteps import Footstep, FootstepPlan, other_side, plan_footsteps
 from .gait import GENERATORS, forward_walk, lateral_walk, turning_walk, walk, walk_steps
 from .geometry import Foot, polygon_distance, signed_distance, support_polygon
+from .legs import LegGeometry
 from .lipm import Lipm3D, lipm_com_for_zmp, lipm_walk_com
 from .mpc import LipmMpc, MpcParams
 from .preview import PreviewController, PreviewParams

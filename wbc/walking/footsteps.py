@@ -6,7 +6,7 @@ down at ``(x, y, yaw)`` on the ground (soles stay flat). :func:`plan_footsteps` 
 forward, backward, lateral, turning (or any mix) walks from a per-step stride.
 :meth:`FootstepPlan.validate` rejects plans that cannot be walked: non-alternating sides,
 crossing or colliding feet (on landing and along the swing), too large turns, and steps the
-legs cannot reach at the requested CoM height (see :class:`wbc.walking.checks.LegGeometry`).
+legs cannot reach at the requested CoM height (see :class:`wbc.walking.legs.LegGeometry`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from ..exceptions import TrajectoryError
 from .geometry import Foot, polygon_distance, rot2
 
 if TYPE_CHECKING:
-    from .checks import LegGeometry
+    from .legs import LegGeometry
 
 Side = Literal["left", "right"]
 SIDES: tuple[Side, Side] = ("left", "right")

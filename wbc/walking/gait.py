@@ -22,9 +22,10 @@ from typing import Any, Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
-from .checks import LegGeometry, check_reference
+from .checks import check_reference
 from .footsteps import FootstepPlan, Side, plan_footsteps
 from .geometry import Foot
+from .legs import LegGeometry
 from .lipm import GRAVITY, lipm_walk_com
 from .mpc import LipmMpc, MpcParams
 from .preview import PreviewController, PreviewParams
@@ -61,7 +62,7 @@ def walk(
 
     The defaults fit the Bioloid's narrow lateral window: its hips roll only 5.6 deg inward
     (Annex A), so with the torso upright the CoM may move only ~11 mm sideways from the
-    mid-stance (:class:`.checks.LegGeometry`), while the feet's inner edges are 11 mm from
+    mid-stance (:class:`.legs.LegGeometry`), while the feet's inner edges are 11 mm from
     it. The ZMP path therefore runs 2 mm inside the inner edges (28.5 mm in from the sole
     centres), steps are short and quick (0.4 s, 40 % double support; :class:`GaitTiming`)
     and the margin is 1 mm. ``mpc`` takes :class:`.mpc.MpcParams`; the MPC also keeps the

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import TrajectoryError
+from ..exceptions import ConfigurationError, TrajectoryError
 from ..geometry import (  # the plane geometry shared with wbc.limits and the viewer
     FOOT_LENGTH,
     FOOT_WIDTH,
@@ -24,6 +24,7 @@ from ..geometry import (  # the plane geometry shared with wbc.limits and the vi
     rot2,
     shrink_polygon,
     signed_distance,
+    support_hull,
 )
 
 __all__ = [
@@ -67,15 +68,9 @@ def support_polygon(
     foot: Foot | None = None,
 ) -> np.ndarray:
     """Convex hull of the foot rectangles in contact for a support code
-    (``wbc.recording.SUPPORT_DOUBLE/LEFT/RIGHT``)."""
-    from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
-
+    (``wbc.recording.SUPPORT_DOUBLE/LEFT/RIGHT``): :func:`wbc.geometry.support_hull`."""
     foot = foot or Foot()
-    corners = []
-    if support in (SUPPORT_DOUBLE, SUPPORT_LEFT):
-        corners.append(foot.rectangle(l_xy, l_yaw))
-    if support in (SUPPORT_DOUBLE, SUPPORT_RIGHT):
-        corners.append(foot.rectangle(r_xy, r_yaw))
-    if not corners:
-        raise TrajectoryError(f"unknown support code {support}")
-    return convex_hull(np.vstack(corners))
+    try:
+        return support_hull(support, foot.rectangle(l_xy, l_yaw), foot.rectangle(r_xy, r_yaw))
+    except ConfigurationError as exc:
+        raise TrajectoryError(str(exc)) from None

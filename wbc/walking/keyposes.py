@@ -39,9 +39,10 @@ import numpy as np
 
 from ..exceptions import TrajectoryError
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
-from .checks import LegGeometry, check_reference
+from .checks import check_reference
 from .footsteps import Footstep, FootstepPlan
 from .geometry import Foot
+from .legs import LegGeometry
 from .reference import StandingState, WalkingReference
 from .spline import min_jerk
 

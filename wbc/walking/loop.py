@@ -190,7 +190,22 @@ class StackController(Controller):
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
                 task.set_target_from(self._kin)
+        self._prepare_phases(q0)
         self.solver.prepare(q0, self.dt)  # setup, not the first tick's cost
+
+    def _prepare_phases(self, q0: np.ndarray) -> None:
+        """Build the solver's layout of every support phase before the loop, so that no
+        support switch inside it builds one (~1 ms: the tail of the tick times otherwise).
+        The loop's first tick then sets the phase and anchors the contacts on the reference."""
+        control = self.control
+        if not control.bindings:
+            return
+        for phase in ("single", "double"):
+            for support, swing in (("r_sole", "l_sole"), ("l_sole", "r_sole")):
+                control.set_phase(phase, support, swing, self._kin)
+                self.solver.prepare(q0, self.dt)
+        control.forget_anchors()
+        self.solver.forget_warm_starts()
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         if phase_changed:

@@ -15,14 +15,14 @@ The states are decision variables (sparse formulation, banded KKT), so one QP co
 whole 10-step walk. Between samples the jerk is constant, so the ZMP at every reference
 tick is affine in the interval's ``(x_k, u_k)``: the polygon constraints are imposed at every
 tick (``H_i z_i <= b_i - margin`` with the support polygon of tick i), not only at the
-samples; the hip rows (:meth:`.checks.LegGeometry.lateral_com_bounds`: the pelvis model
+samples; the hip rows (:meth:`.legs.LegGeometry.lateral_com_bounds`: the pelvis model
 makes each hip roll affine in the CoM) likewise act on the CoM at every tick. The jerk
 solution is integrated exactly onto the reference grid. With ``horizon``
 set, the same QP is solved over a receding window and only the first jerk is applied each
 sample (classic MPC).
 
 Solved with ``casadi.conic`` and osqp by default (10-step walk: ~2300 variables, ~6800
-constraints, ~25 ms; ``python -m wbc.walking.mpc_timing``). Other plugins of this casadi
+constraints, ~25 ms; ``python benchmarks/mpc_timing.py``). Other plugins of this casadi
 wheel on that walk: qrqp works (~150 ms); proxqp and highs did not finish within 100 s,
 qpoases (dense) within 5 min; daqp and ipqp fail; hpipm needs a staged structure. The cost
 is rescaled so that its largest Hessian entry is 1.
@@ -38,8 +38,8 @@ import numpy as np
 
 from ..exceptions import SolverError, TrajectoryError
 from ..recording import SUPPORT_LEFT, SUPPORT_RIGHT
-from .checks import LegGeometry
 from .geometry import Foot, halfplanes, support_polygon
+from .legs import LegGeometry
 from .lipm import GRAVITY
 from .preview import cart_table
 

@@ -1,8 +1,8 @@
 """Time the LIPM MPC CoM generator on a multi-step walk (figures for reports).
 
-    python -m wbc.walking.mpc_timing                 # 10-step forward walk, osqp, 5 runs
-    python -m wbc.walking.mpc_timing --steps 10 --solver qrqp --repeat 3
-    python -m wbc.walking.mpc_timing --horizon 1.0   # receding horizon instead of one QP
+    python benchmarks/mpc_timing.py                 # 10-step forward walk, osqp, 5 runs
+    python benchmarks/mpc_timing.py --steps 10 --solver qrqp --repeat 3
+    python benchmarks/mpc_timing.py --horizon 1.0   # receding horizon instead of one QP
 
 Prints, per run and as medians: the casadi QP solve time (all QPs), the MPC build time
 (matrices, half-planes, solver creation), and the whole ``forward_walk`` call including the
@@ -16,10 +16,10 @@ import statistics
 import time
 from collections.abc import Sequence
 
-from ..model import load_robot
-from .gait import forward_walk
-from .mpc import MpcParams
-from .reference import StandingState
+from wbc.model import load_robot
+from wbc.walking.gait import forward_walk
+from wbc.walking.mpc import MpcParams
+from wbc.walking.reference import StandingState
 
 
 def main(argv: Sequence[str] | None = None) -> int:

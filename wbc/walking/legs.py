@@ -1,0 +1,271 @@
+"""The legs of a walking reference: what they can reach and where the hips are for a given
+CoM (:class:`LegGeometry`), used by the footstep plans, the gaits, the MPC and the checks."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..exceptions import TrajectoryError
+from .geometry import rot2
+
+if TYPE_CHECKING:
+    from .footsteps import Footstep
+
+# Bioloid Premium leg (m): hip centre -> knee -> ankle centre, hips +-38.5 mm from the torso
+# mid-plane, ankle axes 32.2 mm above the sole.
+THIGH = 0.07639
+SHIN = 0.07247
+HIP_HALF_WIDTH = 0.0385
+ANKLE_HEIGHT = 0.0322
+
+
+@dataclass(frozen=True)
+class LegGeometry:
+    """What the legs can reach, and where the hips are for a given CoM.
+
+    Pelvis model: the hips' midpoint is ``mid + pelvis_gain (c - mid) + hip_offset`` with
+    ``mid`` the soles' midpoint and ``c`` the CoM (horizontal), ``hip_offset`` = (forward,
+    up) in the heading frame (up measured from the CoM height). The pelvis moves further than
+    the CoM because the legs' mass lags behind it: ``pelvis_gain`` = 1.33 on the Bioloid
+    (measured by :meth:`from_robot` with the arms held; arms swinging to help lower it).
+    Reach: hip-to-ankle within ``[min_reach, thigh + shin - reach_margin]``.
+
+    With the torso upright a leg's hip roll equals its lean in the frontal plane,
+    ``atan2(lateral ankle-from-hip offset, hip height above the ankle)``. The Bioloid's hip
+    roll allows only ``max_adduction`` = 5.57 deg toward the other leg (Annex A), so the
+    pelvis can move only ~15 mm sideways from the mid-stance and the CoM ~11 mm: this, not
+    the foot (whose inner edge is 11 mm from the mid-stance), bounds the lateral CoM motion.
+    ``roll_margin`` is kept as a safety on the estimate.
+    """
+
+    thigh: float = THIGH
+    shin: float = SHIN
+    hip_half_width: float = HIP_HALF_WIDTH
+    ankle_height: float = ANKLE_HEIGHT
+    hip_offset: tuple[float, float] = (-0.0086, -0.0099)
+    pelvis_gain: float = 1.325
+    reach_margin: float = 0.003
+    min_reach: float = 0.036
+    max_adduction: float = 0.0972
+    max_abduction: float = 0.7011
+    roll_margin: float = 0.005
+
+    @property
+    def max_reach(self) -> float:
+        return self.thigh + self.shin - self.reach_margin
+
+    @classmethod
+    def from_robot(cls, robot: Any, q: np.ndarray | None = None, **overrides: Any) -> LegGeometry:
+        """Measure the leg from the model: link lengths at q = 0; hip roll limits; the pelvis
+        gain and hip offset at ``q`` (default Walk Ready; the pelvis is moved sideways with
+        the soles fixed, torso and arms held); minimum reach at the knee's flexion limit."""
+        import pinocchio as pin
+
+        model, data = robot.model, robot.data
+
+        def joint_origins(qq: np.ndarray) -> dict[str, np.ndarray]:
+            pin.forwardKinematics(model, data, qq)
+            names = ("l_hip_pitch", "l_knee", "l_ankle_pitch", "r_hip_pitch")
+            return {n: data.oMi[model.getJointId(n)].translation.copy() for n in names}
+
+        o = joint_origins(robot.neutral())
+        thigh = float(np.linalg.norm(o["l_knee"] - o["l_hip_pitch"]))
+        shin = float(np.linalg.norm(o["l_ankle_pitch"] - o["l_knee"]))
+        half_width = 0.5 * float(abs(o["l_hip_pitch"][1] - o["r_hip_pitch"][1]))
+        sole = robot.frame_placement(robot.neutral(), "l_sole").translation
+        ankle_h = float(o["l_ankle_pitch"][2] - sole[2])
+        # knee: interior angle at q = 0 plus the flexion range gives the closest hip-ankle.
+        straight = np.linalg.norm(o["l_ankle_pitch"] - o["l_hip_pitch"])
+        interior0 = np.arccos((thigh**2 + shin**2 - straight**2) / (2 * thigh * shin))
+        flex = float(robot.q_max[robot.joint_index("l_knee")])
+        interior = max(interior0 - flex, 0.0)
+        min_reach = float(np.sqrt(thigh**2 + shin**2 - 2 * thigh * shin * np.cos(interior)))
+        roll = {s: robot.joint_index(f"{s}_hip_roll") for s in ("l", "r")}
+        # left: positive roll moves the foot outward (+y); right: inward
+        max_add = min(-robot.q_min[roll["l"]], robot.q_max[roll["r"]])
+        max_abd = min(robot.q_max[roll["l"]], -robot.q_min[roll["r"]])
+        qq = robot.configuration("stand") if q is None else q
+        gain = _pelvis_gain(robot, qq)
+        oq = joint_origins(qq)
+        com = robot.com(qq)
+        torso = robot.frame_placement(qq, "torso").rotation
+        heading = float(np.arctan2(torso[1, 0], torso[0, 0]))
+        mid_soles = 0.5 * (
+            robot.frame_placement(qq, "l_sole").translation[:2]
+            + robot.frame_placement(qq, "r_sole").translation[:2]
+        )
+        pelvis = 0.5 * (oq["l_hip_pitch"] + oq["r_hip_pitch"])
+        resid = pelvis[:2] - (mid_soles + gain * (com[:2] - mid_soles))
+        fwd = float((rot2(heading).T @ resid)[0])
+        kw: dict[str, Any] = dict(
+            thigh=thigh,
+            shin=shin,
+            hip_half_width=half_width,
+            ankle_height=ankle_h,
+            hip_offset=(fwd, float(pelvis[2] - com[2])),
+            pelvis_gain=gain,
+            min_reach=min_reach,
+            max_adduction=float(max_add),
+            max_abduction=float(max_abd),
+        )
+        kw.update(overrides)
+        return cls(**kw)
+
+    def hips(
+        self, com: np.ndarray, heading: np.ndarray, l_sole: np.ndarray, r_sole: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Estimated (left, right) hip centres (N, 3) for CoM positions (N, 3), headings (N,)
+        and sole positions (N, 3) (see the pelvis model in the class docstring)."""
+        com = np.atleast_2d(com)
+        heading = np.atleast_1d(heading)
+        mid = 0.5 * (np.atleast_2d(l_sole)[:, :2] + np.atleast_2d(r_sole)[:, :2])
+        c, s = np.cos(heading), np.sin(heading)
+        fwd = np.column_stack([c, s])
+        left = np.column_stack([-s, c])
+        pelvis = np.empty_like(com, dtype=float)
+        pelvis[:, :2] = mid + self.pelvis_gain * (com[:, :2] - mid) + self.hip_offset[0] * fwd
+        pelvis[:, 2] = com[:, 2] + self.hip_offset[1]
+        lh, rh = pelvis.copy(), pelvis.copy()
+        lh[:, :2] += self.hip_half_width * left
+        rh[:, :2] -= self.hip_half_width * left
+        return lh, rh
+
+    def leg_lengths(
+        self, com: np.ndarray, heading: np.ndarray, l_sole: np.ndarray, r_sole: np.ndarray
+    ) -> np.ndarray:
+        """(N, 2) hip-to-ankle distances of the left and right legs."""
+        lh, rh = self.hips(com, heading, l_sole, r_sole)
+        up = np.array([0.0, 0.0, self.ankle_height])
+        return np.column_stack(
+            [
+                np.linalg.norm(lh - (np.atleast_2d(l_sole) + up), axis=1),
+                np.linalg.norm(rh - (np.atleast_2d(r_sole) + up), axis=1),
+            ]
+        )
+
+    def leg_rolls(
+        self, com: np.ndarray, heading: np.ndarray, l_sole: np.ndarray, r_sole: np.ndarray
+    ) -> np.ndarray:
+        """(N, 2) frontal lean (rad) of the left and right legs, positive = abduction (the
+        foot further out than its hip); with an upright torso this is the hip roll."""
+        heading = np.atleast_1d(heading)
+        n = np.column_stack([-np.sin(heading), np.cos(heading)])  # heading-frame left
+        lh, rh = self.hips(com, heading, l_sole, r_sole)
+        out = []
+        for s, hip, sole in ((1.0, lh, l_sole), (-1.0, rh, r_sole)):
+            sole = np.atleast_2d(sole)
+            lateral = s * np.einsum("ij,ij->i", sole[:, :2] - hip[:, :2], n)
+            height = hip[:, 2] - (sole[:, 2] + self.ankle_height)
+            out.append(np.arctan2(lateral, height))
+        return np.column_stack(out)
+
+    def max_com_lateral(self, com_height: float, half_width: float, sole_z: float = 0.0) -> float:
+        """Largest lateral CoM distance (m) from the mid-stance toward a stance sole that the
+        sole's hip roll allows (adduction limit less the margin), soles ``half_width`` each
+        side of the mid-stance, torso upright: ``(half_width - hip_half_width + tan(a) H) /
+        pelvis_gain``."""
+        height = com_height + self.hip_offset[1] - (sole_z + self.ankle_height)
+        pelvis = (
+            half_width
+            - self.hip_half_width
+            + np.tan(self.max_adduction - self.roll_margin) * height
+        )
+        return float(pelvis / self.pelvis_gain)
+
+    def lateral_com_bounds(
+        self, heading: float, l_ankle_xy: np.ndarray, r_ankle_xy: np.ndarray, height: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Linear form ``G c_xy <= h`` (4 rows: adduction and abduction of each leg, with the
+        roll margin) of the hip roll limits for a CoM ``c_xy``, the soles at ``*_ankle_xy``
+        and the hip-above-ankle ``height`` (per leg, (2,))."""
+        n = np.array([-np.sin(heading), np.cos(heading)])
+        t_add = np.tan(self.max_adduction - self.roll_margin)
+        t_abd = np.tan(self.max_abduction - self.roll_margin)
+        k = self.pelvis_gain
+        mid = 0.5 * float(np.dot(np.asarray(l_ankle_xy) + np.asarray(r_ankle_xy), n))
+        rows, rhs = [], []
+        for i, (s, a) in enumerate(((1.0, l_ankle_xy), (-1.0, r_ankle_xy))):
+            # pelvis (lateral) = mid + k (c.n - mid); abduction angle of leg s is
+            # atan((s (a.n - pelvis) - w) / H), kept within [-t_add, t_abd]
+            base = s * float(np.dot(a, n)) - self.hip_half_width - s * (1.0 - k) * mid
+            rows.append(s * k * n)  # adduction: s k c.n <= base + t_add H
+            rhs.append(base + t_add * height[i])
+            rows.append(-s * k * n)  # abduction: -s k c.n <= t_abd H - base
+            rhs.append(t_abd * height[i] - base)
+        return np.array(rows), np.array(rhs)
+
+    def check_com_height(self, com_height: float, what: str = "the walk") -> None:
+        """Raise if the legs cannot hold the CoM at ``com_height`` over flat feet."""
+        if not (np.isfinite(com_height) and com_height > 0):
+            raise TrajectoryError(f"{what}: the CoM height must be positive, got {com_height}")
+        vertical = com_height + self.hip_offset[1] - self.ankle_height
+        if not (self.min_reach <= vertical <= self.max_reach):
+            lo = self.min_reach - self.hip_offset[1] + self.ankle_height
+            hi = self.max_reach - self.hip_offset[1] + self.ankle_height
+            raise TrajectoryError(
+                f"{what}: a CoM height of {com_height * 1000:.1f} mm is out of the legs' reach "
+                f"(hip-to-ankle {vertical * 1000:.1f} mm; feasible CoM heights "
+                f"{lo * 1000:.1f}-{hi * 1000:.1f} mm)"
+            )
+
+    def check_stance(self, left: Footstep, right: Footstep, com_height: float, what: str) -> None:
+        """Raise if, with the CoM midway between the two soles at ``com_height``, either
+        ankle is out of reach (a step too long, too wide or too narrow for the legs)."""
+        mid = 0.5 * (left.position + right.position)
+        com = np.array([[mid[0], mid[1], com_height]])
+        heading = np.array([_mean_angle(left.yaw, right.yaw)])
+        # pelvis midway between the soles: undo the forward hip offset
+        com[0, :2] -= (
+            self.hip_offset[0]
+            / self.pelvis_gain
+            * np.array([np.cos(heading[0]), np.sin(heading[0])])
+        )
+        lengths = self.leg_lengths(com, heading, left.position[None], right.position[None])[0]
+        for side, d in zip(("left", "right"), lengths, strict=True):
+            if d > self.max_reach:
+                raise TrajectoryError(
+                    f"{what}: unreachable — the {side} ankle would be {d * 1000:.1f} mm from its "
+                    f"hip with the pelvis midway between the feet, beyond the leg reach of "
+                    f"{self.max_reach * 1000:.1f} mm; shorten the step or lower the CoM"
+                )
+            if d < self.min_reach:
+                raise TrajectoryError(
+                    f"{what}: the {side} ankle would be {d * 1000:.1f} mm from its hip, closer "
+                    f"than the legs can fold ({self.min_reach * 1000:.1f} mm)"
+                )
+
+
+def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
+    """Pelvis displacement per CoM displacement, sideways: move the floating base by
+    ``step`` along y with the torso orientation and the arms held, solve each leg's six
+    joints so its sole stays put (Newton on the 6x6 leg Jacobian), and compare CoM shifts."""
+    import pinocchio as pin
+
+    model, data = robot.model, robot.data
+    q1 = q.copy()
+    q1[1] += step
+    for side in ("l", "r"):
+        fid = robot.frame_id(f"{side}_sole")
+        target = robot.frame_placement(q, f"{side}_sole")
+        cols = [robot.v_index(f"{side}_{j}") for j in LEG_JOINTS]
+        for _ in range(20):
+            pin.framesForwardKinematics(model, data, q1)
+            err = pin.log6(data.oMf[fid].inverse() * target).vector
+            if np.linalg.norm(err) < 1e-12:
+                break
+            J = pin.computeFrameJacobian(model, data, q1, fid, pin.LOCAL)[:, cols]
+            dq = np.zeros(model.nv)
+            dq[cols] = np.linalg.solve(J, err)
+            q1 = pin.integrate(model, q1, dq)
+    shift = robot.com(q1)[1] - robot.com(q)[1]
+    return float(step / shift)
+
+
+LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+
+
+def _mean_angle(a: float, b: float) -> float:
+    return float(a + 0.5 * ((b - a + np.pi) % (2 * np.pi) - np.pi))
