@@ -19,12 +19,20 @@ For each: back-to-back ticks (highest achievable rate, tick time p50/p99) beside
 model's prediction, and a fixed-rate ``Deployment`` (100 Hz write-only, 50 Hz write + read)
 with its achieved rate and jitter (tick-start lateness p50/p99).
 
+With ``--faults RUNS``: detection latency per fault type at 50 Hz, write-only and with
+``--read``: the time from the goal write at which the emulator switches the fault on (the
+12th, 13th, ... in successive runs: every phase of the health rotation) to the last goal
+write (both stamped by the emulator), and the goal writes in between.
+With ``--startups N``: N start-ups (PING, configuration, first reads, torque on/off) with the
+default reply deadline (4.1 ms at a 1 ms USB latency), with and without retries.
+
 Run: ``/work/venv/bin/python benchmarks/servo_bus.py [--ticks 400] [--out benchmarks/servo_bus.md]``
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import platform
 import sys
@@ -37,8 +45,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wbc import load_robot
 from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
-from wbc.servos.dynamixel import AX12_RESPONSE_S, DynamixelBus, ax_budget
-from wbc.servos.emulator import AX12Emulator
+from wbc.servos.dynamixel import (
+    AX12_RESPONSE_S,
+    ERR_OVERHEATING,
+    ERR_OVERLOAD,
+    DynamixelBus,
+    ax_budget,
+)
+from wbc.servos.emulator import AX12Emulator, Fault
 
 BAUD = 1_000_000
 MODES = {
@@ -121,6 +135,103 @@ def fixed_rate(robot, mode: str, read: bool, rate: float, seconds: float) -> dic
     }
 
 
+FAULTS = {
+    "silent (timeout)": Fault("timeout", 7, after_goals=12),
+    "missing": Fault("missing", 10, after_goals=12),
+    "late 21 ms": Fault("late", 12, after_goals=12, delay_s=0.021),
+    "late 40 ms": Fault("late", 5, after_goals=12, delay_s=0.04),
+    "bad checksum": Fault("bad_checksum", 16, after_goals=12),
+    "overheating bit": Fault("error_bits", 14, after_goals=12, bits=ERR_OVERHEATING),
+    "overload bit": Fault("error_bits", 3, after_goals=12, bits=ERR_OVERLOAD),
+}
+
+
+def detection(robot, fault: Fault, read: bool, runs: int) -> dict:
+    """Fault -> last goal (ms, emulator stamps) and goal writes after the onset, per run."""
+    q0 = robot.configuration("walk_ready")[7:]
+    sm = robot.servo_map
+    ms, writes, named, early = [], [], 0, 0
+    for k in range(runs):
+        # the onset moves by one goal write per run: every phase of the health rotation
+        fault = dataclasses.replace(fault, after_goals=12 + k)
+        source = CallableSource(lambda tick, t: None if tick >= 100 else q0, q0, robot.joint_names)
+        positions = sm.ticks_by_id(sm.pose_ticks("walk_ready"))
+        with AX12Emulator(positions=positions, faults=[fault], process=True) as emu:
+            bus = DynamixelBus(emu.port, sm, BAUD, 1.0)  # default deadline: 4.1 ms
+            cfg = DeployConfig(rate=50.0, read=read, on_fault="hold")
+            try:
+                result = Deployment(bus, source, robot, cfg, out=lambda s: None).run()
+            except Exception as exc:  # a refused start-up: not a detection
+                print(f"start-up refused: {exc}", file=sys.stderr)
+                continue
+        t = emu.sync_goal_times
+        if len(t) < fault.after_goals:  # tripped before the fault (a stalled emulator)
+            early += 1
+            continue
+        ms.append((t[-1] - t[fault.after_goals - 1]) * 1e3)
+        writes.append(len(t) - fault.after_goals)
+        named += result.trip is not None and result.trip.index == sm.index_of_id(fault.servo_id)
+    return {
+        "ms": np.array(ms),
+        "writes": np.array(writes),
+        "named": named,
+        "runs": len(ms),
+        "early": early,
+    }
+
+
+def startups(robot, n: int, attempts: int) -> tuple[int, list[str]]:
+    """Start-ups (then torque off) with the default 4.1 ms reply deadline: successes, errors."""
+    q0 = robot.configuration("walk_ready")[7:]
+    sm = robot.servo_map
+    ok, errors = 0, []
+    for _ in range(n):
+        source = CallableSource(lambda tick, t: None, q0, robot.joint_names)
+        positions = sm.ticks_by_id(sm.pose_ticks("walk_ready"))
+        with AX12Emulator(positions=positions, process=True) as emu:
+            bus = DynamixelBus(emu.port, sm, BAUD, 1.0, attempts=attempts)
+            cfg = DeployConfig(rate=50.0, at_end="torque-off")
+            try:
+                result = Deployment(bus, source, robot, cfg, out=lambda s: None).run()
+                ok += result.completed and not result.warnings
+            except Exception as exc:  # a refused start-up
+                errors.append(str(exc))
+    return ok, errors
+
+
+def fault_tables(robot, runs: int, n_startups: int) -> list[str]:
+    lines = [
+        f"### Fault detection at 50 Hz ({runs} runs per case, reply deadline 4.1 ms)",
+        "",
+        "| fault | mode | fault -> last goal p50 / max (ms) | goal writes after onset (max) "
+        "| right servo named | tripped before the fault |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, fault in FAULTS.items():
+        for read in (False, True):
+            r = detection(robot, fault, read, runs)
+            lines.append(
+                f"| {name} | {'write + read' if read else 'write-only'} | "
+                f"{np.median(r['ms']):.1f} / {r['ms'].max():.1f} | {r['writes'].max()} | "
+                f"{r['named']}/{r['runs']} | {r['early']} |"
+            )
+            print(lines[-1], flush=True)
+    if n_startups:
+        lines += [
+            "",
+            f"### Start-ups ({n_startups} each, reply deadline 4.1 ms)",
+            "",
+            "| attempts per exchange | succeeded | first refusals |",
+            "|---|---|---|",
+        ]
+        for attempts in (1, 3):
+            ok, errors = startups(robot, n_startups, attempts)
+            first = "; ".join(errors[:2]) or "-"
+            lines.append(f"| {attempts} | {ok}/{n_startups} | {first} |")
+            print(lines[-1], flush=True)
+    return lines
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ticks", type=int, default=400, help="back-to-back ticks per case")
@@ -129,12 +240,28 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--sdk-spin", action="store_true", help="the SDK's busy-wait receive (no select wait)"
     )
+    ap.add_argument("--faults", type=int, default=0, help="runs per fault case (only these)")
+    ap.add_argument("--startups", type=int, default=0, help="--faults: also N start-ups")
     args = ap.parse_args(argv)
     global POLL_WAIT_S
     if args.sdk_spin:
         POLL_WAIT_S = 0.0
     robot = load_robot("bioloid")
     ms = 1e3
+    if args.faults:
+        stamp = time.strftime("%Y-%m-%d %H:%M")
+        lines = [
+            f"Machine: {platform.machine()}, {os.cpu_count()} cores, {stamp}, load average "
+            f"before the run {os.getloadavg()[0]:.2f} (shared machine); emulator in its own "
+            "process (pty, no wire timing).",
+            "",
+            *fault_tables(robot, args.faults, args.startups),
+        ]
+        if args.out:
+            Path(args.out).write_text("\n".join(lines) + "\n")
+        else:
+            print("\n".join(lines))
+        return 0
     lines = [
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, "
         f"{platform.python_implementation()} {platform.python_version()}, "

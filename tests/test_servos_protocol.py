@@ -116,16 +116,38 @@ def test_sync_write_of_18_goals_is_62_bytes_and_0_62_ms_at_1_mbps():
 
 
 def test_budget_with_position_reads():
-    # 62 B of SYNC_WRITE + 18 x (8 B READ + 8 B status), each reply + 22 us + turnaround
+    # 62 B of SYNC_WRITE + 18 x (8 B READ + up to 10 B status: 2-byte position read in its
+    # longest varied form, 4 bytes), each reply + 22 us + turnaround
     b = dxl.ax_budget(18, 1_000_000, read_positions=True)
-    assert b.bytes_per_tick == 62 + 18 * 16
+    assert b.bytes_per_tick == 62 + 18 * 18
     assert b.replies_per_tick == 18
-    assert b.tick_time() == pytest.approx((62 + 288) * 10e-6 + 18 * 22e-6)
+    assert b.tick_time() == pytest.approx((62 + 324) * 10e-6 + 18 * 22e-6)
     assert b.tick_time(1e-3) == pytest.approx(b.tick_time() + 18e-3)
-    assert 45 < b.max_rate(1e-3) < 55  # pypot's 50 Hz with a 1 ms USB latency
-    w = dxl.ax_budget(18, 1_000_000, read_positions=False)  # one 8-byte health READ per tick
-    assert w.bytes_per_tick == 62 + 8 + 14
-    assert w.tick_time() == pytest.approx(84e-5 + 22e-6)
+    assert 40 < b.max_rate(1e-3) < 50  # pypot's 50 Hz with a 1 ms USB latency does not fit
+    w = dxl.ax_budget(18, 1_000_000, read_positions=False)  # one health READ (8-10 B)
+    assert w.bytes_per_tick == 62 + 8 + 16
+    assert w.tick_time() == pytest.approx(86e-5 + 22e-6)
+    w10 = dxl.ax_budget(18, 1_000_000, read_positions=False, polls_per_tick=10)
+    assert w10.bytes_per_tick == 62 + 10 * 24 and w10.replies_per_tick == 10
+
+
+@pytest.mark.parametrize(
+    ("k", "expected"), [(0, (36, 8)), (1, (35, 9)), (2, (34, 10)), (3, (36, 8))]
+)
+def test_read_forms_rotate_so_consecutive_replies_differ_in_length(k, expected):
+    assert dxl.read_variant(36, 8, k) == expected
+    assert dxl.read_variant(1, 2, 2) == (0, 3)  # never below address 0
+
+
+def test_status_parser_skips_noise_and_splits_packets():
+    a = dxl.status_packet(3, 0, [1, 2])
+    b = dxl.status_packet(4, 0x20, [])
+    buf = bytearray(b"\x00\x13" + a + b"\xff" + b[:3])
+    assert dxl.parse_status(buf) == a
+    assert dxl.parse_status(buf) is None  # incomplete: kept
+    buf += b[3:]
+    assert dxl.parse_status(buf) == b
+    assert dxl.parse_status(buf) is None and buf == bytearray()
 
 
 # ---------------------------------------------------------------- emulator, packet level

@@ -1,4 +1,5 @@
-"""Safety layer: safe command range, clamping, rate limiting, soft start, watchdog, checks."""
+"""Safety layer: safe command range, clamping, rate limit in time, soft start, watchdog, health
+schedule, checks."""
 
 from __future__ import annotations
 
@@ -13,10 +14,11 @@ from wbc.servos.bus import COMM_CORRUPT, COMM_OK, COMM_TIMEOUT, Codec, DryRunBus
 from wbc.servos.dynamixel import ax_codec
 from wbc.servos.safety import (
     GoalLimiter,
+    HealthSchedule,
     Watchdog,
     check_trajectory,
-    max_step,
-    soft_start_targets,
+    command_speed,
+    soft_start_target,
 )
 
 
@@ -27,9 +29,10 @@ def codec(robot):
 
 @pytest.fixture()
 def limiter(robot, codec):
-    step = max_step(codec, robot.v_max, 0.02)
-    lim = GoalLimiter(codec, robot.q_min, robot.q_max, step, robot.joint_names)
-    lim.reset(codec.encode_float(robot.configuration("walk_ready")[7:]))
+    lim = GoalLimiter(
+        codec, robot.q_min, robot.q_max, command_speed(codec, robot.v_max), robot.joint_names
+    )
+    lim.reset(codec.encode_float(robot.configuration("walk_ready")[7:]), 0.0)
     return lim
 
 
@@ -55,18 +58,21 @@ def test_safe_range_refuses_limits_outside_the_servo(robot):
         codec.safe_range(np.array([0.0, 3.0]), np.array([1.0, 4.0]), ["a", "b"])
 
 
-def test_max_step_from_the_servo_speed(robot, codec):
-    step = max_step(codec, robot.v_max, 0.02)
-    assert np.all(step == int(6.178466 * 0.02 / RAD_PER_TICK))  # 24 ticks at 50 Hz
-    assert np.all(max_step(codec, 1e-6, 0.01) == 1)
+def test_allowed_step_from_the_servo_speed_and_elapsed_time(robot, limiter):
+    assert np.all(limiter.allowed(0.02) == int(6.178466 * 0.02 / RAD_PER_TICK))  # 24 at 50 Hz
+    assert np.all(limiter.allowed(0.0) == 0)
+    assert np.all(limiter.allowed(0.001) == 1)  # 1.2 ticks in 1 ms: one tick, never two
+    slow = command_speed(limiter.codec, 0.5)  # 97.7 ticks/s
+    assert np.all(limiter.allowed(0.01, slow) == 0)  # 0.98 of a tick: not yet
+    assert np.all(limiter.allowed(0.011, slow) == 1)
 
 
 def test_clamp_counts_and_reports(robot, limiter):
     q = robot.configuration("walk_ready")[7:].copy()
     j = robot.joint_index("l_knee")
     q[j] = robot.q_max[j] + 0.2
-    for _ in range(30):  # long enough for the rate limit to let the knee reach its limit
-        cmd = limiter(q)
+    for k in range(30):  # long enough for the rate limit to let the knee reach its limit
+        cmd = limiter(q, 0.02 * (k + 1))
     assert cmd[j] == limiter.hi[j] or cmd[j] == limiter.lo[j]
     assert limiter.report.clamped[j] == 30
     assert limiter.report.worst_excess[j] == pytest.approx(0.2)
@@ -78,35 +84,52 @@ def test_nan_target_is_refused(robot, limiter):
     q = robot.configuration("walk_ready")[7:].copy()
     q[3] = np.nan
     with pytest.raises(ServoError, match="l_knee"):
-        limiter(q)
+        limiter(q, 0.02)
 
 
-@given(st.lists(st.lists(st.floats(-5, 5), min_size=18, max_size=18), min_size=1, max_size=15))
-def test_every_command_is_in_range_and_rate(robot, codec, targets):
-    step = max_step(codec, robot.v_max, 0.01)
-    lim = GoalLimiter(codec, robot.q_min, robot.q_max, step, robot.joint_names)
-    prev = lim.reset(codec.encode_float(robot.configuration("walk_ready")[7:]))
-    for q in targets:
-        cmd = lim(np.array(q))
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(1e-4, 0.1),  # time since the previous goal: bursts and late ticks
+            st.lists(st.floats(-5, 5), min_size=18, max_size=18),
+        ),
+        min_size=1,
+        max_size=15,
+    )
+)
+def test_every_command_is_in_range_and_never_faster_than_the_servo(robot, codec, ticks):
+    """Law: between any two goals sent, each joint's goal moved at most speed x elapsed time
+    plus one command unit (the quantum), whatever the tick timing (late ticks, ticks 0.1 ms
+    apart): never a burst."""
+    speed = command_speed(codec, robot.v_max)
+    lim = GoalLimiter(codec, robot.q_min, robot.q_max, speed, robot.joint_names)
+    sent = [(0.0, lim.reset(codec.encode_float(robot.configuration("walk_ready")[7:]), 0.0))]
+    now = 0.0
+    for dt, q in ticks:
+        now += dt
+        cmd = lim(np.array(q), now)
         assert np.all(cmd >= lim.lo) and np.all(cmd <= lim.hi)
-        assert np.all(np.abs(cmd - prev) <= step)
         q_sent = codec.decode(cmd)
         assert np.all(q_sent >= robot.q_min - 1e-9) and np.all(q_sent <= robot.q_max + 1e-9)
-        prev = cmd
+        sent.append((now, cmd))
+    for a in range(len(sent)):
+        for b in range(a + 1, len(sent)):
+            (ta, ca), (tb, cb) = sent[a], sent[b]
+            assert np.all(np.abs(cb - ca) <= speed * (tb - ta) + 1 + 1e-9)
 
 
 def test_rate_limit_counts(robot, limiter):
     q = robot.configuration("walk_ready")[7:].copy()
     j = robot.joint_index("r_elbow")
-    q[j] -= 0.5  # 97.7 ticks at once: 4 rate-limited steps of 24 ticks, then 2 ticks
-    cmds = [limiter(q) for _ in range(6)]
+    q[j] -= 0.5  # 97.7 ticks at once: 4 rate-limited steps of 24 ticks (50 Hz), then 2 ticks
+    cmds = [limiter(q, 0.02 * (k + 1)) for k in range(6)]
     steps = np.abs(
         np.diff(
             [limiter.codec.encode_float(robot.configuration("walk_ready")[7:])[j]]
             + [c[j] for c in cmds]
         )
     )
-    assert np.all(steps <= limiter.step[j] + 0.5)
+    assert np.all(steps <= 24 + 0.5)
     assert limiter.report.rate_limited[j] == 4
     assert limiter.report.rate_limited.sum() == 4 and limiter.report.clamped.sum() == 0
 
@@ -114,22 +137,48 @@ def test_rate_limit_counts(robot, limiter):
 def test_soft_start_is_a_synchronised_straight_line():
     start = np.array([100.0, 500.0, 800.0])
     goal = np.array([160.0, 500.0, 770.0])
-    path = soft_start_targets(start, goal, np.array([6, 6, 6]))
-    assert len(path) == 10
-    assert np.allclose(path[-1], goal)
-    steps = np.abs(np.diff(np.vstack([start, *path]), axis=0))
+    speed = np.array([60.0, 60.0, 60.0])  # units/s: the longest move (60) takes 1 s
+    path = np.array([soft_start_target(start, goal, speed, t) for t in np.linspace(0, 1.5, 16)])
+    assert np.allclose(path[10:], goal)  # arrived at 1 s, every joint together
+    assert np.allclose(path[5], (start + goal) / 2)
+    steps = np.abs(np.diff(path, axis=0))  # 0.1 s apart
     assert np.all(steps <= 6 + 1e-9)
-    assert np.allclose(steps[:, 0], 6) and np.allclose(steps[:, 2], 3)
-    assert soft_start_targets(goal, goal, np.array([6, 6, 6])) == []
+    assert np.allclose(steps[:10, 0], 6) and np.allclose(steps[:10, 2], 3)
+    assert np.allclose(soft_start_target(goal, goal, speed, 0.0), goal)
+
+
+@pytest.mark.parametrize("rate", [100.0, 50.0])
+def test_soft_start_never_exceeds_its_speed(robot, codec, rate):
+    """The limiter at the soft speed (0.5 rad/s = 97.7 ticks/s: less than one tick per tick at
+    100 Hz) never moves a goal faster than 0.5 rad/s (+ one tick over any window), unlike a
+    one-tick minimum step (0.51 rad/s: 150 ticks in 1.5 s instead of 146.6)."""
+    soft = command_speed(codec, 0.5)
+    lim = GoalLimiter(
+        codec, robot.q_min, robot.q_max, command_speed(codec, robot.v_max), robot.joint_names
+    )
+    start = codec.encode_float(robot.configuration("walk_ready")[7:])
+    goal = start + 40.0 * np.sign(codec.scale)
+    sent = [(0.0, lim.reset(start, 0.0))]
+    for k in range(1, int(rate * 1.5)):
+        t = k / rate
+        sent.append((t, lim.limit_cmd(soft_start_target(start, goal, soft, t), t, soft)))
+    assert np.array_equal(sent[-1][1], np.clip(np.rint(goal), lim.lo, lim.hi))
+    for a in range(len(sent)):
+        for b in range(a + 1, len(sent)):
+            (ta, ca), (tb, cb) = sent[a], sent[b]
+            assert np.all(np.abs(cb - ca) <= soft * (tb - ta) + 1 + 1e-9)
+    # 40 ticks at 97.7 ticks/s take 0.41 s: arrival no earlier than (40 - 1) / 97.7 s
+    arrival = next(t for t, c in sent if np.array_equal(c, sent[-1][1]))
+    assert arrival >= 39 / soft[0] - 1e-9
 
 
 def test_watchdog_needs_consecutive_failures():
     wd = Watchdog(["a", "b"], max_failures=3)
     assert wd.observe(ServoStatus(1, COMM_TIMEOUT)) is None
     assert wd.observe(ServoStatus(1, COMM_TIMEOUT)) is None
-    assert wd.failing() == 1
+    assert wd.failing() == [1]
     assert wd.observe(ServoStatus(1, COMM_OK)) is None  # a good reply resets the streak
-    assert wd.failing() is None
+    assert wd.failing() == []
     for _ in range(2):
         assert wd.observe(ServoStatus(1, COMM_CORRUPT)) is None
     trip = wd.observe(ServoStatus(1, COMM_TIMEOUT))
@@ -156,6 +205,39 @@ def test_watchdog_ignores_non_trip_bits_and_tracks_the_board():
     assert wd.observe(ServoStatus(None, COMM_TIMEOUT)) is None
     trip = wd.observe(ServoStatus(None, COMM_TIMEOUT))
     assert trip is not None and trip.index is None and trip.servo == "board"
+
+
+@pytest.mark.parametrize(
+    ("rate", "rotation", "polls", "bound_ms"),
+    [(50.0, 2, 10, 80.0), (100.0, 7, 4, 90.0), (25.0, 1, 18, 120.0)],
+)
+def test_health_schedule_rotation_and_bound(rate, rotation, polls, bound_ms):
+    h = HealthSchedule(18, rate)
+    assert (h.rotation, h.polls_per_tick) == (rotation, polls)
+    assert h.detection_s * 1e3 == pytest.approx(bound_ms)
+
+
+@given(
+    st.sampled_from([30.0, 50.0, 60.0, 100.0]),
+    st.lists(st.tuples(st.integers(0, 17), st.booleans()), max_size=60),
+)
+def test_health_schedule_checks_every_servo_within_its_rotation(rate, events):
+    """Law: whatever fails, each servo is checked at least every R ticks, and a servo with a
+    failure streak is checked again in the very next tick."""
+    h = HealthSchedule(18, rate)
+    wd = Watchdog([str(i) for i in range(18)], max_failures=10**6)
+    last = np.full(18, -1)
+    for tick, (servo, fails) in enumerate([*events, *[(0, False)] * 2 * h.rotation]):
+        streak = set(wd.failing())
+        picked = h.pick(wd)
+        assert len(picked) == len(set(picked)) == h.polls_per_tick
+        assert streak <= set(picked) or len(streak) >= h.polls_per_tick
+        last[picked] = tick
+        if tick >= h.rotation - 1:
+            assert np.all(tick - last < h.rotation) or len(streak) > 1
+        for i in picked:
+            bad = fails and i == servo
+            wd.observe(ServoStatus(i, COMM_TIMEOUT if bad else COMM_OK))
 
 
 def test_check_trajectory_names_joint_and_tick(robot):

@@ -18,6 +18,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "walk": ("wbc.walking.cli", "run a task stack along a walking reference and record it"),
     "deploy": ("wbc.servos.deploy", "play a trajectory on AX-12A servos (or a dry run)"),
     "view": ("wbc.viewer.cli", "show the robot or a recording in meshcat"),
+    "sim": ("wbc.sim.cli", "play a plan on the MuJoCo-simulated robot: does it stay up?"),
 }
 
 

@@ -25,8 +25,13 @@ from typing import Any
 
 import numpy as np
 
-from .exceptions import TaskError
-from .limits import ComPolygonConstraint, Constraint, GroundClearanceConstraint
+from .exceptions import TaskError, WbcError
+from .limits import (
+    ComPolygonConstraint,
+    Constraint,
+    GroundClearanceConstraint,
+    SelfCollisionConstraint,
+)
 from .model import Kinematics, Robot
 from .paths import read_toml, stacks_dir
 from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
@@ -82,7 +87,7 @@ TASK_TYPES: dict[str, Callable[..., Task]] = {
     "damping": _frameless(DampingTask, "damping"),
     "joint_limit_damping": _frameless(JointLimitDampingTask, "joint_limit_damping"),
 }
-CONSTRAINT_TYPES = ("com_polygon", "ground_clearance")
+CONSTRAINT_TYPES = ("com_polygon", "ground_clearance", "self_collision")
 
 
 @dataclass
@@ -310,6 +315,8 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
             f"{CONSTRAINT_TYPES}, got {entry!r}"
         )
     kind = entry["type"]
+    if kind == "self_collision":
+        return _self_collision(entry, robot, where), None
     extra = set(entry) - {"type", "name", "frame", "margin", "clearance", "phases"}
     if extra:
         raise TaskError(f"{where}: constraint {kind!r} has unknown keys {sorted(extra)}")
@@ -334,6 +341,25 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
         )
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
     return constraint, binding
+
+
+_SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include", "exclude"}
+
+
+def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint:
+    """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
+    include = [[link, link], ...], exclude = [...] }`` (all but ``type`` optional)."""
+    extra = set(entry) - _SELF_COLLISION_KEYS
+    if extra:
+        raise TaskError(
+            f"{where}: constraint 'self_collision' has unknown keys {sorted(extra)}; "
+            f"allowed: {sorted(_SELF_COLLISION_KEYS)}"
+        )
+    kw = {k: entry[k] for k in ("margin", "trigger", "damping", "include", "exclude") if k in entry}
+    try:
+        return SelfCollisionConstraint(robot, name=entry.get("name", "self_collision"), **kw)
+    except WbcError as exc:
+        raise TaskError(f"{where}: {exc}") from exc
 
 
 def _initial_targets(control: ControlStack, kin: Kinematics) -> None:

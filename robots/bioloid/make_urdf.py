@@ -111,13 +111,16 @@ def side_links(s: int, p: str) -> list[Link]:
             (32, 40, 50),
             [((0, 0, -25), (30, 36, 10), "frame")],
         ),
+        # the roll servo turns about its horn axis, so it reaches half its 32 mm width
+        # (16 mm) above the roll/pitch axes: below the yaw bracket (20 mm above) and clear
+        # of the torso plate (29 mm above) at any roll (self-collision, README section 3)
         Link(
             f"{p}_hip_block",
             137.0,
             (0, 0, 0),
             (40, 32, 100),
             [
-                ((0, 0, 8), (ax[0] * 1e3, ax[1] * 1e3, 36), "servo"),
+                ((0, 0, 3), (ax[0] * 1e3, ax[1] * 1e3, 26), "servo"),
                 ((0, 0, -8), (ax[1] * 1e3, ax[0] * 1e3, 36), "servo"),
             ],
         ),

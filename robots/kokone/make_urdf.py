@@ -237,7 +237,7 @@ def arm_links(p: str, s: int) -> list[Link]:
             25.0,
             (0, 0, -3.0),
             (2.5, 2.5, 6.0),
-            [((0, 0, -3.0), (2.0, 2.0, 6.0), "frame")],
+            [((0, 0, -2.5), (2.0, 2.0, 5.0), "frame")],
         ),
         Link(f"{p}_elbow_link", 25.0, (0, 0, 0), (3, 3, 3), [((0, 0, 0), (sx, sy, sz), "servo")]),
         Link(
@@ -245,7 +245,7 @@ def arm_links(p: str, s: int) -> list[Link]:
             17.0,
             (0, 0, -3.0),
             (2.0, 2.0, 6.0),
-            [((0, 0, -3.0), (1.6, 1.6, 6.0), "hand")],
+            [((0, 0, -3.5), (1.6, 1.6, 5.0), "hand")],
         ),
     ]
 
@@ -367,6 +367,7 @@ MATERIALS = {
     "hand": (0.80, 0.81, 0.83, 1.0),
 }
 AXES = {"x": "1 0 0", "y": "0 1 0", "z": "0 0 1"}
+COLLISION_INSET = 0.001  # m, each side
 
 
 def fmt(values) -> str:
@@ -384,9 +385,12 @@ def link_xml(link: Link) -> str:
     out.append("    </inertial>")
     for centre, size, material in link.boxes:
         for tag in ("visual", "collision"):
+            # collision boxes 1 mm inside the visual ones: the feet (5 mm apart) then keep the
+            # self-collision margin (5 mm) with 2 mm to spare
+            box = size if tag == "visual" else tuple(v - 2 * COLLISION_INSET for v in size)
             out.append(f"    <{tag}>")
             out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
-            out.append(f'      <geometry><box size="{fmt(size)}"/></geometry>')
+            out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
             if tag == "visual":
                 out.append(f'      <material name="{material}"/>')
             out.append(f"    </{tag}>")

@@ -69,6 +69,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--plots", type=Path, metavar="DIR", help="write figures")
     parser.add_argument("--list", action="store_true", help="list solvers and trajectories")
+    from .physics import add_physics_arguments  # --physics, --robustness, --seed, --push
+
+    add_physics_arguments(parser)
 
 
 def _list(console: Console) -> int:
@@ -166,6 +169,10 @@ def run(args: argparse.Namespace) -> int:
     entries, notes = select(args.solvers, args.families, args.mode)
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
+    if args.physics:
+        from .physics import run_physics_command
+
+        return run_physics_command(args, console, robot, entries)
     walking = [t for t in args.trajectories if t != traj.STATIC_COM]
     for t in walking:  # fail fast on a bad name, before any run
         if t not in traj.TRAJECTORIES:

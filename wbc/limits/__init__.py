@@ -3,6 +3,7 @@
 from .ground_clearance import GroundClearanceConstraint, LinearInequality
 from .joint_limits import JointPositionLimit, JointVelocityLimit, intersect_bounds
 from .limit import Bounds, BoxLimit, Constraint, Inequality
+from .self_collision import SelfCollisionConstraint
 from .support_polygon import ComPolygonConstraint, SupportPolygon
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "JointPositionLimit",
     "JointVelocityLimit",
     "LinearInequality",
+    "SelfCollisionConstraint",
     "SupportPolygon",
     "intersect_bounds",
 ]

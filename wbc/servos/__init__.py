@@ -2,22 +2,17 @@
 
 Modules: :mod:`.bus` (backend-independent interface, angle <-> command codec, bus budget),
 :mod:`.dynamixel` (AX-12A on dynamixel-sdk), :mod:`.ssc32` (Lynxmotion SSC-32),
-:mod:`.safety` (clamp, rate limit, soft start, watchdog), :mod:`.deploy` (playback and the
-``wbc deploy`` command) and :mod:`.emulator` (pty emulators for tests and benchmarks; import
-it explicitly, it needs a POSIX system).
+:mod:`.safety` (clamp, rate limit, soft start, watchdog, health schedule), :mod:`.sources`
+(targets to play), :mod:`.playback` (the deployment and its safe stop), :mod:`.plan` (bus
+budget and fault bound), :mod:`.deploy` (the ``wbc deploy`` command) and :mod:`.emulator`
+(pty emulators for tests and benchmarks; import it explicitly, it needs a POSIX system).
 """
 
 from .bus import BusBudget, Codec, DryRunBus, ServoBus, ServoStatus
-from .deploy import (
-    CallableSource,
-    DeployConfig,
-    Deployment,
-    DeployResult,
-    RecordingSource,
-    TargetSource,
-)
 from .dynamixel import DynamixelBus
-from .safety import GoalLimiter, Trip, Watchdog
+from .playback import DeployConfig, Deployment, DeployResult
+from .safety import GoalLimiter, HealthSchedule, Trip, Watchdog
+from .sources import CallableSource, RecordingSource, TargetSource
 from .ssc32 import Ssc32Bus, Ssc32Map
 
 __all__ = [
@@ -30,6 +25,7 @@ __all__ = [
     "DryRunBus",
     "DynamixelBus",
     "GoalLimiter",
+    "HealthSchedule",
     "RecordingSource",
     "ServoBus",
     "ServoStatus",

@@ -13,9 +13,11 @@ never lets a command out of it and :meth:`ServoBus.write_goals` checks it again 
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -144,6 +146,29 @@ class BusBudget:
         return 1.0 / self.tick_time(turnaround_s)
 
 
+class Clock(Protocol):
+    """Where a deployment reads time and waits: the wall clock for real servos, simulated time
+    for a lockstep simulator (whose ``sleep`` runs the physics)."""
+
+    def now(self) -> float: ...
+
+    def sleep(self, seconds: float) -> None: ...
+
+
+class WallClock:
+    """The wall clock: ``time.perf_counter`` and ``time.sleep``."""
+
+    def now(self) -> float:
+        return time.perf_counter()
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+WALL_CLOCK = WallClock()
+
+
 class ServoBus(ABC):
     """A bus of servos driven in the robot model's joint order with integer commands.
 
@@ -158,6 +183,7 @@ class ServoBus(ABC):
     can_read: bool = False
     servo_speed: float = float("inf")  # rad/s, the servos' own top speed
     turnaround_s: float = 0.0  # host delay per status reply (e.g. USB latency), for budgets
+    health_per_servo: bool = True  # poll(i) checks servo i (False: the board, whatever i)
 
     def __init__(self, codec: Codec, labels: Sequence[str]) -> None:
         self.codec = codec
@@ -237,6 +263,21 @@ class ServoBus(ABC):
     def budget(self, read_positions: bool) -> BusBudget:
         """Bus time of one tick (see :class:`BusBudget`)."""
         raise NotImplementedError
+
+    # ------------------------------------------------------------------ with defaults
+    def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
+        """Bus time of one tick with ``polls_per_tick`` health polls (default: ``budget``)."""
+        return self.budget(read_positions)
+
+    def torque_off(self) -> list[str]:
+        """Torque off on every servo, verified where the bus can; returns the labels of the
+        servos whose torque-off is not confirmed (default: ``set_torque(False)``, none)."""
+        self.set_torque(False)
+        return []
+
+    def exchange_lines(self) -> list[str]:
+        """Summary of the exchanges (round-trip times, late replies) for the report."""
+        return []
 
     def __enter__(self) -> ServoBus:
         self.open()

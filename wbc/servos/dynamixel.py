@@ -9,11 +9,14 @@ the SDK's Protocol-1.0 examples. Packets (bioloid-facts §4.3)::
 All goals go out in one SYNC_WRITE to address 30 (no status reply). The AX series has no
 sync or bulk read: feedback is one READ per servo, which dominates the bus budget.
 
-SDK traps handled here: ``PortHandler`` hard-codes a 16 ms USB latency (packet timeout
-``tx + 2·16 + 2`` ms), so :class:`DynamixelBus` uses a subclass whose latency is a parameter
-(set the FTDI adapter's latency timer to 1 ms to match); a Ctrl-C inside an SDK call leaves
-``port.is_using`` set, which makes every later call fail with COMM_PORT_BUSY, so the safe
-stop resets it before sending torque-off.
+Request/reply exchanges do not use the SDK's ``txRxPacket``, which matches a status packet
+by ID only (a reply that came after its timeout is read as the answer to the next request
+to that servo): :meth:`DynamixelBus.exchange` flushes stale input, checks ID, length and
+checksum against the request, and rotates the form of consecutive READs of a servo so a
+late reply cannot match (:func:`read_variant`). The SDK's ``PortHandler`` (open, baud,
+read, write) and ``GroupSyncWrite`` are used as they are; a subclass replaces the port's
+hard-coded 16 ms USB latency by a parameter, and the safe stop clears ``port.is_using``
+(left set by a Ctrl-C inside an SDK call) before sending torque-off.
 """
 
 from __future__ import annotations
@@ -21,7 +24,9 @@ from __future__ import annotations
 import math
 import os
 import select
+import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -215,14 +220,15 @@ def ax_budget(
     polls_per_tick: int = 1,
     return_delay_s: float = AX12_RESPONSE_S,
 ) -> BusBudget:
-    """Bus budget of one tick: a SYNC_WRITE of all goals plus either one 2-byte READ of present
-    position per servo (``read_positions``) or ``polls_per_tick`` 8-byte health READs
-    (position, speed, load, voltage, temperature: addresses 36..43)."""
+    """Bus budget of one tick: a SYNC_WRITE of all goals plus either one READ of present
+    position per servo (``read_positions``) or ``polls_per_tick`` health READs (position,
+    speed, load, voltage, temperature: addresses 36..43). READs are counted in their longest
+    form (:func:`read_variant`: up to 2 more bytes)."""
     items = [BudgetItem("SYNC_WRITE goal position", 1, sync_write_length(n_servos, 2), 0, 0)]
     if read_positions:
-        items.append(BudgetItem("READ present position (2 B)", n_servos, 8, 6 + 2, 1))
+        items.append(BudgetItem("READ present position (2-4 B)", n_servos, 8, 6 + 4, 1))
     elif polls_per_tick:
-        items.append(BudgetItem("READ health poll (8 B)", polls_per_tick, 8, 6 + 8, 1))
+        items.append(BudgetItem("READ health poll (8-10 B)", polls_per_tick, 8, 6 + 10, 1))
     name = "write + read" if read_positions else "write-only"
     return BusBudget(name, baud, tuple(items), return_delay_s=return_delay_s)
 
@@ -271,8 +277,85 @@ def _port_handler_class():
     return PortHandler
 
 
+@dataclass
+class ExchangeLog:
+    """Every request/reply exchange of a bus: round-trip times of matched replies, and per
+    servo ID the timeouts, corrupt or unmatched replies and late replies (a status packet that
+    came after its deadline: flushed before a later request, or met while awaiting another)."""
+
+    rtt: list[float] = field(default_factory=list)  # s, matched replies, in order
+    timeouts: dict[int, int] = field(default_factory=dict)
+    corrupt: dict[int, int] = field(default_factory=dict)
+    late: dict[int, int] = field(default_factory=dict)
+    stale_bytes: int = 0
+
+    def count(self, what: dict[int, int], servo_id: int) -> None:
+        what[servo_id] = what.get(servo_id, 0) + 1
+
+    def lines(self) -> list[str]:
+        """A short summary for the deployment report."""
+        if not self.rtt:
+            return ["bus exchanges: no reply received"]
+        ms = np.array(self.rtt) * 1e3
+        out = [
+            f"bus round trips: {ms.size} replies, p50 {np.percentile(ms, 50):.3f} ms, "
+            f"p99 {np.percentile(ms, 99):.3f} ms, max {ms.max():.3f} ms"
+        ]
+        for name, d in (("timeouts", self.timeouts), ("corrupt/unmatched", self.corrupt)):
+            if d:
+                out.append(f"{name}: " + ", ".join(f"id {k} x{v}" for k, v in sorted(d.items())))
+        if self.late:
+            out.append(
+                "late replies (discarded): "
+                + ", ".join(f"id {k} x{v}" for k, v in sorted(self.late.items()))
+            )
+        return out
+
+
+def parse_status(buf: bytearray) -> bytes | None:
+    """Take the first complete status packet off ``buf`` (bytes before a header are dropped);
+    None while incomplete. The checksum is not checked here."""
+    while True:
+        i = buf.find(b"\xff\xff")
+        if i < 0:
+            del buf[: max(0, len(buf) - 1)]
+            return None
+        del buf[:i]
+        if len(buf) < 4:
+            return None
+        if buf[2] == 0xFF:  # a third 0xFF: slide by one
+            del buf[:1]
+            continue
+        length = buf[3]
+        if length < 2:
+            del buf[:2]
+            continue
+        if len(buf) < length + 4:
+            return None
+        pkt = bytes(buf[: length + 4])
+        del buf[: length + 4]
+        return pkt
+
+
+def read_variant(address: int, length: int, k: int) -> tuple[int, int]:
+    """The ``k``-th (mod 3) form of a READ of ``length`` bytes at ``address``: the same bytes
+    preceded by 0, 1 or 2 lower registers. Consecutive reads of one servo use consecutive
+    forms, so a late reply to the previous (or the one before) has the wrong length and can
+    never be taken as the answer to the current request (Protocol 1.0 has no sequence number)."""
+    extra = min(k % 3, address)
+    return address - extra, length + extra
+
+
 class DynamixelBus(ServoBus):
-    """The robot's AX-12A servos on one Protocol 1.0 bus, in model joint order."""
+    """The robot's AX-12A servos on one Protocol 1.0 bus, in model joint order.
+
+    Every exchange with a reply is matched (:meth:`exchange`): stale input is flushed first,
+    the status packet must carry the servo's ID, a valid checksum and the length of what was
+    asked, within the reply deadline; anything else is a failed exchange the watchdog counts.
+    Start-up exchanges are retried up to ``attempts`` times; the motion loop's are not (the
+    watchdog's streak decides). Settings (compliance, punch, torque limit, alarm shutdown)
+    come from ``servo_map.settings`` (the config the simulator's servo model reads too).
+    """
 
     name = "dynamixel"
     can_read = True
@@ -284,30 +367,47 @@ class DynamixelBus(ServoBus):
         servo_map: ServoMap,
         baud: int = 1_000_000,
         latency_timer_ms: float = 1.0,
-        torque_limit: int = 1023,
+        torque_limit: int | None = None,
         poll_wait_s: float = 1e-3,
+        reply_timeout_ms: float | None = None,
+        attempts: int = 3,
     ) -> None:
         labels = [
             f"id {int(i)} ({j})" for i, j in zip(servo_map.ids, servo_map.joint_names, strict=True)
         ]
         super().__init__(ax_codec(servo_map), labels)
         check_baud(baud)
-        if not 0 <= torque_limit <= 1023:
+        if torque_limit is not None and not 0 <= torque_limit <= 1023:
             raise ServoError(f"torque limit must be 0..1023, got {torque_limit}")
+        if reply_timeout_ms is not None and not (
+            math.isfinite(reply_timeout_ms) and reply_timeout_ms > 0
+        ):
+            raise ServoError(f"reply timeout must be positive (ms), got {reply_timeout_ms}")
+        if attempts < 1:
+            raise ServoError(f"attempts must be >= 1, got {attempts}")
         self.port_name = port
         self.servo_map = servo_map
+        self.settings = servo_map.settings
         self.baud = baud
         self.ids = [int(i) for i in servo_map.ids]
         self.latency_timer_ms = latency_timer_ms
         self.turnaround_s = latency_timer_ms * 1e-3
-        self.torque_limit = torque_limit
-        self.ping_attempts = 2
-        self.poll_wait_s = poll_wait_s  # 0: the SDK's original busy-wait receive
+        self.torque_limit = (
+            np.asarray(self.settings.torque_limit, dtype=int)
+            if torque_limit is None
+            else np.full(len(self.ids), torque_limit, dtype=int)
+        )
+        self.reply_timeout_ms = reply_timeout_ms
+        self.attempts = attempts
+        self.poll_wait_s = poll_wait_s  # 0: busy-wait receive (like the SDK)
         self.warnings: list[str] = []
+        self.notes: list[str] = []
+        self.log = ExchangeLog()
         self.port = None
-        self.ph = None
         self._sync_goal = None
         self._sync_speed = None
+        self._buf = bytearray()
+        self._reads = np.zeros(len(self.ids), int)  # per servo: READ count, picks the form
 
     # ------------------------------------------------------------------ life cycle
     def open(self) -> None:
@@ -320,6 +420,7 @@ class DynamixelBus(ServoBus):
         latency = ftdi_latency_timer(self.port_name)
         if latency is not None and latency > self.latency_timer_ms:
             port.latency_timer_ms = float(latency)  # else every reply would look late
+            self.latency_timer_ms = float(latency)
             self.turnaround_s = latency * 1e-3
             self.warnings.append(
                 f"{self.port_name}: USB latency timer is {latency} ms (each READ takes about "
@@ -333,9 +434,9 @@ class DynamixelBus(ServoBus):
         if not ok:
             raise ServoError(f"port {self.port_name!r} refused baud rate {self.baud}")
         self.port = port
-        self.ph = sdk.Protocol1PacketHandler()
-        self._sync_goal = sdk.GroupSyncWrite(port, self.ph, ADDR_GOAL_POSITION, 2)
-        self._sync_speed = sdk.GroupSyncWrite(port, self.ph, ADDR_MOVING_SPEED, 2)
+        ph = sdk.Protocol1PacketHandler()
+        self._sync_goal = sdk.GroupSyncWrite(port, ph, ADDR_GOAL_POSITION, 2)
+        self._sync_speed = sdk.GroupSyncWrite(port, ph, ADDR_MOVING_SPEED, 2)
 
     def close(self) -> None:
         if self.port is not None and self.port.is_open:
@@ -345,66 +446,151 @@ class DynamixelBus(ServoBus):
         """Recover the SDK port after an interrupted call (``is_using`` stuck at True)."""
         if self.port is not None:
             self.port.is_using = False
-            try:
-                self.port.clearPort()
-            except Exception:
-                pass
+            self._flush()
 
-    # ------------------------------------------------------------------ helpers
-    def _comm(self, result: int) -> str:
-        sdk = _sdk()
-        if result == sdk.COMM_SUCCESS:
-            return COMM_OK
-        if result == sdk.COMM_RX_TIMEOUT:
-            return COMM_TIMEOUT
-        if result == sdk.COMM_RX_CORRUPT:
-            return COMM_CORRUPT
-        return COMM_TX_FAIL
+    # ------------------------------------------------------------------ matched exchanges
+    def reply_timeout_s(self, n_out: int, n_in: int) -> float:
+        """Reply deadline after the request is written: ``--reply-timeout-ms`` if given, else
+        the SDK's rule: wire time of both packets + 2 · USB latency + 2 ms."""
+        if self.reply_timeout_ms is not None:
+            return self.reply_timeout_ms * 1e-3
+        wire = (n_out + n_in) * 10.0 / self.baud
+        return wire + 2e-3 * self.latency_timer_ms + 2e-3
 
-    def _label(self, i: int) -> str:
-        return self.labels[i]
+    def _flush(self) -> None:
+        """Drop what is pending on the line; status packets in it are late replies."""
+        ser = self.port.ser
+        n = ser.in_waiting
+        if n:
+            self._buf += ser.read(n)
+        self.log.stale_bytes += len(self._buf)
+        while (pkt := parse_status(self._buf)) is not None:
+            if checksum(pkt[2:-1]) == pkt[-1]:
+                self.log.count(self.log.late, pkt[2])
+        self._buf.clear()
 
-    def _expect(self, i: int, result: int, error: int, what: str) -> None:
-        """Raise naming the servo unless a start-up exchange succeeded without error bits."""
-        comm = self._comm(result)
+    def exchange(
+        self,
+        servo_id: int,
+        instruction: int,
+        params: Sequence[int] = (),
+        n_reply: int = 0,
+        patience: float = 1.0,
+    ) -> tuple[str, int, bytes]:
+        """One matched request/reply: ``(comm, error byte, reply parameters)``.
+
+        The status packet must have ``servo_id``, ``n_reply + 2`` as LENGTH and a valid
+        checksum, and arrive before :meth:`reply_timeout_s`; a valid packet of another ID is a
+        late reply (logged, skipped); a wrong length or checksum is ``corrupt``. ``patience``
+        multiplies the deadline (start-up retries wait longer each time)."""
+        self._require_open()
+        port = self.port
+        self._flush()
+        pkt = instruction_packet(servo_id, instruction, params)
+        t0 = time.perf_counter()
+        try:
+            written = port.writePort(pkt)
+        except Exception:
+            written = -1
+        if written != len(pkt):
+            return COMM_TX_FAIL, 0, b""
+        if servo_id == BROADCAST_ID:
+            return COMM_OK, 0, b""
+        deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + 6)
+        ser = port.ser
+        fd = ser.fileno()
+        while True:
+            now = time.perf_counter()
+            n = ser.in_waiting
+            if n:
+                self._buf += ser.read(n)
+            while (reply := parse_status(self._buf)) is not None:
+                if checksum(reply[2:-1]) != reply[-1]:
+                    self.log.count(self.log.corrupt, servo_id)
+                    return COMM_CORRUPT, 0, b""
+                if reply[2] != servo_id:
+                    self.log.count(self.log.late, reply[2])
+                    continue
+                if reply[3] != n_reply + 2:  # e.g. the late answer to an earlier READ
+                    self.log.count(self.log.late, servo_id)
+                    continue
+                self.log.rtt.append(time.perf_counter() - t0)
+                return COMM_OK, reply[4], reply[5:-1]
+            if now >= deadline:  # the last look came after the deadline
+                self.log.count(self.log.timeouts, servo_id)
+                return COMM_TIMEOUT, 0, b""
+            if self.poll_wait_s > 0:  # else busy-wait, like the SDK
+                select.select([fd], [], [], max(min(deadline - now, self.poll_wait_s), 0.0))
+
+    def read(
+        self, i: int, address: int, length: int, patience: float = 1.0
+    ) -> tuple[str, int, bytes]:
+        """A matched READ of servo ``i`` (model index), in the servo's next form
+        (:func:`read_variant`), returning the ``length`` bytes at ``address``."""
+        a, n = read_variant(address, length, int(self._reads[i]))
+        self._reads[i] += 1
+        comm, error, data = self.exchange(self.ids[i], INST_READ, (a, n), n, patience)
         if comm != COMM_OK:
-            raise ServoError(f"{self._label(i)}: {what}: {comm} ({self.ph.getTxRxResult(result)})")
+            return comm, 0, b""
+        return comm, error, data[address - a :]
+
+    def write(
+        self, i: int, address: int, data: Sequence[int], patience: float = 1.0
+    ) -> tuple[str, int]:
+        """A matched WRITE (status packet expected: Status Return Level 2)."""
+        comm, error, _ = self.exchange(self.ids[i], INST_WRITE, (address, *data), 0, patience)
+        return comm, error
+
+    def _retry(self, i: int, what: str, call) -> tuple:
+        """A start-up exchange ``call(patience)``, retried up to ``attempts`` times on timeouts
+        and corrupt replies with a deadline doubled each time (a stalled host or adapter gets
+        longer to answer); raises naming the servo unless it succeeds without error bits."""
+        for k in range(self.attempts):
+            out = call(2.0**k)
+            if out[0] == COMM_OK:
+                break
+        comm, error = out[0], out[1]
+        if comm != COMM_OK:
+            raise ServoError(f"{self.labels[i]}: {what}: {comm} after {self.attempts} attempts")
         if error:
             raise ServoError(
-                f"{self._label(i)}: {what}: status error 0x{error:02X} {list(fault_names(error))}"
+                f"{self.labels[i]}: {what}: status error 0x{error:02X} {list(fault_names(error))}"
             )
+        return out
 
     def _require_open(self) -> None:
         if self.port is None:
             raise ServoError(f"{self.name}: port {self.port_name!r} is not open")
 
     # ------------------------------------------------------------------ start-up
-    def _ping(self, servo_id: int) -> tuple[str, int]:
-        model, result, _ = self.ph.ping(self.port, servo_id)
-        return self._comm(result), model
-
     def identify(self) -> None:
-        """PING every servo and check it is an AX-12A; name the missing/garbled/wrong ones."""
+        """PING every servo (up to ``attempts`` times) and check it is an AX-12A (model number
+        read back); name the missing/garbled/wrong ones. Reports the measured round trip."""
         self._require_open()
-        results = {i: self._ping(sid) for i, sid in enumerate(self.ids)}
-        if all(comm == COMM_TIMEOUT for comm, _ in results.values()):
-            raise ServoError(
-                f"no servo answered on {self.port_name} at {self.baud} baud (the servo map says "
-                f"{self.servo_map.baudrate}): wrong baud rate, no power, or wrong port"
-            )
-        for _attempt in range(1, self.ping_attempts):  # one lost reply is not a missing servo
-            for i, (comm, _) in list(results.items()):
-                if comm != COMM_OK:
-                    results[i] = self._ping(self.ids[i])
-        missing = [self._label(i) for i, (c, _) in results.items() if c == COMM_TIMEOUT]
-        garbled = [
-            self._label(i) for i, (c, _) in results.items() if c not in (COMM_OK, COMM_TIMEOUT)
-        ]
-        wrong = [
-            f"{self._label(i)} reports model {model}"
-            for i, (c, model) in results.items()
-            if c == COMM_OK and model != AX12_MODEL_NUMBER
-        ]
+        results: dict[int, str] = {}
+        for i, sid in enumerate(self.ids):
+            for k in range(self.attempts):
+                results[i] = self.exchange(sid, INST_PING, patience=2.0**k)[0]
+                if results[i] == COMM_OK:
+                    break
+            if i == 0 and results[0] == COMM_TIMEOUT:
+                if all(self.exchange(s, INST_PING)[0] == COMM_TIMEOUT for s in self.ids[1:]):
+                    raise ServoError(
+                        f"no servo answered on {self.port_name} at {self.baud} baud (the servo "
+                        f"map says {self.servo_map.baudrate}): wrong baud rate, no power, or "
+                        "wrong port"
+                    )
+        ping_rtt = list(self.log.rtt)
+        missing = [self.labels[i] for i, c in results.items() if c == COMM_TIMEOUT]
+        garbled = [self.labels[i] for i, c in results.items() if c not in (COMM_OK, COMM_TIMEOUT)]
+        wrong = []
+        for i, c in results.items():
+            if c != COMM_OK:
+                continue
+            data = self._retry(i, "read model number", lambda p, i=i: self.read(i, 0, 2, p))[2]
+            model = data[0] | (data[1] << 8)
+            if model != AX12_MODEL_NUMBER:
+                wrong.append(f"{self.labels[i]} reports model {model}")
         problems = []
         if missing:
             problems.append("no reply to PING from " + ", ".join(missing))
@@ -418,48 +604,95 @@ class DynamixelBus(ServoBus):
             problems.append(f"not AX-12A (model {AX12_MODEL_NUMBER}): " + ", ".join(wrong))
         if problems:
             raise ServoError(f"{self.port_name}: " + "; ".join(problems))
+        if ping_rtt:
+            ms = np.array(ping_rtt) * 1e3
+            self.adapter_latency_s = float(np.median(ping_rtt))
+            self.notes.append(
+                f"adapter round trip (PING, {ms.size} replies): p50 {np.median(ms):.3f} ms, "
+                f"max {ms.max():.3f} ms; reply deadline "
+                f"{self.reply_timeout_s(14, 14) * 1e3:.1f} ms"
+            )
+
+    adapter_latency_s: float | None = None
 
     def configure(self) -> None:
         """Torque off; Status Return Level 2, Return Delay 0, angle limits (6/8) from the joint
-        limits and the torque limit, each written only if it differs and read back."""
+        limits, Alarm Shutdown (18), compliance margins/slopes (26-29), torque limit (34) and
+        punch (48) from the servo settings: each written only if it differs, then read back."""
         self._require_open()
         if self.cmd_lo is None or self.cmd_hi is None:
             raise ServoError(f"{self.name}: configure() needs the command limits first")
-        self.set_torque(False)
-        port, ph = self.port, self.ph
-        for i, sid in enumerate(self.ids):
-            srl, result, error = ph.read1ByteTxRx(port, sid, ADDR_STATUS_RETURN_LEVEL)
-            self._expect(i, result, error, "read status return level")
-            if srl != 2:  # without level 2, WRITEs get no status and would look like timeouts
-                ph.write1ByteTxOnly(port, sid, ADDR_STATUS_RETURN_LEVEL, 2)
+        unconfirmed = self.torque_off()
+        if unconfirmed:
+            raise ServoError("torque-off not confirmed by " + ", ".join(unconfirmed))
+        st = self.settings
+        for i in range(self.n):
+            srl = self._retry(i, "read status return level", lambda p, i=i: self.read(i, 16, 1, p))
+            srl = srl[2]
+            if srl[0] != 2:  # without level 2, WRITEs get no status and would look like timeouts
+                self.exchange(self.ids[i], INST_WRITE, (ADDR_STATUS_RETURN_LEVEL, 2))
+                self._flush()
             lo, hi = int(self.cmd_lo[i]), int(self.cmd_hi[i])
-            wanted = [0, *word(lo), *word(hi)]
-            data, result, error = ph.readTxRx(port, sid, ADDR_RETURN_DELAY, 5)
-            self._expect(i, result, error, "read return delay / angle limits")
-            if list(data) != wanted:
-                result, error = ph.writeTxRx(port, sid, ADDR_RETURN_DELAY, 5, wanted)
-                self._expect(i, result, error, "write return delay / angle limits")
-                data, result, error = ph.readTxRx(port, sid, ADDR_RETURN_DELAY, 5)
-                self._expect(i, result, error, "read back return delay / angle limits")
-                if list(data) != wanted:
-                    raise ServoError(
-                        f"{self._label(i)}: angle limits did not stick: wrote {wanted}, "
-                        f"read {list(data)} (EEPROM locked?)"
-                    )
-            result, error = ph.write2ByteTxRx(port, sid, ADDR_TORQUE_LIMIT, self.torque_limit)
-            self._expect(i, result, error, "write torque limit")
+            m, s = int(st.compliance_margin[i]), int(st.compliance_slope[i])
+            blocks = [
+                ("return delay / angle limits", ADDR_RETURN_DELAY, [0, *word(lo), *word(hi)]),
+                ("alarm shutdown", ADDR_SHUTDOWN, [int(st.alarm_shutdown)]),
+                ("compliance margins / slopes", 26, [m, m, s, s]),
+                ("torque limit", ADDR_TORQUE_LIMIT, word(int(self.torque_limit[i]))),
+                ("punch", ADDR_PUNCH, word(int(st.punch[i]))),
+            ]
+            for what, address, wanted in blocks:
+                self._set_block(i, what, address, wanted)
+
+    def _set_block(self, i: int, what: str, address: int, wanted: list[int]) -> None:
+        n = len(wanted)
+        data = self._retry(i, f"read {what}", lambda p: self.read(i, address, n, p))[2]
+        if list(data) == wanted:
+            return
+        self._retry(i, f"write {what}", lambda p: self.write(i, address, wanted, p))
+        data = self._retry(i, f"read back {what}", lambda p: self.read(i, address, n, p))[2]
+        if list(data) != wanted:
+            raise ServoError(
+                f"{self.labels[i]}: {what} did not stick: wrote {wanted}, read {list(data)} "
+                "(EEPROM locked?)"
+            )
 
     # ------------------------------------------------------------------ motion
     def set_torque(self, enabled: bool) -> None:
-        """On: per servo, confirmed. Off: one broadcast WRITE (reaches silent servos too)."""
+        """On: per servo, acknowledged (retried). Off: :meth:`torque_off` (acknowledged and
+        read back); raises naming the servos that did not confirm."""
         self._require_open()
         if not enabled:
-            self.reset()
-            self.ph.write1ByteTxOnly(self.port, BROADCAST_ID, ADDR_TORQUE_ENABLE, 0)
+            unconfirmed = self.torque_off()
+            if unconfirmed:
+                raise ServoError("torque-off not confirmed by " + ", ".join(unconfirmed))
             return
-        for i, sid in enumerate(self.ids):
-            result, error = self.ph.write1ByteTxRx(self.port, sid, ADDR_TORQUE_ENABLE, 1)
-            self._expect(i, result, error, "torque enable")
+        for i in range(self.n):
+            self._retry(
+                i, "torque enable", lambda p, i=i: self.write(i, ADDR_TORQUE_ENABLE, [1], p)
+            )
+
+    def torque_off(self) -> list[str]:
+        """Torque off on every servo: a broadcast WRITE (reaches a servo that cannot answer),
+        then per servo a WRITE with acknowledgement and a READ of register 24, each retried;
+        returns the labels of servos whose torque is not confirmed off."""
+        self._require_open()
+        self.reset()
+        self.exchange(BROADCAST_ID, INST_WRITE, (ADDR_TORQUE_ENABLE, 0))
+        unconfirmed = []
+        for i in range(self.n):
+            ok = False
+            for k in range(self.attempts):
+                comm, _ = self.write(i, ADDR_TORQUE_ENABLE, [0], 2.0**k)
+                if comm != COMM_OK:
+                    continue
+                comm, _, data = self.read(i, ADDR_TORQUE_ENABLE, 1, 2.0**k)
+                if comm == COMM_OK and data[0] == 0:
+                    ok = True
+                    break
+            if not ok:
+                unconfirmed.append(self.labels[i])
+        return unconfirmed
 
     def set_speed(self, rad_per_s: float) -> None:
         """Moving Speed (32) of every servo in one SYNC_WRITE."""
@@ -471,6 +704,9 @@ class DynamixelBus(ServoBus):
             sync.addParam(sid, word(reg))
         if self._comm(sync.txPacket()) != COMM_OK:
             raise ServoError(f"{self.port_name}: SYNC_WRITE of the moving speed failed")
+
+    def _comm(self, result: int) -> str:
+        return COMM_OK if result == _sdk().COMM_SUCCESS else COMM_TX_FAIL
 
     def write_goals(self, cmds: np.ndarray) -> str:
         """All goal positions in one SYNC_WRITE to address 30 (checked against the limits)."""
@@ -484,32 +720,25 @@ class DynamixelBus(ServoBus):
 
     # ------------------------------------------------------------------ feedback
     def read_positions(self, indices: Sequence[int] | None = None) -> list[ServoStatus]:
-        """One 2-byte READ of Present Position (36) per servo."""
+        """One matched 2-byte READ of Present Position (36) per servo."""
         self._require_open()
         out = []
         for i in range(self.n) if indices is None else indices:
-            value, result, error = self.ph.read2ByteTxRx(
-                self.port, self.ids[i], ADDR_PRESENT_POSITION
-            )
-            comm = self._comm(result)
-            out.append(
-                ServoStatus(
-                    i,
-                    comm,
-                    fault_names(error) if comm == COMM_OK else (),
-                    error if comm == COMM_OK else 0,
-                    float(value) if comm == COMM_OK else None,
-                )
-            )
+            comm, error, data = self.read(i, ADDR_PRESENT_POSITION, 2)
+            if comm != COMM_OK:
+                out.append(ServoStatus(i, comm))
+                continue
+            pos = float(data[0] | (data[1] << 8))
+            out.append(ServoStatus(i, comm, fault_names(error), error, pos))
         return out
 
     def poll(self, index: int) -> ServoStatus:
-        """One 8-byte READ at 36: position, speed, load, voltage, temperature and error bits."""
+        """One matched 8-byte READ at 36: position, speed, load, voltage, temperature and
+        the error bits."""
         self._require_open()
-        data, result, error = self.ph.readTxRx(self.port, self.ids[index], ADDR_PRESENT_POSITION, 8)
-        comm = self._comm(result)
-        if comm != COMM_OK or len(data) != 8:
-            return ServoStatus(index, comm if comm != COMM_OK else COMM_CORRUPT)
+        comm, error, data = self.read(index, ADDR_PRESENT_POSITION, 8)
+        if comm != COMM_OK:
+            return ServoStatus(index, comm)
         load = (data[4] | (data[5] << 8)) & 0x7FF
         load_frac = (load & 0x3FF) / 1023.0 * (-1.0 if load & 0x400 else 1.0)
         return ServoStatus(
@@ -525,3 +754,9 @@ class DynamixelBus(ServoBus):
 
     def budget(self, read_positions: bool) -> BusBudget:
         return ax_budget(self.n, self.baud, read_positions)
+
+    def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
+        return ax_budget(self.n, self.baud, read_positions, polls_per_tick)
+
+    def exchange_lines(self) -> list[str]:
+        return self.log.lines()

@@ -9,11 +9,13 @@ first-order lag saturated at the Moving Speed::
     dp/dt = clip((goal - p) / tau, -v, +v),   v = Moving Speed (0 = no-load 59 rpm)
 
 Every goal written (SYNC_WRITE or WRITE to address 30) is recorded with a timestamp in
-:attr:`AX12Emulator.goals`. Faults (:class:`Fault`) start after a number of goal SYNC_WRITEs:
-timeouts, corrupted checksums, error bits (with the AX shutdown: an Overload/Overheating bit
-that is in the Shutdown register (18) zeroes the torque limit), a missing servo and garbage
-bytes; ``duplicate_ids`` makes two servos answer at once (a garbled reply). ``on_goal_write``
-calls a function at the n-th goal SYNC_WRITE (e.g. to press Ctrl-C at a known point).
+:attr:`AX12Emulator.goals`. Faults (:class:`Fault`) start after a number of goal SYNC_WRITEs
+and/or of packets addressed to the servo: timeouts (silence), late replies (sent a given
+delay after they were due, while the other servos go on answering), corrupted checksums,
+error bits (with the AX shutdown: an Overload/Overheating bit that is in the Shutdown
+register (18) zeroes the torque limit), a missing servo and garbage bytes; ``duplicate_ids``
+makes two servos answer at once (a garbled reply). ``on_goal_write`` calls a function at the
+n-th goal SYNC_WRITE (e.g. to press Ctrl-C at a known point).
 
 Timing: a pty has no baud rate, bytes arrive at once. With ``timing=True`` the emulator
 models the half-duplex wire: each packet occupies the bus for ``bytes · 10 / baud`` s, a
@@ -87,19 +89,22 @@ from .dynamixel import (
     status_packet,
 )
 
-FAULT_KINDS = ("timeout", "bad_checksum", "error_bits", "missing", "garbage")
+FAULT_KINDS = ("timeout", "bad_checksum", "error_bits", "missing", "garbage", "late")
 _TWO_BYTE = {0, 6, 8, 14, 30, 32, 34, 36, 38, 40, 48}
 _READ_ONLY = set(range(0, 3)) | set(range(36, 47))
 
 
 @dataclass(frozen=True)
 class Fault:
-    """A fault of one servo, active once ``after_goals`` goal SYNC_WRITEs were received.
+    """A fault of one servo, active once ``after_goals`` goal SYNC_WRITEs were received and
+    the servo answered ``after_packets`` packets addressed to it (e.g. silence after N).
 
     ``timeout``: no status packets; ``bad_checksum``: status packets with a wrong checksum;
-    ``garbage``: ``data`` sent before each status packet; these three last for ``count``
-    replies (None = for ever). ``error_bits``: ``bits`` set in every status packet from then
-    on. ``missing``: the servo is gone (no reply, writes ignored), e.g. a cut cable.
+    ``garbage``: ``data`` sent before each status packet; ``late``: each status packet sent
+    ``delay_s`` after it was due (without holding up the other servos' replies, so it lands
+    in a later exchange); these four last for ``count`` replies (None = for ever).
+    ``error_bits``: ``bits`` set in every status packet from then on. ``missing``: the servo
+    is gone (no reply, writes ignored), e.g. a cut cable.
     """
 
     kind: str
@@ -108,12 +113,16 @@ class Fault:
     count: int | None = None
     bits: int = 0
     data: bytes = b"\x00\x13\x37"
+    delay_s: float = 0.0
+    after_packets: int = 0
 
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS:
             raise ValueError(f"unknown fault kind {self.kind!r}; use one of {FAULT_KINDS}")
         if self.kind == "error_bits" and not 0 < self.bits < 0x80:
             raise ValueError(f"error_bits fault needs bits in 1..0x7F, got {self.bits}")
+        if self.kind == "late" and not self.delay_s > 0:
+            raise ValueError(f"late fault needs delay_s > 0, got {self.delay_s}")
 
 
 @dataclass(frozen=True)
@@ -289,6 +298,7 @@ class _PtyRunner:
         self._stop = threading.Event()
         self.port = ""
         self.error: BaseException | None = None
+        self._scheduled: list[tuple[float, bytes]] = []  # (monotonic time, bytes) to send
 
     def start(self):
         master, slave = os.openpty()
@@ -349,7 +359,11 @@ class _PtyRunner:
         try:
             while True:  # after stop(), drain what the host already wrote, then exit
                 stopping = self._stop.is_set()
-                ready, _, _ = select.select([self._master], [], [], 0.0 if stopping else 0.05)
+                wait = 0.0 if stopping else 0.05
+                if self._scheduled:
+                    wait = min(wait, max(0.0, self._scheduled[0][0] - time.monotonic()))
+                ready, _, _ = select.select([self._master], [], [], wait)
+                self._send_due()
                 if not ready:
                     if stopping:
                         break
@@ -365,6 +379,16 @@ class _PtyRunner:
     def _on_bytes(self, chunk: bytes, now: float) -> None:
         raise NotImplementedError
 
+    def _schedule(self, at: float, data: bytes) -> None:
+        """Send ``data`` at time ``at`` (monotonic) without blocking other replies."""
+        self._scheduled.append((at, data))
+        self._scheduled.sort(key=lambda x: x[0])
+
+    def _send_due(self) -> None:
+        now = time.monotonic()
+        while self._scheduled and self._scheduled[0][0] <= now:
+            self._send(self._scheduled.pop(0)[1])
+
 
 class AX12Emulator(_PtyRunner):
     """18 (by default) AX-12A servos on a pseudo-terminal; see the module docstring.
@@ -375,6 +399,7 @@ class AX12Emulator(_PtyRunner):
 
     _state = (
         "servos",
+        "_to",
         "goals",
         "writes",
         "sync_goal_writes",
@@ -417,6 +442,7 @@ class AX12Emulator(_PtyRunner):
         self.checksum_errors = 0
         self.fault_log: list[tuple[float, Fault, str]] = []
         self._used: dict[int, int] = {}
+        self._to: dict[int, int] = {}  # instruction packets addressed to each servo
         self._buf = bytearray()
         self._bus_free = 0.0
         self._expected_speed = getattr(termios, f"B{baud}", None)
@@ -431,6 +457,10 @@ class AX12Emulator(_PtyRunner):
         s.refresh(time.monotonic())
         return s.word(address) if size == 2 else s.table[address]
 
+    def packets_to(self, servo_id: int) -> int:
+        """Instruction packets addressed to one servo so far (not broadcasts)."""
+        return self._to.get(servo_id, 0)
+
     def goals_by_id(self) -> dict[int, list[GoalRecord]]:
         out: dict[int, list[GoalRecord]] = {sid: [] for sid in self.servos}
         for g in list(self.goals):
@@ -441,6 +471,8 @@ class AX12Emulator(_PtyRunner):
     def _active(self, sid: int, kind: str) -> Fault | None:
         for k, f in enumerate(self.faults):
             if f.servo_id != sid or f.kind != kind or self.sync_goal_writes < f.after_goals:
+                continue
+            if self._to.get(sid, 0) <= f.after_packets:
                 continue
             if f.count is not None and self._used.get(k, 0) >= f.count:
                 continue
@@ -516,6 +548,8 @@ class AX12Emulator(_PtyRunner):
         self.packets += 1
         sid, inst = pkt[2], pkt[4]
         params = pkt[5:-1]
+        if sid != BROADCAST_ID:
+            self._to[sid] = self._to.get(sid, 0) + 1
         ok = checksum(pkt[2:-1]) == pkt[-1]
         if not ok:
             self.checksum_errors += 1
@@ -605,6 +639,11 @@ class AX12Emulator(_PtyRunner):
             pkt = junk.data + pkt
         if sid in self.duplicate_ids:  # two servos drive the line at once, a bit apart
             pkt = bytes(a & b for a, b in zip(pkt, b"\xff" + pkt, strict=False))
+        late = self._active(sid, "late")
+        if late is not None:
+            self._consume(late, now, "late")
+            self._schedule(time.monotonic() + late.delay_s, pkt)
+            return sid, b""
         return sid, pkt
 
 

@@ -1,15 +1,28 @@
-"""Deployment safety: joint-limit clamp, per-tick rate limit, soft start, watchdog, checks.
+"""Deployment safety: joint-limit clamp, rate limit in time, soft start, watchdog, health
+schedule, checks.
 
 Every goal sent to the servos passes :class:`GoalLimiter`, in integer commands (ticks, µs):
 
 1. joint limits: ``cmd = clip(round(c(q)), lo, hi)`` with ``[lo, hi]`` from
    :meth:`Codec.safe_range` (commands that decode inside the URDF limits); targets outside
    the URDF limits are counted per joint with their worst excess;
-2. rate: ``|cmd_k - cmd_{k-1}| <= step = floor(v_max · dt · |scale|)`` per joint (v_max from
-   the servo speed), counted per joint.
+2. rate, by the time elapsed since the last goal sent (a token bucket per joint)::
+
+       avail_j = credit_j + s_j · (t - t_prev)      step_j <= floor(avail_j)
+       credit_j = min(avail_j - |step_j|, 1)
+
+   with ``s_j`` the joint's speed in command units per second. At most one command unit of
+   credit is carried, so between any two goals sent at ``t_a < t_b``::
+
+       |cmd_b - cmd_a| <= s_j · (t_b - t_a) + 1
+
+   whatever the tick timing: a late tick moves no further than its elapsed time allows and a
+   tick that follows it closely moves less (never a burst); the mean speed never exceeds
+   ``s_j``, also below one unit per tick (a soft start at 0.5 rad/s and 100 Hz).
 
 :class:`Watchdog` turns servo statuses into a :class:`Trip` (which servo, why) on N
-consecutive failed exchanges or an error bit of the trip set.
+consecutive failed exchanges or an error bit of the trip set. :class:`HealthSchedule` picks
+the servos to check each tick so that any fault trips within a stated bound.
 """
 
 from __future__ import annotations
@@ -24,15 +37,14 @@ from ..exceptions import ServoError, TrajectoryError
 from .bus import COMM_OK, Codec, ServoStatus
 
 TRIP_FAULTS = ("overload", "overheating", "input_voltage", "angle_limit")
-ON_FAULT_CHOICES = ("hold", "torque-off")
 
 
-def max_step(codec: Codec, v_max: np.ndarray | float, dt: float) -> np.ndarray:
-    """Largest command change per tick: ``floor(v_max · dt · |scale|)``, at least 1."""
+def command_speed(codec: Codec, v_max: np.ndarray | float) -> np.ndarray:
+    """Per-joint speed in command units per second: ``v_max · |scale|``."""
     v = np.broadcast_to(np.asarray(v_max, dtype=float), codec.scale.shape)
-    if not np.all(np.isfinite(v)) or np.any(v <= 0) or not dt > 0:
-        raise ServoError(f"rate limit needs positive speeds and period, got v={v}, dt={dt}")
-    return np.maximum(1, np.floor(v * dt * np.abs(codec.scale) + 1e-9)).astype(int)
+    if not np.all(np.isfinite(v)) or np.any(v <= 0):
+        raise ServoError(f"rate limit needs positive finite speeds, got v={v}")
+    return v * np.abs(codec.scale)
 
 
 @dataclass
@@ -58,14 +70,15 @@ class LimitReport:
 
 
 class GoalLimiter:
-    """The single gate of every goal: clamp to the joint limits, then limit the step."""
+    """The single gate of every goal: clamp to the joint limits, then limit the speed by the
+    time elapsed since the joint's last goal change (module docstring)."""
 
     def __init__(
         self,
         codec: Codec,
         q_min: np.ndarray,
         q_max: np.ndarray,
-        step: np.ndarray,
+        speed: np.ndarray,
         names: Sequence[str],
     ) -> None:
         self.codec = codec
@@ -73,37 +86,57 @@ class GoalLimiter:
         self.q_max = np.asarray(q_max, dtype=float)
         self.names = tuple(names)
         self.lo, self.hi = codec.safe_range(self.q_min, self.q_max, self.names)
-        self.step = np.asarray(step, dtype=int)
-        if self.step.shape != self.lo.shape or np.any(self.step < 1):
-            raise ServoError(f"step must be >= 1 per joint, got {self.step}")
+        self.speed = np.broadcast_to(np.asarray(speed, dtype=float), self.lo.shape).copy()
+        if not np.all(np.isfinite(self.speed)) or np.any(self.speed <= 0):
+            raise ServoError(f"speed must be positive and finite per joint, got {self.speed}")
         n = len(self.names)
         self.report = LimitReport(self.names, np.zeros(n, int), np.zeros(n), np.zeros(n, int))
         self.prev: np.ndarray | None = None
+        self.sent_at = 0.0  # time of the last goal
+        self.credit = np.zeros(n)  # command units carried (< 1 after a full step, at most 1)
 
-    def reset(self, cmds: np.ndarray) -> np.ndarray:
-        """Start from commands (e.g. read present positions), clipped into the safe range."""
+    def reset(self, cmds: np.ndarray, now: float) -> np.ndarray:
+        """Start from commands (e.g. read present positions) at time ``now`` (s), clipped into
+        the safe range."""
         c = np.asarray(cmds, dtype=float)
         if c.shape != self.lo.shape or not np.all(np.isfinite(c)):
             raise ServoError(f"limiter reset needs {self.lo.size} finite commands, got {c}")
         self.prev = np.clip(np.rint(c), self.lo, self.hi).astype(int)
+        self.sent_at = now
+        self.credit[:] = 0.0
         return self.prev.copy()
 
-    def limit_cmd(self, target: np.ndarray, step: np.ndarray | int | None = None) -> np.ndarray:
-        """Integer commands toward ``target`` (commands, float): clipped into ``[lo, hi]``,
-        then within ``step`` (default: the rate limit) of the previous command."""
+    def _available(self, now: float, speed: np.ndarray | float | None) -> np.ndarray:
+        s = self.speed if speed is None else np.minimum(self.speed, speed)
+        return self.credit + s * max(now - self.sent_at, 0.0)
+
+    def allowed(self, now: float, speed: np.ndarray | float | None = None) -> np.ndarray:
+        """Largest command change per joint for a goal sent at ``now``."""
+        return np.floor(self._available(now, speed) + 1e-9).astype(int)
+
+    def limit_cmd(
+        self, target: np.ndarray, now: float, speed: np.ndarray | float | None = None
+    ) -> np.ndarray:
+        """Integer commands toward ``target`` (commands, float) for a goal sent at ``now``:
+        clipped into ``[lo, hi]``, then within :meth:`allowed` of the previous goal. ``speed``
+        (command units/s) lowers the limit (soft start, crouch) and is not counted."""
         if self.prev is None:
             raise ServoError("GoalLimiter: reset() with the present positions first")
-        s = self.step if step is None else np.minimum(self.step, step)
+        avail = self._available(now, speed)
+        step = np.floor(avail + 1e-9).astype(int)
         c = np.clip(np.rint(np.asarray(target, dtype=float)), self.lo, self.hi).astype(int)
-        limited = np.clip(c, self.prev - s, self.prev + s)
-        if step is None:
+        limited = np.clip(c, self.prev - step, self.prev + step)
+        if speed is None:
             self.report.rate_limited += limited != c
             self.report.ticks += 1
+        self.credit = np.clip(avail - np.abs(limited - self.prev), 0.0, 1.0)
+        self.sent_at = max(now, self.sent_at)
         self.prev = limited
         return limited.copy()
 
-    def __call__(self, q: np.ndarray) -> np.ndarray:
-        """Commands for joint targets (rad, model order); counts clamps and rate limiting."""
+    def __call__(self, q: np.ndarray, now: float) -> np.ndarray:
+        """Commands for joint targets (rad, model order) sent at ``now``; counts clamps and
+        rate limiting."""
         q = np.asarray(q, dtype=float)
         if q.shape != self.q_min.shape:
             raise ServoError(f"expected {self.q_min.size} joint targets, got shape {q.shape}")
@@ -116,25 +149,32 @@ class GoalLimiter:
         out = excess > 1e-12
         self.report.clamped += out
         self.report.worst_excess = np.maximum(self.report.worst_excess, np.where(out, excess, 0))
-        return self.limit_cmd(self.codec.encode_float(q))
+        return self.limit_cmd(self.codec.encode_float(q), now)
 
 
-def soft_start_targets(start: np.ndarray, goal: np.ndarray, step: np.ndarray) -> list[np.ndarray]:
-    """Straight line in command space from ``start`` to ``goal``, every joint arriving together,
-    no joint moving more than ``step`` per tick (before rounding)."""
+def soft_start_target(
+    start: np.ndarray, goal: np.ndarray, speed: np.ndarray | float, t: float
+) -> np.ndarray:
+    """Straight line in command space from ``start`` to ``goal`` at time ``t`` (s), every joint
+    arriving together at ``T = max_j |goal_j - start_j| / speed_j``, none faster than its
+    ``speed`` (command units/s)."""
     start = np.asarray(start, dtype=float)
     goal = np.asarray(goal, dtype=float)
-    n = int(np.max(np.ceil(np.abs(goal - start) / np.asarray(step, dtype=float)), initial=0))
-    return [start + (goal - start) * (k / n) for k in range(1, n + 1)]
+    duration = float(np.max(np.abs(goal - start) / np.asarray(speed, dtype=float), initial=0.0))
+    w = 1.0 if duration <= 0 else min(max(t / duration, 0.0), 1.0)
+    return start + (goal - start) * w
 
 
 @dataclass(frozen=True)
 class Trip:
-    """Why the watchdog stopped the motion: the servo (None for the whole bus) and reason."""
+    """Why the motion stopped: the servo (None for the whole bus), the reason and, for a
+    servo's error bits, their names (``faults``); ``comm`` is True for a communication fault."""
 
     index: int | None
     servo: str
     reason: str
+    faults: tuple[str, ...] = ()
+    comm: bool = False
 
     def __str__(self) -> str:
         return f"{self.servo}: {self.reason}"
@@ -170,6 +210,7 @@ class Watchdog:
                     label,
                     f"{self.failures[k]} consecutive failed exchanges ({status.comm}): "
                     f"{who} missing or not answering",
+                    comm=True,
                 )
             return None
         self.failures[k] = 0
@@ -185,15 +226,89 @@ class Watchdog:
                 i,
                 label,
                 f"error bits 0x{status.error_byte:02X} ({', '.join(bad)}){more}",
+                tuple(bad),
             )
         return None
 
-    def failing(self) -> int | None:
-        """The servo with the most consecutive failures (to poll it again), if any."""
-        servo_failures = self.failures[:-1]
-        if not np.any(servo_failures):
-            return None
-        return int(np.argmax(servo_failures))
+    def failing(self) -> list[int]:
+        """Servos with a failure streak, the longest first (to check them again at once)."""
+        f = self.failures[:-1]
+        return [int(i) for i in np.argsort(-f, kind="stable") if f[i] > 0]
+
+
+@dataclass
+class HealthSchedule:
+    """Which servos to check each tick so that a fault stops the motion within ``bound_s``.
+
+    A servo is checked at least every ``rotation`` ticks ``R``; a failure streak is checked
+    again every tick, so silence or late replies trip after ``max_failures`` = F consecutive
+    failed checks. A fault appearing at any time t0 is first seen within R ticks and trips
+    within F - 1 more; the last goal is sent in the tripping tick, so on schedule::
+
+        last goal - t0 <= (R + F - 1) / rate      (error bits: <= R / rate)
+
+    ``R = floor(bound_s · rate) - F`` (at least 1): one tick of the bound is kept for the
+    lateness of ticks on a loaded host (at 50 Hz: R = 2, 80 ms on schedule, 20 ms margin).
+    ``polls_per_tick = ceil(n / R) + 1`` (one spare for a failing servo), at most n. Below
+    ``(F + 1) / bound_s`` Hz (40 Hz for 3 failures and 100 ms) every servo is checked every
+    tick and the bound is ``F / rate``. Without per-servo health (one board): one poll.
+    Order within a tick, by risk: failing servos (longest streak first), then the servos
+    checked longest ago, ties broken by the last temperature, then the last |load|.
+    """
+
+    n: int
+    rate: float
+    max_failures: int = 3
+    bound_s: float = 0.1
+    per_servo: bool = True
+    last_checked: np.ndarray = field(init=False)
+    temperature: np.ndarray = field(init=False)
+    load: np.ndarray = field(init=False)
+    tick: int = field(init=False, default=0)
+
+    def __post_init__(self) -> None:
+        self.last_checked = np.full(self.n, -(10**9))
+        self.temperature = np.zeros(self.n)
+        self.load = np.zeros(self.n)
+
+    @property
+    def rotation(self) -> int:
+        if not self.per_servo:
+            return 1
+        return max(1, math.floor(self.bound_s * self.rate + 1e-9) - self.max_failures)
+
+    @property
+    def polls_per_tick(self) -> int:
+        if not self.per_servo:
+            return 1
+        r = self.rotation
+        return min(self.n, math.ceil(self.n / r) + (1 if r > 1 else 0))
+
+    @property
+    def detection_s(self) -> float:
+        """Worst time from a fault to the last goal (module docstring), s."""
+        return (self.rotation + self.max_failures - 1) / self.rate
+
+    def pick(self, watchdog: Watchdog) -> list[int]:
+        """The servos to check this tick (see the class docstring)."""
+        if not self.per_servo:
+            return [0]
+        chosen = watchdog.failing()[: self.polls_per_tick]
+        rest = [i for i in range(self.n) if i not in chosen]
+        rest.sort(key=lambda i: (self.last_checked[i], -self.temperature[i], -abs(self.load[i])))
+        chosen += rest[: self.polls_per_tick - len(chosen)]
+        self.last_checked[chosen] = self.tick
+        self.tick += 1
+        return chosen
+
+    def note(self, status: ServoStatus) -> None:
+        """Remember a reply's temperature and load (risk order)."""
+        if status.index is None:
+            return
+        if status.temperature is not None:
+            self.temperature[status.index] = status.temperature
+        if status.load is not None:
+            self.load[status.index] = status.load
 
 
 def check_trajectory(

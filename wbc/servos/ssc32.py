@@ -216,6 +216,7 @@ class Ssc32Bus(ServoBus):
 
     name = "ssc32"
     can_read = False
+    health_per_servo = False  # Q asks the board
     servo_speed = BMS380_SPEED
     #: what the safety layer cannot check on hobby PWM servos (no feedback wire)
     unchecked = (

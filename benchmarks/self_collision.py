@@ -1,0 +1,178 @@
+"""Cost per tick of the self-collision limit: the walk stack with it on vs off, beside placo.
+
+Controllers, all through the same control loop and clock (:func:`wbc.walking.loop.run`):
+
+* ours — ``tasks/walk.toml`` as shipped (self-collision rows with the hard level) and the
+  same file without its ``self_collision`` entry, as a 3-level hierarchical QP and as a
+  weighted QP (compiled path by default; a tick whose collision rows are active is handed
+  back to DAQP);
+* placo 0.10.2 — the peer set-up of :mod:`wbc.bench.peers` (walk tasks, joint and velocity
+  limits), without collisions, and with ``add_avoid_self_collisions_constraint`` on the same
+  URDF with the same geometry pairs (written to a placo ``collisions.json``), the same
+  margin / trigger, and hard (placo's default priority is soft, weight 1).
+
+Also printed: the smallest distance between any two of the pairs over the run (our exact
+distances, on every controller's joint trajectory), the ticks handed back to DAQP and the
+exact distance computations per tick. Rounds are interleaved; figures are medians over
+rounds of each controller's per-tick median / p99.
+
+Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectory walk10]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from wbc import Kinematics, load_robot
+from wbc.bench.peers import PlacoController, available
+from wbc.bench.trajectories import build
+from wbc.limits import SelfCollisionConstraint
+from wbc.paths import stacks_dir
+from wbc.stacks import build_stack
+from wbc.walking.loop import StackController, run
+
+
+def walk_spec(with_limit: bool) -> dict:
+    """tasks/walk.toml, with or without its self_collision entries."""
+    with open(stacks_dir() / "walk.toml", "rb") as f:
+        spec = tomllib.load(f)
+    if not with_limit:
+        for level in spec["levels"]:
+            kept = [c for c in level.get("constraints", []) if c["type"] != "self_collision"]
+            if "constraints" in level:
+                level["constraints"] = kept
+    return spec
+
+
+def walk_limit(spec: dict) -> dict:
+    """The walk file's self_collision entry."""
+    return next(
+        c
+        for lv in spec["levels"]
+        for c in lv.get("constraints", [])
+        if c["type"] == "self_collision"
+    )
+
+
+class PlacoSelfCollision(PlacoController):
+    """The placo peer with its self-collision constraint on our pairs."""
+
+    name = "placo-self-collision"
+
+    def __init__(self, pairs_file: str, margin: float, trigger: float) -> None:
+        self.pairs_file, self.margin, self.trigger = pairs_file, margin, trigger
+
+    def start(self, robot, q0, ref) -> None:
+        import placo
+
+        make = placo.RobotWrapper
+
+        def with_collisions(urdf, *_):  # the peer's set-up, on a wrapper with collisions
+            pr = make(urdf, 0)
+            pr.load_collision_pairs(self.pairs_file)
+            return pr
+
+        placo.RobotWrapper = with_collisions
+        try:
+            super().start(robot, q0, ref)
+        finally:
+            placo.RobotWrapper = make
+        c = self.solver.add_avoid_self_collisions_constraint()
+        c.configure("self_collisions", "hard")  # placo's default is soft (weight 1)
+        c.self_collisions_margin = self.margin
+        c.self_collisions_trigger = self.trigger
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--trajectory", default="walk10")
+    args = parser.parse_args()
+    robot = load_robot()
+    ref = build(args.trajectory, robot)
+    on, off = walk_spec(True), walk_spec(False)
+    entry = walk_limit(on)
+    margin, trigger = entry["margin"], entry["trigger"]
+    probe = SelfCollisionConstraint(robot, margin, trigger)
+    names = [g.name for g in probe.distances.geometry.geometryObjects]
+    pairs = [[names.index(a), names.index(b)] for a, b in probe.pair_geoms]
+    tmp = tempfile.NamedTemporaryFile("w", suffix=".json", delete=False)
+    json.dump(pairs, tmp)
+    tmp.close()
+
+    def ours(spec: dict, kind: str):
+        def make():
+            return StackController(build_stack({**spec, "solver": kind}, robot))
+
+        return make
+
+    makers = {
+        "hierarchical, limit off": ours(off, "hierarchical"),
+        "hierarchical, limit on": ours(on, "hierarchical"),
+        "weighted, limit off": ours(off, "weighted"),
+        "weighted, limit on": ours(on, "weighted"),
+    }
+    if available()["placo"]:
+        makers["placo 0.10.2, off"] = PlacoController
+        makers["placo 0.10.2, self-collision on"] = lambda: PlacoSelfCollision(
+            tmp.name, margin, trigger
+        )
+    stats: dict[str, list[tuple]] = {k: [] for k in makers}
+    kin = Kinematics(robot)
+    for _ in range(args.rounds):
+        for name, make in makers.items():
+            controller = make()
+            rec = run(controller, robot, ref)
+            t = rec["solve_time"] * 1e6
+            closest = np.inf
+            for q in rec.q:
+                kin.update(q)
+                closest = min(closest, probe.min_distance(kin))
+            back, exact = np.nan, np.nan
+            solver = getattr(controller, "solver", None)
+            if hasattr(solver, "handed_back_ticks"):
+                back = solver.handed_back_ticks
+                sc = [
+                    c for c in solver.stack.constraints() if isinstance(c, SelfCollisionConstraint)
+                ]
+                exact = sc[0].distances.exact_computations / len(t) if sc else 0.0
+            com = np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() * 1e3
+            foot = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1).max() * 1e3
+            stats[name].append(
+                (np.median(t), np.percentile(t, 99), com, foot, closest * 1e3, back, exact)
+            )
+    Path(tmp.name).unlink()
+    rows = {k: np.median(np.array(v, dtype=float), axis=0) for k, v in stats.items()}
+    print(
+        f"{len(ref)} ticks of {args.trajectory}, {args.rounds} interleaved rounds; "
+        f"{probe.n_pairs} geometry pairs, margin {margin * 1e3:g} mm, trigger {trigger * 1e3:g} mm"
+    )
+    print(
+        "| controller | median µs | p99 µs | on / off | median / placo off | CoM err max mm"
+        " | swing err max mm | closest pair mm | handed back | exact distances / tick |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    placo_off = rows.get("placo 0.10.2, off", [np.nan])[0]
+    for name, (med, p99, com, foot, closest, back, exact) in rows.items():
+        pair = name.replace(" on", " off") if name.endswith(" on") else None
+        ratio = f"{med / rows[pair][0]:.2f}" if pair in rows else ""
+        fmt_back = "" if np.isnan(back) else f"{back:.0f} / {len(ref)}"
+        fmt_exact = "" if np.isnan(exact) else f"{exact:.1f}"
+        print(
+            f"| {name} | {med:.0f} | {p99:.0f} | {ratio} | {med / placo_off:.2f} | {com:.3f} |"
+            f" {foot:.3f} | {closest:.2f} | {fmt_back} | {fmt_exact} |"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

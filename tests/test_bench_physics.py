@@ -1,0 +1,124 @@
+"""The physics benchmark: falls, deviations, robustness sweeps and pushes (short runs)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from wbc.bench import physics
+from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, Recording
+from wbc.sim.play import play
+
+
+@pytest.fixture(scope="module")
+def standing(robot):
+    """Walk Ready held for 1 s, with a fake left single support in the middle (for pushes)."""
+    t = np.arange(0.0, 1.0 + 1e-9, 0.02)
+    q = np.tile(robot.configuration("walk_ready"), (t.size, 1))
+    support = np.full(t.size, SUPPORT_DOUBLE, dtype=np.int8)
+    support[15:35] = SUPPORT_LEFT
+    com = np.tile(robot.com(q[0]), (t.size, 1))
+    return Recording(t, q, robot.joint_names, {"support": support, "com": com})
+
+
+def test_standing_stays_up_with_small_deviations(robot, standing):
+    r = physics.physics_record(standing, play(standing, robot, settle=0.5), robot)
+    assert r["fell"] is False and r["fall_time_s"] is None
+    assert r["orientation_dev_max_deg"] < 1.0
+    assert r["foot_slip_max_mm"] < 1.0
+    assert r["distance_ratio"] is None  # nothing planned to travel
+    assert r["tracking_err_max_deg"] < 3.0
+    assert 0.0 < r["torque_peak_ratio"] < 0.5
+    assert r["cop_margin_min_mm"] > 5.0  # two flat feet: the CoP well inside
+    assert r["deploy_completed"]
+
+
+def test_a_hard_push_makes_it_fall_and_the_record_says_when(robot, standing):
+    t_push = physics.mid_single_support(standing)
+    assert t_push == pytest.approx(0.5 * (standing.t[15] + standing.t[34]))
+    force = np.array([0.0, 1.5, 0.0]) / physics.PUSH_DURATION  # 1.5 N·s sideways
+    r = physics.simulate(standing, robot, push=(t_push, force, physics.PUSH_DURATION))
+    assert r["fell"] is True
+    assert t_push < r["fall_time_s"] < t_push + 1.5
+    assert r["fall_phase"] in ("double", "left", "right") and "stall" in r["fall_joint"]
+
+
+def test_largest_push_brackets_the_fall(robot, standing):
+    survived = physics.largest_push(standing, robot, (0, 1, 0), max_impulse=1.2, steps=2,
+                                    settle=0.5)  # fmt: skip
+    assert survived is not None and 0.0 < survived < 1.2
+    force = np.array([0.0, survived, 0.0]) / physics.PUSH_DURATION
+    t_push = physics.mid_single_support(standing)
+    assert not physics.simulate(standing, robot, push=(t_push, force, 0.01), settle=0.5)["fell"]
+
+
+def test_random_models_and_the_sweep_are_reproducible_from_the_seed(robot, standing):
+    a = [v.summary for v in physics.models(robot, 3, seed=7)]
+    b = [v.summary for v in physics.models(robot, 3, seed=7)]
+    c = [v.summary for v in physics.models(robot, 3, seed=8)]
+    assert a == b and a != c
+    assert (
+        physics.models(robot, 3, seed=7)[2].summary == physics.models(robot, 5, seed=7)[2].summary
+    )
+    v = physics.models(robot, 1, seed=7)[0]
+    assert 0.9 <= v.model_params.mass_scale.min() <= v.model_params.mass_scale.max() <= 1.1
+    assert np.abs(v.model_params.com_offset).max() <= 0.003
+    assert v.latency_ticks in (0, 1)
+    s1 = physics.robustness(standing, robot, 2, seed=7, settle=0.2)
+    s2 = physics.robustness(standing, robot, 2, seed=7, settle=0.2)
+    assert s1 == s2 and s1["models"] == 2 and s1["up_fraction"] == 1.0
+
+
+def test_bench_physics_command(robot, tmp_path, capsys):
+    from wbc.cli import main
+
+    out = tmp_path / "physics.json"
+    rc = main(["bench", "--physics", "--solvers", "hqp-daqp", "--trajectories", "thesis_step",
+               "--json", str(out)])  # fmt: skip
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "physics: thesis_step" in text and "hqp-daqp" in text
+    record = json.loads(out.read_text())["records"][0]
+    for key in physics.PHYSICS_KEYS:
+        assert key in record
+    assert record["solver"] == "hqp-daqp" and record["trajectory"] == "thesis_step"
+    assert record["realtime_factor"] > 0 and record["sim_steps"] > 0
+    # the thesis step tips sideways in single support but stays up on the nominal model
+    assert record["fell"] is False
+    assert 5.0 < record["orientation_dev_max_deg"] < 45.0
+    lines = physics.physics_summary_lines([record])
+    assert all(len(line) <= 100 for line in lines)
+
+
+def test_fall_summary_counts_phases_and_joints():
+    falls = [
+        {"phase": "left", "joint": "l_hip_roll (1.00 stall)", "latency": 1},
+        {"phase": "left", "joint": "l_hip_roll (0.90 stall)", "latency": 0},
+        {"phase": "double", "joint": "r_knee (0.50 stall)", "latency": 1},
+    ]
+    line = physics.fall_summary(falls)
+    assert line.startswith("3 falls: phase left 2, double 1; most loaded l_hip_roll 2, r_knee 1")
+    assert line.endswith("67% with one-tick latency")
+
+
+def test_lateral_push_goes_away_from_the_swing_foot(standing):
+    np.testing.assert_array_equal(physics.push_direction(standing, "lateral"), [0, 1, 0])
+    right = Recording(standing.t, standing.q, standing.joint_names,
+                      {"support": np.where(standing["support"] == SUPPORT_LEFT, 2, 0)})  # fmt: skip
+    np.testing.assert_array_equal(physics.push_direction(right, "lateral"), [0, -1, 0])
+    np.testing.assert_array_equal(physics.push_direction(right, "forward"), [1, 0, 0])
+    with pytest.raises(Exception, match="forward' or 'lateral'"):
+        physics.push_direction(right, "up")
+
+
+def test_bench_physics_refuses_bad_options(capsys):
+    from wbc.cli import main
+
+    assert main(["bench", "--physics", "--robustness", "-1"]) == 2
+    assert "--robustness must be >= 0" in capsys.readouterr().err
+    assert main(["bench", "--physics", "--mode", "converge"]) == 2
+    assert "use --mode tick" in capsys.readouterr().err

@@ -1,0 +1,375 @@
+"""Self-collision limit: pair selection, distances and their Jacobians, damper rows, and the
+limit at every level of the hierarchy and in the weighted QP (wbc.limits.self_collision)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from wbc import Kinematics
+from wbc.bench.trajectories import build
+from wbc.exceptions import ConfigurationError, TaskError
+from wbc.limits import Inequality, SelfCollisionConstraint
+from wbc.limits.self_collision import (
+    PairDistances,
+    damper_bound,
+    distance_jacobian,
+    joint_masks,
+    separating_plane_rows,
+)
+from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
+from wbc.stacks import build_stack, load_stack
+from wbc.tasks import ComTask, ContactTask, FramePositionTask, PostureTask
+from wbc.walking.loop import StackController, run
+
+MARGIN, TRIGGER, DAMPING = 0.005, 0.02, 0.4
+#: second-order error of a linearised tick (the row holds Δq's first-order gap; turning
+#: boxes add ~|Δq|² x lever): how far under the margin a pulled pair may dip for a tick
+LINEARISATION = 5e-4
+
+
+@pytest.fixture(scope="module")
+def limit(robot):
+    return SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+
+
+def test_pairs_skip_rigid_and_adjacent_links_and_keep_the_ones_that_meet(robot, limit):
+    model = robot.model
+    links = {lk for pair in limit.pair_links for lk in pair}
+    assert {"torso", "l_upper_arm", "r_thigh", "l_shin", "r_foot"} <= links
+    for a, b in limit.pair_links:
+        ja = model.frames[model.getFrameId(a)].parentJoint
+        jb = model.frames[model.getFrameId(b)].parentJoint
+        assert ja != jb and model.parents[ja] != jb and model.parents[jb] != ja, (a, b)
+    kept = {frozenset(p) for p in limit.pair_links}
+    for wanted in (("torso", "l_upper_arm"), ("l_thigh", "r_thigh"), ("r_foot", "l_shin")):
+        assert frozenset(wanted) in kept
+    # a hand cannot reach its own foot within the limits: never closer than the trigger
+    assert frozenset(("l_forearm", "r_forearm")) not in kept
+
+
+def test_include_exclude_and_explicit_pairs(robot):
+    ex = SelfCollisionConstraint(robot, exclude=[["l_foot", "r_foot"]], samples=50)
+    assert frozenset(("l_foot", "r_foot")) not in {frozenset(p) for p in ex.pair_links}
+    only = SelfCollisionConstraint(robot, pairs=[["torso", "l_upper_arm"]])
+    assert set(only.pair_links) == {("torso", "l_upper_arm")}
+    assert only.n_pairs == 2 * 3  # 3 torso boxes x 2 upper-arm boxes
+    with pytest.raises(ConfigurationError, match=r"unknown link.*'l_toe'"):
+        SelfCollisionConstraint(robot, pairs=[["torso", "l_toe"]])
+    with pytest.raises(ConfigurationError, match=r"trigger .* must be larger than the margin"):
+        SelfCollisionConstraint(robot, margin=0.02, trigger=0.01)
+    with pytest.raises(ConfigurationError, match="damping must be in"):
+        SelfCollisionConstraint(robot, damping=0.0)
+
+
+@given(seed=st.integers(0, 10_000))
+def test_distance_jacobian_matches_finite_differences(robot, limit, seed):
+    """J_d = nᵀ(J_p2 − J_p1) for separated and for penetrating pairs (signed distance)."""
+    rng = np.random.default_rng(seed)
+    q = robot.random_configuration(rng)
+    q[3:7] = pin.Quaternion(pin.exp3(rng.uniform(-0.5, 0.5, 3))).coeffs()
+    kin = Kinematics(robot, q)
+    w = limit.distances.below(kin, np.inf)
+    masks = joint_masks(robot)
+    J = distance_jacobian(
+        kin.data.J,
+        masks[limit.distances.joint_1[w.index]],
+        masks[limit.distances.joint_2[w.index]],
+        w.p1,
+        w.p2,
+        w.normal,
+    )
+    dq = rng.normal(size=robot.nv) * 1e-4
+    d = []
+    for sign in (1, -1):
+        kin.update(robot.integrate(q, sign * dq))
+        d.append(limit.distances.below(kin, np.inf).distance)
+    fd = (d[0] - d[1]) / 2
+    # GJK/EPA's own accuracy is ~1e-7 m; a pair whose witness jumps between features
+    # (nearly parallel faces) has no derivative: those are the few outliers allowed
+    good = np.abs(fd - J @ dq) < 2e-6 + 1e-3 * np.abs(fd)
+    assert good.mean() > 0.9
+    assert good[w.distance < 0].all() or (w.distance < 0).sum() <= 1
+
+
+def test_lipschitz_bounds_hold_along_random_motions(robot, limit):
+    rng = np.random.default_rng(3)
+    pd = limit.distances
+    for _ in range(20):
+        q0, q1 = robot.random_configuration(rng), robot.random_configuration(rng)
+        d0 = pd.below(Kinematics(robot, q0), np.inf).distance
+        d1 = pd.below(Kinematics(robot, q1), np.inf).distance
+        step = np.abs(q1[7:] - q0[7:])
+        assert np.all(np.abs(d1 - d0) <= pd.L @ step + 1e-7)
+
+
+def test_cached_distances_equal_the_exact_ones_along_a_motion(robot):
+    """The conservative cache skips pairs, never a pair below the query distance."""
+    lim = SelfCollisionConstraint(robot, samples=100)
+    fresh = PairDistances(robot, *_model_and_pairs(robot, lim))
+    rng = np.random.default_rng(4)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    for _ in range(60):
+        q = robot.clip_to_limits(robot.integrate(q, np.r_[np.zeros(6), rng.normal(0, 0.03, 18)]))
+        kin.update(q)
+        w = lim.distances.below(kin, TRIGGER)
+        exact = fresh.below(kin, np.inf)
+        want = exact.index[exact.distance < TRIGGER]
+        assert np.array_equal(np.sort(w.index), np.sort(want))
+        fresh._bound[:] = -np.inf  # recompute everything every time
+    assert lim.distances.exact_computations < fresh.exact_computations
+
+
+def _model_and_pairs(robot, lim):
+    from wbc.limits.self_collision import _cached_collision_model
+
+    cm = _cached_collision_model(robot)
+    return cm, lim.distances.pairs
+
+
+@given(d=st.floats(-0.01, 0.0199), eps=st.floats(1e-7, 1e-4))
+def test_damper_bound_is_continuous_monotone_and_keeps_the_margin(d, eps):
+    h = damper_bound(np.array([d, d + eps]), MARGIN, TRIGGER, DAMPING)
+    assert h[1] >= h[0]  # monotone
+    if d + eps < TRIGGER - 1e-4:  # continuous (Lipschitz away from the trigger)
+        slope = DAMPING * max(1.0, (TRIGGER - MARGIN) ** 2 / (TRIGGER - d - eps) ** 2)
+        assert h[1] - h[0] <= slope * eps * (1 + 1e-6) + 1e-15
+    if MARGIN <= d <= TRIGGER - DAMPING * (TRIGGER - MARGIN):  # the linearised margin holds
+        assert h[0] <= d - MARGIN + 1e-15
+    assert damper_bound(np.array([TRIGGER]), MARGIN, TRIGGER, DAMPING)[0] == np.inf
+    assert damper_bound(np.array([TRIGGER - 1e-9]), MARGIN, TRIGGER, DAMPING)[0] > 1e3
+
+
+# ---------------------------------------------------------------------- in the solvers
+SCENARIOS = {  # the moving frame, pulled towards the other link's origin
+    "arm_into_torso": ("l_hand", "torso"),
+    "thighs_together": ("r_thigh", "l_thigh"),
+    "foot_into_other_shin": ("r_sole", "l_shin"),
+}
+
+
+def _pull(robot, limit, scenario, level, weighted, seed, ticks=130):
+    """Left sole held; the collision rows at ``level``; a target moving at <= 0.1 m/s from
+    the moving frame into the other link at the level below (CoM held above at level 1 when
+    the rows are at level 2). Returns (smallest distance over the run, final distance)."""
+    rng = np.random.default_rng(seed)
+    q = robot.configuration("walk_ready")
+    q[7:] += rng.uniform(-0.02, 0.02, robot.n_joints)
+    q = robot.place_on_ground(robot.clip_to_limits(q), "l_sole")
+    kin = Kinematics(robot, q)
+    assert limit.min_distance(kin) > MARGIN
+    stack = TaskStack(robot)
+    stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
+    if level >= 2:
+        stack.add(ComTask(robot, kin.com.copy()), level=1)
+    stack.add_constraint(limit, level=level)
+    mover, other = SCENARIOS[scenario]
+    task = stack.add(FramePositionTask(robot, mover), level=level + 1)
+    start = kin.translation(robot.frame_id(mover)).copy()
+    goal = kin.translation(robot.frame_id(other)) + rng.uniform(-0.01, 0.01, 3)
+    stack.add(PostureTask(robot, q), level=level + 1, weight=1e-4)
+    solver = (WeightedQP if weighted else HierarchicalQP)(stack)
+    smallest = np.inf
+    for k in range(ticks):
+        task.set_target(start + min(1.0, k / 100) * (goal - start))
+        q = solver.step(q, dt=0.01)
+        kin.update(q)
+        smallest = min(smallest, limit.min_distance(kin))
+    assert solver.handed_back_ticks > 0  # the rows were active: DAQP solved those ticks
+    return smallest, limit.min_distance(kin)
+
+
+@pytest.mark.parametrize("scenario", sorted(SCENARIOS))
+@pytest.mark.parametrize("level,weighted", [(0, False), (1, False), (2, False), (1, True)])
+def test_pulled_links_never_come_closer_than_the_margin(robot, limit, scenario, level, weighted):
+    smallest, final = _pull(robot, limit, scenario, level, weighted, seed=level)
+    assert smallest > MARGIN - LINEARISATION
+    assert final > MARGIN - 1e-4
+
+
+def test_without_the_limit_the_same_pulls_collide(robot, limit):
+    """The scenarios do drive links into each other (the test above can fail)."""
+    for scenario in SCENARIOS:
+        rng = np.random.default_rng(0)
+        q = robot.configuration("walk_ready")
+        q[7:] += rng.uniform(-0.02, 0.02, robot.n_joints)
+        q = robot.place_on_ground(robot.clip_to_limits(q), "l_sole")
+        kin = Kinematics(robot, q)
+        stack = TaskStack(robot)
+        stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
+        mover, other = SCENARIOS[scenario]
+        task = stack.add(FramePositionTask(robot, mover), level=1)
+        start = kin.translation(robot.frame_id(mover)).copy()
+        goal = kin.translation(robot.frame_id(other)) + rng.uniform(-0.01, 0.01, 3)
+        stack.add(PostureTask(robot, q), level=1, weight=1e-4)
+        solver = HierarchicalQP(stack)
+        for k in range(130):
+            task.set_target(start + min(1.0, k / 100) * (goal - start))
+            q = solver.step(q, dt=0.01)
+        assert limit.min_distance(Kinematics(robot, q)) < 0.0, scenario
+
+
+@pytest.mark.parametrize("kind", ["hierarchical", "weighted"])
+def test_inactive_when_every_pair_is_far(robot, kind):
+    """No rows, no cost: the same Δq, bit for bit, as without the limit. (q = 0: legs
+    straight, arms sideways; the hip blocks stay 13 mm under the torso whatever the pose, so
+    this limit's trigger is 8 mm.)"""
+    limit = SelfCollisionConstraint(robot, margin=0.002, trigger=0.008)
+    q = robot.configuration("zero")
+    kin = Kinematics(robot, q)
+    assert limit.min_distance(kin) > limit.trigger
+    dqs = []
+    for with_limit in (True, False):
+        stack = TaskStack(robot)
+        stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
+        if with_limit:
+            stack.add_constraint(limit, level=0)
+        stack.add(
+            FramePositionTask(
+                robot, "r_sole", kin.translation(robot.frame_id("r_sole")) + [0.0, 0.01, 0.01]
+            ),
+            level=1,
+        )
+        stack.add(PostureTask(robot, robot.configuration("walk_ready")), level=2, weight=1e-2)
+        solver = (HierarchicalQP if kind == "hierarchical" else WeightedQP)(stack)
+        dqs.append(solver.solve(q, dt=0.01))
+        assert solver.handed_back_ticks == 0
+    assert limit.compute(kin).h.size == 0
+    assert np.array_equal(dqs[0], dqs[1])
+
+
+def _solve(robot, limit, q, kind):
+    kin = Kinematics(robot, q)
+    stack = TaskStack(robot)
+    stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
+    stack.add(ContactTask(robot, "r_sole"), level=0).make_contact(kin)
+    if limit is not None:
+        stack.add_constraint(limit, level=0)
+    hand = stack.add(FramePositionTask(robot, "l_hand"), level=1)
+    hand.set_target(kin.translation(robot.frame_id("l_hand")) + [0.0, -0.1, 0.0])
+    stack.add(PostureTask(robot, q), level=2, weight=1e-3)
+    solver = (HierarchicalQP if kind == "hierarchical" else WeightedQP)(stack)
+    return solver.solve(q)  # no time step: the hand asks for a 10 cm step
+
+
+def _onset_jump(robot, limit, kind) -> float:
+    """Lower the left arm towards the torso; ‖Δq_limit − Δq_free‖ at the first configuration
+    where the limit changes Δq, after bisecting the onset to 1e-7 rad of shoulder roll."""
+    base = robot.configuration("walk_ready")
+    roll = robot.q_index("l_shoulder_roll")
+
+    def effect(a):
+        q = base.copy()
+        q[roll] = a
+        return np.linalg.norm(_solve(robot, limit, q, kind) - _solve(robot, None, q, kind))
+
+    angles = base[roll] + np.linspace(1.3, 0.2, 45)
+    q0 = base.copy()
+    q0[roll] = angles[0]
+    assert limit.min_distance(Kinematics(robot, q0)) > TRIGGER  # no rows at the start
+    effects = [effect(a) for a in angles]
+    assert effects[0] == 0.0 and max(effects) > 0.01  # the limit ends up binding
+    i = next(k for k, e in enumerate(effects) if e > 0)
+    lo, hi = angles[i - 1], angles[i]
+    while abs(hi - lo) > 1e-7:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if effect(mid) > 0 else (mid, hi)
+    return effect(hi)
+
+
+@pytest.mark.parametrize("kind", ["weighted", "hierarchical"])
+def test_solution_is_continuous_as_a_pair_crosses_the_trigger(robot, kind):
+    """The smooth activation changes Δq continuously from zero where the arm–torso rows
+    start to bind; a plain on/off damper (same rows, h = ξ (gap − m) below the trigger)
+    jumps where the pair crosses the trigger."""
+    pair = [["torso", "l_upper_arm"]]
+    smooth = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING, pairs=pair)
+    switch = _OnOff(robot, MARGIN, TRIGGER, DAMPING, pairs=pair)
+    assert _onset_jump(robot, smooth, kind) < 1e-4
+    assert _onset_jump(robot, switch, kind) > 1e-2
+
+
+class _OnOff(SelfCollisionConstraint):
+    """The textbook damper with a hard switch at the trigger: −J Δq <= ξ (gap − m)."""
+
+    def compute(self, kin):
+        w = self.last = self.witness(kin)
+        pr = separating_plane_rows(w, self.distances.vertices(kin, w.index.tolist()), 1.0)
+        k = w.index[pr.pair]
+        masks = joint_masks(self.robot)
+        J = distance_jacobian(
+            kin.data.J,
+            masks[self.distances.joint_1[k]],
+            masks[self.distances.joint_2[k]],
+            pr.a,
+            pr.b,
+            pr.normal,
+        )
+        keep = pr.gap < self.trigger
+        return Inequality(-J[keep], self.damping * (pr.gap[keep] - self.margin))
+
+
+# ---------------------------------------------------------------------- stack files
+def _spec(level):
+    levels = [
+        {"hard": True, "tasks": [{"type": "contact", "frame": "support"}]},
+        {"tasks": [{"type": "com"}]},
+        {"tasks": [{"type": "posture", "weight": 0.01}]},
+    ]
+    levels[level].setdefault("constraints", []).append(
+        {"type": "self_collision", "margin": 0.004, "trigger": 0.015, "damping": 0.5}
+    )
+    return {"name": "sc", "solver": "hierarchical", "levels": levels}
+
+
+@pytest.mark.parametrize("level", [0, 1, 2])
+def test_stack_file_type_at_any_level(robot, level):
+    control = build_stack(_spec(level), robot)
+    c = control.stack.constraint("self_collision")
+    assert isinstance(c, SelfCollisionConstraint)
+    assert (c.margin, c.trigger, c.damping) == (0.004, 0.015, 0.5)
+    assert c in control.stack.level(level).constraints
+    q = robot.configuration("walk_ready")
+    control.solver.step(q, 0.01)
+
+
+def test_stack_file_bad_keys_and_values(robot):
+    spec = _spec(0)
+    spec["levels"][0]["constraints"][0]["radius"] = 1.0
+    with pytest.raises(TaskError, match=r"self_collision.*unknown keys \['radius'\]"):
+        build_stack(spec, robot)
+    spec = _spec(0)
+    spec["levels"][0]["constraints"][0]["trigger"] = 0.001
+    with pytest.raises(TaskError, match=r"trigger .* must be larger than the margin"):
+        build_stack(spec, robot)
+
+
+def test_walk_with_the_limit_is_the_same_compiled_or_not(robot):
+    """Ticks with binding collision rows are handed back to DAQP; the walk is the same."""
+    ref = build("walk10", robot)
+    recordings, back = {}, {}
+    for compiled in (True, False):
+        controller = StackController(load_stack("walk", robot))
+        controller.solver.compiled = compiled
+        recordings[compiled] = run(controller, robot, ref)
+        back[compiled] = controller.solver.handed_back_ticks
+    assert 0 < back[True] < ref.n // 2
+    assert np.abs(recordings[True].q - recordings[False].q).max() < 1e-5
+    kin = Kinematics(robot)
+    limit = SelfCollisionConstraint(robot, 0.005, 0.02)
+    closest = np.inf
+    for q in recordings[True].q[::5]:
+        kin.update(q)
+        closest = min(closest, limit.min_distance(kin))
+    assert closest > 0.005 - LINEARISATION
+
+
+def test_walk_stack_has_the_limit_with_its_hard_level(robot):
+    control = load_stack("walk", robot)
+    c = control.stack.constraint("self_collision")
+    assert c in control.stack.level(0).constraints and control.stack.level(0).hard
+    assert (c.margin, c.trigger) == (0.005, 0.02)

@@ -1,0 +1,56 @@
+"""DynamixelBus exchanges against the AX-12A emulator: matched replies, late replies never
+taken as fresh, verified torque-off."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from wbc.servos.bus import COMM_OK, COMM_TIMEOUT
+from wbc.servos.dynamixel import ADDR_PRESENT_POSITION, ADDR_TORQUE_ENABLE, DynamixelBus
+from wbc.servos.emulator import AX12Emulator, Fault
+
+
+@pytest.fixture()
+def bus_on(robot):
+    def make(emu: AX12Emulator, timeout_ms: float) -> DynamixelBus:
+        bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=timeout_ms)
+        bus.open()
+        return bus
+
+    return make
+
+
+def test_a_late_reply_is_never_the_answer_to_the_next_request(robot, bus_on):
+    """Servo 1 answers 30 ms late twice. The 1st READ times out (10 ms deadline); the 2nd,
+    sent 20 ms after the 1st with a 40 ms deadline, meets the 1st's late reply first (at
+    30 ms): same ID, but the READ's form differs, so its length does not match: discarded
+    as late, and the 2nd's own reply (at 50 ms) is taken."""
+    i = robot.servo_map.index_of_id(1)
+    fault = Fault("late", 1, count=2, delay_s=0.03)
+    with AX12Emulator(positions={1: 500}, ids=[*range(1, 19)], faults=[fault]) as emu:
+        bus = bus_on(emu, 10.0)
+        t0 = time.perf_counter()
+        assert bus.read(i, ADDR_PRESENT_POSITION, 2)[0] == COMM_TIMEOUT
+        time.sleep(max(0.0, 0.02 - (time.perf_counter() - t0)))
+        bus.reply_timeout_ms = 40.0
+        comm, error, data = bus.read(i, ADDR_PRESENT_POSITION, 2)
+        bus.close()
+    assert comm == COMM_OK and error == 0
+    assert data[0] | (data[1] << 8) == 500
+    assert bus.log.late == {1: 1} and bus.log.timeouts == {1: 1}
+    assert len(bus.log.rtt) == 1 and bus.log.rtt[0] > 0.025  # the 2nd's own, late, reply
+
+
+def test_torque_off_is_acknowledged_and_read_back(robot, bus_on):
+    with AX12Emulator(faults=[Fault("missing", 9)]) as emu:
+        for s in emu.servos.values():
+            s.table[ADDR_TORQUE_ENABLE] = 1
+        bus = bus_on(emu, 10.0)
+        unconfirmed = bus.torque_off()
+        bus.close()
+    assert unconfirmed == ["id 9 (r_hip_roll)"]
+    assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for sid, s in emu.servos.items() if sid != 9)
+    reads = [w for w in emu.writes if w.address == ADDR_TORQUE_ENABLE and w.servo_id == 1]
+    assert len(reads) >= 2  # the broadcast, then its own acknowledged WRITE

@@ -1,0 +1,48 @@
+"""``wbc sim``: a recording played on the simulated robot, the physics printed and saved."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from wbc.cli import main
+from wbc.recording import Recording
+
+
+def test_wbc_sim_plays_a_recording(robot, tmp_path, capsys):
+    t = np.arange(0.0, 0.5 + 1e-9, 0.02)
+    q = np.tile(robot.configuration("walk_ready"), (t.size, 1))
+    path = tmp_path / "stand.npz"
+    Recording(t, q, robot.joint_names).save(path)
+    out_json, out_rec = tmp_path / "sim.json", tmp_path / "sim.npz"
+    rc = main(["sim", str(path), "--settle", "0.3", "--json", str(out_json),
+               "--record", str(out_rec)])  # fmt: skip
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "fell: False" in out and "max base orientation deviation" in out
+    record = json.loads(out_json.read_text())
+    assert record["fell"] is False and record["deploy_completed"] is True
+    sim = Recording.load(out_rec)
+    assert sim.meta["simulated"] is True
+    assert sim.t[-1] == pytest.approx(0.8, abs=0.05)  # the recording plus the settle time
+    np.testing.assert_allclose(sim.q[-1, 7:], q[-1, 7:], atol=np.radians(3))
+
+
+def test_wbc_sim_push_needs_a_single_support(robot, tmp_path, capsys):
+    t = np.arange(0.0, 0.2 + 1e-9, 0.02)
+    q = np.tile(robot.configuration("walk_ready"), (t.size, 1))
+    path = tmp_path / "stand.npz"
+    Recording(t, q, robot.joint_names).save(path)
+    assert main(["sim", str(path), "--push", "0", "0.1"]) == 2
+    assert "no single-support phase" in capsys.readouterr().err
+
+
+def test_wbc_sim_refuses_bad_options(tmp_path, capsys):
+    assert main(["sim", "--settle", "-1"]) == 2
+    assert "--settle must be a time >= 0 s" in capsys.readouterr().err
+    assert main(["sim", str(tmp_path / "missing.npz")]) == 2
+    assert "recording not found" in capsys.readouterr().err

@@ -1,0 +1,113 @@
+"""The MuJoCo model built from the URDF sees the same robot as pinocchio."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+pytest.importorskip("mujoco")
+
+from wbc.sim.model import ModelParams, build_model, build_spec, link_names
+from wbc.sim.simulator import Simulation
+
+
+@pytest.fixture(scope="module")
+def mj_model(robot):
+    return build_model(robot)
+
+
+def _body_of_joint(robot, mj, m, joint: int) -> int:
+    """MuJoCo body moved by pinocchio joint ``joint`` (1 = the free flyer = root link)."""
+    import mujoco
+
+    if joint == 1:
+        return int(m.jnt_bodyid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "base")])
+    name = robot.model.names[joint]
+    return int(m.jnt_bodyid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)])
+
+
+def test_masses_coms_and_inertias_equal_pinocchios(robot, mj_model):
+    m = mj_model
+    assert m.body_mass.sum() == pytest.approx(robot.total_mass, abs=1e-9)
+    for joint in range(1, robot.model.njoints):
+        b = _body_of_joint(robot, None, m, joint)
+        inertia = robot.model.inertias[joint]
+        assert m.body_mass[b] == pytest.approx(inertia.mass, abs=1e-12), robot.model.names[joint]
+        np.testing.assert_allclose(m.body_ipos[b], inertia.lever, atol=1e-12)
+        R = pin.Quaternion(*m.body_iquat[b]).toRotationMatrix()  # (w, x, y, z)
+        full = R @ np.diag(m.body_inertia[b]) @ R.T  # MuJoCo keeps principal axes
+        np.testing.assert_allclose(full, inertia.inertia, atol=1e-10)
+
+
+def test_collision_boxes_equal_pinocchios(robot, mj_model):
+    import mujoco
+
+    m = mj_model
+    geoms = pin.buildGeomFromUrdf(robot.model, str(robot.urdf_path), pin.GeometryType.COLLISION)
+    ours = sorted(
+        (int(_body_of_joint(robot, None, m, g.parentJoint)), *np.round(g.geometry.halfSide, 6),
+         *np.round(g.placement.translation, 6))
+        for g in geoms.geometryObjects
+    )  # fmt: skip
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    theirs = sorted(
+        (int(m.geom_bodyid[k]), *np.round(m.geom_size[k], 6), *np.round(m.geom_pos[k], 6))
+        for k in range(m.ngeom)
+        if k != floor
+    )
+    assert all(m.geom_type[k] == mujoco.mjtGeom.mjGEOM_BOX for k in range(m.ngeom) if k != floor)
+    assert ours == theirs
+    assert len(ours) == geoms.ngeoms  # visual geoms were discarded, none added
+
+
+def test_frames_agree_with_pinocchio_at_random_configurations(robot, rng):
+    sim = Simulation(robot)
+    for _ in range(3):
+        q = robot.random_configuration(rng)
+        q[:3] = rng.uniform(-0.1, 0.1, 3) + [0, 0, 1.0]
+        q[3:7] = pin.Quaternion(pin.exp3(rng.normal(0, 0.5, 3))).coeffs()
+        sim.reset(q)
+        np.testing.assert_allclose(sim.q(), q, atol=1e-12)
+        for frame in ("torso", "l_sole", "r_sole", "l_hand", "r_hand"):
+            M = robot.frame_placement(q, frame)
+            S = sim.site_pose(frame)
+            np.testing.assert_allclose(S.translation, M.translation, atol=1e-9)
+            np.testing.assert_allclose(S.rotation, M.rotation, atol=1e-9)
+        np.testing.assert_allclose(sim.com(), robot.com(q), atol=1e-9)
+
+
+def test_randomised_masses_and_coms(robot):
+    import mujoco
+
+    names = link_names(build_spec(robot))
+    assert len(names) == robot.model.njoints - 1  # one massive link per pinocchio joint
+    n = len(names)
+    scale = np.linspace(0.9, 1.1, n)
+    offset = np.zeros((n, 3))
+    offset[0] = [0.003, 0.0, -0.002]
+    m = build_model(robot, ModelParams(mass_scale=scale, com_offset=offset))
+    nominal = build_model(robot)
+    for k, name in enumerate(names):
+        b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+        assert m.body_mass[b] == pytest.approx(nominal.body_mass[b] * scale[k])
+        np.testing.assert_allclose(m.body_inertia[b], nominal.body_inertia[b] * scale[k])
+        np.testing.assert_allclose(m.body_ipos[b], nominal.body_ipos[b] + offset[k], atol=1e-15)
+
+
+def test_missing_mujoco_is_one_clear_line(monkeypatch):
+    import builtins
+
+    from wbc.exceptions import WbcError
+    from wbc.sim import mujoco_module
+
+    real_import = builtins.__import__
+
+    def fake(name, *args, **kwargs):
+        if name == "mujoco":
+            raise ModuleNotFoundError("No module named 'mujoco'", name="mujoco")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", fake)
+    with pytest.raises(WbcError, match=r"pip install 'wbc\[physics\]'"):
+        mujoco_module()

@@ -1,0 +1,576 @@
+"""``wbc bench --physics``: does the robot stay up when the plan reaches the servos?
+
+Every controller's run (planned by :func:`wbc.bench.runner.run_entry`) is played through the
+deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
+
+* ``fell`` and ``fall_time_s``: the torso deviates more than 45° from the planned base
+  orientation or drops below 60 % of its planned height; ``fall_phase`` and
+  ``fall_joint`` (the joint with the highest torque / stall in the 0.5 s before the fall)
+  say why;
+* ``orientation_dev_max_deg``: the largest angle between the real and the planned base
+  orientation (before any fall);
+* ``distance_ratio``: real base displacement along the planned one / the planned one (None
+  after a fall);
+* ``foot_slip_max_mm``: how far a sole slides while planned and loaded as a support;
+* ``tracking_err_max_deg``: the largest |real − planned| joint angle (and its joint);
+* ``torque_peak_ratio``: peak |servo torque| / stall torque (and its joint);
+* ``cop_margin_min_mm``: the smallest distance of the real CoP (from the contact forces) to
+  the edge of the real contact polygon during single support (0 = tipping over an edge).
+
+Robustness (``--robustness N --seed S``): N randomised models (:func:`random_model`);
+``up_fraction`` = the share that stay up. Push (``--push``): a 10 ms force on the torso at
+mid first single support, lateral (away from the swing foot) and forward (+x); the largest
+impulse survived (N·s) by bisection over 0–1.5 N·s.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import WbcError
+from ..model import Robot
+from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIGHT, Recording
+
+FALL_TILT_DEG = 45.0
+FALL_HEIGHT = 0.6
+PUSH_DURATION = 0.01
+PUSH_MAX_NS = 1.5
+PUSH_STEPS = 6
+#: the default solvers of --physics: one per controller (the QP backends give the same joints)
+DEFAULT_SOLVERS = (
+    "wqp-daqp", "hqp-daqp", "qp-vat", "qp-vatl", "qp-cj_foot", "qp-cj_com", "qp-cjl_foot",
+    "qp-cjl_com", "pinv-vat", "pinv-vatl", "pinv-cj_foot", "pinv-cj_com", "pinv-cjl_foot",
+    "pinv-cjl_com", "placo", "pink",
+)  # fmt: skip
+
+#: record key -> (description, unit)
+PHYSICS_KEYS: dict[str, tuple[str, str]] = {
+    "fell": ("fell", ""),
+    "fall_time_s": ("fell at", "s"),
+    "fall_phase": ("support phase at the fall", ""),
+    "fall_joint": ("most loaded joint before the fall", ""),
+    "orientation_dev_max_deg": ("max base orientation deviation from plan", "deg"),
+    "distance_ratio": ("travelled / planned distance", ""),
+    "foot_slip_max_mm": ("max foot slip while in support", "mm"),
+    "tracking_err_max_deg": ("max joint tracking error", "deg"),
+    "tracking_joint": ("joint of the max tracking error", ""),
+    "torque_peak_ratio": ("peak servo torque / stall", ""),
+    "torque_joint": ("joint of the peak torque", ""),
+    "cop_margin_min_mm": ("min real CoP margin in single support", "mm"),
+    "deploy_completed": ("deployment completed (no safe stop)", ""),
+}
+
+
+# ---------------------------------------------------------------------- planning
+def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
+    """The recording of one benchmark solver on one trajectory (one solve per tick)."""
+    from . import trajectories as traj
+    from .runner import run_entry
+    from .solvers import select
+
+    entries, notes = select([solver], None, "tick")
+    if not entries:
+        raise WbcError(f"solver {solver!r} cannot run here: {'; '.join(notes)}")
+    exact = [e for e in entries if e.name == solver]
+    _, rec = run_entry((exact or entries)[0], robot, traj.build(trajectory, robot), "tick")
+    return rec
+
+
+# ---------------------------------------------------------------------- randomised models
+@dataclass(frozen=True)
+class Variation:
+    """One randomised model: what :func:`wbc.sim.play.play` needs, plus its description."""
+
+    model_params: Any
+    servo_params: Any
+    latency_ticks: int
+    imu_noise: float
+    summary: dict[str, float]
+
+
+def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
+    """Servo stiffness ×0.7–1.4, back-EMF damping ×0.7–1.3, armature 0.002–0.01 kg·m²,
+    gear friction 0.02–0.1 N·m, stall torque ×0.8–1.0, link masses ×0.9–1.1, CoM offsets
+    ±3 mm per axis, floor friction 0.5–1.0, IMU gyro noise 0–0.02 rad/s, one-tick latency
+    with probability 1/2."""
+    from ..sim.actuator import ServoParams
+    from ..sim.model import ModelParams, build_spec, link_names
+
+    n_links = len(link_names(build_spec(robot)))
+    stiff = rng.uniform(0.7, 1.4)
+    damping = 0.24 * rng.uniform(0.7, 1.3)
+    armature = rng.uniform(0.002, 0.01)
+    friction = rng.uniform(0.02, 0.1)
+    torque = rng.uniform(0.8, 1.0)
+    mp = ModelParams(
+        floor_friction=rng.uniform(0.5, 1.0),
+        armature=armature,
+        damping=damping,
+        friction_loss=friction,
+        mass_scale=rng.uniform(0.9, 1.1, n_links),
+        com_offset=rng.uniform(-0.003, 0.003, (n_links, 3)),
+    )
+    sp = ServoParams.from_settings(
+        robot.servo_map.settings, damping=damping, armature=armature, friction_loss=friction
+    ).scaled(stiffness=stiff, torque=torque)
+    sp = replace(sp, stall_torque=sp.stall_torque * torque)
+    latency = int(rng.random() < 0.5)
+    summary = dict(stiffness=stiff, damping=damping, armature=armature, friction=friction,
+                   torque=torque, floor_friction=mp.floor_friction, latency=latency)  # fmt: skip
+    return Variation(mp, sp, latency, float(rng.uniform(0.0, 0.02)), summary)
+
+
+def models(robot: Robot, n: int, seed: int) -> list[Variation]:
+    """``n`` randomised models; model ``k`` depends only on ``(seed, k)``."""
+    return [random_model(robot, np.random.default_rng([seed, k])) for k in range(n)]
+
+
+# ---------------------------------------------------------------------- metrics
+def _planned(rec: Recording, t: np.ndarray) -> np.ndarray:
+    """Planned configurations at times ``t`` (s from the recording's start; clamped)."""
+    t_rec = rec.t - rec.t[0]
+    tc = np.clip(t, t_rec[0], t_rec[-1])
+    q = np.stack([np.interp(tc, t_rec, rec.q[:, j]) for j in range(rec.q.shape[1])], axis=1)
+    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
+    return q
+
+
+def _rotation(quat_xyzw: np.ndarray) -> np.ndarray:
+    return pin.Quaternion(np.asarray(quat_xyzw)).toRotationMatrix()
+
+
+def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(Ra.T @ Rb) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
+    """The physics figures of one simulated run (see the module docstring)."""
+    log = result.log
+    t = log["t"] - result.playback_start
+    q_real = log["q"]
+    q_plan = _planned(rec, t)
+    n = len(t)
+    dev = np.array([_angle(_rotation(q_plan[k, 3:7]), _rotation(q_real[k, 3:7])) for k in range(n)])
+    low = q_real[:, 2] < FALL_HEIGHT * q_plan[:, 2]
+    fallen = (dev > FALL_TILT_DEG) | low
+    fall_k = int(np.argmax(fallen)) if np.any(fallen) else None
+    upto = n if fall_k is None else fall_k
+    rec_t = rec.t - rec.t[0]
+    support = rec.channels.get("support")
+    sup = (
+        support[np.clip(np.searchsorted(rec_t, t, side="right") - 1, 0, len(rec_t) - 1)]
+        if support is not None
+        else np.zeros(n, int)
+    )
+    names = robot.joint_names
+    stall = result.sim.servo_params.stall_torque
+    record: dict[str, Any] = {"fell": fall_k is not None}
+    record["fall_time_s"] = float(t[fall_k]) if fall_k is not None else None
+    if fall_k is not None:
+        record["fall_phase"] = SUPPORT_NAMES.get(int(sup[fall_k]), "?")
+        window = (t > t[fall_k] - 0.5) & (t <= t[fall_k])
+        load = log["peak_torque"][window].max(axis=0) / stall
+        j = int(np.argmax(load))
+        record["fall_joint"] = f"{names[j]} ({load[j]:.2f} stall)"
+    else:
+        record["fall_phase"] = record["fall_joint"] = None
+    record["orientation_dev_max_deg"] = float(dev[:upto].max()) if upto else 0.0
+    # distance along the planned displacement of the base (playback part only)
+    play_end = min(upto, int(np.searchsorted(t, rec_t[-1], side="right")))
+    d_plan = q_plan[play_end - 1, :2] - q_plan[0, :2] if play_end else np.zeros(2)
+    planned = float(np.linalg.norm(d_plan))
+    if planned > 0.01 and play_end and fall_k is None:  # none if it fell: not travel
+        moved = (q_real[play_end - 1, :2] - q_real[0, :2]) @ d_plan / planned
+        record["distance_ratio"] = float(moved / planned)
+    else:
+        record["distance_ratio"] = None
+    record["planned_distance_mm"] = planned * 1e3
+    # foot slip: a sole's horizontal travel while planned in support and carrying load
+    weight = robot.total_mass * 9.81
+    slip = 0.0
+    for side, code in ((0, SUPPORT_LEFT), (1, SUPPORT_RIGHT)):
+        planned_support = (sup == SUPPORT_DOUBLE) | (sup == code)
+        loaded = log["sole_force"][:, side] > 0.05 * weight
+        on = planned_support & loaded
+        on[upto:] = False
+        anchor = None
+        for k in range(n):
+            if on[k]:
+                if anchor is None:
+                    anchor = log["soles"][k, side, :2]
+                slip = max(slip, float(np.linalg.norm(log["soles"][k, side, :2] - anchor)))
+            else:
+                anchor = None
+    record["foot_slip_max_mm"] = slip * 1e3
+    err = np.abs(q_real[:upto, 7:] - q_plan[:upto, 7:]) if upto else np.zeros((1, len(names)))
+    j = int(np.argmax(err.max(axis=0)))
+    record["tracking_err_max_deg"] = float(np.degrees(err.max()))
+    record["tracking_joint"] = names[j]
+    peak = log["peak_torque"][:upto].max(axis=0) if upto else np.zeros(len(names))
+    j = int(np.argmax(peak))
+    record["torque_peak_ratio"] = float(peak[j] / stall)
+    record["torque_joint"] = names[j]
+    single = (sup != SUPPORT_DOUBLE) & (np.arange(n) < upto) & (t >= 0) & (t <= rec_t[-1])
+    margins = log["cop_margin"][single]
+    margins = margins[np.isfinite(margins)]
+    record["cop_margin_min_mm"] = float(margins.min() * 1e3) if margins.size else None
+    record["deploy_completed"] = bool(result.deploy.completed)
+    if not result.deploy.completed:
+        record["deploy_trip"] = str(result.deploy.trip)
+    record["sim_time_s"] = float(log["t"][-1]) if n else 0.0
+    record["_series"] = {"t": t, "dev": dev}
+    return record
+
+
+def mid_single_support(rec: Recording) -> float | None:
+    """Time (s from the start) of the middle of the recording's first single support."""
+    support = rec.channels.get("support")
+    if support is None:
+        return None
+    single = np.flatnonzero(np.asarray(support) != SUPPORT_DOUBLE)
+    if not single.size:
+        return None
+    start = single[0]
+    end = start
+    while end + 1 < len(support) and support[end + 1] == support[start]:
+        end += 1
+    return float(0.5 * (rec.t[start] + rec.t[end]) - rec.t[0])
+
+
+def simulated_recording(rec: Recording, result, robot: Robot) -> Recording:
+    """The simulated run as a recording (real q, CoM and CoP beside the planned ones)."""
+    log = result.log
+    t = log["t"] - result.playback_start
+    keep = np.r_[True, np.diff(t) > 1e-9]
+    t, q = t[keep], log["q"][keep]
+    rec_t = rec.t - rec.t[0]
+    tc = np.clip(t, rec_t[0], rec_t[-1])
+    channels = {"com": log["com"][keep], "zmp": log["cop"][keep]}
+    for name, src in (("com_ref", "com"), ("zmp_ref", "zmp"), ("swing_ref", "swing")):
+        if src in rec.channels:
+            ref = np.asarray(rec.channels[src], dtype=float)
+            channels[name] = np.stack(
+                [np.interp(tc, rec_t, ref[:, j]) for j in range(ref.shape[1])], axis=1
+            )
+    if "swing_is_left" in rec.channels:  # the real sole of the planned swing side
+        k = np.clip(np.searchsorted(rec_t, tc, side="right") - 1, 0, len(rec_t) - 1)
+        left = np.asarray(rec["swing_is_left"], dtype=bool)[k]
+        soles = log["soles"][keep]
+        channels["swing"] = np.where(left[:, None], soles[:, 0], soles[:, 1])
+    if "support" in rec.channels:
+        k = np.clip(np.searchsorted(rec_t, tc, side="right") - 1, 0, len(rec_t) - 1)
+        channels["support"] = np.asarray(rec["support"])[k]
+    meta = dict(rec.meta, simulated=True)
+    return Recording(t - t[0], q, robot.joint_names, channels, meta)
+
+
+# ---------------------------------------------------------------------- runs
+def simulate(
+    rec: Recording,
+    robot: Robot,
+    variation: Variation | None = None,
+    push: tuple[float, Sequence[float], float] | None = None,
+    settle: float = 1.0,
+) -> dict[str, Any]:
+    """One simulated run of a planned recording: its physics record."""
+    from ..sim.play import play
+
+    kw = {}
+    if variation is not None:
+        kw = dict(model_params=variation.model_params, servo_params=variation.servo_params,
+                  latency_ticks=variation.latency_ticks)  # fmt: skip
+    result = play(rec, robot, settle=settle, push=push, limit_tol=math.inf, **kw)
+    return physics_record(rec, result, robot)
+
+
+def robustness(
+    rec: Recording,
+    robot: Robot,
+    n: int,
+    seed: int,
+    progress: Callable[[int], None] | None = None,
+    settle: float = 1.0,
+) -> dict[str, Any]:
+    """The share of ``n`` randomised models (seeded) on which the run stays up."""
+    up, falls = [], []
+    for k, v in enumerate(models(robot, n, seed)):
+        r = simulate(rec, robot, v, settle=settle)
+        up.append(not r["fell"])
+        if r["fell"]:  # why: when, in which support phase, the most loaded joint
+            falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
+                          "joint": r["fall_joint"], **v.summary})  # fmt: skip
+        if progress:
+            progress(k)
+    return {"models": n, "seed": seed, "up_fraction": float(np.mean(up)) if up else None,
+            "up": [bool(u) for u in up], "falls": falls}  # fmt: skip
+
+
+def push_direction(rec: Recording, kind: str) -> np.ndarray:
+    """``forward`` (+x) or ``lateral``: sideways away from the swing foot (+y when standing
+    on the left sole, −y on the right), the side where no step can catch the robot."""
+    if kind == "forward":
+        return np.array([1.0, 0.0, 0.0])
+    if kind != "lateral":
+        raise WbcError(f"push direction must be 'forward' or 'lateral', got {kind!r}")
+    t = mid_single_support(rec)
+    support = rec.channels.get("support")
+    if t is None or support is None:
+        raise WbcError("a lateral push needs a single-support phase in the recording")
+    k = int(np.clip(np.searchsorted(rec.t - rec.t[0], t, side="right") - 1, 0, len(rec) - 1))
+    return np.array([0.0, 1.0 if support[k] == SUPPORT_LEFT else -1.0, 0.0])
+
+
+def largest_push(
+    rec: Recording,
+    robot: Robot,
+    direction: Sequence[float] | str,
+    max_impulse: float = PUSH_MAX_NS,
+    steps: int = PUSH_STEPS,
+    settle: float = 1.0,
+) -> float | None:
+    """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
+    (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
+    t_push = mid_single_support(rec)
+    if t_push is None:
+        return None
+    if isinstance(direction, str):
+        direction = push_direction(rec, direction)
+    u = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+
+    def survives(impulse: float) -> bool:
+        force = u * impulse / PUSH_DURATION
+        return not simulate(rec, robot, push=(t_push, force, PUSH_DURATION), settle=settle)["fell"]
+
+    if not survives(0.0):
+        return None
+    lo, hi = 0.0, max_impulse
+    if survives(hi):
+        return hi
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if survives(mid) else (lo, mid)
+    return lo
+
+
+# ---------------------------------------------------------------------- bench hook
+def add_physics_arguments(parser) -> None:
+    """The ``wbc bench`` options of the physics benchmark."""
+    parser.add_argument(
+        "--physics",
+        action="store_true",
+        help="play every run through the deploy path on the simulated robot (wbc[physics])",
+    )
+    parser.add_argument(
+        "--robustness", type=int, default=0, metavar="N", help="--physics: N randomised models"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="--robustness: random seed")
+    parser.add_argument(
+        "--push", action="store_true", help="--physics: largest survived torso impulse (N·s)"
+    )
+
+
+def run_physics_command(args, console, robot: Robot, entries) -> int:
+    """``wbc bench --physics``: the table, and the records in ``--json``."""
+    import json
+    import platform
+    import sys
+    from datetime import UTC, datetime
+
+    from . import trajectories as traj
+
+    if args.robustness < 0:
+        raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
+    if args.mode != "tick":
+        raise WbcError("--physics plays real-time plans: use --mode tick (the default)")
+    names = [t for t in args.trajectories if t != traj.STATIC_COM]
+    refs = {t: traj.build(t, robot) for t in names}
+    started = time.perf_counter()
+    records = run_physics(args, console, robot, entries, refs)
+    elapsed = time.perf_counter() - started
+    console.print(f"{len(records)} simulated runs in {elapsed:.1f} s on {platform.node()}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        payload = {
+            "date": datetime.now(UTC).isoformat(timespec="seconds"),
+            "machine": f"{platform.node()} {platform.machine()}".strip(),
+            "python": sys.version.split()[0],
+            "command": "wbc bench " + " ".join(sys.argv[2:]),
+            "elapsed_s": elapsed,
+            "records": records,
+        }
+        args.json.write_text(json.dumps(payload, indent=1))
+        console.print(f"records in {args.json}")
+    return 0
+
+
+def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[str, Any]]:
+    """Called by ``wbc bench --physics``: every entry on every trajectory in the simulator."""
+    from rich.table import Table
+
+    from .runner import run_entry, save_recording
+
+    entries = [e for e in entries if e.real_time]  # plans are one solve per tick
+    if not (args.solvers or args.families):
+        entries = [e for e in entries if e.name in DEFAULT_SOLVERS]
+    records: list[dict[str, Any]] = []
+    series = {}
+    for name, ref in refs.items():
+        for entry in entries:
+            console.print(f"[dim]physics: {entry.name} on {name}[/]")
+            _, rec = run_entry(entry, robot, ref, "tick")
+            if args.record:
+                save_recording(rec, args.record, entry.name, name)
+            started = time.perf_counter()
+            from ..sim.play import play
+
+            excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
+            try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses it
+                # unless --limit-tol allows it)
+                result = play(rec, robot, settle=1.0, limit_tol=math.inf)
+            except WbcError as exc:
+                console.print(f"[red]{entry.name} on {name}: {exc}[/]")
+                records.append({"solver": entry.name, "family": entry.family,
+                                "trajectory": name, "error": str(exc)})  # fmt: skip
+                continue
+            r = physics_record(rec, result, robot)
+            r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
+            r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
+            wall = time.perf_counter() - started
+            r.update(solver=entry.name, family=entry.family, trajectory=name,
+                     sim_steps=int(result.sim.steps), wall_s=wall,
+                     steps_per_s=result.sim.steps / wall,
+                     realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
+            series[(entry.name, name)] = (r.pop("_series"), rec, result)
+            if args.record:  # the simulated run beside the plan (wbc view replays both)
+                simulated_recording(rec, result, robot).save(
+                    Path(args.record) / f"{entry.name}__{name}__sim.npz"
+                )
+            if args.robustness:
+                started = time.perf_counter()
+                rob = robustness(rec, robot, args.robustness, args.seed)
+                r["robustness"] = rob
+                r["up_fraction"] = rob["up_fraction"]
+                r["sweep_wall_s"] = time.perf_counter() - started
+            if args.push:
+                r["push_lateral_ns"] = largest_push(rec, robot, "lateral")
+                r["push_forward_ns"] = largest_push(rec, robot, "forward")
+            records.append(r)
+    for name in refs:
+        rows = [r for r in records if r["trajectory"] == name and "error" not in r]
+        table = Table(title=f"physics: {name} (deploy path, simulated AX-12A)")
+        cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "τ/τs", "CoP mm"]
+        if args.robustness:
+            cols.append(f"up/{args.robustness}")
+        if args.push:
+            cols += ["push lat", "push fwd"]
+        for c in cols:
+            table.add_column(c, justify="left" if c == "solver" else "right")
+        for r in rows:
+            cells = [
+                r["solver"],
+                "-" if not r["fell"] else f"{r['fall_time_s']:.2f}",
+                f"{r['orientation_dev_max_deg']:.1f}",
+                "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}",
+                f"{r['foot_slip_max_mm']:.1f}",
+                f"{r['tracking_err_max_deg']:.1f}",
+                f"{r['torque_peak_ratio']:.2f}",
+                "-" if r["cop_margin_min_mm"] is None else f"{r['cop_margin_min_mm']:.1f}",
+            ]
+            if args.robustness:
+                cells.append(f"{r['up_fraction']:.2f}")
+            if args.push:
+                cells += [_ns(r["push_lateral_ns"]), _ns(r["push_forward_ns"])]
+            table.add_row(*cells)
+        console.print(table)
+        for r in rows:
+            if r["fell"]:
+                console.print(
+                    f"  {r['solver']}: fell at {r['fall_time_s']:.2f} s in {r['fall_phase']} "
+                    f"support; most loaded: {r['fall_joint']}"
+                )
+            falls = r.get("robustness", {}).get("falls", [])
+            if falls:
+                console.print(f"  {r['solver']}: {fall_summary(falls)}")
+    if args.plots:
+        for (solver, name), (s, rec, result) in series.items():
+            physics_figure(s, rec, result, args.plots / f"physics_{solver}__{name}.png")
+    return records
+
+
+def fall_summary(falls: list[dict[str, Any]]) -> str:
+    """One line on why randomised models fell: phases, most loaded joints, latency share."""
+    from collections import Counter
+
+    phases = Counter(f["phase"] for f in falls)
+    joints = Counter(str(f["joint"]).split(" ")[0] for f in falls)
+    late = sum(1 for f in falls if f.get("latency")) / len(falls)
+    return (
+        f"{len(falls)} falls: phase "
+        + ", ".join(f"{k} {v}" for k, v in phases.most_common())
+        + "; most loaded "
+        + ", ".join(f"{k} {v}" for k, v in joints.most_common(3))
+        + f"; {late:.0%} with one-tick latency"
+    )
+
+
+def _ns(v: float | None) -> str:
+    return "fell" if v is None else f"{v:.3f}"
+
+
+def physics_figure(series: dict, rec: Recording, result, path: Path) -> Path:
+    """Deviation from the planned base orientation over time; real vs planned CoM and
+    CoP/ZMP (lateral y) over time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    log = result.log
+    t = series["t"]
+    rec_t = rec.t - rec.t[0]
+    fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    ax[0].plot(t, series["dev"], color="C3")
+    ax[0].set_ylabel("base orientation\ndeviation (deg)")
+    ax[0].axhline(FALL_TILT_DEG, color="k", lw=0.5, ls="--")
+    ax[1].plot(rec_t, rec["com"][:, 1] * 1e3, "C0--", label="CoM planned")
+    ax[1].plot(t, log["com"][:, 1] * 1e3, "C0", label="CoM real")
+    if "zmp" in rec.channels:
+        ax[1].plot(rec_t, rec["zmp"][:, 1] * 1e3, "C2--", label="ZMP planned")
+    ax[1].plot(t, log["cop"][:, 1] * 1e3, "C2", lw=0.8, label="CoP real")
+    ax[1].set_ylabel("lateral y (mm)")
+    ax[1].set_xlabel("time (s)")
+    ax[1].legend(fontsize=7, ncol=4)
+    fig.suptitle(f"{rec.meta.get('controller', '')} on {rec.meta.get('trajectory', '')}")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def physics_summary_lines(records: list[dict[str, Any]]) -> list[str]:
+    """Plain-text lines (≤ 100 columns) of the physics table."""
+    records = [r for r in records if "error" not in r]
+    out = [f"{'solver':<14}{'traj':<12}{'fell s':>7}{'dev°':>7}{'dist':>6}{'slip mm':>8}"
+           f"{'err°':>6}{'τ/τs':>6}{'CoP mm':>7}{'up':>6}{'p lat':>7}{'p fwd':>7}"]  # fmt: skip
+    for r in records:
+        fell = f"{r['fall_time_s']:.2f}" if r["fell"] else "-"
+        dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
+        cop = "-" if r["cop_margin_min_mm"] is None else f"{r['cop_margin_min_mm']:.1f}"
+        up = "-" if r.get("up_fraction") is None else f"{r['up_fraction']:.2f}"
+        out.append(
+            f"{r['solver']:<14}{r['trajectory']:<12}{fell:>7}{r['orientation_dev_max_deg']:>7.1f}"
+            f"{dist:>6}{r['foot_slip_max_mm']:>8.1f}{r['tracking_err_max_deg']:>6.1f}"
+            f"{r['torque_peak_ratio']:>6.2f}{cop:>7}{up:>6}"
+            f"{_ns(r['push_lateral_ns']) if 'push_lateral_ns' in r else '-':>7}"
+            f"{_ns(r['push_forward_ns']) if 'push_forward_ns' in r else '-':>7}"
+        )
+    return out

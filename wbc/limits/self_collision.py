@@ -1,0 +1,552 @@
+"""Self-collision avoidance: distance rows between link pairs, in velocity-damper form.
+
+The collision math is kept apart from the :class:`Constraint` glue at the bottom:
+
+* :func:`candidate_pairs` / :func:`select_pairs` — which geometry pairs can meet: not on the
+  same joint, not on adjacent joints, and closer than a threshold in at least one of
+  ``samples`` random configurations within the joint limits (computed once, seeded);
+* :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (from p1
+  towards p2) of the pairs from pinocchio's collision module (hpp-fcl/coal), skipping the
+  exact computation while a Lipschitz bound proves a pair farther than the trigger;
+* :func:`distance_jacobian` — J_d = nᵀ (J_p2 − J_p1), the witness points' Jacobians
+  J_p = J_v − [p]× J_ω from pinocchio's world-frame joint Jacobians;
+* :func:`separating_plane_rows` — the witness pair plus the box corners near the separating
+  plane (parallel faces: the witness flips between corners from one tick to the next);
+* :func:`damper_rows` — the rows −J_d Δq <= h(d): the velocity damper
+  d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
+  margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
+
+Activation (no chatter): with m = margin, T = trigger and ξ = damping,
+
+    h(d) = ξ (d − m) · (T − m) / (T − d)   for m <= d < T,
+    h(d) = ξ (d − m)                      for d < m (the pair is pushed back out),
+
+and no row for d >= T. h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
+solution is continuous in d: a row appears with a bound no tick can reach (rows are left
+out while h exceeds 1 m, ``UNREACHABLE``, a closure no tick asks for). The linearised
+margin is guaranteed (h(d) <= d − m) for d <= T − ξ (T − m); a pair closes from beyond that
+point to below the margin only if one tick closes more than (1 − ξ)(T − m) (9 mm with the
+defaults). The servos' speed limit does not exclude that (one tick of hip roll at 6.2 rad/s
+moves a foot ~12 mm): targets must move at a bounded speed, as walking references do (the
+tests pull links together at <= 0.1 m/s and stay within 0.5 mm of the margin, the rest being
+the second-order error of a linearised tick; the margin absorbs it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import NamedTuple
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import ConfigurationError
+from ..model import Kinematics, Robot
+from .limit import Constraint, Inequality
+
+#: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
+#: 40 % of the gap to the margin closed per tick near it
+DEFAULT_MARGIN = 0.005
+DEFAULT_TRIGGER = 0.02
+DEFAULT_DAMPING = 0.4
+#: a bound past which a row is left out (m of closure in one tick: no two links of a small
+#: humanoid can approach by 1 m; with the defaults, the rows between 19.9 and 20 mm)
+UNREACHABLE = 1.0
+#: random configurations used to find the pairs that can meet
+DEFAULT_SAMPLES = 600
+
+
+class CollisionModel(NamedTuple):
+    """The robot's collision geometry and the link of each geometry."""
+
+    geometry: pin.GeometryModel
+    links: tuple[str, ...]  # link name of each geometry object
+    joints: np.ndarray  # parent joint of each geometry object
+
+
+def collision_model(robot: Robot) -> CollisionModel:
+    """The URDF's ``<collision>`` boxes as a pinocchio GeometryModel (no pairs added)."""
+    if not pin.WITH_HPP_FCL:
+        raise ConfigurationError("self-collision needs pinocchio built with hpp-fcl/coal")
+    geometry = pin.buildGeomFromUrdf(robot.model, str(robot.urdf_path), pin.GeometryType.COLLISION)
+    if geometry.ngeoms == 0:
+        raise ConfigurationError(f"URDF {robot.urdf_path} has no <collision> geometry")
+    links = tuple(robot.model.frames[g.parentFrame].name for g in geometry.geometryObjects)
+    joints = np.array([g.parentJoint for g in geometry.geometryObjects], dtype=int)
+    return CollisionModel(geometry, links, joints)
+
+
+def _link_pairs(pairs: Iterable[Sequence[str]], links: set[str], what: str) -> set[frozenset]:
+    out = set()
+    for pair in pairs:
+        if len(pair) != 2 or not all(isinstance(n, str) for n in pair):
+            raise ConfigurationError(f"self_collision {what}: expected [link, link], got {pair!r}")
+        unknown = [n for n in pair if n not in links]
+        if unknown:
+            raise ConfigurationError(
+                f"self_collision {what}: unknown link(s) {unknown}; links with collision "
+                f"geometry: {sorted(links)}"
+            )
+        out.add(frozenset(pair))
+    return out
+
+
+def candidate_pairs(
+    robot: Robot,
+    cm: CollisionModel,
+    include: Iterable[Sequence[str]] = (),
+    exclude: Iterable[Sequence[str]] = (),
+) -> list[tuple[int, int]]:
+    """Geometry pairs (i < j) that are not rigidly attached (same joint), not on adjacent
+    joints (parent/child) and whose links are not in ``exclude``; ``include`` forces link
+    pairs in (even adjacent ones)."""
+    links = set(cm.links)
+    inc = _link_pairs(include, links, "include")
+    exc = _link_pairs(exclude, links, "exclude")
+    parents = robot.model.parents
+    out = []
+    n = len(cm.links)
+    for i in range(n):
+        for j in range(i + 1, n):
+            key = frozenset((cm.links[i], cm.links[j]))
+            a, b = int(cm.joints[i]), int(cm.joints[j])
+            if key in inc and a != b:
+                out.append((i, j))
+            elif a != b and parents[a] != b and parents[b] != a and key not in exc:
+                out.append((i, j))
+    return out
+
+
+def sampled_min_distances(
+    robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]], samples: int, seed: int
+) -> np.ndarray:
+    """Smallest signed distance of each pair over ``samples`` configurations drawn uniformly
+    within the joint limits (plus q = 0 and the robot's named poses)."""
+    geometry = cm.geometry.copy()
+    geometry.removeAllCollisionPairs()
+    for i, j in pairs:
+        geometry.addCollisionPair(pin.CollisionPair(i, j))
+    gdata = pin.GeometryData(geometry)
+    data = robot.model.createData()
+    rng = np.random.default_rng(seed)
+    poses = [robot.neutral()]
+    if robot.servo_map is not None:
+        poses += [robot.configuration(name) for name in sorted(robot.servo_map.poses)]
+    best = np.full(len(pairs), np.inf)
+    for k in range(samples + len(poses)):
+        q = poses[k] if k < len(poses) else robot.random_configuration(rng)
+        pin.computeDistances(robot.model, data, geometry, gdata, q)
+        d = np.fromiter((r.min_distance for r in gdata.distanceResults), float, len(pairs))
+        np.minimum(best, d, out=best)
+    return best
+
+
+def select_pairs(
+    robot: Robot,
+    cm: CollisionModel,
+    threshold: float,
+    include: Iterable[Sequence[str]] = (),
+    exclude: Iterable[Sequence[str]] = (),
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 0,
+) -> list[tuple[int, int]]:
+    """The candidate pairs that come closer than ``threshold`` in some sampled configuration
+    (pairs named in ``include`` always). Sampling is a heuristic: a pair that meets only in
+    a tiny corner of the joint space can be missed — name it in ``include``."""
+    if samples < 0:
+        raise ConfigurationError(f"self_collision samples must be >= 0, got {samples}")
+    include = [tuple(p) for p in include]
+    pairs = candidate_pairs(robot, cm, include, exclude)
+    if samples == 0 or not pairs:
+        return pairs
+    forced = _link_pairs(include, set(cm.links), "include")
+    best = sampled_min_distances(robot, cm, pairs, samples, seed)
+    return [
+        p
+        for p, d in zip(pairs, best, strict=True)
+        if d < threshold or frozenset((cm.links[p[0]], cm.links[p[1]])) in forced
+    ]
+
+
+def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
+    """Corners of a box (8 x 3), or a bounding box's, in its parent joint's frame."""
+    g = geom.geometry
+    g.computeLocalAABB()
+    aabb = g.aabb_local
+    lo, hi = np.asarray(aabb.min_), np.asarray(aabb.max_)
+    corners = np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
+    M = geom.placement
+    return corners @ M.rotation.T + M.translation
+
+
+def lipschitz_bounds(
+    robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]
+) -> np.ndarray:
+    """L (K x n_joints) with |d_k(q) − d_k(q')| <= Σ_i L_ki |q_i − q'_i| for every pair k.
+
+    A revolute joint i moves a point p of a geometry it carries at speed <= |p − o_i| (o_i
+    on its axis); a joint that carries both geometries (or neither) does not change their
+    distance. |p − o_i| is bounded, whatever the configuration, by the lengths of the joint
+    offsets from joint i down to the geometry's joint plus the geometry's farthest corner.
+    """
+    model = robot.model
+    n = robot.n_joints
+    offset = np.array(
+        [np.linalg.norm(model.jointPlacements[j].translation) for j in range(model.njoints)]
+    )
+    reach_geom = []
+    for geom in cm.geometry.geometryObjects:
+        reach_geom.append(float(np.max(np.linalg.norm(_box_vertices(geom), axis=1))))
+    supports = [list(model.supports[j]) for j in range(model.njoints)]
+
+    def reach(gi: int) -> np.ndarray:
+        """Per actuated joint: bound on the distance from its axis to geometry gi (0 if the
+        joint does not carry it)."""
+        out = np.zeros(n)
+        chain = supports[int(cm.joints[gi])]  # root .. geometry's joint
+        # distance from joint chain[k] to the geometry <= Σ offsets of chain[k+1..] + corner
+        total = reach_geom[gi]
+        for k in range(len(chain) - 1, 0, -1):
+            j = chain[k]
+            if j >= 2:  # actuated joints (1 is the free flyer)
+                out[j - 2] = total
+            total += offset[j]
+        return out
+
+    L = np.zeros((len(pairs), n))
+    for k, (a, b) in enumerate(pairs):
+        ra, rb = reach(a), reach(b)
+        only_a = (ra > 0) & (rb == 0)
+        only_b = (rb > 0) & (ra == 0)
+        L[k] = np.where(only_a, ra, 0.0) + np.where(only_b, rb, 0.0)
+    return L
+
+
+class Witness(NamedTuple):
+    """The pairs closer than the query distance: indices into the pair list, signed
+    distances (m), witness points on the first / second geometry and unit normals (world)."""
+
+    index: np.ndarray
+    distance: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
+    normal: np.ndarray
+
+
+class PairDistances:
+    """Distances of a fixed pair list at a configuration, with a conservative cache.
+
+    Each pair keeps a lower bound on its distance: exact when last computed, then lowered
+    by Σ_i L_ki |Δq_i| for every joint motion since (valid along any sequence of
+    configurations, by the triangle inequality). The exact distance (GJK/EPA, ~1 µs per box
+    pair plus the Python call) is computed only for pairs whose bound is below the query
+    distance; far pairs cost a matrix-vector product per call.
+    """
+
+    def __init__(self, robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]):
+        self.robot = robot
+        self.pairs = list(pairs)
+        self.geometry = cm.geometry.copy()
+        self.geometry.removeAllCollisionPairs()
+        for i, j in self.pairs:
+            self.geometry.addCollisionPair(pin.CollisionPair(i, j))
+        self.gdata = pin.GeometryData(self.geometry)
+        self.results = list(self.gdata.distanceResults)
+        self.L = lipschitz_bounds(robot, cm, self.pairs)
+        #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
+        self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
+        self._geom_joint = np.asarray(cm.joints, dtype=int)
+        self._pair_geoms = np.array(self.pairs, dtype=int).reshape(-1, 2)
+        self._R = np.zeros((robot.model.njoints, 3, 3))  # joint placements of a call
+        self._t = np.zeros((robot.model.njoints, 3))
+        K = len(self.pairs)
+        self._bound = np.full(K, -np.inf)  # -inf: never computed
+        self._q = np.zeros(robot.n_joints)
+        self.joint_1 = cm.joints[[p[0] for p in self.pairs]] if K else np.zeros(0, int)
+        self.joint_2 = cm.joints[[p[1] for p in self.pairs]] if K else np.zeros(0, int)
+        #: exact distance computations so far (benchmarks and tests)
+        self.exact_computations = 0
+
+    def lower_bounds(self, q: np.ndarray) -> np.ndarray:
+        """Move the bounds to configuration q and return them (a view; exact where the
+        last call computed the pair at this same q)."""
+        joints = q[7:]
+        step = np.abs(joints - self._q)
+        if step.any():
+            self._bound -= self.L @ step
+            self._q[:] = joints
+        return self._bound
+
+    def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
+        """World corners (P x 2 x 8 x 3) of the two boxes of each pair, at ``kin``."""
+        if not len(pairs):
+            return np.zeros((0, 2, 8, 3))
+        g = self._pair_geoms[np.asarray(pairs)]  # P x 2 geometry indices
+        joints = self._geom_joint[g]  # P x 2
+        oMi = kin.data.oMi
+        R = self._R
+        t = self._t
+        for j in np.unique(joints).tolist():
+            M = oMi[j]
+            R[j] = M.rotation
+            t[j] = M.translation
+        world = self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
+        return world
+
+    def below(self, kin: Kinematics, distance: float) -> Witness:
+        """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
+        must be up to date: :meth:`Kinematics.update`)."""
+        bound = self.lower_bounds(kin.q)
+        todo = np.flatnonzero(bound < distance).tolist() if self.pairs else []
+        if todo:
+            pin.updateGeometryPlacements(kin.model, kin.data, self.geometry, self.gdata)
+        idx, dist, p1, p2, nrm, exact = [], [], [], [], [], []
+        geometry, gdata, results = self.geometry, self.gdata, self.results
+        compute = pin.computeDistance
+        for k in todo:
+            compute(geometry, gdata, k)
+            r = results[k]
+            d = r.min_distance
+            exact.append(d)
+            if d < distance:
+                idx.append(k)
+                dist.append(d)
+                p1.append(r.getNearestPoint1())
+                p2.append(r.getNearestPoint2())
+                nrm.append(r.normal)
+        if todo:
+            bound[todo] = exact
+        self.exact_computations += len(todo)
+        if not idx:
+            z = np.zeros((0, 3))
+            return Witness(np.zeros(0, int), np.zeros(0), z, z, z)
+        return Witness(np.array(idx), np.array(dist), np.array(p1), np.array(p2), np.array(nrm))
+
+
+def joint_masks(robot: Robot) -> np.ndarray:
+    """(njoints x nv) bools: the velocity coordinates that move each pinocchio joint."""
+    model = robot.model
+    out = np.zeros((model.njoints, robot.nv), dtype=bool)
+    for j in range(1, model.njoints):
+        for s in model.supports[j]:
+            if s:
+                jm = model.joints[s]
+                out[j, jm.idx_v : jm.idx_v + jm.nv] = True
+    return out
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise u × v (K x 3); np.cross's overhead is ~30 µs on small arrays."""
+    out = np.empty_like(u)
+    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    return out
+
+
+def distance_jacobian(
+    J_world: np.ndarray,
+    mask_1: np.ndarray,
+    mask_2: np.ndarray,
+    p1: np.ndarray,
+    p2: np.ndarray,
+    normal: np.ndarray,
+) -> np.ndarray:
+    """J_d (K x nv) = nᵀ (J_p2 − J_p1) for K pairs.
+
+    ``J_world``: pinocchio's joint Jacobians in the world frame (6 x nv, ``data.J`` after
+    ``computeJointJacobians``): the velocity of a point p carried by a joint is
+    J_v + J_ω × p over the joint's support columns, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω.
+    ``mask_i`` (K x nv) selects each pair's supports.
+    """
+    Jv, Jw = J_world[:3], J_world[3:]
+    a = normal @ Jv
+    row_2 = a + _cross(p2, normal) @ Jw
+    row_1 = a + _cross(p1, normal) @ Jw
+    return np.where(mask_2, row_2, 0.0) - np.where(mask_1, row_1, 0.0)
+
+
+class PlaneRows(NamedTuple):
+    """Points a (on the first body) and b (on the second) whose gap nᵀ(b − a) along the
+    pair's normal n must stay above the margin; ``pair`` indexes the Witness rows."""
+
+    pair: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+
+
+def separating_plane_rows(w: Witness, vertices: np.ndarray, below: float) -> PlaneRows:
+    """The witness pair of each close pair, plus every box corner nearer than ``below`` to the
+    separating planes through the witness points.
+
+    With n the unit normal from body 1 to body 2 and p1, p2 the witness points, every corner
+    v of body 2 has nᵀ(v − p1) >= d and every corner u of body 1 has nᵀ(p2 − u) >= d: keeping
+    these gaps above the margin (n held for the tick) keeps the bodies apart. The witness
+    alone is not enough for boxes: two nearly parallel faces (the feet side by side) have
+    their witness flip between corners, and a tick that turns one face lets the unprotected
+    corner through.
+    """
+    R = w.index.size
+    if R == 0:
+        z = np.zeros((0, 3))
+        return PlaneRows(np.zeros(0, int), z, z, z, np.zeros(0))
+    V1, V2 = vertices[:, 0], vertices[:, 1]  # R x 8 x 3 corners of body 1 / body 2
+    n, p1, p2 = w.normal, w.p1, w.p2
+    gap2 = ((V2 - p1[:, None]) @ n[:, :, None])[:, :, 0]  # corners of body 2 vs plane at p1
+    gap1 = ((p2[:, None] - V1) @ n[:, :, None])[:, :, 0]  # corners of body 1 vs plane at p2
+    # a corner that is the witness point itself is the witness row already (other corners
+    # at the same gap stay: parallel faces, where the witness may flip to them)
+    d2 = V2 - p2[:, None]
+    d1 = V1 - p1[:, None]
+    keep2 = (gap2 < below) & ((d2 * d2).sum(axis=2) > 1e-18)
+    keep1 = (gap1 < below) & ((d1 * d1).sum(axis=2) > 1e-18)
+    r2, r1 = np.nonzero(keep2)[0], np.nonzero(keep1)[0]
+    return PlaneRows(
+        np.concatenate([np.arange(R), r2, r1]),
+        np.concatenate([p1, p1[r2], V1[keep1]]),
+        np.concatenate([p2, V2[keep2], p2[r1]]),
+        np.concatenate([n, n[r2], n[r1]]),
+        np.concatenate([w.distance, gap2[keep2], gap1[keep1]]),
+    )
+
+
+def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: float):
+    """h(d) of the rows −J_d Δq <= h(d) (see the module docstring); +inf for d >= trigger."""
+    d = np.asarray(distance, dtype=float)
+    gap = d - margin
+    with np.errstate(divide="ignore"):
+        scale = np.where(gap > 0, (trigger - margin) / np.maximum(trigger - d, 0.0), 1.0)
+    return np.where(d < trigger, damping * gap * scale, np.inf)
+
+
+def damper_rows(
+    distance: np.ndarray, J_d: np.ndarray, margin: float, trigger: float, damping: float
+) -> Inequality:
+    """G Δq <= h: −J_d Δq <= h(d) for the pairs whose bound is below ``UNREACHABLE`` (the
+    +∞-equivalent: just under the trigger, h(d) passes any closure one tick can ask for; a
+    row with h ~ 1e12 m would only cost the solvers, and stalls ProxQP)."""
+    h = damper_bound(distance, margin, trigger, damping)
+    keep = h < UNREACHABLE
+    return Inequality(-J_d[keep], h[keep])
+
+
+def check_parameters(margin: float, trigger: float, damping: float) -> None:
+    """One clear line for each bad parameter."""
+    for key, value in (("margin", margin), ("trigger", trigger), ("damping", damping)):
+        if not isinstance(value, (int, float)) or not np.isfinite(value):
+            raise ConfigurationError(f"self_collision {key} must be a number, got {value!r}")
+    if margin < 0:
+        raise ConfigurationError(f"self_collision margin must be >= 0 m, got {margin}")
+    if trigger <= margin:
+        raise ConfigurationError(
+            f"self_collision trigger ({trigger} m) must be larger than the margin ({margin} m)"
+        )
+    if not 0 < damping <= 1:
+        raise ConfigurationError(f"self_collision damping must be in (0, 1], got {damping}")
+
+
+# ---------------------------------------------------------------------- Constraint glue
+class SelfCollisionConstraint(Constraint):
+    """No two links closer than ``margin`` (m): velocity-damper rows for the pairs closer
+    than ``trigger``, with the smooth activation of the module docstring.
+
+    ``pairs``: explicit link pairs (skips the selection); otherwise the pairs that can meet
+    (:func:`select_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
+    ``exclude``. Usable at any level of :class:`~wbc.solvers.TaskStack`; rows below the
+    pulling tasks' level are what make it hold (inside one level it trades with the tasks).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        margin: float = DEFAULT_MARGIN,
+        trigger: float = DEFAULT_TRIGGER,
+        damping: float = DEFAULT_DAMPING,
+        include: Iterable[Sequence[str]] = (),
+        exclude: Iterable[Sequence[str]] = (),
+        pairs: Iterable[Sequence[str]] | None = None,
+        samples: int = DEFAULT_SAMPLES,
+        seed: int = 0,
+        name: str = "self_collision",
+    ) -> None:
+        super().__init__(name)
+        check_parameters(margin, trigger, damping)
+        self.robot = robot
+        self.margin, self.trigger, self.damping = float(margin), float(trigger), float(damping)
+        cm = _cached_collision_model(robot)
+        if pairs is not None:
+            wanted = _link_pairs(pairs, set(cm.links), "pairs")
+            chosen = [
+                p
+                for p in candidate_pairs(robot, cm, include=[tuple(w) for w in wanted])
+                if frozenset((cm.links[p[0]], cm.links[p[1]])) in wanted
+            ]
+        else:
+            key = (
+                "pairs",
+                self.trigger,
+                tuple(map(tuple, include)),
+                tuple(map(tuple, exclude)),
+                samples,
+                seed,
+            )
+            cache = robot.__dict__.setdefault("_self_collision_pairs", {})
+            if key not in cache:
+                cache[key] = select_pairs(robot, cm, self.trigger, include, exclude, samples, seed)
+            chosen = cache[key]
+        self.pair_links = [(cm.links[i], cm.links[j]) for i, j in chosen]
+        self.pair_geoms = [
+            (cm.geometry.geometryObjects[i].name, cm.geometry.geometryObjects[j].name)
+            for i, j in chosen
+        ]
+        self.distances = PairDistances(robot, cm, chosen)
+        masks = joint_masks(robot)
+        self._mask_1 = masks[self.distances.joint_1]
+        self._mask_2 = masks[self.distances.joint_2]
+        self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
+        self._rows: Inequality | None = None
+        self._rows_q = np.zeros(0)
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.pair_links)
+
+    def witness(self, kin: Kinematics, below: float | None = None) -> Witness:
+        """The pairs closer than ``below`` (default: the trigger) at ``kin``."""
+        return self.distances.below(kin, self.trigger if below is None else below)
+
+    def min_distance(self, kin: Kinematics) -> float:
+        """Smallest distance over all pairs (exact; for diagnostics and tests)."""
+        w = self.distances.below(kin, np.inf)
+        return float(w.distance.min()) if w.distance.size else np.inf
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        """The rows at ``kin`` (kept for a second call at the same configuration, e.g. a
+        tick the compiled path hands back to DAQP)."""
+        if self._rows is not None and np.array_equal(kin.q, self._rows_q):
+            return self._rows
+        w = self.last = self.witness(kin)
+        if not w.index.size:
+            rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
+        else:
+            corners = self.distances.vertices(kin, w.index.tolist())
+            pr = separating_plane_rows(w, corners, self.trigger)
+            k = w.index[pr.pair]
+            J_gap = distance_jacobian(
+                kin.data.J, self._mask_1[k], self._mask_2[k], pr.a, pr.b, pr.normal
+            )
+            rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
+        self._rows, self._rows_q = rows, kin.q.copy()
+        return rows
+
+
+def _cached_collision_model(robot: Robot) -> CollisionModel:
+    """The robot's collision model, built once per Robot object."""
+    cache = robot.__dict__
+    if "_collision_model" not in cache:
+        cache["_collision_model"] = collision_model(robot)
+    return cache["_collision_model"]

@@ -1,0 +1,623 @@
+"""Playback: a :class:`TargetSource` on a :class:`ServoBus` at a fixed rate, safely.
+
+::
+
+    open -> identify (PING all, adapter round trip) -> configure (limits, alarm shutdown,
+    compliance, punch, torque limit, return delay 0; read back) -> read present positions
+    -> goal := present, slow moving speed, torque on (acknowledged per servo)
+    -> soft start to the first target -> playback (goals + health checks) -> end
+
+Every tick sends one set of goals, then checks servos: with ``read`` all present positions,
+else the :class:`HealthSchedule`'s polls. Any servo fault (error bit, silence, late replies)
+stops the motion within :attr:`HealthSchedule.detection_s` (100 ms at 50 Hz). The *safe
+stop* then sends no more motion and, by ``on_fault``:
+
+* ``auto`` (default): overheating or overload -> ``crouch``; anything else (communication
+  faults, other error bits, Ctrl-C, a bad target) -> ``hold``;
+* ``hold``: keep the last goal, torque on;
+* ``torque-off``: torque off per servo, acknowledged and read back (register 24);
+* ``crouch``: a slow move (soft speed) to the crouch pose, then ``torque-off``.
+
+A start-up that fails once any torque may be on (torque enable) always ends in a verified
+torque-off. Bad input is refused before any torque is enabled.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..exceptions import ServoError
+from ..model import Robot
+from .bus import COMM_OK, WALL_CLOCK, Clock, ServoBus
+from .safety import (
+    GoalLimiter,
+    HealthSchedule,
+    LimitReport,
+    Trip,
+    Watchdog,
+    check_trajectory,
+    command_speed,
+    soft_start_target,
+)
+from .sources import TargetSource
+
+EXIT_OK = 0
+EXIT_REFUSED = 2
+EXIT_SAFE_STOP = 3
+EXIT_INTERRUPTED = 130
+MAX_RATE_HZ = 100.0
+ON_FAULT_CHOICES = ("auto", "hold", "torque-off", "crouch")
+AT_END_CHOICES = ("hold", "torque-off")
+#: error bits after which ``on_fault = auto`` crouches and cuts torque
+CROUCH_FAULTS = ("overheating", "overload")
+
+
+@dataclass
+class DeployConfig:
+    """Playback and safety settings (speeds in rad/s, tolerances in rad, times in s)."""
+
+    rate: float = 50.0
+    read: bool = False  # read all present positions each tick (tracking error)
+    on_fault: str = "auto"  # see the module docstring
+    at_end: str = "hold"  # or "torque-off"
+    max_speed: float | None = None  # default: min(URDF velocity limit, servo speed)
+    soft_speed: float = 0.5  # soft start and crouch
+    max_failures: int = 3
+    start_tol: float = 0.05  # present position may lie this far outside the limits
+    log_path: str | None = None
+    fault_bound_s: float = 0.1  # health schedule: fault -> last goal
+    crouch_pose: str = "stand"  # a named pose of the robot (its standing pose by default)
+
+    def validate(self) -> None:
+        if not (math.isfinite(self.rate) and 0 < self.rate <= MAX_RATE_HZ):
+            raise ServoError(f"rate must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate}")
+        if self.on_fault not in ON_FAULT_CHOICES:
+            raise ServoError(f"on_fault must be one of {ON_FAULT_CHOICES}, got {self.on_fault!r}")
+        if self.at_end not in AT_END_CHOICES:
+            raise ServoError(f"at_end must be one of {AT_END_CHOICES}, got {self.at_end!r}")
+        for name in ("soft_speed", "start_tol", "fault_bound_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ServoError(f"{name} must be positive, got {v}")
+        if self.max_speed is not None and not (
+            math.isfinite(self.max_speed) and self.max_speed > 0
+        ):
+            raise ServoError(f"max_speed must be positive, got {self.max_speed}")
+        if self.max_failures < 1:
+            raise ServoError(f"max_failures must be >= 1, got {self.max_failures}")
+
+
+@dataclass
+class TimingStats:
+    """Loop timing: achieved rate, lateness of tick starts (jitter), work per tick."""
+
+    rate: float
+    starts: np.ndarray
+    lateness: np.ndarray  # start - scheduled start (s)
+    work: np.ndarray  # s spent in the tick
+    overruns: int = 0  # late ticks that skipped slots
+    missed: int = 0  # slots skipped
+
+    @property
+    def ticks(self) -> int:
+        return int(self.starts.size)
+
+    @property
+    def achieved_rate(self) -> float:
+        if self.starts.size < 2:
+            return float("nan")
+        return (self.starts.size - 1) / (self.starts[-1] - self.starts[0])
+
+    def pct(self, values: np.ndarray, p: float) -> float:
+        return float(np.percentile(values, p)) if values.size else float("nan")
+
+    def lines(self) -> list[str]:
+        ms = 1e3
+        return [
+            f"ticks {self.ticks} at {self.rate:g} Hz: achieved {self.achieved_rate:.2f} Hz, "
+            f"{self.overruns} overruns ({self.missed} ticks skipped, never caught up)",
+            f"jitter (tick start lateness) p50 {self.pct(self.lateness, 50) * ms:.3f} ms, "
+            f"p99 {self.pct(self.lateness, 99) * ms:.3f} ms, "
+            f"max {float(np.max(self.lateness, initial=0)) * ms:.3f} ms",
+            f"work per tick p50 {self.pct(self.work, 50) * ms:.3f} ms, "
+            f"p99 {self.pct(self.work, 99) * ms:.3f} ms",
+        ]
+
+
+@dataclass
+class DeployResult:
+    """What happened: completed, or the trip and the safe stop taken."""
+
+    completed: bool
+    trip: Trip | None
+    stop_action: str | None
+    soft_start_ticks: int
+    timing: TimingStats
+    limits: LimitReport
+    tracking_rms: np.ndarray | None = None  # rad per joint
+    tracking_max: np.ndarray | None = None
+    warnings: list[str] = field(default_factory=list)
+    interrupted: bool = False
+    exchanges: list[str] = field(default_factory=list)
+    health: str = ""
+
+    @property
+    def exit_code(self) -> int:
+        if self.completed:
+            return EXIT_OK
+        return EXIT_INTERRUPTED if self.interrupted else EXIT_SAFE_STOP
+
+
+class Ticker:
+    """Absolute-deadline scheduler on the wall clock: slot ``k`` starts at ``t0 + k·period``.
+
+    A slot that would start more than half a period late, or less than half a period after
+    the last goal was sent (:attr:`last_sent`, set by the caller), is skipped: never caught
+    up in a burst. :meth:`wait` returns the slot.
+    """
+
+    def __init__(self, period: float, clock: Clock | None = None) -> None:
+        self.period = period
+        # a bus may bring its own clock (the simulator's: ``sleep`` runs the physics)
+        self.clock = clock or WALL_CLOCK
+        self.t0: float | None = None
+        self.k = 0
+        self.starts: list[float] = []
+        self.lateness: list[float] = []
+        self.work: list[float] = []
+        self.overruns = 0
+        self.missed = 0
+        self.last_sent: float | None = None  # perf_counter time of the last goal sent
+
+    def wait(self) -> int:
+        now = self.clock.now()
+        if self.t0 is None:
+            self.t0 = now
+        p = self.period
+        # the slot must start at most p/2 late and at least p/2 after the last goal was sent
+        earliest = now - 0.5 * p
+        if self.last_sent is not None:
+            earliest = max(earliest, self.last_sent + 0.5 * p)
+        k = max(self.k, math.ceil((earliest - self.t0) / p - 1e-9))
+        if k > self.k:
+            self.overruns += 1
+            self.missed += k - self.k
+            self.k = k
+        deadline = self.t0 + self.k * p
+        if deadline > now:
+            self.clock.sleep(deadline - now)
+            now = self.clock.now()
+        late = now - deadline
+        slot = self.k
+        self.starts.append(now)
+        self.lateness.append(late)
+        self.k += 1
+        return slot
+
+    def done(self) -> None:
+        self.work.append(self.clock.now() - self.starts[-1])
+
+    def stats(self, rate: float) -> TimingStats:
+        return TimingStats(
+            rate,
+            np.array(self.starts),
+            np.array(self.lateness),
+            np.array(self.work),
+            self.overruns,
+            self.missed,
+        )
+
+
+class Deployment:
+    """One run of a source on a bus (see the module docstring for the sequence)."""
+
+    def __init__(
+        self,
+        bus: ServoBus,
+        source: TargetSource,
+        robot: Robot,
+        config: DeployConfig | None = None,
+        out: Callable[[str], None] = print,
+    ) -> None:
+        self.bus = bus
+        self.source = source
+        self.robot = robot
+        self.config = config or DeployConfig()
+        self.out = out
+        self.config.validate()
+        if tuple(source.joint_names) != tuple(robot.joint_names):
+            raise ServoError("source joint order differs from the robot's model order")
+        if self.config.read and not bus.can_read:
+            raise ServoError(f"the {bus.name} backend cannot read servo positions (--read)")
+        self.period = 1.0 / self.config.rate
+        # a bus may bring its own clock (a lockstep simulator's); real buses run on the wall clock
+        self.clock: Clock = getattr(bus, "clock", None) or WALL_CLOCK
+        v = np.minimum(robot.v_max, bus.servo_speed)
+        if self.config.max_speed is not None:
+            v = np.minimum(v, self.config.max_speed)
+        self.v_max = v
+        self.limiter = GoalLimiter(
+            bus.codec, robot.q_min, robot.q_max, command_speed(bus.codec, v), robot.joint_names
+        )
+        self.soft_speed = min(self.config.soft_speed, float(np.min(v)))
+        self.soft_cmd_speed = command_speed(bus.codec, self.soft_speed)
+        bus.set_command_limits(self.limiter.lo, self.limiter.hi)
+        self.watchdog = Watchdog(bus.labels, self.config.max_failures, bus_label=f"{bus.name} bus")
+        self.health = HealthSchedule(
+            bus.n,
+            self.config.rate,
+            self.config.max_failures,
+            self.config.fault_bound_s,
+            bus.health_per_servo,
+        )
+        self.ticker = Ticker(self.period, self.clock)
+        self.warnings: list[str] = []
+        self.crouch_cmd = self._crouch_cmd()
+        if self.crouch_cmd is None and self.config.on_fault in ("auto", "crouch"):
+            self.warn(
+                f"no crouch pose {self.config.crouch_pose!r} (--crouch-pose; the robot's poses: "
+                f"{self.robot.pose_names()}): "
+                "a safe stop that should crouch will cut torque where the robot stands"
+            )
+        self._rate_check()
+        self._interrupted = False
+        self._torque_phase = False  # torque enable in progress: a failure cuts torque
+        self._log_t: list[float] = []
+        self._log_goal: list[np.ndarray] = []
+        self._log_present: list[np.ndarray] = []
+        self._log_phase: list[int] = []  # 0 soft start, 1 playback, 2 crouch
+        n = robot.n_joints
+        self._err_sq = np.zeros(n)
+        self._err_n = np.zeros(n, int)
+        self._err_max = np.zeros(n)
+
+    def warn(self, text: str) -> None:
+        """Record a warning and show it at once (before the motion it concerns)."""
+        self.warnings.append(text)
+        self.out(f"warning: {text}")
+
+    def _crouch_cmd(self) -> np.ndarray | None:
+        name = self.config.crouch_pose
+        if name not in self.robot.pose_names():
+            return None
+        q = self.robot.configuration(name)[7:]
+        c = np.rint(self.bus.codec.encode_float(q))
+        return np.clip(c, self.limiter.lo, self.limiter.hi).astype(int)
+
+    def _rate_check(self) -> None:
+        from .plan import overload_warning  # plan imports this module
+
+        text = overload_warning(self.bus, self.config, self.bus.turnaround_s)
+        if text:
+            self.warn(text)
+
+    def health_line(self) -> str:
+        h = self.health
+        if self.config.read:
+            return (
+                f"health: all {self.bus.n} positions read every tick; a fault stops motion "
+                f"within {self.config.max_failures / self.config.rate * 1e3:.0f} ms "
+                "(+ tick lateness)"
+            )
+        what = "servos" if self.bus.health_per_servo else "board queries"
+        return (
+            f"health: {h.polls_per_tick} {what} checked per tick, each servo at least every "
+            f"{h.rotation} ticks; a fault stops motion within {h.detection_s * 1e3:.0f} ms "
+            "(+ tick lateness)"
+        )
+
+    # ------------------------------------------------------------------ start-up
+    def _start_positions(self, first_cmd: np.ndarray) -> np.ndarray:
+        bus, lim = self.bus, self.limiter
+        if not bus.can_read:
+            self.warn(
+                f"{bus.name}: positions cannot be read; no soft start from the real pose; "
+                "place the robot near the first pose before starting"
+            )
+            for what in getattr(bus, "unchecked", ()):
+                self.warn(f"{bus.name}: cannot check {what}")
+            return first_cmd.astype(float)
+        statuses = bus.read_positions()
+        for k in range(2):  # retries for replies lost on a loaded machine, after a pause
+            failed = [s.index for s in statuses if s.comm != COMM_OK]
+            if not failed:
+                break
+            self.clock.sleep(0.005 * 2**k)
+            again = {s.index: s for s in bus.read_positions(failed)}
+            statuses = [again.get(s.index, s) for s in statuses]
+        bad = [f"{bus.labels[s.index]}: {s.comm} {list(s.faults)}" for s in statuses if not s.ok]
+        if bad:
+            raise ServoError("cannot read the start positions: " + "; ".join(bad))
+        present = np.array([s.position for s in statuses], dtype=float)
+        tol = self.config.start_tol * np.abs(bus.codec.scale)
+        outside = np.flatnonzero((present < lim.lo - tol) | (present > lim.hi + tol))
+        if outside.size:
+            parts = [
+                f"{bus.labels[i]} at {present[i]:.0f} {bus.codec.unit}s, limits "
+                f"{lim.lo[i]}..{lim.hi[i]}"
+                for i in outside
+            ]
+            raise ServoError(
+                "servos start outside their joint limits (move them by hand, torque is off): "
+                + "; ".join(parts)
+            )
+        return present
+
+    # ------------------------------------------------------------------ one tick
+    def _tick(self, cmd: np.ndarray, sent_at: float, phase: int) -> Trip | None:
+        bus = self.bus
+        if bus.write_goals(cmd) != COMM_OK:
+            return Trip(None, f"{bus.name} bus", "writing the goal positions failed", comm=True)
+        if self.config.log_path:
+            self._log_t.append(sent_at)
+            self._log_goal.append(cmd.copy())
+            self._log_phase.append(phase)
+        present = np.full(cmd.shape, np.nan)
+        trip = None
+        if self.config.read:
+            statuses = bus.read_positions()
+        else:
+            statuses = (bus.poll(i) for i in self.health.pick(self.watchdog))
+        for s in statuses:
+            if s.index is not None and s.position is not None:
+                present[s.index] = s.position
+            self.health.note(s)
+            trip = self.watchdog.observe(s)
+            if trip is not None:
+                break  # stop checking: the safe stop comes first
+        if self.config.read:
+            ok = np.isfinite(present)
+            err = np.where(
+                ok, bus.codec.decode(np.where(ok, present, 0)) - bus.codec.decode(cmd), 0
+            )
+            self._err_sq += err**2
+            self._err_n += ok
+            self._err_max = np.maximum(self._err_max, np.abs(err))
+        if self.config.log_path:
+            self._log_present.append(present)
+        return trip
+
+    # ------------------------------------------------------------------ safe stop
+    def stop_action(self, trip: Trip) -> str:
+        """``hold``, ``torque-off`` or ``crouch`` for a trip (module docstring)."""
+        if self._torque_phase:
+            return "torque-off"
+        mode = self.config.on_fault
+        if mode == "auto":
+            return "crouch" if set(trip.faults) & set(CROUCH_FAULTS) else "hold"
+        return mode
+
+    def _safe_stop(self, trip: Trip) -> str:
+        main = threading.current_thread() is threading.main_thread()
+        self._interrupted = False  # a Ctrl-C now only cuts a crouch short, never raises
+        previous = signal.signal(signal.SIGINT, self._flag_sigint) if main else None
+        action = self.stop_action(trip)
+        try:
+            reset = getattr(self.bus, "reset", None)
+            if reset is not None:
+                reset()
+            if action == "hold":
+                return "hold"
+            done = action
+            if action == "crouch":
+                done = "crouch, torque-off" if self._crouch() else "crouch cut short, torque-off"
+            unconfirmed = self.bus.torque_off()
+            if unconfirmed:
+                self.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
+                return f"{done} (not confirmed: {', '.join(unconfirmed)})"
+            return done
+        except Exception as exc:  # report, never raise from the safe stop
+            self.warn(f"safe stop: {type(exc).__name__}: {exc}")
+            return f"{action} (failed: {exc})"
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
+
+    def _crouch(self) -> bool:
+        """Move slowly (soft speed) to the crouch pose; False if impossible or cut short."""
+        bus, lim = self.bus, self.limiter
+        target = self.crouch_cmd
+        if target is None or lim.prev is None:
+            self.warn(f"no crouch pose {self.config.crouch_pose!r} in the servo map")
+            return False
+        ticker = Ticker(self.period, self.clock)
+        duration = float(np.max(np.abs(target - lim.prev) / self.soft_cmd_speed, initial=0.0))
+        t_end = self.clock.now() + duration + 1.0
+        while not np.array_equal(lim.prev, target):
+            ticker.wait()
+            now = self.clock.now()
+            if self._interrupted or now > t_end:
+                return False
+            cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
+            ticker.last_sent = now
+            if bus.write_goals(cmd) != COMM_OK:
+                return False
+            if self.config.log_path:
+                self._log_t.append(now)
+                self._log_goal.append(cmd.copy())
+                self._log_present.append(np.full(cmd.shape, np.nan))
+                self._log_phase.append(2)
+        return True
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> DeployResult:
+        bus, lim = self.bus, self.limiter
+        first = np.asarray(self.source.first(), dtype=float)
+        check_trajectory(
+            first[None, :],
+            self.robot.q_min,
+            self.robot.q_max,
+            self.robot.joint_names,
+            1e-3,
+            what="first target",
+        )
+        first_cmd = np.clip(np.rint(bus.codec.encode_float(first)), lim.lo, lim.hi).astype(int)
+        bus.open()
+        try:
+            for w in getattr(bus, "warnings", []):
+                self.warn(w)
+            bus.identify()
+            for note in getattr(bus, "notes", []):  # e.g. the adapter's measured round trip
+                self.out(f"note: {note}")
+            bus.configure()
+            start = lim.reset(self._start_positions(first_cmd), self.clock.now())
+            if bus.write_goals(start) != COMM_OK:  # hold where they are when torque comes on
+                raise ServoError(f"{bus.name}: writing the start goals failed")
+            bus.set_speed(self.soft_speed)
+            self.out(self.health_line())
+            return self._play_guarded(start, first_cmd)
+        finally:
+            bus.close()
+
+    def _flag_sigint(self, signum, frame) -> None:
+        self._interrupted = True
+
+    def _on_sigint(self, signum, frame) -> None:
+        if self._interrupted:  # a second Ctrl-C: stop now, even inside an exchange
+            raise KeyboardInterrupt
+        self._interrupted = True
+
+    def _play_guarded(self, start: np.ndarray, first_cmd: np.ndarray) -> DeployResult:
+        """Ctrl-C only sets a flag while torque may be on: the loop stops at the next tick
+        boundary, never inside an exchange."""
+        if threading.current_thread() is not threading.main_thread():
+            return self._play(start, first_cmd)
+        previous = signal.signal(signal.SIGINT, self._on_sigint)
+        try:
+            return self._play(start, first_cmd)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+
+    def _check_interrupt(self) -> None:
+        if self._interrupted:
+            raise KeyboardInterrupt
+
+    def _play(self, start: np.ndarray, first_cmd: np.ndarray) -> DeployResult:
+        bus, lim, cfg = self.bus, self.limiter, self.config
+        trip: Trip | None = None
+        interrupted = False
+        soft_ticks = 0
+        completed = False
+        try:
+            self._torque_phase = True
+            bus.set_torque(True)
+            self._torque_phase = False
+            soft_ticker = Ticker(self.period, self.clock)
+            t_soft = None
+            while trip is None and not np.array_equal(lim.prev, first_cmd):
+                soft_ticker.wait()
+                self._check_interrupt()
+                now = self.clock.now()
+                t_soft = now if t_soft is None else t_soft
+                target = soft_start_target(start, first_cmd, self.soft_cmd_speed, now - t_soft)
+                cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
+                soft_ticker.last_sent = now
+                trip = self._tick(cmd, now, 0)
+                soft_ticker.done()
+                soft_ticks += 1
+            if trip is None:
+                bus.set_speed(float(np.min(self.v_max)))
+            first_target = self.source(0, 0.0)  # before the clock starts: a live controller's
+            while trip is None:  # first solve may be slow (compilation)
+                tick = self.ticker.wait()
+                self._check_interrupt()
+                q = first_target if tick == 0 else self.source(tick, tick * self.period)
+                if q is None:
+                    self.ticker.starts.pop()
+                    self.ticker.lateness.pop()
+                    completed = True
+                    break
+                now = self.clock.now()
+                try:
+                    cmd = lim(q, now)
+                except ServoError as exc:
+                    trip = Trip(None, "source", f"bad target at tick {tick}: {exc}")
+                    break
+                self.ticker.last_sent = now
+                trip = self._tick(cmd, now, 1)
+                self.ticker.done()
+        except KeyboardInterrupt:
+            interrupted = True
+            trip = Trip(None, "operator", "interrupted (Ctrl-C)")
+        except Exception as exc:  # a crash mid-motion still ends in the safe stop
+            trip = Trip(None, "deploy", f"{type(exc).__name__}: {exc}")
+        action = None
+        if trip is not None:
+            action = self._safe_stop(trip)
+        elif cfg.at_end == "torque-off":
+            unconfirmed = bus.torque_off()
+            if unconfirmed:
+                self.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
+        self._write_log()
+        rms = max_err = None
+        if cfg.read:
+            n = np.maximum(self._err_n, 1)
+            rms, max_err = np.sqrt(self._err_sq / n), self._err_max
+        return DeployResult(
+            completed and trip is None,
+            trip,
+            action,
+            soft_ticks,
+            self.ticker.stats(cfg.rate),
+            lim.report,
+            rms,
+            max_err,
+            self.warnings,
+            interrupted,
+            bus.exchange_lines(),
+            self.health_line(),
+        )
+
+    def _write_log(self) -> None:
+        if not self.config.log_path or not self._log_t:
+            return
+        rtt = getattr(getattr(self.bus, "log", None), "rtt", [])
+        np.savez(
+            self.config.log_path,
+            t=np.array(self._log_t) - self._log_t[0],
+            goal=np.array(self._log_goal),
+            present=np.array(self._log_present),
+            phase=np.array(self._log_phase),
+            rtt=np.array(rtt, dtype=float),
+            joint_names=np.array(self.robot.joint_names),
+            unit=np.array(self.bus.codec.unit),
+        )
+
+
+def deploy(
+    bus: ServoBus,
+    source: TargetSource,
+    robot: Robot,
+    config: DeployConfig | None = None,
+    out: Callable[[str], None] = print,
+) -> DeployResult:
+    """Play ``source`` on ``bus`` (see :class:`Deployment`)."""
+    return Deployment(bus, source, robot, config, out).run()
+
+
+def report_lines(result: DeployResult, robot: Robot) -> list[str]:
+    """The end-of-run report."""
+    lines = []
+    if result.completed:
+        lines.append(f"completed: soft start {result.soft_start_ticks} ticks, then playback")
+    else:
+        lines.append(f"SAFE STOP ({result.stop_action}): {result.trip}")
+    lines += result.timing.lines()
+    if result.health:
+        lines.append(result.health)
+    lines += result.exchanges
+    lines += result.limits.lines() or ["no goal was clamped or rate-limited"]
+    if result.tracking_rms is not None:
+        j = int(np.argmax(result.tracking_max))
+        lines.append(
+            f"tracking error (present - goal): RMS over joints "
+            f"{math.degrees(float(np.sqrt(np.mean(result.tracking_rms**2)))):.2f} deg, "
+            f"max {math.degrees(float(result.tracking_max[j])):.2f} deg ({robot.joint_names[j]})"
+        )
+    return lines

@@ -1,0 +1,25 @@
+"""A simulated robot on MuJoCo, behind the same servo and IMU interfaces as the hardware.
+
+* :mod:`wbc.sim.model` — the MuJoCo model built from the robot's URDF at run time;
+* :mod:`wbc.sim.actuator` — the AX-12A servo law (compliance, punch, torque limit, speed cap);
+* :mod:`wbc.sim.simulator` — :class:`Simulation`: physics stepping, goals, faults, state;
+* :mod:`wbc.sim.bus` — :class:`SimServoBus`, the :class:`~wbc.servos.bus.ServoBus` that
+  ``wbc deploy --sim`` drives, and :class:`SimImu` (:class:`wbc.imu.Imu`).
+
+Needs the optional ``mujoco`` package (``pip install 'wbc[physics]'``).
+"""
+
+from __future__ import annotations
+
+from ..exceptions import WbcError
+
+
+def mujoco_module():
+    """The ``mujoco`` module, or one clear line saying how to install it."""
+    try:
+        import mujoco
+    except ModuleNotFoundError as exc:
+        raise WbcError(
+            "wbc.sim needs the optional package 'mujoco': pip install 'wbc[physics]'"
+        ) from exc
+    return mujoco

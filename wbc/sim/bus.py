@@ -1,0 +1,266 @@
+"""The simulated robot behind the hardware interfaces: :class:`SimServoBus` and :class:`SimImu`.
+
+:class:`SimServoBus` is a :class:`~wbc.servos.bus.ServoBus` (AX-12A ticks, the servo map's
+codec and labels), so ``wbc deploy --sim`` runs the deployment code unchanged: start-up,
+soft start, clamping, rate limit, watchdog, safe stop. Two timings:
+
+* **lockstep** (default): the bus exposes a :attr:`SimServoBus.clock` whose ``sleep`` steps
+  the physics; the deployment's tick scheduler then advances simulated time by exactly one
+  control period per tick, as fast as the computer allows;
+* **real time**: no clock; before every exchange the physics catches up with the wall clock
+  since :meth:`~SimServoBus.open`.
+
+Faults: :meth:`SimServoBus.inject` (now, or after the N-th goal write) makes a servo fall
+silent or raises its overload bit; a servo whose torque sits at its limit raises the bit by
+itself (:mod:`wbc.sim.actuator`). ``latency_ticks`` delays every goal by whole ticks.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from ..exceptions import ServoError
+from ..imu import Imu, ImuReading
+from ..servos.bus import COMM_OK, COMM_TIMEOUT, BusBudget, ServoBus, ServoStatus
+from ..servos.dynamixel import (
+    AX12_MAX_SPEED,
+    ax_budget,
+    ax_codec,
+    fault_names,
+    speed_register,
+    speed_ticks_per_s,
+)
+from .simulator import FAULT_KINDS, Simulation
+
+
+class SimClock:
+    """Simulated time for the deployment's scheduler: ``sleep`` runs the physics."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+
+    def now(self) -> float:
+        return self.sim.time
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            self.sim.advance(seconds)
+
+
+class SimServoBus(ServoBus):
+    """The simulated robot's servos on a bus (model joint order, AX-12A ticks)."""
+
+    name = "sim"
+    can_read = True
+    servo_speed = AX12_MAX_SPEED
+
+    def __init__(
+        self,
+        sim: Simulation,
+        realtime: bool = False,
+        latency_ticks: int = 0,
+        torque_limit: int | None = None,
+        on_tick: Callable[[SimServoBus], None] | None = None,
+    ) -> None:
+        sm = sim.robot.servo_map
+        labels = [f"id {int(i)} ({j})" for i, j in zip(sm.ids, sm.joint_names, strict=True)]
+        super().__init__(ax_codec(sm), labels)
+        if latency_ticks < 0:
+            raise ServoError(f"latency_ticks must be >= 0, got {latency_ticks}")
+        if torque_limit is not None and not 0 <= torque_limit <= 1023:
+            raise ServoError(f"torque limit must be 0..1023, got {torque_limit}")
+        self.sim = sim
+        self.realtime = realtime
+        self.clock = None if realtime else SimClock(sim)
+        self.latency_ticks = latency_ticks
+        self.torque_limit = torque_limit
+        self.on_tick = on_tick
+        self.goals_written = 0
+        self.is_open = False
+        self._pending: deque[np.ndarray] = deque()
+        self._scheduled: list[tuple[int, str, int]] = []
+        self._wall0 = 0.0
+        self._sim0 = 0.0
+
+    # ------------------------------------------------------------------ time
+    def _sync(self) -> None:
+        """Real-time mode: run the physics up to the wall-clock time."""
+        if self.realtime and self.is_open:
+            self.sim.advance_to(self._sim0 + time.perf_counter() - self._wall0)
+
+    # ------------------------------------------------------------------ faults
+    def inject(self, kind: str, index: int, after_goals: int = 0) -> None:
+        """A fault on servo ``index`` now, or once ``after_goals`` goal writes have been made
+        (``kind``: ``silent`` or ``overload``, see :meth:`Simulation.inject`)."""
+        if kind not in FAULT_KINDS:
+            raise ServoError(f"unknown fault {kind!r}; choose from {FAULT_KINDS}")
+        if not 0 <= index < self.n:
+            raise ServoError(f"fault: servo index {index} outside 0..{self.n - 1}")
+        if after_goals <= self.goals_written:
+            self.sim.inject(kind, index)
+        else:
+            self._scheduled.append((after_goals, kind, index))
+
+    # ------------------------------------------------------------------ life cycle
+    def open(self) -> None:
+        self.is_open = True
+        self._wall0 = time.perf_counter()
+        self._sim0 = self.sim.time
+
+    def close(self) -> None:
+        self.is_open = False
+
+    def identify(self) -> None:
+        self._require_open()
+        silent = [self.labels[i] for i in np.flatnonzero(self.sim.silent)]
+        if silent:
+            raise ServoError(f"{self.name}: no reply to PING from " + ", ".join(silent))
+
+    def configure(self) -> None:
+        """Torque off and the torque-limit register (if given), as the real bus does."""
+        self._require_open()
+        self.set_torque(False)
+        if self.torque_limit is not None:
+            p = self.sim.servos.params
+            cap = np.full(self.n, p.stall_torque * self.torque_limit / 1023.0)
+            self.sim.servos.params = replace(p, torque_cap=cap)
+
+    def _require_open(self) -> None:
+        if not self.is_open:
+            raise ServoError(f"{self.name}: the simulated bus is not open")
+
+    # ------------------------------------------------------------------ motion
+    def set_torque(self, enabled: bool) -> None:
+        self._require_open()
+        self._sync()
+        if enabled:  # torque on clears the alarm state of the answering servos
+            ok = ~self.sim.silent
+            self.sim.servos.shutdown[ok] = False
+            self.sim.servos.error[ok] = 0
+            self.sim.set_torque(np.where(ok, True, self.sim.servos.enabled))
+        else:
+            self.sim.set_torque(False)  # a broadcast reaches silent servos too
+
+    def set_speed(self, rad_per_s: float) -> None:
+        self._require_open()
+        self._sync()
+        cap = speed_ticks_per_s(speed_register(rad_per_s))
+        self.sim.set_speed_ticks(np.where(self.sim.silent, self.sim.servos.speed, cap))
+
+    def write_goals(self, cmds: np.ndarray) -> str:
+        self._require_open()
+        cmds = self.check_goals(cmds)
+        self._sync()
+        self.goals_written += 1
+        for entry in [s for s in self._scheduled if s[0] <= self.goals_written]:
+            self.sim.inject(entry[1], entry[2])
+            self._scheduled.remove(entry)
+        self._pending.append(np.asarray(cmds, dtype=float))
+        while len(self._pending) > self.latency_ticks:
+            self.sim.write_goals(self._pending.popleft())
+        if self.on_tick is not None:
+            self.on_tick(self)
+        return COMM_OK
+
+    # ------------------------------------------------------------------ feedback
+    def _status(self, i: int, present: np.ndarray, load: bool = False) -> ServoStatus:
+        if self.sim.silent[i]:
+            return ServoStatus(i, COMM_TIMEOUT)
+        err = int(self.sim.servos.error[i])
+        status = ServoStatus(i, COMM_OK, fault_names(err) if err else (), err, float(present[i]))
+        if load:
+            servos = self.sim.servos
+            status.load = float(servos.torque[i] * servos.signs[i] / servos.params.stall_torque)
+        return status
+
+    def read_positions(self, indices: Sequence[int] | None = None) -> list[ServoStatus]:
+        self._require_open()
+        self._sync()
+        present = self.sim.present_ticks()
+        return [self._status(i, present) for i in (range(self.n) if indices is None else indices)]
+
+    def poll(self, index: int) -> ServoStatus:
+        self._require_open()
+        self._sync()
+        return self._status(index, self.sim.present_ticks(), load=True)
+
+    def budget(self, read_positions: bool) -> BusBudget:
+        """The budget of the real AX-12A bus at 1 Mbps that the simulated servos stand for."""
+        return ax_budget(self.n, 1_000_000, read_positions)
+
+
+class SimImu(Imu):
+    """The simulated torso IMU: MuJoCo's frame-quaternion, gyro and accelerometer sensors
+    at the ``imu`` site, with white noise (standard deviations) and a constant bias per
+    axis drawn once from ``bias_std`` (seeded)."""
+
+    name = "sim-imu"
+
+    def __init__(
+        self,
+        sim: Simulation,
+        gyro_noise: float = 0.0,  # rad/s
+        acc_noise: float = 0.0,  # m/s²
+        orientation_noise: float = 0.0,  # rad
+        gyro_bias_std: float = 0.0,  # rad/s
+        acc_bias_std: float = 0.0,  # m/s²
+        seed: int | None = 0,
+    ) -> None:
+        for name, v in (
+            ("gyro_noise", gyro_noise),
+            ("acc_noise", acc_noise),
+            ("orientation_noise", orientation_noise),
+            ("gyro_bias_std", gyro_bias_std),
+            ("acc_bias_std", acc_bias_std),
+        ):
+            if not (np.isfinite(v) and v >= 0):
+                raise ServoError(f"SimImu: {name} must be >= 0, got {v}")
+        self.sim = sim
+        self.rng = np.random.default_rng(seed)
+        self.gyro_noise, self.acc_noise, self.orientation_noise = (
+            gyro_noise,
+            acc_noise,
+            orientation_noise,
+        )
+        self.gyro_bias = self.rng.normal(0.0, gyro_bias_std, 3) if gyro_bias_std else np.zeros(3)
+        self.acc_bias = self.rng.normal(0.0, acc_bias_std, 3) if acc_bias_std else np.zeros(3)
+        m, mj = sim.model, sim.mj
+        self._adr = {}
+        for key in ("imu_quat", "imu_gyro", "imu_acc"):
+            k = mj.mj_name2id(m, mj.mjtObj.mjOBJ_SENSOR, key)
+            self._adr[key] = slice(m.sensor_adr[k], m.sensor_adr[k] + m.sensor_dim[k])
+
+    def read(self) -> ImuReading:
+        s = self.sim.data.sensordata
+        w, x, y, z = s[self._adr["imu_quat"]]
+        quat = np.array([x, y, z, w])
+        if self.orientation_noise:
+            axis = self.rng.normal(0.0, self.orientation_noise, 3)  # small rotation vector
+            half = 0.5 * axis
+            dq = np.array([*half, 1.0])
+            dq /= np.linalg.norm(dq)
+            quat = _quat_mul(quat, dq)
+        gyro = s[self._adr["imu_gyro"]] + self.gyro_bias
+        acc = s[self._adr["imu_acc"]] + self.acc_bias
+        if self.gyro_noise:
+            gyro = gyro + self.rng.normal(0.0, self.gyro_noise, 3)
+        if self.acc_noise:
+            acc = acc + self.rng.normal(0.0, self.acc_noise, 3)
+        return ImuReading(self.sim.time, quat, gyro, acc)
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions (x, y, z, w)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return np.array([
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    ])  # fmt: skip

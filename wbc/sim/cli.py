@@ -1,0 +1,187 @@
+"""``wbc sim`` and ``wbc deploy --sim``: the simulated robot on the command line.
+
+``wbc deploy REC.npz --sim [--realtime] [--view]`` runs the deployment (soft start, clamping,
+rate limit, watchdog) on :class:`~wbc.sim.bus.SimServoBus` instead of a serial port.
+``wbc sim`` plays a recording, or a solver on a benchmark trajectory, through the same path
+and prints what the physics did (fell, deviations, slip, torques, CoP margin)::
+
+    wbc sim --solver hqp-daqp --trajectory walk10          # plan, then simulate
+    wbc sim results/runs/hqp-daqp__walk10.npz --view       # live in meshcat, planned ghost
+    wbc sim --solver placo --trajectory thesis_step --export sim.html --json sim.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import WbcError
+
+
+def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
+    """``wbc deploy`` options for the simulated robot (mujoco is imported only when used)."""
+    parser.add_argument(
+        "--sim", action="store_true", help="no port: the MuJoCo-simulated robot (wbc[physics])"
+    )
+    parser.add_argument(
+        "--realtime", action="store_true", help="--sim: wall-clock pace (default: lockstep)"
+    )
+    parser.add_argument(
+        "--view", action="store_true", help="--sim: show it live in meshcat (at real speed)"
+    )
+
+
+def make_sim_bus(args: argparse.Namespace, robot):
+    """The simulated bus for ``wbc deploy --sim`` (robot standing at Walk Ready)."""
+    from .bus import SimServoBus
+    from .simulator import Simulation
+
+    sim = Simulation(robot)
+    on_tick = None
+    if getattr(args, "view", False):
+        on_tick = _live_view(robot, sim)
+    torque_limit = args.torque_limit if getattr(args, "torque_limit", 1023) != 1023 else None
+    return SimServoBus(sim, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick)
+
+
+def _live_view(robot, sim, planned=None):
+    """A meshcat viewer following the simulation (one update per control tick)."""
+    from ..viewer import Viewer
+
+    viewer = Viewer(robot)
+    print(f"meshcat: {viewer.url}", flush=True)
+
+    pace = _Pacer()
+
+    def update(_bus=None) -> None:
+        viewer.update(sim.q())  # the deployment plays joints only: no planned CoM here
+        pace(sim.time)
+
+    return update
+
+
+class _Pacer:
+    """Sleep so that simulated time does not run ahead of the wall clock (lockstep physics,
+    shown at real speed: a slow draw never changes what the physics does)."""
+
+    def __init__(self) -> None:
+        self.start: tuple[float, float] | None = None
+
+    def __call__(self, sim_time: float) -> None:
+        import time
+
+        now = time.perf_counter()
+        if self.start is None:
+            self.start = (now, sim_time)
+        ahead = (sim_time - self.start[1]) - (now - self.start[0])
+        if ahead > 0:
+            time.sleep(ahead)
+
+
+# ---------------------------------------------------------------------- wbc sim
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("recording", nargs="?", help="recording .npz to play (else --solver)")
+    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--solver", default="hqp-daqp", help="plan with this benchmark solver")
+    parser.add_argument("--trajectory", default="walk10", help="benchmark trajectory to plan")
+    parser.add_argument("--rate", type=float, help="control rate, Hz (default: the recording's)")
+    parser.add_argument("--settle", type=float, default=1.0, help="hold the end pose, s")
+    parser.add_argument(
+        "--push",
+        nargs=2,
+        type=float,
+        metavar=("FX_NS", "FY_NS"),
+        help="torso impulse (N·s, world x and y) at mid single support",
+    )
+    parser.add_argument("--realtime", action="store_true", help="wall-clock pace")
+    parser.add_argument("--view", action="store_true", help="show it live in meshcat")
+    parser.add_argument("--export", type=Path, help="write a replay page (.html)")
+    parser.add_argument("--json", type=Path, help="write the physics record (.json)")
+    parser.add_argument("--record", type=Path, help="save the simulated run (.npz)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..bench.physics import (
+        PHYSICS_KEYS,
+        mid_single_support,
+        physics_record,
+        plan,
+        simulated_recording,
+    )
+    from ..model import load_robot
+    from ..recording import Recording
+    from .play import play
+
+    if not (math.isfinite(args.settle) and args.settle >= 0):
+        raise WbcError(f"--settle must be a time >= 0 s, got {args.settle}")
+    robot = load_robot(args.robot)
+    if args.recording:
+        rec = Recording.load(args.recording)
+        label = Path(args.recording).name
+    else:
+        rec = plan(args.solver, args.trajectory, robot)
+        label = f"{args.solver} on {args.trajectory}"
+    push = None
+    if args.push:
+        t_push = mid_single_support(rec)
+        if t_push is None:
+            raise WbcError(f"{label}: no single-support phase to push in")
+        duration = 0.01
+        push = (t_push, [args.push[0] / duration, args.push[1] / duration, 0.0], duration)
+    on_tick = None
+    viewer = None
+    if args.view:
+        from ..viewer import Viewer
+
+        viewer = Viewer(robot)
+        print(f"meshcat: {viewer.url} (planned CoM and swing sole beside the real ones)")
+        rec_t = rec.t - rec.t[0]
+        planned = {k: rec[k] for k in ("com", "swing") if k in rec.channels}
+        start: list[float] = []
+        pace = _Pacer()
+
+        def on_tick(sim) -> None:
+            start[:] = start or [sim.time]
+            t = sim.time - start[0]
+            ref = {
+                f"{k}_ref": np.array([np.interp(t, rec_t, v[:, j]) for j in range(3)])
+                for k, v in planned.items()
+            }
+            viewer.update(sim.q(), **ref)
+            pace(sim.time)
+
+    result = play(
+        rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime,
+        push=push, on_tick=on_tick,
+    )  # fmt: skip
+    record = physics_record(rec, result, robot)
+    record.pop("_series")
+    print(f"simulated {label}: {result.deploy.timing.ticks} ticks")
+    for key, (text, unit) in PHYSICS_KEYS.items():
+        v = record.get(key)
+        if isinstance(v, float) and not math.isnan(v):
+            print(f"  {text}: {v:.3g} {unit}".rstrip())
+        elif v is not None:
+            print(f"  {text}: {v} {unit}".rstrip())
+    if not result.deploy.completed:
+        print(f"  deploy: SAFE STOP: {result.deploy.trip}", file=sys.stderr)
+    sim_rec = simulated_recording(rec, result, robot)
+    if args.record:
+        sim_rec.save(args.record)
+        print(f"simulated run in {args.record}")
+    if args.export:
+        from ..viewer.scene import export_html
+
+        export_html(robot, sim_rec, args.export)
+        print(f"replay page {args.export}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(record, indent=1))
+    if viewer is not None:
+        viewer.close()
+    return 0 if result.deploy.completed else 3

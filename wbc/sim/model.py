@@ -1,0 +1,155 @@
+"""The MuJoCo model of a robot, built at run time from its URDF (no hand-kept MJCF copy).
+
+``MjSpec.from_file(urdf)`` reads the URDF with MuJoCo's URDF defaults (``discardvisual``:
+visual geoms dropped, the collision geoms kept; ``fusestatic``: massless fixed links such as
+``l_sole`` merged into their parent; inertias taken as written, rotated to their principal
+axes). Then :func:`build_spec` adds a free joint on the root link, a floor, one torque
+actuator per joint (the servo law in :mod:`wbc.sim.actuator` sets its control every step),
+the AX-12A joint properties (reflected rotor inertia, back-EMF damping, gear friction),
+sites at the robot's operational frames (soles, hands, torso IMU) and the IMU sensors.
+The robot's own geoms collide with the floor only (self-collision is the controller's
+business: issue 14).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import WbcError
+from ..model import Robot
+from . import mujoco_module
+
+SITES = ("torso", "l_sole", "r_sole", "l_hand", "r_hand")
+IMU_SITE = "imu"
+
+
+@dataclass(frozen=True)
+class ModelParams:
+    """Physical parameters of one simulated model (nominal values by default).
+
+    ``mass_scale`` / ``com_offset`` are per link (MuJoCo body order after the world, i.e. the
+    order of :func:`link_names`); None = as in the URDF.
+    """
+
+    timestep: float = 0.002
+    floor_friction: float = 0.8  # sliding friction coefficient (dry plastic on a table)
+    armature: float | np.ndarray = 0.005
+    damping: float | np.ndarray = 0.24
+    friction_loss: float | np.ndarray = 0.05
+    mass_scale: np.ndarray | None = None
+    com_offset: np.ndarray | None = None  # (n_links, 3) m
+    imu_offset: Sequence[float] = (0.0, 0.0, 0.0)  # IMU site in the torso frame, m
+    extra: dict = field(default_factory=dict)
+
+
+def build_spec(robot: Robot, params: ModelParams | None = None):
+    """The MuJoCo spec of ``robot`` (free base, floor, actuators, sites, IMU sensors)."""
+    mj = mujoco_module()
+    p = params or ModelParams()
+    try:
+        spec = mj.MjSpec.from_file(str(robot.urdf_path))
+    except Exception as exc:
+        raise WbcError(f"MuJoCo cannot read the URDF {robot.urdf_path}: {exc}") from exc
+    spec.option.timestep = p.timestep
+    spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
+    bodies = {b.name: b for b in spec.bodies}
+    root_name = robot.model.frames[robot.model.getFrameId("torso")].name
+    root = bodies.get(root_name)
+    if root is None:
+        raise WbcError(f"MuJoCo model of {robot.urdf_path.name} has no root body {root_name!r}")
+    root.add_freejoint(name="base")
+    spec.worldbody.add_geom(
+        name="floor",
+        type=mj.mjtGeom.mjGEOM_PLANE,
+        size=[5.0, 5.0, 0.05],
+        friction=[p.floor_friction, 0.005, 0.0001],
+        contype=1,
+        conaffinity=1,
+        rgba=[0.8, 0.8, 0.8, 1.0],
+    )
+    for g in spec.geoms:
+        if g.name != "floor":
+            g.contype, g.conaffinity = 1, 0  # robot <-> floor only
+    links = link_names(spec)
+    if p.mass_scale is not None or p.com_offset is not None:
+        scale = np.ones(len(links)) if p.mass_scale is None else np.asarray(p.mass_scale)
+        offset = np.zeros((len(links), 3)) if p.com_offset is None else np.asarray(p.com_offset)
+        for k, name in enumerate(links):
+            b = bodies[name]
+            b.mass = b.mass * float(scale[k])
+            b.fullinertia = np.asarray(b.fullinertia) * float(scale[k])
+            b.ipos = np.asarray(b.ipos) + offset[k]
+    n = robot.n_joints
+    arm = np.broadcast_to(np.asarray(p.armature, dtype=float), (n,))
+    damp = np.broadcast_to(np.asarray(p.damping, dtype=float), (n,))
+    fric = np.broadcast_to(np.asarray(p.friction_loss, dtype=float), (n,))
+    joints = {j.name: j for j in spec.joints}
+    for i, name in enumerate(robot.joint_names):
+        j = joints.get(name)
+        if j is None:
+            raise WbcError(f"MuJoCo model of {robot.urdf_path.name} lacks joint {name!r}")
+        j.armature, j.frictionloss = float(arm[i]), float(fric[i])
+        try:
+            j.damping = [float(damp[i]), 0.0, 0.0]  # MuJoCo 4: polynomial, linear term first
+        except TypeError:
+            j.damping = float(damp[i])  # MuJoCo 3
+        spec.add_actuator(
+            name=name,
+            target=name,
+            trntype=mj.mjtTrn.mjTRN_JOINT,
+            gainprm=[1.0] + [0.0] * 9,
+            biasprm=[0.0] * 10,
+            ctrllimited=0,
+        )
+    for frame in SITES:
+        body, placement = _site_placement(robot, frame, bodies)
+        body.add_site(name=frame, pos=placement.translation, quat=_wxyz(placement.rotation))
+    body, placement = _site_placement(robot, "torso", bodies)
+    body.add_site(name=IMU_SITE, pos=placement.translation + np.asarray(p.imu_offset))
+    spec.add_sensor(name="imu_quat", type=mj.mjtSensor.mjSENS_FRAMEQUAT,
+                    objtype=mj.mjtObj.mjOBJ_SITE, objname=IMU_SITE)  # fmt: skip
+    spec.add_sensor(name="imu_gyro", type=mj.mjtSensor.mjSENS_GYRO,
+                    objtype=mj.mjtObj.mjOBJ_SITE, objname=IMU_SITE)  # fmt: skip
+    spec.add_sensor(name="imu_acc", type=mj.mjtSensor.mjSENS_ACCELEROMETER,
+                    objtype=mj.mjtObj.mjOBJ_SITE, objname=IMU_SITE)  # fmt: skip
+    return spec
+
+
+def build_model(robot: Robot, params: ModelParams | None = None):
+    """The compiled ``MjModel`` of :func:`build_spec`."""
+    spec = build_spec(robot, params)
+    try:
+        return spec.compile()
+    except Exception as exc:
+        raise WbcError(f"MuJoCo cannot compile the model of {robot.urdf_path.name}: {exc}") from exc
+
+
+def link_names(spec) -> list[str]:
+    """Names of the spec's bodies that carry mass (the links; massless fixed frames such as
+    ``l_sole`` are merged into their parent at compile time)."""
+    return [b.name for b in spec.bodies if b.name != "world" and b.mass > 0]
+
+
+def _wxyz(R: np.ndarray) -> np.ndarray:
+    x, y, z, w = pin.Quaternion(R).coeffs()
+    return np.array([w, x, y, z])
+
+
+def _site_placement(robot: Robot, frame: str, bodies: dict):
+    """The MuJoCo body carrying ``frame`` and the frame's placement in that body."""
+    model = robot.model
+    fid = robot.frame_id(frame)
+    joint = model.frames[fid].parentJoint
+    # the body frame of the link that the joint moves: a BODY frame with that parent joint
+    for f in model.frames:
+        if f.parentJoint == joint and f.type == pin.FrameType.BODY and f.name in bodies:
+            body_frame = f
+            break
+    else:
+        raise WbcError(f"no MuJoCo body carries frame {frame!r}")
+    placement = body_frame.placement.inverse() * model.frames[fid].placement
+    return bodies[body_frame.name], placement

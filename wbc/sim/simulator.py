@@ -1,0 +1,239 @@
+"""The simulated robot: MuJoCo physics, the AX-12A servo law every step, faults and state.
+
+Configurations use wbc's convention (Pinocchio free flyer: ``[x, y, z, qx, qy, qz, qw,
+joints...]`` in the robot's joint order); MuJoCo's own ``qpos`` (quaternion ``w`` first, its
+joint order) stays inside this module.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import WbcError
+from ..model import Robot
+from ..servo_map import ServoSettings
+from . import mujoco_module
+from .actuator import ServoArray, ServoParams
+from .model import ModelParams, build_model
+
+#: a servo fault the simulation can inject: stops answering (``silent``) or the overload bit
+FAULT_KINDS = ("silent", "overload")
+
+
+class Simulation:
+    """One simulated robot on a floor.
+
+    ``step()`` computes the servo torques from the state (vectorised over joints), sets them
+    as the actuators' controls and advances MuJoCo by one timestep; ``advance(duration)``
+    repeats it. Goals are written in ticks (:meth:`write_goals`) as on the bus.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        model_params: ModelParams | None = None,
+        servo_params: ServoParams | None = None,
+        settings: ServoSettings | None = None,
+    ) -> None:
+        self.mj = mujoco_module()
+        if robot.servo_map is None:
+            raise WbcError(f"robot {robot.name} has no servo map (servos.toml): no servos to sim")
+        self.robot = robot
+        self.model_params = model_params or ModelParams()
+        self.settings = settings or robot.servo_map.settings
+        self.servo_params = servo_params or ServoParams.from_settings(
+            self.settings,
+            damping=float(np.mean(self.model_params.damping)),
+            armature=float(np.mean(self.model_params.armature)),
+            friction_loss=float(np.mean(self.model_params.friction_loss)),
+        )
+        self.model = build_model(robot, self.model_params)
+        self.data = self.mj.MjData(self.model)
+        self._dt = float(self.model.opt.timestep)
+        m, mj = self.model, self.mj
+        jid = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, n) for n in robot.joint_names]
+        self.qadr = np.array([m.jnt_qposadr[j] for j in jid])
+        self.vadr = np.array([m.jnt_dofadr[j] for j in jid])
+        self.act = np.array(
+            [mj.mj_name2id(m, mj.mjtObj.mjOBJ_ACTUATOR, n) for n in robot.joint_names]
+        )
+        self.damping = m.dof_damping[self.vadr].copy()
+        self._q_index = _as_slice(self.qadr)  # a slice when contiguous: faster per step
+        self._ctrl_index = _as_slice(self.act)
+        self.site = {
+            n: mj.mj_name2id(m, mj.mjtObj.mjOBJ_SITE, n)
+            for n in ("torso", "l_sole", "r_sole", "l_hand", "r_hand", "imu")
+        }
+        self.root = int(m.jnt_bodyid[mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "base")])
+        self.floor = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, "floor")
+        self.servos = ServoArray(robot.servo_map, self.servo_params)
+        self.silent = np.zeros(robot.n_joints, dtype=bool)
+        self.steps = 0
+        self.peak_torque = np.zeros(robot.n_joints)  # max |τ| since the last reset_peak()
+        self._push: tuple[float, float, np.ndarray] | None = None
+        self.reset(robot.configuration("walk_ready"))
+
+    # ------------------------------------------------------------------ state
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    def reset(self, q: np.ndarray, torque: bool = False) -> None:
+        """Put the robot at configuration ``q`` (wbc convention), at rest; goals there."""
+        q = self.robot.check_configuration(q)
+        mj = self.mj
+        mj.mj_resetData(self.model, self.data)
+        self.data.qpos[:3] = q[:3]
+        self.data.qpos[3:7] = [q[6], q[3], q[4], q[5]]
+        self.data.qpos[self.qadr] = q[7:]
+        mj.mj_forward(self.model, self.data)
+        self.servos.reset(q[7:])
+        self.set_torque(torque)
+        self.silent[:] = False
+        self.steps = 0
+        self.peak_torque[:] = 0.0
+        self._push = None
+        self.data.xfrc_applied[:] = 0.0
+
+    def q(self) -> np.ndarray:
+        """The configuration (wbc convention)."""
+        qp = self.data.qpos
+        return np.concatenate([qp[:3], [qp[4], qp[5], qp[6], qp[3]], qp[self.qadr]])
+
+    def robot_feet(self) -> tuple[str, str]:
+        """Names of the bodies carrying the left and right soles."""
+        m, mj = self.model, self.mj
+        return tuple(
+            mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, int(m.site_bodyid[self.site[s]]))
+            for s in ("l_sole", "r_sole")
+        )
+
+    def joint_velocities(self) -> np.ndarray:
+        return self.data.qvel[self.vadr].copy()
+
+    def base_rotation(self) -> np.ndarray:
+        return self.data.xmat[self.root].reshape(3, 3).copy()
+
+    def site_pose(self, name: str) -> pin.SE3:
+        """World placement of a site (``torso``, ``l_sole``, ``r_sole``, hands, ``imu``)."""
+        k = self.site[name]
+        return pin.SE3(self.data.site_xmat[k].reshape(3, 3).copy(), self.data.site_xpos[k].copy())
+
+    def com(self) -> np.ndarray:
+        """Whole-body centre of mass (world)."""
+        return self.data.subtree_com[self.root].copy()
+
+    def joint_torques(self) -> np.ndarray:
+        """Servo torques of the last step (N·m, joint direction)."""
+        return self.servos.torque.copy()
+
+    def contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Floor contacts: points (k, 3), normal forces (k,) and the body of each point."""
+        mj, m, d = self.mj, self.model, self.data
+        pts, fz, body = [], [], []
+        f6 = np.zeros(6)
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if self.floor not in (c.geom1, c.geom2):
+                continue
+            mj.mj_contactForce(m, d, i, f6)
+            other = c.geom2 if c.geom1 == self.floor else c.geom1
+            pts.append(c.pos.copy())
+            fz.append(f6[0])
+            body.append(m.geom_bodyid[other])
+        if not pts:
+            return np.zeros((0, 3)), np.zeros(0), np.zeros(0, int)
+        return np.array(pts), np.array(fz), np.array(body)
+
+    def cop(self) -> np.ndarray | None:
+        """Centre of pressure on the floor (x, y) from the contact forces; None in the air."""
+        pts, fz, _ = self.contacts()
+        total = fz.sum()
+        if total <= 1e-9:
+            return None
+        return (pts[:, :2] * fz[:, None]).sum(axis=0) / total
+
+    # ------------------------------------------------------------------ servos
+    def set_torque(self, enabled: bool | np.ndarray) -> None:
+        """Torque on/off (all servos or a mask); the back-EMF brake only acts when on."""
+        self.servos.enabled[:] = enabled
+        self.model.dof_damping[self.vadr] = np.where(self.servos.enabled, self.damping, 0.0)
+
+    def set_speed_ticks(self, ticks_per_s: float | np.ndarray) -> None:
+        """The moving-speed cap of every servo (ticks/s)."""
+        self.servos.speed[:] = ticks_per_s
+
+    def write_goals(self, ticks: np.ndarray) -> None:
+        """Goal positions (ticks, model order); a silent servo ignores its goal."""
+        ticks = np.asarray(ticks, dtype=float)
+        self.servos.goal[:] = np.where(self.silent, self.servos.goal, ticks)
+
+    def present_ticks(self) -> np.ndarray:
+        """Present Position of every servo (quantised ticks)."""
+        return self.servos.present(self.data.qpos[self.qadr])
+
+    def inject(self, kind: str, index: int) -> None:
+        """A servo fault: ``silent`` (stops answering and ignores goals) or ``overload``."""
+        if kind not in FAULT_KINDS:
+            raise WbcError(f"unknown fault {kind!r}; choose from {FAULT_KINDS}")
+        if not 0 <= index < self.robot.n_joints:
+            raise WbcError(f"fault: servo index {index} outside 0..{self.robot.n_joints - 1}")
+        if kind == "silent":
+            self.silent[index] = True
+        else:
+            self.servos.error[index] |= 0x20
+
+    # ------------------------------------------------------------------ stepping
+    def push(self, force: Sequence[float], duration: float, start: float | None = None) -> None:
+        """A force (N, world) on the root body's CoM for ``duration`` s from ``start``
+        (default: now); the impulse is ``force · duration`` (N·s)."""
+        t0 = self.time if start is None else float(start)
+        self._push = (t0, t0 + float(duration), np.asarray(force, dtype=float).copy())
+
+    def reset_peak(self) -> np.ndarray:
+        """The peak |torque| per joint since the last call, and start a new window."""
+        out = self.peak_torque.copy()
+        self.peak_torque[:] = 0.0
+        return out
+
+    def step(self) -> None:
+        """One physics step: servo law, then MuJoCo."""
+        d = self.data
+        tau = self.servos.law(d.qpos[self._q_index], self._dt)
+        d.ctrl[self._ctrl_index] = tau
+        np.maximum(self.peak_torque, np.abs(tau), out=self.peak_torque)
+        push = self._push
+        if push is not None:
+            on = push[0] - 1e-9 <= d.time < push[1] - 1e-9
+            d.xfrc_applied[self.root, :3] = push[2] if on else 0.0
+        self.mj.mj_step(self.model, d)
+        if push is not None and d.time >= push[1] - 1e-9:
+            d.xfrc_applied[self.root, :3] = 0.0
+            self._push = None
+        self.steps += 1
+
+    def advance(self, duration: float) -> None:
+        """Step until ``duration`` seconds later (whole timesteps)."""
+        self.advance_to(self.time + duration)
+
+    def advance_to(self, t: float) -> None:
+        """Step while the next step ends at or before ``t``."""
+        n = math.floor((t - self.data.time) / self._dt + 1e-6)
+        step = self.step
+        for _ in range(n):
+            step()
+
+
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice if it is a contiguous increasing range."""
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0] + index.size))
+    return index
