@@ -42,18 +42,21 @@ def test_robot_data_bad_input(tmp_path, kokone):
     poses_file.write_text('[poses.x]\nl_knee = "bent"\n')
     with pytest.raises(ModelError, match=r"pose 'x' l_knee = 'bent': not a number"):
         RobotData.from_folder(tmp_path, kokone.joint_names)
-    with pytest.raises(ModelError, match="unknown configuration 'walk_ready'"):
-        kokone.configuration("walk_ready")  # Kokone has no Walk Ready: it says so
 
 
 def test_frame_names_map_through_robot_data(tmp_path, kokone):
-    """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml."""
-    from wbc.model import Robot
+    """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml, next
+    to the standing pose and the feet of the same file."""
+    import shutil
 
-    (tmp_path / "robot.toml").write_text('[frames]\ntorso = "l_hand"\n')
-    r = Robot(KOKONE / "kokone.urdf", None, tmp_path)
+    folder = tmp_path / "kokone2"
+    folder.mkdir()
+    shutil.copy(KOKONE / "kokone.urdf", folder / "kokone2.urdf")
+    (folder / "robot.toml").write_text('[frames]\ntorso = "l_hand"\n[feet]\nwidth = 0.03\n')
+    r = load_robot(folder)
     assert r.frame_id("torso") == kokone.frame_id("l_hand")
     assert r.stand_pose == "zero"  # no servo map, no stand: the zero pose, not Walk Ready
-    (tmp_path / "robot.toml").write_text('[frames]\ntorso = "pelvis"\n')
-    with pytest.raises(ModelError, match=r"maps 'torso' to 'pelvis', which is not a frame"):
-        Robot(KOKONE / "kokone.urdf", None, tmp_path)
+    assert r.foot_size[1] == 0.03
+    (folder / "robot.toml").write_text('[frames]\ntorso = "pelvis"\n')
+    with pytest.raises(ModelError, match=r"'torso' is mapped to 'pelvis', which is not a frame"):
+        load_robot(folder)

@@ -137,7 +137,8 @@ class ControlStack:
         if phase not in PHASES:
             raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
         roles = {"support": support, "swing": swing}
-        for item in [*self.stack.tasks(), *self.stack.constraints()]:
+        items: list[Task | Constraint] = [*self.stack.tasks(), *self.stack.constraints()]
+        for item in items:
             binding = self.bindings.get(item.name)
             if binding is None:
                 continue
@@ -150,7 +151,7 @@ class ControlStack:
                 if isinstance(item, ComPolygonConstraint):
                     item.set_support([frame])
                 else:
-                    item.set_frame(frame)
+                    item.set_frame(frame)  # type: ignore[union-attr]  # role-bound: has a frame
             item.active = phase in binding.phases
             if (
                 isinstance(item, ContactTask)
@@ -296,16 +297,41 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
     phases = tuple(entry.get("phases", PHASES))
     if not set(phases) <= set(PHASES):
         raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
     name = entry.get("name")
     if name is None:
         name = kind if frame is None else f"{kind}_{frame}"
     kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
+    _check_numbers(kw, f"{where}: level {priority}: task {name!r}")
     if "axis" in entry:
         kw["axis"] = entry["axis"]
-    task = TASK_TYPES[kind](robot, actual, name, **kw)
+    try:
+        task = TASK_TYPES[kind](robot, actual, name, **kw)
+    except WbcError as exc:
+        raise TaskError(f"{where}: level {priority}: task {name!r}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
     return task, binding
+
+
+def _check_numbers(kw: Mapping[str, Any], where: str) -> None:
+    """``weight`` (a number or a list of numbers, >= 0), ``gain`` (a number, >= 0) and ``mask``
+    (a list of booleans) before they reach the task: a wrong type is named, not a traceback."""
+
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    if "weight" in kw:
+        w = kw["weight"]
+        if not (number(w) or (isinstance(w, list) and w and all(number(x) for x in w))):
+            raise TaskError(
+                f"{where}: weight = {w!r}: must be a number >= 0 or a list of numbers (one per row)"
+            )
+    if "gain" in kw and not number(kw["gain"]):
+        raise TaskError(f"{where}: gain = {kw['gain']!r}: must be a number >= 0")
+    if "mask" in kw:
+        m = kw["mask"]
+        if not (isinstance(m, list) and m and all(isinstance(x, bool) for x in m)):
+            raise TaskError(f"{where}: mask = {m!r}: must be a list of true/false, one per row")
 
 
 def _make_constraint(entry, robot: Robot, where: str, priority: int):
@@ -323,7 +349,16 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
     frame = entry.get("frame")
     role = frame if frame in ROLES else None
     phases = tuple(entry.get("phases", PHASES))
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
+    try:
+        constraint = _build_constraint(kind, entry, robot, where, actual, frame)
+    except WbcError as exc:
+        raise TaskError(f"{where}: level {priority}: constraint {kind!r}: {exc}") from exc
+    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
+    return constraint, binding
+
+
+def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     constraint: Constraint
     if kind == "com_polygon":
         soles = [actual] if actual else ["l_sole", "r_sole"]
@@ -339,8 +374,7 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
             entry.get("clearance", 0.0),
             name=entry.get("name", f"ground_clearance_{frame}"),
         )
-    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
-    return constraint, binding
+    return constraint
 
 
 _SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include", "exclude"}

@@ -70,12 +70,23 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
     return kw
 
 
-def build(name: str, robot: Robot) -> WalkingReference:
-    """A walking reference by name, starting from the robot's standing pose."""
+def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReference:
+    """A walking reference by name, starting from the robot's standing pose.
+
+    ``walking_only``: the caller cannot run :data:`STATIC_COM` (a benchmark set, not a
+    walking reference); the message then lists only the walking references.
+    """
+    if name == STATIC_COM:
+        raise ConfigurationError(
+            f"trajectory {STATIC_COM!r} is the static CoM placement set (wbc bench "
+            f"--trajectories {STATIC_COM}), not a walking reference; walk one of "
+            f"{list(TRAJECTORIES)}"
+        )
     try:
         builder, _ = TRAJECTORIES[name]
     except KeyError:
-        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {names()}") from None
+        allowed = list(TRAJECTORIES) if walking_only else names()
+        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {allowed}") from None
     kw = robot_options(robot, name)
     try:
         ref = builder(StandingState.from_robot(robot, robot.configuration("stand")), **kw)

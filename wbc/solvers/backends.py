@@ -320,7 +320,7 @@ class OsqpBackend(QPBackend):
             self._solver, self._shape = solver, (n, m_eq, m_in)
         else:
             self._solver.update(q=c, l=lo, u=up, Px=P.data, Ax=Kc.data)
-        res = self._solver.solve()
+        res = self._solver.solve(raise_error=False)  # the status is checked below
         status = res.info.status
         self.iterations = int(res.info.iter)
         if status in ("solved", "solved inaccurate") and res.x is not None:

@@ -30,7 +30,7 @@ class ComTask(Task):
     def __init__(
         self,
         robot: Robot,
-        target: Sequence[float] | None = None,
+        target: Sequence[float] | np.ndarray | None = None,
         name: str = "com",
         gain: float = 1.0,
         weight: float | Sequence[float] = 1.0,
@@ -41,7 +41,7 @@ class ComTask(Task):
         if target is not None:
             self.set_target(target)
 
-    def set_target(self, target: Sequence[float]) -> None:
+    def set_target(self, target: Sequence[float] | np.ndarray) -> None:
         """Set the CoM target (world, m), copied in place."""
         self.target[:] = check_vector(self, target, 3)
 

@@ -219,7 +219,7 @@ class Task:
         J = np.zeros((self.dim, nv))
         Jf = np.zeros((6, nv))
         kernel(
-            self.packed_target(), slots, Rs, ps, supports, kin.data.J, kin.com,
+            self.packed_target(), slots, Rs, ps, supports, kin.data.J, kin.data.com[0],
             kin.com_jacobian, kin.q, Jf, e, J,
         )  # fmt: skip
         return e, J
