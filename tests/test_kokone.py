@@ -372,3 +372,13 @@ def test_bioloid_closed_form_ik_refuses_kokone_with_a_pointer(kokone):
 
     with pytest.raises(ModelError, match=r"closed form is the Bioloid's.*StanceIK"):
         leg_ik(kokone, "left", pin.SE3.Identity())
+
+
+def test_robot_check_accepts_the_kokone_folder():
+    """``wbc robot check robots/kokone``: no error; the SSC-32 map is checked in place of a
+    Dynamixel servo map."""
+    from wbc.robot_folder import check_folder
+
+    findings = check_folder(KOKONE)
+    assert not [f for f in findings if f.level == "error"]
+    assert any(f.level == "ok" and "ssc32.toml" in f.message for f in findings)
