@@ -135,6 +135,8 @@ def test_numpy_integer_levels_are_accepted(robot):
         ({"type": "com", "mask": [1, 0, 1]}, r"mask = \[1, 0, 1\]: must be a list of true/false"),
         ({"type": "com", "weight": -1.0}, r"task 'com': .*weights must be finite and >= 0"),
         ({"type": "frame_position", "frame": "hand"}, r"unknown frame 'hand'; links of"),
+        ({"type": "damping", "gain": 2.0}, r"DampingTask takes no \['gain'\]; its keys"),
+        ({"type": "joint_limit_damping", "gain": 2.0}, r"takes no \['gain'\]"),
     ],
 )
 def test_bad_task_values_name_the_file_level_and_task(robot, entry, match):

@@ -22,6 +22,8 @@ from .robot_data import ROBOT_KEYS, RobotData
 from .servo_map import ServoMap
 
 WORLD = pin.ReferenceFrame.WORLD
+#: how far the base quaternion of a configuration may be from unit norm
+QUATERNION_TOL = 1e-6
 LOCAL = pin.ReferenceFrame.LOCAL
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _REFERENCES = {"world": WORLD, "local": LOCAL, "local_world_aligned": LOCAL_WORLD_ALIGNED}
@@ -322,7 +324,9 @@ class Robot:
 
     # ------------------------------------------------------------------ configurations
     def check_configuration(self, q: Sequence[float] | np.ndarray, what: str = "q") -> np.ndarray:
-        """Return ``q`` as a C-contiguous float array after checking its size and finiteness."""
+        """Return ``q`` as a C-contiguous float array after checking its size, its finiteness
+        and its base quaternion (unit to :data:`QUATERNION_TOL`: a zero or scaled quaternion
+        is no rotation, and is refused rather than normalised)."""
         q = np.ascontiguousarray(q, dtype=float)
         if q.shape != (self.nq,):
             raise ConfigurationError(
@@ -334,6 +338,14 @@ class Robot:
             idx = np.flatnonzero(~np.isfinite(q))
             names = [self._q_name(i) for i in idx]
             raise ConfigurationError(f"{what}: non-finite values at {names}")
+        x, y, z, w = q[3], q[4], q[5], q[6]
+        norm2 = x * x + y * y + z * z + w * w
+        if abs(norm2 - 1.0) > 2.0 * QUATERNION_TOL:  # |‖quat‖ − 1| <= 1e-6, to first order
+            raise ConfigurationError(
+                f"{what}: the base quaternion (base_qx, base_qy, base_qz, base_qw) = "
+                f"{q[3:7].tolist()} has norm {math.sqrt(norm2):.6g}; it must be unit "
+                f"(to {QUATERNION_TOL:g}): normalise it"
+            )
         return q
 
     def _q_name(self, i: int) -> str:

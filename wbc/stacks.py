@@ -18,6 +18,7 @@ controller re-binds them at every support change (:meth:`ControlStack.set_phase`
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,8 +56,20 @@ SOLVERS = ("weighted", "hierarchical")
 _TASK_KEYS = {"type", "name", "frame", "weight", "gain", "mask", "phases"}
 
 
+def _check_keys(cls, kw: dict) -> None:
+    """A key the task class does not take (e.g. ``gain`` on a damping task) is one line."""
+    accepted = inspect.signature(cls).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values()):
+        return
+    bad = sorted(k for k in kw if k not in accepted)
+    if bad:
+        allowed = sorted(k for k in accepted if k in _TASK_KEYS)
+        raise TaskError(f"{cls.__name__} takes no {bad}; its keys: {allowed}")
+
+
 def _frame_task(cls) -> Callable[..., Task]:
     def make(robot: Robot, frame: str, name: str | None, **kw) -> Task:
+        _check_keys(cls, kw)
         return cls(robot, frame, name=name, **kw)
 
     return make
@@ -66,6 +79,7 @@ def _frameless(cls, default_name: str) -> Callable[..., Task]:
     def make(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
         if frame is not None:
             raise TaskError(f"task type for {cls.__name__} takes no 'frame'")
+        _check_keys(cls, kw)
         return cls(robot, name=name or default_name, **kw)
 
     return make

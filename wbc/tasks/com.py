@@ -21,7 +21,12 @@ def com_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> Non
 
 
 class ComTask(Task):
-    """e = c* − c(q), J = J_com (3 x nv); the thesis's Δx = x* − x with J_T (sec. 1.5.4)."""
+    """e = c* − c(q), J = J_com (3 x nv); the thesis's Δx = x* − x with J_T (sec. 1.5.4).
+
+    ``target=None`` leaves the target unset (NaN), not at the world origin: set it
+    (:meth:`set_target`, or :meth:`set_target_from` for the current CoM) before a solve,
+    which otherwise raises :class:`~wbc.exceptions.TaskError` naming the task.
+    """
 
     dim = 3
     row_kernel = staticmethod(com_rows)
@@ -37,7 +42,8 @@ class ComTask(Task):
         mask: Sequence[bool] | None = None,
     ) -> None:
         super().__init__(name, gain, weight, mask)
-        self.target = np.zeros(3)
+        #: None: unset (NaN) until set_target/set_target_from; a solve before raises TaskError
+        self.target = np.full(3, np.nan)
         if target is not None:
             self.set_target(target)
 
