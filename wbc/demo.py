@@ -16,7 +16,7 @@ def _fmt(v: np.ndarray) -> str:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
-    parser.add_argument("--pose", default="walk_ready", help="named configuration")
+    parser.add_argument("--pose", default="stand", help="named configuration")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -18,6 +18,7 @@ import pinocchio as pin
 
 from .exceptions import ConfigurationError, ModelError, ServoMapError
 from .paths import read_toml, robots_dir
+from .robot_data import ROBOT_KEYS, RobotData
 from .servo_map import ServoMap
 
 WORLD = pin.ReferenceFrame.WORLD
@@ -95,6 +96,7 @@ def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | Non
         servo_map,
         poses=poses if poses.is_file() else None,
         frames=read_frames(meta) if meta.is_file() else None,
+        data_dir=folder,
     )
     stack = folder / STACK_FILE
     robot.default_stack = stack if stack.is_file() else None
@@ -120,9 +122,9 @@ def _is_template(path: Path) -> bool:
 def read_frames(path: Path) -> dict[str, str]:
     """``robot.toml``'s ``[frames]`` table: standard frame name -> the URDF's frame name."""
     raw = read_toml(path, "robot file", ModelError)
-    extra = sorted(set(raw) - {"frames"})
+    extra = sorted(set(raw) - set(ROBOT_KEYS))
     if extra:
-        raise ModelError(f"robot file {path}: unknown keys {extra}; allowed: ['frames']")
+        raise ModelError(f"robot file {path}: unknown keys {extra}; allowed: {list(ROBOT_KEYS)}")
     frames = raw.get("frames", {})
     if not isinstance(frames, dict) or not all(isinstance(v, str) for v in frames.values()):
         raise ModelError(f"robot file {path}: [frames] must map names to URDF frame names")
@@ -140,10 +142,10 @@ def _missing_parts(robot: Robot, folder: Path) -> list[str]:
     missing ``stack.toml`` does not: the stacks of ``tasks/`` serve; ``wbc robot check`` lists
     it)."""
     notes = []
-    if robot.servo_map is None:
+    if robot.servo_map is None and not (folder / "ssc32.toml").is_file():
         state = "is an unfilled template" if (folder / SERVO_MAP_FILE).is_file() else "missing"
         notes.append(f"{folder / SERVO_MAP_FILE} {state}: no servo IDs (wbc deploy is unavailable)")
-    if STANDING_POSE not in robot.pose_names():
+    if robot.stand_pose == "zero":
         notes.append(
             f"no pose {STANDING_POSE!r} in {folder / POSES_FILE} or the servo map: "
             "starting from the zero pose (all joints 0)"
@@ -166,6 +168,7 @@ class Robot:
         servo_map: str | Path | None = None,
         poses: str | Path | Mapping[str, Mapping[str, float]] | None = None,
         frames: Mapping[str, str] | None = None,
+        data_dir: str | Path | None = None,
     ) -> None:
         urdf = Path(urdf)
         if not urdf.is_file():
@@ -217,6 +220,25 @@ class Robot:
         self.poses: dict[str, np.ndarray] = {}
         if poses is not None:
             self.poses = self._read_poses(poses)
+        #: standing pose, feet and walking settings (the robot folder's robot.toml, read from
+        #: ``data_dir``; defaults without it): :mod:`wbc.robot_data`
+        self.robot_data = (
+            RobotData() if data_dir is None else RobotData.from_folder(data_dir, self.joint_names)
+        )
+
+    @property
+    def stand_pose(self) -> str:
+        """Name of the pose walks, stacks and deployments start from (``robot.toml``'s
+        ``stand``; else ``walk_ready`` if the robot has it; else ``zero``)."""
+        if self.robot_data.stand is not None:
+            return self.robot_data.stand
+        mapped = self.servo_map.poses if self.servo_map is not None else {}
+        return STANDING_POSE if STANDING_POSE in self.poses or STANDING_POSE in mapped else "zero"
+
+    @property
+    def foot_size(self) -> tuple[float, float]:
+        """(length, width) in m of the foot rectangle under each sole frame."""
+        return self.robot_data.foot_length, self.robot_data.foot_width
 
     def _read_poses(self, source: str | Path | Mapping) -> dict[str, np.ndarray]:
         if isinstance(source, Mapping):
@@ -366,6 +388,8 @@ class Robot:
         * ``"walk_ready"`` (:data:`STANDING_POSE`) on a robot that defines no such pose: the
           zero pose (:attr:`notes` says so when the robot is loaded).
         """
+        if name == "stand":  # the robot's standing pose (robot.toml's stand, else walk_ready)
+            name = self.stand_pose
         if name == "zero" or (name == STANDING_POSE and name not in self.pose_names()):
             q = self.neutral()
         elif name in self.poses:
@@ -381,7 +405,7 @@ class Robot:
     def pose_names(self) -> list[str]:
         """Names :meth:`configuration` accepts besides ``"zero"`` (poses.toml, servo map)."""
         mapped = sorted(self.servo_map.poses) if self.servo_map else []
-        return ["zero", *sorted(self.poses), *(n for n in mapped if n not in self.poses)]
+        return ["zero", "stand", *sorted(self.poses), *(n for n in mapped if n not in self.poses)]
 
     def within_limits(self, q: np.ndarray, tol: float = 0.0) -> bool:
         """True if every joint lies in [q_min - tol, q_max + tol]."""

@@ -267,6 +267,17 @@ def _check_frames(robot: Robot, folder: Path) -> list[Finding]:
 
 def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:
     path = folder / SERVO_MAP_FILE
+    if robot.servo_map is None and (folder / "ssc32.toml").is_file():
+        from .servos.ssc32 import Ssc32Map
+
+        try:
+            ssc = Ssc32Map.from_file(folder / "ssc32.toml", robot.joint_names)
+        except WbcError as exc:
+            return [Finding("error", str(exc))]
+        warnings = ssc.range_warnings(robot.q_min, robot.q_max)
+        if warnings:
+            return [Finding("warning", w) for w in warnings]
+        return [Finding("ok", f"{folder / 'ssc32.toml'}: every joint's range inside 500..2500 µs")]
     if robot.servo_map is None:
         state = "an unfilled template" if path.is_file() else "missing"
         return [Finding("note", f"{path} is {state}: no servo IDs, wbc deploy unavailable")]
@@ -293,8 +304,8 @@ def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:
 
 def _check_poses(robot: Robot) -> list[Finding]:
     out = []
-    names = [n for n in robot.pose_names() if n != "zero"]
-    if STANDING_POSE not in names:
+    names = [n for n in robot.pose_names() if n not in ("zero", "stand")]  # "stand": an alias
+    if robot.stand_pose == "zero":
         out.append(Finding("note", f"no pose {STANDING_POSE!r}: tools start from the zero pose"))
         names.append("zero")
     for name in names:

@@ -253,7 +253,7 @@ def build_stack(
     levels = spec.get("levels")
     if not isinstance(levels, list) or not levels:
         raise TaskError(f"{where}: needs at least one [[levels]] entry")
-    q = robot.configuration("walk_ready") if q is None else robot.check_configuration(q)
+    q = robot.configuration("stand") if q is None else robot.check_configuration(q)
     kin = Kinematics(robot, q)
     stack = TaskStack(robot, velocity_limits=bool(spec.get("velocity_limits", True)))
     bindings: dict[str, RoleBinding] = {}

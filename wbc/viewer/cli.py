@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording (.npz) to replay")
     parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument(
-        "--pose", default="walk_ready", help="named configuration shown without a recording"
+        "--pose", default="stand", help="named configuration shown without a recording"
     )
     parser.add_argument(
         "--speed", type=float, default=1.0, help="replay speed (1 = real time, 0.5 = half)"

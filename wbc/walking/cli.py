@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         view_args = argparse.Namespace(
             recording=str(path),
             robot=args.robot,
-            pose="walk_ready",
+            pose="stand",
             speed=1.0,
             loop=False,
             frames=None,

@@ -419,7 +419,7 @@ def run(
 
 def start_configuration(robot: Robot, ref: WalkingReference) -> np.ndarray:
     """Walk Ready with the left sole placed where the reference's left sole starts."""
-    q = robot.configuration("walk_ready")
+    q = robot.configuration("stand")
     return robot.place_on_ground(q, "l_sole", ref.sole_placement(0, "left"))
 
 
