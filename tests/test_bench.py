@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
+import os
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from wbc.bench import metrics, solvers
 from wbc.cli import main
@@ -25,12 +30,15 @@ def test_keys_match_the_issue():
 @pytest.fixture(scope="module")
 def bench_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    code = main([
-        "bench", "--solvers", "hqp-daqp", "wqp-quadprog", "pinv-vat", "qp-cj_com", "placo",
-        "--trajectories", "thesis_step", "--json", str(out / "b.json"),
-        "--record", str(out / "runs"), "--plots", str(out / "plots"),
-    ])  # fmt: skip
+    # pytest's capture is per test: keep this run's printout for the table tests
+    with contextlib.redirect_stdout(io.StringIO()) as printed:
+        code = main([
+            "bench", "--solvers", "hqp-daqp", "wqp-quadprog", "pinv-vat", "qp-cj_com", "placo",
+            "--trajectories", "thesis_step", "--json", str(out / "b.json"),
+            "--record", str(out / "runs"), "--plots", str(out / "plots"),
+        ])  # fmt: skip
     assert code == 0
+    (out / "stdout.txt").write_text(printed.getvalue())
     return out
 
 
@@ -73,10 +81,84 @@ def test_recordings_hold_the_promised_arrays(robot, bench_run):
     assert err == pytest.approx(record["com_err_max_mm"], rel=1e-9, abs=1e-12)
 
 
-def test_figures(bench_run):
+def test_figures_one_per_quantity_png_and_svg(bench_run):
+    from wbc.bench.plots import QUANTITIES
+
     plots = bench_run / "plots"
-    assert (plots / "time_per_tick.png").stat().st_size > 10_000
-    assert (plots / "placo__thesis_step.png").stat().st_size > 10_000
+    for name in [*(f"thesis_step__{q}" for q in QUANTITIES), "time_per_tick"]:
+        assert (plots / f"{name}.png").stat().st_size > 10_000, name
+        svg = (plots / f"{name}.svg").read_text()
+        assert svg.lstrip().startswith("<?xml") and "<svg" in svg
+    # every solver is in each figure, and the time axis is in seconds
+    svg = (plots / "thesis_step__com.svg").read_text()
+    for solver in ("hqp-daqp", "wqp-quadprog", "pinv-vat", "qp-cj_com", "placo"):
+        assert solver in svg
+    assert "time (s)" in svg
+
+
+def test_reference_and_achieved_share_a_colour(robot, bench_run, tmp_path):
+    pytest.importorskip("matplotlib")
+    from matplotlib import pyplot as plt
+
+    from wbc.bench import plots
+
+    recs = [Recording.load(bench_run / "runs" / f"{s}__thesis_step.npz") for s in ("hqp-daqp",
+            "pinv-vat")]  # fmt: skip
+    captured = []
+    real_save = plots._save
+
+    def keep(fig, path):
+        if path.name.endswith("__com.png"):
+            captured.append([(ln.get_color(), ln.get_linestyle()) for ln in fig.axes[0].lines])
+        return real_save(fig, path)
+
+    try:
+        plots._save = keep
+        plots.quantity_figures(recs, tmp_path)
+    finally:
+        plots._save = real_save
+        plt.close("all")
+    (lines,) = captured
+    solid = [c for c, style in lines if style == "-"]
+    dashed = [c for c, style in lines if style == "--"]
+    assert len(solid) == len(dashed) == 2
+    assert solid == dashed and solid[0] != solid[1]
+
+
+def test_default_table_fits_100_columns_with_units_and_legend(bench_run):
+    text = (bench_run / "stdout.txt").read_text()
+    lines = text.splitlines()
+    assert max(len(line) for line in lines) <= 100
+    assert "CoM err mm" in text and "µs / tick" in text and "margin mm" in text
+    assert "iter" not in text  # one QP per tick: always 1
+    assert "thesis mm" not in text  # the thesis figures: beside converged runs only
+    assert "…" not in text  # nothing cut
+    words = " ".join(text.split())
+    assert "the ZMP on a dynamic one" in words  # the legend explains the margins
+
+
+def test_wide_table_has_every_column(capsys):
+    assert main(["bench", "--solvers", "qp-cj_com", "--trajectories", "thesis_step", "--wide"]) == 0
+    out = capsys.readouterr().out
+    header = " ".join(out.split("qp-cj_com")[0].split())
+    for column in ("family", "iter", "ZMP", "CoM margin", "thesis", "fail"):
+        assert column in header
+
+
+def test_solver_output_is_silenced_unless_verbose(capfd):
+    from wbc.bench.cli import solver_output
+
+    def chatty():
+        os.write(1, b"Polishing not needed\n")  # as C code would: straight to fd 1
+
+    with solver_output(verbose=False) as out:
+        chatty()
+        print("table", file=out)
+    captured = capfd.readouterr().out
+    assert "table" in captured and "Polishing" not in captured
+    with solver_output(verbose=True):
+        chatty()
+    assert "Polishing" in capfd.readouterr().out
 
 
 def test_missing_peer_is_reported_and_skipped(monkeypatch):
@@ -102,3 +184,24 @@ def test_bad_names_are_rejected(capsys):
         solvers.select(None, ["magic"], "tick")
     assert main(["bench", "--solvers", "hqp-daqp", "--trajectories", "moonwalk"]) == 2
     assert "unknown trajectory 'moonwalk'" in capsys.readouterr().err
+
+
+def test_identical_motions_are_drawn_once_with_all_names():
+    from wbc.bench.plots import _identical_runs
+
+    t = np.arange(3) * 0.01
+    q = np.zeros((3, 8))
+    recs = [
+        Recording(t, q + d, ("j",), meta={"solver": name})
+        for name, d in (("a", 0.0), ("b", 0.0), ("c", 1e-6), ("d", 1e-12))
+    ]
+    assert _identical_runs(recs) == {"a": "a (= b, d)", "c": "c"}
+
+
+@given(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False).filter(lambda x: abs(x) > 1e-12))
+def test_short_cells_keep_two_significant_digits(x):
+    from wbc.bench.cli import _short
+
+    text = _short(x)
+    assert len(text) <= 8
+    assert float(text) == pytest.approx(x, rel=0.05 if abs(x) < 100 else 0.006, abs=0.5)

@@ -2,8 +2,18 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
 import wbc.demo
 from wbc.cli import main
+from wbc.paths import robots_dir, stacks_dir
+
+REPO = Path(__file__).resolve().parent.parent
 
 
 def test_demo_prints_mass_com_and_soles(capsys):
@@ -30,3 +40,132 @@ def test_errors_are_reported_not_raised(capsys):
 def test_no_command_prints_help(capsys):
     assert main([]) == 2
     assert "bench" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------------------- bad input
+def _one_line(text: str) -> str:
+    lines = [line for line in text.splitlines() if line.strip()]
+    assert len(lines) == 1, text
+    return lines[0]
+
+
+def test_version(capsys):
+    import wbc
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.strip() == f"wbc {wbc.__version__}"
+
+
+@pytest.mark.parametrize(
+    "argv, argument, allowed",
+    [
+        (["bench", "--max-iterations", "-5"], "--max-iterations", "integer >= 1"),
+        (["bench", "--tol", "-1"], "--tol", "number > 0"),
+        (["bench", "--tol", "nan"], "--tol", "number > 0"),
+        (["bench", "--mode", "fast"], "--mode", "choose from"),
+    ],
+)
+def test_bad_arguments_give_one_line_naming_the_argument(capsys, argv, argument, allowed):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    line = _one_line(capsys.readouterr().err)
+    assert argument in line and allowed in line
+
+
+def test_walking_the_static_com_set_says_it_cannot_be_walked(capsys):
+    assert main(["walk", "--trajectory", "static_com"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "not a walking reference" in line
+    assert "'static_com'" in line and "walk10" in line
+    assert "choose from" not in line
+
+
+def test_stack_with_a_word_for_a_weight_names_file_and_key(capsys, tmp_path):
+    text = (stacks_dir() / "walk.toml").read_text().replace("weight = 1000.0", 'weight = "heavy"')
+    path = tmp_path / "heavy.toml"
+    path.write_text(text)
+    assert main(["walk", "--stack", str(path)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert str(path) in line and "weight = 'heavy'" in line and "number >= 0" in line
+
+
+def test_unknown_frame_names_the_file_and_lists_only_links(capsys, tmp_path):
+    text = (stacks_dir() / "walk.toml").read_text().replace('frame = "torso"', 'frame = "torsoo"')
+    path = tmp_path / "frame.toml"
+    path.write_text(text)
+    assert main(["walk", "--stack", str(path)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert str(path) in line and "unknown frame 'torsoo'" in line
+    listed = line.split("links of bioloid: ")[1].split(", ")
+    assert "l_sole" in listed and "torso" in listed
+    assert not {"universe", "root_joint", "l_knee", "l_sole_fixed"} & set(listed)
+
+
+def test_a_corrupted_recording_gives_one_line(capsys, tmp_path):
+    path = tmp_path / "run.npz"
+    path.write_bytes(bytes(range(256)) * 4)
+    assert main(["view", str(path), "--no-browser", "--no-wait"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert str(path) in line and "not a .npz" in line and "allow_pickle" not in line
+
+
+def test_plain_import_exposes_the_submodules_the_readme_uses():
+    code = (
+        "import wbc\n"
+        "robot = wbc.load_robot('bioloid')\n"
+        "control = wbc.stacks.load_stack('cj_com', robot)\n"
+        "print(control.name, wbc.solvers.HierarchicalQP.__name__, wbc.tasks.ComTask.__name__)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=120
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["cj_com", "HierarchicalQP", "ComTask"]
+
+
+# ---------------------------------------------------------------------------- own robot
+def test_demo_on_a_bare_copy_of_the_urdf(capsys, tmp_path):
+    urdf = tmp_path / "my.urdf"
+    shutil.copyfile(robots_dir() / "bioloid" / "bioloid.urdf", urdf)
+    assert main(["demo", "--robot", str(urdf)]) == 0
+    out, err = capsys.readouterr()
+    assert "18 actuated joints, mass 1.9144 kg" in out
+    notes = [line for line in err.splitlines() if line.startswith("wbc demo: note: ")]
+    assert len(notes) == 2, err
+    assert any("servos.toml missing" in n for n in notes)
+    assert any("zero pose" in n for n in notes)
+
+
+def test_walk_uses_the_robot_folders_own_stack(monkeypatch, capsys, tmp_path):
+    import wbc.stacks
+    from wbc.exceptions import TaskError
+
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    for name, target in (("bioloid.urdf", "mine.urdf"), ("servos.toml", "servos.toml")):
+        shutil.copyfile(robots_dir() / "bioloid" / name, folder / target)
+    (folder / "stack.toml").write_text("")
+    seen = []
+
+    def load_stack(name, robot, **kw):
+        seen.append(name)
+        raise TaskError("stop here")
+
+    monkeypatch.setattr(wbc.stacks, "load_stack", load_stack)
+    assert main(["walk", "--robot", str(folder), "--trajectory", "thesis_step"]) == 2
+    assert seen == [folder / "stack.toml"]
+    assert main(["walk", "--robot", str(folder), "--stack", "cj_com"]) == 2
+    assert seen[-1] == "cj_com"
+
+
+def test_demo_on_a_urdf_without_soles_shows_what_exists(capsys, tmp_path):
+    urdf = tmp_path / "nosoles.urdf"
+    text = (robots_dir() / "bioloid" / "bioloid.urdf").read_text()
+    urdf.write_text(text.replace('"l_sole"', '"l_plate"').replace('"r_sole"', '"r_plate"'))
+    assert main(["demo", "--robot", str(urdf)]) == 0
+    out, err = capsys.readouterr()
+    assert "torso" in out and "l_sole" not in out
+    assert "frames ['l_sole', 'r_sole'] not in nosoles.urdf" in err

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -181,3 +183,13 @@ def test_servo_map_inconsistent_with_urdf(tmp_path, robot):
     (tmp_path / "servos.toml").write_text(text.replace("r_elbow  ", "r_wrist  "))
     with pytest.raises(ServoMapError, match="missing joints \\['r_elbow'\\]"):
         load_robot(urdf)
+
+
+def test_com_of_a_temporary_kinematics_stays_valid():
+    robot = load_robot("bioloid")
+    q = robot.configuration("walk_ready")
+    c = Kinematics(robot, q).com
+    gc.collect()
+    junk = [np.random.default_rng(0).random(1000) for _ in range(50)]  # reuse freed memory
+    assert np.allclose(c, robot.com(q), atol=1e-12), (c, robot.com(q))
+    del junk

@@ -104,3 +104,45 @@ def test_unknown_or_malformed_files(robot, tmp_path):
         ).stack.task("frame_pose_l_hand"),
         FramePoseTask,
     )
+
+
+@pytest.mark.parametrize("level", [-1, 1.5, True, "0"])
+def test_levels_must_be_non_negative_integers(robot, level):
+    from wbc.exceptions import TaskError
+    from wbc.solvers import TaskStack
+    from wbc.tasks import ComTask
+
+    stack = TaskStack(robot)
+    with pytest.raises(TaskError, match="level must be an integer >= 0"):
+        stack.add(ComTask(robot), level=level)
+    assert list(stack.tasks()) == []
+
+
+def test_numpy_integer_levels_are_accepted(robot):
+    from wbc.solvers import TaskStack
+    from wbc.tasks import ComTask
+
+    stack = TaskStack(robot)
+    stack.add(ComTask(robot), level=np.int64(2))
+    assert [lvl.priority for lvl in stack._levels.values()] == [2]
+
+
+@pytest.mark.parametrize(
+    "entry, match",
+    [
+        ({"type": "com", "weight": "heavy"}, r"task 'com': weight = 'heavy': must be a number"),
+        ({"type": "com", "gain": [1]}, r"task 'com': gain = \[1\]: must be a number >= 0"),
+        ({"type": "com", "mask": [1, 0, 1]}, r"mask = \[1, 0, 1\]: must be a list of true/false"),
+        ({"type": "com", "weight": -1.0}, r"task 'com': .*weights must be finite and >= 0"),
+        ({"type": "frame_position", "frame": "hand"}, r"unknown frame 'hand'; links of"),
+        ({"type": "damping", "gain": 2.0}, r"DampingTask takes no \['gain'\]; its keys"),
+        ({"type": "joint_limit_damping", "gain": 2.0}, r"takes no \['gain'\]"),
+    ],
+)
+def test_bad_task_values_name_the_file_level_and_task(robot, entry, match):
+    from wbc.stacks import build_stack
+
+    spec = {"levels": [{"tasks": [entry]}]}
+    with pytest.raises(TaskError, match=match) as exc:
+        build_stack(spec, robot, source="my.toml")
+    assert str(exc.value).startswith("task stack my.toml: level 0: ")

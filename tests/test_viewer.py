@@ -374,7 +374,7 @@ def test_animation_export_embeds_every_frame(robot, tmp_path):
 
     rec = walk_recording(robot, n=31, duration=0.6)
     path = export_html(robot, rec, tmp_path / "run.html", fps=30)
-    html = open(path, encoding="utf-8").read()
+    html = Path(path).read_text(encoding="utf-8")
     assert "<script src" not in html and "MeshCat.Viewer" in html  # JS inlined: works offline
     cmds = scene_commands(html)
     (anim,) = [c for c in cmds if c["type"] == "set_animation"]

@@ -100,3 +100,5 @@ def test_ctrl_c_stops_the_server(robot, tmp_path, sig):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+        proc.stdout.close()
+        proc.stderr.close()

@@ -17,6 +17,22 @@ from .servo_map import ServoMap, ServoSpec
 
 __version__ = "0.1.0"
 
+#: sub-modules reachable as attributes after a plain ``import wbc`` (imported on first use)
+_SUBMODULES = (
+    "bench", "compiled", "geometry", "ik", "limits", "model", "paths", "pinv", "recording",
+    "servo_map", "servos", "solvers", "stacks", "tasks", "viewer", "walking",
+)  # fmt: skip
+
+
+def __getattr__(name: str):
+    """``wbc.stacks``, ``wbc.solvers``, ... without importing them all at ``import wbc``."""
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module 'wbc' has no attribute {name!r}")
+
+
 __all__ = [
     "ConfigurationError",
     "IKError",

@@ -10,6 +10,7 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 # command -> (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -19,6 +20,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "deploy": ("wbc.servos.deploy", "play a trajectory on AX-12A servos (or a dry run)"),
     "view": ("wbc.viewer.cli", "show the robot or a recording in meshcat"),
     "sim": ("wbc.sim.cli", "play a plan on the MuJoCo-simulated robot: does it stay up?"),
+    "robot": ("wbc.robot_folder", "scaffold (init) or check a robot folder from a URDF"),
 }
 
 
@@ -35,8 +37,18 @@ OPTIONAL = {
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (no usage dump): what was wrong and where to look."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="wbc", description=__doc__.splitlines()[0])
+    from . import __version__
+
+    parser = _Parser(prog="wbc", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"wbc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)

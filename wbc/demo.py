@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 import pinocchio as pin
 
-from .model import load_robot
+from .model import STANDARD_FRAMES, load_robot, print_notes
 
 
 def _fmt(v: np.ndarray) -> str:
@@ -15,17 +15,18 @@ def _fmt(v: np.ndarray) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
-    parser.add_argument("--pose", default="walk_ready", help="named configuration")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
+    parser.add_argument("--pose", default="stand", help="named configuration")
 
 
 def run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
+    print_notes(robot, "demo")
     q = robot.configuration(args.pose)
     print(f"robot {robot.name}: {robot.n_joints} actuated joints, mass {robot.total_mass:.4f} kg")
     com = robot.com(q)
     print(f"pose {args.pose}: CoM (mm) = {_fmt(com * 1e3)}")
-    for frame in ("torso", "l_sole", "r_sole"):
+    for frame in (f for f in STANDARD_FRAMES if robot.has_frame(f)):
         M = robot.frame_placement(q, frame)
         rpy = np.degrees(pin.rpy.matrixToRpy(M.rotation))
         print(f"  {frame:7s} xyz (mm) = {_fmt(M.translation * 1e3)}  rpy (deg) = {_fmt(rpy)}")

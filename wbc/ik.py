@@ -219,7 +219,15 @@ def _geometry(robot: Robot, limb: str, prefix: str):
     cache = _CACHE.setdefault(robot, {})
     key = f"{prefix}_{limb}"
     if key not in cache:
-        cache[key] = _leg_geometry(robot, prefix) if limb == "leg" else _arm_geometry(robot, prefix)
+        try:
+            cache[key] = (
+                _leg_geometry(robot, prefix) if limb == "leg" else _arm_geometry(robot, prefix)
+            )
+        except ModelError as exc:  # another robot's limbs: the numerical IK serves any
+            raise ModelError(
+                f"{exc} (this closed form is the Bioloid's; for other robots use "
+                "wbc.pose_ik.StanceIK)"
+            ) from None
     return cache[key]
 
 

@@ -9,6 +9,7 @@ joints...]`` (nq = 7 + n) and velocities/increments ``v = [v_lin, v_ang, joint r
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -16,13 +17,29 @@ import numpy as np
 import pinocchio as pin
 
 from .exceptions import ConfigurationError, ModelError, ServoMapError
-from .paths import robots_dir
+from .paths import read_toml, robots_dir
+from .robot_data import ROBOT_KEYS, RobotData
 from .servo_map import ServoMap
 
 WORLD = pin.ReferenceFrame.WORLD
+#: how far the base quaternion of a configuration may be from unit norm
+QUATERNION_TOL = 1e-6
 LOCAL = pin.ReferenceFrame.LOCAL
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _REFERENCES = {"world": WORLD, "local": LOCAL, "local_world_aligned": LOCAL_WORLD_ALIGNED}
+
+
+#: the pose every tool starts from (stacks' initial targets, walking references, the viewer);
+#: a robot folder that does not define it stands in its zero pose instead
+STANDING_POSE = "walk_ready"
+#: the frames the stacks and the walking code name; ``robot.toml`` ``[frames]`` may map them
+#: to a URDF's own names
+STANDARD_FRAMES = ("torso", "l_sole", "r_sole")
+#: the optional files of a robot folder (see ``wbc robot init`` and robots/README.md)
+SERVO_MAP_FILE = "servos.toml"
+POSES_FILE = "poses.toml"
+STACK_FILE = "stack.toml"
+ROBOT_FILE = "robot.toml"
 
 
 def available_robots() -> list[str]:
@@ -31,32 +48,128 @@ def available_robots() -> list[str]:
     return sorted(p.name for p in root.iterdir() if p.is_dir() and any(p.glob("*.urdf")))
 
 
-def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | None = None) -> Robot:
-    """Load a robot by name (``"bioloid"``) or by the path of a URDF file.
+def folder_urdf(folder: Path) -> Path:
+    """The URDF of a robot folder: ``<folder name>.urdf``, else the folder's only ``*.urdf``."""
+    named = folder / f"{folder.name}.urdf"
+    if named.is_file():
+        return named
+    urdfs = sorted(folder.glob("*.urdf"))
+    if len(urdfs) != 1:
+        found = [u.name for u in urdfs] or "none"
+        raise ModelError(
+            f"robot folder {folder}: needs {folder.name}.urdf or exactly one *.urdf (found {found})"
+        )
+    return urdfs[0]
 
-    A robot folder holds ``<name>.urdf`` and, optionally, ``servos.toml``; a URDF path picks
-    up a ``servos.toml`` next to it unless ``servo_map`` names another file.
+
+def load_robot(name_or_path: str | Path = "bioloid", servo_map: str | Path | None = None) -> Robot:
+    """Load a robot by name (``"bioloid"``), robot folder path or URDF path.
+
+    A robot folder holds the URDF and, all optional: ``servos.toml`` (servo map, poses in
+    ticks), ``poses.toml`` (named poses in radians), ``stack.toml`` (default task stack) and
+    ``robot.toml`` (``[frames]``: the URDF names of ``torso``, ``l_sole``, ``r_sole``). A URDF
+    path picks up those files next to it; ``servo_map`` names another servo map. What is
+    missing is listed, one line each, in :attr:`Robot.notes`.
     """
     path = Path(name_or_path)
     if path.suffix.lower() == ".urdf" or path.is_file():
         urdf = path
+    elif path.is_dir() and (len(path.parts) > 1 or not (robots_dir() / str(path)).is_dir()):
+        urdf = folder_urdf(path)
     else:
         folder = robots_dir() / str(name_or_path)
         if not folder.is_dir():
             raise ModelError(
-                f"unknown robot {str(name_or_path)!r}: not a URDF path and not one of "
-                f"{available_robots()}"
+                f"unknown robot {str(name_or_path)!r}: not a URDF path, not a robot folder and "
+                f"not one of {available_robots()}"
             )
-        urdf = folder / f"{folder.name}.urdf"
-    if servo_map is None and (urdf.parent / "servos.toml").is_file():
-        servo_map = urdf.parent / "servos.toml"
-    return Robot(urdf, servo_map)
+        urdf = folder_urdf(folder)
+    folder = urdf.parent
+    if servo_map is None and (folder / SERVO_MAP_FILE).is_file():
+        servo_map = folder / SERVO_MAP_FILE
+    if servo_map is not None and _is_template(Path(servo_map)):
+        servo_map = None  # a `wbc robot init` template not filled in yet (noted below)
+    poses = folder / POSES_FILE
+    meta = folder / ROBOT_FILE
+    robot = Robot(
+        urdf,
+        servo_map,
+        poses=poses if poses.is_file() else None,
+        frames=read_frames(meta) if meta.is_file() else None,
+        data_dir=folder,
+    )
+    stack = folder / STACK_FILE
+    robot.default_stack = stack if stack.is_file() else None
+    if urdf.is_file():
+        robot.notes = _missing_parts(robot, folder)
+    return robot
+
+
+def print_notes(robot: Robot, command: str) -> None:
+    """Print :attr:`Robot.notes` to stderr, one ``wbc <command>: note: ...`` line each."""
+    for note in robot.notes:
+        print(f"wbc {command}: note: {note}", file=sys.stderr)
+
+
+def _is_template(path: Path) -> bool:
+    """A servo map file with no TOML content at all (only comments): an unfilled template."""
+    if not path.is_file():
+        return False
+    lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    return not any(line.strip() and not line.lstrip().startswith("#") for line in lines)
+
+
+def read_frames(path: Path) -> dict[str, str]:
+    """``robot.toml``'s ``[frames]`` table: standard frame name -> the URDF's frame name."""
+    raw = read_toml(path, "robot file", ModelError)
+    extra = sorted(set(raw) - set(ROBOT_KEYS))
+    if extra:
+        raise ModelError(f"robot file {path}: unknown keys {extra}; allowed: {list(ROBOT_KEYS)}")
+    frames = raw.get("frames", {})
+    if not isinstance(frames, dict) or not all(isinstance(v, str) for v in frames.values()):
+        raise ModelError(f"robot file {path}: [frames] must map names to URDF frame names")
+    unknown = sorted(set(frames) - set(STANDARD_FRAMES))
+    if unknown:
+        raise ModelError(
+            f"robot file {path}: [frames] has unknown keys {unknown}; allowed: "
+            f"{list(STANDARD_FRAMES)}"
+        )
+    return dict(frames)
+
+
+def _missing_parts(robot: Robot, folder: Path) -> list[str]:
+    """One line per optional part the robot folder lacks that changes what the tools do (a
+    missing ``stack.toml`` does not: the stacks of ``tasks/`` serve; ``wbc robot check`` lists
+    it)."""
+    notes = []
+    if robot.servo_map is None and not (folder / "ssc32.toml").is_file():
+        state = "is an unfilled template" if (folder / SERVO_MAP_FILE).is_file() else "missing"
+        notes.append(f"{folder / SERVO_MAP_FILE} {state}: no servo IDs (wbc deploy is unavailable)")
+    if robot.stand_pose == "zero":
+        notes.append(
+            f"no pose {STANDING_POSE!r} in {folder / POSES_FILE} or the servo map: "
+            "starting from the zero pose (all joints 0)"
+        )
+    missing = [f for f in STANDARD_FRAMES if not robot.has_frame(f)]
+    if missing:
+        notes.append(
+            f"frames {missing} not in {robot.urdf_path.name} (nor mapped in "
+            f"{folder / ROBOT_FILE}): the walking stacks need them"
+        )
+    return notes
 
 
 class Robot:
     """A floating-base robot: Pinocchio model and data plus joint/frame bookkeeping."""
 
-    def __init__(self, urdf: str | Path, servo_map: str | Path | None = None) -> None:
+    def __init__(
+        self,
+        urdf: str | Path,
+        servo_map: str | Path | None = None,
+        poses: str | Path | Mapping[str, Mapping[str, float]] | None = None,
+        frames: Mapping[str, str] | None = None,
+        data_dir: str | Path | None = None,
+    ) -> None:
         urdf = Path(urdf)
         if not urdf.is_file():
             raise ModelError(f"URDF not found: {urdf}")
@@ -83,6 +196,18 @@ class Robot:
         self.v_max = np.array(self.model.velocityLimit[6:])
         self.total_mass = float(pin.computeTotalMass(self.model))
         self.frame_names = tuple(f.name for f in self.model.frames)
+        #: standard frame name (``torso``, ``l_sole``, ``r_sole``) -> this URDF's frame name
+        self.frame_aliases: dict[str, str] = dict(frames or {})
+        for alias, actual in self.frame_aliases.items():
+            if not self.model.existFrame(actual):
+                raise ModelError(
+                    f"{self.name}: frame {alias!r} is mapped to {actual!r}, which is not a "
+                    f"frame of {urdf.name}; links: {', '.join(self.link_names())}"
+                )
+        #: lines naming the optional parts of the robot folder that are missing
+        self.notes: list[str] = []
+        #: the robot folder's default task stack (``stack.toml``), if any
+        self.default_stack: Path | None = None
         self.servo_map: ServoMap | None = None
         if servo_map is not None:
             try:
@@ -91,6 +216,59 @@ class Robot:
                 raise
             except Exception as exc:
                 raise ServoMapError(f"cannot read servo map {servo_map}: {exc}") from exc
+        #: named poses in radians by joint name (``poses.toml``; joints not named are 0)
+        self.poses: dict[str, np.ndarray] = {}
+        if poses is not None:
+            self.poses = self._read_poses(poses)
+        #: standing pose, feet and walking settings (the robot folder's robot.toml, read from
+        #: ``data_dir``; defaults without it): :mod:`wbc.robot_data`
+        self.robot_data = (
+            RobotData() if data_dir is None else RobotData.from_folder(data_dir, self.joint_names)
+        )
+
+    @property
+    def stand_pose(self) -> str:
+        """Name of the pose walks, stacks and deployments start from (``robot.toml``'s
+        ``stand``; else ``walk_ready`` if the robot has it; else ``zero``)."""
+        if self.robot_data.stand is not None:
+            return self.robot_data.stand
+        mapped = self.servo_map.poses if self.servo_map is not None else {}
+        return STANDING_POSE if STANDING_POSE in self.poses or STANDING_POSE in mapped else "zero"
+
+    @property
+    def foot_size(self) -> tuple[float, float]:
+        """(length, width) in m of the foot rectangle under each sole frame."""
+        return self.robot_data.foot_length, self.robot_data.foot_width
+
+    def _read_poses(self, source: str | Path | Mapping) -> dict[str, np.ndarray]:
+        if isinstance(source, Mapping):
+            where, raw = "poses", {"poses": source}
+        else:
+            where = f"poses file {source}"
+            raw = read_toml(Path(source), "poses file", ModelError)
+        extra = sorted(set(raw) - {"poses"})
+        if extra:
+            raise ModelError(f"{where}: unknown keys {extra}; allowed: [poses.<name>] tables")
+        out = {}
+        for name, pose in raw.get("poses", {}).items():
+            if not isinstance(pose, Mapping):
+                raise ModelError(f"{where}: [poses.{name}] must be a table of joint = radians")
+            joints = np.zeros(self.n_joints)
+            for joint, value in pose.items():
+                if joint not in self._joint_index:
+                    raise ModelError(
+                        f"{where}: [poses.{name}] names unknown joint {joint!r}; joints: "
+                        f"{', '.join(self.joint_names)}"
+                    )
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    raise ModelError(
+                        f"{where}: [poses.{name}] {joint} = {value!r}: must be a number (rad)"
+                    )
+                if not math.isfinite(value):
+                    raise ModelError(f"{where}: [poses.{name}] {joint} = {value}: not finite")
+                joints[self._joint_index[joint]] = float(value)
+            out[name] = joints
+        return out
 
     # ------------------------------------------------------------------ names and indices
     def joint_index(self, name: str) -> int:
@@ -111,11 +289,23 @@ class Robot:
         return 6 + self.joint_index(name)
 
     def frame_id(self, name: str) -> int:
-        """Pinocchio frame id of a frame (link or fixed frame) by name."""
+        """Pinocchio frame id of a frame (link or fixed frame) by name; the standard names
+        ``torso``, ``l_sole``, ``r_sole`` follow ``robot.toml``'s ``[frames]`` when it maps them."""
+        if isinstance(name, str):
+            name = self.frame_aliases.get(name, name)
         if not isinstance(name, str) or not self.model.existFrame(name):
-            known = ", ".join(n for n in self.frame_names if not n.endswith("_fixed"))
-            raise ModelError(f"unknown frame {name!r}; frames of {self.name}: {known}")
+            raise ModelError(
+                f"unknown frame {name!r}; links of {self.name}: {', '.join(self.link_names())}"
+            )
         return self.model.getFrameId(name)
+
+    def has_frame(self, name: str) -> bool:
+        """True if :meth:`frame_id` knows ``name`` (directly or through ``[frames]``)."""
+        return self.model.existFrame(self.frame_aliases.get(name, name))
+
+    def link_names(self) -> list[str]:
+        """The URDF's links (the frames tasks should name), without the floating base joint."""
+        return [f.name for f in self.model.frames if f.type == pin.FrameType.BODY]
 
     def frame_support(self, frame_id: int) -> np.ndarray:
         """The velocity coordinates (nv bools) that move a frame: its joint's ancestors and
@@ -134,7 +324,9 @@ class Robot:
 
     # ------------------------------------------------------------------ configurations
     def check_configuration(self, q: Sequence[float] | np.ndarray, what: str = "q") -> np.ndarray:
-        """Return ``q`` as a C-contiguous float array after checking its size and finiteness."""
+        """Return ``q`` as a C-contiguous float array after checking its size, its finiteness
+        and its base quaternion (unit to :data:`QUATERNION_TOL`: a zero or scaled quaternion
+        is no rotation, and is refused rather than normalised)."""
         q = np.ascontiguousarray(q, dtype=float)
         if q.shape != (self.nq,):
             raise ConfigurationError(
@@ -146,6 +338,14 @@ class Robot:
             idx = np.flatnonzero(~np.isfinite(q))
             names = [self._q_name(i) for i in idx]
             raise ConfigurationError(f"{what}: non-finite values at {names}")
+        x, y, z, w = q[3], q[4], q[5], q[6]
+        norm2 = x * x + y * y + z * z + w * w
+        if abs(norm2 - 1.0) > 2.0 * QUATERNION_TOL:  # |‖quat‖ − 1| <= 1e-6, to first order
+            raise ConfigurationError(
+                f"{what}: the base quaternion (base_qx, base_qy, base_qz, base_qw) = "
+                f"{q[3:7].tolist()} has norm {math.sqrt(norm2):.6g}; it must be unit "
+                f"(to {QUATERNION_TOL:g}): normalise it"
+            )
         return q
 
     def _q_name(self, i: int) -> str:
@@ -183,17 +383,29 @@ class Robot:
         """A named configuration, standing on the ground.
 
         * ``"zero"``: all joints zero, soles on the ground.
-        * ``"walk_ready"`` (and any other pose of the servo map): the pose's ticks through the
-          servo map; left sole flat at z = 0, the soles' midpoint at the origin.
+        * a pose of ``poses.toml`` (radians), or of the servo map (ticks through the map);
+          left sole flat at z = 0, the soles' midpoint at the origin.
+        * ``"walk_ready"`` (:data:`STANDING_POSE`) on a robot that defines no such pose: the
+          zero pose (:attr:`notes` says so when the robot is loaded).
         """
-        if name == "zero":
+        if name == "stand":  # the robot's standing pose (robot.toml's stand, else walk_ready)
+            name = self.stand_pose
+        if name == "zero" or (name == STANDING_POSE and name not in self.pose_names()):
             q = self.neutral()
+        elif name in self.poses:
+            q = self.with_joints(self.poses[name])
         else:
             if self.servo_map is None or name not in self.servo_map.poses:
-                known = ["zero"] + (sorted(self.servo_map.poses) if self.servo_map else [])
-                raise ModelError(f"unknown configuration {name!r}; known: {known}")
+                raise ModelError(f"unknown configuration {name!r}; known: {self.pose_names()}")
             q = self.with_joints(self.servo_map.ticks_to_angles(self.servo_map.pose_ticks(name)))
+        if not (self.has_frame("l_sole") and self.has_frame("r_sole")):
+            return q  # nothing to stand on: base at the origin
         return self.center_between_soles(self.place_on_ground(q, "l_sole"))
+
+    def pose_names(self) -> list[str]:
+        """Names :meth:`configuration` accepts besides ``"zero"`` (poses.toml, servo map)."""
+        mapped = sorted(self.servo_map.poses) if self.servo_map else []
+        return ["zero", "stand", *sorted(self.poses), *(n for n in mapped if n not in self.poses)]
 
     def within_limits(self, q: np.ndarray, tol: float = 0.0) -> bool:
         """True if every joint lies in [q_min - tol, q_max + tol]."""
@@ -314,8 +526,13 @@ class Kinematics:
 
     @property
     def com(self) -> np.ndarray:
-        """Centre of mass (world), a view into the Pinocchio data."""
-        return self.data.com[0]
+        """Centre of mass (world), a copy: safe to keep after this object is gone.
+
+        Pinocchio's ``data.com[0]`` is a view into memory owned by ``data``, which does not keep
+        ``data`` alive (``Kinematics(robot, q).com`` read freed memory); hot paths that want the
+        view use ``kin.data.com[0]`` while ``kin`` lives.
+        """
+        return self.data.com[0].copy()
 
     @property
     def com_jacobian(self) -> np.ndarray:

@@ -12,7 +12,8 @@ with the swing role; ``swing_is_left`` (N,) says which), ``l_sole`` / ``r_sole``
 support polygon's edge (positive inside), ``limit_margin`` (N, n_joints) distance (rad) to the
 nearest joint limit (negative = violated), ``swing_lowest`` (N,) height of the swing sole's
 lowest corner (m), ``torso_yaw_ref`` (N,), ``solve_time`` (N,) seconds, ``iterations`` and
-``failed`` (N,), ``err/<task>`` (N, k) task errors. ``meta`` is a JSON dict (solver,
+``failed`` (N,), ``err/<task>`` (N, k) task errors (m for position rows, rad for
+orientation and joint rows: :meth:`wbc.solvers.TaskStack.errors`). ``meta`` is a JSON dict (solver,
 trajectory, robot, ...).
 """
 
@@ -107,15 +108,32 @@ class Recording:
         path = Path(path)
         if not path.is_file():
             raise TrajectoryError(f"recording not found: {path}")
+        with open(path, "rb") as f:
+            magic = f.read(4)
+        if magic != b"PK\x03\x04" and magic != b"PK\x05\x06":  # zip local header / empty zip
+            raise TrajectoryError(
+                f"recording {path} is not a .npz file (a zip archive of arrays written by "
+                "wbc walk --out / wbc bench --record); it is never loaded as a pickle"
+            )
         try:
-            with np.load(path, allow_pickle=False) as data:
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
-        except Exception as exc:
-            raise TrajectoryError(f"cannot read recording {path}: {exc}") from exc
+        except ValueError as exc:  # an object (pickled) array inside the archive
+            raise TrajectoryError(
+                f"recording {path} holds pickled (object) arrays; a recording holds only "
+                "numeric and string arrays and is never loaded with pickle"
+            ) from exc
+        except Exception as exc:  # truncated or corrupted archive
+            raise TrajectoryError(f"recording {path} is corrupted ({exc})") from exc
         missing = [k for k in ("t", "q", "joint_names") if k not in arrays]
         if missing:
             raise TrajectoryError(f"recording {path} lacks required arrays {missing}")
-        meta = json.loads(str(arrays.pop("meta"))) if "meta" in arrays else {}
+        try:
+            meta = json.loads(str(arrays.pop("meta"))) if "meta" in arrays else {}
+        except json.JSONDecodeError as exc:
+            raise TrajectoryError(f"recording {path}: 'meta' is not valid JSON ({exc})") from exc
+        if not isinstance(meta, dict):
+            raise TrajectoryError(f"recording {path}: 'meta' must be a JSON object")
         t = arrays.pop("t")
         q = arrays.pop("q")
         names = tuple(str(n) for n in arrays.pop("joint_names"))

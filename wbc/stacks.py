@@ -18,6 +18,7 @@ controller re-binds them at every support change (:meth:`ControlStack.set_phase`
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,8 +56,20 @@ SOLVERS = ("weighted", "hierarchical")
 _TASK_KEYS = {"type", "name", "frame", "weight", "gain", "mask", "phases"}
 
 
+def _check_keys(cls, kw: dict) -> None:
+    """A key the task class does not take (e.g. ``gain`` on a damping task) is one line."""
+    accepted = inspect.signature(cls).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values()):
+        return
+    bad = sorted(k for k in kw if k not in accepted)
+    if bad:
+        allowed = sorted(k for k in accepted if k in _TASK_KEYS)
+        raise TaskError(f"{cls.__name__} takes no {bad}; its keys: {allowed}")
+
+
 def _frame_task(cls) -> Callable[..., Task]:
     def make(robot: Robot, frame: str, name: str | None, **kw) -> Task:
+        _check_keys(cls, kw)
         return cls(robot, frame, name=name, **kw)
 
     return make
@@ -66,6 +79,7 @@ def _frameless(cls, default_name: str) -> Callable[..., Task]:
     def make(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
         if frame is not None:
             raise TaskError(f"task type for {cls.__name__} takes no 'frame'")
+        _check_keys(cls, kw)
         return cls(robot, name=name or default_name, **kw)
 
     return make
@@ -137,7 +151,8 @@ class ControlStack:
         if phase not in PHASES:
             raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
         roles = {"support": support, "swing": swing}
-        for item in [*self.stack.tasks(), *self.stack.constraints()]:
+        items: list[Task | Constraint] = [*self.stack.tasks(), *self.stack.constraints()]
+        for item in items:
             binding = self.bindings.get(item.name)
             if binding is None:
                 continue
@@ -150,7 +165,7 @@ class ControlStack:
                 if isinstance(item, ComPolygonConstraint):
                     item.set_support([frame])
                 else:
-                    item.set_frame(frame)
+                    item.set_frame(frame)  # type: ignore[union-attr]  # role-bound: has a frame
             item.active = phase in binding.phases
             if (
                 isinstance(item, ContactTask)
@@ -238,7 +253,7 @@ def build_stack(
     levels = spec.get("levels")
     if not isinstance(levels, list) or not levels:
         raise TaskError(f"{where}: needs at least one [[levels]] entry")
-    q = robot.configuration("walk_ready") if q is None else robot.check_configuration(q)
+    q = robot.configuration("stand") if q is None else robot.check_configuration(q)
     kin = Kinematics(robot, q)
     stack = TaskStack(robot, velocity_limits=bool(spec.get("velocity_limits", True)))
     bindings: dict[str, RoleBinding] = {}
@@ -296,16 +311,41 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
     phases = tuple(entry.get("phases", PHASES))
     if not set(phases) <= set(PHASES):
         raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
     name = entry.get("name")
     if name is None:
         name = kind if frame is None else f"{kind}_{frame}"
     kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
+    _check_numbers(kw, f"{where}: level {priority}: task {name!r}")
     if "axis" in entry:
         kw["axis"] = entry["axis"]
-    task = TASK_TYPES[kind](robot, actual, name, **kw)
+    try:
+        task = TASK_TYPES[kind](robot, actual, name, **kw)
+    except WbcError as exc:
+        raise TaskError(f"{where}: level {priority}: task {name!r}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
     return task, binding
+
+
+def _check_numbers(kw: Mapping[str, Any], where: str) -> None:
+    """``weight`` (a number or a list of numbers, >= 0), ``gain`` (a number, >= 0) and ``mask``
+    (a list of booleans) before they reach the task: a wrong type is named, not a traceback."""
+
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    if "weight" in kw:
+        w = kw["weight"]
+        if not (number(w) or (isinstance(w, list) and w and all(number(x) for x in w))):
+            raise TaskError(
+                f"{where}: weight = {w!r}: must be a number >= 0 or a list of numbers (one per row)"
+            )
+    if "gain" in kw and not number(kw["gain"]):
+        raise TaskError(f"{where}: gain = {kw['gain']!r}: must be a number >= 0")
+    if "mask" in kw:
+        m = kw["mask"]
+        if not (isinstance(m, list) and m and all(isinstance(x, bool) for x in m)):
+            raise TaskError(f"{where}: mask = {m!r}: must be a list of true/false, one per row")
 
 
 def _make_constraint(entry, robot: Robot, where: str, priority: int):
@@ -323,7 +363,16 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
     frame = entry.get("frame")
     role = frame if frame in ROLES else None
     phases = tuple(entry.get("phases", PHASES))
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
+    try:
+        constraint = _build_constraint(kind, entry, robot, where, actual, frame)
+    except WbcError as exc:
+        raise TaskError(f"{where}: level {priority}: constraint {kind!r}: {exc}") from exc
+    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
+    return constraint, binding
+
+
+def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     constraint: Constraint
     if kind == "com_polygon":
         soles = [actual] if actual else ["l_sole", "r_sole"]
@@ -339,8 +388,7 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
             entry.get("clearance", 0.0),
             name=entry.get("name", f"ground_clearance_{frame}"),
         )
-    binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
-    return constraint, binding
+    return constraint
 
 
 _SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include", "exclude"}

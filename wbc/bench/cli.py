@@ -12,26 +12,30 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import platform
 import sys
 import time
+from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
+from rich import box
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..model import load_robot
+from ..model import load_robot, print_notes
 from . import trajectories as traj
 from .solvers import FAMILIES, registry, select
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument(
         "--solvers",
         nargs="+",
@@ -58,10 +62,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="one QP/iteration per control tick (real time), or iterate every pose to convergence",
     )
     parser.add_argument(
-        "--tol", type=float, default=1e-6, help="converged mode: task error tolerance (m / rad)"
+        "--tol",
+        type=positive_float,
+        default=1e-6,
+        help="converged mode: step tolerance, a number > 0 (max |Δq|, m / rad)",
     )
     parser.add_argument(
-        "--max-iterations", type=int, default=100, help="converged mode: iteration cap per pose"
+        "--max-iterations",
+        type=positive_int,
+        default=100,
+        help="converged mode: iteration cap per pose, an integer >= 1",
     )
     parser.add_argument("--json", type=Path, metavar="FILE", help="write one record per run")
     parser.add_argument(
@@ -69,9 +79,38 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--plots", type=Path, metavar="DIR", help="write figures")
     parser.add_argument("--list", action="store_true", help="list solvers and trajectories")
+    parser.add_argument(
+        "--wide", action="store_true", help="every column (~190 characters) instead of ~100"
+    )
+    parser.add_argument(
+        "--verbose", action="store_true", help="let the solvers print (OSQP, IPOPT, ...)"
+    )
+
     from .physics import add_physics_arguments  # --physics, --robustness, --seed, --push
 
     add_physics_arguments(parser)
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
 
 
 def _list(console: Console) -> int:
@@ -97,27 +136,30 @@ def _fmt(value: Any, digits: int = 3) -> str:
     return str(value)
 
 
-def _thesis_columns(record: dict[str, Any]) -> tuple[str, str, str]:
-    """The thesis's own figures for the rows that correspond to its experiments."""
+def _thesis_values(record: dict[str, Any]) -> tuple[Any, Any, Any]:
+    """The thesis's own CoM / foot error (mm) and time (ms per pose) for the rows that
+    correspond to its experiments; None where it gives none."""
     if record["trajectory"] == "static_com":
-        return (
-            _fmt(record.get("thesis_com_err_mm")),
-            "-",
-            _fmt(record.get("thesis_time_ms")) + " ms" if "thesis_time_ms" in record else "-",
-        )
+        return record.get("thesis_com_err_mm"), None, record.get("thesis_time_ms")
     if record["trajectory"] != "thesis_step":
-        return "-", "-", "-"
+        return None, None, None
     from ..pinv.thesis_data import THESIS_WALKING
 
     scheme = record["solver"].split("-", 1)[-1]
     row = THESIS_WALKING.get(scheme) if record["solver"].startswith(("pinv-", "qp-")) else None
     if row is None:
-        return "-", "-", "-"
-    ms = row["ms_per_pose"]
-    return (_fmt(row["com_max_mm"]), _fmt(row["foot_max_mm"]), "-" if ms is None else f"{ms} ms")
+        return None, None, None
+    return row["com_max_mm"], row["foot_max_mm"], row["ms_per_pose"]
 
 
-def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) -> None:
+def _thesis_columns(record: dict[str, Any]) -> tuple[str, str, str]:
+    """:func:`_thesis_values` as table cells."""
+    com, foot, ms = _thesis_values(record)
+    return _fmt(com), _fmt(foot), "-" if ms is None else f"{ms} ms"
+
+
+def _print_wide(console: Console, records: list[dict[str, Any]], mode: str) -> None:
+    """Every column (``--wide``; about 190 characters)."""
     for name in dict.fromkeys(r["trajectory"] for r in records):
         rows = [r for r in records if r["trajectory"] == name]
         table = Table(
@@ -134,6 +176,7 @@ def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) ->
             "limit viol. (n / max rad)",
             "penetr. mm",
             "CoM margin min mm",
+            "ZMP margin min mm",
             "µs median / p99",
             "iter",
             "fail",
@@ -151,6 +194,7 @@ def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) ->
                 f"{_fmt(r.get('limit_violations'))} / {_fmt(r.get('limit_violation_max_rad'))}",
                 _fmt(r.get("penetration_max_mm")),
                 _fmt(r.get("com_margin_min_mm")),
+                _fmt(r.get("zmp_margin_min_mm")),
                 f"{_fmt(r['time_median_us'], 4)} / {_fmt(r.get('time_p99_us'), 4)}",
                 _fmt(r.get("iterations_mean")),
                 _fmt(r.get("failures")),
@@ -160,12 +204,173 @@ def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) ->
         console.print(table)
 
 
+def _short(value: Any) -> str:
+    """Two significant digits, short exponents: 0.0022, 4.3, 158, 8.5e-4; ``-`` if unknown."""
+    if value is None:
+        return "-"
+    if isinstance(value, int) or value == 0:
+        return str(int(value)) if float(value).is_integer() else str(value)
+    a = abs(value)
+    if a >= 100:
+        return f"{value:.0f}"
+    if a >= 1e-3:
+        return f"{value:.2g}"
+    mantissa, exponent = f"{value:.1e}".split("e")
+    return f"{mantissa}e{int(exponent)}"
+
+
+def _pair(a: Any, b: Any) -> str:
+    """``a / b``; ``-`` when neither is known (the column is then dropped)."""
+    if a is None and b is None:
+        return "-"
+    return f"{_short(a)} / {_short(b)}"
+
+
+def _time(r: dict[str, Any], mode: str) -> str:
+    """Median / p99 per tick in µs (tick mode); the median per pose in ms (converged mode)."""
+    med, p99 = r.get("time_median_us"), r.get("time_p99_us")
+    if mode == "tick":
+        return f"{med:.0f} / {p99:.0f}" if p99 is not None else f"{med:.0f}"
+    return _short(med * 1e-3)
+
+
+def _compact_columns(
+    mode: str, gait: str | None
+) -> list[tuple[str, Callable[[dict[str, Any]], str]]]:
+    """(header with units, cell of a record) of the compact table. The balance margin is the
+    CoM's on a static gait and the ZMP's on a dynamic one (``--wide`` shows both)."""
+    margin = "com" if gait == "static" else "zmp"
+    if mode == "tick":
+        errors: list[tuple[str, Callable[[dict[str, Any]], str]]] = [
+            ("CoM err mm\nmax / mean", lambda r: _pair(r["com_err_max_mm"], r["com_err_mean_mm"])),
+            (
+                "swing err mm\nmax / mean",
+                lambda r: _pair(r.get("foot_err_max_mm"), r.get("foot_err_mean_mm")),
+            ),
+        ]
+    else:  # converged: the maxima (as the thesis reports them)
+        errors = [
+            ("CoM err\nmax mm", lambda r: _short(r["com_err_max_mm"])),
+            ("swing err\nmax mm", lambda r: _short(r.get("foot_err_max_mm"))),
+        ]
+    columns: list[tuple[str, Callable[[dict[str, Any]], str]]] = [
+        ("solver", lambda r: r["solver"]),
+        *errors,
+        ("limit\nviol.", lambda r: _short(r.get("limit_violations"))),
+    ]
+    if mode == "tick":  # converged poses are not a motion: no penetration or balance figure
+        columns += [
+            ("penetr.\nmm", lambda r: _short(r.get("penetration_max_mm"))),
+            (
+                f"{'CoM' if margin == 'com' else 'ZMP'}\nmargin mm",
+                lambda r: _short(r.get(f"{margin}_margin_min_mm")),
+            ),
+        ]
+    if mode == "tick":
+        columns.append(("µs / tick\nmed. / p99", lambda r: _time(r, mode)))
+    else:
+        columns += [
+            ("ms / pose\nmedian", lambda r: _time(r, mode)),
+            ("iter", lambda r: _short(r.get("iterations_mean"))),
+            # the thesis's figures are per converged pose: beside converged runs only
+            ("thesis mm\nCoM / foot", lambda r: _pair(*_thesis_values(r)[:2])),
+            ("thesis\nms / pose", lambda r: _short(_thesis_values(r)[2])),
+        ]
+    columns.append(("fail", lambda r: _short(r.get("failures"))))
+    return columns
+
+
+LEGEND = (
+    "err: distance from the reference, by forward kinematics of the returned joints. "
+    "limit viol.: ticks × joints beyond a joint limit. penetr.: depth of the swing sole's "
+    "lowest corner below the ground. margin: smallest signed distance to the support "
+    "polygon's edge (+ inside) of the balance point: the CoM on a static gait (thesis_step), "
+    "the ZMP on a dynamic one (walk10, turn, lateral), whose CoM leaves the polygon by design "
+    "(its CoM margin, negative, is in --wide). fail: ticks the solver could not solve. The "
+    "thesis's own figures (per converged pose) appear beside converged runs. --wide: every "
+    "column; --verbose: solver output."
+)
+
+
+def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) -> None:
+    """The compact tables (key figures, about 100 characters wide) and their legend."""
+    for name in dict.fromkeys(r["trajectory"] for r in records):
+        rows = [r for r in records if r["trajectory"] == name]
+        row_mode = "converge" if name == traj.STATIC_COM else mode
+        columns = _compact_columns(row_mode, rows[0].get("gait"))
+        cells = [[fn(r) for _, fn in columns] for r in rows]
+        keep = [k for k in range(len(columns)) if any(c[k] not in ("-", "- / -") for c in cells)]
+        title = f"{name} ({row_mode} mode)" if name != traj.STATIC_COM else f"{name} (ch. 3)"
+        table = Table(title=title, box=box.SIMPLE_HEAD, show_edge=False, padding=(0, 1, 0, 0))
+        for k in keep:
+            table.add_column(
+                columns[k][0],
+                justify="left" if k == 0 else "right",
+                no_wrap=True,
+                min_width=max(len(c[k]) for c in cells) if k == 0 else None,
+            )
+        for c in cells:
+            table.add_row(*(c[k] for k in keep))
+        console.print(table)
+    console.print(LEGEND, style="dim", width=min(console.width, 100))
+
+
+@contextlib.contextmanager
+def solver_output(verbose: bool) -> Iterator[TextIO]:
+    """Yield a stream on the real standard output; unless ``verbose``, file descriptor 1 goes
+    to /dev/null meanwhile, so what the solvers' C code prints (OSQP's "Polishing not
+    needed", IPOPT's banner) does not reach the terminal."""
+    if verbose:
+        yield sys.stdout
+        return
+    sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no file descriptor 1 (an embedded interpreter): nothing to silence
+        yield sys.stdout
+        return
+    # Python-level stdout replaced (a test, a notebook): keep writing there
+    replaced = sys.stdout is not sys.__stdout__
+    out = sys.stdout if replaced else os.fdopen(os.dup(saved), "w", encoding="utf-8")
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.close(devnull)
+    try:
+        yield out
+    finally:
+        sys.stdout.flush()
+        _flush_c_stdout()
+        os.dup2(saved, 1)
+        os.close(saved)
+        out.flush()
+        if not replaced:
+            out.close()
+
+
+def _flush_c_stdout() -> None:
+    """Flush C's stdio buffers, so that text the solvers buffered goes to /dev/null too."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):  # pragma: no cover - no libc (not Linux/macOS)
+        pass
+
+
 def run(args: argparse.Namespace) -> int:
-    # logs and pipes get a wide table instead of rich's 80-column default
-    console = Console(width=None if sys.stdout.isatty() else 190)
+    with solver_output(getattr(args, "verbose", False)) as out:
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
+    wide = getattr(args, "wide", False)
+    # logs and pipes get the table's own width instead of rich's 80-column default
+    full = wide or getattr(args, "physics", False)  # the physics table keeps its width
+    console = Console(file=out, width=None if out.isatty() else (190 if full else 100))
     if args.list:
         return _list(console)
     robot = load_robot(args.robot)
+    print_notes(robot, "bench")
     entries, notes = select(args.solvers, args.families, args.mode)
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
@@ -178,6 +383,7 @@ def run(args: argparse.Namespace) -> int:
         if t not in traj.TRAJECTORIES:
             traj.build(t, robot)
     records: list[dict[str, Any]] = []
+    recordings = []  # kept for the figures only
     started = time.perf_counter()
     with Progress(
         TextColumn("{task.description}"),
@@ -202,9 +408,7 @@ def run(args: argparse.Namespace) -> int:
                 if args.record:
                     save_recording(rec, args.record, entry.name, name)
                 if args.plots:
-                    from .plots import run_figure
-
-                    run_figure(rec, args.plots / f"{entry.name}__{name}.png")
+                    recordings.append(rec)
                 bar.advance(job)
         if traj.STATIC_COM in args.trajectories:
             families = {e.family for e in entries}
@@ -212,17 +416,21 @@ def run(args: argparse.Namespace) -> int:
                 robot, families, progress=lambda d: bar.update(job, description=d)
             )
             bar.advance(job)
-    _print_tables(console, records, args.mode)
+    (_print_wide if wide else _print_tables)(console, records, args.mode)
     elapsed = time.perf_counter() - started
     console.print(
         f"{len(records)} runs in {elapsed:.1f} s on {platform.node()} "
         f"({platform.machine()}, Python {platform.python_version()})"
     )
     if args.plots and records:
-        from .plots import timing_figure
+        from .plots import quantity_figures, timing_figure
 
-        path = timing_figure(records, args.plots / "time_per_tick.png")
-        console.print(f"figures in {args.plots} (time comparison: {path.name})")
+        paths = quantity_figures(recordings, args.plots)
+        paths.append(timing_figure(records, args.plots / "time_per_tick.png"))
+        console.print(
+            f"{len(paths)} figures (PNG and SVG) in {args.plots}: <trajectory>__<quantity>, "
+            "every solver per figure; time_per_tick"
+        )
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         payload = {

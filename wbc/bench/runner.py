@@ -38,6 +38,7 @@ def run_entry(
     )
     record = metrics.compute(rec, robot)
     record["solver"], record["family"] = entry.name, entry.family
+    record["gait"] = ref.gait  # static: the CoM margin is the balance figure; dynamic: the ZMP's
     rec.meta.update(solver=entry.name, family=entry.family)
     return record, rec
 
@@ -62,7 +63,7 @@ def static_com_records(
     """
     from ..pinv import default_com_target, run_com_placement_benchmark
 
-    q0 = robot.configuration("walk_ready")
+    q0 = robot.configuration("stand")
     target = default_com_target(robot, q0, "l_sole")
     rows: list[dict[str, Any]] = []
     if "pinv" in families:

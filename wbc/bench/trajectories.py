@@ -3,20 +3,41 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..walking.gait import forward_walk, lateral_walk, turning_walk
+from ..walking.geometry import Foot
+from ..walking.keyposes import KeyPoseParams, keypose_walk
+from ..walking.legs import LegGeometry
 from ..walking.reference import StandingState, WalkingReference
-from ..walking.thesis_step import thesis_step
+from ..walking.schedule import GaitTiming, SwingParams
+from ..walking.thesis_step import ThesisStepParams, thesis_step
 
-#: name -> (builder, description)
-TRAJECTORIES: dict[str, tuple[Callable[[StandingState], WalkingReference], str]] = {
-    "thesis_step": (lambda s: thesis_step(s), "the thesis's one step: 100 poses, cubic splines"),
-    "walk10": (lambda s: forward_walk(s, n_steps=10), "10 steps forward, ZMP preview control"),
-    "turn": (lambda s: turning_walk(s), "a turning walk, ZMP preview control"),
-    "lateral": (lambda s: lateral_walk(s), "sideways steps, ZMP preview control"),
+
+def _thesis_step(
+    s: StandingState, foot=None, legs=None, min_clearance: float = 0.005, **params: Any
+) -> WalkingReference:
+    return thesis_step(s, ThesisStepParams(**params), foot, legs, min_clearance)
+
+
+def _keyposes(
+    s: StandingState, foot=None, legs=None, min_clearance: float = 0.004, **params: Any
+) -> WalkingReference:
+    return keypose_walk(s, KeyPoseParams(**params), foot, legs, min_clearance)
+
+
+#: name -> (builder, description); a builder takes the start state and keyword overrides
+TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
+    "thesis_step": (_thesis_step, "the thesis's one step: 100 poses, cubic splines"),
+    "walk10": (lambda s, **kw: forward_walk(s, n_steps=10, **kw), "10 steps forward, ZMP preview"),
+    "turn": (lambda s, **kw: turning_walk(s, **kw), "a turning walk, ZMP preview control"),
+    "lateral": (lambda s, **kw: lateral_walk(s, **kw), "sideways steps, ZMP preview control"),
+    "keyposes": (_keyposes, "the Kokone thesis's static key-pose walk: 12 poses, 0.8 s each"),
 }
+#: keyword overrides given as TOML tables, turned into their dataclasses
+_TABLES = {"timing": GaitTiming, "swing": SwingParams}
 #: the static CoM placement set of ch. 3 (not a walking reference: see wbc.bench.runner)
 STATIC_COM = "static_com"
 DEFAULT = ("thesis_step", "walk10")
@@ -26,12 +47,50 @@ def names() -> list[str]:
     return [*TRAJECTORIES, STATIC_COM]
 
 
-def build(name: str, robot: Robot) -> WalkingReference:
-    """A walking reference by name, starting from the robot's Walk Ready stance."""
+def robot_options(robot: Robot, name: str) -> dict[str, Any]:
+    """The robot's walking data for trajectory ``name``: its feet, its legs and the keyword
+    overrides of ``robot.toml``'s ``[walking.<name>]``.
+
+    The legs are measured from the model at the standing pose; the Bioloid keeps the rounded
+    constants of :class:`LegGeometry` (the same measurement) so its recorded figures hold."""
+    data = robot.robot_data
+    legs = (
+        LegGeometry()
+        if robot.name == "bioloid"
+        else LegGeometry.from_robot(robot, robot.configuration("stand"))
+    )
+    kw: dict[str, Any] = {"foot": Foot(*robot.foot_size), "legs": legs}
+    for key, value in data.walking.get(name, {}).items():
+        if key in _TABLES:
+            try:
+                value = _TABLES[key](**value)
+            except TypeError as exc:
+                raise ConfigurationError(f"{data.source}: [walking.{name}.{key}]: {exc}") from None
+        kw[key] = tuple(value) if isinstance(value, list) else value
+    return kw
+
+
+def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReference:
+    """A walking reference by name, starting from the robot's standing pose.
+
+    ``walking_only``: the caller cannot run :data:`STATIC_COM` (a benchmark set, not a
+    walking reference); the message then lists only the walking references.
+    """
+    if name == STATIC_COM:
+        raise ConfigurationError(
+            f"trajectory {STATIC_COM!r} is the static CoM placement set (wbc bench "
+            f"--trajectories {STATIC_COM}), not a walking reference; walk one of "
+            f"{list(TRAJECTORIES)}"
+        )
     try:
         builder, _ = TRAJECTORIES[name]
     except KeyError:
-        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {names()}") from None
-    ref = builder(StandingState.from_robot(robot))
+        allowed = list(TRAJECTORIES) if walking_only else names()
+        raise ConfigurationError(f"unknown trajectory {name!r}; choose from {allowed}") from None
+    kw = robot_options(robot, name)
+    try:
+        ref = builder(StandingState.from_robot(robot, robot.configuration("stand")), **kw)
+    except TypeError as exc:  # an unknown key in [walking.<name>]
+        raise ConfigurationError(f"{robot.robot_data.source}: [walking.{name}]: {exc}") from None
     ref.name = name
     return ref

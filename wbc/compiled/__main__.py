@@ -18,7 +18,7 @@ def main() -> int:
 
     start = time.perf_counter()
     robot = load_robot()
-    q = robot.configuration("walk_ready")
+    q = robot.configuration("stand")
     for solver in ("weighted", "hierarchical"):
         control = load_stack("walk", robot, solver=solver)
         control.set_phase("single", "l_sole", "r_sole", Kinematics(robot, q))

@@ -193,7 +193,7 @@ class _Plan:
         self.efull = np.zeros(dim)
         self.Jfull = np.zeros((dim, nv))
         self.Jw = kin.data.J  # views that follow every Kinematics.update
-        self.com = kin.com
+        self.com = kin.data.com[0]  # a live view while kin lives (kin.com is a copy)
         self.Jcom = kin.com_jacobian
         self.q_min, self.q_max = robot.q_min, robot.q_max
         self.q = np.zeros(robot.nq)

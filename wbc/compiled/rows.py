@@ -12,12 +12,16 @@ import math
 import numpy as np
 from numba import njit
 
+#: within this of π, the logarithm's branch is chosen by a fixed rule, not by rounding
+PI_BRANCH_TOL = 1e-9
+
 
 @njit(cache=True)
 def log3(R: np.ndarray, out: np.ndarray) -> float:
     """out = log(R) ∈ so(3) (axis × angle) through the unit quaternion of R; returns the angle.
 
-    Shepperd's choice of pivot keeps the quaternion accurate at every angle (up to π).
+    Shepperd's choice of pivot keeps the quaternion accurate at every angle (up to π). At π
+    (within :data:`PI_BRANCH_TOL`) the branch has its largest component positive.
     """
     r00, r01, r02 = R[0, 0], R[0, 1], R[0, 2]
     r10, r11, r12 = R[1, 0], R[1, 1], R[1, 2]
@@ -53,6 +57,13 @@ def log3(R: np.ndarray, out: np.ndarray) -> float:
     theta = 2.0 * math.atan2(n, w)
     # theta / n -> 2 / w as n -> 0 (w -> 1): no division by a vanishing n
     k = theta / n if n > 1e-12 else 2.0 / w
+    if theta > math.pi - PI_BRANCH_TOL:
+        # at π the sign of the axis is rounding noise: one branch on every path (as
+        # wbc.tasks.frame_task.log3), the largest component positive
+        ax, ay, az = abs(x), abs(y), abs(z)
+        big = x if ax >= ay and ax >= az else (y if ay >= az else z)
+        if big < 0.0:
+            k = -k
     out[0] = k * x
     out[1] = k * y
     out[2] = k * z

@@ -7,7 +7,7 @@ from numba import njit
 
 from ..compiled.rows import frame_jacobian
 from ..exceptions import TaskError
-from ..geometry import FOOT_LENGTH, FOOT_WIDTH, sole_corners
+from ..geometry import sole_corners
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality
 
@@ -37,15 +37,19 @@ class GroundClearanceConstraint(Constraint):
         robot: Robot,
         frame: str,
         clearance: float = 0.0,
-        length: float = FOOT_LENGTH,
-        width: float = FOOT_WIDTH,
+        length: float | None = None,
+        width: float | None = None,
         name: str | None = None,
     ) -> None:
         super().__init__(name or f"ground_clearance_{frame}")
         self.robot = robot
         self.clearance = clearance
         self.set_frame(frame)
-        self.corners = sole_corners(length, width)
+        # the foot rectangle: the robot's (robot.toml [feet]) unless given
+        foot_length, foot_width = robot.foot_size
+        self.corners = sole_corners(
+            foot_length if length is None else length, foot_width if width is None else width
+        )
         self._G = np.zeros((4, robot.nv))
         self._h = np.zeros(4)
         self._Jf = np.zeros((6, robot.nv))

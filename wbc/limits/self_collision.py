@@ -228,7 +228,7 @@ class Witness(NamedTuple):
     """The pairs closer than the query distance: indices into the pair list, signed
     distances (m), witness points on the first / second geometry and unit normals (world)."""
 
-    index: np.ndarray
+    index: np.ndarray  # type: ignore[assignment]  # the field shadows tuple.index
     distance: np.ndarray
     p1: np.ndarray
     p2: np.ndarray

@@ -57,10 +57,17 @@ class ComPolygonConstraint(Constraint):
         soles: Sequence[str] = ("l_sole", "r_sole"),
         margin: float = 0.01,
         name: str = "com_polygon",
+        length: float | None = None,
+        width: float | None = None,
     ) -> None:
         super().__init__(name)
         self.robot = robot
         self.margin = margin
+        # the foot rectangle: the robot's (robot.toml [feet]) unless given
+        self.foot = (
+            length if length is not None else robot.foot_size[0],
+            width if width is not None else robot.foot_size[1],
+        )
         self.polygon: SupportPolygon | None = None
         self.set_support(soles)
 
@@ -71,7 +78,7 @@ class ComPolygonConstraint(Constraint):
         self.polygon = None
 
     def update_polygon(self, kin: Kinematics) -> SupportPolygon:
-        self.polygon = SupportPolygon.from_soles(kin, self.sole_ids, self.margin)
+        self.polygon = SupportPolygon.from_soles(kin, self.sole_ids, self.margin, *self.foot)
         return self.polygon
 
     def compute(self, kin: Kinematics) -> Inequality:

@@ -52,7 +52,7 @@ def run_com_placement_benchmark(
     over the support sole). Time is the best of ``repeats`` runs (ms); ``options`` go to
     :class:`~wbc.pinv.com_placement.ComPlacement` (tol, max_iterations, length_scale, ...).
     """
-    q0 = robot.configuration("walk_ready") if q0 is None else q0
+    q0 = robot.configuration("stand") if q0 is None else q0
     target = default_com_target(robot, q0, support) if com_target is None else com_target
     placement = ComPlacement(robot, support, swing, **options)
     rows = []
@@ -212,7 +212,7 @@ def run_walking_benchmark(
 ) -> list[dict]:
     """Each scheme on :func:`thesis_like_step` from ``q0`` (default walk_ready, made to
     satisfy every task first by :func:`settled_start` unless ``settle`` is False)."""
-    q0 = robot.configuration("walk_ready") if q0 is None else q0
+    q0 = robot.configuration("stand") if q0 is None else q0
     if settle:
         q0 = settled_start(robot, q0)
     reference = thesis_like_step(robot, q0, n_poses=n_poses)

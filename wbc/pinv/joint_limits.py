@@ -179,8 +179,8 @@ class ChanDubeyWeights:
         if theta.shape != self.lower.shape:
             raise ConfigurationError(f"θ must have shape {self.lower.shape}, got {theta.shape}")
         g = np.abs(zghal_gradient(theta, self.lower, self.upper))
-        growing = (g - self.previous) >= 0.0  # inf - inf is nan -> not growing: keep it safe
-        growing |= np.isinf(g)
+        # Δ|∂H/∂θ| >= 0 as a comparison: at a limit |∂H/∂θ| is inf, and inf - inf would be nan
+        growing = (g >= self.previous) | np.isinf(g)
         self.weights = np.where(growing, 1.0 + g, 1.0)
         self.previous = g
         return self.weights

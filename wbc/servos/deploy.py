@@ -85,7 +85,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
     parser.add_argument("--servo-map", help="servo map TOML (default: the robot's servos.toml)")
     parser.add_argument(
-        "--backend", choices=("dynamixel", "ssc32"), default="dynamixel", help="servo bus"
+        "--backend",
+        "--bus",
+        choices=("dynamixel", "ssc32"),
+        default="dynamixel",
+        help="servo bus (ssc32: the robot folder's ssc32.toml unless --ssc32-map)",
     )
     parser.add_argument("--port", help="serial port, e.g. /dev/ttyUSB0")
     parser.add_argument(
@@ -133,7 +137,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="health checks are scheduled so a servo fault stops motion within this time",
     )
     parser.add_argument(
-        "--crouch-pose", default="walk_ready", help="servo map pose of the crouch (safe stop)"
+        "--crouch-pose", default="stand", help="named pose of the crouch (safe stop)"
     )
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
@@ -162,13 +166,17 @@ def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoB
     if args.backend == "ssc32":
         from .ssc32 import Ssc32Bus, Ssc32Map
 
-        ssc_map = (
-            Ssc32Map.from_file(args.ssc32_map, robot.joint_names)
-            if args.ssc32_map
-            else Ssc32Map.default(robot.joint_names, sm.signs.astype(int))
-        )
+        own = robot.urdf_path.parent / "ssc32.toml"  # the robot folder's map (Kokone)
+        if args.ssc32_map or own.is_file():
+            ssc_map = Ssc32Map.from_file(args.ssc32_map or own, robot.joint_names)
+        elif sm is not None:
+            ssc_map = Ssc32Map.default(robot.joint_names, sm.signs.astype(int))
+        else:
+            raise ServoError(f"robot {robot.name} has no ssc32.toml; give --ssc32-map")
+        for warning in ssc_map.range_warnings(robot.q_min, robot.q_max):
+            print(f"warning: {warning}", file=sys.stderr)
         move_ms = max(1, round(1000.0 / args.rate))
-        return Ssc32Bus(port or "", ssc_map, args.baud or 115200, move_time_ms=move_ms)
+        return Ssc32Bus(port or "", ssc_map, args.baud or ssc_map.baudrate, move_time_ms=move_ms)
     from .dynamixel import DynamixelBus
 
     return DynamixelBus(
@@ -214,12 +222,17 @@ def check_servo_map(robot: Robot, tol: float = 1e-3) -> list[str]:
 
 
 def _dry_bus(bus: ServoBus, robot: Robot) -> DryRunBus:
-    if robot.servo_map is not None and "walk_ready" in robot.servo_map.poses:
-        start = bus.codec.encode_float(robot.configuration("walk_ready")[7:])
+    """Ideal servos at the robot's standing pose, reading back only what ``bus`` could."""
+    if robot.stand_pose != "zero":
+        start = bus.codec.encode_float(robot.configuration("stand")[7:])
     else:
         start = bus.codec.encode_float(np.clip(0.0, robot.q_min, robot.q_max))
     start = np.clip(np.rint(start), bus.codec.cmd_min, bus.codec.cmd_max)
-    return DryRunBus(bus.codec, bus.labels, start)
+    dry = DryRunBus(bus.codec, bus.labels, start)
+    dry.can_read = bus.can_read
+    dry.name = "dry-run" if bus.can_read else f"dry-run {bus.name}"
+    dry.unchecked = getattr(bus, "unchecked", ())
+    return dry
 
 
 def _live_source(args: argparse.Namespace, robot) -> tuple[CallableSource, str, float]:
@@ -243,8 +256,9 @@ def run(args: argparse.Namespace) -> int:
     err = sys.stderr
     try:
         robot = load_robot(args.robot, servo_map=args.servo_map)
-        for warning in check_servo_map(robot):
-            print(f"warning: {warning}", file=err)
+        if args.backend == "dynamixel" or robot.servo_map is not None:
+            for warning in check_servo_map(robot):
+                print(f"warning: {warning}", file=err)
         config = DeployConfig(
             rate=args.rate,
             read=args.read,

@@ -72,7 +72,7 @@ class DeployConfig:
     start_tol: float = 0.05  # present position may lie this far outside the limits
     log_path: str | None = None
     fault_bound_s: float = 0.1  # health schedule: fault -> last goal
-    crouch_pose: str = "walk_ready"
+    crouch_pose: str = "stand"  # a named pose of the robot (its standing pose by default)
 
     def validate(self) -> None:
         if not (math.isfinite(self.rate) and 0 < self.rate <= MAX_RATE_HZ):
@@ -261,7 +261,8 @@ class Deployment:
         self.crouch_cmd = self._crouch_cmd()
         if self.crouch_cmd is None and self.config.on_fault in ("auto", "crouch"):
             self.warn(
-                f"no crouch pose {self.config.crouch_pose!r} in the servo map (--crouch-pose): "
+                f"no crouch pose {self.config.crouch_pose!r} (--crouch-pose; the robot's poses: "
+                f"{self.robot.pose_names()}): "
                 "a safe stop that should crouch will cut torque where the robot stands"
             )
         self._rate_check()
@@ -283,9 +284,8 @@ class Deployment:
         self.out(f"warning: {text}")
 
     def _crouch_cmd(self) -> np.ndarray | None:
-        sm = self.robot.servo_map
         name = self.config.crouch_pose
-        if sm is None or name not in sm.poses:
+        if name not in self.robot.pose_names():
             return None
         q = self.robot.configuration(name)[7:]
         c = np.rint(self.bus.codec.encode_float(q))
@@ -321,6 +321,8 @@ class Deployment:
                 f"{bus.name}: positions cannot be read; no soft start from the real pose; "
                 "place the robot near the first pose before starting"
             )
+            for what in getattr(bus, "unchecked", ()):
+                self.warn(f"{bus.name}: cannot check {what}")
             return first_cmd.astype(float)
         statuses = bus.read_positions()
         for k in range(2):  # retries for replies lost on a loaded machine, after a pause

@@ -10,7 +10,9 @@ limp), which is our torque-off. The joint <-> channel map is a TOML table::
     [joints]
     l_hip_yaw = { channel = 0, sign = 1, center_us = 1500, us_per_deg = 13.333 }
 
-``us_per_deg`` defaults to Kokone's 13.33 µs/deg (0.075 deg/µs) and ``center_us`` to 1500.
+``center_us`` is the pulse at q = 0 (default 1500); the scale is ``us_per_deg`` or
+``us_per_rad`` (default Kokone's 13.33 µs/deg = 0.075 deg/µs); ``[bus] baudrate`` (default
+115200). ``robots/kokone/ssc32.toml`` is the robot's own map.
 The board gives no position feedback (``can_read = False``): soft start cannot begin at the
 servos' real positions; the SSC-32 also moves a channel's first command at full speed.
 """
@@ -65,6 +67,7 @@ class Ssc32Map:
     def __init__(self, channels: Sequence[Ssc32Channel], source: str = "<memory>") -> None:
         self.channels = tuple(channels)
         self.source = source
+        self.baudrate = 115200
         seen: dict[int, str] = {}
         for c in self.channels:
             where = f"{source}: joint {c.joint!r}"
@@ -121,21 +124,48 @@ class Ssc32Map:
         channels = []
         for j in joint_names:
             e = joints[j]
-            unknown = set(e) - {"channel", "sign", "center_us", "us_per_deg"}
+            unknown = set(e) - {"channel", "sign", "center_us", "us_per_deg", "us_per_rad"}
             if unknown or "channel" not in e:
                 raise ServoError(
                     f"SSC-32 map {path}: joint {j!r} needs 'channel'; unknown {unknown}"
                 )
+            if "us_per_deg" in e and "us_per_rad" in e:
+                raise ServoError(
+                    f"SSC-32 map {path}: joint {j!r}: give us_per_deg or us_per_rad, not both"
+                )
+            scale = e.get("us_per_deg", KOKONE_US_PER_DEG)
+            if "us_per_rad" in e:
+                scale = _number(e["us_per_rad"], f"SSC-32 map {path}: joint {j!r} us_per_rad")
+                scale *= math.pi / 180.0
             channels.append(
                 Ssc32Channel(
                     j,
                     e["channel"],
                     e.get("sign", 1),
-                    float(e.get("center_us", PULSE_CENTER)),
-                    float(e.get("us_per_deg", KOKONE_US_PER_DEG)),
+                    _number(e.get("center_us", PULSE_CENTER), f"SSC-32 map {path}: {j} center_us"),
+                    _number(scale, f"SSC-32 map {path}: joint {j!r} us_per_deg"),
                 )
             )
-        return cls(channels, source=str(path))
+        baud = raw.get("bus", {}).get("baudrate", 115200)
+        if baud not in SSC32_BAUDS:
+            raise ServoError(f"SSC-32 map {path}: [bus] baudrate {baud!r} not in {SSC32_BAUDS}")
+        out = cls(channels, source=str(path))
+        out.baudrate = baud
+        return out
+
+    def range_warnings(self, q_min: np.ndarray, q_max: np.ndarray) -> list[str]:
+        """One line per joint whose limits (rad, model order) map partly outside the board's
+        500..2500 µs (a centre or scale to recalibrate; the goals are clamped to it)."""
+        codec = self.codec()
+        a, b = codec.encode_float(np.asarray(q_min)), codec.encode_float(np.asarray(q_max))
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        return [
+            f"SSC-32 map {self.source}: {c.joint} (channel {c.channel}) limits map to "
+            f"{lo[i]:.0f}..{hi[i]:.0f} µs, beyond {PULSE_MIN}..{PULSE_MAX}: that part of its "
+            "range is unreachable"
+            for i, c in enumerate(self.channels)
+            if lo[i] < PULSE_MIN - 0.5 or hi[i] > PULSE_MAX + 0.5
+        ]
 
     def codec(self) -> Codec:
         """``pulse = center_us + sign · us_per_deg · degrees(q)``, 500..2500 µs."""
@@ -146,6 +176,12 @@ class Ssc32Map:
             cmd_max=PULSE_MAX,
             unit="us",
         )
+
+
+def _number(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ServoError(f"{where} = {value!r}: must be a number")
+    return float(value)
 
 
 def move_command(
@@ -182,6 +218,13 @@ class Ssc32Bus(ServoBus):
     can_read = False
     health_per_servo = False  # Q asks the board
     servo_speed = BMS380_SPEED
+    #: what the safety layer cannot check on hobby PWM servos (no feedback wire)
+    unchecked = (
+        "the servos' positions: no tracking error, no stall or blocked-joint detection",
+        "that a servo is connected or powered: only the board answers (VER, Q)",
+        "load, temperature or supply voltage: no overload or overheating cut-off",
+        "the speed the servos actually reach: the board's T interpolation is open loop",
+    )
 
     def __init__(
         self,

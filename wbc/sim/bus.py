@@ -193,6 +193,10 @@ class SimServoBus(ServoBus):
         """The budget of the real AX-12A bus at 1 Mbps that the simulated servos stand for."""
         return ax_budget(self.n, 1_000_000, read_positions)
 
+    def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
+        """As :meth:`budget`, with the deployment's ``polls_per_tick`` health reads."""
+        return ax_budget(self.n, 1_000_000, read_positions, polls_per_tick)
+
 
 class SimImu(Imu):
     """The simulated torso IMU: MuJoCo's frame-quaternion, gyro and accelerometer sensors

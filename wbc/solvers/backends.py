@@ -17,6 +17,16 @@ import numpy as np
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 
 INF = 1e30  # what DAQP and OSQP read as infinity
+#: ProxQP's iteration caps, per variable and constraint row (outer) and per outer iteration
+#: (inner): the defaults (10,000 x 1,500) let one degenerate level of a hierarchy run for
+#: minutes; these bound a solve to ~2,700 inner iterations (~0.15 s for the stacks here),
+#: while the stacks' solves need a few hundred (a capped solve is retried once cold)
+PROXQP_ITER_PER_ROW = 5
+PROXQP_INNER_ITER = 10
+#: OSQP's iteration cap per variable and constraint row (was a flat 50,000 whatever the
+#: size); a capped solve fails with a SolverError, which the cascade answers by solving the
+#: tick with DAQP (solve_cascade_or_daqp)
+OSQP_ITER_PER_ROW = 400
 
 
 class QPWorkspace:
@@ -127,12 +137,13 @@ class DaqpBackend(QPBackend):
             H, c, C, bu, bl, sense, primal_tol=self.eps, sing_tol=1e-11
         )
         for eps_prox in (1e-6, 1e-4):
-            if exitflag != -1:
+            if exitflag in (1, 2):
                 break
             # DAQP 0.11 can report a feasible but degenerate problem (many rows active at the
-            # same point, as on the lower levels of a hierarchy) infeasible; its proximal mode
-            # (with a primal tolerance it can meet) solves those, and still reports a truly
-            # infeasible problem as infeasible
+            # same point, as on the lower levels of a hierarchy) infeasible (-1), cycling (-2)
+            # or with other failure flags (4 was seen); its proximal mode (with a primal
+            # tolerance it can meet) solves those, and still reports a truly infeasible
+            # problem as infeasible
             x, _, exitflag, info = self._daqp.solve(
                 H,
                 c,
@@ -217,6 +228,11 @@ class ProxqpBackend(QPBackend):
             qp.settings.eps_rel = 0.0
             qp.settings.eps_primal_inf = 1e-12  # the default 1e-4 fires on feasible problems
             qp.settings.verbose = False
+            # bounded time per solve: iteration caps scaled to the problem (the defaults,
+            # 10,000 outer x 1,500 inner iterations, let one degenerate level run for minutes);
+            # a solve that hits them fails with PROXQP_MAX_ITER_REACHED (a SolverError)
+            qp.settings.max_iter = PROXQP_ITER_PER_ROW * (shape[0] + shape[1] + shape[2])
+            qp.settings.max_iter_in = PROXQP_INNER_ITER
             qp.init(*args)
             self._qp, self._shape = qp, shape
             qp.solve()
@@ -313,14 +329,14 @@ class OsqpBackend(QPBackend):
                 eps_abs=max(self.eps, 1e-6),
                 eps_rel=1e-6,
                 polishing=True,
-                max_iter=50000,
+                max_iter=OSQP_ITER_PER_ROW * (n + m_eq + m_in),
                 warm_starting=True,
                 polish_refine_iter=10,
             )
             self._solver, self._shape = solver, (n, m_eq, m_in)
         else:
             self._solver.update(q=c, l=lo, u=up, Px=P.data, Ax=Kc.data)
-        res = self._solver.solve()
+        res = self._solver.solve(raise_error=False)  # the status is checked below
         status = res.info.status
         self.iterations = int(res.info.iter)
         if status in ("solved", "solved inaccurate") and res.x is not None:

@@ -10,15 +10,34 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..exceptions import ConfigurationError, WbcError
+from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
 from ..limits import Bounds, intersect_bounds
 from ..model import Kinematics
+from .assembly import stack_constraints
 from .backends import QPBackend, make_backend
+from .cascade import LevelProblem, solve_cascade
 from .stack import TaskStack
 
 #: violation up to which a compiled solution counts as meeting the inequality rows (the
 #: backends' own primal tolerance is of the same order)
 CONSTRAINT_TOL = 1e-9
+#: hard-task error (m, rad) beyond which :meth:`StackSolver.solve_pose` projects an iterate
+#: back onto the hard levels (smaller residuals the next QP step corrects to second order)
+HARD_ITERATE_TOL = 1e-3
+#: largest hard-task error at the end of :meth:`StackSolver.solve_pose`
+HARD_POSE_TOL = 1e-6
+#: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
+#: quadratically: two or three steps from a tick's second-order residual)
+HARD_PROJECTION_STEPS = 20
+#: at most this many halvings of a projection step that would not reduce its level's error
+HARD_PROJECTION_HALVINGS = 12
+
+
+def _worse(errors: list[float] | None, before: list[float] | None) -> bool:
+    """True if a hard level's error grew beyond max(its error before, HARD_ITERATE_TOL)."""
+    if errors is None or before is None:
+        return False
+    return any(e > max(b, HARD_ITERATE_TOL) for e, b in zip(errors, before, strict=True))
 
 
 @dataclass
@@ -93,6 +112,12 @@ class StackSolver(ABC):
         self.solve_time = 0.0
         #: True if the last solve had to relax an infeasible hard level
         self.relaxed = False
+        #: set while a tick is re-solved with the recovery of joints outside their range
+        #: yielding to the hard levels (:meth:`_solve_yielding_recovery`)
+        self._yield_recovery = False
+        #: (Δq indices, recovery steps) of that re-solve (None otherwise): an objective
+        #: right below the hard levels
+        self.recovery: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def name(self) -> str:
@@ -113,9 +138,46 @@ class StackSolver(ABC):
             raise ConfigurationError(f"dt must be a positive number, got {dt}")
         self.last = None
         self.kin.update(q)
-        self.last = solution = self._solve(self.kin, dt)
+        try:
+            solution = self._solve(self.kin, dt)
+        except InfeasibleError as exc:
+            self._check_task_errors()  # a non-finite target is the cause: say so
+            solution = self._solve_yielding_recovery(dt, exc)
+        except WbcError:
+            self._check_task_errors()
+            raise
+        if not math.isfinite(solution.dq.dot(solution.dq)):  # nothing non-finite leaves
+            self._check_task_errors()
+            raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
+        self.last = solution
         self.solve_time = time.perf_counter() - start
         return solution
+
+    def _solve_yielding_recovery(self, dt: float | None, exc: InfeasibleError) -> Solution:
+        """Re-solve an infeasible tick whose joint bounds force joints back into their range
+        (a start outside the limits) with that recovery yielding to the hard levels: those
+        joints may then move back by less (never further out), and the recovery step becomes
+        an objective right below the hard levels (:attr:`recovery`). Re-raises when no joint
+        is outside its range (the hard levels are infeasible on their own)."""
+        joints = self.kin.q[7:]
+        if not ((joints < self._q_min).any() or (joints > self._q_max).any()):
+            raise exc
+        self._yield_recovery = True
+        try:
+            return self._solve(self.kin, dt)
+        finally:
+            self._yield_recovery = False
+
+    def _check_task_errors(self) -> None:
+        """Raise TaskError naming an active task whose error at the last solve is not finite
+        (a target array written in place with NaN or inf bypasses ``set_target``'s check)."""
+        for t in self.stack.tasks():
+            e = t.last_error
+            if t.active and e.size == t.rows and not np.isfinite(e).all():
+                raise TaskError(
+                    f"task {t.name!r}: non-finite error {e} at the last solve (a target holds "
+                    "NaN or inf: set targets with set_target, which checks them)"
+                )
 
     def prepare(self, q: np.ndarray, dt: float | None = None) -> None:
         """Pay the one-off costs of a first solve now (building the layout, loading the
@@ -176,21 +238,50 @@ class StackSolver(ABC):
         """Iterate Δq until every task error is below ``tol``, or the steps stall (max |Δq| <
         ``stall_tol``: a weighted compromise or an unreachable target has its fixed point).
 
+        The hard levels hold at the end, not only to first order: a step is one QP on the
+        linearised tasks, so a long step (an unreachable or upside-down target pulls hard on
+        the soft levels) leaves the hard tasks a second-order residual. An iterate whose hard
+        residual grew beyond :data:`HARD_ITERATE_TOL` (or whose hard levels the QP can no
+        longer meet within the joint limits) is projected back onto the hard levels
+        (:meth:`project_hard`), the step halved while that is not enough; the final pose is
+        projected to min(``tol``, :data:`HARD_POSE_TOL`).
+
         This is the per-pose iterative mode used to compare with the thesis's solutions.
         """
         start = time.perf_counter()
         q = self.robot.check_configuration(q).copy()
         converged = False
         it = 0
+        q_prev = dq_prev = errors_prev = None
         for it in range(1, max_iterations + 1):
-            dq = self.solve(q, dt)
+            try:
+                dq = self.solve(q, dt)
+                errors = self._hard_errors_of_last_solve()
+                back = q_prev is not None and _worse(errors, errors_prev)
+            except InfeasibleError:
+                if q_prev is None:
+                    raise
+                back = True
+            if back:
+                q, dq, errors = self._shorter_step(q_prev, dq_prev, errors_prev, tol, dt)
             if self._converged(tol):
                 converged = True
                 it -= 1
                 break
+            q_prev, dq_prev, errors_prev = q, dq, errors
             q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
                 break
+        pose_tol = min(tol, HARD_POSE_TOL)
+        q_end, errors = self._project(q, pose_tol)
+        if q_prev is not None and any(e > pose_tol for e in errors):
+            # the last step (never checked by a solve) left what the projection cannot undo
+            # within the joint limits: the longest fraction of it that can be
+            for k in range(1, HARD_PROJECTION_HALVINGS + 1):
+                q_end, errors = self._project(self._move_joints(q_prev, 0.5**k * dq_prev), pose_tol)
+                if all(e <= pose_tol for e in errors):
+                    break
+        q = q_end
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
         if not converged:
@@ -200,6 +291,138 @@ class StackSolver(ABC):
                 if t.active and t.blocks_convergence
             )
         return PoseResult(q, it, converged, errors, time.perf_counter() - start)
+
+    def _shorter_step(self, q_prev, dq_prev, before, tol: float, dt) -> tuple:
+        """(q, Δq, hard errors) from q_prev ⊕ t·Δq_prev projected onto the hard levels, for
+        the largest t in 1, ½, ¼, ... at which the QP meets the hard levels and leaves them no
+        worse than at q_prev: near the joint limits a long step's second-order residual may
+        be beyond what the limits let the projection or the QP undo, a shorter step's is not.
+        Raises the QP's InfeasibleError if even the shortest step fails."""
+        failure = None
+        for k in range(HARD_PROJECTION_HALVINGS):
+            q = self.project_hard(self._move_joints(q_prev, 0.5**k * dq_prev), tol)
+            try:
+                dq = self.solve(q, dt)
+            except InfeasibleError as exc:
+                failure = exc
+                continue
+            errors = self._hard_errors_of_last_solve()
+            if not _worse(errors, before):
+                return q, dq, errors
+            failure = None
+        if failure is not None:
+            raise failure
+        return q, dq, errors
+
+    def _hard_errors_of_last_solve(self) -> list[float] | None:
+        """Each hard level's largest error at the last solve (the tasks' last errors); None
+        if a hard level has inequalities (their violation is not kept)."""
+        out = []
+        for lv in self.stack.levels:
+            if lv.hard:
+                if lv.active_constraints():
+                    return None
+                out.append(
+                    max((float(abs(t.last_error).max()) for t in lv.active_tasks()), default=0.0)
+                )
+        return out
+
+    def _hard_errors(self, kin: Kinematics) -> list[float]:
+        """Each hard level's largest task error and inequality violation at ``kin``."""
+        out = []
+        for lv in self.stack.levels:
+            if not lv.hard:
+                continue
+            worst = 0.0
+            for t in lv.active_tasks():
+                worst = max(worst, float(abs(t.compute_error(kin)[t.mask]).max()))
+            for c in lv.active_constraints():
+                h = c.compute(kin)[1]
+                if h.size:
+                    worst = max(worst, float(-h.min()))
+            out.append(worst)
+        return out
+
+    def _hard_problems(self, kin: Kinematics) -> list[LevelProblem]:
+        """The hard levels' rows at ``kin``, unweighted and at gain 1 (the whole error)."""
+        nv = self.robot.nv
+        problems = []
+        for lv in self.stack.levels:
+            if not lv.hard:
+                continue
+            tasks = lv.active_tasks()
+            rows = [t.compute(kin) for t in tasks]
+            J = np.vstack([r[0] for r in rows]) if rows else np.zeros((0, nv))
+            e = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
+            G, h, _ = stack_constraints(lv.active_constraints(), kin, nv)
+            problems.append(LevelProblem(lv.priority, J, e, G, h, hard=True))
+        return problems
+
+    def project_hard(
+        self, q: np.ndarray, tol: float = 1e-9, max_steps: int = HARD_PROJECTION_STEPS
+    ) -> np.ndarray:
+        """q moved onto the hard levels, one level after the other: for level k, Gauss–Newton
+        steps δ = argmin ‖δ‖ subject to the hard levels 0..k in priority order (J_j δ = e_j in
+        least squares over the null space of the levels above, their inequalities) and the
+        joint limits, each step halved until it reduces level k's error without raising a
+        level above it beyond ``tol``. A level that cannot be met (relaxed) keeps the best it
+        reaches and ends the projection; it never costs a level above it."""
+        return self._project(q, tol, max_steps)[0]
+
+    def _project(
+        self, q: np.ndarray, tol: float, max_steps: int = HARD_PROJECTION_STEPS
+    ) -> tuple[np.ndarray, list[float]]:
+        """:meth:`project_hard` and the hard levels' errors at the result (kin left there)."""
+        kin = self.kin
+        kin.update(q)
+        errors = self._hard_errors(kin)
+        for k in range(len(errors)):
+            for _ in range(max_steps):
+                if errors[k] <= tol:
+                    break
+                kin.update(q)
+                delta = self._hard_step(q, self._hard_problems(kin)[: k + 1])
+                t, accepted = 1.0, False
+                for _ in range(HARD_PROJECTION_HALVINGS):
+                    q_t = self._move_joints(q, t * delta)
+                    kin.update(q_t)
+                    e_t = self._hard_errors(kin)
+                    if e_t[k] < errors[k] and all(e_t[j] <= max(errors[j], tol) for j in range(k)):
+                        q, errors, accepted = q_t, e_t, True
+                        break
+                    t *= 0.5
+                if not accepted or t * abs(delta).max() < 1e-13:
+                    break
+            if errors[k] > tol:
+                break  # an unmet (relaxed) level: the levels below have no exact target left
+        if kin.q is not q:  # the last evaluation was of a rejected trial
+            kin.update(q)
+        return q, errors
+
+    def _hard_step(self, q: np.ndarray, problems: list[LevelProblem]) -> np.ndarray:
+        """One Gauss–Newton step onto the given hard levels (minimum-norm, joint limits)."""
+        nv = self.robot.nv
+        lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+        self.stack.position_limit.joint_bounds_into(q[7:], lower[6:], upper[6:])
+        np.minimum(lower[6:], 0.0, out=lower[6:])  # a joint outside its range may stay
+        np.maximum(upper[6:], 0.0, out=upper[6:])
+        none = np.zeros((0, nv))
+        levels = [*problems, LevelProblem(1 << 30, none, np.zeros(0), none, np.zeros(0))]
+        # DAQP whatever the solver's backend: an exact active set (a first-order backend's
+        # 1e-6 accuracy would stop the projection short of its 1e-10)
+        backends = [make_backend("daqp") for _ in levels]
+        try:
+            delta, _ = solve_cascade(levels, lower, upper, backends, relax=True)
+        except WbcError:
+            return np.zeros(nv)  # no step: the projection stops where it is
+        return delta if np.isfinite(delta).all() else np.zeros(nv)
+
+    def _move_joints(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """q ⊕ δ with the joints kept in [min(q_min, q_j), max(q_max, q_j)]."""
+        q_next = self.robot.integrate(q, delta)
+        j, j_prev = q_next[7:], q[7:]
+        np.clip(j, np.minimum(self._q_min, j_prev), np.maximum(self._q_max, j_prev), out=j)
+        return q_next
 
     def _converged(self, tol: float) -> bool:
         return all(
@@ -276,6 +499,13 @@ class StackSolver(ABC):
         use = dt is not None and limit is not None
         step = limit.step(dt) if use else self._q_min  # (not read without a time step)
         joint_bounds(kin.q[7:], self._q_min, self._q_max, step, use, lower, upper)
+        self.recovery = None
+        if self._yield_recovery:  # joints outside: move back as far as the hard levels allow
+            lo, hi = lower[6:], upper[6:]
+            out = np.flatnonzero((lo > 0.0) | (hi < 0.0))
+            self.recovery = (6 + out, np.where(lo[out] > 0.0, lo[out], hi[out]))
+            np.minimum(lo, 0.0, out=lo)
+            np.maximum(hi, 0.0, out=hi)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import lapack
 
-from ..exceptions import InfeasibleError
-from .backends import QPBackend
+from ..exceptions import InfeasibleError, SolverError
+from .backends import DaqpBackend, QPBackend
 
 #: ridge along the null space of an intermediate level, relative to its mean curvature: it
 #: keeps the QP strictly convex; the level's optimum only feels it through active constraints
@@ -209,7 +209,9 @@ def solve_cascade(
                 slack = p > 0 and not lvl.hard
                 try:
                     u, s = _solve_qp(*args, slack=slack)
-                except InfeasibleError:
+                except (InfeasibleError, SolverError):
+                    # an infeasible hard level may also show as a backend failure (OSQP:
+                    # "maximum iterations reached"): relaxing it with slacks is always feasible
                     if not (lvl.hard and p and relax):
                         raise
                     slack = was_relaxed = True
@@ -231,6 +233,26 @@ def solve_cascade(
         for lvl, s, rf in zip(levels, slacks, relaxed_flags, strict=True)
     ]
     return x, sols
+
+
+def solve_cascade_or_daqp(
+    levels: list[LevelProblem],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    backends: list[QPBackend],
+    **options,
+) -> tuple[np.ndarray, list[LevelSolution]]:
+    """:func:`solve_cascade`; if another backend than DAQP fails on a level (a first-order
+    one can stall on the degenerate QPs of the lower levels, many rows active at one point,
+    or call them primal infeasible), the whole cascade again with DAQP, as a tick the
+    compiled kernels cannot finish goes to DAQP; DAQP's verdict stands."""
+    try:
+        return solve_cascade(levels, lower, upper, backends, **options)
+    except (SolverError, InfeasibleError):
+        if all(b.name == "daqp" for b in backends):
+            raise
+        daqp = [DaqpBackend(backends[0].eps) for _ in backends]
+        return solve_cascade(levels, lower, upper, daqp, **options)
 
 
 def _unconstrained(H: np.ndarray, c: np.ndarray) -> np.ndarray | None:

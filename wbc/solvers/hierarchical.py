@@ -14,6 +14,7 @@ A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the sol
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -23,10 +24,17 @@ from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
 from .backends import QPBackend, make_backend
 from .base import CONSTRAINT_TOL, Solution, StackSolver
-from .cascade import LevelProblem, LevelSolution, solve_cascade
+from .cascade import LevelProblem, LevelSolution, solve_cascade, solve_cascade_or_daqp
 from .diagnostics import infeasible_message
 
 METHODS = ("cascade",)
+
+
+def _unweighted(residual: np.ndarray, sqrt_w: np.ndarray) -> np.ndarray:
+    """A level's residual √w (J Δq − α e) back in task units (zero-weight rows: zero)."""
+    out = np.zeros_like(residual)
+    np.divide(residual, sqrt_w, out=out, where=sqrt_w > 0)
+    return out
 
 
 class _Layout(NamedTuple):
@@ -158,7 +166,7 @@ class HierarchicalQP(StackSolver):
     def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None):
         """The QP value: each level's rows (J, b weighted by √w: the plan's arrays, which the
         compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
-        fast = self.fast
+        fast = None if self._yield_recovery else self.fast  # a re-solve: the numpy blocks
         problems = []
         for k, (lv, block) in enumerate(zip(self._levels, self._blocks, strict=True)):
             G, h, cslices = self._no_rows if inequalities is None else inequalities[k]
@@ -182,7 +190,7 @@ class HierarchicalQP(StackSolver):
             self._plan()
         self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
-        if fast is not None:
+        if fast is not None and not self._yield_recovery:
             status = fast.solve(kin, dt)  # fills the plan's rows and bounds
             if status == 0 and (
                 inequalities is None
@@ -198,15 +206,21 @@ class HierarchicalQP(StackSolver):
             self.handed_back_ticks += 1
         problems, lower, upper = self._assemble(kin, dt, inequalities)
         self._problems = problems
-        if fast is None and inequalities is None and not self.stack.extra_limits:
+        if (
+            fast is None
+            and inequalities is None
+            and not self.stack.extra_limits
+            and not self._yield_recovery
+        ):
             dq = self._level_solver(problems, kin, dt, lower, upper)
             if dq is not None:
                 return Solution(dq, lower, upper)
         relax = self.on_infeasible == "relax"
+        problems, at = self._with_recovery(problems)
         while len(self._backends) < len(problems) + 1:
             self._backends.append(make_backend(self.backend.name, self.backend.eps))
         try:
-            dq, self._solutions = solve_cascade(
+            dq, self._solutions = solve_cascade_or_daqp(
                 problems,
                 lower,
                 upper,
@@ -216,6 +230,8 @@ class HierarchicalQP(StackSolver):
             )
         except InfeasibleError as exc:
             raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+        if at is not None:
+            del self._solutions[at]
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return Solution(dq, lower, upper)
@@ -258,11 +274,33 @@ class HierarchicalQP(StackSolver):
         self.diagnosis = ""
         return dq
 
+    def _with_recovery(self, problems: list[LevelProblem]) -> tuple[list, int | None]:
+        """The levels with the recovery of joints outside their range (when it yields to the
+        hard levels, :meth:`StackSolver._solve_yielding_recovery`) right below the leading
+        hard levels; and where it was inserted (None: not)."""
+        if self.recovery is None:
+            return problems, None
+        idx, step = self.recovery
+        nv = self.robot.nv
+        J = np.zeros((idx.size, nv))
+        J[np.arange(idx.size), idx] = 1.0
+        at = 0
+        while at < len(problems) and problems[at].hard:
+            at += 1
+        recovery = LevelProblem(-1, J, step, np.zeros((0, nv)), np.zeros(0))
+        return [*problems[:at], recovery, *problems[at:]], at
+
     # ------------------------------------------------------------------ hard levels
     def _check_hard_levels(self, relax: bool) -> None:
+        # residuals in the tasks' own units (J Δq − α e, as the weighted QP reports them): the
+        # levels' rows are scaled by √w, which would put a weight-1000 task's residual 31x up
+        solutions = [
+            replace(s, residual=_unweighted(s.residual, block.sqrt_w[:, 0]))
+            for s, block in zip(self.solutions, self._blocks, strict=True)
+        ]
         messages = [
             infeasible_message(p, s, self.hard_tol)
-            for p, s in zip(self.problems, self.solutions, strict=True)
+            for p, s in zip(self.problems, solutions, strict=True)
             if p.hard
             and (
                 (s.residual.size and abs(s.residual).max() > self.hard_tol)
@@ -279,7 +317,16 @@ class HierarchicalQP(StackSolver):
         """A hard level's inequalities clash with the bounds: re-solve with slacks to name them."""
         backends = [make_backend(self.backend.name, self.backend.eps) for _ in self.problems]
         backends.append(make_backend(self.backend.name, self.backend.eps))
-        _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
+        try:
+            _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
+        except InfeasibleError as exc:  # a lower level's QP failed even so: name the levels
+            names = [
+                name
+                for p in self.problems
+                if p.hard
+                for name, _ in [*p.task_rows, *p.constraint_rows]
+            ]
+            return f"the hard levels ({', '.join(names)}) and the joint limits: {exc}"
         msgs = [
             infeasible_message(p, s, self.hard_tol)
             for p, s in zip(self.problems, sols, strict=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
+from numbers import Integral
 
 import numpy as np
 
@@ -81,6 +82,8 @@ class TaskStack:
     # ------------------------------------------------------------------ building
     def level(self, priority: int, hard: bool | None = None) -> Level:
         """The level of a priority (created on first use); lower numbers come first."""
+        if isinstance(priority, bool) or not isinstance(priority, Integral) or priority < 0:
+            raise TaskError(f"level must be an integer >= 0 (0 = first), got {priority!r}")
         if priority not in self._levels:
             self._levels[priority] = Level(priority, bool(hard))
             self.version += 1
@@ -163,7 +166,12 @@ class TaskStack:
         raise TaskError(f"no constraint named {name!r}")
 
     def errors(self) -> dict[str, np.ndarray]:
-        """Each active task's error e = x* − x from the last solve (masked rows)."""
+        """Each active task's error e = x* − x from the last solve (masked rows).
+
+        Units follow the task's rows: metres for positions (CoM, frame and contact positions),
+        radians for orientations (the log map of the rotation error; contact and pose tasks:
+        3 position rows, then 3 orientation rows) and for joint rows (posture; damping: base
+        translation in metres, base rotation and joints in radians)."""
         return {t.name: t.last_error.copy() for t in self.tasks() if t.active}
 
     def evaluate(self, kin: Kinematics) -> dict[str, np.ndarray]:

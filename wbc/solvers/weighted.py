@@ -16,12 +16,16 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..exceptions import InfeasibleError
+from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
 from .base import CONSTRAINT_TOL, Solution, StackSolver
-from .cascade import LevelProblem, solve_cascade
+from .cascade import LevelProblem, solve_cascade_or_daqp
 from .diagnostics import conflicts, infeasible_message
+
+#: weight of the recovery of joints outside their range (relative to the largest curvature of
+#: the soft tasks) when it has to yield to the hard tasks
+RECOVERY_WEIGHT = 1e4
 
 
 class WeightedValue(NamedTuple):
@@ -108,7 +112,7 @@ class WeightedQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
-        if fast is not None:
+        if fast is not None and not self._yield_recovery:
             status = fast.solve(kin, dt)  # fills the plan's rows and bounds: the QP value
             value = self._assemble(kin, dt)  # the inequality rows
             if status == 0 and (
@@ -135,7 +139,7 @@ class WeightedQP(StackSolver):
             G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)
         else:
             G, h, _ = self._no_rows
-        if self.fast is not None:
+        if self.fast is not None and not self._yield_recovery:
             return WeightedValue(None, None, None, None, G, h, None, None)
         soft, hard = self.soft, self.hard
         soft.fill_weighted(kin)
@@ -158,16 +162,27 @@ class WeightedQP(StackSolver):
         ws.h[:] = value.h
         ws.lower[:] = value.lower
         ws.upper[:] = value.upper
+        if self.recovery is not None:  # joints outside their range: a dominant soft objective
+            idx, step = self.recovery
+            w = RECOVERY_WEIGHT * max(1.0, float(ws.H.diagonal().max()))
+            ws.H[idx, idx] += w
+            ws.c[idx] -= w * step
         self.relaxed = False
         try:
             dq = self.backend.solve_workspace(ws)
         except InfeasibleError:
             dq = self._relax(kin, value)
+        except SolverError:  # e.g. OSQP out of iterations: not known to be infeasible
+            dq = self._relax(kin, value, failed=True)
         return Solution(dq, ws.lower, ws.upper)
 
-    def _relax(self, kin: Kinematics, value: WeightedValue) -> np.ndarray:
+    def _relax(self, kin: Kinematics, value: WeightedValue, failed: bool = False) -> np.ndarray:
         """The hard levels in priority order, each in least squares, then the soft tasks
-        (a cascade); names what the first unmet hard level could not satisfy."""
+        (a cascade); names what the first unmet hard level could not satisfy.
+
+        ``failed``: the backend failed for another reason than infeasibility; if the cascade
+        meets every hard row, its answer is the weighted QP's (hard rows met exactly, the soft
+        ones in least squares over what they leave free) and is returned as a plain solve."""
         nv = self.robot.nv
         ws = self.ws
         problems = []
@@ -194,7 +209,7 @@ class WeightedQP(StackSolver):
         G, h, cslices = stack_constraints(soft_constraints, kin, nv)
         problems.append(LevelProblem(1 << 30, value.J, value.b, G, h, constraint_rows=cslices))
         backends = [type(self.backend)(self.backend.eps) for _ in problems]
-        dq, sols = solve_cascade(
+        dq, sols = solve_cascade_or_daqp(
             problems,
             ws.lower.copy(),
             ws.upper.copy(),
@@ -212,6 +227,9 @@ class WeightedQP(StackSolver):
                 "the constraints are infeasible: cannot satisfy "
                 + ", ".join(f"{n} (violation {v:.3g})" for n, v in constraint_clash)
             )
+        if failed and not messages:
+            self.diagnosis = ""
+            return dq
         self.diagnosis = "; ".join(messages) or "infeasible (no task or constraint stands out)"
         if self.on_infeasible == "raise":
             raise InfeasibleError(self.diagnosis)

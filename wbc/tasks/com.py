@@ -21,7 +21,12 @@ def com_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> Non
 
 
 class ComTask(Task):
-    """e = c* − c(q), J = J_com (3 x nv); the thesis's Δx = x* − x with J_T (sec. 1.5.4)."""
+    """e = c* − c(q), J = J_com (3 x nv); the thesis's Δx = x* − x with J_T (sec. 1.5.4).
+
+    ``target=None`` leaves the target unset (NaN), not at the world origin: set it
+    (:meth:`set_target`, or :meth:`set_target_from` for the current CoM) before a solve,
+    which otherwise raises :class:`~wbc.exceptions.TaskError` naming the task.
+    """
 
     dim = 3
     row_kernel = staticmethod(com_rows)
@@ -30,18 +35,19 @@ class ComTask(Task):
     def __init__(
         self,
         robot: Robot,
-        target: Sequence[float] | None = None,
+        target: Sequence[float] | np.ndarray | None = None,
         name: str = "com",
         gain: float = 1.0,
         weight: float | Sequence[float] = 1.0,
         mask: Sequence[bool] | None = None,
     ) -> None:
         super().__init__(name, gain, weight, mask)
-        self.target = np.zeros(3)
+        #: None: unset (NaN) until set_target/set_target_from; a solve before raises TaskError
+        self.target = np.full(3, np.nan)
         if target is not None:
             self.set_target(target)
 
-    def set_target(self, target: Sequence[float]) -> None:
+    def set_target(self, target: Sequence[float] | np.ndarray) -> None:
         """Set the CoM target (world, m), copied in place."""
         self.target[:] = check_vector(self, target, 3)
 

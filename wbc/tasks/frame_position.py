@@ -36,7 +36,7 @@ class FramePositionTask(FrameTask):
         self,
         robot: Robot,
         frame: str,
-        target: Sequence[float] | None = None,
+        target: Sequence[float] | np.ndarray | None = None,
         name: str | None = None,
         gain: float = 1.0,
         weight: float | Sequence[float] = 1.0,
@@ -47,7 +47,7 @@ class FramePositionTask(FrameTask):
         if target is not None:
             self.set_target(target)
 
-    def set_target(self, target: Sequence[float]) -> None:
+    def set_target(self, target: Sequence[float] | np.ndarray) -> None:
         self.target[:] = check_vector(self, target, 3)
 
     def set_target_from(self, kin: Kinematics) -> None:

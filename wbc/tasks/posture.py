@@ -44,7 +44,7 @@ class PostureTask(Task):
     def __init__(
         self,
         robot: Robot,
-        target: Sequence[float] | None = None,
+        target: Sequence[float] | np.ndarray | None = None,
         name: str = "posture",
         gain: float = 1.0,
         weight: float | Sequence[float] = 1.0,
@@ -57,7 +57,7 @@ class PostureTask(Task):
         if target is not None:
             self.set_target(target)
 
-    def set_target(self, joints: Sequence[float]) -> None:
+    def set_target(self, joints: Sequence[float] | np.ndarray) -> None:
         """Joint targets in model order (a full configuration q is accepted too)."""
         j = np.asarray(joints, dtype=float)
         if j.shape == (self.robot.nq,):

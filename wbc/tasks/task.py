@@ -219,7 +219,7 @@ class Task:
         J = np.zeros((self.dim, nv))
         Jf = np.zeros((6, nv))
         kernel(
-            self.packed_target(), slots, Rs, ps, supports, kin.data.J, kin.com,
+            self.packed_target(), slots, Rs, ps, supports, kin.data.J, kin.data.com[0],
             kin.com_jacobian, kin.q, Jf, e, J,
         )  # fmt: skip
         return e, J
@@ -267,7 +267,12 @@ class Task:
 
 def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarray:
     """Validate a finite vector of a given size for a task (raises :class:`TaskError`)."""
-    v = np.asarray(value, dtype=float)
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):  # a string, None, a ragged list...
+        raise TaskError(
+            f"task {task.name!r}: {what} must be {size} numbers, got {value!r}"
+        ) from None
     if v.shape != (size,):
         raise TaskError(f"task {task.name!r}: {what} must have shape ({size},), got {v.shape}")
     if not all(map(math.isfinite, v.tolist())):  # 4x np.isfinite(v).all() on short vectors
@@ -277,7 +282,10 @@ def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarr
 
 def check_rotation(task: Task, value, what: str = "target rotation") -> np.ndarray:
     """Validate a 3x3 rotation matrix (finite, orthonormal columns to 1e-6, det +1)."""
-    R = np.asarray(value, dtype=float)
+    try:
+        R = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TaskError(f"task {task.name!r}: {what} must be a 3x3 matrix, got {value!r}") from None
     if R.shape != (3, 3):
         raise TaskError(f"task {task.name!r}: {what} must be a 3x3 matrix, got {R.shape}")
     defect = _rotation_defect(R)

@@ -23,7 +23,7 @@ import webbrowser
 from collections.abc import Iterator
 
 from ..exceptions import WbcError
-from ..model import load_robot
+from ..model import load_robot, print_notes
 from ..recording import Recording
 
 DEFAULT_FRAMES = ("l_sole", "r_sole", "torso")
@@ -31,9 +31,9 @@ DEFAULT_FRAMES = ("l_sole", "r_sole", "torso")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording (.npz) to replay")
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
     parser.add_argument(
-        "--pose", default="walk_ready", help="named configuration shown without a recording"
+        "--pose", default="stand", help="named configuration shown without a recording"
     )
     parser.add_argument(
         "--speed", type=float, default=1.0, help="replay speed (1 = real time, 0.5 = half)"
@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     frames = None if args.frames is None else (tuple(args.frames) or DEFAULT_FRAMES)
     try:
         robot = load_robot(args.robot)
+        print_notes(robot, "view")
         rec = Recording.load(args.recording) if args.recording else None
         q = rec.q[0] if rec is not None else robot.configuration(args.pose)
         for name in frames or ():

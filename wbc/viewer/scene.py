@@ -143,9 +143,7 @@ class Viewer:
             raise
 
     def _default_pose(self) -> np.ndarray:
-        sm = self.robot.servo_map
-        pose = "walk_ready" if sm is not None and "walk_ready" in sm.poses else "zero"
-        return self.robot.configuration(pose)
+        return self.robot.configuration("stand")
 
     # ------------------------------------------------------------------ server
     @property

@@ -15,12 +15,16 @@ import sys
 from pathlib import Path
 
 from ..exceptions import WbcError
-from ..model import load_robot
+from ..model import load_robot, print_notes
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
-    parser.add_argument("--stack", default="walk", help="task stack name (tasks/*.toml) or path")
+    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
+    parser.add_argument(
+        "--stack",
+        help="task stack name (tasks/*.toml) or path (default: the robot folder's stack.toml, "
+        "else walk)",
+    )
     parser.add_argument(
         "--solver", choices=("weighted", "hierarchical"), help="override the stack file's solver"
     )
@@ -47,8 +51,10 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         robot = load_robot(args.robot)
-        ref = build(args.trajectory, robot)
-        control = load_stack(args.stack, robot, backend=args.backend, solver=args.solver)
+        print_notes(robot, "walk")
+        ref = build(args.trajectory, robot, walking_only=True)
+        stack = args.stack or robot.default_stack or "walk"
+        control = load_stack(stack, robot, backend=args.backend, solver=args.solver)
     except WbcError as exc:
         print(f"wbc walk: {exc}", file=sys.stderr)
         return 2
@@ -83,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         view_args = argparse.Namespace(
             recording=str(path),
             robot=args.robot,
-            pose="walk_ready",
+            pose="stand",
             speed=1.0,
             loop=False,
             frames=None,

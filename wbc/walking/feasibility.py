@@ -60,7 +60,7 @@ def kinematic_feasibility(
     model, data = robot.model, robot.data
     if q0 is None:
         q0 = robot.place_on_ground(
-            robot.configuration("walk_ready"), "l_sole", ref.sole_placement(0, "left")
+            robot.configuration("stand"), "l_sole", ref.sole_placement(0, "left")
         )
     q = robot.check_configuration(q0).copy()
     fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]

@@ -87,7 +87,7 @@ class LegGeometry:
         # left: positive roll moves the foot outward (+y); right: inward
         max_add = min(-robot.q_min[roll["l"]], robot.q_max[roll["r"]])
         max_abd = min(robot.q_max[roll["l"]], -robot.q_min[roll["r"]])
-        qq = robot.configuration("walk_ready") if q is None else q
+        qq = robot.configuration("stand") if q is None else q
         gain = _pelvis_gain(robot, qq)
         oq = joint_origins(qq)
         com = robot.com(qq)

@@ -291,6 +291,7 @@ class Session:
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
+        self._last_index: int | None = None  # reference tick of the last solve
         self.failed = False
         self.iterations = 0
         self.solve_time = 0.0
@@ -314,8 +315,15 @@ class Session:
         )
 
     def tick(self, i: int) -> np.ndarray:
-        """The configuration for reference tick ``i`` (timed in :attr:`solve_time`)."""
+        """The configuration for reference tick ``i`` (timed in :attr:`solve_time`).
+
+        The step's time is the reference time since the last solved tick: a caller that skips
+        ticks (a live deployment at a lower rate than the reference) gets the velocity bounds
+        of the whole interval, not of one reference tick.
+        """
         targets = self.targets(i)
+        gap = 1 if self._last_index is None else max(1, i - self._last_index)
+        self._last_index = i
         key = (targets.phase, targets.support, targets.swing)
         changed = key != self._previous
         self._previous = key
@@ -324,7 +332,7 @@ class Session:
         self.failed = False
         try:
             if opts.mode == "tick":
-                self.q = self.controller.track(self.q, targets, self.ref.dt, changed)
+                self.q = self.controller.track(self.q, targets, gap * self.ref.dt, changed)
                 self.iterations = 1
             else:
                 self.q, self.iterations = self.controller.converge(
@@ -411,7 +419,7 @@ def run(
 
 def start_configuration(robot: Robot, ref: WalkingReference) -> np.ndarray:
     """Walk Ready with the left sole placed where the reference's left sole starts."""
-    q = robot.configuration("walk_ready")
+    q = robot.configuration("stand")
     return robot.place_on_ground(q, "l_sole", ref.sole_placement(0, "left"))
 
 

@@ -43,8 +43,8 @@ class StandingState:
 
     @classmethod
     def from_robot(cls, robot: Any, q: np.ndarray | None = None) -> StandingState:
-        """From a robot configuration (default ``robot.configuration("walk_ready")``)."""
-        q = robot.configuration("walk_ready") if q is None else q
+        """From a robot configuration (default ``robot.configuration("stand")``)."""
+        q = robot.configuration("stand") if q is None else q
         soles = {}
         for side in ("left", "right"):
             M = robot.frame_placement(q, f"{side[0]}_sole")

@@ -1,0 +1,62 @@
+"""Robot data (``robot.toml``): poses, standing pose, feet, frame names; bad input."""
+
+from __future__ import annotations
+
+import pytest
+
+from wbc import load_robot
+from wbc.exceptions import ModelError
+from wbc.paths import robots_dir
+from wbc.robot_data import RobotData
+
+KOKONE = robots_dir() / "kokone"
+
+
+@pytest.fixture(scope="module")
+def kokone():
+    return load_robot("kokone")
+
+
+def test_bioloid_keeps_walk_ready_and_its_feet(robot):
+    assert robot.stand_pose == "walk_ready"
+    assert robot.foot_size == pytest.approx((0.101, 0.061))
+    assert (robot.configuration("stand") == robot.configuration("walk_ready")).all()
+
+
+def test_robot_data_bad_input(tmp_path, kokone):
+    robot_file, poses_file = tmp_path / "robot.toml", tmp_path / "poses.toml"
+    poses_file.write_text("[poses.crouch]\nl_knee = 0.5\n")
+    robot_file.write_text('stand = "sit"\n')
+    with pytest.raises(ModelError, match=r"stand = 'sit' is not 'zero' or a pose of poses.toml"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.write_text("[feet]\nlength = 7\n")
+    with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.write_text("[feat]\nlength = 0.1\n")
+    with pytest.raises(ModelError, match=r"unknown keys \['feat'\]; allowed: feet, frames"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.unlink()
+    poses_file.write_text("[poses.x]\nl_kne = 0.1\n")
+    with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+    poses_file.write_text('[poses.x]\nl_knee = "bent"\n')
+    with pytest.raises(ModelError, match=r"pose 'x' l_knee = 'bent': not a number"):
+        RobotData.from_folder(tmp_path, kokone.joint_names)
+
+
+def test_frame_names_map_through_robot_data(tmp_path, kokone):
+    """A URDF whose frames are named otherwise works through ``[frames]`` of robot.toml, next
+    to the standing pose and the feet of the same file."""
+    import shutil
+
+    folder = tmp_path / "kokone2"
+    folder.mkdir()
+    shutil.copy(KOKONE / "kokone.urdf", folder / "kokone2.urdf")
+    (folder / "robot.toml").write_text('[frames]\ntorso = "l_hand"\n[feet]\nwidth = 0.03\n')
+    r = load_robot(folder)
+    assert r.frame_id("torso") == kokone.frame_id("l_hand")
+    assert r.stand_pose == "zero"  # no servo map, no stand: the zero pose, not Walk Ready
+    assert r.foot_size[1] == 0.03
+    (folder / "robot.toml").write_text('[frames]\ntorso = "pelvis"\n')
+    with pytest.raises(ModelError, match=r"'torso' is mapped to 'pelvis', which is not a frame"):
+        load_robot(folder)

