@@ -15,7 +15,7 @@ hard bounds, Gauss-Newton iterations of the hierarchical QP to 1e-11), from the 
 here is this script's reimplementation of the thesis's Algorithms 1-3 (population 100: the
 thesis does not give one), only as a baseline; it runs ``--ga-runs`` times per pose and leg.
 
-Run: ``/work/venv/bin/python benchmarks/kokone_ik.py [--ga-runs 3] [--restarts 5] [--out FILE]``
+Run: ``python benchmarks/kokone_ik.py [--ga-runs 3] [--restarts 5] [--out FILE]``
 """
 
 from __future__ import annotations

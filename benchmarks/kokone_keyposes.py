@@ -5,7 +5,7 @@ position, the CoM, both soles (cm) and both legs' angles in the thesis's DH conv
 read from the recording of ``wbc walk --robot kokone --trajectory keyposes`` at the key-pose
 ticks.
 
-Run: ``/work/venv/bin/python benchmarks/kokone_keyposes.py``
+Run: ``python benchmarks/kokone_keyposes.py``
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ write (both stamped by the emulator), and the goal writes in between.
 With ``--startups N``: N start-ups (PING, configuration, first reads, torque on/off) with the
 default reply deadline (4.1 ms at a 1 ms USB latency), with and without retries.
 
-Run: ``/work/venv/bin/python benchmarks/servo_bus.py [--ticks 400] [--out benchmarks/servo_bus.md]``
+Run: ``python benchmarks/servo_bus.py [--ticks 400] [--out benchmarks/servo_bus.md]``
 """
 
 from __future__ import annotations

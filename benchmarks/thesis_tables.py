@@ -1,9 +1,9 @@
 """Reproduce the structure of the CoM-control thesis's Tables 3.3.2 / 3.3.3 and its ch. 4 walking
 figures on our Bioloid model, next to the thesis's numbers.
 
-    /work/venv/bin/python benchmarks/thesis_tables.py                 # both, printed
-    /work/venv/bin/python benchmarks/thesis_tables.py --markdown out.md
-    /work/venv/bin/python benchmarks/thesis_tables.py --only placement --repeats 5
+    python benchmarks/thesis_tables.py                 # both, printed
+    python benchmarks/thesis_tables.py --markdown out.md
+    python benchmarks/thesis_tables.py --only placement --repeats 5
 
 The work is done by :func:`wbc.pinv.run_com_placement_benchmark` and
 :func:`wbc.pinv.run_walking_benchmark` (also callable from the benchmark CLI).
