@@ -143,11 +143,11 @@ def test_status_parser_skips_noise_and_splits_packets():
     a = dxl.status_packet(3, 0, [1, 2])
     b = dxl.status_packet(4, 0x20, [])
     buf = bytearray(b"\x00\x13" + a + b"\xff" + b[:3])
-    assert dxl.parse_status(buf) == a
-    assert dxl.parse_status(buf) is None  # incomplete: kept
+    assert dxl.take_packet(buf) == a
+    assert dxl.take_packet(buf) is None  # incomplete: kept
     buf += b[3:]
-    assert dxl.parse_status(buf) == b
-    assert dxl.parse_status(buf) is None and buf == bytearray()
+    assert dxl.take_packet(buf) == b
+    assert dxl.take_packet(buf) is None and buf == bytearray()
 
 
 # ---------------------------------------------------------------- emulator, packet level

@@ -432,14 +432,21 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
             "every solver per figure; time_per_tick"
         )
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        payload = {
-            "date": datetime.now(UTC).isoformat(timespec="seconds"),
-            "machine": f"{platform.node()} {platform.machine()} {platform.processor()}".strip(),
-            "python": sys.version.split()[0],
-            "command": "wbc bench " + " ".join(sys.argv[2:]),
-            "records": records,
-        }
-        args.json.write_text(json.dumps(payload, indent=1))
+        write_records(args.json, records)
         console.print(f"records in {args.json}")
     return 0
+
+
+def write_records(path: Path, records: list, **extra: Any) -> None:
+    """``records`` as JSON at ``path``, with the date, machine, Python and command line
+    (``extra`` keys, e.g. the elapsed time, go beside them)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    payload = {
+        "date": datetime.now(UTC).isoformat(timespec="seconds"),
+        "machine": f"{platform.node()} {platform.machine()} {platform.processor()}".strip(),
+        "python": sys.version.split()[0],
+        "command": "wbc bench " + " ".join(sys.argv[2:]),
+        **extra,
+        "records": records,
+    }
+    path.write_text(json.dumps(payload, indent=1))

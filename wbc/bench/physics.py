@@ -423,10 +423,7 @@ def add_physics_arguments(parser) -> None:
 
 def run_physics_command(args, console, robot: Robot, entries) -> int:
     """``wbc bench --physics``: the table, and the records in ``--json``."""
-    import json
     import platform
-    import sys
-    from datetime import UTC, datetime
 
     from . import trajectories as traj
 
@@ -445,16 +442,9 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
     elapsed = time.perf_counter() - started
     console.print(f"{len(records)} simulated runs in {elapsed:.1f} s on {platform.node()}")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        payload = {
-            "date": datetime.now(UTC).isoformat(timespec="seconds"),
-            "machine": f"{platform.node()} {platform.machine()}".strip(),
-            "python": sys.version.split()[0],
-            "command": "wbc bench " + " ".join(sys.argv[2:]),
-            "elapsed_s": elapsed,
-            "records": records,
-        }
-        args.json.write_text(json.dumps(payload, indent=1))
+        from .cli import write_records
+
+        write_records(args.json, records, elapsed_s=elapsed)
         console.print(f"records in {args.json}")
     return 0
 

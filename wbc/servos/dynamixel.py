@@ -312,9 +312,10 @@ class ExchangeLog:
         return out
 
 
-def parse_status(buf: bytearray) -> bytes | None:
-    """Take the first complete status packet off ``buf`` (bytes before a header are dropped);
-    None while incomplete. The checksum is not checked here."""
+def take_packet(buf: bytearray) -> bytes | None:
+    """Take the first complete Protocol 1.0 packet (status or instruction: the framing is the
+    same) off ``buf``; bytes before a header are dropped; None while incomplete. The checksum
+    is not checked here."""
     while True:
         i = buf.find(b"\xff\xff")
         if i < 0:
@@ -464,7 +465,7 @@ class DynamixelBus(ServoBus):
         if n:
             self._buf += ser.read(n)
         self.log.stale_bytes += len(self._buf)
-        while (pkt := parse_status(self._buf)) is not None:
+        while (pkt := take_packet(self._buf)) is not None:
             if checksum(pkt[2:-1]) == pkt[-1]:
                 self.log.count(self.log.late, pkt[2])
         self._buf.clear()
@@ -504,7 +505,7 @@ class DynamixelBus(ServoBus):
             n = ser.in_waiting
             if n:
                 self._buf += ser.read(n)
-            while (reply := parse_status(self._buf)) is not None:
+            while (reply := take_packet(self._buf)) is not None:
                 if checksum(reply[2:-1]) != reply[-1]:
                     self.log.count(self.log.corrupt, servo_id)
                     return COMM_CORRUPT, 0, b""

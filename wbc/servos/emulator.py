@@ -87,6 +87,7 @@ from .dynamixel import (
     checksum,
     speed_ticks_per_s,
     status_packet,
+    take_packet,
 )
 
 FAULT_KINDS = ("timeout", "bad_checksum", "error_bits", "missing", "garbage", "late")
@@ -499,33 +500,10 @@ class AX12Emulator(_PtyRunner):
             return  # wrong baud: the servos cannot decode these bytes
         self._buf += chunk
         while True:
-            pkt = self._next_packet()
+            pkt = take_packet(self._buf)
             if pkt is None:
                 return
             self._dispatch(pkt, time.monotonic() if self.timing else now)
-
-    def _next_packet(self) -> bytes | None:
-        buf = self._buf
-        while True:
-            i = buf.find(b"\xff\xff")
-            if i < 0:
-                del buf[: max(0, len(buf) - 1)]
-                return None
-            del buf[:i]
-            if len(buf) < 4:
-                return None
-            if buf[2] == 0xFF:  # a third 0xFF: slide by one
-                del buf[:1]
-                continue
-            length = buf[3]
-            if length < 2:
-                del buf[:2]
-                continue
-            if len(buf) < length + 4:
-                return None
-            pkt = bytes(buf[: length + 4])
-            del buf[: length + 4]
-            return pkt
 
     def _dispatch(self, pkt: bytes, now: float) -> None:
         reply_to, reply = self.handle(pkt, now)
