@@ -184,6 +184,9 @@ class ServoBus(ABC):
     servo_speed: float = float("inf")  # rad/s, the servos' own top speed
     turnaround_s: float = 0.0  # host delay per status reply (e.g. USB latency), for budgets
     health_per_servo: bool = True  # poll(i) checks servo i (False: the board, whatever i)
+    #: where the deployment reads time and waits; None = the wall clock (a lockstep simulator
+    #: brings its own, whose ``sleep`` runs the physics)
+    clock: Clock | None = None
 
     def __init__(self, codec: Codec, labels: Sequence[str]) -> None:
         self.codec = codec

@@ -237,7 +237,7 @@ class Deployment:
             raise ServoError(f"the {bus.name} backend cannot read servo positions (--read)")
         self.period = 1.0 / self.config.rate
         # a bus may bring its own clock (a lockstep simulator's); real buses run on the wall clock
-        self.clock: Clock = getattr(bus, "clock", None) or WALL_CLOCK
+        self.clock: Clock = bus.clock or WALL_CLOCK
         v = np.minimum(robot.v_max, bus.servo_speed)
         if self.config.max_speed is not None:
             v = np.minimum(v, self.config.max_speed)
