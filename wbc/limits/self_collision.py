@@ -19,9 +19,17 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
 Activation (no chatter): with m = margin, T = trigger and ξ = damping,
 
     h(d) = ξ (d − m) · (T − m) / (T − d)   for m <= d < T,
-    h(d) = ξ (d − m)                      for d < m (the pair is pushed back out),
+    h(d) = −ξ · min(m − d, m)             for d < m (the pair moves back out),
 
-and no row for d >= T. h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
+and no row for d >= T. Inside the margin (h < 0: Δq = 0 does not meet the row, which asks the
+pair to separate) the rate is a fraction ξ of the gap to the margin per tick, capped at ξ m: a
+start deep inside (boxes overlapping, e.g. joints outside their limits) is never asked to jump
+out in one tick. Where the hard tasks and the way back of joints outside their limits leave
+no room even for that, the solver ranks these rows below both, as the best achievable
+separation (:meth:`SelfCollisionConstraint.split`, :meth:`wbc.solvers.base.StackSolver.solve`);
+the rows of the pairs outside the margin are never relaxed.
+
+h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
 solution is continuous in d: a row appears with a bound no tick can reach (rows are left
 out while h exceeds 1 m, ``UNREACHABLE``, a closure no tick asks for). The linearised
 margin is guaranteed (h(d) <= d − m) for d <= T − ξ (T − m); a pair closes from beyond that
@@ -420,7 +428,14 @@ def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: f
     gap = d - margin
     with np.errstate(divide="ignore"):
         scale = np.where(gap > 0, (trigger - margin) / np.maximum(trigger - d, 0.0), 1.0)
+    gap = np.maximum(gap, -margin)  # inside: separate at rate ξ, at most ξ m per tick
     return np.where(d < trigger, damping * gap * scale, np.inf)
+
+
+def inside_margin(rows: Inequality) -> np.ndarray:
+    """Which damper rows are inside the margin: h(d) < 0, a request to move apart that
+    Δq = 0 does not meet (the rows at or outside it have h >= 0)."""
+    return rows.h < 0.0
 
 
 def damper_rows(
@@ -510,6 +525,7 @@ class SelfCollisionConstraint(Constraint):
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
+        self._witness_rows = np.zeros(0, dtype=bool)  # which of _rows are witness rows
 
     @property
     def n_pairs(self) -> int:
@@ -532,6 +548,7 @@ class SelfCollisionConstraint(Constraint):
         w = self.last = self.witness(kin)
         if not w.index.size:
             rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
+            witness_rows = np.zeros(0, dtype=bool)
         else:
             corners = self.distances.vertices(kin, w.index.tolist())
             pr = separating_plane_rows(w, corners, self.trigger)
@@ -540,8 +557,22 @@ class SelfCollisionConstraint(Constraint):
                 kin.data.J, self._mask_1[k], self._mask_2[k], pr.a, pr.b, pr.normal
             )
             rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
-        self._rows, self._rows_q = rows, kin.q.copy()
+            keep = damper_bound(pr.gap, self.margin, self.trigger, self.damping) < UNREACHABLE
+            witness_rows = (np.arange(pr.gap.size) < w.index.size)[keep]
+        self._rows, self._rows_q, self._witness_rows = rows, kin.q.copy(), witness_rows
         return rows
+
+    def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
+        """The rows at ``kin`` as (rows to hold, requests): the rows at or outside the margin
+        (h >= 0, met by Δq = 0), and the witness row of each pair inside it (h < 0: move
+        apart). A pair inside the margin is one request — its box corners' rows inside it
+        (a pair already overlapping has lost the guarantee they are for) are left out: near
+        copies of the witness row, they would make a solver's active set degenerate once
+        held at their best achievable separation."""
+        rows = self.compute(kin)
+        inside = inside_margin(rows)
+        ask = inside & self._witness_rows
+        return Inequality(rows.G[~inside], rows.h[~inside]), Inequality(rows.G[ask], rows.h[ask])
 
 
 def _cached_collision_model(robot: Robot) -> CollisionModel:

@@ -11,11 +11,13 @@ from typing import NamedTuple
 import numpy as np
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
-from ..limits import Bounds, intersect_bounds
+from ..limits import Bounds, Constraint, intersect_bounds
+from ..limits.self_collision import SelfCollisionConstraint
 from ..model import Kinematics
-from .assembly import stack_constraints
+from .assembly import TaskBlock
 from .backends import QPBackend, make_backend
-from .cascade import LevelProblem, solve_cascade
+from .cascade import LevelProblem, solve_cascade, solve_cascade_or_daqp
+from .diagnostics import infeasible_message
 from .stack import TaskStack
 
 #: violation up to which a compiled solution counts as meeting the inequality rows (the
@@ -31,6 +33,51 @@ HARD_POSE_TOL = 1e-6
 HARD_PROJECTION_STEPS = 20
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
+#: how much looser than their best achievable separation (m) the self-collision pairs inside
+#: their margin are held by a tick that cannot separate them at the damper's rate
+SEPARATION_SLACK = 1e-7
+_INSIDE = "self_collision (pairs inside the margin)"
+_EMPTY = np.zeros(0)
+
+
+class SplitRows(NamedTuple):
+    """Constraint rows G Δq <= h split into the rows to hold (with each constraint's slice,
+    for diagnostics) and the requests of the self-collision pairs inside their margin
+    (h < 0: move apart; :meth:`~wbc.limits.SelfCollisionConstraint.split`)."""
+
+    G: np.ndarray
+    h: np.ndarray
+    slices: list[tuple[str, slice]]
+    G_inside: np.ndarray
+    h_inside: np.ndarray
+
+
+def split_rows(constraints: list[Constraint], kin: Kinematics, nv: int) -> SplitRows:
+    """The constraints' rows at ``kin``, those of self-collision pairs inside the margin
+    apart (see :class:`SplitRows`)."""
+    G, h, sl, Gi, hi = [], [], [], [], []
+    r = 0
+    for c in constraints:
+        if isinstance(c, SelfCollisionConstraint):
+            (Gc, hc), (G_ask, h_ask) = c.split(kin)
+            Gi.append(G_ask)
+            hi.append(h_ask)
+        else:
+            Gc, hc = c.compute(kin)
+        G.append(Gc)
+        h.append(hc)
+        sl.append((c.name, slice(r, r + hc.size)))
+        r += hc.size
+
+    def stacked(Gs: list, hs: list) -> tuple[np.ndarray, np.ndarray]:
+        return (np.vstack(Gs), np.concatenate(hs)) if Gs else _no_rows(nv)
+
+    return SplitRows(*stacked(G, h), sl, *stacked(Gi, hi))
+
+
+def _no_rows(nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """No inequality rows (G, h) over nv variables."""
+    return np.zeros((0, nv)), np.zeros(0)
 
 
 def _worse(errors: list[float] | None, before: list[float] | None) -> bool:
@@ -72,6 +119,12 @@ class StackSolver(ABC):
     * :meth:`solve_pose` — iterate on one pose until the task errors converge.
     """
 
+    #: True: the soft levels are priorities (the hierarchical QP); False: one weighted
+    #: objective, every constraint row hard (the weighted QP)
+    lexicographic = True
+    #: largest residual of a hard level (m, rad; the subclasses take it as an option)
+    hard_tol = 1e-6
+
     def __init__(
         self,
         stack: TaskStack,
@@ -112,12 +165,13 @@ class StackSolver(ABC):
         self.solve_time = 0.0
         #: True if the last solve had to relax an infeasible hard level
         self.relaxed = False
-        #: set while a tick is re-solved with the recovery of joints outside their range
-        #: yielding to the hard levels (:meth:`_solve_yielding_recovery`)
+        #: never set any more (a start outside the limits is re-solved by
+        #: :meth:`_solve_recovering`, one cascade): the subclasses' branches that read these
+        #: two are dead and go with their next edit
         self._yield_recovery = False
-        #: (Δq indices, recovery steps) of that re-solve (None otherwise): an objective
-        #: right below the hard levels
         self.recovery: tuple[np.ndarray, np.ndarray] | None = None
+        #: what a relaxed or failed solve could not meet ("" otherwise)
+        self.diagnosis = ""
 
     @property
     def name(self) -> str:
@@ -142,7 +196,7 @@ class StackSolver(ABC):
             solution = self._solve(self.kin, dt)
         except InfeasibleError as exc:
             self._check_task_errors()  # a non-finite target is the cause: say so
-            solution = self._solve_yielding_recovery(dt, exc)
+            solution = self._solve_recovering(self.kin, dt, exc)
         except WbcError:
             self._check_task_errors()
             raise
@@ -153,20 +207,109 @@ class StackSolver(ABC):
         self.solve_time = time.perf_counter() - start
         return solution
 
-    def _solve_yielding_recovery(self, dt: float | None, exc: InfeasibleError) -> Solution:
-        """Re-solve an infeasible tick whose joint bounds force joints back into their range
-        (a start outside the limits) with that recovery yielding to the hard levels: those
-        joints may then move back by less (never further out), and the recovery step becomes
-        an objective right below the hard levels (:attr:`recovery`). Re-raises when no joint
-        is outside its range (the hard levels are infeasible on their own)."""
-        joints = self.kin.q[7:]
-        if not ((joints < self._q_min).any() or (joints > self._q_max).any()):
+    def _solve_recovering(
+        self, kin: Kinematics, dt: float | None, exc: InfeasibleError
+    ) -> Solution:
+        """Re-solve an infeasible tick that starts outside the joint limits or with link pairs
+        inside their self-collision margin, asking of that start only what the hard tasks
+        leave possible. One cascade (:func:`~wbc.solvers.cascade.solve_cascade`), each level
+        optimal without changing the optimum of the levels above:
+
+        1. the hard levels: their tasks and their inequality rows except those of the pairs
+           inside the margin (the weighted QP: every constraint's rows), within the joint
+           bounds widened to Δq = 0 for the joints outside their range (never further out);
+        2. the way back of those joints (the step their bounds asked: servo speed, or all
+           the way without a time step), in least squares;
+        3. the rows of the pairs inside the margin (separate at the damper's rate), in least
+           squares of their violation: the best separation the levels above leave, which may
+           be "no closer than now" or, if the hard tasks or the way back need it, an approach;
+        4. the soft levels as the solver ranks them (levels, or one weighted objective).
+
+        Why the way back before the pairs: a joint outside its range is outside the servo's
+        travel, while a pair already inside the margin has lost its guarantee anyway (the
+        boxes are a conservative hull); holding such a pair can stop the way back for good.
+        Pairs outside the margin keep their rows (1.), so the way back never takes them in.
+        Raises ``exc`` when nothing of this applies, and InfeasibleError naming the hard
+        levels' tasks and constraints when they are infeasible on their own."""
+        nv = self.robot.nv
+        lower, upper = np.empty(nv), np.empty(nv)
+        self.compute_bounds(kin, dt, lower, upper)
+        lo, hi = lower[6:], upper[6:]
+        out = np.flatnonzero((lo > 0.0) | (hi < 0.0))
+        back = np.where(lo[out] > 0.0, lo[out], hi[out])
+        np.minimum(lo, 0.0, out=lo)
+        np.maximum(hi, 0.0, out=hi)
+        levels = self.stack.levels
+        hard, soft, asks = [], [], []
+        if self.lexicographic:
+            for lv in levels:
+                block = TaskBlock(lv.active_tasks(), nv)
+                rows = split_rows(lv.active_constraints(), kin, nv)
+                if lv.hard:
+                    block.fill_into(kin, block.J, block.b)
+                    asks.append(rows)
+                    hard.append(_level(lv.priority, block, rows, hard=True))
+                else:  # a soft level's rows are soft anyway: all of them, as in the solver
+                    block.fill_weighted(kin)
+                    G = np.vstack([rows.G, rows.G_inside])
+                    h = np.concatenate([rows.h, rows.h_inside])
+                    soft.append(LevelProblem(lv.priority, block.J, block.b, G, h))
+        else:
+            block = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
+            block.fill_into(kin, block.J, block.b)
+            rows = split_rows([c for lv in levels for c in lv.active_constraints()], kin, nv)
+            asks.append(rows)
+            hard.append(_level(0, block, rows, hard=True))
+            block = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
+            block.fill_weighted(kin)
+            soft.append(LevelProblem(1 << 30, block.J, block.b, *_no_rows(nv)))
+        inside = sum(r.h_inside.size for r in asks)
+        if not out.size and not inside:
             raise exc
-        self._yield_recovery = True
+        recovery = []
+        if out.size:
+            J = np.zeros((out.size, nv))
+            J[np.arange(out.size), 6 + out] = 1.0
+            recovery.append(LevelProblem(-1, J, back, *_no_rows(nv)))
+        relax = self.on_infeasible == "relax"
         try:
-            return self._solve(self.kin, dt)
-        finally:
-            self._yield_recovery = False
+            if inside:  # their best separation below the hard levels and the way back
+                G_in = np.vstack([r.G_inside for r in asks])
+                h_in = np.concatenate([r.h_inside for r in asks])
+                first = [*hard, *recovery, LevelProblem(-1, _no_jacobian(nv), _EMPTY, G_in, h_in)]
+                best, _ = solve_cascade_or_daqp(
+                    first, lower, upper, self._backends_for(first), final_regularization=1e-12,
+                    relax=relax,
+                )  # fmt: skip
+                # then held there, a hair looser (SEPARATION_SLACK): rows held exactly at their
+                # best are often pinned against a joint bound, which makes the lower levels'
+                # active sets degenerate
+                hard = [_with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
+            problems = [
+                *hard,
+                *recovery,
+                *(soft or [LevelProblem(1 << 30, _no_jacobian(nv), _EMPTY, *_no_rows(nv))]),
+            ]
+            dq, sols = solve_cascade_or_daqp(
+                problems, lower, upper, self._backends_for(problems),
+                final_regularization=self.regularization, relax=relax,
+            )  # fmt: skip
+        except InfeasibleError as e:
+            raise exc from e
+        unmet = [
+            infeasible_message(p, sol, self.hard_tol)
+            for p, sol in zip(hard, sols, strict=False)
+            if max(abs(sol.residual).max(initial=0.0), sol.slack.max(initial=0.0)) > self.hard_tol
+        ]
+        self.diagnosis = "; ".join(unmet)
+        if unmet and not relax:
+            raise InfeasibleError(self.diagnosis) from exc
+        self.relaxed = bool(unmet)
+        return Solution(dq, lower, upper)
+
+    def _backends_for(self, problems: list[LevelProblem]) -> list[QPBackend]:
+        """One fresh backend of the solver's kind per level."""
+        return [make_backend(self.backend.name, self.backend.eps) for _ in problems]
 
     def _check_task_errors(self) -> None:
         """Raise TaskError naming an active task whose error at the last solve is not finite
@@ -246,10 +389,19 @@ class StackSolver(ABC):
         (:meth:`project_hard`), the step halved while that is not enough; the final pose is
         projected to min(``tol``, :data:`HARD_POSE_TOL`).
 
+        A final guard: every hard level ends within that tolerance (task errors, and
+        the violation of its inequality rows other than those of self-collision pairs inside
+        their margin), or InfeasibleError is raised — a pose is never returned off a hard
+        contact. With ``on_infeasible="relax"`` the levels from the first one that was not
+        met at the start (a relaxed, unreachable level) down are exempt.
+
         This is the per-pose iterative mode used to compare with the thesis's solutions.
         """
         start = time.perf_counter()
         q = self.robot.check_configuration(q).copy()
+        pose_tol = min(tol, HARD_POSE_TOL)
+        self.kin.update(q)
+        start_errors = self._hard_errors(self.kin)
         converged = False
         it = 0
         q_prev = dq_prev = errors_prev = None
@@ -272,15 +424,16 @@ class StackSolver(ABC):
             q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
                 break
-        pose_tol = min(tol, HARD_POSE_TOL)
         q_end, errors = self._project(q, pose_tol)
         if q_prev is not None and any(e > pose_tol for e in errors):
             # the last step (never checked by a solve) left what the projection cannot undo
-            # within the joint limits: the longest fraction of it that can be
-            for k in range(1, HARD_PROJECTION_HALVINGS + 1):
-                q_end, errors = self._project(self._move_joints(q_prev, 0.5**k * dq_prev), pose_tol)
+            # within the joint limits: the longest fraction of it that can be (none of it:
+            # the iterate before)
+            for t in [*(0.5**k for k in range(1, HARD_PROJECTION_HALVINGS + 1)), 0.0]:
+                q_end, errors = self._project(self._move_joints(q_prev, t * dq_prev), pose_tol)
                 if all(e <= pose_tol for e in errors):
                     break
+        self._guard_hard_levels(errors, start_errors, pose_tol)
         q = q_end
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
@@ -291,6 +444,21 @@ class StackSolver(ABC):
                 if t.active and t.blocks_convergence
             )
         return PoseResult(q, it, converged, errors, time.perf_counter() - start)
+
+    def _guard_hard_levels(self, errors: list[float], start: list[float], tol: float) -> None:
+        """Raise InfeasibleError if a hard level a converged pose must hold ends beyond
+        ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
+        held = len(errors)
+        if self.on_infeasible == "relax":
+            held = next((k for k, e in enumerate(start) if e > tol), held)
+        off = [(k, e) for k, e in enumerate(errors[:held]) if e > tol]
+        if off:
+            priorities = [lv.priority for lv in self.stack.levels if lv.hard]
+            raise InfeasibleError(
+                f"{self.name}: the converged pose ends off its hard levels "
+                + ", ".join(f"{priorities[k]} (error {e:.3g})" for k, e in off)
+                + f", more than {tol:g}, and no shorter last step holds them"
+            )
 
     def _shorter_step(self, q_prev, dq_prev, before, tol: float, dt) -> tuple:
         """(q, Δq, hard errors) from q_prev ⊕ t·Δq_prev projected onto the hard levels, for
@@ -328,7 +496,9 @@ class StackSolver(ABC):
         return out
 
     def _hard_errors(self, kin: Kinematics) -> list[float]:
-        """Each hard level's largest task error and inequality violation at ``kin``."""
+        """Each hard level's largest task error and inequality violation at ``kin`` (the
+        rows of self-collision pairs inside their margin ask for a motion, which is the
+        steps' business, not the pose's: :func:`split_rows`)."""
         out = []
         for lv in self.stack.levels:
             if not lv.hard:
@@ -336,17 +506,18 @@ class StackSolver(ABC):
             worst = 0.0
             for t in lv.active_tasks():
                 worst = max(worst, float(abs(t.compute_error(kin)[t.mask]).max()))
-            for c in lv.active_constraints():
-                h = c.compute(kin)[1]
-                if h.size:
-                    worst = max(worst, float(-h.min()))
+            h = split_rows(lv.active_constraints(), kin, self.robot.nv).h
+            if h.size:
+                worst = max(worst, float(-h.min()))
             out.append(worst)
         return out
 
-    def _hard_problems(self, kin: Kinematics) -> list[LevelProblem]:
-        """The hard levels' rows at ``kin``, unweighted and at gain 1 (the whole error)."""
+    def _hard_problems(self, kin: Kinematics) -> tuple[list[LevelProblem], LevelProblem]:
+        """The hard levels' rows at ``kin``, unweighted and at gain 1 (the whole error), and
+        a last level with the rows of the self-collision pairs inside their margin held
+        (G δ <= 0 in least squares: no closer, as far as the hard levels allow)."""
         nv = self.robot.nv
-        problems = []
+        problems, inside = [], []
         for lv in self.stack.levels:
             if not lv.hard:
                 continue
@@ -354,9 +525,12 @@ class StackSolver(ABC):
             rows = [t.compute(kin) for t in tasks]
             J = np.vstack([r[0] for r in rows]) if rows else np.zeros((0, nv))
             e = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
-            G, h, _ = stack_constraints(lv.active_constraints(), kin, nv)
-            problems.append(LevelProblem(lv.priority, J, e, G, h, hard=True))
-        return problems
+            split = split_rows(lv.active_constraints(), kin, nv)
+            inside.append(split.G_inside)
+            problems.append(LevelProblem(lv.priority, J, e, split.G, split.h, hard=True))
+        G_in = np.vstack(inside) if inside else np.zeros((0, nv))
+        held = LevelProblem(1 << 29, np.zeros((0, nv)), np.zeros(0), G_in, np.zeros(len(G_in)))
+        return problems, held
 
     def project_hard(
         self, q: np.ndarray, tol: float = 1e-9, max_steps: int = HARD_PROJECTION_STEPS
@@ -381,7 +555,8 @@ class StackSolver(ABC):
                 if errors[k] <= tol:
                     break
                 kin.update(q)
-                delta = self._hard_step(q, self._hard_problems(kin)[: k + 1])
+                problems, held = self._hard_problems(kin)
+                delta = self._hard_step(q, [*problems[: k + 1], held])
                 t, accepted = 1.0, False
                 for _ in range(HARD_PROJECTION_HALVINGS):
                     q_t = self._move_joints(q, t * delta)
@@ -400,7 +575,7 @@ class StackSolver(ABC):
         return q, errors
 
     def _hard_step(self, q: np.ndarray, problems: list[LevelProblem]) -> np.ndarray:
-        """One Gauss–Newton step onto the given hard levels (minimum-norm, joint limits)."""
+        """One Gauss–Newton step onto the given levels (minimum-norm, joint limits)."""
         nv = self.robot.nv
         lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self.stack.position_limit.joint_bounds_into(q[7:], lower[6:], upper[6:])
@@ -499,14 +674,34 @@ class StackSolver(ABC):
         use = dt is not None and limit is not None
         step = limit.step(dt) if use else self._q_min  # (not read without a time step)
         joint_bounds(kin.q[7:], self._q_min, self._q_max, step, use, lower, upper)
-        self.recovery = None
-        if self._yield_recovery:  # joints outside: move back as far as the hard levels allow
-            lo, hi = lower[6:], upper[6:]
-            out = np.flatnonzero((lo > 0.0) | (hi < 0.0))
-            self.recovery = (6 + out, np.where(lo[out] > 0.0, lo[out], hi[out]))
-            np.minimum(lo, 0.0, out=lo)
-            np.maximum(hi, 0.0, out=hi)
         if self.stack.extra_limits:
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]
             intersect_bounds(position, others, lower, upper)
+
+
+def _no_jacobian(nv: int) -> np.ndarray:
+    """No task rows over nv variables."""
+    return np.zeros((0, nv))
+
+
+def _with_requests(problem: LevelProblem, rows: SplitRows, dq: np.ndarray) -> LevelProblem:
+    """A hard level with the requests of its self-collision pairs inside the margin added as
+    rows held where ``dq`` (their best achievable separation) leaves them, plus
+    :data:`SEPARATION_SLACK`."""
+    if not rows.h_inside.size:
+        return problem
+    G_in = rows.G_inside
+    h_in = np.maximum(rows.h_inside, G_in @ dq) + SEPARATION_SLACK
+    m = problem.h.size
+    named = (_INSIDE, slice(m, m + h_in.size))
+    return LevelProblem(
+        problem.priority, problem.J, problem.b, np.vstack([problem.G, G_in]),
+        np.concatenate([problem.h, h_in]), problem.hard, problem.task_rows,
+        [*problem.constraint_rows, named],
+    )  # fmt: skip
+
+
+def _level(priority: int, block: TaskBlock, rows: SplitRows, hard: bool) -> LevelProblem:
+    """A level of the block's rows (as filled) and the held rows of ``rows``."""
+    return LevelProblem(priority, block.J, block.b, rows.G, rows.h, hard, block.slices, rows.slices)

@@ -61,6 +61,8 @@ class WeightedQP(StackSolver):
     :attr:`relaxed` and :attr:`diagnosis`.
     """
 
+    lexicographic = False
+
     def __init__(
         self,
         stack,
