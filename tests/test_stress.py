@@ -48,23 +48,14 @@ def test_random_problems_keep_the_laws(robot, stress, backends):
 
 @pytest.mark.parametrize(
     "trial",
-    [
-        pytest.param(
-            187,
-            marks=pytest.mark.xfail(
-                reason="since main's hard self-collision constraint in the walk stack, this "
-                "start (joints outside the limits, double support) is infeasible at tick 0 "
-                "(open: recovery vs. self-collision margin)",
-                strict=False,
-            ),
-        ),
-        218,
-    ],
+    [187, 218],
 )
 def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial):
     """Stress trials (seed 2024; walk stack, double support, targets out of reach) on which
     DAQP reported "exit flag -2" (187, a tick) or a bare "daqp: the QP is infeasible" naming
-    no task (218, a converged pose); both problems are feasible."""
+    no task (218, a converged pose); both problems are feasible. 187 starts outside the
+    limits with links inside the self-collision margin: since the walk stack's hard
+    self-collision rows it raised "hard level 0 is infeasible" at tick 0."""
     tally = stress.Tally()
     p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)
