@@ -525,7 +525,9 @@ class SelfCollisionConstraint(Constraint):
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
-        self._witness_rows = np.zeros(0, dtype=bool)  # which of _rows are witness rows
+        #: the pair (a row of :attr:`last`) of each of _rows, and which are witness rows
+        self._row_pair = np.zeros(0, dtype=int)
+        self._witness_rows = np.zeros(0, dtype=bool)
 
     @property
     def n_pairs(self) -> int:
@@ -548,7 +550,7 @@ class SelfCollisionConstraint(Constraint):
         w = self.last = self.witness(kin)
         if not w.index.size:
             rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
-            witness_rows = np.zeros(0, dtype=bool)
+            row_pair, witness_rows = np.zeros(0, dtype=int), np.zeros(0, dtype=bool)
         else:
             corners = self.distances.vertices(kin, w.index.tolist())
             pr = separating_plane_rows(w, corners, self.trigger)
@@ -558,21 +560,26 @@ class SelfCollisionConstraint(Constraint):
             )
             rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
             keep = damper_bound(pr.gap, self.margin, self.trigger, self.damping) < UNREACHABLE
+            row_pair = pr.pair[keep]
             witness_rows = (np.arange(pr.gap.size) < w.index.size)[keep]
-        self._rows, self._rows_q, self._witness_rows = rows, kin.q.copy(), witness_rows
+        self._rows, self._rows_q = rows, kin.q.copy()
+        self._row_pair, self._witness_rows = row_pair, witness_rows
         return rows
 
     def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
-        """The rows at ``kin`` as (rows to hold, requests): the rows at or outside the margin
-        (h >= 0, met by Δq = 0), and the witness row of each pair inside it (h < 0: move
-        apart). A pair inside the margin is one request — its box corners' rows inside it
-        (a pair already overlapping has lost the guarantee they are for) are left out: near
-        copies of the witness row, they would make a solver's active set degenerate once
-        held at their best achievable separation."""
+        """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
+        outside the margin (h >= 0, met by Δq = 0), and the witness row of each pair inside
+        it (h < 0: move apart). A pair inside the margin is that one request: the rows of
+        its box corners (which keep parallel faces apart, a guarantee a pair inside the
+        margin has lost) are left out — held, they could pin the legs of a start with
+        overlapping boxes; near copies of the witness row, they would make a solver's
+        active set degenerate once held at their best achievable separation."""
         rows = self.compute(kin)
-        inside = inside_margin(rows)
-        ask = inside & self._witness_rows
-        return Inequality(rows.G[~inside], rows.h[~inside]), Inequality(rows.G[ask], rows.h[ask])
+        pair_inside = np.zeros(self.last.index.size, dtype=bool)
+        pair_inside[self._row_pair[inside_margin(rows) & self._witness_rows]] = True
+        held = ~pair_inside[self._row_pair]
+        ask = pair_inside[self._row_pair] & self._witness_rows
+        return Inequality(rows.G[held], rows.h[held]), Inequality(rows.G[ask], rows.h[ask])
 
 
 def _cached_collision_model(robot: Robot) -> CollisionModel:
