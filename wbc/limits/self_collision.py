@@ -526,6 +526,7 @@ class SelfCollisionConstraint(Constraint):
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
         #: the pair (a row of :attr:`last`) of each of _rows, and which are witness rows
+        #: (the others: box corners near the separating plane)
         self._row_pair = np.zeros(0, dtype=int)
         self._witness_rows = np.zeros(0, dtype=bool)
 
@@ -568,18 +569,17 @@ class SelfCollisionConstraint(Constraint):
 
     def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
-        outside the margin (h >= 0, met by Δq = 0), and the witness row of each pair inside
-        it (h < 0: move apart). A pair inside the margin is that one request: the rows of
-        its box corners (which keep parallel faces apart, a guarantee a pair inside the
-        margin has lost) are left out — held, they could pin the legs of a start with
-        overlapping boxes; near copies of the witness row, they would make a solver's
-        active set degenerate once held at their best achievable separation."""
+        outside the margin (h >= 0, met by Δq = 0), and those of the pairs inside it (their
+        witness row has h < 0: move apart; their box corners' rows keep parallel faces from
+        turning into each other). A solver that cannot meet the requests with its hard
+        tasks ranks them below those (and below the way back of joints outside their
+        limits): held as hard rows, a pair already inside the margin can pin the legs of a
+        start with overlapping boxes."""
         rows = self.compute(kin)
         pair_inside = np.zeros(self.last.index.size, dtype=bool)
         pair_inside[self._row_pair[inside_margin(rows) & self._witness_rows]] = True
-        held = ~pair_inside[self._row_pair]
-        ask = pair_inside[self._row_pair] & self._witness_rows
-        return Inequality(rows.G[held], rows.h[held]), Inequality(rows.G[ask], rows.h[ask])
+        ask = pair_inside[self._row_pair]
+        return Inequality(rows.G[~ask], rows.h[~ask]), Inequality(rows.G[ask], rows.h[ask])
 
 
 def _cached_collision_model(robot: Robot) -> CollisionModel:

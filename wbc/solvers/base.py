@@ -37,6 +37,9 @@ HARD_PROJECTION_HALVINGS = 12
 #: their margin are held by a tick that cannot separate them at the damper's rate
 SEPARATION_SLACK = 1e-7
 _INSIDE = "self_collision (pairs inside the margin)"
+#: weight of "no closer than now" against "separate at the damper's rate" in the best
+#: separation of the self-collision pairs inside their margin (one least-squares level)
+HOLD_WEIGHT = 100.0
 _EMPTY = np.zeros(0)
 
 
@@ -220,9 +223,10 @@ class StackSolver(ABC):
            bounds widened to Δq = 0 for the joints outside their range (never further out);
         2. the way back of those joints (the step their bounds asked: servo speed, or all
            the way without a time step), in least squares;
-        3. the rows of the pairs inside the margin (separate at the damper's rate), in least
-           squares of their violation: the best separation the levels above leave, which may
-           be "no closer than now" or, if the hard tasks or the way back need it, an approach;
+        3. the rows of the pairs inside the margin, in least squares of their violation: no
+           closer than now (weighted :data:`HOLD_WEIGHT`), then separate at the damper's rate —
+           the best separation the levels above leave, which may be an approach where the
+           hard tasks or the way back need it; then held there (+ :data:`SEPARATION_SLACK`);
         4. the soft levels as the solver ranks them (levels, or one weighted objective).
 
         Why the way back before the pairs: a joint outside its range is outside the servo's
@@ -276,6 +280,10 @@ class StackSolver(ABC):
             if inside:  # their best separation below the hard levels and the way back
                 G_in = np.vstack([r.G_inside for r in asks])
                 h_in = np.concatenate([r.h_inside for r in asks])
+                # no pair closer than now first (HOLD_WEIGHT), then the damper's rate: one
+                # pair may not approach so that another separates faster
+                G_in = np.vstack([HOLD_WEIGHT * G_in, G_in])
+                h_in = np.concatenate([HOLD_WEIGHT * np.maximum(h_in, 0.0), h_in])
                 first = [*hard, *recovery, LevelProblem(-1, _no_jacobian(nv), _EMPTY, G_in, h_in)]
                 best, _ = solve_cascade_or_daqp(
                     first, lower, upper, self._backends_for(first), final_regularization=1e-12,
