@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from proxsuite import proxqp
 
@@ -134,8 +134,17 @@ def test_all_backends_agree_on_the_weighted_qp(robot, seed, shift, lift, polygon
 
 
 @given(seed=st.integers(0, 10_000), shift=targets, lift=st.floats(0, 0.03), polygon=st.booleans())
+@example(seed=0, shift=(0.0, 0.0, 2.0**-9), lift=0.0, polygon=True)
+@example(seed=8, shift=(0.0, 0.0, 2.0**-9), lift=0.0, polygon=True)
 def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon):
-    """The active-set solvers (DAQP, quadprog) agree to 1e-6 and ProxQP to 1e-4. OSQP (ADMM,
+    """All on the numpy path (the backends' cascade: the compiled one is another algorithm,
+    which meets a level exactly where the cascade's ridge leaves ~1e-8, and on degenerate
+    levels that moves Δq by up to 1e-3). The examples: ProxQP reported a level "solved" at a
+    duality gap of 4e-3, Δq 0.12 rad off (seed 0); the compiled DAQP and the numpy quadprog
+    differed by 1e-3 (seed 8). Hypothesis draws other examples depending on which modules
+    are loaded (it takes constants from their source), so the test failed only after others.
+
+    The active-set solvers (DAQP, quadprog) agree to 1e-6 and ProxQP to 1e-4. OSQP (ADMM,
     eps 1e-6) meets each level's optimum to its tolerance, but not Δq: its polishing fails on
     the degenerate lower levels of a hierarchy (many active bounds), and a bound met to 1e-6
     instead of exactly moves Δq by up to ~1e-2 along the nearly flat directions of the last
@@ -147,7 +156,7 @@ def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon
     results, residuals = {}, {}
     for backend in BACKENDS:
         stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
-        solver = HierarchicalQP(stack, backend)
+        solver = HierarchicalQP(stack, backend, compiled=False)
         try:
             results[backend] = solver.solve(q, dt=0.01)
         except SolverError as exc:
