@@ -233,8 +233,8 @@ class StackSolver(ABC):
         travel, while a pair already inside the margin has lost its guarantee anyway (the
         boxes are a conservative hull); holding such a pair can stop the way back for good.
         Pairs outside the margin keep their rows (1.), so the way back never takes them in.
-        Raises ``exc`` when nothing of this applies, and InfeasibleError naming the hard
-        levels' tasks and constraints when they are infeasible on their own."""
+        Raises ``exc`` (the solver's diagnosis) when nothing of this applies or the hard levels
+        are infeasible on their own."""
         nv = self.robot.nv
         lower, upper = np.empty(nv), np.empty(nv)
         self.compute_bounds(kin, dt, lower, upper)
@@ -309,9 +309,9 @@ class StackSolver(ABC):
             for p, sol in zip(hard, sols, strict=False)
             if max(abs(sol.residual).max(initial=0.0), sol.slack.max(initial=0.0)) > self.hard_tol
         ]
+        if unmet and not relax:  # infeasible on their own: the solver's own diagnosis
+            raise exc
         self.diagnosis = "; ".join(unmet)
-        if unmet and not relax:
-            raise InfeasibleError(self.diagnosis) from exc
         self.relaxed = bool(unmet)
         return Solution(dq, lower, upper)
 
