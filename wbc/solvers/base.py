@@ -302,7 +302,7 @@ class StackSolver(ABC):
                 problems, lower, upper, self._backends_for(problems),
                 final_regularization=self.regularization, relax=relax,
             )  # fmt: skip
-        except InfeasibleError as e:
+        except (InfeasibleError, SolverError) as e:  # the re-solve failed: the tick did
             raise exc from e
         unmet = [
             infeasible_message(p, sol, self.hard_tol)

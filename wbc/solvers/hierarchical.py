@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..exceptions import ConfigurationError, InfeasibleError
+from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
 from .backends import QPBackend, make_backend
@@ -319,7 +319,7 @@ class HierarchicalQP(StackSolver):
         backends.append(make_backend(self.backend.name, self.backend.eps))
         try:
             _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
-        except InfeasibleError as exc:  # a lower level's QP failed even so: name the levels
+        except (InfeasibleError, SolverError) as exc:  # a level's QP failed: name the levels
             names = [
                 name
                 for p in self.problems
