@@ -525,10 +525,8 @@ class SelfCollisionConstraint(Constraint):
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
-        #: the pair (a row of :attr:`last`) of each of _rows, and which are witness rows
-        #: (the others: box corners near the separating plane)
+        #: the pair (a row of :attr:`last`) of each of _rows
         self._row_pair = np.zeros(0, dtype=int)
-        self._witness_rows = np.zeros(0, dtype=bool)
 
     @property
     def n_pairs(self) -> int:
@@ -551,7 +549,7 @@ class SelfCollisionConstraint(Constraint):
         w = self.last = self.witness(kin)
         if not w.index.size:
             rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
-            row_pair, witness_rows = np.zeros(0, dtype=int), np.zeros(0, dtype=bool)
+            row_pair = np.zeros(0, dtype=int)
         else:
             corners = self.distances.vertices(kin, w.index.tolist())
             pr = separating_plane_rows(w, corners, self.trigger)
@@ -562,22 +560,22 @@ class SelfCollisionConstraint(Constraint):
             rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
             keep = damper_bound(pr.gap, self.margin, self.trigger, self.damping) < UNREACHABLE
             row_pair = pr.pair[keep]
-            witness_rows = (np.arange(pr.gap.size) < w.index.size)[keep]
-        self._rows, self._rows_q = rows, kin.q.copy()
-        self._row_pair, self._witness_rows = row_pair, witness_rows
+        self._rows, self._rows_q, self._row_pair = rows, kin.q.copy(), row_pair
         return rows
 
     def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
-        outside the margin (h >= 0, met by Δq = 0), and those of the pairs inside it (their
-        witness row has h < 0: move apart; their box corners' rows keep parallel faces from
+        outside the margin (every row h >= 0, met by Δq = 0), and those of the pairs inside
+        it (a row with h < 0: move apart; their box corners' rows keep parallel faces from
         turning into each other). A solver that cannot meet the requests with its hard
         tasks ranks them below those (and below the way back of joints outside their
         limits): held as hard rows, a pair already inside the margin can pin the legs of a
         start with overlapping boxes."""
         rows = self.compute(kin)
         pair_inside = np.zeros(self.last.index.size, dtype=bool)
-        pair_inside[self._row_pair[inside_margin(rows) & self._witness_rows]] = True
+        # any of its rows (a corner's gap to the witness plane can come out a hair below the
+        # witness distance: the plane's normal is the distance query's, to its tolerance)
+        pair_inside[self._row_pair[inside_margin(rows)]] = True
         ask = pair_inside[self._row_pair]
         return Inequality(rows.G[~ask], rows.h[~ask]), Inequality(rows.G[ask], rows.h[ask])
 
