@@ -315,9 +315,12 @@ class StackSolver(ABC):
         self.relaxed = bool(unmet)
         return Solution(dq, lower, upper)
 
-    def _backends_for(self, problems: list[LevelProblem]) -> list[QPBackend]:
-        """One fresh backend of the solver's kind per level."""
-        return [make_backend(self.backend.name, self.backend.eps) for _ in problems]
+    @staticmethod
+    def _backends_for(problems: list[LevelProblem]) -> list[QPBackend]:
+        """One DAQP backend per level, whatever the solver's backend: a rare re-solve, and
+        an exact active set (a first-order backend's iteration caps on these degenerate
+        levels cost seconds per tick, to fall back to DAQP in the end)."""
+        return [make_backend("daqp") for _ in problems]
 
     def _check_task_errors(self) -> None:
         """Raise TaskError naming an active task whose error at the last solve is not finite
