@@ -37,16 +37,28 @@ def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def make_sim_bus(args: argparse.Namespace, robot):
-    """The simulated bus for ``wbc deploy --sim`` (robot standing at Walk Ready)."""
-    from .bus import SimServoBus
+    """The simulated bus for ``wbc deploy --sim`` (robot standing in its standing pose):
+    the AX-12A bus, or with ``--bus ssc32`` the SSC-32 backend on a simulated board (hobby
+    servos: the robot's ``robot.toml`` ``[servo]``)."""
+    from .bus import sim_bus
     from .simulator import Simulation
 
     sim = Simulation(robot)
+    backend = getattr(args, "backend", "dynamixel")
+    want = "ssc32" if sim.hobby else "dynamixel"
+    if backend != want:
+        servo = sim.servo_params.name if sim.hobby else "AX-12A"
+        raise WbcError(
+            f"--sim: robot {robot.name}'s servos are {servo} ({want} bus): use --bus {want}"
+        )
     on_tick = None
     if getattr(args, "view", False):
         on_tick = _live_view(robot, sim)
-    torque_limit = args.torque_limit if getattr(args, "torque_limit", 1023) != 1023 else None
-    return SimServoBus(sim, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick)
+    torque_limit = getattr(args, "torque_limit", None)
+    torque_limit = None if torque_limit == 1023 else torque_limit
+    return sim_bus(
+        sim, args.rate, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick
+    )
 
 
 def _live_view(robot, sim, planned=None):
