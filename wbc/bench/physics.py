@@ -107,6 +107,8 @@ def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
     from ..sim.actuator import ServoParams
     from ..sim.model import ModelParams, build_spec, link_names
 
+    if robot.servo_map is None:  # the ranges below are the AX-12A's (issue 19: Kokone's later)
+        raise WbcError(f"--robustness randomises the AX-12A model; {robot.name} has other servos")
     n_links = len(link_names(build_spec(robot)))
     stiff = rng.uniform(0.7, 1.4)
     damping = 0.24 * rng.uniform(0.7, 1.3)
@@ -504,9 +506,12 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 r["push_lateral_ns"] = largest_push(rec, robot, "lateral", **loop)
                 r["push_forward_ns"] = largest_push(rec, robot, "forward", **loop)
             records.append(r)
+    from ..sim.actuator import nominal_servo
+
+    servo = getattr(nominal_servo(robot), "name", "AX-12A")  # the robot's servo model
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
-        title = f"physics: {name} (deploy path, simulated AX-12A)"
+        title = f"physics: {name} (deploy path, simulated {servo})"
         title += f", compliance feed-forward ×{comp:g}" if comp else ""
         table = Table(title=title + (f", gyro feedback ×{gyro:g}" if gyro else ""))
         cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "rms°", "τ/τs", "CoP mm"]
