@@ -83,9 +83,9 @@ def test_frames_agree_with_pinocchio_at_random_configurations(robot, rng):
             np.testing.assert_allclose(S.rotation, M.rotation, atol=1e-9)
         np.testing.assert_allclose(sim.com(), robot.com(q), atol=1e-9)
         # the IMU sits at the torso frame (robot.toml [imu] default), axes aligned with it
-        I, T = sim.site_pose("imu"), robot.frame_placement(q, "torso")
-        np.testing.assert_allclose(I.translation, T.translation, atol=1e-9)
-        np.testing.assert_allclose(I.rotation, T.rotation, atol=1e-9)
+        imu, T = sim.site_pose("imu"), robot.frame_placement(q, "torso")
+        np.testing.assert_allclose(imu.translation, T.translation, atol=1e-9)
+        np.testing.assert_allclose(imu.rotation, T.rotation, atol=1e-9)
 
 
 def test_joint_properties_are_the_robots_servos(robot, mj_model):
