@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from wbc.exceptions import ServoError
+from wbc.exceptions import ServoError, WbcError
 from wbc.imu import GRAVITY
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK, ServoSettings
@@ -337,3 +337,8 @@ def test_deploy_kokone_on_the_simulated_ssc32_from_the_command_line(kokone, tmp_
     assert rc == 0, err
     assert "on sim" in out and "completed" in out + err
     assert "cannot check the servos' positions" in out
+
+
+def test_the_ax12a_bus_refuses_hobby_servos(kokone):
+    with pytest.raises(WbcError, match="SimSsc32Bus"):
+        SimServoBus(Simulation(kokone))

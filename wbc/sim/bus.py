@@ -74,6 +74,11 @@ class SimServoBus(ServoBus):
         torque_limit: int | None = None,
         on_tick: Callable[[SimServoBus], None] | None = None,
     ) -> None:
+        if sim.hobby:
+            raise WbcError(
+                f"robot {sim.robot.name} has hobby PWM servos: its simulated bus is SimSsc32Bus "
+                "(wbc.sim.bus.sim_bus picks the robot's own)"
+            )
         sm = sim.robot.servo_map
         labels = [f"id {int(i)} ({j})" for i, j in zip(sm.ids, sm.joint_names, strict=True)]
         super().__init__(ax_codec(sm), labels)
