@@ -60,6 +60,15 @@ def main() -> None:
     robot = load_robot("kokone")
     nominal = nominal_servo(robot)
     print(f"{platform.node()} {platform.machine()}, Python {platform.python_version()}")
+    if args.speed:  # the Bioloid's walk10 through the same path, same run: the ratio's base
+        bioloid = load_robot("bioloid")
+        rec = plan("hqp-daqp", "walk10", bioloid)
+        started = time.perf_counter()
+        result = play(rec, bioloid, settle=1.0, limit_tol=math.inf)
+        wall = time.perf_counter() - started
+        sim_s = float(result.log["t"][-1])
+        print(f"Bioloid walk10 (AX-12A bus): {sim_s:.1f} s simulated in {wall:.2f} s wall = "
+              f"{sim_s / wall:.1f}× real time")  # fmt: skip
     for name in args.trajectories:
         rec = plan("hqp-daqp", name, robot)
         print(f"\n**{name}** (hqp-daqp's plan, {rec.t[-1] - rec.t[0]:.1f} s)\n")
@@ -71,7 +80,7 @@ def main() -> None:
             sim_s = float(result.log["t"][-1])
             rate = result.sim.steps / wall
             print(f"nominal: {sim_s:.1f} s simulated in {wall:.2f} s wall = "
-                  f"{sim_s / wall:.0f}× real time, {rate:.0f} steps/s")  # fmt: skip
+                  f"{sim_s / wall:.1f}× real time, {rate:.0f} steps/s")  # fmt: skip
             continue
         if args.timesteps:
             for dt in (0.002, 0.001, 0.0005):
