@@ -514,12 +514,9 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 r["push_lateral_ns"] = largest_push(rec, robot, "lateral", **loop)
                 r["push_forward_ns"] = largest_push(rec, robot, "forward", **loop)
             records.append(r)
-    from ..sim.actuator import nominal_servo
-
-    servo = getattr(nominal_servo(robot), "name", "AX-12A")  # the robot's servo model
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
-        title = f"physics: {name} (deploy path, simulated {servo})"
+        title = f"physics: {name} (deploy path, simulated {_servo_name(robot)})"
         title += f", compliance feed-forward ×{comp:g}" if comp else ""
         table = Table(title=title + (f", gyro feedback ×{gyro:g}" if gyro else ""))
         cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "rms°", "τ/τs", "CoP mm"]
@@ -582,6 +579,13 @@ def fall_summary(falls: list[dict[str, Any]]) -> str:
 
 def _ns(v: float | None) -> str:
     return "fell" if v is None else f"{v:.3f}"
+
+
+def _servo_name(robot: Robot) -> str:
+    """The robot's simulated servo model (AX-12A, or its robot.toml [servo] name)."""
+    from ..sim.actuator import nominal_servo
+
+    return getattr(nominal_servo(robot), "name", "AX-12A")
 
 
 def physics_figure(series: dict, rec: Recording, result, path: Path) -> Path:
