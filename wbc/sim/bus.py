@@ -73,6 +73,7 @@ class SimServoBus(ServoBus):
         latency_ticks: int = 0,
         torque_limit: int | None = None,
         on_tick: Callable[[SimServoBus], None] | None = None,
+        on_close: Callable[[], None] | None = None,
     ) -> None:
         if sim.hobby:
             raise WbcError(
@@ -92,6 +93,7 @@ class SimServoBus(ServoBus):
         self.latency_ticks = latency_ticks
         self.torque_limit = torque_limit
         self.on_tick = on_tick
+        self.on_close = on_close
         self.goals_written = 0
         self.is_open = False
         self._pending: deque[np.ndarray] = deque()
@@ -126,6 +128,8 @@ class SimServoBus(ServoBus):
 
     def close(self) -> None:
         self.is_open = False
+        if self.on_close is not None:
+            self.on_close()
 
     def identify(self) -> None:
         self._require_open()
@@ -310,6 +314,7 @@ class SimSsc32Bus(Ssc32Bus):
         latency_ticks: int = 0,
         move_time_ms: int | None = None,
         on_tick: Callable[[SimSsc32Bus], None] | None = None,
+        on_close: Callable[[], None] | None = None,
     ) -> None:
         if not sim.hobby:
             raise WbcError(
@@ -324,8 +329,14 @@ class SimSsc32Bus(Ssc32Bus):
         self.clock = None if realtime else SimClock(sim)
         self.latency_ticks = latency_ticks
         self.on_tick = on_tick
+        self.on_close = on_close
         self._wall0 = 0.0
         self._sim0 = 0.0
+
+    def close(self) -> None:
+        super().close()
+        if self.on_close is not None:
+            self.on_close()
 
     def _sync(self) -> None:
         if self.realtime and self.ser is not None:
