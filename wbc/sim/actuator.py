@@ -41,12 +41,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from ..exceptions import WbcError
 from ..servo_map import RAD_PER_TICK, ServoMap, ServoSettings
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from ..model import Robot
+    from ..servos.bus import Codec
+    from ..servos.ssc32 import Ssc32Map
 
 STALL_TORQUE = 1.5  # N·m at 12 V (EMAN-AX)
 NO_LOAD_SPEED = 59.0 * 2.0 * math.pi / 60.0  # rad/s at 12 V (EMAN-AX)
@@ -294,7 +302,7 @@ class HobbyServoParams:
         )
 
     @classmethod
-    def from_table(cls, table, where: str = "[servo]") -> HobbyServoParams:
+    def from_table(cls, table: Mapping, where: str = "[servo]") -> HobbyServoParams:
         """Parameters from a robot's ``[servo]`` table (one clear line per bad key)."""
         extra = sorted(set(table) - set(HOBBY_KEYS))
         if extra:
@@ -320,7 +328,7 @@ class HobbyServoParams:
         return cls(**values, name=str(name))
 
 
-def servo_kind(robot) -> str:
+def servo_kind(robot: Robot) -> str:
     """The servo law of ``robot``'s joints: its ``robot.toml`` ``[servo] law``, else
     ``ax12a`` when it has a Dynamixel servo map; one clear line otherwise."""
     table = robot.robot_data.servo
@@ -341,7 +349,9 @@ def servo_kind(robot) -> str:
     return law
 
 
-def nominal_servo(robot, settings: ServoSettings | None = None, **kwargs):
+def nominal_servo(
+    robot: Robot, settings: ServoSettings | None = None, **kwargs: float | None
+) -> ServoParams | HobbyServoParams:
     """The nominal servo model of ``robot``'s joints (:func:`servo_kind`): AX-12A parameters
     from the servo settings (``kwargs``: damping, armature, friction_loss), or the hobby
     servo of ``robot.toml`` ``[servo]``."""
@@ -352,7 +362,7 @@ def nominal_servo(robot, settings: ServoSettings | None = None, **kwargs):
     return HobbyServoParams.from_table(robot.robot_data.servo, where)
 
 
-def pwm_map(robot):
+def pwm_map(robot: Robot) -> Ssc32Map:
     """The robot's SSC-32 map (``ssc32.toml`` beside its URDF), else the default map (channel
     = joint index, 1500 µs at q = 0, 13.33 µs/°)."""
     from ..servos.ssc32 import Ssc32Map
@@ -387,7 +397,7 @@ class HobbyServoArray:
     Nothing is quantised but the 1 µs pulse; the work is a few numpy operations per frame.
     """
 
-    def __init__(self, codec, params: HobbyServoParams, dt: float) -> None:
+    def __init__(self, codec: Codec, params: HobbyServoParams, dt: float) -> None:
         self.params = params
         self.offset = np.asarray(codec.offset, dtype=float).copy()
         self.scale = np.asarray(codec.scale, dtype=float).copy()  # µs per rad, signed
@@ -448,7 +458,9 @@ class HobbyServoArray:
             f = np.where(self.move_time > 0, (t - self.t0) / self.move_time, 1.0)
         return self.start + (self.target - self.start) * np.clip(f, 0.0, 1.0)
 
-    def write(self, pulses: np.ndarray, move_ms: float | None = None, mask=None) -> None:
+    def write(
+        self, pulses: np.ndarray, move_ms: float | None = None, mask: np.ndarray | None = None
+    ) -> None:
         """A group move: the channels of ``mask`` (default all) go to ``pulses`` (µs) in
         ``move_ms`` (None/0: at the next frame); a channel's first command jumps."""
         pulses = np.asarray(pulses, dtype=float)
@@ -464,7 +476,7 @@ class HobbyServoArray:
         T = 0.0 if not move_ms else float(move_ms) * 1e-3
         self.move_time = np.where(mask, T, self.move_time)
 
-    def off(self, mask=None) -> None:
+    def off(self, mask: np.ndarray | None = None) -> None:
         """``#<ch>L``: no more pulses on the channels of ``mask`` (default all)."""
         mask = np.ones(self.n, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
         self.start[mask] = self.target[mask] = np.nan

@@ -17,10 +17,14 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..exceptions import WbcError
+
+if TYPE_CHECKING:
+    from .simulator import Simulation
 
 
 def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,7 +76,7 @@ class UprightWatch:
     largest torso tilt from its start, and a fall (tilt > 45° or the torso below 60 % of its
     start height, as the physics benchmark's thresholds), checked every control tick."""
 
-    def __init__(self, sim) -> None:
+    def __init__(self, sim: Simulation) -> None:
         from ..bench.physics import FALL_HEIGHT, FALL_TILT_DEG
 
         self.sim = sim

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -26,6 +27,9 @@ import pinocchio as pin
 from ..exceptions import WbcError
 from ..model import Robot
 from . import mujoco_module
+
+if TYPE_CHECKING:
+    from .actuator import HobbyServoParams, ServoParams
 
 SITES = ("torso", "l_sole", "r_sole")  # required
 OPTIONAL_SITES = ("l_hand", "r_hand")
@@ -52,7 +56,7 @@ class ModelParams:
     imu_offset: Sequence[float] | None = None  # IMU site in the IMU frame, m
     extra: dict = field(default_factory=dict)
 
-    def resolved(self, servo) -> ModelParams:
+    def resolved(self, servo: ServoParams | HobbyServoParams) -> ModelParams:
         """A copy whose unset joint properties are those of ``servo`` (servo parameters)."""
         return replace(
             self,
@@ -62,7 +66,7 @@ class ModelParams:
         )
 
 
-def imu_placement(robot) -> tuple[str, np.ndarray]:
+def imu_placement(robot: Robot) -> tuple[str, np.ndarray]:
     """The IMU's frame and offset (m, in that frame) from ``robot.toml`` ``[imu]``
     (default: the torso frame, no offset)."""
     table = robot.robot_data.imu
