@@ -136,3 +136,23 @@ def test_missing_mujoco_is_one_clear_line(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", fake)
     with pytest.raises(WbcError, match=r"pip install 'wbc\[physics\]'"):
         mujoco_module()
+
+
+def test_imu_placement_comes_from_robot_data(tmp_path):
+    """``robot.toml`` ``[imu]``: the IMU site at a frame plus an offset in that frame."""
+    import shutil
+
+    from wbc.paths import robots_dir
+
+    folder = tmp_path / "kokone"
+    shutil.copytree(robots_dir() / "kokone", folder)
+    with open(folder / "robot.toml", "a") as f:
+        f.write('\n[imu]\nframe = "l_hand"\noffset = [0.01, -0.02, 0.03]\n')
+    robot = load_robot(folder)
+    sim = Simulation(robot)
+    q = sim.q()
+    expected = robot.frame_placement(q, "l_hand").act(np.array([0.01, -0.02, 0.03]))
+    np.testing.assert_allclose(sim.site_pose("imu").translation, expected, atol=1e-9)
+    np.testing.assert_allclose(
+        sim.site_pose("imu").rotation, robot.frame_placement(q, "l_hand").rotation, atol=1e-9
+    )
