@@ -4,6 +4,7 @@
     python benchmarks/kokone_sim.py --trajectories keyposes --bands 20 40
     python benchmarks/kokone_sim.py --timesteps          # the figures at 2, 1 and 0.5 ms
     python benchmarks/kokone_sim.py --speed              # simulated s per wall s
+    python benchmarks/kokone_sim.py --stand              # standing still: band vs oscillation
 
 Each trajectory is planned once by ``hqp-daqp`` (the ``walk`` stack), then played through the
 SSC-32 backend on the simulator (:func:`wbc.sim.play.play`, as ``wbc bench --physics
@@ -56,10 +57,14 @@ def main() -> None:
     parser.add_argument("--bands", nargs="+", type=float, default=[10, 20, 40, 100])
     parser.add_argument("--timesteps", action="store_true", help="nominal at 2, 1, 0.5 ms")
     parser.add_argument("--speed", action="store_true", help="simulated s per wall s")
+    parser.add_argument("--stand", action="store_true", help="3 s standing per servo variant")
     args = parser.parse_args()
     robot = load_robot("kokone")
     nominal = nominal_servo(robot)
     print(f"{platform.node()} {platform.machine()}, Python {platform.python_version()}")
+    if args.stand:
+        stand(robot, nominal, args.bands)
+        return
     if args.speed:  # the Bioloid's walk10 through the same path, same run: the ratio's base
         bioloid = load_robot("bioloid")
         rec = plan("hqp-daqp", "walk10", bioloid)
@@ -96,6 +101,31 @@ def main() -> None:
         stiff = replace(nominal, proportional_band_us=4.0, dead_band_us=1.0, loop_period=0.002)
         print(row("stiff reference: band 4 µs, dead band 1 µs, 2 ms loop", rec, robot,
                   servo_params=stiff))  # fmt: skip
+
+
+def stand(robot, nominal, bands) -> None:
+    """Kokone holding its crouch for 3 s (pulses at the crouch): torso tilt and the largest
+    joint speed over the last 2 s (a servo loop that oscillates shows here)."""
+    import numpy as np
+
+    from wbc.sim.simulator import Simulation
+
+    print("\n| servo | torso tilt after 3 s (°) | max joint speed, last 2 s (rad/s) |")
+    print("|---|---|---|")
+    for band in sorted({5.0, *bands}):
+        for label, loop in (("analog", None), ("digital 4 ms", 0.004)):
+            sp = replace(nominal, proportional_band_us=band, loop_period=loop)
+            sim = Simulation(robot, servo_params=sp)
+            sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
+            R0 = sim.base_rotation()
+            sim.advance(1.0)
+            speed = 0.0
+            for _ in range(100):
+                sim.advance(0.02)
+                speed = max(speed, float(np.abs(sim.joint_velocities()).max()))
+            R = sim.base_rotation()
+            tilt = math.degrees(math.acos(np.clip((np.trace(R0.T @ R) - 1) / 2, -1, 1)))
+            print(f"| {label}, band {band:g} µs | {tilt:.1f} | {speed:.2f} |")
 
 
 if __name__ == "__main__":
