@@ -362,3 +362,18 @@ def test_upright_watch_reports_a_fall_and_when(kokone):
 def test_the_ax12a_bus_refuses_hobby_servos(kokone):
     with pytest.raises(WbcError, match="SimSsc32Bus"):
         SimServoBus(Simulation(kokone))
+
+
+def test_ssc32_bus_in_real_time_follows_the_wall_clock(kokone):
+    from wbc.sim.bus import sim_bus
+
+    rec = _kokone_sway(kokone, duration=0.4)
+    sim = Simulation(kokone)
+    sim.reset(rec.q[0])
+    bus = sim_bus(sim, RATE, realtime=True)
+    assert bus.clock is None
+    start = time.perf_counter()
+    assert _deploy(kokone, bus, rec).run().completed
+    wall = time.perf_counter() - start
+    assert sim.time == pytest.approx(len(rec) / RATE, abs=3.0 / RATE)
+    assert wall >= 0.9 * sim.time
