@@ -7,10 +7,10 @@ joint limits as hard bounds (quadprog via qpsolvers),
     min_dq  sum_k w_k |J_k dq - e_k|^2 + eps |dq|^2    s.t.  q_min <= q + dq <= q_max,
 
 on both sole poses (6 + 6), the CoM (3) and the torso orientation (3: the start pitch/roll,
-the reference's heading), from Walk Ready placed at the reference's start, and reports the
-worst task errors and the smallest joint-limit margin. A feasible reference is tracked to
-numerical precision; an infeasible one leaves millimetre errors with joints on their limits.
-It is a check, not a controller: the control loop (:mod:`.loop`) runs the real stacks.
+the reference's heading and planned roll), from Walk Ready placed at the reference's start,
+and reports the worst task errors and the smallest joint-limit margin. A feasible reference
+is tracked to numerical precision; an infeasible one leaves millimetre errors with joints on
+their limits. It is a check, not a controller: the control loop (:mod:`.loop`) runs the real stacks.
 
     python -m wbc.walking.feasibility            # the standard references
 """
@@ -66,6 +66,7 @@ def kinematic_feasibility(
     fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]
     R0 = robot.frame_placement(q, "torso").rotation
     pitch_roll = pin.rpy.rpyToMatrix(0, 0, -np.arctan2(R0[1, 0], R0[0, 0])) @ R0
+    torsos = ref.torso_rotations(pitch_roll)  # with the reference's planned lean, if any
     w_sole, w_com, w_torso = weights
     W = np.array([w_sole] * 12 + [w_com] * 3 + [w_torso] * 3)
     held = [robot.v_index(f"{s}_{j}") for s in "lr" for j in ARM_JOINTS] if hold_arms else []
@@ -74,7 +75,7 @@ def kinematic_feasibility(
     min_margin = np.inf
     for i in range(ref.n):
         targets = [ref.sole_placement(i, "left"), ref.sole_placement(i, "right")]
-        R_torso = pin.rpy.rpyToMatrix(0, 0, float(ref.torso_yaw[i])) @ pitch_roll
+        R_torso = torsos[i]
         for _ in range(iterations):
             J, e, _ = _tasks(model, data, q, fids, targets, ref.com[i], R_torso)
             H = J.T @ (W[:, None] * J) + 1e-4 * np.eye(model.nv)
