@@ -127,3 +127,20 @@ def test_bad_max_lean_in_robot_data_names_the_key(robot, monkeypatch):
     monkeypatch.setitem(data.walking, "walk10_wb", {"max_lean": "much"})
     with pytest.raises(ConfigurationError, match=r"\[walking.walk10_wb\] max_lean"):
         traj.build("walk10_wb", robot)
+
+
+@pytest.mark.parametrize("name", ["fast_wb", "turn_wb", "lateral_wb", "static_walk"])
+def test_new_walks_ask_a_realistic_share_of_the_servo_speed(robot, name):
+    from wbc.walking.feasibility import PLANNING_SPEED_FRACTION
+
+    ref = traj.build(name, robot)
+    rep = kinematic_feasibility(robot, ref, hold_arms=False, iterations=4)
+    assert rep.feasible, rep
+    assert rep.max_joint_speed <= PLANNING_SPEED_FRACTION * float(np.min(robot.v_max)), rep
+
+
+def test_walk10_asks_more_than_the_servo_can(robot):
+    """Why the new walks are slower per step: walk10's swing knee exceeds no-load speed."""
+    rep = kinematic_feasibility(robot, traj.build("walk10", robot), hold_arms=False, iterations=4)
+    assert rep.max_joint_speed > float(np.min(robot.v_max))
+    assert rep.speed_joint.endswith("knee")

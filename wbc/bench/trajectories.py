@@ -38,8 +38,20 @@ def _keyposes(
 
 #: the dynamic whole-body walks' ZMP: 18 mm in from each sole's centre, >= 10 mm inside
 WHOLE_BODY_DYNAMIC: dict[str, Any] = {"zmp_offset": (0.0, 0.018), "margin": 0.010}
-#: the fast walk: 12 steps of 5 cm
-FAST: dict[str, Any] = {"n_steps": 12, "step_length": 0.05}
+#: the new walks' timing: 0.5 s steps (0.4 s single support), 12 mm swing apex, so that the
+#: reference asks no joint for more than PLANNING_SPEED_FRACTION of the servo's no-load
+#: speed (walk10's 0.24 s swing with a 20 mm apex asks the swing knee for ~1.6x it)
+WHOLE_BODY_TIMING: dict[str, Any] = {
+    **WHOLE_BODY_DYNAMIC,
+    "timing": GaitTiming(step_time=0.5, double_support_ratio=0.2),
+    "swing": SwingParams(apex=0.012),
+}
+#: the fast walk: 16 steps of 4 cm in 0.5 s (8 cm/s steady, 6.2 cm/s start to stop)
+FAST: dict[str, Any] = {"n_steps": 16, "step_length": 0.04}
+#: the turning walk: 8 steps of 2 cm turning 0.2 rad each (80 deg); the lateral walk: 8 steps
+#: of 2 cm to the left
+TURN: dict[str, Any] = {"n_steps": 8, "step_length": 0.02, "turn": 0.2}
+LATERAL: dict[str, Any] = {"n_steps": 8, "step_width": 0.02}
 
 #: name -> (builder, description); a builder takes the start state and keyword overrides
 TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
@@ -55,16 +67,16 @@ TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
         "walk10 with the whole-body window: ZMP >= 10 mm inside the soles",
     ),
     "fast_wb": (
-        lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_DYNAMIC, **FAST, **kw}),
-        "fast forward walk (>= 6 cm/s), whole body",
+        lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_TIMING, **FAST, **kw}),
+        "fast forward walk (6.2 cm/s), whole body, within the servos' speed",
     ),
     "turn_wb": (
-        lambda s, **kw: turning_walk(s, **{**WHOLE_BODY_DYNAMIC, **kw}),
-        "turning walk, whole body, ZMP >= 10 mm inside",
+        lambda s, **kw: turning_walk(s, **{**WHOLE_BODY_TIMING, **TURN, **kw}),
+        "turning walk (80 deg), whole body, within the servos' speed",
     ),
     "lateral_wb": (
-        lambda s, **kw: lateral_walk(s, **{**WHOLE_BODY_DYNAMIC, **kw}),
-        "sideways walk, whole body, ZMP >= 10 mm inside",
+        lambda s, **kw: lateral_walk(s, **{**WHOLE_BODY_TIMING, **LATERAL, **kw}),
+        "sideways walk (16 cm), whole body, within the servos' speed",
     ),
 }
 #: the trajectories that use the whole-body balance window (built per robot)

@@ -29,6 +29,13 @@ from .reference import WalkingReference
 
 ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
 
+#: the share of a servo's no-load speed (the model's velocity limit) a reference may ask for.
+#: The AX-12A's speed falls linearly with torque, ``w = w0 (1 - tau / tau_stall)``; a swing
+#: leg's joints carry ~0.1 N.m (7 % of the 1.5 N.m stall), the recommended 11.1 V supply
+#: gives ~0.93 w0, and the compliance slope adds lag: 0.75 w0 leaves the servo a margin
+#: (a plan at the no-load speed, walk10's swing knee, lags up to 24 deg in the simulator).
+PLANNING_SPEED_FRACTION = 0.75
+
 
 @dataclass(frozen=True)
 class FeasibilityReport:
@@ -39,6 +46,10 @@ class FeasibilityReport:
     max_torso_error: float
     min_limit_margin: float
     ticks: int
+    #: the largest joint speed (rad/s) of the tracked motion (finite differences per tick)
+    #: and its joint: what the reference asks of the servos, whatever the controller
+    max_joint_speed: float = float("nan")
+    speed_joint: str = ""
 
     @property
     def feasible(self) -> bool:
@@ -73,6 +84,8 @@ def kinematic_feasibility(
     free = np.setdiff1d(np.arange(model.nv), held)
     worst = np.zeros(3)
     min_margin = np.inf
+    speed = np.zeros(model.nv - 6)
+    q_prev = None
     for i in range(ref.n):
         targets = [ref.sole_placement(i, "left"), ref.sole_placement(i, "right")]
         R_torso = torsos[i]
@@ -107,7 +120,19 @@ def kinematic_feasibility(
         )
         j = q[7:]
         min_margin = min(min_margin, float(np.min(np.minimum(j - robot.q_min, robot.q_max - j))))
-    return FeasibilityReport(float(worst[0]), float(worst[1]), float(worst[2]), min_margin, ref.n)
+        if q_prev is not None:
+            speed = np.maximum(speed, np.abs(j - q_prev) / ref.dt)
+        q_prev = j.copy()
+    k = int(np.argmax(speed))
+    return FeasibilityReport(
+        float(worst[0]),
+        float(worst[1]),
+        float(worst[2]),
+        min_margin,
+        ref.n,
+        float(speed[k]),
+        robot.joint_names[k],
+    )
 
 
 def _tasks(model, data, q, fids, soles, com_target, R_torso):

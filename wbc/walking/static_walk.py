@@ -48,7 +48,7 @@ class StaticWalkParams:
     swing_time: float = 1.0
     end_time: float = 1.0
     apex: float = 0.02
-    com_offset: tuple[float, float] = (0.0, 0.005)
+    com_offset: tuple[float, float] = (0.0, 0.012)
     margin: float = 0.015
     dt: float = 0.01
 
