@@ -321,3 +321,35 @@ class _Problem:
             if np.max(np.abs(sol)) < 1e-9:
                 break
         return q
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the Bioloid's balance windows: ``python -m wbc.walking.window``."""
+    from ..model import load_robot
+    from .legs import LegGeometry
+    from .reference import StandingState
+
+    robot = load_robot("bioloid")
+    start = StandingState.from_robot(robot)
+    half = 0.5 * float(start.left.y - start.right.y)
+    legs = LegGeometry().max_com_lateral(float(start.com[2]), half)
+    print(f"sole centre {half * 1e3:.1f} mm, inner edge {(half - 0.0305) * 1e3:.1f} mm from mid")
+    print(f"legs-only model (LegGeometry, torso upright, arms idle): {legs * 1e3:.1f} mm")
+    for arms in (True, False):
+        for lean in (0.0, 5.0, 10.0, 15.0, 20.0):
+            w = BalanceWindow.from_robot(robot, max_lean=np.deg2rad(lean), hold_arms=arms)
+            table = ", ".join(
+                f"{o * 1e3:.0f} mm {np.rad2deg(r):+.1f}°"
+                for o, r in zip(w.offsets[::2], w.rolls[::2], strict=True)
+            )
+            print(
+                f"arms {'held' if arms else 'free'}, lean <= {lean:4.1f}°: max lateral "
+                f"{w.max_lateral * 1e3:5.1f} mm (upright {w.upright * 1e3:.1f} mm); roll: {table}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(main())
