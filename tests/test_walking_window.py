@@ -144,3 +144,15 @@ def test_walk10_asks_more_than_the_servo_can(robot):
     rep = kinematic_feasibility(robot, traj.build("walk10", robot), hold_arms=False, iterations=4)
     assert rep.max_joint_speed > float(np.min(robot.v_max))
     assert rep.speed_joint.endswith("knee")
+
+
+def test_an_upright_reference_asks_the_torso_exactly_as_before(start):
+    """No planned roll: the torso targets equal the heading-only ones (kinematic benchmark
+    of the existing trajectories unchanged)."""
+    from wbc.walking.loop import torso_target
+
+    ref = forward_walk(start, 2)
+    lean = pin.rpy.rpyToMatrix(0.01, -0.02, 0.0)
+    got = ref.torso_rotations(lean)
+    for i in range(0, ref.n, 7):
+        np.testing.assert_allclose(got[i], torso_target(float(ref.torso_yaw[i]), lean), atol=1e-15)
