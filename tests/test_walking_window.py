@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from wbc.bench import trajectories as traj
 from wbc.exceptions import ConfigurationError, TrajectoryError
@@ -156,3 +158,16 @@ def test_an_upright_reference_asks_the_torso_exactly_as_before(start):
     got = ref.torso_rotations(lean)
     for i in range(0, ref.n, 7):
         np.testing.assert_allclose(got[i], torso_target(float(ref.torso_yaw[i]), lean), atol=1e-15)
+
+
+@settings(
+    max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.floats(-0.08, 0.08), st.floats(-0.08, 0.08))
+def test_roll_is_odd_and_grows_with_the_offset(window, a, b):
+    """Law: the lean mirrors with the CoM and never shrinks as the CoM goes further out."""
+    ra, rb, rma = window.roll_for(np.array([a, b, -a]))
+    assert rma == pytest.approx(-ra, abs=1e-12)
+    if abs(a) <= abs(b):
+        assert abs(ra) <= abs(rb) + 1e-12
+    assert abs(ra) <= window.max_lean + 1e-3

@@ -63,8 +63,7 @@ class BalanceWindow:
         zero within the upright window would be ideal, the table's solves give the
         smallest tilt the body needs (linear interpolation, odd in the offset)."""
         y = np.asarray(lateral, dtype=float)
-        mag = np.interp(np.abs(y), self.offsets, self.rolls)
-        return np.where(y >= 0, mag, -mag)
+        return np.sign(y) * np.interp(np.abs(y), self.offsets, self.rolls)
 
     def inside(self, lateral: np.ndarray | float, margin: float = 0.0) -> np.ndarray:
         """Whether lateral offsets lie within the window less ``margin``."""
@@ -116,6 +115,8 @@ class BalanceWindow:
             # the offset reached (near the edge the lean bound may stop short of the ask)
             offsets[k] = float((robot.com(qq) - prob.mid) @ prob.left)
         offsets = np.maximum.accumulate(offsets)
+        # zero at the mid-stance (odd in the offset), within the lean allowed
+        rolls = np.clip(rolls - rolls[0], -max_lean, max_lean)
         return cls(
             offsets=offsets,
             rolls=rolls,
