@@ -26,6 +26,19 @@ def start(robot):
     return StandingState.from_robot(robot)
 
 
+@pytest.fixture(scope="module")
+def named(robot):
+    """The named trajectories, each built once for this module (a build measures a window)."""
+    cache: dict = {}
+
+    def get(name):
+        if name not in cache:
+            cache[name] = traj.build(name, robot)
+        return cache[name]
+
+    return get
+
+
 def test_whole_body_window_is_wider_than_the_legs_alone(robot, window, start):
     legs = LegGeometry()
     half = 0.5 * float(start.left.y - start.right.y)
@@ -111,14 +124,14 @@ def test_session_asks_the_torso_for_the_planned_roll(robot, window, start):
 
 
 @pytest.mark.parametrize("name", ["walk10_wb", "fast_wb", "turn_wb", "lateral_wb"])
-def test_named_whole_body_walks_keep_the_zmp_10mm_inside(robot, name):
-    ref = traj.build(name, robot)
+def test_named_whole_body_walks_keep_the_zmp_10mm_inside(named, name):
+    ref = named(name)
     assert ref.zmp_margin().min() >= 0.010 - 1e-9
     assert ref.meta["check"]["window_margin"] > 0
 
 
-def test_fast_walk_is_faster_than_6cm_per_s(robot):
-    ref = traj.build("fast_wb", robot)
+def test_fast_walk_is_faster_than_6cm_per_s(named):
+    ref = named("fast_wb")
     start = 0.5 * (ref.l_sole[0, :2] + ref.r_sole[0, :2])
     end = 0.5 * (ref.l_sole[-1, :2] + ref.r_sole[-1, :2])
     assert np.linalg.norm(end - start) / ref.duration >= 0.06
@@ -132,10 +145,10 @@ def test_bad_max_lean_in_robot_data_names_the_key(robot, monkeypatch):
 
 
 @pytest.mark.parametrize("name", ["fast_wb", "turn_wb", "lateral_wb", "static_walk"])
-def test_new_walks_ask_a_realistic_share_of_the_servo_speed(robot, name):
+def test_new_walks_ask_a_realistic_share_of_the_servo_speed(robot, named, name):
     from wbc.walking.feasibility import PLANNING_SPEED_FRACTION
 
-    ref = traj.build(name, robot)
+    ref = named(name)
     rep = kinematic_feasibility(robot, ref, hold_arms=False, iterations=4)
     assert rep.feasible, rep
     assert rep.max_joint_speed <= PLANNING_SPEED_FRACTION * float(np.min(robot.v_max)), rep
