@@ -84,9 +84,9 @@ def fill_rows(
 @njit(cache={cache})
 def weighted_tick(
     soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
+    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
     targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, state, dq, q_next,
+    q, q_min, q_max, step, params, lower, upper, state, working, dq, q_next,
 ):
     load_frames(frame_R, frame_p, Rs, ps)
     fill_rows(
@@ -98,16 +98,16 @@ def weighted_tick(
         Rs, ps, supports, Jw, com, Jcom, q, Jf, efull, Jfull,
     )
     return weighted_solve(
-        soft_J, soft_b, hard_J, hard_b, q, q_min, q_max, step, params, lower, upper, state, dq,
-        q_next,
+        soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, step, params, lower,
+        upper, state, working, dq, q_next,
     )
 
 
 @njit(cache={cache})
 def cascade_tick(
-    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard,
+    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard, G, h, g_rows,
     targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, states, achieved, dq, q_next,
+    q, q_min, q_max, step, params, lower, upper, states, working, h_eff, achieved, dq, q_next,
 ):
     load_frames(frame_R, frame_p, Rs, ps)
     fill_rows(
@@ -115,8 +115,8 @@ def cascade_tick(
         Jf, efull, Jfull,
     )
     return cascade_solve(
-        J, b, level_rows, level_hard, q, q_min, q_max, step, params, lower, upper, states,
-        achieved, dq, q_next,
+        J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, step, params, lower,
+        upper, states, working, h_eff, achieved, dq, q_next,
     )
 '''
 

@@ -197,6 +197,8 @@ class StackSolver(ABC):
             for name in ("state", "states"):
                 if plan is not None and hasattr(plan, name):
                     getattr(plan, name)[...] = 0
+            if plan is not None:
+                plan.inequalities.working[...] = False
 
     def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """One control tick: q ⊕ Δq with the joints inside their limits.
