@@ -25,12 +25,15 @@ import numpy as np
 from numba import njit
 
 from ._cache import refresh
-from .lsq import MAX_ITER, NUMERICAL, OK, solve_level
+from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
 #: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
 PROXIMAL_RIDGE = 1e-8
+#: at most this many subproblem solves of a damped level (many active bounds and working
+#: rows can take the dual active set method beyond the 30 that the plain levels need)
+LEVEL_MAX_ITER = 100
 #: at most this many proximal steps (the residual's bias shrinks by ε/(σ² + ε) per step)
 PROXIMAL_STEPS = 12
 
@@ -116,53 +119,6 @@ def weighted_solve(
 
 
 @njit(cache=True)
-def _basic_least_squares(M, rhs):
-    """A least-squares solution of M λ = rhs (M: rows >= columns, ~10 columns) by the normal
-    equations and a Cholesky factorisation that skips dependent columns (their λ = 0): a
-    basic solution, exact when M λ = rhs is consistent (the caller checks the residual)."""
-    k = M.shape[1]
-    N = M.T @ M
-    g = M.T @ rhs
-    scale = 0.0
-    for j in range(k):
-        scale = max(scale, N[j, j])
-    keep = np.ones(k, np.bool_)
-    L = np.zeros((k, k))
-    for j in range(k):
-        d = N[j, j]
-        for t in range(j):
-            if keep[t]:
-                d -= L[j, t] * L[j, t]
-        if d <= 1e-12 * scale:
-            keep[j] = False
-            continue
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, k):
-            v = N[i, j]
-            for t in range(j):
-                if keep[t]:
-                    v -= L[i, t] * L[j, t]
-            L[i, j] = v / L[j, j]
-    y = np.zeros(k)
-    for j in range(k):
-        if keep[j]:
-            v = g[j]
-            for t in range(j):
-                if keep[t]:
-                    v -= L[j, t] * y[t]
-            y[j] = v / L[j, j]
-    lam = np.zeros(k)
-    for j in range(k - 1, -1, -1):
-        if keep[j]:
-            v = y[j]
-            for t in range(j + 1, k):
-                if keep[t]:
-                    v -= L[t, j] * lam[t]
-            lam[j] = v / L[j, j]
-    return lam
-
-
-@njit(cache=True)
 def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
     """One least-squares level by :func:`~wbc.compiled.lsq.solve_level`: with ``ridge``
     (the weighted QP, the last level of the hierarchy); or, ``exact``, without (an
@@ -170,7 +126,7 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
     independent in the remaining freedom, else, or when the active set cycles on the flat
     directions of the unregularised problem, proximal steps from x (:func:`_proximal_level`)."""
     if not exact:
-        return solve_level(A, a, B, r, ridge, lower, upper, state, x)
+        return solve_level(A, a, B, r, ridge, lower, upper, state, x, 1e-9, LEVEL_MAX_ITER)
     previous = x.copy()
     status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, 12)
     if status == NUMERICAL or status == MAX_ITER:
@@ -183,8 +139,8 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
 def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
     """Multipliers of the equalities A[:mh] at x from the stationarity on the free variables,
     ``A_Fᵀ λ = −∇f_F`` with ∇f = Bᵀ(B x − r) (+ ridge·x unless ``exact``), in least squares
-    (a basic solution if the rows are dependent), into ``lam``; False if it has no solution
-    (no certificate)."""
+    (:func:`~wbc.compiled.lsq.equality_multipliers`: a basic solution if the rows are
+    dependent), into ``lam``; False if it has no solution (no certificate)."""
     n = x.shape[0]
     grad = np.zeros(n)
     for i in range(ps):
@@ -196,25 +152,7 @@ def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
     if not exact:
         for j in range(n):
             grad[j] += ridge * x[j]
-    nf = 0
-    for j in range(n):
-        if state[j] == 0:
-            nf += 1
-    M = np.empty((nf, mh))
-    rhs = np.empty(nf)
-    c = 0
-    for j in range(n):
-        if state[j] == 0:
-            for i in range(mh):
-                M[c, i] = A[i, j]
-            rhs[c] = -grad[j]
-            c += 1
-    sol = _basic_least_squares(M, rhs)
-    miss = M @ sol - rhs
-    if np.sqrt(np.dot(miss, miss)) > 1e-7 * (1.0 + np.sqrt(np.dot(rhs, rhs))):
-        return False
-    lam[:mh] = sol
-    return True
+    return equality_multipliers(A[:mh], state, grad, lam[:mh])
 
 
 @njit(cache=True)
@@ -357,7 +295,7 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
         for j in range(n):
             lo[j] = lower[j] - x[j]
             hi[j] = upper[j] - x[j]
-        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y)
+        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, LEVEL_MAX_ITER)
         if status != OK:
             return status
         step = 0.0
@@ -409,10 +347,15 @@ def cascade_solve(
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
         A, a, B, r = J[:r0], achieved[:r0], J[r0:r1], b[r0:r1]
-        # with a working set from the last tick (a warm start) straight to the inequality
-        # rows; else the level without them first (a level of constraints only: Δq so far is
-        # one of its optima, if it meets them)
+        # with a working set (the last tick's, else the hard rows the level above kept at
+        # their bounds: a warm start) straight to the inequality rows; else the level without them
+        # first (a level of constraints only: Δq so far is one of its optima, if it meets them)
         warm = _any(working[k], g1)
+        above = g0 if level_hard[k - 1] else g_rows[k - 1]  # (its hard rows)
+        if not warm and k > 0 and _any(working[k - 1], above):
+            for i in range(above):
+                working[k, i] = working[k - 1, i]
+            warm = True
         status = OK
         if (r1 > r0 or last) and not warm:
             status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
