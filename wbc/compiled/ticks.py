@@ -347,20 +347,20 @@ def cascade_solve(
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
         A, a, B, r = J[:r0], achieved[:r0], J[r0:r1], b[r0:r1]
-        # with a working set (the last tick's, else the hard rows the level above kept at
-        # their bounds: a warm start) straight to the inequality rows; else the level without them
-        # first (a level of constraints only: Δq so far is one of its optima, if it meets them)
+        # with the last tick's working set (a warm start) straight to the inequality rows;
+        # else the level without them first (a level of constraints only: Δq so far is one of
+        # its optima, if it meets them), and if it misses one, the rows from the hard rows
+        # the level above kept at their bounds
         warm = _any(working[k], g1)
-        above = g0 if level_hard[k - 1] else g_rows[k - 1]  # (its hard rows)
-        if not warm and k > 0 and _any(working[k - 1], above):
-            for i in range(above):
-                working[k, i] = working[k - 1, i]
-            warm = True
         status = OK
         if (r1 > r0 or last) and not warm:
             status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
         if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
             soft_from = g1 if level_hard[k] else g0
+            if not warm and k > 0:
+                above = g0 if level_hard[k - 1] else g_rows[k - 1]
+                for i in range(above):
+                    working[k, i] = working[k - 1, i]
             status = solve_with_inequalities(
                 A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
                 soft_from, tol, working[k, :g1],
