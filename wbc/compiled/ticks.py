@@ -31,6 +31,10 @@ from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
 HARD_MISSED = 100
 #: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
 PROXIMAL_RIDGE = 1e-8
+#: at most this many subproblem solves of an intermediate level without a ridge (a warm
+#: start takes 1 or 2; beyond a few, the active set is cycling on the level's flat directions
+#: and proximal steps take over)
+EXACT_MAX_ITER = 6
 #: at most this many subproblem solves of a damped level (many active bounds and working
 #: rows can take the dual active set method beyond the 30 that the plain levels need)
 LEVEL_MAX_ITER = 100
@@ -128,7 +132,7 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
     if not exact:
         return solve_level(A, a, B, r, ridge, lower, upper, state, x, 1e-9, LEVEL_MAX_ITER)
     previous = x.copy()
-    status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, 12)
+    status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, EXACT_MAX_ITER)
     if status == NUMERICAL or status == MAX_ITER:
         x[:] = previous
         status = _proximal_level(A, a, B, r, lower, upper, state, x)
