@@ -38,6 +38,8 @@ EXACT_MAX_ITER = 6
 #: at most this many subproblem solves of a damped level (many active bounds and working
 #: rows can take the dual active set method beyond the 30 that the plain levels need)
 LEVEL_MAX_ITER = 100
+#: a row that leaves the working set more often than this: the active set is cycling
+MAX_DROPS = 2
 #: at most this many proximal steps (the residual's bias shrinks by ε/(σ² + ε) per step)
 PROXIMAL_STEPS = 12
 
@@ -108,15 +110,21 @@ def weighted_solve(
     mu = params[1]
     tol = params[3]
     p = g_rows[1]
-    warm = _any(working, p)  # a working set from the last tick: straight to the rows
     status = OK
-    if not warm:
-        status = solve_level(hard_J, hard_b, soft_J, soft_b, mu, lower, upper, state, dq)
-    if status == OK and (warm or _violated(G, h, p, dq, tol)):
-        status = solve_with_inequalities(
-            hard_J, hard_b, soft_J, soft_b, mu, False, lower, upper, state, dq, G[:p], h[:p],
-            p, tol, working[:p],
-        )  # fmt: skip
+    for _ in range(2):  # a warm start that fails: once more, cold
+        warm = _any(working, p)  # a working set from the last tick: straight to the rows
+        status = OK
+        if not warm:
+            status = solve_level(hard_J, hard_b, soft_J, soft_b, mu, lower, upper, state, dq)
+        if status == OK and (warm or _violated(G, h, p, dq, tol)):
+            status = solve_with_inequalities(
+                hard_J, hard_b, soft_J, soft_b, mu, False, lower, upper, state, dq, G[:p],
+                h[:p], p, tol, working[:p], dq, False,
+            )  # fmt: skip
+        if status == OK or not warm:
+            break
+        working[:] = False
+        state[:] = 0
     if status == OK:
         integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return status
@@ -159,27 +167,39 @@ def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
     return equality_multipliers(A[:mh], state, grad, lam[:mh])
 
 
+@njit(cache=True, inline="always")
+def _row(G, h, i, x):
+    """G_i x − h_i."""
+    v = -h[i]
+    for j in range(x.shape[0]):
+        v += G[i, j] * x[j]
+    return v
+
+
 @njit(cache=True)
 def solve_with_inequalities(
-    A0, a0, B0, r0, ridge, exact, lower, upper, state, x, G, h, soft_from, tol, working
+    A0, a0, B0, r0, ridge, exact, lower, upper, state, x, G, h, soft_from, tol, working, start,
+    from_start,
 ) -> int:  # fmt: skip
     """min ‖B0 x − r0‖² + ridge‖x‖² + Σ_{i ≥ soft_from} max(G_i x − h_i, 0)² subject to
     A0 x = a0, G_i x <= h_i (i < soft_from) and the bounds: a primal active set on the G
-    rows around :func:`_level` (``exact``: no ridge, an intermediate level of the hierarchy),
-    from x (a solution without the rows; with a warm working set, which is solved first, any
-    start).
+    rows around :func:`_level` (``exact``: no ridge, an intermediate level of the hierarchy).
 
     A hard row of the working set is an equality; a soft row is a least-squares row
     (G_i x ≈ h_i: the slack s_i = G_i x − h_i of min ‖s‖² s.t. G_i x − s_i <= h_i, whose
-    multiplier is s_i itself). The most violated row outside the working set joins (one at a
-    time: the equalities stay independent); once every row holds to ``tol``, the working rows'
-    multipliers are checked — a soft row's is its slack, a hard row's comes from the
-    stationarity on the free variables (:func:`_hard_multipliers`) — and the most negative
-    leaves (below −tol, relative for the hard ones), else x is optimal. ``working`` (p bools):
-    the working set to start from (the last tick's: a warm start, whose rows join at once);
-    on OK the final one, else cleared. Returns OK (x optimal, ``state`` its bounds' active
-    set), NUMERICAL (the stationarity has no solution: no certificate), MAX_ITER or the status
-    of a failed level solve.
+    multiplier is s_i itself). From a feasible point x_c (``start`` with ``from_start``, if it
+    meets A0, the bounds and the hard rows, else the first solution that meets every row),
+    each solution x is approached along the segment from x_c, and the first hard row that
+    blocks it joins (so the working set stays consistent); without one, the most violated
+    row joins. Once every row holds to ``tol``, the working rows' multipliers are checked —
+    a soft row's is its slack, a hard row's comes from the stationarity on the free variables
+    (:func:`_hard_multipliers`) — and the most negative leaves (below −tol, relative for the
+    hard ones), else x is optimal. ``working`` (p bools): the working set to start from (the
+    last tick's: a warm start, whose rows join at once, less the hard ones x_c is not on); on
+    OK the final one, else cleared. Returns OK (x optimal, ``state`` its bounds' active set),
+    NUMERICAL (the stationarity has no solution: no certificate), MAX_ITER (also when a row
+    leaves more than :data:`MAX_DROPS` times: cycling, on degenerate or dependent rows) or the
+    status of a failed level solve.
     """
     m0, n = A0.shape
     p0 = B0.shape[0]
@@ -193,7 +213,23 @@ def solve_with_inequalities(
     B[:p0] = B0
     r[:p0] = r0
     lam = np.empty(m0 + p)
+    xc = np.empty(n)
+    solve = _any(working, p)  # a warm start is solved first (x: a solution without the rows)
+    feasible = from_start
+    if feasible:
+        for j in range(n):
+            if start[j] < lower[j] - tol or start[j] > upper[j] + tol:
+                feasible = False
+        for i in range(soft_from):
+            if _row(G, h, i, start) > tol:
+                feasible = False
+    if feasible:
+        xc[:] = start
+        for i in range(soft_from):  # x_c must lie on the hard rows of the working set
+            if working[i] and _row(G, h, i, start) < -tol:
+                working[i] = False
     rows = np.empty(p, np.int64)  # the working set, in the order its rows joined
+    drops = np.zeros(p, np.int64)  # how often each row left it
     nw = 0
     for i in range(p):
         if working[i]:
@@ -201,7 +237,6 @@ def solve_with_inequalities(
             nw += 1
     mh = m0
     ps = p0
-    solve = nw > 0
     for _ in range(2 * p + 4):
         if solve:
             mh = m0
@@ -222,20 +257,38 @@ def solve_with_inequalities(
                 return status
         solve = True
         k = -1
-        worst = tol
-        for i in range(p):
-            if not working[i]:
-                v = -h[i]
+        if feasible:  # the first hard row that blocks the step from x_c to x joins
+            t_min = 1.0
+            for i in range(soft_from):
+                if not working[i]:
+                    vn = _row(G, h, i, x)
+                    if vn > tol:
+                        vc = min(_row(G, h, i, xc), 0.0)
+                        t = -vc / (vn - vc)
+                        if t < t_min:
+                            t_min = t
+                            k = i
+            if k >= 0:
                 for j in range(n):
-                    v += G[i, j] * x[j]
-                if v > worst:
-                    worst = v
-                    k = i
-        if k >= 0:  # the most violated row joins
+                    xc[j] += t_min * (x[j] - xc[j])
+            else:
+                xc[:] = x
+        if k < 0:  # the most violated row joins (when x_c is kept: a soft one)
+            worst = tol
+            for i in range(soft_from if feasible else 0, p):
+                if not working[i]:
+                    v = _row(G, h, i, x)
+                    if v > worst:
+                        worst = v
+                        k = i
+        if k >= 0:
             rows[nw] = k
             working[k] = True
             nw += 1
             continue
+        if not feasible:  # x meets every row: from here on, the feasible point
+            feasible = True
+            xc[:] = x
         if mh > m0 and not _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
             working[:] = False
             return NUMERICAL
@@ -252,15 +305,17 @@ def solve_with_inequalities(
                 c += 1
                 limit = -tol * (1.0 + scale)
             else:
-                mult = -h[i]
-                for j in range(n):
-                    mult += G[i, j] * x[j]
+                mult = _row(G, h, i, x)
                 limit = -tol
             if mult < limit and mult < lowest:
                 lowest = mult
                 drop = w
         if drop < 0:
             return OK
+        drops[rows[drop]] += 1
+        if drops[rows[drop]] > MAX_DROPS:  # cycling (degenerate or dependent rows): give up
+            working[:] = False
+            return MAX_ITER
         working[rows[drop]] = False
         for w in range(drop, nw - 1):
             rows[w] = rows[w + 1]
@@ -354,21 +409,30 @@ def cascade_solve(
         # with the last tick's working set (a warm start) straight to the inequality rows;
         # else the level without them first (a level of constraints only: Δq so far is one of
         # its optima, if it meets them), and if it misses one, the rows from the hard rows
-        # the level above kept at their bounds
-        warm = _any(working[k], g1)
+        # the level above kept at their bounds. A warm start that fails: once more, cold
+        entry = dq.copy()
         status = OK
-        if (r1 > r0 or last) and not warm:
-            status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
-        if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
-            soft_from = g1 if level_hard[k] else g0
-            if not warm and k > 0:
-                above = g0 if level_hard[k - 1] else g_rows[k - 1]
-                for i in range(above):
-                    working[k, i] = working[k - 1, i]
-            status = solve_with_inequalities(
-                A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                soft_from, tol, working[k, :g1],
-            )  # fmt: skip
+        for _ in range(2):
+            warm = _any(working[k], g1)
+            status = OK
+            if (r1 > r0 or last) and not warm:
+                status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
+            if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
+                soft_from = g1 if level_hard[k] else g0
+                if not warm and k > 0:
+                    above = g0 if level_hard[k - 1] else g_rows[k - 1]
+                    for i in range(above):
+                        working[k, i] = working[k - 1, i]
+                # (Δq so far meets the levels above and their rows: a feasible start)
+                status = solve_with_inequalities(
+                    A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
+                    soft_from, tol, working[k, :g1], entry, True,
+                )  # fmt: skip
+            if status == OK or not warm:
+                break
+            working[k, :] = False
+            states[k, :] = 0
+            dq[:] = entry
         if status != OK:
             return status
         for i in range(r0, r1):
@@ -462,6 +526,7 @@ refresh(
         joint_bounds,
         _violated,
         _any,
+        _row,
         weighted_solve,
         _level,
         _hard_multipliers,
