@@ -360,8 +360,8 @@ def test_walk_with_the_limit_is_the_same_compiled_or_not(robot):
         controller.solver.compiled = compiled
         recordings[compiled] = run(controller, robot, ref)
         back[compiled] = controller.solver.handed_back_ticks
-    # one tick of this walk (450) has collision rows whose active set cycles (dependent rows
-    # at one point): the kernels give up on it early and DAQP solves it
+    # (none today: an active set that cycles on dependent collision rows would be given up
+    # early by the kernels and solved by DAQP)
     assert back[True] <= ref.n // 100
     assert np.abs(recordings[True].q - recordings[False].q).max() < 1e-5
     kin = Kinematics(robot)

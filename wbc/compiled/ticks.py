@@ -188,14 +188,15 @@ def solve_with_inequalities(
     A hard row of the working set is an equality; a soft row is a least-squares row
     (G_i x ≈ h_i: the slack s_i = G_i x − h_i of min ‖s‖² s.t. G_i x − s_i <= h_i, whose
     multiplier is s_i itself). From a feasible point x_c (``start`` with ``from_start``, if it
-    meets A0, the bounds and the hard rows, else the first solution that meets every row),
+    meets A0, the bounds and the hard rows and lies on the hard rows of the warm working set,
+    else the first solution that meets every row),
     each solution x is approached along the segment from x_c, and the first hard row that
     blocks it joins (so the working set stays consistent); without one, the most violated
     row joins. Once every row holds to ``tol``, the working rows' multipliers are checked —
     a soft row's is its slack, a hard row's comes from the stationarity on the free variables
     (:func:`_hard_multipliers`) — and the most negative leaves (below −tol, relative for the
     hard ones), else x is optimal. ``working`` (p bools): the working set to start from (the
-    last tick's: a warm start, whose rows join at once, less the hard ones x_c is not on); on
+    last tick's: a warm start, whose rows join at once); on
     OK the final one, else cleared. Returns OK (x optimal, ``state`` its bounds' active set),
     NUMERICAL (the stationarity has no solution: no certificate), MAX_ITER (also when a row
     leaves more than :data:`MAX_DROPS` times: cycling, on degenerate or dependent rows) or the
@@ -223,11 +224,11 @@ def solve_with_inequalities(
         for i in range(soft_from):
             if _row(G, h, i, start) > tol:
                 feasible = False
-    if feasible:
-        xc[:] = start
         for i in range(soft_from):  # x_c must lie on the hard rows of the working set
             if working[i] and _row(G, h, i, start) < -tol:
-                working[i] = False
+                feasible = False
+    if feasible:
+        xc[:] = start
     rows = np.empty(p, np.int64)  # the working set, in the order its rows joined
     drops = np.zeros(p, np.int64)  # how often each row left it
     nw = 0
