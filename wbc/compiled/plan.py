@@ -191,6 +191,8 @@ class InequalityRows:
         """Copy each level's rows (``blocks[k][0]``: G, ``blocks[k][1]``: h; None: no rows at
         all); True if the buffers were re-allocated (the caller's argument tuple is stale)."""
         if blocks is None:
+            if not self.g_rows[-1]:
+                return False  # (no rows, as at the last tick)
             counts = (0,) * self.n_levels
         else:
             counts = tuple(blk[1].shape[0] for blk in blocks)

@@ -113,20 +113,23 @@ class WeightedQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
-        value = self._assemble(kin, dt)  # the inequality rows (all of it on the numpy path)
         if fast is not None and not self._yield_recovery:
             # the compiled tick: the plan's rows and bounds, the inequality rows (an active
             # set on them in the compiled least squares), the integration
-            if fast.solve(kin, dt, [(value.G, value.h)]) == 0:
+            rows = None
+            if self.constraints:
+                rows = [stack_constraints(self.constraints, kin, self.robot.nv)]
+            if fast.solve(kin, dt, rows) == 0:
                 self.compiled_ticks += 1
                 self.relaxed = False
                 return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
-            self.handed_back_ticks += 1
-            value = value._replace(
-                J=fast.soft.J, b=fast.soft.b, A=fast.hard.J, a=fast.hard.b,
-                lower=fast.lower, upper=fast.upper,
-            )  # fmt: skip
-        return self._solve_value(kin, value)
+            self.handed_back_ticks += 1  # the backend, on the same arrays
+            G, h, _ = rows[0] if rows else self._no_rows
+            value = WeightedValue(
+                fast.soft.J, fast.soft.b, fast.hard.J, fast.hard.b, G, h, fast.lower, fast.upper
+            )
+            return self._solve_value(kin, value)
+        return self._solve_value(kin, self._assemble(kin, dt))
 
     def _assemble(self, kin: Kinematics, dt: float | None) -> WeightedValue:
         """The QP value: the inequality rows, and on the numpy path every row and the bounds
