@@ -102,6 +102,26 @@ def phase_switch_ticks(robot, kind: str, repeats: int = 50) -> tuple[float, floa
     return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
 
 
+def walk_tail(robot, ref, kind: str, walks: int = 5) -> tuple[float, float]:
+    """Per-tick medians over ``walks`` walks (a preemption hits one walk, not the median):
+    the median over the first ticks of the support phases, and over the other ticks."""
+    from wbc.walking.loop import SUPPORT_DOUBLE, support_roles
+
+    times = [
+        run(StackController(build_stack({**core_walk_spec(), "solver": kind}, robot)), robot, ref)[
+            "solve_time"
+        ]
+        for _ in range(walks)
+    ]
+    t = np.median(np.array(times), axis=0) * 1e6
+    swing = support_roles(ref)[1]
+    double = ref.support == SUPPORT_DOUBLE
+    first = np.array(
+        [i > 0 and (double[i], swing[i]) != (double[i - 1], swing[i - 1]) for i in range(ref.n)]
+    )
+    return float(np.median(t[first])), float(np.median(t[~first]))
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
@@ -166,6 +186,12 @@ def main() -> int:
     for kind in ("weighted", "hierarchical"):
         first, after = phase_switch_ticks(robot, kind)
         print(f"support switch ({kind}): first tick {first:.0f} µs, the next {after:.0f} µs")
+    for kind in ("weighted", "hierarchical"):
+        first, other = walk_tail(robot, ref, kind)
+        print(
+            f"{args.trajectory} ({kind}), per-tick medians over 5 walks: first tick of a support"
+            f" phase {first:.0f} µs, the other ticks {other:.0f} µs"
+        )
     return 0
 
 
