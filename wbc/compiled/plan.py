@@ -269,7 +269,9 @@ class _Plan:
         )  # fmt: skip
 
     def _build_args(self) -> tuple:
-        raise NotImplementedError
+        """The kernel's arguments, every one a buffer of the plan (rebuilt when the inequality
+        rows outgrow their buffers)."""
+        raise NotImplementedError  # (each plan's own tick)
 
     def solve(self, kin: Kinematics, dt: float | None, inequalities: Sequence | None) -> int:
         """Fill the per-tick inputs (``inequalities``: each level's (G, h, ...), or None) and
