@@ -438,18 +438,12 @@ class StackSolver(ABC):
         """What a solver's preallocated layout depends on: the active tasks (with their gains,
         masks, weights and frames) and constraints, level by level. Switching between support
         phases alternates between a few layouts, which are kept (:meth:`_cached_layout`)."""
-        return (
-            self.stack.version,
-            tuple(
-                (
-                    lv.priority,
-                    lv.hard,
-                    tuple((id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()),
-                    tuple(id(c) for c in lv.active_constraints()),
-                )
-                for lv in self.stack.levels
-            ),
-        )
+        key = [self.stack.version]  # (list comprehensions: a support switch computes it)
+        for lv in self.stack.levels:
+            tasks = tuple([(id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()])
+            constraints = tuple([id(c) for c in lv.active_constraints()])
+            key.append((lv.priority, lv.hard, tasks, constraints))
+        return tuple(key)
 
     def _cached_layout(self, key: tuple):
         """The layout kept for ``key`` (None if none)."""
