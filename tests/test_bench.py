@@ -145,6 +145,39 @@ def test_wide_table_has_every_column(capsys):
         assert column in header
 
 
+def test_while_the_ticks_compile_the_baselines_run_first_and_print_their_results(
+    monkeypatch, tmp_path, capsys
+):
+    """A fresh install: the runs without compiled ticks go first, each printing its result
+    line as it ends; the tables and records keep the display order."""
+    from wbc.bench import cli, runner
+
+    order = []
+    run_entry = runner.run_entry
+
+    def recorded(entry, *args):
+        order.append(entry.name)
+        return run_entry(entry, *args)
+
+    monkeypatch.setattr(cli, "_compile_in_background", lambda console: True)
+    monkeypatch.setattr(runner, "run_entry", recorded)
+    names = ["qp-cj_com", "pinv-vat", "placo"]
+    code = main([
+        "bench", "--solvers", *names, "--trajectories", "thesis_step",
+        "--json", str(tmp_path / "b.json"),
+    ])  # fmt: skip
+    assert code == 0
+    assert order == ["pinv-vat", "placo", "qp-cj_com"]
+    out = capsys.readouterr().out
+    records = json.loads((tmp_path / "b.json").read_text())["records"]
+    assert [r["solver"] for r in records] == names
+    for r in records:
+        line = cli._result_line(r)
+        assert (line in out) == (r["solver"] != "qp-cj_com")  # printed for the baselines
+        assert f"{r['time_median_us']:.0f} µs/tick" in line
+    assert out.index("placo on thesis_step") < out.index("thesis_step (tick mode)")
+
+
 def test_solver_output_is_silenced_unless_verbose(capfd):
     from wbc.bench.cli import solver_output
 

@@ -385,6 +385,10 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     records: list[dict[str, Any]] = []
     recordings = []  # kept for the figures only
     started = time.perf_counter()
+    # a fresh install: the compiled ticks compile in background processes while the runs
+    # that do not use them go first, each printing its result line; the others wait for them
+    building = _compile_in_background(console)
+    first = [e for e in entries if e.family in _WITHOUT_TICKS] if building else []
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -400,16 +404,26 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         )
         from .runner import run_entry, save_recording, static_com_records
 
-        for name, ref in refs.items():
+        runs = [(n, e) for n in refs for e in first]
+        runs += [(n, e) for n in refs for e in entries if e not in first]
+        done: dict[tuple[str, str], tuple] = {}
+        for name, entry in runs:
+            bar.update(job, description=f"{entry.name} on {name}")
+            record, rec = run_entry(
+                entry, robot, refs[name], args.mode, args.tol, args.max_iterations
+            )
+            done[name, entry.name] = record, rec
+            if args.record:
+                save_recording(rec, args.record, entry.name, name)
+            if entry in first:
+                console.print(_result_line(record))
+            bar.advance(job)
+        for name in refs:  # the display order, whatever order they ran in
             for entry in entries:
-                bar.update(job, description=f"{entry.name} on {name}")
-                record, rec = run_entry(entry, robot, ref, args.mode, args.tol, args.max_iterations)
+                record, rec = done[name, entry.name]
                 records.append(record)
-                if args.record:
-                    save_recording(rec, args.record, entry.name, name)
                 if args.plots:
                     recordings.append(rec)
-                bar.advance(job)
         if traj.STATIC_COM in args.trajectories:
             families = {e.family for e in entries}
             records += static_com_records(
@@ -435,6 +449,42 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         write_records(args.json, records)
         console.print(f"records in {args.json}")
     return 0
+
+
+#: families whose runs do not use the compiled ticks (they run first on a fresh install)
+_WITHOUT_TICKS = ("pinv", "peer", "nlp")
+
+
+def _compile_in_background(console: Console) -> bool:
+    """Start compiling the package's control ticks in background processes if they are not
+    in the disk cache (:meth:`wbc.compiled.dispatch.Ticks.start_build`); True if started."""
+    from ..compiled.plan import numba_available
+
+    if not numba_available():
+        return False
+    from ..compiled.dispatch import package_ticks
+
+    if not package_ticks().start_build(announce=False):
+        return False
+    console.print(
+        "[yellow]compiling the control ticks[/] (numba, once per installation, in background "
+        "processes): the baselines run meanwhile; the compiled solvers wait for it"
+    )
+    return True
+
+
+def _result_line(record: dict[str, Any]) -> str:
+    """One run's headline figures (printed as each run ends while the ticks compile)."""
+
+    def cell(key: str, form: str) -> str:
+        value = record.get(key)
+        return "–" if value is None else format(value, form)
+
+    return (
+        f"{record['solver']} on {record['trajectory']}: CoM err "
+        f"{cell('com_err_max_mm', '.2g')} mm max, swing {cell('foot_err_max_mm', '.2g')} mm "
+        f"max, {cell('time_median_us', '.0f')} µs/tick median"
+    )
 
 
 def write_records(path: Path, records: list, **extra: Any) -> None:
