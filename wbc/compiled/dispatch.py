@@ -240,6 +240,11 @@ class Ticks:
                 self._log(name),
             )
 
+    def wait_all(self) -> None:
+        """Wait for every worker (so that nothing compiles beside what comes next)."""
+        for name in list(self.builders):
+            self.wait(name)
+
     def call(self, name: str, variant: int, args: tuple) -> int:
         """Call tick ``name`` with ``args``; ``variant`` tells apart the argument types a
         tick gets (the number of frame slots)."""
