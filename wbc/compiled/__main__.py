@@ -5,9 +5,8 @@ Two processes work in parallel, one per solver (``--part weighted`` and ``--part
 hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row,
 on the numpy path and on the compiled tick, so that numba compiles and caches every kernel a
 run of the package's stacks calls (``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's
-``__pycache__``). They compile under :func:`wbc.compiled._cache.lean_linking` (each entry point
-optimised once, with its callees linked in). The solvers start the same processes themselves
-at their first compiled tick when the cache is empty (:meth:`wbc.compiled.dispatch.Ticks.call`).
+``__pycache__``). The solvers start the same processes themselves at their first compiled tick
+when the cache is empty (:meth:`wbc.compiled.dispatch.Ticks.call`).
 """
 
 from __future__ import annotations
@@ -37,27 +36,25 @@ def worker_env() -> dict[str, str]:
 
 
 def compile_part(part: str) -> None:
-    """Solve one tick of the ``walk`` stack with solver ``part`` on the numpy path, then on
-    the compiled tick (numba compiles what each calls and caches it on disk)."""
+    """Solve one tick of the ``walk`` stack with solver ``part`` on the compiled tick (and,
+    for the hierarchy, on the numpy path first): numba compiles what each calls and caches it
+    on disk."""
     from ..model import Kinematics, load_robot
     from ..stacks import load_stack
-    from ._cache import lean_linking
 
     robot = load_robot()
     q = robot.configuration("stand")
-    with lean_linking():
-        # the numpy path first: the kernels Python calls (rows, bounds, the level cascade of
-        # a hierarchy without inequality rows) compile as entry points, optimised, before a
-        # tick links them in
-        if part == "hierarchical":
-            load_stack("cjl_com", robot).solver.step(q, 0.01)  # Chan–Dubey: the numpy path
-        for compiled in (False, None):
-            control = load_stack("walk", robot, solver=part)
-            control.solver.compiled = compiled
-            control.set_phase("single", "l_sole", "r_sole", Kinematics(robot, q))
-            swing = control.stack.task("frame_pose_swing")
-            swing.set_position_target(swing.target_position - [0.0, 0.0, 0.005])  # row active
-            control.solver.step(q, 0.01)
+    paths: tuple[bool | None, ...] = (None,)  # the compiled tick
+    if part == "hierarchical":  # and the numpy path's kernels: the level cascade (Chan–Dubey
+        load_stack("cjl_com", robot).solver.step(q, 0.01)  # has no row kernel), rows, bounds
+        paths = (False, None)
+    for compiled in paths:
+        control = load_stack("walk", robot, solver=part)
+        control.solver.compiled = compiled
+        control.set_phase("single", "l_sole", "r_sole", Kinematics(robot, q))
+        swing = control.stack.task("frame_pose_swing")
+        swing.set_position_target(swing.target_position - [0.0, 0.0, 0.005])  # a row active
+        control.solver.step(q, 0.01)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -9,10 +9,9 @@ it depends on and flushes the cache when they changed.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 
@@ -42,71 +41,3 @@ def refresh(dispatchers: Sequence[object], depends_on: Sequence[str | os.PathLik
             stamp.write_text(stamp_value)
         except OSError:
             continue
-
-
-class _Depth:
-    """numba's compile events, counted per thread (how deep in nested compiles we are)."""
-
-    def __init__(self) -> None:
-        import threading
-
-        from numba.core import event
-
-        self.local = threading.local()
-
-        class Listener(event.Listener):
-            def on_start(_, e) -> None:
-                self.local.n = self.now() + 1
-
-            def on_end(_, e) -> None:
-                self.local.n = self.now() - 1
-
-        self.listener = Listener()
-
-    def now(self) -> int:
-        return getattr(self.local, "n", 0)
-
-
-@contextlib.contextmanager
-def lean_linking() -> Iterator[bool]:
-    """Compile entry points without optimising their callees twice (yields False, changing
-    nothing, where this numba lacks the hooks).
-
-    numba compiles a function called from compiled code as a library of its own: LLVM
-    optimises it with everything it calls, then the caller links that in and LLVM optimises
-    the whole again — at every level of the call tree (tick → solve → level solver → active
-    set → subproblem), ~45% of a cold compile. Inside this context a function compiled only
-    to be linked into its caller skips that optimisation, and is not written to the disk
-    cache (its unoptimised code would be reused there); the function compiled for a call
-    from Python — the entry point, what the disk cache keeps — is optimised in full with
-    its callees linked in, as always. Meant for a process that only fills the cache
-    (``python -m wbc.compiled``): in it, a function first compiled as a callee runs
-    unoptimised when Python calls it later.
-    """
-    try:
-        from numba.core import caching, codegen, event
-
-        optimize = codegen.CPUCodeLibrary._optimize_final_module
-        save = caching.Cache.save_overload
-    except (ImportError, AttributeError):  # another numba: compile as usual
-        yield False
-        return
-    depth = _Depth()
-
-    def lean_optimize(library) -> None:
-        if depth.now() <= 1:  # the entry point being compiled (depth 1), or a lazy finalize
-            optimize(library)
-
-    def lean_save(cache, sig, data) -> None:
-        if depth.now() == 0:  # saved after its own compile event: 0 for an entry point
-            save(cache, sig, data)
-
-    event.register("numba:compile", depth.listener)
-    codegen.CPUCodeLibrary._optimize_final_module = lean_optimize
-    caching.Cache.save_overload = lean_save
-    try:
-        yield True
-    finally:
-        codegen.CPUCodeLibrary._optimize_final_module = optimize
-        caching.Cache.save_overload = save
-        event.unregister("numba:compile", depth.listener)
