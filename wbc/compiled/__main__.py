@@ -2,11 +2,12 @@
 ``python -m wbc.compiled`` after installing, so that the first control loop starts at once.
 
 Two processes work in parallel, one per solver (``--part weighted`` and ``--part
-hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row,
-on the numpy path and on the compiled tick, so that numba compiles and caches every kernel a
-run of the package's stacks calls (``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's
-``__pycache__``). The solvers start the same processes themselves at their first compiled tick
-when the cache is empty (:meth:`wbc.compiled.dispatch.Ticks.call`).
+hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row
+on the compiled tick (the hierarchical one also on the numpy path, whose kernels Python calls),
+so that numba compiles and caches every kernel a run of the package's stacks calls
+(``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's ``__pycache__``). The solvers start the
+same processes themselves at their first compiled tick when the cache is empty
+(:meth:`wbc.compiled.dispatch.Ticks.call`).
 """
 
 from __future__ import annotations

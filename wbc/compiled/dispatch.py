@@ -197,11 +197,10 @@ class Ticks:
 
         if not self.package or self.builders or os.environ.get(WORKER_ENV) or self.cached():
             return False
-
         if announce:
             log.warning(
                 "wbc: compiling the control ticks in %d background processes (numba; once per "
-                "installation, about half a minute; cached in %s)",
+                "installation, up to a minute; cached in %s)",
                 len(PARTS),
                 Path(self.module.__file__).parent,
             )
