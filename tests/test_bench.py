@@ -179,6 +179,16 @@ def test_while_the_ticks_compile_the_baselines_show_their_errors(monkeypatch, tm
     assert out.index("placo on thesis_step") < out.index("thesis_step (tick mode)")
 
 
+def test_no_background_compilation_for_runs_without_compiled_ticks(monkeypatch):
+    from wbc.bench import cli
+
+    def compile_in_background(console):
+        raise AssertionError("nothing of this run uses the compiled ticks")
+
+    monkeypatch.setattr(cli, "_compile_in_background", compile_in_background)
+    assert main(["bench", "--solvers", "placo", "pinv-vat", "--trajectories", "thesis_step"]) == 0
+
+
 def test_solver_output_is_silenced_unless_verbose(capfd):
     from wbc.bench.cli import solver_output
 

@@ -388,7 +388,8 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     # a fresh install: the compiled ticks compile in background processes; meanwhile the
     # runs that do not use them print their errors (their times, taken beside the compiler,
     # would not compare: every run of the tables starts once the compilation is over)
-    building = _compile_in_background(console)
+    baselines = [e for e in entries if e.family in _WITHOUT_TICKS]
+    building = bool(walking) and len(baselines) < len(entries) and _compile_in_background(console)
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -406,7 +407,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
 
         if building:
             for name, ref in refs.items():
-                for entry in [e for e in entries if e.family in _WITHOUT_TICKS]:
+                for entry in baselines:
                     bar.update(job, description=f"{entry.name} on {name} (errors)")
                     record, _ = run_entry(
                         entry, robot, ref, args.mode, args.tol, args.max_iterations
@@ -468,7 +469,7 @@ def _compile_in_background(console: Console) -> bool:
         return False
     console.print(
         "[yellow]compiling the control ticks[/] (numba, once per installation, in background "
-        "processes); meanwhile the errors of the runs without them:"
+        "processes); meanwhile the errors of the runs without them, if any:"
     )
     return True
 
