@@ -168,11 +168,6 @@ class StackSolver(ABC):
         self.solve_time = 0.0
         #: True if the last solve had to relax an infeasible hard level
         self.relaxed = False
-        #: never set any more (a start outside the limits is re-solved by
-        #: :meth:`_solve_recovering`, one cascade): the subclasses' branches that read these
-        #: two are dead and go with their next edit
-        self._yield_recovery = False
-        self.recovery: tuple[np.ndarray, np.ndarray] | None = None
         #: what a relaxed or failed solve could not meet ("" otherwise)
         self.diagnosis = ""
 

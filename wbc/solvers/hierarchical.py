@@ -170,7 +170,7 @@ class HierarchicalQP(StackSolver):
     def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None):
         """The QP value: each level's rows (J, b weighted by √w: the plan's arrays, which the
         compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
-        fast = None if self._yield_recovery else self.fast  # a re-solve: the numpy blocks
+        fast = self.fast
         problems = []
         for k, (lv, block) in enumerate(zip(self._levels, self._blocks, strict=True)):
             G, h, cslices = self._no_rows if inequalities is None else inequalities[k]
@@ -195,7 +195,7 @@ class HierarchicalQP(StackSolver):
             self._plan()
         self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
-        if fast is not None and not self._yield_recovery:
+        if fast is not None:
             if fast.solve(kin, dt, inequalities) == 0:  # fills the plan's rows and bounds
                 self.compiled_ticks += 1
                 self.relaxed = False
@@ -204,12 +204,11 @@ class HierarchicalQP(StackSolver):
             self.handed_back_ticks += 1
         problems, lower, upper = self._assemble(kin, dt, inequalities)
         self._problems = problems
-        if fast is None and not self.stack.extra_limits and not self._yield_recovery:
+        if fast is None and not self.stack.extra_limits:
             dq = self._level_solver(problems, kin, dt, lower, upper)
             if dq is not None:
                 return Solution(dq, lower, upper)
         relax = self.on_infeasible == "relax"
-        problems, at = self._with_recovery(problems)
         while len(self._backends) < len(problems) + 1:
             self._backends.append(make_backend(self.backend.name, self.backend.eps))
         try:
@@ -223,8 +222,6 @@ class HierarchicalQP(StackSolver):
             )
         except InfeasibleError as exc:
             raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
-        if at is not None:
-            del self._solutions[at]
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return Solution(dq, lower, upper)
@@ -277,22 +274,6 @@ class HierarchicalQP(StackSolver):
         self.relaxed = False
         self.diagnosis = ""
         return dq
-
-    def _with_recovery(self, problems: list[LevelProblem]) -> tuple[list, int | None]:
-        """The levels with the recovery of joints outside their range (when it yields to the
-        hard levels, :meth:`StackSolver._solve_yielding_recovery`) right below the leading
-        hard levels; and where it was inserted (None: not)."""
-        if self.recovery is None:
-            return problems, None
-        idx, step = self.recovery
-        nv = self.robot.nv
-        J = np.zeros((idx.size, nv))
-        J[np.arange(idx.size), idx] = 1.0
-        at = 0
-        while at < len(problems) and problems[at].hard:
-            at += 1
-        recovery = LevelProblem(-1, J, step, np.zeros((0, nv)), np.zeros(0))
-        return [*problems[:at], recovery, *problems[at:]], at
 
     # ------------------------------------------------------------------ hard levels
     def _check_hard_levels(self, relax: bool) -> None:

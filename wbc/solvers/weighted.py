@@ -25,7 +25,6 @@ from .diagnostics import conflicts, infeasible_message
 
 #: weight of the recovery of joints outside their range (relative to the largest curvature of
 #: the soft tasks) when it has to yield to the hard tasks
-RECOVERY_WEIGHT = 1e4
 
 
 class WeightedValue(NamedTuple):
@@ -115,7 +114,7 @@ class WeightedQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
-        if fast is not None and not self._yield_recovery:
+        if fast is not None:
             # the compiled tick: the plan's rows and bounds, the inequality rows (an active
             # set on them in the compiled least squares), the integration
             rows = None
@@ -140,7 +139,7 @@ class WeightedQP(StackSolver):
             G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)
         else:
             G, h, _ = self._no_rows
-        if self.fast is not None and not self._yield_recovery:
+        if self.fast is not None:
             return WeightedValue(None, None, None, None, G, h, None, None)
         soft, hard = self.soft, self.hard
         soft.fill_weighted(kin)
@@ -163,11 +162,6 @@ class WeightedQP(StackSolver):
         ws.h[:] = value.h
         ws.lower[:] = value.lower
         ws.upper[:] = value.upper
-        if self.recovery is not None:  # joints outside their range: a dominant soft objective
-            idx, step = self.recovery
-            w = RECOVERY_WEIGHT * max(1.0, float(ws.H.diagonal().max()))
-            ws.H[idx, idx] += w
-            ws.c[idx] -= w * step
         self.relaxed = False
         try:
             dq = self.backend.solve_workspace(ws)
