@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..exceptions import ConfigurationError
+from ..exceptions import ConfigurationError, TrajectoryError
 from ..model import Robot
 from ..walking.gait import forward_walk, lateral_walk, turning_walk
 from ..walking.geometry import Foot
@@ -13,7 +13,9 @@ from ..walking.keyposes import KeyPoseParams, keypose_walk
 from ..walking.legs import LegGeometry
 from ..walking.reference import StandingState, WalkingReference
 from ..walking.schedule import GaitTiming, SwingParams
+from ..walking.static_walk import StaticWalkParams, static_walk
 from ..walking.thesis_step import ThesisStepParams, thesis_step
+from ..walking.window import MAX_LEAN, BalanceWindow
 
 
 def _thesis_step(
@@ -22,11 +24,34 @@ def _thesis_step(
     return thesis_step(s, ThesisStepParams(**params), foot, legs, min_clearance)
 
 
+def _static_walk(
+    s: StandingState, window: BalanceWindow, foot=None, legs=None, **params: Any
+) -> WalkingReference:
+    return static_walk(s, window, StaticWalkParams(**params), foot, legs)
+
+
 def _keyposes(
     s: StandingState, foot=None, legs=None, min_clearance: float = 0.004, **params: Any
 ) -> WalkingReference:
     return keypose_walk(s, KeyPoseParams(**params), foot, legs, min_clearance)
 
+
+#: the dynamic whole-body walks' ZMP: 18 mm in from each sole's centre, >= 10 mm inside
+WHOLE_BODY_DYNAMIC: dict[str, Any] = {"zmp_offset": (0.0, 0.018), "margin": 0.010}
+#: the new walks' timing: 0.5 s steps (0.4 s single support), 12 mm swing apex, so that the
+#: reference asks no joint for more than PLANNING_SPEED_FRACTION of the servo's no-load
+#: speed (walk10's 0.24 s swing with a 20 mm apex asks the swing knee for ~1.6x it)
+WHOLE_BODY_TIMING: dict[str, Any] = {
+    **WHOLE_BODY_DYNAMIC,
+    "timing": GaitTiming(step_time=0.5, double_support_ratio=0.2),
+    "swing": SwingParams(apex=0.012),
+}
+#: the fast walk: 16 steps of 4 cm in 0.5 s (8 cm/s steady, 6.2 cm/s start to stop)
+FAST: dict[str, Any] = {"n_steps": 16, "step_length": 0.04}
+#: the turning walk: 8 steps of 2 cm turning 0.2 rad each (80 deg); the lateral walk: 8 steps
+#: of 2 cm to the left
+TURN: dict[str, Any] = {"n_steps": 8, "step_length": 0.02, "turn": 0.2}
+LATERAL: dict[str, Any] = {"n_steps": 8, "step_width": 0.02}
 
 #: name -> (builder, description); a builder takes the start state and keyword overrides
 TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
@@ -35,7 +60,27 @@ TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
     "turn": (lambda s, **kw: turning_walk(s, **kw), "a turning walk, ZMP preview control"),
     "lateral": (lambda s, **kw: lateral_walk(s, **kw), "sideways steps, ZMP preview control"),
     "keyposes": (_keyposes, "the Kokone thesis's static key-pose walk: 12 poses, 0.8 s each"),
+    # whole-body references: the torso leans over the stance foot (balance window)
+    "static_walk": (_static_walk, "recommended static walk: whole body, CoM >= 15 mm in the sole"),
+    "walk10_wb": (
+        lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_DYNAMIC, "n_steps": 10, **kw}),
+        "walk10 with the whole-body window: ZMP >= 10 mm inside the soles",
+    ),
+    "fast_wb": (
+        lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_TIMING, **FAST, **kw}),
+        "fast forward walk (6.2 cm/s), whole body, within the servos' speed",
+    ),
+    "turn_wb": (
+        lambda s, **kw: turning_walk(s, **{**WHOLE_BODY_TIMING, **TURN, **kw}),
+        "turning walk (80 deg), whole body, within the servos' speed",
+    ),
+    "lateral_wb": (
+        lambda s, **kw: lateral_walk(s, **{**WHOLE_BODY_TIMING, **LATERAL, **kw}),
+        "sideways walk (16 cm), whole body, within the servos' speed",
+    ),
 }
+#: the trajectories that use the whole-body balance window (built per robot)
+WHOLE_BODY = ("static_walk", "walk10_wb", "fast_wb", "turn_wb", "lateral_wb")
 #: keyword overrides given as TOML tables, turned into their dataclasses
 _TABLES = {"timing": GaitTiming, "swing": SwingParams}
 #: the static CoM placement set of ch. 3 (not a walking reference: see wbc.bench.runner)
@@ -48,8 +93,9 @@ def names() -> list[str]:
 
 
 def robot_options(robot: Robot, name: str) -> dict[str, Any]:
-    """The robot's walking data for trajectory ``name``: its feet, its legs and the keyword
-    overrides of ``robot.toml``'s ``[walking.<name>]``.
+    """The robot's walking data for trajectory ``name``: its feet, its legs, the whole-body
+    balance window (:data:`WHOLE_BODY` trajectories; ``max_lean`` in rad may be set in
+    ``[walking.<name>]``) and the keyword overrides of ``robot.toml``'s ``[walking.<name>]``.
 
     The legs are measured from the model at the standing pose; the Bioloid keeps the rounded
     constants of :class:`LegGeometry` (the same measurement) so its recorded figures hold."""
@@ -60,7 +106,16 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
         else LegGeometry.from_robot(robot, robot.configuration("stand"))
     )
     kw: dict[str, Any] = {"foot": Foot(*robot.foot_size), "legs": legs}
-    for key, value in data.walking.get(name, {}).items():
+    table = dict(data.walking.get(name, {}))
+    if name in WHOLE_BODY:
+        max_lean = table.pop("max_lean", MAX_LEAN)
+        try:
+            kw["window"] = BalanceWindow.from_robot(
+                robot, robot.configuration("stand"), max_lean=float(max_lean)
+            )
+        except (TypeError, ValueError, TrajectoryError) as exc:
+            raise ConfigurationError(f"{data.source}: [walking.{name}] max_lean: {exc}") from None
+    for key, value in table.items():
         if key in _TABLES:
             try:
                 value = _TABLES[key](**value)

@@ -28,6 +28,7 @@ from .legs import LegGeometry
 
 if TYPE_CHECKING:
     from .reference import WalkingReference
+    from .window import BalanceWindow
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,9 @@ class CheckReport:
     min_leg_length: float
     max_adduction: float
     max_contact_slip: float
+    #: whole-body references: smallest distance (m) of the CoM's lateral offset to the edge
+    #: of the balance window (NaN: a legs-only reference, checked by the hip roll model)
+    window_margin: float = float("nan")
 
     def as_dict(self) -> dict[str, float]:
         return dict(self.__dict__)
@@ -56,11 +60,17 @@ def check_reference(
     ground_tolerance: float = 1e-6,
     slip_tolerance: float = 1e-6,
     check_reach: bool = True,
+    window: BalanceWindow | None = None,
 ) -> CheckReport:
     """Check a reference before motion; raise :class:`TrajectoryError` on the first failure.
 
     ``margin`` defaults to the reference's own (``ref.margin``). The stability criterion is
     the CoM for a static gait and the ZMP for a dynamic one.
+
+    ``window``: a whole-body reference (torso lean planned, arms free): the legs-only hip
+    roll and reach estimates (torso upright) do not apply; instead the CoM's lateral offset
+    from the soles' midpoint (heading frame) must stay inside the whole-body balance window
+    (:class:`~wbc.walking.window.BalanceWindow`), whose solves hold every joint limit.
     """
     margin = ref.margin if margin is None else margin
     if not (np.isfinite(margin) and margin >= 0):
@@ -117,6 +127,20 @@ def check_reference(
         )
 
     lengths = legs.leg_lengths(ref.com, ref.torso_yaw, ref.l_sole, ref.r_sole)
+    window_margin = float("nan")
+    if window is not None:
+        lateral = lateral_offsets(ref)
+        slack = window.max_lateral - np.abs(lateral)
+        i = int(np.argmin(slack))
+        window_margin = float(slack[i])
+        if slack[i] < -1e-9:
+            raise TrajectoryError(
+                f"{at(i)}: unreachable — the CoM is {abs(lateral[i]) * 1000:.1f} mm sideways "
+                f"from the soles' midpoint, beyond the whole body's balance window of "
+                f"{window.max_lateral * 1000:.1f} mm (torso lean up to "
+                f"{np.rad2deg(window.max_lean):.1f} deg)"
+            )
+        check_reach = False
     if check_reach:
         i, j = np.unravel_index(int(np.argmax(lengths)), lengths.shape)
         if lengths[i, j] > legs.max_reach:
@@ -160,7 +184,16 @@ def check_reference(
         min_leg_length=float(np.min(lengths)),
         max_adduction=float(-np.min(rolls)),
         max_contact_slip=slip,
+        window_margin=window_margin,
     )
+
+
+def lateral_offsets(ref: WalkingReference) -> np.ndarray:
+    """(N,) the CoM's lateral offset (m, + = left) from the midpoint of the two soles, in
+    the torso heading frame: what the whole-body balance window bounds."""
+    mid = 0.5 * (ref.l_sole[:, :2] + ref.r_sole[:, :2])
+    left = np.column_stack([-np.sin(ref.torso_yaw), np.cos(ref.torso_yaw)])
+    return np.einsum("ij,ij->i", ref.com[:, :2] - mid, left)
 
 
 def _support_name(ref: WalkingReference, i: int) -> str:

@@ -7,10 +7,10 @@ joint limits as hard bounds (quadprog via qpsolvers),
     min_dq  sum_k w_k |J_k dq - e_k|^2 + eps |dq|^2    s.t.  q_min <= q + dq <= q_max,
 
 on both sole poses (6 + 6), the CoM (3) and the torso orientation (3: the start pitch/roll,
-the reference's heading), from Walk Ready placed at the reference's start, and reports the
-worst task errors and the smallest joint-limit margin. A feasible reference is tracked to
-numerical precision; an infeasible one leaves millimetre errors with joints on their limits.
-It is a check, not a controller: the control loop (:mod:`.loop`) runs the real stacks.
+the reference's heading and planned roll), from Walk Ready placed at the reference's start,
+and reports the worst task errors and the smallest joint-limit margin. A feasible reference
+is tracked to numerical precision; an infeasible one leaves millimetre errors with joints on
+their limits. It is a check, not a controller: the control loop (:mod:`.loop`) runs the real stacks.
 
     python -m wbc.walking.feasibility            # the standard references
 """
@@ -29,6 +29,13 @@ from .reference import WalkingReference
 
 ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
 
+#: the share of a servo's no-load speed (the model's velocity limit) a reference may ask for.
+#: The AX-12A's speed falls linearly with torque, ``w = w0 (1 - tau / tau_stall)``; a swing
+#: leg's joints carry ~0.1 N.m (7 % of the 1.5 N.m stall), the recommended 11.1 V supply
+#: gives ~0.93 w0, and the compliance slope adds lag: 0.75 w0 leaves the servo a margin
+#: (a plan at the no-load speed, walk10's swing knee, lags up to 24 deg in the simulator).
+PLANNING_SPEED_FRACTION = 0.75
+
 
 @dataclass(frozen=True)
 class FeasibilityReport:
@@ -39,6 +46,10 @@ class FeasibilityReport:
     max_torso_error: float
     min_limit_margin: float
     ticks: int
+    #: the largest joint speed (rad/s) of the tracked motion (finite differences per tick)
+    #: and its joint: what the reference asks of the servos, whatever the controller
+    max_joint_speed: float = float("nan")
+    speed_joint: str = ""
 
     @property
     def feasible(self) -> bool:
@@ -66,15 +77,18 @@ def kinematic_feasibility(
     fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]
     R0 = robot.frame_placement(q, "torso").rotation
     pitch_roll = pin.rpy.rpyToMatrix(0, 0, -np.arctan2(R0[1, 0], R0[0, 0])) @ R0
+    torsos = ref.torso_rotations(pitch_roll)  # with the reference's planned lean, if any
     w_sole, w_com, w_torso = weights
     W = np.array([w_sole] * 12 + [w_com] * 3 + [w_torso] * 3)
     held = [robot.v_index(f"{s}_{j}") for s in "lr" for j in ARM_JOINTS] if hold_arms else []
     free = np.setdiff1d(np.arange(model.nv), held)
     worst = np.zeros(3)
     min_margin = np.inf
+    speed = np.zeros(model.nv - 6)
+    q_prev = None
     for i in range(ref.n):
         targets = [ref.sole_placement(i, "left"), ref.sole_placement(i, "right")]
-        R_torso = pin.rpy.rpyToMatrix(0, 0, float(ref.torso_yaw[i])) @ pitch_roll
+        R_torso = torsos[i]
         for _ in range(iterations):
             J, e, _ = _tasks(model, data, q, fids, targets, ref.com[i], R_torso)
             H = J.T @ (W[:, None] * J) + 1e-4 * np.eye(model.nv)
@@ -106,7 +120,19 @@ def kinematic_feasibility(
         )
         j = q[7:]
         min_margin = min(min_margin, float(np.min(np.minimum(j - robot.q_min, robot.q_max - j))))
-    return FeasibilityReport(float(worst[0]), float(worst[1]), float(worst[2]), min_margin, ref.n)
+        if q_prev is not None:
+            speed = np.maximum(speed, np.abs(j - q_prev) / ref.dt)
+        q_prev = j.copy()
+    k = int(np.argmax(speed))
+    return FeasibilityReport(
+        float(worst[0]),
+        float(worst[1]),
+        float(worst[2]),
+        min_margin,
+        ref.n,
+        float(speed[k]),
+        robot.joint_names[k],
+    )
 
 
 def _tasks(model, data, q, fids, soles, com_target, R_torso):

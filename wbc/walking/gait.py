@@ -22,7 +22,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
-from .checks import check_reference
+from .checks import check_reference, lateral_offsets
 from .footsteps import FootstepPlan, Side, plan_footsteps
 from .geometry import Foot
 from .legs import LegGeometry
@@ -32,6 +32,7 @@ from .preview import PreviewController, PreviewParams
 from .reference import StandingState, WalkingReference
 from .schedule import GaitTiming, SwingParams, build_phases, sample_knots, sole_tracks, zmp_knots
 from .spline import min_jerk
+from .window import BalanceWindow
 
 Generator = Literal["preview", "mpc", "lipm"]
 GENERATORS: tuple[str, ...] = ("preview", "mpc", "lipm")
@@ -53,6 +54,7 @@ def walk(
     mpc: MpcParams | None = None,
     check: bool = True,
     name: str | None = None,
+    window: BalanceWindow | None = None,
 ) -> WalkingReference:
     """A dynamic-gait reference for ``plan`` starting from ``start`` (at rest).
 
@@ -67,6 +69,12 @@ def walk(
     centres), steps are short and quick (0.4 s, 40 % double support; :class:`GaitTiming`)
     and the margin is 1 mm. ``mpc`` takes :class:`.mpc.MpcParams`; the MPC also keeps the
     hips within their roll limits as constraints, so it copes with other settings too.
+
+    ``window`` (a :class:`.window.BalanceWindow`) makes it a *whole-body* reference: the
+    torso leans over the stance foot by the roll the window's solves need for the CoM's
+    lateral offset (``torso_roll``), the arms are free, and the CoM is checked against the
+    window instead of the legs-only hip roll model; the ZMP may then run well inside the
+    soles (e.g. ``zmp_offset = (0, 0.018)``, ``margin = 0.01``).
     """
     timing = timing or GaitTiming()
     swing = swing or SwingParams()
@@ -118,7 +126,7 @@ def walk(
     else:
         params = mpc or MpcParams()
         solver = LipmMpc(height, params)
-        hip_legs = legs if params.hip_roll else None
+        hip_legs = legs if params.hip_roll and window is None else None
         result = solver.solve_walk(t, soles, foot, zref, start.com[:2], margin, hip_legs, torso_yaw)
         pos, vel, acc = result.pos, result.vel, result.acc
         meta["mpc"] = {
@@ -162,10 +170,26 @@ def walk(
         margin=margin,
         meta=meta,
     )
+    if window is not None:
+        lean_from_window(ref, window)
     if check:
-        report = check_reference(ref, margin=margin, min_clearance=min_clearance, legs=legs)
+        report = check_reference(
+            ref, margin=margin, min_clearance=min_clearance, legs=legs, window=window
+        )
         ref.meta["check"] = report.as_dict()
     return ref
+
+
+def lean_from_window(ref: WalkingReference, window: BalanceWindow) -> None:
+    """Plan the torso roll of a whole-body reference (in place): the roll the balance
+    window's solves use for the CoM's lateral offset from the soles' midpoint."""
+    ref.torso_roll = np.asarray(window.roll_for(lateral_offsets(ref)), dtype=float)
+    ref.meta["window"] = {
+        "max_lateral": window.max_lateral,
+        "upright": window.upright,
+        "max_lean": window.max_lean,
+        "max_roll": float(np.max(np.abs(ref.torso_roll))),
+    }
 
 
 def _check_double_support(

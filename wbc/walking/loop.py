@@ -294,7 +294,7 @@ class Session:
         ]
         start = robot.frame_placement(self.q, "torso").rotation
         pitch_roll = heading_free(start)
-        self._torso = [torso_target(float(yaw), pitch_roll) for yaw in ref.torso_yaw]
+        self._torso = list(ref.torso_rotations(pitch_roll))
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None

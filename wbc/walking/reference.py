@@ -79,6 +79,10 @@ class WalkingReference:
     margin: float = 0.0
     g: float = GRAVITY
     meta: dict[str, Any] = field(default_factory=dict)
+    #: (N,) planned torso roll about the heading axis (rad; positive tilts its top to the
+    #: right), on top of the start pose's own lean; None: upright (a whole-body reference
+    #: leans the torso over the stance foot, :mod:`.window`)
+    torso_roll: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=float)
@@ -102,6 +106,7 @@ class WalkingReference:
             "l_sole_vel": (n, 3),
             "r_sole_vel": (n, 3),
             "zmp_ref": (n, 2),
+            "torso_roll": (n,),
         }
         for name, shape in shapes.items():
             val = getattr(self, name)
@@ -308,7 +313,23 @@ class WalkingReference:
             "support": self.support.copy(),
             "torso_yaw_ref": self.torso_yaw.copy(),
         }
+        if self.torso_roll is not None:
+            ch["torso_roll_ref"] = self.torso_roll.copy()
         return ch
+
+    def torso_rotations(self, start_lean: np.ndarray | None = None) -> np.ndarray:
+        """(N, 3, 3) torso rotations asked for: ``Rz(yaw) Rx(roll) L`` with ``L`` the start
+        pose's lean (its rotation with the heading removed; identity if None)."""
+        L = np.eye(3) if start_lean is None else np.asarray(start_lean, dtype=float)
+        roll = np.zeros(self.n) if self.torso_roll is None else self.torso_roll
+        cy, sy = np.cos(self.torso_yaw), np.sin(self.torso_yaw)
+        cr, sr = np.cos(roll), np.sin(roll)
+        R = np.zeros((self.n, 3, 3))
+        # Rz(yaw) @ Rx(roll)
+        R[:, 0, 0], R[:, 0, 1], R[:, 0, 2] = cy, -sy * cr, sy * sr
+        R[:, 1, 0], R[:, 1, 1], R[:, 1, 2] = sy, cy * cr, -cy * sr
+        R[:, 2, 1], R[:, 2, 2] = sr, cr
+        return R @ L
 
     def describe(self) -> dict[str, Any]:
         """JSON-able summary for recording metadata."""

@@ -1,0 +1,146 @@
+"""The whole-body balance window (wbc.walking.window) and the references that use it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.bench import trajectories as traj
+from wbc.exceptions import ConfigurationError, TrajectoryError
+from wbc.walking import LegGeometry, StandingState, check_reference, forward_walk
+from wbc.walking.checks import lateral_offsets
+from wbc.walking.feasibility import kinematic_feasibility
+from wbc.walking.window import BalanceWindow
+
+
+@pytest.fixture(scope="module")
+def window(robot):
+    return BalanceWindow.from_robot(robot, samples=6)
+
+
+@pytest.fixture(scope="module")
+def start(robot):
+    return StandingState.from_robot(robot)
+
+
+def test_whole_body_window_is_wider_than_the_legs_alone(robot, window, start):
+    legs = LegGeometry()
+    half = 0.5 * float(start.left.y - start.right.y)
+    legs_only = legs.max_com_lateral(float(start.com[2]), half)
+    assert 0.009 < legs_only < 0.013  # the legs-only model: ~11 mm
+    # upright, arms free: more than the legs-only model, less than the sole's inner edge + 15 mm
+    assert legs_only < window.upright < 0.035
+    # a 15 deg lean carries the CoM past the sole's centre (41.4 mm out)
+    assert window.max_lateral > window.half_width + 0.005
+    held = BalanceWindow.from_robot(robot, samples=2, hold_arms=True)
+    assert held.upright < window.upright  # the arms help
+    assert held.max_lateral < window.max_lateral + 1e-4
+
+
+def test_window_grows_with_the_allowed_lean(robot, window):
+    small = BalanceWindow.from_robot(robot, max_lean=np.deg2rad(5.0), samples=2)
+    assert window.upright - 1e-4 < small.max_lateral < window.max_lateral
+    assert small.upright == pytest.approx(window.upright, abs=1e-6)
+
+
+def test_roll_table_leans_toward_the_stance_and_is_odd(window):
+    assert window.rolls[0] == pytest.approx(0.0, abs=0.01)
+    assert np.all(np.diff(window.offsets) >= 0)
+    assert np.all(np.diff(window.rolls) <= 1e-9)  # CoM to the left: lean left (negative roll)
+    assert abs(window.rolls[-1]) <= window.max_lean + 1e-3
+    y = np.array([0.01, 0.03, -0.03])
+    r = window.roll_for(y)
+    assert r[1] == pytest.approx(-r[2])
+    assert r[1] < r[0] <= 0.0
+
+
+def test_bad_window_input_is_one_clear_error(robot):
+    with pytest.raises(TrajectoryError, match="max_lean"):
+        BalanceWindow.from_robot(robot, max_lean=-0.1)
+    with pytest.raises(TrajectoryError, match="samples"):
+        BalanceWindow.from_robot(robot, samples=1)
+
+
+def test_whole_body_walk_is_feasible_with_the_planned_lean(robot, window, start):
+    ref = forward_walk(start, 4, zmp_offset=(0.0, 0.018), margin=0.01, window=window)
+    assert ref.zmp_margin().min() >= 0.01 - 1e-9
+    assert ref.torso_roll is not None and np.abs(ref.torso_roll).max() > np.deg2rad(1.0)
+    # the roll leans over the stance side: sign opposite to the CoM's lateral offset
+    y = lateral_offsets(ref)
+    big = np.abs(y) > window.upright
+    assert np.all(np.sign(ref.torso_roll[big]) == -np.sign(y[big]))
+    # the legs-only model rejects the same CoM path (hip roll beyond its limit)
+    with pytest.raises(TrajectoryError, match="hip would roll"):
+        check_reference(ref, legs=LegGeometry())
+    rep = kinematic_feasibility(robot, ref, hold_arms=False)
+    assert rep.feasible, rep
+    assert rep.min_limit_margin >= -1e-9
+    # the torso the IK holds is the planned lean
+    torso = ref.torso_rotations()
+    assert np.allclose(torso[:, 2, 1], np.sin(ref.torso_roll))
+
+
+def test_window_check_rejects_a_com_beyond_it(window, start):
+    import dataclasses
+
+    ref = forward_walk(start, 2, zmp_offset=(0.0, 0.018), margin=0.01, window=window)
+    y = np.abs(lateral_offsets(ref)).max()
+    narrow = dataclasses.replace(window, max_lateral=0.5 * y)
+    with pytest.raises(TrajectoryError, match="balance window of"):
+        check_reference(ref, window=narrow)
+    assert check_reference(ref, window=window).window_margin > 0
+
+
+def test_session_asks_the_torso_for_the_planned_roll(robot, window, start):
+    from wbc.walking.loop import Controller, Session, heading_free
+
+    class Hold(Controller):
+        def track(self, q, targets, dt, phase_changed):
+            return q
+
+    ref = forward_walk(start, 2, zmp_offset=(0.0, 0.018), margin=0.01, window=window)
+    session = Session(Hold(), robot, ref)
+    i = int(np.argmax(np.abs(ref.torso_roll)))
+    R = session.targets(i).torso_rotation
+    lean = heading_free(robot.frame_placement(session.q, "torso").rotation)
+    expect = pin.rpy.rpyToMatrix(float(ref.torso_roll[i]), 0.0, float(ref.torso_yaw[i])) @ lean
+    np.testing.assert_allclose(R, expect, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["walk10_wb", "fast_wb", "turn_wb", "lateral_wb"])
+def test_named_whole_body_walks_keep_the_zmp_10mm_inside(robot, name):
+    ref = traj.build(name, robot)
+    assert ref.zmp_margin().min() >= 0.010 - 1e-9
+    assert ref.meta["check"]["window_margin"] > 0
+
+
+def test_fast_walk_is_faster_than_6cm_per_s(robot):
+    ref = traj.build("fast_wb", robot)
+    start = 0.5 * (ref.l_sole[0, :2] + ref.r_sole[0, :2])
+    end = 0.5 * (ref.l_sole[-1, :2] + ref.r_sole[-1, :2])
+    assert np.linalg.norm(end - start) / ref.duration >= 0.06
+
+
+def test_bad_max_lean_in_robot_data_names_the_key(robot, monkeypatch):
+    data = robot.robot_data
+    monkeypatch.setitem(data.walking, "walk10_wb", {"max_lean": "much"})
+    with pytest.raises(ConfigurationError, match=r"\[walking.walk10_wb\] max_lean"):
+        traj.build("walk10_wb", robot)
+
+
+@pytest.mark.parametrize("name", ["fast_wb", "turn_wb", "lateral_wb", "static_walk"])
+def test_new_walks_ask_a_realistic_share_of_the_servo_speed(robot, name):
+    from wbc.walking.feasibility import PLANNING_SPEED_FRACTION
+
+    ref = traj.build(name, robot)
+    rep = kinematic_feasibility(robot, ref, hold_arms=False, iterations=4)
+    assert rep.feasible, rep
+    assert rep.max_joint_speed <= PLANNING_SPEED_FRACTION * float(np.min(robot.v_max)), rep
+
+
+def test_walk10_asks_more_than_the_servo_can(robot):
+    """Why the new walks are slower per step: walk10's swing knee exceeds no-load speed."""
+    rep = kinematic_feasibility(robot, traj.build("walk10", robot), hold_arms=False, iterations=4)
+    assert rep.max_joint_speed > float(np.min(robot.v_max))
+    assert rep.speed_joint.endswith("knee")

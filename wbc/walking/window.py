@@ -1,0 +1,323 @@
+"""The whole-body balance window: how far sideways the *whole body* can carry its CoM.
+
+:class:`~wbc.walking.legs.LegGeometry` models the legs alone with the torso upright and the
+arms idle: on the Bioloid the stance hip's 5.57 deg adduction limit then holds the CoM within
+~11 mm of the mid-stance, while the stance sole's centre is 41.4 mm out. Leaning the torso
+over the stance foot uses the stance hip's abduction range instead, and the arms (a large
+share of the mass) can follow: the reachable CoM window is several times wider.
+
+:class:`BalanceWindow` measures it on the model, both soles flat and fixed at a stance (the
+standing stance by default), the CoM at a fixed height, every joint within its limits:
+
+* ``max_lateral``: the largest lateral CoM offset from the mid-stance with the torso tilt
+  within ``max_lean`` (sequential linear programming: maximise ``n . c(q)`` over a linearised
+  step with the soles' 6-D placements, the CoM height and the torso tilt as linear rows, the
+  joint limits and a trust region as bounds, until the step vanishes);
+* ``upright``: the same with the torso held upright (legs and arms only);
+* a table of torso rolls over lateral offsets ``0 .. max_lateral``: at each offset a
+  prioritised solve (soles and CoM exact, then the torso as upright as possible, then a light
+  posture toward the standing pose), so the generators can ask the torso for the roll the
+  body needs (:meth:`roll_for`). The roll is about the heading axis: positive tilts the
+  torso's top toward -y (to the right), i.e. a CoM to the right asks for a positive roll.
+
+Everything here is a pre-motion computation (a fraction of a second), not a control tick.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import TrajectoryError
+
+#: default largest torso tilt from upright the window may use (rad; 15 deg)
+MAX_LEAN = float(np.deg2rad(15.0))
+#: weights of the lean solve: the torso's pitch (kept), its roll, every joint's posture.
+#: Comparable roll and posture weights share the work between a torso lean and the limbs,
+#: rather than flinging the arms to their limits before the torso leans at all.
+W_PITCH, W_ROLL, W_POSTURE = 1e4, 1.0, 1.0
+
+
+@dataclass(frozen=True)
+class BalanceWindow:
+    """Lateral CoM window of the whole body at a stance (lengths in m, angles in rad).
+
+    ``offsets`` (K,) ascending lateral CoM offsets from the mid-stance toward the *left*
+    sole (the window is mirror-symmetric: a right offset takes the opposite roll),
+    ``rolls`` (K,) the torso roll the whole body uses at each (negative: leaning left).
+    """
+
+    offsets: np.ndarray
+    rolls: np.ndarray
+    max_lateral: float
+    upright: float
+    max_lean: float
+    com_height: float
+    half_width: float
+
+    def roll_for(self, lateral: np.ndarray | float) -> np.ndarray:
+        """Torso roll (rad) for lateral CoM offsets (m, + = left) from the mid-stance:
+        zero within the upright window would be ideal, the table's solves give the
+        smallest tilt the body needs (linear interpolation, odd in the offset)."""
+        y = np.asarray(lateral, dtype=float)
+        mag = np.interp(np.abs(y), self.offsets, self.rolls)
+        return np.where(y >= 0, mag, -mag)
+
+    def inside(self, lateral: np.ndarray | float, margin: float = 0.0) -> np.ndarray:
+        """Whether lateral offsets lie within the window less ``margin``."""
+        return np.abs(np.asarray(lateral, dtype=float)) <= self.max_lateral - margin
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "max_lateral": self.max_lateral,
+            "upright": self.upright,
+            "max_lean": self.max_lean,
+            "com_height": self.com_height,
+            "half_width": self.half_width,
+            "offsets": self.offsets.tolist(),
+            "rolls": self.rolls.tolist(),
+        }
+
+    @classmethod
+    def from_robot(
+        cls,
+        robot: Any,
+        q: np.ndarray | None = None,
+        max_lean: float = MAX_LEAN,
+        com_height: float | None = None,
+        samples: int = 9,
+        hold_arms: bool = False,
+    ) -> BalanceWindow:
+        """Measure the window at the stance of ``q`` (default: the standing pose).
+
+        ``max_lean``: the torso tilt allowed (rad, >= 0); ``com_height``: the CoM height
+        (default: the one of ``q``); ``hold_arms``: keep the arms at their angles in ``q``
+        (the legs-and-torso window). Raises :class:`TrajectoryError` on bad input.
+        """
+        if not (np.isfinite(max_lean) and 0.0 <= max_lean < 0.8):
+            raise TrajectoryError(
+                f"balance window: max_lean must be in [0, 0.8) rad, got {max_lean}"
+            )
+        if int(samples) != samples or samples < 2:
+            raise TrajectoryError(f"balance window: samples must be an integer >= 2, got {samples}")
+        q = robot.configuration("stand") if q is None else robot.check_configuration(q).copy()
+        prob = _Problem(robot, q, com_height, hold_arms)
+        upright = prob.extreme(0.0)
+        reach = prob.extreme(max_lean)
+        offsets = np.linspace(0.0, reach, int(samples))
+        rolls = np.zeros_like(offsets)
+        qq = prob.q0.copy()
+        for k, d in enumerate(offsets):
+            qq = prob.lean_solve(qq, d, max_lean)
+            rolls[k] = prob.roll(qq)
+            # the offset reached (near the edge the lean bound may stop short of the ask)
+            offsets[k] = float((robot.com(qq) - prob.mid) @ prob.left)
+        offsets = np.maximum.accumulate(offsets)
+        return cls(
+            offsets=offsets,
+            rolls=rolls,
+            max_lateral=float(reach),
+            upright=float(upright),
+            max_lean=float(max_lean),
+            com_height=float(prob.height),
+            half_width=float(prob.half_width),
+        )
+
+
+class _Problem:
+    """Both soles fixed at their placements in ``q``, the CoM at ``height``."""
+
+    def __init__(self, robot: Any, q: np.ndarray, height: float | None, hold_arms: bool) -> None:
+        self.robot = robot
+        self.model, self.data = robot.model, robot.data
+        self.q0 = q
+        self.soles = [robot.frame_placement(q, f) for f in ("l_sole", "r_sole")]
+        self.fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]
+        self.height = float(robot.com(q)[2]) if height is None else float(height)
+        R = self.soles[0].rotation
+        heading = float(np.arctan2(R[1, 0], R[0, 0]))
+        self.fwd = np.array([np.cos(heading), np.sin(heading), 0.0])
+        self.left = np.array([-np.sin(heading), np.cos(heading), 0.0])
+        mid = 0.5 * (self.soles[0].translation + self.soles[1].translation)
+        self.mid = mid
+        self.half_width = 0.5 * float(
+            (self.soles[0].translation - self.soles[1].translation) @ self.left
+        )
+        self.com_x = float((robot.com(q) - mid) @ self.fwd)
+        self.tilt0 = np.zeros(2)
+        nv = self.model.nv
+        self.free = np.ones(nv, dtype=bool)
+        if hold_arms:
+            for s in "lr":
+                for j in ("shoulder_pitch", "shoulder_roll", "elbow"):
+                    name = f"{s}_{j}"
+                    if name in robot.joint_names:
+                        self.free[robot.v_index(name)] = False
+        self.tilt0 = self._rows(q)[4]  # "upright" is the start pose's own torso lean
+
+    # ------------------------------------------------------------------ linearisation
+    def _rows(self, q: np.ndarray):
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        com = pin.centerOfMass(model, data, q)
+        Jc = pin.jacobianCenterOfMass(model, data, q)
+        Js, es = [], []
+        for fid, target in zip(self.fids[:2], self.soles, strict=True):
+            Js.append(pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL))
+            es.append(pin.log6(data.oMf[fid].inverse() * target).vector)
+        Rt = data.oMf[self.fids[2]].rotation
+        Jw = pin.computeFrameJacobian(model, data, q, self.fids[2], pin.LOCAL_WORLD_ALIGNED)[3:]
+        z = Rt[:, 2]
+        # d z = w x z = -[z]x w: the torso up-axis' horizontal components (its tilt)
+        skew = np.array([[0, -z[2], z[1]], [z[2], 0, -z[0]], [-z[1], z[0], 0]])
+        Jz = -skew @ Jw
+        # sin(pitch)-like, -sin(roll)-like, relative to the start pose's own lean
+        tilt = np.array([z @ self.fwd, z @ self.left]) - self.tilt0
+        Jtilt = np.vstack([self.fwd @ Jz, self.left @ Jz])
+        return com, Jc, np.vstack(Js), np.concatenate(es), tilt, Jtilt
+
+    def _bounds(self, q: np.ndarray, trust: float) -> tuple[np.ndarray, np.ndarray]:
+        nv = self.model.nv
+        lb = np.full(nv, -trust)
+        ub = np.full(nv, trust)
+        j = q[7:]
+        lb[6:] = np.maximum(lb[6:], self.robot.q_min - j)
+        ub[6:] = np.minimum(ub[6:], self.robot.q_max - j)
+        lb = np.minimum(lb, 0.0)
+        ub = np.maximum(ub, 0.0)
+        lb[~self.free] = 0.0
+        ub[~self.free] = 0.0
+        return lb, ub
+
+    def _qp(
+        self,
+        q: np.ndarray,
+        H: np.ndarray,
+        g: np.ndarray,
+        trust: float,
+        G: np.ndarray | None = None,
+        h: np.ndarray | None = None,
+    ) -> np.ndarray | None:
+        """min 1/2 dq' H dq + g' dq s.t. G dq <= h, within the bounds, held joints fixed
+        (None if the solver failed)."""
+        from qpsolvers import solve_qp
+
+        f = self.free
+        lb, ub = self._bounds(q, trust)
+        Gf = None if G is None else G[:, f]
+        sol = solve_qp(H[np.ix_(f, f)], g[f], G=Gf, h=h, lb=lb[f], ub=ub[f], solver="quadprog")
+        if sol is None:
+            return None
+        dq = np.zeros(self.model.nv)
+        dq[f] = sol
+        return dq
+
+    def roll(self, q: np.ndarray) -> float:
+        """Torso roll about the heading axis (rad): positive tilts its top to the right."""
+        pin.framesForwardKinematics(self.model, self.data, q)
+        z = self.data.oMf[self.fids[2]].rotation[:, 2]
+        return float(-np.arcsin(np.clip(z @ self.left, -1.0, 1.0)))
+
+    # ------------------------------------------------------------------ the two solves
+    def extreme(self, max_lean: float, iterations: int = 60) -> float:
+        """Largest lateral CoM offset toward the left sole (SLP with a shrinking trust
+        region), torso tilt within ``max_lean``."""
+        from scipy.optimize import linprog
+
+        q = self.q0.copy()
+        trust = 0.05
+        s = np.sin(max_lean)
+        best = -np.inf
+        for _ in range(iterations):
+            com, Jc, Js, es, tilt, Jt = self._rows(q)
+            lb, ub = self._bounds(q, trust)
+            A_eq = np.vstack([Js, Jc[2:3], self.fwd @ Jc])
+            b_eq = np.concatenate(
+                [es, [self.height - com[2]], [self.com_x - (com - self.mid) @ self.fwd]]
+            )
+            # |tilt + Jt dq| <= sin(max_lean), per component
+            A_ub = np.vstack([Jt, -Jt])
+            b_ub = np.concatenate([s - tilt, s + tilt])
+            res = linprog(
+                -(self.left @ Jc),
+                A_ub=A_ub,
+                b_ub=np.maximum(b_ub, 0.0),
+                A_eq=A_eq,
+                b_eq=b_eq,
+                bounds=list(zip(lb, ub, strict=True)),
+                method="highs",
+            )
+            if res.status != 0:
+                trust *= 0.5
+                if trust < 1e-5:
+                    break
+                continue
+            q_new = pin.integrate(self.model, q, res.x)
+            com_new = self.robot.com(q_new)
+            y_new = float((com_new - self.mid) @ self.left)
+            _, _, _, es_new, tilt_new, _ = self._rows(q_new)
+            ok = np.linalg.norm(es_new) < 1e-3 and np.max(np.abs(tilt_new)) <= s + 1e-3
+            if ok and y_new >= best - 1e-6:
+                q = q_new
+                step = float(np.max(np.abs(res.x)))
+                best = max(best, y_new)
+                if step < 1e-4:
+                    break
+            else:
+                trust *= 0.5
+                if trust < 1e-5:
+                    break
+        # a few corrections onto the constraints, then measure
+        q = self._project(q, max_lean)
+        return float((self.robot.com(q) - self.mid) @ self.left)
+
+    def _project(self, q: np.ndarray, max_lean: float) -> np.ndarray:
+        """Newton steps onto the soles and the CoM height (least norm, bounded)."""
+
+        for _ in range(10):
+            com, Jc, Js, es, _, _ = self._rows(q)
+            A = np.vstack([Js, Jc[2:3]])
+            b = np.concatenate([es, [self.height - com[2]]])
+            if np.linalg.norm(b) < 1e-10:
+                break
+            nv = self.model.nv
+            sol = self._qp(q, A.T @ A * 1e4 + 1e-6 * np.eye(nv), -1e4 * A.T @ b, 0.1)
+            if sol is None:
+                break
+            q = pin.integrate(self.model, q, sol)
+        return q
+
+    def lean_solve(
+        self, q: np.ndarray, lateral: float, max_lean: float, iterations: int = 40
+    ) -> np.ndarray:
+        """Soles and CoM (at ``lateral`` toward the left) first (weight 1e6), then the
+        torso's pitch at the start's (:data:`W_PITCH`), its roll upright (:data:`W_ROLL`)
+        and a posture toward the start pose (:data:`W_POSTURE`); joint limits hard."""
+
+        target = self.mid + self.com_x * self.fwd + lateral * self.left
+        target[2] = self.height
+        nv = self.model.nv
+        for _ in range(iterations):
+            com, Jc, Js, es, tilt, Jt = self._rows(q)
+            A1 = np.vstack([Js, Jc])
+            b1 = np.concatenate([es, target - com])
+            dpost = np.zeros(nv)
+            dpost[6:] = self.q0[7:] - q[7:]
+            Wt = np.array([W_PITCH, W_ROLL])[:, None]
+            H = 1e6 * A1.T @ A1 + Jt.T @ (Wt * Jt) + W_POSTURE * np.eye(nv)
+            g = -(1e6 * A1.T @ b1 - Jt.T @ (Wt[:, 0] * tilt) + W_POSTURE * dpost)
+            # the torso tilt within max_lean (linearised): |tilt + Jt dq| <= sin(max_lean)
+            lim = np.sin(max_lean)
+            G = np.vstack([Jt, -Jt])
+            h = np.maximum(np.concatenate([lim - tilt, lim + tilt]), 0.0)
+            sol = self._qp(q, H, g, 0.1, G, h)
+            if sol is None:
+                raise TrajectoryError("balance window: the lean solve failed (quadprog)")
+            q = pin.integrate(self.model, q, sol)
+            if np.max(np.abs(sol)) < 1e-9:
+                break
+        return q
