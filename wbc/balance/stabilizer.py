@@ -42,12 +42,12 @@ from .estimator import StateEstimate, StateEstimator
 class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
-    k_p: float = 1.0  # rad/rad torso tilt
+    k_p: float = 1.5  # rad/rad torso tilt
     k_i: float = 0.0  # 1/s
-    k_d: float = 0.0  # s
+    k_d: float = 0.1  # s
     k_dcm: float = 0.0  # m/m
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
-    k_yaw: float = 0.0  # 0..1: share of the heading error fed back (needs a gyro heading)
+    k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
     max_offset: float = 0.2  # rad, per joint

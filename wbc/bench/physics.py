@@ -20,7 +20,7 @@ deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
 Robustness (``--robustness N --seed S``): N randomised models (:func:`random_model`);
 ``up_fraction`` = the share that stay up. Push (``--push``): a 10 ms force on the torso at
 mid first single support, lateral (away from the swing foot) and forward (+x); the largest
-impulse survived (N·s) by bisection over 0–1.5 N·s.
+impulse survived (N·s) by bisection over 0–3 N·s.
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIG
 FALL_TILT_DEG = 45.0
 FALL_HEIGHT = 0.6
 PUSH_DURATION = 0.01
-PUSH_MAX_NS = 1.5
-PUSH_STEPS = 6
+PUSH_MAX_NS = 3.0
+PUSH_STEPS = 7
 #: the default solvers of --physics: one per controller (the QP backends give the same joints)
 DEFAULT_SOLVERS = (
     "wqp-daqp", "hqp-daqp", "qp-vat", "qp-vatl", "qp-cj_foot", "qp-cj_com", "qp-cjl_foot",
@@ -58,6 +58,7 @@ PHYSICS_KEYS: dict[str, tuple[str, str]] = {
     "fall_phase": ("support phase at the fall", ""),
     "fall_joint": ("most loaded joint before the fall", ""),
     "orientation_dev_max_deg": ("max base orientation deviation from plan", "deg"),
+    "torso_ref_dev_max_deg": ("max torso deviation from the reference's orientation", "deg"),
     "distance_ratio": ("travelled / planned distance", ""),
     "foot_slip_max_mm": ("max foot slip while in support", "mm"),
     "tracking_err_max_deg": ("max joint tracking error", "deg"),
@@ -154,8 +155,10 @@ def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(Ra.T @ Rb) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
-    """The physics figures of one simulated run (see the module docstring)."""
+def physics_record(rec: Recording, result, robot: Robot, ref=None) -> dict[str, Any]:
+    """The physics figures of one simulated run (see the module docstring); with the walking
+    reference ``ref``, also ``torso_ref_dev_max_deg``: the largest angle between the real
+    torso and the torso orientation the reference asks for (the plan may deviate from it)."""
     log = result.log
     t = log["t"] - result.playback_start
     q_real = log["q"]
@@ -186,6 +189,15 @@ def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
     else:
         record["fall_phase"] = record["fall_joint"] = None
     record["orientation_dev_max_deg"] = float(dev[:upto].max()) if upto else 0.0
+    if ref is not None:
+        from ..walking.loop import heading_free
+
+        start = pin.XYZQUATToSE3(rec.q[0, :7]).rotation  # the base is the torso
+        wanted = ref.torso_rotations(heading_free(start))
+        k_ref = np.clip(np.round((t + rec.t[0] - ref.t[0]) / ref.dt).astype(int), 0, ref.n - 1)
+        played = np.arange(n) < upto
+        rdev = [_angle(wanted[k_ref[k]], _rotation(q_real[k, 3:7])) for k in np.flatnonzero(played)]
+        record["torso_ref_dev_max_deg"] = float(max(rdev)) if rdev else 0.0
     # distance along the planned displacement of the base (playback part only)
     play_end = min(upto, int(np.searchsorted(t, rec_t[-1], side="right")))
     d_plan = q_plan[play_end - 1, :2] - q_plan[0, :2] if play_end else np.zeros(2)
@@ -366,7 +378,7 @@ def simulate(
     plan) is what the run is measured against."""
     if closed is not None:
         result, loop = play_closed_loop(closed, robot, variation, push, settle, compensate)
-        record = physics_record(rec, result, robot)
+        record = physics_record(rec, result, robot, closed.ref)
         record.update(closed_loop_figures(loop))
         return record
     from ..sim.play import play
@@ -596,7 +608,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                     records.append({"solver": entry.name, "family": entry.family,
                                     "trajectory": name, "error": str(exc)})  # fmt: skip
                     continue
-                r = physics_record(rec, result, robot)
+                r = physics_record(rec, result, robot, ref)
                 r.update(extra)
                 r["loop"] = "open" if spec is None else "closed"
                 r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
@@ -629,7 +641,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         title += f", compliance feed-forward ×{comp:g}" if comp else ""
         title += ", open vs closed loop" if closed_loop else ""
         table = Table(title=title + (f", gyro feedback ×{gyro:g} (open)" if gyro else ""))
-        cols = ["solver", "loop", "fell s", "dev°", "dist", "slip", "err°", "rms°", "τ/τs"]
+        cols = ["solver", "loop", "fell s", "dev°", "ref°", "dist", "slip", "err°", "rms°", "τ/τs"]
         cols += ["CoP mm", "lift mm"]
         if args.robustness:
             cols.append(f"up/{args.robustness}")
@@ -643,6 +655,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 r["loop"],
                 "-" if not r["fell"] else f"{r['fall_time_s']:.2f}",
                 f"{r['orientation_dev_max_deg']:.1f}",
+                f"{r['torso_ref_dev_max_deg']:.1f}",
                 "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}",
                 f"{r['foot_slip_max_mm']:.1f}",
                 f"{r['tracking_err_max_deg']:.1f}",
