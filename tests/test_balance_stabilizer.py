@@ -73,7 +73,7 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
     q = standing(robot)
     t = targets_at(robot, q)
     R_true = pin.rpy.rpyToMatrix(roll, pitch, 0.0) @ t.torso_rotation
-    gains = Gains(k_p=k_p, max_tilt=0.2)
+    gains = Gains(k_p=k_p, k_d=0.0, k_yaw=0.0, max_tilt=0.2)  # tilt only
     out = stabilizer(robot, q, R_true, gains).adjust(t, np.zeros(3), q, 0.01)
     e = pin.log3(R_true @ t.torso_rotation.T)
     e[2] = 0.0
@@ -84,6 +84,13 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
     if k_p * np.linalg.norm(e) < 0.2:
         assert np.allclose(turn, -k_p * e, atol=2e-3)
     assert np.array_equal(out.com, t.com)  # k_dcm = 0: the CoM target is untouched
+    # k_yaw = 1 (the default): the heading error is turned back too
+    R_yawed = pin.rpy.rpyToMatrix(0.0, 0.0, 0.1) @ R_true
+    out = stabilizer(robot, q, R_yawed, Gains(k_p=1.0, k_d=0.0, max_tilt=0.5)).adjust(
+        t, np.zeros(3), q, 0.01
+    )
+    full = pin.log3(R_yawed @ t.torso_rotation.T)
+    assert np.allclose(pin.log3(out.torso_rotation @ t.torso_rotation.T), -full, atol=2e-3)
 
 
 _ROBOT = load_robot()

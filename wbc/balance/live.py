@@ -17,6 +17,7 @@ compliance feed-forward) → the deployment's clamping, rate limit and watchdog 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -50,12 +51,14 @@ class SessionSource(CallableSource):
             if q is None:
                 return None
             j = q[7:].copy()
+            start = time.perf_counter()
             offsets = session.stabilizer.joint_offsets(j) if session.stabilizer else None
-            if offsets is not None:
+            if offsets is not None:  # joint-level feedback (counted with the feedback)
                 j = np.clip(j + offsets, robot.q_min, robot.q_max)
+            extra = time.perf_counter() - start if offsets is not None else 0.0
             excess = float(np.max(np.maximum(robot.q_min - j, j - robot.q_max)))
             self.limit_excess = max(self.limit_excess, excess)
-            self.feedback_time.append(session.feedback_time)
+            self.feedback_time.append(session.feedback_time + extra)
             self.solve_time.append(session.solve_time)
             return j
 
