@@ -5,16 +5,22 @@ none), updates the :class:`~wbc.balance.estimator.StateEstimator`, and changes t
 the controller is about to track (:class:`~wbc.walking.loop.TickTargets`), so every solver
 family (QP stacks, placo, pink) gets the same feedback through the tasks it already has:
 
-* **torso (ankle/hip strategy, the torso orientation task)** — with ``e`` the world-frame
-  tilt error of the torso (``e = z_ref × z_est``: roll/pitch only, the heading is not fed
-  back) and ``ω`` the gyro rate (world frame, its vertical part removed), the torso target
-  becomes ``Exp(−(k_p e + k_i ∫e + k_d ω)) · R_ref``. With the soles held by the floor, the
-  legs' joints turn the body back by the commanded counter-rotation: each compliant servo's
-  extra torque opposes the sag (``k_i``: the steady part of it), ``k_d`` damps the sway.
-* **DCM (capture point) on the CoM reference** — ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)``
-  (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref`` from the reference's CoM and velocity:
-  when the CoM runs ahead of its plan the commanded CoM goes back, which pushes the CoP the
-  other way (the servos' stiffness turns the posture error into ankle/hip torque).
+* **torso (ankle/hip strategy, the torso orientation task; on by default)** — with
+  ``e = log(R_est R_refᵀ)`` the torso's orientation error in the world frame (its vertical,
+  heading part scaled by ``k_yaw``) and ``ω`` the gyro rate (world frame, vertical part scaled
+  by ``k_yaw``), the torso target becomes ``Exp(−(k_p e + k_i ∫e + k_d ω)) · R_ref``. With the
+  soles held by the floor, the legs' joints turn the body back by the commanded
+  counter-rotation: each compliant servo's extra torque opposes the sag, ``k_d`` damps the
+  sway, ``k_i`` takes the steady part;
+* **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
+  ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
+  from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
+  behind it;
+* **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
+  ``−k_lean h (e × z)``;
+* **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
+  axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
+  :class:`wbc.balance.live.SessionSource`).
 
 Each term is clipped (``max_tilt`` rad, ``max_shift`` m), and the joint limits stay hard in
 every solver (and the deployment clamps again): no goal ever leaves a joint limit.
