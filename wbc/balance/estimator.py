@@ -148,10 +148,13 @@ class StateEstimator:
         torso_b = self.torso_b  # torso in the base frame
         # heading (and, encoders only, the whole rotation) from the first stance sole
         name0, anchor0 = stance[0]
-        R_kin = anchor0.rotation @ soles[name0].rotation.T  # base rotation
+        imu = self.use_imu and reading is not None
+        R_kin = None
+        if self.rotation is None or not imu or not self.gyro_heading:
+            R_kin = anchor0.rotation @ soles[name0].rotation.T  # base rotation
         if self.rotation is None:
             self.reset(R_kin @ torso_b)
-        if self.use_imu and reading is not None:
+        if imu:
             R_t = self._orientation(reading, dt)
             if not self.gyro_heading:  # keep the filter's tilt, the heading of the kinematics
                 yaw_kin = _yaw(R_kin @ torso_b)
@@ -172,14 +175,16 @@ class StateEstimator:
         com = base + R_base @ com_b
         common = [s for s in rel if s in self._rel]
         if common and dt > 0:
-            raw = sum(rel[s] - self._rel[s] for s in common) / (dt * len(common))
-            alpha = float(np.exp(-2.0 * np.pi * self.cutoff * dt))
-            self.com_vel = alpha * self.com_vel + (1.0 - alpha) * raw
+            raw = rel[common[0]] - self._rel[common[0]]
+            if len(common) == 2:
+                raw = 0.5 * (raw + rel[common[1]] - self._rel[common[1]])
+            alpha = math.exp(-2.0 * math.pi * self.cutoff * dt)
+            self.com_vel = alpha * self.com_vel + ((1.0 - alpha) / dt) * raw
         self._rel = rel
         dcm = com + self.com_vel / self.omega0
         dcm[2] = com[2]
-        self.last = StateEstimate(self.rotation.copy(), base, com, self.com_vel.copy(), dcm,
-                                  np.asarray(omega, dtype=float).copy())  # fmt: skip
+        # (fresh arrays every tick: the filter's state is reassigned, never written in place)
+        self.last = StateEstimate(self.rotation, base, com, self.com_vel, dcm, omega)
         return self.last
 
 
