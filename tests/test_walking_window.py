@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from wbc.bench import trajectories as traj
 from wbc.exceptions import ConfigurationError, TrajectoryError
@@ -22,6 +24,19 @@ def window(robot):
 @pytest.fixture(scope="module")
 def start(robot):
     return StandingState.from_robot(robot)
+
+
+@pytest.fixture(scope="module")
+def named(robot):
+    """The named trajectories, each built once for this module (a build measures a window)."""
+    cache: dict = {}
+
+    def get(name):
+        if name not in cache:
+            cache[name] = traj.build(name, robot)
+        return cache[name]
+
+    return get
 
 
 def test_whole_body_window_is_wider_than_the_legs_alone(robot, window, start):
@@ -109,14 +124,14 @@ def test_session_asks_the_torso_for_the_planned_roll(robot, window, start):
 
 
 @pytest.mark.parametrize("name", ["walk10_wb", "fast_wb", "turn_wb", "lateral_wb"])
-def test_named_whole_body_walks_keep_the_zmp_10mm_inside(robot, name):
-    ref = traj.build(name, robot)
+def test_named_whole_body_walks_keep_the_zmp_10mm_inside(named, name):
+    ref = named(name)
     assert ref.zmp_margin().min() >= 0.010 - 1e-9
     assert ref.meta["check"]["window_margin"] > 0
 
 
-def test_fast_walk_is_faster_than_6cm_per_s(robot):
-    ref = traj.build("fast_wb", robot)
+def test_fast_walk_is_faster_than_6cm_per_s(named):
+    ref = named("fast_wb")
     start = 0.5 * (ref.l_sole[0, :2] + ref.r_sole[0, :2])
     end = 0.5 * (ref.l_sole[-1, :2] + ref.r_sole[-1, :2])
     assert np.linalg.norm(end - start) / ref.duration >= 0.06
@@ -130,10 +145,10 @@ def test_bad_max_lean_in_robot_data_names_the_key(robot, monkeypatch):
 
 
 @pytest.mark.parametrize("name", ["fast_wb", "turn_wb", "lateral_wb", "static_walk"])
-def test_new_walks_ask_a_realistic_share_of_the_servo_speed(robot, name):
+def test_new_walks_ask_a_realistic_share_of_the_servo_speed(robot, named, name):
     from wbc.walking.feasibility import PLANNING_SPEED_FRACTION
 
-    ref = traj.build(name, robot)
+    ref = named(name)
     rep = kinematic_feasibility(robot, ref, hold_arms=False, iterations=4)
     assert rep.feasible, rep
     assert rep.max_joint_speed <= PLANNING_SPEED_FRACTION * float(np.min(robot.v_max)), rep
@@ -144,3 +159,28 @@ def test_walk10_asks_more_than_the_servo_can(robot):
     rep = kinematic_feasibility(robot, traj.build("walk10", robot), hold_arms=False, iterations=4)
     assert rep.max_joint_speed > float(np.min(robot.v_max))
     assert rep.speed_joint.endswith("knee")
+
+
+def test_an_upright_reference_asks_the_torso_exactly_as_before(start):
+    """No planned roll: the torso targets equal the heading-only ones (kinematic benchmark
+    of the existing trajectories unchanged)."""
+    from wbc.walking.loop import torso_target
+
+    ref = forward_walk(start, 2)
+    lean = pin.rpy.rpyToMatrix(0.01, -0.02, 0.0)
+    got = ref.torso_rotations(lean)
+    for i in range(0, ref.n, 7):
+        np.testing.assert_allclose(got[i], torso_target(float(ref.torso_yaw[i]), lean), atol=1e-15)
+
+
+@settings(
+    max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.floats(-0.08, 0.08), st.floats(-0.08, 0.08))
+def test_roll_is_odd_and_grows_with_the_offset(window, a, b):
+    """Law: the lean mirrors with the CoM and never shrinks as the CoM goes further out."""
+    ra, rb, rma = window.roll_for(np.array([a, b, -a]))
+    assert rma == pytest.approx(-ra, abs=1e-12)
+    if abs(a) <= abs(b):
+        assert abs(ra) <= abs(rb) + 1e-12
+    assert abs(ra) <= window.max_lean + 1e-3

@@ -7,6 +7,9 @@ Typical use::
     ref = thesis_step(start)                          # ch. 4: 100 poses, static gait
     ref = thesis_lipm_step(start)                     # ch. 4.1.2: the same with a 3-D LIPM CoM
     ref = forward_walk(start, n_steps=10, generator="mpc")   # preview | mpc | lipm
+    window = BalanceWindow.from_robot(robot)          # whole body: torso lean, arms
+    ref = static_walk(start, window)                  # CoM over the stance sole
+    ref = forward_walk(start, 10, zmp_offset=(0, 0.018), margin=0.01, window=window)
     ref.com[i], ref.sole_placement(i, "left"), ref.support[i], ref.swing_side(i)
 
 Every builder checks its reference before returning it (:func:`check_reference`: ZMP or
@@ -27,10 +30,13 @@ from .preview import PreviewController, PreviewParams
 from .reference import StandingState, WalkingReference
 from .schedule import GaitTiming, SwingParams
 from .spline import CubicSpline, QuinticSegment, min_jerk
+from .static_walk import StaticWalkParams, static_walk
 from .thesis_step import ThesisStepParams, thesis_lipm_step, thesis_step
+from .window import BalanceWindow
 
 __all__ = [
     "GENERATORS",
+    "BalanceWindow",
     "CheckReport",
     "CubicSpline",
     "FeasibilityReport",
@@ -46,6 +52,7 @@ __all__ = [
     "PreviewParams",
     "QuinticSegment",
     "StandingState",
+    "StaticWalkParams",
     "SwingParams",
     "ThesisStepParams",
     "WalkingReference",
@@ -60,6 +67,7 @@ __all__ = [
     "plan_footsteps",
     "polygon_distance",
     "signed_distance",
+    "static_walk",
     "support_polygon",
     "thesis_lipm_step",
     "thesis_step",

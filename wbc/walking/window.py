@@ -63,8 +63,7 @@ class BalanceWindow:
         zero within the upright window would be ideal, the table's solves give the
         smallest tilt the body needs (linear interpolation, odd in the offset)."""
         y = np.asarray(lateral, dtype=float)
-        mag = np.interp(np.abs(y), self.offsets, self.rolls)
-        return np.where(y >= 0, mag, -mag)
+        return np.sign(y) * np.interp(np.abs(y), self.offsets, self.rolls)
 
     def inside(self, lateral: np.ndarray | float, margin: float = 0.0) -> np.ndarray:
         """Whether lateral offsets lie within the window less ``margin``."""
@@ -116,6 +115,8 @@ class BalanceWindow:
             # the offset reached (near the edge the lean bound may stop short of the ask)
             offsets[k] = float((robot.com(qq) - prob.mid) @ prob.left)
         offsets = np.maximum.accumulate(offsets)
+        # zero at the mid-stance (odd in the offset), within the lean allowed
+        rolls = np.clip(rolls - rolls[0], -max_lean, max_lean)
         return cls(
             offsets=offsets,
             rolls=rolls,
@@ -321,3 +322,35 @@ class _Problem:
             if np.max(np.abs(sol)) < 1e-9:
                 break
         return q
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the Bioloid's balance windows: ``python -m wbc.walking.window``."""
+    from ..model import load_robot
+    from .legs import LegGeometry
+    from .reference import StandingState
+
+    robot = load_robot("bioloid")
+    start = StandingState.from_robot(robot)
+    half = 0.5 * float(start.left.y - start.right.y)
+    legs = LegGeometry().max_com_lateral(float(start.com[2]), half)
+    print(f"sole centre {half * 1e3:.1f} mm, inner edge {(half - 0.0305) * 1e3:.1f} mm from mid")
+    print(f"legs-only model (LegGeometry, torso upright, arms idle): {legs * 1e3:.1f} mm")
+    for arms in (True, False):
+        for lean in (0.0, 5.0, 10.0, 15.0, 20.0):
+            w = BalanceWindow.from_robot(robot, max_lean=np.deg2rad(lean), hold_arms=arms)
+            table = ", ".join(
+                f"{o * 1e3:.0f} mm {np.rad2deg(r):+.1f}°"
+                for o, r in zip(w.offsets[::2], w.rolls[::2], strict=True)
+            )
+            print(
+                f"arms {'held' if arms else 'free'}, lean <= {lean:4.1f}°: max lateral "
+                f"{w.max_lateral * 1e3:5.1f} mm (upright {w.upright * 1e3:.1f} mm); roll: {table}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(main())
