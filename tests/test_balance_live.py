@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "closed_loop_own_robot.py"
+EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "closed_loop_own_robot.py"
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ compliance feed-forward) → the deployment's clamping, rate limit and watchdog 
     loop = closed_loop(my_bus, robot, controller, ref, imu=my_imu)
     result = loop.deployment.run()
 
-(``examples/closed_loop_own_robot.py``: a user's own simulator driving it.)
+(``docs/examples/closed_loop_own_robot.py``: a user's own simulator driving it.)
 """
 
 from __future__ import annotations
