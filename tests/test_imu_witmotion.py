@@ -138,3 +138,31 @@ def test_deploy_imu_options(capsys):
     assert wbc_main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--imu /dev/nope: cannot open the port" in err[0]
+
+
+def test_deploy_picks_the_imu():
+    """--closed-loop's IMU: the simulated torso IMU on --sim, a WitMotion reader on --imu
+    PORT, none with --encoders-only (and not both)."""
+    import argparse
+
+    from wbc.servos.deploy import _imu
+
+    class FakeSimBus:
+        sim = None
+
+    args = argparse.Namespace(encoders_only=True, imu=None, imu_baud=115200)
+    assert _imu(args, FakeSimBus()) is None
+    args = argparse.Namespace(encoders_only=False, imu="/dev/ttyUSB1", imu_baud=115200)
+    imu = _imu(args, FakeSimBus())
+    assert isinstance(imu, WitImu) and imu.port == "/dev/ttyUSB1" and imu.serial is None
+    args = argparse.Namespace(encoders_only=True, imu="/dev/ttyUSB1", imu_baud=115200)
+    with pytest.raises(Exception, match="either --imu PORT or --encoders-only"):
+        _imu(args, FakeSimBus())
+    args = argparse.Namespace(encoders_only=False, imu=None, imu_baud=115200)
+    with pytest.raises(Exception, match="needs the torso IMU"):
+        _imu(args, FakeSimBus())
+    from wbc.model import load_robot
+    from wbc.sim.bus import SimImu, SimServoBus
+    from wbc.sim.simulator import Simulation
+
+    assert isinstance(_imu(args, SimServoBus(Simulation(load_robot()))), SimImu)
