@@ -141,3 +141,24 @@ def test_closed_loop_spec_reaches_every_run(robot, standing, monkeypatch):
     with pytest.raises(RuntimeError):
         physics.simulate(standing, robot, push=(0.1, [1.0, 0, 0], 0.01), closed=spec)
     assert seen[1][0] is spec and seen[1][2][0] == 0.1
+
+
+def test_kokone_randomised_models_spread_around_its_hobby_servo():
+    """--robustness on Kokone: the AX-12A's draws as factors of the BMS-380MAX's values."""
+    from wbc import load_robot
+    from wbc.sim.actuator import HobbyServoParams, nominal_servo
+
+    kokone = load_robot("kokone")
+    nominal = nominal_servo(kokone)
+    variations = physics.models(kokone, 8, seed=3)
+    for v in variations:
+        sp, mp, s = v.servo_params, v.model_params, v.summary
+        assert isinstance(sp, HobbyServoParams)
+        band = nominal.proportional_band_us / s["stiffness"]
+        assert sp.proportional_band_us == pytest.approx(band)
+        assert 0.8 * nominal.stall_torque <= sp.stall_torque <= nominal.stall_torque
+        assert 0.7 * nominal.damping <= mp.damping <= 1.3 * nominal.damping
+        assert 0.4 * nominal.armature <= mp.armature == sp.armature <= 2 * nominal.armature
+        assert 0.4 * nominal.friction_loss <= sp.friction_loss <= 2 * nominal.friction_loss
+    again = physics.models(kokone, 8, seed=3)
+    assert [v.summary for v in again] == [v.summary for v in variations]

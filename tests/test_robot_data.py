@@ -60,3 +60,31 @@ def test_frame_names_map_through_robot_data(tmp_path, kokone):
     (folder / "robot.toml").write_text('[frames]\ntorso = "pelvis"\n')
     with pytest.raises(ModelError, match=r"'torso' is mapped to 'pelvis', which is not a frame"):
         load_robot(folder)
+
+
+def test_servo_and_imu_tables_are_checked(tmp_path, kokone):
+    """``[servo]`` / ``[imu]``: tables, checked by ``wbc robot check`` in one line each."""
+    import shutil
+
+    from wbc.robot_folder import check_folder
+
+    folder = tmp_path / "kokone"
+    shutil.copytree(KOKONE, folder)
+    text = (folder / "robot.toml").read_text()
+    assert kokone.robot_data.servo["law"] == "hobby_pwm" and kokone.robot_data.imu == {}
+    ok = [f.message for f in check_folder(folder) if "simulator" in f.message]
+    assert ok == ["simulator: Blue-Bird BMS-380MAX servos on every joint, IMU at 'torso'"]
+    (folder / "robot.toml").write_text('servo = "bms380"\n' + text.split("[feet]")[0])
+    with pytest.raises(ModelError, match=r"\[servo\] must be a table"):
+        RobotData.from_folder(folder, kokone.joint_names)
+    bad = {
+        'law = "hobby_pwm"': 'law = "stepper"',
+        "proportional_band_us = 40.0": "proportional_band_us = 0.0",
+    }
+    for old, new in bad.items():
+        (folder / "robot.toml").write_text(text.replace(old, new))
+        errors = [f.message for f in check_folder(folder) if f.level == "error"]
+        assert len(errors) == 1 and "[servo]" in errors[0], errors
+    (folder / "robot.toml").write_text(text + '\n[imu]\nframe = "nowhere"\n')
+    errors = [f.message for f in check_folder(folder) if f.level == "error"]
+    assert len(errors) == 1 and "[imu]: frame = 'nowhere'" in errors[0]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import time
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from wbc.exceptions import ServoError, WbcError
 from wbc.imu import GRAVITY
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK, ServoSettings
@@ -251,3 +253,127 @@ def test_torque_limit_option_overrides_register_34_at_configure(robot):
 
     with pytest.raises(ServoError, match=r"torque limit must be 0\.\.1023"):
         SimServoBus(sim, torque_limit=2000)
+
+
+# ---------------------------------------------------------------------- SSC-32 over the simulator
+@pytest.fixture(scope="module")
+def kokone():
+    from wbc import load_robot
+
+    return load_robot("kokone")
+
+
+def _kokone_sway(kokone, duration=0.6, rate=RATE):
+    q0 = kokone.configuration("stand")
+    t = np.arange(0.0, duration + 1e-9, 1.0 / rate)
+    q = np.tile(q0, (t.size, 1))
+    q[:, kokone.q_index("r_shoulder_pitch")] += 0.4 * np.sin(np.pi * t / duration) ** 2
+    return Recording(t, q, kokone.joint_names)
+
+
+def test_ssc32_bus_drives_the_simulated_board_with_the_real_backends_bytes(kokone):
+    """SimSsc32Bus is the SSC-32 backend unchanged: its ASCII lines reach the simulated board,
+    one group move per tick with T = the tick, and the servos follow the pulses."""
+    from wbc.servos.ssc32 import Ssc32Bus
+    from wbc.sim.bus import SimSsc32Bus, sim_bus
+
+    rec = _kokone_sway(kokone)
+    sim = Simulation(kokone)
+    sim.reset(rec.q[0])
+    bus = sim_bus(sim, RATE)
+    assert isinstance(bus, SimSsc32Bus) and isinstance(bus, Ssc32Bus) and not bus.can_read
+    result = _deploy(kokone, bus, rec).run()
+    assert result.completed
+    moves = [ln for ln in bus.ser.lines if ln.startswith("#")]
+    assert len(moves) == len(rec) + 1  # the start pose, then one move per tick
+    assert all(ln.endswith(f"T{round(1000 / RATE)}") for ln in moves)
+    assert bus.ser.lines[0] == "VER"
+    j = kokone.joint_index("r_shoulder_pitch")
+    target = np.rint(sim.servos.pulses(rec.q[-1, 7:]))
+    np.testing.assert_array_equal(sim.servos.target, target)  # parsed back from the bytes
+    sim.advance(0.3)
+    assert abs(sim.q()[7 + j] - rec.q[-1, 7 + j]) < math.radians(4.0)  # the arm followed
+    assert sim.time == pytest.approx(len(rec) / RATE + 0.3, abs=2.5 / RATE)  # lockstep
+
+
+def test_cut_signal_wire_goes_unnoticed_by_the_ssc32_deployment(kokone):
+    """What the safety layer says it cannot check: a servo without pulses goes limp and the
+    deployment completes (no feedback)."""
+    from wbc.sim.bus import sim_bus
+
+    rec = _kokone_sway(kokone)
+    sim = Simulation(kokone)
+    sim.reset(rec.q[0])
+    bus = sim_bus(sim, RATE)
+    j = kokone.joint_index("r_shoulder_pitch")
+    bus.inject("silent", j)
+    with pytest.raises(ServoError, match="only 'silent'"):
+        bus.inject("overload", j)
+    result = _deploy(kokone, bus, rec).run()
+    assert result.completed
+    assert not sim.servos.enabled[j] and sim.servos.enabled[np.arange(kokone.n_joints) != j].all()
+    assert sim.joint_torques()[j] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("robot_name", "bus", "message"),
+    [("kokone", "dynamixel", "no servo map"), ("bioloid", "ssc32", "use --bus dynamixel")],
+)
+def test_deploy_sim_needs_the_robots_own_bus(robot_name, bus, message, capsys):
+    parser = argparse.ArgumentParser()
+    deploy_cmd.add_arguments(parser)
+    args = parser.parse_args(["--live", "walk", "--sim", "--robot", robot_name, "--bus", bus])
+    assert deploy_cmd.run(args) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_deploy_kokone_on_the_simulated_ssc32_from_the_command_line(kokone, tmp_path, capsys):
+    path = tmp_path / "sway.npz"
+    _kokone_sway(kokone).save(path)
+    parser = argparse.ArgumentParser()
+    deploy_cmd.add_arguments(parser)
+    args = parser.parse_args([str(path), "--robot", "kokone", "--bus", "ssc32", "--sim"])
+    rc = deploy_cmd.run(args)
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert "on sim" in out and "completed" in out + err
+    assert "cannot check the servos' positions" in out
+    assert re.search(r"^sim: stayed up; torso tilt at most \d+\.\d°", out, flags=re.M)
+
+
+def test_upright_watch_reports_a_fall_and_when(kokone):
+    from wbc.sim.cli import UprightWatch
+
+    for impulse, fell in ((0.0, False), (1.0, True)):
+        sim = Simulation(kokone)
+        sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
+        watch = UprightWatch(sim)
+        sim.push([0.0, impulse / 0.01, 0.0], 0.01, start=0.2)
+        for _ in range(75):  # 1.5 s of 20 ms ticks
+            sim.advance(0.02)
+            watch()
+        assert (watch.fell_at is not None) == fell
+        if fell:
+            assert 0.2 < watch.fell_at < 1.5 and watch.line().startswith("sim: FELL at ")
+        else:
+            assert watch.tilt_max < 10.0 and watch.line().startswith("sim: stayed up")
+
+
+def test_the_ax12a_bus_refuses_hobby_servos(kokone):
+    with pytest.raises(WbcError, match="SimSsc32Bus"):
+        SimServoBus(Simulation(kokone))
+
+
+def test_ssc32_bus_in_real_time_follows_the_wall_clock(kokone):
+    from wbc.sim.bus import sim_bus
+
+    rec = _kokone_sway(kokone, duration=0.4)
+    sim = Simulation(kokone)
+    sim.reset(rec.q[0])
+    bus = sim_bus(sim, RATE, realtime=True)
+    assert bus.clock is None
+    start = time.perf_counter()
+    assert _deploy(kokone, bus, rec).run().completed
+    wall = time.perf_counter() - start
+    assert sim.time == pytest.approx(len(rec) / RATE, abs=3.0 / RATE)
+    assert wall >= 0.9 * sim.time

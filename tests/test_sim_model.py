@@ -1,4 +1,5 @@
-"""The MuJoCo model built from the URDF sees the same robot as pinocchio."""
+"""The MuJoCo model built from the URDF sees the same robot as pinocchio (the Bioloid and
+Kokone: nothing in the model building is Bioloid-specific)."""
 
 from __future__ import annotations
 
@@ -8,8 +9,14 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from wbc import load_robot
 from wbc.sim.model import ModelParams, build_model, build_spec, link_names
 from wbc.sim.simulator import Simulation
+
+
+@pytest.fixture(scope="module", params=["bioloid", "kokone"])
+def robot(request):
+    return load_robot(request.param)
 
 
 @pytest.fixture(scope="module")
@@ -75,6 +82,24 @@ def test_frames_agree_with_pinocchio_at_random_configurations(robot, rng):
             np.testing.assert_allclose(S.translation, M.translation, atol=1e-9)
             np.testing.assert_allclose(S.rotation, M.rotation, atol=1e-9)
         np.testing.assert_allclose(sim.com(), robot.com(q), atol=1e-9)
+        # the IMU sits at the torso frame (robot.toml [imu] default), axes aligned with it
+        imu, T = sim.site_pose("imu"), robot.frame_placement(q, "torso")
+        np.testing.assert_allclose(imu.translation, T.translation, atol=1e-9)
+        np.testing.assert_allclose(imu.rotation, T.rotation, atol=1e-9)
+
+
+def test_joint_properties_are_the_robots_servos(robot, mj_model):
+    """Armature, back-EMF damping (stall / no-load speed) and gear friction of every joint
+    come from the robot's servo model: the AX-12A's, or Kokone's BMS-380MAX."""
+    from wbc.sim.actuator import nominal_servo
+
+    servo = nominal_servo(robot)
+    sim = Simulation(robot)
+    np.testing.assert_allclose(mj_model.dof_armature[sim.vadr], servo.armature)
+    np.testing.assert_allclose(mj_model.dof_frictionloss[sim.vadr], servo.friction_loss)
+    np.testing.assert_allclose(sim.damping, servo.damping)
+    expected = 1.5 / (59 * 2 * np.pi / 60) if robot.name == "bioloid" else 0.412 / 6.545
+    assert servo.damping == pytest.approx(expected, rel=1e-3)
 
 
 def test_randomised_masses_and_coms(robot):
@@ -111,3 +136,23 @@ def test_missing_mujoco_is_one_clear_line(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", fake)
     with pytest.raises(WbcError, match=r"pip install 'wbc\[physics\]'"):
         mujoco_module()
+
+
+def test_imu_placement_comes_from_robot_data(tmp_path):
+    """``robot.toml`` ``[imu]``: the IMU site at a frame plus an offset in that frame."""
+    import shutil
+
+    from wbc.paths import robots_dir
+
+    folder = tmp_path / "kokone"
+    shutil.copytree(robots_dir() / "kokone", folder)
+    with open(folder / "robot.toml", "a") as f:
+        f.write('\n[imu]\nframe = "l_hand"\noffset = [0.01, -0.02, 0.03]\n')
+    robot = load_robot(folder)
+    sim = Simulation(robot)
+    q = sim.q()
+    expected = robot.frame_placement(q, "l_hand").act(np.array([0.01, -0.02, 0.03]))
+    np.testing.assert_allclose(sim.site_pose("imu").translation, expected, atol=1e-9)
+    np.testing.assert_allclose(
+        sim.site_pose("imu").rotation, robot.frame_placement(q, "l_hand").rotation, atol=1e-9
+    )

@@ -34,3 +34,43 @@ def test_a_weighted_mean_of_the_points_is_never_outside(points, weights):
         assert hull_margin(pts, p) >= -1e-9
     for v in convex_hull(pts):  # the hull's vertices lie on its edge
         assert hull_margin(pts, v) == pytest.approx(0.0, abs=1e-7)
+
+
+def test_kokone_smoke_a_short_keypose_walk_through_the_simulated_ssc32():
+    """Kokone's key-pose walk (crouch, CoM over the right foot, left half step; 0.4 s per pose)
+    planned by the ``walk`` stack, played through the SSC-32 backend on the simulator: the
+    physics record of the benchmark comes out, with the hobby servo's stall torque."""
+    import math
+
+    from wbc import load_robot
+    from wbc.bench.physics import physics_record
+    from wbc.bench.trajectories import robot_options
+    from wbc.sim.bus import SimSsc32Bus
+    from wbc.sim.play import play
+    from wbc.stacks import load_stack
+    from wbc.walking.keyposes import KeyPoseParams, keypose_walk
+    from wbc.walking.loop import StackController, run
+    from wbc.walking.reference import StandingState
+
+    kokone = load_robot("kokone")
+    kw = robot_options(kokone, "keyposes")
+    start = StandingState.from_robot(kokone, kokone.configuration("stand"))
+    ref = keypose_walk(start, KeyPoseParams(n_cycles=0, pose_time=0.4, dt=0.02), kw["foot"],
+                       kw["legs"], min_clearance=0.004)  # fmt: skip
+    rec = run(StackController(load_stack("walk", kokone)), kokone, ref)
+    buses = []
+    result = play(rec, kokone, settle=0.2, limit_tol=math.inf, before=buses.append)
+    assert isinstance(buses[0], SimSsc32Bus) and result.deploy.completed
+    assert result.sim.servo_params.stall_torque == pytest.approx(0.412)
+    log = result.log
+    assert len(log["t"]) == 1 + len(rec) + round(0.2 * 50)  # start goals, ticks, settle
+    record = physics_record(rec, result, kokone)
+    for key in ("fell", "orientation_dev_max_deg", "foot_slip_max_mm", "torque_peak_ratio"):
+        assert key in record
+    assert 0.0 < record["torque_peak_ratio"] <= 1.0 + 1e-9  # never above the stall torque
+    # in the crouch of the first pose (0.4 s): the whole weight on the two soles on average
+    # (the joints first sag into the servos' proportional band), the torso at its height
+    first = log["t"] - result.playback_start < 0.4
+    weight = 9.81 * kokone.total_mass
+    assert log["sole_force"][first].sum(axis=1).mean() == pytest.approx(weight, rel=0.1)
+    assert log["q"][first][:, 2].min() > 0.95 * rec.q[0, 2]

@@ -129,3 +129,72 @@ def test_faults_are_validated(robot):
         sim.inject("smoke", 0)
     with pytest.raises(WbcError, match="outside"):
         sim.inject("silent", 18)
+
+
+# ---------------------------------------------------------------------- Kokone: hobby servos
+@pytest.fixture(scope="module")
+def kokone():
+    from wbc import load_robot
+
+    return load_robot("kokone")
+
+
+def _kokone_sim(kokone, gravity: bool = True) -> Simulation:
+    sim = Simulation(kokone)
+    if not gravity:
+        sim.model.opt.gravity[:] = 0.0
+    sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))  # the SSC-32 starts the pulses
+    return sim
+
+
+def test_kokone_stands_in_its_crouch_and_collapses_without_pulses(kokone):
+    sim = _kokone_sim(kokone)
+    R0, z0 = sim.base_rotation(), sim.q()[2]
+    sim.advance(2.0)
+    assert sim.servos.enabled.all()
+    assert _tilt_change(R0, sim.base_rotation()) < 10.0  # sags into the proportional band
+    assert sim.q()[2] > 0.95 * z0
+    _, fz, _ = sim.contacts()
+    assert fz.sum() == pytest.approx(kokone.total_mass * 9.81, rel=0.05)  # at rest on its feet
+    limp = Simulation(kokone)  # no move command: the board sends no pulses
+    limp.advance(1.5)
+    assert not limp.servos.enabled.any()
+    assert limp.q()[2] < 0.8 * z0
+
+
+def test_kokone_servo_tops_out_at_the_no_load_speed(kokone):
+    """Full drive against the back-EMF: the unloaded joint settles at (τ_s − friction) / b,
+    just under the datasheet's 0.16 s/60°; it never exceeds it."""
+    sim = _kokone_sim(kokone, gravity=False)
+    p = sim.servo_params
+    j = kokone.joint_index("head_yaw")
+    goal = np.rint(sim.servos.pulses(sim.q()[7:]))
+    goal[j] = np.rint(sim.servos.pulses(sim.q()[7:])[j] + sim.servos.scale[j] * math.radians(70))
+    sim.write_goals(goal)
+    v = []
+    for _ in range(150):
+        sim.step()
+        v.append(sim.joint_velocities()[j])
+    v = np.abs(v)
+    steady = (p.stall_torque - p.friction_loss) / p.damping
+    assert v.max() <= p.no_load_speed
+    assert v.max() == pytest.approx(steady, rel=0.02)
+    assert abs(sim.q()[7 + j] - math.radians(70)) < math.radians(2.0)  # arrived (dead band)
+
+
+@pytest.mark.parametrize(("load", "sags"), [(0.2, False), (0.6, True)])
+def test_kokone_load_above_the_stall_torque_makes_the_joint_give_way(kokone, load, sags):
+    sim = _kokone_sim(kokone)
+    sim.advance(0.3)
+    j = kokone.joint_index("r_elbow_yaw")  # vertical axis: no gravity load on it
+    q0 = sim.q()[7 + j]
+    sim.data.qfrc_applied[sim.vadr[j]] = load
+    sim.advance(0.5)
+    moved = abs(sim.q()[7 + j] - q0)
+    p, us_per_rad = sim.servo_params, abs(sim.servos.scale[j])
+    held = (p.dead_band_us + load / p.stall_torque * p.proportional_band_us) / us_per_rad
+    if sags:
+        assert moved > 0.3
+        assert abs(sim.joint_torques()[j]) == pytest.approx(p.stall_torque, rel=1e-9)
+    else:  # the servo holds where its drive balances the load
+        assert moved == pytest.approx(held, abs=1.5 / us_per_rad)  # within 1.5 µs of pulse

@@ -19,6 +19,10 @@ robot's folder instead. Two optional files:
     width = 0.04
     [walking.walk10]                 # keyword overrides of a walking reference's builder
     step_length = 0.02
+    [servo]                          # the simulator's servo model (wbc.sim.actuator)
+    law = "hobby_pwm"
+    [imu]                            # where the (simulated) IMU sits
+    frame = "torso"
 
 Without them a robot keeps the defaults: Walk Ready from the servo map if it has one, else the
 zero pose; the Bioloid's feet; the URDF's own frame names; the builders' defaults.
@@ -37,7 +41,7 @@ from .paths import read_toml
 
 ROBOT_FILE = "robot.toml"
 POSES_FILE = "poses.toml"
-ROBOT_KEYS = ("feet", "frames", "stand", "walking")
+ROBOT_KEYS = ("feet", "frames", "imu", "servo", "stand", "walking")
 
 
 @dataclass(frozen=True)
@@ -53,6 +57,10 @@ class RobotData:
     #: per-trajectory keyword overrides for the walking references (``[walking.<name>]``)
     walking: Mapping[str, Mapping[str, object]] = field(default_factory=dict)
     source: str = "<defaults>"
+    #: the servo model of the joints (``[servo]``, checked by :mod:`wbc.sim.actuator`)
+    servo: Mapping[str, object] = field(default_factory=dict)
+    #: the IMU placement (``[imu]`` frame and offset, m; used by :mod:`wbc.sim.model`)
+    imu: Mapping[str, object] = field(default_factory=dict)
 
     @classmethod
     def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
@@ -75,6 +83,11 @@ class RobotData:
             isinstance(v, Mapping) for v in walking.values()
         ):
             raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
+        tables = {}
+        for key in ("servo", "imu"):
+            tables[key] = raw.get(key, {})
+            if not isinstance(tables[key], Mapping):
+                raise ModelError(f"{where}: [{key}] must be a table")
         stand = raw.get("stand")
         if stand is not None and stand not in poses and stand != "zero":
             raise ModelError(
@@ -91,7 +104,9 @@ class RobotData:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
                 raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
             size[key] = float(v)
-        return cls(poses, stand, size["length"], size["width"], frames, walking, str(folder))
+        return cls(
+            poses, stand, size["length"], size["width"], frames, walking, str(folder), **tables
+        )
 
 
 def read_poses(path: Path, joint_names: Sequence[str]) -> dict[str, dict[str, float]]:

@@ -208,6 +208,7 @@ def check_folder(path: str | Path) -> list[Finding]:
     findings += _check_servo_map(robot, folder)
     findings += _check_poses(robot)
     findings += _check_stack(robot, folder)
+    findings += _check_sim(robot)
     return findings
 
 
@@ -300,6 +301,22 @@ def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:
             )
         )
     return out
+
+
+def _check_sim(robot: Robot) -> list[Finding]:
+    """``robot.toml`` ``[servo]`` and ``[imu]``: the simulator's servo model and IMU."""
+    if not (robot.robot_data.servo or robot.robot_data.imu):
+        return []
+    from .sim.actuator import nominal_servo
+    from .sim.model import imu_placement
+
+    try:
+        servo = nominal_servo(robot)
+        frame, _ = imu_placement(robot)
+    except WbcError as exc:
+        return [Finding("error", str(exc))]
+    name = getattr(servo, "name", "AX-12A")
+    return [Finding("ok", f"simulator: {name} servos on every joint, IMU at {frame!r}")]
 
 
 def _check_poses(robot: Robot) -> list[Finding]:

@@ -104,16 +104,22 @@ def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
     """Servo stiffness ×0.7–1.4, back-EMF damping ×0.7–1.3, armature 0.002–0.01 kg·m²,
     gear friction 0.02–0.1 N·m, stall torque ×0.8–1.0, link masses ×0.9–1.1, CoM offsets
     ±3 mm per axis, floor friction 0.5–1.0, IMU gyro noise 0–0.02 rad/s, one-tick latency
-    with probability 1/2."""
-    from ..sim.actuator import ServoParams
+    with probability 1/2. Other servo models (Kokone's hobby servos): the same draws relative
+    to their nominal values (damping ×0.7–1.3, armature and friction ×0.4–2)."""
+    from ..sim.actuator import ServoParams, nominal_servo, servo_kind
     from ..sim.model import ModelParams, build_spec, link_names
 
+    hobby = nominal_servo(robot) if servo_kind(robot) != "ax12a" else None
     n_links = len(link_names(build_spec(robot)))
     stiff = rng.uniform(0.7, 1.4)
     damping = 0.24 * rng.uniform(0.7, 1.3)
     armature = rng.uniform(0.002, 0.01)
     friction = rng.uniform(0.02, 0.1)
     torque = rng.uniform(0.8, 1.0)
+    if hobby is not None:  # the AX-12A's ranges above, as factors of the hobby servo's values
+        damping *= hobby.damping / 0.24
+        armature *= hobby.armature / 0.005
+        friction *= hobby.friction_loss / 0.05
     mp = ModelParams(
         floor_friction=rng.uniform(0.5, 1.0),
         armature=armature,
@@ -122,10 +128,14 @@ def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
         mass_scale=rng.uniform(0.9, 1.1, n_links),
         com_offset=rng.uniform(-0.003, 0.003, (n_links, 3)),
     )
-    sp = ServoParams.from_settings(
-        robot.servo_map.settings, damping=damping, armature=armature, friction_loss=friction
-    ).scaled(stiffness=stiff, torque=torque)
-    sp = replace(sp, stall_torque=sp.stall_torque * torque)
+    if hobby is not None:
+        sp = hobby.scaled(stiffness=stiff, torque=torque)
+        sp = replace(sp, armature=armature, friction_loss=friction)
+    else:
+        sp = ServoParams.from_settings(
+            robot.servo_map.settings, damping=damping, armature=armature, friction_loss=friction
+        ).scaled(stiffness=stiff, torque=torque)
+        sp = replace(sp, stall_torque=sp.stall_torque * torque)
     latency = int(rng.random() < 0.5)
     summary = dict(stiffness=stiff, damping=damping, armature=armature, friction=friction,
                    torque=torque, floor_friction=mp.floor_friction, latency=latency)  # fmt: skip
@@ -637,7 +647,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 records.append(r)
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
-        title = f"physics: {name} (deploy path, simulated AX-12A)"
+        title = f"physics: {name} (deploy path, simulated {_servo_name(robot)})"
         title += f", compliance feed-forward ×{comp:g}" if comp else ""
         title += ", open vs closed loop" if closed_loop else ""
         table = Table(title=title + (f", gyro feedback ×{gyro:g} (open)" if gyro else ""))
@@ -712,6 +722,13 @@ def fall_summary(falls: list[dict[str, Any]]) -> str:
 
 def _ns(v: float | None) -> str:
     return "fell" if v is None else f"{v:.3f}"
+
+
+def _servo_name(robot: Robot) -> str:
+    """The robot's simulated servo model (AX-12A, or its robot.toml [servo] name)."""
+    from ..sim.actuator import nominal_servo
+
+    return getattr(nominal_servo(robot), "name", "AX-12A")
 
 
 def physics_figure(series: dict, rec: Recording, result, path: Path) -> Path:

@@ -1,10 +1,12 @@
 """A simulated robot on MuJoCo, behind the same servo and IMU interfaces as the hardware.
 
-* :mod:`wbc.sim.model` — the MuJoCo model built from the robot's URDF at run time;
-* :mod:`wbc.sim.actuator` — the AX-12A servo law (compliance, punch, torque limit, speed cap);
+* :mod:`wbc.sim.model` — the MuJoCo model built from any robot folder's URDF at run time;
+* :mod:`wbc.sim.actuator` — the servo laws, chosen by the robot's data: the AX-12A
+  (compliance, punch, torque limit, speed cap) or a hobby PWM servo behind an SSC-32;
 * :mod:`wbc.sim.simulator` — :class:`Simulation`: physics stepping, goals, faults, state;
-* :mod:`wbc.sim.bus` — :class:`SimServoBus`, the :class:`~wbc.servos.bus.ServoBus` that
-  ``wbc deploy --sim`` drives, and :class:`SimImu` (:class:`wbc.imu.Imu`).
+* :mod:`wbc.sim.bus` — :class:`SimServoBus` and :class:`SimSsc32Bus`, the
+  :class:`~wbc.servos.bus.ServoBus` that ``wbc deploy --sim`` drives, and :class:`SimImu`
+  (:class:`wbc.imu.Imu`).
 
 Needs the optional ``mujoco`` package (``pip install 'wbc[physics]'``).
 """

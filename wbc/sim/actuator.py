@@ -1,4 +1,12 @@
-"""The AX-12A as an actuator: the servo's control law computed every physics step.
+"""The servos as actuators: their control laws computed every physics step.
+
+Two servo models, chosen by the robot's data (:func:`nominal_servo`): the Dynamixel AX-12A
+(:class:`ServoParams`, :class:`ServoArray`: the Bioloid; the default of a robot with a
+``servos.toml``) and a hobby PWM servo behind a Lynxmotion SSC-32 board
+(:class:`HobbyServoParams`, :class:`HobbyServoArray`: Kokone; ``robot.toml`` ``[servo] law =
+"hobby_pwm"``). The hobby model is described in :class:`HobbyServoArray`.
+
+The AX-12A:
 
 Parameters and sources (robots/bioloid/README.md, "Simulation"; ../shared/reference/physics.md
 §1–2, bioloid-facts.md §4):
@@ -33,11 +41,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
+from ..exceptions import WbcError
 from ..servo_map import RAD_PER_TICK, ServoMap, ServoSettings
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from ..model import Robot
+    from ..servos.bus import Codec
+    from ..servos.ssc32 import Ssc32Map
 
 STALL_TORQUE = 1.5  # N·m at 12 V (EMAN-AX)
 NO_LOAD_SPEED = 59.0 * 2.0 * math.pi / 60.0  # rad/s at 12 V (EMAN-AX)
@@ -124,6 +141,10 @@ class ServoArray:
     def angles(self, ticks: np.ndarray) -> np.ndarray:
         """Joint angles of ticks."""
         return self.signs * (ticks - self.zero) * RAD_PER_TICK
+
+    def goal_angles(self) -> np.ndarray:
+        """The written goals as joint angles (rad)."""
+        return self.angles(self.goal)
 
     def reset(self, q: np.ndarray) -> None:
         """Servos at rest at joint angles ``q``: goals there, torque off, no errors."""
@@ -220,3 +241,269 @@ def servo_law(
                 shutdown[i] = True
                 active = False
         torque[i] = signs[i] * tau if active else 0.0
+
+
+# ---------------------------------------------------------------------- hobby PWM servos
+#: the servo laws a robot's ``[servo] law`` may name
+SERVO_LAWS = ("ax12a", "hobby_pwm")
+HOBBY_KEYS = (
+    "law", "name", "stall_torque", "no_load_speed", "dead_band_us", "proportional_band_us",
+    "frame_period", "loop_period", "armature", "friction_loss",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class HobbyServoParams:
+    """A hobby (RC) position servo driven by PWM pulses; every joint has the same servo.
+
+    ``stall_torque`` (N·m) and ``no_load_speed`` (rad/s) are the datasheet's; the back-EMF
+    damping ``b = τ_s / ω_0`` makes the motor line ``τ = τ_s · u − b · ω`` (a joint damping in
+    MuJoCo while the servo receives pulses). ``dead_band_us`` / ``proportional_band_us``: no
+    drive within the dead band of the commanded pulse, full drive ``proportional_band_us``
+    beyond it (µs of pulse width, the servo's own unit). ``frame_period``: the board repeats
+    the pulses every frame (the servo's goal changes only then); ``loop_period``: how often
+    the servo recomputes its drive from the error (None = once per received pulse, an analog
+    servo; a digital one runs faster). ``armature`` (kg·m²): reflected rotor inertia;
+    ``friction_loss`` (N·m): gear friction. Kokone's values and their sources:
+    ``robots/kokone/robot.toml`` ``[servo]``.
+    """
+
+    stall_torque: float
+    no_load_speed: float
+    dead_band_us: float = 4.0
+    proportional_band_us: float = 100.0
+    frame_period: float = 0.02
+    loop_period: float | None = None
+    armature: float = 0.002
+    friction_loss: float = 0.01
+    name: str = "hobby PWM servo"
+
+    @property
+    def damping(self) -> float:
+        """Back-EMF damping ``τ_s / ω_0`` (N·m·s/rad)."""
+        return self.stall_torque / self.no_load_speed
+
+    @property
+    def period(self) -> float:
+        """The drive update period (s): ``loop_period``, else the frame."""
+        return self.frame_period if self.loop_period is None else self.loop_period
+
+    def stiffness(self, us_per_rad: float | np.ndarray) -> float | np.ndarray:
+        """Small-error stiffness (N·m/rad) past the dead band: ``τ_s / proportional band``."""
+        return self.stall_torque * np.abs(us_per_rad) / self.proportional_band_us
+
+    def scaled(self, stiffness: float = 1.0, torque: float = 1.0) -> HobbyServoParams:
+        """A copy with the proportional band ``stiffness`` times narrower and ``torque`` times
+        the stall torque (the no-load speed kept)."""
+        return replace(
+            self,
+            proportional_band_us=self.proportional_band_us / stiffness,
+            stall_torque=self.stall_torque * torque,
+        )
+
+    @classmethod
+    def from_table(cls, table: Mapping, where: str = "[servo]") -> HobbyServoParams:
+        """Parameters from a robot's ``[servo]`` table (one clear line per bad key)."""
+        extra = sorted(set(table) - set(HOBBY_KEYS))
+        if extra:
+            raise WbcError(f"{where}: unknown keys {extra}; allowed: {', '.join(HOBBY_KEYS)}")
+        values = {}
+        for key in HOBBY_KEYS[2:]:
+            if key not in table:
+                if key in ("stall_torque", "no_load_speed"):
+                    raise WbcError(f"{where}: {key} is required (the servo's datasheet value)")
+                continue
+            v = table[key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise WbcError(f"{where}: {key} = {v!r} must be a finite number")
+            low = 0.0 if key in ("dead_band_us", "friction_loss", "armature") else None
+            if (low is None and v <= 0) or (low is not None and v < low):
+                raise WbcError(f"{where}: {key} = {v!r} must be {'>= 0' if low == 0 else '> 0'}")
+            values[key] = float(v)
+        if values.get("frame_period", 0.02) > 0.1:
+            raise WbcError(f"{where}: frame_period = {values['frame_period']} s: at most 0.1 s")
+        if values.get("loop_period", 0.0) > values.get("frame_period", 0.02):
+            raise WbcError(f"{where}: loop_period must be <= frame_period")
+        name = table.get("name", "hobby PWM servo")
+        return cls(**values, name=str(name))
+
+
+def servo_kind(robot: Robot) -> str:
+    """The servo law of ``robot``'s joints: its ``robot.toml`` ``[servo] law``, else
+    ``ax12a`` when it has a Dynamixel servo map; one clear line otherwise."""
+    table = robot.robot_data.servo
+    law = table.get("law")
+    if law is None:
+        if robot.servo_map is not None:
+            return "ax12a"
+        raise WbcError(
+            f"robot {robot.name} has no servo model to simulate: give robot.toml a [servo] "
+            f"table (law = {' or '.join(repr(x) for x in SERVO_LAWS)}) or a servos.toml"
+        )
+    if law not in SERVO_LAWS:
+        raise WbcError(
+            f"{robot.robot_data.source}/robot.toml: [servo] law = {law!r}; allowed: {SERVO_LAWS}"
+        )
+    if law == "ax12a" and robot.servo_map is None:
+        raise WbcError(f"robot {robot.name}: [servo] law = 'ax12a' needs a servos.toml")
+    return law
+
+
+def nominal_servo(
+    robot: Robot, settings: ServoSettings | None = None, **kwargs: float | None
+) -> ServoParams | HobbyServoParams:
+    """The nominal servo model of ``robot``'s joints (:func:`servo_kind`): AX-12A parameters
+    from the servo settings (``kwargs``: damping, armature, friction_loss), or the hobby
+    servo of ``robot.toml`` ``[servo]``."""
+    if servo_kind(robot) == "ax12a":
+        kw = {k: v for k, v in kwargs.items() if v is not None}
+        return ServoParams.from_settings(settings or robot.servo_map.settings, **kw)
+    where = f"{robot.robot_data.source}/robot.toml [servo]"
+    return HobbyServoParams.from_table(robot.robot_data.servo, where)
+
+
+def pwm_map(robot: Robot) -> Ssc32Map:
+    """The robot's SSC-32 map (``ssc32.toml`` beside its URDF), else the default map (channel
+    = joint index, 1500 µs at q = 0, 13.33 µs/°)."""
+    from ..servos.ssc32 import Ssc32Map
+
+    own = robot.urdf_path.parent / "ssc32.toml"
+    if own.is_file():
+        return Ssc32Map.from_file(own, robot.joint_names)
+    return Ssc32Map.default(robot.joint_names)
+
+
+class HobbyServoArray:
+    """An SSC-32 board's outputs and the hobby servos on them (model joint order).
+
+    **The board** (the thesis's Lynxmotion SSC-32, kokone-thesis.md §1.3–1.4) repeats a pulse
+    on every powered channel once per frame (``frame_period``, 20 ms). A group move
+    (:meth:`write`: pulses, optional time ``T``) makes each channel's pulse go linearly from
+    where it is to the target in ``T`` (all channels arriving together), updated at every
+    frame and rounded to 1 µs; without ``T``, or on a channel's first command, it jumps.
+    :meth:`off` (``#<ch>L``) stops a channel's pulses.
+
+    **The servo** (analog, no feedback wire) compares the last pulse it received with its
+    potentiometer, in µs (``e = pulse − (center + sign · µs_per_rad · q)``), every
+    ``period`` (analog: once per pulse) and holds its drive until the next update::
+
+        u = 0                                        if |e| <= dead band
+        u = sign(e) · min(1, (|e| − dead band) / proportional band)   otherwise
+        τ = sign · τ_s · u                           (joint direction; |τ| <= τ_s)
+
+    plus the motor's back-EMF ``−b · ω`` (``b = τ_s / ω_0``: MuJoCo joint damping while
+    pulses arrive, so that the unloaded joint tops out at ``ω_0``). Without pulses (before
+    the first move, after ``#L``, or a cut signal wire: ``silent``) the servo is limp.
+    Nothing is quantised but the 1 µs pulse; the work is a few numpy operations per frame.
+    """
+
+    def __init__(self, codec: Codec, params: HobbyServoParams, dt: float) -> None:
+        self.params = params
+        self.offset = np.asarray(codec.offset, dtype=float).copy()
+        self.scale = np.asarray(codec.scale, dtype=float).copy()  # µs per rad, signed
+        self.signs = np.sign(self.scale)
+        self.cmd_min, self.cmd_max = float(codec.cmd_min), float(codec.cmd_max)
+        n = self.offset.size
+        self.n = n
+        self.dt = float(dt)
+        self.frame_steps = _steps(params.frame_period, dt, "frame_period")
+        self.loop_steps = _steps(params.period, dt, "loop_period")
+        self.start = np.full(n, np.nan)  # board: pulse where the current move began (µs)
+        self.target = np.full(n, np.nan)  # board: the move's target (µs); NaN = output off
+        self.t0 = np.zeros(n)
+        self.move_time = np.zeros(n)
+        self.out = np.full(n, np.nan)  # board: the pulse of the last frame (µs)
+        self.held = np.full(n, np.nan)  # servo: the last pulse it received (NaN: none)
+        self.drive = np.zeros(n)  # servo: held drive u in -1..1
+        self.silent = np.zeros(n, dtype=bool)  # signal wire cut: no pulses reach the servo
+        self.torque = np.zeros(n)
+        self.error = np.zeros(n, dtype=int)  # hobby servos report nothing: always 0
+        self.steps = 0
+        self.powered_changed = False
+
+    @property
+    def time(self) -> float:
+        """The board's clock (s since :meth:`reset`)."""
+        return self.steps * self.dt
+
+    @property
+    def enabled(self) -> np.ndarray:
+        """Servos receiving pulses (driven; the back-EMF brake acts)."""
+        return ~np.isnan(self.held)
+
+    def reset(self, q: np.ndarray) -> None:
+        """Board just powered, no pulses yet (servos limp at ``q``)."""
+        self.start[:] = self.target[:] = self.out[:] = self.held[:] = np.nan
+        self.drive[:] = 0.0
+        self.torque[:] = 0.0
+        self.silent[:] = False
+        self.steps = 0
+        self.powered_changed = True
+
+    def pulses(self, q: np.ndarray) -> np.ndarray:
+        """The pulse widths (µs, unrounded) that command joint angles ``q``."""
+        return self.offset + self.scale * np.asarray(q, dtype=float)
+
+    def angles(self, pulses: np.ndarray) -> np.ndarray:
+        """Joint angles (rad) of pulse widths."""
+        return (np.asarray(pulses, dtype=float) - self.offset) / self.scale
+
+    def goal_angles(self) -> np.ndarray:
+        """The board's move targets as joint angles (NaN where the output is off)."""
+        return self.angles(self.target)
+
+    def _now_pulse(self, t: float) -> np.ndarray:
+        """The board's interpolated pulse at time ``t`` (µs, unrounded; NaN where off)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f = np.where(self.move_time > 0, (t - self.t0) / self.move_time, 1.0)
+        return self.start + (self.target - self.start) * np.clip(f, 0.0, 1.0)
+
+    def write(
+        self, pulses: np.ndarray, move_ms: float | None = None, mask: np.ndarray | None = None
+    ) -> None:
+        """A group move: the channels of ``mask`` (default all) go to ``pulses`` (µs) in
+        ``move_ms`` (None/0: at the next frame); a channel's first command jumps."""
+        pulses = np.asarray(pulses, dtype=float)
+        mask = np.ones(self.n, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+        if np.any(mask & ((pulses < self.cmd_min) | (pulses > self.cmd_max))):
+            raise WbcError(f"SSC-32: pulse outside {self.cmd_min:g}..{self.cmd_max:g} µs")
+        now = self.time
+        cur = self._now_pulse(now)
+        first = np.isnan(cur)
+        self.start = np.where(mask, np.where(first, pulses, cur), self.start)
+        self.target = np.where(mask, pulses, self.target)
+        self.t0 = np.where(mask, now, self.t0)
+        T = 0.0 if not move_ms else float(move_ms) * 1e-3
+        self.move_time = np.where(mask, T, self.move_time)
+
+    def off(self, mask: np.ndarray | None = None) -> None:
+        """``#<ch>L``: no more pulses on the channels of ``mask`` (default all)."""
+        mask = np.ones(self.n, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+        self.start[mask] = self.target[mask] = np.nan
+
+    def law(self, q: np.ndarray, dt: float) -> np.ndarray:
+        """Advance one physics step of ``dt`` (the construction's) and return the joint
+        torques (N·m) at ``q``: a frame every ``frame_steps``, a drive update every
+        ``loop_steps`` (see the class docstring)."""
+        k = self.steps
+        self.steps += 1
+        if k % self.frame_steps == 0:
+            self.out = np.rint(self._now_pulse(k * self.dt))
+            held = np.where(self.silent, np.nan, self.out)
+            if not np.array_equal(np.isnan(held), np.isnan(self.held)):
+                self.powered_changed = True
+            self.held = held
+        if k % self.loop_steps == 0:
+            p = self.params
+            e = self.held - self.pulses(q)
+            mag = np.clip((np.abs(e) - p.dead_band_us) / p.proportional_band_us, 0.0, 1.0)
+            self.drive = np.where(np.isnan(e), 0.0, np.sign(e) * mag)
+            self.torque = self.signs * p.stall_torque * self.drive
+        return self.torque
+
+
+def _steps(period: float, dt: float, what: str) -> int:
+    n = round(period / dt)
+    if n < 1 or abs(n * dt - period) > 1e-9:
+        raise WbcError(f"{what} = {period} s is not a whole number of {dt} s physics steps")
+    return n

@@ -1,4 +1,9 @@
-"""The simulated robot behind the hardware interfaces: :class:`SimServoBus` and :class:`SimImu`.
+"""The simulated robot behind the hardware interfaces: :class:`SimServoBus`,
+:class:`SimSsc32Bus` and :class:`SimImu`.
+
+:class:`SimSsc32Bus` is the SSC-32 backend itself (:class:`~wbc.servos.ssc32.Ssc32Bus`,
+unchanged) writing its ASCII lines to :class:`SimSsc32Serial`, a simulated board that parses
+them and drives the simulated hobby servos (:class:`~wbc.sim.actuator.HobbyServoArray`).
 
 :class:`SimServoBus` is a :class:`~wbc.servos.bus.ServoBus` (AX-12A ticks, the servo map's
 codec and labels), so ``wbc deploy --sim`` runs the deployment code unchanged: start-up,
@@ -17,6 +22,7 @@ itself (:mod:`wbc.sim.actuator`). ``latency_ticks`` delays every goal by whole t
 
 from __future__ import annotations
 
+import re
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -24,7 +30,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..exceptions import ServoError
+from ..exceptions import ServoError, WbcError
 from ..imu import Imu, ImuReading
 from ..servos.bus import COMM_OK, COMM_TIMEOUT, BusBudget, ServoBus, ServoStatus
 from ..servos.dynamixel import (
@@ -35,6 +41,7 @@ from ..servos.dynamixel import (
     speed_register,
     speed_ticks_per_s,
 )
+from ..servos.ssc32 import Ssc32Bus
 from .simulator import FAULT_KINDS, Simulation
 
 
@@ -66,7 +73,13 @@ class SimServoBus(ServoBus):
         latency_ticks: int = 0,
         torque_limit: int | None = None,
         on_tick: Callable[[SimServoBus], None] | None = None,
+        on_close: Callable[[], None] | None = None,
     ) -> None:
+        if sim.hobby:
+            raise WbcError(
+                f"robot {sim.robot.name} has hobby PWM servos: its simulated bus is SimSsc32Bus "
+                "(wbc.sim.bus.sim_bus picks the robot's own)"
+            )
         sm = sim.robot.servo_map
         labels = [f"id {int(i)} ({j})" for i, j in zip(sm.ids, sm.joint_names, strict=True)]
         super().__init__(ax_codec(sm), labels)
@@ -80,6 +93,7 @@ class SimServoBus(ServoBus):
         self.latency_ticks = latency_ticks
         self.torque_limit = torque_limit
         self.on_tick = on_tick
+        self.on_close = on_close
         self.goals_written = 0
         self.is_open = False
         self._pending: deque[np.ndarray] = deque()
@@ -114,6 +128,8 @@ class SimServoBus(ServoBus):
 
     def close(self) -> None:
         self.is_open = False
+        if self.on_close is not None:
+            self.on_close()
 
     def identify(self) -> None:
         self._require_open()
@@ -196,6 +212,166 @@ class SimServoBus(ServoBus):
     def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
         """As :meth:`budget`, with the deployment's ``polls_per_tick`` health reads."""
         return ax_budget(self.n, 1_000_000, read_positions, polls_per_tick)
+
+
+_GROUP = re.compile(r"#(\d+)\s*(?:P(\d+)|(L))(?:S(\d+))?")
+_TIME = re.compile(r"T(\d+)\s*$")
+
+
+class SimSsc32Serial:
+    """A simulated SSC-32 on the other end of the serial port: ``write`` parses the ASCII
+    lines (``#<ch>P<pw>...T<ms>``, ``#<ch>L``, ``VER``, ``Q``) and acts on the simulation;
+    ``read`` returns the board's answers. ``latency_moves`` delivers each move that many
+    moves late; ``before`` runs before every line (real-time catch-up)."""
+
+    VERSION = b"SSC32-SIM\r"
+
+    def __init__(
+        self,
+        sim: Simulation,
+        channels: Sequence[int],
+        latency_moves: int = 0,
+        before: Callable[[], None] | None = None,
+    ) -> None:
+        self.sim = sim
+        self.index = {int(c): i for i, c in enumerate(channels)}
+        self.latency_moves = latency_moves
+        self.before = before
+        self.is_open = True
+        self.lines: list[str] = []
+        self._reply = bytearray()
+        self._buf = ""
+        self._pending: deque[tuple[np.ndarray, np.ndarray, int | None]] = deque()
+
+    def write(self, data: bytes) -> int:
+        if self.before is not None:
+            self.before()
+        self._buf += data.decode("ascii")
+        while "\r" in self._buf:
+            line, _, self._buf = self._buf.partition("\r")
+            self._line(line.strip())
+        return len(data)
+
+    def _line(self, line: str) -> None:
+        self.lines.append(line)
+        if line == "VER":
+            self._reply += self.VERSION
+            return
+        if line == "Q":
+            s = self.sim.servos
+            moving = np.any(~np.isnan(s.target) & (s.out != np.rint(s.target)))
+            self._reply += b"+" if moving else b"."
+            return
+        if not line.startswith("#"):
+            return  # the real board ignores what it does not understand
+        n = self.sim.robot.n_joints
+        pulses, mask, off = np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+        for g in _GROUP.finditer(line):
+            i = self.index.get(int(g.group(1)))
+            if i is None:
+                continue  # a channel with no servo of the model on it
+            if g.group(3):
+                off[i] = True
+            else:
+                pulses[i], mask[i] = float(g.group(2)), True
+        if np.any(off):
+            self.sim.servos.off(off)
+        if np.any(mask):
+            m = _TIME.search(line)
+            self._pending.append((pulses, mask, int(m.group(1)) if m else None))
+            while len(self._pending) > self.latency_moves:
+                p, k, ms = self._pending.popleft()
+                self.sim.servos.write(p, ms, k)
+
+    def read(self, size: int = 1) -> bytes:
+        out = bytes(self._reply[:size])
+        del self._reply[:size]
+        return out
+
+    def reset_input_buffer(self) -> None:
+        self._reply.clear()
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self.is_open = False
+
+
+class SimSsc32Bus(Ssc32Bus):
+    """The SSC-32 backend on a simulated board and hobby servos (``wbc deploy --bus ssc32
+    --sim``): the code that drives the real board, its bytes parsed by
+    :class:`SimSsc32Serial`. Lockstep (the bus's clock runs the physics) or ``realtime``.
+    Like the real board it reads nothing back; :meth:`inject` can still cut a servo's signal
+    wire (``silent``), which the deployment cannot see."""
+
+    name = "sim"
+
+    def __init__(
+        self,
+        sim: Simulation,
+        realtime: bool = False,
+        latency_ticks: int = 0,
+        move_time_ms: int | None = None,
+        on_tick: Callable[[SimSsc32Bus], None] | None = None,
+        on_close: Callable[[], None] | None = None,
+    ) -> None:
+        if not sim.hobby:
+            raise WbcError(
+                f"robot {sim.robot.name} has AX-12A servos: the simulated SSC-32 drives hobby "
+                "PWM servos (robot.toml [servo] law = 'hobby_pwm')"
+            )
+        if latency_ticks < 0:
+            raise ServoError(f"latency_ticks must be >= 0, got {latency_ticks}")
+        super().__init__("<sim>", sim.pwm_map, sim.pwm_map.baudrate, move_time_ms=move_time_ms)
+        self.sim = sim
+        self.realtime = realtime
+        self.clock = None if realtime else SimClock(sim)
+        self.latency_ticks = latency_ticks
+        self.on_tick = on_tick
+        self.on_close = on_close
+        self._wall0 = 0.0
+        self._sim0 = 0.0
+
+    def close(self) -> None:
+        super().close()
+        if self.on_close is not None:
+            self.on_close()
+
+    def _sync(self) -> None:
+        if self.realtime and self.ser is not None:
+            self.sim.advance_to(self._sim0 + time.perf_counter() - self._wall0)
+
+    def open(self) -> None:
+        self._wall0, self._sim0 = time.perf_counter(), self.sim.time
+        self.ser = SimSsc32Serial(
+            self.sim, self.map.channel_numbers, self.latency_ticks, before=self._sync
+        )
+
+    def inject(self, kind: str, index: int, after_goals: int = 0) -> None:
+        """Cut servo ``index``'s signal wire (``silent``; hobby servos have no error bits)."""
+        if kind != "silent":
+            raise ServoError(f"hobby servos report no errors: only 'silent', not {kind!r}")
+        if not 0 <= index < self.n:
+            raise ServoError(f"fault: servo index {index} outside 0..{self.n - 1}")
+        self.sim.inject(kind, index)
+
+    def write_goals(self, cmds: np.ndarray) -> str:
+        status = super().write_goals(cmds)
+        if self.on_tick is not None:
+            self.on_tick(self)
+        return status
+
+
+def sim_bus(sim: Simulation, rate: float, **kwargs) -> SimServoBus | SimSsc32Bus:
+    """The simulated bus of ``sim``'s servos: :class:`SimServoBus` (AX-12A) or
+    :class:`SimSsc32Bus` (hobby servos; each move's ``T`` = one tick at ``rate`` Hz, as
+    ``wbc deploy --bus ssc32``)."""
+    if sim.hobby:
+        if kwargs.pop("torque_limit", None) is not None:
+            raise ServoError("--torque-limit is an AX-12A register: hobby servos have none")
+        return SimSsc32Bus(sim, move_time_ms=max(1, round(1000.0 / rate)), **kwargs)
+    return SimServoBus(sim, **kwargs)
 
 
 class SimImu(Imu):

@@ -17,10 +17,14 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..exceptions import WbcError
+
+if TYPE_CHECKING:
+    from .simulator import Simulation
 
 
 def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,16 +41,70 @@ def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def make_sim_bus(args: argparse.Namespace, robot):
-    """The simulated bus for ``wbc deploy --sim`` (robot standing at Walk Ready)."""
-    from .bus import SimServoBus
+    """The simulated bus for ``wbc deploy --sim`` (robot standing in its standing pose):
+    the AX-12A bus, or with ``--bus ssc32`` the SSC-32 backend on a simulated board (hobby
+    servos: the robot's ``robot.toml`` ``[servo]``)."""
+    from .bus import sim_bus
     from .simulator import Simulation
 
     sim = Simulation(robot)
-    on_tick = None
-    if getattr(args, "view", False):
-        on_tick = _live_view(robot, sim)
-    torque_limit = args.torque_limit if getattr(args, "torque_limit", 1023) != 1023 else None
-    return SimServoBus(sim, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick)
+    backend = getattr(args, "backend", "dynamixel")
+    want = "ssc32" if sim.hobby else "dynamixel"
+    if backend != want:
+        servo = sim.servo_params.name if sim.hobby else "AX-12A"
+        raise WbcError(
+            f"--sim: robot {robot.name}'s servos are {servo} ({want} bus): use --bus {want}"
+        )
+    watch = UprightWatch(sim)
+    view = _live_view(robot, sim) if getattr(args, "view", False) else None
+
+    def on_tick(bus) -> None:
+        watch()
+        if view is not None:
+            view(bus)
+
+    torque_limit = getattr(args, "torque_limit", None)
+    torque_limit = None if torque_limit == 1023 else torque_limit
+    return sim_bus(
+        sim, args.rate, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick,
+        on_close=lambda: print(watch.line(), flush=True),
+    )  # fmt: skip
+
+
+class UprightWatch:
+    """What the physics did during ``wbc deploy --sim`` (no plan to compare with): the
+    largest torso tilt from its start, and a fall (tilt > 45° or the torso below 60 % of its
+    start height, as the physics benchmark's thresholds), checked every control tick."""
+
+    def __init__(self, sim: Simulation) -> None:
+        from ..bench.physics import FALL_HEIGHT, FALL_TILT_DEG
+
+        self.sim = sim
+        self.limits = (FALL_TILT_DEG, FALL_HEIGHT)
+        self.R0 = sim.base_rotation()
+        self.z0 = float(sim.q()[2])
+        self.xy0 = sim.q()[:2].copy()
+        self.t0 = sim.time
+        self.tilt_max = 0.0
+        self.fell_at: float | None = None
+
+    def __call__(self) -> None:
+        R = self.sim.base_rotation()
+        tilt = math.degrees(math.acos(np.clip((np.trace(self.R0.T @ R) - 1.0) / 2.0, -1, 1)))
+        if self.fell_at is None:
+            self.tilt_max = max(self.tilt_max, tilt)
+            if tilt > self.limits[0] or self.sim.q()[2] < self.limits[1] * self.z0:
+                self.fell_at = self.sim.time - self.t0
+
+    def line(self) -> str:
+        """One line: fell (when) or stayed up, the largest torso tilt, the base's travel."""
+        moved = 1e3 * np.linalg.norm(self.sim.q()[:2] - self.xy0)
+        if self.fell_at is not None:
+            return f"sim: FELL at {self.fell_at:.2f} s (torso tilt {self.tilt_max:.1f}° then)"
+        return (
+            f"sim: stayed up; torso tilt at most {self.tilt_max:.1f}° from the start, "
+            f"the base moved {moved:.0f} mm"
+        )
 
 
 def _live_view(robot, sim, planned=None):

@@ -5,8 +5,12 @@ visual geoms dropped, the collision geoms kept; ``fusestatic``: massless fixed l
 ``l_sole`` merged into their parent; inertias taken as written, rotated to their principal
 axes). Then :func:`build_spec` adds a free joint on the root link, a floor, one torque
 actuator per joint (the servo law in :mod:`wbc.sim.actuator` sets its control every step),
-the AX-12A joint properties (reflected rotor inertia, back-EMF damping, gear friction),
-sites at the robot's operational frames (soles, hands, torso IMU) and the IMU sensors.
+the servo's joint properties (reflected rotor inertia, back-EMF damping, gear friction: the
+robot's servo model, :func:`wbc.sim.actuator.nominal_servo`, unless :class:`ModelParams`
+gives them), sites at the robot's operational frames (torso and soles; hands if it has
+them) and the IMU (at ``robot.toml`` ``[imu] frame`` + ``offset``, default the torso) with
+its sensors. Nothing here is Bioloid-specific: any robot folder's URDF with the frames
+``torso``, ``l_sole``, ``r_sole`` (or their ``[frames]`` aliases) builds.
 The robot's own geoms collide with the floor only (self-collision is the controller's
 business: issue 14).
 """
@@ -14,7 +18,8 @@ business: issue 14).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -23,7 +28,11 @@ from ..exceptions import WbcError
 from ..model import Robot
 from . import mujoco_module
 
-SITES = ("torso", "l_sole", "r_sole", "l_hand", "r_hand")
+if TYPE_CHECKING:
+    from .actuator import HobbyServoParams, ServoParams
+
+SITES = ("torso", "l_sole", "r_sole")  # required
+OPTIONAL_SITES = ("l_hand", "r_hand")
 IMU_SITE = "imu"
 
 
@@ -32,24 +41,57 @@ class ModelParams:
     """Physical parameters of one simulated model (nominal values by default).
 
     ``mass_scale`` / ``com_offset`` are per link (MuJoCo body order after the world, i.e. the
-    order of :func:`link_names`); None = as in the URDF.
+    order of :func:`link_names`); None = as in the URDF. ``armature``, ``damping`` and
+    ``friction_loss`` None = the robot's servo model's (:meth:`resolved`); ``imu_offset``
+    None = the robot data's (``[imu] offset``, default 0).
     """
 
     timestep: float = 0.002
     floor_friction: float = 0.8  # sliding friction coefficient (dry plastic on a table)
-    armature: float | np.ndarray = 0.005
-    damping: float | np.ndarray = 0.24
-    friction_loss: float | np.ndarray = 0.05
+    armature: float | np.ndarray | None = None
+    damping: float | np.ndarray | None = None
+    friction_loss: float | np.ndarray | None = None
     mass_scale: np.ndarray | None = None
     com_offset: np.ndarray | None = None  # (n_links, 3) m
-    imu_offset: Sequence[float] = (0.0, 0.0, 0.0)  # IMU site in the torso frame, m
+    imu_offset: Sequence[float] | None = None  # IMU site in the IMU frame, m
     extra: dict = field(default_factory=dict)
+
+    def resolved(self, servo: ServoParams | HobbyServoParams) -> ModelParams:
+        """A copy whose unset joint properties are those of ``servo`` (servo parameters)."""
+        return replace(
+            self,
+            armature=servo.armature if self.armature is None else self.armature,
+            damping=servo.damping if self.damping is None else self.damping,
+            friction_loss=servo.friction_loss if self.friction_loss is None else self.friction_loss,
+        )
+
+
+def imu_placement(robot: Robot) -> tuple[str, np.ndarray]:
+    """The IMU's frame and offset (m, in that frame) from ``robot.toml`` ``[imu]``
+    (default: the torso frame, no offset)."""
+    table = robot.robot_data.imu
+    where = f"{robot.robot_data.source}/robot.toml [imu]"
+    extra = sorted(set(table) - {"frame", "offset"})
+    if extra:
+        raise WbcError(f"{where}: unknown keys {extra}; allowed: frame, offset")
+    frame = table.get("frame", "torso")
+    if not isinstance(frame, str) or not robot.has_frame(frame):
+        raise WbcError(f"{where}: frame = {frame!r} is not a frame of {robot.urdf_path.name}")
+    offset = table.get("offset", [0.0, 0.0, 0.0])
+    ok = isinstance(offset, (list, tuple)) and len(offset) == 3
+    if not ok or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in offset):
+        raise WbcError(f"{where}: offset = {offset!r} must be 3 numbers (m)")
+    return frame, np.asarray(offset, dtype=float)
 
 
 def build_spec(robot: Robot, params: ModelParams | None = None):
     """The MuJoCo spec of ``robot`` (free base, floor, actuators, sites, IMU sensors)."""
+    from .actuator import nominal_servo
+
     mj = mujoco_module()
     p = params or ModelParams()
+    if p.armature is None or p.damping is None or p.friction_loss is None:
+        p = p.resolved(nominal_servo(robot))
     try:
         spec = mj.MjSpec.from_file(str(robot.urdf_path))
     except Exception as exc:
@@ -57,10 +99,7 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
     spec.option.timestep = p.timestep
     spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
     bodies = {b.name: b for b in spec.bodies}
-    root_name = robot.model.frames[robot.model.getFrameId("torso")].name
-    root = bodies.get(root_name)
-    if root is None:
-        raise WbcError(f"MuJoCo model of {robot.urdf_path.name} has no root body {root_name!r}")
+    root = _root_body(robot, bodies)
     root.add_freejoint(name="base")
     spec.worldbody.add_geom(
         name="floor",
@@ -105,11 +144,18 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
             biasprm=[0.0] * 10,
             ctrllimited=0,
         )
-    for frame in SITES:
+    for frame in site_names(robot):
         body, placement = _site_placement(robot, frame, bodies)
         body.add_site(name=frame, pos=placement.translation, quat=_wxyz(placement.rotation))
-    body, placement = _site_placement(robot, "torso", bodies)
-    body.add_site(name=IMU_SITE, pos=placement.translation + np.asarray(p.imu_offset))
+    imu_frame, imu_offset = imu_placement(robot)
+    if p.imu_offset is not None:
+        imu_offset = np.asarray(p.imu_offset, dtype=float)
+    body, placement = _site_placement(robot, imu_frame, bodies)
+    body.add_site(
+        name=IMU_SITE,
+        pos=placement.translation + placement.rotation @ imu_offset,
+        quat=_wxyz(placement.rotation),
+    )
     spec.add_sensor(name="imu_quat", type=mj.mjtSensor.mjSENS_FRAMEQUAT,
                     objtype=mj.mjtObj.mjOBJ_SITE, objname=IMU_SITE)  # fmt: skip
     spec.add_sensor(name="imu_gyro", type=mj.mjtSensor.mjSENS_GYRO,
@@ -126,6 +172,25 @@ def build_model(robot: Robot, params: ModelParams | None = None):
         return spec.compile()
     except Exception as exc:
         raise WbcError(f"MuJoCo cannot compile the model of {robot.urdf_path.name}: {exc}") from exc
+
+
+def site_names(robot: Robot) -> list[str]:
+    """The operational frames that get a site: torso and soles (required), hands if any."""
+    missing = [f for f in SITES if not robot.has_frame(f)]
+    if missing:
+        raise WbcError(
+            f"{robot.urdf_path.name}: frames {missing} missing: the simulator needs torso, "
+            "l_sole, r_sole (add fixed links, or map them in robot.toml [frames])"
+        )
+    return [*SITES, *(f for f in OPTIONAL_SITES if robot.has_frame(f))]
+
+
+def _root_body(robot: Robot, bodies: dict):
+    """The MuJoCo body of the URDF's root link (the one pinocchio's free flyer moves)."""
+    for f in robot.model.frames:
+        if f.parentJoint == 1 and f.type == pin.FrameType.BODY and f.name in bodies:
+            return bodies[f.name]
+    raise WbcError(f"MuJoCo model of {robot.urdf_path.name}: no body for the root link")
 
 
 def link_names(spec) -> list[str]:

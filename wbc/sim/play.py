@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..exceptions import WbcError
 from ..model import Robot
 from ..recording import Recording
 from ..servos.deploy import (
@@ -25,7 +26,7 @@ from ..servos.deploy import (
     RecordingSource,
 )
 from .actuator import ServoParams
-from .bus import SimServoBus
+from .bus import SimServoBus, sim_bus
 from .model import ModelParams
 from .simulator import Simulation
 
@@ -121,7 +122,7 @@ class _Logger:
         log.soles.append(
             np.array([sim.site_pose("l_sole").translation, sim.site_pose("r_sole").translation])
         )
-        log.goal.append(sim.servos.angles(sim.servos.goal))
+        log.goal.append(sim.servos.goal_angles())
         log.peak_torque.append(sim.reset_peak())
 
 
@@ -169,7 +170,12 @@ def play(
         if on_tick is not None:
             on_tick(sim)
 
-    bus = SimServoBus(sim, realtime=realtime, latency_ticks=latency_ticks, on_tick=tick)
+    if compensate > 0 and sim.hobby:
+        raise WbcError(
+            f"compensate: the compliance feed-forward models the AX-12A; {robot.name}'s "
+            "hobby servos have no such model"
+        )
+    bus = sim_bus(sim, rate, realtime=realtime, latency_ticks=latency_ticks, on_tick=tick)
     if before is not None:
         before(bus)
     source = RecordingSource(recording, robot, tol=limit_tol)
@@ -197,7 +203,7 @@ def play(
     elif push is not None:
         # the soft start is empty when the robot starts at the first pose (checked below)
         sim.push(push[1], push[2], start=start + push[0])
-    config = DeployConfig(rate=rate, read=True)
+    config = DeployConfig(rate=rate, read=bus.can_read)
     deployment.append(Deployment(bus, source, robot, config, out=lambda _line: None))
     result = deployment[0].run()
     playback_start = start + result.soft_start_ticks / rate

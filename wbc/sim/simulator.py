@@ -1,4 +1,8 @@
-"""The simulated robot: MuJoCo physics, the AX-12A servo law every step, faults and state.
+"""The simulated robot: MuJoCo physics, the servo law every step, faults and state.
+
+The servo law is the robot's (:func:`wbc.sim.actuator.nominal_servo`): the AX-12A
+(:class:`~wbc.sim.actuator.ServoArray`, goals in Dynamixel ticks) or hobby PWM servos on an
+SSC-32 (:class:`~wbc.sim.actuator.HobbyServoArray`, goals in µs of pulse width).
 
 Configurations use wbc's convention (Pinocchio free flyer: ``[x, y, z, qx, qy, qz, qw,
 joints...]`` in the robot's joint order); MuJoCo's own ``qpos`` (quaternion ``w`` first, its
@@ -17,8 +21,8 @@ from ..exceptions import WbcError
 from ..model import Robot
 from ..servo_map import ServoSettings
 from . import mujoco_module
-from .actuator import ServoArray, ServoParams
-from .model import ModelParams, build_model
+from .actuator import HobbyServoArray, HobbyServoParams, ServoArray, ServoParams, nominal_servo
+from .model import ModelParams, build_model, site_names
 
 #: a servo fault the simulation can inject: stops answering (``silent``) or the overload bit
 FAULT_KINDS = ("silent", "overload")
@@ -36,21 +40,25 @@ class Simulation:
         self,
         robot: Robot,
         model_params: ModelParams | None = None,
-        servo_params: ServoParams | None = None,
+        servo_params: ServoParams | HobbyServoParams | None = None,
         settings: ServoSettings | None = None,
     ) -> None:
         self.mj = mujoco_module()
-        if robot.servo_map is None:
-            raise WbcError(f"robot {robot.name} has no servo map (servos.toml): no servos to sim")
         self.robot = robot
-        self.model_params = model_params or ModelParams()
-        self.settings = settings or robot.servo_map.settings
-        self.servo_params = servo_params or ServoParams.from_settings(
-            self.settings,
-            damping=float(np.mean(self.model_params.damping)),
-            armature=float(np.mean(self.model_params.armature)),
-            friction_loss=float(np.mean(self.model_params.friction_loss)),
-        )
+        mp = model_params or ModelParams()
+        if servo_params is None:
+
+            def mean(v):
+                return None if v is None else float(np.mean(v))
+
+            servo_params = nominal_servo(
+                robot, settings, damping=mean(mp.damping), armature=mean(mp.armature),
+                friction_loss=mean(mp.friction_loss),
+            )  # fmt: skip
+        self.servo_params = servo_params
+        self.hobby = isinstance(servo_params, HobbyServoParams)
+        self.settings = None if self.hobby else (settings or robot.servo_map.settings)
+        self.model_params = mp.resolved(servo_params)
         self.model = build_model(robot, self.model_params)
         self.data = self.mj.MjData(self.model)
         self._dt = float(self.model.opt.timestep)
@@ -65,17 +73,22 @@ class Simulation:
         self._q_index = _as_slice(self.qadr)  # a slice when contiguous: faster per step
         self._ctrl_index = _as_slice(self.act)
         self.site = {
-            n: mj.mj_name2id(m, mj.mjtObj.mjOBJ_SITE, n)
-            for n in ("torso", "l_sole", "r_sole", "l_hand", "r_hand", "imu")
+            n: mj.mj_name2id(m, mj.mjtObj.mjOBJ_SITE, n) for n in (*site_names(robot), "imu")
         }
         self.root = int(m.jnt_bodyid[mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "base")])
         self.floor = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, "floor")
-        self.servos = ServoArray(robot.servo_map, self.servo_params)
+        if self.hobby:
+            from .actuator import pwm_map
+
+            self.pwm_map = pwm_map(robot)
+            self.servos = HobbyServoArray(self.pwm_map.codec(), self.servo_params, self._dt)
+        else:
+            self.servos = ServoArray(robot.servo_map, self.servo_params)
         self.silent = np.zeros(robot.n_joints, dtype=bool)
         self.steps = 0
         self.peak_torque = np.zeros(robot.n_joints)  # max |τ| since the last reset_peak()
         self._push: tuple[float, float, np.ndarray] | None = None
-        self.reset(robot.configuration("walk_ready"))
+        self.reset(robot.configuration("stand"))
 
     # ------------------------------------------------------------------ state
     @property
@@ -96,8 +109,8 @@ class Simulation:
         self.data.qpos[self.qadr] = q[7:]
         mj.mj_forward(self.model, self.data)
         self.servos.reset(q[7:])
-        self.set_torque(torque)
         self.silent[:] = False
+        self.set_torque(torque)
         self.steps = 0
         self.peak_torque[:] = 0.0
         self._push = None
@@ -163,21 +176,43 @@ class Simulation:
 
     # ------------------------------------------------------------------ servos
     def set_torque(self, enabled: bool | np.ndarray) -> None:
-        """Torque on/off (all servos or a mask); the back-EMF brake only acts when on."""
+        """Torque on/off (all servos or a mask); the back-EMF brake only acts when on.
+        Hobby servos: off stops their pulses (``#L``); on changes nothing (they are driven
+        from the first pulse on)."""
+        if self.hobby:
+            off = ~np.broadcast_to(np.asarray(enabled, dtype=bool), (self.robot.n_joints,))
+            if np.any(off):
+                self.servos.off(off)
+            self._update_damping()
+            return
         self.servos.enabled[:] = enabled
+        self._update_damping()
+
+    def _update_damping(self) -> None:
         self.model.dof_damping[self.vadr] = np.where(self.servos.enabled, self.damping, 0.0)
 
     def set_speed_ticks(self, ticks_per_s: float | np.ndarray) -> None:
-        """The moving-speed cap of every servo (ticks/s)."""
+        """The moving-speed cap of every servo (ticks/s; AX-12A only)."""
+        self._require_ax("a moving-speed register")
         self.servos.speed[:] = ticks_per_s
 
-    def write_goals(self, ticks: np.ndarray) -> None:
-        """Goal positions (ticks, model order); a silent servo ignores its goal."""
+    def _require_ax(self, what: str) -> None:
+        if self.hobby:
+            raise WbcError(f"{self.robot.name}'s hobby servos have no {what} (AX-12A only)")
+
+    def write_goals(self, ticks: np.ndarray, move_ms: float | None = None) -> None:
+        """Goal positions (model order; AX-12A ticks, or hobby servos' pulse widths in µs
+        reaching the board as one group move of ``move_ms``); a silent servo ignores its
+        goal."""
         ticks = np.asarray(ticks, dtype=float)
+        if self.hobby:
+            self.servos.write(ticks, move_ms)
+            return
         self.servos.goal[:] = np.where(self.silent, self.servos.goal, ticks)
 
     def present_ticks(self) -> np.ndarray:
-        """Present Position of every servo (quantised ticks)."""
+        """Present Position of every servo (quantised ticks; AX-12A only)."""
+        self._require_ax("position feedback")
         return self.servos.present(self.data.qpos[self.qadr])
 
     def inject(self, kind: str, index: int) -> None:
@@ -188,7 +223,10 @@ class Simulation:
             raise WbcError(f"fault: servo index {index} outside 0..{self.robot.n_joints - 1}")
         if kind == "silent":
             self.silent[index] = True
+            if self.hobby:  # its signal wire is cut: no more pulses, the servo goes limp
+                self.servos.silent[index] = True
         else:
+            self._require_ax("error bits (an overload fault)")
             self.servos.error[index] |= 0x20
 
     # ------------------------------------------------------------------ stepping
@@ -207,7 +245,11 @@ class Simulation:
     def step(self) -> None:
         """One physics step: servo law, then MuJoCo."""
         d = self.data
-        tau = self.servos.law(d.qpos[self._q_index], self._dt)
+        servos = self.servos
+        tau = servos.law(d.qpos[self._q_index], self._dt)
+        if self.hobby and servos.powered_changed:  # pulses started/stopped: the motor brake
+            servos.powered_changed = False
+            self._update_damping()
         d.ctrl[self._ctrl_index] = tau
         np.maximum(self.peak_torque, np.abs(tau), out=self.peak_torque)
         push = self._push
