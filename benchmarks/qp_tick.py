@@ -53,7 +53,8 @@ def core_walk_spec() -> dict:
 
 def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, float, int]:
     """Median µs of a tick with the swing sole's ground-clearance row inactive and active, and
-    how many of the active ticks were handed to the backend (all, if the row is active)."""
+    how many of the active ticks were handed to the backend (the compiled kernels solve the
+    row; a tick goes to the backend only if they cannot finish it)."""
     with open(stacks_dir() / "walk.toml", "rb") as f:
         spec = tomllib.load(f)
     control = build_stack({**spec, "solver": kind}, robot)
@@ -80,10 +81,10 @@ def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, floa
     return medians[0], medians[1], handed
 
 
-def phase_switch_ticks(robot, repeats: int = 50) -> tuple[float, float]:
-    """Median µs of the first tick after a support switch and of the tick after it (weighted
+def phase_switch_ticks(robot, kind: str, repeats: int = 50) -> tuple[float, float]:
+    """Median µs of the first tick after a support switch and of the tick after it (core
     ``walk`` stack, the four phases of a walk in turn)."""
-    control = build_stack({**core_walk_spec(), "solver": "weighted"}, robot)
+    control = build_stack({**core_walk_spec(), "solver": kind}, robot)
     q = robot.configuration("walk_ready")
     kin = Kinematics(robot, q)
     phases = [
@@ -99,6 +100,26 @@ def phase_switch_ticks(robot, repeats: int = 50) -> tuple[float, float]:
             out.append(time.perf_counter() - t)
     skip = 2 * len(phases)  # the first visit of each phase builds its layout
     return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
+
+
+def walk_tail(robot, ref, kind: str, walks: int = 5) -> tuple[float, float]:
+    """Per-tick medians over ``walks`` walks (a preemption hits one walk, not the median):
+    the median over the first ticks of the support phases, and over the other ticks."""
+    from wbc.walking.loop import SUPPORT_DOUBLE, support_roles
+
+    times = [
+        run(StackController(build_stack({**core_walk_spec(), "solver": kind}, robot)), robot, ref)[
+            "solve_time"
+        ]
+        for _ in range(walks)
+    ]
+    t = np.median(np.array(times), axis=0) * 1e6
+    swing = support_roles(ref)[1]
+    double = ref.support == SUPPORT_DOUBLE
+    first = np.array(
+        [i > 0 and (double[i], swing[i]) != (double[i - 1], swing[i - 1]) for i in range(ref.n)]
+    )
+    return float(np.median(t[first])), float(np.median(t[~first]))
 
 
 def main() -> int:
@@ -161,8 +182,16 @@ def main() -> int:
     for kind in ("weighted", "hierarchical"):
         off, on, handed = inequality_ticks(robot, kind)
         print(f"| {kind} | {off:.0f} | {on:.0f} | {on / off:.2f} | {handed} |")
-    first, after = phase_switch_ticks(robot)
-    print(f"\nsupport switch (weighted): first tick {first:.0f} µs, the next {after:.0f} µs")
+    print()
+    for kind in ("weighted", "hierarchical"):
+        first, after = phase_switch_ticks(robot, kind)
+        print(f"support switch ({kind}): first tick {first:.0f} µs, the next {after:.0f} µs")
+    for kind in ("weighted", "hierarchical"):
+        first, other = walk_tail(robot, ref, kind)
+        print(
+            f"{args.trajectory} ({kind}), per-tick medians over 5 walks: first tick of a support"
+            f" phase {first:.0f} µs, the other ticks {other:.0f} µs"
+        )
     return 0
 
 

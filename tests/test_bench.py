@@ -145,6 +145,50 @@ def test_wide_table_has_every_column(capsys):
         assert column in header
 
 
+def test_while_the_ticks_compile_the_baselines_show_their_errors(monkeypatch, tmp_path, capsys):
+    """A fresh install: while the ticks compile, the runs without them print their errors;
+    then every run of the tables, in display order, after the compilation (the times of the
+    baselines' first runs, taken beside the compiler, are not kept)."""
+    from wbc.bench import cli, runner
+
+    order = []
+    run_entry = runner.run_entry
+
+    def recorded(entry, *args):
+        order.append(entry.name)
+        return run_entry(entry, *args)
+
+    waited = []
+    monkeypatch.setattr(cli, "_compile_in_background", lambda console: True)
+    monkeypatch.setattr(cli, "_wait_for_ticks", lambda: waited.append(len(order)))
+    monkeypatch.setattr(runner, "run_entry", recorded)
+    names = ["qp-cj_com", "pinv-vat", "placo"]
+    code = main([
+        "bench", "--solvers", *names, "--trajectories", "thesis_step",
+        "--json", str(tmp_path / "b.json"),
+    ])  # fmt: skip
+    assert code == 0
+    assert order == ["pinv-vat", "placo", *names] and waited == [2]
+    out = capsys.readouterr().out
+    records = json.loads((tmp_path / "b.json").read_text())["records"]
+    assert [r["solver"] for r in records] == names
+    for r in records:
+        line = cli._errors_line(r)  # the errors: the same in both runs
+        assert (line in out) == (r["solver"] != "qp-cj_com")
+        assert f"CoM err {r['com_err_max_mm']:.2g} / {r['com_err_mean_mm']:.2g} mm" in line
+    assert out.index("placo on thesis_step") < out.index("thesis_step (tick mode)")
+
+
+def test_no_background_compilation_for_runs_without_compiled_ticks(monkeypatch):
+    from wbc.bench import cli
+
+    def compile_in_background(console):
+        raise AssertionError("nothing of this run uses the compiled ticks")
+
+    monkeypatch.setattr(cli, "_compile_in_background", compile_in_background)
+    assert main(["bench", "--solvers", "placo", "pinv-vat", "--trajectories", "thesis_step"]) == 0
+
+
 def test_solver_output_is_silenced_unless_verbose(capfd):
     from wbc.bench.cli import solver_output
 

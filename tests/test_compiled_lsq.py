@@ -19,6 +19,7 @@ from wbc.compiled.lsq import (
     MAX_ITER,
     NUMERICAL,
     OK,
+    equality_multipliers,
     solve_level,
     solve_level_iterations,
 )
@@ -395,3 +396,26 @@ def test_solve_level_returns_the_status_only():
     _, x_ref, state_ref, _ = solve(A, a, B, r, ridge, lower, upper)
     np.testing.assert_array_equal(x, x_ref)
     np.testing.assert_array_equal(state, state_ref)
+
+
+@given(seed=st.integers(0, 10_000), m=st.integers(1, 10), dependent=st.integers(0, 3))
+def test_equality_multipliers_solve_the_stationarity(seed, m, dependent):
+    """λ with A_Fᵀ λ = −g_F on the free variables, when one exists (g built from a known λ),
+    also with dependent rows (copies scaled: a basic solution, the copies' λ = 0 or theirs);
+    no λ is claimed when g_F is not in the range of A_Fᵀ."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(m, N))
+    A = np.vstack([A, 2.0 * A[:dependent]])  # dependent rows
+    state = np.zeros(N, dtype=np.int8)
+    state[rng.choice(N, 5, replace=False)] = rng.choice([-1, 1], 5)
+    free = state == 0
+    g = -A.T @ np.concatenate([rng.normal(size=m), np.zeros(min(dependent, m))])
+    g[~free] = rng.normal(size=(~free).sum())  # the fixed variables' gradient is not used
+    lam = np.full(A.shape[0], np.nan)
+    assert equality_multipliers(A, state, g, lam)
+    assert np.all(np.isfinite(lam))
+    assert np.allclose(A[:, free].T @ lam, -g[free], atol=1e-9)
+    off = rng.normal(size=N)  # a gradient with a part outside the range of A_Fᵀ
+    off[free] -= A[:, free].T @ np.linalg.lstsq(A[:, free].T, off[free], rcond=None)[0]
+    assert np.linalg.norm(off[free]) > 1e-3
+    assert not equality_multipliers(A, state, g + off, lam)

@@ -174,12 +174,14 @@ def _pull(robot, limit, scenario, level, weighted, seed, ticks=130):
     stack.add(PostureTask(robot, q), level=level + 1, weight=1e-4)
     solver = (WeightedQP if weighted else HierarchicalQP)(stack)
     smallest = np.inf
+    active = 0
     for k in range(ticks):
         task.set_target(start + min(1.0, k / 100) * (goal - start))
         q = solver.step(q, dt=0.01)
+        active += bool(solver.fast.inequalities.working.any())
         kin.update(q)
         smallest = min(smallest, limit.min_distance(kin))
-    assert solver.handed_back_ticks > 0  # the rows were active: DAQP solved those ticks
+    assert active > 0  # the rows were active (in the compiled active set)
     return smallest, limit.min_distance(kin)
 
 
@@ -349,7 +351,8 @@ def test_stack_file_bad_keys_and_values(robot):
 
 
 def test_walk_with_the_limit_is_the_same_compiled_or_not(robot):
-    """Ticks with binding collision rows are handed back to DAQP; the walk is the same."""
+    """Ticks with binding collision rows are solved by the compiled cascade too; the walk is
+    the same on the numpy path (the same algorithm)."""
     ref = build("walk10", robot)
     recordings, back = {}, {}
     for compiled in (True, False):
@@ -357,7 +360,9 @@ def test_walk_with_the_limit_is_the_same_compiled_or_not(robot):
         controller.solver.compiled = compiled
         recordings[compiled] = run(controller, robot, ref)
         back[compiled] = controller.solver.handed_back_ticks
-    assert 0 < back[True] < ref.n // 2
+    # (none today: an active set that cycles on dependent collision rows would be given up
+    # early by the kernels and solved by DAQP)
+    assert back[True] <= ref.n // 100
     assert np.abs(recordings[True].q - recordings[False].q).max() < 1e-5
     kin = Kinematics(robot)
     limit = SelfCollisionConstraint(robot, 0.005, 0.02)

@@ -1,30 +1,79 @@
 """Compile (and cache on disk) the control ticks of the package's task types now:
 ``python -m wbc.compiled`` after installing, so that the first control loop starts at once.
 
-Builds the ``walk`` stack with both solvers and solves one tick of each; numba caches every
-kernel it compiles (``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's ``__pycache__``).
+Two processes work in parallel, one per solver (``--part weighted`` and ``--part
+hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row
+on the compiled tick (the hierarchical one also on the numpy path, whose kernels Python calls),
+so that numba compiles and caches every kernel a run of the package's stacks calls
+(``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's ``__pycache__``). The solvers start the
+same processes themselves at their first compiled tick when the cache is empty
+(:meth:`wbc.compiled.dispatch.Ticks.call`).
 """
 
 from __future__ import annotations
 
-import logging
+import argparse
+import os
+import subprocess
+import sys
 import time
 
+#: the worker processes, one per solver of the compiled tick (they compile in parallel)
+PARTS = ("weighted", "hierarchical")
 
-def main() -> int:
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
+
+#: set in a worker's environment: its own ticks compile in process (no workers of its own)
+WORKER_ENV = "WBC_COMPILE_WORKER"
+
+
+def command(part: str) -> list[str]:
+    """The command line of the worker that compiles ``part``."""
+    return [sys.executable, "-m", "wbc.compiled", "--part", part]
+
+
+def worker_env() -> dict[str, str]:
+    """A worker's environment: this one, marked as a worker's."""
+    return {**os.environ, WORKER_ENV: "1"}
+
+
+def compile_part(part: str) -> None:
+    """Solve one tick of the ``walk`` stack with solver ``part`` on the compiled tick (and,
+    for the hierarchy, on the numpy path first): numba compiles what each calls and caches it
+    on disk."""
     from ..model import Kinematics, load_robot
     from ..stacks import load_stack
 
-    start = time.perf_counter()
     robot = load_robot()
     q = robot.configuration("stand")
-    for solver in ("weighted", "hierarchical"):
-        control = load_stack("walk", robot, solver=solver)
+    paths: tuple[bool | None, ...] = (None,)  # the compiled tick
+    if part == "hierarchical":  # and the numpy path's kernels: the level cascade (Chan–Dubey
+        load_stack("cjl_com", robot).solver.step(q, 0.01)  # has no row kernel), rows, bounds
+        paths = (False, None)
+    for compiled in paths:
+        control = load_stack("walk", robot, solver=part)
+        control.solver.compiled = compiled
         control.set_phase("single", "l_sole", "r_sole", Kinematics(robot, q))
         swing = control.stack.task("frame_pose_swing")
         swing.set_position_target(swing.target_position - [0.0, 0.0, 0.005])  # a row active
         control.solver.step(q, 0.01)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m wbc.compiled", description="compile and cache the control ticks"
+    )
+    parser.add_argument("--part", choices=PARTS, help="compile one solver's kernels only")
+    args = parser.parse_args(argv)
+    if args.part:
+        compile_part(args.part)
+        return 0
+    start = time.perf_counter()
+    print("wbc: compiling the control ticks (numba, 2 processes)...", flush=True)
+    workers = [subprocess.Popen(command(p), env=worker_env()) for p in PARTS]
+    failed = [p for p, w in zip(PARTS, workers, strict=True) if w.wait() != 0]
+    if failed:
+        print(f"wbc: compiling the {', '.join(failed)} tick failed", file=sys.stderr)
+        return 1
     print(f"wbc: control ticks compiled and cached ({time.perf_counter() - start:.0f} s)")
     return 0
 

@@ -19,8 +19,10 @@ import importlib.util
 import inspect
 import logging
 import os
+import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -84,9 +86,9 @@ def fill_rows(
 @njit(cache={cache})
 def weighted_tick(
     soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b,
+    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
     targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, state, dq, q_next,
+    q, q_min, q_max, step, params, lower, upper, state, working, dq, q_next,
 ):
     load_frames(frame_R, frame_p, Rs, ps)
     fill_rows(
@@ -98,16 +100,16 @@ def weighted_tick(
         Rs, ps, supports, Jw, com, Jcom, q, Jf, efull, Jfull,
     )
     return weighted_solve(
-        soft_J, soft_b, hard_J, hard_b, q, q_min, q_max, step, params, lower, upper, state, dq,
-        q_next,
+        soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, step, params, lower,
+        upper, state, working, dq, q_next,
     )
 
 
 @njit(cache={cache})
 def cascade_tick(
-    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard,
+    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard, G, h, g_rows,
     targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, states, achieved, dq, q_next,
+    q, q_min, q_max, step, params, lower, upper, states, working, h_eff, achieved, dq, q_next,
 ):
     load_frames(frame_R, frame_p, Rs, ps)
     fill_rows(
@@ -115,8 +117,8 @@ def cascade_tick(
         Jf, efull, Jfull,
     )
     return cascade_solve(
-        J, b, level_rows, level_hard, q, q_min, q_max, step, params, lower, upper, states,
-        achieved, dq, q_next,
+        J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, step, params, lower,
+        upper, states, working, h_eff, achieved, dq, q_next,
     )
 '''
 
@@ -165,13 +167,82 @@ def source(kernels: Sequence[object], cache: bool = True) -> str:
 
 class Ticks:
     """The generated tick functions of one set of kernels, called through their entry points
-    (skipping numba's per-call type dispatch: ~1 µs for the ~35 arguments of a tick)."""
+    (skipping numba's per-call type dispatch: ~1 µs for the ~35 arguments of a tick).
 
-    def __init__(self, module) -> None:
+    For the package's own kernels (the tick of every package stack), a tick not yet in the
+    disk cache is compiled by ``python -m wbc.compiled``'s worker processes, both solvers' in
+    parallel (:meth:`start_build`), and loaded from the cache when its worker is done; other
+    kernel sets, or a failed worker, compile in this process."""
+
+    def __init__(self, module, package: bool = False) -> None:
         self.module = module
         self.weighted_tick = module.weighted_tick
         self.cascade_tick = module.cascade_tick
         self._entries: dict[tuple[str, int], object] = {}
+        self.package = package
+        #: the worker compiling each tick (by tick name), while it runs or until waited for
+        self.builders: dict[str, subprocess.Popen] = {}
+        self.build_started = 0.0
+
+    def cached(self) -> bool:
+        """True if both ticks are in numba's disk cache."""
+        return _on_disk(self.weighted_tick) and _on_disk(self.cascade_tick)
+
+    def start_build(self, announce: bool = True) -> bool:
+        """Start compiling both ticks in worker processes (``python -m wbc.compiled --part
+        ...``), unless they are cached, being built, or not the package's; True if started.
+        A caller can do other work meanwhile (``wbc bench`` runs the baselines); ``announce``:
+        log a line saying so."""
+        from .__main__ import PARTS, WORKER_ENV, command, worker_env
+
+        if not self.package or self.builders or os.environ.get(WORKER_ENV) or self.cached():
+            return False
+        if announce:
+            log.warning(
+                "wbc: compiling the control ticks in %d background processes (numba; once per "
+                "installation, up to a minute; cached in %s)",
+                len(PARTS),
+                Path(self.module.__file__).parent,
+            )
+        self.build_started = time.perf_counter()
+        for part, name in zip(PARTS, ("weighted_tick", "cascade_tick"), strict=True):
+            with open(self._log(name), "w") as log_file:  # the worker's messages
+                self.builders[name] = subprocess.Popen(
+                    command(part), env=worker_env(), stdout=log_file, stderr=subprocess.STDOUT
+                )
+        return True
+
+    def _log(self, name: str) -> Path:
+        return Path(self.module.__file__).with_suffix(f".{name}.log")
+
+    def wait(self, name: str) -> None:
+        """Wait for the worker building tick ``name`` (if any); a failure is logged, and the
+        tick then compiles in this process."""
+        worker = self.builders.pop(name, None)
+        if worker is None:
+            return
+        if worker.poll() is None:
+            log.warning(
+                "wbc: waiting for the background compilation of %s (%.0f s so far)",
+                name,
+                time.perf_counter() - self.build_started,
+            )
+        if worker.wait() != 0:
+            try:
+                tail = self._log(name).read_text().strip().splitlines()[-1:]
+            except OSError:
+                tail = []
+            log.warning(
+                "wbc: compiling %s in a worker failed (%s; log: %s)",
+                name,
+                tail[0] if tail else "no message",
+                self._log(name),
+            )
+
+    def wait_all(self) -> None:
+        """Wait for every worker (so that nothing compiles beside what comes next)."""
+        for name in list(self.builders):
+            self.wait(name)
 
     def call(self, name: str, variant: int, args: tuple) -> int:
         """Call tick ``name`` with ``args``; ``variant`` tells apart the argument types a
@@ -180,7 +251,10 @@ class Ticks:
         if entry is not None:
             return entry(*args)
         dispatcher = getattr(self, name)
-        if not _on_disk(dispatcher):
+        if not dispatcher.overloads and not _on_disk(dispatcher):
+            self.start_build()
+        self.wait(name)
+        if not dispatcher.overloads and not _on_disk(dispatcher):
             log.warning(
                 "wbc: compiling the control tick (numba; once per installation and set of "
                 "task types, up to a minute; cached in %s)",
@@ -209,8 +283,9 @@ def ticks(kernels: tuple) -> Ticks:
         if f is not None:
             h.update(f.read_bytes())
     name = f"wbc_tick_{h.hexdigest()[:20]}"
+    package = kernels == package_kernels()
     if name in sys.modules:
-        return Ticks(sys.modules[name])
+        return Ticks(sys.modules[name], package)
     path = _write(name, text)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
@@ -218,7 +293,21 @@ def ticks(kernels: tuple) -> Ticks:
         setattr(module, f"k{i}", k)
     sys.modules[name] = module  # numba's cache finds a function's module by name
     spec.loader.exec_module(module)
-    return Ticks(module)
+    return Ticks(module, package)
+
+
+def package_ticks() -> Ticks:
+    """The compiled tick of the package's own kernels (that of every package stack)."""
+    from .. import tasks  # noqa: F401  (defines the task types: their kernels join the set)
+
+    return ticks(package_kernels())
+
+
+def package_kernels() -> tuple:
+    """The package's own row kernels: the kernel set of every package stack's tick."""
+    from ..tasks.task import PACKAGE_KERNELS
+
+    return tuple(PACKAGE_KERNELS)
 
 
 def refresh_kernel(kernel) -> None:

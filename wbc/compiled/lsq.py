@@ -916,3 +916,49 @@ def solve_level(A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_i
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter)
     )
     return status
+
+
+@njit(cache=True)
+def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
+    """λ with ``A_Fᵀ λ = −g_F`` on the free variables F (``state == 0``): the multipliers of
+    the equalities A x = a at a point whose gradient is g, a basic solution from the pivoted
+    QR of A_Fᵀ (rows found dependent get λ = 0), into ``lam`` (m). False if the system has no
+    solution (residual above 1e-7·(1 + ‖g_F‖)): the point is not stationary."""
+    m, n = A.shape
+    size = max(m, n, _N_VEC)
+    work = np.empty((2, size, max(m, n)))
+    W = work[0]
+    V = work[1]
+    ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
+    nf = 0
+    for j in range(n):
+        if state[j] == 0:
+            ind[_I_FREE, nf] = j
+            nf += 1
+    for row in range(m):
+        ind[_I_PERM, row] = row
+        for c in range(nf):
+            W[row, c] = A[row, ind[_I_FREE, c]]
+    k = _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol) if m > 0 and nf > 0 else 0
+    norm = 0.0
+    for c in range(nf):  # u = Qᵀ (−g_F), the reflectors in order
+        V[_V_T, c] = -g[ind[_I_FREE, c]]
+        norm += V[_V_T, c] * V[_V_T, c]
+    for j in range(k):
+        if V[_V_TAU, j] != 0.0:
+            _reflect_vector(W, j, nf, V[_V_TAU, j], V, _V_T)
+    miss = 0.0
+    for c in range(k, nf):
+        miss += V[_V_T, c] * V[_V_T, c]
+    if np.sqrt(miss) > 1e-7 * (1.0 + np.sqrt(norm)):
+        return False
+    for j in range(k - 1, -1, -1):  # R11 λ'' = u[:k]
+        s = V[_V_T, j]
+        for row in range(j + 1, k):
+            s -= W[row, j] * V[_V_LAM, row]
+        V[_V_LAM, j] = s / W[j, j]
+    for i in range(m):
+        lam[i] = 0.0
+    for j in range(k):
+        lam[ind[_I_PERM, j]] = V[_V_LAM, j]
+    return True

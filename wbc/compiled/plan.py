@@ -170,6 +170,53 @@ class Rows:
         return (self.spec, self.sel, self.sqrt_w, self.gain_w, self.J, self.E, self.b)
 
 
+class InequalityRows:
+    """The inequality rows G Δq <= h of a tick, level by level, copied from the constraints
+    into buffers that the tick reads (``g_rows``: each level's first row, then the end), with
+    each level's working set (its warm start, forgotten when the levels' row counts change)."""
+
+    def __init__(self, n_levels: int, nv: int, capacity: int = 8) -> None:
+        self.n_levels, self.nv = n_levels, nv
+        self.g_rows = np.zeros(n_levels + 1, dtype=np.int64)
+        self.counts = (0,) * n_levels
+        self._allocate(capacity)
+
+    def _allocate(self, capacity: int) -> None:
+        self.G = np.zeros((capacity, self.nv))
+        self.h = np.zeros(capacity)
+        self.h_eff = np.zeros(capacity)
+        self.working = np.zeros((self.n_levels, capacity), dtype=np.bool_)
+
+    def load(self, blocks: Sequence | None) -> bool:
+        """Copy each level's rows (``blocks[k][0]``: G, ``blocks[k][1]``: h; None: no rows at
+        all); True if the buffers were re-allocated (the caller's argument tuple is stale)."""
+        if blocks is None:
+            if not self.g_rows[-1]:
+                return False  # (no rows, as at the last tick)
+            counts = (0,) * self.n_levels
+        else:
+            counts = tuple(blk[1].shape[0] for blk in blocks)
+        grown = False
+        if counts != self.counts:
+            total = sum(counts)
+            if total > self.h.shape[0]:
+                self._allocate(max(total, 2 * self.h.shape[0]))
+                grown = True
+            else:
+                self.working[:] = False
+            self.g_rows[1:] = np.cumsum(counts)
+            self.counts = counts
+        if blocks is not None:
+            o = 0
+            for G, h, *_ in blocks:
+                k = h.shape[0]
+                if k:
+                    self.G[o : o + k] = G
+                    self.h[o : o + k] = h
+                    o += k
+        return grown
+
+
 class _Plan:
     """What both compiled solvers share: targets, frames, bounds and the output buffer.
 
@@ -199,8 +246,9 @@ class _Plan:
         self.q = np.zeros(robot.nq)
         self.step = np.zeros(robot.n_joints)
         self._params_key: tuple | None = None
-        #: [use the velocity steps (0/1), μ (damping of the last level), hard tolerance]
-        self.params = np.zeros(3)
+        #: [use the velocity steps (0/1), μ (damping of the last level), hard tolerance,
+        #: tolerance of the inequality rows]
+        self.params = np.zeros(4)
         self.lower = np.full(nv, -np.inf)
         self.upper = np.full(nv, np.inf)
         self.dq = np.zeros(nv)
@@ -210,6 +258,7 @@ class _Plan:
         self.error_views: list[tuple[Task, np.ndarray]] = []
         self.args: tuple = ()
         self.tick_name = ""
+        self.inequalities = InequalityRows(1, nv)
 
     def _shared_args(self) -> tuple:
         f = self.frames
@@ -219,8 +268,16 @@ class _Plan:
             self.step, self.params, self.lower, self.upper,
         )  # fmt: skip
 
-    def solve(self, kin: Kinematics, dt: float | None) -> int:
-        """Fill the per-tick inputs and run the kernel; returns its status (0: solved)."""
+    def _build_args(self) -> tuple:
+        """The kernel's arguments, every one a buffer of the plan (rebuilt when the inequality
+        rows outgrow their buffers)."""
+        raise NotImplementedError  # (each plan's own tick)
+
+    def solve(self, kin: Kinematics, dt: float | None, inequalities: Sequence | None) -> int:
+        """Fill the per-tick inputs (``inequalities``: each level's (G, h, ...), or None) and
+        run the kernel; returns its status (0: solved)."""
+        if self.inequalities.load(inequalities):
+            self.args = self._build_args()
         for task, view in self.error_views:
             task.last_error = view
         self.targets.gather()
@@ -228,11 +285,18 @@ class _Plan:
         solver = self.solver
         key = (dt, solver.regularization, solver.hard_tol)
         if key != self._params_key:
+            from ..solvers.base import CONSTRAINT_TOL
+
             limit = solver.stack.velocity_limit
             use = dt is not None and limit is not None
             if use:
                 np.copyto(self.step, limit.step(dt))
-            self.params[:] = (1.0 if use else 0.0, solver.regularization, solver.hard_tol)
+            self.params[:] = (
+                1.0 if use else 0.0,
+                solver.regularization,
+                solver.hard_tol,
+                CONSTRAINT_TOL,
+            )
             self._params_key = key
         return self.ticks.call(self.tick_name, self.variant, self.args)
 
@@ -248,41 +312,15 @@ class WeightedPlan(_Plan):
         self.targets.seal()
         self.error_views = self.soft.error_views() + self.hard.error_views()
         self.state = np.zeros(nv, dtype=np.int8)
-        #: the inequality rows' working set of the last tick that had one (a warm start)
-        self.working = np.zeros(0, dtype=np.bool_)
         self.tick_name = "weighted_tick"
-        self.args = (
-            *self.soft.args, *self.hard.args, *self._shared_args(), self.state, self.dq,
-            self.q_next,
-        )  # fmt: skip
+        self.args = self._build_args()
 
-    def solve_inequalities(self, G: np.ndarray, h: np.ndarray, tol: float) -> bool:
-        """With the rows, bounds and the solution without inequality rows filled by
-        :meth:`solve`: the weighted QP with ``G Δq <= h`` too, compiled
-        (:func:`~wbc.compiled.ticks.solve_with_inequalities`). False if that fails (the tick
-        then goes to the backend); Δq into ``dq``, q ⊕ Δq into ``q_next``."""
-        from .lsq import OK
-        from .ticks import integrate, solve_with_inequalities
-
-        x = self.dq.copy()
-        state = self.state.copy()
-        G = np.ascontiguousarray(G, dtype=float)
-        h = np.ascontiguousarray(h, dtype=float)
-        if self.working.shape != h.shape:  # the rows changed (e.g. the polygon's edges)
-            self.working = np.zeros(h.shape, dtype=np.bool_)
-        working = self.working.copy()
-        status = solve_with_inequalities(
-            self.hard.J, self.hard.b, self.soft.J, self.soft.b, self.params[1], self.lower,
-            self.upper, state, x, G, h, tol, working,
+    def _build_args(self) -> tuple:
+        g = self.inequalities
+        return (
+            *self.soft.args, *self.hard.args, g.G, g.h, g.g_rows, *self._shared_args(),
+            self.state, g.working[0], self.dq, self.q_next,
         )  # fmt: skip
-        if status != OK:
-            self.working[:] = False
-            return False
-        np.copyto(self.working, working)
-        np.copyto(self.dq, x)
-        np.copyto(self.state, state)
-        integrate(self.q, self.dq, self.lower, self.upper, self.q_min, self.q_max, self.q_next)
-        return True
 
 
 class CascadePlan(_Plan):
@@ -300,8 +338,14 @@ class CascadePlan(_Plan):
         self.error_views = self.rows.error_views()
         self.states = np.zeros((len(levels), nv), dtype=np.int8)
         self.achieved = np.zeros(self.rows.m)
+        self.inequalities = InequalityRows(len(levels), nv)
         self.tick_name = "cascade_tick"
-        self.args = (
-            *self.rows.args, self.level_rows, self.level_hard, *self._shared_args(),
-            self.states, self.achieved, self.dq, self.q_next,
+        self.args = self._build_args()
+
+    def _build_args(self) -> tuple:
+        g = self.inequalities
+        return (
+            *self.rows.args, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
+            *self._shared_args(), self.states, g.working, g.h_eff, self.achieved, self.dq,
+            self.q_next,
         )  # fmt: skip

@@ -1,11 +1,16 @@
 """The compiled solve of a tick, once the rows are filled: box bounds, the QP(s), integration.
 
 * :func:`weighted_solve` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
-  rows as equalities, joint position/velocity bounds;
+  rows as equalities, inequality rows, joint position/velocity bounds;
 * :func:`cascade_solve` — the lexicographic QP: level k in least squares subject to the bounds
   and to every level above kept at its achieved values (``J_i Δq = J_i Δq_i``, the exact
-  optimal set of a least-squares level), the last level damped by μ‖Δq‖² as the weighted QP.
+  optimal set of a least-squares level) and its inequality rows at their bounds plus the
+  slacks it kept, the last level damped by μ‖Δq‖² as the weighted QP.
 
+Both solve each least-squares problem by :func:`wbc.compiled.lsq.solve_level` (an active set on
+the bounds) and the inequality rows by a primal active set around it
+(:func:`solve_with_inequalities`), which costs nothing while the rows are inactive. They are
+the one algorithm of both solvers on every path (the numpy assembly calls them too).
 Both return a status; anything but :data:`~wbc.compiled.lsq.OK` sends the caller back to the
 numpy path, which handles (and names) infeasible problems. The tick itself (rows, then one of
 these) is generated per set of row kernels by :mod:`wbc.compiled.dispatch`.
@@ -20,12 +25,21 @@ import numpy as np
 from numba import njit
 
 from ._cache import refresh
-from .lsq import MAX_ITER, NUMERICAL, OK, solve_level
+from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
 #: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
 PROXIMAL_RIDGE = 1e-8
+#: at most this many subproblem solves of an intermediate level without a ridge (a warm
+#: start takes 1 or 2; beyond a few, the active set is cycling on the level's flat directions
+#: and proximal steps take over)
+EXACT_MAX_ITER = 6
+#: at most this many subproblem solves of a damped level (many active bounds and working
+#: rows can take the dual active set method beyond the 30 that the plain levels need)
+LEVEL_MAX_ITER = 100
+#: a row that leaves the working set more often than this: the active set is cycling
+MAX_DROPS = 2
 #: at most this many proximal steps (the residual's bias shrinks by ε/(σ² + ε) per step)
 PROXIMAL_STEPS = 12
 
@@ -59,172 +73,255 @@ def joint_bounds(
 
 
 @njit(cache=True)
+def _violated(G, h, p, x, tol) -> bool:
+    """True if one of the first p rows of G x <= h is violated by more than tol."""
+    for i in range(p):
+        s = -h[i]
+        for j in range(x.shape[0]):
+            s += G[i, j] * x[j]
+        if s > tol:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _any(flags, p) -> bool:
+    """True if one of the first p flags is set."""
+    for i in range(p):
+        if flags[i]:
+            return True
+    return False
+
+
+@njit(cache=True)
 def weighted_solve(
-    soft_J, soft_b, hard_J, hard_b, q, q_min, q_max, step, params, lower, upper, state, dq,
-    q_next,
+    soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, step, params, lower, upper,
+    state, working, dq, q_next,
 ) -> int:  # fmt: skip
     """With the rows filled: the bounds, then min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
-    hard_J Δq = hard_b and the bounds; Δq into ``dq``, q ⊕ Δq into ``q_next`` (see
-    :func:`integrate`). ``params``: [use the velocity steps, μ, (unused)]."""
+    hard_J Δq = hard_b, G Δq <= h (its first ``g_rows[1]`` rows) and the bounds; Δq into
+    ``dq``, q ⊕ Δq into ``q_next`` (see :func:`integrate`). ``params``: [use the velocity
+    steps, μ, (unused), tolerance of the inequality rows]; ``working``: the inequality rows'
+    working set (the last tick's: a warm start; updated). Without a warm start the inequality
+    rows cost nothing while the solution without them meets them; else, and with one,
+    :func:`solve_with_inequalities`."""
     joints = q[q.shape[0] - q_min.shape[0] :]
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
-    status = solve_level(hard_J, hard_b, soft_J, soft_b, params[1], lower, upper, state, dq)
+    mu = params[1]
+    tol = params[3]
+    p = g_rows[1]
+    status = OK
+    for _ in range(2):  # a warm start that fails: once more, cold
+        warm = _any(working, p)  # a working set from the last tick: straight to the rows
+        status = OK
+        if not warm:
+            status = solve_level(hard_J, hard_b, soft_J, soft_b, mu, lower, upper, state, dq)
+        if status == OK and (warm or _violated(G, h, p, dq, tol)):
+            status = solve_with_inequalities(
+                hard_J, hard_b, soft_J, soft_b, mu, False, lower, upper, state, dq, G[:p],
+                h[:p], p, tol, working[:p], dq, False,
+            )  # fmt: skip
+        if status == OK or not warm:
+            break
+        working[:] = False
+        state[:] = 0
     if status == OK:
         integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return status
 
 
 @njit(cache=True)
-def _basic_least_squares(M, rhs):
-    """A least-squares solution of M λ = rhs (M: rows >= columns, ~10 columns) by the normal
-    equations and a Cholesky factorisation that skips dependent columns (their λ = 0): a
-    basic solution, exact when M λ = rhs is consistent (the caller checks the residual)."""
-    k = M.shape[1]
-    N = M.T @ M
-    g = M.T @ rhs
-    scale = 0.0
-    for j in range(k):
-        scale = max(scale, N[j, j])
-    keep = np.ones(k, np.bool_)
-    L = np.zeros((k, k))
-    for j in range(k):
-        d = N[j, j]
-        for t in range(j):
-            if keep[t]:
-                d -= L[j, t] * L[j, t]
-        if d <= 1e-12 * scale:
-            keep[j] = False
-            continue
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, k):
-            v = N[i, j]
-            for t in range(j):
-                if keep[t]:
-                    v -= L[i, t] * L[j, t]
-            L[i, j] = v / L[j, j]
-    y = np.zeros(k)
-    for j in range(k):
-        if keep[j]:
-            v = g[j]
-            for t in range(j):
-                if keep[t]:
-                    v -= L[j, t] * y[t]
-            y[j] = v / L[j, j]
-    lam = np.zeros(k)
-    for j in range(k - 1, -1, -1):
-        if keep[j]:
-            v = y[j]
-            for t in range(j + 1, k):
-                if keep[t]:
-                    v -= L[t, j] * lam[t]
-            lam[j] = v / L[j, j]
-    return lam
+def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
+    """One least-squares level by :func:`~wbc.compiled.lsq.solve_level`: with ``ridge``
+    (the weighted QP, the last level of the hierarchy); or, ``exact``, without (an
+    intermediate level of the hierarchy): exact least squares when the level's rows are
+    independent in the remaining freedom, else, or when the active set cycles on the flat
+    directions of the unregularised problem, proximal steps from x (:func:`_proximal_level`)."""
+    if not exact:
+        return solve_level(A, a, B, r, ridge, lower, upper, state, x, 1e-9, LEVEL_MAX_ITER)
+    previous = x.copy()
+    status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, EXACT_MAX_ITER)
+    if status == NUMERICAL or status == MAX_ITER:
+        x[:] = previous
+        status = _proximal_level(A, a, B, r, lower, upper, state, x)
+    return status
 
 
 @njit(cache=True)
-def solve_with_inequalities(A0, a0, B, r, mu, lower, upper, state, x, G, h, tol, start) -> int:
-    """min ‖B x − r‖² + μ‖x‖² s.t. A0 x = a0, G x <= h and the bounds, from the solution
-    without the G rows in ``x``: a primal active set on those rows around :func:`solve_level`
-    (a row of the working set is an equality).
+def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
+    """Multipliers of the equalities A[:mh] at x from the stationarity on the free variables,
+    ``A_Fᵀ λ = −∇f_F`` with ∇f = Bᵀ(B x − r) (+ ridge·x unless ``exact``), in least squares
+    (:func:`~wbc.compiled.lsq.equality_multipliers`: a basic solution if the rows are
+    dependent), into ``lam``; False if it has no solution (no certificate)."""
+    n = x.shape[0]
+    grad = np.zeros(n)
+    for i in range(ps):
+        e = -r[i]
+        for j in range(n):
+            e += B[i, j] * x[j]
+        for j in range(n):
+            grad[j] += B[i, j] * e
+    if not exact:
+        for j in range(n):
+            grad[j] += ridge * x[j]
+    return equality_multipliers(A[:mh], state, grad, lam[:mh])
 
-    The most violated row joins the working set; once every row holds to ``tol``, multipliers of
-    the working rows are found from the stationarity on the free variables
-    (``A_Fᵀ λ = −∇f_F``, least squares, a basic solution if the rows are dependent): if they are
-    all >= 0 (to ``tol`` relative) they prove x optimal, else the most negative row leaves.
-    ``start`` (p bools): the working set to begin with (the last tick's: a warm start, all
-    its rows join at once); on OK it holds the final working set. Returns OK (x optimal,
-    ``state`` its bounds' active set), NUMERICAL (the stationarity has no solution: no
-    certificate), MAX_ITER or the status of a failed least squares.
+
+@njit(cache=True, inline="always")
+def _row(G, h, i, x):
+    """G_i x − h_i."""
+    v = -h[i]
+    for j in range(x.shape[0]):
+        v += G[i, j] * x[j]
+    return v
+
+
+@njit(cache=True)
+def solve_with_inequalities(
+    A0, a0, B0, r0, ridge, exact, lower, upper, state, x, G, h, soft_from, tol, working, start,
+    from_start,
+) -> int:  # fmt: skip
+    """min ‖B0 x − r0‖² + ridge‖x‖² + Σ_{i ≥ soft_from} max(G_i x − h_i, 0)² subject to
+    A0 x = a0, G_i x <= h_i (i < soft_from) and the bounds: a primal active set on the G
+    rows around :func:`_level` (``exact``: no ridge, an intermediate level of the hierarchy).
+
+    A hard row of the working set is an equality; a soft row is a least-squares row
+    (G_i x ≈ h_i: the slack s_i = G_i x − h_i of min ‖s‖² s.t. G_i x − s_i <= h_i, whose
+    multiplier is s_i itself). From a feasible point x_c (``start`` with ``from_start``, if it
+    meets A0, the bounds and the hard rows and lies on the hard rows of the warm working set,
+    else the first solution that meets every row),
+    each solution x is approached along the segment from x_c, and the first hard row that
+    blocks it joins (so the working set stays consistent); without one, the most violated
+    row joins. Once every row holds to ``tol``, the working rows' multipliers are checked —
+    a soft row's is its slack, a hard row's comes from the stationarity on the free variables
+    (:func:`_hard_multipliers`) — and the most negative leaves (below −tol, relative for the
+    hard ones), else x is optimal. ``working`` (p bools): the working set to start from (the
+    last tick's: a warm start, whose rows join at once); on
+    OK the final one, else cleared. Returns OK (x optimal, ``state`` its bounds' active set),
+    NUMERICAL (the stationarity has no solution: no certificate), MAX_ITER (also when a row
+    leaves more than :data:`MAX_DROPS` times: cycling, on degenerate or dependent rows) or the
+    status of a failed level solve.
     """
     m0, n = A0.shape
+    p0 = B0.shape[0]
     p = G.shape[0]
     A = np.empty((m0 + p, n))
     a = np.empty(m0 + p)
-    for i in range(m0):
-        a[i] = a0[i]
+    B = np.empty((p0 + p, n))
+    r = np.empty(p0 + p)
+    A[:m0] = A0
+    a[:m0] = a0
+    B[:p0] = B0
+    r[:p0] = r0
+    lam = np.empty(m0 + p)
+    xc = np.empty(n)
+    solve = _any(working, p)  # a warm start is solved first (x: a solution without the rows)
+    feasible = from_start
+    if feasible:
         for j in range(n):
-            A[i, j] = A0[i, j]
-    working = np.empty(p, np.int64)
-    inw = np.zeros(p, np.bool_)
+            if start[j] < lower[j] - tol or start[j] > upper[j] + tol:
+                feasible = False
+        for i in range(soft_from):
+            if _row(G, h, i, start) > tol:
+                feasible = False
+        for i in range(soft_from):  # x_c must lie on the hard rows of the working set
+            if working[i] and _row(G, h, i, start) < -tol:
+                feasible = False
+    if feasible:
+        xc[:] = start
+    rows = np.empty(p, np.int64)  # the working set, in the order its rows joined
+    drops = np.zeros(p, np.int64)  # how often each row left it
     nw = 0
     for i in range(p):
-        if start[i]:
-            working[nw] = i
-            inw[i] = True
+        if working[i]:
+            rows[nw] = i
             nw += 1
-    warm = nw > 0
+    mh = m0
+    ps = p0
     for _ in range(2 * p + 4):
-        if warm:  # solve with the warm working set first
-            warm = False
+        if solve:
+            mh = m0
+            ps = p0
             for w in range(nw):
-                a[m0 + w] = h[working[w]]
-                for j in range(n):
-                    A[m0 + w, j] = G[working[w], j]
-            status = solve_level(A[: m0 + nw], a[: m0 + nw], B, r, mu, lower, upper, state, x)
+                i = rows[w]
+                if i < soft_from:
+                    A[mh] = G[i]
+                    a[mh] = h[i]
+                    mh += 1
+                else:
+                    B[ps] = G[i]
+                    r[ps] = h[i]
+                    ps += 1
+            status = _level(A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x)
             if status != OK:
+                working[:] = False
                 return status
+        solve = True
         k = -1
-        worst = tol
-        for i in range(p):
-            if not inw[i]:
-                v = -h[i]
+        if feasible:  # the first hard row that blocks the step from x_c to x joins
+            t_min = 1.0
+            for i in range(soft_from):
+                if not working[i]:
+                    vn = _row(G, h, i, x)
+                    if vn > tol:
+                        vc = min(_row(G, h, i, xc), 0.0)
+                        t = -vc / (vn - vc)
+                        if t < t_min:
+                            t_min = t
+                            k = i
+            if k >= 0:
                 for j in range(n):
-                    v += G[i, j] * x[j]
-                if v > worst:
-                    worst = v
-                    k = i
-        if k >= 0:  # the most violated row joins (one at a time: the set stays independent)
-            working[nw] = k
-            inw[k] = True
+                    xc[j] += t_min * (x[j] - xc[j])
+            else:
+                xc[:] = x
+        if k < 0:  # the most violated row joins (when x_c is kept: a soft one)
+            worst = tol
+            for i in range(soft_from if feasible else 0, p):
+                if not working[i]:
+                    v = _row(G, h, i, x)
+                    if v > worst:
+                        worst = v
+                        k = i
+        if k >= 0:
+            rows[nw] = k
+            working[k] = True
             nw += 1
-        else:
-            if nw == 0:
-                for i in range(p):
-                    start[i] = False
-                return OK
-            res = B @ x - r
-            grad = B.T @ res + mu * x
-            nf = 0
-            for j in range(n):
-                if state[j] == 0:
-                    nf += 1
-            cols = m0 + nw
-            M = np.empty((nf, cols))
-            rhs = np.empty(nf)
-            c = 0
-            for j in range(n):
-                if state[j] == 0:
-                    for i in range(m0):
-                        M[c, i] = A0[i, j]
-                    for w in range(nw):
-                        M[c, m0 + w] = G[working[w], j]
-                    rhs[c] = -grad[j]
-                    c += 1
-            lam = _basic_least_squares(M, rhs)
-            miss = M @ lam - rhs
-            if np.sqrt(np.dot(miss, miss)) > 1e-7 * (1.0 + np.sqrt(np.dot(rhs, rhs))):
-                return NUMERICAL
-            jmin = 0
-            scale = 0.0
-            for w in range(nw):
-                scale = max(scale, abs(lam[m0 + w]))
-                if lam[m0 + w] < lam[m0 + jmin]:
-                    jmin = w
-            if lam[m0 + jmin] >= -tol * (1.0 + scale):
-                for i in range(p):
-                    start[i] = inw[i]
-                return OK
-            inw[working[jmin]] = False
-            for w in range(jmin, nw - 1):
-                working[w] = working[w + 1]
-            nw -= 1
+            continue
+        if not feasible:  # x meets every row: from here on, the feasible point
+            feasible = True
+            xc[:] = x
+        if mh > m0 and not _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
+            working[:] = False
+            return NUMERICAL
+        scale = 0.0
+        for c in range(m0, mh):
+            scale = max(scale, abs(lam[c]))
+        drop = -1
+        lowest = 0.0
+        c = m0
         for w in range(nw):
-            a[m0 + w] = h[working[w]]
-            for j in range(n):
-                A[m0 + w, j] = G[working[w], j]
-        status = solve_level(A[: m0 + nw], a[: m0 + nw], B, r, mu, lower, upper, state, x)
-        if status != OK:
-            return status
+            i = rows[w]
+            if i < soft_from:
+                mult = lam[c]
+                c += 1
+                limit = -tol * (1.0 + scale)
+            else:
+                mult = _row(G, h, i, x)
+                limit = -tol
+            if mult < limit and mult < lowest:
+                lowest = mult
+                drop = w
+        if drop < 0:
+            return OK
+        drops[rows[drop]] += 1
+        if drops[rows[drop]] > MAX_DROPS:  # cycling (degenerate or dependent rows): give up
+            working[:] = False
+            return MAX_ITER
+        working[rows[drop]] = False
+        for w in range(drop, nw - 1):
+            rows[w] = rows[w + 1]
+        nw -= 1
+    working[:] = False
     return MAX_ITER
 
 
@@ -258,7 +355,7 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
         for j in range(n):
             lo[j] = lower[j] - x[j]
             hi[j] = upper[j] - x[j]
-        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y)
+        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, LEVEL_MAX_ITER)
         if status != OK:
             return status
         step = 0.0
@@ -272,41 +369,71 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
 
 @njit(cache=True)
 def cascade_solve(
-    J, b, level_rows, level_hard, q, q_min, q_max, step, params, lower, upper, states,
-    achieved, dq, q_next,
+    J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, step, params, lower, upper,
+    states, working, h_eff, achieved, dq, q_next,
 ) -> int:  # fmt: skip
     """With every level's rows filled (weighted): the bounds, then the levels in order.
 
-    ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``states[k]``: the
-    active set of level k (the last tick's: a warm start; updated); ``achieved``: J Δq of
-    each solved level; ``params``: [use the velocity steps, μ, tolerance of hard levels];
-    q ⊕ Δq into ``q_next``.
+    ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``g_rows``: those of
+    the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
+    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated);
+    ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
+    rows kept (work space); ``params``: [use the velocity steps, μ, tolerance of hard levels,
+    tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.
+
+    Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
+    slacks, unless the level is hard: then as rows to meet) subject to the bounds, every level
+    above at its achieved values (``J_i Δq = J_i Δq_i``, the exact optimal set of a
+    least-squares level) and the rows above at their bounds plus the slacks they kept
+    (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
+    inequality rows cost nothing on a level whose solution without them meets them (and which
+    had no working set at the last tick); else :func:`solve_with_inequalities`.
     """
     joints = q[q.shape[0] - q_min.shape[0] :]
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     mu = params[1]
     hard_tol = params[2]
+    tol = params[3]
     n_levels = level_rows.shape[0] - 1
     nv = dq.shape[0]
     for i in range(nv):
         dq[i] = 0.0
+    for i in range(g_rows[n_levels]):
+        h_eff[i] = h[i]
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
-        if r1 == r0 and k < n_levels - 1:
-            continue  # constraints only: nothing to optimise (they are checked by the caller)
+        g0 = g_rows[k]
+        g1 = g_rows[k + 1]
+        last = k == n_levels - 1
         A, a, B, r = J[:r0], achieved[:r0], J[r0:r1], b[r0:r1]
-        if k == n_levels - 1:
-            status = solve_level(A, a, B, r, mu, lower, upper, states[k], dq)
-        else:
-            # exact least squares (no ridge) when the level's rows are independent in the
-            # remaining freedom; else, or when the active set cycles on the flat directions of
-            # the unregularised problem, proximal steps (below)
-            previous = dq.copy()
-            status = solve_level(A, a, B, r, 0.0, lower, upper, states[k], dq, 1e-9, 12)
-            if status == NUMERICAL or status == MAX_ITER:
-                dq[:] = previous
-                status = _proximal_level(A, a, B, r, lower, upper, states[k], dq)
+        # with the last tick's working set (a warm start) straight to the inequality rows;
+        # else the level without them first (a level of constraints only: Δq so far is one of
+        # its optima, if it meets them), and if it misses one, the rows from the hard rows
+        # the level above kept at their bounds. A warm start that fails: once more, cold
+        entry = dq.copy()
+        status = OK
+        for _ in range(2):
+            warm = _any(working[k], g1)
+            status = OK
+            if (r1 > r0 or last) and not warm:
+                status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
+            if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
+                soft_from = g1 if level_hard[k] else g0
+                if not warm and k > 0:
+                    above = g0 if level_hard[k - 1] else g_rows[k - 1]
+                    for i in range(above):
+                        working[k, i] = working[k - 1, i]
+                # (Δq so far meets the levels above and their rows: a feasible start)
+                status = solve_with_inequalities(
+                    A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
+                    soft_from, tol, working[k, :g1], entry, True,
+                )  # fmt: skip
+            if status == OK or not warm:
+                break
+            working[k, :] = False
+            states[k, :] = 0
+            dq[:] = entry
         if status != OK:
             return status
         for i in range(r0, r1):
@@ -316,6 +443,13 @@ def cascade_solve(
             achieved[i] = s
             if level_hard[k] and abs(s - b[i]) > hard_tol:
                 return HARD_MISSED
+        if not level_hard[k]:
+            for i in range(g0, g1):  # the slacks the level kept
+                s = -h[i]
+                for j in range(nv):
+                    s += G[i, j] * dq[j]
+                if s > 0.0:
+                    h_eff[i] = h[i] + s
     integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return OK
 
@@ -391,7 +525,12 @@ def integrate(
 refresh(
     [
         joint_bounds,
+        _violated,
+        _any,
+        _row,
         weighted_solve,
+        _level,
+        _hard_multipliers,
         solve_with_inequalities,
         _proximal_level,
         cascade_solve,

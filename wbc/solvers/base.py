@@ -197,6 +197,8 @@ class StackSolver(ABC):
             for name in ("state", "states"):
                 if plan is not None and hasattr(plan, name):
                     getattr(plan, name)[...] = 0
+            if plan is not None:
+                plan.inequalities.working[...] = False
 
     def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """One control tick: q ⊕ Δq with the joints inside their limits.
@@ -436,18 +438,12 @@ class StackSolver(ABC):
         """What a solver's preallocated layout depends on: the active tasks (with their gains,
         masks, weights and frames) and constraints, level by level. Switching between support
         phases alternates between a few layouts, which are kept (:meth:`_cached_layout`)."""
-        return (
-            self.stack.version,
-            tuple(
-                (
-                    lv.priority,
-                    lv.hard,
-                    tuple((id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()),
-                    tuple(id(c) for c in lv.active_constraints()),
-                )
-                for lv in self.stack.levels
-            ),
-        )
+        key = [self.stack.version]  # (list comprehensions: a support switch computes it)
+        for lv in self.stack.levels:
+            tasks = tuple([(id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()])
+            constraints = tuple([id(c) for c in lv.active_constraints()])
+            key.append((lv.priority, lv.hard, tasks, constraints))
+        return tuple(key)
 
     def _cached_layout(self, key: tuple):
         """The layout kept for ``key`` (None if none)."""

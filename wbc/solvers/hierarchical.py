@@ -2,10 +2,13 @@
 
 Levels are solved in priority order; each level is optimal without changing the optimum of
 the levels above. Equalities (tasks) and inequalities (constraints) may sit at any level;
-box limits are hard at every level. One method, ``"cascade"``: one QP per level over the
-null space of the levels above, inequality slacks frozen for the levels below (Kanoun et al.
-2011), any backend. (DAQP's native hierarchical mode was dropped: it reports feasible
-hierarchies infeasible.)
+box limits are hard at every level. One method, ``"cascade"``: level by level, each a
+least-squares problem subject to the optimal set of the levels above, inequality slacks frozen
+for the levels below (Kanoun et al. 2011). One algorithm serves every path: the compiled
+cascade (:func:`wbc.compiled.ticks.cascade_solve`) on the plan's rows or the numpy blocks; the
+cascade of backend QPs (:func:`wbc.solvers.cascade.solve_cascade`) only solves the ticks it
+cannot finish (and names infeasible hard levels), and is the tests' oracle. (DAQP's native
+hierarchical mode was dropped: it reports feasible hierarchies infeasible.)
 
 A *hard* level must be met exactly: if its residual exceeds ``hard_tol`` the solve raises
 :class:`InfeasibleError` naming the level and the tasks/constraints involved, or, with
@@ -146,14 +149,15 @@ class HierarchicalQP(StackSolver):
             )
             for p in problems
         ]
+        g = self.fast.inequalities
         self._solutions = [
             LevelSolution(
                 p.priority,
                 p.J @ dq - p.b,
-                np.zeros(p.h.size),
+                g.h_eff[g0:g1] - g.h[g0:g1],  # the slacks the level kept
                 margin=p.G @ dq - p.h if p.h.size else np.zeros(0),
             )
-            for p in self._problems
+            for p, g0, g1 in zip(self._problems, g.g_rows[:-1], g.g_rows[1:], strict=True)
         ]
 
     def _inequalities_at(self, kin: Kinematics) -> list | None:
@@ -183,22 +187,16 @@ class HierarchicalQP(StackSolver):
         return problems, self._lower, self._upper
 
     def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
-        """kinematics → one assembly into a QP value → the compiled cascade (bounds and
-        equalities) or, with active inequality rows, the cascade of backend QPs on the same
-        arrays."""
+        """kinematics → one assembly into a QP value → the compiled cascade
+        (:func:`wbc.compiled.ticks.cascade_solve`: bounds, equalities and inequality rows) on
+        the plan's rows or the numpy blocks; the cascade of backend QPs on the same arrays only
+        when that fails (an infeasible hard level, an active set that does not settle)."""
         if self._key != self.stack.revision:
             self._plan()
         self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
         if fast is not None and not self._yield_recovery:
-            status = fast.solve(kin, dt)  # fills the plan's rows and bounds
-            if status == 0 and (
-                inequalities is None
-                or all(
-                    h.size == 0 or (G @ fast.dq - h).max() <= CONSTRAINT_TOL
-                    for G, h, _ in inequalities
-                )
-            ):
+            if fast.solve(kin, dt, inequalities) == 0:  # fills the plan's rows and bounds
                 self.compiled_ticks += 1
                 self.relaxed = False
                 self.diagnosis = ""
@@ -206,12 +204,7 @@ class HierarchicalQP(StackSolver):
             self.handed_back_ticks += 1
         problems, lower, upper = self._assemble(kin, dt, inequalities)
         self._problems = problems
-        if (
-            fast is None
-            and inequalities is None
-            and not self.stack.extra_limits
-            and not self._yield_recovery
-        ):
+        if fast is None and not self.stack.extra_limits and not self._yield_recovery:
             dq = self._level_solver(problems, kin, dt, lower, upper)
             if dq is not None:
                 return Solution(dq, lower, upper)
@@ -237,38 +230,49 @@ class HierarchicalQP(StackSolver):
         return Solution(dq, lower, upper)
 
     def _level_solver(self, problems, kin: Kinematics, dt: float | None, lower, upper):
-        """The levels without inequality rows, on the numpy path: the compiled tick's own level
-        algorithm (:func:`wbc.compiled.ticks.cascade_solve`) on these rows, so that one
-        hierarchy algorithm serves every path; the backends solve the levels that have
-        inequality rows. None if it cannot finish (the backend cascade then names why)."""
+        """The levels on the numpy path: the compiled tick's own level algorithm
+        (:func:`wbc.compiled.ticks.cascade_solve`, inequality rows included) on these rows,
+        so that one hierarchy algorithm serves every path. None if it cannot finish (the
+        backend cascade then solves the tick, or names why it is infeasible)."""
         from ..compiled.lsq import OK
         from ..compiled.ticks import cascade_solve
 
         nv = self.robot.nv
         J = np.vstack([p.J for p in problems]) if problems else np.zeros((0, nv))
         b = np.concatenate([p.b for p in problems]) if problems else np.zeros(0)
+        G = np.vstack([p.G for p in problems]) if problems else np.zeros((0, nv))
+        h = np.concatenate([p.h for p in problems]) if problems else np.zeros(0)
         level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
+        g_rows = np.cumsum([0] + [p.h.shape[0] for p in problems]).astype(np.int64)
         level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
         limit = self.stack.velocity_limit
         use = dt is not None and limit is not None
         step = limit.step(dt) if use else np.zeros(self.robot.n_joints)
-        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol])
+        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
         states = np.zeros((len(problems), nv), dtype=np.int8)
+        working = np.zeros((len(problems), h.size), dtype=np.bool_)
+        h_eff = np.zeros(h.size)
         achieved = np.zeros(J.shape[0])
         dq = np.zeros(nv)
         q_next = np.zeros(self.robot.nq)
         q = np.ascontiguousarray(kin.q, dtype=float)
         status = cascade_solve(
-            J, b, level_rows, level_hard, q, self._q_min, self._q_max,
-            np.ascontiguousarray(step, dtype=float), params, lower, upper, states, achieved,
-            dq, q_next,
+            J, b, level_rows, level_hard, np.ascontiguousarray(G, dtype=float),
+            np.ascontiguousarray(h, dtype=float), g_rows, q, self._q_min, self._q_max,
+            np.ascontiguousarray(step, dtype=float), params, lower, upper, states, working,
+            h_eff, achieved, dq, q_next,
         )  # fmt: skip
         if status != OK:
             self.compute_bounds(kin, dt, lower, upper)  # the backend cascade starts afresh
             return None
         self._solutions = [
-            LevelSolution(p.priority, p.J @ dq - p.b, np.zeros(0), margin=np.zeros(0))
-            for p in problems
+            LevelSolution(
+                p.priority,
+                p.J @ dq - p.b,
+                h_eff[g0:g1] - p.h,
+                margin=p.G @ dq - p.h,
+            )
+            for p, g0, g1 in zip(problems, g_rows[:-1], g_rows[1:], strict=True)
         ]
         self.relaxed = False
         self.diagnosis = ""

@@ -19,7 +19,7 @@ import numpy as np
 from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
-from .base import CONSTRAINT_TOL, Solution, StackSolver
+from .base import Solution, StackSolver
 from .cascade import LevelProblem, solve_cascade_or_daqp
 from .diagnostics import conflicts, infeasible_message
 
@@ -107,30 +107,29 @@ class WeightedQP(StackSolver):
         return _Layout(soft, hard, constraints, fast, self.backend.workspace(nv, hard.m, 0))
 
     def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
-        """kinematics → one assembly into a QP value → the compiled least squares (bounds and
-        equalities) or, with active inequality rows, the backend fed from the same arrays."""
+        """kinematics → one assembly into a QP value → the compiled least squares (bounds,
+        equalities, inequality rows), or the backend fed from the same arrays when the stack
+        is not compiled or the compiled solve fails."""
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
         if fast is not None and not self._yield_recovery:
-            status = fast.solve(kin, dt)  # fills the plan's rows and bounds: the QP value
-            value = self._assemble(kin, dt)  # the inequality rows
-            if status == 0 and (
-                value.h.size == 0
-                or (value.G @ fast.dq - value.h).max() <= CONSTRAINT_TOL
-                or fast.solve_inequalities(value.G, value.h, CONSTRAINT_TOL)
-            ):
+            # the compiled tick: the plan's rows and bounds, the inequality rows (an active
+            # set on them in the compiled least squares), the integration
+            rows = None
+            if self.constraints:
+                rows = [stack_constraints(self.constraints, kin, self.robot.nv)]
+            if fast.solve(kin, dt, rows) == 0:
                 self.compiled_ticks += 1
                 self.relaxed = False
                 return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
-            self.handed_back_ticks += 1
-            value = value._replace(
-                J=fast.soft.J, b=fast.soft.b, A=fast.hard.J, a=fast.hard.b,
-                lower=fast.lower, upper=fast.upper,
-            )  # fmt: skip
-        else:
-            value = self._assemble(kin, dt)
-        return self._solve_value(kin, value)
+            self.handed_back_ticks += 1  # the backend, on the same arrays
+            G, h, _ = rows[0] if rows else self._no_rows
+            value = WeightedValue(
+                fast.soft.J, fast.soft.b, fast.hard.J, fast.hard.b, G, h, fast.lower, fast.upper
+            )
+            return self._solve_value(kin, value)
+        return self._solve_value(kin, self._assemble(kin, dt))
 
     def _assemble(self, kin: Kinematics, dt: float | None) -> WeightedValue:
         """The QP value: the inequality rows, and on the numpy path every row and the bounds

@@ -1,0 +1,111 @@
+"""Where one control tick's time goes: the parts of a compiled tick, timed one by one.
+
+The core ``walk`` stack (as benchmarks/qp_tick.py) is walked along ``walk10`` to tick 150
+(single support); then each part of that tick is called repeatedly at the same configuration:
+the loop's tick as benchmarks/qp_tick.py times it, setting the targets, the kinematics, the
+generated tick (one numba call), calling a do-nothing compiled function with the same
+arguments (numba's cost of unboxing them), and the solve alone (bounds, least squares,
+integration). Best of 5 × 2000 calls, µs.
+
+Run: ``python benchmarks/tick_profile.py`` (writes nothing; figures in qp_tick.md).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from numba import njit, typeof
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from qp_tick import core_walk_spec
+
+from wbc import load_robot
+from wbc.bench.trajectories import build
+from wbc.compiled import ticks as T
+from wbc.stacks import build_stack
+from wbc.walking.loop import Session, StackController
+
+
+def best(f, calls: int = 2000, repeats: int = 5) -> float:
+    """Best mean µs per call of f over ``repeats`` batches of ``calls``."""
+    f()
+    out = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        for _ in range(calls):
+            f()
+        out.append((time.perf_counter() - t) / calls * 1e6)
+    return min(out)
+
+
+def noop_entry(args: tuple):
+    """The entry point of a compiled function that takes ``args`` and does nothing."""
+    names = ", ".join(f"a{i}" for i in range(len(args)))
+    space: dict = {}
+    exec(f"def noop({names}):\n    return 0\n", space)
+    noop = njit(space["noop"])
+    noop(*args)
+    return noop.overloads[tuple(typeof(a) for a in args)].entry_point
+
+
+def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
+    controller = StackController(build_stack({**core_walk_spec(), "solver": kind}, robot))
+    session = Session(controller, robot, ref)
+    for i in range(at):
+        session.tick(i)
+    targets = session.targets(at)
+    q = session.q.copy()
+    solver = controller.solver
+    plan = solver.fast
+    g = plan.inequalities
+    noop = noop_entry(plan.args)
+
+    if kind == "weighted":
+
+        def solve():
+            T.weighted_solve(
+                plan.soft.J, plan.soft.b, plan.hard.J, plan.hard.b, g.G, g.h, g.g_rows, plan.q,
+                plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
+                plan.state, g.working[0], plan.dq, plan.q_next,
+            )  # fmt: skip
+    else:
+
+        def solve():
+            T.cascade_solve(
+                plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
+                plan.q, plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
+                plan.states, g.working, g.h_eff, plan.achieved, plan.dq, plan.q_next,
+            )  # fmt: skip
+
+    return {
+        "the loop's tick (controller.track: what qp_tick.py times)": best(
+            lambda: controller.track(q, targets, 0.01, False)
+        ),
+        "setting the targets": best(lambda: controller._set_targets(q, targets, False)),
+        "solver.step": best(lambda: solver.step(q, 0.01)),
+        "Kinematics.update": best(lambda: solver.kin.update(q)),
+        "the generated tick (one numba call)": best(
+            lambda: plan.ticks.call(plan.tick_name, plan.variant, plan.args)
+        ),
+        "calling a no-op with the same arguments": best(lambda: noop(*plan.args)),
+        "bounds + least squares + integration": best(solve),
+    }
+
+
+def main() -> int:
+    robot = load_robot()
+    ref = build("walk10", robot)
+    rows = {kind: profile(robot, ref, kind) for kind in ("weighted", "hierarchical")}
+    print("| part | weighted µs | hierarchy µs |")
+    print("|---|---|---|")
+    for part in rows["weighted"]:
+        print(f"| {part} | {rows['weighted'][part]:.1f} | {rows['hierarchical'][part]:.1f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
