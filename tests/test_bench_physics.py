@@ -124,6 +124,25 @@ def test_bench_physics_refuses_bad_options(capsys):
     assert "use --mode tick" in capsys.readouterr().err
 
 
+def test_closed_loop_spec_reaches_every_run(robot, standing, monkeypatch):
+    """Robustness sweeps and push bisections hand the closed loop (controller, reference,
+    gains, randomised model, push) to every live run, and measure it against the plan."""
+    seen = []
+
+    def fake(spec, robot_, variation=None, push=None, settle=1.0, compensate=0.0):
+        seen.append((spec, variation, push, compensate))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(physics, "play_closed_loop", fake)
+    spec = physics.ClosedLoopSpec(make=lambda r: None, ref="REF", gains="G")
+    with pytest.raises(RuntimeError):
+        physics.robustness(standing, robot, 2, 0, compensate=0.5, closed=spec)
+    assert seen[0][0] is spec and seen[0][1] is not None and seen[0][3] == 0.5
+    with pytest.raises(RuntimeError):
+        physics.simulate(standing, robot, push=(0.1, [1.0, 0, 0], 0.01), closed=spec)
+    assert seen[1][0] is spec and seen[1][2][0] == 0.1
+
+
 def test_kokone_randomised_models_spread_around_its_hobby_servo():
     """--robustness on Kokone: the AX-12A's draws as factors of the BMS-380MAX's values."""
     from wbc import load_robot

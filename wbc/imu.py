@@ -24,12 +24,18 @@ A user plugging in hardware implements :meth:`Imu.read` (and :meth:`Imu.open` /
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import numpy as np
 
 from .exceptions import WbcError
+
+
+class ImuError(WbcError):
+    """An IMU could not be opened or read (the message names the device and what to check)."""
+
 
 #: standard gravity (m/s²)
 GRAVITY = 9.80665
@@ -47,7 +53,7 @@ class ImuReading:
     def __post_init__(self) -> None:
         for name, size in (("orientation", 4), ("angular_velocity", 3), ("linear_acceleration", 3)):
             v = np.asarray(getattr(self, name), dtype=float)
-            if v.shape != (size,) or not np.all(np.isfinite(v)):
+            if v.shape != (size,) or not math.isfinite(float(v @ v)):  # (cheap: in every tick)
                 raise WbcError(f"ImuReading.{name}: expected {size} finite values, got {v}")
             object.__setattr__(self, name, v)
 

@@ -1,9 +1,15 @@
-"""Balance on a body (issue 15): goal shaping between the plan and the servos.
+"""Balance on a body (issue 15): between the plan and the servos, and the closed loop.
 
 * :mod:`wbc.balance.compliance` — servo compliance feed-forward (static contact torques from
   pinocchio through the inverse of the AX-12A law of the shared servo settings);
-* :mod:`wbc.balance.feedback` — torso gyro feedback on the leg goals (OP3-style, closed loop).
+* :mod:`wbc.balance.feedback` — torso gyro feedback on the leg goals (OP3-style);
+* :mod:`wbc.balance.estimator` — state estimate from the encoders and a torso IMU
+  (complementary filter; CoM, its velocity and the DCM from the stance leg's kinematics);
+* :mod:`wbc.balance.stabilizer` — feedback on the walking targets inside the control tick
+  (:class:`~wbc.walking.loop.Session`'s ``stabilizer``);
+* :mod:`wbc.balance.live` — :func:`~wbc.balance.live.closed_loop`: a controller solved live in
+  the deployment's tick on any ServoBus + Imu (``wbc deploy --live STACK --closed-loop``).
 
-Both wrap a target source (:class:`wbc.servos.sources.TargetSource`): ``wbc deploy
---compensate``, ``wbc bench --physics --compensate / --gyro``. Figures: benchmarks/balance.md.
+``wbc deploy --compensate``, ``wbc bench --physics --compensate / --gyro / --closed-loop``.
+Figures: benchmarks/balance.md; guide: docs/closed_loop.md.
 """

@@ -20,7 +20,7 @@ deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
 Robustness (``--robustness N --seed S``): N randomised models (:func:`random_model`);
 ``up_fraction`` = the share that stay up. Push (``--push``): a 10 ms force on the torso at
 mid first single support, lateral (away from the swing foot) and forward (+x); the largest
-impulse survived (N·s) by bisection over 0–1.5 N·s.
+impulse survived (N·s) by bisection over 0–3 N·s.
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIG
 FALL_TILT_DEG = 45.0
 FALL_HEIGHT = 0.6
 PUSH_DURATION = 0.01
-PUSH_MAX_NS = 1.5
-PUSH_STEPS = 6
+PUSH_MAX_NS = 3.0
+PUSH_STEPS = 7
 #: the default solvers of --physics: one per controller (the QP backends give the same joints)
 DEFAULT_SOLVERS = (
     "wqp-daqp", "hqp-daqp", "qp-vat", "qp-vatl", "qp-cj_foot", "qp-cj_com", "qp-cjl_foot",
@@ -58,6 +58,7 @@ PHYSICS_KEYS: dict[str, tuple[str, str]] = {
     "fall_phase": ("support phase at the fall", ""),
     "fall_joint": ("most loaded joint before the fall", ""),
     "orientation_dev_max_deg": ("max base orientation deviation from plan", "deg"),
+    "torso_ref_dev_max_deg": ("max torso deviation from the reference's orientation", "deg"),
     "distance_ratio": ("travelled / planned distance", ""),
     "foot_slip_max_mm": ("max foot slip while in support", "mm"),
     "tracking_err_max_deg": ("max joint tracking error", "deg"),
@@ -164,8 +165,10 @@ def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(Ra.T @ Rb) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
-    """The physics figures of one simulated run (see the module docstring)."""
+def physics_record(rec: Recording, result, robot: Robot, ref=None) -> dict[str, Any]:
+    """The physics figures of one simulated run (see the module docstring); with the walking
+    reference ``ref``, also ``torso_ref_dev_max_deg``: the largest angle between the real
+    torso and the torso orientation the reference asks for (the plan may deviate from it)."""
     log = result.log
     t = log["t"] - result.playback_start
     q_real = log["q"]
@@ -196,6 +199,15 @@ def physics_record(rec: Recording, result, robot: Robot) -> dict[str, Any]:
     else:
         record["fall_phase"] = record["fall_joint"] = None
     record["orientation_dev_max_deg"] = float(dev[:upto].max()) if upto else 0.0
+    if ref is not None:
+        from ..walking.loop import heading_free
+
+        start = pin.XYZQUATToSE3(rec.q[0, :7]).rotation  # the base is the torso
+        wanted = ref.torso_rotations(heading_free(start))
+        k_ref = np.clip(np.round((t + rec.t[0] - ref.t[0]) / ref.dt).astype(int), 0, ref.n - 1)
+        played = np.arange(n) < upto
+        rdev = [_angle(wanted[k_ref[k]], _rotation(q_real[k, 3:7])) for k in np.flatnonzero(played)]
+        record["torso_ref_dev_max_deg"] = float(max(rdev)) if rdev else 0.0
     # distance along the planned displacement of the base (playback part only)
     play_end = min(upto, int(np.searchsorted(t, rec_t[-1], side="right")))
     d_plan = q_plan[play_end - 1, :2] - q_plan[0, :2] if play_end else np.zeros(2)
@@ -299,6 +311,66 @@ def simulated_recording(rec: Recording, result, robot: Robot) -> Recording:
 
 
 # ---------------------------------------------------------------------- runs
+@dataclass(frozen=True)
+class ClosedLoopSpec:
+    """The closed loop of a physics run: the controller solved live in the deployment's tick
+    with :class:`wbc.balance.stabilizer.Stabilizer` (``gains``; ``enabled=False``: the same
+    live run, open loop), on ``ref``; ``use_imu=False``: encoders only."""
+
+    make: Callable[[Robot], Any]
+    ref: Any
+    gains: Any = None
+    enabled: bool = True
+    use_imu: bool = True
+
+
+def play_closed_loop(
+    spec: ClosedLoopSpec,
+    robot: Robot,
+    variation: Variation | None = None,
+    push: tuple[float, Sequence[float], float] | None = None,
+    settle: float = 1.0,
+    compensate: float = 0.0,
+):
+    """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
+    on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
+    :class:`wbc.sim.play.PlayResult` and the loop (its per-tick costs, limit excursions)."""
+    from ..balance.live import closed_loop
+    from ..servos.sources import CallableSource
+    from ..sim.bus import SimImu, SimServoBus
+    from ..sim.play import PlayResult, _Logger
+    from ..sim.simulator import Simulation
+    from ..walking.loop import start_configuration
+
+    v = variation
+    sim = Simulation(robot, v.model_params if v else None, v.servo_params if v else None)
+    sim.reset(start_configuration(robot, spec.ref))
+    logger = _Logger(sim)
+    bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
+    imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0) if spec.use_imu else None
+    loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
+                       compensate, out=lambda _line: None)  # fmt: skip
+    dep = loop.deployment
+    start = sim.time
+    if push is not None:  # timed from the playback's first target (after any soft start)
+        inner = dep.source
+
+        def pushed(tick: int, t: float) -> np.ndarray | None:
+            if tick == 0 and t == 0.0:
+                sim.push(push[1], push[2], start=sim.time + push[0])
+            return inner(tick, t)
+
+        dep.source = CallableSource(pushed, inner.first(), inner.joint_names)
+    result = dep.run()
+    rate = dep.config.rate
+    playback_start = start + result.soft_start_ticks / rate
+    if result.completed and settle > 0:
+        for _ in range(round(settle * rate)):
+            sim.advance(1.0 / rate)
+            logger(bus)
+    return PlayResult(result, logger.log.arrays(), playback_start - logger.t0, sim), loop
+
+
 def simulate(
     rec: Recording,
     robot: Robot,
@@ -307,10 +379,18 @@ def simulate(
     settle: float = 1.0,
     compensate: float = 0.0,
     gyro: float = 0.0,
+    closed: ClosedLoopSpec | None = None,
 ) -> dict[str, Any]:
     """One simulated run of a planned recording: its physics record (``compensate``: the
     gain of the servo compliance feed-forward, :mod:`wbc.balance.compliance`; ``gyro``: the
-    scale of the torso gyro feedback, :mod:`wbc.balance.feedback`; 0 = off)."""
+    scale of the torso gyro feedback, :mod:`wbc.balance.feedback`; 0 = off). With
+    ``closed``, the controller runs live (:func:`play_closed_loop`) and ``rec`` (its open-loop
+    plan) is what the run is measured against."""
+    if closed is not None:
+        result, loop = play_closed_loop(closed, robot, variation, push, settle, compensate)
+        record = physics_record(rec, result, robot, closed.ref)
+        record.update(closed_loop_figures(loop))
+        return record
     from ..sim.play import play
 
     kw: dict[str, Any] = {"compensate": compensate, "gyro": gyro}
@@ -319,6 +399,19 @@ def simulate(
                   latency_ticks=variation.latency_ticks, imu_noise=variation.imu_noise)  # fmt: skip
     result = play(rec, robot, settle=settle, push=push, limit_tol=math.inf, **kw)
     return physics_record(rec, result, robot)
+
+
+def closed_loop_figures(loop) -> dict[str, Any]:
+    """The closed loop's own figures: goal excursion beyond the joint limits (before the
+    deployment's clamp), the estimator + feedback share of the tick, the largest estimated
+    torso tilt error."""
+    share = loop.source.cost_share()
+    return {
+        "goal_limit_excess_deg": float(np.degrees(max(loop.source.limit_excess, 0.0))),
+        "feedback_share": share,
+        "estimated_tilt_max_deg": float(np.degrees(loop.stabilizer.max_tilt_error)),
+        "failed_solves": int(loop.session.failed),
+    }
 
 
 def robustness(
@@ -330,11 +423,13 @@ def robustness(
     settle: float = 1.0,
     compensate: float = 0.0,
     gyro: float = 0.0,
+    closed: ClosedLoopSpec | None = None,
 ) -> dict[str, Any]:
     """The share of ``n`` randomised models (seeded) on which the run stays up."""
     up, falls = [], []
     for k, v in enumerate(models(robot, n, seed)):
-        r = simulate(rec, robot, v, settle=settle, compensate=compensate, gyro=gyro)
+        r = simulate(rec, robot, v, settle=settle, compensate=compensate, gyro=gyro,
+                     closed=closed)  # fmt: skip
         up.append(not r["fell"])
         if r["fell"]:  # why: when, in which support phase, the most loaded joint
             falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
@@ -369,6 +464,7 @@ def largest_push(
     settle: float = 1.0,
     compensate: float = 0.0,
     gyro: float = 0.0,
+    closed: ClosedLoopSpec | None = None,
 ) -> float | None:
     """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
     (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
@@ -382,7 +478,8 @@ def largest_push(
     def survives(impulse: float) -> bool:
         force = u * impulse / PUSH_DURATION
         push = (t_push, force, PUSH_DURATION)
-        run = simulate(rec, robot, push=push, settle=settle, compensate=compensate, gyro=gyro)
+        run = simulate(rec, robot, push=push, settle=settle, compensate=compensate, gyro=gyro,
+                       closed=closed)  # fmt: skip
         return not run["fell"]
 
     if not survives(0.0):
@@ -422,6 +519,17 @@ def add_physics_arguments(parser) -> None:
         "wbc.balance.compliance)",
     )
     parser.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="--physics: also run each controller live in the deployment's tick, closed "
+        "through the torso IMU and the servos' present positions (wbc.balance.stabilizer)",
+    )
+    parser.add_argument(
+        "--encoders-only",
+        action="store_true",
+        help="--closed-loop: estimate from the servos' positions alone (no IMU)",
+    )
+    parser.add_argument(
         "--gyro",
         type=float,
         default=0.0,
@@ -459,6 +567,13 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
     return 0
 
 
+def stabilizer_gains(args):
+    """The closed loop's gains: :class:`wbc.balance.stabilizer.Gains` defaults."""
+    from ..balance.stabilizer import Gains
+
+    return Gains()
+
+
 def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[str, Any]]:
     """Called by ``wbc bench --physics``: every entry on every trajectory in the simulator."""
     from rich.table import Table
@@ -472,55 +587,72 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
     series = {}
     comp = getattr(args, "compensate", 0.0)
     gyro = getattr(args, "gyro", 0.0)
-    loop = {"compensate": comp, "gyro": gyro}
+    closed_loop = getattr(args, "closed_loop", False)
+    gains = stabilizer_gains(args) if closed_loop else None
     for name, ref in refs.items():
         for entry in entries:
             console.print(f"[dim]physics: {entry.name} on {name}[/]")
             _, rec = run_entry(entry, robot, ref, "tick")
             if args.record:
                 save_recording(rec, args.record, entry.name, name)
-            started = time.perf_counter()
-            from ..sim.play import play
-
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
-            try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses it
-                # unless --limit-tol allows it)
-                result = play(rec, robot, settle=1.0, limit_tol=math.inf, **loop)
-            except WbcError as exc:
-                console.print(f"[red]{entry.name} on {name}: {exc}[/]")
-                records.append({"solver": entry.name, "family": entry.family,
-                                "trajectory": name, "error": str(exc)})  # fmt: skip
-                continue
-            r = physics_record(rec, result, robot)
-            r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
-            r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
-            wall = time.perf_counter() - started
-            r.update(solver=entry.name, family=entry.family, trajectory=name, **loop,
-                     sim_steps=int(result.sim.steps), wall_s=wall,
-                     steps_per_s=result.sim.steps / wall,
-                     realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
-            series[(entry.name, name)] = (r.pop("_series"), rec, result)
-            if args.record:  # the simulated run beside the plan (wbc view replays both)
-                simulated_recording(rec, result, robot).save(
-                    Path(args.record) / f"{entry.name}__{name}__sim.npz"
-                )
-            if args.robustness:
+            specs: list[ClosedLoopSpec | None] = [None]
+            if closed_loop:
+                specs.append(ClosedLoopSpec(entry.make, ref, gains, True,
+                                            not getattr(args, "encoders_only", False)))  # fmt: skip
+            for spec in specs:
+                loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0}
                 started = time.perf_counter()
-                rob = robustness(rec, robot, args.robustness, args.seed, **loop)
-                r["robustness"] = rob
-                r["up_fraction"] = rob["up_fraction"]
-                r["sweep_wall_s"] = time.perf_counter() - started
-            if args.push:
-                r["push_lateral_ns"] = largest_push(rec, robot, "lateral", **loop)
-                r["push_forward_ns"] = largest_push(rec, robot, "forward", **loop)
-            records.append(r)
+                try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses
+                    # it unless --limit-tol allows it)
+                    if spec is None:
+                        from ..sim.play import play
+
+                        result = play(rec, robot, settle=1.0, limit_tol=math.inf, **loop)
+                        extra: dict[str, Any] = {}
+                    else:
+                        result, cl = play_closed_loop(spec, robot, compensate=comp)
+                        extra = closed_loop_figures(cl)
+                except WbcError as exc:
+                    console.print(f"[red]{entry.name} on {name}: {exc}[/]")
+                    records.append({"solver": entry.name, "family": entry.family,
+                                    "trajectory": name, "error": str(exc)})  # fmt: skip
+                    continue
+                r = physics_record(rec, result, robot, ref)
+                r.update(extra)
+                r["loop"] = "open" if spec is None else "closed"
+                r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
+                r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
+                wall = time.perf_counter() - started
+                r.update(solver=entry.name, family=entry.family, trajectory=name, **loop,
+                         sim_steps=int(result.sim.steps), wall_s=wall,
+                         steps_per_s=result.sim.steps / wall,
+                         realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
+                label = entry.name if spec is None else f"{entry.name} closed"
+                series[(label, name)] = (r.pop("_series"), rec, result)
+                if args.record:  # the simulated run beside the plan (wbc view replays both)
+                    simulated_recording(rec, result, robot).save(
+                        Path(args.record) / f"{label.replace(' ', '_')}__{name}__sim.npz"
+                    )
+                kw = dict(loop, closed=spec)
+                if args.robustness:
+                    started = time.perf_counter()
+                    rob = robustness(rec, robot, args.robustness, args.seed, **kw)
+                    r["robustness"] = rob
+                    r["up_fraction"] = rob["up_fraction"]
+                    r["sweep_wall_s"] = time.perf_counter() - started
+                if args.push:
+                    r["push_lateral_ns"] = largest_push(rec, robot, "lateral", **kw)
+                    r["push_forward_ns"] = largest_push(rec, robot, "forward", **kw)
+                records.append(r)
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
         title = f"physics: {name} (deploy path, simulated {_servo_name(robot)})"
         title += f", compliance feed-forward ×{comp:g}" if comp else ""
-        table = Table(title=title + (f", gyro feedback ×{gyro:g}" if gyro else ""))
-        cols = ["solver", "fell s", "dev°", "dist", "slip", "err°", "rms°", "τ/τs", "CoP mm"]
-        cols.append("lift mm")
+        title += ", open vs closed loop" if closed_loop else ""
+        table = Table(title=title + (f", gyro feedback ×{gyro:g} (open)" if gyro else ""))
+        cols = ["solver", "loop", "fell s", "dev°", "ref°", "dist", "slip", "err°", "rms°", "τ/τs"]
+        cols += ["CoP mm", "lift mm"]
         if args.robustness:
             cols.append(f"up/{args.robustness}")
         if args.push:
@@ -530,8 +662,10 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         for r in rows:
             cells = [
                 r["solver"],
+                r["loop"],
                 "-" if not r["fell"] else f"{r['fall_time_s']:.2f}",
                 f"{r['orientation_dev_max_deg']:.1f}",
+                f"{r['torso_ref_dev_max_deg']:.1f}",
                 "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}",
                 f"{r['foot_slip_max_mm']:.1f}",
                 f"{r['tracking_err_max_deg']:.1f}",
@@ -547,6 +681,14 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             table.add_row(*cells)
         console.print(table)
         for r in rows:
+            if r["loop"] == "closed":
+                share = r.get("feedback_share")
+                console.print(
+                    f"  {r['solver']} closed loop: estimator + feedback "
+                    f"{'-' if share is None else f'{100 * share:.0f} %'} of the tick (median); "
+                    f"goals beyond a joint limit before clamping: "
+                    f"{r['goal_limit_excess_deg']:.2f}° max"
+                )
             if r["fell"]:
                 console.print(
                     f"  {r['solver']}: fell at {r['fall_time_s']:.2f} s in {r['fall_phase']} "
@@ -557,7 +699,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 console.print(f"  {r['solver']}: {fall_summary(falls)}")
     if args.plots:
         for (solver, name), (s, rec, result) in series.items():
-            physics_figure(s, rec, result, args.plots / f"physics_{solver}__{name}.png")
+            label = solver.replace(" ", "_")
+            physics_figure(s, rec, result, args.plots / f"physics_{label}__{name}.png")
     return records
 
 

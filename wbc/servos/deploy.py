@@ -151,6 +151,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="add the servos' expected compliance deflection to a recording's goals "
         "(gain, default 1; wbc.balance.compliance)",
     )
+    parser.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="--live: close the loop (state estimate from the servos' present positions and "
+        "the torso IMU, feedback on the walking targets; wbc.balance.stabilizer); needs --read",
+    )
+    parser.add_argument(
+        "--imu",
+        metavar="PORT",
+        help="--closed-loop: the torso IMU's serial port (WitMotion WT901/HWT901B family); "
+        "with --sim the simulated torso IMU is used",
+    )
+    parser.add_argument(
+        "--imu-baud", type=int, default=115200, help="--imu: the IMU's baud rate (115200)"
+    )
+    parser.add_argument(
+        "--encoders-only",
+        action="store_true",
+        help="--closed-loop: no IMU, estimate from the servos' positions alone",
+    )
     from ..sim.cli import add_deploy_arguments  # --sim, --view, --realtime (no mujoco needed)
 
     add_deploy_arguments(parser)
@@ -235,25 +255,45 @@ def _dry_bus(bus: ServoBus, robot: Robot) -> DryRunBus:
     return dry
 
 
-def _live_source(args: argparse.Namespace, robot) -> tuple[CallableSource, str, float]:
-    """A task stack solved live along a walking reference, one solve per deploy tick."""
+def _imu(args: argparse.Namespace, bus: ServoBus):
+    """The torso IMU of ``--closed-loop``: the simulated one (--sim), a WitMotion on --imu
+    PORT, or None (--encoders-only)."""
+    if args.encoders_only:
+        if args.imu:
+            raise ServoError("give either --imu PORT or --encoders-only, not both")
+        return None
+    if args.imu:
+        from ..imu_witmotion import WitImu
+
+        return WitImu(args.imu, args.imu_baud)
+    if getattr(bus, "sim", None) is not None:
+        from ..sim.bus import SimImu
+
+        return SimImu(bus.sim)
+    raise ServoError("--closed-loop needs the torso IMU: --imu PORT (or --sim, or --encoders-only)")
+
+
+def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, imu):
+    """A task stack solved live along a walking reference, one solve per deploy tick, open
+    or closed loop (:func:`wbc.balance.live.closed_loop`); returns (loop, imu, what, s)."""
+    from ..balance.live import closed_loop
     from ..bench.trajectories import build
     from ..stacks import load_stack
-    from ..walking.loop import Session, StackController
+    from ..walking.loop import StackController
 
     ref = build(args.trajectory, robot)
-    session = Session(StackController(load_stack(args.live, robot)), robot, ref)
-
-    def targets(tick: int, t: float) -> np.ndarray | None:
-        q = session.at_time(t)
-        return None if q is None else q[7:].copy()
-
-    source = CallableSource(targets, session.q[7:].copy(), robot.joint_names)
-    return source, f"live {args.live} on {args.trajectory}", ref.duration
+    loop = closed_loop(
+        bus, robot, StackController(load_stack(args.live, robot)), ref, imu,
+        enabled=args.closed_loop, compensate=args.compensate, config=config,
+    )  # fmt: skip
+    state = "closed loop" + (f", IMU {imu.name}" if imu else ", encoders only")
+    what = f"live {args.live} on {args.trajectory} ({state if args.closed_loop else 'open loop'})"
+    return loop, what, ref.duration
 
 
 def run(args: argparse.Namespace) -> int:
     err = sys.stderr
+    imu = None
     try:
         robot = load_robot(args.robot, servo_map=args.servo_map)
         if args.backend == "dynamixel" or robot.servo_map is not None:
@@ -261,7 +301,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"warning: {warning}", file=err)
         config = DeployConfig(
             rate=args.rate,
-            read=args.read,
+            read=args.read or args.closed_loop,  # the estimator reads the encoders
             on_fault=args.on_fault,
             at_end=args.at_end,
             max_speed=args.max_speed,
@@ -285,10 +325,23 @@ def run(args: argparse.Namespace) -> int:
             raise ServoError(
                 f"--compensate GAIN must be a finite number >= 0, not {args.compensate}"
             )
+        loop = imu = None
+        if args.closed_loop and args.live is None:
+            raise ServoError("--closed-loop runs a controller live: give --live STACK")
+        if (args.imu or args.encoders_only) and not args.closed_loop:
+            raise ServoError("--imu / --encoders-only belong to --closed-loop")
         if args.live is not None:
-            if args.compensate:
-                raise ServoError("--compensate applies to a recording, not to --live")
-            source, what, duration = _live_source(args, robot)
+            if args.dry_run:
+                bus = _dry_bus(bus, robot)
+            elif not args.port and bus.name != "sim":
+                raise ServoError("give --port (or --dry-run)")
+            if args.closed_loop:  # the IMU first: a wrong port fails before the solver builds
+                imu = _imu(args, bus)
+                if imu is not None:
+                    imu.open()
+                    if hasattr(imu, "wait_ready"):
+                        imu.wait_ready()
+            loop, what, duration = _live(args, robot, bus, config, imu)
         else:
             recording = Recording.load(args.recording)
             source = RecordingSource(recording, robot, tol=args.limit_tol)
@@ -297,15 +350,28 @@ def run(args: argparse.Namespace) -> int:
                 from ..balance.compliance import compensated
 
                 source = compensated(source, recording, robot, args.compensate)
-        if args.dry_run:
-            bus = _dry_bus(bus, robot)
-        elif not args.port and bus.name != "sim":
-            raise ServoError("give --port (or --dry-run)")
+        if loop is None:
+            if args.dry_run:
+                bus = _dry_bus(bus, robot)
+            elif not args.port and bus.name != "sim":
+                raise ServoError("give --port (or --dry-run)")
         print(
             f"deploy {what}: {duration:.2f} s at {args.rate:g} Hz on "
             f"{bus.name}{' ' + args.port if args.port and not args.dry_run else ''}"
         )
-        result = deploy(bus, source, robot, config)
+        if loop is None:
+            result = deploy(bus, source, robot, config)
+        else:
+            try:
+                result = loop.deployment.run()
+            finally:
+                if imu is not None:
+                    imu.close()
+            share = loop.source.cost_share()
+            if args.closed_loop and share is not None:
+                print(f"closed loop: estimator + feedback {100 * share:.0f} % of the tick "
+                      f"(median), largest estimated torso tilt error "
+                      f"{math.degrees(loop.stabilizer.max_tilt_error):.1f}°")  # fmt: skip
     except WbcError as exc:
         print(f"wbc deploy: refused before any torque was enabled: {exc}", file=err)
         return EXIT_REFUSED

@@ -258,6 +258,11 @@ class Session:
     ``tick(i)`` computes the configuration for reference tick ``i`` (ticks may be skipped, as
     a live loop running slower than the reference does); a solve raising a
     :class:`~wbc.WbcError` is a failure: the robot holds its last configuration.
+
+    ``stabilizer`` (a :class:`wbc.balance.stabilizer.Stabilizer`, or None): closed loop, it
+    reads the sensors and adjusts each tick's targets before the solve (its time is
+    :attr:`feedback_time`, the solve's :attr:`solve_time`); ``stabilizer.enabled = False``
+    (or None) is the open loop.
     """
 
     def __init__(
@@ -267,8 +272,10 @@ class Session:
         ref: WalkingReference,
         q0: np.ndarray | None = None,
         options: RunOptions | None = None,
+        stabilizer: Any = None,
     ) -> None:
         self.options = options or RunOptions()
+        self.stabilizer = stabilizer
         if self.options.mode not in MODES:
             raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
         self.controller, self.robot, self.ref = controller, robot, ref
@@ -295,6 +302,7 @@ class Session:
         self.failed = False
         self.iterations = 0
         self.solve_time = 0.0
+        self.feedback_time = 0.0
 
     def targets(self, i: int) -> TickTargets:
         ref = self.ref
@@ -328,6 +336,11 @@ class Session:
         changed = key != self._previous
         self._previous = key
         opts = self.options
+        stab = self.stabilizer
+        if stab is not None and stab.enabled:
+            start = time.perf_counter()
+            targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
+            self.feedback_time = time.perf_counter() - start
         start = time.perf_counter()
         self.failed = False
         try:

@@ -1,0 +1,78 @@
+"""The closed loop's share of a control tick: state estimator + feedback vs the solve.
+
+Runs ``walk10`` through :class:`wbc.walking.loop.Session` with a
+:class:`wbc.balance.stabilizer.Stabilizer` (default gains) for each controller family, the
+sensors replaced by in-memory ones (present positions = the controller's own joints, a still
+IMU at the reference torso orientation: the estimator and the feedback do all their work, no
+simulator runs). Per tick, ``Session.feedback_time`` (estimator + feedback) and
+``Session.solve_time`` (the controller's tick) are timed with the same clock; printed: the
+median over the walk of feedback / (feedback + solve), best of ``--repeats`` runs, and the
+medians in µs.
+
+    python benchmarks/closed_loop_cost.py [--solvers wqp-daqp hqp-daqp placo pink]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from wbc import load_robot
+from wbc.balance.stabilizer import Stabilizer
+from wbc.bench import trajectories as traj
+from wbc.bench.solvers import registry
+from wbc.imu import GRAVITY, Imu, ImuReading
+from wbc.walking.loop import Session
+
+
+class StillImu(Imu):
+    def __init__(self, R: np.ndarray) -> None:
+        import pinocchio as pin
+
+        self.quat = pin.Quaternion(R).coeffs()
+        self.acc = R.T @ np.array([0.0, 0.0, GRAVITY])
+
+    def read(self) -> ImuReading:
+        return ImuReading(0.0, self.quat, np.zeros(3), self.acc)
+
+
+def measure(solver: str, robot, ref) -> tuple[float, float, float]:
+    holder: list[Session] = []
+    rng = np.random.default_rng(0)
+    noise = np.radians(0.29) * rng.standard_normal((ref.n + 1, robot.n_joints))
+
+    def present() -> np.ndarray:
+        s = holder[0]
+        return s.q[7:] + noise[s._last_index or 0]
+
+    probe = Session(registry()[solver].make(robot), robot, ref)
+    imu = StillImu(probe.targets(0).torso_rotation)
+    stab = Stabilizer(robot, ref.com_height, present, imu)
+    session = Session(registry()[solver].make(robot), robot, ref, stabilizer=stab)
+    holder.append(session)
+    fb, sv = [], []
+    for i in range(ref.n):
+        session.tick(i)
+        fb.append(session.feedback_time)
+        sv.append(session.solve_time)
+    fb, sv = np.array(fb[5:]), np.array(sv[5:])  # after the first ticks (warm caches)
+    return float(np.median(fb / (fb + sv))), float(np.median(fb)), float(np.median(sv))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--solvers", nargs="+", default=["wqp-daqp", "hqp-daqp", "placo", "pink"])
+    p.add_argument("--repeats", type=int, default=3)
+    args = p.parse_args()
+    robot = load_robot("bioloid")
+    ref = traj.build("walk10", robot)
+    print(f"{'solver':<10} {'share':>7} {'feedback µs':>12} {'solve µs':>9}")
+    for solver in args.solvers:
+        runs = [measure(solver, robot, ref) for _ in range(args.repeats)]
+        share, fb, sv = min(runs)
+        print(f"{solver:<10} {100 * share:6.1f}% {1e6 * fb:12.0f} {1e6 * sv:9.0f}")
+
+
+if __name__ == "__main__":
+    main()

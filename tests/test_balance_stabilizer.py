@@ -1,0 +1,183 @@
+"""Closed-loop feedback on the walking targets: sign laws, clipping, the off switch, and a
+short closed-loop run on the simulator (Session inside the deployment's tick)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wbc.balance.stabilizer import Gains, Stabilizer
+from wbc.exceptions import WbcError
+from wbc.imu import GRAVITY, Imu, ImuReading
+from wbc.model import load_robot
+from wbc.walking.loop import TickTargets
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot()
+
+
+class StillImu(Imu):
+    """A still IMU at rotation R (torso in world), with gyro rate omega."""
+
+    def __init__(self, R, omega=(0.0, 0.0, 0.0)) -> None:
+        self.R, self.omega = np.asarray(R, float), np.asarray(omega, float)
+
+    def read(self) -> ImuReading:
+        q = pin.Quaternion(self.R).coeffs()
+        return ImuReading(0.0, q, self.omega, self.R.T @ np.array([0, 0, GRAVITY]))
+
+
+def targets_at(robot, q, phase="single"):
+    left = robot.frame_placement(q, "l_sole")
+    right = robot.frame_placement(q, "r_sole")
+    R = robot.frame_placement(q, "torso").rotation
+    return TickTargets(0, 0.0, phase, "l_sole", "r_sole", robot.com(q), left, right, 0.0, R,
+                       right.translation.copy(), right.rotation.copy())  # fmt: skip
+
+
+def standing(robot):
+    return robot.place_on_ground(robot.configuration("stand"), "l_sole")
+
+
+def stabilizer(robot, q, R_imu, gains, omega=(0.0, 0.0, 0.0), present=True):
+    stab = Stabilizer(robot, 0.2, (lambda: q[7:].copy()) if present else (lambda: None),
+                      StillImu(R_imu, omega), gains)  # fmt: skip
+    stab.estimator.reset(R_imu)
+    return stab
+
+
+def test_off_switch_passes_targets_through(robot):
+    q = standing(robot)
+    t = targets_at(robot, q)
+    stab = stabilizer(robot, q, pin.exp3(np.array([0.1, 0, 0])), Gains(k_p=1.0, k_dcm=1.0))
+    stab.enabled = False
+    assert stab.adjust(t, np.zeros(3), q, 0.01) is t
+    assert stab.joint_offsets(q[7:]) is None
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.floats(-0.15, 0.15),
+    st.floats(-0.15, 0.15),
+    st.floats(0.2, 2.0),
+)
+def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
+    """Measured tilt e (world) → the torso target is turned by −k_p·e (clipped to max_tilt):
+    the commanded counter-rotation opposes the error."""
+    robot = _ROBOT
+    q = standing(robot)
+    t = targets_at(robot, q)
+    R_true = pin.rpy.rpyToMatrix(roll, pitch, 0.0) @ t.torso_rotation
+    gains = Gains(k_p=k_p, k_d=0.0, k_yaw=0.0, max_tilt=0.2)  # tilt only
+    out = stabilizer(robot, q, R_true, gains).adjust(t, np.zeros(3), q, 0.01)
+    e = pin.log3(R_true @ t.torso_rotation.T)
+    e[2] = 0.0
+    turn = pin.log3(out.torso_rotation @ t.torso_rotation.T)  # commanded change (world)
+    assert np.linalg.norm(turn) <= 0.2 + 1e-9
+    if np.linalg.norm(e) > 1e-6:
+        assert turn @ e < 0  # opposite to the error
+    if k_p * np.linalg.norm(e) < 0.2:
+        assert np.allclose(turn, -k_p * e, atol=2e-3)
+    assert np.array_equal(out.com, t.com)  # k_dcm = 0: the CoM target is untouched
+    # k_yaw = 1 (the default): the heading error is turned back too
+    R_yawed = pin.rpy.rpyToMatrix(0.0, 0.0, 0.1) @ R_true
+    out = stabilizer(robot, q, R_yawed, Gains(k_p=1.0, k_d=0.0, max_tilt=0.5)).adjust(
+        t, np.zeros(3), q, 0.01
+    )
+    full = pin.log3(R_yawed @ t.torso_rotation.T)
+    assert np.allclose(pin.log3(out.torso_rotation @ t.torso_rotation.T), -full, atol=2e-3)
+
+
+_ROBOT = load_robot()
+
+
+def test_dcm_feedback_moves_the_com_target_back(robot):
+    """A CoM running sideways faster than planned (DCM ahead of the reference's) moves the
+    CoM target the other way, by k_dcm × the DCM error, clipped to max_shift."""
+    q = standing(robot)
+    t = targets_at(robot, q, "double")
+    R = t.torso_rotation
+    stab = stabilizer(robot, q, R, Gains(k_p=0.0, k_dcm=0.5, max_shift=0.02))
+    out = stab.adjust(t, np.zeros(3), q, 0.01)  # at rest as planned: no change
+    assert np.allclose(out.com, t.com, atol=1e-9)
+    vel_ref = np.array([0.0, -0.1, 0.0])  # the plan expects the CoM to move to −y
+    out = stab.adjust(t, vel_ref, q, 0.01)  # the robot stands still: its DCM is ahead (+y)
+    shift = out.com - t.com
+    err = 0.1 / stab.estimator.omega0
+    assert shift[1] == pytest.approx(-0.5 * err, rel=1e-6)
+    assert shift[0] == pytest.approx(0.0, abs=1e-9) and shift[2] == 0.0
+    out = stab.adjust(t, 10 * vel_ref, q, 0.01)
+    assert np.linalg.norm(out.com - t.com) == pytest.approx(0.02)
+
+
+def test_joint_offsets_oppose_the_rate(robot):
+    """Joint-level term: a gyro roll rate gives leg offsets whose induced torso rotation
+    (−Σ a_j δ_j, the sole held) opposes it; clipped to max_offset."""
+    q = standing(robot)
+    t = targets_at(robot, q)
+    stab = stabilizer(robot, q, t.torso_rotation, Gains(k_p=0.0, j_d=1.0, max_offset=0.05),
+                      omega=(0.3, 0.0, 0.0))  # fmt: skip
+    stab.adjust(t, np.zeros(3), q, 0.01)
+    d = stab.joint_offsets(q[7:])
+    assert np.abs(d).max() <= 0.05 + 1e-12 and np.abs(d).max() > 0
+    axes = stab._joint.axes(q[7:])
+    left = [i for i, n in enumerate(robot.joint_names) if n.startswith("l_")]
+    induced = -(axes[left].T @ d[left])
+    assert induced[0] < 0  # against the +x rate
+
+
+def test_bad_gains_are_refused():
+    with pytest.raises(WbcError, match="k_p"):
+        Gains(k_p=-1.0).check()
+    with pytest.raises(WbcError, match="max_shift"):
+        Gains(max_shift=float("nan")).check()
+
+
+def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
+    """1.2 s of walk10 live on the simulated robot, closed through SimImu and the servos'
+    present positions: the run completes, the estimator's torso tilt matches the
+    simulator's within 2°, no goal leaves a joint limit, the loop costs a share of the tick,
+    and switching it off gives the open-loop run (no feedback time)."""
+    from wbc.balance.live import closed_loop
+    from wbc.bench.trajectories import build
+    from wbc.servos.sources import CallableSource
+    from wbc.sim.bus import SimImu, SimServoBus
+    from wbc.sim.simulator import Simulation
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import StackController, start_configuration
+
+    ref = build("walk10", robot)
+    errors, shares = [], {}
+    for enabled in (True, False):
+        sim = Simulation(robot)
+        sim.reset(start_configuration(robot, ref))
+        seen = []
+
+        def watch(bus, sim=sim, seen=seen):
+            seen.append(sim.q())
+
+        bus = SimServoBus(sim, on_tick=watch)
+        loop = closed_loop(bus, robot, StackController(load_stack("walk", robot)), ref,
+                           SimImu(sim), Gains(), enabled, out=lambda _l: None)  # fmt: skip
+        inner = loop.deployment.source  # the first 1.2 s of the walk (test time)
+        loop.deployment.source = CallableSource(
+            lambda k, t, inner=inner: None if t > 1.2 else inner(k, t),
+            inner.first(),
+            inner.joint_names,
+        )
+        result = loop.deployment.run()
+        assert result.completed
+        assert loop.source.limit_excess <= 1e-9
+        shares[enabled] = loop.source.cost_share()
+        if enabled:
+            est = loop.stabilizer.last
+            R_true = robot.frame_placement(sim.q(), "torso").rotation
+            errors.append(np.degrees(np.arccos(np.clip(est.rotation[:, 2] @ R_true[:, 2], -1, 1))))
+    assert errors[0] < 2.0
+    assert 0 < shares[True] < 0.5
+    assert shares[False] == 0.0

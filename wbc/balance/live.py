@@ -1,0 +1,131 @@
+"""The closed loop on any robot: a controller solved live inside the deployment's tick.
+
+:func:`closed_loop` wires a walking :class:`~wbc.walking.loop.Session` (one solve per tick)
+and a :class:`~wbc.balance.stabilizer.Stabilizer` (estimator + feedback on the targets) to a
+:class:`~wbc.servos.playback.Deployment` on any :class:`~wbc.servos.bus.ServoBus`, reading
+any :class:`~wbc.imu.Imu` (or none: encoders only). Per tick, inside the deployment's loop:
+the previous tick's present positions (``Deployment.last_present``, read right after the
+goals) and a fresh IMU sample → state estimate → adjusted targets → one solve → (optional
+compliance feed-forward) → the deployment's clamping, rate limit and watchdog → the servos.
+
+    from wbc.balance.live import closed_loop
+    loop = closed_loop(my_bus, robot, controller, ref, imu=my_imu)
+    result = loop.deployment.run()
+
+(``docs/examples/closed_loop_own_robot.py``: a user's own simulator driving it.)
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import WbcError
+from ..imu import Imu
+from ..model import Robot
+from ..servos.bus import ServoBus
+from ..servos.playback import DeployConfig, Deployment
+from ..servos.sources import CallableSource
+from ..walking.loop import Controller, Session
+from ..walking.reference import WalkingReference
+from .stabilizer import Gains, Stabilizer
+
+
+class SessionSource(CallableSource):
+    """A target source solving ``session`` live: target of time t = the session's solve for
+    the reference tick at t (None past the end). Keeps the largest excursion of its targets
+    beyond the joint limits (rad, before the deployment's clamp) in :attr:`limit_excess`."""
+
+    def __init__(self, session: Session) -> None:
+        self.session = session
+        robot = session.robot
+        self.limit_excess = 0.0
+        self.feedback_time: list[float] = []
+        self.solve_time: list[float] = []
+
+        def target(tick: int, t: float) -> np.ndarray | None:
+            q = session.at_time(t)
+            if q is None:
+                return None
+            j = q[7:].copy()
+            start = time.perf_counter()
+            offsets = session.stabilizer.joint_offsets(j) if session.stabilizer else None
+            if offsets is not None:  # joint-level feedback (counted with the feedback)
+                j = np.clip(j + offsets, robot.q_min, robot.q_max)
+            extra = time.perf_counter() - start if offsets is not None else 0.0
+            excess = float(np.max(np.maximum(robot.q_min - j, j - robot.q_max)))
+            self.limit_excess = max(self.limit_excess, excess)
+            self.feedback_time.append(session.feedback_time + extra)
+            self.solve_time.append(session.solve_time)
+            return j
+
+        super().__init__(target, session.q[7:].copy(), robot.joint_names)
+        self.duration = float(session.ref.duration)
+
+    def cost_share(self) -> float | None:
+        """Estimator + feedback time over the whole tick's (feedback + solve), per tick, the
+        median (None before any tick)."""
+        if not self.solve_time:
+            return None
+        fb, sv = np.asarray(self.feedback_time), np.asarray(self.solve_time)
+        return float(np.median(fb / np.maximum(fb + sv, 1e-12)))
+
+
+@dataclass
+class ClosedLoop:
+    """What :func:`closed_loop` built: ``deployment.run()`` runs it."""
+
+    deployment: Deployment
+    session: Session
+    source: SessionSource  # per-tick costs, limit excursions
+    stabilizer: Stabilizer
+
+
+def closed_loop(
+    bus: ServoBus,
+    robot: Robot,
+    controller: Controller,
+    ref: WalkingReference,
+    imu: Imu | None = None,
+    gains: Gains | None = None,
+    enabled: bool = True,
+    compensate: float = 0.0,
+    config: DeployConfig | None = None,
+    q0: np.ndarray | None = None,
+    out: Callable[[str], None] = print,
+) -> ClosedLoop:
+    """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
+    the servos' present positions (``enabled=False``: the same run, open loop).
+
+    ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
+    (:mod:`wbc.balance.compliance`); ``config`` defaults to the reference's rate with
+    ``read`` on (the estimator needs the encoders); a config without ``read`` is refused
+    when the loop is closed.
+    """
+    rate = min(100.0, 1.0 / ref.dt)
+    config = config or DeployConfig(rate=rate, read=True)
+    if enabled and not config.read:
+        raise WbcError("the closed loop reads the servos' present positions: use --read")
+    if enabled and not bus.can_read:
+        raise WbcError(f"the closed loop needs servo positions; the {bus.name} bus cannot read")
+    holder: list[Deployment] = []
+    stabilizer = Stabilizer(
+        robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
+        enabled,
+    )  # fmt: skip
+    session = Session(controller, robot, ref, q0, stabilizer=stabilizer)
+    source = SessionSource(session)
+    target = source
+    if compensate > 0:
+        from .compliance import CompensatedSource, ComplianceCompensator
+
+        def support(t: float) -> int:
+            return int(ref.support[ref.index_at(ref.t[0] + t)])
+
+        target = CompensatedSource(source, ComplianceCompensator(robot, gain=compensate), support)
+    deployment = Deployment(bus, target, robot, config, out=out)
+    holder.append(deployment)
+    return ClosedLoop(deployment, session, source, stabilizer)

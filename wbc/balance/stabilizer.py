@@ -1,0 +1,194 @@
+"""Closed-loop stabilisation inside the control tick: feedback on the walking targets.
+
+Each tick, :class:`Stabilizer` reads the sensors (present joint positions; a torso IMU, or
+none), updates the :class:`~wbc.balance.estimator.StateEstimator`, and changes the targets
+the controller is about to track (:class:`~wbc.walking.loop.TickTargets`), so every solver
+family (QP stacks, placo, pink) gets the same feedback through the tasks it already has:
+
+* **torso (ankle/hip strategy, the torso orientation task; on by default)** — with
+  ``e = log(R_est R_refᵀ)`` the torso's orientation error in the world frame (its vertical,
+  heading part scaled by ``k_yaw``) and ``ω`` the gyro rate (world frame, vertical part scaled
+  by ``k_yaw``), the torso target becomes ``Exp(−(k_p e + k_i ∫e + k_d ω)) · R_ref``. With the
+  soles held by the floor, the legs' joints turn the body back by the commanded
+  counter-rotation: each compliant servo's extra torque opposes the sag, ``k_d`` damps the
+  sway, ``k_i`` takes the steady part;
+* **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
+  ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
+  from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
+  behind it;
+* **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
+  ``−k_lean h (e × z)``;
+* **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
+  axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
+  :class:`wbc.balance.live.SessionSource`).
+
+Each term is clipped (``max_tilt`` rad, ``max_shift`` m), and the joint limits stay hard in
+every solver (and the deployment clamps again): no goal ever leaves a joint limit.
+``enabled = False`` turns the loop off (the targets pass through unchanged). The gains were
+chosen by measurement in the simulator: benchmarks/balance.md.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import WbcError
+from ..imu import Imu
+from ..model import Robot
+from .estimator import StateEstimate, StateEstimator
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Feedback gains (module docstring); 0 turns a term off."""
+
+    k_p: float = 1.5  # rad/rad torso tilt
+    k_i: float = 0.0  # 1/s
+    k_d: float = 0.1  # s
+    k_dcm: float = 0.0  # m/m
+    k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
+    k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
+    j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
+    j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
+    max_offset: float = 0.2  # rad, per joint
+    max_tilt: float = 0.2  # rad
+    max_shift: float = 0.02  # m
+
+    def check(self) -> Gains:
+        for name in (
+            "k_p",
+            "k_i",
+            "k_d",
+            "k_dcm",
+            "k_lean",
+            "k_yaw",
+            "j_p",
+            "j_d",
+            "max_tilt",
+            "max_shift",
+            "max_offset",
+        ):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise WbcError(f"stabilizer gain {name} must be a finite number >= 0, got {v}")
+        return self
+
+
+def _with(targets, com: np.ndarray, torso_rotation: np.ndarray):
+    """A copy of ``targets`` (a :class:`~wbc.walking.loop.TickTargets`) with these CoM and
+    torso targets (dataclasses.replace costs ~10 µs: too much inside a tick)."""
+    out = object.__new__(type(targets))
+    out.__dict__.update(targets.__dict__, com=com, torso_rotation=torso_rotation)
+    return out
+
+
+def _clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
+    n = math.sqrt(float(v @ v))
+    return v if n <= limit else v * (limit / n)
+
+
+class Stabilizer:
+    """Estimator + feedback on the targets of one walk (module docstring).
+
+    ``present()`` returns the servos' present positions (rad, model order; None or NaN
+    entries: not read this tick, the commanded angle is used); ``imu`` a torso
+    :class:`~wbc.imu.Imu` or None (encoders only).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        com_height: float,
+        present: Callable[[], np.ndarray | None],
+        imu: Imu | None = None,
+        gains: Gains | None = None,
+        enabled: bool = True,
+        estimator: StateEstimator | None = None,
+    ) -> None:
+        self.robot = robot
+        self.present = present
+        self.imu = imu
+        self.gains = (gains or Gains()).check()
+        self.enabled = enabled
+        self.estimator = estimator or StateEstimator(
+            robot, com_height, use_imu=imu is not None, gyro_heading=self.gains.k_yaw > 0
+        )
+        self.integral = np.zeros(3)
+        self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
+        self.rate = np.zeros(3)
+        self._joint = None
+        if self.gains.j_p > 0 or self.gains.j_d > 0:
+            from .feedback import GyroFeedback
+
+            self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
+        self.last: StateEstimate | None = None
+        self.time = 0.0  # s spent in the last adjust (estimator + feedback)
+        self.max_tilt_error = 0.0  # rad, largest estimated torso tilt error
+
+    def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
+        """The targets of this tick with the feedback applied (``q_cmd``: the controller's
+        last configuration, whose joints stand in for unread servos)."""
+        if not self.enabled:
+            return targets
+        start = time.perf_counter()
+        joints = q_cmd[7:]
+        present = self.present()
+        if present is not None:
+            joints = np.where(np.isfinite(present), present, joints)
+        reading = self.imu.read() if self.imu is not None else None
+        stance = (
+            [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
+            if targets.phase == "double"
+            else [(targets.support, targets.support_placement)]
+        )
+        est = self.estimator.update(dt, joints, reading, stance)
+        self.last = est
+        g = self.gains
+        R_ref = targets.torso_rotation
+        e = pin.log3(est.rotation @ R_ref.T)  # orientation error, world frame
+        self.max_tilt_error = max(self.max_tilt_error, math.hypot(e[0], e[1]))
+        e[2] *= g.k_yaw
+        self.error, self.rate = e, est.angular_velocity
+        self.integral = _clip_norm(self.integral + e * dt, g.max_tilt / max(g.k_i, 1e-9))
+        w = est.rotation @ est.angular_velocity
+        w[2] *= g.k_yaw
+        tilt = _clip_norm(g.k_p * e + g.k_i * self.integral + g.k_d * w, g.max_tilt)
+        com = targets.com
+        if g.k_dcm > 0 or g.k_lean > 0:
+            com = self._shifted(targets, com_vel_ref, est, e)
+        out = _with(targets, com, pin.exp3(-tilt) @ R_ref)
+        self.time = time.perf_counter() - start
+        return out
+
+    def _shifted(self, targets, com_vel_ref: np.ndarray, est: StateEstimate, e: np.ndarray):
+        """The CoM target moved by the DCM and lean terms (clipped to ``max_shift``)."""
+        g = self.gains
+        com = targets.com
+        shift = np.zeros(2)
+        if g.k_dcm > 0:
+            omega0 = self.estimator.omega0
+            dcm_ref = targets.com[:2] + com_vel_ref[:2] / omega0
+            shift -= g.k_dcm * (est.dcm[:2] - dcm_ref)
+        if g.k_lean > 0:  # the CoM turned by −k_lean·e about the support: −k h (e × z)
+            h = com[2] - targets.support_placement.translation[2]
+            shift -= g.k_lean * h * np.array([e[1], -e[0]])
+        shift = _clip_norm(shift, g.max_shift)
+        return np.array([com[0] + shift[0], com[1] + shift[1], com[2]])
+
+    def joint_offsets(self, joints: np.ndarray) -> np.ndarray | None:
+        """Joint-level feedback on the solved goals (``j_p``, ``j_d``; None when off):
+        ``δ_j = k_j a_j · (j_p Rᵀe + j_d ω)`` (OP3 gains ``k_j``, axes ``a_j`` in the torso
+        frame, :mod:`wbc.balance.feedback`), clipped to ``max_offset``."""
+        if not self.enabled or self._joint is None or self.last is None:
+            return None
+        g = self.gains
+        e_body = self.last.rotation.T @ self.error
+        v = g.j_p * e_body + g.j_d * self.rate
+        d = self._joint.k * (self._joint.axes(joints) @ v)
+        return np.clip(d, -g.max_offset, g.max_offset)
