@@ -140,11 +140,8 @@ def main(duration: float | None = None, closed: bool = True) -> dict:
     controller = StackController(load_stack("walk", robot))
     loop = closed_loop(
         ToyBus(sim), robot, controller, ref, imu=ToyImu(sim), gains=Gains(), enabled=closed,
-        out=lambda line: None,
+        out=lambda line: None, duration=duration,
     )  # fmt: skip
-    if duration is not None:  # stop early (the deployment ends when its source says None)
-        inner = loop.deployment.source
-        loop.deployment.source.f = lambda tick, t, f=inner.f: None if t > duration else f(tick, t)
     result = loop.deployment.run()
     return {
         "completed": result.completed,

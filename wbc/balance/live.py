@@ -96,6 +96,7 @@ def closed_loop(
     config: DeployConfig | None = None,
     q0: np.ndarray | None = None,
     out: Callable[[str], None] = print,
+    duration: float | None = None,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
@@ -103,7 +104,7 @@ def closed_loop(
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`); ``config`` defaults to the reference's rate with
     ``read`` on (the estimator needs the encoders); a config without ``read`` is refused
-    when the loop is closed.
+    when the loop is closed. ``duration`` (s) ends the run early (None: the whole reference).
     """
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
@@ -126,6 +127,15 @@ def closed_loop(
             return int(ref.support[ref.index_at(ref.t[0] + t)])
 
         target = CompensatedSource(source, ComplianceCompensator(robot, gain=compensate), support)
+    if duration is not None:
+        from ..servos.sources import CallableSource
+
+        whole = target
+        target = CallableSource(
+            lambda tick, t: None if t > duration else whole(tick, t),
+            whole.first(),
+            whole.joint_names,
+        )
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
     return ClosedLoop(deployment, session, source, stabilizer)

@@ -105,7 +105,7 @@ def walk(
     kt, kp = zmp_knots(plan, phases, start.com[:2], zmp_offset)
     zref = sample_knots(kt, kp, t)
     # torso heading: the mean of the soles' headings
-    torso_yaw = soles.l_yaw + 0.5 * ((soles.r_yaw - soles.l_yaw + np.pi) % (2 * np.pi) - np.pi)
+    torso_yaw = soles.torso_yaw()
 
     meta: dict[str, Any] = {
         "generator": generator,
@@ -153,18 +153,11 @@ def walk(
         com=com,
         com_vel=com_vel,
         com_acc=com_acc,
-        l_sole=soles.l_pos,
-        l_sole_yaw=soles.l_yaw,
-        r_sole=soles.r_pos,
-        r_sole_yaw=soles.r_yaw,
-        support=soles.support,
-        torso_yaw=torso_yaw,
+        **soles.reference_fields(),
         com_height=height,
         plan=plan,
         gait="dynamic",
         name=name or f"walk-{generator}",
-        l_sole_vel=soles.l_vel,
-        r_sole_vel=soles.r_vel,
         zmp_ref=zref,
         foot=foot,
         margin=margin,

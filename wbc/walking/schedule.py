@@ -146,6 +146,24 @@ class SoleTracks:
     r_vel: np.ndarray
     support: np.ndarray
 
+    def torso_yaw(self) -> np.ndarray:
+        """The yaw half-way between the soles' (wrapped): the walks' torso heading."""
+        return self.l_yaw + 0.5 * ((self.r_yaw - self.l_yaw + np.pi) % (2 * np.pi) - np.pi)
+
+    def reference_fields(self) -> dict[str, np.ndarray]:
+        """The :class:`~wbc.walking.reference.WalkingReference` fields these tracks give:
+        both soles' positions, yaws and velocities, the support and the torso yaw."""
+        return {
+            "l_sole": self.l_pos,
+            "l_sole_yaw": self.l_yaw,
+            "r_sole": self.r_pos,
+            "r_sole_yaw": self.r_yaw,
+            "support": self.support,
+            "torso_yaw": self.torso_yaw(),
+            "l_sole_vel": self.l_vel,
+            "r_sole_vel": self.r_vel,
+        }
+
 
 def sole_tracks(
     plan: FootstepPlan, phases: list[Phase], dt: float, swing: SwingParams

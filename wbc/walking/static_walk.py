@@ -140,24 +140,16 @@ def static_walk(
     com = np.column_stack([pos, np.full(n, height)])
     com_vel = np.column_stack([vel, np.zeros(n)])
     com_acc = np.column_stack([acc, np.zeros(n)])
-    torso_yaw = soles.l_yaw + 0.5 * ((soles.r_yaw - soles.l_yaw + np.pi) % (2 * np.pi) - np.pi)
     ref = WalkingReference(
         t=t,
         com=com,
         com_vel=com_vel,
         com_acc=com_acc,
-        l_sole=soles.l_pos,
-        l_sole_yaw=soles.l_yaw,
-        r_sole=soles.r_pos,
-        r_sole_yaw=soles.r_yaw,
-        support=soles.support,
-        torso_yaw=torso_yaw,
+        **soles.reference_fields(),
         com_height=height,
         plan=plan,
         gait="static",
         name="static-walk",
-        l_sole_vel=soles.l_vel,
-        r_sole_vel=soles.r_vel,
         foot=foot,
         margin=p.margin,
         meta={
