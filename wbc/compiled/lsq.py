@@ -517,7 +517,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
             V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
         if not _cholesky(N, d, ridge, V):
             return _SUB_SINGULAR, k
-        _cholesky_solve(N, d, V, _V_W)
+        _cholesky_solve(N, d, V, np.int64(_V_W))
         for i in range(pp):  # e = M z − r'
             V[_V_E, i] = -V[_V_RP, i]
         for c in range(d):
@@ -535,7 +535,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
             V[_V_E, i] = V[_V_RP, i]
         if not _cholesky(N, p, ridge, V):
             return _SUB_SINGULAR, k
-        _cholesky_solve(N, p, V, _V_E)  # w = (M Mᵀ + ridge I)⁻¹ r'
+        _cholesky_solve(N, p, V, np.int64(_V_E))  # w = (M Mᵀ + ridge I)⁻¹ r'
         for i in range(p, pp):
             V[_V_E, i] = 0.0
         for c in range(d):
@@ -722,7 +722,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 for i in range(n):
                     x[i] = V[_V_X0, i]
                     V[_V_MU, i] = V[_V_MU0, i]
-            _finish(x, lower, upper, V, _V_MU, ind, state, False)
+            _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
             return MAX_ITER, count
         count += 1
         sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
@@ -757,7 +757,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 else:
                     n_inf += _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i])
             if n_inf == 0:
-                _finish(x, lower, upper, V, _V_MU, ind, state, True)
+                _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
                 return OK, count
             if n_inf < best:
                 best = n_inf
@@ -774,7 +774,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             phase = _DUAL_START  # PDAS is not making progress (it may cycle)
         if phase == _DUAL_START:
             if sub == _SUB_INCONSISTENT:  # cannot happen: only releases since a consistent set
-                _finish(x, lower, upper, V, _V_MU, ind, state, False)
+                _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
                 return MAX_ITER, count
             released = False  # a dual feasible start: no bound with the wrong multiplier sign
             for i in range(n):
@@ -823,7 +823,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             if sub == _SUB_INCONSISTENT:  # the bounds and the equalities have no common point
                 for i in range(n):
                     x[i] = V[_V_X0, i]
-                _finish(x, lower, upper, V, _V_MU0, ind, state, False)
+                _finish(x, lower, upper, V, np.int64(_V_MU0), ind, state, np.bool_(False))
                 return MAX_ITER, count
             # x_i meets its bound already (to roundoff): hold it there, with μ_i = 0
             ind[_I_FIXED, i_add] = side
@@ -881,7 +881,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             for i in range(n):
                 x[i] = V[_V_X0, i]
                 V[_V_MU, i] = V[_V_MU0, i]
-            _finish(x, lower, upper, V, _V_MU, ind, state, True)
+            _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
             return OK, count
         side = 1 if V[_V_X0, i_add] > upper[i_add] else -1
         ind[_I_FIXED, i_add] = side
