@@ -444,7 +444,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
     m, n = A.shape
     p = B.shape[0]
     pp = (p + 3) & ~3
-    nf = 0
+    nf = np.int64(0)
     nx = 0
     for i in range(n):
         if ind[_I_FIXED, i] == 0:
@@ -585,8 +585,8 @@ def _dependency(A, i, rank_rtol, W, V, ind):
     ``V[_V_NU]``. The rest of the work space is shared with :func:`_subproblem`.
     """
     m, n = A.shape
-    nf = 0
-    pos = -1
+    nf = np.int64(0)
+    pos = np.int64(-1)
     for j in range(n):
         V[_V_NU, j] = 0.0
         if ind[_I_FIXED, j] == 0:
@@ -623,7 +623,7 @@ def _rank_with(A, i, rank_rtol, W, V, ind):
     """Numerical rank of A restricted to the free variables and variable i (W, V and ind are
     work space, as in :func:`_dependency`)."""
     m, n = A.shape
-    nf = 0
+    nf = np.int64(0)
     for j in range(n):
         if ind[_I_FIXED, j] == 0 or j == i:
             ind[_I_FREE, nf] = j
@@ -714,7 +714,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
     count = 0
-    i_add = -1
+    i_add = np.int64(-1)
     side = 0
     while True:
         if count >= max_iter:
@@ -859,7 +859,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 V[_V_MU0, i] = V[_V_MU, i]
         # (DUAL_ADD) x0, mu0 solve the current set with the right signs: add the bound farthest
         # beyond (relative to 1 + |bound|), or stop
-        i_add = -1
+        i_add = np.int64(-1)
         worst = 0.0
         for i in range(n):
             if ind[_I_FIXED, i] == 0:
@@ -930,7 +930,7 @@ def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
     W = work[0]
     V = work[1]
     ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
-    nf = 0
+    nf = np.int64(0)
     for j in range(n):
         if state[j] == 0:
             ind[_I_FREE, nf] = j

@@ -120,8 +120,8 @@ def weighted_solve(
             )  # (solve_level's defaults, as values: one specialisation, see _level)
         if status == OK and (warm or _violated(G, h, p, dq, tol)):
             status = solve_with_inequalities(
-                hard_J, hard_b, soft_J, soft_b, mu, False, lower, upper, state, dq, G[:p],
-                h[:p], p, tol, working[:p], dq, False,
+                hard_J, hard_b, soft_J, soft_b, mu, np.bool_(False), lower, upper, state, dq,
+                G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False),
             )  # fmt: skip
         if status == OK or not warm:
             break
@@ -433,7 +433,7 @@ def cascade_solve(
                 # (Δq so far meets the levels above and their rows: a feasible start)
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                    soft_from, tol, working[k, :g1], entry, True,
+                    soft_from, tol, working[k, :g1], entry, np.bool_(True),
                 )  # fmt: skip
             if status == OK or not warm:
                 break
