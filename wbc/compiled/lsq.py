@@ -100,6 +100,9 @@ _N_IVEC = 6
 # multiply-adds; numba inlines a function with its caller's flags, hence on the callers too.
 # The active set logic (_solve) is plain IEEE arithmetic.
 _FAST = {"reassoc", "contract"}
+# Calls between kernels pass index constants and flags as np.int64(...)/np.bool_(...) values, and
+# counters start as np.int64(0): numba compiles a callee once per literal argument type (a
+# literal first value of a variable included), i.e. the whole call tree again (issue 13).
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
