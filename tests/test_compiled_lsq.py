@@ -7,6 +7,12 @@ squares), and, where its problem is well conditioned, against DAQP.
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -419,3 +425,46 @@ def test_equality_multipliers_solve_the_stationarity(seed, m, dependent):
     off[free] -= A[:, free].T @ np.linalg.lstsq(A[:, free].T, off[free], rcond=None)[0]
     assert np.linalg.norm(off[free]) > 1e-3
     assert not equality_multipliers(A, state, g + off, lam)
+
+
+ONE_SPECIALISATION = """
+import json
+from numba.core.registry import CPUDispatcher
+from wbc.compiled import lsq, ticks
+from wbc.compiled.__main__ import compile_part
+compile_part("weighted")  # a weighted and a hierarchical solve, compiled in this process
+compile_part("hierarchical")
+print(json.dumps({
+    f"{m.__name__}.{k}": len(v.signatures) for m in (lsq, ticks) for k, v in vars(m).items()
+    if isinstance(v, CPUDispatcher) and v.py_func.__module__ == m.__name__
+}))
+"""
+
+
+def test_each_kernel_compiles_once(tmp_path):
+    """A weighted and a hierarchical solve from empty caches compile every kernel of the level
+    solver and the ticks for one argument type only (numba specialises on literal ints/bools,
+    omitted defaults, array layouts: each would be a second compilation of the call tree).
+    In a fresh process with empty caches and LLVM optimisation off: only the typing counts."""
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
+        "WBC_CACHE_DIR": str(tmp_path / "wbc"),
+        "WBC_COMPILE_WORKER": "1",  # compile here, not in background workers
+        "NUMBA_OPT": "0",
+    }
+    run = subprocess.run(
+        [sys.executable, "-c", ONE_SPECIALISATION], env=env, capture_output=True, text=True,
+        cwd=Path(__file__).resolve().parent.parent, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    counts = json.loads(run.stdout.strip().splitlines()[-1])
+    for name in (
+        "solve_level", "_solve", "_subproblem", "_pivoted_qr_rows", "_reflect_rows",
+        "_reflect_vector", "_reflect_columns", "_reflect_columns2", "_finish", "_cholesky_solve",
+        "_rank_with", "_dependency",
+    ):  # fmt: skip
+        assert counts[f"wbc.compiled.lsq.{name}"] == 1, name
+    for name in ("weighted_solve", "cascade_solve", "solve_with_inequalities", "_level"):
+        assert counts[f"wbc.compiled.ticks.{name}"] == 1, name
+    assert {k: c for k, c in counts.items() if c > 1} == {}

@@ -100,6 +100,9 @@ _N_IVEC = 6
 # multiply-adds; numba inlines a function with its caller's flags, hence on the callers too.
 # The active set logic (_solve) is plain IEEE arithmetic.
 _FAST = {"reassoc", "contract"}
+# Calls between kernels pass index constants and flags as np.int64(...)/np.bool_(...) values, and
+# counters start as np.int64(0): numba compiles a callee once per literal argument type (a
+# literal first value of a variable included), i.e. the whole call tree again (issue 13).
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
@@ -444,7 +447,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
     m, n = A.shape
     p = B.shape[0]
     pp = (p + 3) & ~3
-    nf = 0
+    nf = np.int64(0)
     nx = 0
     for i in range(n):
         if ind[_I_FIXED, i] == 0:
@@ -517,7 +520,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
             V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
         if not _cholesky(N, d, ridge, V):
             return _SUB_SINGULAR, k
-        _cholesky_solve(N, d, V, _V_W)
+        _cholesky_solve(N, d, V, np.int64(_V_W))
         for i in range(pp):  # e = M z − r'
             V[_V_E, i] = -V[_V_RP, i]
         for c in range(d):
@@ -535,7 +538,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
             V[_V_E, i] = V[_V_RP, i]
         if not _cholesky(N, p, ridge, V):
             return _SUB_SINGULAR, k
-        _cholesky_solve(N, p, V, _V_E)  # w = (M Mᵀ + ridge I)⁻¹ r'
+        _cholesky_solve(N, p, V, np.int64(_V_E))  # w = (M Mᵀ + ridge I)⁻¹ r'
         for i in range(p, pp):
             V[_V_E, i] = 0.0
         for c in range(d):
@@ -585,8 +588,8 @@ def _dependency(A, i, rank_rtol, W, V, ind):
     ``V[_V_NU]``. The rest of the work space is shared with :func:`_subproblem`.
     """
     m, n = A.shape
-    nf = 0
-    pos = -1
+    nf = np.int64(0)
+    pos = np.int64(-1)
     for j in range(n):
         V[_V_NU, j] = 0.0
         if ind[_I_FIXED, j] == 0:
@@ -623,7 +626,7 @@ def _rank_with(A, i, rank_rtol, W, V, ind):
     """Numerical rank of A restricted to the free variables and variable i (W, V and ind are
     work space, as in :func:`_dependency`)."""
     m, n = A.shape
-    nf = 0
+    nf = np.int64(0)
     for j in range(n):
         if ind[_I_FIXED, j] == 0 or j == i:
             ind[_I_FREE, nf] = j
@@ -714,7 +717,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
     count = 0
-    i_add = -1
+    i_add = np.int64(-1)
     side = 0
     while True:
         if count >= max_iter:
@@ -722,7 +725,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 for i in range(n):
                     x[i] = V[_V_X0, i]
                     V[_V_MU, i] = V[_V_MU0, i]
-            _finish(x, lower, upper, V, _V_MU, ind, state, False)
+            _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
             return MAX_ITER, count
         count += 1
         sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
@@ -757,7 +760,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 else:
                     n_inf += _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i])
             if n_inf == 0:
-                _finish(x, lower, upper, V, _V_MU, ind, state, True)
+                _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
                 return OK, count
             if n_inf < best:
                 best = n_inf
@@ -774,7 +777,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             phase = _DUAL_START  # PDAS is not making progress (it may cycle)
         if phase == _DUAL_START:
             if sub == _SUB_INCONSISTENT:  # cannot happen: only releases since a consistent set
-                _finish(x, lower, upper, V, _V_MU, ind, state, False)
+                _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
                 return MAX_ITER, count
             released = False  # a dual feasible start: no bound with the wrong multiplier sign
             for i in range(n):
@@ -823,7 +826,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             if sub == _SUB_INCONSISTENT:  # the bounds and the equalities have no common point
                 for i in range(n):
                     x[i] = V[_V_X0, i]
-                _finish(x, lower, upper, V, _V_MU0, ind, state, False)
+                _finish(x, lower, upper, V, np.int64(_V_MU0), ind, state, np.bool_(False))
                 return MAX_ITER, count
             # x_i meets its bound already (to roundoff): hold it there, with μ_i = 0
             ind[_I_FIXED, i_add] = side
@@ -859,7 +862,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 V[_V_MU0, i] = V[_V_MU, i]
         # (DUAL_ADD) x0, mu0 solve the current set with the right signs: add the bound farthest
         # beyond (relative to 1 + |bound|), or stop
-        i_add = -1
+        i_add = np.int64(-1)
         worst = 0.0
         for i in range(n):
             if ind[_I_FIXED, i] == 0:
@@ -881,7 +884,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             for i in range(n):
                 x[i] = V[_V_X0, i]
                 V[_V_MU, i] = V[_V_MU0, i]
-            _finish(x, lower, upper, V, _V_MU, ind, state, True)
+            _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
             return OK, count
         side = 1 if V[_V_X0, i_add] > upper[i_add] else -1
         ind[_I_FIXED, i_add] = side
@@ -930,7 +933,7 @@ def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
     W = work[0]
     V = work[1]
     ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
-    nf = 0
+    nf = np.int64(0)
     for j in range(n):
         if state[j] == 0:
             ind[_I_FREE, nf] = j

@@ -115,11 +115,13 @@ def weighted_solve(
         warm = _any(working, p)  # a working set from the last tick: straight to the rows
         status = OK
         if not warm:
-            status = solve_level(hard_J, hard_b, soft_J, soft_b, mu, lower, upper, state, dq)
+            status = solve_level(
+                hard_J, hard_b, soft_J, soft_b, mu, lower, upper, state, dq, 1e-9, np.int64(30)
+            )  # (solve_level's defaults, as values: one specialisation, see _level)
         if status == OK and (warm or _violated(G, h, p, dq, tol)):
             status = solve_with_inequalities(
-                hard_J, hard_b, soft_J, soft_b, mu, False, lower, upper, state, dq, G[:p],
-                h[:p], p, tol, working[:p], dq, False,
+                hard_J, hard_b, soft_J, soft_b, mu, np.bool_(False), lower, upper, state, dq,
+                G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False),
             )  # fmt: skip
         if status == OK or not warm:
             break
@@ -138,9 +140,11 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
     independent in the remaining freedom, else, or when the active set cycles on the flat
     directions of the unregularised problem, proximal steps from x (:func:`_proximal_level`)."""
     if not exact:
-        return solve_level(A, a, B, r, ridge, lower, upper, state, x, 1e-9, LEVEL_MAX_ITER)
+        return solve_level(
+            A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER)
+        )
     previous = x.copy()
-    status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, EXACT_MAX_ITER)
+    status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, np.int64(EXACT_MAX_ITER))
     if status == NUMERICAL or status == MAX_ITER:
         x[:] = previous
         status = _proximal_level(A, a, B, r, lower, upper, state, x)
@@ -355,7 +359,9 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
         for j in range(n):
             lo[j] = lower[j] - x[j]
             hi[j] = upper[j] - x[j]
-        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, LEVEL_MAX_ITER)
+        status = solve_level(
+            A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, np.int64(LEVEL_MAX_ITER)
+        )
         if status != OK:
             return status
         step = 0.0
@@ -427,7 +433,7 @@ def cascade_solve(
                 # (Δq so far meets the levels above and their rows: a feasible start)
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                    soft_from, tol, working[k, :g1], entry, True,
+                    soft_from, tol, working[k, :g1], entry, np.bool_(True),
                 )  # fmt: skip
             if status == OK or not warm:
                 break
