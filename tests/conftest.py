@@ -22,3 +22,19 @@ def robot():
 @pytest.fixture()
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def window(robot):
+    """The Bioloid's whole-body balance window (coarse: 6 samples), built once."""
+    from wbc.walking.window import BalanceWindow
+
+    return BalanceWindow.from_robot(robot, samples=6)
+
+
+@pytest.fixture(scope="session")
+def start(robot):
+    """The Bioloid standing in its stand pose (the walks' start)."""
+    from wbc.walking import StandingState
+
+    return StandingState.from_robot(robot)

@@ -9,13 +9,8 @@ import pytest
 
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT
-from wbc.walking import LegGeometry, StandingState, check_reference, forward_walk, thesis_step
+from wbc.walking import LegGeometry, check_reference, forward_walk, thesis_step
 from wbc.walking.legs import ANKLE_HEIGHT, HIP_HALF_WIDTH, SHIN, THIGH
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 @pytest.fixture(scope="module")

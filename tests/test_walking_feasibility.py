@@ -5,13 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from wbc.walking import StandingState, ThesisStepParams, forward_walk, thesis_step
+from wbc.walking import ThesisStepParams, forward_walk, thesis_step
 from wbc.walking.feasibility import kinematic_feasibility
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 @pytest.mark.parametrize("hold_arms", [True, False])

@@ -11,7 +11,6 @@ from wbc.walking import (
     FootstepPlan,
     GaitTiming,
     LegGeometry,
-    StandingState,
     SwingParams,
     ThesisStepParams,
     forward_walk,
@@ -19,11 +18,6 @@ from wbc.walking import (
     thesis_step,
     walk,
 )
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 def test_start_state_from_walk_ready(start):

@@ -9,13 +9,8 @@ import pytest
 
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
-from wbc.walking import StandingState, forward_walk, thesis_step
+from wbc.walking import forward_walk, thesis_step
 from wbc.walking.geometry import FOOT_LENGTH, FOOT_WIDTH, polygon_area
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 @pytest.fixture(scope="module")

@@ -7,20 +7,9 @@ import pytest
 
 from wbc.bench import trajectories as traj
 from wbc.exceptions import TrajectoryError
-from wbc.walking import StandingState
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.static_walk import StaticWalkParams, static_walk
 from wbc.walking.window import BalanceWindow
-
-
-@pytest.fixture(scope="module")
-def window(robot):
-    return BalanceWindow.from_robot(robot, samples=6)
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 def test_com_15mm_inside_the_stance_sole_in_single_support(robot, window, start):

@@ -8,13 +8,8 @@ import pytest
 
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT
-from wbc.walking import LegGeometry, StandingState, ThesisStepParams, thesis_lipm_step, thesis_step
+from wbc.walking import LegGeometry, ThesisStepParams, thesis_lipm_step, thesis_step
 from wbc.walking.geometry import FOOT_WIDTH
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 @pytest.fixture(scope="module")

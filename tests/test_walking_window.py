@@ -10,20 +10,10 @@ from hypothesis import strategies as st
 
 from wbc.bench import trajectories as traj
 from wbc.exceptions import ConfigurationError, TrajectoryError
-from wbc.walking import LegGeometry, StandingState, check_reference, forward_walk
+from wbc.walking import LegGeometry, check_reference, forward_walk
 from wbc.walking.checks import lateral_offsets
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.window import BalanceWindow
-
-
-@pytest.fixture(scope="module")
-def window(robot):
-    return BalanceWindow.from_robot(robot, samples=6)
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 @pytest.fixture(scope="module")

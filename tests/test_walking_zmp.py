@@ -16,7 +16,6 @@ from wbc.walking import (
     MpcParams,
     PreviewController,
     PreviewParams,
-    StandingState,
     forward_walk,
     lateral_walk,
     turning_walk,
@@ -28,11 +27,6 @@ WALKS = {
     "turning": lambda s, **kw: turning_walk(s, 8, 0.02, 0.2, **kw),
     "lateral": lambda s, **kw: lateral_walk(s, 6, 0.015, **kw),
 }
-
-
-@pytest.fixture(scope="module")
-def start(robot):
-    return StandingState.from_robot(robot)
 
 
 @pytest.fixture(scope="module")
