@@ -13,3 +13,21 @@
 ``wbc deploy --compensate``, ``wbc bench --physics --compensate / --gyro / --closed-loop``.
 Figures: benchmarks/balance.md; guide: docs/closed_loop.md.
 """
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> None:
+    """The ``--compensate [GAIN]`` option of every command that can add the servo compliance
+    feed-forward (:mod:`wbc.balance.compliance`): off by default, gain 1 when given bare."""
+    parser.add_argument(
+        "--compensate",
+        type=float,
+        nargs="?",
+        const=1.0,
+        default=0.0,
+        metavar="GAIN",
+        help=f"{purpose} (gain, default 1; wbc.balance.compliance)",
+    )

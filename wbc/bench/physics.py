@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..balance import add_compensate_argument
 from ..exceptions import WbcError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIGHT, Recording
@@ -508,16 +509,7 @@ def add_physics_arguments(parser) -> None:
     parser.add_argument(
         "--push", action="store_true", help="--physics: largest survived torso impulse (N·s)"
     )
-    parser.add_argument(
-        "--compensate",
-        type=float,
-        nargs="?",
-        const=1.0,
-        default=0.0,
-        metavar="GAIN",
-        help="--physics: servo compliance feed-forward on the goals (gain, default 1; "
-        "wbc.balance.compliance)",
-    )
+    add_compensate_argument(parser, "--physics: servo compliance feed-forward on the goals")
     parser.add_argument(
         "--closed-loop",
         action="store_true",

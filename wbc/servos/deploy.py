@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..balance import add_compensate_argument
 from ..exceptions import ServoError, TrajectoryError, WbcError
 from ..model import Robot, load_robot
 from ..recording import Recording
@@ -141,15 +142,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
-    parser.add_argument(
-        "--compensate",
-        type=float,
-        nargs="?",
-        const=1.0,
-        default=0.0,
-        metavar="GAIN",
-        help="add the servos' expected compliance deflection to a recording's goals "
-        "(gain, default 1; wbc.balance.compliance)",
+    add_compensate_argument(
+        parser, "add the servos' expected compliance deflection to a recording's goals"
     )
     parser.add_argument(
         "--closed-loop",
