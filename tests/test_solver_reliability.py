@@ -268,6 +268,40 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
     assert (result.q[7:] <= np.maximum(robot.q_max, q0[7:]) + 1e-12).all()
 
 
+def start_with_the_swing_sole_below_the_ground(robot):
+    """Walk Ready with the right knee 0.3 rad straighter, the left sole on the ground: the
+    right sole's lowest corner starts 20 mm below the ground."""
+    q = robot.configuration("walk_ready")
+    i = robot.joint_names.index("r_knee")
+    q[7 + i] -= np.sign(q[7 + i]) * 0.3
+    return robot.place_on_ground(q, "l_sole")
+
+
+@pytest.mark.parametrize("compiled", PATHS)
+def test_start_with_the_swing_sole_below_the_ground_comes_back_up(robot, compiled):
+    """The walk stack's weighted QP (every constraint row hard) raised "ground_clearance
+    infeasible" at tick 0 from such a start (321 ticks in the 10,000-trial stress run): the
+    rows asked every corner back above the ground in one tick. Now, as a joint outside its
+    range: no tick takes a corner further down, and the sole rises at the bounded rate
+    (`max_rise` per tick) until it is above the ground."""
+    q = start_with_the_swing_sole_below_the_ground(robot)
+    control = load_stack("walk", robot, q, solver="weighted", compiled=compiled)
+    control.set_phase("single", "l_sole", "r_sole", Kinematics(robot, q))
+    clearance = control.stack.constraint("ground_clearance_swing")
+    contact = control.stack.task("contact_support")
+    z = clearance.lowest_point(Kinematics(robot, q))
+    assert z < -0.019
+    for _ in range(40):
+        q = control.solver.step(q, 0.01)
+        z_next = clearance.lowest_point(Kinematics(robot, q))
+        assert z_next >= z - 1e-6  # no further down (a tick's second order)
+        assert z_next <= max(z, 0.0) + clearance.max_rise + 1e-4  # bounded rate
+        assert contact_error(robot, q, contact) <= 1e-2
+        z = z_next
+    assert z >= -1e-5
+    assert robot.within_limits(q)
+
+
 # ---------------------------------------------------------------- 10. bad inputs
 def test_string_target_is_a_one_line_task_error(robot):
     with pytest.raises(TaskError, match=r"'com'.*3 numbers"):

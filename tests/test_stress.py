@@ -80,3 +80,17 @@ def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(
     stress.run_trial(robot, p, tally, ticks=0, iterations=50)
     assert tally.poses == 1
     assert tally.pose_contact_misses == 0, tally.max_pose_contact
+
+
+@pytest.mark.parametrize("trial", [60, 85, 258])
+def test_starts_below_the_ground_recover(robot, stress, trial):
+    """Stress trials (walk stack, weighted QP, single support) whose swing sole starts 20-54
+    mm below the ground, with joints outside their limits (85, compiled path) or boxes
+    overlapping by 22 mm (258): they raised at tick 0, naming ground_clearance (60, 85),
+    contact_support and self_collision (258). Now no typed error, ticks or converged pose."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    assert (p["stack"], p["kind"], p["double"]) == ("walk", "weighted", False)
+    stress.run_trial(robot, p, tally, ticks=50, iterations=50)
+    assert not tally.typed, dict(tally.typed)
+    assert tally.limit_violations == tally.non_finite == tally.pose_contact_misses == 0

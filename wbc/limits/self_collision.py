@@ -24,10 +24,11 @@ Activation (no chatter): with m = margin, T = trigger and ξ = damping,
 and no row for d >= T. Inside the margin (h < 0: Δq = 0 does not meet the row, which asks the
 pair to separate) the rate is a fraction ξ of the gap to the margin per tick, capped at ξ m: a
 start deep inside (boxes overlapping, e.g. joints outside their limits) is never asked to jump
-out in one tick. Where the hard tasks and the way back of joints outside their limits leave
-no room even for that, the solver ranks these rows below both, as the best achievable
-separation (:meth:`SelfCollisionConstraint.split`, :meth:`wbc.solvers.base.StackSolver.solve`);
-the rows of the pairs outside the margin are never relaxed.
+out in one tick (:func:`~wbc.limits.limit.way_back`). Where the hard tasks and the way back of
+joints outside their limits leave no room even for that, the solver ranks these rows below
+both, as the best achievable separation (:meth:`SelfCollisionConstraint.split`,
+:meth:`wbc.solvers.base.StackSolver.solve`); the rows of the pairs outside the margin are
+never relaxed.
 
 h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
 solution is continuous in d: a row appears with a bound no tick can reach (rows are left
@@ -50,7 +51,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError
 from ..model import Kinematics, Robot
-from .limit import Constraint, Inequality
+from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
 #: 40 % of the gap to the margin closed per tick near it
@@ -428,8 +429,9 @@ def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: f
     gap = d - margin
     with np.errstate(divide="ignore"):
         scale = np.where(gap > 0, (trigger - margin) / np.maximum(trigger - d, 0.0), 1.0)
-    gap = np.maximum(gap, -margin)  # inside: separate at rate ξ, at most ξ m per tick
-    return np.where(d < trigger, damping * gap * scale, np.inf)
+    # inside: separate at rate ξ, at most ξ m per tick
+    h = np.where(gap > 0, damping * gap * scale, way_back(-gap, damping, damping * margin))
+    return np.where(d < trigger, h, np.inf)
 
 
 def inside_margin(rows: Inequality) -> np.ndarray:

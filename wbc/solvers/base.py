@@ -12,7 +12,6 @@ import numpy as np
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
 from ..limits import Bounds, Constraint, intersect_bounds
-from ..limits.self_collision import SelfCollisionConstraint
 from ..model import Kinematics
 from .assembly import TaskBlock
 from .backends import QPBackend, make_backend
@@ -33,10 +32,11 @@ HARD_POSE_TOL = 1e-6
 HARD_PROJECTION_STEPS = 20
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
-#: how much looser than their best achievable separation (m) the self-collision pairs inside
-#: their margin are held by a tick that cannot separate them at the damper's rate
+#: how much looser than their best achievable way back (m) the rows of constraints violated at
+#: the start (self-collision pairs inside their margin, sole corners below the ground) are held
+#: by a tick that cannot meet them at their damper's rate
 SEPARATION_SLACK = 1e-7
-_INSIDE = "self_collision (pairs inside the margin)"
+_INSIDE = "constraints violated at the start (their best way back)"
 #: weight of "no closer than now" against "separate at the damper's rate" in the best
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
@@ -45,8 +45,9 @@ _EMPTY = np.zeros(0)
 
 class SplitRows(NamedTuple):
     """Constraint rows G Δq <= h split into the rows to hold (with each constraint's slice,
-    for diagnostics) and the requests of the self-collision pairs inside their margin
-    (h < 0: move apart; :meth:`~wbc.limits.SelfCollisionConstraint.split`)."""
+    for diagnostics) and the requests of the constraints violated at the start (h < 0: the
+    way back; :meth:`~wbc.limits.Constraint.split`: self-collision pairs inside their margin,
+    sole corners below the ground)."""
 
     G: np.ndarray
     h: np.ndarray
@@ -56,17 +57,15 @@ class SplitRows(NamedTuple):
 
 
 def split_rows(constraints: list[Constraint], kin: Kinematics, nv: int) -> SplitRows:
-    """The constraints' rows at ``kin``, those of self-collision pairs inside the margin
-    apart (see :class:`SplitRows`)."""
+    """The constraints' rows at ``kin``, the requests of those violated at ``kin`` apart (see
+    :class:`SplitRows`)."""
     G, h, sl, Gi, hi = [], [], [], [], []
     r = 0
     for c in constraints:
-        if isinstance(c, SelfCollisionConstraint):
-            (Gc, hc), (G_ask, h_ask) = c.split(kin)
+        (Gc, hc), (G_ask, h_ask) = c.split(kin)
+        if h_ask.size:
             Gi.append(G_ask)
             hi.append(h_ask)
-        else:
-            Gc, hc = c.compute(kin)
         G.append(Gc)
         h.append(hc)
         sl.append((c.name, slice(r, r + hc.size)))
@@ -208,20 +207,22 @@ class StackSolver(ABC):
     def _solve_recovering(
         self, kin: Kinematics, dt: float | None, exc: InfeasibleError
     ) -> Solution:
-        """Re-solve an infeasible tick that starts outside the joint limits or with link pairs
-        inside their self-collision margin, asking of that start only what the hard tasks
-        leave possible. One cascade (:func:`~wbc.solvers.cascade.solve_cascade`), each level
-        optimal without changing the optimum of the levels above:
+        """Re-solve an infeasible tick that starts outside the joint limits or violating a
+        constraint (link pairs inside their self-collision margin, a sole corner below the
+        ground: :meth:`~wbc.limits.Constraint.split`), asking of that start only what the hard
+        tasks leave possible. One cascade (:func:`~wbc.solvers.cascade.solve_cascade`), each
+        level optimal without changing the optimum of the levels above:
 
-        1. the hard levels: their tasks and their inequality rows except those of the pairs
-           inside the margin (the weighted QP: every constraint's rows), within the joint
+        1. the hard levels: their tasks and their inequality rows except the requests of the
+           violated ones (the weighted QP: every constraint's rows), within the joint
            bounds widened to Δq = 0 for the joints outside their range (never further out);
         2. the way back of those joints (the step their bounds asked: servo speed, or all
            the way without a time step), in least squares;
-        3. the rows of the pairs inside the margin, in least squares of their violation: no
-           closer than now (weighted :data:`HOLD_WEIGHT`), then separate at the damper's rate —
-           the best separation the levels above leave, which may be an approach where the
-           hard tasks or the way back need it; then held there (+ :data:`SEPARATION_SLACK`);
+        3. the requests (e.g. the rows of the pairs inside the margin), in least squares of
+           their violation: no worse than now (weighted :data:`HOLD_WEIGHT`: no pair closer,
+           no corner lower), then the damper's rate — the best way back the levels above
+           leave, which may be an approach where the hard tasks or the joints' way back need
+           it; then held there (+ :data:`SEPARATION_SLACK`);
         4. the soft levels as the solver ranks them (levels, or one weighted objective).
 
         Why the way back before the pairs: a joint outside its range is outside the servo's
