@@ -11,7 +11,6 @@ from ..geometry import sole_corners
 from ..model import Kinematics, Robot
 from .limit import Constraint, Inequality, way_back
 
-
 #: defaults of the way back of a sole corner that starts below the clearance: a fraction
 #: of its depth per step (the self-collision damper's), at most this many metres per step
 #: (servo speed allows ~1 cm per 10 ms tick at the foot; 2 mm is 0.2 m/s)
