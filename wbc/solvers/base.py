@@ -312,9 +312,10 @@ class StackSolver(ABC):
         return Solution(dq, lower, upper)
 
     @staticmethod
-    def _backends_for(problems: list[LevelProblem]) -> list[QPBackend]:
-        """One DAQP backend per level, whatever the solver's backend: a rare re-solve, and
-        an exact active set (a first-order backend's iteration caps on these degenerate
+    def _backends_for(problems: list) -> list[QPBackend]:
+        """One DAQP backend per level, whatever the solver's backend, for the rare re-solves
+        of infeasible ticks (the recovery, the diagnosis and ``on_infeasible="relax"``): an
+        exact active set (a first-order backend's iteration caps on these degenerate
         levels cost seconds per tick, to fall back to DAQP in the end)."""
         return [make_backend("daqp") for _ in problems]
 

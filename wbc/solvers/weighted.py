@@ -203,7 +203,9 @@ class WeightedQP(StackSolver):
         ]
         G, h, cslices = stack_constraints(soft_constraints, kin, nv)
         problems.append(LevelProblem(1 << 30, value.J, value.b, G, h, constraint_rows=cslices))
-        backends = [type(self.backend)(self.backend.eps) for _ in problems]
+        # DAQP, as the recovery's re-solve (StackSolver._backends_for): a first-order backend's
+        # capped iterations on these degenerate levels cost seconds (stress trial 104, OSQP)
+        backends = self._backends_for(problems)
         dq, sols = solve_cascade_or_daqp(
             problems,
             ws.lower.copy(),
