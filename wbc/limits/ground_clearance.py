@@ -92,7 +92,7 @@ class GroundClearanceConstraint(Constraint):
             h[below] = way_back(-h[below], self.damping, self.max_rise)
         return Inequality(self._G, h)
 
-    def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """(rows to hold, requests): the rows of the corners below the clearance (h < 0: Δq = 0
         does not meet them) are the requests (:meth:`Constraint.split`)."""
         G, h = self.compute(kin)

@@ -77,13 +77,16 @@ class Constraint(ABC):
     def compute(self, kin: Kinematics) -> Inequality:
         """(G, h) at the configuration of ``kin``."""
 
-    def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): a request is a row that Δq = 0
         does not meet because the constraint is violated at ``kin`` itself (a start below the
         ground, links inside their margin) and that asks for the way back
         (:func:`way_back`). A solver that cannot meet the requests with its hard tasks ranks
         them below those, as the best achievable way back
-        (:meth:`wbc.solvers.base.StackSolver.solve`). Default: every row held."""
+        (:meth:`wbc.solvers.base.StackSolver.solve`). ``recovering``: the rows of the re-solve
+        of an infeasible tick, where a constraint may hold its bare bound instead of a rate
+        that only smooths its activation (the self-collision damper). Default: every row
+        held, the same rows either way."""
         rows = self.compute(kin)
         return rows, Inequality(rows.G[:0], rows.h[:0])
 

@@ -56,13 +56,15 @@ class SplitRows(NamedTuple):
     h_inside: np.ndarray
 
 
-def split_rows(constraints: list[Constraint], kin: Kinematics, nv: int) -> SplitRows:
+def split_rows(
+    constraints: list[Constraint], kin: Kinematics, nv: int, recovering: bool = False
+) -> SplitRows:
     """The constraints' rows at ``kin``, the requests of those violated at ``kin`` apart (see
-    :class:`SplitRows`)."""
+    :class:`SplitRows`; ``recovering``: :meth:`~wbc.limits.Constraint.split`)."""
     G, h, sl, Gi, hi = [], [], [], [], []
     r = 0
     for c in constraints:
-        (Gc, hc), (G_ask, h_ask) = c.split(kin)
+        (Gc, hc), (G_ask, h_ask) = c.split(kin, recovering)
         if h_ask.size:
             Gi.append(G_ask)
             hi.append(h_ask)
@@ -207,14 +209,17 @@ class StackSolver(ABC):
     def _solve_recovering(
         self, kin: Kinematics, dt: float | None, exc: InfeasibleError
     ) -> Solution:
-        """Re-solve an infeasible tick that starts outside the joint limits or violating a
-        constraint (link pairs inside their self-collision margin, a sole corner below the
-        ground: :meth:`~wbc.limits.Constraint.split`), asking of that start only what the hard
-        tasks leave possible. One cascade (:func:`~wbc.solvers.cascade.solve_cascade`), each
-        level optimal without changing the optimum of the levels above:
+        """Re-solve an infeasible tick, e.g. one that starts outside the joint limits or
+        violating a constraint (link pairs inside their self-collision margin, a sole corner
+        below the ground: :meth:`~wbc.limits.Constraint.split`), asking of that start only
+        what the hard tasks leave possible. One cascade
+        (:func:`~wbc.solvers.cascade.solve_cascade`), each level optimal without changing the
+        optimum of the levels above:
 
         1. the hard levels: their tasks and their inequality rows except the requests of the
-           violated ones (the weighted QP: every constraint's rows), within the joint
+           violated ones (the weighted QP: every constraint's rows), the rows held at their
+           bare bound (``recovering``: the pairs outside the margin may approach down to it,
+           e.g. where a hard contact's second-order drift needs it), within the joint
            bounds widened to Δq = 0 for the joints outside their range (never further out);
         2. the way back of those joints (the step their bounds asked: servo speed, or all
            the way without a time step), in least squares;
@@ -229,8 +234,8 @@ class StackSolver(ABC):
         travel, while a pair already inside the margin has lost its guarantee anyway (the
         boxes are a conservative hull); holding such a pair can stop the way back for good.
         Pairs outside the margin keep their rows (1.), so the way back never takes them in.
-        Raises ``exc`` (the solver's diagnosis) when nothing of this applies or the hard levels
-        are infeasible on their own."""
+        Raises ``exc`` (the solver's diagnosis) when the hard levels are infeasible on their
+        own."""
         nv = self.robot.nv
         lower, upper = np.empty(nv), np.empty(nv)
         self.compute_bounds(kin, dt, lower, upper)
@@ -244,7 +249,7 @@ class StackSolver(ABC):
         if self.lexicographic:
             for lv in levels:
                 block = TaskBlock(lv.active_tasks(), nv)
-                rows = split_rows(lv.active_constraints(), kin, nv)
+                rows = split_rows(lv.active_constraints(), kin, nv, recovering=lv.hard)
                 if lv.hard:
                     block.fill_into(kin, block.J, block.b)
                     asks.append(rows)
@@ -257,15 +262,14 @@ class StackSolver(ABC):
         else:
             block = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
             block.fill_into(kin, block.J, block.b)
-            rows = split_rows([c for lv in levels for c in lv.active_constraints()], kin, nv)
+            constraints = [c for lv in levels for c in lv.active_constraints()]
+            rows = split_rows(constraints, kin, nv, recovering=True)
             asks.append(rows)
             hard.append(_level(0, block, rows, hard=True))
             block = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
             block.fill_weighted(kin)
             soft.append(LevelProblem(1 << 30, block.J, block.b, *_no_rows(nv)))
         inside = sum(r.h_inside.size for r in asks)
-        if not out.size and not inside:
-            raise exc
         recovery = []
         if out.size:
             J = np.zeros((out.size, nv))
@@ -535,7 +539,7 @@ class StackSolver(ABC):
             rows = [t.compute(kin) for t in tasks]
             J = np.vstack([r[0] for r in rows]) if rows else np.zeros((0, nv))
             e = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
-            split = split_rows(lv.active_constraints(), kin, nv)
+            split = split_rows(lv.active_constraints(), kin, nv, recovering=True)
             inside.append(split.G_inside)
             problems.append(LevelProblem(lv.priority, J, e, split.G, split.h, hard=True))
         G_in = np.vstack(inside) if inside else np.zeros((0, nv))
