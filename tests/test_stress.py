@@ -67,7 +67,8 @@ def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial
 
 
 @pytest.mark.parametrize(
-    ("trial", "backends"), [(1091, ["daqp"]), (307, ["proxqp", "quadprog", "osqp"])]
+    ("trial", "backends"),
+    [(1091, ["daqp"]), (307, ["proxqp", "quadprog", "osqp"]), (136, ["daqp"])],
 )
 def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(
     robot, stress, trial, backends
@@ -77,7 +78,11 @@ def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(
     projection could undo within the joint limits; since the self-collision rows its pose
     raised a bare DAQP "exit flag -2" from the hierarchy's diagnosis of an infeasible
     iterate instead of going on. Trial 307 (the same with quadprog) ended 2.8e-5 m off
-    before main's redesigned core (1.2e-7 on main, 7e-11 here: kept as a check)."""
+    before main's redesigned core (1.2e-7 on main, 7e-11 here: kept as a check). Trial 136
+    (weighted QP, double support, joints outside their limits, links inside the margin)
+    ended 4.3e-5 m off its contacts (the guard raised); its infeasible iterates are now
+    re-solved with the rows of the pairs outside the margin held at the margin itself, not
+    at the damper's rate (as is the final projection)."""
     tally = stress.Tally()
     p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
     stress.run_trial(robot, p, tally, ticks=0, iterations=50)
