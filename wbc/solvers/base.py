@@ -244,12 +244,44 @@ class StackSolver(ABC):
         back = np.where(lo[out] > 0.0, lo[out], hi[out])
         np.minimum(lo, 0.0, out=lo)
         np.maximum(hi, 0.0, out=hi)
+        relax = self.on_infeasible == "relax"
+        first = None
+        for recovering in (False, True):
+            try:
+                dq, unmet = self._recover(kin, lower, upper, out, back, recovering)
+            except (InfeasibleError, SolverError) as e:  # the re-solve failed
+                failure = e
+                continue
+            if not unmet:
+                break
+            first = first or (dq, unmet)
+        else:
+            if first is None or not relax:  # infeasible on their own: the solver's diagnosis
+                raise exc from (None if first else failure)
+            dq, unmet = first
+        self.diagnosis = "; ".join(unmet)
+        self.relaxed = bool(unmet)
+        return Solution(dq, lower, upper)
+
+    def _recover(
+        self,
+        kin: Kinematics,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        out: np.ndarray,
+        back: np.ndarray,
+        recovering: bool,
+    ) -> tuple[np.ndarray, list[str]]:
+        """One re-solve of :meth:`_solve_recovering` (``recovering``: the hard rows at their
+        bare bound, :meth:`~wbc.limits.Constraint.split`): Δq and the messages of the hard
+        levels it leaves unmet."""
+        nv = self.robot.nv
         levels = self.stack.levels
         hard, soft, asks = [], [], []
         if self.lexicographic:
             for lv in levels:
                 block = TaskBlock(lv.active_tasks(), nv)
-                rows = split_rows(lv.active_constraints(), kin, nv, recovering=lv.hard)
+                rows = split_rows(lv.active_constraints(), kin, nv, recovering and lv.hard)
                 if lv.hard:
                     block.fill_into(kin, block.J, block.b)
                     asks.append(rows)
@@ -263,7 +295,7 @@ class StackSolver(ABC):
             block = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
             block.fill_into(kin, block.J, block.b)
             constraints = [c for lv in levels for c in lv.active_constraints()]
-            rows = split_rows(constraints, kin, nv, recovering=True)
+            rows = split_rows(constraints, kin, nv, recovering)
             asks.append(rows)
             hard.append(_level(0, block, rows, hard=True))
             block = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
@@ -276,44 +308,37 @@ class StackSolver(ABC):
             J[np.arange(out.size), 6 + out] = 1.0
             recovery.append(LevelProblem(-1, J, back, *_no_rows(nv)))
         relax = self.on_infeasible == "relax"
-        try:
-            if inside:  # their best separation below the hard levels and the way back
-                G_in = np.vstack([r.G_inside for r in asks])
-                h_in = np.concatenate([r.h_inside for r in asks])
-                # no pair closer than now first (HOLD_WEIGHT), then the damper's rate: one
-                # pair may not approach so that another separates faster
-                G_in = np.vstack([HOLD_WEIGHT * G_in, G_in])
-                h_in = np.concatenate([HOLD_WEIGHT * np.maximum(h_in, 0.0), h_in])
-                first = [*hard, *recovery, LevelProblem(-1, _no_jacobian(nv), _EMPTY, G_in, h_in)]
-                best, _ = solve_cascade_or_daqp(
-                    first, lower, upper, self._backends_for(first), final_regularization=1e-12,
-                    relax=relax,
-                )  # fmt: skip
-                # then held there, a hair looser (SEPARATION_SLACK): rows held exactly at their
-                # best are often pinned against a joint bound, which makes the lower levels'
-                # active sets degenerate
-                hard = [_with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
-            problems = [
-                *hard,
-                *recovery,
-                *(soft or [LevelProblem(1 << 30, _no_jacobian(nv), _EMPTY, *_no_rows(nv))]),
-            ]
-            dq, sols = solve_cascade_or_daqp(
-                problems, lower, upper, self._backends_for(problems),
-                final_regularization=self.regularization, relax=relax,
+        if inside:  # their best separation below the hard levels and the way back
+            G_in = np.vstack([r.G_inside for r in asks])
+            h_in = np.concatenate([r.h_inside for r in asks])
+            # no pair closer than now first (HOLD_WEIGHT), then the damper's rate: one
+            # pair may not approach so that another separates faster
+            G_in = np.vstack([HOLD_WEIGHT * G_in, G_in])
+            h_in = np.concatenate([HOLD_WEIGHT * np.maximum(h_in, 0.0), h_in])
+            first = [*hard, *recovery, LevelProblem(-1, _no_jacobian(nv), _EMPTY, G_in, h_in)]
+            best, _ = solve_cascade_or_daqp(
+                first, lower, upper, self._backends_for(first), final_regularization=1e-12,
+                relax=relax,
             )  # fmt: skip
-        except (InfeasibleError, SolverError) as e:  # the re-solve failed: the tick did
-            raise exc from e
+            # then held there, a hair looser (SEPARATION_SLACK): rows held exactly at their
+            # best are often pinned against a joint bound, which makes the lower levels'
+            # active sets degenerate
+            hard = [_with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
+        problems = [
+            *hard,
+            *recovery,
+            *(soft or [LevelProblem(1 << 30, _no_jacobian(nv), _EMPTY, *_no_rows(nv))]),
+        ]
+        dq, sols = solve_cascade_or_daqp(
+            problems, lower, upper, self._backends_for(problems),
+            final_regularization=self.regularization, relax=relax,
+        )  # fmt: skip
         unmet = [
             infeasible_message(p, sol, self.hard_tol)
             for p, sol in zip(hard, sols, strict=False)
             if max(abs(sol.residual).max(initial=0.0), sol.slack.max(initial=0.0)) > self.hard_tol
         ]
-        if unmet and not relax:  # infeasible on their own: the solver's own diagnosis
-            raise exc
-        self.diagnosis = "; ".join(unmet)
-        self.relaxed = bool(unmet)
-        return Solution(dq, lower, upper)
+        return dq, unmet
 
     @staticmethod
     def _backends_for(problems: list) -> list[QPBackend]:
