@@ -268,6 +268,33 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
     assert (result.q[7:] <= np.maximum(robot.q_max, q0[7:]) + 1e-12).all()
 
 
+@pytest.mark.parametrize("kind", SOLVERS)
+def test_start_with_the_legs_crossed_recovers_as_far_as_the_held_pairs_allow(robot, kind):
+    """Seed 3: six leg joints 2.9° outside, the legs crossed through each other (boxes 8.5 mm
+    into each other). No error over 60 ticks, no joint further out; the joints come back as
+    far as the hard contacts and the pairs held at the margin allow: the right knee and
+    ankle pitch stop 0.5° and 1° outside, where any motion with both soles fixed that brings
+    one in takes the other further out or the right thigh into the left ankle's margin
+    (benchmarks/stress.md). Holding every pair at the margin itself (not at the damper's
+    rate) parked pairs there and raised at tick 11."""
+    q = start_outside_in_double_support(robot, 3)
+    control = load_stack("walk", robot, q, solver=kind, compiled=False)
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+
+    def outside(q):
+        j = q[7:]
+        return np.maximum(robot.q_min - j, 0.0) + np.maximum(j - robot.q_max, 0.0)
+
+    start = outside(q).sum()
+    for _ in range(60):
+        q_next = control.solver.step(q, 0.01)
+        assert (outside(q_next) <= outside(q) + 1e-12).all()
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        q = q_next
+    assert outside(q).sum() < 0.1 * start
+
+
 def start_with_the_swing_sole_below_the_ground(robot):
     """Walk Ready with the right knee 0.3 rad straighter, the left sole on the ground: the
     right sole's lowest corner starts 20 mm below the ground."""
