@@ -47,10 +47,10 @@ def test_random_problems_keep_the_laws(robot, stress, backends):
 
 
 @pytest.mark.parametrize(
-    "trial",
-    [187, 218, 356],
+    ("trial", "backends"),
+    [(187, ["daqp"]), (218, ["daqp"]), (356, ["daqp"]), (76, ["proxqp", "quadprog", "osqp"])],
 )
-def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial):
+def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial, backends):
     """Stress trials (seed 2024; walk stack, double support, targets out of reach) on which
     DAQP reported "exit flag -2" (187, a tick) or a bare "daqp: the QP is infeasible" naming
     no task (218, a converged pose); both problems are feasible. 187 starts outside the
@@ -58,9 +58,11 @@ def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial
     self-collision rows it raised "hard level 0 is infeasible" at tick 0. 356 (weighted QP,
     single support, a joint outside its limits): an iterate of its converged pose is
     infeasible, and the weighted QP's diagnosis (DAQP cycling, exit flag -2) raised a
-    SolverError, which left the recovery no chance."""
+    SolverError, which left the recovery no chance. 76 (quadprog, hierarchical, single
+    support): quadprog called an iterate infeasible, DAQP's re-check cycled (exit flag -2)
+    and that SolverError ended the pose."""
     tally = stress.Tally()
-    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)
     assert not tally.typed, dict(tally.typed)
     assert tally.ok()
