@@ -13,6 +13,7 @@ import pinocchio as pin
 import pytest
 
 from wbc import ConfigurationError, InfeasibleError, Kinematics, TaskError, WbcError, load_robot
+from wbc.limits import GroundClearanceConstraint
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
 from wbc.stacks import load_stack
 from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
@@ -327,6 +328,24 @@ def test_start_with_the_swing_sole_below_the_ground_comes_back_up(robot, compile
         z = z_next
     assert z >= -1e-5
     assert robot.within_limits(q)
+
+
+@pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.parametrize("compiled", PATHS)
+def test_hard_ground_clearance_from_below_the_ground_comes_back_up(robot, kind, compiled):
+    """The README's stack with the swing sole's ground clearance at the hard level, from a
+    start 20 mm below the ground: every solver and path brings the sole up at the bounded
+    rate, never lower, and no error (the rows asked all of it in one tick)."""
+    q = start_with_the_swing_sole_below_the_ground(robot)
+    solver, *_ = readme_stack(robot, q, kind, compiled=compiled)
+    clearance = solver.stack.add_constraint(GroundClearanceConstraint(robot, "r_sole"), level=0)
+    z = clearance.lowest_point(Kinematics(robot, q))
+    for _ in range(30):
+        q = solver.step(q, 0.01)
+        z_next = clearance.lowest_point(Kinematics(robot, q))
+        assert z - 1e-6 <= z_next <= max(z, 0.0) + clearance.max_rise + 1e-4
+        z = z_next
+    assert z >= -1e-5
 
 
 # ---------------------------------------------------------------- 10. bad inputs
