@@ -48,7 +48,14 @@ def test_random_problems_keep_the_laws(robot, stress, backends):
 
 @pytest.mark.parametrize(
     ("trial", "backends"),
-    [(187, ["daqp"]), (218, ["daqp"]), (356, ["daqp"]), (76, ["proxqp", "quadprog", "osqp"])],
+    [
+        (187, ["daqp"]),
+        (218, ["daqp"]),
+        (356, ["daqp"]),
+        (455, ["daqp"]),
+        (705, ["daqp"]),
+        (76, ["proxqp", "quadprog", "osqp"]),
+    ],
 )
 def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial, backends):
     """Stress trials (seed 2024; walk stack, double support, targets out of reach) on which
@@ -60,7 +67,9 @@ def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial
     infeasible, and the weighted QP's diagnosis (DAQP cycling, exit flag -2) raised a
     SolverError, which left the recovery no chance. 76 (quadprog, hierarchical, single
     support): quadprog called an iterate infeasible, DAQP's re-check cycled (exit flag -2)
-    and that SolverError ended the pose."""
+    and that SolverError ended the pose. 455, 705 (hierarchical, double support): DAQP
+    cycled in the hierarchy's cascade at an iterate (a SolverError, no verdict), and the
+    iterate never got the recovery's re-solve, which meets it."""
     tally = stress.Tally()
     p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)

@@ -195,7 +195,7 @@ class StackSolver(ABC):
         self.kin.update(q)
         try:
             solution = self._solve(self.kin, dt)
-        except InfeasibleError as exc:
+        except (InfeasibleError, SolverError) as exc:  # infeasible, or the backend undecided
             self._check_task_errors()  # a non-finite target is the cause: say so
             solution = self._solve_recovering(self.kin, dt, exc)
         except WbcError:
@@ -208,9 +208,7 @@ class StackSolver(ABC):
         self.solve_time = time.perf_counter() - start
         return solution
 
-    def _solve_recovering(
-        self, kin: Kinematics, dt: float | None, exc: InfeasibleError
-    ) -> Solution:
+    def _solve_recovering(self, kin: Kinematics, dt: float | None, exc: WbcError) -> Solution:
         """Re-solve an infeasible tick, e.g. one that starts outside the joint limits or
         violating a constraint (link pairs inside their self-collision margin, a sole corner
         below the ground: :meth:`~wbc.limits.Constraint.split`), asking of that start only
@@ -236,8 +234,10 @@ class StackSolver(ABC):
         travel, while a pair already inside the margin has lost its guarantee anyway (the
         boxes are a conservative hull); holding such a pair can stop the way back for good.
         Pairs outside the margin keep their rows (1.), so the way back never takes them in.
-        Raises ``exc`` (the solver's diagnosis) when the hard levels are infeasible on their
-        own."""
+        Also tried where the solver's backend failed without a verdict (a SolverError: DAQP
+        cycling, exit flag −2, in the hierarchy's cascade: stress trials 455, 705); its answer
+        counts only if it meets the hard levels. Raises ``exc`` (the solver's diagnosis or
+        failure) when the hard levels are infeasible on their own."""
         nv = self.robot.nv
         lower, upper = np.empty(nv), np.empty(nv)
         self.compute_bounds(kin, dt, lower, upper)
