@@ -148,7 +148,7 @@ def test_rows_equal_pinocchio(robot, seed, weighted):
     kinds = {k: i for i, k in enumerate(kernels)}
     rows = Rows(tasks, robot.nv, frames, targets, kinds, weighted=weighted)
     targets.seal()
-    module.load_frames(frames.R, frames.p, frames.Rs, frames.ps)
+    module.load_frames(frames.ids, frames.R, frames.p, frames.Rs, frames.ps)
     dim = max(t.dim for t in tasks)
     module.fill_rows(
         *rows.args, targets.gather(), frames.slots, frames.Rs, frames.ps, frames.support,

@@ -151,24 +151,21 @@ class ControlStack:
         if phase not in PHASES:
             raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
         roles = {"support": support, "swing": swing}
-        items: list[Task | Constraint] = [*self.stack.tasks(), *self.stack.constraints()]
-        for item in items:
-            binding = self.bindings.get(item.name)
-            if binding is None:
-                continue
+        bound, polygons = self._phase_items()
+        for item, binding, polygon, contact in bound:
             was_active = item.active
             frame = roles.get(binding.role) if binding.role else None
             if binding.role and frame is None:
                 item.active = False
                 continue
             if frame is not None:
-                if isinstance(item, ComPolygonConstraint):
+                if polygon:
                     item.set_support([frame])
                 else:
                     item.set_frame(frame)  # type: ignore[union-attr]  # role-bound: has a frame
             item.active = phase in binding.phases
             if (
-                isinstance(item, ContactTask)
+                contact
                 and item.active
                 and (not was_active or self._anchored.get(item.name) != item.frame)
             ):
@@ -178,11 +175,33 @@ class ControlStack:
                 else:
                     item.set_target(anchor)
                 self._anchored[item.name] = item.frame
-        for c in self.stack.constraints():
-            if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None:
-                soles = [support] if phase == "single" or swing is None else [support, swing]
+        if polygons:
+            soles = [support] if phase == "single" or swing is None else [support, swing]
+            for c in polygons:
                 c.set_support(soles)
         self.phase, self.support, self.swing = phase, support, swing
+
+    def _phase_items(self) -> tuple[list, list]:
+        """What :meth:`set_phase` visits: each role-bound task or constraint with its binding,
+        whether it is a CoM polygon and whether a contact; the CoM polygons without a binding.
+        Kept until the stack changes (a support switch is on a control loop's clock)."""
+        key = (self.stack.version, len(self.bindings))
+        cached = self.__dict__.get("_phase_cache")
+        if cached is None or cached[0] != key:
+            tasks, constraints = self.stack.members()
+            bound = [
+                (item, b, isinstance(item, ComPolygonConstraint), isinstance(item, ContactTask))
+                for item in [*tasks, *constraints]
+                for b in [self.bindings.get(item.name)]
+                if b is not None
+            ]
+            polygons = [
+                c
+                for c in constraints
+                if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None
+            ]
+            cached = self.__dict__["_phase_cache"] = (key, bound, polygons)
+        return cached[1], cached[2]
 
     def forget_anchors(self) -> None:
         """The next :meth:`set_phase` anchors every active contact afresh."""

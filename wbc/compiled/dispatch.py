@@ -47,14 +47,13 @@ from wbc.compiled.ticks import cascade_solve, weighted_solve
 
 
 @njit(cache={cache})
-def load_frames(frame_R, frame_p, Rs, ps):
-    for s in range(len(frame_R)):
-        R = frame_R[s]
-        p = frame_p[s]
+def load_frames(frame_ids, frame_R, frame_p, Rs, ps):
+    for s in range(frame_ids.shape[0]):
+        f = frame_ids[s]
         for i in range(3):
-            ps[s, i] = p[i]
+            ps[s, i] = frame_p[f, i]
             for j in range(3):
-                Rs[s, i, j] = R[i, j]
+                Rs[s, i, j] = frame_R[f, i, j]
 
 
 @njit(cache={cache})
@@ -87,10 +86,10 @@ def fill_rows(
 def weighted_tick(
     soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
     hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
-    targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, state, working, dq, q_next,
+    targets, slots, frame_ids, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull,
+    Jfull, q, q_min, q_max, step, params, lower, upper, state, working, dq, q_next,
 ):
-    load_frames(frame_R, frame_p, Rs, ps)
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps)
     fill_rows(
         soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, targets, slots,
         Rs, ps, supports, Jw, com, Jcom, q, Jf, efull, Jfull,
@@ -108,10 +107,11 @@ def weighted_tick(
 @njit(cache={cache})
 def cascade_tick(
     spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard, G, h, g_rows,
-    targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, states, working, h_eff, achieved, dq, q_next,
+    targets, slots, frame_ids, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull,
+    Jfull, q, q_min, q_max, step, params, lower, upper, states, working, h_eff, achieved, dq,
+    q_next,
 ):
-    load_frames(frame_R, frame_p, Rs, ps)
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps)
     fill_rows(
         spec, sel, sqrt_w, gain_w, J, E, b, targets, slots, Rs, ps, supports, Jw, com, Jcom, q,
         Jf, efull, Jfull,
@@ -243,6 +243,10 @@ class Ticks:
         """Wait for every worker (so that nothing compiles beside what comes next)."""
         for name in list(self.builders):
             self.wait(name)
+
+    def entry(self, name: str, variant: int):
+        """The entry point of tick ``name`` that :meth:`call` found (after a first call)."""
+        return self._entries[(name, variant)]
 
     def call(self, name: str, variant: int, args: tuple) -> int:
         """Call tick ``name`` with ``args``; ``variant`` tells apart the argument types a

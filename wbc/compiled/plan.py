@@ -17,6 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..model import Kinematics, Robot
+from ..solvers.base import Solution
 from ..tasks import Task
 from . import dispatch as D
 
@@ -82,8 +83,9 @@ class Targets:
 
 
 class Frames:
-    """One slot per frame used by a task: its world rotation/position views (copied by the
-    tick into ``Rs``/``ps``) and joint support; ``slots`` lists each task's slots."""
+    """One slot per frame used by a task: its frame id (the tick copies that frame's world
+    rotation/position from ``R``/``p``, every frame's, into ``Rs``/``ps``) and joint support;
+    ``slots`` lists each task's slots."""
 
     def __init__(self, robot: Robot, kin: Kinematics, tasks: Sequence[Task]) -> None:
         self.slot: dict[int, int] = {}
@@ -95,17 +97,30 @@ class Frames:
         self.support = np.zeros((n, robot.nv), dtype=np.bool_)
         for s, fid in enumerate(ids):
             self.support[s] = robot.frame_support(fid)
-        # views that follow every Kinematics.update, padded to a multiple of FRAME_SLOTS
-        # (repeating a view): the tick's argument types, hence its compiled variants, do not
-        # depend on how many frames a stack uses
-        fids = ids or [0]
-        fids = fids + [fids[0]] * (-len(fids) % FRAME_SLOTS)
-        self.R = tuple(kin.rotation(f) for f in fids)
-        self.p = tuple(kin.translation(f) for f in fids)
+        self.ids = np.array(ids, dtype=np.int64)
+        # every frame's placement: views of Pinocchio's that follow every Kinematics.update,
+        # or (another layout) a copy in the same strided layout, refreshed before each tick
+        views = kin.frame_placements()
+        self.copies: list[tuple[int, np.ndarray, np.ndarray]] = []
+        if views is None:
+            records = np.zeros((robot.model.nframes, 12))  # R column-major, then p
+            as_strided = np.lib.stride_tricks.as_strided
+            views = (
+                as_strided(records, shape=(len(records), 3, 3), strides=(96, 8, 24)),
+                as_strided(records[:, 9:], shape=(len(records), 3), strides=(96, 8)),
+            )
+            self.copies = [(f, kin.rotation(f), kin.translation(f)) for f in ids]
+        self.R, self.p = views
         self.Rs = np.zeros((n, 3, 3))
         self.ps = np.zeros((n, 3))
         self._slots: list[int] = []
         self.slots = np.zeros(0, dtype=np.int64)
+
+    def refresh(self) -> None:
+        """Copy the frames' placements (only when they are not views of Pinocchio's)."""
+        for f, R, p in self.copies:
+            self.R[f] = R
+            self.p[f] = p
 
     def add(self, task: Task) -> tuple[int, int]:
         """(offset, count) of the task's frame slots in :attr:`slots`."""
@@ -179,6 +194,7 @@ class InequalityRows:
         self.n_levels, self.nv = n_levels, nv
         self.g_rows = np.zeros(n_levels + 1, dtype=np.int64)
         self.counts = (0,) * n_levels
+        self.total = 0  # rows at the last tick
         self._allocate(capacity)
 
     def _allocate(self, capacity: int) -> None:
@@ -191,7 +207,7 @@ class InequalityRows:
         """Copy each level's rows (``blocks[k][0]``: G, ``blocks[k][1]``: h; None: no rows at
         all); True if the buffers were re-allocated (the caller's argument tuple is stale)."""
         if blocks is None:
-            if not self.g_rows[-1]:
+            if not self.total:
                 return False  # (no rows, as at the last tick)
             counts = (0,) * self.n_levels
         else:
@@ -206,6 +222,7 @@ class InequalityRows:
                 self.working[:] = False
             self.g_rows[1:] = np.cumsum(counts)
             self.counts = counts
+            self.total = sum(counts)
         if blocks is not None:
             o = 0
             for G, h, *_ in blocks:
@@ -233,7 +250,7 @@ class _Plan:
         self.kinds = {k: i for i, k in enumerate(kernels)}
         self.targets = Targets()
         self.frames = Frames(robot, kin, tasks)
-        self.variant = len(self.frames.R)
+        self.variant = 0  # (one set of argument types for every stack)
         nv = robot.nv
         dim = max([6, *(t.dim for t in tasks)])
         self.Jf = np.zeros((6, nv))
@@ -246,6 +263,8 @@ class _Plan:
         self.q = np.zeros(robot.nq)
         self.step = np.zeros(robot.n_joints)
         self._params_key: tuple | None = None
+        self._dt: float | None = -1.0  # (no time step yet: the parameters are set at a solve)
+        self._entry = None  # the tick's compiled entry point, after the first call
         #: [use the velocity steps (0/1), μ (damping of the last level), hard tolerance,
         #: tolerance of the inequality rows]
         self.params = np.zeros(4)
@@ -253,6 +272,8 @@ class _Plan:
         self.upper = np.full(nv, np.inf)
         self.dq = np.zeros(nv)
         self.q_next = np.zeros(robot.nq)
+        #: what a solved tick returns (the same arrays at every tick)
+        self.solution = Solution(self.dq, self.lower, self.upper, self.q_next)
         #: (task, view of its rows of E): re-pointed at every solve, since anything may have
         #: re-pointed a task's last_error meanwhile (Task.compute, the numpy path, another plan)
         self.error_views: list[tuple[Task, np.ndarray]] = []
@@ -260,10 +281,15 @@ class _Plan:
         self.tick_name = ""
         self.inequalities = InequalityRows(1, nv)
 
+    def forget_warm_start(self) -> None:
+        """Start the active sets of the bounds and of the inequality rows afresh."""
+        self.warm_start[...] = 0
+        self.inequalities.working[...] = False
+
     def _shared_args(self) -> tuple:
         f = self.frames
         return (
-            self.targets.buffer, f.slots, f.R, f.p, f.Rs, f.ps, f.support, self.Jw, self.com,
+            self.targets.buffer, f.slots, f.ids, f.R, f.p, f.Rs, f.ps, f.support, self.Jw, self.com,
             self.Jcom, self.Jf, self.efull, self.Jfull, self.q, self.q_min, self.q_max,
             self.step, self.params, self.lower, self.upper,
         )  # fmt: skip
@@ -275,30 +301,44 @@ class _Plan:
 
     def solve(self, kin: Kinematics, dt: float | None, inequalities: Sequence | None) -> int:
         """Fill the per-tick inputs (``inequalities``: each level's (G, h, ...), or None) and
-        run the kernel; returns its status (0: solved)."""
-        if self.inequalities.load(inequalities):
+        run the kernel; returns its status (0: solved, Δq finite: :attr:`solution`)."""
+        if (inequalities is not None or self.inequalities.total) and self.inequalities.load(
+            inequalities
+        ):
             self.args = self._build_args()
         for task, view in self.error_views:
             task.last_error = view
+        if self.frames.copies:
+            self.frames.refresh()
         self.targets.gather()
         np.copyto(self.q, kin.q)
         solver = self.solver
-        key = (dt, solver.regularization, solver.hard_tol)
-        if key != self._params_key:
-            from ..solvers.base import CONSTRAINT_TOL
+        if dt != self._dt or (solver.regularization, solver.hard_tol) != self._params_key:
+            self._set_params(dt)
+        entry = self._entry
+        if entry is None:  # the first call: compiles or loads the tick, then its entry point
+            status = self.ticks.call(self.tick_name, self.variant, self.args)
+            self._entry = self.ticks.entry(self.tick_name, self.variant)
+            return status
+        return entry(*self.args)
 
-            limit = solver.stack.velocity_limit
-            use = dt is not None and limit is not None
-            if use:
-                np.copyto(self.step, limit.step(dt))
-            self.params[:] = (
-                1.0 if use else 0.0,
-                solver.regularization,
-                solver.hard_tol,
-                CONSTRAINT_TOL,
-            )
-            self._params_key = key
-        return self.ticks.call(self.tick_name, self.variant, self.args)
+    def _set_params(self, dt: float | None) -> None:
+        """The velocity steps and the scalar parameters of the tick, for ``dt``."""
+        from ..solvers.base import CONSTRAINT_TOL
+
+        solver = self.solver
+        limit = solver.stack.velocity_limit
+        use = dt is not None and limit is not None
+        if use:
+            np.copyto(self.step, limit.step(dt))
+        self.params[:] = (
+            1.0 if use else 0.0,
+            solver.regularization,
+            solver.hard_tol,
+            CONSTRAINT_TOL,
+        )
+        self._dt = dt
+        self._params_key = (solver.regularization, solver.hard_tol)
 
 
 class WeightedPlan(_Plan):
@@ -312,6 +352,7 @@ class WeightedPlan(_Plan):
         self.targets.seal()
         self.error_views = self.soft.error_views() + self.hard.error_views()
         self.state = np.zeros(nv, dtype=np.int8)
+        self.warm_start = self.state
         self.tick_name = "weighted_tick"
         self.args = self._build_args()
 
@@ -337,6 +378,7 @@ class CascadePlan(_Plan):
         self.level_hard = np.array(hard, dtype=np.bool_)
         self.error_views = self.rows.error_views()
         self.states = np.zeros((len(levels), nv), dtype=np.int8)
+        self.warm_start = self.states
         self.achieved = np.zeros(self.rows.m)
         self.inequalities = InequalityRows(len(levels), nv)
         self.tick_name = "cascade_tick"

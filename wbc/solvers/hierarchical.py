@@ -74,8 +74,8 @@ class HierarchicalQP(StackSolver):
         self._key = None
         self._problems: list[LevelProblem] = []
         self._solutions: list[LevelSolution] = []
-        #: the compiled solution whose problems/solutions were built (on demand)
-        self._built_for: Solution | None = None
+        #: True when the last compiled solve's problems/solutions were built (on demand)
+        self._built = False
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
@@ -131,9 +131,9 @@ class HierarchicalQP(StackSolver):
         """Each level's rows and residuals of a compiled solve (only when someone asks for
         them), with the rows copied (the plan's arrays are refilled at the next tick)."""
         last = self.last
-        if last is None or last.q_next is None or self._built_for is last:
+        if last is None or last.q_next is None or self._built:
             return
-        self._built_for = last
+        self._built = True
         dq = last.dq
         problems, _, _ = self._assemble(self.kin, None, self._inequalities)
         self._problems = [
@@ -200,7 +200,8 @@ class HierarchicalQP(StackSolver):
                 self.compiled_ticks += 1
                 self.relaxed = False
                 self.diagnosis = ""
-                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
+                self._built = False
+                return fast.solution
             self.handed_back_ticks += 1
         problems, lower, upper = self._assemble(kin, dt, inequalities)
         self._problems = problems

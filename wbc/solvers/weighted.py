@@ -123,7 +123,7 @@ class WeightedQP(StackSolver):
             if fast.solve(kin, dt, rows) == 0:
                 self.compiled_ticks += 1
                 self.relaxed = False
-                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
+                return fast.solution
             self.handed_back_ticks += 1  # the backend, on the same arrays
             G, h, _ = rows[0] if rows else self._no_rows
             value = WeightedValue(

@@ -61,10 +61,10 @@ class FramePoseTask(FrameTask):
         self.set_rotation_target(target.rotation)
 
     def set_position_target(self, position: Sequence[float]) -> None:
-        self.target_position[:] = check_vector(self, position, 3, "target position")
+        check_vector(self, position, 3, "target position", out=self.target_position)
 
     def set_rotation_target(self, rotation: np.ndarray) -> None:
-        self.target_rotation[:] = check_rotation(self, rotation)
+        check_rotation(self, rotation, out=self.target_rotation)
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target_position[:] = kin.translation(self.frame_id)
