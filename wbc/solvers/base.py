@@ -159,6 +159,9 @@ class StackSolver(ABC):
         self.compiled_ticks = 0
         self.handed_back_ticks = 0
         self._layouts: dict = {}
+        #: the work arrays that the compiled plans of the layouts share
+        #: (:class:`wbc.compiled.plan.Scratch`; None until a plan is built)
+        self._plan_scratch = None
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
@@ -643,6 +646,15 @@ class StackSolver(ABC):
         self._layouts[key] = layout
 
     # ------------------------------------------------------------------ compiled path
+    @property
+    def plan_scratch(self):
+        """The work arrays that the compiled plans of this solver's layouts share."""
+        if self._plan_scratch is None:
+            from ..compiled.plan import Scratch
+
+            self._plan_scratch = Scratch()
+        return self._plan_scratch
+
     def compiled_reason(self) -> str:
         """Why the compiled hot path cannot serve this stack ("" if it can)."""
         from ..compiled.plan import compiled, numba_available
