@@ -59,6 +59,20 @@ def copy_finite(v: np.ndarray, out: np.ndarray) -> bool:
     return True
 
 
+@njit("float64(float64[:])", cache=True)
+def quaternion_defect(q: np.ndarray) -> float:
+    """|‖q[3:7]‖² − 1| (a free-flyer configuration's base quaternion); +inf if an entry of q
+    is not finite."""
+    s = 0.0
+    for i in range(q.shape[0]):
+        s += q[i] * q[i]
+    if not math.isfinite(s):
+        for i in range(q.shape[0]):
+            if not math.isfinite(q[i]):
+                return math.inf
+    return abs(q[3] * q[3] + q[4] * q[4] + q[5] * q[5] + q[6] * q[6] - 1.0)
+
+
 def entry(check=rotation_defect):
     """A compiled check's entry point (any strided float64 arrays), skipping dispatch."""
     return check.overloads[check.signatures[0]].entry_point
