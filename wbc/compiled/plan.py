@@ -67,7 +67,13 @@ class Targets:
             view = getattr(task, name).reshape(-1)  # a view of the task's own array
             if not np.shares_memory(view, getattr(task, name)):
                 raise ValueError(f"task {task.name!r}: target {name!r} must be contiguous")
-            self.sources.append(view)
+            last = self.sources[-1] if self.size > offset else None
+            if last is not None and _adjacent(last, view):  # one source (a cheaper gather)
+                self.sources[-1] = np.lib.stride_tricks.as_strided(
+                    last, shape=(last.size + view.size,), strides=(last.itemsize,)
+                )
+            else:
+                self.sources.append(view)
             self.size += view.size
         return offset, self.size - offset
 
@@ -80,6 +86,23 @@ class Targets:
         if self.sources:
             np.concatenate(self.sources, out=self.buffer)
         return self.buffer
+
+
+def _adjacent(a: np.ndarray, b: np.ndarray) -> bool:
+    """True if the contiguous float vector b starts where a ends, in the same array (as the
+    target position and rotation of a pose task: views of one packed array)."""
+
+    def address(x: np.ndarray) -> int:
+        return x.__array_interface__["data"][0]
+
+    return (
+        a.base is not None
+        and a.base is b.base
+        and a.dtype == b.dtype == np.float64
+        and a.flags.c_contiguous
+        and b.flags.c_contiguous
+        and address(a) + a.nbytes == address(b)
+    )
 
 
 class Frames:

@@ -49,8 +49,10 @@ class FramePoseTask(FrameTask):
         mask: Sequence[bool] | None = None,
     ) -> None:
         super().__init__(robot, frame, name, gain, weight, mask)
-        self.target_position = np.zeros(3)
-        self.target_rotation = np.eye(3)
+        packed = np.zeros(12)  # (both in one array: the compiled tick copies one source)
+        self.target_position = packed[:3]
+        self.target_rotation = packed[3:].reshape(3, 3)
+        self.target_rotation[:] = np.eye(3)
         if target is not None:
             self.set_target(target)
 
