@@ -38,17 +38,18 @@ def worker_env() -> dict[str, str]:
 
 def compile_part(part: str) -> None:
     """Solve one tick of the ``walk`` stack with solver ``part`` on the compiled tick (and,
-    for the hierarchy, on the numpy path first): numba compiles what each calls and caches it
-    on disk."""
+    for the hierarchy, then on the numpy path): numba compiles what each calls and caches it
+    on disk. The compiled tick comes first: a solver waiting for it loads it from the cache
+    as soon as it is there (:meth:`wbc.compiled.dispatch.Ticks.ready`), while the worker goes
+    on with the numpy path's kernels."""
     from ..model import Kinematics, load_robot
     from ..stacks import load_stack
 
     robot = load_robot()
     q = robot.configuration("stand")
     paths: tuple[bool | None, ...] = (None,)  # the compiled tick
-    if part == "hierarchical":  # and the numpy path's kernels: the level cascade (Chan–Dubey
-        load_stack("cjl_com", robot).solver.step(q, 0.01)  # has no row kernel), rows, bounds
-        paths = (False, None)
+    if part == "hierarchical":  # and the numpy path's kernels: rows, bounds, the level cascade
+        paths = (None, False)
     for compiled in paths:
         control = load_stack("walk", robot, solver=part)
         control.solver.compiled = compiled
@@ -56,6 +57,8 @@ def compile_part(part: str) -> None:
         swing = control.stack.task("frame_pose_swing")
         swing.set_position_target(swing.target_position - [0.0, 0.0, 0.005])  # a row active
         control.solver.step(q, 0.01)
+    if part == "hierarchical":  # (Chan–Dubey has no row kernel: the numpy path)
+        load_stack("cjl_com", robot).solver.step(q, 0.01)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -264,22 +264,24 @@ class Ticks:
         from .__main__ import WORKER_ENV
 
         dispatcher = getattr(self, name)
+        building = name in self.builders
         if (
             not self.package
             or os.environ.get(WORKER_ENV)
             or _waits()
             or dispatcher.overloads
-            or (name not in self.builders and _on_disk(dispatcher))
+            or (not building and _on_disk(dispatcher))
         ):
             self._ready.add(name)
             return True
-        if name not in self.builders:
+        if not building:
             self.start_build()
         worker = self.builders.get(name)
-        if worker is not None and worker.poll() is None:
-            return False
-        self.wait(name)  # (a failure is logged: the tick then compiles at the call)
-        if _on_disk(dispatcher):
+        if worker is not None and worker.poll() is None and not _on_disk(dispatcher):
+            return False  # (its worker may go on with other kernels once the tick is cached)
+        if not _on_disk(dispatcher):
+            self.wait(name)  # (a failure is logged: the tick then compiles at the call)
+        else:
             log.warning(
                 "wbc: the compiled %s is ready (%.0f s after the build started); the solvers "
                 "switch to it",
@@ -303,7 +305,8 @@ class Ticks:
         dispatcher = getattr(self, name)
         if not dispatcher.overloads and not _on_disk(dispatcher):
             self.start_build()
-        self.wait(name)
+        if not _on_disk(dispatcher):  # (else cached: its worker may go on with other kernels)
+            self.wait(name)
         if not dispatcher.overloads and not _on_disk(dispatcher):
             log.warning(
                 "wbc: compiling the control tick (numba; once per installation and set of "
