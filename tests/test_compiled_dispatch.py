@@ -108,8 +108,10 @@ class RunningWorker(FakeWorker):
         self.code = 0
 
 
-def test_a_tick_being_built_is_not_ready_until_its_worker_is_done(tmp_path, monkeypatch, caplog):
-    started = []
+def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
+    tmp_path, monkeypatch, caplog
+):
+    started, cached = [], set()
 
     def popen(cmd, env, stdout, stderr):
         started.append(RunningWorker(cmd, env, stdout, stderr))
@@ -118,19 +120,26 @@ def test_a_tick_being_built_is_not_ready_until_its_worker_is_done(tmp_path, monk
     monkeypatch.delenv(build.WORKER_ENV, raising=False)
     monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
-    monkeypatch.setattr(dispatch, "_on_disk", lambda d: bool(started) and started[0].code == 0)
+    monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
     ticks = _ticks(tmp_path)
+    ticks.cascade_tick = SimpleNamespace(overloads={}, _cache=None)  # (another dispatcher)
     with caplog.at_level(logging.WARNING, logger="wbc.compiled.dispatch"):
         assert not ticks.ready("weighted_tick")  # the first call starts both workers
         assert len(started) == 2 and "numpy path" in caplog.records[-1].message
         assert not ticks.ready("weighted_tick") and len(started) == 2  # no second build
-        started[0].finish()
+        cached.add(id(ticks.weighted_tick))  # in the cache, its worker still running
         assert ticks.ready("weighted_tick")
         assert "weighted tick is ready" in caplog.records[-1].message
-        assert "weighted_tick" not in ticks.builders and ticks.ready("weighted_tick")
-        assert not ticks.ready("cascade_tick")  # its own worker still runs
+        assert "weighted_tick" in ticks.builders  # (not waited for)
+        assert not ticks.ready("cascade_tick")
+        started[1].finish()  # done, but nothing cached (a failure): compiles at the call
+        assert ticks.ready("cascade_tick") and "cascade_tick" not in ticks.builders
+    started[0].finish()
+    ticks.wait_all()
+    assert ticks.builders == {}
+    fresh = _ticks(tmp_path)
     monkeypatch.setenv(dispatch.WAIT_ENV, "1")  # waiting instead: ready (the call waits)
-    assert ticks.ready("cascade_tick")
+    assert fresh.ready("weighted_tick") and not started[2:]
 
 
 FIRST_TICK = """
