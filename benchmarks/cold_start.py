@@ -40,7 +40,8 @@ while len(seen) < 4 and time.perf_counter() - start < 1200:
         for what, done in (("answered", True), ("compiled", s.compiled_ticks > 0)):
             if done and (kind, what) not in seen:
                 seen.add((kind, what))
-                print(f"{kind}: first {what} tick after {t:.1f} s", flush=True)
+                cpu = time.process_time()  # (this process's own)
+                print(f"{kind}: first {what} tick after {t:.1f} s ({cpu:.1f} s CPU)", flush=True)
     time.sleep(0.02)
 package_ticks().wait_all()  # (their CPU counts)
 """

@@ -3,11 +3,12 @@
 
 Two processes work in parallel, one per solver (``--part weighted`` and ``--part
 hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row
-on the compiled tick (the hierarchical one also on the numpy path, whose kernels Python calls),
-so that numba compiles and caches every kernel a run of the package's stacks calls
+on the compiled tick (the hierarchical one then also on the numpy path, whose kernels Python
+calls), so that numba compiles and caches every kernel a run of the package's stacks calls
 (``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's ``__pycache__``). The solvers start the
-same processes themselves at their first compiled tick when the cache is empty
-(:meth:`wbc.compiled.dispatch.Ticks.call`).
+same processes themselves at their first compiled tick when the cache is empty, solve on the
+numpy path meanwhile and switch when their tick is cached
+(:meth:`wbc.compiled.dispatch.Ticks.ready`).
 """
 
 from __future__ import annotations
