@@ -165,14 +165,25 @@ def source(kernels: Sequence[object], cache: bool = True) -> str:
     return _TEMPLATE.format(names=names, cache=cache, branches=branches.rstrip("\n"), **columns)
 
 
+#: set in the environment (to anything but "" or "0"): a solver whose compiled tick is being
+#: built in the background waits for it instead of solving on the numpy path meanwhile (the
+#: tests, and anything that counts or times compiled ticks from a cold cache)
+WAIT_ENV = "WBC_WAIT_FOR_COMPILE"
+
+
+def _waits() -> bool:
+    return os.environ.get(WAIT_ENV, "") not in ("", "0")
+
+
 class Ticks:
     """The generated tick functions of one set of kernels, called through their entry points
     (skipping numba's per-call type dispatch: ~1 µs for the ~35 arguments of a tick).
 
     For the package's own kernels (the tick of every package stack), a tick not yet in the
     disk cache is compiled by ``python -m wbc.compiled``'s worker processes, both solvers' in
-    parallel (:meth:`start_build`), and loaded from the cache when its worker is done; other
-    kernel sets, or a failed worker, compile in this process."""
+    parallel (:meth:`start_build`), and loaded from the cache when its worker is done
+    (:meth:`ready`: meanwhile the solvers solve on the numpy path, the same problem by the
+    backend); other kernel sets, or a failed worker, compile in this process."""
 
     def __init__(self, module, package: bool = False) -> None:
         self.module = module
@@ -183,6 +194,8 @@ class Ticks:
         #: the worker compiling each tick (by tick name), while it runs or until waited for
         self.builders: dict[str, subprocess.Popen] = {}
         self.build_started = 0.0
+        #: the ticks known to run without compiling in this process or waiting (see ready)
+        self._ready: set[str] = set()
 
     def cached(self) -> bool:
         """True if both ticks are in numba's disk cache."""
@@ -200,7 +213,8 @@ class Ticks:
         if announce:
             log.warning(
                 "wbc: compiling the control ticks in %d background processes (numba; once per "
-                "installation, up to a minute; cached in %s)",
+                "installation, about a minute; cached in %s); until they are ready the solvers "
+                "solve on the numpy path (the same QP by the backend, slower ticks)",
                 len(PARTS),
                 Path(self.module.__file__).parent,
             )
@@ -239,6 +253,44 @@ class Ticks:
                 self._log(name),
             )
 
+    def ready(self, name: str) -> bool:
+        """True if tick ``name`` runs at once at its next :meth:`call` (compiled in this
+        process or cached on disk, its worker done), or must compile here anyway (not the
+        package's kernels, inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set: :meth:`call` then
+        waits or compiles). False while a worker builds it (started here if the cache is
+        empty): the caller solves this tick another way. Says once when it becomes ready."""
+        if name in self._ready:
+            return True
+        from .__main__ import WORKER_ENV
+
+        dispatcher = getattr(self, name)
+        building = name in self.builders
+        if (
+            not self.package
+            or os.environ.get(WORKER_ENV)
+            or _waits()
+            or dispatcher.overloads
+            or (not building and _on_disk(dispatcher))
+        ):
+            self._ready.add(name)
+            return True
+        if not building:
+            self.start_build()
+        worker = self.builders.get(name)
+        if worker is not None and worker.poll() is None and not _on_disk(dispatcher):
+            return False  # (its worker may go on with other kernels once the tick is cached)
+        if not _on_disk(dispatcher):
+            self.wait(name)  # (a failure is logged: the tick then compiles at the call)
+        else:
+            log.warning(
+                "wbc: the compiled %s is ready (%.0f s after the build started); the solvers "
+                "switch to it",
+                name.replace("_", " "),
+                time.perf_counter() - self.build_started,
+            )
+        self._ready.add(name)
+        return True
+
     def wait_all(self) -> None:
         """Wait for every worker (so that nothing compiles beside what comes next)."""
         for name in list(self.builders):
@@ -257,7 +309,8 @@ class Ticks:
         dispatcher = getattr(self, name)
         if not dispatcher.overloads and not _on_disk(dispatcher):
             self.start_build()
-        self.wait(name)
+        if not _on_disk(dispatcher):  # (else cached: its worker may go on with other kernels)
+            self.wait(name)
         if not dispatcher.overloads and not _on_disk(dispatcher):
             log.warning(
                 "wbc: compiling the control tick (numba; once per installation and set of "

@@ -329,6 +329,14 @@ class _Plan:
         self.args: tuple = ()
         self.tick_name = ""
         self.inequalities = InequalityRows(1, nv)
+        self._ready = False
+
+    def ready(self) -> bool:
+        """True if the compiled tick runs at once; False while it is being compiled in the
+        background (:meth:`wbc.compiled.dispatch.Ticks.ready`): solve on the numpy path."""
+        if not self._ready:
+            self._ready = self.ticks.ready(self.tick_name)
+        return self._ready
 
     def forget_warm_start(self) -> None:
         """Start the active sets of the bounds and of the inequality rows afresh."""

@@ -158,6 +158,9 @@ class StackSolver(ABC):
         #: active inequality row, an active set that did not settle, an infeasible level)
         self.compiled_ticks = 0
         self.handed_back_ticks = 0
+        #: solves done on the numpy path while the compiled tick was being compiled in the
+        #: background (:meth:`wbc.compiled.dispatch.Ticks.ready`)
+        self.interim_ticks = 0
         self._layouts: dict = {}
         #: the work arrays that the compiled plans of the layouts share
         #: (:class:`wbc.compiled.plan.Scratch`; None until a plan is built)
@@ -336,12 +339,12 @@ class StackSolver(ABC):
         """Pay the one-off costs of a first solve now (building the layout, loading the
         compiled kernels from numba's cache: milliseconds), e.g. before a control loop starts.
         Solves once at q with the current targets; counts no tick."""
-        ticks = self.compiled_ticks, self.handed_back_ticks
+        ticks = self.compiled_ticks, self.handed_back_ticks, self.interim_ticks
         try:
             self.solve(q, dt)
         except WbcError:
             pass  # targets not set yet may be infeasible: the layout is built all the same
-        self.compiled_ticks, self.handed_back_ticks = ticks
+        self.compiled_ticks, self.handed_back_ticks, self.interim_ticks = ticks
 
     def forget_warm_starts(self) -> None:
         """Start the compiled level solvers' active sets afresh (as after building a layout)."""

@@ -135,7 +135,7 @@ class HierarchicalQP(StackSolver):
             return
         self._built = True
         dq = last.dq
-        problems, _, _ = self._assemble(self.kin, None, self._inequalities)
+        problems, _, _ = self._assemble(self.kin, None, self._inequalities, self.fast)
         self._problems = [
             LevelProblem(
                 p.priority,
@@ -167,10 +167,10 @@ class HierarchicalQP(StackSolver):
         nv = self.robot.nv
         return [stack_constraints(cons, kin, nv) for cons in self._constraints]
 
-    def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None):
-        """The QP value: each level's rows (J, b weighted by √w: the plan's arrays, which the
-        compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
-        fast = self.fast
+    def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None, fast):
+        """The QP value: each level's rows (J, b weighted by √w: the arrays of the plan
+        ``fast``, which the compiled tick fills, or with None the numpy blocks) and inequality
+        rows, and the box bounds."""
         problems = []
         for k, (lv, block) in enumerate(zip(self._levels, self._blocks, strict=True)):
             G, h, cslices = self._no_rows if inequalities is None else inequalities[k]
@@ -195,6 +195,10 @@ class HierarchicalQP(StackSolver):
             self._plan()
         self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
+        interim = fast is not None and not fast.ready()
+        if interim:  # compiling in the background: meanwhile the numpy path, and the backend
+            fast = None  # cascade (the level algorithm's compiled kernels are being built)
+            self.interim_ticks += 1
         if fast is not None:
             if fast.solve(kin, dt, inequalities) == 0:  # fills the plan's rows and bounds
                 self.compiled_ticks += 1
@@ -203,9 +207,9 @@ class HierarchicalQP(StackSolver):
                 self._built = False
                 return fast.solution
             self.handed_back_ticks += 1
-        problems, lower, upper = self._assemble(kin, dt, inequalities)
+        problems, lower, upper = self._assemble(kin, dt, inequalities, fast)
         self._problems = problems
-        if fast is None and not self.stack.extra_limits:
+        if fast is None and not interim and not self.stack.extra_limits:
             dq = self._level_solver(problems, kin, dt, lower, upper)
             if dq is not None:
                 return Solution(dq, lower, upper)
