@@ -411,7 +411,10 @@ def cascade_solve(
     least-squares level) and the rows above at their bounds plus the slacks they kept
     (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
     inequality rows cost nothing on a level whose solution without them meets them (and which
-    had no working set at the last tick); else :func:`solve_with_inequalities`.
+    had no working set at the last tick); else :func:`solve_with_inequalities`. In a tick
+    without inequality rows, the hard levels at the top are not solved on their own: met, a
+    hard level's optimal set is {J_k Δq = b_k} within the bounds, which the next level takes
+    as its equalities (the same answer, one level solve fewer); they are checked after it.
     """
     joints = q[q.shape[0] - q_min.shape[0] :]
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
