@@ -16,8 +16,6 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .compiled.checks import entry as _check_entry
-from .compiled.checks import quaternion_defect
 from .exceptions import ConfigurationError, ModelError, ServoMapError
 from .paths import read_toml, robots_dir
 from .robot_data import ROBOT_KEYS, RobotData
@@ -26,8 +24,6 @@ from .servo_map import ServoMap
 WORLD = pin.ReferenceFrame.WORLD
 #: how far the base quaternion of a configuration may be from unit norm
 QUATERNION_TOL = 1e-6
-#: |‖base quaternion‖² − 1| of a configuration, +inf if an entry is not finite (compiled)
-_quaternion_defect = _check_entry(quaternion_defect)
 LOCAL = pin.ReferenceFrame.LOCAL
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _REFERENCES = {"world": WORLD, "local": LOCAL, "local_world_aligned": LOCAL_WORLD_ALIGNED}
@@ -201,6 +197,9 @@ class Robot:
         self.total_mass = float(pin.computeTotalMass(self.model))
         self.frame_names = tuple(f.name for f in self.model.frames)
         self._frame_ids: dict[str, int] = {}  # frame_id's answers, by name
+        #: |‖base quaternion‖² − 1| of a configuration, +inf if an entry is not finite: the
+        #: compiled check of :meth:`check_configuration` (loaded at its first call)
+        self._quaternion_defect = None
         #: standard frame name (``torso``, ``l_sole``, ``r_sole``) -> this URDF's frame name
         self.frame_aliases: dict[str, str] = dict(frames or {})
         for alias, actual in self.frame_aliases.items():
@@ -343,7 +342,12 @@ class Robot:
                 f"{what}: expected a configuration of size nq={self.nq} (7 base + "
                 f"{self.n_joints} joints), got shape {q.shape}"
             )
-        if _quaternion_defect(q) <= 2.0 * QUATERNION_TOL:  # (one compiled call: the hot path)
+        defect = self._quaternion_defect
+        if defect is None:  # (numba is imported by the first check, not by ``import wbc``)
+            from .compiled.checks import entry, quaternion_defect
+
+            defect = self._quaternion_defect = entry(quaternion_defect)
+        if defect(q) <= 2.0 * QUATERNION_TOL:  # (one compiled call: the hot path)
             return q
         if not np.isfinite(q).all():
             idx = np.flatnonzero(~np.isfinite(q))
