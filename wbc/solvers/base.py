@@ -634,13 +634,14 @@ class StackSolver(ABC):
 
     def _cached_layout(self, key: tuple):
         """The layout kept for ``key`` (None if none). A kept layout entered again starts its
-        active sets afresh: those of its last visit (a support phase ago, at another
-        configuration) are a worse start than none (the hierarchy's first tick of a phase
-        took twice as long from them; benchmarks/qp_tick.md)."""
+        active sets afresh (:meth:`wbc.compiled.plan._Plan.forget_warm_start`): those of its
+        last visit (a support phase ago, at another configuration) are a worse start than
+        none (the hierarchy's first tick of a phase took twice as long from them;
+        benchmarks/qp_tick.md)."""
         layout = self._layouts.get(key)
         plan = getattr(layout, "fast", None)
         if plan is not None and plan is not self.fast:
-            plan.forget_warm_start()
+            plan.forget_warm_start(self.fast)
         return layout
 
     def _keep_layout(self, key: tuple, layout) -> None:
