@@ -5,7 +5,8 @@ when the first compiled tick runs, and the CPU of all of it (workers included); 
 README's quick-start job, ``wbc bench --json … --plots …``: the time to its first result
 line and to its end; each run cold (empty caches), then warm (the caches it filled).
 
-Run: ``python benchmarks/cold_start.py [--job solve|bench|both]`` (prints a markdown table;
+Run: ``python benchmarks/cold_start.py [--job first|solve|bench|both]`` (``first``: (1) until
+the first answers only, the workers stopped then) (prints a markdown table;
 the caches live in a temporary directory, the user's own are left alone). Figures in
 cold_start.md.
 """
@@ -33,7 +34,8 @@ robot = load_robot()
 q = robot.configuration("walk_ready")
 solvers = {k: load_stack("walk", robot, solver=k).solver for k in ("weighted", "hierarchical")}
 seen = set()
-while len(seen) < 4 and time.perf_counter() - start < 1200:
+goal = 2 if FIRST_ONLY else 4
+while len(seen) < goal and time.perf_counter() - start < 1200:
     for kind, s in solvers.items():
         s.step(q, 0.01)  # (a loop ticking every 20 ms)
         t = time.perf_counter() - start
@@ -43,8 +45,14 @@ while len(seen) < 4 and time.perf_counter() - start < 1200:
                 cpu = time.process_time()  # (this process's own)
                 print(f"{kind}: first {what} tick after {t:.1f} s ({cpu:.1f} s CPU)", flush=True)
     time.sleep(0.02)
+if FIRST_ONLY:  # the first answers only: stop the workers
+    for worker in package_ticks().builders.values():
+        worker.kill()
 package_ticks().wait_all()  # (their CPU counts)
 """
+
+
+TICKS = "FIRST_ONLY = False\n" + FIRST_TICKS
 
 
 def children_cpu() -> float:
@@ -73,7 +81,12 @@ def timed(cmd: list[str], env: dict, marks: list[str]) -> tuple[float, float, li
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--job", choices=("solve", "bench", "both"), default="both")
+    parser.add_argument(
+        "--job",
+        choices=("first", "solve", "bench", "both"),
+        default="both",
+        help="first: the walk stack's first answers only (the workers stopped then)",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as out:
         rows = measure(args.job, Path(out))
@@ -100,12 +113,14 @@ def measure(job: str, out: Path) -> list[tuple]:
         sys.executable, "-m", "wbc.cli", "bench", "--json", str(out / "bench.json"),
         "--plots", str(out / "plots"),
     ]  # fmt: skip
-    jobs = [  # (label, command, index of its marks)
-        ("walk stack ticked, both solvers", [sys.executable, "-c", FIRST_TICKS], 0),
-        ("`wbc bench --json … --plots …`", bench, 1),  # a result line; a compiled run's line
-    ]
+    first = "FIRST_ONLY = True\n" + FIRST_TICKS
+    jobs = {  # (label, command, index of its marks)
+        "first": ("walk stack, first ticks", [sys.executable, "-c", first], 0),
+        "solve": ("walk stack ticked, both solvers", [sys.executable, "-c", TICKS], 0),
+        "bench": ("`wbc bench --json … --plots …`", bench, 1),  # a result line
+    }
     rows = []
-    for label, cmd, k in jobs[:1] if job == "solve" else jobs[1:] if job == "bench" else jobs:
+    for label, cmd, k in [jobs[job]] if job in jobs else [jobs["solve"], jobs["bench"]]:
         marks = [m[k] for m in MARKS.values()]
         with tempfile.TemporaryDirectory() as tmp:  # each job starts from empty caches
             env = {

@@ -199,3 +199,17 @@ def test_the_first_tick_on_an_empty_cache_is_answered_while_the_tick_compiles(ro
         q_next = s.step(q, 0.01)
         assert s.compiled_ticks == 1
         assert abs(q_next - out[solver]["q"]).max() < tol, solver
+
+
+def test_only_the_default_solves_on_the_numpy_path_while_its_tick_compiles(robot, monkeypatch):
+    from wbc.compiled.plan import _Plan
+    from wbc.stacks import load_stack
+
+    monkeypatch.setattr(_Plan, "ready", lambda self: False)  # as while the workers run
+    q = robot.configuration("walk_ready")
+    for solver in ("weighted", "hierarchical"):
+        for compiled, counts in ((None, (1, 0)), (True, (0, 1))):  # True: waits for it
+            s = load_stack("walk", robot, solver=solver).solver
+            s.compiled = compiled
+            s.step(q, 0.01)
+            assert (s.interim_ticks, s.compiled_ticks) == counts, (solver, compiled)

@@ -159,7 +159,8 @@ class StackSolver(ABC):
         self.compiled_ticks = 0
         self.handed_back_ticks = 0
         #: solves done on the numpy path while the compiled tick was being compiled in the
-        #: background (:meth:`wbc.compiled.dispatch.Ticks.ready`)
+        #: background (``compiled=None`` only: True waits for it; see
+        #: :meth:`wbc.compiled.dispatch.Ticks.ready`)
         self.interim_ticks = 0
         self._layouts: dict = {}
         #: the work arrays that the compiled plans of the layouts share

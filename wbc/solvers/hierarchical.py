@@ -195,9 +195,10 @@ class HierarchicalQP(StackSolver):
             self._plan()
         self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
-        interim = fast is not None and not fast.ready()
-        if interim:  # compiling in the background: meanwhile the numpy path, and the backend
-            fast = None  # cascade (the level algorithm's compiled kernels are being built)
+        interim = fast is not None and self.compiled is None and not fast.ready()
+        if interim:  # compiling in the background: meanwhile the numpy path and the backend
+            fast = None  # cascade (the compiled level algorithm is being built); compiled=True
+            # waits for the compiled tick
             self.interim_ticks += 1
         if fast is not None:
             if fast.solve(kin, dt, inequalities) == 0:  # fills the plan's rows and bounds

@@ -114,8 +114,10 @@ class WeightedQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
-        if fast is not None and not fast.ready():  # compiling in the background: meanwhile
-            self.interim_ticks += 1  # the numpy path (the same QP, by the backend)
+        if fast is not None and self.compiled is None and not fast.ready():
+            # compiling in the background: meanwhile the numpy path (the same QP, by the
+            # backend); compiled=True waits for the compiled tick
+            self.interim_ticks += 1
             return self._solve_value(kin, self._assemble(kin, dt, None))
         if fast is not None:
             # the compiled tick: the plan's rows and bounds, the inequality rows (an active
