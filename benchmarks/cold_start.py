@@ -5,10 +5,11 @@ when the first compiled tick runs, and the CPU of all of it (workers included); 
 README's quick-start job, ``wbc bench --json … --plots …``: the time to its first result
 line and to its end; each run cold (empty caches), then warm (the caches it filled).
 
-Run: ``python benchmarks/cold_start.py [--job first|solve|bench|both]`` (``first``: (1) until
-the first answers only, the workers stopped then) (prints a markdown table;
-the caches live in a temporary directory, the user's own are left alone). Figures in
-cold_start.md.
+Run: ``python benchmarks/cold_start.py [--job first|solve|bench|both|interim]`` (``first``: (1)
+until the first answers only, the workers stopped then; ``interim``: with warm caches, a tick's
+time on the numpy path, as while the ticks compile, against the compiled tick). Prints a
+markdown table; the caches live in a temporary directory, the user's own are left alone
+(``interim``: uses them). Figures in cold_start.md.
 """
 
 from __future__ import annotations
@@ -54,6 +55,29 @@ package_ticks().wait_all()  # (their CPU counts)
 
 TICKS = "FIRST_ONLY = False\n" + FIRST_TICKS
 
+INTERIM_COST = """
+import time
+import numpy as np
+from wbc import load_robot
+from wbc.compiled.plan import _Plan
+from wbc.stacks import load_stack
+robot = load_robot()
+q = robot.configuration("walk_ready")
+for interim in (False, True):
+    if interim:  # as while the workers compile: the numpy path
+        _Plan.ready = lambda self: False
+    for kind in ("weighted", "hierarchical"):
+        s = load_stack("walk", robot, solver=kind).solver
+        s.step(q, 0.01)
+        t = []
+        for _ in range(300):
+            t0 = time.perf_counter()
+            s.step(q, 0.01)
+            t.append(time.perf_counter() - t0)
+        path = "interim (numpy path)" if interim else "compiled"
+        print(f"| {kind} | {path} | {np.median(t) * 1e6:.0f} |", flush=True)
+"""
+
 
 def children_cpu() -> float:
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -83,11 +107,16 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
         "--job",
-        choices=("first", "solve", "bench", "both"),
+        choices=("first", "solve", "bench", "both", "interim"),
         default="both",
-        help="first: the walk stack's first answers only (the workers stopped then)",
+        help="first: the walk stack's first answers only (the workers stopped then); "
+        "interim: a tick's time on the numpy path meanwhile against the compiled one (warm)",
     )
     args = parser.parse_args()
+    if args.job == "interim":  # warm caches (the user's own): one tick's time on each path
+        print("| solver | path | step µs (median of 300) |\n|---|---|---|", flush=True)
+        env = {**os.environ, "PYTHONPATH": str(ROOT)}
+        return subprocess.run([sys.executable, "-c", INTERIM_COST], env=env, cwd=ROOT).returncode
     with tempfile.TemporaryDirectory() as out:
         rows = measure(args.job, Path(out))
     print("| job | cache | wall s | CPU s | " + " | ".join(MARKS) + " |")
