@@ -48,6 +48,8 @@ class Tally:
     pose_contact_misses: int = 0
     max_pose_contact: float = 0.0
     typed: Counter = field(default_factory=Counter)
+    #: the trials of each kind of typed error (the first few, to look at)
+    typed_trials: dict = field(default_factory=dict)
     slowest_tick: float = 0.0
     slowest_pose: float = 0.0
     slowest_pose_trial: int = -1
@@ -171,7 +173,9 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                         tally.pose_contact_misses += 1
                         tally.miss_trials.append(p.get("trial", -1))
         except WbcError as exc:
-            tally.typed[f"{mode}: {type(exc).__name__}: {str(exc)[:60]}"] += 1
+            kind = f"{mode}: {type(exc).__name__}: {str(exc)[:60]}"
+            tally.typed[kind] += 1
+            tally.typed_trials.setdefault(kind, []).append(p.get("trial", -1))
         except Exception as exc:  # counting what is not typed is the point
             tally.untyped.append(f"{mode}: {type(exc).__name__}: {exc}")
 
@@ -235,7 +239,7 @@ def report(t: Tally, start_time: float) -> None:
     )
     print("typed errors:")
     for what, count in t.typed.most_common(20):
-        print(f"  {count:6d}  {what}")
+        print(f"  {count:6d}  {what}  (trials {t.typed_trials[what][:12]})")
     print(f"wall time {time.perf_counter() - start_time:.0f} s", flush=True)
 
 

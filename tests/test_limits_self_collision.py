@@ -378,3 +378,25 @@ def test_walk_stack_has_the_limit_with_its_hard_level(robot):
     c = control.stack.constraint("self_collision")
     assert c in control.stack.level(0).constraints and control.stack.level(0).hard
     assert (c.margin, c.trigger) == (0.005, 0.02)
+
+
+@given(seed=st.integers(0, 10_000))
+def test_recovering_rows_hold_the_pairs_at_the_margin_itself(robot, limit, seed):
+    """split(recovering=True) (an infeasible tick's re-solve): the rows of the pairs outside
+    the margin at max(h(d), gap − margin) — down to the margin in one step, never into it
+    (to first order) — and the same requests of the pairs inside."""
+    rng = np.random.default_rng(seed)
+    q = robot.random_configuration(rng)
+    kin = Kinematics(robot, q)
+    (G, h), (Gi, hi) = limit.split(kin)
+    (G_r, h_r), (Gi_r, hi_r) = limit.split(kin, recovering=True)
+    np.testing.assert_array_equal(G, G_r)
+    np.testing.assert_array_equal(Gi, Gi_r)
+    np.testing.assert_array_equal(hi, hi_r)
+    assert (h >= 0).all() and (h_r >= h).all()
+    # the witness row of a pair outside the margin, where the damper is the stricter
+    # (h(d) <= d − margin), holds it at the margin itself: −J_d Δq <= d − margin
+    knee = TRIGGER - DAMPING * (TRIGGER - MARGIN)
+    for d in limit.last.distance.tolist():
+        if MARGIN <= d <= knee:
+            assert np.isclose(h_r, d - MARGIN, rtol=0, atol=1e-12).any()

@@ -13,6 +13,7 @@ import pinocchio as pin
 import pytest
 
 from wbc import ConfigurationError, InfeasibleError, Kinematics, TaskError, WbcError, load_robot
+from wbc.limits import GroundClearanceConstraint
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
 from wbc.stacks import load_stack
 from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
@@ -266,6 +267,85 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
         assert contact_error(robot, result.q, c) <= 1e-6
     assert (result.q[7:] >= np.minimum(robot.q_min, q0[7:]) - 1e-12).all()
     assert (result.q[7:] <= np.maximum(robot.q_max, q0[7:]) + 1e-12).all()
+
+
+@pytest.mark.parametrize("kind", SOLVERS)
+def test_start_with_the_legs_crossed_recovers_as_far_as_the_held_pairs_allow(robot, kind):
+    """Seed 3: six leg joints 2.9° outside, the legs crossed through each other (boxes 8.5 mm
+    into each other). No error over 60 ticks, no joint further out; the joints come back as
+    far as the hard contacts and the pairs held at the margin allow: the right knee and
+    ankle pitch stop 0.5° and 1° outside, where any motion with both soles fixed that brings
+    one in takes the other further out or the right thigh into the left ankle's margin
+    (benchmarks/stress.md). Holding every pair at the margin itself (not at the damper's
+    rate) parked pairs there and raised at tick 11."""
+    q = start_outside_in_double_support(robot, 3)
+    control = load_stack("walk", robot, q, solver=kind, compiled=False)
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+
+    def outside(q):
+        j = q[7:]
+        return np.maximum(robot.q_min - j, 0.0) + np.maximum(j - robot.q_max, 0.0)
+
+    start = outside(q).sum()
+    for _ in range(60):
+        q_next = control.solver.step(q, 0.01)
+        assert (outside(q_next) <= outside(q) + 1e-12).all()
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        q = q_next
+    assert outside(q).sum() < 0.1 * start
+
+
+def start_with_the_swing_sole_below_the_ground(robot):
+    """Walk Ready with the right knee 0.3 rad straighter, the left sole on the ground: the
+    right sole's lowest corner starts 20 mm below the ground."""
+    q = robot.configuration("walk_ready")
+    i = robot.joint_names.index("r_knee")
+    q[7 + i] -= np.sign(q[7 + i]) * 0.3
+    return robot.place_on_ground(q, "l_sole")
+
+
+@pytest.mark.parametrize("compiled", PATHS)
+def test_start_with_the_swing_sole_below_the_ground_comes_back_up(robot, compiled):
+    """The walk stack's weighted QP (every constraint row hard) raised "ground_clearance
+    infeasible" at tick 0 from such a start (321 ticks in the 10,000-trial stress run): the
+    rows asked every corner back above the ground in one tick. Now, as a joint outside its
+    range: no tick takes a corner further down, and the sole rises at the bounded rate
+    (`max_rise` per tick) until it is above the ground."""
+    q = start_with_the_swing_sole_below_the_ground(robot)
+    control = load_stack("walk", robot, q, solver="weighted", compiled=compiled)
+    control.set_phase("single", "l_sole", "r_sole", Kinematics(robot, q))
+    clearance = control.stack.constraint("ground_clearance_swing")
+    contact = control.stack.task("contact_support")
+    z = clearance.lowest_point(Kinematics(robot, q))
+    assert z < -0.019
+    for _ in range(40):
+        q = control.solver.step(q, 0.01)
+        z_next = clearance.lowest_point(Kinematics(robot, q))
+        assert z_next >= z - 1e-6  # no further down (a tick's second order)
+        assert z_next <= max(z, 0.0) + clearance.max_rise + 1e-4  # bounded rate
+        assert contact_error(robot, q, contact) <= 1e-2
+        z = z_next
+    assert z >= -1e-5
+    assert robot.within_limits(q)
+
+
+@pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.parametrize("compiled", PATHS)
+def test_hard_ground_clearance_from_below_the_ground_comes_back_up(robot, kind, compiled):
+    """The README's stack with the swing sole's ground clearance at the hard level, from a
+    start 20 mm below the ground: every solver and path brings the sole up at the bounded
+    rate, never lower, and no error (the rows asked all of it in one tick)."""
+    q = start_with_the_swing_sole_below_the_ground(robot)
+    solver, *_ = readme_stack(robot, q, kind, compiled=compiled)
+    clearance = solver.stack.add_constraint(GroundClearanceConstraint(robot, "r_sole"), level=0)
+    z = clearance.lowest_point(Kinematics(robot, q))
+    for _ in range(30):
+        q = solver.step(q, 0.01)
+        z_next = clearance.lowest_point(Kinematics(robot, q))
+        assert z - 1e-6 <= z_next <= max(z, 0.0) + clearance.max_rise + 1e-4
+        z = z_next
+    assert z >= -1e-5
 
 
 # ---------------------------------------------------------------- 10. bad inputs

@@ -47,24 +47,36 @@ def test_random_problems_keep_the_laws(robot, stress, backends):
 
 
 @pytest.mark.parametrize(
-    "trial",
-    [187, 218],
+    ("trial", "backends"),
+    [(187, ["daqp"]), (218, ["daqp"]), (356, ["daqp"]), (76, ["proxqp", "quadprog", "osqp"])],
 )
-def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial):
+def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial, backends):
     """Stress trials (seed 2024; walk stack, double support, targets out of reach) on which
     DAQP reported "exit flag -2" (187, a tick) or a bare "daqp: the QP is infeasible" naming
     no task (218, a converged pose); both problems are feasible. 187 starts outside the
     limits with links inside the self-collision margin: since the walk stack's hard
-    self-collision rows it raised "hard level 0 is infeasible" at tick 0."""
+    self-collision rows it raised "hard level 0 is infeasible" at tick 0. 356 (weighted QP,
+    single support, a joint outside its limits): an iterate of its converged pose is
+    infeasible, and the weighted QP's diagnosis (DAQP cycling, exit flag -2) raised a
+    SolverError, which left the recovery no chance. 76 (quadprog, hierarchical, single
+    support): quadprog called an iterate infeasible, DAQP's re-check cycled (exit flag -2)
+    and that SolverError ended the pose."""
     tally = stress.Tally()
-    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)
     assert not tally.typed, dict(tally.typed)
     assert tally.ok()
 
 
 @pytest.mark.parametrize(
-    ("trial", "backends"), [(1091, ["daqp"]), (307, ["proxqp", "quadprog", "osqp"])]
+    ("trial", "backends"),
+    [
+        (1091, ["daqp"]),
+        (307, ["proxqp", "quadprog", "osqp"]),
+        (136, ["daqp"]),
+        (384, ["daqp"]),
+        (584, ["daqp"]),
+    ],
 )
 def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(
     robot, stress, trial, backends
@@ -74,9 +86,30 @@ def test_converged_pose_ending_at_the_iteration_cap_holds_its_contacts(
     projection could undo within the joint limits; since the self-collision rows its pose
     raised a bare DAQP "exit flag -2" from the hierarchy's diagnosis of an infeasible
     iterate instead of going on. Trial 307 (the same with quadprog) ended 2.8e-5 m off
-    before main's redesigned core (1.2e-7 on main, 7e-11 here: kept as a check)."""
+    before main's redesigned core (1.2e-7 on main, 7e-11 here: kept as a check). Trial 136
+    (weighted QP, double support, joints outside their limits, links inside the margin)
+    ended 4.3e-5 m off its contacts (the guard raised); its infeasible iterates are now
+    re-solved with the rows of the pairs outside the margin held at the margin itself, not
+    at the damper's rate (as is the final projection). Trials 384 and 584 (walk stack,
+    double support; hierarchical and weighted): the guard raised, the contacts 2e-4 m off;
+    their iterates were never checked (a hard level with inequality rows) and drifted 1e-4
+    off where the joint limits no longer let the chain close."""
     tally = stress.Tally()
     p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
     stress.run_trial(robot, p, tally, ticks=0, iterations=50)
     assert tally.poses == 1
     assert tally.pose_contact_misses == 0, tally.max_pose_contact
+
+
+@pytest.mark.parametrize("trial", [60, 85, 258])
+def test_starts_below_the_ground_recover(robot, stress, trial):
+    """Stress trials (walk stack, weighted QP, single support) whose swing sole starts 20-54
+    mm below the ground, with joints outside their limits (85, compiled path) or boxes
+    overlapping by 22 mm (258): they raised at tick 0, naming ground_clearance (60, 85),
+    contact_support and self_collision (258). Now no typed error, ticks or converged pose."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    assert (p["stack"], p["kind"], p["double"]) == ("walk", "weighted", False)
+    stress.run_trial(robot, p, tally, ticks=50, iterations=50)
+    assert not tally.typed, dict(tally.typed)
+    assert tally.limit_violations == tally.non_finite == tally.pose_contact_misses == 0

@@ -6,15 +6,22 @@ import numpy as np
 from numba import njit
 
 from ..compiled.rows import frame_jacobian
-from ..exceptions import TaskError
+from ..exceptions import ConfigurationError, TaskError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
-from .limit import Constraint, Inequality
+from .limit import Constraint, Inequality, way_back
+
+#: defaults of the way back of a sole corner that starts below the clearance: a fraction
+#: of its depth per step (the self-collision damper's), at most this many metres per step
+#: (servo speed allows ~1 cm per 10 ms tick at the foot; 2 mm is 0.2 m/s)
+DEFAULT_DAMPING = 0.4
+DEFAULT_MAX_RISE = 0.002
 
 
 @njit(cache=True)
 def clearance_rows(Jw, support, p, R, corners, clearance, Jf, G, h) -> None:
-    """G, h of :class:`GroundClearanceConstraint` (one row per corner)."""
+    """G, h of :class:`GroundClearanceConstraint` (one row per corner) before the way back:
+    h is each corner's height above the clearance."""
     frame_jacobian(Jw, support, p, Jf)
     for c in range(corners.shape[0]):
         wx = R[0, 0] * corners[c, 0] + R[0, 1] * corners[c, 1] + R[0, 2] * corners[c, 2]
@@ -30,6 +37,14 @@ class GroundClearanceConstraint(Constraint):
 
     z_c + J_c,z Δq >= clearance  ⇔  −J_c,z Δq <= z_c − clearance,
     with J_c = J_v − [R r_c]× J_ω for corner offset r_c in the sole frame.
+
+    A corner that starts below the clearance (depth δ = clearance − z_c > 0: a start, a
+    servo reading, a sole pushed into the floor) is not asked to jump back in one step, which
+    the servos' speed and the hard contacts may not allow: its row is −J_c,z Δq <= −min(ξ δ,
+    ``max_rise``) (:func:`~wbc.limits.limit.way_back`; ξ = ``damping``): no further down,
+    then up a fraction ξ of the depth per step, at most ``max_rise`` m. Where even that is
+    not possible with the hard tasks, the solvers rank those rows below them
+    (:meth:`split`), as the joints' way back into their range.
     """
 
     def __init__(
@@ -40,10 +55,17 @@ class GroundClearanceConstraint(Constraint):
         length: float | None = None,
         width: float | None = None,
         name: str | None = None,
+        damping: float = DEFAULT_DAMPING,
+        max_rise: float = DEFAULT_MAX_RISE,
     ) -> None:
         super().__init__(name or f"ground_clearance_{frame}")
+        if not 0 < damping <= 1:
+            raise ConfigurationError(f"ground_clearance damping must be in (0, 1], got {damping}")
+        if not max_rise > 0:
+            raise ConfigurationError(f"ground_clearance max_rise must be > 0 m, got {max_rise}")
         self.robot = robot
         self.clearance = clearance
+        self.damping, self.max_rise = float(damping), float(max_rise)
         self.set_frame(frame)
         # the foot rectangle: the robot's (robot.toml [feet]) unless given
         foot_length, foot_width = robot.foot_size
@@ -64,7 +86,18 @@ class GroundClearanceConstraint(Constraint):
             kin.data.J, self.robot.frame_support(fid), kin.translation(fid), kin.rotation(fid),
             self.corners, float(self.clearance), self._Jf, self._G, self._h,
         )  # fmt: skip
-        return Inequality(self._G, self._h)
+        h = self._h
+        if h.min() < 0.0:  # a corner below the clearance: its way back
+            below = h < 0.0
+            h[below] = way_back(-h[below], self.damping, self.max_rise)
+        return Inequality(self._G, h)
+
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
+        """(rows to hold, requests): the rows of the corners below the clearance (h < 0: Δq = 0
+        does not meet them) are the requests (:meth:`Constraint.split`)."""
+        G, h = self.compute(kin)
+        ask = h < 0.0
+        return Inequality(G[~ask], h[~ask]), Inequality(G[ask], h[ask])
 
     def lowest_point(self, kin: Kinematics) -> float:
         """Height (m) of the lowest sole corner."""

@@ -15,6 +15,19 @@ import numpy as np
 from ..model import Kinematics
 
 
+def way_back(violation: np.ndarray, fraction: float, most: float) -> np.ndarray:
+    """h of the rows of a constraint violated by ``violation`` > 0 at the current
+    configuration (a sole corner below the ground, two links inside their margin): the
+    row −g'(q) Δq <= h asks a fraction ``fraction`` of the way back per step, at most
+    ``most`` (m): h = −min(ξ · violation, most).
+
+    Like a joint outside its range (moved back at the servo's speed, never further out), a
+    start that violates a constraint is never asked to jump back in one step (which the
+    velocity limits and the hard contacts may not allow), and the row is met from any
+    start by a bounded motion."""
+    return -np.minimum(fraction * np.asarray(violation, dtype=float), most)
+
+
 class Bounds(NamedTuple):
     """lower <= Δq <= upper (nv each; ±inf where unbounded)."""
 
@@ -63,6 +76,19 @@ class Constraint(ABC):
     @abstractmethod
     def compute(self, kin: Kinematics) -> Inequality:
         """(G, h) at the configuration of ``kin``."""
+
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
+        """The rows at ``kin`` as (rows to hold, requests): a request is a row that Δq = 0
+        does not meet because the constraint is violated at ``kin`` itself (a start below the
+        ground, links inside their margin) and that asks for the way back
+        (:func:`way_back`). A solver that cannot meet the requests with its hard tasks ranks
+        them below those, as the best achievable way back
+        (:meth:`wbc.solvers.base.StackSolver.solve`). ``recovering``: the rows of the re-solve
+        of an infeasible tick, where a constraint may hold its bare bound instead of a rate
+        that only smooths its activation (the self-collision damper). Default: every row
+        held, the same rows either way."""
+        rows = self.compute(kin)
+        return rows, Inequality(rows.G[:0], rows.h[:0])
 
     def violation(self, kin: Kinematics, dq: np.ndarray) -> np.ndarray:
         """max(0, G Δq − h) per row (for diagnostics and tests)."""

@@ -24,10 +24,11 @@ Activation (no chatter): with m = margin, T = trigger and ξ = damping,
 and no row for d >= T. Inside the margin (h < 0: Δq = 0 does not meet the row, which asks the
 pair to separate) the rate is a fraction ξ of the gap to the margin per tick, capped at ξ m: a
 start deep inside (boxes overlapping, e.g. joints outside their limits) is never asked to jump
-out in one tick. Where the hard tasks and the way back of joints outside their limits leave
-no room even for that, the solver ranks these rows below both, as the best achievable
-separation (:meth:`SelfCollisionConstraint.split`, :meth:`wbc.solvers.base.StackSolver.solve`);
-the rows of the pairs outside the margin are never relaxed.
+out in one tick (:func:`~wbc.limits.limit.way_back`). Where the hard tasks and the way back of
+joints outside their limits leave no room even for that, the solver ranks these rows below
+both, as the best achievable separation (:meth:`SelfCollisionConstraint.split`,
+:meth:`wbc.solvers.base.StackSolver.solve`); the rows of the pairs outside the margin are
+never relaxed.
 
 h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
 solution is continuous in d: a row appears with a bound no tick can reach (rows are left
@@ -50,7 +51,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError
 from ..model import Kinematics, Robot
-from .limit import Constraint, Inequality
+from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
 #: 40 % of the gap to the margin closed per tick near it
@@ -428,8 +429,9 @@ def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: f
     gap = d - margin
     with np.errstate(divide="ignore"):
         scale = np.where(gap > 0, (trigger - margin) / np.maximum(trigger - d, 0.0), 1.0)
-    gap = np.maximum(gap, -margin)  # inside: separate at rate ξ, at most ξ m per tick
-    return np.where(d < trigger, damping * gap * scale, np.inf)
+    # inside: separate at rate ξ, at most ξ m per tick
+    h = np.where(gap > 0, damping * gap * scale, way_back(-gap, damping, damping * margin))
+    return np.where(d < trigger, h, np.inf)
 
 
 def inside_margin(rows: Inequality) -> np.ndarray:
@@ -527,6 +529,8 @@ class SelfCollisionConstraint(Constraint):
         self._rows_q = np.zeros(0)
         #: the pair (a row of :attr:`last`) of each of _rows
         self._row_pair = np.zeros(0, dtype=int)
+        #: the gap (m) of each of _rows along its pair's normal
+        self._row_gap = np.zeros(0)
 
     @property
     def n_pairs(self) -> int:
@@ -549,7 +553,7 @@ class SelfCollisionConstraint(Constraint):
         w = self.last = self.witness(kin)
         if not w.index.size:
             rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
-            row_pair = np.zeros(0, dtype=int)
+            row_pair, row_gap = np.zeros(0, dtype=int), np.zeros(0)
         else:
             corners = self.distances.vertices(kin, w.index.tolist())
             pr = separating_plane_rows(w, corners, self.trigger)
@@ -559,25 +563,34 @@ class SelfCollisionConstraint(Constraint):
             )
             rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
             keep = damper_bound(pr.gap, self.margin, self.trigger, self.damping) < UNREACHABLE
-            row_pair = pr.pair[keep]
+            row_pair, row_gap = pr.pair[keep], pr.gap[keep]
         self._rows, self._rows_q, self._row_pair = rows, kin.q.copy(), row_pair
+        self._row_gap = row_gap
         return rows
 
-    def split(self, kin: Kinematics) -> tuple[Inequality, Inequality]:
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
         outside the margin (every row h >= 0, met by Δq = 0), and those of the pairs inside
         it (a row with h < 0: move apart; their box corners' rows keep parallel faces from
         turning into each other). A solver that cannot meet the requests with its hard
         tasks ranks them below those (and below the way back of joints outside their
         limits): held as hard rows, a pair already inside the margin can pin the legs of a
-        start with overlapping boxes."""
+        start with overlapping boxes.
+
+        ``recovering``: the rows to hold of a tick that is infeasible with the damper's
+        rate: h = max(h(d), d − m), a pair may approach down to the margin in one step (the
+        rate only smooths the rows' activation; a hard contact's second-order drift can
+        need more than a fraction ξ of the gap to be corrected)."""
         rows = self.compute(kin)
         pair_inside = np.zeros(self.last.index.size, dtype=bool)
         # any of its rows (a corner's gap to the witness plane can come out a hair below the
         # witness distance: the plane's normal is the distance query's, to its tolerance)
         pair_inside[self._row_pair[inside_margin(rows)]] = True
         ask = pair_inside[self._row_pair]
-        return Inequality(rows.G[~ask], rows.h[~ask]), Inequality(rows.G[ask], rows.h[ask])
+        h_held = rows.h[~ask]
+        if recovering:
+            h_held = np.maximum(h_held, self._row_gap[~ask] - self.margin)
+        return Inequality(rows.G[~ask], h_held), Inequality(rows.G[ask], rows.h[ask])
 
 
 def _cached_collision_model(robot: Robot) -> CollisionModel:

@@ -12,7 +12,6 @@ import numpy as np
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
 from ..limits import Bounds, Constraint, intersect_bounds
-from ..limits.self_collision import SelfCollisionConstraint
 from ..model import Kinematics
 from .assembly import TaskBlock
 from .backends import QPBackend, make_backend
@@ -24,8 +23,10 @@ from .stack import TaskStack
 #: backends' own primal tolerance is of the same order)
 CONSTRAINT_TOL = 1e-9
 #: hard-task error (m, rad) beyond which :meth:`StackSolver.solve_pose` projects an iterate
-#: back onto the hard levels (smaller residuals the next QP step corrects to second order)
-HARD_ITERATE_TOL = 1e-3
+#: back onto the hard levels (smaller residuals the next QP step corrects to second order;
+#: 1e-3 let double-support iterates drift 1e-4 off where the joint limits and the collision
+#: rows no longer let the QP or the final projection close the chain: stress trials 384, 584)
+HARD_ITERATE_TOL = 1e-4
 #: largest hard-task error at the end of :meth:`StackSolver.solve_pose`
 HARD_POSE_TOL = 1e-6
 #: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
@@ -33,10 +34,11 @@ HARD_POSE_TOL = 1e-6
 HARD_PROJECTION_STEPS = 20
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
-#: how much looser than their best achievable separation (m) the self-collision pairs inside
-#: their margin are held by a tick that cannot separate them at the damper's rate
+#: how much looser than their best achievable way back (m) the rows of constraints violated at
+#: the start (self-collision pairs inside their margin, sole corners below the ground) are held
+#: by a tick that cannot meet them at their damper's rate
 SEPARATION_SLACK = 1e-7
-_INSIDE = "self_collision (pairs inside the margin)"
+_INSIDE = "constraints violated at the start (their best way back)"
 #: weight of "no closer than now" against "separate at the damper's rate" in the best
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
@@ -45,8 +47,9 @@ _EMPTY = np.zeros(0)
 
 class SplitRows(NamedTuple):
     """Constraint rows G Δq <= h split into the rows to hold (with each constraint's slice,
-    for diagnostics) and the requests of the self-collision pairs inside their margin
-    (h < 0: move apart; :meth:`~wbc.limits.SelfCollisionConstraint.split`)."""
+    for diagnostics) and the requests of the constraints violated at the start (h < 0: the
+    way back; :meth:`~wbc.limits.Constraint.split`: self-collision pairs inside their margin,
+    sole corners below the ground)."""
 
     G: np.ndarray
     h: np.ndarray
@@ -55,18 +58,18 @@ class SplitRows(NamedTuple):
     h_inside: np.ndarray
 
 
-def split_rows(constraints: list[Constraint], kin: Kinematics, nv: int) -> SplitRows:
-    """The constraints' rows at ``kin``, those of self-collision pairs inside the margin
-    apart (see :class:`SplitRows`)."""
+def split_rows(
+    constraints: list[Constraint], kin: Kinematics, nv: int, recovering: bool = False
+) -> SplitRows:
+    """The constraints' rows at ``kin``, the requests of those violated at ``kin`` apart (see
+    :class:`SplitRows`; ``recovering``: :meth:`~wbc.limits.Constraint.split`)."""
     G, h, sl, Gi, hi = [], [], [], [], []
     r = 0
     for c in constraints:
-        if isinstance(c, SelfCollisionConstraint):
-            (Gc, hc), (G_ask, h_ask) = c.split(kin)
+        (Gc, hc), (G_ask, h_ask) = c.split(kin, recovering)
+        if h_ask.size:
             Gi.append(G_ask)
             hi.append(h_ask)
-        else:
-            Gc, hc = c.compute(kin)
         G.append(Gc)
         h.append(hc)
         sl.append((c.name, slice(r, r + hc.size)))
@@ -216,28 +219,33 @@ class StackSolver(ABC):
     def _solve_recovering(
         self, kin: Kinematics, dt: float | None, exc: InfeasibleError
     ) -> Solution:
-        """Re-solve an infeasible tick that starts outside the joint limits or with link pairs
-        inside their self-collision margin, asking of that start only what the hard tasks
-        leave possible. One cascade (:func:`~wbc.solvers.cascade.solve_cascade`), each level
-        optimal without changing the optimum of the levels above:
+        """Re-solve an infeasible tick, e.g. one that starts outside the joint limits or
+        violating a constraint (link pairs inside their self-collision margin, a sole corner
+        below the ground: :meth:`~wbc.limits.Constraint.split`), asking of that start only
+        what the hard tasks leave possible. One cascade
+        (:func:`~wbc.solvers.cascade.solve_cascade`), each level optimal without changing the
+        optimum of the levels above:
 
-        1. the hard levels: their tasks and their inequality rows except those of the pairs
-           inside the margin (the weighted QP: every constraint's rows), within the joint
+        1. the hard levels: their tasks and their inequality rows except the requests of the
+           violated ones (the weighted QP: every constraint's rows), the rows held at their
+           bare bound (``recovering``: the pairs outside the margin may approach down to it,
+           e.g. where a hard contact's second-order drift needs it), within the joint
            bounds widened to Δq = 0 for the joints outside their range (never further out);
         2. the way back of those joints (the step their bounds asked: servo speed, or all
            the way without a time step), in least squares;
-        3. the rows of the pairs inside the margin, in least squares of their violation: no
-           closer than now (weighted :data:`HOLD_WEIGHT`), then separate at the damper's rate —
-           the best separation the levels above leave, which may be an approach where the
-           hard tasks or the way back need it; then held there (+ :data:`SEPARATION_SLACK`);
+        3. the requests (e.g. the rows of the pairs inside the margin), in least squares of
+           their violation: no worse than now (weighted :data:`HOLD_WEIGHT`: no pair closer,
+           no corner lower), then the damper's rate — the best way back the levels above
+           leave, which may be an approach where the hard tasks or the joints' way back need
+           it; then held there (+ :data:`SEPARATION_SLACK`);
         4. the soft levels as the solver ranks them (levels, or one weighted objective).
 
         Why the way back before the pairs: a joint outside its range is outside the servo's
         travel, while a pair already inside the margin has lost its guarantee anyway (the
         boxes are a conservative hull); holding such a pair can stop the way back for good.
         Pairs outside the margin keep their rows (1.), so the way back never takes them in.
-        Raises ``exc`` (the solver's diagnosis) when nothing of this applies or the hard levels
-        are infeasible on their own."""
+        Raises ``exc`` (the solver's diagnosis) when the hard levels are infeasible on their
+        own."""
         nv = self.robot.nv
         lower, upper = np.empty(nv), np.empty(nv)
         self.compute_bounds(kin, dt, lower, upper)
@@ -246,12 +254,44 @@ class StackSolver(ABC):
         back = np.where(lo[out] > 0.0, lo[out], hi[out])
         np.minimum(lo, 0.0, out=lo)
         np.maximum(hi, 0.0, out=hi)
+        relax = self.on_infeasible == "relax"
+        first = None
+        for recovering in (False, True):
+            try:
+                dq, unmet = self._recover(kin, lower, upper, out, back, recovering)
+            except (InfeasibleError, SolverError) as e:  # the re-solve failed
+                failure = e
+                continue
+            if not unmet:
+                break
+            first = first or (dq, unmet)
+        else:
+            if first is None or not relax:  # infeasible on their own: the solver's diagnosis
+                raise exc from (None if first else failure)
+            dq, unmet = first
+        self.diagnosis = "; ".join(unmet)
+        self.relaxed = bool(unmet)
+        return Solution(dq, lower, upper)
+
+    def _recover(
+        self,
+        kin: Kinematics,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        out: np.ndarray,
+        back: np.ndarray,
+        recovering: bool,
+    ) -> tuple[np.ndarray, list[str]]:
+        """One re-solve of :meth:`_solve_recovering` (``recovering``: the hard rows at their
+        bare bound, :meth:`~wbc.limits.Constraint.split`): Δq and the messages of the hard
+        levels it leaves unmet."""
+        nv = self.robot.nv
         levels = self.stack.levels
         hard, soft, asks = [], [], []
         if self.lexicographic:
             for lv in levels:
                 block = TaskBlock(lv.active_tasks(), nv)
-                rows = split_rows(lv.active_constraints(), kin, nv)
+                rows = split_rows(lv.active_constraints(), kin, nv, recovering and lv.hard)
                 if lv.hard:
                     block.fill_into(kin, block.J, block.b)
                     asks.append(rows)
@@ -264,64 +304,57 @@ class StackSolver(ABC):
         else:
             block = TaskBlock([t for lv in levels if lv.hard for t in lv.active_tasks()], nv)
             block.fill_into(kin, block.J, block.b)
-            rows = split_rows([c for lv in levels for c in lv.active_constraints()], kin, nv)
+            constraints = [c for lv in levels for c in lv.active_constraints()]
+            rows = split_rows(constraints, kin, nv, recovering)
             asks.append(rows)
             hard.append(_level(0, block, rows, hard=True))
             block = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
             block.fill_weighted(kin)
             soft.append(LevelProblem(1 << 30, block.J, block.b, *_no_rows(nv)))
         inside = sum(r.h_inside.size for r in asks)
-        if not out.size and not inside:
-            raise exc
         recovery = []
         if out.size:
             J = np.zeros((out.size, nv))
             J[np.arange(out.size), 6 + out] = 1.0
             recovery.append(LevelProblem(-1, J, back, *_no_rows(nv)))
         relax = self.on_infeasible == "relax"
-        try:
-            if inside:  # their best separation below the hard levels and the way back
-                G_in = np.vstack([r.G_inside for r in asks])
-                h_in = np.concatenate([r.h_inside for r in asks])
-                # no pair closer than now first (HOLD_WEIGHT), then the damper's rate: one
-                # pair may not approach so that another separates faster
-                G_in = np.vstack([HOLD_WEIGHT * G_in, G_in])
-                h_in = np.concatenate([HOLD_WEIGHT * np.maximum(h_in, 0.0), h_in])
-                first = [*hard, *recovery, LevelProblem(-1, _no_jacobian(nv), _EMPTY, G_in, h_in)]
-                best, _ = solve_cascade_or_daqp(
-                    first, lower, upper, self._backends_for(first), final_regularization=1e-12,
-                    relax=relax,
-                )  # fmt: skip
-                # then held there, a hair looser (SEPARATION_SLACK): rows held exactly at their
-                # best are often pinned against a joint bound, which makes the lower levels'
-                # active sets degenerate
-                hard = [_with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
-            problems = [
-                *hard,
-                *recovery,
-                *(soft or [LevelProblem(1 << 30, _no_jacobian(nv), _EMPTY, *_no_rows(nv))]),
-            ]
-            dq, sols = solve_cascade_or_daqp(
-                problems, lower, upper, self._backends_for(problems),
-                final_regularization=self.regularization, relax=relax,
+        if inside:  # their best separation below the hard levels and the way back
+            G_in = np.vstack([r.G_inside for r in asks])
+            h_in = np.concatenate([r.h_inside for r in asks])
+            # no pair closer than now first (HOLD_WEIGHT), then the damper's rate: one
+            # pair may not approach so that another separates faster
+            G_in = np.vstack([HOLD_WEIGHT * G_in, G_in])
+            h_in = np.concatenate([HOLD_WEIGHT * np.maximum(h_in, 0.0), h_in])
+            first = [*hard, *recovery, LevelProblem(-1, _no_jacobian(nv), _EMPTY, G_in, h_in)]
+            best, _ = solve_cascade_or_daqp(
+                first, lower, upper, self._backends_for(first), final_regularization=1e-12,
+                relax=relax,
             )  # fmt: skip
-        except (InfeasibleError, SolverError) as e:  # the re-solve failed: the tick did
-            raise exc from e
+            # then held there, a hair looser (SEPARATION_SLACK): rows held exactly at their
+            # best are often pinned against a joint bound, which makes the lower levels'
+            # active sets degenerate
+            hard = [_with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
+        problems = [
+            *hard,
+            *recovery,
+            *(soft or [LevelProblem(1 << 30, _no_jacobian(nv), _EMPTY, *_no_rows(nv))]),
+        ]
+        dq, sols = solve_cascade_or_daqp(
+            problems, lower, upper, self._backends_for(problems),
+            final_regularization=self.regularization, relax=relax,
+        )  # fmt: skip
         unmet = [
             infeasible_message(p, sol, self.hard_tol)
             for p, sol in zip(hard, sols, strict=False)
             if max(abs(sol.residual).max(initial=0.0), sol.slack.max(initial=0.0)) > self.hard_tol
         ]
-        if unmet and not relax:  # infeasible on their own: the solver's own diagnosis
-            raise exc
-        self.diagnosis = "; ".join(unmet)
-        self.relaxed = bool(unmet)
-        return Solution(dq, lower, upper)
+        return dq, unmet
 
     @staticmethod
-    def _backends_for(problems: list[LevelProblem]) -> list[QPBackend]:
-        """One DAQP backend per level, whatever the solver's backend: a rare re-solve, and
-        an exact active set (a first-order backend's iteration caps on these degenerate
+    def _backends_for(problems: list) -> list[QPBackend]:
+        """One DAQP backend per level, whatever the solver's backend, for the rare re-solves
+        of infeasible ticks (the recovery, the diagnosis and ``on_infeasible="relax"``): an
+        exact active set (a first-order backend's iteration caps on these degenerate
         levels cost seconds per tick, to fall back to DAQP in the end)."""
         return [make_backend("daqp") for _ in problems]
 
@@ -495,18 +528,17 @@ class StackSolver(ABC):
             raise failure
         return q, dq, errors
 
-    def _hard_errors_of_last_solve(self) -> list[float] | None:
-        """Each hard level's largest error at the last solve (the tasks' last errors); None
-        if a hard level has inequalities (their violation is not kept)."""
-        out = []
-        for lv in self.stack.levels:
-            if lv.hard:
-                if lv.active_constraints():
-                    return None
-                out.append(
-                    max((float(abs(t.last_error).max()) for t in lv.active_tasks()), default=0.0)
-                )
-        return out
+    def _hard_errors_of_last_solve(self) -> list[float]:
+        """Each hard level's largest task error at the last solve (the tasks' last errors;
+        the violation of its inequality rows is not kept by a solve: the final guard checks
+        it. Skipping the levels with rows, as before, left the walk stack's iterates
+        unchecked: contacts drifting off until the end's projection could not bring them
+        back)."""
+        return [
+            max((float(abs(t.last_error).max()) for t in lv.active_tasks()), default=0.0)
+            for lv in self.stack.levels
+            if lv.hard
+        ]
 
     def _hard_errors(self, kin: Kinematics) -> list[float]:
         """Each hard level's largest task error and inequality violation at ``kin`` (the
@@ -538,7 +570,7 @@ class StackSolver(ABC):
             rows = [t.compute(kin) for t in tasks]
             J = np.vstack([r[0] for r in rows]) if rows else np.zeros((0, nv))
             e = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
-            split = split_rows(lv.active_constraints(), kin, nv)
+            split = split_rows(lv.active_constraints(), kin, nv, recovering=True)
             inside.append(split.G_inside)
             problems.append(LevelProblem(lv.priority, J, e, split.G, split.h, hard=True))
         G_in = np.vstack(inside) if inside else np.zeros((0, nv))

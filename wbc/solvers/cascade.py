@@ -245,14 +245,20 @@ def solve_cascade_or_daqp(
     """:func:`solve_cascade`; if another backend than DAQP fails on a level (a first-order
     one can stall on the degenerate QPs of the lower levels, many rows active at one point,
     or call them primal infeasible), the whole cascade again with DAQP, as a tick the
-    compiled kernels cannot finish goes to DAQP; DAQP's verdict stands."""
+    compiled kernels cannot finish goes to DAQP; DAQP's verdict stands (where DAQP cannot
+    decide, cycling, the other backend's InfeasibleError: a tick's recovery can follow it)."""
     try:
         return solve_cascade(levels, lower, upper, backends, **options)
-    except (SolverError, InfeasibleError):
+    except (SolverError, InfeasibleError) as first:
         if all(b.name == "daqp" for b in backends):
             raise
         daqp = [DaqpBackend(backends[0].eps) for _ in backends]
-        return solve_cascade(levels, lower, upper, daqp, **options)
+        try:
+            return solve_cascade(levels, lower, upper, daqp, **options)
+        except SolverError:  # DAQP undecided (cycling): the other backend's verdict stands
+            if isinstance(first, InfeasibleError):
+                raise first from None
+            raise
 
 
 def _unconstrained(H: np.ndarray, c: np.ndarray) -> np.ndarray | None:

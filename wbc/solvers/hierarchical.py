@@ -306,8 +306,9 @@ class HierarchicalQP(StackSolver):
 
     def _hard_inequality_message(self, kin, lower, upper) -> str:
         """A hard level's inequalities clash with the bounds: re-solve with slacks to name them."""
-        backends = [make_backend(self.backend.name, self.backend.eps) for _ in self.problems]
-        backends.append(make_backend(self.backend.name, self.backend.eps))
+        # DAQP (StackSolver._backends_for): a diagnosis, where a first-order backend's capped
+        # iterations on these degenerate levels cost seconds
+        backends = self._backends_for([*self.problems, None])
         try:
             _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
         except (InfeasibleError, SolverError) as exc:  # a level's QP failed: name the levels

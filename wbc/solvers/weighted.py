@@ -208,14 +208,25 @@ class WeightedQP(StackSolver):
         ]
         G, h, cslices = stack_constraints(soft_constraints, kin, nv)
         problems.append(LevelProblem(1 << 30, value.J, value.b, G, h, constraint_rows=cslices))
-        backends = [type(self.backend)(self.backend.eps) for _ in problems]
-        dq, sols = solve_cascade_or_daqp(
-            problems,
-            ws.lower.copy(),
-            ws.upper.copy(),
-            backends,
-            final_regularization=self.regularization,
-        )
+        # DAQP, as the recovery's re-solve (StackSolver._backends_for): a first-order backend's
+        # capped iterations on these degenerate levels cost seconds (stress trial 104, OSQP)
+        backends = self._backends_for(problems)
+        try:
+            dq, sols = solve_cascade_or_daqp(
+                problems,
+                ws.lower.copy(),
+                ws.upper.copy(),
+                backends,
+                final_regularization=self.regularization,
+            )
+        except SolverError as exc:  # the diagnosis failed (DAQP cycling): name the rows
+            if failed:
+                raise
+            names = [n for p in problems for n, _ in [*p.task_rows, *p.constraint_rows]]
+            raise InfeasibleError(
+                f"infeasible: the hard tasks, the constraints ({', '.join(names)}) and the "
+                f"joint limits (their diagnosis failed: {exc})"
+            ) from exc
         messages = [
             infeasible_message(p, s, self.hard_tol, f"hard level {p.priority}")
             for p, s in zip(problems[:-1], sols[:-1], strict=True)
