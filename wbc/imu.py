@@ -52,10 +52,13 @@ class ImuReading:
 
     def __post_init__(self) -> None:
         for name, size in (("orientation", 4), ("angular_velocity", 3), ("linear_acceleration", 3)):
-            v = np.asarray(getattr(self, name), dtype=float)
-            if v.shape != (size,) or not math.isfinite(float(v @ v)):  # (cheap: in every tick)
+            v = getattr(self, name)
+            if type(v) is not np.ndarray or v.dtype != np.float64:
+                v = np.asarray(v, dtype=float)
+                object.__setattr__(self, name, v)
+            # (cheap, in every control tick: the sum is NaN or ±inf if a value is, or overflows)
+            if v.shape != (size,) or not math.isfinite(sum(v.tolist())):
                 raise WbcError(f"ImuReading.{name}: expected {size} finite values, got {v}")
-            object.__setattr__(self, name, v)
 
     def rotation(self) -> np.ndarray:
         """The orientation as a 3x3 rotation matrix (IMU frame -> world)."""

@@ -35,13 +35,13 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba
 import numpy as np
-import pinocchio as pin
 
 from ..exceptions import WbcError
 from ..imu import Imu
 from ..model import Robot
-from .estimator import StateEstimate, StateEstimator
+from .estimator import StateEstimate, StateEstimator, exp3, log3, mul33, mul33t, mul33v
 
 
 @dataclass(frozen=True)
@@ -93,6 +93,42 @@ def _clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
     return v if n <= limit else v * (limit / n)
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _torso_feedback(
+    R_est: np.ndarray,
+    R_ref: np.ndarray,
+    omega: np.ndarray,
+    integral: np.ndarray,
+    k: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+) -> None:
+    """The torso term of :meth:`Stabilizer.adjust` in one compiled call (small numpy and
+    pinocchio calls cost more than the arithmetic): with ``k = [k_p, k_i, k_d, k_yaw,
+    max_tilt]``, ``e = log(R_est R_refᵀ)`` (``e_z`` × k_yaw), the integral
+    ``clip(∫ + e dt, max_tilt / k_i)``, ``w = R_est ω`` (``w_z`` × k_yaw) and
+    ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``; writes ``out = [e, ∫, Exp(−tilt) R_ref
+    (9, row-major), |e_xy|]``."""
+    k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
+    e = log3(mul33t(R_est, R_ref))
+    out[15] = math.sqrt(e[0] * e[0] + e[1] * e[1])
+    e[2] *= k_yaw
+    acc = integral + e * dt
+    n = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
+    limit = max_tilt / max(k_i, 1e-9)
+    if n > limit:
+        acc *= limit / n
+    w = mul33v(R_est, omega)
+    w[2] *= k_yaw
+    tilt = k_p * e + k_i * acc + k_d * w
+    n = math.sqrt(tilt[0] * tilt[0] + tilt[1] * tilt[1] + tilt[2] * tilt[2])
+    if n > max_tilt:
+        tilt *= max_tilt / n
+    out[0:3] = e
+    out[3:6] = acc
+    out[6:15] = mul33(exp3(-tilt), R_ref).ravel()
+
+
 class Stabilizer:
     """Estimator + feedback on the targets of one walk (module docstring).
 
@@ -127,6 +163,7 @@ class Stabilizer:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
+        self._packed: tuple = (None, None)  # (gains, their array for _torso_feedback)
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.max_tilt_error = 0.0  # rad, largest estimated torso tilt error
@@ -138,31 +175,33 @@ class Stabilizer:
             return targets
         start = time.perf_counter()
         joints = q_cmd[7:]
-        present = self.present()
-        if present is not None:
-            joints = np.where(np.isfinite(present), present, joints)
+        present = self.present()  # (its unread, NaN entries: the commanded joints)
         reading = self.imu.read() if self.imu is not None else None
         stance = (
             [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
             if targets.phase == "double"
             else [(targets.support, targets.support_placement)]
         )
-        est = self.estimator.update(dt, joints, reading, stance)
+        est = self.estimator.update(
+            dt, joints if present is None else present, reading, stance, fallback=joints
+        )
         self.last = est
         g = self.gains
-        R_ref = targets.torso_rotation
-        e = pin.log3(est.rotation @ R_ref.T)  # orientation error, world frame
-        self.max_tilt_error = max(self.max_tilt_error, math.hypot(e[0], e[1]))
-        e[2] *= g.k_yaw
+        if self._packed[0] is not g:
+            self._packed = (g, np.array([g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt]))
+        o = np.empty(16)
+        _torso_feedback(
+            est.rotation, targets.torso_rotation, est.angular_velocity, self.integral,
+            self._packed[1], dt, o,
+        )  # fmt: skip
+        e = o[0:3]  # orientation error, world frame (heading part × k_yaw)
+        self.max_tilt_error = max(self.max_tilt_error, o[15])
         self.error, self.rate = e, est.angular_velocity
-        self.integral = _clip_norm(self.integral + e * dt, g.max_tilt / max(g.k_i, 1e-9))
-        w = est.rotation @ est.angular_velocity
-        w[2] *= g.k_yaw
-        tilt = _clip_norm(g.k_p * e + g.k_i * self.integral + g.k_d * w, g.max_tilt)
+        self.integral = o[3:6]
         com = targets.com
         if g.k_dcm > 0 or g.k_lean > 0:
             com = self._shifted(targets, com_vel_ref, est, e)
-        out = _with(targets, com, pin.exp3(-tilt) @ R_ref)
+        out = _with(targets, com, o[6:15].reshape(3, 3))
         self.time = time.perf_counter() - start
         return out
 
