@@ -99,42 +99,6 @@ class StateEstimate:
         return f"StateEstimate(com={self.com}, dcm={self.dcm}, base={self.base})"
 
 
-@numba.njit(cache=True)
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of two 3-vectors (compiled: np.cross costs ~30 µs a call)."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
-
-
-@numba.njit(cache=True, inline="always")
-def mul33(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """A · B of 3 × 3 matrices (no BLAS call: it costs more than the product here)."""
-    C = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            C[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return C
-
-
-@numba.njit(cache=True, inline="always")
-def mul33t(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """A · Bᵀ of 3 × 3 matrices."""
-    C = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            C[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
-    return C
-
-
-@numba.njit(cache=True, inline="always")
-def mul33v(A: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """A · v (3 × 3 by 3)."""
-    return np.array([A[0, 0] * v[0] + A[0, 1] * v[1] + A[0, 2] * v[2],
-                     A[1, 0] * v[0] + A[1, 1] * v[1] + A[1, 2] * v[2],
-                     A[2, 0] * v[0] + A[2, 1] * v[1] + A[2, 2] * v[2]])  # fmt: skip
-
-
 @numba.njit(cache=True, inline="always")
 def mul33_into(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> None:
     """C = A · B (3 × 3; the top-left block of larger matrices; C distinct from A, B)."""
@@ -183,28 +147,38 @@ def exp3(w: np.ndarray) -> np.ndarray:
     return R
 
 
-@numba.njit(cache=True)
-def log3(R: np.ndarray) -> np.ndarray:
-    """The rotation vector of R (inverse of :func:`exp3`, θ ∈ [0, π]): ``θ/(2 sin θ) ·
-    vee(R − Rᵀ)``; near θ = π the axis from the symmetric part ``a aᵀ = (R + I)/2``."""
+@numba.njit(cache=True, inline="always")
+def log3_into(R: np.ndarray, v: np.ndarray) -> None:
+    """v = Log(R), the rotation vector of R (inverse of :func:`exp3`, θ ∈ [0, π]):
+    ``θ/(2 sin θ) · vee(R − Rᵀ)``; near θ = π the axis from the symmetric part
+    ``a aᵀ = (R − cos θ I)/(1 − cos θ)``, signed by vee(R − Rᵀ)."""
     c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
-    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    v[0], v[1], v[2] = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
     t = math.acos(c)
-    if t < 1e-4:
-        return v * (0.5 + t * t / 12.0)  # θ / (2 sin θ) ≈ 1/2 + θ²/12
     if t < math.pi - 1e-3:
-        return v * (0.5 * t / math.sin(t))
-    k = 0  # near π: the column of the largest diagonal entry of (R + I)/2 = a aᵀ
+        f = 0.5 + t * t / 12.0 if t < 1e-4 else 0.5 * t / math.sin(t)  # θ / (2 sin θ)
+        for i in range(3):
+            v[i] *= f
+        return
+    k = 0  # near π: the column of the largest diagonal entry of a aᵀ
     for i in range(1, 3):
         if R[i, i] > R[k, k]:
             k = i
-    a = np.empty(3)
-    for i in range(3):
-        a[i] = 0.5 * (R[i, k] + R[k, i]) + (1.0 if i == k else 0.0) - (c if i == k else 0.0)
-    a /= math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    if a[0] * v[0] + a[1] * v[1] + a[2] * v[2] < 0:
-        a = -a
-    return t * a
+    x0 = 0.5 * (R[0, k] + R[k, 0]) - (c if k == 0 else 0.0)
+    x1 = 0.5 * (R[1, k] + R[k, 1]) - (c if k == 1 else 0.0)
+    x2 = 0.5 * (R[2, k] + R[k, 2]) - (c if k == 2 else 0.0)
+    f = t / math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    if x0 * v[0] + x1 * v[1] + x2 * v[2] < 0:
+        f = -f
+    v[0], v[1], v[2] = f * x0, f * x1, f * x2
+
+
+@numba.njit(cache=True)
+def log3(R: np.ndarray) -> np.ndarray:
+    """Log(R) (:func:`log3_into`)."""
+    v = np.empty(3)
+    log3_into(R, v)
+    return v
 
 
 @numba.njit(cache=True)

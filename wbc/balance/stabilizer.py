@@ -41,7 +41,7 @@ import numpy as np
 from ..exceptions import WbcError
 from ..imu import Imu
 from ..model import Robot
-from .estimator import StateEstimate, StateEstimator, exp3, log3, mul33, mul33t, mul33v
+from .estimator import StateEstimate, StateEstimator, exp3_into, log3_into, mul33t_into
 
 
 @dataclass(frozen=True)
@@ -110,23 +110,38 @@ def _torso_feedback(
     ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``; writes ``out = [e, ∫, Exp(−tilt) R_ref
     (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
-    e = log3(mul33t(R_est, R_ref))
-    out[15] = math.sqrt(e[0] * e[0] + e[1] * e[1])
-    e[2] *= k_yaw
-    acc = integral + e * dt
-    n = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
+    S = np.empty((2, 3, 3))  # scratch (one allocation: a small array each costs more)
+    v = np.empty(3)
+    mul33t_into(R_est, R_ref, S[0])
+    log3_into(S[0], v)  # e
+    out[15] = math.sqrt(v[0] * v[0] + v[1] * v[1])
+    v[2] *= k_yaw
+    n = 0.0
+    for i in range(3):
+        out[i] = v[i]
+        out[3 + i] = integral[i] + v[i] * dt
+        n += out[3 + i] * out[3 + i]
+    n = math.sqrt(n)
     limit = max_tilt / max(k_i, 1e-9)
     if n > limit:
-        acc *= limit / n
-    w = mul33v(R_est, omega)
-    w[2] *= k_yaw
-    tilt = k_p * e + k_i * acc + k_d * w
-    n = math.sqrt(tilt[0] * tilt[0] + tilt[1] * tilt[1] + tilt[2] * tilt[2])
-    if n > max_tilt:
-        tilt *= max_tilt / n
-    out[0:3] = e
-    out[3:6] = acc
-    out[6:15] = mul33(exp3(-tilt), R_ref).ravel()
+        for i in range(3):
+            out[3 + i] *= limit / n
+    n = 0.0
+    for i in range(3):  # tilt = k_p e + k_i ∫ + k_d w,  w = R_est ω (w_z × k_yaw)
+        w = R_est[i, 0] * omega[0] + R_est[i, 1] * omega[1] + R_est[i, 2] * omega[2]
+        if i == 2:
+            w *= k_yaw
+        v[i] = k_p * out[i] + k_i * out[3 + i] + k_d * w
+        n += v[i] * v[i]
+    n = math.sqrt(n)
+    f = -max_tilt / n if n > max_tilt else -1.0
+    for i in range(3):
+        v[i] *= f
+    exp3_into(v, S[1])  # Exp(−tilt)
+    for i in range(3):
+        for j in range(3):
+            out[6 + 3 * i + j] = (S[1, i, 0] * R_ref[0, j] + S[1, i, 1] * R_ref[1, j]
+                                  + S[1, i, 2] * R_ref[2, j])  # fmt: skip
 
 
 class Stabilizer:
