@@ -146,7 +146,7 @@ class EncoderCorrection:
     encoders' present positions: the correction of :class:`CompensatedSource`.
 
     Each tick it sees, per joint, the model's deflection ``δ_m`` (rad, unscaled) and the
-    planned velocity ``v`` of a goal ``g`` it sent, and the present position ``p`` the servo
+    velocity ``v`` of a goal ``g`` it sent, and the present position ``p`` the servo
     then reached; the measured deflection ``d = g − p`` is fitted by exponentially
     forgotten least squares (time constant ``window`` s)::
 
@@ -242,7 +242,7 @@ class CompensatedSource:
         self.present = present
         self.correction = correction
         self.delay = max(1, int(delay))
-        # (t, plan, goal, model deflection, planned velocity) of the last goals sent
+        # (t, plan, goal, model deflection, goal velocity) of the last goals sent
         self._sent: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         if hasattr(source, "duration"):
             self.duration = source.duration
@@ -258,7 +258,6 @@ class CompensatedSource:
         comp = self.compensator
         delta = servo_deflection(comp.torques(q, self.support(t)), comp.params)
         sent = self._sent
-        velocity = (q - sent[-1][1]) / (t - sent[-1][0]) if sent and t > sent[-1][0] else 0 * q
         corr = self.correction
         if corr is not None and len(sent) >= self.delay:
             now = self.present()
@@ -268,6 +267,8 @@ class CompensatedSource:
                 corr.update(d_then, v_then, goal - np.asarray(now, dtype=float), dt)
         scale = corr.scale if corr is not None else 1.0
         out = np.clip(q + comp.gain * scale * delta, comp.robot.q_min, comp.robot.q_max)
+        # the goal's velocity: what the servo lags behind
+        velocity = (out - sent[-1][2]) / (t - sent[-1][0]) if sent and t > sent[-1][0] else 0 * q
         sent.append((t, q, out, delta, velocity))
         if len(sent) > self.delay:
             sent.pop(0)
