@@ -296,6 +296,18 @@ def test_deploy_compensate(robot, comp, tmp_path, capsys):
     assert np.abs(goal - plain).max() >= 3  # and not the plain plan
     assert wbc_main(["deploy", str(path), "--dry-run", "--compensate", "-1"]) == 2
     assert "--compensate GAIN must be" in capsys.readouterr().err
+    assert wbc_main(["deploy", str(path), "--dry-run", "--compensate-encoders"]) == 2
+    assert "give --compensate too" in capsys.readouterr().err
+    # the dry-run bus reads back what it was sent: the correction runs, goals stay in range
+    argv = ["deploy", str(path), "--dry-run", "--compensate", "--compensate-encoders", "--log",
+            str(log)]  # fmt: skip
+    assert wbc_main(argv) == 0
+    goal = np.load(log)["goal"]
+    lo, hi = (
+        robot.servo_map.angles_to_ticks_float(robot.q_min),
+        robot.servo_map.angles_to_ticks_float(robot.q_max),
+    )
+    assert np.all(goal >= np.minimum(lo, hi) - 0.5) and np.all(goal <= np.maximum(lo, hi) + 0.5)
 
 
 def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypatch):
