@@ -201,8 +201,9 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
     omega, integral = rng.normal(0, 1, 3), rng.normal(0, 0.1, 3)
     k_yaw, max_tilt, dt = rng.uniform(0, 1), rng.uniform(0.05, 0.4), 0.01
     out = np.empty(16)
-    _torso_feedback(R_est, R_ref, omega, integral,
-                    np.array([k_p, k_i, k_d, k_yaw, max_tilt]), dt, out)  # fmt: skip
+    values = np.zeros((8, 3))  # a StateEstimate's: rotation rows 0-2, gyro rate row 7
+    values[:3], values[7] = R_est, omega
+    _torso_feedback(values, R_ref, integral, np.array([k_p, k_i, k_d, k_yaw, max_tilt]), dt, out)
     e = pin.log3(R_est @ R_ref.T)
     assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
     e[2] *= k_yaw
