@@ -32,9 +32,10 @@ class StillImu(Imu):
 
         self.quat = pin.Quaternion(R).coeffs()
         self.acc = R.T @ np.array([0.0, 0.0, GRAVITY])
+        self.still = np.zeros(3)
 
-    def read(self) -> ImuReading:
-        return ImuReading(0.0, self.quat, np.zeros(3), self.acc)
+    def read(self) -> ImuReading:  # (a new, validated sample each tick, as a driver gives)
+        return ImuReading(0.0, self.quat, self.still, self.acc)
 
 
 def measure(solver: str, robot, ref) -> tuple[float, float, float]:
