@@ -188,31 +188,33 @@ def _yaw(R: np.ndarray) -> float:
 
 @numba.njit(cache=True, error_model="numpy")
 def _estimate(
-    table: np.ndarray,
-    links: np.ndarray,
-    consts: np.ndarray,
+    model: np.ndarray,
     joints: np.ndarray,
     fallback: np.ndarray,
     gyro: np.ndarray,
     acc: np.ndarray,
-    imu: bool,
     dt: float,
-    sole0: int,
+    select: int,
     anchor0: np.ndarray,
-    sole1: int,
     anchor1: np.ndarray,
     state: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """One tick of :meth:`StateEstimator.update` (module docstring); returns
-    ``out`` (8 × 3: rotation (3 rows), base, com, com_vel, dcm, angular_velocity) and updates
-    ``state`` in place. ``sole1 = -1``: single support."""
+    """One tick of :meth:`StateEstimator.update` (module docstring): writes ``out`` (8 × 3:
+    rotation (3 rows), base, com, com_vel, dcm, angular_velocity) and updates ``state`` in
+    place. ``model``: ``StateEstimator._model``; ``select = sole0 + 2 (sole1 + 1) + 8 imu``
+    (sole indices in SOLE_FRAMES, ``sole1 = -1``: single support). (Few arguments: each
+    costs the dispatcher about as much as a small product.)"""
+    n = int(model[0])
+    table = model[1 : 1 + _WIDTH * n].reshape(n, _WIDTH)
+    links = model[1 + _WIDTH * n : 1 + (_WIDTH + 2) * n].reshape(n, 2)
+    consts = model[1 + (_WIDTH + 2) * n :]
+    sole0, sole1, imu = select % 2, (select // 2) % 4 - 1, select >= 8
     tilt_gain, cutoff, omega0, gyro_heading, inv_mass = (
         consts[0], consts[1], consts[2], consts[3] > 0.5, consts[4])  # fmt: skip
     torso_b = consts[5:14].reshape(3, 3)
     # forward kinematics in the base frame (base at the origin), body by body, written in
     # place (an allocation per small product would cost more than the kinematics)
-    n = table.shape[0]
     Rs = np.empty((n, 3, 3))
     ps = np.empty((n, 3))
     E = np.empty((3, 3))
@@ -220,7 +222,7 @@ def _estimate(
     com_b = np.zeros(3)
     for k in range(n):
         row = table[k]
-        parent, iq = links[k, 0], links[k, 1]
+        parent, iq = int(links[k, 0]), int(links[k, 1])
         if parent < 0:
             for i in range(3):
                 ps[k, i] = 0.0
@@ -420,12 +422,13 @@ class StateEstimator:
         if torso.parentJoint != 1:
             raise WbcError("state estimator: the torso frame must be on the floating base")
         self.torso_b = torso.placement.rotation.copy()  # constant: torso in the base frame
-        self._table, self._links, soles = _kinematic_table(robot)
-        mass = float(self._table[:, _MASS].sum())
-        self._consts = np.r_[
-            self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading), 1.0 / mass,
-            self.torso_b.ravel(), soles,
+        table, links, soles = _kinematic_table(robot)
+        consts = np.r_[
+            self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
+            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles,
         ]  # fmt: skip
+        # everything constant in one array (:func:`_estimate`'s layout)
+        self._model = np.r_[len(table), table.ravel(), links.ravel(), consts]
         self._state = np.zeros(_S_SIZE)
         self._zeros = np.zeros(3)
         self.last: StateEstimate | None = None
@@ -464,22 +467,23 @@ class StateEstimator:
         if not stance:
             raise WbcError("state estimator: no stance sole given")
         imu = self.use_imu and reading is not None
-        zeros = self._zeros
         name0, anchor0 = stance[0]
+        h0 = anchor0.homogeneous
+        select = SOLE_FRAMES.index(name0) + (8 if imu else 0)
         if len(stance) > 1:
             name1, anchor1 = stance[1]
-            sole1, h1 = SOLE_FRAMES.index(name1), anchor1.homogeneous
+            select += 2 * (SOLE_FRAMES.index(name1) + 1)
+            h1 = anchor1.homogeneous
         else:
-            sole1, h1 = -1, None
-        h0 = anchor0.homogeneous
+            h1 = h0
         out = np.empty((8, 3))
+        if imu:
+            gyro, acc = reading.angular_velocity, reading.linear_acceleration
+        else:
+            gyro = acc = self._zeros
         _estimate(
-            self._table, self._links, self._consts, joints,
-            joints if fallback is None else fallback,
-            reading.angular_velocity if imu else zeros,
-            reading.linear_acceleration if imu else zeros,
-            imu, float(dt), SOLE_FRAMES.index(name0), h0, sole1, h0 if h1 is None else h1,
-            self._state, out,
+            self._model, joints, joints if fallback is None else fallback, gyro, acc,
+            float(dt), select, h0, h1, self._state, out,
         )  # fmt: skip
         self.last = StateEstimate(out)  # (a fresh array every tick)
         return self.last

@@ -184,6 +184,7 @@ class Stabilizer:
         self._packed: tuple = (None, None)  # (gains, their array for _torso_feedback)
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
+        self.read_time = 0.0  # s of it spent reading the sensors
         self.max_tilt_error = 0.0  # rad, largest estimated torso tilt error
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
@@ -195,6 +196,7 @@ class Stabilizer:
         joints = q_cmd[7:]
         present = self.present()  # (its unread, NaN entries: the commanded joints)
         reading = self.imu.read() if self.imu is not None else None
+        self.read_time = time.perf_counter() - start
         stance = (
             [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
             if targets.phase == "double"
