@@ -4,7 +4,8 @@ Runs ``walk10`` through :class:`wbc.walking.loop.Session` with a
 :class:`wbc.balance.stabilizer.Stabilizer` (default gains) for each controller family, the
 sensors replaced by in-memory ones (present positions = the controller's own joints, a still
 IMU at the reference torso orientation: the estimator and the feedback do all their work, no
-simulator runs). Per tick, ``Session.feedback_time`` (estimator + feedback) and
+simulator runs; the noisy positions are stored before each tick, as a deployment's
+``last_present`` is). Per tick, ``Session.feedback_time`` (estimator + feedback) and
 ``Session.solve_time`` (the controller's tick) are timed with the same clock; printed: the
 median over the walk of feedback / (feedback + solve), best of ``--repeats`` runs, and the
 medians in µs, against issue 15's target (estimator + feedback ≤ 30 % of a tick). ``w/o
@@ -41,21 +42,20 @@ class StillImu(Imu):
 
 
 def measure(solver: str, robot, ref) -> tuple[float, float, float, float]:
-    holder: list[Session] = []
     rng = np.random.default_rng(0)
     noise = np.radians(0.29) * rng.standard_normal((ref.n + 1, robot.n_joints))
+    last_present: list[np.ndarray] = [np.zeros(robot.n_joints)]
 
-    def present() -> np.ndarray:
-        s = holder[0]
-        return s.q[7:] + noise[s._last_index or 0]
+    def present() -> np.ndarray:  # what a deployment read before the tick (last_present)
+        return last_present[0]
 
     probe = Session(registry()[solver].make(robot), robot, ref)
     imu = StillImu(probe.targets(0).torso_rotation)
     stab = Stabilizer(robot, ref.com_height, present, imu)
     session = Session(registry()[solver].make(robot), robot, ref, stabilizer=stab)
-    holder.append(session)
     fb, sv, rd = [], [], []
     for i in range(ref.n):
+        last_present[0] = session.q[7:] + noise[i]  # the servos' read, outside the tick
         session.tick(i)
         fb.append(session.feedback_time)
         sv.append(session.solve_time)
