@@ -330,3 +330,25 @@ def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypa
             physics.simulate(rec, robot, v, compensate=0.7, gyro=0.2, correct=True)
     assert [(k["compensate"], k["gyro"], k["correct"]) for k in seen] == [(0.7, 0.2, True)] * 2
     assert seen[1]["imu_noise"] == variation.imu_noise
+
+
+def test_encoder_correction_on_softer_servos_in_the_simulator(robot):
+    """Standing in Walk Ready on simulated AX-12As 0.7× as stiff as their settings say (the
+    feed-forward's model is wrong): with the encoder correction the joints end nearer the
+    plan than with the feed-forward alone."""
+    pytest.importorskip("mujoco")
+    from wbc.sim.play import play
+
+    q = robot.configuration("walk_ready")
+    t = np.arange(0.0, 1.5, 0.01)
+    rec = Recording(t, np.tile(q, (len(t), 1)), robot.joint_names, {}, {})
+    soft = ServoParams.from_settings(robot.servo_map.settings).scaled(stiffness=0.7)
+    err = {}
+    for correct in (False, True):
+        res = play(rec, robot, settle=0.0, limit_tol=math.inf, compensate=1.0,
+                   correct=correct, servo_params=soft)  # fmt: skip
+        err[correct] = np.abs(res.log["q"][-1, 7:] - q[7:])
+        assert np.all(res.log["goal"] <= robot.q_max + 1e-9)
+        assert np.all(res.log["goal"] >= robot.q_min - 1e-9)
+    assert np.sqrt(np.mean(err[True] ** 2)) < 0.8 * np.sqrt(np.mean(err[False] ** 2))
+    assert err[True].max() < 0.8 * err[False].max()
