@@ -14,6 +14,7 @@ only knows the nominal servo settings).
 
     python benchmarks/compliance.py [--trajectories walk10 static_walk]
         [--solvers wqp-daqp placo] [--gain 1] [--models 0] [--seed 0]
+    python benchmarks/compliance.py --standing      # Walk Ready 2 s, servos ×0.7 / ×1.4 stiff
 """
 
 from __future__ import annotations
@@ -76,6 +77,26 @@ def run(rec, robot, gain: float, variation=None) -> dict[str, dict[str, float]]:
     return out
 
 
+def standing(robot, gain: float) -> None:
+    """Walk Ready held 2 s on servos 0.7× and 1.4× as stiff as their settings: the final
+    joint errors with the feed-forward alone and with the encoder correction."""
+    from wbc.recording import Recording
+    from wbc.sim.actuator import ServoParams
+
+    q = robot.configuration("walk_ready")
+    t = np.arange(0.0, 2.0, 0.01)
+    rec = Recording(t, np.tile(q, (len(t), 1)), robot.joint_names, {}, {})
+    print("| servo stiffness | goals | final RMS° | final max° |")
+    print("|---|---|---|---|")
+    for stiff in (0.7, 1.4):
+        sp = ServoParams.from_settings(robot.servo_map.settings).scaled(stiffness=stiff)
+        for mode, correct in (("ff", False), ("ff+enc", True)):
+            res = play(rec, robot, settle=0.0, limit_tol=math.inf, compensate=gain,
+                       correct=correct, servo_params=sp)  # fmt: skip
+            err = np.degrees(np.abs(res.log["q"][-1, 7:] - q[7:]))
+            print(f"| ×{stiff} | {mode} | {np.sqrt(np.mean(err**2)):.3f} | {err.max():.3f} |")
+
+
 def _f(v, fmt: str = ".2f") -> str:
     return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, fmt)
 
@@ -87,8 +108,12 @@ def main() -> None:
     p.add_argument("--gain", type=float, default=1.0)
     p.add_argument("--models", type=int, default=0)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--standing", action="store_true", help="the standing check only")
     args = p.parse_args()
     robot = load_robot("bioloid")
+    if args.standing:
+        standing(robot, args.gain)
+        return
     print("| trajectory | solver | goals | RMS° | max° | stance hip° | knee° | ankle° "
           "| base dev° | travelled |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|---|")
