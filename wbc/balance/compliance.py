@@ -184,7 +184,9 @@ class EncoderCorrection:
         # sufficient statistics of the fit: Σ δ², Σ δ v, Σ v², Σ δ d, Σ v d (forgotten)
         self._sums = np.zeros((5, n))
 
-    def update(self, delta: np.ndarray, velocity: np.ndarray, measured: np.ndarray, dt: float):
+    def update(
+        self, delta: np.ndarray, velocity: np.ndarray, measured: np.ndarray, dt: float
+    ) -> None:
         """One sample per joint (NaN in ``measured``: not read, skipped); ``dt`` s since the
         last one."""
         if not dt > 0:

@@ -427,7 +427,8 @@ class StateEstimator:
             self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
             1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles,
         ]  # fmt: skip
-        # everything constant in one array (:func:`_estimate`'s layout)
+        # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and
+        # gyro_heading are fixed at construction)
         self._model = np.r_[len(table), table.ravel(), links.ravel(), consts]
         self._state = np.zeros(_S_SIZE)
         self._zeros = np.zeros(3)
