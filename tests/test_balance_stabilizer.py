@@ -181,3 +181,36 @@ def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
     assert errors[0] < 2.0
     assert 0 < shares[True] < 0.5
     assert shares[False] == 0.0
+
+
+def _clip_norm(v, limit):
+    n = np.linalg.norm(v)
+    return v if n <= limit else v * (limit / n)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.floats(0.0, 3.0), st.floats(0.0, 2.0), st.floats(0.0, 0.3))
+def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
+    """The compiled torso term gives the previous numpy / pinocchio computation's answer to
+    1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target)."""
+    from wbc.balance.stabilizer import _torso_feedback
+
+    rng = np.random.default_rng(seed)
+    R_ref = pin.exp3(rng.normal(0, 0.5, 3))
+    R_est = pin.exp3(rng.normal(0, 0.3, 3)) @ R_ref
+    omega, integral = rng.normal(0, 1, 3), rng.normal(0, 0.1, 3)
+    k_yaw, max_tilt, dt = rng.uniform(0, 1), rng.uniform(0.05, 0.4), 0.01
+    out = np.empty(16)
+    values = np.zeros((8, 3))  # a StateEstimate's: rotation rows 0-2, gyro rate row 7
+    values[:3], values[7] = R_est, omega
+    _torso_feedback(values, R_ref, integral, np.array([k_p, k_i, k_d, k_yaw, max_tilt]), dt, out)
+    e = pin.log3(R_est @ R_ref.T)
+    assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
+    e[2] *= k_yaw
+    acc = _clip_norm(integral + e * dt, max_tilt / max(k_i, 1e-9))
+    w = R_est @ omega
+    w[2] *= k_yaw
+    tilt = _clip_norm(k_p * e + k_i * acc + k_d * w, max_tilt)
+    assert np.allclose(out[:3], e, atol=1e-9)
+    assert np.allclose(out[3:6], acc, atol=1e-9)
+    assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)
