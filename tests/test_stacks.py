@@ -146,3 +146,33 @@ def test_bad_task_values_name_the_file_level_and_task(robot, entry, match):
     with pytest.raises(TaskError, match=match) as exc:
         build_stack(spec, robot, source="my.toml")
     assert str(exc.value).startswith("task stack my.toml: level 0: ")
+
+
+@pytest.mark.parametrize("kind", ["hierarchical", "weighted"])
+def test_walk_stack_holds_torso_and_arms_when_the_reference_outruns_the_servos(kind):
+    """walk10 asks the swing knee for ~1.6x the servo's no-load speed at every lift-off, so
+    the CoM and swing tasks cannot be met one tick at a time. With the torso and the posture
+    below them (the old third level) the hierarchy then rolled the torso 8.3° off the
+    reference's (a hip hike) and drove the arms at the full 6.18 rad/s; in one level with them
+    the torso stays within 1.5° and no arm joint exceeds half the servo speed (the weighted
+    solver: 0.9° and 0.4x). The CoM still tracks to < 1 mm."""
+    import pinocchio as pin
+
+    from wbc.bench.trajectories import build
+    from wbc.model import load_robot
+    from wbc.walking.loop import StackController, heading_free, run
+
+    robot = load_robot()
+    ref = build("walk10", robot)
+    rec = run(StackController(load_stack("walk", robot, solver=kind)), robot, ref)
+    wanted = ref.torso_rotations(heading_free(pin.XYZQUATToSE3(rec.q[0, :7]).rotation))
+    k_ref = np.clip(np.round((rec.t - ref.t[0]) / ref.dt).astype(int), 0, ref.n - 1)
+    torso = [
+        np.degrees(np.linalg.norm(pin.log3(wanted[k].T @ pin.Quaternion(rec.q[i, 3:7]).matrix())))
+        for i, k in enumerate(k_ref)
+    ]
+    assert max(torso) < 1.5
+    arms = [j for j, n in enumerate(robot.joint_names) if "shoulder" in n or "elbow" in n]
+    speed = np.abs(np.diff(rec.joints[:, arms], axis=0)).max(axis=0) / ref.dt
+    assert speed.max() < 0.5 * robot.v_max[arms].min()
+    assert np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() < 1e-3
