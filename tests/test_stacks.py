@@ -197,6 +197,10 @@ def test_optional_self_collision_entries_are_checked(robot):
     entry = {"type": "self_collision", "optional": "yes", "pairs": [["l_shin", "l_foot"]]}
     with pytest.raises(TaskError, match="optional must be true or false"):
         build_stack({"levels": [{"hard": True, "constraints": [entry]}]}, robot)
+    # optional drops only well-formed pairs of absent links; a malformed one is still named
+    entry = {"type": "self_collision", "optional": True, "pairs": [["l_shin"]]}
+    with pytest.raises(TaskError, match="expected \\[link, link\\]"):
+        build_stack({"levels": [{"hard": True, "constraints": [entry]}]}, robot)
     # without optional, an unknown link is still an error naming it
     entry = {"type": "self_collision", "pairs": [["l_shin", "l_hoof"]]}
     with pytest.raises(TaskError, match="l_hoof"):

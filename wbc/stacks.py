@@ -420,13 +420,24 @@ def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConst
         links = set(collision_model(robot).links)
         for k in ("exclude", "pairs"):
             if k in kw:
-                kw[k] = [p for p in kw[k] if isinstance(p, list) and set(p) <= links]
+                kw[k] = [p for p in kw[k] if not _names_absent_links(p, links)]
         if "pairs" in kw and not kw["pairs"]:
             return None
     try:
         return SelfCollisionConstraint(robot, name=entry.get("name", "self_collision"), **kw)
     except WbcError as exc:
         raise TaskError(f"{where}: {exc}") from exc
+
+
+def _names_absent_links(pair: Any, links: set[str]) -> bool:
+    """A well-formed ``[link, link]`` naming a link outside ``links`` (malformed entries are
+    kept, for the constraint to name them)."""
+    return (
+        isinstance(pair, list)
+        and len(pair) == 2
+        and all(isinstance(n, str) for n in pair)
+        and not set(pair) <= links
+    )
 
 
 def _initial_targets(control: ControlStack, kin: Kinematics) -> None:
