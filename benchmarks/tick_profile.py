@@ -2,10 +2,11 @@
 
 The core ``walk`` stack (as benchmarks/qp_tick.py) is walked along ``walk10`` to tick 150
 (single support); then each part of that tick is called repeatedly at the same configuration:
-the loop's tick as benchmarks/qp_tick.py times it, setting the targets, the kinematics, the
-generated tick (one numba call), calling a do-nothing compiled function with the same
-arguments (numba's cost of unboxing them), and the solve alone (bounds, least squares,
-integration). Best of 5 × 2000 calls, µs.
+the loop's tick as benchmarks/qp_tick.py times it, a tick with a support switch (at the
+configuration before the walk's next switch, its phase and the one before in turn), setting
+the targets, the kinematics, the generated tick (one numba call), calling a do-nothing
+compiled function with the same arguments (numba's cost of unboxing them), and the solve alone
+(bounds, least squares, integration). Best of 200 × 50 calls, µs.
 
 Run: ``python benchmarks/tick_profile.py`` (writes nothing; figures in qp_tick.md).
 """
@@ -30,8 +31,9 @@ from wbc.stacks import build_stack
 from wbc.walking.loop import Session, StackController
 
 
-def best(f, calls: int = 2000, repeats: int = 5) -> float:
-    """Best mean µs per call of f over ``repeats`` batches of ``calls``."""
+def best(f, calls: int = 50, repeats: int = 200) -> float:
+    """Best mean µs per call of f over ``repeats`` batches of ``calls`` (short batches: on a
+    loaded machine some of them run unpreempted)."""
     f()
     out = []
     for _ in range(repeats):
@@ -59,6 +61,18 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
         session.tick(i)
     targets = session.targets(at)
     q = session.q.copy()
+    # the next support switch of the walk: the configuration before it, the targets of the
+    # tick before it and of the switch itself (in turn: a switch at every call)
+    phase = (targets.phase, targets.swing)
+    switch = next(
+        i
+        for i in range(at, len(ref))
+        if (session.targets(i).phase, session.targets(i).swing) != phase
+    )
+    for i in range(at, switch):
+        session.tick(i)
+    q_switch = session.q.copy()
+    switched = [session.targets(switch), session.targets(switch - 1)]
     solver = controller.solver
     plan = solver.fast
     g = plan.inequalities
@@ -84,6 +98,9 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
     return {
         "the loop's tick (controller.track: what qp_tick.py times)": best(
             lambda: controller.track(q, targets, 0.01, False)
+        ),
+        "a tick with a support switch (set_phase, re-plan; two phases in turn)": best(
+            lambda: controller.track(q_switch, switched.reverse() or switched[0], 0.01, True)
         ),
         "setting the targets": best(lambda: controller._set_targets(q, targets, False)),
         "solver.step": best(lambda: solver.step(q, 0.01)),

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from hypothesis import settings
 
 from wbc import load_robot
+
+# the tests count and compare compiled ticks: from a cold cache, a solver waits for its compiled
+# tick rather than solving on the numpy path while it is built (wbc.compiled.dispatch.WAIT_ENV)
+os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")
 
 # derandomised and without the example database: every run checks the same examples
 settings.register_profile("ci", max_examples=40, deadline=None, derandomize=True, database=None)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from wbc.balance.compliance import (
     CompensatedSource,
     ComplianceCompensator,
+    EncoderCorrection,
     servo_deflection,
     support_schedule,
 )
@@ -141,28 +142,111 @@ class _Const:
         return None if t > 0.5 else self.q.copy()
 
 
-def test_source_integral_and_limits(robot, comp):
+def _servo_run(corr: EncoderCorrection, s_true, beta, n: int = 600, seed: int = 0, dt=0.01):
+    """A servo whose static deflection is ``s_true`` × the model's plus a dynamic lag
+    ``beta · v``: loads and velocities of a walk (slow sine loads, fast joint motion)."""
+    rng = np.random.default_rng(seed)
+    m = corr.scale.size
+    phase = rng.uniform(0, 2 * np.pi, (2, m))
+    for k in range(n):
+        t = k * dt
+        delta = 0.02 * np.sin(2 * np.pi * 0.8 * t + phase[0])  # rad, the model's deflection
+        v = 1.5 * np.sin(2 * np.pi * 2.0 * t + phase[1])  # rad/s
+        noise = 0.0015 * rng.standard_normal(m)  # the encoder's 0.29° steps
+        corr.update(delta, v, s_true * delta + beta * v + noise, dt)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0.4, 1.8), st.floats(0.0, 0.03), st.integers(0, 2**31))
+def test_correction_converges_on_the_true_deflection(s_true, beta, seed):
+    """A servo softer or stiffer than its settings (deflection s × the model's), moving
+    with a dynamic lag β·v: the scale converges to s, the lag does not bias it."""
+    corr = EncoderCorrection(3)
+    _servo_run(corr, s_true, beta, seed=seed)
+    assert np.allclose(corr.scale, s_true, atol=0.05)
+    assert np.allclose(corr.lag, beta, atol=0.01)
+
+
+def test_correction_keeps_the_model_where_nothing_is_learnt():
+    """No load on a joint (δ_m = 0) or nothing read (NaN): the scale stays 1."""
+    corr = EncoderCorrection(2)
+    for _ in range(300):
+        corr.update(np.zeros(2), np.array([0.0, 1.0]), np.array([0.01, np.nan]), 0.01)
+    assert np.allclose(corr.scale, 1.0, atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31))
+def test_correction_is_bounded(seed):
+    """Whatever the encoders report (garbage, huge, NaN), the scale stays in
+    [s_min, s_max] and moves at most ``rate`` per second."""
+    rng = np.random.default_rng(seed)
+    corr = EncoderCorrection(4, s_min=0.3, s_max=1.7, rate=2.0)
+    for _ in range(200):
+        before = corr.scale.copy()
+        dt = rng.uniform(0.005, 0.05)
+        measured = rng.choice([-1.0, 1.0], 4) * 10.0 ** rng.uniform(-4, 3, 4)
+        measured[rng.random(4) < 0.1] = np.nan
+        corr.update(rng.normal(0, 0.02, 4), rng.normal(0, 2, 4), measured, dt)
+        assert np.all(corr.scale >= 0.3) and np.all(corr.scale <= 1.7)
+        assert np.all(np.abs(corr.scale - before) <= 2.0 * dt + 1e-12)
+    with pytest.raises(WbcError, match="s_min"):
+        EncoderCorrection(2, s_min=1.2)
+    with pytest.raises(WbcError, match="window"):
+        EncoderCorrection(2, window=0.0)
+
+
+class _Servos:
+    """Static servos answering each goal with ``present = goal − s · δ_m(plan)`` one call
+    late (as a deployment reads them right after sending the next goal)."""
+
+    def __init__(self, comp, s_true):
+        self.comp, self.s_true, self.sent, self.now = comp, s_true, [], None
+
+    def present(self):
+        return self.now
+
+    def answer(self, plan, goal):
+        tau = self.comp.torques(plan, SUPPORT_LEFT)
+        self.sent.append(goal - self.s_true * servo_deflection(tau, self.comp.params))
+        self.now = self.sent[-2] if len(self.sent) > 1 else None
+
+
+def test_source_off_switch_is_the_feed_forward(robot, comp):
+    """Without a correction (or before any position is read), the goals are exactly the
+    feed-forward's; a correction without positions is refused."""
+    plan = robot.joints(robot.configuration("walk_ready")).copy()
+    off = CompensatedSource(_Const(plan, robot.joint_names), comp, lambda t: SUPPORT_DOUBLE)
+    unread = CompensatedSource(_Const(plan, robot.joint_names), comp, lambda t: SUPPORT_DOUBLE,
+                               lambda: None, EncoderCorrection(robot.n_joints))  # fmt: skip
+    base = comp.goals(plan, SUPPORT_DOUBLE)
+    for k in range(20):
+        assert np.array_equal(off(k, k * 0.01), base)
+        assert np.array_equal(unread(k, k * 0.01), base)
+    with pytest.raises(WbcError, match="present positions"):
+        CompensatedSource(off.source, comp, lambda t: 0, None, EncoderCorrection(3))
+
+
+@pytest.mark.parametrize("s_true", [0.6, 1.4])
+def test_source_learns_a_servo_the_model_gets_wrong(robot, comp, s_true):
+    """Servos s_true × as compliant as their settings say, on the left foot: the feed-forward
+    alone leaves (s_true − 1) δ_m; with the encoder correction the present positions converge
+    to the plan; every goal stays within the joint limits."""
     plan = robot.joints(robot.configuration("walk_ready")).copy()
     plan[0] = robot.q_max[0]  # on a limit
-    lag = np.full(robot.n_joints, 0.01)
-    src = CompensatedSource(
-        _Const(plan, robot.joint_names), comp, lambda t: SUPPORT_DOUBLE,
-        present=lambda: plan - lag, ki=20.0, max_correction=0.05,
-    )  # fmt: skip
-    base = comp.goals(plan, SUPPORT_DOUBLE)
-    assert np.allclose(src.first(), base)
-    out = [src(k, k * 0.01) for k in range(4)]
-    # the integral grows by ki · dt · (plan − present) per tick
-    assert np.allclose(src.correction, 3 * 20.0 * 0.01 * 0.01)
-    assert np.allclose(out[3], np.clip(base + src.correction, robot.q_min, robot.q_max))
-    assert out[3][0] <= robot.q_max[0]
-    for k in range(4, 50):
-        q = src(k, k * 0.01)
-        assert np.all(q <= robot.q_max) and np.all(q >= robot.q_min)
-    assert np.allclose(src.correction, 0.05)  # capped
+    servos = _Servos(comp, s_true)
+    src = CompensatedSource(_Const(plan, robot.joint_names), comp, lambda t: SUPPORT_LEFT,
+                            servos.present, EncoderCorrection(robot.n_joints))  # fmt: skip
+    for k in range(50):
+        goal = src(k, k * 0.01)
+        assert np.all(goal <= robot.q_max) and np.all(goal >= robot.q_min)
+        servos.answer(plan, goal)
+    ff_error = np.abs(comp.goals(plan, SUPPORT_LEFT) - plan) * abs(s_true - 1)
+    error = np.abs(servos.sent[-1] - plan)
+    loaded = ff_error > np.radians(0.3)
+    assert loaded.sum() >= 4  # the legs carry the weight
+    assert np.all(error[loaded] < 0.1 * ff_error[loaded])
     assert src(60, 0.6) is None
-    with pytest.raises(WbcError, match="ki"):
-        CompensatedSource(_Const(plan, robot.joint_names), comp, lambda t: 0, ki=-1.0)
 
 
 def test_support_schedule(robot):
@@ -212,6 +296,18 @@ def test_deploy_compensate(robot, comp, tmp_path, capsys):
     assert np.abs(goal - plain).max() >= 3  # and not the plain plan
     assert wbc_main(["deploy", str(path), "--dry-run", "--compensate", "-1"]) == 2
     assert "--compensate GAIN must be" in capsys.readouterr().err
+    assert wbc_main(["deploy", str(path), "--dry-run", "--compensate-encoders"]) == 2
+    assert "give --compensate too" in capsys.readouterr().err
+    # the dry-run bus reads back what it was sent: the correction runs, goals stay in range
+    argv = ["deploy", str(path), "--dry-run", "--compensate", "--compensate-encoders", "--log",
+            str(log)]  # fmt: skip
+    assert wbc_main(argv) == 0
+    goal = np.load(log)["goal"]
+    lo, hi = (
+        robot.servo_map.angles_to_ticks_float(robot.q_min),
+        robot.servo_map.angles_to_ticks_float(robot.q_max),
+    )
+    assert np.all(goal >= np.minimum(lo, hi) - 0.5) and np.all(goal <= np.maximum(lo, hi) + 0.5)
 
 
 def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypatch):
@@ -231,6 +327,28 @@ def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypa
     variation = physics.models(robot, 1, 0)[0]
     for v in (None, variation):
         with pytest.raises(RuntimeError):
-            physics.simulate(rec, robot, v, compensate=0.7, gyro=0.2)
-    assert [(k["compensate"], k["gyro"]) for k in seen] == [(0.7, 0.2), (0.7, 0.2)]
+            physics.simulate(rec, robot, v, compensate=0.7, gyro=0.2, correct=True)
+    assert [(k["compensate"], k["gyro"], k["correct"]) for k in seen] == [(0.7, 0.2, True)] * 2
     assert seen[1]["imu_noise"] == variation.imu_noise
+
+
+def test_encoder_correction_on_softer_servos_in_the_simulator(robot):
+    """Standing in Walk Ready on simulated AX-12As 0.7× as stiff as their settings say (the
+    feed-forward's model is wrong): with the encoder correction the joints end nearer the
+    plan than with the feed-forward alone."""
+    pytest.importorskip("mujoco")
+    from wbc.sim.play import play
+
+    q = robot.configuration("walk_ready")
+    t = np.arange(0.0, 1.5, 0.01)
+    rec = Recording(t, np.tile(q, (len(t), 1)), robot.joint_names, {}, {})
+    soft = ServoParams.from_settings(robot.servo_map.settings).scaled(stiffness=0.7)
+    err = {}
+    for correct in (False, True):
+        res = play(rec, robot, settle=0.0, limit_tol=math.inf, compensate=1.0,
+                   correct=correct, servo_params=soft)  # fmt: skip
+        err[correct] = np.abs(res.log["q"][-1, 7:] - q[7:])
+        assert np.all(res.log["goal"] <= robot.q_max + 1e-9)
+        assert np.all(res.log["goal"] >= robot.q_min - 1e-9)
+    assert np.sqrt(np.mean(err[True] ** 2)) < 0.8 * np.sqrt(np.mean(err[False] ** 2))
+    assert err[True].max() < 0.8 * err[False].max()

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wbc.balance.estimator import StateEstimator, cross
+from wbc.balance.estimator import StateEstimator, exp3, log3
 from wbc.exceptions import WbcError
 from wbc.imu import GRAVITY, ImuReading
 from wbc.model import load_robot
@@ -30,11 +30,106 @@ def standing(robot):
     return q, robot.frame_placement(q, "l_sole"), robot.frame_placement(q, "r_sole")
 
 
-@settings(max_examples=30, deadline=None)
-@given(st.lists(st.floats(-3, 3), min_size=6, max_size=6))
-def test_cross_is_the_cross_product(v):
-    a, b = np.array(v[:3]), np.array(v[3:])
-    assert np.allclose(cross(a, b), np.cross(a, b))
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-1, 1), min_size=3, max_size=3), st.floats(0.0, np.pi - 2e-3))
+def test_exp3_log3_are_pinocchios(axis, angle):
+    """The compiled SO(3) maps give pinocchio's, near 0 and near π too."""
+    a = np.array(axis)
+    if np.linalg.norm(a) < 1e-3:
+        a = np.array([0.0, 0.0, 1.0])
+    for t in (angle, 1e-7 * angle, np.pi - 1e-4 * (1 + angle)):
+        w = a / np.linalg.norm(a) * t
+        assert np.allclose(exp3(w), pin.exp3(w), atol=1e-12)
+        tol = 1e-9 if t < np.pi - 1e-3 else 1e-7  # (the axis near π: to rounding of R)
+        assert np.allclose(log3(pin.exp3(w)), pin.log3(pin.exp3(w)), atol=tol)
+
+
+class ReferenceEstimator:
+    """The estimator's previous implementation (pinocchio calls and numpy, one step at a
+    time): the compiled kernel must give its answers."""
+
+    def __init__(self, robot, com_height, use_imu=True, tilt_gain=0.2, cutoff=6.0,
+                 gyro_heading=False):  # fmt: skip
+        self.robot, self.omega0 = robot, np.sqrt(GRAVITY / com_height)
+        self.use_imu, self.gyro_heading, self.tilt_gain, self.cutoff = (
+            use_imu, gyro_heading, tilt_gain, cutoff)  # fmt: skip
+        self.model, self.data = robot.model, robot.model.createData()
+        self.q = robot.neutral()
+        self.torso_b = robot.model.frames[robot.frame_id("torso")].placement.rotation.copy()
+        self.rotation, self.rel, self.com_vel = None, {}, np.zeros(3)
+
+    def update(self, dt, joints, reading, stance):
+        m, d, q = self.model, self.data, self.q
+        q[7:] = joints
+        com_b = pin.centerOfMass(m, d, q, False).copy()
+        soles = {n: pin.updateFramePlacement(m, d, self.robot.frame_id(n)) for n, _ in stance}
+        yaw = lambda R: np.arctan2(R[1, 0], R[0, 0])  # noqa: E731
+        name0, anchor0 = stance[0]
+        imu = self.use_imu and reading is not None
+        R_kin = None
+        if self.rotation is None or not imu or not self.gyro_heading:
+            R_kin = anchor0.rotation @ soles[name0].rotation.T
+        if self.rotation is None:
+            self.rotation, self.rel, self.com_vel = R_kin @ self.torso_b, {}, np.zeros(3)
+        if imu:
+            R, a = self.rotation, reading.linear_acceleration
+            w = reading.angular_velocity.copy()
+            norm = np.linalg.norm(a)
+            if 0.8 * GRAVITY < norm < 1.2 * GRAVITY:
+                w += (self.tilt_gain / norm) * np.cross(a, R[2])
+            R_t = R @ pin.exp3(w * dt)
+            if not self.gyro_heading:
+                z = yaw(R_kin @ self.torso_b) - yaw(R_t)
+                R_t = pin.rpy.rpyToMatrix(0.0, 0.0, z) @ R_t
+            self.rotation, R_base = R_t, R_t @ self.torso_b.T
+            omega = reading.angular_velocity
+        else:
+            R_base = R_kin
+            self.rotation, omega = R_base @ self.torso_b, np.zeros(3)
+        bases, rel = [], {}
+        for name, anchor in stance:
+            bases.append(anchor.translation - R_base @ soles[name].translation)
+            rel[name] = R_base @ (com_b - soles[name].translation)
+        base = np.mean(bases, axis=0)
+        com = base + R_base @ com_b
+        common = [s for s in rel if s in self.rel]
+        if common and dt > 0:
+            raw = np.mean([rel[s] - self.rel[s] for s in common], axis=0)
+            alpha = np.exp(-2.0 * np.pi * self.cutoff * dt)
+            self.com_vel = alpha * self.com_vel + ((1.0 - alpha) / dt) * raw
+        self.rel = rel
+        dcm = com + self.com_vel / self.omega0
+        dcm[2] = com[2]
+        return self.rotation, base, com, self.com_vel, dcm, omega
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**31), st.booleans(), st.booleans())
+def test_estimator_gives_the_reference_answers(robot, seed, use_imu, gyro_heading):
+    """Random joints (some unread: NaN, the fallback's), IMU samples (some impacts), stance
+    switches: every output equals the reference implementation's to 1e-9."""
+    rng = np.random.default_rng(seed)
+    q, left, right = standing(robot)
+    kw = dict(use_imu=use_imu, gyro_heading=gyro_heading)
+    new = StateEstimator(robot, 0.2, velocity_cutoff=7.0, tilt_gain=0.5, **kw)
+    ref = ReferenceEstimator(robot, 0.2, cutoff=7.0, tilt_gain=0.5, **kw)
+    phases = [[("l_sole", left), ("r_sole", right)], [("l_sole", left)], [("r_sole", right)],
+              [("r_sole", right), ("l_sole", left)]]  # fmt: skip
+    for k in range(60):
+        fallback = q[7:] + 0.1 * rng.standard_normal(robot.n_joints)
+        present = fallback + 0.05 * rng.standard_normal(robot.n_joints)
+        present[rng.random(robot.n_joints) < 0.1] = np.nan
+        used = np.where(np.isfinite(present), present, fallback)
+        acc = np.array([0, 0, GRAVITY]) + rng.normal(0, 1 if k % 5 else 6, 3)
+        r = ImuReading(0.0, np.array([0, 0, 0, 1.0]), rng.normal(0, 0.5, 3), acc)
+        stance = phases[(k // 7) % 4]
+        dt = 0.01 * (1 + k % 3)
+        got = new.update(dt, present, r, stance, fallback=fallback)
+        want = ref.update(dt, used, r, stance)
+        for name, w in zip(
+            ("rotation", "base", "com", "com_vel", "dcm", "angular_velocity"), want, strict=True
+        ):
+            assert np.allclose(getattr(got, name), w, rtol=0, atol=1e-9), (k, name)
 
 
 def test_kinematics_give_the_true_com(robot):

@@ -73,7 +73,7 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
     q = standing(robot)
     t = targets_at(robot, q)
     R_true = pin.rpy.rpyToMatrix(roll, pitch, 0.0) @ t.torso_rotation
-    gains = Gains(k_p=k_p, k_d=0.0, k_yaw=0.0, max_tilt=0.2)  # tilt only
+    gains = Gains(k_p=k_p, k_i=0.0, k_d=0.0, k_yaw=0.0, max_tilt=0.2)  # tilt only, P only
     out = stabilizer(robot, q, R_true, gains).adjust(t, np.zeros(3), q, 0.01)
     e = pin.log3(R_true @ t.torso_rotation.T)
     e[2] = 0.0
@@ -86,7 +86,7 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
     assert np.array_equal(out.com, t.com)  # k_dcm = 0: the CoM target is untouched
     # k_yaw = 1 (the default): the heading error is turned back too
     R_yawed = pin.rpy.rpyToMatrix(0.0, 0.0, 0.1) @ R_true
-    out = stabilizer(robot, q, R_yawed, Gains(k_p=1.0, k_d=0.0, max_tilt=0.5)).adjust(
+    out = stabilizer(robot, q, R_yawed, Gains(k_p=1.0, k_i=0.0, k_d=0.0, max_tilt=0.5)).adjust(
         t, np.zeros(3), q, 0.01
     )
     full = pin.log3(R_yawed @ t.torso_rotation.T)
@@ -94,6 +94,26 @@ def test_torso_target_turns_against_the_tilt(roll, pitch, k_p):
 
 
 _ROBOT = load_robot()
+
+
+def test_integral_term_grows_with_a_steady_tilt(robot):
+    """A steady tilt e: after n ticks of dt the torso target is turned by
+    −(k_p + k_i·n·dt)·e (the integral takes the stance leg's steady sag), clipped at
+    max_tilt / k_i for the integral and max_tilt for the sum."""
+    q = standing(robot)
+    t = targets_at(robot, q)
+    e = np.array([0.02, -0.01, 0.0])
+    R_true = pin.exp3(e) @ t.torso_rotation
+    gains = Gains(k_p=2.0, k_i=2.0, k_d=0.0, k_yaw=0.0)
+    stab = stabilizer(robot, q, R_true, gains)
+    last = 0.0
+    for n in range(1, 6):
+        out = stab.adjust(t, np.zeros(3), q, 0.01)
+        turn = pin.log3(out.torso_rotation @ t.torso_rotation.T)
+        assert np.allclose(turn, -(2.0 + 2.0 * n * 0.01) * e, atol=1e-4)  # estimator: ~1e-5
+        assert np.linalg.norm(turn) > last  # the integral grows
+        last = np.linalg.norm(turn)
+    assert Gains().k_i > 0  # on by default (benchmarks/balance.md)
 
 
 def test_dcm_feedback_moves_the_com_target_back(robot):
@@ -181,3 +201,36 @@ def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
     assert errors[0] < 2.0
     assert 0 < shares[True] < 0.5
     assert shares[False] == 0.0
+
+
+def _clip_norm(v, limit):
+    n = np.linalg.norm(v)
+    return v if n <= limit else v * (limit / n)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.floats(0.0, 3.0), st.floats(0.0, 2.0), st.floats(0.0, 0.3))
+def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
+    """The compiled torso term gives the previous numpy / pinocchio computation's answer to
+    1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target)."""
+    from wbc.balance.stabilizer import _torso_feedback
+
+    rng = np.random.default_rng(seed)
+    R_ref = pin.exp3(rng.normal(0, 0.5, 3))
+    R_est = pin.exp3(rng.normal(0, 0.3, 3)) @ R_ref
+    omega, integral = rng.normal(0, 1, 3), rng.normal(0, 0.1, 3)
+    k_yaw, max_tilt, dt = rng.uniform(0, 1), rng.uniform(0.05, 0.4), 0.01
+    out = np.empty(16)
+    values = np.zeros((8, 3))  # a StateEstimate's: rotation rows 0-2, gyro rate row 7
+    values[:3], values[7] = R_est, omega
+    _torso_feedback(values, R_ref, integral, np.array([k_p, k_i, k_d, k_yaw, max_tilt]), dt, out)
+    e = pin.log3(R_est @ R_ref.T)
+    assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
+    e[2] *= k_yaw
+    acc = _clip_norm(integral + e * dt, max_tilt / max(k_i, 1e-9))
+    w = R_est @ omega
+    w[2] *= k_yaw
+    tilt = _clip_norm(k_p * e + k_i * acc + k_d * w, max_tilt)
+    assert np.allclose(out[:3], e, atol=1e-9)
+    assert np.allclose(out[3:6], acc, atol=1e-9)
+    assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)

@@ -58,8 +58,11 @@ def test_json_records(bench_run):
         assert r["trajectory"] == "thesis_step" and r["mode"] == "tick"
         assert r["time_median_us"] > 0 and r["failures"] == 0
     by = {r["solver"]: r for r in records}
-    # the hierarchy tracks the static step almost exactly, and never leaves the joint limits
-    assert by["hqp-daqp"]["com_err_max_mm"] < 0.1
+    # the walk stack's hierarchy (hard contacts and self-collision, then one weighted level:
+    # benchmarks/balance.md, issue 15) tracks the static step to the weighted level (0.23 mm
+    # of CoM error, as wqp, placo and pink), and never leaves the joint limits
+    assert by["hqp-daqp"]["com_err_max_mm"] < 0.5
+    assert by["hqp-daqp"]["com_err_max_mm"] <= by["placo"]["com_err_max_mm"] * 1.05
     assert by["hqp-daqp"]["limit_violations"] == 0
 
 

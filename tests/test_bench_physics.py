@@ -129,15 +129,15 @@ def test_closed_loop_spec_reaches_every_run(robot, standing, monkeypatch):
     gains, randomised model, push) to every live run, and measure it against the plan."""
     seen = []
 
-    def fake(spec, robot_, variation=None, push=None, settle=1.0, compensate=0.0):
-        seen.append((spec, variation, push, compensate))
+    def fake(spec, robot_, variation=None, push=None, settle=1.0, compensate=0.0, correct=False):
+        seen.append((spec, variation, push, compensate, correct))
         raise RuntimeError("stop")
 
     monkeypatch.setattr(physics, "play_closed_loop", fake)
     spec = physics.ClosedLoopSpec(make=lambda r: None, ref="REF", gains="G")
     with pytest.raises(RuntimeError):
-        physics.robustness(standing, robot, 2, 0, compensate=0.5, closed=spec)
-    assert seen[0][0] is spec and seen[0][1] is not None and seen[0][3] == 0.5
+        physics.robustness(standing, robot, 2, 0, compensate=0.5, closed=spec, correct=True)
+    assert seen[0][0] is spec and seen[0][1] is not None and seen[0][3:] == (0.5, True)
     with pytest.raises(RuntimeError):
         physics.simulate(standing, robot, push=(0.1, [1.0, 0, 0], 0.01), closed=spec)
     assert seen[1][0] is spec and seen[1][2][0] == 0.1

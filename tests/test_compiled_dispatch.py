@@ -3,9 +3,12 @@ wbc.compiled.__main__)."""
 
 from __future__ import annotations
 
+import json
 import logging
+import os
 import subprocess
 import sys
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -92,3 +95,121 @@ def test_a_bad_part_is_named():
     )
     assert run.returncode == 2
     assert "--part" in run.stderr and "weighted" in run.stderr and "hierarchical" in run.stderr
+
+
+class RunningWorker(FakeWorker):
+    """A worker process still compiling until ``finish`` is called."""
+
+    def __init__(self, cmd, env, stdout, stderr):
+        super().__init__(cmd, env, stdout, stderr, code=0)
+        self.code = None
+
+    def finish(self):
+        self.code = 0
+
+
+def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
+    tmp_path, monkeypatch, caplog
+):
+    started, cached = [], set()
+
+    def popen(cmd, env, stdout, stderr):
+        started.append(RunningWorker(cmd, env, stdout, stderr))
+        return started[-1]
+
+    monkeypatch.delenv(build.WORKER_ENV, raising=False)
+    monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
+    monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
+    monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
+    ticks = _ticks(tmp_path)
+    ticks.cascade_tick = SimpleNamespace(overloads={}, _cache=None)  # (another dispatcher)
+    with caplog.at_level(logging.WARNING, logger="wbc.compiled.dispatch"):
+        assert not ticks.ready("weighted_tick")  # the first call starts both workers
+        assert len(started) == 2 and "numpy path" in caplog.records[-1].message
+        assert not ticks.ready("weighted_tick") and len(started) == 2  # no second build
+        cached.add(id(ticks.weighted_tick))  # in the cache, its worker still running
+        assert ticks.ready("weighted_tick")
+        assert "weighted tick is ready" in caplog.records[-1].message
+        assert "weighted_tick" in ticks.builders  # (not waited for)
+        assert not ticks.ready("cascade_tick")
+        started[1].finish()  # done, but nothing cached (a failure): compiles at the call
+        assert ticks.ready("cascade_tick") and "cascade_tick" not in ticks.builders
+    started[0].finish()
+    ticks.wait_all()
+    assert ticks.builders == {}
+    fresh = _ticks(tmp_path)
+    monkeypatch.setenv(dispatch.WAIT_ENV, "1")  # waiting instead: ready (the call waits)
+    assert fresh.ready("weighted_tick") and not started[2:]
+
+
+FIRST_TICK = """
+import json, time
+from wbc import load_robot
+from wbc.compiled.dispatch import package_ticks
+from wbc.stacks import load_stack
+robot = load_robot()
+q = robot.configuration("walk_ready")
+out = {}
+try:
+    for solver in ("weighted", "hierarchical"):
+        s = load_stack("walk", robot, solver=solver).solver
+        start = time.perf_counter()
+        q_next = s.step(q, 0.01)
+        out[solver] = dict(
+            seconds=time.perf_counter() - start,
+            ticks=[s.interim_ticks, s.compiled_ticks, s.handed_back_ticks],
+            q=q_next.tolist(),
+        )
+    ticks = package_ticks()
+    out["building"] = sorted(ticks.builders)
+    out["compiled"] = bool(ticks.weighted_tick.overloads or ticks.cascade_tick.overloads)
+finally:
+    for worker in package_ticks().builders.values():  # (not waited for: stop them)
+        worker.kill()
+        worker.wait()
+print(json.dumps(out))
+"""
+
+
+def test_the_first_tick_on_an_empty_cache_is_answered_while_the_tick_compiles(robot, tmp_path):
+    """A fresh install (no compiled tick in the cache): the first tick of either solver is
+    solved at once on the numpy path while worker processes compile the ticks, and agrees
+    with the compiled tick (here: this process's). The row kernels' cache is kept: only the
+    ticks are cold."""
+    from wbc.stacks import load_stack
+
+    env = {**os.environ, "WBC_CACHE_DIR": str(tmp_path / "wbc")}
+    env.pop(dispatch.WAIT_ENV, None)
+    env.pop(build.WORKER_ENV, None)
+    run = subprocess.run(
+        [sys.executable, "-c", FIRST_TICK], env=env, capture_output=True, text=True,
+        cwd=Path(__file__).resolve().parent.parent, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    out = json.loads(run.stdout.strip().splitlines()[-1])
+    assert "compiling the control ticks in 2 background processes" in run.stderr
+    assert out["building"] == ["cascade_tick", "weighted_tick"]
+    assert not out["compiled"]  # nothing compiled a tick in the process
+    q = robot.configuration("walk_ready")
+    # the weighted QP: one strictly convex problem (DAQP against the compiled least squares);
+    # the hierarchy: the backend cascade against the compiled one
+    for solver, tol in (("weighted", 1e-7), ("hierarchical", 1e-6)):
+        assert out[solver]["ticks"] == [1, 0, 0], solver  # on the numpy path
+        s = load_stack("walk", robot, solver=solver).solver
+        q_next = s.step(q, 0.01)
+        assert s.compiled_ticks == 1
+        assert abs(q_next - out[solver]["q"]).max() < tol, solver
+
+
+def test_only_the_default_solves_on_the_numpy_path_while_its_tick_compiles(robot, monkeypatch):
+    from wbc.compiled.plan import _Plan
+    from wbc.stacks import load_stack
+
+    monkeypatch.setattr(_Plan, "ready", lambda self: False)  # as while the workers run
+    q = robot.configuration("walk_ready")
+    for solver in ("weighted", "hierarchical"):
+        for compiled, counts in ((None, (1, 0)), (True, (0, 1))):  # True: waits for it
+            s = load_stack("walk", robot, solver=solver).solver
+            s.compiled = compiled
+            s.step(q, 0.01)
+            assert (s.interim_ticks, s.compiled_ticks) == counts, (solver, compiled)

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 pytest.importorskip("numba")
 
 from wbc.compiled import dispatch
-from wbc.compiled.plan import Frames, Rows, Targets, kernel_set
+from wbc.compiled.plan import Frames, Rows, Scratch, Targets, kernel_set
 from wbc.compiled.rows import frame_jacobian, jlog3, log3
 from wbc.model import Kinematics
 from wbc.tasks import (
@@ -144,11 +144,12 @@ def test_rows_equal_pinocchio(robot, seed, weighted):
     assert {type(t).row_kernel for t in tasks} | {relative_position_rows} == set(kernels)
     module = dispatch.ticks(kernels).module
     targets = Targets()
-    frames = Frames(robot, kin, tasks)
+    scratch = Scratch()
+    frames = Frames(robot, kin, tasks, scratch)
     kinds = {k: i for i, k in enumerate(kernels)}
-    rows = Rows(tasks, robot.nv, frames, targets, kinds, weighted=weighted)
+    rows = Rows(tasks, robot.nv, frames, targets, kinds, weighted, scratch, "rows")
     targets.seal()
-    module.load_frames(frames.R, frames.p, frames.Rs, frames.ps)
+    module.load_frames(frames.ids, frames.R, frames.p, frames.Rs, frames.ps)
     dim = max(t.dim for t in tasks)
     module.fill_rows(
         *rows.args, targets.gather(), frames.slots, frames.Rs, frames.ps, frames.support,

@@ -17,13 +17,13 @@ pytest.importorskip("numba")
 
 from test_solvers import random_start, targets, walking_stack
 
-from wbc import ConfigurationError, Kinematics
+from wbc import ConfigurationError, InfeasibleError, Kinematics
 from wbc.bench.trajectories import build
 from wbc.limits import ComPolygonConstraint, LinearInequality
 from wbc.solvers import HierarchicalQP, WeightedQP, cascade
 from wbc.solvers.backends import make_backend
 from wbc.stacks import load_stack
-from wbc.tasks import JointLimitDampingTask
+from wbc.tasks import FramePositionTask, JointLimitDampingTask
 from wbc.walking.loop import RunOptions, Session, StackController, run
 
 SOLVERS = {"weighted": WeightedQP, "hierarchical": HierarchicalQP}
@@ -61,6 +61,39 @@ def test_compiled_solve_and_step_equal_the_numpy_path(robot, seed, shift, lift, 
         assert np.allclose(q_fast, q_slow, atol=1e-7 if kind == "weighted" else 1e-9)
         assert robot.within_limits(q_fast)
         q = q_slow
+
+
+def test_a_first_hard_level_that_cannot_be_met_is_handed_back(robot):
+    """The compiled cascade takes a first hard level as the next level's equalities (no solve
+    of its own): one it cannot meet is not returned as solved, but named (or relaxed)."""
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    far = stack.add(FramePositionTask(robot, "r_hand", name="reach_far"), level=0)
+    far.set_target([1.0, -0.5, 0.3])  # a metre away: impossible within one servo step
+    solver = HierarchicalQP(stack, compiled=True)
+    with pytest.raises(InfeasibleError, match="reach_far"):
+        solver.step(q, 0.01)
+    assert solver.compiled_ticks == 0 and solver.handed_back_ticks == 1
+    relaxed = HierarchicalQP(stack, compiled=True, on_infeasible="relax")
+    relaxed.step(q, 0.01)
+    assert relaxed.relaxed and "reach_far" in relaxed.diagnosis
+
+
+def test_frames_copied_when_not_views_of_pinocchio(robot, monkeypatch):
+    """A Pinocchio whose placements are laid out otherwise: the plan copies the frames it
+    uses before each tick, and the answers are the same."""
+    q, _ = random_start(robot, 11)
+    fast, slow = pair(robot, q, "hierarchical")
+    fast.prepare(q, 0.01)  # (its plan: built on the views)
+    monkeypatch.setattr(Kinematics, "frame_placements", lambda self: None)
+    copied = HierarchicalQP(walking_stack(robot, q), compiled=True)
+    copied.prepare(q, 0.01)
+    for _ in range(3):
+        q_copied, q_views = copied.step(q, 0.01), fast.step(q, 0.01)
+        assert copied.fast.frames.copies and not fast.fast.frames.copies
+        assert np.allclose(q_copied, q_views, atol=1e-12)
+        assert np.allclose(q_copied, slow.step(q, 0.01), atol=1e-9)
+        q = q_copied
 
 
 @given(
@@ -267,7 +300,8 @@ def test_converged_mode_is_the_same_compiled_or_not(robot, stack, kind):
     assert np.array_equal(a["iterations"], b["iterations"])
     for channel in ("com", "swing"):
         assert np.abs(a[channel] - b[channel]).max() < 1e-8
-    assert np.linalg.norm(a["com"] - a["com_ref"], axis=1).max() < 1e-4
+    # 0.22 mm for the walk stack: its torso and posture share the CoM's level (issue 15)
+    assert np.linalg.norm(a["com"] - a["com_ref"], axis=1).max() < 3e-4
 
 
 @settings(max_examples=15)

@@ -302,7 +302,9 @@ def test_keypose_walk_is_statically_stable_and_tracked(kokone, short_walk):
     # the lifted sole is the left one, 1.2 cm up at pose 3, down half a stride ahead at pose 4
     assert ref.meta["key_poses"][2]["lifted"] == "left"
     assert ref.meta["key_poses"][3]["left"] == pytest.approx([0.02, 0.0225, 0.0], abs=1e-12)
-    assert np.max(np.abs(rec["com"] - ref.com)) < 1e-4  # tracked to 0.1 mm
+    # tracked to 0.25 mm: the walk stack's torso and posture share the CoM's level (issue 15,
+    # benchmarks/balance.md; with them on a third level it was < 0.1 mm)
+    assert np.max(np.abs(rec["com"] - ref.com)) < 2.5e-4
     q = rec.q[:, 7:]
     assert np.all(q >= kokone.q_min - 1e-9) and np.all(q <= kokone.q_max + 1e-9)
 

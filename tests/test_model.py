@@ -94,6 +94,18 @@ def test_kinematics_cache_equals_one_off_calls(robot, rng):
     assert np.allclose(kin.com_jacobian, robot.com_jacobian(q))
 
 
+def test_frame_placements_are_views_that_follow_updates(robot):
+    kin = Kinematics(robot, random_q(robot, 3))
+    views = kin.frame_placements()
+    assert views is not None  # this Pinocchio's layout (else the compiled tick copies them)
+    R, p = views
+    for seed in (4, 5):
+        kin.update(random_q(robot, seed))
+        for fid in range(robot.model.nframes):
+            assert np.array_equal(R[fid], kin.placement(fid).rotation)
+            assert np.array_equal(p[fid], kin.placement(fid).translation)
+
+
 def test_walk_ready_stands_flat_and_parallel(robot):
     q = robot.configuration("walk_ready")
     assert robot.within_limits(q)

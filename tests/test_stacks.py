@@ -146,3 +146,76 @@ def test_bad_task_values_name_the_file_level_and_task(robot, entry, match):
     with pytest.raises(TaskError, match=match) as exc:
         build_stack(spec, robot, source="my.toml")
     assert str(exc.value).startswith("task stack my.toml: level 0: ")
+
+
+@pytest.mark.parametrize("kind", ["hierarchical", "weighted"])
+def test_walk_stack_holds_torso_and_arms_when_the_reference_outruns_the_servos(robot, kind):
+    """walk10 asks the swing knee for ~1.6x the servo's no-load speed at every lift-off, so
+    the CoM and swing tasks cannot be met one tick at a time. With the torso and the posture
+    below them (the old third level) the hierarchy then rolled the torso 8.3° off the
+    reference's (a hip hike) and drove the arms at the full 6.18 rad/s; in one level with them
+    the torso stays within 1.5° and no arm joint exceeds half the servo speed (the weighted
+    solver: 0.9° and 0.4x). The CoM still tracks to < 1 mm."""
+    import pinocchio as pin
+
+    from wbc.bench.trajectories import build
+    from wbc.walking.loop import StackController, heading_free, run
+
+    ref = build("walk10", robot)
+    rec = run(StackController(load_stack("walk", robot, solver=kind)), robot, ref)
+    wanted = ref.torso_rotations(heading_free(pin.XYZQUATToSE3(rec.q[0, :7]).rotation))
+    k_ref = np.clip(np.round((rec.t - ref.t[0]) / ref.dt).astype(int), 0, ref.n - 1)
+    torso = [
+        np.degrees(np.linalg.norm(pin.log3(wanted[k].T @ pin.Quaternion(rec.q[i, 3:7]).matrix())))
+        for i, k in enumerate(k_ref)
+    ]
+    assert max(torso) < 1.5
+    arms = [j for j, n in enumerate(robot.joint_names) if "shoulder" in n or "elbow" in n]
+    speed = np.abs(np.diff(rec.joints[:, arms], axis=0)).max(axis=0) / ref.dt
+    assert speed.max() < 0.5 * robot.v_max[arms].min()
+    assert np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() < 1e-3
+
+
+def test_walk_stack_gives_the_bioloid_ankle_pair_its_own_margin(robot):
+    """A shin and its own foot keep 1 mm (their boxes are 7.4 mm apart at Walk Ready), every
+    other pair 5 mm; a robot without those links (Kokone) loads the same file with the
+    ordinary rows only (``optional = true``)."""
+    from wbc.model import load_robot
+
+    stack = load_stack("walk", robot).stack
+    main, ankle = stack.constraint("self_collision"), stack.constraint("ankle_collision")
+    assert (main.margin, ankle.margin) == (0.005, 0.001)
+    shin_foot = {frozenset(p) for p in (("l_shin", "l_foot"), ("r_shin", "r_foot"))}
+    assert {frozenset(p) for p in ankle.pair_links} == shin_foot
+    assert not shin_foot & {frozenset(p) for p in main.pair_links}
+    kokone = load_stack("walk", load_robot("kokone")).stack
+    names = [c.name for lv in kokone.levels for c in lv.constraints]
+    assert "ankle_collision" not in names and "self_collision" in names
+
+
+def test_optional_self_collision_entries_are_checked(robot):
+    entry = {"type": "self_collision", "optional": "yes", "pairs": [["l_shin", "l_foot"]]}
+    with pytest.raises(TaskError, match="optional must be true or false"):
+        build_stack({"levels": [{"hard": True, "constraints": [entry]}]}, robot)
+    # optional drops only well-formed pairs of absent links; a malformed one is still named
+    entry = {"type": "self_collision", "optional": True, "pairs": [["l_shin"]]}
+    with pytest.raises(TaskError, match="expected \\[link, link\\]"):
+        build_stack({"levels": [{"hard": True, "constraints": [entry]}]}, robot)
+    # without optional, an unknown link is still an error naming it
+    entry = {"type": "self_collision", "pairs": [["l_shin", "l_hoof"]]}
+    with pytest.raises(TaskError, match="l_hoof"):
+        build_stack({"levels": [{"hard": True, "constraints": [entry]}]}, robot)
+
+
+def test_walk_stack_tracks_the_lateral_walk_swing_foot(robot):
+    """lateral_wb rolls the swing ankle ~20° under the leaning torso, bringing the shin to
+    ~2 mm of its foot: with the 5 mm rows on that pair the swing sole lagged 13 mm behind
+    its reference (weighted solver); with the 1 mm ankle margin it tracks to < 3 mm."""
+    from wbc.bench.trajectories import build
+    from wbc.walking.loop import StackController, run
+
+    ref = build("lateral_wb", robot)
+    rec = run(StackController(load_stack("walk", robot, solver="weighted")), robot, ref)
+    single = ref.support != 0
+    err = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1)[single]
+    assert err.max() < 3e-3

@@ -138,8 +138,22 @@ def test_damping_and_posture(robot):
 @pytest.mark.parametrize("bad", [[np.nan, 0, 0], [0, np.inf, 0], [0, 0]])
 def test_bad_targets_are_rejected(robot, bad):
     com = ComTask(robot)
+    com.set_target([0.1, 0.2, 0.3])
     with pytest.raises(TaskError, match="com"):
         com.set_target(bad)
+    assert np.array_equal(com.target, [0.1, 0.2, 0.3])  # checked before it is copied in
+
+
+def test_a_refused_rotation_leaves_the_target_as_it_was(robot):
+    pose = FramePoseTask(robot, "torso")
+    R = pin.rpy.rpyToMatrix(0.1, -0.2, 0.3)
+    pose.set_rotation_target(R)
+    for bad in (np.diag([1.0, 1.0, -1.0]), 2 * R, np.full((3, 3), np.nan)):
+        with pytest.raises(TaskError, match="rotation"):
+            pose.set_rotation_target(bad)
+        assert np.array_equal(pose.target_rotation, R)
+    pose.set_rotation_target(R.T)  # a strided (transposed) view is copied as it reads
+    assert np.array_equal(pose.target_rotation, R.T)
 
 
 def test_bad_task_parameters(robot):

@@ -39,6 +39,7 @@ class ImuError(WbcError):
 
 #: standard gravity (m/s²)
 GRAVITY = 9.80665
+_FLOAT = np.dtype(float)
 
 
 @dataclass(frozen=True)
@@ -51,11 +52,23 @@ class ImuReading:
     linear_acceleration: np.ndarray  # (3,) m/s², IMU frame, specific force
 
     def __post_init__(self) -> None:
+        o, w, a = self.orientation, self.angular_velocity, self.linear_acceleration
+        if (  # float arrays of the right sizes, all finite: the one path of every control tick
+            type(o) is type(w) is type(a) is np.ndarray
+            and o.dtype is w.dtype is a.dtype is _FLOAT
+            and o.shape == (4,)
+            and w.shape == a.shape == (3,)
+            and math.isfinite(sum(o.tolist()) + sum(w.tolist()) + sum(a.tolist()))
+        ):
+            return
         for name, size in (("orientation", 4), ("angular_velocity", 3), ("linear_acceleration", 3)):
-            v = np.asarray(getattr(self, name), dtype=float)
-            if v.shape != (size,) or not math.isfinite(float(v @ v)):  # (cheap: in every tick)
+            v = getattr(self, name)
+            if type(v) is not np.ndarray or v.dtype != np.float64:
+                v = np.asarray(v, dtype=float)
+                object.__setattr__(self, name, v)
+            # (cheap, in every control tick: the sum is NaN or ±inf if a value is, or overflows)
+            if v.shape != (size,) or not math.isfinite(sum(v.tolist())):
                 raise WbcError(f"ImuReading.{name}: expected {size} finite values, got {v}")
-            object.__setattr__(self, name, v)
 
     def rotation(self) -> np.ndarray:
         """The orientation as a 3x3 rotation matrix (IMU frame -> world)."""

@@ -196,6 +196,10 @@ class Robot:
         self.v_max = np.array(self.model.velocityLimit[6:])
         self.total_mass = float(pin.computeTotalMass(self.model))
         self.frame_names = tuple(f.name for f in self.model.frames)
+        self._frame_ids: dict[str, int] = {}  # frame_id's answers, by name
+        #: |‖base quaternion‖² − 1| of a configuration, +inf if an entry is not finite: the
+        #: compiled check of :meth:`check_configuration` (loaded at its first call)
+        self._quaternion_defect = None
         #: standard frame name (``torso``, ``l_sole``, ``r_sole``) -> this URDF's frame name
         self.frame_aliases: dict[str, str] = dict(frames or {})
         for alias, actual in self.frame_aliases.items():
@@ -291,13 +295,18 @@ class Robot:
     def frame_id(self, name: str) -> int:
         """Pinocchio frame id of a frame (link or fixed frame) by name; the standard names
         ``torso``, ``l_sole``, ``r_sole`` follow ``robot.toml``'s ``[frames]`` when it maps them."""
+        ids = self._frame_ids
+        key = name if isinstance(name, str) else None
+        if key in ids:  # (a support switch looks its frames up: no Pinocchio call)
+            return ids[key]
         if isinstance(name, str):
             name = self.frame_aliases.get(name, name)
         if not isinstance(name, str) or not self.model.existFrame(name):
             raise ModelError(
                 f"unknown frame {name!r}; links of {self.name}: {', '.join(self.link_names())}"
             )
-        return self.model.getFrameId(name)
+        fid = ids[key] = self.model.getFrameId(name)
+        return fid
 
     def has_frame(self, name: str) -> bool:
         """True if :meth:`frame_id` knows ``name`` (directly or through ``[frames]``)."""
@@ -333,12 +342,18 @@ class Robot:
                 f"{what}: expected a configuration of size nq={self.nq} (7 base + "
                 f"{self.n_joints} joints), got shape {q.shape}"
             )
-        # q·q is finite when every entry is (and cheap): the exact test only when it is not
-        if not math.isfinite(q.dot(q)) and not np.isfinite(q).all():
+        defect = self._quaternion_defect
+        if defect is None:  # (numba is imported by the first check, not by ``import wbc``)
+            from .compiled.checks import entry, quaternion_defect
+
+            defect = self._quaternion_defect = entry(quaternion_defect)
+        if defect(q) <= 2.0 * QUATERNION_TOL:  # (one compiled call: the hot path)
+            return q
+        if not np.isfinite(q).all():
             idx = np.flatnonzero(~np.isfinite(q))
             names = [self._q_name(i) for i in idx]
             raise ConfigurationError(f"{what}: non-finite values at {names}")
-        x, y, z, w = q[3], q[4], q[5], q[6]
+        x, y, z, w = q[3:7].tolist()
         norm2 = x * x + y * y + z * z + w * w
         if abs(norm2 - 1.0) > 2.0 * QUATERNION_TOL:  # |‖quat‖ − 1| <= 1e-6, to first order
             raise ConfigurationError(
@@ -558,6 +573,36 @@ class Kinematics:
         except KeyError:
             view = self._translations[frame_id] = self.data.oMf[frame_id].translation
             return view
+
+    def frame_placements(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Every frame's world rotation (nframes x 3 x 3) and position (nframes x 3) as two
+        strided views of Pinocchio's placements (``data.oMf``, one contiguous array of
+        rotation-then-translation records) that follow every :meth:`update` — what the
+        compiled tick reads its frames from (two arrays instead of two per frame). None if
+        this Pinocchio lays the placements out otherwise (checked for every frame)."""
+        oMf = self.data.oMf
+        n = len(oMf)
+        R0, p0 = self.rotation(0), self.translation(0)
+
+        def address(a: np.ndarray) -> int:
+            return a.__array_interface__["data"][0]
+
+        stride = address(self.rotation(1)) - address(R0) if n > 1 else 96
+        offset = address(p0) - address(R0)
+        for f in range(n):
+            R, p = self.rotation(f), self.translation(f)
+            if (
+                address(R) != address(R0) + f * stride
+                or address(p) != address(R) + offset
+                or R.strides != R0.strides
+                or p.strides != p0.strides
+            ):
+                return None
+        as_strided = np.lib.stride_tricks.as_strided
+        return (
+            as_strided(R0, shape=(n, 3, 3), strides=(stride, *R0.strides)),
+            as_strided(p0, shape=(n, 3), strides=(stride, *p0.strides)),
+        )
 
     def frame_jacobian(self, frame_id: int, reference=LOCAL_WORLD_ALIGNED) -> np.ndarray:
         """6 x nv frame Jacobian from the cached joint Jacobians."""

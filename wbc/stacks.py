@@ -151,24 +151,21 @@ class ControlStack:
         if phase not in PHASES:
             raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
         roles = {"support": support, "swing": swing}
-        items: list[Task | Constraint] = [*self.stack.tasks(), *self.stack.constraints()]
-        for item in items:
-            binding = self.bindings.get(item.name)
-            if binding is None:
-                continue
+        bound, polygons = self._phase_items()
+        for item, binding, polygon, contact in bound:
             was_active = item.active
             frame = roles.get(binding.role) if binding.role else None
             if binding.role and frame is None:
                 item.active = False
                 continue
             if frame is not None:
-                if isinstance(item, ComPolygonConstraint):
+                if polygon:
                     item.set_support([frame])
                 else:
                     item.set_frame(frame)  # type: ignore[union-attr]  # role-bound: has a frame
             item.active = phase in binding.phases
             if (
-                isinstance(item, ContactTask)
+                contact
                 and item.active
                 and (not was_active or self._anchored.get(item.name) != item.frame)
             ):
@@ -178,11 +175,33 @@ class ControlStack:
                 else:
                     item.set_target(anchor)
                 self._anchored[item.name] = item.frame
-        for c in self.stack.constraints():
-            if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None:
-                soles = [support] if phase == "single" or swing is None else [support, swing]
+        if polygons:
+            soles = [support] if phase == "single" or swing is None else [support, swing]
+            for c in polygons:
                 c.set_support(soles)
         self.phase, self.support, self.swing = phase, support, swing
+
+    def _phase_items(self) -> tuple[list, list]:
+        """What :meth:`set_phase` visits: each role-bound task or constraint with its binding,
+        whether it is a CoM polygon and whether a contact; the CoM polygons without a binding.
+        Kept until the stack changes (a support switch is on a control loop's clock)."""
+        key = (self.stack.version, len(self.bindings))
+        cached = self.__dict__.get("_phase_cache")
+        if cached is None or cached[0] != key:
+            tasks, constraints = self.stack.members()
+            bound = [
+                (item, b, isinstance(item, ComPolygonConstraint), isinstance(item, ContactTask))
+                for item in [*tasks, *constraints]
+                for b in [self.bindings.get(item.name)]
+                if b is not None
+            ]
+            polygons = [
+                c
+                for c in constraints
+                if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None
+            ]
+            cached = self.__dict__["_phase_cache"] = (key, bound, polygons)
+        return cached[1], cached[2]
 
     def forget_anchors(self) -> None:
         """The next :meth:`set_phase` anchors every active contact afresh."""
@@ -272,6 +291,8 @@ def build_stack(
                 bindings[task.name] = binding
         for entry in level.get("constraints", []):
             constraint, binding = _make_constraint(entry, robot, where, priority)
+            if constraint is None:  # an optional self-collision entry this robot lacks
+                continue
             stack.add_constraint(constraint, level=priority)
             if binding is not None:
                 bindings[constraint.name] = binding
@@ -391,23 +412,51 @@ def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     return constraint
 
 
-_SELF_COLLISION_KEYS = {"type", "name", "margin", "trigger", "damping", "include", "exclude"}
+_SELF_COLLISION_KEYS = {
+    *("type", "name", "margin", "trigger", "damping", "include", "exclude", "pairs", "optional")
+}
 
 
-def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint:
+def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint | None:
     """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
-    include = [[link, link], ...], exclude = [...] }`` (all but ``type`` optional)."""
+    include = [[link, link], ...], exclude = [...], pairs = [...], optional = false }`` (all
+    but ``type`` optional). ``pairs``: only these link pairs (e.g. their own margin);
+    ``optional = true``: pairs naming a link this robot does not have are left out of
+    ``pairs`` / ``exclude`` (a stack shared by robots; with no pair left, no constraint)."""
     extra = set(entry) - _SELF_COLLISION_KEYS
     if extra:
         raise TaskError(
             f"{where}: constraint 'self_collision' has unknown keys {sorted(extra)}; "
             f"allowed: {sorted(_SELF_COLLISION_KEYS)}"
         )
-    kw = {k: entry[k] for k in ("margin", "trigger", "damping", "include", "exclude") if k in entry}
+    keys = ("margin", "trigger", "damping", "include", "exclude", "pairs")
+    kw = {k: entry[k] for k in keys if k in entry}
+    if entry.get("optional", False) is not False:
+        if entry["optional"] is not True:
+            raise TaskError(f"{where}: self_collision optional must be true or false")
+        from .limits.self_collision import collision_model
+
+        links = set(collision_model(robot).links)
+        for k in ("exclude", "pairs"):
+            if k in kw:
+                kw[k] = [p for p in kw[k] if not _names_absent_links(p, links)]
+        if "pairs" in kw and not kw["pairs"]:
+            return None
     try:
         return SelfCollisionConstraint(robot, name=entry.get("name", "self_collision"), **kw)
     except WbcError as exc:
         raise TaskError(f"{where}: {exc}") from exc
+
+
+def _names_absent_links(pair: Any, links: set[str]) -> bool:
+    """A well-formed ``[link, link]`` naming a link outside ``links`` (malformed entries are
+    kept, for the constraint to name them)."""
+    return (
+        isinstance(pair, list)
+        and len(pair) == 2
+        and all(isinstance(n, str) for n in pair)
+        and not set(pair) <= links
+    )
 
 
 def _initial_targets(control: ControlStack, kin: Kinematics) -> None:

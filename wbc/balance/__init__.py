@@ -31,3 +31,17 @@ def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> No
         metavar="GAIN",
         help=f"{purpose} (gain, default 1; wbc.balance.compliance)",
     )
+    parser.add_argument(
+        "--compensate-encoders",
+        action="store_true",
+        help="--compensate: rescale each servo's feed-forward online from the encoders' present "
+        "positions (wbc.balance.compliance.EncoderCorrection; needs the positions read)",
+    )
+
+
+def check_compensate_encoders(args: argparse.Namespace) -> None:
+    """``--compensate-encoders`` corrects the feed-forward: refused without ``--compensate``."""
+    from ..exceptions import WbcError
+
+    if getattr(args, "compensate_encoders", False) and not args.compensate > 0:
+        raise WbcError("--compensate-encoders corrects the feed-forward: give --compensate too")

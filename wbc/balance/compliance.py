@@ -30,6 +30,7 @@ SAME ones the simulator uses
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -140,14 +141,89 @@ def support_schedule(recording: Recording) -> Callable[[float], int]:
     return at
 
 
+class EncoderCorrection:
+    """An online estimate, per servo, of how far the feed-forward's model is off, from the
+    encoders' present positions: the correction of :class:`CompensatedSource`.
+
+    Each tick it sees, per joint, the model's deflection ``δ_m`` (rad, unscaled) and the
+    velocity ``v`` of a goal ``g`` it sent, and the present position ``p`` the servo
+    then reached; the measured deflection ``d = g − p`` is fitted by exponentially
+    forgotten least squares (time constant ``window`` s)::
+
+        d ≈ s · δ_m + β · v        (s: the model's scale, β: the servo's dynamic lag)
+
+    with a prior pulling ``s`` to 1 and β to 0 worth ``prior`` s of data (δ = 0.01 rad,
+    v = 0.5 rad/s): a joint the plan never loads keeps the model. Only ``s`` is used — the
+    goal becomes ``q + gain · ŝ · δ_m`` — the lag regressor is there so that the walk's
+    dynamic error (the reason an integral on planned − present winds up) does not bias it.
+    ``ŝ`` stays within ``[s_min, s_max]`` and moves at most ``rate`` per second: a servo
+    softer or stiffer than its settings say gets its own scale, and nothing the encoders
+    report can make the correction flip sign or exceed ``s_max`` × the model.
+    """
+
+    def __init__(
+        self,
+        n: int,
+        window: float = 3.0,
+        prior: float = 0.1,
+        s_min: float = 0.25,
+        s_max: float = 2.0,
+        rate: float = 1.0,
+    ) -> None:
+        for name, v in (("window", window), ("prior", prior), ("rate", rate)):
+            if not (math.isfinite(v) and v > 0):
+                raise WbcError(f"encoder correction: {name} must be a finite number > 0, got {v}")
+        if not (0 < s_min <= 1 <= s_max and math.isfinite(s_max)):
+            raise WbcError(
+                f"encoder correction: need 0 < s_min <= 1 <= s_max, got {s_min}, {s_max}"
+            )
+        self.window, self.prior, self.rate = float(window), float(prior), float(rate)
+        self.s_min, self.s_max = float(s_min), float(s_max)
+        self.scale = np.ones(n)  # ŝ per joint
+        self.lag = np.zeros(n)  # β per joint (s)
+        # sufficient statistics of the fit: Σ δ², Σ δ v, Σ v², Σ δ d, Σ v d (forgotten)
+        self._sums = np.zeros((5, n))
+
+    def update(
+        self, delta: np.ndarray, velocity: np.ndarray, measured: np.ndarray, dt: float
+    ) -> None:
+        """One sample per joint (NaN in ``measured``: not read, skipped); ``dt`` s since the
+        last one."""
+        if not dt > 0:
+            return
+        ok = np.isfinite(measured) & np.isfinite(delta) & np.isfinite(velocity)
+        d = np.where(ok, measured, 0.0)
+        x, v = np.where(ok, delta, 0.0), np.where(ok, velocity, 0.0)
+        forget = math.exp(-dt / self.window)
+        S = self._sums
+        S *= np.where(ok, forget, 1.0)
+        S += (x * x, x * v, v * v, x * d, v * d)
+        # ridge toward (s, β) = (1, 0): prior seconds of data at δ = 0.01 rad, v = 0.5 rad/s
+        w = self.prior / dt
+        a, b, c = S[0] + w * 1e-4, S[1], S[2] + w * 0.25
+        r1, r2 = S[3] + w * 1e-4, S[4]
+        det = a * c - b * b  # > 0: a, c > 0 and Cauchy–Schwarz
+        with np.errstate(all="ignore"):  # (garbage in: that joint keeps its estimate)
+            s = (r1 * c - r2 * b) / det
+            lag = (a * r2 - b * r1) / det
+        s = np.where(np.isfinite(s), s, self.scale)
+        self.lag = np.where(np.isfinite(lag), lag, self.lag)
+        step = self.rate * dt
+        self.scale = np.clip(np.clip(s, self.scale - step, self.scale + step),
+                             self.s_min, self.s_max)  # fmt: skip
+
+
 class CompensatedSource:
     """A target source (:class:`wbc.servos.sources.TargetSource`) whose targets carry the
     compliance feed-forward of :class:`ComplianceCompensator`.
 
     ``support(t)`` gives the planned support phase at playback time ``t``. With
-    ``present`` (a function returning the servos' present positions, rad, or None) and
-    ``ki`` > 0, an integral on (planned − present) corrects what the model misses:
-    ``c += ki · period · (q_plan − present)`` clamped to ``±max_correction`` rad.
+    ``correction`` (an :class:`EncoderCorrection`) and ``present`` (a function returning
+    the servos' present positions, rad, NaN unread, or None), the model's deflection is
+    rescaled per joint from what the encoders report: the goal is ``q + gain · ŝ · δ_m``
+    (``correction=None``: the feed-forward alone, ``ŝ = 1``). The present positions a
+    deployment reads right after sending a goal answer the goal before it: they are paired
+    with the goal ``delay`` calls back.
     """
 
     def __init__(
@@ -156,21 +232,20 @@ class CompensatedSource:
         compensator: ComplianceCompensator,
         support: Callable[[float], int],
         present: Callable[[], np.ndarray | None] | None = None,
-        ki: float = 0.0,
-        max_correction: float = 0.1,
+        correction: EncoderCorrection | None = None,
+        delay: int = 2,
     ) -> None:
-        if ki < 0 or not np.isfinite(ki):
-            raise WbcError(f"integral gain ki must be a finite number >= 0, got {ki}")
+        if correction is not None and present is None:
+            raise WbcError("the encoder correction needs the servos' present positions")
         self.source = source
         self.compensator = compensator
         self.support = support
         self.joint_names = tuple(source.joint_names)
         self.present = present
-        self.ki = float(ki)
-        self.max_correction = float(max_correction)
-        self.correction = np.zeros(len(self.joint_names))
-        self._last_t: float | None = None
-        self._last_plan: np.ndarray | None = None
+        self.correction = correction
+        self.delay = max(1, int(delay))
+        # (t, plan, goal, model deflection, goal velocity) of the last goals sent
+        self._sent: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         if hasattr(source, "duration"):
             self.duration = source.duration
 
@@ -181,17 +256,25 @@ class CompensatedSource:
         q = self.source(tick, t)
         if q is None:
             return None
-        if self.present is not None and self.ki > 0 and self._last_plan is not None:
+        q = np.asarray(q, dtype=float)
+        comp = self.compensator
+        delta = servo_deflection(comp.torques(q, self.support(t)), comp.params)
+        sent = self._sent
+        corr = self.correction
+        if corr is not None and len(sent) >= self.delay:
             now = self.present()
             if now is not None:
-                dt = t - (self._last_t or 0.0)
-                err = np.where(np.isfinite(now), self._last_plan - now, 0.0)
-                self.correction += self.ki * dt * err
-                np.clip(self.correction, -self.max_correction, self.max_correction,
-                        out=self.correction)  # fmt: skip
-        self._last_t, self._last_plan = t, np.asarray(q, dtype=float).copy()
-        out = self.compensator.goals(q, self.support(t)) + self.correction
-        return np.clip(out, self.compensator.robot.q_min, self.compensator.robot.q_max)
+                _, _, goal, d_then, v_then = sent[-self.delay]
+                dt = t - sent[-1][0]
+                corr.update(d_then, v_then, goal - np.asarray(now, dtype=float), dt)
+        scale = corr.scale if corr is not None else 1.0
+        out = np.clip(q + comp.gain * scale * delta, comp.robot.q_min, comp.robot.q_max)
+        # the goal's velocity: what the servo lags behind
+        velocity = (out - sent[-1][2]) / (t - sent[-1][0]) if sent and t > sent[-1][0] else 0 * q
+        sent.append((t, q, out, delta, velocity))
+        if len(sent) > self.delay:
+            sent.pop(0)
+        return out
 
 
 def compensated(
@@ -199,16 +282,18 @@ def compensated(
     recording: Recording,
     robot: Robot,
     gain: float = 1.0,
-    ki: float = 0.0,
+    correct: bool = False,
     deployment: Callable[[], object] | None = None,
 ) -> CompensatedSource:
     """``source`` (playing ``recording``) with the compliance feed-forward on its support
-    schedule; ``ki`` > 0 integrates planned − present from ``deployment().last_present``
-    (the :class:`~wbc.servos.playback.Deployment` running it, with ``read`` on)."""
-    present = None
-    if ki > 0:
+    schedule; ``correct``: rescaled per joint from ``deployment().last_present``
+    (:class:`EncoderCorrection`; the :class:`~wbc.servos.playback.Deployment` running it,
+    with ``read`` on)."""
+    present = correction = None
+    if correct:
         if deployment is None:
-            raise WbcError("an integral correction (ki > 0) needs the deployment's positions")
+            raise WbcError("the encoder correction needs the deployment's present positions")
         present = lambda: deployment().last_present  # noqa: E731
+        correction = EncoderCorrection(robot.n_joints)
     comp = ComplianceCompensator(robot, gain=gain)
-    return CompensatedSource(source, comp, support_schedule(recording), present, ki)
+    return CompensatedSource(source, comp, support_schedule(recording), present, correction)

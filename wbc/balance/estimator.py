@@ -24,14 +24,20 @@ placement, ``p_base = p_sole − R · ᵇp_sole`` (averaged over both soles in d
 stance sole(s)*, ``d/dt (R (ᵇc − ᵇp_sole))`` (so a support switch never makes it jump),
 low-pass filtered (first order, ``velocity_cutoff`` Hz, against the 0.29° encoder steps).
 **DCM** ``ξ = c + ċ / ω₀`` with ``ω₀ = √(g / z_c)``.
+
+**Cost** (it runs inside every control tick): one compiled kernel per tick
+(:func:`_estimate`) does the forward kinematics of the revolute joints in the base frame
+(``ᵇc = Σ m_k ᵇp_com,k / M`` and the stance soles), the filter and the CoM terms, with no
+pinocchio call and no small numpy operation; it gives pinocchio's answer to rounding
+(tests/test_balance_estimator.py). Figures: benchmarks/compliance.md (cost section).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pinocchio as pin
 
@@ -40,29 +46,346 @@ from ..imu import GRAVITY, ImuReading
 from ..model import Robot
 
 SOLE_FRAMES = ("l_sole", "r_sole")
+_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0),
+         "JointModelRZ": (0.0, 0.0, 1.0)}  # fmt: skip
+# columns of a joint's row in the kinematic table (StateEstimator._joints)
+_R, _P, _AXIS, _LEVER, _MASS, _WIDTH = 0, 9, 12, 15, 18, 19
+# the filter's state (StateEstimator._state): torso rotation, has-rotation flag, CoM relative
+# to each sole at the last tick, their validity flags, the CoM velocity
+_S_ROT, _S_HAS, _S_REL, _S_VALID, _S_VEL, _S_SIZE = 0, 9, 10, 16, 18, 21
 
 
-@dataclass
 class StateEstimate:
-    """One estimate (world frame; the torso is the IMU frame)."""
+    """One estimate (world frame; the torso is the IMU frame): named views of one (8, 3)
+    array, fresh every tick (building six arrays per tick would cost more than the
+    estimate)."""
 
-    rotation: np.ndarray  # (3, 3) torso rotation
-    base: np.ndarray  # (3,) base position
-    com: np.ndarray  # (3,)
-    com_vel: np.ndarray  # (3,)
-    dcm: np.ndarray  # (3,) ξ = c + ċ/ω₀ (z: c_z)
-    angular_velocity: np.ndarray  # (3,) rad/s, torso frame (zeros without an IMU)
+    __slots__ = ("values",)
+
+    def __init__(self, values: np.ndarray) -> None:
+        self.values = values  # rows: rotation (3), base, com, com_vel, dcm, angular_velocity
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """(3, 3) torso rotation."""
+        return self.values[:3]
+
+    @property
+    def base(self) -> np.ndarray:
+        """(3,) base position."""
+        return self.values[3]
+
+    @property
+    def com(self) -> np.ndarray:
+        """(3,) centre of mass."""
+        return self.values[4]
+
+    @property
+    def com_vel(self) -> np.ndarray:
+        """(3,) CoM velocity (filtered)."""
+        return self.values[5]
+
+    @property
+    def dcm(self) -> np.ndarray:
+        """(3,) ξ = c + ċ/ω₀ (z: c_z)."""
+        return self.values[6]
+
+    @property
+    def angular_velocity(self) -> np.ndarray:
+        """(3,) rad/s, torso frame (zeros without an IMU)."""
+        return self.values[7]
+
+    def __repr__(self) -> str:
+        return f"StateEstimate(com={self.com}, dcm={self.dcm}, base={self.base})"
 
 
-def _exp(w: np.ndarray) -> np.ndarray:
-    return pin.exp3(np.asarray(w, dtype=float))
+@numba.njit(cache=True, inline="always")
+def mul33_into(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> None:
+    """C = A · B (3 × 3; the top-left block of larger matrices; C distinct from A, B)."""
+    for i in range(3):
+        for j in range(3):
+            C[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
 
 
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of two 3-vectors (np.cross costs ~30 µs a call: too much inside a tick)."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+@numba.njit(cache=True, inline="always")
+def mul33t_into(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> None:
+    """C = A · Bᵀ (3 × 3 blocks; C distinct from A, B)."""
+    for i in range(3):
+        for j in range(3):
+            C[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
+
+
+@numba.njit(cache=True, inline="always")
+def exp3_into(w: np.ndarray, R: np.ndarray) -> None:
+    """R = Exp(w), Rodrigues: ``I + sin θ [a]× + (1 − cos θ) [a]×²`` (θ = |w|, a = w/θ;
+    Taylor series of the coefficients below θ = 1e-4)."""
+    t2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+    if t2 < 1e-8:
+        a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0  # sin θ / θ
+        b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0  # (1 − cos θ) / θ²
+    else:
+        t = math.sqrt(t2)
+        a = math.sin(t) / t
+        b = (1.0 - math.cos(t)) / t2
+    x, y, z = w[0], w[1], w[2]
+    R[0, 0] = 1.0 - b * (y * y + z * z)
+    R[1, 1] = 1.0 - b * (x * x + z * z)
+    R[2, 2] = 1.0 - b * (x * x + y * y)
+    R[0, 1] = b * x * y - a * z
+    R[1, 0] = b * x * y + a * z
+    R[0, 2] = b * x * z + a * y
+    R[2, 0] = b * x * z - a * y
+    R[1, 2] = b * y * z - a * x
+    R[2, 1] = b * y * z + a * x
+
+
+@numba.njit(cache=True)
+def exp3(w: np.ndarray) -> np.ndarray:
+    """Exp(w): the rotation by |w| about w (:func:`exp3_into`)."""
+    R = np.empty((3, 3))
+    exp3_into(w, R)
+    return R
+
+
+@numba.njit(cache=True, inline="always")
+def log3_into(R: np.ndarray, v: np.ndarray) -> None:
+    """v = Log(R), the rotation vector of R (inverse of :func:`exp3`, θ ∈ [0, π]):
+    ``θ/(2 sin θ) · vee(R − Rᵀ)``; near θ = π the axis from the symmetric part
+    ``a aᵀ = (R − cos θ I)/(1 − cos θ)``, signed by vee(R − Rᵀ)."""
+    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
+    v[0], v[1], v[2] = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+    t = math.acos(c)
+    if t < math.pi - 1e-3:
+        f = 0.5 + t * t / 12.0 if t < 1e-4 else 0.5 * t / math.sin(t)  # θ / (2 sin θ)
+        for i in range(3):
+            v[i] *= f
+        return
+    k = 0  # near π: the column of the largest diagonal entry of a aᵀ
+    for i in range(1, 3):
+        if R[i, i] > R[k, k]:
+            k = i
+    x0 = 0.5 * (R[0, k] + R[k, 0]) - (c if k == 0 else 0.0)
+    x1 = 0.5 * (R[1, k] + R[k, 1]) - (c if k == 1 else 0.0)
+    x2 = 0.5 * (R[2, k] + R[k, 2]) - (c if k == 2 else 0.0)
+    f = t / math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    if x0 * v[0] + x1 * v[1] + x2 * v[2] < 0:
+        f = -f
+    v[0], v[1], v[2] = f * x0, f * x1, f * x2
+
+
+@numba.njit(cache=True)
+def log3(R: np.ndarray) -> np.ndarray:
+    """Log(R) (:func:`log3_into`)."""
+    v = np.empty(3)
+    log3_into(R, v)
+    return v
+
+
+@numba.njit(cache=True)
+def _yaw(R: np.ndarray) -> float:
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _estimate(
+    model: np.ndarray,
+    joints: np.ndarray,
+    fallback: np.ndarray,
+    gyro: np.ndarray,
+    acc: np.ndarray,
+    dt: float,
+    select: int,
+    anchor0: np.ndarray,
+    anchor1: np.ndarray,
+    state: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """One tick of :meth:`StateEstimator.update` (module docstring): writes ``out`` (8 × 3:
+    rotation (3 rows), base, com, com_vel, dcm, angular_velocity) and updates ``state`` in
+    place. ``model``: ``StateEstimator._model``; ``select = sole0 + 2 (sole1 + 1) + 8 imu``
+    (sole indices in SOLE_FRAMES, ``sole1 = -1``: single support). (Few arguments: each
+    costs the dispatcher about as much as a small product.)"""
+    n = int(model[0])
+    table = model[1 : 1 + _WIDTH * n].reshape(n, _WIDTH)
+    links = model[1 + _WIDTH * n : 1 + (_WIDTH + 2) * n].reshape(n, 2)
+    consts = model[1 + (_WIDTH + 2) * n :]
+    sole0, sole1, imu = select % 2, (select // 2) % 4 - 1, select >= 8
+    tilt_gain, cutoff, omega0, gyro_heading, inv_mass = (
+        consts[0], consts[1], consts[2], consts[3] > 0.5, consts[4])  # fmt: skip
+    torso_b = consts[5:14].reshape(3, 3)
+    # forward kinematics in the base frame (base at the origin), body by body, written in
+    # place (an allocation per small product would cost more than the kinematics)
+    Rs = np.empty((n, 3, 3))
+    ps = np.empty((n, 3))
+    E = np.empty((3, 3))
+    M = np.empty((3, 3))
+    com_b = np.zeros(3)
+    for k in range(n):
+        row = table[k]
+        parent, iq = int(links[k, 0]), int(links[k, 1])
+        if parent < 0:
+            for i in range(3):
+                ps[k, i] = 0.0
+                for j in range(3):
+                    Rs[k, i, j] = 1.0 if i == j else 0.0
+        else:
+            th = joints[iq]
+            if not math.isfinite(th):
+                th = fallback[iq]
+            x, y, z = row[_AXIS], row[_AXIS + 1], row[_AXIS + 2]
+            sn, cs = math.sin(th), math.cos(th)
+            t = 1.0 - cs  # E = Exp(θ a) = I + sin θ [a]× + (1 − cos θ) [a]×², |a| = 1
+            E[0, 0] = 1.0 - t * (y * y + z * z)
+            E[1, 1] = 1.0 - t * (x * x + z * z)
+            E[2, 2] = 1.0 - t * (x * x + y * y)
+            E[0, 1] = t * x * y - sn * z
+            E[1, 0] = t * x * y + sn * z
+            E[0, 2] = t * x * z + sn * y
+            E[2, 0] = t * x * z - sn * y
+            E[1, 2] = t * y * z - sn * x
+            E[2, 1] = t * y * z + sn * x
+            for i in range(3):  # M = R_placement · E
+                for j in range(3):
+                    M[i, j] = (row[3 * i] * E[0, j] + row[3 * i + 1] * E[1, j]
+                               + row[3 * i + 2] * E[2, j])  # fmt: skip
+            for i in range(3):  # R_k = R_parent · M, p_k = p_parent + R_parent · p_placement
+                ps[k, i] = ps[parent, i] + (Rs[parent, i, 0] * row[_P]
+                                            + Rs[parent, i, 1] * row[_P + 1]
+                                            + Rs[parent, i, 2] * row[_P + 2])  # fmt: skip
+                for j in range(3):
+                    Rs[k, i, j] = (Rs[parent, i, 0] * M[0, j] + Rs[parent, i, 1] * M[1, j]
+                                   + Rs[parent, i, 2] * M[2, j])  # fmt: skip
+        m = row[_MASS]
+        for i in range(3):  # Σ m_k (R_k lever_k + p_k)
+            com_b[i] += m * (Rs[k, i, 0] * row[_LEVER] + Rs[k, i, 1] * row[_LEVER + 1]
+                             + Rs[k, i, 2] * row[_LEVER + 2] + ps[k, i])  # fmt: skip
+    com_b *= inv_mass
+    # the stance soles in the base frame (scratch: sole rotations, filter rotations, vectors)
+    count = 1 if sole1 < 0 else 2
+    ids = (sole0, sole1)
+    W = np.empty((6, 3, 3))  # sole 0, sole 1, R_kin, exp, R, R_base
+    V = np.empty((6, 3))  # sole 0, sole 1, w, base, rel 0, rel 1
+    for s in range(count):
+        r0 = 14 + 13 * ids[s]
+        parent = int(consts[r0 + 12])
+        Rp = Rs[parent]
+        for i in range(3):
+            V[s, i] = ps[parent, i] + (Rp[i, 0] * consts[r0 + 9] + Rp[i, 1] * consts[r0 + 10]
+                                       + Rp[i, 2] * consts[r0 + 11])  # fmt: skip
+            for j in range(3):
+                W[s, i, j] = (Rp[i, 0] * consts[r0 + j] + Rp[i, 1] * consts[r0 + 3 + j]
+                              + Rp[i, 2] * consts[r0 + 6 + j])  # fmt: skip
+    R_kin, Ex, R, R_base = W[2], W[3], W[4], W[5]
+    has = state[_S_HAS] > 0.5
+    if not has or not imu or not gyro_heading:  # R_kin = A0 · (ᵇR_sole0)ᵀ
+        mul33t_into(anchor0, W[0], R_kin)
+    if not has:  # start the filter at the kinematics' rotation (StateEstimator.reset)
+        mul33_into(R_kin, torso_b, R)
+        state[_S_ROT:_S_HAS] = R.ravel()
+        state[_S_HAS] = 1.0
+        state[_S_VALID:_S_VEL] = 0.0
+        state[_S_VEL:_S_SIZE] = 0.0
+    if imu:
+        R0 = state[_S_ROT:_S_HAS].reshape(3, 3)
+        w = V[2]
+        norm = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
+        k = tilt_gain / norm if 0.8 * 9.80665 < norm < 1.2 * 9.80665 else 0.0
+        # ω + k (a × up),  up = R[2] = Rᵀ e_z: the world's up in the torso frame
+        w[0] = (gyro[0] + k * (acc[1] * R0[2, 2] - acc[2] * R0[2, 1])) * dt
+        w[1] = (gyro[1] + k * (acc[2] * R0[2, 0] - acc[0] * R0[2, 2])) * dt
+        w[2] = (gyro[2] + k * (acc[0] * R0[2, 1] - acc[1] * R0[2, 0])) * dt
+        exp3_into(w, Ex)
+        mul33_into(R0, Ex, R)
+        if not gyro_heading:  # keep the filter's tilt, the heading of the kinematics
+            mul33_into(R_kin, torso_b, Ex)
+            d = _yaw(Ex) - _yaw(R)
+            c, sn = math.cos(d), math.sin(d)
+            for j in range(3):  # R ← Rz(d) R
+                x, y = R[0, j], R[1, j]
+                R[0, j] = c * x - sn * y
+                R[1, j] = sn * x + c * y
+        mul33t_into(R, torso_b, R_base)
+        out[7] = gyro
+    else:
+        R_base[:] = R_kin
+        mul33_into(R_base, torso_b, R)
+        out[7] = 0.0
+    state[_S_ROT:_S_HAS] = R.ravel()
+    base = V[3]
+    base[:] = 0.0
+    for s in range(count):
+        A = anchor0 if s == 0 else anchor1
+        sp = V[s]
+        for i in range(3):
+            rb = R_base[i, 0] * sp[0] + R_base[i, 1] * sp[1] + R_base[i, 2] * sp[2]
+            base[i] += A[i, 3] - rb
+            # CoM relative to the sole: R_base (ᵇc − ᵇp_sole)
+            V[4 + s, i] = (R_base[i, 0] * (com_b[0] - sp[0]) + R_base[i, 1] * (com_b[1] - sp[1])
+                           + R_base[i, 2] * (com_b[2] - sp[2]))  # fmt: skip
+    vel = state[_S_VEL:_S_SIZE]
+    alpha = math.exp(-2.0 * math.pi * cutoff * dt) if dt > 0 else 0.0
+    common = 0
+    for s in range(count):  # the stance soles also in support at the last tick
+        common += 1 if state[_S_VALID + ids[s]] > 0.5 else 0
+    for i in range(3):
+        base[i] /= count
+        com_i = base[i] + (R_base[i, 0] * com_b[0] + R_base[i, 1] * com_b[1]
+                           + R_base[i, 2] * com_b[2])  # fmt: skip
+        if common > 0 and dt > 0:
+            raw = 0.0
+            for s in range(count):
+                j = ids[s]
+                if state[_S_VALID + j] > 0.5:
+                    raw += V[4 + s, i] - state[_S_REL + 3 * j + i]
+            vel[i] = alpha * vel[i] + ((1.0 - alpha) / dt) * (raw / common)
+        out[3, i] = base[i]
+        out[4, i] = com_i
+        out[5, i] = vel[i]
+        out[6, i] = com_i + vel[i] / omega0 if i < 2 else com_i
+    state[_S_VALID:_S_VEL] = 0.0
+    for s in range(count):
+        j = ids[s]
+        state[_S_REL + 3 * j : _S_REL + 3 * j + 3] = V[4 + s]
+        state[_S_VALID + j] = 1.0
+    out[0:3] = R
+
+
+def _kinematic_table(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The robot's joints for :func:`_estimate`: per body (pinocchio order, the floating base
+    first) its placement in the parent, axis, CoM lever and mass; its parent's row and its
+    index in the joint vector; the soles' parents and placements (in ``consts``' layout)."""
+    model = robot.model
+    if model.joints[1].shortname() != "JointModelFreeFlyer":
+        raise WbcError("state estimator: the robot's first joint must be its floating base")
+    rows = model.njoints - 1
+    table = np.zeros((rows, _WIDTH))
+    links = np.full((rows, 2), -1, dtype=np.int64)
+    for j in range(1, model.njoints):
+        k = j - 1
+        joint = model.joints[j]
+        kind = joint.shortname()
+        if j > 1:
+            if kind in _AXES:
+                axis = np.array(_AXES[kind])
+            elif kind == "JointModelRevoluteUnaligned":
+                axis = np.asarray(joint.extract().axis, dtype=float)
+            else:
+                raise WbcError(f"state estimator: joint {model.names[j]} is not revolute ({kind})")
+            links[k] = (model.parents[j] - 1, joint.idx_q - 7)
+            placement = model.jointPlacements[j]
+            table[k, _R:_P] = placement.rotation.ravel()
+            table[k, _P:_AXIS] = placement.translation
+            table[k, _AXIS:_LEVER] = axis
+        else:
+            table[k, _R:_P] = np.eye(3).ravel()
+        table[k, _LEVER:_MASS] = model.inertias[j].lever
+        table[k, _MASS] = model.inertias[j].mass
+    soles = []
+    for name in SOLE_FRAMES:
+        frame = model.frames[robot.frame_id(name)]
+        p = frame.placement
+        soles.append(np.r_[p.rotation.ravel(), p.translation, frame.parentJoint - 1])
+    return table, links, np.concatenate(soles)
 
 
 class StateEstimator:
@@ -95,38 +418,40 @@ class StateEstimator:
         self.gyro_heading = gyro_heading
         self.tilt_gain = float(tilt_gain)
         self.cutoff = float(velocity_cutoff)
-        self.model = robot.model
-        self.data = robot.model.createData()
-        self.sole_ids = {s: robot.frame_id(s) for s in SOLE_FRAMES}
-        self._q = robot.neutral()
         torso = robot.model.frames[robot.frame_id("torso")]
         if torso.parentJoint != 1:
             raise WbcError("state estimator: the torso frame must be on the floating base")
         self.torso_b = torso.placement.rotation.copy()  # constant: torso in the base frame
-        self.rotation: np.ndarray | None = None  # torso rotation (the filter's state)
-        self._rel: dict[str, np.ndarray] = {}  # CoM relative to each sole, last tick
-        self.com_vel = np.zeros(3)
+        table, links, soles = _kinematic_table(robot)
+        consts = np.r_[
+            self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
+            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles,
+        ]  # fmt: skip
+        # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and
+        # gyro_heading are fixed at construction)
+        self._model = np.r_[len(table), table.ravel(), links.ravel(), consts]
+        self._state = np.zeros(_S_SIZE)
+        self._zeros = np.zeros(3)
         self.last: StateEstimate | None = None
+
+    @property
+    def rotation(self) -> np.ndarray | None:
+        """The filter's torso rotation (None before the first update or reset)."""
+        if self._state[_S_HAS] < 0.5:
+            return None
+        return self._state[_S_ROT:_S_HAS].reshape(3, 3).copy()
+
+    @property
+    def com_vel(self) -> np.ndarray:
+        """The filtered CoM velocity (m/s)."""
+        return self._state[_S_VEL:_S_SIZE].copy()
 
     def reset(self, torso_rotation: np.ndarray) -> None:
         """Start the filter at a known torso rotation (e.g. the planned one, standing)."""
-        self.rotation = np.array(torso_rotation, dtype=float)
-        self._rel = {}
-        self.com_vel = np.zeros(3)
+        self._state[:] = 0.0
+        self._state[_S_ROT:_S_HAS] = np.asarray(torso_rotation, dtype=float).ravel()
+        self._state[_S_HAS] = 1.0
         self.last = None
-
-    def _orientation(self, reading: ImuReading, dt: float) -> np.ndarray:
-        R = self.rotation
-        omega = reading.angular_velocity
-        a = reading.linear_acceleration
-        norm = math.sqrt(float(a @ a))
-        w = omega.copy()
-        if 0.8 * GRAVITY < norm < 1.2 * GRAVITY:
-            up_pred = R[2]  # Rᵀ e_z: the world's up in the torso frame
-            w += (self.tilt_gain / norm) * cross(a, up_pred)
-        R = R @ _exp(w * dt)
-        self.rotation = R
-        return R
 
     def update(
         self,
@@ -134,59 +459,32 @@ class StateEstimator:
         joints: np.ndarray,
         reading: ImuReading | None,
         stance: Sequence[tuple[str, pin.SE3]],
+        fallback: np.ndarray | None = None,
     ) -> StateEstimate:
         """One tick: ``joints`` the present positions (rad, model order), ``reading`` the
         IMU's sample (ignored with ``use_imu=False``), ``stance`` the support sole frame(s)
-        with their planned placements."""
+        with their planned placements; ``fallback`` stands in for the joints whose present
+        position is NaN (not read this tick)."""
         if not stance:
             raise WbcError("state estimator: no stance sole given")
-        m, d = self.model, self.data
-        q = self._q
-        q[7:] = joints
-        com_b = pin.centerOfMass(m, d, q, False).copy()  # (runs the forward kinematics)
-        soles = {name: pin.updateFramePlacement(m, d, self.sole_ids[name]) for name, _ in stance}
-        torso_b = self.torso_b  # torso in the base frame
-        # heading (and, encoders only, the whole rotation) from the first stance sole
-        name0, anchor0 = stance[0]
         imu = self.use_imu and reading is not None
-        R_kin = None
-        if self.rotation is None or not imu or not self.gyro_heading:
-            R_kin = anchor0.rotation @ soles[name0].rotation.T  # base rotation
-        if self.rotation is None:
-            self.reset(R_kin @ torso_b)
-        if imu:
-            R_t = self._orientation(reading, dt)
-            if not self.gyro_heading:  # keep the filter's tilt, the heading of the kinematics
-                yaw_kin = _yaw(R_kin @ torso_b)
-                R_t = pin.rpy.rpyToMatrix(0.0, 0.0, yaw_kin - _yaw(R_t)) @ R_t
-                self.rotation = R_t
-            R_base = R_t @ torso_b.T
-            omega = reading.angular_velocity
+        name0, anchor0 = stance[0]
+        h0 = anchor0.homogeneous
+        select = SOLE_FRAMES.index(name0) + (8 if imu else 0)
+        if len(stance) > 1:
+            name1, anchor1 = stance[1]
+            select += 2 * (SOLE_FRAMES.index(name1) + 1)
+            h1 = anchor1.homogeneous
         else:
-            R_base = R_kin
-            self.rotation = R_base @ torso_b
-            omega = np.zeros(3)
-        bases, rel = [], {}
-        for name, anchor in stance:
-            sole_b = soles[name].translation
-            bases.append(anchor.translation - R_base @ sole_b)
-            rel[name] = R_base @ (com_b - sole_b)
-        base = bases[0] if len(bases) == 1 else 0.5 * (bases[0] + bases[1])
-        com = base + R_base @ com_b
-        common = [s for s in rel if s in self._rel]
-        if common and dt > 0:
-            raw = rel[common[0]] - self._rel[common[0]]
-            if len(common) == 2:
-                raw = 0.5 * (raw + rel[common[1]] - self._rel[common[1]])
-            alpha = math.exp(-2.0 * math.pi * self.cutoff * dt)
-            self.com_vel = alpha * self.com_vel + ((1.0 - alpha) / dt) * raw
-        self._rel = rel
-        dcm = com + self.com_vel / self.omega0
-        dcm[2] = com[2]
-        # (fresh arrays every tick: the filter's state is reassigned, never written in place)
-        self.last = StateEstimate(self.rotation, base, com, self.com_vel, dcm, omega)
+            h1 = h0
+        out = np.empty((8, 3))
+        if imu:
+            gyro, acc = reading.angular_velocity, reading.linear_acceleration
+        else:
+            gyro = acc = self._zeros
+        _estimate(
+            self._model, joints, joints if fallback is None else fallback, gyro, acc,
+            float(dt), select, h0, h1, self._state, out,
+        )  # fmt: skip
+        self.last = StateEstimate(out)  # (a fresh array every tick)
         return self.last
-
-
-def _yaw(R: np.ndarray) -> float:
-    return float(np.arctan2(R[1, 0], R[0, 0]))

@@ -93,6 +93,7 @@ def closed_loop(
     gains: Gains | None = None,
     enabled: bool = True,
     compensate: float = 0.0,
+    correct: bool = False,
     config: DeployConfig | None = None,
     q0: np.ndarray | None = None,
     out: Callable[[str], None] = print,
@@ -102,9 +103,11 @@ def closed_loop(
     the servos' present positions (``enabled=False``: the same run, open loop).
 
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
-    (:mod:`wbc.balance.compliance`); ``config`` defaults to the reference's rate with
-    ``read`` on (the estimator needs the encoders); a config without ``read`` is refused
-    when the loop is closed. ``duration`` (s) ends the run early (None: the whole reference).
+    (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
+    :class:`~wbc.balance.compliance.EncoderCorrection`); ``config`` defaults to the
+    reference's rate with ``read`` on (the estimator needs the encoders); a config without
+    ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
+    the whole reference).
     """
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
@@ -121,12 +124,15 @@ def closed_loop(
     source = SessionSource(session)
     target = source
     if compensate > 0:
-        from .compliance import CompensatedSource, ComplianceCompensator
+        from .compliance import CompensatedSource, ComplianceCompensator, EncoderCorrection
 
         def support(t: float) -> int:
             return int(ref.support[ref.index_at(ref.t[0] + t)])
 
-        target = CompensatedSource(source, ComplianceCompensator(robot, gain=compensate), support)
+        present = (lambda: holder[0].last_present) if correct else None
+        fix = EncoderCorrection(robot.n_joints) if correct else None
+        comp = ComplianceCompensator(robot, gain=compensate)
+        target = CompensatedSource(source, comp, support, present, fix)
     if duration is not None:
         from ..servos.sources import CallableSource
 

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..balance import add_compensate_argument
+from ..balance import add_compensate_argument, check_compensate_encoders
 from ..exceptions import WbcError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIGHT, Recording
@@ -332,6 +332,7 @@ def play_closed_loop(
     push: tuple[float, Sequence[float], float] | None = None,
     settle: float = 1.0,
     compensate: float = 0.0,
+    correct: bool = False,
 ):
     """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
     on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
@@ -350,7 +351,7 @@ def play_closed_loop(
     bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
     imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0) if spec.use_imu else None
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
-                       compensate, out=lambda _line: None)  # fmt: skip
+                       compensate, correct, out=lambda _line: None)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
@@ -381,20 +382,24 @@ def simulate(
     compensate: float = 0.0,
     gyro: float = 0.0,
     closed: ClosedLoopSpec | None = None,
+    correct: bool = False,
 ) -> dict[str, Any]:
     """One simulated run of a planned recording: its physics record (``compensate``: the
     gain of the servo compliance feed-forward, :mod:`wbc.balance.compliance`; ``gyro``: the
-    scale of the torso gyro feedback, :mod:`wbc.balance.feedback`; 0 = off). With
+    scale of the torso gyro feedback, :mod:`wbc.balance.feedback`; 0 = off; ``correct``: the
+    feed-forward rescaled from the encoders, :class:`~wbc.balance.compliance.EncoderCorrection`).
+    With
     ``closed``, the controller runs live (:func:`play_closed_loop`) and ``rec`` (its open-loop
     plan) is what the run is measured against."""
     if closed is not None:
-        result, loop = play_closed_loop(closed, robot, variation, push, settle, compensate)
+        result, loop = play_closed_loop(closed, robot, variation, push, settle, compensate,
+                                        correct)  # fmt: skip
         record = physics_record(rec, result, robot, closed.ref)
         record.update(closed_loop_figures(loop))
         return record
     from ..sim.play import play
 
-    kw: dict[str, Any] = {"compensate": compensate, "gyro": gyro}
+    kw: dict[str, Any] = {"compensate": compensate, "gyro": gyro, "correct": correct}
     if variation is not None:
         kw.update(model_params=variation.model_params, servo_params=variation.servo_params,
                   latency_ticks=variation.latency_ticks, imu_noise=variation.imu_noise)  # fmt: skip
@@ -425,12 +430,13 @@ def robustness(
     compensate: float = 0.0,
     gyro: float = 0.0,
     closed: ClosedLoopSpec | None = None,
+    correct: bool = False,
 ) -> dict[str, Any]:
     """The share of ``n`` randomised models (seeded) on which the run stays up."""
     up, falls = [], []
     for k, v in enumerate(models(robot, n, seed)):
         r = simulate(rec, robot, v, settle=settle, compensate=compensate, gyro=gyro,
-                     closed=closed)  # fmt: skip
+                     closed=closed, correct=correct)  # fmt: skip
         up.append(not r["fell"])
         if r["fell"]:  # why: when, in which support phase, the most loaded joint
             falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
@@ -466,6 +472,7 @@ def largest_push(
     compensate: float = 0.0,
     gyro: float = 0.0,
     closed: ClosedLoopSpec | None = None,
+    correct: bool = False,
 ) -> float | None:
     """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
     (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
@@ -480,7 +487,7 @@ def largest_push(
         force = u * impulse / PUSH_DURATION
         push = (t_push, force, PUSH_DURATION)
         run = simulate(rec, robot, push=push, settle=settle, compensate=compensate, gyro=gyro,
-                       closed=closed)  # fmt: skip
+                       closed=closed, correct=correct)  # fmt: skip
         return not run["fell"]
 
     if not survives(0.0):
@@ -541,6 +548,7 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
         raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise WbcError(f"--compensate GAIN must be a finite number >= 0, got {args.compensate}")
+    check_compensate_encoders(args)
     if not (math.isfinite(args.gyro) and args.gyro >= 0):
         raise WbcError(f"--gyro SCALE must be a finite number >= 0, got {args.gyro}")
     if args.mode != "tick":
@@ -593,7 +601,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 specs.append(ClosedLoopSpec(entry.make, ref, gains, True,
                                             not getattr(args, "encoders_only", False)))  # fmt: skip
             for spec in specs:
-                loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0}
+                loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0,
+                        "correct": getattr(args, "compensate_encoders", False)}  # fmt: skip
                 started = time.perf_counter()
                 try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses
                     # it unless --limit-tol allows it)
@@ -603,7 +612,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                         result = play(rec, robot, settle=1.0, limit_tol=math.inf, **loop)
                         extra: dict[str, Any] = {}
                     else:
-                        result, cl = play_closed_loop(spec, robot, compensate=comp)
+                        result, cl = play_closed_loop(spec, robot, compensate=comp,
+                                                      correct=loop["correct"])  # fmt: skip
                         extra = closed_loop_figures(cl)
                 except WbcError as exc:
                     console.print(f"[red]{entry.name} on {name}: {exc}[/]")

@@ -49,15 +49,17 @@ WHOLE_BODY_TIMING: dict[str, Any] = {
 #: the fast walk: 16 steps of 4 cm in 0.5 s (8 cm/s steady, 6.2 cm/s start to stop)
 FAST: dict[str, Any] = {"n_steps": 16, "step_length": 0.04}
 #: the turning walk: 8 steps of 2 cm turning 0.2 rad each (80 deg); the lateral walk: 8 steps
-#: of 1.8 cm to the left; both with a 15 mm apex (the 12 mm one scuffs more in the simulator;
-#: 2 cm lateral steps with it ask the knee for 0.77 of the no-load speed)
+#: of 1.5 cm to the left; both with a 15 mm apex (the 12 mm one scuffs more in the simulator;
+#: 2 cm lateral steps with it ask the knee for 0.77 of the no-load speed). With 1.8 cm lateral
+#: steps the leading foot landed ~5 mm short and unloaded, the closed loop covering 0.89-0.90
+#: of the plan at 2.9-3.1 deg (benchmarks/balance.md); 1.5 cm: 0.90-0.94, 2.8-2.9 deg
 TURN: dict[str, Any] = {
     "n_steps": 8,
     "step_length": 0.02,
     "turn": 0.2,
     "swing": SwingParams(apex=0.015),
 }
-LATERAL: dict[str, Any] = {"n_steps": 8, "step_width": 0.018, "swing": SwingParams(apex=0.015)}
+LATERAL: dict[str, Any] = {"n_steps": 8, "step_width": 0.015, "swing": SwingParams(apex=0.015)}
 
 #: name -> (builder, description); a builder takes the start state and keyword overrides
 TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
@@ -82,7 +84,7 @@ TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
     ),
     "lateral_wb": (
         lambda s, **kw: lateral_walk(s, **{**WHOLE_BODY_TIMING, **LATERAL, **kw}),
-        "sideways walk (14.4 cm), whole body, within the servos' speed",
+        "sideways walk (12 cm), whole body, within the servos' speed",
     ),
 }
 #: the trajectories that use the whole-body balance window (built per robot)

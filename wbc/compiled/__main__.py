@@ -3,11 +3,12 @@
 
 Two processes work in parallel, one per solver (``--part weighted`` and ``--part
 hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row
-on the compiled tick (the hierarchical one also on the numpy path, whose kernels Python calls),
-so that numba compiles and caches every kernel a run of the package's stacks calls
+on the compiled tick (the hierarchical one then also on the numpy path, whose kernels Python
+calls), so that numba compiles and caches every kernel a run of the package's stacks calls
 (``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's ``__pycache__``). The solvers start the
-same processes themselves at their first compiled tick when the cache is empty
-(:meth:`wbc.compiled.dispatch.Ticks.call`).
+same processes themselves at their first compiled tick when the cache is empty, solve on the
+numpy path meanwhile and switch when their tick is cached
+(:meth:`wbc.compiled.dispatch.Ticks.ready`).
 """
 
 from __future__ import annotations
@@ -38,17 +39,18 @@ def worker_env() -> dict[str, str]:
 
 def compile_part(part: str) -> None:
     """Solve one tick of the ``walk`` stack with solver ``part`` on the compiled tick (and,
-    for the hierarchy, on the numpy path first): numba compiles what each calls and caches it
-    on disk."""
+    for the hierarchy, then on the numpy path): numba compiles what each calls and caches it
+    on disk. The compiled tick comes first: a solver waiting for it loads it from the cache
+    as soon as it is there (:meth:`wbc.compiled.dispatch.Ticks.ready`), while the worker goes
+    on with the numpy path's kernels."""
     from ..model import Kinematics, load_robot
     from ..stacks import load_stack
 
     robot = load_robot()
     q = robot.configuration("stand")
     paths: tuple[bool | None, ...] = (None,)  # the compiled tick
-    if part == "hierarchical":  # and the numpy path's kernels: the level cascade (Chan–Dubey
-        load_stack("cjl_com", robot).solver.step(q, 0.01)  # has no row kernel), rows, bounds
-        paths = (False, None)
+    if part == "hierarchical":  # and the numpy path's kernels: rows, bounds, the level cascade
+        paths = (None, False)
     for compiled in paths:
         control = load_stack("walk", robot, solver=part)
         control.solver.compiled = compiled
@@ -56,6 +58,8 @@ def compile_part(part: str) -> None:
         swing = control.stack.task("frame_pose_swing")
         swing.set_position_target(swing.target_position - [0.0, 0.0, 0.005])  # a row active
         control.solver.step(q, 0.01)
+    if part == "hierarchical":  # (Chan–Dubey has no row kernel: the numpy path)
+        load_stack("cjl_com", robot).solver.step(q, 0.01)
 
 
 def main(argv: list[str] | None = None) -> int:

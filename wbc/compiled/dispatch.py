@@ -47,14 +47,13 @@ from wbc.compiled.ticks import cascade_solve, weighted_solve
 
 
 @njit(cache={cache})
-def load_frames(frame_R, frame_p, Rs, ps):
-    for s in range(len(frame_R)):
-        R = frame_R[s]
-        p = frame_p[s]
+def load_frames(frame_ids, frame_R, frame_p, Rs, ps):
+    for s in range(frame_ids.shape[0]):
+        f = frame_ids[s]
         for i in range(3):
-            ps[s, i] = p[i]
+            ps[s, i] = frame_p[f, i]
             for j in range(3):
-                Rs[s, i, j] = R[i, j]
+                Rs[s, i, j] = frame_R[f, i, j]
 
 
 @njit(cache={cache})
@@ -87,10 +86,10 @@ def fill_rows(
 def weighted_tick(
     soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
     hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
-    targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, state, working, dq, q_next,
+    targets, slots, frame_ids, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull,
+    Jfull, q, q_min, q_max, step, params, lower, upper, state, working, dq, q_next,
 ):
-    load_frames(frame_R, frame_p, Rs, ps)
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps)
     fill_rows(
         soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, targets, slots,
         Rs, ps, supports, Jw, com, Jcom, q, Jf, efull, Jfull,
@@ -108,10 +107,11 @@ def weighted_tick(
 @njit(cache={cache})
 def cascade_tick(
     spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard, G, h, g_rows,
-    targets, slots, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull, Jfull,
-    q, q_min, q_max, step, params, lower, upper, states, working, h_eff, achieved, dq, q_next,
+    targets, slots, frame_ids, frame_R, frame_p, Rs, ps, supports, Jw, com, Jcom, Jf, efull,
+    Jfull, q, q_min, q_max, step, params, lower, upper, states, working, h_eff, achieved, dq,
+    q_next,
 ):
-    load_frames(frame_R, frame_p, Rs, ps)
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps)
     fill_rows(
         spec, sel, sqrt_w, gain_w, J, E, b, targets, slots, Rs, ps, supports, Jw, com, Jcom, q,
         Jf, efull, Jfull,
@@ -165,14 +165,25 @@ def source(kernels: Sequence[object], cache: bool = True) -> str:
     return _TEMPLATE.format(names=names, cache=cache, branches=branches.rstrip("\n"), **columns)
 
 
+#: set in the environment (to anything but "" or "0"): a solver whose compiled tick is being
+#: built in the background waits for it instead of solving on the numpy path meanwhile (the
+#: tests, and anything that counts or times compiled ticks from a cold cache)
+WAIT_ENV = "WBC_WAIT_FOR_COMPILE"
+
+
+def _waits() -> bool:
+    return os.environ.get(WAIT_ENV, "") not in ("", "0")
+
+
 class Ticks:
     """The generated tick functions of one set of kernels, called through their entry points
     (skipping numba's per-call type dispatch: ~1 µs for the ~35 arguments of a tick).
 
     For the package's own kernels (the tick of every package stack), a tick not yet in the
     disk cache is compiled by ``python -m wbc.compiled``'s worker processes, both solvers' in
-    parallel (:meth:`start_build`), and loaded from the cache when its worker is done; other
-    kernel sets, or a failed worker, compile in this process."""
+    parallel (:meth:`start_build`), and loaded from the cache when its worker is done
+    (:meth:`ready`: meanwhile the solvers solve on the numpy path, the same problem by the
+    backend); other kernel sets, or a failed worker, compile in this process."""
 
     def __init__(self, module, package: bool = False) -> None:
         self.module = module
@@ -183,6 +194,8 @@ class Ticks:
         #: the worker compiling each tick (by tick name), while it runs or until waited for
         self.builders: dict[str, subprocess.Popen] = {}
         self.build_started = 0.0
+        #: the ticks known to run without compiling in this process or waiting (see ready)
+        self._ready: set[str] = set()
 
     def cached(self) -> bool:
         """True if both ticks are in numba's disk cache."""
@@ -200,7 +213,8 @@ class Ticks:
         if announce:
             log.warning(
                 "wbc: compiling the control ticks in %d background processes (numba; once per "
-                "installation, up to a minute; cached in %s)",
+                "installation, about a minute; cached in %s); until they are ready the solvers "
+                "solve on the numpy path (the same QP by the backend, slower ticks)",
                 len(PARTS),
                 Path(self.module.__file__).parent,
             )
@@ -239,10 +253,52 @@ class Ticks:
                 self._log(name),
             )
 
+    def ready(self, name: str) -> bool:
+        """True if tick ``name`` runs at once at its next :meth:`call` (compiled in this
+        process or cached on disk, its worker done), or must compile here anyway (not the
+        package's kernels, inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set: :meth:`call` then
+        waits or compiles). False while a worker builds it (started here if the cache is
+        empty): the caller solves this tick another way. Says once when it becomes ready."""
+        if name in self._ready:
+            return True
+        from .__main__ import WORKER_ENV
+
+        dispatcher = getattr(self, name)
+        building = name in self.builders
+        if (
+            not self.package
+            or os.environ.get(WORKER_ENV)
+            or _waits()
+            or dispatcher.overloads
+            or (not building and _on_disk(dispatcher))
+        ):
+            self._ready.add(name)
+            return True
+        if not building:
+            self.start_build()
+        worker = self.builders.get(name)
+        if worker is not None and worker.poll() is None and not _on_disk(dispatcher):
+            return False  # (its worker may go on with other kernels once the tick is cached)
+        if not _on_disk(dispatcher):
+            self.wait(name)  # (a failure is logged: the tick then compiles at the call)
+        else:
+            log.warning(
+                "wbc: the compiled %s is ready (%.0f s after the build started); the solvers "
+                "switch to it",
+                name.replace("_", " "),
+                time.perf_counter() - self.build_started,
+            )
+        self._ready.add(name)
+        return True
+
     def wait_all(self) -> None:
         """Wait for every worker (so that nothing compiles beside what comes next)."""
         for name in list(self.builders):
             self.wait(name)
+
+    def entry(self, name: str, variant: int):
+        """The entry point of tick ``name`` that :meth:`call` found (after a first call)."""
+        return self._entries[(name, variant)]
 
     def call(self, name: str, variant: int, args: tuple) -> int:
         """Call tick ``name`` with ``args``; ``variant`` tells apart the argument types a
@@ -253,7 +309,8 @@ class Ticks:
         dispatcher = getattr(self, name)
         if not dispatcher.overloads and not _on_disk(dispatcher):
             self.start_build()
-        self.wait(name)
+        if not _on_disk(dispatcher):  # (else cached: its worker may go on with other kernels)
+            self.wait(name)
         if not dispatcher.overloads and not _on_disk(dispatcher):
             log.warning(
                 "wbc: compiling the control tick (numba; once per installation and set of "

@@ -29,6 +29,8 @@ from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
+#: the solution is not finite (a non-finite target or row): never returned as solved
+NOT_FINITE = 101
 #: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
 PROXIMAL_RIDGE = 1e-8
 #: at most this many subproblem solves of an intermediate level without a ridge (a warm
@@ -127,9 +129,25 @@ def weighted_solve(
             break
         working[:] = False
         state[:] = 0
+    if status == OK and not _finite(dq):
+        status = NOT_FINITE
     if status == OK:
         integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return status
+
+
+@njit(cache=True)
+def _finite(x) -> bool:
+    """True if every entry of x is finite (x·x is, unless one is not or it overflows)."""
+    s = 0.0
+    for i in range(x.shape[0]):
+        s += x[i] * x[i]
+    if math.isfinite(s):
+        return True
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return False
+    return True
 
 
 @njit(cache=True)
@@ -393,7 +411,10 @@ def cascade_solve(
     least-squares level) and the rows above at their bounds plus the slacks they kept
     (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
     inequality rows cost nothing on a level whose solution without them meets them (and which
-    had no working set at the last tick); else :func:`solve_with_inequalities`.
+    had no working set at the last tick); else :func:`solve_with_inequalities`. In a tick
+    without inequality rows, the hard levels at the top are not solved on their own: met, a
+    hard level's optimal set is {J_k Δq = b_k} within the bounds, which the next level takes
+    as its equalities (the same answer, one level solve fewer); they are checked after it.
     """
     joints = q[q.shape[0] - q_min.shape[0] :]
     joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
@@ -406,12 +427,22 @@ def cascade_solve(
         dq[i] = 0.0
     for i in range(g_rows[n_levels]):
         h_eff[i] = h[i]
+    deferred = 0  # the hard levels before this row: met exactly by the next level's solve
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
         g0 = g_rows[k]
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
+        if level_hard[k] and not last and g_rows[n_levels] == 0 and deferred == r0:
+            # a hard level (of a tick without inequality rows; the levels above it deferred
+            # too): its optimal set, when it is met, is {J_k Δq = b_k} within the bounds, so
+            # the next level takes it as equalities instead of a solve of its own (the same
+            # answer; checked after that solve, which fails if the level cannot be met)
+            for i in range(r0, r1):
+                achieved[i] = b[i]
+            deferred = r1
+            continue
         A, a, B, r = J[:r0], achieved[:r0], J[r0:r1], b[r0:r1]
         # with the last tick's working set (a warm start) straight to the inequality rows;
         # else the level without them first (a level of constraints only: Δq so far is one of
@@ -442,6 +473,14 @@ def cascade_solve(
             dq[:] = entry
         if status != OK:
             return status
+        for i in range(deferred):  # the deferred hard levels, met by this solve's equalities
+            s = 0.0
+            for j in range(nv):
+                s += J[i, j] * dq[j]
+            achieved[i] = s
+            if abs(s - b[i]) > hard_tol:
+                return HARD_MISSED
+        deferred = 0
         for i in range(r0, r1):
             s = 0.0
             for j in range(nv):
@@ -456,6 +495,8 @@ def cascade_solve(
                     s += G[i, j] * dq[j]
                 if s > 0.0:
                     h_eff[i] = h[i] + s
+    if not _finite(dq):
+        return NOT_FINITE
     integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return OK
 
@@ -533,6 +574,7 @@ refresh(
         joint_bounds,
         _violated,
         _any,
+        _finite,
         _row,
         weighted_solve,
         _level,

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..balance import add_compensate_argument
+from ..balance import add_compensate_argument, check_compensate_encoders
 from ..exceptions import ServoError, TrajectoryError, WbcError
 from ..model import Robot, load_robot
 from ..recording import Recording
@@ -278,7 +278,8 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
     ref = build(args.trajectory, robot)
     loop = closed_loop(
         bus, robot, StackController(load_stack(args.live, robot)), ref, imu,
-        enabled=args.closed_loop, compensate=args.compensate, config=config,
+        enabled=args.closed_loop, compensate=args.compensate,
+        correct=args.compensate_encoders, config=config,
     )  # fmt: skip
     state = "closed loop" + (f", IMU {imu.name}" if imu else ", encoders only")
     what = f"live {args.live} on {args.trajectory} ({state if args.closed_loop else 'open loop'})"
@@ -295,7 +296,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"warning: {warning}", file=err)
         config = DeployConfig(
             rate=args.rate,
-            read=args.read or args.closed_loop,  # the estimator reads the encoders
+            read=args.read or args.closed_loop or args.compensate_encoders,  # (encoders)
             on_fault=args.on_fault,
             at_end=args.at_end,
             max_speed=args.max_speed,
@@ -319,7 +320,9 @@ def run(args: argparse.Namespace) -> int:
             raise ServoError(
                 f"--compensate GAIN must be a finite number >= 0, not {args.compensate}"
             )
+        check_compensate_encoders(args)
         loop = imu = None
+        holder: list[Deployment] = []  # the deployment, for the encoder correction
         if args.closed_loop and args.live is None:
             raise ServoError("--closed-loop runs a controller live: give --live STACK")
         if (args.imu or args.encoders_only) and not args.closed_loop:
@@ -343,7 +346,8 @@ def run(args: argparse.Namespace) -> int:
             if args.compensate:
                 from ..balance.compliance import compensated
 
-                source = compensated(source, recording, robot, args.compensate)
+                source = compensated(source, recording, robot, args.compensate,
+                                     args.compensate_encoders, lambda: holder[0])  # fmt: skip
         if loop is None:
             if args.dry_run:
                 bus = _dry_bus(bus, robot)
@@ -354,7 +358,8 @@ def run(args: argparse.Namespace) -> int:
             f"{bus.name}{' ' + args.port if args.port and not args.dry_run else ''}"
         )
         if loop is None:
-            result = deploy(bus, source, robot, config)
+            holder.append(Deployment(bus, source, robot, config))
+            result = holder[0].run()
         else:
             try:
                 result = loop.deployment.run()

@@ -140,7 +140,7 @@ def play(
     on_tick: Callable[[Simulation], None] | None = None,
     limit_tol: float = 1e-3,
     compensate: float = 0.0,
-    ki: float = 0.0,
+    correct: bool = False,
     gyro: float = 0.0,
     imu_noise: float = 0.0,
 ) -> PlayResult:
@@ -152,10 +152,11 @@ def play(
     ``limit_tol`` (rad): targets further beyond a joint limit are refused, as ``wbc deploy
     --limit-tol`` (``inf``: every target is clamped to the limits by the deployment instead).
     ``compensate`` > 0: goals carry that gain × the servo compliance feed-forward
-    (:func:`wbc.balance.compliance.compensated`, nominal servo settings), with an integral
-    gain ``ki`` on the present positions. ``gyro`` > 0: closed loop, the torso gyro's feedback
-    on the leg goals (:class:`wbc.balance.feedback.GyroFeedback`, OP3 gains × ``gyro``; gyro
-    noise ``imu_noise`` rad/s).
+    (:func:`wbc.balance.compliance.compensated`, nominal servo settings); ``correct``: rescaled
+    per joint from the servos' present positions
+    (:class:`~wbc.balance.compliance.EncoderCorrection`). ``gyro`` > 0: closed loop, the torso
+    gyro's feedback on the leg goals (:class:`wbc.balance.feedback.GyroFeedback`, OP3 gains ×
+    ``gyro``; gyro noise ``imu_noise`` rad/s).
     """
     sim = Simulation(robot, model_params, servo_params)
     sim.reset(recording.q[0])
@@ -183,7 +184,7 @@ def play(
     if compensate > 0:
         from ..balance.compliance import compensated
 
-        source = compensated(source, recording, robot, compensate, ki, lambda: deployment[0])
+        source = compensated(source, recording, robot, compensate, correct, lambda: deployment[0])
     if gyro > 0:
         from ..balance.feedback import FeedbackSource, GyroFeedback
         from .bus import SimImu

@@ -161,7 +161,14 @@ class StackSolver(ABC):
         #: active inequality row, an active set that did not settle, an infeasible level)
         self.compiled_ticks = 0
         self.handed_back_ticks = 0
+        #: solves done on the numpy path while the compiled tick was being compiled in the
+        #: background (``compiled=None`` only: True waits for it; see
+        #: :meth:`wbc.compiled.dispatch.Ticks.ready`)
+        self.interim_ticks = 0
         self._layouts: dict = {}
+        #: the work arrays that the compiled plans of the layouts share
+        #: (:class:`wbc.compiled.plan.Scratch`; None until a plan is built)
+        self._plan_scratch = None
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
@@ -201,7 +208,8 @@ class StackSolver(ABC):
         except WbcError:
             self._check_task_errors()
             raise
-        if not math.isfinite(solution.dq.dot(solution.dq)):  # nothing non-finite leaves
+        # nothing non-finite leaves (a compiled tick's solution, integrated: checked by it)
+        if solution.q_next is None and not math.isfinite(solution.dq.dot(solution.dq)):
             self._check_task_errors()
             raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
         self.last = solution
@@ -365,22 +373,19 @@ class StackSolver(ABC):
         """Pay the one-off costs of a first solve now (building the layout, loading the
         compiled kernels from numba's cache: milliseconds), e.g. before a control loop starts.
         Solves once at q with the current targets; counts no tick."""
-        ticks = self.compiled_ticks, self.handed_back_ticks
+        ticks = self.compiled_ticks, self.handed_back_ticks, self.interim_ticks
         try:
             self.solve(q, dt)
         except WbcError:
             pass  # targets not set yet may be infeasible: the layout is built all the same
-        self.compiled_ticks, self.handed_back_ticks = ticks
+        self.compiled_ticks, self.handed_back_ticks, self.interim_ticks = ticks
 
     def forget_warm_starts(self) -> None:
         """Start the compiled level solvers' active sets afresh (as after building a layout)."""
         for layout in self._layouts.values():
             plan = getattr(layout, "fast", None)
-            for name in ("state", "states"):
-                if plan is not None and hasattr(plan, name):
-                    getattr(plan, name)[...] = 0
             if plan is not None:
-                plan.inequalities.working[...] = False
+                plan.forget_warm_start()
 
     def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
         """One control tick: q ⊕ Δq with the joints inside their limits.
@@ -648,19 +653,29 @@ class StackSolver(ABC):
 
     # ------------------------------------------------------------------ layouts
     def _layout_key(self) -> tuple:
-        """What a solver's preallocated layout depends on: the active tasks (with their gains,
-        masks, weights and frames) and constraints, level by level. Switching between support
-        phases alternates between a few layouts, which are kept (:meth:`_cached_layout`)."""
-        key = [self.stack.version]  # (list comprehensions: a support switch computes it)
-        for lv in self.stack.levels:
-            tasks = tuple([(id(t), t.params_version, t.frame_ids()) for t in lv.active_tasks()])
-            constraints = tuple([id(c) for c in lv.active_constraints()])
-            key.append((lv.priority, lv.hard, tasks, constraints))
-        return tuple(key)
+        """What a solver's preallocated layout depends on: the stack's structure
+        (:attr:`TaskStack.version`: its levels, tasks and constraints) and each task's activity,
+        gain/mask/weight (``params_version``) and frames, each constraint's activity. Switching
+        between support phases alternates between a few layouts, which are kept
+        (:meth:`_cached_layout`); a switch computes this key (flat lists: a few µs)."""
+        tasks, constraints = self.stack.members()
+        return (
+            self.stack.version,
+            tuple([t.active and (t.params_version, t.frame_ids()) for t in tasks]),
+            tuple([c.active for c in constraints]),
+        )
 
     def _cached_layout(self, key: tuple):
-        """The layout kept for ``key`` (None if none)."""
-        return self._layouts.get(key)
+        """The layout kept for ``key`` (None if none). A kept layout entered again starts its
+        active sets afresh (:meth:`wbc.compiled.plan._Plan.forget_warm_start`): those of its
+        last visit (a support phase ago, at another configuration) are a worse start than
+        none (the hierarchy's first tick of a phase took twice as long from them;
+        benchmarks/qp_tick.md)."""
+        layout = self._layouts.get(key)
+        plan = getattr(layout, "fast", None)
+        if plan is not None and plan is not self.fast:
+            plan.forget_warm_start(self.fast)
+        return layout
 
     def _keep_layout(self, key: tuple, layout) -> None:
         if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh
@@ -668,6 +683,15 @@ class StackSolver(ABC):
         self._layouts[key] = layout
 
     # ------------------------------------------------------------------ compiled path
+    @property
+    def plan_scratch(self):
+        """The work arrays that the compiled plans of this solver's layouts share."""
+        if self._plan_scratch is None:
+            from ..compiled.plan import Scratch
+
+            self._plan_scratch = Scratch()
+        return self._plan_scratch
+
     def compiled_reason(self) -> str:
         """Why the compiled hot path cannot serve this stack ("" if it can)."""
         from ..compiled.plan import compiled, numba_available

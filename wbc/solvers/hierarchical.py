@@ -74,8 +74,8 @@ class HierarchicalQP(StackSolver):
         self._key = None
         self._problems: list[LevelProblem] = []
         self._solutions: list[LevelSolution] = []
-        #: the compiled solution whose problems/solutions were built (on demand)
-        self._built_for: Solution | None = None
+        #: True when the last compiled solve's problems/solutions were built (on demand)
+        self._built = False
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
@@ -131,11 +131,11 @@ class HierarchicalQP(StackSolver):
         """Each level's rows and residuals of a compiled solve (only when someone asks for
         them), with the rows copied (the plan's arrays are refilled at the next tick)."""
         last = self.last
-        if last is None or last.q_next is None or self._built_for is last:
+        if last is None or last.q_next is None or self._built:
             return
-        self._built_for = last
+        self._built = True
         dq = last.dq
-        problems, _, _ = self._assemble(self.kin, None, self._inequalities)
+        problems, _, _ = self._assemble(self.kin, None, self._inequalities, self.fast)
         self._problems = [
             LevelProblem(
                 p.priority,
@@ -167,10 +167,10 @@ class HierarchicalQP(StackSolver):
         nv = self.robot.nv
         return [stack_constraints(cons, kin, nv) for cons in self._constraints]
 
-    def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None):
-        """The QP value: each level's rows (J, b weighted by √w: the plan's arrays, which the
-        compiled tick fills, or the numpy blocks) and inequality rows, and the box bounds."""
-        fast = self.fast
+    def _assemble(self, kin: Kinematics, dt: float | None, inequalities: list | None, fast):
+        """The QP value: each level's rows (J, b weighted by √w: the arrays of the plan
+        ``fast``, which the compiled tick fills, or with None the numpy blocks) and inequality
+        rows, and the box bounds."""
         problems = []
         for k, (lv, block) in enumerate(zip(self._levels, self._blocks, strict=True)):
             G, h, cslices = self._no_rows if inequalities is None else inequalities[k]
@@ -195,16 +195,22 @@ class HierarchicalQP(StackSolver):
             self._plan()
         self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
+        interim = fast is not None and self.compiled is None and not fast.ready()
+        if interim:  # compiling in the background: meanwhile the numpy path and the backend
+            fast = None  # cascade (the compiled level algorithm is being built); compiled=True
+            # waits for the compiled tick
+            self.interim_ticks += 1
         if fast is not None:
             if fast.solve(kin, dt, inequalities) == 0:  # fills the plan's rows and bounds
                 self.compiled_ticks += 1
                 self.relaxed = False
                 self.diagnosis = ""
-                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
+                self._built = False
+                return fast.solution
             self.handed_back_ticks += 1
-        problems, lower, upper = self._assemble(kin, dt, inequalities)
+        problems, lower, upper = self._assemble(kin, dt, inequalities, fast)
         self._problems = problems
-        if fast is None and not self.stack.extra_limits:
+        if fast is None and not interim and not self.stack.extra_limits:
             dq = self._level_solver(problems, kin, dt, lower, upper)
             if dq is not None:
                 return Solution(dq, lower, upper)

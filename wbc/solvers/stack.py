@@ -155,6 +155,14 @@ class TaskStack:
                 return t
         raise TaskError(f"no task named {name!r}; tasks: {[t.name for t in self.tasks()]}")
 
+    def members(self) -> tuple[list[Task], list[Constraint]]:
+        """Every task and every constraint, active or not, in priority order (kept until
+        :attr:`version` changes: the solvers read them at each support switch)."""
+        cached = getattr(self, "_members", None)
+        if cached is None or cached[0] != self._version:
+            cached = self._members = (self._version, list(self.tasks()), list(self.constraints()))
+        return cached[1], cached[2]
+
     def constraints(self) -> Iterator[Constraint]:
         for p in sorted(self._levels):
             yield from self._levels[p].constraints

@@ -114,6 +114,11 @@ class WeightedQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
+        if fast is not None and self.compiled is None and not fast.ready():
+            # compiling in the background: meanwhile the numpy path (the same QP, by the
+            # backend); compiled=True waits for the compiled tick
+            self.interim_ticks += 1
+            return self._solve_value(kin, self._assemble(kin, dt, None))
         if fast is not None:
             # the compiled tick: the plan's rows and bounds, the inequality rows (an active
             # set on them in the compiled least squares), the integration
@@ -123,23 +128,23 @@ class WeightedQP(StackSolver):
             if fast.solve(kin, dt, rows) == 0:
                 self.compiled_ticks += 1
                 self.relaxed = False
-                return Solution(fast.dq, fast.lower, fast.upper, fast.q_next)
+                return fast.solution
             self.handed_back_ticks += 1  # the backend, on the same arrays
             G, h, _ = rows[0] if rows else self._no_rows
             value = WeightedValue(
                 fast.soft.J, fast.soft.b, fast.hard.J, fast.hard.b, G, h, fast.lower, fast.upper
             )
             return self._solve_value(kin, value)
-        return self._solve_value(kin, self._assemble(kin, dt))
+        return self._solve_value(kin, self._assemble(kin, dt, fast))
 
-    def _assemble(self, kin: Kinematics, dt: float | None) -> WeightedValue:
-        """The QP value: the inequality rows, and on the numpy path every row and the bounds
-        (the compiled tick fills those itself, into its plan)."""
+    def _assemble(self, kin: Kinematics, dt: float | None, fast) -> WeightedValue:
+        """The QP value: the inequality rows, and on the numpy path (``fast`` None) every row
+        and the bounds (the compiled tick fills those itself, into its plan)."""
         if self.constraints:
             G, h, _ = stack_constraints(self.constraints, kin, self.robot.nv)
         else:
             G, h, _ = self._no_rows
-        if self.fast is not None:
+        if fast is not None:
             return WeightedValue(None, None, None, None, G, h, None, None)
         soft, hard = self.soft, self.hard
         soft.fill_weighted(kin)

@@ -49,7 +49,7 @@ class ComTask(Task):
 
     def set_target(self, target: Sequence[float] | np.ndarray) -> None:
         """Set the CoM target (world, m), copied in place."""
-        self.target[:] = check_vector(self, target, 3)
+        check_vector(self, target, 3, out=self.target)
 
     def set_target_from(self, kin: Kinematics) -> None:
         """Target = the current CoM."""

@@ -49,7 +49,7 @@ class FrameOrientationTask(FrameTask):
             self.set_target(target)
 
     def set_target(self, rotation: np.ndarray) -> None:
-        self.target[:] = check_rotation(self, rotation)
+        check_rotation(self, rotation, out=self.target)
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.rotation(self.frame_id)

@@ -49,8 +49,10 @@ class FramePoseTask(FrameTask):
         mask: Sequence[bool] | None = None,
     ) -> None:
         super().__init__(robot, frame, name, gain, weight, mask)
-        self.target_position = np.zeros(3)
-        self.target_rotation = np.eye(3)
+        packed = np.zeros(12)  # (both in one array: the compiled tick copies one source)
+        self.target_position = packed[:3]
+        self.target_rotation = packed[3:].reshape(3, 3)
+        self.target_rotation[:] = np.eye(3)
         if target is not None:
             self.set_target(target)
 
@@ -61,10 +63,10 @@ class FramePoseTask(FrameTask):
         self.set_rotation_target(target.rotation)
 
     def set_position_target(self, position: Sequence[float]) -> None:
-        self.target_position[:] = check_vector(self, position, 3, "target position")
+        check_vector(self, position, 3, "target position", out=self.target_position)
 
     def set_rotation_target(self, rotation: np.ndarray) -> None:
-        self.target_rotation[:] = check_rotation(self, rotation)
+        check_rotation(self, rotation, out=self.target_rotation)
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target_position[:] = kin.translation(self.frame_id)

@@ -48,7 +48,7 @@ class FramePositionTask(FrameTask):
             self.set_target(target)
 
     def set_target(self, target: Sequence[float] | np.ndarray) -> None:
-        self.target[:] = check_vector(self, target, 3)
+        check_vector(self, target, 3, out=self.target)
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.translation(self.frame_id)

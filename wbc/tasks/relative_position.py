@@ -86,7 +86,7 @@ class RelativeFramePositionTask(Task):
 
     def set_target(self, target: Sequence[float]) -> None:
         """x* (m, in the reference frame's axes), copied in place."""
-        self.target[:] = check_vector(self, target, 3)
+        check_vector(self, target, 3, out=self.target)
 
     def set_target_from(self, kin: Kinematics) -> None:
         """Target = the current relative position."""

@@ -22,7 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..compiled.checks import entry as rotation_defect_entry
+from ..compiled.checks import copy_finite, copy_rotation
+from ..compiled.checks import entry as check_entry
 from ..exceptions import TaskError
 from ..model import Kinematics
 
@@ -265,8 +266,12 @@ class Task:
         return f"{type(self).__name__}({self.name!r}, rows={self.rows}, gain={self.gain})"
 
 
-def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarray:
-    """Validate a finite vector of a given size for a task (raises :class:`TaskError`)."""
+def check_vector(
+    task: Task, value, size: int, what: str = "target", out: np.ndarray | None = None
+) -> np.ndarray:
+    """Validate a finite vector of a given size for a task (raises :class:`TaskError`);
+    ``out``: the task's array to copy it into (in the same compiled call as the check),
+    returned."""
     try:
         v = np.asarray(value, dtype=float)
     except (TypeError, ValueError):  # a string, None, a ragged list...
@@ -275,27 +280,39 @@ def check_vector(task: Task, value, size: int, what: str = "target") -> np.ndarr
         ) from None
     if v.shape != (size,):
         raise TaskError(f"task {task.name!r}: {what} must have shape ({size},), got {v.shape}")
-    if not all(map(math.isfinite, v.tolist())):  # 4x np.isfinite(v).all() on short vectors
-        raise TaskError(f"task {task.name!r}: {what} has non-finite values: {v}")
-    return v
+    if out is not None:
+        if _copy_finite(v, out):
+            return out
+    elif all(map(math.isfinite, v.tolist())):  # 4x np.isfinite(v).all() on short vectors
+        return v
+    raise TaskError(f"task {task.name!r}: {what} has non-finite values: {v}")
 
 
-def check_rotation(task: Task, value, what: str = "target rotation") -> np.ndarray:
-    """Validate a 3x3 rotation matrix (finite, orthonormal columns to 1e-6, det +1)."""
+def check_rotation(
+    task: Task, value, what: str = "target rotation", out: np.ndarray | None = None
+) -> np.ndarray:
+    """Validate a 3x3 rotation matrix (finite, orthonormal columns to 1e-6, det +1);
+    ``out``: the task's array to copy it into (in the same compiled call), returned."""
     try:
         R = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise TaskError(f"task {task.name!r}: {what} must be a 3x3 matrix, got {value!r}") from None
     if R.shape != (3, 3):
         raise TaskError(f"task {task.name!r}: {what} must be a 3x3 matrix, got {R.shape}")
-    defect = _rotation_defect(R)
-    if defect > 1e-6:
+    defect = _rotation_defect(R) if out is None else _copy_rotation(R, out, ROTATION_TOL)
+    if defect > ROTATION_TOL:
         if not np.isfinite(R).all():
             raise TaskError(f"task {task.name!r}: {what} has non-finite values")
         raise TaskError(f"task {task.name!r}: {what} is not a rotation matrix")
-    return R
+    return R if out is None else out
 
 
+#: largest |RᵀR − I| of a target rotation
+ROTATION_TOL = 1e-6
 #: max |RᵀR − I| (+inf if not finite or det R < 0), compiled: the check runs on every target
 #: update of the hot path (numpy's allclose/det would cost tens of µs)
-_rotation_defect = rotation_defect_entry()
+_rotation_defect = check_entry()
+#: the same check, copying R into the task's array if it passes; a vector's finiteness check
+#: and copy
+_copy_rotation = check_entry(copy_rotation)
+_copy_finite = check_entry(copy_finite)

@@ -72,7 +72,7 @@ class SwingFootOrientationTask(FrameTask):
 
     def set_target(self, rotation: np.ndarray) -> None:
         """Target axes k = R*[:, 2], i = R*[:, 0]."""
-        self.target[:] = check_rotation(self, rotation)
+        check_rotation(self, rotation, out=self.target)
 
     def set_target_from(self, kin: Kinematics) -> None:
         self.target[:] = kin.rotation(self.frame_id)
