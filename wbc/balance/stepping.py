@@ -16,11 +16,14 @@ offset to the new supports. The shift is clipped to the landings the robot can m
 (:meth:`~wbc.walking.legs.LegGeometry.check_stance`) and both hip rolls within their limits
 (:meth:`~wbc.walking.legs.LegGeometry.leg_rolls`). A re-plan rebuilds the rest of the walk
 with wbc.walking's own generators (:func:`~wbc.walking.schedule.sole_tracks`,
-:func:`~wbc.walking.schedule.zmp_knots` and the reference's preview controller,
-:class:`~wbc.walking.preview.PreviewController`), started from the current CoM target with
-the velocity that makes the reference's DCM equal the measured one; the swing already under
-way is bent smoothly toward its new landing (no jump in any target). Every controller family
-benefits: they all track the re-planned targets.
+:func:`~wbc.walking.schedule.zmp_knots` and the LIPM generator
+:func:`~wbc.walking.lipm.lipm_com_for_zmp`: the CoM from the current CoM target whose ZMP
+follows the new path exactly and whose DCM comes to rest over the final feet — with the
+footsteps moved by ``δ`` its DCM now is the measured one); the swing already under way is
+bent smoothly toward its new landing (no jump in any position target). Every controller
+family benefits: they all track the re-planned targets. (The preview controller, the walks'
+own generator, is not used to re-plan: started off its plan it swings the ZMP far outside
+the soles to catch up, 0.4 m on ``walk10`` for a 3 cm DCM error.)
 
 What no step can do: a push *away from the swing foot* (the physics benchmark's lateral push)
 sends the DCM toward the stance sole's outer edge; a step of the swing foot cannot land beyond
@@ -42,7 +45,7 @@ from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..walking.footsteps import Footstep, FootstepPlan
 from ..walking.legs import LegGeometry
-from ..walking.preview import PreviewController, PreviewParams
+from ..walking.lipm import lipm_com_for_zmp
 from ..walking.reference import WalkingReference
 from ..walking.schedule import (
     GaitTiming,
@@ -60,7 +63,7 @@ from ..walking.spline import min_jerk, smoothstep
 class SteppingParams:
     """When and how far the footsteps move (module docstring)."""
 
-    threshold: float = 0.005  # m: |δ| that triggers a re-plan
+    threshold: float = 0.005  # m: the smallest footstep shift worth a re-plan
     band_x: float = 0.025  # m: DCM error (forward, heading frame) a walk shows unpushed
     band_y: float = 0.012  # m: ... sideways
     settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
@@ -177,7 +180,7 @@ def bend_rate(ph: Phase, i: int, dt: float, swing: SwingParams) -> float:
 
 # ---------------------------------------------------------------------- the re-planner
 class StepAdjuster:
-    """Re-plans the footsteps of a dynamic walk (:func:`wbc.walking.gait.walk`, preview
+    """Re-plans the footsteps of a dynamic walk (:func:`wbc.walking.gait.walk`, any
     generator) from the measured DCM (module docstring). ``enabled=False``: never re-plans.
 
     :meth:`update` is called by the :class:`~wbc.walking.loop.Session` once per tick with
@@ -196,10 +199,10 @@ class StepAdjuster:
         self.params = (params or SteppingParams()).check()
         self.enabled = enabled
         meta = ref.meta
-        if meta.get("generator") != "preview" or "timing" not in meta:
+        if ref.gait != "dynamic" or "timing" not in meta or "generator" not in meta:
             raise WbcError(
-                f"stepping re-plans dynamic walks made by wbc.walking.gait.walk with the preview "
-                f"generator; reference {ref.name!r} is not one"
+                f"stepping re-plans dynamic walks made by wbc.walking.gait.walk; reference "
+                f"{ref.name!r} is not one"
             )
         self.timing = GaitTiming(**meta["timing"])
         self.swing = SwingParams(**meta.get("swing", {}))
@@ -210,9 +213,7 @@ class StepAdjuster:
             raise WbcError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
         self.omega = math.sqrt(GRAVITY / ref.com_height)
-        self.preview = PreviewController(
-            ref.dt, ref.com_height, PreviewParams(**meta.get("preview", {}))
-        )
+        self.tc = 1.0 / self.omega
         self.phase_of = np.zeros(ref.n, dtype=int)
         for j, ph in enumerate(self.phases):
             self.phase_of[ph.i0 : ph.i1] = j
@@ -224,12 +225,10 @@ class StepAdjuster:
         self.time = 0.0
 
     def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> tuple[Phase, np.ndarray]:
-        """The current single-support phase and the predicted DCM error at its touch-down:
-        ``δ = e^{ω (t_land − t)} · dz(ξ_meas − ξ_ref)``, the LIPM growth (the CoP at the same
-        place for both) of the DCM error beyond the dead band ``dz`` (``band_x``, ``band_y``
-        in the stance sole's heading frame: what an unpushed walk shows on the body)."""
+        """The current phase and the DCM error beyond the dead band, ``dz(ξ_meas − ξ_ref)``
+        (``band_x``, ``band_y`` in the stance sole's heading frame: what an unpushed walk
+        shows on the body)."""
         ph = self.phases[self.phase_of[i]]
-        remaining = (ph.i1 - i) * ref.dt
         e = np.asarray(dcm[:2], float) - (ref.com[i, :2] + ref.com_vel[i, :2] / self.omega)
         side = ref.stance_side(i) or "left"
         yaw = float(ref.sole(side)[1][i])
@@ -238,7 +237,23 @@ class StepAdjuster:
         band = np.array([self.params.band_x, self.params.band_y])
         local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
         e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
-        return ph, e * math.exp(self.omega * remaining)
+        return ph, e
+
+    def sensitivity(self, ref: WalkingReference, plan: FootstepPlan, k: int, i: int) -> float:
+        """``∂ξ_ref(t_i) / ∂δ``: how far the re-planned reference's DCM at tick ``i`` moves per
+        metre of shift of the footsteps ``k, …`` (the LIPM of :meth:`regenerate`; about
+        ``e^{−ω (t_land − t)}`` times the share of the ZMP path that moves)."""
+        t = ref.t - ref.t[0]
+        xi = []
+        for d in (0.0, 1e-2):
+            kt, kp = zmp_knots(shifted_plan(plan, k, np.array([d, 0.0])), self.phases,
+                               self.base.com[0, :2], self.zmp_offset)  # fmt: skip
+            later = kt > t[i] + 1e-12
+            T = np.concatenate([[t[i]], kt[later]])
+            P = np.vstack([sample_knots(kt, kp, t[i : i + 1]), kp[later]])
+            pos, vel, _ = lipm_com_for_zmp(T, P, ref.com[i, :2], self.tc, t[i : i + 1])
+            xi.append(pos[0, 0] + vel[0, 0] / self.omega)
+        return max((xi[1] - xi[0]) / 1e-2, 1e-3)
 
     def update(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
         """A re-planned reference if the predicted DCM error at touch-down exceeds the
@@ -257,9 +272,12 @@ class StepAdjuster:
             or (i - ph.i0) * ref.dt < p.settle - 1e-9
         ):
             return None
-        if math.hypot(err[0], err[1]) < p.threshold:
+        if not err.any():
             return None
         k = int(ph.step)
+        err = err / self.sensitivity(ref, self.plan, k, i)  # the shift that absorbs it
+        if math.hypot(err[0], err[1]) < p.threshold:
+            return None
         total = (self.shift if self.first == k else np.zeros(2)) + p.gain * err
         n = math.hypot(total[0], total[1])
         if n > p.max_shift:
@@ -279,22 +297,22 @@ class StepAdjuster:
         if np.max(np.abs(shift - done)) < 1e-3:
             return None
         plan = shifted_plan(plan0, k, shift)
-        new = self.regenerate(ref, plan, i, ph, dcm)
+        new = self.regenerate(ref, plan, i, ph)
         self.plan, self.shift, self.first, self.last_tick = plan, shift, k, i
         self.events.append((float(ref.t[i]), k, err.copy(), shift.copy()))
         return new
 
     def regenerate(
-        self, ref: WalkingReference, plan: FootstepPlan, i: int, ph: Phase, dcm: np.ndarray
+        self, ref: WalkingReference, plan: FootstepPlan, i: int, ph: Phase
     ) -> WalkingReference:
         """The walk re-planned along ``plan`` from tick ``i`` on (ticks before ``i``
         unchanged): soles from :func:`sole_tracks` (the swing under way bent toward its new
-        landing), the ZMP path from :func:`zmp_knots`, the CoM by the preview controller
-        from the current CoM target with the measured DCM."""
+        landing), the ZMP path from :func:`zmp_knots`, the CoM by the LIPM generator
+        :func:`lipm_com_for_zmp` from the current CoM target."""
         dt = ref.dt
         soles = sole_tracks(plan, self.phases, dt, self.swing)
         kt, kp = zmp_knots(plan, self.phases, self.base.com[0, :2], self.zmp_offset)
-        zref = sample_knots(kt, kp, ref.t - ref.t[0])
+        zref = sample_knots(kt, kp, ref.t - ref.t[0])  # the new ZMP path
         fields = soles.reference_fields()
         for name in ("l_sole", "l_sole_yaw", "r_sole", "r_sole_yaw", "l_sole_vel", "r_sole_vel"):
             fields[name] = np.concatenate([getattr(ref, name)[:i], fields[name][i:]])
@@ -309,9 +327,11 @@ class StepAdjuster:
             vel = getattr(ref, f"{key}_vel")[i : ph.i1] + d[None, :] * dg[:, None]
             fields[key][i : ph.i1] = pos
             fields[f"{key}_vel"][i : ph.i1] = vel
-        x0 = np.stack([ref.com[i, :2], ref.com_vel[i, :2], ref.com_acc[i, :2]])
-        x0[1] = self.omega * (np.asarray(dcm[:2]) - ref.com[i, :2])  # reference DCM = measured
-        pos, vel, acc, _ = self.preview.run(zref[i:], x0)
+        t = ref.t - ref.t[0]
+        later = kt > t[i] + 1e-12
+        T = np.concatenate([[t[i]], kt[later]])
+        P = np.vstack([zref[i], kp[later]])
+        pos, vel, acc = lipm_com_for_zmp(T, P, ref.com[i, :2], self.tc, t[i:])
         com, com_vel, com_acc = ref.com.copy(), ref.com_vel.copy(), ref.com_acc.copy()
         com[i:, :2], com_vel[i:, :2], com_acc[i:, :2] = pos, vel, acc
         return WalkingReference(
