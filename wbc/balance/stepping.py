@@ -40,7 +40,6 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import TrajectoryError, WbcError
-from ..imu import GRAVITY
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..walking.footsteps import Footstep, FootstepPlan
@@ -212,7 +211,7 @@ class StepAdjuster:
         if self.phases[-1].i1 != ref.n:
             raise WbcError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
-        self.omega = math.sqrt(GRAVITY / ref.com_height)
+        self.omega = math.sqrt(ref.g / ref.com_height)
         self.tc = 1.0 / self.omega
         self.phase_of = np.zeros(ref.n, dtype=int)
         for j, ph in enumerate(self.phases):
@@ -380,7 +379,7 @@ def capture_bounds(
       DCM inside the landed sole's far edge: ``Δξ ≤ f + (f' − f) e^{−ω t} − ξ`` (``f`` the
       stance sole's edge on that side, ``f'`` the landed sole's).
     """
-    omega = math.sqrt(GRAVITY / ref.com_height)
+    omega = math.sqrt(ref.g / ref.com_height)
     a, b, _ = next(p for p in ref.phases() if p[2] != SUPPORT_DOUBLE)
     i = (a + b) // 2
     stance = ref.stance_side(i)
