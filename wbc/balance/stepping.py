@@ -362,6 +362,7 @@ def capture_bounds(
     min_clearance: float = 0.005,
     swing_down: float = 0.05,
     step_time: float | None = None,
+    max_foot_speed: float = SteppingParams.max_foot_speed,
 ) -> dict[str, Any]:
     """LIPM capturability of an impulse at mid first single support of ``ref``: the largest
     DCM offset ``Δξ`` a strategy catches, as an impulse ``m ω Δξ`` (N·s). ``t`` = the swing's
@@ -377,7 +378,9 @@ def capture_bounds(
     * ``forward`` / ``toward`` (the swing foot's side): the swing sole lands at its planned
       place (``*_planned_ns``) or as far as the legs reach (``*_ns``) after ``t``, with the
       DCM inside the landed sole's far edge: ``Δξ ≤ f + (f' − f) e^{−ω t} − ξ`` (``f`` the
-      stance sole's edge on that side, ``f'`` the landed sole's).
+      stance sole's edge on that side, ``f'`` the landed sole's); ``*_in_time_ns``: the
+      landing moved only as far as the swing sole gets in ``t`` with the bend of
+      :class:`StepAdjuster` at ``max_foot_speed`` (m/s) added.
     """
     omega = math.sqrt(ref.g / ref.com_height)
     a, b, _ = next(p for p in ref.phases() if p[2] != SUPPORT_DOUBLE)
@@ -398,6 +401,9 @@ def capture_bounds(
         return float(np.linalg.norm(s))
 
     out: dict[str, Any] = {"omega": omega, "mass": mass, "t_swing_left_s": t}
+    phase = next(p for p in build_phases(plan, GaitTiming(**ref.meta["timing"])) if p.i0 == a)
+    in_time = max_foot_speed / bend_rate(phase, i, ref.dt, SwingParams(**ref.meta["swing"]))
+    out["in_time_reach_mm"] = 1e3 * in_time
     # away: one step (the DCM within the stance sole's outer edge)
     e = u * st[1] + half_w
     xi_u = u * xi[1]
@@ -423,6 +429,9 @@ def capture_bounds(
     f = st[0] + half_l
     out["forward_planned_ns"] = to_ns * (f + (step.x + half_l - f) * decay - xi[0])
     out["forward_ns"] = to_ns * (f + (step.x + fwd + half_l - f) * decay - xi[0])
+    out["forward_in_time_ns"] = to_ns * (
+        f + (step.x + min(fwd, in_time) + half_l - f) * decay - xi[0]
+    )
     out["forward_reach_mm"] = 1e3 * fwd
     # toward the swing foot: the swing sole lands further out
     tow = reach(plan, (0.0, -u))
@@ -430,5 +439,6 @@ def capture_bounds(
     land = -u * step.y + half_w
     out["toward_planned_ns"] = to_ns * (f + (land - f) * decay + u * xi[1])
     out["toward_ns"] = to_ns * (f + (land + tow - f) * decay + u * xi[1])
+    out["toward_in_time_ns"] = to_ns * (f + (land + min(tow, in_time) - f) * decay + u * xi[1])
     out["toward_reach_mm"] = 1e3 * tow
     return out
