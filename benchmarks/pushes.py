@@ -7,6 +7,7 @@ placement from the measured DCM (:mod:`wbc.balance.stepping`); plus the nominal 
 figures and the LIPM capturability bounds (:func:`wbc.balance.stepping.capture_bounds`).
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
+    python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
 """
 
 from __future__ import annotations
@@ -31,7 +32,18 @@ def main() -> None:
     ap.add_argument("--directions", nargs="+", default=["lateral", "forward"])
     ap.add_argument("--trajectory", default="walk10")
     ap.add_argument("--json", default=None)
+    ap.add_argument(
+        "--safety",
+        type=float,
+        default=None,
+        metavar="NS",
+        help="instead: one lateral push of NS N·s per closed loop; the goals' excursions "
+        "beyond the joint limits, clamped and rate-limited ticks",
+    )
     args = ap.parse_args()
+    if args.safety is not None:
+        safety(args)
+        return
     robot = load_robot("bioloid")
     ref = traj.build(args.trajectory, robot)
     legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
@@ -63,6 +75,46 @@ def main() -> None:
             if args.json:
                 with open(args.json, "w") as f:
                     json.dump(out, f, indent=1)
+
+
+def safety(args) -> None:
+    """The deployment's view of the goals of one pushed run per closed loop."""
+    import numpy as np
+
+    from wbc.bench.physics import (
+        PUSH_DURATION,
+        mid_single_support,
+        physics_record,
+        play_closed_loop,
+        push_direction,
+    )
+
+    robot = load_robot("bioloid")
+    ref = traj.build(args.trajectory, robot)
+    for solver in args.solvers:
+        entry = next(e for e in select([solver], None, "tick")[0] if e.name == solver)
+        rec = plan(solver, args.trajectory, robot)
+        u = push_direction(rec, "lateral")
+        push = (mid_single_support(rec), u * args.safety / PUSH_DURATION, PUSH_DURATION)
+        for loop in ("closed", "step"):
+            step = SteppingParams() if loop == "step" else None
+            spec = ClosedLoopSpec(entry.make, ref, Gains(), True, True, step)
+            result, cl = play_closed_loop(spec, robot, push=push, compensate=0.5)
+            rec_fig = physics_record(rec, result, robot, ref)
+            lim = result.deploy.limits
+            row = {
+                "solver": solver,
+                "loop": loop,
+                "impulse_ns": args.safety,
+                "fell": rec_fig["fell"],
+                "replans": len(cl.stepping.events) if cl.stepping else None,
+                "goal_limit_excess_deg": float(np.degrees(max(cl.source.limit_excess, 0.0))),
+                "clamped_ticks": int(lim.clamped.sum()),
+                "rate_limited_ticks": int(lim.rate_limited.sum()),
+                "rate_limited_max_joint": int(lim.rate_limited.max()),
+                "completed": bool(result.deploy.completed),
+            }
+            print(json.dumps(row), flush=True)
 
 
 if __name__ == "__main__":
