@@ -25,6 +25,8 @@ import tomllib
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
+from wbc.urdf_writer import Link, fmt, link_xml
+
 HERE = Path(__file__).resolve().parent
 MM = 1e-3
 G = 1e-3  # grams -> kg
@@ -59,40 +61,10 @@ ANNEX_A = {
 }
 
 
-def box_inertia(mass: float, size: tuple[float, float, float]) -> tuple[float, float, float]:
-    """Principal inertias of a solid box of the given mass and size (x, y, z)."""
-    x, y, z = size
-    return (
-        mass * (y * y + z * z) / 12.0,
-        mass * (x * x + z * z) / 12.0,
-        mass * (x * x + y * y) / 12.0,
-    )
-
-
-class Link:
-    """One URDF link: mass, CoM, inertia box and visual boxes, all in the link frame."""
-
-    def __init__(
-        self,
-        name: str,
-        mass_g: float,
-        com_mm: tuple[float, float, float],
-        inertia_box_mm: tuple[float, float, float],
-        boxes: list[tuple[tuple[float, float, float], tuple[float, float, float], str]],
-    ) -> None:
-        self.name = name
-        self.mass = mass_g * G
-        self.com = tuple(c * MM for c in com_mm)
-        self.inertia = box_inertia(self.mass, tuple(s * MM for s in inertia_box_mm))
-        # (centre mm, size mm, material)
-        self.boxes = [
-            (tuple(c * MM for c in centre), tuple(s * MM for s in size), material)
-            for centre, size, material in boxes
-        ]
-
-
-def fmt(values) -> str:
-    return " ".join(f"{v:.6g}" if abs(v) > 1e-12 else "0" for v in values)
+def mm_link(name: str, mass_g: float, com_mm, inertia_box_mm, boxes) -> Link:
+    """A link from grams and mm: CoM, the solid box of its inertia, its (centre, size, material)
+    boxes, all in the link frame."""
+    return Link.scaled(name, mass_g * G, com_mm, inertia_box_mm, boxes, MM)
 
 
 def side_links(s: int, p: str) -> list[Link]:
@@ -104,7 +76,7 @@ def side_links(s: int, p: str) -> list[Link]:
     ax = SERVO_BOX
     return [
         # leg -----------------------------------------------------------------------------
-        Link(
+        mm_link(
             f"{p}_hip_bracket",
             15.1,
             (0, 0, -25),
@@ -114,7 +86,7 @@ def side_links(s: int, p: str) -> list[Link]:
         # the roll servo turns about its horn axis, so it reaches half its 32 mm width
         # (16 mm) above the roll/pitch axes: below the yaw bracket (20 mm above) and clear
         # of the torso plate (29 mm above) at any roll (self-collision, README section 3)
-        Link(
+        mm_link(
             f"{p}_hip_block",
             137.0,
             (0, 0, 0),
@@ -124,14 +96,14 @@ def side_links(s: int, p: str) -> list[Link]:
                 ((0, 0, -8), (ax[1] * 1e3, ax[0] * 1e3, 36), "servo"),
             ],
         ),
-        Link(
+        mm_link(
             f"{p}_thigh",
             31.2,
             (-7.25, 0, -37.5),
             (20, 30, 75),
             [((-7.25, 0, -37.5), (22, 32, 60), "frame")],
         ),
-        Link(
+        mm_link(
             f"{p}_shin",
             86.7,
             (-7.0, 0, -22.0),
@@ -141,7 +113,7 @@ def side_links(s: int, p: str) -> list[Link]:
                 ((4.0, 0, -52.0), (22, 32, 30), "frame"),
             ],
         ),
-        Link(
+        mm_link(
             f"{p}_ankle_block",
             137.0,
             (0, 0, 0),
@@ -153,7 +125,7 @@ def side_links(s: int, p: str) -> list[Link]:
         ),
         # foot plate 101 x 61 x 9 mm, centred under the ankle, bottom face 32.2 mm below the
         # ankle axes (bioloid-facts §1.3, MR collision box)
-        Link(
+        mm_link(
             f"{p}_foot",
             37.4,
             (0, 0, -24.0),
@@ -161,14 +133,14 @@ def side_links(s: int, p: str) -> list[Link]:
             [((0, 0, -27.7), (101, 61, 9), "foot"), ((0, 0, -14.0), (24, 34, 18), "frame")],
         ),
         # arm -----------------------------------------------------------------------------
-        Link(
+        mm_link(
             f"{p}_shoulder_bracket",
             11.9,
             (0, 22 * s, -7),
             (20, 44, 20),
             [((0, 22 * s, -7), (20, 44, 14), "frame")],
         ),
-        Link(
+        mm_link(
             f"{p}_upper_arm",
             76.5,
             (0, 30 * s, 0),
@@ -178,7 +150,7 @@ def side_links(s: int, p: str) -> list[Link]:
                 ((0, 58 * s, 0), (22, 20, 26), "frame"),
             ],
         ),
-        Link(
+        mm_link(
             f"{p}_forearm",
             76.7,
             (0, 32 * s, 0),
@@ -196,7 +168,7 @@ def torso_link() -> Link:
     # CoM: RK-URDF torso CoM (-14.1, 0, -19.9) mm, same torso frame origin.
     # Boxes: MR collision boxes (bioloid-facts §1.3): top 90.5x103x63.5 at (-19, 0, -15),
     # bottom 65x99x43 at (-6.25, 0, -64.8), head 54x33x44 at (-12.2, 0, 35).
-    return Link(
+    return mm_link(
         "torso",
         695.4,
         (-14.1, 0, -19.9),
@@ -275,28 +247,6 @@ MATERIALS = {
     "foot": (0.85, 0.45, 0.10, 1.0),
     "hand": (0.75, 0.76, 0.78, 1.0),
 }
-
-
-def link_xml(link: Link) -> str:
-    ixx, iyy, izz = link.inertia
-    out = [f'  <link name="{link.name}">']
-    out.append("    <inertial>")
-    out.append(f'      <origin xyz="{fmt(link.com)}" rpy="0 0 0"/>')
-    out.append(f'      <mass value="{link.mass:.6g}"/>')
-    out.append(
-        f'      <inertia ixx="{ixx:.6g}" ixy="0" ixz="0" iyy="{iyy:.6g}" iyz="0" izz="{izz:.6g}"/>'
-    )
-    out.append("    </inertial>")
-    for centre, size, material in link.boxes:
-        for tag in ("visual", "collision"):
-            out.append(f"    <{tag}>")
-            out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
-            out.append(f'      <geometry><box size="{fmt(size)}"/></geometry>')
-            if tag == "visual":
-                out.append(f'      <material name="{material}"/>')
-            out.append(f"    </{tag}>")
-    out.append("  </link>")
-    return "\n".join(out)
 
 
 AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}

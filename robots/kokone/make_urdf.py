@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from wbc.urdf_writer import Link, fmt, link_xml
+
 HERE = Path(__file__).resolve().parent
 CM = 1e-2
 G = 1e-3  # grams -> kg
@@ -133,24 +135,10 @@ TOTAL_MASS_G = 1200.0  # thesis: "aproximadamente 1.2 kg"
 HEIGHT_CM = 37.0  # thesis: 37 cm
 
 
-class Link:
-    """One URDF link: mass (g), CoM (cm, link frame), a solid box for the inertia, visual boxes."""
-
-    def __init__(self, name, mass_g, com_cm, inertia_box_cm, boxes) -> None:
-        self.name = name
-        self.mass = mass_g * G
-        self.com = tuple(c * CM for c in com_cm)
-        x, y, z = (s * CM for s in inertia_box_cm)
-        m = self.mass
-        self.inertia = (
-            m * (y * y + z * z) / 12,
-            m * (x * x + z * z) / 12,
-            m * (x * x + y * y) / 12,
-        )
-        self.boxes = [
-            (tuple(c * CM for c in centre), tuple(s * CM for s in size), material)
-            for centre, size, material in boxes
-        ]
+def cm_link(name: str, mass_g: float, com_cm, inertia_box_cm, boxes) -> Link:
+    """A link from grams and cm: CoM, the solid box of its inertia, its (centre, size, material)
+    boxes, all in the link frame."""
+    return Link.scaled(name, mass_g * G, com_cm, inertia_box_cm, boxes, CM)
 
 
 def leg_links(p: str) -> list[Link]:
@@ -158,7 +146,7 @@ def leg_links(p: str) -> list[Link]:
     sx, sy, sz = SERVO_BOX_CM
     return [
         # after hip roll (axes 1 and 2 intersect): the yaw servo + holder, ESTIMATE 30 g
-        Link(
+        cm_link(
             f"{p}_hip_roll_link",
             30.0,
             (0, 0, -1.0),
@@ -166,7 +154,7 @@ def leg_links(p: str) -> list[Link]:
             [((0, 0, -1.0), (3, 3, 2.5), "servo")],
         ),
         # after hip yaw: the hip-pitch servo + U piece down to the pitch axis 4.3 cm below, 35 g
-        Link(
+        cm_link(
             f"{p}_hip_yaw_link",
             35.0,
             (0, 0, -3.3),
@@ -174,7 +162,7 @@ def leg_links(p: str) -> list[Link]:
             [((0, 0, -3.3), (sx, sz, sy + 1.0), "servo"), ((0, 0, -1.6), (2.0, 2.6, 0.3), "frame")],
         ),
         # thigh: knee servo + holder + profile (6.1 cm), 40 g
-        Link(
+        cm_link(
             f"{p}_thigh",
             40.0,
             (0, 0, -3.8),
@@ -182,7 +170,7 @@ def leg_links(p: str) -> list[Link]:
             [((0, 0, -3.05), (2.0, 2.8, 6.1), "frame"), ((0, 0, -5.0), (sx, sz, sy), "servo")],
         ),
         # shank: ankle-pitch servo + holder + profile (6.1 cm), 40 g
-        Link(
+        cm_link(
             f"{p}_shank",
             40.0,
             (0, 0, -3.8),
@@ -190,7 +178,7 @@ def leg_links(p: str) -> list[Link]:
             [((0, 0, -3.05), (2.0, 2.8, 6.1), "frame"), ((0, 0, -5.0), (sx, sz, sy), "servo")],
         ),
         # ankle: ankle-roll servo + U piece (3.3 cm), 35 g
-        Link(
+        cm_link(
             f"{p}_ankle",
             35.0,
             (0, 0, -2.3),
@@ -198,7 +186,7 @@ def leg_links(p: str) -> list[Link]:
             [((0, 0, -2.3), (sy, sx, sz), "servo")],
         ),
         # foot: bracket + sole plate (ESTIMATE 7 x 4 cm, 0.3 cm thick), 35 g
-        Link(
+        cm_link(
             f"{p}_foot",
             35.0,
             (0, 0, -1.5),
@@ -225,22 +213,24 @@ HEAD_CENTRE_Z = HEIGHT_CM - HIP_HEIGHT - NECK[2] - HEAD_TILT - HEAD_BOX_CM[2] / 
 def arm_links(p: str, s: int) -> list[Link]:
     sx, sy, sz = SERVO_BOX_CM
     return [
-        Link(
+        cm_link(
             f"{p}_shoulder",
             25.0,
             (0, 1.2 * s, 0),
             (3, 3, 3),
             [((0, 1.2 * s, 0), (sy, sz, sx), "servo")],
         ),
-        Link(
+        cm_link(
             f"{p}_upper_arm",
             25.0,
             (0, 0, -3.0),
             (2.5, 2.5, 6.0),
             [((0, 0, -2.5), (2.0, 2.0, 5.0), "frame")],
         ),
-        Link(f"{p}_elbow_link", 25.0, (0, 0, 0), (3, 3, 3), [((0, 0, 0), (sx, sy, sz), "servo")]),
-        Link(
+        cm_link(
+            f"{p}_elbow_link", 25.0, (0, 0, 0), (3, 3, 3), [((0, 0, 0), (sx, sy, sz), "servo")]
+        ),
+        cm_link(
             f"{p}_forearm",
             17.0,
             (0, 0, -3.0),
@@ -254,7 +244,7 @@ def torso_link(limb_mass_g: float) -> Link:
     """The torso: back + chest plates (E-body), the SSC-32 board on the back, cables, and the
     servos of the hip roll (2), shoulder pitch (2) and head pan (1) joints. Its mass is what
     the estimated limbs leave of the thesis's 1.2 kg."""
-    return Link(
+    return cm_link(
         "torso",
         TOTAL_MASS_G - limb_mass_g,
         (-0.5, 0, 5.0),  # ESTIMATE: the board on the back moves the CoM ~0.5 cm backward
@@ -270,8 +260,8 @@ def torso_link(limb_mass_g: float) -> Link:
 def head_links() -> list[Link]:
     sx, sy, sz = SERVO_BOX_CM
     return [
-        Link("neck", 22.0, (0, 0, 1.0), (3, 3, 3), [((0, 0, 1.0), (sx, sy, sz), "servo")]),
-        Link(
+        cm_link("neck", 22.0, (0, 0, 1.0), (3, 3, 3), [((0, 0, 1.0), (sx, sy, sz), "servo")]),
+        cm_link(
             "head",
             30.0,
             (0, 0, HEAD_CENTRE_Z),
@@ -367,35 +357,9 @@ MATERIALS = {
     "hand": (0.80, 0.81, 0.83, 1.0),
 }
 AXES = {"x": "1 0 0", "y": "0 1 0", "z": "0 0 1"}
+# collision boxes 1 mm inside the visual ones: the feet (5 mm apart) then keep the
+# self-collision margin (5 mm) with 2 mm to spare
 COLLISION_INSET = 0.001  # m, each side
-
-
-def fmt(values) -> str:
-    return " ".join(f"{v:.6g}" if abs(v) > 1e-12 else "0" for v in values)
-
-
-def link_xml(link: Link) -> str:
-    ixx, iyy, izz = link.inertia
-    out = [f'  <link name="{link.name}">', "    <inertial>"]
-    out.append(f'      <origin xyz="{fmt(link.com)}" rpy="0 0 0"/>')
-    out.append(f'      <mass value="{link.mass:.6g}"/>')
-    out.append(
-        f'      <inertia ixx="{ixx:.6g}" ixy="0" ixz="0" iyy="{iyy:.6g}" iyz="0" izz="{izz:.6g}"/>'
-    )
-    out.append("    </inertial>")
-    for centre, size, material in link.boxes:
-        for tag in ("visual", "collision"):
-            # collision boxes 1 mm inside the visual ones: the feet (5 mm apart) then keep the
-            # self-collision margin (5 mm) with 2 mm to spare
-            box = size if tag == "visual" else tuple(v - 2 * COLLISION_INSET for v in size)
-            out.append(f"    <{tag}>")
-            out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
-            out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
-            if tag == "visual":
-                out.append(f'      <material name="{material}"/>')
-            out.append(f"    </{tag}>")
-    out.append("  </link>")
-    return "\n".join(out)
 
 
 def build_urdf() -> str:
@@ -409,7 +373,7 @@ def build_urdf() -> str:
     ]
     for name, rgba in MATERIALS.items():
         out.append(f'  <material name="{name}"><color rgba="{fmt(rgba)}"/></material>')
-    out += [link_xml(link) for link in all_links()]
+    out += [link_xml(link, COLLISION_INSET) for link in all_links()]
     for joint, parent, child, origin, axis, (lo, hi) in all_joints():
         out += [
             f'  <joint name="{joint}" type="revolute">',

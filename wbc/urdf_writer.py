@@ -1,0 +1,93 @@
+"""Write box-model URDF links: what a robot folder's ``make_urdf.py`` generator shares.
+
+A small servo humanoid's model is a tree of links, each a point of mass with a solid-box
+inertia and a few boxes to draw and to collide with. The generators of ``robots/bioloid`` and
+``robots/kokone`` (and a user's own robot) build :class:`Link` values in SI units and write them
+with :func:`link_xml`; the joints stay in each generator, since their conventions differ.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+Vec3 = tuple[float, float, float]
+
+
+def box_inertia(mass: float, size: Vec3) -> Vec3:
+    r"""Principal inertias of a solid box of mass ``m`` and size ``(x, y, z)``.
+
+    :math:`I_{xx} = m (y^2 + z^2) / 12`, and so on by symmetry.
+    """
+    x, y, z = size
+    return (
+        mass * (y * y + z * z) / 12.0,
+        mass * (x * x + z * z) / 12.0,
+        mass * (x * x + y * y) / 12.0,
+    )
+
+
+@dataclass(frozen=True)
+class Link:
+    """One URDF link in SI units: mass (kg), CoM (m, link frame), principal inertias (kg·m²)
+    and its boxes ``(centre m, size m, material name)``."""
+
+    name: str
+    mass: float
+    com: Vec3
+    inertia: Vec3
+    boxes: list[tuple[Vec3, Vec3, str]] = field(default_factory=list)
+
+    @classmethod
+    def scaled(
+        cls,
+        name: str,
+        mass: float,
+        com: Iterable[float],
+        inertia_box: Iterable[float],
+        boxes: Iterable[tuple[Iterable[float], Iterable[float], str]],
+        length_unit: float,
+    ) -> Link:
+        """A link from lengths in ``length_unit`` metres (1e-3 for mm, 1e-2 for cm); its
+        inertia is the solid box ``inertia_box`` of mass ``mass`` (kg)."""
+
+        def m(values: Iterable[float]) -> Vec3:
+            x, y, z = (v * length_unit for v in values)
+            return (x, y, z)
+
+        return cls(
+            name,
+            mass,
+            m(com),
+            box_inertia(mass, m(inertia_box)),
+            [(m(centre), m(size), material) for centre, size, material in boxes],
+        )
+
+
+def fmt(values: Iterable[float]) -> str:
+    """Numbers as URDF writes them: six significant digits, exact zeros for |v| <= 1e-12."""
+    return " ".join(f"{v:.6g}" if abs(v) > 1e-12 else "0" for v in values)
+
+
+def link_xml(link: Link, collision_inset: float = 0.0) -> str:
+    """The ``<link>`` element: inertial, then a visual and a collision box per box; each
+    collision box is ``collision_inset`` metres inside its visual box on every side."""
+    ixx, iyy, izz = link.inertia
+    out = [f'  <link name="{link.name}">', "    <inertial>"]
+    out.append(f'      <origin xyz="{fmt(link.com)}" rpy="0 0 0"/>')
+    out.append(f'      <mass value="{link.mass:.6g}"/>')
+    out.append(
+        f'      <inertia ixx="{ixx:.6g}" ixy="0" ixz="0" iyy="{iyy:.6g}" iyz="0" izz="{izz:.6g}"/>'
+    )
+    out.append("    </inertial>")
+    for centre, size, material in link.boxes:
+        for tag in ("visual", "collision"):
+            box = size if tag == "visual" else tuple(v - 2 * collision_inset for v in size)
+            out.append(f"    <{tag}>")
+            out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
+            out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
+            if tag == "visual":
+                out.append(f'      <material name="{material}"/>')
+            out.append(f"    </{tag}>")
+    out.append("  </link>")
+    return "\n".join(out)
