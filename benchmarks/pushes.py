@@ -8,6 +8,7 @@ figures and the LIPM capturability bounds (:func:`wbc.balance.stepping.capture_b
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
+    python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
 
 from __future__ import annotations
@@ -40,7 +41,17 @@ def main() -> None:
         help="instead: one lateral push of NS N·s per closed loop; the goals' excursions "
         "beyond the joint limits, clamped and rate-limited ticks",
     )
+    ap.add_argument(
+        "--grid",
+        type=float,
+        nargs=3,
+        metavar=("FROM", "TO", "STEP"),
+        help="instead: survive or fall at every lateral impulse of the grid (N·s), per loop",
+    )
     args = ap.parse_args()
+    if args.grid is not None:
+        grid(args)
+        return
     if args.safety is not None:
         safety(args)
         return
@@ -75,6 +86,36 @@ def main() -> None:
             if args.json:
                 with open(args.json, "w") as f:
                     json.dump(out, f, indent=1)
+
+
+def grid(args) -> None:
+    """Up (1) or fallen (0) at each lateral impulse of the grid, per solver and loop: the
+    bisection of ``--push`` assumes one threshold; stepping makes survival non-monotonic."""
+    import numpy as np
+
+    from wbc.bench.physics import PUSH_DURATION, mid_single_support, push_direction
+
+    robot = load_robot("bioloid")
+    ref = traj.build(args.trajectory, robot)
+    lo, hi, step = args.grid
+    impulses = np.round(np.arange(lo, hi + 1e-9, step), 4)
+    for solver in args.solvers:
+        entry = next(e for e in select([solver], None, "tick")[0] if e.name == solver)
+        rec = plan(solver, args.trajectory, robot)
+        u, t = push_direction(rec, "lateral"), mid_single_support(rec)
+        for loop in args.loops:
+            spec = None
+            if loop != "open":
+                stepping = SteppingParams() if loop == "step" else None
+                spec = ClosedLoopSpec(entry.make, ref, Gains(), True, True, stepping)
+            comp = 0.0 if loop == "open" else 0.5
+            up = []
+            for j in impulses:
+                push = (t, u * j / PUSH_DURATION, PUSH_DURATION)
+                up.append(int(not simulate(rec, robot, push=push, compensate=comp,
+                                           closed=spec)["fell"]))  # fmt: skip
+            row = {"solver": solver, "loop": loop, "impulses": impulses.tolist(), "up": up}
+            print(json.dumps(row), flush=True)
 
 
 def safety(args) -> None:
