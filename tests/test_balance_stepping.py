@@ -147,8 +147,9 @@ def test_capture_bounds_of_walk10(robot, walk10, legs):
 def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot, walk10):
     """wqp-daqp on walk10, closed loop (compliance ×0.5), 0.83 N·s sideways away from the
     swing foot at mid first single support: without stepping it falls (it survives 0.797,
-    benchmarks/pushes.md), with stepping it stays up (0.844). Open loop survives 0.914: no
-    step beats the open loop on this push (the capture bound is 0.934, see above)."""
+    benchmarks/pushes.md), with stepping it stays up (0.844). The open loop survives 0.914:
+    stepping does not beat it on this push (the capture bound is 0.934, see above), so the
+    test compares with the closed loop alone."""
     pytest.importorskip("mujoco")
     from wbc.balance.stabilizer import Gains
     from wbc.bench import physics

@@ -29,6 +29,11 @@ What no step can do: a push *away from the swing foot* (the physics benchmark's 
 sends the DCM toward the stance sole's outer edge; a step of the swing foot cannot land beyond
 that edge (the legs would cross), so once the DCM is past it the robot falls whatever the
 steps (:func:`capture_bounds`, benchmarks/pushes.md).
+
+Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
+survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
+pushes gain nothing, hqp-daqp loses; after a caught push the walk keeps rocking sideways
+instead of returning to its plan. Off by default.
 """
 
 from __future__ import annotations
