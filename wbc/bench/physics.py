@@ -691,7 +691,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             if r["loop"].startswith("closed"):
                 share = r.get("feedback_share")
                 console.print(
-                    f"  {r['solver']} closed loop: estimator + feedback "
+                    f"  {r['solver']} {r['loop']} loop: estimator + feedback "
                     f"{'-' if share is None else f'{100 * share:.0f} %'} of the tick (median); "
                     f"goals beyond a joint limit before clamping: "
                     f"{r['goal_limit_excess_deg']:.2f}° max"
