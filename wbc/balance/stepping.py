@@ -78,6 +78,10 @@ class SteppingParams:
     max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
     # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
     hold_ticks: int = 3  # ticks between two re-plans
+    #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
+    #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
+    episode_steps: int = 2
+    rest_steps: int = 2
 
     def check(self) -> SteppingParams:
         for name in (
@@ -87,6 +91,10 @@ class SteppingParams:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise WbcError(f"stepping: {name} must be a finite number >= 0, got {v}")
+        for name in ("episode_steps", "rest_steps"):
+            v = getattr(self, name)
+            if int(v) != v or v < 0:
+                raise WbcError(f"stepping: {name} must be an integer >= 0, got {v}")
         if int(self.hold_ticks) != self.hold_ticks or self.hold_ticks < 1:
             raise WbcError(f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}")
         return self
@@ -223,6 +231,7 @@ class StepAdjuster:
             self.phase_of[ph.i0 : ph.i1] = j
         self.shift = np.zeros(2)  # current shift of the steps from `first` on
         self.first: int | None = None
+        self.episode: int | None = None  # the step the current catch started in
         self.plan = ref.plan
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
@@ -279,6 +288,12 @@ class StepAdjuster:
         if not err.any():
             return None
         k = int(ph.step)
+        if self.episode is not None and p.episode_steps > 0:
+            end = self.episode + p.episode_steps
+            if end <= k < end + p.rest_steps:
+                return None  # the catch is over: let the walk settle
+            if k >= end + p.rest_steps:
+                self.episode = None
         err = err / self.sensitivity(ref, self.plan, k, i)  # the shift that absorbs it
         if math.hypot(err[0], err[1]) < p.threshold:
             return None
@@ -303,6 +318,7 @@ class StepAdjuster:
         plan = shifted_plan(plan0, k, shift)
         new = self.regenerate(ref, plan, i, ph)
         self.plan, self.shift, self.first, self.last_tick = plan, shift, k, i
+        self.episode = k if self.episode is None else self.episode
         self.events.append((float(ref.t[i]), k, err.copy(), shift.copy()))
         return new
 
