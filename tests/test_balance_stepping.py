@@ -20,6 +20,7 @@ from wbc.balance.stepping import (
 )
 from wbc.bench import trajectories as traj
 from wbc.exceptions import WbcError
+from wbc.recording import SUPPORT_DOUBLE
 from wbc.walking.legs import LegGeometry
 
 MID, LAND = 92, 104  # walk10: mid first single support (left stance), its touch-down tick
@@ -166,3 +167,20 @@ def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot,
     assert runs["closed"]["fell"] and runs["closed"]["replans"] is None
     assert not runs["step"]["fell"] and runs["step"]["replans"] >= 1
     assert runs["step"]["goal_limit_excess_deg"] == 0.0  # no goal beyond a joint limit
+
+
+def test_a_catch_replans_two_steps_then_lets_the_walk_settle(robot, walk10):
+    """After the first re-plan (step 0), steps 0 and 1 may be re-planned, steps 2 and 3 not
+    (``episode_steps = rest_steps = 2``), and from step 4 on a new catch may start."""
+    adj = StepAdjuster(robot, walk10)
+    ref, w = walk10, adj.omega
+    mids = {}
+    for a, b, code in ref.phases():
+        if code != SUPPORT_DOUBLE:
+            mids[len(mids)] = (a + b) // 2  # mid single support of step len(mids)
+    push = np.array([0.0, -0.05])  # toward the swing foot: a shift the legs can make
+    for step, expect in ((0, True), (1, True), (2, False), (3, False), (4, True)):
+        i = mids[step]
+        new = adj.update(ref, i, dcm(ref, i, w) + (push if step % 2 == 0 else -push))
+        assert (new is not None) is expect, step
+        ref = new or ref
