@@ -32,8 +32,8 @@ steps (:func:`capture_bounds`, benchmarks/pushes.md).
 
 Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
 survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
-pushes gain nothing, hqp-daqp loses; after a caught push the walk keeps rocking sideways
-instead of returning to its plan. Off by default.
+pushes and hqp-daqp gain nothing; after a catch (two re-planned steps, then two at rest) the
+walk goes on displaced, covering about half its planned distance. Off by default.
 """
 
 from __future__ import annotations
