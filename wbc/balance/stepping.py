@@ -1,16 +1,17 @@
 """Step placement from the measured DCM: re-plan the footsteps when a push moves the DCM.
 
-Inside the closed loop (:class:`~wbc.walking.loop.Session`'s ``stepping``), in single support,
-each tick predicts where the divergent component of motion (DCM, ``ξ = c + ċ/ω``) will be at
-the planned touch-down, with the CoP held at the planned ZMP ``p`` of the stance sole (LIPM):
-
-    ξ_end = p + (ξ_meas − p) · exp(ω (t_land − t)),
-
-and compares it with the reference's own DCM at that instant. The error ``δ = ξ_end − ξ_ref``
-is what the robot will carry past the landing; the classic DCM step adjustment (Englsberger
-et al. 2015; placo's ``update_supports`` does the same from the measured DCM) lands the swing
-sole — and every later footstep — ``δ`` further along, so that the DCM keeps its planned
-offset to the new supports. The shift is clipped to the landings the robot can make
+Inside the closed loop (:class:`~wbc.walking.loop.Session`'s ``stepping``), in single support
+(after its first ``settle`` s, not in its last ``min_remaining`` s), each tick compares the
+estimated divergent component of motion (DCM, ``ξ = c + ċ/ω``, :mod:`.estimator`) with the
+reference's. The error beyond a dead band (what the unpushed walk shows on the compliant body),
+``e = dz(ξ_meas − ξ_ref)``, grows as ``e^{ω t}`` until the landing (LIPM: both DCMs diverge
+from the same CoP); the classic DCM step adjustment (Englsberger et al. 2015; placo's
+``update_supports`` adjusts from the measured DCM too) moves the landing — and every later
+footstep — so that the DCM keeps its planned offset to the new supports. The shift is
+``δ = e / s`` with ``s = ∂ξ_ref(t)/∂δ`` the sensitivity of the re-planned reference's DCM now
+to the shift (:meth:`StepAdjuster.sensitivity`, ≈ ``e^{−ω (t_land − t)}`` times the share of
+the ZMP path that moves), so that, unclipped, the re-planned reference's DCM is the measured
+one (less the dead band). The shift is clipped to the landings the robot can make
 (:func:`feasible_shift`): the feet never cross and keep ``min_clearance``
 (:meth:`~wbc.walking.footsteps.FootstepPlan.validate`), both ankles within the leg reach
 (:meth:`~wbc.walking.legs.LegGeometry.check_stance`) and both hip rolls within their limits
@@ -28,7 +29,7 @@ the soles to catch up, 0.4 m on ``walk10`` for a 3 cm DCM error.)
 What no step can do: a push *away from the swing foot* (the physics benchmark's lateral push)
 sends the DCM toward the stance sole's outer edge; a step of the swing foot cannot land beyond
 that edge (the legs would cross), so once the DCM is past it the robot falls whatever the
-steps (:func:`capture_bounds`, benchmarks/pushes.md).
+steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes.md).
 
 Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
 survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
@@ -68,7 +69,7 @@ class SteppingParams:
     """When and how far the footsteps move (module docstring)."""
 
     threshold: float = 0.005  # m: the smallest footstep shift worth a re-plan
-    band_x: float = 0.025  # m: DCM error (forward, heading frame) a walk shows unpushed
+    band_x: float = 0.025  # m: DCM error along the walk (heading frame) a walk shows unpushed
     band_y: float = 0.018  # m: ... sideways (hqp-daqp: 16 mm, its torso rolls at lift-off)
     settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
     gain: float = 1.0  # footstep shift per m of predicted DCM error
@@ -197,7 +198,7 @@ class StepAdjuster:
 
     :meth:`update` is called by the :class:`~wbc.walking.loop.Session` once per tick with
     the state estimate; it returns a new reference when it re-plans (None otherwise).
-    ``events`` lists the re-plans: (time, step, predicted error, applied shift).
+    ``events`` lists the re-plans: (time, step, wanted shift, applied shift).
     """
 
     def __init__(
@@ -235,7 +236,6 @@ class StepAdjuster:
         self.plan = ref.plan
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
-        self.time = 0.0
 
     def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> tuple[Phase, np.ndarray]:
         """The current phase and the DCM error beyond the dead band, ``dz(ξ_meas − ξ_ref)``
@@ -269,8 +269,9 @@ class StepAdjuster:
         return max((xi[1] - xi[0]) / 1e-2, 1e-3)
 
     def update(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
-        """A re-planned reference if the predicted DCM error at touch-down exceeds the
-        threshold in this single support (and a feasible shift changes the plan)."""
+        """A re-planned reference if, in this single support, the DCM error beyond the dead
+        band asks for a footstep shift above ``threshold`` and a feasible shift changes the
+        plan (None otherwise)."""
         p = self.params
         if (
             not self.enabled
