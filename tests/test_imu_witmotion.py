@@ -131,7 +131,7 @@ def test_deploy_imu_options(capsys):
     from wbc.cli import main as wbc_main
 
     assert wbc_main(["deploy", "--live", "walk", "--dry-run", "--imu", "/dev/x"]) == 2
-    assert "--imu / --encoders-only belong to --closed-loop" in capsys.readouterr().err
+    assert "--imu / --encoders-only / --stepping belong to --closed-loop" in capsys.readouterr().err
     assert wbc_main(["deploy", "rec.npz", "--dry-run", "--closed-loop"]) == 2
     assert "give --live STACK" in capsys.readouterr().err
     argv = ["deploy", "--live", "walk", "--dry-run", "--closed-loop", "--imu", "/dev/nope"]

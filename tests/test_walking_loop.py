@@ -7,6 +7,7 @@ import pytest
 
 from wbc.bench import metrics
 from wbc.bench.trajectories import build
+from wbc.exceptions import WbcError
 from wbc.recording import Recording
 from wbc.stacks import load_stack
 from wbc.walking.loop import RunOptions, Session, StackController, run, support_roles
@@ -107,3 +108,20 @@ def test_a_session_that_skips_ticks_steps_over_the_whole_interval(robot):
     session = Session(StackController(load_stack("walk", robot)), robot, ref)
     err = max(np.linalg.norm(robot.com(session.tick(i)) - ref.com[i]) for i in range(0, ref.n, 2))
     assert err < 0.5e-3
+
+
+def test_a_session_follows_a_replanned_reference_from_the_given_tick(robot, walk10):
+    from dataclasses import replace
+
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10)
+    moved = walk10.r_sole.copy()
+    moved[100:, 0] += 0.01  # the right sole lands 1 cm further
+    new = replace(walk10, r_sole=moved)
+    before = session.targets(99).r_sole.translation.copy()
+    session.set_reference(new, 100)
+    assert session.ref is new
+    np.testing.assert_array_equal(session.targets(99).r_sole.translation, before)
+    np.testing.assert_allclose(session.targets(120).r_sole.translation, moved[120])
+    bad = replace(walk10, support=np.roll(walk10.support, 3))
+    with pytest.raises(WbcError, match="support schedule"):
+        session.set_reference(bad, 100)

@@ -7,6 +7,8 @@
   (complementary filter; CoM, its velocity and the DCM from the stance leg's kinematics);
 * :mod:`wbc.balance.stabilizer` — feedback on the walking targets inside the control tick
   (:class:`~wbc.walking.loop.Session`'s ``stabilizer``);
+* :mod:`wbc.balance.stepping` — step placement from the measured DCM: the footsteps and the
+  walk re-planned inside the closed loop (:class:`~wbc.walking.loop.Session`'s ``stepping``);
 * :mod:`wbc.balance.live` — :func:`~wbc.balance.live.closed_loop`: a controller solved live in
   the deployment's tick on any ServoBus + Imu (``wbc deploy --live STACK --closed-loop``).
 

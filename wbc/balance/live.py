@@ -32,6 +32,7 @@ from ..servos.sources import CallableSource
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
 from .stabilizer import Gains, Stabilizer
+from .stepping import StepAdjuster, SteppingParams
 
 
 class SessionSource(CallableSource):
@@ -58,7 +59,7 @@ class SessionSource(CallableSource):
             extra = time.perf_counter() - start if offsets is not None else 0.0
             excess = float(np.max(np.maximum(robot.q_min - j, j - robot.q_max)))
             self.limit_excess = max(self.limit_excess, excess)
-            self.feedback_time.append(session.feedback_time + extra)
+            self.feedback_time.append(session.feedback_time + session.stepping_time + extra)
             self.solve_time.append(session.solve_time)
             return j
 
@@ -82,6 +83,7 @@ class ClosedLoop:
     session: Session
     source: SessionSource  # per-tick costs, limit excursions
     stabilizer: Stabilizer
+    stepping: StepAdjuster | None = None  # its ``events``: the re-plans
 
 
 def closed_loop(
@@ -98,6 +100,7 @@ def closed_loop(
     q0: np.ndarray | None = None,
     out: Callable[[str], None] = print,
     duration: float | None = None,
+    stepping: SteppingParams | None = None,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
@@ -108,6 +111,8 @@ def closed_loop(
     reference's rate with ``read`` on (the estimator needs the encoders); a config without
     ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
     the whole reference).
+    ``stepping`` (closed loop only; None: off): re-plan the footsteps from the measured DCM
+    (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
     """
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
@@ -120,7 +125,8 @@ def closed_loop(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled,
     )  # fmt: skip
-    session = Session(controller, robot, ref, q0, stabilizer=stabilizer)
+    adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
+    session = Session(controller, robot, ref, q0, stabilizer=stabilizer, stepping=adjuster)
     source = SessionSource(session)
     target = source
     if compensate > 0:
@@ -144,4 +150,4 @@ def closed_loop(
         )
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
-    return ClosedLoop(deployment, session, source, stabilizer)
+    return ClosedLoop(deployment, session, source, stabilizer, adjuster)

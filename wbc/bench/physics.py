@@ -323,6 +323,7 @@ class ClosedLoopSpec:
     gains: Any = None
     enabled: bool = True
     use_imu: bool = True
+    stepping: Any = None  # wbc.balance.stepping.SteppingParams: re-plan steps from the DCM
 
 
 def play_closed_loop(
@@ -351,7 +352,8 @@ def play_closed_loop(
     bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
     imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0) if spec.use_imu else None
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
-                       compensate, correct, out=lambda _line: None)  # fmt: skip
+                       compensate, correct, out=lambda _line: None,
+                       stepping=spec.stepping)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
@@ -417,6 +419,7 @@ def closed_loop_figures(loop) -> dict[str, Any]:
         "feedback_share": share,
         "estimated_tilt_max_deg": float(np.degrees(loop.stabilizer.max_tilt_error)),
         "failed_solves": int(loop.session.failed),
+        "replans": len(loop.stepping.events) if loop.stepping is not None else None,
     }
 
 
@@ -529,6 +532,12 @@ def add_physics_arguments(parser) -> None:
         help="--closed-loop: estimate from the servos' positions alone (no IMU)",
     )
     parser.add_argument(
+        "--stepping",
+        action="store_true",
+        help="--closed-loop: also the closed loop with step placement from the measured DCM "
+        "(wbc.balance.stepping)",
+    )
+    parser.add_argument(
         "--gyro",
         type=float,
         default=0.0,
@@ -598,8 +607,13 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
             specs: list[ClosedLoopSpec | None] = [None]
             if closed_loop:
-                specs.append(ClosedLoopSpec(entry.make, ref, gains, True,
-                                            not getattr(args, "encoders_only", False)))  # fmt: skip
+                imu = not getattr(args, "encoders_only", False)
+                specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu))
+                if getattr(args, "stepping", False):
+                    from ..balance.stepping import SteppingParams
+
+                    specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu,
+                                                SteppingParams()))  # fmt: skip
             for spec in specs:
                 loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0,
                         "correct": getattr(args, "compensate_encoders", False)}  # fmt: skip
@@ -622,7 +636,9 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                     continue
                 r = physics_record(rec, result, robot, ref)
                 r.update(extra)
-                r["loop"] = "open" if spec is None else "closed"
+                r["loop"] = (
+                    "open" if spec is None else "closed" + ("+step" if spec.stepping else "")
+                )
                 r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
                 r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
                 wall = time.perf_counter() - started
@@ -630,7 +646,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                          sim_steps=int(result.sim.steps), wall_s=wall,
                          steps_per_s=result.sim.steps / wall,
                          realtime_factor=r["sim_time_s"] / wall)  # fmt: skip
-                label = entry.name if spec is None else f"{entry.name} closed"
+                label = entry.name if spec is None else f"{entry.name} {r['loop']}"
                 series[(label, name)] = (r.pop("_series"), rec, result)
                 if args.record:  # the simulated run beside the plan (wbc view replays both)
                     simulated_recording(rec, result, robot).save(
@@ -683,10 +699,10 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             table.add_row(*cells)
         console.print(table)
         for r in rows:
-            if r["loop"] == "closed":
+            if r["loop"].startswith("closed"):
                 share = r.get("feedback_share")
                 console.print(
-                    f"  {r['solver']} closed loop: estimator + feedback "
+                    f"  {r['solver']} {r['loop']} loop: estimator + feedback "
                     f"{'-' if share is None else f'{100 * share:.0f} %'} of the tick (median); "
                     f"goals beyond a joint limit before clamping: "
                     f"{r['goal_limit_excess_deg']:.2f}° max"

@@ -165,6 +165,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="--closed-loop: no IMU, estimate from the servos' positions alone",
     )
+    parser.add_argument(
+        "--stepping",
+        action="store_true",
+        help="--closed-loop: re-plan the footsteps from the measured DCM (wbc.balance.stepping)",
+    )
     from ..sim.cli import add_deploy_arguments  # --sim, --view, --realtime (no mujoco needed)
 
     add_deploy_arguments(parser)
@@ -276,10 +281,15 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
     from ..walking.loop import StackController
 
     ref = build(args.trajectory, robot)
+    stepping = None
+    if args.stepping:
+        from ..balance.stepping import SteppingParams
+
+        stepping = SteppingParams()
     loop = closed_loop(
         bus, robot, StackController(load_stack(args.live, robot)), ref, imu,
         enabled=args.closed_loop, compensate=args.compensate,
-        correct=args.compensate_encoders, config=config,
+        correct=args.compensate_encoders, config=config, stepping=stepping,
     )  # fmt: skip
     state = "closed loop" + (f", IMU {imu.name}" if imu else ", encoders only")
     what = f"live {args.live} on {args.trajectory} ({state if args.closed_loop else 'open loop'})"
@@ -325,8 +335,8 @@ def run(args: argparse.Namespace) -> int:
         holder: list[Deployment] = []  # the deployment, for the encoder correction
         if args.closed_loop and args.live is None:
             raise ServoError("--closed-loop runs a controller live: give --live STACK")
-        if (args.imu or args.encoders_only) and not args.closed_loop:
-            raise ServoError("--imu / --encoders-only belong to --closed-loop")
+        if (args.imu or args.encoders_only or args.stepping) and not args.closed_loop:
+            raise ServoError("--imu / --encoders-only / --stepping belong to --closed-loop")
         if args.live is not None:
             if args.dry_run:
                 bus = _dry_bus(bus, robot)

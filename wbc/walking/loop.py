@@ -262,7 +262,9 @@ class Session:
     ``stabilizer`` (a :class:`wbc.balance.stabilizer.Stabilizer`, or None): closed loop, it
     reads the sensors and adjusts each tick's targets before the solve (its time is
     :attr:`feedback_time`, the solve's :attr:`solve_time`); ``stabilizer.enabled = False``
-    (or None) is the open loop.
+    (or None) is the open loop. ``stepping`` (a :class:`wbc.balance.stepping.StepAdjuster`,
+    or None; closed loop only): each tick it may re-plan the footsteps from the stabilizer's
+    last DCM estimate; the re-planned reference replaces :attr:`ref` (:meth:`set_reference`).
     """
 
     def __init__(
@@ -273,9 +275,12 @@ class Session:
         q0: np.ndarray | None = None,
         options: RunOptions | None = None,
         stabilizer: Any = None,
+        stepping: Any = None,
     ) -> None:
         self.options = options or RunOptions()
         self.stabilizer = stabilizer
+        self.stepping = stepping
+        self.stepping_time = 0.0  # s, the last tick's re-plan check (and re-plan)
         if self.options.mode not in MODES:
             raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
         self.controller, self.robot, self.ref = controller, robot, ref
@@ -284,14 +289,9 @@ class Session:
         )
         self.support, self.swing = support_roles(ref)
         # the targets of every tick, built once (not part of any controller's tick time)
-        self._soles = [
-            (ref.sole_placement(i, "left"), ref.sole_placement(i, "right")) for i in range(ref.n)
-        ]
-        self._swing = [
-            (sole.translation.copy(), sole.rotation.copy())
-            for i, (left, right) in enumerate(self._soles)
-            for sole in [left if self.swing[i] == "l_sole" else right]
-        ]
+        self._soles: list[tuple[pin.SE3, pin.SE3]] = []
+        self._swing: list[tuple[np.ndarray, np.ndarray]] = []
+        self._sole_targets(0)
         start = robot.frame_placement(self.q, "torso").rotation
         pitch_roll = heading_free(start)
         self._torso = list(ref.torso_rotations(pitch_roll))
@@ -303,6 +303,27 @@ class Session:
         self.iterations = 0
         self.solve_time = 0.0
         self.feedback_time = 0.0
+
+    def _sole_targets(self, first: int) -> None:
+        """Both soles' and the swing sole's targets of ticks ``first, …`` from :attr:`ref`."""
+        ref = self.ref
+        soles = [(ref.sole_placement(i, "left"), ref.sole_placement(i, "right"))
+                 for i in range(first, ref.n)]  # fmt: skip
+        swing = [
+            (sole.translation.copy(), sole.rotation.copy())
+            for i, (left, right) in enumerate(soles, start=first)
+            for sole in [left if self.swing[i] == "l_sole" else right]
+        ]
+        self._soles[first:] = soles
+        self._swing[first:] = swing
+
+    def set_reference(self, ref: WalkingReference, first: int) -> None:
+        """Follow ``ref`` from tick ``first`` on (a re-planned walk: the same time grid,
+        support schedule and torso headings, other footsteps and CoM)."""
+        if ref.n != self.ref.n or np.any(ref.support != self.ref.support):
+            raise WbcError("a re-planned reference must keep the time grid and support schedule")
+        self.ref = ref
+        self._sole_targets(first)
 
     def targets(self, i: int) -> TickTargets:
         ref = self.ref
@@ -329,6 +350,18 @@ class Session:
         ticks (a live deployment at a lower rate than the reference) gets the velocity bounds
         of the whole interval, not of one reference tick.
         """
+        stab = self.stabilizer
+        if (
+            self.stepping is not None
+            and stab is not None
+            and stab.enabled
+            and stab.last is not None
+        ):
+            start = time.perf_counter()  # the last tick's DCM estimate: re-plan the steps?
+            new = self.stepping.update(self.ref, i, stab.last.dcm)
+            if new is not None:
+                self.set_reference(new, i)
+            self.stepping_time = time.perf_counter() - start
         targets = self.targets(i)
         gap = 1 if self._last_index is None else max(1, i - self._last_index)
         self._last_index = i
@@ -336,7 +369,6 @@ class Session:
         changed = key != self._previous
         self._previous = key
         opts = self.options
-        stab = self.stabilizer
         if stab is not None and stab.enabled:
             start = time.perf_counter()
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)

@@ -1,0 +1,466 @@
+"""Step placement from the measured DCM: re-plan the footsteps when a push moves the DCM.
+
+Inside the closed loop (:class:`~wbc.walking.loop.Session`'s ``stepping``), in single support
+(after its first ``settle`` s, not in its last ``min_remaining`` s), each tick compares the
+estimated divergent component of motion (DCM, ``ξ = c + ċ/ω``, :mod:`.estimator`) with the
+reference's. The error beyond a dead band (what the unpushed walk shows on the compliant body),
+``e = dz(ξ_meas − ξ_ref)``, grows as ``e^{ω t}`` until the landing (LIPM: both DCMs diverge
+from the same CoP); the classic DCM step adjustment (Englsberger et al. 2015; placo's
+``update_supports`` adjusts from the measured DCM too) moves the landing — and every later
+footstep — so that the DCM keeps its planned offset to the new supports. The shift is
+``δ = e / s`` with ``s = ∂ξ_ref(t)/∂δ`` the sensitivity of the re-planned reference's DCM now
+to the shift (:meth:`StepAdjuster.sensitivity`, ≈ ``e^{−ω (t_land − t)}`` times the share of
+the ZMP path that moves), so that, unclipped, the re-planned reference's DCM is the measured
+one (less the dead band). The shift is clipped to the landings the robot can make
+(:func:`feasible_shift`): the feet never cross and keep ``min_clearance``
+(:meth:`~wbc.walking.footsteps.FootstepPlan.validate`), both ankles within the leg reach
+(:meth:`~wbc.walking.legs.LegGeometry.check_stance`) and both hip rolls within their limits
+(:meth:`~wbc.walking.legs.LegGeometry.leg_rolls`). A re-plan rebuilds the rest of the walk
+with wbc.walking's own generators (:func:`~wbc.walking.schedule.sole_tracks`,
+:func:`~wbc.walking.schedule.zmp_knots` and the LIPM generator
+:func:`~wbc.walking.lipm.lipm_com_for_zmp`: the CoM from the current CoM target whose ZMP
+follows the new path exactly and whose DCM comes to rest over the final feet — with the
+footsteps moved by ``δ`` its DCM now is the measured one); the swing already under way is
+bent smoothly toward its new landing (no jump in any position target). Every controller
+family benefits: they all track the re-planned targets. (The preview controller, the walks'
+own generator, is not used to re-plan: started off its plan it swings the ZMP far outside
+the soles to catch up, 0.4 m on ``walk10`` for a 3 cm DCM error.)
+
+What no step can do: a push *away from the swing foot* (the physics benchmark's lateral push)
+sends the DCM toward the stance sole's outer edge; a step of the swing foot cannot land beyond
+that edge (the legs would cross), so once the DCM is past it the robot falls whatever the
+steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes.md).
+
+Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
+survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
+pushes and hqp-daqp gain nothing; after a catch (two re-planned steps, then two at rest) the
+walk goes on displaced, covering about half its planned distance. Off by default.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import TrajectoryError, WbcError
+from ..model import Robot
+from ..recording import SUPPORT_DOUBLE
+from ..walking.footsteps import Footstep, FootstepPlan
+from ..walking.legs import LegGeometry
+from ..walking.lipm import lipm_com_for_zmp
+from ..walking.reference import WalkingReference
+from ..walking.schedule import (
+    GaitTiming,
+    Phase,
+    SwingParams,
+    build_phases,
+    sample_knots,
+    sole_tracks,
+    zmp_knots,
+)
+from ..walking.spline import min_jerk, smoothstep
+
+
+@dataclass(frozen=True)
+class SteppingParams:
+    """When and how far the footsteps move (module docstring)."""
+
+    threshold: float = 0.005  # m: the smallest footstep shift worth a re-plan
+    band_x: float = 0.025  # m: DCM error along the walk (heading frame) a walk shows unpushed
+    band_y: float = 0.018  # m: ... sideways (hqp-daqp: 16 mm, its torso rolls at lift-off)
+    settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
+    gain: float = 1.0  # footstep shift per m of predicted DCM error
+    min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
+    min_clearance: float = 0.005  # m between the feet (as the footstep plans)
+    max_shift: float = 0.08  # m: largest total shift of the footsteps from their plan
+    max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
+    # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
+    hold_ticks: int = 3  # ticks between two re-plans
+    #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
+    #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
+    episode_steps: int = 2
+    rest_steps: int = 2
+
+    def check(self) -> SteppingParams:
+        for name in (
+            "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
+            "band_x", "band_y", "settle",
+        ):  # fmt: skip
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise WbcError(f"stepping: {name} must be a finite number >= 0, got {v}")
+        for name in ("episode_steps", "rest_steps"):
+            v = getattr(self, name)
+            if int(v) != v or v < 0:
+                raise WbcError(f"stepping: {name} must be an integer >= 0, got {v}")
+        if int(self.hold_ticks) != self.hold_ticks or self.hold_ticks < 1:
+            raise WbcError(f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}")
+        return self
+
+
+# ---------------------------------------------------------------------- the law
+def predicted_dcm(xi: np.ndarray, cop: np.ndarray, omega: float, horizon: float) -> np.ndarray:
+    """LIPM DCM after ``horizon`` s with the CoP held at ``cop``: ``p + (ξ − p) e^{ω T}``."""
+    xi, cop = np.asarray(xi, float), np.asarray(cop, float)
+    return cop + (xi - cop) * math.exp(omega * max(horizon, 0.0))
+
+
+def shifted_plan(plan: FootstepPlan, first: int, shift: np.ndarray) -> FootstepPlan:
+    """``plan`` with steps ``first, first + 1, …`` moved by ``shift`` (x, y; world)."""
+    dx, dy = float(shift[0]), float(shift[1])
+    steps = tuple(
+        replace(s, x=s.x + dx, y=s.y + dy) if k >= first else s for k, s in enumerate(plan.steps)
+    )
+    return FootstepPlan(plan.start_left, plan.start_right, steps)
+
+
+def landing_ok(
+    plan: FootstepPlan,
+    k: int,
+    legs: LegGeometry,
+    com_height: float,
+    foot: Any,
+    min_clearance: float,
+) -> bool:
+    """Can step ``k`` of ``plan`` (and the step after it) be walked: no crossing, the
+    clearance along the swing and on landing, both legs within reach and within their hip
+    roll limits (the CoM midway between the feet, torso upright)?"""
+    left, right = plan.placements()[k]
+    local = FootstepPlan(left, right, plan.steps[k : k + 2])
+    try:
+        local.validate(foot, legs, com_height, min_clearance)
+    except TrajectoryError:
+        return False
+    for left, right in local.placements()[1:]:
+        mid = 0.5 * (left.position + right.position)
+        com = np.array([[mid[0], mid[1], com_height]])
+        heading = np.array([0.5 * (left.yaw + right.yaw)])
+        rolls = legs.leg_rolls(com, heading, left.position[None], right.position[None])[0]
+        if np.any(rolls < -legs.max_adduction) or np.any(rolls > legs.max_abduction):
+            return False
+    return True
+
+
+def feasible_shift(
+    plan: FootstepPlan,
+    k: int,
+    wanted: np.ndarray,
+    legs: LegGeometry,
+    com_height: float,
+    foot: Any,
+    min_clearance: float,
+    iterations: int = 10,
+) -> np.ndarray:
+    """The shift of steps ``k, …`` closest to ``wanted`` (per axis, lateral first, by
+    bisection) that :func:`landing_ok` accepts; zero if even the plan's own step is not."""
+    out = np.zeros(2)
+    for axis in (1, 0):
+        target = out.copy()
+        target[axis] = wanted[axis]
+        if landing_ok(shifted_plan(plan, k, target), k, legs, com_height, foot, min_clearance):
+            out = target
+            continue
+        lo, hi = 0.0, 1.0
+        for _ in range(iterations):
+            mid = 0.5 * (lo + hi)
+            trial = out.copy()
+            trial[axis] = mid * wanted[axis]
+            ok = landing_ok(shifted_plan(plan, k, trial), k, legs, com_height, foot, min_clearance)
+            lo, hi = (mid, hi) if ok else (lo, mid)
+        out[axis] = lo * wanted[axis]
+    return out
+
+
+def bend(ph: Phase, i: int, dt: float, swing: SwingParams) -> tuple[np.ndarray, np.ndarray]:
+    """The share ``g`` (0 → 1) of a landing change added to the swing sole from tick ``i`` to
+    the end of its phase, and ``dg/dt``: ``g = (f(s) − f(s_i)) / (1 − f(s_i))`` with ``f``
+    the swing's own profile, so the sole's target stays continuous and lands on time."""
+    T = ph.t1 - ph.t0
+    s = (np.arange(i, ph.i1) - ph.i0) * dt / T
+    f, df, _ = (min_jerk if swing.profile == "quintic" else smoothstep)(s)
+    f0 = float(f[0])
+    return (f - f0) / (1.0 - f0), df / (1.0 - f0) / T
+
+
+def bend_rate(ph: Phase, i: int, dt: float, swing: SwingParams) -> float:
+    """Peak ``dg/dt`` (1/s) of :func:`bend` from tick ``i``: the swing sole's added peak
+    speed per metre of landing change."""
+    return float(np.max(bend(ph, i, dt, swing)[1]))
+
+
+# ---------------------------------------------------------------------- the re-planner
+class StepAdjuster:
+    """Re-plans the footsteps of a dynamic walk (:func:`wbc.walking.gait.walk`, any
+    generator) from the measured DCM (module docstring). ``enabled=False``: never re-plans.
+
+    :meth:`update` is called by the :class:`~wbc.walking.loop.Session` once per tick with
+    the state estimate; it returns a new reference when it re-plans (None otherwise).
+    ``events`` lists the re-plans: (time, step, wanted shift, applied shift).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        ref: WalkingReference,
+        params: SteppingParams | None = None,
+        legs: LegGeometry | None = None,
+        enabled: bool = True,
+    ) -> None:
+        self.params = (params or SteppingParams()).check()
+        self.enabled = enabled
+        meta = ref.meta
+        if ref.gait != "dynamic" or "timing" not in meta or "generator" not in meta:
+            raise WbcError(
+                f"stepping re-plans dynamic walks made by wbc.walking.gait.walk; reference "
+                f"{ref.name!r} is not one"
+            )
+        self.timing = GaitTiming(**meta["timing"])
+        self.swing = SwingParams(**meta.get("swing", {}))
+        self.zmp_offset = tuple(meta.get("zmp_offset", (0.0, 0.0)))
+        self.base = ref
+        self.phases = build_phases(ref.plan, self.timing)
+        if self.phases[-1].i1 != ref.n:
+            raise WbcError(f"stepping: reference {ref.name!r} does not match its own timing")
+        self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
+        self.omega = math.sqrt(ref.g / ref.com_height)
+        self.tc = 1.0 / self.omega
+        self.phase_of = np.zeros(ref.n, dtype=int)
+        for j, ph in enumerate(self.phases):
+            self.phase_of[ph.i0 : ph.i1] = j
+        self.shift = np.zeros(2)  # current shift of the steps from `first` on
+        self.first: int | None = None
+        self.episode: int | None = None  # the step the current catch started in
+        self.plan = ref.plan
+        self.last_tick = -(10**9)
+        self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
+
+    def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> tuple[Phase, np.ndarray]:
+        """The current phase and the DCM error beyond the dead band, ``dz(ξ_meas − ξ_ref)``
+        (``band_x``, ``band_y`` in the stance sole's heading frame: what an unpushed walk
+        shows on the body)."""
+        ph = self.phases[self.phase_of[i]]
+        e = np.asarray(dcm[:2], float) - (ref.com[i, :2] + ref.com_vel[i, :2] / self.omega)
+        side = ref.stance_side(i) or "left"
+        yaw = float(ref.sole(side)[1][i])
+        c, s = math.cos(yaw), math.sin(yaw)
+        local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]])
+        band = np.array([self.params.band_x, self.params.band_y])
+        local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
+        e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
+        return ph, e
+
+    def sensitivity(self, ref: WalkingReference, plan: FootstepPlan, k: int, i: int) -> float:
+        """``∂ξ_ref(t_i) / ∂δ``: how far the re-planned reference's DCM at tick ``i`` moves per
+        metre of shift of the footsteps ``k, …`` (the LIPM of :meth:`regenerate`; about
+        ``e^{−ω (t_land − t)}`` times the share of the ZMP path that moves)."""
+        t = ref.t - ref.t[0]
+        xi = []
+        for d in (0.0, 1e-2):
+            kt, kp = zmp_knots(shifted_plan(plan, k, np.array([d, 0.0])), self.phases,
+                               self.base.com[0, :2], self.zmp_offset)  # fmt: skip
+            later = kt > t[i] + 1e-12
+            T = np.concatenate([[t[i]], kt[later]])
+            P = np.vstack([sample_knots(kt, kp, t[i : i + 1]), kp[later]])
+            pos, vel, _ = lipm_com_for_zmp(T, P, ref.com[i, :2], self.tc, t[i : i + 1])
+            xi.append(pos[0, 0] + vel[0, 0] / self.omega)
+        return max((xi[1] - xi[0]) / 1e-2, 1e-3)
+
+    def update(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
+        """A re-planned reference if, in this single support, the DCM error beyond the dead
+        band asks for a footstep shift above ``threshold`` and a feasible shift changes the
+        plan (None otherwise)."""
+        p = self.params
+        if (
+            not self.enabled
+            or ref.support[i] == SUPPORT_DOUBLE
+            or i - self.last_tick < p.hold_ticks
+        ):
+            return None
+        ph, err = self.error(ref, i, dcm)
+        if (
+            ph.kind != "single"
+            or (ph.i1 - i) * ref.dt < p.min_remaining
+            or (i - ph.i0) * ref.dt < p.settle - 1e-9
+        ):
+            return None
+        if not err.any():
+            return None
+        k = int(ph.step)
+        if self.episode is not None and p.episode_steps > 0:
+            end = self.episode + p.episode_steps
+            if end <= k < end + p.rest_steps:
+                return None  # the catch is over: let the walk settle
+            if k >= end + p.rest_steps:
+                self.episode = None
+        err = err / self.sensitivity(ref, self.plan, k, i)  # the shift that absorbs it
+        if math.hypot(err[0], err[1]) < p.threshold:
+            return None
+        total = (self.shift if self.first == k else np.zeros(2)) + p.gain * err
+        n = math.hypot(total[0], total[1])
+        if n > p.max_shift:
+            total *= p.max_shift / n
+        done = self.shift if self.first == k else np.zeros(2)
+        # the swing sole can move only so far in the time left (bend_rate: peak speed per m)
+        room = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing)
+        change = total - done
+        n = math.hypot(change[0], change[1])
+        if n > room:
+            total = done + change * (room / n)
+        # shifts are relative to the plan before this step's re-plans
+        plan0 = self.plan if self.first != k else shifted_plan(self.plan, k, -self.shift)
+        shift = feasible_shift(
+            plan0, k, total, self.legs, ref.com_height, ref.foot, p.min_clearance
+        )
+        if np.max(np.abs(shift - done)) < 1e-3:
+            return None
+        plan = shifted_plan(plan0, k, shift)
+        new = self.regenerate(ref, plan, i, ph)
+        self.plan, self.shift, self.first, self.last_tick = plan, shift, k, i
+        self.episode = k if self.episode is None else self.episode
+        self.events.append((float(ref.t[i]), k, err.copy(), shift.copy()))
+        return new
+
+    def regenerate(
+        self, ref: WalkingReference, plan: FootstepPlan, i: int, ph: Phase
+    ) -> WalkingReference:
+        """The walk re-planned along ``plan`` from tick ``i`` on (ticks before ``i``
+        unchanged): soles from :func:`sole_tracks` (the swing under way bent toward its new
+        landing), the ZMP path from :func:`zmp_knots`, the CoM by the LIPM generator
+        :func:`lipm_com_for_zmp` from the current CoM target."""
+        dt = ref.dt
+        soles = sole_tracks(plan, self.phases, dt, self.swing)
+        kt, kp = zmp_knots(plan, self.phases, self.base.com[0, :2], self.zmp_offset)
+        zref = sample_knots(kt, kp, ref.t - ref.t[0])  # the new ZMP path
+        fields = soles.reference_fields()
+        for name in ("l_sole", "l_sole_yaw", "r_sole", "r_sole_yaw", "l_sole_vel", "r_sole_vel"):
+            fields[name] = np.concatenate([getattr(ref, name)[:i], fields[name][i:]])
+        # the swing under way: from its current target, bent toward the new landing
+        side = plan.steps[ph.step].side
+        old = ref.plan.steps[ph.step] if ph.step < len(ref.plan.steps) else None
+        if old is not None:
+            key = "l_sole" if side == "left" else "r_sole"
+            d = plan.steps[ph.step].position - old.position
+            g, dg = bend(ph, i, dt, self.swing)
+            pos = getattr(ref, key)[i : ph.i1] + d[None, :] * g[:, None]
+            vel = getattr(ref, f"{key}_vel")[i : ph.i1] + d[None, :] * dg[:, None]
+            fields[key][i : ph.i1] = pos
+            fields[f"{key}_vel"][i : ph.i1] = vel
+        t = ref.t - ref.t[0]
+        later = kt > t[i] + 1e-12
+        T = np.concatenate([[t[i]], kt[later]])
+        P = np.vstack([zref[i], kp[later]])
+        pos, vel, acc = lipm_com_for_zmp(T, P, ref.com[i, :2], self.tc, t[i:])
+        com, com_vel, com_acc = ref.com.copy(), ref.com_vel.copy(), ref.com_acc.copy()
+        com[i:, :2], com_vel[i:, :2], com_acc[i:, :2] = pos, vel, acc
+        return WalkingReference(
+            t=ref.t,
+            com=com,
+            com_vel=com_vel,
+            com_acc=com_acc,
+            **fields,
+            com_height=ref.com_height,
+            plan=plan,
+            gait=ref.gait,
+            name=ref.name,
+            zmp_ref=np.concatenate([ref.zmp_ref[:i], zref[i:]])
+            if ref.zmp_ref is not None
+            else None,
+            foot=ref.foot,
+            margin=ref.margin,
+            g=ref.g,
+            meta=dict(ref.meta, replanned=len(self.events) + 1),
+            torso_roll=ref.torso_roll,
+        )
+
+
+# ---------------------------------------------------------------------- capturability
+def capture_bounds(
+    ref: WalkingReference,
+    mass: float,
+    legs: LegGeometry,
+    min_clearance: float = 0.005,
+    swing_down: float = 0.05,
+    step_time: float | None = None,
+    max_foot_speed: float = SteppingParams.max_foot_speed,
+) -> dict[str, Any]:
+    """LIPM capturability of an impulse at mid first single support of ``ref``: the largest
+    DCM offset ``Δξ`` a strategy catches, as an impulse ``m ω Δξ`` (N·s). ``t`` = the swing's
+    remaining time; the CoP anywhere in the support (optimistic: no double support time).
+
+    * ``away`` (sideways, away from the swing foot, the benchmark's lateral push): the swing
+      sole cannot land beyond the stance sole's outer edge ``e`` (the feet would cross), so
+      one step catches ``Δξ ≤ e − ξ``. Two steps: the swing sole down at its closest to the
+      stance sole after ``swing_down`` s (``t₁``), then the stance sole stepping outward as far
+      as the legs reach (``w``) in ``step_time`` s (``t₂``, default the walk's single
+      support) with the CoP at the landed sole's inner edge ``p``:
+      ``Δξ ≤ e + (p + (e + w − p) e^{−ω t₂} − e) e^{−ω t₁} − ξ``.
+    * ``forward`` / ``toward`` (the swing foot's side): the swing sole lands at its planned
+      place (``*_planned_ns``) or as far as the legs reach (``*_ns``) after ``t``, with the
+      DCM inside the landed sole's far edge: ``Δξ ≤ f + (f' − f) e^{−ω t} − ξ`` (``f`` the
+      stance sole's edge on that side, ``f'`` the landed sole's); ``*_in_time_ns``: the
+      landing moved only as far as the swing sole gets in ``t`` with the bend of
+      :class:`StepAdjuster` at ``max_foot_speed`` (m/s) added.
+    """
+    omega = math.sqrt(ref.g / ref.com_height)
+    a, b, _ = next(p for p in ref.phases() if p[2] != SUPPORT_DOUBLE)
+    i = (a + b) // 2
+    stance = ref.stance_side(i)
+    xi = ref.com[i, :2] + ref.com_vel[i, :2] / omega
+    st = ref.sole(stance)[0][i, :2]
+    u = 1.0 if stance == "left" else -1.0  # world y of "away from the swing foot"
+    half_w, half_l = 0.5 * ref.foot.width, 0.5 * ref.foot.length
+    plan, step = ref.plan, ref.plan.steps[0]
+    t = max((b - i) * ref.dt, swing_down)
+    to_ns = mass * omega
+    decay = math.exp(-omega * t)
+
+    def reach(plan: FootstepPlan, direction: tuple[float, float]) -> float:
+        wanted = 0.3 * np.asarray(direction, dtype=float)
+        s = feasible_shift(plan, 0, wanted, legs, ref.com_height, ref.foot, min_clearance)
+        return float(np.linalg.norm(s))
+
+    out: dict[str, Any] = {"omega": omega, "mass": mass, "t_swing_left_s": t}
+    phase = next(p for p in build_phases(plan, GaitTiming(**ref.meta["timing"])) if p.i0 == a)
+    in_time = max_foot_speed / bend_rate(phase, i, ref.dt, SwingParams(**ref.meta["swing"]))
+    out["in_time_reach_mm"] = 1e3 * in_time
+    # away: one step (the DCM within the stance sole's outer edge)
+    e = u * st[1] + half_w
+    xi_u = u * xi[1]
+    out["away_one_step_ns"] = to_ns * (e - xi_u)
+    # away: two steps (swing sole down at its closest, then the stance sole steps outward)
+    closest = reach(plan, (0.0, u))
+    landed = Footstep(step.side, step.x, step.y + u * closest, step.yaw)
+    here = Footstep(stance, float(st[0]), float(st[1]), step.yaw)
+    pair = (here, landed) if stance == "left" else (landed, here)
+    wide = reach(FootstepPlan(*pair, (here,)), (0.0, u))
+    p = u * landed.y + half_w
+    t2 = step_time if step_time is not None else (b - a) * ref.dt
+    lift = p + (e + wide - p) * math.exp(-omega * t2)
+    d2 = e + (lift - e) * math.exp(-omega * swing_down) - xi_u
+    out["away_two_step_ns"] = to_ns * d2
+    out["away_ns"] = to_ns * max(e - xi_u, d2)
+    out["away_detail_mm"] = {
+        "xi": 1e3 * xi_u, "outer_edge": 1e3 * e, "closest_landing_shift": 1e3 * closest,
+        "widest_outward_step": 1e3 * wide, "inner_cop": 1e3 * p,
+    }  # fmt: skip
+    # forward: the swing sole lands further ahead
+    fwd = reach(plan, (1.0, 0.0))
+    f = st[0] + half_l
+    out["forward_planned_ns"] = to_ns * (f + (step.x + half_l - f) * decay - xi[0])
+    out["forward_ns"] = to_ns * (f + (step.x + fwd + half_l - f) * decay - xi[0])
+    out["forward_in_time_ns"] = to_ns * (
+        f + (step.x + min(fwd, in_time) + half_l - f) * decay - xi[0]
+    )
+    out["forward_reach_mm"] = 1e3 * fwd
+    # toward the swing foot: the swing sole lands further out
+    tow = reach(plan, (0.0, -u))
+    f = -(u * st[1] - half_w)  # the stance sole's inner edge, toward the swing foot
+    land = -u * step.y + half_w
+    out["toward_planned_ns"] = to_ns * (f + (land - f) * decay + u * xi[1])
+    out["toward_ns"] = to_ns * (f + (land + tow - f) * decay + u * xi[1])
+    out["toward_in_time_ns"] = to_ns * (f + (land + min(tow, in_time) - f) * decay + u * xi[1])
+    out["toward_reach_mm"] = 1e3 * tow
+    return out
