@@ -1,8 +1,9 @@
 """Per-tick cost of the walking stack: our weighted and 3-level hierarchical QPs vs placo and pink.
 
 The stack (issue 3): support contact(s) hard, swing sole 6-D, CoM, torso orientation, posture,
-joint position and servo velocity limits — the ``walk`` stack of ``tasks/walk.toml`` without
-its CoM-polygon and ground-clearance constraints, which the peers do not get either. All four
+joint position and servo velocity limits — ``tasks/walk_lexicographic.toml`` (``walk`` in three
+strict levels; the weighted QP sees the same soft tasks and weights as ``walk``) without its
+CoM-polygon and ground-clearance constraints, which the peers do not get either. All four
 controllers follow the same 10-step reference through the same control loop
 (:func:`wbc.walking.loop.run`), which times each tick the same way (targets, kinematics,
 assembly, solve, integration). Rounds are interleaved so that the machine's load hits every
@@ -11,7 +12,7 @@ controller alike; the figures are medians over rounds of each controller's per-t
 Our solvers run twice: through the compiled kernels (:mod:`wbc.compiled`, the default) and
 through the numpy assembly with DAQP on every tick (``compiled=False``).
 
-Then the cost of an active inequality row: the ``walk`` stack in single support (its swing
+Then the cost of an active inequality row: that stack in single support (its swing
 ground-clearance constraint included), one tick at the same configuration repeated, with the
 swing sole's target above the ground (the row inactive: the compiled tick alone) and 5 mm
 below it (the row active). Last, the first tick after a support switch against the next one.
@@ -43,8 +44,9 @@ HIERARCHICAL = "3-level hierarchical QP (compiled)"
 
 
 def core_walk_spec() -> dict:
-    """tasks/walk.toml without its inequality constraints (what the peers can express)."""
-    with open(stacks_dir() / "walk.toml", "rb") as f:
+    """tasks/walk_lexicographic.toml (the walk stack in three strict levels) without its
+    inequality constraints (what the peers can express)."""
+    with open(stacks_dir() / "walk_lexicographic.toml", "rb") as f:
         spec = tomllib.load(f)
     for level in spec["levels"]:
         level.pop("constraints", None)
@@ -55,7 +57,7 @@ def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, floa
     """Median µs of a tick with the swing sole's ground-clearance row inactive and active, and
     how many of the active ticks were handed to the backend (the compiled kernels solve the
     row; a tick goes to the backend only if they cannot finish it)."""
-    with open(stacks_dir() / "walk.toml", "rb") as f:
+    with open(stacks_dir() / "walk_lexicographic.toml", "rb") as f:
         spec = tomllib.load(f)
     control = build_stack({**spec, "solver": kind}, robot)
     q = robot.configuration("walk_ready")
