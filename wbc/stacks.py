@@ -162,7 +162,7 @@ class ControlStack:
                 if polygon:
                     item.set_support([frame])
                 else:
-                    item.set_frame(frame)  # type: ignore[union-attr]  # role-bound: has a frame
+                    item.set_frame(frame)  # role-bound: has a frame
             item.active = phase in binding.phases
             if (
                 contact
@@ -189,9 +189,10 @@ class ControlStack:
         cached = self.__dict__.get("_phase_cache")
         if cached is None or cached[0] != key:
             tasks, constraints = self.stack.members()
+            members: list[Any] = [*tasks, *constraints]
             bound = [
                 (item, b, isinstance(item, ComPolygonConstraint), isinstance(item, ContactTask))
-                for item in [*tasks, *constraints]
+                for item in members
                 for b in [self.bindings.get(item.name)]
                 if b is not None
             ]
