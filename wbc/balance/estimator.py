@@ -147,40 +147,6 @@ def exp3(w: np.ndarray) -> np.ndarray:
     return R
 
 
-@numba.njit(cache=True, inline="always")
-def log3_into(R: np.ndarray, v: np.ndarray) -> None:
-    """v = Log(R), the rotation vector of R (inverse of :func:`exp3`, θ ∈ [0, π]):
-    ``θ/(2 sin θ) · vee(R − Rᵀ)``; near θ = π the axis from the symmetric part
-    ``a aᵀ = (R − cos θ I)/(1 − cos θ)``, signed by vee(R − Rᵀ)."""
-    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
-    v[0], v[1], v[2] = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
-    t = math.acos(c)
-    if t < math.pi - 1e-3:
-        f = 0.5 + t * t / 12.0 if t < 1e-4 else 0.5 * t / math.sin(t)  # θ / (2 sin θ)
-        for i in range(3):
-            v[i] *= f
-        return
-    k = 0  # near π: the column of the largest diagonal entry of a aᵀ
-    for i in range(1, 3):
-        if R[i, i] > R[k, k]:
-            k = i
-    x0 = 0.5 * (R[0, k] + R[k, 0]) - (c if k == 0 else 0.0)
-    x1 = 0.5 * (R[1, k] + R[k, 1]) - (c if k == 1 else 0.0)
-    x2 = 0.5 * (R[2, k] + R[k, 2]) - (c if k == 2 else 0.0)
-    f = t / math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
-    if x0 * v[0] + x1 * v[1] + x2 * v[2] < 0:
-        f = -f
-    v[0], v[1], v[2] = f * x0, f * x1, f * x2
-
-
-@numba.njit(cache=True)
-def log3(R: np.ndarray) -> np.ndarray:
-    """Log(R) (:func:`log3_into`)."""
-    v = np.empty(3)
-    log3_into(R, v)
-    return v
-
-
 @numba.njit(cache=True)
 def _yaw(R: np.ndarray) -> float:
     return math.atan2(R[1, 0], R[0, 0])

@@ -38,10 +38,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from ..compiled.rows import log3
 from ..exceptions import WbcError
 from ..imu import Imu
 from ..model import Robot
-from .estimator import StateEstimate, StateEstimator, exp3_into, log3_into, mul33t_into
+from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
 
 
 @dataclass(frozen=True)
@@ -116,7 +117,7 @@ def _torso_feedback(
     S = np.empty((2, 3, 3))  # scratch (one allocation: a small array each costs more)
     v = np.empty(3)
     mul33t_into(R_est, R_ref, S[0])
-    log3_into(S[0], v)  # e
+    log3(S[0], v)  # e (the tasks' SO(3) logarithm)
     out[15] = math.sqrt(v[0] * v[0] + v[1] * v[1])
     v[2] *= k_yaw
     n = 0.0
