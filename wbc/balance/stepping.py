@@ -298,11 +298,11 @@ class StepAdjuster:
         err = err / self.sensitivity(ref, self.plan, k, i)  # the shift that absorbs it
         if math.hypot(err[0], err[1]) < p.threshold:
             return None
-        total = (self.shift if self.first == k else np.zeros(2)) + p.gain * err
+        done = self.shift if self.first == k else np.zeros(2)  # this step's shift so far
+        total = done + p.gain * err
         n = math.hypot(total[0], total[1])
         if n > p.max_shift:
             total *= p.max_shift / n
-        done = self.shift if self.first == k else np.zeros(2)
         # the swing sole can move only so far in the time left (bend_rate: peak speed per m)
         room = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing)
         change = total - done
