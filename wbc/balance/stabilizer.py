@@ -18,6 +18,12 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   behind it;
 * **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
   ``−k_lean h (e × z)``;
+* **hip strategy** (``k_hip``) — in single support, a DCM estimated beyond ``hip_band``
+  outward of the stance sole's centre (toward the side no step can reach) rolls the torso
+  target toward it, ``Exp(h (z × u)) R_ref``, ``h = min(k_hip (s − hip_band)⁺, max_hip)``:
+  the upper body spun about the stance hip moves the centroidal moment pivot beyond the
+  sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
+  returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`);
 * **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
   axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
   :class:`wbc.balance.live.SessionSource`).
@@ -60,6 +66,10 @@ class Gains:
     max_offset: float = 0.2  # rad, per joint
     max_tilt: float = 0.2  # rad
     max_shift: float = 0.02  # m
+    k_hip: float = 0.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
+    hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
+    max_hip: float = 0.8  # rad: largest hip-strategy roll of the torso target
+    hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
 
     def check(self) -> Gains:
         for name in (
@@ -74,6 +84,10 @@ class Gains:
             "max_tilt",
             "max_shift",
             "max_offset",
+            "k_hip",
+            "hip_band",
+            "max_hip",
+            "hip_release",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
@@ -175,6 +189,7 @@ class Stabilizer:
             robot, com_height, use_imu=imu is not None, gyro_heading=self.gains.k_yaw > 0
         )
         self.integral = np.zeros(3)
+        self.hip = np.zeros(2)  # hip-strategy roll (rad) along the DCM error
         self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
         self.rate = np.zeros(3)
         self._joint = None
@@ -211,7 +226,10 @@ class Stabilizer:
         if self._packed[0] is not g:
             self._packed = (g, np.array([g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt]))
         o = np.empty(16)
-        _torso_feedback(est.values, targets.torso_rotation, self.integral, self._packed[1], dt, o)
+        R_ref = targets.torso_rotation
+        if g.k_hip > 0:
+            R_ref = self._hip_strategy(targets, est, dt) @ R_ref
+        _torso_feedback(est.values, R_ref, self.integral, self._packed[1], dt, o)
         e = o[0:3]  # orientation error, world frame (heading part × k_yaw)
         self.max_tilt_error = max(self.max_tilt_error, o[15])
         self.error, self.rate = e, est.angular_velocity
@@ -222,6 +240,39 @@ class Stabilizer:
         out = _with(targets, com, o[6:15].reshape(3, 3))
         self.time = time.perf_counter() - start
         return out
+
+    def _hip_strategy(self, targets, est: StateEstimate, dt: float) -> np.ndarray:
+        """The rotation that turns the torso target toward the stance sole's outer side (hip
+        strategy, ``k_hip``). In single support, with ``u`` the stance sole's lateral axis pointing away
+        from the other sole (the side no step can reach) and ``s = (ξ − p_stance)·u`` the
+        estimated DCM's offset from the stance sole's centre along it, the roll is
+        ``h = min(k_hip (s − hip_band)⁺, max_hip)`` about ``z × u``: ``Exp(h (z × u)) R_ref``,
+        the torso's top thrown toward the fall. Spinning the upper body that way takes
+        angular momentum from the fall: the centroidal moment pivot moves beyond the sole's
+        edge while the torso accelerates (benchmarks/pushes.md). The roll grows at once along
+        its direction; any other change (shrinking, turning, double support: back to 0) goes
+        at ``hip_release`` rad/s at most (a fast return would throw the DCM out again)."""
+        g = self.gains
+        want = np.zeros(2)
+        if targets.phase != "double":
+            st = targets.support_placement
+            other = targets.r_sole if targets.support == "l_sole" else targets.l_sole
+            y = st.rotation[:2, 1]
+            y = y / max(math.hypot(y[0], y[1]), 1e-9)
+            p = st.translation[:2]
+            u = y if (p - other.translation[:2]) @ y >= 0 else -y
+            s = (est.dcm[:2] - p) @ u - g.hip_band
+            if s > 0:
+                want = u * min(g.k_hip * s, g.max_hip)
+        h = self.hip
+        if want @ h >= h @ h:  # growing along its direction (or from rest): at once
+            h = want
+        else:
+            h = h + _clip_norm(want - h, g.hip_release * dt)
+        self.hip = h
+        R = np.empty((3, 3))
+        exp3_into(np.array([-h[1], h[0], 0.0]), R)
+        return R
 
     def _shifted(self, targets, com_vel_ref: np.ndarray, est: StateEstimate, e: np.ndarray):
         """The CoM target moved by the DCM and lean terms (clipped to ``max_shift``)."""

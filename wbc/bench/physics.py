@@ -334,10 +334,12 @@ def play_closed_loop(
     settle: float = 1.0,
     compensate: float = 0.0,
     correct: bool = False,
+    duration: float | None = None,
 ):
     """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
     on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
-    :class:`wbc.sim.play.PlayResult` and the loop (its per-tick costs, limit excursions)."""
+    :class:`wbc.sim.play.PlayResult` and the loop (its per-tick costs, limit excursions).
+    ``duration`` (s): only the walk's first seconds (None: all of it)."""
     from ..balance.live import closed_loop
     from ..servos.sources import CallableSource
     from ..sim.bus import SimImu, SimServoBus
@@ -352,7 +354,7 @@ def play_closed_loop(
     bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
     imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0) if spec.use_imu else None
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
-                       compensate, correct, out=lambda _line: None,
+                       compensate, correct, out=lambda _line: None, duration=duration,
                        stepping=spec.stepping)  # fmt: skip
     dep = loop.deployment
     start = sim.time

@@ -1,0 +1,174 @@
+"""How much a push the whole body can take by spinning parts of itself (hip strategy bound).
+
+The LIPM with angular momentum: with ``L`` the centroidal angular momentum about the horizontal
+axis ``z × u`` (``u`` the direction of the fall), the ground force's line through the CoM
+meets the floor at the centroidal moment pivot ``r = p + L̇ / (m g)`` (along ``u``; ``p`` the
+CoP), and the DCM ``ξ = c + ċ/ω₀`` obeys ``ξ̇ = ω₀ (ξ − r)``. With the CoP held at the
+sole's edge ``e``, the DCM is caught iff
+
+    ξ(0) − e ≤ ∫₀^∞ ω₀ e^{−ω₀ t} (r − e) dt = (1/(m g)) ∫ ω₀ e^{−ω₀ t} L̇ dt
+             = (1/(m h)) ∫₀^∞ e^{−ω₀ t} L(t) dt          (by parts, L(0) = 0, ω₀² = g/h)
+
+so a body of inertia ``I`` spun at ``θ̇(t)`` about that axis buys
+``Δξ = (I / (m h)) ∫ e^{−ω₀ t} θ̇ dt``: early speed counts, and a spin held at speed keeps
+paying until the joint range ends it (the stop's reverse pivot is already in the integral:
+θ̇ returns to 0). Each spinning part is driven by one position servo, saturated (the largest
+torque it has): ``I_eff θ̈ = τ_s − τ_g − b θ̇`` (``τ_g`` the gravity torque the joint already
+holds, ``b = τ_s/ω_nl`` the back-EMF, ``I_eff = I + armature``), i.e.
+``θ̇ = v_∞ (1 − e^{−(t − t_d)/T})`` after the detection delay ``t_d``, ``v_∞ = (τ_s − τ_g)/b``,
+``T = I_eff / b``, until ``θ`` reaches the joint's range in that direction.
+
+:func:`flywheel_shift` is that law; :func:`hip_strategy_bound` applies it to a robot at a
+configuration: the stance hip roll spinning everything above the stance leg (torso, arms,
+swing leg), plus the swing hip roll spinning the swing leg and the shoulder rolls the arms
+(added as independent flywheels: optimistic). Figures: benchmarks/pushes.md.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import WbcError
+from ..model import Robot
+from ..sim.actuator import ARMATURE, NO_LOAD_SPEED, STALL_TORQUE
+
+GRAVITY = 9.81
+
+
+def flywheel_shift(
+    inertia: float,
+    mass: float,
+    com_height: float,
+    torque: float,
+    damping: float,
+    joint_range: float,
+    armature: float = ARMATURE,
+    delay: float = 0.0,
+    dt: float = 1e-4,
+) -> float:
+    """Δξ (m) bought by one body of ``inertia`` (kg·m², about the spin axis) spun from rest
+    by a saturated servo (net ``torque`` N·m beyond what it holds, back-EMF ``damping``
+    N·m·s/rad) through ``joint_range`` rad, starting ``delay`` s after the push (module
+    docstring): ``(I / (m h)) ∫ e^{−ω₀ t} θ̇ dt``."""
+    for name, v in (("inertia", inertia), ("mass", mass), ("com_height", com_height),
+                    ("damping", damping), ("dt", dt)):  # fmt: skip
+        if not (np.isfinite(v) and v > 0):
+            raise WbcError(f"flywheel_shift: {name} must be a finite number > 0, got {v}")
+    if torque <= 0 or joint_range <= 0:
+        return 0.0
+    omega = math.sqrt(GRAVITY / com_height)
+    v_inf = torque / damping
+    tau = (inertia + armature) / damping
+    # closed form while θ < range; the stop time solves θ(t) = v∞ (t − T (1 − e^{−t/T})) = range
+    t = 0.0
+    theta = 0.0
+    while theta < joint_range and t < 20.0 / omega + 50 * tau:
+        t += dt
+        theta = v_inf * (t - tau * (1.0 - math.exp(-t / tau)))
+    ts = t  # spin time (from the start of the spin)
+    k = omega + 1.0 / tau
+    integral = v_inf * ((1.0 - math.exp(-omega * ts)) / omega - (1.0 - math.exp(-k * ts)) / k)
+    return inertia / (mass * com_height) * math.exp(-omega * delay) * integral
+
+
+def _subtree(model: pin.Model, j: int) -> set[int]:
+    out = set()
+    for i in range(1, model.njoints):
+        p = i
+        while p > 0:
+            if p == j:
+                out.add(i)
+                break
+            p = model.parents[p]
+    return out
+
+
+def _about_axis(model: pin.Model, data: pin.Data, bodies: set[int], j: int):
+    """(inertia about joint j's axis, gravity torque about it, the axis) of ``bodies``."""
+    o = data.oMi[j]
+    kind = model.joints[j].shortname()
+    if kind not in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+        raise WbcError(f"hip_strategy_bound: joint {model.names[j]} is not a revolute RX/RY/RZ")
+    a = o.rotation[:, "XYZ".index(kind[-1])]
+    inertia, torque = 0.0, 0.0
+    for b in bodies:
+        Y, B = model.inertias[b], data.oMi[b]
+        c = B.act(Y.lever)
+        r = c - o.translation
+        r_perp = r - (r @ a) * a
+        inertia += float(a @ (B.rotation @ Y.inertia @ B.rotation.T) @ a + Y.mass * r_perp @ r_perp)
+        torque += float(a @ np.cross(r, np.array([0.0, 0.0, -Y.mass * GRAVITY])))
+    return inertia, torque, a
+
+
+def hip_strategy_bound(
+    robot: Robot,
+    q: np.ndarray,
+    stance: str,
+    direction: np.ndarray,
+    com_height: float,
+    delay: float = 0.0,
+    stall_torque: float = STALL_TORQUE,
+    no_load_speed: float = NO_LOAD_SPEED,
+    armature: float = ARMATURE,
+) -> dict[str, Any]:
+    """The DCM shift (mm) and impulse (N·s) the whole body's spinning parts can add to the
+    CoP's catch against a push along ``direction`` (horizontal, world), standing on
+    ``stance`` ("left"/"right") at configuration ``q`` (module docstring). Parts: the stance
+    hip roll turning everything above the stance leg about it (the torso's top thrown along
+    ``direction``), the swing hip roll turning the swing leg and the shoulder rolls turning
+    the arms the same way; each from rest at its servo's stall torque less the gravity torque
+    it holds, within its joint range in that direction, ``delay`` s after the push."""
+    if stance not in ("left", "right"):
+        raise WbcError(f"hip_strategy_bound: stance must be 'left' or 'right', got {stance!r}")
+    u = np.array([direction[0], direction[1], 0.0], dtype=float)
+    if not np.linalg.norm(u) > 0:
+        raise WbcError("hip_strategy_bound: direction must have a horizontal part")
+    u /= np.linalg.norm(u)
+    w = np.cross([0.0, 0.0, 1.0], u)  # the spin axis: the top moves along u
+    model = robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    mass = robot.total_mass
+    damping = stall_torque / no_load_speed
+    s, o = ("l", "r") if stance == "left" else ("r", "l")
+    every = set(range(1, model.njoints))
+    parts = []
+    for joint, moving in (
+        (f"{s}_hip_roll", "above"),
+        (f"{o}_hip_roll", "below"),
+        ("l_shoulder_roll", "below"),
+        ("r_shoulder_roll", "below"),
+    ):
+        j = model.getJointId(joint)
+        sub = _subtree(model, j)
+        bodies = every - sub if moving == "above" else sub
+        inertia, grav, a = _about_axis(model, data, bodies, j)
+        # the moving part turns by +Δq·a (subtree) or −Δq·a (the rest, the leg held)
+        sign = 1.0 if moving == "below" else -1.0
+        dq = sign * math.copysign(1.0, float(a @ w))  # joint motion per rad of spin along w
+        qi = float(q[7 + robot.joint_names.index(joint)])
+        k = robot.joint_names.index(joint)
+        span = robot.q_max[k] - qi if dq > 0 else qi - robot.q_min[k]
+        # gravity's torque on the moving part along its spin (+: helps)
+        helps = sign * grav * dq
+        cos = abs(float(a @ w))
+        net = stall_torque + min(helps, 0.0)  # a servo gives at most its stall torque
+        shift = cos * flywheel_shift(inertia, mass, com_height, net, damping, max(span, 0.0),
+                                     armature, delay)  # fmt: skip
+        parts.append({"joint": joint, "inertia_kgm2": inertia, "gravity_torque_nm": helps,
+                      "range_deg": math.degrees(max(span, 0.0)), "shift_mm": 1e3 * shift})  # fmt: skip
+    omega = math.sqrt(GRAVITY / com_height)
+    total = sum(p["shift_mm"] for p in parts) * 1e-3
+    return {
+        "parts": parts,
+        "stance_hip_shift_mm": parts[0]["shift_mm"],
+        "shift_mm": 1e3 * total,
+        "stance_hip_ns": mass * omega * parts[0]["shift_mm"] * 1e-3,
+        "ns": mass * omega * total,
+        "delay_s": delay,
+    }
