@@ -2,11 +2,16 @@
 
 The largest 10 ms torso impulse survived (N·s, bisection over 0–3 N·s as ``wbc bench
 --physics --push``: :func:`wbc.bench.physics.largest_push`), on ``walk10``, per solver, for
-the plan played open loop, the closed loop (compliance ×0.5) and the closed loop with step
-placement from the measured DCM (:mod:`wbc.balance.stepping`); plus the nominal run's
-figures and the LIPM capturability bounds (:func:`wbc.balance.stepping.capture_bounds`).
+the plan played open loop (``open``), the closed loop (compliance ×0.5, ``Gains()``: with
+the hip strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
+placement from the measured DCM (``step``, :mod:`wbc.balance.stepping`), and both without the
+hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it); plus
+the nominal run's figures, the LIPM capturability bounds
+(:func:`wbc.balance.stepping.capture_bounds`) and the angular-momentum (hip strategy) bound
+(:func:`wbc.balance.angular.hip_strategy_bound`).
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
+    python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -17,6 +22,7 @@ import argparse
 import json
 import time
 
+from wbc.balance.angular import hip_strategy_bound
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams, capture_bounds
 from wbc.bench import trajectories as traj
@@ -25,11 +31,22 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
+LOOPS = ("open", "closed", "step", "nohip", "nohipstep")
+
+
+def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
+    """(closed-loop spec or None for the open loop, compliance gain) of one loop name."""
+    if loop == "open":
+        return None, 0.0
+    gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
+    step = SteppingParams() if loop in ("step", "nohipstep") else None
+    return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--solvers", nargs="+", default=["wqp-daqp", "hqp-daqp", "placo", "pink"])
-    ap.add_argument("--loops", nargs="+", default=["open", "closed", "step"])
+    ap.add_argument("--loops", nargs="+", default=list(LOOPS[:3]), choices=LOOPS)
     ap.add_argument("--directions", nargs="+", default=["lateral", "forward"])
     ap.add_argument("--trajectory", default="walk10")
     ap.add_argument("--json", default=None)
@@ -65,12 +82,11 @@ def main() -> None:
         entries, _ = select([solver], None, "tick")
         entry = next(e for e in entries if e.name == solver)
         rec = plan(solver, args.trajectory, robot)
+        if "hip_bound" not in out:  # at the push, on the first solver's plan
+            out["hip_bound"] = hip_bound(rec, robot, ref, bounds)
+            print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
-            spec = None
-            if loop != "open":
-                step = SteppingParams() if loop == "step" else None
-                spec = ClosedLoopSpec(entry.make, ref, Gains(), True, True, step)
-            comp = 0.0 if loop == "open" else 0.5
+            spec, comp = loop_spec(loop, entry, ref)
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
             row = {"solver": solver, "loop": loop, "compensate": comp,
@@ -86,6 +102,27 @@ def main() -> None:
             if args.json:
                 with open(args.json, "w") as f:
                     json.dump(out, f, indent=1)
+
+
+def hip_bound(rec, robot, ref, bounds: dict) -> dict:
+    """The angular-momentum bound at the lateral push (:mod:`wbc.balance.angular`), at once
+    and 30 ms late (the estimated DCM's lag), added to the CoP bound (``away_ns``)."""
+    import numpy as np
+
+    from wbc.bench.physics import mid_single_support, push_direction
+
+    t = mid_single_support(rec)
+    k = int(np.clip(np.searchsorted(rec.t - rec.t[0], t), 0, len(rec) - 1))
+    i = int(np.clip(np.searchsorted(ref.t - ref.t[0], t), 0, ref.n - 1))
+    stance = ref.stance_side(i)
+    u = push_direction(rec, "lateral")
+    out = {}
+    for delay in (0.0, 0.03):
+        b = hip_strategy_bound(robot, rec.q[k], stance, u, ref.com_height, delay=delay)
+        b["cop_plus_hip_ns"] = bounds["away_ns"] + b["ns"]
+        b["cop_plus_stance_hip_ns"] = bounds["away_ns"] + b["stance_hip_ns"]
+        out[f"delay_{round(1e3 * delay)}ms"] = b
+    return out
 
 
 def grid(args) -> None:
@@ -104,11 +141,7 @@ def grid(args) -> None:
         rec = plan(solver, args.trajectory, robot)
         u, t = push_direction(rec, "lateral"), mid_single_support(rec)
         for loop in args.loops:
-            spec = None
-            if loop != "open":
-                stepping = SteppingParams() if loop == "step" else None
-                spec = ClosedLoopSpec(entry.make, ref, Gains(), True, True, stepping)
-            comp = 0.0 if loop == "open" else 0.5
+            spec, comp = loop_spec(loop, entry, ref)
             up = []
             for j in impulses:
                 push = (t, u * j / PUSH_DURATION, PUSH_DURATION)
@@ -137,9 +170,8 @@ def safety(args) -> None:
         rec = plan(solver, args.trajectory, robot)
         u = push_direction(rec, "lateral")
         push = (mid_single_support(rec), u * args.safety / PUSH_DURATION, PUSH_DURATION)
-        for loop in ("closed", "step"):
-            step = SteppingParams() if loop == "step" else None
-            spec = ClosedLoopSpec(entry.make, ref, Gains(), True, True, step)
+        for loop in [lp for lp in args.loops if lp != "open"] or ["closed", "step"]:
+            spec, _ = loop_spec(loop, entry, ref)
             result, cl = play_closed_loop(spec, robot, push=push, compensate=0.5)
             rec_fig = physics_record(rec, result, robot, ref)
             lim = result.deploy.limits

@@ -33,20 +33,22 @@ def test_unlimited_range_gives_the_closed_form():
     st.floats(0.05, 1.5),
     st.floats(0.0, 0.1),
 )
-def test_more_torque_range_or_inertia_buy_more_and_a_delay_costs_its_decay(I, tau, rng, delay):
+def test_more_torque_range_or_inertia_buy_more_and_a_delay_costs_its_decay(
+    inertia, tau, rng, delay
+):
     """Δξ grows with the torque, the joint range and the inertia; starting ``delay`` later
     multiplies it by e^{−ω₀ delay}; and it never exceeds the unlimited-range closed form."""
     m, h = 1.9, 0.17
-    base = flywheel_shift(I, m, h, tau, B, rng)
+    base = flywheel_shift(inertia, m, h, tau, B, rng)
     assert base > 0
-    assert flywheel_shift(I, m, h, 1.2 * tau, B, rng) > base
-    assert flywheel_shift(I, m, h, tau, B, 1.2 * rng) >= base
-    assert flywheel_shift(1.2 * I, m, h, tau, B, rng) > base
+    assert flywheel_shift(inertia, m, h, 1.2 * tau, B, rng) > base
+    assert flywheel_shift(inertia, m, h, tau, B, 1.2 * rng) >= base
+    assert flywheel_shift(1.2 * inertia, m, h, tau, B, rng) > base
     omega = math.sqrt(GRAVITY / h)
-    assert flywheel_shift(I, m, h, tau, B, rng, delay=delay) == pytest.approx(
+    assert flywheel_shift(inertia, m, h, tau, B, rng, delay=delay) == pytest.approx(
         base * math.exp(-omega * delay), rel=1e-12
     )
-    assert base <= flywheel_shift(I, m, h, tau, B, 1e3) * (1 + 1e-9)
+    assert base <= flywheel_shift(inertia, m, h, tau, B, 1e3) * (1 + 1e-9)
 
 
 def test_no_torque_or_no_range_buys_nothing_and_bad_input_is_refused():
@@ -76,6 +78,4 @@ def test_the_stance_hip_throws_the_upper_body_over_its_abduction_range():
     # the mirror push on the right sole: the right hip's range to its lower limit
     out_r = hip_strategy_bound(robot, q, "right", np.array([0.0, -1.0]), 0.17)
     k = robot.joint_names.index("r_hip_roll")
-    assert out_r["parts"][0]["range_deg"] == pytest.approx(
-        math.degrees(q[7 + k] - robot.q_min[k])
-    )
+    assert out_r["parts"][0]["range_deg"] == pytest.approx(math.degrees(q[7 + k] - robot.q_min[k]))

@@ -150,7 +150,8 @@ def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot,
     swing foot at mid first single support: without stepping it falls (it survives 0.797,
     benchmarks/pushes.md), with stepping it stays up (0.844). The open loop survives 0.914:
     stepping does not beat it on this push (the capture bound is 0.934, see above), so the
-    test compares with the closed loop alone."""
+    test compares with the closed loop alone. Both without the hip strategy (``k_hip=0``:
+    stepping's own effect; the hip strategy alone survives this push, test_balance_stabilizer)."""
     pytest.importorskip("mujoco")
     from wbc.balance.stabilizer import Gains
     from wbc.bench import physics
@@ -162,7 +163,7 @@ def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot,
     push = (t, physics.push_direction(rec, "lateral") * 0.83 / physics.PUSH_DURATION, 0.01)
     runs = {}
     for name, stepping in (("closed", None), ("step", SteppingParams())):
-        spec = physics.ClosedLoopSpec(entry.make, walk10, Gains(), True, True, stepping)
+        spec = physics.ClosedLoopSpec(entry.make, walk10, Gains(k_hip=0.0), True, True, stepping)
         runs[name] = physics.simulate(rec, robot, push=push, compensate=0.5, closed=spec)
     assert runs["closed"]["fell"] and runs["closed"]["replans"] is None
     assert not runs["step"]["fell"] and runs["step"]["replans"] >= 1

@@ -160,8 +160,10 @@ def hip_strategy_bound(
         net = stall_torque + min(helps, 0.0)  # a servo gives at most its stall torque
         shift = cos * flywheel_shift(inertia, mass, com_height, net, damping, max(span, 0.0),
                                      armature, delay)  # fmt: skip
-        parts.append({"joint": joint, "inertia_kgm2": inertia, "gravity_torque_nm": helps,
-                      "range_deg": math.degrees(max(span, 0.0)), "shift_mm": 1e3 * shift})  # fmt: skip
+        parts.append(
+            {"joint": joint, "inertia_kgm2": inertia, "gravity_torque_nm": helps,
+             "range_deg": math.degrees(max(span, 0.0)), "shift_mm": 1e3 * shift}
+        )  # fmt: skip
     omega = math.sqrt(GRAVITY / com_height)
     total = sum(p["shift_mm"] for p in parts) * 1e-3
     return {

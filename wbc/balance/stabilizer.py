@@ -18,9 +18,9 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   behind it;
 * **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
   ``−k_lean h (e × z)``;
-* **hip strategy** (``k_hip``) — in single support, a DCM estimated beyond ``hip_band``
-  outward of the stance sole's centre (toward the side no step can reach) rolls the torso
-  target toward it, ``Exp(h (z × u)) R_ref``, ``h = min(k_hip (s − hip_band)⁺, max_hip)``:
+* **hip strategy** (``k_hip``, on by default) — in single support, a DCM estimated beyond
+  ``hip_band`` outward of the stance sole's centre (toward the side no step can reach) rolls
+  the torso target toward it, ``Exp(h (z × u)) R_ref``, ``h = min(k_hip (s − hip_band)⁺, max_hip)``:
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
   sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`);
@@ -66,7 +66,7 @@ class Gains:
     max_offset: float = 0.2  # rad, per joint
     max_tilt: float = 0.2  # rad
     max_shift: float = 0.02  # m
-    k_hip: float = 0.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
+    k_hip: float = 100.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
     hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.8  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
@@ -243,8 +243,9 @@ class Stabilizer:
 
     def _hip_strategy(self, targets, est: StateEstimate, dt: float) -> np.ndarray:
         """The rotation that turns the torso target toward the stance sole's outer side (hip
-        strategy, ``k_hip``). In single support, with ``u`` the stance sole's lateral axis pointing away
-        from the other sole (the side no step can reach) and ``s = (ξ − p_stance)·u`` the
+        strategy, ``k_hip``). In single support, with ``u`` the stance sole's lateral axis
+        pointing away from the other sole (the side no step can reach) and
+        ``s = (ξ − p_stance)·u`` the
         estimated DCM's offset from the stance sole's centre along it, the roll is
         ``h = min(k_hip (s − hip_band)⁺, max_hip)`` about ``z × u``: ``Exp(h (z × u)) R_ref``,
         the torso's top thrown toward the fall. Spinning the upper body that way takes
