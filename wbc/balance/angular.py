@@ -48,14 +48,13 @@ def flywheel_shift(
     joint_range: float,
     armature: float = ARMATURE,
     delay: float = 0.0,
-    dt: float = 1e-4,
 ) -> float:
     """Δξ (m) bought by one body of ``inertia`` (kg·m², about the spin axis) spun from rest
     by a saturated servo (net ``torque`` N·m beyond what it holds, back-EMF ``damping``
     N·m·s/rad) through ``joint_range`` rad, starting ``delay`` s after the push (module
-    docstring): ``(I / (m h)) ∫ e^{−ω₀ t} θ̇ dt``."""
+    docstring): ``(I / (m h)) ∫ e^{−ω₀ t} θ̇ dt``, the spin ending when ``θ`` reaches the range."""
     for name, v in (("inertia", inertia), ("mass", mass), ("com_height", com_height),
-                    ("damping", damping), ("dt", dt)):  # fmt: skip
+                    ("damping", damping)):  # fmt: skip
         if not (np.isfinite(v) and v > 0):
             raise WbcError(f"flywheel_shift: {name} must be a finite number > 0, got {v}")
     if torque <= 0 or joint_range <= 0:
@@ -63,13 +62,15 @@ def flywheel_shift(
     omega = math.sqrt(GRAVITY / com_height)
     v_inf = torque / damping
     tau = (inertia + armature) / damping
-    # closed form while θ < range; the stop time solves θ(t) = v∞ (t − T (1 − e^{−t/T})) = range
-    t = 0.0
-    theta = 0.0
-    while theta < joint_range and t < 20.0 / omega + 50 * tau:
-        t += dt
-        theta = v_inf * (t - tau * (1.0 - math.exp(-t / tau)))
-    ts = t  # spin time (from the start of the spin)
+
+    def theta(t: float) -> float:
+        return v_inf * (t - tau * (1.0 - math.exp(-t / tau)))
+
+    lo, hi = 0.0, joint_range / v_inf + tau  # θ(hi) ≥ v∞ (hi − T) = range
+    for _ in range(100):  # the spin's end: θ(t) = range (θ increases)
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if theta(mid) < joint_range else (lo, mid)
+    ts = hi
     k = omega + 1.0 / tau
     integral = v_inf * ((1.0 - math.exp(-omega * ts)) / omega - (1.0 - math.exp(-k * ts)) / k)
     return inertia / (mass * com_height) * math.exp(-omega * delay) * integral
