@@ -189,7 +189,7 @@ class Stabilizer:
             robot, com_height, use_imu=imu is not None, gyro_heading=self.gains.k_yaw > 0
         )
         self.integral = np.zeros(3)
-        self.hip = np.zeros(2)  # hip-strategy roll (rad) along the DCM error
+        self.hip = np.zeros(2)  # hip-strategy roll (rad, horizontal: toward where the top goes)
         self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
         self.rate = np.zeros(3)
         self._joint = None
@@ -245,9 +245,9 @@ class Stabilizer:
         """The rotation that turns the torso target toward the stance sole's outer side (hip
         strategy, ``k_hip``). In single support, with ``u`` the stance sole's lateral axis
         pointing away from the other sole (the side no step can reach) and
-        ``s = (ξ − p_stance)·u`` the
-        estimated DCM's offset from the stance sole's centre along it, the roll is
-        ``h = min(k_hip (s − hip_band)⁺, max_hip)`` about ``z × u``: ``Exp(h (z × u)) R_ref``,
+        ``s = (ξ − p_stance)·u`` the estimated DCM's offset from the stance sole's centre
+        along it, the roll is ``h = min(k_hip (s − hip_band)⁺, max_hip)`` about ``z × u``:
+        ``Exp(h (z × u)) R_ref``,
         the torso's top thrown toward the fall. Spinning the upper body that way takes
         angular momentum from the fall: the centroidal moment pivot moves beyond the sole's
         edge while the torso accelerates (benchmarks/pushes.md). The roll grows at once along
