@@ -68,7 +68,7 @@ class Gains:
     max_shift: float = 0.02  # m
     k_hip: float = 100.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
     hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
-    max_hip: float = 0.8  # rad: largest hip-strategy roll of the torso target
+    max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
 
     def check(self) -> Gains:
