@@ -190,13 +190,20 @@ def check(robot: Robot, q: np.ndarray, q_next: np.ndarray, tally: Tally) -> None
 
 
 def run(
-    n: int, backends: list[str], ticks: int, iterations: int, seed: int, every: int = 0
+    n: int,
+    backends: list[str],
+    ticks: int,
+    iterations: int,
+    seed: int,
+    every: int = 0,
+    trials: list[int] | None = None,
 ) -> Tally:
-    """``every`` > 0: print the figures so far every that many trials (long runs)."""
+    """``every`` > 0: print the figures so far every that many trials (long runs);
+    ``trials``: run only these trial numbers (each the same draw as in a run of ``n``)."""
     robot = load_robot("bioloid")
     tally = Tally()
     start_time = time.perf_counter()
-    for trial in range(n):
+    for trial in range(n) if trials is None else trials:
         p = draw(robot, np.random.default_rng([seed, trial]), backends)
         p["trial"] = trial
         run_trial(robot, p, tally, ticks, iterations)
@@ -213,9 +220,14 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=50)
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--every", type=int, default=0, help="print the figures every N trials")
+    ap.add_argument(
+        "--trials", type=int, nargs="+", help="run only these trial numbers (reproduce one)"
+    )
     args = ap.parse_args()
+    if args.trials is not None and min(args.trials) < 0:
+        ap.error("--trials: trial numbers are >= 0")
     start_time = time.perf_counter()
-    t = run(args.n, args.backends, args.ticks, args.iterations, args.seed, args.every)
+    t = run(args.n, args.backends, args.ticks, args.iterations, args.seed, args.every, args.trials)
     report(t, start_time)
 
 
