@@ -266,12 +266,58 @@ class StackSolver(ABC):
                 break
             first = first or (dq, unmet)
         else:
-            if first is None or not relax:  # infeasible on their own: the solver's diagnosis
-                raise exc from (None if first else failure)
+            if first is None or not relax:
+                restored = self._restore_hard(kin, lower, upper)
+                if restored is None:  # infeasible on their own: the solver's diagnosis
+                    raise exc from (None if first else failure)
+                self.diagnosis, self.relaxed = "", False
+                return Solution(restored, lower, upper)
             dq, unmet = first
         self.diagnosis = "; ".join(unmet)
         self.relaxed = bool(unmet)
         return Solution(dq, lower, upper)
+
+    def _restore_hard(
+        self, kin: Kinematics, lower: np.ndarray, upper: np.ndarray
+    ) -> np.ndarray | None:
+        """Δq within [lower, upper] (this tick's box) that brings the hard levels back within
+        :attr:`hard_tol` *at q ⊕ Δq*, by Gauss–Newton steps re-linearised at each iterate
+        (:meth:`_hard_step`: the hard levels at gain 1, their inequality rows at their bare
+        bound, the pairs inside a margin no closer); None if the steps do not get there.
+
+        The last resort of an infeasible tick whose hard levels the re-solves cannot meet in
+        one linearisation: a hard contact's second-order drift after a tick at servo speed
+        (1–5 mm) whose full correction, linearised, takes a self-collision pair that sits at
+        its margin inside it, while the configuration one tick back met both (stress trials
+        771, 1271: the feet side by side in double support). The tick then spends itself on
+        the hard levels (the soft ones wait a tick), as a joint outside its range moves back
+        first; nothing hard is given up."""
+        q0 = kin.q.copy()
+        q, errors = q0, self._hard_errors(kin)
+        total = np.zeros(self.robot.nv)
+        for _ in range(HARD_PROJECTION_STEPS):
+            if max(errors, default=0.0) <= self.hard_tol:
+                kin.update(q0)
+                return self.robot.difference(q0, q)
+            kin.update(q)
+            problems, held = self._hard_problems(kin)
+            delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
+            t, accepted = 1.0, False
+            for _ in range(HARD_PROJECTION_HALVINGS):
+                q_t = self._move_joints(q, t * delta)
+                kin.update(q_t)
+                e_t = self._hard_errors(kin)
+                if max(e_t) < max(errors):
+                    q, errors, accepted = q_t, e_t, True
+                    total[6:] = q[7:] - q0[7:]
+                    break
+                t *= 0.5
+            if not accepted:
+                break
+        kin.update(q0)
+        if max(errors, default=0.0) <= self.hard_tol:
+            return self.robot.difference(q0, q)
+        return None
 
     def _recover(
         self,
@@ -619,13 +665,23 @@ class StackSolver(ABC):
             kin.update(q)
         return q, errors
 
-    def _hard_step(self, q: np.ndarray, problems: list[LevelProblem]) -> np.ndarray:
-        """One Gauss–Newton step onto the given levels (minimum-norm, joint limits)."""
+    def _hard_step(
+        self,
+        q: np.ndarray,
+        problems: list[LevelProblem],
+        box_lower: np.ndarray | None = None,
+        box_upper: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One Gauss–Newton step onto the given levels (minimum-norm, joint limits; within
+        [``box_lower``, ``box_upper``] too where given, e.g. what is left of a tick's box)."""
         nv = self.robot.nv
         lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self.stack.position_limit.joint_bounds_into(q[7:], lower[6:], upper[6:])
         np.minimum(lower[6:], 0.0, out=lower[6:])  # a joint outside its range may stay
         np.maximum(upper[6:], 0.0, out=upper[6:])
+        if box_lower is not None and box_upper is not None:
+            np.maximum(lower, np.minimum(box_lower, 0.0), out=lower)
+            np.minimum(upper, np.maximum(box_upper, 0.0), out=upper)
         none = np.zeros((0, nv))
         levels = [*problems, LevelProblem(1 << 30, none, np.zeros(0), none, np.zeros(0))]
         # DAQP whatever the solver's backend: an exact active set (a first-order backend's
