@@ -32,6 +32,12 @@ HARD_POSE_TOL = 1e-6
 #: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
 #: quadratically: two or three steps from a tick's second-order residual)
 HARD_PROJECTION_STEPS = 20
+#: the restoration of an infeasible tick (:meth:`StackSolver._restore_hard`) stops after
+#: RESTORE_STALLS steps in a row that each leave more than RESTORE_STALL of the hard error
+#: (Gauss–Newton converging is quadratic; stress trial 1271 got there after two such steps,
+#: an active row changing; a stalled one costs a projection per step in a tick that raises)
+RESTORE_STALL = 0.5
+RESTORE_STALLS = 3
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
 #: how much looser than their best achievable way back (m) the rows of constraints violated at
@@ -295,6 +301,7 @@ class StackSolver(ABC):
         q0 = kin.q.copy()
         q, errors = q0, self._hard_errors(kin)
         total = np.zeros(self.robot.nv)
+        stalls = 0
         for _ in range(HARD_PROJECTION_STEPS):
             if max(errors, default=0.0) <= self.hard_tol:
                 kin.update(q0)
@@ -308,11 +315,12 @@ class StackSolver(ABC):
                 kin.update(q_t)
                 e_t = self._hard_errors(kin)
                 if max(e_t) < max(errors):
+                    stalls = stalls + 1 if max(e_t) > RESTORE_STALL * max(errors) else 0
                     q, errors, accepted = q_t, e_t, True
                     total[6:] = q[7:] - q0[7:]
                     break
                 t *= 0.5
-            if not accepted:
+            if not accepted or stalls == RESTORE_STALLS:  # converging is quadratic
                 break
         kin.update(q0)
         if max(errors, default=0.0) <= self.hard_tol:
