@@ -308,6 +308,7 @@ class StackSolver(ABC):
                 return self.robot.difference(q0, q)
             kin.update(q)
             problems, held = self._hard_problems(kin)
+            problems += self._weighted_rows(kin)
             delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
             t, accepted = 1.0, False
             for _ in range(HARD_PROJECTION_HALVINGS):
@@ -326,6 +327,24 @@ class StackSolver(ABC):
         if max(errors, default=0.0) <= self.hard_tol:
             return self.robot.difference(q0, q)
         return None
+
+    def _weighted_rows(self, kin: Kinematics) -> list[LevelProblem]:
+        """The weighted QP's other hard rows for :meth:`_restore_hard`: it holds the
+        constraints of every level (e.g. the swing sole's ground clearance), the hierarchy
+        only those of its hard levels. One hard level after those, the rows at their bare
+        bound and those violated at ``kin`` no worse (a corner below the ground no lower)."""
+        if self.lexicographic:
+            return []
+        constraints = [
+            c for lv in self.stack.levels if not lv.hard for c in lv.active_constraints()
+        ]
+        if not constraints:
+            return []
+        nv = self.robot.nv
+        rows = split_rows(constraints, kin, nv, recovering=True)
+        G = np.vstack([rows.G, rows.G_inside])
+        h = np.concatenate([rows.h, np.zeros(rows.h_inside.size)])
+        return [LevelProblem(1 << 28, _no_jacobian(nv), _EMPTY, G, h, hard=True)]
 
     def _recover(
         self,
