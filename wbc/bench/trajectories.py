@@ -80,7 +80,7 @@ TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
     "static_walk": (_static_walk, "recommended static walk: whole body, CoM >= 15 mm in the sole"),
     "walk10_wb": (
         lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_DYNAMIC, **WALK10_WB, **kw}),
-        "walk10 with the whole-body window: ZMP >= 10 mm inside the soles",
+        "walk10's steps with the whole-body window (ZMP >= 10 mm inside the soles), 12 mm apex",
     ),
     "fast_wb": (
         lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_TIMING, **FAST, **kw}),
