@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -338,7 +339,13 @@ def test_kokone_walk_on_the_ssc32_emulator(kokone, short_walk, capsys):
     m = Ssc32Map.from_file(KOKONE / "ssc32.toml", kokone.joint_names)
     codec = m.codec()
     moves = [ln for ln in board.lines if ln.startswith(b"#")]
-    assert len(moves) >= 1 + 60  # start pose + 1.2 s at 50 Hz
+    # start pose + 1.2 s at 50 Hz; a tick the loaded machine ran late is skipped, never sent
+    # in a burst, and the deployment reports it: every slot is either sent or reported skipped
+    skipped = re.search(r"\((\d+) ticks skipped, never caught up\)", out)
+    assert skipped is not None, out
+    missed = int(skipped.group(1))
+    assert missed <= 10, out  # a few late ticks, not a loop that cannot keep its rate
+    assert len(moves) + missed >= 1 + 60
     tick_ms = 1000 // rate
     assert all(ln.endswith(f"T{tick_ms}".encode()) for ln in moves)  # T = one tick
     by_channel = {c.channel: i for i, c in enumerate(m.channels)}
