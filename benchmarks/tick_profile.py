@@ -79,7 +79,6 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
     switched = [session.targets(switch), session.targets(switch - 1)]
     solver = controller.solver
     plan = solver.fast
-    g = plan.inequalities
     noop = noop_entry(plan.args)
 
     solve = solve_call(plan, kind)
