@@ -1,7 +1,7 @@
 """Per-tick cost of the walking stack: our weighted and 3-level hierarchical QPs vs placo and pink.
 
 The stack (issue 3): support contact(s) hard, swing sole 6-D, CoM, torso orientation, posture,
-joint position and servo velocity limits — ``tasks/walk_lexicographic.toml`` (``walk`` in three
+joint position and servo velocity limits — ``tasks/walk_strict.toml`` (``walk`` in three
 strict levels; the weighted QP sees the same soft tasks and weights as ``walk``) without its
 CoM-polygon and ground-clearance constraints, which the peers do not get either. All four
 controllers follow the same 10-step reference through the same control loop
@@ -48,9 +48,9 @@ HIERARCHICAL = "3-level hierarchical QP (compiled)"
 
 
 def core_walk_spec() -> dict:
-    """tasks/walk_lexicographic.toml (the walk stack in three strict levels) without its
+    """tasks/walk_strict.toml (the walk stack in three strict levels) without its
     inequality constraints (what the peers can express)."""
-    with open(stacks_dir() / "walk_lexicographic.toml", "rb") as f:
+    with open(stacks_dir() / "walk_strict.toml", "rb") as f:
         spec = tomllib.load(f)
     for level in spec["levels"]:
         level.pop("constraints", None)
@@ -61,7 +61,7 @@ def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, floa
     """Median µs of a tick with the swing sole's ground-clearance row inactive and active, and
     how many of the active ticks were handed to the backend (the compiled kernels solve the
     row; a tick goes to the backend only if they cannot finish it)."""
-    with open(stacks_dir() / "walk_lexicographic.toml", "rb") as f:
+    with open(stacks_dir() / "walk_strict.toml", "rb") as f:
         spec = tomllib.load(f)
     control = build_stack({**spec, "solver": kind}, robot)
     q = robot.configuration("walk_ready")

@@ -50,7 +50,10 @@ class Tally:
     typed: Counter = field(default_factory=Counter)
     #: the trials of each kind of typed error (the first few, to look at)
     typed_trials: dict = field(default_factory=dict)
+    #: the run's first tick apart: it loads (or, in a fresh checkout, compiles) the kernels
+    first_tick: float = -1.0
     slowest_tick: float = 0.0
+    slowest_tick_trial: int = -1
     slowest_pose: float = 0.0
     slowest_pose_trial: int = -1
     miss_trials: list[int] = field(default_factory=list)
@@ -147,7 +150,12 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                 for _ in range(ticks):
                     t = time.perf_counter()
                     q_next = solver.step(q, 0.01)
-                    tally.slowest_tick = max(tally.slowest_tick, time.perf_counter() - t)
+                    elapsed = time.perf_counter() - t
+                    if tally.first_tick < 0.0:
+                        tally.first_tick = elapsed
+                    elif elapsed > tally.slowest_tick:
+                        tally.slowest_tick = elapsed
+                        tally.slowest_tick_trial = p.get("trial", -1)
                     tally.ticks += 1
                     check(robot, q, q_next, tally)
                     kin = Kinematics(robot, q_next)
@@ -190,13 +198,20 @@ def check(robot: Robot, q: np.ndarray, q_next: np.ndarray, tally: Tally) -> None
 
 
 def run(
-    n: int, backends: list[str], ticks: int, iterations: int, seed: int, every: int = 0
+    n: int,
+    backends: list[str],
+    ticks: int,
+    iterations: int,
+    seed: int,
+    every: int = 0,
+    trials: list[int] | None = None,
 ) -> Tally:
-    """``every`` > 0: print the figures so far every that many trials (long runs)."""
+    """``every`` > 0: print the figures so far every that many trials (long runs);
+    ``trials``: run only these trial numbers (each the same draw as in a run of ``n``)."""
     robot = load_robot("bioloid")
     tally = Tally()
     start_time = time.perf_counter()
-    for trial in range(n):
+    for trial in range(n) if trials is None else trials:
         p = draw(robot, np.random.default_rng([seed, trial]), backends)
         p["trial"] = trial
         run_trial(robot, p, tally, ticks, iterations)
@@ -213,9 +228,14 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=50)
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--every", type=int, default=0, help="print the figures every N trials")
+    ap.add_argument(
+        "--trials", type=int, nargs="+", help="run only these trial numbers (reproduce one)"
+    )
     args = ap.parse_args()
+    if args.trials is not None and min(args.trials) < 0:
+        ap.error("--trials: trial numbers are >= 0")
     start_time = time.perf_counter()
-    t = run(args.n, args.backends, args.ticks, args.iterations, args.seed, args.every)
+    t = run(args.n, args.backends, args.ticks, args.iterations, args.seed, args.every, args.trials)
     report(t, start_time)
 
 
@@ -234,7 +254,8 @@ def report(t: Tally, start_time: float) -> None:
         f"(largest {t.max_pose_contact:.3g}; trials {t.miss_trials[:10]})"
     )
     print(
-        f"slowest tick {t.slowest_tick * 1e3:.1f} ms, slowest pose {t.slowest_pose:.2f} s "
+        f"slowest tick {t.slowest_tick * 1e3:.1f} ms (trial {t.slowest_tick_trial}; the run's "
+        f"first tick apart: {t.first_tick:.2f} s), slowest pose {t.slowest_pose:.2f} s "
         f"(trial {t.slowest_pose_trial})"
     )
     print("typed errors:")

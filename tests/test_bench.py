@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from wbc.bench import metrics, solvers
 from wbc.cli import main
+from wbc.exceptions import WbcError
 from wbc.recording import Recording
 
 REQUIRED = {
@@ -58,11 +59,10 @@ def test_json_records(bench_run):
         assert r["trajectory"] == "thesis_step" and r["mode"] == "tick"
         assert r["time_median_us"] > 0 and r["failures"] == 0
     by = {r["solver"]: r for r in records}
-    # the walk stack's hierarchy (hard contacts and self-collision, then one weighted level:
-    # benchmarks/balance.md, issue 15) tracks the static step to the weighted level (0.23 mm
-    # of CoM error, as wqp, placo and pink), and never leaves the joint limits
-    assert by["hqp-daqp"]["com_err_max_mm"] < 0.5
-    assert by["hqp-daqp"]["com_err_max_mm"] <= by["placo"]["com_err_max_mm"] * 1.05
+    # the kinematic benchmark's hierarchy (walk_strict: CoM and swing above torso and posture)
+    # tracks the static step almost exactly, and never leaves the joint limits
+    assert by["hqp-daqp"]["stack"] == solvers.BENCH_STACKS["kinematic"] == "walk_strict"
+    assert by["hqp-daqp"]["com_err_max_mm"] < 0.1
     assert by["hqp-daqp"]["limit_violations"] == 0
 
 
@@ -222,9 +222,26 @@ def test_nlp_only_in_converged_mode():
     assert [e.name for e in entries] == ["nlp-ipopt"]
 
 
-def test_bad_names_are_rejected(capsys):
-    from wbc import WbcError
+def test_each_benchmark_has_its_stack_and_another_is_named():
+    """The kinematic benchmark compares the strict hierarchy, the physics one the recommended
+    ``walk``; another stack (``--stack``) shows in the entries' names, the former name of
+    walk_strict loads it, and a stack that does not exist is refused in one line."""
+    kin, _ = solvers.select(["hqp-daqp", "wqp-daqp", "qp-vat"], None, "tick", "kinematic")
+    assert [e.stack for e in kin] == ["walk_strict", "walk_strict", "vat"]
+    body, _ = solvers.select(["hqp-daqp"], None, "tick")  # the physics benchmark by default
+    assert [(e.name, e.stack) for e in body] == [("hqp-daqp", "walk")]
+    for stack in ("walk_strict", "walk_lexicographic"):
+        strict, _ = solvers.select(["hqp-daqp"], None, "tick", "physics", stack)
+        assert [(e.name, e.stack) for e in strict] == [("hqp-daqp@walk_strict", "walk_strict")]
+    other, _ = solvers.select(["wqp-daqp"], None, "tick", "kinematic", "walk")
+    assert [e.name for e in other] == ["wqp-daqp@walk"]
+    with pytest.raises(WbcError, match="--stack 'walk_loose': not a stack in tasks/"):
+        solvers.select(None, None, "tick", "kinematic", "walk_loose")
+    with pytest.raises(WbcError, match="unknown benchmark 'paper'"):
+        solvers.registry("paper")
 
+
+def test_bad_names_are_rejected(capsys):
     with pytest.raises(WbcError, match="unknown solver"):
         solvers.select(["gurobi"], None, "tick")
     with pytest.raises(WbcError, match="unknown families"):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -278,7 +279,8 @@ def test_ssc32_map_us_per_rad_and_bad_keys(tmp_path):
 @pytest.fixture(scope="module")
 def short_walk(kokone, tmp_path_factory):
     """Kokone's key-pose walk (crouch, CoM over the right foot, left half step) at 0.4 s per
-    pose, tracked by the project's ``walk`` stack, saved as a recording."""
+    pose, tracked by the kinematic benchmark's strict hierarchy (``walk_strict``), saved as a
+    recording."""
     from wbc.bench.trajectories import robot_options
     from wbc.stacks import load_stack
     from wbc.walking.keyposes import KeyPoseParams, keypose_walk
@@ -289,7 +291,7 @@ def short_walk(kokone, tmp_path_factory):
     start = StandingState.from_robot(kokone, kokone.configuration("stand"))
     params = KeyPoseParams(n_cycles=0, pose_time=0.4, dt=0.02)
     ref = keypose_walk(start, params, kw["foot"], kw["legs"], min_clearance=0.004)
-    rec = run(StackController(load_stack("walk", kokone)), kokone, ref)
+    rec = run(StackController(load_stack("walk_strict", kokone)), kokone, ref)
     path = tmp_path_factory.mktemp("kokone") / "keyposes.npz"
     rec.save(path)
     return ref, rec, str(path)
@@ -302,9 +304,7 @@ def test_keypose_walk_is_statically_stable_and_tracked(kokone, short_walk):
     # the lifted sole is the left one, 1.2 cm up at pose 3, down half a stride ahead at pose 4
     assert ref.meta["key_poses"][2]["lifted"] == "left"
     assert ref.meta["key_poses"][3]["left"] == pytest.approx([0.02, 0.0225, 0.0], abs=1e-12)
-    # tracked to 0.25 mm: the walk stack's torso and posture share the CoM's level (issue 15,
-    # benchmarks/balance.md; with them on a third level it was < 0.1 mm)
-    assert np.max(np.abs(rec["com"] - ref.com)) < 2.5e-4
+    assert np.max(np.abs(rec["com"] - ref.com)) < 1e-4  # tracked to 0.1 mm
     q = rec.q[:, 7:]
     assert np.all(q >= kokone.q_min - 1e-9) and np.all(q <= kokone.q_max + 1e-9)
 
@@ -339,7 +339,13 @@ def test_kokone_walk_on_the_ssc32_emulator(kokone, short_walk, capsys):
     m = Ssc32Map.from_file(KOKONE / "ssc32.toml", kokone.joint_names)
     codec = m.codec()
     moves = [ln for ln in board.lines if ln.startswith(b"#")]
-    assert len(moves) >= 1 + 60  # start pose + 1.2 s at 50 Hz
+    # start pose + 1.2 s at 50 Hz; a tick the loaded machine ran late is skipped, never sent
+    # in a burst, and the deployment reports it: every slot is either sent or reported skipped
+    skipped = re.search(r"\((\d+) ticks skipped, never caught up\)", out)
+    assert skipped is not None, out
+    missed = int(skipped.group(1))
+    assert missed <= 10, out  # a few late ticks, not a loop that cannot keep its rate
+    assert len(moves) + missed >= 1 + 60
     tick_ms = 1000 // rate
     assert all(ln.endswith(f"T{tick_ms}".encode()) for ln in moves)  # T = one tick
     by_channel = {c.channel: i for i, c in enumerate(m.channels)}

@@ -1,7 +1,8 @@
 """Solver reliability (issue 17): one regression test per finding of the stress run.
 
-Every test goes through the public API only (load_robot, tasks, TaskStack, the solvers'
-step/solve_pose, stacks.load_stack), so that it keeps its meaning whatever the solvers' inside.
+Every test goes through the public API (load_robot, tasks, TaskStack, the solvers'
+step/solve_pose, stacks.load_stack), so that it keeps its meaning whatever the solvers' inside,
+except one that pins the cascade (the level solver every solver path goes through).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import pytest
 
 from wbc import ConfigurationError, InfeasibleError, Kinematics, TaskError, WbcError, load_robot
 from wbc.limits import GroundClearanceConstraint
-from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
+from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP, make_backend
 from wbc.stacks import load_stack
 from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
 
@@ -182,6 +183,27 @@ def test_torso_target_exactly_pi_away_takes_one_branch_on_every_path(robot):
     np.testing.assert_allclose(errors[0], errors[1], atol=1e-9)
     assert errors[0][np.argmax(abs(errors[0]))] > 0  # the rule: largest component positive
     np.testing.assert_allclose(dqs[0], dqs[1], atol=1e-8)
+
+
+# ---------------------------------------------------------------- 8. feasible, reported failing
+@pytest.mark.parametrize("backend", ["daqp", "quadprog"])
+def test_hard_level_is_met_exactly_when_a_row_couples_its_null_space(backend):
+    """A hard level a = 1 with the row a - κ b <= 0 (κ = 1e-3): met exactly at (1, 1/κ). As
+    least squares with the cascade's ridge ρ on the level's null space (b) the optimum
+    trades a residual ρ/κ² = 1e-4 for it, and a solver called the hard level infeasible
+    (stress trial 1529: a contact 5e-6 m off behind the rows of a start with many pairs
+    inside the self-collision margin). The cascade is the solvers' level solver (one
+    definition: every path's hierarchy, recovery and projection goes through it)."""
+    from wbc.solvers.cascade import LevelProblem, solve_cascade  # no public entry point
+
+    hard = LevelProblem(
+        0, np.array([[1.0, 0.0]]), np.array([1.0]), np.array([[1.0, -1e-3]]), np.zeros(1), True
+    )
+    last = LevelProblem(1, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros(0))
+    backends = [make_backend(backend) for _ in range(2)]
+    dq, sols = solve_cascade([hard, last], np.full(2, -np.inf), np.full(2, np.inf), backends)
+    assert abs(sols[0].residual).max() <= 1e-9
+    assert dq[0] - 1e-3 * dq[1] <= 1e-9
 
 
 # ---------------------------------------------------------------- 9. starts outside the limits

@@ -39,6 +39,25 @@ def test_every_stack_loads_and_steps_within_limits(robot, name):
     assert isinstance(control.solver, expected)
 
 
+def test_walk_strict_is_walk_in_three_levels_and_keeps_its_former_name(robot):
+    """``walk_strict`` (formerly ``walk_lexicographic``, a name that still loads it) holds the
+    tasks of ``walk`` with the same weights, the torso and posture a level below the CoM and
+    swing foot."""
+    walk = load_stack("walk", robot).stack
+    names = {
+        key: [sorted(t.name for t in lvl.tasks) for lvl in load_stack(key, robot).stack.levels]
+        for key in ("walk_strict", "walk_lexicographic")
+    }
+    assert names["walk_strict"] == names["walk_lexicographic"]
+    hard, main, low = names["walk_strict"]
+    assert main == ["com", "frame_pose_swing"] and low == ["posture", "torso"]
+    assert hard == sorted(t.name for t in walk.levels[0].tasks)
+    assert sorted(main + low) == sorted(t.name for t in walk.levels[1].tasks)
+    strict = load_stack("walk_strict", robot).stack
+    for task in walk.tasks():
+        assert np.array_equal(strict.task(task.name).weight, task.weight)
+
+
 def test_the_thesis_priorities(robot):
     foot_first = load_stack("cj_foot", robot).stack.levels
     com_first = load_stack("cj_com", robot).stack.levels

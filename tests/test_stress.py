@@ -121,3 +121,35 @@ def test_starts_below_the_ground_recover(robot, stress, trial):
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)
     assert not tally.typed, dict(tally.typed)
     assert tally.limit_violations == tally.non_finite == tally.pose_contact_misses == 0
+
+
+@pytest.mark.parametrize(("trial", "ticks"), [(771, 12), (1271, 3)])
+def test_contact_drift_against_a_pair_at_its_margin_is_restored(robot, stress, trial, ticks):
+    """Stress trials 771, 1271 (walk stack, weighted QP, double support, targets out of reach
+    or upside down, numpy path): tick 0 at servo speed leaves the contacts 5.4 mm (771) and
+    0.5 mm (1271) off, to second order; at tick 1 their full correction, linearised, takes
+    a self-collision pair at its margin (the feet side by side; a foot and the other ankle)
+    inside it, and "hard level 0 is infeasible" was raised, although the configuration one
+    tick back met both. The tick now restores the hard levels by re-linearised steps within
+    its box (to 1e-6 at q ⊕ Δq): no error, contacts held."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    assert (p["stack"], p["kind"], p["double"]) == ("walk", "weighted", True)
+    stress.run_trial(robot, p, tally, ticks=ticks, iterations=0)
+    assert not tally.typed, dict(tally.typed)
+    assert tally.ok()
+
+
+def test_hard_level_met_exactly_where_its_null_space_is_coupled(robot, stress):
+    """Stress trial 1529 (walk stack, weighted QP, single support, the swing sole 58 mm below
+    the ground, two joints outside their limits, many pairs inside the margin): the first
+    iterate of its converged pose raised "ground_clearance_swing infeasible" although the
+    recovery's first cascade had met the contact exactly: the second cascade's hard level,
+    solved as least squares with a ridge on its null space, traded a 5e-6 m contact
+    residual for the ridge (coupled through the held rows). A hard level is now met as an
+    equality where it can be."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, 1529]), ["daqp"])
+    stress.run_trial(robot, p, tally, ticks=0, iterations=50)
+    assert not tally.typed, dict(tally.typed)
+    assert tally.poses == 1 and tally.ok()

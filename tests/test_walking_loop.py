@@ -24,14 +24,14 @@ def walk_run(robot, walk10):
 
 
 @pytest.fixture(scope="module")
-def lexicographic_run(robot, walk10):
-    return run(StackController(load_stack("walk_lexicographic", robot)), robot, walk10)
+def strict_run(robot, walk10):
+    return run(StackController(load_stack("walk_strict", robot)), robot, walk10)
 
 
 # max CoM / swing-foot error (mm): the `walk` stack's torso and posture share the CoM and swing
 # level (one weighted level: 0.45 / 3.4 mm on walk10, as the weighted QP); its three-level
-# variant is exact where walk10's reference is feasible (0.065 / 0.26 mm)
-TRACKING_BOUND_MM = {"walk_run": (1.0, 3.5), "lexicographic_run": (0.1, 1.0)}
+# variant `walk_strict` is exact where walk10's reference is feasible (0.065 / 0.26 mm)
+TRACKING_BOUND_MM = {"walk_run": (1.0, 3.5), "strict_run": (0.1, 1.0)}
 
 
 @pytest.mark.parametrize("stack_run", sorted(TRACKING_BOUND_MM))

@@ -120,6 +120,23 @@ def test_named_whole_body_walks_keep_the_zmp_10mm_inside(named, name):
     assert ref.meta["check"]["window_margin"] > 0
 
 
+def test_walk10_wb_keeps_walk10s_steps_and_timing_with_a_12mm_apex(named):
+    """walk10_wb: the same footsteps and duration as walk10, its swing soles 12 mm up (the
+    whole-body walks' apex; walk10's 20 mm asks the knee for 1.6x the servo speed and the
+    lagging swing landed 6-9 mm beyond each footstep: benchmarks/balance.md)."""
+    wb, plain = named("walk10_wb"), named("walk10")
+    assert wb.duration == pytest.approx(plain.duration)
+    for a, b in zip(wb.footsteps, plain.footsteps, strict=True):
+        assert a.side == b.side
+        assert (a.x, a.y) == pytest.approx((b.x, b.y), abs=1e-9)
+
+    def lift(ref):  # the highest swing, above the sole's start
+        return max((s[:, 2] - s[0, 2]).max() for s in (ref.l_sole, ref.r_sole))
+
+    assert lift(wb) == pytest.approx(traj.WHOLE_BODY_SWING.apex, abs=1e-9)
+    assert lift(plain) == pytest.approx(0.020, abs=1e-9)
+
+
 def test_fast_walk_is_faster_than_6cm_per_s(named):
     ref = named("fast_wb")
     start = 0.5 * (ref.l_sole[0, :2] + ref.r_sole[0, :2])

@@ -212,6 +212,10 @@ class ControlStack:
 _NO = RoleBinding(None, PHASES)
 
 
+#: former names of stack files, still accepted by :func:`load_stack` (old name -> file stem)
+RENAMED_STACKS = {"walk_lexicographic": "walk_strict"}
+
+
 def available_stacks() -> list[str]:
     """Names of the stack files in ``tasks/``."""
     return sorted(p.stem for p in stacks_dir().glob("*.toml"))
@@ -233,7 +237,8 @@ def load_stack(
     """
     path = Path(name_or_path)
     if path.suffix != ".toml":
-        path = stacks_dir() / f"{name_or_path}.toml"
+        name = RENAMED_STACKS.get(str(name_or_path), str(name_or_path))
+        path = stacks_dir() / f"{name}.toml"
     if not path.is_file():
         raise TaskError(
             f"unknown task stack {str(name_or_path)!r}; available: {available_stacks()}"

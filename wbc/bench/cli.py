@@ -31,7 +31,7 @@ from rich.table import Table
 
 from ..model import load_robot, print_notes
 from . import trajectories as traj
-from .solvers import FAMILIES, registry, select
+from .solvers import BENCH_STACKS, FAMILIES, registry, select
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -54,6 +54,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=list(traj.DEFAULT),
         metavar="NAME",
         help=f"from {', '.join(traj.names())}",
+    )
+    parser.add_argument(
+        "--stack",
+        metavar="NAME",
+        help="task stack of the wqp-*/hqp-* entries, by name in tasks/ or .toml path (default: "
+        f"{BENCH_STACKS['kinematic']}, the strict hierarchy, for the kinematic benchmark; "
+        f"{BENCH_STACKS['physics']}, the recommended one, with --physics)",
     )
     parser.add_argument(
         "--mode",
@@ -117,9 +124,13 @@ def _list(console: Console) -> int:
     table = Table(title="solvers")
     table.add_column("name")
     table.add_column("family")
-    for e in registry().values():
+    for e in registry("kinematic").values():
         table.add_row(e.name, e.family + ("" if e.real_time else " (converged mode only)"))
     console.print(table)
+    console.print(
+        f"wqp-*/hqp-* load the stack [bold]{BENCH_STACKS['kinematic']}[/] in the kinematic "
+        f"benchmark and [bold]{BENCH_STACKS['physics']}[/] with --physics (--stack: another)"
+    )
     for name, (_, text) in traj.TRAJECTORIES.items():
         console.print(f"trajectory [bold]{name}[/]: {text}")
     console.print(f"trajectory [bold]{traj.STATIC_COM}[/]: the static CoM placement set, ch. 3")
@@ -163,7 +174,7 @@ def _print_wide(console: Console, records: list[dict[str, Any]], mode: str) -> N
     for name in dict.fromkeys(r["trajectory"] for r in records):
         rows = [r for r in records if r["trajectory"] == name]
         table = Table(
-            title=f"{name} ({mode} mode)"
+            title=f"{name} ({mode} mode){_stack_note(rows)}"
             if name != "static_com"
             else "static_com (ch. 3, converged)",
             show_lines=False,
@@ -292,6 +303,14 @@ LEGEND = (
 )
 
 
+def _stack_note(rows: list[dict[str, Any]]) -> str:
+    """``, wqp/hqp: <stack>`` for a table with rows of the walking stack's entries."""
+    stacks = dict.fromkeys(
+        r["stack"] for r in rows if r.get("family") in ("qp-weighted", "qp-hierarchical")
+    )
+    return f", wqp/hqp: {', '.join(str(s) for s in stacks)}" if stacks else ""
+
+
 def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) -> None:
     """The compact tables (key figures, about 100 characters wide) and their legend."""
     for name in dict.fromkeys(r["trajectory"] for r in records):
@@ -301,6 +320,7 @@ def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) ->
         cells = [[fn(r) for _, fn in columns] for r in rows]
         keep = [k for k in range(len(columns)) if any(c[k] not in ("-", "- / -") for c in cells)]
         title = f"{name} ({row_mode} mode)" if name != traj.STATIC_COM else f"{name} (ch. 3)"
+        title += _stack_note(rows)
         table = Table(title=title, box=box.SIMPLE_HEAD, show_edge=False, padding=(0, 1, 0, 0))
         for k in keep:
             table.add_column(
@@ -371,7 +391,10 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         return _list(console)
     robot = load_robot(args.robot)
     print_notes(robot, "bench")
-    entries, notes = select(args.solvers, args.families, args.mode)
+    benchmark = "physics" if args.physics else "kinematic"
+    entries, notes = select(
+        args.solvers, args.families, args.mode, benchmark, getattr(args, "stack", None)
+    )
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
     if args.physics:

@@ -591,7 +591,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
 
     entries = [e for e in entries if e.real_time]  # plans are one solve per tick
     if not (args.solvers or args.families):
-        entries = [e for e in entries if e.name in DEFAULT_SOLVERS]
+        entries = [e for e in entries if e.name.split("@")[0] in DEFAULT_SOLVERS]
     records: list[dict[str, Any]] = []
     series = {}
     comp = getattr(args, "compensate", 0.0)
@@ -642,7 +642,8 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                 r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
                 r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
                 wall = time.perf_counter() - started
-                r.update(solver=entry.name, family=entry.family, trajectory=name, **loop,
+                r.update(solver=entry.name, family=entry.family, stack=entry.stack,
+                         trajectory=name, **loop,
                          sim_steps=int(result.sim.steps), wall_s=wall,
                          steps_per_s=result.sim.steps / wall,
                          realtime_factor=r["sim_time_s"] / wall)  # fmt: skip

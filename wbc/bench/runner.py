@@ -38,6 +38,7 @@ def run_entry(
     )
     record = metrics.compute(rec, robot)
     record["solver"], record["family"] = entry.name, entry.family
+    record["stack"] = entry.stack  # the task stack file (None: a pinv scheme, a peer, the NLP)
     record["gait"] = ref.gait  # static: the CoM margin is the balance figure; dynamic: the ZMP's
     rec.meta.update(solver=entry.name, family=entry.family)
     return record, rec

@@ -2,8 +2,9 @@
 
 Every entry builds a :class:`~wbc.walking.loop.Controller` for a robot:
 
-* ``wqp-<backend>`` / ``hqp-<backend>`` — the recommended ``walk`` stack as a weighted or a
-  lexicographic QP, for each backend (daqp, proxqp, quadprog, osqp);
+* ``wqp-<backend>`` / ``hqp-<backend>`` — a walking stack as a weighted or a lexicographic QP,
+  for each backend (daqp, proxqp, quadprog, osqp): the benchmark's stack (:data:`BENCH_STACKS`),
+  or another one named ``<entry>@<stack>`` (``wbc bench --stack``);
 * ``qp-<scheme>`` — the QP counterparts of the thesis's six walking schemes (``tasks/``);
 * ``pinv-<scheme>`` — the thesis's pseudo-inverse schemes themselves (:mod:`wbc.pinv`);
 * ``placo``, ``pink`` — the peers, same URDF and tasks (optional extra);
@@ -16,19 +17,28 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..solvers.backends import BACKENDS
-from ..stacks import load_stack
+from ..stacks import RENAMED_STACKS, available_stacks, load_stack
 from ..walking.loop import Controller, StackController, TickTargets
 from ..walking.reference import WalkingReference
 from .peers import PEERS, available
 
 THESIS_SCHEMES = ("vat", "vatl", "cj_foot", "cj_com", "cjl_foot", "cjl_com")
 FAMILIES = ("qp-weighted", "qp-hierarchical", "qp-thesis", "pinv", "peer", "nlp")
+
+#: the stack of the wqp-*/hqp-* entries in each benchmark. The kinematic one (``wbc bench``)
+#: is the thesis's comparison of a hierarchy (CJ) with a weighting (VAT) on the paper motion:
+#: the strict three-level layout, where the hierarchy is exact wherever the reference is
+#: feasible. On a body (``wbc bench --physics``, pushes, the closed loop) the recommended
+#: ``walk``: the strict layout pays for a reference that outruns a servo with a hip hike and
+#: full-speed arms, which tip the robot (benchmarks/balance.md, issue 15).
+BENCH_STACKS = {"kinematic": "walk_strict", "physics": "walk"}
 
 
 @dataclass(frozen=True)
@@ -38,6 +48,7 @@ class SolverEntry:
     make: Callable[[Robot], Controller]
     real_time: bool = True  # False: only meaningful in converged mode (the NLP)
     needs: str | None = None  # optional module that must be importable
+    stack: str | None = None  # the task stack file of a wqp-*/hqp-*/qp-* entry
 
 
 class PinvController(Controller):
@@ -93,19 +104,29 @@ def _nlp(hard: bool) -> Callable[[Robot], Controller]:
     return make
 
 
-def registry() -> dict[str, SolverEntry]:
-    """Every solver the benchmark knows, in display order."""
+def registry(benchmark: str = "physics", stack: str | None = None) -> dict[str, SolverEntry]:
+    """Every solver the benchmark knows, in display order. The wqp-*/hqp-* entries load
+    ``stack`` (default: the benchmark's, :data:`BENCH_STACKS`); another stack than the
+    benchmark's shows in their names (``hqp-daqp@walk_strict``)."""
+    if benchmark not in BENCH_STACKS:
+        raise ConfigurationError(
+            f"unknown benchmark {benchmark!r}; choose from {list(BENCH_STACKS)}"
+        )
+    default = BENCH_STACKS[benchmark]
+    walk = default if stack is None else RENAMED_STACKS.get(stack, stack)
+    suffix = "" if walk == default else f"@{Path(walk).stem}"
     entries: list[SolverEntry] = []
     for prefix, family, kind in (
         ("wqp", "qp-weighted", "weighted"),
         ("hqp", "qp-hierarchical", "hierarchical"),
     ):
         for backend in BACKENDS:
-            name = f"{prefix}-{backend}"
-            entries.append(SolverEntry(name, family, _stack("walk", backend, kind, name)))
+            name = f"{prefix}-{backend}{suffix}"
+            entries.append(SolverEntry(name, family, _stack(walk, backend, kind, name), stack=walk))
     for scheme in THESIS_SCHEMES:
+        name = f"qp-{scheme}"
         entries.append(
-            SolverEntry(f"qp-{scheme}", "qp-thesis", _stack(scheme, "daqp", None, f"qp-{scheme}"))
+            SolverEntry(name, "qp-thesis", _stack(scheme, "daqp", None, name), stack=scheme)
         )
     for scheme in THESIS_SCHEMES:
         entries.append(
@@ -121,11 +142,18 @@ def registry() -> dict[str, SolverEntry]:
 
 
 def select(
-    names: list[str] | None, families: list[str] | None, mode: str
+    names: list[str] | None,
+    families: list[str] | None,
+    mode: str,
+    benchmark: str = "physics",
+    stack: str | None = None,
 ) -> tuple[list[SolverEntry], list[str]]:
-    """Entries matching names (exact or prefix) and families; returns (entries, notes) where
-    notes say what was skipped and why (a peer not installed, the NLP in tick mode)."""
-    reg = registry()
+    """Entries of :func:`registry` (``benchmark``, ``stack``) matching names (exact or prefix)
+    and families; returns (entries, notes) where notes say what was skipped and why (a peer
+    not installed, the NLP in tick mode)."""
+    if stack is not None:
+        check_stack(stack)
+    reg = registry(benchmark, stack)
     notes: list[str] = []
     chosen = list(reg.values())
     if families:
@@ -153,3 +181,17 @@ def select(
         else:
             out.append(e)
     return out, notes
+
+
+def check_stack(stack: str) -> None:
+    """Raise one clear line unless ``stack`` names a file in ``tasks/`` (or a former name of
+    one) or is a path to a ``.toml`` stack file."""
+    path = Path(stack)
+    if path.suffix == ".toml" and path.is_file():
+        return
+    if stack in available_stacks() or stack in RENAMED_STACKS:
+        return
+    raise ConfigurationError(
+        f"--stack {stack!r}: not a stack in tasks/ ({', '.join(available_stacks())}) "
+        "nor a .toml file"
+    )

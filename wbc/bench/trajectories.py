@@ -38,14 +38,22 @@ def _keyposes(
 
 #: the dynamic whole-body walks' ZMP: 18 mm in from each sole's centre, >= 10 mm inside
 WHOLE_BODY_DYNAMIC: dict[str, Any] = {"zmp_offset": (0.0, 0.018), "margin": 0.010}
+#: the whole-body walks' swing: a 12 mm apex
+WHOLE_BODY_SWING = SwingParams(apex=0.012)
 #: the new walks' timing: 0.5 s steps (0.4 s single support), 12 mm swing apex, so that the
 #: reference asks no joint for more than PLANNING_SPEED_FRACTION of the servo's no-load
 #: speed (walk10's 0.24 s swing with a 20 mm apex asks the swing knee for ~1.6x it)
 WHOLE_BODY_TIMING: dict[str, Any] = {
     **WHOLE_BODY_DYNAMIC,
     "timing": GaitTiming(step_time=0.5, double_support_ratio=0.2),
-    "swing": SwingParams(apex=0.012),
+    "swing": WHOLE_BODY_SWING,
 }
+#: walk10 with the whole-body window: walk10's footsteps and timing with the whole-body
+#: walks' 12 mm apex. With walk10's 20 mm the swing knee is asked 1.63x the servo's no-load
+#: speed (12 mm: 1.17x) and where the lagging swing foot lands depends on the lag: it landed
+#: 6-9 mm beyond each footstep, 1.20 of the distance closed loop with the compliance
+#: feed-forward x0.5; 12 mm: 1.04 (benchmarks/balance.md, "walk10_wb's travel")
+WALK10_WB: dict[str, Any] = {"n_steps": 10, "swing": WHOLE_BODY_SWING}
 #: the fast walk: 16 steps of 4 cm in 0.5 s (8 cm/s steady, 6.2 cm/s start to stop)
 FAST: dict[str, Any] = {"n_steps": 16, "step_length": 0.04}
 #: the turning walk: 8 steps of 2 cm turning 0.2 rad each (80 deg); the lateral walk: 8 steps
@@ -71,8 +79,8 @@ TRAJECTORIES: dict[str, tuple[Callable[..., WalkingReference], str]] = {
     # whole-body references: the torso leans over the stance foot (balance window)
     "static_walk": (_static_walk, "recommended static walk: whole body, CoM >= 15 mm in the sole"),
     "walk10_wb": (
-        lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_DYNAMIC, "n_steps": 10, **kw}),
-        "walk10 with the whole-body window: ZMP >= 10 mm inside the soles",
+        lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_DYNAMIC, **WALK10_WB, **kw}),
+        "walk10's steps with the whole-body window (ZMP >= 10 mm inside the soles), 12 mm apex",
     ),
     "fast_wb": (
         lambda s, **kw: forward_walk(s, **{**WHOLE_BODY_TIMING, **FAST, **kw}),

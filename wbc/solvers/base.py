@@ -32,6 +32,12 @@ HARD_POSE_TOL = 1e-6
 #: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
 #: quadratically: two or three steps from a tick's second-order residual)
 HARD_PROJECTION_STEPS = 20
+#: the restoration of an infeasible tick (:meth:`StackSolver._restore_hard`) stops after
+#: RESTORE_STALLS steps in a row that each leave more than RESTORE_STALL of the hard error
+#: (Gauss–Newton converging is quadratic; stress trial 1271 got there after two such steps,
+#: an active row changing; a stalled one costs a projection per step in a tick that raises)
+RESTORE_STALL = 0.5
+RESTORE_STALLS = 3
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
 #: how much looser than their best achievable way back (m) the rows of constraints violated at
@@ -266,12 +272,79 @@ class StackSolver(ABC):
                 break
             first = first or (dq, unmet)
         else:
-            if first is None or not relax:  # infeasible on their own: the solver's diagnosis
-                raise exc from (None if first else failure)
+            if first is None or not relax:
+                restored = self._restore_hard(kin, lower, upper)
+                if restored is None:  # infeasible on their own: the solver's diagnosis
+                    raise exc from (None if first else failure)
+                self.diagnosis, self.relaxed = "", False
+                return Solution(restored, lower, upper)
             dq, unmet = first
         self.diagnosis = "; ".join(unmet)
         self.relaxed = bool(unmet)
         return Solution(dq, lower, upper)
+
+    def _restore_hard(
+        self, kin: Kinematics, lower: np.ndarray, upper: np.ndarray
+    ) -> np.ndarray | None:
+        """Δq within [lower, upper] (this tick's box) that brings the hard levels back within
+        :attr:`hard_tol` *at q ⊕ Δq*, by Gauss–Newton steps re-linearised at each iterate
+        (:meth:`_hard_step`: the hard levels at gain 1, their inequality rows at their bare
+        bound, the pairs inside a margin no closer); None if the steps do not get there.
+
+        The last resort of an infeasible tick whose hard levels the re-solves cannot meet in
+        one linearisation: a hard contact's second-order drift after a tick at servo speed
+        (1–5 mm) whose full correction, linearised, takes a self-collision pair that sits at
+        its margin inside it, while the configuration one tick back met both (stress trials
+        771, 1271: the feet side by side in double support). The tick then spends itself on
+        the hard levels (the soft ones wait a tick), as a joint outside its range moves back
+        first; nothing hard is given up."""
+        q0 = kin.q.copy()
+        q, errors = q0, self._hard_errors(kin)
+        total = np.zeros(self.robot.nv)
+        stalls = 0
+        for _ in range(HARD_PROJECTION_STEPS):
+            if max(errors, default=0.0) <= self.hard_tol:
+                kin.update(q0)
+                return self.robot.difference(q0, q)
+            kin.update(q)
+            problems, held = self._hard_problems(kin)
+            problems += self._weighted_rows(kin)
+            delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
+            t, accepted = 1.0, False
+            for _ in range(HARD_PROJECTION_HALVINGS):
+                q_t = self._move_joints(q, t * delta)
+                kin.update(q_t)
+                e_t = self._hard_errors(kin)
+                if max(e_t) < max(errors):
+                    stalls = stalls + 1 if max(e_t) > RESTORE_STALL * max(errors) else 0
+                    q, errors, accepted = q_t, e_t, True
+                    total[6:] = q[7:] - q0[7:]
+                    break
+                t *= 0.5
+            if not accepted or stalls == RESTORE_STALLS:  # converging is quadratic
+                break
+        kin.update(q0)
+        if max(errors, default=0.0) <= self.hard_tol:
+            return self.robot.difference(q0, q)
+        return None
+
+    def _weighted_rows(self, kin: Kinematics) -> list[LevelProblem]:
+        """The weighted QP's other hard rows for :meth:`_restore_hard`: it holds the
+        constraints of every level (e.g. the swing sole's ground clearance), the hierarchy
+        only those of its hard levels. One hard level after those, the rows at their bare
+        bound and those violated at ``kin`` no worse (a corner below the ground no lower)."""
+        if self.lexicographic:
+            return []
+        constraints = [
+            c for lv in self.stack.levels if not lv.hard for c in lv.active_constraints()
+        ]
+        if not constraints:
+            return []
+        nv = self.robot.nv
+        rows = split_rows(constraints, kin, nv, recovering=True)
+        G = np.vstack([rows.G, rows.G_inside])
+        h = np.concatenate([rows.h, np.zeros(rows.h_inside.size)])
+        return [LevelProblem(1 << 28, _no_jacobian(nv), _EMPTY, G, h, hard=True)]
 
     def _recover(
         self,
@@ -619,13 +692,23 @@ class StackSolver(ABC):
             kin.update(q)
         return q, errors
 
-    def _hard_step(self, q: np.ndarray, problems: list[LevelProblem]) -> np.ndarray:
-        """One Gauss–Newton step onto the given levels (minimum-norm, joint limits)."""
+    def _hard_step(
+        self,
+        q: np.ndarray,
+        problems: list[LevelProblem],
+        box_lower: np.ndarray | None = None,
+        box_upper: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One Gauss–Newton step onto the given levels (minimum-norm, joint limits; within
+        [``box_lower``, ``box_upper``] too where given, e.g. what is left of a tick's box)."""
         nv = self.robot.nv
         lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self.stack.position_limit.joint_bounds_into(q[7:], lower[6:], upper[6:])
         np.minimum(lower[6:], 0.0, out=lower[6:])  # a joint outside its range may stay
         np.maximum(upper[6:], 0.0, out=upper[6:])
+        if box_lower is not None and box_upper is not None:
+            np.maximum(lower, np.minimum(box_lower, 0.0), out=lower)
+            np.minimum(upper, np.maximum(box_upper, 0.0), out=upper)
         none = np.zeros((0, nv))
         levels = [*problems, LevelProblem(1 << 30, none, np.zeros(0), none, np.zeros(0))]
         # DAQP whatever the solver's backend: an exact active set (a first-order backend's

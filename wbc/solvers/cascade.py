@@ -36,6 +36,8 @@ NULL_RIDGE = 1e-10
 _EMPTY = np.zeros(0)
 #: relative threshold of the rank decision on R's diagonal
 RANK_RTOL = 1e-9
+#: backends that solve a hard level with its task rows as equalities (:func:`_solve_exact`)
+EXACT_BACKENDS = ("daqp", "quadprog")
 
 
 @dataclass
@@ -202,6 +204,8 @@ def solve_cascade(
                 if (u := _unconstrained(H, c)) is not None:
                     if not feasible.holds(x + (u if B is None else B @ u), x, lvl):
                         u = None
+            if u is None and lvl.hard and qr is not None and qr.rank == qr.m > 0:
+                u = _solve_exact(lvl, x, B, M, v, feasible, backends[k])
             if u is not None:
                 s = np.zeros(p)
             else:
@@ -265,6 +269,45 @@ def _unconstrained(H: np.ndarray, c: np.ndarray) -> np.ndarray | None:
     """argmin ½uᵀHu + cᵀu for positive-definite H (Cholesky); None if H is not."""
     _, u, info = lapack.dposv(H, -c)
     return u if info == 0 else None
+
+
+def _solve_exact(
+    lvl: LevelProblem,
+    x: np.ndarray,
+    B: np.ndarray | None,
+    M: np.ndarray,
+    v: np.ndarray,
+    feasible: _Feasible,
+    backend: QPBackend,
+) -> np.ndarray | None:
+    """A hard level's rows met exactly: min ½‖u‖² s.t. M u = v, its own and the inherited
+    inequalities and the bounds (the least-squares optimum when it has zero residual, M of
+    full row rank: u's row-space part is then fixed, the rest as small as the ridge would
+    keep it); None if that QP is infeasible or the backend fails (then least squares).
+
+    Why not only least squares with a ridge ρ on the level's null space: where active rows
+    couple that null space to the row space, the optimum trades a residual r for ρ‖Nᵀu‖²,
+    r ~ ρ / κ² for a coupling κ — 5e-6 m on a contact with ρ = 2e-10 (stress trial 1529, a
+    start with many pairs inside the self-collision margin): a hard level reported
+    infeasible although a point meeting it exists (with no ridge, DAQP's singular Hessian
+    was worse: 3.5e-4).
+    The active-set backends only (DAQP, quadprog): a first-order one meets an equality to
+    its tolerance, not exactly, and fails on an infeasible one only at its iteration cap."""
+    if backend.name not in EXACT_BACKENDS:
+        return None
+    r = M.shape[1]
+    G_all, h_all = feasible.rows(x, B)
+    if lvl.G.shape[0]:
+        G_all = np.vstack([G_all, lvl.G if B is None else lvl.G @ B])
+        h_all = np.concatenate([h_all, lvl.h - lvl.G @ x])
+    if B is None:
+        lo, hi = feasible.lower - x, feasible.upper - x
+    else:
+        lo, hi = np.full(r, -np.inf), np.full(r, np.inf)
+    try:
+        return backend.solve(np.eye(r), np.zeros(r), M, v, G_all, h_all, lo, hi)
+    except (InfeasibleError, SolverError):
+        return None
 
 
 def _solve_qp(
