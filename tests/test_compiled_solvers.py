@@ -235,7 +235,7 @@ def test_the_hierarchy_with_active_inequality_rows_is_the_oracles(robot, seed, d
     ],
 )
 def test_a_soft_level_deferred_to_the_next_is_the_oracles_met_or_not(robot, phase, shift, met):
-    """``walk_lexicographic`` without its inequality rows: the CoM level is deferred to the
+    """``walk_strict`` without its inequality rows: the CoM level is deferred to the
     torso/posture level's solve as equalities when it can be met exactly (a 1 mm CoM step,
     or none), and solved on its own when not (a 3 cm CoM step in one tick): Δq is the backend
     cascade's to 1e-9 either way, on the compiled tick and on the numpy path, and no tick is
@@ -244,7 +244,7 @@ def test_a_soft_level_deferred_to_the_next_is_the_oracles_met_or_not(robot, phas
 
     q = robot.configuration("walk_ready")
     for compiled in (None, False):
-        control = load_stack("walk_lexicographic", robot, solver="hierarchical")
+        control = load_stack("walk_strict", robot, solver="hierarchical")
         control.solver.compiled = compiled
         kin = Kinematics(robot, q)
         control.set_phase(phase, "l_sole", "r_sole", kin)
