@@ -15,7 +15,11 @@ through the numpy assembly with DAQP on every tick (``compiled=False``).
 Then the cost of an active inequality row: that stack in single support (its swing
 ground-clearance constraint included), one tick at the same configuration repeated, with the
 swing sole's target above the ground (the row inactive: the compiled tick alone) and 5 mm
-below it (the row active). Last, the first tick after a support switch against the next one.
+below it (the row active). Then the first tick after a support switch against the next one;
+last, per-tick medians over 5 walks of our compiled solvers and placo (a preemption of the
+machine hits one walk, not the median): the first ticks of the support phases against the
+others, and the p99 over the ticks — each controller's own tail, comparable on a loaded
+machine, where the p99s of the table above are the machine's preemptions.
 
 Run: ``python benchmarks/qp_tick.py [--rounds 5]`` (writes nothing; paste into qp_tick.md).
 """
@@ -104,24 +108,21 @@ def phase_switch_ticks(robot, kind: str, repeats: int = 50) -> tuple[float, floa
     return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
 
 
-def walk_tail(robot, ref, kind: str, walks: int = 5) -> tuple[float, float]:
-    """Per-tick medians over ``walks`` walks (a preemption hits one walk, not the median):
-    the median over the first ticks of the support phases, and over the other ticks."""
+def walk_tail(robot, ref, make, walks: int = 5) -> tuple[float, float, float]:
+    """Per-tick medians over ``walks`` walks of the controller ``make()`` builds (a
+    preemption hits one walk, not the median): the median over the first ticks of the
+    support phases, over the other ticks, and the p99 over all ticks (the tail a controller
+    has of its own, without the machine's preemptions)."""
     from wbc.walking.loop import SUPPORT_DOUBLE, support_roles
 
-    times = [
-        run(StackController(build_stack({**core_walk_spec(), "solver": kind}, robot)), robot, ref)[
-            "solve_time"
-        ]
-        for _ in range(walks)
-    ]
+    times = [run(make(), robot, ref)["solve_time"] for _ in range(walks)]
     t = np.median(np.array(times), axis=0) * 1e6
     swing = support_roles(ref)[1]
     double = ref.support == SUPPORT_DOUBLE
     first = np.array(
         [i > 0 and (double[i], swing[i]) != (double[i - 1], swing[i - 1]) for i in range(ref.n)]
     )
-    return float(np.median(t[first])), float(np.median(t[~first]))
+    return float(np.median(t[first])), float(np.median(t[~first])), float(np.percentile(t, 99))
 
 
 def main() -> int:
@@ -188,11 +189,16 @@ def main() -> int:
     for kind in ("weighted", "hierarchical"):
         first, after = phase_switch_ticks(robot, kind)
         print(f"support switch ({kind}): first tick {first:.0f} µs, the next {after:.0f} µs")
-    for kind in ("weighted", "hierarchical"):
-        first, other = walk_tail(robot, ref, kind)
+    tails = {
+        name: walk_tail(robot, ref, makers[name])
+        for name in (WEIGHTED, HIERARCHICAL, "placo 0.10.2")
+        if name in makers
+    }
+    for name, (first, other, p99) in tails.items():
         print(
-            f"{args.trajectory} ({kind}), per-tick medians over 5 walks: first tick of a support"
-            f" phase {first:.0f} µs, the other ticks {other:.0f} µs"
+            f"{args.trajectory} ({name}), per-tick medians over 5 walks: first tick of a support"
+            f" phase {first:.0f} µs, the other ticks {other:.0f} µs, p99 {p99:.0f} µs"
+            f" ({p99 / tails.get('placo 0.10.2', (0, 0, p99))[2]:.2f} × placo's)"
         )
     return 0
 

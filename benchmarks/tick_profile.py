@@ -6,7 +6,10 @@ the loop's tick as benchmarks/qp_tick.py times it, a tick with a support switch 
 configuration before the walk's next switch, its phase and the one before in turn), setting
 the targets, the kinematics, the generated tick (one numba call), calling a do-nothing
 compiled function with the same arguments (numba's cost of unboxing them), and the solve alone
-(bounds, least squares, integration). Best of 200 × 50 calls, µs.
+(bounds, least squares, integration). Best of 200 × 50 calls, µs. Then the solve alone
+(bounds, least squares, integration) of every tick of the walk but the first of each support
+phase, replayed at once from the warm start the loop gave it, best of 7 (the active sets'
+own tail, without the machine's preemptions): median, p90, p99 and max, µs.
 
 Run: ``python benchmarks/tick_profile.py`` (writes nothing; figures in qp_tick.md).
 """
@@ -17,6 +20,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 from numba import njit, typeof
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -75,25 +79,9 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
     switched = [session.targets(switch), session.targets(switch - 1)]
     solver = controller.solver
     plan = solver.fast
-    g = plan.inequalities
     noop = noop_entry(plan.args)
 
-    if kind == "weighted":
-
-        def solve():
-            T.weighted_solve(
-                plan.soft.J, plan.soft.b, plan.hard.J, plan.hard.b, g.G, g.h, g.g_rows, plan.q,
-                plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
-                plan.state, g.working[0], plan.dq, plan.q_next,
-            )  # fmt: skip
-    else:
-
-        def solve():
-            T.cascade_solve(
-                plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
-                plan.q, plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
-                plan.states, g.working, g.h_eff, plan.achieved, plan.dq, plan.q_next,
-            )  # fmt: skip
+    solve = solve_call(plan, kind)
 
     return {
         "the loop's tick (controller.track: what qp_tick.py times)": best(
@@ -113,6 +101,46 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
     }
 
 
+def solve_call(plan, kind: str):
+    """The plan's solve alone (bounds, least squares, integration) on its filled rows."""
+    g = plan.inequalities
+    if kind == "weighted":
+        return lambda: T.weighted_solve(
+            plan.soft.J, plan.soft.b, plan.hard.J, plan.hard.b, g.G, g.h, g.g_rows, plan.q,
+            plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
+            plan.state, g.working[0], plan.dq, plan.q_next,
+        )  # fmt: skip
+    return lambda: T.cascade_solve(
+        plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
+        plan.q, plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
+        plan.states, g.working, g.h_eff, plan.achieved, plan.dq, plan.q_next,
+    )  # fmt: skip
+
+
+def walk_solves(robot, ref, kind: str) -> list[float]:
+    """µs of the solve of each tick of the walk (not the first of a support phase), replayed
+    right after the tick from the warm start the loop gave it, best of 7."""
+    controller = StackController(build_stack({**core_walk_spec(), "solver": kind}, robot))
+    session = Session(controller, robot, ref)
+    out = []
+    for i in range(len(ref)):
+        before = controller.solver.fast
+        start = before.warm_start.copy() if before is not None else None
+        session.tick(i)
+        plan = controller.solver.fast
+        if plan is not before or start is None:
+            continue  # (a support switch: another layout)
+        call = solve_call(plan, kind)
+        times = []
+        for _ in range(7):
+            plan.warm_start[...] = start
+            t = time.perf_counter()
+            call()
+            times.append((time.perf_counter() - t) * 1e6)
+        out.append(min(times))
+    return out
+
+
 def main() -> int:
     robot = load_robot()
     ref = build("walk10", robot)
@@ -121,6 +149,13 @@ def main() -> int:
     print("|---|---|---|")
     for part in rows["weighted"]:
         print(f"| {part} | {rows['weighted'][part]:.1f} | {rows['hierarchical'][part]:.1f} |")
+    print("\nthe solve of each tick along walk10 (not a switch), replayed, best of 7, µs:")
+    print("| solver | median | p90 | p99 | max |")
+    print("|---|---|---|---|---|")
+    for kind in ("weighted", "hierarchical"):
+        t = np.array(walk_solves(robot, ref, kind))
+        cells = " | ".join(f"{v:.1f}" for v in np.percentile(t, [50, 90, 99, 100]))
+        print(f"| {kind} | {cells} |")
     return 0
 
 

@@ -225,6 +225,49 @@ def test_the_hierarchy_with_active_inequality_rows_is_the_oracles(robot, seed, d
     assert np.abs(steps[None] - steps[False]).max() < 1e-9
 
 
+@pytest.mark.parametrize(
+    ("phase", "shift", "met"),
+    [
+        ("double", 0.001, True),
+        ("double", 0.03, False),
+        ("single", 0.0, True),
+        ("single", 0.03, False),
+    ],
+)
+def test_a_soft_level_deferred_to_the_next_is_the_oracles_met_or_not(robot, phase, shift, met):
+    """``walk_strict`` without its inequality rows: the CoM level is deferred to the
+    torso/posture level's solve as equalities when it can be met exactly (a 1 mm CoM step,
+    or none), and solved on its own when not (a 3 cm CoM step in one tick): Δq is the backend
+    cascade's to 1e-9 either way, on the compiled tick and on the numpy path, and no tick is
+    handed back."""
+    from wbc.compiled import ticks
+
+    q = robot.configuration("walk_ready")
+    for compiled in (None, False):
+        control = load_stack("walk_strict", robot, solver="hierarchical")
+        control.solver.compiled = compiled
+        kin = Kinematics(robot, q)
+        control.set_phase(phase, "l_sole", "r_sole", kin)
+        control.stack.set_active([c.name for c in control.stack.constraints()], False)
+        control.stack.task("frame_pose_swing").set_target_from(kin)
+        control.stack.task("com").set_target(kin.com + np.array([0.0, shift, 0.0]))
+        solver = control.solver
+        dq = solver.solve(q, 0.01)
+        reference, _ = _oracle(solver)
+        assert np.abs(dq - reference).max() < 1e-9, np.abs(dq - reference).max()
+        residual = np.abs(solver.solutions[1].residual).max()
+        assert residual < 1e-12 if met else residual > 1e-6
+        if compiled is None:
+            assert solver.compiled_ticks == 1 and solver.handed_back_ticks == 0
+            plan, g = solver.fast, solver.fast.inequalities
+            status = ticks._cascade(
+                plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
+                plan.params, plan.lower, plan.upper, plan.states.copy(), g.working.copy(),
+                g.h_eff, plan.achieved.copy(), np.zeros(robot.nv), np.bool_(True),
+            )  # fmt: skip
+            assert status == (ticks.OK if met else ticks.DEFERRAL_FAILED)
+
+
 def test_compiled_true_names_what_it_cannot_compile(robot):
     q = robot.configuration("walk_ready")
     stack = walking_stack(robot, q)

@@ -29,8 +29,10 @@ it and a fixed one with the wrong multiplier sign is released, all at once. PDAS
 few steps when the reduced Hessian is close to an M-matrix but can cycle otherwise (typically
 p < d with a small ridge). When the number of infeasibilities stops falling, or an exchange makes
 the equalities inconsistent, the solver switches to a dual active set method (Goldfarb–Idnani
-on the bounds): from the current set less its wrong-signed bounds (a dual feasible point) it
-adds the most violated bound, moving along the subproblem's solution, which is affine in the
+on the bounds): from the set PDAS met with the fewest infeasibilities, less its wrong-signed
+bounds (released one at a time, the largest multiplier first: a dual feasible point; on the
+walk's hierarchy, 14 subproblems → 8 on the ticks where PDAS stalls), it adds the most
+violated bound, moving along the subproblem's solution, which is affine in the
 value the added variable is held at, and releasing a bound whose multiplier reaches zero on the
 way; when the added bound depends on the active ones and the equalities (holding it drops the
 rank of A_F), a pure dual step releases one of those instead, or, if none can go and the
@@ -774,19 +776,29 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                     elif _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i]):
                         ind[_I_FIXED, i] = 0
                 continue
-            phase = _DUAL_START  # PDAS is not making progress (it may cycle)
+            # PDAS is not making progress (it may cycle): the dual method, from the set with
+            # the fewest infeasibilities (the last exchange made things worse)
+            phase = _DUAL_START
+            for i in range(n):
+                ind[_I_FIXED, i] = ind[_I_PREV, i]
+            continue
         if phase == _DUAL_START:
             if sub == _SUB_INCONSISTENT:  # cannot happen: only releases since a consistent set
                 _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
                 return MAX_ITER, count
-            released = False  # a dual feasible start: no bound with the wrong multiplier sign
+            # a dual feasible start: no bound with the wrong multiplier sign. The most wrong
+            # one is released at a time (the others' signs may change with it)
+            i_worst = -1
+            worst_mu = 0.0
             for i in range(n):
                 side_i = ind[_I_FIXED, i]
                 if side_i != 0 and not ind[_I_PINNED, i]:
                     if _wrong_sign(side_i, V[_V_MU, i], V[_V_MU_TOL, i]):
-                        ind[_I_FIXED, i] = 0
-                        released = True
-            if released:
+                        if abs(V[_V_MU, i]) > worst_mu:
+                            worst_mu = abs(V[_V_MU, i])
+                            i_worst = i
+            if i_worst >= 0:
+                ind[_I_FIXED, i_worst] = 0
                 continue
             for i in range(n):
                 V[_V_X0, i] = x[i]

@@ -31,6 +31,11 @@ from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
 HARD_MISSED = 100
 #: the solution is not finite (a non-finite target or row): never returned as solved
 NOT_FINITE = 101
+#: a soft level deferred to the next level's solve cannot be met exactly (internal: the
+#: cascade then solves it; never returned by :func:`cascade_solve`)
+DEFERRAL_FAILED = 102
+#: a deferred soft level counts as met when each row is within this × (1 + |b_i|)
+DEFERRED_TOL = 1e-9
 #: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
 PROXIMAL_RIDGE = 1e-8
 #: at most this many subproblem solves of an intermediate level without a ridge (a warm
@@ -392,32 +397,14 @@ def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
 
 
 @njit(cache=True)
-def cascade_solve(
-    J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, step, params, lower, upper,
-    states, working, h_eff, achieved, dq, q_next,
+def _cascade(
+    J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working, h_eff,
+    achieved, dq, defer_soft,
 ) -> int:  # fmt: skip
-    """With every level's rows filled (weighted): the bounds, then the levels in order.
-
-    ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``g_rows``: those of
-    the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
-    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated);
-    ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
-    rows kept (work space); ``params``: [use the velocity steps, μ, tolerance of hard levels,
-    tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.
-
-    Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
-    slacks, unless the level is hard: then as rows to meet) subject to the bounds, every level
-    above at its achieved values (``J_i Δq = J_i Δq_i``, the exact optimal set of a
-    least-squares level) and the rows above at their bounds plus the slacks they kept
-    (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
-    inequality rows cost nothing on a level whose solution without them meets them (and which
-    had no working set at the last tick); else :func:`solve_with_inequalities`. In a tick
-    without inequality rows, the hard levels at the top are not solved on their own: met, a
-    hard level's optimal set is {J_k Δq = b_k} within the bounds, which the next level takes
-    as its equalities (the same answer, one level solve fewer); they are checked after it.
-    """
-    joints = q[q.shape[0] - q_min.shape[0] :]
-    joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
+    """The levels of :func:`cascade_solve` in order, with the bounds set. ``defer_soft``: an
+    intermediate soft level (at the top, every level above it deferred too) is deferred as a
+    hard one, on the guess that it can be met exactly; returns :data:`DEFERRAL_FAILED` if
+    the guess is wrong (the next level's solve fails, or misses its rows)."""
     mu = params[1]
     hard_tol = params[2]
     tol = params[3]
@@ -427,21 +414,25 @@ def cascade_solve(
         dq[i] = 0.0
     for i in range(g_rows[n_levels]):
         h_eff[i] = h[i]
-    deferred = 0  # the hard levels before this row: met exactly by the next level's solve
+    deferred = 0  # the levels before this row: met exactly by the next level's solve
+    soft = False  # a soft level among them
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
         g0 = g_rows[k]
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
-        if level_hard[k] and not last and g_rows[n_levels] == 0 and deferred == r0:
+        if (level_hard[k] or defer_soft) and not last and g_rows[n_levels] == 0 and deferred == r0:
             # a hard level (of a tick without inequality rows; the levels above it deferred
             # too): its optimal set, when it is met, is {J_k Δq = b_k} within the bounds, so
             # the next level takes it as equalities instead of a solve of its own (the same
-            # answer; checked after that solve, which fails if the level cannot be met)
+            # answer; checked after that solve, which fails if the level cannot be met). A
+            # soft level likewise, if it can be met exactly (its least-squares optimum is then
+            # that set): if not, the next level's solve fails or misses its rows
             for i in range(r0, r1):
                 achieved[i] = b[i]
             deferred = r1
+            soft = soft or not level_hard[k]
             continue
         A, a, B, r = J[:r0], achieved[:r0], J[r0:r1], b[r0:r1]
         # with the last tick's working set (a warm start) straight to the inequality rows;
@@ -472,15 +463,18 @@ def cascade_solve(
             states[k, :] = 0
             dq[:] = entry
         if status != OK:
-            return status
-        for i in range(deferred):  # the deferred hard levels, met by this solve's equalities
+            return DEFERRAL_FAILED if soft else status
+        for i in range(deferred):  # the deferred levels, met by this solve's equalities
             s = 0.0
             for j in range(nv):
                 s += J[i, j] * dq[j]
             achieved[i] = s
+            if soft and abs(s - b[i]) > DEFERRED_TOL * (1.0 + abs(b[i])):
+                return DEFERRAL_FAILED
             if abs(s - b[i]) > hard_tol:
                 return HARD_MISSED
         deferred = 0
+        soft = False
         for i in range(r0, r1):
             s = 0.0
             for j in range(nv):
@@ -495,6 +489,51 @@ def cascade_solve(
                     s += G[i, j] * dq[j]
                 if s > 0.0:
                     h_eff[i] = h[i] + s
+    return OK
+
+
+@njit(cache=True)
+def cascade_solve(
+    J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, step, params, lower, upper,
+    states, working, h_eff, achieved, dq, q_next,
+) -> int:  # fmt: skip
+    """With every level's rows filled (weighted): the bounds, then the levels in order.
+
+    ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``g_rows``: those of
+    the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
+    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated);
+    ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
+    rows kept (work space); ``params``: [use the velocity steps, μ, tolerance of hard levels,
+    tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.
+
+    Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
+    slacks, unless the level is hard: then as rows to meet) subject to the bounds, every level
+    above at its achieved values (``J_i Δq = J_i Δq_i``, the exact optimal set of a
+    least-squares level) and the rows above at their bounds plus the slacks they kept
+    (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
+    inequality rows cost nothing on a level whose solution without them meets them (and which
+    had no working set at the last tick); else :func:`solve_with_inequalities`. In a tick
+    without inequality rows, the hard levels at the top are not solved on their own: met, a
+    hard level's optimal set is {J_k Δq = b_k} within the bounds, which the next level takes
+    as its equalities (the same answer, one level solve fewer); they are checked after it.
+    So are the soft levels at the top, on the guess that they can be met exactly (their
+    optimal set is then the same; on ``walk10`` the CoM and swing level always can): if the
+    next level's solve fails or misses their rows (:data:`DEFERRED_TOL`), the levels are
+    solved again with every soft level on its own.
+    """
+    joints = q[q.shape[0] - q_min.shape[0] :]
+    joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
+    status = _cascade(
+        J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
+        h_eff, achieved, dq, np.bool_(True),
+    )  # fmt: skip
+    if status == DEFERRAL_FAILED:  # a soft level above cannot be met exactly: solve it
+        status = _cascade(
+            J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
+            h_eff, achieved, dq, np.bool_(False),
+        )  # fmt: skip
+    if status != OK:
+        return status
     if not _finite(dq):
         return NOT_FINITE
     integrate(q, dq, lower, upper, q_min, q_max, q_next)
@@ -581,6 +620,7 @@ refresh(
         _hard_multipliers,
         solve_with_inequalities,
         _proximal_level,
+        _cascade,
         cascade_solve,
         integrate,
     ],

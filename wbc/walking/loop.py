@@ -25,6 +25,7 @@ from ..recording import SUPPORT_DOUBLE, Recording
 from ..stacks import ControlStack
 from ..tasks import (
     ComTask,
+    ContactTask,
     FrameOrientationTask,
     FramePoseTask,
     FramePositionTask,
@@ -184,6 +185,12 @@ class StackController(Controller):
             if isinstance(t, FrameOrientationTask) and t.frame_id == torso and t not in swing_tasks
         ]
         self._kin = Kinematics(robot)
+        # each contact task with the sole role its frame follows (None: its own frame)
+        self._contacts = [
+            (t, getattr(control.bindings.get(t.name), "role", None))
+            for t in stack.tasks()
+            if isinstance(t, ContactTask)
+        ]
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         self._kin.update(q0)
@@ -209,8 +216,9 @@ class StackController(Controller):
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         if phase_changed:
-            self._kin.update(q)
             anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
+            if not self._anchored(targets, anchors):  # a contact is made where a frame is now
+                self._kin.update(q)
             self.control.set_phase(
                 targets.phase, targets.support, targets.swing, self._kin, anchors
             )
@@ -226,6 +234,17 @@ class StackController(Controller):
             t.set_target(rotation)
         for t in self._torso:
             t.set_target(targets.torso_rotation)
+
+    def _anchored(self, targets: TickTargets, anchors: dict) -> bool:
+        """True if every contact that the switch to ``targets`` may make has its anchor in
+        ``anchors`` (the reference's soles): then the switch needs no kinematics at q (a
+        kinematics update at each support switch, ~13 µs of its tail along walk10)."""
+        roles = {"support": targets.support, "swing": targets.swing}
+        for task, role in self._contacts:
+            frame = roles.get(role) if role else task.frame
+            if frame is not None and frame not in anchors:
+                return False
+        return True
 
     def track(self, q, targets, dt, phase_changed):
         self._set_targets(q, targets, phase_changed)
