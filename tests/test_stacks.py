@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from wbc import Kinematics, TaskError
 from wbc.solvers import HierarchicalQP, WeightedQP
@@ -84,41 +82,6 @@ def test_phases_rebind_roles_and_switch_contacts(robot):
     # a contact that starts is anchored where its sole is
     contact = control.stack.task("contact_support")
     assert np.allclose(contact.compute(kin)[1], 0)
-
-
-PHASE_SEQUENCE = [
-    ("double", "l_sole", "r_sole"),
-    ("single", "l_sole", "r_sole"),
-    ("double", "r_sole", "l_sole"),
-    ("single", "r_sole", "l_sole"),
-    ("single", "l_sole", None),
-]
-
-
-def _phase_state(control) -> list:
-    tasks, constraints = control.stack.members()
-    return [
-        (m.name, m.active, getattr(m, "frame", None), getattr(m, "soles", None))
-        for m in [*tasks, *constraints]
-    ]
-
-
-@settings(max_examples=15, deadline=None)
-@given(st.lists(st.sampled_from(PHASE_SEQUENCE), min_size=1, max_size=8))
-def test_a_phase_revisited_is_the_phase_set_afresh(robot, phases):
-    """The switch kept per phase (ControlStack._phase_switch) leaves the stack as a switch
-    worked out for the first time does; and the solvers' layout key follows each switch."""
-    kin = Kinematics(robot, robot.configuration("walk_ready"))
-    walked = load_stack("walk_strict", robot)
-    for phase in phases:
-        walked.set_phase(*phase, kin)
-    fresh = load_stack("walk_strict", robot)
-    fresh.set_phase(*phases[-1], kin)
-    assert _phase_state(walked) == _phase_state(fresh)
-    tasks, _ = walked.stack.members()
-    assert walked.solver._layout_key()[1] == tuple(
-        t.active and (t.params_version, t.frame_ids()) for t in tasks
-    )
 
 
 def test_solver_and_backend_overrides(robot):

@@ -22,7 +22,7 @@ import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -104,10 +104,9 @@ TASK_TYPES: dict[str, Callable[..., Task]] = {
 CONSTRAINT_TYPES = ("com_polygon", "ground_clearance", "self_collision")
 
 
-@dataclass(frozen=True)
+@dataclass
 class RoleBinding:
-    """A task or constraint whose frame follows a sole role and/or is limited to phases
-    (frozen: :meth:`ControlStack.set_phase` keeps what it implies per phase)."""
+    """A task or constraint whose frame follows a sole role and/or is limited to phases."""
 
     role: str | None
     phases: tuple[str, ...]
@@ -151,17 +150,23 @@ class ControlStack:
         """
         if phase not in PHASES:
             raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
-        switch = self._phase_switch(phase, support, swing)
-        for item, frame, polygon, active, contact in switch.items:
+        roles = {"support": support, "swing": swing}
+        bound, polygons = self._phase_items()
+        for item, binding, polygon, contact in bound:
             was_active = item.active
-            if polygon:
-                item.set_support(frame)
-            elif frame is not None:
-                item.set_frame(frame)
-            item.active = active
+            frame = roles.get(binding.role) if binding.role else None
+            if binding.role and frame is None:
+                item.active = False
+                continue
+            if frame is not None:
+                if polygon:
+                    item.set_support([frame])
+                else:
+                    item.set_frame(frame)  # role-bound: has a frame
+            item.active = phase in binding.phases
             if (
                 contact
-                and active
+                and item.active
                 and (not was_active or self._anchored.get(item.name) != item.frame)
             ):
                 anchor = (anchors or {}).get(item.frame)
@@ -170,49 +175,34 @@ class ControlStack:
                 else:
                     item.set_target(anchor)
                 self._anchored[item.name] = item.frame
-        for c in switch.polygons:
-            c.set_support(switch.soles)
+        if polygons:
+            soles = [support] if phase == "single" or swing is None else [support, swing]
+            for c in polygons:
+                c.set_support(soles)
         self.phase, self.support, self.swing = phase, support, swing
 
-    def _phase_switch(self, phase: str, support: str, swing: str | None) -> PhaseSwitch:
-        """What :meth:`set_phase` assigns for a phase and its soles, worked out at its first
-        visit and kept until the stack changes (a support switch is on a control loop's clock:
-        switching to a phase seen before is then the assignments alone)."""
+    def _phase_items(self) -> tuple[list, list]:
+        """What :meth:`set_phase` visits: each role-bound task or constraint with its binding,
+        whether it is a CoM polygon and whether a contact; the CoM polygons without a binding.
+        Kept until the stack changes (a support switch is on a control loop's clock)."""
         key = (self.stack.version, len(self.bindings))
-        cache: tuple[tuple, dict[tuple, PhaseSwitch]] | None = self.__dict__.get("_switches")
-        if cache is None or cache[0] != key:
-            cache = self.__dict__["_switches"] = (key, {})
-        switch = cache[1].get((phase, support, swing))
-        if switch is None:
-            switch = cache[1][phase, support, swing] = self._work_out_switch(phase, support, swing)
-        return switch
-
-    def _work_out_switch(self, phase: str, support: str, swing: str | None) -> PhaseSwitch:
-        roles = {"support": support, "swing": swing}
-        tasks, constraints = self.stack.members()
-        items: list[tuple[Any, Any, bool, bool, bool]] = []
-        members: list[Any] = [*tasks, *constraints]
-        for item in members:
-            binding = self.bindings.get(item.name)
-            if binding is None:
-                continue
-            polygon = isinstance(item, ComPolygonConstraint)
-            frame = roles.get(binding.role) if binding.role else None
-            if binding.role and frame is None:  # no sole has the role (swing=None): off
-                items.append((item, None, False, False, False))
-                continue
-            where = (frame,) if polygon and frame is not None else frame
-            active = phase in binding.phases
-            items.append(
-                (item, where, polygon and frame is not None, active, isinstance(item, ContactTask))
-            )
-        polygons = [
-            c
-            for c in constraints
-            if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None
-        ]
-        soles = (support,) if phase == "single" or swing is None else (support, swing)
-        return PhaseSwitch(items, polygons, soles)
+        cached = self.__dict__.get("_phase_cache")
+        if cached is None or cached[0] != key:
+            tasks, constraints = self.stack.members()
+            members: list[Any] = [*tasks, *constraints]
+            bound = [
+                (item, b, isinstance(item, ComPolygonConstraint), isinstance(item, ContactTask))
+                for item in members
+                for b in [self.bindings.get(item.name)]
+                if b is not None
+            ]
+            polygons = [
+                c
+                for c in constraints
+                if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None
+            ]
+            cached = self.__dict__["_phase_cache"] = (key, bound, polygons)
+        return cached[1], cached[2]
 
     def forget_anchors(self) -> None:
         """The next :meth:`set_phase` anchors every active contact afresh."""
@@ -220,17 +210,6 @@ class ControlStack:
 
 
 _NO = RoleBinding(None, PHASES)
-
-
-class PhaseSwitch(NamedTuple):
-    """The assignments of one support phase (:meth:`ControlStack._phase_switch`)."""
-
-    #: each role-bound task or constraint: (item, its frame — a CoM polygon's soles — or None
-    #: to keep it, whether a CoM polygon, its activity, whether a contact)
-    items: list[tuple[Any, Any, bool, bool, bool]]
-    #: the CoM polygons without a binding, and the soles they take
-    polygons: list[ComPolygonConstraint]
-    soles: tuple[str, ...]
 
 
 #: former names of stack files, still accepted by :func:`load_stack` (old name -> file stem)

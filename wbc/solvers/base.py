@@ -744,7 +744,7 @@ class StackSolver(ABC):
         tasks, constraints = self.stack.members()
         return (
             self.stack.version,
-            tuple([t.layout_token() for t in tasks]),
+            tuple([t.active and (t.params_version, t.frame_ids()) for t in tasks]),
             tuple([c.active for c in constraints]),
         )
 

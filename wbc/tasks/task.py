@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -115,21 +115,8 @@ class Task:
     def _restructured(self) -> None:
         """The task was switched on/off or moved to another frame: the solvers of the stacks
         holding it re-plan (into a layout they may have kept, e.g. per support phase)."""
-        self._layout_token: Any = None
         for stack in getattr(self, "_stacks", ()):
             stack.revision += 1
-
-    def layout_token(self) -> Any:
-        """What the solvers' layouts depend on of this task: False if inactive, else its
-        :attr:`params_version` and :meth:`frame_ids` (kept until :meth:`_restructured`: a
-        support switch reads it for every task of the stack)."""
-        token: Any = self.__dict__.get("_layout_token")
-        if token is None:
-            token = self._layout_token = self._active and (
-                getattr(self, "params_version", 0),
-                self.frame_ids(),
-            )
-        return token
 
     @property
     def active(self) -> bool:

@@ -191,9 +191,6 @@ class StackController(Controller):
             for t in stack.tasks()
             if isinstance(t, ContactTask)
         ]
-        #: (support, swing) -> whether the reference's soles anchor every contact of a switch
-        #: to those roles (:meth:`_anchored`: the same answer at every switch)
-        self._anchoring: dict[tuple[str, str | None], bool] = {}
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         self._kin.update(q0)
@@ -220,11 +217,7 @@ class StackController(Controller):
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         if phase_changed:
             anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
-            roles = (targets.support, targets.swing)
-            anchored = self._anchoring.get(roles)
-            if anchored is None:
-                anchored = self._anchoring[roles] = self._anchored(targets, anchors)
-            if not anchored:  # a contact is made where a frame is now
+            if not self._anchored(targets, anchors):  # a contact is made where a frame is now
                 self._kin.update(q)
             self.control.set_phase(
                 targets.phase, targets.support, targets.swing, self._kin, anchors
