@@ -330,11 +330,13 @@ def test_fault_ends_in_the_safe_stop(
 
 
 def test_transient_faults_are_tolerated(robot, recording, walk_ready_ticks, capsys):
+    # early in the 1 s motion (~100 goal writes at 100 Hz), so that every fault fires even
+    # when a loaded machine makes the deployment skip ticks
     faults = [
-        Fault("timeout", 7, after_goals=20, count=2),  # 2 < 3 consecutive
-        Fault("late", 6, after_goals=30, count=2, delay_s=0.03),  # 2 late, then on time
-        Fault("bad_checksum", 8, after_goals=40, count=1),
-        Fault("garbage", 4, after_goals=10, data=b"\x00\x13\x37"),  # no header: skipped
+        Fault("timeout", 7, after_goals=10, count=2),  # 2 < 3 consecutive
+        Fault("late", 6, after_goals=15, count=2, delay_s=0.03),  # 2 late, then on time
+        Fault("bad_checksum", 8, after_goals=20, count=1),
+        Fault("garbage", 4, after_goals=5, data=b"\x00\x13\x37"),  # no header: skipped
     ]
     with Emulator(positions=walk_ready_ticks, faults=faults) as emu:
         rc, _, err = run_deploy(emu.port, recording, "--read", capsys=capsys)
