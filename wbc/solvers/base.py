@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -310,18 +311,14 @@ class StackSolver(ABC):
             problems, held = self._hard_problems(kin)
             problems += self._weighted_rows(kin)
             delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
-            t, accepted = 1.0, False
-            for _ in range(HARD_PROJECTION_HALVINGS):
-                q_t = self._move_joints(q, t * delta)
-                kin.update(q_t)
-                e_t = self._hard_errors(kin)
-                if max(e_t) < max(errors):
-                    stalls = stalls + 1 if max(e_t) > RESTORE_STALL * max(errors) else 0
-                    q, errors, accepted = q_t, e_t, True
-                    total[6:] = q[7:] - q0[7:]
-                    break
-                t *= 0.5
-            if not accepted or stalls == RESTORE_STALLS:  # converging is quadratic
+            worst = max(errors)
+            step = self._halved_step(kin, q, delta, lambda e, w=worst: max(e) < w)
+            if step is None:
+                break
+            q, errors, _ = step
+            stalls = stalls + 1 if max(errors) > RESTORE_STALL * worst else 0
+            total[6:] = q[7:] - q0[7:]
+            if stalls == RESTORE_STALLS:  # converging is quadratic
                 break
         kin.update(q0)
         if max(errors, default=0.0) <= self.hard_tol:
@@ -675,22 +672,45 @@ class StackSolver(ABC):
                 kin.update(q)
                 problems, held = self._hard_problems(kin)
                 delta = self._hard_step(q, [*problems[: k + 1], held])
-                t, accepted = 1.0, False
-                for _ in range(HARD_PROJECTION_HALVINGS):
-                    q_t = self._move_joints(q, t * delta)
-                    kin.update(q_t)
-                    e_t = self._hard_errors(kin)
-                    if e_t[k] < errors[k] and all(e_t[j] <= max(errors[j], tol) for j in range(k)):
-                        q, errors, accepted = q_t, e_t, True
-                        break
-                    t *= 0.5
-                if not accepted or t * abs(delta).max() < 1e-13:
+                step = self._halved_step(
+                    kin,
+                    q,
+                    delta,
+                    lambda e, k=k, before=errors: (
+                        e[k] < before[k] and all(e[j] <= max(before[j], tol) for j in range(k))
+                    ),
+                )
+                if step is None:
+                    break
+                q, errors, t = step
+                if t * abs(delta).max() < 1e-13:
                     break
             if errors[k] > tol:
                 break  # an unmet (relaxed) level: the levels below have no exact target left
         if kin.q is not q:  # the last evaluation was of a rejected trial
             kin.update(q)
         return q, errors
+
+    def _halved_step(
+        self,
+        kin: Kinematics,
+        q: np.ndarray,
+        delta: np.ndarray,
+        accept: Callable[[list[float]], bool],
+    ) -> tuple[np.ndarray, list[float], float] | None:
+        """The line search of the projections onto the hard levels: the first of q ⊕ t·δ,
+        t = 1, ½, ¼, … (:data:`HARD_PROJECTION_HALVINGS` tries) whose hard levels' errors
+        ``accept`` takes, as (q_t, its errors, t), ``kin`` left at q_t; None if none is
+        (``kin`` left at the last trial)."""
+        t = 1.0
+        for _ in range(HARD_PROJECTION_HALVINGS):
+            q_t = self._move_joints(q, t * delta)
+            kin.update(q_t)
+            e_t = self._hard_errors(kin)
+            if accept(e_t):
+                return q_t, e_t, t
+            t *= 0.5
+        return None
 
     def _hard_step(
         self,
