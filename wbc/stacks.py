@@ -216,6 +216,16 @@ _NO = RoleBinding(None, PHASES)
 RENAMED_STACKS = {"walk_lexicographic": "walk_strict"}
 
 
+def stack_file(name_or_path: str | Path) -> Path | None:
+    """The stack file a name in ``tasks/`` (or a former name, :data:`RENAMED_STACKS`) or a
+    ``.toml`` path stands for; None if there is no such file."""
+    path = Path(name_or_path)
+    if path.suffix != ".toml":
+        name = RENAMED_STACKS.get(str(name_or_path), str(name_or_path))
+        path = stacks_dir() / f"{name}.toml"
+    return path if path.is_file() else None
+
+
 def available_stacks() -> list[str]:
     """Names of the stack files in ``tasks/``."""
     return sorted(p.stem for p in stacks_dir().glob("*.toml"))
@@ -235,11 +245,8 @@ def load_stack(
     are, posture = q); ``backend``, ``solver`` ("weighted"/"hierarchical") and
     ``solver_options`` override the file's settings.
     """
-    path = Path(name_or_path)
-    if path.suffix != ".toml":
-        name = RENAMED_STACKS.get(str(name_or_path), str(name_or_path))
-        path = stacks_dir() / f"{name}.toml"
-    if not path.is_file():
+    path = stack_file(name_or_path)
+    if path is None:
         raise TaskError(
             f"unknown task stack {str(name_or_path)!r}; available: {available_stacks()}"
         )

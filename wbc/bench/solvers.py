@@ -24,7 +24,7 @@ import numpy as np
 from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..solvers.backends import BACKENDS
-from ..stacks import RENAMED_STACKS, available_stacks, load_stack
+from ..stacks import RENAMED_STACKS, available_stacks, load_stack, stack_file
 from ..walking.loop import Controller, StackController, TickTargets
 from ..walking.reference import WalkingReference
 from .peers import PEERS, available
@@ -186,10 +186,7 @@ def select(
 def check_stack(stack: str) -> None:
     """Raise one clear line unless ``stack`` names a file in ``tasks/`` (or a former name of
     one) or is a path to a ``.toml`` stack file."""
-    path = Path(stack)
-    if path.suffix == ".toml" and path.is_file():
-        return
-    if stack in available_stacks() or stack in RENAMED_STACKS:
+    if stack_file(stack) is not None:
         return
     raise ConfigurationError(
         f"--stack {stack!r}: not a stack in tasks/ ({', '.join(available_stacks())}) "
