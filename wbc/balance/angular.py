@@ -76,18 +76,6 @@ def flywheel_shift(
     return inertia / (mass * com_height) * math.exp(-omega * delay) * integral
 
 
-def _subtree(model: pin.Model, j: int) -> set[int]:
-    out = set()
-    for i in range(1, model.njoints):
-        p = i
-        while p > 0:
-            if p == j:
-                out.add(i)
-                break
-            p = model.parents[p]
-    return out
-
-
 def _about_axis(model: pin.Model, data: pin.Data, bodies: set[int], j: int):
     """(inertia about joint j's axis, gravity torque about it, the axis) of ``bodies``."""
     o = data.oMi[j]
@@ -146,14 +134,14 @@ def hip_strategy_bound(
         ("r_shoulder_roll", "below"),
     ):
         j = model.getJointId(joint)
-        sub = _subtree(model, j)
+        sub = set(model.subtrees[j])  # joint j and every joint below it
         bodies = every - sub if moving == "above" else sub
         inertia, grav, a = _about_axis(model, data, bodies, j)
         # the moving part turns by +Δq·a (subtree) or −Δq·a (the rest, the leg held)
         sign = 1.0 if moving == "below" else -1.0
         dq = sign * math.copysign(1.0, float(a @ w))  # joint motion per rad of spin along w
-        qi = float(q[7 + robot.joint_names.index(joint)])
-        k = robot.joint_names.index(joint)
+        k = robot.joint_index(joint)
+        qi = float(q[7 + k])
         span = robot.q_max[k] - qi if dq > 0 else qi - robot.q_min[k]
         # gravity's torque on the moving part along its spin (+: helps)
         helps = sign * grav * dq
