@@ -57,6 +57,8 @@ class Tally:
     slowest_pose: float = 0.0
     slowest_pose_trial: int = -1
     miss_trials: list[int] = field(default_factory=list)
+    #: print each typed error in full, with its trial and tick (``--show``)
+    show: bool = False
 
     def ok(self) -> bool:
         return not (
@@ -131,6 +133,7 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
         compiled = False
     tally.trials += 1
     for mode in ("ticks", "pose"):
+        tick = -1  # the tick an error is raised at (--show; -1: building the stack)
         try:
             if p["stack"] == "readme":
                 solver, contacts, com, swing, torso = readme_stack(
@@ -148,6 +151,7 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
             if mode == "ticks":
                 q = q0
                 for _ in range(ticks):
+                    tick += 1
                     t = time.perf_counter()
                     q_next = solver.step(q, 0.01)
                     elapsed = time.perf_counter() - t
@@ -184,6 +188,9 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
             kind = f"{mode}: {type(exc).__name__}: {str(exc)[:60]}"
             tally.typed[kind] += 1
             tally.typed_trials.setdefault(kind, []).append(p.get("trial", -1))
+            if tally.show:
+                at = f" tick {tick}" if mode == "ticks" else ""
+                print(f"trial {p.get('trial', -1)} {mode}{at}: {type(exc).__name__}: {exc}")
         except Exception as exc:  # counting what is not typed is the point
             tally.untyped.append(f"{mode}: {type(exc).__name__}: {exc}")
 
@@ -205,11 +212,13 @@ def run(
     seed: int,
     every: int = 0,
     trials: list[int] | None = None,
+    show: bool = False,
 ) -> Tally:
     """``every`` > 0: print the figures so far every that many trials (long runs);
-    ``trials``: run only these trial numbers (each the same draw as in a run of ``n``)."""
+    ``trials``: run only these trial numbers (each the same draw as in a run of ``n``);
+    ``show``: print each typed error in full, with its trial and tick."""
     robot = load_robot("bioloid")
-    tally = Tally()
+    tally = Tally(show=show)
     start_time = time.perf_counter()
     for trial in range(n) if trials is None else trials:
         p = draw(robot, np.random.default_rng([seed, trial]), backends)
@@ -231,11 +240,15 @@ def main() -> None:
     ap.add_argument(
         "--trials", type=int, nargs="+", help="run only these trial numbers (reproduce one)"
     )
+    ap.add_argument("--show", action="store_true", help="print each typed error in full")
     args = ap.parse_args()
     if args.trials is not None and min(args.trials) < 0:
         ap.error("--trials: trial numbers are >= 0")
     start_time = time.perf_counter()
-    t = run(args.n, args.backends, args.ticks, args.iterations, args.seed, args.every, args.trials)
+    t = run(
+        args.n, args.backends, args.ticks, args.iterations, args.seed, args.every, args.trials,
+        args.show,
+    )  # fmt: skip
     report(t, start_time)
 
 
