@@ -279,6 +279,58 @@ def test_solve_pose_converges_to_a_reachable_target(robot):
         assert robot.within_limits(q_final)
 
 
+def test_solve_pose_raises_a_typed_error_when_its_budget_is_spent(robot):
+    """solve_pose's work is bounded (issue 17, item 5): its Gauss–Newton steps onto the hard
+    levels (max_projection_steps) and, optionally, its wall time (time_budget). A spent
+    budget raises SolverError naming it; bad budgets are ConfigurationErrors."""
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q, com_shift=(0.05, 0.05, 0.0))  # out of reach: projections
+    solver = WeightedQP(stack, "daqp", compiled=False)
+    result = solver.solve_pose(q, max_iterations=20)  # the default budget
+    assert 0 < result.projection_steps <= 20 * 21
+    with pytest.raises(SolverError, match=r"spent its 1 Gauss–Newton steps .*max_projection_steps"):
+        solver.solve_pose(q, max_iterations=20, max_projection_steps=1)
+    with pytest.raises(SolverError, match=r"time budget of 1e-09 s \(time_budget\) at iteration 1"):
+        solver.solve_pose(q, max_iterations=20, time_budget=1e-9)
+    again = solver.solve_pose(q, max_iterations=20, time_budget=60.0)
+    np.testing.assert_array_equal(again.q, result.q)  # nothing spent, nothing changed
+    for bad in ({"max_projection_steps": 0}, {"max_projection_steps": 2.5}):
+        with pytest.raises(ConfigurationError, match="max_projection_steps"):
+            solver.solve_pose(q, **bad)
+    for bad in (0.0, -1.0, float("nan"), "1"):
+        with pytest.raises(ConfigurationError, match="time_budget"):
+            solver.solve_pose(q, time_budget=bad)
+
+
+def test_constraints_holding_only_met_rows_never_show_a_violation(robot):
+    """solve_pose's hard-level error skips the constraints that declare ``held_rows_met``
+    (self-collision, ground clearance: a row violated at q is a request, never held): their
+    held rows must meet Δq = 0 (h >= 0) wherever q is — legs through each other, a sole below
+    the ground, joints outside their limits — while the requests do occur there."""
+    from wbc.stacks import load_stack
+
+    rng = np.random.default_rng(7)
+    requests = 0
+    for _ in range(20):
+        q = robot.configuration("walk_ready")
+        q[7:] += rng.uniform(-0.6, 0.6, robot.n_joints)  # not clipped: outside the limits too
+        q = robot.place_on_ground(q, "l_sole")
+        q[2] -= rng.uniform(0.0, 0.03)  # the soles up to 3 cm below the ground
+        control = load_stack("walk", robot, q, solver="weighted")
+        kin = Kinematics(robot, q)
+        control.set_phase("single", "l_sole", "r_sole", kin)  # the swing's ground clearance
+        checked = [c for c in control.stack.constraints() if c.held_rows_met]
+        assert {type(c).__name__ for c in checked} == {
+            "SelfCollisionConstraint",
+            "GroundClearanceConstraint",
+        }
+        for c in checked:
+            held, asked = c.split(kin)
+            assert (held.h >= 0.0).all(), c.name
+            requests += asked.h.size
+    assert requests > 0  # the draws do violate them
+
+
 def test_targets_update_in_place_without_replanning(robot):
     q = robot.configuration("walk_ready")
     stack = walking_stack(robot, q)

@@ -47,6 +47,8 @@ class GroundClearanceConstraint(Constraint):
     (:meth:`split`), as the joints' way back into their range.
     """
 
+    held_rows_met = True  # the corners below the clearance are requests (:meth:`split`)
+
     def __init__(
         self,
         robot: Robot,

@@ -56,6 +56,12 @@ class BoxLimit(ABC):
 class Constraint(ABC):
     """Linear inequality rows on Δq, usable at any priority level."""
 
+    #: True if :meth:`split` holds only rows that Δq = 0 meets (h >= 0): every row violated
+    #: at ``kin`` is a request, so the rows held never show a violation there (a converged
+    #: pose's hard-level error then skips computing them:
+    #: :meth:`wbc.solvers.base.StackSolver.solve_pose`)
+    held_rows_met = False
+
     def __init__(self, name: str) -> None:
         self.name = name
         self._active = True

@@ -477,6 +477,8 @@ class SelfCollisionConstraint(Constraint):
     pulling tasks' level are what make it hold (inside one level it trades with the tasks).
     """
 
+    held_rows_met = True  # the pairs inside the margin are requests (:meth:`split`)
+
     def __init__(
         self,
         robot: Robot,

@@ -41,6 +41,17 @@ RESTORE_STALL = 0.5
 RESTORE_STALLS = 3
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
+#: a projection onto a hard level stops after PROJECTION_STALLS Gauss–Newton steps in a row
+#: that each leave more than PROJECTION_STALL of the level's error: converging is quadratic,
+#: and such steps creep along a nearly singular chain (stress trial 3972, double support,
+#: 6–7 joints at a limit and pairs at their margin: minimum-norm steps of 2 rad for a 4 mm
+#: contact error, accepted at t = 1/32 for 1–3 % each, 20 steps per projection, 84 s of a
+#: 93 s pose); no projection of that pose that ended on its level had three such steps
+PROJECTION_STALL = 0.9
+PROJECTION_STALLS = 3
+#: the default work budget of :meth:`StackSolver.solve_pose`: this many Gauss–Newton steps of
+#: its projections onto the hard levels per iteration and hard level
+POSE_PROJECTION_STEPS = 40
 #: how much looser than their best achievable way back (m) the rows of constraints violated at
 #: the start (self-collision pairs inside their margin, sole corners below the ground) are held
 #: by a tick that cannot meet them at their damper's rate
@@ -109,9 +120,23 @@ class PoseResult:
     converged: bool
     errors: dict[str, np.ndarray] = field(default_factory=dict)
     time: float = 0.0
+    #: Gauss–Newton steps spent projecting onto the hard levels (``max_projection_steps``)
+    projection_steps: int = 0
 
     def max_error(self) -> float:
         return max((float(np.max(np.abs(e))) for e in self.errors.values()), default=0.0)
+
+
+@dataclass
+class _PoseBudget:
+    """What a :meth:`StackSolver.solve_pose` may spend: Gauss–Newton steps onto the hard
+    levels and wall time (s; None: no limit), and what it has spent so far."""
+
+    max_steps: int
+    seconds: float | None
+    start: float = field(default_factory=time.perf_counter)
+    steps: int = 0
+    iteration: int = 0
 
 
 class Solution(NamedTuple):
@@ -187,6 +212,8 @@ class StackSolver(ABC):
         self.relaxed = False
         #: what a relaxed or failed solve could not meet ("" otherwise)
         self.diagnosis = ""
+        #: the work budget of the running :meth:`solve_pose` (None outside one)
+        self._budget: _PoseBudget | None = None
 
     @property
     def name(self) -> str:
@@ -493,6 +520,8 @@ class StackSolver(ABC):
         max_iterations: int = 200,
         dt: float | None = None,
         stall_tol: float = 1e-9,
+        max_projection_steps: int | None = None,
+        time_budget: float | None = None,
     ) -> PoseResult:
         """Iterate Δq until every task error is below ``tol``, or the steps stall (max |Δq| <
         ``stall_tol``: a weighted compromise or an unreachable target has its fixed point).
@@ -511,10 +540,57 @@ class StackSolver(ABC):
         contact. With ``on_infeasible="relax"`` the levels from the first one that was not
         met at the start (a relaxed, unreachable level) down are exempt.
 
+        **Bounded time.** Every QP solve has a bounded time (the backends' iteration caps),
+        and a pose does a bounded amount of work: at most ``max_iterations`` iterations, each
+        one QP solve and, where its step must be shortened, at most
+        :data:`HARD_PROJECTION_HALVINGS` more; and at most ``max_projection_steps``
+        Gauss–Newton steps in all its projections onto the hard levels (default
+        :data:`POSE_PROJECTION_STEPS` × (``max_iterations`` + 1) × the number of hard
+        levels), each one cascade of QPs and at most :data:`HARD_PROJECTION_HALVINGS`
+        evaluations of the hard levels (a projection that stalls stops early:
+        :data:`PROJECTION_STALL`). ``time_budget`` (s): a wall-time limit too, checked before
+        every QP solve and Gauss–Newton step (None: none; the result then depends only on the
+        input). A spent budget raises SolverError naming it.
+
         This is the per-pose iterative mode used to compare with the thesis's solutions.
         """
         start = time.perf_counter()
+        if max_projection_steps is not None and not (
+            isinstance(max_projection_steps, (int, np.integer)) and max_projection_steps > 0
+        ):
+            raise ConfigurationError(
+                f"max_projection_steps must be a positive integer or None, "
+                f"got {max_projection_steps!r}"
+            )
+        if time_budget is not None and not (
+            isinstance(time_budget, (int, float, np.number))
+            and math.isfinite(time_budget)
+            and time_budget > 0
+        ):
+            raise ConfigurationError(
+                f"time_budget must be a positive number of seconds or None, got {time_budget!r}"
+            )
+        hard_levels = sum(lv.hard for lv in self.stack.levels)
+        if max_projection_steps is None:
+            max_projection_steps = POSE_PROJECTION_STEPS * (max_iterations + 1) * hard_levels
+        budget = _PoseBudget(max_projection_steps, time_budget)
         q = self.robot.check_configuration(q).copy()
+        self._budget = budget
+        try:
+            return self._iterate_pose(q, tol, max_iterations, dt, stall_tol, start)
+        finally:
+            self._budget = None
+
+    def _iterate_pose(
+        self,
+        q: np.ndarray,
+        tol: float,
+        max_iterations: int,
+        dt: float | None,
+        stall_tol: float,
+        start: float,
+    ) -> PoseResult:
+        """The iterations of :meth:`solve_pose` (its budget in :attr:`_budget`)."""
         pose_tol = min(tol, HARD_POSE_TOL)
         self.kin.update(q)
         start_errors = self._hard_errors(self.kin)
@@ -522,6 +598,7 @@ class StackSolver(ABC):
         it = 0
         q_prev = dq_prev = errors_prev = None
         for it in range(1, max_iterations + 1):
+            self._spend(iteration=it)
             try:
                 dq = self.solve(q, dt)
                 errors = self._hard_errors_of_last_solve()
@@ -559,7 +636,31 @@ class StackSolver(ABC):
                 for t in self.stack.tasks()
                 if t.active and t.blocks_convergence
             )
-        return PoseResult(q, it, converged, errors, time.perf_counter() - start)
+        steps = self._budget.steps if self._budget is not None else 0
+        return PoseResult(q, it, converged, errors, time.perf_counter() - start, steps)
+
+    def _spend(self, steps: int = 0, iteration: int | None = None) -> None:
+        """Count ``steps`` Gauss–Newton steps against the budget of the running
+        :meth:`solve_pose` (none outside one) and raise SolverError if it is spent, or if
+        its time budget is; ``iteration``: the iteration it has reached (for the message)."""
+        b = self._budget
+        if b is None:
+            return
+        if iteration is not None:
+            b.iteration = iteration
+        b.steps += steps
+        spent = ""
+        if b.steps > b.max_steps:
+            spent = (
+                f"its {b.max_steps} Gauss–Newton steps onto the hard levels (max_projection_steps)"
+            )
+        elif b.seconds is not None and time.perf_counter() - b.start > b.seconds:
+            spent = f"its time budget of {b.seconds:g} s (time_budget)"
+        if spent:
+            raise SolverError(
+                f"{self.name}: solve_pose spent {spent} at iteration {b.iteration} "
+                f"({b.steps} Gauss–Newton steps, {time.perf_counter() - b.start:.3g} s)"
+            )
 
     def _guard_hard_levels(self, errors: list[float], start: list[float], tol: float) -> None:
         """Raise InfeasibleError if a hard level a converged pose must hold ends beyond
@@ -584,7 +685,11 @@ class StackSolver(ABC):
         Raises the QP's InfeasibleError if even the shortest step fails."""
         failure = None
         for k in range(HARD_PROJECTION_HALVINGS):
-            q = self.project_hard(self._move_joints(q_prev, 0.5**k * dq_prev), tol)
+            q, projected = self._project(self._move_joints(q_prev, 0.5**k * dq_prev), tol)
+            if k < HARD_PROJECTION_HALVINGS - 1 and _worse(projected, before):
+                failure = None  # worse already: the QP's check would reject it
+                continue
+            self._spend()
             try:
                 dq = self.solve(q, dt)
             except InfeasibleError as exc:
@@ -613,7 +718,10 @@ class StackSolver(ABC):
     def _hard_errors(self, kin: Kinematics) -> list[float]:
         """Each hard level's largest task error and inequality violation at ``kin`` (the
         rows of self-collision pairs inside their margin ask for a motion, which is the
-        steps' business, not the pose's: :func:`split_rows`)."""
+        steps' business, not the pose's: :func:`split_rows`). The constraints whose held
+        rows Δq = 0 always meets (:attr:`~wbc.limits.Constraint.held_rows_met`) are not
+        computed: this runs at every trial point of the projections' line search, and the
+        self-collision rows were 85 % of a slow pose's time (stress trial 3972)."""
         out = []
         for lv in self.stack.levels:
             if not lv.hard:
@@ -621,7 +729,8 @@ class StackSolver(ABC):
             worst = 0.0
             for t in lv.active_tasks():
                 worst = max(worst, float(abs(t.compute_error(kin)[t.mask]).max()))
-            h = split_rows(lv.active_constraints(), kin, self.robot.nv).h
+            rows = [c for c in lv.active_constraints() if not c.held_rows_met]
+            h = split_rows(rows, kin, self.robot.nv).h
             if h.size:
                 worst = max(worst, float(-h.min()))
             out.append(worst)
@@ -666,9 +775,11 @@ class StackSolver(ABC):
         kin.update(q)
         errors = self._hard_errors(kin)
         for k in range(len(errors)):
+            stalls = 0
             for _ in range(max_steps):
                 if errors[k] <= tol:
                     break
+                self._spend(1)
                 kin.update(q)
                 problems, held = self._hard_problems(kin)
                 delta = self._hard_step(q, [*problems[: k + 1], held])
@@ -682,8 +793,12 @@ class StackSolver(ABC):
                 )
                 if step is None:
                     break
+                was = errors[k]
                 q, errors, t = step
                 if t * abs(delta).max() < 1e-13:
+                    break
+                stalls = stalls + 1 if errors[k] > PROJECTION_STALL * was else 0
+                if stalls == PROJECTION_STALLS:
                     break
             if errors[k] > tol:
                 break  # an unmet (relaxed) level: the levels below have no exact target left
