@@ -10,7 +10,10 @@ reachable, far out of reach or upside down; it runs ``--ticks`` control ticks an
 pose of ``--iterations`` iterations. It counts: joint-limit violations (a joint beyond its
 limit and further out than it started), non-finite outputs, untyped exceptions, hard contacts
 not held (tick mode: > ``TICK_CONTACT_TOL`` after a tick; converged: > 1e-6 m at the end),
-typed errors by kind, and the slowest tick and pose.
+ticks and poses beyond their time bound (``TICK_TIME_BOUND``, ``POSE_TIME_PER_ITERATION``;
+a pose's own work budget spent, ``solve_pose``'s ``max_projection_steps``, counts as one),
+typed errors by kind, and the slowest tick and pose. The compiled ticks are built before the
+first trial (:func:`compile_first`), so that no tick or pose waits for numba.
 """
 
 from __future__ import annotations
@@ -33,6 +36,19 @@ from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask,
 TICK_CONTACT_TOL = 1e-2
 #: a hard contact at the end of a converged pose
 POSE_CONTACT_TOL = 1e-6
+#: a tick slower than this (s) is a runaway solve. Generous: a bound, not a speed figure (the
+#: slowest on the loaded 2-core VM: 1.35 s ProxQP before its caps, 4.5 s quadprog, numpy
+#: path; DAQP ~0.3 s), so that a loaded machine does not trip it
+TICK_TIME_BOUND = 10.0
+#: a converged pose slower than this (s) per iteration is a runaway (also passed to
+#: ``solve_pose`` as its ``time_budget``: it raises then instead of running on). Generous:
+#: the slowest in the 10,000 DAQP trials before the bounded projections took 91 s for 50
+#: iterations on the loaded VM, ProxQP's hierarchy 453 s before its caps
+POSE_TIME_PER_ITERATION = 4.0
+
+
+#: what solve_pose's SolverError says when its work or time budget is spent
+BUDGET_SPENT = "solve_pose spent its"
 
 
 @dataclass
@@ -43,6 +59,13 @@ class Tally:
     limit_violations: int = 0
     non_finite: int = 0
     untyped: list[str] = field(default_factory=list)
+    #: ticks slower than TICK_TIME_BOUND; poses slower than their bound or whose work budget
+    #: ran out (solve_pose's SolverError naming it)
+    slow_ticks: int = 0
+    slow_poses: int = 0
+    slow_trials: list[int] = field(default_factory=list)
+    #: most Gauss–Newton steps a converged pose spent projecting onto its hard levels
+    most_projection_steps: int = 0
     tick_contact_misses: int = 0
     max_tick_contact: float = 0.0
     pose_contact_misses: int = 0
@@ -67,6 +90,8 @@ class Tally:
             or self.untyped
             or self.tick_contact_misses
             or self.pose_contact_misses
+            or self.slow_ticks
+            or self.slow_poses
         )
 
 
@@ -160,6 +185,9 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                     elif elapsed > tally.slowest_tick:
                         tally.slowest_tick = elapsed
                         tally.slowest_tick_trial = p.get("trial", -1)
+                    if elapsed > TICK_TIME_BOUND:
+                        tally.slow_ticks += 1
+                        tally.slow_trials.append(p.get("trial", -1))
                     tally.ticks += 1
                     check(robot, q, q_next, tally)
                     kin = Kinematics(robot, q_next)
@@ -170,11 +198,19 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                             tally.tick_contact_misses += 1
                     q = q_next
             else:
+                bound = POSE_TIME_PER_ITERATION * max(iterations, 1)
                 t = time.perf_counter()
-                result = solver.solve_pose(q0, max_iterations=iterations)
-                if time.perf_counter() - t > tally.slowest_pose:
-                    tally.slowest_pose = time.perf_counter() - t
+                result = solver.solve_pose(q0, max_iterations=iterations, time_budget=bound)
+                elapsed = time.perf_counter() - t
+                if elapsed > tally.slowest_pose:
+                    tally.slowest_pose = elapsed
                     tally.slowest_pose_trial = p.get("trial", -1)
+                if elapsed > bound:  # (checked by the pose before each step: a hair over)
+                    tally.slow_poses += 1
+                    tally.slow_trials.append(p.get("trial", -1))
+                tally.most_projection_steps = max(
+                    tally.most_projection_steps, result.projection_steps
+                )
                 tally.poses += 1
                 check(robot, q0, result.q, tally)
                 kin = Kinematics(robot, result.q)
@@ -185,6 +221,9 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                         tally.pose_contact_misses += 1
                         tally.miss_trials.append(p.get("trial", -1))
         except WbcError as exc:
+            if mode == "pose" and BUDGET_SPENT in str(exc):  # a runaway, stopped
+                tally.slow_poses += 1
+                tally.slow_trials.append(p.get("trial", -1))
             kind = f"{mode}: {type(exc).__name__}: {str(exc)[:60]}"
             tally.typed[kind] += 1
             tally.typed_trials.setdefault(kind, []).append(p.get("trial", -1))
@@ -204,6 +243,16 @@ def check(robot: Robot, q: np.ndarray, q_next: np.ndarray, tally: Tally) -> None
     tally.limit_violations += int(((j < lo - 1e-12) | (j > hi + 1e-12)).sum())
 
 
+def compile_first() -> None:
+    """Build the package's compiled ticks now if they are not in numba's cache (a fresh
+    checkout: about a minute per worker), so that no timed tick or pose waits for them."""
+    from wbc.compiled.dispatch import package_ticks
+
+    ticks = package_ticks()
+    ticks.start_build(announce=False)
+    ticks.wait_all()
+
+
 def run(
     n: int,
     backends: list[str],
@@ -218,6 +267,7 @@ def run(
     ``trials``: run only these trial numbers (each the same draw as in a run of ``n``);
     ``show``: print each typed error in full, with its trial and tick."""
     robot = load_robot("bioloid")
+    compile_first()
     tally = Tally(show=show)
     start_time = time.perf_counter()
     for trial in range(n) if trials is None else trials:
@@ -269,7 +319,13 @@ def report(t: Tally, start_time: float) -> None:
     print(
         f"slowest tick {t.slowest_tick * 1e3:.1f} ms (trial {t.slowest_tick_trial}; the run's "
         f"first tick apart: {t.first_tick:.2f} s), slowest pose {t.slowest_pose:.2f} s "
-        f"(trial {t.slowest_pose_trial})"
+        f"(trial {t.slowest_pose_trial}); most Gauss–Newton steps in a pose "
+        f"{t.most_projection_steps}"
+    )
+    print(
+        f"ticks > {TICK_TIME_BOUND:g} s: {t.slow_ticks}, poses > {POSE_TIME_PER_ITERATION:g} s "
+        f"per iteration or out of their work budget: {t.slow_poses} "
+        f"(trials {t.slow_trials[:10]})"
     )
     print("typed errors:")
     for what, count in t.typed.most_common(20):

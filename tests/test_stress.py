@@ -4,7 +4,10 @@ draws them (a few dozen here; the long run is ``python benchmarks/stress.py --n 
 For any stack, solver, path, support, start (inside the limits or slightly outside) and
 targets (reachable, out of reach, upside down): no joint leaves its limits (or goes further out
 than it started), nothing non-finite is returned, every failure is a typed :class:`WbcError`,
-and a converged pose holds its hard contacts to 1e-6 m.
+a converged pose holds its hard contacts to 1e-6 m, and every tick and pose ends within a
+bounded time (``TICK_TIME_BOUND``, ``POSE_TIME_PER_ITERATION`` in the script: generous bounds
+that catch runaway solves, not speed figures; a pose that spends its own work budget counts
+as a runaway).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ def stress():
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look their module up
     spec.loader.exec_module(module)
+    module.compile_first()  # no timed tick or pose waits for numba
     return module
 
 
@@ -42,6 +46,8 @@ def test_random_problems_keep_the_laws(robot, stress, backends):
         assert tally.non_finite == 0
         assert not tally.untyped, tally.untyped
         assert tally.pose_contact_misses == 0, tally.max_pose_contact
+        assert tally.slow_ticks == 0, (tally.slowest_tick, tally.slowest_tick_trial)
+        assert tally.slow_poses == 0, (tally.slowest_pose, dict(tally.typed))
 
     check()
 
@@ -153,3 +159,18 @@ def test_hard_level_met_exactly_where_its_null_space_is_coupled(robot, stress):
     stress.run_trial(robot, p, tally, ticks=0, iterations=50)
     assert not tally.typed, dict(tally.typed)
     assert tally.poses == 1 and tally.ok()
+
+
+def test_ticks_and_poses_beyond_their_time_bound_count(robot, stress, monkeypatch):
+    """The time laws can fail: with bounds below any solve's time every tick counts as slow,
+    and the pose is stopped by its own time budget (solve_pose's typed SolverError, naming
+    it) rather than running on."""
+    monkeypatch.setattr(stress, "TICK_TIME_BOUND", 0.0)
+    monkeypatch.setattr(stress, "POSE_TIME_PER_ITERATION", 1e-6)
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, 3]), ["daqp"])
+    stress.run_trial(robot, p, tally, ticks=3, iterations=5)
+    assert tally.slow_ticks == 3
+    assert tally.slow_poses == 1 and tally.poses == 0
+    assert [k for k in tally.typed if "spent its time budget" in k], dict(tally.typed)
+    assert not tally.ok()
