@@ -41,12 +41,15 @@ RESTORE_STALL = 0.5
 RESTORE_STALLS = 3
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
-#: a projection onto a hard level stops after PROJECTION_STALLS Gauss–Newton steps in a row
-#: that each leave more than PROJECTION_STALL of the level's error: converging is quadratic,
-#: and such steps creep along a nearly singular chain (stress trial 3972, double support,
-#: 6–7 joints at a limit and pairs at their margin: minimum-norm steps of 2 rad for a 4 mm
-#: contact error, accepted at t = 1/32 for 1–3 % each, 20 steps per projection, 84 s of a
-#: 93 s pose); no projection of that pose that ended on its level had three such steps
+#: an iterate's projection onto a hard level (:meth:`StackSolver._shorter_step`) stops after
+#: PROJECTION_STALLS Gauss–Newton steps in a row that each leave more than PROJECTION_STALL
+#: of the level's error: converging is quadratic, and such steps creep along a nearly
+#: singular chain (stress trial 3972, double support, 6–7 joints at a limit and pairs at
+#: their margin: minimum-norm steps of 2 rad for a 4 mm contact error, accepted at t = 1/32
+#: for 1–3 % each, 20 steps per projection, 84 s of a 93 s pose; none of its projections that
+#: ended on their level had three such steps). The final projection of a pose does not stop
+#: early: there a creeping projection can still converge once an active row changes (stress
+#: trial 1226: seven such steps, then 5e-5 → 1.4e-7 m)
 PROJECTION_STALL = 0.9
 PROJECTION_STALLS = 3
 #: the default work budget of :meth:`StackSolver.solve_pose`: this many Gauss–Newton steps of
@@ -547,7 +550,7 @@ class StackSolver(ABC):
         Gauss–Newton steps in all its projections onto the hard levels (default
         :data:`POSE_PROJECTION_STEPS` × (``max_iterations`` + 1) × the number of hard
         levels), each one cascade of QPs and at most :data:`HARD_PROJECTION_HALVINGS`
-        evaluations of the hard levels (a projection that stalls stops early:
+        evaluations of the hard levels (an iterate's projection that stalls stops early:
         :data:`PROJECTION_STALL`). ``time_budget`` (s): a wall-time limit too, checked before
         every QP solve and Gauss–Newton step (None: none; the result then depends only on the
         input). A spent budget raises SolverError naming it.
@@ -685,7 +688,8 @@ class StackSolver(ABC):
         Raises the QP's InfeasibleError if even the shortest step fails."""
         failure = None
         for k in range(HARD_PROJECTION_HALVINGS):
-            q, projected = self._project(self._move_joints(q_prev, 0.5**k * dq_prev), tol)
+            q_k = self._move_joints(q_prev, 0.5**k * dq_prev)
+            q, projected = self._project(q_k, tol, stop_stalled=True)
             if k < HARD_PROJECTION_HALVINGS - 1 and _worse(projected, before):
                 failure = None  # worse already: the QP's check would reject it
                 continue
@@ -768,9 +772,15 @@ class StackSolver(ABC):
         return self._project(q, tol, max_steps)[0]
 
     def _project(
-        self, q: np.ndarray, tol: float, max_steps: int = HARD_PROJECTION_STEPS
+        self,
+        q: np.ndarray,
+        tol: float,
+        max_steps: int = HARD_PROJECTION_STEPS,
+        stop_stalled: bool = False,
     ) -> tuple[np.ndarray, list[float]]:
-        """:meth:`project_hard` and the hard levels' errors at the result (kin left there)."""
+        """:meth:`project_hard` and the hard levels' errors at the result (kin left there);
+        ``stop_stalled``: a level's steps stop where they stall (:data:`PROJECTION_STALL`).
+        Each Gauss–Newton step counts against the running :meth:`solve_pose`'s budget."""
         kin = self.kin
         kin.update(q)
         errors = self._hard_errors(kin)
@@ -798,7 +808,7 @@ class StackSolver(ABC):
                 if t * abs(delta).max() < 1e-13:
                     break
                 stalls = stalls + 1 if errors[k] > PROJECTION_STALL * was else 0
-                if stalls == PROJECTION_STALLS:
+                if stop_stalled and stalls == PROJECTION_STALLS:
                     break
             if errors[k] > tol:
                 break  # an unmet (relaxed) level: the levels below have no exact target left
