@@ -54,7 +54,7 @@ PROJECTION_STALL = 0.9
 PROJECTION_STALLS = 3
 #: the default work budget of :meth:`StackSolver.solve_pose`: this many Gauss–Newton steps of
 #: its projections onto the hard levels per iteration and hard level
-POSE_PROJECTION_STEPS = 40
+POSE_PROJECTION_STEPS = 100
 #: how much looser than their best achievable way back (m) the rows of constraints violated at
 #: the start (self-collision pairs inside their margin, sole corners below the ground) are held
 #: by a tick that cannot meet them at their damper's rate
