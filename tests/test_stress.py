@@ -174,3 +174,29 @@ def test_ticks_and_poses_beyond_their_time_bound_count(robot, stress, monkeypatc
     assert tally.slow_poses == 1 and tally.poses == 0
     assert [k for k in tally.typed if "spent its time budget" in k], dict(tally.typed)
     assert not tally.ok()
+
+
+@pytest.mark.parametrize("trial", [974, 4169])
+def test_converged_pose_of_a_nearly_singular_chain_holds_its_contacts(robot, stress, trial):
+    """Stress trials 974 (walk, weighted) and 4169 (walk, hierarchical): double support, joints
+    outside their limits; their poses ended 7.4e-5 / 1.7e-6 m off the contacts (the guard
+    raised). With several joints at a limit and pairs at their margin the chain is nearly
+    singular: the projections' minimum-norm Gauss–Newton steps were radians long for
+    millimetres of error and crept at t = 1/32. Within a trust region they converge."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    assert (p["stack"], p["double"]) == ("walk", True)
+    stress.run_trial(robot, p, tally, ticks=0, iterations=50)
+    assert not tally.typed, dict(tally.typed)
+    assert tally.poses == 1 and tally.ok()
+
+
+def test_projections_of_a_slow_pose_take_few_steps(robot, stress):
+    """Stress trial 3972 (walk, weighted, double support): its pose took 93 s, 84 of them in
+    173 projections onto the contacts, 2876 Gauss–Newton steps (creeping: see above). A work
+    count, not a timing: now under 500 steps, and it still ends on its contacts."""
+    tally = stress.Tally()
+    p = stress.draw(robot, np.random.default_rng([2024, 3972]), ["daqp"])
+    stress.run_trial(robot, p, tally, ticks=0, iterations=50)
+    assert tally.poses == 1 and tally.ok(), dict(tally.typed)
+    assert 0 < tally.most_projection_steps < 500

@@ -41,6 +41,15 @@ RESTORE_STALL = 0.5
 RESTORE_STALLS = 3
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
+#: the trust region of a projection's Gauss–Newton step: |δ_i| <= this (rad, m), the step the
+#: best one within it (the level in least squares where it cannot be met there). Where joint
+#: limits and self-collision rows leave a double-support chain nearly singular, the
+#: minimum-norm step was 2 rad for a 4 mm contact error, far outside its linearisation: the
+#: line search took it at t = 1/32 for 1–3 % of the error per step, and a pose spent 20
+#: steps per projection, 84 s of 93 (stress trial 3972). With the region, 2876 → 183 steps,
+#: and poses that ended off their contacts converge (974, 4169, 4875); 0.02–0.05 all held
+#: on the trials tried, 0.1 and 0.2 lost some (benchmarks/stress_backends.md)
+HARD_PROJECTION_TRUST = 0.05
 #: an iterate's projection onto a hard level (:meth:`StackSolver._shorter_step`) stops after
 #: PROJECTION_STALLS Gauss–Newton steps in a row that each leave more than PROJECTION_STALL
 #: of the level's error: converging is quadratic, and such steps creep along a nearly
@@ -765,8 +774,8 @@ class StackSolver(ABC):
     ) -> np.ndarray:
         """q moved onto the hard levels, one level after the other: for level k, Gauss–Newton
         steps δ = argmin ‖δ‖ subject to the hard levels 0..k in priority order (J_j δ = e_j in
-        least squares over the null space of the levels above, their inequalities) and the
-        joint limits, each step halved until it reduces level k's error without raising a
+        least squares over the null space of the levels above, their inequalities), the
+        joint limits and a trust region (:data:`HARD_PROJECTION_TRUST`), each step halved until it reduces level k's error without raising a
         level above it beyond ``tol``. A level that cannot be met (relaxed) keeps the best it
         reaches and ends the projection; it never costs a level above it."""
         return self._project(q, tol, max_steps)[0]
@@ -778,12 +787,14 @@ class StackSolver(ABC):
         max_steps: int = HARD_PROJECTION_STEPS,
         stop_stalled: bool = False,
     ) -> tuple[np.ndarray, list[float]]:
-        """:meth:`project_hard` and the hard levels' errors at the result (kin left there);
+        """:meth:`project_hard` and the hard levels' errors at the result (kin left there;
+        each step within :data:`HARD_PROJECTION_TRUST`);
         ``stop_stalled``: a level's steps stop where they stall (:data:`PROJECTION_STALL`).
         Each Gauss–Newton step counts against the running :meth:`solve_pose`'s budget."""
         kin = self.kin
         kin.update(q)
         errors = self._hard_errors(kin)
+        trust = np.full(self.robot.nv, HARD_PROJECTION_TRUST)
         for k in range(len(errors)):
             stalls = 0
             for _ in range(max_steps):
@@ -792,7 +803,7 @@ class StackSolver(ABC):
                 self._spend(1)
                 kin.update(q)
                 problems, held = self._hard_problems(kin)
-                delta = self._hard_step(q, [*problems[: k + 1], held])
+                delta = self._hard_step(q, [*problems[: k + 1], held], -trust, trust)
                 step = self._halved_step(
                     kin,
                     q,
