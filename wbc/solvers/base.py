@@ -30,6 +30,10 @@ CONSTRAINT_TOL = 1e-9
 HARD_ITERATE_TOL = 1e-4
 #: largest hard-task error at the end of :meth:`StackSolver.solve_pose`
 HARD_POSE_TOL = 1e-6
+#: what the final projection of :meth:`StackSolver.solve_pose` aims at (m, rad): below its
+#: tolerance, as far as its steps still reduce the error (a step short of the quadratic one
+#: can stop it just under 1e-6; the guard checks the tolerance)
+HARD_POSE_AIM = 1e-9
 #: at most this many Gauss–Newton steps per projection onto the hard levels (it converges
 #: quadratically: two or three steps from a tick's second-order residual)
 HARD_PROJECTION_STEPS = 20
@@ -629,13 +633,14 @@ class StackSolver(ABC):
             q = self.integrate(q, dq)
             if abs(dq).max() < stall_tol:
                 break
-        q_end, errors = self._project(q, pose_tol)
+        aim = min(pose_tol, HARD_POSE_AIM)
+        q_end, errors = self._project(q, aim)
         if q_prev is not None and any(e > pose_tol for e in errors):
             # the last step (never checked by a solve) left what the projection cannot undo
             # within the joint limits: the longest fraction of it that can be (none of it:
             # the iterate before)
             for t in [*(0.5**k for k in range(1, HARD_PROJECTION_HALVINGS + 1)), 0.0]:
-                q_end, errors = self._project(self._move_joints(q_prev, t * dq_prev), pose_tol)
+                q_end, errors = self._project(self._move_joints(q_prev, t * dq_prev), aim)
                 if all(e <= pose_tol for e in errors):
                     break
         self._guard_hard_levels(errors, start_errors, pose_tol)
@@ -775,9 +780,10 @@ class StackSolver(ABC):
         """q moved onto the hard levels, one level after the other: for level k, Gauss–Newton
         steps δ = argmin ‖δ‖ subject to the hard levels 0..k in priority order (J_j δ = e_j in
         least squares over the null space of the levels above, their inequalities), the
-        joint limits and a trust region (:data:`HARD_PROJECTION_TRUST`), each step halved until it reduces level k's error without raising a
-        level above it beyond ``tol``. A level that cannot be met (relaxed) keeps the best it
-        reaches and ends the projection; it never costs a level above it."""
+        joint limits and a trust region (:data:`HARD_PROJECTION_TRUST`), each step halved
+        until it reduces level k's error without raising a level above it beyond ``tol``. A
+        level that cannot be met (relaxed) keeps the best it reaches and ends the projection;
+        it never costs a level above it."""
         return self._project(q, tol, max_steps)[0]
 
     def _project(
