@@ -215,12 +215,19 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                 tally.poses += 1
                 check(robot, q0, result.q, tally)
                 kin = Kinematics(robot, result.q)
+                worst = 0.0
                 for c in contacts:
                     e = float(abs(c.compute(kin)[1]).max())
+                    worst = max(worst, e)
                     tally.max_pose_contact = max(tally.max_pose_contact, e)
                     if e > POSE_CONTACT_TOL:
                         tally.pose_contact_misses += 1
                         tally.miss_trials.append(p.get("trial", -1))
+                if tally.show:
+                    print(
+                        f"trial {p.get('trial', -1)} pose: {elapsed:.2f} s, "
+                        f"{result.projection_steps} Gauss–Newton steps, hard contacts {worst:.2g}"
+                    )
         except WbcError as exc:
             if mode == "pose" and BUDGET_SPENT in str(exc):  # a runaway, stopped
                 tally.slow_poses += 1
@@ -291,7 +298,11 @@ def main() -> None:
     ap.add_argument(
         "--trials", type=int, nargs="+", help="run only these trial numbers (reproduce one)"
     )
-    ap.add_argument("--show", action="store_true", help="print each typed error in full")
+    ap.add_argument(
+        "--show",
+        action="store_true",
+        help="print each typed error in full, and each pose's time, steps and contact error",
+    )
     args = ap.parse_args()
     if args.trials is not None and min(args.trials) < 0:
         ap.error("--trials: trial numbers are >= 0")
