@@ -7,7 +7,10 @@ except one that pins the cascade (the level solver every solver path goes throug
 
 from __future__ import annotations
 
+import importlib.util
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -26,6 +29,37 @@ PATHS = [None, False]  # compiled (default), numpy path
 @pytest.fixture(scope="module")
 def robot():
     return load_robot("bioloid")
+
+
+@pytest.fixture(scope="module")
+def stress():
+    """benchmarks/stress.py, whose draws the stress trials below replay."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
+    spec = importlib.util.spec_from_file_location("wbc_stress_reliability", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
+    """The ticks of a stress trial (seed 2024, DAQP) as stress.py runs them: the
+    configurations from the start on (raises what a tick raises)."""
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    q = stress.start(robot, p)
+    compiled = None if p["compiled"] else False
+    solver, _, com, swing, torso = stress.walk_stack(
+        robot, q, p["kind"], "daqp", compiled, p["double"]
+    )
+    scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
+    com.set_target(com.target + scale * p["offsets"][0])
+    swing.set_position_target(swing.target_position + scale * p["offsets"][1])
+    if p["target"] == "upside_down":
+        torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+    qs = [q]
+    for _ in range(ticks):
+        qs.append(solver.step(qs[-1], 0.01))
+    return qs
 
 
 def readme_stack(robot, q, solver="hierarchical", backend="daqp", compiled=None, **options):
@@ -204,6 +238,42 @@ def test_hard_level_is_met_exactly_when_a_row_couples_its_null_space(backend):
     dq, sols = solve_cascade([hard, last], np.full(2, -np.inf), np.full(2, np.inf), backends)
     assert abs(sols[0].residual).max() <= 1e-9
     assert dq[0] - 1e-3 * dq[1] <= 1e-9
+
+
+# ---------------------------------------------------------------- 8. feasible, reported failed
+@pytest.mark.parametrize(("trial", "ticks"), [(4888, 6), (5101, 8)])
+def test_feet_pair_the_contacts_fix_never_blocks_their_restoration(robot, stress, trial, ticks):
+    """Stress trials 4888, 5101 (walk stack, weighted QP, numpy path, double support, a start
+    inside the limits, targets far or upside down): the feet start 4.99 mm apart, a hair
+    inside the self-collision margin, a distance the two hard contacts fix. A tick's
+    second-order drift carried the pair to 5.01 / 5.15 mm, outside the margin, where the
+    restoration held it; the contacts' way back needs it at 4.99 mm, and the tick raised
+    "hard level 0 is infeasible" at tick 5 / 7. The restoration now ranks the rows that the
+    hard tasks determine after them. No error; the contacts held to a tick's second order;
+    no joint further out; the other pairs that start outside the margin stay there (to
+    that second order)."""
+    qs = replay_ticks(robot, stress, trial, ticks)
+    control = load_stack("walk", robot, qs[0])
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+    collision = control.stack.constraint("self_collision")
+    feet = {"l_foot", "r_foot"}
+
+    def others(q):  # the distances of the pairs not between the two feet
+        w = collision.witness(Kinematics(robot, q), below=np.inf)
+        return {
+            k: d
+            for k, d in zip(w.index.tolist(), w.distance.tolist(), strict=True)
+            if set(collision.pair_links[k]) != feet
+        }
+
+    start = others(qs[0])
+    outside = [k for k, d in start.items() if d >= collision.margin]
+    for q_next in qs[1:]:
+        assert robot.within_limits(q_next)
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        d = others(q_next)
+        assert min(d[k] for k in outside) >= collision.margin - 5e-4
 
 
 # ---------------------------------------------------------------- 9. starts outside the limits
