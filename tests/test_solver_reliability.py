@@ -276,6 +276,38 @@ def test_feet_pair_the_contacts_fix_never_blocks_their_restoration(robot, stress
         assert min(d[k] for k in outside) >= collision.margin - 5e-4
 
 
+#: stress trial 4875's last iterate (walk stack, weighted QP, numpy path, single support, two
+#: joints 0.007 rad outside at the start, targets far), 1.53e-6 m off its contact
+LAST_ITERATE_4875 = [
+    -0.1947407530815951, 0.04638122034021264, 0.204296840524681, 0.07819508430786365,
+    -0.44096679574146663, -0.22039262475252638, 0.8665223048475336, 0.9319857104958177,
+    -0.06498986867364412, 0.06124479152910393, 0.6101742798038765, 0.213946634837165,
+    0.4414201325407827, 0.2985789379368775, -1.406735377, 1.472185224, 0.382728185,
+    0.097214839, 0.04165367582464182, 0.14955620239837222, -0.4619680881616588,
+    0.4869059905621083, 1.047197551, 1.3757074453683436, 0.639663171,
+]  # fmt: skip
+
+
+def test_last_projection_survives_daqp_cycling_on_the_held_pairs(robot, stress):
+    """Stress trial 4875: its converged pose ended 1.28e-6 m off its contact (the guard
+    raised). The last projection's step held the 340 rows of the pairs inside their margin
+    no closer, in least squares after the contact; DAQP cycled on them (exit flag -2) and
+    the projection took no step at all. It now steps with the hard levels alone when that
+    happens: from the trial's last iterate, the projection ends on the contact, no joint
+    further out. (The whole pose takes tens of seconds: `stress.py --trials 4875`.)"""
+    p = stress.draw(robot, np.random.default_rng([2024, 4875]), ["daqp"])
+    q0 = stress.start(robot, p)
+    solver, contacts, *_ = stress.walk_stack(robot, q0, p["kind"], "daqp", False, p["double"])
+    q = np.array(LAST_ITERATE_4875)
+    assert max(contact_error(robot, q, c) for c in contacts) > 1.5e-6
+    q_end = solver.project_hard(q, 1e-6)
+    for c in contacts:
+        assert contact_error(robot, q_end, c) <= 1e-6
+    j = q_end[7:]
+    assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+    assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+
+
 # ---------------------------------------------------------------- 9. starts outside the limits
 def start_outside_in_double_support(robot, seed: int = 9):
     """Walk Ready with 3-6 leg joints 0.05 rad outside their limits (both soles down). Most
