@@ -8,6 +8,7 @@ except one that pins the cascade (the level solver every solver path goes throug
 from __future__ import annotations
 
 import importlib.util
+import itertools
 import sys
 import time
 from pathlib import Path
@@ -274,6 +275,35 @@ def test_feet_pair_the_contacts_fix_never_blocks_their_restoration(robot, stress
             assert contact_error(robot, q_next, c) <= 1e-2
         d = others(q_next)
         assert min(d[k] for k in outside) >= collision.margin - 5e-4
+
+
+def test_restoration_may_take_a_pair_at_its_margin_in_by_the_drift_it_undoes(robot, stress):
+    """Stress trial 436 (walk stack, weighted QP, double support, two joints 0.035 rad
+    outside at the start, targets far): at tick 24 the contacts are 6e-5 m off (a tick's
+    second order) and a foot and the other ankle sit 5.001 mm apart, at their margin; with
+    the pair held there the way back onto the contacts is a 0.075 rad detour that no tick's
+    box allows, and the tick raised "hard level 0 is infeasible". The restoration may now
+    take such a pair inside its margin by the drift it undoes (at most 0.5 mm). No error
+    over 30 ticks; contacts held to a tick's second order; no joint further out; no pair
+    that is at or outside its margin before a tick ends more than 0.5 mm inside it."""
+    qs = replay_ticks(robot, stress, 436, 30)
+    control = load_stack("walk", robot, qs[0])
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+    collision = control.stack.constraint("self_collision")
+
+    def distances(q):
+        w = collision.witness(Kinematics(robot, q), below=np.inf)
+        return w.distance
+
+    for q, q_next in itertools.pairwise(qs):
+        j = q_next[7:]
+        assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+        assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        d, d_next = distances(q), distances(q_next)
+        held = d >= collision.margin
+        assert (d_next[held] >= collision.margin - 5e-4).all()
 
 
 #: stress trial 4875's last iterate (walk stack, weighted QP, numpy path, single support, two

@@ -39,6 +39,10 @@ HARD_PROJECTION_STEPS = 20
 #: an active row changing; a stalled one costs a projection per step in a tick that raises)
 RESTORE_STALL = 0.5
 RESTORE_STALLS = 3
+#: the most (m) by which that restoration, where it cannot hold the inequality rows at their
+#: bound, may loosen them (and never by more than the hard error it undoes): a tick's
+#: second order past a self-collision margin, as the damper's own tests allow (0.5 mm)
+RESTORE_SLACK = 5e-4
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
 #: how much looser than their best achievable way back (m) the rows of constraints violated at
@@ -292,8 +296,7 @@ class StackSolver(ABC):
     ) -> np.ndarray | None:
         """Δq within [lower, upper] (this tick's box) that brings the hard levels back within
         :attr:`hard_tol` *at q ⊕ Δq*, by Gauss–Newton steps re-linearised at each iterate
-        (:meth:`_hard_step`: the hard levels at gain 1, their inequality rows at their bare
-        bound, the pairs inside a margin no closer); None if the steps do not get there.
+        (:meth:`_restore_steps`); None if the steps do not get there.
 
         The last resort of an infeasible tick whose hard levels the re-solves cannot meet in
         one linearisation: a hard contact's second-order drift after a tick at servo speed
@@ -301,18 +304,51 @@ class StackSolver(ABC):
         its margin inside it, while the configuration one tick back met both (stress trials
         771, 1271: the feet side by side in double support). The tick then spends itself on
         the hard levels (the soft ones wait a tick), as a joint outside its range moves back
-        first; nothing hard is given up."""
+        first; nothing hard is given up.
+
+        If the steps cannot get there with the inequality rows held (at their bare bound),
+        they are tried again with the rows loosened by the hard error at q, ε, at most
+        :data:`RESTORE_SLACK`: undoing a drift of ε may take a pair that sits at its margin up
+        to ε (to first order) inside it, never more (stress trial 436: a foot and the other
+        ankle 5.001 mm apart, the contacts 6e-5 m off; held at 5 mm, the way back onto the
+        contacts was a 0.075 rad detour the box did not allow). A pair so taken inside moves
+        back out at the damper's rate from the next tick on."""
         q0 = kin.q.copy()
-        q, errors = q0, self._hard_errors(kin)
+        errors = self._hard_errors(kin)
+        start = max(errors, default=0.0)
+        q, errors = self._restore_steps(kin, lower, upper, errors, 0.0)
+        if max(errors, default=0.0) > self.hard_tol:
+            # undoing the drift may cost the rows at most the drift's own size
+            slack = min(start, RESTORE_SLACK)
+            q_s, errors_s = self._restore_steps(kin, lower, upper, self._hard_errors(kin), slack)
+            if max(errors_s, default=0.0) < max(errors, default=0.0):
+                q, errors = q_s, errors_s
+        kin.update(q0)
+        if max(errors, default=0.0) <= self.hard_tol:
+            return self.robot.difference(q0, q)
+        return None
+
+    def _restore_steps(
+        self,
+        kin: Kinematics,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        errors: list[float],
+        slack: float,
+    ) -> tuple[np.ndarray, list[float]]:
+        """The Gauss–Newton steps of :meth:`_restore_hard` from ``kin``'s configuration (the
+        hard levels' ``errors`` there), the hard rows loosened by ``slack``: (q, errors)."""
+        q0 = q = kin.q.copy()
         total = np.zeros(self.robot.nv)
         stalls = 0
         for _ in range(HARD_PROJECTION_STEPS):
             if max(errors, default=0.0) <= self.hard_tol:
-                kin.update(q0)
-                return self.robot.difference(q0, q)
+                break
             kin.update(q)
             problems, held = self._hard_problems(kin)
             problems += self._weighted_rows(kin)
+            if slack:
+                problems = [_loosened(p, slack) for p in problems]
             problems, fixed = _tasks_fix(problems)
             delta = self._hard_step(q, [*problems, fixed, held], lower - total, upper - total)
             worst = max(errors)
@@ -325,9 +361,7 @@ class StackSolver(ABC):
             if stalls == RESTORE_STALLS:  # converging is quadratic
                 break
         kin.update(q0)
-        if max(errors, default=0.0) <= self.hard_tol:
-            return self.robot.difference(q0, q)
-        return None
+        return q, errors
 
     def _weighted_rows(self, kin: Kinematics) -> list[LevelProblem]:
         """The weighted QP's other hard rows for :meth:`_restore_hard`: it holds the
@@ -872,6 +906,16 @@ def _with_requests(problem: LevelProblem, rows: SplitRows, dq: np.ndarray) -> Le
         problem.priority, problem.J, problem.b, np.vstack([problem.G, G_in]),
         np.concatenate([problem.h, h_in]), problem.hard, problem.task_rows,
         [*problem.constraint_rows, named],
+    )  # fmt: skip
+
+
+def _loosened(problem: LevelProblem, slack: float) -> LevelProblem:
+    """``problem`` with its inequality rows loosened by ``slack``."""
+    if not problem.h.size:
+        return problem
+    return LevelProblem(
+        problem.priority, problem.J, problem.b, problem.G, problem.h + slack, problem.hard,
+        problem.task_rows, problem.constraint_rows,
     )  # fmt: skip
 
 
