@@ -338,6 +338,47 @@ def test_last_projection_survives_daqp_cycling_on_the_held_pairs(robot, stress):
     assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
 
 
+#: stress trial 4169's iterate at its last projection (walk stack, hierarchical QP, numpy
+#: path, double support, one joint 0.018 rad outside at the start, targets far), its
+#: contacts 2.4e-4 m off
+LAST_ITERATE_4169 = [
+    0.2538324831277032, -0.006830374088642327, 0.08020793596114982, 0.12512114166710517,
+    0.5766930586734959, 0.1988676165077609, 0.7824458365217686, -0.382728185,
+    0.011328720784264938, -0.02553825412215019, 0.2777284325416619, -1.5144986984043858,
+    -0.07948610331249385, -4.188790205, 1.319275928302877, 1.4603670046755712,
+    -0.2630917684181437, 0.097214839, 0.217965894786344, 0.0,
+    -1.6054313390685573, 0.19502710761615713, -3.4536600723887974, -1.4384269510984706,
+    -1.4721851238227983,
+]  # fmt: skip
+
+
+def test_last_projection_may_take_a_pair_at_its_margin_in_by_the_drift(robot, stress):
+    """Stress trial 4169: its converged pose ended 1.7e-6 m off its contacts (the guard
+    raised). From its last iterate, 2.4e-4 m off, the projection onto the contacts met a
+    self-collision pair at its margin and crept (steps of 0.1 rad accepted at 1/256) to
+    1.85e-6. As a tick's restoration, the projection may now take such a pair inside its
+    margin by the drift it undoes (at most 0.5 mm): it ends on the contacts; no joint
+    further out; no pair at or outside its margin ends more than that inside it. (The whole
+    pose: `stress.py --trials 4169`.)"""
+    p = stress.draw(robot, np.random.default_rng([2024, 4169]), ["daqp"])
+    q0 = stress.start(robot, p)
+    solver, contacts, *_ = stress.walk_stack(robot, q0, p["kind"], "daqp", False, p["double"])
+    collision = solver.stack.constraint("self_collision")
+    q = np.array(LAST_ITERATE_4169)
+    drift = max(contact_error(robot, q, c) for c in contacts)
+    assert drift > 2e-4
+    q_end = solver.project_hard(q, 1e-6)
+    for c in contacts:
+        assert contact_error(robot, q_end, c) <= 1e-6
+    j = q_end[7:]
+    assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+    assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+    d = collision.witness(Kinematics(robot, q), below=np.inf).distance
+    d_end = collision.witness(Kinematics(robot, q_end), below=np.inf).distance
+    held = d >= collision.margin
+    assert (d_end[held] >= collision.margin - min(drift, 5e-4) - 1e-5).all()
+
+
 # ---------------------------------------------------------------- 9. starts outside the limits
 def start_outside_in_double_support(robot, seed: int = 9):
     """Walk Ready with 3-6 leg joints 0.05 rad outside their limits (both soles down). Most
