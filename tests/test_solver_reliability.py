@@ -7,7 +7,11 @@ except one that pins the cascade (the level solver every solver path goes throug
 
 from __future__ import annotations
 
+import importlib.util
+import itertools
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -26,6 +30,37 @@ PATHS = [None, False]  # compiled (default), numpy path
 @pytest.fixture(scope="module")
 def robot():
     return load_robot("bioloid")
+
+
+@pytest.fixture(scope="module")
+def stress():
+    """benchmarks/stress.py, whose draws the stress trials below replay."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
+    spec = importlib.util.spec_from_file_location("wbc_stress_reliability", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
+    """The ticks of a stress trial (seed 2024, DAQP) as stress.py runs them: the
+    configurations from the start on (raises what a tick raises)."""
+    p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    q = stress.start(robot, p)
+    compiled = None if p["compiled"] else False
+    solver, _, com, swing, torso = stress.walk_stack(
+        robot, q, p["kind"], "daqp", compiled, p["double"]
+    )
+    scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
+    com.set_target(com.target + scale * p["offsets"][0])
+    swing.set_position_target(swing.target_position + scale * p["offsets"][1])
+    if p["target"] == "upside_down":
+        torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+    qs = [q]
+    for _ in range(ticks):
+        qs.append(solver.step(qs[-1], 0.01))
+    return qs
 
 
 def readme_stack(robot, q, solver="hierarchical", backend="daqp", compiled=None, **options):
@@ -204,6 +239,145 @@ def test_hard_level_is_met_exactly_when_a_row_couples_its_null_space(backend):
     dq, sols = solve_cascade([hard, last], np.full(2, -np.inf), np.full(2, np.inf), backends)
     assert abs(sols[0].residual).max() <= 1e-9
     assert dq[0] - 1e-3 * dq[1] <= 1e-9
+
+
+# ---------------------------------------------------------------- 8. feasible, reported failed
+@pytest.mark.parametrize(("trial", "ticks"), [(4888, 6), (5101, 8)])
+def test_feet_pair_the_contacts_fix_never_blocks_their_restoration(robot, stress, trial, ticks):
+    """Stress trials 4888, 5101 (walk stack, weighted QP, numpy path, double support, a start
+    inside the limits, targets far or upside down): the feet start 4.99 mm apart, a hair
+    inside the self-collision margin, a distance the two hard contacts fix. A tick's
+    second-order drift carried the pair to 5.01 / 5.15 mm, outside the margin, where the
+    restoration held it; the contacts' way back needs it at 4.99 mm, and the tick raised
+    "hard level 0 is infeasible" at tick 5 / 7. The restoration now ranks the rows that the
+    hard tasks determine after them. No error; the contacts held to a tick's second order;
+    no joint further out; the other pairs that start outside the margin stay there (to
+    that second order)."""
+    qs = replay_ticks(robot, stress, trial, ticks)
+    control = load_stack("walk", robot, qs[0])
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+    collision = control.stack.constraint("self_collision")
+    feet = {"l_foot", "r_foot"}
+
+    def others(q):  # the distances of the pairs not between the two feet
+        w = collision.witness(Kinematics(robot, q), below=np.inf)
+        return {
+            k: d
+            for k, d in zip(w.index.tolist(), w.distance.tolist(), strict=True)
+            if set(collision.pair_links[k]) != feet
+        }
+
+    start = others(qs[0])
+    outside = [k for k, d in start.items() if d >= collision.margin]
+    for q_next in qs[1:]:
+        assert robot.within_limits(q_next)
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        d = others(q_next)
+        assert min(d[k] for k in outside) >= collision.margin - 5e-4
+
+
+def test_restoration_may_take_a_pair_at_its_margin_in_by_the_drift_it_undoes(robot, stress):
+    """Stress trial 436 (walk stack, weighted QP, double support, two joints 0.035 rad
+    outside at the start, targets far): at tick 24 the contacts are 6e-5 m off (a tick's
+    second order) and a foot and the other ankle sit 5.001 mm apart, at their margin; with
+    the pair held there the way back onto the contacts is a 0.075 rad detour that no tick's
+    box allows, and the tick raised "hard level 0 is infeasible". The restoration may now
+    take such a pair inside its margin by the drift it undoes (at most 0.5 mm). No error
+    over 30 ticks; contacts held to a tick's second order; no joint further out; no pair
+    that is at or outside its margin before a tick ends more than 0.5 mm inside it."""
+    qs = replay_ticks(robot, stress, 436, 30)
+    control = load_stack("walk", robot, qs[0])
+    contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
+    collision = control.stack.constraint("self_collision")
+
+    def distances(q):
+        w = collision.witness(Kinematics(robot, q), below=np.inf)
+        return w.distance
+
+    for q, q_next in itertools.pairwise(qs):
+        j = q_next[7:]
+        assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+        assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-2
+        d, d_next = distances(q), distances(q_next)
+        held = d >= collision.margin
+        assert (d_next[held] >= collision.margin - 5e-4).all()
+
+
+#: stress trial 4875's last iterate (walk stack, weighted QP, numpy path, single support, two
+#: joints 0.007 rad outside at the start, targets far), 1.53e-6 m off its contact
+LAST_ITERATE_4875 = [
+    -0.1947407530815951, 0.04638122034021264, 0.204296840524681, 0.07819508430786365,
+    -0.44096679574146663, -0.22039262475252638, 0.8665223048475336, 0.9319857104958177,
+    -0.06498986867364412, 0.06124479152910393, 0.6101742798038765, 0.213946634837165,
+    0.4414201325407827, 0.2985789379368775, -1.406735377, 1.472185224, 0.382728185,
+    0.097214839, 0.04165367582464182, 0.14955620239837222, -0.4619680881616588,
+    0.4869059905621083, 1.047197551, 1.3757074453683436, 0.639663171,
+]  # fmt: skip
+
+
+def test_last_projection_survives_daqp_cycling_on_the_held_pairs(robot, stress):
+    """Stress trial 4875: its converged pose ended 1.28e-6 m off its contact (the guard
+    raised). The last projection's step held the 340 rows of the pairs inside their margin
+    no closer, in least squares after the contact; DAQP cycled on them (exit flag -2) and
+    the projection took no step at all. It now steps with the hard levels alone when that
+    happens: from the trial's last iterate, the projection ends on the contact, no joint
+    further out. (The whole pose takes tens of seconds: `stress.py --trials 4875`.)"""
+    p = stress.draw(robot, np.random.default_rng([2024, 4875]), ["daqp"])
+    q0 = stress.start(robot, p)
+    solver, contacts, *_ = stress.walk_stack(robot, q0, p["kind"], "daqp", False, p["double"])
+    q = np.array(LAST_ITERATE_4875)
+    assert max(contact_error(robot, q, c) for c in contacts) > 1.5e-6
+    q_end = solver.solve_pose(q, max_iterations=0).q
+    for c in contacts:
+        assert contact_error(robot, q_end, c) <= 1e-6
+    j = q_end[7:]
+    assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+    assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+
+
+#: stress trial 4169's iterate at its last projection (walk stack, hierarchical QP, numpy
+#: path, double support, one joint 0.018 rad outside at the start, targets far), its
+#: contacts 2.4e-4 m off
+LAST_ITERATE_4169 = [
+    0.2538324831277032, -0.006830374088642327, 0.08020793596114982, 0.12512114166710517,
+    0.5766930586734959, 0.1988676165077609, 0.7824458365217686, -0.382728185,
+    0.011328720784264938, -0.02553825412215019, 0.2777284325416619, -1.5144986984043858,
+    -0.07948610331249385, -4.188790205, 1.319275928302877, 1.4603670046755712,
+    -0.2630917684181437, 0.097214839, 0.217965894786344, 0.0,
+    -1.6054313390685573, 0.19502710761615713, -3.4536600723887974, -1.4384269510984706,
+    -1.4721851238227983,
+]  # fmt: skip
+
+
+def test_last_projection_may_take_a_pair_at_its_margin_in_by_the_drift(robot, stress):
+    """Stress trial 4169: its converged pose ended 1.7e-6 m off its contacts (the guard
+    raised). From its last iterate, 2.4e-4 m off, the projection onto the contacts met a
+    self-collision pair at its margin and crept (steps of 0.1 rad accepted at 1/256) to
+    1.85e-6. As a tick's restoration, the pose's last projection may now, as a last resort,
+    take such a pair inside its margin by the drift it undoes (at most 0.5 mm). A pose of
+    no iteration from that iterate (its last projection only): it ends on the contacts; no
+    joint further out; no pair at or outside its margin ends more than that inside it.
+    (The whole pose: `stress.py --trials 4169`.)"""
+    p = stress.draw(robot, np.random.default_rng([2024, 4169]), ["daqp"])
+    q0 = stress.start(robot, p)
+    solver, contacts, *_ = stress.walk_stack(robot, q0, p["kind"], "daqp", False, p["double"])
+    collision = solver.stack.constraint("self_collision")
+    q = np.array(LAST_ITERATE_4169)
+    drift = max(contact_error(robot, q, c) for c in contacts)
+    assert drift > 2e-4
+    q_end = solver.solve_pose(q, max_iterations=0).q
+    for c in contacts:
+        assert contact_error(robot, q_end, c) <= 1e-6
+    j = q_end[7:]
+    assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
+    assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+    d = collision.witness(Kinematics(robot, q), below=np.inf).distance
+    d_end = collision.witness(Kinematics(robot, q_end), below=np.inf).distance
+    held = d >= collision.margin
+    assert (d_end[held] >= collision.margin - min(drift, 5e-4) - 1e-5).all()
 
 
 # ---------------------------------------------------------------- 9. starts outside the limits

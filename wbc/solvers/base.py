@@ -43,6 +43,10 @@ HARD_PROJECTION_STEPS = 20
 #: an active row changing; a stalled one costs a projection per step in a tick that raises)
 RESTORE_STALL = 0.5
 RESTORE_STALLS = 3
+#: the most (m) by which that restoration, where it cannot hold the inequality rows at their
+#: bound, may loosen them (and never by more than the hard error it undoes): a tick's
+#: second order past a self-collision margin, as the damper's own tests allow (0.5 mm)
+RESTORE_SLACK = 5e-4
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
 #: the trust region of a projection's Gauss–Newton step: |δ_i| <= this (rad, m), the step the
@@ -76,6 +80,9 @@ _INSIDE = "constraints violated at the start (their best way back)"
 #: weight of "no closer than now" against "separate at the damper's rate" in the best
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
+#: relative size of an inequality row's part outside the hard tasks' row space below which
+#: the tasks determine it (:func:`_tasks_fix`; rank decisions on the tasks' Jacobian alike)
+FIXED_ROW_TOL = 1e-9
 _EMPTY = np.zeros(0)
 
 
@@ -332,8 +339,7 @@ class StackSolver(ABC):
     ) -> np.ndarray | None:
         """Δq within [lower, upper] (this tick's box) that brings the hard levels back within
         :attr:`hard_tol` *at q ⊕ Δq*, by Gauss–Newton steps re-linearised at each iterate
-        (:meth:`_hard_step`: the hard levels at gain 1, their inequality rows at their bare
-        bound, the pairs inside a margin no closer); None if the steps do not get there.
+        (:meth:`_restore_steps`); None if the steps do not get there.
 
         The last resort of an infeasible tick whose hard levels the re-solves cannot meet in
         one linearisation: a hard contact's second-order drift after a tick at servo speed
@@ -341,19 +347,53 @@ class StackSolver(ABC):
         its margin inside it, while the configuration one tick back met both (stress trials
         771, 1271: the feet side by side in double support). The tick then spends itself on
         the hard levels (the soft ones wait a tick), as a joint outside its range moves back
-        first; nothing hard is given up."""
+        first; nothing hard is given up.
+
+        If the steps cannot get there with the inequality rows held (at their bare bound),
+        they are tried again with the rows loosened by the hard error at q, ε, at most
+        :data:`RESTORE_SLACK`: undoing a drift of ε may take a pair that sits at its margin up
+        to ε (to first order) inside it, never more (stress trial 436: a foot and the other
+        ankle 5.001 mm apart, the contacts 6e-5 m off; held at 5 mm, the way back onto the
+        contacts was a 0.075 rad detour the box did not allow). A pair so taken inside moves
+        back out at the damper's rate from the next tick on."""
         q0 = kin.q.copy()
-        q, errors = q0, self._hard_errors(kin)
+        errors = self._hard_errors(kin)
+        start = max(errors, default=0.0)
+        q, errors = self._restore_steps(kin, lower, upper, errors, 0.0)
+        if max(errors, default=0.0) > self.hard_tol:
+            # undoing the drift may cost the rows at most the drift's own size
+            slack = min(start, RESTORE_SLACK)
+            q_s, errors_s = self._restore_steps(kin, lower, upper, self._hard_errors(kin), slack)
+            if max(errors_s, default=0.0) < max(errors, default=0.0):
+                q, errors = q_s, errors_s
+        kin.update(q0)
+        if max(errors, default=0.0) <= self.hard_tol:
+            return self.robot.difference(q0, q)
+        return None
+
+    def _restore_steps(
+        self,
+        kin: Kinematics,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        errors: list[float],
+        slack: float,
+    ) -> tuple[np.ndarray, list[float]]:
+        """The Gauss–Newton steps of :meth:`_restore_hard` from ``kin``'s configuration (the
+        hard levels' ``errors`` there), the hard rows loosened by ``slack``: (q, errors)."""
+        q0 = q = kin.q.copy()
         total = np.zeros(self.robot.nv)
         stalls = 0
         for _ in range(HARD_PROJECTION_STEPS):
             if max(errors, default=0.0) <= self.hard_tol:
-                kin.update(q0)
-                return self.robot.difference(q0, q)
+                break
             kin.update(q)
             problems, held = self._hard_problems(kin)
             problems += self._weighted_rows(kin)
-            delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
+            if slack:
+                problems = [_loosened(p, slack) for p in problems]
+            problems, fixed = _tasks_fix(problems)
+            delta = self._hard_step(q, [*problems, fixed, held], lower - total, upper - total)
             worst = max(errors)
             step = self._halved_step(kin, q, delta, lambda e, w=worst: max(e) < w)
             if step is None:
@@ -364,9 +404,7 @@ class StackSolver(ABC):
             if stalls == RESTORE_STALLS:  # converging is quadratic
                 break
         kin.update(q0)
-        if max(errors, default=0.0) <= self.hard_tol:
-            return self.robot.difference(q0, q)
-        return None
+        return q, errors
 
     def _weighted_rows(self, kin: Kinematics) -> list[LevelProblem]:
         """The weighted QP's other hard rows for :meth:`_restore_hard`: it holds the
@@ -643,6 +681,15 @@ class StackSolver(ABC):
                 q_end, errors = self._project(self._move_joints(q_prev, t * dq_prev), aim)
                 if all(e <= pose_tol for e in errors):
                     break
+        if pose_tol < max(errors, default=0.0) <= RESTORE_SLACK:
+            # last resort, as a tick's restoration (:meth:`_restore_hard`): the rows loosened
+            # by the drift the projection undoes (stress trial 4169: a pair at its margin
+            # stopped every projection 1.7e-6 m off the contacts)
+            self.kin.update(q)
+            drift = min(max(self._hard_errors(self.kin), default=0.0), RESTORE_SLACK)
+            loose = self._project(q, pose_tol, slack=drift)
+            if max(loose[1], default=0.0) < max(errors):
+                q_end, errors = loose
         self._guard_hard_levels(errors, start_errors, pose_tol)
         q = q_end
         self.kin.update(q)
@@ -792,11 +839,13 @@ class StackSolver(ABC):
         tol: float,
         max_steps: int = HARD_PROJECTION_STEPS,
         stop_stalled: bool = False,
+        slack: float = 0.0,
     ) -> tuple[np.ndarray, list[float]]:
         """:meth:`project_hard` and the hard levels' errors at the result (kin left there;
-        each step within :data:`HARD_PROJECTION_TRUST`);
-        ``stop_stalled``: a level's steps stop where they stall (:data:`PROJECTION_STALL`).
-        Each Gauss–Newton step counts against the running :meth:`solve_pose`'s budget."""
+        each step within :data:`HARD_PROJECTION_TRUST`); ``stop_stalled``: a level's steps
+        stop where they stall (:data:`PROJECTION_STALL`); the hard levels' inequality rows
+        loosened by ``slack`` (:meth:`solve_pose`'s last resort). Each Gauss–Newton step
+        counts against the running :meth:`solve_pose`'s budget."""
         kin = self.kin
         kin.update(q)
         errors = self._hard_errors(kin)
@@ -809,6 +858,8 @@ class StackSolver(ABC):
                 self._spend(1)
                 kin.update(q)
                 problems, held = self._hard_problems(kin)
+                if slack:
+                    problems = [_loosened(p, slack) for p in problems]
                 delta = self._hard_step(q, [*problems[: k + 1], held], -trust, trust)
                 step = self._halved_step(
                     kin,
@@ -875,11 +926,19 @@ class StackSolver(ABC):
         levels = [*problems, LevelProblem(1 << 30, none, np.zeros(0), none, np.zeros(0))]
         # DAQP whatever the solver's backend: an exact active set (a first-order backend's
         # 1e-6 accuracy would stop the projection short of its 1e-10)
-        backends = [make_backend("daqp") for _ in levels]
-        try:
-            delta, _ = solve_cascade(levels, lower, upper, backends, relax=True)
-        except WbcError:
-            return np.zeros(nv)  # no step: the projection stops where it is
+        hard = [p for p in problems if p.hard]
+        delta = np.zeros(nv)  # no step: the projection stops where it is
+        # DAQP can cycle (exit flag −2) on the least squares of the rows held after the hard
+        # levels (the pairs inside their margin no closer: 340 degenerate rows in stress
+        # trial 4875's last projection, which then stopped 1.3e-6 m off its contact): the
+        # hard levels alone then (such a pair may approach by the step's first order)
+        for attempt in (levels, [*hard, levels[-1]]) if len(hard) < len(problems) else (levels,):
+            backends = [make_backend("daqp") for _ in attempt]
+            try:
+                delta, _ = solve_cascade(attempt, lower, upper, backends, relax=True)
+                break
+            except WbcError:
+                continue
         return delta if np.isfinite(delta).all() else np.zeros(nv)
 
     def _move_joints(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -1003,6 +1062,59 @@ def _with_requests(problem: LevelProblem, rows: SplitRows, dq: np.ndarray) -> Le
         np.concatenate([problem.h, h_in]), problem.hard, problem.task_rows,
         [*problem.constraint_rows, named],
     )  # fmt: skip
+
+
+def _loosened(problem: LevelProblem, slack: float) -> LevelProblem:
+    """``problem`` with its inequality rows loosened by ``slack``."""
+    if not problem.h.size:
+        return problem
+    return LevelProblem(
+        problem.priority, problem.J, problem.b, problem.G, problem.h + slack, problem.hard,
+        problem.task_rows, problem.constraint_rows,
+    )  # fmt: skip
+
+
+def _tasks_fix(problems: list[LevelProblem]) -> tuple[list[LevelProblem], LevelProblem]:
+    """``problems`` without their inequality rows that the hard tasks determine, and those
+    rows as one level after them, in least squares (as far as the tasks allow).
+
+    A row g Δq <= h is determined by the tasks when g lies in the row space of their stacked
+    Jacobian J (‖g N‖ <= :data:`FIXED_ROW_TOL` ‖g‖, N a basis of J's null space): every Δq
+    that meets the tasks gives it the same value. E.g. a self-collision pair between the two
+    feet in double support: the hard contacts fix the feet, and with them the pair's
+    distance. Held as a hard row at its margin, such a pair turns a contact's second-order
+    drift that carried it a hair outside the margin into a contradiction (stress trials
+    4888, 5101: the feet 4.99 mm apart on the contacts, drifted to 5.01–5.15 mm, the
+    contacts' correction stalled 4e-6 m short); ranked after the tasks, it goes back where
+    the contacts put it."""
+    nv = problems[0].G.shape[1] if problems else 0
+    J = np.vstack([p.J for p in problems]) if problems else np.zeros((0, nv))
+    none = LevelProblem(1 << 28, _no_jacobian(nv), _EMPTY, *_no_rows(nv))
+    if not J.size or not any(p.h.size for p in problems):
+        return problems, none
+    _, s, Vt = np.linalg.svd(J)
+    rank = int((s > FIXED_ROW_TOL * s[0]).sum()) if s.size else 0
+    N = Vt[rank:].T
+    free, Gf, hf = [], [], []
+    for p in problems:
+        if not p.h.size:
+            free.append(p)
+            continue
+        fixed = np.linalg.norm(p.G @ N, axis=1) <= FIXED_ROW_TOL * np.linalg.norm(p.G, axis=1)
+        if not fixed.any():
+            free.append(p)
+            continue
+        Gf.append(p.G[fixed])
+        hf.append(p.h[fixed])
+        free.append(
+            LevelProblem(p.priority, p.J, p.b, p.G[~fixed], p.h[~fixed], p.hard, p.task_rows)
+        )
+    if not Gf:
+        return problems, none
+    fixed_rows = LevelProblem(
+        (1 << 28) + 1, _no_jacobian(nv), _EMPTY, np.vstack(Gf), np.concatenate(hf)
+    )
+    return free, fixed_rows
 
 
 def _level(priority: int, block: TaskBlock, rows: SplitRows, hard: bool) -> LevelProblem:
