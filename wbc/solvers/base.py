@@ -55,8 +55,8 @@ HARD_PROJECTION_HALVINGS = 12
 #: minimum-norm step was 2 rad for a 4 mm contact error, far outside its linearisation: the
 #: line search took it at t = 1/32 for 1–3 % of the error per step, and a pose spent 20
 #: steps per projection, 84 s of 93 (stress trial 3972). With the region, 2876 → 183 steps,
-#: and poses that ended off their contacts converge (974, 4169, 4875); 0.02–0.05 all held
-#: on the trials tried, 0.1 and 0.2 lost some (benchmarks/stress_backends.md)
+#: and poses that ended off their contacts converge (974, 4169, 4875); 0.02 and 0.05 held
+#: the six trials tried, 0.1 and 0.2 lost one each (benchmarks/stress_backends.md)
 HARD_PROJECTION_TRUST = 0.05
 #: an iterate's projection onto a hard level (:meth:`StackSolver._shorter_step`) stops after
 #: PROJECTION_STALLS Gauss–Newton steps in a row that each leave more than PROJECTION_STALL
