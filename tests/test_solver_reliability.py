@@ -249,10 +249,10 @@ def test_feet_pair_the_contacts_fix_never_blocks_their_restoration(robot, stress
     inside the self-collision margin, a distance the two hard contacts fix. A tick's
     second-order drift carried the pair to 5.01 / 5.15 mm, outside the margin, where the
     restoration held it; the contacts' way back needs it at 4.99 mm, and the tick raised
-    "hard level 0 is infeasible" at tick 5 / 7. The restoration now ranks the rows that the
-    hard tasks determine after them. No error; the contacts held to a tick's second order;
-    no joint further out; the other pairs that start outside the margin stay there (to
-    that second order)."""
+    "hard level 0 is infeasible" at tick 5 / 7. The restoration may now take a pair at its
+    margin inside it by the drift it undoes (at most 0.5 mm). No error; the contacts held to
+    a tick's second order; no joint further out; the other pairs that start outside the
+    margin stay there (to that second order)."""
     qs = replay_ticks(robot, stress, trial, ticks)
     control = load_stack("walk", robot, qs[0])
     contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]

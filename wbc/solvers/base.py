@@ -80,9 +80,6 @@ _INSIDE = "constraints violated at the start (their best way back)"
 #: weight of "no closer than now" against "separate at the damper's rate" in the best
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
-#: relative size of an inequality row's part outside the hard tasks' row space below which
-#: the tasks determine it (:func:`_tasks_fix`; rank decisions on the tasks' Jacobian alike)
-FIXED_ROW_TOL = 1e-9
 _EMPTY = np.zeros(0)
 
 
@@ -352,10 +349,12 @@ class StackSolver(ABC):
         If the steps cannot get there with the inequality rows held (at their bare bound),
         they are tried again with the rows loosened by the hard error at q, ε, at most
         :data:`RESTORE_SLACK`: undoing a drift of ε may take a pair that sits at its margin up
-        to ε (to first order) inside it, never more (stress trial 436: a foot and the other
-        ankle 5.001 mm apart, the contacts 6e-5 m off; held at 5 mm, the way back onto the
-        contacts was a 0.075 rad detour the box did not allow). A pair so taken inside moves
-        back out at the damper's rate from the next tick on."""
+        to ε (to first order) inside it, never more. Stress trials 4888, 5101: the feet 4.99
+        mm apart, a distance the two hard contacts fix, drifted to 5.01 / 5.15 mm, outside
+        the margin, and held there the contacts' way back stalled 4e-6 m short; 436: a foot
+        and the other ankle 5.001 mm apart, the contacts 6e-5 m off, and the way back with
+        the pair held was a 0.075 rad detour the box did not allow. A pair so taken inside
+        moves back out at the damper's rate from the next tick on."""
         q0 = kin.q.copy()
         errors = self._hard_errors(kin)
         start = max(errors, default=0.0)
@@ -392,8 +391,7 @@ class StackSolver(ABC):
             problems += self._weighted_rows(kin)
             if slack:
                 problems = [_loosened(p, slack) for p in problems]
-            problems, fixed = _tasks_fix(problems)
-            delta = self._hard_step(q, [*problems, fixed, held], lower - total, upper - total)
+            delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
             worst = max(errors)
             step = self._halved_step(kin, q, delta, lambda e, w=worst: max(e) < w)
             if step is None:
@@ -1072,49 +1070,6 @@ def _loosened(problem: LevelProblem, slack: float) -> LevelProblem:
         problem.priority, problem.J, problem.b, problem.G, problem.h + slack, problem.hard,
         problem.task_rows, problem.constraint_rows,
     )  # fmt: skip
-
-
-def _tasks_fix(problems: list[LevelProblem]) -> tuple[list[LevelProblem], LevelProblem]:
-    """``problems`` without their inequality rows that the hard tasks determine, and those
-    rows as one level after them, in least squares (as far as the tasks allow).
-
-    A row g Δq <= h is determined by the tasks when g lies in the row space of their stacked
-    Jacobian J (‖g N‖ <= :data:`FIXED_ROW_TOL` ‖g‖, N a basis of J's null space): every Δq
-    that meets the tasks gives it the same value. E.g. a self-collision pair between the two
-    feet in double support: the hard contacts fix the feet, and with them the pair's
-    distance. Held as a hard row at its margin, such a pair turns a contact's second-order
-    drift that carried it a hair outside the margin into a contradiction (stress trials
-    4888, 5101: the feet 4.99 mm apart on the contacts, drifted to 5.01–5.15 mm, the
-    contacts' correction stalled 4e-6 m short); ranked after the tasks, it goes back where
-    the contacts put it."""
-    nv = problems[0].G.shape[1] if problems else 0
-    J = np.vstack([p.J for p in problems]) if problems else np.zeros((0, nv))
-    none = LevelProblem(1 << 28, _no_jacobian(nv), _EMPTY, *_no_rows(nv))
-    if not J.size or not any(p.h.size for p in problems):
-        return problems, none
-    _, s, Vt = np.linalg.svd(J)
-    rank = int((s > FIXED_ROW_TOL * s[0]).sum()) if s.size else 0
-    N = Vt[rank:].T
-    free, Gf, hf = [], [], []
-    for p in problems:
-        if not p.h.size:
-            free.append(p)
-            continue
-        fixed = np.linalg.norm(p.G @ N, axis=1) <= FIXED_ROW_TOL * np.linalg.norm(p.G, axis=1)
-        if not fixed.any():
-            free.append(p)
-            continue
-        Gf.append(p.G[fixed])
-        hf.append(p.h[fixed])
-        free.append(
-            LevelProblem(p.priority, p.J, p.b, p.G[~fixed], p.h[~fixed], p.hard, p.task_rows)
-        )
-    if not Gf:
-        return problems, none
-    fixed_rows = LevelProblem(
-        (1 << 28) + 1, _no_jacobian(nv), _EMPTY, np.vstack(Gf), np.concatenate(hf)
-    )
-    return free, fixed_rows
 
 
 def _level(priority: int, block: TaskBlock, rows: SplitRows, hard: bool) -> LevelProblem:
