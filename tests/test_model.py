@@ -111,7 +111,10 @@ def test_kinematics_update_fills_what_joint_jacobians_would(robot):
         pin.updateFramePlacements(robot.model, data)
         pin.jacobianCenterOfMass(robot.model, data, False)
         assert np.array_equal(kin.data.J, data.J)
-        for a, b in [*zip(kin.data.oMi, data.oMi), *zip(kin.data.oMf, data.oMf)]:
+        for a, b in [
+            *zip(kin.data.oMi, data.oMi, strict=True),
+            *zip(kin.data.oMf, data.oMf, strict=True),
+        ]:
             assert np.array_equal(a.homogeneous, b.homogeneous)
         assert np.array_equal(kin.com, data.com[0])
         assert np.array_equal(kin.com_jacobian, data.Jcom)
