@@ -6,11 +6,15 @@ strict levels; the weighted QP sees the same soft tasks and weights as ``walk``)
 CoM-polygon and ground-clearance constraints, which the peers do not get either. All four
 controllers follow the same 10-step reference through the same control loop
 (:func:`wbc.walking.loop.run`), which times each tick the same way (targets, kinematics,
-assembly, solve, integration). Each round walks every controller once, side by side: blocks
-of ``--block`` ticks (50) of each walk in turn, the order rotated by one at every block, so
-that the machine's noise (slower or faster stretches of a few ms to seconds on a shared VM)
-hits every controller alike (``--block 0``: one whole walk after the other, in a fixed order,
-as before 2026-12-02 08:00). The figures are medians over rounds of each controller's
+assembly, solve, integration). Each round walks every controller once, side by side: each
+walk in ``--blocks`` blocks of ticks (4), one block of each walk in turn, the order rotated
+by one at every block, so that the machine's slower and faster stretches (a fraction of a
+second on a shared VM) hit every controller alike (``--blocks 1``: one whole walk after the
+other, in a fixed order, as before 2026-12-02 08:00). The first tick of a block follows the
+other controllers' blocks: its caches are cold, for every controller alike (~100–150 µs),
+and the next ticks are slower too; so the blocks are few: 3 such ticks per walk, fewer than
+the 6 above a walk's p99 (blocks of 50 ticks made them the p99 of every controller, and
+raised the medians by 1–2 µs). The figures are medians over rounds of each controller's
 per-tick median/p99; the per-round ratios of our compiled solvers to placo follow the table.
 
 Our solvers run twice: through the compiled kernels (:mod:`wbc.compiled`, the default) and
@@ -158,12 +162,15 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--trajectory", default="walk10")
     parser.add_argument(
-        "--block", type=int, default=50, help="ticks of each walk in turn (0: whole walks)"
+        "--blocks", type=int, default=4, help="blocks per walk, walked in turn (1: whole walks)"
     )
     args = parser.parse_args()
     robot = load_robot()
     ref = build(args.trajectory, robot)
     spec = core_walk_spec()
+    if args.blocks < 1:
+        parser.error(f"--blocks must be at least 1, got {args.blocks}")
+    block = 0 if args.blocks == 1 else -(-ref.n // args.blocks)  # (ticks per block)
 
     def ours(kind: str, compiled: bool):
         def make():
@@ -186,14 +193,14 @@ def main() -> int:
         makers["pink (daqp)"] = PinkController
     stats: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in makers}
     for _ in range(args.rounds):
-        for name, rec in side_by_side(makers, robot, ref, args.block).items():
+        for name, rec in side_by_side(makers, robot, ref, block).items():
             t = rec["solve_time"] * 1e6
             com = np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() * 1e3
             foot = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1).max() * 1e3
             stats[name].append((np.median(t), np.percentile(t, 99), com, foot))
     rows = {k: np.median(np.array(v), axis=0) for k, v in stats.items()}
     ref_name = "placo 0.10.2" if "placo 0.10.2" in rows else next(iter(rows))
-    how = f"side by side in blocks of {args.block} ticks" if args.block else "whole walks in turn"
+    how = f"side by side in blocks of {block} ticks" if block else "whole walks in turn"
     print(f"{len(ref)} ticks of {args.trajectory}, {args.rounds} rounds, {how}")
     print(
         f"| controller | median µs | p99 µs | median / {ref_name} | CoM err max mm |"
