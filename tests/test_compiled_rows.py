@@ -196,6 +196,23 @@ def test_targets_follow_in_place_updates(robot):
         targets.gather(q, np.zeros(24))
 
 
+def test_a_copy_of_targets_gathers_its_own_sources(robot):
+    """The compiled gather reads the sources by address: a deep copy binds its own copies
+    (never the original's memory, which may be freed)."""
+    import copy
+    import gc
+
+    com = ComTask(robot, [0.0, 0.0, 0.2])
+    targets = Targets()
+    targets.add(com)
+    targets.seal()
+    clone = copy.deepcopy(targets)
+    del targets, com
+    gc.collect()
+    clone.sources[0][:] = [0.5, 0.25, 0.125]
+    assert np.array_equal(clone.gather(), [0.5, 0.25, 0.125])
+
+
 def test_targets_gather_every_source_in_order(robot):
     """Several tasks' targets (a pose task's position and rotation: adjacent views of one
     array, joined into one source) land in the buffer in the order they were added."""

@@ -79,16 +79,29 @@ class Targets:
         return offset, self.size - offset
 
     def seal(self) -> None:
+        self.buffer = np.zeros(self.size)
+        self._bind()
+        self.gather()
+
+    def _bind(self) -> None:
+        """The sources' addresses for the compiled gather (:attr:`sources` keeps them alive),
+        if every source is a contiguous float64 vector (else np.concatenate)."""
         from .checks import entry, gather
 
-        self.buffer = np.zeros(self.size)
-        # the sources' addresses for the compiled gather (the sources keep them alive),
-        # if every source is a contiguous float64 vector (else np.concatenate)
         direct = all(s.dtype == np.float64 and s.flags.c_contiguous for s in self.sources)
         self._gather = entry(gather) if direct else None
         self._addresses = np.array([s.ctypes.data for s in self.sources], dtype=np.int64)
         self._sizes = np.array([s.size for s in self.sources], dtype=np.int64)
-        self.gather()
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_gather"] = None  # (addresses are per object: a copy binds its own sources)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if self.buffer.size == self.size:  # (sealed)
+            self._bind()
 
     def gather(self, q: np.ndarray | None = None, q_out: np.ndarray | None = None) -> np.ndarray:
         """The buffer, holding the tasks' current targets; and q copied into ``q_out`` (both
