@@ -6,8 +6,16 @@ strict levels; the weighted QP sees the same soft tasks and weights as ``walk``)
 CoM-polygon and ground-clearance constraints, which the peers do not get either. All four
 controllers follow the same 10-step reference through the same control loop
 (:func:`wbc.walking.loop.run`), which times each tick the same way (targets, kinematics,
-assembly, solve, integration). Rounds are interleaved so that the machine's load hits every
-controller alike; the figures are medians over rounds of each controller's per-tick median/p99.
+assembly, solve, integration). Each round walks every controller once, side by side: each
+walk in ``--blocks`` blocks of ticks (4), one block of each walk in turn, the order rotated
+by one at every block, so that the machine's slower and faster stretches (a fraction of a
+second on a shared VM) hit every controller alike (``--blocks 1``: one whole walk after the
+other, in a fixed order, as before 2026-12-02 08:00). The first tick of a block follows the
+other controllers' blocks: its caches are cold, for every controller alike (~100–150 µs),
+and the next ticks are slower too; so the blocks are few: 3 such ticks per walk, fewer than
+the 6 above a walk's p99 (blocks of 50 ticks made them the p99 of every controller, and
+raised the medians by 1–2 µs). The figures are medians over rounds of each controller's
+per-tick median/p99; the per-round ratios of our compiled solvers to placo follow the table.
 
 Our solvers run twice: through the compiled kernels (:mod:`wbc.compiled`, the default) and
 through the numpy assembly with DAQP on every tick (``compiled=False``).
@@ -41,7 +49,7 @@ from wbc.bench.peers import PinkController, PlacoController, available
 from wbc.bench.trajectories import build
 from wbc.paths import stacks_dir
 from wbc.stacks import build_stack
-from wbc.walking.loop import StackController, run
+from wbc.walking.loop import StackController, run, run_stepwise
 
 WEIGHTED = "weighted QP (compiled)"
 HIERARCHICAL = "3-level hierarchical QP (compiled)"
@@ -125,14 +133,44 @@ def walk_tail(robot, ref, make, walks: int = 5) -> tuple[float, float, float]:
     return float(np.median(t[first])), float(np.median(t[~first])), float(np.percentile(t, 99))
 
 
+def side_by_side(makers: dict, robot, ref, block: int) -> dict:
+    """One walk of each controller ``makers[name]()`` builds (name -> its recording), side by
+    side: ``block`` ticks of each walk in turn, the order rotated by one at every block; each
+    walk does exactly what :func:`wbc.walking.loop.run` does. ``block`` 0: one whole walk after
+    the other, in the order of ``makers``."""
+    names = list(makers)
+    walks = {name: run_stepwise(makers[name](), robot, ref) for name in names}
+    out = {}
+    turn = 0
+    while walks:
+        k = turn % len(names) if block else 0
+        for name in names[k:] + names[:k]:
+            if name not in walks:
+                continue
+            try:
+                for _ in range(block or ref.n + 1):
+                    next(walks[name])
+            except StopIteration as end:
+                out[name] = end.value
+                del walks[name]
+        turn += 1
+    return out
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--trajectory", default="walk10")
+    parser.add_argument(
+        "--blocks", type=int, default=4, help="blocks per walk, walked in turn (1: whole walks)"
+    )
     args = parser.parse_args()
     robot = load_robot()
     ref = build(args.trajectory, robot)
     spec = core_walk_spec()
+    if args.blocks < 1:
+        parser.error(f"--blocks must be at least 1, got {args.blocks}")
+    block = 0 if args.blocks == 1 else -(-ref.n // args.blocks)  # (ticks per block)
 
     def ours(kind: str, compiled: bool):
         def make():
@@ -155,15 +193,15 @@ def main() -> int:
         makers["pink (daqp)"] = PinkController
     stats: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in makers}
     for _ in range(args.rounds):
-        for name, make in makers.items():
-            rec = run(make(), robot, ref)
+        for name, rec in side_by_side(makers, robot, ref, block).items():
             t = rec["solve_time"] * 1e6
             com = np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() * 1e3
             foot = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1).max() * 1e3
             stats[name].append((np.median(t), np.percentile(t, 99), com, foot))
     rows = {k: np.median(np.array(v), axis=0) for k, v in stats.items()}
     ref_name = "placo 0.10.2" if "placo 0.10.2" in rows else next(iter(rows))
-    print(f"{len(ref)} ticks of {args.trajectory}, {args.rounds} interleaved rounds")
+    how = f"side by side in blocks of {block} ticks" if block else "whole walks in turn"
+    print(f"{len(ref)} ticks of {args.trajectory}, {args.rounds} rounds, {how}")
     print(
         f"| controller | median µs | p99 µs | median / {ref_name} | CoM err max mm |"
         " swing err max mm |"
@@ -174,6 +212,11 @@ def main() -> int:
             f"| {name} | {med:.0f} | {p99:.0f} | {med / rows[ref_name][0]:.2f} | {com:.3f} |"
             f" {foot:.3f} |"
         )
+    if ref_name != WEIGHTED:
+        for name in (WEIGHTED, HIERARCHICAL):
+            ratios = [a[0] / b[0] for a, b in zip(stats[name], stats[ref_name], strict=True)]
+            cells = ", ".join(f"{x:.2f}" for x in ratios)
+            print(f"{name}, median / {ref_name}'s per round: {cells}")
     w, h = rows[WEIGHTED][0], rows[HIERARCHICAL][0]
     print(f"hierarchical / weighted = {h / w:.2f} (compiled); numpy paths:", end=" ")
     print(

@@ -188,6 +188,46 @@ def test_targets_follow_in_place_updates(robot):
     handle[:] = [0.03, 0.0, 0.2]
     assert np.array_equal(targets.gather(), [0.03, 0.0, 0.2])
     assert com.target is handle  # never re-bound
+    q, q_out = np.arange(25.0), np.zeros(25)  # the tick's configuration, in the same call
+    handle[:] = [0.04, 0.01, 0.2]
+    assert np.array_equal(targets.gather(q, q_out), [0.04, 0.01, 0.2])
+    assert np.array_equal(q_out, q)
+    with pytest.raises(ValueError, match="differ in size"):
+        targets.gather(q, np.zeros(24))
+
+
+def test_a_copy_of_targets_gathers_its_own_sources(robot):
+    """The compiled gather reads the sources by address: a deep copy binds its own copies
+    (never the original's memory, which may be freed)."""
+    import copy
+    import gc
+
+    com = ComTask(robot, [0.0, 0.0, 0.2])
+    targets = Targets()
+    targets.add(com)
+    targets.seal()
+    clone = copy.deepcopy(targets)
+    del targets, com
+    gc.collect()
+    clone.sources[0][:] = [0.5, 0.25, 0.125]
+    assert np.array_equal(clone.gather(), [0.5, 0.25, 0.125])
+
+
+def test_targets_gather_every_source_in_order(robot):
+    """Several tasks' targets (a pose task's position and rotation: adjacent views of one
+    array, joined into one source) land in the buffer in the order they were added."""
+    com = ComTask(robot, [0.0, 0.0, 0.2])
+    pose = FramePoseTask(robot, "l_sole")
+    targets = Targets()
+    assert targets.add(com) == (0, 3)
+    assert targets.add(pose) == (3, 12)
+    targets.seal()
+    pose.set_position_target([0.1, 0.2, 0.3])
+    R = pin.rpy.rpyToMatrix(0.1, -0.2, 0.3)
+    pose.set_rotation_target(R)
+    com.set_target([0.01, 0.02, 0.25])
+    expected = np.concatenate([[0.01, 0.02, 0.25], [0.1, 0.2, 0.3], R.reshape(-1)])
+    assert np.array_equal(targets.gather(), expected)
 
 
 @settings(deadline=None)

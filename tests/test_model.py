@@ -94,6 +94,32 @@ def test_kinematics_cache_equals_one_off_calls(robot, rng):
     assert np.allclose(kin.com_jacobian, robot.com_jacobian(q))
 
 
+def test_kinematics_update_fills_what_joint_jacobians_would(robot):
+    """update's one pass (jacobianCenterOfMass with q) gives the joints' placements and
+    Jacobians of computeJointJacobians bitwise (what frame Jacobians, collision geometry and
+    the compiled tick read), the frames of updateFramePlacements and the CoM and its Jacobian
+    of jacobianCenterOfMass after them."""
+    import pinocchio as pin
+
+    kin = Kinematics(robot, random_q(robot, 1))
+    kin.data.J[:] = np.nan  # stale values would survive a pass that does not write J
+    for seed in (8, 9):
+        q = random_q(robot, seed)
+        kin.update(q)
+        data = robot.model.createData()
+        pin.computeJointJacobians(robot.model, data, q)
+        pin.updateFramePlacements(robot.model, data)
+        pin.jacobianCenterOfMass(robot.model, data, False)
+        assert np.array_equal(kin.data.J, data.J)
+        for a, b in [
+            *zip(kin.data.oMi, data.oMi, strict=True),
+            *zip(kin.data.oMf, data.oMf, strict=True),
+        ]:
+            assert np.array_equal(a.homogeneous, b.homogeneous)
+        assert np.array_equal(kin.com, data.com[0])
+        assert np.array_equal(kin.com_jacobian, data.Jcom)
+
+
 def test_frame_placements_are_views_that_follow_updates(robot):
     kin = Kinematics(robot, random_q(robot, 3))
     views = kin.frame_placements()

@@ -10,7 +10,14 @@ from wbc.bench.trajectories import build
 from wbc.exceptions import WbcError
 from wbc.recording import Recording
 from wbc.stacks import load_stack
-from wbc.walking.loop import RunOptions, Session, StackController, run, support_roles
+from wbc.walking.loop import (
+    RunOptions,
+    Session,
+    StackController,
+    run,
+    run_stepwise,
+    support_roles,
+)
 
 
 @pytest.fixture(scope="module")
@@ -95,6 +102,26 @@ def test_session_ticks_live_and_stops_at_the_end(robot, walk10):
     q = session.at_time(0.0)
     assert q is not None and robot.within_limits(q)
     assert session.at_time(walk10.duration + 1.0) is None
+
+
+def test_two_runs_interleaved_tick_by_tick_record_what_run_does(robot, walk10, walk_run):
+    """run_stepwise yields each tick once it is done; two walks advanced in turn (as
+    benchmarks/qp_tick.py interleaves its controllers) each end with run's recording."""
+    walks = [run_stepwise(StackController(load_stack("walk", robot)), robot, walk10)]
+    walks.append(run_stepwise(StackController(load_stack("walk_strict", robot)), robot, walk10))
+    assert [next(w) for w in walks] == [0, 0]
+    recordings = []
+    for w in walks:
+        assert [next(w) for _ in range(4)] == [1, 2, 3, 4]
+    for w in walks:
+        with pytest.raises(StopIteration) as end:
+            while True:
+                next(w)
+        recordings.append(end.value.value)
+    assert np.array_equal(recordings[0].q, walk_run.q)
+    assert np.array_equal(recordings[0]["com"], walk_run["com"])
+    assert not np.array_equal(recordings[1].q, walk_run.q)  # the other stack's own walk
+    assert recordings[1].q.shape == walk_run.q.shape
 
 
 def test_converged_mode_runs(robot):

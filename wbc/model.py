@@ -535,9 +535,10 @@ class Kinematics:
         q = self.robot.check_configuration(q)
         self.q = q
         model, data = self.model, self.data
-        pin.computeJointJacobians(model, data, q)
+        # one pass: the joints' placements and Jacobians (data.oMi, data.J: what
+        # computeJointJacobians gives, bitwise), the CoM and its Jacobian; then the frames
+        pin.jacobianCenterOfMass(model, data, q, False)
         pin.updateFramePlacements(model, data)
-        pin.jacobianCenterOfMass(model, data, False)
 
     @property
     def com(self) -> np.ndarray:

@@ -7,7 +7,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import carray, njit, types
+from numba.extending import intrinsic
 
 
 @njit("float64(float64[:, :])", cache=True)
@@ -76,3 +77,33 @@ def quaternion_defect(q: np.ndarray) -> float:
 def entry(check=rotation_defect):
     """A compiled check's entry point (any strided float64 arrays), skipping dispatch."""
     return check.overloads[check.signatures[0]].entry_point
+
+
+@intrinsic
+def _float64_pointer(typingctx, address):
+    """The float64 pointer at an integer address."""
+    signature = types.CPointer(types.float64)(address)
+
+    def codegen(context, builder, sig, args):
+        return builder.inttoptr(args[0], context.get_value_type(sig.return_type))
+
+    return signature, codegen
+
+
+@njit("void(int64[:], int64[:], float64[:], float64[:], float64[:])", cache=True)
+def gather(addresses: np.ndarray, sizes: np.ndarray, out: np.ndarray, q, q_out) -> None:
+    """The float64 vectors at ``addresses`` (``sizes[k]`` entries each, contiguous) one after
+    the other into ``out``, and q into ``q_out``: a compiled plan's inputs of a tick in one
+    call (a plan's targets: views of the tasks' own arrays, which it keeps alive)."""
+    if sizes.shape[0] != addresses.shape[0] or sizes.sum() > out.shape[0]:
+        raise ValueError("gather: the sizes do not fit out")
+    if q.shape[0] != q_out.shape[0]:
+        raise ValueError("gather: q and q_out differ in size")
+    o = 0
+    for k in range(addresses.shape[0]):
+        src = carray(_float64_pointer(addresses[k]), (sizes[k],))
+        for i in range(sizes[k]):
+            out[o + i] = src[i]
+        o += sizes[k]
+    for i in range(q.shape[0]):
+        q_out[i] = q[i]

@@ -59,6 +59,7 @@ class Targets:
         self.sources: list[np.ndarray] = []
         self.size = 0
         self.buffer = np.zeros(0)
+        self._gather = None
 
     def add(self, task: Task) -> tuple[int, int]:
         """(offset, size) of the task's packed targets."""
@@ -79,12 +80,42 @@ class Targets:
 
     def seal(self) -> None:
         self.buffer = np.zeros(self.size)
+        self._bind()
         self.gather()
 
-    def gather(self) -> np.ndarray:
-        """The buffer, holding the tasks' current targets."""
+    def _bind(self) -> None:
+        """The sources' addresses for the compiled gather (:attr:`sources` keeps them alive),
+        if every source is a contiguous float64 vector (else np.concatenate)."""
+        from .checks import entry, gather
+
+        direct = all(s.dtype == np.float64 and s.flags.c_contiguous for s in self.sources)
+        self._gather = entry(gather) if direct else None
+        self._addresses = np.array([s.ctypes.data for s in self.sources], dtype=np.int64)
+        self._sizes = np.array([s.size for s in self.sources], dtype=np.int64)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_gather"] = None  # (addresses are per object: a copy binds its own sources)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if self.buffer.size == self.size:  # (sealed)
+            self._bind()
+
+    def gather(self, q: np.ndarray | None = None, q_out: np.ndarray | None = None) -> np.ndarray:
+        """The buffer, holding the tasks' current targets; and q copied into ``q_out`` (both
+        float64 vectors), in the same compiled call (~0.6 µs less than np.concatenate and
+        np.copyto)."""
+        if self._gather is not None:
+            if q is None or q_out is None:
+                q = q_out = self.buffer[:0]
+            self._gather(self._addresses, self._sizes, self.buffer, q, q_out)
+            return self.buffer
         if self.sources:
             np.concatenate(self.sources, out=self.buffer)
+        if q is not None and q_out is not None:
+            np.copyto(q_out, q)
         return self.buffer
 
 
@@ -369,8 +400,7 @@ class _Plan:
             task.last_error = view
         if self.frames.copies:
             self.frames.refresh()
-        self.targets.gather()
-        np.copyto(self.q, kin.q)
+        self.targets.gather(kin.q, self.q)
         solver = self.solver
         if dt != self._dt or (solver.regularization, solver.hard_tol) != self._params_key:
             self._set_params(dt)

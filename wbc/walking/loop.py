@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -430,6 +430,26 @@ def run(
     A tick whose solve raises a :class:`~wbc.WbcError` is counted as a failure: the robot holds
     its last configuration (or the run stops with ``stop_on_failure``).
     """
+    ticks = run_stepwise(controller, robot, ref, q0, options, on_tick)
+    while True:
+        try:
+            next(ticks)
+        except StopIteration as end:
+            return end.value
+
+
+def run_stepwise(
+    controller: Controller,
+    robot: Robot,
+    ref: WalkingReference,
+    q0: np.ndarray | None = None,
+    options: RunOptions | None = None,
+    on_tick: Callable[[int, np.ndarray, TickTargets], None] | None = None,
+) -> Generator[int, None, Recording]:
+    """:func:`run` one tick at a time: a generator that yields each tick's index once the tick
+    is done and recorded, and returns the recording (``StopIteration.value``). Several
+    controllers' runs can so be interleaved in blocks of ticks (benchmarks/qp_tick.py: the
+    machine's noise hits them alike), each doing exactly what :func:`run` does."""
     session = Session(controller, robot, ref, q0, options)
     options = session.options
     kin = Kinematics(robot, session.q)
@@ -465,6 +485,7 @@ def run(
                     errors[name][i] = e
         if on_tick is not None:
             on_tick(i, q, session.targets(i))
+        yield i
     channels = _channels(robot, ref, Q, com, soles, lowest, session.swing)
     channels.update(solve_time=solve_time, iterations=iterations, failed=failed)
     for name, e in errors.items():
