@@ -98,9 +98,12 @@ def test_narrowed_sway_moves_the_com_toward_the_swing_sole_smoothly(walk10):
     assert np.max(np.abs(np.diff(d[:, :2], axis=0))) < 2.0 * shift * math.pi * dt / 0.2
 
 
-def test_narrowed_sway_leaves_static_gaits_and_zero_alone(robot, walk10):
+def test_narrowed_sway_leaves_static_gaits_long_supports_and_zero_alone(robot, walk10):
     static = build("static_walk", robot)
     assert narrowed_sway(static, 0.004) is static
+    fast = build("fast_wb", robot)  # 0.4 s single supports: longer than SWAY_LONGEST
+    assert np.array_equal(narrowed_sway(fast, 0.004).com, fast.com)
+    assert not np.array_equal(narrowed_sway(fast, 0.004, longest=0.5).com, fast.com)
     assert narrowed_sway(walk10, 0.0) is walk10
     with pytest.raises(WbcError, match="sway"):
         narrowed_sway(walk10, -0.001)

@@ -34,7 +34,7 @@ from ..walking.reference import WalkingReference
 class HoldParams:
     """When a lift-off waits (module docstring)."""
 
-    band: float = 0.025  # m: DCM error toward the sole about to lift that is left alone
+    band: float = 0.04  # m: DCM error toward the sole about to lift that is left alone
     max_hold: float = 1.0  # s: longest wait of one lift-off
 
     def check(self) -> HoldParams:
@@ -90,15 +90,22 @@ class PhaseHold:
         return True
 
 
-def narrowed_sway(ref: WalkingReference, shift: float) -> WalkingReference:
+#: s: the longest single support whose sway is narrowed (measured: narrowing the 0.4 s single
+#: supports of ``fast_wb`` costs travelled distance, 0.90 → 0.89 of its plan at 3 mm)
+SWAY_LONGEST = 0.3
+
+
+def narrowed_sway(
+    ref: WalkingReference, shift: float, longest: float = SWAY_LONGEST
+) -> WalkingReference:
     """``ref`` with its CoM moved ``shift`` m toward the swing sole in every single support,
     smoothly: ``δ(t) = shift · sin(π s) · v`` (``s`` the phase's elapsed share, ``v`` the
     stance sole's lateral axis, toward the other sole), its velocity and
     acceleration added to the CoM's. At mid single support the DCM moves by ``shift`` too
     (``δ̇ = 0`` there), so a push away from the swing foot starts ``shift`` further from the
     stance sole's outer edge; the ZMP moves by ``shift (1 + (π/(ω T))²) sin(π s)`` inward
-    (``T`` the phase's duration). ``shift = 0`` or a static gait (its CoM stays over the
-    stance sole): ``ref`` itself."""
+    (``T`` the phase's duration). Only single supports of at most ``longest`` s are changed;
+    ``shift = 0`` or a static gait (its CoM stays over the stance sole): ``ref`` itself."""
     if not (math.isfinite(shift) and shift >= 0):
         raise WbcError(f"sway shift must be a finite number >= 0, got {shift}")
     if shift == 0 or ref.gait != "dynamic":
@@ -107,7 +114,7 @@ def narrowed_sway(ref: WalkingReference, shift: float) -> WalkingReference:
     t = ref.t
     for a, b, _ in ref.phases():
         stance = ref.stance_side(a)
-        if stance is None or b - a < 2:
+        if stance is None or b - a < 2 or (b - a) * ref.dt > longest + 1e-9:
             continue
         lift = "right" if stance == "left" else "left"
         k = np.arange(a, b)
@@ -115,7 +122,7 @@ def narrowed_sway(ref: WalkingReference, shift: float) -> WalkingReference:
         v = np.array([-math.sin(yaw[a]), math.cos(yaw[a])])  # the stance sole's lateral axis,
         if (ref.sole(lift)[0][a, :2] - pos[a, :2]) @ v < 0:  # toward the other sole
             v = -v
-        T = float(t[b - 1] - t[a]) + ref.dt  # the phase runs until the next one's first tick
+        T = (b - a) * ref.dt  # the phase runs until the next one's first tick
         w = math.pi / T
         s = (t[k] - t[a]) * w
         com[k, :2] += shift * np.sin(s)[:, None] * v

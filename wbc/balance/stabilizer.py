@@ -26,7 +26,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`);
 * **sway** (``sway``, 4 mm by default) — not a feedback term: the closed loop
   (:func:`wbc.balance.live.closed_loop`) walks its reference with the CoM moved ``sway`` m
-  toward the swing sole at mid single support (:func:`wbc.balance.retime.narrowed_sway`), so
+  toward the swing sole at mid single support (:func:`wbc.balance.retime.narrowed_sway`:
+  single supports of at most 0.3 s), so
   a push away from the swing foot starts that much further from the stance sole's edge;
 * **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
   axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
