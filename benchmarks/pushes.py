@@ -31,7 +31,7 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
-LOOPS = ("open", "closed", "step", "nohip", "nohipstep")
+LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before")
 
 
 def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
@@ -40,6 +40,8 @@ def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
         return None, 0.0
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
     step = SteppingParams() if loop in ("step", "nohipstep") else None
+    if loop == "before":  # the closed loop before the sway and the lift-off hold
+        return ClosedLoopSpec(entry.make, ref, Gains(sway=0.0), True, True, None, None), 0.5
     return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
 
 
@@ -93,7 +95,8 @@ def main() -> None:
                    "fell": nominal["fell"], "dev_deg": nominal["orientation_dev_max_deg"],
                    "dist": nominal["distance_ratio"], "replans": nominal.get("replans"),
                    "goal_limit_excess_deg": nominal.get("goal_limit_excess_deg"),
-                   "share": nominal.get("feedback_share")}  # fmt: skip
+                   "share": nominal.get("feedback_share"), "holds": nominal.get("holds"),
+                   "hold_worst_mm": nominal.get("hold_worst_mm")}  # fmt: skip
             for d in args.directions:
                 row[f"push_{d}_ns"] = largest_push(rec, robot, d, compensate=comp, closed=spec)
             row["wall_s"] = time.perf_counter() - started

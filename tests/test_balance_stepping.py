@@ -163,7 +163,9 @@ def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot,
     push = (t, physics.push_direction(rec, "lateral") * 0.83 / physics.PUSH_DURATION, 0.01)
     runs = {}
     for name, stepping in (("closed", None), ("step", SteppingParams())):
-        spec = physics.ClosedLoopSpec(entry.make, walk10, Gains(k_hip=0.0), True, True, stepping)
+        spec = physics.ClosedLoopSpec(
+            entry.make, walk10, Gains(k_hip=0.0, sway=0.0), True, True, stepping, None
+        )  # (no sway narrowing, no hold)
         runs[name] = physics.simulate(rec, robot, push=push, compensate=0.5, closed=spec)
     assert runs["closed"]["fell"] and runs["closed"]["replans"] is None
     assert not runs["step"]["fell"] and runs["step"]["replans"] >= 1

@@ -31,6 +31,7 @@ from ..servos.playback import DeployConfig, Deployment
 from ..servos.sources import CallableSource
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
+from .retime import HoldParams, PhaseHold, narrowed_sway
 from .stabilizer import Gains, Stabilizer
 from .stepping import StepAdjuster, SteppingParams
 
@@ -84,6 +85,7 @@ class ClosedLoop:
     source: SessionSource  # per-tick costs, limit excursions
     stabilizer: Stabilizer
     stepping: StepAdjuster | None = None  # its ``events``: the re-plans
+    hold: PhaseHold | None = None  # its ``holds``, ``held``: the lift-offs held
 
 
 def closed_loop(
@@ -101,6 +103,7 @@ def closed_loop(
     out: Callable[[str], None] = print,
     duration: float | None = None,
     stepping: SteppingParams | None = None,
+    hold: HoldParams | None = HoldParams(),  # noqa: B008 (frozen)
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
@@ -112,7 +115,9 @@ def closed_loop(
     ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
     the whole reference).
     ``stepping`` (closed loop only; None: off): re-plan the footsteps from the measured DCM
-    (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
+    (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters). ``hold`` (closed
+    loop only; on by default, None: off): a lift-off waits while the measured DCM is not
+    ready for it (:class:`~wbc.balance.retime.PhaseHold` with these parameters).
     """
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
@@ -120,20 +125,25 @@ def closed_loop(
         raise WbcError("the closed loop reads the servos' present positions: use --read")
     if enabled and not bus.can_read:
         raise WbcError(f"the closed loop needs servo positions; the {bus.name} bus cannot read")
+    if enabled and gains is not None and gains.sway > 0:  # (retime.narrowed_sway)
+        ref = narrowed_sway(ref, gains.sway)
     holder: list[Deployment] = []
     stabilizer = Stabilizer(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled,
     )  # fmt: skip
     adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
-    session = Session(controller, robot, ref, q0, stabilizer=stabilizer, stepping=adjuster)
+    phase_hold = PhaseHold(hold) if hold is not None and enabled else None
+    session = Session(controller, robot, ref, q0, stabilizer=stabilizer, stepping=adjuster,
+                      hold=phase_hold)  # fmt: skip
     source = SessionSource(session)
     target = source
     if compensate > 0:
         from .compliance import CompensatedSource, ComplianceCompensator, EncoderCorrection
 
-        def support(t: float) -> int:
-            return int(ref.support[ref.index_at(ref.t[0] + t)])
+        def support(t: float) -> int:  # the phase of the tick just solved (holds delay it)
+            i = session.index
+            return int(session.ref.support[ref.index_at(ref.t[0] + t) if i is None else i])
 
         present = (lambda: holder[0].last_present) if correct else None
         fix = EncoderCorrection(robot.n_joints) if correct else None
@@ -150,4 +160,4 @@ def closed_loop(
         )
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
-    return ClosedLoop(deployment, session, source, stabilizer, adjuster)
+    return ClosedLoop(deployment, session, source, stabilizer, adjuster, phase_hold)

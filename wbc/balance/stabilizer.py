@@ -24,6 +24,11 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
   sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`);
+* **sway** (``sway``, 4 mm by default) — not a feedback term: the closed loop
+  (:func:`wbc.balance.live.closed_loop`) walks its reference with the CoM moved ``sway`` m
+  toward the swing sole at mid single support (:func:`wbc.balance.retime.narrowed_sway`:
+  single supports of at most 0.3 s), so
+  a push away from the swing foot starts that much further from the stance sole's edge;
 * **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
   axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
   :class:`wbc.balance.live.SessionSource`).
@@ -70,6 +75,7 @@ class Gains:
     hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
+    sway: float = 0.004  # m: CoM reference moved toward the swing sole at mid single support
 
     def check(self) -> Gains:
         for name in (
@@ -88,6 +94,7 @@ class Gains:
             "hip_band",
             "max_hip",
             "hip_release",
+            "sway",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -324,6 +324,14 @@ class ClosedLoopSpec:
     enabled: bool = True
     use_imu: bool = True
     stepping: Any = None  # wbc.balance.stepping.SteppingParams: re-plan steps from the DCM
+    #: wbc.balance.retime.HoldParams: lift-offs wait for the DCM (None: never)
+    hold: Any = field(default_factory=lambda: _default_hold())
+
+
+def _default_hold():
+    from ..balance.retime import HoldParams
+
+    return HoldParams()
 
 
 def play_closed_loop(
@@ -355,7 +363,7 @@ def play_closed_loop(
     imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0) if spec.use_imu else None
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
                        compensate, correct, out=lambda _line: None, duration=duration,
-                       stepping=spec.stepping)  # fmt: skip
+                       stepping=spec.stepping, hold=spec.hold)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
@@ -422,6 +430,9 @@ def closed_loop_figures(loop) -> dict[str, Any]:
         "estimated_tilt_max_deg": float(np.degrees(loop.stabilizer.max_tilt_error)),
         "failed_solves": int(loop.session.failed),
         "replans": len(loop.stepping.events) if loop.stepping is not None else None,
+        "holds": loop.hold.holds if loop.hold is not None else None,
+        "held_s": loop.hold.held if loop.hold is not None else None,
+        "hold_worst_mm": 1e3 * loop.hold.worst if loop.hold is not None else None,
     }
 
 

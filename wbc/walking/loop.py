@@ -284,6 +284,9 @@ class Session:
     (or None) is the open loop. ``stepping`` (a :class:`wbc.balance.stepping.StepAdjuster`,
     or None; closed loop only): each tick it may re-plan the footsteps from the stabilizer's
     last DCM estimate; the re-planned reference replaces :attr:`ref` (:meth:`set_reference`).
+    ``hold`` (a :class:`wbc.balance.retime.PhaseHold`, or None; closed loop only): in
+    :meth:`at_time`, a lift-off whose DCM is not ready waits — the last double-support tick
+    is replayed and the rest of the walk runs later by :attr:`delay` seconds.
     """
 
     def __init__(
@@ -295,10 +298,14 @@ class Session:
         options: RunOptions | None = None,
         stabilizer: Any = None,
         stepping: Any = None,
+        hold: Any = None,
     ) -> None:
         self.options = options or RunOptions()
         self.stabilizer = stabilizer
         self.stepping = stepping
+        self.hold = hold
+        self.delay = 0.0  # s the walk runs behind its reference's clock (lift-offs held)
+        self._last_time: float | None = None  # session time of the last at_time call
         self.stepping_time = 0.0  # s, the last tick's re-plan check (and re-plan)
         if self.options.mode not in MODES:
             raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
@@ -409,11 +416,34 @@ class Session:
         self.solve_time = time.perf_counter() - start
         return self.q
 
+    @property
+    def index(self) -> int | None:
+        """The reference tick of the last solve (None before the first)."""
+        return self._last_index
+
     def at_time(self, t: float) -> np.ndarray | None:
-        """The configuration for time ``t`` (s) from the start, None past the end."""
-        if t > self.ref.t[-1] - self.ref.t[0] + 1e-9:
+        """The configuration for time ``t`` (s) from the start, None past the end (the
+        reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off)."""
+        ref = self.ref
+        s = t - self.delay
+        if s > ref.t[-1] - ref.t[0] + 1e-9:
             return None
-        return self.tick(self.ref.index_at(self.ref.t[0] + t))
+        i = ref.index_at(ref.t[0] + s)
+        last, stab = self._last_index, self.stabilizer
+        if (
+            self.hold is not None
+            and last is not None
+            and i > last
+            and self._last_time is not None
+            and stab is not None
+            and stab.enabled
+            and stab.last is not None
+            and self.hold.wait(ref, last, i, stab.last.dcm, t - self._last_time)
+        ):
+            self.delay = t - float(ref.t[last] - ref.t[0])
+            i = last
+        self._last_time = t
+        return self.tick(i)
 
 
 def run(
