@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -44,3 +47,14 @@ def start(robot):
     from wbc.walking import StandingState
 
     return StandingState.from_robot(robot)
+
+
+@pytest.fixture(scope="session")
+def stress_script():
+    """benchmarks/stress.py as a module (its draws and stacks replay the stress trials)."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
+    spec = importlib.util.spec_from_file_location("wbc_stress_benchmark", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module

@@ -7,11 +7,8 @@ except one that pins the cascade (the level solver every solver path goes throug
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -33,14 +30,16 @@ def robot():
 
 
 @pytest.fixture(scope="module")
-def stress():
+def stress(stress_script):
     """benchmarks/stress.py, whose draws the stress trials below replay."""
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
-    spec = importlib.util.spec_from_file_location("wbc_stress_reliability", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return stress_script
+
+
+def assert_no_joint_further_out(robot, q: np.ndarray, q_next: np.ndarray) -> None:
+    """Every joint of ``q_next`` is within its limits or no further out than in ``q``."""
+    j, j0 = q_next[7:], q[7:]
+    assert (j >= np.minimum(robot.q_min, j0) - 1e-12).all()
+    assert (j <= np.maximum(robot.q_max, j0) + 1e-12).all()
 
 
 def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
@@ -296,9 +295,7 @@ def test_restoration_may_take_a_pair_at_its_margin_in_by_the_drift_it_undoes(rob
         return w.distance
 
     for q, q_next in itertools.pairwise(qs):
-        j = q_next[7:]
-        assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
-        assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+        assert_no_joint_further_out(robot, q, q_next)
         for c in contacts:
             assert contact_error(robot, q_next, c) <= 1e-2
         d, d_next = distances(q), distances(q_next)
@@ -333,9 +330,7 @@ def test_last_projection_survives_daqp_cycling_on_the_held_pairs(robot, stress):
     q_end = solver.solve_pose(q, max_iterations=0).q
     for c in contacts:
         assert contact_error(robot, q_end, c) <= 1e-6
-    j = q_end[7:]
-    assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
-    assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+    assert_no_joint_further_out(robot, q, q_end)
 
 
 #: stress trial 4169's iterate at its last projection (walk stack, hierarchical QP, numpy
@@ -371,9 +366,7 @@ def test_last_projection_may_take_a_pair_at_its_margin_in_by_the_drift(robot, st
     q_end = solver.solve_pose(q, max_iterations=0).q
     for c in contacts:
         assert contact_error(robot, q_end, c) <= 1e-6
-    j = q_end[7:]
-    assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
-    assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+    assert_no_joint_further_out(robot, q, q_end)
     d = collision.witness(Kinematics(robot, q), below=np.inf).distance
     d_end = collision.witness(Kinematics(robot, q_end), below=np.inf).distance
     held = d >= collision.margin
@@ -408,9 +401,7 @@ def test_start_outside_the_limits_in_double_support_recovers(robot, kind, compil
     j0 = q[7:].copy()
     for _ in range(40):
         q_next = control.solver.step(q, 0.01)
-        j = q_next[7:]  # never further out than before
-        assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
-        assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+        assert_no_joint_further_out(robot, q, q_next)
         for c in contacts:
             assert contact_error(robot, q_next, c) <= 1e-2
         q = q_next
@@ -442,9 +433,7 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
     contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
     for _ in range(40):
         q_next = control.solver.step(q, 0.01)
-        j = q_next[7:]
-        assert (j >= np.minimum(robot.q_min, q[7:]) - 1e-12).all()
-        assert (j <= np.maximum(robot.q_max, q[7:]) + 1e-12).all()
+        assert_no_joint_further_out(robot, q, q_next)
         for c in contacts:
             assert contact_error(robot, q_next, c) <= 1e-2
         d_next = distances(q_next)
@@ -461,8 +450,7 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
     contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
     for c in contacts:
         assert contact_error(robot, result.q, c) <= 1e-6
-    assert (result.q[7:] >= np.minimum(robot.q_min, q0[7:]) - 1e-12).all()
-    assert (result.q[7:] <= np.maximum(robot.q_max, q0[7:]) + 1e-12).all()
+    assert_no_joint_further_out(robot, q0, result.q)
 
 
 @pytest.mark.parametrize("kind", SOLVERS)

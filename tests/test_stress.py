@@ -12,26 +12,16 @@ as a runaway).
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
-
 
 @pytest.fixture(scope="module")
-def stress():
-    spec = importlib.util.spec_from_file_location("wbc_stress_benchmark", PATH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    module.compile_first()  # no timed tick or pose waits for numba
-    return module
+def stress(stress_script):
+    stress_script.compile_first()  # no timed tick or pose waits for numba
+    return stress_script
 
 
 @pytest.mark.parametrize("backends", [["daqp"], ["proxqp", "quadprog", "osqp"]])
