@@ -356,13 +356,12 @@ class StackSolver(ABC):
         the pair held was a 0.075 rad detour the box did not allow. A pair so taken inside
         moves back out at the damper's rate from the next tick on."""
         q0 = kin.q.copy()
-        errors = self._hard_errors(kin)
-        start = max(errors, default=0.0)
-        q, errors = self._restore_steps(kin, lower, upper, errors, 0.0)
+        start_errors = self._hard_errors(kin)  # (_restore_steps leaves kin at q0)
+        q, errors = self._restore_steps(kin, lower, upper, start_errors, 0.0)
         if max(errors, default=0.0) > self.hard_tol:
             # undoing the drift may cost the rows at most the drift's own size
-            slack = min(start, RESTORE_SLACK)
-            q_s, errors_s = self._restore_steps(kin, lower, upper, self._hard_errors(kin), slack)
+            slack = min(max(start_errors, default=0.0), RESTORE_SLACK)
+            q_s, errors_s = self._restore_steps(kin, lower, upper, start_errors, slack)
             if max(errors_s, default=0.0) < max(errors, default=0.0):
                 q, errors = q_s, errors_s
         kin.update(q0)
