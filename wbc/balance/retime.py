@@ -67,9 +67,7 @@ class PhaseHold:
         lift = "right" if stance == "left" else "left"
         v = ref.sole(lift)[0][i, :2] - ref.sole(stance)[0][i, :2]
         v = v / max(math.hypot(v[0], v[1]), 1e-9)
-        omega = math.sqrt(ref.g / ref.com_height)
-        xi_ref = ref.com[i, :2] + ref.com_vel[i, :2] / omega
-        return float((np.asarray(dcm[:2], float) - xi_ref) @ v)
+        return float((np.asarray(dcm[:2], float) - ref.dcm_at(i)) @ v)
 
     def wait(self, ref: WalkingReference, last: int, i: int, dcm: np.ndarray, dt: float) -> bool:
         """True if the walk, at tick ``last`` (double support) and due at tick ``i`` (single

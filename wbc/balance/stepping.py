@@ -225,7 +225,7 @@ class StepAdjuster:
         if self.phases[-1].i1 != ref.n:
             raise WbcError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
-        self.omega = math.sqrt(ref.g / ref.com_height)
+        self.omega = ref.omega
         self.tc = 1.0 / self.omega
         self.phase_of = np.zeros(ref.n, dtype=int)
         for j, ph in enumerate(self.phases):
@@ -242,7 +242,7 @@ class StepAdjuster:
         (``band_x``, ``band_y`` in the stance sole's heading frame: what an unpushed walk
         shows on the body)."""
         ph = self.phases[self.phase_of[i]]
-        e = np.asarray(dcm[:2], float) - (ref.com[i, :2] + ref.com_vel[i, :2] / self.omega)
+        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         side = ref.stance_side(i) or "left"
         yaw = float(ref.sole(side)[1][i])
         c, s = math.cos(yaw), math.sin(yaw)
@@ -404,11 +404,11 @@ def capture_bounds(
       landing moved only as far as the swing sole gets in ``t`` with the bend of
       :class:`StepAdjuster` at ``max_foot_speed`` (m/s) added.
     """
-    omega = math.sqrt(ref.g / ref.com_height)
+    omega = ref.omega
     a, b, _ = next(p for p in ref.phases() if p[2] != SUPPORT_DOUBLE)
     i = (a + b) // 2
     stance = ref.stance_side(i)
-    xi = ref.com[i, :2] + ref.com_vel[i, :2] / omega
+    xi = ref.dcm_at(i)
     st = ref.sole(stance)[0][i, :2]
     u = 1.0 if stance == "left" else -1.0  # world y of "away from the swing foot"
     half_w, half_l = 0.5 * ref.foot.width, 0.5 * ref.foot.length

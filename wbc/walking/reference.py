@@ -17,6 +17,7 @@ contact (``foot.length x foot.width`` centred under each sole frame).
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -160,6 +161,15 @@ class WalkingReference:
     def index_at(self, time: float) -> int:
         """The tick at or just before ``time`` (clamped to the reference)."""
         return int(np.clip(np.searchsorted(self.t, time + 1e-12, side="right") - 1, 0, self.n - 1))
+
+    @property
+    def omega(self) -> float:
+        """The LIPM's natural frequency ``ω = √(g / z_c)`` (1/s)."""
+        return math.sqrt(self.g / self.com_height)
+
+    def dcm_at(self, i: int) -> np.ndarray:
+        """(2,) the planned DCM at tick ``i``: ``ξ = c_xy + ċ_xy / ω``."""
+        return self.com[i, :2] + self.com_vel[i, :2] / self.omega
 
     @property
     def zmp(self) -> np.ndarray:
