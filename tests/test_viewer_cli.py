@@ -68,6 +68,10 @@ def test_bad_arguments_are_named(tmp_path, capsys):
     assert "unknown frame 'l_toe'" in capsys.readouterr().err
 
 
+def _sigint_default() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_stops_the_server(robot, tmp_path, sig):
     """Serving (waiting for a browser before a replay): a signal ends it and its server."""
@@ -78,6 +82,9 @@ def test_ctrl_c_stops_the_server(robot, tmp_path, sig):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        # A background job of a non-interactive shell inherits SIGINT ignored, and Python then
+        # installs no KeyboardInterrupt handler: give the child the disposition a terminal gives.
+        preexec_fn=_sigint_default,
     )
     try:
         line = proc.stdout.readline()  # blocks until the URL is printed (or the process dies)
