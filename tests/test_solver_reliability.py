@@ -42,13 +42,13 @@ def assert_no_joint_further_out(robot, q: np.ndarray, q_next: np.ndarray) -> Non
     assert (j <= np.maximum(robot.q_max, j0) + 1e-12).all()
 
 
-def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
-    """The ticks of a stress trial (seed 2024, DAQP) as stress.py runs them: the
-    configurations from the start on (raises what a tick raises)."""
+def stress_problem(robot, stress, trial: int) -> tuple:
+    """A walk-stack stress trial (seed 2024, DAQP) as stress.py sets it up: (its solver, its
+    active contacts, its start)."""
     p = stress.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
     q = stress.start(robot, p)
     compiled = None if p["compiled"] else False
-    solver, _, com, swing, torso = stress.walk_stack(
+    solver, contacts, com, swing, torso = stress.walk_stack(
         robot, q, p["kind"], "daqp", compiled, p["double"]
     )
     scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
@@ -56,6 +56,13 @@ def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
     swing.set_position_target(swing.target_position + scale * p["offsets"][1])
     if p["target"] == "upside_down":
         torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+    return solver, contacts, q
+
+
+def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
+    """The ticks of a stress trial (seed 2024, DAQP) as stress.py runs them: the
+    configurations from the start on (raises what a tick raises)."""
+    solver, _, q = stress_problem(robot, stress, trial)
     qs = [q]
     for _ in range(ticks):
         qs.append(solver.step(qs[-1], 0.01))
@@ -478,6 +485,42 @@ def test_start_with_the_legs_crossed_recovers_as_far_as_the_held_pairs_allow(rob
             assert contact_error(robot, q_next, c) <= 1e-2
         q = q_next
     assert outside(q).sum() < 0.1 * start
+
+
+def outside_limits(robot, q: np.ndarray) -> np.ndarray:
+    """How far (rad) each joint of q is outside its range (0 inside)."""
+    j = q[7:]
+    return np.maximum(robot.q_min - j, 0.0) + np.maximum(j - robot.q_max, 0.0)
+
+
+@pytest.mark.parametrize(("trial", "ticks"), [(1567, 30), (8832, 15)])
+def test_way_back_stops_at_the_contacts_without_drifting_off(robot, stress, trial, ticks):
+    """Stress trials 1567 (weighted) and 8832 (hierarchical): walk stack, double support,
+    both ankle rolls 0.044 / 0.026 rad outside their limits at the start (and a hip pitch /
+    a knee). The contacts, made at that start, fix the soles' relative pose, which no
+    configuration meets with the ankle rolls back inside: the joints' way back (below the
+    hard contacts) stops about 0.02 rad outside, at a fold of the contact manifold where
+    the ticks' first-order steps drifted the contacts 1-3 mm per tick; the drift could not
+    be undone without taking the joints back out, and tick 17 / 8 raised "hard level 0 is
+    infeasible" (so did the converged pose). A tick from a start outside the limits now
+    ends on its hard levels: no error; the contacts held to 1e-6 after every tick; no joint
+    further out; the joints come back as far as the contacts allow (a third of the way at
+    least). The converged pose from that start ends on the contacts, no joint further out."""
+    solver, contacts, q0 = stress_problem(robot, stress, trial)
+    start = outside_limits(robot, q0)
+    assert (start > 0.02).sum() >= 2
+    q = q0
+    for _ in range(ticks):
+        q_next = solver.step(q, 0.01)
+        assert_no_joint_further_out(robot, q, q_next)
+        for c in contacts:
+            assert contact_error(robot, q_next, c) <= 1e-6
+        q = q_next
+    assert outside_limits(robot, q).sum() < 0.67 * start.sum()
+    result = solver.solve_pose(q0, max_iterations=20)
+    for c in contacts:
+        assert contact_error(robot, result.q, c) <= 1e-6
+    assert_no_joint_further_out(robot, q0, result.q)
 
 
 def start_with_the_swing_sole_below_the_ground(robot):

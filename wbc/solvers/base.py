@@ -47,6 +47,9 @@ RESTORE_STALLS = 3
 #: bound, may loosen them (and never by more than the hard error it undoes): a tick's
 #: second order past a self-collision margin, as the damper's own tests allow (0.5 mm)
 RESTORE_SLACK = 5e-4
+#: a step from a start outside the joint limits, not ending on the hard levels, is tried at
+#: t = 1, ½, … (this many), then 0 (:meth:`StackSolver._on_hard_levels`)
+WAY_BACK_HALVINGS = 7
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
 #: the trust region of a projection's Gauss–Newton step: |δ_i| <= this (rad, m), the step the
@@ -245,7 +248,9 @@ class StackSolver(ABC):
         """The solution at the configuration of ``kin`` (kinematics already updated)."""
 
     def solve(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
-        """Δq (nv) for one QP at configuration q; ``dt`` enables the velocity limits."""
+        """Δq (nv) for one QP at configuration q; ``dt`` enables the velocity limits. From a
+        q with joints outside their range, Δq ends on the hard levels at q ⊕ Δq (not only to
+        first order: :meth:`_on_hard_levels`)."""
         return self._timed_solve(q, dt).dq.copy()  # may be a plan's buffer: copy
 
     def _timed_solve(self, q: np.ndarray, dt: float | None) -> Solution:
@@ -266,6 +271,8 @@ class StackSolver(ABC):
         if solution.q_next is None and not math.isfinite(solution.dq.dot(solution.dq)):
             self._check_task_errors()
             raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
+        if not self.relaxed and self._outside_limits(self.kin.q):
+            solution = self._on_hard_levels(self.kin, solution)
         self.last = solution
         self.solve_time = time.perf_counter() - start
         return solution
@@ -299,7 +306,15 @@ class StackSolver(ABC):
         Also tried where the solver's backend failed without a verdict (a SolverError: DAQP
         cycling, exit flag −2, in the hierarchy's cascade: stress trials 455, 705); its answer
         counts only if it meets the hard levels. Raises ``exc`` (the solver's diagnosis or
-        failure) when the hard levels are infeasible on their own."""
+        failure) when the hard levels are infeasible on their own.
+
+        **The hard tasks as given win.** Where they cannot be met with every joint inside its
+        range (double support: the contacts, made at a start outside the limits, fix the
+        soles' relative pose), the joints come back as far as the hard tasks allow and stay
+        there (never further out); the contacts are not re-anchored (that would slide a
+        loaded sole). Such a tick's step ends on the hard levels exactly
+        (:meth:`_on_hard_levels`), so that the way back does not drift them where no tick
+        can bring them back (stress trials 1567, 8832)."""
         nv = self.robot.nv
         lower, upper = np.empty(nv), np.empty(nv)
         self.compute_bounds(kin, dt, lower, upper)
@@ -330,6 +345,53 @@ class StackSolver(ABC):
         self.diagnosis = "; ".join(unmet)
         self.relaxed = bool(unmet)
         return Solution(dq, lower, upper)
+
+    def _outside_limits(self, q: np.ndarray) -> bool:
+        """True if a joint of q is outside its range."""
+        j = q[7:]
+        return bool(((j < self._q_min) | (j > self._q_max)).any())
+
+    def _on_hard_levels(self, kin: Kinematics, solution: Solution) -> Solution:
+        """The step of a solve that starts with joints outside their range, ending on the hard
+        levels (within :attr:`hard_tol`) at q ⊕ Δq, not only to first order: q ⊕ t·Δq for t =
+        1, ½, ¼, 0 (the longest first) moved back onto them by :meth:`_restore_steps` within
+        the solve's box (widened to Δq = 0 for the joints outside: never further out).
+        ``solution`` unchanged if none gets there.
+
+        Why: the joints' way back yields to the hard tasks (:meth:`_solve_recovering`), and
+        where the hard tasks as given cannot be met with those joints inside their range
+        (double support: the contacts fix the soles' relative pose, which a start outside
+        the limits made), the way back ends where the contacts stop it — a fold of the
+        contact manifold, where the linearisation fails. There a tick's first-order step
+        drifted the contacts 1–3 mm per tick, and the drift could not be undone without taking
+        the joints back out (never allowed): "hard level 0 is infeasible" at tick 17 / 8
+        (stress trials 1567, 8832: both ankle rolls 0.044 / 0.026 rad outside; the contacts
+        allow them back to 0.020 rad). Held exactly, the way back stops at the fold and every
+        tick stays feasible (Δq = 0 meets the hard levels)."""
+        q0 = kin.q.copy()
+        lower, upper = solution.lower.copy(), solution.upper.copy()
+        np.minimum(lower[6:], 0.0, out=lower[6:])
+        np.maximum(upper[6:], 0.0, out=upper[6:])
+        dq = np.clip(solution.dq, lower, upper)
+        hard_tasks = [t for lv in self.stack.levels if lv.hard for t in lv.active_tasks()]
+        kept = [t.last_error for t in hard_tasks]  # the solve's errors (the pose reads them)
+        found = None
+        for t in (*(0.5**k for k in range(WAY_BACK_HALVINGS)), 0.0):
+            q_t = self._move_joints(q0, t * dq)
+            kin.update(q_t)
+            errors = self._hard_errors(kin)
+            if max(errors, default=0.0) > self.hard_tol:
+                kin.update(q0)
+                q_t, errors = self._restore_steps(kin, lower, upper, errors, 0.0, q_t)
+            if max(errors, default=0.0) <= self.hard_tol:
+                found = q_t
+                break
+        kin.update(q0)
+        for task, e in zip(hard_tasks, kept, strict=True):
+            task.last_error = e
+        if found is None:
+            return solution
+        return Solution(self.robot.difference(q0, found), lower, upper)
 
     def _restore_hard(
         self, kin: Kinematics, lower: np.ndarray, upper: np.ndarray
@@ -376,11 +438,16 @@ class StackSolver(ABC):
         upper: np.ndarray,
         errors: list[float],
         slack: float,
+        q_start: np.ndarray | None = None,
     ) -> tuple[np.ndarray, list[float]]:
-        """The Gauss–Newton steps of :meth:`_restore_hard` from ``kin``'s configuration (the
-        hard levels' ``errors`` there), the hard rows loosened by ``slack``: (q, errors)."""
-        q0 = q = kin.q.copy()
+        """The Gauss–Newton steps of :meth:`_restore_hard` from ``q_start`` (default: ``kin``'s
+        configuration q0; the hard levels' ``errors`` there), the hard rows loosened by
+        ``slack``, the joints' total motion from q0 within [``lower``, ``upper``]: (q,
+        errors); ``kin`` left at q0."""
+        q0 = kin.q.copy()
+        q = q0 if q_start is None else q_start
         total = np.zeros(self.robot.nv)
+        total[6:] = q[7:] - q0[7:]
         stalls = 0
         for _ in range(HARD_PROJECTION_STEPS):
             if max(errors, default=0.0) <= self.hard_tol:
