@@ -84,6 +84,7 @@ _INSIDE = "constraints violated at the start (their best way back)"
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
 _EMPTY = np.zeros(0)
+_NO_JOINTS = np.zeros(0, dtype=int)
 
 
 class SplitRows(NamedTuple):
@@ -372,26 +373,52 @@ class StackSolver(ABC):
         lower, upper = solution.lower.copy(), solution.upper.copy()
         np.minimum(lower[6:], 0.0, out=lower[6:])
         np.maximum(upper[6:], 0.0, out=upper[6:])
-        dq = np.clip(solution.dq, lower, upper)
         hard_tasks = [t for lv in self.stack.levels if lv.hard for t in lv.active_tasks()]
         kept = [t.last_error for t in hard_tasks]  # the solve's errors (the pose reads them)
-        found = None
-        for t in (*(0.5**k for k in range(WAY_BACK_HALVINGS)), 0.0):
-            q_t = self._move_joints(q0, t * dq)
-            kin.update(q_t)
-            errors = self._hard_errors(kin)
-            if max(errors, default=0.0) > self.hard_tol:
-                kin.update(q0)
-                q_t, errors = self._restore_steps(kin, lower, upper, errors, 0.0, q_t)
-            if max(errors, default=0.0) <= self.hard_tol:
-                found = q_t
-                break
+        dq = np.clip(solution.dq, lower, upper)
+        found = self._longest_exact(kin, dq, lower, upper, stop=False)
+        if found is None or found[1] == 0.0:
+            # at the fold every step that brings a joint outside back drifts off: the
+            # joints outside held this once, the others free (the soft levels keep going)
+            j = q0[7:]
+            held = 6 + np.flatnonzero((j < self._q_min) | (j > self._q_max))
+            low, up = lower.copy(), upper.copy()
+            low[held] = up[held] = 0.0
+            try:
+                dq_held, unmet = self._recover(kin, low, up, _NO_JOINTS, _EMPTY, True)
+            except WbcError:
+                unmet = ["failed"]
+            if not unmet:
+                moved = self._longest_exact(kin, np.clip(dq_held, low, up), low, up, stop=True)
+                if moved is not None:
+                    found = moved
         kin.update(q0)
         for task, e in zip(hard_tasks, kept, strict=True):
             task.last_error = e
         if found is None:
             return solution
-        return Solution(self.robot.difference(q0, found), lower, upper)
+        return Solution(self.robot.difference(q0, found[0]), lower, upper)
+
+    def _longest_exact(
+        self, kin: Kinematics, dq: np.ndarray, lower: np.ndarray, upper: np.ndarray, stop: bool
+    ) -> tuple[np.ndarray, float] | None:
+        """(q, t): q ⊕ t·dq for the first t of 1, ½, … (:data:`WAY_BACK_HALVINGS`), then 0,
+        that :meth:`_restore_steps` brings onto the hard levels within [lower, upper] (from
+        ``kin``'s q; its trust region :data:`HARD_PROJECTION_TRUST`), that point; None if none
+        does. ``stop``: not t = 0. ``kin`` left at q."""
+        q0 = kin.q.copy()
+        for t in (*(0.5**k for k in range(WAY_BACK_HALVINGS)), *(() if stop else (0.0,))):
+            q_t = self._move_joints(q0, t * dq)
+            kin.update(q_t)
+            errors = self._hard_errors(kin)
+            kin.update(q0)
+            if max(errors, default=0.0) > self.hard_tol:
+                q_t, errors = self._restore_steps(
+                    kin, lower, upper, errors, 0.0, q_t, HARD_PROJECTION_TRUST
+                )
+            if max(errors, default=0.0) <= self.hard_tol:
+                return q_t, t
+        return None
 
     def _restore_hard(
         self, kin: Kinematics, lower: np.ndarray, upper: np.ndarray
@@ -439,6 +466,7 @@ class StackSolver(ABC):
         errors: list[float],
         slack: float,
         q_start: np.ndarray | None = None,
+        trust: float = 0.0,
     ) -> tuple[np.ndarray, list[float]]:
         """The Gauss–Newton steps of :meth:`_restore_hard` from ``q_start`` (default: ``kin``'s
         configuration q0; the hard levels' ``errors`` there), the hard rows loosened by
@@ -457,7 +485,11 @@ class StackSolver(ABC):
             problems += self._weighted_rows(kin)
             if slack:
                 problems = [_loosened(p, slack) for p in problems]
-            delta = self._hard_step(q, [*problems, held], lower - total, upper - total)
+            box_lower, box_upper = lower - total, upper - total
+            if trust:  # a trust region too (:data:`HARD_PROJECTION_TRUST`)
+                np.maximum(box_lower, -trust, out=box_lower)
+                np.minimum(box_upper, trust, out=box_upper)
+            delta = self._hard_step(q, [*problems, held], box_lower, box_upper)
             worst = max(errors)
             step = self._halved_step(kin, q, delta, lambda e, w=worst: max(e) < w)
             if step is None:
