@@ -7,7 +7,8 @@ For each trial (drawn as ``benchmarks/stress.py`` draws it): the least joint-lim
 meets the trial's hard contacts as made at its start — SLSQP (scipy) minimising the squared
 excess subject to the contacts, from the start and from ``--starts`` − 1 random perturbations
 of its joints (kinematics only: no collision rows, no servo speed, so a lower bound on what a
-controller can reach) — beside where ``--ticks`` control ticks of the trial's solver stop.
+controller can reach) — beside where ``--ticks`` control ticks of the trial's solver stop
+(its targets as made at the start: the stress run's offsets are not applied).
 A least excess above 0 from every start says the contacts as given cannot be met with every
 joint inside its range.
 """
