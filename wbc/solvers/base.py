@@ -354,10 +354,12 @@ class StackSolver(ABC):
 
     def _on_hard_levels(self, kin: Kinematics, solution: Solution) -> Solution:
         """The step of a solve that starts with joints outside their range, ending on the hard
-        levels (within :attr:`hard_tol`) at q ⊕ Δq, not only to first order: q ⊕ t·Δq for t =
-        1, ½, ¼, 0 (the longest first) moved back onto them by :meth:`_restore_steps` within
-        the solve's box (widened to Δq = 0 for the joints outside: never further out).
-        ``solution`` unchanged if none gets there.
+        levels (within :attr:`hard_tol`) at q ⊕ Δq, not only to first order: the longest
+        q ⊕ t·Δq (:meth:`_longest_exact`) that :meth:`_restore_steps` brings back onto them
+        within the solve's box (widened to Δq = 0 for the joints outside: never further out);
+        where only t = 0 does (the fold below), the solve again with those joints held this
+        once, the others free (the soft levels keep going). ``solution`` unchanged if none
+        gets there.
 
         Why: the joints' way back yields to the hard tasks (:meth:`_solve_recovering`), and
         where the hard tasks as given cannot be met with those joints inside their range
