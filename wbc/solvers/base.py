@@ -50,6 +50,10 @@ RESTORE_SLACK = 5e-4
 #: a step from a start outside the joint limits, not ending on the hard levels, is tried at
 #: t = 1, ½, … (this many), then 0 (:meth:`StackSolver._on_hard_levels`)
 WAY_BACK_HALVINGS = 7
+#: at most this many Gauss–Newton steps bring each of those back onto the hard levels
+#: (quadratic from a tick's second-order drift: two or three; a step that needs more is
+#: one too long, the next halving is cheaper)
+WAY_BACK_STEPS = 5
 #: at most this many halvings of a projection step that would not reduce its level's error
 HARD_PROJECTION_HALVINGS = 12
 #: the trust region of a projection's Gauss–Newton step: |δ_i| <= this (rad, m), the step the
@@ -416,7 +420,7 @@ class StackSolver(ABC):
             kin.update(q0)
             if max(errors, default=0.0) > self.hard_tol:
                 q_t, errors = self._restore_steps(
-                    kin, lower, upper, errors, 0.0, q_t, HARD_PROJECTION_TRUST
+                    kin, lower, upper, errors, 0.0, q_t, HARD_PROJECTION_TRUST, WAY_BACK_STEPS
                 )
             if max(errors, default=0.0) <= self.hard_tol:
                 return q_t, t
@@ -469,6 +473,7 @@ class StackSolver(ABC):
         slack: float,
         q_start: np.ndarray | None = None,
         trust: float = 0.0,
+        max_steps: int = HARD_PROJECTION_STEPS,
     ) -> tuple[np.ndarray, list[float]]:
         """The Gauss–Newton steps of :meth:`_restore_hard` from ``q_start`` (default: ``kin``'s
         configuration q0; the hard levels' ``errors`` there), the hard rows loosened by
@@ -479,7 +484,7 @@ class StackSolver(ABC):
         total = np.zeros(self.robot.nv)
         total[6:] = q[7:] - q0[7:]
         stalls = 0
-        for _ in range(HARD_PROJECTION_STEPS):
+        for _ in range(max_steps):
             if max(errors, default=0.0) <= self.hard_tol:
                 break
             kin.update(q)
