@@ -43,7 +43,8 @@ TICK_TIME_BOUND = 10.0
 #: a converged pose slower than this (s) per iteration is a runaway (also passed to
 #: ``solve_pose`` as its ``time_budget``: it raises then instead of running on). Generous:
 #: the slowest in the 10,000 DAQP trials took 91 s for 50 iterations on the loaded VM
-#: (trial 9547: DAQP level QPs of 500–850 variables, a slack per self-collision row),
+#: (trial 9547: DAQP level QPs of 500–850 variables, a slack per self-collision row; 2.6 s
+#: since the cascade solves such levels over Δq alone, benchmarks/stress.md),
 #: ProxQP's hierarchy 453 s before its caps
 POSE_TIME_PER_ITERATION = 6.0
 
