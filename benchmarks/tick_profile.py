@@ -79,7 +79,8 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
     switched = [session.targets(switch), session.targets(switch - 1)]
     solver = controller.solver
     plan = solver.fast
-    noop = noop_entry(plan.args)
+    args = (q, *plan.packed)  # the tick's arguments: q, the buffers' addresses, the direct ones
+    noop = noop_entry(args)
 
     solve = solve_call(plan, kind)
 
@@ -94,9 +95,9 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
         "solver.step": best(lambda: solver.step(q, 0.01)),
         "Kinematics.update": best(lambda: solver.kin.update(q)),
         "the generated tick (one numba call)": best(
-            lambda: plan.ticks.call(plan.tick_name, plan.variant, plan.args)
+            lambda: plan.ticks.call(plan.tick_name, plan.variant, args)
         ),
-        "calling a no-op with the same arguments": best(lambda: noop(*plan.args)),
+        "calling a no-op with the same arguments": best(lambda: noop(*args)),
         "bounds + least squares + integration": best(solve),
     }
 
