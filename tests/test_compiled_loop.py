@@ -1,5 +1,5 @@
 """The walking loop's tick path: its targets go into the tasks' own arrays in one compiled
-call, checked as the setters check them (wbc.compiled.checks.copy_targets)."""
+call, checked as the setters check them (wbc.compiled.targets.copy_targets)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 
 from wbc.bench.trajectories import build
-from wbc.compiled.checks import copy_targets
+from wbc.compiled.targets import copy_targets
 from wbc.exceptions import TaskError
 from wbc.stacks import load_stack
 from wbc.tasks import ComTask

@@ -119,36 +119,3 @@ def gather(addresses: np.ndarray, sizes: np.ndarray, out: np.ndarray, q, q_out) 
         o += sizes[k]
     for i in range(q.shape[0]):
         q_out[i] = q[i]
-
-
-@njit(
-    "boolean(float64[:], float64[:], float64[:, :], float64[:, :], int64[:, :], float64)",
-    cache=True,
-)
-def copy_targets(
-    v0: np.ndarray, v1: np.ndarray, R0: np.ndarray, R1: np.ndarray, outputs, tol: float
-) -> bool:
-    """Two 3-vectors and two rotations checked as the tasks' setters check them (every entry
-    finite; :func:`rotation_defect` <= tol) and, if all four pass, each copied to the
-    destinations listed in ``outputs``: rows (address of a C-contiguous float64 target array
-    its owner keeps alive, source: 0 v0, 1 v1, 2 R0, 3 R1). False (nothing copied) if a
-    check fails, or a vector's squares overflow: the setters then say which and why."""
-    s = 0.0
-    for i in range(3):
-        s += v0[i] * v0[i] + v1[i] * v1[i]
-    if not math.isfinite(s) or rotation_defect(R0) > tol or rotation_defect(R1) > tol:
-        return False
-    for k in range(outputs.shape[0]):
-        source = outputs[k, 1]
-        if source < 2:
-            v = v0 if source == 0 else v1
-            out = carray(address(outputs[k, 0]), (3,), np.float64)
-            for i in range(3):
-                out[i] = v[i]
-        else:
-            R = R0 if source == 2 else R1
-            out_R = carray(address(outputs[k, 0]), (3, 3), np.float64)
-            for i in range(3):
-                for j in range(3):
-                    out_R[i, j] = R[i, j]
-    return True

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..compiled.checks import copy_targets
 from ..compiled.checks import entry as check_entry
+from ..compiled.targets import copy_targets
 from ..exceptions import ConfigurationError, WbcError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
@@ -202,12 +202,12 @@ class StackController(Controller):
         self._writes, self._write_arrays = self._target_writes()
 
     def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
-        """Where a tick's targets go, for :func:`~wbc.compiled.checks.copy_targets` (one
+        """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
         compiled call for the CoM, swing and torso targets instead of a setter call each:
-        ~1.5 µs less per tick): rows (address of a task's own target array, source: 0 CoM, 1 swing position, 2
-        swing rotation, 3 torso rotation), and those arrays (kept alive: the tasks own them and
-        never re-bind them). None if a task's setter is its subclass's own (not the checked
-        copy of the class named here): then the setters run one by one."""
+        ~1.5 µs less per tick): rows (address of a task's own target array, source: 0 CoM,
+        1 swing position, 2 swing rotation, 3 torso rotation), and those arrays (kept alive:
+        the tasks own them and never re-bind them). None if a task's setter is its subclass's
+        own (not the checked copy of the class named here): then the setters run one by one."""
         rotation = lambda t: (  # noqa: E731
             SwingFootOrientationTask
             if isinstance(t, SwingFootOrientationTask)
