@@ -329,6 +329,9 @@ class _Plan:
     prebuilt tuple serves every tick and a tick allocates nothing.
     """
 
+    #: the active sets the tick starts from (the last tick's; each plan's own array)
+    warm_start: np.ndarray
+
     def __init__(self, solver, kin: Kinematics, tasks: Sequence[Task]) -> None:
         robot = solver.robot
         self.solver = solver

@@ -34,12 +34,12 @@ def copy_targets(
         source = outputs[k, 1]
         if source < 2:
             v = v0 if source == 0 else v1
-            out = carray(address(outputs[k, 0]), (3,), np.float64)
+            out = carray(address(outputs[k, 0]), (3,), np.float64)  # type: ignore[call-arg]
             for i in range(3):
                 out[i] = v[i]
         else:
             R = R0 if source == 2 else R1
-            out_R = carray(address(outputs[k, 0]), (3, 3), np.float64)
+            out_R = carray(address(outputs[k, 0]), (3, 3), np.float64)  # type: ignore[call-arg]
             for i in range(3):
                 for j in range(3):
                     out_R[i, j] = R[i, j]

@@ -294,18 +294,18 @@ class StackController(Controller):
             )
         if self._copy_targets(targets):
             return
-        for t in self._com:
-            t.set_target(targets.com)
+        for com in self._com:
+            com.set_target(targets.com)
         position, rotation = targets.swing_position, targets.swing_rotation
-        for t in self._swing_pos:
-            t.set_target(position)
-        for t in self._swing_pose:
-            t.set_position_target(position)
-            t.set_rotation_target(rotation)
-        for t in self._swing_rot:
-            t.set_target(rotation)
-        for t in self._torso:
-            t.set_target(targets.torso_rotation)
+        for point in self._swing_pos:
+            point.set_target(position)
+        for pose in self._swing_pose:
+            pose.set_position_target(position)  # type: ignore[arg-type]
+            pose.set_rotation_target(rotation)
+        for axes in self._swing_rot:
+            axes.set_target(rotation)
+        for torso in self._torso:
+            torso.set_target(targets.torso_rotation)
 
     def _anchored(self, targets: TickTargets, anchors: dict) -> bool:
         """True if every contact that the switch to ``targets`` may make has its anchor in
