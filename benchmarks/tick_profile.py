@@ -9,7 +9,9 @@ compiled function with the same arguments (numba's cost of unboxing them), and t
 (bounds, least squares, integration). Best of 200 × 50 calls, µs. Then the solve alone
 (bounds, least squares, integration) of every tick of the walk but the first of each support
 phase, replayed at once from the warm start the loop gave it, best of 7 (the active sets'
-own tail, without the machine's preemptions): median, p90, p99 and max, µs.
+own tail, without the machine's preemptions): median, p90, p99 and max, µs. Last, the parts of
+each tick of the walk timed once as it runs, the first ticks of the support phases apart
+(:func:`switch_parts`: where the tail of a walk's tick times comes from).
 
 Run: ``python benchmarks/tick_profile.py`` (writes nothing; figures in qp_tick.md).
 """
@@ -79,7 +81,8 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
     switched = [session.targets(switch), session.targets(switch - 1)]
     solver = controller.solver
     plan = solver.fast
-    noop = noop_entry(plan.args)
+    args = (q, *plan.packed)  # the tick's arguments: q, the buffers' addresses, the direct ones
+    noop = noop_entry(args)
 
     solve = solve_call(plan, kind)
 
@@ -94,9 +97,9 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
         "solver.step": best(lambda: solver.step(q, 0.01)),
         "Kinematics.update": best(lambda: solver.kin.update(q)),
         "the generated tick (one numba call)": best(
-            lambda: plan.ticks.call(plan.tick_name, plan.variant, plan.args)
+            lambda: plan.ticks.call(plan.tick_name, plan.variant, args)
         ),
-        "calling a no-op with the same arguments": best(lambda: noop(*plan.args)),
+        "calling a no-op with the same arguments": best(lambda: noop(*args)),
         "bounds + least squares + integration": best(solve),
     }
 
@@ -141,6 +144,50 @@ def walk_solves(robot, ref, kind: str) -> list[float]:
     return out
 
 
+def switch_parts(robot, ref, kind: str) -> dict[str, np.ndarray]:
+    """The parts of each tick of the walk, timed once as the tick runs (the first tick of a
+    support phase runs cold: its objects were last touched a phase ago): setting the targets
+    (with the phase switch), the kinematics and the re-plan, the compiled call; then that call
+    replayed at once from the same warm start (best of 5). µs, per part: (first ticks of the
+    support phases, the other ticks)."""
+    controller = StackController(build_stack({**core_walk_spec(), "solver": kind}, robot))
+    session = Session(controller, robot, ref)
+    solver = controller.solver
+    ns = time.perf_counter_ns
+    rows: dict[bool, list] = {True: [], False: []}
+    previous = None
+    for i in range(len(ref)):
+        targets = session.targets(i)
+        key = (targets.phase, targets.support, targets.swing)
+        changed, previous = key != previous, key
+        if i == 0:
+            session.tick(i)
+            continue
+        q = session.q
+        t0 = ns()
+        controller._set_targets(q, targets, changed)
+        t1 = ns()
+        solver.kin.update(q)
+        if solver._key != solver.stack.revision:  # the re-plan of StackSolver._solve
+            solver._plan() if kind == "hierarchical" else solver._plan(solver.ws.shape[2])
+        t2 = ns()
+        plan = solver.fast
+        start = plan.warm_start.copy()
+        plan.solve(solver.kin, ref.dt, None)
+        t3 = ns()
+        after, q_next = plan.warm_start.copy(), plan.q_next.copy()
+        warm = []
+        for _ in range(5):
+            plan.warm_start[...] = start
+            t = ns()
+            plan.solve(solver.kin, ref.dt, None)
+            warm.append(ns() - t)
+        plan.warm_start[...] = after
+        session.q = q_next
+        rows[changed].append((t1 - t0, t2 - t1, t3 - t2, min(warm)))
+    return {k: np.array(v) / 1e3 for k, v in rows.items()}
+
+
 def main() -> int:
     robot = load_robot()
     ref = build("walk10", robot)
@@ -156,6 +203,16 @@ def main() -> int:
         t = np.array(walk_solves(robot, ref, kind))
         cells = " | ".join(f"{v:.1f}" for v in np.percentile(t, [50, 90, 99, 100]))
         print(f"| {kind} | {cells} |")
+    print("\nthe parts of each tick along walk10, timed once as it runs; medians (p90), µs:")
+    print("| solver | ticks | targets (phase switch) | kinematics + re-plan | compiled call |"
+          " the call replayed at once |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
+    for kind in ("weighted", "hierarchical"):
+        parts = switch_parts(robot, ref, kind)
+        for first, name in ((True, "first of a support phase"), (False, "the others")):
+            t = parts[first]
+            cells = " | ".join(f"{np.median(c):.1f} ({np.percentile(c, 90):.1f})" for c in t.T)
+            print(f"| {kind} | {name} ({len(t)}) | {cells} |")
     return 0
 
 

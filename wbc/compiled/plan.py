@@ -2,8 +2,8 @@
 
 A plan is built when a solver (re)plans its layout (never on a plain target update): every
 task becomes a row of an integer spec table (its row kernel, target, frames and output rows),
-its target arrays are copied into one packed buffer per tick (one ``np.concatenate``: the
-tasks keep owning their targets), its error rows become ``task.last_error`` views, and the
+its target arrays are gathered by the tick into one packed buffer (by address: the tasks
+keep owning their targets), its error rows become ``task.last_error`` views, and the
 frames' placements are the cached views into Pinocchio's data. Every task with a row kernel
 is compiled, wherever its class is defined (:mod:`wbc.compiled.dispatch` generates the tick
 of the plan's set of kernels); a stack with a task without one, or with extra box limits,
@@ -60,6 +60,8 @@ class Targets:
         self.size = 0
         self.buffer = np.zeros(0)
         self._gather = None
+        self.by_address = False
+        self.tick_sources: tuple[np.ndarray, ...] = ()
 
     def add(self, task: Task) -> tuple[int, int]:
         """(offset, size) of the task's packed targets."""
@@ -92,6 +94,12 @@ class Targets:
         self._gather = entry(gather) if direct else None
         self._addresses = np.array([s.ctypes.data for s in self.sources], dtype=np.int64)
         self._sizes = np.array([s.size for s in self.sources], dtype=np.int64)
+        #: True: a tick gathers the sources itself (:attr:`tick_sources`: their addresses and
+        #: sizes); False: none, :meth:`gather` runs before it
+        self.by_address = direct
+        self.tick_sources = (
+            (self._addresses, self._sizes) if direct else (np.zeros(0, np.int64),) * 2
+        )
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
@@ -321,6 +329,9 @@ class _Plan:
     prebuilt tuple serves every tick and a tick allocates nothing.
     """
 
+    #: the active sets the tick starts from (the last tick's; each plan's own array)
+    warm_start: np.ndarray
+
     def __init__(self, solver, kin: Kinematics, tasks: Sequence[Task]) -> None:
         robot = solver.robot
         self.solver = solver
@@ -342,7 +353,8 @@ class _Plan:
         self.q_min, self.q_max = robot.q_min, robot.q_max
         self.q = scratch.get("q", (robot.nq,))
         self.step = np.zeros(robot.n_joints)
-        self._params_key: tuple | None = None
+        self._mu: float | None = None  # (the solver's regularization and hard tolerance
+        self._hard_tol: float | None = None  # that the parameters were set for)
         self._dt: float | None = -1.0  # (no time step yet: the parameters are set at a solve)
         self._entry = None  # the tick's compiled entry point, after the first call
         #: [use the velocity steps (0/1), μ (damping of the last level), hard tolerance,
@@ -357,7 +369,11 @@ class _Plan:
         #: (task, view of its rows of E): re-pointed at every solve, since anything may have
         #: re-pointed a task's last_error meanwhile (Task.compute, the numpy path, another plan)
         self.error_views: list[tuple[Task, np.ndarray]] = []
+        #: the body's arguments (:data:`wbc.compiled.dispatch.WEIGHTED_ARGS`, ``CASCADE_ARGS``)
         self.args: tuple = ()
+        #: the tick's arguments after q: those buffers' addresses and shapes, then the
+        #: arguments passed directly (:meth:`_bind_args`)
+        self.packed: tuple = ()
         self.tick_name = ""
         self.inequalities = InequalityRows(1, nv)
         self._ready = False
@@ -385,31 +401,58 @@ class _Plan:
         )  # fmt: skip
 
     def _build_args(self) -> tuple:
-        """The kernel's arguments, every one a buffer of the plan (rebuilt when the inequality
+        """The body's arguments, every one a buffer of the plan (rebuilt when the inequality
         rows outgrow their buffers)."""
         raise NotImplementedError  # (each plan's own tick)
 
+    def _bind_args(self) -> None:
+        """:attr:`args`, and the tick's :attr:`packed` arguments: the addresses and shapes of
+        the buffers among them (each checked: the tick views it as C-contiguous, of its
+        dtype; :attr:`args` keeps them alive), then the arguments passed directly."""
+        self.args = args = self._build_args()
+        spec = D.WEIGHTED_ARGS if self.tick_name == "weighted_tick" else D.CASCADE_ARGS
+        addresses, shapes, direct = [], [], []
+        for (name, dtype, ndim), a in zip(spec, args, strict=True):
+            if dtype == "direct":
+                direct.append(a)
+                continue
+            if a.dtype != np.dtype(dtype) or a.ndim != ndim or not a.flags.c_contiguous:
+                raise TypeError(
+                    f"tick argument {name!r} must be a C-contiguous {dtype} array of "
+                    f"{ndim} dimensions, got {a.dtype} {a.shape} (C: {a.flags.c_contiguous})"
+                )
+            addresses.append(a.ctypes.data)
+            shapes.append([*a.shape, *(0,) * (3 - ndim)])
+        self.packed = (
+            np.array(addresses, dtype=np.int64),
+            np.array(shapes, dtype=np.int64).reshape(-1, 3),
+            *direct,
+        )
+
     def solve(self, kin: Kinematics, dt: float | None, inequalities: Sequence | None) -> int:
         """Fill the per-tick inputs (``inequalities``: each level's (G, h, ...), or None) and
-        run the kernel; returns its status (0: solved, Δq finite: :attr:`solution`)."""
+        run the tick (which gathers the targets and q itself); returns its status (0: solved,
+        Δq finite: :attr:`solution`)."""
         if (inequalities is not None or self.inequalities.total) and self.inequalities.load(
             inequalities
         ):
-            self.args = self._build_args()
+            self._bind_args()
         for task, view in self.error_views:
             task.last_error = view
         if self.frames.copies:
             self.frames.refresh()
-        self.targets.gather(kin.q, self.q)
+        if not self.targets.by_address:  # (sources the tick cannot gather itself)
+            self.targets.gather()
         solver = self.solver
-        if dt != self._dt or (solver.regularization, solver.hard_tol) != self._params_key:
+        if dt != self._dt or solver.regularization != self._mu or solver.hard_tol != self._hard_tol:
             self._set_params(dt)
         entry = self._entry
         if entry is None:  # the first call: compiles or loads the tick, then its entry point
-            status = self.ticks.call(self.tick_name, self.variant, self.args)
+            np.copyto(self.q, kin.q)  # (typed on the plan's own q: kin.q may be read-only)
+            status = self.ticks.call(self.tick_name, self.variant, (self.q, *self.packed))
             self._entry = self.ticks.entry(self.tick_name, self.variant)
             return status
-        return entry(*self.args)
+        return entry(kin.q, *self.packed)
 
     def _set_params(self, dt: float | None) -> None:
         """The velocity steps and the scalar parameters of the tick, for ``dt``."""
@@ -427,7 +470,7 @@ class _Plan:
             CONSTRAINT_TOL,
         )
         self._dt = dt
-        self._params_key = (solver.regularization, solver.hard_tol)
+        self._mu, self._hard_tol = solver.regularization, solver.hard_tol
 
 
 class WeightedPlan(_Plan):
@@ -444,13 +487,13 @@ class WeightedPlan(_Plan):
         self.state = np.zeros(nv, dtype=np.int8)
         self.warm_start = self.state
         self.tick_name = "weighted_tick"
-        self.args = self._build_args()
+        self._bind_args()
 
     def _build_args(self) -> tuple:
         g = self.inequalities
         return (
             *self.soft.args, *self.hard.args, g.G, g.h, g.g_rows, *self._shared_args(),
-            self.state, g.working[0], self.dq, self.q_next,
+            self.state, g.working[0], self.dq, self.q_next, *self.targets.tick_sources,
         )  # fmt: skip
 
 
@@ -474,7 +517,7 @@ class CascadePlan(_Plan):
         self.achieved = np.zeros(self.rows.m)
         self.inequalities = InequalityRows(len(levels), nv)
         self.tick_name = "cascade_tick"
-        self.args = self._build_args()
+        self._bind_args()
 
     def forget_warm_start(self, previous: _Plan | None = None) -> None:
         """As :meth:`_Plan.forget_warm_start`, but after a switch from a plan with as many
@@ -494,5 +537,5 @@ class CascadePlan(_Plan):
         return (
             *self.rows.args, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
             *self._shared_args(), self.states, g.working, g.h_eff, self.achieved, self.dq,
-            self.q_next,
+            self.q_next, *self.targets.tick_sources,
         )  # fmt: skip

@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..compiled.checks import entry as check_entry
+from ..compiled.targets import copy_targets
 from ..exceptions import ConfigurationError, WbcError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
@@ -31,9 +33,15 @@ from ..tasks import (
     FramePositionTask,
     SwingFootOrientationTask,
 )
+from ..tasks.task import ROTATION_TOL
 from .reference import WalkingReference
 
 SOLES = {"left": "l_sole", "right": "r_sole"}
+#: the checked copy of a tick's targets (:meth:`StackController._copy_targets`): its entry
+#: point, for arrays of the types and shapes below
+_copy_targets = check_entry(copy_targets)
+_F8 = np.dtype(np.float64)
+_VECTOR, _MATRIX = (3,), (3, 3)
 
 
 def heading_free(R: np.ndarray) -> np.ndarray:
@@ -191,6 +199,68 @@ class StackController(Controller):
             for t in stack.tasks()
             if isinstance(t, ContactTask)
         ]
+        self._writes, self._write_arrays = self._target_writes()
+
+    def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
+        """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
+        compiled call for the CoM, swing and torso targets instead of a setter call each:
+        ~1.5 µs less per tick): rows (address of a task's own target array, source: 0 CoM,
+        1 swing position, 2 swing rotation, 3 torso rotation), and those arrays (kept alive:
+        the tasks own them and never re-bind them). None if a task's setter is its subclass's
+        own (not the checked copy of the class named here): then the setters run one by one."""
+        rotation = lambda t: (  # noqa: E731
+            SwingFootOrientationTask
+            if isinstance(t, SwingFootOrientationTask)
+            else FrameOrientationTask
+        )
+        writes = [
+            *((t, ComTask, "set_target", "target", 0) for t in self._com),
+            *((t, FramePositionTask, "set_target", "target", 1) for t in self._swing_pos),
+            *((t, FramePoseTask, "set_position_target", "target_position", 1)
+              for t in self._swing_pose),
+            *((t, FramePoseTask, "set_rotation_target", "target_rotation", 2)
+              for t in self._swing_pose),
+            *((t, rotation(t), "set_target", "target", 2) for t in self._swing_rot),
+            *((t, FrameOrientationTask, "set_target", "target", 3) for t in self._torso),
+        ]  # fmt: skip
+        rows, arrays = [], []
+        for task, cls, setter, name, source in writes:
+            out = getattr(task, name)
+            shape = (3,) if source < 2 else (3, 3)
+            if (
+                getattr(type(task), setter) is not getattr(cls, setter)
+                or not isinstance(out, np.ndarray)
+                or out.dtype != np.float64
+                or out.shape != shape
+                or not out.flags.c_contiguous
+            ):
+                return None, []
+            rows.append((out.ctypes.data, source))
+            arrays.append(out)
+        return np.array(rows, dtype=np.int64).reshape(-1, 2), arrays
+
+    def _copy_targets(self, targets: TickTargets) -> bool:
+        """The tick's targets into the tasks' arrays in one compiled call, checked as their
+        setters check them; False if they cannot go that way (nothing copied: the setters
+        then run, and raise if a target is invalid)."""
+        v0, v1 = targets.com, targets.swing_position
+        R0, R1 = targets.swing_rotation, targets.torso_rotation
+        return (
+            self._writes is not None
+            and type(v0) is np.ndarray
+            and type(v1) is np.ndarray
+            and type(R0) is np.ndarray
+            and type(R1) is np.ndarray
+            and v0.dtype is _F8
+            and v1.dtype is _F8
+            and R0.dtype is _F8
+            and R1.dtype is _F8
+            and v0.shape == _VECTOR
+            and v1.shape == _VECTOR
+            and R0.shape == _MATRIX
+            and R1.shape == _MATRIX
+            and _copy_targets(v0, v1, R0, R1, self._writes, ROTATION_TOL)
+        )
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         self._kin.update(q0)
@@ -222,18 +292,20 @@ class StackController(Controller):
             self.control.set_phase(
                 targets.phase, targets.support, targets.swing, self._kin, anchors
             )
-        for t in self._com:
-            t.set_target(targets.com)
+        if self._copy_targets(targets):
+            return
+        for com in self._com:
+            com.set_target(targets.com)
         position, rotation = targets.swing_position, targets.swing_rotation
-        for t in self._swing_pos:
-            t.set_target(position)
-        for t in self._swing_pose:
-            t.set_position_target(position)
-            t.set_rotation_target(rotation)
-        for t in self._swing_rot:
-            t.set_target(rotation)
-        for t in self._torso:
-            t.set_target(targets.torso_rotation)
+        for point in self._swing_pos:
+            point.set_target(position)
+        for pose in self._swing_pose:
+            pose.set_position_target(position)  # type: ignore[arg-type]
+            pose.set_rotation_target(rotation)
+        for axes in self._swing_rot:
+            axes.set_target(rotation)
+        for torso in self._torso:
+            torso.set_target(targets.torso_rotation)
 
     def _anchored(self, targets: TickTargets, anchors: dict) -> bool:
         """True if every contact that the switch to ``targets`` may make has its anchor in
