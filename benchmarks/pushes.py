@@ -40,8 +40,8 @@ def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
         return None, 0.0
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
     step = SteppingParams() if loop in ("step", "nohipstep") else None
-    if loop == "before":  # the closed loop before the sway and the lift-off hold
-        return ClosedLoopSpec(entry.make, ref, Gains(sway=0.0), True, True, None, None), 0.5
+    if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
+        return ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None), 0.5
     return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
 
 

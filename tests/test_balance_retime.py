@@ -1,4 +1,5 @@
-"""Re-timing after a push (wbc.balance.retime): the lift-off hold and the narrowed sway."""
+"""Re-timing after a push (wbc.balance.retime): the lift-off hold; the closed loop's narrower
+sway (wbc.walking.gait.narrow_sway, ``Gains.transfer``)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbc.balance.retime import HoldParams, PhaseHold, narrowed_sway
+from wbc.balance.retime import HoldParams, PhaseHold
 from wbc.bench.trajectories import build
 from wbc.exceptions import WbcError
 from wbc.recording import SUPPORT_DOUBLE
@@ -66,47 +67,62 @@ def test_bad_hold_parameters_are_refused():
         PhaseHold(HoldParams(max_hold=math.nan))
 
 
-def test_narrowed_sway_moves_the_com_toward_the_swing_sole_smoothly(walk10):
-    shift = 0.004
-    out = narrowed_sway(walk10, shift)
-    d = out.com - walk10.com
-    assert np.all(d[:, 2] == 0)
-    for a, b, code in walk10.phases():
-        if code == SUPPORT_DOUBLE:
-            assert np.all(d[a:b] == 0)
-            continue
-        mid = (a + b) // 2
-        yaw = walk10.sole(walk10.stance_side(a))[1][a]
-        v = np.array([-math.sin(yaw), math.cos(yaw)])
-        v = v if toward_lift(walk10, a) @ v > 0 else -v
-        # at mid single support: the CoM and the DCM moved `shift` toward the other sole
-        assert d[mid, :2] @ v == pytest.approx(shift, rel=0.02)
-        assert (dcm_ref(out, mid) - dcm_ref(walk10, mid)) @ v == pytest.approx(shift, rel=0.05)
-        assert np.all(np.linalg.norm(d[a:b, :2], axis=1) <= shift + 1e-12)
-    # inside each phase, the added velocity and acceleration are the added position's
-    # derivatives (central differences, O(dt²))
-    dv = out.com_vel - walk10.com_vel
-    da = out.com_acc - walk10.com_acc
-    dt = walk10.dt
-    inner = np.concatenate([np.arange(a + 1, b - 1) for a, b, _ in walk10.phases()])
-    fd_v = (d[inner + 1, :2] - d[inner - 1, :2]) / (2 * dt)
-    fd_a = (d[inner + 1, :2] - 2 * d[inner, :2] + d[inner - 1, :2]) / dt**2
-    assert np.allclose(fd_v, dv[inner, :2], atol=2e-3)
-    assert np.allclose(fd_a, da[inner, :2], atol=0.05)
-    assert np.max(np.abs(dv)) > 0.02  # (not vacuous)
-    # the position stays continuous (no jump at a support change)
-    assert np.max(np.abs(np.diff(d[:, :2], axis=0))) < 2.0 * shift * math.pi * dt / 0.2
+def closed_loop_reference(robot, ref, gains):
+    """The reference the closed loop (:func:`wbc.balance.live.closed_loop`, on the simulated
+    robot) walks for ``ref``."""
+    from wbc.balance.live import closed_loop
+    from wbc.sim.bus import SimServoBus
+    from wbc.sim.simulator import Simulation
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import StackController
+
+    bus = SimServoBus(Simulation(robot))
+    controller = StackController(load_stack("walk", robot))
+    loop = closed_loop(bus, robot, controller, ref, gains=gains, out=lambda _line: None)
+    return loop.session.ref
 
 
-def test_narrowed_sway_leaves_static_gaits_long_supports_and_zero_alone(robot, walk10):
-    static = build("static_walk", robot)
-    assert narrowed_sway(static, 0.004) is static
-    fast = build("fast_wb", robot)  # 0.4 s single supports: longer than SWAY_LONGEST
-    assert np.array_equal(narrowed_sway(fast, 0.004).com, fast.com)
-    assert not np.array_equal(narrowed_sway(fast, 0.004, longest=0.5).com, fast.com)
-    assert narrowed_sway(walk10, 0.0) is walk10
-    with pytest.raises(WbcError, match="sway"):
-        narrowed_sway(walk10, -0.001)
+@pytest.mark.parametrize("name", ["walk10", "walk10_wb"])
+def test_the_closed_loops_reference_keeps_its_zmp_the_walks_margin_inside(robot, name):
+    """The closed loop's narrower sway is planned by the walk's generator: the ZMP of the
+    reference it walks, from the CoM and its acceleration (``c_xy − c_z c''_xy / (g + c''_z)``),
+    stays the walk's margin inside the support polygon at every tick (``walk10`` 1 mm, planned
+    1.7; ``walk10_wb`` 10 mm, planned 11.9), while the DCM at mid single support is >= 3 mm
+    further inside than planned. (A CoM offset added to the plan — the narrowed sway before —
+    took it to −14.1 and −3.6 mm.)"""
+    from wbc.balance.stabilizer import Gains
+
+    ref = build(name, robot)
+    walked = closed_loop_reference(robot, ref, Gains())
+    c, a = walked.com, walked.com_acc
+    zmp = c[:, :2] - c[:, 2:3] * a[:, :2] / (walked.g + a[:, 2:3])
+    assert walked.margins(zmp).min() >= ref.margin - 1e-6
+    assert ref.margin == (0.001 if name == "walk10" else 0.010)
+    a, b, _ = next(p for p in ref.phases() if p[2] != SUPPORT_DOUBLE)
+    mid = (a + b) // 2
+    v = -toward_lift(ref, a)  # outward of the stance sole
+    assert (dcm_ref(ref, mid) - dcm_ref(walked, mid)) @ v > 0.003  # the sway is narrower
+    # Gains(transfer=0): the plan as it is
+    assert closed_loop_reference(robot, ref, Gains(transfer=0.0)) is ref
+
+
+def test_the_closed_loop_walks_longer_single_supports_as_planned(robot):
+    """``fast_wb``'s 0.4 s single supports: beyond ``NARROW_LONGEST`` (narrowing cost distance
+    there), so its closed loop walks the plan."""
+    from wbc.balance.live import NARROW_LONGEST
+    from wbc.balance.stabilizer import Gains
+
+    ref = build("fast_wb", robot)
+    assert NARROW_LONGEST < 0.4
+    assert closed_loop_reference(robot, ref, Gains()) is ref
+
+
+def test_bad_transfer_is_refused():
+    from wbc.balance.stabilizer import Gains
+
+    for bad in (-0.1, 1.5, math.nan):
+        with pytest.raises(WbcError, match="transfer"):
+            Gains(transfer=bad).check()
 
 
 class _FixedDcm:
@@ -158,8 +174,8 @@ def test_a_session_replays_the_double_support_while_the_lift_off_waits(robot, wa
 def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot(robot):
     """walk10 closed loop (wqp-daqp, compliance ×0.5, as benchmarks/pushes.py), a 0.9375 N·s
     push sideways away from the swing foot at mid first single support (the bisection's
-    probe above the open loop's 0.914): the closed loop before (no sway narrowing, no hold)
-    falls ~0.7 s later; with the defaults (``Gains().sway``, ``HoldParams()``) it is up
+    probe above the open loop's 0.914): the closed loop before (no narrower sway, no hold)
+    falls ~0.7 s later; with the defaults (``Gains().transfer``, ``HoldParams()``) it is up
     2.0 s into the walk."""
     from wbc.balance.stabilizer import Gains
     from wbc.bench.physics import PUSH_DURATION, ClosedLoopSpec, play_closed_loop
@@ -173,7 +189,7 @@ def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot
     entry = next(e for e in select(["wqp-daqp"], None, "tick")[0] if e.name == "wqp-daqp")
     tilt = {}
     for name, spec in (
-        ("before", ClosedLoopSpec(entry.make, ref, Gains(sway=0.0), True, True, None, None)),
+        ("before", ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None)),
         ("now", ClosedLoopSpec(entry.make, ref, Gains(), True, True)),
     ):
         result, loop = play_closed_loop(spec, robot, push=(t_push, force, PUSH_DURATION),

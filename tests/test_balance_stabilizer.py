@@ -316,7 +316,7 @@ def test_hip_strategy_catches_a_push_the_closed_loop_alone_cannot(robot, impulse
     entry = next(e for e in select(["wqp-daqp"], None, "tick")[0] if e.name == "wqp-daqp")
     tilt = {}
     # (both without the sway narrowing and the lift-off hold: tests/test_balance_retime.py)
-    for name, gains in (("closed", Gains(k_hip=0.0, sway=0.0)), ("hip", Gains(sway=0.0))):
+    for name, gains in (("closed", Gains(k_hip=0.0, transfer=0.0)), ("hip", Gains(transfer=0.0))):
         spec = ClosedLoopSpec(entry.make, ref, gains, True, True, None, None)
         result, _ = play_closed_loop(spec, robot, push=(t_push, force, PUSH_DURATION),
                                      settle=0.0, compensate=0.5, duration=2.2)  # fmt: skip

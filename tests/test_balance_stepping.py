@@ -164,7 +164,7 @@ def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot,
     runs = {}
     for name, stepping in (("closed", None), ("step", SteppingParams())):
         spec = physics.ClosedLoopSpec(
-            entry.make, walk10, Gains(k_hip=0.0, sway=0.0), True, True, stepping, None
+            entry.make, walk10, Gains(k_hip=0.0, transfer=0.0), True, True, stepping, None
         )  # (no sway narrowing, no hold)
         runs[name] = physics.simulate(rec, robot, push=push, compensate=0.5, closed=spec)
     assert runs["closed"]["fell"] and runs["closed"]["replans"] is None

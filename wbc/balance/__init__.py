@@ -10,8 +10,8 @@
 * :mod:`wbc.balance.stepping` — step placement from the measured DCM: the footsteps and the
   walk re-planned inside the closed loop (:class:`~wbc.walking.loop.Session`'s ``stepping``);
 * :mod:`wbc.balance.retime` — the walk re-timed after a push (a lift-off waits for the
-  measured DCM: :class:`~wbc.walking.loop.Session`'s ``hold``) and the CoM's sway narrowed at
-  mid single support (``Gains.sway``);
+  measured DCM: :class:`~wbc.walking.loop.Session`'s ``hold``); the closed loop's sway is
+  narrowed by the walk's generator (``Gains.transfer``, :func:`wbc.walking.gait.narrow_sway`);
 * :mod:`wbc.balance.live` — :func:`~wbc.balance.live.closed_loop`: a controller solved live in
   the deployment's tick on any ServoBus + Imu (``wbc deploy --live STACK --closed-loop``).
 

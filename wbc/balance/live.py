@@ -29,11 +29,18 @@ from ..model import Robot
 from ..servos.bus import ServoBus
 from ..servos.playback import DeployConfig, Deployment
 from ..servos.sources import CallableSource
+from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
-from .retime import HoldParams, PhaseHold, narrowed_sway
+from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer
 from .stepping import StepAdjuster, SteppingParams
+
+#: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
+#: nominal, benchmarks/pushes.md): on the 0.4 s single supports of ``fast_wb`` and
+#: ``lateral_wb`` the narrowed sway costs distance (0.907 → 0.884, 0.902 → 0.877 of the plan)
+#: and the transfer alone tips ``lateral_wb`` to 31.5°
+NARROW_LONGEST = 0.3
 
 
 class SessionSource(CallableSource):
@@ -117,7 +124,10 @@ def closed_loop(
     ``stepping`` (closed loop only; None: off): re-plan the footsteps from the measured DCM
     (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters). ``hold`` (closed
     loop only; on by default, None: off): a lift-off waits while the measured DCM is not
-    ready for it (:class:`~wbc.balance.retime.PhaseHold` with these parameters).
+    ready for it (:class:`~wbc.balance.retime.PhaseHold` with these parameters). The closed
+    loop walks ``ref`` with its sway narrowed by the walk's generator (``gains.transfer``,
+    :func:`wbc.walking.gait.narrow_sway`, single supports of at most
+    :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned).
     """
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
@@ -125,8 +135,9 @@ def closed_loop(
         raise WbcError("the closed loop reads the servos' present positions: use --read")
     if enabled and not bus.can_read:
         raise WbcError(f"the closed loop needs servo positions; the {bus.name} bus cannot read")
-    if enabled and gains is not None and gains.sway > 0:  # (retime.narrowed_sway)
-        ref = narrowed_sway(ref, gains.sway)
+    gains = (gains or Gains()).check()
+    if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
+        ref = narrow_sway(ref, gains.transfer, longest=NARROW_LONGEST)
     holder: list[Deployment] = []
     stabilizer = Stabilizer(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,

@@ -21,7 +21,7 @@ never hold: their ``e`` stays below the band (benchmarks/pushes.md). Off unless 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -86,44 +86,3 @@ class PhaseHold:
         self._waited += dt
         self.held += dt
         return True
-
-
-#: s: the longest single support whose sway is narrowed (measured: narrowing the 0.4 s single
-#: supports of ``fast_wb`` costs travelled distance, 0.90 → 0.89 of its plan at 3 mm)
-SWAY_LONGEST = 0.3
-
-
-def narrowed_sway(
-    ref: WalkingReference, shift: float, longest: float = SWAY_LONGEST
-) -> WalkingReference:
-    """``ref`` with its CoM moved ``shift`` m toward the swing sole in every single support,
-    smoothly: ``δ(t) = shift · sin(π s) · v`` (``s`` the phase's elapsed share, ``v`` the
-    stance sole's lateral axis, toward the other sole), its velocity and
-    acceleration added to the CoM's. At mid single support the DCM moves by ``shift`` too
-    (``δ̇ = 0`` there), so a push away from the swing foot starts ``shift`` further from the
-    stance sole's outer edge; the ZMP moves by ``shift (1 + (π/(ω T))²) sin(π s)`` inward
-    (``T`` the phase's duration). Only single supports of at most ``longest`` s are changed;
-    ``shift = 0`` or a static gait (its CoM stays over the stance sole): ``ref`` itself."""
-    if not (math.isfinite(shift) and shift >= 0):
-        raise WbcError(f"sway shift must be a finite number >= 0, got {shift}")
-    if shift == 0 or ref.gait != "dynamic":
-        return ref
-    com, vel, acc = ref.com.copy(), ref.com_vel.copy(), ref.com_acc.copy()
-    t = ref.t
-    for a, b, _ in ref.phases():
-        stance = ref.stance_side(a)
-        if stance is None or b - a < 2 or (b - a) * ref.dt > longest + 1e-9:
-            continue
-        lift = "right" if stance == "left" else "left"
-        k = np.arange(a, b)
-        pos, yaw = ref.sole(stance)
-        v = np.array([-math.sin(yaw[a]), math.cos(yaw[a])])  # the stance sole's lateral axis,
-        if (ref.sole(lift)[0][a, :2] - pos[a, :2]) @ v < 0:  # toward the other sole
-            v = -v
-        T = (b - a) * ref.dt  # the phase runs until the next one's first tick
-        w = math.pi / T
-        s = (t[k] - t[a]) * w
-        com[k, :2] += shift * np.sin(s)[:, None] * v
-        vel[k, :2] += shift * w * np.cos(s)[:, None] * v
-        acc[k, :2] -= shift * w * w * np.sin(s)[:, None] * v
-    return replace(ref, com=com, com_vel=vel, com_acc=acc)

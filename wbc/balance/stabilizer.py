@@ -24,11 +24,13 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
   sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`);
-* **sway** (``sway``, 4 mm by default) — not a feedback term: the closed loop
-  (:func:`wbc.balance.live.closed_loop`) walks its reference with the CoM moved ``sway`` m
-  toward the swing sole at mid single support (:func:`wbc.balance.retime.narrowed_sway`:
-  single supports of at most 0.3 s), so
-  a push away from the swing foot starts that much further from the stance sole's edge;
+* **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
+  closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
+  walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
+  sole within the first ``transfer`` of the double support and runs in single support as
+  far toward the other sole as the walk's margin allows, so at mid single support the DCM
+  is further from the stance sole's outer edge (a push away from the swing foot has
+  further to go) while the CoM and its ZMP stay consistent, the ZMP ``margin`` inside;
 * **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
   axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
   :class:`wbc.balance.live.SessionSource`).
@@ -75,7 +77,9 @@ class Gains:
     hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
-    sway: float = 0.004  # m: CoM reference moved toward the swing sole at mid single support
+    #: share of the double support in which the closed loop's reference moves its ZMP to the
+    #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
+    transfer: float = 0.15
 
     def check(self) -> Gains:
         for name in (
@@ -94,11 +98,13 @@ class Gains:
             "hip_band",
             "max_hip",
             "hip_release",
-            "sway",
+            "transfer",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise WbcError(f"stabilizer gain {name} must be a finite number >= 0, got {v}")
+        if self.transfer > 1:
+            raise WbcError(f"stabilizer gain transfer must be in [0, 1], got {self.transfer}")
         return self
 
 

@@ -220,6 +220,7 @@ class StepAdjuster:
         self.timing = GaitTiming(**meta["timing"])
         self.swing = SwingParams(**meta.get("swing", {}))
         self.zmp_offset = tuple(meta.get("zmp_offset", (0.0, 0.0)))
+        self.transfer = float(meta.get("transfer", 1.0))  # (gait.narrow_sway)
         self.base = ref
         self.phases = build_phases(ref.plan, self.timing)
         if self.phases[-1].i1 != ref.n:
@@ -260,7 +261,8 @@ class StepAdjuster:
         xi = []
         for d in (0.0, 1e-2):
             kt, kp = zmp_knots(shifted_plan(plan, k, np.array([d, 0.0])), self.phases,
-                               self.base.com[0, :2], self.zmp_offset)  # fmt: skip
+                               self.base.com[0, :2], self.zmp_offset,
+                               transfer=self.transfer)  # fmt: skip
             later = kt > t[i] + 1e-12
             T = np.concatenate([[t[i]], kt[later]])
             P = np.vstack([sample_knots(kt, kp, t[i : i + 1]), kp[later]])
@@ -332,7 +334,8 @@ class StepAdjuster:
         :func:`lipm_com_for_zmp` from the current CoM target."""
         dt = ref.dt
         soles = sole_tracks(plan, self.phases, dt, self.swing)
-        kt, kp = zmp_knots(plan, self.phases, self.base.com[0, :2], self.zmp_offset)
+        kt, kp = zmp_knots(plan, self.phases, self.base.com[0, :2], self.zmp_offset,
+                           transfer=self.transfer)  # fmt: skip
         zref = sample_knots(kt, kp, ref.t - ref.t[0])  # the new ZMP path
         fields = soles.reference_fields()
         for name in ("l_sole", "l_sole_yaw", "r_sole", "r_sole_yaw", "l_sole_vel", "r_sole_vel"):

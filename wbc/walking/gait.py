@@ -16,6 +16,8 @@ before it is returned: bad input raises :class:`~wbc.exceptions.TrajectoryError`
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -55,6 +57,7 @@ def walk(
     check: bool = True,
     name: str | None = None,
     window: BalanceWindow | None = None,
+    transfer: float = 1.0,
 ) -> WalkingReference:
     """A dynamic-gait reference for ``plan`` starting from ``start`` (at rest).
 
@@ -75,6 +78,11 @@ def walk(
     lateral offset (``torso_roll``), the arms are free, and the CoM is checked against the
     window instead of the legs-only hip roll model; the ZMP may then run well inside the
     soles (e.g. ``zmp_offset = (0, 0.018)``, ``margin = 0.01``).
+
+    ``transfer`` (0–1]: the share of each double support within which the planned ZMP
+    reaches the sole that just landed (:func:`.schedule.zmp_knots`; 1: over the whole
+    double support). A shorter transfer shifts the lateral sway earlier: the DCM has crossed
+    over the new stance sole while both soles are down (:func:`narrow_sway`).
     """
     timing = timing or GaitTiming()
     swing = swing or SwingParams()
@@ -102,7 +110,7 @@ def walk(
     dt = timing.dt
     soles = sole_tracks(plan, phases, dt, swing)
     t = soles.t
-    kt, kp = zmp_knots(plan, phases, start.com[:2], zmp_offset)
+    kt, kp = zmp_knots(plan, phases, start.com[:2], zmp_offset, transfer=transfer)
     zref = sample_knots(kt, kp, t)
     # torso heading: the mean of the soles' headings
     torso_yaw = soles.torso_yaw()
@@ -112,17 +120,11 @@ def walk(
         "timing": timing.__dict__,
         "swing": swing.__dict__,
         "zmp_offset": list(zmp_offset),
+        "transfer": transfer,
     }
-    if generator == "preview":
-        ctrl = PreviewController(dt, height, preview)
-        x0 = np.zeros((3, 2))
-        x0[0] = start.com[:2]
-        pos, vel, acc, _ = ctrl.run(zref, x0)
-        meta["preview"] = ctrl.params.__dict__
-    elif generator == "lipm":
-        tc = float(np.sqrt(height / GRAVITY))
-        pos, vel, acc = lipm_walk_com(kt, kp, start.com[:2], tc, t, phases[0].t1)
-        meta["lipm_tc"] = tc
+    if generator in ("preview", "lipm"):
+        pos, vel, acc = _com_for_zmp(generator, kt, kp, zref, start.com[:2], height, t,
+                                     phases[0].t1, preview, meta)  # fmt: skip
     else:
         params = mpc or MpcParams()
         solver = LipmMpc(height, params)
@@ -173,14 +175,110 @@ def walk(
     return ref
 
 
+def _com_for_zmp(
+    generator: str,
+    kt: np.ndarray,
+    kp: np.ndarray,
+    zref: np.ndarray,
+    start_xy: np.ndarray,
+    height: float,
+    t: np.ndarray,
+    t_start: float,
+    preview: PreviewParams | None,
+    meta: dict[str, Any],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The CoM (pos, vel, acc, each (N, 2)) of the ``"preview"`` or ``"lipm"`` generator for
+    the ZMP path (knots ``kt``, ``kp``; sampled ``zref``), from rest at ``start_xy``; records
+    the generator's parameters in ``meta``."""
+    if generator == "preview":
+        ctrl = PreviewController(float(t[1] - t[0]), height, preview)
+        x0 = np.zeros((3, 2))
+        x0[0] = start_xy
+        pos, vel, acc, _ = ctrl.run(zref, x0)
+        meta["preview"] = ctrl.params.__dict__
+        return pos, vel, acc
+    tc = float(np.sqrt(height / GRAVITY))
+    meta["lipm_tc"] = tc
+    return lipm_walk_com(kt, kp, start_xy, tc, t, t_start)
+
+
+def narrow_sway(
+    ref: WalkingReference, transfer: float, inward: bool = True, longest: float = math.inf
+) -> WalkingReference:
+    """``ref`` re-planned by its own generator with a narrower, earlier lateral sway: the ZMP
+    reaches each landed sole within the first ``transfer`` (0–1] of the double support
+    (:func:`walk`'s ``transfer``) and, with ``inward``, runs in single support as far toward
+    the other sole as the walk's margin allows (its ``zmp_offset`` widened until the ZMP is
+    ``ref.margin`` from the sole's inner edge). Same soles, schedule and footsteps; the CoM
+    is the generator's for the new ZMP path, so CoM and ZMP stay consistent and the ZMP keeps
+    ``ref.margin`` inside the support polygon (:func:`.checks.check_reference`'s criterion;
+    where ``ref`` itself keeps less, at least what it keeps). At mid single support the DCM
+    is then further from the stance sole's outer edge: the closed loop walks this
+    (:class:`wbc.balance.stabilizer.Gains` ``transfer``).
+
+    Returns ``ref`` itself when it was not made by :func:`walk` with the ``"preview"`` or
+    ``"lipm"`` generator (a static gait, the MPC, another source), has no double support,
+    has single supports longer than ``longest`` (s), or cannot be re-planned within its
+    margin."""
+    if not (np.isfinite(transfer) and 0.0 < transfer <= 1.0):
+        raise TrajectoryError(f"narrow_sway: transfer must be in (0, 1], got {transfer}")
+    meta = ref.meta
+    if ref.gait != "dynamic" or meta.get("generator") not in ("preview", "lipm"):
+        return ref
+    if "timing" not in meta or "zmp_offset" not in meta:
+        return ref
+    timing = GaitTiming(**meta["timing"])
+    phases = build_phases(ref.plan, timing)
+    if phases[-1].i1 != ref.n or not any(ph.kind == "double" for ph in phases):
+        return ref
+    if timing.single_support_time > longest + 1e-9:
+        return ref
+    floor = np.minimum(ref.zmp_margin(), ref.margin) - 1e-9
+    x, y = (float(v) for v in meta["zmp_offset"])
+    widest = 0.5 * ref.foot.width - ref.margin  # the ZMP ref.margin from the inner edge
+    offset = (x, max(y, widest) if inward else y)
+    for _ in range(4):  # the generator tracks its path within ~0.1 mm: correct the offset
+        out = _replan(ref, phases, offset, transfer)
+        short = float(np.max(floor - out.zmp_margin()))
+        if short <= 0:
+            return out
+        if offset[1] - short < y - 1e-9:
+            return ref
+        offset = (x, offset[1] - short - 1e-6)
+    return ref
+
+
+def _replan(
+    ref: WalkingReference, phases: list, offset: tuple[float, float], transfer: float
+) -> WalkingReference:
+    """``ref``'s CoM planned again by its generator along the ZMP path of ``offset`` and
+    ``transfer`` (:func:`narrow_sway`); the torso roll of a whole-body reference with it."""
+    meta = ref.meta
+    generator = meta["generator"]
+    t = ref.t - ref.t[0]
+    kt, kp = zmp_knots(ref.plan, phases, ref.com[0, :2], offset, transfer=transfer)
+    zref = sample_knots(kt, kp, t)
+    new_meta = dict(meta, zmp_offset=list(offset), transfer=transfer)
+    preview = PreviewParams(**meta["preview"]) if generator == "preview" else None
+    pos, vel, acc = _com_for_zmp(generator, kt, kp, zref, ref.com[0, :2], ref.com_height, t,
+                                 phases[0].t1, preview, new_meta)  # fmt: skip
+    com, com_vel, com_acc = ref.com.copy(), ref.com_vel.copy(), ref.com_acc.copy()
+    com[:, :2], com_vel[:, :2], com_acc[:, :2] = pos, vel, acc
+    out = dataclasses.replace(
+        ref, com=com, com_vel=com_vel, com_acc=com_acc, zmp_ref=zref, meta=new_meta
+    )
+    table = meta.get("window", {})
+    if ref.torso_roll is not None and "offsets" in table:  # the torso leans for the new CoM
+        lean_from_window(out, BalanceWindow.from_dict(table))
+    return out
+
+
 def lean_from_window(ref: WalkingReference, window: BalanceWindow) -> None:
     """Plan the torso roll of a whole-body reference (in place): the roll the balance
     window's solves use for the CoM's lateral offset from the soles' midpoint."""
     ref.torso_roll = np.asarray(window.roll_for(lateral_offsets(ref)), dtype=float)
     ref.meta["window"] = {
-        "max_lateral": window.max_lateral,
-        "upright": window.upright,
-        "max_lean": window.max_lean,
+        **window.as_dict(),  # (the whole table: narrow_sway plans the roll again)
         "max_roll": float(np.max(np.abs(ref.torso_roll))),
     }
 

@@ -233,16 +233,21 @@ def zmp_knots(
     transfer_time: float | None = None,
     start_hold: float = 0.2,
     ramp_knots: int = 8,
+    transfer: float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Piecewise-linear planned ZMP: knot times (K,) and points (K, 2).
 
     Start: held at the CoM's ground projection for ``start_hold`` of the start phase, then
     a min-jerk shaped transfer (``ramp_knots`` linear pieces) to the first stance sole.
     Single support: on the stance sole (plus ``offset`` in its frame: x forward, y toward
-    the other foot). Double support: to the sole that just landed. End: to the feet's
-    midpoint within ``transfer_time`` (default: half the end phase; min-jerk shaped), then
-    held. Two knots at the same time are a jump (support exchange without double support).
+    the other foot). Double support: to the sole that just landed, linearly within the
+    first ``transfer`` (0–1] of the phase, then held there (1: over the whole phase). End:
+    to the feet's midpoint within ``transfer_time`` (default: half the end phase; min-jerk
+    shaped), then held. Two knots at the same time are a jump (support exchange without
+    double support).
     """
+    if not (np.isfinite(transfer) and 0.0 < transfer <= 1.0):
+        raise TrajectoryError(f"zmp path: transfer must be in (0, 1], got {transfer}")
 
     def anchor(step) -> np.ndarray:
         sign = -1.0 if step.side == "left" else 1.0  # toward the other foot
@@ -269,8 +274,12 @@ def zmp_knots(
             times += [ph.t0, ph.t1]
             points += [stance, stance]
         elif ph.kind == "double":
-            times.append(ph.t1)
-            points.append(anchor(plan.steps[ph.step]))
+            landed = anchor(plan.steps[ph.step])
+            times.append(ph.t0 + transfer * (ph.t1 - ph.t0))
+            points.append(landed)
+            if transfer < 1.0:
+                times.append(ph.t1)
+                points.append(landed)
         elif ph.kind == "end":
             left, right = plan.placements()[-1]
             mid = 0.5 * (left.xy + right.xy)

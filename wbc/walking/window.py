@@ -81,6 +81,16 @@ class BalanceWindow:
         }
 
     @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> BalanceWindow:
+        """The window :meth:`as_dict` gave (other keys ignored)."""
+        return cls(
+            offsets=np.asarray(data["offsets"], dtype=float),
+            rolls=np.asarray(data["rolls"], dtype=float),
+            **{k: float(data[k]) for k in ("max_lateral", "upright", "max_lean", "com_height",
+                                           "half_width")},
+        )  # fmt: skip
+
+    @classmethod
     def from_robot(
         cls,
         robot: Any,
