@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wbc.balance.angular import GRAVITY, flywheel_shift, hip_strategy_bound
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.model import load_robot
 
 B = 1.5 / 6.18  # AX-12A back-EMF damping (N·m·s/rad)
@@ -54,10 +54,10 @@ def test_more_torque_range_or_inertia_buy_more_and_a_delay_costs_its_decay(
 def test_no_torque_or_no_range_buys_nothing_and_bad_input_is_refused():
     assert flywheel_shift(0.02, 1.9, 0.17, 0.0, B, 0.5) == 0.0
     assert flywheel_shift(0.02, 1.9, 0.17, 0.5, B, 0.0) == 0.0
-    with pytest.raises(WbcError, match="inertia"):
+    with pytest.raises(ConfigurationError, match="inertia"):
         flywheel_shift(-0.02, 1.9, 0.17, 0.5, B, 0.5)
     robot = load_robot()
-    with pytest.raises(WbcError, match="stance"):
+    with pytest.raises(ConfigurationError, match="stance"):
         hip_strategy_bound(robot, robot.neutral(), "up", np.array([0, 1.0]), 0.17)
 
 

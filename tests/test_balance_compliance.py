@@ -17,7 +17,7 @@ from wbc.balance.compliance import (
     servo_deflection,
     support_schedule,
 )
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.model import load_robot
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
 from wbc.servo_map import RAD_PER_TICK
@@ -113,7 +113,7 @@ def test_double_support_shares_the_weight(robot, comp):
     assert tau[li] == pytest.approx(tau[ri], rel=0.05)  # symmetric pose, CoM in the middle
     single = comp.torques(joints, SUPPORT_LEFT)
     assert abs(tau[li]) < abs(single[li])  # the left knee carries less with two feet down
-    with pytest.raises(WbcError, match="support"):
+    with pytest.raises(ConfigurationError, match="support"):
         comp.torques(joints, 7)
 
 
@@ -190,9 +190,9 @@ def test_correction_is_bounded(seed):
         corr.update(rng.normal(0, 0.02, 4), rng.normal(0, 2, 4), measured, dt)
         assert np.all(corr.scale >= 0.3) and np.all(corr.scale <= 1.7)
         assert np.all(np.abs(corr.scale - before) <= 2.0 * dt + 1e-12)
-    with pytest.raises(WbcError, match="s_min"):
+    with pytest.raises(ConfigurationError, match="s_min"):
         EncoderCorrection(2, s_min=1.2)
-    with pytest.raises(WbcError, match="window"):
+    with pytest.raises(ConfigurationError, match="window"):
         EncoderCorrection(2, window=0.0)
 
 
@@ -223,7 +223,7 @@ def test_source_off_switch_is_the_feed_forward(robot, comp):
     for k in range(20):
         assert np.array_equal(off(k, k * 0.01), base)
         assert np.array_equal(unread(k, k * 0.01), base)
-    with pytest.raises(WbcError, match="present positions"):
+    with pytest.raises(ConfigurationError, match="present positions"):
         CompensatedSource(off.source, comp, lambda t: 0, None, EncoderCorrection(3))
 
 

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from wbc.balance.estimator import StateEstimator, exp3
 from wbc.compiled.rows import log3 as log3_into
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.imu import GRAVITY, ImuReading
 from wbc.model import load_robot
 
@@ -215,7 +215,7 @@ def test_com_velocity_and_dcm(robot):
     assert np.linalg.norm(true_vel) > 0.01
     assert np.allclose(e.dcm[:2], e.com[:2] + e.com_vel[:2] / est.omega0)
     assert est.omega0 == pytest.approx(np.sqrt(GRAVITY / 0.2))
-    with pytest.raises(WbcError, match="com_height"):
+    with pytest.raises(ConfigurationError, match="com_height"):
         StateEstimator(robot, 0.0)
-    with pytest.raises(WbcError, match="no stance"):
+    with pytest.raises(ConfigurationError, match="no stance"):
         est.update(dt, q[7:], None, [])

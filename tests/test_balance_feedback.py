@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wbc.balance.feedback import OP3_GAINS, FeedbackSource, GyroFeedback
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.imu import Imu, ImuReading
 from wbc.model import load_robot
 
@@ -33,7 +33,7 @@ def test_gains_by_joint(robot):
     for name, k in zip(robot.joint_names, fb.k, strict=True):
         suffix = name.split("_", 1)[1]
         assert k == pytest.approx(0.5 * OP3_GAINS.get(suffix, 0.0))
-    with pytest.raises(WbcError, match="scale"):
+    with pytest.raises(ConfigurationError, match="scale"):
         GyroFeedback(robot, FixedImu([0.0, 0.0, 0.0]), scale=-1.0)
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from wbc.balance.retime import HoldParams, PhaseHold
 from wbc.bench.trajectories import build
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.recording import SUPPORT_DOUBLE
 
 
@@ -61,9 +61,9 @@ def test_a_lift_off_waits_while_the_dcm_is_toward_the_lifting_sole(walk10):
 
 
 def test_bad_hold_parameters_are_refused():
-    with pytest.raises(WbcError, match="band"):
+    with pytest.raises(ConfigurationError, match="band"):
         HoldParams(band=-0.01).check()
-    with pytest.raises(WbcError, match="max_hold"):
+    with pytest.raises(ConfigurationError, match="max_hold"):
         PhaseHold(HoldParams(max_hold=math.nan))
 
 
@@ -121,7 +121,7 @@ def test_bad_transfer_is_refused():
     from wbc.balance.stabilizer import Gains
 
     for bad in (-0.1, 1.5, math.nan):
-        with pytest.raises(WbcError, match="transfer"):
+        with pytest.raises(ConfigurationError, match="transfer"):
             Gains(transfer=bad).check()
 
 

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wbc.balance.stabilizer import Gains, Stabilizer
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.imu import GRAVITY, Imu, ImuReading
 from wbc.model import load_robot
 from wbc.walking.loop import TickTargets
@@ -152,9 +152,9 @@ def test_joint_offsets_oppose_the_rate(robot):
 
 
 def test_bad_gains_are_refused():
-    with pytest.raises(WbcError, match="k_p"):
+    with pytest.raises(ConfigurationError, match="k_p"):
         Gains(k_p=-1.0).check()
-    with pytest.raises(WbcError, match="max_shift"):
+    with pytest.raises(ConfigurationError, match="max_shift"):
         Gains(max_shift=float("nan")).check()
 
 

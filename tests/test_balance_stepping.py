@@ -19,7 +19,7 @@ from wbc.balance.stepping import (
     shifted_plan,
 )
 from wbc.bench import trajectories as traj
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError, TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE
 from wbc.walking.legs import LegGeometry
 
@@ -125,11 +125,11 @@ def test_no_replan_inside_the_dead_band_in_double_support_or_when_off(robot, wal
 
 
 def test_bad_parameters_and_references_are_refused(robot):
-    with pytest.raises(WbcError, match="threshold"):
+    with pytest.raises(ConfigurationError, match="threshold"):
         SteppingParams(threshold=-1.0).check()
-    with pytest.raises(WbcError, match="hold_ticks"):
+    with pytest.raises(ConfigurationError, match="hold_ticks"):
         SteppingParams(hold_ticks=0).check()
-    with pytest.raises(WbcError, match="thesis_step"):
+    with pytest.raises(TrajectoryError, match="thesis_step"):
         StepAdjuster(robot, traj.build("thesis_step", robot))
 
 

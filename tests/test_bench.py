@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from wbc.bench import metrics, solvers
 from wbc.cli import main
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.recording import Recording
 
 REQUIRED = {
@@ -235,16 +235,16 @@ def test_each_benchmark_has_its_stack_and_another_is_named():
         assert [(e.name, e.stack) for e in strict] == [("hqp-daqp@walk_strict", "walk_strict")]
     other, _ = solvers.select(["wqp-daqp"], None, "tick", "kinematic", "walk")
     assert [e.name for e in other] == ["wqp-daqp@walk"]
-    with pytest.raises(WbcError, match="--stack 'walk_loose': not a stack in tasks/"):
+    with pytest.raises(ConfigurationError, match="--stack 'walk_loose': not a stack in tasks/"):
         solvers.select(None, None, "tick", "kinematic", "walk_loose")
-    with pytest.raises(WbcError, match="unknown benchmark 'paper'"):
+    with pytest.raises(ConfigurationError, match="unknown benchmark 'paper'"):
         solvers.registry("paper")
 
 
 def test_bad_names_are_rejected(capsys):
-    with pytest.raises(WbcError, match="unknown solver"):
+    with pytest.raises(ConfigurationError, match="unknown solver"):
         solvers.select(["gurobi"], None, "tick")
-    with pytest.raises(WbcError, match="unknown families"):
+    with pytest.raises(ConfigurationError, match="unknown families"):
         solvers.select(None, ["magic"], "tick")
     assert main(["bench", "--solvers", "hqp-daqp", "--trajectories", "moonwalk"]) == 2
     assert "unknown trajectory 'moonwalk'" in capsys.readouterr().err

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from wbc.exceptions import WbcError
+from wbc.exceptions import ConfigurationError
 from wbc.imu import GRAVITY, Imu, ImuReading
 
 
@@ -28,7 +28,7 @@ def test_reading_rotation_and_tilt():
 def test_bad_readings_are_refused(field, value):
     good = {"orientation": [0, 0, 0, 1], "angular_velocity": [0, 0, 0],
             "linear_acceleration": [0, 0, GRAVITY]}  # fmt: skip
-    with pytest.raises(WbcError, match=f"ImuReading.{field}"):
+    with pytest.raises(ConfigurationError, match=f"ImuReading.{field}"):
         ImuReading(0.0, **{**good, field: value})
 
 

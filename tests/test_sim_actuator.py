@@ -164,10 +164,10 @@ def test_servo_kind_of_the_bioloid_is_the_ax12a(robot):
     ],
 )
 def test_bad_servo_tables_are_one_clear_line(table, message):
-    from wbc.exceptions import WbcError
+    from wbc.exceptions import ModelError
     from wbc.sim.actuator import HobbyServoParams
 
-    with pytest.raises(WbcError, match=message):
+    with pytest.raises(ModelError, match=message):
         HobbyServoParams.from_table(table, "robot.toml [servo]")
 
 

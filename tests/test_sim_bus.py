@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from wbc.exceptions import ServoError, WbcError
+from wbc.exceptions import ConfigurationError, ServoError
 from wbc.imu import GRAVITY
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK, ServoSettings
@@ -360,7 +360,7 @@ def test_upright_watch_reports_a_fall_and_when(kokone):
 
 
 def test_the_ax12a_bus_refuses_hobby_servos(kokone):
-    with pytest.raises(WbcError, match="SimSsc32Bus"):
+    with pytest.raises(ConfigurationError, match="SimSsc32Bus"):
         SimServoBus(Simulation(kokone))
 
 

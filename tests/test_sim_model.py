@@ -123,7 +123,7 @@ def test_randomised_masses_and_coms(robot):
 def test_missing_mujoco_is_one_clear_line(monkeypatch):
     import builtins
 
-    from wbc.exceptions import WbcError
+    from wbc.exceptions import ConfigurationError
     from wbc.sim import mujoco_module
 
     real_import = builtins.__import__
@@ -134,7 +134,7 @@ def test_missing_mujoco_is_one_clear_line(monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", fake)
-    with pytest.raises(WbcError, match=r"pip install 'wbc\[physics\]'"):
+    with pytest.raises(ConfigurationError, match=r"pip install 'wbc\[physics\]'"):
         mujoco_module()
 
 

@@ -122,12 +122,12 @@ def test_push_moves_the_robot_and_is_an_impulse(robot):
 
 
 def test_faults_are_validated(robot):
-    from wbc.exceptions import WbcError
+    from wbc.exceptions import ConfigurationError
 
     sim = Simulation(robot)
-    with pytest.raises(WbcError, match="unknown fault"):
+    with pytest.raises(ConfigurationError, match="unknown fault"):
         sim.inject("smoke", 0)
-    with pytest.raises(WbcError, match="outside"):
+    with pytest.raises(ConfigurationError, match="outside"):
         sim.inject("silent", 18)
 
 

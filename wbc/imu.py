@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .exceptions import WbcError
+from .exceptions import ConfigurationError, WbcError
 
 
 class ImuError(WbcError):
@@ -68,7 +68,9 @@ class ImuReading:
                 object.__setattr__(self, name, v)
             # (cheap, in every control tick: the sum is NaN or ±inf if a value is, or overflows)
             if v.shape != (size,) or not math.isfinite(sum(v.tolist())):
-                raise WbcError(f"ImuReading.{name}: expected {size} finite values, got {v}")
+                raise ConfigurationError(
+                    f"ImuReading.{name}: expected {size} finite values, got {v}"
+                )
 
     def rotation(self) -> np.ndarray:
         """The orientation as a 3x3 rotation matrix (IMU frame -> world)."""

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .exceptions import WbcError
+from .exceptions import ConfigurationError, WbcError
 from .model import (
     POSES_FILE,
     ROBOT_FILE,
@@ -70,7 +70,9 @@ def init_folder(urdf: str | Path, out: str | Path, force: bool = False) -> list[
     urdf, out = Path(urdf), Path(out)
     robot = Robot(urdf)  # validates the URDF first: nothing is written for a broken one
     if out.exists() and any(out.iterdir()) and not force:
-        raise WbcError(f"--out {out} exists and is not empty (use --force to write into it)")
+        raise ConfigurationError(
+            f"--out {out} exists and is not empty (use --force to write into it)"
+        )
     out.mkdir(parents=True, exist_ok=True)
     lines = []
     target = out / f"{out.name}.urdf"

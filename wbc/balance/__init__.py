@@ -46,7 +46,9 @@ def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> No
 
 def check_compensate_encoders(args: argparse.Namespace) -> None:
     """``--compensate-encoders`` corrects the feed-forward: refused without ``--compensate``."""
-    from ..exceptions import WbcError
+    from ..exceptions import ConfigurationError
 
     if getattr(args, "compensate_encoders", False) and not args.compensate > 0:
-        raise WbcError("--compensate-encoders corrects the feed-forward: give --compensate too")
+        raise ConfigurationError(
+            "--compensate-encoders corrects the feed-forward: give --compensate too"
+        )

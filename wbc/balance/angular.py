@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, ModelError
 from ..model import Robot
 from ..sim.actuator import ARMATURE, NO_LOAD_SPEED, STALL_TORQUE
 
@@ -56,7 +56,7 @@ def flywheel_shift(
     for name, v in (("inertia", inertia), ("mass", mass), ("com_height", com_height),
                     ("damping", damping)):  # fmt: skip
         if not (np.isfinite(v) and v > 0):
-            raise WbcError(f"flywheel_shift: {name} must be a finite number > 0, got {v}")
+            raise ConfigurationError(f"flywheel_shift: {name} must be a finite number > 0, got {v}")
     if torque <= 0 or joint_range <= 0:
         return 0.0
     omega = math.sqrt(GRAVITY / com_height)
@@ -81,7 +81,7 @@ def _about_axis(model: pin.Model, data: pin.Data, bodies: set[int], j: int):
     o = data.oMi[j]
     kind = model.joints[j].shortname()
     if kind not in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        raise WbcError(f"hip_strategy_bound: joint {model.names[j]} is not a revolute RX/RY/RZ")
+        raise ModelError(f"hip_strategy_bound: joint {model.names[j]} is not a revolute RX/RY/RZ")
     a = o.rotation[:, "XYZ".index(kind[-1])]
     inertia, torque = 0.0, 0.0
     for b in bodies:
@@ -113,10 +113,12 @@ def hip_strategy_bound(
     the arms the same way; each from rest at its servo's stall torque less the gravity torque
     it holds, within its joint range in that direction, ``delay`` s after the push."""
     if stance not in ("left", "right"):
-        raise WbcError(f"hip_strategy_bound: stance must be 'left' or 'right', got {stance!r}")
+        raise ConfigurationError(
+            f"hip_strategy_bound: stance must be 'left' or 'right', got {stance!r}"
+        )
     u = np.array([direction[0], direction[1], 0.0], dtype=float)
     if not np.linalg.norm(u) > 0:
-        raise WbcError("hip_strategy_bound: direction must have a horizontal part")
+        raise ConfigurationError("hip_strategy_bound: direction must have a horizontal part")
     u /= np.linalg.norm(u)
     w = np.cross([0.0, 0.0, 1.0], u)  # the spin axis: the top moves along u
     model = robot.model

@@ -36,7 +36,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, ServoMapError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
 from ..servo_map import RAD_PER_TICK
@@ -74,9 +74,9 @@ class ComplianceCompensator:
 
     def __init__(self, robot: Robot, params: ServoParams | None = None, gain: float = 1.0) -> None:
         if robot.servo_map is None:
-            raise WbcError(f"compliance compensation needs a servo map for {robot.name}")
+            raise ServoMapError(f"compliance compensation needs a servo map for {robot.name}")
         if not np.isfinite(gain) or gain < 0:
-            raise WbcError(f"compensation gain must be a finite number >= 0, got {gain}")
+            raise ConfigurationError(f"compensation gain must be a finite number >= 0, got {gain}")
         self.robot = robot
         self.params = params or ServoParams.from_settings(robot.servo_map.settings)
         self.gain = float(gain)
@@ -92,7 +92,7 @@ class ComplianceCompensator:
     def torques(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
         """Static joint torques (N·m, model joint order) holding ``joints`` on ``support``."""
         if support not in SOLES:
-            raise WbcError(f"support must be one of {sorted(SOLES)}, got {support!r}")
+            raise ConfigurationError(f"support must be one of {sorted(SOLES)}, got {support!r}")
         soles = SOLES[support]
         q = self._standing(np.asarray(joints, dtype=float), soles)
         m, d = self.model, self.data
@@ -172,9 +172,11 @@ class EncoderCorrection:
     ) -> None:
         for name, v in (("window", window), ("prior", prior), ("rate", rate)):
             if not (math.isfinite(v) and v > 0):
-                raise WbcError(f"encoder correction: {name} must be a finite number > 0, got {v}")
+                raise ConfigurationError(
+                    f"encoder correction: {name} must be a finite number > 0, got {v}"
+                )
         if not (0 < s_min <= 1 <= s_max and math.isfinite(s_max)):
-            raise WbcError(
+            raise ConfigurationError(
                 f"encoder correction: need 0 < s_min <= 1 <= s_max, got {s_min}, {s_max}"
             )
         self.window, self.prior, self.rate = float(window), float(prior), float(rate)
@@ -236,7 +238,7 @@ class CompensatedSource:
         delay: int = 2,
     ) -> None:
         if correction is not None and present is None:
-            raise WbcError("the encoder correction needs the servos' present positions")
+            raise ConfigurationError("the encoder correction needs the servos' present positions")
         self.source = source
         self.compensator = compensator
         self.support = support
@@ -292,7 +294,9 @@ def compensated(
     present = correction = None
     if correct:
         if deployment is None:
-            raise WbcError("the encoder correction needs the deployment's present positions")
+            raise ConfigurationError(
+                "the encoder correction needs the deployment's present positions"
+            )
         present = lambda: deployment().last_present  # noqa: E731
         correction = EncoderCorrection(robot.n_joints)
     comp = ComplianceCompensator(robot, gain=gain)

@@ -41,7 +41,7 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, ModelError
 from ..imu import GRAVITY, ImuReading
 from ..model import Robot
 
@@ -322,7 +322,7 @@ def _kinematic_table(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     index in the joint vector; the soles' parents and placements (in ``consts``' layout)."""
     model = robot.model
     if model.joints[1].shortname() != "JointModelFreeFlyer":
-        raise WbcError("state estimator: the robot's first joint must be its floating base")
+        raise ModelError("state estimator: the robot's first joint must be its floating base")
     rows = model.njoints - 1
     table = np.zeros((rows, _WIDTH))
     links = np.full((rows, 2), -1, dtype=np.int64)
@@ -336,7 +336,9 @@ def _kinematic_table(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             elif kind == "JointModelRevoluteUnaligned":
                 axis = np.asarray(joint.extract().axis, dtype=float)
             else:
-                raise WbcError(f"state estimator: joint {model.names[j]} is not revolute ({kind})")
+                raise ModelError(
+                    f"state estimator: joint {model.names[j]} is not revolute ({kind})"
+                )
             links[k] = (model.parents[j] - 1, joint.idx_q - 7)
             placement = model.jointPlacements[j]
             table[k, _R:_P] = placement.rotation.ravel()
@@ -377,7 +379,9 @@ class StateEstimator:
             ("velocity_cutoff", velocity_cutoff),
         ):
             if not (np.isfinite(v) and v > 0):
-                raise WbcError(f"state estimator: {name} must be a finite number > 0, got {v}")
+                raise ConfigurationError(
+                    f"state estimator: {name} must be a finite number > 0, got {v}"
+                )
         self.robot = robot
         self.omega0 = float(np.sqrt(GRAVITY / com_height))
         self.use_imu = use_imu
@@ -386,7 +390,7 @@ class StateEstimator:
         self.cutoff = float(velocity_cutoff)
         torso = robot.model.frames[robot.frame_id("torso")]
         if torso.parentJoint != 1:
-            raise WbcError("state estimator: the torso frame must be on the floating base")
+            raise ModelError("state estimator: the torso frame must be on the floating base")
         self.torso_b = torso.placement.rotation.copy()  # constant: torso in the base frame
         table, links, soles = _kinematic_table(robot)
         consts = np.r_[
@@ -432,7 +436,7 @@ class StateEstimator:
         with their planned placements; ``fallback`` stands in for the joints whose present
         position is NaN (not read this tick)."""
         if not stance:
-            raise WbcError("state estimator: no stance sole given")
+            raise ConfigurationError("state estimator: no stance sole given")
         imu = self.use_imu and reading is not None
         name0, anchor0 = stance[0]
         h0 = anchor0.homogeneous

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, ModelError
 from ..imu import Imu
 from ..model import Robot
 from ..servos.sources import TargetSource
@@ -39,7 +39,9 @@ class GyroFeedback:
         max_offset: float = 0.2,
     ) -> None:
         if not (np.isfinite(scale) and scale >= 0):
-            raise WbcError(f"gyro feedback scale must be a finite number >= 0, got {scale}")
+            raise ConfigurationError(
+                f"gyro feedback scale must be a finite number >= 0, got {scale}"
+            )
         gains = OP3_GAINS if gains is None else gains
         self.robot = robot
         self.imu = imu
@@ -76,7 +78,7 @@ def _local_axis(model: pin.Model, j: int) -> np.ndarray:
         return np.eye(3)["XYZ".index(kind[-1])]
     if kind == "JointModelRevoluteUnaligned":
         return np.asarray(model.joints[j].extract().axis, dtype=float)
-    raise WbcError(f"gyro feedback: joint {model.names[j]} is not revolute ({kind})")
+    raise ModelError(f"gyro feedback: joint {model.names[j]} is not revolute ({kind})")
 
 
 class FeedbackSource:

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..imu import Imu
 from ..model import Robot
 from ..servos.bus import ServoBus
@@ -132,9 +132,11 @@ def closed_loop(
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
     if enabled and not config.read:
-        raise WbcError("the closed loop reads the servos' present positions: use --read")
+        raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
     if enabled and not bus.can_read:
-        raise WbcError(f"the closed loop needs servo positions; the {bus.name} bus cannot read")
+        raise ConfigurationError(
+            f"the closed loop needs servo positions; the {bus.name} bus cannot read"
+        )
     gains = (gains or Gains()).check()
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
         ref = narrow_sway(ref, gains.transfer, longest=NARROW_LONGEST)

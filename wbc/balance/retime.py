@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, TrajectoryError
 from ..recording import SUPPORT_DOUBLE
 from ..walking.reference import WalkingReference
 
@@ -41,7 +41,7 @@ class HoldParams:
         for name in ("band", "max_hold"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
-                raise WbcError(f"hold: {name} must be a finite number >= 0, got {v}")
+                raise ConfigurationError(f"hold: {name} must be a finite number >= 0, got {v}")
         return self
 
 
@@ -63,7 +63,7 @@ class PhaseHold:
         sole that lifts there."""
         stance = ref.stance_side(i)
         if stance is None:
-            raise WbcError(f"tick {i} is not a single support")
+            raise TrajectoryError(f"tick {i} is not a single support")
         lift = "right" if stance == "left" else "left"
         v = ref.sole(lift)[0][i, :2] - ref.sole(stance)[0][i, :2]
         v = v / max(math.hypot(v[0], v[1]), 1e-9)

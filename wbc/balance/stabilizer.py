@@ -52,7 +52,7 @@ import numba
 import numpy as np
 
 from ..compiled.rows import log3
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..imu import Imu
 from ..model import Robot
 from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
@@ -102,9 +102,13 @@ class Gains:
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
-                raise WbcError(f"stabilizer gain {name} must be a finite number >= 0, got {v}")
+                raise ConfigurationError(
+                    f"stabilizer gain {name} must be a finite number >= 0, got {v}"
+                )
         if self.transfer > 1:
-            raise WbcError(f"stabilizer gain transfer must be in [0, 1], got {self.transfer}")
+            raise ConfigurationError(
+                f"stabilizer gain transfer must be in [0, 1], got {self.transfer}"
+            )
         return self
 
 

@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import TrajectoryError, WbcError
+from ..exceptions import ConfigurationError, TrajectoryError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..walking.footsteps import Footstep, FootstepPlan
@@ -91,13 +91,15 @@ class SteppingParams:
         ):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
-                raise WbcError(f"stepping: {name} must be a finite number >= 0, got {v}")
+                raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
         for name in ("episode_steps", "rest_steps"):
             v = getattr(self, name)
             if int(v) != v or v < 0:
-                raise WbcError(f"stepping: {name} must be an integer >= 0, got {v}")
+                raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
         if int(self.hold_ticks) != self.hold_ticks or self.hold_ticks < 1:
-            raise WbcError(f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}")
+            raise ConfigurationError(
+                f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}"
+            )
         return self
 
 
@@ -213,7 +215,7 @@ class StepAdjuster:
         self.enabled = enabled
         meta = ref.meta
         if ref.gait != "dynamic" or "timing" not in meta or "generator" not in meta:
-            raise WbcError(
+            raise TrajectoryError(
                 f"stepping re-plans dynamic walks made by wbc.walking.gait.walk; reference "
                 f"{ref.name!r} is not one"
             )
@@ -224,7 +226,7 @@ class StepAdjuster:
         self.base = ref
         self.phases = build_phases(ref.plan, self.timing)
         if self.phases[-1].i1 != ref.n:
-            raise WbcError(f"stepping: reference {ref.name!r} does not match its own timing")
+            raise TrajectoryError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
         self.omega = ref.omega
         self.tc = 1.0 / self.omega

@@ -36,7 +36,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..balance import add_compensate_argument, check_compensate_encoders
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, TrajectoryError, WbcError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIGHT, Recording
 
@@ -83,7 +83,7 @@ def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
 
     entries, notes = select([solver], None, "tick")
     if not entries:
-        raise WbcError(f"solver {solver!r} cannot run here: {'; '.join(notes)}")
+        raise ConfigurationError(f"solver {solver!r} cannot run here: {'; '.join(notes)}")
     exact = [e for e in entries if e.name == solver]
     _, rec = run_entry((exact or entries)[0], robot, traj.build(trajectory, robot), "tick")
     return rec
@@ -469,11 +469,11 @@ def push_direction(rec: Recording, kind: str) -> np.ndarray:
     if kind == "forward":
         return np.array([1.0, 0.0, 0.0])
     if kind != "lateral":
-        raise WbcError(f"push direction must be 'forward' or 'lateral', got {kind!r}")
+        raise ConfigurationError(f"push direction must be 'forward' or 'lateral', got {kind!r}")
     t = mid_single_support(rec)
     support = rec.channels.get("support")
     if t is None or support is None:
-        raise WbcError("a lateral push needs a single-support phase in the recording")
+        raise TrajectoryError("a lateral push needs a single-support phase in the recording")
     k = int(np.clip(np.searchsorted(rec.t - rec.t[0], t, side="right") - 1, 0, len(rec) - 1))
     return np.array([0.0, 1.0 if support[k] == SUPPORT_LEFT else -1.0, 0.0])
 
@@ -567,14 +567,16 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
     from . import trajectories as traj
 
     if args.robustness < 0:
-        raise WbcError(f"--robustness must be >= 0, got {args.robustness}")
+        raise ConfigurationError(f"--robustness must be >= 0, got {args.robustness}")
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
-        raise WbcError(f"--compensate GAIN must be a finite number >= 0, got {args.compensate}")
+        raise ConfigurationError(
+            f"--compensate GAIN must be a finite number >= 0, got {args.compensate}"
+        )
     check_compensate_encoders(args)
     if not (math.isfinite(args.gyro) and args.gyro >= 0):
-        raise WbcError(f"--gyro SCALE must be a finite number >= 0, got {args.gyro}")
+        raise ConfigurationError(f"--gyro SCALE must be a finite number >= 0, got {args.gyro}")
     if args.mode != "tick":
-        raise WbcError("--physics plays real-time plans: use --mode tick (the default)")
+        raise ConfigurationError("--physics plays real-time plans: use --mode tick (the default)")
     names = [t for t in args.trajectories if t != traj.STATIC_COM]
     refs = {t: traj.build(t, robot) for t in names}
     started = time.perf_counter()

@@ -39,6 +39,7 @@ import tty
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
+from ..exceptions import ConfigurationError
 from ..servo_map import RAD_PER_TICK
 from .dynamixel import (
     ADDR_ALARM_LED,
@@ -119,11 +120,11 @@ class Fault:
 
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS:
-            raise ValueError(f"unknown fault kind {self.kind!r}; use one of {FAULT_KINDS}")
+            raise ConfigurationError(f"unknown fault kind {self.kind!r}; use one of {FAULT_KINDS}")
         if self.kind == "error_bits" and not 0 < self.bits < 0x80:
-            raise ValueError(f"error_bits fault needs bits in 1..0x7F, got {self.bits}")
+            raise ConfigurationError(f"error_bits fault needs bits in 1..0x7F, got {self.bits}")
         if self.kind == "late" and not self.delay_s > 0:
-            raise ValueError(f"late fault needs delay_s > 0, got {self.delay_s}")
+            raise ConfigurationError(f"late fault needs delay_s > 0, got {self.delay_s}")
 
 
 @dataclass(frozen=True)

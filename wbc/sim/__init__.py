@@ -13,7 +13,7 @@ Needs the optional ``mujoco`` package (``pip install 'wbc[physics]'``).
 
 from __future__ import annotations
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 
 
 def mujoco_module():
@@ -21,7 +21,7 @@ def mujoco_module():
     try:
         import mujoco
     except ModuleNotFoundError as exc:
-        raise WbcError(
+        raise ConfigurationError(
             "wbc.sim needs the optional package 'mujoco': pip install 'wbc[physics]'"
         ) from exc
     return mujoco

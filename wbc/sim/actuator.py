@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, ModelError, ServoError
 from ..servo_map import RAD_PER_TICK, ServoMap, ServoSettings
 
 if TYPE_CHECKING:
@@ -306,24 +306,24 @@ class HobbyServoParams:
         """Parameters from a robot's ``[servo]`` table (one clear line per bad key)."""
         extra = sorted(set(table) - set(HOBBY_KEYS))
         if extra:
-            raise WbcError(f"{where}: unknown keys {extra}; allowed: {', '.join(HOBBY_KEYS)}")
+            raise ModelError(f"{where}: unknown keys {extra}; allowed: {', '.join(HOBBY_KEYS)}")
         values = {}
         for key in HOBBY_KEYS[2:]:
             if key not in table:
                 if key in ("stall_torque", "no_load_speed"):
-                    raise WbcError(f"{where}: {key} is required (the servo's datasheet value)")
+                    raise ModelError(f"{where}: {key} is required (the servo's datasheet value)")
                 continue
             v = table[key]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise WbcError(f"{where}: {key} = {v!r} must be a finite number")
+                raise ModelError(f"{where}: {key} = {v!r} must be a finite number")
             low = 0.0 if key in ("dead_band_us", "friction_loss", "armature") else None
             if (low is None and v <= 0) or (low is not None and v < low):
-                raise WbcError(f"{where}: {key} = {v!r} must be {'>= 0' if low == 0 else '> 0'}")
+                raise ModelError(f"{where}: {key} = {v!r} must be {'>= 0' if low == 0 else '> 0'}")
             values[key] = float(v)
         if values.get("frame_period", 0.02) > 0.1:
-            raise WbcError(f"{where}: frame_period = {values['frame_period']} s: at most 0.1 s")
+            raise ModelError(f"{where}: frame_period = {values['frame_period']} s: at most 0.1 s")
         if values.get("loop_period", 0.0) > values.get("frame_period", 0.02):
-            raise WbcError(f"{where}: loop_period must be <= frame_period")
+            raise ModelError(f"{where}: loop_period must be <= frame_period")
         name = table.get("name", "hobby PWM servo")
         return cls(**values, name=str(name))
 
@@ -336,16 +336,16 @@ def servo_kind(robot: Robot) -> str:
     if law is None:
         if robot.servo_map is not None:
             return "ax12a"
-        raise WbcError(
+        raise ModelError(
             f"robot {robot.name} has no servo model to simulate: give robot.toml a [servo] "
             f"table (law = {' or '.join(repr(x) for x in SERVO_LAWS)}) or a servos.toml"
         )
     if law not in SERVO_LAWS:
-        raise WbcError(
+        raise ModelError(
             f"{robot.robot_data.source}/robot.toml: [servo] law = {law!r}; allowed: {SERVO_LAWS}"
         )
     if law == "ax12a" and robot.servo_map is None:
-        raise WbcError(f"robot {robot.name}: [servo] law = 'ax12a' needs a servos.toml")
+        raise ModelError(f"robot {robot.name}: [servo] law = 'ax12a' needs a servos.toml")
     return law
 
 
@@ -466,7 +466,7 @@ class HobbyServoArray:
         pulses = np.asarray(pulses, dtype=float)
         mask = np.ones(self.n, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
         if np.any(mask & ((pulses < self.cmd_min) | (pulses > self.cmd_max))):
-            raise WbcError(f"SSC-32: pulse outside {self.cmd_min:g}..{self.cmd_max:g} µs")
+            raise ServoError(f"SSC-32: pulse outside {self.cmd_min:g}..{self.cmd_max:g} µs")
         now = self.time
         cur = self._now_pulse(now)
         first = np.isnan(cur)
@@ -505,5 +505,7 @@ class HobbyServoArray:
 def _steps(period: float, dt: float, what: str) -> int:
     n = round(period / dt)
     if n < 1 or abs(n * dt - period) > 1e-9:
-        raise WbcError(f"{what} = {period} s is not a whole number of {dt} s physics steps")
+        raise ConfigurationError(
+            f"{what} = {period} s is not a whole number of {dt} s physics steps"
+        )
     return n

@@ -30,7 +30,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..exceptions import ServoError, WbcError
+from ..exceptions import ConfigurationError, ServoError
 from ..imu import Imu, ImuReading
 from ..servos.bus import COMM_OK, COMM_TIMEOUT, BusBudget, ServoBus, ServoStatus
 from ..servos.dynamixel import (
@@ -76,7 +76,7 @@ class SimServoBus(ServoBus):
         on_close: Callable[[], None] | None = None,
     ) -> None:
         if sim.hobby:
-            raise WbcError(
+            raise ConfigurationError(
                 f"robot {sim.robot.name} has hobby PWM servos: its simulated bus is SimSsc32Bus "
                 "(wbc.sim.bus.sim_bus picks the robot's own)"
             )
@@ -317,7 +317,7 @@ class SimSsc32Bus(Ssc32Bus):
         on_close: Callable[[], None] | None = None,
     ) -> None:
         if not sim.hobby:
-            raise WbcError(
+            raise ConfigurationError(
                 f"robot {sim.robot.name} has AX-12A servos: the simulated SSC-32 drives hobby "
                 "PWM servos (robot.toml [servo] law = 'hobby_pwm')"
             )

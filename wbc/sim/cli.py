@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError, TrajectoryError
 
 if TYPE_CHECKING:
     from .simulator import Simulation
@@ -52,7 +52,7 @@ def make_sim_bus(args: argparse.Namespace, robot):
     want = "ssc32" if sim.hobby else "dynamixel"
     if backend != want:
         servo = sim.servo_params.name if sim.hobby else "AX-12A"
-        raise WbcError(
+        raise ConfigurationError(
             f"--sim: robot {robot.name}'s servos are {servo} ({want} bus): use --bus {want}"
         )
     watch = UprightWatch(sim)
@@ -176,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
     from .play import play
 
     if not (math.isfinite(args.settle) and args.settle >= 0):
-        raise WbcError(f"--settle must be a time >= 0 s, got {args.settle}")
+        raise ConfigurationError(f"--settle must be a time >= 0 s, got {args.settle}")
     robot = load_robot(args.robot)
     if args.recording:
         rec = Recording.load(args.recording)
@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     if args.push:
         t_push = mid_single_support(rec)
         if t_push is None:
-            raise WbcError(f"{label}: no single-support phase to push in")
+            raise TrajectoryError(f"{label}: no single-support phase to push in")
         duration = 0.01
         push = (t_push, [args.push[0] / duration, args.push[1] / duration, 0.0], duration)
     on_tick = None

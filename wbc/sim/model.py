@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import WbcError
+from ..exceptions import ModelError
 from ..model import Robot
 from . import mujoco_module
 
@@ -73,14 +73,14 @@ def imu_placement(robot: Robot) -> tuple[str, np.ndarray]:
     where = f"{robot.robot_data.source}/robot.toml [imu]"
     extra = sorted(set(table) - {"frame", "offset"})
     if extra:
-        raise WbcError(f"{where}: unknown keys {extra}; allowed: frame, offset")
+        raise ModelError(f"{where}: unknown keys {extra}; allowed: frame, offset")
     frame = table.get("frame", "torso")
     if not isinstance(frame, str) or not robot.has_frame(frame):
-        raise WbcError(f"{where}: frame = {frame!r} is not a frame of {robot.urdf_path.name}")
+        raise ModelError(f"{where}: frame = {frame!r} is not a frame of {robot.urdf_path.name}")
     offset = table.get("offset", [0.0, 0.0, 0.0])
     ok = isinstance(offset, (list, tuple)) and len(offset) == 3
     if not ok or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in offset):
-        raise WbcError(f"{where}: offset = {offset!r} must be 3 numbers (m)")
+        raise ModelError(f"{where}: offset = {offset!r} must be 3 numbers (m)")
     return frame, np.asarray(offset, dtype=float)
 
 
@@ -95,7 +95,7 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
     try:
         spec = mj.MjSpec.from_file(str(robot.urdf_path))
     except Exception as exc:
-        raise WbcError(f"MuJoCo cannot read the URDF {robot.urdf_path}: {exc}") from exc
+        raise ModelError(f"MuJoCo cannot read the URDF {robot.urdf_path}: {exc}") from exc
     spec.option.timestep = p.timestep
     spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
     bodies = {b.name: b for b in spec.bodies}
@@ -130,7 +130,7 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
     for i, name in enumerate(robot.joint_names):
         j = joints.get(name)
         if j is None:
-            raise WbcError(f"MuJoCo model of {robot.urdf_path.name} lacks joint {name!r}")
+            raise ModelError(f"MuJoCo model of {robot.urdf_path.name} lacks joint {name!r}")
         j.armature, j.frictionloss = float(arm[i]), float(fric[i])
         try:
             j.damping = [float(damp[i]), 0.0, 0.0]  # MuJoCo 4: polynomial, linear term first
@@ -171,14 +171,16 @@ def build_model(robot: Robot, params: ModelParams | None = None):
     try:
         return spec.compile()
     except Exception as exc:
-        raise WbcError(f"MuJoCo cannot compile the model of {robot.urdf_path.name}: {exc}") from exc
+        raise ModelError(
+            f"MuJoCo cannot compile the model of {robot.urdf_path.name}: {exc}"
+        ) from exc
 
 
 def site_names(robot: Robot) -> list[str]:
     """The operational frames that get a site: torso and soles (required), hands if any."""
     missing = [f for f in SITES if not robot.has_frame(f)]
     if missing:
-        raise WbcError(
+        raise ModelError(
             f"{robot.urdf_path.name}: frames {missing} missing: the simulator needs torso, "
             "l_sole, r_sole (add fixed links, or map them in robot.toml [frames])"
         )
@@ -190,7 +192,7 @@ def _root_body(robot: Robot, bodies: dict):
     for f in robot.model.frames:
         if f.parentJoint == 1 and f.type == pin.FrameType.BODY and f.name in bodies:
             return bodies[f.name]
-    raise WbcError(f"MuJoCo model of {robot.urdf_path.name}: no body for the root link")
+    raise ModelError(f"MuJoCo model of {robot.urdf_path.name}: no body for the root link")
 
 
 def link_names(spec) -> list[str]:
@@ -215,6 +217,6 @@ def _site_placement(robot: Robot, frame: str, bodies: dict):
             body_frame = f
             break
     else:
-        raise WbcError(f"no MuJoCo body carries frame {frame!r}")
+        raise ModelError(f"no MuJoCo body carries frame {frame!r}")
     placement = body_frame.placement.inverse() * model.frames[fid].placement
     return bodies[body_frame.name], placement

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
 from ..model import Robot
 from ..servo_map import ServoSettings
 from . import mujoco_module
@@ -198,7 +198,9 @@ class Simulation:
 
     def _require_ax(self, what: str) -> None:
         if self.hobby:
-            raise WbcError(f"{self.robot.name}'s hobby servos have no {what} (AX-12A only)")
+            raise ConfigurationError(
+                f"{self.robot.name}'s hobby servos have no {what} (AX-12A only)"
+            )
 
     def write_goals(self, ticks: np.ndarray, move_ms: float | None = None) -> None:
         """Goal positions (model order; AX-12A ticks, or hobby servos' pulse widths in µs
@@ -218,9 +220,11 @@ class Simulation:
     def inject(self, kind: str, index: int) -> None:
         """A servo fault: ``silent`` (stops answering and ignores goals) or ``overload``."""
         if kind not in FAULT_KINDS:
-            raise WbcError(f"unknown fault {kind!r}; choose from {FAULT_KINDS}")
+            raise ConfigurationError(f"unknown fault {kind!r}; choose from {FAULT_KINDS}")
         if not 0 <= index < self.robot.n_joints:
-            raise WbcError(f"fault: servo index {index} outside 0..{self.robot.n_joints - 1}")
+            raise ConfigurationError(
+                f"fault: servo index {index} outside 0..{self.robot.n_joints - 1}"
+            )
         if kind == "silent":
             self.silent[index] = True
             if self.hobby:  # its signal wire is cut: no more pulses, the servo goes limp
