@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 pytest.importorskip("mujoco")
 
-from wbc.sim.play import convex_hull, hull_margin
+from wbc.geometry import convex_hull
+from wbc.sim.play import hull_margin
 
 
 def test_margin_of_a_rectangle():

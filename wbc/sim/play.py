@@ -9,13 +9,13 @@ logs the simulated state (:class:`SimLog`).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import WbcError
+from ..exceptions import ConfigurationError
+from ..geometry import convex_hull, signed_distance
 from ..model import Robot
 from ..recording import Recording
 from ..servos.deploy import (
@@ -61,42 +61,15 @@ class PlayResult:
     sim: Simulation
 
 
-def convex_hull(points: np.ndarray) -> list[tuple[float, float]]:
-    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain)."""
-    pts = sorted({(round(float(x), 9), round(float(y), 9)) for x, y in np.asarray(points)})
-    if len(pts) < 3:
-        return pts
-
-    def turn(o, a, b) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    def half(seq) -> list[tuple[float, float]]:
-        out: list[tuple[float, float]] = []
-        for p in seq:
-            while len(out) >= 2 and turn(out[-2], out[-1], p) <= 0:
-                out.pop()
-            out.append(p)
-        return out
-
-    lower, upper = half(pts), half(pts[::-1])
-    return lower[:-1] + upper[:-1]
-
-
 def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (m) from ``p`` to the edge of the convex hull of ``points`` (positive
-    inside; 0 when the hull is a point or a segment: a foot resting on an edge tips)."""
-    hull = convex_hull(points)
+    inside; 0 when the hull is a point or a segment: a foot resting on an edge tips):
+    :func:`wbc.geometry.signed_distance` of :func:`wbc.geometry.convex_hull`."""
+    pts = np.asarray(points, dtype=float)
+    hull = convex_hull(pts[:, :2]) if len(pts) else pts
     if len(hull) < 3:
         return 0.0
-    px, py = float(p[0]), float(p[1])
-    best = math.inf
-    for k, (ax, ay) in enumerate(hull):
-        bx, by = hull[(k + 1) % len(hull)]
-        ex, ey = bx - ax, by - ay
-        length = math.hypot(ex, ey)
-        # outward normal of a CCW polygon edge: (ey, -ex) / |e|
-        best = min(best, ((ax - px) * ey - (ay - py) * ex) / length)
-    return best
+    return float(signed_distance(hull, np.asarray(p, dtype=float)[:2]))
 
 
 class _Logger:
@@ -172,7 +145,7 @@ def play(
             on_tick(sim)
 
     if compensate > 0 and sim.hobby:
-        raise WbcError(
+        raise ConfigurationError(
             f"compensate: the compliance feed-forward models the AX-12A; {robot.name}'s "
             "hobby servos have no such model"
         )

@@ -15,6 +15,8 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, ModelError
 from ..geometry import (  # noqa: F401 (convex_hull, polygon_area: re-exported)
+    FOOT_LENGTH,
+    FOOT_WIDTH,
     convex_hull,
     polygon_area,
     rect_corners,
@@ -26,8 +28,9 @@ from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 
 #: A sole is taken to touch the ground when its origin is at most this high (m).
 CONTACT_HEIGHT = 0.003
-#: Fallback sole rectangle (x_min, x_max, y_min, y_max) in the sole frame, Bioloid foot (m).
-DEFAULT_SOLE_RECT = (-0.0505, 0.0505, -0.0305, 0.0305)
+#: Fallback sole rectangle (x_min, x_max, y_min, y_max) in the sole frame, Bioloid foot (m):
+#: :data:`wbc.geometry.FOOT_LENGTH` x :data:`~wbc.geometry.FOOT_WIDTH`, centred
+DEFAULT_SOLE_RECT = (-FOOT_LENGTH / 2, FOOT_LENGTH / 2, -FOOT_WIDTH / 2, FOOT_WIDTH / 2)
 
 
 @dataclass(frozen=True)

@@ -336,6 +336,7 @@ class _Problem:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the Bioloid's balance windows: ``python -m wbc.walking.window``."""
+    from ..geometry import FOOT_WIDTH
     from ..model import load_robot
     from .legs import LegGeometry
     from .reference import StandingState
@@ -344,7 +345,8 @@ def main(argv: list[str] | None = None) -> int:
     start = StandingState.from_robot(robot)
     half = 0.5 * float(start.left.y - start.right.y)
     legs = LegGeometry().max_com_lateral(float(start.com[2]), half)
-    print(f"sole centre {half * 1e3:.1f} mm, inner edge {(half - 0.0305) * 1e3:.1f} mm from mid")
+    inner = half - FOOT_WIDTH / 2
+    print(f"sole centre {half * 1e3:.1f} mm, inner edge {inner * 1e3:.1f} mm from mid")
     print(f"legs-only model (LegGeometry, torso upright, arms idle): {legs * 1e3:.1f} mm")
     for arms in (True, False):
         for lean in (0.0, 5.0, 10.0, 15.0, 20.0):
