@@ -11,6 +11,8 @@ from proxsuite import proxqp
 from wbc import ConfigurationError, InfeasibleError, Kinematics, SolverError, TaskError
 from wbc.limits import ComPolygonConstraint
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
+from wbc.solvers.backends import make_backend
+from wbc.solvers.cascade import solve_cascade_or_daqp
 from wbc.tasks import (
     ComTask,
     ContactTask,
@@ -140,12 +142,13 @@ def test_all_backends_agree_on_the_weighted_qp(robot, seed, shift, lift, polygon
 @example(seed=0, shift=(0.0, 0.0, 2.0**-9), lift=0.0, polygon=True)
 @example(seed=8, shift=(0.0, 0.0, 2.0**-9), lift=0.0, polygon=True)
 def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon):
-    """All on the numpy path (the backends' cascade: the compiled one is another algorithm,
-    which meets a level exactly where the cascade's ridge leaves ~1e-8, and on degenerate
-    levels that moves Δq by up to 1e-3). The examples: ProxQP reported a level "solved" at a
-    duality gap of 4e-3, Δq 0.12 rad off (seed 0); the compiled DAQP and the numpy quadprog
-    differed by 1e-3 (seed 8). Hypothesis draws other examples depending on which modules
-    are loaded (it takes constants from their source), so the test failed only after others.
+    """The backends' cascade (:func:`wbc.solvers.cascade.solve_cascade_or_daqp`: what a
+    hierarchy runs on a tick the kernels' level algorithm cannot finish, DAQP's again where
+    another backend fails a level), each backend on the same levels and box. (A
+    HierarchicalQP solves every tick with the kernels' level algorithm whatever its backend:
+    comparing solvers built on different backends compared that algorithm with itself,
+    bitwise.) The examples: ProxQP reported a level "solved" at a duality gap of 4e-3, Δq
+    0.12 rad off (seed 0); the compiled DAQP and the numpy quadprog differed by 1e-3 (seed 8).
 
     The active-set solvers (DAQP, quadprog) agree to 1e-6 and ProxQP to 1e-4. OSQP (ADMM,
     eps 1e-6) meets each level's optimum to its tolerance, but not Δq: its polishing fails on
@@ -153,20 +156,20 @@ def test_backends_agree_on_the_hierarchical_qp(robot, seed, shift, lift, polygon
     instead of exactly moves Δq by up to ~1e-2 along the nearly flat directions of the last
     level. So for OSQP the test compares what ADMM guarantees: every level's residual (1e-4,
     lexicographically: a level above met less well may leave a level below a better residual)
-    and the bounds (1e-5). It may also stop at its iteration limit there (a SolverError,
-    never a silently wrong answer)."""
+    and the bounds (1e-5). It may also stop at its iteration limit there (DAQP's cascade
+    then answers, never a silently wrong answer)."""
     q, _ = random_start(robot, seed)
+    stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
+    solver = HierarchicalQP(stack, "daqp", compiled=False)
+    solver.solve(q, dt=0.01)  # (its levels and box at q)
+    problems, lower, upper = solver.problems, solver.last.lower, solver.last.upper
     results, residuals = {}, {}
     for backend in BACKENDS:
-        stack = walking_stack(robot, q, com_shift=shift, lift=lift, polygon=polygon)
-        solver = HierarchicalQP(stack, backend, compiled=False)
-        try:
-            results[backend] = solver.solve(q, dt=0.01)
-        except SolverError as exc:
-            assert backend == "osqp" and "maximum iterations" in str(exc)
-            continue
-        residuals[backend] = [np.linalg.norm(s.residual) for s in solver.solutions]
-        lower, upper = solver.last.lower, solver.last.upper
+        backends = [make_backend(backend) for _ in range(len(problems) + 1)]
+        results[backend], levels = solve_cascade_or_daqp(
+            problems, lower.copy(), upper.copy(), backends, final_regularization=1e-6
+        )
+        residuals[backend] = [np.linalg.norm(s.residual) for s in levels]
         assert np.all(results[backend] >= lower - 1e-5) and np.all(results[backend] <= upper + 1e-5)
     assert np.allclose(results["quadprog"], results["daqp"], atol=1e-6)
     assert np.allclose(results["proxqp"], results["daqp"], atol=1e-4)
