@@ -380,6 +380,34 @@ def test_a_target_handle_taken_before_the_first_solve_is_honoured(robot, solver_
     assert swing.target_rotation is handles[2]
 
 
+@pytest.mark.parametrize("solver_class", [WeightedQP, HierarchicalQP])
+@pytest.mark.parametrize("compiled", [None, False])
+def test_a_target_assigned_after_the_first_solve_is_honoured(robot, solver_class, compiled):
+    """``task.target = new`` writes into the task's own array (the compiled plan reads that
+    array by address: a re-bound attribute was silently ignored there, honoured on the numpy
+    path); a wrong shape is refused."""
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q)
+    com, swing = stack.task("com"), stack.task("swing")
+    arrays = com.target, swing.target_position, swing.target_rotation
+    solver = solver_class(stack, compiled=compiled)
+    before = solver.solve(q, 0.01)
+    com.target = com.target + [0.004, -0.002, 0.0]
+    swing.target_position = swing.target_position + [0.0, 0.0, 0.01]
+    dq = solver.solve(q, 0.01)
+    assert (solver.fast is not None) == (compiled is None)
+    reference = walking_stack(robot, q)
+    reference.task("com").set_target(com.target)
+    reference.task("swing").set_position_target(swing.target_position)
+    expected = solver_class(reference, compiled=False).solve(q, 0.01)
+    assert np.abs(dq - before).max() > 1e-3
+    assert np.abs(dq - expected).max() < 1e-9, np.abs(dq - expected).max()
+    assert com.target is arrays[0] and swing.target_position is arrays[1]
+    assert swing.target_rotation is arrays[2]
+    with pytest.raises(TaskError, match="com"):
+        com.target = [0.0, 0.1]
+
+
 def test_support_switch_replans(robot):
     q = robot.configuration("walk_ready")
     stack = walking_stack(robot, q)

@@ -104,6 +104,9 @@ class Task:
             name in own for name in ("compute_error", "compute_jacobian", "fill")
         ):
             cls.row_kernel = None  # its own Python rows: the inherited kernel no longer applies
+        for name in own.get("target_fields", ()):
+            if not isinstance(own.get(name), property):  # (a class's own accessors stay)
+                setattr(cls, name, _target_field(name))
 
     # ------------------------------------------------------------------ parameters
     def _changed(self) -> None:
@@ -264,6 +267,33 @@ class Task:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, rows={self.rows}, gain={self.gain})"
+
+
+def _target_field(name: str) -> property:
+    """The attribute ``name`` of :attr:`Task.target_fields`: bound once (in ``__init__``), then
+    an assignment ``task.<name> = value`` writes into that array (the compiled plans read it
+    by address: a re-bound attribute would be ignored there and honoured on the numpy path);
+    a value of another shape raises :class:`TaskError`."""
+
+    def get(self: Task) -> np.ndarray:
+        try:
+            return self.__dict__[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def set(self: Task, value) -> None:
+        own = self.__dict__.get(name)
+        if own is None:
+            self.__dict__[name] = value
+            return
+        v = np.asarray(value, dtype=float)
+        if v.shape != own.shape:
+            raise TaskError(
+                f"task {self.name!r}: {name} must have shape {own.shape}, got {v.shape}"
+            )
+        own[...] = v
+
+    return property(get, set, doc=f"the task's own {name} array (assigned in place)")
 
 
 def check_vector(
