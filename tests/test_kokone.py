@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from wbc import load_robot
-from wbc.exceptions import ModelError, ServoError
+from wbc.exceptions import ModelError, ServoMapError
 from wbc.paths import robots_dir
 from wbc.pose_ik import StanceIK
 from wbc.servos.ssc32 import PULSE_MAX, PULSE_MIN, Ssc32Channel, Ssc32Map
@@ -268,10 +268,10 @@ def test_ssc32_map_us_per_rad_and_bad_keys(tmp_path):
     m = Ssc32Map.from_file(f, ["a"])
     assert m.channels[0].us_per_deg == pytest.approx(600 * math.pi / 180)
     f.write_text("[joints]\na = { channel = 1, us_per_rad = 600.0, us_per_deg = 10 }\n")
-    with pytest.raises(ServoError, match="us_per_deg or us_per_rad, not both"):
+    with pytest.raises(ServoMapError, match="us_per_deg or us_per_rad, not both"):
         Ssc32Map.from_file(f, ["a"])
     f.write_text("[bus]\nbaudrate = 1000000\n[joints]\na = { channel = 1 }\n")
-    with pytest.raises(ServoError, match=r"\[bus\] baudrate 1000000 not in"):
+    with pytest.raises(ServoMapError, match=r"\[bus\] baudrate 1000000 not in"):
         Ssc32Map.from_file(f, ["a"])
 
 

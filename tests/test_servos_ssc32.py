@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from wbc.exceptions import ServoError
+from wbc.exceptions import ServoError, ServoMapError
 from wbc.servos import deploy as deploy_cmd
 from wbc.servos.emulator import Ssc32Emulator
 from wbc.servos.ssc32 import (
@@ -60,12 +60,12 @@ def test_map_from_file_and_bad_maps(robot, tmp_path):
     bad = _map_toml(
         robot, tmp_path / "dup.toml", lambda s: s.replace("channel = 30", "channel = 31")
     )
-    with pytest.raises(ServoError, match="duplicate channel 31"):
+    with pytest.raises(ServoMapError, match="duplicate channel 31"):
         Ssc32Map.from_file(bad, robot.joint_names)
     missing = _map_toml(robot, tmp_path / "miss.toml", lambda s: s.replace("r_elbow =", "r_elb ="))
-    with pytest.raises(ServoError, match=r"missing \['r_elbow'\], unknown \['r_elb'\]"):
+    with pytest.raises(ServoMapError, match=r"missing \['r_elbow'\], unknown \['r_elb'\]"):
         Ssc32Map.from_file(missing, robot.joint_names)
-    with pytest.raises(ServoError, match="center_us 3000"):
+    with pytest.raises(ServoMapError, match="center_us 3000"):
         Ssc32Map([Ssc32Channel("a", 0, 1, 3000.0)])
     with pytest.raises(ServoError, match="not an SSC-32 rate"):
         Ssc32Bus("/dev/null", m, baud=1_000_000)

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import ServoError
+from ..exceptions import ServoError, ServoMapError
 from ..paths import read_toml
 from .bus import (
     COMM_OK,
@@ -72,22 +72,22 @@ class Ssc32Map:
         for c in self.channels:
             where = f"{source}: joint {c.joint!r}"
             if isinstance(c.channel, bool) or not isinstance(c.channel, int):
-                raise ServoError(f"{where}: channel must be an integer, got {c.channel!r}")
+                raise ServoMapError(f"{where}: channel must be an integer, got {c.channel!r}")
             if not 0 <= c.channel <= MAX_CHANNEL:
-                raise ServoError(f"{where}: channel {c.channel} outside 0..{MAX_CHANNEL}")
+                raise ServoMapError(f"{where}: channel {c.channel} outside 0..{MAX_CHANNEL}")
             if c.channel in seen:
-                raise ServoError(
+                raise ServoMapError(
                     f"{where}: duplicate channel {c.channel} (also {seen[c.channel]!r})"
                 )
             seen[c.channel] = c.joint
             if c.sign not in (1, -1):
-                raise ServoError(f"{where}: sign must be 1 or -1, got {c.sign!r}")
+                raise ServoMapError(f"{where}: sign must be 1 or -1, got {c.sign!r}")
             if not PULSE_MIN <= c.center_us <= PULSE_MAX:
-                raise ServoError(
+                raise ServoMapError(
                     f"{where}: center_us {c.center_us} outside {PULSE_MIN}..{PULSE_MAX}"
                 )
             if not (math.isfinite(c.us_per_deg) and c.us_per_deg > 0):
-                raise ServoError(f"{where}: us_per_deg must be positive, got {c.us_per_deg}")
+                raise ServoMapError(f"{where}: us_per_deg must be positive, got {c.us_per_deg}")
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -113,12 +113,12 @@ class Ssc32Map:
     def from_file(cls, path: str | Path, joint_names: Sequence[str]) -> Ssc32Map:
         """Load a TOML map; every joint of the model must appear, no other."""
         path = Path(path)
-        raw = read_toml(path, "SSC-32 map", ServoError)
+        raw = read_toml(path, "SSC-32 map", ServoMapError)
         joints = raw.get("joints", {})
         missing = [j for j in joint_names if j not in joints]
         extra = [j for j in joints if j not in set(joint_names)]
         if missing or extra:
-            raise ServoError(
+            raise ServoMapError(
                 f"SSC-32 map {path} does not match the robot: missing {missing}, unknown {extra}"
             )
         channels = []
@@ -126,11 +126,11 @@ class Ssc32Map:
             e = joints[j]
             unknown = set(e) - {"channel", "sign", "center_us", "us_per_deg", "us_per_rad"}
             if unknown or "channel" not in e:
-                raise ServoError(
+                raise ServoMapError(
                     f"SSC-32 map {path}: joint {j!r} needs 'channel'; unknown {unknown}"
                 )
             if "us_per_deg" in e and "us_per_rad" in e:
-                raise ServoError(
+                raise ServoMapError(
                     f"SSC-32 map {path}: joint {j!r}: give us_per_deg or us_per_rad, not both"
                 )
             scale = e.get("us_per_deg", KOKONE_US_PER_DEG)
@@ -148,7 +148,7 @@ class Ssc32Map:
             )
         baud = raw.get("bus", {}).get("baudrate", 115200)
         if baud not in SSC32_BAUDS:
-            raise ServoError(f"SSC-32 map {path}: [bus] baudrate {baud!r} not in {SSC32_BAUDS}")
+            raise ServoMapError(f"SSC-32 map {path}: [bus] baudrate {baud!r} not in {SSC32_BAUDS}")
         out = cls(channels, source=str(path))
         out.baudrate = baud
         return out
@@ -180,7 +180,7 @@ class Ssc32Map:
 
 def _number(value, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ServoError(f"{where} = {value!r}: must be a number")
+        raise ServoMapError(f"{where} = {value!r}: must be a number")
     return float(value)
 
 
