@@ -260,3 +260,21 @@ def torque_was_on(emu, sid: int) -> bool:
         w.servo_id == sid and w.address == ADDR_TORQUE_ENABLE and w.data[:1] == b"\x01"
         for w in emu.writes
     )
+
+
+def test_bad_options_and_maps_raise_their_subjects_class(robot):
+    """exceptions.py's rule: a bad deployment option is a ConfigurationError, a missing or
+    inconsistent servo map a ServoMapError (both ValueErrors); ServoError is left to what
+    fails on the bus or in the safety layer while it runs."""
+    from wbc import load_robot
+    from wbc.exceptions import ConfigurationError, ServoMapError
+    from wbc.servos.safety import Watchdog
+
+    for bad in ({"rate": 0.0}, {"on_fault": "panic"}, {"max_failures": 0}):
+        with pytest.raises(ConfigurationError, match=next(iter(bad))):
+            DeployConfig(**bad).validate()
+    with pytest.raises(ConfigurationError, match="max_failures"):
+        Watchdog(["a"], max_failures=0)
+    kokone = load_robot("kokone")  # hobby servos: no servos.toml
+    with pytest.raises(ServoMapError, match="no servo map"):
+        deploy_cmd.check_servo_map(kokone)

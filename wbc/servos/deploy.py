@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..balance import add_compensate_argument, check_compensate_encoders
-from ..exceptions import ServoError, TrajectoryError, WbcError
+from ..exceptions import ConfigurationError, ServoMapError, TrajectoryError, WbcError
 from ..model import Robot, load_robot
 from ..recording import Recording
 from .bus import DryRunBus, ServoBus
@@ -191,7 +191,7 @@ def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoB
         elif sm is not None:
             ssc_map = Ssc32Map.default(robot.joint_names, sm.signs.astype(int))
         else:
-            raise ServoError(f"robot {robot.name} has no ssc32.toml; give --ssc32-map")
+            raise ServoMapError(f"robot {robot.name} has no ssc32.toml; give --ssc32-map")
         for warning in ssc_map.range_warnings(robot.q_min, robot.q_max):
             print(f"warning: {warning}", file=sys.stderr)
         move_ms = max(1, round(1000.0 / args.rate))
@@ -215,7 +215,7 @@ def check_servo_map(robot: Robot, tol: float = 1e-3) -> list[str]:
     0..1023 ticks cut by more than 5 %."""
     sm = robot.servo_map
     if sm is None:
-        raise ServoError(f"robot {robot.name} has no servo map (servos.toml); use --servo-map")
+        raise ServoMapError(f"robot {robot.name} has no servo map (servos.toml); use --servo-map")
     for name in sorted(sm.poses):
         q = sm.ticks_to_angles(sm.pose_ticks(name))
         bad = np.flatnonzero((q < robot.q_min - tol) | (q > robot.q_max + tol))
@@ -225,7 +225,7 @@ def check_servo_map(robot: Robot, tol: float = 1e-3) -> list[str]:
                 f"[{robot.q_min[i]:.4f}, {robot.q_max[i]:.4f}]"
                 for i in bad
             ]
-            raise ServoError(
+            raise ServoMapError(
                 f"servo map {sm.source} is inconsistent with the URDF {robot.urdf_path.name}: "
                 f"pose {name!r} puts " + "; ".join(parts) + " (wrong sign or zero tick?)"
             )
@@ -259,7 +259,7 @@ def _imu(args: argparse.Namespace, bus: ServoBus):
     PORT, or None (--encoders-only)."""
     if args.encoders_only:
         if args.imu:
-            raise ServoError("give either --imu PORT or --encoders-only, not both")
+            raise ConfigurationError("give either --imu PORT or --encoders-only, not both")
         return None
     if args.imu:
         from ..imu_witmotion import WitImu
@@ -269,7 +269,9 @@ def _imu(args: argparse.Namespace, bus: ServoBus):
         from ..sim.bus import SimImu
 
         return SimImu(bus.sim)
-    raise ServoError("--closed-loop needs the torso IMU: --imu PORT (or --sim, or --encoders-only)")
+    raise ConfigurationError(
+        "--closed-loop needs the torso IMU: --imu PORT (or --sim, or --encoders-only)"
+    )
 
 
 def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, imu):
@@ -327,21 +329,21 @@ def run(args: argparse.Namespace) -> int:
         if args.recording is None and args.live is None:
             raise TrajectoryError("give a RECORDING.npz to play, --live STACK (or --plan)")
         if not (math.isfinite(args.compensate) and args.compensate >= 0):
-            raise ServoError(
+            raise ConfigurationError(
                 f"--compensate GAIN must be a finite number >= 0, not {args.compensate}"
             )
         check_compensate_encoders(args)
         loop = imu = None
         holder: list[Deployment] = []  # the deployment, for the encoder correction
         if args.closed_loop and args.live is None:
-            raise ServoError("--closed-loop runs a controller live: give --live STACK")
+            raise ConfigurationError("--closed-loop runs a controller live: give --live STACK")
         if (args.imu or args.encoders_only or args.stepping) and not args.closed_loop:
-            raise ServoError("--imu / --encoders-only / --stepping belong to --closed-loop")
+            raise ConfigurationError("--imu / --encoders-only / --stepping belong to --closed-loop")
         if args.live is not None:
             if args.dry_run:
                 bus = _dry_bus(bus, robot)
             elif not args.port and bus.name != "sim":
-                raise ServoError("give --port (or --dry-run)")
+                raise ConfigurationError("give --port (or --dry-run)")
             if args.closed_loop:  # the IMU first: a wrong port fails before the solver builds
                 imu = _imu(args, bus)
                 if imu is not None:
@@ -362,7 +364,7 @@ def run(args: argparse.Namespace) -> int:
             if args.dry_run:
                 bus = _dry_bus(bus, robot)
             elif not args.port and bus.name != "sim":
-                raise ServoError("give --port (or --dry-run)")
+                raise ConfigurationError("give --port (or --dry-run)")
         print(
             f"deploy {what}: {duration:.2f} s at {args.rate:g} Hz on "
             f"{bus.name}{' ' + args.port if args.port and not args.dry_run else ''}"

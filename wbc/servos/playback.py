@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import ServoError
+from ..exceptions import ConfigurationError, ServoError
 from ..model import Robot
 from .bus import COMM_OK, WALL_CLOCK, Clock, ServoBus
 from .safety import (
@@ -76,21 +76,23 @@ class DeployConfig:
 
     def validate(self) -> None:
         if not (math.isfinite(self.rate) and 0 < self.rate <= MAX_RATE_HZ):
-            raise ServoError(f"rate must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate}")
+            raise ConfigurationError(f"rate must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate}")
         if self.on_fault not in ON_FAULT_CHOICES:
-            raise ServoError(f"on_fault must be one of {ON_FAULT_CHOICES}, got {self.on_fault!r}")
+            raise ConfigurationError(
+                f"on_fault must be one of {ON_FAULT_CHOICES}, got {self.on_fault!r}"
+            )
         if self.at_end not in AT_END_CHOICES:
-            raise ServoError(f"at_end must be one of {AT_END_CHOICES}, got {self.at_end!r}")
+            raise ConfigurationError(f"at_end must be one of {AT_END_CHOICES}, got {self.at_end!r}")
         for name in ("soft_speed", "start_tol", "fault_bound_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
-                raise ServoError(f"{name} must be positive, got {v}")
+                raise ConfigurationError(f"{name} must be positive, got {v}")
         if self.max_speed is not None and not (
             math.isfinite(self.max_speed) and self.max_speed > 0
         ):
-            raise ServoError(f"max_speed must be positive, got {self.max_speed}")
+            raise ConfigurationError(f"max_speed must be positive, got {self.max_speed}")
         if self.max_failures < 1:
-            raise ServoError(f"max_failures must be >= 1, got {self.max_failures}")
+            raise ConfigurationError(f"max_failures must be >= 1, got {self.max_failures}")
 
 
 @dataclass
@@ -232,9 +234,9 @@ class Deployment:
         self.out = out
         self.config.validate()
         if tuple(source.joint_names) != tuple(robot.joint_names):
-            raise ServoError("source joint order differs from the robot's model order")
+            raise ConfigurationError("source joint order differs from the robot's model order")
         if self.config.read and not bus.can_read:
-            raise ServoError(f"the {bus.name} backend cannot read servo positions (--read)")
+            raise ConfigurationError(f"the {bus.name} backend cannot read servo positions (--read)")
         self.period = 1.0 / self.config.rate
         # a bus may bring its own clock (a lockstep simulator's); real buses run on the wall clock
         self.clock: Clock = bus.clock or WALL_CLOCK

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import ServoError, TrajectoryError
+from ..exceptions import ConfigurationError, ServoError, TrajectoryError
 from .bus import COMM_OK, Codec, ServoStatus
 
 TRIP_FAULTS = ("overload", "overheating", "input_voltage", "angle_limit")
@@ -43,7 +43,7 @@ def command_speed(codec: Codec, v_max: np.ndarray | float) -> np.ndarray:
     """Per-joint speed in command units per second: ``v_max · |scale|``."""
     v = np.broadcast_to(np.asarray(v_max, dtype=float), codec.scale.shape)
     if not np.all(np.isfinite(v)) or np.any(v <= 0):
-        raise ServoError(f"rate limit needs positive finite speeds, got v={v}")
+        raise ConfigurationError(f"rate limit needs positive finite speeds, got v={v}")
     return v * np.abs(codec.scale)
 
 
@@ -88,7 +88,9 @@ class GoalLimiter:
         self.lo, self.hi = codec.safe_range(self.q_min, self.q_max, self.names)
         self.speed = np.broadcast_to(np.asarray(speed, dtype=float), self.lo.shape).copy()
         if not np.all(np.isfinite(self.speed)) or np.any(self.speed <= 0):
-            raise ServoError(f"speed must be positive and finite per joint, got {self.speed}")
+            raise ConfigurationError(
+                f"speed must be positive and finite per joint, got {self.speed}"
+            )
         n = len(self.names)
         self.report = LimitReport(self.names, np.zeros(n, int), np.zeros(n), np.zeros(n, int))
         self.prev: np.ndarray | None = None
@@ -193,7 +195,7 @@ class Watchdog:
 
     def __post_init__(self) -> None:
         if self.max_failures < 1:
-            raise ServoError(f"watchdog needs max_failures >= 1, got {self.max_failures}")
+            raise ConfigurationError(f"watchdog needs max_failures >= 1, got {self.max_failures}")
         self.failures = np.zeros(len(self.labels) + 1, int)  # last entry: the bus / board
 
     def observe(self, status: ServoStatus) -> Trip | None:
