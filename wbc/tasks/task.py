@@ -106,7 +106,7 @@ class Task:
             cls.row_kernel = None  # its own Python rows: the inherited kernel no longer applies
         for name in own.get("target_fields", ()):
             if not isinstance(own.get(name), property):  # (a class's own accessors stay)
-                setattr(cls, name, _target_field(name))
+                setattr(cls, name, _TargetField(name))
 
     # ------------------------------------------------------------------ parameters
     def _changed(self) -> None:
@@ -269,31 +269,29 @@ class Task:
         return f"{type(self).__name__}({self.name!r}, rows={self.rows}, gain={self.gain})"
 
 
-def _target_field(name: str) -> property:
+class _TargetField:
     """The attribute ``name`` of :attr:`Task.target_fields`: bound once (in ``__init__``), then
     an assignment ``task.<name> = value`` writes into that array (the compiled plans read it
     by address: a re-bound attribute would be ignored there and honoured on the numpy path);
-    a value of another shape raises :class:`TaskError`."""
+    a value of another shape raises :class:`TaskError`. (Only ``__set__``: a read is a plain
+    instance attribute read.)"""
 
-    def get(self: Task) -> np.ndarray:
-        try:
-            return self.__dict__[name]
-        except KeyError:
-            raise AttributeError(name) from None
+    __slots__ = ("name",)
 
-    def set(self: Task, value) -> None:
-        own = self.__dict__.get(name)
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __set__(self, task: Task, value) -> None:
+        own = task.__dict__.get(self.name)
         if own is None:
-            self.__dict__[name] = value
+            task.__dict__[self.name] = value
             return
         v = np.asarray(value, dtype=float)
         if v.shape != own.shape:
             raise TaskError(
-                f"task {self.name!r}: {name} must have shape {own.shape}, got {v.shape}"
+                f"task {task.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
             )
         own[...] = v
-
-    return property(get, set, doc=f"the task's own {name} array (assigned in place)")
 
 
 def check_vector(
