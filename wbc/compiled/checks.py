@@ -97,6 +97,17 @@ def quaternion_defect(q: np.ndarray) -> float:
     return abs(q[3] * q[3] + q[4] * q[4] + q[5] * q[5] + q[6] * q[6] - 1.0)
 
 
+@njit("boolean(float64[:], float64[:], float64[:])", cache=True)
+def outside(q: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) -> bool:
+    """True if a joint of the configuration q (7 base coordinates, then the joints) is outside
+    [q_min, q_max] (a NaN joint is not: as numpy's comparisons; every tick asks this, ~0.2 µs
+    here against ~3 µs in numpy)."""
+    for i in range(q_min.shape[0]):
+        if q[7 + i] < q_min[i] or q[7 + i] > q_max[i]:
+            return True
+    return False
+
+
 def entry(check=rotation_defect):
     """A compiled check's entry point (any strided float64 arrays), skipping dispatch."""
     return check.overloads[check.signatures[0]].entry_point

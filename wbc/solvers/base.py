@@ -232,6 +232,7 @@ class StackSolver(ABC):
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
+        self._outside: Callable | None = None  # (the compiled check of _outside_limits)
         #: the last solve's result (None before the first)
         self.last: Solution | None = None
         #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
@@ -352,9 +353,14 @@ class StackSolver(ABC):
         return Solution(dq, lower, upper)
 
     def _outside_limits(self, q: np.ndarray) -> bool:
-        """True if a joint of q is outside its range."""
-        j = q[7:]
-        return bool(((j < self._q_min) | (j > self._q_max)).any())
+        """True if a joint of q (a configuration checked by :meth:`Kinematics.update`) is
+        outside its range (:func:`wbc.compiled.checks.outside`: every tick asks)."""
+        outside = self._outside
+        if outside is None:  # (numba is imported by the first solve, not by ``import wbc``)
+            from ..compiled.checks import entry, outside
+
+            outside = self._outside = entry(outside)
+        return outside(q, self._q_min, self._q_max)
 
     def _on_hard_levels(self, kin: Kinematics, solution: Solution) -> Solution:
         """The step of a solve that starts with joints outside their range, ending on the hard
