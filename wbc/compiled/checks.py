@@ -88,6 +88,22 @@ def copy_finite(v: np.ndarray, out: np.ndarray) -> bool:
     return True
 
 
+@njit("float64(float64[:], float64[:, :], float64[:], float64[:, :], float64)", cache=True)
+def copy_pose(
+    p: np.ndarray, R: np.ndarray, out_p: np.ndarray, out_R: np.ndarray, tol: float
+) -> float:
+    """A pose checked as :func:`copy_finite` and :func:`copy_rotation` check its position and
+    rotation, and copied into ``out_p`` and ``out_R`` if both pass (neither otherwise): R's
+    :func:`rotation_defect`, +inf if p is not finite."""
+    if not finite(p):
+        return math.inf
+    defect = rotation_defect(R)
+    if defect <= tol:
+        copy_vector(p, out_p)
+        copy_matrix(R, out_R)
+    return defect
+
+
 @njit("float64(float64[:])", cache=True)
 def quaternion_defect(q: np.ndarray) -> float:
     """|‖q[3:7]‖² − 1| (a free-flyer configuration's base quaternion); +inf if an entry of q
