@@ -120,21 +120,33 @@ def phase_switch_ticks(robot, kind: str, repeats: int = 50) -> tuple[float, floa
     return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
 
 
-def walk_tail(robot, ref, make, walks: int = 5) -> tuple[float, float, float]:
-    """Per-tick medians over ``walks`` walks of the controller ``make()`` builds (a
-    preemption hits one walk, not the median): the median over the first ticks of the
-    support phases, over the other ticks, and the p99 over all ticks (the tail a controller
-    has of its own, without the machine's preemptions)."""
+def walk_tails(robot, ref, makers: dict, walks: int = 5) -> dict[str, tuple[float, float, float]]:
+    """Per-tick medians over ``walks`` walks of each controller ``makers[name]()`` builds (a
+    preemption hits one walk, not the median), the controllers' walks in turn (walk k of each,
+    then walk k + 1: a slower stretch of the machine hits them alike; since 2026-12-02 15:30,
+    before all the walks of one controller, then the next's): the median over the first ticks
+    of the support phases, over the other ticks, and the p99 over all ticks (the tail a
+    controller has of its own, without the machine's preemptions)."""
     from wbc.walking.loop import SUPPORT_DOUBLE, support_roles
 
-    times = [run(make(), robot, ref)["solve_time"] for _ in range(walks)]
-    t = np.median(np.array(times), axis=0) * 1e6
+    times: dict[str, list] = {name: [] for name in makers}
+    for _ in range(walks):
+        for name, make in makers.items():
+            times[name].append(run(make(), robot, ref)["solve_time"])
     swing = support_roles(ref)[1]
     double = ref.support == SUPPORT_DOUBLE
     first = np.array(
         [i > 0 and (double[i], swing[i]) != (double[i - 1], swing[i - 1]) for i in range(ref.n)]
     )
-    return float(np.median(t[first])), float(np.median(t[~first])), float(np.percentile(t, 99))
+    out = {}
+    for name, ts in times.items():
+        t = np.median(np.array(ts), axis=0) * 1e6
+        out[name] = (
+            float(np.median(t[first])),
+            float(np.median(t[~first])),
+            float(np.percentile(t, 99)),
+        )
+    return out
 
 
 def side_by_side(makers: dict, robot, ref, block: int) -> dict:
@@ -242,11 +254,11 @@ def main() -> int:
     for kind in ("weighted", "hierarchical"):
         first, after = phase_switch_ticks(robot, kind)
         print(f"support switch ({kind}): first tick {first:.0f} µs, the next {after:.0f} µs")
-    tails = {
-        name: walk_tail(robot, ref, makers[name])
-        for name in (WEIGHTED, HIERARCHICAL, "placo 0.10.2")
-        if name in makers
-    }
+    tails = walk_tails(
+        robot,
+        ref,
+        {k: makers[k] for k in (WEIGHTED, HIERARCHICAL, "placo 0.10.2") if k in makers},
+    )
     for name, (first, other, p99) in tails.items():
         print(
             f"{args.trajectory} ({name}), per-tick medians over 5 walks: first tick of a support"
