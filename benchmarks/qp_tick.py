@@ -15,7 +15,11 @@ other controllers' blocks: its caches are cold, for every controller alike (~100
 and the next ticks are slower too; so the blocks are few: 3 such ticks per walk, fewer than
 the 6 above a walk's p99 (blocks of 50 ticks made them the p99 of every controller, and
 raised the medians by 1–2 µs). The figures are medians over rounds of each controller's
-per-tick median/p99; the per-round ratios of our compiled solvers to placo follow the table.
+per-tick median/p99; the ratio to placo is the median over rounds of each round's ratio (both
+walks in the same stretch of the machine; since 2026-12-02 15:30: before, the ratio of the two
+medians over rounds, which compares different rounds when the machine's speed changes between
+them: e.g. per-round ratios 0.62, 0.63, 0.62, 0.62, 0.95 gave 0.95). The per-round ratios of
+our compiled solvers to placo follow the table, with that older ratio.
 
 Our solvers run twice: through the compiled kernels (:mod:`wbc.compiled`, the default) and
 through the numpy assembly with DAQP on every tick (``compiled=False``).
@@ -116,21 +120,33 @@ def phase_switch_ticks(robot, kind: str, repeats: int = 50) -> tuple[float, floa
     return float(np.median(first[skip:])) * 1e6, float(np.median(next_[skip:])) * 1e6
 
 
-def walk_tail(robot, ref, make, walks: int = 5) -> tuple[float, float, float]:
-    """Per-tick medians over ``walks`` walks of the controller ``make()`` builds (a
-    preemption hits one walk, not the median): the median over the first ticks of the
-    support phases, over the other ticks, and the p99 over all ticks (the tail a controller
-    has of its own, without the machine's preemptions)."""
+def walk_tails(robot, ref, makers: dict, walks: int = 5) -> dict[str, tuple[float, float, float]]:
+    """Per-tick medians over ``walks`` walks of each controller ``makers[name]()`` builds (a
+    preemption hits one walk, not the median), the controllers' walks in turn (walk k of each,
+    then walk k + 1: a slower stretch of the machine hits them alike; since 2026-12-02 15:30,
+    before all the walks of one controller, then the next's): the median over the first ticks
+    of the support phases, over the other ticks, and the p99 over all ticks (the tail a
+    controller has of its own, without the machine's preemptions)."""
     from wbc.walking.loop import SUPPORT_DOUBLE, support_roles
 
-    times = [run(make(), robot, ref)["solve_time"] for _ in range(walks)]
-    t = np.median(np.array(times), axis=0) * 1e6
+    times: dict[str, list] = {name: [] for name in makers}
+    for _ in range(walks):
+        for name, make in makers.items():
+            times[name].append(run(make(), robot, ref)["solve_time"])
     swing = support_roles(ref)[1]
     double = ref.support == SUPPORT_DOUBLE
     first = np.array(
         [i > 0 and (double[i], swing[i]) != (double[i - 1], swing[i - 1]) for i in range(ref.n)]
     )
-    return float(np.median(t[first])), float(np.median(t[~first])), float(np.percentile(t, 99))
+    out = {}
+    for name, ts in times.items():
+        t = np.median(np.array(ts), axis=0) * 1e6
+        out[name] = (
+            float(np.median(t[first])),
+            float(np.median(t[~first])),
+            float(np.percentile(t, 99)),
+        )
+    return out
 
 
 def side_by_side(makers: dict, robot, ref, block: int) -> dict:
@@ -200,6 +216,10 @@ def main() -> int:
             stats[name].append((np.median(t), np.percentile(t, 99), com, foot))
     rows = {k: np.median(np.array(v), axis=0) for k, v in stats.items()}
     ref_name = "placo 0.10.2" if "placo 0.10.2" in rows else next(iter(rows))
+    # each round's ratio (the same stretch of the machine for both walks), then their median
+    ratios = {
+        k: [a[0] / b[0] for a, b in zip(v, stats[ref_name], strict=True)] for k, v in stats.items()
+    }
     how = f"side by side in blocks of {block} ticks" if block else "whole walks in turn"
     print(f"{len(ref)} ticks of {args.trajectory}, {args.rounds} rounds, {how}")
     print(
@@ -209,14 +229,16 @@ def main() -> int:
     print("|---|---|---|---|---|---|")
     for name, (med, p99, com, foot) in rows.items():
         print(
-            f"| {name} | {med:.0f} | {p99:.0f} | {med / rows[ref_name][0]:.2f} | {com:.3f} |"
+            f"| {name} | {med:.0f} | {p99:.0f} | {np.median(ratios[name]):.2f} | {com:.3f} |"
             f" {foot:.3f} |"
         )
     if ref_name != WEIGHTED:
         for name in (WEIGHTED, HIERARCHICAL):
-            ratios = [a[0] / b[0] for a, b in zip(stats[name], stats[ref_name], strict=True)]
-            cells = ", ".join(f"{x:.2f}" for x in ratios)
-            print(f"{name}, median / {ref_name}'s per round: {cells}")
+            cells = ", ".join(f"{x:.2f}" for x in ratios[name])
+            print(
+                f"{name}, median / {ref_name}'s per round: {cells} (the ratio of the medians"
+                f" over rounds: {rows[name][0] / rows[ref_name][0]:.2f})"
+            )
     w, h = rows[WEIGHTED][0], rows[HIERARCHICAL][0]
     print(f"hierarchical / weighted = {h / w:.2f} (compiled); numpy paths:", end=" ")
     print(
@@ -232,11 +254,11 @@ def main() -> int:
     for kind in ("weighted", "hierarchical"):
         first, after = phase_switch_ticks(robot, kind)
         print(f"support switch ({kind}): first tick {first:.0f} µs, the next {after:.0f} µs")
-    tails = {
-        name: walk_tail(robot, ref, makers[name])
-        for name in (WEIGHTED, HIERARCHICAL, "placo 0.10.2")
-        if name in makers
-    }
+    tails = walk_tails(
+        robot,
+        ref,
+        {k: makers[k] for k in (WEIGHTED, HIERARCHICAL, "placo 0.10.2") if k in makers},
+    )
     for name, (first, other, p99) in tails.items():
         print(
             f"{args.trajectory} ({name}), per-tick medians over 5 walks: first tick of a support"

@@ -11,6 +11,42 @@ from numba import carray, njit, types
 from numba.extending import intrinsic
 
 
+@njit("float64(float64[:])", cache=True)
+def squares(v: np.ndarray) -> float:
+    """Σ vᵢ²: finite if and only if every entry is, unless a huge finite entry overflows it
+    (one pass, no branch per entry: the quick finiteness check of the hot path)."""
+    s = 0.0
+    for i in range(v.shape[0]):
+        s += v[i] * v[i]
+    return s
+
+
+@njit("boolean(float64[:])", cache=True)
+def finite(v: np.ndarray) -> bool:
+    """Every entry of v finite (:func:`squares`, then entry by entry only if it overflows)."""
+    if math.isfinite(squares(v)):
+        return True
+    for i in range(v.shape[0]):
+        if not math.isfinite(v[i]):
+            return False
+    return True
+
+
+@njit("void(float64[:], float64[:])", cache=True)
+def copy_vector(v: np.ndarray, out: np.ndarray) -> None:
+    """v into ``out`` (at least as long), entry by entry."""
+    for i in range(v.shape[0]):
+        out[i] = v[i]
+
+
+@njit("void(float64[:, :], float64[:, :])", cache=True)
+def copy_matrix(R: np.ndarray, out: np.ndarray) -> None:
+    """A 3x3 matrix R into ``out``, entry by entry."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = R[i, j]
+
+
 @njit("float64(float64[:, :])", cache=True)
 def rotation_defect(R: np.ndarray) -> float:
     """The largest deviation of RᵀR from I; +inf if an entry is not finite or det R < 0."""
@@ -38,9 +74,7 @@ def copy_rotation(R: np.ndarray, out: np.ndarray, tol: float) -> float:
     """:func:`rotation_defect` of R, and R copied into ``out`` if the defect is <= tol."""
     defect = rotation_defect(R)
     if defect <= tol:
-        for i in range(3):
-            for j in range(3):
-                out[i, j] = R[i, j]
+        copy_matrix(R, out)
     return defect
 
 
@@ -48,30 +82,46 @@ def copy_rotation(R: np.ndarray, out: np.ndarray, tol: float) -> float:
 def copy_finite(v: np.ndarray, out: np.ndarray) -> bool:
     """v copied into ``out`` (same size) if every entry is finite; False (out untouched) if
     one is not."""
-    s = 0.0
-    for i in range(v.shape[0]):
-        s += v[i] * v[i]
-    if not math.isfinite(s):  # (a huge finite vector may overflow: then entry by entry)
-        for i in range(v.shape[0]):
-            if not math.isfinite(v[i]):
-                return False
-    for i in range(v.shape[0]):
-        out[i] = v[i]
+    if not finite(v):
+        return False
+    copy_vector(v, out)
     return True
+
+
+@njit("float64(float64[:], float64[:, :], float64[:], float64[:, :], float64)", cache=True)
+def copy_pose(
+    p: np.ndarray, R: np.ndarray, out_p: np.ndarray, out_R: np.ndarray, tol: float
+) -> float:
+    """A pose checked as :func:`copy_finite` and :func:`copy_rotation` check its position and
+    rotation, and copied into ``out_p`` and ``out_R`` if both pass (neither otherwise): R's
+    :func:`rotation_defect`, +inf if p is not finite."""
+    if not finite(p):
+        return math.inf
+    defect = rotation_defect(R)
+    if defect <= tol:
+        copy_vector(p, out_p)
+        copy_matrix(R, out_R)
+    return defect
 
 
 @njit("float64(float64[:])", cache=True)
 def quaternion_defect(q: np.ndarray) -> float:
     """|‖q[3:7]‖² − 1| (a free-flyer configuration's base quaternion); +inf if an entry of q
     is not finite."""
-    s = 0.0
-    for i in range(q.shape[0]):
-        s += q[i] * q[i]
-    if not math.isfinite(s):
-        for i in range(q.shape[0]):
-            if not math.isfinite(q[i]):
-                return math.inf
+    if not finite(q):
+        return math.inf
     return abs(q[3] * q[3] + q[4] * q[4] + q[5] * q[5] + q[6] * q[6] - 1.0)
+
+
+@njit("boolean(float64[:], float64[:], float64[:])", cache=True)
+def outside(q: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) -> bool:
+    """True if a joint of the configuration q (7 base coordinates, then the joints) is outside
+    [q_min, q_max] (a NaN joint is not: as numpy's comparisons; every tick asks this, ~0.2 µs
+    here against ~3 µs in numpy)."""
+    for i in range(q_min.shape[0]):
+        if q[7 + i] < q_min[i] or q[7 + i] > q_max[i]:
+            return True
+    return False
 
 
 def entry(check=rotation_defect):

@@ -204,13 +204,13 @@ class Scratch:
     def __init__(self) -> None:
         self._blocks: dict[str, np.ndarray] = {}
 
-    def get(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
-        """A C-contiguous float array of ``shape`` in the block ``name`` (grown as needed; a
-        plan keeps the block it was given)."""
+    def get(self, name: str, shape: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
+        """A C-contiguous array of ``shape`` and ``dtype`` in the block ``name`` (grown as
+        needed; a plan keeps the block it was given)."""
         size = int(np.prod(shape))
         block = self._blocks.get(name)
-        if block is None or block.size < size:
-            block = self._blocks[name] = np.zeros(size)
+        if block is None or block.size < size or block.dtype != dtype:
+            block = self._blocks[name] = np.zeros(size, dtype)
         return block[:size].reshape(shape)
 
 
@@ -484,7 +484,8 @@ class WeightedPlan(_Plan):
         self.hard = Rows(hard, *rows, weighted=False, scratch=self.scratch, name="hard")
         self.targets.seal()
         self.error_views = self.soft.error_views() + self.hard.error_views()
-        self.state = np.zeros(nv, dtype=np.int8)
+        self.state = self.scratch.get("state", (nv,), np.int8)
+        self.state.fill(0)
         self.warm_start = self.state
         self.tick_name = "weighted_tick"
         self._bind_args()
@@ -512,7 +513,10 @@ class CascadePlan(_Plan):
         self.level_rows = bounds.astype(np.int64)
         self.level_hard = np.array(hard, dtype=np.bool_)
         self.error_views = self.rows.error_views()
-        self.states = np.zeros((len(levels), nv), dtype=np.int8)
+        # (shared by the solver's plans: after a switch from a plan with as many levels, the
+        # tick starts from the active sets that plan left; see forget_warm_start)
+        self.states = self.scratch.get("states", (len(levels), nv), np.int8)
+        self.states.fill(0)
         self.warm_start = self.states
         self.achieved = np.zeros(self.rows.m)
         self.inequalities = InequalityRows(len(levels), nv)
@@ -526,7 +530,10 @@ class CascadePlan(_Plan):
         call as from none, and a shorter tail: p90 23 against 36 µs; the weighted QP's single
         level is better started from none: p90 9 against 15 µs)."""
         if isinstance(previous, CascadePlan) and previous.warm_start.shape == self.warm_start.shape:
-            np.copyto(self.warm_start, previous.warm_start)
+            # (the plans share the array, which holds the previous plan's active sets already,
+            # unless its scratch block grew in between)
+            if previous.warm_start.base is not self.warm_start.base:
+                np.copyto(self.warm_start, previous.warm_start)
             if self.inequalities.total:
                 self.inequalities.working.fill(False)
         else:

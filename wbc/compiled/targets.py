@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import carray, njit
 
-from .checks import address, rotation_defect
+from .checks import address, copy_matrix, copy_vector, rotation_defect, squares
 
 
 @njit(
@@ -24,23 +24,20 @@ def copy_targets(
     finite; :func:`rotation_defect` <= tol) and, if all four pass, each copied to the
     destinations listed in ``outputs``: rows (address of a C-contiguous float64 target array
     its owner keeps alive, source: 0 v0, 1 v1, 2 R0, 3 R1). False (nothing copied) if a
-    check fails, or a vector's squares overflow: the setters then say which and why."""
-    s = 0.0
-    for i in range(3):
-        s += v0[i] * v0[i] + v1[i] * v1[i]
-    if not math.isfinite(s) or rotation_defect(R0) > tol or rotation_defect(R1) > tol:
+    check fails, or a vector's :func:`~wbc.compiled.checks.squares` overflow: the setters then
+    say which and why."""
+    if (
+        not math.isfinite(squares(v0) + squares(v1))
+        or rotation_defect(R0) > tol
+        or rotation_defect(R1) > tol
+    ):
         return False
     for k in range(outputs.shape[0]):
         source = outputs[k, 1]
         if source < 2:
-            v = v0 if source == 0 else v1
             out = carray(address(outputs[k, 0]), (3,), np.float64)  # type: ignore[call-arg]
-            for i in range(3):
-                out[i] = v[i]
+            copy_vector(v0 if source == 0 else v1, out)
         else:
-            R = R0 if source == 2 else R1
             out_R = carray(address(outputs[k, 0]), (3, 3), np.float64)  # type: ignore[call-arg]
-            for i in range(3):
-                for j in range(3):
-                    out_R[i, j] = R[i, j]
+            copy_matrix(R0 if source == 2 else R1, out_R)
     return True

@@ -7,7 +7,7 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -232,6 +232,7 @@ class StackSolver(ABC):
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
         self._q_max = self.robot.q_max
+        self._outside: Callable | None = None  # (the compiled check of _outside_limits)
         #: the last solve's result (None before the first)
         self.last: Solution | None = None
         #: seconds spent in the last :meth:`solve` (kinematics, assembly and QP)
@@ -352,9 +353,14 @@ class StackSolver(ABC):
         return Solution(dq, lower, upper)
 
     def _outside_limits(self, q: np.ndarray) -> bool:
-        """True if a joint of q is outside its range."""
-        j = q[7:]
-        return bool(((j < self._q_min) | (j > self._q_max)).any())
+        """True if a joint of q (a configuration checked by :meth:`Kinematics.update`) is
+        outside its range (:func:`wbc.compiled.checks.outside`: every tick asks)."""
+        outside = self._outside
+        if outside is None:  # (numba is imported by the first solve, not by ``import wbc``)
+            from ..compiled.checks import entry, outside
+
+            outside = self._outside = entry(outside)
+        return outside(q, self._q_min, self._q_max)
 
     def _on_hard_levels(self, kin: Kinematics, solution: Solution) -> Solution:
         """The step of a solve that starts with joints outside their range, ending on the hard
@@ -1064,30 +1070,34 @@ class StackSolver(ABC):
         (:attr:`TaskStack.version`: its levels, tasks and constraints) and each task's activity,
         gain/mask/weight (``params_version``) and frames, each constraint's activity. Switching
         between support phases alternates between a few layouts, which are kept
-        (:meth:`_cached_layout`); a switch computes this key (flat lists: a few µs)."""
-        tasks, constraints = self.stack.members()
+        (:meth:`_switch_layout`); a switch computes this key (flat lists: a few µs)."""
+        stack = self.stack
+        tasks, constraints = stack.members()
         return (
-            self.stack.version,
-            tuple([t.active and (t.params_version, t.frame_ids()) for t in tasks]),
-            tuple([c.active for c in constraints]),
+            stack.version,
+            *[(t.params_version, t.frame_ids()) if t.active else -1 for t in tasks],
+            *[c.active for c in constraints],
         )
 
-    def _cached_layout(self, key: tuple):
-        """The layout kept for ``key`` (None if none). A kept layout entered again starts its
-        active sets afresh (:meth:`wbc.compiled.plan._Plan.forget_warm_start`): those of its
-        last visit (a support phase ago, at another configuration) are a worse start than
-        none (the hierarchy's first tick of a phase took twice as long from them;
+    def _switch_layout(self, build: Callable[[], Any]) -> Any:
+        """The layout of the stack as it is now (its :attr:`TaskStack.revision` moved): the one
+        kept for its :meth:`_layout_key`, else ``build()`` (kept). A kept layout entered again
+        starts its active sets afresh (:meth:`wbc.compiled.plan._Plan.forget_warm_start`):
+        those of its last visit (a support phase ago, at another configuration) are a worse
+        start than none (the hierarchy's first tick of a phase took twice as long from them;
         benchmarks/qp_tick.md)."""
+        key = self._layout_key()
         layout = self._layouts.get(key)
-        plan = getattr(layout, "fast", None)
-        if plan is not None and plan is not self.fast:
-            plan.forget_warm_start(self.fast)
+        if layout is None:
+            if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh
+                self._layouts.clear()
+            layout = self._layouts[key] = build()
+        else:
+            plan = layout.fast
+            if plan is not None and plan is not self.fast:
+                plan.forget_warm_start(self.fast)
+        self._key = self.stack.revision
         return layout
-
-    def _keep_layout(self, key: tuple, layout) -> None:
-        if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh
-            self._layouts.clear()
-        self._layouts[key] = layout
 
     # ------------------------------------------------------------------ compiled path
     @property

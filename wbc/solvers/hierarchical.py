@@ -87,13 +87,8 @@ class HierarchicalQP(StackSolver):
         return f"HierarchicalQP[{self.method}:{self.backend.name}]"
 
     def _plan(self) -> None:
-        key = self._layout_key()
-        layout = self._cached_layout(key)
-        if layout is None:
-            layout = self._build_layout()
-            self._keep_layout(key, layout)
+        layout = self._switch_layout(self._build_layout)
         self._levels, self._blocks, self._constraints, self._all_constraints, self.fast = layout
-        self._key = self.stack.revision
 
     def _build_layout(self) -> _Layout:
         nv = self.robot.nv

@@ -55,11 +55,12 @@ class TaskStack:
             JointVelocityLimit(robot) if velocity_limits else None
         )
         self.extra_limits: list[BoxLimit] = []
+        #: changes so far that the solvers' layouts depend on: :attr:`version`, and a task's or
+        #: constraint's activity, gain, mask, weight or frame (never a target); solvers re-plan
+        #: on a new one (a plain attribute: every tick reads it)
+        self.revision = 0
         #: bumped when a level, task, constraint or limit is added
         self.version = 0
-        #: bumped on every change the solvers' layouts depend on: :attr:`version`, and a task's
-        #: or constraint's activity, gain, mask, weight or frame (never a target)
-        self._revision = 0
 
     @property
     def version(self) -> int:
@@ -68,16 +69,7 @@ class TaskStack:
     @version.setter
     def version(self, value: int) -> None:
         self._version = value
-        self._revision = getattr(self, "_revision", 0) + 1
-
-    @property
-    def revision(self) -> int:
-        """Changes so far (see the attribute docs in ``__init__``): solvers re-plan on a new one."""
-        return self._revision
-
-    @revision.setter
-    def revision(self, value: int) -> None:
-        self._revision = value
+        self.revision += 1
 
     # ------------------------------------------------------------------ building
     def level(self, priority: int, hard: bool | None = None) -> Level:

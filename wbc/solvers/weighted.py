@@ -84,13 +84,8 @@ class WeightedQP(StackSolver):
         """(Re)build the layout when the stack's structure changed; resize the workspace to
         ``m_in`` inequality rows."""
         if self._key != self.stack.revision:
-            key = self._layout_key()
-            layout = self._cached_layout(key)
-            if layout is None:
-                layout = self._build_layout()
-                self._keep_layout(key, layout)
+            layout = self._switch_layout(self._build_layout)
             self.soft, self.hard, self.constraints, self.fast, self.ws = layout
-            self._key = self.stack.revision
         if self.ws.shape[2] != m_in:
             self.ws = self.backend.workspace(self.robot.nv, self.hard.m, m_in)
 
