@@ -404,8 +404,14 @@ def test_a_target_assigned_after_the_first_solve_is_honoured(robot, solver_class
     assert np.abs(dq - expected).max() < 1e-9, np.abs(dq - expected).max()
     assert com.target is arrays[0] and swing.target_position is arrays[1]
     assert swing.target_rotation is arrays[2]
-    with pytest.raises(TaskError, match="com"):
+    kept = com.target.copy(), swing.target_rotation.copy()
+    with pytest.raises(TaskError, match=r"com.*shape"):
         com.target = [0.0, 0.1]
+    with pytest.raises(TaskError, match=r"com.*non-finite"):
+        com.target = [0.0, np.nan, 0.2]
+    with pytest.raises(TaskError, match=r"swing.*not a rotation"):
+        swing.target_rotation = 2.0 * np.eye(3)
+    assert np.array_equal(com.target, kept[0]) and np.array_equal(swing.target_rotation, kept[1])
 
 
 def test_support_switch_replans(robot):

@@ -272,8 +272,9 @@ class Task:
 class _TargetField:
     """The attribute ``name`` of :attr:`Task.target_fields`: bound once (in ``__init__``), then
     an assignment ``task.<name> = value`` writes into that array (the compiled plans read it
-    by address: a re-bound attribute would be ignored there and honoured on the numpy path);
-    a value of another shape raises :class:`TaskError`. (Only ``__set__``: a read is a plain
+    by address: a re-bound attribute would be ignored there and honoured on the numpy path),
+    checked as the setters check it (finite; a 3x3 one a rotation): a value that fails raises
+    :class:`TaskError` and leaves the array as it was. (Only ``__set__``: a read is a plain
     instance attribute read.)"""
 
     __slots__ = ("name",)
@@ -286,12 +287,10 @@ class _TargetField:
         if own is None:
             task.__dict__[self.name] = value
             return
-        v = np.asarray(value, dtype=float)
-        if v.shape != own.shape:
-            raise TaskError(
-                f"task {task.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
-            )
-        own[...] = v
+        if own.shape == (3, 3):  # a rotation, checked as the setters check one
+            check_rotation(task, value, self.name, out=own)
+        else:
+            check_vector(task, value, own.size, self.name, out=own)
 
 
 def check_vector(
