@@ -7,7 +7,7 @@ import pytest
 
 from wbc.bench import metrics
 from wbc.bench.trajectories import build
-from wbc.exceptions import WbcError
+from wbc.exceptions import TrajectoryError
 from wbc.recording import Recording
 from wbc.stacks import load_stack
 from wbc.walking.loop import (
@@ -164,5 +164,5 @@ def test_a_session_follows_a_replanned_reference_from_the_given_tick(robot, walk
     np.testing.assert_array_equal(session.targets(99).r_sole.translation, before)
     np.testing.assert_allclose(session.targets(120).r_sole.translation, moved[120])
     bad = replace(walk10, support=np.roll(walk10.support, 3))
-    with pytest.raises(WbcError, match="support schedule"):
+    with pytest.raises(TrajectoryError, match="support schedule"):
         session.set_reference(bad, 100)

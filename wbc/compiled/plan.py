@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..exceptions import TaskError
 from ..model import Kinematics, Robot
 from ..solvers.base import Solution
 from ..tasks import Task
@@ -69,7 +70,7 @@ class Targets:
         for name in task.target_fields:
             view = getattr(task, name).reshape(-1)  # a view of the task's own array
             if not np.shares_memory(view, getattr(task, name)):
-                raise ValueError(f"task {task.name!r}: target {name!r} must be contiguous")
+                raise TaskError(f"task {task.name!r}: target {name!r} must be contiguous")
             last = self.sources[-1] if self.size > offset else None
             if last is not None and _adjacent(last, view):  # one source (a cheaper gather)
                 self.sources[-1] = np.lib.stride_tricks.as_strided(

@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from ..compiled.checks import entry as check_entry
 from ..compiled.targets import copy_targets
-from ..exceptions import ConfigurationError, WbcError
+from ..exceptions import ConfigurationError, TrajectoryError, WbcError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
 from ..recording import SUPPORT_DOUBLE, Recording
@@ -419,7 +419,9 @@ class Session:
         """Follow ``ref`` from tick ``first`` on (a re-planned walk: the same time grid,
         support schedule and torso headings, other footsteps and CoM)."""
         if ref.n != self.ref.n or np.any(ref.support != self.ref.support):
-            raise WbcError("a re-planned reference must keep the time grid and support schedule")
+            raise TrajectoryError(
+                "a re-planned reference must keep the time grid and support schedule"
+            )
         self.ref = ref
         self._sole_targets(first)
 
