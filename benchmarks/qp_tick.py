@@ -69,10 +69,12 @@ def core_walk_spec() -> dict:
     return spec
 
 
-def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, float, int]:
-    """Median µs of a tick with the swing sole's ground-clearance row inactive and active, and
-    how many of the active ticks were handed to the backend (the compiled kernels solve the
-    row; a tick goes to the backend only if they cannot finish it)."""
+def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, float, int, str]:
+    """Median µs of a tick with the swing sole's ground-clearance row inactive and active
+    (``walk_strict``: the walk stack in three strict levels), how many of the active ticks were
+    handed to the backend (the compiled kernels solve the row; a tick goes to the backend only
+    if they cannot finish it), and in how many blocks the row was in the compiled solve's
+    working set as intended (read from the plan after each block: "inactive / active")."""
     with open(stacks_dir() / "walk_strict.toml", "rb") as f:
         spec = tomllib.load(f)
     control = build_stack({**spec, "solver": kind}, robot)
@@ -85,6 +87,7 @@ def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, floa
     above = swing.target_position.copy()
     times: dict[float, list[float]] = {0.002: [], -0.005: []}  # 2 mm up: inactive; 5 down
     handed = 0
+    as_intended = {dz: 0 for dz in times}
     for _ in range(repeats // 50):  # blocks of 50 ticks, interleaved: the same machine load
         for dz, out in times.items():
             swing.set_position_target(above + [0.0, 0.0, dz])
@@ -95,8 +98,18 @@ def inequality_ticks(robot, kind: str, repeats: int = 2000) -> tuple[float, floa
                 solver.step(q, 0.01)
                 out.append(time.perf_counter() - t)
             handed += (solver.handed_back_ticks - before) if dz < 0 else 0
+            # walk_strict.toml lists the swing's ground clearance (its 4 sole corners) last
+            g = solver.fast.inequalities if solver.fast is not None else None
+            working = g is not None and bool(g.working[:, g.total - 4 : g.total].any())
+            as_intended[dz] += working == (dz < 0)
     medians = [float(np.median(times[dz])) * 1e6 for dz in (0.002, -0.005)]
-    return medians[0], medians[1], handed
+    blocks = repeats // 50
+    return (
+        medians[0],
+        medians[1],
+        handed,
+        f"{as_intended[0.002]}/{blocks}, {as_intended[-0.005]}/{blocks}",
+    )
 
 
 def phase_switch_ticks(robot, kind: str, repeats: int = 50) -> tuple[float, float]:
@@ -244,12 +257,15 @@ def main() -> int:
     print(
         f"{rows['hierarchical, numpy path (daqp)'][0] / rows['weighted, numpy path (daqp)'][0]:.2f}"
     )
-    print("\nan active inequality row (walk stack, single support, swing ground clearance):")
-    print("| solver | row inactive µs | row active µs | active / inactive | handed to DAQP |")
-    print("|---|---|---|---|---|")
+    print("\nan active inequality row (walk_strict stack, single support, swing ground clearance):")
+    print(
+        "| solver | row inactive µs | row active µs | active / inactive | handed to DAQP"
+        " | blocks with the row as intended (inactive, active) |"
+    )
+    print("|---|---|---|---|---|---|")
     for kind in ("weighted", "hierarchical"):
-        off, on, handed = inequality_ticks(robot, kind)
-        print(f"| {kind} | {off:.0f} | {on:.0f} | {on / off:.2f} | {handed} |")
+        off, on, handed, intended = inequality_ticks(robot, kind)
+        print(f"| {kind} | {off:.0f} | {on:.0f} | {on / off:.2f} | {handed} | {intended} |")
     print()
     for kind in ("weighted", "hierarchical"):
         first, after = phase_switch_ticks(robot, kind)
