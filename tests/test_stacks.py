@@ -238,3 +238,67 @@ def test_walk_stack_tracks_the_lateral_walk_swing_foot(robot):
     single = ref.support != 0
     err = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1)[single]
     assert err.max() < 3e-3
+
+
+# ------------------------------------------------------------- task types named by their class
+def _relative_spec(kind: str, **relative) -> dict:
+    return {
+        "solver": kind,
+        "levels": [
+            {"hard": True, "tasks": [{"type": "contact", "frame": "support"}]},
+            {
+                "tasks": [
+                    {"type": "relative_position", "frame": "r_sole", "reference": "l_sole"}
+                    | relative,
+                    {"type": "posture", "weight": 1e-3},
+                ]
+            },
+        ],
+    }
+
+
+@pytest.mark.parametrize("kind", ["weighted", "hierarchical"])
+def test_a_task_class_with_a_stack_type_is_named_in_a_stack_file(robot, kind):
+    """relative_position has no TASK_TYPES entry: its class's ``stack_type`` names it; the
+    entry's keys reach its __init__, its target starts where the entry says (or at the
+    current state), and the stack's tick runs on the compiled path and moves the sole."""
+    from wbc.tasks.relative_position import RelativeFramePositionTask
+
+    control = build_stack(_relative_spec(kind, target=[0.0, -0.08, 0.01]), robot)
+    task = control.stack.task("relative_position_r_sole")
+    assert isinstance(task, RelativeFramePositionTask)
+    assert (task.frame, task.reference) == ("r_sole", "l_sole")
+    np.testing.assert_array_equal(task.target, [0.0, -0.08, 0.01])
+    q = robot.configuration("stand")
+    kin = Kinematics(robot, q)
+    before = np.abs(task.compute(kin)[1]).max()
+    for _ in range(20):
+        q = control.solver.step(q, 0.01)
+    assert control.solver.fast is not None and control.solver.handed_back_ticks == 0
+    assert np.abs(task.compute(Kinematics(robot, q))[1]).max() < 0.2 * before
+
+    at_rest = build_stack(_relative_spec(kind), robot).stack.task("relative_position_r_sole")
+    _, e = at_rest.compute(kin)  # no target given: the current relative position
+    assert np.abs(e).max() < 1e-12
+
+
+def test_a_task_type_defined_outside_the_package_joins_the_stack_files(robot):
+    """A user's class (defined here) with a ``stack_type`` is nameable once defined."""
+    from wbc.tasks import FramePositionTask
+
+    class HandPosition(FramePositionTask):
+        stack_type = "test_hand_position"
+
+    spec = {"levels": [{"tasks": [{"type": "test_hand_position", "frame": "r_hand"}]}]}
+    task = build_stack(spec, robot).stack.task("test_hand_position_r_hand")
+    assert type(task) is HandPosition and task.frame == "r_hand"
+
+
+def test_a_stack_type_entry_is_checked(robot):
+    """Unknown keys and roles on a task without set_frame are one clear line each."""
+    with pytest.raises(TaskError, match=r"relative_position.*unknown keys \['axis'\]"):
+        build_stack(_relative_spec("weighted", axis=[1, 0, 0]), robot)
+    with pytest.raises(TaskError, match=r"relative_position.*give a frame name"):
+        build_stack(_relative_spec("weighted", frame="swing"), robot)
+    with pytest.raises(TaskError, match=r"unknown task type 'nope'; known: \[.*relative_position"):
+        build_stack({"levels": [{"tasks": [{"type": "nope"}]}]}, robot)

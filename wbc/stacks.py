@@ -49,6 +49,7 @@ from .tasks import (
     Task,
     TorsoOrientationTask,
 )
+from .tasks.task import STACK_TYPES
 
 ROLES = ("support", "swing")
 PHASES = ("double", "single")
@@ -83,6 +84,13 @@ def _frameless(cls, default_name: str) -> Callable[..., Task]:
         return cls(robot, name=name or default_name, **kw)
 
     return make
+
+
+def _stack_type(cls: type[Task]) -> Callable[..., Task]:
+    """The maker of a task type that joined :data:`wbc.tasks.task.STACK_TYPES`."""
+    if "frame" in inspect.signature(cls).parameters:
+        return _frame_task(cls)
+    return _frameless(cls, str(cls.stack_type))
 
 
 def _torso(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
@@ -289,6 +297,7 @@ def build_stack(
     kin = Kinematics(robot, q)
     stack = TaskStack(robot, velocity_limits=bool(spec.get("velocity_limits", True)))
     bindings: dict[str, RoleBinding] = {}
+    given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
         if not isinstance(level, dict):
             raise TaskError(f"{where}: level {priority} must be a table")
@@ -302,6 +311,8 @@ def build_stack(
             stack.add(task, level=priority)
             if binding is not None:
                 bindings[task.name] = binding
+            if "target" in entry:
+                given.add(task.name)
         for entry in level.get("constraints", []):
             constraint, binding = _make_constraint(entry, robot, where, priority)
             if constraint is None:  # an optional self-collision entry this robot lacks
@@ -327,7 +338,7 @@ def build_stack(
         bindings,
         source,
     )
-    _initial_targets(control, kin)
+    _initial_targets(control, kin, given)
     return control
 
 
@@ -335,13 +346,24 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
     if not isinstance(entry, dict) or "type" not in entry:
         raise TaskError(f"{where}: level {priority}: each task needs a 'type'")
     kind = entry["type"]
-    if kind not in TASK_TYPES:
-        raise TaskError(f"{where}: unknown task type {kind!r}; known: {sorted(TASK_TYPES)}")
-    extra = set(entry) - _TASK_KEYS - ({"axis"} if kind == "torso_orientation" else set())
+    own = None if kind in TASK_TYPES else STACK_TYPES.get(kind)
+    if kind not in TASK_TYPES and own is None:
+        known = sorted({*TASK_TYPES, *STACK_TYPES})
+        raise TaskError(f"{where}: unknown task type {kind!r}; known: {known}")
+    if own is not None:
+        keys = set(own.stack_keys)
+    else:
+        keys = {"axis"} if kind == "torso_orientation" else set()
+    extra = set(entry) - _TASK_KEYS - keys
     if extra:
         raise TaskError(f"{where}: task {kind!r} has unknown keys {sorted(extra)}")
     frame = entry.get("frame")
     role = frame if frame in ROLES else None
+    if role and own is not None and not hasattr(own, "set_frame"):
+        raise TaskError(
+            f"{where}: task {kind!r}: frame = {frame!r}: give a frame name (the roles"
+            f" {ROLES} bind only tasks with a set_frame method)"
+        )
     phases = tuple(entry.get("phases", PHASES))
     if not set(phases) <= set(PHASES):
         raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
@@ -351,10 +373,10 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
         name = kind if frame is None else f"{kind}_{frame}"
     kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
     _check_numbers(kw, f"{where}: level {priority}: task {name!r}")
-    if "axis" in entry:
-        kw["axis"] = entry["axis"]
+    kw.update({k: entry[k] for k in keys if k in entry})
+    make = TASK_TYPES[kind] if own is None else _stack_type(own)
     try:
-        task = TASK_TYPES[kind](robot, actual, name, **kw)
+        task = make(robot, actual, name, **kw)
     except WbcError as exc:
         raise TaskError(f"{where}: level {priority}: task {name!r}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
@@ -472,10 +494,16 @@ def _names_absent_links(pair: Any, links: set[str]) -> bool:
     )
 
 
-def _initial_targets(control: ControlStack, kin: Kinematics) -> None:
-    """Targets = the current state: contacts where the soles are, posture = q."""
+def _initial_targets(control: ControlStack, kin: Kinematics, given: set[str]) -> None:
+    """Targets = the current state: contacts where the soles are, posture = q; a task type of
+    :data:`wbc.tasks.task.STACK_TYPES` by its ``set_target_from`` unless its entry (``given``)
+    sets its target."""
     for task in control.stack.tasks():
-        if isinstance(task, ContactTask):
+        if task.name in given:
+            continue
+        if type(task).stack_type is not None and hasattr(task, "set_target_from"):
+            task.set_target_from(kin)
+        elif isinstance(task, ContactTask):
             task.make_contact(kin)
         elif isinstance(
             task,

@@ -53,6 +53,10 @@ class RelativeFramePositionTask(Task):
     dim = 3
     row_kernel = staticmethod(relative_position_rows)
     target_fields = ("target",)
+    #: in a stack file: ``{ type = "relative_position", frame = "r_sole", reference = "l_sole",
+    #: target = [0.0, -0.074, 0.0] }`` (frame names, not roles)
+    stack_type = "relative_position"
+    stack_keys = ("reference", "target")
 
     def __init__(
         self,

@@ -45,6 +45,10 @@ RowKernel = Callable[..., None]
 #: their class is defined): every compiled tick dispatches over all of them, plus the kernels
 #: of any other task type its stack holds, so that the usual stacks share one compiled tick
 PACKAGE_KERNELS: list[RowKernel] = []
+#: the task types a stack file (TOML) can name beyond :data:`wbc.stacks.TASK_TYPES`: a class
+#: that sets :attr:`Task.stack_type` joins when it is defined, in the package or out of it
+#: (a later class of the same name replaces it: a notebook cell run again)
+STACK_TYPES: dict[str, type[Task]] = {}
 
 
 class Objective(NamedTuple):
@@ -71,6 +75,11 @@ class Task:
     #: names of the target arrays the kernel reads, in order (owned by the task, updated in
     #: place: a handle ``h = task.target`` stays valid on every path)
     target_fields: tuple[str, ...] = ()
+    #: the ``type`` a stack file gives this task (None: not nameable there); its entry passes
+    #: ``frame`` (a frame name), ``name``, ``weight``, ``gain``, ``mask`` and the keys of
+    #: :attr:`stack_keys` to ``__init__`` as keywords
+    stack_type: str | None = None
+    stack_keys: tuple[str, ...] = ()
     #: False for regularisation-like tasks (posture, damping) that never reach zero error;
     #: iterating a pose to convergence ignores them.
     blocks_convergence: bool = True
@@ -104,6 +113,8 @@ class Task:
             name in own for name in ("compute_error", "compute_jacobian", "fill")
         ):
             cls.row_kernel = None  # its own Python rows: the inherited kernel no longer applies
+        if own.get("stack_type"):
+            STACK_TYPES[own["stack_type"]] = cls
         for name in own.get("target_fields", ()):
             if not isinstance(own.get(name), property):  # (a class's own accessors stay)
                 setattr(cls, name, _TargetField(name))
