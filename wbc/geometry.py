@@ -7,11 +7,18 @@ Polygons are (k, 2) arrays of counter-clockwise vertices; ``halfplanes`` gives t
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 #: Bioloid Premium foot plate, 101 x 61 mm centred under the ankle (bioloid-facts §1.3)
 FOOT_LENGTH = 0.101
 FOOT_WIDTH = 0.061
+
+
+def wrap_angle(angle: float) -> float:
+    """The angle in (−π, π] (headings, joint angles)."""
+    return math.pi - (math.pi - float(angle)) % (2.0 * math.pi)
 
 
 def sole_corners(length: float = FOOT_LENGTH, width: float = FOOT_WIDTH) -> np.ndarray:

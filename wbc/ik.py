@@ -67,6 +67,7 @@ import numpy as np
 import pinocchio as pin
 
 from .exceptions import IKError, ModelError
+from .geometry import wrap_angle
 from .model import Robot
 
 __all__ = ["arm_ik", "leg_ik", "whole_body_ik"]
@@ -255,11 +256,6 @@ def _check_point(target, what: str) -> np.ndarray:
     return p
 
 
-def _wrap(angle: float) -> float:
-    """Angle in (-π, π]."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
-
-
 def _into_limits(q: np.ndarray, limb: _Limb) -> np.ndarray:
     """Each angle wrapped into (-π, π], then shifted by ±2π if only that lies in its limits."""
     out = np.pi - (np.pi - q) % (2.0 * np.pi)
@@ -388,7 +384,7 @@ def _leg_candidates(geo: _LegGeometry, R: np.ndarray, d: np.ndarray, rho: float,
         w = np.array([d[0], 0.0, wz])  # = R_x(q_ar) d
         for q_knee in (geo.delta + bend, geo.delta - bend) if bend > 0.0 else (geo.delta,):
             v = geo.thigh + _ry(q_knee) @ geo.shin
-            q_ap = _wrap(_pitch_angle(v) + math.pi - q_knee - _pitch_angle(w))
+            q_ap = wrap_angle(_pitch_angle(v) + math.pi - q_knee - _pitch_angle(w))
             R_hip = R @ _rx(q_ar).T @ _ry(q_knee + q_ap).T
             cos_roll = math.hypot(R_hip[2, 0], R_hip[2, 2])
             if cos_roll < SINGULAR_TOL:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
+from ..geometry import wrap_angle
 from .geometry import Foot, polygon_distance, rot2
 
 if TYPE_CHECKING:
@@ -64,11 +65,7 @@ class Footstep:
     def relative_to(self, other: Footstep) -> np.ndarray:
         """``(dx, dy, dyaw)`` of this placement in the frame of ``other``."""
         d = rot2(other.yaw).T @ (self.xy - other.xy)
-        return np.array([d[0], d[1], _wrap(self.yaw - other.yaw)])
-
-
-def _wrap(a: float) -> float:
-    return float((a + np.pi) % (2 * np.pi) - np.pi)
+        return np.array([d[0], d[1], wrap_angle(self.yaw - other.yaw)])
 
 
 @dataclass(frozen=True)
@@ -175,7 +172,7 @@ def _check_pair(
             f"{what}: the feet are {gap * 1000:.1f} mm apart (overlap if negative); minimum "
             f"clearance {min_clearance * 1000:.1f} mm"
         )
-    dyaw = abs(_wrap(left.yaw - right.yaw))
+    dyaw = abs(wrap_angle(left.yaw - right.yaw))
     if dyaw > max_yaw:
         raise TrajectoryError(
             f"{what}: the feet's headings differ by {np.degrees(dyaw):.1f} deg, more than the "
