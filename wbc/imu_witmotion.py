@@ -204,9 +204,18 @@ class WitImu(Imu):
     def open(self) -> None:
         import serial
 
+        from .exceptions import ServoError
+        from .servos.portlock import PortLock
+
+        try:  # one owner per port, like a servo bus (wbc.servos.portlock)
+            self._lock = PortLock.acquire(self.port)
+        except ServoError as exc:
+            raise ImuError(f"--imu {self.port}: {exc}") from None
         try:
             self.serial = serial.Serial(self.port, self.baud, timeout=0)
-        except (serial.SerialException, OSError) as exc:
+            self._lock.attach(self.serial.fileno())
+        except (serial.SerialException, OSError, ServoError) as exc:
+            self._release()
             raise ImuError(f"--imu {self.port}: cannot open the port ({exc})") from None
         if self.rate is not None:
             for cmd in (command(0x69, 0xB588), command(0x03, RATE_CODES[self.rate]),
@@ -215,10 +224,16 @@ class WitImu(Imu):
                 time.sleep(0.01)
         self._last_t = self.clock()
 
-    def close(self) -> None:
+    def _release(self) -> None:
+        lock, self._lock = getattr(self, "_lock", None), None
+        if lock is not None:
+            lock.release()
         if self.serial is not None:
             self.serial.close()
             self.serial = None
+
+    def close(self) -> None:
+        self._release()
 
     def poll(self) -> int:
         """Drain the port into the parser; the number of good packets read."""

@@ -22,6 +22,7 @@ from typing import Protocol
 import numpy as np
 
 from ..exceptions import ServoError
+from .portlock import PortLock
 
 # a command this close (in command units) to an exact limit counts as on the limit (float noise)
 _LIMIT_EPS = 1e-6
@@ -193,6 +194,37 @@ class ServoBus(ABC):
         self.labels = tuple(labels)
         self.cmd_lo: np.ndarray | None = None
         self.cmd_hi: np.ndarray | None = None
+        self.port_lock: PortLock | None = None
+
+    # ------------------------------------------------------------------ one owner per bus
+    def lock_port(self, port: str) -> None:
+        """Take the port's exclusive lock (:mod:`.portlock`) before opening it: every backend
+        calls this first in :meth:`open`; :class:`ServoError` naming the holder if taken."""
+        if self.port_lock is None:
+            self.port_lock = PortLock.acquire(port)
+
+    def lock_device(self, fd: int) -> None:
+        """Lock the opened device too (``flock`` on the node, ``TIOCEXCL``); on refusal the
+        port lock is released again."""
+        if self.port_lock is not None:
+            try:
+                self.port_lock.attach(fd)
+            except ServoError:
+                self.unlock_port()
+                raise
+
+    def unlock_port(self) -> None:
+        """Release the port lock (call before closing the device; safe to call twice)."""
+        lock, self.port_lock = self.port_lock, None
+        if lock is not None:
+            lock.release()
+
+    # ------------------------------------------------------------------ hardware watchdog
+    def arm_watchdog(self, timeout_s: float) -> bool:
+        """Arm the servos' own bus watchdog (torque off after ``timeout_s`` without a valid
+        instruction), so a killed process leaves limp servos; False if the servos have none
+        (AX-12A, Protocol 1.0; the X series' Bus Watchdog, address 98, is Protocol 2.0)."""
+        return False
 
     @property
     def n(self) -> int:

@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -39,12 +41,15 @@ from .playback import (
     EXIT_SAFE_STOP,
     MAX_RATE_HZ,
     ON_FAULT_CHOICES,
+    STOP_SIGNALS,
     DeployConfig,
     Deployment,
     DeployResult,
+    Interrupted,
     TimingStats,
     deploy,
     report_lines,
+    signal_exit_code,
 )
 from .sources import CallableSource, RecordingSource, TargetSource
 
@@ -299,6 +304,24 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
 
 
 def run(args: argparse.Namespace) -> int:
+    """``wbc deploy``; every stop signal (:data:`STOP_SIGNALS`) ends like Ctrl-C: before
+    torque is on, at once; once it may be on, in the safe stop (:mod:`.playback`)."""
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in STOP_SIGNALS:
+            previous[signum] = signal.signal(signum, _raise_interrupted)
+    try:
+        return _run(args)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _raise_interrupted(signum, frame) -> None:
+    raise Interrupted(signum)
+
+
+def _run(args: argparse.Namespace) -> int:
     err = sys.stderr
     imu = None
     try:
@@ -386,9 +409,10 @@ def run(args: argparse.Namespace) -> int:
     except WbcError as exc:
         print(f"wbc deploy: refused before any torque was enabled: {exc}", file=err)
         return EXIT_REFUSED
-    except KeyboardInterrupt:
-        print("wbc deploy: interrupted before any torque was enabled", file=err)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        what = f" ({exc})" if isinstance(exc, Interrupted) else ""
+        print(f"wbc deploy: interrupted{what} before any torque was enabled", file=err)
+        return signal_exit_code(getattr(exc, "signum", None))
     for line in report_lines(result, robot):
         print(line, file=sys.stdout if result.completed else err)
     return result.exit_code

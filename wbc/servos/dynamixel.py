@@ -428,18 +428,27 @@ class DynamixelBus(ServoBus):
                 f"{latency} ms); set it to 1 with 'echo 1 > /sys/bus/usb-serial/devices/"
                 f"{Path(os.path.realpath(self.port_name)).name}/latency_timer'"
             )
+        self.lock_port(self.port_name)  # one owner per bus: refused before a byte is sent
         try:
             ok = port.setBaudRate(self.baud)  # opens the port (pyserial)
         except Exception as exc:  # serial.SerialException, OSError
+            self.unlock_port()
             raise ServoError(f"cannot open port {self.port_name!r}: {exc}") from exc
         if not ok:
+            self.unlock_port()
             raise ServoError(f"port {self.port_name!r} refused baud rate {self.baud}")
+        try:
+            self.lock_device(port.ser.fileno())
+        except ServoError:
+            port.closePort()
+            raise
         self.port = port
         ph = sdk.Protocol1PacketHandler()
         self._sync_goal = sdk.GroupSyncWrite(port, ph, ADDR_GOAL_POSITION, 2)
         self._sync_speed = sdk.GroupSyncWrite(port, ph, ADDR_MOVING_SPEED, 2)
 
     def close(self) -> None:
+        self.unlock_port()
         if self.port is not None and self.port.is_open:
             self.port.closePort()
 

@@ -50,12 +50,35 @@ from .sources import TargetSource
 EXIT_OK = 0
 EXIT_REFUSED = 2
 EXIT_SAFE_STOP = 3
-EXIT_INTERRUPTED = 130
+EXIT_INTERRUPTED = 130  # 128 + SIGINT; another stop signal exits with 128 + its number
+#: signals that end a deployment in the safe stop (as Ctrl-C does): ``kill``, ``systemctl
+#: stop`` (SIGTERM), a closed terminal or SSH session (SIGHUP), Ctrl-\\ (SIGQUIT)
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
+SIGNAL_REASONS = {
+    signal.SIGINT: "interrupted (Ctrl-C)",
+    signal.SIGTERM: "terminated (SIGTERM)",
+    signal.SIGHUP: "hang-up (SIGHUP: terminal or session closed)",
+    signal.SIGQUIT: "quit (SIGQUIT)",
+}
 MAX_RATE_HZ = 100.0
 ON_FAULT_CHOICES = ("auto", "hold", "torque-off", "crouch")
 AT_END_CHOICES = ("hold", "torque-off")
 #: error bits after which ``on_fault = auto`` crouches and cuts torque
 CROUCH_FAULTS = ("overheating", "overload")
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop signal (:data:`STOP_SIGNALS`) raised where no torque can be on (start-up), or a
+    second one while the loop stops: ``signum`` says which."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(SIGNAL_REASONS.get(signum, f"signal {signum}"))
+        self.signum = signum
+
+
+def signal_exit_code(signum: int | None) -> int:
+    """``128 + signum`` (the shell's convention): 130 for Ctrl-C, 143 for SIGTERM."""
+    return EXIT_INTERRUPTED if signum is None else 128 + int(signum)
 
 
 @dataclass
@@ -148,12 +171,13 @@ class DeployResult:
     interrupted: bool = False
     exchanges: list[str] = field(default_factory=list)
     health: str = ""
+    signum: int | None = None  # the stop signal of an interrupted run
 
     @property
     def exit_code(self) -> int:
         if self.completed:
             return EXIT_OK
-        return EXIT_INTERRUPTED if self.interrupted else EXIT_SAFE_STOP
+        return signal_exit_code(self.signum) if self.interrupted else EXIT_SAFE_STOP
 
 
 class Ticker:
@@ -268,7 +292,8 @@ class Deployment:
                 "a safe stop that should crouch will cut torque where the robot stands"
             )
         self._rate_check()
-        self._interrupted = False
+        self._signum: int | None = None  # the stop signal received (flag, checked per tick)
+        self._phase = "start-up"  # start-up (a signal raises), play (flags), stop (flags)
         self._torque_phase = False  # torque enable in progress: a failure cuts torque
         self._log_t: list[float] = []
         self._log_goal: list[np.ndarray] = []
@@ -396,9 +421,8 @@ class Deployment:
         return mode
 
     def _safe_stop(self, trip: Trip) -> str:
-        main = threading.current_thread() is threading.main_thread()
-        self._interrupted = False  # a Ctrl-C now only cuts a crouch short, never raises
-        previous = signal.signal(signal.SIGINT, self._flag_sigint) if main else None
+        self._phase = "stop"  # a stop signal now only cuts a crouch short, never raises
+        self._signum = None
         action = self.stop_action(trip)
         try:
             reset = getattr(self.bus, "reset", None)
@@ -414,12 +438,9 @@ class Deployment:
                 self.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
                 return f"{done} (not confirmed: {', '.join(unconfirmed)})"
             return done
-        except Exception as exc:  # report, never raise from the safe stop
+        except BaseException as exc:  # report, never raise from the safe stop
             self.warn(f"safe stop: {type(exc).__name__}: {exc}")
             return f"{action} (failed: {exc})"
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, previous)
 
     def _crouch(self) -> bool:
         """Move slowly (soft speed) to the crouch pose; False if impossible or cut short."""
@@ -434,7 +455,7 @@ class Deployment:
         while not np.array_equal(lim.prev, target):
             ticker.wait()
             now = self.clock.now()
-            if self._interrupted or now > t_end:
+            if self._signum is not None or now > t_end:
                 return False
             cmd = lim.limit_cmd(target, now, self.soft_cmd_speed)
             ticker.last_sent = now
@@ -460,6 +481,28 @@ class Deployment:
             what="first target",
         )
         first_cmd = np.clip(np.rint(bus.codec.encode_float(first)), lim.lo, lim.hi).astype(int)
+        previous = self._install_handlers()
+        try:
+            return self._run_open(first_cmd)
+        finally:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+
+    def _install_handlers(self) -> dict:
+        """Every stop signal takes the safe stop (main thread only: Python's rule)."""
+        if threading.current_thread() is not threading.main_thread():
+            return {}
+        previous = {}
+        for signum in STOP_SIGNALS:
+            try:
+                previous[signum] = signal.signal(signum, self._on_signal)
+            except (OSError, ValueError):  # pragma: no cover - a platform without it
+                pass
+        return previous
+
+    def _run_open(self, first_cmd: np.ndarray) -> DeployResult:
+        bus, lim = self.bus, self.limiter
+        self._phase = "start-up"
         bus.open()
         try:
             for w in getattr(bus, "warnings", []):
@@ -477,33 +520,30 @@ class Deployment:
         finally:
             bus.close()
 
-    def _flag_sigint(self, signum, frame) -> None:
-        self._interrupted = True
-
-    def _on_sigint(self, signum, frame) -> None:
-        if self._interrupted:  # a second Ctrl-C: stop now, even inside an exchange
-            raise KeyboardInterrupt
-        self._interrupted = True
+    def _on_signal(self, signum, frame) -> None:
+        """A stop signal: at start-up (torque off) stop at once; while torque may be on only
+        set a flag, so the loop stops at the next tick boundary, never inside an exchange
+        (a second signal there stops at once); in the safe stop, cut a crouch short."""
+        if self._phase == "start-up":
+            raise Interrupted(signum)
+        if self._phase == "play" and self._signum is not None:
+            raise Interrupted(self._signum)
+        self._signum = signum
 
     def _play_guarded(self, start: np.ndarray, first_cmd: np.ndarray) -> DeployResult:
-        """Ctrl-C only sets a flag while torque may be on: the loop stops at the next tick
-        boundary, never inside an exchange."""
-        if threading.current_thread() is not threading.main_thread():
-            return self._play(start, first_cmd)
-        previous = signal.signal(signal.SIGINT, self._on_sigint)
-        try:
-            return self._play(start, first_cmd)
-        finally:
-            signal.signal(signal.SIGINT, previous)
+        """From torque enable on, a stop signal only sets a flag (:meth:`_on_signal`)."""
+        self._phase = "play"
+        return self._play(start, first_cmd)
 
     def _check_interrupt(self) -> None:
-        if self._interrupted:
-            raise KeyboardInterrupt
+        if self._signum is not None:
+            raise Interrupted(self._signum)
 
     def _play(self, start: np.ndarray, first_cmd: np.ndarray) -> DeployResult:
         bus, lim, cfg = self.bus, self.limiter, self.config
         trip: Trip | None = None
         interrupted = False
+        signum: int | None = None
         soft_ticks = 0
         completed = False
         try:
@@ -544,19 +584,28 @@ class Deployment:
                 self.ticker.last_sent = now
                 trip = self._tick(cmd, now, 1)
                 self.ticker.done()
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:
             interrupted = True
-            trip = Trip(None, "operator", "interrupted (Ctrl-C)")
-        except Exception as exc:  # a crash mid-motion still ends in the safe stop
+            signum = getattr(exc, "signum", signal.SIGINT)
+            trip = Trip(None, "operator", SIGNAL_REASONS.get(signum, f"signal {signum}"))
+        except BaseException as exc:  # a crash mid-motion still ends in the safe stop
             trip = Trip(None, "deploy", f"{type(exc).__name__}: {exc}")
+            signum = None
         action = None
         if trip is not None:
             action = self._safe_stop(trip)
         elif cfg.at_end == "torque-off":
-            unconfirmed = bus.torque_off()
+            self._phase = "stop"
+            try:
+                unconfirmed = bus.torque_off()
+            except BaseException as exc:  # never raise past the report
+                unconfirmed = [f"all ({type(exc).__name__}: {exc})"]
             if unconfirmed:
                 self.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
-        self._write_log()
+        try:
+            self._write_log()
+        except Exception as exc:  # the stop is done; say the log is missing, in one line
+            self.warn(f"--log {cfg.log_path} not written: {type(exc).__name__}: {exc}")
         rms = max_err = None
         if cfg.read:
             n = np.maximum(self._err_n, 1)
@@ -574,6 +623,7 @@ class Deployment:
             interrupted,
             bus.exchange_lines(),
             self.health_line(),
+            signum if interrupted else None,
         )
 
     def _write_log(self) -> None:

@@ -12,7 +12,8 @@ limp), which is our torque-off. The joint <-> channel map is a TOML table::
 
 ``center_us`` is the pulse at q = 0 (default 1500); the scale is ``us_per_deg`` or
 ``us_per_rad`` (default Kokone's 13.33 µs/deg = 0.075 deg/µs); ``[bus] baudrate`` (default
-115200). ``robots/kokone/ssc32.toml`` is the robot's own map.
+115200) and ``[bus] xonxoff`` (default true: the port is opened with XON/XOFF software flow
+control, Kokone thesis Table 3.2). ``robots/kokone/ssc32.toml`` is the robot's own map.
 The board gives no position feedback (``can_read = False``): soft start cannot begin at the
 servos' real positions; the SSC-32 also moves a channel's first command at full speed.
 """
@@ -68,6 +69,9 @@ class Ssc32Map:
         self.channels = tuple(channels)
         self.source = source
         self.baudrate = 115200
+        #: software flow control (XON/XOFF), as Kokone's port is set up (thesis Table 3.2); the
+        #: ASCII commands never contain 0x11/0x13, so it costs nothing when the board sends none
+        self.xonxoff = True
         seen: dict[int, str] = {}
         for c in self.channels:
             where = f"{source}: joint {c.joint!r}"
@@ -149,8 +153,12 @@ class Ssc32Map:
         baud = raw.get("bus", {}).get("baudrate", 115200)
         if baud not in SSC32_BAUDS:
             raise ServoMapError(f"SSC-32 map {path}: [bus] baudrate {baud!r} not in {SSC32_BAUDS}")
+        xonxoff = raw.get("bus", {}).get("xonxoff", True)
+        if not isinstance(xonxoff, bool):
+            raise ServoMapError(f"SSC-32 map {path}: [bus] xonxoff must be true or false")
         out = cls(channels, source=str(path))
         out.baudrate = baud
+        out.xonxoff = xonxoff
         return out
 
     def range_warnings(self, q_min: np.ndarray, q_max: np.ndarray) -> list[str]:
@@ -253,12 +261,20 @@ class Ssc32Bus(ServoBus):
             import serial
         except ModuleNotFoundError as exc:  # pragma: no cover
             raise ServoError("pyserial is not installed (pip install 'wbc[servos]')") from exc
+        self.lock_port(self.port_name)  # one owner per bus: refused before a byte is sent
         try:
-            self.ser = serial.Serial(self.port_name, self.baud, timeout=0)
+            self.ser = serial.Serial(self.port_name, self.baud, timeout=0, xonxoff=self.map.xonxoff)
         except Exception as exc:
+            self.unlock_port()
             raise ServoError(f"cannot open port {self.port_name!r}: {exc}") from exc
+        try:
+            self.lock_device(self.ser.fileno())
+        except ServoError:
+            self.ser.close()
+            raise
 
     def close(self) -> None:
+        self.unlock_port()
         if self.ser is not None and self.ser.is_open:
             self.ser.close()
 
