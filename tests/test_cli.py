@@ -75,6 +75,53 @@ def test_bad_arguments_give_one_line_naming_the_argument(capsys, argv, argument,
     assert argument in line and allowed in line
 
 
+@pytest.mark.parametrize(
+    "argv, argument, allowed",
+    [
+        (["deploy", "x.npz", "--dry-run", "--limit-tol", "nan"], "--limit-tol", "in [0, 0.1]"),
+        (["deploy", "x.npz", "--dry-run", "--soft-speed", "100"], "--soft-speed", "in (0, 1]"),
+        (["deploy", "x.npz", "--dry-run", "--rate", "inf"], "--rate", "in (0, 100]"),
+        (["deploy", "x.npz", "--dry-run", "--attempts", "2.5"], "--attempts", "integer in"),
+        (["sim", "--push", "0", "nan"], "--push", "finite number"),
+        (["view", "--speed", "0"], "--speed", "in (0, 100]"),
+    ],
+)
+def test_numeric_options_are_checked_for_range_and_finiteness(capsys, argv, argument, allowed):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    line = _one_line(capsys.readouterr().err)
+    assert argument in line and allowed in line
+
+
+def _actions(parser):
+    import argparse
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                for inner, act in _actions(sub):
+                    yield f"{name} {inner}", act
+        else:
+            yield "", action
+
+
+def test_every_numeric_option_goes_through_the_shared_check(capsys):
+    """No option is parsed with a bare float/int (which take nan, inf, any range): each uses
+    wbc.cli.number, and refuses nan in one line."""
+    from wbc.cli import build_parser
+
+    parser = build_parser()
+    numeric = [(where, a) for where, a in _actions(parser) if a.type in (float, int)]
+    assert not numeric, [f"{w}{a.option_strings}" for w, a in numeric]
+    checked = [a for _, a in _actions(parser) if getattr(a.type, "__qualname__", "").startswith(
+        "number.")]  # fmt: skip
+    assert len(checked) >= 25
+    for action in checked:
+        with pytest.raises(Exception, match="must be"):
+            action.type("nan")
+
+
 def test_walking_the_static_com_set_says_it_cannot_be_walked(capsys):
     assert main(["walk", "--trajectory", "static_com"]) == 2
     line = _one_line(capsys.readouterr().err)

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 # command -> (module, one-line help)
@@ -35,6 +36,49 @@ OPTIONAL = {
     "matplotlib": "plots",
     "mujoco": "physics",
 }
+
+
+def number(
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    integer: bool = False,
+    lo_open: bool = False,
+    hi_open: bool = False,
+) -> Callable[[str], float]:
+    """The argparse ``type`` of every numeric command-line option: a finite number (an integer
+    with ``integer``) in ``[lo, hi]`` (``(lo`` / ``hi)`` when open; None: unbounded), else one
+    line saying what is allowed: ``argument --limit-tol: must be a finite number in [0, 0.5],
+    got 'nan'``."""
+    if integer:
+        kind = "an integer"
+    else:
+        kind = "a finite number"
+    if lo is not None and hi is not None:
+        what = f"{kind} in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    elif lo is not None:
+        what = f"{kind} {'>' if lo_open else '>='} {lo:g}"
+    elif hi is not None:
+        what = f"{kind} {'<' if hi_open else '<='} {hi:g}"
+    else:
+        what = kind
+
+    def parse(text: str) -> float:
+        try:
+            value: float = int(text) if integer else float(text)
+        except (TypeError, ValueError):
+            value = math.nan
+        ok = math.isfinite(value)
+        if ok and lo is not None:
+            ok = value > lo if lo_open else value >= lo
+        if ok and hi is not None:
+            ok = value < hi if hi_open else value <= hi
+        if not ok:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        return value
+
+    parse.__name__ = "integer" if integer else "number"  # argparse names the type in errors
+    return parse
 
 
 class _Parser(argparse.ArgumentParser):

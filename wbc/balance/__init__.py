@@ -23,13 +23,15 @@ from __future__ import annotations
 
 import argparse
 
+from ..cli import number
+
 
 def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> None:
     """The ``--compensate [GAIN]`` option of every command that can add the servo compliance
     feed-forward (:mod:`wbc.balance.compliance`): off by default, gain 1 when given bare."""
     parser.add_argument(
         "--compensate",
-        type=float,
+        type=number(0, 10),
         nargs="?",
         const=1.0,
         default=0.0,

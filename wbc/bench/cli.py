@@ -29,6 +29,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from ..cli import number
 from ..model import load_robot, print_notes
 from . import trajectories as traj
 from .solvers import BENCH_STACKS, FAMILIES, registry, select
@@ -98,26 +99,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_physics_arguments(parser)
 
 
-def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (0 < value < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
-
-
-def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return value
+#: argparse types: a finite number > 0, an integer >= 1 (:func:`wbc.cli.number`)
+positive_float = number(0, lo_open=True)
+positive_int = number(1, integer=True)
 
 
 def _list(console: Console) -> int:

@@ -520,15 +520,18 @@ def largest_push(
 # ---------------------------------------------------------------------- bench hook
 def add_physics_arguments(parser) -> None:
     """The ``wbc bench`` options of the physics benchmark."""
+    from ..cli import number
     parser.add_argument(
         "--physics",
         action="store_true",
         help="play every run through the deploy path on the simulated robot (wbc[physics])",
     )
     parser.add_argument(
-        "--robustness", type=int, default=0, metavar="N", help="--physics: N randomised models"
+        "--robustness", type=number(0, 10000, integer=True), default=0, metavar="N", help="--physics: N randomised models"
     )
-    parser.add_argument("--seed", type=int, default=0, help="--robustness: random seed")
+    parser.add_argument(
+        "--seed", type=number(0, integer=True), default=0, help="--robustness: random seed"
+    )
     parser.add_argument(
         "--push", action="store_true", help="--physics: largest survived torso impulse (N·s)"
     )
@@ -552,7 +555,7 @@ def add_physics_arguments(parser) -> None:
     )
     parser.add_argument(
         "--gyro",
-        type=float,
+        type=number(0, 10),
         default=0.0,
         metavar="SCALE",
         help="--physics: closed loop, torso gyro feedback on the leg goals (OP3 gains x SCALE; "

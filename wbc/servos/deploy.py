@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..balance import add_compensate_argument, check_compensate_encoders
+from ..cli import number
 from ..exceptions import ConfigurationError, ServoMapError, TrajectoryError, WbcError
 from ..model import Robot, load_robot
 from ..recording import Recording
@@ -40,6 +41,7 @@ from .playback import (
     EXIT_REFUSED,
     EXIT_SAFE_STOP,
     MAX_RATE_HZ,
+    MAX_SOFT_SPEED,
     ON_FAULT_CHOICES,
     STOP_SIGNALS,
     DeployConfig,
@@ -99,13 +101,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", help="serial port, e.g. /dev/ttyUSB0")
     parser.add_argument(
-        "--baud", type=int, help="baud rate (default: servo map's, 115200 for ssc32)"
+        "--baud", type=number(1, integer=True), help="baud rate (default: servo map's, 115200 for ssc32)"
     )
     parser.add_argument("--dry-run", action="store_true", help="no port: simulated ideal servos")
     parser.add_argument(
         "--plan", action="store_true", help="print the bus budget (then play RECORDING if given)"
     )
-    parser.add_argument("--rate", type=float, default=50.0, help="playback rate, Hz (<= 100)")
+    parser.add_argument(
+        "--rate", type=number(0, MAX_RATE_HZ, lo_open=True), default=50.0, help="Hz (<= 100)"
+    )
     parser.add_argument("--read", action="store_true", help="read present positions every tick")
     parser.add_argument(
         "--on-fault",
@@ -116,29 +120,52 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--at-end", choices=AT_END_CHOICES, default="hold", help="after the last target"
     )
-    parser.add_argument("--max-speed", type=float, help="rad/s (default: the servo speed)")
-    parser.add_argument("--soft-speed", type=float, default=0.5, help="soft start rad/s")
-    parser.add_argument("--max-failures", type=int, default=3, help="consecutive failed replies")
-    parser.add_argument("--limit-tol", type=float, default=1e-3, help="rad beyond limits refused")
-    parser.add_argument("--start-tol", type=float, default=0.05, help="rad outside limits at start")
-    parser.add_argument("--latency-ms", type=float, default=1.0, help="USB latency timer, ms")
-    parser.add_argument("--turnaround-ms", type=float, default=1.0, help="--plan: per reply, ms")
+    parser.add_argument(
+        "--max-speed", type=number(0, lo_open=True), help="rad/s (default: the servo speed)"
+    )
+    parser.add_argument(
+        "--soft-speed",
+        type=number(0, MAX_SOFT_SPEED, lo_open=True),
+        default=0.5,
+        help=f"soft start and crouch, rad/s (<= {MAX_SOFT_SPEED:g})",
+    )
+    parser.add_argument(
+        "--max-failures",
+        type=number(1, 20, integer=True),
+        default=3,
+        help="consecutive failed replies",
+    )
+    parser.add_argument(
+        "--limit-tol", type=number(0, 0.1), default=1e-3, help="rad beyond limits refused"
+    )
+    parser.add_argument(
+        "--start-tol",
+        type=number(0, 0.5, lo_open=True),
+        default=0.05,
+        help="rad outside limits at start",
+    )
+    parser.add_argument(
+        "--latency-ms", type=number(0, 255), default=1.0, help="USB latency timer, ms"
+    )
+    parser.add_argument(
+        "--turnaround-ms", type=number(0, 255), default=1.0, help="--plan: per reply, ms"
+    )
     parser.add_argument(
         "--torque-limit",
-        type=int,
+        type=number(0, 1023, integer=True),
         help="AX torque limit 0..1023 for every servo (overrides the servo map's [settings])",
     )
     parser.add_argument(
         "--reply-timeout-ms",
-        type=float,
+        type=number(0, 1000, lo_open=True),
         help="reply deadline per exchange, ms (default: 2 x latency + 2 ms + wire time)",
     )
     parser.add_argument(
-        "--attempts", type=int, default=3, help="tries per start-up exchange (PING, settings)"
+        "--attempts", type=number(1, 10, integer=True), default=3, help="tries per start-up exchange (PING, settings)"
     )
     parser.add_argument(
         "--fault-bound-ms",
-        type=float,
+        type=number(0, 1000, lo_open=True),
         default=100.0,
         help="health checks are scheduled so a servo fault stops motion within this time",
     )
@@ -163,7 +190,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "with --sim the simulated torso IMU is used",
     )
     parser.add_argument(
-        "--imu-baud", type=int, default=115200, help="--imu: the IMU's baud rate (115200)"
+        "--imu-baud", type=number(1, integer=True), default=115200, help="--imu: the IMU's baud rate (115200)"
     )
     parser.add_argument(
         "--encoders-only",

@@ -61,6 +61,8 @@ SIGNAL_REASONS = {
     signal.SIGQUIT: "quit (SIGQUIT)",
 }
 MAX_RATE_HZ = 100.0
+#: a soft start (and crouch) faster than this is no longer soft, rad/s
+MAX_SOFT_SPEED = 1.0
 ON_FAULT_CHOICES = ("auto", "hold", "torque-off", "crouch")
 AT_END_CHOICES = ("hold", "torque-off")
 #: error bits after which ``on_fault = auto`` crouches and cuts torque
@@ -110,6 +112,11 @@ class DeployConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigurationError(f"{name} must be positive, got {v}")
+        if self.soft_speed > MAX_SOFT_SPEED:
+            raise ConfigurationError(
+                f"soft_speed must be at most {MAX_SOFT_SPEED:g} rad/s (a soft start), "
+                f"got {self.soft_speed}"
+            )
         if self.max_speed is not None and not (
             math.isfinite(self.max_speed) and self.max_speed > 0
         ):

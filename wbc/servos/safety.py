@@ -324,6 +324,8 @@ def check_trajectory(
 ) -> None:
     """Refuse a (N, n) joint trajectory with NaN/inf or values beyond the limits by > tol,
     naming the first offending tick and joint."""
+    if not (math.isfinite(tol) and tol >= 0):
+        raise ConfigurationError(f"{what}: limit tolerance must be a finite number >= 0, got {tol}")
     joints = np.asarray(joints, dtype=float)
     if joints.ndim != 2 or joints.shape[1] != len(names):
         raise TrajectoryError(

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..cli import number
 from ..exceptions import ConfigurationError, TrajectoryError
 
 if TYPE_CHECKING:
@@ -147,12 +148,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
     parser.add_argument("--solver", default="hqp-daqp", help="plan with this benchmark solver")
     parser.add_argument("--trajectory", default="walk10", help="benchmark trajectory to plan")
-    parser.add_argument("--rate", type=float, help="control rate, Hz (default: the recording's)")
-    parser.add_argument("--settle", type=float, default=1.0, help="hold the end pose, s")
+    parser.add_argument(
+        "--rate", type=number(0, 1000, lo_open=True), help="control rate, Hz (default: recording's)"
+    )
+    parser.add_argument("--settle", type=number(0, 600), default=1.0, help="hold the end pose, s")
     parser.add_argument(
         "--push",
         nargs=2,
-        type=float,
+        type=number(),
         metavar=("FX_NS", "FY_NS"),
         help="torso impulse (N·s, world x and y) at mid single support",
     )

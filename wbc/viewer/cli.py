@@ -22,6 +22,7 @@ import time
 import webbrowser
 from collections.abc import Iterator
 
+from ..cli import number
 from ..exceptions import WbcError
 from ..model import load_robot, print_notes
 from ..recording import Recording
@@ -36,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--pose", default="stand", help="named configuration shown without a recording"
     )
     parser.add_argument(
-        "--speed", type=float, default=1.0, help="replay speed (1 = real time, 0.5 = half)"
+        "--speed", type=number(0, 100, lo_open=True), default=1.0, help="replay speed (1 = real time, 0.5 = half)"
     )
     parser.add_argument("--loop", action="store_true", help="replay until Ctrl-C")
     parser.add_argument(
@@ -46,7 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"draw axis triads at these frames (no names: {' '.join(DEFAULT_FRAMES)})",
     )
     parser.add_argument("--export", metavar="HTML", help="write a self-contained HTML page")
-    parser.add_argument("--fps", type=float, default=30.0, help="animation rate of --export")
+    parser.add_argument(
+        "--fps", type=number(0, 240, lo_open=True), default=30.0, help="--export frame rate"
+    )
     parser.add_argument(
         "--serve", action="store_true", help="keep serving the live viewer after --export"
     )
