@@ -166,3 +166,55 @@ def test_a_session_follows_a_replanned_reference_from_the_given_tick(robot, walk
     bad = replace(walk10, support=np.roll(walk10.support, 3))
     with pytest.raises(TrajectoryError, match="support schedule"):
         session.set_reference(bad, 100)
+
+
+class _Flaky:
+    """A controller that holds the pose, raising InfeasibleError on ticks 5..9."""
+
+    def __init__(self):
+        from wbc.walking.loop import Controller
+
+        class Flaky(Controller):
+            name = "flaky"
+            n = 0
+
+            def track(self, q, targets, dt, phase_changed):
+                from wbc.exceptions import InfeasibleError
+
+                self.n += 1
+                if 5 <= self.n < 10:
+                    raise InfeasibleError("hard level 0 is infeasible: contact_l_sole")
+                return q
+
+        self.controller = Flaky()
+
+
+def test_a_failed_run_records_its_validity_and_deploy_refuses_it(robot, tmp_path, capsys):
+    """The recording says how the run failed (ticks, hard levels, stack, robot, version);
+    ``wbc deploy`` refuses it in one line unless --force."""
+    import wbc
+    from wbc.cli import main
+
+    ref = build("thesis_step", robot)
+    rec = run(_Flaky().controller, robot, ref)
+    v = rec.meta["validity"]
+    assert v["valid"] is False and v["failed_ticks"] == 5 and v["hard_failed_ticks"] == 5
+    assert v["first_failure"].startswith("tick 4: hard level 0 is infeasible")
+    assert (v["stack"], v["robot"], v["wbc_version"]) == ("flaky", robot.name, wbc.__version__)
+    path = rec.save(tmp_path / "failed.npz")
+    assert Recording.load(path).problems() == [
+        f"5 of {len(rec)} ticks failed (5 with a hard level not met), first tick 4: hard level 0 "
+        "is infeasible: contact_l_sole"
+    ]
+    capsys.readouterr()
+    assert main(["deploy", str(path), "--dry-run"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is from a failed run (5 of" in err[0] and "--force" in err[0]
+    assert main(["deploy", str(path), "--dry-run", "--rate", "100", "--force"]) == 0
+    assert "warning: --force: playing a failed run: 5 of" in capsys.readouterr().err
+
+
+def test_a_valid_run_is_marked_valid(walk_run):
+    v = walk_run.meta["validity"]
+    assert v["valid"] is True and v["failed_ticks"] == 0 and v["limit_violations"] == 0
+    assert walk_run.problems() == []

@@ -15,6 +15,14 @@ lowest corner (m), ``torso_yaw_ref`` (N,), ``solve_time`` (N,) seconds, ``iterat
 ``failed`` (N,), ``err/<task>`` (N, k) task errors (m for position rows, rad for
 orientation and joint rows: :meth:`wbc.solvers.TaskStack.errors`). ``meta`` is a JSON dict (solver,
 trajectory, robot, ...).
+
+**Validity.** A run's recording carries ``meta["validity"]`` (:func:`assess`): ``valid``,
+``failed_ticks`` (ticks whose solve raised), ``hard_failed_ticks`` (of those, a hard level
+could not be met), ``limit_violations`` (ticks with a joint beyond its limits by more than
+1e-3 rad), ``first_failure``, and the ``stack``, ``robot`` and ``wbc_version`` that made it.
+:meth:`Recording.problems` says why a recording is not fit to play (``wbc deploy`` refuses it
+without ``--force``); a recording without validity (written by hand) is judged by its
+``failed`` channel when it has one.
 """
 
 from __future__ import annotations
@@ -71,6 +79,30 @@ class Recording:
 
     def __len__(self) -> int:
         return self.t.size
+
+    def problems(self) -> list[str]:
+        """Why this recording is from a failed run (empty if valid or unknown), one phrase
+        each: failed ticks, hard levels not met, joint-limit violations."""
+        v = self.meta.get("validity")
+        if not isinstance(v, dict):
+            v = {}
+            if "failed" in self.channels:
+                v["failed_ticks"] = int(np.count_nonzero(self.channels["failed"]))
+        out = []
+        n = len(self)
+        if v.get("failed_ticks"):
+            hard = v.get("hard_failed_ticks") or 0
+            text = f"{v['failed_ticks']} of {n} ticks failed"
+            if hard:
+                text += f" ({hard} with a hard level not met)"
+            if v.get("first_failure"):
+                text += f", first {v['first_failure']}"
+            out.append(text)
+        if v.get("limit_violations"):
+            out.append(f"{v['limit_violations']} ticks beyond the joint limits")
+        if v.get("valid") is False and not out:
+            out.append("marked invalid")
+        return out
 
     @property
     def joints(self) -> np.ndarray:
@@ -138,6 +170,32 @@ class Recording:
         q = arrays.pop("q")
         names = tuple(str(n) for n in arrays.pop("joint_names"))
         return cls(t, q, names, arrays, meta)
+
+
+#: a joint beyond its limit by more than this (rad) makes a tick a limit violation
+PLAYABLE_LIMIT_TOL = 1e-3
+
+
+def assess(rec: Recording, hard_failed_ticks: int = 0, first_failure: str = "") -> dict[str, Any]:
+    """The validity record of a run (module docstring), from its ``failed`` and
+    ``limit_margin`` channels and its ``meta`` (``controller``, ``robot``)."""
+    from . import __version__
+
+    failed = int(np.count_nonzero(rec.channels["failed"])) if "failed" in rec.channels else 0
+    limits = 0
+    if "limit_margin" in rec.channels:
+        margin = np.asarray(rec.channels["limit_margin"], dtype=float)
+        limits = int(np.count_nonzero(np.any(~(margin >= -PLAYABLE_LIMIT_TOL), axis=1)))
+    return {
+        "valid": failed == 0 and limits == 0,
+        "failed_ticks": failed,
+        "hard_failed_ticks": int(hard_failed_ticks),
+        "limit_violations": limits,
+        "first_failure": str(first_failure)[:300],
+        "stack": rec.meta.get("controller", ""),
+        "robot": rec.meta.get("robot", ""),
+        "wbc_version": __version__,
+    }
 
 
 def _json_default(obj: Any) -> Any:

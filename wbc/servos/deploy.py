@@ -173,6 +173,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--crouch-pose", default="stand", help="named pose of the crouch (safe stop)"
     )
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="play a recording of a failed run (failed ticks, limit violations): refused without",
+    )
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
     add_compensate_argument(
         parser, "add the servos' expected compliance deflection to a recording's goals"
@@ -403,6 +408,14 @@ def _run(args: argparse.Namespace) -> int:
             loop, what, duration = _live(args, robot, bus, config, imu)
         else:
             recording = Recording.load(args.recording)
+            problems = recording.problems()
+            if problems and not args.force:
+                raise TrajectoryError(
+                    f"recording {args.recording} is from a failed run ({'; '.join(problems)}); "
+                    "give --force to play it anyway"
+                )
+            for problem in problems:
+                print(f"warning: --force: playing a failed run: {problem}", file=err)
             source = RecordingSource(recording, robot, tol=args.limit_tol)
             what, duration = Path(args.recording).name, source.duration
             if args.compensate:

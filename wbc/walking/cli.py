@@ -75,9 +75,16 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"  time per tick median {m['time_median_us']:.0f} µs, p99 {m['time_p99_us']:.0f} µs")
     path = args.out
+    problems = rec.problems()
     if path is not None:
         rec.save(path)
         print(f"recording saved to {path}")
+        if problems:  # saved for inspection, marked invalid: wbc deploy refuses it
+            print(
+                f"wbc walk: the run failed ({'; '.join(problems)}): {path} is marked invalid "
+                "(wbc deploy refuses it without --force)",
+                file=sys.stderr,
+            )
     if args.export or args.view:
         from ..viewer.cli import run as view
 

@@ -20,10 +20,10 @@ import pinocchio as pin
 
 from ..compiled.checks import entry as check_entry
 from ..compiled.targets import copy_targets
-from ..exceptions import ConfigurationError, TrajectoryError, WbcError
+from ..exceptions import ConfigurationError, InfeasibleError, TrajectoryError, WbcError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
-from ..recording import SUPPORT_DOUBLE, Recording
+from ..recording import SUPPORT_DOUBLE, Recording, assess
 from ..stacks import ControlStack
 from ..tasks import (
     ComTask,
@@ -398,6 +398,7 @@ class Session:
         self._previous: tuple[str, str, str] | None = None
         self._last_index: int | None = None  # reference tick of the last solve
         self.failed = False
+        self.failure: WbcError | None = None  # why the last tick failed
         self.iterations = 0
         self.solve_time = 0.0
         self.feedback_time = 0.0
@@ -475,6 +476,7 @@ class Session:
             self.feedback_time = time.perf_counter() - start
         start = time.perf_counter()
         self.failed = False
+        self.failure = None
         try:
             if opts.mode == "tick":
                 self.q = self.controller.track(self.q, targets, gap * self.ref.dt, changed)
@@ -483,8 +485,9 @@ class Session:
                 self.q, self.iterations = self.controller.converge(
                     self.q, targets, opts.tol, opts.max_iterations, changed
                 )
-        except WbcError:
+        except WbcError as exc:
             self.failed = True
+            self.failure = exc
             if opts.stop_on_failure:
                 raise
         self.solve_time = time.perf_counter() - start
@@ -567,6 +570,8 @@ def run_stepwise(
     solve_time = np.zeros(n)
     iterations = np.zeros(n, dtype=int)
     failed = np.zeros(n, dtype=bool)
+    hard_failed = np.zeros(n, dtype=bool)  # a hard level could not be met (InfeasibleError)
+    first_failure = ""
     errors: dict[str, np.ndarray] = {}
     for i in range(n):
         q = session.tick(i)
@@ -575,6 +580,9 @@ def run_stepwise(
             session.iterations,
             session.solve_time,
         )
+        if session.failure is not None:
+            hard_failed[i] = isinstance(session.failure, InfeasibleError)
+            first_failure = first_failure or f"tick {i}: {session.failure}"
         Q[i] = q
         kin.update(q)
         com[i] = kin.com
@@ -603,7 +611,9 @@ def run_stepwise(
         "dt": dt,
         **options.meta,
     }
-    return Recording(ref.t.copy(), Q, robot.joint_names, channels, meta)
+    rec = Recording(ref.t.copy(), Q, robot.joint_names, channels, meta)
+    rec.meta["validity"] = assess(rec, int(hard_failed.sum()), first_failure)
+    return rec
 
 
 def start_configuration(robot: Robot, ref: WalkingReference) -> np.ndarray:
