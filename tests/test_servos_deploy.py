@@ -336,7 +336,7 @@ def test_transient_faults_are_tolerated(robot, recording, walk_ready_ticks, caps
         Fault("timeout", 7, after_goals=10, count=2),  # 2 < 3 consecutive
         Fault("late", 6, after_goals=15, count=2, delay_s=0.03),  # 2 late, then on time
         Fault("bad_checksum", 8, after_goals=20, count=1),
-        Fault("garbage", 4, after_goals=5, data=b"\x00\x13\x37"),  # no header: skipped
+        Fault("garbage", 4, after_goals=5, count=2, data=b"\x00\x13\x37"),  # 2 < 3 in a row
     ]
     with Emulator(positions=walk_ready_ticks, faults=faults) as emu:
         rc, _, err = run_deploy(emu.port, recording, "--read", capsys=capsys)

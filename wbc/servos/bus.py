@@ -195,6 +195,10 @@ class ServoBus(ABC):
         self.cmd_lo: np.ndarray | None = None
         self.cmd_hi: np.ndarray | None = None
         self.port_lock: PortLock | None = None
+        #: servos (model indices) that receive no more goals: a faulted servo while the safe
+        #: stop's crouch moves the others (a backend that cannot omit a servo from its goal
+        #: transaction sends its unchanged last goal, which the deployment keeps)
+        self.excluded: frozenset[int] = frozenset()
 
     # ------------------------------------------------------------------ one owner per bus
     def lock_port(self, port: str) -> None:

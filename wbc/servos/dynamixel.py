@@ -288,6 +288,7 @@ class ExchangeLog:
     corrupt: dict[int, int] = field(default_factory=dict)
     late: dict[int, int] = field(default_factory=dict)
     stale_bytes: int = 0
+    junk_bytes: int = 0  # bytes of no packet received within exchanges (garbage)
 
     def count(self, what: dict[int, int], servo_id: int) -> None:
         what[servo_id] = what.get(servo_id, 0) + 1
@@ -304,6 +305,8 @@ class ExchangeLog:
         for name, d in (("timeouts", self.timeouts), ("corrupt/unmatched", self.corrupt)):
             if d:
                 out.append(f"{name}: " + ", ".join(f"id {k} x{v}" for k, v in sorted(d.items())))
+        if self.junk_bytes:
+            out.append(f"garbage on the line: {self.junk_bytes} bytes outside any packet")
         if self.late:
             out.append(
                 "late replies (discarded): "
@@ -352,7 +355,9 @@ class DynamixelBus(ServoBus):
 
     Every exchange with a reply is matched (:meth:`exchange`): stale input is flushed first,
     the status packet must carry the servo's ID, a valid checksum and the length of what was
-    asked, within the reply deadline; anything else is a failed exchange the watchdog counts.
+    asked, within the reply deadline, and come on a clean line (garbage bytes in the exchange
+    make it ``corrupt``: persistent garbage trips the watchdog like silence); anything else is
+    a failed exchange the watchdog counts.
     Start-up exchanges are retried up to ``attempts`` times; the motion loop's are not (the
     watchdog's streak decides). Settings (compliance, punch, torque limit, alarm shutdown)
     come from ``servo_map.settings`` (the config the simulator's servo model reads too).
@@ -509,12 +514,18 @@ class DynamixelBus(ServoBus):
         deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + 6)
         ser = port.ser
         fd = ser.fileno()
+        junk = 0  # bytes on the line that belong to no packet (noise, a babbling device)
         while True:
             now = time.perf_counter()
             n = ser.in_waiting
             if n:
                 self._buf += ser.read(n)
-            while (reply := take_packet(self._buf)) is not None:
+            while True:
+                before = len(self._buf)
+                reply = take_packet(self._buf)
+                junk += before - len(self._buf) - (len(reply) if reply is not None else 0)
+                if reply is None:
+                    break
                 if checksum(reply[2:-1]) != reply[-1]:
                     self.log.count(self.log.corrupt, servo_id)
                     return COMM_CORRUPT, 0, b""
@@ -524,6 +535,10 @@ class DynamixelBus(ServoBus):
                 if reply[3] != n_reply + 2:  # e.g. the late answer to an earlier READ
                     self.log.count(self.log.late, servo_id)
                     continue
+                if junk:  # a valid reply in garbage: the line is not clean, count a failure
+                    self.log.junk_bytes += junk
+                    self.log.count(self.log.corrupt, servo_id)
+                    return COMM_CORRUPT, 0, b""
                 self.log.rtt.append(time.perf_counter() - t0)
                 return COMM_OK, reply[4], reply[5:-1]
             if now >= deadline:  # the last look came after the deadline
@@ -724,8 +739,9 @@ class DynamixelBus(ServoBus):
         cmds = self.check_goals(cmds)
         sync = self._sync_goal
         sync.clearParam()
-        for sid, tick in zip(self.ids, cmds, strict=True):
-            sync.addParam(sid, word(int(tick)))
+        for i, (sid, tick) in enumerate(zip(self.ids, cmds, strict=True)):
+            if i not in self.excluded:  # a faulted servo gets no goal during the crouch
+                sync.addParam(sid, word(int(tick)))
         return self._comm(sync.txPacket())
 
     # ------------------------------------------------------------------ feedback

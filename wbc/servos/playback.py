@@ -439,7 +439,8 @@ class Deployment:
                 return "hold"
             done = action
             if action == "crouch":
-                done = "crouch, torque-off" if self._crouch() else "crouch cut short, torque-off"
+                crouched = self._crouch(trip.index)
+                done = "crouch, torque-off" if crouched else "crouch cut short, torque-off"
             unconfirmed = self.bus.torque_off()
             if unconfirmed:
                 self.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
@@ -449,13 +450,18 @@ class Deployment:
             self.warn(f"safe stop: {type(exc).__name__}: {exc}")
             return f"{action} (failed: {exc})"
 
-    def _crouch(self) -> bool:
-        """Move slowly (soft speed) to the crouch pose; False if impossible or cut short."""
+    def _crouch(self, faulted: int | None = None) -> bool:
+        """Move slowly (soft speed) to the crouch pose; False if impossible or cut short. The
+        ``faulted`` servo receives no goal (it keeps its last one): only the others move."""
         bus, lim = self.bus, self.limiter
         target = self.crouch_cmd
         if target is None or lim.prev is None:
             self.warn(f"no crouch pose {self.config.crouch_pose!r} in the servo map")
             return False
+        if faulted is not None:
+            target = target.copy()
+            target[faulted] = lim.prev[faulted]
+            bus.excluded = bus.excluded | {faulted}
         ticker = Ticker(self.period, self.clock)
         duration = float(np.max(np.abs(target - lim.prev) / self.soft_cmd_speed, initial=0.0))
         t_end = self.clock.now() + duration + 1.0
