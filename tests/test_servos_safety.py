@@ -281,3 +281,25 @@ def test_ax_codec_is_the_servo_map(robot, codec, q):
     assert np.allclose(codec.encode_float(q), sm.angles_to_ticks_float(q), atol=1e-9)
     ticks = np.clip(np.rint(codec.encode_float(q)), 0, 1023).astype(int)
     assert np.allclose(codec.decode(ticks), sm.ticks_to_angles(ticks), atol=1e-12)
+
+
+@given(
+    gaps=st.lists(st.floats(0.001, 0.05), min_size=5, max_size=60),
+    rate=st.sampled_from([50.0, 100.0]),
+)
+def test_no_goal_faster_than_the_servo_rounding_included(robot, codec, gaps, rate):
+    """Rule 3: the limiter never asks two consecutive goals for more than the servo's top
+    speed (here the AX-12A's 1,207 ticks/s, every joint), whatever the tick timing; without it
+    the carried credit lets a step of 25 ticks follow 20 ms (1,250 ticks/s)."""
+    from wbc.servos.dynamixel import AX12_MAX_SPEED
+
+    top = command_speed(codec, AX12_MAX_SPEED)
+    lim = GoalLimiter(codec, robot.q_min, robot.q_max, top, robot.joint_names, hard_speed=top)
+    prev = lim.reset(codec.encode_float(np.clip(0.0, robot.q_min, robot.q_max)), 0.0)
+    t = 0.0
+    for k, gap in enumerate([*gaps, *([1.0 / rate] * 20)]):
+        t += gap
+        target = np.where(k % 40 < 20, lim.hi, lim.lo)  # far away: full speed all the time
+        cmd = lim.limit_cmd(target.astype(float), t)
+        assert np.all(np.abs(cmd - prev) <= top * gap + 1e-9), (k, gap, np.abs(cmd - prev).max())
+        prev = cmd

@@ -275,9 +275,13 @@ class Deployment:
         if self.config.max_speed is not None:
             v = np.minimum(v, self.config.max_speed)
         self.v_max = v
+        hard = None  # the servos' own top speed, rounding included (GoalLimiter rule 3)
+        if math.isfinite(bus.servo_speed):
+            hard = command_speed(bus.codec, bus.servo_speed)
         self.limiter = GoalLimiter(
-            bus.codec, robot.q_min, robot.q_max, command_speed(bus.codec, v), robot.joint_names
-        )
+            bus.codec, robot.q_min, robot.q_max, command_speed(bus.codec, v), robot.joint_names,
+            hard_speed=hard,
+        )  # fmt: skip
         self.soft_speed = min(self.config.soft_speed, float(np.min(v)))
         self.soft_cmd_speed = command_speed(bus.codec, self.soft_speed)
         bus.set_command_limits(self.limiter.lo, self.limiter.hi)

@@ -18,7 +18,10 @@ Every goal sent to the servos passes :class:`GoalLimiter`, in integer commands (
 
    whatever the tick timing: a late tick moves no further than its elapsed time allows and a
    tick that follows it closely moves less (never a burst); the mean speed never exceeds
-   ``s_j``, also below one unit per tick (a soft start at 0.5 rad/s and 100 Hz).
+   ``s_j``, also below one unit per tick (a soft start at 0.5 rad/s and 100 Hz);
+3. the servo's own top speed ``h_j`` (``hard_speed``), rounding included: each goal's step
+   from the previous one is at most ``floor(h_j · (t - t_prev))``, so no two consecutive
+   goals ask for more than the servo can do (the carried credit never adds a unit there).
 
 :class:`Watchdog` turns servo statuses into a :class:`Trip` (which servo, why) on N
 consecutive failed exchanges or an error bit of the trip set. :class:`HealthSchedule` picks
@@ -80,6 +83,7 @@ class GoalLimiter:
         q_max: np.ndarray,
         speed: np.ndarray,
         names: Sequence[str],
+        hard_speed: np.ndarray | float | None = None,
     ) -> None:
         self.codec = codec
         self.q_min = np.asarray(q_min, dtype=float)
@@ -91,6 +95,12 @@ class GoalLimiter:
             raise ConfigurationError(
                 f"speed must be positive and finite per joint, got {self.speed}"
             )
+        self.hard_speed = None  # command units/s, the servos' own maximum (rule 3)
+        if hard_speed is not None:
+            h = np.broadcast_to(np.asarray(hard_speed, dtype=float), self.lo.shape).copy()
+            if np.any(np.isnan(h)) or np.any(h <= 0):
+                raise ConfigurationError(f"hard_speed must be positive per joint, got {h}")
+            self.hard_speed = np.where(np.isfinite(h), h, np.inf)
         n = len(self.names)
         self.report = LimitReport(self.names, np.zeros(n, int), np.zeros(n), np.zeros(n, int))
         self.prev: np.ndarray | None = None
@@ -114,7 +124,13 @@ class GoalLimiter:
 
     def allowed(self, now: float, speed: np.ndarray | float | None = None) -> np.ndarray:
         """Largest command change per joint for a goal sent at ``now``."""
-        return np.floor(self._available(now, speed) + 1e-9).astype(int)
+        return self._steps(self._available(now, speed), now)
+
+    def _steps(self, avail: np.ndarray, now: float) -> np.ndarray:
+        step = np.floor(avail + 1e-9)
+        if self.hard_speed is not None:  # rule 3: never above the servo's top speed
+            step = np.minimum(step, np.floor(self.hard_speed * max(now - self.sent_at, 0.0)))
+        return step.astype(int)
 
     def limit_cmd(
         self, target: np.ndarray, now: float, speed: np.ndarray | float | None = None
@@ -125,7 +141,7 @@ class GoalLimiter:
         if self.prev is None:
             raise ServoError("GoalLimiter: reset() with the present positions first")
         avail = self._available(now, speed)
-        step = np.floor(avail + 1e-9).astype(int)
+        step = self._steps(avail, now)
         c = np.clip(np.rint(np.asarray(target, dtype=float)), self.lo, self.hi).astype(int)
         limited = np.clip(c, self.prev - step, self.prev + step)
         if speed is None:
