@@ -572,3 +572,19 @@ def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks,
     skipped = int(out.split("ticks skipped")[0].rsplit("(", 1)[1])
     assert data["goal"].shape[0] + skipped >= 300, out
     assert n_goals == 18 * (1 + data["goal"].shape[0]), out
+
+
+def test_real_time_priority_where_permitted_and_says_so_when_not(recording, monkeypatch, capsys):
+    before = os.sched_getscheduler(0)
+    rc, out, _ = run_deploy("", recording, "--dry-run", "--rt-priority", capsys=capsys)
+    assert rc == 0
+    assert "note: real-time priority: SCHED_FIFO 50" in out or "not permitted" in out
+    assert os.sched_getscheduler(0) == before  # restored for the caller
+
+    def refuse(*args):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    rc, out, _ = run_deploy("", recording, "--dry-run", "--rt-priority", "20", capsys=capsys)
+    assert rc == 0
+    assert "--rt-priority: not permitted (Operation not permitted); running at normal" in out

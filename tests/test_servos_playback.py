@@ -293,3 +293,31 @@ def test_bad_options_and_maps_raise_their_subjects_class(robot):
     kokone = load_robot("kokone")  # hobby servos: no servos.toml
     with pytest.raises(ServoMapError, match="no servo map"):
         deploy_cmd.check_servo_map(kokone)
+
+
+# ---------------------------------------------------------------- a slow host or adapter
+SLOW = [None, Fault("late", 7, after_goals=8, delay_s=0.021), Fault("timeout", 7, after_goals=8)]
+
+
+@pytest.mark.parametrize("fault", SLOW, ids=["nominal", "late-21ms", "silent"])
+def test_a_slow_adapter_is_no_false_alarm_and_faults_are_still_caught(
+    robot, sway, walk_ready_ticks, capsys, fault
+):
+    """Every reply takes 5 ms (a loaded host, a slow adapter: more than the 4.3 ms of the
+    fixed rule for a 1 ms latency timer). The adaptive deadline (from the measured round
+    trips) plays to the end without a false alarm; a reply 21 ms late and a silent servo
+    still trip, naming the servo. With the fixed rule every poll timed out."""
+    faults = [] if fault is None else [fault]
+    with Emulator(
+        positions=walk_ready_ticks, timing=True, usb_latency_s=0.005, faults=faults
+    ) as emu:
+        parser = argparse.ArgumentParser()
+        deploy_cmd.add_arguments(parser)
+        argv = [sway, "--port", emu.port, "--rate", "20", "--fault-bound-ms", "400"]
+        rc = deploy_cmd.run(parser.parse_args(argv))
+        out, err = capsys.readouterr()
+    if fault is None:
+        assert rc == 0, err  # a reply lost to a stall may time out: never 3 in a row
+    else:
+        assert rc == deploy_cmd.EXIT_SAFE_STOP, err
+        assert "SAFE STOP (hold): id 7 (r_hip_yaw): 3 consecutive failed exchanges" in err

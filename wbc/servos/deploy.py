@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import signal
 import sys
 import threading
@@ -173,6 +174,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--crouch-pose", default="stand", help="named pose of the crouch (safe stop)"
     )
     parser.add_argument("--ssc32-map", help="SSC-32 joint/channel TOML")
+    parser.add_argument(
+        "--rt-priority",
+        type=number(1, 99, integer=True),
+        nargs="?",
+        const=50,
+        metavar="PRIO",
+        help="run the control loop at real-time priority (SCHED_FIFO, default 50) where "
+        "permitted (root, CAP_SYS_NICE or an rtprio limit); says so when not",
+    )
     parser.add_argument(
         "--force",
         action="store_true",
@@ -342,11 +352,41 @@ def run(args: argparse.Namespace) -> int:
     if threading.current_thread() is threading.main_thread():
         for signum in STOP_SIGNALS:
             previous[signum] = signal.signal(signum, _raise_interrupted)
+    restore = None
     try:
+        if getattr(args, "rt_priority", None) is not None:
+            restore, text = real_time_priority(args.rt_priority)
+            print(f"note: {text}")
         return _run(args)
     finally:
+        if restore is not None:
+            restore()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def real_time_priority(priority: int):
+    """Run this process at ``SCHED_FIFO`` ``priority`` (fewer late ticks on a busy host);
+    returns ``(restore, line)``: ``restore()`` puts the previous policy back (None if
+    nothing changed) and ``line`` says what happened, or why it was not permitted."""
+    if not hasattr(os, "sched_setscheduler"):
+        return None, "--rt-priority: this platform has no sched_setscheduler; normal priority"
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError as exc:  # EPERM: no CAP_SYS_NICE / rtprio limit
+        return None, (
+            f"--rt-priority: not permitted ({exc.strerror}); running at normal priority "
+            "(needs root, CAP_SYS_NICE or an rtprio limit in /etc/security/limits.conf)"
+        )
+
+    def restore() -> None:
+        try:
+            os.sched_setscheduler(0, policy, param)
+        except OSError:
+            pass
+
+    return restore, f"real-time priority: SCHED_FIFO {priority}"
 
 
 def _raise_interrupted(signum, frame) -> None:

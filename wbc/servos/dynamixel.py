@@ -113,6 +113,13 @@ AX12_MAX_SPEED = AX12_NO_LOAD_RPM * 2.0 * math.pi / 60.0  # rad/s
 # from peers.md §7, USB2AX notes); used by the bus budget and by the emulator's timing model.
 AX12_RESPONSE_S = 22e-6
 
+# Adaptive reply deadline (DynamixelBus.reply_timeout_s): factor x the median round trip of
+# the last replies, never below the SDK's rule nor above 12 ms (a reply later than that is a
+# fault: at 50 Hz with --read one silent servo's deadline leaves room for the other READs)
+ADAPTIVE_FACTOR = 3.0
+ADAPTIVE_WINDOW = 32
+ADAPTIVE_MAX_S = 12e-3
+
 # Baud rates the SDK's PortHandler accepts.
 SDK_BAUDS = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 500000, 576000, 921600)
 SDK_BAUDS += (1000000, 1152000, 2000000, 2500000, 3000000, 3500000, 4000000)
@@ -466,11 +473,19 @@ class DynamixelBus(ServoBus):
     # ------------------------------------------------------------------ matched exchanges
     def reply_timeout_s(self, n_out: int, n_in: int) -> float:
         """Reply deadline after the request is written: ``--reply-timeout-ms`` if given, else
-        the SDK's rule: wire time of both packets + 2 · USB latency + 2 ms."""
+        adaptive: the SDK's rule (wire time of both packets + 2 · USB latency + 2 ms), raised
+        to :data:`ADAPTIVE_FACTOR` × the median of the last :data:`ADAPTIVE_WINDOW` measured
+        round trips (a loaded host or a slow adapter), at most :data:`ADAPTIVE_MAX_S`: a busy
+        CPU is no false alarm, a servo that stays silent or answers later still fails."""
         if self.reply_timeout_ms is not None:
             return self.reply_timeout_ms * 1e-3
         wire = (n_out + n_in) * 10.0 / self.baud
-        return wire + 2e-3 * self.latency_timer_ms + 2e-3
+        rule = wire + 2e-3 * self.latency_timer_ms + 2e-3
+        recent = self.log.rtt[-ADAPTIVE_WINDOW:]
+        if len(recent) < 3:
+            return rule
+        measured = ADAPTIVE_FACTOR * float(np.median(recent))
+        return min(max(rule, measured), max(rule, ADAPTIVE_MAX_S))
 
     def _flush(self) -> None:
         """Drop what is pending on the line; status packets in it are late replies."""
