@@ -141,3 +141,23 @@ def test_ssc32_wrong_baud_is_refused(robot, recording, capsys):
     assert board.pulses == []
     assert _run("/dev/null", recording, "--read") == deploy_cmd.EXIT_REFUSED
     assert "ssc32 backend cannot read servo positions" in capsys.readouterr().err
+
+
+def test_dry_run_shows_the_ssc32_figures(tmp_path, capsys):
+    """The SSC-32 dry run: the SSC-32 bus budget (as --plan) and board health, not the
+    Dynamixel per-servo figures."""
+    from wbc import load_robot
+    from wbc.cli import main
+    from wbc.recording import Recording
+
+    kokone = load_robot("kokone")
+    t = np.arange(0.0, 0.2, 0.02)
+    path = tmp_path / "k.npz"
+    Recording(t, np.tile(kokone.configuration("stand"), (t.size, 1)), kokone.joint_names).save(
+        path
+    )
+    assert main(["deploy", str(path), "--robot", "kokone", "--bus", "ssc32", "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "bus budget (write-only, 115200 baud): 173 B and 1 replies per tick = 16.02 ms" in out
+    assert "health: one board query per tick (no per-servo status" in out
+    assert "servos checked per tick" not in out

@@ -34,7 +34,7 @@ from ..exceptions import ConfigurationError, ServoMapError, TrajectoryError, Wbc
 from ..model import Robot, load_robot
 from ..recording import Recording
 from .bus import DryRunBus, ServoBus
-from .plan import plan_lines
+from .plan import budget_line, plan_lines
 from .playback import (
     AT_END_CHOICES,
     EXIT_INTERRUPTED,
@@ -288,7 +288,9 @@ def check_servo_map(robot: Robot, tol: float = 1e-3) -> list[str]:
 
 
 def _dry_bus(bus: ServoBus, robot: Robot) -> DryRunBus:
-    """Ideal servos at the robot's standing pose, reading back only what ``bus`` could."""
+    """Ideal servos at the robot's standing pose, reading back only what ``bus`` could, with
+    its figures: health checks per servo or per board, top speed, bus budget (the dry run of
+    an SSC-32 shows the SSC-32's)."""
     if robot.stand_pose != "zero":
         start = bus.codec.encode_float(robot.configuration("stand")[7:])
     else:
@@ -298,6 +300,11 @@ def _dry_bus(bus: ServoBus, robot: Robot) -> DryRunBus:
     dry.can_read = bus.can_read
     dry.name = "dry-run" if bus.can_read else f"dry-run {bus.name}"
     dry.unchecked = getattr(bus, "unchecked", ())
+    dry.health_per_servo = bus.health_per_servo
+    dry.servo_speed = bus.servo_speed
+    dry.turnaround_s = bus.turnaround_s
+    dry.budget = bus.budget  # type: ignore[method-assign]
+    dry.tick_budget = bus.tick_budget  # type: ignore[method-assign]
     return dry
 
 
@@ -472,6 +479,8 @@ def _run(args: argparse.Namespace) -> int:
             f"deploy {what}: {duration:.2f} s at {args.rate:g} Hz on "
             f"{bus.name}{' ' + args.port if args.port and not args.dry_run else ''}"
         )
+        if args.dry_run:
+            print(budget_line(bus, config, args.turnaround_ms * 1e-3))
         if loop is None:
             holder.append(Deployment(bus, source, robot, config))
             result = holder[0].run()

@@ -76,6 +76,20 @@ def overload_warning(bus: ServoBus, config: DeployConfig, turnaround_s: float) -
     )
 
 
+def budget_line(bus: ServoBus, config: DeployConfig, turnaround_s: float) -> str:
+    """One line: the tick's bus time and load at the configured rate (``--plan`` in short)."""
+    try:
+        b = tick_budget(bus, config, config.read)
+    except NotImplementedError:
+        return f"bus budget: not available for the {bus.name} backend"
+    t = b.tick_time(turnaround_s)
+    return (
+        f"bus budget ({b.name}, {b.baud} baud): {b.bytes_per_tick} B and "
+        f"{b.replies_per_tick} replies per tick = {t * 1e3:.2f} ms, {t * config.rate * 100:.0f} % "
+        f"of a {1e3 / config.rate:.2f} ms tick at {config.rate:g} Hz (max {b.max_rate(turnaround_s):.0f} Hz)"
+    )
+
+
 def _budget_lines(b: BusBudget, turnaround_s: float) -> list[str]:
     lines = [f"  {b.name}:"]
     for item in b.items:

@@ -344,7 +344,13 @@ class Deployment:
                 f"within {self.config.max_failures / self.config.rate * 1e3:.0f} ms "
                 "(+ tick lateness)"
             )
-        what = "servos" if self.bus.health_per_servo else "board queries"
+        if not self.bus.health_per_servo:
+            return (
+                "health: one board query per tick (no per-servo status on "
+                f"this bus); silence stops motion within {h.detection_s * 1e3:.0f} ms "
+                "(+ tick lateness)"
+            )
+        what = "servos"
         return (
             f"health: {h.polls_per_tick} {what} checked per tick, each servo at least every "
             f"{h.rotation} ticks; a fault stops motion within {h.detection_s * 1e3:.0f} ms "
