@@ -588,3 +588,57 @@ def test_real_time_priority_where_permitted_and_says_so_when_not(recording, monk
     rc, out, _ = run_deploy("", recording, "--dry-run", "--rt-priority", "20", capsys=capsys)
     assert rc == 0
     assert "--rt-priority: not permitted (Operation not permitted); running at normal" in out
+
+
+def _long_recording(robot, path, n):
+    t = np.arange(n) * 0.02
+    q = np.tile(robot.configuration("walk_ready"), (n, 1))
+    j = robot.q_index("l_knee")
+    q[:, j] += 0.1 * np.sin(t)  # inside the limits: walk_ready's knee is bent
+    Recording(t, q, robot.joint_names).save(path)
+    return t, q
+
+
+def test_playback_streams_long_recordings(robot, tmp_path):
+    """The deploy source reads the file a chunk at a time: its peak memory does not grow with
+    the recording's length (10 x longer: same peak), and it gives the targets of the
+    in-memory source."""
+    import tracemalloc
+
+    from wbc.recording import RecordingReader
+    from wbc.servos.sources import RecordingSource, StreamedRecordingSource
+
+    peaks = []
+    for n in (10_000, 100_000):
+        path = tmp_path / f"long{n}.npz"
+        _long_recording(robot, path, n)
+        tracemalloc.start()
+        source = StreamedRecordingSource(RecordingReader(path), robot)
+        ticks = 0
+        while source(ticks * 25, ticks * 25 * 0.02 + 0.003) is not None:
+            ticks += 1
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+        assert ticks == n // 25  # played to the end
+    assert peaks[1] < 1.5 * peaks[0], peaks  # (the in-memory source: ~10x)
+    assert peaks[1] < 8e6
+    # the same targets as the in-memory source, across chunk boundaries
+    path = tmp_path / "long10000.npz"
+    streamed = StreamedRecordingSource(RecordingReader(path, chunk_rows=100), robot)
+    whole = RecordingSource(Recording.load(path), robot)
+    for k in range(0, 2000, 3):
+        assert np.array_equal(streamed(k, k * 0.0137), whole(k, k * 0.0137))
+    assert np.array_equal(streamed.first(), whole.first())
+    assert streamed.duration == whole.duration
+
+
+def test_streamed_recording_refuses_a_bad_row_naming_its_tick(robot, tmp_path):
+    from wbc.exceptions import TrajectoryError
+    from wbc.recording import RecordingReader
+    from wbc.servos.sources import StreamedRecordingSource
+
+    t, q = _long_recording(robot, tmp_path / "a.npz", 1000)
+    q[777, robot.q_index("r_knee")] = np.nan
+    Recording(t, q, robot.joint_names).save(tmp_path / "bad.npz")
+    with pytest.raises(TrajectoryError, match=r"tick 777 \(t = 15.540 s\): joint r_knee is nan"):
+        StreamedRecordingSource(RecordingReader(tmp_path / "bad.npz", chunk_rows=64), robot)

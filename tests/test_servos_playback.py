@@ -170,7 +170,9 @@ def test_overheating_crouches_slowly_then_cuts_torque(
     with Emulator(positions=walk_ready_ticks, faults=[fault]) as emu:
         rc, _, err = run_deploy(emu.port, sway, capsys=capsys)  # default --on-fault auto
     assert rc == deploy_cmd.EXIT_SAFE_STOP
-    assert f"SAFE STOP (crouch, torque-off): id 13 (r_knee): error bits 0x{bits:02X} ({name})" in err
+    assert (
+        f"SAFE STOP (crouch, torque-off): id 13 (r_knee): error bits 0x{bits:02X} ({name})" in err
+    )
     assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for s in emu.servos.values())
     onset = emu.sync_goal_times[fault.after_goals - 1]
     faulted = [g.time - onset for g in emu.goals_by_id()[13]]
@@ -315,7 +317,7 @@ def test_a_slow_adapter_is_no_false_alarm_and_faults_are_still_caught(
         deploy_cmd.add_arguments(parser)
         argv = [sway, "--port", emu.port, "--rate", "20", "--fault-bound-ms", "400"]
         rc = deploy_cmd.run(parser.parse_args(argv))
-        out, err = capsys.readouterr()
+        _, err = capsys.readouterr()
     if fault is None:
         assert rc == 0, err  # a reply lost to a stall may time out: never 3 in a row
     else:

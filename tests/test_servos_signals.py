@@ -56,7 +56,7 @@ def test_stop_signals_end_in_the_safe_stop(walk_ready_ticks, still, tmp_path, si
         proc = deploy_process(emu.port, still, log, "--on-fault", "torque-off")
         pid.value = proc.pid
         try:
-            out, err = proc.communicate(timeout=60)
+            _, err = proc.communicate(timeout=60)
         finally:
             proc.kill()
     assert emu.error is None

@@ -153,9 +153,7 @@ def test_dry_run_shows_the_ssc32_figures(tmp_path, capsys):
     kokone = load_robot("kokone")
     t = np.arange(0.0, 0.2, 0.02)
     path = tmp_path / "k.npz"
-    Recording(t, np.tile(kokone.configuration("stand"), (t.size, 1)), kokone.joint_names).save(
-        path
-    )
+    Recording(t, np.tile(kokone.configuration("stand"), (t.size, 1)), kokone.joint_names).save(path)
     assert main(["deploy", str(path), "--robot", "kokone", "--bus", "ssc32", "--dry-run"]) == 0
     out = capsys.readouterr().out
     assert "bus budget (write-only, 115200 baud): 173 B and 1 replies per tick = 16.02 ms" in out

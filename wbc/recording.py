@@ -83,26 +83,10 @@ class Recording:
     def problems(self) -> list[str]:
         """Why this recording is from a failed run (empty if valid or unknown), one phrase
         each: failed ticks, hard levels not met, joint-limit violations."""
-        v = self.meta.get("validity")
-        if not isinstance(v, dict):
-            v = {}
-            if "failed" in self.channels:
-                v["failed_ticks"] = int(np.count_nonzero(self.channels["failed"]))
-        out = []
-        n = len(self)
-        if v.get("failed_ticks"):
-            hard = v.get("hard_failed_ticks") or 0
-            text = f"{v['failed_ticks']} of {n} ticks failed"
-            if hard:
-                text += f" ({hard} with a hard level not met)"
-            if v.get("first_failure"):
-                text += f", first {v['first_failure']}"
-            out.append(text)
-        if v.get("limit_violations"):
-            out.append(f"{v['limit_violations']} ticks beyond the joint limits")
-        if v.get("valid") is False and not out:
-            out.append("marked invalid")
-        return out
+        failed = None
+        if "failed" in self.channels:
+            failed = int(np.count_nonzero(self.channels["failed"]))
+        return validity_problems(self.meta, failed, len(self))
 
     @property
     def joints(self) -> np.ndarray:
@@ -170,6 +154,155 @@ class Recording:
         q = arrays.pop("q")
         names = tuple(str(n) for n in arrays.pop("joint_names"))
         return cls(t, q, names, arrays, meta)
+
+
+class RecordingReader:
+    """A recording's rows read in order, a chunk at a time, without loading the file: what a
+    long playback needs (memory independent of the recording's length). Checks the file as
+    :meth:`Recording.load` does (a zip of ``.npy`` arrays, no pickles, ``t``/``q``/
+    ``joint_names`` present, shapes consistent); :meth:`chunks` yields ``(t, q)`` blocks."""
+
+    def __init__(self, path: str | Path, chunk_rows: int = 4096) -> None:
+        import zipfile
+
+        self.path = path = Path(path)
+        self.chunk_rows = int(chunk_rows)
+        if not path.is_file():
+            raise TrajectoryError(f"recording not found: {path}")
+        try:
+            self._zip = zipfile.ZipFile(path)
+            members = {n[:-4]: n for n in self._zip.namelist() if n.endswith(".npy")}
+        except (zipfile.BadZipFile, OSError) as exc:
+            raise TrajectoryError(
+                f"recording {path} is not a .npz file (a zip archive of arrays written by "
+                f"wbc walk --out / wbc bench --record) ({exc})"
+            ) from None
+        self._members = members
+        missing = [k for k in ("t", "q", "joint_names") if k not in members]
+        if missing:
+            raise TrajectoryError(f"recording {path} lacks required arrays {missing}")
+        self.joint_names = tuple(str(n) for n in self._small("joint_names"))
+        meta: Any = {}
+        if "meta" in members:
+            try:
+                meta = json.loads(str(self._small("meta")))
+            except json.JSONDecodeError as exc:
+                raise TrajectoryError(
+                    f"recording {path}: 'meta' is not valid JSON ({exc})"
+                ) from exc
+        if not isinstance(meta, dict):
+            raise TrajectoryError(f"recording {path}: 'meta' must be a JSON object")
+        self.meta: dict[str, Any] = meta
+        t_shape, _ = self._header("t")
+        q_shape, _ = self._header("q")
+        if len(t_shape) != 1 or t_shape[0] == 0:
+            raise TrajectoryError(f"recording: t must be a non-empty 1-D array, got {t_shape}")
+        if len(q_shape) != 2 or q_shape[0] != t_shape[0]:
+            raise TrajectoryError(
+                f"recording: q must have shape (N={t_shape[0]}, nq), got {q_shape}"
+            )
+        if q_shape[1] != 7 + len(self.joint_names):
+            raise TrajectoryError(
+                f"recording: q has {q_shape[1]} columns but {len(self.joint_names)} joint names "
+                f"(expected 7 + {len(self.joint_names)})"
+            )
+        self.n = int(t_shape[0])
+        self.nq = int(q_shape[1])
+
+    def __len__(self) -> int:
+        return self.n
+
+    def close(self) -> None:
+        self._zip.close()
+
+    def _small(self, name: str) -> np.ndarray:
+        with self._zip.open(self._members[name]) as f:
+            try:
+                return np.lib.format.read_array(f, allow_pickle=False)
+            except ValueError as exc:
+                raise TrajectoryError(
+                    f"recording {self.path} holds pickled (object) arrays; a recording holds "
+                    "only numeric and string arrays and is never loaded with pickle"
+                ) from exc
+
+    def _open(self, name: str):
+        f = self._zip.open(self._members[name])
+        fmt = np.lib.format
+        try:
+            version = fmt.read_magic(f)
+            read_header = (
+                fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+            )
+            shape, fortran, dtype = read_header(f)
+        except ValueError as exc:  # not an .npy member, or an unknown format version
+            f.close()
+            raise TrajectoryError(f"recording {self.path} is corrupted ({name}: {exc})") from None
+        if dtype.hasobject:
+            f.close()
+            raise TrajectoryError(
+                f"recording {self.path} holds pickled (object) arrays; a recording holds only "
+                "numeric and string arrays and is never loaded with pickle"
+            )
+        if fortran and len(shape) > 1:
+            f.close()
+            raise TrajectoryError(f"recording {self.path}: {name} is stored column-major")
+        return f, shape, dtype
+
+    def _header(self, name: str) -> tuple[tuple[int, ...], np.dtype]:
+        f, shape, dtype = self._open(name)
+        f.close()
+        return shape, dtype
+
+    def _rows(self, name: str):
+        f, shape, dtype = self._open(name)
+        width = int(np.prod(shape[1:], dtype=int))
+        row_bytes = width * dtype.itemsize
+        with f:
+            left = shape[0]
+            while left:
+                k = min(self.chunk_rows, left)
+                raw = f.read(k * row_bytes)
+                if len(raw) != k * row_bytes:
+                    raise TrajectoryError(f"recording {self.path} is truncated ({name})")
+                yield np.frombuffer(raw, dtype=dtype).reshape((k, *shape[1:])).astype(float)
+                left -= k
+
+    def chunks(self):
+        """``(t, q)`` blocks of up to ``chunk_rows`` rows, in order."""
+        yield from zip(self._rows("t"), self._rows("q"), strict=True)
+
+    def count(self, name: str) -> int | None:
+        """Non-zero entries of a channel (e.g. ``failed``), streamed; None if absent."""
+        if name not in self._members:
+            return None
+        return int(sum(np.count_nonzero(block) for block in self._rows(name)))
+
+    def problems(self) -> list[str]:
+        """As :meth:`Recording.problems`, without loading the arrays."""
+        failed = None if isinstance(self.meta.get("validity"), dict) else self.count("failed")
+        return validity_problems(self.meta, failed, self.n)
+
+
+def validity_problems(meta: dict[str, Any], failed: int | None, n: int) -> list[str]:
+    """Why a recording of ``n`` ticks is from a failed run: its ``meta["validity"]``, else
+    the count of its ``failed`` channel (None: no such channel)."""
+    v = meta.get("validity")
+    if not isinstance(v, dict):
+        v = {} if failed is None else {"failed_ticks": failed}
+    out = []
+    if v.get("failed_ticks"):
+        hard = v.get("hard_failed_ticks") or 0
+        text = f"{v['failed_ticks']} of {n} ticks failed"
+        if hard:
+            text += f" ({hard} with a hard level not met)"
+        if v.get("first_failure"):
+            text += f", first {v['first_failure']}"
+        out.append(text)
+    if v.get("limit_violations"):
+        out.append(f"{v['limit_violations']} ticks beyond the joint limits")
+    if v.get("valid") is False and not out:
+        out.append("marked invalid")
+    return out
 
 
 #: a joint beyond its limit by more than this (rad) makes a tick a limit violation

@@ -521,13 +521,18 @@ def largest_push(
 def add_physics_arguments(parser) -> None:
     """The ``wbc bench`` options of the physics benchmark."""
     from ..cli import number
+
     parser.add_argument(
         "--physics",
         action="store_true",
         help="play every run through the deploy path on the simulated robot (wbc[physics])",
     )
     parser.add_argument(
-        "--robustness", type=number(0, 10000, integer=True), default=0, metavar="N", help="--physics: N randomised models"
+        "--robustness",
+        type=number(0, 10000, integer=True),
+        default=0,
+        metavar="N",
+        help="--physics: N randomised models",
     )
     parser.add_argument(
         "--seed", type=number(0, integer=True), default=0, help="--robustness: random seed"

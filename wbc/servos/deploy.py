@@ -32,7 +32,7 @@ from ..balance import add_compensate_argument, check_compensate_encoders
 from ..cli import number
 from ..exceptions import ConfigurationError, ServoMapError, TrajectoryError, WbcError
 from ..model import Robot, load_robot
-from ..recording import Recording
+from ..recording import Recording, RecordingReader
 from .bus import DryRunBus, ServoBus
 from .plan import budget_line, plan_lines
 from .playback import (
@@ -54,7 +54,7 @@ from .playback import (
     report_lines,
     signal_exit_code,
 )
-from .sources import CallableSource, RecordingSource, TargetSource
+from .sources import CallableSource, RecordingSource, StreamedRecordingSource, TargetSource
 
 __all__ = [
     "EXIT_INTERRUPTED",
@@ -102,7 +102,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", help="serial port, e.g. /dev/ttyUSB0")
     parser.add_argument(
-        "--baud", type=number(1, integer=True), help="baud rate (default: servo map's, 115200 for ssc32)"
+        "--baud",
+        type=number(1, integer=True),
+        help="baud rate (default: servo map's, 115200 for ssc32)",
     )
     parser.add_argument("--dry-run", action="store_true", help="no port: simulated ideal servos")
     parser.add_argument(
@@ -162,7 +164,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="reply deadline per exchange, ms (default: 2 x latency + 2 ms + wire time)",
     )
     parser.add_argument(
-        "--attempts", type=number(1, 10, integer=True), default=3, help="tries per start-up exchange (PING, settings)"
+        "--attempts",
+        type=number(1, 10, integer=True),
+        default=3,
+        help="tries per start-up exchange (PING, settings)",
     )
     parser.add_argument(
         "--fault-bound-ms",
@@ -205,7 +210,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "with --sim the simulated torso IMU is used",
     )
     parser.add_argument(
-        "--imu-baud", type=number(1, integer=True), default=115200, help="--imu: the IMU's baud rate (115200)"
+        "--imu-baud",
+        type=number(1, integer=True),
+        default=115200,
+        help="--imu: the IMU's baud rate (115200)",
     )
     parser.add_argument(
         "--encoders-only",
@@ -454,8 +462,10 @@ def _run(args: argparse.Namespace) -> int:
                         imu.wait_ready()
             loop, what, duration = _live(args, robot, bus, config, imu)
         else:
-            recording = Recording.load(args.recording)
-            problems = recording.problems()
+            # streamed from the file (memory independent of its length), unless --compensate
+            # needs the recording's channels (its support phases) in memory
+            reader = RecordingReader(args.recording)
+            problems = reader.problems()
             if problems and not args.force:
                 raise TrajectoryError(
                     f"recording {args.recording} is from a failed run ({'; '.join(problems)}); "
@@ -463,7 +473,11 @@ def _run(args: argparse.Namespace) -> int:
                 )
             for problem in problems:
                 print(f"warning: --force: playing a failed run: {problem}", file=err)
-            source = RecordingSource(recording, robot, tol=args.limit_tol)
+            if args.compensate:
+                recording = Recording.load(args.recording)
+                source = RecordingSource(recording, robot, tol=args.limit_tol)
+            else:
+                source = StreamedRecordingSource(reader, robot, tol=args.limit_tol)
             what, duration = Path(args.recording).name, source.duration
             if args.compensate:
                 from ..balance.compliance import compensated

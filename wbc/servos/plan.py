@@ -83,10 +83,11 @@ def budget_line(bus: ServoBus, config: DeployConfig, turnaround_s: float) -> str
     except NotImplementedError:
         return f"bus budget: not available for the {bus.name} backend"
     t = b.tick_time(turnaround_s)
+    rate = config.rate
     return (
         f"bus budget ({b.name}, {b.baud} baud): {b.bytes_per_tick} B and "
-        f"{b.replies_per_tick} replies per tick = {t * 1e3:.2f} ms, {t * config.rate * 100:.0f} % "
-        f"of a {1e3 / config.rate:.2f} ms tick at {config.rate:g} Hz (max {b.max_rate(turnaround_s):.0f} Hz)"
+        f"{b.replies_per_tick} replies per tick = {t * 1e3:.2f} ms, {t * rate * 100:.0f} % "
+        f"of a {1e3 / rate:.2f} ms tick at {rate:g} Hz (max {b.max_rate(turnaround_s):.0f} Hz)"
     )
 
 

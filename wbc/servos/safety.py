@@ -337,9 +337,11 @@ def check_trajectory(
     tol: float = 1e-3,
     t: np.ndarray | None = None,
     what: str = "trajectory",
+    first_tick: int = 0,
 ) -> None:
     """Refuse a (N, n) joint trajectory with NaN/inf or values beyond the limits by > tol,
-    naming the first offending tick and joint."""
+    naming the first offending tick (counted from ``first_tick``: a chunk of a stream) and
+    joint."""
     if not (math.isfinite(tol) and tol >= 0):
         raise ConfigurationError(f"{what}: limit tolerance must be a finite number >= 0, got {tol}")
     joints = np.asarray(joints, dtype=float)
@@ -349,7 +351,7 @@ def check_trajectory(
         )
 
     def when(k: int) -> str:
-        return f"tick {k}" + (f" (t = {t[k]:.3f} s)" if t is not None else "")
+        return f"tick {first_tick + k}" + (f" (t = {t[k]:.3f} s)" if t is not None else "")
 
     bad = ~np.isfinite(joints)
     if np.any(bad):

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..exceptions import TrajectoryError
 from ..model import Robot
-from ..recording import Recording
+from ..recording import Recording, RecordingReader
 from .safety import check_trajectory
 
 
@@ -39,14 +39,7 @@ class RecordingSource:
 
     def __init__(self, recording: Recording, robot: Robot, tol: float = 1e-3) -> None:
         names = robot.joint_names
-        rec_names = tuple(recording.joint_names)
-        if set(rec_names) != set(names):
-            missing = sorted(set(names) - set(rec_names))
-            unknown = sorted(set(rec_names) - set(names))
-            raise TrajectoryError(
-                f"recording joints do not match {robot.name}: missing {missing}, unknown {unknown}"
-            )
-        order = [rec_names.index(n) for n in names]
+        order = _joint_order(recording.joint_names, robot)
         self.joint_names = names
         self.t = recording.t - recording.t[0]
         self.joints = recording.joints[:, order]
@@ -61,12 +54,78 @@ class RecordingSource:
     def __call__(self, tick: int, t: float) -> np.ndarray | None:
         if t > self.duration + 1e-9:
             return None
-        if self.t.size == 1:
-            return self.joints[0].copy()
-        i = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.t.size - 2))
-        w = (t - self.t[i]) / (self.t[i + 1] - self.t[i])
-        w = min(max(w, 0.0), 1.0)
-        return (1.0 - w) * self.joints[i] + w * self.joints[i + 1]
+        return _interpolate(self.t, self.joints, t)
+
+
+def _interpolate(ts: np.ndarray, joints: np.ndarray, t: float) -> np.ndarray:
+    """Joint values at time ``t`` by linear interpolation between rows (held at the ends)."""
+    if ts.size == 1:
+        return joints[0].copy()
+    i = int(np.clip(np.searchsorted(ts, t, side="right") - 1, 0, ts.size - 2))
+    w = (t - ts[i]) / (ts[i + 1] - ts[i])
+    w = min(max(w, 0.0), 1.0)
+    return (1.0 - w) * joints[i] + w * joints[i + 1]
+
+
+def _joint_order(rec_names: Sequence[str], robot: Robot) -> list[int]:
+    names = robot.joint_names
+    if set(rec_names) != set(names):
+        missing = sorted(set(names) - set(rec_names))
+        unknown = sorted(set(rec_names) - set(names))
+        raise TrajectoryError(
+            f"recording joints do not match {robot.name}: missing {missing}, unknown {unknown}"
+        )
+    return [list(rec_names).index(n) for n in names]
+
+
+class StreamedRecordingSource:
+    """A recording played from its file a chunk at a time (:class:`RecordingReader`): checked
+    whole in a first pass, then read again as the playback advances, holding one chunk, so
+    the memory does not grow with the recording's length (a 10-hour walk plays in a few MB).
+    Targets are those of :class:`RecordingSource` (linear interpolation)."""
+
+    def __init__(self, reader: RecordingReader, robot: Robot, tol: float = 1e-3) -> None:
+        self.reader = reader
+        self.joint_names = robot.joint_names
+        self._order = np.array(_joint_order(reader.joint_names, robot)) + 7
+        t0 = t_last = None
+        k = 0
+        for t, q in reader.chunks():  # pass 1: the whole recording is checked before playing
+            if (
+                not np.all(np.isfinite(t))
+                or np.any(np.diff(t) <= 0)
+                or (t_last is not None and t[0] <= t_last)
+            ):
+                raise TrajectoryError("recording: t must be finite and strictly increasing")
+            joints = q[:, self._order]
+            check_trajectory(joints, robot.q_min, robot.q_max, self.joint_names, tol, t,
+                             "recording", first_tick=k)  # fmt: skip
+            if t0 is None:
+                t0, self._first = float(t[0]), joints[0].copy()
+            t_last, k = float(t[-1]), k + t.size
+        assert t0 is not None and t_last is not None  # a reader has at least one row
+        self._t0 = t0
+        self.duration = t_last - t0
+        self._chunks = None
+        self._t = np.zeros(0)
+        self._joints = np.zeros((0, len(self.joint_names)))
+
+    def first(self) -> np.ndarray:
+        return self._first.copy()
+
+    def __call__(self, tick: int, t: float) -> np.ndarray | None:
+        if t > self.duration + 1e-9:
+            return None
+        if self._chunks is None:
+            self._chunks = self.reader.chunks()
+        while self._t.size == 0 or self._t[-1] < t:  # times only go forward: read on
+            nxt = next(self._chunks, None)
+            if nxt is None:
+                break
+            tc, qc = nxt  # keep the last row read: the interval across the chunk boundary
+            self._t = np.concatenate([self._t[-1:], tc - self._t0])
+            self._joints = np.concatenate([self._joints[-1:], qc[:, self._order]])
+        return _interpolate(self._t, self._joints, t)
 
 
 class CallableSource:

@@ -37,7 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--pose", default="stand", help="named configuration shown without a recording"
     )
     parser.add_argument(
-        "--speed", type=number(0, 100, lo_open=True), default=1.0, help="replay speed (1 = real time, 0.5 = half)"
+        "--speed",
+        type=number(0, 100, lo_open=True),
+        default=1.0,
+        help="replay speed (1 = real time, 0.5 = half)",
     )
     parser.add_argument("--loop", action="store_true", help="replay until Ctrl-C")
     parser.add_argument(
