@@ -642,3 +642,28 @@ def test_streamed_recording_refuses_a_bad_row_naming_its_tick(robot, tmp_path):
     Recording(t, q, robot.joint_names).save(tmp_path / "bad.npz")
     with pytest.raises(TrajectoryError, match=r"tick 777 \(t = 15.540 s\): joint r_knee is nan"):
         StreamedRecordingSource(RecordingReader(tmp_path / "bad.npz", chunk_rows=64), robot)
+
+
+def test_the_servos_bus_watchdog_is_armed_once_torque_is_on(robot):
+    """The hook of servos with a bus watchdog (Protocol 2.0's address 98): armed after torque
+    enable with 10 ticks (>= 200 ms); the AX-12A has none (False: nothing said)."""
+    from wbc.servos.bus import DryRunBus
+    from wbc.servos.dynamixel import ax_codec
+
+    class Armed(DryRunBus):
+        armed = None
+
+        def arm_watchdog(self, timeout_s):
+            self.armed = (timeout_s, self.torque)
+            return True
+
+    q0 = robot.configuration("walk_ready")[7:]
+    codec = ax_codec(robot.servo_map)
+    bus = Armed(codec, [str(i) for i in robot.servo_map.ids], np.rint(codec.encode_float(q0)))
+    lines = []
+    source = CallableSource(lambda tick, t: None if tick > 2 else q0, q0, robot.joint_names)
+    assert Deployment(bus, source, robot, DeployConfig(rate=25.0), lines.append).run().completed
+    assert bus.armed == (pytest.approx(0.4), True)
+    assert "note: servo bus watchdog armed: 400 ms" in lines
+    ax = DynamixelBus("/dev/null", robot.servo_map)
+    assert ax.arm_watchdog(0.2) is False

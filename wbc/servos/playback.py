@@ -62,6 +62,10 @@ SIGNAL_REASONS = {
     signal.SIGQUIT: "quit (SIGQUIT)",
 }
 MAX_RATE_HZ = 100.0
+#: the servos' own bus watchdog (where they have one): this many ticks without an
+#: instruction, at least WATCHDOG_MIN_S, and they stop (:meth:`ServoBus.arm_watchdog`)
+WATCHDOG_TICKS = 10
+WATCHDOG_MIN_S = 0.2
 #: a soft start (and crouch) faster than this is no longer soft, rad/s
 MAX_SOFT_SPEED = 1.0
 ON_FAULT_CHOICES = ("auto", "hold", "torque-off", "crouch")
@@ -574,6 +578,11 @@ class Deployment:
         try:
             self._torque_phase = True
             bus.set_torque(True)
+            # where the servos have one (Protocol 2.0 X series): their own bus watchdog stops
+            # them if this process dies, even by kill -9 (the AX-12A has none: docs)
+            watchdog_s = max(WATCHDOG_TICKS * self.period, WATCHDOG_MIN_S)
+            if bus.arm_watchdog(watchdog_s):
+                self.out(f"note: servo bus watchdog armed: {watchdog_s * 1e3:.0f} ms")
             self._torque_phase = False
             soft_ticker = Ticker(self.period, self.clock)
             t_soft = None
