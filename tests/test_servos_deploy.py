@@ -412,6 +412,32 @@ def test_nan_from_a_live_source_ends_in_the_safe_stop(robot, walk_ready_ticks):
     assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for s in emu.servos.values())
 
 
+@pytest.mark.parametrize("error", [RuntimeError("solver crashed"), SystemExit(1)])
+def test_an_exception_in_the_loop_ends_in_the_safe_stop_with_the_log(
+    robot, walk_ready_ticks, tmp_path, error
+):
+    """Anything raised in the loop (a crashed live controller, even SystemExit) takes the
+    safe stop: torque off verified per servo, the log written, the reason in one line."""
+    q0 = robot.configuration("walk_ready")[7:]
+
+    def crashing(tick, t):
+        if tick >= 10:
+            raise error
+        return q0
+
+    log = tmp_path / "log.npz"
+    config = DeployConfig(rate=RATE, on_fault="torque-off", log_path=str(log))
+    with Emulator(positions=walk_ready_ticks) as emu:
+        bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS)
+        source = CallableSource(crashing, q0, robot.joint_names)
+        result = Deployment(bus, source, robot, config, lambda s: None).run()
+    assert result.stop_action == "torque-off"
+    assert str(result.trip) == f"deploy: {type(error).__name__}: {error}"
+    assert result.exit_code == deploy_cmd.EXIT_SAFE_STOP
+    assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for s in emu.servos.values())
+    assert np.load(log)["goal"].shape[0] == emu.sync_goal_writes - 1
+
+
 # ---------------------------------------------------------------- refused before torque
 def _refused(emu, rc, err, text):
     assert rc == deploy_cmd.EXIT_REFUSED
