@@ -62,8 +62,10 @@ def test_bad_arguments_are_named(tmp_path, capsys):
     assert "recording not found" in capsys.readouterr().err
     assert main(["view", "--pose", "crouch", "--no-browser"]) == 2
     assert "unknown configuration 'crouch'" in capsys.readouterr().err
-    assert main(["view", "--speed", "0", "--no-browser"]) == 2
-    assert "--speed" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:  # argparse: wbc.cli.number, one line
+        main(["view", "--speed", "0", "--no-browser"])
+    assert exit_.value.code == 2
+    assert "--speed: must be a finite number in (0, 100]" in capsys.readouterr().err
     assert main(["view", "--frames", "l_toe", "--no-browser"]) == 2
     assert "unknown frame 'l_toe'" in capsys.readouterr().err
 
