@@ -473,6 +473,7 @@ def _run(args: argparse.Namespace) -> int:
                 )
             for problem in problems:
                 print(f"warning: --force: playing a failed run: {problem}", file=err)
+            source: TargetSource
             if args.compensate:
                 recording = Recording.load(args.recording)
                 source = RecordingSource(recording, robot, tol=args.limit_tol)

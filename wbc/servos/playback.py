@@ -55,7 +55,7 @@ EXIT_INTERRUPTED = 130  # 128 + SIGINT; another stop signal exits with 128 + its
 #: signals that end a deployment in the safe stop (as Ctrl-C does): ``kill``, ``systemctl
 #: stop`` (SIGTERM), a closed terminal or SSH session (SIGHUP), Ctrl-\\ (SIGQUIT)
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
-SIGNAL_REASONS = {
+SIGNAL_REASONS: dict[int, str] = {
     signal.SIGINT: "interrupted (Ctrl-C)",
     signal.SIGTERM: "terminated (SIGTERM)",
     signal.SIGHUP: "hang-up (SIGHUP: terminal or session closed)",

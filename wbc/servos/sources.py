@@ -7,7 +7,7 @@ wraps a function such as a live controller.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Protocol
 
 import numpy as np
@@ -106,7 +106,7 @@ class StreamedRecordingSource:
         assert t0 is not None and t_last is not None  # a reader has at least one row
         self._t0 = t0
         self.duration = t_last - t0
-        self._chunks = None
+        self._chunks: Iterator[tuple[np.ndarray, np.ndarray]] | None = None
         self._t = np.zeros(0)
         self._joints = np.zeros((0, len(self.joint_names)))
 
