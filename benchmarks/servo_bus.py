@@ -199,6 +199,51 @@ def startups(robot, n: int, attempts: int) -> tuple[int, list[str]]:
     return ok, errors
 
 
+def false_alarms(robot, n: int) -> list[str]:
+    """N deployments of a 1 s sway at 50 Hz (write-only, no fault injected), alternating the
+    fixed 4.1 ms reply deadline and the adaptive one: how many stop on a false alarm."""
+    q0 = robot.configuration("walk_ready")[7:]
+    sm = robot.servo_map
+    j = robot.joint_index("l_knee")
+
+    def sway(tick, t):
+        if t > 1.0:
+            return None
+        q = q0.copy()
+        q[j] += 0.1 * np.sin(np.pi * t) ** 2
+        return q
+
+    counts = {"fixed 4.1 ms": [0, 0, []], "adaptive": [0, 0, []]}
+    for k in range(2 * n):
+        name = "fixed 4.1 ms" if k % 2 == 0 else "adaptive"
+        timeout = 4.1 if k % 2 == 0 else None
+        positions = sm.ticks_by_id(sm.pose_ticks("walk_ready"))
+        with AX12Emulator(positions=positions, process=True) as emu:
+            bus = DynamixelBus(emu.port, sm, BAUD, 1.0, reply_timeout_ms=timeout)
+            cfg = DeployConfig(rate=50.0, on_fault="hold")
+            source = CallableSource(sway, q0, robot.joint_names)
+            try:
+                result = Deployment(bus, source, robot, cfg, out=lambda s: None).run()
+                ok = result.completed
+                why = "" if ok else str(result.trip)
+            except Exception as exc:  # refused at start-up
+                ok, why = False, f"start-up: {exc}"
+        c = counts[name]
+        c[0] += 1
+        c[1] += ok
+        if why:
+            c[2].append(why[:90])
+    lines = [
+        f"### False alarms at load {os.getloadavg()[0]:.1f} ({n} runs each, alternating)",
+        "",
+        "| reply deadline | completed | first false alarms |",
+        "|---|---|---|",
+    ]
+    for name, (runs, ok, why) in counts.items():
+        lines.append(f"| {name} | {ok}/{runs} | {'; '.join(why[:2]) or '-'} |")
+    return lines
+
+
 def fault_tables(robot, runs: int, n_startups: int) -> list[str]:
     lines = [
         f"### Fault detection at 50 Hz ({runs} runs per case, reply deadline 4.1 ms)",
@@ -242,12 +287,18 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--faults", type=int, default=0, help="runs per fault case (only these)")
     ap.add_argument("--startups", type=int, default=0, help="--faults: also N start-ups")
+    ap.add_argument(
+        "--false-alarms", type=int, default=0, help="N nominal runs per reply deadline (only)"
+    )
     args = ap.parse_args(argv)
     global POLL_WAIT_S
     if args.sdk_spin:
         POLL_WAIT_S = 0.0
     robot = load_robot("bioloid")
     ms = 1e3
+    if args.false_alarms:
+        print("\n".join(false_alarms(robot, args.false_alarms)))
+        return 0
     if args.faults:
         stamp = time.strftime("%Y-%m-%d %H:%M")
         lines = [
