@@ -159,3 +159,15 @@ def test_dry_run_shows_the_ssc32_figures(tmp_path, capsys):
     assert "bus budget (write-only, 115200 baud): 173 B and 1 replies per tick = 16.02 ms" in out
     assert "health: one board query per tick (no per-servo status" in out
     assert "servos checked per tick" not in out
+
+
+def test_ssc32_garbage_answers_are_failed_exchanges(robot, monkeypatch):
+    bus = Ssc32Bus("/dev/null", Ssc32Map.default(robot.joint_names))
+    for reply, comm in (
+        (b".", "ok"),
+        (b"+", "ok"),
+        (b"\x00\x13\x37", "corrupt"),
+        (None, "timeout"),
+    ):
+        monkeypatch.setattr(bus, "_query", lambda text, until=None, r=reply: r)
+        assert bus.poll(0).comm == comm

@@ -32,6 +32,7 @@ import numpy as np
 from ..exceptions import ServoError, ServoMapError
 from ..paths import read_toml
 from .bus import (
+    COMM_CORRUPT,
     COMM_OK,
     COMM_TIMEOUT,
     COMM_TX_FAIL,
@@ -308,7 +309,14 @@ class Ssc32Bus(ServoBus):
         """On: nothing (pulses start with the first move). Off: all outputs low."""
         if not enabled and self.ser is not None:
             self.ser.write(off_command(self.map.channel_numbers))
-            self.ser.flush()
+            self._drain(0.2)
+
+    def _drain(self, timeout_s: float) -> None:
+        """Wait (bounded) until the output is sent: ``flush()`` (tcdrain) would wait for ever
+        on a line held by XOFF, and the safe stop must never hang."""
+        deadline = time.monotonic() + timeout_s
+        while self.ser.out_waiting and time.monotonic() < deadline:
+            time.sleep(0.001)
 
     def set_speed(self, rad_per_s: float) -> None:
         """The board interpolates each move over ``T`` = one tick; speed is limited in software."""
@@ -325,7 +333,11 @@ class Ssc32Bus(ServoBus):
     def poll(self, index: int) -> ServoStatus:
         """``Q``: the board answers ``.`` (done) or ``+`` (moving); no per-servo status."""
         reply = self._query(b"Q\r")
-        return ServoStatus(None, COMM_OK if reply else COMM_TIMEOUT)  # type: ignore[arg-type]
+        if not reply:
+            return ServoStatus(None, COMM_TIMEOUT)
+        # anything but '.' or '+' is garbage on the line: a failed exchange (3 in a row trip)
+        ok = reply.strip() in (b".", b"+")
+        return ServoStatus(None, COMM_OK if ok else COMM_CORRUPT)
 
     def budget(self, read_positions: bool) -> BusBudget:
         if read_positions:
