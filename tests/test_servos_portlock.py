@@ -3,6 +3,7 @@ one line naming the process that holds it; the first is unaffected."""
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 import time
@@ -12,6 +13,7 @@ import pytest
 
 from wbc.exceptions import ServoError
 from wbc.recording import Recording
+from wbc.servos import deploy as deploy_cmd
 from wbc.servos.dynamixel import ADDR_TORQUE_ENABLE, DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Ssc32Emulator
 from wbc.servos.portlock import PortLock, lock_path
@@ -25,11 +27,11 @@ def walk_ready_ticks(robot):
 
 
 def test_a_second_deploy_on_the_port_is_refused_and_the_first_completes(
-    robot, walk_ready_ticks, tmp_path
+    robot, walk_ready_ticks, tmp_path, capsys
 ):
     """Two ``wbc deploy`` on one pty, the second started while the first plays: the second
     exits 2 naming the first's PID before sending a byte; the first plays to the end."""
-    t = np.arange(0.0, 2.0 + 1e-9, 0.02)
+    t = np.arange(0.0, 3.0 + 1e-9, 0.02)
     q = np.tile(robot.configuration("walk_ready"), (t.size, 1))
     rec = tmp_path / "still.npz"
     Recording(t, q, robot.joint_names).save(rec)
@@ -43,13 +45,17 @@ def test_a_second_deploy_on_the_port_is_refused_and_the_first_completes(
                 time.sleep(0.01)
             assert emu.sync_goal_writes >= 5, first.stderr.read() if first.poll() else ""
             packets = emu.packets
-            second = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+            parser = argparse.ArgumentParser()  # the second: in this process (no start-up wait)
+            deploy_cmd.add_arguments(parser)
+            rc = deploy_cmd.run(parser.parse_args(cmd[4:]))
+            second_err = capsys.readouterr().err
+            assert first.poll() is None  # the first was still playing
             writes_mid = len(emu.writes)
             out, err = first.communicate(timeout=60)
         finally:
             first.kill()
-    assert second.returncode == 2, second.stderr
-    lines = second.stderr.strip().splitlines()
+    assert rc == 2, second_err
+    lines = second_err.strip().splitlines()
     assert len(lines) == 1 and f"in use by PID {first.pid} (wbc deploy" in lines[0], lines
     assert emu.error is None
     assert first.returncode == 0, err
