@@ -113,12 +113,9 @@ AX12_MAX_SPEED = AX12_NO_LOAD_RPM * 2.0 * math.pi / 60.0  # rad/s
 # from peers.md §7, USB2AX notes); used by the bus budget and by the emulator's timing model.
 AX12_RESPONSE_S = 22e-6
 
-# Adaptive reply deadline (DynamixelBus.reply_timeout_s): factor x the median round trip of
-# the last replies, never below the SDK's rule nor above 12 ms (a reply later than that is a
-# fault: at 50 Hz with --read one silent servo's deadline leaves room for the other READs)
-ADAPTIVE_FACTOR = 3.0
-ADAPTIVE_WINDOW = 32
-ADAPTIVE_MAX_S = 12e-3
+# Adaptive reply deadline (DynamixelBus.reply_timeout_s): 3 x the median of the last 32 round
+# trips, within [the SDK's rule, 12 ms] (at 50 Hz with --read a silent servo leaves room)
+ADAPTIVE_FACTOR, ADAPTIVE_WINDOW, ADAPTIVE_MAX_S = 3.0, 32, 12e-3
 
 # Baud rates the SDK's PortHandler accepts.
 SDK_BAUDS = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 500000, 576000, 921600)
