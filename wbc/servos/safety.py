@@ -342,8 +342,8 @@ def check_trajectory(
     """Refuse a (N, n) joint trajectory with NaN/inf or values beyond the limits by > tol,
     naming the first offending tick (counted from ``first_tick``: a chunk of a stream) and
     joint."""
-    if not (math.isfinite(tol) and tol >= 0):
-        raise ConfigurationError(f"{what}: limit tolerance must be a finite number >= 0, got {tol}")
+    if not tol >= 0:  # NaN would silently disable the refusal (inf: clamp only, by intent)
+        raise ConfigurationError(f"{what}: limit tolerance must be a number >= 0, got {tol}")
     joints = np.asarray(joints, dtype=float)
     if joints.ndim != 2 or joints.shape[1] != len(names):
         raise TrajectoryError(
