@@ -294,8 +294,10 @@ def test_deploy_compensate(robot, comp, tmp_path, capsys):
     plain = robot.servo_map.angles_to_ticks_float(robot.joints(q))
     assert np.abs(goal - expected).max() <= 0.5 + 1e-9  # rounded to whole ticks
     assert np.abs(goal - plain).max() >= 3  # and not the plain plan
-    assert wbc_main(["deploy", str(path), "--dry-run", "--compensate", "-1"]) == 2
-    assert "--compensate GAIN must be" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:  # argparse: wbc.cli.number, one line
+        wbc_main(["deploy", str(path), "--dry-run", "--compensate", "-1"])
+    assert exit_.value.code == 2
+    assert "--compensate: must be a finite number in [0, 10]" in capsys.readouterr().err
     assert wbc_main(["deploy", str(path), "--dry-run", "--compensate-encoders"]) == 2
     assert "give --compensate too" in capsys.readouterr().err
     # the dry-run bus reads back what it was sent: the correction runs, goals stay in range
