@@ -118,8 +118,10 @@ def test_lateral_push_goes_away_from_the_swing_foot(standing):
 def test_bench_physics_refuses_bad_options(capsys):
     from wbc.cli import main
 
-    assert main(["bench", "--physics", "--robustness", "-1"]) == 2
-    assert "--robustness must be >= 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:  # argparse: wbc.cli.number, one line
+        main(["bench", "--physics", "--robustness", "-1"])
+    assert exit_.value.code == 2
+    assert "--robustness: must be an integer in [0, 10000]" in capsys.readouterr().err
     assert main(["bench", "--physics", "--mode", "converge"]) == 2
     assert "use --mode tick" in capsys.readouterr().err
 
