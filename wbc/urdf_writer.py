@@ -29,14 +29,16 @@ def box_inertia(mass: float, size: Vec3) -> Vec3:
 
 @dataclass(frozen=True)
 class Link:
-    """One URDF link in SI units: mass (kg), CoM (m, link frame), principal inertias (kg·m²)
-    and its boxes ``(centre m, size m, material name)``."""
+    """One URDF link in SI units: mass (kg), CoM (m, link frame), inertias ``(ixx, iyy, izz)``
+    and products ``(ixy, ixz, iyz)`` about the CoM (kg·m²), and its boxes ``(centre m, size m,
+    material name)``."""
 
     name: str
     mass: float
     com: Vec3
     inertia: Vec3
     boxes: list[tuple[Vec3, Vec3, str]] = field(default_factory=list)
+    products: Vec3 = (0.0, 0.0, 0.0)
 
     @classmethod
     def scaled(
@@ -73,11 +75,13 @@ def link_xml(link: Link, collision_inset: float = 0.0) -> str:
     """The ``<link>`` element: inertial, then a visual and a collision box per box; each
     collision box is ``collision_inset`` metres inside its visual box on every side."""
     ixx, iyy, izz = link.inertia
+    ixy, ixz, iyz = (f"{v:.6g}" if v else "0" for v in link.products)
     out = [f'  <link name="{link.name}">', "    <inertial>"]
     out.append(f'      <origin xyz="{fmt(link.com)}" rpy="0 0 0"/>')
     out.append(f'      <mass value="{link.mass:.6g}"/>')
     out.append(
-        f'      <inertia ixx="{ixx:.6g}" ixy="0" ixz="0" iyy="{iyy:.6g}" iyz="0" izz="{izz:.6g}"/>'
+        f'      <inertia ixx="{ixx:.6g}" ixy="{ixy}" ixz="{ixz}" iyy="{iyy:.6g}" iyz="{iyz}" '
+        f'izz="{izz:.6g}"/>'
     )
     out.append("    </inertial>")
     for centre, size, material in link.boxes:

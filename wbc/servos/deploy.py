@@ -232,10 +232,12 @@ def check_servo_map(robot: Robot, tol: float = 1e-3) -> list[str]:
     a = sm.angles_to_ticks_float(robot.q_min)
     b = sm.angles_to_ticks_float(robot.q_max)
     span = np.abs(b - a)
-    reachable = np.minimum(np.maximum(a, b), 1023) - np.maximum(np.minimum(a, b), 0)
+    reachable = np.minimum(np.maximum(a, b), sm.tick_max) - np.maximum(
+        np.minimum(a, b), sm.tick_min
+    )
     return [
         f"servo map: only {100 * reachable[i] / span[i]:.0f} % of {robot.joint_names[i]}'s URDF "
-        "range lies inside the servo's 0..1023 ticks"
+        f"range lies inside the servo's {sm.tick_min}..{sm.tick_max} ticks"
         for i in np.flatnonzero(reachable < 0.95 * span)
     ]
 

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import ServoError
-from ..servo_map import RAD_PER_TICK, TICK_MAX, TICK_MIN, ServoMap
+from ..servo_map import RAD_PER_TICK, ServoMap
 from .bus import (
     COMM_CORRUPT,
     COMM_OK,
@@ -203,12 +203,13 @@ def speed_ticks_per_s(register: int) -> float:
 
 
 def ax_codec(servo_map: ServoMap) -> Codec:
-    """Angle <-> tick codec of a servo map: ``tick = zero_tick + sign · q / RAD_PER_TICK``."""
+    """Angle <-> tick codec of a servo map (either protocol): ``tick = zero_tick + sign · q /
+    rad_per_tick`` within the map's tick range."""
     return Codec(
         offset=servo_map.zero_ticks.copy(),
-        scale=servo_map.signs / RAD_PER_TICK,
-        cmd_min=TICK_MIN,
-        cmd_max=TICK_MAX,
+        scale=servo_map.signs / servo_map.rad_per_tick,
+        cmd_min=servo_map.tick_min,
+        cmd_max=servo_map.tick_max,
         unit="tick",
     )
 
