@@ -196,6 +196,23 @@ def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoB
             print(f"warning: {warning}", file=sys.stderr)
         move_ms = max(1, round(1000.0 / args.rate))
         return Ssc32Bus(port or "", ssc_map, args.baud or ssc_map.baudrate, move_time_ms=move_ms)
+    if sm is not None and sm.protocol == 2.0:  # servos.toml [bus] protocol = 2.0
+        from .protocol2 import Dynamixel2Bus
+
+        if args.torque_limit is not None:
+            raise ConfigurationError(
+                "--torque-limit is the AX-12A's register; X-series servos take "
+                "[settings] current_limit in servos.toml"
+            )
+        return Dynamixel2Bus(
+            port or "",
+            sm,
+            args.baud or sm.baudrate,
+            latency_timer_ms=args.latency_ms,
+            reply_timeout_ms=args.reply_timeout_ms,
+            attempts=args.attempts,
+            watchdog_ms=max(100.0, 3000.0 / args.rate),  # 3 ticks, at least 100 ms
+        )
     from .dynamixel import DynamixelBus
 
     return DynamixelBus(

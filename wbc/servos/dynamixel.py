@@ -382,6 +382,7 @@ class DynamixelBus(ServoBus):
         return pkt[2], pkt[4], pkt[5:-1]
 
     status_overhead = 6  # bytes of a status packet besides its parameters
+    ping_reply = 0  # parameters of a PING's status packet
 
     def address_params(self, address: int, values: Sequence[int]) -> list[int]:
         """READ/WRITE parameters: the address (1 byte) then ``values``."""
@@ -609,11 +610,12 @@ class DynamixelBus(ServoBus):
         results: dict[int, str] = {}
         for i, sid in enumerate(self.ids):
             for k in range(self.attempts):
-                results[i] = self.exchange(sid, INST_PING, patience=2.0**k)[0]
+                results[i] = self.exchange(sid, INST_PING, (), self.ping_reply, 2.0**k)[0]
                 if results[i] == COMM_OK:
                     break
             if i == 0 and results[0] == COMM_TIMEOUT:
-                if all(self.exchange(s, INST_PING)[0] == COMM_TIMEOUT for s in self.ids[1:]):
+                pings = (self.exchange(s, INST_PING, (), self.ping_reply) for s in self.ids[1:])
+                if all(p[0] == COMM_TIMEOUT for p in pings):
                     raise ServoError(
                         f"no servo answered on {self.port_name} at {self.baud} baud (the servo "
                         f"map says {self.servo_map.baudrate}): wrong baud rate, no power, or "
