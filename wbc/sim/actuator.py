@@ -92,6 +92,11 @@ class ServoParams:
     @classmethod
     def from_settings(cls, settings: ServoSettings, **kwargs) -> ServoParams:
         """Parameters of the registers in ``settings`` (e.g. ``robot.servo_map.settings``)."""
+        if isinstance(settings, XSettings):
+            raise ConfigurationError(
+                "the AX-12A servo model (compliance margin/slope, punch) does not apply to "
+                "X-series servos (servos.toml protocol 2.0): see wbc.sim.xm430"
+            )
         stall = kwargs.pop("stall_torque", STALL_TORQUE)
         return cls(
             margin=settings.compliance_margin.astype(float),
