@@ -111,3 +111,19 @@ def test_standing_pose_puts_the_feet_flat_under_the_hips(op3):
 def test_robot_check_passes():
     findings = check_folder(OP3)
     assert not [f for f in findings if f.level in ("error", "warning")], findings
+
+
+def test_no_two_links_touch_at_the_standing_and_zero_poses(op3):
+    """The collision boxes of links that are not parent and child are 5 mm apart or more."""
+    from wbc.limits.self_collision import candidate_pairs, collision_model
+
+    cm = collision_model(op3)
+    pairs = candidate_pairs(op3, cm)
+    geometry = cm.geometry.copy()
+    geometry.removeAllCollisionPairs()
+    for i, j in pairs:
+        geometry.addCollisionPair(pin.CollisionPair(i, j))
+    gdata, data = pin.GeometryData(geometry), op3.model.createData()
+    for q in (op3.configuration("stand"), op3.neutral()):
+        pin.computeDistances(op3.model, data, geometry, gdata, q)
+        assert min(r.min_distance for r in gdata.distanceResults) > 0.005

@@ -39,6 +39,8 @@ class Link:
     inertia: Vec3
     boxes: list[tuple[Vec3, Vec3, str]] = field(default_factory=list)
     products: Vec3 = (0.0, 0.0, 0.0)
+    #: collision boxes ``(centre, size)`` if they differ from the visual ``boxes``
+    collision: list[tuple[Vec3, Vec3]] | None = None
 
     @classmethod
     def scaled(
@@ -84,14 +86,23 @@ def link_xml(link: Link, collision_inset: float = 0.0) -> str:
         f'izz="{izz:.6g}"/>'
     )
     out.append("    </inertial>")
-    for centre, size, material in link.boxes:
-        for tag in ("visual", "collision"):
-            box = size if tag == "visual" else tuple(v - 2 * collision_inset for v in size)
-            out.append(f"    <{tag}>")
-            out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
-            out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
-            if tag == "visual":
-                out.append(f'      <material name="{material}"/>')
-            out.append(f"    </{tag}>")
+    visual = [(centre, size, "visual", material) for centre, size, material in link.boxes]
+    collision = [(c, s, "collision", "") for c, s, _ in link.boxes]
+    if link.collision is not None:
+        collision = [(c, s, "collision", "") for c, s in link.collision]
+    order = visual + collision if link.collision is not None else _interleave(visual, collision)
+    for centre, size, tag, material in order:
+        box = size if tag == "visual" else tuple(v - 2 * collision_inset for v in size)
+        out.append(f"    <{tag}>")
+        out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
+        out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
+        if tag == "visual":
+            out.append(f'      <material name="{material}"/>')
+        out.append(f"    </{tag}>")
     out.append("  </link>")
     return "\n".join(out)
+
+
+def _interleave(a: list, b: list) -> list:
+    """a[0], b[0], a[1], b[1], ... (each box's visual, then its collision)."""
+    return [x for pair in zip(a, b, strict=True) for x in pair]

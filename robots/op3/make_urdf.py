@@ -96,6 +96,11 @@ ESTIMATED_BOXES = {
     "l_hip_roll_link": ((12.0, 0.0, -12.0), (60.0, 40.0, 46.0)),
     "l_ank_pitch_link": ((-12.0, -19.0, 12.0), (60.0, 40.0, 46.0)),
 }
+# Collision boxes that differ from the mesh boxes (mm, link frame, left side; README section
+# 3): the mesh boxes of the hip yaw bracket and the foot reach past the next joint's axis and
+# overlap the thigh / shin at every pose, though the parts themselves interleave. Collision
+# keeps the bracket's top plate (12 mm under its top) and the sole plate (10 mm thick).
+COLLISION_TRIM_Z = {"l_hip_yaw_link": (-12.0, 0.0), "l_ank_roll_link": (-30.5, -20.5)}
 COLLISION_INSET = 0.001  # m, collision boxes 1 mm inside the visual ones (as Kokone's)
 MATERIALS = {"grey": (0.6, 0.6, 0.6, 1.0), "dark": (0.25, 0.25, 0.28, 1.0)}
 
@@ -203,7 +208,13 @@ def all_links() -> list[Link]:
         centre, size = link_box(name, meshes, bounds)
         material = "dark" if name == "body_link" else "grey"
         box = (tuple(v * MM for v in centre), tuple(v * MM for v in size), material)
-        links.append(Link(name, mass, com, diag, [box], products))
+        collision = None
+        key = name.replace("r_", "l_", 1) if name.startswith("r_") else name
+        if key in COLLISION_TRIM_Z:
+            z0, z1 = COLLISION_TRIM_Z[key]
+            c = (centre[0], centre[1], (z0 + z1) / 2)
+            collision = [(tuple(v * MM for v in c), (size[0] * MM, size[1] * MM, (z1 - z0) * MM))]
+        links.append(Link(name, mass, com, diag, [box], products, collision))
     return links
 
 
