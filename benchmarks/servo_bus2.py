@@ -13,6 +13,7 @@ Two tables (``benchmarks/servo_bus2.md`` records them):
 Usage::
 
     python benchmarks/servo_bus2.py --runs 4 --ticks 200
+    python benchmarks/servo_bus2.py --write-squat squat.npz   # the motion, for wbc deploy/sim
 """
 
 from __future__ import annotations
@@ -119,8 +120,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=4, help="runs per fault case and mode")
     ap.add_argument("--ticks", type=int, default=200, help="free-running ticks per bus")
+    ap.add_argument("--write-squat", metavar="NPZ", help="only write the squat recording")
     args = ap.parse_args(argv)
     robot = load_robot("op3")
+    if args.write_squat:
+        print(f"wrote {squat(robot, Path(args.write_squat))}")
+        return 0
     lines = [
         f"### Fault detection at 50 Hz, 20 XM430 (Protocol 2.0), {args.runs} runs per case",
         "",
