@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.exceptions import ConfigurationError, ModelError
@@ -139,3 +141,18 @@ def test_the_simulated_bus_speaks_for_x_series_servos(op3):
     assert bus.sim.servos.speed[0] * X_RAD_PER_TICK == pytest.approx(42 * 0.229 * 2 * math.pi / 60)
     bus.inject("overload", 3)
     assert bus.poll(3).faults == ("overload",)
+
+
+@given(
+    e=st.integers(-3000, 3000),
+    p=st.integers(0, 16383),
+    current=st.integers(0, 1193),
+)
+def test_p_law_is_the_clipped_pwm(e, p, current):
+    """P only, goal reached by the profile: τ = clip(τ_s · clip(K_P e / 885, ±1), ±cap)."""
+    servo = one_servo(p=p, current=current)
+    servo.goal[:] = servo.tracked[:] = 2048 + e
+    tau = servo.law(np.zeros(1), 0.002)[0]
+    cap = STALL_TORQUE * min(1.0, current * 2.69e-3 / 2.3)
+    expected = np.clip(STALL_TORQUE * np.clip(p / 128 * e / PWM_MAX, -1, 1), -cap, cap)
+    assert tau == pytest.approx(expected, abs=1e-12)
