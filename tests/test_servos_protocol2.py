@@ -171,20 +171,24 @@ def test_start_up_writes_the_settings_and_reads_everything_in_one_sync_read(op3)
 
 
 def test_a_late_sync_read_reply_is_never_taken_for_the_next(op3):
-    """Consecutive SYNC_READs differ in length (rotated form): the late reply of one is
-    discarded by the next, which times out for that servo instead of reading stale data."""
+    """Consecutive SYNC_READs differ in length (rotated form): servo 5's reply to the first
+    comes 30 ms late, while the second waits for it (servo 5 is silent then); that stale
+    reply is discarded, so the second read times out instead of reading old data."""
     assert read_variant(224, len(HEALTH_BLOCK), 0)[1] != read_variant(224, 10, 1)[1]
     with XEmulator() as emu:
         bus = open_bus(op3, emu.port)
         bus.configure()
-        emu.faults.append(Fault("late", 5, delay_s=0.03, count=1))
+        n = emu.packets_to(5)
+        emu.faults += [
+            Fault("late", 5, delay_s=0.03, count=1),
+            Fault("timeout", 5, after_packets=n + 1, count=1),
+        ]
         i = op3.servo_map.index_of_id(5)
-        first = bus.read_positions()
-        assert first[i].comm == COMM_TIMEOUT
-        time.sleep(0.04)
-        second = bus.read_positions()
-        assert second[i].comm == COMM_OK
-        assert bus.log.late.get(5, 0) >= 1
+        assert bus.read_positions()[i].comm == COMM_TIMEOUT  # 20 ms deadline
+        second = bus.read_positions()  # waits 20 ms for servo 5; the late reply comes in
+        assert second[i].comm == COMM_TIMEOUT
+        assert bus.log.late.get(5, 0) == 1
+        assert bus.read_positions()[i].comm == COMM_OK
         bus.close()
 
 
