@@ -308,3 +308,20 @@ def test_playback_is_soft_started_and_rate_limited(op3, squat, capsys):
         steps = np.abs(np.diff(c)) - (speed[i] * (np.diff(t) + 0.02) + 1)
         assert np.all(steps <= 1e-9), sid
         assert np.all((c >= 0) & (c <= 4095))
+
+
+def test_identify_names_missing_and_doubled_servos(op3):
+    from wbc.exceptions import ServoError
+
+    faults = [Fault("missing", 4), Fault("garbage", 6)]  # garbage before a reply: skipped
+    with XEmulator(faults=faults, duplicate_ids=[9]) as emu:
+        bus = open_bus(op3, emu.port)
+        with pytest.raises(ServoError) as info:
+            bus.identify()
+        bus.close()
+    text = str(info.value)
+    assert "no reply to PING from id 4 (l_sho_roll)" in text
+    # two servos answering at once: no valid packet reaches the host, so the ID is named
+    # (as silent: the AND of two status packets has no valid length or CRC)
+    assert "id 9 (r_hip_roll)" in text
+    assert "id 6" not in text
