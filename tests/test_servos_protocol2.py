@@ -323,8 +323,7 @@ def test_playback_is_soft_started_and_rate_limited(op3, squat, capsys):
 def test_identify_names_missing_and_doubled_servos(op3):
     from wbc.exceptions import ServoError
 
-    faults = [Fault("missing", 4), Fault("garbage", 6)]  # garbage before a reply: skipped
-    with XEmulator(faults=faults, duplicate_ids=[9]) as emu:
+    with XEmulator(faults=[Fault("missing", 4)], duplicate_ids=[9]) as emu:
         bus = open_bus(op3, emu.port)
         with pytest.raises(ServoError) as info:
             bus.identify()
@@ -334,4 +333,17 @@ def test_identify_names_missing_and_doubled_servos(op3):
     # two servos answering at once: no valid packet reaches the host, so the ID is named
     # (as silent: the AND of two status packets has no valid length or CRC)
     assert "id 9 (r_hip_roll)" in text
-    assert "id 6" not in text
+    assert "id 6" not in text  # the others answer
+
+
+def test_garbage_before_a_sync_read_reply_fails_that_servo(op3):
+    with XEmulator() as emu:
+        bus = open_bus(op3, emu.port)
+        bus.configure()
+        emu.faults.append(Fault("garbage", 6, count=1))
+        statuses = bus.read_positions()
+        i = op3.servo_map.index_of_id(6)
+        assert statuses[i].comm == "corrupt"
+        assert all(s.comm == COMM_OK for k, s in enumerate(statuses) if k != i)
+        assert bus.read_positions()[i].comm == COMM_OK  # one garbled reply, then clean
+        bus.close()

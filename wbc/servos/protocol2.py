@@ -469,7 +469,9 @@ class Dynamixel2Bus(DynamixelBus):
     def read_positions(self, indices: Sequence[int] | None = None) -> list[ServoStatus]:
         """One SYNC_READ of the health block of the given servos (default all): every status
         packet matched by ID and length (the form rotates per SYNC_READ), before a deadline
-        of the wire time of all replies + 2 · USB latency + 2 ms."""
+        of the wire time of all replies + 2 · USB latency + 2 ms. A corrupt packet fails the
+        servo whose turn it was; a valid reply after bytes of no packet (garbage on the
+        line) fails its servo."""
         self._require_open()
         idx = list(range(self.n)) if indices is None else list(indices)
         a, n = read_variant(ADDR_INDIRECT_DATA, len(HEALTH_BLOCK), self._sync_reads)
@@ -488,18 +490,28 @@ class Dynamixel2Bus(DynamixelBus):
         out: dict[int, ServoStatus] = {}
         by_id = dict(zip(ids, idx, strict=True))
         ser = self.port.ser
+        junk = 0  # bytes that belong to no packet (noise, a babbling device)
         while len(out) < len(ids):
             now = time.perf_counter()
             k = ser.in_waiting
             if k:
                 self._buf += ser.read(k)
-            while (reply := self.take(self._buf)) is not None:
+            while True:
+                before = len(self._buf)
+                reply = self.take(self._buf)
+                junk += before - len(self._buf) - (len(reply) if reply is not None else 0)
+                if reply is None:
+                    break
                 st = self.status(reply)
                 pending = [s for s in ids if by_id[s] not in out]
-                if st is None:  # corrupt: the servo whose turn it was
-                    if pending:
-                        self.log.count(self.log.corrupt, pending[0])
-                        out[by_id[pending[0]]] = ServoStatus(by_id[pending[0]], COMM_CORRUPT)
+                # a corrupt packet fails the servo whose turn it was; a valid reply after
+                # garbage (the line is not clean) fails the servo it names
+                if st is None or (junk and st[0] in pending):
+                    junk = 0
+                    who = st[0] if st is not None else (pending[0] if pending else None)
+                    if who is not None:
+                        self.log.count(self.log.corrupt, who)
+                        out[by_id[who]] = ServoStatus(by_id[who], COMM_CORRUPT)
                     continue
                 sid, error, data = st
                 if sid not in pending or len(data) != n:
