@@ -40,7 +40,6 @@ from .model import (
     load_robot,
 )
 from .paths import stacks_dir
-from .servo_map import TICK_MAX, TICK_MIN
 
 #: the stack copied as a new robot's default when its URDF has the standard frames
 DEFAULT_STACK = "walk"
@@ -291,7 +290,7 @@ def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:
     a = sm.angles_to_ticks_float(robot.q_min)
     b = sm.angles_to_ticks_float(robot.q_max)
     span = np.abs(b - a)
-    inside = np.minimum(np.maximum(a, b), TICK_MAX) - np.maximum(np.minimum(a, b), TICK_MIN)
+    inside = np.minimum(np.maximum(a, b), sm.tick_max) - np.maximum(np.minimum(a, b), sm.tick_min)
     for i in np.flatnonzero(inside < span - 1.0):  # a tick of slack: rounding of the limits
         share = 100 * max(inside[i], 0.0) / span[i]
         out.append(
@@ -299,7 +298,8 @@ def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:
                 "error" if share < 95 else "warning",
                 f"joint {robot.joint_names[i]} (id {sm.ids[i]}): limits [{robot.q_min[i]:.3f}, "
                 f"{robot.q_max[i]:.3f}] rad are ticks [{a[i]:.0f}, {b[i]:.0f}]; only "
-                f"{share:.0f} % lie inside the servo's 0..1023 (wrong sign or zero tick?)",
+                f"{share:.0f} % lie inside the servo's {sm.tick_min}..{sm.tick_max} (wrong sign "
+                "or zero tick?)",
             )
         )
     return out

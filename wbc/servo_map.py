@@ -1,11 +1,14 @@
 """Servo map: joint angle (rad, our URDF frames) <-> Dynamixel ticks.
 
-AX-12A goal/present positions are 0..1023 ticks over 300 degrees, so one tick is
-300/1023 degrees. For each joint the map holds its Dynamixel ID, a sign and the tick at which
-our joint angle is zero::
+``servos.toml`` ``[bus] protocol`` names the servos' protocol and so their tick geometry:
+1.0 (the default) is the AX-12A, 0..1023 ticks over 300 degrees (one tick 300/1023 degrees);
+2.0 is the X series (e.g. the XM430), 0..4095 ticks over 360 degrees. For each joint the map
+holds its Dynamixel ID, a sign and the tick at which our joint angle is zero::
 
-    q = sign * (ticks - zero_tick) * RAD_PER_TICK
-    ticks = round(zero_tick + sign * q / RAD_PER_TICK)
+    q = sign * (ticks - zero_tick) * rad_per_tick
+    ticks = round(zero_tick + sign * q / rad_per_tick)
+
+Every key of the file is read or refused (one line naming it).
 """
 
 from __future__ import annotations
@@ -19,12 +22,63 @@ import numpy as np
 
 from .exceptions import ServoMapError
 from .paths import read_toml
+from .xseries import X_CENTER_TICK, X_RAD_PER_TICK, X_TICK_MAX, X_TICK_MIN, XSettings
 
 TICK_MIN = 0
 TICK_MAX = 1023
 CENTER_TICK = 512
 DEG_PER_TICK = 300.0 / 1023.0
 RAD_PER_TICK = math.radians(DEG_PER_TICK)
+
+
+@dataclass(frozen=True)
+class TickGeometry:
+    """A protocol's position ticks: range, centre, degrees of the range and radians per tick."""
+
+    protocol: float
+    tick_min: int
+    tick_max: int
+    center_tick: int
+    range_deg: float
+    ticks_over_range: int
+    rad_per_tick: float
+
+
+#: ``[bus] protocol`` -> its tick geometry (AX-12A: EMAN-AX; X series: the XM430 e-Manual)
+GEOMETRIES: dict[float, TickGeometry] = {
+    1.0: TickGeometry(1.0, TICK_MIN, TICK_MAX, CENTER_TICK, 300.0, 1023, RAD_PER_TICK),
+    2.0: TickGeometry(2.0, X_TICK_MIN, X_TICK_MAX, X_CENTER_TICK, 360.0, 4096, X_RAD_PER_TICK),
+}
+#: keys of ``[bus]``: the protocol and baud rate are used; the others restate the geometry
+#: and must equal the protocol's
+BUS_KEYS = ("protocol", "baudrate", "ticks_over_range", "range_deg", "center_tick")
+TOP_KEYS = ("bus", "joints", "poses", "settings")
+
+
+def bus_geometry(bus: Mapping, source: str) -> TickGeometry:
+    """The tick geometry of a ``[bus]`` table, checking every key (one line per problem)."""
+    where = f"servo map {source}: [bus]"
+    if not isinstance(bus, Mapping):
+        raise ServoMapError(f"{where} must be a table")
+    extra = sorted(set(bus) - set(BUS_KEYS))
+    if extra:
+        raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {list(BUS_KEYS)}")
+    protocol = bus.get("protocol", 1.0)
+    if isinstance(protocol, bool) or protocol not in GEOMETRIES:
+        raise ServoMapError(
+            f"{where} protocol = {protocol!r}: allowed 1.0 (AX-12A) or 2.0 (X series)"
+        )
+    geo = GEOMETRIES[float(protocol)]
+    for key in ("ticks_over_range", "range_deg", "center_tick"):
+        if key in bus and bus[key] != getattr(geo, key):
+            raise ServoMapError(
+                f"{where} {key} = {bus[key]!r}, but protocol {geo.protocol} servos have "
+                f"{getattr(geo, key)!r} (the key is optional)"
+            )
+    baud = bus.get("baudrate", 1_000_000)
+    if isinstance(baud, bool) or not isinstance(baud, int) or baud <= 0:
+        raise ServoMapError(f"{where} baudrate = {baud!r}: must be a positive integer")
+    return geo
 
 
 #: registers written from :class:`ServoSettings`: name -> (address, size, allowed range, default)
@@ -126,11 +180,19 @@ class ServoMap:
         poses: Mapping[str, Mapping[int, int]] | None = None,
         baudrate: int = 1_000_000,
         source: str = "<memory>",
-        settings: ServoSettings | None = None,
+        settings: ServoSettings | XSettings | None = None,
+        protocol: float = 1.0,
     ) -> None:
         self.source = source
         self.specs = tuple(specs)
         self.baudrate = baudrate
+        if protocol not in GEOMETRIES:
+            raise ServoMapError(f"{source}: protocol {protocol!r}; allowed: 1.0 or 2.0")
+        #: the protocol's ticks (range, centre, radians per tick)
+        self.geometry = GEOMETRIES[float(protocol)]
+        self.protocol = self.geometry.protocol
+        self.tick_min, self.tick_max = self.geometry.tick_min, self.geometry.tick_max
+        self.rad_per_tick = self.geometry.rad_per_tick
         self._validate()
         self.joint_names = tuple(s.joint for s in self.specs)
         self.ids = np.array([s.id for s in self.specs], dtype=int)
@@ -138,8 +200,14 @@ class ServoMap:
         self.zero_ticks = np.array([s.zero_tick for s in self.specs], dtype=float)
         self._by_id = {s.id: i for i, s in enumerate(self.specs)}
         self._by_joint = {s.joint: i for i, s in enumerate(self.specs)}
-        #: compliance, punch, torque limit and alarm shutdown per joint (model order)
-        self.settings = settings or ServoSettings.defaults(len(self.specs))
+        #: the registers written at start-up, per joint (model order): compliance, punch,
+        #: torque limit, alarm shutdown (AX-12A); position gains, current limit, profile
+        #: acceleration, shutdown (X series: :class:`wbc.xseries.XSettings`)
+        self.settings: ServoSettings | XSettings = settings or (
+            XSettings.defaults(len(self.specs))
+            if self.protocol == 2.0
+            else ServoSettings.defaults(len(self.specs))
+        )
         self.poses = {name: dict(p) for name, p in (poses or {}).items()}
         for name, pose in self.poses.items():
             unknown = sorted(set(pose) - set(self._by_id))
@@ -155,6 +223,12 @@ class ServoMap:
         """Load a servo map TOML; with ``joint_names``, reorder to (and check against) them."""
         path = Path(path)
         raw = read_toml(path, "servo map", ServoMapError)
+        extra = sorted(set(raw) - set(TOP_KEYS))
+        if extra:
+            raise ServoMapError(
+                f"servo map {path} has unknown tables/keys {extra}; allowed: {list(TOP_KEYS)}"
+            )
+        geometry = bus_geometry(raw.get("bus", {}), str(path))
         joints = raw.get("joints")
         if not isinstance(joints, dict) or not joints:
             raise ServoMapError(f"servo map {path} has no [joints] table")
@@ -182,16 +256,17 @@ class ServoMap:
                 )
             specs = [by_name[j] for j in joint_names]
         poses = {}
+        if not isinstance(raw.get("poses", {}), dict):
+            raise ServoMapError(f"servo map {path}: [poses.<name>] entries must be tables")
         for name, pose in raw.get("poses", {}).items():
             try:
                 poses[name] = {int(k): int(v) for k, v in pose.items()}
             except (TypeError, ValueError) as exc:
                 raise ServoMapError(f"servo map {path}: pose {name!r}: {exc}") from exc
         baud = raw.get("bus", {}).get("baudrate", 1_000_000)
-        settings = ServoSettings.from_table(
-            raw.get("settings", {}), [s.joint for s in specs], str(path)
-        )
-        return cls(specs, poses, baudrate=baud, source=str(path), settings=settings)
+        kind = XSettings if geometry.protocol == 2.0 else ServoSettings
+        settings = kind.from_table(raw.get("settings", {}), [s.joint for s in specs], str(path))
+        return cls(specs, poses, baud, str(path), settings=settings, protocol=geometry.protocol)
 
     def _validate(self) -> None:
         seen: dict[int, str] = {}
@@ -210,8 +285,11 @@ class ServoMap:
                 raise ServoMapError(f"{where}: sign must be 1 or -1, got {s.sign!r}")
             if not isinstance(s.zero_tick, (int, float)) or isinstance(s.zero_tick, bool):
                 raise ServoMapError(f"{where}: zero_tick must be a number, got {s.zero_tick!r}")
-            if not TICK_MIN <= s.zero_tick <= TICK_MAX:
-                raise ServoMapError(f"{where}: zero_tick {s.zero_tick} outside 0..1023")
+            if not self.tick_min <= s.zero_tick <= self.tick_max:
+                raise ServoMapError(
+                    f"{where}: zero_tick {s.zero_tick} outside {self.tick_min}..{self.tick_max} "
+                    f"(protocol {self.protocol})"
+                )
 
     # ------------------------------------------------------------------ lookups
     def __len__(self) -> int:
@@ -237,23 +315,23 @@ class ServoMap:
     def ticks_to_angles(self, ticks: Sequence[float] | np.ndarray) -> np.ndarray:
         """Joint angles (rad, model order) from ticks (model order)."""
         t = self._as_vector(ticks, "ticks")
-        bad = np.flatnonzero((t < TICK_MIN) | (t > TICK_MAX))
+        bad = np.flatnonzero((t < self.tick_min) | (t > self.tick_max))
         if bad.size:
             raise ServoMapError(self._range_message(t, bad, "ticks"))
-        return self.signs * (t - self.zero_ticks) * RAD_PER_TICK
+        return self.signs * (t - self.zero_ticks) * self.rad_per_tick
 
     def angles_to_ticks_float(self, q: Sequence[float] | np.ndarray) -> np.ndarray:
         """Unrounded ticks for joint angles (rad, model order); no range check."""
         q = self._as_vector(q, "angles")
-        return self.zero_ticks + self.signs * q / RAD_PER_TICK
+        return self.zero_ticks + self.signs * q / self.rad_per_tick
 
     def angles_to_ticks(self, q: Sequence[float] | np.ndarray) -> np.ndarray:
         """Integer goal ticks for joint angles (rad, model order).
 
-        Raises :class:`ServoMapError` naming the joint if a tick falls outside 0..1023.
+        Raises :class:`ServoMapError` naming the joint if a tick falls outside the servo's range.
         """
         t = np.rint(self.angles_to_ticks_float(q))
-        bad = np.flatnonzero((t < TICK_MIN) | (t > TICK_MAX))
+        bad = np.flatnonzero((t < self.tick_min) | (t > self.tick_max))
         if bad.size:
             raise ServoMapError(self._range_message(t, bad, "angles"))
         return t.astype(int)
@@ -285,4 +363,5 @@ class ServoMap:
 
     def _range_message(self, ticks: np.ndarray, bad: np.ndarray, what: str) -> str:
         parts = [f"{self.specs[i].joint} (id {self.specs[i].id}) -> tick {ticks[i]:g}" for i in bad]
-        return f"{what} outside the servo range 0..1023: " + "; ".join(parts)
+        span = f"{self.tick_min}..{self.tick_max}"
+        return f"{what} outside the servo range {span}: " + "; ".join(parts)

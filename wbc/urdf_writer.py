@@ -29,14 +29,18 @@ def box_inertia(mass: float, size: Vec3) -> Vec3:
 
 @dataclass(frozen=True)
 class Link:
-    """One URDF link in SI units: mass (kg), CoM (m, link frame), principal inertias (kg·m²)
-    and its boxes ``(centre m, size m, material name)``."""
+    """One URDF link in SI units: mass (kg), CoM (m, link frame), inertias ``(ixx, iyy, izz)``
+    and products ``(ixy, ixz, iyz)`` about the CoM (kg·m²), and its boxes ``(centre m, size m,
+    material name)``."""
 
     name: str
     mass: float
     com: Vec3
     inertia: Vec3
     boxes: list[tuple[Vec3, Vec3, str]] = field(default_factory=list)
+    products: Vec3 = (0.0, 0.0, 0.0)
+    #: collision boxes ``(centre, size)`` if they differ from the visual ``boxes``
+    collision: list[tuple[Vec3, Vec3]] | None = None
 
     @classmethod
     def scaled(
@@ -73,21 +77,32 @@ def link_xml(link: Link, collision_inset: float = 0.0) -> str:
     """The ``<link>`` element: inertial, then a visual and a collision box per box; each
     collision box is ``collision_inset`` metres inside its visual box on every side."""
     ixx, iyy, izz = link.inertia
+    ixy, ixz, iyz = (f"{v:.6g}" if v else "0" for v in link.products)
     out = [f'  <link name="{link.name}">', "    <inertial>"]
     out.append(f'      <origin xyz="{fmt(link.com)}" rpy="0 0 0"/>')
     out.append(f'      <mass value="{link.mass:.6g}"/>')
     out.append(
-        f'      <inertia ixx="{ixx:.6g}" ixy="0" ixz="0" iyy="{iyy:.6g}" iyz="0" izz="{izz:.6g}"/>'
+        f'      <inertia ixx="{ixx:.6g}" ixy="{ixy}" ixz="{ixz}" iyy="{iyy:.6g}" iyz="{iyz}" '
+        f'izz="{izz:.6g}"/>'
     )
     out.append("    </inertial>")
-    for centre, size, material in link.boxes:
-        for tag in ("visual", "collision"):
-            box = size if tag == "visual" else tuple(v - 2 * collision_inset for v in size)
-            out.append(f"    <{tag}>")
-            out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
-            out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
-            if tag == "visual":
-                out.append(f'      <material name="{material}"/>')
-            out.append(f"    </{tag}>")
+    visual = [(centre, size, "visual", material) for centre, size, material in link.boxes]
+    collision = [(c, s, "collision", "") for c, s, _ in link.boxes]
+    if link.collision is not None:
+        collision = [(c, s, "collision", "") for c, s in link.collision]
+    order = visual + collision if link.collision is not None else _interleave(visual, collision)
+    for centre, size, tag, material in order:
+        box = size if tag == "visual" else tuple(v - 2 * collision_inset for v in size)
+        out.append(f"    <{tag}>")
+        out.append(f'      <origin xyz="{fmt(centre)}" rpy="0 0 0"/>')
+        out.append(f'      <geometry><box size="{fmt(box)}"/></geometry>')
+        if tag == "visual":
+            out.append(f'      <material name="{material}"/>')
+        out.append(f"    </{tag}>")
     out.append("  </link>")
     return "\n".join(out)
+
+
+def _interleave(a: list, b: list) -> list:
+    """a[0], b[0], a[1], b[1], ... (each box's visual, then its collision)."""
+    return [x for pair in zip(a, b, strict=True) for x in pair]

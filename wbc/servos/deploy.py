@@ -251,6 +251,23 @@ def make_bus(args: argparse.Namespace, robot: Robot, port: str | None) -> ServoB
             print(f"warning: {warning}", file=sys.stderr)
         move_ms = max(1, round(1000.0 / args.rate))
         return Ssc32Bus(port or "", ssc_map, args.baud or ssc_map.baudrate, move_time_ms=move_ms)
+    if sm is not None and sm.protocol == 2.0:  # servos.toml [bus] protocol = 2.0
+        from .protocol2 import Dynamixel2Bus
+
+        if args.torque_limit is not None:
+            raise ConfigurationError(
+                "--torque-limit is the AX-12A's register; X-series servos take "
+                "[settings] current_limit in servos.toml"
+            )
+        return Dynamixel2Bus(
+            port or "",
+            sm,
+            args.baud or sm.baudrate,
+            latency_timer_ms=args.latency_ms,
+            reply_timeout_ms=args.reply_timeout_ms,
+            attempts=args.attempts,
+            watchdog_ms=max(100.0, 3000.0 / args.rate),  # 3 ticks, at least 100 ms
+        )
     from .dynamixel import DynamixelBus
 
     return DynamixelBus(
@@ -287,10 +304,12 @@ def check_servo_map(robot: Robot, tol: float = 1e-3) -> list[str]:
     a = sm.angles_to_ticks_float(robot.q_min)
     b = sm.angles_to_ticks_float(robot.q_max)
     span = np.abs(b - a)
-    reachable = np.minimum(np.maximum(a, b), 1023) - np.maximum(np.minimum(a, b), 0)
+    reachable = np.minimum(np.maximum(a, b), sm.tick_max) - np.maximum(
+        np.minimum(a, b), sm.tick_min
+    )
     return [
         f"servo map: only {100 * reachable[i] / span[i]:.0f} % of {robot.joint_names[i]}'s URDF "
-        "range lies inside the servo's 0..1023 ticks"
+        f"range lies inside the servo's {sm.tick_min}..{sm.tick_max} ticks"
         for i in np.flatnonzero(reachable < 0.95 * span)
     ]
 

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import ServoError
-from ..servo_map import RAD_PER_TICK, TICK_MAX, TICK_MIN, ServoMap
+from ..servo_map import RAD_PER_TICK, ServoMap
 from .bus import (
     COMM_CORRUPT,
     COMM_OK,
@@ -207,12 +207,13 @@ def speed_ticks_per_s(register: int) -> float:
 
 
 def ax_codec(servo_map: ServoMap) -> Codec:
-    """Angle <-> tick codec of a servo map: ``tick = zero_tick + sign · q / RAD_PER_TICK``."""
+    """Angle <-> tick codec of a servo map (either protocol): ``tick = zero_tick + sign · q /
+    rad_per_tick`` within the map's tick range."""
     return Codec(
         offset=servo_map.zero_ticks.copy(),
-        scale=servo_map.signs / RAD_PER_TICK,
-        cmd_min=TICK_MIN,
-        cmd_max=TICK_MAX,
+        scale=servo_map.signs / servo_map.rad_per_tick,
+        cmd_min=servo_map.tick_min,
+        cmd_max=servo_map.tick_max,
         unit="tick",
     )
 
@@ -370,6 +371,39 @@ class DynamixelBus(ServoBus):
     name = "dynamixel"
     can_read = True
     servo_speed = AX12_MAX_SPEED
+    # the protocol's parts (wbc.servos.protocol2.Dynamixel2Bus overrides them): the torque
+    # enable register, the accepted model numbers (address 0, 2 bytes) and packet hooks below
+    torque_address = ADDR_TORQUE_ENABLE
+    models: Mapping[int, str] = {AX12_MODEL_NUMBER: "AX-12A"}
+
+    def packet(self, servo_id: int, instruction: int, params: Sequence[int] = ()) -> bytes:
+        """An instruction packet of the bus's protocol."""
+        return instruction_packet(servo_id, instruction, params)
+
+    def take(self, buf: bytearray) -> bytes | None:
+        """The first complete packet off ``buf`` (:func:`take_packet`), None while incomplete."""
+        return take_packet(buf)
+
+    def status(self, pkt: bytes) -> tuple[int, int, bytes] | None:
+        """``(id, error byte, parameters)`` of a status packet, None if its checksum fails."""
+        if checksum(pkt[2:-1]) != pkt[-1]:
+            return None
+        return pkt[2], pkt[4], pkt[5:-1]
+
+    status_overhead = 6  # bytes of a status packet besides its parameters
+    ping_reply = 0  # parameters of a PING's status packet
+
+    def address_params(self, address: int, values: Sequence[int]) -> list[int]:
+        """READ/WRITE parameters: the address (1 byte) then ``values``."""
+        return [address, *values]
+
+    def read_params(self, address: int, length: int) -> list[int]:
+        """READ parameters: address and length, one byte each."""
+        return [address, length]
+
+    def error_names(self, error: int) -> tuple[str, ...]:
+        """Names of the bits of a status packet's error byte."""
+        return fault_names(error)
 
     def __init__(
         self,
@@ -491,9 +525,9 @@ class DynamixelBus(ServoBus):
         if n:
             self._buf += ser.read(n)
         self.log.stale_bytes += len(self._buf)
-        while (pkt := take_packet(self._buf)) is not None:
-            if checksum(pkt[2:-1]) == pkt[-1]:
-                self.log.count(self.log.late, pkt[2])
+        while (pkt := self.take(self._buf)) is not None:
+            if (st := self.status(pkt)) is not None:
+                self.log.count(self.log.late, st[0])
         self._buf.clear()
 
     def exchange(
@@ -506,14 +540,14 @@ class DynamixelBus(ServoBus):
     ) -> tuple[str, int, bytes]:
         """One matched request/reply: ``(comm, error byte, reply parameters)``.
 
-        The status packet must have ``servo_id``, ``n_reply + 2`` as LENGTH and a valid
+        The status packet must have ``servo_id``, ``n_reply`` parameters and a valid
         checksum, and arrive before :meth:`reply_timeout_s`; a valid packet of another ID is a
         late reply (logged, skipped); a wrong length or checksum is ``corrupt``. ``patience``
         multiplies the deadline (start-up retries wait longer each time)."""
         self._require_open()
         port = self.port
         self._flush()
-        pkt = instruction_packet(servo_id, instruction, params)
+        pkt = self.packet(servo_id, instruction, params)
         t0 = time.perf_counter()
         try:
             written = port.writePort(pkt)
@@ -523,7 +557,7 @@ class DynamixelBus(ServoBus):
             return COMM_TX_FAIL, 0, b""
         if servo_id == BROADCAST_ID:
             return COMM_OK, 0, b""
-        deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + 6)
+        deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + self.status_overhead)
         ser = port.ser
         fd = ser.fileno()
         junk = 0  # bytes on the line that belong to no packet (noise, a babbling device)
@@ -534,17 +568,18 @@ class DynamixelBus(ServoBus):
                 self._buf += ser.read(n)
             while True:
                 before = len(self._buf)
-                reply = take_packet(self._buf)
+                reply = self.take(self._buf)
                 junk += before - len(self._buf) - (len(reply) if reply is not None else 0)
                 if reply is None:
                     break
-                if checksum(reply[2:-1]) != reply[-1]:
+                st = self.status(reply)
+                if st is None:
                     self.log.count(self.log.corrupt, servo_id)
                     return COMM_CORRUPT, 0, b""
-                if reply[2] != servo_id:
-                    self.log.count(self.log.late, reply[2])
+                if st[0] != servo_id:
+                    self.log.count(self.log.late, st[0])
                     continue
-                if reply[3] != n_reply + 2:  # e.g. the late answer to an earlier READ
+                if len(st[2]) != n_reply:  # e.g. the late answer to an earlier READ
                     self.log.count(self.log.late, servo_id)
                     continue
                 if junk:  # a valid reply in garbage: the line is not clean, count a failure
@@ -552,7 +587,7 @@ class DynamixelBus(ServoBus):
                     self.log.count(self.log.corrupt, servo_id)
                     return COMM_CORRUPT, 0, b""
                 self.log.rtt.append(time.perf_counter() - t0)
-                return COMM_OK, reply[4], reply[5:-1]
+                return COMM_OK, st[1], st[2]
             if now >= deadline:  # the last look came after the deadline
                 self.log.count(self.log.timeouts, servo_id)
                 return COMM_TIMEOUT, 0, b""
@@ -566,7 +601,9 @@ class DynamixelBus(ServoBus):
         (:func:`read_variant`), returning the ``length`` bytes at ``address``."""
         a, n = read_variant(address, length, int(self._reads[i]))
         self._reads[i] += 1
-        comm, error, data = self.exchange(self.ids[i], INST_READ, (a, n), n, patience)
+        comm, error, data = self.exchange(
+            self.ids[i], INST_READ, self.read_params(a, n), n, patience
+        )
         if comm != COMM_OK:
             return comm, 0, b""
         return comm, error, data[address - a :]
@@ -575,7 +612,8 @@ class DynamixelBus(ServoBus):
         self, i: int, address: int, data: Sequence[int], patience: float = 1.0
     ) -> tuple[str, int]:
         """A matched WRITE (status packet expected: Status Return Level 2)."""
-        comm, error, _ = self.exchange(self.ids[i], INST_WRITE, (address, *data), 0, patience)
+        params = self.address_params(address, data)
+        comm, error, _ = self.exchange(self.ids[i], INST_WRITE, params, 0, patience)
         return comm, error
 
     def _retry(self, i: int, what: str, call) -> tuple:
@@ -591,7 +629,8 @@ class DynamixelBus(ServoBus):
             raise ServoError(f"{self.labels[i]}: {what}: {comm} after {self.attempts} attempts")
         if error:
             raise ServoError(
-                f"{self.labels[i]}: {what}: status error 0x{error:02X} {list(fault_names(error))}"
+                f"{self.labels[i]}: {what}: status error 0x{error:02X} "
+                f"{list(self.error_names(error))}"
             )
         return out
 
@@ -607,11 +646,12 @@ class DynamixelBus(ServoBus):
         results: dict[int, str] = {}
         for i, sid in enumerate(self.ids):
             for k in range(self.attempts):
-                results[i] = self.exchange(sid, INST_PING, patience=2.0**k)[0]
+                results[i] = self.exchange(sid, INST_PING, (), self.ping_reply, 2.0**k)[0]
                 if results[i] == COMM_OK:
                     break
             if i == 0 and results[0] == COMM_TIMEOUT:
-                if all(self.exchange(s, INST_PING)[0] == COMM_TIMEOUT for s in self.ids[1:]):
+                pings = (self.exchange(s, INST_PING, (), self.ping_reply) for s in self.ids[1:])
+                if all(p[0] == COMM_TIMEOUT for p in pings):
                     raise ServoError(
                         f"no servo answered on {self.port_name} at {self.baud} baud (the servo "
                         f"map says {self.servo_map.baudrate}): wrong baud rate, no power, or "
@@ -626,7 +666,7 @@ class DynamixelBus(ServoBus):
                 continue
             data = self._retry(i, "read model number", lambda p, i=i: self.read(i, 0, 2, p))[2]
             model = data[0] | (data[1] << 8)
-            if model != AX12_MODEL_NUMBER:
+            if model not in self.models:
                 wrong.append(f"{self.labels[i]} reports model {model}")
         problems = []
         if missing:
@@ -638,7 +678,8 @@ class DynamixelBus(ServoBus):
                 + " (two servos sharing an ID, or line noise)"
             )
         if wrong:
-            problems.append(f"not AX-12A (model {AX12_MODEL_NUMBER}): " + ", ".join(wrong))
+            known = ", ".join(f"{v} (model {k})" for k, v in self.models.items())
+            problems.append(f"not {known}: " + ", ".join(wrong))
         if problems:
             raise ServoError(f"{self.port_name}: " + "; ".join(problems))
         if ping_rtt:
@@ -706,7 +747,7 @@ class DynamixelBus(ServoBus):
             return
         for i in range(self.n):
             self._retry(
-                i, "torque enable", lambda p, i=i: self.write(i, ADDR_TORQUE_ENABLE, [1], p)
+                i, "torque enable", lambda p, i=i: self.write(i, self.torque_address, [1], p)
             )
 
     def torque_off(self) -> list[str]:
@@ -715,15 +756,15 @@ class DynamixelBus(ServoBus):
         returns the labels of servos whose torque is not confirmed off."""
         self._require_open()
         self.reset()
-        self.exchange(BROADCAST_ID, INST_WRITE, (ADDR_TORQUE_ENABLE, 0))
+        self.exchange(BROADCAST_ID, INST_WRITE, self.address_params(self.torque_address, [0]))
         unconfirmed = []
         for i in range(self.n):
             ok = False
             for k in range(self.attempts):
-                comm, _ = self.write(i, ADDR_TORQUE_ENABLE, [0], 2.0**k)
+                comm, _ = self.write(i, self.torque_address, [0], 2.0**k)
                 if comm != COMM_OK:
                     continue
-                comm, _, data = self.read(i, ADDR_TORQUE_ENABLE, 1, 2.0**k)
+                comm, _, data = self.read(i, self.torque_address, 1, 2.0**k)
                 if comm == COMM_OK and data[0] == 0:
                     ok = True
                     break

@@ -108,6 +108,26 @@ def _budget_lines(b: BusBudget, turnaround_s: float) -> list[str]:
     return lines
 
 
+def _reference_lines(bus: ServoBus, config: DeployConfig, turnaround_s: float) -> list[str]:
+    """For a Protocol 2.0 bus: the same tick on as many AX-12A servos (Protocol 1.0, 1 Mbps,
+    one READ per servo), for comparison."""
+    if getattr(bus, "name", "") != "dynamixel2":
+        return []
+    from .dynamixel import ax_budget
+
+    polls = schedule(bus, config).polls_per_tick
+    rate = config.rate
+    parts = []
+    for read in (False, True):
+        b = ax_budget(bus.n, 1_000_000, read, 0 if read else polls)
+        t = b.tick_time(turnaround_s)
+        parts.append(f"{b.name} {t * 1e3:.2f} ms = {t * rate * 100:.0f} %")
+    return [
+        f"  the same tick on {bus.n} AX-12A (Protocol 1.0 at 1000000 baud, one READ per "
+        f"servo): " + ", ".join(parts)
+    ]
+
+
 def plan_lines(bus: ServoBus, config: DeployConfig, turnaround_s: float) -> list[str]:
     """The bus budget per tick with and without position reads at the configured rate, how
     faults are detected and within what time, and a warning with a proposed rate for each
@@ -132,6 +152,7 @@ def plan_lines(bus: ServoBus, config: DeployConfig, turnaround_s: float) -> list
         f"{b.name} {b.tick_time(turnaround_s) * rate * 100:.0f} %" for _, b in budgets
     )
     lines.append(f"  at {rate:g} Hz the bus is busy: {usage}")
+    lines += _reference_lines(bus, config, turnaround_s)
     h = schedule(bus, config)
     f = config.max_failures
     lines.append("fault detection (error bit, silence, late or unmatched replies):")

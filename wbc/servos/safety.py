@@ -40,6 +40,7 @@ from ..exceptions import ConfigurationError, ServoError, TrajectoryError
 from .bus import COMM_OK, Codec, ServoStatus
 
 TRIP_FAULTS = ("overload", "overheating", "input_voltage", "angle_limit")
+TRIP_FAULTS += ("electrical_shock", "encoder")  # X-series hardware errors (wbc.xseries)
 
 
 def command_speed(codec: Codec, v_max: np.ndarray | float) -> np.ndarray:

@@ -1,8 +1,9 @@
 """The servos as actuators: their control laws computed every physics step.
 
-Two servo models, chosen by the robot's data (:func:`nominal_servo`): the Dynamixel AX-12A
+Three servo models, chosen by the robot's data (:func:`nominal_servo`): the Dynamixel AX-12A
 (:class:`ServoParams`, :class:`ServoArray`: the Bioloid; the default of a robot with a
-``servos.toml``) and a hobby PWM servo behind a Lynxmotion SSC-32 board
+Protocol 1.0 ``servos.toml``), the Dynamixel XM430 (:mod:`wbc.sim.xm430`: the OP3; the
+default with ``[bus] protocol = 2.0``) and a hobby PWM servo behind a Lynxmotion SSC-32 board
 (:class:`HobbyServoParams`, :class:`HobbyServoArray`: Kokone; ``robot.toml`` ``[servo] law =
 "hobby_pwm"``). The hobby model is described in :class:`HobbyServoArray`.
 
@@ -48,6 +49,7 @@ import numpy as np
 
 from ..exceptions import ConfigurationError, ModelError, ServoError
 from ..servo_map import RAD_PER_TICK, ServoMap, ServoSettings
+from ..xseries import XSettings
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -55,6 +57,7 @@ if TYPE_CHECKING:
     from ..model import Robot
     from ..servos.bus import Codec
     from ..servos.ssc32 import Ssc32Map
+    from .xm430 import XServoParams
 
 STALL_TORQUE = 1.5  # N·m at 12 V (EMAN-AX)
 NO_LOAD_SPEED = 59.0 * 2.0 * math.pi / 60.0  # rad/s at 12 V (EMAN-AX)
@@ -89,6 +92,11 @@ class ServoParams:
     @classmethod
     def from_settings(cls, settings: ServoSettings, **kwargs) -> ServoParams:
         """Parameters of the registers in ``settings`` (e.g. ``robot.servo_map.settings``)."""
+        if isinstance(settings, XSettings):
+            raise ConfigurationError(
+                "the AX-12A servo model (compliance margin/slope, punch) does not apply to "
+                "X-series servos (servos.toml protocol 2.0): see wbc.sim.xm430"
+            )
         stall = kwargs.pop("stall_torque", STALL_TORQUE)
         return cls(
             margin=settings.compliance_margin.astype(float),
@@ -245,7 +253,7 @@ def servo_law(
 
 # ---------------------------------------------------------------------- hobby PWM servos
 #: the servo laws a robot's ``[servo] law`` may name
-SERVO_LAWS = ("ax12a", "hobby_pwm")
+SERVO_LAWS = ("ax12a", "hobby_pwm", "xm430")
 HOBBY_KEYS = (
     "law", "name", "stall_torque", "no_load_speed", "dead_band_us", "proportional_band_us",
     "frame_period", "loop_period", "armature", "friction_loss",
@@ -335,7 +343,7 @@ def servo_kind(robot: Robot) -> str:
     law = table.get("law")
     if law is None:
         if robot.servo_map is not None:
-            return "ax12a"
+            return "xm430" if robot.servo_map.protocol == 2.0 else "ax12a"
         raise ModelError(
             f"robot {robot.name} has no servo model to simulate: give robot.toml a [servo] "
             f"table (law = {' or '.join(repr(x) for x in SERVO_LAWS)}) or a servos.toml"
@@ -344,18 +352,28 @@ def servo_kind(robot: Robot) -> str:
         raise ModelError(
             f"{robot.robot_data.source}/robot.toml: [servo] law = {law!r}; allowed: {SERVO_LAWS}"
         )
-    if law == "ax12a" and robot.servo_map is None:
-        raise ModelError(f"robot {robot.name}: [servo] law = 'ax12a' needs a servos.toml")
+    if law in ("ax12a", "xm430") and robot.servo_map is None:
+        raise ModelError(f"robot {robot.name}: [servo] law = {law!r} needs a servos.toml")
+    if law in ("ax12a", "xm430") and (law == "xm430") != (robot.servo_map.protocol == 2.0):
+        raise ModelError(
+            f"robot {robot.name}: [servo] law = {law!r} does not match its servos.toml "
+            f"protocol {robot.servo_map.protocol} (ax12a: 1.0, xm430: 2.0)"
+        )
     return law
 
 
 def nominal_servo(
-    robot: Robot, settings: ServoSettings | None = None, **kwargs: float | None
-) -> ServoParams | HobbyServoParams:
-    """The nominal servo model of ``robot``'s joints (:func:`servo_kind`): AX-12A parameters
-    from the servo settings (``kwargs``: damping, armature, friction_loss), or the hobby
-    servo of ``robot.toml`` ``[servo]``."""
-    if servo_kind(robot) == "ax12a":
+    robot: Robot, settings: ServoSettings | XSettings | None = None, **kwargs: float | None
+) -> ServoParams | HobbyServoParams | XServoParams:
+    """The nominal servo model of ``robot``'s joints (:func:`servo_kind`): AX-12A or XM430
+    parameters from the servo settings (``kwargs``: damping, armature, friction_loss), or the
+    hobby servo of ``robot.toml`` ``[servo]``."""
+    kind = servo_kind(robot)
+    if kind == "xm430":
+        from .xm430 import XServoParams
+
+        return XServoParams.from_settings(settings or robot.servo_map.settings, **kwargs)
+    if kind == "ax12a":
         kw = {k: v for k, v in kwargs.items() if v is not None}
         return ServoParams.from_settings(settings or robot.servo_map.settings, **kw)
     where = f"{robot.robot_data.source}/robot.toml [servo]"

@@ -42,6 +42,7 @@ from ..servos.dynamixel import (
     speed_ticks_per_s,
 )
 from ..servos.ssc32 import Ssc32Bus
+from ..xseries import hw_fault_names
 from .simulator import FAULT_KINDS, Simulation
 
 
@@ -83,6 +84,18 @@ class SimServoBus(ServoBus):
         sm = sim.robot.servo_map
         labels = [f"id {int(i)} ({j})" for i, j in zip(sm.ids, sm.joint_names, strict=True)]
         super().__init__(ax_codec(sm), labels)
+        #: X-series servos (XM430, Protocol 2.0): their speed, profile velocity, error names
+        #: and bus budget; else the AX-12A's
+        self.xseries = sm.protocol == 2.0
+        if self.xseries:
+            from ..servos.protocol2 import XM430_NO_LOAD_SPEED
+
+            self.servo_speed = XM430_NO_LOAD_SPEED
+            if torque_limit is not None:
+                raise ServoError(
+                    "--torque-limit is an AX-12A register: X-series servos take "
+                    "[settings] current_limit in servos.toml"
+                )
         if latency_ticks < 0:
             raise ServoError(f"latency_ticks must be >= 0, got {latency_ticks}")
         if torque_limit is not None and not 0 <= torque_limit <= 1023:
@@ -165,7 +178,12 @@ class SimServoBus(ServoBus):
     def set_speed(self, rad_per_s: float) -> None:
         self._require_open()
         self._sync()
-        cap = speed_ticks_per_s(speed_register(rad_per_s))
+        if self.xseries:  # Profile Velocity (112), 0.229 rev/min units
+            from ..xseries import X_RAD_PER_TICK, profile_velocity_rad_s, profile_velocity_register
+
+            cap = profile_velocity_rad_s(profile_velocity_register(rad_per_s)) / X_RAD_PER_TICK
+        else:
+            cap = speed_ticks_per_s(speed_register(rad_per_s))
         self.sim.set_speed_ticks(np.where(self.sim.silent, self.sim.servos.speed, cap))
 
     def write_goals(self, cmds: np.ndarray) -> str:
@@ -188,7 +206,8 @@ class SimServoBus(ServoBus):
         if self.sim.silent[i]:
             return ServoStatus(i, COMM_TIMEOUT)
         err = int(self.sim.servos.error[i])
-        status = ServoStatus(i, COMM_OK, fault_names(err) if err else (), err, float(present[i]))
+        names = hw_fault_names if self.xseries else fault_names
+        status = ServoStatus(i, COMM_OK, names(err) if err else (), err, float(present[i]))
         if load:
             servos = self.sim.servos
             status.load = float(servos.torque[i] * servos.signs[i] / servos.params.stall_torque)
@@ -206,11 +225,17 @@ class SimServoBus(ServoBus):
         return self._status(index, self.sim.present_ticks(), load=True)
 
     def budget(self, read_positions: bool) -> BusBudget:
-        """The budget of the real AX-12A bus at 1 Mbps that the simulated servos stand for."""
-        return ax_budget(self.n, 1_000_000, read_positions)
+        """The budget of the real bus the simulated servos stand for: AX-12A at 1 Mbps, or
+        X series (Protocol 2.0) at the servo map's baud rate."""
+        return self.tick_budget(read_positions, 1)
 
     def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
         """As :meth:`budget`, with the deployment's ``polls_per_tick`` health reads."""
+        if self.xseries:
+            from ..servos.protocol2 import x_budget
+
+            baud = self.sim.robot.servo_map.baudrate
+            return x_budget(self.n, baud, read_positions, polls_per_tick)
         return ax_budget(self.n, 1_000_000, read_positions, polls_per_tick)
 
 

@@ -82,8 +82,12 @@ class Simulation:
 
             self.pwm_map = pwm_map(robot)
             self.servos = HobbyServoArray(self.pwm_map.codec(), self.servo_params, self._dt)
-        else:
+        elif isinstance(self.servo_params, ServoParams):
             self.servos = ServoArray(robot.servo_map, self.servo_params)
+        else:  # the XM430 (wbc.sim.xm430)
+            from .xm430 import XServoArray
+
+            self.servos = XServoArray(robot.servo_map, self.servo_params)
         self.silent = np.zeros(robot.n_joints, dtype=bool)
         self.steps = 0
         self.peak_torque = np.zeros(robot.n_joints)  # max |τ| since the last reset_peak()

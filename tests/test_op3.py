@@ -1,0 +1,129 @@
+"""The ROBOTIS OP3 folder: generated from ROBOTIS's files, numbers as ROBOTIS gives them."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc import load_robot
+from wbc.paths import robots_dir
+from wbc.robot_folder import check_folder
+
+OP3 = robots_dir() / "op3"
+
+
+@pytest.fixture(scope="module")
+def generator():
+    spec = importlib.util.spec_from_file_location("op3_make_urdf", OP3 / "make_urdf.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def op3():
+    return load_robot("op3")
+
+
+def test_committed_files_equal_generator_output(generator):
+    for path, text in generator.outputs().items():
+        assert path.read_text() == text, path.name
+
+
+def test_license_and_sources_are_copied():
+    assert "Apache License" in (OP3 / "LICENSE").read_text()
+    assert (OP3 / "op3_description" / "urdf" / "robotis_op3.inertia.xacro").is_file()
+
+
+def test_masses_and_inertias_are_robotis(op3):
+    """Every link's mass, CoM and inertia tensor equal robotis_op3.inertia.xacro's."""
+    root = ET.parse(OP3 / "op3_description/urdf/robotis_op3.inertia.xacro").getroot()
+    total = 0.0
+    for macro in root.iter("{http://ros.org/wiki/xacro}macro"):
+        link = macro.get("name").removeprefix("insert_inertia_")
+        mass = float(macro.find("mass").get("value"))
+        com = [float(v) for v in macro.find("origin").get("xyz").split()]
+        i = macro.find("inertia")
+        frame = op3.model.frames[op3.model.getFrameId(link)]
+        body = op3.model.inertias[frame.parentJoint]
+        assert body.mass == pytest.approx(mass, rel=1e-5), link
+        assert body.lever == pytest.approx(com, abs=1e-7), link
+        tensor = body.inertia
+        assert tensor[0, 0] == pytest.approx(float(i.get("ixx")), rel=1e-5)
+        assert tensor[0, 1] == pytest.approx(float(i.get("ixy")), abs=1e-12)
+        assert tensor[1, 2] == pytest.approx(float(i.get("iyz")), abs=1e-12)
+        total += mass
+    assert op3.total_mass == pytest.approx(total) == pytest.approx(3.14747, abs=1e-5)
+
+
+def test_joint_names_axes_and_limits(op3, generator):
+    assert op3.n_joints == 20
+    assert set(op3.joint_names) == set(generator.SERVO_IDS)
+    for i, name in enumerate(op3.joint_names):
+        _, lo, hi = generator.JOINT_LIMITS[name]
+        assert op3.q_min[i] == pytest.approx(lo * math.pi)
+        assert op3.q_max[i] == pytest.approx(hi * math.pi)
+    # ROBOTIS's axes, kept: e.g. the left hip roll turns about -x
+    text = (OP3 / "op3.urdf").read_text()
+    block = re.search(r'<joint name="l_hip_roll".*?</joint>', text, re.S).group(0)
+    assert '<axis xyz="-1 0 0"/>' in block
+
+
+def test_servo_map_is_protocol_2_with_robotis_ids(op3):
+    sm = op3.servo_map
+    assert sm.protocol == 2.0 and (sm.tick_min, sm.tick_max) == (0, 4095)
+    assert sm.baudrate == 2_000_000
+    assert sm.spec("r_sho_pitch").id == 1 and sm.spec("head_tilt").id == 20
+    assert sm.spec("l_knee").id == 14
+    assert sm.rad_per_tick == pytest.approx(2 * math.pi / 4096)
+    # 2048 is q = 0; 90 degrees is 1024 ticks away
+    assert sm.angles_to_ticks(np.full(20, math.pi / 2))[0] == 3072
+    gains = sm.settings
+    knee = sm.joint_names.index("l_knee")
+    assert (gains.position_p_gain[knee], gains.position_i_gain[knee]) == (1000, 500)
+    assert gains.position_p_gain[sm.joint_names.index("head_pan")] == 800
+
+
+def test_standing_pose_puts_the_feet_flat_under_the_hips(op3):
+    q = op3.configuration("stand")
+    assert op3.within_limits(q)
+    pin.framesForwardKinematics(op3.model, op3.data, q)
+    soles = [op3.data.oMf[op3.frame_id(f)].copy() for f in ("l_sole", "r_sole")]
+    torso = op3.data.oMf[op3.frame_id("torso")].copy()
+    for sole in soles:
+        assert np.allclose(sole.rotation, np.eye(3), atol=1e-9)  # flat
+        assert sole.translation[0] == pytest.approx(torso.translation[0], abs=1e-4)
+    # the hip 35 mm lower than with straight legs (param.yaml z_offset)
+    straight = op3.neutral()
+    pin.framesForwardKinematics(op3.model, op3.data, straight)
+    drop = (op3.data.oMf[op3.frame_id("torso")].translation[2]
+            - op3.data.oMf[op3.frame_id("l_sole")].translation[2])  # fmt: skip
+    stand = torso.translation[2] - soles[0].translation[2]
+    assert drop - stand == pytest.approx(0.035, abs=1e-6)
+
+
+def test_robot_check_passes():
+    findings = check_folder(OP3)
+    assert not [f for f in findings if f.level in ("error", "warning")], findings
+
+
+def test_no_two_links_touch_at_the_standing_and_zero_poses(op3):
+    """The collision boxes of links that are not parent and child are 5 mm apart or more."""
+    from wbc.limits.self_collision import candidate_pairs, collision_model
+
+    cm = collision_model(op3)
+    pairs = candidate_pairs(op3, cm)
+    geometry = cm.geometry.copy()
+    geometry.removeAllCollisionPairs()
+    for i, j in pairs:
+        geometry.addCollisionPair(pin.CollisionPair(i, j))
+    gdata, data = pin.GeometryData(geometry), op3.model.createData()
+    for q in (op3.configuration("stand"), op3.neutral()):
+        pin.computeDistances(op3.model, data, geometry, gdata, q)
+        assert min(r.min_distance for r in gdata.distanceResults) > 0.005
