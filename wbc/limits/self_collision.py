@@ -51,6 +51,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError
 from ..model import Kinematics, Robot
+from .collision_kernels import close_pairs, plane_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -190,6 +191,20 @@ def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
     return corners @ M.rotation.T + M.translation
 
 
+def _box_in_frame(model: pin.Model, geom: pin.GeometryObject):
+    """(R, p, half sides) of a geometry's box — or, for any other shape, its local bounding
+    box — in its parent frame."""
+    g = geom.geometry
+    if type(g).__name__ == "Box":  # (hpp-fcl or coal)
+        centre, half = np.zeros(3), np.asarray(g.halfSide, dtype=float)
+    else:
+        g.computeLocalAABB()
+        lo, hi = np.asarray(g.aabb_local.min_), np.asarray(g.aabb_local.max_)
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+    M = model.frames[geom.parentFrame].placement.inverse() * geom.placement
+    return M.rotation.copy(), M.rotation @ centre + M.translation, half
+
+
 def lipschitz_bounds(
     robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]
 ) -> np.ndarray:
@@ -247,22 +262,19 @@ class Witness(NamedTuple):
 class PairDistances:
     """Distances of a fixed pair list at a configuration, with a conservative cache.
 
-    Each pair keeps a lower bound on its distance: exact when last computed, then lowered
-    by Σ_i L_ki |Δq_i| for every joint motion since (valid along any sequence of
-    configurations, by the triangle inequality). The exact distance (GJK/EPA, ~1 µs per box
-    pair plus the Python call) is computed only for pairs whose bound is below the query
-    distance; far pairs cost a matrix-vector product per call.
+    One compiled call per query (:func:`wbc.limits.collision_kernels.close_pairs`): each pair
+    keeps a lower bound on its distance, lowered by Σ_i L_ki |Δq_i| for every joint motion
+    since it was last computed (valid along any sequence of configurations, by the triangle
+    inequality); a pair whose bound is below the query gets its boxes' bounding-sphere bound,
+    then their separating-axis bound, and only if both are below the query its exact distance
+    (GJK on the two boxes, :func:`~wbc.limits.collision_kernels.box_distance`). A geometry
+    that is not a box is replaced by its bounding box (a conservative hull).
     """
 
     def __init__(self, robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]):
         self.robot = robot
         self.pairs = list(pairs)
-        self.geometry = cm.geometry.copy()
-        self.geometry.removeAllCollisionPairs()
-        for i, j in self.pairs:
-            self.geometry.addCollisionPair(pin.CollisionPair(i, j))
-        self.gdata = pin.GeometryData(self.geometry)
-        self.results = list(self.gdata.distanceResults)
+        self.geometry = cm.geometry
         self.L = lipschitz_bounds(robot, cm, self.pairs)
         #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
         self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
@@ -271,12 +283,39 @@ class PairDistances:
         self._R = np.zeros((robot.model.njoints, 3, 3))  # joint placements of a call
         self._t = np.zeros((robot.model.njoints, 3))
         K = len(self.pairs)
-        self._bound = np.full(K, -np.inf)  # -inf: never computed
-        self._q = np.zeros(robot.n_joints)
         self.joint_1 = cm.joints[[p[0] for p in self.pairs]] if K else np.zeros(0, int)
         self.joint_2 = cm.joints[[p[1] for p in self.pairs]] if K else np.zeros(0, int)
-        #: exact distance computations so far (benchmarks and tests)
-        self.exact_computations = 0
+        # the boxes in their parent frames, for the kernels
+        model = robot.model
+        boxes = [_box_in_frame(model, g) for g in self.geometry.geometryObjects]
+        self.box_frame = np.array([g.parentFrame for g in self.geometry.geometryObjects], np.int64)
+        self.box_R = np.array([b[0] for b in boxes]).reshape(-1, 3, 3)
+        self.box_p = np.array([b[1] for b in boxes]).reshape(-1, 3)
+        self.half = np.array([b[2] for b in boxes]).reshape(-1, 3)
+        self.radius = np.linalg.norm(self.half, axis=1)
+        #: the velocity coordinates that move each geometry (ngeoms x nv)
+        self.support = np.array(
+            [robot.frame_support(int(f)) for f in self.box_frame], dtype=np.bool_
+        ).reshape(-1, robot.nv)
+        self.pair_a = np.ascontiguousarray(self._pair_geoms[:, 0], dtype=np.int64)
+        self.pair_b = np.ascontiguousarray(self._pair_geoms[:, 1], dtype=np.int64)
+        G = len(self.geometry.geometryObjects)
+        self.Rw, self.cw = np.zeros((G, 3, 3)), np.zeros((G, 3))
+        self._placed = np.zeros(G, dtype=np.bool_)
+        self._bound = np.full(K, -np.inf)  # -inf: never computed
+        self._q = np.zeros(robot.n_joints)
+        #: the close pairs of the last query: pair index, distance, witnesses, normal
+        self.out_k = np.zeros(K, np.int64)
+        self.out_d = np.zeros(K)
+        self.out_p1, self.out_p2, self.out_n = np.zeros((K, 3)), np.zeros((K, 3)), np.zeros((K, 3))
+        self._counts = np.zeros(2, np.int64)
+        self._kin: Kinematics | None = None
+        self._frames: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def exact_computations(self) -> int:
+        """Exact (GJK) distance computations so far (benchmarks and tests)."""
+        return int(self._counts[0])
 
     def lower_bounds(self, q: np.ndarray) -> np.ndarray:
         """Move the bounds to configuration q and return them (a view; exact where the
@@ -287,6 +326,35 @@ class PairDistances:
             self._bound -= self.L @ step
             self._q[:] = joints
         return self._bound
+
+    def frames(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        """Every frame's world rotation and position at ``kin`` (views that follow its
+        updates where Pinocchio's layout allows, else copies)."""
+        if kin is not self._kin or self._frames is None:
+            self._kin = kin
+            self._frames = views = kin.frame_placements()
+            if views is None:
+                self._kin = None  # (copies: made again at every call)
+                n = kin.model.nframes
+                R = np.array([kin.rotation(f) for f in range(n)])
+                p = np.array([kin.translation(f) for f in range(n)])
+                return R, p
+        return self._frames
+
+    def close(self, kin: Kinematics, distance: float) -> int:
+        """The number of pairs closer than ``distance`` at ``kin`` (its placements up to
+        date: :meth:`Kinematics.update`): their indices, distances, witness points and
+        normals are the first entries of :attr:`out_k`, :attr:`out_d`, ..."""
+        if not self.pairs:
+            return 0
+        Rf, pf = self.frames(kin)
+        joints = np.ascontiguousarray(kin.q[7:], dtype=float)
+        return close_pairs(
+            joints, self._q, self._bound, self.L, Rf, pf, self.box_frame, self.box_R,
+            self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
+            self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
+            self.out_n, self._counts,
+        )  # fmt: skip
 
     def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
         """World corners (P x 2 x 8 x 3) of the two boxes of each pair, at ``kin``."""
@@ -307,31 +375,14 @@ class PairDistances:
     def below(self, kin: Kinematics, distance: float) -> Witness:
         """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
         must be up to date: :meth:`Kinematics.update`)."""
-        bound = self.lower_bounds(kin.q)
-        todo = np.flatnonzero(bound < distance).tolist() if self.pairs else []
-        if todo:
-            pin.updateGeometryPlacements(kin.model, kin.data, self.geometry, self.gdata)
-        idx, dist, p1, p2, nrm, exact = [], [], [], [], [], []
-        geometry, gdata, results = self.geometry, self.gdata, self.results
-        compute = pin.computeDistance
-        for k in todo:
-            compute(geometry, gdata, k)
-            r = results[k]
-            d = r.min_distance
-            exact.append(d)
-            if d < distance:
-                idx.append(k)
-                dist.append(d)
-                p1.append(r.getNearestPoint1())
-                p2.append(r.getNearestPoint2())
-                nrm.append(r.normal)
-        if todo:
-            bound[todo] = exact
-        self.exact_computations += len(todo)
-        if not idx:
-            z = np.zeros((0, 3))
-            return Witness(np.zeros(0, int), np.zeros(0), z, z, z)
-        return Witness(np.array(idx), np.array(dist), np.array(p1), np.array(p2), np.array(nrm))
+        n = self.close(kin, distance)
+        return Witness(
+            self.out_k[:n].copy(),
+            self.out_d[:n].copy(),
+            self.out_p1[:n].copy(),
+            self.out_p2[:n].copy(),
+            self.out_n[:n].copy(),
+        )
 
 
 def joint_masks(robot: Robot) -> np.ndarray:
@@ -523,6 +574,9 @@ class SelfCollisionConstraint(Constraint):
             for i, j in chosen
         ]
         self.distances = PairDistances(robot, cm, chosen)
+        most = 17 * len(chosen)  # rows per pair at most: the witness and 8 + 8 corners
+        self._G, self._h = np.zeros((most, robot.nv)), np.zeros(most)
+        self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
         masks = joint_masks(robot)
         self._mask_1 = masks[self.distances.joint_1]
         self._mask_2 = masks[self.distances.joint_2]
@@ -552,20 +606,17 @@ class SelfCollisionConstraint(Constraint):
         tick the compiled path hands back to DAQP)."""
         if self._rows is not None and np.array_equal(kin.q, self._rows_q):
             return self._rows
-        w = self.last = self.witness(kin)
-        if not w.index.size:
-            rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
-            row_pair, row_gap = np.zeros(0, dtype=int), np.zeros(0)
-        else:
-            corners = self.distances.vertices(kin, w.index.tolist())
-            pr = separating_plane_rows(w, corners, self.trigger)
-            k = w.index[pr.pair]
-            J_gap = distance_jacobian(
-                kin.data.J, self._mask_1[k], self._mask_2[k], pr.a, pr.b, pr.normal
-            )
-            rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
-            keep = damper_bound(pr.gap, self.margin, self.trigger, self.damping) < UNREACHABLE
-            row_pair, row_gap = pr.pair[keep], pr.gap[keep]
+        pd = self.distances
+        n = pd.close(kin, self.trigger)
+        self.last = Witness(pd.out_k[:n], pd.out_d[:n], pd.out_p1[:n], pd.out_p2[:n], pd.out_n[:n])
+        r = plane_rows(
+            n, pd.out_k, pd.out_d, pd.out_p1, pd.out_p2, pd.out_n, pd.pair_a, pd.pair_b,
+            pd.Rw, pd.cw, pd.half, pd.support, kin.data.J, self.margin, self.trigger,
+            self.damping, UNREACHABLE, self._G, self._h, self._pair_buf, self._gap_buf,
+        )  # fmt: skip
+        # (copies: the rows outlive the next call, e.g. in a backend's problem)
+        rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
+        row_pair, row_gap = self._pair_buf[:r].copy(), self._gap_buf[:r].copy()
         self._rows, self._rows_q, self._row_pair = rows, kin.q.copy(), row_pair
         self._row_gap = row_gap
         return rows
