@@ -11,9 +11,11 @@ from hypothesis import strategies as st
 
 from wbc import Kinematics
 from wbc.bench.trajectories import build
-from wbc.exceptions import ConfigurationError, TaskError
+from wbc.exceptions import ConfigurationError, InfeasibleError, TaskError
 from wbc.limits import Inequality, SelfCollisionConstraint
 from wbc.limits.self_collision import (
+    RECOVERY_TICKS,
+    RECOVERY_TOL,
     PairDistances,
     damper_bound,
     distance_jacobian,
@@ -400,3 +402,38 @@ def test_recovering_rows_hold_the_pairs_at_the_margin_itself(robot, limit, seed)
     for d in limit.last.distance.tolist():
         if MARGIN <= d <= knee:
             assert np.isclose(h_r, d - MARGIN, rtol=0, atol=1e-12).any()
+
+
+def _feet_inside_the_margin(robot) -> np.ndarray:
+    """The standing pose with the legs rolled inwards, the soles flat: the feet 3.2 mm apart."""
+    q = robot.configuration("stand")
+    for joint, sign in (("hip_roll", -1), ("ankle_roll", 1)):
+        q[7 + robot.joint_names.index(f"l_{joint}")] += sign * 0.07
+        q[7 + robot.joint_names.index(f"r_{joint}")] -= sign * 0.07
+    return q
+
+
+@pytest.mark.parametrize("double", [True, False])
+def test_a_hard_pair_held_inside_its_margin_raises_naming_it(robot, double):
+    """Both soles in hard contact fix the feet 3.2 mm apart, inside the 5 mm margin: no tick
+    can bring them back, and within RECOVERY_TICKS solves the solve raises InfeasibleError
+    naming the pair (never a silent result); with one sole free the pair moves back out."""
+    q = _feet_inside_the_margin(robot)
+    kin = Kinematics(robot, q)
+    limit = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+    assert limit.min_distance(kin) < MARGIN - RECOVERY_TOL
+    stack = TaskStack(robot)
+    stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
+    if double:
+        stack.add(ContactTask(robot, "r_sole"), level=0, hard=True).make_contact(kin)
+    stack.add_constraint(limit, level=0)
+    stack.add(PostureTask(robot, q), level=1)
+    solver = HierarchicalQP(stack)
+    if double:
+        with pytest.raises(InfeasibleError, match=r"l_foot / r_foot .* for more than 25 solves"):
+            for _ in range(RECOVERY_TICKS + 1):
+                q = solver.step(q, 0.02)
+    else:
+        for _ in range(RECOVERY_TICKS + 1):
+            q = solver.step(q, 0.02)
+        assert limit.min_distance(Kinematics(robot, q)) > MARGIN - RECOVERY_TOL

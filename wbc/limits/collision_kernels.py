@@ -67,17 +67,18 @@ def _support(R, c, h, d0, d1, d2, out) -> None:
 
 
 @njit(cache=True)
-def _closest_on_simplex(W, n, lam, best_set) -> float:
-    """The point of the convex hull of W[:n] (n <= 4) closest to the origin: the smallest of
-    the affine minimisers of its sub-simplices that lie inside them (all barycentric
-    coordinates > 0; single points always do). Writes the coordinates (``lam``, 0 outside the
-    chosen subset) and the subset's bit mask (``best_set[0]``); returns |v|²."""
+def _closest_on_simplex(W, n, lam, best_set, M, r, mu, idx) -> float:
+    """The point of the convex hull of W[:n] (n <= 4) closest to the origin, where W[:n-1]
+    held the closest point of their own hull: the smallest of the affine minimisers of the
+    sub-simplices with the newest point W[n-1] that lie inside them (all barycentric
+    coordinates > 0; that point alone always does). Writes the coordinates (``lam``, 0 outside the
+    chosen subset) and the subset's bit mask (``best_set[0]``); returns |v|². ``M`` (3 x 3),
+    ``r``, ``mu`` (3) and ``idx`` (4 ints): scratch."""
     best = np.inf
-    M = np.empty((3, 3))
-    r = np.empty(3)
-    mu = np.empty(3)
-    idx = np.empty(4, np.int64)
+    newest = 1 << (n - 1)
     for mask in range(1, 1 << n):
+        if not mask & newest:  # (the last simplex's closest point was the best without it)
+            continue
         k = 0
         for i in range(n):
             if mask & (1 << i):
@@ -218,14 +219,31 @@ def box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal) -> float:
     witness points p1 (box 1), p2 (box 2) and the unit normal from box 1 towards box 2:
     nᵀ(p2 − p1) = d. Separated: GJK (exact to rounding, :data:`GJK_TOL`); in contact or
     overlapping: minus the separating-axis penetration depth."""
-    W = np.empty((4, 3))
-    A = np.empty((4, 3))
-    B = np.empty((4, 3))
-    lam = np.empty(4)
-    best_set = np.zeros(1, np.int64)
-    a = np.empty(3)
-    b = np.empty(3)
-    v = np.empty(3)
+    return _box_distance(
+        R1, c1, h1, R2, c2, h2, p1, p2, normal, np.empty(SCRATCH), np.empty(5, np.int64)
+    )
+
+
+#: floats of scratch that :func:`_box_distance` uses
+SCRATCH = 68
+
+
+@njit(cache=True)
+def _box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
+    """:func:`box_distance` with its scratch: ``F`` (:data:`SCRATCH` floats), ``Iw`` (5 ints)."""
+    W = F[0:12].reshape((4, 3))
+    A = F[12:24].reshape((4, 3))
+    B = F[24:36].reshape((4, 3))
+    lam = F[36:40]
+    a = F[40:43]
+    b = F[43:46]
+    v = F[46:49]
+    M = F[49:58].reshape((3, 3))
+    r = F[58:61]
+    mu = F[61:64]
+    axis = F[64:68]
+    best_set = Iw[0:1]
+    idx = Iw[1:5]
     # start from the support points along the centres' difference
     v[0], v[1], v[2] = c1[0] - c2[0], c1[1] - c2[1], c1[2] - c2[2]
     _support(R1, c1, h1, -v[0], -v[1], -v[2], a)
@@ -258,7 +276,7 @@ def box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal) -> float:
         for c in range(3):
             A[n, c], B[n, c] = a[c], b[c]
         n += 1
-        new = _closest_on_simplex(W, n, lam, best_set)
+        new = _closest_on_simplex(W, n, lam, best_set, M, r, mu, idx)
         if new >= vv:  # no progress (rounding): keep the last simplex
             n -= 1
             break
@@ -293,7 +311,6 @@ def box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal) -> float:
         for c in range(3):
             normal[c] = (p2[c] - p1[c]) / d
         return d
-    axis = np.empty(4)
     gap = separating_axis(R1, c1, h1, R2, c2, h2, axis)
     normal[0], normal[1], normal[2] = axis[0], axis[1], axis[2]
     k = int(axis[3])
@@ -350,6 +367,8 @@ def close_pairs(
             last_joints[i] = joints[i]
     placed[:] = False
     axis = np.empty(4)
+    F = np.empty(SCRATCH)
+    Iw = np.empty(5, np.int64)
     count = 0
     for k in range(K):
         if bound[k] >= query:
@@ -372,9 +391,9 @@ def close_pairs(
             bound[k] = sat
             continue
         counts[0] += 1
-        d = box_distance(
+        d = _box_distance(
             Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb],
-            out_p1[count], out_p2[count], out_n[count],
+            out_p1[count], out_p2[count], out_n[count], F, Iw,
         )  # fmt: skip
         bound[k] = d
         if d < query:
@@ -480,3 +499,22 @@ def plane_rows(
                     row_pair[r], row_gap[r] = i, gap
                     r += 1
     return r
+
+
+@njit(cache=True)
+def collision_rows(
+    joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius, pair_a,
+    pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed, out_k, out_d,
+    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap,
+) -> int:  # fmt: skip
+    """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
+    returns the number of rows (``counts[2]``: the number of close pairs)."""
+    n = close_pairs(
+        joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
+        pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
+    )  # fmt: skip
+    counts[2] = n
+    return plane_rows(
+        n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
+        margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
+    )  # fmt: skip

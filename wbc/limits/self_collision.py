@@ -2,7 +2,7 @@
 
 The collision math is kept apart from the :class:`Constraint` glue at the bottom:
 
-* :func:`candidate_pairs` / :func:`select_pairs` — which geometry pairs can meet: not on the
+* :func:`candidate_pairs` / :func:`choose_pairs` — which geometry pairs can meet: not on the
   same joint, not on adjacent joints, and closer than a threshold in at least one of
   ``samples`` random configurations within the joint limits (computed once, seeded);
 * :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (from p1
@@ -49,9 +49,9 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import ConfigurationError
+from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import close_pairs, plane_rows
+from .collision_kernels import close_pairs, collision_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -64,6 +64,14 @@ DEFAULT_DAMPING = 0.4
 UNREACHABLE = 1.0
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
+#: a pair more than RECOVERY_TOL (m) inside its margin must be back within it in at most
+#: RECOVERY_TICKS solves in a row (from 4 mm inside, the damper's way back, a fraction ξ = 0.4
+#: of the gap per tick, leaves 4 mm · 0.6²⁵ ≈ 1e-8 m), else the solve raises
+#: :class:`~wbc.exceptions.InfeasibleError` naming the pair (a hard level that cannot be met:
+#: the hard tasks hold the pair inside). RECOVERY_TOL is the second-order error that a
+#: linearised tick may leave below the margin (0.5 mm: the damper's own tests)
+RECOVERY_TICKS = 25
+RECOVERY_TOL = 5e-4
 
 
 class CollisionModel(NamedTuple):
@@ -101,37 +109,82 @@ def _link_pairs(pairs: Iterable[Sequence[str]], links: set[str], what: str) -> s
     return out
 
 
+#: a joint offset shorter than this (m) makes its parent's link zero-length
+ZERO_LENGTH = 1e-6
+
+
+def adjacency(model: pin.Model, a: int, b: int) -> str | None:
+    """Why two bodies (joints a, b) are left out by their kinematics alone, or None: the same
+    body (rigidly attached), parent and child, or parent and child through links of zero
+    length (a joint offset below :data:`ZERO_LENGTH`: a hip or an ankle whose two or three
+    axes cross — the bodies touch at the joint whatever the angles)."""
+    if a == b:
+        return "on one body"
+    parents = model.parents
+    if parents[a] == b or parents[b] == a:
+        return "adjacent joints"
+    for top, low in ((a, b), (b, a)):
+        x, through = low, []
+        while parents[x] > 0 and parents[x] != top:
+            if np.linalg.norm(model.jointPlacements[x].translation) > ZERO_LENGTH:
+                break
+            x = parents[x]
+            through.append(model.names[x])
+        else:
+            if parents[x] == top and through:
+                return f"adjacent through the zero-length link of {', '.join(through)}"
+    return None
+
+
 def candidate_pairs(
     robot: Robot,
     cm: CollisionModel,
     include: Iterable[Sequence[str]] = (),
     exclude: Iterable[Sequence[str]] = (),
 ) -> list[tuple[int, int]]:
-    """Geometry pairs (i < j) that are not rigidly attached (same joint), not on adjacent
-    joints (parent/child) and whose links are not in ``exclude``; ``include`` forces link
-    pairs in (even adjacent ones)."""
+    """Geometry pairs (i < j) that :func:`adjacency` keeps and whose links are not in
+    ``exclude``; ``include`` forces link pairs in (any but two geometries of one body)."""
+    return _candidates(robot, cm, include, exclude)[0]
+
+
+def _candidates(
+    robot: Robot,
+    cm: CollisionModel,
+    include: Iterable[Sequence[str]] = (),
+    exclude: Iterable[Sequence[str]] = (),
+) -> tuple[list[tuple[int, int]], list[tuple[int, int, str]]]:
+    """(candidate pairs, pairs left out with the reason)."""
     links = set(cm.links)
     inc = _link_pairs(include, links, "include")
     exc = _link_pairs(exclude, links, "exclude")
-    parents = robot.model.parents
-    out = []
+    out, left = [], []
     n = len(cm.links)
     for i in range(n):
         for j in range(i + 1, n):
             key = frozenset((cm.links[i], cm.links[j]))
             a, b = int(cm.joints[i]), int(cm.joints[j])
+            why = adjacency(robot.model, a, b)
             if key in inc and a != b:
                 out.append((i, j))
-            elif a != b and parents[a] != b and parents[b] != a and key not in exc:
+            elif why is not None:
+                left.append((i, j, why))
+            elif key in exc:
+                left.append((i, j, "excluded by the stack"))
+            else:
                 out.append((i, j))
-    return out
+    return out, left
 
 
 def sampled_min_distances(
-    robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]], samples: int, seed: int
+    robot: Robot,
+    cm: CollisionModel,
+    pairs: Sequence[tuple[int, int]],
+    samples: int,
+    seed: int,
+    poses: Sequence[np.ndarray] | None = None,
 ) -> np.ndarray:
     """Smallest signed distance of each pair over ``samples`` configurations drawn uniformly
-    within the joint limits (plus q = 0 and the robot's named poses)."""
+    within the joint limits and ``poses`` (default: q = 0 and the robot's named poses)."""
     geometry = cm.geometry.copy()
     geometry.removeAllCollisionPairs()
     for i, j in pairs:
@@ -139,9 +192,10 @@ def sampled_min_distances(
     gdata = pin.GeometryData(geometry)
     data = robot.model.createData()
     rng = np.random.default_rng(seed)
-    poses = [robot.neutral()]
-    if robot.servo_map is not None:
-        poses += [robot.configuration(name) for name in sorted(robot.servo_map.poses)]
+    if poses is None:
+        poses = [robot.neutral()]
+        if robot.servo_map is not None:
+            poses += [robot.configuration(name) for name in sorted(robot.servo_map.poses)]
     best = np.full(len(pairs), np.inf)
     for k in range(samples + len(poses)):
         q = poses[k] if k < len(poses) else robot.random_configuration(rng)
@@ -151,31 +205,101 @@ def sampled_min_distances(
     return best
 
 
-def select_pairs(
+class PairChoice(NamedTuple):
+    """Which geometry pairs a robot's self-collision limit checks, and why the others are
+    left out (:func:`choose_pairs`)."""
+
+    included: list[tuple[int, int]]
+    excluded: list[tuple[int, int, str]]  # (geometry, geometry, reason)
+    links: tuple[str, ...]  # link of each geometry
+    names: tuple[str, ...]  # name of each geometry
+
+    def excluded_links(self, kinds: tuple[str, ...] = ()) -> list[tuple[str, str, str]]:
+        """(link, link, reason) of each link pair with a pair left out (its first reason),
+        only those whose reason starts with one of ``kinds`` if given."""
+        out: dict[frozenset, tuple[str, str, str]] = {}
+        for i, j, why in self.excluded:
+            if kinds and not why.startswith(kinds):
+                continue
+            key = frozenset((self.links[i], self.links[j]))
+            out.setdefault(key, (self.links[i], self.links[j], why))
+        return list(out.values())
+
+
+#: the reasons of :func:`choose_pairs` that ``wbc robot check`` lists
+LISTED_REASONS = ("adjacent through", "overlap", "within the margin")
+
+
+def choose_pairs(
     robot: Robot,
-    cm: CollisionModel,
-    threshold: float,
+    margin: float = DEFAULT_MARGIN,
+    trigger: float = DEFAULT_TRIGGER,
     include: Iterable[Sequence[str]] = (),
     exclude: Iterable[Sequence[str]] = (),
     samples: int = DEFAULT_SAMPLES,
     seed: int = 0,
-) -> list[tuple[int, int]]:
-    """The candidate pairs that come closer than ``threshold`` in some sampled configuration
-    (pairs named in ``include`` always). Sampling is a heuristic: a pair that meets only in
-    a tiny corner of the joint space can be missed — name it in ``include``."""
+) -> PairChoice:
+    """The geometry pairs of ``robot`` that its self-collision limit checks: every pair but
+
+    * two geometries of one body, or of a parent and a child joint, also through links of
+      zero length (:func:`adjacency`: the bodies meet at the joint by construction);
+    * pairs closer than ``margin`` at the robot's standing pose (``robot.configuration
+      ("stand")``): boxes drawn touching or overlapping there, which hard rows would have
+      to push apart before the robot could stand;
+    * pairs never closer than ``trigger`` in ``samples`` random configurations within the
+      joint limits (seeded; plus q = 0 and the named poses: a heuristic, a pair that meets
+      only in a tiny corner of the joint space can be missed — name it in ``include``);
+    * link pairs in ``exclude``;
+
+    ``include`` forces link pairs in. Each pair left out comes with its reason."""
     if samples < 0:
         raise ConfigurationError(f"self_collision samples must be >= 0, got {samples}")
+    cm = _cached_collision_model(robot)
     include = [tuple(p) for p in include]
-    pairs = candidate_pairs(robot, cm, include, exclude)
-    if samples == 0 or not pairs:
-        return pairs
+    pairs, left = _candidates(robot, cm, include, exclude)
     forced = _link_pairs(include, set(cm.links), "include")
-    best = sampled_min_distances(robot, cm, pairs, samples, seed)
-    return [
-        p
-        for p, d in zip(pairs, best, strict=True)
-        if d < threshold or frozenset((cm.links[p[0]], cm.links[p[1]])) in forced
+    names = tuple(g.name for g in cm.geometry.geometryObjects)
+    if pairs:
+        stand = robot.configuration("stand")
+        standing = sampled_min_distances(robot, cm, pairs, 0, seed, poses=[stand])
+        best = sampled_min_distances(robot, cm, pairs, samples, seed) if samples else None
+        kept = []
+        for k, p in enumerate(pairs):
+            d = standing[k]
+            if frozenset((cm.links[p[0]], cm.links[p[1]])) in forced:
+                kept.append(p)
+            elif d < 0:
+                why = f"boxes overlap by {-d * 1e3:.1f} mm at the standing pose"
+                left.append((*p, why))
+            elif d < margin:
+                why = f"{d * 1e3:.1f} mm apart at the standing pose: within the margin"
+                left.append((*p, f"{why} ({margin * 1e3:g} mm)"))
+            elif best is not None and best[k] >= trigger:
+                why = f"never closer than {trigger * 1e3:g} mm in {samples} sampled poses"
+                left.append((*p, why))
+            else:
+                kept.append(p)
+        pairs = kept
+    return PairChoice(pairs, left, cm.links, names)
+
+
+def pair_report(robot: Robot, margin: float = DEFAULT_MARGIN) -> list[tuple[str, str]]:
+    """``wbc robot check``'s lines about self-collision, as (level, message): how many pairs
+    the default limit checks, each link pair left out because it is adjacent through a
+    zero-length link or within the margin at the standing pose (note), and a warning for
+    each pair of boxes that overlap at the standing pose."""
+    choice = choose_pairs(robot, margin)
+    out = [
+        (
+            "ok",
+            f"self-collision: {len(choice.included)} pairs of collision boxes checked "
+            f"(margin {margin * 1e3:g} mm), {len(choice.excluded)} left out",
+        )
     ]
+    for a, b, why in choice.excluded_links(LISTED_REASONS):
+        level = "warning" if "overlap" in why else "note"
+        out.append((level, f"self-collision: {a} / {b} not checked: {why}"))
+    return out
 
 
 def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
@@ -308,7 +432,7 @@ class PairDistances:
         self.out_k = np.zeros(K, np.int64)
         self.out_d = np.zeros(K)
         self.out_p1, self.out_p2, self.out_n = np.zeros((K, 3)), np.zeros((K, 3)), np.zeros((K, 3))
-        self._counts = np.zeros(2, np.int64)
+        self._counts = np.zeros(3, np.int64)
         self._kin: Kinematics | None = None
         self._frames: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -523,7 +647,7 @@ class SelfCollisionConstraint(Constraint):
     than ``trigger``, with the smooth activation of the module docstring.
 
     ``pairs``: explicit link pairs (skips the selection); otherwise the pairs that can meet
-    (:func:`select_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
+    (:func:`choose_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
     ``exclude``. Usable at any level of :class:`~wbc.solvers.TaskStack`; rows below the
     pulling tasks' level are what make it hold (inside one level it trades with the tasks).
     """
@@ -548,6 +672,8 @@ class SelfCollisionConstraint(Constraint):
         self.robot = robot
         self.margin, self.trigger, self.damping = float(margin), float(trigger), float(damping)
         cm = _cached_collision_model(robot)
+        #: the robot's pair choice (None: explicit ``pairs``)
+        self.choice: PairChoice | None = None
         if pairs is not None:
             wanted = _link_pairs(pairs, set(cm.links), "pairs")
             chosen = [
@@ -558,6 +684,7 @@ class SelfCollisionConstraint(Constraint):
         else:
             key = (
                 "pairs",
+                self.margin,
                 self.trigger,
                 tuple(map(tuple, include)),
                 tuple(map(tuple, exclude)),
@@ -566,8 +693,11 @@ class SelfCollisionConstraint(Constraint):
             )
             cache = robot.__dict__.setdefault("_self_collision_pairs", {})
             if key not in cache:
-                cache[key] = select_pairs(robot, cm, self.trigger, include, exclude, samples, seed)
-            chosen = cache[key]
+                cache[key] = choose_pairs(
+                    robot, self.margin, self.trigger, include, exclude, samples, seed
+                )
+            self.choice = cache[key]
+            chosen = self.choice.included
         self.pair_links = [(cm.links[i], cm.links[j]) for i, j in chosen]
         self.pair_geoms = [
             (cm.geometry.geometryObjects[i].name, cm.geometry.geometryObjects[j].name)
@@ -577,6 +707,8 @@ class SelfCollisionConstraint(Constraint):
         most = 17 * len(chosen)  # rows per pair at most: the witness and 8 + 8 corners
         self._G, self._h = np.zeros((most, robot.nv)), np.zeros(most)
         self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
+        #: per pair: the solves in a row that found it deep inside the margin
+        self._inside = np.zeros(len(chosen), np.int64)
         masks = joint_masks(robot)
         self._mask_1 = masks[self.distances.joint_1]
         self._mask_2 = masks[self.distances.joint_2]
@@ -607,19 +739,54 @@ class SelfCollisionConstraint(Constraint):
         if self._rows is not None and np.array_equal(kin.q, self._rows_q):
             return self._rows
         pd = self.distances
-        n = pd.close(kin, self.trigger)
+        if pd.pairs:
+            Rf, pf = pd.frames(kin)
+            r = collision_rows(
+                np.ascontiguousarray(kin.q[7:], dtype=float), pd._q, pd._bound, pd.L, Rf, pf,
+                pd.box_frame, pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b,
+                pd.support, kin.data.J, self.margin, self.trigger, self.damping, UNREACHABLE,
+                pd.Rw, pd.cw, pd._placed, pd.out_k, pd.out_d, pd.out_p1, pd.out_p2, pd.out_n,
+                pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
+            )  # fmt: skip
+            n = int(pd._counts[2])
+        else:
+            r = n = 0
         self.last = Witness(pd.out_k[:n], pd.out_d[:n], pd.out_p1[:n], pd.out_p2[:n], pd.out_n[:n])
-        r = plane_rows(
-            n, pd.out_k, pd.out_d, pd.out_p1, pd.out_p2, pd.out_n, pd.pair_a, pd.pair_b,
-            pd.Rw, pd.cw, pd.half, pd.support, kin.data.J, self.margin, self.trigger,
-            self.damping, UNREACHABLE, self._G, self._h, self._pair_buf, self._gap_buf,
-        )  # fmt: skip
         # (copies: the rows outlive the next call, e.g. in a backend's problem)
         rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
         row_pair, row_gap = self._pair_buf[:r].copy(), self._gap_buf[:r].copy()
         self._rows, self._rows_q, self._row_pair = rows, kin.q.copy(), row_pair
         self._row_gap = row_gap
         return rows
+
+    def solved(self) -> None:
+        """Count, per pair, the solves in a row that found it more than :data:`RECOVERY_TOL`
+        inside the margin (at the last :meth:`compute`); raise :class:`InfeasibleError`
+        naming the pairs past :data:`RECOVERY_TICKS` (they stay counted: every later solve
+        raises too). The solvers call it after each solve with this constraint at a hard
+        level: a pair held inside its margin is a hard level not met."""
+        w = self.last
+        deep = w.index[w.distance < self.margin - RECOVERY_TOL]
+        inside = self._inside
+        if deep.size:
+            kept = inside[deep] + 1
+            inside[:] = 0
+            inside[deep] = kept
+            if kept.max() > RECOVERY_TICKS:
+                bad = deep[kept > RECOVERY_TICKS]
+                names = ", ".join(
+                    f"{a} / {b} ({w.distance[w.index == k][0] * 1e3:.2f} mm apart)"
+                    for k in bad.tolist()
+                    for a, b in [self.pair_links[k]]
+                )
+                raise InfeasibleError(
+                    f"{self.name}: the pair(s) {names} stayed inside the "
+                    f"{self.margin * 1e3:g} mm margin for more than {RECOVERY_TICKS} solves "
+                    "in a row: the hard tasks hold them there (start the robot with its "
+                    "links apart, or exclude the pair)"
+                )
+        elif inside.any():
+            inside[:] = 0
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
