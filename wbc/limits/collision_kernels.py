@@ -220,7 +220,7 @@ def box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal) -> float:
     nᵀ(p2 − p1) = d. Separated: GJK (exact to rounding, :data:`GJK_TOL`); in contact or
     overlapping: minus the separating-axis penetration depth."""
     return _box_distance(
-        R1, c1, h1, R2, c2, h2, p1, p2, normal, np.empty(SCRATCH), np.empty(5, np.int64)
+        R1, c1, h1, R2, c2, h2, p1, p2, normal, np.empty(SCRATCH), np.zeros(6, np.int64)
     )
 
 
@@ -230,7 +230,29 @@ SCRATCH = 68
 
 @njit(cache=True)
 def _box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
-    """:func:`box_distance` with its scratch: ``F`` (:data:`SCRATCH` floats), ``Iw`` (5 ints)."""
+    """:func:`box_distance` with its scratch: ``F`` (:data:`SCRATCH` floats), ``Iw`` (6 ints)."""
+    axis = F[64:68]
+    gap = separating_axis(R1, c1, h1, R2, c2, h2, axis)
+    return exact_distance(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal, F, Iw)
+
+
+@njit(cache=True)
+def exact_distance(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal, F, Iw) -> float:
+    """The signed distance from the separating axis (``axis``, ``gap``: :func:`separating_axis`):
+    overlapping boxes (gap <= 0), minus the depth with :func:`axis_witness`'s points; apart,
+    the gap itself where those points lie on the boxes (the gap is a lower bound on the
+    distance, and two points that far apart an upper one: the feet side by side, an arm
+    along the torso — a face and what faces it), else GJK (``Iw[5]`` += 1)."""
+    axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal)
+    if gap <= 0.0 or (on_box(p1, R1, c1, h1) and on_box(p2, R2, c2, h2)):
+        return gap
+    Iw[5] += 1
+    return _gjk(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw)
+
+
+@njit(cache=True)
+def _gjk(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
+    """GJK on two separated boxes (see :func:`box_distance`); ``F``, ``Iw``: scratch."""
     W = F[0:12].reshape((4, 3))
     A = F[12:24].reshape((4, 3))
     B = F[24:36].reshape((4, 3))
@@ -312,19 +334,28 @@ def _box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
             normal[c] = (p2[c] - p1[c]) / d
         return d
     gap = separating_axis(R1, c1, h1, R2, c2, h2, axis)
+    axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal)
+    return gap
+
+
+@njit(cache=True)
+def axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal) -> None:
+    """Witness points p1, p2 with p2 − p1 = gap · n along the separating axis (``axis`` and
+    ``gap`` of :func:`separating_axis`; n = axis[:3]): the contact features' points along the
+    axis, so that nᵀ(J_p2 − J_p1) is the gap's derivative (the axis turns with the boxes).
+    Box 1's face: box 2's corner farthest along −n and its projection on that face; box 2's
+    face: the converse; an edge of each: the closest points of the two edges' lines."""
     normal[0], normal[1], normal[2] = axis[0], axis[1], axis[2]
     k = int(axis[3])
-    # witnesses with p2 − p1 = gap · n (the contact features' points along the axis, so
-    # that nᵀ(J_p2 − J_p1) is the depth's derivative: the axis turns with the boxes)
-    _support(R1, c1, h1, normal[0], normal[1], normal[2], p1)  # deepest in box 2
-    _support(R2, c2, h2, -normal[0], -normal[1], -normal[2], p2)  # deepest in box 1
-    if k < 3:  # box 1's face: box 2's deepest corner, and its projection on that face
+    _support(R1, c1, h1, normal[0], normal[1], normal[2], p1)
+    _support(R2, c2, h2, -normal[0], -normal[1], -normal[2], p2)
+    if k < 3:
         for c in range(3):
             p1[c] = p2[c] - gap * normal[c]
-    elif k < 6:  # box 2's face
+    elif k < 6:
         for c in range(3):
             p2[c] = p1[c] + gap * normal[c]
-    else:  # an edge of each: the closest points of the two edges' lines
+    else:
         i, j = (k - 6) // 3, (k - 6) % 3
         u0, u1, u2 = R1[0, i], R1[1, i], R1[2, i]
         w0, w1, w2 = R2[0, j], R2[1, j], R2[2, j]
@@ -337,7 +368,16 @@ def _box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
         t = (e - b * dd) / den
         p1[0], p1[1], p1[2] = p1[0] + s * u0, p1[1] + s * u1, p1[2] + s * u2
         p2[0], p2[1], p2[2] = p2[0] + t * w0, p2[1] + t * w1, p2[2] + t * w2
-    return gap
+
+
+@njit(cache=True)
+def on_box(p, R, c, h) -> bool:
+    """True if the point p lies in the box (to rounding: 1e-12 m)."""
+    for i in range(3):
+        x = R[0, i] * (p[0] - c[0]) + R[1, i] * (p[1] - c[1]) + R[2, i] * (p[2] - c[2])
+        if abs(x) > h[i] + 1e-12:
+            return False
+    return True
 
 
 @njit(cache=True)
@@ -349,7 +389,8 @@ def close_pairs(
     (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
     distance at ``last_joints``) is moved to ``joints`` and tightened by what this call learnt;
     the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
-    counts the exact distances computed, ``counts[1]`` the separating-axis bounds."""
+    counts the exact distances computed, ``counts[1]`` the separating-axis bounds,
+    ``counts[3]`` the exact distances that took GJK."""
     nj = joints.shape[0]
     moved = False
     for i in range(nj):
@@ -368,7 +409,7 @@ def close_pairs(
     placed[:] = False
     axis = np.empty(4)
     F = np.empty(SCRATCH)
-    Iw = np.empty(5, np.int64)
+    Iw = np.zeros(6, np.int64)
     count = 0
     for k in range(K):
         if bound[k] >= query:
@@ -391,8 +432,8 @@ def close_pairs(
             bound[k] = sat
             continue
         counts[0] += 1
-        d = _box_distance(
-            Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb],
+        d = exact_distance(
+            Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb], axis, sat,
             out_p1[count], out_p2[count], out_n[count], F, Iw,
         )  # fmt: skip
         bound[k] = d
@@ -400,6 +441,7 @@ def close_pairs(
             out_k[count] = k
             out_d[count] = d
             count += 1
+    counts[3] += Iw[5]
     return count
 
 
@@ -508,7 +550,8 @@ def collision_rows(
     out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap,
 ) -> int:  # fmt: skip
     """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
-    returns the number of rows (``counts[2]``: the number of close pairs)."""
+    returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
+    :func:`close_pairs`)."""
     n = close_pairs(
         joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
         pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,

@@ -432,7 +432,7 @@ class PairDistances:
         self.out_k = np.zeros(K, np.int64)
         self.out_d = np.zeros(K)
         self.out_p1, self.out_p2, self.out_n = np.zeros((K, 3)), np.zeros((K, 3)), np.zeros((K, 3))
-        self._counts = np.zeros(3, np.int64)
+        self._counts = np.zeros(4, np.int64)
         self._kin: Kinematics | None = None
         self._frames: tuple[np.ndarray, np.ndarray] | None = None
 
