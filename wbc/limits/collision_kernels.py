@@ -36,6 +36,10 @@ GJK_TOL = 1e-12
 GJK_ITERATIONS = 64
 #: below this |v| (m) GJK reports contact: the separating-axis depth takes over
 CONTACT = 1e-10
+#: edge pairs whose |u × w| is below this have no separating axis of their own (nearly
+#: parallel: the face axes cover them; a lower bound either way, exact where its witnesses
+#: check out, and GJK otherwise)
+EDGE_PARALLEL = 1e-6
 
 
 @njit(cache=True)
@@ -195,7 +199,7 @@ def separating_axis(R1, c1, h1, R2, c2, h2, axis) -> float:
             w0, w1, w2 = R2[0, j], R2[1, j], R2[2, j]
             a0, a1, a2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
             norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-            if norm < 1e-9:  # parallel edges: a face axis covers it
+            if norm < EDGE_PARALLEL:  # (nearly) parallel edges: the face axes cover them
                 continue
             a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
         dist = a0 * d0 + a1 * d1 + a2 * d2
@@ -363,7 +367,8 @@ def axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal) -> None:
         b = u0 * w0 + u1 * w1 + u2 * w2
         dd = u0 * r0 + u1 * r1 + u2 * r2
         e = w0 * r0 + w1 * r1 + w2 * r2
-        den = 1.0 - b * b  # (> 0: parallel edges have no axis)
+        x0, x1, x2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+        den = x0 * x0 + x1 * x1 + x2 * x2  # = 1 − b², >= EDGE_PARALLEL² (an edge axis)
         s = (b * e - dd) / den
         t = (e - b * dd) / den
         p1[0], p1[1], p1[2] = p1[0] + s * u0, p1[1] + s * u1, p1[2] + s * u2
