@@ -127,21 +127,10 @@ def test_compiled_rows_are_the_numpy_rows(robot, seed):
     G, h = limit.compute(kin)
     w = limit.witness(kin)
     assert w.index.size  # (pairs within the trigger at these seeds)
-    corners = limit.distances.vertices(kin, w.index.tolist())  # P x 2 x 8 x 3
-    pr = separating_plane_rows(w, corners, limit.trigger)
+    pr = separating_plane_rows(w, limit.distances.vertices(kin, w.index.tolist()), limit.trigger)
     masks = joint_masks(robot)
     k = w.index[pr.pair]
     pd = limit.distances
-    # the rows of corners at least the trigger away from the other box go: a row whose a is
-    # its pair's p1 is the witness's or a corner of box 2 (b), the others a corner of box 1
-    of_box_2 = np.all(pr.a == w.p1[pr.pair], axis=1)
-    corner = np.where(of_box_2[:, None], pr.b, pr.a)
-    other = np.where(of_box_2, pd.pair_a[k], pd.pair_b[k])  # the box the corner faces
-    local = np.einsum("rji,rj->ri", pd.Rw[other], corner - pd.cw[other])
-    far = np.linalg.norm(np.maximum(np.abs(local) - pd.half[other], 0.0), axis=1)
-    near = (np.arange(k.size) < w.index.size) | (far < limit.trigger)
-    pr = pr._replace(pair=pr.pair[near], a=pr.a[near], b=pr.b[near], normal=pr.normal[near])
-    pr, k = pr._replace(gap=pr.gap[near]), k[near]
     J = distance_jacobian(
         kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal
     )

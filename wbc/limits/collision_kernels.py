@@ -491,18 +491,6 @@ def _add_row(Jw, sup_a, sup_b, pa, pb, n, gap, margin, trigger, damping, unreach
 
 
 @njit(cache=True)
-def point_box_distance(p, R, c, h) -> float:
-    """Distance from the point p to the box (0 inside)."""
-    s = 0.0
-    for i in range(3):
-        x = R[0, i] * (p[0] - c[0]) + R[1, i] * (p[1] - c[1]) + R[2, i] * (p[2] - c[2])
-        excess = abs(x) - h[i]
-        if excess > 0.0:
-            s += excess * excess
-    return math.sqrt(s)
-
-
-@njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
     margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
@@ -511,9 +499,7 @@ def plane_rows(
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
     returns the number of rows. The witness rows first, then the corners of each pair's
     second box near the plane through p1, then those of its first box near the plane through
-    p2 (:func:`wbc.limits.self_collision.separating_plane_rows`), except the corners at least
-    the trigger away from the other box (a pair that far has no row either: the big torso's
-    far corners against an arm near its face)."""
+    p2 (the order of :func:`wbc.limits.self_collision.separating_plane_rows`)."""
     r = 0
     corner = np.empty(3)
     for i in range(count):
@@ -546,9 +532,6 @@ def plane_rows(
                     gap += n[m] * ((corner[m] - p1[m]) if side == 0 else (p2[m] - corner[m]))
                 if not (gap < trigger and dd > 1e-18):
                     continue
-                o = pair_a[k] if side == 0 else pair_b[k]  # the other box
-                if point_box_distance(corner, Rw[o], cw[o], half[o]) >= trigger:
-                    continue  # (as far from the other box as a pair without rows)
                 if side == 0:
                     ok = _add_row(
                         Jw, support[pair_a[k]], support[g], p1, corner, n, gap, margin,
