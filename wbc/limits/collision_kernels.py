@@ -10,17 +10,23 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
   projections on their 15 candidate axes: a lower bound on the distance, exact when a face or
   an edge pair is closest), and only a pair still below the query its exact distance:
   :func:`box_distance`.
-* :func:`box_distance` — GJK on the two boxes (support mapping, the closest point of each
-  simplex by its sub-simplices' affine minimisers: exact for polytopes, to rounding), witness
-  points on each box; for boxes that overlap, the penetration depth by the separating-axis
-  theorem (exact for boxes: the minimum translation is along one of the 15 axes) with the
-  deepest points of each box along that axis as witnesses.
+* :func:`box_distance` / :func:`exact_distance` — the signed distance of two boxes, exact to
+  rounding: the separating-axis gap where the witness points along that axis lie on both
+  boxes (a face and what faces it; the gap is a lower bound, two points that far apart an
+  upper one), else GJK (support mapping, the closest point of each simplex by its
+  sub-simplices' affine minimisers: exact for polytopes); for boxes that overlap, the
+  penetration depth by the separating-axis theorem (exact for boxes: the minimum
+  translation is along one of the 15 axes) with the contact features' points as witnesses
+  (:func:`axis_witness`).
 * :func:`plane_rows` — the velocity-damper rows of the close pairs: the witness pair plus every
   box corner nearer than the trigger to the separating planes (see
   :func:`wbc.limits.self_collision.separating_plane_rows`, the numpy form the tests compare),
-  each row −nᵀ(J_b − J_a) Δq <= h(gap) with J_p = J_v + [ω]… of the point's joint support.
+  each row −nᵀ(J_b − J_a) Δq <= h(gap), nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω over the point's
+  joint support.
+* :func:`collision_rows` — both in one call (what a tick calls).
 
-Checked against coal (hpp-fcl) on random configurations: ``tests/test_limits_collision_kernels.py``.
+Checked against coal (hpp-fcl) on random boxes and configurations:
+``tests/test_limits_collision_kernels.py``.
 """
 
 from __future__ import annotations

@@ -456,13 +456,12 @@ class PairDistances:
         updates where Pinocchio's layout allows, else copies)."""
         if kin is not self._kin or self._frames is None:
             self._kin = kin
-            self._frames = views = kin.frame_placements()
-            if views is None:
-                self._kin = None  # (copies: made again at every call)
-                n = kin.model.nframes
-                R = np.array([kin.rotation(f) for f in range(n)])
-                p = np.array([kin.translation(f) for f in range(n)])
-                return R, p
+            self._frames = kin.frame_placements()
+        if self._frames is None:  # (copies: made again at every call)
+            n = kin.model.nframes
+            R = np.array([kin.rotation(f) for f in range(n)])
+            p = np.array([kin.translation(f) for f in range(n)])
+            return R, p
         return self._frames
 
     def close(self, kin: Kinematics, distance: float) -> int:
