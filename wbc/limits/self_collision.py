@@ -216,10 +216,10 @@ class PairChoice(NamedTuple):
 
     def excluded_links(self, kinds: tuple[str, ...] = ()) -> list[tuple[str, str, str]]:
         """(link, link, reason) of each link pair with a pair left out (its first reason),
-        only those whose reason starts with one of ``kinds`` if given."""
+        only those whose reason contains one of ``kinds`` if given."""
         out: dict[frozenset, tuple[str, str, str]] = {}
         for i, j, why in self.excluded:
-            if kinds and not why.startswith(kinds):
+            if kinds and not any(k in why for k in kinds):
                 continue
             key = frozenset((self.links[i], self.links[j]))
             out.setdefault(key, (self.links[i], self.links[j], why))
@@ -227,7 +227,7 @@ class PairChoice(NamedTuple):
 
 
 #: the reasons of :func:`choose_pairs` that ``wbc robot check`` lists
-LISTED_REASONS = ("adjacent through", "overlap", "within the margin")
+LISTED_REASONS = ("adjacent through", "boxes overlap", "within the margin")
 
 
 def choose_pairs(
