@@ -12,7 +12,7 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
   J_p = J_v − [p]× J_ω from pinocchio's world-frame joint Jacobians;
 * :func:`separating_plane_rows` — the witness pair plus the box corners near the separating
   plane (parallel faces: the witness flips between corners from one tick to the next);
-* :func:`damper_rows` — the rows −J_d Δq <= h(d): the velocity damper
+* :func:`damper_bound` — h(d) of the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
   margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
 
@@ -39,6 +39,11 @@ defaults). The servos' speed limit does not exclude that (one tick of hip roll a
 moves a foot ~12 mm): targets must move at a bounded speed, as walking references do (the
 tests pull links together at <= 0.1 m/s and stay within 0.5 mm of the margin, the rest being
 the second-order error of a linearised tick; the margin absorbs it).
+
+Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
+margin for more than :data:`RECOVERY_TICKS` solves in a row (the hard tasks hold it there:
+both soles pinning crossed legs) raises :class:`~wbc.exceptions.InfeasibleError` naming the
+pair (:meth:`SelfCollisionConstraint.solved`, called by the solvers after each solve).
 """
 
 from __future__ import annotations
@@ -64,12 +69,10 @@ DEFAULT_DAMPING = 0.4
 UNREACHABLE = 1.0
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
-#: a pair more than RECOVERY_TOL (m) inside its margin must be back within it in at most
-#: RECOVERY_TICKS solves in a row (from 4 mm inside, the damper's way back, a fraction ξ = 0.4
-#: of the gap per tick, leaves 4 mm · 0.6²⁵ ≈ 1e-8 m), else the solve raises
-#: :class:`~wbc.exceptions.InfeasibleError` naming the pair (a hard level that cannot be met:
-#: the hard tasks hold the pair inside). RECOVERY_TOL is the second-order error that a
-#: linearised tick may leave below the margin (0.5 mm: the damper's own tests)
+#: a pair more than RECOVERY_TOL (m: a linearised tick's second order, as the damper's tests
+#: allow) inside its margin must be back in at most RECOVERY_TICKS solves in a row (from 4 mm
+#: inside, the damper's way back leaves 4 mm · 0.6²⁵ ≈ 1e-8 m), else InfeasibleError
+#: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
 RECOVERY_TOL = 5e-4
 
@@ -441,16 +444,6 @@ class PairDistances:
         """Exact (GJK) distance computations so far (benchmarks and tests)."""
         return int(self._counts[0])
 
-    def lower_bounds(self, q: np.ndarray) -> np.ndarray:
-        """Move the bounds to configuration q and return them (a view; exact where the
-        last call computed the pair at this same q)."""
-        joints = q[7:]
-        step = np.abs(joints - self._q)
-        if step.any():
-            self._bound -= self.L @ step
-            self._q[:] = joints
-        return self._bound
-
     def frames(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
         """Every frame's world rotation and position at ``kin`` (views that follow its
         updates where Pinocchio's layout allows, else copies)."""
@@ -614,17 +607,6 @@ def inside_margin(rows: Inequality) -> np.ndarray:
     return rows.h < 0.0
 
 
-def damper_rows(
-    distance: np.ndarray, J_d: np.ndarray, margin: float, trigger: float, damping: float
-) -> Inequality:
-    """G Δq <= h: −J_d Δq <= h(d) for the pairs whose bound is below ``UNREACHABLE`` (the
-    +∞-equivalent: just under the trigger, h(d) passes any closure one tick can ask for; a
-    row with h ~ 1e12 m would only cost the solvers, and stalls ProxQP)."""
-    h = damper_bound(distance, margin, trigger, damping)
-    keep = h < UNREACHABLE
-    return Inequality(-J_d[keep], h[keep])
-
-
 def check_parameters(margin: float, trigger: float, damping: float) -> None:
     """One clear line for each bad parameter."""
     for key, value in (("margin", margin), ("trigger", trigger), ("damping", damping)):
@@ -708,9 +690,6 @@ class SelfCollisionConstraint(Constraint):
         self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
         #: per pair: the solves in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
-        masks = joint_masks(robot)
-        self._mask_1 = masks[self.distances.joint_1]
-        self._mask_2 = masks[self.distances.joint_2]
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
