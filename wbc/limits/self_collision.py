@@ -439,14 +439,18 @@ class PairDistances:
         self._kin: Kinematics | None = None
         self._frames: tuple[np.ndarray, np.ndarray] | None = None
 
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_kin"] = state["_frames"] = None  # (views of one Kinematics: a copy re-binds)
+        return state
+
     @property
     def exact_computations(self) -> int:
         """Exact (GJK) distance computations so far (benchmarks and tests)."""
         return int(self._counts[0])
 
     def frames(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """Every frame's world rotation and position at ``kin`` (views that follow its
-        updates where Pinocchio's layout allows, else copies)."""
+        """Every frame's world rotation and position at ``kin`` (views, else copies)."""
         if kin is not self._kin or self._frames is None:
             self._kin = kin
             self._frames = kin.frame_placements()
@@ -458,9 +462,8 @@ class PairDistances:
         return self._frames
 
     def close(self, kin: Kinematics, distance: float) -> int:
-        """The number of pairs closer than ``distance`` at ``kin`` (its placements up to
-        date: :meth:`Kinematics.update`): their indices, distances, witness points and
-        normals are the first entries of :attr:`out_k`, :attr:`out_d`, ..."""
+        """The number of pairs closer than ``distance`` at ``kin`` (updated): their indices,
+        distances, witnesses and normals are the first of :attr:`out_k`, :attr:`out_d`..."""
         if not self.pairs:
             return 0
         Rf, pf = self.frames(kin)
@@ -478,15 +481,12 @@ class PairDistances:
             return np.zeros((0, 2, 8, 3))
         g = self._pair_geoms[np.asarray(pairs)]  # P x 2 geometry indices
         joints = self._geom_joint[g]  # P x 2
-        oMi = kin.data.oMi
-        R = self._R
-        t = self._t
+        oMi, R, t = kin.data.oMi, self._R, self._t
         for j in np.unique(joints).tolist():
             M = oMi[j]
             R[j] = M.rotation
             t[j] = M.translation
-        world = self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
-        return world
+        return self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
 
     def below(self, kin: Kinematics, distance: float) -> Witness:
         """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
