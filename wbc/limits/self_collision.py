@@ -492,13 +492,8 @@ class PairDistances:
         """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
         must be up to date: :meth:`Kinematics.update`)."""
         n = self.close(kin, distance)
-        return Witness(
-            self.out_k[:n].copy(),
-            self.out_d[:n].copy(),
-            self.out_p1[:n].copy(),
-            self.out_p2[:n].copy(),
-            self.out_n[:n].copy(),
-        )
+        out = (self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n)
+        return Witness(*(a[:n].copy() for a in out))
 
 
 def joint_masks(robot: Robot) -> np.ndarray:
@@ -690,6 +685,7 @@ class SelfCollisionConstraint(Constraint):
         self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
         #: per pair: the solves in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
+        self._counting = False  # (any of _inside non-zero)
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
@@ -744,27 +740,28 @@ class SelfCollisionConstraint(Constraint):
         raises too). The solvers call it after each solve with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
         w = self.last
-        deep = w.index[w.distance < self.margin - RECOVERY_TOL]
         inside = self._inside
-        if deep.size:
-            kept = inside[deep] + 1
-            inside[:] = 0
-            inside[deep] = kept
-            if kept.max() > RECOVERY_TICKS:
-                bad = deep[kept > RECOVERY_TICKS]
-                names = ", ".join(
-                    f"{a} / {b} ({w.distance[w.index == k][0] * 1e3:.2f} mm apart)"
-                    for k in bad.tolist()
-                    for a, b in [self.pair_links[k]]
-                )
-                raise InfeasibleError(
-                    f"{self.name}: the pair(s) {names} stayed inside the "
-                    f"{self.margin * 1e3:g} mm margin for more than {RECOVERY_TICKS} solves "
-                    "in a row: the hard tasks hold them there (start the robot with its "
-                    "links apart, or exclude the pair)"
-                )
-        elif inside.any():
-            inside[:] = 0
+        if not (w.index.size and w.distance.min() < self.margin - RECOVERY_TOL):
+            if self._counting:
+                inside[:] = 0
+                self._counting = False
+            return
+        self._counting = True
+        deep = w.index[w.distance < self.margin - RECOVERY_TOL]
+        kept = inside[deep] + 1
+        inside[:] = 0
+        inside[deep] = kept
+        if kept.max() > RECOVERY_TICKS:
+            names = ", ".join(
+                f"{a} / {b} ({w.distance[w.index == k][0] * 1e3:.2f} mm apart)"
+                for k in deep[kept > RECOVERY_TICKS].tolist()
+                for a, b in [self.pair_links[k]]
+            )
+            raise InfeasibleError(
+                f"{self.name}: the pair(s) {names} stayed inside the {self.margin * 1e3:g} mm "
+                f"margin for more than {RECOVERY_TICKS} solves in a row: the hard tasks hold "
+                "them there (start the robot with its links apart, or exclude the pair)"
+            )
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
