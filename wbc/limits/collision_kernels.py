@@ -468,44 +468,30 @@ def damper_h(d, margin, trigger, damping) -> float:
 
 
 @njit(cache=True)
-def _pair_terms(Jw, sup_a, sup_b, n, NW) -> None:
-    """A pair's terms of its rows: NW[0] = nᵀJ_v and NW[1:4] = J_ω over body a's dofs
-    (``sup_a``), NW[4], NW[5:8] the same over body b's; zero outside each body's dofs."""
+def _point_row(Jw, support, p, n, sign, row) -> None:
+    """row += sign · nᵀ J_p for a point p carried by the joints of ``support`` (J_p: the
+    world Jacobian of a point, v_p = v_O + ω × p, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω)."""
+    x0 = p[1] * n[2] - p[2] * n[1]
+    x1 = p[2] * n[0] - p[0] * n[2]
+    x2 = p[0] * n[1] - p[1] * n[0]
     for k in range(Jw.shape[1]):
-        nv = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
-        for side in range(2):
-            o = 4 * side
-            if sup_a[k] if side == 0 else sup_b[k]:
-                NW[o, k] = nv
-                NW[o + 1, k] = Jw[3, k]
-                NW[o + 2, k] = Jw[4, k]
-                NW[o + 3, k] = Jw[5, k]
-            else:
-                for m in range(4):
-                    NW[o + m, k] = 0.0
+        if support[k]:
+            row[k] += sign * (
+                n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
+                + x0 * Jw[3, k] + x1 * Jw[4, k] + x2 * Jw[5, k]
+            )  # fmt: skip
 
 
 @njit(cache=True)
-def _add_row(NW, pa, pb, n, gap, margin, trigger, damping, unreachable, G, h, r) -> bool:
-    """Row r: −nᵀ(J_b − J_a) Δq <= h(gap) for a point pa of body a and pb of body b (their
-    pair's :func:`_pair_terms` ``NW``; J_p, the world Jacobian of a point, has
-    v_p = v_O + ω × p, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω); False (no row) if h(gap) >=
-    ``unreachable``."""
+def _add_row(Jw, sup_a, sup_b, pa, pb, n, gap, margin, trigger, damping, unreachable, G, h, r):
+    """Row r: −nᵀ(J_b − J_a) Δq <= h(gap); False (no row) if h(gap) >= ``unreachable``."""
     hr = damper_h(gap, margin, trigger, damping)
     if not hr < unreachable:
         return False
-    a0 = pa[1] * n[2] - pa[2] * n[1]
-    a1 = pa[2] * n[0] - pa[0] * n[2]
-    a2 = pa[0] * n[1] - pa[1] * n[0]
-    b0 = pb[1] * n[2] - pb[2] * n[1]
-    b1 = pb[2] * n[0] - pb[0] * n[2]
-    b2 = pb[0] * n[1] - pb[1] * n[0]
     row = G[r]
-    for k in range(NW.shape[1]):
-        row[k] = (
-            NW[0, k] + a0 * NW[1, k] + a1 * NW[2, k] + a2 * NW[3, k]
-            - NW[4, k] - b0 * NW[5, k] - b1 * NW[6, k] - b2 * NW[7, k]
-        )  # fmt: skip
+    row[:] = 0.0
+    _point_row(Jw, sup_b, pb, n, -1.0, row)
+    _point_row(Jw, sup_a, pa, n, 1.0, row)
     h[r] = hr
     return True
 
@@ -522,13 +508,11 @@ def plane_rows(
     p2 (the order of :func:`wbc.limits.self_collision.separating_plane_rows`)."""
     r = 0
     corner = np.empty(3)
-    NW = np.empty((count, 8, Jw.shape[1]))  # each pair's terms of its rows
     for i in range(count):
         k = out_k[i]
-        _pair_terms(Jw, support[pair_a[k]], support[pair_b[k]], out_n[i], NW[i])
         ok = _add_row(
-            NW[i], out_p1[i], out_p2[i], out_n[i], out_d[i], margin, trigger, damping,
-            unreachable, G, h, r,
+            Jw, support[pair_a[k]], support[pair_b[k]], out_p1[i], out_p2[i], out_n[i],
+            out_d[i], margin, trigger, damping, unreachable, G, h, r,
         )  # fmt: skip
         if ok:
             row_pair[r], row_gap[r] = i, out_d[i]
@@ -554,8 +538,17 @@ def plane_rows(
                     gap += n[m] * ((corner[m] - p1[m]) if side == 0 else (p2[m] - corner[m]))
                 if not (gap < trigger and dd > 1e-18):
                     continue
-                a, b = (p1, corner) if side == 0 else (corner, p2)
-                if _add_row(NW[i], a, b, n, gap, margin, trigger, damping, unreachable, G, h, r):
+                if side == 0:
+                    ok = _add_row(
+                        Jw, support[pair_a[k]], support[g], p1, corner, n, gap, margin,
+                        trigger, damping, unreachable, G, h, r,
+                    )  # fmt: skip
+                else:
+                    ok = _add_row(
+                        Jw, support[g], support[pair_b[k]], corner, p2, n, gap, margin,
+                        trigger, damping, unreachable, G, h, r,
+                    )  # fmt: skip
+                if ok:
                     row_pair[r], row_gap[r] = i, gap
                     r += 1
     return r
