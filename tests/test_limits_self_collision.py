@@ -425,7 +425,7 @@ def _feet_inside_the_margin(robot) -> np.ndarray:
 @pytest.mark.parametrize("double", [True, False])
 def test_a_hard_pair_held_inside_its_margin_raises_naming_it(robot, double):
     """Both soles in hard contact fix the feet 3.2 mm apart, inside the 5 mm margin: no tick
-    can bring them back, and within RECOVERY_TICKS solves the solve raises InfeasibleError
+    can bring them back, and within RECOVERY_TICKS ticks the solve raises InfeasibleError
     naming the pair (never a silent result); with one sole free the pair moves back out."""
     q = _feet_inside_the_margin(robot)
     kin = Kinematics(robot, q)
@@ -439,7 +439,7 @@ def test_a_hard_pair_held_inside_its_margin_raises_naming_it(robot, double):
     stack.add(PostureTask(robot, q), level=1)
     solver = HierarchicalQP(stack)
     if double:
-        with pytest.raises(InfeasibleError, match=r"l_foot / r_foot .* for more than 25 solves"):
+        with pytest.raises(InfeasibleError, match=r"l_foot / r_foot .* for more than 25 ticks"):
             for _ in range(RECOVERY_TICKS + 1):
                 q = solver.step(q, 0.02)
     else:

@@ -79,7 +79,7 @@ def pair_distances(solver, q: np.ndarray) -> np.ndarray:
 def pinned(exc: InfeasibleError, collision, pairs) -> bool:
     """True if ``exc`` is the self-collision limit's error for pairs held inside its margin
     (issue 29: a hard pair that the contacts keep inside raises, naming it, after
-    RECOVERY_TICKS solves) and names one of ``pairs`` (pair indices)."""
+    RECOVERY_TICKS ticks) and names one of ``pairs`` (pair indices)."""
     message = str(exc)
     return "stayed inside the" in message and any(
         f"{a} / {b}" in message for k in pairs for a, b in [collision.pair_links[k]]

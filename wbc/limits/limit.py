@@ -97,8 +97,9 @@ class Constraint(ABC):
         return rows, Inequality(rows.G[:0], rows.h[:0])
 
     def solved(self) -> None:
-        """Called by the solvers after each solve with this constraint at a hard level (its
-        rows computed at that solve's configuration): a constraint violated at the start and
+        """Called by the solvers after each control tick (a solve with a time step) with this
+        constraint at a hard level (its rows computed at that tick's configuration): a
+        constraint violated at the start and
         not brought back (a request the hard tasks keep unmet) raises
         :class:`~wbc.exceptions.InfeasibleError` here, naming what (default: nothing)."""
         return None

@@ -41,7 +41,7 @@ tests pull links together at <= 0.1 m/s and stay within 0.5 mm of the margin, th
 the second-order error of a linearised tick; the margin absorbs it).
 
 Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
-margin for more than :data:`RECOVERY_TICKS` solves in a row (the hard tasks hold it there:
+margin for more than :data:`RECOVERY_TICKS` control ticks in a row (the hard tasks hold it:
 both soles pinning crossed legs) raises :class:`~wbc.exceptions.InfeasibleError` naming the
 pair (:meth:`SelfCollisionConstraint.solved`, called by the solvers after each solve).
 """
@@ -70,7 +70,7 @@ UNREACHABLE = 1.0
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
 #: a pair more than RECOVERY_TOL (m: a linearised tick's second order, as the damper's tests
-#: allow) inside its margin must be back in at most RECOVERY_TICKS solves in a row (from 4 mm
+#: allow) inside its margin must be back in at most RECOVERY_TICKS ticks in a row (from 4 mm
 #: inside, the damper's way back leaves 4 mm · 0.6²⁵ ≈ 1e-8 m), else InfeasibleError
 #: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
@@ -683,7 +683,7 @@ class SelfCollisionConstraint(Constraint):
         most = 17 * len(chosen)  # rows per pair at most: the witness and 8 + 8 corners
         self._G, self._h = np.zeros((most, robot.nv)), np.zeros(most)
         self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
-        #: per pair: the solves in a row that found it deep inside the margin
+        #: per pair: the control ticks in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
         self._counting = False  # (any of _inside non-zero)
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
@@ -734,10 +734,10 @@ class SelfCollisionConstraint(Constraint):
         return rows
 
     def solved(self) -> None:
-        """Count, per pair, the solves in a row that found it more than :data:`RECOVERY_TOL`
-        inside the margin (at the last :meth:`compute`); raise :class:`InfeasibleError`
-        naming the pairs past :data:`RECOVERY_TICKS` (they stay counted: every later solve
-        raises too). The solvers call it after each solve with this constraint at a hard
+        """Count, per pair, the control ticks in a row that found it more than
+        :data:`RECOVERY_TOL` inside the margin (at the last :meth:`compute`); raise
+        :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
+        tick raises too). The solvers call it after each tick with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
         w = self.last
         inside = self._inside
@@ -759,7 +759,7 @@ class SelfCollisionConstraint(Constraint):
             )
             raise InfeasibleError(
                 f"{self.name}: the pair(s) {names} stayed inside the {self.margin * 1e3:g} mm "
-                f"margin for more than {RECOVERY_TICKS} solves in a row: the hard tasks hold "
+                f"margin for more than {RECOVERY_TICKS} ticks in a row: the hard tasks hold "
                 "them there (start the robot with its links apart, or exclude the pair)"
             )
 

@@ -281,8 +281,9 @@ class StackSolver(ABC):
             raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
         if not self.relaxed and self._outside_limits(self.kin.q):
             solution = self._on_hard_levels(self.kin, solution)
-        for c in self._hard_constraints():
-            c.solved()  # (a constraint held violated by the hard tasks raises)
+        if dt is not None:  # a control tick (not an iterate of a pose: its guard checks it)
+            for c in self._hard_constraints():
+                c.solved()  # (a constraint held violated by the hard tasks raises)
         self.last = solution
         self.solve_time = time.perf_counter() - start
         return solution
