@@ -2,10 +2,10 @@
 
 Controllers, all through the same control loop and clock (:func:`wbc.walking.loop.run`):
 
-* ours — ``tasks/walk.toml`` as shipped (self-collision rows with the hard level) and the
-  same file without its ``self_collision`` entry, as a 3-level hierarchical QP and as a
-  weighted QP (compiled path by default; a tick whose collision rows are active is handed
-  back to DAQP);
+* ours — ``tasks/walk.toml`` and ``tasks/walk_strict.toml`` as shipped (self-collision rows
+  with the hard level) and the same files without their ``self_collision`` entry, as the
+  hierarchical QP (and the weighted QP with ``--weighted``), on the compiled path (the
+  collision rows in the compiled active set; a tick it cannot finish is handed back to DAQP);
 * placo 0.10.2 — the peer set-up of :mod:`wbc.bench.peers` (walk tasks, joint and velocity
   limits), without collisions, and with ``add_avoid_self_collisions_constraint`` on the same
   URDF with the same geometry pairs (written to a placo ``collisions.json``), the same
@@ -13,10 +13,12 @@ Controllers, all through the same control loop and clock (:func:`wbc.walking.loo
 
 Also printed: the smallest distance between any two of the pairs over the run (our exact
 distances, on every controller's joint trajectory), the ticks handed back to DAQP and the
-exact distance computations per tick. Rounds are interleaved; figures are medians over
-rounds of each controller's per-tick median / p99.
+exact distance computations per tick, and the p99 of the first 5 % of the ticks (the start
+of a walk). Rounds are interleaved; figures are medians over rounds of each controller's
+per-tick median / p99.
 
-Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectory walk10]``.
+Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
+[--stacks walk walk_strict] [--weighted]``.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import argparse
 import json
 import sys
 import tempfile
+import time
 import tomllib
 from pathlib import Path
 
@@ -41,9 +44,9 @@ from wbc.stacks import build_stack
 from wbc.walking.loop import StackController, run
 
 
-def walk_spec(with_limit: bool) -> dict:
-    """tasks/walk.toml, with or without its self_collision entries."""
-    with open(stacks_dir() / "walk.toml", "rb") as f:
+def walk_spec(with_limit: bool, stack: str = "walk") -> dict:
+    """tasks/<stack>.toml, with or without its self_collision entries."""
+    with open(stacks_dir() / f"{stack}.toml", "rb") as f:
         spec = tomllib.load(f)
     if not with_limit:
         for level in spec["levels"]:
@@ -95,12 +98,25 @@ class PlacoSelfCollision(PlacoController):
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--trajectory", default="walk10")
+    parser.add_argument("--trajectories", nargs="+", default=["walk10", "walk10_wb", "turn"])
+    parser.add_argument("--stacks", nargs="+", default=["walk", "walk_strict"])
+    parser.add_argument("--weighted", action="store_true", help="also the weighted QP")
+    parser.add_argument(
+        "--cpu", action="store_true", help="time the ticks in CPU time (a loaded machine)"
+    )
     args = parser.parse_args()
+    if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
+        time.perf_counter = time.process_time
     robot = load_robot()
-    ref = build(args.trajectory, robot)
-    on, off = walk_spec(True), walk_spec(False)
-    entry = walk_limit(on)
+    for trajectory in args.trajectories:
+        table(robot, trajectory, args)
+    return 0
+
+
+def table(robot, trajectory: str, args) -> None:
+    """One trajectory's table: each stack with and without its limit, placo off and on."""
+    ref = build(trajectory, robot)
+    entry = walk_limit(walk_spec(True, args.stacks[0]))
     margin, trigger = entry["margin"], entry["trigger"]
     probe = SelfCollisionConstraint(robot, margin, trigger)
     names = [g.name for g in probe.distances.geometry.geometryObjects]
@@ -115,12 +131,12 @@ def main() -> int:
 
         return make
 
-    makers = {
-        "hierarchical, limit off": ours(off, "hierarchical"),
-        "hierarchical, limit on": ours(on, "hierarchical"),
-        "weighted, limit off": ours(off, "weighted"),
-        "weighted, limit on": ours(on, "weighted"),
-    }
+    makers = {}
+    for stack in args.stacks:
+        for kind in ("hierarchical", "weighted") if args.weighted else ("hierarchical",):
+            for on in (False, True):
+                label = f"{stack} ({kind}), limit {'on' if on else 'off'}"
+                makers[label] = ours(walk_spec(on, stack), kind)
     if available()["placo"]:
         makers["placo 0.10.2, off"] = PlacoController
         makers["placo 0.10.2, self-collision on"] = lambda: PlacoSelfCollision(
@@ -147,31 +163,38 @@ def main() -> int:
                 exact = sc[0].distances.exact_computations / len(t) if sc else 0.0
             com = np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() * 1e3
             foot = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1).max() * 1e3
+            head = np.percentile(t[: max(1, len(t) // 20)], 99)  # the first 5 % of the ticks
+            support = rec["support"]
+            switch = np.flatnonzero(support[1:] != support[:-1]) + 1  # a support phase's first
+            first = np.median(t[switch]) if switch.size else np.nan
             stats[name].append(
-                (np.median(t), np.percentile(t, 99), com, foot, closest * 1e3, back, exact)
-            )
+                (np.median(t), np.percentile(t, 99), head, first, com, foot, closest * 1e3, back,
+                 exact)
+            )  # fmt: skip
     Path(tmp.name).unlink()
     rows = {k: np.median(np.array(v, dtype=float), axis=0) for k, v in stats.items()}
     print(
-        f"{len(ref)} ticks of {args.trajectory}, {args.rounds} interleaved rounds; "
+        f"\n{len(ref)} ticks of {trajectory}, {args.rounds} interleaved rounds; "
         f"{probe.n_pairs} geometry pairs, margin {margin * 1e3:g} mm, trigger {trigger * 1e3:g} mm"
     )
     print(
-        "| controller | median µs | p99 µs | on / off | median / placo off | CoM err max mm"
-        " | swing err max mm | closest pair mm | handed back | exact distances / tick |"
+        "| controller | median µs | p99 µs | p99 first 5 % µs | support switch µs"
+        " | median / placo off"
+        " | p99 / placo off p99 | median / placo on | CoM err max mm | swing err max mm"
+        " | closest pair mm | handed back | exact distances / tick |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    placo_off = rows.get("placo 0.10.2, off", [np.nan])[0]
-    for name, (med, p99, com, foot, closest, back, exact) in rows.items():
-        pair = name.replace(" on", " off") if name.endswith(" on") else None
-        ratio = f"{med / rows[pair][0]:.2f}" if pair in rows else ""
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    placo_off = rows.get("placo 0.10.2, off", [np.nan] * 2)
+    placo_on = rows.get("placo 0.10.2, self-collision on", [np.nan])[0]
+    for name, (med, p99, head, first, com, foot, closest, back, exact) in rows.items():
         fmt_back = "" if np.isnan(back) else f"{back:.0f} / {len(ref)}"
         fmt_exact = "" if np.isnan(exact) else f"{exact:.1f}"
         print(
-            f"| {name} | {med:.0f} | {p99:.0f} | {ratio} | {med / placo_off:.2f} | {com:.3f} |"
-            f" {foot:.3f} | {closest:.2f} | {fmt_back} | {fmt_exact} |"
+            f"| {name} | {med:.0f} | {p99:.0f} | {head:.0f} | {first:.0f} |"
+            f" {med / placo_off[0]:.2f} |"
+            f" {p99 / placo_off[1]:.2f} | {med / placo_on:.2f} | {com:.3f} | {foot:.3f} |"
+            f" {closest:.2f} | {fmt_back} | {fmt_exact} |"
         )
-    return 0
 
 
 if __name__ == "__main__":

@@ -11,9 +11,11 @@ from hypothesis import strategies as st
 
 from wbc import Kinematics
 from wbc.bench.trajectories import build
-from wbc.exceptions import ConfigurationError, TaskError
+from wbc.exceptions import ConfigurationError, InfeasibleError, TaskError
 from wbc.limits import Inequality, SelfCollisionConstraint
 from wbc.limits.self_collision import (
+    RECOVERY_TICKS,
+    RECOVERY_TOL,
     PairDistances,
     damper_bound,
     distance_jacobian,
@@ -22,7 +24,7 @@ from wbc.limits.self_collision import (
 )
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
 from wbc.stacks import build_stack, load_stack
-from wbc.tasks import ComTask, ContactTask, FramePositionTask, PostureTask
+from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePositionTask, PostureTask
 from wbc.walking.loop import StackController, run
 
 MARGIN, TRIGGER, DAMPING = 0.005, 0.02, 0.4
@@ -147,7 +149,10 @@ def test_damper_bound_is_continuous_monotone_and_keeps_the_margin(d, eps):
 # ---------------------------------------------------------------------- in the solvers
 SCENARIOS = {  # the moving frame, pulled towards the other link's origin
     "arm_into_torso": ("l_hand", "torso"),
-    "thighs_together": ("r_thigh", "l_thigh"),
+    # (was r_thigh onto l_thigh's origin: reached by shifting the pelvis, the thigh boxes 37
+    # mm apart; only the hip bracket / thigh pair bound there, adjacent through the
+    # zero-length link of the hip roll and no longer checked)
+    "knees_together": ("r_shin", "l_shin"),
     "foot_into_other_shin": ("r_sole", "l_shin"),
 }
 
@@ -165,7 +170,13 @@ def _pull(robot, limit, scenario, level, weighted, seed, ticks=130):
     stack = TaskStack(robot)
     stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
     if level >= 2:
+        # the CoM held, and the free sole's orientation (as a walk stack's swing-foot task at
+        # the CoM's level): alone, the CoM level swings the free leg at servo speed (0.06
+        # rad per tick) to balance the pull, and a foot turning that fast dips up to 0.3 mm
+        # per tick below its first-order row (the second order of a linearised tick)
         stack.add(ComTask(robot, kin.com.copy()), level=1)
+        sole = stack.add(FrameOrientationTask(robot, "r_sole"), level=1)
+        sole.set_target(kin.rotation(robot.frame_id("r_sole")))
     stack.add_constraint(limit, level=level)
     mover, other = SCENARIOS[scenario]
     task = stack.add(FramePositionTask(robot, mover), level=level + 1)
@@ -400,3 +411,38 @@ def test_recovering_rows_hold_the_pairs_at_the_margin_itself(robot, limit, seed)
     for d in limit.last.distance.tolist():
         if MARGIN <= d <= knee:
             assert np.isclose(h_r, d - MARGIN, rtol=0, atol=1e-12).any()
+
+
+def _feet_inside_the_margin(robot) -> np.ndarray:
+    """The standing pose with the legs rolled inwards, the soles flat: the feet 3.2 mm apart."""
+    q = robot.configuration("stand")
+    for joint, sign in (("hip_roll", -1), ("ankle_roll", 1)):
+        q[7 + robot.joint_names.index(f"l_{joint}")] += sign * 0.07
+        q[7 + robot.joint_names.index(f"r_{joint}")] -= sign * 0.07
+    return q
+
+
+@pytest.mark.parametrize("double", [True, False])
+def test_a_hard_pair_held_inside_its_margin_raises_naming_it(robot, double):
+    """Both soles in hard contact fix the feet 3.2 mm apart, inside the 5 mm margin: no tick
+    can bring them back, and within RECOVERY_TICKS ticks the solve raises InfeasibleError
+    naming the pair (never a silent result); with one sole free the pair moves back out."""
+    q = _feet_inside_the_margin(robot)
+    kin = Kinematics(robot, q)
+    limit = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+    assert limit.min_distance(kin) < MARGIN - RECOVERY_TOL
+    stack = TaskStack(robot)
+    stack.add(ContactTask(robot, "l_sole"), level=0, hard=True).make_contact(kin)
+    if double:
+        stack.add(ContactTask(robot, "r_sole"), level=0, hard=True).make_contact(kin)
+    stack.add_constraint(limit, level=0)
+    stack.add(PostureTask(robot, q), level=1)
+    solver = HierarchicalQP(stack)
+    if double:
+        with pytest.raises(InfeasibleError, match=r"l_foot / r_foot .* for more than 25 ticks"):
+            for _ in range(RECOVERY_TICKS + 1):
+                q = solver.step(q, 0.02)
+    else:
+        for _ in range(RECOVERY_TICKS + 1):
+            q = solver.step(q, 0.02)
+        assert limit.min_distance(Kinematics(robot, q)) > MARGIN - RECOVERY_TOL

@@ -116,7 +116,10 @@ def test_check_a_broken_folder_names_every_problem(bare_urdf, tmp_path, capsys):
     assert "frames ['r_sole'] missing" in out and "r_foot_plate" in out
     assert "pose 'walk_ready' is outside the joint limits at ['l_knee']" in out
     assert re.search(r"^note +.*servos.toml is missing", out, flags=re.M)
-    assert out.rstrip().endswith("5 error(s), 0 warning(s)")
+    # its standing pose (the knee at 3 rad) folds the shin into the thigh: boxes overlap
+    warnings = re.findall(r"^warning +(.*)$", out, flags=re.M)
+    assert warnings and all(re.match(r"self-collision: .* boxes overlap", w) for w in warnings)
+    assert out.rstrip().endswith(f"5 error(s), {len(warnings)} warning(s)")
 
 
 def test_robot_toml_maps_standard_frame_names(bare_urdf, tmp_path):
@@ -168,3 +171,27 @@ def test_check_reports_a_massless_body_and_the_total(bare_urdf, robot):
     assert "body of joint l_elbow: massless" in warning
     assert any(f"total mass {light.total_mass:.4f} kg" in m for m in _levels(findings, "ok"))
     assert light.total_mass == pytest.approx(robot.total_mass - 0.0767, abs=1e-9)
+
+
+def test_check_lists_the_self_collision_pairs_left_out_and_warns_of_overlaps(bare_urdf):
+    """`wbc robot check` says how many pairs the self-collision limit checks, lists the link
+    pairs adjacent through a zero-length link (a Bioloid's shin and foot, through the ankle
+    pitch), and warns about boxes that overlap at the standing pose (here the soles made 4 cm
+    wider, into each other at the zero pose of a bare URDF): left out, not silently pushed
+    apart by hard rows."""
+    findings = check_folder(robots_dir() / "bioloid")
+    checked = re.compile(r"self-collision: \d+ pairs of collision boxes checked")
+    assert any(checked.match(m) for m in _levels(findings, "ok"))
+    shin_foot = "l_shin / l_foot not checked: adjacent through the zero-length link of l_ankle"
+    assert any(shin_foot in m for m in _levels(findings, "note"))
+    assert not [m for m in _levels(findings, "warning") if "self-collision" in m]
+    text = bare_urdf.read_text()
+    sole = '<box size="0.101 0.061 0.009"/>'
+    assert text.count(sole) == 4  # (visual and collision, each foot)
+    bare_urdf.write_text(text.replace(sole, '<box size="0.101 0.101 0.009"/>'))
+    warnings = [m for m in _levels(check_folder(bare_urdf), "warning") if "self-collision" in m]
+    overlap = re.compile(
+        r"self-collision: l_foot / r_foot not checked: boxes overlap by \d+\.\d mm at the "
+        r"standing pose"
+    )
+    assert any(overlap.match(m) for m in warnings), warnings

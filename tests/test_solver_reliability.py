@@ -16,6 +16,7 @@ import pytest
 
 from wbc import ConfigurationError, InfeasibleError, Kinematics, TaskError, WbcError, load_robot
 from wbc.limits import GroundClearanceConstraint
+from wbc.limits.self_collision import RECOVERY_TICKS
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP, make_backend
 from wbc.stacks import load_stack
 from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
@@ -67,6 +68,22 @@ def replay_ticks(robot, stress, trial: int, ticks: int) -> list[np.ndarray]:
     for _ in range(ticks):
         qs.append(solver.step(qs[-1], 0.01))
     return qs
+
+
+def pair_distances(solver, q: np.ndarray) -> np.ndarray:
+    """Every pair's distance at q (the solver's self-collision limit)."""
+    collision = solver.stack.constraint("self_collision")
+    return collision.witness(Kinematics(solver.robot, q), below=np.inf).distance
+
+
+def pinned(exc: InfeasibleError, collision, pairs) -> bool:
+    """True if ``exc`` is the self-collision limit's error for pairs held inside its margin
+    (issue 29: a hard pair that the contacts keep inside raises, naming it, after
+    RECOVERY_TICKS ticks) and names one of ``pairs`` (pair indices)."""
+    message = str(exc)
+    return "stayed inside the" in message and any(
+        f"{a} / {b}" in message for k in pairs for a, b in [collision.pair_links[k]]
+    )
 
 
 def readme_stack(robot, q, solver="hierarchical", backend="daqp", compiled=None, **options):
@@ -335,10 +352,22 @@ def test_restoration_may_take_a_pair_at_its_margin_in_by_the_drift_it_undoes(rob
     second order) and a foot and the other ankle sit 5.001 mm apart, at their margin; with
     the pair held there the way back onto the contacts is a 0.075 rad detour that no tick's
     box allows, and the tick raised "hard level 0 is infeasible". The restoration may now
-    take such a pair inside its margin by the drift it undoes (at most 0.5 mm). No error
-    over 30 ticks; contacts held to a tick's second order; no joint further out; no pair
-    that is at or outside its margin before a tick ends more than 0.5 mm inside it."""
-    qs = replay_ticks(robot, stress, 436, 30)
+    take such a pair inside its margin by the drift it undoes (at most 0.5 mm). Over the
+    ticks: contacts held to a tick's second order; no joint further out; no pair that is at
+    or outside its margin before a tick ends more than 0.5 mm inside it. The start has the
+    feet 2-17 mm into each other, pinned there by both soles: after RECOVERY_TICKS ticks
+    the error naming them (issue 29: never a silent result), not before."""
+    solver, _, q = stress_problem(robot, stress, 436)
+    qs = [q]
+    inside = np.flatnonzero(
+        pair_distances(solver, q) < solver.stack.constraint("self_collision").margin
+    )
+    # a pair the contacts pin inside its margin: the error naming it, after RECOVERY_TICKS
+    with pytest.raises(InfeasibleError) as error:
+        for _ in range(30):
+            qs.append(solver.step(qs[-1], 0.01))
+    assert len(qs) == RECOVERY_TICKS + 1
+    assert pinned(error.value, solver.stack.constraint("self_collision"), inside)
     control = load_stack("walk", robot, qs[0])
     contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
     collision = control.stack.constraint("self_collision")
@@ -466,10 +495,12 @@ def test_start_outside_the_limits_in_double_support_recovers(robot, kind, compil
 def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, kind, seed):
     """The same starts with links inside the self-collision margin too raised "hard level 0
     is infeasible" at tick 0 (the rows asked the pairs inside to separate at once, which the
-    contacts and the joints' way back did not allow). Now: no error; no joint further out;
-    both contacts held to a tick's second order; the pairs that start outside the margin
-    stay there (up to that second order); the joints come back within their limits; once
-    they are, no pair inside gets deeper (it separates, or holds where the soles pin it)."""
+    contacts and the joints' way back did not allow). Now: no joint further out; both
+    contacts held to a tick's second order; the pairs that start outside the margin stay
+    there (up to that second order); the joints come back within their limits; once they
+    are, no pair inside gets deeper (it separates); a pair the soles pin inside raises the
+    error naming it after RECOVERY_TICKS ticks (issue 29: never a silent result), not
+    before."""
     q = start_outside_in_double_support(robot, seed)
     assert not robot.within_limits(q)
     control = load_stack("walk", robot, q, solver=kind, compiled=False)
@@ -484,8 +515,14 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
     inside = [k for k, v in d.items() if v < collision.margin]
     assert inside
     contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
-    for _ in range(40):
-        q_next = control.solver.step(q, 0.01)
+    error = None
+    for tick in range(40):
+        try:
+            q_next = control.solver.step(q, 0.01)
+        except InfeasibleError as exc:  # pairs the contacts pin inside: named, not before
+            assert tick >= RECOVERY_TICKS and pinned(exc, collision, inside), exc
+            error = exc
+            break
         assert_no_joint_further_out(robot, q, q_next)
         for c in contacts:
             assert contact_error(robot, q_next, c) <= 1e-2
@@ -494,12 +531,17 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
         if robot.within_limits(q):
             assert all(d_next[k] >= min(d[k], collision.margin) - 5e-4 for k in inside)
         q, d = q_next, d_next
-    assert robot.within_limits(q)
-    # the converged pose from that start: no error, contacts held to 1e-6 (the final guard),
-    # no joint further out
+    if error is None:
+        assert robot.within_limits(q)
+    # the converged pose from that start: contacts held to 1e-6 (the final guard), no joint
+    # further out; or the same error naming the pinned pairs
     q0 = start_outside_in_double_support(robot, seed)
     control = load_stack("walk", robot, q0, solver=kind)
-    result = control.solver.solve_pose(q0, max_iterations=30)
+    try:
+        result = control.solver.solve_pose(q0, max_iterations=30)
+    except InfeasibleError as exc:
+        assert pinned(exc, collision, inside), exc
+        return
     contacts = [t for t in control.stack.tasks() if isinstance(t, ContactTask) and t.active]
     for c in contacts:
         assert contact_error(robot, result.q, c) <= 1e-6
@@ -509,8 +551,9 @@ def test_start_outside_the_limits_and_inside_a_collision_margin_recovers(robot, 
 @pytest.mark.parametrize("kind", SOLVERS)
 def test_start_with_the_legs_crossed_recovers_as_far_as_the_held_pairs_allow(robot, kind):
     """Seed 3: six leg joints 2.9° outside, the legs crossed through each other (boxes 8.5 mm
-    into each other). No error over 60 ticks, no joint further out; the joints come back as
-    far as the hard contacts and the pairs held at the margin allow: the right knee and
+    into each other), pinned so by both soles: the error naming the crossed pairs after
+    RECOVERY_TICKS ticks (issue 29), not before; until then no joint further out; the joints
+    come back as far as the hard contacts and the pairs held at the margin allow: the right knee and
     ankle pitch stop 0.5° and 1° outside, where any motion with both soles fixed that brings
     one in takes the other further out or the right thigh into the left ankle's margin
     (benchmarks/stress.md). Holding every pair at the margin itself (not at the damper's
@@ -524,8 +567,14 @@ def test_start_with_the_legs_crossed_recovers_as_far_as_the_held_pairs_allow(rob
         return np.maximum(robot.q_min - j, 0.0) + np.maximum(j - robot.q_max, 0.0)
 
     start = outside(q).sum()
-    for _ in range(60):
-        q_next = control.solver.step(q, 0.01)
+    collision = control.stack.constraint("self_collision")
+    crossed = np.flatnonzero(pair_distances(control.solver, q) < collision.margin)
+    for tick in range(60):
+        try:
+            q_next = control.solver.step(q, 0.01)
+        except InfeasibleError as exc:  # the crossed legs, pinned by the soles: named
+            assert tick >= RECOVERY_TICKS and pinned(exc, collision, crossed), exc
+            break
         assert (outside(q_next) <= outside(q) + 1e-12).all()
         for c in contacts:
             assert contact_error(robot, q_next, c) <= 1e-2

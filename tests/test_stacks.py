@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from wbc import Kinematics, TaskError
+from wbc.paths import stacks_dir
 from wbc.solvers import HierarchicalQP, WeightedQP
 from wbc.stacks import available_stacks, build_stack, load_stack
 from wbc.tasks import ContactTask, FramePoseTask
@@ -195,21 +196,28 @@ def test_walk_stack_holds_torso_and_arms_when_the_reference_outruns_the_servos(r
     assert np.linalg.norm(rec["com"] - rec["com_ref"], axis=1).max() < 1e-3
 
 
-def test_walk_stack_gives_the_bioloid_ankle_pair_its_own_margin(robot):
-    """A shin and its own foot keep 1 mm (their boxes are 7.4 mm apart at Walk Ready), every
-    other pair 5 mm; a robot without those links (Kokone) loads the same file with the
-    ordinary rows only (``optional = true``)."""
+def test_walk_stacks_name_no_link_and_leave_the_bioloid_shin_foot_pair_out(robot):
+    """The walk stacks' self-collision entry names no link (issue 29): one entry, 5 mm for
+    every pair the robot's choice keeps; a Bioloid shin and its own foot (adjacent through
+    the zero-length link of the ankle pitch, 7.4 mm apart at Walk Ready) are left out by that
+    choice, not by the file; Kokone loads the same file."""
     from wbc.model import load_robot
 
-    stack = load_stack("walk", robot).stack
-    main, ankle = stack.constraint("self_collision"), stack.constraint("ankle_collision")
-    assert (main.margin, ankle.margin) == (0.005, 0.001)
-    shin_foot = {frozenset(p) for p in (("l_shin", "l_foot"), ("r_shin", "r_foot"))}
-    assert {frozenset(p) for p in ankle.pair_links} == shin_foot
-    assert not shin_foot & {frozenset(p) for p in main.pair_links}
+    for name in ("walk", "walk_strict"):
+        text = (stacks_dir() / f"{name}.toml").read_text()
+        links = set(robot.link_names()) - {"torso", "l_sole", "r_sole"}  # (standard frames)
+        assert not any(f'"{link}"' in text for link in links), name
+        stack = load_stack(name, robot).stack
+        names = [c.name for lv in stack.levels for c in lv.constraints]
+        assert names.count("self_collision") == 1 and "ankle_collision" not in names
+        main = stack.constraint("self_collision")
+        assert main.margin == 0.005
+        shin_foot = {frozenset(p) for p in (("l_shin", "l_foot"), ("r_shin", "r_foot"))}
+        assert not shin_foot & {frozenset(p) for p in main.pair_links}
+        left = {frozenset(p[:2]) for p in main.choice.excluded_links(("adjacent through",))}
+        assert shin_foot <= left
     kokone = load_stack("walk", load_robot("kokone")).stack
-    names = [c.name for lv in kokone.levels for c in lv.constraints]
-    assert "ankle_collision" not in names and "self_collision" in names
+    assert kokone.constraint("self_collision").n_pairs > 0
 
 
 def test_optional_self_collision_entries_are_checked(robot):

@@ -65,12 +65,15 @@ def test_trials_that_reported_feasible_problems_as_failures(robot, stress, trial
     support): quadprog called an iterate infeasible, DAQP's re-check cycled (exit flag -2)
     and that SolverError ended the pose. 455, 705 (hierarchical, double support): DAQP
     cycled in the hierarchy's cascade at an iterate (a SolverError, no verdict), and the
-    iterate never got the recovery's re-solve, which meets it."""
+    iterate never got the recovery's re-solve, which meets it. 705's start has a foot 3.6 mm
+    inside the other ankle's margin, where both soles pin it: its ticks now end with the
+    error naming that pair (issue 29: never a silent result); its converged pose does not."""
     tally = stress.Tally()
     p = stress.draw(robot, np.random.default_rng([2024, trial]), backends)
     stress.run_trial(robot, p, tally, ticks=50, iterations=50)
-    assert not tally.typed, dict(tally.typed)
-    assert tally.ok()
+    pinned = [k for k in tally.typed if k.startswith("ticks: InfeasibleError: self_collision")]
+    assert len(pinned) == (trial == 705) == len(tally.typed), dict(tally.typed)
+    assert pinned or tally.ok()
 
 
 @pytest.mark.parametrize(

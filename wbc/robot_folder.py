@@ -210,7 +210,19 @@ def check_folder(path: str | Path) -> list[Finding]:
     findings += _check_poses(robot)
     findings += _check_stack(robot, folder)
     findings += _check_sim(robot)
+    findings += _check_self_collision(robot)
     return findings
+
+
+def _check_self_collision(robot: Robot) -> list[Finding]:
+    """The pairs the self-collision limit checks, those it leaves out and why, boxes that
+    overlap at the standing pose (:func:`wbc.limits.self_collision.pair_report`)."""
+    from .limits.self_collision import pair_report
+
+    try:
+        return [Finding(level, message) for level, message in pair_report(robot)]
+    except WbcError as exc:  # e.g. a URDF without collision geometry
+        return [Finding("note", f"self-collision: {exc}")]
 
 
 def _check_limits(robot: Robot) -> list[Finding]:

@@ -96,6 +96,14 @@ class Constraint(ABC):
         rows = self.compute(kin)
         return rows, Inequality(rows.G[:0], rows.h[:0])
 
+    def solved(self) -> None:
+        """Called by the solvers after each control tick (a solve with a time step) with this
+        constraint at a hard level (its rows computed at that tick's configuration): a
+        constraint violated at the start and
+        not brought back (a request the hard tasks keep unmet) raises
+        :class:`~wbc.exceptions.InfeasibleError` here, naming what (default: nothing)."""
+        return None
+
     def violation(self, kin: Kinematics, dq: np.ndarray) -> np.ndarray:
         """max(0, G Δq − h) per row (for diagnostics and tests)."""
         G, h = self.compute(kin)

@@ -2,7 +2,7 @@
 
 The collision math is kept apart from the :class:`Constraint` glue at the bottom:
 
-* :func:`candidate_pairs` / :func:`select_pairs` — which geometry pairs can meet: not on the
+* :func:`candidate_pairs` / :func:`choose_pairs` — which geometry pairs can meet: not on the
   same joint, not on adjacent joints, and closer than a threshold in at least one of
   ``samples`` random configurations within the joint limits (computed once, seeded);
 * :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (from p1
@@ -12,7 +12,7 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
   J_p = J_v − [p]× J_ω from pinocchio's world-frame joint Jacobians;
 * :func:`separating_plane_rows` — the witness pair plus the box corners near the separating
   plane (parallel faces: the witness flips between corners from one tick to the next);
-* :func:`damper_rows` — the rows −J_d Δq <= h(d): the velocity damper
+* :func:`damper_bound` — h(d) of the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
   margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
 
@@ -39,6 +39,11 @@ defaults). The servos' speed limit does not exclude that (one tick of hip roll a
 moves a foot ~12 mm): targets must move at a bounded speed, as walking references do (the
 tests pull links together at <= 0.1 m/s and stay within 0.5 mm of the margin, the rest being
 the second-order error of a linearised tick; the margin absorbs it).
+
+Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
+margin for more than :data:`RECOVERY_TICKS` control ticks in a row (the hard tasks hold it:
+both soles pinning crossed legs) raises :class:`~wbc.exceptions.InfeasibleError` naming the
+pair (:meth:`SelfCollisionConstraint.solved`, called by the solvers after each solve).
 """
 
 from __future__ import annotations
@@ -49,8 +54,9 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import ConfigurationError
+from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
+from .collision_kernels import close_pairs, collision_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -63,6 +69,12 @@ DEFAULT_DAMPING = 0.4
 UNREACHABLE = 1.0
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
+#: a pair more than RECOVERY_TOL (m: a linearised tick's second order, as the damper's tests
+#: allow) inside its margin must be back in at most RECOVERY_TICKS ticks in a row (from 4 mm
+#: inside, the damper's way back leaves 4 mm · 0.6²⁵ ≈ 1e-8 m), else InfeasibleError
+#: naming it (the hard tasks hold it inside: a hard level that cannot be met)
+RECOVERY_TICKS = 25
+RECOVERY_TOL = 5e-4
 
 
 class CollisionModel(NamedTuple):
@@ -100,37 +112,82 @@ def _link_pairs(pairs: Iterable[Sequence[str]], links: set[str], what: str) -> s
     return out
 
 
+#: a joint offset shorter than this (m) makes its parent's link zero-length
+ZERO_LENGTH = 1e-6
+
+
+def adjacency(model: pin.Model, a: int, b: int) -> str | None:
+    """Why two bodies (joints a, b) are left out by their kinematics alone, or None: the same
+    body (rigidly attached), parent and child, or parent and child through links of zero
+    length (a joint offset below :data:`ZERO_LENGTH`: a hip or an ankle whose two or three
+    axes cross — the bodies touch at the joint whatever the angles)."""
+    if a == b:
+        return "on one body"
+    parents = model.parents
+    if parents[a] == b or parents[b] == a:
+        return "adjacent joints"
+    for top, low in ((a, b), (b, a)):
+        x, through = low, []
+        while parents[x] > 0 and parents[x] != top:
+            if np.linalg.norm(model.jointPlacements[x].translation) > ZERO_LENGTH:
+                break
+            x = parents[x]
+            through.append(model.names[x])
+        else:
+            if parents[x] == top and through:
+                return f"adjacent through the zero-length link of {', '.join(through)}"
+    return None
+
+
 def candidate_pairs(
     robot: Robot,
     cm: CollisionModel,
     include: Iterable[Sequence[str]] = (),
     exclude: Iterable[Sequence[str]] = (),
 ) -> list[tuple[int, int]]:
-    """Geometry pairs (i < j) that are not rigidly attached (same joint), not on adjacent
-    joints (parent/child) and whose links are not in ``exclude``; ``include`` forces link
-    pairs in (even adjacent ones)."""
+    """Geometry pairs (i < j) that :func:`adjacency` keeps and whose links are not in
+    ``exclude``; ``include`` forces link pairs in (any but two geometries of one body)."""
+    return _candidates(robot, cm, include, exclude)[0]
+
+
+def _candidates(
+    robot: Robot,
+    cm: CollisionModel,
+    include: Iterable[Sequence[str]] = (),
+    exclude: Iterable[Sequence[str]] = (),
+) -> tuple[list[tuple[int, int]], list[tuple[int, int, str]]]:
+    """(candidate pairs, pairs left out with the reason)."""
     links = set(cm.links)
     inc = _link_pairs(include, links, "include")
     exc = _link_pairs(exclude, links, "exclude")
-    parents = robot.model.parents
-    out = []
+    out, left = [], []
     n = len(cm.links)
     for i in range(n):
         for j in range(i + 1, n):
             key = frozenset((cm.links[i], cm.links[j]))
             a, b = int(cm.joints[i]), int(cm.joints[j])
+            why = adjacency(robot.model, a, b)
             if key in inc and a != b:
                 out.append((i, j))
-            elif a != b and parents[a] != b and parents[b] != a and key not in exc:
+            elif why is not None:
+                left.append((i, j, why))
+            elif key in exc:
+                left.append((i, j, "excluded by the stack"))
+            else:
                 out.append((i, j))
-    return out
+    return out, left
 
 
 def sampled_min_distances(
-    robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]], samples: int, seed: int
+    robot: Robot,
+    cm: CollisionModel,
+    pairs: Sequence[tuple[int, int]],
+    samples: int,
+    seed: int,
+    poses: Sequence[np.ndarray] | None = None,
 ) -> np.ndarray:
     """Smallest signed distance of each pair over ``samples`` configurations drawn uniformly
-    within the joint limits (plus q = 0 and the robot's named poses)."""
+    within the joint limits and ``poses`` (default: q = 0 and the robot's named poses)."""
     geometry = cm.geometry.copy()
     geometry.removeAllCollisionPairs()
     for i, j in pairs:
@@ -138,9 +195,10 @@ def sampled_min_distances(
     gdata = pin.GeometryData(geometry)
     data = robot.model.createData()
     rng = np.random.default_rng(seed)
-    poses = [robot.neutral()]
-    if robot.servo_map is not None:
-        poses += [robot.configuration(name) for name in sorted(robot.servo_map.poses)]
+    if poses is None:
+        poses = [robot.neutral()]
+        if robot.servo_map is not None:
+            poses += [robot.configuration(name) for name in sorted(robot.servo_map.poses)]
     best = np.full(len(pairs), np.inf)
     for k in range(samples + len(poses)):
         q = poses[k] if k < len(poses) else robot.random_configuration(rng)
@@ -150,31 +208,101 @@ def sampled_min_distances(
     return best
 
 
-def select_pairs(
+class PairChoice(NamedTuple):
+    """Which geometry pairs a robot's self-collision limit checks, and why the others are
+    left out (:func:`choose_pairs`)."""
+
+    included: list[tuple[int, int]]
+    excluded: list[tuple[int, int, str]]  # (geometry, geometry, reason)
+    links: tuple[str, ...]  # link of each geometry
+    names: tuple[str, ...]  # name of each geometry
+
+    def excluded_links(self, kinds: tuple[str, ...] = ()) -> list[tuple[str, str, str]]:
+        """(link, link, reason) of each link pair with a pair left out (its first reason),
+        only those whose reason contains one of ``kinds`` if given."""
+        out: dict[frozenset, tuple[str, str, str]] = {}
+        for i, j, why in self.excluded:
+            if kinds and not any(k in why for k in kinds):
+                continue
+            key = frozenset((self.links[i], self.links[j]))
+            out.setdefault(key, (self.links[i], self.links[j], why))
+        return list(out.values())
+
+
+#: the reasons of :func:`choose_pairs` that ``wbc robot check`` lists
+LISTED_REASONS = ("adjacent through", "boxes overlap", "within the margin")
+
+
+def choose_pairs(
     robot: Robot,
-    cm: CollisionModel,
-    threshold: float,
+    margin: float = DEFAULT_MARGIN,
+    trigger: float = DEFAULT_TRIGGER,
     include: Iterable[Sequence[str]] = (),
     exclude: Iterable[Sequence[str]] = (),
     samples: int = DEFAULT_SAMPLES,
     seed: int = 0,
-) -> list[tuple[int, int]]:
-    """The candidate pairs that come closer than ``threshold`` in some sampled configuration
-    (pairs named in ``include`` always). Sampling is a heuristic: a pair that meets only in
-    a tiny corner of the joint space can be missed — name it in ``include``."""
+) -> PairChoice:
+    """The geometry pairs of ``robot`` that its self-collision limit checks: every pair but
+
+    * two geometries of one body, or of a parent and a child joint, also through links of
+      zero length (:func:`adjacency`: the bodies meet at the joint by construction);
+    * pairs closer than ``margin`` at the robot's standing pose (``robot.configuration
+      ("stand")``): boxes drawn touching or overlapping there, which hard rows would have
+      to push apart before the robot could stand;
+    * pairs never closer than ``trigger`` in ``samples`` random configurations within the
+      joint limits (seeded; plus q = 0 and the named poses: a heuristic, a pair that meets
+      only in a tiny corner of the joint space can be missed — name it in ``include``);
+    * link pairs in ``exclude``;
+
+    ``include`` forces link pairs in. Each pair left out comes with its reason."""
     if samples < 0:
         raise ConfigurationError(f"self_collision samples must be >= 0, got {samples}")
+    cm = _cached_collision_model(robot)
     include = [tuple(p) for p in include]
-    pairs = candidate_pairs(robot, cm, include, exclude)
-    if samples == 0 or not pairs:
-        return pairs
+    pairs, left = _candidates(robot, cm, include, exclude)
     forced = _link_pairs(include, set(cm.links), "include")
-    best = sampled_min_distances(robot, cm, pairs, samples, seed)
-    return [
-        p
-        for p, d in zip(pairs, best, strict=True)
-        if d < threshold or frozenset((cm.links[p[0]], cm.links[p[1]])) in forced
+    names = tuple(g.name for g in cm.geometry.geometryObjects)
+    if pairs:
+        stand = robot.configuration("stand")
+        standing = sampled_min_distances(robot, cm, pairs, 0, seed, poses=[stand])
+        best = sampled_min_distances(robot, cm, pairs, samples, seed) if samples else None
+        kept = []
+        for k, p in enumerate(pairs):
+            d = standing[k]
+            if frozenset((cm.links[p[0]], cm.links[p[1]])) in forced:
+                kept.append(p)
+            elif d < 0:
+                why = f"boxes overlap by {-d * 1e3:.1f} mm at the standing pose"
+                left.append((*p, why))
+            elif d < margin:
+                why = f"{d * 1e3:.1f} mm apart at the standing pose: within the margin"
+                left.append((*p, f"{why} ({margin * 1e3:g} mm)"))
+            elif best is not None and best[k] >= trigger:
+                why = f"never closer than {trigger * 1e3:g} mm in {samples} sampled poses"
+                left.append((*p, why))
+            else:
+                kept.append(p)
+        pairs = kept
+    return PairChoice(pairs, left, cm.links, names)
+
+
+def pair_report(robot: Robot, margin: float = DEFAULT_MARGIN) -> list[tuple[str, str]]:
+    """``wbc robot check``'s lines about self-collision, as (level, message): how many pairs
+    the default limit checks, each link pair left out because it is adjacent through a
+    zero-length link or within the margin at the standing pose (note), and a warning for
+    each pair of boxes that overlap at the standing pose."""
+    choice = choose_pairs(robot, margin)
+    out = [
+        (
+            "ok",
+            f"self-collision: {len(choice.included)} pairs of collision boxes checked "
+            f"(margin {margin * 1e3:g} mm), {len(choice.excluded)} left out",
+        )
     ]
+    for a, b, why in choice.excluded_links(LISTED_REASONS):
+        level = "warning" if "overlap" in why else "note"
+        out.append((level, f"self-collision: {a} / {b} not checked: {why}"))
+    return out
 
 
 def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
@@ -188,6 +316,20 @@ def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
     )
     M = geom.placement
     return corners @ M.rotation.T + M.translation
+
+
+def _box_in_frame(model: pin.Model, geom: pin.GeometryObject):
+    """(R, p, half sides) of a geometry's box — or, for any other shape, its local bounding
+    box — in its parent frame."""
+    g = geom.geometry
+    if type(g).__name__ == "Box":  # (hpp-fcl or coal)
+        centre, half = np.zeros(3), np.asarray(g.halfSide, dtype=float)
+    else:
+        g.computeLocalAABB()
+        lo, hi = np.asarray(g.aabb_local.min_), np.asarray(g.aabb_local.max_)
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+    M = model.frames[geom.parentFrame].placement.inverse() * geom.placement
+    return M.rotation.copy(), M.rotation @ centre + M.translation, half
 
 
 def lipschitz_bounds(
@@ -247,22 +389,19 @@ class Witness(NamedTuple):
 class PairDistances:
     """Distances of a fixed pair list at a configuration, with a conservative cache.
 
-    Each pair keeps a lower bound on its distance: exact when last computed, then lowered
-    by Σ_i L_ki |Δq_i| for every joint motion since (valid along any sequence of
-    configurations, by the triangle inequality). The exact distance (GJK/EPA, ~1 µs per box
-    pair plus the Python call) is computed only for pairs whose bound is below the query
-    distance; far pairs cost a matrix-vector product per call.
+    One compiled call per query (:func:`wbc.limits.collision_kernels.close_pairs`): each pair
+    keeps a lower bound on its distance, lowered by Σ_i L_ki |Δq_i| for every joint motion
+    since it was last computed (valid along any sequence of configurations, by the triangle
+    inequality); a pair whose bound is below the query gets its boxes' bounding-sphere bound,
+    then their separating-axis bound, and only if both are below the query its exact distance
+    (GJK on the two boxes, :func:`~wbc.limits.collision_kernels.box_distance`). A geometry
+    that is not a box is replaced by its bounding box (a conservative hull).
     """
 
     def __init__(self, robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]):
         self.robot = robot
         self.pairs = list(pairs)
-        self.geometry = cm.geometry.copy()
-        self.geometry.removeAllCollisionPairs()
-        for i, j in self.pairs:
-            self.geometry.addCollisionPair(pin.CollisionPair(i, j))
-        self.gdata = pin.GeometryData(self.geometry)
-        self.results = list(self.gdata.distanceResults)
+        self.geometry = cm.geometry
         self.L = lipschitz_bounds(robot, cm, self.pairs)
         #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
         self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
@@ -271,22 +410,70 @@ class PairDistances:
         self._R = np.zeros((robot.model.njoints, 3, 3))  # joint placements of a call
         self._t = np.zeros((robot.model.njoints, 3))
         K = len(self.pairs)
-        self._bound = np.full(K, -np.inf)  # -inf: never computed
-        self._q = np.zeros(robot.n_joints)
         self.joint_1 = cm.joints[[p[0] for p in self.pairs]] if K else np.zeros(0, int)
         self.joint_2 = cm.joints[[p[1] for p in self.pairs]] if K else np.zeros(0, int)
-        #: exact distance computations so far (benchmarks and tests)
-        self.exact_computations = 0
+        # the boxes in their parent frames, for the kernels
+        model = robot.model
+        boxes = [_box_in_frame(model, g) for g in self.geometry.geometryObjects]
+        self.box_frame = np.array([g.parentFrame for g in self.geometry.geometryObjects], np.int64)
+        self.box_R = np.array([b[0] for b in boxes]).reshape(-1, 3, 3)
+        self.box_p = np.array([b[1] for b in boxes]).reshape(-1, 3)
+        self.half = np.array([b[2] for b in boxes]).reshape(-1, 3)
+        self.radius = np.linalg.norm(self.half, axis=1)
+        #: the velocity coordinates that move each geometry (ngeoms x nv)
+        self.support = np.array(
+            [robot.frame_support(int(f)) for f in self.box_frame], dtype=np.bool_
+        ).reshape(-1, robot.nv)
+        self.pair_a = np.ascontiguousarray(self._pair_geoms[:, 0], dtype=np.int64)
+        self.pair_b = np.ascontiguousarray(self._pair_geoms[:, 1], dtype=np.int64)
+        G = len(self.geometry.geometryObjects)
+        self.Rw, self.cw = np.zeros((G, 3, 3)), np.zeros((G, 3))
+        self._placed = np.zeros(G, dtype=np.bool_)
+        self._bound = np.full(K, -np.inf)  # -inf: never computed
+        self._q = np.zeros(robot.n_joints)
+        #: the close pairs of the last query: pair index, distance, witnesses, normal
+        self.out_k = np.zeros(K, np.int64)
+        self.out_d = np.zeros(K)
+        self.out_p1, self.out_p2, self.out_n = np.zeros((K, 3)), np.zeros((K, 3)), np.zeros((K, 3))
+        self._counts = np.zeros(4, np.int64)
+        self._kin: Kinematics | None = None
+        self._frames: tuple[np.ndarray, np.ndarray] | None = None
 
-    def lower_bounds(self, q: np.ndarray) -> np.ndarray:
-        """Move the bounds to configuration q and return them (a view; exact where the
-        last call computed the pair at this same q)."""
-        joints = q[7:]
-        step = np.abs(joints - self._q)
-        if step.any():
-            self._bound -= self.L @ step
-            self._q[:] = joints
-        return self._bound
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_kin"] = state["_frames"] = None  # (views of one Kinematics: a copy re-binds)
+        return state
+
+    @property
+    def exact_computations(self) -> int:
+        """Exact (GJK) distance computations so far (benchmarks and tests)."""
+        return int(self._counts[0])
+
+    def frames(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        """Every frame's world rotation and position at ``kin`` (views, else copies)."""
+        if kin is not self._kin or self._frames is None:
+            self._kin = kin
+            self._frames = kin.frame_placements()
+        if self._frames is None:  # (copies: made again at every call)
+            n = kin.model.nframes
+            R = np.array([kin.rotation(f) for f in range(n)])
+            p = np.array([kin.translation(f) for f in range(n)])
+            return R, p
+        return self._frames
+
+    def close(self, kin: Kinematics, distance: float) -> int:
+        """The number of pairs closer than ``distance`` at ``kin`` (updated): their indices,
+        distances, witnesses and normals are the first of :attr:`out_k`, :attr:`out_d`..."""
+        if not self.pairs:
+            return 0
+        Rf, pf = self.frames(kin)
+        joints = np.ascontiguousarray(kin.q[7:], dtype=float)
+        return close_pairs(
+            joints, self._q, self._bound, self.L, Rf, pf, self.box_frame, self.box_R,
+            self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
+            self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
+            self.out_n, self._counts,
+        )  # fmt: skip
 
     def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
         """World corners (P x 2 x 8 x 3) of the two boxes of each pair, at ``kin``."""
@@ -294,44 +481,19 @@ class PairDistances:
             return np.zeros((0, 2, 8, 3))
         g = self._pair_geoms[np.asarray(pairs)]  # P x 2 geometry indices
         joints = self._geom_joint[g]  # P x 2
-        oMi = kin.data.oMi
-        R = self._R
-        t = self._t
+        oMi, R, t = kin.data.oMi, self._R, self._t
         for j in np.unique(joints).tolist():
             M = oMi[j]
             R[j] = M.rotation
             t[j] = M.translation
-        world = self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
-        return world
+        return self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
 
     def below(self, kin: Kinematics, distance: float) -> Witness:
         """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
         must be up to date: :meth:`Kinematics.update`)."""
-        bound = self.lower_bounds(kin.q)
-        todo = np.flatnonzero(bound < distance).tolist() if self.pairs else []
-        if todo:
-            pin.updateGeometryPlacements(kin.model, kin.data, self.geometry, self.gdata)
-        idx, dist, p1, p2, nrm, exact = [], [], [], [], [], []
-        geometry, gdata, results = self.geometry, self.gdata, self.results
-        compute = pin.computeDistance
-        for k in todo:
-            compute(geometry, gdata, k)
-            r = results[k]
-            d = r.min_distance
-            exact.append(d)
-            if d < distance:
-                idx.append(k)
-                dist.append(d)
-                p1.append(r.getNearestPoint1())
-                p2.append(r.getNearestPoint2())
-                nrm.append(r.normal)
-        if todo:
-            bound[todo] = exact
-        self.exact_computations += len(todo)
-        if not idx:
-            z = np.zeros((0, 3))
-            return Witness(np.zeros(0, int), np.zeros(0), z, z, z)
-        return Witness(np.array(idx), np.array(dist), np.array(p1), np.array(p2), np.array(nrm))
+        n = self.close(kin, distance)
+        out = (self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n)
+        return Witness(*(a[:n].copy() for a in out))
 
 
 def joint_masks(robot: Robot) -> np.ndarray:
@@ -440,17 +602,6 @@ def inside_margin(rows: Inequality) -> np.ndarray:
     return rows.h < 0.0
 
 
-def damper_rows(
-    distance: np.ndarray, J_d: np.ndarray, margin: float, trigger: float, damping: float
-) -> Inequality:
-    """G Δq <= h: −J_d Δq <= h(d) for the pairs whose bound is below ``UNREACHABLE`` (the
-    +∞-equivalent: just under the trigger, h(d) passes any closure one tick can ask for; a
-    row with h ~ 1e12 m would only cost the solvers, and stalls ProxQP)."""
-    h = damper_bound(distance, margin, trigger, damping)
-    keep = h < UNREACHABLE
-    return Inequality(-J_d[keep], h[keep])
-
-
 def check_parameters(margin: float, trigger: float, damping: float) -> None:
     """One clear line for each bad parameter."""
     for key, value in (("margin", margin), ("trigger", trigger), ("damping", damping)):
@@ -472,7 +623,7 @@ class SelfCollisionConstraint(Constraint):
     than ``trigger``, with the smooth activation of the module docstring.
 
     ``pairs``: explicit link pairs (skips the selection); otherwise the pairs that can meet
-    (:func:`select_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
+    (:func:`choose_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
     ``exclude``. Usable at any level of :class:`~wbc.solvers.TaskStack`; rows below the
     pulling tasks' level are what make it hold (inside one level it trades with the tasks).
     """
@@ -497,6 +648,8 @@ class SelfCollisionConstraint(Constraint):
         self.robot = robot
         self.margin, self.trigger, self.damping = float(margin), float(trigger), float(damping)
         cm = _cached_collision_model(robot)
+        #: the robot's pair choice (None: explicit ``pairs``)
+        self.choice: PairChoice | None = None
         if pairs is not None:
             wanted = _link_pairs(pairs, set(cm.links), "pairs")
             chosen = [
@@ -507,6 +660,7 @@ class SelfCollisionConstraint(Constraint):
         else:
             key = (
                 "pairs",
+                self.margin,
                 self.trigger,
                 tuple(map(tuple, include)),
                 tuple(map(tuple, exclude)),
@@ -515,17 +669,23 @@ class SelfCollisionConstraint(Constraint):
             )
             cache = robot.__dict__.setdefault("_self_collision_pairs", {})
             if key not in cache:
-                cache[key] = select_pairs(robot, cm, self.trigger, include, exclude, samples, seed)
-            chosen = cache[key]
+                cache[key] = choose_pairs(
+                    robot, self.margin, self.trigger, include, exclude, samples, seed
+                )
+            self.choice = cache[key]
+            chosen = self.choice.included
         self.pair_links = [(cm.links[i], cm.links[j]) for i, j in chosen]
         self.pair_geoms = [
             (cm.geometry.geometryObjects[i].name, cm.geometry.geometryObjects[j].name)
             for i, j in chosen
         ]
         self.distances = PairDistances(robot, cm, chosen)
-        masks = joint_masks(robot)
-        self._mask_1 = masks[self.distances.joint_1]
-        self._mask_2 = masks[self.distances.joint_2]
+        most = 17 * len(chosen)  # rows per pair at most: the witness and 8 + 8 corners
+        self._G, self._h = np.zeros((most, robot.nv)), np.zeros(most)
+        self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
+        #: per pair: the control ticks in a row that found it deep inside the margin
+        self._inside = np.zeros(len(chosen), np.int64)
+        self._counting = False  # (any of _inside non-zero)
         self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
@@ -552,23 +712,56 @@ class SelfCollisionConstraint(Constraint):
         tick the compiled path hands back to DAQP)."""
         if self._rows is not None and np.array_equal(kin.q, self._rows_q):
             return self._rows
-        w = self.last = self.witness(kin)
-        if not w.index.size:
-            rows = Inequality(np.zeros((0, self.robot.nv)), np.zeros(0))
-            row_pair, row_gap = np.zeros(0, dtype=int), np.zeros(0)
+        pd = self.distances
+        if pd.pairs:
+            Rf, pf = pd.frames(kin)
+            r = collision_rows(
+                np.ascontiguousarray(kin.q[7:], dtype=float), pd._q, pd._bound, pd.L, Rf, pf,
+                pd.box_frame, pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b,
+                pd.support, kin.data.J, self.margin, self.trigger, self.damping, UNREACHABLE,
+                pd.Rw, pd.cw, pd._placed, pd.out_k, pd.out_d, pd.out_p1, pd.out_p2, pd.out_n,
+                pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
+            )  # fmt: skip
+            n = int(pd._counts[2])
         else:
-            corners = self.distances.vertices(kin, w.index.tolist())
-            pr = separating_plane_rows(w, corners, self.trigger)
-            k = w.index[pr.pair]
-            J_gap = distance_jacobian(
-                kin.data.J, self._mask_1[k], self._mask_2[k], pr.a, pr.b, pr.normal
-            )
-            rows = damper_rows(pr.gap, J_gap, self.margin, self.trigger, self.damping)
-            keep = damper_bound(pr.gap, self.margin, self.trigger, self.damping) < UNREACHABLE
-            row_pair, row_gap = pr.pair[keep], pr.gap[keep]
+            r = n = 0
+        self.last = Witness(pd.out_k[:n], pd.out_d[:n], pd.out_p1[:n], pd.out_p2[:n], pd.out_n[:n])
+        # (copies: the rows outlive the next call, e.g. in a backend's problem)
+        rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
+        row_pair, row_gap = self._pair_buf[:r].copy(), self._gap_buf[:r].copy()
         self._rows, self._rows_q, self._row_pair = rows, kin.q.copy(), row_pair
         self._row_gap = row_gap
         return rows
+
+    def solved(self) -> None:
+        """Count, per pair, the control ticks in a row that found it more than
+        :data:`RECOVERY_TOL` inside the margin (at the last :meth:`compute`); raise
+        :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
+        tick raises too). The solvers call it after each tick with this constraint at a hard
+        level: a pair held inside its margin is a hard level not met."""
+        w = self.last
+        inside = self._inside
+        if not (w.index.size and w.distance.min() < self.margin - RECOVERY_TOL):
+            if self._counting:
+                inside[:] = 0
+                self._counting = False
+            return
+        self._counting = True
+        deep = w.index[w.distance < self.margin - RECOVERY_TOL]
+        kept = inside[deep] + 1
+        inside[:] = 0
+        inside[deep] = kept
+        if kept.max() > RECOVERY_TICKS:
+            names = ", ".join(
+                f"{a} / {b} ({w.distance[w.index == k][0] * 1e3:.2f} mm apart)"
+                for k in deep[kept > RECOVERY_TICKS].tolist()
+                for a, b in [self.pair_links[k]]
+            )
+            raise InfeasibleError(
+                f"{self.name}: the pair(s) {names} stayed inside the {self.margin * 1e3:g} mm "
+                f"margin for more than {RECOVERY_TICKS} ticks in a row: the hard tasks hold "
+                "them there (start the robot with its links apart, or exclude the pair)"
+            )
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or

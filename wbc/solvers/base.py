@@ -243,6 +243,8 @@ class StackSolver(ABC):
         self.diagnosis = ""
         #: the work budget of the running :meth:`solve_pose` (None outside one)
         self._budget: _PoseBudget | None = None
+        self._hard: list[Constraint] = []  # (:meth:`_hard_constraints`, for a revision)
+        self._hard_key: int | None = None
 
     @property
     def name(self) -> str:
@@ -279,6 +281,9 @@ class StackSolver(ABC):
             raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
         if not self.relaxed and self._outside_limits(self.kin.q):
             solution = self._on_hard_levels(self.kin, solution)
+        if dt is not None:  # a control tick (not an iterate of a pose: its guard checks it)
+            for c in self._hard_constraints():
+                c.solved()  # (a constraint held violated by the hard tasks raises)
         self.last = solution
         self.solve_time = time.perf_counter() - start
         return solution
@@ -351,6 +356,19 @@ class StackSolver(ABC):
         self.diagnosis = "; ".join(unmet)
         self.relaxed = bool(unmet)
         return Solution(dq, lower, upper)
+
+    def _hard_constraints(self) -> list[Constraint]:
+        """The active constraints whose rows the solver holds hard: those of the hard levels
+        (every one in the weighted QP); cached per revision of the stack."""
+        if self._hard_key != self.stack.revision:
+            self._hard_key = self.stack.revision
+            self._hard = [
+                c
+                for lv in self.stack.levels
+                if lv.hard or not self.lexicographic
+                for c in lv.active_constraints()
+            ]
+        return self._hard
 
     def _outside_limits(self, q: np.ndarray) -> bool:
         """True if a joint of q (a configuration checked by :meth:`Kinematics.update`) is

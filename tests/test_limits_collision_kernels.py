@@ -1,0 +1,140 @@
+"""The compiled box–box distances and self-collision rows (wbc.limits.collision_kernels)
+against coal (hpp-fcl) and against the numpy forms of the rows."""
+
+from __future__ import annotations
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wbc import Kinematics
+from wbc.limits import SelfCollisionConstraint
+from wbc.limits.collision_kernels import box_distance
+from wbc.limits.self_collision import (
+    UNREACHABLE,
+    _cached_collision_model,
+    damper_bound,
+    distance_jacobian,
+    joint_masks,
+    separating_plane_rows,
+)
+
+#: the distances agree with coal's to this (m), coal's GJK/EPA run to 1e-13
+EXACT = 1e-9
+
+
+def _coal_request() -> coal.DistanceRequest:
+    request = coal.DistanceRequest()
+    request.gjk_tolerance = 1e-13
+    request.epa_tolerance = 1e-13
+    return request
+
+
+def _rotation(rng: np.random.Generator) -> np.ndarray:
+    return pin.Quaternion(*rng.normal(size=4)).normalized().toRotationMatrix()
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), parallel=st.sampled_from(["no", "exact", "nearly"]))
+def test_box_distance_is_coals(seed, parallel):
+    """Signed distance of two random boxes (parallel faces, exactly or to 1e-9 rad, two
+    times in three: the feet side by side) = coal's, separated (GJK) or overlapping (the
+    separating-axis depth against EPA); the witnesses lie on their boxes with
+    nᵀ(p2 − p1) = d, |n| = 1."""
+    rng = np.random.default_rng(seed)
+    h1, h2 = rng.uniform(0.005, 0.05, 3), rng.uniform(0.005, 0.05, 3)
+    R1 = _rotation(rng)
+    R2 = _rotation(rng) if parallel == "no" else R1.copy()
+    if parallel == "nearly":  # (an edge pair's 1 − (u·w)² rounds to 0)
+        R2 = R2 @ pin.exp3(rng.normal(size=3) * 1e-9)
+    c1, c2 = rng.uniform(-0.05, 0.05, 3), rng.uniform(-0.05, 0.05, 3)
+    p1, p2, n = np.zeros(3), np.zeros(3), np.zeros(3)
+    d = box_distance(R1, c1, h1, R2, c2, h2, p1, p2, n)
+    result = coal.DistanceResult()
+    expected = coal.distance(
+        coal.Box(*(2 * h1)),
+        coal.Transform3s(R1, c1),
+        coal.Box(*(2 * h2)),
+        coal.Transform3s(R2, c2),
+        _coal_request(),
+        result,
+    )
+    assert d == pytest.approx(expected, abs=EXACT)
+    assert np.linalg.norm(n) == pytest.approx(1.0, abs=1e-12)
+    assert n @ (p2 - p1) == pytest.approx(d, abs=1e-12)
+    if d > 0:  # the closest points: on the boxes, d apart
+        for p, R, c, h in ((p1, R1, c1, h1), (p2, R2, c2, h2)):
+            assert np.all(np.abs(R.T @ (p - c)) <= h + 1e-12)
+        assert np.linalg.norm(p2 - p1) == pytest.approx(d, abs=1e-12)
+
+
+def test_robot_pair_distances_are_coals(robot):
+    """Every pair of the default limit at random configurations: our distances (the broad
+    phase off: query +inf) = pinocchio's computeDistances through coal, to 1e-9 m."""
+    limit = SelfCollisionConstraint(robot)
+    pd = limit.distances
+    cm = _cached_collision_model(robot)
+    geometry = cm.geometry.copy()
+    geometry.removeAllCollisionPairs()
+    for i, j in pd.pairs:
+        geometry.addCollisionPair(pin.CollisionPair(i, j))
+    gdata = pin.GeometryData(geometry)
+    for request in gdata.distanceRequests:
+        request.gjk_tolerance = request.epa_tolerance = 1e-13
+    rng = np.random.default_rng(7)
+    data = robot.model.createData()
+    for _ in range(20):
+        q = robot.random_configuration(rng)
+        w = pd.below(Kinematics(robot, q), np.inf)
+        pin.computeDistances(robot.model, data, geometry, gdata, q)
+        expected = np.array([r.min_distance for r in gdata.distanceResults])
+        assert np.array_equal(w.index, np.arange(len(pd.pairs)))
+        np.testing.assert_allclose(w.distance, expected, rtol=0, atol=EXACT)
+
+
+def test_broad_phase_skips_far_pairs_and_misses_no_close_one(robot):
+    """Along a random walk of the joints: the pairs below the trigger are those of the exact
+    distances, while most pairs never reach the exact computation."""
+    limit = SelfCollisionConstraint(robot)
+    fresh = SelfCollisionConstraint(robot).distances
+    rng = np.random.default_rng(2)
+    q = robot.configuration("stand")
+    steps = 60
+    for _ in range(steps):
+        q[7:] = np.clip(q[7:] + rng.normal(0, 0.02, robot.n_joints), robot.q_min, robot.q_max)
+        kin = Kinematics(robot, q)
+        close = limit.distances.below(kin, limit.trigger)
+        exact = fresh.below(kin, np.inf)
+        wanted = exact.distance < limit.trigger
+        assert np.array_equal(close.index, exact.index[wanted])
+        np.testing.assert_allclose(close.distance, exact.distance[wanted], atol=1e-12)
+    assert limit.distances.exact_computations < 0.2 * steps * len(limit.distances.pairs)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_rows_are_the_numpy_rows(robot, seed):
+    """The compiled rows (witness and corner rows, Jacobians, damper bounds) equal those of
+    the numpy forms (separating_plane_rows, distance_jacobian, damper_bound) on the same
+    witnesses, at configurations where pairs are within the trigger."""
+    rng = np.random.default_rng(seed)
+    limit = SelfCollisionConstraint(robot)
+    q = robot.configuration("stand")
+    q[7:] = np.clip(q[7:] + rng.normal(0, 0.3, robot.n_joints), robot.q_min, robot.q_max)
+    kin = Kinematics(robot, q)
+    G, h = limit.compute(kin)
+    w = limit.witness(kin)
+    assert w.index.size  # (pairs within the trigger at these seeds)
+    pr = separating_plane_rows(w, limit.distances.vertices(kin, w.index.tolist()), limit.trigger)
+    masks = joint_masks(robot)
+    k = w.index[pr.pair]
+    pd = limit.distances
+    J = distance_jacobian(
+        kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal
+    )
+    hb = damper_bound(pr.gap, limit.margin, limit.trigger, limit.damping)
+    keep = hb < UNREACHABLE
+    np.testing.assert_allclose(G, -J[keep], atol=1e-12)
+    np.testing.assert_allclose(h, hb[keep], atol=1e-12)

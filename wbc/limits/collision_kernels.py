@@ -1,0 +1,574 @@
+"""Box–box distances and the self-collision rows, compiled (numba).
+
+The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
+
+* :func:`close_pairs` — the broad phase and the exact distances. Each pair keeps a lower
+  bound on its distance, lowered at every call by Σ_i L_ki |Δq_i| (the joints' lever arms,
+  :func:`wbc.limits.self_collision.lipschitz_bounds`); a pair whose bound stays above the
+  query costs that product. The others get the bound of their boxes' bounding spheres
+  (|c₁ − c₂| − r₁ − r₂), then the separating-axis bound (the largest gap between the two boxes'
+  projections on their 15 candidate axes: a lower bound on the distance, exact when a face or
+  an edge pair is closest), and only a pair still below the query its exact distance:
+  :func:`box_distance`.
+* :func:`box_distance` / :func:`exact_distance` — the signed distance of two boxes, exact to
+  rounding: the separating-axis gap where the witness points along that axis lie on both
+  boxes (a face and what faces it; the gap is a lower bound, two points that far apart an
+  upper one), else GJK (support mapping, the closest point of each simplex by its
+  sub-simplices' affine minimisers: exact for polytopes); for boxes that overlap, the
+  penetration depth by the separating-axis theorem (exact for boxes: the minimum
+  translation is along one of the 15 axes) with the contact features' points as witnesses
+  (:func:`axis_witness`).
+* :func:`plane_rows` — the velocity-damper rows of the close pairs: the witness pair plus every
+  box corner nearer than the trigger to the separating planes (see
+  :func:`wbc.limits.self_collision.separating_plane_rows`, the numpy form the tests compare),
+  each row −nᵀ(J_b − J_a) Δq <= h(gap), nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω over the point's
+  joint support.
+* :func:`collision_rows` — both in one call (what a tick calls).
+
+Checked against coal (hpp-fcl) on random boxes and configurations:
+``tests/test_limits_collision_kernels.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: GJK stops when its upper and lower bounds on the distance are this close (m)
+GJK_TOL = 1e-12
+#: GJK iterations at most (two boxes converge in a handful)
+GJK_ITERATIONS = 64
+#: below this |v| (m) GJK reports contact: the separating-axis depth takes over
+CONTACT = 1e-10
+#: edge pairs whose |u × w| is below this have no separating axis of their own (nearly
+#: parallel: the face axes cover them; a lower bound either way, exact where its witnesses
+#: check out, and GJK otherwise)
+EDGE_PARALLEL = 1e-6
+
+
+@njit(cache=True)
+def place_box(g, Rf, pf, box_frame, box_R, box_p, Rw, cw) -> None:
+    """World axes (Rw[g]: columns) and centre cw[g] of box g, from its parent frame's world
+    placement (Rf, pf: every frame's) and its placement in that frame."""
+    f = box_frame[g]
+    for i in range(3):
+        s = pf[f, i]
+        for j in range(3):
+            s += Rf[f, i, j] * box_p[g, j]
+            acc = 0.0
+            for m in range(3):
+                acc += Rf[f, i, m] * box_R[g, m, j]
+            Rw[g, i, j] = acc
+        cw[g, i] = s
+
+
+@njit(cache=True)
+def _support(R, c, h, d0, d1, d2, out) -> None:
+    """out = the corner of the box (axes R's columns, centre c, half sides h) farthest along d."""
+    out[0], out[1], out[2] = c[0], c[1], c[2]
+    for i in range(3):
+        s = R[0, i] * d0 + R[1, i] * d1 + R[2, i] * d2
+        k = h[i] if s >= 0.0 else -h[i]
+        out[0] += k * R[0, i]
+        out[1] += k * R[1, i]
+        out[2] += k * R[2, i]
+
+
+@njit(cache=True)
+def _closest_on_simplex(W, n, lam, best_set, M, r, mu, idx) -> float:
+    """The point of the convex hull of W[:n] (n <= 4) closest to the origin, where W[:n-1]
+    held the closest point of their own hull: the smallest of the affine minimisers of the
+    sub-simplices with the newest point W[n-1] that lie inside them (all barycentric
+    coordinates > 0; that point alone always does). Writes the coordinates (``lam``, 0 outside the
+    chosen subset) and the subset's bit mask (``best_set[0]``); returns |v|². ``M`` (3 x 3),
+    ``r``, ``mu`` (3) and ``idx`` (4 ints): scratch."""
+    best = np.inf
+    newest = 1 << (n - 1)
+    for mask in range(1, 1 << n):
+        if not mask & newest:  # (the last simplex's closest point was the best without it)
+            continue
+        k = 0
+        for i in range(n):
+            if mask & (1 << i):
+                idx[k] = i
+                k += 1
+        y0 = idx[0]
+        if k == 1:
+            vv = W[y0, 0] ** 2 + W[y0, 1] ** 2 + W[y0, 2] ** 2
+            if vv < best:
+                best = vv
+                lam[:] = 0.0
+                lam[y0] = 1.0
+                best_set[0] = mask
+            continue
+        m = k - 1  # E = [y_i − y0], (EᵀE) μ = −Eᵀ y0
+        scale = 0.0
+        for a in range(m):
+            ia = idx[a + 1]
+            r[a] = 0.0
+            for c in range(3):
+                ea = W[ia, c] - W[y0, c]
+                r[a] -= ea * W[y0, c]
+            for b in range(m):
+                ib = idx[b + 1]
+                acc = 0.0
+                for c in range(3):
+                    acc += (W[ia, c] - W[y0, c]) * (W[ib, c] - W[y0, c])
+                M[a, b] = acc
+            scale = max(scale, M[a, a])
+        if not _solve_small(M, r, mu, m, scale):
+            continue  # affinely dependent: its faces cover it
+        l0 = 1.0
+        ok = True
+        for a in range(m):
+            l0 -= mu[a]
+            if mu[a] <= 0.0:
+                ok = False
+        if not ok or l0 <= 0.0:
+            continue
+        v0 = v1 = v2 = 0.0
+        for c in range(3):
+            s = l0 * W[y0, c]
+            for a in range(m):
+                s += mu[a] * W[idx[a + 1], c]
+            if c == 0:
+                v0 = s
+            elif c == 1:
+                v1 = s
+            else:
+                v2 = s
+        vv = v0 * v0 + v1 * v1 + v2 * v2
+        if vv < best:
+            best = vv
+            lam[:] = 0.0
+            lam[y0] = l0
+            for a in range(m):
+                lam[idx[a + 1]] = mu[a]
+            best_set[0] = mask
+    return best
+
+
+@njit(cache=True)
+def _solve_small(M, r, x, m, scale) -> bool:
+    """x = M⁻¹ r for an m x m symmetric M (m <= 3), by Cramer's rule; False if M is singular
+    relative to ``scale`` (its largest diagonal entry)."""
+    if m == 1:
+        if M[0, 0] <= 1e-14 * scale or M[0, 0] == 0.0:
+            return False
+        x[0] = r[0] / M[0, 0]
+        return True
+    if m == 2:
+        det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+        if abs(det) <= 1e-13 * scale * scale or det == 0.0:
+            return False
+        x[0] = (r[0] * M[1, 1] - M[0, 1] * r[1]) / det
+        x[1] = (M[0, 0] * r[1] - r[0] * M[1, 0]) / det
+        return True
+    c00 = M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]
+    c01 = M[1, 2] * M[2, 0] - M[1, 0] * M[2, 2]
+    c02 = M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0]
+    det = M[0, 0] * c00 + M[0, 1] * c01 + M[0, 2] * c02
+    if abs(det) <= 1e-12 * scale * scale * scale or det == 0.0:
+        return False
+    c10 = M[0, 2] * M[2, 1] - M[0, 1] * M[2, 2]
+    c11 = M[0, 0] * M[2, 2] - M[0, 2] * M[2, 0]
+    c12 = M[0, 1] * M[2, 0] - M[0, 0] * M[2, 1]
+    c20 = M[0, 1] * M[1, 2] - M[0, 2] * M[1, 1]
+    c21 = M[0, 2] * M[1, 0] - M[0, 0] * M[1, 2]
+    c22 = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+    x[0] = (c00 * r[0] + c10 * r[1] + c20 * r[2]) / det
+    x[1] = (c01 * r[0] + c11 * r[1] + c21 * r[2]) / det
+    x[2] = (c02 * r[0] + c12 * r[1] + c22 * r[2]) / det
+    return True
+
+
+@njit(cache=True)
+def separating_axis(R1, c1, h1, R2, c2, h2, axis) -> float:
+    """The largest gap between the projections of the two boxes on their 15 candidate axes
+    (face normals of each, cross products of their edges), ``axis[:3]`` its unit axis (from
+    box 1 towards box 2) and ``axis[3]`` its number (0–2: box 1's faces, 3–5: box 2's, then
+    the edge pairs 6 + 3 i + j: box 1's axis i × box 2's axis j). Positive: the boxes are
+    that far apart at least (a lower bound on their distance); negative: they overlap, and
+    −gap is their penetration depth."""
+    best = -np.inf
+    d0, d1, d2 = c2[0] - c1[0], c2[1] - c1[1], c2[2] - c1[2]
+    for k in range(15):
+        if k < 3:
+            a0, a1, a2 = R1[0, k], R1[1, k], R1[2, k]
+        elif k < 6:
+            a0, a1, a2 = R2[0, k - 3], R2[1, k - 3], R2[2, k - 3]
+        else:
+            i, j = (k - 6) // 3, (k - 6) % 3
+            u0, u1, u2 = R1[0, i], R1[1, i], R1[2, i]
+            w0, w1, w2 = R2[0, j], R2[1, j], R2[2, j]
+            a0, a1, a2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+            norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            if norm < EDGE_PARALLEL:  # (nearly) parallel edges: the face axes cover them
+                continue
+            a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
+        dist = a0 * d0 + a1 * d1 + a2 * d2
+        r1 = 0.0
+        r2 = 0.0
+        for m in range(3):
+            r1 += h1[m] * abs(R1[0, m] * a0 + R1[1, m] * a1 + R1[2, m] * a2)
+            r2 += h2[m] * abs(R2[0, m] * a0 + R2[1, m] * a1 + R2[2, m] * a2)
+        gap = abs(dist) - r1 - r2
+        if gap > best:
+            best = gap
+            s = 1.0 if dist >= 0.0 else -1.0
+            axis[0], axis[1], axis[2] = s * a0, s * a1, s * a2
+            axis[3] = k
+    return best
+
+
+@njit(cache=True)
+def box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal) -> float:
+    """Signed distance between two boxes (axes R's columns, centres c, half sides h), the
+    witness points p1 (box 1), p2 (box 2) and the unit normal from box 1 towards box 2:
+    nᵀ(p2 − p1) = d. Separated: GJK (exact to rounding, :data:`GJK_TOL`); in contact or
+    overlapping: minus the separating-axis penetration depth."""
+    return _box_distance(
+        R1, c1, h1, R2, c2, h2, p1, p2, normal, np.empty(SCRATCH), np.zeros(6, np.int64)
+    )
+
+
+#: floats of scratch that :func:`_box_distance` uses
+SCRATCH = 68
+
+
+@njit(cache=True)
+def _box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
+    """:func:`box_distance` with its scratch: ``F`` (:data:`SCRATCH` floats), ``Iw`` (6 ints)."""
+    axis = F[64:68]
+    gap = separating_axis(R1, c1, h1, R2, c2, h2, axis)
+    return exact_distance(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal, F, Iw)
+
+
+@njit(cache=True)
+def exact_distance(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal, F, Iw) -> float:
+    """The signed distance from the separating axis (``axis``, ``gap``: :func:`separating_axis`):
+    overlapping boxes (gap <= 0), minus the depth with :func:`axis_witness`'s points; apart,
+    the gap itself where those points lie on the boxes (the gap is a lower bound on the
+    distance, and two points that far apart an upper one: the feet side by side, an arm
+    along the torso — a face and what faces it), else GJK (``Iw[5]`` += 1)."""
+    axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal)
+    if gap <= 0.0 or (on_box(p1, R1, c1, h1) and on_box(p2, R2, c2, h2)):
+        return gap
+    Iw[5] += 1
+    return _gjk(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw)
+
+
+@njit(cache=True)
+def _gjk(R1, c1, h1, R2, c2, h2, p1, p2, normal, F, Iw) -> float:
+    """GJK on two separated boxes (see :func:`box_distance`); ``F``, ``Iw``: scratch."""
+    W = F[0:12].reshape((4, 3))
+    A = F[12:24].reshape((4, 3))
+    B = F[24:36].reshape((4, 3))
+    lam = F[36:40]
+    a = F[40:43]
+    b = F[43:46]
+    v = F[46:49]
+    M = F[49:58].reshape((3, 3))
+    r = F[58:61]
+    mu = F[61:64]
+    axis = F[64:68]
+    best_set = Iw[0:1]
+    idx = Iw[1:5]
+    # start from the support points along the centres' difference
+    v[0], v[1], v[2] = c1[0] - c2[0], c1[1] - c2[1], c1[2] - c2[2]
+    _support(R1, c1, h1, -v[0], -v[1], -v[2], a)
+    _support(R2, c2, h2, v[0], v[1], v[2], b)
+    for c in range(3):
+        A[0, c], B[0, c] = a[c], b[c]
+        W[0, c] = a[c] - b[c]
+        v[c] = W[0, c]
+    lam[0] = 1.0
+    n = 1
+    vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    contact = False
+    for _ in range(GJK_ITERATIONS):
+        if vv <= CONTACT * CONTACT:
+            contact = True
+            break
+        _support(R1, c1, h1, -v[0], -v[1], -v[2], a)
+        _support(R2, c2, h2, v[0], v[1], v[2], b)
+        w0, w1, w2 = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+        vw = v[0] * w0 + v[1] * w1 + v[2] * w2
+        if vv - vw <= GJK_TOL * math.sqrt(vv):  # |v| − (v·w)/|v| <= tol: converged
+            break
+        duplicate = False
+        for i in range(n):
+            if W[i, 0] == w0 and W[i, 1] == w1 and W[i, 2] == w2:
+                duplicate = True
+        if duplicate or n == 4:
+            break
+        W[n, 0], W[n, 1], W[n, 2] = w0, w1, w2
+        for c in range(3):
+            A[n, c], B[n, c] = a[c], b[c]
+        n += 1
+        new = _closest_on_simplex(W, n, lam, best_set, M, r, mu, idx)
+        if new >= vv:  # no progress (rounding): keep the last simplex
+            n -= 1
+            break
+        # keep the subset that holds the closest point
+        k = 0
+        mask = best_set[0]
+        for i in range(n):
+            if mask & (1 << i):
+                for c in range(3):
+                    W[k, c], A[k, c], B[k, c] = W[i, c], A[i, c], B[i, c]
+                lam[k] = lam[i]
+                k += 1
+        n = k
+        for c in range(3):
+            s = 0.0
+            for i in range(n):
+                s += lam[i] * W[i, c]
+            v[c] = s
+        vv = new
+        if n == 4:  # the origin is inside the tetrahedron
+            contact = True
+            break
+    if not contact:
+        for c in range(3):
+            s1 = 0.0
+            s2 = 0.0
+            for i in range(n):
+                s1 += lam[i] * A[i, c]
+                s2 += lam[i] * B[i, c]
+            p1[c], p2[c] = s1, s2
+        d = math.sqrt(vv)
+        for c in range(3):
+            normal[c] = (p2[c] - p1[c]) / d
+        return d
+    gap = separating_axis(R1, c1, h1, R2, c2, h2, axis)
+    axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal)
+    return gap
+
+
+@njit(cache=True)
+def axis_witness(R1, c1, h1, R2, c2, h2, axis, gap, p1, p2, normal) -> None:
+    """Witness points p1, p2 with p2 − p1 = gap · n along the separating axis (``axis`` and
+    ``gap`` of :func:`separating_axis`; n = axis[:3]): the contact features' points along the
+    axis, so that nᵀ(J_p2 − J_p1) is the gap's derivative (the axis turns with the boxes).
+    Box 1's face: box 2's corner farthest along −n and its projection on that face; box 2's
+    face: the converse; an edge of each: the closest points of the two edges' lines."""
+    normal[0], normal[1], normal[2] = axis[0], axis[1], axis[2]
+    k = int(axis[3])
+    _support(R1, c1, h1, normal[0], normal[1], normal[2], p1)
+    _support(R2, c2, h2, -normal[0], -normal[1], -normal[2], p2)
+    if k < 3:
+        for c in range(3):
+            p1[c] = p2[c] - gap * normal[c]
+    elif k < 6:
+        for c in range(3):
+            p2[c] = p1[c] + gap * normal[c]
+    else:
+        i, j = (k - 6) // 3, (k - 6) % 3
+        u0, u1, u2 = R1[0, i], R1[1, i], R1[2, i]
+        w0, w1, w2 = R2[0, j], R2[1, j], R2[2, j]
+        r0, r1, r2 = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
+        b = u0 * w0 + u1 * w1 + u2 * w2
+        dd = u0 * r0 + u1 * r1 + u2 * r2
+        e = w0 * r0 + w1 * r1 + w2 * r2
+        x0, x1, x2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+        den = x0 * x0 + x1 * x1 + x2 * x2  # = 1 − b², >= EDGE_PARALLEL² (an edge axis)
+        s = (b * e - dd) / den
+        t = (e - b * dd) / den
+        p1[0], p1[1], p1[2] = p1[0] + s * u0, p1[1] + s * u1, p1[2] + s * u2
+        p2[0], p2[1], p2[2] = p2[0] + t * w0, p2[1] + t * w1, p2[2] + t * w2
+
+
+@njit(cache=True)
+def on_box(p, R, c, h) -> bool:
+    """True if the point p lies in the box (to rounding: 1e-12 m)."""
+    for i in range(3):
+        x = R[0, i] * (p[0] - c[0]) + R[1, i] * (p[1] - c[1]) + R[2, i] * (p[2] - c[2])
+        if abs(x) > h[i] + 1e-12:
+            return False
+    return True
+
+
+@njit(cache=True)
+def close_pairs(
+    joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
+    pair_a, pair_b, query, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
+) -> int:  # fmt: skip
+    """The pairs closer than ``query`` (m), with their distances, witness points and normals
+    (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
+    distance at ``last_joints``) is moved to ``joints`` and tightened by what this call learnt;
+    the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
+    counts the exact distances computed, ``counts[1]`` the separating-axis bounds,
+    ``counts[3]`` the exact distances that took GJK."""
+    nj = joints.shape[0]
+    moved = False
+    for i in range(nj):
+        if joints[i] != last_joints[i]:
+            moved = True
+            break
+    K = pair_a.shape[0]
+    if moved:
+        for k in range(K):
+            s = 0.0
+            for i in range(nj):
+                s += L[k, i] * abs(joints[i] - last_joints[i])
+            bound[k] -= s
+        for i in range(nj):
+            last_joints[i] = joints[i]
+    placed[:] = False
+    axis = np.empty(4)
+    F = np.empty(SCRATCH)
+    Iw = np.zeros(6, np.int64)
+    count = 0
+    for k in range(K):
+        if bound[k] >= query:
+            continue
+        ga, gb = pair_a[k], pair_b[k]
+        for g in (ga, gb):
+            if not placed[g]:
+                placed[g] = True
+                place_box(g, Rf, pf, box_frame, box_R, box_p, Rw, cw)
+        dc = 0.0
+        for i in range(3):
+            dc += (cw[ga, i] - cw[gb, i]) ** 2
+        sphere = math.sqrt(dc) - radius[ga] - radius[gb]
+        if sphere >= query:
+            bound[k] = sphere
+            continue
+        counts[1] += 1
+        sat = separating_axis(Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb], axis)
+        if sat >= query:
+            bound[k] = sat
+            continue
+        counts[0] += 1
+        d = exact_distance(
+            Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb], axis, sat,
+            out_p1[count], out_p2[count], out_n[count], F, Iw,
+        )  # fmt: skip
+        bound[k] = d
+        if d < query:
+            out_k[count] = k
+            out_d[count] = d
+            count += 1
+    counts[3] += Iw[5]
+    return count
+
+
+@njit(cache=True)
+def damper_h(d, margin, trigger, damping) -> float:
+    """h(d) of :func:`wbc.limits.self_collision.damper_bound`, for one gap."""
+    if d >= trigger:
+        return np.inf
+    gap = d - margin
+    if gap > 0.0:
+        return damping * gap * (trigger - margin) / (trigger - d)
+    return -min(damping * (-gap), damping * margin)
+
+
+@njit(cache=True)
+def _point_row(Jw, support, p, n, sign, row) -> None:
+    """row += sign · nᵀ J_p for a point p carried by the joints of ``support`` (J_p: the
+    world Jacobian of a point, v_p = v_O + ω × p, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω)."""
+    x0 = p[1] * n[2] - p[2] * n[1]
+    x1 = p[2] * n[0] - p[0] * n[2]
+    x2 = p[0] * n[1] - p[1] * n[0]
+    for k in range(Jw.shape[1]):
+        if support[k]:
+            row[k] += sign * (
+                n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
+                + x0 * Jw[3, k] + x1 * Jw[4, k] + x2 * Jw[5, k]
+            )  # fmt: skip
+
+
+@njit(cache=True)
+def _add_row(Jw, sup_a, sup_b, pa, pb, n, gap, margin, trigger, damping, unreachable, G, h, r):
+    """Row r: −nᵀ(J_b − J_a) Δq <= h(gap); False (no row) if h(gap) >= ``unreachable``."""
+    hr = damper_h(gap, margin, trigger, damping)
+    if not hr < unreachable:
+        return False
+    row = G[r]
+    row[:] = 0.0
+    _point_row(Jw, sup_b, pb, n, -1.0, row)
+    _point_row(Jw, sup_a, pa, n, 1.0, row)
+    h[r] = hr
+    return True
+
+
+@njit(cache=True)
+def plane_rows(
+    count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
+    margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
+) -> int:  # fmt: skip
+    """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
+    row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
+    returns the number of rows. The witness rows first, then the corners of each pair's
+    second box near the plane through p1, then those of its first box near the plane through
+    p2 (the order of :func:`wbc.limits.self_collision.separating_plane_rows`)."""
+    r = 0
+    corner = np.empty(3)
+    for i in range(count):
+        k = out_k[i]
+        ok = _add_row(
+            Jw, support[pair_a[k]], support[pair_b[k]], out_p1[i], out_p2[i], out_n[i],
+            out_d[i], margin, trigger, damping, unreachable, G, h, r,
+        )  # fmt: skip
+        if ok:
+            row_pair[r], row_gap[r] = i, out_d[i]
+            r += 1
+    for side in range(2):  # 0: corners of box 2 vs the plane at p1; 1: box 1 vs p2
+        for i in range(count):
+            k = out_k[i]
+            g = pair_b[k] if side == 0 else pair_a[k]
+            n = out_n[i]
+            p1, p2 = out_p1[i], out_p2[i]
+            R, c, hh = Rw[g], cw[g], half[g]
+            for s in range(8):  # (x, y, z) = (±, ±, ±), z fastest
+                sx = hh[0] if s & 4 else -hh[0]
+                sy = hh[1] if s & 2 else -hh[1]
+                sz = hh[2] if s & 1 else -hh[2]
+                for m in range(3):
+                    corner[m] = c[m] + R[m, 0] * sx + R[m, 1] * sy + R[m, 2] * sz
+                own = p2 if side == 0 else p1
+                dd = 0.0
+                gap = 0.0
+                for m in range(3):
+                    dd += (corner[m] - own[m]) ** 2
+                    gap += n[m] * ((corner[m] - p1[m]) if side == 0 else (p2[m] - corner[m]))
+                if not (gap < trigger and dd > 1e-18):
+                    continue
+                if side == 0:
+                    ok = _add_row(
+                        Jw, support[pair_a[k]], support[g], p1, corner, n, gap, margin,
+                        trigger, damping, unreachable, G, h, r,
+                    )  # fmt: skip
+                else:
+                    ok = _add_row(
+                        Jw, support[g], support[pair_b[k]], corner, p2, n, gap, margin,
+                        trigger, damping, unreachable, G, h, r,
+                    )  # fmt: skip
+                if ok:
+                    row_pair[r], row_gap[r] = i, gap
+                    r += 1
+    return r
+
+
+@njit(cache=True)
+def collision_rows(
+    joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius, pair_a,
+    pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed, out_k, out_d,
+    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap,
+) -> int:  # fmt: skip
+    """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
+    returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
+    :func:`close_pairs`)."""
+    n = close_pairs(
+        joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
+        pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
+    )  # fmt: skip
+    counts[2] = n
+    return plane_rows(
+        n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
+        margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
+    )  # fmt: skip
