@@ -485,3 +485,18 @@ def test_bad_input_is_rejected(robot):
         HierarchicalQP(stack, method="daqp")  # DAQP's native hierarchy was dropped (issue 17)
     with pytest.raises(ConfigurationError, match="on_infeasible"):
         WeightedQP(stack, on_infeasible="ignore")
+
+
+@pytest.mark.parametrize("dt", [None, True, "0.01", 0.0, -0.01, float("nan"), float("inf")])
+def test_a_control_tick_needs_a_time_step_in_seconds(robot, dt):
+    """``step`` without a time step would have no servo speed limit (issue 28): None, a
+    bool, a string and a non-positive or non-finite number are one ConfigurationError line
+    naming ``dt``; ``solve`` takes None (no velocity limits) but nothing else of those."""
+    q = robot.configuration("walk_ready")
+    solver = WeightedQP(walking_stack(robot, q), compiled=False)
+    with pytest.raises(ConfigurationError, match=r"step: dt must be a time step in seconds"):
+        solver.step(q, dt)
+    if dt is not None:
+        with pytest.raises(ConfigurationError, match=r"dt must be a time step in seconds"):
+            solver.solve(q, dt)
+    assert np.isfinite(solver.step(q, np.float64(0.01))).all()

@@ -371,6 +371,30 @@ class Ticks:
         self._ready.add(name)
         return True
 
+    def kernel_ready(self, dispatcher, tick: str) -> bool:
+        """True if ``dispatcher`` (a kernel that the numpy path calls from Python, e.g. the
+        level cascade :func:`wbc.compiled.ticks.cascade_solve`) runs at its next call without
+        compiling here: compiled in this process, or cached on disk and the worker of
+        ``tick``'s part done (it compiles the numpy path's kernels after its tick); also True
+        where the call must compile anyway (inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set, no
+        worker could start). False while the worker builds it (started here if it is not
+        cached): the caller solves another way meanwhile (the backend cascade), on every
+        backend — the first ``HierarchicalQP(..., "osqp")`` tick of a cold cache compiled the
+        cascade in the process for two minutes (issue 28)."""
+        from .__main__ import WORKER_ENV
+
+        if dispatcher.overloads or os.environ.get(WORKER_ENV) or _waits():
+            return True
+        worker = self.builders.get(tick)
+        if worker is None:
+            if _on_disk(dispatcher) or not self.start_build():
+                return True
+            worker = self.builders[tick]
+        if worker.poll() is None:
+            return False
+        self.wait(tick)  # (done; a failure is logged, and the kernel compiles at the call)
+        return True
+
     def wait_all(self) -> None:
         """Wait for every worker (so that nothing compiles beside what comes next)."""
         for name in list(self.builders):

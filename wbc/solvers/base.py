@@ -87,6 +87,12 @@ _INSIDE = "constraints violated at the start (their best way back)"
 #: weight of "no closer than now" against "separate at the damper's rate" in the best
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
+#: the allowed regularization μ (in μ‖Δq‖²): > 0 keeps every QP strictly convex, and beside
+#: task weights of 1e-6 … 1e6 (:data:`wbc.tasks.task.WEIGHT_RANGE`) more than 1e-2 would
+#: rival the tasks it only regularizes (1e30 held a walk's every joint still: issue 28)
+REGULARIZATION_RANGE = (1e-12, 1e-2)
+#: the allowed ``hard_tol`` (m, rad): a hard level's largest residual
+HARD_TOL_RANGE = (1e-12, 1e-2)
 _EMPTY = np.zeros(0)
 _NO_JOINTS = np.zeros(0, dtype=int)
 
@@ -205,6 +211,7 @@ class StackSolver(ABC):
             )
         if compiled not in (None, True, False):
             raise ConfigurationError(f"compiled must be None, True or False, got {compiled!r}")
+        regularization = check_number("regularization", regularization, REGULARIZATION_RANGE)
         self.stack = stack
         self.robot = stack.robot
         self.backend = make_backend(backend) if isinstance(backend, str) else backend
@@ -223,7 +230,9 @@ class StackSolver(ABC):
         self.handed_back_ticks = 0
         #: solves done on the numpy path while the compiled tick was being compiled in the
         #: background (``compiled=None`` only: True waits for it; see
-        #: :meth:`wbc.compiled.dispatch.Ticks.ready`)
+        #: :meth:`wbc.compiled.dispatch.Ticks.ready`), and the hierarchy's numpy-path solves
+        #: by the backend cascade while its level kernel compiles, on any backend
+        #: (:meth:`wbc.compiled.dispatch.Ticks.kernel_ready`)
         self.interim_ticks = 0
         self._layouts: dict = {}
         #: the work arrays that the compiled plans of the layouts share
@@ -261,8 +270,8 @@ class StackSolver(ABC):
 
     def _timed_solve(self, q: np.ndarray, dt: float | None) -> Solution:
         start = time.perf_counter()
-        if dt is not None and not (math.isfinite(dt) and dt > 0):
-            raise ConfigurationError(f"dt must be a positive number, got {dt}")
+        if dt is not None:
+            check_dt(dt)
         self.last = None
         self.kin.update(q)
         try:
@@ -647,14 +656,17 @@ class StackSolver(ABC):
             if plan is not None:
                 plan.forget_warm_start()
 
-    def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
-        """One control tick: q ⊕ Δq with the joints inside their limits.
+    def step(self, q: np.ndarray, dt: float) -> np.ndarray:
+        """One control tick of ``dt`` seconds (a number > 0: the servos' speed limits need it;
+        :meth:`solve` and :meth:`solve_pose` take None for no time step): q ⊕ Δq with the
+        joints inside their limits.
 
         The QP keeps Δq inside its box bounds up to the solver's tolerance (~1e-9); before
         integrating, the joint increments are projected onto that box exactly, and the joints
         onto their limits, so that no returned configuration ever exceeds a limit (a joint that
         started outside is moved back towards its range, never further out).
         """
+        check_dt(dt, "step")
         solution = self._timed_solve(q, dt)
         if solution.q_next is not None:  # integrated by the compiled tick, the same way
             return solution.q_next.copy()
@@ -1153,6 +1165,33 @@ class StackSolver(ABC):
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]
             intersect_bounds(position, others, lower, upper)
+
+
+def check_number(name: str, value: object, allowed: tuple[float, float]) -> float:
+    """``value`` as a float if it is a real number within ``allowed`` (inclusive), else one
+    ConfigurationError line naming ``name`` and the range."""
+    lo, hi = allowed
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not lo <= value <= hi  # (NaN fails this too)
+    ):
+        raise ConfigurationError(f"{name} must be a number in [{lo:g}, {hi:g}], got {value!r}")
+    return float(value)
+
+
+def check_dt(dt: object, caller: str = "solve") -> float:
+    """``dt`` as a float if it is a time step in seconds (a real number, finite, > 0; not a
+    bool), else one ConfigurationError line naming ``caller``'s argument."""
+    if (
+        isinstance(dt, bool)
+        or not isinstance(dt, (int, float, np.integer, np.floating))
+        or not (math.isfinite(dt) and dt > 0)
+    ):
+        raise ConfigurationError(
+            f"{caller}: dt must be a time step in seconds (a finite number > 0), got {dt!r}"
+        )
+    return float(dt)
 
 
 def _no_jacobian(nv: int) -> np.ndarray:
