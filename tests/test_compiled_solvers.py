@@ -49,11 +49,9 @@ def test_compiled_solve_and_step_equal_the_numpy_path(robot, seed, shift, lift, 
     for _ in range(3):
         dq_fast, dq_slow = fast.solve(q, dt), slow.solve(q, dt)
         assert fast.fast is not None
-        # the weighted QP: one strictly convex problem, one answer (DAQP on the numpy path);
-        # the hierarchy: one algorithm on both paths (no inequality rows here), so the same
-        # answer to roundoff
-        tol = 1e-7 if kind == "weighted" else 1e-9
-        assert np.abs(dq_fast - dq_slow).max() < tol, np.abs(dq_fast - dq_slow).max()
+        # one least-squares algorithm on both paths (the weighted QP with DAQP too), so the
+        # same answer to roundoff
+        assert np.abs(dq_fast - dq_slow).max() < 1e-9, np.abs(dq_fast - dq_slow).max()
         errors_fast, errors_slow = fast.stack.errors(), slow.stack.errors()
         for name, e in errors_slow.items():
             assert np.abs(errors_fast[name] - e).max() < 1e-12, name
@@ -61,7 +59,7 @@ def test_compiled_solve_and_step_equal_the_numpy_path(robot, seed, shift, lift, 
             q_fast, q_slow = fast.step(q, dt), slow.step(q, dt)
         else:  # (a control tick needs a time step: the solve's answers integrated)
             q_fast, q_slow = fast.integrate(q, dq_fast), slow.integrate(q, dq_slow)
-        assert np.abs(q_fast - q_slow).max() < (1e-7 if kind == "weighted" else 1e-9)
+        assert np.abs(q_fast - q_slow).max() < 1e-9
         last = fast.last  # the QP's own answer is in its box (step() clips after it)
         assert np.all(last.dq >= last.lower - 1e-9) and np.all(last.dq <= last.upper + 1e-9)
         q = q_slow
@@ -109,7 +107,7 @@ def test_compiled_path_brings_joints_back_inside(robot, seed, outside, kind):
     q, _ = random_start(robot, seed, outside=outside)
     fast, slow = pair(robot, q, kind)
     q_fast, q_slow = fast.step(q, 0.01), slow.step(q, 0.01)
-    assert np.allclose(q_fast, q_slow, atol=1e-7)
+    assert np.allclose(q_fast, q_slow, atol=1e-9)
     before = np.maximum(robot.q_min - q[7:], 0) + np.maximum(q[7:] - robot.q_max, 0)
     after = np.maximum(robot.q_min - q_fast[7:], 0) + np.maximum(q_fast[7:] - robot.q_max, 0)
     assert np.all(after <= np.maximum(before - robot.v_max * 0.01, 0) + 1e-12)
@@ -128,8 +126,8 @@ def test_an_active_inequality_row_is_solved_by_the_kernels(robot, kind):
     dq_fast, dq_slow = fast.solve(q, 0.01), slow.solve(q, 0.01)
     assert fast.handed_back_ticks == 0 and fast.compiled_ticks == 1
     assert fast.fast.inequalities.working.any()  # the row was active
-    # the weighted QP: DAQP on the numpy path; the hierarchy: the same algorithm on both
-    assert np.abs(dq_fast - dq_slow).max() < (1e-7 if kind == "weighted" else 1e-9)
+    # the same algorithm on both paths
+    assert np.abs(dq_fast - dq_slow).max() < 1e-9
     if kind == "weighted":  # a hard row there
         assert (G @ dq_fast)[0] <= 0.005 + 1e-9
     else:  # a soft level's row keeps the slack it cannot avoid, and not more
@@ -304,9 +302,8 @@ def test_a_walk_is_the_same_compiled_or_not(robot, kind):
             assert controller.solver.handed_back_ticks == 0
     a, b = recordings[True], recordings[False]
     assert not a["failed"].any() and not b["failed"].any()
-    # the hierarchy: one algorithm on both paths; the weighted QP: one answer per tick (DAQP
-    # on the numpy path), carried over 565 closed-loop ticks
-    assert np.abs(a.q - b.q).max() < (1e-7 if kind == "weighted" else 1e-9)
+    # one algorithm on both paths, carried over 565 closed-loop ticks
+    assert np.abs(a.q - b.q).max() < 1e-9
     for channel in ("com", "swing"):
         assert np.abs(a[channel] - b[channel]).max() < 1e-6
 
@@ -379,7 +376,7 @@ def test_inequality_rows_in_the_compiled_least_squares(robot, seed, dz, tilt):
             # again (no active set carried from the first solve: the same answer)
             assert np.allclose(control.solver.solve(q, 0.01), dq, atol=1e-9)
             assert control.solver.handed_back_ticks == 0
-    assert np.allclose(steps[None], steps[False], atol=1e-7), np.abs(
+    assert np.allclose(steps[None], steps[False], atol=1e-9), np.abs(
         steps[None] - steps[False]
     ).max()
 
