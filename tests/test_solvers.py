@@ -309,6 +309,32 @@ def test_solve_pose_raises_a_typed_error_when_its_budget_is_spent(robot):
             solver.solve_pose(q, time_budget=bad)
 
 
+def test_a_pose_checks_its_time_budget_inside_a_solve_that_steps_back_onto_the_hard_levels(
+    robot, monkeypatch
+):
+    """A solve from a start outside the limits walks its step back onto the hard levels
+    (Gauss–Newton steps and halvings, :meth:`StackSolver._on_hard_levels`): inside a pose,
+    that work checks the time budget too (issue 28: an OSQP hierarchy's pose overran its
+    budget inside such solves, where nothing checked it). A clock that jumps once the pose
+    is inside that work: the pose stops there, naming its budget."""
+    from wbc.solvers import base
+
+    q, _ = random_start(robot, 3, outside=0.05)
+    solver = HierarchicalQP(walking_stack(robot, q), "daqp", compiled=False)
+    real = base.time.perf_counter
+    clock = {"jump": 0.0}
+    monkeypatch.setattr(base.time, "perf_counter", lambda: real() + clock["jump"])
+    longest = base.StackSolver._longest_exact
+
+    def late(self, *args, **kwargs):
+        clock["jump"] += 100.0  # (the work inside runs past the budget)
+        return longest(self, *args, **kwargs)
+
+    monkeypatch.setattr(base.StackSolver, "_longest_exact", late)
+    with pytest.raises(SolverError, match=r"time budget of 10 s \(time_budget\) at iteration 1"):
+        solver.solve_pose(q, max_iterations=5, time_budget=10.0)
+
+
 def test_constraints_holding_only_met_rows_never_show_a_violation(robot):
     """solve_pose's hard-level error skips the constraints that declare ``held_rows_met``
     (self-collision, ground clearance: a row violated at q is a request, never held): their

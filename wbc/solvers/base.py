@@ -429,6 +429,7 @@ class StackSolver(ABC):
         does. ``stop``: not t = 0. ``kin`` left at q."""
         q0 = kin.q.copy()
         for t in (*(0.5**k for k in range(WAY_BACK_HALVINGS)), *(() if stop else (0.0,))):
+            self._spend()  # (inside a solve_pose: its time budget checked at every try)
             q_t = self._move_joints(q0, t * dq)
             kin.update(q_t)
             errors = self._hard_errors(kin)
@@ -502,6 +503,7 @@ class StackSolver(ABC):
         for _ in range(max_steps):
             if max(errors, default=0.0) <= self.hard_tol:
                 break
+            self._spend()  # (inside a solve_pose: its time budget, at every step)
             kin.update(q)
             problems, held = self._hard_problems(kin)
             problems += self._weighted_rows(kin)
