@@ -266,3 +266,25 @@ def test_the_hierarchy_on_any_backend_answers_while_its_level_kernel_compiles(
     q_interim = control.solver.step(q, 0.01)
     assert control.solver.interim_ticks == 1 and control.solver.compiled_ticks == 0
     assert abs(q_interim - q_ready).max() < 1e-5
+
+
+def test_a_flushed_cache_index_is_not_a_cached_kernel(tmp_path, monkeypatch):
+    """:func:`wbc.compiled._cache.refresh` flushes a kernel's cache, which leaves an empty
+    index file: that is not a cached compilation (issue 28: the level cascade of ``ticks.py``
+    counted as cached on a cold cache, and its first tick compiled it in the process)."""
+    import importlib.util
+
+    module_file = tmp_path / "flushed_kernel.py"
+    module_file.write_text(
+        "from numba import njit\n\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n"
+    )
+    spec = importlib.util.spec_from_file_location("flushed_kernel", module_file)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "flushed_kernel", module)
+    spec.loader.exec_module(module)
+    kernel = module.twice
+    kernel._cache.flush()  # (as refresh does: an index with no entry)
+    assert Path(kernel._cache._cache_file._index_path).exists()
+    assert not dispatch._on_disk(kernel)
+    assert kernel(2.0) == 4.0  # compiled and saved
+    assert dispatch._on_disk(kernel)

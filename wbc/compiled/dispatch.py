@@ -186,10 +186,21 @@ _BRANCH = """\
 
 
 def _on_disk(dispatcher) -> bool:
-    """True if numba holds a cached compilation of ``dispatcher`` (its index file exists)."""
-    cache = getattr(dispatcher, "_cache", None)
-    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-    return bool(index) and os.path.exists(index)
+    """True if numba holds a cached compilation of ``dispatcher``: its index file lists one,
+    for the current source (an index that :func:`wbc.compiled._cache.refresh` flushed is
+    empty: a kernel of ``ticks.py`` on a cold cache had one from the import on, and the first
+    ``HierarchicalQP(..., "osqp")`` tick compiled it in the process, issue 28)."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    index = getattr(cache_file, "_index_path", None)
+    if not index or not os.path.exists(index):
+        return False
+    load = getattr(cache_file, "_load_index", None)
+    if load is None:  # another numba: the file's existence
+        return True
+    try:
+        return bool(load())
+    except Exception:  # (an unreadable index: numba recompiles, so not cached)
+        return False
 
 
 def cache_dir() -> Path:
