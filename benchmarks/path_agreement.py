@@ -11,6 +11,11 @@ from it, each stepping its own q, and every tick's Δq of the two paths is compa
 counts as apart when one tick's Δq differ by more than 1e-9 (and by more than 1e-4), or when
 one path raises where the other does not. ``--fresh``: new solvers for every trial (no
 history). Prints the counts and the largest gap, with its trial and tick.
+
+``--cost N``: instead, what starting every compiled tick afresh costs: walk10 on the ``walk``
+stack (:func:`wbc.walking.loop.run`), each solver's median solve time over its ticks, with
+the compiled active sets started afresh (the default) and carried from the last tick (the
+warm start as before issue 28: ``_Plan.forget_warm_start`` a no-op), N rounds side by side.
 """
 
 from __future__ import annotations
@@ -71,7 +76,11 @@ def main() -> None:
     ap.add_argument("--ticks", type=int, default=20)
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--fresh", action="store_true", help="new solvers for every trial")
+    ap.add_argument("--cost", type=int, default=0, help="rounds of the warm-start cost instead")
     args = ap.parse_args()
+    if args.cost:
+        cost(args.cost)
+        return
     stress = _stress()
     robot = load_robot("bioloid")
     stress.compile_first()
@@ -116,6 +125,32 @@ def main() -> None:
         )
     print(f"largest gap {worst[0]:.3g} (trial {worst[1]}, tick {worst[2]}, {worst[3]})")
     print(f"{time.perf_counter() - start:.0f} s")
+
+
+def cost(rounds: int) -> None:
+    """Median solve time (µs) of each solver along walk10, afresh against warm-started."""
+    from wbc.bench.trajectories import build
+    from wbc.compiled.plan import _Plan
+    from wbc.walking.loop import StackController, run
+
+    _stress().compile_first()
+    robot = load_robot("bioloid")
+    ref = build("walk10", robot)
+    forget = _Plan.forget_warm_start
+    medians: dict = {}
+    for _ in range(rounds):
+        for start in ("afresh", "warm"):
+            _Plan.forget_warm_start = forget if start == "afresh" else (lambda self, p=None: None)
+            for kind in KINDS:
+                controller = StackController(load_stack("walk", robot, solver=kind), kind)
+                times = np.asarray(run(controller, robot, ref)["solve_time"])[5:]
+                medians.setdefault((kind, start), []).append(float(np.median(times)) * 1e6)
+    _Plan.forget_warm_start = forget
+    print("| solver | active sets | median solve µs (median of rounds) | rounds |")
+    print("|---|---|---|---|")
+    for (kind, start), m in medians.items():
+        rows = ", ".join(f"{x:.0f}" for x in m)
+        print(f"| {kind} | {start} | {np.median(m):.0f} | {rows} |")
 
 
 if __name__ == "__main__":
