@@ -335,6 +335,35 @@ def test_a_pose_checks_its_time_budget_inside_a_solve_that_steps_back_onto_the_h
         solver.solve_pose(q, max_iterations=5, time_budget=10.0)
 
 
+def test_a_pose_whose_end_cannot_be_projected_ends_at_its_last_iterate_on_the_hard_levels(
+    robot, monkeypatch
+):
+    """Issue 28: feasible converged poses raised "ends off its hard levels" (3 of 2,000) when
+    no projection of their end got back onto them. The pose then ends at the last iterate
+    that held them (here the start: every projection is made to fail), not converged, on its
+    contacts (it raises only when no iterate held them, as before)."""
+    from wbc.solvers import base
+
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q, com_shift=(0.03, 0.02, 0.0))
+    solver = HierarchicalQP(stack, "daqp", compiled=False)
+    project = base.StackSolver._project
+
+    def failing(self, q_in, tol, *args, **kwargs):
+        q_out, errors = project(self, q_in, tol, *args, **kwargs)
+        return q_out, [max(e, 1e-5) for e in errors]  # as if 1e-5 were the closest
+
+    monkeypatch.setattr(base.StackSolver, "_project", failing)
+    result = solver.solve_pose(q, max_iterations=10)
+    assert not result.converged
+    kin = Kinematics(robot, result.q)
+    hard = [t for lv in stack.levels if lv.hard for t in lv.active_tasks()]
+    assert hard
+    for task in hard:
+        assert abs(task.compute(kin)[1]).max() <= 1e-6, task.name
+        assert abs(result.errors[task.name]).max() <= 1e-6, task.name
+
+
 def test_constraints_holding_only_met_rows_never_show_a_violation(robot):
     """solve_pose's hard-level error skips the constraints that declare ``held_rows_met``
     (self-collision, ground clearance: a row violated at q is a request, never held): their

@@ -713,7 +713,9 @@ class StackSolver(ABC):
 
         A final guard: every hard level ends within that tolerance (task errors, and
         the violation of its inequality rows other than those of self-collision pairs inside
-        their margin), or InfeasibleError is raised — a pose is never returned off a hard
+        their margin): where no projection of the last iterate gets there, the pose ends at
+        the last iterate that held them (the start, if none since; ``converged`` False), and
+        InfeasibleError is raised only if none did — a pose is never returned off a hard
         contact. With ``on_infeasible="relax"`` the levels from the first one that was not
         met at the start (a relaxed, unreachable level) down are exempt.
 
@@ -774,6 +776,9 @@ class StackSolver(ABC):
         converged = False
         it = 0
         q_prev = dq_prev = errors_prev = None
+        # the last iterate whose hard tasks were within pose_tol (the start first): where the
+        # end cannot be brought back onto the hard levels, the pose ends there, not converged
+        held = q.copy() if max(start_errors, default=0.0) <= pose_tol else None
         for it in range(1, max_iterations + 1):
             self._spend(iteration=it)
             try:
@@ -786,6 +791,8 @@ class StackSolver(ABC):
                 back = True
             if back:
                 q, dq, errors = self._shorter_step(q_prev, dq_prev, errors_prev, tol, dt)
+            if max(errors, default=0.0) <= pose_tol:
+                held = q
             if self._converged(tol):
                 converged = True
                 it -= 1
@@ -813,11 +820,20 @@ class StackSolver(ABC):
             loose = self._project(q, pose_tol, slack=drift)
             if max(loose[1], default=0.0) < max(errors):
                 q_end, errors = loose
+        fell_back = False
+        if held is not None and self._off_hard_levels(errors, start_errors, pose_tol):
+            # no projection of the end holds the hard levels (the guard raised on feasible
+            # poses: 3 of 2,000 in issue 28's run): the last iterate that held them, which a
+            # caller may take as it is (not converged) or start from again
+            self.kin.update(held)
+            held_errors = self._hard_errors(self.kin)
+            if not self._off_hard_levels(held_errors, start_errors, pose_tol):
+                q_end, errors, fell_back, converged = held, held_errors, True, False
         self._guard_hard_levels(errors, start_errors, pose_tol)
         q = q_end
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
-        if not converged:
+        if not converged and not fell_back:
             converged = all(
                 float(np.max(np.abs(errors[t.name]))) <= tol
                 for t in self.stack.tasks()
@@ -849,13 +865,20 @@ class StackSolver(ABC):
                 f"({b.steps} Gauss–Newton steps, {time.perf_counter() - b.start:.3g} s)"
             )
 
-    def _guard_hard_levels(self, errors: list[float], start: list[float], tol: float) -> None:
-        """Raise InfeasibleError if a hard level a converged pose must hold ends beyond
-        ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
+    def _off_hard_levels(
+        self, errors: list[float], start: list[float], tol: float
+    ) -> list[tuple[int, float]]:
+        """(index, error) of each hard level a converged pose must hold that ``errors`` leave
+        beyond ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
         held = len(errors)
         if self.on_infeasible == "relax":
             held = next((k for k, e in enumerate(start) if e > tol), held)
-        off = [(k, e) for k, e in enumerate(errors[:held]) if e > tol]
+        return [(k, e) for k, e in enumerate(errors[:held]) if e > tol]
+
+    def _guard_hard_levels(self, errors: list[float], start: list[float], tol: float) -> None:
+        """Raise InfeasibleError if a hard level a converged pose must hold ends beyond
+        ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
+        off = self._off_hard_levels(errors, start, tol)
         if off:
             priorities = [lv.priority for lv in self.stack.levels if lv.hard]
             raise InfeasibleError(
