@@ -127,6 +127,23 @@ def test_solver_options_out_of_range_name_the_file(robot, key, value, match):
     assert str(exc.value).startswith("task stack my.toml: ")
 
 
+@pytest.mark.parametrize(
+    "entry, match",
+    [
+        ({"type": "com_polygon", "margin": float("nan")}, r"margin must be a number of metres"),
+        ({"type": "com_polygon", "margin": 3.0}, r"margin must be a number of metres in \[-0.1"),
+        (
+            {"type": "ground_clearance", "frame": "swing", "clearance": -1.0},
+            r"clearance must be a number of metres in \[0, 0.1\], got -1.0",
+        ),
+    ],
+)
+def test_constraint_lengths_out_of_range_name_the_file(robot, entry, match):
+    with pytest.raises(TaskError, match=match) as exc:
+        build_stack({"levels": [{"constraints": [entry]}]}, robot, source="my.toml")
+    assert str(exc.value).startswith("task stack my.toml: level 0: constraint ")
+
+
 def test_hard_must_be_a_boolean(robot):
     with pytest.raises(TaskError, match=r"level 0: hard must be true or false, got 'yes'"):
         build_stack({"levels": [{"hard": "yes", "tasks": [{"type": "com"}]}]}, robot)

@@ -435,8 +435,17 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
     return constraint, binding
 
 
+#: the range (m) of each length a stack file gives a constraint: a CoM polygon's margin (inward
+#: from the soles' hull), a ground clearance
+CONSTRAINT_LENGTHS = {"margin": (-0.1, 0.1), "clearance": (0.0, 0.1)}
+
+
 def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     constraint: Constraint
+    for key, (lo, hi) in CONSTRAINT_LENGTHS.items():
+        value = entry.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+            raise TaskError(f"{key} must be a number of metres in [{lo:g}, {hi:g}], got {value!r}")
     if kind == "com_polygon":
         soles = [actual] if actual else ["l_sole", "r_sole"]
         constraint = ComPolygonConstraint(
