@@ -124,6 +124,13 @@ def main() -> None:
             f"one path raising alone: {a[2]}"
         )
     print(f"largest gap {worst[0]:.3g} (trial {worst[1]}, tick {worst[2]}, {worst[3]})")
+    if not args.fresh:
+        for kind in KINDS:
+            s = kept[(kind, None)].solver
+            print(
+                f"{kind} compiled path: {s.compiled_ticks} compiled ticks, "
+                f"{s.handed_back_ticks} handed back"
+            )
     print(f"{time.perf_counter() - start:.0f} s")
 
 
