@@ -555,3 +555,47 @@ def test_a_control_tick_needs_a_time_step_in_seconds(robot, dt):
         with pytest.raises(ConfigurationError, match=r"dt must be a time step in seconds"):
             solver.solve(q, dt)
     assert np.isfinite(solver.step(q, np.float64(0.01))).all()
+
+
+@pytest.mark.parametrize("trial, ticks", [(336, 1), (154, 2)])  # hierarchical, weighted
+def test_an_infeasible_tick_that_recovers_runs_no_diagnosis(
+    robot, stress_script, monkeypatch, trial, ticks
+):
+    """The diagnosis of an infeasible QP (a cascade naming the rows, as long as the solve)
+    runs only when the recovery cannot answer the tick (issue 28: half of the time of ticks
+    from starts inside a collision margin or outside the limits); an unrecoverable tick
+    still raises the diagnosed message."""
+    from wbc.solvers import base
+    from wbc.solvers.weighted import WeightedQP as Weighted
+
+    calls = []
+    for cls, name in ((HierarchicalQP, "_hard_inequality_message"), (Weighted, "_diagnosis")):
+        original = getattr(cls, name)
+
+        def counted(self, *args, _original=original, **kwargs):
+            calls.append(type(self).__name__)
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(cls, name, counted)
+    recoveries = []
+    recover = base.StackSolver._solve_recovering
+    monkeypatch.setattr(
+        base.StackSolver,
+        "_solve_recovering",
+        lambda self, *a: recoveries.append(1) or recover(self, *a),
+    )
+    p = stress_script.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    q = stress_script.start(robot, p)
+    solver, *_ = stress_script.walk_stack(robot, q, p["kind"], "daqp", False, p["double"])
+    for _ in range(ticks):
+        q = solver.step(q, 0.01)
+    assert recoveries and not calls  # infeasible, recovered, not diagnosed
+    q = robot.configuration("walk_ready")
+    for kind in (HierarchicalQP, WeightedQP):
+        stack = walking_stack(robot, q)
+        far = stack.add(FramePositionTask(robot, "r_hand", name="reach_far"), level=0, hard=True)
+        far.set_target([1.0, -0.5, 0.3])  # a metre away
+        with pytest.raises(InfeasibleError, match="reach_far"):
+            kind(stack, compiled=False).step(q, 0.01)
+    # (the weighted QP names it by its diagnosis; the hierarchy by its own levels' residuals)
+    assert calls == ["WeightedQP"]

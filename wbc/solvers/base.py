@@ -97,6 +97,29 @@ _EMPTY = np.zeros(0)
 _NO_JOINTS = np.zeros(0, dtype=int)
 
 
+class Undiagnosed(InfeasibleError):
+    """An infeasible solve whose diagnosis (a cascade of QPs naming the rows in conflict, as
+    long as the solve itself) runs only if the recovery re-solve cannot answer the tick
+    (:meth:`StackSolver._solve_recovering`): the error the caller then sees is the
+    diagnosed one. Most such ticks recover (starts outside the limits or inside a collision
+    margin), and the diagnosis was half of their time (issue 28)."""
+
+    def __init__(self, diagnose: Callable[[], str]) -> None:
+        super().__init__("infeasible (the diagnosis runs if the recovery fails)")
+        self._diagnose = diagnose
+
+    def diagnosed(self) -> InfeasibleError:
+        """The InfeasibleError naming the rows (runs the diagnosis)."""
+        error = InfeasibleError(self._diagnose())
+        error.__cause__ = self.__cause__
+        return error
+
+
+def _diagnosed(exc: WbcError) -> WbcError:
+    """``exc`` with its diagnosis, where it was deferred (:class:`Undiagnosed`)."""
+    return exc.diagnosed() if isinstance(exc, Undiagnosed) else exc
+
+
 class SplitRows(NamedTuple):
     """Constraint rows G Δq <= h split into the rows to hold (with each constraint's slice,
     for diagnostics) and the requests of the constraints violated at the start (h < 0: the
@@ -353,7 +376,7 @@ class StackSolver(ABC):
             if first is None or not relax:
                 restored = self._restore_hard(kin, lower, upper)
                 if restored is None:  # infeasible on their own: the solver's diagnosis
-                    raise exc from (None if first else failure)
+                    raise _diagnosed(exc) from (None if first else failure)
                 self.diagnosis, self.relaxed = "", False
                 return Solution(restored, lower, upper)
             dq, unmet = first

@@ -26,7 +26,14 @@ from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
 from .backends import QPBackend, make_backend
-from .base import CONSTRAINT_TOL, HARD_TOL_RANGE, Solution, StackSolver, check_number
+from .base import (
+    CONSTRAINT_TOL,
+    HARD_TOL_RANGE,
+    Solution,
+    StackSolver,
+    Undiagnosed,
+    check_number,
+)
 from .cascade import LevelProblem, LevelSolution, solve_cascade, solve_cascade_or_daqp
 from .diagnostics import infeasible_message
 
@@ -224,8 +231,9 @@ class HierarchicalQP(StackSolver):
                 final_regularization=self.regularization,
                 relax=relax,
             )
-        except InfeasibleError as exc:
-            raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+        except InfeasibleError as exc:  # named only if the recovery cannot answer the tick
+            bounds = lower.copy(), upper.copy()
+            raise Undiagnosed(lambda: self._hard_inequality_message(kin, *bounds)) from exc
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return Solution(dq, lower, upper)

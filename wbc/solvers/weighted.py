@@ -19,7 +19,14 @@ import numpy as np
 from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
-from .base import CONSTRAINT_TOL, HARD_TOL_RANGE, Solution, StackSolver, check_number
+from .base import (
+    CONSTRAINT_TOL,
+    HARD_TOL_RANGE,
+    Solution,
+    StackSolver,
+    Undiagnosed,
+    check_number,
+)
 from .cascade import LevelProblem, solve_cascade_or_daqp
 from .diagnostics import conflicts, infeasible_message
 
@@ -173,7 +180,9 @@ class WeightedQP(StackSolver):
         self.relaxed = False
         try:
             dq = self.backend.solve_workspace(ws)
-        except InfeasibleError:
+        except InfeasibleError as exc:
+            if self.on_infeasible == "raise":  # named only if the recovery cannot answer
+                raise Undiagnosed(lambda: self._diagnosis(kin, value)) from exc
             dq = self._relax(kin, value)
         except SolverError:  # e.g. OSQP out of iterations: not known to be infeasible
             dq = self._relax(kin, value, failed=True)
@@ -221,6 +230,15 @@ class WeightedQP(StackSolver):
         self.relaxed = False
         self.diagnosis = ""
         return dq
+
+    def _diagnosis(self, kin: Kinematics, value: WeightedValue) -> str:
+        """What an infeasible QP cannot meet (:meth:`_relax`'s message; also
+        :attr:`diagnosis`)."""
+        try:
+            self._relax(kin, value)
+        except InfeasibleError as exc:
+            return str(exc)
+        return self.diagnosis or "infeasible (no task or constraint stands out)"
 
     def _relax(self, kin: Kinematics, value: WeightedValue, failed: bool = False) -> np.ndarray:
         """The hard levels in priority order, each in least squares, then the soft tasks
