@@ -213,3 +213,78 @@ def test_only_the_default_solves_on_the_numpy_path_while_its_tick_compiles(robot
             s.compiled = compiled
             s.step(q, 0.01)
             assert (s.interim_ticks, s.compiled_ticks) == counts, (solver, compiled)
+
+
+def test_a_numpy_path_kernel_is_ready_once_compiled_or_its_worker_is_done(tmp_path, monkeypatch):
+    """The level cascade that the numpy path calls from Python (any backend): not ready while
+    the hierarchical worker compiles it (the first call starts the workers), ready when that
+    worker is done or it is compiled or cached (issue 28: the first HierarchicalQP tick on
+    OSQP compiled it in the process for two minutes)."""
+    started, cached = [], set()
+
+    def popen(cmd, env, stdout, stderr):
+        started.append(RunningWorker(cmd, env, stdout, stderr))
+        return started[-1]
+
+    monkeypatch.delenv(build.WORKER_ENV, raising=False)
+    monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
+    monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
+    monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
+    ticks = _ticks(tmp_path)
+    kernel = SimpleNamespace(overloads={}, _cache=None)
+    assert not ticks.kernel_ready(kernel, "cascade_tick")  # starts both workers
+    assert len(started) == 2
+    cached.add(id(kernel))  # its index is written while the worker goes on: not yet
+    assert not ticks.kernel_ready(kernel, "cascade_tick")
+    started[1].finish()
+    assert ticks.kernel_ready(kernel, "cascade_tick") and "cascade_tick" not in ticks.builders
+    assert len(started) == 2  # (no new workers: cached now)
+    assert _ticks(tmp_path).kernel_ready(kernel, "cascade_tick")  # cached, no worker
+    compiled_here = SimpleNamespace(overloads={"sig": 1}, _cache=None)
+    assert _ticks(tmp_path).kernel_ready(compiled_here, "cascade_tick")
+    monkeypatch.setenv(dispatch.WAIT_ENV, "1")  # waiting instead: ready (the call compiles)
+    assert _ticks(tmp_path).kernel_ready(SimpleNamespace(overloads={}), "cascade_tick")
+    assert len(started) == 2
+
+
+@pytest.mark.parametrize("backend", ["osqp", "daqp"])
+def test_the_hierarchy_on_any_backend_answers_while_its_level_kernel_compiles(
+    robot, monkeypatch, backend
+):
+    """While the numpy path's level cascade is being compiled, a hierarchy on the numpy path
+    (any backend, or compiled=False) solves by the backend cascade and counts an interim
+    tick; the same answer as once it is ready (to the backends' accuracy)."""
+    from wbc.solvers import HierarchicalQP
+    from wbc.stacks import load_stack
+
+    q = robot.configuration("walk_ready")
+    ready = load_stack("walk", robot, backend=backend, solver="hierarchical", compiled=False)
+    q_ready = ready.solver.step(q, 0.01)
+    assert ready.solver.interim_ticks == 0
+    monkeypatch.setattr(HierarchicalQP, "_level_solver_ready", staticmethod(lambda: False))
+    control = load_stack("walk", robot, backend=backend, solver="hierarchical", compiled=False)
+    q_interim = control.solver.step(q, 0.01)
+    assert control.solver.interim_ticks == 1 and control.solver.compiled_ticks == 0
+    assert abs(q_interim - q_ready).max() < 1e-5
+
+
+def test_a_flushed_cache_index_is_not_a_cached_kernel(tmp_path, monkeypatch):
+    """:func:`wbc.compiled._cache.refresh` flushes a kernel's cache, which leaves an empty
+    index file: that is not a cached compilation (issue 28: the level cascade of ``ticks.py``
+    counted as cached on a cold cache, and its first tick compiled it in the process)."""
+    import importlib.util
+
+    module_file = tmp_path / "flushed_kernel.py"
+    module_file.write_text(
+        "from numba import njit\n\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n"
+    )
+    spec = importlib.util.spec_from_file_location("flushed_kernel", module_file)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "flushed_kernel", module)
+    spec.loader.exec_module(module)
+    kernel = module.twice
+    kernel._cache.flush()  # (as refresh does: an index with no entry)
+    assert Path(kernel._cache._cache_file._index_path).exists()
+    assert not dispatch._on_disk(kernel)
+    assert kernel(2.0) == 4.0  # compiled and saved
+    assert dispatch._on_disk(kernel)

@@ -309,6 +309,61 @@ def test_solve_pose_raises_a_typed_error_when_its_budget_is_spent(robot):
             solver.solve_pose(q, time_budget=bad)
 
 
+def test_a_pose_checks_its_time_budget_inside_a_solve_that_steps_back_onto_the_hard_levels(
+    robot, monkeypatch
+):
+    """A solve from a start outside the limits walks its step back onto the hard levels
+    (Gauss–Newton steps and halvings, :meth:`StackSolver._on_hard_levels`): inside a pose,
+    that work checks the time budget too (issue 28: an OSQP hierarchy's pose overran its
+    budget inside such solves, where nothing checked it). A clock that jumps once the pose
+    is inside that work: the pose stops there, naming its budget."""
+    from wbc.solvers import base
+
+    q, _ = random_start(robot, 3, outside=0.05)
+    solver = HierarchicalQP(walking_stack(robot, q), "daqp", compiled=False)
+    real = base.time.perf_counter
+    clock = {"jump": 0.0}
+    monkeypatch.setattr(base.time, "perf_counter", lambda: real() + clock["jump"])
+    longest = base.StackSolver._longest_exact
+
+    def late(self, *args, **kwargs):
+        clock["jump"] += 100.0  # (the work inside runs past the budget)
+        return longest(self, *args, **kwargs)
+
+    monkeypatch.setattr(base.StackSolver, "_longest_exact", late)
+    with pytest.raises(SolverError, match=r"time budget of 10 s \(time_budget\) at iteration 1"):
+        solver.solve_pose(q, max_iterations=5, time_budget=10.0)
+
+
+def test_a_pose_whose_end_cannot_be_projected_ends_at_its_last_iterate_on_the_hard_levels(
+    robot, monkeypatch
+):
+    """Issue 28: feasible converged poses raised "ends off its hard levels" (3 of 2,000) when
+    no projection of their end got back onto them. The pose then ends at the last iterate
+    that held them (here the start: every projection is made to fail), not converged, on its
+    contacts (it raises only when no iterate held them, as before)."""
+    from wbc.solvers import base
+
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q, com_shift=(0.03, 0.02, 0.0))
+    solver = HierarchicalQP(stack, "daqp", compiled=False)
+    project = base.StackSolver._project
+
+    def failing(self, q_in, tol, *args, **kwargs):
+        q_out, errors = project(self, q_in, tol, *args, **kwargs)
+        return q_out, [max(e, 1e-5) for e in errors]  # as if 1e-5 were the closest
+
+    monkeypatch.setattr(base.StackSolver, "_project", failing)
+    result = solver.solve_pose(q, max_iterations=10)
+    assert not result.converged
+    kin = Kinematics(robot, result.q)
+    hard = [t for lv in stack.levels if lv.hard for t in lv.active_tasks()]
+    assert hard
+    for task in hard:
+        assert abs(task.compute(kin)[1]).max() <= 1e-6, task.name
+        assert abs(result.errors[task.name]).max() <= 1e-6, task.name
+
+
 def test_constraints_holding_only_met_rows_never_show_a_violation(robot):
     """solve_pose's hard-level error skips the constraints that declare ``held_rows_met``
     (self-collision, ground clearance: a row violated at q is a request, never held): their
@@ -485,3 +540,62 @@ def test_bad_input_is_rejected(robot):
         HierarchicalQP(stack, method="daqp")  # DAQP's native hierarchy was dropped (issue 17)
     with pytest.raises(ConfigurationError, match="on_infeasible"):
         WeightedQP(stack, on_infeasible="ignore")
+
+
+@pytest.mark.parametrize("dt", [None, True, "0.01", 0.0, -0.01, float("nan"), float("inf")])
+def test_a_control_tick_needs_a_time_step_in_seconds(robot, dt):
+    """``step`` without a time step would have no servo speed limit (issue 28): None, a
+    bool, a string and a non-positive or non-finite number are one ConfigurationError line
+    naming ``dt``; ``solve`` takes None (no velocity limits) but nothing else of those."""
+    q = robot.configuration("walk_ready")
+    solver = WeightedQP(walking_stack(robot, q), compiled=False)
+    with pytest.raises(ConfigurationError, match=r"step: dt must be a time step in seconds"):
+        solver.step(q, dt)
+    if dt is not None:
+        with pytest.raises(ConfigurationError, match=r"dt must be a time step in seconds"):
+            solver.solve(q, dt)
+    assert np.isfinite(solver.step(q, np.float64(0.01))).all()
+
+
+@pytest.mark.parametrize("trial, ticks", [(336, 1), (154, 2)])  # hierarchical, weighted
+def test_an_infeasible_tick_that_recovers_runs_no_diagnosis(
+    robot, stress_script, monkeypatch, trial, ticks
+):
+    """The diagnosis of an infeasible QP (a cascade naming the rows, as long as the solve)
+    runs only when the recovery cannot answer the tick (issue 28: half of the time of ticks
+    from starts inside a collision margin or outside the limits); an unrecoverable tick
+    still raises the diagnosed message."""
+    from wbc.solvers import base
+    from wbc.solvers.weighted import WeightedQP as Weighted
+
+    calls = []
+    for cls, name in ((HierarchicalQP, "_hard_inequality_message"), (Weighted, "_diagnosis")):
+        original = getattr(cls, name)
+
+        def counted(self, *args, _original=original, **kwargs):
+            calls.append(type(self).__name__)
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(cls, name, counted)
+    recoveries = []
+    recover = base.StackSolver._solve_recovering
+    monkeypatch.setattr(
+        base.StackSolver,
+        "_solve_recovering",
+        lambda self, *a: recoveries.append(1) or recover(self, *a),
+    )
+    p = stress_script.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
+    q = stress_script.start(robot, p)
+    solver, *_ = stress_script.walk_stack(robot, q, p["kind"], "daqp", False, p["double"])
+    for _ in range(ticks):
+        q = solver.step(q, 0.01)
+    assert recoveries and not calls  # infeasible, recovered, not diagnosed
+    q = robot.configuration("walk_ready")
+    for kind in (HierarchicalQP, WeightedQP):
+        stack = walking_stack(robot, q)
+        far = stack.add(FramePositionTask(robot, "r_hand", name="reach_far"), level=0, hard=True)
+        far.set_target([1.0, -0.5, 0.3])  # a metre away
+        with pytest.raises(InfeasibleError, match="reach_far"):
+            kind(stack, compiled=False).step(q, 0.01)
+    # (the weighted QP names it by its diagnosis; the hierarchy by its own levels' residuals)
+    assert calls == ["WeightedQP"]

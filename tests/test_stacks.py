@@ -109,6 +109,47 @@ def test_bad_stack_files_are_rejected(robot, spec, match):
         build_stack(spec, robot)
 
 
+@pytest.mark.parametrize(
+    "key, value, match",
+    [
+        ("regularization", -1, r"regularization must be a number in \[1e-12, 0\.01\], got -1"),
+        ("regularization", 1e30, r"regularization must be a number in"),
+        ("regularization", float("nan"), r"regularization must be a number in"),
+        ("regularization", "small", r"regularization must be a number in"),
+        ("velocity_limits", "yes", r"velocity_limits must be true or false"),
+    ],
+)
+def test_solver_options_out_of_range_name_the_file(robot, key, value, match):
+    """Issue 28: ``regularization = -1`` ended in an untyped ValueError traceback, 1e30 was
+    taken (and held the walk still); each is one TaskError line naming the file and key."""
+    spec = {key: value, "levels": [{"tasks": [{"type": "com"}]}]}
+    with pytest.raises(TaskError, match=match) as exc:
+        build_stack(spec, robot, source="my.toml")
+    assert str(exc.value).startswith("task stack my.toml: ")
+
+
+@pytest.mark.parametrize(
+    "entry, match",
+    [
+        ({"type": "com_polygon", "margin": float("nan")}, r"margin must be a number of metres"),
+        ({"type": "com_polygon", "margin": 3.0}, r"margin must be a number of metres in \[-0.1"),
+        (
+            {"type": "ground_clearance", "frame": "swing", "clearance": -1.0},
+            r"clearance must be a number of metres in \[0, 0.1\], got -1.0",
+        ),
+    ],
+)
+def test_constraint_lengths_out_of_range_name_the_file(robot, entry, match):
+    with pytest.raises(TaskError, match=match) as exc:
+        build_stack({"levels": [{"constraints": [entry]}]}, robot, source="my.toml")
+    assert str(exc.value).startswith("task stack my.toml: level 0: constraint ")
+
+
+def test_hard_must_be_a_boolean(robot):
+    with pytest.raises(TaskError, match=r"level 0: hard must be true or false, got 'yes'"):
+        build_stack({"levels": [{"hard": "yes", "tasks": [{"type": "com"}]}]}, robot)
+
+
 def test_unknown_or_malformed_files(robot, tmp_path):
     with pytest.raises(TaskError, match="unknown task stack 'nope'"):
         load_stack("nope", robot)
@@ -154,6 +195,9 @@ def test_numpy_integer_levels_are_accepted(robot):
         ({"type": "com", "gain": [1]}, r"task 'com': gain = \[1\]: must be a number >= 0"),
         ({"type": "com", "mask": [1, 0, 1]}, r"mask = \[1, 0, 1\]: must be a list of true/false"),
         ({"type": "com", "weight": -1.0}, r"task 'com': .*weights must be finite and >= 0"),
+        # extreme but finite weights (issue 28: 1e30 / 1e-30 failed a walk's ticks)
+        ({"type": "com", "weight": 1e30}, r"task 'com': each weight must be 0 or within \[1e-06"),
+        ({"type": "com", "weight": [1.0, 1e-30, 1.0]}, r"each weight must be 0 or within"),
         ({"type": "frame_position", "frame": "hand"}, r"unknown frame 'hand'; links of"),
         ({"type": "damping", "gain": 2.0}, r"DampingTask takes no \['gain'\]; its keys"),
         ({"type": "joint_limit_damping", "gain": 2.0}, r"takes no \['gain'\]"),

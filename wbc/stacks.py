@@ -295,7 +295,10 @@ def build_stack(
         raise TaskError(f"{where}: needs at least one [[levels]] entry")
     q = robot.configuration("stand") if q is None else robot.check_configuration(q)
     kin = Kinematics(robot, q)
-    stack = TaskStack(robot, velocity_limits=bool(spec.get("velocity_limits", True)))
+    for key in ("velocity_limits",):
+        if not isinstance(spec.get(key, True), bool):
+            raise TaskError(f"{where}: {key} must be true or false, got {spec[key]!r}")
+    stack = TaskStack(robot, velocity_limits=spec.get("velocity_limits", True))
     bindings: dict[str, RoleBinding] = {}
     given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
@@ -304,7 +307,9 @@ def build_stack(
         extra = set(level) - {"hard", "tasks", "constraints"}
         if extra:
             raise TaskError(f"{where}: level {priority} has unknown keys {sorted(extra)}")
-        hard = bool(level.get("hard", False))
+        hard = level.get("hard", False)
+        if not isinstance(hard, bool):
+            raise TaskError(f"{where}: level {priority}: hard must be true or false, got {hard!r}")
         stack.level(priority, hard)
         for entry in level.get("tasks", []):
             task, binding = _make_task(entry, robot, where, priority)
@@ -323,12 +328,14 @@ def build_stack(
     options = {k: spec[k] for k in ("regularization", "on_infeasible") if k in spec}
     options.update(solver_options)
     be = backend or spec.get("backend", "daqp")
-    if solver_kind == "weighted":
-        solver: StackSolver = WeightedQP(stack, be, **options)
-    else:
-        if "method" in spec:
-            options.setdefault("method", spec["method"])
-        solver = HierarchicalQP(stack, be, **options)
+    if solver_kind != "weighted" and "method" in spec:
+        options.setdefault("method", spec["method"])
+    try:
+        solver: StackSolver = (WeightedQP if solver_kind == "weighted" else HierarchicalQP)(
+            stack, be, **options
+        )
+    except WbcError as exc:  # (a solver option out of range: the file's key named)
+        raise TaskError(f"{where}: {exc}") from exc
     control = ControlStack(
         spec.get("name", Path(source).stem),
         spec.get("description", ""),
@@ -428,8 +435,17 @@ def _make_constraint(entry, robot: Robot, where: str, priority: int):
     return constraint, binding
 
 
+#: the range (m) of each length a stack file gives a constraint: a CoM polygon's margin (inward
+#: from the soles' hull), a ground clearance
+CONSTRAINT_LENGTHS = {"margin": (-0.1, 0.1), "clearance": (0.0, 0.1)}
+
+
 def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
     constraint: Constraint
+    for key, (lo, hi) in CONSTRAINT_LENGTHS.items():
+        value = entry.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+            raise TaskError(f"{key} must be a number of metres in [{lo:g}, {hi:g}], got {value!r}")
     if kind == "com_polygon":
         soles = [actual] if actual else ["l_sole", "r_sole"]
         constraint = ComPolygonConstraint(

@@ -3,12 +3,11 @@
 
 Two processes work in parallel, one per solver (``--part weighted`` and ``--part
 hierarchical``): each builds the ``walk`` stack and solves a tick with an active inequality row
-on the compiled tick (the hierarchical one then also on the numpy path, whose kernels Python
-calls), so that numba compiles and caches every kernel a run of the package's stacks calls
-(``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's ``__pycache__``). The solvers start the
-same processes themselves at their first compiled tick when the cache is empty, solve on the
-numpy path meanwhile and switch when their tick is cached
-(:meth:`wbc.compiled.dispatch.Ticks.ready`).
+on the compiled tick, then on the numpy path (whose kernels Python calls), so that numba
+compiles and caches every kernel a run of the package's stacks calls (``~/.cache/wbc`` or
+``$WBC_CACHE_DIR``, and numba's ``__pycache__``). The solvers start the same processes
+themselves at their first compiled tick when the cache is empty, solve on the numpy path
+meanwhile and switch when their tick is cached (:meth:`wbc.compiled.dispatch.Ticks.ready`).
 """
 
 from __future__ import annotations
@@ -38,8 +37,8 @@ def worker_env() -> dict[str, str]:
 
 
 def compile_part(part: str) -> None:
-    """Solve one tick of the ``walk`` stack with solver ``part`` on the compiled tick (and,
-    for the hierarchy, then on the numpy path): numba compiles what each calls and caches it
+    """Solve one tick of the ``walk`` stack with solver ``part`` on the compiled tick, then
+    on the numpy path: numba compiles what each calls and caches it
     on disk. The compiled tick comes first: a solver waiting for it loads it from the cache
     as soon as it is there (:meth:`wbc.compiled.dispatch.Ticks.ready`), while the worker goes
     on with the numpy path's kernels."""
@@ -48,9 +47,9 @@ def compile_part(part: str) -> None:
 
     robot = load_robot()
     q = robot.configuration("stand")
-    paths: tuple[bool | None, ...] = (None,)  # the compiled tick
-    if part == "hierarchical":  # and the numpy path's kernels: rows, bounds, the level cascade
-        paths = (None, False)
+    # the compiled tick, then the numpy path's kernels: rows, bounds, the solver's least
+    # squares (the level cascade; the weighted one), which the numpy path calls from Python
+    paths: tuple[bool | None, ...] = (None, False)
     for compiled in paths:
         control = load_stack("walk", robot, solver=part)
         control.solver.compiled = compiled

@@ -186,10 +186,21 @@ _BRANCH = """\
 
 
 def _on_disk(dispatcher) -> bool:
-    """True if numba holds a cached compilation of ``dispatcher`` (its index file exists)."""
-    cache = getattr(dispatcher, "_cache", None)
-    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-    return bool(index) and os.path.exists(index)
+    """True if numba holds a cached compilation of ``dispatcher``: its index file lists one,
+    for the current source (an index that :func:`wbc.compiled._cache.refresh` flushed is
+    empty: a kernel of ``ticks.py`` on a cold cache had one from the import on, and the first
+    ``HierarchicalQP(..., "osqp")`` tick compiled it in the process, issue 28)."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    index = getattr(cache_file, "_index_path", None)
+    if not index or not os.path.exists(index):
+        return False
+    load = getattr(cache_file, "_load_index", None)
+    if load is None:  # another numba: the file's existence
+        return True
+    try:
+        return bool(load())
+    except Exception:  # (an unreadable index: numba recompiles, so not cached)
+        return False
 
 
 def cache_dir() -> Path:
@@ -369,6 +380,30 @@ class Ticks:
                 time.perf_counter() - self.build_started,
             )
         self._ready.add(name)
+        return True
+
+    def kernel_ready(self, dispatcher, tick: str) -> bool:
+        """True if ``dispatcher`` (a kernel that the numpy path calls from Python, e.g. the
+        level cascade :func:`wbc.compiled.ticks.cascade_solve`) runs at its next call without
+        compiling here: compiled in this process, or cached on disk and the worker of
+        ``tick``'s part done (it compiles the numpy path's kernels after its tick); also True
+        where the call must compile anyway (inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set, no
+        worker could start). False while the worker builds it (started here if it is not
+        cached): the caller solves another way meanwhile (the backend cascade), on every
+        backend — the first ``HierarchicalQP(..., "osqp")`` tick of a cold cache compiled the
+        cascade in the process for two minutes (issue 28)."""
+        from .__main__ import WORKER_ENV
+
+        if dispatcher.overloads or os.environ.get(WORKER_ENV) or _waits():
+            return True
+        worker = self.builders.get(tick)
+        if worker is None:
+            if _on_disk(dispatcher) or not self.start_build():
+                return True
+            worker = self.builders[tick]
+        if worker.poll() is None:
+            return False
+        self.wait(tick)  # (done; a failure is logged, and the kernel compiles at the call)
         return True
 
     def wait_all(self) -> None:

@@ -330,7 +330,8 @@ class _Plan:
     prebuilt tuple serves every tick and a tick allocates nothing.
     """
 
-    #: the active sets the tick starts from (the last tick's; each plan's own array)
+    #: the active sets a tick starts from (cleared before every tick: no state carried from
+    #: one tick to the next; each plan's own array)
     warm_start: np.ndarray
 
     def __init__(self, solver, kin: Kinematics, tasks: Sequence[Task]) -> None:
@@ -438,6 +439,11 @@ class _Plan:
             inequalities
         ):
             self._bind_args()
+        # every tick from no active set, as the numpy path solves: started from the last
+        # tick's, the hierarchy's degenerate levels kept other (equally optimal) active sets,
+        # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
+        # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
+        self.forget_warm_start()
         for task, view in self.error_views:
             task.last_error = view
         if self.frames.copies:

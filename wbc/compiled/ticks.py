@@ -47,6 +47,9 @@ EXACT_MAX_ITER = 6
 LEVEL_MAX_ITER = 100
 #: a row that leaves the working set more often than this: the active set is cycling
 MAX_DROPS = 2
+#: a joint within this (rad) outside a limit after a step back towards it is put at the
+#: limit by :func:`integrate` (the step's rounding, not a position)
+LIMIT_ROUNDING = 1e-12
 #: at most this many proximal steps (the residual's bias shrinks by ε/(σ² + ε) per step)
 PROXIMAL_STEPS = 12
 
@@ -604,7 +607,16 @@ def integrate(
     for j in range(q_min.shape[0]):
         d = min(max(dq[nb + j], lower[nb + j]), upper[nb + j])
         qj = q[7 + j]
-        out[7 + j] = min(max(qj + d, min(q_min[j], qj)), max(q_max[j], qj))
+        v = min(max(qj + d, min(q_min[j], qj)), max(q_max[j], qj))
+        # a joint coming back from outside that lands a rounding error short of its limit
+        # (q + (q_min − q) != q_min in floating point) is at it: 4e-16 rad outside made the
+        # next tick a start outside the limits, another problem (issue 28: the two paths'
+        # Δq, 1e-15 apart, then differed by 1e-3)
+        if v < q_min[j] and q_min[j] - v <= LIMIT_ROUNDING:
+            v = q_min[j]
+        elif v > q_max[j] and v - q_max[j] <= LIMIT_ROUNDING:
+            v = q_max[j]
+        out[7 + j] = v
 
 
 # numba caches these on ticks.py alone: flush them when the kernels they call change

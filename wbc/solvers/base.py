@@ -87,8 +87,37 @@ _INSIDE = "constraints violated at the start (their best way back)"
 #: weight of "no closer than now" against "separate at the damper's rate" in the best
 #: separation of the self-collision pairs inside their margin (one least-squares level)
 HOLD_WEIGHT = 100.0
+#: the allowed regularization μ (in μ‖Δq‖²): > 0 keeps every QP strictly convex, and beside
+#: task weights of 1e-6 … 1e6 (:data:`wbc.tasks.task.WEIGHT_RANGE`) more than 1e-2 would
+#: rival the tasks it only regularizes (1e30 held a walk's every joint still: issue 28)
+REGULARIZATION_RANGE = (1e-12, 1e-2)
+#: the allowed ``hard_tol`` (m, rad): a hard level's largest residual
+HARD_TOL_RANGE = (1e-12, 1e-2)
 _EMPTY = np.zeros(0)
 _NO_JOINTS = np.zeros(0, dtype=int)
+
+
+class Undiagnosed(InfeasibleError):
+    """An infeasible solve whose diagnosis (a cascade of QPs naming the rows in conflict, as
+    long as the solve itself) runs only if the recovery re-solve cannot answer the tick
+    (:meth:`StackSolver._solve_recovering`): the error the caller then sees is the
+    diagnosed one. Most such ticks recover (starts outside the limits or inside a collision
+    margin), and the diagnosis was half of their time (issue 28)."""
+
+    def __init__(self, diagnose: Callable[[], str]) -> None:
+        super().__init__("infeasible (the diagnosis runs if the recovery fails)")
+        self._diagnose = diagnose
+
+    def diagnosed(self) -> InfeasibleError:
+        """The InfeasibleError naming the rows (runs the diagnosis)."""
+        error = InfeasibleError(self._diagnose())
+        error.__cause__ = self.__cause__
+        return error
+
+
+def _diagnosed(exc: WbcError) -> WbcError:
+    """``exc`` with its diagnosis, where it was deferred (:class:`Undiagnosed`)."""
+    return exc.diagnosed() if isinstance(exc, Undiagnosed) else exc
 
 
 class SplitRows(NamedTuple):
@@ -205,6 +234,7 @@ class StackSolver(ABC):
             )
         if compiled not in (None, True, False):
             raise ConfigurationError(f"compiled must be None, True or False, got {compiled!r}")
+        regularization = check_number("regularization", regularization, REGULARIZATION_RANGE)
         self.stack = stack
         self.robot = stack.robot
         self.backend = make_backend(backend) if isinstance(backend, str) else backend
@@ -223,7 +253,9 @@ class StackSolver(ABC):
         self.handed_back_ticks = 0
         #: solves done on the numpy path while the compiled tick was being compiled in the
         #: background (``compiled=None`` only: True waits for it; see
-        #: :meth:`wbc.compiled.dispatch.Ticks.ready`)
+        #: :meth:`wbc.compiled.dispatch.Ticks.ready`), and the hierarchy's numpy-path solves
+        #: by the backend cascade while its level kernel compiles, on any backend
+        #: (:meth:`wbc.compiled.dispatch.Ticks.kernel_ready`)
         self.interim_ticks = 0
         self._layouts: dict = {}
         #: the work arrays that the compiled plans of the layouts share
@@ -263,8 +295,8 @@ class StackSolver(ABC):
 
     def _timed_solve(self, q: np.ndarray, dt: float | None) -> Solution:
         start = time.perf_counter()
-        if dt is not None and not (math.isfinite(dt) and dt > 0):
-            raise ConfigurationError(f"dt must be a positive number, got {dt}")
+        if dt is not None:
+            check_dt(dt)
         self.last = None
         self.kin.update(q)
         try:
@@ -349,7 +381,7 @@ class StackSolver(ABC):
             if first is None or not relax:
                 restored = self._restore_hard(kin, lower, upper)
                 if restored is None:  # infeasible on their own: the solver's diagnosis
-                    raise exc from (None if first else failure)
+                    raise _diagnosed(exc) from (None if first else failure)
                 self.diagnosis, self.relaxed = "", False
                 return Solution(restored, lower, upper)
             dq, unmet = first
@@ -438,6 +470,7 @@ class StackSolver(ABC):
         does. ``stop``: not t = 0. ``kin`` left at q."""
         q0 = kin.q.copy()
         for t in (*(0.5**k for k in range(WAY_BACK_HALVINGS)), *(() if stop else (0.0,))):
+            self._spend()  # (inside a solve_pose: its time budget checked at every try)
             q_t = self._move_joints(q0, t * dq)
             kin.update(q_t)
             errors = self._hard_errors(kin)
@@ -511,6 +544,7 @@ class StackSolver(ABC):
         for _ in range(max_steps):
             if max(errors, default=0.0) <= self.hard_tol:
                 break
+            self._spend()  # (inside a solve_pose: its time budget, at every step)
             kin.update(q)
             problems, held = self._hard_problems(kin)
             problems += self._weighted_rows(kin)
@@ -665,14 +699,17 @@ class StackSolver(ABC):
             if plan is not None:
                 plan.forget_warm_start()
 
-    def step(self, q: np.ndarray, dt: float | None = None) -> np.ndarray:
-        """One control tick: q ⊕ Δq with the joints inside their limits.
+    def step(self, q: np.ndarray, dt: float) -> np.ndarray:
+        """One control tick of ``dt`` seconds (a number > 0: the servos' speed limits need it;
+        :meth:`solve` and :meth:`solve_pose` take None for no time step): q ⊕ Δq with the
+        joints inside their limits.
 
         The QP keeps Δq inside its box bounds up to the solver's tolerance (~1e-9); before
         integrating, the joint increments are projected onto that box exactly, and the joints
         onto their limits, so that no returned configuration ever exceeds a limit (a joint that
         started outside is moved back towards its range, never further out).
         """
+        check_dt(dt, "step")
         solution = self._timed_solve(q, dt)
         if solution.q_next is not None:  # integrated by the compiled tick, the same way
             return solution.q_next.copy()
@@ -717,7 +754,9 @@ class StackSolver(ABC):
 
         A final guard: every hard level ends within that tolerance (task errors, and
         the violation of its inequality rows other than those of self-collision pairs inside
-        their margin), or InfeasibleError is raised — a pose is never returned off a hard
+        their margin): where no projection of the last iterate gets there, the pose ends at
+        the last iterate that held them (the start, if none since; ``converged`` False), and
+        InfeasibleError is raised only if none did — a pose is never returned off a hard
         contact. With ``on_infeasible="relax"`` the levels from the first one that was not
         met at the start (a relaxed, unreachable level) down are exempt.
 
@@ -778,6 +817,9 @@ class StackSolver(ABC):
         converged = False
         it = 0
         q_prev = dq_prev = errors_prev = None
+        # the last iterate whose hard tasks were within pose_tol (the start first): where the
+        # end cannot be brought back onto the hard levels, the pose ends there, not converged
+        held = q.copy() if max(start_errors, default=0.0) <= pose_tol else None
         for it in range(1, max_iterations + 1):
             self._spend(iteration=it)
             try:
@@ -790,6 +832,8 @@ class StackSolver(ABC):
                 back = True
             if back:
                 q, dq, errors = self._shorter_step(q_prev, dq_prev, errors_prev, tol, dt)
+            if max(errors, default=0.0) <= pose_tol:
+                held = q
             if self._converged(tol):
                 converged = True
                 it -= 1
@@ -817,11 +861,20 @@ class StackSolver(ABC):
             loose = self._project(q, pose_tol, slack=drift)
             if max(loose[1], default=0.0) < max(errors):
                 q_end, errors = loose
+        fell_back = False
+        if held is not None and self._off_hard_levels(errors, start_errors, pose_tol):
+            # no projection of the end holds the hard levels (the guard raised on feasible
+            # poses: 3 of 2,000 in issue 28's run): the last iterate that held them, which a
+            # caller may take as it is (not converged) or start from again
+            self.kin.update(held)
+            held_errors = self._hard_errors(self.kin)
+            if not self._off_hard_levels(held_errors, start_errors, pose_tol):
+                q_end, errors, fell_back, converged = held, held_errors, True, False
         self._guard_hard_levels(errors, start_errors, pose_tol)
         q = q_end
         self.kin.update(q)
         errors = self.stack.evaluate(self.kin)
-        if not converged:
+        if not converged and not fell_back:
             converged = all(
                 float(np.max(np.abs(errors[t.name]))) <= tol
                 for t in self.stack.tasks()
@@ -853,13 +906,20 @@ class StackSolver(ABC):
                 f"({b.steps} Gauss–Newton steps, {time.perf_counter() - b.start:.3g} s)"
             )
 
-    def _guard_hard_levels(self, errors: list[float], start: list[float], tol: float) -> None:
-        """Raise InfeasibleError if a hard level a converged pose must hold ends beyond
-        ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
+    def _off_hard_levels(
+        self, errors: list[float], start: list[float], tol: float
+    ) -> list[tuple[int, float]]:
+        """(index, error) of each hard level a converged pose must hold that ``errors`` leave
+        beyond ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
         held = len(errors)
         if self.on_infeasible == "relax":
             held = next((k for k, e in enumerate(start) if e > tol), held)
-        off = [(k, e) for k, e in enumerate(errors[:held]) if e > tol]
+        return [(k, e) for k, e in enumerate(errors[:held]) if e > tol]
+
+    def _guard_hard_levels(self, errors: list[float], start: list[float], tol: float) -> None:
+        """Raise InfeasibleError if a hard level a converged pose must hold ends beyond
+        ``tol`` (see :meth:`solve_pose`); ``start``: the levels' errors at the start."""
+        off = self._off_hard_levels(errors, start, tol)
         if off:
             priorities = [lv.priority for lv in self.stack.levels if lv.hard]
             raise InfeasibleError(
@@ -1171,6 +1231,33 @@ class StackSolver(ABC):
             position = Bounds(lower.copy(), upper.copy())
             others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]
             intersect_bounds(position, others, lower, upper)
+
+
+def check_number(name: str, value: object, allowed: tuple[float, float]) -> float:
+    """``value`` as a float if it is a real number within ``allowed`` (inclusive), else one
+    ConfigurationError line naming ``name`` and the range."""
+    lo, hi = allowed
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not lo <= value <= hi  # (NaN fails this too)
+    ):
+        raise ConfigurationError(f"{name} must be a number in [{lo:g}, {hi:g}], got {value!r}")
+    return float(value)
+
+
+def check_dt(dt: object, caller: str = "solve") -> float:
+    """``dt`` as a float if it is a time step in seconds (a real number, finite, > 0; not a
+    bool), else one ConfigurationError line naming ``caller``'s argument."""
+    if (
+        isinstance(dt, bool)
+        or not isinstance(dt, (int, float, np.integer, np.floating))
+        or not (math.isfinite(dt) and dt > 0)
+    ):
+        raise ConfigurationError(
+            f"{caller}: dt must be a time step in seconds (a finite number > 0), got {dt!r}"
+        )
+    return float(dt)
 
 
 def _no_jacobian(nv: int) -> np.ndarray:

@@ -26,7 +26,14 @@ from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
 from .backends import QPBackend, make_backend
-from .base import CONSTRAINT_TOL, Solution, StackSolver
+from .base import (
+    CONSTRAINT_TOL,
+    HARD_TOL_RANGE,
+    Solution,
+    StackSolver,
+    Undiagnosed,
+    check_number,
+)
 from .cascade import LevelProblem, LevelSolution, solve_cascade, solve_cascade_or_daqp
 from .diagnostics import infeasible_message
 
@@ -69,7 +76,7 @@ class HierarchicalQP(StackSolver):
             )
         super().__init__(stack, backend, regularization, on_infeasible, compiled)
         self.method = method
-        self.hard_tol = hard_tol
+        self.hard_tol = check_number("hard_tol", hard_tol, HARD_TOL_RANGE)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []
@@ -206,9 +213,12 @@ class HierarchicalQP(StackSolver):
         problems, lower, upper = self._assemble(kin, dt, inequalities, fast)
         self._problems = problems
         if fast is None and not interim and not self.stack.extra_limits:
-            dq = self._level_solver(problems, kin, dt, lower, upper)
-            if dq is not None:
-                return Solution(dq, lower, upper)
+            if self._level_solver_ready():
+                dq = self._level_solver(problems, kin, dt, lower, upper)
+                if dq is not None:
+                    return Solution(dq, lower, upper)
+            else:  # its kernel compiles in the background: the backend cascade meanwhile
+                self.interim_ticks += 1
         relax = self.on_infeasible == "relax"
         while len(self._backends) < len(problems) + 1:
             self._backends.append(make_backend(self.backend.name, self.backend.eps))
@@ -221,11 +231,24 @@ class HierarchicalQP(StackSolver):
                 final_regularization=self.regularization,
                 relax=relax,
             )
-        except InfeasibleError as exc:
-            raise InfeasibleError(self._hard_inequality_message(kin, lower, upper)) from exc
+        except InfeasibleError as exc:  # named only if the recovery cannot answer the tick
+            bounds = lower.copy(), upper.copy()
+            raise Undiagnosed(lambda: self._hard_inequality_message(kin, *bounds)) from exc
         self.relaxed = any(s.relaxed for s in self.solutions)
         self._check_hard_levels(relax)
         return Solution(dq, lower, upper)
+
+    @staticmethod
+    def _level_solver_ready() -> bool:
+        """True if the numpy path's level cascade runs without compiling now (else it is
+        being compiled in the background: :meth:`wbc.compiled.dispatch.Ticks.kernel_ready`)."""
+        from ..compiled.ticks import cascade_solve
+
+        if cascade_solve.overloads:  # (compiled in this process: every later tick)
+            return True
+        from ..compiled.dispatch import package_ticks
+
+        return package_ticks().kernel_ready(cascade_solve, "cascade_tick")
 
     def _level_solver(self, problems, kin: Kinematics, dt: float | None, lower, upper):
         """The levels on the numpy path: the compiled tick's own level algorithm

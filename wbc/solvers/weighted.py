@@ -19,7 +19,14 @@ import numpy as np
 from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
 from .assembly import TaskBlock, stack_constraints
-from .base import Solution, StackSolver
+from .base import (
+    CONSTRAINT_TOL,
+    HARD_TOL_RANGE,
+    Solution,
+    StackSolver,
+    Undiagnosed,
+    check_number,
+)
 from .cascade import LevelProblem, solve_cascade_or_daqp
 from .diagnostics import conflicts, infeasible_message
 
@@ -72,7 +79,7 @@ class WeightedQP(StackSolver):
         compiled: bool | None = None,
     ) -> None:
         super().__init__(stack, backend, regularization, on_infeasible, compiled)
-        self.hard_tol = hard_tol
+        self.hard_tol = check_number("hard_tol", hard_tol, HARD_TOL_RANGE)
         self._key = None
         self.ws = None
         self.diagnosis = ""
@@ -113,7 +120,7 @@ class WeightedQP(StackSolver):
             # compiling in the background: meanwhile the numpy path (the same QP, by the
             # backend); compiled=True waits for the compiled tick
             self.interim_ticks += 1
-            return self._solve_value(kin, self._assemble(kin, dt, None))
+            return self._solve_value(kin, self._assemble(kin, dt, None), dt, kernel=False)
         if fast is not None:
             # the compiled tick: the plan's rows and bounds, the inequality rows (an active
             # set on them in the compiled least squares), the integration
@@ -129,8 +136,9 @@ class WeightedQP(StackSolver):
             value = WeightedValue(
                 fast.soft.J, fast.soft.b, fast.hard.J, fast.hard.b, G, h, fast.lower, fast.upper
             )
-            return self._solve_value(kin, value)
-        return self._solve_value(kin, self._assemble(kin, dt, fast))
+            # (not the least squares again: the compiled tick tried it cold already)
+            return self._solve_value(kin, value, dt, kernel=False)
+        return self._solve_value(kin, self._assemble(kin, dt, fast), dt)
 
     def _assemble(self, kin: Kinematics, dt: float | None, fast) -> WeightedValue:
         """The QP value: the inequality rows, and on the numpy path (``fast`` None) every row
@@ -147,8 +155,15 @@ class WeightedQP(StackSolver):
         self.compute_bounds(kin, dt, self._lower, self._upper)
         return WeightedValue(soft.J, soft.b, hard.J, hard.b, G, h, self._lower, self._upper)
 
-    def _solve_value(self, kin: Kinematics, value: WeightedValue) -> Solution:
-        """The QP value through the backend (its workspace filled in place)."""
+    def _solve_value(
+        self, kin: Kinematics, value: WeightedValue, dt: float | None = None, kernel=True
+    ) -> Solution:
+        """The QP value through the backend (its workspace filled in place); with DAQP and
+        ``kernel``, the compiled tick's own least squares first (:meth:`_least_squares`)."""
+        if kernel and self.backend.name == "daqp" and not self.stack.extra_limits:
+            dq = self._least_squares(kin, value, dt)
+            if dq is not None:
+                return Solution(dq, value.lower, value.upper)
         if value.h.size != self.ws.shape[2]:
             self._plan(value.h.size)
         ws = self.ws
@@ -165,11 +180,65 @@ class WeightedQP(StackSolver):
         self.relaxed = False
         try:
             dq = self.backend.solve_workspace(ws)
-        except InfeasibleError:
+        except InfeasibleError as exc:
+            if self.on_infeasible == "raise":  # named only if the recovery cannot answer
+                raise Undiagnosed(lambda: self._diagnosis(kin, value)) from exc
             dq = self._relax(kin, value)
         except SolverError:  # e.g. OSQP out of iterations: not known to be infeasible
             dq = self._relax(kin, value, failed=True)
         return Solution(dq, ws.lower, ws.upper)
+
+    def _least_squares(
+        self, kin: Kinematics, value: WeightedValue, dt: float | None
+    ) -> np.ndarray | None:
+        """Δq by the compiled tick's least squares (:func:`wbc.compiled.ticks.weighted_solve`,
+        cold: no working set carried from another tick) on these rows, so that the numpy
+        path and a tick the compiled one hands back give the compiled tick's answer whatever
+        ticks came before (DAQP's, through the condition of H = JᵀWJ + μI, was up to 1e-7
+        off: issue 28). None if it cannot finish (DAQP then solves, or names why the QP is
+        infeasible) or its kernel is being compiled in the background (counted an interim
+        tick: :meth:`wbc.compiled.dispatch.Ticks.kernel_ready`)."""
+        from ..compiled.lsq import OK
+        from ..compiled.ticks import weighted_solve
+
+        if not weighted_solve.overloads:
+            from ..compiled.dispatch import package_ticks
+
+            if not package_ticks().kernel_ready(weighted_solve, "weighted_tick"):
+                self.interim_ticks += 1
+                return None
+        nv = self.robot.nv
+        G = np.ascontiguousarray(value.G, dtype=float)
+        h = np.ascontiguousarray(value.h, dtype=float)
+        limit = self.stack.velocity_limit
+        use = dt is not None and limit is not None
+        step = limit.step(dt) if use else np.zeros(self.robot.n_joints)
+        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
+        lower, upper = value.lower, value.upper
+        dq = np.zeros(nv)
+        status = weighted_solve(
+            np.ascontiguousarray(value.J, dtype=float), np.ascontiguousarray(value.b, dtype=float),
+            np.ascontiguousarray(value.A, dtype=float), np.ascontiguousarray(value.a, dtype=float),
+            G, h, np.array([0, h.size], dtype=np.int64), np.ascontiguousarray(kin.q, dtype=float),
+            self._q_min, self._q_max, np.ascontiguousarray(step, dtype=float), params, lower,
+            upper, np.zeros(nv, dtype=np.int8), np.zeros(h.size, dtype=np.bool_), dq,
+            np.zeros(self.robot.nq),
+        )  # fmt: skip
+        if status != OK:
+            self.compute_bounds(kin, dt, lower, upper)  # the backend starts afresh
+            return None
+        self.relaxed = False
+        self.diagnosis = ""
+        return dq
+
+    def _diagnosis(self, kin: Kinematics, value: WeightedValue) -> str:
+        """What an infeasible QP cannot meet (:meth:`_relax`'s message; also
+        :attr:`diagnosis`)."""
+        try:
+            self._relax(kin, value)
+        except InfeasibleError as exc:
+            return str(exc)
+        return self.diagnosis or "infeasible (no task or constraint stands out)"
 
     def _relax(self, kin: Kinematics, value: WeightedValue, failed: bool = False) -> np.ndarray:
         """The hard levels in priority order, each in least squares, then the soft tasks

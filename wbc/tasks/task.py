@@ -49,6 +49,11 @@ PACKAGE_KERNELS: list[RowKernel] = []
 #: that sets :attr:`Task.stack_type` joins when it is defined, in the package or out of it
 #: (a later class of the same name replaces it: a notebook cell run again)
 STACK_TYPES: dict[str, type[Task]] = {}
+#: a task weight is 0 (its rows off) or within this range: the solvers' problems are scaled
+#: for it (regularization 1e-6 beside weights up to 1e6; a weight of 1e30 made the weighted
+#: Hessian's condition 1e36 and failed a walk's ticks as "infeasible", issue 28). Only the
+#: ratios of a level's weights matter, so any intent scales into it
+WEIGHT_RANGE = (1e-6, 1e6)
 
 
 class Objective(NamedTuple):
@@ -196,6 +201,12 @@ class Task:
             )
         if not np.all(np.isfinite(w)) or np.any(w < 0):
             raise TaskError(f"task {self.name!r}: weights must be finite and >= 0, got {w}")
+        lo, hi = WEIGHT_RANGE
+        if np.any((w != 0) & ((w < lo) | (w > hi))):
+            raise TaskError(
+                f"task {self.name!r}: each weight must be 0 or within [{lo:g}, {hi:g}] (only "
+                f"their ratios within a level matter: scale them into it), got {w}"
+            )
         self._weight_full = w
         self._weight = w[self._rows]
         self._changed()
