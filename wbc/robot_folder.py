@@ -207,6 +207,7 @@ def check_folder(path: str | Path) -> list[Finding]:
     findings += _check_limits(robot)
     findings += _check_masses(robot)
     findings += _check_frames(robot, folder)
+    findings += _check_legs(robot)
     findings += _check_servo_map(robot, folder)
     findings += _check_poses(robot)
     findings += _check_stack(robot, folder)
@@ -266,6 +267,41 @@ def _check_frames(robot: Robot, folder: Path) -> list[Finding]:
             f"{', '.join(robot.link_names())}",
         )
     ]
+
+
+def _check_legs(robot: Robot) -> list[Finding]:
+    """The joint roles found (:mod:`wbc.roles`), the feet and the legs' measurements."""
+    if not all(robot.has_frame(f) for f in STANDARD_FRAMES):
+        return []
+    try:
+        roles = robot.roles
+    except WbcError as exc:
+        return [Finding("error", str(exc))]
+    out = [Finding("ok", "joint roles from the kinematic tree (* named in robot.toml [joints]):")]
+    out += [Finding("ok", f"  {line}") for line in roles.lines()]
+    given = robot.robot_data.feet_given
+    try:
+        length, width = robot.foot_size
+    except WbcError as exc:
+        return [*out, Finding("error", str(exc))]
+    where = f"{ROBOT_FILE} [feet]" if len(given) == 2 else "the sole link's collision box"
+    out.append(Finding("ok", f"feet {1e3 * length:.1f} x {1e3 * width:.1f} mm (from {where})"))
+    from .walking.legs import LegGeometry
+
+    try:
+        legs = LegGeometry.from_robot(robot)
+    except WbcError as exc:
+        return [*out, Finding("error", f"leg measurements: {exc}")]
+    out.append(
+        Finding(
+            "ok",
+            f"legs: thigh {1e3 * legs.thigh:.1f} mm, shin {1e3 * legs.shin:.1f} mm, hips "
+            f"{2e3 * legs.hip_half_width:.1f} mm apart, ankle {1e3 * legs.ankle_height:.1f} mm "
+            f"above the sole, standing CoM {1e3 * robot.com(robot.configuration('stand'))[2]:.1f}"
+            " mm high",
+        )
+    )
+    return out
 
 
 def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:

@@ -113,14 +113,10 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
     balance window (:data:`WHOLE_BODY` trajectories; ``max_lean`` in rad may be set in
     ``[walking.<name>]``) and the keyword overrides of ``robot.toml``'s ``[walking.<name>]``.
 
-    The legs are measured from the model at the standing pose; the Bioloid keeps the rounded
-    constants of :class:`LegGeometry` (the same measurement) so its recorded figures hold."""
+    The legs are measured from the model at the standing pose (``robot.toml`` ``[legs]`` may
+    state them: the Bioloid's states the rounded values its figures were recorded with)."""
     data = robot.robot_data
-    legs = (
-        LegGeometry()
-        if robot.name == "bioloid"
-        else LegGeometry.from_robot(robot, robot.configuration("stand"))
-    )
+    legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
     kw: dict[str, Any] = {"foot": Foot(*robot.foot_size), "legs": legs}
     table = dict(data.walking.get(name, {}))
     if name in WHOLE_BODY:

@@ -27,8 +27,6 @@ import pinocchio as pin
 from ..exceptions import SolverError
 from .reference import WalkingReference
 
-ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
-
 #: the share of a servo's no-load speed (the model's velocity limit) a reference may ask for.
 #: The AX-12A's speed falls linearly with torque, ``w = w0 (1 - tau / tau_stall)``; a swing
 #: leg's joints carry ~0.1 N.m (7 % of the 1.5 N.m stall), the recommended 11.1 V supply
@@ -80,7 +78,11 @@ def kinematic_feasibility(
     torsos = ref.torso_rotations(pitch_roll)  # with the reference's planned lean, if any
     w_sole, w_com, w_torso = weights
     W = np.array([w_sole] * 12 + [w_com] * 3 + [w_torso] * 3)
-    held = [robot.v_index(f"{s}_{j}") for s in "lr" for j in ARM_JOINTS] if hold_arms else []
+    held = (
+        [robot.v_index(j) for s in ("left", "right") for j in robot.roles.arm(s)]
+        if hold_arms
+        else []
+    )
     free = np.setdiff1d(np.arange(model.nv), held)
     worst = np.zeros(3)
     min_margin = np.inf
