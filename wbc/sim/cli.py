@@ -182,6 +182,11 @@ def run(args: argparse.Namespace) -> int:
         rec = Recording.load(args.recording)
         label = Path(args.recording).name
     else:
+        from ..bench.physics import physics_stack
+
+        stack = physics_stack(robot)
+        if stack is not None and args.solver.startswith(("wqp-", "hqp-")):
+            print(f"wbc sim: {args.solver} loads the robot folder's stack {stack}", flush=True)
         rec = plan(args.solver, args.trajectory, robot)
         label = f"{args.solver} on {args.trajectory}"
     push = None

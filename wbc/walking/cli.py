@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..bench import metrics
     from ..bench.trajectories import build
-    from ..stacks import load_stack
+    from ..stacks import load_stack, robot_stack
     from .loop import RunOptions, StackController
     from .loop import run as run_loop
 
@@ -53,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
         robot = load_robot(args.robot)
         print_notes(robot, "walk")
         ref = build(args.trajectory, robot, walking_only=True)
-        stack = args.stack or robot.default_stack or "walk"
+        stack, note = robot_stack(robot, args.stack)
+        print(f"wbc walk: {note}", file=sys.stderr)
         control = load_stack(stack, robot, backend=args.backend, solver=args.solver)
     except WbcError as exc:
         print(f"wbc walk: {exc}", file=sys.stderr)
