@@ -458,11 +458,14 @@ class Robot:
         * ``"zero"``: all joints zero, soles on the ground.
         * a pose of ``poses.toml`` (radians), or of the servo map (ticks through the map);
           left sole flat at z = 0, the soles' midpoint at the origin.
-        * ``"walk_ready"`` (:data:`STANDING_POSE`) on a robot that defines no such pose: the
-          zero pose (:attr:`notes` says so when the robot is loaded).
+        * ``"walk_ready"`` (:data:`STANDING_POSE`) on a robot that defines no such pose: its
+          standing pose (``robot.toml``'s ``stand``), else the zero pose (:attr:`notes` says
+          so when the robot is loaded).
         """
         if name == "stand":  # the robot's standing pose (robot.toml's stand, else walk_ready)
             name = self.stand_pose
+        elif name == STANDING_POSE and name not in self.pose_names():
+            name = self.stand_pose  # a robot whose standing pose has another name (or zero)
         if name == "zero" or (name == STANDING_POSE and name not in self.pose_names()):
             q = self.neutral()
         elif name in self.poses:

@@ -74,6 +74,9 @@ class RobotData:
     legs: Mapping[str, object] = field(default_factory=dict)
     #: which of the foot's length and width ``[feet]`` states (the others come from the model)
     feet_given: tuple[str, ...] = ()
+    #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
+    #: more than its share of its speed (:mod:`wbc.walking.sizing`)
+    fit_speed: bool = True
 
     @classmethod
     def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
@@ -91,10 +94,11 @@ class RobotData:
         frames = raw.get("frames", {})
         if not isinstance(frames, Mapping) or not all(isinstance(v, str) for v in frames.values()):
             raise ModelError(f"{where}: [frames] maps names to URDF frame names (strings)")
-        walking = raw.get("walking", {})
-        if not isinstance(walking, Mapping) or not all(
-            isinstance(v, Mapping) for v in walking.values()
-        ):
+        walking = dict(raw.get("walking", {}))
+        fit_speed = walking.pop("fit_speed", True)
+        if not isinstance(fit_speed, bool):
+            raise ModelError(f"{where}: [walking] fit_speed = {fit_speed!r}: true or false")
+        if not all(isinstance(v, Mapping) for v in walking.values()):
             raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
         tables = {}
         for key in ("servo", "imu", "legs"):
@@ -127,6 +131,7 @@ class RobotData:
             str(folder),
             joints=read_joint_roles(raw.get("joints", {}), joint_names, where),
             feet_given=tuple(k for k in ("length", "width") if k in feet),
+            fit_speed=fit_speed,
             **tables,
         )
 

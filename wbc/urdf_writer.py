@@ -98,6 +98,7 @@ def transform_urdf(
     scale: float | Callable[[str], float] = 1.0,
     rename: Mapping[str, str] | None = None,
     torque_exponent: float = 4.0,
+    speed_exponent: float = 0.0,
 ) -> str:
     """A URDF with its lengths scaled and its joints and links renamed.
 
@@ -105,7 +106,9 @@ def transform_urdf(
     geometry, inertial origin and the origin of the joint above it scaled by ``s``, its mass by
     ``s³`` and its inertia by ``s⁵`` (a geometrically similar body of the same density); the
     joint above it has its effort limit scaled by ``s**torque_exponent`` (``s⁴``: the same
-    share of the torque gravity asks for). ``rename``: old -> new name, for joints and links.
+    share of the torque gravity asks for) and its velocity limit by ``s**speed_exponent``
+    (``s^-½``: the same motion, slowed by ``√s`` as a pendulum ``s`` times as long).
+    ``rename``: old -> new name, for joints and links.
     """
     import xml.etree.ElementTree as ET
 
@@ -146,6 +149,8 @@ def transform_urdf(
         limit = joint.find("limit")
         if limit is not None and "effort" in limit.attrib:
             limit.set("effort", _num(float(limit.get("effort", "0")) * s**torque_exponent))
+        if limit is not None and "velocity" in limit.attrib:
+            limit.set("velocity", _num(float(limit.get("velocity", "0")) * s**speed_exponent))
         joint.set("name", names.get(joint.get("name", ""), joint.get("name", "")))
         for tag in ("parent", "child"):
             el = joint.find(tag)
