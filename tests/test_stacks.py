@@ -328,3 +328,15 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
     assert physics_stack(robot) == stack
     entries, _ = select(["hqp-daqp"], None, "tick", stack=physics_stack(robot))
     assert entries[0].stack == stack and entries[0].name == "hqp-daqp@stack"
+
+
+def test_deploy_live_without_a_stack_takes_the_robots():
+    import argparse
+
+    from wbc.servos import deploy
+
+    parser = argparse.ArgumentParser()
+    deploy.add_arguments(parser)
+    assert parser.parse_args(["--live"]).live == ""  # -> robot_stack(robot, None)
+    assert parser.parse_args(["--live", "walk_strict"]).live == "walk_strict"
+    assert parser.parse_args([]).live is None
