@@ -139,6 +139,10 @@ def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object
     return out
 
 
+def _num(v: object, digits: int) -> str:
+    return f"{v:.{digits}f}" if isinstance(v, (int, float)) and np.isfinite(v) else "-"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="folder for the made robot")
@@ -178,9 +182,9 @@ def main() -> int:
                 cells += [f"sim: {s['error']}", "", "", "", "", ""]
             elif s:
                 fell = "-" if s["fell"] is None else f"{s['fell']:.2f}"
-                cells += [fell, f"{s['dev']:.1f}", f"{s['dist']:.2f}"]
-                cells += [s.get("random", ""), f"{s.get('rdev', float('nan')):.1f}"]
-                cells += [f"{s.get('rdist', float('nan')):.2f}"]
+                cells += [fell, _num(s["dev"], 1), _num(s["dist"], 2)]
+                cells += [str(s.get("random", "")), _num(s.get("rdev"), 1)]
+                cells += [_num(s.get("rdist"), 2)]
             print("| " + " | ".join(cells) + " |", flush=True)
             print(f"<!-- {name} {t}: {time.time() - t0:.0f} s -->", flush=True)
     return 0

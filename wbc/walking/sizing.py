@@ -54,6 +54,11 @@ TIMES = (
 JERK_WEIGHTS = ("r_input",)
 #: how many times the timing is stretched at most to bring the joints within their speed
 FIT_ROUNDS = 3
+#: the most one round stretches the timing by
+MAX_STRETCH = 2.0
+#: the CoM and sole errors (m) within which the tracking IK follows a reference (beyond, its
+#: joint speeds are jumps, not what the timing asks)
+TRACKED = 0.005
 
 
 def scale_options(
@@ -136,11 +141,17 @@ def sized(
     ref = build(options)
     if not fit_speed or not time_keys(own) or any(k in stated for k in ("timing", *TIMES)):
         return ref, options
+    last = math.inf
     for _ in range(FIT_ROUNDS):
-        share = kinematic_feasibility(robot, ref, iterations=2).speed_fraction
-        if not share > SPEED_FRACTION:
+        report = kinematic_feasibility(robot, ref, iterations=2)
+        share = report.speed_fraction
+        # done; or a reference the legs cannot track (the IK's jumps are no servo speed); or
+        # a speed that slowing down does not lower
+        untracked = max(report.max_com_error, report.max_sole_error) > TRACKED
+        if not share > SPEED_FRACTION or untracked or share > 0.9 * last:
             break
-        time *= 1.05 * share / SPEED_FRACTION
+        last = share
+        time *= min(1.05 * share / SPEED_FRACTION, MAX_STRETCH)
         options = {**scale_options(own, along, across, time), **stated}
         ref = build(options)
     return ref, options
