@@ -240,7 +240,9 @@ def readme_template(name: str, source: str) -> str:
 - `stack.toml` (optional): the default task stack of `wbc walk` (format of `tasks/*.toml`).
   Without it: `tasks/walk.toml`.
 - `robot.toml` (optional): `[frames]` `torso`, `l_sole`, `r_sole` = your URDF's names for
-  them, if they differ.
+  them, if they differ; `[joints.left]`/`[joints.right]` role = joint, for roles the
+  kinematic tree does not tell (`wbc robot check` prints the roles it found); `[feet]` and
+  `[legs]` to state what is otherwise measured from the model; `[walking.<trajectory>]`.
 
 The stacks and the walking code need three frames: `torso` (the body whose orientation is
 held), `l_sole` and `r_sole` (on the sole surfaces, z up, x forward at the standing pose). Add

@@ -83,7 +83,7 @@ def physics_stack(robot: Robot, stack: str | None = None) -> str | None:
 
     if stack is None and robot.default_stack is None:
         return None
-    return robot_stack(robot, stack)[0]
+    return str(robot_stack(robot, stack)[0])
 
 
 def plan(solver: str, trajectory: str, robot: Robot) -> Recording:

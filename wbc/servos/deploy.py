@@ -277,16 +277,24 @@ def _imu(args: argparse.Namespace, bus: ServoBus):
     )
 
 
+def _loaded(stack: str | Path, note: str, robot: Robot):
+    """Load the live stack, then say which one it is (stdout: errors stay one line)."""
+    from ..stacks import load_stack
+
+    control = load_stack(stack, robot)
+    print(f"wbc deploy: {note}")
+    return control
+
+
 def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, imu):
     """A task stack solved live along a walking reference, one solve per deploy tick, open
     or closed loop (:func:`wbc.balance.live.closed_loop`); returns (loop, imu, what, s)."""
     from ..balance.live import closed_loop
     from ..bench.trajectories import build
-    from ..stacks import load_stack, robot_stack
+    from ..stacks import robot_stack
     from ..walking.loop import StackController
 
     stack, note = robot_stack(robot, args.live or None)
-    print(f"wbc deploy: {note}", file=sys.stderr)
     ref = build(args.trajectory, robot)
     stepping = None
     if args.stepping:
@@ -294,7 +302,7 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
 
         stepping = SteppingParams()
     loop = closed_loop(
-        bus, robot, StackController(load_stack(stack, robot)), ref, imu,
+        bus, robot, StackController(_loaded(stack, note, robot)), ref, imu,
         enabled=args.closed_loop, compensate=args.compensate,
         correct=args.compensate_encoders, config=config, stepping=stepping,
     )  # fmt: skip

@@ -54,11 +54,11 @@ def run(args: argparse.Namespace) -> int:
         print_notes(robot, "walk")
         ref = build(args.trajectory, robot, walking_only=True)
         stack, note = robot_stack(robot, args.stack)
-        print(f"wbc walk: {note}", file=sys.stderr)
         control = load_stack(stack, robot, backend=args.backend, solver=args.solver)
     except WbcError as exc:
         print(f"wbc walk: {exc}", file=sys.stderr)
         return 2
+    print(f"wbc walk: {note}")  # which stack runs (the robot folder's, when it has one)
     rec = run_loop(StackController(control), robot, ref, options=RunOptions(mode=args.mode))
     m = metrics.compute(rec, robot)
     print(

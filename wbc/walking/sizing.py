@@ -16,7 +16,9 @@ and then, unless the robot's ``robot.toml`` says ``[walking] fit_speed = false``
 until the reference asks no joint for more than :data:`SPEED_FRACTION` of its no-load speed
 (the model's velocity limit), measured by :func:`wbc.walking.feasibility.kinematic_feasibility`.
 Keys a robot states in ``[walking.<name>]`` are kept as stated (and a stated ``timing`` is not
-slowed). On the robot the defaults were tuned on, ``λ = μ = 1``.
+slowed). A slower walk sways further: if a slowed reference is refused (the hips' roll
+range), the slowest timing that builds is kept, which may still ask more than the share.
+On the robot the defaults were tuned on, ``λ = μ = 1``.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
+from ..exceptions import TrajectoryError
 from .schedule import GaitTiming, SwingParams
 
 #: the hip-to-ankle length (thigh + shin, m) and the foot width (m) the walking defaults
@@ -151,9 +154,17 @@ def sized(
         if not share > SPEED_FRACTION or untracked or share > 0.9 * last:
             break
         last = share
+        good = time
         time *= min(1.05 * share / SPEED_FRACTION, MAX_STRETCH)
-        options = {**scale_options(own, along, across, time), **stated}
-        ref = build(options)
+        for _ in range(3):  # a slower walk sways further: it may leave what the hips allow
+            try:
+                trial = {**scale_options(own, along, across, time), **stated}
+                ref, options = build(trial), trial
+                break
+            except TrajectoryError:
+                time = 0.5 * (good + time)  # the slowest timing that still builds
+        else:
+            break
     return ref, options
 
 
