@@ -129,7 +129,8 @@ def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object
         )
         fell += bool(r["fell"])
         devs.append(r["orientation_dev_max_deg"])
-        dists.append(r.get("distance_ratio", float("nan")))
+        d = r.get("distance_ratio")
+        dists.append(float("nan") if d is None else float(d))
     if n_random:
         out.update(
             random=f"{fell}/{n_random}",
