@@ -156,3 +156,12 @@ def test_no_bioloid_joint_or_link_name_in_the_controller():
         for m in pattern.finditer(line)
     ]
     assert not hits, hits
+
+
+def test_walking_a_robot_with_an_odd_leg_says_why_in_one_line(tmp_path, capsys):
+    from wbc.cli import main
+
+    folder = write_robot(tmp_path / "odd", _knee_about_x(BIOLOID_URDF.read_text()))
+    assert main(["walk", "--robot", str(folder), "--trajectory", "walk10"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "note:" not in line]
+    assert len(err) == 1 and "cannot understand the left leg" in err[0], err
