@@ -269,3 +269,35 @@ def test_short_cells_keep_two_significant_digits(x):
     text = _short(x)
     assert len(text) <= 8
     assert float(text) == pytest.approx(x, rel=0.05 if abs(x) < 100 else 0.006, abs=0.5)
+
+
+def test_static_com_table_runs(capsys):
+    # its rows carry no stack: the table's stack note crashed on them (KeyError: 'stack')
+    assert main(["bench", "--trajectories", "static_com", "--solvers", "wqp-daqp"]) == 0
+    assert "static_com" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("peer", ["placo", "pink"])
+def test_peers_use_the_mapped_frame_names(tmp_path, peer):
+    """placo and pink get the URDF's names of torso/l_sole/r_sole (robot.toml [frames])."""
+    from wbc.bench import trajectories as traj
+    from wbc.bench.runner import run_entry
+    from wbc.model import load_robot
+    from wbc.paths import robots_dir
+    from wbc.urdf_writer import transform_urdf
+
+    pytest.importorskip(peer)
+    names = {"torso": "body", "l_sole": "sole_left", "r_sole": "sole_right"}
+    folder = tmp_path / "mapped"
+    folder.mkdir()
+    text = (robots_dir() / "bioloid" / "bioloid.urdf").read_text()
+    (folder / "mapped.urdf").write_text(transform_urdf(text, 1.0, names))
+    (folder / "servos.toml").write_text((robots_dir() / "bioloid" / "servos.toml").read_text())
+    (folder / "robot.toml").write_text(
+        "[frames]\n" + "".join(f'{k} = "{v}"\n' for k, v in names.items())
+    )
+    robot = load_robot(folder)
+    entries, _ = solvers.select([peer], None, "tick")
+    _, rec = run_entry(entries[0], robot, traj.build("thesis_step", robot), "tick")
+    m = metrics.compute(rec, robot)
+    assert m["failures"] == 0 and m["com_err_max_mm"] < 5.0

@@ -227,19 +227,20 @@ def test_example_4_inverse_kinematics(kokone, gen):
 
 def test_table_4_6_is_wrong():
     """The printed Table 4.6 does not reach Example 4's targets (it is Table 4.2 with the
-    sign of theta_d5 flipped): the right foot lands ~9 cm from its target and tilted ~40°."""
+    sign of theta_d5 flipped): the right foot lands 7.37 cm from its target and tilted 40°,
+    the left one 3.33 cm from its target."""
     targets = example_4_targets()
     hip = (1.0, 0.0, 21.3)
-    for p, frame, right in (("r", "r_sole", True), ("l", "l_sole", False)):
+    for p, frame, right, miss in (("r", "r_sole", True, 7.37), ("l", "l_sole", False, 3.33)):
         table = thesis_foot(TABLE_4_6[p], right, hip)
         fig = thesis_foot(FIG_4_9[p], right, hip)
         goal = targets[frame].translation / CM
-        assert np.linalg.norm(table[:3, 3] - goal) > 0.9  # cm: misses by ~1-9 cm
+        assert np.linalg.norm(table[:3, 3] - goal) == pytest.approx(miss, abs=0.005)  # cm
         assert np.linalg.norm(fig[:3, 3] - goal) < 0.25  # the figure's whole degrees: close
     tilt = math.degrees(
         math.acos((np.trace(FOOT_R.T @ thesis_foot(TABLE_4_6["r"], True, hip)[:3, :3]) - 1) / 2)
     )
-    assert tilt > 30
+    assert tilt == pytest.approx(40.0, abs=0.01)
 
 
 # ---------------------------------------------------------------------- SSC-32 map

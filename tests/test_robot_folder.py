@@ -195,3 +195,32 @@ def test_check_lists_the_self_collision_pairs_left_out_and_warns_of_overlaps(bar
         r"standing pose"
     )
     assert any(overlap.match(m) for m in warnings), warnings
+
+
+def test_init_proposes_a_standing_pose(bare_urdf, tmp_path):
+    """Soles flat where they are at the zero pose, torso upright, hips lowered until
+    hip-to-ankle is STAND_HEIGHT_FRACTION of the leg length, knees bent forward."""
+    import numpy as np
+
+    from wbc.robot_folder import STAND_HEIGHT_FRACTION, standing_pose
+
+    out = tmp_path / "my_robot"
+    assert main(["robot", "init", str(bare_urdf), "--out", str(out)]) == 0
+    assert "Proposed by `wbc robot init`" in (out / "poses.toml").read_text()
+    robot = load_robot(out)
+    q = robot.configuration("walk_ready")
+    zero = robot.configuration("zero")
+    for sole in ("l_sole", "r_sole"):
+        placed = robot.frame_placement(q, sole)
+        assert abs(placed.translation[2]) < 1e-6 and np.allclose(
+            placed.rotation, np.eye(3), atol=1e-5
+        )
+    knee = robot.joint_index(robot.roles.joint("left", "knee"))
+    assert q[7 + knee] > 0.3  # bent, the way the Bioloid's knee flexes
+    drop = (
+        robot.frame_placement(zero, "torso").translation[2]
+        - robot.frame_placement(q, "torso").translation[2]
+    )
+    legs = 0.07639 + 0.07247  # the Bioloid's hip-to-ankle (robots/bioloid/robot.toml [legs])
+    assert drop == pytest.approx((1 - STAND_HEIGHT_FRACTION) * legs, abs=2e-4)
+    assert np.allclose(standing_pose(robot), robot.joints(q), atol=1e-5)

@@ -354,3 +354,41 @@ def test_a_stack_type_entry_is_checked(robot):
         build_stack(_relative_spec("weighted", frame="swing"), robot)
     with pytest.raises(TaskError, match=r"unknown task type 'nope'; known: \[.*relative_position"):
         build_stack({"levels": [{"tasks": [{"type": "nope"}]}]}, robot)
+
+
+def test_commands_pick_the_robot_folders_stack(tmp_path):
+    """wbc walk, sim, bench --physics, deploy --live and the closed loop run the robot
+    folder's stack.toml when it has one (wbc.stacks.robot_stack), and say so."""
+    import shutil
+
+    from wbc.bench.physics import physics_stack
+    from wbc.bench.solvers import select
+    from wbc.model import load_robot
+    from wbc.paths import robots_dir, stacks_dir
+    from wbc.stacks import robot_stack
+
+    folder = tmp_path / "kokone"
+    shutil.copytree(robots_dir() / "kokone", folder)
+    plain = load_robot(folder)
+    assert robot_stack(plain)[0] == "walk" and "no robot stack.toml" in robot_stack(plain)[1]
+    assert physics_stack(plain) is None  # the benchmark's own
+    shutil.copy(stacks_dir() / "walk_strict.toml", folder / "stack.toml")
+    robot = load_robot(folder)
+    stack, note = robot_stack(robot)
+    assert stack == folder / "stack.toml" and "robot folder's" in note
+    assert robot_stack(robot, "walk")[0] == "walk"  # a stack named on the command line wins
+    assert physics_stack(robot) == str(stack)
+    entries, _ = select(["hqp-daqp"], None, "tick", stack=physics_stack(robot))
+    assert entries[0].stack == str(stack) and entries[0].name == "hqp-daqp@stack"
+
+
+def test_deploy_live_without_a_stack_takes_the_robots():
+    import argparse
+
+    from wbc.servos import deploy
+
+    parser = argparse.ArgumentParser()
+    deploy.add_arguments(parser)
+    assert parser.parse_args(["--live"]).live == ""  # -> robot_stack(robot, None)
+    assert parser.parse_args(["--live", "walk_strict"]).live == "walk_strict"
+    assert parser.parse_args([]).live is None

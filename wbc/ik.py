@@ -69,11 +69,13 @@ import pinocchio as pin
 from .exceptions import IKError, ModelError
 from .geometry import wrap_angle
 from .model import Robot
+from .roles import ARM_ROLES, LEG_ROLES
 
 __all__ = ["arm_ik", "leg_ik", "whole_body_ik"]
 
-LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
-ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
+#: the limbs' joints by role (:mod:`wbc.roles`: found from the kinematic tree, not by name)
+LEG_JOINTS = LEG_ROLES
+ARM_JOINTS = ARM_ROLES
 _SIDES = {"left": "l", "l": "l", "right": "r", "r": "r"}
 _SIDE_NAMES = {"l": "left", "r": "right"}
 
@@ -136,11 +138,13 @@ def _pitch_angle(u: np.ndarray) -> float:
 def _chain(robot: Robot, prefix: str, names: tuple[str, ...], kinds: tuple[str, ...]):
     model = robot.model
     ids = []
+    joints = []
     parent = 1  # the free-flyer joint, whose frame is the torso frame
     for name, kind in zip(names, kinds, strict=True):
-        full = f"{prefix}_{name}"
-        if not model.existJointName(full):
-            raise ModelError(f"{robot.name}: analytic IK needs joint {full!r}")
+        full = robot.roles.get(_SIDE_NAMES[prefix], name)
+        if full is None or not model.existJointName(full):
+            raise ModelError(f"{robot.name}: analytic IK needs a {_SIDE_NAMES[prefix]} {name}")
+        joints.append(full)
         jid = model.getJointId(full)
         if model.joints[jid].shortname() != f"JointModel{kind}":
             raise ModelError(
@@ -156,9 +160,8 @@ def _chain(robot: Robot, prefix: str, names: tuple[str, ...], kinds: tuple[str, 
     torso = model.frames[robot.frame_id("torso")]
     if torso.parentJoint != 1 or not torso.placement.isIdentity():
         raise ModelError(f"{robot.name}: the torso frame must be the free-flyer joint frame")
-    joints = tuple(f"{prefix}_{n}" for n in names)
     index = np.array([robot.joint_index(j) for j in joints])
-    return ids, joints, index
+    return ids, tuple(joints), index
 
 
 def _placement(robot: Robot, jid: int) -> np.ndarray:

@@ -19,6 +19,7 @@ import pinocchio as pin
 from .exceptions import ConfigurationError, ModelError, ServoMapError
 from .paths import read_toml, robots_dir
 from .robot_data import ROBOT_KEYS, RobotData
+from .roles import JointRoles, find_roles
 from .servo_map import ServoMap
 
 WORLD = pin.ReferenceFrame.WORLD
@@ -159,6 +160,41 @@ def _missing_parts(robot: Robot, folder: Path) -> list[str]:
     return notes
 
 
+def measure_foot(robot: Robot) -> tuple[float, float]:
+    """(length, width) in m of the foot rectangle centred under the left sole frame: the
+    collision boxes of the sole's link whose bottom lies within 5 mm of the sole plane, in
+    the sole frame (the largest rectangle centred on the sole frame inside them).
+    ModelError if there is none (state ``[feet]`` in robot.toml then)."""
+    where = f"{robot.name}: the foot size"
+    hint = f"state [feet] length and width in {ROBOT_FILE}"
+    if not robot.has_frame("l_sole"):
+        raise ModelError(f"{where}: no frame 'l_sole' ({hint})")
+    sole = robot.model.frames[robot.frame_id("l_sole")]
+    try:
+        geometry = pin.buildGeomFromUrdf(
+            robot.model, str(robot.urdf_path), pin.GeometryType.COLLISION
+        )
+    except Exception as exc:  # no hpp-fcl, or meshes that cannot be read
+        raise ModelError(f"{where}: cannot read the collision geometry ({exc}); {hint}") from None
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for g in geometry.geometryObjects:
+        half = getattr(g.geometry, "halfSide", None)
+        if g.parentJoint != sole.parentJoint or half is None:
+            continue
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        M = sole.placement.inverse() * g.placement
+        corners = (M.rotation @ (signs * np.asarray(half)).T).T + M.translation
+        if corners[:, 2].min() > 0.005 or corners[:, 2].max() < -0.005:
+            continue
+        lo, hi = np.minimum(lo, corners.min(axis=0)), np.maximum(hi, corners.max(axis=0))
+    if not np.all(np.isfinite(lo)):
+        raise ModelError(f"{where}: the sole's link has no collision box at the sole; {hint}")
+    length, width = 2.0 * np.minimum(hi[:2], -lo[:2])
+    if not (length > 0 and width > 0):
+        raise ModelError(f"{where}: the sole frame lies outside its collision box; {hint}")
+    return float(length), float(width)
+
+
 class Robot:
     """A floating-base robot: Pinocchio model and data plus joint/frame bookkeeping."""
 
@@ -241,8 +277,30 @@ class Robot:
 
     @property
     def foot_size(self) -> tuple[float, float]:
-        """(length, width) in m of the foot rectangle under each sole frame."""
-        return self.robot_data.foot_length, self.robot_data.foot_width
+        """(length, width) in m of the foot rectangle under each sole frame: ``robot.toml``
+        ``[feet]``, else the sole link's collision box (:func:`measure_foot`)."""
+        cache = self.__dict__.setdefault("_foot_size", [])
+        if not cache:
+            given = self.robot_data.feet_given
+            stated = self.robot_data.foot_length, self.robot_data.foot_width
+            if len(given) == 2:
+                cache.append(stated)
+            else:
+                measured = measure_foot(self)
+                keys = ("length", "width")
+                pairs = zip(keys, stated, measured, strict=True)
+                cache.append(tuple(s if k in given else m for k, s, m in pairs))
+        return cache[0]
+
+    @property
+    def roles(self) -> JointRoles:
+        """Each leg's and arm's joints by role, found from the kinematic tree
+        (:func:`wbc.roles.find_roles`; ``robot.toml`` ``[joints]`` overrides); ModelError (one
+        line) for a robot whose legs cannot be understood."""
+        cache = self.__dict__.setdefault("_roles", [])
+        if not cache:
+            cache.append(find_roles(self, self.robot_data.joints))
+        return cache[0]
 
     def _read_poses(self, source: str | Path | Mapping) -> dict[str, np.ndarray]:
         if isinstance(source, Mapping):
@@ -400,11 +458,14 @@ class Robot:
         * ``"zero"``: all joints zero, soles on the ground.
         * a pose of ``poses.toml`` (radians), or of the servo map (ticks through the map);
           left sole flat at z = 0, the soles' midpoint at the origin.
-        * ``"walk_ready"`` (:data:`STANDING_POSE`) on a robot that defines no such pose: the
-          zero pose (:attr:`notes` says so when the robot is loaded).
+        * ``"walk_ready"`` (:data:`STANDING_POSE`) on a robot that defines no such pose: its
+          standing pose (``robot.toml``'s ``stand``), else the zero pose (:attr:`notes` says
+          so when the robot is loaded).
         """
         if name == "stand":  # the robot's standing pose (robot.toml's stand, else walk_ready)
             name = self.stand_pose
+        elif name == STANDING_POSE and name not in self.pose_names():
+            name = self.stand_pose  # a robot whose standing pose has another name (or zero)
         if name == "zero" or (name == STANDING_POSE and name not in self.pose_names()):
             q = self.neutral()
         elif name in self.poses:

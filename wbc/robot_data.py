@@ -7,7 +7,7 @@ robot's folder instead. Two optional files:
 ``poses.toml``: named poses in radians of the model's joints (joints not named are 0)::
 
     [poses.crouch]
-    l_knee = 0.8154
+    LKnee = 0.8154
 
 ``robot.toml``::
 
@@ -17,6 +17,10 @@ robot's folder instead. Two optional files:
     [feet]
     length = 0.07                    # m, foot rectangle centred under each sole frame
     width = 0.04
+    [joints.left]                    # joint roles the kinematic tree does not tell (wbc.roles)
+    knee = "LKnee"
+    [legs]                           # leg measurements stated by hand (LegGeometry fields)
+    pelvis_gain = 1.3
     [walking.walk10]                 # keyword overrides of a walking reference's builder
     step_length = 0.02
     [servo]                          # the simulator's servo model (wbc.sim.actuator)
@@ -25,7 +29,8 @@ robot's folder instead. Two optional files:
     frame = "torso"
 
 Without them a robot keeps the defaults: Walk Ready from the servo map if it has one, else the
-zero pose; the Bioloid's feet; the URDF's own frame names; the builders' defaults.
+zero pose; feet from the sole link's collision box; joint roles and legs measured from the
+model; the URDF's own frame names; walking settings derived from the legs and the servos.
 """
 
 from __future__ import annotations
@@ -41,7 +46,7 @@ from .paths import read_toml
 
 ROBOT_FILE = "robot.toml"
 POSES_FILE = "poses.toml"
-ROBOT_KEYS = ("feet", "frames", "imu", "servo", "stand", "walking")
+ROBOT_KEYS = ("feet", "frames", "imu", "joints", "legs", "servo", "stand", "walking")
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,17 @@ class RobotData:
     servo: Mapping[str, object] = field(default_factory=dict)
     #: the IMU placement (``[imu]`` frame and offset, m; used by :mod:`wbc.sim.model`)
     imu: Mapping[str, object] = field(default_factory=dict)
+    #: joint roles named by hand (``[joints.left]`` / ``[joints.right]``: role = joint name;
+    #: :mod:`wbc.roles` finds the others from the kinematic tree)
+    joints: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    #: the leg measurements stated by hand (``[legs]``: :class:`wbc.walking.legs.LegGeometry`
+    #: fields, m and rad), replacing the ones measured from the model
+    legs: Mapping[str, object] = field(default_factory=dict)
+    #: which of the foot's length and width ``[feet]`` states (the others come from the model)
+    feet_given: tuple[str, ...] = ()
+    #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
+    #: more than its share of its speed (:mod:`wbc.walking.sizing`)
+    fit_speed: bool = True
 
     @classmethod
     def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
@@ -78,13 +94,14 @@ class RobotData:
         frames = raw.get("frames", {})
         if not isinstance(frames, Mapping) or not all(isinstance(v, str) for v in frames.values()):
             raise ModelError(f"{where}: [frames] maps names to URDF frame names (strings)")
-        walking = raw.get("walking", {})
-        if not isinstance(walking, Mapping) or not all(
-            isinstance(v, Mapping) for v in walking.values()
-        ):
+        walking = dict(raw.get("walking", {}))
+        fit_speed = walking.pop("fit_speed", True)
+        if not isinstance(fit_speed, bool):
+            raise ModelError(f"{where}: [walking] fit_speed = {fit_speed!r}: true or false")
+        if not all(isinstance(v, Mapping) for v in walking.values()):
             raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
         tables = {}
-        for key in ("servo", "imu"):
+        for key in ("servo", "imu", "legs"):
             tables[key] = raw.get(key, {})
             if not isinstance(tables[key], Mapping):
                 raise ModelError(f"{where}: [{key}] must be a table")
@@ -105,8 +122,46 @@ class RobotData:
                 raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
             size[key] = float(v)
         return cls(
-            poses, stand, size["length"], size["width"], frames, walking, str(folder), **tables
+            poses,
+            stand,
+            size["length"],
+            size["width"],
+            frames,
+            walking,
+            str(folder),
+            joints=read_joint_roles(raw.get("joints", {}), joint_names, where),
+            feet_given=tuple(k for k in ("length", "width") if k in feet),
+            fit_speed=fit_speed,
+            **tables,
         )
+
+
+def read_joint_roles(
+    table: object, joint_names: Sequence[str], where: str
+) -> dict[str, dict[str, str]]:
+    """``[joints.left]`` / ``[joints.right]``: role = joint name (roles of :mod:`wbc.roles`)."""
+    from .roles import ROLES, SIDES
+
+    if not isinstance(table, Mapping):
+        raise ModelError(f"{where}: [joints] must hold [joints.left] / [joints.right] tables")
+    extra = sorted(set(table) - set(SIDES))
+    if extra:
+        raise ModelError(f"{where}: [joints] has unknown keys {extra}; allowed: left, right")
+    out: dict[str, dict[str, str]] = {}
+    for side, roles in table.items():
+        if not isinstance(roles, Mapping):
+            raise ModelError(f"{where}: [joints.{side}] must be a table of role = joint name")
+        for role, joint in roles.items():
+            if role not in ROLES:
+                raise ModelError(
+                    f"{where}: [joints.{side}] {role}: unknown role; allowed: {', '.join(ROLES)}"
+                )
+            if joint not in joint_names:
+                raise ModelError(
+                    f"{where}: [joints.{side}] {role} = {joint!r} is not a joint of the model"
+                )
+        out[side] = dict(roles)
+    return out
 
 
 def read_poses(path: Path, joint_names: Sequence[str]) -> dict[str, dict[str, float]]:

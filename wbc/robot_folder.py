@@ -81,7 +81,12 @@ def init_folder(urdf: str | Path, out: str | Path, force: bool = False) -> list[
     (out / SERVO_MAP_FILE).write_text(servo_template(robot, urdf.name))
     lines.append(f"wrote {out / SERVO_MAP_FILE} (template: fill in IDs, signs and zero ticks)")
     (out / POSES_FILE).write_text(poses_template(robot))
-    lines.append(f"wrote {out / POSES_FILE} ({STANDING_POSE} = the zero pose, within limits)")
+    proposed = (
+        "proposed standing pose"
+        if "Proposed by" in (out / POSES_FILE).read_text()
+        else "the zero pose"
+    )
+    lines.append(f"wrote {out / POSES_FILE} ({STANDING_POSE} = {proposed})")
     missing = [f for f in STANDARD_FRAMES if not robot.has_frame(f)]
     if missing:
         lines.append(
@@ -146,20 +151,78 @@ def servo_template(robot: Robot, urdf_name: str) -> str:
 """
 
 
+#: the standing pose ``wbc robot init`` proposes: the hips lowered until hip-to-ankle is this
+#: fraction of the straight leg's length (thigh + shin), soles flat, torso upright, knees bent
+STAND_HEIGHT_FRACTION = 0.92
+
+
+def standing_pose(robot: Robot, fraction: float = STAND_HEIGHT_FRACTION) -> np.ndarray:
+    """Joint angles of a standing pose: both soles flat where they are at the zero pose, the
+    torso upright and lowered by ``(1 - fraction) (thigh + shin)`` (knees bent forward, the
+    way their larger limit allows), solved by :class:`wbc.pose_ik.StanceIK`. Raises a
+    :class:`WbcError` (one line) if the legs cannot be understood or the pose not reached."""
+    import pinocchio as pin
+
+    from .exceptions import ModelError
+    from .pose_ik import StanceIK
+
+    roles = robot.roles
+    q = robot.configuration("zero")
+    o = {
+        r: robot.model.getJointId(roles.joint("left", r))
+        for r in ("hip_pitch", "knee", "ankle_pitch")
+    }
+    pin.forwardKinematics(robot.model, robot.data, q)
+    p = {r: robot.data.oMi[j].translation.copy() for r, j in o.items()}
+    leg = float(
+        np.linalg.norm(p["knee"] - p["hip_pitch"]) + np.linalg.norm(p["ankle_pitch"] - p["knee"])
+    )
+    frames = ("torso", "l_sole", "r_sole")
+    targets = {f: robot.frame_placement(q, f) for f in frames}
+    torso = targets["torso"]
+    targets["torso"] = pin.SE3(torso.rotation, torso.translation - [0.0, 0.0, (1 - fraction) * leg])
+    start = q.copy()
+    for side in ("left", "right"):
+        k = robot.joint_index(roles.joint(side, "knee"))
+        sign = 1.0 if robot.q_max[k] >= -robot.q_min[k] else -1.0
+        start[7 + k] = sign * 0.6
+        for r in ("hip_pitch", "ankle_pitch"):
+            i = robot.joint_index(roles.joint(side, r))
+            start[7 + i] = float(np.clip(-sign * 0.3, robot.q_min[i], robot.q_max[i]))
+    ik = StanceIK(robot, frames)
+    result = ik.solve(targets, start)
+    if ik.residual(result.q, targets) > 1e-6 or not robot.within_limits(result.q, 1e-9):
+        raise ModelError(
+            f"{robot.name}: no standing pose with the hips at {fraction:.0%} of the leg length "
+            "within the joint limits"
+        )
+    return robot.joints(result.q).copy()
+
+
 def poses_template(robot: Robot) -> str:
-    """``poses.toml`` with the zero pose as :data:`STANDING_POSE` (clipped into the limits)."""
-    lines = [
-        "# Named poses in radians, by joint name (joints not listed are 0).",
-        f"# {STANDING_POSE!r} is the pose every tool starts from (stack targets, walking,",
-        "# viewer): replace the zeros with your robot's standing pose, knees slightly bent.",
-        "",
-        f"[poses.{STANDING_POSE}]",
-    ]
+    """``poses.toml`` with :data:`STANDING_POSE` = :func:`standing_pose` (soles flat, knees
+    bent); the zero pose clipped into the limits if the legs cannot be understood."""
+    try:
+        pose = standing_pose(robot)
+        how = (
+            f"# {STANDING_POSE!r} is the pose every tool starts from (stack targets, walking,\n"
+            f"# viewer). Proposed by `wbc robot init`: soles flat, torso upright, knees bent\n"
+            f"# until hip-to-ankle is {STAND_HEIGHT_FRACTION:.0%} of the leg length; adjust it."
+        )
+    except WbcError as exc:
+        pose = np.array(
+            [np.clip(0.0, lo, hi) for lo, hi in zip(robot.q_min, robot.q_max, strict=True)]
+        )
+        how = (
+            f"# {STANDING_POSE!r} is the pose every tool starts from (stack targets, walking,\n"
+            f"# viewer): replace the zeros with your robot's standing pose, knees slightly bent\n"
+            f"# (none proposed: {exc})."
+        )
+    lines = ["# Named poses in radians, by joint name (joints not listed are 0).", how, ""]
+    lines.append(f"[poses.{STANDING_POSE}]")
     width = max(len(j) for j in robot.joint_names)
-    for j, lo, hi in zip(robot.joint_names, robot.q_min, robot.q_max, strict=True):
-        value = float(np.clip(0.0, lo, hi)) if lo <= hi else 0.0
-        note = "" if value == 0.0 else "  # 0 is outside the limits: the nearest limit"
-        lines.append(f"{j:<{width}} = {value!r}{note}")
+    for j, value in zip(robot.joint_names, pose, strict=True):
+        lines.append(f"{j:<{width}} = {round(float(value), 6) + 0.0!r}")
     return "\n".join(lines) + "\n"
 
 
@@ -176,7 +239,9 @@ def readme_template(name: str, source: str) -> str:
 - `stack.toml` (optional): the default task stack of `wbc walk` (format of `tasks/*.toml`).
   Without it: `tasks/walk.toml`.
 - `robot.toml` (optional): `[frames]` `torso`, `l_sole`, `r_sole` = your URDF's names for
-  them, if they differ.
+  them, if they differ; `[joints.left]`/`[joints.right]` role = joint, for roles the
+  kinematic tree does not tell (`wbc robot check` prints the roles it found); `[feet]` and
+  `[legs]` to state what is otherwise measured from the model; `[walking.<trajectory>]`.
 
 The stacks and the walking code need three frames: `torso` (the body whose orientation is
 held), `l_sole` and `r_sole` (on the sole surfaces, z up, x forward at the standing pose). Add
@@ -206,6 +271,7 @@ def check_folder(path: str | Path) -> list[Finding]:
     findings += _check_limits(robot)
     findings += _check_masses(robot)
     findings += _check_frames(robot, folder)
+    findings += _check_legs(robot)
     findings += _check_servo_map(robot, folder)
     findings += _check_poses(robot)
     findings += _check_stack(robot, folder)
@@ -277,6 +343,41 @@ def _check_frames(robot: Robot, folder: Path) -> list[Finding]:
             f"{', '.join(robot.link_names())}",
         )
     ]
+
+
+def _check_legs(robot: Robot) -> list[Finding]:
+    """The joint roles found (:mod:`wbc.roles`), the feet and the legs' measurements."""
+    if not all(robot.has_frame(f) for f in STANDARD_FRAMES):
+        return []
+    try:
+        roles = robot.roles
+    except WbcError as exc:
+        return [Finding("error", str(exc))]
+    out = [Finding("ok", "joint roles from the kinematic tree (* named in robot.toml [joints]):")]
+    out += [Finding("ok", f"  {line}") for line in roles.lines()]
+    given = robot.robot_data.feet_given
+    try:
+        length, width = robot.foot_size
+    except WbcError as exc:
+        return [*out, Finding("error", str(exc))]
+    where = f"{ROBOT_FILE} [feet]" if len(given) == 2 else "the sole link's collision box"
+    out.append(Finding("ok", f"feet {1e3 * length:.1f} x {1e3 * width:.1f} mm (from {where})"))
+    from .walking.legs import LegGeometry
+
+    try:
+        legs = LegGeometry.from_robot(robot)
+    except WbcError as exc:
+        return [*out, Finding("error", f"leg measurements: {exc}")]
+    out.append(
+        Finding(
+            "ok",
+            f"legs: thigh {1e3 * legs.thigh:.1f} mm, shin {1e3 * legs.shin:.1f} mm, hips "
+            f"{2e3 * legs.hip_half_width:.1f} mm apart, ankle {1e3 * legs.ankle_height:.1f} mm "
+            f"above the sole, standing CoM {1e3 * robot.com(robot.configuration('stand'))[2]:.1f}"
+            " mm high",
+        )
+    )
+    return out
 
 
 def _check_servo_map(robot: Robot, folder: Path) -> list[Finding]:

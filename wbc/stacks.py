@@ -234,6 +234,23 @@ def stack_file(name_or_path: str | Path) -> Path | None:
     return path if path.is_file() else None
 
 
+#: the stack a command runs on a robot whose folder has no ``stack.toml``
+DEFAULT_STACK = "walk"
+
+
+def robot_stack(robot: Robot, stack: str | Path | None = None) -> tuple[str | Path, str]:
+    """The stack a command runs on ``robot``, and the line saying so: ``stack`` when given,
+    else the robot folder's ``stack.toml`` (:attr:`wbc.model.Robot.default_stack`), else
+    :data:`DEFAULT_STACK` (``tasks/walk.toml``). Every command that runs a stack (walk, sim,
+    bench --physics, deploy --live, the closed loop) picks its stack here."""
+    if stack is not None:
+        path = stack_file(stack)
+        return stack, f"stack {stack} ({path if path is not None else 'not found'})"
+    if robot.default_stack is not None:
+        return robot.default_stack, f"stack {robot.default_stack} (the robot folder's)"
+    return DEFAULT_STACK, f"stack {DEFAULT_STACK} (tasks/{DEFAULT_STACK}.toml; no robot stack.toml)"
+
+
 def available_stacks() -> list[str]:
     """Names of the stack files in ``tasks/``."""
     return sorted(p.stem for p in stacks_dir().glob("*.toml"))

@@ -8,7 +8,7 @@ with :func:`link_xml`; the joints stay in each generator, since their convention
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 Vec3 = tuple[float, float, float]
@@ -106,3 +106,72 @@ def link_xml(link: Link, collision_inset: float = 0.0) -> str:
 def _interleave(a: list, b: list) -> list:
     """a[0], b[0], a[1], b[1], ... (each box's visual, then its collision)."""
     return [x for pair in zip(a, b, strict=True) for x in pair]
+
+
+def transform_urdf(
+    text: str,
+    scale: float | Callable[[str], float] = 1.0,
+    rename: Mapping[str, str] | None = None,
+    torque_exponent: float = 4.0,
+    speed_exponent: float = 0.0,
+) -> str:
+    """A URDF with its lengths scaled and its joints and links renamed.
+
+    ``scale``: one factor, or a function of the link name. A link scaled by ``s`` has its
+    geometry, inertial origin and the origin of the joint above it scaled by ``s``, its mass by
+    ``s³`` and its inertia by ``s⁵`` (a geometrically similar body of the same density); the
+    joint above it has its effort limit scaled by ``s**torque_exponent`` (``s⁴``: the same
+    share of the torque gravity asks for) and its velocity limit by ``s**speed_exponent``
+    (``s^-½``: the same motion, slowed by ``√s`` as a pendulum ``s`` times as long).
+    ``rename``: old -> new name, for joints and links.
+    """
+    import xml.etree.ElementTree as ET
+
+    names = dict(rename or {})
+    factor = scale if callable(scale) else (lambda _name, s=float(scale): s)
+    root = ET.fromstring(text)
+
+    def _num(v: float) -> str:
+        return repr(float(v))
+
+    def scaled(values: str | None, s: float) -> str:
+        return " ".join(_num(float(v) * s) for v in (values or "0 0 0").split())
+
+    for link in root.iter("link"):
+        s = factor(link.get("name", ""))
+        for origin in link.iter("origin"):
+            origin.set("xyz", scaled(origin.get("xyz"), s))
+        for mass in link.iter("mass"):
+            mass.set("value", _num(float(mass.get("value", "0")) * s**3))
+        for inertia in link.iter("inertia"):
+            for key, value in inertia.attrib.items():
+                inertia.set(key, _num(float(value) * s**5))
+        for box in link.iter("box"):
+            box.set("size", scaled(box.get("size"), s))
+        for shape in (*link.iter("cylinder"), *link.iter("sphere")):
+            for key in ("radius", "length"):
+                if key in shape.attrib:
+                    shape.set(key, _num(float(shape.attrib[key]) * s))
+        for mesh in link.iter("mesh"):
+            mesh.set("scale", scaled(mesh.get("scale", "1 1 1"), s))
+        link.set("name", names.get(link.get("name", ""), link.get("name", "")))
+    for joint in root.iter("joint"):
+        child = joint.find("child")
+        s = factor(child.get("link", "")) if child is not None else 1.0
+        origin = joint.find("origin")
+        if origin is not None:
+            origin.set("xyz", scaled(origin.get("xyz"), s))
+        limit = joint.find("limit")
+        if limit is not None and "effort" in limit.attrib:
+            limit.set("effort", _num(float(limit.get("effort", "0")) * s**torque_exponent))
+        if limit is not None and "velocity" in limit.attrib:
+            limit.set("velocity", _num(float(limit.get("velocity", "0")) * s**speed_exponent))
+        joint.set("name", names.get(joint.get("name", ""), joint.get("name", "")))
+        for tag in ("parent", "child"):
+            el = joint.find(tag)
+            if el is not None:
+                el.set("link", names.get(el.get("link", ""), el.get("link", "")))
+        mimic = joint.find("mimic")
+        if mimic is not None:
+            mimic.set("joint", names.get(mimic.get("joint", ""), mimic.get("joint", "")))
+    return ET.tostring(root, encoding="unicode") + "\n"

@@ -126,14 +126,15 @@ def hip_strategy_bound(
     pin.forwardKinematics(model, data, q)
     mass = robot.total_mass
     damping = stall_torque / no_load_speed
-    s, o = ("l", "r") if stance == "left" else ("r", "l")
+    roles = robot.roles
+    swing = "right" if stance == "left" else "left"
     every = set(range(1, model.njoints))
     parts = []
+    arms = [roles.get(side, "shoulder_roll") for side in ("left", "right")]
     for joint, moving in (
-        (f"{s}_hip_roll", "above"),
-        (f"{o}_hip_roll", "below"),
-        ("l_shoulder_roll", "below"),
-        ("r_shoulder_roll", "below"),
+        (roles.joint(stance, "hip_roll"), "above"),
+        (roles.joint(swing, "hip_roll"), "below"),
+        *((a, "below") for a in arms if a is not None),
     ):
         j = model.getJointId(joint)
         sub = set(model.subtrees[j])  # joint j and every joint below it

@@ -18,12 +18,13 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import ConfigurationError, ModelError
+from ..exceptions import ConfigurationError
 from ..imu import Imu
 from ..model import Robot
+from ..roles import LEG_ROLES, joint_axis
 from ..servos.sources import TargetSource
 
-#: OP3 walking module gyro gains (rad per rad/s), by joint name suffix
+#: OP3 walking module gyro gains (rad per rad/s), by leg joint role (:mod:`wbc.roles`)
 OP3_GAINS = {"hip_roll": 0.35, "knee": 0.3, "ankle_roll": 0.7, "ankle_pitch": 0.9}
 
 
@@ -46,9 +47,15 @@ class GyroFeedback:
         self.robot = robot
         self.imu = imu
         self.max_offset = float(max_offset)
-        self.k = scale * np.array(
-            [next((g for s, g in gains.items() if n.endswith(s)), 0.0) for n in robot.joint_names]
-        )
+        unknown = sorted(set(gains) - set(LEG_ROLES))
+        if unknown:
+            raise ConfigurationError(
+                f"gyro feedback gains: unknown roles {unknown}; allowed: {', '.join(LEG_ROLES)}"
+            )
+        self.k = np.zeros(robot.n_joints)
+        for side in ("left", "right"):
+            for role, g in gains.items():
+                self.k[robot.joint_index(robot.roles.joint(side, role))] = scale * g
         model = robot.model
         self.data = model.createData()
         self.joint_ids = [model.getJointId(n) for n in robot.joint_names]
@@ -73,12 +80,7 @@ class GyroFeedback:
 
 
 def _local_axis(model: pin.Model, j: int) -> np.ndarray:
-    kind = model.joints[j].shortname()
-    if kind in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return np.eye(3)["XYZ".index(kind[-1])]
-    if kind == "JointModelRevoluteUnaligned":
-        return np.asarray(model.joints[j].extract().axis, dtype=float)
-    raise ModelError(f"gyro feedback: joint {model.names[j]} is not revolute ({kind})")
+    return joint_axis(model, j, "gyro feedback")
 
 
 class FeedbackSource:

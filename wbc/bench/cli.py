@@ -289,8 +289,10 @@ LEGEND = (
 
 def _stack_note(rows: list[dict[str, Any]]) -> str:
     """``, wqp/hqp: <stack>`` for a table with rows of the walking stack's entries."""
-    stacks = dict.fromkeys(
-        r["stack"] for r in rows if r.get("family") in ("qp-weighted", "qp-hierarchical")
+    stacks = dict.fromkeys(  # (the static CoM rows run no stack: they have none)
+        r["stack"]
+        for r in rows
+        if r.get("family") in ("qp-weighted", "qp-hierarchical") and r.get("stack") is not None
     )
     return f", wqp/hqp: {', '.join(str(s) for s in stacks)}" if stacks else ""
 
@@ -376,9 +378,14 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     robot = load_robot(args.robot)
     print_notes(robot, "bench")
     benchmark = "physics" if args.physics else "kinematic"
-    entries, notes = select(
-        args.solvers, args.families, args.mode, benchmark, getattr(args, "stack", None)
-    )
+    stack = getattr(args, "stack", None)
+    if args.physics:  # on a body: the robot folder's stack.toml when it has one
+        from .physics import physics_stack
+
+        stack = physics_stack(robot, stack)
+    entries, notes = select(args.solvers, args.families, args.mode, benchmark, stack)
+    if stack is not None:
+        console.print(f"wqp-*/hqp-* load the stack {escape(str(stack))}")
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
     if args.physics:

@@ -55,13 +55,15 @@ class PlacoController(Controller):
         solver.enable_velocity_limits(True)
         solver.dt = ref.dt
         self.solver = solver
+        urdf = robot.frame_aliases.get  # the URDF's names of the standard frames
         self.feet = {
-            s: solver.add_frame_task(s, self.pr.get_T_world_frame(s)) for s in ("l_sole", "r_sole")
+            s: solver.add_frame_task(urdf(s, s), self.pr.get_T_world_frame(urdf(s, s)))
+            for s in ("l_sole", "r_sole")
         }
         self.com = solver.add_com_task(self.pr.com_world())
         self.com.configure("com", "soft", COM_WEIGHT)
-        R0 = self.pr.get_T_world_frame("torso")[:3, :3]
-        self.torso = solver.add_orientation_task("torso", R0)
+        R0 = self.pr.get_T_world_frame(urdf("torso", "torso"))[:3, :3]
+        self.torso = solver.add_orientation_task(urdf("torso", "torso"), R0)
         self.torso.configure("torso", "soft", TORSO_WEIGHT)
         posture = solver.add_joints_task()
         posture.set_joints({n: float(q0[7 + i]) for i, n in enumerate(robot.joint_names)})
@@ -107,18 +109,19 @@ class PinkController(Controller):
         self.model = robot.model
         self.data = robot.model.createData()
         self.config = Configuration(self.model, self.data, q0.copy())
+        urdf = robot.frame_aliases.get  # the URDF's names of the standard frames
+        cost = np.sqrt(SWING_WEIGHT)
         self.feet = {
-            s: FrameTask(
-                s, position_cost=np.sqrt(SWING_WEIGHT), orientation_cost=np.sqrt(SWING_WEIGHT)
-            )
+            s: FrameTask(urdf(s, s), position_cost=cost, orientation_cost=cost)
             for s in ("l_sole", "r_sole")
         }
         for s, task in self.feet.items():
-            task.set_target(self.config.get_transform_frame_to_world(s))
+            task.set_target(self.config.get_transform_frame_to_world(urdf(s, s)))
         self.com = ComTask(cost=np.sqrt(COM_WEIGHT))
         self.com.set_target(robot.com(q0))
-        self.torso = FrameTask("torso", position_cost=0.0, orientation_cost=np.sqrt(TORSO_WEIGHT))
-        self.torso.set_target(self.config.get_transform_frame_to_world("torso"))
+        torso = urdf("torso", "torso")
+        self.torso = FrameTask(torso, position_cost=0.0, orientation_cost=np.sqrt(TORSO_WEIGHT))
+        self.torso.set_target(self.config.get_transform_frame_to_world(torso))
         self.posture = PostureTask(cost=np.sqrt(POSTURE_WEIGHT))
         self.posture.set_target(q0.copy())
         self.limits = [ConfigurationLimit(self.model), VelocityLimit(self.model)]

@@ -75,13 +75,25 @@ PHYSICS_KEYS: dict[str, tuple[str, str]] = {
 
 
 # ---------------------------------------------------------------------- planning
+def physics_stack(robot: Robot, stack: str | None = None) -> str | None:
+    """The stack of the wqp-*/hqp-* entries on a body (``wbc sim``, ``wbc bench --physics``,
+    the closed loop): ``stack`` if given, else the robot folder's ``stack.toml``, else None
+    (the benchmark's own, :data:`wbc.bench.solvers.BENCH_STACKS`)."""
+    from ..stacks import robot_stack
+
+    if stack is None and robot.default_stack is None:
+        return None
+    return str(robot_stack(robot, stack)[0])
+
+
 def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
-    """The recording of one benchmark solver on one trajectory (one solve per tick)."""
+    """The recording of one benchmark solver on one trajectory (one solve per tick); the
+    wqp-*/hqp-* solvers load the robot folder's stack.toml when it has one."""
     from . import trajectories as traj
     from .runner import run_entry
     from .solvers import select
 
-    entries, notes = select([solver], None, "tick")
+    entries, notes = select([solver], None, "tick", stack=physics_stack(robot))
     if not entries:
         raise ConfigurationError(f"solver {solver!r} cannot run here: {'; '.join(notes)}")
     exact = [e for e in entries if e.name == solver]

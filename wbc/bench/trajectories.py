@@ -13,6 +13,7 @@ from ..walking.keyposes import KeyPoseParams, keypose_walk
 from ..walking.legs import LegGeometry
 from ..walking.reference import StandingState, WalkingReference
 from ..walking.schedule import GaitTiming, SwingParams
+from ..walking.sizing import default_options, sized
 from ..walking.static_walk import StaticWalkParams, static_walk
 from ..walking.thesis_step import ThesisStepParams, thesis_step
 from ..walking.window import MAX_LEAN, BalanceWindow
@@ -113,14 +114,10 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
     balance window (:data:`WHOLE_BODY` trajectories; ``max_lean`` in rad may be set in
     ``[walking.<name>]``) and the keyword overrides of ``robot.toml``'s ``[walking.<name>]``.
 
-    The legs are measured from the model at the standing pose; the Bioloid keeps the rounded
-    constants of :class:`LegGeometry` (the same measurement) so its recorded figures hold."""
+    The legs are measured from the model at the standing pose (``robot.toml`` ``[legs]`` may
+    state them: the Bioloid's states the rounded values its figures were recorded with)."""
     data = robot.robot_data
-    legs = (
-        LegGeometry()
-        if robot.name == "bioloid"
-        else LegGeometry.from_robot(robot, robot.configuration("stand"))
-    )
+    legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
     kw: dict[str, Any] = {"foot": Foot(*robot.foot_size), "legs": legs}
     table = dict(data.walking.get(name, {}))
     if name in WHOLE_BODY:
@@ -142,7 +139,8 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
 
 
 def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReference:
-    """A walking reference by name, starting from the robot's standing pose.
+    """A walking reference by name, starting from the robot's standing pose, its settings
+    sized to the robot (:mod:`wbc.walking.sizing`; ``robot.toml`` ``[walking.<name>]`` on top).
 
     ``walking_only``: the caller cannot run :data:`STATIC_COM` (a benchmark set, not a
     walking reference); the message then lists only the walking references.
@@ -159,8 +157,24 @@ def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReferen
         allowed = list(TRAJECTORIES) if walking_only else names()
         raise ConfigurationError(f"unknown trajectory {name!r}; choose from {allowed}") from None
     kw = robot_options(robot, name)
+    fixed = {k: kw.pop(k) for k in ("foot", "legs", "window") if k in kw}
+    start = StandingState.from_robot(robot, robot.configuration("stand"))
+    legs = fixed["legs"]
+
+    def make(options: dict[str, Any]) -> WalkingReference:
+        return builder(start, **fixed, **options)
+
     try:
-        ref = builder(StandingState.from_robot(robot, robot.configuration("stand")), **kw)
+        ref, _ = sized(
+            robot,
+            default_options(name),
+            kw,
+            legs.thigh + legs.shin,
+            (fixed["foot"].length, fixed["foot"].width),
+            make,
+            fit_speed=robot.robot_data.fit_speed,
+            gap=float(start.left.y - start.right.y) - fixed["foot"].width,
+        )
     except TypeError as exc:  # an unknown key in [walking.<name>]
         raise ConfigurationError(f"{robot.robot_data.source}: [walking.{name}]: {exc}") from None
     ref.name = name

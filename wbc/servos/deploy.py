@@ -84,7 +84,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--live",
         metavar="STACK",
-        help="run this task stack live (e.g. walk) instead of a recording",
+        nargs="?",
+        const="",
+        help="run a task stack live instead of a recording: STACK, or without it the robot "
+        "folder's stack.toml (else walk)",
     )
     parser.add_argument(
         "--trajectory",
@@ -355,14 +358,24 @@ def _imu(args: argparse.Namespace, bus: ServoBus):
     )
 
 
+def _loaded(stack: str | Path, note: str, robot: Robot):
+    """Load the live stack, then say which one it is (stdout: errors stay one line)."""
+    from ..stacks import load_stack
+
+    control = load_stack(stack, robot)
+    print(f"wbc deploy: {note}")
+    return control
+
+
 def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, imu):
     """A task stack solved live along a walking reference, one solve per deploy tick, open
     or closed loop (:func:`wbc.balance.live.closed_loop`); returns (loop, imu, what, s)."""
     from ..balance.live import closed_loop
     from ..bench.trajectories import build
-    from ..stacks import load_stack
+    from ..stacks import robot_stack
     from ..walking.loop import StackController
 
+    stack, note = robot_stack(robot, args.live or None)
     ref = build(args.trajectory, robot)
     stepping = None
     if args.stepping:
@@ -370,12 +383,13 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
 
         stepping = SteppingParams()
     loop = closed_loop(
-        bus, robot, StackController(load_stack(args.live, robot)), ref, imu,
+        bus, robot, StackController(_loaded(stack, note, robot)), ref, imu,
         enabled=args.closed_loop, compensate=args.compensate,
         correct=args.compensate_encoders, config=config, stepping=stepping,
     )  # fmt: skip
     state = "closed loop" + (f", IMU {imu.name}" if imu else ", encoders only")
-    what = f"live {args.live} on {args.trajectory} ({state if args.closed_loop else 'open loop'})"
+    mode = state if args.closed_loop else "open loop"
+    what = f"live {Path(stack).stem} on {args.trajectory} ({mode})"
     return loop, what, ref.duration
 
 

@@ -185,6 +185,14 @@ def run(args: argparse.Namespace) -> int:
         rec = Recording.load(args.recording)
         label = Path(args.recording).name
     else:
+        from ..bench.physics import physics_stack
+        from ..bench.solvers import BENCH_STACKS
+
+        stack = physics_stack(robot)
+        if args.solver.startswith(("wqp-", "hqp-")):
+            which = "the robot folder's" if stack is not None else "the default"
+            stack = stack or BENCH_STACKS["physics"]
+            print(f"wbc sim: {args.solver} loads {which} stack {stack}", flush=True)
         rec = plan(args.solver, args.trajectory, robot)
         label = f"{args.solver} on {args.trajectory}"
     push = None

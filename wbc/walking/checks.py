@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..exceptions import TrajectoryError
+from .footsteps import CLEARANCE_TOL
 from .geometry import polygon_distance
 from .legs import LegGeometry
 
@@ -120,7 +121,7 @@ def check_reference(
 
     clearance = _foot_clearances(ref)
     i = int(np.argmin(clearance))
-    if clearance[i] < min_clearance:
+    if clearance[i] < min_clearance - CLEARANCE_TOL:
         raise TrajectoryError(
             f"{at(i)}: the feet are {clearance[i] * 1000:.1f} mm apart (overlap if negative), "
             f"less than the {min_clearance * 1000:.1f} mm clearance"

@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..bench import metrics
     from ..bench.trajectories import build
-    from ..stacks import load_stack
+    from ..stacks import load_stack, robot_stack
     from .loop import RunOptions, StackController
     from .loop import run as run_loop
 
@@ -53,11 +53,12 @@ def run(args: argparse.Namespace) -> int:
         robot = load_robot(args.robot)
         print_notes(robot, "walk")
         ref = build(args.trajectory, robot, walking_only=True)
-        stack = args.stack or robot.default_stack or "walk"
+        stack, note = robot_stack(robot, args.stack)
         control = load_stack(stack, robot, backend=args.backend, solver=args.solver)
     except WbcError as exc:
         print(f"wbc walk: {exc}", file=sys.stderr)
         return 2
+    print(f"wbc walk: {note}")  # which stack runs (the robot folder's, when it has one)
     rec = run_loop(StackController(control), robot, ref, options=RunOptions(mode=args.mode))
     m = metrics.compute(rec, robot)
     print(

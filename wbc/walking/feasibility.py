@@ -27,8 +27,6 @@ import pinocchio as pin
 from ..exceptions import SolverError
 from .reference import WalkingReference
 
-ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
-
 #: the share of a servo's no-load speed (the model's velocity limit) a reference may ask for.
 #: The AX-12A's speed falls linearly with torque, ``w = w0 (1 - tau / tau_stall)``; a swing
 #: leg's joints carry ~0.1 N.m (7 % of the 1.5 N.m stall), the recommended 11.1 V supply
@@ -50,6 +48,10 @@ class FeasibilityReport:
     #: and its joint: what the reference asks of the servos, whatever the controller
     max_joint_speed: float = float("nan")
     speed_joint: str = ""
+    #: the largest joint speed as a share of that joint's no-load speed (its velocity limit),
+    #: and its joint
+    speed_fraction: float = float("nan")
+    fraction_joint: str = ""
 
     @property
     def feasible(self) -> bool:
@@ -65,7 +67,8 @@ def kinematic_feasibility(
     weights: tuple[float, float, float] = (1e4, 1e2, 1e3),
 ) -> FeasibilityReport:
     """Track ``ref`` with the bounded IK (soles, CoM, torso weights ``weights``); the arms
-    are held at their start angles if ``hold_arms``."""
+    (and any other joint not a leg's, :attr:`wbc.model.Robot.roles`) are held at their start
+    angles if ``hold_arms``."""
     from qpsolvers import solve_qp
 
     model, data = robot.model, robot.data
@@ -80,7 +83,9 @@ def kinematic_feasibility(
     torsos = ref.torso_rotations(pitch_roll)  # with the reference's planned lean, if any
     w_sole, w_com, w_torso = weights
     W = np.array([w_sole] * 12 + [w_com] * 3 + [w_torso] * 3)
-    held = [robot.v_index(f"{s}_{j}") for s in "lr" for j in ARM_JOINTS] if hold_arms else []
+    legs = {robot.v_index(j) for s in ("left", "right") for j in robot.roles.leg(s)}
+    # held: the arms and every other joint that is not a leg's (a head)
+    held = sorted(set(range(6, model.nv)) - legs) if hold_arms else []
     free = np.setdiff1d(np.arange(model.nv), held)
     worst = np.zeros(3)
     min_margin = np.inf
@@ -124,6 +129,8 @@ def kinematic_feasibility(
             speed = np.maximum(speed, np.abs(j - q_prev) / ref.dt)
         q_prev = j.copy()
     k = int(np.argmax(speed))
+    share = speed / robot.v_max
+    f = int(np.argmax(share))
     return FeasibilityReport(
         float(worst[0]),
         float(worst[1]),
@@ -132,6 +139,8 @@ def kinematic_feasibility(
         ref.n,
         float(speed[k]),
         robot.joint_names[k],
+        float(share[f]),
+        robot.joint_names[f],
     )
 
 

@@ -38,6 +38,11 @@ def _check_side(side: str, what: str) -> None:
         raise TrajectoryError(f"{what}: side must be 'left' or 'right', got {side!r}")
 
 
+#: how far below a minimum clearance a gap may compute and still meet it (m): a float
+#: round-off (5 mm apart computed as 0.0049999999999999975 m), not a gap
+CLEARANCE_TOL = 1e-9
+
+
 @dataclass(frozen=True)
 class Footstep:
     """A flat sole placement on the ground: ``side``, position ``x, y`` (m), heading ``yaw``."""
@@ -147,7 +152,7 @@ class FootstepPlan:
                 gap = polygon_distance(
                     foot.rectangle(xy, yaw), foot.rectangle(stance.xy, stance.yaw)
                 )
-                if gap < min_clearance:
+                if gap < min_clearance - CLEARANCE_TOL:
                     raise TrajectoryError(
                         f"{what}: the swinging foot passes {gap * 1000:.1f} mm from the "
                         f"{stance.side} foot (minimum clearance {min_clearance * 1000:.1f} mm)"
@@ -167,7 +172,7 @@ def _check_pair(
             f"offset {min(lat, lat2) * 1000:.1f} mm)"
         )
     gap = polygon_distance(foot.rectangle(left.xy, left.yaw), foot.rectangle(right.xy, right.yaw))
-    if gap < min_clearance:
+    if gap < min_clearance - CLEARANCE_TOL:
         raise TrajectoryError(
             f"{what}: the feet are {gap * 1000:.1f} mm apart (overlap if negative); minimum "
             f"clearance {min_clearance * 1000:.1f} mm"

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..exceptions import TrajectoryError
+from ..exceptions import ModelError, TrajectoryError
 from .geometry import rot2
 
 if TYPE_CHECKING:
@@ -60,34 +60,47 @@ class LegGeometry:
     @classmethod
     def from_robot(cls, robot: Any, q: np.ndarray | None = None, **overrides: Any) -> LegGeometry:
         """Measure the leg from the model: link lengths at q = 0; hip roll limits; the pelvis
-        gain and hip offset at ``q`` (default Walk Ready; the pelvis is moved sideways with
-        the soles fixed, torso and arms held); minimum reach at the knee's flexion limit."""
+        gain and hip offset at ``q`` (default the standing pose; the pelvis is moved sideways
+        with the soles fixed, torso and arms held); minimum reach at the knee's flexion limit.
+        The joints are found by role (:attr:`wbc.model.Robot.roles`); ``robot.toml`` ``[legs]``
+        states any field by hand, ``overrides`` replace both."""
         import pinocchio as pin
 
         model, data = robot.model, robot.data
 
+        roles = robot.roles
+        names = {
+            "hip": roles.joint("left", "hip_pitch"),
+            "knee": roles.joint("left", "knee"),
+            "ankle": roles.joint("left", "ankle_pitch"),
+            "r_hip": roles.joint("right", "hip_pitch"),
+        }
+
         def joint_origins(qq: np.ndarray) -> dict[str, np.ndarray]:
             pin.forwardKinematics(model, data, qq)
-            names = ("l_hip_pitch", "l_knee", "l_ankle_pitch", "r_hip_pitch")
-            return {n: data.oMi[model.getJointId(n)].translation.copy() for n in names}
+            return {k: data.oMi[model.getJointId(n)].translation.copy() for k, n in names.items()}
 
         o = joint_origins(robot.neutral())
-        thigh = float(np.linalg.norm(o["l_knee"] - o["l_hip_pitch"]))
-        shin = float(np.linalg.norm(o["l_ankle_pitch"] - o["l_knee"]))
-        half_width = 0.5 * float(abs(o["l_hip_pitch"][1] - o["r_hip_pitch"][1]))
+        thigh = float(np.linalg.norm(o["knee"] - o["hip"]))
+        shin = float(np.linalg.norm(o["ankle"] - o["knee"]))
+        half_width = 0.5 * float(abs(o["hip"][1] - o["r_hip"][1]))
         sole = robot.frame_placement(robot.neutral(), "l_sole").translation
-        ankle_h = float(o["l_ankle_pitch"][2] - sole[2])
-        # knee: interior angle at q = 0 plus the flexion range gives the closest hip-ankle.
-        straight = np.linalg.norm(o["l_ankle_pitch"] - o["l_hip_pitch"])
-        interior0 = np.arccos((thigh**2 + shin**2 - straight**2) / (2 * thigh * shin))
-        flex = float(robot.q_max[robot.joint_index("l_knee")])
+        ankle_h = float(o["ankle"][2] - sole[2])
+        # knee: interior angle at q = 0 plus the flexion range gives the closest hip-ankle
+        # (the knee bends the way it is bent at the standing pose, else toward +)
+        straight = np.linalg.norm(o["ankle"] - o["hip"])
+        interior0 = np.arccos(
+            np.clip((thigh**2 + shin**2 - straight**2) / (2 * thigh * shin), -1.0, 1.0)
+        )
+        k = robot.joint_index(names["knee"])
+        qq = robot.configuration("stand") if q is None else q
+        flex = float(robot.q_max[k] if qq[7 + k] >= 0 else -robot.q_min[k])
         interior = max(interior0 - flex, 0.0)
         min_reach = float(np.sqrt(thigh**2 + shin**2 - 2 * thigh * shin * np.cos(interior)))
-        roll = {s: robot.joint_index(f"{s}_hip_roll") for s in ("l", "r")}
+        roll = {s: robot.joint_index(roles.joint(s, "hip_roll")) for s in ("left", "right")}
         # left: positive roll moves the foot outward (+y); right: inward
-        max_add = min(-robot.q_min[roll["l"]], robot.q_max[roll["r"]])
-        max_abd = min(robot.q_max[roll["l"]], -robot.q_min[roll["r"]])
-        qq = robot.configuration("stand") if q is None else q
+        max_add = min(-robot.q_min[roll["left"]], robot.q_max[roll["right"]])
+        max_abd = min(robot.q_max[roll["left"]], -robot.q_min[roll["right"]])
         gain = _pelvis_gain(robot, qq)
         oq = joint_origins(qq)
         com = robot.com(qq)
@@ -97,7 +110,7 @@ class LegGeometry:
             robot.frame_placement(qq, "l_sole").translation[:2]
             + robot.frame_placement(qq, "r_sole").translation[:2]
         )
-        pelvis = 0.5 * (oq["l_hip_pitch"] + oq["r_hip_pitch"])
+        pelvis = 0.5 * (oq["hip"] + oq["r_hip"])
         resid = pelvis[:2] - (mid_soles + gain * (com[:2] - mid_soles))
         fwd = float((rot2(heading).T @ resid)[0])
         kw: dict[str, Any] = dict(
@@ -111,6 +124,25 @@ class LegGeometry:
             max_adduction=float(max_add),
             max_abduction=float(max_abd),
         )
+        stated = dict(getattr(robot.robot_data, "legs", {}))
+        fields = set(cls.__dataclass_fields__)
+        unknown = sorted(set(stated) - fields)
+        if unknown:
+            raise ModelError(
+                f"{robot.robot_data.source}/robot.toml [legs]: unknown keys {unknown}; "
+                f"allowed: {', '.join(sorted(fields))}"
+            )
+        for key, value in stated.items():
+            ok = all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
+                for v in (value if isinstance(value, list) else [value])
+            )
+            if not ok or (key == "hip_offset" and len(value) != 2):
+                raise ModelError(
+                    f"{robot.robot_data.source}/robot.toml [legs] {key} = {value!r}: must be "
+                    f"{'two numbers (m)' if key == 'hip_offset' else 'a number (m or rad)'}"
+                )
+            kw[key] = tuple(float(v) for v in value) if isinstance(value, list) else float(value)
         kw.update(overrides)
         return cls(**kw)
 
@@ -247,10 +279,10 @@ def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
     model, data = robot.model, robot.data
     q1 = q.copy()
     q1[1] += step
-    for side in ("l", "r"):
-        fid = robot.frame_id(f"{side}_sole")
-        target = robot.frame_placement(q, f"{side}_sole")
-        cols = [robot.v_index(f"{side}_{j}") for j in LEG_JOINTS]
+    for side, sole in (("left", "l_sole"), ("right", "r_sole")):
+        fid = robot.frame_id(sole)
+        target = robot.frame_placement(q, sole)
+        cols = [robot.v_index(j) for j in robot.roles.leg(side)]
         for _ in range(20):
             pin.framesForwardKinematics(model, data, q1)
             err = pin.log6(data.oMf[fid].inverse() * target).vector
@@ -262,9 +294,6 @@ def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
             q1 = pin.integrate(model, q1, dq)
     shift = robot.com(q1)[1] - robot.com(q)[1]
     return float(step / shift)
-
-
-LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 
 
 def _mean_angle(a: float, b: float) -> float:

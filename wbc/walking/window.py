@@ -162,11 +162,9 @@ class _Problem:
         nv = self.model.nv
         self.free = np.ones(nv, dtype=bool)
         if hold_arms:
-            for s in "lr":
-                for j in ("shoulder_pitch", "shoulder_roll", "elbow"):
-                    name = f"{s}_{j}"
-                    if name in robot.joint_names:
-                        self.free[robot.v_index(name)] = False
+            for side in ("left", "right"):
+                for name in robot.roles.arm(side):
+                    self.free[robot.v_index(name)] = False
         self.tilt0 = self._rows(q)[4]  # "upright" is the start pose's own torso lean
 
     # ------------------------------------------------------------------ linearisation

@@ -1,0 +1,195 @@
+"""Three robots side by side: the Bioloid, Kokone and a robot made here (benchmarks/robots.md).
+
+The third robot is the Bioloid's URDF with other proportions and ROBOTIS OP3 joint names:
+legs 1.3x longer (masses 1.3³, inertias 1.3⁵, the AX-12A servos kept), torso and arms 0.8x,
+standing in the pose ``wbc robot init`` proposes (hips at 92 % of the leg length). Nothing
+about it is stated by hand: roles, feet, legs and walking settings are read from the model.
+
+    python benchmarks/robots.py --out /tmp/longlegs            # make the robot, then measure
+    python benchmarks/robots.py --out /tmp/longlegs --random 5 # + 5 randomised sim models
+
+Columns: kinematic (the robot's stack, one QP per tick: CoM / swing-sole error max, mm; the
+ZMP margin min of the tracked motion, mm; the reference's peak joint speed as a share of the
+no-load speed); simulator (nominal servo model: fell at s or "-", max base orientation
+deviation from plan, deg, travelled / planned distance; randomised models: fell count,
+median deviation, median travelled).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+from wbc.bench import metrics
+from wbc.bench.physics import physics_record, plan, random_model
+from wbc.bench.trajectories import build
+from wbc.exceptions import WbcError
+from wbc.model import load_robot
+from wbc.paths import robots_dir
+from wbc.recording import Recording
+from wbc.robot_folder import standing_pose
+from wbc.sim.play import play
+from wbc.stacks import load_stack, robot_stack
+from wbc.urdf_writer import transform_urdf
+from wbc.walking.feasibility import kinematic_feasibility
+from wbc.walking.loop import StackController, run
+
+#: Bioloid joint suffix -> ROBOTIS OP3 name suffix
+OP3 = {
+    "hip_yaw": "hip_yaw",
+    "hip_roll": "hip_roll",
+    "hip_pitch": "hip_pitch",
+    "knee": "knee",
+    "ankle_pitch": "ank_pitch",
+    "ankle_roll": "ank_roll",
+    "shoulder_pitch": "sho_pitch",
+    "shoulder_roll": "sho_roll",
+    "elbow": "el",
+}
+LEG_LINKS = ("hip_bracket", "hip_block", "thigh", "shin", "ankle_block", "foot", "sole")
+TRAJECTORIES = ("thesis_step", "static_walk", "walk10", "walk10_wb", "turn_wb", "lateral_wb")
+
+
+def make_robot(out: Path, legs: float = 1.3, body: float = 0.8) -> Path:
+    """Write the long-legged robot's folder (module docstring) to ``out``."""
+    src = robots_dir() / "bioloid"
+    bioloid = load_robot("bioloid")
+    names = {j: j[:2] + OP3[j[2:]] for j in bioloid.joint_names}
+
+    def scale(link: str) -> float:
+        return legs if link[2:] in LEG_LINKS else body
+
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    text = transform_urdf((src / "bioloid.urdf").read_text(), scale, names, torque_exponent=0)
+    (out / f"{out.name}.urdf").write_text(text)
+    servos = (src / "servos.toml").read_text()
+    for old, new in names.items():
+        servos = re.sub(rf"(?<![A-Za-z0-9_]){old}(?![A-Za-z0-9_])", new, servos)
+    (out / "servos.toml").write_text(servos)
+    robot = load_robot(out)
+    pose = standing_pose(robot)
+    (out / "poses.toml").write_text(
+        "[poses.walk_ready]\n"
+        + "".join(f"{j} = {float(v)!r}\n" for j, v in zip(robot.joint_names, pose, strict=True))
+    )
+    return out
+
+
+def kinematic(robot, name: str) -> dict[str, object]:
+    try:
+        ref = build(name, robot)
+    except WbcError as exc:
+        return {"error": str(exc).split(":")[-1].strip()[:60]}
+    speed = kinematic_feasibility(robot, ref, iterations=2).speed_fraction
+    rec = run(StackController(load_stack(robot_stack(robot)[0], robot)), robot, ref)
+    m = metrics.compute(rec, robot)
+    return {
+        "duration": ref.duration,
+        "com": m["com_err_max_mm"],
+        "foot": m["foot_err_max_mm"],
+        "zmp": m["zmp_margin_min_mm"],
+        "speed": speed,
+        "fail": m["failures"],
+    }
+
+
+def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object]:
+    try:
+        rec: Recording = plan("hqp-daqp", name, robot)
+    except WbcError as exc:
+        return {"error": str(exc)[:60]}
+    nominal = physics_record(rec, play(rec, robot), robot)
+    out = {
+        "fell": nominal["fall_time_s"] if nominal["fell"] else None,
+        "dev": nominal["orientation_dev_max_deg"],
+        "dist": nominal.get("distance_ratio", float("nan")),
+    }
+    rng = np.random.default_rng(seed)
+    fell, devs, dists = 0, [], []
+    for _ in range(n_random):
+        v = random_model(robot, rng)
+        r = physics_record(
+            rec,
+            play(
+                rec,
+                robot,
+                model_params=v.model_params,
+                servo_params=v.servo_params,
+                latency_ticks=v.latency_ticks,
+                imu_noise=v.imu_noise,
+            ),
+            robot,
+        )
+        fell += bool(r["fell"])
+        devs.append(r["orientation_dev_max_deg"])
+        d = r.get("distance_ratio")
+        dists.append(float("nan") if d is None else float(d))
+    if n_random:
+        out.update(
+            random=f"{fell}/{n_random}",
+            rdev=float(np.median(devs)),
+            rdist=float(np.nanmedian(dists)) if not np.all(np.isnan(dists)) else float("nan"),
+        )
+    return out
+
+
+def _num(v: object, digits: int) -> str:
+    return f"{v:.{digits}f}" if isinstance(v, (int, float)) and np.isfinite(v) else "-"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True, help="folder for the made robot")
+    parser.add_argument("--random", type=int, default=0, help="randomised sim models per run")
+    parser.add_argument("--trajectories", nargs="+", default=list(TRAJECTORIES))
+    parser.add_argument("--no-sim", action="store_true")
+    args = parser.parse_args()
+    made = make_robot(args.out)
+    robots = {"bioloid": load_robot("bioloid"), "kokone": load_robot("kokone")}
+    robots["longlegs"] = load_robot(made)
+    for name, robot in robots.items():
+        legs = robot.roles.leg("left")
+        print(f"## {name}: {robot.total_mass:.3f} kg, legs {legs}, feet {robot.foot_size}")
+    print(
+        "| robot | trajectory | s | CoM err mm | swing err mm | ZMP margin mm | speed share "
+        "| sim fell at s | dev° | dist | random fell | rdev° | rdist |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for t in args.trajectories:
+        for name, robot in robots.items():
+            t0 = time.time()
+            k = kinematic(robot, t)
+            if "error" in k:
+                print(f"| {name} | {t} | refused: {k['error']} |||||||||||")
+                continue
+            s = {} if args.no_sim else simulate(robot, t, args.random)
+            cells = [
+                name,
+                t,
+                f"{k['duration']:.1f}",
+                f"{k['com']:.3f}",
+                f"{k['foot']:.3f}",
+                f"{k['zmp']:.1f}",
+                f"{k['speed']:.2f}",
+            ]
+            if "error" in s:
+                cells += [f"sim: {s['error']}", "", "", "", "", ""]
+            elif s:
+                fell = "-" if s["fell"] is None else f"{s['fell']:.2f}"
+                cells += [fell, _num(s["dev"], 1), _num(s["dist"], 2)]
+                cells += [str(s.get("random", "")), _num(s.get("rdev"), 1)]
+                cells += [_num(s.get("rdist"), 2)]
+            print("| " + " | ".join(cells) + " |", flush=True)
+            print(f"<!-- {name} {t}: {time.time() - t0:.0f} s -->", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

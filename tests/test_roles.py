@@ -1,0 +1,167 @@
+"""Joint roles from the kinematic tree (wbc.roles): any names, overrides, refusals, no Bioloid
+names left in the controller."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from wbc.exceptions import ModelError
+from wbc.model import STANDARD_FRAMES, load_robot
+from wbc.paths import robots_dir
+from wbc.roles import LEG_ROLES
+from wbc.urdf_writer import transform_urdf
+
+BIOLOID_URDF = robots_dir() / "bioloid" / "bioloid.urdf"
+#: ROBOTIS's OP3 joint names for the Bioloid's joints
+OP3 = {
+    "hip_yaw": "hip_yaw",
+    "hip_roll": "hip_roll",
+    "hip_pitch": "hip_pitch",
+    "knee": "knee",
+    "ankle_pitch": "ank_pitch",
+    "ankle_roll": "ank_roll",
+    "shoulder_pitch": "sho_pitch",
+    "shoulder_roll": "sho_roll",
+    "elbow": "el",
+}
+
+
+def bioloid_names() -> tuple[list[str], list[str]]:
+    root = ET.parse(BIOLOID_URDF).getroot()
+    joints = [j.get("name") for j in root.iter("joint") if j.get("type") != "fixed"]
+    links = [lk.get("name") for lk in root.iter("link")]
+    return joints, links
+
+
+def write_robot(folder: Path, text: str, toml: str = "") -> Path:
+    folder.mkdir()
+    (folder / f"{folder.name}.urdf").write_text(text)
+    if toml:
+        (folder / "robot.toml").write_text(toml)
+    return folder
+
+
+def renamed(prefix: str = "J") -> dict[str, str]:
+    """Every Bioloid joint and link (but the standard frames) renamed."""
+    joints, links = bioloid_names()
+    out = {j: f"{prefix}{i}" for i, j in enumerate(joints)}
+    out.update({lk: f"link{i}" for i, lk in enumerate(links) if lk not in STANDARD_FRAMES})
+    for lk in ("l_hand", "r_hand"):
+        out.pop(lk)
+    return out
+
+
+def test_bioloid_and_kokone_roles_match_their_names():
+    for name in ("bioloid", "kokone"):
+        robot = load_robot(name)
+        for side, p in (("left", "l"), ("right", "r")):
+            assert robot.roles.leg(side) == tuple(f"{p}_{r}" for r in LEG_ROLES)
+            assert robot.roles.joint(side, "shoulder_roll") == f"{p}_shoulder_roll"
+    kokone = load_robot("kokone")
+    assert set(kokone.roles.arm("left")) == {
+        "l_shoulder_pitch",
+        "l_shoulder_roll",
+        "l_elbow_yaw",
+        "l_elbow_pitch",
+    }
+
+
+def test_renamed_joints_get_the_same_roles(tmp_path):
+    names = renamed()
+    robot = load_robot(
+        write_robot(tmp_path / "anon", transform_urdf(BIOLOID_URDF.read_text(), 1.0, names))
+    )
+    bioloid = load_robot("bioloid")
+    for side in ("left", "right"):
+        assert robot.roles.leg(side) == tuple(names[j] for j in bioloid.roles.leg(side))
+        assert robot.roles.arm(side) == tuple(names[j] for j in bioloid.roles.arm(side))
+
+
+def test_op3_names(tmp_path):
+    joints, _ = bioloid_names()
+    names = {j: j[:2] + OP3[j[2:]] for j in joints}
+    robot = load_robot(
+        write_robot(tmp_path / "op3ish", transform_urdf(BIOLOID_URDF.read_text(), 1.0, names))
+    )
+    assert robot.roles.leg("left") == (
+        "l_hip_yaw", "l_hip_roll", "l_hip_pitch", "l_knee", "l_ank_pitch", "l_ank_roll"
+    )  # fmt: skip
+    assert robot.roles.joint("right", "elbow") == "r_el"
+
+
+def _knee_about_x(text: str) -> str:
+    root = ET.fromstring(text)
+    for joint in root.iter("joint"):
+        if joint.get("name") == "l_knee":
+            joint.find("axis").set("xyz", "1 0 0")
+    return ET.tostring(root, encoding="unicode")
+
+
+def test_a_leg_that_cannot_be_parsed_is_refused_in_one_line(tmp_path):
+    robot = load_robot(write_robot(tmp_path / "odd", _knee_about_x(BIOLOID_URDF.read_text())))
+    with pytest.raises(ModelError) as err:
+        robot.roles  # noqa: B018
+    msg = str(err.value)
+    assert "\n" not in msg
+    assert "cannot understand the left leg" in msg and "2 pitch joints" in msg
+    assert "[joints.left]" in msg
+
+
+def test_robot_toml_names_the_roles_of_an_odd_leg(tmp_path):
+    roles = "\n".join(f'{r} = "l_{r}"' for r in LEG_ROLES)
+    folder = write_robot(
+        tmp_path / "odd", _knee_about_x(BIOLOID_URDF.read_text()), f"[joints.left]\n{roles}\n"
+    )
+    robot = load_robot(folder)
+    assert robot.roles.joint("left", "knee") == "l_knee"
+    assert ("left", "knee") in robot.roles.named
+
+
+def test_robot_toml_roles_are_checked(tmp_path):
+    folder = write_robot(
+        tmp_path / "bad", BIOLOID_URDF.read_text(), '[joints.left]\nknee = "no_such_joint"\n'
+    )
+    with pytest.raises(ModelError, match=r"\[joints.left\] knee = 'no_such_joint'"):
+        load_robot(folder)
+
+
+def test_robot_check_prints_the_roles(capsys):
+    from wbc.robot_folder import check_folder
+
+    text = "\n".join(str(f) for f in check_folder(robots_dir() / "kokone"))
+    assert "left leg: hip_yaw=l_hip_yaw" in text
+    assert "also l_elbow_yaw" in text
+    assert "feet 70.0 x 40.0 mm" in text
+
+
+def test_no_bioloid_joint_or_link_name_in_the_controller():
+    joints, links = bioloid_names()
+    # the project's own frame names (wbc.model.STANDARD_FRAMES and the hands) are not Bioloid's
+    names = set(joints + links) - {*STANDARD_FRAMES, "l_hand", "r_hand"}
+    pattern = re.compile(
+        r"(?<![A-Za-z0-9_])("
+        + "|".join(sorted(names, key=len, reverse=True))
+        + r")(?![A-Za-z0-9_])"
+    )
+    wbc = Path(__file__).resolve().parent.parent / "wbc"
+    hits = [
+        f"{p.relative_to(wbc)}:{i + 1}: {m.group(1)}"
+        for p in sorted(wbc.rglob("*"))
+        if p.is_file() and p.suffix in (".py", ".toml", ".md", ".txt", ".json")
+        for i, line in enumerate(p.read_text(encoding="utf-8").splitlines())
+        for m in pattern.finditer(line)
+    ]
+    assert not hits, hits
+
+
+def test_walking_a_robot_with_an_odd_leg_says_why_in_one_line(tmp_path, capsys):
+    from wbc.cli import main
+
+    folder = write_robot(tmp_path / "odd", _knee_about_x(BIOLOID_URDF.read_text()))
+    assert main(["walk", "--robot", str(folder), "--trajectory", "walk10"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "note:" not in line]
+    assert len(err) == 1 and "cannot understand the left leg" in err[0], err

@@ -1,0 +1,126 @@
+"""Walking settings sized to the robot (wbc.walking.sizing): a scaled, renamed Bioloid walks as
+the Bioloid does; the Bioloid's own references are unchanged; Kokone's ask its servos for no
+more than their speed."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.bench import metrics
+from wbc.bench.trajectories import build, robot_options
+from wbc.model import load_robot
+from wbc.paths import robots_dir
+from wbc.stacks import load_stack
+from wbc.urdf_writer import transform_urdf
+from wbc.walking.feasibility import kinematic_feasibility
+from wbc.walking.gait import forward_walk
+from wbc.walking.loop import StackController, run
+from wbc.walking.reference import StandingState
+from wbc.walking.schedule import GaitTiming, SwingParams
+from wbc.walking.sizing import SPEED_FRACTION, max_turn, scale_options
+
+#: the scale of the test robot: √S = 1.2 keeps the references' ticks whole
+S = 1.44
+KEYS = ("com_err_max_mm", "com_err_mean_mm", "foot_err_max_mm", "foot_err_mean_mm")
+
+
+def scaled_bioloid(folder, s: float, trajectory: str):
+    """The Bioloid with every joint renamed and every length scaled by ``s`` (masses s³,
+    inertias s⁵, torques s⁴, speeds s^-½), standing in the Bioloid's pose; its control period
+    is the Bioloid's times √s (what a robot states in robot.toml: the tick is not sized)."""
+    bioloid = load_robot("bioloid")
+    names = {j: f"joint{i}" for i, j in enumerate(bioloid.joint_names)}
+    folder.mkdir()
+    text = (robots_dir() / "bioloid" / "bioloid.urdf").read_text()
+    (folder / f"{folder.name}.urdf").write_text(transform_urdf(text, s, names, speed_exponent=-0.5))
+    q = bioloid.configuration("stand")
+    (folder / "poses.toml").write_text(
+        "[poses.walk_ready]\n"
+        + "".join(f"{names[j]} = {float(q[7 + i])!r}\n" for i, j in enumerate(bioloid.joint_names))
+    )
+    t = math.sqrt(s)
+    if trajectory == "static_walk":
+        tick = f"[walking.static_walk]\ndt = {0.01 * t!r}\n"
+    else:
+        g = GaitTiming()
+        tick = (
+            f"[walking.{trajectory}.timing]\nstep_time = {g.step_time * t!r}\n"
+            f"double_support_ratio = {g.double_support_ratio!r}\n"
+            f"start_time = {g.start_time * t!r}\nend_time = {g.end_time * t!r}\n"
+            f"dt = {g.dt * t!r}\n"
+        )
+    # the speed fit is off on the Bioloid (robots/bioloid/robot.toml): off here too
+    (folder / "robot.toml").write_text("[walking]\nfit_speed = false\n" + tick)
+    return load_robot(folder)
+
+
+def walk_figures(robot, trajectory: str, scale: float) -> dict[str, float]:
+    ref = build(trajectory, robot)
+    rec = run(StackController(load_stack("walk_strict", robot)), robot, ref)
+    m = metrics.compute(rec, robot)
+    assert m["failures"] == 0
+    out = {k: m[k] / scale for k in KEYS}
+    kw = robot_options(robot, trajectory)
+    # the reference's own margins
+    report = ref.check(legs=kw["legs"], window=kw["window"], margin=0.0, min_clearance=0.0)
+    out["stability_margin_mm"] = report.stability_margin * 1e3 / scale
+    out["foot_clearance_mm"] = report.foot_clearance * 1e3 / scale
+    out["zmp_margin_min_mm"] = m["zmp_margin_min_mm"] / scale
+    return out
+
+
+@pytest.mark.parametrize("trajectory", ["walk10_wb", "static_walk"])
+def test_a_scaled_renamed_bioloid_walks_as_the_bioloid(tmp_path, trajectory):
+    robot = scaled_bioloid(tmp_path / "big", S, trajectory)
+    assert robot.roles.joint("left", "knee") == "joint3"
+    mine = walk_figures(robot, trajectory, S)
+    bioloid = walk_figures(load_robot("bioloid"), trajectory, 1.0)
+    for key, value in bioloid.items():
+        assert mine[key] == pytest.approx(value, rel=0.01), (key, mine, bioloid)
+
+
+def test_the_bioloids_references_are_its_tuned_ones():
+    """λ = μ = 1 on the Bioloid: walk10 is forward_walk with the builders' own defaults."""
+    bioloid = load_robot("bioloid")
+    kw = robot_options(bioloid, "walk10")
+    start = StandingState.from_robot(bioloid, bioloid.configuration("stand"))
+    plain = forward_walk(start, n_steps=10, foot=kw["foot"], legs=kw["legs"])
+    assert np.array_equal(build("walk10", bioloid).com, plain.com)
+
+
+def test_scale_options_scales_lengths_and_times():
+    got = scale_options(
+        {
+            "step_length": 0.03,
+            "zmp_offset": (0.01, 0.02),
+            "margin": 0.01,
+            "timing": GaitTiming(step_time=0.5),
+            "swing": SwingParams(apex=0.02),
+            "n_steps": 10,
+        },
+        along=2.0,
+        across=0.5,
+        time=3.0,
+    )
+    assert got["step_length"] == 0.06 and got["zmp_offset"] == (0.02, 0.01)
+    assert got["margin"] == 0.005 and got["n_steps"] == 10
+    assert got["timing"].step_time == 1.5 and got["timing"].dt == GaitTiming().dt
+    assert got["swing"].apex == 0.04
+
+
+def test_max_turn_keeps_the_feet_apart():
+    theta = max_turn(0.07, 0.04, 0.002)
+    reach = 0.5 * (0.04 * math.cos(theta) + 0.07 * math.sin(theta)) - 0.02
+    assert reach == pytest.approx(0.002, abs=1e-9)
+    assert max_turn(0.07, 0.04, 0.0) == 0.0
+
+
+@pytest.mark.parametrize("trajectory", ["walk10", "walk10_wb", "turn", "lateral_wb"])
+def test_kokones_walks_ask_no_joint_for_more_than_its_speed(trajectory):
+    kokone = load_robot("kokone")
+    ref = build(trajectory, kokone)  # used to be refused (feet 5 mm apart) or too fast
+    rep = kinematic_feasibility(kokone, ref, iterations=2)
+    assert rep.speed_fraction <= SPEED_FRACTION, (rep.fraction_joint, rep.speed_fraction)

@@ -1,0 +1,206 @@
+"""The walking references' settings sized to the robot: its legs, its feet, its servos.
+
+The walks' default settings (step lengths, swing apex, ZMP and CoM offsets, margins, timing)
+were tuned on one robot. On another they are scaled by its own dimensions:
+
+* along the walk and up (step length and width, swing apex and clearance, the x of an
+  offset) by the leg ratio ``λ = (thigh + shin) / DESIGN_LEG``;
+* across the foot (the y of the ZMP and CoM offsets, the margins kept inside the support
+  polygon, the clearance between the feet) by the foot ratio ``μ = width / DESIGN_FOOT_WIDTH``;
+* in time by ``√λ``: a walk that is the same motion for a pendulum ``λ`` times as long (the
+  linear inverted pendulum ``ẍ = g/z (x − p)`` keeps its solutions when lengths scale by ``λ``
+  and times by ``√λ``); the ZMP preview's horizon with them, and its jerk weight as time⁶;
+* not the control period ``dt`` (the servo bus's tick: a robot states its own);
+
+and then, unless the robot's ``robot.toml`` says ``[walking] fit_speed = false``, slowed
+until the reference asks no joint for more than :data:`SPEED_FRACTION` of its no-load speed
+(the model's velocity limit), measured by :func:`wbc.walking.feasibility.kinematic_feasibility`.
+Keys a robot states in ``[walking.<name>]`` are kept as stated (and a stated ``timing`` is not
+slowed). A slower walk sways further: if a slowed reference is refused (the hips' roll
+range), the slowest timing that builds is kept, which may still ask more than the share.
+On the robot the defaults were tuned on, ``λ = μ = 1``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import fields, is_dataclass, replace
+from typing import Any
+
+from ..exceptions import TrajectoryError
+from .schedule import GaitTiming, SwingParams
+
+#: the hip-to-ankle length (thigh + shin, m) and the foot width (m) the walking defaults
+#: were tuned with, and the share of a servo's no-load speed a sized reference may ask for
+#: (with the lag of a loaded servo, ~80 % leaves it a margin: benchmarks/robots.md)
+DESIGN_LEG = 0.14886
+DESIGN_FOOT_WIDTH = 0.061
+SPEED_FRACTION = 0.8
+#: keys along the walk or up (scaled by λ); across the foot (by μ); pairs (x by λ, y by μ);
+#: durations (by √λ and the speed fit)
+ALONG = ("step_length", "step_width", "apex", "stride", "clearance")
+ACROSS = ("margin", "inset", "min_clearance")
+PAIRS = ("zmp_offset", "com_offset", "com_target")
+TIMES = (
+    "step_time",
+    "start_time",
+    "end_time",
+    "shift_time",
+    "swing_time",
+    "pose_time",
+    "duration",
+    "preview_time",
+)
+#: weights of a cost in time-scaled units: the ZMP preview's jerk weight (relative to the ZMP
+#: error's) keeps its balance when it scales as time⁶ (jerk: length / time³)
+JERK_WEIGHTS = ("r_input",)
+#: how many times the timing is stretched at most to bring the joints within their speed
+FIT_ROUNDS = 3
+#: the most one round stretches the timing by
+MAX_STRETCH = 2.0
+#: the CoM and sole errors (m) within which the tracking IK follows a reference (beyond, its
+#: joint speeds are jumps, not what the timing asks)
+TRACKED = 0.005
+
+
+def scale_options(
+    options: Mapping[str, Any], along: float, across: float, time: float
+) -> dict[str, Any]:
+    """``options`` with their lengths and durations scaled (module docstring); the
+    dataclasses among them (:class:`GaitTiming`, :class:`SwingParams`) field by field."""
+    out: dict[str, Any] = {}
+    for key, value in options.items():
+        if is_dataclass(value) and not isinstance(value, type):
+            inner = {f.name: getattr(value, f.name) for f in fields(value)}
+            out[key] = replace(value, **scale_options(inner, along, across, time))
+        elif value is None or isinstance(value, bool):
+            out[key] = value
+        elif key in ALONG:
+            out[key] = value * along
+        elif key in ACROSS:
+            out[key] = value * across
+        elif key in PAIRS:
+            out[key] = (value[0] * along, value[1] * across)
+        elif key in TIMES:
+            out[key] = value * time
+        elif key in JERK_WEIGHTS:
+            out[key] = value * time**6
+        else:
+            out[key] = value
+    return out
+
+
+def time_keys(options: Mapping[str, Any]) -> bool:
+    """True if ``options`` hold a duration (what the speed fit stretches)."""
+    for key, value in options.items():
+        if key in TIMES:
+            return True
+        if is_dataclass(value) and not isinstance(value, type):
+            if time_keys({f.name: getattr(value, f.name) for f in fields(value)}):
+                return True
+    return False
+
+
+def max_turn(foot_length: float, foot_width: float, gap: float) -> float:
+    """The largest turn (rad) between two side-by-side feet ``gap`` apart (inner edges) that
+    keeps them apart: a ``length x width`` rectangle turned by θ about its centre reaches
+    ``(width cos θ + length sin θ) / 2`` toward the other foot."""
+    lo, hi = 0.0, math.pi / 2
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        reach = 0.5 * (foot_width * math.cos(mid) + foot_length * math.sin(mid))
+        lo, hi = (mid, hi) if reach - 0.5 * foot_width < gap else (lo, mid)
+    return lo
+
+
+def sized(
+    robot: Any,
+    defaults: Mapping[str, Any],
+    stated: Mapping[str, Any],
+    leg: float,
+    foot: tuple[float, float],
+    build: Callable[[dict[str, Any]], Any],
+    fit_speed: bool = True,
+    gap: float = math.inf,
+) -> tuple[Any, dict[str, Any]]:
+    """Build a reference with ``defaults`` sized to a robot whose hip-to-ankle length is
+    ``leg`` and foot ``foot = (length, width)``, ``stated`` (robot.toml) on top; then, if
+    ``fit_speed`` and the robot states no timing, stretch the durations until no joint is
+    asked for more than :data:`SPEED_FRACTION` of its speed. ``gap``: between the feet's inner
+    edges at the start; a turn per step is kept within 90 % of what it allows with the
+    clearance (:func:`max_turn`). Returns (reference, options)."""
+    from .feasibility import kinematic_feasibility
+
+    # (rounded: the robot the defaults were tuned on gets exactly 1)
+    along, across = round(leg / DESIGN_LEG, 9), round(foot[1] / DESIGN_FOOT_WIDTH, 9)
+    time = math.sqrt(along)
+    own = {k: v for k, v in defaults.items() if k not in stated}
+    if "turn" in own:
+        clearance = stated.get("min_clearance", own.get("min_clearance", 0.0) * across)
+        room = max(gap - clearance, 0.0)
+        own["turn"] = math.copysign(min(abs(own["turn"]), 0.9 * max_turn(*foot, room)), own["turn"])
+    options = {**scale_options(own, along, across, time), **stated}
+    ref = build(options)
+    if not fit_speed or not time_keys(own) or any(k in stated for k in ("timing", *TIMES)):
+        return ref, options
+    last = math.inf
+    for _ in range(FIT_ROUNDS):
+        report = kinematic_feasibility(robot, ref, iterations=2)
+        share = report.speed_fraction
+        # done; or a reference the legs cannot track (the IK's jumps are no servo speed); or
+        # a speed that slowing down does not lower
+        untracked = max(report.max_com_error, report.max_sole_error) > TRACKED
+        if not share > SPEED_FRACTION or untracked or share > 0.9 * last:
+            break
+        last = share
+        good = time
+        time *= min(1.05 * share / SPEED_FRACTION, MAX_STRETCH)
+        for _ in range(3):  # a slower walk sways further: it may leave what the hips allow
+            try:
+                trial = {**scale_options(own, along, across, time), **stated}
+                ref, options = build(trial), trial
+                break
+            except TrajectoryError:
+                time = 0.5 * (good + time)  # the slowest timing that still builds
+        else:
+            break
+    return ref, options
+
+
+#: the sized settings of each trajectory of :mod:`wbc.bench.trajectories`: the values its
+#: builder uses by default (what a robot's dimensions scale)
+def default_options(name: str) -> dict[str, Any]:
+    """The defaults of trajectory ``name`` that are sized to the robot (empty if none)."""
+    from ..bench import trajectories as traj
+    from .keyposes import KeyPoseParams
+    from .preview import PreviewParams
+    from .static_walk import StaticWalkParams
+    from .thesis_step import ThesisStepParams
+
+    walk = {
+        "preview": PreviewParams(),
+        "margin": 0.001,
+        "zmp_offset": (0.0, 0.0285),
+        "min_clearance": 0.005,
+        "timing": GaitTiming(),
+        "swing": SwingParams(),
+    }
+    table: dict[str, dict[str, Any]] = {
+        "thesis_step": {**_params(ThesisStepParams()), "min_clearance": 0.005},
+        "keyposes": {**_params(KeyPoseParams()), "min_clearance": 0.004},
+        "static_walk": _params(StaticWalkParams()),
+        "walk10": {**walk, "step_length": 0.035},
+        "turn": {**walk, "step_length": 0.02, "turn": 0.2},
+        "lateral": {**walk, "step_width": 0.02},
+        "walk10_wb": {**walk, "step_length": 0.035, **traj.WHOLE_BODY_DYNAMIC, **traj.WALK10_WB},
+        "fast_wb": {**walk, **traj.WHOLE_BODY_TIMING, **traj.FAST},
+        "turn_wb": {**walk, **traj.WHOLE_BODY_TIMING, **traj.TURN},
+        "lateral_wb": {**walk, **traj.WHOLE_BODY_TIMING, **traj.LATERAL},
+    }
+    return dict(table.get(name, {}))
+
+
+def _params(p: Any) -> dict[str, Any]:
+    keys = (*ALONG, *ACROSS, *PAIRS, *TIMES)
+    return {f.name: getattr(p, f.name) for f in fields(p) if f.name in keys}
