@@ -32,6 +32,7 @@ from ..servos.sources import CallableSource
 from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
+from .fall import FallDetector, FallParams
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer
 from .stepping import StepAdjuster, SteppingParams
@@ -41,6 +42,8 @@ from .stepping import StepAdjuster, SteppingParams
 #: ``lateral_wb`` the narrowed sway costs distance (0.907 → 0.884, 0.902 → 0.877 of the plan)
 #: and the transfer alone tips ``lateral_wb`` to 31.5°
 NARROW_LONGEST = 0.3
+#: s at rest before the walk: the IMU's start-up calibration (gyro bias, levelling)
+CALIBRATE_S = 0.3
 
 
 class SessionSource(CallableSource):
@@ -54,9 +57,13 @@ class SessionSource(CallableSource):
         self.limit_excess = 0.0
         self.feedback_time: list[float] = []
         self.solve_time: list[float] = []
+        self.start_offset = 0.0  # s the walk starts late: the start-up calibration at rest
 
         def target(tick: int, t: float) -> np.ndarray | None:
-            q = session.at_time(t)
+            stab = session.stabilizer
+            if stab is not None and stab.calibrating:
+                self.start_offset = t
+            q = session.at_time(t - self.start_offset)
             if q is None:
                 return None
             j = q[7:].copy()
@@ -111,6 +118,8 @@ def closed_loop(
     duration: float | None = None,
     stepping: SteppingParams | None = None,
     hold: HoldParams | None = HoldParams(),  # noqa: B008 (frozen)
+    fall: FallParams | None = FallParams(),  # noqa: B008 (frozen)
+    calibrate_s: float = CALIBRATE_S,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
@@ -127,7 +136,11 @@ def closed_loop(
     ready for it (:class:`~wbc.balance.retime.PhaseHold` with these parameters). The closed
     loop walks ``ref`` with its sway narrowed by the walk's generator (``gains.transfer``,
     :func:`wbc.walking.gait.narrow_sway`, single supports of at most
-    :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned).
+    :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned). ``fall`` (closed loop only;
+    on by default, None: off): a state beyond recovery stops the walk within a tick and the
+    deployment falls safely (:mod:`wbc.balance.fall`). ``calibrate_s`` (with an IMU; 0: off):
+    the walk starts after that long at rest in its first pose, the IMU's gyro bias and
+    levelling estimated (:func:`wbc.imu.calibrate`; a mount error stops the run, named).
     """
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
@@ -141,9 +154,12 @@ def closed_loop(
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
         ref = narrow_sway(ref, gains.transfer, longest=NARROW_LONGEST)
     holder: list[Deployment] = []
+    detector = None
+    if fall is not None and enabled:
+        detector = FallDetector(fall, (ref.foot.length, ref.foot.width))
     stabilizer = Stabilizer(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
-        enabled,
+        enabled, fall=detector, calibration_ticks=round(calibrate_s * config.rate),
     )  # fmt: skip
     adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
     phase_hold = PhaseHold(hold) if hold is not None and enabled else None

@@ -53,9 +53,10 @@ import numpy as np
 
 from ..compiled.rows import log3
 from ..exceptions import ConfigurationError
-from ..imu import Imu
+from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
 from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
+from .fall import FallDetector
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,9 @@ class Gains:
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
+    #: 1/s: joint level, integral of each servo's measured sag (solved − present position)
+    #: added to its goal (a PI around the servo's own P law; 0: off)
+    j_i: float = 0.0
     max_offset: float = 0.2  # rad, per joint
     max_tilt: float = 0.2  # rad
     max_shift: float = 0.02  # m
@@ -91,6 +95,7 @@ class Gains:
             "k_yaw",
             "j_p",
             "j_d",
+            "j_i",
             "max_tilt",
             "max_shift",
             "max_offset",
@@ -196,8 +201,18 @@ class Stabilizer:
         gains: Gains | None = None,
         enabled: bool = True,
         estimator: StateEstimator | None = None,
+        fall: FallDetector | None = None,
+        calibration_ticks: int = 0,
     ) -> None:
         self.robot = robot
+        mount = getattr(imu, "mount", None)
+        self.mount = None if mount is None or mount.identity else mount
+        #: the start-up calibration at rest (wbc.imu.calibrate) once done; before it, the
+        #: first ``calibration_ticks`` ticks collect samples and feed nothing back
+        self.calibration: ImuCalibration | None = None
+        self.calibration_ticks = int(calibration_ticks) if imu is not None else 0
+        self._samples: list[tuple[np.ndarray, np.ndarray]] = []
+        self.fall = fall  # raises FallDetected from adjust() on a state beyond recovery
         self.present = present
         self.imu = imu
         self.gains = (gains or Gains()).check()
@@ -214,6 +229,10 @@ class Stabilizer:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
+        self._sag = np.zeros(robot.n_joints)  # j_i: integrated servo sag (rad)
+        self._solved: np.ndarray | None = None  # j_i: the last solved joints
+        self._present: np.ndarray | None = None  # the present positions of the last adjust
+        self._dt = 0.0
         self._packed: tuple = (None, None)  # (gains, their array for _torso_feedback)
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
@@ -228,8 +247,17 @@ class Stabilizer:
         start = time.perf_counter()
         joints = q_cmd[7:]
         present = self.present()  # (its unread, NaN entries: the commanded joints)
+        self._present, self._dt = present, dt
         reading = self.imu.read() if self.imu is not None else None
+        if reading is not None:
+            if self.mount is not None:
+                reading = self.mount.to_torso(reading)
+            if self.calibration is not None:
+                reading = self.calibration.apply(reading)
         self.read_time = time.perf_counter() - start
+        if self.calibrating:
+            return self._calibrate(targets, reading, joints if present is None else present,
+                                   joints, dt)  # fmt: skip
         stance = (
             [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
             if targets.phase == "double"
@@ -248,6 +276,8 @@ class Stabilizer:
             R_ref = self._hip_strategy(targets, est, dt) @ R_ref
         _torso_feedback(est.values, R_ref, self.integral, self._packed[1], dt, o)
         e = o[0:3]  # orientation error, world frame (heading part × k_yaw)
+        if self.fall is not None:
+            self.fall.raise_if_falling(est, [placement for _, placement in stance], dt, e)
         self.max_tilt_error = max(self.max_tilt_error, o[15])
         self.error, self.rate = e, est.angular_velocity
         self.integral = o[3:6]
@@ -257,6 +287,30 @@ class Stabilizer:
         out = _with(targets, com, o[6:15].reshape(3, 3))
         self.time = time.perf_counter() - start
         return out
+
+    @property
+    def calibrating(self) -> bool:
+        """True while the start-up calibration collects its samples."""
+        return self.enabled and self.calibration is None and self.calibration_ticks > 0
+
+    def _calibrate(self, targets, reading, present, joints, dt: float):
+        """One tick of the start-up calibration at rest: the estimator restarted from the
+        kinematics (stance soles flat: the torso's expected up), the sample kept; after
+        ``calibration_ticks`` samples, :func:`wbc.imu.calibrate` (raises on a mount error)
+        and the filter restarted from the levelled kinematic orientation. The targets pass
+        unchanged."""
+        stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
+        self.estimator.restart()
+        est = self.estimator.update(dt, present, reading, stance, fallback=joints)
+        if reading is not None:
+            self._samples.append((reading.angular_velocity, reading.linear_acceleration))
+        if len(self._samples) >= self.calibration_ticks:
+            g, a = (np.array(x) for x in zip(*self._samples, strict=True))
+            where = f"the IMU's mount (Imu.mount: {self.mount or 'the torso frame'})"
+            self.calibration = calibrate(g, a, est.rotation[2], where=where)
+            self._samples.clear()
+            self.estimator.restart()
+        return targets
 
     def _hip_strategy(self, targets, est: StateEstimate, dt: float) -> np.ndarray:
         """The rotation that turns the torso target toward the stance sole's outer side (hip
@@ -311,10 +365,28 @@ class Stabilizer:
         """Joint-level feedback on the solved goals (``j_p``, ``j_d``; None when off):
         ``δ_j = k_j a_j · (j_p Rᵀe + j_d ω)`` (OP3 gains ``k_j``, axes ``a_j`` in the torso
         frame, :mod:`wbc.balance.feedback`), clipped to ``max_offset``."""
-        if not self.enabled or self._joint is None or self.last is None:
-            return None
         g = self.gains
+        if not self.enabled or self.last is None:
+            return None
+        sag = self._integrate_sag(joints) if g.j_i > 0 else None
+        if self._joint is None:
+            return sag
         e_body = self.last.rotation.T @ self.error
         v = g.j_p * e_body + g.j_d * self.rate
         d = self._joint.k * (self._joint.axes(joints) @ v)
+        if sag is not None:
+            d = d + sag
         return np.clip(d, -g.max_offset, g.max_offset)
+
+    def _integrate_sag(self, joints: np.ndarray) -> np.ndarray:
+        """``j_i``: ``δ ← clip(δ + j_i dt (q_solved,prev − q_present), ±max_offset)``, the
+        servos' measured steady error integrated (the present positions read after the
+        previous tick's goals; unread entries count 0)."""
+        g = self.gains
+        present, prev = self._present, self._solved
+        if present is not None and prev is not None:
+            e = prev - present
+            e[~np.isfinite(e)] = 0.0
+            np.clip(self._sag + g.j_i * self._dt * e, -g.max_offset, g.max_offset, out=self._sag)
+        self._solved = joints.copy()
+        return self._sag.copy()

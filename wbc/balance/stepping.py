@@ -402,8 +402,9 @@ def capture_bounds(
       as the legs reach (``w``) in ``step_time`` s (``t₂``, default the walk's single
       support) with the CoP at the landed sole's inner edge ``p``:
       ``Δξ ≤ e + (p + (e + w − p) e^{−ω t₂} − e) e^{−ω t₁} − ξ``.
-    * ``forward`` / ``toward`` (the swing foot's side): the swing sole lands at its planned
-      place (``*_planned_ns``) or as far as the legs reach (``*_ns``) after ``t``, with the
+    * ``forward`` / ``backward`` / ``toward`` (the swing foot's side): the swing sole lands
+      at its planned place (``*_planned_ns``) or as far as the legs reach (``*_ns``) after
+      ``t``, with the
       DCM inside the landed sole's far edge: ``Δξ ≤ f + (f' − f) e^{−ω t} − ξ`` (``f`` the
       stance sole's edge on that side, ``f'`` the landed sole's); ``*_in_time_ns``: the
       landing moved only as far as the swing sole gets in ``t`` with the bend of
@@ -460,6 +461,15 @@ def capture_bounds(
         f + (step.x + min(fwd, in_time) + half_l - f) * decay - xi[0]
     )
     out["forward_reach_mm"] = 1e3 * fwd
+    # backward: the swing sole lands further behind (the DCM within its back edge)
+    bwd = reach(plan, (-1.0, 0.0))
+    f = st[0] - half_l
+    out["backward_planned_ns"] = to_ns * (xi[0] - f - (step.x - half_l - f) * decay)
+    out["backward_ns"] = to_ns * (xi[0] - f - (step.x - bwd - half_l - f) * decay)
+    out["backward_in_time_ns"] = to_ns * (
+        xi[0] - f - (step.x - min(bwd, in_time) - half_l - f) * decay
+    )
+    out["backward_reach_mm"] = 1e3 * bwd
     # toward the swing foot: the swing sole lands further out
     tow = reach(plan, (0.0, -u))
     f = -(u * st[1] - half_w)  # the stance sole's inner edge, toward the swing foot
