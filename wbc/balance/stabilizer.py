@@ -210,7 +210,8 @@ class Stabilizer:
         #: the start-up calibration at rest (wbc.imu.calibrate) once done; before it, the
         #: first ``calibration_ticks`` ticks collect samples and feed nothing back
         self.calibration: ImuCalibration | None = None
-        self.calibration_ticks = int(calibration_ticks) if imu is not None else 0
+        self.calibration_ticks = int(calibration_ticks)  # ticks at rest before the walk
+        self._rest_left = self.calibration_ticks
         self._samples: list[tuple[np.ndarray, np.ndarray]] = []
         self.fall = fall  # raises FallDetected from adjust() on a state beyond recovery
         self.present = present
@@ -290,8 +291,8 @@ class Stabilizer:
 
     @property
     def calibrating(self) -> bool:
-        """True while the start-up calibration collects its samples."""
-        return self.enabled and self.calibration is None and self.calibration_ticks > 0
+        """True while the start-up calibration at rest collects its samples."""
+        return self.enabled and self._rest_left > 0
 
     def _calibrate(self, targets, reading, present, joints, dt: float):
         """One tick of the start-up calibration at rest: the estimator restarted from the
@@ -304,7 +305,8 @@ class Stabilizer:
         est = self.estimator.update(dt, present, reading, stance, fallback=joints)
         if reading is not None:
             self._samples.append((reading.angular_velocity, reading.linear_acceleration))
-        if len(self._samples) >= self.calibration_ticks:
+        self._rest_left -= 1
+        if self._rest_left == 0 and self._samples:
             g, a = (np.array(x) for x in zip(*self._samples, strict=True))
             where = f"the IMU's mount (Imu.mount: {self.mount or 'the torso frame'})"
             self.calibration = calibrate(g, a, est.rotation[2], where=where)

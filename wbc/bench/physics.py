@@ -368,6 +368,8 @@ class ClosedLoopSpec:
     hold: Any = field(default_factory=lambda: _default_hold())
     #: wbc.balance.fall.FallParams: fall detection and the safe fall (None: off)
     fall: Any = field(default_factory=lambda: _default_fall())
+    #: the feed-forward's servo model (wbc.balance.live.closed_loop's ``servo``)
+    servo: Any = None
 
 
 def _default_fall():
@@ -418,7 +420,8 @@ def play_closed_loop(
         )
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
                        compensate, correct, out=lambda _line: None, duration=duration,
-                       stepping=spec.stepping, hold=spec.hold, fall=spec.fall)  # fmt: skip
+                       stepping=spec.stepping, hold=spec.hold, fall=spec.fall,
+                       servo=spec.servo)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
