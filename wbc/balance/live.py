@@ -242,7 +242,8 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None]):
         dep = loop.deployment
         if resting:
             seen[0] += 1
-            if seen[0] > rest // 2 and dep.limiter.prev is not None and dep.last_present is not None:
+            ready = dep.limiter.prev is not None and dep.last_present is not None
+            if seen[0] > rest // 2 and ready:
                 goals.append(dep.bus.codec.decode(dep.limiter.prev))
                 present.append(np.asarray(dep.last_present, dtype=float))
             return
