@@ -33,7 +33,6 @@ VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
     "closed + dcm 0.3 + step": (0.0, dict(k_dcm=0.3), True, True, True),
     "closed + lean 1": (0.0, dict(k_lean=1.0), True, True, False),
     "closed + joint 1/0.1": (0.0, dict(j_p=1.0, j_d=0.1), True, True, False),
-    "closed + sag 5": (0.0, dict(j_i=5.0), True, True, False),
     "closed + torso 4/4": (0.0, dict(k_p=4.0, k_i=4.0), True, True, False),
     "closed, encoders only": (0.0, {}, False, True, False),
     "open ff 0.5": (0.5, {}, True, False, False),

@@ -71,9 +71,6 @@ class Gains:
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
-    #: 1/s: joint level, integral of each servo's measured sag (solved − present position)
-    #: added to its goal (a PI around the servo's own P law; 0: off)
-    j_i: float = 0.0
     max_offset: float = 0.2  # rad, per joint
     max_tilt: float = 0.2  # rad
     max_shift: float = 0.02  # m
@@ -95,7 +92,6 @@ class Gains:
             "k_yaw",
             "j_p",
             "j_d",
-            "j_i",
             "max_tilt",
             "max_shift",
             "max_offset",
@@ -230,10 +226,6 @@ class Stabilizer:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
-        self._sag = np.zeros(robot.n_joints)  # j_i: integrated servo sag (rad)
-        self._solved: np.ndarray | None = None  # j_i: the last solved joints
-        self._present: np.ndarray | None = None  # the present positions of the last adjust
-        self._dt = 0.0
         self._packed: tuple = (None, None)  # (gains, their array for _torso_feedback)
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
@@ -248,7 +240,6 @@ class Stabilizer:
         start = time.perf_counter()
         joints = q_cmd[7:]
         present = self.present()  # (its unread, NaN entries: the commanded joints)
-        self._present, self._dt = present, dt
         reading = self.imu.read() if self.imu is not None else None
         if reading is not None:
             if self.mount is not None:
@@ -367,28 +358,10 @@ class Stabilizer:
         """Joint-level feedback on the solved goals (``j_p``, ``j_d``; None when off):
         ``δ_j = k_j a_j · (j_p Rᵀe + j_d ω)`` (OP3 gains ``k_j``, axes ``a_j`` in the torso
         frame, :mod:`wbc.balance.feedback`), clipped to ``max_offset``."""
-        g = self.gains
-        if not self.enabled or self.last is None:
+        if not self.enabled or self._joint is None or self.last is None:
             return None
-        sag = self._integrate_sag(joints) if g.j_i > 0 else None
-        if self._joint is None:
-            return sag
+        g = self.gains
         e_body = self.last.rotation.T @ self.error
         v = g.j_p * e_body + g.j_d * self.rate
         d = self._joint.k * (self._joint.axes(joints) @ v)
-        if sag is not None:
-            d = d + sag
         return np.clip(d, -g.max_offset, g.max_offset)
-
-    def _integrate_sag(self, joints: np.ndarray) -> np.ndarray:
-        """``j_i``: ``δ ← clip(δ + j_i dt (q_solved,prev − q_present), ±max_offset)``, the
-        servos' measured steady error integrated (the present positions read after the
-        previous tick's goals; unread entries count 0)."""
-        g = self.gains
-        present, prev = self._present, self._solved
-        if present is not None and prev is not None:
-            e = prev - present
-            e[~np.isfinite(e)] = 0.0
-            np.clip(self._sag + g.j_i * self._dt * e, -g.max_offset, g.max_offset, out=self._sag)
-        self._solved = joints.copy()
-        return self._sag.copy()

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..balance import add_compensate_argument, check_compensate_encoders
+from ..balance import add_compensate_argument, check_compensate_encoders, resolve_compensate
 from ..exceptions import ConfigurationError, TrajectoryError, WbcError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIGHT, Recording
@@ -370,6 +370,7 @@ class ClosedLoopSpec:
     fall: Any = field(default_factory=lambda: _default_fall())
     #: the feed-forward's servo model (wbc.balance.live.closed_loop's ``servo``)
     servo: Any = None
+    calibrate_s: float | None = None  # s at rest before the walk (None: closed_loop's default)
 
 
 def _default_fall():
@@ -393,11 +394,13 @@ def play_closed_loop(
     compensate: float = 0.0,
     correct: bool = False,
     duration: float | None = None,
+    on_tick: Callable[[Any], None] | None = None,
 ):
     """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
     on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
     :class:`wbc.sim.play.PlayResult` and the loop (its per-tick costs, limit excursions).
-    ``duration`` (s): only the walk's first seconds (None: all of it)."""
+    ``duration`` (s): only the walk's first seconds (None: all of it); ``on_tick`` sees the
+    simulation after every logged tick (a live viewer)."""
     from ..balance.live import closed_loop
     from ..servos.sources import CallableSource
     from ..sim.bus import SimImu, SimServoBus
@@ -410,6 +413,13 @@ def play_closed_loop(
     sim.reset(start_configuration(robot, spec.ref))
     sim.goal_delay = v.latency_s if v else 0.0
     logger = _Logger(sim)
+    if on_tick is not None:
+        log_only = logger
+
+        def logger(bus) -> None:
+            log_only(bus)
+            on_tick(sim)
+
     bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
     imu = None
     if spec.use_imu:
@@ -418,10 +428,11 @@ def play_closed_loop(
             if v and v.imu
             else SimImu(sim, gyro_noise=v.imu_noise if v else 0.0)
         )
+    cal = {} if spec.calibrate_s is None else {"calibrate_s": spec.calibrate_s}
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
                        compensate, correct, out=lambda _line: None, duration=duration,
                        stepping=spec.stepping, hold=spec.hold, fall=spec.fall,
-                       servo=spec.servo)  # fmt: skip
+                       servo=spec.servo, **cal)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
@@ -443,7 +454,8 @@ def play_closed_loop(
         for _ in range(round(settle * rate)):
             sim.advance(1.0 / rate)
             logger(bus)
-    return PlayResult(result, logger.log.arrays(), playback_start - logger.t0, sim), loop
+    base = log_only if on_tick is not None else logger
+    return PlayResult(result, base.log.arrays(), playback_start - base.t0, sim), loop
 
 
 def simulate(
@@ -629,19 +641,30 @@ def add_physics_arguments(parser) -> None:
     parser.add_argument(
         "--closed-loop",
         action="store_true",
-        help="--physics: also run each controller live in the deployment's tick, closed "
-        "through the torso IMU and the servos' present positions (wbc.balance.stabilizer)",
+        help="--physics: the closed-loop rows (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--open-loop",
+        action="store_true",
+        help="--physics: only the plans played open loop (by default each controller also "
+        "runs live in the deployment's tick, closed through the torso IMU and the servos' "
+        "present positions, with step adjustment: wbc.balance.live), no feed-forward unless "
+        "--compensate",
     )
     parser.add_argument(
         "--encoders-only",
         action="store_true",
-        help="--closed-loop: estimate from the servos' positions alone (no IMU)",
+        help="closed loop: estimate from the servos' positions alone (no IMU)",
     )
     parser.add_argument(
         "--stepping",
         action="store_true",
-        help="--closed-loop: also the closed loop with step placement from the measured DCM "
-        "(wbc.balance.stepping)",
+        help="closed loop: step adjustment (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--no-stepping",
+        action="store_true",
+        help="closed loop: no step placement from the measured DCM (wbc.balance.stepping)",
     )
     parser.add_argument(
         "--gyro",
@@ -661,6 +684,11 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
 
     if args.robustness < 0:
         raise ConfigurationError(f"--robustness must be >= 0, got {args.robustness}")
+    if args.open_loop and (args.closed_loop or args.encoders_only or args.stepping):
+        raise ConfigurationError(
+            "--open-loop: no --closed-loop, --encoders-only or --stepping with it"
+        )
+    resolve_compensate(args, robot, best=not args.open_loop)
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise ConfigurationError(
             f"--compensate GAIN must be a finite number >= 0, got {args.compensate}"
@@ -702,9 +730,9 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         entries = [e for e in entries if e.name.split("@")[0] in DEFAULT_SOLVERS]
     records: list[dict[str, Any]] = []
     series = {}
-    comp = getattr(args, "compensate", 0.0)
+    comp = getattr(args, "compensate", 0.0) or 0.0
     gyro = getattr(args, "gyro", 0.0)
-    closed_loop = getattr(args, "closed_loop", False)
+    closed_loop = not getattr(args, "open_loop", False)
     gains = stabilizer_gains(args) if closed_loop else None
     for name, ref in refs.items():
         for entry in entries:
@@ -715,13 +743,11 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
             specs: list[ClosedLoopSpec | None] = [None]
             if closed_loop:
-                imu = not getattr(args, "encoders_only", False)
-                specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu))
-                if getattr(args, "stepping", False):
-                    from ..balance.stepping import SteppingParams
+                from ..balance.stepping import SteppingParams
 
-                    specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu,
-                                                SteppingParams()))  # fmt: skip
+                imu = not getattr(args, "encoders_only", False)
+                step = None if getattr(args, "no_stepping", False) else SteppingParams()
+                specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu, step))
             for spec in specs:
                 loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0,
                         "correct": getattr(args, "compensate_encoders", False)}  # fmt: skip
