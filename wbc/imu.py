@@ -187,8 +187,10 @@ def calibrate(
     expected_up: np.ndarray,
     tolerance: float = MOUNT_TOLERANCE,
     where: str = "the IMU mount",
+    motion: np.ndarray | None = None,
 ) -> ImuCalibration:
-    """Calibration from samples at rest (torso frame, rows): the gyro bias is their mean;
+    """Calibration from samples at rest (torso frame, rows): the gyro bias is their mean
+    less ``motion`` (rad/s: the torso's true mean rate meanwhile, e.g. from the kinematics);
     the measured "up" (the mean specific force's direction) is compared with
     ``expected_up`` (the torso frame's up from the standing robot's kinematics). Beyond
     ``tolerance`` raises :class:`ImuError` naming the angle and ``where`` (the mount is
@@ -221,7 +223,8 @@ def calibrate(
         k = axis / s
         K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
         level = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
-    return ImuCalibration(g.mean(axis=0), level, angle, len(g))
+    bias = g.mean(axis=0) - (np.zeros(3) if motion is None else np.asarray(motion, dtype=float))
+    return ImuCalibration(bias, level, angle, len(g))
 
 
 class Imu(ABC):

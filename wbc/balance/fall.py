@@ -4,11 +4,11 @@
 (:class:`~wbc.balance.estimator.StateEstimate`) inside the closed loop and declares a state
 beyond recovery when any of:
 
-* **tilt**: the torso is more than ``tilt`` (rad, 30°) from its target orientation (the
+* **tilt**: the torso is more than ``tilt`` (rad, 40°) from its target orientation (the
   reference's, with the hip strategy's deliberate roll: :mod:`wbc.balance.stabilizer`),
   ``|e_xy|`` with ``e = log(R_est R_targetᵀ)``;
-* **tilt and rate**: more than ``tilt_moving`` (15°) and still turning away from it faster
-  than ``rate`` (rad/s, 1.5): ``ω_xy · ê_xy > rate`` (world-frame gyro rate along the
+* **tilt and rate**: more than ``tilt_moving`` (20°) and still turning away from it faster
+  than ``rate`` (rad/s, 2): ``ω_xy · ê_xy > rate`` (world-frame gyro rate along the
   error's horizontal axis);
 * **DCM**: the estimated DCM further than ``reach`` (m) beyond the stance support polygon
   (the soles' corners, held for ``dcm_ticks`` ticks): no step lands there in time
@@ -38,9 +38,9 @@ from ..geometry import convex_hull, signed_distance
 class FallParams:
     """Thresholds of :class:`FallDetector` and the safe fall (module docstring)."""
 
-    tilt: float = math.radians(30.0)  # rad
-    tilt_moving: float = math.radians(15.0)  # rad
-    rate: float = 1.5  # rad/s away from upright
+    tilt: float = math.radians(40.0)  # rad
+    tilt_moving: float = math.radians(20.0)  # rad
+    rate: float = 2.0  # rad/s away from the target
     reach: float = 0.15  # m of DCM beyond the support polygon (the legs reach ~0.1–0.16 m)
     dcm_ticks: int = 3  # consecutive ticks the DCM must be beyond reach
     torque_limit: float = 0.3  # share of the servos' maximum torque during the fall

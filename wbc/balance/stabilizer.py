@@ -288,19 +288,29 @@ class Stabilizer:
     def _calibrate(self, targets, reading, present, joints, dt: float):
         """One tick of the start-up calibration at rest: the estimator restarted from the
         kinematics (stance soles flat: the torso's expected up), the sample kept; after
-        ``calibration_ticks`` samples, :func:`wbc.imu.calibrate` (raises on a mount error)
-        and the filter restarted from the levelled kinematic orientation. The targets pass
-        unchanged."""
+        ``calibration_ticks`` samples, :func:`wbc.imu.calibrate` on the second half (the
+        robot settles in the first; its remaining motion, the kinematic rotation's mean rate,
+        is not counted as gyro bias; raises on a mount error) and the filter restarted from
+        the levelled kinematic orientation. The targets pass unchanged."""
         stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
         self.estimator.restart()
         est = self.estimator.update(dt, present, reading, stance, fallback=joints)
         if reading is not None:
-            self._samples.append((reading.angular_velocity, reading.linear_acceleration))
+            self._samples.append((reading.angular_velocity, reading.linear_acceleration,
+                                  est.rotation.copy(), dt))  # fmt: skip
         self._rest_left -= 1
         if self._rest_left == 0 and self._samples:
-            g, a = (np.array(x) for x in zip(*self._samples, strict=True))
+            half = self._samples[len(self._samples) // 2 :]
+            g, a = (np.array([s[k] for s in half]) for k in (0, 1))
+            span = sum(s[3] for s in half[1:])
+            motion = np.zeros(3)
+            if span > 0:  # the torso's mean rate from the kinematics (torso frame)
+                R0, R1 = half[0][2], half[-1][2]
+                v = np.empty(3)
+                log3(np.ascontiguousarray(R0.T @ R1), v)
+                motion = v / span
             where = f"the IMU's mount (Imu.mount: {self.mount or 'the torso frame'})"
-            self.calibration = calibrate(g, a, est.rotation[2], where=where)
+            self.calibration = calibrate(g, a, est.rotation[2], where=where, motion=motion)
             self._samples.clear()
             self.estimator.restart()
         return targets
