@@ -121,13 +121,13 @@ def closed_loop(
     imu: Imu | None = None,
     gains: Gains | None = None,
     enabled: bool = True,
-    compensate: float = 0.0,
+    compensate: float | None = None,
     correct: bool = False,
     config: DeployConfig | None = None,
     q0: np.ndarray | None = None,
     out: Callable[[str], None] = print,
     duration: float | None = None,
-    stepping: SteppingParams | None = None,
+    stepping: SteppingParams | None = SteppingParams(),  # noqa: B008 (frozen)
     hold: HoldParams | None = HoldParams(),  # noqa: B008 (frozen)
     fall: FallParams | None = FallParams(),  # noqa: B008 (frozen)
     calibrate_s: float = CALIBRATE_S,
@@ -136,19 +136,23 @@ def closed_loop(
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
 
+    The defaults are the measured best configuration (issue 30, benchmarks/physics.md):
+    ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, 0 when
+    open loop or on servos without a compliance model), step adjustment on, the lift-off
+    hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
     :class:`~wbc.balance.compliance.EncoderCorrection`); ``config`` defaults to the
     reference's rate with ``read`` on (the estimator needs the encoders); a config without
     ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
     the whole reference).
-    ``stepping`` (closed loop only; None: off): re-plan the footsteps from the measured DCM
-    (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters). ``hold`` (closed
-    loop only; on by default, None: off): a lift-off waits while the measured DCM is not
-    ready for it (:class:`~wbc.balance.retime.PhaseHold` with these parameters). The closed
-    loop walks ``ref`` with its sway narrowed by the walk's generator (``gains.transfer``,
-    :func:`wbc.walking.gait.narrow_sway`, single supports of at most
-    :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned). ``fall`` (closed loop only;
+    ``stepping`` (closed loop only; on by default, None: off): re-plan the footsteps from
+    the measured DCM (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
+    ``hold`` (closed loop only; on by default, None: off): a lift-off waits while the
+    measured DCM is not ready for it (:class:`~wbc.balance.retime.PhaseHold` with these
+    parameters). The closed loop walks ``ref`` with its sway narrowed by the walk's
+    generator (``gains.transfer``, :func:`wbc.walking.gait.narrow_sway`, single supports of
+    at most :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned). ``fall`` (closed loop only;
     on by default, None: off): a state beyond recovery stops the walk within a tick and the
     deployment falls safely (:mod:`wbc.balance.fall`). ``calibrate_s`` (with an IMU; 0: off):
     the walk starts after that long at rest in its first pose, the IMU's gyro bias and
@@ -159,6 +163,10 @@ def closed_loop(
     (:func:`wbc.balance.compliance.identify_stiffness`; needs ``calibrate_s`` > 0). Which
     one is used is said through ``out`` and kept in :attr:`ClosedLoop.servo_model`.
     """
+    if compensate is None:
+        from . import best_compensate
+
+        compensate = best_compensate(robot) if enabled else 0.0
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
     if enabled and not config.read:
