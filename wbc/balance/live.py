@@ -37,7 +37,7 @@ from ..walking.reference import WalkingReference
 from .fall import FallDetector, FallParams
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer
-from .stepping import StepAdjuster, SteppingParams
+from .stepping import StepAdjuster, SteppingParams, can_step
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
 #: nominal, benchmarks/pushes.md): on the 0.4 s single supports of ``fast_wb`` and
@@ -194,6 +194,10 @@ def closed_loop(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled, fall=detector, calibration_ticks=rest,
     )  # fmt: skip
+    if stepping is not None and enabled and not can_step(ref):
+        out("closed loop: no step adjustment on this walk (it re-plans dynamic walks made by "
+            "wbc.walking.gait.walk)")  # fmt: skip
+        stepping = None
     adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
     phase_hold = PhaseHold(hold) if hold is not None and enabled else None
     session = Session(controller, robot, ref, q0, stabilizer=stabilizer, stepping=adjuster,

@@ -194,6 +194,13 @@ def bend_rate(ph: Phase, i: int, dt: float, swing: SwingParams) -> float:
 
 
 # ---------------------------------------------------------------------- the re-planner
+def can_step(ref: WalkingReference) -> bool:
+    """True when :class:`StepAdjuster` can re-plan ``ref`` (a dynamic walk made by
+    :func:`wbc.walking.gait.walk`: its timing and generator are known)."""
+    meta = ref.meta
+    return ref.gait == "dynamic" and "timing" in meta and "generator" in meta
+
+
 class StepAdjuster:
     """Re-plans the footsteps of a dynamic walk (:func:`wbc.walking.gait.walk`, any
     generator) from the measured DCM (module docstring). ``enabled=False``: never re-plans.
@@ -214,7 +221,7 @@ class StepAdjuster:
         self.params = (params or SteppingParams()).check()
         self.enabled = enabled
         meta = ref.meta
-        if ref.gait != "dynamic" or "timing" not in meta or "generator" not in meta:
+        if not can_step(ref):
             raise TrajectoryError(
                 f"stepping re-plans dynamic walks made by wbc.walking.gait.walk; reference "
                 f"{ref.name!r} is not one"

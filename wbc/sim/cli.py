@@ -260,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
         record.update(closed_loop_figures(loop))
         print(f"closed loop: IMU {'off (encoders only)' if args.encoders_only else 'on'}, "
               f"feed-forward x{args.compensate:g} on {loop.servo_model}, step adjustment "
-              f"{'off' if step is None else 'on'}, fall detection on")  # fmt: skip
+              f"{'off' if loop.stepping is None else 'on'}, fall detection on")  # fmt: skip
     else:
         result = play(
             rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime,
