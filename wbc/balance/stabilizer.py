@@ -63,9 +63,11 @@ from .fall import FallDetector
 class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
-    k_p: float = 2.0  # rad/rad torso tilt
-    k_i: float = 2.0  # 1/s
-    k_d: float = 0.1  # s
+    # issue 30: halved from 2 / 2 / 0.1 s, which tipped plants with 12–16 ms of latency and
+    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep")
+    k_p: float = 1.0  # rad/rad torso tilt
+    k_i: float = 1.0  # 1/s
+    k_d: float = 0.05  # s
     k_dcm: float = 0.0  # m/m
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
@@ -75,7 +77,7 @@ class Gains:
     max_tilt: float = 0.2  # rad
     max_shift: float = 0.02  # m
     k_hip: float = 100.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
-    hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
+    hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
     #: share of the double support in which the closed loop's reference moves its ZMP to the
