@@ -3,9 +3,11 @@
 A ``walk`` is walked closed loop (wqp-daqp) on the nominal simulated robot and pushed at
 mid first single support (10 ms on the torso) well beyond its bound in each direction
 (``--impulse`` N·s). With the detector (:mod:`wbc.balance.fall`) and without, per run: the
-detection delay after the push ends (ms), the peak servo torque from the push to the end
-(/ stall), the torso's largest speed in the last 50 mm above its lowest point (m/s: the
-impact speed), and the largest goal excursion beyond a joint limit (deg, before clamping).
+detection delay after the push ends (ms), the peak servo torque from 50 ms after the
+detection to the end (/ stall; the run without the detector over the same window), the RMS
+servo torque over that window, the torso's largest speed in the last 50 mm above its
+lowest point (m/s: the impact speed), and the largest goal excursion beyond a joint limit
+(deg, before the deployment's clamp).
 
     nice -n 5 python benchmarks/falls.py --walk walk10_wb --impulse 2.5
 """
@@ -21,6 +23,7 @@ from wbc.bench import trajectories as traj
 from wbc.bench.physics import (
     PUSH_DURATION,
     ClosedLoopSpec,
+    closed_loop_figures,
     mid_single_support,
     play_closed_loop,
     push_direction,
@@ -49,13 +52,13 @@ def main() -> None:
     _, rec = run_entry(entry, robot, ref, "tick")
     t_push = mid_single_support(rec)
     print(f"{args.solver} on {args.walk}, {args.impulse} N·s at {t_push:.2f} s")
-    print(
-        "| push | detector | detected after the push (ms) | why | peak τ/τs | impact m/s | stop |"
-    )
-    print("|---|---|---|---|---|---|---|")
+    print("| push | detector | detected after the push (ms) | why | peak τ/τs | RMS τ/τs | "
+          "impact m/s | goal beyond a limit ° | stop |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
     for d in args.directions:
         u = push_direction(rec, d)
         push = (t_push, u * args.impulse / PUSH_DURATION, PUSH_DURATION)
+        window = None
         for on in (True, False):
             spec = ClosedLoopSpec(entry.make, ref)
             if not on:
@@ -65,18 +68,21 @@ def main() -> None:
             t = log["t"] - result.playback_start
             after = t >= t_push
             stall = result.sim.servo_params.stall_torque
-            peak = float(log["peak_torque"][after].max() / stall)
             fall = loop.stabilizer.fall
-            delay = "-"
-            why = "-"
+            delay = why = "-"
             if fall is not None and fall.time is not None:
-                # the detector's clock starts at the first tick: the playback's start
+                # the detector's clock starts at the walk's first tick: the playback's start
                 delay = f"{1e3 * (fall.time - t_push - PUSH_DURATION):.0f}"
                 why = fall.reason.split(" (")[0]
+                window = fall.time + 0.05
+            late = t >= (window if window is not None else t_push)
+            peak = float(log["peak_torque"][late].max() / stall)
+            rms = float(np.sqrt(np.mean(log["peak_torque"][late] ** 2)) / stall)
             speed = impact_speed(t[after], log["q"][after, :3])
+            excess = closed_loop_figures(loop)["goal_limit_excess_deg"]
             stop = result.deploy.stop_action or "-"
-            print(f"| {d} | {'on' if on else 'off'} | {delay} | {why} | {peak:.2f} | "
-                  f"{speed:.2f} | {stop} |", flush=True)  # fmt: skip
+            print(f"| {d} | {'on' if on else 'off'} | {delay} | {why} | {peak:.2f} | {rms:.2f} | "
+                  f"{speed:.2f} | {excess:.2f} | {stop} |", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":
