@@ -13,6 +13,7 @@ models up / N, and on the nominal model the torso deviation and travelled / plan
 from __future__ import annotations
 
 import argparse
+import json
 import time
 
 from wbc import load_robot
@@ -41,13 +42,14 @@ VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
 }
 
 
-def spec_of(variant, entry, ref):
-    """(compensate, ClosedLoopSpec or None) of a variant."""
+def spec_of(variant, entry, ref, extra: dict | None = None):
+    """(compensate, ClosedLoopSpec or None) of a variant (``extra``: more Gains keywords)."""
     if variant is None:
         return 0.0, None
     comp, gains, imu, on, step = variant
     stepping = SteppingParams() if step else None
-    return comp, ClosedLoopSpec(entry.make, ref, Gains(**gains), on, imu, stepping)
+    return comp, ClosedLoopSpec(entry.make, ref, Gains(**gains, **(extra or {})), on, imu,
+                                stepping)  # fmt: skip
 
 
 def main() -> None:
@@ -57,31 +59,36 @@ def main() -> None:
     p.add_argument("--models", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--only", nargs="*", help="variant labels to run (default: all)")
+    p.add_argument("--gains", default="{}", help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'")
     args = p.parse_args()
     robot = load_robot("bioloid")
     entry = registry()[args.solver]
     plants = models(robot, args.models, args.seed)
     print(f"{args.solver}, {args.models} randomised plants (seed {args.seed})")
-    print("| variant | walk | nominal dev° | nominal dist | up | fallen models | s |")
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| variant | walk | nominal dev° | nominal dist | up | fallen models | dev° per plant | s |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
     for walk in args.walks:
         ref = traj.build(walk, robot)
         _, rec = run_entry(entry, robot, ref, "tick")
         for label, variant in VARIANTS.items():
             if args.only and label not in args.only:
                 continue
-            comp, spec = spec_of(variant, entry, ref)
+            comp, spec = spec_of(variant, entry, ref, json.loads(args.gains))
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
-            fallen = []
+            fallen, worst = [], []
             for k, v in enumerate(plants):
-                if simulate(rec, robot, v, compensate=comp, closed=spec)["fell"]:
+                run = simulate(rec, robot, v, compensate=comp, closed=spec)
+                worst.append(round(run["orientation_dev_max_deg"], 1))
+                if run["fell"]:
                     fallen.append(k)
             dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
             nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
             print(
                 f"| {label} | {walk} | {nominal} | {dist} | "
-                f"{args.models - len(fallen)}/{args.models} | {fallen} | "
+                f"{args.models - len(fallen)}/{args.models} | {fallen} | {worst} | "
                 f"{time.perf_counter() - started:.0f} |",
                 flush=True,
             )
