@@ -128,12 +128,16 @@ class ImuMount:
         """True when the IMU frame is the torso frame."""
         return bool(np.array_equal(self.rotation, np.eye(3)) and not self.position.any())
 
+    def rates(self, gyro: np.ndarray, acc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The torso's rate and specific force from the IMU's (class docstring)."""
+        M, p = self.rotation, self.position
+        w = M @ gyro
+        return w, M @ acc - np.cross(w, np.cross(w, p))
+
     def to_torso(self, reading: ImuReading) -> ImuReading:
         """The reading of an IMU at the torso frame (class docstring)."""
-        M, p = self.rotation, self.position
-        w = M @ reading.angular_velocity
-        a = M @ reading.linear_acceleration - np.cross(w, np.cross(w, p))
-        x, y, z, qw = _quat_of(reading.rotation() @ M.T)
+        w, a = self.rates(reading.angular_velocity, reading.linear_acceleration)
+        x, y, z, qw = _quat_of(reading.rotation() @ self.rotation.T)
         return ImuReading(reading.t, np.array([x, y, z, qw]), w, a)
 
 

@@ -10,8 +10,9 @@ beyond recovery when any of:
 * **tilt and rate**: more than ``tilt_moving`` (20°) and still turning away from it faster
   than ``rate`` (rad/s, 2): ``ω_xy · ê_xy > rate`` (world-frame gyro rate along the
   error's horizontal axis);
-* **DCM**: the estimated DCM further than ``reach`` (m) beyond the stance support polygon
-  (the soles' corners, held for ``dcm_ticks`` ticks): no step lands there in time
+* **DCM**: the estimated DCM further than ``reach`` (m) from every stance sole's rectangle
+  (held for ``dcm_ticks`` ticks; the rectangles, not their hull: between the feet that is at
+  most half their gap, far below ``reach``): no step lands there in time
   (:func:`wbc.balance.stepping.capture_bounds`: 0.09–0.16 m of landing shift on the
   Bioloid; beyond it the LIPM diverges whatever the feet do).
 
@@ -31,7 +32,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import ConfigurationError, FallDetected
-from ..geometry import convex_hull, signed_distance
 
 
 @dataclass(frozen=True)
@@ -75,14 +75,17 @@ class FallDetector:
         self.time: float | None = None
         self.reason: str | None = None
 
-    def _polygon(self, soles) -> np.ndarray:
-        pts = []
+    def _outside(self, soles, x: float, y: float) -> float:
+        """Distance (m) from (x, y) to the nearest sole rectangle (0 inside one)."""
+        hx, hy = float(self.half[0]), float(self.half[1])
+        best = math.inf
         for placement in soles:
             R, p = placement.rotation, placement.translation
-            for sx in (-1.0, 1.0):
-                for sy in (-1.0, 1.0):
-                    pts.append(p[:2] + R[:2, :2] @ (np.array([sx, sy]) * self.half))
-        return convex_hull(np.array(pts))
+            dx, dy = x - float(p[0]), y - float(p[1])
+            lx = abs(R[0, 0] * dx + R[1, 0] * dy) - hx  # in the sole's frame (yaw only)
+            ly = abs(R[0, 1] * dx + R[1, 1] * dy) - hy
+            best = min(best, math.hypot(max(lx, 0.0), max(ly, 0.0)))
+        return best
 
     def update(self, est, soles, dt: float, error: np.ndarray) -> str | None:
         """One tick: ``est`` the estimate, ``soles`` the stance sole placements (pin.SE3),
@@ -93,13 +96,12 @@ class FallDetector:
             self.t += dt
         self.started = True
         p = self.params
-        R = est.rotation
         tilt = math.hypot(float(error[0]), float(error[1]))
         reason = None
         if tilt > p.tilt:
             reason = f"torso tilted {math.degrees(tilt):.0f}° (> {math.degrees(p.tilt):.0f}°)"
         elif tilt > p.tilt_moving:
-            w = R @ est.angular_velocity
+            w = est.rotation @ est.angular_velocity
             away = float(w[0] * error[0] + w[1] * error[1]) / tilt
             if away > p.rate:
                 reason = (
@@ -107,8 +109,8 @@ class FallDetector:
                     f"(> {math.degrees(p.tilt_moving):.0f}° and {p.rate:g} rad/s)"
                 )
         if reason is None:
-            hull = self._polygon(soles)
-            out = -float(signed_distance(hull, est.dcm[:2])) if len(hull) >= 3 else 0.0
+            dcm = est.dcm
+            out = self._outside(soles, float(dcm[0]), float(dcm[1]))
             self.beyond = self.beyond + 1 if out > p.reach else 0
             if self.beyond >= p.dcm_ticks:
                 reason = (

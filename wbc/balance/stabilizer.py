@@ -182,6 +182,17 @@ def _torso_feedback(
                                   + S[1, i, 2] * R_ref[2, j])  # fmt: skip
 
 
+class _Sample:
+    """An IMU sample in the torso frame, built inside the tick (no validation: its arrays
+    come from a validated :class:`~wbc.imu.ImuReading`)."""
+
+    __slots__ = ("angular_velocity", "linear_acceleration", "orientation", "t")
+
+    def __init__(self, t, orientation, angular_velocity, linear_acceleration) -> None:
+        self.t, self.orientation = t, orientation
+        self.angular_velocity, self.linear_acceleration = angular_velocity, linear_acceleration
+
+
 class Stabilizer:
     """Estimator + feedback on the targets of one walk (module docstring).
 
@@ -243,11 +254,16 @@ class Stabilizer:
         joints = q_cmd[7:]
         present = self.present()  # (its unread, NaN entries: the commanded joints)
         reading = self.imu.read() if self.imu is not None else None
-        if reading is not None:
+        if reading is not None and (self.mount is not None or self.calibration is not None):
+            # the torso's rate and specific force (what the estimator reads; the mount's and
+            # calibration's public ImuReading methods validate more: too slow for a tick)
+            w, a = reading.angular_velocity, reading.linear_acceleration
             if self.mount is not None:
-                reading = self.mount.to_torso(reading)
+                w, a = self.mount.rates(w, a)
             if self.calibration is not None:
-                reading = self.calibration.apply(reading)
+                c = self.calibration
+                w, a = w - c.gyro_bias, c.level @ a
+            reading = _Sample(reading.t, reading.orientation, w, a)
         self.read_time = time.perf_counter() - start
         if self.calibrating:
             return self._calibrate(targets, reading, joints if present is None else present,
