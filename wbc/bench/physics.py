@@ -732,7 +732,12 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
     series = {}
     comp = getattr(args, "compensate", 0.0) or 0.0
     gyro = getattr(args, "gyro", 0.0)
+    from ..sim.actuator import servo_kind
+
     closed_loop = not getattr(args, "open_loop", False)
+    if closed_loop and servo_kind(robot) == "hobby_pwm":
+        console.print(f"open loop only: {robot.name}'s hobby servos report no positions")
+        closed_loop = False
     gains = stabilizer_gains(args) if closed_loop else None
     for name, ref in refs.items():
         for entry in entries:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -332,6 +333,7 @@ def run(args: argparse.Namespace) -> int:
         resolve_compensate(args, robot, best=args.live is not None and not args.open_loop)
         if args.closed_loop and args.live is None:
             raise ConfigurationError("--closed-loop runs a controller live: give --live STACK")
+        explicit = args.closed_loop
         args.closed_loop = args.live is not None and not args.open_loop  # the default
         if args.backend == "dynamixel" or robot.servo_map is not None:
             for warning in check_servo_map(robot):
@@ -375,6 +377,11 @@ def run(args: argparse.Namespace) -> int:
                 bus = _dry_bus(bus, robot)
             elif not args.port and bus.name != "sim":
                 raise ConfigurationError("give --port (or --dry-run)")
+            if args.closed_loop and not bus.can_read and not explicit:
+                print(f"open loop: the {bus.name} bus cannot read the servos' positions, which "
+                      "the closed loop needs")  # fmt: skip
+                args.closed_loop = False
+                config = replace(config, read=args.read or args.compensate_encoders)
             if args.closed_loop:  # the IMU first: a wrong port fails before the solver builds
                 imu = _imu(args, bus, robot)
                 if imu is not None:

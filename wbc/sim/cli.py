@@ -198,9 +198,14 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.settle) and args.settle >= 0):
         raise ConfigurationError(f"--settle must be a time >= 0 s, got {args.settle}")
     from ..balance import resolve_compensate
+    from .actuator import servo_kind
 
     robot = load_robot(args.robot)
     closed = not args.open_loop and not args.recording
+    if closed and servo_kind(robot) == "hobby_pwm":
+        print(f"open loop: {robot.name}'s hobby servos report no positions (the closed loop "
+              "reads them)")  # fmt: skip
+        closed = False
     resolve_compensate(args, robot, best=closed)
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise ConfigurationError(
@@ -212,7 +217,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         rec = plan(args.solver, args.trajectory, robot)
         label = f"{args.solver} on {args.trajectory}"
-        label += " (open loop)" if args.open_loop else " (closed loop)"
+        label += " (closed loop)" if closed else " (open loop)"
     push = None
     if args.push:
         t_push = mid_single_support(rec)
