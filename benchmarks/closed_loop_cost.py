@@ -1,12 +1,15 @@
 """The closed loop's share of a control tick: state estimator + feedback vs the solve.
 
-Runs ``walk10`` through :class:`wbc.walking.loop.Session` with a
-:class:`wbc.balance.stabilizer.Stabilizer` (default gains) for each controller family, the
+Runs ``walk10_wb`` through :class:`wbc.walking.loop.Session` with a
+:class:`wbc.balance.stabilizer.Stabilizer` (default gains, the fall detector, a finished
+start-up calibration applied to every sample) and the step adjustment's check
+(:class:`wbc.balance.stepping.StepAdjuster`: issue 30's default loop) for each family, the
 sensors replaced by in-memory ones (present positions = the controller's own joints, a still
 IMU at the reference torso orientation: the estimator and the feedback do all their work, no
 simulator runs; the noisy positions are stored before each tick, as a deployment's
 ``last_present`` is). Per tick, ``Session.feedback_time`` (estimator + feedback) and
-``Session.solve_time`` (the controller's tick) are timed with the same clock; printed: the
+``Session.solve_time`` (the controller's tick) are timed with the same clock (the step
+check's ``Session.stepping_time`` counted with the feedback); printed: the
 median over the walk of feedback / (feedback + solve), best of ``--repeats`` runs, and the
 medians in µs, against issue 15's target (estimator + feedback ≤ 30 % of a tick). ``w/o
 reads``: the same share without the sensor reads (the still IMU's sample, the positions),
@@ -22,10 +25,12 @@ import argparse
 import numpy as np
 
 from wbc import load_robot
+from wbc.balance.fall import FallDetector, FallParams
 from wbc.balance.stabilizer import Stabilizer
+from wbc.balance.stepping import StepAdjuster, SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.solvers import registry
-from wbc.imu import GRAVITY, Imu, ImuReading
+from wbc.imu import GRAVITY, Imu, ImuCalibration, ImuReading
 from wbc.walking.loop import Session
 
 
@@ -51,13 +56,17 @@ def measure(solver: str, robot, ref) -> tuple[float, float, float, float]:
 
     probe = Session(registry()[solver].make(robot), robot, ref)
     imu = StillImu(probe.targets(0).torso_rotation)
-    stab = Stabilizer(robot, ref.com_height, present, imu)
-    session = Session(registry()[solver].make(robot), robot, ref, stabilizer=stab)
+    fall = FallDetector(FallParams(), (ref.foot.length, ref.foot.width))
+    stab = Stabilizer(robot, ref.com_height, present, imu, fall=fall)
+    stab.calibration = ImuCalibration(np.zeros(3), np.eye(3), 0.0, 1)  # applied every tick
+    steps = StepAdjuster(robot, ref, SteppingParams())
+    session = Session(registry()[solver].make(robot), robot, ref, stabilizer=stab,
+                      stepping=steps)  # fmt: skip
     fb, sv, rd = [], [], []
     for i in range(ref.n):
         last_present[0] = session.q[7:] + noise[i]  # the servos' read, outside the tick
         session.tick(i)
-        fb.append(session.feedback_time)
+        fb.append(session.feedback_time + session.stepping_time)
         sv.append(session.solve_time)
         rd.append(stab.read_time)
     fb, sv, rd = np.array(fb[5:]), np.array(sv[5:]), np.array(rd[5:])  # (warm caches)
@@ -72,7 +81,7 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=3)
     args = p.parse_args()
     robot = load_robot("bioloid")
-    ref = traj.build("walk10", robot)
+    ref = traj.build("walk10_wb", robot)
     print(f"{'solver':<10} {'share':>7} {'w/o reads':>10} {'feedback µs':>12} {'solve µs':>9}"
           "  target ≤ 30 %")  # fmt: skip
     for solver in args.solvers:

@@ -354,3 +354,18 @@ def test_encoder_correction_on_softer_servos_in_the_simulator(robot):
         assert np.all(res.log["goal"] >= robot.q_min - 1e-9)
     assert np.sqrt(np.mean(err[True] ** 2)) < 0.8 * np.sqrt(np.mean(err[False] ** 2))
     assert err[True].max() < 0.8 * err[False].max()
+
+
+@pytest.mark.parametrize("stiffness", [0.6, 1.0, 1.8])
+def test_stiffness_identified_from_the_sag_under_gravity(robot, stiffness):
+    """identify_stiffness: encoders that sag as a servo ``stiffness`` times as stiff as
+    servos.toml's would (the ramp's part; the dead band's unchanged) give that stiffness."""
+    from wbc.balance.compliance import identify_stiffness
+
+    joints = robot.configuration("walk_ready")[7:]
+    real = ServoParams.from_settings(robot.servo_map.settings).scaled(stiffness=stiffness)
+    sag = servo_deflection(ComplianceCompensator(robot).torques(joints, SUPPORT_DOUBLE), real)
+    k, used = identify_stiffness(robot, joints, joints + sag, joints)
+    assert k == pytest.approx(stiffness, rel=1e-6) and used >= 2
+    with pytest.raises(ConfigurationError, match="sag against their gravity load"):
+        identify_stiffness(robot, joints, joints - sag, joints)

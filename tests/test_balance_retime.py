@@ -171,12 +171,18 @@ def test_a_session_replays_the_double_support_while_the_lift_off_waits(robot, wa
     assert session.at_time(walk10.duration + 5 * dt + 0.02) is None
 
 
+#: issue 15's torso gains and hip band (the defaults before issue 30)
+ISSUE15 = dict(k_p=2.0, k_i=2.0, k_d=0.1, hip_band=0.01)
+
+
 def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot(robot):
     """walk10 closed loop (wqp-daqp, compliance ×0.5, as benchmarks/pushes.py), a 0.9375 N·s
     push sideways away from the swing foot at mid first single support (the bisection's
     probe above the open loop's 0.914): the closed loop before (no narrower sway, no hold)
-    falls ~0.7 s later; with the defaults (``Gains().transfer``, ``HoldParams()``) it is up
-    2.0 s into the walk."""
+    falls ~0.7 s later; with the narrower sway and the hold (``Gains().transfer``,
+    ``HoldParams()``) it is up 2.0 s into the walk. Both with issue 15's torso gains and
+    hip band (stiffer than today's defaults, which trade this push for robustness to
+    latency: benchmarks/pushes.md)."""
     from wbc.balance.stabilizer import Gains
     from wbc.bench.physics import PUSH_DURATION, ClosedLoopSpec, play_closed_loop
     from wbc.bench.solvers import select
@@ -189,8 +195,11 @@ def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot
     entry = next(e for e in select(["wqp-daqp"], None, "tick")[0] if e.name == "wqp-daqp")
     tilt = {}
     for name, spec in (
-        ("before", ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None)),
-        ("now", ClosedLoopSpec(entry.make, ref, Gains(), True, True)),
+        (
+            "before",
+            ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0, **ISSUE15), True, True, None, None),
+        ),
+        ("now", ClosedLoopSpec(entry.make, ref, Gains(**ISSUE15), True, True)),
     ):
         result, loop = play_closed_loop(spec, robot, push=(t_push, force, PUSH_DURATION),
                                         settle=0.0, compensate=0.5, duration=2.0)  # fmt: skip

@@ -43,3 +43,48 @@ def test_a_user_imu_plugs_in():
         assert imu.read().tilt() == 0.0
     with pytest.raises(TypeError):
         Imu()  # read() is abstract
+
+
+def test_a_rotated_imu_reads_the_torso_through_its_mount():
+    """ImuMount.to_torso: an IMU turned 90° about z and pitched 10° on the torso gives the
+    torso's rotation, rate and specific force (the lever arm's centripetal part removed)."""
+    import pinocchio as pin
+
+    from wbc.imu import ImuMount
+
+    mount = ImuMount.from_rpy((0.0, 10.0, 90.0), (0.02, 0.0, 0.05))
+    M = mount.rotation
+    assert np.allclose(M, pin.rpy.rpyToMatrix(0.0, np.radians(10.0), np.radians(90.0)))
+    R_torso = pin.rpy.rpyToMatrix(0.1, -0.2, 0.3)
+    w_torso = np.array([0.3, -0.5, 1.0])
+    a_torso = np.array([0.2, 0.1, 9.7])
+    a_imu = M.T @ (a_torso + np.cross(w_torso, np.cross(w_torso, mount.position)))
+    quat = pin.Quaternion(R_torso @ M).coeffs()
+    raw = ImuReading(0.0, np.asarray(quat), M.T @ w_torso, a_imu)
+    r = mount.to_torso(raw)
+    assert np.allclose(r.rotation(), R_torso)
+    assert np.allclose(r.angular_velocity, w_torso) and np.allclose(r.linear_acceleration, a_torso)
+    assert ImuMount().identity and not mount.identity
+    with pytest.raises(ConfigurationError, match="rotation"):
+        ImuMount(np.ones((3, 3)))
+
+
+def test_calibration_at_rest_finds_the_bias_levels_and_refuses_a_wrong_mount():
+    from wbc.imu import ImuError, calibrate
+
+    rng = np.random.default_rng(0)
+    bias = np.array([0.01, -0.02, 0.005])
+    up = np.array([np.sin(0.03), 0.0, np.cos(0.03)])  # 1.7° off the kinematics' up
+    gyros = bias + rng.normal(0, 0.002, (40, 3))
+    accs = 9.81 * up + rng.normal(0, 0.02, (40, 3))
+    cal = calibrate(gyros, accs, np.array([0.0, 0.0, 1.0]))
+    assert np.allclose(cal.gyro_bias, bias, atol=1e-3)
+    assert np.degrees(cal.tilt_error) == pytest.approx(1.72, abs=0.1)
+    assert np.allclose(cal.level @ up, [0, 0, 1], atol=1e-3)  # levelled
+    moving = calibrate(gyros, accs, [0, 0, 1], motion=np.array([0.01, 0.0, 0.0]))
+    assert moving.gyro_bias[0] == pytest.approx(bias[0] - 0.01, abs=1e-3)
+    tilted = 9.81 * np.array([np.sin(0.2), 0.0, np.cos(0.2)]) + np.zeros((40, 3))
+    with pytest.raises(ImuError, match=r"gravity measured 11\.5° from .* check the mount"):
+        calibrate(gyros, tilted, [0, 0, 1], where="the mount")
+    with pytest.raises(ImuError, match="not at rest"):
+        calibrate(gyros, accs * 2, [0, 0, 1])

@@ -561,7 +561,9 @@ def test_plan_prints_the_bus_budget(capsys):
 
 # ---------------------------------------------------------------- live controller
 def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks, tmp_path, capsys):
-    """`wbc deploy --live walk`: the walk stack solved tick by tick, goals sent to the bus."""
+    """`wbc deploy --live walk --open-loop`: the walk stack solved tick by tick, goals sent
+    to the bus (the closed loop, the default, reads every servo each tick: tests/test_sim_cli
+    runs it on the simulated robot)."""
     log = tmp_path / "live.npz"
     with Emulator(positions=walk_ready_ticks) as emu:
         rc, out, err = run_deploy(
@@ -569,6 +571,7 @@ def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks,
             None,
             "--live",
             "walk",
+            "--open-loop",
             "--trajectory",
             "thesis_step",
             "--log",

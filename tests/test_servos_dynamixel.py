@@ -54,3 +54,21 @@ def test_torque_off_is_acknowledged_and_read_back(robot, bus_on):
     assert all(s.table[ADDR_TORQUE_ENABLE] == 0 for sid, s in emu.servos.items() if sid != 9)
     reads = [w for w in emu.writes if w.address == ADDR_TORQUE_ENABLE and w.servo_id == 1]
     assert len(reads) >= 2  # the broadcast, then its own acknowledged WRITE
+
+
+def test_torque_limit_for_the_safe_fall(robot, bus_on):
+    """set_torque_limit (the protective fall, wbc.balance.fall): one broadcast WRITE of
+    register 34 reaches every servo; a share outside 0..1 is refused."""
+    from wbc.exceptions import ServoError
+
+    with AX12Emulator() as emu:
+        bus = bus_on(emu, 20.0)
+        try:
+            bus.set_torque_limit(0.3)
+            time.sleep(0.05)
+            ids = [int(i) for i in robot.servo_map.ids]
+            assert {emu.register(i, 34, 2) for i in ids} == {round(0.3 * 1023)}
+            with pytest.raises(ServoError, match="torque limit share"):
+                bus.set_torque_limit(1.5)
+        finally:
+            bus.close()

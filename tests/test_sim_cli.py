@@ -48,3 +48,13 @@ def test_wbc_sim_refuses_bad_options(tmp_path, capsys):
     assert "--settle: must be a finite number in [0, 600]" in capsys.readouterr().err
     assert main(["sim", str(tmp_path / "missing.npz")]) == 2
     assert "recording not found" in capsys.readouterr().err
+
+
+def test_wbc_sim_runs_the_closed_loop_by_default(capsys):
+    """`wbc sim --solver ...`: the controller live, closed loop with the simulated IMU, the
+    feed-forward x0.5 and fall detection (step adjustment where the walk allows it)."""
+    assert main(["sim", "--solver", "wqp-daqp", "--trajectory", "thesis_step",
+                 "--settle", "0"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    said = "closed loop: IMU on, feed-forward x0.5 on servos.toml (nominal), step adjustment off"
+    assert said in out and "(closed loop)" in out and "fell: False" in out

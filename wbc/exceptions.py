@@ -56,3 +56,8 @@ class TrajectoryError(WbcError, ValueError):
 
 class ServoError(WbcError):
     """A servo bus, servo or deployment safety error."""
+
+
+class FallDetected(ServoError):
+    """The closed loop found the robot beyond recovery (:mod:`wbc.balance.fall`); raised from
+    a control tick, it makes the deployment's safe stop take the protective fall."""

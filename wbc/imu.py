@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -86,10 +86,158 @@ class ImuReading:
         return float(np.arccos(np.clip(self.rotation()[2, 2], -1.0, 1.0)))
 
 
+@dataclass(frozen=True)
+class ImuMount:
+    """Where the IMU sits on the torso: its frame's ``rotation`` (3x3, IMU axes in the torso
+    frame) and ``position`` (m, its origin in the torso frame). :meth:`to_torso` turns a
+    reading into the torso's: ``R_torso = R_imu Mᵀ``, ``ω_torso = M ω``, and the specific
+    force ``M a − ω × (ω × p)`` (the lever arm's centripetal part removed; its angular
+    acceleration part is not, it averages out over a gait)."""
+
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        R = np.asarray(self.rotation, dtype=float)
+        p = np.asarray(self.position, dtype=float)
+        if (
+            R.shape != (3, 3)
+            or not np.allclose(R @ R.T, np.eye(3), atol=1e-6)
+            or (np.linalg.det(R) < 0)
+        ):
+            raise ConfigurationError(f"ImuMount.rotation must be a 3x3 rotation, got {R.tolist()}")
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ConfigurationError(f"ImuMount.position must be 3 finite numbers (m), got {p}")
+        object.__setattr__(self, "rotation", R)
+        object.__setattr__(self, "position", p)
+
+    @classmethod
+    def from_rpy(cls, rpy_deg=(0.0, 0.0, 0.0), position=(0.0, 0.0, 0.0)) -> ImuMount:
+        """A mount from roll, pitch, yaw (degrees, ``R = Rz(y) Ry(p) Rx(r)``)."""
+        r, p, y = np.radians(np.asarray(rpy_deg, dtype=float))
+        cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+        R = np.array([
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ])  # fmt: skip
+        return cls(R, np.asarray(position, dtype=float))
+
+    @property
+    def identity(self) -> bool:
+        """True when the IMU frame is the torso frame."""
+        return bool(np.array_equal(self.rotation, np.eye(3)) and not self.position.any())
+
+    def rates(self, gyro: np.ndarray, acc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The torso's rate and specific force from the IMU's (class docstring)."""
+        M, p = self.rotation, self.position
+        w = M @ gyro
+        return w, M @ acc - np.cross(w, np.cross(w, p))
+
+    def to_torso(self, reading: ImuReading) -> ImuReading:
+        """The reading of an IMU at the torso frame (class docstring)."""
+        w, a = self.rates(reading.angular_velocity, reading.linear_acceleration)
+        x, y, z, qw = _quat_of(reading.rotation() @ self.rotation.T)
+        return ImuReading(reading.t, np.array([x, y, z, qw]), w, a)
+
+
+def _quat_of(R: np.ndarray) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w) of a rotation matrix (Shepperd's method)."""
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    if tr > 0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        return ((R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s,
+                0.25 * s)  # fmt: skip
+    i = int(np.argmax([R[0, 0], R[1, 1], R[2, 2]]))
+    j, k = (i + 1) % 3, (i + 2) % 3
+    s = 2.0 * math.sqrt(max(1.0 + R[i, i] - R[j, j] - R[k, k], 1e-12))
+    q = [0.0, 0.0, 0.0]
+    q[i] = 0.25 * s
+    q[j] = (R[j, i] + R[i, j]) / s
+    q[k] = (R[k, i] + R[i, k]) / s
+    return q[0], q[1], q[2], (R[k, j] - R[j, k]) / s
+
+
+@dataclass(frozen=True)
+class ImuCalibration:
+    """A start-up calibration at rest (:func:`calibrate`): the gyro bias (rad/s, torso
+    frame), the levelling rotation ``level`` (applied to the specific force: it turns the
+    measured gravity direction onto the kinematic one) and the angle between the two
+    (``tilt_error``, rad) before levelling."""
+
+    gyro_bias: np.ndarray
+    level: np.ndarray
+    tilt_error: float
+    samples: int
+
+    def apply(self, reading: ImuReading) -> ImuReading:
+        """A (torso-frame) reading with the bias removed and the specific force levelled."""
+        return ImuReading(
+            reading.t,
+            reading.orientation,
+            reading.angular_velocity - self.gyro_bias,
+            self.level @ reading.linear_acceleration,
+        )
+
+
+#: rad: the largest angle between the measured and the kinematic gravity direction that a
+#: start-up calibration levels; beyond it the IMU's mount is wrong (reported, not absorbed)
+MOUNT_TOLERANCE = math.radians(5.0)
+
+
+def calibrate(
+    gyros: np.ndarray,
+    accs: np.ndarray,
+    expected_up: np.ndarray,
+    tolerance: float = MOUNT_TOLERANCE,
+    where: str = "the IMU mount",
+    motion: np.ndarray | None = None,
+) -> ImuCalibration:
+    """Calibration from samples at rest (torso frame, rows): the gyro bias is their mean
+    less ``motion`` (rad/s: the torso's true mean rate meanwhile, e.g. from the kinematics);
+    the measured "up" (the mean specific force's direction) is compared with
+    ``expected_up`` (the torso frame's up from the standing robot's kinematics). Beyond
+    ``tolerance`` raises :class:`ImuError` naming the angle and ``where`` (the mount is
+    wrong: not silently absorbed); within it, the levelling rotation takes the rest."""
+    g = np.atleast_2d(np.asarray(gyros, dtype=float))
+    a = np.atleast_2d(np.asarray(accs, dtype=float))
+    if len(g) < 1 or len(g) != len(a) or g.shape[1] != 3 or a.shape[1] != 3:
+        raise ConfigurationError(f"IMU calibration needs N x 3 gyro and accelerometer samples, "
+                                 f"got {g.shape} and {a.shape}")  # fmt: skip
+    up = a.mean(axis=0)
+    norm = float(np.linalg.norm(up))
+    if not 0.5 * GRAVITY < norm < 1.5 * GRAVITY:
+        raise ImuError(f"IMU calibration: the accelerometer reads {norm:.2f} m/s² at rest, "
+                       f"not g ({GRAVITY:g}): not at rest, or its scale is wrong")  # fmt: skip
+    up /= norm
+    e = np.asarray(expected_up, dtype=float)
+    e = e / np.linalg.norm(e)
+    axis = np.cross(up, e)
+    s, c = float(np.linalg.norm(axis)), float(up @ e)
+    angle = math.atan2(s, c)
+    if angle > tolerance:
+        raise ImuError(
+            f"IMU calibration: gravity measured {math.degrees(angle):.1f}° from where the "
+            f"robot's kinematics put it (tolerance {math.degrees(tolerance):.0f}°): check "
+            f"{where} (measured up {np.round(up, 3).tolist()}, expected "
+            f"{np.round(e, 3).tolist()} in the torso frame)"
+        )
+    level = np.eye(3)
+    if s > 1e-12:
+        k = axis / s
+        K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        level = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    bias = g.mean(axis=0) - (np.zeros(3) if motion is None else np.asarray(motion, dtype=float))
+    return ImuCalibration(bias, level, angle, len(g))
+
+
 class Imu(ABC):
-    """A source of :class:`ImuReading` values (simulated or real)."""
+    """A source of :class:`ImuReading` values (simulated or real). ``mount``: where it sits
+    on the torso (:class:`ImuMount`; None: its frame is the torso frame); the closed loop
+    turns every reading into the torso's with it."""
 
     name: str = "imu"
+    mount: ImuMount | None = None
 
     def open(self) -> None:  # noqa: B027 - optional hook
         """Open the device (default: nothing to open)."""

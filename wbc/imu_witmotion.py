@@ -26,8 +26,9 @@ Other packet types (time, magnetometer, pressure, …) are skipped. Configuratio
 (``0x09`` = 100 Hz, ``0x0B`` = 200 Hz), save ``0x00 0x00 0x00``; :class:`WitImu` sends them
 only when a ``rate`` is asked for.
 
-**Frames**: the module's own axes (printed on its case) are taken as the torso frame unless
-``mount`` (the 3x3 rotation of the module's frame in the torso frame) says otherwise. The
+**Frames**: readings are in the module's own axes (printed on its case); ``mount`` (an
+:class:`~wbc.imu.ImuMount`, or the 3x3 rotation of the module's frame in the torso frame) is
+its :attr:`~wbc.imu.Imu.mount`, which the closed loop applies (default: the torso frame). The
 accelerometer reads +1 g upward at rest, which is the specific force of :mod:`wbc.imu`.
 
 :class:`WitImu` reads without blocking: every :meth:`~WitImu.read` drains the port, parses the
@@ -48,9 +49,9 @@ import tty
 from collections.abc import Callable
 
 import numpy as np
-import pinocchio as pin
 
-from .imu import GRAVITY, Imu, ImuError, ImuReading
+from .exceptions import ConfigurationError
+from .imu import GRAVITY, Imu, ImuError, ImuMount, ImuReading
 
 HEADER = 0x55
 ACC, GYRO, ANGLE, QUAT = 0x51, 0x52, 0x53, 0x59
@@ -177,7 +178,7 @@ class WitImu(Imu):
         port: str,
         baud: int = 115200,
         rate: int | None = None,
-        mount: np.ndarray | None = None,
+        mount: np.ndarray | ImuMount | None = None,
         stale_s: float = 0.1,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
@@ -189,12 +190,12 @@ class WitImu(Imu):
             raise ImuError(f"IMU rate {rate} Hz: choose one of {sorted(RATE_CODES)}")
         if not (math.isfinite(stale_s) and stale_s > 0):
             raise ImuError(f"IMU stale_s must be > 0 s, got {stale_s}")
-        self._eye = np.eye(3)
-        self.mount = self._eye if mount is None else np.asarray(mount, dtype=float)
-        if self.mount.shape != (3, 3) or not np.allclose(
-            self.mount @ self.mount.T, np.eye(3), atol=1e-6
-        ):
-            raise ImuError("IMU mount must be a 3x3 rotation matrix")
+        if mount is not None and not isinstance(mount, ImuMount):
+            try:
+                mount = ImuMount(np.asarray(mount, dtype=float))
+            except ConfigurationError as exc:
+                raise ImuError(f"IMU mount must be a 3x3 rotation matrix: {exc}") from None
+        self.mount = mount
         self.port, self.baud, self.rate, self.stale_s = port, baud, rate, stale_s
         self.clock = clock
         self.parser = WitParser()
@@ -265,9 +266,7 @@ class WitImu(Imu):
             raise ImuError(f"imu {self.port}: no sample yet (call read() again shortly)")
         if now - (self._last_t or now) > self.stale_s:
             raise ImuError(f"imu {self.port}: no data for {now - self._last_t:.3f} s")
-        M = self.mount
-        q = quat if M is self._eye else _reframe(quat, M.T)
-        return ImuReading(now, q, M @ p.gyro, M @ p.acc)
+        return ImuReading(now, quat, p.gyro, p.acc)
 
     def wait_ready(self, timeout: float = 1.0) -> None:
         """Block until a complete sample has arrived (or raise after ``timeout`` s)."""
@@ -283,12 +282,6 @@ class WitImu(Imu):
                     f"{self.baud} baud ({p.packets} good packets, {p.bad} bad checksums)"
                 )
             time.sleep(0.002)
-
-
-def _reframe(quat_xyzw: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """The quaternion (x, y, z, w) of rotation(quat) · R."""
-    Q = pin.Quaternion(np.asarray(quat_xyzw, dtype=float)).toRotationMatrix() @ R
-    return np.asarray(pin.Quaternion(Q).coeffs(), dtype=float)
 
 
 class WitEmulator:

@@ -25,8 +25,9 @@ robot's folder instead. Two optional files:
     step_length = 0.02
     [servo]                          # the simulator's servo model (wbc.sim.actuator)
     law = "hobby_pwm"
-    [imu]                            # where the (simulated) IMU sits
+    [imu]                            # where the IMU sits (simulator and closed loop)
     frame = "torso"
+    rpy_deg = [0, 0, 0]              # its axes in that frame (roll, pitch, yaw, degrees)
 
 Without them a robot keeps the defaults: Walk Ready from the servo map if it has one, else the
 zero pose; feet from the sole link's collision box; joint roles and legs measured from the
@@ -64,7 +65,8 @@ class RobotData:
     source: str = "<defaults>"
     #: the servo model of the joints (``[servo]``, checked by :mod:`wbc.sim.actuator`)
     servo: Mapping[str, object] = field(default_factory=dict)
-    #: the IMU placement (``[imu]`` frame and offset, m; used by :mod:`wbc.sim.model`)
+    #: the IMU placement (``[imu]`` frame, offset m, rpy_deg: its mount, used by the
+    #: simulator and the closed loop, :func:`wbc.sim.model.imu_mount`)
     imu: Mapping[str, object] = field(default_factory=dict)
     #: joint roles named by hand (``[joints.left]`` / ``[joints.right]``: role = joint name;
     #: :mod:`wbc.roles` finds the others from the kinematic tree)

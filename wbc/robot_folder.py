@@ -423,15 +423,17 @@ def _check_sim(robot: Robot) -> list[Finding]:
     if not (robot.robot_data.servo or robot.robot_data.imu):
         return []
     from .sim.actuator import nominal_servo
-    from .sim.model import imu_placement
+    from .sim.model import imu_mount, imu_placement
 
     try:
         servo = nominal_servo(robot)
         frame, _ = imu_placement(robot)
+        mount = imu_mount(robot)
     except WbcError as exc:
         return [Finding("error", str(exc))]
     name = getattr(servo, "name", "AX-12A")
-    return [Finding("ok", f"simulator: {name} servos on every joint, IMU at {frame!r}")]
+    where = "" if mount is None else f" (mount in the torso frame: {mount})"
+    return [Finding("ok", f"simulator: {name} servos on every joint, IMU at {frame!r}{where}")]
 
 
 def _check_poses(robot: Robot) -> list[Finding]:

@@ -25,18 +25,37 @@ import argparse
 
 from ..cli import number
 
+#: the compliance feed-forward gain that measured best (AX-12A servos; benchmarks/physics.md:
+#: closed loop on the plant-randomised sweep, issue 30): what the commands use by default
+BEST_COMPENSATE = 0.5
+
+
+def best_compensate(robot) -> float:
+    """The default feed-forward gain for ``robot``: :data:`BEST_COMPENSATE` on servos with a
+    compliance model (the AX-12A law), 0 on the others (hobby servos have none)."""
+    from ..exceptions import WbcError
+    from ..sim.actuator import servo_kind
+
+    try:
+        return BEST_COMPENSATE if servo_kind(robot) == "ax12a" else 0.0
+    except WbcError:  # no servo model at all: nothing to feed forward
+        return 0.0
+
 
 def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> None:
     """The ``--compensate [GAIN]`` option of every command that can add the servo compliance
-    feed-forward (:mod:`wbc.balance.compliance`): off by default, gain 1 when given bare."""
+    feed-forward (:mod:`wbc.balance.compliance`): the measured best by default
+    (:func:`best_compensate`, resolved by :func:`resolve_compensate`), gain 1 when given
+    bare, ``--compensate 0`` turns it off."""
     parser.add_argument(
         "--compensate",
         type=number(0, 10),
         nargs="?",
         const=1.0,
-        default=0.0,
+        default=None,
         metavar="GAIN",
-        help=f"{purpose} (gain, default 1; wbc.balance.compliance)",
+        help=f"{purpose} (gain; default: the measured best, x{BEST_COMPENSATE:g} on AX-12A "
+        "servos; 0 turns it off; wbc.balance.compliance)",
     )
     parser.add_argument(
         "--compensate-encoders",
@@ -44,6 +63,14 @@ def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> No
         help="--compensate: rescale each servo's feed-forward online from the encoders' present "
         "positions (wbc.balance.compliance.EncoderCorrection; needs the positions read)",
     )
+
+
+def resolve_compensate(args: argparse.Namespace, robot, best: bool = True) -> float:
+    """``args.compensate`` with its default resolved for ``robot``: :func:`best_compensate`
+    (``best``), else 0 (a recording played as recorded)."""
+    if getattr(args, "compensate", None) is None:
+        args.compensate = best_compensate(robot) if best else 0.0
+    return args.compensate
 
 
 def check_compensate_encoders(args: argparse.Namespace) -> None:

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -301,3 +302,45 @@ def compensated(
         correction = EncoderCorrection(robot.n_joints)
     comp = ComplianceCompensator(robot, gain=gain)
     return CompensatedSource(source, comp, support_schedule(recording), present, correction)
+
+
+#: ticks: joints whose modelled deflection at rest is smaller than this are not used to
+#: identify the stiffness (the encoders' 0.29° steps and the dead band dominate them)
+IDENTIFY_MIN_TICKS = 2.0
+
+
+def identify_stiffness(
+    robot: Robot,
+    joints: np.ndarray,
+    goals: np.ndarray,
+    present: np.ndarray,
+    params: ServoParams | None = None,
+) -> tuple[float, int]:
+    """The servos' stiffness relative to ``params`` (default: servos.toml) from a standing
+    test: at rest in double support at ``joints``, the servos hold ``goals`` (rad) and the
+    encoders read ``present`` (rad, averaged). The known gravity torques τ
+    (:meth:`ComplianceCompensator.torques`) make each servo sag by ``δ_m = b + s/k``: ``b``
+    the dead band's part of the modelled deflection (:func:`servo_deflection` with no
+    ramp), ``s`` the ramp's part (the stiffness scales only the ramp); the least-squares
+    scale over the loaded joints (modelled sag ≥ :data:`IDENTIFY_MIN_TICKS`) is
+    ``k = Σ s² / Σ s·(δ_m − b)``. Returns ``(k, joints used)``; raises when no joint is loaded
+    enough or the sag points against the load."""
+    params = params or ServoParams.from_settings(robot.servo_map.settings)
+    comp = ComplianceCompensator(robot, params)
+    tau = comp.torques(joints, SUPPORT_DOUBLE)
+    model = servo_deflection(tau, params)
+    band = servo_deflection(tau, replace(params, slope=np.zeros_like(params.slope)))
+    sag = np.asarray(goals, dtype=float) - np.asarray(present, dtype=float) - band
+    model = model - band
+    use = (np.abs(model) >= IDENTIFY_MIN_TICKS * RAD_PER_TICK) & np.isfinite(sag)
+    if not np.any(use):
+        raise ConfigurationError(
+            "stiffness identification: no servo is loaded enough at rest to measure its sag"
+        )
+    num, den = float(model[use] @ model[use]), float(model[use] @ sag[use])
+    if den <= 0:
+        raise ConfigurationError(
+            "stiffness identification: the servos sag against their gravity load (encoder "
+            "offsets or the servo map's signs?)"
+        )
+    return num / den, int(use.sum())

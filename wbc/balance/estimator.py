@@ -416,6 +416,12 @@ class StateEstimator:
         """The filtered CoM velocity (m/s)."""
         return self._state[_S_VEL:_S_SIZE].copy()
 
+    def restart(self) -> None:
+        """Start the filter again at the next update, from the kinematics' rotation (the
+        stance sole flat): the levelled orientation after a start-up calibration."""
+        self._state[_S_HAS] = 0.0
+        self.last = None
+
     def reset(self, torso_rotation: np.ndarray) -> None:
         """Start the filter at a known torso rotation (e.g. the planned one, standing)."""
         self._state[:] = 0.0

@@ -17,6 +17,7 @@ compliance feed-forward) → the deployment's clamping, rate limit and watchdog 
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,18 +30,22 @@ from ..model import Robot
 from ..servos.bus import ServoBus
 from ..servos.playback import DeployConfig, Deployment
 from ..servos.sources import CallableSource
+from ..sim.actuator import ServoParams
 from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
+from .fall import FallDetector, FallParams
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer
-from .stepping import StepAdjuster, SteppingParams
+from .stepping import StepAdjuster, SteppingParams, can_step
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
 #: nominal, benchmarks/pushes.md): on the 0.4 s single supports of ``fast_wb`` and
 #: ``lateral_wb`` the narrowed sway costs distance (0.907 → 0.884, 0.902 → 0.877 of the plan)
 #: and the transfer alone tips ``lateral_wb`` to 31.5°
 NARROW_LONGEST = 0.3
+#: s at rest before the walk: the IMU's start-up calibration (gyro bias, levelling)
+CALIBRATE_S = 0.3
 
 
 class SessionSource(CallableSource):
@@ -54,9 +59,18 @@ class SessionSource(CallableSource):
         self.limit_excess = 0.0
         self.feedback_time: list[float] = []
         self.solve_time: list[float] = []
+        self.start_offset = 0.0  # s the walk starts late: the start-up calibration at rest
+
+        self.rest_hook: Callable[[bool], None] | None = None  # called each tick: at rest?
 
         def target(tick: int, t: float) -> np.ndarray | None:
-            q = session.at_time(t)
+            stab = session.stabilizer
+            resting = stab is not None and stab.calibrating
+            if resting:
+                self.start_offset = t
+            if self.rest_hook is not None:
+                self.rest_hook(resting)
+            q = session.at_time(t - self.start_offset)
             if q is None:
                 return None
             j = q[7:].copy()
@@ -93,6 +107,10 @@ class ClosedLoop:
     stabilizer: Stabilizer
     stepping: StepAdjuster | None = None  # its ``events``: the re-plans
     hold: PhaseHold | None = None  # its ``holds``, ``held``: the lift-offs held
+    #: which servo model the feed-forward uses (servos.toml, the user's, or identified)
+    servo_model: str = "servos.toml (nominal)"
+    #: the identified stiffness / servos.toml's (``servo="identify"``, after the rest)
+    stiffness_scale: float | None = None
 
 
 def closed_loop(
@@ -103,32 +121,52 @@ def closed_loop(
     imu: Imu | None = None,
     gains: Gains | None = None,
     enabled: bool = True,
-    compensate: float = 0.0,
+    compensate: float | None = None,
     correct: bool = False,
     config: DeployConfig | None = None,
     q0: np.ndarray | None = None,
     out: Callable[[str], None] = print,
     duration: float | None = None,
-    stepping: SteppingParams | None = None,
+    stepping: SteppingParams | None = SteppingParams(),  # noqa: B008 (frozen)
     hold: HoldParams | None = HoldParams(),  # noqa: B008 (frozen)
+    fall: FallParams | None = FallParams(),  # noqa: B008 (frozen)
+    calibrate_s: float = CALIBRATE_S,
+    servo: ServoParams | str | None = None,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
 
+    The defaults are the measured best configuration (issue 30, benchmarks/physics.md):
+    ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, 0 when
+    open loop or on servos without a compliance model), step adjustment on, the lift-off
+    hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
     :class:`~wbc.balance.compliance.EncoderCorrection`); ``config`` defaults to the
     reference's rate with ``read`` on (the estimator needs the encoders); a config without
     ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
     the whole reference).
-    ``stepping`` (closed loop only; None: off): re-plan the footsteps from the measured DCM
-    (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters). ``hold`` (closed
-    loop only; on by default, None: off): a lift-off waits while the measured DCM is not
-    ready for it (:class:`~wbc.balance.retime.PhaseHold` with these parameters). The closed
-    loop walks ``ref`` with its sway narrowed by the walk's generator (``gains.transfer``,
-    :func:`wbc.walking.gait.narrow_sway`, single supports of at most
-    :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned).
+    ``stepping`` (closed loop only; on by default, None: off): re-plan the footsteps from
+    the measured DCM (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
+    ``hold`` (closed loop only; on by default, None: off): a lift-off waits while the
+    measured DCM is not ready for it (:class:`~wbc.balance.retime.PhaseHold` with these
+    parameters). The closed loop walks ``ref`` with its sway narrowed by the walk's
+    generator (``gains.transfer``, :func:`wbc.walking.gait.narrow_sway`, single supports of
+    at most :data:`NARROW_LONGEST`; ``Gains(transfer=0)``: as planned). ``fall`` (closed loop only;
+    on by default, None: off): a state beyond recovery stops the walk within a tick and the
+    deployment falls safely (:mod:`wbc.balance.fall`). ``calibrate_s`` (with an IMU; 0: off):
+    the walk starts after that long at rest in its first pose, the IMU's gyro bias and
+    levelling estimated (:func:`wbc.imu.calibrate`; a mount error stops the run, named).
+    ``servo``: the servo model of the feed-forward — None: the robot's ``servos.toml``; a
+    :class:`~wbc.sim.actuator.ServoParams`: the user's; ``"identify"``: servos.toml's with
+    the stiffness identified at rest from the encoders' sag under the known gravity torques
+    (:func:`wbc.balance.compliance.identify_stiffness`; needs ``calibrate_s`` > 0). Which
+    one is used is said through ``out`` and kept in :attr:`ClosedLoop.servo_model`.
     """
+    if compensate is None:
+        from . import best_compensate
+
+        compensate = best_compensate(robot) if enabled else 0.0
     rate = min(100.0, 1.0 / ref.dt)
     config = config or DeployConfig(rate=rate, read=True)
     if enabled and not config.read:
@@ -141,16 +179,34 @@ def closed_loop(
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
         ref = narrow_sway(ref, gains.transfer, longest=NARROW_LONGEST)
     holder: list[Deployment] = []
+    detector = None
+    if fall is not None and enabled:
+        detector = FallDetector(fall, (ref.foot.length, ref.foot.width))
+    identify = isinstance(servo, str)
+    if identify and servo != "identify":
+        raise ConfigurationError(f"closed_loop: servo = {servo!r}: a ServoParams or 'identify'")
+    if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
+        raise ConfigurationError(f"closed_loop: calibrate_s must be >= 0 s, got {calibrate_s}")
+    rest = round(calibrate_s * config.rate) if enabled and (imu is not None or identify) else 0
+    if identify and rest < 2:
+        raise ConfigurationError("closed_loop: servo='identify' measures at rest: calibrate_s > 0")
     stabilizer = Stabilizer(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
-        enabled,
+        enabled, fall=detector, calibration_ticks=rest,
     )  # fmt: skip
+    if stepping is not None and enabled and not can_step(ref):
+        out("closed loop: no step adjustment on this walk (it re-plans dynamic walks made by "
+            "wbc.walking.gait.walk)")  # fmt: skip
+        stepping = None
     adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
     phase_hold = PhaseHold(hold) if hold is not None and enabled else None
     session = Session(controller, robot, ref, q0, stabilizer=stabilizer, stepping=adjuster,
                       hold=phase_hold)  # fmt: skip
     source = SessionSource(session)
     target = source
+    params = servo if isinstance(servo, ServoParams) else None
+    model = "the user's servo model" if params is not None else "servos.toml (nominal)"
+    comp = None
     if compensate > 0:
         from .compliance import CompensatedSource, ComplianceCompensator, EncoderCorrection
 
@@ -160,7 +216,7 @@ def closed_loop(
 
         present = (lambda: holder[0].last_present) if correct else None
         fix = EncoderCorrection(robot.n_joints) if correct else None
-        comp = ComplianceCompensator(robot, gain=compensate)
+        comp = ComplianceCompensator(robot, params, gain=compensate)
         target = CompensatedSource(source, comp, support, present, fix)
     if duration is not None:
         from ..servos.sources import CallableSource
@@ -173,4 +229,45 @@ def closed_loop(
         )
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
-    return ClosedLoop(deployment, session, source, stabilizer, adjuster, phase_hold)
+    loop = ClosedLoop(deployment, session, source, stabilizer, adjuster, phase_hold, model)
+    if identify:
+        model = "servos.toml with the stiffness identified at rest"
+        loop.servo_model = model
+        source.rest_hook = _identifier(loop, comp, rest, out)
+    if compensate > 0:
+        out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
+    return loop
+
+
+def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None]):
+    """The rest hook of ``servo='identify'``: averages the goals written and the encoders'
+    positions over the second half of the rest, then identifies the stiffness
+    (:func:`wbc.balance.compliance.identify_stiffness`) and gives the feed-forward
+    (``comp``, if any) the identified model."""
+    from .compliance import identify_stiffness
+
+    goals: list[np.ndarray] = []
+    present: list[np.ndarray] = []
+    seen = [0]
+
+    def hook(resting: bool) -> None:
+        dep = loop.deployment
+        if resting:
+            seen[0] += 1
+            ready = dep.limiter.prev is not None and dep.last_present is not None
+            if seen[0] > rest // 2 and ready:
+                goals.append(dep.bus.codec.decode(dep.limiter.prev))
+                present.append(np.asarray(dep.last_present, dtype=float))
+            return
+        if loop.stiffness_scale is not None or not goals:
+            return
+        k, used = identify_stiffness(loop.session.robot, loop.session.q[7:],
+                                     np.mean(goals, axis=0), np.nanmean(present, axis=0),
+                                     None if comp is None else comp.params)  # fmt: skip
+        loop.stiffness_scale = k
+        if comp is not None:
+            comp.params = comp.params.scaled(stiffness=k)
+        out(f"closed loop: servo stiffness identified at rest: {k:.2f} x servos.toml's "
+            f"({used} loaded joints)")  # fmt: skip
+
+    return hook

@@ -53,18 +53,21 @@ import numpy as np
 
 from ..compiled.rows import log3
 from ..exceptions import ConfigurationError
-from ..imu import Imu
+from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
 from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
+from .fall import FallDetector
 
 
 @dataclass(frozen=True)
 class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
-    k_p: float = 2.0  # rad/rad torso tilt
-    k_i: float = 2.0  # 1/s
-    k_d: float = 0.1  # s
+    # issue 30: halved from 2 / 2 / 0.1 s, which tipped plants with 12–16 ms of latency and
+    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep")
+    k_p: float = 1.0  # rad/rad torso tilt
+    k_i: float = 1.0  # 1/s
+    k_d: float = 0.05  # s
     k_dcm: float = 0.0  # m/m
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
@@ -74,7 +77,7 @@ class Gains:
     max_tilt: float = 0.2  # rad
     max_shift: float = 0.02  # m
     k_hip: float = 100.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
-    hip_band: float = 0.01  # m: DCM offset outward of the stance sole's centre left alone
+    hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
     #: share of the double support in which the closed loop's reference moves its ZMP to the
@@ -179,6 +182,17 @@ def _torso_feedback(
                                   + S[1, i, 2] * R_ref[2, j])  # fmt: skip
 
 
+class _Sample:
+    """An IMU sample in the torso frame, built inside the tick (no validation: its arrays
+    come from a validated :class:`~wbc.imu.ImuReading`)."""
+
+    __slots__ = ("angular_velocity", "linear_acceleration", "orientation", "t")
+
+    def __init__(self, t, orientation, angular_velocity, linear_acceleration) -> None:
+        self.t, self.orientation = t, orientation
+        self.angular_velocity, self.linear_acceleration = angular_velocity, linear_acceleration
+
+
 class Stabilizer:
     """Estimator + feedback on the targets of one walk (module docstring).
 
@@ -196,8 +210,19 @@ class Stabilizer:
         gains: Gains | None = None,
         enabled: bool = True,
         estimator: StateEstimator | None = None,
+        fall: FallDetector | None = None,
+        calibration_ticks: int = 0,
     ) -> None:
         self.robot = robot
+        mount = getattr(imu, "mount", None)
+        self.mount = None if mount is None or mount.identity else mount
+        #: the start-up calibration at rest (wbc.imu.calibrate) once done; before it, the
+        #: first ``calibration_ticks`` ticks collect samples and feed nothing back
+        self.calibration: ImuCalibration | None = None
+        self.calibration_ticks = int(calibration_ticks)  # ticks at rest before the walk
+        self._rest_left = self.calibration_ticks
+        self._samples: list[tuple[np.ndarray, np.ndarray]] = []
+        self.fall = fall  # raises FallDetected from adjust() on a state beyond recovery
         self.present = present
         self.imu = imu
         self.gains = (gains or Gains()).check()
@@ -229,7 +254,20 @@ class Stabilizer:
         joints = q_cmd[7:]
         present = self.present()  # (its unread, NaN entries: the commanded joints)
         reading = self.imu.read() if self.imu is not None else None
+        if reading is not None and (self.mount is not None or self.calibration is not None):
+            # the torso's rate and specific force (what the estimator reads; the mount's and
+            # calibration's public ImuReading methods validate more: too slow for a tick)
+            w, a = reading.angular_velocity, reading.linear_acceleration
+            if self.mount is not None:
+                w, a = self.mount.rates(w, a)
+            if self.calibration is not None:
+                c = self.calibration
+                w, a = w - c.gyro_bias, c.level @ a
+            reading = _Sample(reading.t, reading.orientation, w, a)
         self.read_time = time.perf_counter() - start
+        if self.calibrating:
+            return self._calibrate(targets, reading, joints if present is None else present,
+                                   joints, dt)  # fmt: skip
         stance = (
             [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
             if targets.phase == "double"
@@ -248,6 +286,8 @@ class Stabilizer:
             R_ref = self._hip_strategy(targets, est, dt) @ R_ref
         _torso_feedback(est.values, R_ref, self.integral, self._packed[1], dt, o)
         e = o[0:3]  # orientation error, world frame (heading part × k_yaw)
+        if self.fall is not None:
+            self.fall.raise_if_falling(est, [placement for _, placement in stance], dt, e)
         self.max_tilt_error = max(self.max_tilt_error, o[15])
         self.error, self.rate = e, est.angular_velocity
         self.integral = o[3:6]
@@ -257,6 +297,41 @@ class Stabilizer:
         out = _with(targets, com, o[6:15].reshape(3, 3))
         self.time = time.perf_counter() - start
         return out
+
+    @property
+    def calibrating(self) -> bool:
+        """True while the start-up calibration at rest collects its samples."""
+        return self.enabled and self._rest_left > 0
+
+    def _calibrate(self, targets, reading, present, joints, dt: float):
+        """One tick of the start-up calibration at rest: the estimator restarted from the
+        kinematics (stance soles flat: the torso's expected up), the sample kept; after
+        ``calibration_ticks`` samples, :func:`wbc.imu.calibrate` on the second half (the
+        robot settles in the first; its remaining motion, the kinematic rotation's mean rate,
+        is not counted as gyro bias; raises on a mount error) and the filter restarted from
+        the levelled kinematic orientation. The targets pass unchanged."""
+        stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
+        self.estimator.restart()
+        est = self.estimator.update(dt, present, reading, stance, fallback=joints)
+        if reading is not None:
+            self._samples.append((reading.angular_velocity, reading.linear_acceleration,
+                                  est.rotation.copy(), dt))  # fmt: skip
+        self._rest_left -= 1
+        if self._rest_left == 0 and self._samples:
+            half = self._samples[len(self._samples) // 2 :]
+            g, a = (np.array([s[k] for s in half]) for k in (0, 1))
+            span = sum(s[3] for s in half[1:])
+            motion = np.zeros(3)
+            if span > 0:  # the torso's mean rate from the kinematics (torso frame)
+                R0, R1 = half[0][2], half[-1][2]
+                v = np.empty(3)
+                log3(np.ascontiguousarray(R0.T @ R1), v)
+                motion = v / span
+            where = f"the IMU's mount (Imu.mount: {self.mount or 'the torso frame'})"
+            self.calibration = calibrate(g, a, est.rotation[2], where=where, motion=motion)
+            self._samples.clear()
+            self.estimator.restart()
+        return targets
 
     def _hip_strategy(self, targets, est: StateEstimate, dt: float) -> np.ndarray:
         """The rotation that turns the torso target toward the stance sole's outer side (hip

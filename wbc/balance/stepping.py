@@ -194,6 +194,13 @@ def bend_rate(ph: Phase, i: int, dt: float, swing: SwingParams) -> float:
 
 
 # ---------------------------------------------------------------------- the re-planner
+def can_step(ref: WalkingReference) -> bool:
+    """True when :class:`StepAdjuster` can re-plan ``ref`` (a dynamic walk made by
+    :func:`wbc.walking.gait.walk`: its timing and generator are known)."""
+    meta = ref.meta
+    return ref.gait == "dynamic" and "timing" in meta and "generator" in meta
+
+
 class StepAdjuster:
     """Re-plans the footsteps of a dynamic walk (:func:`wbc.walking.gait.walk`, any
     generator) from the measured DCM (module docstring). ``enabled=False``: never re-plans.
@@ -214,7 +221,7 @@ class StepAdjuster:
         self.params = (params or SteppingParams()).check()
         self.enabled = enabled
         meta = ref.meta
-        if ref.gait != "dynamic" or "timing" not in meta or "generator" not in meta:
+        if not can_step(ref):
             raise TrajectoryError(
                 f"stepping re-plans dynamic walks made by wbc.walking.gait.walk; reference "
                 f"{ref.name!r} is not one"
@@ -402,8 +409,9 @@ def capture_bounds(
       as the legs reach (``w``) in ``step_time`` s (``t₂``, default the walk's single
       support) with the CoP at the landed sole's inner edge ``p``:
       ``Δξ ≤ e + (p + (e + w − p) e^{−ω t₂} − e) e^{−ω t₁} − ξ``.
-    * ``forward`` / ``toward`` (the swing foot's side): the swing sole lands at its planned
-      place (``*_planned_ns``) or as far as the legs reach (``*_ns``) after ``t``, with the
+    * ``forward`` / ``backward`` / ``toward`` (the swing foot's side): the swing sole lands
+      at its planned place (``*_planned_ns``) or as far as the legs reach (``*_ns``) after
+      ``t``, with the
       DCM inside the landed sole's far edge: ``Δξ ≤ f + (f' − f) e^{−ω t} − ξ`` (``f`` the
       stance sole's edge on that side, ``f'`` the landed sole's); ``*_in_time_ns``: the
       landing moved only as far as the swing sole gets in ``t`` with the bend of
@@ -460,6 +468,15 @@ def capture_bounds(
         f + (step.x + min(fwd, in_time) + half_l - f) * decay - xi[0]
     )
     out["forward_reach_mm"] = 1e3 * fwd
+    # backward: the swing sole lands further behind (the DCM within its back edge)
+    bwd = reach(plan, (-1.0, 0.0))
+    f = st[0] - half_l
+    out["backward_planned_ns"] = to_ns * (xi[0] - f - (step.x - half_l - f) * decay)
+    out["backward_ns"] = to_ns * (xi[0] - f - (step.x - bwd - half_l - f) * decay)
+    out["backward_in_time_ns"] = to_ns * (
+        xi[0] - f - (step.x - min(bwd, in_time) - half_l - f) * decay
+    )
+    out["backward_reach_mm"] = 1e3 * bwd
     # toward the swing foot: the swing sole lands further out
     tow = reach(plan, (0.0, -u))
     f = -(u * st[1] - half_w)  # the stance sole's inner edge, toward the swing foot

@@ -19,7 +19,8 @@ deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
 
 Robustness (``--robustness N --seed S``): N randomised models (:func:`random_model`);
 ``up_fraction`` = the share that stay up. Push (``--push``): a 10 ms force on the torso at
-mid first single support, lateral (away from the swing foot) and forward (+x); the largest
+mid first single support, forward, backward, sideways toward and away from the swing foot
+(:data:`PUSH_DIRECTIONS`), each beside its LIPM bound (:func:`push_bounds`); the largest
 impulse survived (N·s) by bisection over 0–3 N·s.
 """
 
@@ -28,14 +29,14 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from ..balance import add_compensate_argument, check_compensate_encoders
+from ..balance import add_compensate_argument, check_compensate_encoders, resolve_compensate
 from ..exceptions import ConfigurationError, TrajectoryError, WbcError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_NAMES, SUPPORT_RIGHT, Recording
@@ -102,57 +103,96 @@ def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
 
 
 # ---------------------------------------------------------------------- randomised models
+#: the plant's randomised ranges (:func:`random_model`): name -> (low, high)
+PLANT_RANGES: dict[str, tuple[float, float]] = {
+    "stiffness": (0.5, 2.0),  # × the servo's nominal small-error stiffness (log-uniform)
+    "damping": (0.5, 1.5),  # × nominal back-EMF damping
+    "armature": (0.4, 2.4),  # × nominal reflected rotor inertia
+    "friction": (0.0, 2.0),  # × nominal gear friction
+    "torque": (0.8, 1.0),  # × stall torque
+    "backlash_deg": (0.0, 1.0),  # play between motor and link
+    "latency_ms": (0.0, 20.0),  # goal write -> the servos acting on it
+    "mass": (0.85, 1.15),  # × each link's mass (and inertia)
+    "com": (-0.15, 0.15),  # each link's CoM moved by this share of its distance to the joint
+    "floor_friction": (0.5, 1.0),
+    "gyro_bias": (0.0, 0.02),  # rad/s, standard deviation of the constant bias per axis
+    "gyro_noise": (0.0, 0.02),  # rad/s white noise
+    "acc_bias": (0.0, 0.3),  # m/s², standard deviation of the constant bias per axis
+    "acc_noise": (0.0, 0.2),  # m/s² white noise
+}
+#: m: the smallest lever a link's CoM offset is drawn against (links whose CoM sits on the
+#: joint axis still get a few mm)
+COM_LEVER_MIN = 0.02
+
+
 @dataclass(frozen=True)
 class Variation:
-    """One randomised model: what :func:`wbc.sim.play.play` needs, plus its description."""
+    """One randomised plant: what :func:`wbc.sim.play.play` needs, plus its description.
+
+    The controller never sees it: the feed-forward (:mod:`wbc.balance.compliance`) and the
+    estimator keep the robot's nominal servo settings and model."""
 
     model_params: Any
     servo_params: Any
-    latency_ticks: int
-    imu_noise: float
+    latency_ticks: int  # whole control ticks of bus latency (0 here: see latency_s)
+    imu_noise: float  # gyro white noise, rad/s
     summary: dict[str, float]
+    latency_s: float = 0.0  # s from a goal write to the servos acting on it
+    imu: dict[str, float] = field(default_factory=dict)  # SimImu keyword arguments
 
 
 def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
-    """Servo stiffness ×0.7–1.4, back-EMF damping ×0.7–1.3, armature 0.002–0.01 kg·m²,
-    gear friction 0.02–0.1 N·m, stall torque ×0.8–1.0, link masses ×0.9–1.1, CoM offsets
-    ±3 mm per axis, floor friction 0.5–1.0, IMU gyro noise 0–0.02 rad/s, one-tick latency
-    with probability 1/2. Other servo models (Kokone's hobby servos): the same draws relative
-    to their nominal values (damping ×0.7–1.3, armature and friction ×0.4–2)."""
-    from ..sim.actuator import ServoParams, nominal_servo, servo_kind
+    """A randomised PLANT (:data:`PLANT_RANGES`), generic over the robot's servo law
+    (:func:`wbc.sim.actuator.nominal_servo`): the servos' stiffness ×0.5–2 (log-uniform),
+    damping ×0.5–1.5, armature ×0.4–2.4, gear friction ×0–2, stall torque ×0.8–1, backlash
+    0–1°, goal latency 0–20 ms (any value, not whole ticks), each link's mass ×0.85–1.15
+    and CoM moved ±15 % of its distance from the link's joint (at least
+    :data:`COM_LEVER_MIN`) per axis, floor friction 0.5–1, the IMU's gyro / accelerometer
+    bias (constant per run) and white noise. The controller keeps the nominal model."""
+    from ..sim.actuator import nominal_servo
     from ..sim.model import ModelParams, build_spec, link_names
 
-    hobby = nominal_servo(robot) if servo_kind(robot) != "ax12a" else None
-    n_links = len(link_names(build_spec(robot)))
-    stiff = rng.uniform(0.7, 1.4)
-    damping = 0.24 * rng.uniform(0.7, 1.3)
-    armature = rng.uniform(0.002, 0.01)
-    friction = rng.uniform(0.02, 0.1)
-    torque = rng.uniform(0.8, 1.0)
-    if hobby is not None:  # the AX-12A's ranges above, as factors of the hobby servo's values
-        damping *= hobby.damping / 0.24
-        armature *= hobby.armature / 0.005
-        friction *= hobby.friction_loss / 0.05
+    r = PLANT_RANGES
+
+    def draw(key: str, size=None):
+        return rng.uniform(*r[key], size)
+
+    nominal = nominal_servo(robot)
+    spec = build_spec(robot)
+    links = link_names(spec)
+    bodies = {b.name: b for b in spec.bodies}
+    lever = np.array([max(float(np.linalg.norm(bodies[n].ipos)), COM_LEVER_MIN) for n in links])
+    stiff = float(np.exp(rng.uniform(np.log(r["stiffness"][0]), np.log(r["stiffness"][1]))))
+    damping = nominal.damping * draw("damping")
+    armature = nominal.armature * draw("armature")
+    friction = nominal.friction_loss * draw("friction")
+    torque = draw("torque")
+    backlash = np.radians(draw("backlash_deg"))
+    latency = draw("latency_ms") * 1e-3
     mp = ModelParams(
-        floor_friction=rng.uniform(0.5, 1.0),
+        floor_friction=draw("floor_friction"),
         armature=armature,
         damping=damping,
         friction_loss=friction,
-        mass_scale=rng.uniform(0.9, 1.1, n_links),
-        com_offset=rng.uniform(-0.003, 0.003, (n_links, 3)),
+        mass_scale=draw("mass", len(links)),
+        com_offset=draw("com", (len(links), 3)) * lever[:, None],
     )
-    if hobby is not None:
-        sp = hobby.scaled(stiffness=stiff, torque=torque)
-        sp = replace(sp, armature=armature, friction_loss=friction)
-    else:
-        sp = ServoParams.from_settings(
-            robot.servo_map.settings, damping=damping, armature=armature, friction_loss=friction
-        ).scaled(stiffness=stiff, torque=torque)
+    # stiffness × stiff exactly: the ramp steepened by stiff / torque, the stall torque × torque
+    sp = nominal.scaled(stiffness=stiff / torque, torque=torque)
+    names = {f.name for f in fields(sp)}
+    sp = replace(sp, **{k: v for k, v in (("armature", armature), ("friction_loss", friction),
+                                          ("damping", damping), ("backlash", backlash))
+                        if k in names})  # fmt: skip
+    if "torque_cap" in names:  # AX-12A: scaled() moved the cap; the stall torque follows
         sp = replace(sp, stall_torque=sp.stall_torque * torque)
-    latency = int(rng.random() < 0.5)
+    imu = dict(gyro_bias_std=draw("gyro_bias"), gyro_noise=draw("gyro_noise"),
+               acc_bias_std=draw("acc_bias"), acc_noise=draw("acc_noise"),
+               seed=int(rng.integers(2**31)))  # fmt: skip
     summary = dict(stiffness=stiff, damping=damping, armature=armature, friction=friction,
-                   torque=torque, floor_friction=mp.floor_friction, latency=latency)  # fmt: skip
-    return Variation(mp, sp, latency, float(rng.uniform(0.0, 0.02)), summary)
+                   torque=torque, backlash_deg=float(np.degrees(backlash)),
+                   latency_ms=latency * 1e3, floor_friction=mp.floor_friction,
+                   gyro_bias=imu["gyro_bias_std"], acc_bias=imu["acc_bias_std"])  # fmt: skip
+    return Variation(mp, sp, 0, imu["gyro_noise"], summary, latency, imu)
 
 
 def models(robot: Robot, n: int, seed: int) -> list[Variation]:
@@ -338,6 +378,17 @@ class ClosedLoopSpec:
     stepping: Any = None  # wbc.balance.stepping.SteppingParams: re-plan steps from the DCM
     #: wbc.balance.retime.HoldParams: lift-offs wait for the DCM (None: never)
     hold: Any = field(default_factory=lambda: _default_hold())
+    #: wbc.balance.fall.FallParams: fall detection and the safe fall (None: off)
+    fall: Any = field(default_factory=lambda: _default_fall())
+    #: the feed-forward's servo model (wbc.balance.live.closed_loop's ``servo``)
+    servo: Any = None
+    calibrate_s: float | None = None  # s at rest before the walk (None: closed_loop's default)
+
+
+def _default_fall():
+    from ..balance.fall import FallParams
+
+    return FallParams()
 
 
 def _default_hold():
@@ -355,11 +406,13 @@ def play_closed_loop(
     compensate: float = 0.0,
     correct: bool = False,
     duration: float | None = None,
+    on_tick: Callable[[Any], None] | None = None,
 ):
     """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
     on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
     :class:`wbc.sim.play.PlayResult` and the loop (its per-tick costs, limit excursions).
-    ``duration`` (s): only the walk's first seconds (None: all of it)."""
+    ``duration`` (s): only the walk's first seconds (None: all of it); ``on_tick`` sees the
+    simulation after every logged tick (a live viewer)."""
     from ..balance.live import closed_loop
     from ..servos.sources import CallableSource
     from ..sim.bus import SimImu, SimServoBus
@@ -370,31 +423,51 @@ def play_closed_loop(
     v = variation
     sim = Simulation(robot, v.model_params if v else None, v.servo_params if v else None)
     sim.reset(start_configuration(robot, spec.ref))
+    sim.goal_delay = v.latency_s if v else 0.0
     logger = _Logger(sim)
+    if on_tick is not None:
+        log_only = logger
+
+        def logger(bus) -> None:
+            log_only(bus)
+            on_tick(sim)
+
     bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
-    imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0) if spec.use_imu else None
+    imu = None
+    if spec.use_imu:
+        imu = (
+            SimImu(sim, **v.imu)
+            if v and v.imu
+            else SimImu(sim, gyro_noise=v.imu_noise if v else 0.0)
+        )
+    cal = {} if spec.calibrate_s is None else {"calibrate_s": spec.calibrate_s}
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
                        compensate, correct, out=lambda _line: None, duration=duration,
-                       stepping=spec.stepping, hold=spec.hold)  # fmt: skip
+                       stepping=spec.stepping, hold=spec.hold, fall=spec.fall,
+                       servo=spec.servo, **cal)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
         inner = dep.source
 
+        # the walk starts at the calibration's last tick (wbc.balance.live.SessionSource)
+        calib = max(loop.stabilizer.calibration_ticks - 1, 0) / dep.config.rate
+
         def pushed(tick: int, t: float) -> np.ndarray | None:
             if tick == 0 and t == 0.0:
-                sim.push(push[1], push[2], start=sim.time + push[0])
+                sim.push(push[1], push[2], start=sim.time + calib + push[0])
             return inner(tick, t)
 
         dep.source = CallableSource(pushed, inner.first(), inner.joint_names)
     result = dep.run()
     rate = dep.config.rate
-    playback_start = start + result.soft_start_ticks / rate
-    if result.completed and settle > 0:
+    playback_start = start + result.soft_start_ticks / rate + loop.source.start_offset
+    if settle > 0:  # (after a safe stop too: the fall goes on)
         for _ in range(round(settle * rate)):
             sim.advance(1.0 / rate)
             logger(bus)
-    return PlayResult(result, logger.log.arrays(), playback_start - logger.t0, sim), loop
+    base = log_only if on_tick is not None else logger
+    return PlayResult(result, base.log.arrays(), playback_start - base.t0, sim), loop
 
 
 def simulate(
@@ -426,7 +499,8 @@ def simulate(
     kw: dict[str, Any] = {"compensate": compensate, "gyro": gyro, "correct": correct}
     if variation is not None:
         kw.update(model_params=variation.model_params, servo_params=variation.servo_params,
-                  latency_ticks=variation.latency_ticks, imu_noise=variation.imu_noise)  # fmt: skip
+                  latency_ticks=variation.latency_ticks, imu_noise=variation.imu_noise,
+                  latency_s=variation.latency_s, imu=variation.imu)  # fmt: skip
     result = play(rec, robot, settle=settle, push=push, limit_tol=math.inf, **kw)
     return physics_record(rec, result, robot)
 
@@ -475,19 +549,47 @@ def robustness(
             "up": [bool(u) for u in up], "falls": falls}  # fmt: skip
 
 
+#: the directions of ``--push`` (``lateral`` is ``away``: the side no step can reach)
+PUSH_DIRECTIONS = ("forward", "backward", "toward", "away")
+
+
 def push_direction(rec: Recording, kind: str) -> np.ndarray:
-    """``forward`` (+x) or ``lateral``: sideways away from the swing foot (+y when standing
-    on the left sole, −y on the right), the side where no step can catch the robot."""
+    """``forward`` (+x), ``backward`` (−x), ``away`` (alias ``lateral``: sideways away from
+    the swing foot, +y when standing on the left sole, −y on the right, the side where no
+    step can catch the robot) or ``toward`` (sideways toward the swing foot)."""
     if kind == "forward":
         return np.array([1.0, 0.0, 0.0])
-    if kind != "lateral":
-        raise ConfigurationError(f"push direction must be 'forward' or 'lateral', got {kind!r}")
+    if kind == "backward":
+        return np.array([-1.0, 0.0, 0.0])
+    if kind not in ("lateral", "away", "toward"):
+        raise ConfigurationError(
+            f"push direction must be one of {', '.join(PUSH_DIRECTIONS)} (or lateral), got {kind!r}"
+        )
     t = mid_single_support(rec)
     support = rec.channels.get("support")
     if t is None or support is None:
-        raise TrajectoryError("a lateral push needs a single-support phase in the recording")
+        raise TrajectoryError("a sideways push needs a single-support phase in the recording")
     k = int(np.clip(np.searchsorted(rec.t - rec.t[0], t, side="right") - 1, 0, len(rec) - 1))
-    return np.array([0.0, 1.0 if support[k] == SUPPORT_LEFT else -1.0, 0.0])
+    away = 1.0 if support[k] == SUPPORT_LEFT else -1.0
+    return np.array([0.0, away if kind != "toward" else -away, 0.0])
+
+
+def push_bounds(ref, robot: Robot) -> dict[str, float] | None:
+    """Each push direction's physical bound (N·s, LIPM, :func:`wbc.balance.stepping.
+    capture_bounds`): ``away`` the CoP at the stance sole's edge; ``forward``, ``backward``,
+    ``toward`` one step landing as far as the swing sole gets in the time left (None when
+    ``ref`` is not a walk with a single support)."""
+    from ..balance.stepping import capture_bounds
+    from ..walking.legs import LegGeometry
+
+    try:
+        b = capture_bounds(ref, robot.total_mass,
+                           LegGeometry.from_robot(robot, robot.configuration("stand")))  # fmt: skip
+    except (StopIteration, AttributeError, KeyError, WbcError):
+        return None
+    return {"away": float(b["away_ns"]), "forward": float(b["forward_in_time_ns"]),
+            "backward": float(b["backward_in_time_ns"]),
+            "toward": float(b["toward_in_time_ns"])}  # fmt: skip
 
 
 def largest_push(
@@ -550,25 +652,39 @@ def add_physics_arguments(parser) -> None:
         "--seed", type=number(0, integer=True), default=0, help="--robustness: random seed"
     )
     parser.add_argument(
-        "--push", action="store_true", help="--physics: largest survived torso impulse (N·s)"
+        "--push",
+        action="store_true",
+        help="--physics: largest survived torso impulse (N·s) forward, backward, toward and "
+        "away from the swing foot, each beside its physical bound",
     )
     add_compensate_argument(parser, "--physics: servo compliance feed-forward on the goals")
     parser.add_argument(
         "--closed-loop",
         action="store_true",
-        help="--physics: also run each controller live in the deployment's tick, closed "
-        "through the torso IMU and the servos' present positions (wbc.balance.stabilizer)",
+        help="--physics: the closed-loop rows (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--open-loop",
+        action="store_true",
+        help="--physics: only the plans played open loop (by default each controller also "
+        "runs live in the deployment's tick, closed through the torso IMU and the servos' "
+        "present positions, with step adjustment: wbc.balance.live), no feed-forward unless "
+        "--compensate",
     )
     parser.add_argument(
         "--encoders-only",
         action="store_true",
-        help="--closed-loop: estimate from the servos' positions alone (no IMU)",
+        help="closed loop: estimate from the servos' positions alone (no IMU)",
     )
     parser.add_argument(
         "--stepping",
         action="store_true",
-        help="--closed-loop: also the closed loop with step placement from the measured DCM "
-        "(wbc.balance.stepping)",
+        help="closed loop: step adjustment (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--no-stepping",
+        action="store_true",
+        help="closed loop: no step placement from the measured DCM (wbc.balance.stepping)",
     )
     parser.add_argument(
         "--gyro",
@@ -588,6 +704,11 @@ def run_physics_command(args, console, robot: Robot, entries) -> int:
 
     if args.robustness < 0:
         raise ConfigurationError(f"--robustness must be >= 0, got {args.robustness}")
+    if args.open_loop and (args.closed_loop or args.encoders_only or args.stepping):
+        raise ConfigurationError(
+            "--open-loop: no --closed-loop, --encoders-only or --stepping with it"
+        )
+    resolve_compensate(args, robot, best=not args.open_loop)
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise ConfigurationError(
             f"--compensate GAIN must be a finite number >= 0, got {args.compensate}"
@@ -629,9 +750,14 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         entries = [e for e in entries if e.name.split("@")[0] in DEFAULT_SOLVERS]
     records: list[dict[str, Any]] = []
     series = {}
-    comp = getattr(args, "compensate", 0.0)
+    comp = getattr(args, "compensate", 0.0) or 0.0
     gyro = getattr(args, "gyro", 0.0)
-    closed_loop = getattr(args, "closed_loop", False)
+    from ..sim.actuator import servo_kind
+
+    closed_loop = not getattr(args, "open_loop", False)
+    if closed_loop and servo_kind(robot) == "hobby_pwm":
+        console.print(f"open loop only: {robot.name}'s hobby servos report no positions")
+        closed_loop = False
     gains = stabilizer_gains(args) if closed_loop else None
     for name, ref in refs.items():
         for entry in entries:
@@ -642,13 +768,11 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
             specs: list[ClosedLoopSpec | None] = [None]
             if closed_loop:
-                imu = not getattr(args, "encoders_only", False)
-                specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu))
-                if getattr(args, "stepping", False):
-                    from ..balance.stepping import SteppingParams
+                from ..balance.stepping import SteppingParams
 
-                    specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu,
-                                                SteppingParams()))  # fmt: skip
+                imu = not getattr(args, "encoders_only", False)
+                step = None if getattr(args, "no_stepping", False) else SteppingParams()
+                specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu, step))
             for spec in specs:
                 loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0,
                         "correct": getattr(args, "compensate_encoders", False)}  # fmt: skip
@@ -696,8 +820,10 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
                     r["up_fraction"] = rob["up_fraction"]
                     r["sweep_wall_s"] = time.perf_counter() - started
                 if args.push:
-                    r["push_lateral_ns"] = largest_push(rec, robot, "lateral", **kw)
-                    r["push_forward_ns"] = largest_push(rec, robot, "forward", **kw)
+                    for d in PUSH_DIRECTIONS:
+                        r[f"push_{d}_ns"] = largest_push(rec, robot, d, **kw)
+                    r["push_lateral_ns"] = r["push_away_ns"]
+                    r["push_bounds_ns"] = push_bounds(ref, robot)
                 records.append(r)
     for name in refs:
         rows = [r for r in records if r["trajectory"] == name and "error" not in r]
@@ -710,7 +836,7 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
         if args.robustness:
             cols.append(f"up/{args.robustness}")
         if args.push:
-            cols += ["push lat", "push fwd"]
+            cols += ["push fwd", "bwd", "toward", "away"]
         for c in cols:
             table.add_column(c, justify="left" if c == "solver" else "right")
         for r in rows:
@@ -731,9 +857,16 @@ def run_physics(args, console, robot: Robot, entries, refs: dict) -> list[dict[s
             if args.robustness:
                 cells.append(f"{r['up_fraction']:.2f}")
             if args.push:
-                cells += [_ns(r["push_lateral_ns"]), _ns(r["push_forward_ns"])]
+                cells += [_ns(r[f"push_{d}_ns"]) for d in PUSH_DIRECTIONS]
             table.add_row(*cells)
         console.print(table)
+        bounds = rows[0].get("push_bounds_ns") if rows and args.push else None
+        if bounds:
+            console.print(
+                "  push bounds (N·s, LIPM: one step in the swing's time left; away: the CoP at "
+                "the stance sole's edge): "
+                + ", ".join(f"{d} {bounds[d]:.3f}" for d in PUSH_DIRECTIONS)
+            )
         for r in rows:
             if r["loop"].startswith("closed"):
                 share = r.get("feedback_share")

@@ -24,11 +24,12 @@ import os
 import signal
 import sys
 import threading
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from ..balance import add_compensate_argument, check_compensate_encoders
+from ..balance import add_compensate_argument, check_compensate_encoders, resolve_compensate
 from ..cli import number
 from ..exceptions import ConfigurationError, ServoMapError, TrajectoryError, WbcError
 from ..model import Robot, load_robot
@@ -91,8 +92,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--trajectory",
-        default="walk10",
-        help="--live: the walking reference to follow (see wbc bench --list)",
+        default="walk10_wb",
+        help="--live: the walking reference to follow (default walk10_wb, the whole-body walk; "
+        "the thesis's walks by name, e.g. walk10; see wbc bench --list)",
     )
     parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
     parser.add_argument("--servo-map", help="servo map TOML (default: the robot's servos.toml)")
@@ -198,19 +200,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
     add_compensate_argument(
-        parser, "add the servos' expected compliance deflection to a recording's goals"
+        parser,
+        "add the servos' expected compliance deflection to the goals (a recording's: "
+        "only when given)",
     )
     parser.add_argument(
         "--closed-loop",
         action="store_true",
-        help="--live: close the loop (state estimate from the servos' present positions and "
-        "the torso IMU, feedback on the walking targets; wbc.balance.stabilizer); needs --read",
+        help="--live: the closed loop (the default with --live; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--open-loop",
+        action="store_true",
+        help="--live: no feedback (by default --live closes the loop: state estimate from the "
+        "servos' present positions and the torso IMU, feedback on the walking targets, step "
+        "adjustment, fall detection; wbc.balance.live)",
     )
     parser.add_argument(
         "--imu",
         metavar="PORT",
-        help="--closed-loop: the torso IMU's serial port (WitMotion WT901/HWT901B family); "
-        "with --sim the simulated torso IMU is used",
+        help="closed loop: the torso IMU's serial port (WitMotion WT901/HWT901B family); "
+        "with --sim the simulated torso IMU is used; without either: encoders only",
     )
     parser.add_argument(
         "--imu-baud",
@@ -221,12 +231,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--encoders-only",
         action="store_true",
-        help="--closed-loop: no IMU, estimate from the servos' positions alone",
+        help="closed loop: no IMU, estimate from the servos' positions alone",
     )
     parser.add_argument(
         "--stepping",
         action="store_true",
-        help="--closed-loop: re-plan the footsteps from the measured DCM (wbc.balance.stepping)",
+        help="closed loop: step adjustment (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--no-stepping",
+        action="store_true",
+        help="closed loop: no step adjustment from the measured DCM (wbc.balance.stepping)",
     )
     from ..sim.cli import add_deploy_arguments  # --sim, --view, --realtime (no mujoco needed)
 
@@ -338,9 +353,10 @@ def _dry_bus(bus: ServoBus, robot: Robot) -> DryRunBus:
     return dry
 
 
-def _imu(args: argparse.Namespace, bus: ServoBus):
-    """The torso IMU of ``--closed-loop``: the simulated one (--sim), a WitMotion on --imu
-    PORT, or None (--encoders-only)."""
+def _imu(args: argparse.Namespace, bus: ServoBus, robot: Robot | None = None, out=print):
+    """The torso IMU of the closed loop: the simulated one (--sim), a WitMotion on --imu
+    PORT (mounted as ``robot``'s ``robot.toml`` ``[imu]`` says), or None: --encoders-only,
+    or no IMU given (said through ``out``)."""
     if args.encoders_only:
         if args.imu:
             raise ConfigurationError("give either --imu PORT or --encoders-only, not both")
@@ -348,14 +364,21 @@ def _imu(args: argparse.Namespace, bus: ServoBus):
     if args.imu:
         from ..imu_witmotion import WitImu
 
-        return WitImu(args.imu, args.imu_baud)
+        mount = None
+        if robot is not None:
+            from ..sim.model import imu_mount
+
+            mount = imu_mount(robot)
+        return WitImu(args.imu, args.imu_baud, mount=mount)
     if getattr(bus, "sim", None) is not None:
         from ..sim.bus import SimImu
 
         return SimImu(bus.sim)
-    raise ConfigurationError(
-        "--closed-loop needs the torso IMU: --imu PORT (or --sim, or --encoders-only)"
+    out(
+        "closed loop: no IMU given (--imu PORT): estimating from the servos' encoders alone "
+        "(the stance sole assumed flat; --encoders-only says so without this note)"
     )
+    return None
 
 
 def _loaded(stack: str | Path, note: str, robot: Robot):
@@ -378,7 +401,7 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
     stack, note = robot_stack(robot, args.live or None)
     ref = build(args.trajectory, robot)
     stepping = None
-    if args.stepping:
+    if not args.no_stepping:
         from ..balance.stepping import SteppingParams
 
         stepping = SteppingParams()
@@ -446,6 +469,15 @@ def _run(args: argparse.Namespace) -> int:
     imu = None
     try:
         robot = load_robot(args.robot, servo_map=args.servo_map)
+        if args.open_loop and args.closed_loop:
+            raise ConfigurationError("give either --open-loop or --closed-loop, not both")
+        if args.no_stepping and args.stepping:
+            raise ConfigurationError("give either --stepping or --no-stepping, not both")
+        resolve_compensate(args, robot, best=args.live is not None and not args.open_loop)
+        if args.closed_loop and args.live is None:
+            raise ConfigurationError("--closed-loop runs a controller live: give --live STACK")
+        explicit = args.closed_loop
+        args.closed_loop = args.live is not None and not args.open_loop  # the default
         if args.backend == "dynamixel" or robot.servo_map is not None:
             for warning in check_servo_map(robot):
                 print(f"warning: {warning}", file=err)
@@ -478,17 +510,23 @@ def _run(args: argparse.Namespace) -> int:
         check_compensate_encoders(args)
         loop = imu = None
         holder: list[Deployment] = []  # the deployment, for the encoder correction
-        if args.closed_loop and args.live is None:
-            raise ConfigurationError("--closed-loop runs a controller live: give --live STACK")
         if (args.imu or args.encoders_only or args.stepping) and not args.closed_loop:
-            raise ConfigurationError("--imu / --encoders-only / --stepping belong to --closed-loop")
+            raise ConfigurationError(
+                "--imu / --encoders-only / --stepping belong to the closed loop (--live STACK, "
+                "without --open-loop)"
+            )
         if args.live is not None:
             if args.dry_run:
                 bus = _dry_bus(bus, robot)
             elif not args.port and bus.name != "sim":
                 raise ConfigurationError("give --port (or --dry-run)")
+            if args.closed_loop and not bus.can_read and not explicit:
+                print(f"open loop: the {bus.name} bus cannot read the servos' positions, which "
+                      "the closed loop needs")  # fmt: skip
+                args.closed_loop = False
+                config = replace(config, read=args.read or args.compensate_encoders)
             if args.closed_loop:  # the IMU first: a wrong port fails before the solver builds
-                imu = _imu(args, bus)
+                imu = _imu(args, bus, robot)
                 if imu is not None:
                     imu.open()
                     if hasattr(imu, "wait_ready"):

@@ -772,6 +772,14 @@ class DynamixelBus(ServoBus):
                 unconfirmed.append(self.labels[i])
         return unconfirmed
 
+    def set_torque_limit(self, share: float) -> None:
+        """Torque Limit (34, RAM) of every servo: ``share`` (0..1) of the maximum, one
+        broadcast WRITE (the protective fall, :func:`wbc.balance.fall.safe_fall`)."""
+        self._require_open()
+        if not 0.0 <= share <= 1.0:
+            raise ServoError(f"torque limit share must be in [0, 1], got {share}")
+        self.exchange(BROADCAST_ID, INST_WRITE, (ADDR_TORQUE_LIMIT, *word(round(1023 * share))))
+
     def set_speed(self, rad_per_s: float) -> None:
         """Moving Speed (32) of every servo in one SYNC_WRITE."""
         self._require_open()

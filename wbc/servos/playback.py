@@ -12,8 +12,10 @@ else the :class:`HealthSchedule`'s polls. Any servo fault (error bit, silence, l
 stops the motion within :attr:`HealthSchedule.detection_s` (100 ms at 50 Hz). The *safe
 stop* then sends no more motion and, by ``on_fault``:
 
-* ``auto`` (default): overheating or overload -> ``crouch``; anything else (communication
-  faults, other error bits, Ctrl-C, a bad target) -> ``hold``;
+* ``auto`` (default): overheating or overload -> ``crouch``; a fall detected by the closed
+  loop -> ``fall`` (:func:`wbc.balance.fall.safe_fall`: torque limit lowered, protective
+  posture, verified torque-off); anything else (communication faults, other error bits,
+  Ctrl-C, a bad target) -> ``hold``;
 * ``hold``: keep the last goal, torque on;
 * ``torque-off``: torque off per servo, acknowledged and read back (register 24);
 * ``crouch``: a slow move (soft speed) to the crouch pose, then ``torque-off``.
@@ -33,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import ConfigurationError, ServoError
+from ..exceptions import ConfigurationError, FallDetected, ServoError
 from ..model import Robot
 from .bus import COMM_OK, WALL_CLOCK, Clock, ServoBus
 from .safety import (
@@ -440,6 +442,8 @@ class Deployment:
             return "torque-off"
         mode = self.config.on_fault
         if mode == "auto":
+            if "fall" in trip.faults:  # wbc.balance.fall: the protective fall
+                return "fall"
             return "crouch" if set(trip.faults) & set(CROUCH_FAULTS) else "hold"
         return mode
 
@@ -454,6 +458,10 @@ class Deployment:
             if action == "hold":
                 return "hold"
             done = action
+            if action == "fall":
+                from ..balance.fall import safe_fall
+
+                return "fall: " + safe_fall(self)
             if action == "crouch":
                 crouched = self._crouch(trip.index)
                 done = "crouch, torque-off" if crouched else "crouch cut short, torque-off"
@@ -623,7 +631,8 @@ class Deployment:
             signum = getattr(exc, "signum", signal.SIGINT)
             trip = Trip(None, "operator", SIGNAL_REASONS.get(signum, f"signal {signum}"))
         except BaseException as exc:  # a crash mid-motion still ends in the safe stop
-            trip = Trip(None, "deploy", f"{type(exc).__name__}: {exc}")
+            faults = ("fall",) if isinstance(exc, FallDetected) else ()
+            trip = Trip(None, "deploy", f"{type(exc).__name__}: {exc}", faults)
             signum = None
         action = None
         if trip is not None:

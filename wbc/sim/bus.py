@@ -163,6 +163,15 @@ class SimServoBus(ServoBus):
         if not self.is_open:
             raise ServoError(f"{self.name}: the simulated bus is not open")
 
+    def set_torque_limit(self, share: float) -> None:
+        """Torque Limit (34) of every servo: ``share`` (0..1) of the stall torque."""
+        self._require_open()
+        if not 0.0 <= share <= 1.0:
+            raise ServoError(f"torque limit share must be in [0, 1], got {share}")
+        p = self.sim.servos.params
+        cap = np.full(self.n, p.stall_torque * round(1023 * share) / 1023.0)
+        self.sim.servos.params = replace(p, torque_cap=cap)
+
     # ------------------------------------------------------------------ motion
     def set_torque(self, enabled: bool) -> None:
         self._require_open()
@@ -402,7 +411,9 @@ def sim_bus(sim: Simulation, rate: float, **kwargs) -> SimServoBus | SimSsc32Bus
 class SimImu(Imu):
     """The simulated torso IMU: MuJoCo's frame-quaternion, gyro and accelerometer sensors
     at the ``imu`` site, with white noise (standard deviations) and a constant bias per
-    axis drawn once from ``bias_std`` (seeded)."""
+    axis drawn once from ``bias_std`` (seeded). Its :attr:`mount` is the robot folder's
+    (``robot.toml`` ``[imu]``, :func:`wbc.sim.model.imu_mount`): what the controller is told,
+    whatever the simulated model's ``imu_rotation``."""
 
     name = "sim-imu"
 
@@ -425,7 +436,10 @@ class SimImu(Imu):
         ):
             if not (np.isfinite(v) and v >= 0):
                 raise ServoError(f"SimImu: {name} must be >= 0, got {v}")
+        from .model import imu_mount
+
         self.sim = sim
+        self.mount = imu_mount(sim.robot)
         self.rng = np.random.default_rng(seed)
         self.gyro_noise, self.acc_noise, self.orientation_noise = (
             gyro_noise,

@@ -5,7 +5,8 @@ rate limit, watchdog) on :class:`~wbc.sim.bus.SimServoBus` instead of a serial p
 ``wbc sim`` plays a recording, or a solver on a benchmark trajectory, through the same path
 and prints what the physics did (fell, deviations, slip, torques, CoP margin)::
 
-    wbc sim --solver hqp-daqp --trajectory walk10          # plan, then simulate
+    wbc sim --solver hqp-daqp --trajectory walk10_wb       # closed loop (the default)
+    wbc sim --solver hqp-daqp --trajectory walk10 --open-loop   # plan, then play it
     wbc sim results/runs/hqp-daqp__walk10.npz --view       # live in meshcat, planned ghost
     wbc sim --solver placo --trajectory thesis_step --export sim.html --json sim.json
 """
@@ -147,7 +148,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording .npz to play (else --solver)")
     parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
     parser.add_argument("--solver", default="hqp-daqp", help="plan with this benchmark solver")
-    parser.add_argument("--trajectory", default="walk10", help="benchmark trajectory to plan")
+    parser.add_argument(
+        "--trajectory",
+        default="walk10_wb",
+        help="benchmark trajectory (default walk10_wb, the whole-body walk; the thesis's by name)",
+    )
+    parser.add_argument(
+        "--open-loop",
+        action="store_true",
+        help="plan, then play the plan (by default the solver runs live in the tick, closed "
+        "loop with the simulated IMU, feed-forward and step adjustment: wbc.balance.live)",
+    )
+    parser.add_argument(
+        "--encoders-only", action="store_true", help="closed loop: no IMU, the encoders alone"
+    )
+    parser.add_argument(
+        "--no-stepping", action="store_true", help="closed loop: no step adjustment"
+    )
+    from ..balance import add_compensate_argument
+
+    add_compensate_argument(parser, "servo compliance feed-forward on the goals")
     parser.add_argument(
         "--rate", type=number(0, 1000, lo_open=True), help="control rate, Hz (default: recording's)"
     )
@@ -180,10 +200,23 @@ def run(args: argparse.Namespace) -> int:
 
     if not (math.isfinite(args.settle) and args.settle >= 0):
         raise ConfigurationError(f"--settle must be a time >= 0 s, got {args.settle}")
+    from ..balance import resolve_compensate
+    from .actuator import servo_kind
+
     robot = load_robot(args.robot)
+    closed = not args.open_loop and not args.recording
+    if closed and servo_kind(robot) == "hobby_pwm":
+        print(f"open loop: {robot.name}'s hobby servos report no positions (the closed loop "
+              "reads them)")  # fmt: skip
+        closed = False
+    resolve_compensate(args, robot, best=closed)
+    if not (math.isfinite(args.compensate) and args.compensate >= 0):
+        raise ConfigurationError(
+            f"--compensate GAIN must be a finite number >= 0, got {args.compensate}"
+        )
     if args.recording:
         rec = Recording.load(args.recording)
-        label = Path(args.recording).name
+        label = Path(args.recording).name + " (a recording: played open loop)"
     else:
         from ..bench.physics import physics_stack
         from ..bench.solvers import BENCH_STACKS
@@ -195,6 +228,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"wbc sim: {args.solver} loads {which} stack {stack}", flush=True)
         rec = plan(args.solver, args.trajectory, robot)
         label = f"{args.solver} on {args.trajectory}"
+        label += " (closed loop)" if closed else " (open loop)"
     push = None
     if args.push:
         t_push = mid_single_support(rec)
@@ -224,11 +258,31 @@ def run(args: argparse.Namespace) -> int:
             viewer.update(sim.q(), **ref)
             pace(sim.time)
 
-    result = play(
-        rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime,
-        push=push, on_tick=on_tick,
-    )  # fmt: skip
-    record = physics_record(rec, result, robot)
+    if closed:
+        from ..balance.stepping import SteppingParams
+        from ..bench.physics import ClosedLoopSpec, closed_loop_figures, play_closed_loop
+        from ..bench.solvers import registry
+        from ..bench.trajectories import build
+
+        if args.realtime:
+            raise ConfigurationError("--realtime plays a plan: give --open-loop with it")
+        ref = build(args.trajectory, robot)
+        step = None if args.no_stepping else SteppingParams()
+        spec = ClosedLoopSpec(registry()[args.solver].make, ref, None, True,
+                              not args.encoders_only, step)  # fmt: skip
+        result, loop = play_closed_loop(spec, robot, push=push, settle=args.settle,
+                                        compensate=args.compensate, on_tick=on_tick)  # fmt: skip
+        record = physics_record(rec, result, robot, ref)
+        record.update(closed_loop_figures(loop))
+        print(f"closed loop: IMU {'off (encoders only)' if args.encoders_only else 'on'}, "
+              f"feed-forward x{args.compensate:g} on {loop.servo_model}, step adjustment "
+              f"{'off' if loop.stepping is None else 'on'}, fall detection on")  # fmt: skip
+    else:
+        result = play(
+            rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime,
+            push=push, on_tick=on_tick, compensate=args.compensate,
+        )  # fmt: skip
+        record = physics_record(rec, result, robot)
     record.pop("_series")
     print(f"simulated {label}: {result.deploy.timing.ticks} ticks")
     for key, (text, unit) in PHYSICS_KEYS.items():

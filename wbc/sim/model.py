@@ -54,6 +54,9 @@ class ModelParams:
     mass_scale: np.ndarray | None = None
     com_offset: np.ndarray | None = None  # (n_links, 3) m
     imu_offset: Sequence[float] | None = None  # IMU site in the IMU frame, m
+    #: the IMU's real rotation in its frame (3x3; None: the robot data's ``[imu] rpy_deg``):
+    #: a plant whose IMU is mounted otherwise than its robot folder says
+    imu_rotation: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
 
     def resolved(self, servo: ServoParams | HobbyServoParams) -> ModelParams:
@@ -66,14 +69,32 @@ class ModelParams:
         )
 
 
+IMU_KEYS = ("frame", "offset", "rpy_deg")
+
+
 def imu_placement(robot: Robot) -> tuple[str, np.ndarray]:
     """The IMU's frame and offset (m, in that frame) from ``robot.toml`` ``[imu]``
     (default: the torso frame, no offset)."""
+    frame, offset, _ = imu_pose(robot)
+    return frame, offset
+
+
+def imu_pose(robot: Robot) -> tuple[str, np.ndarray, np.ndarray]:
+    """The IMU's frame, offset (m, in that frame) and rotation (3x3: the IMU's axes in that
+    frame, from ``rpy_deg`` = roll, pitch, yaw in degrees) from ``robot.toml`` ``[imu]``
+    (default: the torso frame, no offset, no rotation)."""
+    from ..imu import ImuMount
+
     table = robot.robot_data.imu
     where = f"{robot.robot_data.source}/robot.toml [imu]"
-    extra = sorted(set(table) - {"frame", "offset"})
+    extra = sorted(set(table) - set(IMU_KEYS))
     if extra:
-        raise ModelError(f"{where}: unknown keys {extra}; allowed: frame, offset")
+        raise ModelError(f"{where}: unknown keys {extra}; allowed: {', '.join(IMU_KEYS)}")
+    rpy = table.get("rpy_deg", [0.0, 0.0, 0.0])
+    ok = isinstance(rpy, (list, tuple)) and len(rpy) == 3
+    if not ok or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in rpy):
+        raise ModelError(f"{where}: rpy_deg = {rpy!r} must be 3 numbers (roll, pitch, yaw, °)")
+    rotation = ImuMount.from_rpy(rpy).rotation
     frame = table.get("frame", "torso")
     if not isinstance(frame, str) or not robot.has_frame(frame):
         raise ModelError(f"{where}: frame = {frame!r} is not a frame of {robot.urdf_path.name}")
@@ -81,7 +102,27 @@ def imu_placement(robot: Robot) -> tuple[str, np.ndarray]:
     ok = isinstance(offset, (list, tuple)) and len(offset) == 3
     if not ok or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in offset):
         raise ModelError(f"{where}: offset = {offset!r} must be 3 numbers (m)")
-    return frame, np.asarray(offset, dtype=float)
+    return frame, np.asarray(offset, dtype=float), rotation
+
+
+def imu_mount(robot: Robot):
+    """The robot's IMU mount in the torso frame (:class:`wbc.imu.ImuMount`) from
+    ``robot.toml`` ``[imu]``; None when the IMU sits at the torso frame, unrotated. Its frame
+    must be on the torso's link (one clear line otherwise)."""
+    from ..imu import ImuMount
+
+    frame, offset, rotation = imu_pose(robot)
+    if frame == "torso" and not offset.any() and np.array_equal(rotation, np.eye(3)):
+        return None
+    model = robot.model
+    f, t = model.frames[robot.frame_id(frame)], model.frames[robot.frame_id("torso")]
+    if f.parentJoint != t.parentJoint:
+        raise ModelError(
+            f"{robot.robot_data.source}/robot.toml [imu]: frame = {frame!r} moves with a joint "
+            "the torso does not: the IMU must sit on the torso's link"
+        )
+    rel = t.placement.inverse() * f.placement
+    return ImuMount(rel.rotation @ rotation, rel.translation + rel.rotation @ offset)
 
 
 def build_spec(robot: Robot, params: ModelParams | None = None):
@@ -147,14 +188,16 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
     for frame in site_names(robot):
         body, placement = _site_placement(robot, frame, bodies)
         body.add_site(name=frame, pos=placement.translation, quat=_wxyz(placement.rotation))
-    imu_frame, imu_offset = imu_placement(robot)
+    imu_frame, imu_offset, imu_rotation = imu_pose(robot)
     if p.imu_offset is not None:
         imu_offset = np.asarray(p.imu_offset, dtype=float)
+    if p.imu_rotation is not None:
+        imu_rotation = np.asarray(p.imu_rotation, dtype=float)
     body, placement = _site_placement(robot, imu_frame, bodies)
     body.add_site(
         name=IMU_SITE,
         pos=placement.translation + placement.rotation @ imu_offset,
-        quat=_wxyz(placement.rotation),
+        quat=_wxyz(placement.rotation @ imu_rotation),
     )
     spec.add_sensor(name="imu_quat", type=mj.mjtSensor.mjSENS_FRAMEQUAT,
                     objtype=mj.mjtObj.mjOBJ_SITE, objname=IMU_SITE)  # fmt: skip

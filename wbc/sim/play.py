@@ -116,6 +116,8 @@ def play(
     correct: bool = False,
     gyro: float = 0.0,
     imu_noise: float = 0.0,
+    latency_s: float = 0.0,
+    imu: dict | None = None,
 ) -> PlayResult:
     """Play ``recording`` on a simulated ``robot`` (see the module docstring).
 
@@ -129,9 +131,12 @@ def play(
     per joint from the servos' present positions
     (:class:`~wbc.balance.compliance.EncoderCorrection`). ``gyro`` > 0: closed loop, the torso
     gyro's feedback on the leg goals (:class:`wbc.balance.feedback.GyroFeedback`, OP3 gains ×
-    ``gyro``; gyro noise ``imu_noise`` rad/s).
+    ``gyro``; gyro noise ``imu_noise`` rad/s, or ``imu``: :class:`~wbc.sim.bus.SimImu`'s
+    keyword arguments). ``latency_s``: the servos act on each goal that much later
+    (:attr:`Simulation.goal_delay`).
     """
     sim = Simulation(robot, model_params, servo_params)
+    sim.goal_delay = latency_s
     sim.reset(recording.q[0])
     if rate is None:
         rate = (
@@ -162,8 +167,8 @@ def play(
         from ..balance.feedback import FeedbackSource, GyroFeedback
         from .bus import SimImu
 
-        imu = SimImu(sim, gyro_noise=imu_noise)
-        source = FeedbackSource(source, GyroFeedback(robot, imu, gyro))
+        sensor = SimImu(sim, **imu) if imu else SimImu(sim, gyro_noise=imu_noise)
+        source = FeedbackSource(source, GyroFeedback(robot, sensor, gyro))
     start = sim.time
     if push is not None and compensate > 0:  # the soft start to the compensated goals takes
         inner = source  # time: the push is timed from the playback's first target instead

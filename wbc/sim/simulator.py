@@ -12,6 +12,7 @@ joint order) stays inside this module.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
@@ -92,6 +93,10 @@ class Simulation:
         self.steps = 0
         self.peak_torque = np.zeros(robot.n_joints)  # max |τ| since the last reset_peak()
         self._push: tuple[float, float, np.ndarray] | None = None
+        #: s between a goal write and the servos acting on it (a plant's bus / firmware
+        #: latency; any value, not only whole control ticks: :meth:`write_goals`)
+        self.goal_delay = 0.0
+        self._queued: deque[tuple[float, np.ndarray, float | None]] = deque()
         self.reset(robot.configuration("stand"))
 
     # ------------------------------------------------------------------ state
@@ -118,6 +123,7 @@ class Simulation:
         self.steps = 0
         self.peak_torque[:] = 0.0
         self._push = None
+        self._queued.clear()
         self.data.xfrc_applied[:] = 0.0
 
     def q(self) -> np.ndarray:
@@ -209,8 +215,15 @@ class Simulation:
     def write_goals(self, ticks: np.ndarray, move_ms: float | None = None) -> None:
         """Goal positions (model order; AX-12A ticks, or hobby servos' pulse widths in µs
         reaching the board as one group move of ``move_ms``); a silent servo ignores its
-        goal."""
+        goal. With :attr:`goal_delay` > 0 the servos act on it that many seconds later (at the
+        first physics step that starts at or after then)."""
         ticks = np.asarray(ticks, dtype=float)
+        if self.goal_delay > 0:
+            self._queued.append((self.time + self.goal_delay, ticks.copy(), move_ms))
+            return
+        self._apply_goals(ticks, move_ms)
+
+    def _apply_goals(self, ticks: np.ndarray, move_ms: float | None) -> None:
         if self.hobby:
             self.servos.write(ticks, move_ms)
             return
@@ -254,6 +267,10 @@ class Simulation:
         """One physics step: servo law, then MuJoCo."""
         d = self.data
         servos = self.servos
+        queued = self._queued
+        while queued and queued[0][0] <= d.time + 1e-9:
+            _, ticks, move_ms = queued.popleft()
+            self._apply_goals(ticks, move_ms)
         tau = servos.law(d.qpos[self._q_index], self._dt)
         if self.hobby and servos.powered_changed:  # pulses started/stopped: the motor brake
             servos.powered_changed = False
