@@ -557,7 +557,7 @@ def test_a_control_tick_needs_a_time_step_in_seconds(robot, dt):
     assert np.isfinite(solver.step(q, np.float64(0.01))).all()
 
 
-@pytest.mark.parametrize("trial, ticks", [(336, 1), (154, 2)])  # hierarchical, weighted
+@pytest.mark.parametrize("trial, ticks", [(2, 1), (0, 1)])  # hierarchical, weighted
 def test_an_infeasible_tick_that_recovers_runs_no_diagnosis(
     robot, stress_script, monkeypatch, trial, ticks
 ):
