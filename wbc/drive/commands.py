@@ -141,6 +141,8 @@ def random_commands(
         w = w / w.sum() * rng.uniform(0.0, 1.0) * share
         signs = rng.choice([-1.0, 1.0], size=3)
         vx = signs[0] * w[0] * (fwd if signs[0] > 0 else back)
-        out.append(Command(T, float(vx), float(signs[1] * w[1] * vy_m), float(signs[2] * w[2] * wz_m)))
+        out.append(
+            Command(T, float(vx), float(signs[1] * w[1] * vy_m), float(signs[2] * w[2] * wz_m))
+        )
         t += T
     return out

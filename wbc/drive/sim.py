@@ -5,7 +5,8 @@ played from a command sequence, measured: did it fall, where did it go.
 The record (:func:`drive_sim`, ``wbc drive --sim --json``): ``fell``, ``fall_time_s``,
 ``commanded_xy_m`` / ``travelled_xy_m`` (the commanded and the simulated base displacement
 in the start frame: x forward, y left), ``commanded_yaw_rad`` / ``travelled_yaw_rad``
-(heading change, unwrapped), the walk tick's cost, the steps taken.
+(heading change, unwrapped), the walk tick's cost, the steps taken; ``_path`` (not JSON:
+rows of time, x, y, heading of the base in the start frame).
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ class Odometer:
         self.fell_at: float | None = None
         self.t0 = sim.time
         self.tilt_max = 0.0
+        self.path: list[tuple[float, float, float, float]] = []  # t, x, y (start frame), yaw
 
     def __call__(self) -> None:
         R = self.sim.base_rotation()
@@ -60,6 +62,8 @@ class Odometer:
             tilt > FALL_TILT_DEG or self.sim.q()[2] < FALL_HEIGHT * self.z0
         ):
             self.fell_at = self.sim.time - self.t0
+        d = self.displacement()
+        self.path.append((self.sim.time - self.t0, float(d[0]), float(d[1]), self.yaw))
 
     def displacement(self) -> np.ndarray:
         d = self.sim.q()[:2] - self.xy0
@@ -153,4 +157,5 @@ def drive_sim(
         "deploy_completed": bool(result.completed),
         "deploy_trip": None if result.trip is None else str(result.trip),
         "limits": walker.limits.as_dict(),
+        "_path": np.asarray(odo.path),
     }

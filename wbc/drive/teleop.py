@@ -171,6 +171,10 @@ class Gamepad:
                 elif ev.code == ecodes.BTN_SELECT:
                     walker.stop()
                     return False
-        share = [-self._value(ecodes.ABS_Y), -self._value(ecodes.ABS_X), -self._value(ecodes.ABS_RX)]
+        share = [
+            -self._value(ecodes.ABS_Y),
+            -self._value(ecodes.ABS_X),
+            -self._value(ecodes.ABS_RX),
+        ]
         walker.command(*shares_to_velocity(share, walker.limits))
         return True

@@ -48,9 +48,10 @@ class Walker:
 
     ``controller``: any walking controller; ``imu``: the torso IMU (None: the estimate from
     the encoders alone); ``closed=False``: the open loop (the targets as planned).
-    ``limits`` default to :meth:`VelocityLimits.from_robot` (measured on the model: a few
-    seconds); ``window`` (default: measured, :meth:`BalanceWindow.from_robot`) lets the
-    torso lean over the stance foot as the whole-body walks do; ``window=None``: upright.
+    ``limits`` default to :meth:`VelocityLimits.from_robot` (measured on the model);
+    ``window`` (default: measured, :meth:`BalanceWindow.from_robot`) lets the torso lean
+    over the stance foot as the whole-body walks do; ``window=None``: upright. Both defaults
+    are measured once per robot and gait and cached (:func:`wbc.drive.envelope.planning_envelope`).
     ``compensate`` > 0: the servo compliance feed-forward × gain in :meth:`deployment`.
     """
 
@@ -61,7 +62,7 @@ class Walker:
         imu: Imu | None = None,
         params: EngineParams | None = None,
         limits: VelocityLimits | None = None,
-        window: BalanceWindow | None | str = "auto",
+        window: BalanceWindow | str | None = "auto",
         gains: Gains | None = None,
         closed: bool = True,
         compensate: float = 0.0,
@@ -79,8 +80,13 @@ class Walker:
         foot = Foot(*robot.foot_size)
         if isinstance(window, str):
             if window != "auto":
-                raise ConfigurationError(f"window must be 'auto', None or a BalanceWindow: {window!r}")
-            window = BalanceWindow.from_robot(robot, stand)
+                raise ConfigurationError(
+                    f"window must be 'auto', None or a BalanceWindow, got {window!r}"
+                )
+            from .envelope import planning_envelope
+
+            measured, window = planning_envelope(robot, params)  # (cached on disk)
+            limits = limits or measured
         if limits is None:
             limits = VelocityLimits.from_robot(robot, params, window, legs, foot)
         self.engine = WalkEngine(StandingState.from_robot(robot, q0), params, limits, foot, legs,

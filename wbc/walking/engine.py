@@ -62,13 +62,15 @@ SegmentKind = Literal["start", "double", "single", "end"]
 @dataclass(frozen=True)
 class EngineParams:
     """Gait of the engine. Defaults: the whole-body walks' (``fast_wb``, ``turn_wb``,
-    ``lateral_wb``): 0.5 s steps with 20 % double support, a 12 mm swing apex, the ZMP 18 mm
-    in from each sole's centre, reached within 15 % of each double support."""
+    ``lateral_wb``): 0.5 s steps with 20 % double support, the ZMP 18 mm in from each sole's
+    centre, reached within 15 % of each double support; a 10 mm swing apex (12 mm: the
+    Bioloid's forward limit is 7.5 cm/s within 0.75 of the servo speed, 10 mm: 8.7 cm/s;
+    benchmarks/drive.md)."""
 
     timing: GaitTiming = field(
         default_factory=lambda: GaitTiming(step_time=0.5, double_support_ratio=0.2)
     )
-    swing: SwingParams = field(default_factory=lambda: SwingParams(apex=0.012))
+    swing: SwingParams = field(default_factory=lambda: SwingParams(apex=0.010))
     zmp_offset: tuple[float, float] = (0.0, 0.018)
     transfer: float = 0.15
     preview: PreviewParams = field(default_factory=PreviewParams)
@@ -86,7 +88,9 @@ class EngineParams:
         if self.timing.double_support_time < self.timing.dt:
             raise ConfigurationError("walk engine: the gait needs a double support of >= 1 tick")
         if not (0.0 < self.transfer <= 1.0):
-            raise ConfigurationError(f"walk engine: transfer must be in (0, 1], got {self.transfer}")
+            raise ConfigurationError(
+                f"walk engine: transfer must be in (0, 1], got {self.transfer}"
+            )
         if int(self.horizon_steps) != self.horizon_steps or self.horizon_steps < 1:
             raise ConfigurationError(
                 f"walk engine: horizon_steps must be a positive integer, got {self.horizon_steps}"
@@ -123,9 +127,7 @@ class VelocityLimits:
         if s <= 1.0:
             return float(vx), float(vy), float(wz)
         if math.isinf(s):  # an axis with no range: drop it, scale the rest
-            vx, vy, wz = (
-                v if m > 0 else 0.0 for v, m in ((vx, vxm), (vy, self.vy), (wz, self.wz))
-            )
+            vx, vy, wz = (v if m > 0 else 0.0 for v, m in ((vx, vxm), (vy, self.vy), (wz, self.wz)))
             return self.clip(vx, vy, wz)
         return float(vx / s), float(vy / s), float(wz / s)
 
@@ -259,7 +261,9 @@ class WalkEngine:
         )
         self.feet: dict[Side, Footstep] = {"left": start.left, "right": start.right}
         self.half_width = 0.5 * float(
-            (rot2(_mean_yaw(start.left.yaw, start.right.yaw)).T @ (start.left.xy - start.right.xy))[1]
+            (rot2(_mean_yaw(start.left.yaw, start.right.yaw)).T @ (start.left.xy - start.right.xy))[
+                1
+            ]
         )
         self._centre = self._mid_frame()
         self.n_ss = max(2, round(timing.single_support_time / self.dt))
@@ -423,7 +427,9 @@ class WalkEngine:
             s = other_side(s)
             c, nxt, _ = self._plan_step(feet, c, s, False, check=False)
             future.append(_Segment("double", self.n_ds, SUPPORT_DOUBLE, nxt, None, feet[side]))
-            future.append(_Segment("single", self.n_ss, _single(s), nxt, feet[s], feet[other_side(s)]))
+            future.append(
+                _Segment("single", self.n_ss, _single(s), nxt, feet[s], feet[other_side(s)])
+            )
             feet[s] = nxt
             side = s
         if last_closing:
@@ -439,12 +445,18 @@ class WalkEngine:
         self.planned.append(step)
         single = segs[1]
         plan = FootstepPlan(
-            *((single.lift, single.stance) if step.side == "left" else (single.stance, single.lift)),
+            *(
+                (single.lift, single.stance)
+                if step.side == "left"
+                else (single.stance, single.lift)
+            ),
             (step,),
         )
         ph = Phase("single", 0, self.n_ss, 0.0, self.n_ss * self.dt, single.support, 0)
         tracks = sole_tracks(plan, [ph], self.dt, self.params.swing)
-        pos, yaw = (tracks.l_pos, tracks.l_yaw) if step.side == "left" else (tracks.r_pos, tracks.r_yaw)
+        pos, yaw = (
+            (tracks.l_pos, tracks.l_yaw) if step.side == "left" else (tracks.r_pos, tracks.r_yaw)
+        )
         self._swing = (pos, yaw)
         self._roles = (_frame(other_side(step.side)), _frame(step.side))
 
@@ -518,7 +530,7 @@ class WalkEngine:
             if self._start_requested:
                 self._start_requested = False
                 self.state = "walking"
-                vx, vy, wz = self._cmd
+                _, vy, wz = self._cmd
                 lead = vy if abs(vy) > 1e-12 else wz
                 self._next_side = "left" if lead > 0 else "right"
                 self._centre = self._mid_frame()
