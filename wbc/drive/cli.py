@@ -128,8 +128,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigurationError("give --sim or --port PORT (the servo bus)")
     if args.imu and args.encoders_only:
         raise ConfigurationError("give either --imu PORT or --encoders-only, not both")
-    commands = load_commands(args.commands) if args.commands is not None else None
     teleop = _teleop(args)
+    commands = load_commands(args.commands) if args.commands is not None else None
     robot = load_robot(args.robot, servo_map=args.servo_map)
     controller = _controller(args.solver, robot)
     config = DeployConfig(
