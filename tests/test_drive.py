@@ -28,7 +28,9 @@ LIMITS = VelocityLimits(0.08, 0.06, 0.03, 0.5)
 
 def test_commands_file(tmp_path) -> None:
     path = tmp_path / "c.toml"
-    path.write_text("[[command]]\nduration = 2\nvx = 0.05\n[[command]]\nduration = 1.5\nwz = -0.2\n")
+    path.write_text(
+        "[[command]]\nduration = 2\nvx = 0.05\n[[command]]\nduration = 1.5\nwz = -0.2\n"
+    )
     cmds = load_commands(path)
     assert cmds == [Command(2.0, 0.05), Command(1.5, 0.0, 0.0, -0.2)]
     script = CommandScript(cmds)
