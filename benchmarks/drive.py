@@ -77,6 +77,16 @@ def errors(r: dict) -> dict:
     }
 
 
+def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
+    """The base's mean velocity between ``t0`` and ``t1`` s (a line fitted to x, y and the
+    heading over time, start frame): the speed the walk keeps once started."""
+    sel = (path[:, 0] >= t0) & (path[:, 0] <= t1)
+    if sel.sum() < 10:
+        return [math.nan] * 3
+    t = path[sel, 0]
+    return [float(np.polyfit(t, path[sel, k], 1)[0]) for k in (1, 2, 3)]
+
+
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None, **kw):
     entry = registry("physics")[solver]
     options = {"compensate": 0.5}
@@ -166,12 +176,15 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             r = run_one(robot, args.solver, cmds, limits=limits, window=window)
             paths[name] = (r.pop("_path"), cmds)
+            if len(cmds) == 1:  # the speed kept from 3 s in to 1 s before the stop
+                r["steady_velocity"] = steady_velocity(paths[name][0], 3.0, cmds[0].duration - 1)
             record["scripted"][name] = r
             rel = r["xy_error_rel"]
             cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
             print(f"{name:10s} fell {r['fell']!s:5s} commanded {np.round(r['commanded_xy_m'], 3)}"
                   f" m {cy:.0f}° travelled {np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°"
-                  f" xy err {'-' if rel is None else f'{100 * rel:.0f} %'} "
+                  f" xy err {'-' if rel is None else f'{100 * rel:.0f} %'} steady "
+                  f"{np.round(r.get('steady_velocity', []), 4)} "
                   f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)",
                   flush=True)  # fmt: skip
     variations = models(robot, args.models, args.seed) if (args.random or args.envelope) else []

@@ -122,6 +122,17 @@ def test_constant_command_moves_the_walking_frame_by_stride(setup) -> None:
     assert (vx, wz) == (0.04, 0.2)  # inside the limits: as commanded
 
 
+def test_turning_through_the_half_turn(setup) -> None:
+    """Headings wrap at ±π: a walk turning on the spot past 180° keeps its full steps (the
+    swing's yaw is interpolated the short way round) and turns as commanded."""
+    e = engine(setup)
+    ref = rollout(e, [(9.0, 0.0, 0.0, 0.5)])
+    assert e.shortened == 0
+    turned = np.unwrap(ref.torso_yaw)[-1] - ref.torso_yaw[0]
+    assert turned == pytest.approx(0.5 * LEGS_ONLY.timing.step_time * e.steps_taken, abs=0.3)
+    assert turned > math.pi + 0.5
+
+
 def test_commands_are_clipped_to_the_limits(setup) -> None:
     e = engine(setup)
     assert e.command(1.0, 0.0, 0.0) == pytest.approx((0.08, 0.0, 0.0))

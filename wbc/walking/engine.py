@@ -363,7 +363,7 @@ class WalkEngine:
             return False
         s = np.linspace(0.0, 1.0, self.params.swing_samples)
         xy = lift.xy[None, :] + s[:, None] * (step.xy - lift.xy)[None, :]
-        yaw = lift.yaw + s * (step.yaw - lift.yaw)
+        yaw = lift.yaw + s * wrap_angle(step.yaw - lift.yaw)  # (the short way round)
         gap = rectangle_gaps(xy, yaw, stance.xy, stance.yaw, self.foot)
         if np.min(gap) < self.params.min_clearance:
             return False
