@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.exceptions import ConfigurationError
-from wbc.geometry import polygon_distance
+from wbc.geometry import polygon_distance, wrap_angle
 from wbc.walking import Foot, FootstepPlan, GaitTiming, LegGeometry, StandingState, SwingParams
 from wbc.walking.checks import check_reference
 from wbc.walking.engine import (
@@ -99,27 +99,31 @@ def test_a_new_command_takes_effect_within_one_step(setup) -> None:
     assert 0.5 * (left.y + right.y) > 0.005
 
 
-def test_constant_command_moves_the_walking_frame_by_stride(setup) -> None:
-    """In steady walking each step moves the walking frame by the command × step time."""
+def test_the_walking_frame_follows_the_commanded_pose(setup) -> None:
+    """Each step moves the walking frame to where the command (integrated since the start)
+    puts the body at the step's landing: in steady walking on an arc, by the arc's chord
+    per step; the start's latency is made up (the frame ends where the command puts it)."""
     e = engine(setup)
-    vx, _, wz = e.command(0.04, 0.0, 0.2)
+    vx, _, wz = e.command(0.03, 0.0, 0.15)
+    assert (vx, wz) == (0.03, 0.15)  # inside the limits (room to make up the start's lag)
     e.start()
-    frames = []
+    frames, lags = [], []
     steps = 0
-    while steps < 8:
+    while steps < 30:
         e.tick()
-        if e.steps_taken != steps:
+        if e.steps_taken != steps:  # a landing: the frame against the commanded pose now
             steps = e.steps_taken
             frames.append(e._centre.copy())
+            lags.append(float(np.linalg.norm(e._centre[:2] - e._pose_cmd[:2])))
     T = LEGS_ONLY.timing.step_time
-    for a, b in itertools.pairwise(frames[2:]):
-        d = np.array([[math.cos(a[2]), math.sin(a[2])], [-math.sin(a[2]), math.cos(a[2])]]) @ (
-            b[:2] - a[:2]
-        )
-        assert d[0] == pytest.approx(vx * T, abs=1e-9)
-        assert d[1] == pytest.approx(0.0, abs=1e-9)
-        assert b[2] - a[2] == pytest.approx(wz * T, abs=1e-9)
-    assert (vx, wz) == (0.04, 0.2)  # inside the limits: as commanded
+    chord = np.array([math.sin(wz * T), 1.0 - math.cos(wz * T)]) * vx / wz
+    for a, b in itertools.pairwise(frames[20:]):
+        R = np.array([[math.cos(a[2]), math.sin(a[2])], [-math.sin(a[2]), math.cos(a[2])]])
+        assert np.allclose(R @ (b[:2] - a[:2]), chord, atol=1e-6)
+        assert wrap_angle(b[2] - a[2]) == pytest.approx(wz * T, abs=1e-6)
+    # the start's lag (the 0.8 s start phase) made up: at a landing the frame is where the
+    # command has put the body by then (to a tick's motion)
+    assert lags[0] > 0.01 and max(lags[20:]) < 2 * vx * e.dt
 
 
 def test_turning_through_the_half_turn(setup) -> None:

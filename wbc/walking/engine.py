@@ -5,8 +5,11 @@ plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
 
 * **footsteps, online** — at the start of every double support (and at :meth:`start`) the
   step about to be taken is planned from the *current* command, so a new command takes
-  effect at the next lift-off (within one step). A walking frame advances by the command
-  times the step time, ``(vx T, vy T, ωz T)`` in its own axes, and the swinging sole lands
+  effect at the next lift-off (within one step). A walking frame moves to where the
+  commanded pose (the command integrated since :meth:`start`) will be when the step lands
+  — in steady walking by the command times the step time, ``(vx T, vy T, ωz T)`` in its own
+  axes; after a start or a change, the displacement the step latency lost is made up
+  within the velocity limits — and the swinging sole lands
   beside it as :func:`wbc.walking.footsteps.plan_footsteps` places its soles (the leading
   sole opens sideways, the trailing one closes; the soles head with the frame). Each
   planned step is checked by :meth:`FootstepPlan.validate` (no crossing, the feet's
@@ -282,6 +285,8 @@ class WalkEngine:
         self.k = 0  # ticks done
         self.state: State = "standing"
         self._cmd = (0.0, 0.0, 0.0)
+        #: the commanded pose (x, y, heading; world): the command integrated while walking
+        self._pose_cmd = self._centre.copy()
         self._start_requested = False
         self._stop_requested = False
         self._segments: list[_Segment] = []
@@ -380,16 +385,19 @@ class WalkEngine:
         side: Side,
         closing: bool,
         check: bool = True,
+        stride: np.ndarray | None = None,
     ) -> tuple[np.ndarray, Footstep, bool]:
-        """The next step of ``side`` from the command (shortened until it passes the
-        checks; ``check=False``: as commanded, a prediction for the ZMP path only); returns
-        (new walking frame, step, shortened)."""
+        """The next step of ``side`` (``stride``: the walking frame's move, default the
+        command × the step time), shortened until it passes the checks (``check=False``: as
+        asked, a prediction for the ZMP path only); returns (new walking frame, step,
+        shortened)."""
         stance = feet[other_side(side)]
         if closing:
             step = self._closing(side, stance)
             mid = 0.5 * (step.xy + stance.xy)
             return np.array([mid[0], mid[1], stance.yaw]), step, False
-        stride = np.asarray(self._cmd) * self.params.timing.step_time
+        if stride is None:
+            stride = np.asarray(self._cmd) * self.params.timing.step_time
         for k in range(6):
             scale = 0.5**k if k < 5 else 0.0
             new_centre, step = self._landing(centre, side, stride * scale)
@@ -400,16 +408,31 @@ class WalkEngine:
         mid = 0.5 * (step.xy + stance.xy)
         return np.array([mid[0], mid[1], stance.yaw]), step, True
 
+    def _tracking_stride(self, ahead: float) -> np.ndarray:
+        """The walking frame's move for the step landing ``ahead`` s from now: to where the
+        commanded pose (the command integrated since :meth:`start`) will be then, in the
+        frame's axes, within the velocity limits × the step time. In steady walking this is
+        the command × the step time; after a start or a command change it recovers what the
+        step latency lost, so the walk covers the commanded displacement."""
+        T = self.params.timing.step_time
+        target = _advance_pose(self._pose_cmd, self._cmd, ahead)
+        c = self._centre
+        d = rot2(c[2]).T @ (target[:2] - c[:2])
+        v = (float(d[0]) / T, float(d[1]) / T, float(wrap_angle(target[2] - c[2])) / T)
+        return np.asarray(self.limits.clip(*v)) * T
+
     def _replan(self, first: SegmentKind) -> None:
         """At the start of a double support (or the start phase): commit the next step from
         the command and re-plan the ZMP over the horizon."""
         p = self.params
         side = self._next_side
         closing = self._stop_requested
-        centre, step, short = self._plan_step(self.feet, self._centre, side, closing)
+        n_first = self.n_start if first == "start" else self.n_ds
+        stride = self._tracking_stride((n_first + self.n_ss) * self.dt)
+        centre, step, short = self._plan_step(self.feet, self._centre, side, closing,
+                                              stride=stride)  # fmt: skip
         self.shortened += int(short)
         stance = self.feet[other_side(side)]
-        n_first = self.n_start if first == "start" else self.n_ds
         segs = [
             _Segment(first, n_first, SUPPORT_DOUBLE, step, None, stance),
             _Segment("single", self.n_ss, _single(side), step, self.feet[side], stance),
@@ -534,6 +557,7 @@ class WalkEngine:
                 lead = vy if abs(vy) > 1e-12 else wz
                 self._next_side = "left" if lead > 0 else "right"
                 self._centre = self._mid_frame()
+                self._pose_cmd = self._centre.copy()
                 self._replan("start")
                 return True
             return False
@@ -561,6 +585,8 @@ class WalkEngine:
     def tick(self) -> EngineTick:
         """The targets of the next tick (the engine advances by one ``dt``)."""
         new = self._advance_segment()
+        if self.state == "walking":
+            self._pose_cmd = _advance_pose(self._pose_cmd, self._cmd, self.dt)
         k = self.k
         dt = self.dt
         left, right = self.feet["left"], self.feet["right"]
@@ -700,6 +726,21 @@ def _point_segments(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     t = np.clip(np.einsum("npei,nei->npe", rel, d) / dd[:, None, :], 0.0, 1.0)
     diff = rel - t[..., None] * d[:, None, :, :]
     return np.sqrt(np.min(np.einsum("npei,npei->npe", diff, diff), axis=(1, 2)))
+
+
+def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -> np.ndarray:
+    """``pose`` (x, y, heading) moved for ``t`` s at ``cmd`` (body-frame velocities; the arc
+    in closed form)."""
+    vx, vy, wz = cmd
+    th = float(pose[2])
+    if abs(wz) < 1e-9:
+        ix, iy = math.cos(th) * t, math.sin(th) * t
+    else:
+        ix = (math.sin(th + wz * t) - math.sin(th)) / wz
+        iy = (math.cos(th) - math.cos(th + wz * t)) / wz
+    return np.array(
+        [pose[0] + ix * vx - iy * vy, pose[1] + iy * vx + ix * vy, wrap_angle(th + wz * t)]
+    )
 
 
 def _single(side: Side) -> int:
