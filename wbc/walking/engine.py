@@ -83,6 +83,10 @@ class EngineParams:
     start_hold: float = 0.2
     #: points along each planned swing (ends included) where the feet's clearance is checked
     swing_samples: int = 7
+    #: the largest make-up of the commanded pose's lag per step, as a share of the velocity
+    #: limits (diamond norm) on top of the command: a start or a change is caught up gently
+    #: (at the limits a randomised Bioloid falls sideways, benchmarks/drive.md)
+    catch_up: float = 0.25
 
     def check(self) -> EngineParams:
         self.timing.validate()
@@ -98,6 +102,8 @@ class EngineParams:
             raise ConfigurationError(
                 f"walk engine: horizon_steps must be a positive integer, got {self.horizon_steps}"
             )
+        if not (math.isfinite(self.catch_up) and self.catch_up >= 0):
+            raise ConfigurationError(f"walk engine: catch_up must be >= 0, got {self.catch_up}")
         if not all(math.isfinite(v) for v in self.zmp_offset):
             raise ConfigurationError(f"walk engine: zmp_offset must be finite, {self.zmp_offset}")
         return self
@@ -418,8 +424,21 @@ class WalkEngine:
         target = _advance_pose(self._pose_cmd, self._cmd, ahead)
         c = self._centre
         d = rot2(c[2]).T @ (target[:2] - c[:2])
-        v = (float(d[0]) / T, float(d[1]) / T, float(wrap_angle(target[2] - c[2])) / T)
-        return np.asarray(self.limits.clip(*v)) * T
+        v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
+        cmd = np.asarray(self._cmd)
+        extra = v - cmd  # the make-up, at most catch_up × the limits (diamond norm)
+        lim = self.limits
+        norm = sum(
+            abs(e) / m if m > 0 else 0.0
+            for e, m in zip(
+                extra,
+                (lim.vx_forward if extra[0] >= 0 else lim.vx_backward, lim.vy, lim.wz),
+                strict=True,
+            )
+        )
+        if norm > self.params.catch_up:
+            extra *= self.params.catch_up / norm
+        return np.asarray(lim.clip(*(cmd + extra))) * T
 
     def _replan(self, first: SegmentKind) -> None:
         """At the start of a double support (or the start phase): commit the next step from
