@@ -20,7 +20,7 @@ from ..walking.engine import EngineParams, VelocityLimits
 from ..walking.window import BalanceWindow
 
 #: bump when the measurement itself changes
-VERSION = 1
+VERSION = 2
 
 
 def _key(robot: Any, params: EngineParams) -> str:
@@ -33,9 +33,10 @@ def _key(robot: Any, params: EngineParams) -> str:
 
 def planning_envelope(
     robot: Any, params: EngineParams | None = None, refresh: bool = False
-) -> tuple[VelocityLimits, BalanceWindow]:
+) -> tuple[VelocityLimits, BalanceWindow | None]:
     """``(limits, window)`` for ``robot`` walking with ``params`` (measured, or read back
-    from the cache; ``refresh``: measure again)."""
+    from the cache; ``refresh``: measure again); ``window`` None unless
+    ``params.whole_body``."""
     from ..compiled.dispatch import cache_dir
 
     params = (params or EngineParams()).check()
@@ -47,10 +48,11 @@ def planning_envelope(
         except (ValueError, KeyError, TypeError):
             pass  # a damaged file: measure again
     stand = robot.configuration("stand")
-    window = BalanceWindow.from_robot(robot, stand)
+    window = BalanceWindow.from_robot(robot, stand) if params.whole_body else None
     limits = VelocityLimits.from_robot(robot, params, window)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"limits": limits.as_dict(), "window": window.as_dict()}))
+    table = window.as_dict() if window is not None else None
+    tmp.write_text(json.dumps({"limits": limits.as_dict(), "window": table}))
     tmp.replace(path)
     return limits, window

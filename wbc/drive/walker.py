@@ -48,9 +48,10 @@ class Walker:
 
     ``controller``: any walking controller; ``imu``: the torso IMU (None: the estimate from
     the encoders alone); ``closed=False``: the open loop (the targets as planned).
-    ``limits`` default to :meth:`VelocityLimits.from_robot` (measured on the model);
-    ``window`` (default: measured, :meth:`BalanceWindow.from_robot`) lets the torso lean
-    over the stance foot as the whole-body walks do; ``window=None``: upright. Both defaults
+    ``params``: the gait (:class:`EngineParams`). ``limits`` default to
+    :meth:`VelocityLimits.from_robot` (measured on the model); ``window="auto"``: the
+    whole-body balance window measured (:meth:`BalanceWindow.from_robot`) for a whole-body
+    gait, None for the upright one; or give one. Both defaults
     are measured once per robot and gait and cached (:func:`wbc.drive.envelope.planning_envelope`).
     ``compensate`` > 0: the servo compliance feed-forward × gain in :meth:`deployment`.
     """

@@ -65,10 +65,13 @@ SegmentKind = Literal["start", "double", "single", "end"]
 @dataclass(frozen=True)
 class EngineParams:
     """Gait of the engine. Defaults: the whole-body walks' (``fast_wb``, ``turn_wb``,
-    ``lateral_wb``): 0.5 s steps with 20 % double support, the ZMP 18 mm in from each sole's
-    centre, reached within 15 % of each double support; a 10 mm swing apex (12 mm: the
-    Bioloid's forward limit is 7.5 cm/s within 0.75 of the servo speed, 10 mm: 8.7 cm/s;
-    benchmarks/drive.md)."""
+    ``lateral_wb``): 0.5 s steps with 20 % double support, the torso leaning over the stance
+    sole (``whole_body``: a :class:`~wbc.drive.walker.Walker` measures the balance window),
+    the ZMP 18 mm in from each sole's centre, reached within 15 % of each double support; a
+    10 mm swing apex (12 mm: the Bioloid's forward limit is 7.5 cm/s within 0.75 of the
+    servo speed, 10 mm: 8.7 cm/s). The legs-only walks' gait (``walk10``: 0.4 s steps, the
+    torso upright, the ZMP 28.5 mm in, ``whole_body=False``) asks the swing knee for more than
+    that speed rule allows at any stride (its planning limits are 0; benchmarks/drive.md)."""
 
     timing: GaitTiming = field(
         default_factory=lambda: GaitTiming(step_time=0.5, double_support_ratio=0.2)
@@ -76,6 +79,8 @@ class EngineParams:
     swing: SwingParams = field(default_factory=lambda: SwingParams(apex=0.010))
     zmp_offset: tuple[float, float] = (0.0, 0.018)
     transfer: float = 0.15
+    #: lean the torso over the stance sole (the whole-body balance window)
+    whole_body: bool = True
     preview: PreviewParams = field(default_factory=PreviewParams)
     horizon_steps: int = 4
     min_clearance: float = 0.005
@@ -169,7 +174,7 @@ class VelocityLimits:
         start = StandingState.from_robot(robot, stand)
         legs = legs or LegGeometry.from_robot(robot, stand)
         foot = foot or Foot(*robot.foot_size)
-        margin = 0.010 if window is not None else 0.001
+        margin = 0.010 if window is not None else 0.001  # (the walks' ZMP margins)
 
         def ok(stride: tuple[float, float, float]) -> bool:
             try:
