@@ -3,6 +3,7 @@ footstep validation, commands take effect within a step, the velocity limits hol
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -172,10 +173,8 @@ def test_rectangle_gaps_equal_polygon_distance(x, y, yaw, ox, oy, oyaw) -> None:
        st.sampled_from(["left", "right"]))  # fmt: skip
 def test_the_engines_step_check_agrees_with_validate(dx, dy, dyaw, side) -> None:
     """The engine's fast step check says what FootstepPlan.validate says (with the same
-    swing samples), away from the boundary."""
-    robot = load_robot("bioloid")
-    start = StandingState.from_robot(robot, robot.configuration("stand"))
-    foot, legs = Foot(*robot.foot_size), LegGeometry.from_robot(robot)
+    swing samples)."""
+    start, foot, legs = _bioloid()
     e = WalkEngine(start, LEGS_ONLY, LIMITS, foot, legs)
     stance = e.feet["right" if side == "left" else "left"]
     sign = 1.0 if side == "left" else -1.0
@@ -188,6 +187,13 @@ def test_the_engines_step_check_agrees_with_validate(dx, dy, dyaw, side) -> None
     except Exception:
         ok = False
     assert e._valid(dict(e.feet), step) == ok
+
+
+@functools.cache
+def _bioloid() -> tuple[StandingState, Foot, LegGeometry]:
+    robot = load_robot("bioloid")
+    start = StandingState.from_robot(robot, robot.configuration("stand"))
+    return start, Foot(*robot.foot_size), LegGeometry.from_robot(robot)
 
 
 def test_stop_from_standing_and_bad_params(setup) -> None:
