@@ -42,6 +42,13 @@ from ..walking.loop import Controller, TickTargets, heading_free
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
 
+#: the feedback gains of driven walks: the closed loop's defaults without the hip strategy
+#: (``k_hip``: the torso rolled toward a DCM outward of the stance sole, for pushes). Walking
+#: sideways the DCM runs outward by design: with it a randomised Bioloid fell at 3 cm/s
+#: sideways (models 0 and 1 of benchmarks/drive.md at 3.1–3.8 s), without it both walked the
+#: commanded 15 cm
+DRIVE_GAINS = Gains(k_hip=0.0)
+
 
 class Walker:
     """Velocity-commanded walking on a robot (module docstring).
@@ -54,6 +61,7 @@ class Walker:
     gait, None for the upright one; or give one. Both defaults
     are measured once per robot and gait and cached (:func:`wbc.drive.envelope.planning_envelope`).
     ``compensate`` > 0: the servo compliance feed-forward × gain in :meth:`deployment`.
+    ``gains``: the feedback (default :data:`DRIVE_GAINS`).
     """
 
     def __init__(
@@ -101,7 +109,7 @@ class Walker:
         #: :meth:`deployment` (or by a caller's own loop)
         self.present: Callable[[], np.ndarray | None] = lambda: None
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
-                                     gains, closed)  # fmt: skip
+                                     gains or DRIVE_GAINS, closed)  # fmt: skip
         self.last: EngineTick | None = None
         self._previous: tuple[str, str, str] | None = None
         self._t = 0.0  # engine time of the last solve
