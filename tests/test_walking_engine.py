@@ -127,6 +127,35 @@ def test_the_walking_frame_follows_the_commanded_pose(setup) -> None:
     assert lags[0] > 0.01 and max(lags[20:]) < 2 * vx * e.dt
 
 
+def test_measured_landings_are_made_up(setup) -> None:
+    """Leg odometry: every step lands 30 % short of its plan (as told by ``on_landing``);
+    the walk goes on from where the soles are (the targets hold them there) and the next
+    steps still land where the command puts the body: no lag builds up."""
+    e = engine(setup)
+    told: dict[str, Footstep] = {}
+
+    def short(step: Footstep) -> Footstep:
+        other = e.feet["right" if step.side == "left" else "left"]
+        sign = 1.0 if step.side == "left" else -1.0
+        nominal = other.xy + np.array([0.0, sign * 2 * e.half_width])  # (heading 0 here)
+        xy = nominal + 0.7 * (step.xy - nominal)
+        told[step.side] = Footstep(step.side, float(xy[0]), float(xy[1]), step.yaw)
+        return told[step.side]
+
+    e.on_landing = short
+    vx, _, _ = e.command(0.03, 0.0, 0.0)
+    e.start()
+    for _ in range(round(8.0 / e.dt)):
+        e.tick()
+    assert len(e.landing_errors) >= 15 and max(e.landing_errors) > 0.005
+    for side, foot in told.items():  # the soles are where they landed, not where planned
+        assert e.feet[side] == foot
+    feet = 0.5 * (e.feet["left"].x + e.feet["right"].x)  # where the soles really are
+    commanded = e._pose_cmd[0]
+    assert commanded - feet < vx * LEGS_ONLY.timing.step_time * 2.5  # no growing lag
+    assert feet > 0.7 * commanded + 0.03  # (not made up: the soles at 0.7 of the way)
+
+
 def test_turning_through_the_half_turn(setup) -> None:
     """Headings wrap at ±π: a walk turning on the spot past 180° keeps its full steps (the
     swing's yaw is interpolated the short way round) and turns as commanded."""

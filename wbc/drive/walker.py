@@ -36,6 +36,7 @@ from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..servos.playback import DeployConfig, Deployment
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
+from ..walking.footsteps import Footstep
 from ..walking.geometry import Foot
 from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets, heading_free
@@ -110,6 +111,7 @@ class Walker:
         self.present: Callable[[], np.ndarray | None] = lambda: None
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
                                      gains or DRIVE_GAINS, closed)  # fmt: skip
+        self.engine.on_landing = self._landed if closed else None
         self.last: EngineTick | None = None
         self._previous: tuple[str, str, str] | None = None
         self._t = 0.0  # engine time of the last solve
@@ -148,6 +150,23 @@ class Walker:
     @property
     def walking(self) -> bool:
         return self.engine.walking
+
+    def _landed(self, step: Footstep) -> Footstep | None:
+        """Leg odometry at a landing: the swing sole's placement relative to the stance sole
+        from the servos' present positions (forward kinematics; flat: x, y, heading), put
+        beside the stance sole where the walk has it. None if a position is unread."""
+        present = self.present()
+        if present is None or not np.all(np.isfinite(present)):
+            return None
+        feet = self.engine.feet
+        stance = feet["right" if step.side == "left" else "left"]
+        q = self.robot.with_joints(np.asarray(present, dtype=float))
+        M_st = self.robot.frame_placement(q, _SOLE[stance.side])
+        M_sw = self.robot.frame_placement(q, _SOLE[step.side])
+        rel = M_st.actInv(M_sw)
+        dyaw = math.atan2(rel.rotation[1, 0], rel.rotation[0, 0])
+        xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
+        return Footstep(step.side, float(xy[0]), float(xy[1]), stance.yaw + dyaw, step.z)
 
     # ------------------------------------------------------------------ ticks
     def targets(self, e: EngineTick) -> TickTargets:
@@ -231,6 +250,9 @@ class Walker:
         dep = Deployment(bus, source, self.robot, config, out=out)
         holder.append(dep)
         return dep
+
+
+_SOLE = {"left": "l_sole", "right": "r_sole"}
 
 
 def _rz(yaw: float) -> np.ndarray:

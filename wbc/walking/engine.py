@@ -39,6 +39,7 @@ back between the feet; a command of zero walks on the spot. The velocity limits
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -57,6 +58,8 @@ from .spline import min_jerk
 from .window import BalanceWindow
 
 State = Literal["standing", "walking", "stopping"]
+#: m and rad: a measured landing further than this from the planned one is not believed
+MAX_LANDING_ERROR = 0.03
 #: rad: the largest heading difference of the two soles (:meth:`FootstepPlan.validate`'s)
 MAX_RELATIVE_YAW = 0.6
 SegmentKind = Literal["start", "double", "single", "end"]
@@ -308,6 +311,12 @@ class WalkEngine:
         self.steps_taken = 0
         self.shortened = 0  # planned steps shortened to pass the checks
         self.planned: list[Footstep] = []  # every committed step, in order
+        #: leg odometry: called with each planned landing when the swing sole lands, returns
+        #: where it landed (measured, e.g. from the encoders; None: as planned). The walk goes
+        #: on from there (the targets hold the sole where it is; the next steps still aim at
+        #: the commanded pose)
+        self.on_landing: Callable[[Footstep], Footstep | None] | None = None
+        self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
 
     # ------------------------------------------------------------------ commands
     @property
@@ -507,6 +516,18 @@ class WalkEngine:
         self._swing = (pos, yaw)
         self._roles = (_frame(other_side(step.side)), _frame(step.side))
 
+    def _measured(self, step: Footstep, landed: Footstep | None) -> Footstep:
+        """The landing to go on from: ``landed`` (at most ``MAX_LANDING_ERROR`` m and rad
+        from ``step``, else ``step``; its height and the planned side kept)."""
+        if landed is None:
+            return step
+        err = float(np.hypot(landed.x - step.x, landed.y - step.y))
+        dyaw = abs(wrap_angle(landed.yaw - step.yaw))
+        if not (err <= MAX_LANDING_ERROR and dyaw <= MAX_LANDING_ERROR):
+            return step
+        self.landing_errors.append(err)
+        return Footstep(step.side, landed.x, landed.y, float(landed.yaw), step.z)
+
     def _anchor(self, step: Footstep) -> np.ndarray:
         ox, oy = self.params.zmp_offset
         sign = -1.0 if step.side == "left" else 1.0
@@ -592,6 +613,12 @@ class WalkEngine:
         self._seg_i = 0
         if seg.kind == "single":  # the swing sole has landed
             step, centre = self._pending
+            if self.on_landing is not None:  # where it really landed (leg odometry)
+                landed = self._measured(step, self.on_landing(step))
+                d = landed.xy - step.xy
+                centre = np.array([centre[0] + d[0], centre[1] + d[1],
+                                   wrap_angle(centre[2] + landed.yaw - step.yaw)])  # fmt: skip
+                step = landed
             self.feet[step.side] = step
             self._centre = centre
             self.steps_taken += 1
