@@ -311,10 +311,10 @@ class WalkEngine:
         self.steps_taken = 0
         self.shortened = 0  # planned steps shortened to pass the checks
         self.planned: list[Footstep] = []  # every committed step, in order
-        #: leg odometry: called with each planned landing when the swing sole lands, returns
-        #: where it landed (measured, e.g. from the encoders; None: as planned). The walk goes
-        #: on from there (the targets hold the sole where it is; the next steps still aim at
-        #: the commanded pose)
+        #: leg odometry: called with each landed sole at the end of the double support that
+        #: follows its landing (the last tick before the other sole lifts), returns where it
+        #: is (measured, e.g. from the encoders; None: as planned). The single support holds
+        #: it there; the next steps still aim at the commanded pose
         self.on_landing: Callable[[Footstep], Footstep | None] | None = None
         self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
 
@@ -613,12 +613,6 @@ class WalkEngine:
         self._seg_i = 0
         if seg.kind == "single":  # the swing sole has landed
             step, centre = self._pending
-            if self.on_landing is not None:  # where it really landed (leg odometry)
-                landed = self._measured(step, self.on_landing(step))
-                d = landed.xy - step.xy
-                centre = np.array([centre[0] + d[0], centre[1] + d[1],
-                                   wrap_angle(centre[2] + landed.yaw - step.yaw)])  # fmt: skip
-                step = landed
             self.feet[step.side] = step
             self._centre = centre
             self.steps_taken += 1
@@ -636,6 +630,13 @@ class WalkEngine:
     def tick(self) -> EngineTick:
         """The targets of the next tick (the engine advances by one ``dt``)."""
         new = self._advance_segment()
+        if self.on_landing is not None and self._segments:
+            seg = self._segments[0]
+            if seg.kind == "double" and self._seg_i == seg.n - 1 and len(self._segments) > 1:
+                # the last tick before the lift-off: where the landed sole really is
+                side = seg.stance.side
+                measured = self._measured(seg.stance, self.on_landing(seg.stance))
+                self.feet[side] = seg.stance = self._segments[1].stance = measured
         if self.state == "walking":
             self._pose_cmd = _advance_pose(self._pose_cmd, self._cmd, self.dt)
         k = self.k
