@@ -277,6 +277,9 @@ class WalkEngine:
             self.foot, self.legs, self.height, self.params.min_clearance
         )
         self.feet: dict[Side, Footstep] = {"left": start.left, "right": start.right}
+        #: where the soles in contact are held: the planned placements, or the measured ones
+        #: (:attr:`on_landing`); the steps are planned (and checked) on :attr:`feet`
+        self.contact: dict[Side, Footstep] = dict(self.feet)
         self.half_width = 0.5 * float(
             (rot2(_mean_yaw(start.left.yaw, start.right.yaw)).T @ (start.left.xy - start.right.xy))[
                 1
@@ -313,8 +316,10 @@ class WalkEngine:
         self.planned: list[Footstep] = []  # every committed step, in order
         #: leg odometry: called with each landed sole at the end of the double support that
         #: follows its landing (the last tick before the other sole lifts), returns where it
-        #: is (measured, e.g. from the encoders; None: as planned). The single support holds
-        #: it there; the next steps still aim at the commanded pose
+        #: is (measured, e.g. from the encoders; None: as planned). The targets hold it there
+        #: (:attr:`contact`) until it lifts; the steps are planned on the planned soles (with
+        #: the measured ones, turning on the spot failed every step's clearance check at the
+        #: limits and ran at half the commanded rate)
         self.on_landing: Callable[[Footstep], Footstep | None] | None = None
         self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
 
@@ -517,8 +522,9 @@ class WalkEngine:
         self._roles = (_frame(other_side(step.side)), _frame(step.side))
 
     def _measured(self, step: Footstep, landed: Footstep | None) -> Footstep:
-        """The landing to go on from: ``landed`` (at most ``MAX_LANDING_ERROR`` m and rad
-        from ``step``, else ``step``; its height and the planned side kept)."""
+        """Where the landed sole is held: ``landed``'s position (at most
+        ``MAX_LANDING_ERROR`` m and rad from ``step``, else ``step``); the planned heading,
+        height and side kept."""
         if landed is None:
             return step
         err = float(np.hypot(landed.x - step.x, landed.y - step.y))
@@ -526,7 +532,7 @@ class WalkEngine:
         if not (err <= MAX_LANDING_ERROR and dyaw <= MAX_LANDING_ERROR):
             return step
         self.landing_errors.append(err)
-        return Footstep(step.side, landed.x, landed.y, float(landed.yaw), step.z)
+        return Footstep(step.side, landed.x, landed.y, step.yaw, step.z)
 
     def _anchor(self, step: Footstep) -> np.ndarray:
         ox, oy = self.params.zmp_offset
@@ -613,7 +619,7 @@ class WalkEngine:
         self._seg_i = 0
         if seg.kind == "single":  # the swing sole has landed
             step, centre = self._pending
-            self.feet[step.side] = step
+            self.feet[step.side] = self.contact[step.side] = step
             self._centre = centre
             self.steps_taken += 1
             self._next_side = other_side(step.side)
@@ -635,13 +641,12 @@ class WalkEngine:
             if seg.kind == "double" and self._seg_i == seg.n - 1 and len(self._segments) > 1:
                 # the last tick before the lift-off: where the landed sole really is
                 side = seg.stance.side
-                measured = self._measured(seg.stance, self.on_landing(seg.stance))
-                self.feet[side] = seg.stance = self._segments[1].stance = measured
+                self.contact[side] = self._measured(seg.stance, self.on_landing(seg.stance))
         if self.state == "walking":
             self._pose_cmd = _advance_pose(self._pose_cmd, self._cmd, self.dt)
         k = self.k
         dt = self.dt
-        left, right = self.feet["left"], self.feet["right"]
+        left, right = self.contact["left"], self.contact["right"]
         l_pos, l_yaw, r_pos, r_yaw = left.position, left.yaw, right.position, right.yaw
         support = SUPPORT_DOUBLE
         if self.state != "standing" and self._segments:
