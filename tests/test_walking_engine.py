@@ -21,9 +21,9 @@ from wbc.walking.engine import (
     EngineParams,
     VelocityLimits,
     WalkEngine,
-    rectangle_gaps,
     rollout,
 )
+from wbc.walking.footgaps import rectangle_gaps
 from wbc.walking.footsteps import Footstep
 
 #: the legs-only gait (upright torso; walk10's timing and ZMP path): no balance window to
