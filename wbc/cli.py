@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("wbc.bench.cli", "compare solver families on the same trajectories"),
     "walk": ("wbc.walking.cli", "run a task stack along a walking reference and record it"),
     "deploy": ("wbc.servos.deploy", "play a trajectory on AX-12A servos (or a dry run)"),
+    "drive": ("wbc.drive.cli", "walk from velocity commands: keyboard, gamepad or a file"),
     "view": ("wbc.viewer.cli", "show the robot or a recording in meshcat"),
     "sim": ("wbc.sim.cli", "play a plan on the MuJoCo-simulated robot: does it stay up?"),
     "robot": ("wbc.robot_folder", "scaffold (init) or check a robot folder from a URDF"),

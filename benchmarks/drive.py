@@ -1,0 +1,271 @@
+"""Driving benchmark: velocity-commanded walks on the simulated robot, closed loop.
+
+Four parts (each optional):
+
+* ``--scripted``: straight, sideways, turning, backward and mixed command scripts at the
+  planning limits on the nominal model: fell, the travelled displacement and heading against
+  the commanded, the walk tick's cost (engine + feedback + solve);
+* ``--random N``: N random command sequences (a new command every 2–5 s anywhere inside
+  the velocity envelope, ``--duration`` s each) on ``--models M`` randomised models
+  (:func:`wbc.bench.physics.random_model`, seeded): falls, the displacement error
+  ``|travelled − commanded| / |commanded|`` and the heading error likewise;
+* ``--envelope``: per axis, the command speeds ``--speeds`` × the planning limit walked
+  for ``--hold`` s on ``--models`` randomised models: the fastest that stays up on all;
+* ``--tick``: the walk tick's cost alone (no physics), engine alone and engine + feedback +
+  solve, per controller.
+
+    nice -n 5 python benchmarks/drive.py --scripted --tick --json results/drive.json
+    nice -n 5 python benchmarks/drive.py --random 20 --models 20 --duration 30   # the target
+    nice -n 5 python benchmarks/drive.py --envelope --models 20
+
+Figures and the exact commands they came from: benchmarks/drive.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")  # time the compiled ticks, not the interim
+
+from wbc import load_robot
+from wbc.bench.physics import models
+from wbc.bench.solvers import registry
+from wbc.drive.commands import Command, random_commands
+from wbc.drive.envelope import planning_envelope
+from wbc.drive.sim import drive_sim
+
+
+def scripts(lim) -> dict[str, list[Command]]:
+    """The scripted sequences at the planning limits."""
+    return {
+        "forward": [Command(10.0, lim.vx_forward)],
+        "backward": [Command(10.0, -lim.vx_backward)],
+        "left": [Command(10.0, 0.0, lim.vy)],
+        "right": [Command(10.0, 0.0, -lim.vy)],
+        "turn_left": [Command(10.0, 0.0, 0.0, lim.wz)],
+        "turn_right": [Command(10.0, 0.0, 0.0, -lim.wz)],
+        "mixed": [
+            Command(3.0, 0.7 * lim.vx_forward),
+            Command(3.0, 0.0, 0.7 * lim.vy),
+            Command(3.0, 0.3 * lim.vx_forward, 0.0, 0.6 * lim.wz),
+            Command(2.0),
+            Command(3.0, -0.6 * lim.vx_backward, -0.3 * lim.vy),
+        ],
+    }
+
+
+def errors(r: dict) -> dict:
+    """Displacement and heading errors of a run (relative where the command is not tiny)."""
+    c, t = np.asarray(r["commanded_xy_m"]), np.asarray(r["travelled_xy_m"])
+    dxy = float(np.linalg.norm(t - c))
+    nc = float(np.linalg.norm(c))
+    dyaw = abs(r["travelled_yaw_rad"] - r["commanded_yaw_rad"])
+    cy = abs(r["commanded_yaw_rad"])
+    return {
+        "xy_error_m": dxy,
+        "xy_error_rel": dxy / nc if nc > 0.05 else None,
+        "yaw_error_rad": dyaw,
+        "yaw_error_rel": dyaw / cy if cy > 0.3 else None,
+    }
+
+
+def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
+    """The base's mean velocity between ``t0`` and ``t1`` s (a line fitted to x, y and the
+    heading over time, start frame): the speed the walk keeps once started."""
+    sel = (path[:, 0] >= t0) & (path[:, 0] <= t1)
+    if sel.sum() < 10:
+        return [math.nan] * 3
+    t = path[sel, 0]
+    return [float(np.polyfit(t, path[sel, k], 1)[0]) for k in (1, 2, 3)]
+
+
+def run_one(robot, solver: str, commands, variation=None, limits=None, window=None, **kw):
+    entry = registry("physics")[solver]
+    options = {"compensate": 0.5}
+    if limits is not None:
+        options.update(limits=limits, window=window)
+    r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
+    r.update(errors(r))
+    return r
+
+
+def tick_cost(robot, solvers: list[str], seconds: float = 6.0) -> dict:
+    """The walk tick without physics: engine alone, and engine + estimator/feedback (on
+    the commanded joints as the present ones, no IMU) + solve, per controller; µs."""
+    from wbc.drive.walker import Walker
+
+    out = {}
+    for solver in solvers:
+        walker = Walker(robot, registry("physics")[solver].make(robot), None)
+        walker.present = lambda w=walker: w.q[7:]
+        walker.command(0.6 * walker.limits.vx_forward, 0.0, 0.4 * walker.limits.wz)
+        walker.start()
+        for _ in range(50):  # warm up
+            walker.tick()
+        walker.tick_time.clear()
+        n = round(seconds / walker.engine.dt)
+        for _ in range(n):
+            walker.tick()
+        t = np.asarray(walker.tick_time) * 1e6
+        out[solver] = {"p50_us": float(np.median(t)), "p99_us": float(np.percentile(t, 99)),
+                       "max_us": float(t.max()), "ticks": int(t.size)}  # fmt: skip
+    from wbc.walking.engine import WalkEngine
+    from wbc.walking.reference import StandingState
+
+    limits, window = planning_envelope(robot)
+    e = WalkEngine(StandingState.from_robot(robot, robot.configuration("stand")), None, limits,
+                   walker.engine.foot, walker.engine.legs, window)  # fmt: skip
+    e.command(0.6 * limits.vx_forward, 0.0, 0.4 * limits.wz)
+    e.start()
+    ts = []
+    for _ in range(round(seconds / e.dt)):
+        t0 = time.perf_counter()
+        e.tick()
+        ts.append(time.perf_counter() - t0)
+    t = np.asarray(ts) * 1e6
+    out["engine"] = {"p50_us": float(np.median(t)), "p99_us": float(np.percentile(t, 99)),
+                     "max_us": float(t.max()), "ticks": int(t.size)}  # fmt: skip
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--robot", default="bioloid")
+    ap.add_argument("--solver", default="hqp-daqp")
+    ap.add_argument("--scripted", action="store_true")
+    ap.add_argument("--only", nargs="*", help="--scripted: these scripts only")
+    ap.add_argument("--random", type=int, default=0, metavar="N")
+    ap.add_argument("--models", type=int, default=20)
+    ap.add_argument("--duration", type=float, default=30.0)
+    ap.add_argument("--envelope", action="store_true")
+    ap.add_argument("--speeds", type=float, nargs="+", default=[1.0])
+    ap.add_argument("--axes", nargs="+", default=["forward", "left", "turn_left"])
+    ap.add_argument("--hold", type=float, default=8.0)
+    ap.add_argument("--tick", nargs="*", metavar="SOLVER")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path)
+    ap.add_argument("--plots", type=Path)
+    args = ap.parse_args(argv)
+    robot = load_robot(args.robot)
+    limits, window = planning_envelope(robot)
+    print(f"planning limits: forward {100 * limits.vx_forward:.2f} cm/s, backward "
+          f"{100 * limits.vx_backward:.2f} cm/s, sideways {100 * limits.vy:.2f} cm/s, turning "
+          f"{math.degrees(limits.wz):.1f} deg/s", flush=True)  # fmt: skip
+    record: dict = {"robot": robot.name, "solver": args.solver, "limits": limits.as_dict(),
+                    "argv": sys.argv[1:]}  # fmt: skip
+    paths = {}
+    if args.tick is not None:
+        solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
+        record["tick"] = tick_cost(robot, solvers)
+        for k, v in record["tick"].items():
+            print(f"tick {k}: p50 {v['p50_us']:.0f} µs, p99 {v['p99_us']:.0f} µs, "
+                  f"max {v['max_us']:.0f} µs", flush=True)  # fmt: skip
+    if args.scripted:
+        record["scripted"] = {}
+        for name, cmds in scripts(limits).items():
+            if args.only and name not in args.only:
+                continue
+            t0 = time.perf_counter()
+            r = run_one(robot, args.solver, cmds, limits=limits, window=window)
+            paths[name] = (r.pop("_path"), cmds)
+            if len(cmds) == 1:  # the speed kept from 3 s in to 1 s before the stop
+                r["steady_velocity"] = steady_velocity(paths[name][0], 3.0, cmds[0].duration - 1)
+            record["scripted"][name] = r
+            rel = r["xy_error_rel"]
+            cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
+            print(f"{name:10s} fell {r['fell']!s:5s} commanded {np.round(r['commanded_xy_m'], 3)}"
+                  f" m {cy:.0f}° travelled {np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°"
+                  f" xy err {'-' if rel is None else f'{100 * rel:.0f} %'} steady "
+                  f"{np.round(r.get('steady_velocity', []), 4)} "
+                  f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)",
+                  flush=True)  # fmt: skip
+    variations = models(robot, args.models, args.seed) if (args.random or args.envelope) else []
+    if args.random:
+        runs = []
+        share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
+        for i in range(args.random):
+            cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
+                                   args.duration)  # fmt: skip
+            for k, v in enumerate(variations):
+                r = run_one(robot, args.solver, cmds, v, limits=limits, window=window)
+                r.pop("_path")
+                runs.append({"sequence": i, "model": k, **r})
+                print(f"sequence {i} model {k}: fell {r['fell']} xy err "
+                      f"{r['xy_error_m'] * 1000:.0f} mm ({r['xy_error_rel']}) yaw err "
+                      f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']})",
+                      flush=True)  # fmt: skip
+        rel = [r["xy_error_rel"] for r in runs if r["xy_error_rel"] is not None]
+        yrel = [r["yaw_error_rel"] for r in runs if r["yaw_error_rel"] is not None]
+        record["random"] = {
+            "runs": runs,
+            "falls": int(sum(r["fell"] for r in runs)),
+            "within_15pct_xy": int(sum(x <= 0.15 for x in rel)), "xy_rated": len(rel),
+            "within_15pct_yaw": int(sum(x <= 0.15 for x in yrel)), "yaw_rated": len(yrel),
+        }  # fmt: skip
+        print(f"random: {len(runs)} runs, {record['random']['falls']} falls, displacement within "
+              f"15 %: {record['random']['within_15pct_xy']}/{len(rel)}, heading within 15 %: "
+              f"{record['random']['within_15pct_yaw']}/{len(yrel)}")  # fmt: skip
+    if args.envelope:
+        env = {}
+        for axis in args.axes:
+            env[axis] = []
+            for s in args.speeds:
+                cmd = scripts(limits)[axis][0]
+                c = Command(args.hold, s * cmd.vx, s * cmd.vy, s * cmd.wz)
+                scaled = type(limits)(*(s * v for v in limits.as_dict().values()))
+                up = 0
+                for v in variations:
+                    r = run_one(robot, args.solver, [c], v, limits=scaled, window=window)
+                    up += not r["fell"]
+                env[axis].append({"speed": [c.vx, c.vy, c.wz], "up": up,
+                                  "models": len(variations)})  # fmt: skip
+                print(f"envelope {axis} ×{s:g}: {up}/{len(variations)} up", flush=True)
+        record["envelope"] = env
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(record, indent=1, default=float))
+    if args.plots and paths:
+        plot_paths(paths, args.plots / "drive_paths.png")
+    return 0
+
+
+def plot_paths(paths: dict, out: Path) -> None:
+    """The scripted runs' base paths beside the commanded ones (start frame)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from wbc.drive.commands import integrate
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    for k, (name, (path, cmds)) in enumerate(paths.items()):
+        color = f"C{k}"
+        ax.plot(path[:, 1], path[:, 2], color=color, label=f"{name} (simulated)")
+        pts = [np.zeros(2)]
+        acc: list[Command] = []
+        for c in cmds:
+            for f in np.linspace(0.1, 1.0, 10):
+                pts.append(integrate([*acc, Command(f * c.duration, c.vx, c.vy, c.wz)])[0])
+            acc.append(c)
+        pts = np.array(pts)
+        ax.plot(pts[:, 0], pts[:, 1], "--", color=color, alpha=0.6)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m, start frame)")
+    ax.set_ylabel("y (m)")
+    ax.set_title("driven walks: simulated base (solid) and commanded (dashed)")
+    ax.legend(fontsize=7)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=120, bbox_inches="tight")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,166 @@
+"""wbc.drive: command files, the Walker on a bus through the deployment, the keyboard's
+keys, ``wbc drive``'s refusals."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.cli import main
+from wbc.drive.commands import Command, CommandScript, integrate, load_commands, random_commands
+from wbc.drive.teleop import Keyboard
+from wbc.drive.walker import Walker
+from wbc.exceptions import ConfigurationError
+from wbc.servos.bus import DryRunBus
+from wbc.servos.dynamixel import ax_codec
+from wbc.stacks import load_stack
+from wbc.walking import GaitTiming, SwingParams
+from wbc.walking.engine import EngineParams, VelocityLimits
+from wbc.walking.loop import StackController
+
+LEGS_ONLY = EngineParams(
+    timing=GaitTiming(), swing=SwingParams(apex=0.015), zmp_offset=(0.0, 0.0285), transfer=1.0
+)
+LIMITS = VelocityLimits(0.08, 0.06, 0.03, 0.5)
+
+
+def test_commands_file(tmp_path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text(
+        "[[command]]\nduration = 2\nvx = 0.05\n[[command]]\nduration = 1.5\nwz = -0.2\n"
+    )
+    cmds = load_commands(path)
+    assert cmds == [Command(2.0, 0.05), Command(1.5, 0.0, 0.0, -0.2)]
+    script = CommandScript(cmds)
+    assert script.at(1.0) == cmds[0] and script.at(2.5) == cmds[1] and script.at(3.6) is None
+    for text, match in (
+        ("[[command]]\nvx = 0.1\n", "command 1 needs a duration"),
+        ("[[command]]\nduration = 1\nvz = 0.1\n", r"command 1 has unknown keys \['vz'\]"),
+        ("[[command]]\nduration = 1\n[[command]]\nduration = -1\n", "command 2 duration"),
+        ("[[command]]\nduration = 1\nvx = 'fast'\n", "command 1 vx = 'fast'"),
+        ("[[command]]\nduration = 1\nvx = nan\n", "command 1 vx = nan"),
+        ("speed = 1\n", r"unknown keys \['speed'\]"),
+        ("", "no \\[\\[command\\]\\] tables"),
+        ("[[command]\n", "not valid TOML"),
+    ):
+        path.write_text(text)
+        with pytest.raises(ConfigurationError, match=match) as info:
+            load_commands(path)
+        assert str(path) in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(ConfigurationError, match="not found"):
+        load_commands(tmp_path / "missing.toml")
+
+
+def test_integrate_is_the_exact_body_motion() -> None:
+    """The closed form equals a fine Euler integration of ṗ = R(θ) v, θ̇ = ωz."""
+    cmds = [Command(2.0, 0.05, 0.01, 0.3), Command(1.0, 0.0, -0.02), Command(3.0, 0.04, 0, -0.5)]
+    p, th = np.zeros(2), 0.0
+    dt = 1e-4
+    for c in cmds:
+        for _ in range(round(c.duration / dt)):
+            R = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+            p = p + dt * R @ np.array([c.vx, c.vy])
+            th += dt * c.wz
+    got, yaw = integrate(cmds)
+    assert np.allclose(got, p, atol=1e-4) and yaw == pytest.approx(th)
+
+
+def test_random_commands_stay_inside_the_envelope() -> None:
+    lim = (0.08, 0.06, 0.03, 0.5)
+    cmds = random_commands(np.random.default_rng(3), lim, 30.0)
+    assert sum(c.duration for c in cmds) == pytest.approx(30.0)
+    assert all(2.0 - 1e-9 <= c.duration <= 5.0 for c in cmds[:-1])
+    for c in cmds:
+        fwd = lim[0] if c.vx >= 0 else lim[1]
+        assert abs(c.vx) / fwd + abs(c.vy) / lim[2] + abs(c.wz) / lim[3] <= 1.0 + 1e-9
+
+
+class _Clock:
+    """Simulated time for the deployment: the test runs as fast as the computer allows."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def now(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        self.t += max(seconds, 0.0)
+
+
+def test_walker_plays_commands_through_the_deployment(robot) -> None:
+    """A Walker as the deployment's source on ideal servos (a dry-run bus): it starts, walks
+    the commanded way, stops on its closing step, and every goal stays inside the joint
+    limits; the deployment completes when the walker is closed."""
+    codec = ax_codec(robot.servo_map)
+    q0 = robot.configuration("stand")
+    bus = DryRunBus(codec, robot.joint_names, np.rint(codec.encode_float(q0[7:])))
+    bus.clock = _Clock()
+    walker = Walker(robot, StackController(load_stack("walk", robot, solver="weighted")), None,
+                    params=LEGS_ONLY, limits=LIMITS, window=None)  # fmt: skip
+    goals = []
+
+    def steer(t: float) -> None:
+        if t < 1.6:
+            walker.command(0.06, 0.0, 0.0)
+            walker.start()
+        elif t < 1.7:
+            walker.stop()
+        elif not walker.walking:
+            walker.close()
+        goals.append(walker.q[7:].copy())
+
+    walker.before_tick = steer
+    result = walker.deployment(bus, out=lambda _line: None).run()
+    assert result.completed
+    assert walker.engine.steps_taken >= 3 and walker.failed_solves == 0
+    g = np.array(goals)
+    assert np.all(g >= robot.q_min - 1e-9) and np.all(g <= robot.q_max + 1e-9)
+    left = walker.engine.feet["left"]
+    assert left.x > 0.03  # it walked forward
+    assert walker.command(1.0, 0.0, 0.0) == pytest.approx((0.08, 0.0, 0.0))
+
+
+class _FakeWalker:
+    limits = LIMITS
+
+    def __init__(self) -> None:
+        self.calls: list = []
+
+    def command(self, *v):
+        self.calls.append(("command", v))
+        return v
+
+    def start(self):
+        self.calls.append(("start",))
+
+    def stop(self):
+        self.calls.append(("stop",))
+
+
+def test_keyboard_keys_steer_the_walker(capsys) -> None:
+    kb = Keyboard()
+    w = _FakeWalker()
+    assert kb.apply("gww", w)
+    assert w.calls[0] == ("start",)
+    assert w.calls[-1] == ("command", pytest.approx((0.04, 0.0, 0.0)))
+    assert kb.apply("dq", w)
+    assert w.calls[-1] == ("command", pytest.approx((0.04, -0.0075, 0.125)))
+    assert kb.apply(" ", w) and w.calls[-1] == ("command", (0.0, 0.0, 0.0))
+    assert not kb.apply("x", w) and w.calls[-1] == ("stop",)
+
+
+def test_drive_refuses_bad_arguments(tmp_path, capsys) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[command]]\nduration = 0\n")
+    for argv, match in (
+        (["drive", "--sim", "--commands", str(bad)], "command 1 duration = 0.0"),
+        (["drive", "--view", "--commands", str(bad)], "--view shows the simulator"),
+        (["drive", "--commands", str(bad)], "give --sim or --port"),
+        (["drive", "--sim", "--commands", str(bad), "--keyboard"], "not several"),
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert match in err and "\n" not in err, err

@@ -1,0 +1,238 @@
+"""The walk engine on velocity commands: its walks pass the walks' own checks, its steps the
+footstep validation, commands take effect within a step, the velocity limits hold."""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wbc import load_robot
+from wbc.exceptions import ConfigurationError
+from wbc.geometry import polygon_distance, wrap_angle
+from wbc.walking import Foot, FootstepPlan, GaitTiming, LegGeometry, StandingState, SwingParams
+from wbc.walking.checks import check_reference
+from wbc.walking.engine import (
+    EngineParams,
+    VelocityLimits,
+    WalkEngine,
+    rollout,
+)
+from wbc.walking.footgaps import rectangle_gaps
+from wbc.walking.footsteps import Footstep
+
+#: the legs-only gait (upright torso; walk10's timing and ZMP path): no balance window to
+#: measure, so the tests stay fast
+LEGS_ONLY = EngineParams(
+    timing=GaitTiming(), swing=SwingParams(apex=0.015), zmp_offset=(0.0, 0.0285), transfer=1.0
+)
+LIMITS = VelocityLimits(0.08, 0.06, 0.03, 0.5)
+
+
+@pytest.fixture(scope="module")
+def setup():
+    robot = load_robot("bioloid")
+    start = StandingState.from_robot(robot, robot.configuration("stand"))
+    return robot, start, Foot(*robot.foot_size), LegGeometry.from_robot(robot)
+
+
+def engine(setup, params=LEGS_ONLY, limits=LIMITS) -> WalkEngine:
+    _, start, foot, legs = setup
+    return WalkEngine(start, params, limits, foot, legs)
+
+
+COMMANDS = [(1.6, 0.07, 0.0, 0.0), (1.2, 0.0, 0.025, 0.0), (1.2, 0.02, 0.0, -0.4),
+            (1.6, -0.05, -0.02, 0.2), (0.8, 0.0, 0.0, 0.0)]  # fmt: skip
+
+
+def test_a_driven_walk_passes_the_walks_checks(setup) -> None:
+    """The targets of a mixed command sequence, as a reference, pass check_reference: the
+    ZMP of the CoM inside the support polygon, soles above the ground and apart, legs within
+    reach and hip roll; the walk ends standing, the CoM between the feet."""
+    _, _, _, legs = setup
+    e = engine(setup)
+    ref = rollout(e, COMMANDS)
+    report = check_reference(ref, margin=0.0005, legs=legs)
+    assert report.zmp_margin >= 0.0005
+    assert e.state == "standing" and e.steps_taken >= 10
+    mid = 0.5 * (ref.l_sole[-1, :2] + ref.r_sole[-1, :2])
+    assert np.linalg.norm(ref.com[-1, :2] - mid) < 1e-3
+    width = np.linalg.norm(ref.l_sole[-1, :2] - ref.r_sole[-1, :2])
+    assert width == pytest.approx(2 * e.half_width, abs=1e-6)
+
+
+def test_every_committed_step_passes_the_footstep_validation(setup) -> None:
+    """No crossing, clearance along each swing (21 samples), relative yaw, reach."""
+    _, start, foot, legs = setup
+    e = engine(setup)
+    rollout(e, COMMANDS)
+    plan = FootstepPlan(start.left, start.right, tuple(e.planned))
+    plan.validate(foot, legs, e.height, 0.005)
+
+
+def test_a_new_command_takes_effect_within_one_step(setup) -> None:
+    """Walking forward, a sideways command: the first step committed after it (at most one
+    step time later) is planned from it: the walking frame moves sideways."""
+    e = engine(setup)
+    e.command(0.06, 0.0, 0.0)
+    e.start()
+    for _ in range(150):
+        e.tick()
+    n = len(e.planned)
+    e.command(0.0, 0.02, 0.0)
+    t0 = e.k
+    while len(e.planned) == n:
+        e.tick()
+    waited = (e.k - t0) * e.dt
+    assert waited <= LEGS_ONLY.timing.step_time + 1e-9
+    new = e.planned[-1]
+    prev = e.planned[-2]
+    # the new step does not advance (vx = 0) and it moves the frame to the left
+    assert new.relative_to(prev)[0] == pytest.approx(0.0, abs=1e-9) or new.x - prev.x < 0.01
+    for _ in range(2 * round(LEGS_ONLY.timing.step_time / e.dt)):
+        e.tick()
+    left, right = e.feet["left"], e.feet["right"]
+    assert 0.5 * (left.y + right.y) > 0.005
+
+
+def test_the_walking_frame_follows_the_commanded_pose(setup) -> None:
+    """Each step moves the walking frame to where the command (integrated since the start)
+    puts the body at the step's landing: in steady walking on an arc, by the arc's chord
+    per step; the start's latency is made up (the frame ends where the command puts it)."""
+    e = engine(setup)
+    vx, _, wz = e.command(0.03, 0.0, 0.15)
+    assert (vx, wz) == (0.03, 0.15)  # inside the limits (room to make up the start's lag)
+    e.start()
+    frames, lags = [], []
+    steps = 0
+    while steps < 30:
+        e.tick()
+        if e.steps_taken != steps:  # a landing: the frame against the commanded pose now
+            steps = e.steps_taken
+            frames.append(e._centre.copy())
+            lags.append(float(np.linalg.norm(e._centre[:2] - e._pose_cmd[:2])))
+    T = LEGS_ONLY.timing.step_time
+    chord = np.array([math.sin(wz * T), 1.0 - math.cos(wz * T)]) * vx / wz
+    for a, b in itertools.pairwise(frames[20:]):
+        R = np.array([[math.cos(a[2]), math.sin(a[2])], [-math.sin(a[2]), math.cos(a[2])]])
+        assert np.allclose(R @ (b[:2] - a[:2]), chord, atol=1e-6)
+        assert wrap_angle(b[2] - a[2]) == pytest.approx(wz * T, abs=1e-6)
+    # the start's lag (the 0.8 s start phase) made up: at a landing the frame is where the
+    # command has put the body by then (to a tick's motion)
+    assert lags[0] > 0.01 and max(lags[20:]) < 2 * vx * e.dt
+
+
+def test_measured_landings_are_made_up(setup) -> None:
+    """Leg odometry: every step lands 30 % short of its plan (as told by ``on_landing``);
+    the walk goes on from where the soles are (the targets hold them there) and the next
+    steps still land where the command puts the body: no lag builds up."""
+    e = engine(setup)
+    told: dict[str, Footstep] = {}
+
+    def short(step: Footstep) -> Footstep:
+        other = e.feet["right" if step.side == "left" else "left"]
+        sign = 1.0 if step.side == "left" else -1.0
+        nominal = other.xy + np.array([0.0, sign * 2 * e.half_width])  # (heading 0 here)
+        xy = nominal + 0.7 * (step.xy - nominal)
+        told[step.side] = Footstep(step.side, float(xy[0]), float(xy[1]), step.yaw)
+        return told[step.side]
+
+    e.on_landing = short
+    vx, _, _ = e.command(0.03, 0.0, 0.0)
+    e.start()
+    for _ in range(round(8.0 / e.dt)):
+        e.tick()
+    assert len(e.landing_errors) >= 15 and max(e.landing_errors) > 0.005
+    for side, foot in told.items():  # held where they landed, not where planned
+        held = e.contact[side]
+        assert held == foot or held == e.feet[side]  # (or landed since: not measured yet)
+    feet = 0.5 * (e.feet["left"].x + e.feet["right"].x)  # where the soles really are
+    commanded = e._pose_cmd[0]
+    assert commanded - feet < vx * LEGS_ONLY.timing.step_time * 2.5  # no growing lag
+    assert feet > 0.7 * commanded + 0.03  # (not made up: the soles at 0.7 of the way)
+
+
+def test_turning_through_the_half_turn(setup) -> None:
+    """Headings wrap at ±π: a walk turning on the spot past 180° keeps its full steps (the
+    swing's yaw is interpolated the short way round) and turns as commanded."""
+    e = engine(setup)
+    ref = rollout(e, [(9.0, 0.0, 0.0, 0.5)])
+    assert e.shortened == 0
+    turned = np.unwrap(ref.torso_yaw)[-1] - ref.torso_yaw[0]
+    assert turned == pytest.approx(0.5 * LEGS_ONLY.timing.step_time * e.steps_taken, abs=0.3)
+    assert turned > math.pi + 0.5
+
+
+def test_commands_are_clipped_to_the_limits(setup) -> None:
+    e = engine(setup)
+    assert e.command(1.0, 0.0, 0.0) == pytest.approx((0.08, 0.0, 0.0))
+    vx, vy, wz = e.command(-1.0, 1.0, 1.0)
+    assert vx < 0 and vy > 0 and wz > 0
+    assert abs(vx) / 0.06 + abs(vy) / 0.03 + abs(wz) / 0.5 == pytest.approx(1.0)
+    with pytest.raises(ConfigurationError, match="three finite numbers"):
+        e.command(float("nan"), 0.0, 0.0)
+    with pytest.raises(ConfigurationError, match="velocity limit vy"):
+        VelocityLimits(0.1, 0.1, -1.0, 0.1).check()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(-0.2, 0.2), st.floats(-0.1, 0.1), st.floats(-1.0, 1.0), st.floats(-0.06, 0.06),
+    st.floats(-0.06, 0.06), st.floats(-0.8, 0.8),
+)  # fmt: skip
+def test_rectangle_gaps_equal_polygon_distance(x, y, yaw, ox, oy, oyaw) -> None:
+    """The vectorised gaps are wbc.geometry.polygon_distance, separated or overlapping."""
+    foot = Foot(0.101, 0.061)
+    xy = np.array([[x, y], [0.5 * x, 0.5 * y]])
+    yaws = np.array([yaw, 0.5 * yaw])
+    got = rectangle_gaps(xy, yaws, np.array([ox, oy]), oyaw, foot)
+    for i in range(2):
+        want = polygon_distance(
+            foot.rectangle(xy[i], yaws[i]), foot.rectangle(np.array([ox, oy]), oyaw)
+        )
+        assert got[i] == pytest.approx(want, abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-0.06, 0.06), st.floats(-0.05, 0.08), st.floats(-0.7, 0.7),
+       st.sampled_from(["left", "right"]))  # fmt: skip
+def test_the_engines_step_check_agrees_with_validate(dx, dy, dyaw, side) -> None:
+    """The engine's fast step check says what FootstepPlan.validate says (with the same
+    swing samples)."""
+    start, foot, legs = _bioloid()
+    e = WalkEngine(start, LEGS_ONLY, LIMITS, foot, legs)
+    stance = e.feet["right" if side == "left" else "left"]
+    sign = 1.0 if side == "left" else -1.0
+    xy = stance.xy + np.array([dx, sign * (2 * e.half_width + dy)])
+    step = Footstep(side, float(xy[0]), float(xy[1]), stance.yaw + dyaw)
+    plan = FootstepPlan(e.feet["left"], e.feet["right"], (step,))
+    try:
+        plan.validate(foot, legs, e.height, 0.005, swing_samples=LEGS_ONLY.swing_samples)
+        ok = True
+    except Exception:
+        ok = False
+    assert e._valid(dict(e.feet), step) == ok
+
+
+@functools.cache
+def _bioloid() -> tuple[StandingState, Foot, LegGeometry]:
+    robot = load_robot("bioloid")
+    start = StandingState.from_robot(robot, robot.configuration("stand"))
+    return start, Foot(*robot.foot_size), LegGeometry.from_robot(robot)
+
+
+def test_stop_from_standing_and_bad_params(setup) -> None:
+    e = engine(setup)
+    e.start()
+    e.stop()
+    for _ in range(5):
+        assert e.tick().state == "standing"
+    with pytest.raises(ConfigurationError, match="horizon_steps"):
+        EngineParams(horizon_steps=0).check()
+    with pytest.raises(ConfigurationError, match="transfer"):
+        EngineParams(transfer=0.0).check()

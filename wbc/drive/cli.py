@@ -1,0 +1,274 @@
+"""``wbc drive``: walk the robot from velocity commands — a commands file, the keyboard or
+a gamepad — on the simulator or on the servos, closed loop, through the deployment's safety
+layer (soft start, clamping to the joint limits, rate limit, watchdog, safe stop)::
+
+    wbc drive --sim --commands walk.toml --json run.json      # repeatable, simulated
+    wbc drive --sim --view                                    # keyboard, live meshcat
+    wbc drive --port /dev/ttyUSB0 --imu /dev/ttyUSB1          # the real robot, keyboard
+    wbc drive --port /dev/ttyUSB0 --encoders-only --gamepad   # a gamepad (wbc[gamepad])
+
+Exit codes as ``wbc deploy``: 0 done, 2 refused (nothing moved), 3 safe stop after a fault
+(or a fall in the simulator), 130 Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import ConfigurationError
+
+EXIT_FELL = 3
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    parser.add_argument(
+        "--solver",
+        default="hqp-daqp",
+        help="the controller (a `wbc bench --list` solver: hqp-daqp, wqp-daqp, qp-vat, "
+        "pinv-vat, placo, pink, ...)",
+    )
+    src = parser.add_argument_group("commands (one of; default: the keyboard)")
+    src.add_argument("--commands", type=Path, metavar="FILE", help="TOML [[command]] tables")
+    src.add_argument("--keyboard", action="store_true", help="steer from this terminal")
+    src.add_argument(
+        "--gamepad", nargs="?", const="", metavar="DEVICE",
+        help="steer with a gamepad (evdev; DEVICE: /dev/input/eventN, default the first)",
+    )  # fmt: skip
+    parser.add_argument("--sim", action="store_true", help="the MuJoCo-simulated robot")
+    parser.add_argument("--view", action="store_true", help="--sim: live meshcat view")
+    parser.add_argument(
+        "--realtime", action="store_true",
+        help="--sim: wall-clock pace (always with the keyboard or a gamepad)",
+    )  # fmt: skip
+    parser.add_argument("--port", help="servo bus serial port (the real robot)")
+    parser.add_argument("--backend", "--bus", choices=("dynamixel", "ssc32"), default="dynamixel")
+    parser.add_argument("--baud", type=int, help="bus baud rate (default: the servo map's)")
+    parser.add_argument("--servo-map", help="servo map TOML (default: the robot's servos.toml)")
+    parser.add_argument("--imu", metavar="PORT", help="the torso IMU's serial port (WitMotion)")
+    parser.add_argument("--imu-baud", type=int, default=115200)
+    parser.add_argument(
+        "--encoders-only", action="store_true", help="no IMU: the estimate from the encoders"
+    )
+    parser.add_argument("--open-loop", action="store_true", help="no feedback on the targets")
+    parser.add_argument(
+        "--compensate", type=float, default=0.5,
+        help="servo compliance feed-forward gain (AX-12A; 0: off; default 0.5)",
+    )  # fmt: skip
+    parser.add_argument("--rate", type=float, default=100.0, help="control rate, Hz (<= 100)")
+    parser.add_argument(
+        "--on-fault", choices=("auto", "hold", "torque-off", "crouch"), default="auto"
+    )
+    parser.add_argument("--soft-speed", type=float, default=0.5, help="soft start rad/s")
+    parser.add_argument("--max-speed", type=float, help="rad/s (default: the servo speed)")
+    parser.add_argument("--latency-ms", type=float, default=1.0, help="USB latency timer, ms")
+    parser.add_argument("--torque-limit", type=int, help="AX torque limit 0..1023")
+    parser.add_argument("--settle", type=float, default=1.0, help="s standing after the stop")
+    parser.add_argument("--json", type=Path, metavar="OUT", help="write the run's record")
+    parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
+
+
+def _controller(name: str, robot: Any):
+    from ..bench.solvers import registry
+
+    entries = registry("physics")
+    if name not in entries:
+        raise ConfigurationError(f"--solver {name!r}: unknown; choose from {list(entries)}")
+    entry = entries[name]
+    if not entry.real_time:
+        raise ConfigurationError(f"--solver {name}: not a real-time controller")
+    return entry.make(robot)
+
+
+def _bus_args(args: argparse.Namespace) -> argparse.Namespace:
+    """The namespace :func:`wbc.servos.deploy.make_bus` reads."""
+    ns = argparse.Namespace(**vars(args))
+    for key, value in (("reply_timeout_ms", None), ("attempts", 3), ("ssc32_map", None)):
+        setattr(ns, key, getattr(ns, key, value))
+    return ns
+
+
+def _teleop(args: argparse.Namespace):
+    if args.commands is not None:
+        if args.keyboard or args.gamepad is not None:
+            raise ConfigurationError("give --commands FILE, --keyboard or --gamepad, not several")
+        return None
+    if args.gamepad is not None:
+        from .teleop import Gamepad
+
+        missing = Gamepad.available()
+        if missing is None:
+            return Gamepad(args.gamepad or None)
+        print(f"wbc drive: {missing}; using the keyboard", file=sys.stderr)
+    from .teleop import Keyboard
+
+    return Keyboard()
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..model import load_robot
+    from ..servos.playback import DeployConfig
+    from .commands import CommandScript, integrate, load_commands
+    from .walker import Walker
+
+    for name in ("rate", "compensate", "settle", "soft_speed"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v >= 0):
+            raise ConfigurationError(f"--{name.replace('_', '-')} must be a number >= 0, got {v}")
+    if args.view and not args.sim:
+        raise ConfigurationError("--view shows the simulator: add --sim")
+    if not args.sim and not args.port:
+        raise ConfigurationError("give --sim or --port PORT (the servo bus)")
+    if args.imu and args.encoders_only:
+        raise ConfigurationError("give either --imu PORT or --encoders-only, not both")
+    teleop = _teleop(args)
+    commands = load_commands(args.commands) if args.commands is not None else None
+    robot = load_robot(args.robot, servo_map=args.servo_map)
+    controller = _controller(args.solver, robot)
+    config = DeployConfig(
+        rate=args.rate, read=True, on_fault=args.on_fault, soft_speed=args.soft_speed,
+        max_speed=args.max_speed, log_path=args.log,
+    )  # fmt: skip
+    config.validate()
+    odo = view = sim = None
+    holder: list[Any] = []
+    if args.sim:
+        from .sim import Odometer, make_sim
+
+        def on_tick() -> None:
+            if holder:
+                holder[0]()
+            if view is not None:
+                view(sim)
+
+        realtime = args.realtime or teleop is not None
+        sim, bus, imu = make_sim(robot, None, args.rate, realtime, on_tick)
+        odo = Odometer(sim)
+        holder.append(odo)
+        if args.view:
+            view = _viewer(robot)
+        if args.encoders_only:
+            imu = None
+        if args.compensate > 0 and sim.hobby:
+            args.compensate = 0.0  # the feed-forward models the AX-12A only
+    else:
+        from ..servos.deploy import _imu, check_servo_map, make_bus
+
+        if args.backend == "dynamixel" or robot.servo_map is not None:
+            for warning in check_servo_map(robot):
+                print(f"warning: {warning}", file=sys.stderr)
+        bus = make_bus(_bus_args(args), robot, args.port)
+        ns = argparse.Namespace(encoders_only=args.encoders_only, imu=args.imu,
+                                imu_baud=args.imu_baud)  # fmt: skip
+        imu = _imu(ns, bus)
+    print("wbc drive: measuring the velocity limits and the balance window on the model ...")
+    walker = Walker(robot, controller, imu, closed=not args.open_loop, compensate=args.compensate)
+    lim = walker.limits
+    print(
+        f"limits: forward {100 * lim.vx_forward:.1f} cm/s, backward {100 * lim.vx_backward:.1f} "
+        f"cm/s, sideways {100 * lim.vy:.1f} cm/s, turning {math.degrees(lim.wz):.0f} deg/s"
+    )
+    state: dict[str, Any] = {"stopped_at": None, "ended": False}
+    script = CommandScript(commands) if commands is not None else None
+
+    def before(t: float) -> None:
+        if odo is not None and odo.fell_at is not None:
+            walker.close()
+            return
+        if script is not None:
+            c = script.at(t)
+            if c is not None:
+                walker.command(*c.velocity)
+                if not walker.walking:
+                    walker.start()
+                return
+            if state["stopped_at"] is None:
+                walker.stop()
+                state["stopped_at"] = t
+        elif not state["ended"] and not teleop.poll(walker):
+            state["ended"] = True
+            state["stopped_at"] = t
+        if state["stopped_at"] is not None and not walker.walking:
+            if t > state["stopped_at"] + args.settle:
+                walker.close()
+
+    walker.before_tick = before
+    if imu is not None:
+        imu.open()
+        if hasattr(imu, "wait_ready"):
+            imu.wait_ready()
+    try:
+        if teleop is not None:
+            teleop.open()
+        result = walker.deployment(bus, config).run()
+    finally:
+        if teleop is not None:
+            teleop.close()
+        if imu is not None:
+            imu.close()
+    from ..servos.playback import report_lines
+
+    for line in report_lines(result, robot):
+        print(line, file=sys.stdout if result.completed else sys.stderr)
+    fell = odo.fell_at is not None if odo is not None else None
+    if odo is not None:
+        print("sim: " + (f"FELL at {odo.fell_at:.2f} s" if fell else "stayed up") +
+              f"; base moved {1e3 * np.linalg.norm(odo.displacement()):.0f} mm, "
+              f"turned {math.degrees(odo.yaw):.0f} deg")  # fmt: skip
+    if args.json:
+        record = _record(walker, commands, odo, result, integrate)
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(record, indent=1))
+        print(f"record in {args.json}")
+    if fell:
+        return EXIT_FELL
+    return result.exit_code
+
+
+def _record(walker, commands, odo, result, integrate) -> dict[str, Any]:
+    from .commands import Command
+
+    if commands is not None:
+        clipped = [Command(c.duration, *walker.limits.clip(*c.velocity)) for c in commands]
+        xy, yaw = integrate(clipped)
+        cmd_xy, cmd_yaw = [float(v) for v in xy], float(yaw)
+    else:
+        cmd_xy, cmd_yaw = None, None  # interactive: no script to integrate
+    ticks = np.asarray(walker.tick_time) * 1e3
+    return {
+        "fell": (odo.fell_at is not None) if odo is not None else None,
+        "fall_time_s": odo.fell_at if odo is not None else None,
+        "commanded_xy_m": cmd_xy,
+        "travelled_xy_m": [float(v) for v in odo.displacement()] if odo is not None else None,
+        "commanded_yaw_rad": cmd_yaw,
+        "travelled_yaw_rad": float(odo.yaw) if odo is not None else None,
+        "steps": walker.engine.steps_taken,
+        "failed_solves": walker.failed_solves,
+        "walk_tick_ms_p50": float(np.median(ticks)) if ticks.size else None,
+        "deploy_completed": bool(result.completed),
+        "deploy_trip": None if result.trip is None else str(result.trip),
+        "limits": walker.limits.as_dict(),
+    }
+
+
+def _viewer(robot):
+    """A meshcat view following the simulation, paced to the wall clock."""
+    from ..sim.cli import _Pacer
+    from ..viewer import Viewer
+
+    viewer = Viewer(robot)
+    print(f"meshcat: {viewer.url}", flush=True)
+    pace = _Pacer()
+
+    def update(sim) -> None:
+        viewer.update(sim.q())
+        pace(sim.time)
+
+    return update

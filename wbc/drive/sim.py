@@ -1,0 +1,161 @@
+"""A driven walk on the simulated robot: a :class:`~wbc.drive.walker.Walker` deployed on
+:class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu` (the hardware interfaces),
+played from a command sequence, measured: did it fall, where did it go.
+
+The record (:func:`drive_sim`, ``wbc drive --sim --json``): ``fell``, ``fall_time_s``,
+``commanded_xy_m`` / ``travelled_xy_m`` (the commanded and the simulated base displacement
+in the start frame: x forward, y left), ``commanded_yaw_rad`` / ``travelled_yaw_rad``
+(heading change, unwrapped), the walk tick's cost, the steps taken; ``_path`` (not JSON:
+rows of time, x, y, heading of the base in the start frame).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..model import Robot
+from ..walking.loop import Controller
+from .commands import Command, CommandScript, integrate
+from .walker import Walker
+
+FALL_TILT_DEG = 45.0  # as the physics benchmark (wbc.bench.physics)
+FALL_HEIGHT = 0.6
+
+
+def base_yaw(R: np.ndarray) -> float:
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+class Odometer:
+    """The simulated base's displacement in the start frame and its unwrapped heading
+    change, and the fall check (tilt > 45° or the base below 60 % of its start height),
+    sampled every control tick."""
+
+    def __init__(self, sim: Any) -> None:
+        self.sim = sim
+        q = sim.q()
+        self.xy0 = q[:2].copy()
+        self.z0 = float(q[2])
+        R = sim.base_rotation()
+        self.R0 = R
+        self.yaw0 = base_yaw(R)
+        self.yaw = 0.0
+        self._last = self.yaw0
+        self.fell_at: float | None = None
+        self.t0 = sim.time
+        self.tilt_max = 0.0
+        self.path: list[tuple[float, float, float, float]] = []  # t, x, y (start frame), yaw
+
+    def __call__(self) -> None:
+        R = self.sim.base_rotation()
+        y = base_yaw(R)
+        self.yaw += math.remainder(y - self._last, 2 * math.pi)
+        self._last = y
+        up = float(np.clip(R[2, 2], -1.0, 1.0))
+        tilt = math.degrees(math.acos(up))
+        self.tilt_max = max(self.tilt_max, tilt)
+        if self.fell_at is None and (
+            tilt > FALL_TILT_DEG or self.sim.q()[2] < FALL_HEIGHT * self.z0
+        ):
+            self.fell_at = self.sim.time - self.t0
+        d = self.displacement()
+        self.path.append((self.sim.time - self.t0, float(d[0]), float(d[1]), self.yaw))
+
+    def displacement(self) -> np.ndarray:
+        d = self.sim.q()[:2] - self.xy0
+        c, s = math.cos(self.yaw0), math.sin(self.yaw0)
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+
+def make_sim(robot: Robot, variation: Any = None, rate: float = 100.0, realtime: bool = False,
+             on_tick: Callable[[], None] | None = None):  # fmt: skip
+    """(simulation, bus, imu) for ``robot`` standing in its standing pose (``variation``: a
+    :class:`wbc.bench.physics.Variation`, None: nominal)."""
+    from ..sim.bus import SimImu, sim_bus
+    from ..sim.simulator import Simulation
+
+    v = variation
+    sim = Simulation(robot, v.model_params if v else None, v.servo_params if v else None)
+    sim.reset(robot.configuration("stand"))
+    bus = sim_bus(sim, rate, realtime=realtime, latency_ticks=v.latency_ticks if v else 0,
+                  on_tick=(lambda _bus: on_tick()) if on_tick else None)  # fmt: skip
+    imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0)
+    return sim, bus, imu
+
+
+def drive_sim(
+    robot: Robot,
+    controller: Controller,
+    commands: Sequence[Command],
+    variation: Any = None,
+    settle: float = 1.0,
+    realtime: bool = False,
+    view: Callable[[Any], None] | None = None,
+    walker_options: dict[str, Any] | None = None,
+    out: Callable[[str], None] = lambda _line: None,
+) -> dict[str, Any]:
+    """Walk ``commands`` on the simulated robot (module docstring); the run's record.
+    ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
+    ``params``, ``gains``, ``closed``, ``compensate``)."""
+    holder: list[Any] = []
+
+    def on_tick() -> None:
+        if holder:
+            holder[0]()
+            if view is not None:
+                view(holder[0].sim)
+
+    sim, bus, imu = make_sim(robot, variation, realtime=realtime, on_tick=on_tick)
+    walker = Walker(robot, controller, imu, **(walker_options or {}))
+    odo = Odometer(sim)
+    holder.append(odo)
+    script = CommandScript(commands)
+    end = script.duration
+    state = {"stopped_at": None}
+
+    def before(t: float) -> None:
+        if odo.fell_at is not None:
+            walker.close()
+            return
+        c = script.at(t)
+        if c is not None:
+            walker.command(*c.velocity)
+            if not walker.walking and t < end:
+                walker.start()
+        elif state["stopped_at"] is None:
+            walker.stop()
+            state["stopped_at"] = t
+        elif not walker.walking and t > state["stopped_at"] + settle:
+            walker.close()
+
+    walker.before_tick = before
+    dep = walker.deployment(bus, out=out)
+    result = dep.run()
+    clipped = [Command(c.duration, *walker.limits.clip(*c.velocity)) for c in commands]
+    cmd_xy, cmd_yaw = integrate(clipped)
+    travelled = odo.displacement()
+    ticks = np.asarray(walker.tick_time) * 1e3
+    return {
+        "fell": odo.fell_at is not None,
+        "fall_time_s": odo.fell_at,
+        "commanded_xy_m": [float(v) for v in cmd_xy],
+        "travelled_xy_m": [float(v) for v in travelled],
+        "commanded_yaw_rad": float(cmd_yaw),
+        "travelled_yaw_rad": float(odo.yaw),
+        "requested_xy_m": [float(v) for v in integrate(commands)[0]],
+        "duration_s": end,
+        "steps": walker.engine.steps_taken,
+        "shortened_steps": walker.engine.shortened,
+        "failed_solves": walker.failed_solves,
+        "tilt_max_deg": odo.tilt_max,
+        "walk_tick_ms_p50": float(np.median(ticks)) if ticks.size else None,
+        "walk_tick_ms_p99": float(np.percentile(ticks, 99)) if ticks.size else None,
+        "deploy_completed": bool(result.completed),
+        "deploy_trip": None if result.trip is None else str(result.trip),
+        "limits": walker.limits.as_dict(),
+        "_path": np.asarray(odo.path),
+    }

@@ -1,0 +1,260 @@
+"""Drive a robot: a :class:`Walker` turns velocity commands into servo goals, closed loop.
+
+One walk tick: the :class:`~wbc.walking.engine.WalkEngine` gives the tick's targets (CoM,
+soles, swing, torso) from the command in force → the
+:class:`~wbc.balance.stabilizer.Stabilizer` reads the servos' present positions and the IMU
+and adjusts them (state estimate, torso feedback; the closed loop of
+:func:`wbc.balance.live.closed_loop`) → one solve of any
+:class:`~wbc.walking.loop.Controller` (a task stack as a weighted or hierarchical QP, the
+thesis's schemes, placo, pink) → the joint goals. A :class:`Walker` is a target source
+(:class:`wbc.servos.sources.TargetSource`), so a :class:`~wbc.servos.playback.Deployment` on
+any :class:`~wbc.servos.bus.ServoBus` plays it with every safety feature of ``wbc deploy``
+(soft start, clamping to the joint limits, rate limit, watchdog, safe stop)::
+
+    walker = Walker(robot, StackController(load_stack("walk", robot)), imu=my_imu)
+    deployment = walker.deployment(my_bus)     # or walker.tick() in your own loop
+    walker.start(); walker.command(0.05, 0.0, 0.2)   # m/s forward, m/s left, rad/s
+    deployment.run()                           # in a thread; walker.stop(), walker.close()
+
+(``docs/drive.md``; ``wbc drive`` on the command line.)
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..balance.stabilizer import Gains, Stabilizer
+from ..exceptions import ConfigurationError, WbcError
+from ..imu import Imu
+from ..model import Robot
+from ..recording import SUPPORT_DOUBLE
+from ..servos.playback import DeployConfig, Deployment
+from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
+from ..walking.footsteps import Footstep
+from ..walking.geometry import Foot
+from ..walking.legs import LegGeometry
+from ..walking.loop import Controller, TickTargets, heading_free
+from ..walking.reference import StandingState
+from ..walking.window import BalanceWindow
+
+#: the feedback gains of driven walks: the closed loop's defaults without the hip strategy
+#: (``k_hip``: the torso rolled toward a DCM outward of the stance sole, for pushes). Walking
+#: sideways the DCM runs outward by design: with it a randomised Bioloid fell at 3 cm/s
+#: sideways (models 0 and 1 of benchmarks/drive.md at 3.1–3.8 s), without it both walked the
+#: commanded 15 cm
+DRIVE_GAINS = Gains(k_hip=0.0)
+
+
+class Walker:
+    """Velocity-commanded walking on a robot (module docstring).
+
+    ``controller``: any walking controller; ``imu``: the torso IMU (None: the estimate from
+    the encoders alone); ``closed=False``: the open loop (the targets as planned).
+    ``params``: the gait (:class:`EngineParams`). ``limits`` default to
+    :meth:`VelocityLimits.from_robot` (measured on the model); ``window="auto"``: the
+    whole-body balance window measured (:meth:`BalanceWindow.from_robot`) for a whole-body
+    gait, None for the upright one; or give one. Both defaults
+    are measured once per robot and gait and cached (:func:`wbc.drive.envelope.planning_envelope`).
+    ``compensate`` > 0: the servo compliance feed-forward × gain in :meth:`deployment`.
+    ``gains``: the feedback (default :data:`DRIVE_GAINS`).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        controller: Controller,
+        imu: Imu | None = None,
+        params: EngineParams | None = None,
+        limits: VelocityLimits | None = None,
+        window: BalanceWindow | str | None = "auto",
+        gains: Gains | None = None,
+        closed: bool = True,
+        compensate: float = 0.0,
+        q0: np.ndarray | None = None,
+    ) -> None:
+        if not (math.isfinite(compensate) and compensate >= 0):
+            raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
+        self.robot = robot
+        self.controller = controller
+        self.imu = imu
+        stand = robot.configuration("stand")
+        q0 = stand if q0 is None else robot.check_configuration(q0).copy()
+        params = (params or EngineParams()).check()
+        legs = LegGeometry.from_robot(robot, stand)
+        foot = Foot(*robot.foot_size)
+        if isinstance(window, str):
+            if window != "auto":
+                raise ConfigurationError(
+                    f"window must be 'auto', None or a BalanceWindow, got {window!r}"
+                )
+            from .envelope import planning_envelope
+
+            measured, window = planning_envelope(robot, params)  # (cached on disk)
+            limits = limits or measured
+        if limits is None:
+            limits = VelocityLimits.from_robot(robot, params, window, legs, foot)
+        self.engine = WalkEngine(StandingState.from_robot(robot, q0), params, limits, foot, legs,
+                                 window)  # fmt: skip
+        self.compensate = float(compensate)
+        self.q = q0.copy()
+        self._lean = heading_free(robot.frame_placement(q0, "torso").rotation)
+        controller.dt = self.engine.dt
+        controller.start(robot, self.q, self.engine.standing_reference())
+        #: the servos' present positions (rad, model order; NaN: unread) or None: set by
+        #: :meth:`deployment` (or by a caller's own loop)
+        self.present: Callable[[], np.ndarray | None] = lambda: None
+        self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
+                                     gains or DRIVE_GAINS, closed)  # fmt: skip
+        self.engine.on_landing = self._landed if closed else None
+        self.last: EngineTick | None = None
+        self._previous: tuple[str, str, str] | None = None
+        self._t = 0.0  # engine time of the last solve
+        self.closed_at: float | None = None
+        self._play_t: float | None = None  # playback time of the last target asked for
+        #: called with the playback time before each tick as a target source (a command
+        #: script, a keyboard): it may command, start, stop or close the walker
+        self.before_tick: Callable[[float], None] | None = None
+        self.failed_solves = 0
+        self.joint_names = robot.joint_names
+        self.tick_time: list[float] = []  # s per walk tick (engine + feedback + solve)
+
+    # ------------------------------------------------------------------ commands
+    @property
+    def limits(self) -> VelocityLimits:
+        return self.engine.limits
+
+    def command(self, vx: float, vy: float, wz: float) -> tuple[float, float, float]:
+        """Walk at ``vx`` (m/s forward), ``vy`` (m/s left), ``wz`` (rad/s counter-clockwise);
+        returns the command clipped to :attr:`limits`. Taken at the next lift-off."""
+        return self.engine.command(vx, vy, wz)
+
+    def start(self) -> None:
+        """Start walking (with the command in force; zero: on the spot)."""
+        self.engine.start()
+
+    def stop(self) -> None:
+        """Finish with a closing step and stand."""
+        self.engine.stop()
+
+    def close(self) -> None:
+        """End the motion: as a target source, the walker answers None from now on (the
+        deployment then holds or turns torque off as configured)."""
+        self.closed_at = self._t
+
+    @property
+    def walking(self) -> bool:
+        return self.engine.walking
+
+    def _landed(self, step: Footstep) -> Footstep | None:
+        """Leg odometry at a landing: the swing sole's placement relative to the stance sole
+        from the servos' present positions (forward kinematics; flat: x, y, heading), put
+        beside the stance sole where the walk has it. None if a position is unread."""
+        present = self.present()
+        if present is None or not np.all(np.isfinite(present)):
+            return None
+        feet = self.engine.feet
+        stance = feet["right" if step.side == "left" else "left"]
+        q = self.robot.with_joints(np.asarray(present, dtype=float))
+        M_st = self.robot.frame_placement(q, _SOLE[stance.side])
+        M_sw = self.robot.frame_placement(q, _SOLE[step.side])
+        rel = M_st.actInv(M_sw)
+        dyaw = math.atan2(rel.rotation[1, 0], rel.rotation[0, 0])
+        xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
+        return Footstep(step.side, float(xy[0]), float(xy[1]), stance.yaw + dyaw, step.z)
+
+    # ------------------------------------------------------------------ ticks
+    def targets(self, e: EngineTick) -> TickTargets:
+        """The controller's targets for one engine tick."""
+        rl = pin.SE3(_rz(e.l_yaw), e.l_sole)
+        rr = pin.SE3(_rz(e.r_yaw), e.r_sole)
+        phase = "double" if e.support == SUPPORT_DOUBLE else "single"
+        cr, sr = math.cos(e.torso_roll), math.sin(e.torso_roll)
+        roll = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+        torso = _rz(e.torso_yaw) @ roll @ self._lean
+        swing = rl if e.swing_frame == "l_sole" else rr
+        return TickTargets(
+            self.engine.k - 1, e.t, phase, e.support_frame, e.swing_frame, e.com, rl, rr,
+            e.torso_yaw, torso, swing.translation.copy(), swing.rotation.copy(),
+        )  # fmt: skip
+
+    def tick(self, dt: float | None = None) -> np.ndarray:
+        """One walk tick ``dt`` seconds after the last (default: the engine's ``dt``): the
+        engine advances (by whole ticks), the feedback adjusts its targets, the controller
+        solves; returns the configuration (the goals are its joints ``q[7:]``)."""
+        start = time.perf_counter()
+        engine = self.engine
+        dt = engine.dt if dt is None else float(dt)
+        target_t = self._t + dt
+        e = self.last
+        while e is None or engine.k * engine.dt < target_t - 1e-9:
+            e = engine.tick()
+        self.last = e
+        self._t = target_t
+        targets = self.targets(e)
+        key = (targets.phase, targets.support, targets.swing)
+        changed = key != self._previous
+        self._previous = key
+        stab = self.stabilizer
+        if stab.enabled:
+            targets = stab.adjust(targets, e.com_vel, self.q, dt)
+        try:
+            self.q = self.controller.track(self.q, targets, dt, changed)
+        except WbcError:
+            self.failed_solves += 1  # the robot holds its last goals
+        self.tick_time.append(time.perf_counter() - start)
+        return self.q
+
+    # ------------------------------------------------------------------ target source
+    def first(self) -> np.ndarray:
+        return self.q[7:].copy()
+
+    def __call__(self, tick: int, t: float) -> np.ndarray | None:
+        """The goals of playback time ``t`` (a deployment's target source): one walk tick
+        of the time since the last call."""
+        if self.before_tick is not None:
+            self.before_tick(t)
+        if self.closed_at is not None:
+            return None
+        dt = self.engine.dt if self._play_t is None else t - self._play_t
+        self._play_t = t
+        return self.tick(max(dt, 1e-9))[7:].copy()
+
+    def deployment(
+        self, bus: Any, config: DeployConfig | None = None, out: Callable[[str], None] = print
+    ) -> Deployment:
+        """A :class:`~wbc.servos.playback.Deployment` of this walker on ``bus`` (``config``
+        defaults to the engine's rate with the present positions read, as the closed loop
+        needs); its :meth:`~Deployment.run` plays until :meth:`close`."""
+        config = config or DeployConfig(rate=min(100.0, 1.0 / self.engine.dt), read=True)
+        if self.stabilizer.enabled and not (config.read and bus.can_read):
+            raise ConfigurationError(
+                "the closed loop reads the servos' present positions: a bus that can read, "
+                "with read on (or closed=False)"
+            )
+        holder: list[Deployment] = []
+        self.present = lambda: holder[0].last_present if holder else None
+        source: Any = self
+        if self.compensate > 0:
+            from ..balance.compliance import CompensatedSource, ComplianceCompensator
+
+            comp = ComplianceCompensator(self.robot, gain=self.compensate)
+            source = CompensatedSource(
+                self, comp, lambda t: self.last.support if self.last else SUPPORT_DOUBLE
+            )
+        dep = Deployment(bus, source, self.robot, config, out=out)
+        holder.append(dep)
+        return dep
+
+
+_SOLE = {"left": "l_sole", "right": "r_sole"}
+
+
+def _rz(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

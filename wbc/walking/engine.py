@@ -1,0 +1,775 @@
+"""An omnidirectional walk engine driven by velocity commands ``(vx, vy, ωz)``.
+
+Where :func:`wbc.walking.gait.walk` plans a whole walk before it starts, :class:`WalkEngine`
+plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
+
+* **footsteps, online** — at the start of every double support (and at :meth:`start`) the
+  step about to be taken is planned from the *current* command, so a new command takes
+  effect at the next lift-off (within one step). A walking frame moves to where the
+  commanded pose (the command integrated since :meth:`start`) will be when the step lands
+  — in steady walking by the command times the step time, ``(vx T, vy T, ωz T)`` in its own
+  axes; after a start or a change, the displacement the step latency lost is made up
+  within the velocity limits — and the swinging sole lands
+  beside it as :func:`wbc.walking.footsteps.plan_footsteps` places its soles (the leading
+  sole opens sideways, the trailing one closes; the soles head with the frame). Each
+  planned step is checked by :meth:`FootstepPlan.validate` (no crossing, the feet's
+  clearance along the swing, relative yaw, the legs' reach at the CoM height); a step that
+  fails is shortened (halved, up to four times, then a step in place);
+* **CoM, receding horizon** — the ZMP path through the planned footsteps (as
+  :func:`wbc.walking.schedule.zmp_knots` lays it: onto each landed sole within ``transfer``
+  of the double support, on the stance sole in single support, ``zmp_offset`` toward the
+  other sole) is re-planned over the next ``horizon_steps`` steps at every step, and the
+  CoM follows it by Kajita's preview control run tick by tick (:class:`PreviewController`'s
+  gains; its jerk input from the ZMP error, its integral and the next second of the path);
+* **swing** — the swing sole's min-jerk path to its landing with an apex
+  (:func:`wbc.walking.schedule.sole_tracks` for the one step), the torso heading the mean
+  of the soles', and, with a :class:`~wbc.walking.window.BalanceWindow`, the torso roll the
+  whole body needs for the CoM's lateral offset (as the whole-body walks plan it).
+
+Why the preview controller and not the casadi MPC: measured on the Bioloid, one receding
+MPC solve of a 1.5 s window costs tens of milliseconds (``benchmarks/drive.md``), beyond a
+whole control tick (10 ms at 100 Hz, ≤ 2 ms for the walk tick), while one preview tick costs
+microseconds and keeps the walk's ZMP margin on the same steps.
+
+:meth:`stop` finishes with a closing step (the soles side by side again) and brings the ZMP
+back between the feet; a command of zero walks on the spot. The velocity limits
+(:class:`VelocityLimits`) come from the legs and the servos: :meth:`VelocityLimits.from_robot`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from ..exceptions import ConfigurationError, TrajectoryError
+from ..geometry import wrap_angle
+from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
+from .footgaps import rectangle_gaps
+from .footsteps import Footstep, FootstepPlan, Side, other_side
+from .geometry import Foot, rot2
+from .legs import LegGeometry
+from .preview import PreviewController, PreviewParams
+from .reference import StandingState, WalkingReference
+from .schedule import GaitTiming, Phase, SwingParams, sample_knots, sole_tracks
+from .spline import min_jerk
+from .window import BalanceWindow
+
+State = Literal["standing", "walking", "stopping"]
+#: m and rad: a measured landing further than this from the planned one is not believed
+MAX_LANDING_ERROR = 0.03
+#: rad: the largest heading difference of the two soles (:meth:`FootstepPlan.validate`'s)
+MAX_RELATIVE_YAW = 0.6
+SegmentKind = Literal["start", "double", "single", "end"]
+
+
+@dataclass(frozen=True)
+class EngineParams:
+    """Gait of the engine. Defaults: the whole-body walks' (``fast_wb``, ``turn_wb``,
+    ``lateral_wb``): 0.5 s steps with 20 % double support, the torso leaning over the stance
+    sole (``whole_body``: a :class:`~wbc.drive.walker.Walker` measures the balance window),
+    the ZMP 18 mm in from each sole's centre, reached within 15 % of each double support; a
+    10 mm swing apex (12 mm: the Bioloid's forward limit is 7.5 cm/s within 0.75 of the
+    servo speed, 10 mm: 8.7 cm/s). The legs-only walks' gait (``walk10``: 0.4 s steps, the
+    torso upright, the ZMP 28.5 mm in, ``whole_body=False``) asks the swing knee for more than
+    that speed rule allows at any stride (its planning limits are 0; benchmarks/drive.md)."""
+
+    timing: GaitTiming = field(
+        default_factory=lambda: GaitTiming(step_time=0.5, double_support_ratio=0.2)
+    )
+    swing: SwingParams = field(default_factory=lambda: SwingParams(apex=0.010))
+    zmp_offset: tuple[float, float] = (0.0, 0.018)
+    transfer: float = 0.15
+    #: lean the torso over the stance sole (the whole-body balance window)
+    whole_body: bool = True
+    preview: PreviewParams = field(default_factory=PreviewParams)
+    horizon_steps: int = 4
+    min_clearance: float = 0.005
+    #: share of the start phase the ZMP stays put before it moves onto the first stance sole
+    start_hold: float = 0.2
+    #: points along each planned swing (ends included) where the feet's clearance is checked
+    swing_samples: int = 7
+    #: the largest make-up of the commanded pose's lag per step, as a share of the velocity
+    #: limits (diamond norm) on top of the command: a start or a change is caught up gently
+    #: (at the limits a randomised Bioloid falls sideways, benchmarks/drive.md)
+    catch_up: float = 0.25
+
+    def check(self) -> EngineParams:
+        self.timing.validate()
+        self.swing.validate()
+        self.preview.validate()
+        if self.timing.double_support_time < self.timing.dt:
+            raise ConfigurationError("walk engine: the gait needs a double support of >= 1 tick")
+        if not (0.0 < self.transfer <= 1.0):
+            raise ConfigurationError(
+                f"walk engine: transfer must be in (0, 1], got {self.transfer}"
+            )
+        if int(self.horizon_steps) != self.horizon_steps or self.horizon_steps < 1:
+            raise ConfigurationError(
+                f"walk engine: horizon_steps must be a positive integer, got {self.horizon_steps}"
+            )
+        if not (math.isfinite(self.catch_up) and self.catch_up >= 0):
+            raise ConfigurationError(f"walk engine: catch_up must be >= 0, got {self.catch_up}")
+        if not all(math.isfinite(v) for v in self.zmp_offset):
+            raise ConfigurationError(f"walk engine: zmp_offset must be finite, {self.zmp_offset}")
+        return self
+
+
+@dataclass(frozen=True)
+class VelocityLimits:
+    """The largest commands (m/s, rad/s): forward, backward, sideways, turning. A combined
+    command is scaled into the diamond ``|vx|/vx_max + |vy|/vy_max + |ωz|/wz_max <= 1``."""
+
+    vx_forward: float
+    vx_backward: float
+    vy: float
+    wz: float
+
+    def check(self) -> VelocityLimits:
+        for name in ("vx_forward", "vx_backward", "vy", "wz"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and v >= 0):  # (inf: no limit; NaN fails)
+                raise ConfigurationError(f"velocity limit {name} must be a number >= 0, got {v}")
+        return self
+
+    def clip(self, vx: float, vy: float, wz: float) -> tuple[float, float, float]:
+        """The command scaled (direction kept) into the limits."""
+        vxm = self.vx_forward if vx >= 0 else self.vx_backward
+        s = 0.0
+        for v, m in ((vx, vxm), (vy, self.vy), (wz, self.wz)):
+            if v != 0.0:
+                s += math.inf if m <= 0 else abs(v) / m
+        if s <= 1.0:
+            return float(vx), float(vy), float(wz)
+        if math.isinf(s):  # an axis with no range: drop it, scale the rest
+            vx, vy, wz = (v if m > 0 else 0.0 for v, m in ((vx, vxm), (vy, self.vy), (wz, self.wz)))
+            return self.clip(vx, vy, wz)
+        return float(vx / s), float(vy / s), float(wz / s)
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(self.__dict__)
+
+    @classmethod
+    def from_robot(
+        cls,
+        robot: Any,
+        params: EngineParams | None = None,
+        window: BalanceWindow | None = None,
+        legs: LegGeometry | None = None,
+        foot: Foot | None = None,
+        fraction: float | None = None,
+        iterations: int = 6,
+    ) -> VelocityLimits:
+        """Measured on the model: per axis, the largest per-step stride (bisection) whose
+        three-step walk (:func:`wbc.walking.gait.walk_steps` with this gait) passes the
+        walks' checks (reach, hip roll or the balance window, clearance, ZMP margin) and is
+        tracked by the bounded IK (:func:`kinematic_feasibility`) with no joint faster than
+        ``fraction`` (default :data:`PLANNING_SPEED_FRACTION`) of its servo's speed; divided
+        by the step time. A pre-motion computation (a few seconds)."""
+        from .feasibility import PLANNING_SPEED_FRACTION, kinematic_feasibility
+        from .gait import walk_steps
+
+        params = (params or EngineParams()).check()
+        fraction = PLANNING_SPEED_FRACTION if fraction is None else fraction
+        stand = robot.configuration("stand")
+        start = StandingState.from_robot(robot, stand)
+        legs = legs or LegGeometry.from_robot(robot, stand)
+        foot = foot or Foot(*robot.foot_size)
+        margin = 0.010 if window is not None else 0.001  # (the walks' ZMP margins)
+
+        def ok(stride: tuple[float, float, float]) -> bool:
+            try:
+                ref = walk_steps(
+                    start, 3, stride, timing=params.timing, swing=params.swing, foot=foot,
+                    legs=legs, window=window, zmp_offset=params.zmp_offset, margin=margin,
+                    min_clearance=params.min_clearance,
+                )  # fmt: skip
+            except TrajectoryError:
+                return False
+            rep = kinematic_feasibility(robot, ref)
+            if not rep.feasible:
+                return False
+            j = robot.joint_names.index(rep.speed_joint) if rep.speed_joint else 0
+            return rep.max_joint_speed <= fraction * robot.v_max[j]
+
+        def largest(axis: int, sign: float, hi: float) -> float:
+            lo = 0.0
+            for _ in range(iterations):
+                mid = 0.5 * (lo + hi)
+                stride = [0.0, 0.0, 0.0]
+                stride[axis] = sign * mid
+                if ok((stride[0], stride[1], stride[2])):
+                    lo = mid
+                else:
+                    hi = mid
+            return lo
+
+        T = params.timing.step_time
+        reach = legs.thigh + legs.shin
+        return cls(
+            largest(0, 1.0, 0.6 * reach) / T,
+            largest(0, -1.0, 0.6 * reach) / T,
+            largest(1, 1.0, 0.3 * reach) / T,
+            largest(2, 1.0, 0.6) / T,
+        ).check()
+
+
+@dataclass
+class EngineTick:
+    """What the engine asks for at one tick (world frame, ground at z = 0)."""
+
+    t: float
+    support: int  # wbc.recording.SUPPORT_DOUBLE / LEFT / RIGHT
+    #: the support and swing sole frames ("l_sole"/"r_sole"); in double support those of the
+    #: next single support (or of the last one when standing)
+    support_frame: str
+    swing_frame: str
+    com: np.ndarray  # (3,)
+    com_vel: np.ndarray  # (3,)
+    l_sole: np.ndarray  # (3,)
+    l_yaw: float
+    r_sole: np.ndarray
+    r_yaw: float
+    torso_yaw: float
+    torso_roll: float
+    zmp_ref: np.ndarray  # (2,) the planned ZMP
+    state: State
+    new_phase: bool  # the first tick of a phase
+
+
+@dataclass
+class _Segment:
+    kind: SegmentKind
+    n: int  # ticks
+    support: int
+    step: Footstep | None = None  # single: where the swing sole lands; double: the next step
+    lift: Footstep | None = None  # single: where it lifts from
+    stance: Footstep | None = None
+
+
+class WalkEngine:
+    """The walk engine (module docstring). ``start`` is where the robot stands (its CoM and
+    soles); ``window``: plan the whole-body torso roll (None: upright torso)."""
+
+    def __init__(
+        self,
+        start: StandingState,
+        params: EngineParams | None = None,
+        limits: VelocityLimits | None = None,
+        foot: Foot | None = None,
+        legs: LegGeometry | None = None,
+        window: BalanceWindow | None = None,
+        com_height: float | None = None,
+    ) -> None:
+        self.params = (params or EngineParams()).check()
+        inf = math.inf
+        self.limits = (limits or VelocityLimits(inf, inf, inf, inf)).check()
+        self.foot = foot or Foot()
+        self.legs = legs or LegGeometry()
+        self.window = window
+        timing = self.params.timing
+        self.dt = timing.dt
+        self.height = float(start.com[2]) if com_height is None else float(com_height)
+        self.legs.check_com_height(self.height, "walk engine")
+        FootstepPlan(start.left, start.right).validate(
+            self.foot, self.legs, self.height, self.params.min_clearance
+        )
+        self.feet: dict[Side, Footstep] = {"left": start.left, "right": start.right}
+        #: where the soles in contact are held: the planned placements, or the measured ones
+        #: (:attr:`on_landing`); the steps are planned (and checked) on :attr:`feet`
+        self.contact: dict[Side, Footstep] = dict(self.feet)
+        self.half_width = 0.5 * float(
+            (rot2(_mean_yaw(start.left.yaw, start.right.yaw)).T @ (start.left.xy - start.right.xy))[
+                1
+            ]
+        )
+        self._centre = self._mid_frame()
+        self.n_ss = max(2, round(timing.single_support_time / self.dt))
+        self.n_ds = max(1, round(timing.double_support_time / self.dt))
+        self.n_start = max(2, round(timing.start_time / self.dt))
+        self.n_end = max(2, round(timing.end_time / self.dt))
+        self.preview = PreviewController(self.dt, self.height, self.params.preview)
+        self._Gp = self.preview.Gp
+        self.NL = self.preview.n_preview
+        self.x = np.zeros((3, 2))  # preview state [c, c', c''] per axis
+        self.x[0] = start.com[:2]
+        self.err = np.zeros(2)
+        # the planned ZMP from absolute tick _z0 on (held at its last value beyond)
+        self._z0 = 0
+        self._zbuf = np.repeat(start.com[None, :2], self.NL + 2, axis=0)
+        self.k = 0  # ticks done
+        self.state: State = "standing"
+        self._cmd = (0.0, 0.0, 0.0)
+        #: the commanded pose (x, y, heading; world): the command integrated while walking
+        self._pose_cmd = self._centre.copy()
+        self._start_requested = False
+        self._stop_requested = False
+        self._segments: list[_Segment] = []
+        self._seg_i = 0  # tick within the current segment
+        self._swing: tuple[np.ndarray, np.ndarray] | None = None  # (pos (n,3), yaw (n,))
+        self._next_side: Side = "left"
+        self._roles = ("l_sole", "r_sole")  # (support, swing) frames
+        self.steps_taken = 0
+        self.shortened = 0  # planned steps shortened to pass the checks
+        self.planned: list[Footstep] = []  # every committed step, in order
+        #: leg odometry: called with each landed sole at the end of the double support that
+        #: follows its landing (the last tick before the other sole lifts), returns where it
+        #: is (measured, e.g. from the encoders; None: as planned). The targets hold it there
+        #: (:attr:`contact`) until it lifts; the steps are planned on the planned soles (with
+        #: the measured ones, turning on the spot failed every step's clearance check at the
+        #: limits and ran at half the commanded rate)
+        self.on_landing: Callable[[Footstep], Footstep | None] | None = None
+        self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
+
+    # ------------------------------------------------------------------ commands
+    @property
+    def command_velocity(self) -> tuple[float, float, float]:
+        """The command in force (clipped to the limits)."""
+        return self._cmd
+
+    def command(self, vx: float, vy: float, wz: float) -> tuple[float, float, float]:
+        """Set the velocity command (m/s forward and left, rad/s counter-clockwise, in the
+        walking frame); returns it clipped to :attr:`limits`. Taken at the next lift-off."""
+        vals = (vx, vy, wz)
+        if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in vals):
+            raise ConfigurationError(f"walk command must be three finite numbers, got {vals}")
+        self._cmd = self.limits.clip(float(vx), float(vy), float(wz))
+        return self._cmd
+
+    def start(self) -> None:
+        """Start walking (from standing: the ZMP moves onto the first stance sole first)."""
+        self._stop_requested = False
+        if self.state == "standing":
+            self._start_requested = True
+
+    def stop(self) -> None:
+        """Finish with a closing step and stand (the walk ends a step or two later)."""
+        if self.state == "standing":
+            self._start_requested = False
+        else:
+            self._stop_requested = True
+
+    @property
+    def walking(self) -> bool:
+        return self.state != "standing"
+
+    # ------------------------------------------------------------------ planning
+    def _mid_frame(self) -> np.ndarray:
+        """(x, y, yaw) midway between the soles, heading their mean."""
+        left, right = self.feet["left"], self.feet["right"]
+        mid = 0.5 * (left.xy + right.xy)
+        return np.array([mid[0], mid[1], _mean_yaw(left.yaw, right.yaw)])
+
+    def _landing(self, centre: np.ndarray, side: Side, stride: np.ndarray) -> tuple:
+        """The walking frame advanced by ``stride`` and where ``side`` lands beside it."""
+        dx, dy, dyaw = stride
+        c = centre[:2] + rot2(centre[2]) @ np.array([dx, dy])
+        yaw = float(wrap_angle(centre[2] + dyaw))
+        sign = 1.0 if side == "left" else -1.0
+        lateral = sign * self.half_width + (dy if sign * dy > 0 else 0.0)
+        xy = c + rot2(yaw) @ np.array([0.0, lateral])
+        return np.array([c[0], c[1], yaw]), Footstep(side, float(xy[0]), float(xy[1]), yaw)
+
+    def _closing(self, side: Side, stance: Footstep) -> Footstep:
+        sign = 1.0 if side == "left" else -1.0
+        xy = stance.xy + rot2(stance.yaw) @ np.array([0.0, 2.0 * sign * self.half_width])
+        return Footstep(side, float(xy[0]), float(xy[1]), stance.yaw)
+
+    def _valid(self, feet: dict[Side, Footstep], step: Footstep) -> bool:
+        """Whether ``step`` can be walked from ``feet``: the checks of
+        :meth:`FootstepPlan.validate` (no crossing, relative yaw, the feet's clearance on
+        landing and along the straight swing, the legs' reach), vectorised over the swing's
+        samples (``swing_samples``) for the control tick (tests/test_walking_engine.py: they
+        agree with :meth:`~FootstepPlan.validate`)."""
+        side = step.side
+        stance = feet[other_side(side)]
+        lift = feet[side]
+        left, right = (step, stance) if side == "left" else (stance, step)
+        if left.relative_to(right)[1] <= 0 or -right.relative_to(left)[1] <= 0:
+            return False
+        if abs(wrap_angle(left.yaw - right.yaw)) > MAX_RELATIVE_YAW:
+            return False
+        s = np.linspace(0.0, 1.0, self.params.swing_samples)
+        xy = lift.xy[None, :] + s[:, None] * (step.xy - lift.xy)[None, :]
+        yaw = lift.yaw + s * wrap_angle(step.yaw - lift.yaw)  # (the short way round)
+        gap = rectangle_gaps(xy, yaw, stance.xy, stance.yaw, self.foot)
+        if np.min(gap) < self.params.min_clearance:
+            return False
+        try:
+            self.legs.check_stance(left, right, self.height, "step")
+        except TrajectoryError:
+            return False
+        return True
+
+    def _plan_step(
+        self,
+        feet: dict[Side, Footstep],
+        centre: np.ndarray,
+        side: Side,
+        closing: bool,
+        check: bool = True,
+        stride: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, Footstep, bool]:
+        """The next step of ``side`` (``stride``: the walking frame's move, default the
+        command × the step time), shortened until it passes the checks (``check=False``: as
+        asked, a prediction for the ZMP path only); returns (new walking frame, step,
+        shortened)."""
+        stance = feet[other_side(side)]
+        if closing:
+            step = self._closing(side, stance)
+            mid = 0.5 * (step.xy + stance.xy)
+            return np.array([mid[0], mid[1], stance.yaw]), step, False
+        if stride is None:
+            stride = np.asarray(self._cmd) * self.params.timing.step_time
+        for k in range(6):
+            scale = 0.5**k if k < 5 else 0.0
+            new_centre, step = self._landing(centre, side, stride * scale)
+            if not check or self._valid(feet, step):
+                return new_centre, step, k > 0
+        # in place failed too (the feet are off their nominal stance): close the feet
+        step = self._closing(side, stance)
+        mid = 0.5 * (step.xy + stance.xy)
+        return np.array([mid[0], mid[1], stance.yaw]), step, True
+
+    def _tracking_stride(self, ahead: float) -> np.ndarray:
+        """The walking frame's move for the step landing ``ahead`` s from now: to where the
+        commanded pose (the command integrated since :meth:`start`) will be then, in the
+        frame's axes, within the velocity limits × the step time. In steady walking this is
+        the command × the step time; after a start or a command change it recovers what the
+        step latency lost, so the walk covers the commanded displacement."""
+        T = self.params.timing.step_time
+        target = _advance_pose(self._pose_cmd, self._cmd, ahead)
+        c = self._centre
+        d = rot2(c[2]).T @ (target[:2] - c[:2])
+        v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
+        cmd = np.asarray(self._cmd)
+        extra = v - cmd  # the make-up, at most catch_up × the limits (diamond norm)
+        lim = self.limits
+        norm = sum(
+            abs(e) / m if m > 0 else 0.0
+            for e, m in zip(
+                extra,
+                (lim.vx_forward if extra[0] >= 0 else lim.vx_backward, lim.vy, lim.wz),
+                strict=True,
+            )
+        )
+        if norm > self.params.catch_up:
+            extra *= self.params.catch_up / norm
+        return np.asarray(lim.clip(*(cmd + extra))) * T
+
+    def _replan(self, first: SegmentKind) -> None:
+        """At the start of a double support (or the start phase): commit the next step from
+        the command and re-plan the ZMP over the horizon."""
+        p = self.params
+        side = self._next_side
+        closing = self._stop_requested
+        n_first = self.n_start if first == "start" else self.n_ds
+        stride = self._tracking_stride((n_first + self.n_ss) * self.dt)
+        centre, step, short = self._plan_step(self.feet, self._centre, side, closing,
+                                              stride=stride)  # fmt: skip
+        self.shortened += int(short)
+        stance = self.feet[other_side(side)]
+        segs = [
+            _Segment(first, n_first, SUPPORT_DOUBLE, step, None, stance),
+            _Segment("single", self.n_ss, _single(side), step, self.feet[side], stance),
+        ]
+        # the horizon: the same command on (or the end), for the ZMP path only
+        feet = dict(self.feet)
+        feet[side] = step
+        future = list(segs)
+        c = centre
+        s = side
+        last_closing = closing
+        for _ in range(p.horizon_steps - 1):
+            if last_closing:
+                break
+            s = other_side(s)
+            c, nxt, _ = self._plan_step(feet, c, s, False, check=False)
+            future.append(_Segment("double", self.n_ds, SUPPORT_DOUBLE, nxt, None, feet[side]))
+            future.append(
+                _Segment("single", self.n_ss, _single(s), nxt, feet[s], feet[other_side(s)])
+            )
+            feet[s] = nxt
+            side = s
+        if last_closing:
+            future.append(_Segment("end", self.n_end, SUPPORT_DOUBLE))
+            segs.append(future[-1])
+        self._commit(segs, step, centre)
+        self._plan_zmp(future, feet_after=feet)
+
+    def _commit(self, segs: list[_Segment], step: Footstep, centre: np.ndarray) -> None:
+        self._segments = segs
+        self._seg_i = 0
+        self._pending = (step, centre)
+        self.planned.append(step)
+        single = segs[1]
+        plan = FootstepPlan(
+            *(
+                (single.lift, single.stance)
+                if step.side == "left"
+                else (single.stance, single.lift)
+            ),
+            (step,),
+        )
+        ph = Phase("single", 0, self.n_ss, 0.0, self.n_ss * self.dt, single.support, 0)
+        tracks = sole_tracks(plan, [ph], self.dt, self.params.swing)
+        pos, yaw = (
+            (tracks.l_pos, tracks.l_yaw) if step.side == "left" else (tracks.r_pos, tracks.r_yaw)
+        )
+        self._swing = (pos, yaw)
+        self._roles = (_frame(other_side(step.side)), _frame(step.side))
+
+    def _measured(self, step: Footstep, landed: Footstep | None) -> Footstep:
+        """Where the landed sole is held: ``landed``'s position (at most
+        ``MAX_LANDING_ERROR`` m and rad from ``step``, else ``step``); the planned heading,
+        height and side kept."""
+        if landed is None:
+            return step
+        err = float(np.hypot(landed.x - step.x, landed.y - step.y))
+        dyaw = abs(wrap_angle(landed.yaw - step.yaw))
+        if not (err <= MAX_LANDING_ERROR and dyaw <= MAX_LANDING_ERROR):
+            return step
+        self.landing_errors.append(err)
+        return Footstep(step.side, landed.x, landed.y, step.yaw, step.z)
+
+    def _anchor(self, step: Footstep) -> np.ndarray:
+        ox, oy = self.params.zmp_offset
+        sign = -1.0 if step.side == "left" else 1.0
+        return step.xy + rot2(step.yaw) @ np.array([ox, sign * oy])
+
+    def _plan_zmp(self, future: list[_Segment], feet_after: dict[Side, Footstep]) -> None:
+        """The ZMP path (knots as :func:`wbc.walking.schedule.zmp_knots`) over ``future``,
+        sampled from the current tick on into the preview's buffer."""
+        p = self.params
+        dt = self.dt
+        z_now = self._zref(self.k)
+        times, points = [0.0], [z_now]
+        t = 0.0
+        ramp = 8
+
+        def ramp_to(t0: float, t1: float, a: np.ndarray, b: np.ndarray) -> None:
+            s = np.linspace(0.0, 1.0, ramp + 1)[1:]
+            for sj, fj in zip(s, min_jerk(s)[0], strict=True):
+                times.append(t0 + sj * (t1 - t0))
+                points.append(a + fj * (b - a))
+
+        for seg in future:
+            T = seg.n * dt
+            if seg.kind == "start":
+                hold = t + p.start_hold * T
+                times.append(hold)
+                points.append(z_now)
+                ramp_to(hold, t + T, z_now, self._anchor(seg.stance))
+            elif seg.kind == "double":
+                times.append(t + p.transfer * T)
+                points.append(self._anchor(seg.stance))
+                times.append(t + T)
+                points.append(points[-1])
+            elif seg.kind == "single":
+                a = self._anchor(seg.stance)
+                times += [t, t + T]
+                points += [a, a]
+            else:  # end: to the feet's midpoint within half the phase
+                mid = 0.5 * (feet_after["left"].xy + feet_after["right"].xy)
+                ramp_to(t, t + 0.5 * T, points[-1], mid)
+                times.append(t + T)
+                points.append(mid)
+            t += T
+        kt, kp = np.asarray(times), np.asarray(points)
+        n = max(round(t / dt), 1) + self.NL + 2
+        self._zbuf = sample_knots(kt, kp, np.arange(n) * dt)
+        self._z0 = self.k
+
+    def _zref(self, k: int) -> np.ndarray:
+        j = k - self._z0
+        return self._zbuf[min(max(j, 0), len(self._zbuf) - 1)]
+
+    def _window(self, k: int) -> np.ndarray:
+        """The planned ZMP at ticks k+1 … k+NL (held at the buffer's last value)."""
+        j = k + 1 - self._z0
+        buf = self._zbuf
+        if j + self.NL > len(buf):  # past the plan: drop what is done, hold the last point
+            done = max(j - 1, 0)
+            self._zbuf = buf = np.vstack([buf[done:], np.repeat(buf[-1:], 2 * self.NL, axis=0)])
+            self._z0 += done
+            j -= done
+        return buf[j : j + self.NL]
+
+    # ------------------------------------------------------------------ ticking
+    def _advance_segment(self) -> bool:
+        """Move to the next segment when the current one is over; True at a phase start."""
+        if self.state == "standing":
+            if self._start_requested:
+                self._start_requested = False
+                self.state = "walking"
+                _, vy, wz = self._cmd
+                lead = vy if abs(vy) > 1e-12 else wz
+                self._next_side = "left" if lead > 0 else "right"
+                self._centre = self._mid_frame()
+                self._pose_cmd = self._centre.copy()
+                self._replan("start")
+                return True
+            return False
+        seg = self._segments[0]
+        if self._seg_i < seg.n:
+            return False
+        self._segments.pop(0)
+        self._seg_i = 0
+        if seg.kind == "single":  # the swing sole has landed
+            step, centre = self._pending
+            self.feet[step.side] = self.contact[step.side] = step
+            self._centre = centre
+            self.steps_taken += 1
+            self._next_side = other_side(step.side)
+        if seg.kind == "end":
+            self.state = "standing"
+            self._stop_requested = False
+            return True
+        if not self._segments:
+            if self._stop_requested:
+                self.state = "stopping"
+            self._replan("double")
+        return True
+
+    def tick(self) -> EngineTick:
+        """The targets of the next tick (the engine advances by one ``dt``)."""
+        new = self._advance_segment()
+        if self.on_landing is not None and self._segments:
+            seg = self._segments[0]
+            if seg.kind == "double" and self._seg_i == seg.n - 1 and len(self._segments) > 1:
+                # the last tick before the lift-off: where the landed sole really is
+                side = seg.stance.side
+                self.contact[side] = self._measured(seg.stance, self.on_landing(seg.stance))
+        if self.state == "walking":
+            self._pose_cmd = _advance_pose(self._pose_cmd, self._cmd, self.dt)
+        k = self.k
+        dt = self.dt
+        left, right = self.contact["left"], self.contact["right"]
+        l_pos, l_yaw, r_pos, r_yaw = left.position, left.yaw, right.position, right.yaw
+        support = SUPPORT_DOUBLE
+        if self.state != "standing" and self._segments:
+            seg = self._segments[0]
+            support = seg.support
+            if seg.kind == "single" and self._swing is not None:
+                pos, yaw = self._swing
+                i = min(self._seg_i, len(yaw) - 1)
+                if seg.step.side == "left":
+                    l_pos, l_yaw = pos[i], float(yaw[i])
+                else:
+                    r_pos, r_yaw = pos[i], float(yaw[i])
+            self._seg_i += 1
+        # the CoM: one tick of preview control on the planned ZMP
+        x = self.x
+        zc = self.preview.C
+        com_xy, vel_xy = x[0].copy(), x[1].copy()
+        zmp = zc @ x
+        self.err += zmp - self._zref(k)
+        future = self._Gp @ self._window(k)
+        u = -self.preview.Gi * self.err - self.preview.Gx @ x - future
+        self.x = self.preview.A @ x + np.outer(self.preview.B, u)
+        self.k += 1
+        torso_yaw = _mean_yaw(l_yaw, r_yaw)
+        roll = 0.0
+        if self.window is not None:
+            mid = 0.5 * (l_pos[:2] + r_pos[:2])
+            lateral = float((com_xy - mid) @ np.array([-math.sin(torso_yaw), math.cos(torso_yaw)]))
+            roll = float(self.window.roll_for(lateral))
+        com = np.array([com_xy[0], com_xy[1], self.height])
+        cv = np.array([vel_xy[0], vel_xy[1], 0.0])
+        return EngineTick(
+            k * dt, int(support), self._roles[0], self._roles[1], com, cv, np.array(l_pos, float),
+            float(l_yaw), np.array(r_pos, float), float(r_yaw), torso_yaw, roll,
+            self._zref(k).copy(), self.state, new,
+        )  # fmt: skip
+
+    def standing_reference(self) -> WalkingReference:
+        """A two-tick reference of the robot standing where the engine starts (what a
+        :class:`~wbc.walking.loop.Controller` is started on)."""
+        left, right = self.feet["left"], self.feet["right"]
+        n = 2
+        com = np.tile([*self.x[0], self.height], (n, 1))
+        return WalkingReference(
+            t=np.arange(n) * self.dt, com=com, com_vel=np.zeros((n, 3)),
+            com_acc=np.zeros((n, 3)), l_sole=np.tile(left.position, (n, 1)),
+            l_sole_yaw=np.full(n, left.yaw), r_sole=np.tile(right.position, (n, 1)),
+            r_sole_yaw=np.full(n, right.yaw), support=np.full(n, SUPPORT_DOUBLE),
+            torso_yaw=np.full(n, _mean_yaw(left.yaw, right.yaw)), com_height=self.height,
+            plan=FootstepPlan(left, right), name="drive", foot=self.foot,
+        )  # fmt: skip
+
+
+def rollout(
+    engine: WalkEngine, commands: list[tuple[float, float, float, float]], settle: float = 2.0
+) -> WalkingReference:
+    """Run ``engine`` through ``commands`` (``(duration s, vx, vy, ωz)`` each, walking from
+    the first; then :meth:`WalkEngine.stop` and ``settle`` s more) without a robot: the
+    targets as a :class:`WalkingReference`, for the walks' own checks
+    (:func:`wbc.walking.checks.check_reference`) and for planning."""
+    rows: list[EngineTick] = []
+    engine.start()
+    for duration, vx, vy, wz in commands:
+        engine.command(vx, vy, wz)
+        for _ in range(max(1, round(duration / engine.dt))):
+            rows.append(engine.tick())
+    engine.stop()
+    while engine.walking:
+        rows.append(engine.tick())
+    for _ in range(round(settle / engine.dt)):
+        rows.append(engine.tick())
+    n = len(rows)
+    t = np.arange(n) * engine.dt
+    com = np.array([r.com for r in rows])
+    vel = np.array([r.com_vel for r in rows])
+    acc = np.gradient(vel, t, axis=0)
+    ref = WalkingReference(
+        t=t, com=com, com_vel=vel, com_acc=acc, l_sole=np.array([r.l_sole for r in rows]),
+        l_sole_yaw=np.array([r.l_yaw for r in rows]), r_sole=np.array([r.r_sole for r in rows]),
+        r_sole_yaw=np.array([r.r_yaw for r in rows]), support=np.array([r.support for r in rows]),
+        torso_yaw=np.array([r.torso_yaw for r in rows]), com_height=engine.height,
+        plan=FootstepPlan(*_starts(engine, rows), tuple(engine.planned)), name="drive",
+        zmp_ref=np.array([r.zmp_ref for r in rows]), foot=engine.foot,
+        torso_roll=np.array([r.torso_roll for r in rows]) if engine.window else None,
+    )  # fmt: skip
+    return ref
+
+
+def _starts(engine: WalkEngine, rows: list[EngineTick]) -> tuple[Footstep, Footstep]:
+    r = rows[0]
+    return (
+        Footstep("left", float(r.l_sole[0]), float(r.l_sole[1]), r.l_yaw, float(r.l_sole[2])),
+        Footstep("right", float(r.r_sole[0]), float(r.r_sole[1]), r.r_yaw, float(r.r_sole[2])),
+    )
+
+
+def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -> np.ndarray:
+    """``pose`` (x, y, heading) moved for ``t`` s at ``cmd`` (body-frame velocities; the arc
+    in closed form)."""
+    vx, vy, wz = cmd
+    th = float(pose[2])
+    if abs(wz) < 1e-9:
+        ix, iy = math.cos(th) * t, math.sin(th) * t
+    else:
+        ix = (math.sin(th + wz * t) - math.sin(th)) / wz
+        iy = (math.cos(th) - math.cos(th + wz * t)) / wz
+    return np.array(
+        [pose[0] + ix * vx - iy * vy, pose[1] + iy * vx + ix * vy, wrap_angle(th + wz * t)]
+    )
+
+
+def _single(side: Side) -> int:
+    """The support code of the single support in which ``side`` swings."""
+    return SUPPORT_RIGHT if side == "left" else SUPPORT_LEFT
+
+
+def _frame(side: Side) -> str:
+    return "l_sole" if side == "left" else "r_sole"
+
+
+def _mean_yaw(a: float, b: float) -> float:
+    return float(a + 0.5 * wrap_angle(b - a))
+
+
+__all__ = ["EngineParams", "EngineTick", "VelocityLimits", "WalkEngine", "rollout"]
