@@ -680,10 +680,8 @@ class SelfCollisionConstraint(Constraint):
         self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
-        #: the pair (a row of :attr:`last`) of each of _rows
-        self._row_pair = np.zeros(0, dtype=int)
-        #: the gap (m) of each of _rows along its pair's normal
-        self._row_gap = np.zeros(0)
+        #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
+        self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
 
     @property
     def n_pairs(self) -> int:
@@ -704,6 +702,10 @@ class SelfCollisionConstraint(Constraint):
         if self._last is None:
             self._last = Witness(*(a[: self._n_close].copy() for a in self._out))
         return self._last
+
+    @last.setter
+    def last(self, w: Witness) -> None:
+        self._last = w
 
     def compute(self, kin: Kinematics) -> Inequality:
         """The rows at ``kin`` (kept for a second call at the same configuration, e.g. a
@@ -740,9 +742,9 @@ class SelfCollisionConstraint(Constraint):
         :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
         tick raises too). The solvers call it after each tick with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
-        n = self._n_close
+        d = self._out[1][: self._n_close] if self._last is None else self._last.distance
         inside = self._inside
-        if not (n and self._out[1][:n].min() < self.margin - RECOVERY_TOL):
+        if not (d.size and d.min() < self.margin - RECOVERY_TOL):
             if self._counting:
                 inside[:] = 0
                 self._counting = False
