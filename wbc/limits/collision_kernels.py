@@ -398,7 +398,8 @@ def close_pairs(
 ) -> int:  # fmt: skip
     """The pairs closer than ``query`` (m), with their distances, witness points and normals
     (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
-    distance at ``last_joints``) is moved to ``joints`` and tightened by what this call learnt;
+    distance at ``last_joints``) is moved to ``joints`` (``L``: joints x pairs, the lever arms)
+    and tightened by what this call learnt;
     the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
     counts the exact distances computed, ``counts[1]`` the separating-axis bounds,
     ``counts[3]`` the exact distances that took GJK."""
@@ -409,13 +410,12 @@ def close_pairs(
             moved = True
             break
     K = pair_a.shape[0]
-    if moved:
-        for k in range(K):
-            s = 0.0
-            for i in range(nj):
-                s += L[k, i] * abs(joints[i] - last_joints[i])
-            bound[k] -= s
+    if moved:  # (joint by joint: K independent sums, not one chain per pair)
         for i in range(nj):
+            step = abs(joints[i] - last_joints[i])
+            if step != 0.0:
+                for k in range(K):
+                    bound[k] -= L[i, k] * step
             last_joints[i] = joints[i]
     placed[:] = False
     axis = np.empty(4)

@@ -398,6 +398,7 @@ class PairDistances:
         self.pairs = list(pairs)
         self.geometry = cm.geometry
         self.L = lipschitz_bounds(robot, cm, self.pairs)
+        self._L_joints = np.ascontiguousarray(self.L.T)  # (joints x pairs: the kernels')
         #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
         self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
         self._geom_joint = np.asarray(cm.joints, dtype=int)
@@ -467,7 +468,7 @@ class PairDistances:
         Rf, pf = self.frames(kin)
         joints = np.ascontiguousarray(kin.q[7:], dtype=float)
         return close_pairs(
-            joints, self._q, self._bound, self.L, Rf, pf, self.box_frame, self.box_R,
+            joints, self._q, self._bound, self._L_joints, Rf, pf, self.box_frame, self.box_R,
             self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
             self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
             self.out_n, self._counts,
@@ -716,14 +717,13 @@ class SelfCollisionConstraint(Constraint):
             return self._rows
         pd = self.distances
         G, h, row_pair, row_gap = self._G, self._h, self._pair_buf, self._gap_buf
-        out_k, out_d, out_p1, out_p2, out_n = self._out
         if pd.pairs:
             Rf, pf = pd.frames(kin)
             r = collision_rows(
-                np.ascontiguousarray(q[7:], dtype=float), pd._q, pd._bound, pd.L, Rf, pf,
+                np.ascontiguousarray(q[7:], dtype=float), pd._q, pd._bound, pd._L_joints, Rf, pf,
                 pd.box_frame, pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b,
                 pd.support, kin.data.J, self.margin, self.trigger, self.damping, UNREACHABLE,
-                pd.Rw, pd.cw, pd._placed, out_k, out_d, out_p1, out_p2, out_n, pd._counts,
+                pd.Rw, pd.cw, pd._placed, *self._out, pd._counts,
                 G, h, row_pair, row_gap,
             )  # fmt: skip
             self._n_close = int(pd._counts[2])
