@@ -676,8 +676,7 @@ class SelfCollisionConstraint(Constraint):
         #: per pair: the control ticks in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
         self._counting = False  # (any of _inside non-zero)
-        #: the close pairs of the last compute (the first _n_close of each; its own arrays)
-        self._out, self._n_close = self.distances.out_buffers(), 0
+        self._out, self._n_close = self.distances.out_buffers(), 0  # (last compute's close pairs)
         self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
@@ -717,14 +716,15 @@ class SelfCollisionConstraint(Constraint):
             return self._rows
         pd = self.distances
         G, h, row_pair, row_gap = self._G, self._h, self._pair_buf, self._gap_buf
+        out_k, out_d, out_p1, out_p2, out_n = self._out
         if pd.pairs:
             Rf, pf = pd.frames(kin)
             r = collision_rows(
                 np.ascontiguousarray(q[7:], dtype=float), pd._q, pd._bound, pd._L_joints, Rf, pf,
                 pd.box_frame, pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b,
                 pd.support, kin.data.J, self.margin, self.trigger, self.damping, UNREACHABLE,
-                pd.Rw, pd.cw, pd._placed, *self._out, pd._counts,
-                G, h, row_pair, row_gap,
+                pd.Rw, pd.cw, pd._placed, out_k, out_d, out_p1, out_p2, out_n, pd._counts, G, h,
+                row_pair, row_gap,
             )  # fmt: skip
             self._n_close = int(pd._counts[2])
         else:
