@@ -18,7 +18,7 @@ of a walk). Rounds are interleaved; figures are medians over rounds of each cont
 per-tick median / p99.
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
-[--stacks walk walk_strict] [--weighted]``.
+[--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone]``.
 """
 
 from __future__ import annotations
@@ -104,10 +104,11 @@ def main() -> int:
     parser.add_argument(
         "--cpu", action="store_true", help="time the ticks in CPU time (a loaded machine)"
     )
+    parser.add_argument("--robot", default="bioloid", help="a robot folder's name")
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
-    robot = load_robot()
+    robot = load_robot(args.robot)
     for trajectory in args.trajectories:
         table(robot, trajectory, args)
     return 0

@@ -293,31 +293,35 @@ class InequalityRows:
 
     def load(self, blocks: Sequence | None) -> bool:
         """Copy each level's rows (``blocks[k][0]``: G, ``blocks[k][1]``: h; None: no rows at
-        all); True if the buffers were re-allocated (the caller's argument tuple is stale)."""
+        all); True if the buffers were re-allocated (the caller's argument tuple is stale).
+        (Plain Python on the hot path: a few row blocks per tick, ~1 µs.)"""
         if blocks is None:
             if not self.total:
                 return False  # (no rows, as at the last tick)
-            counts = (0,) * self.n_levels
+            counts: tuple[int, ...] = (0,) * self.n_levels
         else:
-            counts = tuple(blk[1].shape[0] for blk in blocks)
+            counts = tuple([blk[1].shape[0] for blk in blocks])
         grown = False
         if counts != self.counts:
-            total = sum(counts)
+            total = 0
+            g_rows = self.g_rows
+            for k, m in enumerate(counts):
+                total += m
+                g_rows[k + 1] = total
             if total > self.h.shape[0]:
                 self._allocate(max(total, 2 * self.h.shape[0]))
                 grown = True
             else:
-                self.working[:] = False
-            self.g_rows[1:] = np.cumsum(counts)
+                self.working.fill(False)
             self.counts = counts
-            self.total = sum(counts)
+            self.total = total
         if blocks is not None:
             o = 0
-            for G, h, *_ in blocks:
-                k = h.shape[0]
+            G_all, h_all = self.G, self.h
+            for blk, k in zip(blocks, counts, strict=True):
                 if k:
-                    self.G[o : o + k] = G
-                    self.h[o : o + k] = h
+                    G_all[o : o + k] = blk[0]
+                    h_all[o : o + k] = blk[1]
                     o += k
         return grown
 

@@ -398,7 +398,8 @@ def close_pairs(
 ) -> int:  # fmt: skip
     """The pairs closer than ``query`` (m), with their distances, witness points and normals
     (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
-    distance at ``last_joints``) is moved to ``joints`` and tightened by what this call learnt;
+    distance at ``last_joints``) is moved to ``joints`` (``L``: joints x pairs, the lever arms)
+    and tightened by what this call learnt;
     the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
     counts the exact distances computed, ``counts[1]`` the separating-axis bounds,
     ``counts[3]`` the exact distances that took GJK."""
@@ -409,13 +410,12 @@ def close_pairs(
             moved = True
             break
     K = pair_a.shape[0]
-    if moved:
-        for k in range(K):
-            s = 0.0
-            for i in range(nj):
-                s += L[k, i] * abs(joints[i] - last_joints[i])
-            bound[k] -= s
+    if moved:  # (joint by joint: K independent sums, not one chain per pair)
         for i in range(nj):
+            step = abs(joints[i] - last_joints[i])
+            if step != 0.0:
+                for k in range(K):
+                    bound[k] -= L[i, k] * step
             last_joints[i] = joints[i]
     placed[:] = False
     axis = np.empty(4)
@@ -468,30 +468,45 @@ def damper_h(d, margin, trigger, damping) -> float:
 
 
 @njit(cache=True)
-def _point_row(Jw, support, p, n, sign, row) -> None:
-    """row += sign · nᵀ J_p for a point p carried by the joints of ``support`` (J_p: the
-    world Jacobian of a point, v_p = v_O + ω × p, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω)."""
-    x0 = p[1] * n[2] - p[2] * n[1]
-    x1 = p[2] * n[0] - p[0] * n[2]
-    x2 = p[0] * n[1] - p[1] * n[0]
+def _body_columns(Jw, support, n, cols, sv) -> int:
+    """The columns of ``support`` (the joints carrying a body) into ``cols``, and nᵀJ_v of each
+    into ``sv`` (the first three terms of :func:`_point_terms`, summed in the same order);
+    returns how many."""
+    m = 0
     for k in range(Jw.shape[1]):
         if support[k]:
-            row[k] += sign * (
-                n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
-                + x0 * Jw[3, k] + x1 * Jw[4, k] + x2 * Jw[5, k]
-            )  # fmt: skip
+            cols[m] = k
+            sv[m] = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
+            m += 1
+    return m
 
 
-@njit(cache=True)
-def _add_row(Jw, sup_a, sup_b, pa, pb, n, gap, margin, trigger, damping, unreachable, G, h, r):
-    """Row r: −nᵀ(J_b − J_a) Δq <= h(gap); False (no row) if h(gap) >= ``unreachable``."""
+@njit(cache=True, inline="always")
+def _point_terms(Jw, cols, sv, ms, i, side, p0, p1, p2, n, sign, G, r) -> None:
+    """G[r] += sign · nᵀ J_p over the columns of body ``side`` of close pair i
+    (:func:`_body_columns`): J_p is the world Jacobian of the point p = (p0, p1, p2),
+    v_p = v_O + ω × p, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω. (Indices, not views: a view per
+    row cost more than the row.)"""
+    x0 = p1 * n[i, 2] - p2 * n[i, 1]
+    x1 = p2 * n[i, 0] - p0 * n[i, 2]
+    x2 = p0 * n[i, 1] - p1 * n[i, 0]
+    for c in range(ms[i, side]):
+        k = cols[i, side, c]
+        G[r, k] += sign * (sv[i, side, c] + x0 * Jw[3, k] + x1 * Jw[4, k] + x2 * Jw[5, k])
+
+
+@njit(cache=True, inline="always")
+def _add_row(Jw, cols, sv, ms, i, pa, pb, n, gap, margin, trigger, damping, unreachable, G,
+             h, r):  # fmt: skip
+    """Row r for close pair i: −nᵀ(J_b − J_a) Δq <= h(gap) for the points pa (on body a) and
+    pb (body b); False (no row) if h(gap) >= ``unreachable``."""
     hr = damper_h(gap, margin, trigger, damping)
     if not hr < unreachable:
         return False
-    row = G[r]
-    row[:] = 0.0
-    _point_row(Jw, sup_b, pb, n, -1.0, row)
-    _point_row(Jw, sup_a, pa, n, 1.0, row)
+    for k in range(G.shape[1]):
+        G[r, k] = 0.0
+    _point_terms(Jw, cols, sv, ms, i, 1, pb[0], pb[1], pb[2], n, -1.0, G, r)
+    _point_terms(Jw, cols, sv, ms, i, 0, pa[0], pa[1], pa[2], n, 1.0, G, r)
     h[r] = hr
     return True
 
@@ -505,14 +520,22 @@ def plane_rows(
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
     returns the number of rows. The witness rows first, then the corners of each pair's
     second box near the plane through p1, then those of its first box near the plane through
-    p2 (the order of :func:`wbc.limits.self_collision.separating_plane_rows`)."""
+    p2 (the order of :func:`wbc.limits.self_collision.separating_plane_rows`). Each pair's
+    bodies' columns and nᵀJ_v are computed once (:func:`_body_columns`)."""
+    nv = Jw.shape[1]
+    cols = np.empty((count, 2, nv), np.int64)
+    sv = np.empty((count, 2, nv))
+    ms = np.empty((count, 2), np.int64)
+    for i in range(count):
+        k = out_k[i]
+        ms[i, 0] = _body_columns(Jw, support[pair_a[k]], out_n[i], cols[i, 0], sv[i, 0])
+        ms[i, 1] = _body_columns(Jw, support[pair_b[k]], out_n[i], cols[i, 1], sv[i, 1])
     r = 0
     corner = np.empty(3)
     for i in range(count):
-        k = out_k[i]
         ok = _add_row(
-            Jw, support[pair_a[k]], support[pair_b[k]], out_p1[i], out_p2[i], out_n[i],
-            out_d[i], margin, trigger, damping, unreachable, G, h, r,
+            Jw, cols, sv, ms, i, out_p1[i], out_p2[i], out_n, out_d[i], margin, trigger,
+            damping, unreachable, G, h, r,
         )  # fmt: skip
         if ok:
             row_pair[r], row_gap[r] = i, out_d[i]
@@ -538,16 +561,12 @@ def plane_rows(
                     gap += n[m] * ((corner[m] - p1[m]) if side == 0 else (p2[m] - corner[m]))
                 if not (gap < trigger and dd > 1e-18):
                     continue
-                if side == 0:
-                    ok = _add_row(
-                        Jw, support[pair_a[k]], support[g], p1, corner, n, gap, margin,
-                        trigger, damping, unreachable, G, h, r,
-                    )  # fmt: skip
-                else:
-                    ok = _add_row(
-                        Jw, support[g], support[pair_b[k]], corner, p2, n, gap, margin,
-                        trigger, damping, unreachable, G, h, r,
-                    )  # fmt: skip
+                pa = p1 if side == 0 else corner
+                pb = corner if side == 0 else p2
+                ok = _add_row(
+                    Jw, cols, sv, ms, i, pa, pb, out_n, gap, margin, trigger, damping,
+                    unreachable, G, h, r,
+                )  # fmt: skip
                 if ok:
                     row_pair[r], row_gap[r] = i, gap
                     r += 1

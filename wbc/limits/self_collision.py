@@ -5,13 +5,11 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
 * :func:`candidate_pairs` / :func:`choose_pairs` — which geometry pairs can meet: not on the
   same joint, not on adjacent joints, and closer than a threshold in at least one of
   ``samples`` random configurations within the joint limits (computed once, seeded);
-* :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (from p1
-  towards p2) of the pairs from pinocchio's collision module (hpp-fcl/coal), skipping the
-  exact computation while a Lipschitz bound proves a pair farther than the trigger;
-* :func:`distance_jacobian` — J_d = nᵀ (J_p2 − J_p1), the witness points' Jacobians
-  J_p = J_v − [p]× J_ω from pinocchio's world-frame joint Jacobians;
-* :func:`separating_plane_rows` — the witness pair plus the box corners near the separating
-  plane (parallel faces: the witness flips between corners from one tick to the next);
+* :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (p1 → p2)
+  of the pairs, compiled (:mod:`wbc.limits.collision_kernels`, one call per tick with the rows);
+* :func:`distance_jacobian`, :func:`separating_plane_rows` — the rows' numpy forms (the tests
+  compare the kernels to them): J_d = nᵀ (J_p2 − J_p1) for the witness pair and the box
+  corners near the separating plane (parallel faces: the witness flips between corners);
 * :func:`damper_bound` — h(d) of the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
   margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
@@ -30,15 +28,12 @@ both, as the best achievable separation (:meth:`SelfCollisionConstraint.split`,
 :meth:`wbc.solvers.base.StackSolver.solve`); the rows of the pairs outside the margin are
 never relaxed.
 
-h is C¹ at d = m and grows continuously to +∞ at d = T, so the QP's
-solution is continuous in d: a row appears with a bound no tick can reach (rows are left
-out while h exceeds 1 m, ``UNREACHABLE``, a closure no tick asks for). The linearised
-margin is guaranteed (h(d) <= d − m) for d <= T − ξ (T − m); a pair closes from beyond that
-point to below the margin only if one tick closes more than (1 − ξ)(T − m) (9 mm with the
-defaults). The servos' speed limit does not exclude that (one tick of hip roll at 6.2 rad/s
-moves a foot ~12 mm): targets must move at a bounded speed, as walking references do (the
-tests pull links together at <= 0.1 m/s and stay within 0.5 mm of the margin, the rest being
-the second-order error of a linearised tick; the margin absorbs it).
+h is C¹ at d = m and grows continuously to +∞ at d = T: the QP's solution is continuous in d
+(rows are left out while h exceeds ``UNREACHABLE``). The linearised margin holds (h(d) <= d − m)
+for d <= T − ξ (T − m); a pair crosses from beyond that point only if one tick closes more than
+(1 − ξ)(T − m) (9 mm with the defaults; one tick of hip roll at 6.2 rad/s moves a foot ~12 mm):
+targets must move at a bounded speed, as walking references do (the tests pull links together
+at <= 0.1 m/s and stay within 0.5 mm of the margin: a linearised tick's second order).
 
 Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
 margin for more than :data:`RECOVERY_TICKS` control ticks in a row (the hard tasks hold it:
@@ -403,6 +398,7 @@ class PairDistances:
         self.pairs = list(pairs)
         self.geometry = cm.geometry
         self.L = lipschitz_bounds(robot, cm, self.pairs)
+        self._L_joints = np.ascontiguousarray(self.L.T)  # (joints x pairs: the kernels')
         #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
         self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
         self._geom_joint = np.asarray(cm.joints, dtype=int)
@@ -432,9 +428,7 @@ class PairDistances:
         self._bound = np.full(K, -np.inf)  # -inf: never computed
         self._q = np.zeros(robot.n_joints)
         #: the close pairs of the last query: pair index, distance, witnesses, normal
-        self.out_k = np.zeros(K, np.int64)
-        self.out_d = np.zeros(K)
-        self.out_p1, self.out_p2, self.out_n = np.zeros((K, 3)), np.zeros((K, 3)), np.zeros((K, 3))
+        self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n = self.out_buffers()
         self._counts = np.zeros(4, np.int64)
         self._kin: Kinematics | None = None
         self._frames: tuple[np.ndarray, np.ndarray] | None = None
@@ -443,6 +437,11 @@ class PairDistances:
         state = self.__dict__.copy()
         state["_kin"] = state["_frames"] = None  # (views of one Kinematics: a copy re-binds)
         return state
+
+    def out_buffers(self) -> tuple[np.ndarray, ...]:
+        """New arrays for :meth:`close`'s output: pair index, distance, witnesses, normal."""
+        K = len(self.pairs)
+        return (np.zeros(K, np.int64), np.zeros(K), *(np.zeros((K, 3)) for _ in range(3)))
 
     @property
     def exact_computations(self) -> int:
@@ -469,7 +468,7 @@ class PairDistances:
         Rf, pf = self.frames(kin)
         joints = np.ascontiguousarray(kin.q[7:], dtype=float)
         return close_pairs(
-            joints, self._q, self._bound, self.L, Rf, pf, self.box_frame, self.box_R,
+            joints, self._q, self._bound, self._L_joints, Rf, pf, self.box_frame, self.box_R,
             self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
             self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
             self.out_n, self._counts,
@@ -508,15 +507,6 @@ def joint_masks(robot: Robot) -> np.ndarray:
     return out
 
 
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Row-wise u × v (K x 3); np.cross's overhead is ~30 µs on small arrays."""
-    out = np.empty_like(u)
-    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
-    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
-    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
-    return out
-
-
 def distance_jacobian(
     J_world: np.ndarray,
     mask_1: np.ndarray,
@@ -534,8 +524,8 @@ def distance_jacobian(
     """
     Jv, Jw = J_world[:3], J_world[3:]
     a = normal @ Jv
-    row_2 = a + _cross(p2, normal) @ Jw
-    row_1 = a + _cross(p1, normal) @ Jw
+    row_2 = a + np.cross(p2, normal) @ Jw  # (the kernels' reference: tests)
+    row_1 = a + np.cross(p1, normal) @ Jw
     return np.where(mask_2, row_2, 0.0) - np.where(mask_1, row_1, 0.0)
 
 
@@ -686,13 +676,12 @@ class SelfCollisionConstraint(Constraint):
         #: per pair: the control ticks in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
         self._counting = False  # (any of _inside non-zero)
-        self.last = Witness(np.zeros(0, int), np.zeros(0), *(np.zeros((0, 3)),) * 3)
+        self._out, self._n_close = self.distances.out_buffers(), 0  # (last compute's close pairs)
+        self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
         self._rows: Inequality | None = None
         self._rows_q = np.zeros(0)
-        #: the pair (a row of :attr:`last`) of each of _rows
-        self._row_pair = np.zeros(0, dtype=int)
-        #: the gap (m) of each of _rows along its pair's normal
-        self._row_gap = np.zeros(0)
+        #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
+        self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
 
     @property
     def n_pairs(self) -> int:
@@ -707,30 +696,44 @@ class SelfCollisionConstraint(Constraint):
         w = self.distances.below(kin, np.inf)
         return float(w.distance.min()) if w.distance.size else np.inf
 
+    @property
+    def last(self) -> Witness:
+        """The pairs closer than the trigger at the last :meth:`compute` (copies)."""
+        if self._last is None:
+            self._last = Witness(*(a[: self._n_close].copy() for a in self._out))
+        return self._last
+
+    @last.setter
+    def last(self, w: Witness) -> None:
+        self._last = w
+
     def compute(self, kin: Kinematics) -> Inequality:
         """The rows at ``kin`` (kept for a second call at the same configuration, e.g. a
         tick the compiled path hands back to DAQP)."""
-        if self._rows is not None and np.array_equal(kin.q, self._rows_q):
+        q = kin.q
+        last_q = self._rows_q
+        if self._rows is not None and q.shape == last_q.shape and (q == last_q).all():
             return self._rows
         pd = self.distances
+        G, h, row_pair, row_gap = self._G, self._h, self._pair_buf, self._gap_buf
+        out_k, out_d, out_p1, out_p2, out_n = self._out
         if pd.pairs:
             Rf, pf = pd.frames(kin)
             r = collision_rows(
-                np.ascontiguousarray(kin.q[7:], dtype=float), pd._q, pd._bound, pd.L, Rf, pf,
+                np.ascontiguousarray(q[7:], dtype=float), pd._q, pd._bound, pd._L_joints, Rf, pf,
                 pd.box_frame, pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b,
                 pd.support, kin.data.J, self.margin, self.trigger, self.damping, UNREACHABLE,
-                pd.Rw, pd.cw, pd._placed, pd.out_k, pd.out_d, pd.out_p1, pd.out_p2, pd.out_n,
-                pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
+                pd.Rw, pd.cw, pd._placed, out_k, out_d, out_p1, out_p2, out_n, pd._counts, G, h,
+                row_pair, row_gap,
             )  # fmt: skip
-            n = int(pd._counts[2])
+            self._n_close = int(pd._counts[2])
         else:
-            r = n = 0
-        self.last = Witness(pd.out_k[:n], pd.out_d[:n], pd.out_p1[:n], pd.out_p2[:n], pd.out_n[:n])
+            r = self._n_close = 0
+        self._last = None
         # (copies: the rows outlive the next call, e.g. in a backend's problem)
-        rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
-        row_pair, row_gap = self._pair_buf[:r].copy(), self._gap_buf[:r].copy()
-        self._rows, self._rows_q, self._row_pair = rows, kin.q.copy(), row_pair
-        self._row_gap = row_gap
+        rows = Inequality(G[:r].copy(), h[:r].copy())
+        self._rows, self._rows_q = rows, q.copy()
+        self._row_pair, self._row_gap = row_pair[:r], row_gap[:r]  # (private: views)
         return rows
 
     def solved(self) -> None:
@@ -739,14 +742,15 @@ class SelfCollisionConstraint(Constraint):
         :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
         tick raises too). The solvers call it after each tick with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
-        w = self.last
+        d = self._out[1][: self._n_close] if self._last is None else self._last.distance
         inside = self._inside
-        if not (w.index.size and w.distance.min() < self.margin - RECOVERY_TOL):
+        if not (d.size and d.min() < self.margin - RECOVERY_TOL):
             if self._counting:
                 inside[:] = 0
                 self._counting = False
             return
         self._counting = True
+        w = self.last
         deep = w.index[w.distance < self.margin - RECOVERY_TOL]
         kept = inside[deep] + 1
         inside[:] = 0
@@ -777,7 +781,7 @@ class SelfCollisionConstraint(Constraint):
         rate only smooths the rows' activation; a hard contact's second-order drift can
         need more than a fraction ξ of the gap to be corrected)."""
         rows = self.compute(kin)
-        pair_inside = np.zeros(self.last.index.size, dtype=bool)
+        pair_inside = np.zeros(self._n_close, dtype=bool)
         # any of its rows (a corner's gap to the witness plane can come out a hair below the
         # witness distance: the plane's normal is the distance query's, to its tolerance)
         pair_inside[self._row_pair[inside_margin(rows)]] = True
