@@ -90,8 +90,10 @@ def test_servo_map_is_protocol_2_with_robotis_ids(op3):
     assert gains.position_p_gain[sm.joint_names.index("head_pan")] == 800
 
 
-def test_standing_pose_puts_the_feet_flat_under_the_hips(op3):
-    q = op3.configuration("stand")
+@pytest.mark.parametrize("pose, drop", [("walk_ready", 0.035), ("walk_high", 0.020)])
+def test_standing_poses_put_the_feet_flat_under_the_hips(op3, pose, drop):
+    """ROBOTIS's walking stance (param.yaml z_offset 35 mm) and the project's 20 mm one."""
+    q = op3.configuration(pose)
     assert op3.within_limits(q)
     pin.framesForwardKinematics(op3.model, op3.data, q)
     soles = [op3.data.oMf[op3.frame_id(f)].copy() for f in ("l_sole", "r_sole")]
@@ -99,13 +101,16 @@ def test_standing_pose_puts_the_feet_flat_under_the_hips(op3):
     for sole in soles:
         assert np.allclose(sole.rotation, np.eye(3), atol=1e-9)  # flat
         assert sole.translation[0] == pytest.approx(torso.translation[0], abs=1e-4)
-    # the hip 35 mm lower than with straight legs (param.yaml z_offset)
     straight = op3.neutral()
     pin.framesForwardKinematics(op3.model, op3.data, straight)
-    drop = (op3.data.oMf[op3.frame_id("torso")].translation[2]
+    full = (op3.data.oMf[op3.frame_id("torso")].translation[2]
             - op3.data.oMf[op3.frame_id("l_sole")].translation[2])  # fmt: skip
     stand = torso.translation[2] - soles[0].translation[2]
-    assert drop - stand == pytest.approx(0.035, abs=1e-6)
+    assert full - stand == pytest.approx(drop, abs=1e-6)
+
+
+def test_stand_is_the_walking_stance(op3):
+    assert np.array_equal(op3.configuration("stand"), op3.configuration("walk_high"))
 
 
 def test_robot_check_passes():
@@ -124,6 +129,17 @@ def test_no_two_links_touch_at_the_standing_and_zero_poses(op3):
     for i, j in pairs:
         geometry.addCollisionPair(pin.CollisionPair(i, j))
     gdata, data = pin.GeometryData(geometry), op3.model.createData()
-    for q in (op3.configuration("stand"), op3.neutral()):
+    for q in (op3.configuration("walk_ready"), op3.configuration("stand"), op3.neutral()):
         pin.computeDistances(op3.model, data, geometry, gdata, q)
         assert min(r.min_distance for r in gdata.distanceResults) > 0.005
+
+
+def test_walk10_keeps_its_zmp_well_inside_the_stance_sole(op3):
+    """The OP3's walk10 (robot.toml [walking.walk10]; turn and lateral alike) plans the ZMP
+    >= 10 mm inside the stance sole: the Bioloid's offset sized to the OP3's feet ran it
+    2.7 mm inside the inner edge, and in the simulator the swing foot then carried weight
+    for half the single support and the robot fell (benchmarks/op3.md)."""
+    from wbc.bench.trajectories import build
+
+    ref = build("walk10", op3)
+    assert ref.zmp_margin().min() >= 0.010

@@ -291,17 +291,22 @@ INI_POSE_ARMS_DEG = {
 # ROBOTIS-OP3 op3_walking_module/config/param.yaml: z_offset 0.035 m, the hip lowered from
 # the straight leg to walk. Thigh 110.15 mm, shin 110 mm (the xacro's knee / ankle origins).
 WALK_Z_OFFSET = 0.035
+# The project's walking stance (robot.toml stand): the hip 20 mm lower than straight. In the
+# simulator the 35 mm crouch leaves the knees and hips at stall torque in single support
+# (benchmarks/op3.md); 20 mm asks less of them. Not a ROBOTIS figure.
+WALK_HIGH_Z_OFFSET = 0.020
 THIGH, SHIN = 0.11015, 0.110
 
 
-def walk_ready() -> dict[str, float]:
-    """The standing pose (rad): feet flat under the hips, hip 35 mm lower than straight
-    (law of cosines in the sagittal plane), torso upright; ROBOTIS's arm and head angles.
+def walk_ready(z_offset: float = WALK_Z_OFFSET) -> dict[str, float]:
+    """The standing pose (rad): feet flat under the hips, hip ``z_offset`` lower than
+    straight (law of cosines in the sagittal plane), torso upright; ROBOTIS's arm and head
+    angles.
 
     With α the thigh's and β the shin's angle to the vertical, hip pitch = −α, knee = α + β,
     ankle pitch = β about +y; ROBOTIS's axes flip the right leg's signs (and the left ankle's).
     """
-    d = THIGH + SHIN - WALK_Z_OFFSET
+    d = THIGH + SHIN - z_offset
     a = math.acos((THIGH**2 + d * d - SHIN**2) / (2 * THIGH * d))
     b = math.acos((SHIN**2 + d * d - THIGH**2) / (2 * SHIN * d))
     pose = {}
@@ -321,6 +326,8 @@ def build_poses() -> str:
         "[poses.walk_ready]",
     ]
     lines += [f"{j} = {v!r}" for j, v in walk_ready().items()]
+    lines += ["", "[poses.walk_high]"]
+    lines += [f"{j} = {v!r}" for j, v in walk_ready(WALK_HIGH_Z_OFFSET).items()]
     return "\n".join(lines) + "\n"
 
 
