@@ -71,6 +71,9 @@ class Tally:
     tick_contact_misses: int = 0
     max_tick_contact: float = 0.0
     pose_contact_misses: int = 0
+    #: poses whose end no projection brought back onto the hard levels (they end at the last
+    #: iterate that held them, not converged: ``PoseResult.fell_back``), and their trials
+    fell_back: list[int] = field(default_factory=list)
     max_pose_contact: float = 0.0
     typed: Counter = field(default_factory=Counter)
     #: the trials of each kind of typed error (the first few, to look at)
@@ -94,6 +97,7 @@ class Tally:
             or self.pose_contact_misses
             or self.slow_ticks
             or self.slow_poses
+            or self.fell_back
         )
 
 
@@ -214,6 +218,8 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                     tally.most_projection_steps, result.projection_steps
                 )
                 tally.poses += 1
+                if result.fell_back:
+                    tally.fell_back.append(p.get("trial", -1))
                 check(robot, q0, result.q, tally)
                 kin = Kinematics(robot, result.q)
                 worst = 0.0
@@ -228,6 +234,7 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                     print(
                         f"trial {p.get('trial', -1)} pose: {elapsed:.2f} s, "
                         f"{result.projection_steps} Gauss–Newton steps, hard contacts {worst:.2g}"
+                        + (", fell back" if result.fell_back else "")
                     )
         except WbcError as exc:
             if mode == "pose" and BUDGET_SPENT in str(exc):  # a runaway, stopped
@@ -328,6 +335,10 @@ def report(t: Tally, start_time: float) -> None:
     print(
         f"hard contact > {POSE_CONTACT_TOL} at the end of a pose: {t.pose_contact_misses} "
         f"(largest {t.max_pose_contact:.3g}; trials {t.miss_trials[:10]})"
+    )
+    print(
+        f"poses whose end could not be projected onto the hard levels (ended at the last "
+        f"iterate that held them): {len(t.fell_back)} (trials {t.fell_back[:10]})"
     )
     print(
         f"slowest tick {t.slowest_tick * 1e3:.1f} ms (trial {t.slowest_tick_trial}; the run's "

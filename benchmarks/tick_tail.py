@@ -6,8 +6,9 @@ Trials drawn as ``benchmarks/stress.py`` draws them (seed 2024), always on the `
 (hard contacts and self-collision rows), DAQP, compiled or numpy path as drawn; ``--ticks``
 ticks each. Ticks from starts outside the limits or inside a collision margin are infeasible
 as linearised and go through the recovery re-solve; they make the tail. Prints the median,
-p99 and largest tick time (ms) and the ticks above 5 and 20 ms, with the slowest trials; the
-first ``--skip`` trials (4) are left out (they load the kernels).
+p99 and largest tick time (ms) and the ticks above 5 and 20 ms, with the slowest trials, and
+the Gauss–Newton steps of the ticks' recoveries (``recovery_steps``, at most
+``TICK_RECOVERY_STEPS``); the first ``--skip`` trials (4) are left out (they load the kernels).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc import WbcError, load_robot
+from wbc.solvers.base import TICK_RECOVERY_STEPS
 
 
 def main() -> None:
@@ -38,7 +40,7 @@ def main() -> None:
     spec.loader.exec_module(stress)
     stress.compile_first()
     robot = load_robot("bioloid")
-    times, where = [], []
+    times, where, steps = [], [], []
     for trial in range(args.n):
         p = stress.draw(robot, np.random.default_rng([args.seed, trial]), ["daqp"])
         q = stress.start(robot, p)
@@ -61,6 +63,7 @@ def main() -> None:
                 if trial >= args.skip:
                     times.append(time.perf_counter() - start)
                     where.append((trial, tick))
+                    steps.append(solver.recovery_steps)
     t = np.asarray(times) * 1e3
     order = np.argsort(t)[::-1][:5]
     print(
@@ -68,6 +71,13 @@ def main() -> None:
         f"largest {t.max():.1f} ms; above 5 ms: {(t > 5).sum()}, above 20 ms: {(t > 20).sum()}"
     )
     print("slowest (trial, tick): " + ", ".join(f"{where[i]} {t[i]:.1f} ms" for i in order))
+    s = np.asarray(steps)
+    most = np.argsort(s)[::-1][:5]
+    print(
+        f"Gauss–Newton steps of a tick's recovery: ticks with any {(s > 0).sum()}, most "
+        f"{s.max()} (at most {TICK_RECOVERY_STEPS}); the most (trial, tick): "
+        + ", ".join(f"{where[i]} {s[i]} ({t[i]:.1f} ms)" for i in most)
+    )
 
 
 if __name__ == "__main__":

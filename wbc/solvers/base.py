@@ -76,6 +76,18 @@ HARD_PROJECTION_TRUST = 0.05
 #: trial 1226: seven such steps, then 5e-5 → 1.4e-7 m)
 PROJECTION_STALL = 0.9
 PROJECTION_STALLS = 3
+#: the most Gauss–Newton steps onto the hard levels that one solve outside
+#: :meth:`StackSolver.solve_pose` (a control tick) spends bringing an infeasible start back
+#: (:meth:`StackSolver._restore_steps`: the restoration and the way back onto the hard levels
+#: from outside the joint limits), each one cascade of DAQP levels and at most
+#: :data:`HARD_PROJECTION_HALVINGS` evaluations of the hard levels. With it a tick's worst
+#: case is stated: the solve, at most three recovery re-solves (one or two cascades each),
+#: TICK_RECOVERY_STEPS such steps, 2 × (:data:`WAY_BACK_HALVINGS` + 1) more evaluations and,
+#: where it still fails, the diagnosis (one cascade). Spent, the restoration stops where it
+#: is: the tick raises InfeasibleError as any tick whose restoration fails, or keeps the
+#: recovery's step (the way back). The most a tick of ``benchmarks/tick_tail.py`` spent:
+#: benchmarks/stress.md
+TICK_RECOVERY_STEPS = 40
 #: the default work budget of :meth:`StackSolver.solve_pose`: this many Gauss–Newton steps of
 #: its projections onto the hard levels per iteration and hard level
 POSE_PROJECTION_STEPS = 100
@@ -179,6 +191,9 @@ class PoseResult:
     time: float = 0.0
     #: Gauss–Newton steps spent projecting onto the hard levels (``max_projection_steps``)
     projection_steps: int = 0
+    #: True if no projection of the last iterate held the hard levels and the pose ended at
+    #: the last iterate that did (``converged`` is then False)
+    fell_back: bool = False
 
     def max_error(self) -> float:
         return max((float(np.max(np.abs(e))) for e in self.errors.values()), default=0.0)
@@ -275,6 +290,9 @@ class StackSolver(ABC):
         self.diagnosis = ""
         #: the work budget of the running :meth:`solve_pose` (None outside one)
         self._budget: _PoseBudget | None = None
+        #: Gauss–Newton steps the last solve spent bringing an infeasible start back onto
+        #: the hard levels (at most :data:`TICK_RECOVERY_STEPS` outside a ``solve_pose``)
+        self.recovery_steps = 0
         self._hard: list[Constraint] = []  # (:meth:`_hard_constraints`, for a revision)
         self._hard_key: int | None = None
 
@@ -298,6 +316,7 @@ class StackSolver(ABC):
         if dt is not None:
             check_dt(dt)
         self.last = None
+        self.recovery_steps = 0
         self.kin.update(q)
         try:
             solution = self._solve(self.kin, dt)
@@ -544,6 +563,9 @@ class StackSolver(ABC):
         for _ in range(max_steps):
             if max(errors, default=0.0) <= self.hard_tol:
                 break
+            if self._budget is None and self.recovery_steps >= TICK_RECOVERY_STEPS:
+                break  # a tick's work is bounded (a pose has its own budget)
+            self.recovery_steps += 1
             self._spend()  # (inside a solve_pose: its time budget, at every step)
             kin.update(q)
             problems, held = self._hard_problems(kin)
@@ -881,7 +903,7 @@ class StackSolver(ABC):
                 if t.active and t.blocks_convergence
             )
         steps = self._budget.steps if self._budget is not None else 0
-        return PoseResult(q, it, converged, errors, time.perf_counter() - start, steps)
+        return PoseResult(q, it, converged, errors, time.perf_counter() - start, steps, fell_back)
 
     def _spend(self, steps: int = 0, iteration: int | None = None) -> None:
         """Count ``steps`` Gauss–Newton steps against the budget of the running
