@@ -129,13 +129,12 @@ class ServoSettings:
     ) -> ServoSettings:
         """Parse a ``[settings]`` table: global values plus ``[settings.joints]`` overrides."""
         where = f"servo map {source}: [settings]"
+        known = set(SETTING_REGISTERS) | {"alarm_shutdown", "joints"}
+        extra = sorted(set(table) - known)
+        if extra:
+            raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
         values = per_joint_registers(
-            table,
-            joint_names,
-            SETTING_REGISTERS,
-            {"alarm_shutdown"},
-            where,
-            lambda j, k: f"{where}.joints.{j}.{k}",
+            table, joint_names, SETTING_REGISTERS, where, lambda j, k: f"{where}.joints.{j}.{k}"
         )
         alarm = checked_register(
             table.get("alarm_shutdown", ALARM_SHUTDOWN_DEFAULT), 0, 127, f"{where} alarm_shutdown"

@@ -130,13 +130,12 @@ class XSettings:
         """Parse a ``[settings]`` table: global values plus ``[settings.joints]`` overrides;
         an unknown key is an error naming it."""
         where = f"servo map {source}: [settings]"
+        known = set(X_SETTING_REGISTERS) | {"shutdown", "joints"}
+        extra = sorted(set(table) - known)
+        if extra:
+            raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
         values = per_joint_registers(
-            table,
-            joint_names,
-            X_SETTING_REGISTERS,
-            {"shutdown"},
-            where,
-            lambda j, k: f"{where}.joints {k}",
+            table, joint_names, X_SETTING_REGISTERS, where, lambda j, k: f"{where}.joints {k}"
         )
         shutdown = register_value(
             table.get("shutdown", SHUTDOWN_DEFAULT), 0, 255, "shutdown", where
@@ -160,19 +159,13 @@ def per_joint_registers(
     table: Mapping,
     joint_names: Sequence[str],
     registers: Mapping[str, tuple],
-    other_keys: set[str],
     where: str,
     joint_label: Callable[[str, str], str],
 ) -> dict[str, np.ndarray]:
     """Register values per joint from a ``[settings]`` table: each key of ``registers``
     (``(address, size, (lo, hi), default)``) at its global value or default, then the
-    ``[settings.joints]`` overrides; a bad value, joint or key (not a register, ``joints``
-    or one of ``other_keys``, which the caller reads) is an error naming it
+    ``[settings.joints]`` overrides; a bad value, joint or key is an error naming it
     (``joint_label(joint, key)`` names an override)."""
-    known = set(registers) | other_keys | {"joints"}
-    extra = sorted(set(table) - known)
-    if extra:
-        raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
     n = len(joint_names)
     values = {}
     for key, (_, _, (lo, hi), default) in registers.items():
