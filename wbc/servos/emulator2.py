@@ -1,8 +1,10 @@
 """X-series servos (XM430-W350) on Dynamixel Protocol 2.0, emulated on a pseudo-terminal.
 
 :class:`XEmulator` is the Protocol 2.0 twin of :class:`wbc.servos.emulator.AX12Emulator`
-(same pty runner, same :class:`~wbc.servos.emulator.Fault` kinds, same goal and write
-records): a control table per servo (e-Manual XM430-W350, :mod:`wbc.xseries`), status packets
+(both subclass :class:`~wbc.servos.emulator.ServoBusEmulator`: the pty runner, the
+:class:`~wbc.servos.emulator.Fault` kinds, the goal and write records, SYNC_WRITE and the
+reply faults; the servos' motion is :func:`~wbc.servos.emulator.lag_step`): a control
+table per servo (e-Manual XM430-W350, :mod:`wbc.xseries`), status packets
 with CRC-16 and byte stuffing, PING, READ, WRITE, SYNC_WRITE, SYNC_READ (the servos answer in
 the order of the request), REBOOT, indirect addresses (168..) and data (224..), and a position
 that follows the goal as a first-order lag saturated at the Profile Velocity::
