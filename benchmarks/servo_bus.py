@@ -86,16 +86,26 @@ def free_running(robot, mode: str, read: bool, ticks: int, configure: bool = Tru
         bus.identify()
         if configure:
             bus.configure()
-        times = np.empty(ticks)
-        failures = 0
-        for k in range(ticks):
-            goals = np.clip(base + round(5 * np.sin(k / 10)), lo, hi)
-            t0 = time.perf_counter()
-            bus.write_goals(goals.astype(int))
-            statuses = bus.read_positions() if read else [bus.poll(k % 18)]
-            times[k] = time.perf_counter() - t0
-            failures += sum(s.comm != "ok" for s in statuses)
+        out = timed_ticks(
+            bus, base, lo, hi, ticks, lambda k: bus.read_positions() if read else [bus.poll(k % 18)]
+        )
         bus.close()
+    return out
+
+
+def timed_ticks(bus, base: np.ndarray, lo, hi, ticks: int, feedback) -> dict:
+    """``ticks`` free-running ticks: a SYNC_WRITE of ``base`` plus a ±5-tick sway (clipped to
+    ``lo..hi``), then ``feedback(k)`` (the statuses read): tick p50/p99 (s), rate (Hz) and
+    the failed reads."""
+    times = np.empty(ticks)
+    failures = 0
+    for k in range(ticks):
+        goals = np.clip(base + round(5 * np.sin(k / 10)), lo, hi)
+        t0 = time.perf_counter()
+        bus.write_goals(goals.astype(int))
+        statuses = feedback(k)
+        times[k] = time.perf_counter() - t0
+        failures += sum(s.comm != "ok" for s in statuses)
     return {
         "p50": float(np.percentile(times, 50)),
         "p99": float(np.percentile(times, 99)),

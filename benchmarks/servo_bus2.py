@@ -23,7 +23,6 @@ import contextlib
 import io
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +36,10 @@ from wbc.servos.emulator import Fault
 from wbc.servos.emulator2 import XEmulator
 from wbc.servos.protocol2 import Dynamixel2Bus
 from wbc.xseries import HW_OVERHEATING, HW_OVERLOAD
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from servo_bus import free_running as ax_free_running
+from servo_bus import timed_ticks
 
 CASES = [
     ("silent (timeout)", dict(kind="timeout", servo_id=7)),
@@ -103,17 +106,9 @@ def free_running(robot, ticks: int) -> dict[str, float]:
         bus.open()
         bus.identify()
         bus.configure()
-        times = np.empty(ticks)
-        failures = 0
-        for k in range(ticks):
-            goals = np.clip(base + round(5 * np.sin(k / 10)), lo, hi)
-            t0 = time.perf_counter()
-            bus.write_goals(goals.astype(int))
-            failures += sum(s.comm != "ok" for s in bus.read_positions())
-            times[k] = time.perf_counter() - t0
+        out = timed_ticks(bus, base, lo, hi, ticks, lambda k: bus.read_positions())
         bus.close()
-    return {"p50": float(np.median(times)), "p99": float(np.percentile(times, 99)),
-            "rate": ticks / float(times.sum()), "failures": failures}  # fmt: skip
+    return out
 
 
 def main(argv=None) -> int:
@@ -151,9 +146,6 @@ def main(argv=None) -> int:
                 )
                 print(lines[-1], flush=True)
     x = free_running(robot, args.ticks)
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from servo_bus import free_running as ax_free_running
-
     ax = ax_free_running(load_robot("bioloid"), "wire+usb", True, args.ticks)
     lines += [
         "",

@@ -28,6 +28,38 @@ def robot():
     return load_robot("bioloid")
 
 
+@pytest.fixture(scope="session")
+def walk_ready_ticks(robot):
+    """The Bioloid's Walk Ready pose as servo ticks by ID (the emulators' start)."""
+    sm = robot.servo_map
+    return sm.ticks_by_id(sm.pose_ticks("walk_ready"))
+
+
+@pytest.fixture(scope="session")
+def op3():
+    return load_robot("op3")
+
+
+@pytest.fixture(scope="session")
+def pose_recording(tmp_path_factory):
+    """A function writing a 50 Hz recording of ``seconds``: a robot's named pose plus
+    ``k · 0.15 sin²(πt)`` rad (zero end speeds) on each ``(joint, k)`` of ``bends``;
+    returns the file's path."""
+    from wbc.recording import Recording
+
+    def make(robot, pose: str, bends=(), seconds: float = 1.0, name: str = "motion") -> str:
+        t = np.arange(0.0, seconds + 1e-9, 0.02)
+        s = 0.15 * np.sin(np.pi * t) ** 2
+        q = np.tile(robot.configuration(pose), (t.size, 1))
+        for joint, k in bends:
+            q[:, robot.q_index(joint)] += k * s
+        path = tmp_path_factory.mktemp(name) / f"{name}.npz"
+        Recording(t, q, robot.joint_names).save(path)
+        return str(path)
+
+    return make
+
+
 @pytest.fixture()
 def rng():
     return np.random.default_rng(12345)

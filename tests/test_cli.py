@@ -58,6 +58,15 @@ def test_version(capsys):
     assert capsys.readouterr().out.strip() == f"wbc {wbc.__version__}"
 
 
+def _assert_usage_error(capsys, argv, argument, allowed):
+    """``main(argv)`` exits 2 with one line naming ``argument`` and what is ``allowed``."""
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    line = _one_line(capsys.readouterr().err)
+    assert argument in line and allowed in line
+
+
 @pytest.mark.parametrize(
     "argv, argument, allowed",
     [
@@ -68,11 +77,7 @@ def test_version(capsys):
     ],
 )
 def test_bad_arguments_give_one_line_naming_the_argument(capsys, argv, argument, allowed):
-    with pytest.raises(SystemExit) as exit_:
-        main(argv)
-    assert exit_.value.code == 2
-    line = _one_line(capsys.readouterr().err)
-    assert argument in line and allowed in line
+    _assert_usage_error(capsys, argv, argument, allowed)
 
 
 @pytest.mark.parametrize(
@@ -87,11 +92,7 @@ def test_bad_arguments_give_one_line_naming_the_argument(capsys, argv, argument,
     ],
 )
 def test_numeric_options_are_checked_for_range_and_finiteness(capsys, argv, argument, allowed):
-    with pytest.raises(SystemExit) as exit_:
-        main(argv)
-    assert exit_.value.code == 2
-    line = _one_line(capsys.readouterr().err)
-    assert argument in line and allowed in line
+    _assert_usage_error(capsys, argv, argument, allowed)
 
 
 def _actions(parser):

@@ -62,12 +62,6 @@ NOMINAL = ["--reply-timeout-ms", "50", "--max-failures", "10"]
 
 
 # ---------------------------------------------------------------- fixtures and helpers
-@pytest.fixture(scope="module")
-def walk_ready_ticks(robot):
-    sm = robot.servo_map
-    return sm.ticks_by_id(sm.pose_ticks("walk_ready"))
-
-
 def _smooth_motion(robot, duration=1.0, rate=50.0, amplitude=0.15):
     """Walk Ready plus a smooth sway of hips, knees, ankles and arms, zero speed at the ends."""
     q0 = robot.configuration("walk_ready")

@@ -20,7 +20,6 @@ import time
 import numpy as np
 import pytest
 
-from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK
 from wbc.servos import deploy as deploy_cmd
 from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
@@ -44,23 +43,10 @@ STAMP_JITTER_S = 0.02
 
 
 @pytest.fixture(scope="module")
-def walk_ready_ticks(robot):
-    sm = robot.servo_map
-    return sm.ticks_by_id(sm.pose_ticks("walk_ready"))
-
-
-@pytest.fixture(scope="module")
-def sway(robot, tmp_path_factory):
+def sway(robot, pose_recording):
     """1 s at 50 Hz: Walk Ready plus a sway of hips and knees (0.15 rad, zero end speeds)."""
-    q0 = robot.configuration("walk_ready")
-    t = np.arange(0.0, 1.0 + 1e-9, 0.02)
-    s = 0.15 * np.sin(np.pi * t) ** 2
-    q = np.tile(q0, (t.size, 1))
-    for name, sign in (("l_hip_pitch", -1), ("r_hip_pitch", -1), ("l_knee", 1), ("r_knee", 1)):
-        q[:, robot.q_index(name)] += sign * s
-    path = tmp_path_factory.mktemp("playback") / "sway.npz"
-    Recording(t, q, robot.joint_names).save(path)
-    return str(path)
+    bends = (("l_hip_pitch", -1), ("r_hip_pitch", -1), ("l_knee", 1), ("r_knee", 1))
+    return pose_recording(robot, "walk_ready", bends, name="sway")
 
 
 def run_deploy(port, recording, *extra, capsys, read=False):

@@ -20,12 +20,6 @@ from wbc.servos.portlock import PortLock, lock_path
 from wbc.servos.ssc32 import Ssc32Bus, Ssc32Map
 
 
-@pytest.fixture(scope="module")
-def walk_ready_ticks(robot):
-    sm = robot.servo_map
-    return sm.ticks_by_id(sm.pose_ticks("walk_ready"))
-
-
 def test_a_second_deploy_on_the_port_is_refused_and_the_first_completes(
     robot, walk_ready_ticks, tmp_path, capsys
 ):

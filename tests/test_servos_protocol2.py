@@ -12,7 +12,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc import load_robot
 from wbc.exceptions import ServoMapError
 from wbc.servo_map import ServoMap
 from wbc.servos import deploy as deploy_cmd
@@ -37,11 +36,6 @@ from wbc.servos.protocol2 import (
 from wbc.xseries import ADDR_BUS_WATCHDOG, ADDR_TORQUE_ENABLE, HW_OVERHEATING, HW_OVERLOAD
 
 Emulator = functools.partial(XEmulator, process=True)
-
-
-@pytest.fixture(scope="module")
-def op3():
-    return load_robot("op3")
 
 
 # ---------------------------------------------------------------- packets
@@ -229,20 +223,11 @@ def test_bus_watchdog_stops_a_servo_whose_host_went_silent(op3):
 
 # ---------------------------------------------------------------- the deployment
 @pytest.fixture(scope="module")
-def squat(op3, tmp_path_factory):
+def squat(op3, pose_recording):
     """1 s at 50 Hz: the standing pose plus a knee bend (0.15 rad at the hips)."""
-    from wbc.recording import Recording
-
-    q0 = op3.configuration("stand")
-    t = np.arange(0.0, 1.0 + 1e-9, 0.02)
-    s = 0.15 * np.sin(np.pi * t) ** 2
-    q = np.tile(q0, (t.size, 1))
-    for name, k in (("l_hip_pitch", -1), ("r_hip_pitch", 1), ("l_knee", 2), ("r_knee", -2),
-                    ("l_ank_pitch", 1), ("r_ank_pitch", -1)):  # fmt: skip
-        q[:, op3.q_index(name)] += k * s
-    path = tmp_path_factory.mktemp("p2") / "squat.npz"
-    Recording(t, q, op3.joint_names).save(path)
-    return str(path)
+    bends = (("l_hip_pitch", -1), ("r_hip_pitch", 1), ("l_knee", 2), ("r_knee", -2),
+             ("l_ank_pitch", 1), ("r_ank_pitch", -1))  # fmt: skip
+    return pose_recording(op3, "stand", bends, name="squat")
 
 
 def run_deploy(port, recording, *extra, capsys, timeout_ms=None):

@@ -15,7 +15,6 @@ import sys
 import numpy as np
 import pytest
 
-from wbc.recording import Recording
 from wbc.servos.dynamixel import ADDR_TORQUE_ENABLE
 from wbc.servos.emulator import AX12Emulator
 
@@ -23,19 +22,9 @@ Emulator = functools.partial(AX12Emulator, process=True)
 
 
 @pytest.fixture(scope="module")
-def walk_ready_ticks(robot):
-    sm = robot.servo_map
-    return sm.ticks_by_id(sm.pose_ticks("walk_ready"))
-
-
-@pytest.fixture(scope="module")
-def still(robot, tmp_path_factory):
+def still(robot, pose_recording):
     """3 s at Walk Ready (long enough for any signal to land mid-playback)."""
-    t = np.arange(0.0, 3.0 + 1e-9, 0.02)
-    q = np.tile(robot.configuration("walk_ready"), (t.size, 1))
-    path = tmp_path_factory.mktemp("signals") / "still.npz"
-    Recording(t, q, robot.joint_names).save(path)
-    return str(path)
+    return pose_recording(robot, "walk_ready", seconds=3.0, name="still")
 
 
 def deploy_process(port, recording, log, *extra):

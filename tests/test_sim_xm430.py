@@ -17,11 +17,6 @@ from wbc.sim.xm430 import PWM_MAX, STALL_TORQUE, XServoArray, XServoParams
 from wbc.xseries import HW_OVERLOAD, X_RAD_PER_TICK, XSettings
 
 
-@pytest.fixture(scope="module")
-def op3():
-    return load_robot("op3")
-
-
 def one_servo(p=800, i=0, d=0, current=1193, shutdown=0x34):
     s = XSettings(*(np.array([v]) for v in (p, i, d, current, 0)), shutdown=shutdown)
     params = XServoParams.from_settings(s)

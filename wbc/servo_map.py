@@ -22,7 +22,15 @@ import numpy as np
 
 from .exceptions import ServoMapError
 from .paths import read_toml
-from .xseries import X_CENTER_TICK, X_RAD_PER_TICK, X_TICK_MAX, X_TICK_MIN, XSettings
+from .xseries import (
+    X_CENTER_TICK,
+    X_RAD_PER_TICK,
+    X_TICK_MAX,
+    X_TICK_MIN,
+    XSettings,
+    checked_register,
+    per_joint_registers,
+)
 
 TICK_MIN = 0
 TICK_MAX = 1023
@@ -125,40 +133,13 @@ class ServoSettings:
         extra = sorted(set(table) - known)
         if extra:
             raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
-        n = len(joint_names)
-        values = {}
-        for key, (_, _, (lo, hi), default) in SETTING_REGISTERS.items():
-            v = _register_value(table.get(key, default), lo, hi, f"{where} {key}")
-            values[key] = np.full(n, v, dtype=int)
-        index = {j: i for i, j in enumerate(joint_names)}
-        overrides = table.get("joints", {})
-        if not isinstance(overrides, Mapping):
-            raise ServoMapError(f"{where}.joints must be a table of joint = {{ key = value }}")
-        for joint, entry in overrides.items():
-            if joint not in index:
-                raise ServoMapError(f"{where}.joints: unknown joint {joint!r}")
-            if not isinstance(entry, Mapping):
-                raise ServoMapError(f"{where}.joints.{joint} must be a table")
-            for key, v in entry.items():
-                if key not in SETTING_REGISTERS:
-                    raise ServoMapError(
-                        f"{where}.joints.{joint}: unknown key {key!r}; "
-                        f"allowed: {sorted(SETTING_REGISTERS)}"
-                    )
-                lo, hi = SETTING_REGISTERS[key][2]
-                values[key][index[joint]] = _register_value(
-                    v, lo, hi, f"{where}.joints.{joint}.{key}"
-                )
-        alarm = _register_value(
+        values = per_joint_registers(
+            table, joint_names, SETTING_REGISTERS, where, lambda j, k: f"{where}.joints.{j}.{k}"
+        )
+        alarm = checked_register(
             table.get("alarm_shutdown", ALARM_SHUTDOWN_DEFAULT), 0, 127, f"{where} alarm_shutdown"
         )
         return cls(**values, alarm_shutdown=alarm)
-
-
-def _register_value(value, lo: int, hi: int, where: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise ServoMapError(f"{where} = {value!r}: must be an integer in {lo}..{hi}")
-    return value
 
 
 @dataclass(frozen=True)

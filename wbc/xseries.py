@@ -10,7 +10,7 @@ control mode; gains, profile and current registers in the units below.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -134,27 +134,9 @@ class XSettings:
         extra = sorted(set(table) - known)
         if extra:
             raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
-        n = len(joint_names)
-        values = {}
-        for key, (_, _, (lo, hi), default) in X_SETTING_REGISTERS.items():
-            values[key] = np.full(n, register_value(table.get(key, default), lo, hi, key, where))
-        index = {j: i for i, j in enumerate(joint_names)}
-        overrides = table.get("joints", {})
-        if not isinstance(overrides, Mapping):
-            raise ServoMapError(f"{where}.joints must be a table of joint = {{ key = value }}")
-        for joint, entry in overrides.items():
-            if joint not in index:
-                raise ServoMapError(f"{where}.joints: unknown joint {joint!r}")
-            if not isinstance(entry, Mapping):
-                raise ServoMapError(f"{where}.joints.{joint} must be a table")
-            for key, v in entry.items():
-                if key not in X_SETTING_REGISTERS:
-                    raise ServoMapError(
-                        f"{where}.joints.{joint}: unknown key {key!r}; "
-                        f"allowed: {sorted(X_SETTING_REGISTERS)}"
-                    )
-                lo, hi = X_SETTING_REGISTERS[key][2]
-                values[key][index[joint]] = register_value(v, lo, hi, key, f"{where}.joints")
+        values = per_joint_registers(
+            table, joint_names, X_SETTING_REGISTERS, where, lambda j, k: f"{where}.joints {k}"
+        )
         shutdown = register_value(
             table.get("shutdown", SHUTDOWN_DEFAULT), 0, 255, "shutdown", where
         )
@@ -163,6 +145,47 @@ class XSettings:
 
 def register_value(value, lo: int, hi: int, key: str, where: str) -> int:
     """An integer register value in ``lo..hi``, or :class:`ServoMapError` naming the key."""
+    return checked_register(value, lo, hi, f"{where} {key}")
+
+
+def checked_register(value, lo: int, hi: int, label: str) -> int:
+    """``value`` if an integer in ``lo..hi``, else :class:`ServoMapError` naming ``label``."""
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise ServoMapError(f"{where} {key} = {value!r}: must be an integer in {lo}..{hi}")
+        raise ServoMapError(f"{label} = {value!r}: must be an integer in {lo}..{hi}")
     return value
+
+
+def per_joint_registers(
+    table: Mapping,
+    joint_names: Sequence[str],
+    registers: Mapping[str, tuple],
+    where: str,
+    joint_label: Callable[[str, str], str],
+) -> dict[str, np.ndarray]:
+    """Register values per joint from a ``[settings]`` table: each key of ``registers``
+    (``(address, size, (lo, hi), default)``) at its global value or default, then the
+    ``[settings.joints]`` overrides; a bad value, joint or key is an error naming it
+    (``joint_label(joint, key)`` names an override)."""
+    n = len(joint_names)
+    values = {}
+    for key, (_, _, (lo, hi), default) in registers.items():
+        values[key] = np.full(
+            n, checked_register(table.get(key, default), lo, hi, f"{where} {key}")
+        )
+    index = {j: i for i, j in enumerate(joint_names)}
+    overrides = table.get("joints", {})
+    if not isinstance(overrides, Mapping):
+        raise ServoMapError(f"{where}.joints must be a table of joint = {{ key = value }}")
+    for joint, entry in overrides.items():
+        if joint not in index:
+            raise ServoMapError(f"{where}.joints: unknown joint {joint!r}")
+        if not isinstance(entry, Mapping):
+            raise ServoMapError(f"{where}.joints.{joint} must be a table")
+        for key, v in entry.items():
+            if key not in registers:
+                raise ServoMapError(
+                    f"{where}.joints.{joint}: unknown key {key!r}; allowed: {sorted(registers)}"
+                )
+            lo, hi = registers[key][2]
+            values[key][index[joint]] = checked_register(v, lo, hi, joint_label(joint, key))
+    return values

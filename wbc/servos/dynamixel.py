@@ -376,6 +376,8 @@ class DynamixelBus(ServoBus):
     torque_address = ADDR_TORQUE_ENABLE
     models: Mapping[int, str] = {AX12_MODEL_NUMBER: "AX-12A"}
 
+    bus_budget = staticmethod(ax_budget)  # the protocol's wire-time budget
+
     def packet(self, servo_id: int, instruction: int, params: Sequence[int] = ()) -> bytes:
         """An instruction packet of the bus's protocol."""
         return instruction_packet(servo_id, instruction, params)
@@ -530,6 +532,44 @@ class DynamixelBus(ServoBus):
                 self.log.count(self.log.late, st[0])
         self._buf.clear()
 
+    def _transmit(self, pkt: bytes) -> float | None:
+        """Write ``pkt`` to the port: the time it went out, or None if not all was written."""
+        t0 = time.perf_counter()
+        try:
+            written = self.port.writePort(pkt)
+        except Exception:
+            written = -1
+        return t0 if written == len(pkt) else None
+
+    def _receive(self) -> None:
+        """Append the bytes waiting on the port to the receive buffer."""
+        ser = self.port.ser
+        n = ser.in_waiting
+        if n:
+            self._buf += ser.read(n)
+
+    def _take_counted(self) -> tuple[bytes | None, int]:
+        """The next whole packet off the buffer (or None), and the bytes of no packet
+        discarded on the way (noise, a babbling device)."""
+        before = len(self._buf)
+        reply = self.take(self._buf)
+        return reply, before - len(self._buf) - (len(reply) if reply is not None else 0)
+
+    def _wait_bytes(self, deadline: float, now: float) -> None:
+        """Wait for bytes up to ``poll_wait_s`` (not past the deadline); 0: busy-wait, like
+        the SDK."""
+        if self.poll_wait_s > 0:
+            ser = self.port.ser
+            select.select([ser.fileno()], [], [], max(min(deadline - now, self.poll_wait_s), 0.0))
+
+    def _sync_write_all(self, sync, data: list[int], what: str) -> None:
+        """The same ``data`` to every servo in one SYNC_WRITE; raises naming ``what``."""
+        sync.clearParam()
+        for sid in self.ids:
+            sync.addParam(sid, data)
+        if self._comm(sync.txPacket()) != COMM_OK:
+            raise ServoError(f"{self.port_name}: SYNC_WRITE of the {what} failed")
+
     def exchange(
         self,
         servo_id: int,
@@ -545,31 +585,21 @@ class DynamixelBus(ServoBus):
         late reply (logged, skipped); a wrong length or checksum is ``corrupt``. ``patience``
         multiplies the deadline (start-up retries wait longer each time)."""
         self._require_open()
-        port = self.port
         self._flush()
         pkt = self.packet(servo_id, instruction, params)
-        t0 = time.perf_counter()
-        try:
-            written = port.writePort(pkt)
-        except Exception:
-            written = -1
-        if written != len(pkt):
+        t0 = self._transmit(pkt)
+        if t0 is None:
             return COMM_TX_FAIL, 0, b""
         if servo_id == BROADCAST_ID:
             return COMM_OK, 0, b""
         deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + self.status_overhead)
-        ser = port.ser
-        fd = ser.fileno()
         junk = 0  # bytes on the line that belong to no packet (noise, a babbling device)
         while True:
             now = time.perf_counter()
-            n = ser.in_waiting
-            if n:
-                self._buf += ser.read(n)
+            self._receive()
             while True:
-                before = len(self._buf)
-                reply = self.take(self._buf)
-                junk += before - len(self._buf) - (len(reply) if reply is not None else 0)
+                reply, skipped = self._take_counted()
+                junk += skipped
                 if reply is None:
                     break
                 st = self.status(reply)
@@ -591,8 +621,7 @@ class DynamixelBus(ServoBus):
             if now >= deadline:  # the last look came after the deadline
                 self.log.count(self.log.timeouts, servo_id)
                 return COMM_TIMEOUT, 0, b""
-            if self.poll_wait_s > 0:  # else busy-wait, like the SDK
-                select.select([fd], [], [], max(min(deadline - now, self.poll_wait_s), 0.0))
+            self._wait_bytes(deadline, now)
 
     def read(
         self, i: int, address: int, length: int, patience: float = 1.0
@@ -783,13 +812,7 @@ class DynamixelBus(ServoBus):
     def set_speed(self, rad_per_s: float) -> None:
         """Moving Speed (32) of every servo in one SYNC_WRITE."""
         self._require_open()
-        reg = speed_register(rad_per_s)
-        sync = self._sync_speed
-        sync.clearParam()
-        for sid in self.ids:
-            sync.addParam(sid, word(reg))
-        if self._comm(sync.txPacket()) != COMM_OK:
-            raise ServoError(f"{self.port_name}: SYNC_WRITE of the moving speed failed")
+        self._sync_write_all(self._sync_speed, word(speed_register(rad_per_s)), "moving speed")
 
     def _comm(self, result: int) -> str:
         return COMM_OK if result == _sdk().COMM_SUCCESS else COMM_TX_FAIL
@@ -840,10 +863,10 @@ class DynamixelBus(ServoBus):
         )
 
     def budget(self, read_positions: bool) -> BusBudget:
-        return ax_budget(self.n, self.baud, read_positions)
+        return self.bus_budget(self.n, self.baud, read_positions)
 
     def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
-        return ax_budget(self.n, self.baud, read_positions, polls_per_tick)
+        return self.bus_budget(self.n, self.baud, read_positions, polls_per_tick)
 
     def exchange_lines(self) -> list[str]:
         return self.log.lines()

@@ -38,6 +38,7 @@ import time
 import tty
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from ..exceptions import ConfigurationError
 from ..servo_map import RAD_PER_TICK
@@ -149,6 +150,22 @@ class WriteRecord:
     via: str
 
 
+def lag_step(pos: float, goal: float, v: float, tau: float, dt: float) -> tuple[float, float]:
+    """One step of the servo response ``dp/dt = clip((goal - p) / tau, -v, +v)``, exact:
+    linear at speed v while |e| > v·tau, then exponential. Returns (position, speed)."""
+    e = goal - pos
+    s = math.copysign(1.0, e)
+    if abs(e) > v * tau:
+        t1 = (abs(e) - v * tau) / v
+        if dt <= t1:
+            return pos + s * v * dt, s * v
+        pos += s * v * t1
+        dt -= t1
+        e = goal - pos
+    decay = math.exp(-dt / tau)
+    return goal - e * decay, e / tau * decay
+
+
 class AX12:
     """One emulated AX-12A: control table plus the first-order position response."""
 
@@ -216,20 +233,7 @@ class AX12:
             return
         goal = float(self.word(ADDR_GOAL_POSITION))
         v = speed_ticks_per_s(self.word(ADDR_MOVING_SPEED))
-        e = goal - self.pos
-        s = math.copysign(1.0, e)
-        if abs(e) > v * self.tau:
-            t1 = (abs(e) - v * self.tau) / v
-            if dt <= t1:
-                self.pos += s * v * dt
-                self.speed = s * v
-                return
-            self.pos += s * v * t1
-            dt -= t1
-            e = goal - self.pos
-        decay = math.exp(-dt / self.tau)
-        self.pos = goal - e * decay
-        self.speed = e / self.tau * decay
+        self.pos, self.speed = lag_step(self.pos, goal, v, self.tau, dt)
 
     def refresh(self, now: float) -> None:
         """Update the read-only present-state registers."""
@@ -392,14 +396,13 @@ class _PtyRunner:
             self._send(self._scheduled.pop(0)[1])
 
 
-class AX12Emulator(_PtyRunner):
-    """18 (by default) AX-12A servos on a pseudo-terminal; see the module docstring.
+class ServoBusEmulator(_PtyRunner):
+    """What the AX-12A (Protocol 1.0) and X-series (Protocol 2.0) emulators share: servos by
+    ID, goal and write records, fault injection (:class:`Fault`), SYNC_WRITE and the status
+    reply's faults. A subclass gives the protocol: :meth:`_take_packet`, :meth:`_dispatch`,
+    :meth:`_sync_header`, :meth:`_status_packet` and ``_goal_address``."""
 
-    With ``process=True`` the servos run in a forked process (no GIL shared with the host,
-    like real hardware); records and servo states are then available after :meth:`stop`.
-    """
-
-    _state = (
+    _state: tuple[str, ...] = (
         "servos",
         "_to",
         "goals",
@@ -407,30 +410,25 @@ class AX12Emulator(_PtyRunner):
         "sync_goal_writes",
         "sync_goal_times",
         "packets",
-        "checksum_errors",
         "fault_log",
     )
+    _goal_address = ADDR_GOAL_POSITION
+    _bad_checksum_note = "bad checksum"
 
     def __init__(
         self,
-        ids: Iterable[int] = range(1, 19),
-        positions: Mapping[int, float] | None = None,
-        baud: int = 1_000_000,
-        faults: Iterable[Fault] = (),
-        duplicate_ids: Iterable[int] = (),
-        timing: bool = False,
-        usb_latency_s: float = 0.0,
-        time_constant_s: float = 0.03,
-        process: bool = False,
-        on_goal_write: Mapping[int, Callable[[], None]] | None = None,
+        servos: dict[int, Any],
+        baud: int,
+        faults: Iterable[Fault],
+        duplicate_ids: Iterable[int],
+        timing: bool,
+        usb_latency_s: float,
+        process: bool,
+        on_goal_write: Mapping[int, Callable[[], None]] | None,
     ) -> None:
         super().__init__(process)
         self.on_goal_write = dict(on_goal_write or {})  # n-th goal SYNC_WRITE -> callback
-        now = time.monotonic()
-        positions = dict(positions or {})
-        self.servos: dict[int, AX12] = {
-            sid: AX12(sid, positions.get(sid, 512), now, time_constant_s) for sid in ids
-        }
+        self.servos = servos
         self.baud = baud
         self.faults = list(faults)
         self.duplicate_ids = set(duplicate_ids)
@@ -441,7 +439,6 @@ class AX12Emulator(_PtyRunner):
         self.sync_goal_writes = 0
         self.sync_goal_times: list[float] = []
         self.packets = 0
-        self.checksum_errors = 0
         self.fault_log: list[tuple[float, Fault, str]] = []
         self._used: dict[int, int] = {}
         self._to: dict[int, int] = {}  # instruction packets addressed to each servo
@@ -450,15 +447,6 @@ class AX12Emulator(_PtyRunner):
         self._expected_speed = getattr(termios, f"B{baud}", None)
 
     # ------------------------------------------------------------------ inspection
-    def servo(self, servo_id: int) -> AX12:
-        return self.servos[servo_id]
-
-    def register(self, servo_id: int, address: int, size: int = 1) -> int:
-        """A control-table value (present-state registers refreshed)."""
-        s = self.servos[servo_id]
-        s.refresh(time.monotonic())
-        return s.word(address) if size == 2 else s.table[address]
-
     def packets_to(self, servo_id: int) -> int:
         """Instruction packets addressed to one servo so far (not broadcasts)."""
         return self._to.get(servo_id, 0)
@@ -500,11 +488,119 @@ class AX12Emulator(_PtyRunner):
         if self._expected_speed is not None and self._host_speed() != self._expected_speed:
             return  # wrong baud: the servos cannot decode these bytes
         self._buf += chunk
-        while True:
-            pkt = take_packet(self._buf)
-            if pkt is None:
-                return
+        while (pkt := self._take_packet(self._buf)) is not None:
             self._dispatch(pkt, time.monotonic() if self.timing else now)
+
+    def _take_packet(self, buf: bytearray) -> bytes | None:
+        """The next whole instruction packet taken off ``buf`` (None: not yet)."""
+        raise NotImplementedError
+
+    def _dispatch(self, pkt: bytes, now: float) -> None:
+        """Handle one packet and put the replies on the line (with the wire timing)."""
+        raise NotImplementedError
+
+    def _sync_header(self, params: bytes) -> tuple[int, int, bytes] | None:
+        """SYNC_WRITE parameters: (address, data size, per-servo body) or None if short."""
+        raise NotImplementedError
+
+    def _status_packet(self, sid: int, error: int, params: bytes) -> bytes:
+        raise NotImplementedError
+
+    def _write(self, sid: int, address: int, data: bytes, now: float, via: str) -> int:
+        raise NotImplementedError
+
+    def _sync_write(self, params: bytes, now: float) -> None:
+        header = self._sync_header(params)
+        if header is None:
+            return
+        address, size, body = header
+        if size == 0 or len(body) % (size + 1):
+            return
+        if address == self._goal_address:
+            self.sync_goal_writes += 1
+            self.sync_goal_times.append(now)
+            hook = self.on_goal_write.get(self.sync_goal_writes)
+            if hook is not None:
+                hook()
+        for k in range(0, len(body), size + 1):
+            sid = body[k]
+            if self._present(sid):
+                self._apply_error_faults(sid, now)
+                self._write(sid, address, body[k + 1 : k + 1 + size], now, "sync_write")
+
+    def _reply(self, sid: int, error: int, params: bytes, now: float) -> tuple[int, bytes]:
+        if (silent := self._active(sid, "timeout")) is not None:
+            self._consume(silent, now, "no reply")
+            return sid, b""
+        pkt = self._status_packet(sid, error, params)
+        bad = self._active(sid, "bad_checksum")
+        if bad is not None:
+            self._consume(bad, now, self._bad_checksum_note)
+            pkt = pkt[:-1] + bytes([pkt[-1] ^ 0x5A])
+        junk = self._active(sid, "garbage")
+        if junk is not None:
+            self._consume(junk, now, "garbage")
+            pkt = junk.data + pkt
+        if sid in self.duplicate_ids:  # two servos drive the line at once, a bit apart
+            pkt = bytes(a & b for a, b in zip(pkt, b"\xff" + pkt, strict=False))
+        late = self._active(sid, "late")
+        if late is not None:
+            self._consume(late, now, "late")
+            self._schedule(time.monotonic() + late.delay_s, pkt)
+            return sid, b""
+        return sid, pkt
+
+
+class AX12Emulator(ServoBusEmulator):
+    """18 (by default) AX-12A servos on a pseudo-terminal; see the module docstring.
+
+    With ``process=True`` the servos run in a forked process (no GIL shared with the host,
+    like real hardware); records and servo states are then available after :meth:`stop`.
+    """
+
+    _state = (*ServoBusEmulator._state, "checksum_errors")
+    servos: dict[int, AX12]
+
+    def __init__(
+        self,
+        ids: Iterable[int] = range(1, 19),
+        positions: Mapping[int, float] | None = None,
+        baud: int = 1_000_000,
+        faults: Iterable[Fault] = (),
+        duplicate_ids: Iterable[int] = (),
+        timing: bool = False,
+        usb_latency_s: float = 0.0,
+        time_constant_s: float = 0.03,
+        process: bool = False,
+        on_goal_write: Mapping[int, Callable[[], None]] | None = None,
+    ) -> None:
+        now = time.monotonic()
+        positions = dict(positions or {})
+        servos = {sid: AX12(sid, positions.get(sid, 512), now, time_constant_s) for sid in ids}
+        super().__init__(
+            servos, baud, faults, duplicate_ids, timing, usb_latency_s, process, on_goal_write
+        )
+        self.checksum_errors = 0
+
+    # ------------------------------------------------------------------ inspection
+    def servo(self, servo_id: int) -> AX12:
+        return self.servos[servo_id]
+
+    def register(self, servo_id: int, address: int, size: int = 1) -> int:
+        """A control-table value (present-state registers refreshed)."""
+        s = self.servos[servo_id]
+        s.refresh(time.monotonic())
+        return s.word(address) if size == 2 else s.table[address]
+
+    # ------------------------------------------------------------------ packets
+    def _take_packet(self, buf: bytearray) -> bytes | None:
+        return take_packet(buf)
+
+    def _sync_header(self, params: bytes) -> tuple[int, int, bytes] | None:
+        return None if len(params) < 2 else (params[0], params[1], params[2:])
+
+    def _status_packet(self, sid: int, error: int, params: bytes) -> bytes:
+        return status_packet(sid, error, params)
 
     def _dispatch(self, pkt: bytes, now: float) -> None:
         reply_to, reply = self.handle(pkt, now)
@@ -583,47 +679,6 @@ class AX12Emulator(_PtyRunner):
         if goal is not None:
             self.goals.append(GoalRecord(now, sid, goal, not err & ERR_ANGLE_LIMIT, via))
         return err
-
-    def _sync_write(self, params: bytes, now: float) -> None:
-        if len(params) < 2:
-            return
-        address, size = params[0], params[1]
-        body = params[2:]
-        if size == 0 or len(body) % (size + 1):
-            return
-        if address == ADDR_GOAL_POSITION:
-            self.sync_goal_writes += 1
-            self.sync_goal_times.append(now)
-            hook = self.on_goal_write.get(self.sync_goal_writes)
-            if hook is not None:
-                hook()
-        for k in range(0, len(body), size + 1):
-            sid = body[k]
-            if self._present(sid):
-                self._apply_error_faults(sid, now)
-                self._write(sid, address, body[k + 1 : k + 1 + size], now, "sync_write")
-
-    def _reply(self, sid: int, error: int, params: bytes, now: float) -> tuple[int, bytes]:
-        if self._active(sid, "timeout") is not None:
-            self._consume(self._active(sid, "timeout"), now, "no reply")
-            return sid, b""
-        pkt = status_packet(sid, error, params)
-        bad = self._active(sid, "bad_checksum")
-        if bad is not None:
-            self._consume(bad, now, "bad checksum")
-            pkt = pkt[:-1] + bytes([pkt[-1] ^ 0x5A])
-        junk = self._active(sid, "garbage")
-        if junk is not None:
-            self._consume(junk, now, "garbage")
-            pkt = junk.data + pkt
-        if sid in self.duplicate_ids:  # two servos drive the line at once, a bit apart
-            pkt = bytes(a & b for a, b in zip(pkt, b"\xff" + pkt, strict=False))
-        late = self._active(sid, "late")
-        if late is not None:
-            self._consume(late, now, "late")
-            self._schedule(time.monotonic() + late.delay_s, pkt)
-            return sid, b""
-        return sid, pkt
 
 
 def _sleep_until(deadline: float, spin_s: float = 0.0) -> None:

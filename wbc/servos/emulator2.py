@@ -1,8 +1,10 @@
 """X-series servos (XM430-W350) on Dynamixel Protocol 2.0, emulated on a pseudo-terminal.
 
 :class:`XEmulator` is the Protocol 2.0 twin of :class:`wbc.servos.emulator.AX12Emulator`
-(same pty runner, same :class:`~wbc.servos.emulator.Fault` kinds, same goal and write
-records): a control table per servo (e-Manual XM430-W350, :mod:`wbc.xseries`), status packets
+(both subclass :class:`~wbc.servos.emulator.ServoBusEmulator`: the pty runner, the
+:class:`~wbc.servos.emulator.Fault` kinds, the goal and write records, SYNC_WRITE and the
+reply faults; the servos' motion is :func:`~wbc.servos.emulator.lag_step`): a control
+table per servo (e-Manual XM430-W350, :mod:`wbc.xseries`), status packets
 with CRC-16 and byte stuffing, PING, READ, WRITE, SYNC_WRITE, SYNC_READ (the servos answer in
 the order of the request), REBOOT, indirect addresses (168..) and data (224..), and a position
 that follows the goal as a first-order lag saturated at the Profile Velocity::
@@ -22,13 +24,12 @@ Delay, a 22 µs response and ``usb_latency_s`` per reply, as on the AX-12A emula
 from __future__ import annotations
 
 import math
-import termios
 import time
 from collections.abc import Callable, Iterable, Mapping
 
 from .. import xseries as x
 from .dynamixel import BROADCAST_ID, INST_PING, INST_READ, INST_WRITE
-from .emulator import Fault, GoalRecord, WriteRecord, _PtyRunner, _sleep_until
+from .emulator import Fault, GoalRecord, ServoBusEmulator, WriteRecord, _sleep_until, lag_step
 from .protocol2 import (
     ADDR_INDIRECT_ADDRESS,
     ADDR_INDIRECT_DATA,
@@ -96,6 +97,8 @@ class XServo:
     def hardware_error(self) -> int:
         return self.table[x.ADDR_HARDWARE_ERROR]
 
+    injected = hardware_error  # the fault bits set (the base emulator's name)
+
     def inject(self, bits: int) -> None:
         """Set hardware error bits; a bit in Shutdown (63) cuts torque (until REBOOT)."""
         self.table[x.ADDR_HARDWARE_ERROR] |= bits
@@ -125,20 +128,7 @@ class XServo:
         goal = float(self.value(x.ADDR_GOAL_POSITION, 4, signed=True))
         reg = self.value(x.ADDR_PROFILE_VELOCITY, 4)
         v = min(x.profile_velocity_rad_s(reg), XM430_NO_LOAD_SPEED) / x.X_RAD_PER_TICK
-        e = goal - self.pos
-        s = math.copysign(1.0, e)
-        if abs(e) > v * self.tau:
-            t1 = (abs(e) - v * self.tau) / v
-            if dt <= t1:
-                self.pos += s * v * dt
-                self.speed = s * v
-                return
-            self.pos += s * v * t1
-            dt -= t1
-            e = goal - self.pos
-        decay = math.exp(-dt / self.tau)
-        self.pos = goal - e * decay
-        self.speed = e / self.tau * decay
+        self.pos, self.speed = lag_step(self.pos, goal, v, self.tau, dt)
 
     def refresh(self, now: float) -> None:
         """Update the present-state registers and the indirect data."""
@@ -190,21 +180,13 @@ class XServo:
         return 0, goal
 
 
-class XEmulator(_PtyRunner):
+class XEmulator(ServoBusEmulator):
     """20 (by default) XM430-W350 servos on a pseudo-terminal; see the module docstring."""
 
-    _state = (
-        "servos",
-        "goals",
-        "writes",
-        "sync_goal_writes",
-        "sync_goal_times",
-        "sync_reads",
-        "packets",
-        "crc_errors",
-        "fault_log",
-        "_to",
-    )
+    _state = (*ServoBusEmulator._state, "sync_reads", "crc_errors")
+    _goal_address = x.ADDR_GOAL_POSITION
+    _bad_checksum_note = "bad crc"
+    servos: dict[int, XServo]
 
     def __init__(
         self,
@@ -219,32 +201,17 @@ class XEmulator(_PtyRunner):
         process: bool = False,
         on_goal_write: Mapping[int, Callable[[], None]] | None = None,
     ) -> None:
-        super().__init__(process)
         now = time.monotonic()
         positions = dict(positions or {})
-        self.servos: dict[int, XServo] = {
+        servos = {
             sid: XServo(sid, positions.get(sid, x.X_CENTER_TICK), now, time_constant_s)
             for sid in ids
         }
-        self.on_goal_write = dict(on_goal_write or {})
-        self.baud = baud
-        self.faults = list(faults)
-        self.duplicate_ids = set(duplicate_ids)
-        self.timing = timing
-        self.usb_latency_s = usb_latency_s
-        self.goals: list[GoalRecord] = []
-        self.writes: list[WriteRecord] = []
-        self.sync_goal_writes = 0
-        self.sync_goal_times: list[float] = []
+        super().__init__(
+            servos, baud, faults, duplicate_ids, timing, usb_latency_s, process, on_goal_write
+        )
         self.sync_reads = 0
-        self.packets = 0
         self.crc_errors = 0
-        self.fault_log: list[tuple[float, Fault, str]] = []
-        self._used: dict[int, int] = {}
-        self._to: dict[int, int] = {}
-        self._buf = bytearray()
-        self._bus_free = 0.0
-        self._expected_speed = getattr(termios, f"B{baud}", None)
 
     # ------------------------------------------------------------------ inspection
     def register(self, servo_id: int, address: int, size: int = 1) -> int:
@@ -253,50 +220,22 @@ class XEmulator(_PtyRunner):
         s.refresh(time.monotonic())
         return s.value(address, size, signed=size == 4)
 
-    def packets_to(self, servo_id: int) -> int:
-        return self._to.get(servo_id, 0)
-
-    def goals_by_id(self) -> dict[int, list[GoalRecord]]:
-        out: dict[int, list[GoalRecord]] = {sid: [] for sid in self.servos}
-        for g in list(self.goals):
-            out.setdefault(g.servo_id, []).append(g)
-        return out
-
-    # ------------------------------------------------------------------ faults
-    def _active(self, sid: int, kind: str) -> Fault | None:
-        for k, f in enumerate(self.faults):
-            if f.servo_id != sid or f.kind != kind or self.sync_goal_writes < f.after_goals:
-                continue
-            if self._to.get(sid, 0) <= f.after_packets:
-                continue
-            if f.count is not None and self._used.get(k, 0) >= f.count:
-                continue
-            return f
-        return None
-
-    def _consume(self, fault: Fault, now: float, what: str) -> None:
-        k = self.faults.index(fault)
-        self._used[k] = self._used.get(k, 0) + 1
-        self.fault_log.append((now, fault, what))
-
-    def _present(self, sid: int) -> bool:
-        return sid in self.servos and self._active(sid, "missing") is None
-
-    def _apply_error_faults(self, sid: int, now: float) -> None:
-        f = self._active(sid, "error_bits")
-        if f is not None and (self.servos[sid].hardware_error & f.bits) != f.bits:
-            self.servos[sid].inject(f.bits)
-            self.fault_log.append((now, f, "bits set"))
-
     # ------------------------------------------------------------------ packets
-    def _on_bytes(self, chunk: bytes, now: float) -> None:
-        if self._expected_speed is not None and self._host_speed() != self._expected_speed:
-            return
-        self._buf += chunk
-        while (pkt := take_packet2(self._buf)) is not None:
-            t = time.monotonic() if self.timing else now
-            replies = self.handle(pkt, t)
-            self._send_replies(pkt, replies, t)
+    def _take_packet(self, buf: bytearray) -> bytes | None:
+        return take_packet2(buf)
+
+    def _sync_header(self, params: bytes) -> tuple[int, int, bytes] | None:
+        if len(params) < 4:
+            return None
+        return params[0] | params[1] << 8, params[2] | params[3] << 8, params[4:]
+
+    def _status_packet(self, sid: int, error: int, params: bytes) -> bytes:
+        if self.servos[sid].hardware_error:
+            error |= ERR_ALERT
+        return status_packet2(sid, error, params)
+
+    def _dispatch(self, pkt: bytes, now: float) -> None:
+        self._send_replies(pkt, self.handle(pkt, now), now)
 
     def _send_replies(self, pkt: bytes, replies: list[tuple[int, bytes]], now: float) -> None:
         if self.timing:
@@ -382,25 +321,6 @@ class XEmulator(_PtyRunner):
             self.goals.append(GoalRecord(now, sid, tick, err == 0, via))
         return err
 
-    def _sync_write(self, params: bytes, now: float) -> None:
-        if len(params) < 4:
-            return
-        address, size = params[0] | params[1] << 8, params[2] | params[3] << 8
-        body = params[4:]
-        if size == 0 or len(body) % (size + 1):
-            return
-        if address == x.ADDR_GOAL_POSITION:
-            self.sync_goal_writes += 1
-            self.sync_goal_times.append(now)
-            hook = self.on_goal_write.get(self.sync_goal_writes)
-            if hook is not None:
-                hook()
-        for k in range(0, len(body), size + 1):
-            sid = body[k]
-            if self._present(sid):
-                self._apply_error_faults(sid, now)
-                self._write(sid, address, body[k + 1 : k + 1 + size], now, "sync_write")
-
     def _sync_read(self, params: bytes, now: float) -> list[tuple[int, bytes]]:
         if len(params) < 5:
             return []
@@ -415,27 +335,3 @@ class XEmulator(_PtyRunner):
             data = self.servos[sid].read(address, size, now)
             out.append(self._reply(sid, ERR_RANGE if data is None else 0, data or b"", now))
         return out
-
-    def _reply(self, sid: int, error: int, params: bytes, now: float) -> tuple[int, bytes]:
-        if self._active(sid, "timeout") is not None:
-            self._consume(self._active(sid, "timeout"), now, "no reply")
-            return sid, b""
-        if self.servos[sid].hardware_error:
-            error |= ERR_ALERT
-        pkt = status_packet2(sid, error, params)
-        bad = self._active(sid, "bad_checksum")
-        if bad is not None:
-            self._consume(bad, now, "bad crc")
-            pkt = pkt[:-1] + bytes([pkt[-1] ^ 0x5A])
-        junk = self._active(sid, "garbage")
-        if junk is not None:
-            self._consume(junk, now, "garbage")
-            pkt = junk.data + pkt
-        if sid in self.duplicate_ids:  # two servos drive the line at once, a bit apart
-            pkt = bytes(a & b for a, b in zip(pkt, b"\xff" + pkt, strict=False))
-        late = self._active(sid, "late")
-        if late is not None:
-            self._consume(late, now, "late")
-            self._schedule(time.monotonic() + late.delay_s, pkt)
-            return sid, b""
-        return sid, pkt

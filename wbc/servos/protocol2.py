@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import functools
 import math
-import select
 import time
 from collections.abc import Mapping, Sequence
 
@@ -321,6 +320,8 @@ class Dynamixel2Bus(DynamixelBus):
         self._sync_reads = 0
 
     # ------------------------------------------------------------------ protocol hooks
+    bus_budget = staticmethod(x_budget)
+
     def packet(self, servo_id: int, instruction: int, params: Sequence[int] = ()) -> bytes:
         return instruction_packet2(servo_id, instruction, params)
 
@@ -437,12 +438,7 @@ class Dynamixel2Bus(DynamixelBus):
             reg = x.profile_velocity_register(rad_per_s)
         except Exception as exc:
             raise ServoError(str(exc)) from exc
-        sync = self._sync_speed
-        sync.clearParam()
-        for sid in self.ids:
-            sync.addParam(sid, dword(reg))
-        if self._comm(sync.txPacket()) != COMM_OK:
-            raise ServoError(f"{self.port_name}: SYNC_WRITE of the profile velocity failed")
+        self._sync_write_all(self._sync_speed, dword(reg), "profile velocity")
 
     def write_goals(self, cmds: np.ndarray) -> str:
         """All goal positions in one SYNC_WRITE to address 116 (checked against the limits)."""
@@ -492,27 +488,19 @@ class Dynamixel2Bus(DynamixelBus):
         ids = [self.ids[i] for i in idx]
         self._flush()
         pkt = self.packet(BROADCAST_ID, INST_SYNC_READ, [*self.read_params(a, n), *ids])
-        t0 = time.perf_counter()
-        try:
-            written = self.port.writePort(pkt)
-        except Exception:
-            written = -1
-        if written != len(pkt):
+        t0 = self._transmit(pkt)
+        if t0 is None:
             return [ServoStatus(i, COMM_TX_FAIL) for i in idx]
         deadline = t0 + self.reply_timeout_s(len(pkt), len(ids) * (n + self.status_overhead))
         out: dict[int, ServoStatus] = {}
         by_id = dict(zip(ids, idx, strict=True))
-        ser = self.port.ser
         junk = 0  # bytes that belong to no packet (noise, a babbling device)
         while len(out) < len(ids):
             now = time.perf_counter()
-            k = ser.in_waiting
-            if k:
-                self._buf += ser.read(k)
+            self._receive()
             while True:
-                before = len(self._buf)
-                reply = self.take(self._buf)
-                junk += before - len(self._buf) - (len(reply) if reply is not None else 0)
+                reply, skipped = self._take_counted()
+                junk += skipped
                 if reply is None:
                     break
                 st = self.status(reply)
@@ -534,19 +522,12 @@ class Dynamixel2Bus(DynamixelBus):
                 out[by_id[sid]] = self._health(by_id[sid], error, data[ADDR_INDIRECT_DATA - a :])
             if len(out) == len(ids) or now >= deadline:
                 break
-            if self.poll_wait_s > 0:
-                select.select([ser.fileno()], [], [], max(min(deadline - now, self.poll_wait_s), 0))
+            self._wait_bytes(deadline, now)
         for s in ids:
             if by_id[s] not in out:
                 self.log.count(self.log.timeouts, s)
                 out[by_id[s]] = ServoStatus(by_id[s], COMM_TIMEOUT)
         return [out[i] for i in idx]
-
-    def budget(self, read_positions: bool) -> BusBudget:
-        return x_budget(self.n, self.baud, read_positions)
-
-    def tick_budget(self, read_positions: bool, polls_per_tick: int) -> BusBudget:
-        return x_budget(self.n, self.baud, read_positions, polls_per_tick)
 
     def reboot(self, index: int) -> str:
         """REBOOT one servo (clears a hardware error; torque comes back off)."""
