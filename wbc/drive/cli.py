@@ -22,7 +22,9 @@ from typing import Any
 
 import numpy as np
 
+from ..cli import number
 from ..exceptions import ConfigurationError
+from ..servos.playback import MAX_RATE_HZ, MAX_SOFT_SPEED
 
 EXIT_FELL = 3
 
@@ -50,27 +52,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument("--port", help="servo bus serial port (the real robot)")
     parser.add_argument("--backend", "--bus", choices=("dynamixel", "ssc32"), default="dynamixel")
-    parser.add_argument("--baud", type=int, help="bus baud rate (default: the servo map's)")
+    parser.add_argument(
+        "--baud", type=number(1, integer=True), help="bus baud rate (default: the servo map's)"
+    )
     parser.add_argument("--servo-map", help="servo map TOML (default: the robot's servos.toml)")
     parser.add_argument("--imu", metavar="PORT", help="the torso IMU's serial port (WitMotion)")
-    parser.add_argument("--imu-baud", type=int, default=115200)
+    parser.add_argument("--imu-baud", type=number(1, integer=True), default=115200)
     parser.add_argument(
         "--encoders-only", action="store_true", help="no IMU: the estimate from the encoders"
     )
     parser.add_argument("--open-loop", action="store_true", help="no feedback on the targets")
     parser.add_argument(
-        "--compensate", type=float, default=0.5,
+        "--compensate", type=number(0, 10), default=0.5,
         help="servo compliance feed-forward gain (AX-12A; 0: off; default 0.5)",
     )  # fmt: skip
-    parser.add_argument("--rate", type=float, default=100.0, help="control rate, Hz (<= 100)")
+    parser.add_argument(
+        "--rate",
+        type=number(0, MAX_RATE_HZ, lo_open=True),
+        default=100.0,
+        help="control rate, Hz (<= 100)",
+    )
     parser.add_argument(
         "--on-fault", choices=("auto", "hold", "torque-off", "crouch"), default="auto"
     )
-    parser.add_argument("--soft-speed", type=float, default=0.5, help="soft start rad/s")
-    parser.add_argument("--max-speed", type=float, help="rad/s (default: the servo speed)")
-    parser.add_argument("--latency-ms", type=float, default=1.0, help="USB latency timer, ms")
-    parser.add_argument("--torque-limit", type=int, help="AX torque limit 0..1023")
-    parser.add_argument("--settle", type=float, default=1.0, help="s standing after the stop")
+    parser.add_argument(
+        "--soft-speed",
+        type=number(0, MAX_SOFT_SPEED, lo_open=True),
+        default=0.5,
+        help="soft start rad/s",
+    )
+    parser.add_argument(
+        "--max-speed", type=number(0, lo_open=True), help="rad/s (default: the servo speed)"
+    )
+    parser.add_argument(
+        "--latency-ms", type=number(0, 255), default=1.0, help="USB latency timer, ms"
+    )
+    parser.add_argument(
+        "--torque-limit", type=number(0, 1023, integer=True), help="AX torque limit 0..1023"
+    )
+    parser.add_argument(
+        "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
+    )
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the run's record")
     parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
 
