@@ -144,10 +144,9 @@ def play(
         if on_tick is not None:
             on_tick(sim)
 
-    if compensate > 0 and sim.hobby:
+    if correct and sim.hobby:
         raise ConfigurationError(
-            f"compensate: the compliance feed-forward models the AX-12A; {robot.name}'s "
-            "hobby servos have no such model"
+            f"correct: {robot.name}'s hobby PWM servos report no position to correct from"
         )
     bus = sim_bus(sim, rate, realtime=realtime, latency_ticks=latency_ticks, on_tick=tick)
     if before is not None:
