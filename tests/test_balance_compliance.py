@@ -369,3 +369,58 @@ def test_stiffness_identified_from_the_sag_under_gravity(robot, stiffness):
     assert k == pytest.approx(stiffness, rel=1e-6) and used >= 2
     with pytest.raises(ConfigurationError, match="sag against their gravity load"):
         identify_stiffness(robot, joints, joints - sag, joints)
+
+
+# ---------------------------------------------------------------------- hobby PWM servos
+@pytest.fixture(scope="module")
+def kokone():
+    return load_robot("kokone")
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.06, 1.0), st.sampled_from([-1.0, 1.0]), st.integers(0, 21))
+def test_hobby_deflection_inverts_the_simulators_hobby_law(kokone, load, sign, joint):
+    """A hobby servo whose pulse leads its potentiometer by the feed-forward's deflection
+    pushes with the torque the deflection was computed for (the simulator's own law: one
+    definition; within the SSC-32's 1 µs pulse resolution)."""
+    from wbc.balance.compliance import hobby_deflection
+    from wbc.sim.actuator import HobbyServoArray, nominal_servo, pwm_map
+
+    params = nominal_servo(kokone)
+    codec = pwm_map(kokone).codec()
+    tau = np.zeros(kokone.n_joints)
+    tau[joint] = sign * load * params.stall_torque
+    delta = hobby_deflection(tau, params, codec.scale)
+    servos = HobbyServoArray(codec, params, 0.001)
+    q = np.zeros(kokone.n_joints)
+    servos.reset(q)
+    servos.write(servos.pulses(q + delta))
+    out = servos.law(q, 0.001)
+    one_us = params.stall_torque / params.proportional_band_us
+    assert out[joint] == pytest.approx(tau[joint], abs=one_us)
+    assert np.all(np.delete(out, joint) == 0.0)
+
+
+def test_hobby_compensator_uses_the_robots_own_servo(kokone):
+    """On Kokone (no servos.toml) the compensator takes the BMS-380MAX of robot.toml and the
+    SSC-32 map's µs per rad; the encoder correction is refused (no position read-back)."""
+    from wbc.sim.actuator import HobbyServoParams
+    from wbc.sim.play import play
+
+    comp = ComplianceCompensator(kokone)
+    assert isinstance(comp.params, HobbyServoParams) and comp.us_per_rad is not None
+    q = kokone.joints(kokone.configuration("stand"))
+    tau = comp.torques(q, SUPPORT_LEFT)
+    knee = kokone.joint_index("l_knee")
+    # the stance knee holds ~0.7 of the stall torque: ~0.3° dead band + 0.7 × 3° band
+    d = comp.deflection(q, SUPPORT_LEFT)
+    expect = (4.0 + 40.0 * abs(tau[knee]) / 0.412) / abs(comp.us_per_rad[knee])
+    assert abs(d[knee]) == pytest.approx(expect)
+    assert 0.6 < abs(tau[knee]) / 0.412 < 0.8
+    rec = Recording(
+        t=np.array([0.0, 0.02]),
+        q=np.tile(kokone.configuration("stand"), (2, 1)),
+        joint_names=kokone.joint_names,
+    )
+    with pytest.raises(ConfigurationError, match="report no position"):
+        play(rec, kokone, compensate=1.0, correct=True)

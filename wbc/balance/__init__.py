@@ -25,19 +25,22 @@ import argparse
 
 from ..cli import number
 
-#: the compliance feed-forward gain that measured best (AX-12A servos; benchmarks/physics.md:
-#: closed loop on the plant-randomised sweep, issue 30): what the commands use by default
-BEST_COMPENSATE = 0.5
+#: the compliance feed-forward gain that measured best per servo law: x0.5 on the AX-12A
+#: (benchmarks/physics.md: closed loop on the plant-randomised sweep, issue 30); x1 on hobby PWM
+#: servos (benchmarks/kokone_sim.md section 0: all nine Kokone walks stand with it, none
+#: without, x1.3 worse). What the commands use by default; the XM430's stiff PID gets none.
+BEST_COMPENSATE_BY_LAW = {"ax12a": 0.5, "hobby_pwm": 1.0}
+BEST_COMPENSATE = BEST_COMPENSATE_BY_LAW["ax12a"]
 
 
 def best_compensate(robot) -> float:
-    """The default feed-forward gain for ``robot``: :data:`BEST_COMPENSATE` on servos with a
-    compliance model (the AX-12A law), 0 on the others (hobby servos have none)."""
+    """The default feed-forward gain for ``robot``: :data:`BEST_COMPENSATE_BY_LAW` for its
+    servo law (0 for a law without a measured best, or no servo model at all)."""
     from ..exceptions import WbcError
     from ..sim.actuator import servo_kind
 
     try:
-        return BEST_COMPENSATE if servo_kind(robot) == "ax12a" else 0.0
+        return BEST_COMPENSATE_BY_LAW.get(servo_kind(robot), 0.0)
     except WbcError:  # no servo model at all: nothing to feed forward
         return 0.0
 
@@ -55,7 +58,7 @@ def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> No
         default=None,
         metavar="GAIN",
         help=f"{purpose} (gain; default: the measured best, x{BEST_COMPENSATE:g} on AX-12A "
-        "servos; 0 turns it off; wbc.balance.compliance)",
+        "servos, x1 on hobby PWM servos; 0 turns it off; wbc.balance.compliance)",
     )
     parser.add_argument(
         "--compensate-encoders",

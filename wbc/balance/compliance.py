@@ -26,6 +26,16 @@ under the CoM carries the weight, and the load moves continuously into single su
 The goal is ``q_plan + δ``, clamped into the joint limits. The servo parameters are the
 SAME ones the simulator uses
 (:meth:`ServoParams.from_settings` of ``robot.servo_map.settings``): one definition.
+
+A hobby PWM servo (:class:`wbc.sim.actuator.HobbyServoParams`, ``robot.toml`` ``[servo] law =
+"hobby_pwm"``) is inverted the same way: full drive ``(|e| − dead band) / band`` past its dead
+band, so holding ``τ`` costs (µs of pulse, then rad through the joint's µs per rad of its
+SSC-32 map ``ssc32.toml``)::
+
+    |e|(τ) = dead band · min(1, |τ| / (0.05 τ_s)) + band · min(1, |τ| / τ_s)      (µs)
+
+(the dead band blended in over the first 5 % of the stall torque, so δ is continuous at 0).
+A servo with no position read-back cannot be corrected from its encoders.
 """
 
 from __future__ import annotations
@@ -42,7 +52,7 @@ from ..model import Robot
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
 from ..servo_map import RAD_PER_TICK
 from ..servos.sources import TargetSource
-from ..sim.actuator import ServoParams
+from ..sim.actuator import HobbyServoParams, ServoParams, nominal_servo, pwm_map
 
 SOLES = {
     SUPPORT_LEFT: ("l_sole",),
@@ -66,6 +76,23 @@ def servo_deflection(tau: np.ndarray, params: ServoParams) -> np.ndarray:
     return np.sign(tau) * ticks * RAD_PER_TICK
 
 
+#: the share of the stall torque over which a hobby servo's dead band is blended in
+HOBBY_BLEND = 0.05
+
+
+def hobby_deflection(
+    tau: np.ndarray, params: HobbyServoParams, us_per_rad: np.ndarray
+) -> np.ndarray:
+    """Steady position error δ (rad, joint direction) of hobby PWM servos holding ``tau``
+    (N·m) with pulses of ``us_per_rad`` (µs per rad, per joint): the static inverse of the
+    hobby law (module docstring)."""
+    tau = np.asarray(tau, dtype=float)
+    load = np.minimum(np.abs(tau) / params.stall_torque, 1.0)
+    us = params.dead_band_us * np.minimum(1.0, load / HOBBY_BLEND)
+    us = us + params.proportional_band_us * load
+    return np.sign(tau) * us / np.abs(np.asarray(us_per_rad, dtype=float))
+
+
 class ComplianceCompensator:
     """Goals that pre-load each servo by its expected deflection under the static load.
 
@@ -73,13 +100,30 @@ class ComplianceCompensator:
     ``gain`` scales the feed-forward (1 = the model's deflection).
     """
 
-    def __init__(self, robot: Robot, params: ServoParams | None = None, gain: float = 1.0) -> None:
-        if robot.servo_map is None:
-            raise ServoMapError(f"compliance compensation needs a servo map for {robot.name}")
+    def __init__(
+        self,
+        robot: Robot,
+        params: ServoParams | HobbyServoParams | None = None,
+        gain: float = 1.0,
+    ) -> None:
+        if params is None:
+            nominal = nominal_servo(robot) if robot.robot_data.servo else None
+            if isinstance(nominal, HobbyServoParams):
+                params = nominal
+            elif robot.servo_map is None:
+                raise ServoMapError(f"compliance compensation needs a servo map for {robot.name}")
+            else:
+                params = ServoParams.from_settings(robot.servo_map.settings)
         if not np.isfinite(gain) or gain < 0:
             raise ConfigurationError(f"compensation gain must be a finite number >= 0, got {gain}")
         self.robot = robot
-        self.params = params or ServoParams.from_settings(robot.servo_map.settings)
+        self.params = params
+        #: µs of pulse per rad of each joint (hobby servos: their SSC-32 map)
+        self.us_per_rad = (
+            np.asarray(pwm_map(robot).codec().scale, dtype=float)
+            if isinstance(params, HobbyServoParams)
+            else None
+        )
         self.gain = float(gain)
         self.model = robot.model
         self.data = robot.model.createData()
@@ -117,7 +161,13 @@ class ComplianceCompensator:
 
     def deflection(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
         """Expected servo deflection (rad) at ``joints`` on ``support`` (× ``gain``)."""
-        return self.gain * servo_deflection(self.torques(joints, support), self.params)
+        return self.gain * self.servo_deflection(self.torques(joints, support))
+
+    def servo_deflection(self, tau: np.ndarray) -> np.ndarray:
+        """The servos' steady deflection (rad, unscaled) holding ``tau`` (N·m)."""
+        if self.us_per_rad is not None:
+            return hobby_deflection(tau, self.params, self.us_per_rad)  # type: ignore[arg-type]
+        return servo_deflection(tau, self.params)  # type: ignore[arg-type]
 
     def goals(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
         """Planned joints plus their deflection, clamped into the joint limits."""
@@ -261,7 +311,7 @@ class CompensatedSource:
             return None
         q = np.asarray(q, dtype=float)
         comp = self.compensator
-        delta = servo_deflection(comp.torques(q, self.support(t)), comp.params)
+        delta = comp.servo_deflection(comp.torques(q, self.support(t)))
         sent = self._sent
         corr = self.correction
         if corr is not None and len(sent) >= self.delay:

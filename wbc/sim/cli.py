@@ -204,12 +204,12 @@ def run(args: argparse.Namespace) -> int:
     from .actuator import servo_kind
 
     robot = load_robot(args.robot)
-    closed = not args.open_loop and not args.recording
+    closed = best = not args.open_loop and not args.recording
     if closed and servo_kind(robot) == "hobby_pwm":
         print(f"open loop: {robot.name}'s hobby servos report no positions (the closed loop "
               "reads them)")  # fmt: skip
         closed = False
-    resolve_compensate(args, robot, best=closed)
+    resolve_compensate(args, robot, best=best)  # the feed-forward's best even open loop
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise ConfigurationError(
             f"--compensate GAIN must be a finite number >= 0, got {args.compensate}"

@@ -127,9 +127,10 @@ def play(
     ``limit_tol`` (rad): targets further beyond a joint limit are refused, as ``wbc deploy
     --limit-tol`` (``inf``: every target is clamped to the limits by the deployment instead).
     ``compensate`` > 0: goals carry that gain × the servo compliance feed-forward
-    (:func:`wbc.balance.compliance.compensated`, nominal servo settings); ``correct``: rescaled
-    per joint from the servos' present positions
-    (:class:`~wbc.balance.compliance.EncoderCorrection`). ``gyro`` > 0: closed loop, the torso
+    (:func:`wbc.balance.compliance.compensated`, nominal servo settings: the AX-12A's, or the
+    hobby servo of ``robot.toml`` ``[servo]``); ``correct``: rescaled per joint from the
+    servos' present positions (:class:`~wbc.balance.compliance.EncoderCorrection`; refused on
+    hobby servos, which report none). ``gyro`` > 0: closed loop, the torso
     gyro's feedback on the leg goals (:class:`wbc.balance.feedback.GyroFeedback`, OP3 gains ×
     ``gyro``; gyro noise ``imu_noise`` rad/s, or ``imu``: :class:`~wbc.sim.bus.SimImu`'s
     keyword arguments). ``latency_s``: the servos act on each goal that much later
@@ -149,10 +150,9 @@ def play(
         if on_tick is not None:
             on_tick(sim)
 
-    if compensate > 0 and sim.hobby:
+    if correct and sim.hobby:
         raise ConfigurationError(
-            f"compensate: the compliance feed-forward models the AX-12A; {robot.name}'s "
-            "hobby servos have no such model"
+            f"correct: {robot.name}'s hobby PWM servos report no position to correct from"
         )
     bus = sim_bus(sim, rate, realtime=realtime, latency_ticks=latency_ticks, on_tick=tick)
     if before is not None:
