@@ -424,3 +424,19 @@ def test_hobby_compensator_uses_the_robots_own_servo(kokone):
     )
     with pytest.raises(ConfigurationError, match="report no position"):
         play(rec, kokone, compensate=1.0, correct=True)
+
+
+def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, robot):
+    """best_compensate: x0.5 on the AX-12A (issue 30's sweep), x1 on hobby PWM servos (all nine
+    Kokone walks stand with it and fall without it: benchmarks/kokone_sim.md), none on the
+    XM430, whose PID holds its goal; a plain `wbc sim --robot kokone` uses it open loop."""
+    import argparse
+
+    from wbc.balance import best_compensate, resolve_compensate
+
+    assert best_compensate(robot) == 0.5
+    assert best_compensate(kokone) == 1.0
+    assert best_compensate(load_robot("op3")) == 0.0
+    args = argparse.Namespace(compensate=None, compensate_encoders=False)
+    resolve_compensate(args, kokone, best=True)
+    assert args.compensate == 1.0
