@@ -137,8 +137,9 @@ def closed_loop(
     the servos' present positions (``enabled=False``: the same run, open loop).
 
     The defaults are the measured best configuration (issue 30, benchmarks/physics.md):
-    ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, ×1 on hobby PWM servos, 0 when
-    open loop or on servos without a compliance model), step adjustment on, the lift-off
+    ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, ×1 on
+    hobby PWM servos, 0 when open loop or on servos without a compliance model), step
+    adjustment on, the lift-off
     hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
