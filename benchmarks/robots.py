@@ -10,7 +10,9 @@ about it is stated by hand: roles, feet, legs and walking settings are read from
 
 Columns: kinematic (the robot's stack, one QP per tick: CoM / swing-sole error max, mm; the
 ZMP margin min of the tracked motion, mm; the reference's peak joint speed as a share of the
-no-load speed); simulator (nominal servo model: fell at s or "-", max base orientation
+no-load speed); simulator (the plan played open loop with the servo feed-forward at its measured
+best for the robot's servo law, `wbc.balance.best_compensate`: x0.5 AX-12A, x1 hobby PWM;
+nominal servo model: fell at s or "-", max base orientation
 deviation from plan, deg, travelled / planned distance; randomised models: fell count,
 median deviation, median travelled).
 """
@@ -25,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbc.balance import best_compensate
 from wbc.bench import metrics
 from wbc.bench.physics import physics_record, plan, random_model
 from wbc.bench.trajectories import build
@@ -105,7 +108,8 @@ def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object
         rec: Recording = plan("hqp-daqp", name, robot)
     except WbcError as exc:
         return {"error": str(exc)[:60]}
-    nominal = physics_record(rec, play(rec, robot), robot)
+    ff = best_compensate(robot)  # the default feed-forward for the robot's servo law
+    nominal = physics_record(rec, play(rec, robot, compensate=ff), robot)
     out = {
         "fell": nominal["fall_time_s"] if nominal["fell"] else None,
         "dev": nominal["orientation_dev_max_deg"],
@@ -120,6 +124,7 @@ def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object
             play(
                 rec,
                 robot,
+                compensate=ff,
                 model_params=v.model_params,
                 servo_params=v.servo_params,
                 latency_ticks=v.latency_ticks,
