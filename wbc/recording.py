@@ -56,17 +56,7 @@ class Recording:
         self.t = np.asarray(self.t, dtype=float)
         self.q = np.asarray(self.q, dtype=float)
         self.joint_names = tuple(self.joint_names)
-        if self.t.ndim != 1 or self.t.size == 0:
-            raise TrajectoryError(f"recording: t must be a non-empty 1-D array, got {self.t.shape}")
-        if self.q.ndim != 2 or self.q.shape[0] != self.t.size:
-            raise TrajectoryError(
-                f"recording: q must have shape (N={self.t.size}, nq), got {self.q.shape}"
-            )
-        if self.q.shape[1] != 7 + len(self.joint_names):
-            raise TrajectoryError(
-                f"recording: q has {self.q.shape[1]} columns but {len(self.joint_names)} joint "
-                f"names (expected 7 + {len(self.joint_names)})"
-            )
+        _check_shapes(self.t.shape, self.q.shape, len(self.joint_names))
         if not np.all(np.isfinite(self.t)) or np.any(np.diff(self.t) <= 0):
             raise TrajectoryError("recording: t must be finite and strictly increasing")
         for name, values in self.channels.items():
@@ -144,16 +134,36 @@ class Recording:
         missing = [k for k in ("t", "q", "joint_names") if k not in arrays]
         if missing:
             raise TrajectoryError(f"recording {path} lacks required arrays {missing}")
-        try:
-            meta = json.loads(str(arrays.pop("meta"))) if "meta" in arrays else {}
-        except json.JSONDecodeError as exc:
-            raise TrajectoryError(f"recording {path}: 'meta' is not valid JSON ({exc})") from exc
-        if not isinstance(meta, dict):
-            raise TrajectoryError(f"recording {path}: 'meta' must be a JSON object")
+        meta = _parse_meta(path, str(arrays.pop("meta"))) if "meta" in arrays else {}
         t = arrays.pop("t")
         q = arrays.pop("q")
         names = tuple(str(n) for n in arrays.pop("joint_names"))
         return cls(t, q, names, arrays, meta)
+
+
+def _check_shapes(t_shape: tuple[int, ...], q_shape: tuple[int, ...], n_joints: int) -> None:
+    """A recording's ``t`` (N,) and ``q`` (N, 7 + ``n_joints``) shapes, in memory or still in
+    its file (:class:`RecordingReader`)."""
+    if len(t_shape) != 1 or t_shape[0] == 0:
+        raise TrajectoryError(f"recording: t must be a non-empty 1-D array, got {t_shape}")
+    if len(q_shape) != 2 or q_shape[0] != t_shape[0]:
+        raise TrajectoryError(f"recording: q must have shape (N={t_shape[0]}, nq), got {q_shape}")
+    if q_shape[1] != 7 + n_joints:
+        raise TrajectoryError(
+            f"recording: q has {q_shape[1]} columns but {n_joints} joint names "
+            f"(expected 7 + {n_joints})"
+        )
+
+
+def _parse_meta(path: Path, text: str) -> dict[str, Any]:
+    """A recording's ``meta`` array (JSON text) as a dict."""
+    try:
+        meta = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise TrajectoryError(f"recording {path}: 'meta' is not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise TrajectoryError(f"recording {path}: 'meta' must be a JSON object")
+    return meta
 
 
 class RecordingReader:
@@ -182,30 +192,12 @@ class RecordingReader:
         if missing:
             raise TrajectoryError(f"recording {path} lacks required arrays {missing}")
         self.joint_names = tuple(str(n) for n in self._small("joint_names"))
-        meta: Any = {}
-        if "meta" in members:
-            try:
-                meta = json.loads(str(self._small("meta")))
-            except json.JSONDecodeError as exc:
-                raise TrajectoryError(
-                    f"recording {path}: 'meta' is not valid JSON ({exc})"
-                ) from exc
-        if not isinstance(meta, dict):
-            raise TrajectoryError(f"recording {path}: 'meta' must be a JSON object")
-        self.meta: dict[str, Any] = meta
+        self.meta: dict[str, Any] = (
+            _parse_meta(path, str(self._small("meta"))) if "meta" in members else {}
+        )
         t_shape, _ = self._header("t")
         q_shape, _ = self._header("q")
-        if len(t_shape) != 1 or t_shape[0] == 0:
-            raise TrajectoryError(f"recording: t must be a non-empty 1-D array, got {t_shape}")
-        if len(q_shape) != 2 or q_shape[0] != t_shape[0]:
-            raise TrajectoryError(
-                f"recording: q must have shape (N={t_shape[0]}, nq), got {q_shape}"
-            )
-        if q_shape[1] != 7 + len(self.joint_names):
-            raise TrajectoryError(
-                f"recording: q has {q_shape[1]} columns but {len(self.joint_names)} joint names "
-                f"(expected 7 + {len(self.joint_names)})"
-            )
+        _check_shapes(t_shape, q_shape, len(self.joint_names))
         self.n = int(t_shape[0])
         self.nq = int(q_shape[1])
 

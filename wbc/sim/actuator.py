@@ -118,12 +118,37 @@ class ServoParams:
         return replace(self, slope=self.slope / stiffness, torque_cap=self.torque_cap * torque)
 
 
-class ServoArray:
+class TickServos:
+    """Joint angles ↔ servo ticks of a servo array (``signs``, ``zero`` ticks, and
+    ``_scale`` = 1 / :attr:`rad_per_tick`, set by the array)."""
+
+    rad_per_tick: float
+    signs: np.ndarray
+    zero: np.ndarray
+    goal: np.ndarray
+    _scale: float
+
+    def ticks(self, q: np.ndarray) -> np.ndarray:
+        """Unquantised ticks of joint angles."""
+        return self.zero + self.signs * q * self._scale
+
+    def angles(self, ticks: np.ndarray) -> np.ndarray:
+        """Joint angles of ticks."""
+        return self.signs * (ticks - self.zero) * self.rad_per_tick
+
+    def goal_angles(self) -> np.ndarray:
+        """The written goals as joint angles (rad)."""
+        return self.angles(self.goal)
+
+
+class ServoArray(TickServos):
     """The state and law of all servos of a robot (vectorised over joints).
 
     Positions and goals are in the servo map's ticks; torques are returned in the joint's
     (URDF) direction.
     """
+
+    rad_per_tick = RAD_PER_TICK
 
     def __init__(self, servo_map: ServoMap, params: ServoParams) -> None:
         self.params = params
@@ -141,18 +166,6 @@ class ServoArray:
         self.motor = np.zeros(n)  # motor-side position with backlash (ticks)
         self.torque = np.zeros(n)  # last output torque (N·m, joint direction)
         self._scale = 1.0 / RAD_PER_TICK
-
-    def ticks(self, q: np.ndarray) -> np.ndarray:
-        """Unquantised ticks of joint angles."""
-        return self.zero + self.signs * q * self._scale
-
-    def angles(self, ticks: np.ndarray) -> np.ndarray:
-        """Joint angles of ticks."""
-        return self.signs * (ticks - self.zero) * RAD_PER_TICK
-
-    def goal_angles(self) -> np.ndarray:
-        """The written goals as joint angles (rad)."""
-        return self.angles(self.goal)
 
     def reset(self, q: np.ndarray) -> None:
         """Servos at rest at joint angles ``q``: goals there, torque off, no errors."""

@@ -45,6 +45,7 @@ import numpy as np
 from ..exceptions import ConfigurationError
 from ..servo_map import ServoMap
 from ..xseries import CURRENT_UNIT_A, HW_OVERLOAD, X_RAD_PER_TICK, XSettings
+from .actuator import TickServos
 
 STALL_TORQUE = 4.1  # N·m at 12 V (e-Manual XM430-W350)
 NO_LOAD_SPEED = 46.0 * 2.0 * math.pi / 60.0  # rad/s at 12 V (e-Manual)
@@ -109,9 +110,11 @@ class XServoParams:
         )
 
 
-class XServoArray:
+class XServoArray(TickServos):
     """The state and law of all XM430 servos of a robot (vectorised over joints); the same
     interface as :class:`wbc.sim.actuator.ServoArray` (ticks in, joint torques out)."""
+
+    rad_per_tick = X_RAD_PER_TICK
 
     def __init__(self, servo_map: ServoMap, params: XServoParams) -> None:
         self.params = params
@@ -130,16 +133,6 @@ class XServoArray:
         self.last_error = np.zeros(n)
         self.torque = np.zeros(n)
         self._scale = 1.0 / X_RAD_PER_TICK
-
-    def ticks(self, q: np.ndarray) -> np.ndarray:
-        """Unquantised ticks of joint angles."""
-        return self.zero + self.signs * q * self._scale
-
-    def angles(self, ticks: np.ndarray) -> np.ndarray:
-        return self.signs * (ticks - self.zero) * X_RAD_PER_TICK
-
-    def goal_angles(self) -> np.ndarray:
-        return self.angles(self.goal)
 
     def reset(self, q: np.ndarray) -> None:
         """Servos at rest at ``q``: goals there, torque off, no errors, PID state cleared."""
