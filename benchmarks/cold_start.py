@@ -5,9 +5,10 @@ when the first compiled tick runs, and the CPU of all of it (workers included); 
 README's quick-start job, ``wbc bench --json … --plots …``: the time to its first result
 line and to its end; each run cold (empty caches), then warm (the caches it filled).
 
-Run: ``python benchmarks/cold_start.py [--job first|solve|bench|both|interim]`` (``first``: (1)
-until the first answers only, the workers stopped then; ``interim``: with warm caches, a tick's
-time on the numpy path, as while the ticks compile, against the compiled tick). Prints a
+Run: ``python benchmarks/cold_start.py [--job first|solve|bench|both|interim] [--backend B]``
+(``first``: (1) until the first answers only, the workers stopped then, on backend ``B``;
+``interim``: with warm caches, a tick's time on the numpy path, as while the ticks compile,
+against the compiled tick). Prints a
 markdown table; the caches live in a temporary directory, the user's own are left alone
 (``interim``: uses them). Figures in cold_start.md.
 """
@@ -33,7 +34,10 @@ from wbc.compiled.dispatch import package_ticks
 from wbc.stacks import load_stack
 robot = load_robot()
 q = robot.configuration("walk_ready")
-solvers = {k: load_stack("walk", robot, solver=k).solver for k in ("weighted", "hierarchical")}
+solvers = {
+    k: load_stack("walk", robot, solver=k, backend=BACKEND).solver
+    for k in ("weighted", "hierarchical")
+}
 seen = set()
 goal = 2 if FIRST_ONLY else 4
 while len(seen) < goal and time.perf_counter() - start < 1200:
@@ -53,7 +57,7 @@ package_ticks().wait_all()  # (their CPU counts)
 """
 
 
-TICKS = "FIRST_ONLY = False\n" + FIRST_TICKS
+TICKS = "FIRST_ONLY = False\nBACKEND = None\n" + FIRST_TICKS
 
 INTERIM_COST = """
 import time
@@ -112,13 +116,19 @@ def main() -> int:
         help="first: the walk stack's first answers only (the workers stopped then); "
         "interim: a tick's time on the numpy path meanwhile against the compiled one (warm)",
     )
+    parser.add_argument(
+        "--backend",
+        choices=("daqp", "proxqp", "quadprog", "osqp"),
+        help="--job first: the solvers' QP backend (default: the stack's); the cold first tick "
+        "answers on the numpy path on every backend (benchmarks/stress.md, issue 28)",
+    )
     args = parser.parse_args()
     if args.job == "interim":  # warm caches (the user's own): one tick's time on each path
         print("| solver | path | step µs (median of 300) |\n|---|---|---|", flush=True)
         env = {**os.environ, "PYTHONPATH": str(ROOT)}
         return subprocess.run([sys.executable, "-c", INTERIM_COST], env=env, cwd=ROOT).returncode
     with tempfile.TemporaryDirectory() as out:
-        rows = measure(args.job, Path(out))
+        rows = measure(args.job, Path(out), args.backend)
     print("| job | cache | wall s | CPU s | " + " | ".join(MARKS) + " |")
     print("|---|---|---|---|" + "---|" * len(MARKS))
     for label, state, wall, cpu, seen in rows:
@@ -136,13 +146,13 @@ MARKS = {
 }
 
 
-def measure(job: str, out: Path) -> list[tuple]:
+def measure(job: str, out: Path, backend: str | None = None) -> list[tuple]:
     """(label, cold/warm, wall s, CPU s, [s to each of MARKS]) of each run."""
     bench = [
         sys.executable, "-m", "wbc.cli", "bench", "--json", str(out / "bench.json"),
         "--plots", str(out / "plots"),
     ]  # fmt: skip
-    first = "FIRST_ONLY = True\n" + FIRST_TICKS
+    first = f"FIRST_ONLY = True\nBACKEND = {backend!r}\n" + FIRST_TICKS
     jobs = {  # (label, command, index of its marks)
         "first": ("walk stack, first ticks", [sys.executable, "-c", first], 0),
         "solve": ("walk stack ticked, both solvers", [sys.executable, "-c", TICKS], 0),
