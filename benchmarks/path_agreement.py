@@ -25,10 +25,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
-from wbc import Kinematics, WbcError, load_robot
-from wbc.stacks import _initial_targets, load_stack
+from wbc import WbcError, load_robot
+from wbc.stacks import load_stack
 
 KINDS = ("hierarchical", "weighted")
 
@@ -52,22 +51,6 @@ def controls(robot) -> dict:
         for kind in KINDS
         for compiled in (None, False)
     }
-
-
-def set_targets(robot, control, q0: np.ndarray, p: dict) -> None:
-    """The trial's targets on a kept control: anchored at q0 afresh, then moved as drawn."""
-    kin = Kinematics(robot, q0)
-    control.forget_anchors()
-    _initial_targets(control, kin, set())
-    if not p["double"]:
-        control.set_phase("single", "l_sole", "r_sole", kin)
-    stack = control.stack
-    com, swing, torso = stack.task("com"), stack.task("frame_pose_swing"), stack.task("torso")
-    scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
-    com.set_target(com.target + scale * p["offsets"][0])
-    swing.set_position_target(swing.target_position + scale * p["offsets"][1])
-    if p["target"] == "upside_down":
-        torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
 
 
 def main() -> None:
@@ -96,7 +79,7 @@ def main() -> None:
         trials[kind] += 1
         pair = [(controls(robot) if args.fresh else kept)[(kind, c)] for c in (None, False)]
         for control in pair:
-            set_targets(robot, control, q0, p)
+            stress.replay_targets(robot, control, q0, p)
         qs = [q0, q0]
         gap = 0.0
         for tick in range(args.ticks):

@@ -29,7 +29,7 @@ import pinocchio as pin
 from wbc import Kinematics, WbcError, load_robot
 from wbc.model import Robot
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
-from wbc.stacks import load_stack
+from wbc.stacks import _initial_targets, load_stack
 from wbc.tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
 
 #: a hard contact after one tick: the linearisation's second order (velocity-limited steps)
@@ -156,6 +156,28 @@ def start(robot: Robot, p: dict) -> np.ndarray:
     return q
 
 
+def move_targets(p: dict, com, swing, torso) -> None:
+    """The drawn targets: the CoM and swing sole moved from their anchors (reachable, far),
+    the torso turned upside down."""
+    scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
+    com.set_target(com.target + scale * p["offsets"][0])
+    swing.set_position_target(swing.target_position + scale * p["offsets"][1])
+    if p["target"] == "upside_down":
+        torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+
+
+def replay_targets(robot: Robot, control, q0: np.ndarray, p: dict) -> None:
+    """A trial's targets on a ``walk`` control kept from trial to trial (as a control loop
+    keeps it): contacts and targets anchored at q0 afresh, then moved as drawn."""
+    kin = Kinematics(robot, q0)
+    control.forget_anchors()
+    _initial_targets(control, kin, set())
+    if not p["double"]:
+        control.set_phase("single", "l_sole", "r_sole", kin)
+    stack = control.stack
+    move_targets(p, stack.task("com"), stack.task("frame_pose_swing"), stack.task("torso"))
+
+
 def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) -> None:
     """One random problem: ``ticks`` control ticks, then a converged pose from the start."""
     q0 = start(robot, p)
@@ -174,11 +196,7 @@ def run_trial(robot: Robot, p: dict, tally: Tally, ticks: int, iterations: int) 
                 solver, contacts, com, swing, torso = walk_stack(
                     robot, q0, p["kind"], p["backend"], compiled, p["double"]
                 )
-            scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
-            com.set_target(com.target + scale * p["offsets"][0])
-            swing.set_position_target(swing.target_position + scale * p["offsets"][1])
-            if p["target"] == "upside_down":
-                torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+            move_targets(p, com, swing, torso)
             if mode == "ticks":
                 q = q0
                 for _ in range(ticks):

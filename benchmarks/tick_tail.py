@@ -20,7 +20,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from wbc import WbcError, load_robot
 from wbc.solvers.base import TICK_RECOVERY_STEPS
@@ -48,11 +47,7 @@ def main() -> None:
         solver, _, com, swing, torso = stress.walk_stack(
             robot, q, p["kind"], "daqp", compiled, p["double"]
         )
-        scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
-        com.set_target(com.target + scale * p["offsets"][0])
-        swing.set_position_target(swing.target_position + scale * p["offsets"][1])
-        if p["target"] == "upside_down":
-            torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+        stress.move_targets(p, com, swing, torso)
         for tick in range(args.ticks):
             start = time.perf_counter()
             try:

@@ -108,9 +108,10 @@ class RunningWorker(FakeWorker):
         self.code = 0
 
 
-def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
-    tmp_path, monkeypatch, caplog
-):
+@pytest.fixture
+def building(tmp_path, monkeypatch):
+    """(Ticks over the stand-in module, the workers they start: :class:`RunningWorker`s, the
+    ids of the dispatchers cached on disk), outside a worker and not waiting for builds."""
     started, cached = [], set()
 
     def popen(cmd, env, stdout, stderr):
@@ -121,7 +122,13 @@ def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
     monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
     monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
-    ticks = _ticks(tmp_path)
+    return _ticks(tmp_path), started, cached
+
+
+def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
+    building, tmp_path, monkeypatch, caplog
+):
+    ticks, started, cached = building
     ticks.cascade_tick = SimpleNamespace(overloads={}, _cache=None)  # (another dispatcher)
     with caplog.at_level(logging.WARNING, logger="wbc.compiled.dispatch"):
         assert not ticks.ready("weighted_tick")  # the first call starts both workers
@@ -215,22 +222,14 @@ def test_only_the_default_solves_on_the_numpy_path_while_its_tick_compiles(robot
             assert (s.interim_ticks, s.compiled_ticks) == counts, (solver, compiled)
 
 
-def test_a_numpy_path_kernel_is_ready_once_compiled_or_its_worker_is_done(tmp_path, monkeypatch):
+def test_a_numpy_path_kernel_is_ready_once_compiled_or_its_worker_is_done(
+    building, tmp_path, monkeypatch
+):
     """The level cascade that the numpy path calls from Python (any backend): not ready while
     the hierarchical worker compiles it (the first call starts the workers), ready when that
     worker is done or it is compiled or cached (issue 28: the first HierarchicalQP tick on
     OSQP compiled it in the process for two minutes)."""
-    started, cached = [], set()
-
-    def popen(cmd, env, stdout, stderr):
-        started.append(RunningWorker(cmd, env, stdout, stderr))
-        return started[-1]
-
-    monkeypatch.delenv(build.WORKER_ENV, raising=False)
-    monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
-    monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
-    monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
-    ticks = _ticks(tmp_path)
+    ticks, started, cached = building
     kernel = SimpleNamespace(overloads={}, _cache=None)
     assert not ticks.kernel_ready(kernel, "cascade_tick")  # starts both workers
     assert len(started) == 2

@@ -381,25 +381,6 @@ def test_inequality_rows_in_the_compiled_least_squares(robot, seed, dz, tilt):
     ).max()
 
 
-def _replay_targets(robot, control, q0, p):
-    """Targets of a stress draw ``p`` (benchmarks/stress.py) on a ``walk`` control reused
-    from trial to trial: contacts and targets anchored at q0 afresh, then moved as drawn."""
-    from wbc.stacks import _initial_targets
-
-    kin = Kinematics(robot, q0)
-    control.forget_anchors()
-    _initial_targets(control, kin, set())
-    if not p["double"]:
-        control.set_phase("single", "l_sole", "r_sole", kin)
-    stack = control.stack
-    com, swing, torso = stack.task("com"), stack.task("frame_pose_swing"), stack.task("torso")
-    scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
-    com.set_target(com.target + scale * p["offsets"][0])
-    swing.set_position_target(swing.target_position + scale * p["offsets"][1])
-    if p["target"] == "upside_down":
-        torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
-
-
 def test_the_paths_agree_whatever_ticks_came_before(robot, stress_script):
     """Issue 28: the compiled and numpy paths' Δq agree to 1e-9 on the ``walk`` stack (hard
     contacts and self-collision rows) along a replayed sequence of random trials (drawn as
@@ -423,7 +404,7 @@ def test_the_paths_agree_whatever_ticks_came_before(robot, stress_script):
         q0 = stress_script.start(robot, p)
         pair = [controls[(p["kind"], compiled)] for compiled in (None, False)]
         for control in pair:
-            _replay_targets(robot, control, q0, p)
+            stress_script.replay_targets(robot, control, q0, p)
         qs = [q0, q0]
         for tick in range(4):
             out = []

@@ -52,11 +52,7 @@ def stress_problem(robot, stress, trial: int) -> tuple:
     solver, contacts, com, swing, torso = stress.walk_stack(
         robot, q, p["kind"], "daqp", compiled, p["double"]
     )
-    scale = {"reachable": 0.02, "far": 0.5, "upside_down": 0.02}[p["target"]]
-    com.set_target(com.target + scale * p["offsets"][0])
-    swing.set_position_target(swing.target_position + scale * p["offsets"][1])
-    if p["target"] == "upside_down":
-        torso.set_target(pin.utils.rotate("x", np.pi) @ torso.target)
+    stress.move_targets(p, com, swing, torso)
     return solver, contacts, q
 
 

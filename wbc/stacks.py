@@ -312,10 +312,10 @@ def build_stack(
         raise TaskError(f"{where}: needs at least one [[levels]] entry")
     q = robot.configuration("stand") if q is None else robot.check_configuration(q)
     kin = Kinematics(robot, q)
-    for key in ("velocity_limits",):
-        if not isinstance(spec.get(key, True), bool):
-            raise TaskError(f"{where}: {key} must be true or false, got {spec[key]!r}")
-    stack = TaskStack(robot, velocity_limits=spec.get("velocity_limits", True))
+    velocity_limits = spec.get("velocity_limits", True)
+    if not isinstance(velocity_limits, bool):
+        raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
+    stack = TaskStack(robot, velocity_limits=velocity_limits)
     bindings: dict[str, RoleBinding] = {}
     given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
