@@ -29,12 +29,16 @@ from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
 from ..exceptions import TrajectoryError
+from ..geometry import FOOT_WIDTH
+from .legs import SHIN, THIGH
 
 #: the hip-to-ankle length (thigh + shin, m) and the foot width (m) the walking defaults
-#: were tuned with, and the share of a servo's no-load speed a sized reference may ask for
-#: (with the lag of a loaded servo, ~80 % leaves it a margin: benchmarks/robots.md)
-DESIGN_LEG = 0.14886
-DESIGN_FOOT_WIDTH = 0.061
+#: were tuned with (the defaults of :class:`~wbc.walking.legs.LegGeometry` and
+#: :class:`~wbc.walking.geometry.Foot`), and the share of a servo's no-load speed a sized
+#: reference may ask for (with the lag of a loaded servo, ~80 % leaves it a margin:
+#: benchmarks/robots.md)
+DESIGN_LEG = THIGH + SHIN
+DESIGN_FOOT_WIDTH = FOOT_WIDTH
 SPEED_FRACTION = 0.8
 #: keys along the walk or up (scaled by λ); across the foot (by μ); pairs (x by λ, y by μ);
 #: durations (by √λ and the speed fit)
