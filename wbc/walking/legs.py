@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import ModelError, TrajectoryError
+from ..roles import SOLE_FRAMES
 from .geometry import rot2
 
 if TYPE_CHECKING:
@@ -279,7 +280,7 @@ def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
     model, data = robot.model, robot.data
     q1 = q.copy()
     q1[1] += step
-    for side, sole in (("left", "l_sole"), ("right", "r_sole")):
+    for side, sole in SOLE_FRAMES.items():
         fid = robot.frame_id(sole)
         target = robot.frame_placement(q, sole)
         cols = [robot.v_index(j) for j in robot.roles.leg(side)]
