@@ -80,12 +80,9 @@ def init_folder(urdf: str | Path, out: str | Path, force: bool = False) -> list[
     lines += _copy_meshes(urdf, out)
     (out / SERVO_MAP_FILE).write_text(servo_template(robot, urdf.name))
     lines.append(f"wrote {out / SERVO_MAP_FILE} (template: fill in IDs, signs and zero ticks)")
-    (out / POSES_FILE).write_text(poses_template(robot))
-    proposed = (
-        "proposed standing pose"
-        if "Proposed by" in (out / POSES_FILE).read_text()
-        else "the zero pose"
-    )
+    poses = poses_template(robot)
+    (out / POSES_FILE).write_text(poses)
+    proposed = "proposed standing pose" if "Proposed by" in poses else "the zero pose"
     lines.append(f"wrote {out / POSES_FILE} ({STANDING_POSE} = {proposed})")
     missing = [f for f in STANDARD_FRAMES if not robot.has_frame(f)]
     if missing:

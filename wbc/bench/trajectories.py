@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import fields
 from typing import Any
 
 from ..exceptions import ConfigurationError, TrajectoryError
@@ -11,9 +12,10 @@ from ..walking.gait import forward_walk, lateral_walk, turning_walk
 from ..walking.geometry import Foot
 from ..walking.keyposes import KeyPoseParams, keypose_walk
 from ..walking.legs import LegGeometry
+from ..walking.preview import PreviewParams
 from ..walking.reference import StandingState, WalkingReference
 from ..walking.schedule import GaitTiming, SwingParams
-from ..walking.sizing import default_options, sized
+from ..walking.sizing import ACROSS, ALONG, PAIRS, TIMES, sized
 from ..walking.static_walk import StaticWalkParams, static_walk
 from ..walking.thesis_step import ThesisStepParams, thesis_step
 from ..walking.window import MAX_LEAN, BalanceWindow
@@ -103,6 +105,38 @@ _TABLES = {"timing": GaitTiming, "swing": SwingParams}
 #: the static CoM placement set of ch. 3 (not a walking reference: see wbc.bench.runner)
 STATIC_COM = "static_com"
 DEFAULT = ("thesis_step", "walk10")
+
+
+#: the sized settings of each trajectory: the values its builder uses by default (what a
+#: robot's dimensions scale, :func:`wbc.walking.sizing.sized`)
+def default_options(name: str) -> dict[str, Any]:
+    """The defaults of trajectory ``name`` that are sized to the robot (empty if none)."""
+    walk = {
+        "preview": PreviewParams(),
+        "margin": 0.001,
+        "zmp_offset": (0.0, 0.0285),
+        "min_clearance": 0.005,
+        "timing": GaitTiming(),
+        "swing": SwingParams(),
+    }
+    table: dict[str, dict[str, Any]] = {
+        "thesis_step": {**_params(ThesisStepParams()), "min_clearance": 0.005},
+        "keyposes": {**_params(KeyPoseParams()), "min_clearance": 0.004},
+        "static_walk": _params(StaticWalkParams()),
+        "walk10": {**walk, "step_length": 0.035},
+        "turn": {**walk, "step_length": 0.02, "turn": 0.2},
+        "lateral": {**walk, "step_width": 0.02},
+        "walk10_wb": {**walk, "step_length": 0.035, **WHOLE_BODY_DYNAMIC, **WALK10_WB},
+        "fast_wb": {**walk, **WHOLE_BODY_TIMING, **FAST},
+        "turn_wb": {**walk, **WHOLE_BODY_TIMING, **TURN},
+        "lateral_wb": {**walk, **WHOLE_BODY_TIMING, **LATERAL},
+    }
+    return dict(table.get(name, {}))
+
+
+def _params(p: Any) -> dict[str, Any]:
+    keys = (*ALONG, *ACROSS, *PAIRS, *TIMES)
+    return {f.name: getattr(p, f.name) for f in fields(p) if f.name in keys}
 
 
 def names() -> list[str]:

@@ -34,6 +34,7 @@ from ..exceptions import ConfigurationError, WbcError
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
+from ..roles import SOLE_FRAMES
 from ..servos.playback import DeployConfig, Deployment
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
 from ..walking.footsteps import Footstep
@@ -161,8 +162,8 @@ class Walker:
         feet = self.engine.feet
         stance = feet["right" if step.side == "left" else "left"]
         q = self.robot.with_joints(np.asarray(present, dtype=float))
-        M_st = self.robot.frame_placement(q, _SOLE[stance.side])
-        M_sw = self.robot.frame_placement(q, _SOLE[step.side])
+        M_st = self.robot.frame_placement(q, SOLE_FRAMES[stance.side])
+        M_sw = self.robot.frame_placement(q, SOLE_FRAMES[step.side])
         rel = M_st.actInv(M_sw)
         dyaw = math.atan2(rel.rotation[1, 0], rel.rotation[0, 0])
         xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
@@ -250,9 +251,6 @@ class Walker:
         dep = Deployment(bus, source, self.robot, config, out=out)
         holder.append(dep)
         return dep
-
-
-_SOLE = {"left": "l_sole", "right": "r_sole"}
 
 
 def _rz(yaw: float) -> np.ndarray:

@@ -48,6 +48,7 @@ import numpy as np
 from ..exceptions import ConfigurationError, TrajectoryError
 from ..geometry import wrap_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
+from ..roles import SOLE_FRAMES
 from .footgaps import rectangle_gaps
 from .footsteps import Footstep, FootstepPlan, Side, other_side
 from .geometry import Foot, rot2
@@ -520,7 +521,7 @@ class WalkEngine:
             (tracks.l_pos, tracks.l_yaw) if step.side == "left" else (tracks.r_pos, tracks.r_yaw)
         )
         self._swing = (pos, yaw)
-        self._roles = (_frame(other_side(step.side)), _frame(step.side))
+        self._roles = (SOLE_FRAMES[other_side(step.side)], SOLE_FRAMES[step.side])
 
     def _measured(self, step: Footstep, landed: Footstep | None) -> Footstep:
         """Where the landed sole is held: ``landed``'s position (at most
@@ -762,10 +763,6 @@ def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -
 def _single(side: Side) -> int:
     """The support code of the single support in which ``side`` swings."""
     return SUPPORT_RIGHT if side == "left" else SUPPORT_LEFT
-
-
-def _frame(side: Side) -> str:
-    return "l_sole" if side == "left" else "r_sole"
 
 
 def _mean_yaw(a: float, b: float) -> float:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import ModelError, TrajectoryError
+from ..roles import SOLE_FRAMES
 from .geometry import rot2
 
 if TYPE_CHECKING:
@@ -73,7 +74,7 @@ class LegGeometry:
             "hip": roles.joint("left", "hip_pitch"),
             "knee": roles.joint("left", "knee"),
             "ankle": roles.joint("left", "ankle_pitch"),
-            "r_hip": roles.joint("right", "hip_pitch"),
+            "right_hip": roles.joint("right", "hip_pitch"),
         }
 
         def joint_origins(qq: np.ndarray) -> dict[str, np.ndarray]:
@@ -83,7 +84,7 @@ class LegGeometry:
         o = joint_origins(robot.neutral())
         thigh = float(np.linalg.norm(o["knee"] - o["hip"]))
         shin = float(np.linalg.norm(o["ankle"] - o["knee"]))
-        half_width = 0.5 * float(abs(o["hip"][1] - o["r_hip"][1]))
+        half_width = 0.5 * float(abs(o["hip"][1] - o["right_hip"][1]))
         sole = robot.frame_placement(robot.neutral(), "l_sole").translation
         ankle_h = float(o["ankle"][2] - sole[2])
         # knee: interior angle at q = 0 plus the flexion range gives the closest hip-ankle
@@ -110,7 +111,7 @@ class LegGeometry:
             robot.frame_placement(qq, "l_sole").translation[:2]
             + robot.frame_placement(qq, "r_sole").translation[:2]
         )
-        pelvis = 0.5 * (oq["hip"] + oq["r_hip"])
+        pelvis = 0.5 * (oq["hip"] + oq["right_hip"])
         resid = pelvis[:2] - (mid_soles + gain * (com[:2] - mid_soles))
         fwd = float((rot2(heading).T @ resid)[0])
         kw: dict[str, Any] = dict(
@@ -279,7 +280,7 @@ def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
     model, data = robot.model, robot.data
     q1 = q.copy()
     q1[1] += step
-    for side, sole in (("left", "l_sole"), ("right", "r_sole")):
+    for side, sole in SOLE_FRAMES.items():
         fid = robot.frame_id(sole)
         target = robot.frame_placement(q, sole)
         cols = [robot.v_index(j) for j in robot.roles.leg(side)]

@@ -29,13 +29,16 @@ from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
 from ..exceptions import TrajectoryError
-from .schedule import GaitTiming, SwingParams
+from ..geometry import FOOT_WIDTH
+from .legs import SHIN, THIGH
 
 #: the hip-to-ankle length (thigh + shin, m) and the foot width (m) the walking defaults
-#: were tuned with, and the share of a servo's no-load speed a sized reference may ask for
-#: (with the lag of a loaded servo, ~80 % leaves it a margin: benchmarks/robots.md)
-DESIGN_LEG = 0.14886
-DESIGN_FOOT_WIDTH = 0.061
+#: were tuned with (the defaults of :class:`~wbc.walking.legs.LegGeometry` and
+#: :class:`~wbc.walking.geometry.Foot`), and the share of a servo's no-load speed a sized
+#: reference may ask for (with the lag of a loaded servo, ~80 % leaves it a margin:
+#: benchmarks/robots.md)
+DESIGN_LEG = THIGH + SHIN
+DESIGN_FOOT_WIDTH = FOOT_WIDTH
 SPEED_FRACTION = 0.8
 #: keys along the walk or up (scaled by λ); across the foot (by μ); pairs (x by λ, y by μ);
 #: durations (by √λ and the speed fit)
@@ -68,7 +71,8 @@ def scale_options(
     options: Mapping[str, Any], along: float, across: float, time: float
 ) -> dict[str, Any]:
     """``options`` with their lengths and durations scaled (module docstring); the
-    dataclasses among them (:class:`GaitTiming`, :class:`SwingParams`) field by field."""
+    dataclasses among them (:class:`~wbc.walking.schedule.GaitTiming`,
+    :class:`~wbc.walking.schedule.SwingParams`) field by field."""
     out: dict[str, Any] = {}
     for key, value in options.items():
         if is_dataclass(value) and not isinstance(value, type):
@@ -166,41 +170,3 @@ def sized(
         else:
             break
     return ref, options
-
-
-#: the sized settings of each trajectory of :mod:`wbc.bench.trajectories`: the values its
-#: builder uses by default (what a robot's dimensions scale)
-def default_options(name: str) -> dict[str, Any]:
-    """The defaults of trajectory ``name`` that are sized to the robot (empty if none)."""
-    from ..bench import trajectories as traj
-    from .keyposes import KeyPoseParams
-    from .preview import PreviewParams
-    from .static_walk import StaticWalkParams
-    from .thesis_step import ThesisStepParams
-
-    walk = {
-        "preview": PreviewParams(),
-        "margin": 0.001,
-        "zmp_offset": (0.0, 0.0285),
-        "min_clearance": 0.005,
-        "timing": GaitTiming(),
-        "swing": SwingParams(),
-    }
-    table: dict[str, dict[str, Any]] = {
-        "thesis_step": {**_params(ThesisStepParams()), "min_clearance": 0.005},
-        "keyposes": {**_params(KeyPoseParams()), "min_clearance": 0.004},
-        "static_walk": _params(StaticWalkParams()),
-        "walk10": {**walk, "step_length": 0.035},
-        "turn": {**walk, "step_length": 0.02, "turn": 0.2},
-        "lateral": {**walk, "step_width": 0.02},
-        "walk10_wb": {**walk, "step_length": 0.035, **traj.WHOLE_BODY_DYNAMIC, **traj.WALK10_WB},
-        "fast_wb": {**walk, **traj.WHOLE_BODY_TIMING, **traj.FAST},
-        "turn_wb": {**walk, **traj.WHOLE_BODY_TIMING, **traj.TURN},
-        "lateral_wb": {**walk, **traj.WHOLE_BODY_TIMING, **traj.LATERAL},
-    }
-    return dict(table.get(name, {}))
-
-
-def _params(p: Any) -> dict[str, Any]:
-    keys = (*ALONG, *ACROSS, *PAIRS, *TIMES)
-    return {f.name: getattr(p, f.name) for f in fields(p) if f.name in keys}
