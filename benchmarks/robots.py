@@ -121,15 +121,7 @@ def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object
         v = random_model(robot, rng)
         r = physics_record(
             rec,
-            play(
-                rec,
-                robot,
-                compensate=ff,
-                model_params=v.model_params,
-                servo_params=v.servo_params,
-                latency_ticks=v.latency_ticks,
-                imu_noise=v.imu_noise,
-            ),
+            play(rec, robot, compensate=ff, **v.play_kwargs()),
             robot,
         )
         fell += bool(r["fell"])

@@ -140,6 +140,18 @@ class Variation:
     latency_s: float = 0.0  # s from a goal write to the servos acting on it
     imu: dict[str, float] = field(default_factory=dict)  # SimImu keyword arguments
 
+    def play_kwargs(self) -> dict[str, Any]:
+        """The plant as :func:`wbc.sim.play.play`'s keyword arguments (every randomised part:
+        model, servos, latency, IMU)."""
+        return {
+            "model_params": self.model_params,
+            "servo_params": self.servo_params,
+            "latency_ticks": self.latency_ticks,
+            "imu_noise": self.imu_noise,
+            "latency_s": self.latency_s,
+            "imu": self.imu,
+        }
+
 
 def random_model(robot: Robot, rng: np.random.Generator) -> Variation:
     """A randomised PLANT (:data:`PLANT_RANGES`), generic over the robot's servo law

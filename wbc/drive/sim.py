@@ -81,9 +81,11 @@ def make_sim(robot: Robot, variation: Any = None, rate: float = 100.0, realtime:
     v = variation
     sim = Simulation(robot, v.model_params if v else None, v.servo_params if v else None)
     sim.reset(robot.configuration("stand"))
+    sim.goal_delay = v.latency_s if v else 0.0
     bus = sim_bus(sim, rate, realtime=realtime, latency_ticks=v.latency_ticks if v else 0,
                   on_tick=(lambda _bus: on_tick()) if on_tick else None)  # fmt: skip
-    imu = SimImu(sim, gyro_noise=v.imu_noise if v else 0.0)
+    # the randomised IMU (bias and noise) as the physics benchmark's closed loop has it
+    imu = SimImu(sim, **v.imu) if v and v.imu else SimImu(sim, gyro_noise=v.imu_noise if v else 0.0)
     return sim, bus, imu
 
 
