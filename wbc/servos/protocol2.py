@@ -65,6 +65,7 @@ from .dynamixel import (
     _sdk,
     ax_codec,
     read_variant,
+    word,
 )
 
 INST_STATUS = 0x55
@@ -375,14 +376,14 @@ class Dynamixel2Bus(DynamixelBus):
                 self.exchange(self.ids[i], INST_WRITE, params)
                 self._flush()
             gains = [
-                *_word(st.position_d_gain[i]),
-                *_word(st.position_i_gain[i]),
-                *_word(st.position_p_gain[i]),
+                *word(int(st.position_d_gain[i])),
+                *word(int(st.position_i_gain[i])),
+                *word(int(st.position_p_gain[i])),
             ]
             blocks = [
                 ("return delay", x.ADDR_RETURN_DELAY, [0]),
                 ("operating mode", x.ADDR_OPERATING_MODE, [x.OPERATING_MODE_POSITION]),
-                ("current limit", x.ADDR_CURRENT_LIMIT, _word(st.current_limit[i])),
+                ("current limit", x.ADDR_CURRENT_LIMIT, word(int(st.current_limit[i]))),
                 (
                     "position limits",
                     x.ADDR_MAX_POSITION_LIMIT,
@@ -536,7 +537,3 @@ class Dynamixel2Bus(DynamixelBus):
     def ping(self, index: int) -> str:
         """PING one servo (its reply carries the model number and firmware version)."""
         return self.exchange(self.ids[index], INST_PING, (), 3)[0]
-
-
-def _word(value: int) -> list[int]:
-    return [int(value) & 0xFF, (int(value) >> 8) & 0xFF]
