@@ -25,7 +25,7 @@ import math
 import os
 import select
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -418,13 +418,42 @@ class DynamixelBus(ServoBus):
         reply_timeout_ms: float | None = None,
         attempts: int = 3,
     ) -> None:
+        if torque_limit is not None and not 0 <= torque_limit <= 1023:
+            raise ServoError(f"torque limit must be 0..1023, got {torque_limit}")
+        self._init_bus(
+            port,
+            servo_map,
+            check_baud,
+            baud,
+            latency_timer_ms,
+            poll_wait_s,
+            reply_timeout_ms,
+            attempts,
+        )
+        self.torque_limit = (
+            np.asarray(self.settings.torque_limit, dtype=int)
+            if torque_limit is None
+            else np.full(len(self.ids), torque_limit, dtype=int)
+        )
+
+    def _init_bus(
+        self,
+        port: str,
+        servo_map: ServoMap,
+        baud_check: Callable[[int], None],
+        baud: int,
+        latency_timer_ms: float,
+        poll_wait_s: float,
+        reply_timeout_ms: float | None,
+        attempts: int,
+    ) -> None:
+        """The arguments checked (``baud_check``: the protocol's baud rates) and the state
+        both protocols' buses share."""
         labels = [
             f"id {int(i)} ({j})" for i, j in zip(servo_map.ids, servo_map.joint_names, strict=True)
         ]
-        super().__init__(ax_codec(servo_map), labels)
-        check_baud(baud)
-        if torque_limit is not None and not 0 <= torque_limit <= 1023:
-            raise ServoError(f"torque limit must be 0..1023, got {torque_limit}")
+        ServoBus.__init__(self, ax_codec(servo_map), labels)
+        baud_check(baud)
         if reply_timeout_ms is not None and not (
             math.isfinite(reply_timeout_ms) and reply_timeout_ms > 0
         ):
@@ -438,11 +467,6 @@ class DynamixelBus(ServoBus):
         self.ids = [int(i) for i in servo_map.ids]
         self.latency_timer_ms = latency_timer_ms
         self.turnaround_s = latency_timer_ms * 1e-3
-        self.torque_limit = (
-            np.asarray(self.settings.torque_limit, dtype=int)
-            if torque_limit is None
-            else np.full(len(self.ids), torque_limit, dtype=int)
-        )
         self.reply_timeout_ms = reply_timeout_ms
         self.attempts = attempts
         self.poll_wait_s = poll_wait_s  # 0: busy-wait receive (like the SDK)

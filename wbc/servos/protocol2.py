@@ -52,7 +52,6 @@ from .bus import (
     COMM_TX_FAIL,
     BudgetItem,
     BusBudget,
-    ServoBus,
     ServoStatus,
 )
 from .dynamixel import (
@@ -61,9 +60,7 @@ from .dynamixel import (
     INST_WRITE,
     SDK_BAUDS,
     DynamixelBus,
-    ExchangeLog,
     _sdk,
-    ax_codec,
     read_variant,
     word,
 )
@@ -285,39 +282,20 @@ class Dynamixel2Bus(DynamixelBus):
     ) -> None:
         if servo_map.protocol != 2.0:
             raise ServoError(f"servo map {servo_map.source} is protocol {servo_map.protocol}")
-        labels = [
-            f"id {int(i)} ({j})" for i, j in zip(servo_map.ids, servo_map.joint_names, strict=True)
-        ]
-        ServoBus.__init__(self, ax_codec(servo_map), labels)
-        check_baud2(baud)
-        if reply_timeout_ms is not None and not (
-            math.isfinite(reply_timeout_ms) and reply_timeout_ms > 0
-        ):
-            raise ServoError(f"reply timeout must be positive (ms), got {reply_timeout_ms}")
-        if attempts < 1:
-            raise ServoError(f"attempts must be >= 1, got {attempts}")
+        self._init_bus(
+            port,
+            servo_map,
+            check_baud2,
+            baud,
+            latency_timer_ms,
+            poll_wait_s,
+            reply_timeout_ms,
+            attempts,
+        )
         units = math.ceil(watchdog_ms * 1e-3 / x.BUS_WATCHDOG_UNIT_S - 1e-9)
         if not 1 <= units <= 127:
             raise ServoError(f"bus watchdog {watchdog_ms} ms: allowed 20..2540 ms")
         self.watchdog_units = units
-        self.port_name = port
-        self.servo_map = servo_map
-        self.settings = servo_map.settings
-        self.baud = baud
-        self.ids = [int(i) for i in servo_map.ids]
-        self.latency_timer_ms = latency_timer_ms
-        self.turnaround_s = latency_timer_ms * 1e-3
-        self.reply_timeout_ms = reply_timeout_ms
-        self.attempts = attempts
-        self.poll_wait_s = poll_wait_s
-        self.warnings: list[str] = []
-        self.notes: list[str] = []
-        self.log = ExchangeLog()
-        self.port = None
-        self._sync_goal = None
-        self._sync_speed = None
-        self._buf = bytearray()
-        self._reads = np.zeros(len(self.ids), int)
         self._sync_reads = 0
 
     # ------------------------------------------------------------------ protocol hooks
