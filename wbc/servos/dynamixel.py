@@ -372,8 +372,10 @@ class DynamixelBus(ServoBus):
     can_read = True
     servo_speed = AX12_MAX_SPEED
     # the protocol's parts (wbc.servos.protocol2.Dynamixel2Bus overrides them): the torque
-    # enable register, the accepted model numbers (address 0, 2 bytes) and packet hooks below
+    # enable and status return level registers, the accepted model numbers (address 0,
+    # 2 bytes) and packet hooks below
     torque_address = ADDR_TORQUE_ENABLE
+    status_return_level_address = ADDR_STATUS_RETURN_LEVEL
     models: Mapping[int, str] = {AX12_MODEL_NUMBER: "AX-12A"}
 
     bus_budget = staticmethod(ax_budget)  # the protocol's wire-time budget
@@ -758,11 +760,7 @@ class DynamixelBus(ServoBus):
             raise ServoError("torque-off not confirmed by " + ", ".join(unconfirmed))
         st = self.settings
         for i in range(self.n):
-            srl = self._retry(i, "read status return level", lambda p, i=i: self.read(i, 16, 1, p))
-            srl = srl[2]
-            if srl[0] != 2:  # without level 2, WRITEs get no status and would look like timeouts
-                self.exchange(self.ids[i], INST_WRITE, (ADDR_STATUS_RETURN_LEVEL, 2))
-                self._flush()
+            self._status_return_level_2(i)
             lo, hi = int(self.cmd_lo[i]), int(self.cmd_hi[i])
             m, s = int(st.compliance_margin[i]), int(st.compliance_slope[i])
             blocks = [
@@ -774,6 +772,15 @@ class DynamixelBus(ServoBus):
             ]
             for what, address, wanted in blocks:
                 self._set_block(i, what, address, wanted)
+
+    def _status_return_level_2(self, i: int) -> None:
+        """Status Return Level 2 on servo ``i`` if it is not: without it, WRITEs get no status
+        and would look like timeouts."""
+        a = self.status_return_level_address
+        srl = self._retry(i, "read status return level", lambda p: self.read(i, a, 1, p))[2]
+        if srl[0] != 2:
+            self.exchange(self.ids[i], INST_WRITE, self.address_params(a, [2]))
+            self._flush()
 
     def _set_block(self, i: int, what: str, address: int, wanted: list[int]) -> None:
         n = len(wanted)

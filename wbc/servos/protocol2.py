@@ -265,6 +265,7 @@ class Dynamixel2Bus(DynamixelBus):
     name = "dynamixel2"
     servo_speed = XM430_NO_LOAD_SPEED
     torque_address = x.ADDR_TORQUE_ENABLE
+    status_return_level_address = x.ADDR_STATUS_RETURN_LEVEL
     models: Mapping[int, str] = {x.XM430_W350_MODEL: "XM430-W350", 1030: "XM430-W210"}
     status_overhead = 11
     ping_reply = 3  # model number (2 bytes), firmware version
@@ -346,13 +347,7 @@ class Dynamixel2Bus(DynamixelBus):
             raise ServoError(f"{self.name}: the servo map's settings are not X-series settings")
         indirect = [b for a in HEALTH_BLOCK for b in (a & 0xFF, a >> 8)]
         for i in range(self.n):
-            srl = self._retry(i, "read status return level", lambda p, i=i: self.read(i, 68, 1, p))[
-                2
-            ]
-            if srl[0] != 2:  # without level 2, WRITEs get no status and would look like timeouts
-                params = self.address_params(x.ADDR_STATUS_RETURN_LEVEL, [2])
-                self.exchange(self.ids[i], INST_WRITE, params)
-                self._flush()
+            self._status_return_level_2(i)
             gains = [
                 *word(int(st.position_d_gain[i])),
                 *word(int(st.position_i_gain[i])),
