@@ -137,15 +137,10 @@ class XSettings:
         values = per_joint_registers(
             table, joint_names, X_SETTING_REGISTERS, where, lambda j, k: f"{where}.joints {k}"
         )
-        shutdown = register_value(
-            table.get("shutdown", SHUTDOWN_DEFAULT), 0, 255, "shutdown", where
+        shutdown = checked_register(
+            table.get("shutdown", SHUTDOWN_DEFAULT), 0, 255, f"{where} shutdown"
         )
         return cls(**values, shutdown=shutdown)
-
-
-def register_value(value, lo: int, hi: int, key: str, where: str) -> int:
-    """An integer register value in ``lo..hi``, or :class:`ServoMapError` naming the key."""
-    return checked_register(value, lo, hi, f"{where} {key}")
 
 
 def checked_register(value, lo: int, hi: int, label: str) -> int:

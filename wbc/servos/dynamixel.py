@@ -25,7 +25,7 @@ import math
 import os
 import select
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -372,8 +372,10 @@ class DynamixelBus(ServoBus):
     can_read = True
     servo_speed = AX12_MAX_SPEED
     # the protocol's parts (wbc.servos.protocol2.Dynamixel2Bus overrides them): the torque
-    # enable register, the accepted model numbers (address 0, 2 bytes) and packet hooks below
+    # enable and status return level registers, the accepted model numbers (address 0,
+    # 2 bytes) and packet hooks below
     torque_address = ADDR_TORQUE_ENABLE
+    status_return_level_address = ADDR_STATUS_RETURN_LEVEL
     models: Mapping[int, str] = {AX12_MODEL_NUMBER: "AX-12A"}
 
     bus_budget = staticmethod(ax_budget)  # the protocol's wire-time budget
@@ -418,13 +420,42 @@ class DynamixelBus(ServoBus):
         reply_timeout_ms: float | None = None,
         attempts: int = 3,
     ) -> None:
+        if torque_limit is not None and not 0 <= torque_limit <= 1023:
+            raise ServoError(f"torque limit must be 0..1023, got {torque_limit}")
+        self._init_bus(
+            port,
+            servo_map,
+            check_baud,
+            baud,
+            latency_timer_ms,
+            poll_wait_s,
+            reply_timeout_ms,
+            attempts,
+        )
+        self.torque_limit = (
+            np.asarray(self.settings.torque_limit, dtype=int)
+            if torque_limit is None
+            else np.full(len(self.ids), torque_limit, dtype=int)
+        )
+
+    def _init_bus(
+        self,
+        port: str,
+        servo_map: ServoMap,
+        baud_check: Callable[[int], None],
+        baud: int,
+        latency_timer_ms: float,
+        poll_wait_s: float,
+        reply_timeout_ms: float | None,
+        attempts: int,
+    ) -> None:
+        """The arguments checked (``baud_check``: the protocol's baud rates) and the state
+        both protocols' buses share."""
         labels = [
             f"id {int(i)} ({j})" for i, j in zip(servo_map.ids, servo_map.joint_names, strict=True)
         ]
-        super().__init__(ax_codec(servo_map), labels)
-        check_baud(baud)
-        if torque_limit is not None and not 0 <= torque_limit <= 1023:
-            raise ServoError(f"torque limit must be 0..1023, got {torque_limit}")
+        ServoBus.__init__(self, ax_codec(servo_map), labels)
+        baud_check(baud)
         if reply_timeout_ms is not None and not (
             math.isfinite(reply_timeout_ms) and reply_timeout_ms > 0
         ):
@@ -438,11 +469,6 @@ class DynamixelBus(ServoBus):
         self.ids = [int(i) for i in servo_map.ids]
         self.latency_timer_ms = latency_timer_ms
         self.turnaround_s = latency_timer_ms * 1e-3
-        self.torque_limit = (
-            np.asarray(self.settings.torque_limit, dtype=int)
-            if torque_limit is None
-            else np.full(len(self.ids), torque_limit, dtype=int)
-        )
         self.reply_timeout_ms = reply_timeout_ms
         self.attempts = attempts
         self.poll_wait_s = poll_wait_s  # 0: busy-wait receive (like the SDK)
@@ -734,11 +760,7 @@ class DynamixelBus(ServoBus):
             raise ServoError("torque-off not confirmed by " + ", ".join(unconfirmed))
         st = self.settings
         for i in range(self.n):
-            srl = self._retry(i, "read status return level", lambda p, i=i: self.read(i, 16, 1, p))
-            srl = srl[2]
-            if srl[0] != 2:  # without level 2, WRITEs get no status and would look like timeouts
-                self.exchange(self.ids[i], INST_WRITE, (ADDR_STATUS_RETURN_LEVEL, 2))
-                self._flush()
+            self._status_return_level_2(i)
             lo, hi = int(self.cmd_lo[i]), int(self.cmd_hi[i])
             m, s = int(st.compliance_margin[i]), int(st.compliance_slope[i])
             blocks = [
@@ -750,6 +772,15 @@ class DynamixelBus(ServoBus):
             ]
             for what, address, wanted in blocks:
                 self._set_block(i, what, address, wanted)
+
+    def _status_return_level_2(self, i: int) -> None:
+        """Status Return Level 2 on servo ``i`` if it is not: without it, WRITEs get no status
+        and would look like timeouts."""
+        a = self.status_return_level_address
+        srl = self._retry(i, "read status return level", lambda p: self.read(i, a, 1, p))[2]
+        if srl[0] != 2:
+            self.exchange(self.ids[i], INST_WRITE, self.address_params(a, [2]))
+            self._flush()
 
     def _set_block(self, i: int, what: str, address: int, wanted: list[int]) -> None:
         n = len(wanted)

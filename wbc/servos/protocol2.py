@@ -52,7 +52,6 @@ from .bus import (
     COMM_TX_FAIL,
     BudgetItem,
     BusBudget,
-    ServoBus,
     ServoStatus,
 )
 from .dynamixel import (
@@ -61,10 +60,9 @@ from .dynamixel import (
     INST_WRITE,
     SDK_BAUDS,
     DynamixelBus,
-    ExchangeLog,
     _sdk,
-    ax_codec,
     read_variant,
+    word,
 )
 
 INST_STATUS = 0x55
@@ -267,6 +265,7 @@ class Dynamixel2Bus(DynamixelBus):
     name = "dynamixel2"
     servo_speed = XM430_NO_LOAD_SPEED
     torque_address = x.ADDR_TORQUE_ENABLE
+    status_return_level_address = x.ADDR_STATUS_RETURN_LEVEL
     models: Mapping[int, str] = {x.XM430_W350_MODEL: "XM430-W350", 1030: "XM430-W210"}
     status_overhead = 11
     ping_reply = 3  # model number (2 bytes), firmware version
@@ -284,39 +283,20 @@ class Dynamixel2Bus(DynamixelBus):
     ) -> None:
         if servo_map.protocol != 2.0:
             raise ServoError(f"servo map {servo_map.source} is protocol {servo_map.protocol}")
-        labels = [
-            f"id {int(i)} ({j})" for i, j in zip(servo_map.ids, servo_map.joint_names, strict=True)
-        ]
-        ServoBus.__init__(self, ax_codec(servo_map), labels)
-        check_baud2(baud)
-        if reply_timeout_ms is not None and not (
-            math.isfinite(reply_timeout_ms) and reply_timeout_ms > 0
-        ):
-            raise ServoError(f"reply timeout must be positive (ms), got {reply_timeout_ms}")
-        if attempts < 1:
-            raise ServoError(f"attempts must be >= 1, got {attempts}")
+        self._init_bus(
+            port,
+            servo_map,
+            check_baud2,
+            baud,
+            latency_timer_ms,
+            poll_wait_s,
+            reply_timeout_ms,
+            attempts,
+        )
         units = math.ceil(watchdog_ms * 1e-3 / x.BUS_WATCHDOG_UNIT_S - 1e-9)
         if not 1 <= units <= 127:
             raise ServoError(f"bus watchdog {watchdog_ms} ms: allowed 20..2540 ms")
         self.watchdog_units = units
-        self.port_name = port
-        self.servo_map = servo_map
-        self.settings = servo_map.settings
-        self.baud = baud
-        self.ids = [int(i) for i in servo_map.ids]
-        self.latency_timer_ms = latency_timer_ms
-        self.turnaround_s = latency_timer_ms * 1e-3
-        self.reply_timeout_ms = reply_timeout_ms
-        self.attempts = attempts
-        self.poll_wait_s = poll_wait_s
-        self.warnings: list[str] = []
-        self.notes: list[str] = []
-        self.log = ExchangeLog()
-        self.port = None
-        self._sync_goal = None
-        self._sync_speed = None
-        self._buf = bytearray()
-        self._reads = np.zeros(len(self.ids), int)
         self._sync_reads = 0
 
     # ------------------------------------------------------------------ protocol hooks
@@ -367,22 +347,16 @@ class Dynamixel2Bus(DynamixelBus):
             raise ServoError(f"{self.name}: the servo map's settings are not X-series settings")
         indirect = [b for a in HEALTH_BLOCK for b in (a & 0xFF, a >> 8)]
         for i in range(self.n):
-            srl = self._retry(i, "read status return level", lambda p, i=i: self.read(i, 68, 1, p))[
-                2
-            ]
-            if srl[0] != 2:  # without level 2, WRITEs get no status and would look like timeouts
-                params = self.address_params(x.ADDR_STATUS_RETURN_LEVEL, [2])
-                self.exchange(self.ids[i], INST_WRITE, params)
-                self._flush()
+            self._status_return_level_2(i)
             gains = [
-                *_word(st.position_d_gain[i]),
-                *_word(st.position_i_gain[i]),
-                *_word(st.position_p_gain[i]),
+                *word(int(st.position_d_gain[i])),
+                *word(int(st.position_i_gain[i])),
+                *word(int(st.position_p_gain[i])),
             ]
             blocks = [
                 ("return delay", x.ADDR_RETURN_DELAY, [0]),
                 ("operating mode", x.ADDR_OPERATING_MODE, [x.OPERATING_MODE_POSITION]),
-                ("current limit", x.ADDR_CURRENT_LIMIT, _word(st.current_limit[i])),
+                ("current limit", x.ADDR_CURRENT_LIMIT, word(int(st.current_limit[i]))),
                 (
                     "position limits",
                     x.ADDR_MAX_POSITION_LIMIT,
@@ -536,7 +510,3 @@ class Dynamixel2Bus(DynamixelBus):
     def ping(self, index: int) -> str:
         """PING one servo (its reply carries the model number and firmware version)."""
         return self.exchange(self.ids[index], INST_PING, (), 3)[0]
-
-
-def _word(value: int) -> list[int]:
-    return [int(value) & 0xFF, (int(value) >> 8) & 0xFF]
