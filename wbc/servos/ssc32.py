@@ -8,7 +8,7 @@ at 115200 baud (8N1). ``#<ch>L`` drives a channel's output low (no pulses: the s
 limp), which is our torque-off. The joint <-> channel map is a TOML table::
 
     [joints]
-    LHipYaw = { channel = 0, sign = 1, center_us = 1500, us_per_deg = 13.333 }
+    <joint name> = { channel = 0, sign = 1, center_us = 1500, us_per_deg = 13.333 }
 
 ``center_us`` is the pulse at q = 0 (default 1500); the scale is ``us_per_deg`` or
 ``us_per_rad`` (default Kokone's 13.33 µs/deg = 0.075 deg/µs); ``[bus] baudrate`` (default

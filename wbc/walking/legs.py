@@ -209,7 +209,11 @@ class LegGeometry:
         return float(pelvis / self.pelvis_gain)
 
     def lateral_com_bounds(
-        self, heading: float, l_ankle_xy: np.ndarray, r_ankle_xy: np.ndarray, height: np.ndarray
+        self,
+        heading: float,
+        left_ankle_xy: np.ndarray,
+        right_ankle_xy: np.ndarray,
+        height: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Linear form ``G c_xy <= h`` (4 rows: adduction and abduction of each leg, with the
         roll margin) of the hip roll limits for a CoM ``c_xy``, the soles at ``*_ankle_xy``
@@ -218,9 +222,9 @@ class LegGeometry:
         t_add = np.tan(self.max_adduction - self.roll_margin)
         t_abd = np.tan(self.max_abduction - self.roll_margin)
         k = self.pelvis_gain
-        mid = 0.5 * float(np.dot(np.asarray(l_ankle_xy) + np.asarray(r_ankle_xy), n))
+        mid = 0.5 * float(np.dot(np.asarray(left_ankle_xy) + np.asarray(right_ankle_xy), n))
         rows, rhs = [], []
-        for i, (s, a) in enumerate(((1.0, l_ankle_xy), (-1.0, r_ankle_xy))):
+        for i, (s, a) in enumerate(((1.0, left_ankle_xy), (-1.0, right_ankle_xy))):
             # pelvis (lateral) = mid + k (c.n - mid); abduction angle of leg s is
             # atan((s (a.n - pelvis) - w) / H), kept within [-t_add, t_abd]
             base = s * float(np.dot(a, n)) - self.hip_half_width - s * (1.0 - k) * mid
