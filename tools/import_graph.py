@@ -5,7 +5,12 @@ arrows between packages, and the largest modules; ``--dot FILE`` writes the pack
 graph in Graphviz DOT, ``--mermaid FILE`` as a Mermaid flowchart (the documentation's
 architecture page embeds it).
 
-    python tools/import_graph.py [--dot house.dot] [--mermaid house.mmd] [--json graph.json]
+    python tools/import_graph.py [--check] [--dot F.dot] [--mermaid F.mmd] [--json F.json]
+
+The house's layers, bottom first, are :data:`LAYERS`: a module may import its own layer and
+those below it; an import of a higher layer is an arrow running back up. ``--check`` exits 1
+if there is any circle, any arrow running up, any module in no layer or any module over
+800 lines.
 """
 
 from __future__ import annotations
@@ -19,6 +24,69 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = "wbc"
+MAX_LINES = 800
+
+#: the layers of the house, bottom first: (name, module prefixes). A module belongs to the
+#: layer of its longest matching prefix.
+LAYERS: list[tuple[str, tuple[str, ...]]] = [
+    ("base", ("wbc.exceptions", "wbc.paths", "wbc.geometry", "wbc.types", "wbc.version")),
+    ("kernels", ("wbc.compiled",)),
+    (
+        "model",
+        (
+            "wbc.model",
+            "wbc.robot_data",
+            "wbc.roles",
+            "wbc.servo_map",
+            "wbc.xseries",
+            "wbc.urdf_writer",
+            "wbc.recording",
+        ),
+    ),
+    ("tasks and limits", ("wbc.tasks", "wbc.limits", "wbc.pinv")),
+    ("solvers", ("wbc.solvers", "wbc.ik", "wbc.pose_ik")),
+    ("stacks", ("wbc.stacks",)),
+    (
+        "applications",
+        (
+            "wbc.servos",
+            "wbc.imu",
+            "wbc.imu_witmotion",
+            "wbc.sim",
+            "wbc.walking",
+            "wbc.balance",
+            "wbc.viewer",
+            "wbc.drive",
+            "wbc.robot_folder",
+        ),
+    ),
+    ("bench", ("wbc.bench",)),
+    ("api", ("wbc",)),
+    ("command line", ("wbc.cli", "wbc.demo")),
+]
+
+
+def layer_of(mod: str) -> int | None:
+    """Index in :data:`LAYERS` of the layer ``mod`` belongs to (longest prefix), or None."""
+    best: tuple[int, int] | None = None
+    for i, (_, prefixes) in enumerate(LAYERS):
+        for p in prefixes:
+            if mod == p or mod.startswith(p + "."):
+                if best is None or len(p) > best[0]:
+                    best = (len(p), i)
+    return None if best is None else best[1]
+
+
+def arrows_up(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """Imports of a higher layer than the importer's."""
+    out = []
+    for a in sorted(graph):
+        la = layer_of(a)
+        for b in sorted(graph[a]):
+            lb = layer_of(b)
+            if la is not None and lb is not None and lb > la:
+                out.append((a, b))
+    return out
 
 
 def module_name(path: Path) -> str:
@@ -138,6 +206,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dot", type=Path, help="write the package graph as Graphviz DOT")
     ap.add_argument("--mermaid", type=Path, help="write the package graph as a Mermaid flowchart")
     ap.add_argument("--json", type=Path, help="write the module graph and its circles as JSON")
+    ap.add_argument(
+        "--check",
+        action="store_true",
+        help="exit 1 on any circle, arrow running up, module in no layer or module over 800 lines",
+    )
     args = ap.parse_args(argv)
     mods = modules()
     graph = imports(mods)
@@ -153,8 +226,14 @@ def main(argv: list[str] | None = None) -> int:
     for c in pcycles:
         print(f"  {', '.join(c)}")
     sizes = sorted(((len(p.read_text().splitlines()), m) for m, p in mods.items()), reverse=True)
-    big = [(n, m) for n, m in sizes if n > 800]
-    print(f"modules over 800 lines: {len(big)}" + "".join(f"\n  {m}: {n}" for n, m in big))
+    big = [(n, m) for n, m in sizes if n > MAX_LINES]
+    print(f"modules over {MAX_LINES} lines: {len(big)}" + "".join(f"\n  {m}: {n}" for n, m in big))
+    up = arrows_up(graph)
+    print(f"arrows running up: {len(up)}")
+    for a, b in up:
+        print(f"  {a} ({LAYERS[layer_of(a)][0]}) -> {b} ({LAYERS[layer_of(b)][0]})")  # type: ignore[index]
+    unplaced = sorted(m for m in mods if layer_of(m) is None)
+    print(f"modules in no layer: {len(unplaced)}" + "".join(f"\n  {m}" for m in unplaced))
     if args.dot:
         lines = ["digraph wbc {", "  rankdir=BT; node [shape=box, fontsize=10];"]
         for a in sorted(pg):
@@ -177,10 +256,13 @@ def main(argv: list[str] | None = None) -> int:
                     "modules": {m: sorted(t) for m, t in graph.items()},
                     "circles": cycles,
                     "package_circles": pcycles,
+                    "arrows_up": up,
                 },
                 indent=1,
             )
         )
+    if args.check and (cycles or pcycles or up or unplaced or big):
+        return 1
     return 0
 
 
