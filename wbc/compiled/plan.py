@@ -18,8 +18,8 @@ import numpy as np
 
 from ..exceptions import TaskError
 from ..model import Kinematics, Robot
-from ..solvers.base import Solution
 from ..tasks import Task
+from ..types import CONSTRAINT_TOL, Solution
 from . import dispatch as D
 
 
@@ -467,8 +467,6 @@ class _Plan:
 
     def _set_params(self, dt: float | None) -> None:
         """The velocity steps and the scalar parameters of the tick, for ``dt``."""
-        from ..solvers.base import CONSTRAINT_TOL
-
         solver = self.solver
         limit = solver.stack.velocity_limit
         use = dt is not None and limit is not None

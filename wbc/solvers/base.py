@@ -14,15 +14,13 @@ import numpy as np
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
 from ..limits import Bounds, Constraint, intersect_bounds
 from ..model import Kinematics
+from ..types import Solution
 from .assembly import TaskBlock
 from .backends import QPBackend, make_backend
 from .cascade import LevelProblem, solve_cascade, solve_cascade_or_daqp
 from .diagnostics import infeasible_message
 from .stack import TaskStack
 
-#: violation up to which a compiled solution counts as meeting the inequality rows (the
-#: backends' own primal tolerance is of the same order)
-CONSTRAINT_TOL = 1e-9
 #: hard-task error (m, rad) beyond which :meth:`StackSolver.solve_pose` projects an iterate
 #: back onto the hard levels (smaller residuals the next QP step corrects to second order;
 #: 1e-3 let double-support iterates drift 1e-4 off where the joint limits and the collision
@@ -209,16 +207,6 @@ class _PoseBudget:
     start: float = field(default_factory=time.perf_counter)
     steps: int = 0
     iteration: int = 0
-
-
-class Solution(NamedTuple):
-    """What one solve returns: Δq, the box it was solved in, and q ⊕ Δq when the compiled
-    tick integrated it already (None: not yet)."""
-
-    dq: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    q_next: np.ndarray | None = None
 
 
 class StackSolver(ABC):

@@ -24,12 +24,11 @@ import numpy as np
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 from ..model import Kinematics
+from ..types import CONSTRAINT_TOL, Solution
 from .assembly import TaskBlock, stack_constraints
 from .backends import QPBackend, make_backend
 from .base import (
-    CONSTRAINT_TOL,
     HARD_TOL_RANGE,
-    Solution,
     StackSolver,
     Undiagnosed,
     check_number,

@@ -18,11 +18,10 @@ import numpy as np
 
 from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
+from ..types import CONSTRAINT_TOL, Solution
 from .assembly import TaskBlock, stack_constraints
 from .base import (
-    CONSTRAINT_TOL,
     HARD_TOL_RANGE,
-    Solution,
     StackSolver,
     Undiagnosed,
     check_number,
