@@ -109,6 +109,11 @@ def test_protocol_2_selects_the_x_series_ticks(tmp_path):
         ("protocol = 2.0", "[settings]\ncompliance_slope = 32", "compliance_slope"),
         ("protocol = 2.0", "[settings]\nposition_p_gain = 99999", "position_p_gain"),
         ("protocol = 2.0", "[extra]\nx = 1", "unknown tables/keys ['extra']"),
+        (
+            "protocol = 2.0",
+            "[settings.joints]\na = { position_p_gain = 99999 }",
+            "[settings].joints.a.position_p_gain = 99999",
+        ),
     ],
 )
 def test_every_key_is_read_or_refused(tmp_path, bus, settings, words):

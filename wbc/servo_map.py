@@ -133,9 +133,7 @@ class ServoSettings:
         extra = sorted(set(table) - known)
         if extra:
             raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
-        values = per_joint_registers(
-            table, joint_names, SETTING_REGISTERS, where, lambda j, k: f"{where}.joints.{j}.{k}"
-        )
+        values = per_joint_registers(table, joint_names, SETTING_REGISTERS, where)
         alarm = checked_register(
             table.get("alarm_shutdown", ALARM_SHUTDOWN_DEFAULT), 0, 127, f"{where} alarm_shutdown"
         )

@@ -10,7 +10,7 @@ control mode; gains, profile and current registers in the units below.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -134,9 +134,7 @@ class XSettings:
         extra = sorted(set(table) - known)
         if extra:
             raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
-        values = per_joint_registers(
-            table, joint_names, X_SETTING_REGISTERS, where, lambda j, k: f"{where}.joints {k}"
-        )
+        values = per_joint_registers(table, joint_names, X_SETTING_REGISTERS, where)
         shutdown = checked_register(
             table.get("shutdown", SHUTDOWN_DEFAULT), 0, 255, f"{where} shutdown"
         )
@@ -155,12 +153,11 @@ def per_joint_registers(
     joint_names: Sequence[str],
     registers: Mapping[str, tuple],
     where: str,
-    joint_label: Callable[[str, str], str],
 ) -> dict[str, np.ndarray]:
     """Register values per joint from a ``[settings]`` table: each key of ``registers``
     (``(address, size, (lo, hi), default)``) at its global value or default, then the
     ``[settings.joints]`` overrides; a bad value, joint or key is an error naming it
-    (``joint_label(joint, key)`` names an override)."""
+    (an override as ``<where>.joints.<joint>.<key>``)."""
     n = len(joint_names)
     values = {}
     for key, (_, _, (lo, hi), default) in registers.items():
@@ -182,5 +179,5 @@ def per_joint_registers(
                     f"{where}.joints.{joint}: unknown key {key!r}; allowed: {sorted(registers)}"
                 )
             lo, hi = registers[key][2]
-            values[key][index[joint]] = checked_register(v, lo, hi, joint_label(joint, key))
+            values[key][index[joint]] = checked_register(v, lo, hi, f"{where}.joints.{joint}.{key}")
     return values

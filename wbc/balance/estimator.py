@@ -44,10 +44,9 @@ import pinocchio as pin
 from ..exceptions import ConfigurationError, ModelError
 from ..imu import GRAVITY, ImuReading
 from ..model import Robot
+from ..roles import joint_axis
 
 SOLE_FRAMES = ("l_sole", "r_sole")
-_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0),
-         "JointModelRZ": (0.0, 0.0, 1.0)}  # fmt: skip
 # columns of a joint's row in the kinematic table (StateEstimator._joints)
 _R, _P, _AXIS, _LEVER, _MASS, _WIDTH = 0, 9, 12, 15, 18, 19
 # the filter's state (StateEstimator._state): torso rotation, has-rotation flag, CoM relative
@@ -329,16 +328,8 @@ def _kinematic_table(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for j in range(1, model.njoints):
         k = j - 1
         joint = model.joints[j]
-        kind = joint.shortname()
         if j > 1:
-            if kind in _AXES:
-                axis = np.array(_AXES[kind])
-            elif kind == "JointModelRevoluteUnaligned":
-                axis = np.asarray(joint.extract().axis, dtype=float)
-            else:
-                raise ModelError(
-                    f"state estimator: joint {model.names[j]} is not revolute ({kind})"
-                )
+            axis = joint_axis(model, j, "state estimator")
             links[k] = (model.parents[j] - 1, joint.idx_q - 7)
             placement = model.jointPlacements[j]
             table[k, _R:_P] = placement.rotation.ravel()
