@@ -22,26 +22,14 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
+import stress  # benchmarks/stress.py: its draws and stacks (the script's folder is on the path)
 
 from wbc import WbcError, load_robot
 from wbc.stacks import load_stack
 
 KINDS = ("hierarchical", "weighted")
-
-
-def _stress():
-    import importlib.util
-    import sys
-
-    path = Path(__file__).with_name("stress.py")
-    spec = importlib.util.spec_from_file_location("wbc_stress_benchmark", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def controls(robot) -> dict:
@@ -64,7 +52,6 @@ def main() -> None:
     if args.cost:
         cost(args.cost)
         return
-    stress = _stress()
     robot = load_robot("bioloid")
     stress.compile_first()
     kept = controls(robot)
@@ -123,7 +110,7 @@ def cost(rounds: int) -> None:
     from wbc.compiled.plan import _Plan
     from wbc.walking.loop import StackController, run
 
-    _stress().compile_first()
+    stress.compile_first()
     robot = load_robot("bioloid")
     ref = build("walk10", robot)
     forget = _Plan.forget_warm_start

@@ -16,25 +16,13 @@ joint inside its range.
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
+import stress  # benchmarks/stress.py: its draws and stacks (the script's folder is on the path)
 from scipy.optimize import minimize
 
 from wbc import Kinematics, load_robot
 from wbc.model import Robot
-
-
-def stress_module():
-    """benchmarks/stress.py as a module (its draws and stacks)."""
-    path = Path(__file__).resolve().parent / "stress.py"
-    spec = importlib.util.spec_from_file_location("wbc_stress_benchmark", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
 
 
 def excess(robot: Robot, q: np.ndarray) -> np.ndarray:
@@ -73,7 +61,6 @@ def main() -> None:
     ap.add_argument("--ticks", type=int, default=50)
     ap.add_argument("--seed", type=int, default=2024)
     args = ap.parse_args()
-    stress = stress_module()
     robot = load_robot("bioloid")
     for trial in args.trials:
         p = stress.draw(robot, np.random.default_rng([args.seed, trial]), ["daqp"])
