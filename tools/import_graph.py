@@ -89,16 +89,15 @@ def arrows_up(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
     return out
 
 
-def module_name(path: Path) -> str:
-    rel = path.relative_to(ROOT).with_suffix("")
-    parts = list(rel.parts)
-    if parts[-1] == "__init__":
-        parts = parts[:-1]
-    return ".".join(parts)
+def modules(root: Path = ROOT) -> dict[str, Path]:
+    return {
+        ".".join(_parts(p.relative_to(root))): p for p in sorted((root / PACKAGE).rglob("*.py"))
+    }
 
 
-def modules() -> dict[str, Path]:
-    return {module_name(p): p for p in sorted((ROOT / PACKAGE).rglob("*.py"))}
+def _parts(rel: Path) -> list[str]:
+    parts = list(rel.with_suffix("").parts)
+    return parts[:-1] if parts[-1] == "__init__" else parts
 
 
 def _resolve(current: str, is_package: bool, node: ast.ImportFrom) -> str:
@@ -201,18 +200,82 @@ def package_graph(graph: dict[str, set[str]], mods: dict[str, Path]) -> dict[str
     return pg
 
 
+def svg(pg: dict[str, set[str]], bad: set[tuple[str, str]], title: str) -> str:
+    """The package graph drawn by layer, bottom layer at the bottom: grey arrows go down or
+    sideways, red ones run up or close a circle (``bad``)."""
+    by_layer: dict[int, list[str]] = defaultdict(list)
+    for node in sorted(pg):
+        by_layer[layer_of(node) if layer_of(node) is not None else len(LAYERS)].append(node)
+    row_h, char_w, pad, gap = 70, 6.6, 8, 14
+    rows = sorted(by_layer)
+    width = max(
+        sum(len(n.removeprefix("wbc.")) * char_w + 2 * pad + gap for n in by_layer[r]) for r in rows
+    )
+    width = max(width + 180, 700)
+    height = row_h * len(rows) + 60
+    box: dict[str, tuple[float, float, float]] = {}  # node -> (x centre, y top, width)
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{height}" '
+        f'font-family="monospace" font-size="11">',
+        '<defs><marker id="a" markerWidth="6" markerHeight="6" refX="5" refY="3" '
+        'orient="auto"><path d="M0,0 L6,3 L0,6 z" fill="#999"/></marker>'
+        '<marker id="r" markerWidth="6" markerHeight="6" refX="5" refY="3" orient="auto">'
+        '<path d="M0,0 L6,3 L0,6 z" fill="#d22"/></marker></defs>',
+        f'<text x="8" y="18" font-size="13" font-weight="bold">{title}</text>',
+    ]
+    for i, r in enumerate(rows):
+        y = height - (i + 1) * row_h
+        name = LAYERS[r][0] if r < len(LAYERS) else "no layer"
+        out.append(f'<text x="8" y="{y + 16}" fill="#666">{name}</text>')
+        x = 170.0
+        for node in by_layer[r]:
+            w = len(node.removeprefix("wbc.")) * char_w + 2 * pad
+            box[node] = (x + w / 2, y, w)
+            x += w + gap
+    for a in sorted(pg):
+        for b in sorted(pg[a]):
+            if b not in box:
+                continue
+            (xa, ya, _), (xb, yb, _) = box[a], box[b]
+            red = (a, b) in bad
+            y0 = ya + 24 if yb > ya else ya
+            y1 = yb if yb > ya else yb + 24
+            if ya == yb:
+                y0 = y1 = ya + 24
+            mid = (y0 + y1) / 2 + (18 if ya == yb else 0)
+            colour, marker = ("#d22", "r") if red else ("#bbb", "a")
+            out.append(
+                f'<path d="M{xa:.0f},{y0:.0f} C{xa:.0f},{mid:.0f} {xb:.0f},{mid:.0f} '
+                f'{xb:.0f},{y1:.0f}" fill="none" stroke="{colour}" stroke-width='
+                f'"{1.4 if red else 0.6}" marker-end="url(#{marker})"/>'
+            )
+    for node, (xc, y, w) in box.items():
+        out.append(
+            f'<rect x="{xc - w / 2:.0f}" y="{y:.0f}" width="{w:.0f}" height="24" rx="4" '
+            f'fill="#f4f6fb" stroke="#456"/><text x="{xc:.0f}" y="{y + 16:.0f}" '
+            f'text-anchor="middle">{node.removeprefix("wbc.") or "wbc"}</text>'
+        )
+    out.append("</svg>")
+    return "\n".join(out) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dot", type=Path, help="write the package graph as Graphviz DOT")
     ap.add_argument("--mermaid", type=Path, help="write the package graph as a Mermaid flowchart")
     ap.add_argument("--json", type=Path, help="write the module graph and its circles as JSON")
+    ap.add_argument("--svg", type=Path, help="write the package graph by layer as SVG")
+    ap.add_argument("--title", default="the wbc package", help="--svg: the figure's title")
+    ap.add_argument(
+        "--root", type=Path, default=ROOT, help="the tree to read (default: this checkout)"
+    )
     ap.add_argument(
         "--check",
         action="store_true",
         help="exit 1 on any circle, arrow running up, module in no layer or module over 800 lines",
     )
     args = ap.parse_args(argv)
-    mods = modules()
+    mods = modules(args.root)
     graph = imports(mods)
     cycles = circles(graph)
     pg = package_graph(graph, mods)
@@ -261,6 +324,11 @@ def main(argv: list[str] | None = None) -> int:
                 indent=1,
             )
         )
+    if args.svg:
+        bad = {(a, b) for a in pg for b in pg[a] if any(a in c and b in c for c in pcycles)}
+        for a, b in up:
+            bad.add((package_of(a), package_of(b)))
+        args.svg.write_text(svg(pg, bad, args.title))
     if args.check and (cycles or pcycles or up or unplaced or big):
         return 1
     return 0
