@@ -25,7 +25,9 @@ import math
 import numpy as np
 
 from wbc import load_robot
-from wbc.bench.physics import _planned, models, physics_record, plan
+from wbc.bench.physics import plan
+from wbc.bench.sim_record import _planned, physics_record
+from wbc.bench.variation import models
 from wbc.recording import SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.sim.play import play
 

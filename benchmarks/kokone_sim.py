@@ -26,7 +26,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wbc import load_robot
-from wbc.bench.physics import physics_record, plan
+from wbc.bench.physics import plan
+from wbc.bench.sim_record import physics_record
 from wbc.sim.actuator import nominal_servo
 from wbc.sim.model import ModelParams
 from wbc.sim.play import play

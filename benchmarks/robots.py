@@ -29,8 +29,10 @@ import numpy as np
 
 from wbc.balance import best_compensate
 from wbc.bench import metrics
-from wbc.bench.physics import physics_record, plan, random_model
+from wbc.bench.physics import plan
+from wbc.bench.sim_record import physics_record
 from wbc.bench.trajectories import build
+from wbc.bench.variation import random_model
 from wbc.exceptions import WbcError
 from wbc.model import load_robot
 from wbc.paths import robots_dir

@@ -44,7 +44,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wbc import load_robot
-from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
+from wbc.servos import CallableSource, DeployConfig, Deployment
 from wbc.servos.dynamixel import (
     AX12_RESPONSE_S,
     ERR_OVERHEATING,

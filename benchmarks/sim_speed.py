@@ -18,7 +18,8 @@ import platform
 import time
 
 from wbc import load_robot
-from wbc.bench.physics import plan, robustness
+from wbc.bench.closed_loop import robustness
+from wbc.bench.physics import plan
 from wbc.sim.play import play
 from wbc.sim.simulator import Simulation
 
@@ -81,7 +82,7 @@ def main() -> None:
 
 def timestep_check(robot) -> None:
     """The physics figures of hqp-daqp's plans at 2 ms (default), 1 ms and 0.5 ms steps."""
-    from wbc.bench.physics import physics_record
+    from wbc.bench.sim_record import physics_record
     from wbc.sim.model import ModelParams
 
     keys = ("orientation_dev_max_deg", "distance_ratio", "foot_slip_max_mm",

@@ -314,7 +314,7 @@ def test_deploy_compensate(robot, comp, tmp_path, capsys):
 
 def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypatch):
     """``simulate`` (robustness sweeps, pushes) hands compensate / gyro to every run."""
-    from wbc.bench import physics
+    from wbc.bench import closed_loop, variation
     from wbc.sim import play as play_module
 
     seen = []
@@ -326,10 +326,10 @@ def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypa
     monkeypatch.setattr(play_module, "play", fake_play)
     q = robot.configuration("walk_ready")
     rec = Recording(np.array([0.0, 0.1]), np.tile(q, (2, 1)), robot.joint_names, {}, {})
-    variation = physics.models(robot, 1, 0)[0]
+    variation = variation.models(robot, 1, 0)[0]
     for v in (None, variation):
         with pytest.raises(RuntimeError):
-            physics.simulate(rec, robot, v, compensate=0.7, gyro=0.2, correct=True)
+            closed_loop.simulate(rec, robot, v, compensate=0.7, gyro=0.2, correct=True)
     assert [(k["compensate"], k["gyro"], k["correct"]) for k in seen] == [(0.7, 0.2, True)] * 2
     assert seen[1]["imu_noise"] == variation.imu_noise
 
@@ -432,7 +432,8 @@ def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, rob
     XM430, whose PID holds its goal; a plain `wbc sim --robot kokone` uses it open loop."""
     import argparse
 
-    from wbc.balance import best_compensate, resolve_compensate
+    from wbc.balance import best_compensate
+    from wbc.cli.options import resolve_compensate
 
     assert best_compensate(robot) == 0.5
     assert best_compensate(kokone) == 1.0

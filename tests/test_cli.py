@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-import wbc.demo
+import wbc.cli.demo
 from wbc.cli import main
 from wbc.paths import robots_dir, stacks_dir
 
@@ -27,7 +27,7 @@ def test_missing_optional_package_names_the_extra(monkeypatch, capsys):
     def run(args):
         raise ModuleNotFoundError("No module named 'meshcat'", name="meshcat")
 
-    monkeypatch.setattr(wbc.demo, "run", run)
+    monkeypatch.setattr(wbc.cli.demo, "run", run)
     assert main(["demo"]) == 2
     assert "pip install 'wbc[viewer]'" in capsys.readouterr().err
 

@@ -18,11 +18,11 @@ import signal
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.cli import main as wbc_main
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
+from wbc.servos import CallableSource, DeployConfig, Deployment
 from wbc.servos.dynamixel import (
     ADDR_CCW_ANGLE_LIMIT,
     ADDR_CW_ANGLE_LIMIT,

@@ -20,9 +20,9 @@ import time
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.servo_map import RAD_PER_TICK
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
+from wbc.servos import CallableSource, DeployConfig, Deployment
 from wbc.servos.dynamixel import (
     ADDR_TORQUE_ENABLE,
     AX12_MAX_SPEED,

@@ -11,9 +11,9 @@ import time
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ServoError
 from wbc.recording import Recording
-from wbc.servos import deploy as deploy_cmd
 from wbc.servos.dynamixel import ADDR_TORQUE_ENABLE, DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Ssc32Emulator
 from wbc.servos.portlock import PortLock, lock_path

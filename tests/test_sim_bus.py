@@ -12,12 +12,12 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ConfigurationError, ServoError
 from wbc.imu import GRAVITY
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK, ServoSettings
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.deploy import DeployConfig, Deployment, RecordingSource
+from wbc.servos import DeployConfig, Deployment, RecordingSource
 from wbc.sim.bus import SimImu, SimServoBus
 from wbc.sim.simulator import Simulation
 
@@ -342,7 +342,7 @@ def test_deploy_kokone_on_the_simulated_ssc32_from_the_command_line(kokone, tmp_
 
 
 def test_upright_watch_reports_a_fall_and_when(kokone):
-    from wbc.sim.cli import UprightWatch
+    from wbc.sim.watch import UprightWatch
 
     for impulse, fell in ((0.0, False), (1.0, True)):
         sim = Simulation(kokone)

@@ -44,7 +44,7 @@ def test_kokone_smoke_a_short_keypose_walk_through_the_simulated_ssc32():
     import math
 
     from wbc import load_robot
-    from wbc.bench.physics import physics_record
+    from wbc.bench.sim_record import physics_record
     from wbc.bench.trajectories import robot_options
     from wbc.sim.bus import SimSsc32Bus
     from wbc.sim.play import play
@@ -87,7 +87,7 @@ def test_kokone_key_pose_walk_stands_with_the_compliance_feed_forward():
     import math
 
     from wbc import load_robot
-    from wbc.bench.physics import physics_record
+    from wbc.bench.sim_record import physics_record
     from wbc.bench.trajectories import robot_options
     from wbc.sim.play import play
     from wbc.stacks import load_stack

@@ -9,8 +9,9 @@ budget and fault bound), :mod:`.deploy` (the ``wbc deploy`` command) and :mod:`.
 """
 
 from .bus import BusBudget, Codec, DryRunBus, ServoBus, ServoStatus
+from .config import DeployConfig
 from .dynamixel import DynamixelBus
-from .playback import DeployConfig, Deployment, DeployResult
+from .playback import Deployment, DeployResult
 from .safety import GoalLimiter, HealthSchedule, Trip, Watchdog
 from .sources import CallableSource, RecordingSource, TargetSource
 from .ssc32 import Ssc32Bus, Ssc32Map

@@ -834,7 +834,8 @@ class DynamixelBus(ServoBus):
 
     def set_torque_limit(self, share: float) -> None:
         """Torque Limit (34, RAM) of every servo: ``share`` (0..1) of the maximum, one
-        broadcast WRITE (the protective fall, :func:`wbc.balance.fall.safe_fall`)."""
+        broadcast WRITE (the protective fall:
+        :meth:`wbc.servos.playback.Deployment.safe_fall`)."""
         self._require_open()
         if not 0.0 <= share <= 1.0:
             raise ServoError(f"torque limit share must be in [0, 1], got {share}")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from .bus import BusBudget, ServoBus
-from .playback import MAX_RATE_HZ, DeployConfig
+from .config import MAX_RATE_HZ, DeployConfig
 from .safety import HealthSchedule
 
 LOAD_LIMIT = 0.8

@@ -1,7 +1,7 @@
 """Play a recording on the simulated robot through the deployment path, and log the physics.
 
 :func:`play` builds a :class:`~wbc.sim.simulator.Simulation` at the recording's first
-configuration, drives it with :class:`~wbc.servos.deploy.Deployment` on a
+configuration, drives it with :class:`~wbc.servos.playback.Deployment` on a
 :class:`~wbc.sim.bus.SimServoBus` (soft start, clamping, rate limit, watchdog: the code that
 drives the real servos), then holds the last goals for ``settle`` seconds. Every control tick
 logs the simulated state (:class:`SimLog`).
@@ -18,13 +18,9 @@ from ..exceptions import ConfigurationError
 from ..geometry import convex_hull, signed_distance
 from ..model import Robot
 from ..recording import Recording
-from ..servos.deploy import (
-    CallableSource,
-    DeployConfig,
-    Deployment,
-    DeployResult,
-    RecordingSource,
-)
+from ..servos.config import DeployConfig
+from ..servos.playback import Deployment, DeployResult
+from ..servos.sources import CallableSource, RecordingSource
 from .actuator import ServoParams
 from .bus import SimServoBus, sim_bus
 from .model import ModelParams
@@ -72,7 +68,10 @@ def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
     return float(signed_distance(hull, np.asarray(p, dtype=float)[:2]))
 
 
-class _Logger:
+class SimLogger:
+    """Logs the simulated state into a :class:`SimLog`, called once per control tick (the
+    bus's ``on_tick``); :attr:`t0` is the simulation clock at its start."""
+
     def __init__(self, sim: Simulation) -> None:
         self.sim = sim
         self.log = SimLog()
@@ -143,7 +142,7 @@ def play(
         rate = (
             min(100.0, 1.0 / float(np.median(np.diff(recording.t)))) if len(recording) > 1 else 50.0
         )
-    logger = _Logger(sim)
+    logger = SimLogger(sim)
 
     def tick(bus: SimServoBus) -> None:
         logger(bus)
