@@ -14,9 +14,10 @@ import pytest
 from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ServoError
 from wbc.recording import Recording
-from wbc.servos.dynamixel import ADDR_TORQUE_ENABLE, DynamixelBus
+from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Ssc32Emulator
 from wbc.servos.portlock import PortLock, lock_path
+from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE
 from wbc.servos.ssc32 import Ssc32Bus, Ssc32Map
 
 

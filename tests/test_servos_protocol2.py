@@ -17,10 +17,10 @@ from wbc.exceptions import ServoMapError
 from wbc.servo_map import ServoMap
 from wbc.servos.bus import COMM_OK, COMM_TIMEOUT
 from wbc.servos.config import DeployConfig
-from wbc.servos.dynamixel import ax_budget, read_variant
 from wbc.servos.emulator import Fault
 from wbc.servos.emulator2 import XEmulator
 from wbc.servos.plan import plan_lines
+from wbc.servos.protocol1 import ax_budget, read_variant
 from wbc.servos.protocol2 import (
     HEALTH_BLOCK,
     Dynamixel2Bus,
