@@ -4,7 +4,7 @@
     python benchmarks/sim_speed.py --timesteps      # the physics figures vs the time step
 
 1. physics only: :meth:`Simulation.advance` standing at Walk Ready (servo law + MuJoCo step);
-2. the deploy path: ``walk10`` planned by ``hqp-daqp``, played by :func:`wbc.sim.play.play`
+2. the deploy path: ``walk10`` planned by ``hqp-daqp``, played by :func:`wbc.bench.play.play`
    (deployment safety layer, per-tick logging of the state and contact forces);
 3. a sweep: the same run on N randomised models (``wbc bench --physics --robustness N``).
 
@@ -20,7 +20,7 @@ import time
 from wbc import load_robot
 from wbc.bench.closed_loop import robustness
 from wbc.bench.physics import plan
-from wbc.sim.play import play
+from wbc.bench.play import play
 from wbc.sim.simulator import Simulation
 
 

@@ -10,8 +10,8 @@ import pytest
 pytest.importorskip("mujoco")
 
 from wbc.bench import closed_loop, physics, pushes, sim_record, variation
+from wbc.bench.play import play
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, Recording
-from wbc.sim.play import play
 
 
 @pytest.fixture(scope="module")
@@ -139,7 +139,7 @@ def test_closed_loop_spec_reaches_every_run(robot, standing, monkeypatch):
         seen.append((spec, variation, push, compensate, correct))
         raise RuntimeError("stop")
 
-    monkeypatch.setattr(physics, "play_closed_loop", fake)
+    monkeypatch.setattr(closed_loop, "play_closed_loop", fake)
     spec = closed_loop.ClosedLoopSpec(make=lambda r: None, ref="REF", gains="G")
     with pytest.raises(RuntimeError):
         closed_loop.robustness(standing, robot, 2, 0, compensate=0.5, closed=spec, correct=True)

@@ -67,13 +67,13 @@ def play_closed_loop(
 ):
     """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
     on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
-    :class:`wbc.sim.play.PlayResult` and the loop (its per-tick costs, limit excursions).
+    :class:`wbc.sim.log.PlayResult` and the loop (its per-tick costs, limit excursions).
     ``duration`` (s): only the walk's first seconds (None: all of it); ``on_tick`` sees the
     simulation after every logged tick (a live viewer)."""
     from ..balance.live import closed_loop
     from ..servos.sources import CallableSource
     from ..sim.bus import SimImu, SimServoBus
-    from ..sim.play import PlayResult, SimLogger
+    from ..sim.log import PlayResult, SimLogger
     from ..sim.simulator import Simulation
     from ..walking.loop import start_configuration
 
@@ -151,7 +151,7 @@ def simulate(
         record = physics_record(rec, result, robot, closed.ref)
         record.update(closed_loop_figures(loop))
         return record
-    from ..sim.play import play
+    from .play import play
 
     kw: dict[str, Any] = {"compensate": compensate, "gyro": gyro, "correct": correct}
     if variation is not None:

@@ -1,7 +1,7 @@
 """``wbc bench --physics``: does the robot stay up when the plan reaches the servos?
 
 Every controller's run (planned by :func:`wbc.bench.runner.run_entry`) is played through the
-deployment path on the simulated robot (:func:`wbc.sim.play.play`). Per run:
+deployment path on the simulated robot (:func:`wbc.bench.play.play`). Per run:
 
 * ``fell`` and ``fall_time_s``: the torso deviates more than 45° from the planned base
   orientation or drops below 60 % of its planned height; ``fall_phase`` and
@@ -155,7 +155,7 @@ def run_physics(
                 try:  # beyond the joint limits: clamped by the deployment (wbc deploy refuses
                     # it unless --limit-tol allows it)
                     if spec is None:
-                        from ..sim.play import play
+                        from .play import play
 
                         result = play(rec, robot, settle=1.0, limit_tol=math.inf, **loop)
                         extra: dict[str, Any] = {}

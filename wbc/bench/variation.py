@@ -36,7 +36,7 @@ COM_LEVER_MIN = 0.02
 
 @dataclass(frozen=True)
 class Variation:
-    """One randomised plant: what :func:`wbc.sim.play.play` needs, plus its description.
+    """One randomised plant: what :func:`wbc.bench.play.play` needs, plus its description.
 
     The controller never sees it: the feed-forward (:mod:`wbc.balance.compliance`) and the
     estimator keep the robot's nominal servo settings and model."""
@@ -50,7 +50,7 @@ class Variation:
     imu: dict[str, float] = field(default_factory=dict)  # SimImu keyword arguments
 
     def play_kwargs(self) -> dict[str, Any]:
-        """The plant as :func:`wbc.sim.play.play`'s keyword arguments (every randomised part:
+        """The plant as :func:`wbc.bench.play.play`'s keyword arguments (every randomised part:
         model, servos, latency, IMU)."""
         return {
             "model_params": self.model_params,

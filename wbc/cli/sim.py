@@ -73,6 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..bench.physics import plan
+    from ..bench.play import play
     from ..bench.sim_record import (
         PHYSICS_KEYS,
         mid_single_support,
@@ -82,7 +83,6 @@ def run(args: argparse.Namespace) -> int:
     from ..model import load_robot
     from ..recording import Recording
     from ..sim.actuator import servo_kind
-    from ..sim.play import play
 
     if not (math.isfinite(args.settle) and args.settle >= 0):
         raise ConfigurationError(f"--settle must be a time >= 0 s, got {args.settle}")
