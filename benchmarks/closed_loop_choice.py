@@ -17,7 +17,8 @@ import argparse
 from wbc import load_robot
 from wbc.balance.stabilizer import Gains
 from wbc.bench import trajectories as traj
-from wbc.bench.physics import ClosedLoopSpec, largest_push, simulate
+from wbc.bench.closed_loop import ClosedLoopSpec, simulate
+from wbc.bench.pushes import largest_push
 from wbc.bench.runner import run_entry
 from wbc.bench.solvers import registry
 

@@ -2,7 +2,7 @@
 feed-forward, and with the feed-forward corrected from the encoders (issue 15, item 2).
 
 Each controller's plan (one solve per tick) is played open loop through the deployment path
-on the simulated Bioloid (:func:`wbc.sim.play.play`, the AX-12A law of the shared servo
+on the simulated Bioloid (:func:`wbc.bench.play.play`, the AX-12A law of the shared servo
 settings) three ways: ``none``; ``ff`` (:mod:`wbc.balance.compliance` feed-forward, ×GAIN);
 ``ff+enc`` (the same, rescaled per joint online from the servos' present positions,
 :class:`wbc.balance.compliance.EncoderCorrection`). Per run: the RMS and largest joint
@@ -25,9 +25,11 @@ import math
 import numpy as np
 
 from wbc import load_robot
-from wbc.bench.physics import _planned, models, physics_record, plan
+from wbc.bench.physics import plan
+from wbc.bench.play import play
+from wbc.bench.sim_record import _planned, physics_record
+from wbc.bench.variation import models
 from wbc.recording import SUPPORT_LEFT, SUPPORT_RIGHT
-from wbc.sim.play import play
 
 STANCE = ("hip_pitch", "knee", "ankle_pitch")
 

@@ -36,8 +36,8 @@ import numpy as np
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")  # time the compiled ticks, not the interim
 
 from wbc import load_robot
-from wbc.bench.physics import models
 from wbc.bench.solvers import registry
+from wbc.bench.variation import models
 from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim

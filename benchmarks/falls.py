@@ -20,15 +20,10 @@ import numpy as np
 
 from wbc import load_robot
 from wbc.bench import trajectories as traj
-from wbc.bench.physics import (
-    PUSH_DURATION,
-    ClosedLoopSpec,
-    closed_loop_figures,
-    mid_single_support,
-    play_closed_loop,
-    push_direction,
-)
+from wbc.bench.closed_loop import ClosedLoopSpec, closed_loop_figures, play_closed_loop
+from wbc.bench.pushes import PUSH_DURATION, push_direction
 from wbc.bench.runner import run_entry
+from wbc.bench.sim_record import mid_single_support
 from wbc.bench.solvers import registry
 
 

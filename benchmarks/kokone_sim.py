@@ -7,7 +7,7 @@
     python benchmarks/kokone_sim.py --stand              # standing still: band vs oscillation
 
 Each trajectory is planned once by ``hqp-daqp`` (the ``walk`` stack), then played through the
-SSC-32 backend on the simulator (:func:`wbc.sim.play.play`, as ``wbc bench --physics
+SSC-32 backend on the simulator (:func:`wbc.bench.play.play`, as ``wbc bench --physics
 --robot kokone``) with the nominal servo of ``robots/kokone/robot.toml`` ``[servo]`` changed
 in one estimate at a time: the proportional band (µs of pulse to full torque), and the drive
 update (analog: once per 20 ms pulse; "digital": every 4 ms, the same torque and speed).
@@ -26,10 +26,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wbc import load_robot
-from wbc.bench.physics import physics_record, plan
+from wbc.bench.physics import plan
+from wbc.bench.play import play
+from wbc.bench.sim_record import physics_record
 from wbc.sim.actuator import nominal_servo
 from wbc.sim.model import ModelParams
-from wbc.sim.play import play
 
 
 def row(label: str, rec, robot, **kw) -> str:

@@ -20,9 +20,10 @@ from wbc import load_robot
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
-from wbc.bench.physics import ClosedLoopSpec, models, simulate
+from wbc.bench.closed_loop import ClosedLoopSpec, simulate
 from wbc.bench.runner import run_entry
 from wbc.bench.solvers import registry
+from wbc.bench.variation import models
 
 #: label -> (compliance gain, gains, IMU, loop on, stepping); None: the plan played open loop
 VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {

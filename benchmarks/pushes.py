@@ -26,7 +26,9 @@ from wbc.balance.angular import hip_strategy_bound
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams, capture_bounds
 from wbc.bench import trajectories as traj
-from wbc.bench.physics import ClosedLoopSpec, largest_push, plan, simulate
+from wbc.bench.closed_loop import ClosedLoopSpec, simulate
+from wbc.bench.physics import plan
+from wbc.bench.pushes import largest_push
 from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
@@ -112,7 +114,8 @@ def hip_bound(rec, robot, ref, bounds: dict) -> dict:
     and 30 ms late (the estimated DCM's lag), added to the CoP bound (``away_ns``)."""
     import numpy as np
 
-    from wbc.bench.physics import mid_single_support, push_direction
+    from wbc.bench.pushes import push_direction
+    from wbc.bench.sim_record import mid_single_support
 
     t = mid_single_support(rec)
     k = int(np.clip(np.searchsorted(rec.t - rec.t[0], t), 0, len(rec) - 1))
@@ -133,7 +136,8 @@ def grid(args) -> None:
     bisection of ``--push`` assumes one threshold; stepping makes survival non-monotonic."""
     import numpy as np
 
-    from wbc.bench.physics import PUSH_DURATION, mid_single_support, push_direction
+    from wbc.bench.pushes import PUSH_DURATION, push_direction
+    from wbc.bench.sim_record import mid_single_support
 
     robot = load_robot("bioloid")
     ref = traj.build(args.trajectory, robot)
@@ -158,13 +162,9 @@ def safety(args) -> None:
     """The deployment's view of the goals of one pushed run per closed loop."""
     import numpy as np
 
-    from wbc.bench.physics import (
-        PUSH_DURATION,
-        mid_single_support,
-        physics_record,
-        play_closed_loop,
-        push_direction,
-    )
+    from wbc.bench.closed_loop import play_closed_loop
+    from wbc.bench.pushes import PUSH_DURATION, push_direction
+    from wbc.bench.sim_record import mid_single_support, physics_record
 
     robot = load_robot("bioloid")
     ref = traj.build(args.trajectory, robot)

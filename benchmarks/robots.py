@@ -29,14 +29,16 @@ import numpy as np
 
 from wbc.balance import best_compensate
 from wbc.bench import metrics
-from wbc.bench.physics import physics_record, plan, random_model
+from wbc.bench.physics import plan
+from wbc.bench.play import play
+from wbc.bench.sim_record import physics_record
 from wbc.bench.trajectories import build
+from wbc.bench.variation import random_model
 from wbc.exceptions import WbcError
 from wbc.model import load_robot
 from wbc.paths import robots_dir
 from wbc.recording import Recording
 from wbc.robot_folder import standing_pose
-from wbc.sim.play import play
 from wbc.stacks import load_stack, robot_stack
 from wbc.urdf_writer import transform_urdf
 from wbc.walking.feasibility import kinematic_feasibility

@@ -44,15 +44,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wbc import load_robot
-from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
-from wbc.servos.dynamixel import (
-    AX12_RESPONSE_S,
-    ERR_OVERHEATING,
-    ERR_OVERLOAD,
-    DynamixelBus,
-    ax_budget,
-)
+from wbc.servos import CallableSource, DeployConfig, Deployment
+from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Fault
+from wbc.servos.protocol1 import AX12_RESPONSE_S, ERR_OVERHEATING, ERR_OVERLOAD, ax_budget
 
 BAUD = 1_000_000
 MODES = {

@@ -30,8 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from wbc import load_robot
+from wbc.cli import deploy as deploy_cmd
 from wbc.recording import Recording
-from wbc.servos import deploy as deploy_cmd
 from wbc.servos.emulator import Fault
 from wbc.servos.emulator2 import XEmulator
 from wbc.servos.protocol2 import Dynamixel2Bus

@@ -4,7 +4,7 @@
     python benchmarks/sim_speed.py --timesteps      # the physics figures vs the time step
 
 1. physics only: :meth:`Simulation.advance` standing at Walk Ready (servo law + MuJoCo step);
-2. the deploy path: ``walk10`` planned by ``hqp-daqp``, played by :func:`wbc.sim.play.play`
+2. the deploy path: ``walk10`` planned by ``hqp-daqp``, played by :func:`wbc.bench.play.play`
    (deployment safety layer, per-tick logging of the state and contact forces);
 3. a sweep: the same run on N randomised models (``wbc bench --physics --robustness N``).
 
@@ -18,8 +18,9 @@ import platform
 import time
 
 from wbc import load_robot
-from wbc.bench.physics import plan, robustness
-from wbc.sim.play import play
+from wbc.bench.closed_loop import robustness
+from wbc.bench.physics import plan
+from wbc.bench.play import play
 from wbc.sim.simulator import Simulation
 
 
@@ -81,7 +82,7 @@ def main() -> None:
 
 def timestep_check(robot) -> None:
     """The physics figures of hqp-daqp's plans at 2 ms (default), 1 ms and 0.5 ms steps."""
-    from wbc.bench.physics import physics_record
+    from wbc.bench.sim_record import physics_record
     from wbc.sim.model import ModelParams
 
     keys = ("orientation_dev_max_deg", "distance_ratio", "foot_slip_max_mm",

@@ -261,7 +261,7 @@ def test_support_schedule(robot):
 def test_standing_tracks_better_with_compensation(robot):
     """1 s standing in Walk Ready on the simulated AX-12As: the joints sag less."""
     pytest.importorskip("mujoco")
-    from wbc.sim.play import play
+    from wbc.bench.play import play
 
     q = robot.configuration("walk_ready")
     t = np.arange(0.0, 0.6, 0.01)
@@ -314,8 +314,9 @@ def test_deploy_compensate(robot, comp, tmp_path, capsys):
 
 def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypatch):
     """``simulate`` (robustness sweeps, pushes) hands compensate / gyro to every run."""
-    from wbc.bench import physics
-    from wbc.sim import play as play_module
+    from wbc.bench import closed_loop
+    from wbc.bench import play as play_module
+    from wbc.bench.variation import models
 
     seen = []
 
@@ -326,10 +327,10 @@ def test_physics_runs_pass_the_loop_options_to_randomised_models(robot, monkeypa
     monkeypatch.setattr(play_module, "play", fake_play)
     q = robot.configuration("walk_ready")
     rec = Recording(np.array([0.0, 0.1]), np.tile(q, (2, 1)), robot.joint_names, {}, {})
-    variation = physics.models(robot, 1, 0)[0]
+    variation = models(robot, 1, 0)[0]
     for v in (None, variation):
         with pytest.raises(RuntimeError):
-            physics.simulate(rec, robot, v, compensate=0.7, gyro=0.2, correct=True)
+            closed_loop.simulate(rec, robot, v, compensate=0.7, gyro=0.2, correct=True)
     assert [(k["compensate"], k["gyro"], k["correct"]) for k in seen] == [(0.7, 0.2, True)] * 2
     assert seen[1]["imu_noise"] == variation.imu_noise
 
@@ -339,7 +340,7 @@ def test_encoder_correction_on_softer_servos_in_the_simulator(robot):
     feed-forward's model is wrong): with the encoder correction the joints end nearer the
     plan than with the feed-forward alone."""
     pytest.importorskip("mujoco")
-    from wbc.sim.play import play
+    from wbc.bench.play import play
 
     q = robot.configuration("walk_ready")
     t = np.arange(0.0, 1.5, 0.01)
@@ -404,8 +405,8 @@ def test_hobby_deflection_inverts_the_simulators_hobby_law(kokone, load, sign, j
 def test_hobby_compensator_uses_the_robots_own_servo(kokone):
     """On Kokone (no servos.toml) the compensator takes the BMS-380MAX of robot.toml and the
     SSC-32 map's µs per rad; the encoder correction is refused (no position read-back)."""
+    from wbc.bench.play import play
     from wbc.sim.actuator import HobbyServoParams
-    from wbc.sim.play import play
 
     comp = ComplianceCompensator(kokone)
     assert isinstance(comp.params, HobbyServoParams) and comp.us_per_rad is not None
@@ -432,7 +433,8 @@ def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, rob
     XM430, whose PID holds its goal; a plain `wbc sim --robot kokone` uses it open loop."""
     import argparse
 
-    from wbc.balance import best_compensate, resolve_compensate
+    from wbc.balance import best_compensate
+    from wbc.cli.options import resolve_compensate
 
     assert best_compensate(robot) == 0.5
     assert best_compensate(kokone) == 1.0

@@ -72,7 +72,7 @@ def test_a_push_beyond_recovery_ends_in_the_safe_fall(robot):
     step is 1.03 N·s): detected within 100 ms of the push, the torque limit lowered, the
     protective posture taken and every servo's torque verified off."""
     pytest.importorskip("mujoco")
-    from wbc.bench import physics
+    from wbc.bench import closed_loop, pushes
     from wbc.bench.solvers import registry
     from wbc.bench.trajectories import build
     from wbc.recording import SUPPORT_DOUBLE
@@ -80,9 +80,9 @@ def test_a_push_beyond_recovery_ends_in_the_safe_fall(robot):
     ref = build("walk10_wb", robot)
     a, b = next((a, b) for a, b, c in ref.phases() if c != SUPPORT_DOUBLE)
     t_push = 0.5 * (ref.t[a] + ref.t[b - 1]) - ref.t[0]
-    spec = physics.ClosedLoopSpec(registry()["wqp-daqp"].make, ref)
-    force = np.array([2.5 / physics.PUSH_DURATION, 0.0, 0.0])
-    result, loop = physics.play_closed_loop(spec, robot, push=(t_push, force, 0.01), settle=0.2)
+    spec = closed_loop.ClosedLoopSpec(registry()["wqp-daqp"].make, ref)
+    force = np.array([2.5 / pushes.PUSH_DURATION, 0.0, 0.0])
+    result, loop = closed_loop.play_closed_loop(spec, robot, push=(t_push, force, 0.01), settle=0.2)
     fall = loop.stabilizer.fall
     assert fall.time is not None and 0.0 <= fall.time - t_push - 0.01 <= 0.1, fall.reason
     assert result.deploy.stop_action.startswith("fall: torque limit 30 %, protective posture")

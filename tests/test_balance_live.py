@@ -37,17 +37,17 @@ def test_an_imu_mounted_otherwise_than_the_robot_says_is_reported(robot):
     pytest.importorskip("mujoco")
     import pinocchio as pin
 
-    from wbc.bench import physics
+    from wbc.bench import closed_loop, variation
     from wbc.bench.solvers import registry
     from wbc.bench.trajectories import build
     from wbc.sim.model import ModelParams
 
     ref = build("walk10_wb", robot)
-    spec = physics.ClosedLoopSpec(registry()["wqp-daqp"].make, ref)
+    spec = closed_loop.ClosedLoopSpec(registry()["wqp-daqp"].make, ref)
     for deg, stops in ((12.0, True), (3.0, False)):
         turned = ModelParams(imu_rotation=pin.rpy.rpyToMatrix(np.radians(deg), 0.0, 0.0))
-        v = physics.Variation(turned, None, 0, 0.0, {})
-        result, loop = physics.play_closed_loop(spec, robot, v, settle=0.0, duration=0.4)
+        v = variation.Variation(turned, None, 0, 0.0, {})
+        result, loop = closed_loop.play_closed_loop(spec, robot, v, settle=0.0, duration=0.4)
         if stops:
             assert not result.deploy.completed
             trip = str(result.deploy.trip)

@@ -184,7 +184,8 @@ def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot
     hip band (stiffer than today's defaults, which trade this push for robustness to
     latency: benchmarks/pushes.md)."""
     from wbc.balance.stabilizer import Gains
-    from wbc.bench.physics import PUSH_DURATION, ClosedLoopSpec, play_closed_loop
+    from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
+    from wbc.bench.pushes import PUSH_DURATION
     from wbc.bench.solvers import select
 
     ref = build("walk10", robot)

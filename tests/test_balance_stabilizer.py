@@ -305,7 +305,8 @@ def test_hip_strategy_catches_a_push_the_closed_loop_alone_cannot(robot, impulse
     the closed loop falls (at ~1.6 s; its bisection: 0.797 N·s), with it (on by default:
     benchmarks/pushes.md) it is still up 2.2 s into the walk. Both with issue 15's torso
     gains and hip band (today's defaults are softer, for robustness to latency)."""
-    from wbc.bench.physics import PUSH_DURATION, ClosedLoopSpec, play_closed_loop
+    from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
+    from wbc.bench.pushes import PUSH_DURATION
     from wbc.bench.solvers import select
     from wbc.bench.trajectories import build
 

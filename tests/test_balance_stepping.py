@@ -154,19 +154,19 @@ def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot,
     stepping's own effect; the hip strategy alone survives this push, test_balance_stabilizer)."""
     pytest.importorskip("mujoco")
     from wbc.balance.stabilizer import Gains
-    from wbc.bench import physics
+    from wbc.bench import closed_loop, physics, pushes, sim_record
     from wbc.bench.solvers import select
 
     entry = next(e for e in select(["wqp-daqp"], None, "tick")[0] if e.name == "wqp-daqp")
     rec = physics.plan("wqp-daqp", "walk10", robot)
-    t = physics.mid_single_support(rec)
-    push = (t, physics.push_direction(rec, "lateral") * 0.83 / physics.PUSH_DURATION, 0.01)
+    t = sim_record.mid_single_support(rec)
+    push = (t, pushes.push_direction(rec, "lateral") * 0.83 / pushes.PUSH_DURATION, 0.01)
     runs = {}
     for name, stepping in (("closed", None), ("step", SteppingParams())):
-        spec = physics.ClosedLoopSpec(
+        spec = closed_loop.ClosedLoopSpec(
             entry.make, walk10, Gains(k_hip=0.0, transfer=0.0), True, True, stepping, None
         )  # (no sway narrowing, no hold)
-        runs[name] = physics.simulate(rec, robot, push=push, compensate=0.5, closed=spec)
+        runs[name] = closed_loop.simulate(rec, robot, push=push, compensate=0.5, closed=spec)
     assert runs["closed"]["fell"] and runs["closed"]["replans"] is None
     assert not runs["step"]["fell"] and runs["step"]["replans"] >= 1
     assert runs["step"]["goal_limit_excess_deg"] == 0.0  # no goal beyond a joint limit

@@ -152,7 +152,8 @@ def test_while_the_ticks_compile_the_baselines_show_their_errors(monkeypatch, tm
     """A fresh install: while the ticks compile, the runs without them print their errors;
     then every run of the tables, in display order, after the compilation (the times of the
     baselines' first runs, taken beside the compiler, are not kept)."""
-    from wbc.bench import cli, runner
+    from wbc.bench import runner
+    from wbc.cli import bench as cli
 
     order = []
     run_entry = runner.run_entry
@@ -183,7 +184,7 @@ def test_while_the_ticks_compile_the_baselines_show_their_errors(monkeypatch, tm
 
 
 def test_no_background_compilation_for_runs_without_compiled_ticks(monkeypatch):
-    from wbc.bench import cli
+    from wbc.cli import bench as cli
 
     def compile_in_background(console):
         raise AssertionError("nothing of this run uses the compiled ticks")
@@ -193,7 +194,7 @@ def test_no_background_compilation_for_runs_without_compiled_ticks(monkeypatch):
 
 
 def test_solver_output_is_silenced_unless_verbose(capfd):
-    from wbc.bench.cli import solver_output
+    from wbc.cli.bench import solver_output
 
     def chatty():
         os.write(1, b"Polishing not needed\n")  # as C code would: straight to fd 1
@@ -264,7 +265,7 @@ def test_identical_motions_are_drawn_once_with_all_names():
 
 @given(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False).filter(lambda x: abs(x) > 1e-12))
 def test_short_cells_keep_two_significant_digits(x):
-    from wbc.bench.cli import _short
+    from wbc.cli.bench import _short
 
     text = _short(x)
     assert len(text) <= 8

@@ -9,9 +9,9 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from wbc.bench import physics
+from wbc.bench import closed_loop, physics, pushes, sim_record, variation
+from wbc.bench.play import play
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, Recording
-from wbc.sim.play import play
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +26,7 @@ def standing(robot):
 
 
 def test_standing_stays_up_with_small_deviations(robot, standing):
-    r = physics.physics_record(standing, play(standing, robot, settle=0.5), robot)
+    r = sim_record.physics_record(standing, play(standing, robot, settle=0.5), robot)
     assert r["fell"] is False and r["fall_time_s"] is None
     assert r["orientation_dev_max_deg"] < 1.0
     assert r["foot_slip_max_mm"] < 1.0
@@ -38,37 +38,38 @@ def test_standing_stays_up_with_small_deviations(robot, standing):
 
 
 def test_a_hard_push_makes_it_fall_and_the_record_says_when(robot, standing):
-    t_push = physics.mid_single_support(standing)
+    t_push = sim_record.mid_single_support(standing)
     assert t_push == pytest.approx(0.5 * (standing.t[15] + standing.t[34]))
-    force = np.array([0.0, 1.5, 0.0]) / physics.PUSH_DURATION  # 1.5 N·s sideways
-    r = physics.simulate(standing, robot, push=(t_push, force, physics.PUSH_DURATION))
+    force = np.array([0.0, 1.5, 0.0]) / pushes.PUSH_DURATION  # 1.5 N·s sideways
+    r = closed_loop.simulate(standing, robot, push=(t_push, force, pushes.PUSH_DURATION))
     assert r["fell"] is True
     assert t_push < r["fall_time_s"] < t_push + 1.5
     assert r["fall_phase"] in ("double", "left", "right") and "stall" in r["fall_joint"]
 
 
 def test_largest_push_brackets_the_fall(robot, standing):
-    survived = physics.largest_push(standing, robot, (0, 1, 0), max_impulse=1.2, steps=2,
+    survived = pushes.largest_push(standing, robot, (0, 1, 0), max_impulse=1.2, steps=2,
                                     settle=0.5)  # fmt: skip
     assert survived is not None and 0.0 < survived < 1.2
-    force = np.array([0.0, survived, 0.0]) / physics.PUSH_DURATION
-    t_push = physics.mid_single_support(standing)
-    assert not physics.simulate(standing, robot, push=(t_push, force, 0.01), settle=0.5)["fell"]
+    force = np.array([0.0, survived, 0.0]) / pushes.PUSH_DURATION
+    t_push = sim_record.mid_single_support(standing)
+    assert not closed_loop.simulate(standing, robot, push=(t_push, force, 0.01), settle=0.5)["fell"]
 
 
 def test_random_models_and_the_sweep_are_reproducible_from_the_seed(robot, standing):
-    a = [v.summary for v in physics.models(robot, 3, seed=7)]
-    b = [v.summary for v in physics.models(robot, 3, seed=7)]
-    c = [v.summary for v in physics.models(robot, 3, seed=8)]
+    a = [v.summary for v in variation.models(robot, 3, seed=7)]
+    b = [v.summary for v in variation.models(robot, 3, seed=7)]
+    c = [v.summary for v in variation.models(robot, 3, seed=8)]
     assert a == b and a != c
     assert (
-        physics.models(robot, 3, seed=7)[2].summary == physics.models(robot, 5, seed=7)[2].summary
+        variation.models(robot, 3, seed=7)[2].summary
+        == variation.models(robot, 5, seed=7)[2].summary
     )
-    v = physics.models(robot, 1, seed=7)[0]
+    v = variation.models(robot, 1, seed=7)[0]
     assert 0.85 <= v.model_params.mass_scale.min() <= v.model_params.mass_scale.max() <= 1.15
     assert v.latency_ticks == 0 and 0.0 <= v.latency_s <= 0.02
-    s1 = physics.robustness(standing, robot, 2, seed=7, settle=0.2)
-    s2 = physics.robustness(standing, robot, 2, seed=7, settle=0.2)
+    s1 = closed_loop.robustness(standing, robot, 2, seed=7, settle=0.2)
+    s2 = closed_loop.robustness(standing, robot, 2, seed=7, settle=0.2)
     assert s1 == s2 and s1["models"] == 2 and s1["up_fraction"] == 1.0
 
 
@@ -82,7 +83,7 @@ def test_bench_physics_command(robot, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "physics: thesis_step" in text and "hqp-daqp" in text
     record = json.loads(out.read_text())["records"][0]
-    for key in physics.PHYSICS_KEYS:
+    for key in sim_record.PHYSICS_KEYS:
         assert key in record
     assert record["solver"] == "hqp-daqp" and record["trajectory"] == "thesis_step"
     assert record["realtime_factor"] > 0 and record["sim_steps"] > 0
@@ -105,17 +106,17 @@ def test_fall_summary_counts_phases_and_joints():
 
 
 def test_lateral_push_goes_away_from_the_swing_foot(standing):
-    np.testing.assert_array_equal(physics.push_direction(standing, "lateral"), [0, 1, 0])
+    np.testing.assert_array_equal(pushes.push_direction(standing, "lateral"), [0, 1, 0])
     right = Recording(standing.t, standing.q, standing.joint_names,
                       {"support": np.where(standing["support"] == SUPPORT_LEFT, 2, 0)})  # fmt: skip
-    np.testing.assert_array_equal(physics.push_direction(right, "lateral"), [0, -1, 0])
-    np.testing.assert_array_equal(physics.push_direction(right, "forward"), [1, 0, 0])
-    np.testing.assert_array_equal(physics.push_direction(right, "backward"), [-1, 0, 0])
-    np.testing.assert_array_equal(physics.push_direction(right, "away"), [0, -1, 0])
-    np.testing.assert_array_equal(physics.push_direction(right, "toward"), [0, 1, 0])
-    np.testing.assert_array_equal(physics.push_direction(standing, "toward"), [0, -1, 0])
+    np.testing.assert_array_equal(pushes.push_direction(right, "lateral"), [0, -1, 0])
+    np.testing.assert_array_equal(pushes.push_direction(right, "forward"), [1, 0, 0])
+    np.testing.assert_array_equal(pushes.push_direction(right, "backward"), [-1, 0, 0])
+    np.testing.assert_array_equal(pushes.push_direction(right, "away"), [0, -1, 0])
+    np.testing.assert_array_equal(pushes.push_direction(right, "toward"), [0, 1, 0])
+    np.testing.assert_array_equal(pushes.push_direction(standing, "toward"), [0, -1, 0])
     with pytest.raises(Exception, match="forward, backward, toward, away"):
-        physics.push_direction(right, "up")
+        pushes.push_direction(right, "up")
 
 
 def test_bench_physics_refuses_bad_options(capsys):
@@ -138,13 +139,13 @@ def test_closed_loop_spec_reaches_every_run(robot, standing, monkeypatch):
         seen.append((spec, variation, push, compensate, correct))
         raise RuntimeError("stop")
 
-    monkeypatch.setattr(physics, "play_closed_loop", fake)
-    spec = physics.ClosedLoopSpec(make=lambda r: None, ref="REF", gains="G")
+    monkeypatch.setattr(closed_loop, "play_closed_loop", fake)
+    spec = closed_loop.ClosedLoopSpec(make=lambda r: None, ref="REF", gains="G")
     with pytest.raises(RuntimeError):
-        physics.robustness(standing, robot, 2, 0, compensate=0.5, closed=spec, correct=True)
+        closed_loop.robustness(standing, robot, 2, 0, compensate=0.5, closed=spec, correct=True)
     assert seen[0][0] is spec and seen[0][1] is not None and seen[0][3:] == (0.5, True)
     with pytest.raises(RuntimeError):
-        physics.simulate(standing, robot, push=(0.1, [1.0, 0, 0], 0.01), closed=spec)
+        closed_loop.simulate(standing, robot, push=(0.1, [1.0, 0, 0], 0.01), closed=spec)
     assert seen[1][0] is spec and seen[1][2][0] == 0.1
 
 
@@ -155,7 +156,7 @@ def test_kokone_randomised_models_spread_around_its_hobby_servo():
 
     kokone = load_robot("kokone")
     nominal = nominal_servo(kokone)
-    variations = physics.models(kokone, 8, seed=3)
+    variations = variation.models(kokone, 8, seed=3)
     for v in variations:
         sp, mp, s = v.servo_params, v.model_params, v.summary
         assert isinstance(sp, HobbyServoParams)
@@ -165,7 +166,7 @@ def test_kokone_randomised_models_spread_around_its_hobby_servo():
         assert 0.5 * nominal.damping <= mp.damping <= 1.5 * nominal.damping
         assert 0.4 * nominal.armature <= mp.armature == sp.armature <= 2.4 * nominal.armature
         assert 0.0 <= sp.friction_loss <= 2 * nominal.friction_loss
-    again = physics.models(kokone, 8, seed=3)
+    again = variation.models(kokone, 8, seed=3)
     assert [v.summary for v in again] == [v.summary for v in variations]
 
 
@@ -176,7 +177,7 @@ def test_the_sweep_randomises_the_plant_not_the_controller(robot):
     from wbc.sim.actuator import nominal_servo
 
     nominal = nominal_servo(robot)
-    variations = physics.models(robot, 12, seed=1)
+    variations = variation.models(robot, 12, seed=1)
     ratios = [float(np.mean(v.servo_params.stiffness / nominal.stiffness)) for v in variations]
     assert ratios == pytest.approx([v.summary["stiffness"] for v in variations])
     assert 0.5 <= min(ratios) and max(ratios) <= 2.0 and max(ratios) / min(ratios) > 2.0

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-import wbc.demo
+import wbc.cli.demo
 from wbc.cli import main
 from wbc.paths import robots_dir, stacks_dir
 
@@ -27,7 +27,7 @@ def test_missing_optional_package_names_the_extra(monkeypatch, capsys):
     def run(args):
         raise ModuleNotFoundError("No module named 'meshcat'", name="meshcat")
 
-    monkeypatch.setattr(wbc.demo, "run", run)
+    monkeypatch.setattr(wbc.cli.demo, "run", run)
     assert main(["demo"]) == 2
     assert "pip install 'wbc[viewer]'" in capsys.readouterr().err
 
@@ -217,3 +217,46 @@ def test_demo_on_a_urdf_without_soles_shows_what_exists(capsys, tmp_path):
     out, err = capsys.readouterr()
     assert "torso" in out and "l_sole" not in out
     assert "frames ['l_sole', 'r_sole'] not in nosoles.urdf" in err
+
+
+def test_options_shared_by_deploy_drive_and_sim_are_declared_once():
+    """``wbc deploy`` and ``wbc drive`` take the servo bus, the deployment's safety options,
+    the torso IMU and the simulated robot from one declaration (wbc.cli.options): the same
+    flags, types, choices, defaults and help (only the control rate's default differs: 50 Hz
+    for a recording, 100 Hz for the walk); ``wbc sim`` and ``wbc bench`` share --robot,
+    --encoders-only and the compliance feed-forward with ``wbc deploy``."""
+    from wbc.cli import build_parser
+
+    parser = build_parser()
+    commands = {
+        name: {a.dest: a for _, a in _actions(p) if a.option_strings}
+        for name, p in next(a for a in parser._actions if a.choices).choices.items()
+    }
+
+    def allowed(action) -> str | None:  # what a numeric type allows: its refusal of nan
+        if action.type is None:
+            return None
+        try:
+            action.type("nan")
+        except Exception as exc:
+            return str(exc)
+        return "accepts nan"
+
+    def same(a, b) -> bool:
+        key = (a.option_strings, a.help, a.choices, a.nargs, a.const, allowed(a))
+        return key == (b.option_strings, b.help, b.choices, b.nargs, b.const, allowed(b))
+
+    shared = ["servo_map", "backend", "port", "baud", "latency_ms", "torque_limit", "rate",
+              "on_fault", "max_speed", "soft_speed", "log", "imu", "imu_baud", "encoders_only",
+              "sim", "realtime", "view", "robot"]  # fmt: skip
+    deploy, drive = commands["deploy"], commands["drive"]
+    for dest in shared:
+        assert same(deploy[dest], drive[dest]), dest
+        assert dest == "rate" or deploy[dest].default == drive[dest].default, dest
+    assert (deploy["rate"].default, drive["rate"].default) == (50.0, 100.0)
+    for name in ("sim", "bench"):
+        for dest in ("robot", "encoders_only", "compensate", "compensate_encoders"):
+            assert same(commands[name][dest], commands["deploy"][dest]) or dest == "compensate"
+            assert commands[name][dest].default == commands["deploy"][dest].default, (name, dest)
+    for name in ("demo", "bench", "walk", "deploy", "drive", "view", "sim"):
+        assert same(commands[name]["robot"], deploy["robot"]), name

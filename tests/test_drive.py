@@ -14,7 +14,7 @@ from wbc.drive.teleop import Keyboard
 from wbc.drive.walker import Walker
 from wbc.exceptions import ConfigurationError
 from wbc.servos.bus import DryRunBus
-from wbc.servos.dynamixel import ax_codec
+from wbc.servos.protocol1 import ax_codec
 from wbc.stacks import load_stack
 from wbc.walking import GaitTiming, SwingParams
 from wbc.walking.engine import EngineParams, VelocityLimits

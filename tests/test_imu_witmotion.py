@@ -152,7 +152,7 @@ def test_deploy_picks_the_imu():
     PORT, none with --encoders-only (and not both)."""
     import argparse
 
-    from wbc.servos.deploy import _imu
+    from wbc.cli.wiring import make_imu as _imu
 
     class FakeSimBus:
         sim = None

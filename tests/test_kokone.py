@@ -313,7 +313,7 @@ def test_keypose_walk_is_statically_stable_and_tracked(kokone, short_walk):
 def _deploy(argv):
     import argparse
 
-    from wbc.servos import deploy as deploy_cmd
+    from wbc.cli import deploy as deploy_cmd
 
     parser = argparse.ArgumentParser()
     deploy_cmd.add_arguments(parser)

@@ -18,12 +18,14 @@ import signal
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.cli import main as wbc_main
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
-from wbc.servos.dynamixel import (
+from wbc.servos import CallableSource, DeployConfig, Deployment
+from wbc.servos.dynamixel import DynamixelBus
+from wbc.servos.emulator import AX12Emulator, Fault
+from wbc.servos.protocol1 import (
     ADDR_CCW_ANGLE_LIMIT,
     ADDR_CW_ANGLE_LIMIT,
     ADDR_PUNCH,
@@ -36,9 +38,7 @@ from wbc.servos.dynamixel import (
     ERR_INPUT_VOLTAGE,
     ERR_OVERHEATING,
     ERR_OVERLOAD,
-    DynamixelBus,
 )
-from wbc.servos.emulator import AX12Emulator, Fault
 from wbc.servos.safety import HealthSchedule
 
 RATE = 100.0
@@ -671,7 +671,7 @@ def test_the_servos_bus_watchdog_is_armed_once_torque_is_on(robot):
     """The hook of servos with a bus watchdog (Protocol 2.0's address 98): armed after torque
     enable with 10 ticks (>= 200 ms); the AX-12A has none (False: nothing said)."""
     from wbc.servos.bus import DryRunBus
-    from wbc.servos.dynamixel import ax_codec
+    from wbc.servos.protocol1 import ax_codec
 
     class Armed(DryRunBus):
         armed = None

@@ -8,8 +8,9 @@ import time
 import pytest
 
 from wbc.servos.bus import COMM_OK, COMM_TIMEOUT
-from wbc.servos.dynamixel import ADDR_PRESENT_POSITION, ADDR_TORQUE_ENABLE, DynamixelBus
+from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Fault
+from wbc.servos.protocol1 import ADDR_PRESENT_POSITION, ADDR_TORQUE_ENABLE
 
 
 @pytest.fixture()

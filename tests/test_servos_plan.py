@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from wbc.servos.config import DeployConfig
 from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.plan import LOAD_LIMIT, load, overload_warning, plan_lines, proposed_rate
-from wbc.servos.playback import DeployConfig
 
 
 @pytest.fixture(scope="module")

@@ -20,17 +20,12 @@ import time
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.servo_map import RAD_PER_TICK
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.deploy import CallableSource, DeployConfig, Deployment
-from wbc.servos.dynamixel import (
-    ADDR_TORQUE_ENABLE,
-    AX12_MAX_SPEED,
-    ERR_OVERHEATING,
-    ERR_OVERLOAD,
-    DynamixelBus,
-)
+from wbc.servos import CallableSource, DeployConfig, Deployment
+from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Fault
+from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE, AX12_MAX_SPEED, ERR_OVERHEATING, ERR_OVERLOAD
 
 Emulator = functools.partial(AX12Emulator, process=True)
 # reply deadline (a real FTDI at latency 1 ms: 4.1 ms): long enough to absorb a stall of the

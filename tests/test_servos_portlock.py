@@ -11,12 +11,13 @@ import time
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ServoError
 from wbc.recording import Recording
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.dynamixel import ADDR_TORQUE_ENABLE, DynamixelBus
+from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Ssc32Emulator
-from wbc.servos.portlock import PortLock, lock_path
+from wbc.servos.portlock import PortLock, lock_path, open_locked
+from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE
 from wbc.servos.ssc32 import Ssc32Bus, Ssc32Map
 
 
@@ -92,3 +93,39 @@ def test_ssc32_port_is_locked_and_opened_with_xon_xoff(robot):
         finally:
             bus.close()
         assert emu.lines == []  # nothing written by either
+
+
+def test_open_locked_leaves_nothing_locked_or_open_when_a_step_fails(tmp_path):
+    """The port-open-with-lock sequence (every bus and the IMU): a failed open releases the
+    port's lock; a refused device lock releases it and closes the device; success holds it."""
+    port = str(tmp_path / "ttyFAKE")
+    open(port, "w").close()
+    closed = []
+
+    def fail():
+        raise ServoError("cannot open port: no such device")
+
+    with pytest.raises(ServoError, match="cannot open port"):
+        open_locked(port, fail, lambda d: d.fileno(), closed.append)
+    PortLock.acquire(port).release()  # free again: the failed open left no lock
+
+    holder = open(port)  # another program holding the device's flock
+    import fcntl
+
+    fcntl.flock(holder.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    try:
+        with pytest.raises(ServoError, match="locked by another program"):
+            open_locked(port, lambda: open(port), lambda d: d.fileno(), closed.append)
+        assert len(closed) == 1  # the device opened, refused, then closed
+        PortLock.acquire(port).release()  # and its lock file's lock released
+    finally:
+        holder.close()
+        closed[0].close()
+    device, lock = open_locked(port, lambda: open(port), lambda d: d.fileno(), lambda d: d.close())
+    try:
+        assert lock.held
+        with pytest.raises(ServoError, match="in use by PID"):
+            PortLock.acquire(port)
+    finally:
+        lock.release()
+        device.close()

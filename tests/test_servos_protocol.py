@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc.exceptions import ServoError
-from wbc.servos import dynamixel as dxl
+from wbc.servos import protocol1 as dxl
 from wbc.servos.emulator import AX12Emulator, Fault
 
 HEX = bytes.fromhex

@@ -12,15 +12,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ServoMapError
 from wbc.servo_map import ServoMap
-from wbc.servos import deploy as deploy_cmd
 from wbc.servos.bus import COMM_OK, COMM_TIMEOUT
-from wbc.servos.dynamixel import ax_budget, read_variant
+from wbc.servos.config import DeployConfig
 from wbc.servos.emulator import Fault
 from wbc.servos.emulator2 import XEmulator
 from wbc.servos.plan import plan_lines
-from wbc.servos.playback import DeployConfig
+from wbc.servos.protocol1 import ax_budget, read_variant
 from wbc.servos.protocol2 import (
     HEALTH_BLOCK,
     Dynamixel2Bus,

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from wbc.exceptions import ServoError, TrajectoryError
 from wbc.servo_map import RAD_PER_TICK
 from wbc.servos.bus import COMM_CORRUPT, COMM_OK, COMM_TIMEOUT, Codec, DryRunBus, ServoStatus
-from wbc.servos.dynamixel import ax_codec
+from wbc.servos.protocol1 import ax_codec
 from wbc.servos.safety import (
     GoalLimiter,
     HealthSchedule,
@@ -191,7 +191,7 @@ def test_watchdog_needs_consecutive_failures():
     [(0x20, "overload"), (0x04, "overheating"), (0x01, "input_voltage"), (0x02, "angle_limit")],
 )
 def test_watchdog_trips_on_error_bits(error, name):
-    from wbc.servos.dynamixel import fault_names
+    from wbc.servos.protocol1 import fault_names
 
     wd = Watchdog(["a"])
     status = ServoStatus(0, COMM_OK, fault_names(error), error, 512.0, 11.1, 71.0)
@@ -291,7 +291,7 @@ def test_no_goal_faster_than_the_servo_rounding_included(robot, codec, gaps, rat
     """Rule 3: the limiter never asks two consecutive goals for more than the servo's top
     speed (here the AX-12A's 1,207 ticks/s, every joint), whatever the tick timing; without it
     the carried credit lets a step of 25 ticks follow 20 ms (1,250 ticks/s)."""
-    from wbc.servos.dynamixel import AX12_MAX_SPEED
+    from wbc.servos.protocol1 import AX12_MAX_SPEED
 
     top = command_speed(codec, AX12_MAX_SPEED)
     lim = GoalLimiter(codec, robot.q_min, robot.q_max, top, robot.joint_names, hard_speed=top)

@@ -15,8 +15,8 @@ import sys
 import numpy as np
 import pytest
 
-from wbc.servos.dynamixel import ADDR_TORQUE_ENABLE
 from wbc.servos.emulator import AX12Emulator
+from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE
 
 Emulator = functools.partial(AX12Emulator, process=True)
 

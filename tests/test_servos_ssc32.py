@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ServoError, ServoMapError
-from wbc.servos import deploy as deploy_cmd
 from wbc.servos.emulator import Ssc32Emulator
 from wbc.servos.ssc32 import (
     KOKONE_US_PER_DEG,

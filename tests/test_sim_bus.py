@@ -12,12 +12,12 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from wbc.cli import deploy as deploy_cmd
 from wbc.exceptions import ConfigurationError, ServoError
 from wbc.imu import GRAVITY
 from wbc.recording import Recording
 from wbc.servo_map import RAD_PER_TICK, ServoSettings
-from wbc.servos import deploy as deploy_cmd
-from wbc.servos.deploy import DeployConfig, Deployment, RecordingSource
+from wbc.servos import DeployConfig, Deployment, RecordingSource
 from wbc.sim.bus import SimImu, SimServoBus
 from wbc.sim.simulator import Simulation
 
@@ -339,24 +339,6 @@ def test_deploy_kokone_on_the_simulated_ssc32_from_the_command_line(kokone, tmp_
     assert "on sim" in out and "completed" in out + err
     assert "cannot check the servos' positions" in out
     assert re.search(r"^sim: stayed up; torso tilt at most \d+\.\d°", out, flags=re.M)
-
-
-def test_upright_watch_reports_a_fall_and_when(kokone):
-    from wbc.sim.cli import UprightWatch
-
-    for impulse, fell in ((0.0, False), (1.0, True)):
-        sim = Simulation(kokone)
-        sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
-        watch = UprightWatch(sim)
-        sim.push([0.0, impulse / 0.01, 0.0], 0.01, start=0.2)
-        for _ in range(75):  # 1.5 s of 20 ms ticks
-            sim.advance(0.02)
-            watch()
-        assert (watch.fell_at is not None) == fell
-        if fell:
-            assert 0.2 < watch.fell_at < 1.5 and watch.line().startswith("sim: FELL at ")
-        else:
-            assert watch.tilt_max < 10.0 and watch.line().startswith("sim: stayed up")
 
 
 def test_the_ax12a_bus_refuses_hobby_servos(kokone):

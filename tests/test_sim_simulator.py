@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from wbc.servo_map import RAD_PER_TICK
-from wbc.servos.dynamixel import speed_register, speed_ticks_per_s
+from wbc.servos.protocol1 import speed_register, speed_ticks_per_s
 from wbc.sim.simulator import Simulation
 
 

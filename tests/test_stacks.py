@@ -385,7 +385,7 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
 def test_deploy_live_without_a_stack_takes_the_robots():
     import argparse
 
-    from wbc.servos import deploy
+    from wbc.cli import deploy
 
     parser = argparse.ArgumentParser()
     deploy.add_arguments(parser)

@@ -62,7 +62,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ),
     ("bench", ("wbc.bench",)),
     ("api", ("wbc",)),
-    ("command line", ("wbc.cli", "wbc.demo")),
+    ("command line", ("wbc.cli",)),
 ]
 
 

@@ -206,18 +206,20 @@ class WitImu(Imu):
         import serial
 
         from .exceptions import ServoError
-        from .servos.portlock import PortLock
+        from .servos.portlock import open_locked
+
+        def opener():
+            try:
+                return serial.Serial(self.port, self.baud, timeout=0)
+            except (serial.SerialException, OSError) as exc:
+                raise ImuError(f"--imu {self.port}: cannot open the port ({exc})") from None
 
         try:  # one owner per port, like a servo bus (wbc.servos.portlock)
-            self._lock = PortLock.acquire(self.port)
-        except ServoError as exc:
+            self.serial, self._lock = open_locked(
+                self.port, opener, lambda s: s.fileno(), lambda s: s.close()
+            )
+        except ServoError as exc:  # the port's lock: held by another program
             raise ImuError(f"--imu {self.port}: {exc}") from None
-        try:
-            self.serial = serial.Serial(self.port, self.baud, timeout=0)
-            self._lock.attach(self.serial.fileno())
-        except (serial.SerialException, OSError, ServoError) as exc:
-            self._release()
-            raise ImuError(f"--imu {self.port}: cannot open the port ({exc})") from None
         if self.rate is not None:
             for cmd in (command(0x69, 0xB588), command(0x03, RATE_CODES[self.rate]),
                         command(0x00, 0x0000)):  # fmt: skip

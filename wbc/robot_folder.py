@@ -1,4 +1,5 @@
-"""``wbc robot``: a robot is a folder; ``init`` scaffolds one from a URDF, ``check`` checks it.
+"""A robot is a folder; ``init_folder`` scaffolds one from a URDF, ``check_folder`` checks it
+(the ``wbc robot init`` / ``wbc robot check`` commands: :mod:`wbc.cli.robot`).
 
 A robot folder (``robots/<name>/`` or any directory passed as ``--robot DIR``)::
 
@@ -18,10 +19,8 @@ Examples::
 
 from __future__ import annotations
 
-import argparse
 import math
 import shutil
-import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -468,27 +467,3 @@ def _check_stack(robot: Robot, folder: Path) -> list[Finding]:
         return [Finding("error", str(exc))]
     n = sum(1 for _ in control.stack.tasks())
     return [Finding("ok", f"stack {robot.default_stack}: {n} tasks load on this robot")]
-
-
-# ---------------------------------------------------------------------------- command line
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    init = sub.add_parser("init", help="scaffold a robot folder from a URDF")
-    init.add_argument("urdf", type=Path, help="the robot's URDF")
-    init.add_argument("--out", type=Path, required=True, help="the folder to create")
-    init.add_argument("--force", action="store_true", help="write into a non-empty folder")
-    check = sub.add_parser("check", help="check a robot folder (or URDF); one line per finding")
-    check.add_argument("folder", help="robot folder, URDF path or robot name")
-
-
-def run(args: argparse.Namespace) -> int:
-    if args.action == "init":
-        for line in init_folder(args.urdf, args.out, args.force):
-            print(line)
-        return 0
-    findings = check_folder(args.folder)
-    for f in findings:
-        print(f, file=sys.stdout)
-    errors = sum(f.level == "error" for f in findings)
-    print(f"{errors} error(s), {sum(f.level == 'warning' for f in findings)} warning(s)")
-    return 1 if errors else 0

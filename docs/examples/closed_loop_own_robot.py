@@ -36,7 +36,7 @@ from wbc.balance.stabilizer import Gains
 from wbc.bench.trajectories import build
 from wbc.imu import GRAVITY, Imu, ImuReading
 from wbc.servos.bus import COMM_OK, BusBudget, ServoBus, ServoStatus
-from wbc.servos.dynamixel import ax_codec
+from wbc.servos.protocol1 import ax_codec
 from wbc.stacks import load_stack
 from wbc.walking.loop import StackController, start_configuration
 

@@ -15,15 +15,12 @@
 * :mod:`wbc.balance.live` — :func:`~wbc.balance.live.closed_loop`: a controller solved live in
   the deployment's tick on any ServoBus + Imu (``wbc deploy --live STACK --closed-loop``).
 
-``wbc deploy --compensate``, ``wbc bench --physics --compensate / --gyro / --closed-loop``.
+``wbc deploy --compensate``, ``wbc bench --physics --compensate / --gyro / --closed-loop``
+(the options: :mod:`wbc.cli.options`).
 Figures: benchmarks/balance.md; guide: docs/closed_loop.md.
 """
 
 from __future__ import annotations
-
-import argparse
-
-from ..cli import number
 
 #: the compliance feed-forward gain that measured best per servo law: x0.5 on the AX-12A
 #: (benchmarks/physics.md: closed loop on the plant-randomised sweep, issue 30); x1 on hobby PWM
@@ -43,44 +40,3 @@ def best_compensate(robot) -> float:
         return BEST_COMPENSATE_BY_LAW.get(servo_kind(robot), 0.0)
     except WbcError:  # no servo model at all: nothing to feed forward
         return 0.0
-
-
-def add_compensate_argument(parser: argparse.ArgumentParser, purpose: str) -> None:
-    """The ``--compensate [GAIN]`` option of every command that can add the servo compliance
-    feed-forward (:mod:`wbc.balance.compliance`): the measured best by default
-    (:func:`best_compensate`, resolved by :func:`resolve_compensate`), gain 1 when given
-    bare, ``--compensate 0`` turns it off."""
-    parser.add_argument(
-        "--compensate",
-        type=number(0, 10),
-        nargs="?",
-        const=1.0,
-        default=None,
-        metavar="GAIN",
-        help=f"{purpose} (gain; default: the measured best, x{BEST_COMPENSATE:g} on AX-12A "
-        "servos, x1 on hobby PWM servos; 0 turns it off; wbc.balance.compliance)",
-    )
-    parser.add_argument(
-        "--compensate-encoders",
-        action="store_true",
-        help="--compensate: rescale each servo's feed-forward online from the encoders' present "
-        "positions (wbc.balance.compliance.EncoderCorrection; needs the positions read)",
-    )
-
-
-def resolve_compensate(args: argparse.Namespace, robot, best: bool = True) -> float:
-    """``args.compensate`` with its default resolved for ``robot``: :func:`best_compensate`
-    (``best``), else 0 (a recording played as recorded)."""
-    if getattr(args, "compensate", None) is None:
-        args.compensate = best_compensate(robot) if best else 0.0
-    return args.compensate
-
-
-def check_compensate_encoders(args: argparse.Namespace) -> None:
-    """``--compensate-encoders`` corrects the feed-forward: refused without ``--compensate``."""
-    from ..exceptions import ConfigurationError
-
-    if getattr(args, "compensate_encoders", False) and not args.compensate > 0:
-        raise ConfigurationError(
-            "--compensate-encoders corrects the feed-forward: give --compensate too"
-        )

@@ -18,10 +18,10 @@ beyond recovery when any of:
 
 The closed loop then raises :class:`~wbc.exceptions.FallDetected` from the tick; the
 deployment's safe stop (:mod:`wbc.servos.playback`, action ``fall`` under ``on_fault=auto``)
-runs :func:`safe_fall`: lower the torque limit (the servos give way on impact instead of
-stalling), move at full speed to the robot's protective posture (its ``crouch`` pose: CoM
-low, knees bent), wait ``settle_s`` for the impact, then torque off — verified per servo —
-logging why (the trip's reason names the criterion and its values).
+runs :meth:`~wbc.servos.playback.Deployment.safe_fall`: lower the torque limit (the servos
+give way on impact instead of stalling), move at full speed to the robot's protective posture
+(its ``crouch`` pose: CoM low, knees bent), wait ``settle_s`` for the impact, then torque off
+— verified per servo — logging why (the trip's reason names the criterion and its values).
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import ConfigurationError, FallDetected
+from ..servos.playback import FALL_SETTLE_S, FALL_TORQUE_LIMIT
 
 
 @dataclass(frozen=True)
@@ -43,8 +44,8 @@ class FallParams:
     rate: float = 2.0  # rad/s away from the target
     reach: float = 0.15  # m of DCM beyond the support polygon (the legs reach ~0.1–0.16 m)
     dcm_ticks: int = 3  # consecutive ticks the DCM must be beyond reach
-    torque_limit: float = 0.3  # share of the servos' maximum torque during the fall
-    settle_s: float = 0.6  # s in the protective posture before torque off
+    torque_limit: float = FALL_TORQUE_LIMIT  # share of the servos' maximum torque in the fall
+    settle_s: float = FALL_SETTLE_S  # s in the protective posture before torque off
 
     def check(self) -> FallParams:
         for name in ("tilt", "tilt_moving", "rate", "reach", "torque_limit", "settle_s"):
@@ -126,37 +127,3 @@ class FallDetector:
         reason = self.update(est, soles, dt, error)
         if reason is not None:
             raise FallDetected(f"fall detected at {self.t:.2f} s: {reason}")
-
-
-def safe_fall(deployment, params: FallParams | None = None) -> str:
-    """The protective stop of a detected fall on ``deployment``
-    (:class:`~wbc.servos.playback.Deployment`, from its safe stop): lower the torque limit,
-    go to the crouch pose at the servos' speed, hold ``settle_s``, verified torque off.
-    Returns what was done (for the deployment's report)."""
-    from ..servos.playback import Ticker
-
-    p = (params or FallParams()).check()
-    bus, lim = deployment.bus, deployment.limiter
-    done = []
-    set_limit = getattr(bus, "set_torque_limit", None)
-    if set_limit is not None:
-        set_limit(p.torque_limit)
-        done.append(f"torque limit {100 * p.torque_limit:.0f} %")
-    target = deployment.crouch_cmd
-    if target is not None and lim.prev is not None:
-        ticker = Ticker(deployment.period, deployment.clock)
-        end = deployment.clock.now() + p.settle_s
-        while deployment.clock.now() < end:
-            ticker.wait()
-            now = deployment.clock.now()
-            cmd = lim.limit_cmd(target, now, None)
-            ticker.last_sent = now
-            bus.write_goals(cmd)
-        done.append("protective posture")
-    unconfirmed = bus.torque_off()
-    if unconfirmed:
-        deployment.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
-        done.append(f"torque-off (not confirmed: {', '.join(unconfirmed)})")
-    else:
-        done.append("torque-off")
-    return ", ".join(done)

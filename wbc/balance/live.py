@@ -28,7 +28,8 @@ from ..exceptions import ConfigurationError
 from ..imu import Imu
 from ..model import Robot
 from ..servos.bus import ServoBus
-from ..servos.playback import DeployConfig, Deployment
+from ..servos.config import DeployConfig
+from ..servos.playback import Deployment
 from ..servos.sources import CallableSource
 from ..sim.actuator import ServoParams
 from ..walking.gait import narrow_sway

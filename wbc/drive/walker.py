@@ -35,7 +35,8 @@ from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..roles import SOLE_FRAMES
-from ..servos.playback import DeployConfig, Deployment
+from ..servos.config import DeployConfig
+from ..servos.playback import Deployment
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
 from ..walking.footsteps import Footstep
 from ..walking.geometry import Foot

@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 import numpy as np
 
 from ..exceptions import ServoError
-from .portlock import PortLock
+from .portlock import PortLock, open_locked
+
+T = TypeVar("T")
 
 # a command this close (in command units) to an exact limit counts as on the limit (float noise)
 _LIMIT_EPS = 1e-6
@@ -201,21 +203,17 @@ class ServoBus(ABC):
         self.excluded: frozenset[int] = frozenset()
 
     # ------------------------------------------------------------------ one owner per bus
-    def lock_port(self, port: str) -> None:
-        """Take the port's exclusive lock (:mod:`.portlock`) before opening it: every backend
-        calls this first in :meth:`open`; :class:`ServoError` naming the holder if taken."""
-        if self.port_lock is None:
-            self.port_lock = PortLock.acquire(port)
-
-    def lock_device(self, fd: int) -> None:
-        """Lock the opened device too (``flock`` on the node, ``TIOCEXCL``); on refusal the
-        port lock is released again."""
-        if self.port_lock is not None:
-            try:
-                self.port_lock.attach(fd)
-            except ServoError:
-                self.unlock_port()
-                raise
+    def open_port(
+        self,
+        port: str,
+        opener: Callable[[], T],
+        fileno: Callable[[T], int],
+        close: Callable[[T], None],
+    ) -> T:
+        """Open ``port`` as its one owner (:func:`wbc.servos.portlock.open_locked`): every
+        backend's :meth:`open` does; :class:`ServoError` naming the holder if it is taken."""
+        device, self.port_lock = open_locked(port, opener, fileno, close)
+        return device
 
     def unlock_port(self) -> None:
         """Release the port lock (call before closing the device; safe to call twice)."""

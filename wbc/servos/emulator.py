@@ -42,7 +42,7 @@ from typing import Any
 
 from ..exceptions import ConfigurationError
 from ..servo_map import RAD_PER_TICK
-from .dynamixel import (
+from .protocol1 import (
     ADDR_ALARM_LED,
     ADDR_BAUD,
     ADDR_CCW_ANGLE_LIMIT,

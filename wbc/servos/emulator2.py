@@ -28,8 +28,8 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 
 from .. import xseries as x
-from .dynamixel import BROADCAST_ID, INST_PING, INST_READ, INST_WRITE
 from .emulator import Fault, GoalRecord, ServoBusEmulator, WriteRecord, _sleep_until, lag_step
+from .protocol1 import BROADCAST_ID, INST_PING, INST_READ, INST_WRITE
 from .protocol2 import (
     ADDR_INDIRECT_ADDRESS,
     ADDR_INDIRECT_DATA,

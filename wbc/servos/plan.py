@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from .bus import BusBudget, ServoBus
-from .playback import MAX_RATE_HZ, DeployConfig
+from .config import MAX_RATE_HZ, DeployConfig
 from .safety import HealthSchedule
 
 LOAD_LIMIT = 0.8
@@ -113,7 +113,7 @@ def _reference_lines(bus: ServoBus, config: DeployConfig, turnaround_s: float) -
     one READ per servo), for comparison."""
     if getattr(bus, "name", "") != "dynamixel2":
         return []
-    from .dynamixel import ax_budget
+    from .protocol1 import ax_budget
 
     polls = schedule(bus, config).polls_per_tick
     rate = config.rate

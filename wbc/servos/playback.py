@@ -13,9 +13,9 @@ stops the motion within :attr:`HealthSchedule.detection_s` (100 ms at 50 Hz). Th
 stop* then sends no more motion and, by ``on_fault``:
 
 * ``auto`` (default): overheating or overload -> ``crouch``; a fall detected by the closed
-  loop -> ``fall`` (:func:`wbc.balance.fall.safe_fall`: torque limit lowered, protective
-  posture, verified torque-off); anything else (communication faults, other error bits,
-  Ctrl-C, a bad target) -> ``hold``;
+  loop (:class:`wbc.balance.fall.FallDetector`) -> ``fall`` (:meth:`Deployment.safe_fall`:
+  torque limit lowered, protective posture, verified torque-off); anything else
+  (communication faults, other error bits, Ctrl-C, a bad target) -> ``hold``;
 * ``hold``: keep the last goal, torque on;
 * ``torque-off``: torque off per servo, acknowledged and read back (register 24);
 * ``crouch``: a slow move (soft speed) to the crouch pose, then ``torque-off``.
@@ -38,6 +38,8 @@ import numpy as np
 from ..exceptions import ConfigurationError, FallDetected, ServoError
 from ..model import Robot
 from .bus import COMM_OK, WALL_CLOCK, Clock, ServoBus
+from .config import DeployConfig
+from .plan import overload_warning
 from .safety import (
     GoalLimiter,
     HealthSchedule,
@@ -63,17 +65,16 @@ SIGNAL_REASONS: dict[int, str] = {
     signal.SIGHUP: "hang-up (SIGHUP: terminal or session closed)",
     signal.SIGQUIT: "quit (SIGQUIT)",
 }
-MAX_RATE_HZ = 100.0
 #: the servos' own bus watchdog (where they have one): this many ticks without an
 #: instruction, at least WATCHDOG_MIN_S, and they stop (:meth:`ServoBus.arm_watchdog`)
 WATCHDOG_TICKS = 10
 WATCHDOG_MIN_S = 0.2
-#: a soft start (and crouch) faster than this is no longer soft, rad/s
-MAX_SOFT_SPEED = 1.0
-ON_FAULT_CHOICES = ("auto", "hold", "torque-off", "crouch")
-AT_END_CHOICES = ("hold", "torque-off")
 #: error bits after which ``on_fault = auto`` crouches and cuts torque
 CROUCH_FAULTS = ("overheating", "overload")
+#: the safe fall (:meth:`Deployment.safe_fall`): share of the servos' maximum torque during
+#: the fall, and s in the protective posture before torque off
+FALL_TORQUE_LIMIT = 0.3
+FALL_SETTLE_S = 0.6
 
 
 class Interrupted(KeyboardInterrupt):
@@ -88,48 +89,6 @@ class Interrupted(KeyboardInterrupt):
 def signal_exit_code(signum: int | None) -> int:
     """``128 + signum`` (the shell's convention): 130 for Ctrl-C, 143 for SIGTERM."""
     return EXIT_INTERRUPTED if signum is None else 128 + int(signum)
-
-
-@dataclass
-class DeployConfig:
-    """Playback and safety settings (speeds in rad/s, tolerances in rad, times in s)."""
-
-    rate: float = 50.0
-    read: bool = False  # read all present positions each tick (tracking error)
-    on_fault: str = "auto"  # see the module docstring
-    at_end: str = "hold"  # or "torque-off"
-    max_speed: float | None = None  # default: min(URDF velocity limit, servo speed)
-    soft_speed: float = 0.5  # soft start and crouch
-    max_failures: int = 3
-    start_tol: float = 0.05  # present position may lie this far outside the limits
-    log_path: str | None = None
-    fault_bound_s: float = 0.1  # health schedule: fault -> last goal
-    crouch_pose: str = "stand"  # a named pose of the robot (its standing pose by default)
-
-    def validate(self) -> None:
-        if not (math.isfinite(self.rate) and 0 < self.rate <= MAX_RATE_HZ):
-            raise ConfigurationError(f"rate must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate}")
-        if self.on_fault not in ON_FAULT_CHOICES:
-            raise ConfigurationError(
-                f"on_fault must be one of {ON_FAULT_CHOICES}, got {self.on_fault!r}"
-            )
-        if self.at_end not in AT_END_CHOICES:
-            raise ConfigurationError(f"at_end must be one of {AT_END_CHOICES}, got {self.at_end!r}")
-        for name in ("soft_speed", "start_tol", "fault_bound_s"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ConfigurationError(f"{name} must be positive, got {v}")
-        if self.soft_speed > MAX_SOFT_SPEED:
-            raise ConfigurationError(
-                f"soft_speed must be at most {MAX_SOFT_SPEED:g} rad/s (a soft start), "
-                f"got {self.soft_speed}"
-            )
-        if self.max_speed is not None and not (
-            math.isfinite(self.max_speed) and self.max_speed > 0
-        ):
-            raise ConfigurationError(f"max_speed must be positive, got {self.max_speed}")
-        if self.max_failures < 1:
-            raise ConfigurationError(f"max_failures must be >= 1, got {self.max_failures}")
 
 
 @dataclass
@@ -338,8 +297,6 @@ class Deployment:
         return np.clip(c, self.limiter.lo, self.limiter.hi).astype(int)
 
     def _rate_check(self) -> None:
-        from .plan import overload_warning  # plan imports this module
-
         text = overload_warning(self.bus, self.config, self.bus.turnaround_s)
         if text:
             self.warn(text)
@@ -459,9 +416,7 @@ class Deployment:
                 return "hold"
             done = action
             if action == "fall":
-                from ..balance.fall import safe_fall
-
-                return "fall: " + safe_fall(self)
+                return "fall: " + self.safe_fall()
             if action == "crouch":
                 crouched = self._crouch(trip.index)
                 done = "crouch, torque-off" if crouched else "crouch cut short, torque-off"
@@ -473,6 +428,38 @@ class Deployment:
         except BaseException as exc:  # report, never raise from the safe stop
             self.warn(f"safe stop: {type(exc).__name__}: {exc}")
             return f"{action} (failed: {exc})"
+
+    def safe_fall(
+        self, torque_limit: float = FALL_TORQUE_LIMIT, settle_s: float = FALL_SETTLE_S
+    ) -> str:
+        """The protective stop of a detected fall (from the safe stop): lower the torque limit
+        to ``torque_limit`` of the maximum (the servos give way on impact instead of
+        stalling), go to the crouch pose at the servos' speed, hold ``settle_s``, verified
+        torque off. Returns what was done (for the report)."""
+        bus, lim = self.bus, self.limiter
+        done = []
+        set_limit = getattr(bus, "set_torque_limit", None)
+        if set_limit is not None:
+            set_limit(torque_limit)
+            done.append(f"torque limit {100 * torque_limit:.0f} %")
+        target = self.crouch_cmd
+        if target is not None and lim.prev is not None:
+            ticker = Ticker(self.period, self.clock)
+            end = self.clock.now() + settle_s
+            while self.clock.now() < end:
+                ticker.wait()
+                now = self.clock.now()
+                cmd = lim.limit_cmd(target, now, None)
+                ticker.last_sent = now
+                bus.write_goals(cmd)
+            done.append("protective posture")
+        unconfirmed = bus.torque_off()
+        if unconfirmed:
+            self.warn("torque-off not confirmed by " + ", ".join(unconfirmed))
+            done.append(f"torque-off (not confirmed: {', '.join(unconfirmed)})")
+        else:
+            done.append("torque-off")
+        return ", ".join(done)
 
     def _crouch(self, faulted: int | None = None) -> bool:
         """Move slowly (soft speed) to the crouch pose; False if impossible or cut short. The

@@ -1,9 +1,9 @@
 """One owner per bus: an exclusive OS lock on a serial port, taken before a byte is written.
 
-Every bus backend opens its port through :meth:`wbc.servos.bus.ServoBus.lock_port` (Dynamixel
-Protocol 1.0, SSC-32, the Protocol 2.0 bus, the torso IMU), and so does every ``wbc``
-command; the pty emulators' ports are locked the same way (the lock is keyed by the device
-path, a pty slave included). Three layers, each enough against another ``wbc``:
+Every bus backend opens its port through :func:`open_locked` (Dynamixel Protocol 1.0, SSC-32,
+the Protocol 2.0 bus, the torso IMU), and so does every ``wbc`` command; the pty emulators'
+ports are locked the same way (the lock is keyed by the device path, a pty slave included).
+Three layers, each enough against another ``wbc``:
 
 1. ``flock`` on a lock file keyed by the *resolved* device path (``/dev/serial/by-id/...``
    and ``/dev/ttyUSB0`` name the same lock) in ``/run/lock`` (else ``/var/lock``, else the
@@ -26,11 +26,14 @@ import os
 import sys
 import tempfile
 import termios
+from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 from ..exceptions import ServoError
 
 _LOCK_DIRS = ("/run/lock", "/var/lock")
+T = TypeVar("T")
 
 
 def lock_dir() -> Path:
@@ -152,3 +155,29 @@ class PortLock:
     @property
     def held(self) -> bool:
         return self._fd is not None
+
+
+def open_locked(
+    port: str,
+    opener: Callable[[], T],
+    fileno: Callable[[T], int],
+    close: Callable[[T], None],
+) -> tuple[T, PortLock]:
+    """Open ``port`` as its one owner: take its lock (:meth:`PortLock.acquire`, refused with
+    :class:`ServoError` naming the holder, before a byte is sent), open the device
+    (``opener()``, whose exceptions pass through), then lock the open device too
+    (:meth:`PortLock.attach` on ``fileno(device)``). Returns ``(device, lock)``; on any failure
+    nothing stays locked or open (the lock is released before the device is ``close``d)."""
+    lock = PortLock.acquire(port)
+    try:
+        device = opener()
+    except BaseException:
+        lock.release()
+        raise
+    try:
+        lock.attach(fileno(device))
+    except BaseException:
+        lock.release()
+        close(device)
+        raise
+    return device, lock

@@ -54,16 +54,8 @@ from .bus import (
     BusBudget,
     ServoStatus,
 )
-from .dynamixel import (
-    BROADCAST_ID,
-    INST_PING,
-    INST_WRITE,
-    SDK_BAUDS,
-    DynamixelBus,
-    _sdk,
-    read_variant,
-    word,
-)
+from .dynamixel import DynamixelBus, _sdk
+from .protocol1 import BROADCAST_ID, INST_PING, INST_WRITE, SDK_BAUDS, read_variant, word
 
 INST_STATUS = 0x55
 INST_REBOOT = 0x08

@@ -262,17 +262,15 @@ class Ssc32Bus(ServoBus):
             import serial
         except ModuleNotFoundError as exc:  # pragma: no cover
             raise ServoError("pyserial is not installed (pip install 'wbc[servos]')") from exc
-        self.lock_port(self.port_name)  # one owner per bus: refused before a byte is sent
-        try:
-            self.ser = serial.Serial(self.port_name, self.baud, timeout=0, xonxoff=self.map.xonxoff)
-        except Exception as exc:
-            self.unlock_port()
-            raise ServoError(f"cannot open port {self.port_name!r}: {exc}") from exc
-        try:
-            self.lock_device(self.ser.fileno())
-        except ServoError:
-            self.ser.close()
-            raise
+
+        def opener():
+            try:
+                return serial.Serial(self.port_name, self.baud, timeout=0, xonxoff=self.map.xonxoff)
+            except Exception as exc:
+                raise ServoError(f"cannot open port {self.port_name!r}: {exc}") from exc
+
+        # one owner per bus: refused before a byte is sent
+        self.ser = self.open_port(self.port_name, opener, lambda s: s.fileno(), lambda s: s.close())
 
     def close(self) -> None:
         self.unlock_port()

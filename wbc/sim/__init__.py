@@ -7,6 +7,10 @@
 * :mod:`wbc.sim.bus` — :class:`SimServoBus` and :class:`SimSsc32Bus`, the
   :class:`~wbc.servos.bus.ServoBus` that ``wbc deploy --sim`` drives, and :class:`SimImu`
   (:class:`wbc.imu.Imu`).
+* :mod:`wbc.sim.log` — the state logged every control tick of a simulated run;
+* :mod:`wbc.sim.watch` — the fall thresholds, and :class:`~wbc.sim.watch.UprightWatch`.
+
+A recording played through the deployment path on it: :func:`wbc.bench.play.play`.
 
 Needs the optional ``mujoco`` package (``pip install 'wbc[physics]'``).
 """

@@ -50,6 +50,7 @@ import numpy as np
 from ..exceptions import ConfigurationError, ModelError, ServoError
 from ..servo_map import RAD_PER_TICK, ServoMap, ServoSettings
 from ..xseries import XSettings
+from .servo_ticks import TickServos
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -116,29 +117,6 @@ class ServoParams:
     def scaled(self, stiffness: float = 1.0, torque: float = 1.0) -> ServoParams:
         """A copy with the ramp ``stiffness`` times steeper and the torque cap scaled."""
         return replace(self, slope=self.slope / stiffness, torque_cap=self.torque_cap * torque)
-
-
-class TickServos:
-    """Joint angles ↔ servo ticks of a servo array (``signs``, ``zero`` ticks, and
-    ``_scale`` = 1 / :attr:`rad_per_tick`, set by the array)."""
-
-    rad_per_tick: float
-    signs: np.ndarray
-    zero: np.ndarray
-    goal: np.ndarray
-    _scale: float
-
-    def ticks(self, q: np.ndarray) -> np.ndarray:
-        """Unquantised ticks of joint angles."""
-        return self.zero + self.signs * q * self._scale
-
-    def angles(self, ticks: np.ndarray) -> np.ndarray:
-        """Joint angles of ticks."""
-        return self.signs * (ticks - self.zero) * self.rad_per_tick
-
-    def goal_angles(self) -> np.ndarray:
-        """The written goals as joint angles (rad)."""
-        return self.angles(self.goal)
 
 
 class ServoArray(TickServos):

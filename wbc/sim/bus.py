@@ -33,7 +33,7 @@ import numpy as np
 from ..exceptions import ConfigurationError, ServoError
 from ..imu import Imu, ImuReading
 from ..servos.bus import COMM_OK, COMM_TIMEOUT, BusBudget, ServoBus, ServoStatus
-from ..servos.dynamixel import (
+from ..servos.protocol1 import (
     AX12_MAX_SPEED,
     ax_budget,
     ax_codec,

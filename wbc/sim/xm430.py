@@ -45,7 +45,7 @@ import numpy as np
 from ..exceptions import ConfigurationError
 from ..servo_map import ServoMap
 from ..xseries import CURRENT_UNIT_A, HW_OVERLOAD, X_RAD_PER_TICK, XSettings
-from .actuator import TickServos
+from .servo_ticks import TickServos
 
 STALL_TORQUE = 4.1  # N·m at 12 V (e-Manual XM430-W350)
 NO_LOAD_SPEED = 46.0 * 2.0 * math.pi / 60.0  # rad/s at 12 V (e-Manual)

@@ -22,17 +22,17 @@ import time
 import webbrowser
 from collections.abc import Iterator
 
-from ..cli import number
 from ..exceptions import WbcError
 from ..model import load_robot, print_notes
 from ..recording import Recording
+from .options import add_robot_argument, number
 
 DEFAULT_FRAMES = ("l_sole", "r_sole", "torso")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording (.npz) to replay")
-    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
+    add_robot_argument(parser)
     parser.add_argument(
         "--pose", default="stand", help="named configuration shown without a recording"
     )
@@ -84,7 +84,7 @@ def _terminate_as_interrupt() -> Iterator[None]:
 
 def run(args: argparse.Namespace) -> int:
     # Imported here so `wbc --help` works without meshcat installed.
-    from .scene import Viewer, export_html
+    from ..viewer.scene import Viewer, export_html
 
     if not (args.speed > 0 and args.speed < float("inf")):
         print(f"wbc view: --speed must be a positive number, got {args.speed}", file=sys.stderr)

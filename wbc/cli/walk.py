@@ -16,10 +16,11 @@ from pathlib import Path
 
 from ..exceptions import WbcError
 from ..model import load_robot, print_notes
+from .options import add_robot_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
+    add_robot_argument(parser)
     parser.add_argument(
         "--stack",
         help="task stack name (tasks/*.toml) or path (default: the robot folder's stack.toml, "
@@ -46,8 +47,8 @@ def run(args: argparse.Namespace) -> int:
     from ..bench import metrics
     from ..bench.trajectories import build
     from ..stacks import load_stack, robot_stack
-    from .loop import RunOptions, StackController
-    from .loop import run as run_loop
+    from ..walking.loop import RunOptions, StackController
+    from ..walking.loop import run as run_loop
 
     try:
         robot = load_robot(args.robot)
@@ -87,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
     if args.export or args.view:
-        from ..viewer.cli import run as view
+        from .view import run as view
 
         if path is None:
             import tempfile

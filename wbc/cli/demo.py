@@ -7,7 +7,8 @@ import argparse
 import numpy as np
 import pinocchio as pin
 
-from .model import STANDARD_FRAMES, load_robot, print_notes
+from ..model import STANDARD_FRAMES, load_robot, print_notes
+from .options import add_robot_argument
 
 
 def _fmt(v: np.ndarray) -> str:
@@ -15,7 +16,7 @@ def _fmt(v: np.ndarray) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
+    add_robot_argument(parser)
     parser.add_argument("--pose", default="stand", help="named configuration")
 
 

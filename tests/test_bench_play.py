@@ -1,40 +1,12 @@
-"""Support-polygon margin of the real CoP (convex hull of the contact points)."""
+"""A recording played on the simulated robot through the deployment path
+(:func:`wbc.bench.play.play`), with and without the compliance feed-forward."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
 
 pytest.importorskip("mujoco")
-
-from wbc.geometry import convex_hull
-from wbc.sim.play import hull_margin
-
-
-def test_margin_of_a_rectangle():
-    pts = np.array([[0, 0], [0.1, 0], [0.1, 0.06], [0, 0.06], [0.05, 0.03]])
-    assert len(convex_hull(pts)) == 4
-    assert hull_margin(pts, [0.05, 0.03]) == pytest.approx(0.03)
-    assert hull_margin(pts, [0.09, 0.03]) == pytest.approx(0.01)
-    assert hull_margin(pts, [0.12, 0.03]) == pytest.approx(-0.02)
-    assert hull_margin(pts[:2], [0.05, 0.0]) == 0.0  # an edge: tipping
-
-
-@given(
-    st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=3, max_size=12),
-    st.lists(st.floats(0.01, 1.0), min_size=12, max_size=12),
-)
-def test_a_weighted_mean_of_the_points_is_never_outside(points, weights):
-    pts = np.array(points)
-    w = np.array(weights[: len(pts)])
-    cop = (pts * w[:, None]).sum(axis=0) / w.sum()
-    assert hull_margin(pts, cop) >= -1e-9
-    for p in pts:  # every point is inside or on the hull
-        assert hull_margin(pts, p) >= -1e-9
-    for v in convex_hull(pts):  # the hull's vertices lie on its edge
-        assert hull_margin(pts, v) == pytest.approx(0.0, abs=1e-7)
 
 
 def test_kokone_smoke_a_short_keypose_walk_through_the_simulated_ssc32():
@@ -44,10 +16,10 @@ def test_kokone_smoke_a_short_keypose_walk_through_the_simulated_ssc32():
     import math
 
     from wbc import load_robot
-    from wbc.bench.physics import physics_record
+    from wbc.bench.play import play
+    from wbc.bench.sim_record import physics_record
     from wbc.bench.trajectories import robot_options
     from wbc.sim.bus import SimSsc32Bus
-    from wbc.sim.play import play
     from wbc.stacks import load_stack
     from wbc.walking.keyposes import KeyPoseParams, keypose_walk
     from wbc.walking.loop import StackController, run
@@ -87,9 +59,9 @@ def test_kokone_key_pose_walk_stands_with_the_compliance_feed_forward():
     import math
 
     from wbc import load_robot
-    from wbc.bench.physics import physics_record
+    from wbc.bench.play import play
+    from wbc.bench.sim_record import physics_record
     from wbc.bench.trajectories import robot_options
-    from wbc.sim.play import play
     from wbc.stacks import load_stack
     from wbc.walking.keyposes import KeyPoseParams, keypose_walk
     from wbc.walking.loop import StackController, run

@@ -1,102 +1,31 @@
 """Play a recording on the simulated robot through the deployment path, and log the physics.
 
 :func:`play` builds a :class:`~wbc.sim.simulator.Simulation` at the recording's first
-configuration, drives it with :class:`~wbc.servos.deploy.Deployment` on a
+configuration, drives it with :class:`~wbc.servos.playback.Deployment` on a
 :class:`~wbc.sim.bus.SimServoBus` (soft start, clamping, rate limit, watchdog: the code that
 drives the real servos), then holds the last goals for ``settle`` seconds. Every control tick
-logs the simulated state (:class:`SimLog`).
+logs the simulated state (:class:`~wbc.sim.log.SimLog`). It lives above the simulator and
+the balance package: it wires the deployment, the simulated servos and the feed-forward
+(:mod:`wbc.balance.compliance`, :mod:`wbc.balance.feedback`) together.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..exceptions import ConfigurationError
-from ..geometry import convex_hull, signed_distance
 from ..model import Robot
 from ..recording import Recording
-from ..servos.deploy import (
-    CallableSource,
-    DeployConfig,
-    Deployment,
-    DeployResult,
-    RecordingSource,
-)
-from .actuator import ServoParams
-from .bus import SimServoBus, sim_bus
-from .model import ModelParams
-from .simulator import Simulation
-
-
-@dataclass
-class SimLog:
-    """Per control tick: time (s, simulation clock, 0 = first tick), configuration (wbc
-    convention), CoM, CoP (NaN in the air), normal force under each sole, joint goals (rad),
-    peak |torque| per joint over the tick (N·m), and which ticks belong to the playback."""
-
-    t: list[float] = field(default_factory=list)
-    q: list[np.ndarray] = field(default_factory=list)
-    com: list[np.ndarray] = field(default_factory=list)
-    cop: list[np.ndarray] = field(default_factory=list)
-    sole_force: list[np.ndarray] = field(default_factory=list)
-    soles: list[np.ndarray] = field(default_factory=list)  # (2, 3) l, r sole positions
-    goal: list[np.ndarray] = field(default_factory=list)
-    peak_torque: list[np.ndarray] = field(default_factory=list)
-    cop_margin: list[float] = field(default_factory=list)  # m, to the contact points' hull
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v) for k, v in self.__dict__.items()}
-
-
-@dataclass
-class PlayResult:
-    """The deployment's result, the simulation log and the playback start time (s)."""
-
-    deploy: DeployResult
-    log: dict[str, np.ndarray]
-    playback_start: float
-    sim: Simulation
-
-
-def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
-    """Signed distance (m) from ``p`` to the edge of the convex hull of ``points`` (positive
-    inside; 0 when the hull is a point or a segment: a foot resting on an edge tips):
-    :func:`wbc.geometry.signed_distance` of :func:`wbc.geometry.convex_hull`."""
-    pts = np.asarray(points, dtype=float)
-    hull = convex_hull(pts[:, :2]) if len(pts) else pts
-    if len(hull) < 3:
-        return 0.0
-    return float(signed_distance(hull, np.asarray(p, dtype=float)[:2]))
-
-
-class _Logger:
-    def __init__(self, sim: Simulation) -> None:
-        self.sim = sim
-        self.log = SimLog()
-        self.t0 = sim.time
-        m = sim.model
-        mj = sim.mj
-        self.feet = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, b) for b in sim.robot_feet()]
-
-    def __call__(self, bus: SimServoBus | None = None) -> None:
-        sim, log = self.sim, self.log
-        log.t.append(sim.time - self.t0)
-        log.q.append(sim.q())
-        log.com.append(sim.com())
-        pts, fz, body = sim.contacts()
-        total = fz.sum()
-        cop = (pts[:, :2] * fz[:, None]).sum(axis=0) / total if total > 1e-9 else np.full(2, np.nan)
-        log.cop.append(cop)
-        log.cop_margin.append(hull_margin(pts[fz > 1e-9, :2], cop) if total > 1e-9 else np.nan)
-        log.sole_force.append(np.array([fz[body == b].sum() for b in self.feet]))
-        log.soles.append(
-            np.array([sim.site_pose("l_sole").translation, sim.site_pose("r_sole").translation])
-        )
-        log.goal.append(sim.servos.goal_angles())
-        log.peak_torque.append(sim.reset_peak())
+from ..servos.config import DeployConfig
+from ..servos.playback import Deployment
+from ..servos.sources import CallableSource, RecordingSource
+from ..sim.actuator import ServoParams
+from ..sim.bus import SimServoBus, sim_bus
+from ..sim.log import PlayResult, SimLogger
+from ..sim.model import ModelParams
+from ..sim.simulator import Simulation
 
 
 def play(
@@ -143,7 +72,7 @@ def play(
         rate = (
             min(100.0, 1.0 / float(np.median(np.diff(recording.t)))) if len(recording) > 1 else 50.0
         )
-    logger = _Logger(sim)
+    logger = SimLogger(sim)
 
     def tick(bus: SimServoBus) -> None:
         logger(bus)
@@ -165,7 +94,7 @@ def play(
         source = compensated(source, recording, robot, compensate, correct, lambda: deployment[0])
     if gyro > 0:
         from ..balance.feedback import FeedbackSource, GyroFeedback
-        from .bus import SimImu
+        from ..sim.bus import SimImu
 
         sensor = SimImu(sim, **imu) if imu else SimImu(sim, gyro_noise=imu_noise)
         source = FeedbackSource(source, GyroFeedback(robot, sensor, gyro))

@@ -22,15 +22,21 @@ from typing import Any
 
 import numpy as np
 
-from ..cli import number
 from ..exceptions import ConfigurationError
-from ..servos.playback import MAX_RATE_HZ, MAX_SOFT_SPEED
+from .options import (
+    add_bus_arguments,
+    add_imu_arguments,
+    add_motion_arguments,
+    add_robot_argument,
+    add_sim_arguments,
+    number,
+)
 
 EXIT_FELL = 3
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    add_robot_argument(parser)
     parser.add_argument(
         "--solver",
         default="hqp-daqp",
@@ -44,57 +50,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--gamepad", nargs="?", const="", metavar="DEVICE",
         help="steer with a gamepad (evdev; DEVICE: /dev/input/eventN, default the first)",
     )  # fmt: skip
-    parser.add_argument("--sim", action="store_true", help="the MuJoCo-simulated robot")
-    parser.add_argument("--view", action="store_true", help="--sim: live meshcat view")
-    parser.add_argument(
-        "--realtime", action="store_true",
-        help="--sim: wall-clock pace (always with the keyboard or a gamepad)",
-    )  # fmt: skip
-    parser.add_argument("--port", help="servo bus serial port (the real robot)")
-    parser.add_argument("--backend", "--bus", choices=("dynamixel", "ssc32"), default="dynamixel")
-    parser.add_argument(
-        "--baud", type=number(1, integer=True), help="bus baud rate (default: the servo map's)"
-    )
-    parser.add_argument("--servo-map", help="servo map TOML (default: the robot's servos.toml)")
-    parser.add_argument("--imu", metavar="PORT", help="the torso IMU's serial port (WitMotion)")
-    parser.add_argument("--imu-baud", type=number(1, integer=True), default=115200)
-    parser.add_argument(
-        "--encoders-only", action="store_true", help="no IMU: the estimate from the encoders"
-    )
+    add_sim_arguments(parser)  # --sim, --realtime, --view
+    add_bus_arguments(parser)  # --servo-map, --backend, --port, --baud, --latency-ms, ...
+    add_imu_arguments(parser)  # --imu, --imu-baud, --encoders-only
     parser.add_argument("--open-loop", action="store_true", help="no feedback on the targets")
     parser.add_argument(
         "--compensate", type=number(0, 10), default=0.5,
         help="servo compliance feed-forward gain (AX-12A; 0: off; default 0.5)",
     )  # fmt: skip
-    parser.add_argument(
-        "--rate",
-        type=number(0, MAX_RATE_HZ, lo_open=True),
-        default=100.0,
-        help="control rate, Hz (<= 100)",
-    )
-    parser.add_argument(
-        "--on-fault", choices=("auto", "hold", "torque-off", "crouch"), default="auto"
-    )
-    parser.add_argument(
-        "--soft-speed",
-        type=number(0, MAX_SOFT_SPEED, lo_open=True),
-        default=0.5,
-        help="soft start rad/s",
-    )
-    parser.add_argument(
-        "--max-speed", type=number(0, lo_open=True), help="rad/s (default: the servo speed)"
-    )
-    parser.add_argument(
-        "--latency-ms", type=number(0, 255), default=1.0, help="USB latency timer, ms"
-    )
-    parser.add_argument(
-        "--torque-limit", type=number(0, 1023, integer=True), help="AX torque limit 0..1023"
-    )
+    add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
         "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
     )
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the run's record")
-    parser.add_argument("--log", help="save per-tick goals / present positions (.npz)")
 
 
 def _controller(name: str, robot: Any):
@@ -109,36 +77,28 @@ def _controller(name: str, robot: Any):
     return entry.make(robot)
 
 
-def _bus_args(args: argparse.Namespace) -> argparse.Namespace:
-    """The namespace :func:`wbc.servos.deploy.make_bus` reads."""
-    ns = argparse.Namespace(**vars(args))
-    for key, value in (("reply_timeout_ms", None), ("attempts", 3), ("ssc32_map", None)):
-        setattr(ns, key, getattr(ns, key, value))
-    return ns
-
-
 def _teleop(args: argparse.Namespace):
     if args.commands is not None:
         if args.keyboard or args.gamepad is not None:
             raise ConfigurationError("give --commands FILE, --keyboard or --gamepad, not several")
         return None
     if args.gamepad is not None:
-        from .teleop import Gamepad
+        from ..drive.teleop import Gamepad
 
         missing = Gamepad.available()
         if missing is None:
             return Gamepad(args.gamepad or None)
         print(f"wbc drive: {missing}; using the keyboard", file=sys.stderr)
-    from .teleop import Keyboard
+    from ..drive.teleop import Keyboard
 
     return Keyboard()
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..drive.commands import CommandScript, integrate, load_commands
+    from ..drive.walker import Walker
     from ..model import load_robot
-    from ..servos.playback import DeployConfig
-    from .commands import CommandScript, integrate, load_commands
-    from .walker import Walker
+    from ..servos.config import DeployConfig
 
     for name in ("rate", "compensate", "settle", "soft_speed"):
         v = getattr(args, name)
@@ -162,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
     odo = view = sim = None
     holder: list[Any] = []
     if args.sim:
-        from .sim import Odometer, make_sim
+        from ..drive.sim import Odometer, make_sim
+        from .wiring import live_view
 
         def on_tick() -> None:
             if holder:
@@ -175,21 +136,20 @@ def run(args: argparse.Namespace) -> int:
         odo = Odometer(sim)
         holder.append(odo)
         if args.view:
-            view = _viewer(robot)
+            view = live_view(robot)
         if args.encoders_only:
             imu = None
         if args.compensate > 0 and sim.hobby:
             args.compensate = 0.0  # the feed-forward models the AX-12A only
     else:
-        from ..servos.deploy import _imu, check_servo_map, make_bus
+        from ..servos.connect import check_servo_map
+        from .wiring import make_bus, make_imu
 
         if args.backend == "dynamixel" or robot.servo_map is not None:
             for warning in check_servo_map(robot):
                 print(f"warning: {warning}", file=sys.stderr)
-        bus = make_bus(_bus_args(args), robot, args.port)
-        ns = argparse.Namespace(encoders_only=args.encoders_only, imu=args.imu,
-                                imu_baud=args.imu_baud)  # fmt: skip
-        imu = _imu(ns, bus)
+        bus = make_bus(args, robot, args.port)
+        imu = make_imu(args, bus)
     print("wbc drive: measuring the velocity limits and the balance window on the model ...")
     walker = Walker(robot, controller, imu, closed=not args.open_loop, compensate=args.compensate)
     lim = walker.limits
@@ -255,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _record(walker, commands, odo, result, integrate) -> dict[str, Any]:
-    from .commands import Command
+    from ..drive.commands import Command
 
     if commands is not None:
         clipped = [Command(c.duration, *walker.limits.clip(*c.velocity)) for c in commands]
@@ -278,19 +238,3 @@ def _record(walker, commands, odo, result, integrate) -> dict[str, Any]:
         "deploy_trip": None if result.trip is None else str(result.trip),
         "limits": walker.limits.as_dict(),
     }
-
-
-def _viewer(robot):
-    """A meshcat view following the simulation, paced to the wall clock."""
-    from ..sim.cli import _Pacer
-    from ..viewer import Viewer
-
-    viewer = Viewer(robot)
-    print(f"meshcat: {viewer.url}", flush=True)
-    pace = _Pacer()
-
-    def update(sim) -> None:
-        viewer.update(sim.q())
-        pace(sim.time)
-
-    return update

@@ -1,9 +1,10 @@
-"""``wbc sim`` and ``wbc deploy --sim``: the simulated robot on the command line.
+"""``wbc sim``: the simulated robot on the command line.
 
 ``wbc deploy REC.npz --sim [--realtime] [--view]`` runs the deployment (soft start, clamping,
-rate limit, watchdog) on :class:`~wbc.sim.bus.SimServoBus` instead of a serial port.
-``wbc sim`` plays a recording, or a solver on a benchmark trajectory, through the same path
-and prints what the physics did (fell, deviations, slip, torques, CoP margin)::
+rate limit, watchdog) on :class:`~wbc.sim.bus.SimServoBus` instead of a serial port
+(:func:`wbc.cli.wiring.make_sim_bus`). ``wbc sim`` plays a recording, or a solver on a
+benchmark trajectory, through the same path and prints what the physics did (fell,
+deviations, slip, torques, CoP margin)::
 
     wbc sim --solver hqp-daqp --trajectory walk10_wb       # closed loop (the default)
     wbc sim --solver hqp-daqp --trajectory walk10 --open-loop   # plan, then play it
@@ -18,135 +19,23 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..cli import number
 from ..exceptions import ConfigurationError, TrajectoryError
-
-if TYPE_CHECKING:
-    from .simulator import Simulation
-
-
-def add_deploy_arguments(parser: argparse.ArgumentParser) -> None:
-    """``wbc deploy`` options for the simulated robot (mujoco is imported only when used)."""
-    parser.add_argument(
-        "--sim", action="store_true", help="no port: the MuJoCo-simulated robot (wbc[physics])"
-    )
-    parser.add_argument(
-        "--realtime", action="store_true", help="--sim: wall-clock pace (default: lockstep)"
-    )
-    parser.add_argument(
-        "--view", action="store_true", help="--sim: show it live in meshcat (at real speed)"
-    )
-
-
-def make_sim_bus(args: argparse.Namespace, robot):
-    """The simulated bus for ``wbc deploy --sim`` (robot standing in its standing pose):
-    the AX-12A bus, or with ``--bus ssc32`` the SSC-32 backend on a simulated board (hobby
-    servos: the robot's ``robot.toml`` ``[servo]``)."""
-    from .bus import sim_bus
-    from .simulator import Simulation
-
-    sim = Simulation(robot)
-    backend = getattr(args, "backend", "dynamixel")
-    want = "ssc32" if sim.hobby else "dynamixel"
-    if backend != want:
-        servo = sim.servo_params.name if sim.hobby else "AX-12A"
-        raise ConfigurationError(
-            f"--sim: robot {robot.name}'s servos are {servo} ({want} bus): use --bus {want}"
-        )
-    watch = UprightWatch(sim)
-    view = _live_view(robot, sim) if getattr(args, "view", False) else None
-
-    def on_tick(bus) -> None:
-        watch()
-        if view is not None:
-            view(bus)
-
-    torque_limit = getattr(args, "torque_limit", None)
-    torque_limit = None if torque_limit == 1023 else torque_limit
-    return sim_bus(
-        sim, args.rate, realtime=args.realtime, torque_limit=torque_limit, on_tick=on_tick,
-        on_close=lambda: print(watch.line(), flush=True),
-    )  # fmt: skip
-
-
-class UprightWatch:
-    """What the physics did during ``wbc deploy --sim`` (no plan to compare with): the
-    largest torso tilt from its start, and a fall (tilt > 45° or the torso below 60 % of its
-    start height, as the physics benchmark's thresholds), checked every control tick."""
-
-    def __init__(self, sim: Simulation) -> None:
-        from ..bench.physics import FALL_HEIGHT, FALL_TILT_DEG
-
-        self.sim = sim
-        self.limits = (FALL_TILT_DEG, FALL_HEIGHT)
-        self.R0 = sim.base_rotation()
-        self.z0 = float(sim.q()[2])
-        self.xy0 = sim.q()[:2].copy()
-        self.t0 = sim.time
-        self.tilt_max = 0.0
-        self.fell_at: float | None = None
-
-    def __call__(self) -> None:
-        R = self.sim.base_rotation()
-        tilt = math.degrees(math.acos(np.clip((np.trace(self.R0.T @ R) - 1.0) / 2.0, -1, 1)))
-        if self.fell_at is None:
-            self.tilt_max = max(self.tilt_max, tilt)
-            if tilt > self.limits[0] or self.sim.q()[2] < self.limits[1] * self.z0:
-                self.fell_at = self.sim.time - self.t0
-
-    def line(self) -> str:
-        """One line: fell (when) or stayed up, the largest torso tilt, the base's travel."""
-        moved = 1e3 * np.linalg.norm(self.sim.q()[:2] - self.xy0)
-        if self.fell_at is not None:
-            return f"sim: FELL at {self.fell_at:.2f} s (torso tilt {self.tilt_max:.1f}° then)"
-        return (
-            f"sim: stayed up; torso tilt at most {self.tilt_max:.1f}° from the start, "
-            f"the base moved {moved:.0f} mm"
-        )
-
-
-def _live_view(robot, sim, planned=None):
-    """A meshcat viewer following the simulation (one update per control tick)."""
-    from ..viewer import Viewer
-
-    viewer = Viewer(robot)
-    print(f"meshcat: {viewer.url}", flush=True)
-
-    pace = _Pacer()
-
-    def update(_bus=None) -> None:
-        viewer.update(sim.q())  # the deployment plays joints only: no planned CoM here
-        pace(sim.time)
-
-    return update
-
-
-class _Pacer:
-    """Sleep so that simulated time does not run ahead of the wall clock (lockstep physics,
-    shown at real speed: a slow draw never changes what the physics does)."""
-
-    def __init__(self) -> None:
-        self.start: tuple[float, float] | None = None
-
-    def __call__(self, sim_time: float) -> None:
-        import time
-
-        now = time.perf_counter()
-        if self.start is None:
-            self.start = (now, sim_time)
-        ahead = (sim_time - self.start[1]) - (now - self.start[0])
-        if ahead > 0:
-            time.sleep(ahead)
+from .options import (
+    add_compensate_arguments,
+    add_encoders_only_argument,
+    add_robot_argument,
+    number,
+    resolve_compensate,
+)
 
 
 # ---------------------------------------------------------------------- wbc sim
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", nargs="?", help="recording .npz to play (else --solver)")
-    parser.add_argument("--robot", default="bioloid", help="robot name or URDF path")
+    add_robot_argument(parser)
     parser.add_argument("--solver", default="hqp-daqp", help="plan with this benchmark solver")
     parser.add_argument(
         "--trajectory",
@@ -159,15 +48,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plan, then play the plan (by default the solver runs live in the tick, closed "
         "loop with the simulated IMU, feed-forward and step adjustment: wbc.balance.live)",
     )
-    parser.add_argument(
-        "--encoders-only", action="store_true", help="closed loop: no IMU, the encoders alone"
-    )
+    add_encoders_only_argument(parser)
     parser.add_argument(
         "--no-stepping", action="store_true", help="closed loop: no step adjustment"
     )
-    from ..balance import add_compensate_argument
-
-    add_compensate_argument(parser, "servo compliance feed-forward on the goals")
+    add_compensate_arguments(parser, "servo compliance feed-forward on the goals")
     parser.add_argument(
         "--rate", type=number(0, 1000, lo_open=True), help="control rate, Hz (default: recording's)"
     )
@@ -187,22 +72,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bench.physics import (
+    from ..bench.physics import plan
+    from ..bench.play import play
+    from ..bench.sim_record import (
         PHYSICS_KEYS,
         mid_single_support,
         physics_record,
-        plan,
         simulated_recording,
     )
     from ..model import load_robot
     from ..recording import Recording
-    from .play import play
+    from ..sim.actuator import servo_kind
 
     if not (math.isfinite(args.settle) and args.settle >= 0):
         raise ConfigurationError(f"--settle must be a time >= 0 s, got {args.settle}")
-    from ..balance import resolve_compensate
-    from .actuator import servo_kind
-
     robot = load_robot(args.robot)
     closed = best = not args.open_loop and not args.recording
     if closed and servo_kind(robot) == "hobby_pwm":
@@ -240,13 +123,14 @@ def run(args: argparse.Namespace) -> int:
     viewer = None
     if args.view:
         from ..viewer import Viewer
+        from .wiring import Pacer
 
         viewer = Viewer(robot)
         print(f"meshcat: {viewer.url} (planned CoM and swing sole beside the real ones)")
         rec_t = rec.t - rec.t[0]
         planned = {k: rec[k] for k in ("com", "swing") if k in rec.channels}
         start: list[float] = []
-        pace = _Pacer()
+        pace = Pacer()
 
         def on_tick(sim) -> None:
             start[:] = start or [sim.time]
@@ -260,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
 
     if closed:
         from ..balance.stepping import SteppingParams
-        from ..bench.physics import ClosedLoopSpec, closed_loop_figures, play_closed_loop
+        from ..bench.closed_loop import ClosedLoopSpec, closed_loop_figures, play_closed_loop
         from ..bench.solvers import registry
         from ..bench.trajectories import build
 

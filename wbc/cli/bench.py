@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import platform
 import sys
@@ -29,14 +30,22 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..cli import number
-from ..model import load_robot, print_notes
-from . import trajectories as traj
-from .solvers import BENCH_STACKS, FAMILIES, registry, select
+from ..bench import trajectories as traj
+from ..bench.solvers import BENCH_STACKS, FAMILIES, registry, select
+from ..exceptions import ConfigurationError
+from ..model import Robot, load_robot, print_notes
+from .options import (
+    add_compensate_arguments,
+    add_encoders_only_argument,
+    add_robot_argument,
+    check_compensate_encoders,
+    number,
+    resolve_compensate,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="bioloid", help="robot name, robot folder or URDF path")
+    add_robot_argument(parser)
     parser.add_argument(
         "--solvers",
         nargs="+",
@@ -93,10 +102,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--verbose", action="store_true", help="let the solvers print (OSQP, IPOPT, ...)"
     )
-
-    from .physics import add_physics_arguments  # --physics, --robustness, --seed, --push
-
-    add_physics_arguments(parser)
+    add_physics_arguments(parser)  # --physics, --robustness, --seed, --push, ...
 
 
 #: argparse types: a finite number > 0, an integer >= 1 (:func:`wbc.cli.number`)
@@ -380,7 +386,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     benchmark = "physics" if args.physics else "kinematic"
     stack = getattr(args, "stack", None)
     if args.physics:  # on a body: the robot folder's stack.toml when it has one
-        from .physics import physics_stack
+        from ..bench.physics import physics_stack
 
         stack = physics_stack(robot, stack)
     entries, notes = select(args.solvers, args.families, args.mode, benchmark, stack)
@@ -389,8 +395,6 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
     if args.physics:
-        from .physics import run_physics_command
-
         return run_physics_command(args, console, robot, entries)
     walking = [t for t in args.trajectories if t != traj.STATIC_COM]
     for t in walking:  # fail fast on a bad name, before any run
@@ -417,7 +421,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
             "benchmark",
             total=len(entries) * len(refs) + (1 if traj.STATIC_COM in args.trajectories else 0),
         )
-        from .runner import run_entry, save_recording, static_com_records
+        from ..bench.runner import run_entry, save_recording, static_com_records
 
         if building:
             for name, ref in refs.items():
@@ -452,7 +456,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         f"({platform.machine()}, Python {platform.python_version()})"
     )
     if args.plots and records:
-        from .plots import quantity_figures, timing_figure
+        from ..bench.plots import quantity_figures, timing_figure
 
         paths = quantity_figures(recordings, args.plots)
         paths.append(timing_figure(records, args.plots / "time_per_tick.png"))
@@ -521,3 +525,108 @@ def write_records(path: Path, records: list, **extra: Any) -> None:
         "records": records,
     }
     path.write_text(json.dumps(payload, indent=1))
+
+
+# ---------------------------------------------------------------------- --physics
+def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``wbc bench`` options of the physics benchmark (:mod:`wbc.bench.physics`)."""
+    parser.add_argument(
+        "--physics",
+        action="store_true",
+        help="play every run through the deploy path on the simulated robot (wbc[physics])",
+    )
+    parser.add_argument(
+        "--robustness",
+        type=number(0, 10000, integer=True),
+        default=0,
+        metavar="N",
+        help="--physics: N randomised models",
+    )
+    parser.add_argument(
+        "--seed", type=number(0, integer=True), default=0, help="--robustness: random seed"
+    )
+    parser.add_argument(
+        "--push",
+        action="store_true",
+        help="--physics: largest survived torso impulse (N·s) forward, backward, toward and "
+        "away from the swing foot, each beside its physical bound",
+    )
+    add_compensate_arguments(parser, "--physics: servo compliance feed-forward on the goals")
+    parser.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="--physics: the closed-loop rows (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--open-loop",
+        action="store_true",
+        help="--physics: only the plans played open loop (by default each controller also "
+        "runs live in the deployment's tick, closed through the torso IMU and the servos' "
+        "present positions, with step adjustment: wbc.balance.live), no feed-forward unless "
+        "--compensate",
+    )
+    add_encoders_only_argument(parser)
+    parser.add_argument(
+        "--stepping",
+        action="store_true",
+        help="closed loop: step adjustment (the default; kept for old command lines)",
+    )
+    parser.add_argument(
+        "--no-stepping",
+        action="store_true",
+        help="closed loop: no step placement from the measured DCM (wbc.balance.stepping)",
+    )
+    parser.add_argument(
+        "--gyro",
+        type=number(0, 10),
+        default=0.0,
+        metavar="SCALE",
+        help="--physics: closed loop, torso gyro feedback on the leg goals (OP3 gains x SCALE; "
+        "wbc.balance.feedback)",
+    )
+
+
+def run_physics_command(args: argparse.Namespace, console: Console, robot: Robot, entries) -> int:
+    """``wbc bench --physics``: the table, and the records in ``--json``."""
+    from ..bench.physics import PhysicsOptions, run_physics
+
+    if args.robustness < 0:
+        raise ConfigurationError(f"--robustness must be >= 0, got {args.robustness}")
+    if args.open_loop and (args.closed_loop or args.encoders_only or args.stepping):
+        raise ConfigurationError(
+            "--open-loop: no --closed-loop, --encoders-only or --stepping with it"
+        )
+    resolve_compensate(args, robot, best=not args.open_loop)
+    if not (math.isfinite(args.compensate) and args.compensate >= 0):
+        raise ConfigurationError(
+            f"--compensate GAIN must be a finite number >= 0, got {args.compensate}"
+        )
+    check_compensate_encoders(args)
+    if not (math.isfinite(args.gyro) and args.gyro >= 0):
+        raise ConfigurationError(f"--gyro SCALE must be a finite number >= 0, got {args.gyro}")
+    if args.mode != "tick":
+        raise ConfigurationError("--physics plays real-time plans: use --mode tick (the default)")
+    names = [t for t in args.trajectories if t != traj.STATIC_COM]
+    refs = {t: traj.build(t, robot) for t in names}
+    started = time.perf_counter()
+    options = PhysicsOptions(
+        compensate=args.compensate,
+        gyro=args.gyro,
+        correct=args.compensate_encoders,
+        closed_loop=not args.open_loop,
+        use_imu=not args.encoders_only,
+        stepping=not args.no_stepping,
+        robustness=args.robustness,
+        seed=args.seed,
+        push=args.push,
+        all_solvers=bool(args.solvers or args.families),
+        record=args.record,
+        plots=args.plots,
+    )
+    records = run_physics(options, console, robot, entries, refs)
+    elapsed = time.perf_counter() - started
+    console.print(f"{len(records)} simulated runs in {elapsed:.1f} s on {platform.node()}")
+    if args.json:
+        write_records(args.json, records, elapsed_s=elapsed)
+        console.print(f"records in {args.json}")
+    return 0

@@ -1,0 +1,7 @@
+"""``python -m wbc.cli``: the ``wbc`` command."""
+
+import sys
+
+from . import main
+
+sys.exit(main())
