@@ -348,7 +348,7 @@ def import_task_modules(names: Any, named: set[str], source: str = "<dict>") -> 
     where = f"task stack {source}"
     if not (isinstance(names, list) and all(isinstance(n, str) and n for n in names)):
         raise TaskError(f"{where}: import = {names!r}: {_IMPORT_RULE}")
-    folder = Path(source).parent if Path(source).is_file() else None
+    folder = Path(source).resolve().parent if Path(source).is_file() else None
     modules = []
     for name in names:
         if not all(part.isidentifier() for part in name.split(".")):
@@ -388,13 +388,13 @@ def _import_beside(name: str, folder: Path | None, where: str) -> ModuleType:
                 f"{where}: import {name!r}: {beside} is beside the file, but another module "
                 f"{top!r} is loaded ({getattr(loaded, '__file__', 'built in')}): rename one"
             )
-    added = beside is not None and str(folder) not in sys.path
-    if added:
+    added = beside is not None
+    if added:  # (first: the module beside the file wins over one of its name on the path)
         sys.path.insert(0, str(folder))
     try:
         return importlib.import_module(name)
     except ModuleNotFoundError as exc:
-        if exc.name is not None and name.startswith(exc.name):
+        if exc.name is not None and (name == exc.name or name.startswith(exc.name + ".")):
             raise TaskError(
                 f"{where}: import {name!r}: no such module "
                 f"{'beside the file (' + str(folder) + ') nor ' if folder else ''}on the Python "
