@@ -87,6 +87,7 @@ def test_every_documented_top_level_key_is_accepted() -> None:
         "regularization": 1e-6,
         "on_infeasible": "raise",
         "velocity_limits": True,
+        "import": [],
         "levels": [{"hard": True, "tasks": [{"type": "contact", "frame": "support"}]}],
     }
     assert set(keys) == set(values)
