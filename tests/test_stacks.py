@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from wbc import Kinematics, TaskError
+from wbc.limits import ComPolygonConstraint
 from wbc.paths import stacks_dir
 from wbc.solvers import HierarchicalQP, WeightedQP
 from wbc.stacks import available_stacks, build_stack, load_stack
@@ -83,6 +84,52 @@ def test_phases_rebind_roles_and_switch_contacts(robot):
     # a contact that starts is anchored where its sole is
     contact = control.stack.task("contact_support")
     assert np.allclose(contact.compute(kin)[1], 0)
+
+
+@pytest.mark.parametrize("name", ["walk", "walk_strict", "cj_com"])
+def test_a_kept_phase_switch_sets_what_a_fresh_one_sets(robot, name):
+    """set_phase works out each (phase, support, swing) once and then only compares and
+    sets: along random switches (anchored or not, the swing sole absent, a task switched off
+    by hand between them, a constraint added to the stack) it leaves every task and
+    constraint as a switch worked out afresh does: frames, activity, targets, anchors."""
+    rng = np.random.default_rng(3)
+    kept, fresh = load_stack(name, robot), load_stack(name, robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    soles = ("l_sole", "r_sole")
+    for i in range(40):
+        phase = str(rng.choice(["double", "single"]))
+        support = str(rng.choice(soles))
+        swing = None if rng.random() < 0.1 else soles[1 - soles.index(support)]
+        anchors = None
+        if rng.random() < 0.5:
+            anchors = {s: kin.placement(robot.frame_id(s)) for s in soles}
+            for pose in anchors.values():
+                pose.translation += rng.normal(0, 0.01, 3)
+        if i == 20:  # a by-hand change between switches, then the stack itself changes
+            for control in (kept, fresh):
+                for task in list(control.stack.tasks())[:2]:
+                    task.active = False
+                control.stack.add_constraint(ComPolygonConstraint(robot, list(soles)), level=0)
+        fresh._phases.clear()
+        for control in (kept, fresh):
+            control.set_phase(phase, support, swing, kin, anchors)
+        for a, b in zip(kept.stack.tasks(), fresh.stack.tasks(), strict=True):
+            assert (a.name, a.active, getattr(a, "frame", None)) == (
+                b.name,
+                b.active,
+                getattr(b, "frame", None),
+            )
+            assert np.array_equal(a.packed_target(), b.packed_target())
+        for a, b in zip(kept.stack.constraints(), fresh.stack.constraints(), strict=True):
+            assert (a.name, a.active, getattr(a, "frame", getattr(a, "soles", None))) == (
+                b.name,
+                b.active,
+                getattr(b, "frame", getattr(b, "soles", None)),
+            )
+        assert kept._anchored == fresh._anchored
+    with pytest.raises(TaskError, match="phase must be one of"):
+        kept.set_phase("flying", "l_sole", "r_sole", kin)
 
 
 def test_solver_and_backend_overrides(robot):

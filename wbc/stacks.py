@@ -72,6 +72,18 @@ class RoleBinding:
 
 
 @dataclass
+class _PhaseMoves:
+    """A support phase's bindings, in the order :meth:`ControlStack.set_phase` applies them:
+    role-bound frames, CoM polygons' soles, phase switches, contacts (active or not)."""
+
+    version: tuple[int, int]
+    frames: list[tuple[Any, str]] = field(default_factory=list)
+    polygons: list[tuple[Any, list[str]]] = field(default_factory=list)
+    switches: list[tuple[Any, bool]] = field(default_factory=list)
+    contacts: list[tuple[Any, bool]] = field(default_factory=list)
+
+
+@dataclass
 class ControlStack:
     """A loaded stack: the :class:`TaskStack`, its solver and the role bindings."""
 
@@ -86,6 +98,8 @@ class ControlStack:
     support: str | None = None
     swing: str | None = None
     _anchored: dict[str, str] = field(default_factory=dict)  # contact task -> anchored sole
+    #: (phase, support, swing) -> what set_phase does then (kept until the stack changes)
+    _phases: dict[tuple, _PhaseMoves] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ roles
     def role_tasks(self, role: str) -> list[Task]:
@@ -107,61 +121,60 @@ class ControlStack:
         ``anchors``: optional {sole frame: pinocchio.SE3} where a contact should be held
         (default: where the sole is now).
         """
-        if phase not in PHASES:
-            raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
-        roles = {"support": support, "swing": swing}
-        bound, polygons = self._phase_items()
-        for item, binding, polygon, contact in bound:
+        entry = self._phases.get((phase, support, swing))
+        if entry is None or entry.version != (self.stack.version, len(self.bindings)):
+            entry = self._phase_moves(phase, support, swing)
+        for item, frame in entry.frames:  # (set when it changes: a lookup and a re-plan)
+            if item.frame != frame:
+                item.set_frame(frame)
+        for item, soles in entry.polygons:  # (always: its polygon is taken afresh)
+            item.set_support(soles)
+        for item, active in entry.switches:
+            item.active = active
+        anchored = self._anchored
+        for item, active in entry.contacts:
             was_active = item.active
-            frame = roles.get(binding.role) if binding.role else None
-            if binding.role and frame is None:
-                item.active = False
-                continue
-            if frame is not None:
-                if polygon:
-                    item.set_support([frame])
-                else:
-                    item.set_frame(frame)  # role-bound: has a frame
-            item.active = phase in binding.phases
-            if (
-                contact
-                and item.active
-                and (not was_active or self._anchored.get(item.name) != item.frame)
-            ):
-                anchor = (anchors or {}).get(item.frame)
+            item.active = active
+            if active and (not was_active or anchored.get(item.name) != item.frame):
+                anchor = None if anchors is None else anchors.get(item.frame)
                 if anchor is None:
                     item.make_contact(kin)
                 else:
                     item.set_target(anchor)
-                self._anchored[item.name] = item.frame
-        if polygons:
-            soles = [support] if phase == "single" or swing is None else [support, swing]
-            for c in polygons:
-                c.set_support(soles)
+                anchored[item.name] = item.frame
         self.phase, self.support, self.swing = phase, support, swing
 
-    def _phase_items(self) -> tuple[list, list]:
-        """What :meth:`set_phase` visits: each role-bound task or constraint with its binding,
-        whether it is a CoM polygon and whether a contact; the CoM polygons without a binding.
-        Kept until the stack changes (a support switch is on a control loop's clock)."""
-        key = (self.stack.version, len(self.bindings))
-        cached = self.__dict__.get("_phase_cache")
-        if cached is None or cached[0] != key:
-            tasks, constraints = self.stack.members()
-            members: list[Any] = [*tasks, *constraints]
-            bound = [
-                (item, b, isinstance(item, ComPolygonConstraint), isinstance(item, ContactTask))
-                for item in members
-                for b in [self.bindings.get(item.name)]
-                if b is not None
-            ]
-            polygons = [
-                c
-                for c in constraints
-                if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None
-            ]
-            cached = self.__dict__["_phase_cache"] = (key, bound, polygons)
-        return cached[1], cached[2]
+    def _phase_moves(self, phase: str, support: str, swing: str | None) -> _PhaseMoves:
+        """What :meth:`set_phase` makes of the role-bound tasks and constraints in this phase,
+        worked out once per (phase, support, swing) and kept until the stack changes (a
+        support switch is on a control loop's clock: it then only compares and sets)."""
+        if phase not in PHASES:
+            raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
+        version = (self.stack.version, len(self.bindings))
+        if any(e.version != version for e in self._phases.values()):
+            self._phases.clear()
+        roles = {"support": support, "swing": swing}
+        soles = [support] if phase == "single" or swing is None else [support, swing]
+        entry = _PhaseMoves(version)
+        tasks, constraints = self.stack.members()
+        for item in [*tasks, *constraints]:
+            polygon = isinstance(item, ComPolygonConstraint)
+            binding = self.bindings.get(item.name)
+            if binding is None:
+                if polygon:  # (no binding: it follows the phase's soles)
+                    entry.polygons.append((item, soles))
+                continue
+            frame = roles.get(binding.role) if binding.role else None
+            if frame is not None:
+                if polygon:
+                    entry.polygons.append((item, [frame]))
+                else:
+                    entry.frames.append((item, frame))
+            active = phase in binding.phases and not (binding.role and frame is None)
+            kind = entry.contacts if isinstance(item, ContactTask) else entry.switches
+            kind.append((item, active))
+        self._phases[(phase, support, swing)] = entry
+        return entry
 
     def forget_anchors(self) -> None:
         """The next :meth:`set_phase` anchors every active contact afresh."""
