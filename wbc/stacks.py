@@ -22,7 +22,7 @@ import importlib
 import importlib.machinery
 import inspect
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -157,7 +157,8 @@ class ControlStack:
         soles = [support] if phase == "single" or swing is None else [support, swing]
         entry = _PhaseMoves(version)
         tasks, constraints = self.stack.members()
-        for item in [*tasks, *constraints]:
+        members: list[Task | Constraint] = [*tasks, *constraints]
+        for item in members:
             polygon = isinstance(item, ComPolygonConstraint)
             binding = self.bindings.get(item.name)
             if binding is None:
@@ -465,7 +466,8 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
         _check_keys(cls, kw)
         if frame is not None:  # (a role: the left sole until the first set_phase)
             kw["frame"] = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
-        task = cls(robot, name=name, **kw)
+        make: Callable[..., Task] = cls  # (a task type's __init__ takes the robot first)
+        task = make(robot, name=name, **kw)
     except WbcError as exc:
         raise TaskError(f"{at}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
