@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from wbc import Kinematics, TaskError
+from wbc.limits import ComPolygonConstraint
 from wbc.paths import stacks_dir
 from wbc.solvers import HierarchicalQP, WeightedQP
 from wbc.stacks import available_stacks, build_stack, load_stack
@@ -83,6 +84,52 @@ def test_phases_rebind_roles_and_switch_contacts(robot):
     # a contact that starts is anchored where its sole is
     contact = control.stack.task("contact_support")
     assert np.allclose(contact.compute(kin)[1], 0)
+
+
+@pytest.mark.parametrize("name", ["walk", "walk_strict", "cj_com"])
+def test_a_kept_phase_switch_sets_what_a_fresh_one_sets(robot, name):
+    """set_phase works out each (phase, support, swing) once and then only compares and
+    sets: along random switches (anchored or not, the swing sole absent, a task switched off
+    by hand between them, a constraint added to the stack) it leaves every task and
+    constraint as a switch worked out afresh does: frames, activity, targets, anchors."""
+    rng = np.random.default_rng(3)
+    kept, fresh = load_stack(name, robot), load_stack(name, robot)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    soles = ("l_sole", "r_sole")
+    for i in range(40):
+        phase = str(rng.choice(["double", "single"]))
+        support = str(rng.choice(soles))
+        swing = None if rng.random() < 0.1 else soles[1 - soles.index(support)]
+        anchors = None
+        if rng.random() < 0.5:
+            anchors = {s: kin.placement(robot.frame_id(s)) for s in soles}
+            for pose in anchors.values():
+                pose.translation += rng.normal(0, 0.01, 3)
+        if i == 20:  # a by-hand change between switches, then the stack itself changes
+            for control in (kept, fresh):
+                for task in list(control.stack.tasks())[:2]:
+                    task.active = False
+                control.stack.add_constraint(ComPolygonConstraint(robot, list(soles)), level=0)
+        fresh._phases.clear()
+        for control in (kept, fresh):
+            control.set_phase(phase, support, swing, kin, anchors)
+        for a, b in zip(kept.stack.tasks(), fresh.stack.tasks(), strict=True):
+            assert (a.name, a.active, getattr(a, "frame", None)) == (
+                b.name,
+                b.active,
+                getattr(b, "frame", None),
+            )
+            assert np.array_equal(a.packed_target(), b.packed_target())
+        for a, b in zip(kept.stack.constraints(), fresh.stack.constraints(), strict=True):
+            assert (a.name, a.active, getattr(a, "frame", getattr(a, "soles", None))) == (
+                b.name,
+                b.active,
+                getattr(b, "frame", getattr(b, "soles", None)),
+            )
+        assert kept._anchored == fresh._anchored
+    with pytest.raises(TaskError, match="phase must be one of"):
+        kept.set_phase("flying", "l_sole", "r_sole", kin)
 
 
 def test_solver_and_backend_overrides(robot):
@@ -290,70 +337,6 @@ def test_walk_stack_tracks_the_lateral_walk_swing_foot(robot):
     single = ref.support != 0
     err = np.linalg.norm(rec["swing"] - rec["swing_ref"], axis=1)[single]
     assert err.max() < 3e-3
-
-
-# ------------------------------------------------------------- task types named by their class
-def _relative_spec(kind: str, **relative) -> dict:
-    return {
-        "solver": kind,
-        "levels": [
-            {"hard": True, "tasks": [{"type": "contact", "frame": "support"}]},
-            {
-                "tasks": [
-                    {"type": "relative_position", "frame": "r_sole", "reference": "l_sole"}
-                    | relative,
-                    {"type": "posture", "weight": 1e-3},
-                ]
-            },
-        ],
-    }
-
-
-@pytest.mark.parametrize("kind", ["weighted", "hierarchical"])
-def test_a_task_class_with_a_stack_type_is_named_in_a_stack_file(robot, kind):
-    """relative_position has no TASK_TYPES entry: its class's ``stack_type`` names it; the
-    entry's keys reach its __init__, its target starts where the entry says (or at the
-    current state), and the stack's tick runs on the compiled path and moves the sole."""
-    from wbc.tasks.relative_position import RelativeFramePositionTask
-
-    control = build_stack(_relative_spec(kind, target=[0.0, -0.08, 0.01]), robot)
-    task = control.stack.task("relative_position_r_sole")
-    assert isinstance(task, RelativeFramePositionTask)
-    assert (task.frame, task.reference) == ("r_sole", "l_sole")
-    np.testing.assert_array_equal(task.target, [0.0, -0.08, 0.01])
-    q = robot.configuration("stand")
-    kin = Kinematics(robot, q)
-    before = np.abs(task.compute(kin)[1]).max()
-    for _ in range(20):
-        q = control.solver.step(q, 0.01)
-    assert control.solver.fast is not None and control.solver.handed_back_ticks == 0
-    assert np.abs(task.compute(Kinematics(robot, q))[1]).max() < 0.2 * before
-
-    at_rest = build_stack(_relative_spec(kind), robot).stack.task("relative_position_r_sole")
-    _, e = at_rest.compute(kin)  # no target given: the current relative position
-    assert np.abs(e).max() < 1e-12
-
-
-def test_a_task_type_defined_outside_the_package_joins_the_stack_files(robot):
-    """A user's class (defined here) with a ``stack_type`` is nameable once defined."""
-    from wbc.tasks import FramePositionTask
-
-    class HandPosition(FramePositionTask):
-        stack_type = "test_hand_position"
-
-    spec = {"levels": [{"tasks": [{"type": "test_hand_position", "frame": "r_hand"}]}]}
-    task = build_stack(spec, robot).stack.task("test_hand_position_r_hand")
-    assert type(task) is HandPosition and task.frame == "r_hand"
-
-
-def test_a_stack_type_entry_is_checked(robot):
-    """Unknown keys and roles on a task without set_frame are one clear line each."""
-    with pytest.raises(TaskError, match=r"relative_position.*unknown keys \['axis'\]"):
-        build_stack(_relative_spec("weighted", axis=[1, 0, 0]), robot)
-    with pytest.raises(TaskError, match=r"relative_position.*give a frame name"):
-        build_stack(_relative_spec("weighted", frame="swing"), robot)
-    with pytest.raises(TaskError, match=r"unknown task type 'nope'; known: \[.*relative_position"):
-        build_stack({"levels": [{"tasks": [{"type": "nope"}]}]}, robot)
 
 
 def test_commands_pick_the_robot_folders_stack(tmp_path):

@@ -18,10 +18,14 @@ controller re-binds them at every support change (:meth:`ControlStack.set_phase`
 
 from __future__ import annotations
 
+import importlib
+import importlib.machinery
 import inspect
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -36,19 +40,7 @@ from .limits import (
 from .model import Kinematics, Robot
 from .paths import read_toml, stacks_dir
 from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
-from .tasks import (
-    ComTask,
-    ContactTask,
-    DampingTask,
-    FrameOrientationTask,
-    FramePoseTask,
-    FramePositionTask,
-    JointLimitDampingTask,
-    PostureTask,
-    SwingFootOrientationTask,
-    Task,
-    TorsoOrientationTask,
-)
+from .tasks import ContactTask, Task
 from .tasks.task import STACK_TYPES
 
 ROLES = ("support", "swing")
@@ -68,47 +60,6 @@ def _check_keys(cls, kw: dict) -> None:
         raise TaskError(f"{cls.__name__} takes no {bad}; its keys: {allowed}")
 
 
-def _frame_task(cls) -> Callable[..., Task]:
-    def make(robot: Robot, frame: str, name: str | None, **kw) -> Task:
-        _check_keys(cls, kw)
-        return cls(robot, frame, name=name, **kw)
-
-    return make
-
-
-def _frameless(cls, default_name: str) -> Callable[..., Task]:
-    def make(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
-        if frame is not None:
-            raise TaskError(f"task type for {cls.__name__} takes no 'frame'")
-        _check_keys(cls, kw)
-        return cls(robot, name=name or default_name, **kw)
-
-    return make
-
-
-def _stack_type(cls: type[Task]) -> Callable[..., Task]:
-    """The maker of a task type that joined :data:`wbc.tasks.task.STACK_TYPES`."""
-    if "frame" in inspect.signature(cls).parameters:
-        return _frame_task(cls)
-    return _frameless(cls, str(cls.stack_type))
-
-
-def _torso(robot: Robot, frame: str | None, name: str | None, **kw) -> Task:
-    return TorsoOrientationTask(robot, frame or "torso", name=name, **kw)
-
-
-TASK_TYPES: dict[str, Callable[..., Task]] = {
-    "com": _frameless(ComTask, "com"),
-    "frame_position": _frame_task(FramePositionTask),
-    "frame_orientation": _frame_task(FrameOrientationTask),
-    "frame_pose": _frame_task(FramePoseTask),
-    "contact": _frame_task(ContactTask),
-    "swing_foot_orientation": _frame_task(SwingFootOrientationTask),
-    "torso_orientation": _torso,
-    "posture": _frameless(PostureTask, "posture"),
-    "damping": _frameless(DampingTask, "damping"),
-    "joint_limit_damping": _frameless(JointLimitDampingTask, "joint_limit_damping"),
-}
 CONSTRAINT_TYPES = ("com_polygon", "ground_clearance", "self_collision")
 
 
@@ -118,6 +69,18 @@ class RoleBinding:
 
     role: str | None
     phases: tuple[str, ...]
+
+
+@dataclass
+class _PhaseMoves:
+    """A support phase's bindings, in the order :meth:`ControlStack.set_phase` applies them:
+    role-bound frames, CoM polygons' soles, phase switches, contacts (active or not)."""
+
+    version: tuple[int, int]
+    frames: list[tuple[Any, str]] = field(default_factory=list)
+    polygons: list[tuple[Any, list[str]]] = field(default_factory=list)
+    switches: list[tuple[Any, bool]] = field(default_factory=list)
+    contacts: list[tuple[Any, bool]] = field(default_factory=list)
 
 
 @dataclass
@@ -135,6 +98,8 @@ class ControlStack:
     support: str | None = None
     swing: str | None = None
     _anchored: dict[str, str] = field(default_factory=dict)  # contact task -> anchored sole
+    #: (phase, support, swing) -> what set_phase does then (kept until the stack changes)
+    _phases: dict[tuple, _PhaseMoves] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ roles
     def role_tasks(self, role: str) -> list[Task]:
@@ -156,61 +121,61 @@ class ControlStack:
         ``anchors``: optional {sole frame: pinocchio.SE3} where a contact should be held
         (default: where the sole is now).
         """
-        if phase not in PHASES:
-            raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
-        roles = {"support": support, "swing": swing}
-        bound, polygons = self._phase_items()
-        for item, binding, polygon, contact in bound:
+        entry = self._phases.get((phase, support, swing))
+        if entry is None or entry.version != (self.stack.version, len(self.bindings)):
+            entry = self._phase_moves(phase, support, swing)
+        for item, frame in entry.frames:  # (set when it changes: a lookup and a re-plan)
+            if item.frame != frame:
+                item.set_frame(frame)
+        for item, soles in entry.polygons:  # (always: its polygon is taken afresh)
+            item.set_support(soles)
+        for item, active in entry.switches:
+            item.active = active
+        anchored = self._anchored
+        for item, active in entry.contacts:
             was_active = item.active
-            frame = roles.get(binding.role) if binding.role else None
-            if binding.role and frame is None:
-                item.active = False
-                continue
-            if frame is not None:
-                if polygon:
-                    item.set_support([frame])
-                else:
-                    item.set_frame(frame)  # role-bound: has a frame
-            item.active = phase in binding.phases
-            if (
-                contact
-                and item.active
-                and (not was_active or self._anchored.get(item.name) != item.frame)
-            ):
-                anchor = (anchors or {}).get(item.frame)
+            item.active = active
+            if active and (not was_active or anchored.get(item.name) != item.frame):
+                anchor = None if anchors is None else anchors.get(item.frame)
                 if anchor is None:
                     item.make_contact(kin)
                 else:
                     item.set_target(anchor)
-                self._anchored[item.name] = item.frame
-        if polygons:
-            soles = [support] if phase == "single" or swing is None else [support, swing]
-            for c in polygons:
-                c.set_support(soles)
+                anchored[item.name] = item.frame
         self.phase, self.support, self.swing = phase, support, swing
 
-    def _phase_items(self) -> tuple[list, list]:
-        """What :meth:`set_phase` visits: each role-bound task or constraint with its binding,
-        whether it is a CoM polygon and whether a contact; the CoM polygons without a binding.
-        Kept until the stack changes (a support switch is on a control loop's clock)."""
-        key = (self.stack.version, len(self.bindings))
-        cached = self.__dict__.get("_phase_cache")
-        if cached is None or cached[0] != key:
-            tasks, constraints = self.stack.members()
-            members: list[Any] = [*tasks, *constraints]
-            bound = [
-                (item, b, isinstance(item, ComPolygonConstraint), isinstance(item, ContactTask))
-                for item in members
-                for b in [self.bindings.get(item.name)]
-                if b is not None
-            ]
-            polygons = [
-                c
-                for c in constraints
-                if isinstance(c, ComPolygonConstraint) and self.bindings.get(c.name) is None
-            ]
-            cached = self.__dict__["_phase_cache"] = (key, bound, polygons)
-        return cached[1], cached[2]
+    def _phase_moves(self, phase: str, support: str, swing: str | None) -> _PhaseMoves:
+        """What :meth:`set_phase` makes of the role-bound tasks and constraints in this phase,
+        worked out once per (phase, support, swing) and kept until the stack changes (a
+        support switch is on a control loop's clock: it then only compares and sets)."""
+        if phase not in PHASES:
+            raise TaskError(f"phase must be one of {PHASES}, got {phase!r}")
+        version = (self.stack.version, len(self.bindings))
+        if any(e.version != version for e in self._phases.values()):
+            self._phases.clear()
+        roles = {"support": support, "swing": swing}
+        soles = [support] if phase == "single" or swing is None else [support, swing]
+        entry = _PhaseMoves(version)
+        tasks, constraints = self.stack.members()
+        members: list[Task | Constraint] = [*tasks, *constraints]
+        for item in members:
+            polygon = isinstance(item, ComPolygonConstraint)
+            binding = self.bindings.get(item.name)
+            if binding is None:
+                if polygon:  # (no binding: it follows the phase's soles)
+                    entry.polygons.append((item, soles))
+                continue
+            frame = roles.get(binding.role) if binding.role else None
+            if frame is not None:
+                if polygon:
+                    entry.polygons.append((item, [frame]))
+                else:
+                    entry.frames.append((item, frame))
+            active = phase in binding.phases and not (binding.role and frame is None)
+            kind = entry.contacts if isinstance(item, ContactTask) else entry.switches
+            kind.append((item, active))
+        self._phases[(phase, support, swing)] = entry
+        return entry
 
     def forget_anchors(self) -> None:
         """The next :meth:`set_phase` anchors every active contact afresh."""
@@ -301,6 +266,7 @@ def build_stack(
         "method",
         "levels",
         "on_infeasible",
+        "import",
     }
     if unknown:
         raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
@@ -310,6 +276,8 @@ def build_stack(
     levels = spec.get("levels")
     if not isinstance(levels, list) or not levels:
         raise TaskError(f"{where}: needs at least one [[levels]] entry")
+    if "import" in spec:
+        import_task_modules(spec["import"], _named_types(levels), source)
     q = robot.configuration("stand") if q is None else robot.check_configuration(q)
     kin = Kinematics(robot, q)
     velocity_limits = spec.get("velocity_limits", True)
@@ -366,24 +334,124 @@ def build_stack(
     return control
 
 
+def _named_types(levels: list) -> set[str]:
+    """The task types a stack's levels name (malformed entries are left to their checks)."""
+    return {
+        entry["type"]
+        for level in levels
+        if isinstance(level, dict) and isinstance(level.get("tasks"), list)
+        for entry in level["tasks"]
+        if isinstance(entry, dict) and isinstance(entry.get("type"), str)
+    }
+
+
+_IMPORT_RULE = (
+    'import = ["module", ...]: names of Python modules defining task types (Task subclasses '
+    "with a stack_type), looked for beside the stack file, then on the Python path"
+)
+
+
+def import_task_modules(names: Any, named: set[str], source: str = "<dict>") -> list[ModuleType]:
+    """A stack file's ``import = ["my_tasks", ...]``: import each module — from the stack
+    file's folder first (a ``my_tasks.py`` or a package beside ``source``), then from the
+    Python path — so that the task types it defines (classes setting
+    :attr:`~wbc.tasks.Task.stack_type`) join :data:`wbc.tasks.task.STACK_TYPES`; each module
+    must define at least one type of ``named`` (the types the stack names). A module already
+    imported is not run again. Anything else is one :class:`TaskError` line naming the file,
+    the key and what is allowed."""
+    where = f"task stack {source}"
+    if not (isinstance(names, list) and all(isinstance(n, str) and n for n in names)):
+        raise TaskError(f"{where}: import = {names!r}: {_IMPORT_RULE}")
+    folder = Path(source).resolve().parent if Path(source).is_file() else None
+    modules = []
+    for name in names:
+        if not all(part.isidentifier() for part in name.split(".")):
+            raise TaskError(
+                f"{where}: import = {names!r}: {name!r} is not a module name; {_IMPORT_RULE}"
+            )
+        module = _import_beside(name, folder, where)
+        defined = sorted(
+            kind
+            for kind, cls in STACK_TYPES.items()
+            if cls.__module__ == name
+            or cls.__module__.startswith(name + ".")
+            or getattr(module, cls.__name__, None) is cls
+        )
+        if not set(defined) & named:
+            raise TaskError(
+                f"{where}: import {name!r} ({getattr(module, '__file__', name)}) defines no task "
+                f"type the stack names (it defines {defined}; the stack names {sorted(named)}): "
+                'a task class sets stack_type = "its_type"'
+            )
+        modules.append(module)
+    return modules
+
+
+def _import_beside(name: str, folder: Path | None, where: str) -> ModuleType:
+    """Module ``name``, found in ``folder`` first (on the path only for the import: the
+    module may import its neighbours), else on the Python path."""
+    top = name.split(".", 1)[0]
+    beside = None
+    if folder is not None:
+        spec = importlib.machinery.PathFinder.find_spec(top, [str(folder)])
+        beside = spec.origin if spec is not None and spec.origin else None
+    loaded = sys.modules.get(top)
+    if beside is not None and loaded is not None:
+        if Path(getattr(loaded, "__file__", "") or "").resolve() != Path(beside).resolve():
+            raise TaskError(
+                f"{where}: import {name!r}: {beside} is beside the file, but another module "
+                f"{top!r} is loaded ({getattr(loaded, '__file__', 'built in')}): rename one"
+            )
+    added = beside is not None
+    if added:  # (first: the module beside the file wins over one of its name on the path)
+        sys.path.insert(0, str(folder))
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and (name == exc.name or name.startswith(exc.name + ".")):
+            raise TaskError(
+                f"{where}: import {name!r}: no such module "
+                f"{'beside the file (' + str(folder) + ') nor ' if folder else ''}on the Python "
+                f"path; {_IMPORT_RULE}"
+            ) from None
+        raise TaskError(f"{where}: import {name!r}: {exc}") from exc
+    except WbcError as exc:  # (e.g. a stack_type another class holds)
+        raise TaskError(f"{where}: import {name!r}: {exc}") from exc
+    except Exception as exc:  # (its own error while importing: one line, the cause chained)
+        raise TaskError(f"{where}: import {name!r} failed: {type(exc).__name__}: {exc}") from exc
+    finally:
+        if added:
+            sys.path.remove(str(folder))
+
+
 def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, RoleBinding | None]:
+    """A task entry -> its class of :data:`wbc.tasks.task.STACK_TYPES` (the package's and the
+    stack's ``import`` modules' types, one table), built with the entry's keys."""
     if not isinstance(entry, dict) or "type" not in entry:
         raise TaskError(f"{where}: level {priority}: each task needs a 'type'")
     kind = entry["type"]
-    own = None if kind in TASK_TYPES else STACK_TYPES.get(kind)
-    if kind not in TASK_TYPES and own is None:
-        known = sorted({*TASK_TYPES, *STACK_TYPES})
-        raise TaskError(f"{where}: unknown task type {kind!r}; known: {known}")
-    if own is not None:
-        keys = set(own.stack_keys)
-    else:
-        keys = {"axis"} if kind == "torso_orientation" else set()
+    cls = STACK_TYPES.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise TaskError(
+            f"{where}: unknown task type {kind!r}; known: {sorted(STACK_TYPES)} (a type of "
+            'your own: import = ["its_module"] in the file)'
+        )
+    keys = set(cls.stack_keys)
     extra = set(entry) - _TASK_KEYS - keys
     if extra:
         raise TaskError(f"{where}: task {kind!r} has unknown keys {sorted(extra)}")
     frame = entry.get("frame")
     role = frame if frame in ROLES else None
-    if role and own is not None and not hasattr(own, "set_frame"):
+    name = entry.get("name")
+    if name is None:
+        name = kind if frame is None else f"{kind}_{frame}"
+    at = f"{where}: level {priority}: task {name!r}"
+    takes_frame = inspect.signature(cls).parameters.get("frame")
+    if frame is not None and takes_frame is None:
+        raise TaskError(f"{at}: task type for {cls.__name__} takes no 'frame'")
+    if frame is None and takes_frame is not None and takes_frame.default is takes_frame.empty:
+        raise TaskError(f"{at}: task {kind!r} needs a 'frame' (a frame name or a role {ROLES})")
+    if role and not hasattr(cls, "set_frame"):
         raise TaskError(
             f"{where}: task {kind!r}: frame = {frame!r}: give a frame name (the roles"
             f" {ROLES} bind only tasks with a set_frame method)"
@@ -391,18 +459,17 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
     phases = tuple(entry.get("phases", PHASES))
     if not set(phases) <= set(PHASES):
         raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
-    actual = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame) if frame else frame
-    name = entry.get("name")
-    if name is None:
-        name = kind if frame is None else f"{kind}_{frame}"
     kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
-    _check_numbers(kw, f"{where}: level {priority}: task {name!r}")
+    _check_numbers(kw, at)
     kw.update({k: entry[k] for k in keys if k in entry})
-    make = TASK_TYPES[kind] if own is None else _stack_type(own)
     try:
-        task = make(robot, actual, name, **kw)
+        _check_keys(cls, kw)
+        if frame is not None:  # (a role: the left sole until the first set_phase)
+            kw["frame"] = {"support": "l_sole", "swing": "r_sole"}.get(frame, frame)
+        make: Callable[..., Task] = cls  # (a task type's __init__ takes the robot first)
+        task = make(robot, name=name, **kw)
     except WbcError as exc:
-        raise TaskError(f"{where}: level {priority}: task {name!r}: {exc}") from exc
+        raise TaskError(f"{at}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
     return task, binding
 
@@ -528,26 +595,14 @@ def _names_absent_links(pair: Any, links: set[str]) -> bool:
 
 
 def _initial_targets(control: ControlStack, kin: Kinematics, given: set[str]) -> None:
-    """Targets = the current state: contacts where the soles are, posture = q; a task type of
-    :data:`wbc.tasks.task.STACK_TYPES` by its ``set_target_from`` unless its entry (``given``)
-    sets its target."""
+    """Targets = the current state: contacts where the soles are, every other task with a
+    ``set_target_from`` (CoM, frames, posture, a user's type) by it, unless its entry
+    (``given``) sets its target."""
     for task in control.stack.tasks():
         if task.name in given:
             continue
-        if type(task).stack_type is not None and hasattr(task, "set_target_from"):
-            task.set_target_from(kin)
-        elif isinstance(task, ContactTask):
+        if isinstance(task, ContactTask):
             task.make_contact(kin)
-        elif isinstance(
-            task,
-            (
-                ComTask,
-                FramePositionTask,
-                FrameOrientationTask,
-                FramePoseTask,
-                SwingFootOrientationTask,
-                PostureTask,
-            ),
-        ):
+        elif hasattr(task, "set_target_from"):
             task.set_target_from(kin)
     control.set_phase("double", "l_sole", "r_sole", kin)

@@ -31,6 +31,7 @@ class ComTask(Task):
     dim = 3
     row_kernel = staticmethod(com_rows)
     target_fields = ("target",)
+    stack_type = "com"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(
         self,

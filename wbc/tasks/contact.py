@@ -16,6 +16,8 @@ class ContactTask(FramePoseTask):
     weight; one per sole for single support, two for double support.
     """
 
+    stack_type = "contact"  # its `type` in stack files (wbc.tasks.task.register)
+
     def __init__(
         self,
         robot: Robot,

@@ -32,6 +32,7 @@ class FrameOrientationTask(FrameTask):
     dim = 3
     row_kernel = staticmethod(orientation_rows)
     target_fields = ("target",)
+    stack_type = "frame_orientation"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(
         self,

@@ -22,6 +22,7 @@ class JointLimitDampingTask(Task):
     """
 
     blocks_convergence = False
+    stack_type = "joint_limit_damping"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(
         self, robot: Robot, name: str = "joint_limit_damping", weight: float = 1e-3

@@ -40,6 +40,7 @@ class PostureTask(Task):
     blocks_convergence = False
     row_kernel = staticmethod(posture_rows)
     target_fields = ("target",)
+    stack_type = "posture"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(
         self,
@@ -76,6 +77,7 @@ class DampingTask(Task):
 
     blocks_convergence = False
     row_kernel = staticmethod(damping_rows)
+    stack_type = "damping"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(
         self,

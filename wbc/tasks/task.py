@@ -17,7 +17,8 @@ overrides ``compute_error``/``compute_jacobian`` instead and runs on the numpy p
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
@@ -45,10 +46,11 @@ RowKernel = Callable[..., None]
 #: their class is defined): every compiled tick dispatches over all of them, plus the kernels
 #: of any other task type its stack holds, so that the usual stacks share one compiled tick
 PACKAGE_KERNELS: list[RowKernel] = []
-#: the task types a stack file (TOML) can name beyond :data:`wbc.stacks.TASK_TYPES`: a class
-#: that sets :attr:`Task.stack_type` joins when it is defined, in the package or out of it
-#: (a later class of the same name replaces it: a notebook cell run again)
-STACK_TYPES: dict[str, type[Task]] = {}
+#: the one table of task types a stack file (TOML) can name, ``type`` -> class: the package's
+#: and a user's alike, entered by :func:`register` only (its one writer; a class that sets its
+#: own :attr:`Task.stack_type` is registered when it is defined). Read-only here
+_STACK_TYPES: dict[str, type[Task]] = {}
+STACK_TYPES: Mapping[str, type[Task]] = MappingProxyType(_STACK_TYPES)
 #: a task weight is 0 (its rows off) or within this range: the solvers' problems are scaled
 #: for it (regularization 1e-6 beside weights up to 1e6; a weight of 1e30 made the weighted
 #: Hessian's condition 1e36 and failed a walk's ticks as "infeasible", issue 28). Only the
@@ -118,8 +120,8 @@ class Task:
             name in own for name in ("compute_error", "compute_jacobian", "fill")
         ):
             cls.row_kernel = None  # its own Python rows: the inherited kernel no longer applies
-        if own.get("stack_type"):
-            STACK_TYPES[own["stack_type"]] = cls
+        if own.get("stack_type") is not None:
+            register(cls)
         for name in own.get("target_fields", ()):
             if not isinstance(own.get(name), property):  # (a class's own accessors stay)
                 setattr(cls, name, _TargetField(name))
@@ -289,6 +291,33 @@ class Task:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, rows={self.rows}, gain={self.gain})"
+
+
+def register(cls: type[Task]) -> type[Task]:
+    """Enter ``cls`` in :data:`STACK_TYPES` under its :attr:`~Task.stack_type` (the one place
+    that reads it); returns ``cls``. A class that sets its own ``stack_type`` is registered when
+    it is defined; call this for one that inherits it. A name another class holds raises
+    :class:`TaskError` naming both (a built-in is never shadowed); the same class again, or a
+    class of the same module and qualified name (a notebook cell run again), replaces it."""
+    if not (isinstance(cls, type) and issubclass(cls, Task)):
+        raise TaskError(f"register takes a Task subclass, got {cls!r}")
+    name = cls.stack_type
+    where = f"{cls.__module__}.{cls.__qualname__}"
+    if not isinstance(name, str) or not name.isidentifier():
+        raise TaskError(f"{where}: stack_type must be a name (letters, digits and _), got {name!r}")
+    keys = cls.stack_keys
+    if not isinstance(keys, tuple) or not all(isinstance(k, str) for k in keys):
+        raise TaskError(f"{where}: stack_keys must be a tuple of key names, got {keys!r}")
+    held = _STACK_TYPES.get(name)
+    if held is not None and held is not cls:
+        same = (held.__module__, held.__qualname__) == (cls.__module__, cls.__qualname__)
+        if not same:
+            raise TaskError(
+                f"stack_type {name!r} of {where} is already the type of "
+                f"{held.__module__}.{held.__qualname__}: give one of them another stack_type"
+            )
+    _STACK_TYPES[name] = cls
+    return cls
 
 
 class _TargetField:

@@ -54,6 +54,7 @@ class SwingFootOrientationTask(FrameTask):
     dim = 2
     row_kernel = staticmethod(swing_axes_rows)
     target_fields = ("target",)
+    stack_type = "swing_foot_orientation"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(
         self,
@@ -84,6 +85,8 @@ class TorsoOrientationTask(FrameTask):
     dim = 1
     row_kernel = staticmethod(torso_axis_rows)
     target_fields = ("axis",)
+    stack_type = "torso_orientation"  # its `type` in stack files (wbc.tasks.task.register)
+    stack_keys = ("axis",)
 
     def __init__(
         self,
