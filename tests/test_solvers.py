@@ -313,24 +313,24 @@ def test_a_pose_checks_its_time_budget_inside_a_solve_that_steps_back_onto_the_h
     robot, monkeypatch
 ):
     """A solve from a start outside the limits walks its step back onto the hard levels
-    (Gauss–Newton steps and halvings, :meth:`StackSolver._on_hard_levels`): inside a pose,
+    (Gauss–Newton steps and halvings, :meth:`Recovery.on_hard_levels`): inside a pose,
     that work checks the time budget too (issue 28: an OSQP hierarchy's pose overran its
     budget inside such solves, where nothing checked it). A clock that jumps once the pose
     is inside that work: the pose stops there, naming its budget."""
-    from wbc.solvers import base
+    from wbc.solvers import budget, recovery
 
     q, _ = random_start(robot, 3, outside=0.05)
     solver = HierarchicalQP(walking_stack(robot, q), "daqp", compiled=False)
-    real = base.time.perf_counter
+    real = budget.time.perf_counter
     clock = {"jump": 0.0}
-    monkeypatch.setattr(base.time, "perf_counter", lambda: real() + clock["jump"])
-    longest = base.StackSolver._longest_exact
+    monkeypatch.setattr(budget.time, "perf_counter", lambda: real() + clock["jump"])
+    longest = recovery.Recovery.longest_exact
 
     def late(self, *args, **kwargs):
         clock["jump"] += 100.0  # (the work inside runs past the budget)
         return longest(self, *args, **kwargs)
 
-    monkeypatch.setattr(base.StackSolver, "_longest_exact", late)
+    monkeypatch.setattr(recovery.Recovery, "longest_exact", late)
     with pytest.raises(SolverError, match=r"time budget of 10 s \(time_budget\) at iteration 1"):
         solver.solve_pose(q, max_iterations=5, time_budget=10.0)
 
@@ -342,18 +342,18 @@ def test_a_pose_whose_end_cannot_be_projected_ends_at_its_last_iterate_on_the_ha
     no projection of their end got back onto them. The pose then ends at the last iterate
     that held them (here the start: every projection is made to fail), not converged, on its
     contacts (it raises only when no iterate held them, as before)."""
-    from wbc.solvers import base
+    from wbc.solvers import projection
 
     q = robot.configuration("walk_ready")
     stack = walking_stack(robot, q, com_shift=(0.03, 0.02, 0.0))
     solver = HierarchicalQP(stack, "daqp", compiled=False)
-    project = base.StackSolver._project
+    project = projection.HardLevels.project
 
     def failing(self, q_in, tol, *args, **kwargs):
         q_out, errors = project(self, q_in, tol, *args, **kwargs)
         return q_out, [max(e, 1e-5) for e in errors]  # as if 1e-5 were the closest
 
-    monkeypatch.setattr(base.StackSolver, "_project", failing)
+    monkeypatch.setattr(projection.HardLevels, "project", failing)
     result = solver.solve_pose(q, max_iterations=10)
     assert not result.converged and result.fell_back
     kin = Kinematics(robot, result.q)
@@ -563,26 +563,26 @@ def test_a_ticks_recovery_does_a_bounded_number_of_gauss_newton_steps(
 ):
     """The work of a tick from a start inside a self-collision margin (and outside the joint
     limits) is bounded by a stated constant, counted in Gauss–Newton steps onto the hard
-    levels (each one cascade of level QPs, :meth:`_hard_step`), not in wall time (issue 28:
+    levels (each one cascade of level QPs, :meth:`HardLevels.step`), not in wall time (issue 28:
     such ticks took up to 275 ms). Stress trial 59 (weighted, double support, 42 rows of
     pairs inside their margin, joints 0.043 rad outside) spends 4 at its first tick; capped
     at 1, it spends 1 and still returns a tick inside the limits (the recovery's step)."""
-    from wbc.solvers import base
+    from wbc.solvers import projection, recovery, rows
 
     if cap is not None:
-        monkeypatch.setattr(base, "TICK_RECOVERY_STEPS", cap)
-    bound = base.TICK_RECOVERY_STEPS
+        monkeypatch.setattr(recovery, "TICK_RECOVERY_STEPS", cap)
+    bound = recovery.TICK_RECOVERY_STEPS
     steps = []
-    hard_step = base.StackSolver._hard_step
+    hard_step = projection.HardLevels.step
     monkeypatch.setattr(
-        base.StackSolver, "_hard_step", lambda self, *a: steps.append(1) or hard_step(self, *a)
+        projection.HardLevels, "step", lambda self, *a: steps.append(1) or hard_step(self, *a)
     )
     p = stress_script.draw(robot, np.random.default_rng([2024, 59]), ["daqp"])
     q = stress_script.start(robot, p)
     solver, *_ = stress_script.walk_stack(robot, q, p["kind"], "daqp", False, p["double"])
     kin = Kinematics(robot, q)
     inside = [c for lv in solver.stack.levels for c in lv.active_constraints()]
-    assert base.split_rows(inside, kin, robot.nv).h_inside.size  # a start inside a margin
+    assert rows.split_rows(inside, kin, robot.nv).h_inside.size  # a start inside a margin
     q_next = solver.step(q, 0.01)
     assert len(steps) == solver.recovery_steps <= bound
     assert solver.recovery_steps == (4 if cap is None else 1)
@@ -599,7 +599,7 @@ def test_an_infeasible_tick_that_recovers_runs_no_diagnosis(
     runs only when the recovery cannot answer the tick (issue 28: half of the time of ticks
     from starts inside a collision margin or outside the limits); an unrecoverable tick
     still raises the diagnosed message."""
-    from wbc.solvers import base
+    from wbc.solvers import recovery
     from wbc.solvers.weighted import WeightedQP as Weighted
 
     calls = []
@@ -612,10 +612,10 @@ def test_an_infeasible_tick_that_recovers_runs_no_diagnosis(
 
         monkeypatch.setattr(cls, name, counted)
     recoveries = []
-    recover = base.StackSolver._solve_recovering
+    recover = recovery.Recovery.solve
     monkeypatch.setattr(
-        base.StackSolver,
-        "_solve_recovering",
+        recovery.Recovery,
+        "solve",
         lambda self, *a: recoveries.append(1) or recover(self, *a),
     )
     p = stress_script.draw(robot, np.random.default_rng([2024, trial]), ["daqp"])
