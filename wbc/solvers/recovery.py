@@ -377,7 +377,7 @@ class Recovery:
                 if lv.hard:
                     block.fill_into(kin, block.J, block.b)
                     asks.append(rows)
-                    hard.append(level_problem(lv.priority, block, rows, hard=True))
+                    hard.append(_level_problem(lv.priority, block, rows, hard=True))
                 else:  # a soft level's rows are soft anyway: all of them, as in the solver
                     block.fill_weighted(kin)
                     G = np.vstack([rows.G, rows.G_inside])
@@ -389,7 +389,7 @@ class Recovery:
             constraints = [c for lv in levels for c in lv.active_constraints()]
             rows = split_rows(constraints, kin, nv, recovering)
             asks.append(rows)
-            hard.append(level_problem(0, block, rows, hard=True))
+            hard.append(_level_problem(0, block, rows, hard=True))
             block = TaskBlock([t for lv in levels if not lv.hard for t in lv.active_tasks()], nv)
             block.fill_weighted(kin)
             soft.append(LevelProblem(1 << 30, block.J, block.b, *no_rows(nv)))
@@ -415,7 +415,7 @@ class Recovery:
             # then held there, a hair looser (SEPARATION_SLACK): rows held exactly at their
             # best are often pinned against a joint bound, which makes the lower levels'
             # active sets degenerate
-            hard = [with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
+            hard = [_with_requests(p, r, best) for p, r in zip(hard, asks, strict=True)]
         problems = [
             *hard,
             *recovery,
@@ -434,7 +434,7 @@ class Recovery:
         return dq, unmet
 
 
-def with_requests(problem: LevelProblem, rows: SplitRows, dq: np.ndarray) -> LevelProblem:
+def _with_requests(problem: LevelProblem, rows: SplitRows, dq: np.ndarray) -> LevelProblem:
     """A hard level with the requests of its self-collision pairs inside the margin added as
     rows held where ``dq`` (their best achievable separation) leaves them, plus
     :data:`SEPARATION_SLACK`."""
@@ -451,6 +451,6 @@ def with_requests(problem: LevelProblem, rows: SplitRows, dq: np.ndarray) -> Lev
     )  # fmt: skip
 
 
-def level_problem(priority: int, block: TaskBlock, rows: SplitRows, hard: bool) -> LevelProblem:
+def _level_problem(priority: int, block: TaskBlock, rows: SplitRows, hard: bool) -> LevelProblem:
     """A level of the block's rows (as filled) and the held rows of ``rows``."""
     return LevelProblem(priority, block.J, block.b, rows.G, rows.h, hard, block.slices, rows.slices)
