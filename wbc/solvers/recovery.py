@@ -275,7 +275,7 @@ class Recovery:
         the pair held was a 0.075 rad detour the box did not allow. A pair so taken inside
         moves back out at the damper's rate from the next tick on."""
         q0 = kin.q.copy()
-        start_errors = self.hard.errors(kin)  # (_restore_steps leaves kin at q0)
+        start_errors = self.hard.errors(kin)  # (restore_steps leaves kin at q0)
         q, errors = self.restore_steps(kin, lower, upper, start_errors, 0.0)
         if max(errors, default=0.0) > self.settings.hard_tol:
             # undoing the drift may cost the rows at most the drift's own size
