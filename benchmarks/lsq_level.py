@@ -137,11 +137,31 @@ def timer(mod):
     return run
 
 
-def load(path, name):
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def load(sources: dict[str, str], name: str, tmp: Path):
+    """The solver's modules (``wbc/compiled/lsq*.py`` and what they import) as package
+    ``name`` in ``tmp``, its ``lsq`` module."""
+    package = tmp / name
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    for file, text in sources.items():
+        (package / file).write_text(text)
+    sys.path.insert(0, str(tmp))
+    return importlib.import_module(f"{name}.lsq")
+
+
+def sources_at(rev: str) -> dict[str, str]:
+    """The solver's files at git revision ``rev``."""
+    files = subprocess.run(
+        ["git", "ls-tree", "--name-only", rev, "wbc/compiled/"],
+        capture_output=True, text=True, check=True,
+    ).stdout.split()  # fmt: skip
+    return {
+        Path(f).name: subprocess.run(
+            ["git", "show", f"{rev}:{f}"], capture_output=True, text=True, check=True
+        ).stdout
+        for f in files
+        if Path(f).name.startswith("lsq") or Path(f).name == "_cache.py"
+    }
 
 
 def main():
@@ -149,17 +169,14 @@ def main():
     parser.add_argument("--rev", default="HEAD")
     args = parser.parse_args()
     tmp = Path(tempfile.mkdtemp())
-    (tmp / "lsq_rev.py").write_text(
-        subprocess.run(
-            ["git", "show", f"{args.rev}:wbc/compiled/lsq.py"],
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout
-    )
+    tree = {
+        f.name: f.read_text()
+        for f in Path("wbc/compiled").glob("*.py")
+        if f.name.startswith("lsq") or f.name == "_cache.py"
+    }
     mods = {
-        args.rev: load(tmp / "lsq_rev.py", "lsq_rev"),
-        "working tree": load("wbc/compiled/lsq.py", "lsq_tree"),
+        args.rev: load(sources_at(args.rev), "lsq_rev", tmp),
+        "working tree": load(tree, "lsq_tree", tmp),
     }
     weighted, hier = capture()
     timers = {k: timer(m) for k, m in mods.items()}

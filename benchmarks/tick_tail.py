@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from wbc import WbcError, load_robot
-from wbc.solvers.base import TICK_RECOVERY_STEPS
+from wbc.solvers.recovery import TICK_RECOVERY_STEPS
 
 
 def main() -> None:

@@ -14,8 +14,7 @@ from .exceptions import (
 )
 from .model import Kinematics, Robot, available_robots, load_robot
 from .servo_map import ServoMap, ServoSpec
-
-__version__ = "0.1.0"
+from .version import __version__ as __version__
 
 #: sub-modules reachable as attributes after a plain ``import wbc`` (imported on first use)
 _SUBMODULES = (

@@ -46,7 +46,7 @@ def support_hull(support: int, left: np.ndarray, right: np.ndarray) -> np.ndarra
     ``SUPPORT_LEFT``, ``SUPPORT_RIGHT``); ``left``/``right``: each sole's corners (k, 2 or 3).
     Raises :class:`~wbc.exceptions.ConfigurationError` for another code."""
     from .exceptions import ConfigurationError
-    from .recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
+    from .types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 
     parts = {
         SUPPORT_DOUBLE: (left, right),

@@ -14,8 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from .model import Robot
-from .solvers import HierarchicalQP, TaskStack
-from .solvers.base import PoseResult
+from .solvers import HierarchicalQP, PoseResult, TaskStack
 from .tasks import FramePoseTask, PostureTask
 
 

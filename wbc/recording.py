@@ -35,11 +35,11 @@ from typing import Any
 import numpy as np
 
 from .exceptions import TrajectoryError
-
-SUPPORT_DOUBLE = 0
-SUPPORT_LEFT = 1
-SUPPORT_RIGHT = 2
-SUPPORT_NAMES = {SUPPORT_DOUBLE: "double", SUPPORT_LEFT: "left", SUPPORT_RIGHT: "right"}
+from .types import SUPPORT_DOUBLE as SUPPORT_DOUBLE
+from .types import SUPPORT_LEFT as SUPPORT_LEFT
+from .types import SUPPORT_NAMES as SUPPORT_NAMES
+from .types import SUPPORT_RIGHT as SUPPORT_RIGHT
+from .version import __version__
 
 
 @dataclass
@@ -304,8 +304,6 @@ PLAYABLE_LIMIT_TOL = 1e-3
 def assess(rec: Recording, hard_failed_ticks: int = 0, first_failure: str = "") -> dict[str, Any]:
     """The validity record of a run (module docstring), from its ``failed`` and
     ``limit_margin`` channels and its ``meta`` (``controller``, ``robot``)."""
-    from . import __version__
-
     failed = int(np.count_nonzero(rec.channels["failed"])) if "failed" in rec.channels else 0
     limits = 0
     if "limit_margin" in rec.channels:

@@ -32,15 +32,26 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
 
 from .exceptions import ModelError
 
-if TYPE_CHECKING:
-    from .model import Robot
+
+class Robot(Protocol):
+    """What the roles read of a robot (:class:`wbc.model.Robot`; roles rank below it, which
+    asks for them: :attr:`wbc.model.Robot.roles`)."""
+
+    name: str
+    model: pin.Model
+
+    def configuration(self, name: str) -> np.ndarray: ...
+    def neutral(self) -> np.ndarray: ...
+    def has_frame(self, name: str) -> bool: ...
+    def frame_id(self, name: str) -> int: ...
+
 
 #: a leg's joints, from the torso down (the order every leg-joint tuple of wbc uses)
 LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")

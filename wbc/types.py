@@ -19,3 +19,11 @@ class Solution(NamedTuple):
     lower: np.ndarray
     upper: np.ndarray
     q_next: np.ndarray | None = None
+
+
+#: the support codes of a tick (which soles bear the weight): the ``support`` channel of a
+#: recording (:mod:`wbc.recording`, which exports them) and :func:`wbc.geometry.support_hull`
+SUPPORT_DOUBLE = 0
+SUPPORT_LEFT = 1
+SUPPORT_RIGHT = 2
+SUPPORT_NAMES = {SUPPORT_DOUBLE: "double", SUPPORT_LEFT: "left", SUPPORT_RIGHT: "right"}

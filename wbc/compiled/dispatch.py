@@ -451,7 +451,8 @@ def ticks(kernels: tuple) -> Ticks:
     cache = all(f is not None for f in files)
     text = source(kernels, cache)
     h = hashlib.sha256(text.encode())
-    for f in [*files, _HERE / "rows.py", _HERE / "ticks.py", _HERE / "lsq.py", _HERE / "checks.py"]:
+    lsq = [_HERE / "lsq.py", _HERE / "lsq_subproblem.py", _HERE / "lsq_linalg.py"]
+    for f in [*files, _HERE / "rows.py", _HERE / "ticks.py", *lsq, _HERE / "checks.py"]:
         if f is not None:
             h.update(f.read_bytes())
     name = f"wbc_tick_{h.hexdigest()[:20]}"

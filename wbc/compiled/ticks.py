@@ -636,5 +636,5 @@ refresh(
         cascade_solve,
         integrate,
     ],
-    [Path(__file__).with_name("lsq.py")],
+    [Path(__file__).with_name(f) for f in ("lsq.py", "lsq_subproblem.py", "lsq_linalg.py")],
 )

@@ -1,8 +1,9 @@
 """Stack solvers: weighted QP (VAT) and lexicographic QP (CJ) over task stacks."""
 
 from .backends import BACKENDS, QPBackend, make_backend
-from .base import PoseResult, StackSolver
+from .base import StackSolver
 from .hierarchical import HierarchicalQP
+from .pose import PoseResult, solve_pose
 from .stack import Level, TaskStack
 from .weighted import WeightedQP
 
@@ -16,4 +17,5 @@ __all__ = [
     "TaskStack",
     "WeightedQP",
     "make_backend",
+    "solve_pose",
 ]

@@ -370,3 +370,11 @@ def make_backend(name: str, eps: float = 1e-9) -> QPBackend:
         raise ConfigurationError(
             f"unknown QP backend {name!r}; choose from {sorted(BACKENDS)}"
         ) from None
+
+
+def daqp_for(problems: list) -> list[QPBackend]:
+    """One DAQP backend per level, whatever the solver's backend, for the rare re-solves of
+    infeasible ticks (the recovery, the diagnosis and ``on_infeasible="relax"``): an exact
+    active set (a first-order backend's iteration caps on these degenerate levels cost
+    seconds per tick, to fall back to DAQP in the end)."""
+    return [make_backend("daqp") for _ in problems]

@@ -26,15 +26,11 @@ from ..exceptions import ConfigurationError, InfeasibleError, SolverError
 from ..model import Kinematics
 from ..types import CONSTRAINT_TOL, Solution
 from .assembly import TaskBlock, stack_constraints
-from .backends import QPBackend, make_backend
-from .base import (
-    HARD_TOL_RANGE,
-    StackSolver,
-    Undiagnosed,
-    check_number,
-)
+from .backends import QPBackend, daqp_for, make_backend
+from .base import HARD_TOL_RANGE, StackSolver, check_number
 from .cascade import LevelProblem, LevelSolution, solve_cascade, solve_cascade_or_daqp
 from .diagnostics import infeasible_message
+from .recovery import Undiagnosed
 
 METHODS = ("cascade",)
 
@@ -323,9 +319,9 @@ class HierarchicalQP(StackSolver):
 
     def _hard_inequality_message(self, kin, lower, upper) -> str:
         """A hard level's inequalities clash with the bounds: re-solve with slacks to name them."""
-        # DAQP (StackSolver._backends_for): a diagnosis, where a first-order backend's capped
+        # DAQP (daqp_for): a diagnosis, where a first-order backend's capped
         # iterations on these degenerate levels cost seconds
-        backends = self._backends_for([*self.problems, None])
+        backends = daqp_for([*self.problems, None])
         try:
             _, sols = solve_cascade(self.problems, lower, upper, backends, relax=True)
         except (InfeasibleError, SolverError) as exc:  # a level's QP failed: name the levels

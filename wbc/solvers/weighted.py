@@ -20,14 +20,11 @@ from ..exceptions import InfeasibleError, SolverError
 from ..model import Kinematics
 from ..types import CONSTRAINT_TOL, Solution
 from .assembly import TaskBlock, stack_constraints
-from .base import (
-    HARD_TOL_RANGE,
-    StackSolver,
-    Undiagnosed,
-    check_number,
-)
+from .backends import daqp_for
+from .base import HARD_TOL_RANGE, StackSolver, check_number
 from .cascade import LevelProblem, solve_cascade_or_daqp
 from .diagnostics import conflicts, infeasible_message
+from .recovery import Undiagnosed
 
 #: weight of the recovery of joints outside their range (relative to the largest curvature of
 #: the soft tasks) when it has to yield to the hard tasks
@@ -271,9 +268,9 @@ class WeightedQP(StackSolver):
         ]
         G, h, cslices = stack_constraints(soft_constraints, kin, nv)
         problems.append(LevelProblem(1 << 30, value.J, value.b, G, h, constraint_rows=cslices))
-        # DAQP, as the recovery's re-solve (StackSolver._backends_for): a first-order backend's
+        # DAQP, as the recovery's re-solve (daqp_for): a first-order backend's
         # capped iterations on these degenerate levels cost seconds (stress trial 104, OSQP)
-        backends = self._backends_for(problems)
+        backends = daqp_for(problems)
         try:
             dq, sols = solve_cascade_or_daqp(
                 problems,
