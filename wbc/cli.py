@@ -36,6 +36,7 @@ OPTIONAL = {
     "pink": "peers",
     "matplotlib": "plots",
     "mujoco": "physics",
+    "casadi": "mpc",
 }
 
 
