@@ -9,9 +9,9 @@ from pathlib import Path
 
 from wbc.cli import OPTIONAL
 
-PROJECT = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())[
-    "project"
-]
+ROOT = Path(__file__).resolve().parents[1]
+PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
+PROJECT = PYPROJECT["project"]
 EXTRAS: dict[str, list[str]] = PROJECT["optional-dependencies"]
 
 
@@ -38,3 +38,16 @@ def test_every_install_hint_names_an_extra_that_all_includes():
     for module, extra in OPTIONAL.items():
         assert extra in EXTRAS and extra in included, (module, extra)
     assert OPTIONAL["casadi"] == "mpc"
+
+
+def test_a_built_package_holds_every_subpackage():
+    """The wheel ships the packages pyproject lists: every folder of ``wbc/`` with an
+    ``__init__.py`` must be there (``wbc.drive`` was not: ``pip install .`` had no ``wbc
+    drive``; an editable install hid it)."""
+    listed = set(PYPROJECT["tool"]["setuptools"]["packages"])
+    found = {
+        ".".join(p.parent.relative_to(ROOT).parts)
+        for p in (ROOT / "wbc").rglob("__init__.py")
+        if "__pycache__" not in p.parts
+    }
+    assert found - listed == set()
