@@ -9,9 +9,10 @@ These are not the control tasks' rows (:class:`~wbc.tasks.ContactTask`: world-al
 ``[p* − p; log(R* Rᵀ)]``; :class:`~wbc.tasks.ComTask` reads the CoM of
 ``pinocchio.jacobianCenterOfMass(..., False)``, which differs from ``centerOfMass``'s in the
 last bit for most configurations). Both solves feed the sized references (the window their
-torso roll, the feasibility IK the speed fit of ``wbc.walking.sizing``), so either change
-moves recorded references: the task classes' rows alone changed 24 arrays of the benchmark's
-references (Kokone's and the OP3's, up to 2e-9 in a CoM acceleration), the CoM row alone 27.
+torso roll, the feasibility IK the speed fit of :mod:`wbc.walking.sizing`), so a switch moves
+recorded references (2026-12-05): in the feasibility IK the task classes' rows changed 24
+reference arrays of Kokone and the OP3 (up to 2e-9 in a CoM acceleration), its CoM row alone
+27; in the window the Bioloid's reach by 3.9 µm and its roll table by up to 1.9e-5 rad.
 """
 
 from __future__ import annotations
