@@ -11,6 +11,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc import load_robot
+
+pytest.importorskip("casadi")  # the NLP's optional package: pip install "wbc[mpc]"
+
 from wbc.bench.casadi_kinematics import CasadiKinematics, parse_urdf
 from wbc.bench.nlp import NlpController, PoseNLP, PoseTargets
 from wbc.exceptions import ModelError, TaskError

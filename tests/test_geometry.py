@@ -1,16 +1,35 @@
-"""wbc.geometry's angle wrap (the polygons are tested with the walking geometry)."""
+"""wbc.geometry's angle helpers, the one wrap and the one mean of two angles (the polygons
+are tested with the walking geometry)."""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc.geometry import wrap_angle
+from wbc.geometry import mean_angle, wrap_angle
+
+ANGLES = st.floats(-1e4, 1e4)
 
 
-@given(st.floats(-1e4, 1e4))
+def _exact_wrap(a: float) -> float:
+    """``a − 2πk`` in (−π, π] without rounding (fmod is exact, so is the one correction)."""
+    r = math.fmod(a, 2.0 * math.pi)
+    if r > math.pi:
+        r -= 2.0 * math.pi
+    elif r <= -math.pi:
+        r += 2.0 * math.pi
+    return r
+
+
+def _distance(a: float, b: float) -> float:
+    """Distance on the circle (rad, in [0, π])."""
+    return abs(_exact_wrap(a - b))
+
+
+@given(ANGLES)
 def test_wrap_angle_is_in_the_half_open_range_and_the_same_direction(angle):
     """(−π, π], and a whole number of turns away from the angle."""
     w = wrap_angle(angle)
@@ -19,8 +38,66 @@ def test_wrap_angle_is_in_the_half_open_range_and_the_same_direction(angle):
     assert abs(turns - round(turns)) < 1e-9
 
 
+@given(ANGLES)
+def test_wrap_angle_is_within_one_ulp_of_the_exact_wrap(angle):
+    """The one rounding of ``π − a``: one ulp of max(π, |a|) from the exact ``a − 2πk``."""
+    w, exact = wrap_angle(angle), _exact_wrap(angle)
+    assert _distance(w, exact) <= math.ulp(max(math.pi, abs(angle)))
+
+
+@given(st.lists(ANGLES, min_size=1, max_size=8))
+def test_wrap_angle_of_an_array_is_the_scalar_wrap_of_each_element_bit_for_bit(angles):
+    got = wrap_angle(np.array(angles))
+    assert isinstance(got, np.ndarray) and got.shape == (len(angles),)
+    assert got.tolist() == [wrap_angle(a) for a in angles]
+
+
 def test_wrap_angle_ends():
     assert wrap_angle(math.pi) == math.pi
     assert wrap_angle(-math.pi) == math.pi
     assert wrap_angle(0.0) == 0.0
     assert abs(wrap_angle(3 * math.pi / 2) + math.pi / 2) < 1e-15
+
+
+def test_wrap_angle_just_above_pi_is_not_minus_pi():
+    """``(π − a) mod 2π`` rounds up to 2π for ``a`` one ulp above π: the wrap would give −π,
+    outside (−π, π]; it gives π (4.4e-16 from the exact value, like any wrap's rounding)."""
+    above = math.nextafter(math.pi, 4.0)
+    assert wrap_angle(above) == math.pi
+    assert wrap_angle(np.array([above, -math.pi]))[0] == math.pi
+
+
+@given(ANGLES)
+def test_mean_of_an_angle_with_itself_is_the_angle(a):
+    assert mean_angle(a, a) == a
+
+
+@given(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3))
+def test_mean_angle_is_equidistant_on_the_short_arc(a, b):
+    """Half-way: as far from ``a`` as from ``b`` on the circle, within a quarter turn of both."""
+    m = mean_angle(a, b)
+    tol = 1e-12
+    assert abs(_distance(m, a) - _distance(m, b)) <= tol
+    assert _distance(m, a) <= 0.5 * math.pi + tol
+    assert abs(2.0 * _distance(m, a) - _distance(a, b)) <= tol
+
+
+@given(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3))
+def test_mean_angle_is_symmetric(a, b):
+    """mean(a, b) and mean(b, a) are the same heading (unless a and b are opposite, where
+    both half-way headings are equally right)."""
+    if abs(_distance(a, b) - math.pi) < 1e-9:
+        return
+    assert _distance(mean_angle(a, b), mean_angle(b, a)) <= 1e-12
+
+
+@given(st.lists(st.tuples(ANGLES, ANGLES), min_size=1, max_size=8))
+def test_mean_angle_of_arrays_is_the_scalar_mean_of_each_pair_bit_for_bit(pairs):
+    a, b = (np.array(x) for x in zip(*pairs, strict=True))
+    assert mean_angle(a, b).tolist() == [mean_angle(x, y) for x, y in pairs]
+
+
+def test_mean_angle_goes_the_short_way_round():
+    assert abs(mean_angle(3.0, -3.0) - math.pi) < 1e-15  # not 0: across ±π
+    assert mean_angle(0.0, 0.5) == 0.25
+    assert abs(mean_angle(-0.1, 0.1)) < 1e-16

@@ -18,6 +18,8 @@ def test_thesis_step_is_feasible(robot, start, hold_arms):
 
 @pytest.mark.parametrize("gen", ["preview", "mpc", "lipm"])
 def test_walks_are_feasible(robot, start, gen):
+    if gen == "mpc":
+        pytest.importorskip("casadi")
     rep = kinematic_feasibility(robot, forward_walk(start, 4, generator=gen))
     assert rep.feasible, rep
     assert rep.min_limit_margin >= 0.0

@@ -15,6 +15,7 @@ from wbc.model import load_robot
 from wbc.paths import robots_dir
 from wbc.stacks import load_stack
 from wbc.urdf_writer import transform_urdf
+from wbc.walking.checks import check_reference
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.gait import forward_walk
 from wbc.walking.loop import StackController, run
@@ -65,7 +66,9 @@ def walk_figures(robot, trajectory: str, scale: float) -> dict[str, float]:
     out = {k: m[k] / scale for k in KEYS}
     kw = robot_options(robot, trajectory)
     # the reference's own margins
-    report = ref.check(legs=kw["legs"], window=kw["window"], margin=0.0, min_clearance=0.0)
+    report = check_reference(
+        ref, legs=kw["legs"], window=kw["window"], margin=0.0, min_clearance=0.0
+    )
     out["stability_margin_mm"] = report.stability_margin * 1e3 / scale
     out["foot_clearance_mm"] = report.foot_clearance * 1e3 / scale
     out["zmp_margin_min_mm"] = m["zmp_margin_min_mm"] / scale

@@ -5,10 +5,12 @@ differences of the CoM positions alone."""
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
-from wbc.exceptions import TrajectoryError
+from wbc.exceptions import ConfigurationError, TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE
 from wbc.walking import (
     GaitTiming,
@@ -29,13 +31,28 @@ WALKS = {
 }
 
 
+def needs(gen: str) -> None:
+    """Skip unless the generator's optional package is installed (the MPC's casadi)."""
+    if gen == "mpc":
+        pytest.importorskip("casadi")
+
+
+class _Walks(dict):
+    """``walks[gen, name]``: each walk of :data:`WALKS` by each generator, built on first use."""
+
+    def __init__(self, start) -> None:
+        super().__init__()
+        self.start = start
+
+    def __missing__(self, key):
+        gen, name = key
+        self[key] = WALKS[name](self.start, generator=gen)
+        return self[key]
+
+
 @pytest.fixture(scope="module")
 def refs(start):
-    out = {}
-    for gen in ("preview", "mpc", "lipm"):
-        for name, make in WALKS.items():
-            out[gen, name] = make(start, generator=gen)
-    return out
+    return _Walks(start)
 
 
 def zmp_from_acc(ref):
@@ -54,6 +71,7 @@ def zmp_from_positions(ref):
 @pytest.mark.parametrize("walk", list(WALKS))
 @pytest.mark.parametrize("gen", ["preview", "mpc", "lipm"])
 def test_zmp_inside_support_polygon(refs, gen, walk):
+    needs(gen)
     ref = refs[gen, walk]
     z = zmp_from_acc(ref)
     np.testing.assert_allclose(z, ref.zmp, atol=1e-12)
@@ -71,6 +89,7 @@ def test_zmp_inside_support_polygon(refs, gen, walk):
 
 @pytest.mark.parametrize("gen", ["preview", "mpc", "lipm"])
 def test_com_starts_and_ends_at_rest(refs, start, gen):
+    needs(gen)
     for walk in WALKS:
         ref = refs[gen, walk]
         np.testing.assert_allclose(ref.com[0], start.com, atol=1e-9)
@@ -112,6 +131,7 @@ def test_mpc_enforces_the_margin_as_a_constraint(start, walk):
     solution (preview, Kajita's R = 1e-6) violates it, the MPC's inequalities (rotated feet
     too) do not.
     (Hip roll limits off here: they cannot allow a CoM swaying over the sole centres.)"""
+    pytest.importorskip("casadi")
     big = 0.029
     kw = dict(zmp_offset=(0.0, 0.0), margin=big, check=False)
     prev = WALKS[walk](start, generator="preview", preview=PreviewParams(r_input=1e-6), **kw)
@@ -125,6 +145,7 @@ def test_mpc_enforces_the_margin_as_a_constraint(start, walk):
 def test_mpc_keeps_the_hips_within_their_roll_limits(start):
     """A ZMP path 20 mm in from the sole centres makes the preview CoM sway beyond what the
     hips' 5.6 deg inward roll allows; the MPC's CoM inequalities keep it inside."""
+    pytest.importorskip("casadi")
     legs = LegGeometry()
     with pytest.raises(TrajectoryError, match="hip would roll"):
         forward_walk(start, 6, generator="preview", zmp_offset=(0.0, 0.02))
@@ -136,11 +157,13 @@ def test_mpc_keeps_the_hips_within_their_roll_limits(start):
 
 
 def test_mpc_infeasible_margin_is_reported(start):
+    pytest.importorskip("casadi")
     with pytest.raises(TrajectoryError, match="no CoM motion keeps the ZMP"):
         forward_walk(start, 4, generator="mpc", margin=0.031)  # half foot width is 30.5 mm
 
 
 def test_mpc_low_zmp_weight_uses_the_polygon(start):
+    pytest.importorskip("casadi")
     ref = turning_walk(start, 6, generator="mpc", mpc=MpcParams(w_zmp=0.01))
     assert ref.zmp_margin().min() == pytest.approx(ref.margin, abs=1e-4)
     with pytest.raises(TrajectoryError, match="w_zmp"):
@@ -148,6 +171,7 @@ def test_mpc_low_zmp_weight_uses_the_polygon(start):
 
 
 def test_mpc_receding_horizon(start):
+    pytest.importorskip("casadi")
     ref = forward_walk(start, 3, generator="mpc", mpc=MpcParams(horizon=0.8, sample_time=0.04))
     assert ref.meta["mpc"]["n_qp"] > 10  # one QP per MPC sample
     assert ref.zmp_margin().min() >= ref.margin
@@ -173,3 +197,12 @@ def test_lipm_walks_without_double_support(start):
     ref = forward_walk(start, 4, generator="lipm", timing=timing)
     # on the stance soles, 28.5 mm in from their centres (the default ZMP path)
     assert ref.zmp_margin().min() == pytest.approx(0.0305 - 0.0285, abs=1e-6)
+
+
+def test_the_mpc_without_casadi_says_how_to_install_it(start, monkeypatch):
+    """casadi is optional (the ``mpc`` extra): without it the MPC raises one line naming the
+    extra, and the other generators walk."""
+    monkeypatch.setitem(sys.modules, "casadi", None)  # `import casadi` fails as if absent
+    with pytest.raises(ConfigurationError, match=r"casadi.*pip install \"wbc\[mpc\]\""):
+        forward_walk(start, 2, generator="mpc")
+    assert forward_walk(start, 2, generator="preview").n > 0

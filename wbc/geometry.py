@@ -8,17 +8,13 @@ Polygons are (k, 2) arrays of counter-clockwise vertices; ``halfplanes`` gives t
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 
 #: Bioloid Premium foot plate, 101 x 61 mm centred under the ankle (bioloid-facts §1.3)
 FOOT_LENGTH = 0.101
 FOOT_WIDTH = 0.061
-
-
-def wrap_angle(angle: float) -> float:
-    """The angle in (−π, π] (headings, joint angles)."""
-    return math.pi - (math.pi - float(angle)) % (2.0 * math.pi)
 
 
 def sole_corners(length: float = FOOT_LENGTH, width: float = FOOT_WIDTH) -> np.ndarray:
@@ -198,3 +194,40 @@ def polygon_area(polygon: np.ndarray) -> float:
         return 0.0
     x, y = p[:, 0], p[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+# ---------------------------------------------------------------------------- angles
+@overload
+def wrap_angle(angle: float) -> float: ...
+@overload
+def wrap_angle(angle: np.ndarray) -> np.ndarray: ...
+def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
+    """The angle in (−π, π] (headings, joint angles): ``π − ((π − a) mod 2π)``, the one
+    angle wrap of the package.
+
+    A number gives a float, an array an array (elementwise, the same bits: Python's float
+    ``%`` and numpy's ``%`` round alike). Accuracy: the rounding of ``π − a``, within one ulp
+    of ``max(π, |a|)`` (4.4e-16 for |a| <= π) of the exact ``a − 2πk``, an angle already in
+    range included (0.1 gives 0.10000000000000009); the rounding that would give −π just
+    above π gives π."""
+    if np.ndim(angle) == 0:
+        r = math.pi - (math.pi - float(angle)) % (2.0 * math.pi)
+        return math.pi if r == -math.pi else r
+    out = np.pi - (np.pi - np.asarray(angle, dtype=float)) % (2.0 * np.pi)
+    out[out == -np.pi] = np.pi
+    return out
+
+
+@overload
+def mean_angle(a: float, b: float) -> float: ...
+@overload
+def mean_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray: ...
+def mean_angle(a: float | np.ndarray, b: float | np.ndarray) -> float | np.ndarray:
+    """The angle half-way from ``a`` to ``b`` the short way round: ``a + wrap(b − a) / 2``
+    (the heading between two soles' yaws). Equidistant from both on the circle; ``a`` and
+    ``b`` exactly opposite give the one a quarter turn counter-clockwise of ``a`` (the wrap
+    takes +π). Numbers give a float, arrays an array."""
+    if np.ndim(a) == 0 and np.ndim(b) == 0:
+        return float(a) + 0.5 * wrap_angle(float(b) - float(a))
+    a = np.asarray(a, dtype=float)
+    return a + 0.5 * wrap_angle(np.asarray(b, dtype=float) - a)

@@ -261,7 +261,7 @@ def _check_point(target, what: str) -> np.ndarray:
 
 def _into_limits(q: np.ndarray, limb: _Limb) -> np.ndarray:
     """Each angle wrapped into (-π, π], then shifted by ±2π if only that lies in its limits."""
-    out = np.pi - (np.pi - q) % (2.0 * np.pi)
+    out = wrap_angle(q)
     if _valid(out, limb):
         return out
     for i, a in enumerate(out):

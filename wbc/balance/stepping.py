@@ -14,7 +14,7 @@ the ZMP path that moves), so that, unclipped, the re-planned reference's DCM is 
 one (less the dead band). The shift is clipped to the landings the robot can make
 (:func:`feasible_shift`): the feet never cross and keep ``min_clearance``
 (:meth:`~wbc.walking.footsteps.FootstepPlan.validate`), both ankles within the leg reach
-(:meth:`~wbc.walking.legs.LegGeometry.check_stance`) and both hip rolls within their limits
+(:func:`~wbc.walking.footsteps.check_stance`) and both hip rolls within their limits
 (:meth:`~wbc.walking.legs.LegGeometry.leg_rolls`). A re-plan rebuilds the rest of the walk
 with wbc.walking's own generators (:func:`~wbc.walking.schedule.sole_tracks`,
 :func:`~wbc.walking.schedule.zmp_knots` and the LIPM generator

@@ -42,6 +42,7 @@ OPTIONAL = {
     "pink": "peers",
     "matplotlib": "plots",
     "mujoco": "physics",
+    "casadi": "mpc",
 }
 
 

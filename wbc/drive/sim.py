@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry import wrap_angle
 from ..model import Robot
 from ..walking.loop import Controller
 from .commands import Command, CommandScript, integrate
@@ -53,7 +54,7 @@ class Odometer:
     def __call__(self) -> None:
         R = self.sim.base_rotation()
         y = base_yaw(R)
-        self.yaw += math.remainder(y - self._last, 2 * math.pi)
+        self.yaw += wrap_angle(y - self._last)
         self._last = y
         up = float(np.clip(R[2, 2], -1.0, 1.0))
         tilt = math.degrees(math.acos(up))

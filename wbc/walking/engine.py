@@ -46,11 +46,11 @@ from typing import Any, Literal
 import numpy as np
 
 from ..exceptions import ConfigurationError, TrajectoryError
-from ..geometry import wrap_angle
+from ..geometry import mean_angle, wrap_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from ..roles import SOLE_FRAMES
 from .footgaps import rectangle_gaps
-from .footsteps import Footstep, FootstepPlan, Side, other_side
+from .footsteps import Footstep, FootstepPlan, Side, check_stance, other_side
 from .geometry import Foot, rot2
 from .legs import LegGeometry
 from .preview import PreviewController, PreviewParams
@@ -283,9 +283,10 @@ class WalkEngine:
         #: (:attr:`on_landing`); the steps are planned (and checked) on :attr:`feet`
         self.contact: dict[Side, Footstep] = dict(self.feet)
         self.half_width = 0.5 * float(
-            (rot2(_mean_yaw(start.left.yaw, start.right.yaw)).T @ (start.left.xy - start.right.xy))[
-                1
-            ]
+            (
+                rot2(mean_angle(start.left.yaw, start.right.yaw)).T
+                @ (start.left.xy - start.right.xy)
+            )[1]
         )
         self._centre = self._mid_frame()
         self.n_ss = max(2, round(timing.single_support_time / self.dt))
@@ -362,7 +363,7 @@ class WalkEngine:
         """(x, y, yaw) midway between the soles, heading their mean."""
         left, right = self.feet["left"], self.feet["right"]
         mid = 0.5 * (left.xy + right.xy)
-        return np.array([mid[0], mid[1], _mean_yaw(left.yaw, right.yaw)])
+        return np.array([mid[0], mid[1], mean_angle(left.yaw, right.yaw)])
 
     def _landing(self, centre: np.ndarray, side: Side, stride: np.ndarray) -> tuple:
         """The walking frame advanced by ``stride`` and where ``side`` lands beside it."""
@@ -400,7 +401,7 @@ class WalkEngine:
         if np.min(gap) < self.params.min_clearance:
             return False
         try:
-            self.legs.check_stance(left, right, self.height, "step")
+            check_stance(self.legs, left, right, self.height, "step")
         except TrajectoryError:
             return False
         return True
@@ -672,7 +673,7 @@ class WalkEngine:
         u = -self.preview.Gi * self.err - self.preview.Gx @ x - future
         self.x = self.preview.A @ x + np.outer(self.preview.B, u)
         self.k += 1
-        torso_yaw = _mean_yaw(l_yaw, r_yaw)
+        torso_yaw = mean_angle(l_yaw, r_yaw)
         roll = 0.0
         if self.window is not None:
             mid = 0.5 * (l_pos[:2] + r_pos[:2])
@@ -697,7 +698,7 @@ class WalkEngine:
             com_acc=np.zeros((n, 3)), l_sole=np.tile(left.position, (n, 1)),
             l_sole_yaw=np.full(n, left.yaw), r_sole=np.tile(right.position, (n, 1)),
             r_sole_yaw=np.full(n, right.yaw), support=np.full(n, SUPPORT_DOUBLE),
-            torso_yaw=np.full(n, _mean_yaw(left.yaw, right.yaw)), com_height=self.height,
+            torso_yaw=np.full(n, mean_angle(left.yaw, right.yaw)), com_height=self.height,
             plan=FootstepPlan(left, right), name="drive", foot=self.foot,
         )  # fmt: skip
 
@@ -763,10 +764,6 @@ def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -
 def _single(side: Side) -> int:
     """The support code of the single support in which ``side`` swings."""
     return SUPPORT_RIGHT if side == "left" else SUPPORT_LEFT
-
-
-def _mean_yaw(a: float, b: float) -> float:
-    return float(a + 0.5 * wrap_angle(b - a))
 
 
 __all__ = ["EngineParams", "EngineTick", "VelocityLimits", "WalkEngine", "rollout"]

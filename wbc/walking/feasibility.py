@@ -26,6 +26,7 @@ import pinocchio as pin
 
 from ..exceptions import SolverError
 from .reference import WalkingReference
+from .rows import sole_rows
 
 #: the share of a servo's no-load speed (the model's velocity limit) a reference may ask for.
 #: The AX-12A's speed falls linearly with torque, ``w = w0 (1 - tau / tau_stall)``; a swing
@@ -145,26 +146,11 @@ def kinematic_feasibility(
 
 
 def _tasks(model, data, q, fids, soles, com_target, R_torso):
-    pin.forwardKinematics(model, data, q)
-    pin.updateFramePlacements(model, data)
-    com = pin.centerOfMass(model, data, q)
-    Jc = pin.jacobianCenterOfMass(model, data, q)
-    J = np.vstack(
-        [
-            pin.computeFrameJacobian(model, data, q, fids[0], pin.LOCAL),
-            pin.computeFrameJacobian(model, data, q, fids[1], pin.LOCAL),
-            Jc,
-            pin.computeFrameJacobian(model, data, q, fids[2], pin.LOCAL)[3:],
-        ]
-    )
-    e = np.concatenate(
-        [
-            pin.log6(data.oMf[fids[0]].inverse() * soles[0]).vector,
-            pin.log6(data.oMf[fids[1]].inverse() * soles[1]).vector,
-            com_target - com,
-            pin.log3(data.oMf[fids[2]].rotation.T @ R_torso),
-        ]
-    )
+    """The rows: both soles and the CoM (:func:`.rows.sole_rows`), the torso's orientation
+    (its local SO(3) log error ``log3(Rᵀ R*)``, local angular Jacobian)."""
+    com, Jc, Js, es = sole_rows(model, data, q, fids[:2], soles)
+    J = np.vstack([Js, Jc, pin.computeFrameJacobian(model, data, q, fids[2], pin.LOCAL)[3:]])
+    e = np.concatenate([es, com_target - com, pin.log3(data.oMf[fids[2]].rotation.T @ R_torso)])
     return J, e, com
 
 

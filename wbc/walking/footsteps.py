@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
-from ..geometry import wrap_angle
+from ..geometry import mean_angle, wrap_angle
 from .geometry import Foot, polygon_distance, rot2
 
 if TYPE_CHECKING:
@@ -130,7 +130,7 @@ class FootstepPlan:
         left0, right0 = self.start_left, self.start_right
         _check_pair(left0, right0, foot, min_clearance, max_relative_yaw, "the start placement")
         if legs is not None and com_height is not None:
-            legs.check_stance(left0, right0, com_height, "the start placement")
+            check_stance(legs, left0, right0, com_height, "the start placement")
         for k, step in enumerate(self.steps):
             if prev_side is not None and step.side == prev_side:
                 raise TrajectoryError(
@@ -158,7 +158,35 @@ class FootstepPlan:
                         f"{stance.side} foot (minimum clearance {min_clearance * 1000:.1f} mm)"
                     )
             if legs is not None and com_height is not None:
-                legs.check_stance(left, right, com_height, what)
+                check_stance(legs, left, right, com_height, what)
+
+
+def check_stance(
+    legs: LegGeometry, left: Footstep, right: Footstep, com_height: float, what: str
+) -> None:
+    """Raise :class:`TrajectoryError` if, with the pelvis midway between the two soles and the
+    CoM at ``com_height``, either ankle is out of the legs' reach (a step too long, too wide
+    or too narrow; ``what`` names the stance in the message)."""
+    mid = 0.5 * (left.position + right.position)
+    com = np.array([[mid[0], mid[1], com_height]])
+    heading = np.array([mean_angle(left.yaw, right.yaw)])
+    # pelvis midway between the soles: undo the forward hip offset
+    com[0, :2] -= (
+        legs.hip_offset[0] / legs.pelvis_gain * np.array([np.cos(heading[0]), np.sin(heading[0])])
+    )
+    lengths = legs.leg_lengths(com, heading, left.position[None], right.position[None])[0]
+    for side, d in zip(("left", "right"), lengths, strict=True):
+        if d > legs.max_reach:
+            raise TrajectoryError(
+                f"{what}: unreachable — the {side} ankle would be {d * 1000:.1f} mm from its "
+                f"hip with the pelvis midway between the feet, beyond the leg reach of "
+                f"{legs.max_reach * 1000:.1f} mm; shorten the step or lower the CoM"
+            )
+        if d < legs.min_reach:
+            raise TrajectoryError(
+                f"{what}: the {side} ankle would be {d * 1000:.1f} mm from its hip, closer "
+                f"than the legs can fold ({legs.min_reach * 1000:.1f} mm)"
+            )
 
 
 def _check_pair(

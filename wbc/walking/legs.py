@@ -4,16 +4,13 @@ CoM (:class:`LegGeometry`), used by the footstep plans, the gaits, the MPC and t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..exceptions import ModelError, TrajectoryError
 from ..roles import SOLE_FRAMES
 from .geometry import rot2
-
-if TYPE_CHECKING:
-    from .footsteps import Footstep
 
 # Bioloid Premium leg (m): hip centre -> knee -> ankle centre, hips +-38.5 mm from the torso
 # mid-plane, ankle axes 32.2 mm above the sole.
@@ -248,32 +245,6 @@ class LegGeometry:
                 f"{lo * 1000:.1f}-{hi * 1000:.1f} mm)"
             )
 
-    def check_stance(self, left: Footstep, right: Footstep, com_height: float, what: str) -> None:
-        """Raise if, with the CoM midway between the two soles at ``com_height``, either
-        ankle is out of reach (a step too long, too wide or too narrow for the legs)."""
-        mid = 0.5 * (left.position + right.position)
-        com = np.array([[mid[0], mid[1], com_height]])
-        heading = np.array([_mean_angle(left.yaw, right.yaw)])
-        # pelvis midway between the soles: undo the forward hip offset
-        com[0, :2] -= (
-            self.hip_offset[0]
-            / self.pelvis_gain
-            * np.array([np.cos(heading[0]), np.sin(heading[0])])
-        )
-        lengths = self.leg_lengths(com, heading, left.position[None], right.position[None])[0]
-        for side, d in zip(("left", "right"), lengths, strict=True):
-            if d > self.max_reach:
-                raise TrajectoryError(
-                    f"{what}: unreachable — the {side} ankle would be {d * 1000:.1f} mm from its "
-                    f"hip with the pelvis midway between the feet, beyond the leg reach of "
-                    f"{self.max_reach * 1000:.1f} mm; shorten the step or lower the CoM"
-                )
-            if d < self.min_reach:
-                raise TrajectoryError(
-                    f"{what}: the {side} ankle would be {d * 1000:.1f} mm from its hip, closer "
-                    f"than the legs can fold ({self.min_reach * 1000:.1f} mm)"
-                )
-
 
 def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
     """Pelvis displacement per CoM displacement, sideways: move the floating base by
@@ -299,7 +270,3 @@ def _pelvis_gain(robot: Any, q: np.ndarray, step: float = 1e-3) -> float:
             q1 = pin.integrate(model, q1, dq)
     shift = robot.com(q1)[1] - robot.com(q)[1]
     return float(step / shift)
-
-
-def _mean_angle(a: float, b: float) -> float:
-    return float(a + 0.5 * ((b - a + np.pi) % (2 * np.pi) - np.pi))

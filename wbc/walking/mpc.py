@@ -26,6 +26,9 @@ constraints, ~25 ms; ``python benchmarks/mpc_timing.py``). Other plugins of this
 wheel on that walk: qrqp works (~150 ms); proxqp and highs did not finish within 100 s,
 qpoases (dense) within 5 min; daqp and ipqp fail; hpipm needs a staged structure. The cost
 is rescaled so that its largest Hessian entry is 1.
+
+casadi is an optional package (``pip install "wbc[mpc]"``); without it the other generators
+(``"preview"``, the default, and ``"lipm"``) work and the MPC raises one line saying so.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import SolverError, TrajectoryError
+from ..exceptions import ConfigurationError, SolverError, TrajectoryError
 from ..recording import SUPPORT_LEFT, SUPPORT_RIGHT
 from .geometry import Foot, halfplanes, support_polygon
 from .legs import LegGeometry
@@ -62,6 +65,19 @@ _DEFAULT_OPTIONS: dict[str, dict[str, Any]] = {
     "daqp": {"error_on_fail": False},
     "ipqp": {"print_iter": False, "print_header": False, "error_on_fail": False},
 }
+
+
+def casadi_module() -> Any:
+    """The ``casadi`` module, or one clear line saying how to install it
+    (:class:`~wbc.exceptions.ConfigurationError`)."""
+    try:
+        import casadi
+    except ModuleNotFoundError as exc:
+        raise ConfigurationError(
+            "the LIPM MPC (generator \"mpc\") needs the optional package 'casadi': "
+            'pip install "wbc[mpc]"'
+        ) from exc
+    return casadi
 
 
 @dataclass(frozen=True)
@@ -281,7 +297,7 @@ class LipmMpc:
         )
 
     def _solver(self, qp: dict[str, Any]):
-        import casadi as ca
+        ca = casadi_module()
 
         p = self.params
         hs = ca.Sparsity.triplet(qp["nvar"], qp["nvar"], qp["h"][0].tolist(), qp["h"][1].tolist())
@@ -298,7 +314,7 @@ class LipmMpc:
         return solver
 
     def _solve(self, solver, qp: dict[str, Any]) -> tuple[np.ndarray, str, float]:
-        import casadi as ca
+        ca = casadi_module()
 
         hr, hc, hv = qp["h"]
         # scale the cost so its largest Hessian entry is 1 (the minimiser is unchanged;

@@ -354,9 +354,3 @@ class WalkingReference:
             "margin": self.margin,
             **self.meta,
         }
-
-    def check(self, **kwargs: Any):
-        """Run :func:`wbc.walking.checks.check_reference` (raises on failure)."""
-        from .checks import check_reference
-
-        return check_reference(self, **kwargs)

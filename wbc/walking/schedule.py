@@ -20,6 +20,7 @@ from typing import Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
+from ..geometry import mean_angle, wrap_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from .footsteps import FootstepPlan
 from .geometry import rot2
@@ -148,7 +149,7 @@ class SoleTracks:
 
     def torso_yaw(self) -> np.ndarray:
         """The yaw half-way between the soles' (wrapped): the walks' torso heading."""
-        return self.l_yaw + 0.5 * ((self.r_yaw - self.l_yaw + np.pi) % (2 * np.pi) - np.pi)
+        return mean_angle(self.l_yaw, self.r_yaw)
 
     def reference_fields(self) -> dict[str, np.ndarray]:
         """The :class:`~wbc.walking.reference.WalkingReference` fields these tracks give:
@@ -194,7 +195,7 @@ def sole_tracks(
         pos[step.side][sl] = p
         vel[step.side][sl] = v / T
         yaw_a = a.yaw
-        yaw_b = a.yaw + ((b.yaw - a.yaw + np.pi) % (2 * np.pi) - np.pi)
+        yaw_b = a.yaw + wrap_angle(b.yaw - a.yaw)
         prof = min_jerk(s)[0] if swing.profile == "quintic" else smoothstep(s)[0]
         yaw[step.side][sl] = yaw_a + (yaw_b - yaw_a) * prof
         cur[step.side] = dataclasses.replace(b, yaw=float(yaw_b))

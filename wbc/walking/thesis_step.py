@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import TrajectoryError
+from ..geometry import mean_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT
 from .checks import check_reference
 from .footsteps import Footstep, FootstepPlan
@@ -133,7 +134,7 @@ def thesis_step(
     l_pos = np.tile(left.position, (n, 1))
     yaw_l = np.full(n, left.yaw)
     yaw_r = np.full(n, right.yaw)
-    torso = left.yaw + 0.5 * ((right.yaw - left.yaw + np.pi) % (2 * np.pi) - np.pi)
+    torso = mean_angle(left.yaw, right.yaw)
     plan = FootstepPlan(left, right, (landing,))
     ref = WalkingReference(
         t=t,

@@ -32,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import TrajectoryError
+from .rows import sole_rows
 
 #: default largest torso tilt from upright the window may use (rad; 15 deg)
 MAX_LEAN = float(np.deg2rad(15.0))
@@ -169,15 +170,9 @@ class _Problem:
 
     # ------------------------------------------------------------------ linearisation
     def _rows(self, q: np.ndarray):
+        """The soles' and the CoM's rows (:func:`.rows.sole_rows`) and the torso's tilt."""
         model, data = self.model, self.data
-        pin.forwardKinematics(model, data, q)
-        pin.updateFramePlacements(model, data)
-        com = pin.centerOfMass(model, data, q)
-        Jc = pin.jacobianCenterOfMass(model, data, q)
-        Js, es = [], []
-        for fid, target in zip(self.fids[:2], self.soles, strict=True):
-            Js.append(pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL))
-            es.append(pin.log6(data.oMf[fid].inverse() * target).vector)
+        com, Jc, Js, es = sole_rows(model, data, q, self.fids[:2], self.soles)
         Rt = data.oMf[self.fids[2]].rotation
         Jw = pin.computeFrameJacobian(model, data, q, self.fids[2], pin.LOCAL_WORLD_ALIGNED)[3:]
         z = Rt[:, 2]
@@ -187,7 +182,7 @@ class _Problem:
         # sin(pitch)-like, -sin(roll)-like, relative to the start pose's own lean
         tilt = np.array([z @ self.fwd, z @ self.left]) - self.tilt0
         Jtilt = np.vstack([self.fwd @ Jz, self.left @ Jz])
-        return com, Jc, np.vstack(Js), np.concatenate(es), tilt, Jtilt
+        return com, Jc, Js, es, tilt, Jtilt
 
     def _bounds(self, q: np.ndarray, trust: float) -> tuple[np.ndarray, np.ndarray]:
         nv = self.model.nv
