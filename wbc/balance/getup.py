@@ -1,0 +1,459 @@
+"""Getting up after a fall: a whole-body motion planned with the project's own QP stack.
+
+A get-up is a sequence of **support phases** (:class:`Phase`). Each phase names the frames
+in contact with the floor — held where they are as **hard** tasks of a lexicographic QP
+(:class:`~wbc.solvers.HierarchicalQP`): soles and the torso as 6-D contacts, hands and toes
+as point contacts — together with self-collision rows, and, one level below, where some
+frames go (a hand to the floor, a sole flat), the torso's pitch, the CoM (over the centre of
+the phase's support) and a light posture. The targets move from their values at the phase's
+start to their goals (a smooth ramp), the QP ticking at ``rate`` with the joint limits and the
+servos' speed (``speed_scale`` · v_max) as hard bounds: the phase's joint trajectory. Every
+frame is a standard frame of the model (``torso``, ``l_sole``, ``r_sole``, ``l_hand``,
+``r_hand``; toes at the front edge of each sole, :func:`with_toes`); the lengths come from
+the model (leg, arm, torso: :class:`BodySizes`): nothing names a robot's joint.
+
+From **prone** (lying on the front): hands to the floor beside the chest, a push-up onto hands
+and toes, a pike (hips up, hands and toes held), the soles rolled flat, the CoM brought back
+over the feet into a squat (hands and soles), the hands lifted, the rise to the standing pose.
+From **supine** (on the back): a roll onto the front (one arm pushes the floor, the other
+reaches across), then the prone get-up.
+
+The plan is made from the measured fallen state (:func:`lying_state`: the joints from the
+servos, the torso's orientation from the IMU, the base put on the floor) and played phase by
+phase in the closed loop (:mod:`wbc.balance.getup_play`): each phase is planned from the
+state the previous one left.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import ConfigurationError, WbcError
+from ..model import Kinematics, Robot
+from ..roles import HAND_FRAMES, SIDES, SOLE_FRAMES
+
+TOE_FRAMES = {"left": "l_toe", "right": "r_toe"}
+SIDES_LYING = ("prone", "supine")
+
+
+@dataclass(frozen=True)
+class GetupParams:
+    """Settings of the planner (speeds as a share of the servos', times in s)."""
+
+    rate: float = 50.0  # Hz: the plan's samples (the QP's ticks)
+    speed_scale: float = 0.5  # share of the servos' no-load speed any joint may use
+    hold_s: float = 0.3  # s at the end of each phase with the targets at their goals
+    self_collision_margin: float = 0.005  # m
+
+    def check(self) -> GetupParams:
+        for name in ("rate", "speed_scale", "hold_s", "self_collision_margin"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigurationError(f"getup: {name} must be a finite number >= 0, got {v}")
+        if not 0 < self.speed_scale <= 1:
+            raise ConfigurationError(f"getup: speed_scale must be in (0, 1], got {self.speed_scale}")
+        if self.rate <= 0:
+            raise ConfigurationError(f"getup: rate must be > 0 Hz, got {self.rate}")
+        return self
+
+
+@dataclass(frozen=True)
+class Phase:
+    """One support phase (module docstring). Positions are in the ground frame (x the
+    robot's heading on the floor, z up, origin below the torso at the plan's start).
+
+    ``contacts``: frames held where they are (hard); ``sliding``: point contacts held on the
+    floor (their height, hard) but free to slide along it (a hand pushing back); ``moves``: frame -> goal position;
+    ``flat``: frames turned to the ground frame's orientation (a sole flat, facing ahead);
+    ``torso_pitch``: the torso's goal pitch (rad about the ground frame's y: 0 upright, +π/2
+    face down, −π/2 face up); ``com_over``: frames whose centroid the CoM goes above (with
+    ``com_shift`` m added along x); ``com_z``: the CoM's goal height; ``posture``: a named
+    pose as the light posture target (None: the phase's start); ``duration`` (s) of the ramp.
+    """
+
+    name: str
+    contacts: tuple[str, ...]
+    duration: float
+    sliding: tuple[str, ...] = ()
+    moves: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
+    flat: tuple[str, ...] = ()
+    torso_pitch: float | None = None
+    com_over: tuple[str, ...] = ()
+    com_shift: float = 0.0
+    com_z: float | None = None
+    posture: str | None = None
+    posture_weight: float = 0.01
+    quasi_static: bool = True  # the CoM must stay inside the contacts' polygon
+
+
+@dataclass
+class PhasePlan:
+    """A planned phase: times (s from the phase start), configurations (rows, wbc
+    convention), the contacts' anchors (frame -> position) and the ground frame."""
+
+    phase: Phase
+    t: np.ndarray
+    q: np.ndarray
+    anchors: dict[str, np.ndarray]
+    failed_solves: int = 0
+
+
+def with_toes(robot: Robot) -> Robot:
+    """A copy of ``robot`` with a frame at the middle of each sole's front edge
+    (``l_toe``, ``r_toe``: half the foot length ahead of the sole frame)."""
+    if all(robot.has_frame(f) for f in TOE_FRAMES.values()):
+        return robot
+    out = copy.deepcopy(robot)
+    half = 0.5 * float(robot.foot_size[0])
+    for side in SIDES:
+        sole = out.frame_id(SOLE_FRAMES[side])
+        f = out.model.frames[sole]
+        placement = f.placement * pin.SE3(np.eye(3), np.array([half, 0.0, 0.0]))
+        frame = pin.Frame(TOE_FRAMES[side], f.parentJoint, sole, placement, pin.FrameType.OP_FRAME)
+        out.model.addFrame(frame)
+    out.data = out.model.createData()
+    out.frame_names = tuple(f.name for f in out.model.frames)
+    out._frame_ids = {}
+    return out
+
+
+@dataclass(frozen=True)
+class BodySizes:
+    """Lengths measured on the model at its zero pose (m): leg (hip pitch joint to sole),
+    arm (shoulder pitch joint to hand), trunk (hip pitch to shoulder pitch, vertical), the
+    shoulders' and hips' half widths."""
+
+    leg: float
+    arm: float
+    trunk: float
+    shoulder_y: float
+    hip_y: float
+
+    @classmethod
+    def of(cls, robot: Robot) -> BodySizes:
+        q = robot.neutral()
+        roles = robot.roles
+        kin = Kinematics(robot, q)
+
+        def joint_pos(name: str) -> np.ndarray:
+            j = robot.model.getJointId(name)
+            return np.asarray(kin.data.oMi[j].translation)
+
+        hip = joint_pos(roles.joint("left", "hip_pitch"))
+        sole = kin.translation(robot.frame_id(SOLE_FRAMES["left"]))
+        shoulder = joint_pos(roles.joint("left", "shoulder_pitch"))
+        hand = kin.translation(robot.frame_id(HAND_FRAMES["left"]))
+        return cls(
+            leg=float(np.linalg.norm(hip - sole)),
+            arm=float(np.linalg.norm(shoulder - hand)),
+            trunk=float(shoulder[2] - hip[2]),
+            shoulder_y=float(abs(shoulder[1])),
+            hip_y=float(abs(hip[1])),
+        )
+
+
+def check_robot(robot: Robot) -> None:
+    """One line if ``robot`` lacks what a get-up needs (hand frames, arms with a shoulder
+    pitch)."""
+    missing = [f for f in (*HAND_FRAMES.values(), *SOLE_FRAMES.values(), "torso")]
+    missing = [f for f in missing if not robot.has_frame(f)]
+    if missing:
+        raise ConfigurationError(
+            f"get-up: {robot.name} has no frames {missing} (hands and soles are its contacts)"
+        )
+    for side in SIDES:
+        if robot.roles.get(side, "shoulder_pitch") is None:
+            raise ConfigurationError(f"get-up: {robot.name}'s {side} arm has no shoulder pitch")
+
+
+# ---------------------------------------------------------------------- the fallen state
+def lying_side(torso_rotation: np.ndarray, threshold: float = 0.6) -> str | None:
+    """``"prone"`` if the torso's front (its x axis) points down more than ``threshold``
+    (the cosine to the vertical), ``"supine"`` if up, None otherwise (on a side, or up)."""
+    fz = float(np.asarray(torso_rotation)[2, 0])
+    if fz < -threshold:
+        return "prone"
+    if fz > threshold:
+        return "supine"
+    return None
+
+
+def heading_of(torso_rotation: np.ndarray, side: str) -> float:
+    """The ground frame's heading (rad) of a robot lying on ``side``: the direction its head
+    points to on the floor (the torso's z axis projected)."""
+    z = np.asarray(torso_rotation)[:, 2]
+    return math.atan2(float(z[1]), float(z[0]))
+
+
+def lowest_point(robot: Robot, q: np.ndarray) -> float:
+    """The height (m) of the lowest corner of the robot's collision boxes at ``q``."""
+    from ..limits.self_collision import _box_vertices, collision_model
+
+    cm = collision_model(robot)
+    data = robot.model.createData()
+    gdata = pin.GeometryData(cm.geometry)
+    pin.forwardKinematics(robot.model, data, q)
+    low = math.inf
+    for k, g in enumerate(cm.geometry.geometryObjects):
+        local = _box_vertices(g)  # in the parent joint's frame
+        M = data.oMi[g.parentJoint]
+        z = local @ M.rotation.T[:, 2] + M.translation[2]
+        low = min(low, float(z.min()))
+    del gdata
+    return low
+
+
+def lying_state(robot: Robot, joints: np.ndarray, torso_rotation: np.ndarray) -> np.ndarray:
+    """The configuration of a robot lying on the floor: the measured joints, the torso turned
+    as measured (the IMU) and the base put down so its lowest point touches z = 0, its torso
+    above the ground frame's origin."""
+    q = robot.neutral()
+    q[7:] = np.asarray(joints, dtype=float)
+    kin = Kinematics(robot, q)
+    torso = kin.placement(robot.frame_id("torso"))
+    base = pin.XYZQUATToSE3(q[:7])
+    want = pin.SE3(np.asarray(torso_rotation, dtype=float), np.zeros(3))
+    new = want * torso.inverse() * base
+    q[:7] = pin.SE3ToXYZQUAT(new)
+    q[2] -= lowest_point(robot, q)
+    return q
+
+
+def ground_frame(q: np.ndarray, robot: Robot, side: str) -> pin.SE3:
+    """The ground frame of a plan from ``q`` lying on ``side`` (:class:`Phase`)."""
+    torso = robot.frame_placement(q, "torso")
+    yaw = heading_of(torso.rotation, side)
+    p = torso.translation.copy()
+    p[2] = 0.0
+    return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), p)
+
+
+# ---------------------------------------------------------------------- phases
+def prone_phases(robot: Robot) -> list[Phase]:
+    """The get-up from the front (module docstring), sized from the model's lengths."""
+    s = BodySizes.of(robot)
+    ys, yh = s.shoulder_y, s.hip_y
+    hands_chest = {
+        "l_hand": (-0.1 * s.trunk, ys + 0.35 * s.arm, 0.0),
+        "r_hand": (-0.1 * s.trunk, -ys - 0.35 * s.arm, 0.0),
+    }
+    x_toes = -0.1 * s.trunk - 0.8 * s.leg  # the pike: toes drawn in this far behind the hands
+    toes_in = {"l_toe": (x_toes, yh, 0.0), "r_toe": (x_toes, -yh, 0.0)}
+    return [
+        Phase("hands down", ("torso",), 0.8, moves=hands_chest, posture="zero"),
+        Phase(
+            "push up", ("l_hand", "r_hand", "l_toe", "r_toe"), 1.0,
+            torso_pitch=math.radians(60), posture="zero",
+        ),  # fmt: skip
+        Phase(
+            "pike", ("l_hand", "r_hand"), 1.5, sliding=("l_toe", "r_toe"),
+            torso_pitch=math.radians(150), moves=toes_in,
+        ),  # fmt: skip
+        Phase(
+            "feet flat", ("l_hand", "r_hand", "l_toe", "r_toe"), 0.8,
+            flat=("l_sole", "r_sole"), torso_pitch=math.radians(150),
+        ),  # fmt: skip
+        Phase(
+            "squat", ("l_sole", "r_sole"), 2.0, sliding=("l_hand", "r_hand"),
+            com_over=("l_sole", "r_sole"),
+        ),  # fmt: skip
+        Phase(
+            "hands up", ("l_sole", "r_sole"), 0.8,
+            com_over=("l_sole", "r_sole"), posture="stand", posture_weight=0.1,
+        ),  # fmt: skip
+        Phase(
+            "rise", ("l_sole", "r_sole"), 1.5,
+            com_over=("l_sole", "r_sole"), torso_pitch=0.0, posture="stand", posture_weight=1.0,
+        ),  # fmt: skip
+    ]
+
+
+def phases_for(robot: Robot, side: str) -> list[Phase]:
+    """The phases of a get-up from ``side`` (``prone`` or ``supine``)."""
+    if side == "prone":
+        return prone_phases(robot)
+    if side == "supine":
+        return supine_phases(robot) + prone_phases(robot)
+    raise ConfigurationError(f"get-up: side must be one of {SIDES_LYING}, got {side!r}")
+
+
+def supine_phases(robot: Robot) -> list[Phase]:
+    """The roll from the back onto the front (module docstring)."""
+    return []
+
+
+# ---------------------------------------------------------------------- planning
+def _is_point(frame: str) -> bool:
+    return frame in HAND_FRAMES.values() or frame in TOE_FRAMES.values()
+
+
+def _pitch_rotation(pitch: float, frame: pin.SE3) -> np.ndarray:
+    return frame.rotation @ pin.rpy.rpyToMatrix(0.0, pitch, 0.0)
+
+
+def _smooth(s: float) -> float:
+    s = min(max(s, 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+class PhasePlanner:
+    """Plans phases with the QP stack (module docstring) on a robot with toe frames."""
+
+    def __init__(self, robot: Robot, params: GetupParams | None = None) -> None:
+        check_robot(robot)
+        self.robot = with_toes(robot)
+        self.params = (params or GetupParams()).check()
+        #: the torso frame's height lying flat (m): the lowest the plan lets it go
+        self.torso_floor = math.inf
+
+    def plan(self, phase: Phase, q0: np.ndarray, ground: pin.SE3) -> PhasePlan:
+        """The joint trajectory of ``phase`` from ``q0`` (module docstring)."""
+        from ..limits import GroundClearanceConstraint, SelfCollisionConstraint
+        from ..solvers import HierarchicalQP, TaskStack
+        from ..tasks import (
+            ComTask,
+            ContactTask,
+            FrameOrientationTask,
+            FramePositionTask,
+            PostureTask,
+        )
+
+        robot, p = self.robot, self.params
+        kin = Kinematics(robot, q0)
+        stack = TaskStack(robot)
+        assert stack.velocity_limit is not None
+        stack.velocity_limit.scale = p.speed_scale
+        stack.level(0, hard=True)
+        anchors: dict[str, np.ndarray] = {}
+        for frame in phase.contacts:
+            if _is_point(frame):
+                task = FramePositionTask(robot, frame, name=f"contact_{frame}")
+            else:
+                task = ContactTask(robot, frame)
+            task.set_target_from(kin) if _is_point(frame) else task.make_contact(kin)
+            stack.add(task, level=0)
+            anchors[frame] = kin.translation(robot.frame_id(frame)).copy()
+        for frame in phase.sliding:
+            task = FramePositionTask(robot, frame, name=f"slide_{frame}", mask=(False, False, True))
+            task.set_target_from(kin)
+            stack.add(task, level=0)
+            anchors[frame] = kin.translation(robot.frame_id(frame)).copy()
+        stack.add_constraint(
+            SelfCollisionConstraint(robot, margin=p.self_collision_margin), level=0
+        )
+        # the floor: no point frame below it, the torso no lower than it lies
+        z_torso = min(kin.translation(robot.frame_id("torso"))[2], self.torso_floor)
+        for frame, clearance in (
+            *((f, 0.0) for f in (*HAND_FRAMES.values(), *TOE_FRAMES.values())),
+            ("torso", z_torso),
+        ):
+            if frame in phase.contacts:
+                continue
+            stack.add_constraint(
+                GroundClearanceConstraint(robot, frame, clearance, length=0.0, width=0.0),
+                level=0,
+            )
+        stack.level(1, hard=False)
+        ramps: list[tuple] = []  # (task, start, goal) for positions; rotations separately
+        for frame, goal in phase.moves.items():
+            task = FramePositionTask(robot, frame, name=f"move_{frame}", weight=100.0)
+            start = kin.translation(robot.frame_id(frame)).copy()
+            ramps.append((task, start, ground.act(np.asarray(goal, dtype=float))))
+            stack.add(task, level=1)
+        turns: list[tuple] = []
+        for frame in phase.flat:
+            task = FrameOrientationTask(robot, frame, name=f"flat_{frame}", weight=10.0)
+            turns.append((task, kin.rotation(robot.frame_id(frame)).copy(), ground.rotation))
+            stack.add(task, level=1)
+        if phase.torso_pitch is not None:
+            task = FrameOrientationTask(robot, "torso", name="torso_pitch", weight=10.0)
+            goal = _pitch_rotation(phase.torso_pitch, ground)
+            turns.append((task, kin.rotation(robot.frame_id("torso")).copy(), goal))
+            stack.add(task, level=1)
+        if phase.com_over or phase.com_z is not None:
+            mask = (bool(phase.com_over), bool(phase.com_over), phase.com_z is not None)
+            com = ComTask(robot, name="com", weight=100.0, mask=mask)
+            start = kin.com.copy()
+            goal = start.copy()
+            if phase.com_over:
+                pts = [self._goal_point(f, anchors, phase, ground, kin) for f in phase.com_over]
+                centre = np.mean(pts, axis=0)
+                goal[:2] = centre[:2] + phase.com_shift * ground.rotation[:2, 0]
+            if phase.com_z is not None:
+                goal[2] = phase.com_z
+            ramps.append((com, start, goal))
+            stack.add(com, level=1)
+        posture = PostureTask(robot, name="posture", weight=phase.posture_weight)
+        target = q0 if phase.posture is None else robot.configuration(phase.posture)
+        posture.set_target(target)
+        stack.add(posture, level=1)
+        solver = HierarchicalQP(stack, "daqp", regularization=1e-6, on_infeasible="relax")
+        dt = 1.0 / p.rate
+        n = max(1, round(phase.duration * p.rate)) + max(0, round(p.hold_s * p.rate))
+        ts, qs = [0.0], [q0.copy()]
+        q = q0.copy()
+        failed = 0
+        for k in range(1, n + 1):
+            s = _smooth(k * dt / phase.duration) if phase.duration > 0 else 1.0
+            for task, a, b in ramps:
+                task.set_target(a + s * (b - a))
+            for task, a, b in turns:
+                task.set_target(a @ pin.exp3(s * pin.log3(a.T @ b)))
+            try:
+                q = solver.step(q, dt)
+            except WbcError:
+                failed += 1
+            ts.append(k * dt)
+            qs.append(q.copy())
+        return PhasePlan(phase, np.asarray(ts), np.asarray(qs), anchors, failed)
+
+    def _goal_point(self, frame, anchors, phase, ground, kin) -> np.ndarray:
+        if frame in anchors:
+            return anchors[frame]
+        if frame in phase.moves:
+            return ground.act(np.asarray(phase.moves[frame], dtype=float))
+        return kin.translation(self.robot.frame_id(frame)).copy()
+
+
+def plan_getup(
+    robot: Robot, q0: np.ndarray, side: str, params: GetupParams | None = None
+) -> list[PhasePlan]:
+    """The whole get-up from ``q0`` lying on ``side``, planned open loop (each phase from the
+    planned end of the previous one)."""
+    planner = PhasePlanner(robot, params)
+    ground = ground_frame(q0, planner.robot, side)
+    plans = []
+    q = np.asarray(q0, dtype=float)
+    for phase in phases_for(robot, side):
+        plan = planner.plan(phase, q, ground)
+        plans.append(plan)
+        q = plan.q[-1]
+    return plans
+
+
+def joint_speeds(plan: PhasePlan) -> np.ndarray:
+    """The largest |q̇| of each joint over a planned phase (rad/s)."""
+    if len(plan.t) < 2:
+        return np.zeros(plan.q.shape[1] - 7)
+    return np.max(np.abs(np.diff(plan.q[:, 7:], axis=0)) / np.diff(plan.t)[:, None], axis=0)
+
+
+__all__: Sequence[str] = (
+    "GetupParams",
+    "Phase",
+    "PhasePlan",
+    "PhasePlanner",
+    "BodySizes",
+    "lying_side",
+    "lying_state",
+    "ground_frame",
+    "plan_getup",
+    "phases_for",
+    "with_toes",
+)
