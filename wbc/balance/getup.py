@@ -15,8 +15,9 @@ the model (leg, arm, torso: :class:`BodySizes`): nothing names a robot's joint.
 From **prone** (lying on the front): hands to the floor beside the chest, a push-up onto hands
 and toes, a pike (hips up, hands and toes held), the soles rolled flat, the CoM brought back
 over the feet into a squat (hands and soles), the hands lifted, the rise to the standing pose.
-From **supine** (on the back): a roll onto the front (one arm pushes the floor, the other
-reaches across), then the prone get-up.
+From **supine** (on the back): not planned yet (a roll onto the front is the intended first
+phase; pushes with one arm and one leg did not roll the simulated Bioloid over):
+:func:`phases_for` says so in one line.
 
 The plan is made from the measured fallen state (:func:`lying_state`: the joints from the
 servos, the torso's orientation from the IMU, the base put on the floor) and played phase by
@@ -127,13 +128,14 @@ def with_toes(robot: Robot) -> Robot:
 class BodySizes:
     """Lengths measured on the model at its zero pose (m): leg (hip pitch joint to sole),
     arm (shoulder pitch joint to hand), trunk (hip pitch to shoulder pitch, vertical), the
-    shoulders' and hips' half widths."""
+    shoulders' and hips' half widths, the foot's length."""
 
     leg: float
     arm: float
     trunk: float
     shoulder_y: float
     hip_y: float
+    foot: float  # the sole's length
 
     @classmethod
     def of(cls, robot: Robot) -> BodySizes:
@@ -155,6 +157,7 @@ class BodySizes:
             trunk=float(shoulder[2] - hip[2]),
             shoulder_y=float(abs(shoulder[1])),
             hip_y=float(abs(hip[1])),
+            foot=float(robot.foot_size[0]),
         )
 
 
@@ -238,6 +241,7 @@ def ground_frame(q: np.ndarray, robot: Robot, side: str) -> pin.SE3:
 def prone_phases(robot: Robot) -> list[Phase]:
     """The get-up from the front (module docstring), sized from the model's lengths."""
     s = BodySizes.of(robot)
+    stand = robot.stand_pose
     ys, yh = s.shoulder_y, s.hip_y
     hands_chest = {
         "l_hand": (-0.1 * s.trunk, ys + 0.35 * s.arm, 0.0),
@@ -261,15 +265,19 @@ def prone_phases(robot: Robot) -> list[Phase]:
         ),  # fmt: skip
         Phase(
             "squat", ("l_sole", "r_sole"), 2.0, sliding=("l_hand", "r_hand"),
-            com_over=("l_sole", "r_sole"),
+            com_over=("l_sole", "r_sole"), com_shift=-0.1 * s.foot, torso_pitch=math.radians(80),
         ),  # fmt: skip
         Phase(
-            "hands up", ("l_sole", "r_sole"), 0.8,
-            com_over=("l_sole", "r_sole"), posture="stand", posture_weight=0.1,
+            "hands up", ("l_sole", "r_sole"), 1.5,
+            com_over=("l_sole", "r_sole"), com_shift=-0.1 * s.foot, posture=stand, posture_weight=0.1,
         ),  # fmt: skip
         Phase(
-            "rise", ("l_sole", "r_sole"), 1.5,
-            com_over=("l_sole", "r_sole"), torso_pitch=0.0, posture="stand", posture_weight=1.0,
+            "rise", ("l_sole", "r_sole"), 2.5,
+            com_over=("l_sole", "r_sole"), posture=stand, posture_weight=1.0,
+        ),  # fmt: skip
+        Phase(
+            "settle", ("l_sole", "r_sole"), 1.0,
+            com_over=("l_sole", "r_sole"), posture=stand, posture_weight=1.0,
         ),  # fmt: skip
     ]
 
@@ -279,13 +287,11 @@ def phases_for(robot: Robot, side: str) -> list[Phase]:
     if side == "prone":
         return prone_phases(robot)
     if side == "supine":
-        return supine_phases(robot) + prone_phases(robot)
+        raise ConfigurationError(
+            "get-up: no get-up from the back yet (the roll onto the front is not planned): "
+            "turn the robot onto its front"
+        )
     raise ConfigurationError(f"get-up: side must be one of {SIDES_LYING}, got {side!r}")
-
-
-def supine_phases(robot: Robot) -> list[Phase]:
-    """The roll from the back onto the front (module docstring)."""
-    return []
 
 
 # ---------------------------------------------------------------------- planning
