@@ -40,6 +40,7 @@ from ..model import Kinematics, Robot
 from ..roles import HAND_FRAMES, SIDES, SOLE_FRAMES
 
 TOE_FRAMES = {"left": "l_toe", "right": "r_toe"}
+HEEL_FRAMES = {"left": "l_heel", "right": "r_heel"}
 SIDES_LYING = ("prone", "supine")
 
 
@@ -106,18 +107,20 @@ class PhasePlan:
 
 
 def with_toes(robot: Robot) -> Robot:
-    """A copy of ``robot`` with a frame at the middle of each sole's front edge
-    (``l_toe``, ``r_toe``: half the foot length ahead of the sole frame)."""
-    if all(robot.has_frame(f) for f in TOE_FRAMES.values()):
+    """A copy of ``robot`` with a frame at the middle of each sole's front and back edges
+    (``l_toe``, ``r_toe``, ``l_heel``, ``r_heel``: half the foot length ahead of and behind
+    the sole frame)."""
+    if all(robot.has_frame(f) for f in (*TOE_FRAMES.values(), *HEEL_FRAMES.values())):
         return robot
     out = copy.deepcopy(robot)
     half = 0.5 * float(robot.foot_size[0])
     for side in SIDES:
         sole = out.frame_id(SOLE_FRAMES[side])
         f = out.model.frames[sole]
-        placement = f.placement * pin.SE3(np.eye(3), np.array([half, 0.0, 0.0]))
-        frame = pin.Frame(TOE_FRAMES[side], f.parentJoint, sole, placement, pin.FrameType.OP_FRAME)
-        out.model.addFrame(frame)
+        for name, dx in ((TOE_FRAMES[side], half), (HEEL_FRAMES[side], -half)):
+            placement = f.placement * pin.SE3(np.eye(3), np.array([dx, 0.0, 0.0]))
+            frame = pin.Frame(name, f.parentJoint, sole, placement, pin.FrameType.OP_FRAME)
+            out.model.addFrame(frame)
     out.data = out.model.createData()
     out.frame_names = tuple(f.name for f in out.model.frames)
     out._frame_ids = {}
@@ -229,9 +232,10 @@ def lying_state(robot: Robot, joints: np.ndarray, torso_rotation: np.ndarray) ->
 
 
 def ground_frame(q: np.ndarray, robot: Robot, side: str) -> pin.SE3:
-    """The ground frame of a plan from ``q`` lying on ``side`` (:class:`Phase`)."""
+    """The ground frame of a plan from ``q`` lying on ``side`` (:class:`Phase`): x the way
+    the robot will face when up (prone: where its head points; supine: where its feet do)."""
     torso = robot.frame_placement(q, "torso")
-    yaw = heading_of(torso.rotation, side)
+    yaw = heading_of(torso.rotation, side) + (math.pi if side == "supine" else 0.0)
     p = torso.translation.copy()
     p[2] = 0.0
     return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), p)
@@ -241,7 +245,6 @@ def ground_frame(q: np.ndarray, robot: Robot, side: str) -> pin.SE3:
 def prone_phases(robot: Robot) -> list[Phase]:
     """The get-up from the front (module docstring), sized from the model's lengths."""
     s = BodySizes.of(robot)
-    stand = robot.stand_pose
     ys, yh = s.shoulder_y, s.hip_y
     hands_chest = {
         "l_hand": (-0.1 * s.trunk, ys + 0.35 * s.arm, 0.0),
@@ -263,6 +266,15 @@ def prone_phases(robot: Robot) -> list[Phase]:
             "feet flat", ("l_hand", "r_hand", "l_toe", "r_toe"), 0.8,
             flat=("l_sole", "r_sole"), torso_pitch=math.radians(150),
         ),  # fmt: skip
+    ] + rise_phases(robot)
+
+
+def rise_phases(robot: Robot) -> list[Phase]:
+    """From hands and feet on the floor to standing: the CoM brought over the feet (the
+    hands sliding back), the hands lifted, the rise, a settle re-planned from the state."""
+    s = BodySizes.of(robot)
+    stand = robot.stand_pose
+    return [
         Phase(
             "squat", ("l_sole", "r_sole"), 2.0, sliding=("l_hand", "r_hand"),
             com_over=("l_sole", "r_sole"), com_shift=-0.1 * s.foot, torso_pitch=math.radians(80),
@@ -282,21 +294,42 @@ def prone_phases(robot: Robot) -> list[Phase]:
     ]
 
 
+def supine_phases(robot: Robot) -> list[Phase]:
+    """The get-up from the back (module docstring), sized from the model's lengths."""
+    s = BodySizes.of(robot)
+    ys, yh = s.shoulder_y, s.hip_y
+    x_hands = 0.6 * s.trunk  # beside the hips
+    hands = {
+        "l_hand": (x_hands, ys + 0.35 * s.arm, 0.0),
+        "r_hand": (x_hands, -ys - 0.35 * s.arm, 0.0),
+    }
+    x_heels = x_hands + 0.7 * s.leg  # the crab: heels drawn in this far ahead of the hands
+    heels_in = {"l_heel": (x_heels, yh, 0.0), "r_heel": (x_heels, -yh, 0.0)}
+    four = ("l_hand", "r_hand", "l_heel", "r_heel")
+    return [
+        Phase("hands down", ("torso",), 0.8, moves=hands, posture="zero"),
+        Phase("sit up", four, 1.2, torso_pitch=math.radians(-45), posture="zero"),
+        Phase(
+            "crab", ("l_hand", "r_hand"), 1.5, sliding=("l_heel", "r_heel"),
+            torso_pitch=math.radians(-20), moves=heels_in,
+        ),  # fmt: skip
+        Phase("feet flat", four, 0.8, flat=("l_sole", "r_sole"), torso_pitch=math.radians(-20)),
+    ] + rise_phases(robot)
+
+
 def phases_for(robot: Robot, side: str) -> list[Phase]:
     """The phases of a get-up from ``side`` (``prone`` or ``supine``)."""
     if side == "prone":
         return prone_phases(robot)
     if side == "supine":
-        raise ConfigurationError(
-            "get-up: no get-up from the back yet (the roll onto the front is not planned): "
-            "turn the robot onto its front"
-        )
+        return supine_phases(robot)
     raise ConfigurationError(f"get-up: side must be one of {SIDES_LYING}, got {side!r}")
 
 
 # ---------------------------------------------------------------------- planning
 def _is_point(frame: str) -> bool:
-    return frame in HAND_FRAMES.values() or frame in TOE_FRAMES.values()
+    points = (*HAND_FRAMES.values(), *TOE_FRAMES.values(), *HEEL_FRAMES.values())
+    return frame in points
 
 
 def _pitch_rotation(pitch: float, frame: pin.SE3) -> np.ndarray:
@@ -356,7 +389,7 @@ class PhasePlanner:
         # the floor: no point frame below it, the torso no lower than it lies
         z_torso = min(kin.translation(robot.frame_id("torso"))[2], self.torso_floor)
         for frame, clearance in (
-            *((f, 0.0) for f in (*HAND_FRAMES.values(), *TOE_FRAMES.values())),
+            *((f, 0.0) for f in (*HAND_FRAMES.values(), *TOE_FRAMES.values(), *HEEL_FRAMES.values())),
             ("torso", z_torso),
         ):
             if frame in phase.contacts:
