@@ -82,8 +82,11 @@ def test_the_plan_ends_standing(plans) -> None:
     q = plans[-1].q[-1]
     stand = ROBOT.configuration(ROBOT.stand_pose)
     assert np.max(np.abs(q[7:] - stand[7:])) < 0.05
+    # the torso as upright as in the standing pose on flat feet (the Bioloid's leans ~9 deg)
+    standing = ROBOT.place_on_ground(stand)
     up = ROBOT.frame_placement(q, "torso").rotation[2, 2]
-    assert up > math.cos(math.radians(5))
+    up_stand = ROBOT.frame_placement(standing, "torso").rotation[2, 2]
+    assert math.degrees(abs(math.acos(up) - math.acos(up_stand))) < 2.0
 
 
 def test_lying_side_and_state() -> None:
@@ -95,7 +98,9 @@ def test_lying_side_and_state() -> None:
     assert G.heading_of(prone, "prone") == pytest.approx(1.0)
     q = _prone()
     assert G.lowest_point(ROBOT, q) == pytest.approx(0.0, abs=1e-9)
-    assert np.allclose(ROBOT.frame_placement(q, "torso").rotation, pin.rpy.rpyToMatrix(0, math.pi / 2, 0.3))
+    assert np.allclose(
+        ROBOT.frame_placement(q, "torso").rotation, pin.rpy.rpyToMatrix(0, math.pi / 2, 0.3)
+    )
 
 
 def test_bad_input_is_one_clear_line() -> None:

@@ -59,7 +59,9 @@ class GetupParams:
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"getup: {name} must be a finite number >= 0, got {v}")
         if not 0 < self.speed_scale <= 1:
-            raise ConfigurationError(f"getup: speed_scale must be in (0, 1], got {self.speed_scale}")
+            raise ConfigurationError(
+                f"getup: speed_scale must be in (0, 1], got {self.speed_scale}"
+            )
         if self.rate <= 0:
             raise ConfigurationError(f"getup: rate must be > 0 Hz, got {self.rate}")
         return self
@@ -71,7 +73,8 @@ class Phase:
     robot's heading on the floor, z up, origin below the torso at the plan's start).
 
     ``contacts``: frames held where they are (hard); ``sliding``: point contacts held on the
-    floor (their height, hard) but free to slide along it (a hand pushing back); ``moves``: frame -> goal position;
+    floor (their height, hard) but free to slide along it (a hand pushing back); ``moves``:
+    frame -> goal position;
     ``flat``: frames turned to the ground frame's orientation (a sole flat, facing ahead);
     ``torso_pitch``: the torso's goal pitch (rad about the ground frame's y: 0 upright, +π/2
     face down, −π/2 face up); ``com_over``: frames whose centroid the CoM goes above (with
@@ -206,7 +209,7 @@ def lowest_point(robot: Robot, q: np.ndarray) -> float:
     gdata = pin.GeometryData(cm.geometry)
     pin.forwardKinematics(robot.model, data, q)
     low = math.inf
-    for k, g in enumerate(cm.geometry.geometryObjects):
+    for g in cm.geometry.geometryObjects:
         local = _box_vertices(g)  # in the parent joint's frame
         M = data.oMi[g.parentJoint]
         z = local @ M.rotation.T[:, 2] + M.translation[2]
@@ -255,17 +258,27 @@ def prone_phases(robot: Robot) -> list[Phase]:
     return [
         Phase("hands down", ("torso",), 0.8, moves=hands_chest, posture="zero"),
         Phase(
-            "push up", ("l_hand", "r_hand", "l_toe", "r_toe"), 1.0,
-            torso_pitch=math.radians(60), posture="zero",
-        ),  # fmt: skip
+            "push up",
+            ("l_hand", "r_hand", "l_toe", "r_toe"),
+            1.0,
+            torso_pitch=math.radians(60),
+            posture="zero",
+        ),
         Phase(
-            "pike", ("l_hand", "r_hand"), 1.5, sliding=("l_toe", "r_toe"),
-            torso_pitch=math.radians(150), moves=toes_in,
-        ),  # fmt: skip
+            "pike",
+            ("l_hand", "r_hand"),
+            1.5,
+            sliding=("l_toe", "r_toe"),
+            torso_pitch=math.radians(150),
+            moves=toes_in,
+        ),
         Phase(
-            "feet flat", ("l_hand", "r_hand", "l_toe", "r_toe"), 0.8,
-            flat=("l_sole", "r_sole"), torso_pitch=math.radians(150),
-        ),  # fmt: skip
+            "feet flat",
+            ("l_hand", "r_hand", "l_toe", "r_toe"),
+            0.8,
+            flat=("l_sole", "r_sole"),
+            torso_pitch=math.radians(150),
+        ),
     ] + rise_phases(robot)
 
 
@@ -276,21 +289,39 @@ def rise_phases(robot: Robot) -> list[Phase]:
     stand = robot.stand_pose
     return [
         Phase(
-            "squat", ("l_sole", "r_sole"), 2.0, sliding=("l_hand", "r_hand"),
-            com_over=("l_sole", "r_sole"), com_shift=-0.1 * s.foot, torso_pitch=math.radians(80),
-        ),  # fmt: skip
+            "squat",
+            ("l_sole", "r_sole"),
+            2.0,
+            sliding=("l_hand", "r_hand"),
+            com_over=("l_sole", "r_sole"),
+            com_shift=-0.1 * s.foot,
+            torso_pitch=math.radians(80),
+        ),
         Phase(
-            "hands up", ("l_sole", "r_sole"), 1.5,
-            com_over=("l_sole", "r_sole"), com_shift=-0.1 * s.foot, posture=stand, posture_weight=0.1,
-        ),  # fmt: skip
+            "hands up",
+            ("l_sole", "r_sole"),
+            1.5,
+            com_over=("l_sole", "r_sole"),
+            com_shift=-0.1 * s.foot,
+            posture=stand,
+            posture_weight=0.1,
+        ),
         Phase(
-            "rise", ("l_sole", "r_sole"), 2.5,
-            com_over=("l_sole", "r_sole"), posture=stand, posture_weight=1.0,
-        ),  # fmt: skip
+            "rise",
+            ("l_sole", "r_sole"),
+            2.5,
+            com_over=("l_sole", "r_sole"),
+            posture=stand,
+            posture_weight=1.0,
+        ),
         Phase(
-            "settle", ("l_sole", "r_sole"), 1.0,
-            com_over=("l_sole", "r_sole"), posture=stand, posture_weight=1.0,
-        ),  # fmt: skip
+            "settle",
+            ("l_sole", "r_sole"),
+            1.0,
+            com_over=("l_sole", "r_sole"),
+            posture=stand,
+            posture_weight=1.0,
+        ),
     ]
 
 
@@ -310,9 +341,13 @@ def supine_phases(robot: Robot) -> list[Phase]:
         Phase("hands down", ("torso",), 0.8, moves=hands, posture="zero"),
         Phase("sit up", four, 1.2, torso_pitch=math.radians(-45), posture="zero"),
         Phase(
-            "crab", ("l_hand", "r_hand"), 1.5, sliding=("l_heel", "r_heel"),
-            torso_pitch=math.radians(-20), moves=heels_in,
-        ),  # fmt: skip
+            "crab",
+            ("l_hand", "r_hand"),
+            1.5,
+            sliding=("l_heel", "r_heel"),
+            torso_pitch=math.radians(-20),
+            moves=heels_in,
+        ),
         Phase("feet flat", four, 0.8, flat=("l_sole", "r_sole"), torso_pitch=math.radians(-20)),
     ] + rise_phases(robot)
 
@@ -348,8 +383,11 @@ class PhasePlanner:
         check_robot(robot)
         self.robot = with_toes(robot)
         self.params = (params or GetupParams()).check()
-        #: the torso frame's height lying flat (m): the lowest the plan lets it go
-        self.torso_floor = math.inf
+        #: the torso's and the hips' heights lying (m, at the first plan): the lowest the
+        #: plan lets them go (their boxes touch the floor there)
+        self.floor: dict[str, float] = {}
+        roles = self.robot.roles
+        self.body_points = ("torso", *(roles.joint(side, "hip_pitch") for side in SIDES))
 
     def plan(self, phase: Phase, q0: np.ndarray, ground: pin.SE3) -> PhasePlan:
         """The joint trajectory of ``phase`` from ``q0`` (module docstring)."""
@@ -386,12 +424,14 @@ class PhasePlanner:
         stack.add_constraint(
             SelfCollisionConstraint(robot, margin=p.self_collision_margin), level=0
         )
-        # the floor: no point frame below it, the torso no lower than it lies
-        z_torso = min(kin.translation(robot.frame_id("torso"))[2], self.torso_floor)
-        for frame, clearance in (
-            *((f, 0.0) for f in (*HAND_FRAMES.values(), *TOE_FRAMES.values(), *HEEL_FRAMES.values())),
-            ("torso", z_torso),
-        ):
+        # the floor: no point frame below it, the torso and hips no lower than they lay
+        if not self.floor:
+            for f in self.body_points:
+                self.floor[f] = float(kin.translation(robot.frame_id(f))[2])
+        body = [(f, min(float(kin.translation(robot.frame_id(f))[2]), self.floor[f]))
+                for f in self.body_points]  # fmt: skip
+        points = (*HAND_FRAMES.values(), *TOE_FRAMES.values(), *HEEL_FRAMES.values())
+        for frame, clearance in (*((f, 0.0) for f in points), *body):
             if frame in phase.contacts:
                 continue
             stack.add_constraint(
@@ -484,15 +524,15 @@ def joint_speeds(plan: PhasePlan) -> np.ndarray:
 
 
 __all__: Sequence[str] = (
+    "BodySizes",
     "GetupParams",
     "Phase",
     "PhasePlan",
     "PhasePlanner",
-    "BodySizes",
+    "ground_frame",
     "lying_side",
     "lying_state",
-    "ground_frame",
-    "plan_getup",
     "phases_for",
+    "plan_getup",
     "with_toes",
 )

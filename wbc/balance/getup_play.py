@@ -39,6 +39,12 @@ from .getup import (
     phases_for,
 )
 
+#: why a robot on its back is left lying by default
+SUPINE_NOTE = (
+    "lying on the back: the get-up from the back does not work yet (the arms cannot lift the "
+    "trunk: benchmarks/getup.md); turn the robot onto its front"
+)
+
 
 def placed(
     robot: Robot, joints: np.ndarray, torso_rotation: np.ndarray, anchors: dict[str, np.ndarray]
@@ -87,14 +93,27 @@ def get_up(
     params: GetupParams | None = None,
     rate: float = 50.0,
     out: Callable[[str], None] = print,
+    supine: bool = False,
+    wait_s: float = 0.0,
 ) -> GetupResult:
     """Get the robot up from where it lies (module docstring). ``joints``: the present joint
-    angles (rad, model order; default: read from ``bus``, which must then be open)."""
+    angles (rad, model order; default: read from ``bus``); ``wait_s``: s to wait first (the
+    fall's last bounces).
+    ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
+    benchmarks/getup.md); without it a robot on its back is left lying, and the result says
+    so."""
+    from ..servos.bus import WALL_CLOCK
     from ..servos.playback import DeployConfig, Deployment
     from ..servos.sources import CallableSource
 
+    if wait_s > 0:  # the fall's last bounces
+        (bus.clock or WALL_CLOCK).sleep(wait_s)
     if joints is None:
-        statuses = bus.read_positions()
+        bus.open()
+        try:
+            statuses = bus.read_positions()
+        finally:
+            bus.close()
         if any(s.position is None for s in statuses):
             raise ConfigurationError("get-up: a servo did not report its position")
         joints = bus.codec.decode(np.array([s.position for s in statuses], dtype=float))
@@ -103,6 +122,8 @@ def get_up(
     side = lying_side(R)
     if side is None:
         return GetupResult(None, [], False, 0, reason="not lying on the front or the back")
+    if side == "supine" and not supine:
+        return GetupResult(side, [], False, 0, reason=SUPINE_NOTE)
     out(f"get-up: lying {side}")
     planner = PhasePlanner(robot, params)
     q0 = lying_state(planner.robot, np.clip(joints, robot.q_min, robot.q_max), R)
@@ -134,7 +155,7 @@ def get_up(
             q = placed(planner.robot, present, torso_rotation(imu, robot), plan.anchors)
             plan = start(k, t, q)
             s = 0.0
-        i = min(int(round(s * rate)), len(plan.q) - 1)
+        i = min(round(s * rate), len(plan.q) - 1)
         return plan.q[i, 7:]
 
     source = CallableSource(target, first.q[0, 7:], robot.joint_names)
@@ -181,7 +202,10 @@ def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
         M = sim.site_pose(s)
         up = math.degrees(math.acos(float(np.clip(M.rotation[2, 2], -1.0, 1.0))))
         if M.translation[2] > 0.005 or up > 10.0:
-            return False, f"{s} not flat on the floor (z {1e3 * M.translation[2]:.0f} mm, {up:.0f} deg)"
+            return (
+                False,
+                f"{s} not flat on the floor (z {1e3 * M.translation[2]:.0f} mm, {up:.0f} deg)",
+            )
         for dx in (-half_l, half_l):
             for dy in (-half_w, half_w):
                 corners.append(M.act(np.array([dx, dy, 0.0]))[:2])
@@ -200,9 +224,11 @@ def getup_sim(
     params: GetupParams | None = None,
     hold_s: float = 2.0,
     rate: float = 50.0,
+    supine: bool = True,
 ) -> dict[str, Any]:
     """Drop the simulated robot on ``side``, get it up, judge it (module docstring): the
-    record (``success``, ``reason``, ``duration_s``, ``phases``, ``plan_failures``)."""
+    record (``success``, ``reason``, ``duration_s``, ``phases``, ``plan_failures``).
+    ``supine``: try the (experimental) get-up from the back too."""
     from ..drive.sim import make_sim
 
     sim, bus, imu = make_sim(robot, variation, rate)
@@ -210,7 +236,7 @@ def getup_sim(
     t0 = sim.time
     try:
         res = get_up(bus, imu, robot, joints=sim.q()[7:], params=params, rate=rate,
-                     out=lambda _line: None)  # fmt: skip
+                     out=lambda _line: None, supine=supine)  # fmt: skip
     except WbcError as exc:
         return {"side": side, "success": False, "reason": f"error: {exc}", "duration_s": None,
                 "phases": [], "plan_failures": 0}  # fmt: skip
@@ -221,7 +247,7 @@ def getup_sim(
         ok, why = judge(sim, robot)
         why = why if ok else f"fell back within {hold_s:g} s: {why}"
     if not res.completed:
-        ok, why = False, f"motion not completed ({res.reason or res.deploy and res.deploy.trip})"
+        ok, why = False, f"motion not completed ({res.reason or (res.deploy and res.deploy.trip)})"
     return {
         "side": side,
         "success": bool(ok),
