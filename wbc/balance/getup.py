@@ -70,7 +70,7 @@ class GetupParams:
 @dataclass(frozen=True)
 class Phase:
     """One support phase (module docstring). Positions are in the ground frame (x the
-    robot's heading on the floor, z up, origin below the torso at the plan's start).
+    robot's heading on the floor, z up, origin below the shoulders at the plan's start).
 
     ``contacts``: frames held where they are (hard); ``sliding``: point contacts held on the
     floor (their height, hard) but free to slide along it (a hand pushing back); ``moves``:
@@ -220,8 +220,8 @@ def lowest_point(robot: Robot, q: np.ndarray) -> float:
 
 def lying_state(robot: Robot, joints: np.ndarray, torso_rotation: np.ndarray) -> np.ndarray:
     """The configuration of a robot lying on the floor: the measured joints, the torso turned
-    as measured (the IMU) and the base put down so its lowest point touches z = 0, its torso
-    above the ground frame's origin."""
+    as measured (the IMU) and the base put down so its lowest point touches z = 0, the torso
+    frame above the world's origin."""
     q = robot.neutral()
     q[7:] = np.asarray(joints, dtype=float)
     kin = Kinematics(robot, q)
@@ -235,11 +235,18 @@ def lying_state(robot: Robot, joints: np.ndarray, torso_rotation: np.ndarray) ->
 
 
 def ground_frame(q: np.ndarray, robot: Robot, side: str) -> pin.SE3:
-    """The ground frame of a plan from ``q`` lying on ``side`` (:class:`Phase`): x the way
-    the robot will face when up (prone: where its head points; supine: where its feet do)."""
+    """The ground frame of a plan from ``q`` lying on ``side`` (:class:`Phase`): origin below
+    the shoulders, x the way the robot will face when up (prone: where its head points;
+    supine: where its feet do)."""
     torso = robot.frame_placement(q, "torso")
     yaw = heading_of(torso.rotation, side) + (math.pi if side == "supine" else 0.0)
-    p = torso.translation.copy()
+    kin = Kinematics(robot, q)
+    roles = robot.roles
+    shoulders = [
+        kin.data.oMi[robot.model.getJointId(roles.joint(s, "shoulder_pitch"))].translation
+        for s in SIDES
+    ]
+    p = np.mean(shoulders, axis=0)
     p[2] = 0.0
     return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), p)
 
