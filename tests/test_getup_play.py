@@ -11,6 +11,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from wbc.balance import getup_play as P
+from wbc.drive.getup_sim import drop, judge
 from wbc.drive.sim import make_sim
 from wbc.model import load_robot
 
@@ -21,17 +22,17 @@ def test_the_bioloid_gets_up_from_its_front() -> None:
     """Dropped on its front (a random heading), torque off, settled: get_up reads the side
     from the IMU and the joints from the bus, and the robot ends standing, still up 2 s on."""
     sim, bus, imu = make_sim(ROBOT)
-    P.drop(sim, ROBOT, "prone", yaw=0.7)
-    assert P.judge(sim, ROBOT)[0] is False
+    drop(sim, ROBOT, "prone", yaw=0.7)
+    assert judge(sim, ROBOT)[0] is False
     lines: list[str] = []
     result = P.get_up(bus, imu, ROBOT, out=lines.append)
     assert result.side == "prone" and result.completed, result
     assert result.plan_failures == 0
     assert lines[0] == "get-up: lying prone"
-    ok, why = P.judge(sim, ROBOT)
+    ok, why = judge(sim, ROBOT)
     assert ok, why
     sim.advance(2.0)
-    ok, why = P.judge(sim, ROBOT)
+    ok, why = judge(sim, ROBOT)
     assert ok, why
     # facing where its head pointed on the floor
     R = sim.site_pose("torso").rotation
@@ -42,7 +43,7 @@ def test_on_its_back_or_standing_it_is_left_as_it_is() -> None:
     sim, bus, imu = make_sim(ROBOT)
     result = P.get_up(bus, imu, ROBOT, joints=sim.q()[7:], out=lambda _l: None)
     assert result.side is None and not result.completed and not result.phases
-    P.drop(sim, ROBOT, "supine")
+    drop(sim, ROBOT, "supine")
     q = sim.q()
     result = P.get_up(bus, imu, ROBOT, joints=q[7:], out=lambda _l: None)
     assert result.side == "supine" and not result.completed and result.reason == P.SUPINE_NOTE
