@@ -6,7 +6,8 @@ heading on the floor. Success: the torso upright within 10°, both soles flat, t
 the feet, still so 2 s later (:func:`wbc.drive.getup_sim.judge`). Prints the success rate
 and the duration (from the first goal to the end of the rise) per side.
 
-    nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --json results/getup.json
+    nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal
+    nice -n 5 python benchmarks/getup.py --models 20 --sides prone --nominal --open-loop
 
 Figures and the exact commands they came from: benchmarks/getup.md.
 """
@@ -37,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=33)
     ap.add_argument("--sides", nargs="+", default=["prone", "supine"])
     ap.add_argument("--nominal", action="store_true", help="also the nominal model")
+    ap.add_argument(
+        "--open-loop", action="store_true", help="each phase planned from the plan's own end"
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
@@ -48,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     for side in args.sides:
         ok, durations = 0, []
         for k, (v, yaw) in enumerate(zip(variations, yaws, strict=True)):
-            rec = getup_sim(robot, side, v, yaw=float(yaw))
+            rec = getup_sim(robot, side, v, yaw=float(yaw), replan=not args.open_loop)
             rec.update(model="nominal" if v is None else k - int(args.nominal), yaw=float(yaw))
             records.append(rec)
             ok += rec["success"]

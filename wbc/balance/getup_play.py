@@ -90,10 +90,12 @@ def get_up(
     out: Callable[[str], None] = print,
     supine: bool = False,
     wait_s: float = 0.0,
+    replan: bool = True,
 ) -> GetupResult:
     """Get the robot up from where it lies (module docstring). ``joints``: the present joint
     angles (rad, model order; default: read from ``bus``); ``wait_s``: s to wait first (the
-    fall's last bounces).
+    fall's last bounces). ``replan=False``: each phase planned from the planned end of the
+    previous one (open loop: the benchmark's comparison).
     ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
     benchmarks/getup.md); without it a robot on its back is left lying, and the result says
     so."""
@@ -145,9 +147,12 @@ def get_up(
             if k >= len(phases):
                 return None
             present = holder[0].last_present if holder else None
-            if present is None or not np.all(np.isfinite(present)):
-                present = plan.q[-1, 7:]
-            q = placed(planner.robot, present, torso_rotation(imu, robot), plan.anchors)
+            if not replan:  # open loop: from where the plan left it
+                q = plan.q[-1]
+            elif present is None or not np.all(np.isfinite(present)):
+                q = plan.q[-1]
+            else:
+                q = placed(planner.robot, present, torso_rotation(imu, robot), plan.anchors)
             plan = start(k, t, q)
             s = 0.0
         i = min(round(s * rate), len(plan.q) - 1)
