@@ -41,6 +41,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--open-loop", action="store_true", help="each phase planned from the plan's own end"
     )
+    ap.add_argument(
+        "--compensate", type=float, default=1.0, help="compliance feed-forward gain (0: off)"
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
@@ -52,7 +55,14 @@ def main(argv: list[str] | None = None) -> int:
     for side in args.sides:
         ok, durations = 0, []
         for k, (v, yaw) in enumerate(zip(variations, yaws, strict=True)):
-            rec = getup_sim(robot, side, v, yaw=float(yaw), replan=not args.open_loop)
+            rec = getup_sim(
+                robot,
+                side,
+                v,
+                yaw=float(yaw),
+                replan=not args.open_loop,
+                compensate=args.compensate,
+            )
             rec.update(model="nominal" if v is None else k - int(args.nominal), yaw=float(yaw))
             records.append(rec)
             ok += rec["success"]

@@ -112,3 +112,21 @@ def test_bad_input_is_one_clear_line() -> None:
         G.GetupParams(rate=0.0).check()
     with pytest.raises(ConfigurationError, match="hold_s"):
         G.GetupParams(hold_s=-1.0).check()
+
+
+def test_static_torques_on_one_sole_are_the_compliance_models() -> None:
+    """On one sole the contact wrench is unique: the same torques as the compliance
+    feed-forward's inverse statics (wbc.balance.compliance)."""
+    from wbc.balance.compliance import ComplianceCompensator
+    from wbc.recording import SUPPORT_LEFT
+
+    robot = G.with_toes(ROBOT)
+    joints = ROBOT.configuration("stand")[7:] + 0.05
+    q = ROBOT.place_on_ground(ROBOT.with_joints(joints), "l_sole")
+    phase = G.Phase("one sole", ("l_sole",), 1.0)
+    expected = ComplianceCompensator(ROBOT).torques(joints, SUPPORT_LEFT)
+    assert np.allclose(G.static_torques(robot, q, phase), expected, atol=1e-9)
+    # on the torso alone (lying) the floor holds everything: the joints hold the limbs
+    lying = _prone()
+    tau = G.static_torques(robot, lying, G.Phase("lying", ("torso",), 1.0))
+    assert np.all(np.isfinite(tau)) and np.abs(tau).max() < 0.5

@@ -338,15 +338,15 @@ def supine_phases(robot: Robot) -> list[Phase]:
     ys, yh = s.shoulder_y, s.hip_y
     x_hands = 0.6 * s.trunk  # beside the hips
     hands = {
-        "l_hand": (x_hands, ys + 0.35 * s.arm, 0.0),
-        "r_hand": (x_hands, -ys - 0.35 * s.arm, 0.0),
+        "l_hand": (x_hands, ys + 0.6 * s.arm, 0.0),
+        "r_hand": (x_hands, -ys - 0.6 * s.arm, 0.0),
     }
     x_heels = x_hands + 0.7 * s.leg  # the crab: heels drawn in this far ahead of the hands
     heels_in = {"l_heel": (x_heels, yh, 0.0), "r_heel": (x_heels, -yh, 0.0)}
     four = ("l_hand", "r_hand", "l_heel", "r_heel")
     return [
         Phase("hands down", ("torso",), 0.8, moves=hands, posture="zero"),
-        Phase("sit up", four, 1.2, torso_pitch=math.radians(-45), posture="zero"),
+        Phase("sit up", four, 1.2, torso_pitch=math.radians(-60), posture="zero"),
         Phase(
             "crab",
             ("l_hand", "r_hand"),
@@ -523,6 +523,31 @@ def plan_getup(
     return plans
 
 
+def static_torques(robot: Robot, q: np.ndarray, phase: Phase) -> np.ndarray:
+    """Static joint torques (N·m) holding ``q`` on the phase's contacts::
+
+        τ = g_j(q) − J_c,jᵀ f,   f the least-norm solution of  J_c,bᵀ f = g_b(q)
+
+    (``b``: the floating base's 6 rows; soles and the torso carry 6-D wrenches, points —
+    hands, toes, heels, sliding or held — 3-D forces), as
+    :meth:`wbc.balance.compliance.ComplianceCompensator.torques` for the soles. ``robot``
+    must have the toe and heel frames (:func:`with_toes`)."""
+    m = robot.model
+    d = m.createData()
+    g = pin.computeGeneralizedGravity(m, d, q)
+    pin.computeJointJacobians(m, d, q)
+    pin.updateFramePlacements(m, d)
+    rows = []
+    for frame in (*phase.contacts, *phase.sliding):
+        J = pin.getFrameJacobian(m, d, robot.frame_id(frame), pin.LOCAL_WORLD_ALIGNED)
+        rows.append(J[:3] if _is_point(frame) else J)
+    if not rows:
+        return g[6:].copy()
+    jc = np.vstack(rows)
+    f = np.linalg.lstsq(jc[:, :6].T, g[:6], rcond=None)[0]
+    return g[6:] - jc[:, 6:].T @ f
+
+
 def joint_speeds(plan: PhasePlan) -> np.ndarray:
     """The largest |q̇| of each joint over a planned phase (rad/s)."""
     if len(plan.t) < 2:
@@ -541,5 +566,6 @@ __all__: Sequence[str] = (
     "lying_state",
     "phases_for",
     "plan_getup",
+    "static_torques",
     "with_toes",
 )

@@ -32,6 +32,7 @@ from .getup import (
     lying_side,
     lying_state,
     phases_for,
+    static_torques,
 )
 
 #: why a robot on its back is left lying by default
@@ -91,11 +92,15 @@ def get_up(
     supine: bool = False,
     wait_s: float = 0.0,
     replan: bool = True,
+    compensate: float = 1.0,
 ) -> GetupResult:
     """Get the robot up from where it lies (module docstring). ``joints``: the present joint
     angles (rad, model order; default: read from ``bus``); ``wait_s``: s to wait first (the
     fall's last bounces). ``replan=False``: each phase planned from the planned end of the
-    previous one (open loop: the benchmark's comparison).
+    previous one (open loop: the benchmark's comparison). ``compensate``: the gain of the
+    servo compliance feed-forward on the planned goals (each joint pre-loaded by its
+    deflection under the phase's static load, :func:`~wbc.balance.getup.static_torques` and
+    :mod:`wbc.balance.compliance`; 0: off; robots whose servos have no model: off).
     ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
     benchmarks/getup.md); without it a robot on its back is left lying, and the result says
     so."""
@@ -138,6 +143,11 @@ def get_up(
         return plan
 
     first = start(0, 0.0, q0)
+    compensator = None
+    if compensate > 0 and robot.servo_map is not None:
+        from .compliance import ComplianceCompensator
+
+        compensator = ComplianceCompensator(robot, gain=compensate)
 
     def target(tick: int, t: float) -> np.ndarray | None:
         plan = state["plan"]
@@ -156,7 +166,11 @@ def get_up(
             plan = start(k, t, q)
             s = 0.0
         i = min(round(s * rate), len(plan.q) - 1)
-        return plan.q[i, 7:]
+        if compensator is None:
+            return plan.q[i, 7:]
+        tau = static_torques(planner.robot, plan.q[i], plan.phase)
+        goal = plan.q[i, 7:] + compensator.gain * compensator.servo_deflection(tau)
+        return np.clip(goal, robot.q_min, robot.q_max)
 
     source = CallableSource(target, first.q[0, 7:], robot.joint_names)
     config = DeployConfig(rate=rate, read=bus.can_read, soft_speed=0.5)

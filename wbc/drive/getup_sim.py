@@ -73,17 +73,20 @@ def getup_sim(
     rate: float = 50.0,
     supine: bool = True,
     replan: bool = True,
+    compensate: float = 1.0,
 ) -> dict[str, Any]:
     """Drop the simulated robot on ``side``, get it up, judge it (module docstring): the
     record (``success``, ``reason``, ``duration_s``, ``phases``, ``plan_failures``).
     ``supine``: try the (experimental) get-up from the back too; ``replan=False``: open
-    loop (:func:`~wbc.balance.getup_play.get_up`)."""
+    loop, ``compensate`` the compliance feed-forward's gain
+    (:func:`~wbc.balance.getup_play.get_up`)."""
     sim, bus, imu = make_sim(robot, variation, rate)
     drop(sim, robot, side, yaw)
     t0 = sim.time
     try:
         res = get_up(bus, imu, robot, joints=sim.q()[7:], params=params, rate=rate,
-                     out=lambda _line: None, supine=supine, replan=replan)  # fmt: skip
+                     out=lambda _line: None, supine=supine, replan=replan,
+                     compensate=compensate)  # fmt: skip
     except WbcError as exc:
         return {"side": side, "success": False, "reason": f"error: {exc}", "duration_s": None,
                 "phases": [], "plan_failures": 0}  # fmt: skip
