@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import ConfigurationError
+from ..exceptions import ConfigurationError, WbcError
 from ..model import Kinematics, Robot
 from .getup import (
     GetupParams,
@@ -100,7 +100,8 @@ def get_up(
     previous one (open loop: the benchmark's comparison). ``compensate``: the gain of the
     servo compliance feed-forward on the planned goals (each joint pre-loaded by its
     deflection under the phase's static load, :func:`~wbc.balance.getup.static_torques` and
-    :mod:`wbc.balance.compliance`; 0: off; robots whose servos have no model: off).
+    :mod:`wbc.balance.compliance`; 0: off; off, with a line saying so, on servos it has no
+    model of).
     ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
     benchmarks/getup.md); without it a robot on its back is left lying, and the result says
     so."""
@@ -144,10 +145,13 @@ def get_up(
 
     first = start(0, 0.0, q0)
     compensator = None
-    if compensate > 0 and robot.servo_map is not None:
+    if compensate > 0:
         from .compliance import ComplianceCompensator
 
-        compensator = ComplianceCompensator(robot, gain=compensate)
+        try:
+            compensator = ComplianceCompensator(robot, gain=compensate)
+        except WbcError as exc:  # no servo model (X-series, no servo map): said, then off
+            out(f"get-up: no compliance feed-forward ({exc})")
 
     def target(tick: int, t: float) -> np.ndarray | None:
         plan = state["plan"]
