@@ -37,12 +37,22 @@ def drop(sim: Any, robot: Robot, side: str, yaw: float = 0.0, settle_s: float = 
 
 
 def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
-    """Standing? Torso within ``tilt_deg`` of upright, both soles flat on the floor (within
-    5 mm and 10°), the CoM above the soles' hull."""
+    """Standing? The torso within ``tilt_deg`` of its attitude in the robot's standing pose
+    (the Bioloid's Walk Ready leans its torso 10° forward over flat feet; that is upright
+    here), both soles flat on the floor (within 5 mm and 10°), the CoM above the soles'
+    hull. The tilt is the angle between the torso's z axis and the standing pose's, turned
+    to the left sole's heading; the line also gives the torso's tilt from the vertical."""
     R = sim.site_pose("torso").rotation
-    tilt = math.degrees(math.acos(float(np.clip(R[2, 2], -1.0, 1.0))))
+    vertical = math.degrees(math.acos(float(np.clip(R[2, 2], -1.0, 1.0))))
+    stand = robot.place_on_ground(robot.configuration(robot.stand_pose), "l_sole")
+    sole0 = robot.frame_placement(stand, "l_sole").rotation
+    z_stand = sole0.T @ robot.frame_placement(stand, "torso").rotation[:, 2]  # in the sole
+    Rs = sim.site_pose("l_sole").rotation
+    yaw = math.atan2(Rs[1, 0], Rs[0, 0])
+    z_want = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ z_stand
+    tilt = math.degrees(math.acos(float(np.clip(R[:, 2] @ z_want, -1.0, 1.0))))
     if tilt > tilt_deg:
-        return False, f"torso tilted {tilt:.0f} deg"
+        return False, f"torso {tilt:.0f} deg from standing ({vertical:.0f} deg from vertical)"
     half_l, half_w = (0.5 * v for v in robot.foot_size)
     corners = []
     for s in ("l_sole", "r_sole"):
@@ -60,7 +70,10 @@ def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
     margin = float(signed_distance(hull, sim.com()[:2]))
     if margin < 0:
         return False, f"CoM {1e3 * -margin:.0f} mm outside the feet"
-    return True, f"up: tilt {tilt:.1f} deg, CoM {1e3 * margin:.0f} mm inside the feet"
+    return True, (
+        f"up: torso {tilt:.1f} deg from standing ({vertical:.1f} from vertical), CoM "
+        f"{1e3 * margin:.0f} mm inside the feet"
+    )
 
 
 def getup_sim(
