@@ -2,22 +2,28 @@
 
 A get-up is a sequence of **support phases** (:class:`Phase`). Each phase names the frames
 in contact with the floor — held where they are as **hard** tasks of a lexicographic QP
-(:class:`~wbc.solvers.HierarchicalQP`): soles and the torso as 6-D contacts, hands and toes
-as point contacts — together with self-collision rows, and, one level below, where some
-frames go (a hand to the floor, a sole flat), the torso's pitch, the CoM (over the centre of
+(:class:`~wbc.solvers.HierarchicalQP`): soles and the torso as 6-D contacts, hands, toes and
+heels as point contacts, *sliding* points (a hand pushing back along the floor) at their
+height only — together with self-collision rows and floor rows (no hand, toe or heel below
+the floor; the torso and the hips no lower than they lay). One level below: where some frames
+go (a hand to the floor), soles turned flat, the torso's pitch, the CoM (over the centre of
 the phase's support) and a light posture. The targets move from their values at the phase's
 start to their goals (a smooth ramp), the QP ticking at ``rate`` with the joint limits and the
-servos' speed (``speed_scale`` · v_max) as hard bounds: the phase's joint trajectory. Every
-frame is a standard frame of the model (``torso``, ``l_sole``, ``r_sole``, ``l_hand``,
-``r_hand``; toes at the front edge of each sole, :func:`with_toes`); the lengths come from
-the model (leg, arm, torso: :class:`BodySizes`): nothing names a robot's joint.
+servos' speed (``speed_scale`` · v_max) as hard bounds: the phase's joint trajectory.
+:func:`static_torques` gives the joint torques that hold a planned configuration on its
+contacts (least-norm contact forces). Every frame is a standard frame of the model
+(``torso``, ``l_sole``, ``r_sole``, ``l_hand``, ``r_hand``; toes and heels at the front and
+back edges of each sole, :func:`with_toes`), the hip and shoulder joints come from the joint
+roles, the lengths from the model (:class:`BodySizes`): nothing names a robot's joint.
 
 From **prone** (lying on the front): hands to the floor beside the chest, a push-up onto hands
-and toes, a pike (hips up, hands and toes held), the soles rolled flat, the CoM brought back
-over the feet into a squat (hands and soles), the hands lifted, the rise to the standing pose.
-From **supine** (on the back): not planned yet (a roll onto the front is the intended first
-phase; pushes with one arm and one leg did not roll the simulated Bioloid over):
-:func:`phases_for` says so in one line.
+and toes, a pike (hips up, the toes drawn in), the soles rolled flat about the toes, the CoM
+brought back over the feet into a squat (the hands sliding back), the hands lifted, the rise
+to the standing pose, a settle. From **supine** (on the back): hands beside the hips, a sit-up
+onto hands and heels, a crab (the heels drawn in), the soles flat, then the same squat and
+rise. The supine plan is feasible on paper but fails in the simulator (the shoulders cannot
+lift the trunk: ``benchmarks/getup.md``); :func:`wbc.balance.getup_play.get_up` only tries it
+when asked.
 
 The plan is made from the measured fallen state (:func:`lying_state`: the joints from the
 servos, the torso's orientation from the IMU, the base put on the floor) and played phase by
@@ -384,7 +390,8 @@ def _smooth(s: float) -> float:
 
 
 class PhasePlanner:
-    """Plans phases with the QP stack (module docstring) on a robot with toe frames."""
+    """Plans phases with the QP stack (module docstring) on a copy of the robot with toe and
+    heel frames (:attr:`robot`)."""
 
     def __init__(self, robot: Robot, params: GetupParams | None = None) -> None:
         check_robot(robot)
