@@ -424,16 +424,20 @@ class PhasePlanner:
         anchors: dict[str, np.ndarray] = {}
         for frame in phase.contacts:
             if _is_point(frame):
-                task = FramePositionTask(robot, frame, name=f"contact_{frame}")
+                point = FramePositionTask(robot, frame, name=f"contact_{frame}")
+                point.set_target_from(kin)
+                stack.add(point, level=0)
             else:
-                task = ContactTask(robot, frame)
-            task.set_target_from(kin) if _is_point(frame) else task.make_contact(kin)
-            stack.add(task, level=0)
+                contact = ContactTask(robot, frame)
+                contact.make_contact(kin)
+                stack.add(contact, level=0)
             anchors[frame] = kin.translation(robot.frame_id(frame)).copy()
         for frame in phase.sliding:
-            task = FramePositionTask(robot, frame, name=f"slide_{frame}", mask=(False, False, True))
-            task.set_target_from(kin)
-            stack.add(task, level=0)
+            slide = FramePositionTask(
+                robot, frame, name=f"slide_{frame}", mask=(False, False, True)
+            )
+            slide.set_target_from(kin)
+            stack.add(slide, level=0)
             anchors[frame] = kin.translation(robot.frame_id(frame)).copy()
         stack.add_constraint(
             SelfCollisionConstraint(robot, margin=p.self_collision_margin), level=0
@@ -454,33 +458,33 @@ class PhasePlanner:
             )
         stack.level(1, hard=False)
         ramps: list[tuple] = []  # (task, start, goal) for positions; rotations separately
-        for frame, goal in phase.moves.items():
-            task = FramePositionTask(robot, frame, name=f"move_{frame}", weight=100.0)
+        for frame, xyz in phase.moves.items():
+            move = FramePositionTask(robot, frame, name=f"move_{frame}", weight=100.0)
             start = kin.translation(robot.frame_id(frame)).copy()
-            ramps.append((task, start, ground.act(np.asarray(goal, dtype=float))))
-            stack.add(task, level=1)
+            ramps.append((move, start, ground.act(np.asarray(xyz, dtype=float))))
+            stack.add(move, level=1)
         turns: list[tuple] = []
         for frame in phase.flat:
-            task = FrameOrientationTask(robot, frame, name=f"flat_{frame}", weight=10.0)
-            turns.append((task, kin.rotation(robot.frame_id(frame)).copy(), ground.rotation))
-            stack.add(task, level=1)
+            flat = FrameOrientationTask(robot, frame, name=f"flat_{frame}", weight=10.0)
+            turns.append((flat, kin.rotation(robot.frame_id(frame)).copy(), ground.rotation))
+            stack.add(flat, level=1)
         if phase.torso_pitch is not None:
-            task = FrameOrientationTask(robot, "torso", name="torso_pitch", weight=10.0)
-            goal = _pitch_rotation(phase.torso_pitch, ground)
-            turns.append((task, kin.rotation(robot.frame_id("torso")).copy(), goal))
-            stack.add(task, level=1)
+            torso = FrameOrientationTask(robot, "torso", name="torso_pitch", weight=10.0)
+            pitch_goal = _pitch_rotation(phase.torso_pitch, ground)
+            turns.append((torso, kin.rotation(robot.frame_id("torso")).copy(), pitch_goal))
+            stack.add(torso, level=1)
         if phase.com_over or phase.com_z is not None:
             mask = (bool(phase.com_over), bool(phase.com_over), phase.com_z is not None)
             com = ComTask(robot, name="com", weight=100.0, mask=mask)
-            start = kin.com.copy()
-            goal = start.copy()
+            com_start = kin.com.copy()
+            com_goal = com_start.copy()
             if phase.com_over:
                 pts = [self._goal_point(f, anchors, phase, ground, kin) for f in phase.com_over]
                 centre = np.mean(pts, axis=0)
-                goal[:2] = centre[:2] + phase.com_shift * ground.rotation[:2, 0]
+                com_goal[:2] = centre[:2] + phase.com_shift * ground.rotation[:2, 0]
             if phase.com_z is not None:
-                goal[2] = phase.com_z
-            ramps.append((com, start, goal))
+                com_goal[2] = phase.com_z
+            ramps.append((com, com_start, com_goal))
             stack.add(com, level=1)
         posture = PostureTask(robot, name="posture", weight=phase.posture_weight)
         target = q0 if phase.posture is None else robot.configuration(phase.posture)
