@@ -62,6 +62,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
     )
+    parser.add_argument(
+        "--no-get-up", action="store_true", help="after a fall, stay down (default: get up)"
+    )
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the run's record")
 
 
@@ -190,6 +193,14 @@ def run(args: argparse.Namespace) -> int:
         if teleop is not None:
             teleop.open()
         result = walker.deployment(bus, config).run()
+        fell_now = (odo is not None and odo.fell_at is not None) or (
+            result.trip is not None and "fall" in result.trip.faults
+        )
+        if fell_now and not args.no_get_up and imu is not None:
+            from ..balance.getup_play import get_up
+
+            up = get_up(bus, imu, robot, wait_s=1.0)
+            print(f"get-up: {'standing' if up.completed else up.reason}")
     finally:
         if teleop is not None:
             teleop.close()

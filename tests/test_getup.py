@@ -1,0 +1,132 @@
+"""The get-up plan (wbc.balance.getup): contacts held at the hard level, joint limits and
+servo speeds kept, the CoM inside the support polygon; the lying state and side."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.balance import getup as G
+from wbc.exceptions import ConfigurationError
+from wbc.geometry import convex_hull, signed_distance
+from wbc.model import Kinematics, load_robot
+
+ROBOT = load_robot("bioloid")
+
+
+def _prone() -> np.ndarray:
+    q = ROBOT.configuration("stand")
+    R = pin.rpy.rpyToMatrix(0.0, math.pi / 2, 0.3)
+    return G.lying_state(ROBOT, q[7:], R @ np.eye(3))
+
+
+@pytest.fixture(scope="module")
+def plans() -> list[G.PhasePlan]:
+    return G.plan_getup(ROBOT, _prone(), "prone")
+
+
+def _support_points(robot, kin, phase) -> np.ndarray:
+    pts = []
+    length, width = ROBOT.foot_size
+    for f in (*phase.contacts, *phase.sliding):
+        if f in ("l_sole", "r_sole"):
+            M = kin.placement(robot.frame_id(f))
+            for dx in (-length / 2, length / 2):
+                for dy in (-width / 2, width / 2):
+                    pts.append(M.act(np.array([dx, dy, 0.0]))[:2])
+        elif f != "torso":
+            pts.append(kin.translation(robot.frame_id(f))[:2])
+    return np.asarray(pts)
+
+
+def test_the_plan_keeps_its_contacts_limits_and_speeds(plans) -> None:
+    robot = G.with_toes(ROBOT)
+    assert [p.phase.name for p in plans] == [p.name for p in G.phases_for(ROBOT, "prone")]
+    for plan in plans:
+        assert plan.failed_solves == 0, plan.phase.name
+        joints = plan.q[:, 7:]
+        assert np.all(joints >= ROBOT.q_min) and np.all(joints <= ROBOT.q_max), plan.phase.name
+        speed = G.joint_speeds(plan)
+        assert np.all(speed <= G.GetupParams().speed_scale * ROBOT.v_max + 1e-9), plan.phase.name
+        for q in plan.q:
+            kin = Kinematics(robot, q)
+            for frame in plan.phase.contacts:
+                err = np.linalg.norm(kin.translation(robot.frame_id(frame)) - plan.anchors[frame])
+                assert err < 2e-3, (plan.phase.name, frame, err)  # first order per 20 ms tick
+            for frame in plan.phase.sliding:
+                z = kin.translation(robot.frame_id(frame))[2]
+                assert abs(z - plan.anchors[frame][2]) < 2e-3, (plan.phase.name, frame)
+
+
+def test_the_com_stays_inside_the_support_polygon(plans) -> None:
+    robot = G.with_toes(ROBOT)
+    checked = 0
+    for plan in plans:
+        if not plan.phase.quasi_static:
+            continue
+        for q in plan.q:
+            kin = Kinematics(robot, q)
+            pts = _support_points(robot, kin, plan.phase)
+            if len(pts) < 3:  # lying on the torso: the floor holds it
+                continue
+            margin = signed_distance(convex_hull(pts), kin.com[:2])
+            assert margin > 0, (plan.phase.name, margin)
+            checked += 1
+    assert checked > 100
+
+
+def test_the_plan_ends_standing(plans) -> None:
+    q = plans[-1].q[-1]
+    stand = ROBOT.configuration(ROBOT.stand_pose)
+    assert np.max(np.abs(q[7:] - stand[7:])) < 0.05
+    # the torso as upright as in the standing pose on flat feet (the Bioloid's leans ~9 deg)
+    standing = ROBOT.place_on_ground(stand)
+    up = ROBOT.frame_placement(q, "torso").rotation[2, 2]
+    up_stand = ROBOT.frame_placement(standing, "torso").rotation[2, 2]
+    assert math.degrees(abs(math.acos(up) - math.acos(up_stand))) < 2.0
+
+
+def test_lying_side_and_state() -> None:
+    prone = pin.rpy.rpyToMatrix(0.0, math.pi / 2, 1.0)
+    supine = pin.rpy.rpyToMatrix(0.0, -math.pi / 2, -2.0)
+    assert G.lying_side(prone) == "prone"
+    assert G.lying_side(supine) == "supine"
+    assert G.lying_side(np.eye(3)) is None
+    assert G.heading_of(prone, "prone") == pytest.approx(1.0)
+    q = _prone()
+    assert G.lowest_point(ROBOT, q) == pytest.approx(0.0, abs=1e-9)
+    assert np.allclose(
+        ROBOT.frame_placement(q, "torso").rotation, pin.rpy.rpyToMatrix(0, math.pi / 2, 0.3)
+    )
+
+
+def test_bad_input_is_one_clear_line() -> None:
+    with pytest.raises(ConfigurationError, match="side must be"):
+        G.phases_for(ROBOT, "sideways")
+    with pytest.raises(ConfigurationError, match="speed_scale"):
+        G.GetupParams(speed_scale=2.0).check()
+    with pytest.raises(ConfigurationError, match="rate"):
+        G.GetupParams(rate=0.0).check()
+    with pytest.raises(ConfigurationError, match="hold_s"):
+        G.GetupParams(hold_s=-1.0).check()
+
+
+def test_static_torques_on_one_sole_are_the_compliance_models() -> None:
+    """On one sole the contact wrench is unique: the same torques as the compliance
+    feed-forward's inverse statics (wbc.balance.compliance)."""
+    from wbc.balance.compliance import ComplianceCompensator
+    from wbc.recording import SUPPORT_LEFT
+
+    robot = G.with_toes(ROBOT)
+    joints = ROBOT.configuration("stand")[7:] + 0.05
+    q = ROBOT.place_on_ground(ROBOT.with_joints(joints), "l_sole")
+    phase = G.Phase("one sole", ("l_sole",), 1.0)
+    expected = ComplianceCompensator(ROBOT).torques(joints, SUPPORT_LEFT)
+    assert np.allclose(G.static_torques(robot, q, phase), expected, atol=1e-9)
+    # on the torso alone (lying) the floor holds everything: the joints hold the limbs
+    lying = _prone()
+    tau = G.static_torques(robot, lying, G.Phase("lying", ("torso",), 1.0))
+    assert np.all(np.isfinite(tau)) and np.abs(tau).max() < 0.5
