@@ -81,7 +81,8 @@ def test_no_workers_for_other_kernel_sets_or_inside_a_worker(tmp_path, monkeypat
 
 
 def test_package_ticks_are_those_of_the_package_stacks(robot):
-    from wbc.compiled.plan import kernel_set
+    from wbc.solvers.plan import kernel_set
+
     from wbc.stacks import load_stack
 
     tasks = [t for lv in load_stack("walk", robot).stack.levels for t in lv.active_tasks()]
@@ -152,7 +153,7 @@ def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
 FIRST_TICK = """
 import json, time
 from wbc import load_robot
-from wbc.compiled.dispatch import package_ticks
+from wbc.solvers.plan import package_ticks
 from wbc.stacks import load_stack
 robot = load_robot()
 q = robot.configuration("walk_ready")
@@ -209,7 +210,8 @@ def test_the_first_tick_on_an_empty_cache_is_answered_while_the_tick_compiles(ro
 
 
 def test_only_the_default_solves_on_the_numpy_path_while_its_tick_compiles(robot, monkeypatch):
-    from wbc.compiled.plan import _Plan
+    from wbc.solvers.plan import _Plan
+
     from wbc.stacks import load_stack
 
     monkeypatch.setattr(_Plan, "ready", lambda self: False)  # as while the workers run

@@ -1,5 +1,5 @@
 """The tasks' row kernels and the generated tick's row bookkeeping equal Pinocchio's own
-formulas (wbc.compiled.rows, wbc.compiled.dispatch, wbc.compiled.plan).
+formulas (wbc.compiled.rows, wbc.compiled.dispatch, wbc.solvers.plan).
 
 The oracle below is written with Pinocchio's log3/Jlog3 and frame Jacobians, independently of
 the kernels: the task classes' compute/fill and the compiled tick both run the kernels."""
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 pytest.importorskip("numba")
 
 from wbc.compiled import dispatch
-from wbc.compiled.plan import Frames, Rows, Scratch, Targets, kernel_set
+from wbc.solvers.plan import Frames, Rows, Scratch, Targets, kernel_set
 from wbc.compiled.rows import frame_jacobian, jlog3, log3
 from wbc.model import Kinematics
 from wbc.tasks import (

@@ -11,13 +11,12 @@ from hypothesis import strategies as st
 from wbc import Kinematics, TaskError
 from wbc.geometry import convex_hull, halfplanes, signed_distance
 from wbc.limits import (
-    Bounds,
     ComPolygonConstraint,
     GroundClearanceConstraint,
     JointPositionLimit,
     JointVelocityLimit,
     LinearInequality,
-    intersect_bounds,
+    box_bounds,
 )
 
 
@@ -89,10 +88,8 @@ def test_bounds_move_a_joint_back_inside_at_the_servo_speed(robot):
     i = robot.joint_index("r_knee")
     q[7 + i] = robot.q_min[i] - 0.3  # far outside
     kin = Kinematics(robot, q)
-    pos = JointPositionLimit(robot).bounds(kin, 0.01)
-    vel = JointVelocityLimit(robot).bounds(kin, 0.01)
     lower, upper = np.empty(robot.nv), np.empty(robot.nv)
-    intersect_bounds(Bounds(pos.lower.copy(), pos.upper.copy()), [vel], lower, upper)
+    box_bounds([JointPositionLimit(robot), JointVelocityLimit(robot)], kin, 0.01, lower, upper)
     step = robot.v_max[i] * 0.01
     assert lower[6 + i] == pytest.approx(step) and upper[6 + i] == pytest.approx(step)
     assert np.all(lower <= upper)
