@@ -22,8 +22,10 @@ import functools
 import hashlib
 import importlib.util
 import inspect
+import json
 import logging
 import os
+import pickle
 import subprocess
 import sys
 import tempfile
@@ -207,10 +209,44 @@ def weighted_tick(q_in, addresses, shapes, {direct}):
 
 
 @njit(cache={cache})
+def weighted_rows(q_in, addresses, shapes, {direct}):
+{weighted_views}
+    gather(target_addresses, target_sizes, targets, q_in, q)
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
+    fill_rows(
+        soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, targets, slots,
+        Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, efull, Jfull,
+    )
+    fill_rows(
+        hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, targets, slots,
+        Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, efull, Jfull,
+    )
+    fill_bounds(
+        bspec, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, boxes,
+        lower, upper,
+    )
+
+
+@njit(cache={cache})
 def cascade_tick(q_in, addresses, shapes, {direct}):
 {cascade_views}
     gather(target_addresses, target_sizes, targets, q_in, q)
     return cascade_body({cascade_call})
+
+
+@njit(cache={cache})
+def cascade_rows(q_in, addresses, shapes, {direct}):
+{cascade_views}
+    gather(target_addresses, target_sizes, targets, q_in, q)
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
+    fill_rows(
+        spec, sel, sqrt_w, gain_w, J, E, b, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom,
+        hg, Ag, q, v, Jf, efull, Jfull,
+    )
+    fill_bounds(
+        bspec, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, boxes,
+        lower, upper,
+    )
 '''
 
 _BRANCH = """\
@@ -329,6 +365,10 @@ WORKER_MODULE = "wbc.warmup"
 WORKER_ENV = "WBC_COMPILE_WORKER"
 
 
+#: the module of the worker that builds a tick of another kernel set (:mod:`wbc.compiled.worker`)
+SET_WORKER_MODULE = "wbc.compiled.worker"
+
+
 def command(part: str) -> list[str]:
     """The command line of the worker that compiles ``part``."""
     return [sys.executable, "-m", WORKER_MODULE, "--part", part]
@@ -349,12 +389,30 @@ class Ticks:
     (:meth:`ready`: meanwhile the solvers solve on the numpy path, the same problem by the
     backend); other kernel sets, or a failed worker, compile in this process."""
 
-    def __init__(self, module, package: bool = False) -> None:
+    def __init__(
+        self,
+        module,
+        package: bool = False,
+        kernels: Sequence = (),
+        bounds: Sequence = (),
+        cache: bool = False,
+    ) -> None:
         self.module = module
-        self.weighted_tick = module.weighted_tick
-        self.cascade_tick = module.cascade_tick
+        #: True for a set other than the package's: its ticks are split in two calls, the
+        #: rows (``weighted_rows``, ``cascade_rows``: generated, small, so that a new set
+        #: compiles in seconds, only what is new, each kernel cached on its own) and the
+        #: package's solve (:func:`wbc.compiled.ticks.weighted_solve`, ``cascade_solve``:
+        #: compiled once, cached); the package's set is one fused call (~1 µs less a tick)
+        self.split = not package
+        #: the row and bound kernels of the set (a worker imports them again)
+        self.kernels, self.bounds = tuple(kernels), tuple(bounds)
+        #: True if numba caches the ticks on disk (every kernel's source file is known):
+        #: then a worker can build them
+        self.weighted_tick = module.weighted_rows if not package else module.weighted_tick
+        self.cascade_tick = module.cascade_rows if not package else module.cascade_tick
         self._entries: dict[tuple[str, int], object] = {}
         self.package = package
+        self.cache = cache
         #: the worker compiling each tick (by tick name), while it runs or until waited for
         self.builders: dict[str, subprocess.Popen] = {}
         self.build_started = 0.0
@@ -365,12 +423,21 @@ class Ticks:
         """True if both ticks are in numba's disk cache."""
         return _on_disk(self.weighted_tick) and _on_disk(self.cascade_tick)
 
-    def start_build(self, announce: bool = True) -> bool:
-        """Start compiling both ticks in worker processes (``python -m wbc.warmup --part
-        ...``), unless they are cached, being built, or not the package's; True if started.
-        A caller can do other work meanwhile (``wbc bench`` runs the baselines); ``announce``:
-        log a line saying so."""
-        if not self.package or self.builders or os.environ.get(WORKER_ENV) or self.cached():
+    def start_build(self, announce: bool = True, name: str = "", args: tuple = ()) -> bool:
+        """Start compiling ticks in worker processes, unless they are cached or being built;
+        True if started. The package's set: both ticks (``python -m wbc.warmup --part ...``,
+        which compile the numpy path's kernels too); another set (a task or limit type
+        defined elsewhere) whose kernels' source files are known: the tick ``name`` for the
+        types of ``args`` (``python -m wbc.compiled.worker``: the kernels are cached each on
+        its own, the worker links them into this set's tick). A caller can do other work
+        meanwhile (``wbc bench`` runs the baselines); ``announce``: log a line saying so."""
+        if self.builders.get(name) or os.environ.get(WORKER_ENV):
+            return False
+        if not self.package:
+            if not (self.buildable() and name and args) or _on_disk(getattr(self, name)):
+                return False
+            return self._start_set_worker(name, args, announce)
+        if self.builders or self.cached():
             return False
         if announce:
             log.warning(
@@ -381,11 +448,54 @@ class Ticks:
                 Path(self.module.__file__).parent,
             )
         self.build_started = time.perf_counter()
-        for part, name in zip(PARTS, ("weighted_tick", "cascade_tick"), strict=True):
-            with open(self._log(name), "w") as log_file:  # the worker's messages
-                self.builders[name] = subprocess.Popen(
+        for part, tick in zip(PARTS, ("weighted_tick", "cascade_tick"), strict=True):
+            with open(self._log(tick), "w") as log_file:  # the worker's messages
+                self.builders[tick] = subprocess.Popen(
                     command(part), env=worker_env(), stdout=log_file, stderr=subprocess.STDOUT
                 )
+        return True
+
+    def _start_set_worker(self, name: str, args: tuple, announce: bool) -> bool:
+        """Start the worker of tick ``name`` of this (non-package) kernel set."""
+        from numba import typeof
+
+        def entry(kernel) -> dict:
+            return {
+                "module": kernel.py_func.__module__,
+                "file": str(_source_file(kernel)),
+                "qualname": kernel.py_func.__qualname__,
+            }
+
+        signature = tuple(typeof(a) for a in args)
+        job = {
+            "name": self.module.__name__,
+            "path": self.module.__file__,
+            "kernels": [entry(k) for k in self.kernels],
+            "bounds": [entry(k) for k in self.bounds],
+            "tick": getattr(self, name).py_func.__name__,
+            "signature": pickle.dumps(signature).hex(),
+        }
+        job_file = Path(self.module.__file__).with_suffix(f".{name}.job.json")
+        try:
+            job_file.write_text(json.dumps(job))
+        except OSError:
+            return False
+        if announce:
+            log.warning(
+                "wbc: compiling the control tick of a new set of task types (%s) in a "
+                "background process (numba; once; cached in %s); until it is ready the "
+                "solver solves on the numpy path",
+                ", ".join(k.py_func.__qualname__ for k in self.kernels[-3:]),
+                job_file.parent,
+            )
+        self.build_started = time.perf_counter()
+        with open(self._log(name), "w") as log_file:
+            self.builders[name] = subprocess.Popen(
+                [sys.executable, "-m", SET_WORKER_MODULE, str(job_file)],
+                env=worker_env(),
+                stdout=log_file,
+                stderr=subprocess.STDOUT,
+            )
         return True
 
     def _log(self, name: str) -> Path:
@@ -415,18 +525,28 @@ class Ticks:
                 self._log(name),
             )
 
-    def ready(self, name: str) -> bool:
+    def buildable(self) -> bool:
+        """True if workers can build this set's ticks: the package's, or a set whose kernels
+        numba caches on disk and a worker can import (not defined in ``__main__``)."""
+        return self.package or (
+            self.cache
+            and all(k.py_func.__module__ != "__main__" for k in (*self.kernels, *self.bounds))
+        )
+
+    def ready(self, name: str, args: tuple = ()) -> bool:
         """True if tick ``name`` runs at once at its next :meth:`call` (compiled in this
-        process or cached on disk, its worker done), or must compile here anyway (not the
-        package's kernels, inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set: :meth:`call` then
-        waits or compiles). False while a worker builds it (started here if the cache is
-        empty): the caller solves this tick another way. Says once when it becomes ready."""
+        process or cached on disk, its worker done), or must compile here anyway (no worker
+        can build it, inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set: :meth:`call` then waits
+        or compiles). False while a worker builds it (started here if the cache is empty; a
+        set other than the package's: for the types of ``args``, the tick's arguments): the
+        caller solves this tick another way. Says once when it becomes ready."""
         if name in self._ready:
             return True
         dispatcher = getattr(self, name)
         building = name in self.builders
         if (
-            not self.package
+            not self.buildable()
+            or (not self.package and not args)
             or os.environ.get(WORKER_ENV)
             or _waits()
             or dispatcher.overloads
@@ -435,7 +555,7 @@ class Ticks:
             self._ready.add(name)
             return True
         if not building:
-            self.start_build()
+            self.start_build(name=name, args=args)
         worker = self.builders.get(name)
         if worker is not None and worker.poll() is None and not _on_disk(dispatcher):
             return False  # (its worker may go on with other kernels once the tick is cached)
@@ -528,17 +648,25 @@ def ticks(
             h.update(f.read_bytes())
     name = f"wbc_tick_{h.hexdigest()[:20]}"
     if name in sys.modules:
-        return Ticks(sys.modules[name], package)
-    path = _write(name, text)
+        module = sys.modules[name]
+    else:
+        module = load_generated(name, _write(name, text), kernels, bounds)
+    return Ticks(module, package, kernels, bounds, cache)
+
+
+def load_generated(name: str, path: Path, kernels: Sequence, bounds: Sequence):
+    """Import the generated module ``name`` from ``path`` with its kernels bound (``k0``...,
+    ``b0``...), registered in ``sys.modules`` (numba's cache finds a function's module by
+    name)."""
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     for i, k in enumerate(kernels):
         setattr(module, f"k{i}", k)
     for i, k in enumerate(bounds):
         setattr(module, f"b{i}", k)
-    sys.modules[name] = module  # numba's cache finds a function's module by name
+    sys.modules[name] = module
     spec.loader.exec_module(module)
-    return Ticks(module, package)
+    return module
 
 
 def refresh_kernel(kernel) -> None:

@@ -448,6 +448,9 @@ class _Plan:
         #: arguments passed directly (:meth:`_bind_args`)
         self.packed: tuple = ()
         self.tick_name = ""
+        #: the arguments of the solve of a split tick (:meth:`_build_solve_args`)
+        self.solve_args: tuple = ()
+        self._solve_entry = None
         self.inequalities = InequalityRows(1, nv)
         self._ready = False
 
@@ -455,7 +458,10 @@ class _Plan:
         """True if the compiled tick runs at once; False while it is being compiled in the
         background (:meth:`wbc.compiled.dispatch.Ticks.ready`): solve on the numpy path."""
         if not self._ready:
-            self._ready = self.ticks.ready(self.tick_name)
+            ready = self.ticks.ready(self.tick_name, (self.q, *self.packed))
+            if ready and self.ticks.split:  # and the solve (the package's, once compiled)
+                ready = package_ticks().kernel_ready(self._solve_kernel(), self.tick_name)
+            self._ready = ready
         return self._ready
 
     def forget_warm_start(self, previous: _Plan | None = None) -> None:
@@ -488,11 +494,16 @@ class _Plan:
         rows outgrow their buffers)."""
         raise NotImplementedError  # (each plan's own tick)
 
+    def _build_solve_args(self) -> tuple:
+        """The arguments of the solve of a split tick (:meth:`_solve_kernel`)."""
+        raise NotImplementedError  # (each plan's own tick)
+
     def _bind_args(self) -> None:
         """:attr:`args`, and the tick's :attr:`packed` arguments: the addresses and shapes of
         the buffers among them (each checked: the tick views it as C-contiguous, of its
         dtype; :attr:`args` keeps them alive), then the arguments passed directly."""
         self.args = args = self._build_args()
+        self.solve_args = self._build_solve_args()
         spec = D.WEIGHTED_ARGS if self.tick_name == "weighted_tick" else D.CASCADE_ARGS
         addresses, shapes, direct = [], [], []
         for (name, dtype, ndim), a in zip(spec, args, strict=True):
@@ -543,8 +554,31 @@ class _Plan:
             np.copyto(self.q, kin.q)  # (typed on the plan's own q: kin.q may be read-only)
             status = self.ticks.call(self.tick_name, self.variant, (self.q, *self.packed))
             self._entry = self.ticks.entry(self.tick_name, self.variant)
+            if self.ticks.split:  # (the rows of a set other than the package's: the solve)
+                return self._first_solve()
             return status
+        if self.ticks.split:
+            entry(kin.q, *self.packed)
+            return self._solve_entry(*self.solve_args)
         return entry(kin.q, *self.packed)
+
+    def _first_solve(self) -> int:
+        """The first solve of a split tick (:attr:`wbc.compiled.dispatch.Ticks.split`):
+        loads the solve kernel, then keeps its entry point."""
+        from numba import typeof
+
+        kernel = self._solve_kernel()
+        status = kernel(*self.solve_args)
+        signature = tuple(typeof(a) for a in self.solve_args)
+        try:
+            self._solve_entry = kernel.overloads[signature].entry_point
+        except (KeyError, AttributeError):  # another numba: keep the dispatcher
+            self._solve_entry = kernel
+        return status
+
+    def _solve_kernel(self):
+        """The solve a split tick calls after its rows (each plan's own)."""
+        raise NotImplementedError
 
     def _optional_inputs(self, kin: Kinematics) -> None:
         """The optional inputs the plan's kernels read (:attr:`inputs`): v, and the centroidal
@@ -583,6 +617,19 @@ class WeightedPlan(_Plan):
         self.warm_start = self.state
         self.tick_name = "weighted_tick"
         self._bind_args()
+
+    def _solve_kernel(self):
+        from ..compiled.ticks import weighted_solve
+
+        return weighted_solve
+
+    def _build_solve_args(self) -> tuple:
+        g = self.inequalities
+        return (
+            self.soft.J, self.soft.b, self.hard.J, self.hard.b, g.G, g.h, g.g_rows, self.q,
+            self.q_min, self.q_max, self.params, self.lower, self.upper, self.state,
+            g.working[0], self.dq, self.q_next,
+        )  # fmt: skip
 
     def _build_args(self) -> tuple:
         g = self.inequalities
@@ -633,6 +680,19 @@ class CascadePlan(_Plan):
                 self.inequalities.working.fill(False)
         else:
             super().forget_warm_start()
+
+    def _solve_kernel(self):
+        from ..compiled.ticks import cascade_solve
+
+        return cascade_solve
+
+    def _build_solve_args(self) -> tuple:
+        g = self.inequalities
+        return (
+            self.rows.J, self.rows.b, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
+            self.q, self.q_min, self.q_max, self.params, self.lower, self.upper, self.states,
+            g.working, g.h_eff, self.achieved, self.dq, self.q_next,
+        )  # fmt: skip
 
     def _build_args(self) -> tuple:
         g = self.inequalities
