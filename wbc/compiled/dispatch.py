@@ -387,7 +387,11 @@ class Ticks:
     disk cache is compiled by worker processes (:data:`WORKER_MODULE`), both solvers' in
     parallel (:meth:`start_build`), and loaded from the cache when its worker is done
     (:meth:`ready`: meanwhile the solvers solve on the numpy path, the same problem by the
-    backend); other kernel sets, or a failed worker, compile in this process."""
+    backend). Another set (a task or limit type defined elsewhere) is split in two calls
+    (:attr:`split`): its rows compile in one worker (:data:`SET_WORKER_MODULE`, the tick a
+    solver asks for), the solve is the package's. A set whose kernels a worker cannot import
+    (defined in ``__main__`` or interactively), or a failed worker, compiles in this
+    process."""
 
     def __init__(
         self,

@@ -1,7 +1,9 @@
-"""The compiled solve of a tick, once the rows are filled: box bounds, the QP(s), integration.
+"""The compiled solve of a tick, once the rows and the bounds are filled: the QP(s), integration.
 
+* :func:`fold_boxes` — the box of a stack's limits from each box limit's own (their bound
+  kernels fill them: the joint position and velocity limits, any other);
 * :func:`weighted_solve` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
-  rows as equalities, inequality rows, joint position/velocity bounds;
+  rows as equalities, inequality rows, the bounds;
 * :func:`cascade_solve` — the lexicographic QP: level k in least squares subject to the bounds
   and to every level above kept at its achieved values (``J_i Δq = J_i Δq_i``, the exact
   optimal set of a least-squares level) and its inequality rows at their bounds plus the
@@ -12,8 +14,8 @@ the bounds) and the inequality rows by a primal active set around it
 (:func:`solve_with_inequalities`), which costs nothing while the rows are inactive. They are
 the one algorithm of both solvers on every path (the numpy assembly calls them too).
 Both return a status; anything but :data:`~wbc.compiled.lsq.OK` sends the caller back to the
-numpy path, which handles (and names) infeasible problems. The tick itself (rows, then one of
-these) is generated per set of row kernels by :mod:`wbc.compiled.dispatch`.
+numpy path, which handles (and names) infeasible problems. The tick itself (rows and bounds,
+then one of these) is generated per set of kernels by :mod:`wbc.compiled.dispatch`.
 """
 
 from __future__ import annotations
