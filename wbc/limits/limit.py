@@ -97,6 +97,9 @@ class BoxLimit:
                 f"box limit type {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; "
                 f"allowed: {sorted(OPTIONAL)}"
             )
+        for name in cls.__dict__.get("param_fields", ()):
+            if not isinstance(cls.__dict__.get(name), property):
+                setattr(cls, name, _ParamField(name))
 
     def frame_ids(self) -> tuple[int, ...]:
         """The frames the bound kernel reads (in its ``slots`` order)."""
@@ -114,18 +117,94 @@ class BoxLimit:
 
     def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
         """Bounds on Δq at the configuration of ``kin`` for a step of ``dt`` seconds
-        (``dt=None``: iterating to convergence, no time step): the bound kernel's."""
+        (``dt=None``: iterating to convergence, no time step): the bound kernel's (the arrays
+        returned are the limit's own, overwritten by the next call)."""
         kernel = type(self).bound_kernel
         if kernel is None:
             raise ConfigurationError(
                 f"box limit type {type(self).__name__} defines neither a bound_kernel nor bounds"
             )
         self.prepare(dt)
+        call = self.__dict__.get("_call")
+        if call is None or call.kin is not kin:
+            call = self._call = _KernelCall(kernel, self, kin)
+        return call(self, kin)
+
+
+class _ParamField:
+    """The attribute ``name`` of :attr:`BoxLimit.param_fields`: bound once (in ``__init__``, a
+    float64 array kept as it is, e.g. a view of the robot's limits), then an assignment
+    writes into that array (the compiled tick and :meth:`BoxLimit.bounds` read it by
+    address: a re-bound attribute would be ignored there). (Only ``__set__``: a read is a
+    plain instance attribute read.)"""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __set__(self, limit: BoxLimit, value) -> None:
+        own = limit.__dict__.get(self.name)
+        if own is None:
+            if not (isinstance(value, np.ndarray) and value.dtype == np.float64):
+                value = np.array(value, dtype=np.float64)
+            limit.__dict__[self.name] = value
+            return
+        v = np.asarray(value, dtype=float)
+        if v.shape != own.shape:
+            raise ConfigurationError(
+                f"box limit {limit.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
+            )
+        own[...] = v
+
+
+class _KernelCall:
+    """A bound kernel called from Python at the configurations of one :class:`Kinematics`:
+    its inputs allocated once (:func:`wbc.compiled.signature.arguments`), then refreshed in
+    place (q and the parameters gathered by address in one compiled call), and its compiled
+    entry point after the first call (the numpy path computes the bounds at every tick)."""
+
+    def __init__(self, kernel, limit: BoxLimit, kin: Kinematics) -> None:
+        from ..compiled.checks import entry, gather
+
+        self.kernel, self.kin, self.frame_ids = kernel, kin, tuple(limit.frame_ids())
         nv = kin.model.nv
-        lower, upper = np.empty(nv), np.empty(nv)
-        inputs = arguments(kin, self.frame_ids(), self.packed_params(), self.kernel_inputs)
-        kernel(*inputs, lower, upper)
-        return Bounds(lower, upper)
+        self.lower, self.upper = np.empty(nv), np.empty(nv)
+        self.q = np.array(kin.q, dtype=float)
+        # the parameters' own arrays (bound once: _ParamField), read by address
+        self.sources = [np.ascontiguousarray(getattr(limit, f)) for f in limit.param_fields]
+        for f, src in zip(limit.param_fields, self.sources, strict=True):
+            if not np.shares_memory(src, getattr(limit, f)):
+                raise ConfigurationError(
+                    f"box limit {limit.name!r}: parameter {f!r} must be a contiguous array"
+                )
+        self.addresses = np.array([a.ctypes.data for a in self.sources], dtype=np.int64)
+        self.sizes = np.array([a.size for a in self.sources], dtype=np.int64)
+        self.params = np.zeros(int(self.sizes.sum()))
+        self.gather = entry(gather)
+        inputs = list(arguments(kin, self.frame_ids, self.params))
+        inputs[11] = self.q  # (the kinematics' q is re-bound at each update: a copy)
+        self.args = (*inputs, self.lower, self.upper)
+        self.entry = None
+
+    def __call__(self, limit: BoxLimit, kin: Kinematics) -> Bounds:
+        self.gather(self.addresses, self.sizes, self.params, kin.q, self.q)
+        if self.frame_ids or limit.kernel_inputs:  # (refreshed: the frames, the optional ones)
+            fresh = arguments(kin, self.frame_ids, self.params, limit.kernel_inputs)
+            for k in (2, 3, 4, 5, 9, 10, 12):
+                np.copyto(self.args[k], fresh[k])
+        if self.entry is None:
+            from numba import typeof
+
+            self.kernel(*self.args)
+            try:
+                signature = tuple(typeof(a) for a in self.args)
+                self.entry = self.kernel.overloads[signature].entry_point
+            except (KeyError, AttributeError):  # another numba: the dispatcher
+                self.entry = self.kernel
+        else:
+            self.entry(*self.args)
+        return Bounds(self.lower, self.upper)
 
 
 def box_bounds(
