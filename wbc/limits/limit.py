@@ -186,6 +186,7 @@ class _KernelCall:
         inputs[11] = self.q  # (the kinematics' q is re-bound at each update: a copy)
         self.args = (*inputs, self.lower, self.upper)
         self.entry = None
+        self.result = Bounds(self.lower, self.upper)
 
     def __call__(self, limit: BoxLimit, kin: Kinematics) -> Bounds:
         self.gather(self.addresses, self.sizes, self.params, kin.q, self.q)
@@ -204,7 +205,7 @@ class _KernelCall:
                 self.entry = self.kernel
         else:
             self.entry(*self.args)
-        return Bounds(self.lower, self.upper)
+        return self.result
 
 
 def box_bounds(
