@@ -110,3 +110,87 @@ def arguments(
         params, slots, Rs, ps, vs, supports, kin.data.J, kin.data.com[0], kin.com_jacobian, hg,
         Ag, kin.q, v, Jf,
     )  # fmt: skip
+
+
+class KernelCall:
+    """A kernel called from Python (the numpy path) at the configurations of one kinematics
+    object, for an item (a task, a box limit) whose parameters are the arrays ``sources``
+    (bound once, read by address) and whose frames are ``frame_ids``: its inputs allocated
+    once and refreshed in place at each call (q and the parameters gathered in one compiled
+    call, the frames' placements copied), then its compiled entry point (no type dispatch
+    of 16 arguments: the numpy path calls every task's kernel at every tick). The outputs are
+    the call's own ``out1``/``out2``, overwritten by the next call."""
+
+    def __init__(
+        self,
+        kernel,
+        kin,
+        frame_ids: Sequence[int],
+        sources: Sequence[np.ndarray],
+        inputs: Collection[str],
+        out1: np.ndarray,
+        out2: np.ndarray,
+    ) -> None:
+        from .checks import entry, gather
+
+        self.kernel, self.kin = kernel, kin
+        self.frame_ids, self.sources, self.inputs = tuple(frame_ids), list(sources), inputs
+        self.addresses = np.array([a.ctypes.data for a in self.sources], dtype=np.int64)
+        self.sizes = np.array([a.size for a in self.sources], dtype=np.int64)
+        self.params = np.zeros(int(self.sizes.sum()))
+        self.q = np.array(kin.q, dtype=np.float64)
+        self.gather = entry(gather)
+        args = list(arguments(kin, self.frame_ids, self.params))
+        args[11] = self.q  # (the kinematics' q is re-bound at each update: a copy)
+        self.args = (*args, out1, out2)
+        self.frames = [(s, kin.rotation(f), kin.translation(f)) for s, f in enumerate(frame_ids)]
+        self.entry = None
+
+    def __getstate__(self) -> dict:
+        return {}  # a copy is no call (its addresses would be the original's): rebuilt
+
+    def __setstate__(self, state: dict) -> None:
+        self.kin = None
+
+    def matches(self, kin, frame_ids: Sequence[int], sources: Sequence[np.ndarray]) -> bool:
+        """True if this call serves ``kin`` with these frames and parameter arrays."""
+        return (
+            kin is self.kin
+            and tuple(frame_ids) == self.frame_ids
+            and len(sources) == len(self.sources)
+            and all(a is b for a, b in zip(sources, self.sources, strict=True))
+        )
+
+    def __call__(self, kin) -> None:
+        self.gather(self.addresses, self.sizes, self.params, kin.q, self.q)
+        Rs, ps = self.args[2], self.args[3]
+        for s, R, p in self.frames:
+            Rs[s] = R
+            ps[s] = p
+        if self.inputs:
+            fresh = arguments(kin, self.frame_ids, self.params, self.inputs)
+            for k in (4, 9, 10, 12):  # vs, hg, Ag, v
+                np.copyto(self.args[k], fresh[k])
+        if self.entry is not None:
+            self.entry(*self.args)
+            return
+        from numba import typeof
+
+        self.kernel(*self.args)
+        try:
+            self.entry = self.kernel.overloads[tuple(typeof(a) for a in self.args)].entry_point
+        except (KeyError, AttributeError):  # another numba: the dispatcher
+            self.entry = self.kernel
+
+
+def sources(item, fields: Sequence[str]) -> list[np.ndarray]:
+    """The arrays named by ``fields`` on ``item`` (its targets or parameters), as contiguous
+    float64 vectors: views of its own arrays where they are so, else copies (then read at the
+    call that made them only: :meth:`KernelCall.matches` fails on the next)."""
+    out = []
+    for name in fields:
+        a = getattr(item, name)
+        if a.dtype != np.float64 or not a.flags.c_contiguous:
+            a = np.ascontiguousarray(a, dtype=np.float64)
+        out.append(a)
+    return out

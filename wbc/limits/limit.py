@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..compiled.dispatch import refresh_kernel
-from ..compiled.signature import OPTIONAL, arguments
+from ..compiled.signature import OPTIONAL, KernelCall, sources
 from ..exceptions import ConfigurationError
 from ..model import Kinematics
 
@@ -125,10 +125,17 @@ class BoxLimit:
                 f"box limit type {type(self).__name__} defines neither a bound_kernel nor bounds"
             )
         self.prepare(dt)
-        call = self.__dict__.get("_call")
-        if call is None or call.kin is not kin:
-            call = self._call = _KernelCall(kernel, self, kin)
-        return call(self, kin)
+        fids = self.frame_ids()
+        params = sources(self, self.param_fields)
+        call = self.__dict__.get("_kernel_call")
+        if call is None or not call.matches(kin, fids, params):
+            nv = kin.model.nv
+            lower, upper = np.empty(nv), np.empty(nv)
+            call = KernelCall(kernel, kin, fids, params, self.kernel_inputs, lower, upper)
+            self._kernel_call = call
+            self._result = Bounds(lower, upper)
+        call(kin)
+        return self._result
 
 
 class _ParamField:
@@ -156,56 +163,6 @@ class _ParamField:
                 f"box limit {limit.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
             )
         own[...] = v
-
-
-class _KernelCall:
-    """A bound kernel called from Python at the configurations of one :class:`Kinematics`:
-    its inputs allocated once (:func:`wbc.compiled.signature.arguments`), then refreshed in
-    place (q and the parameters gathered by address in one compiled call), and its compiled
-    entry point after the first call (the numpy path computes the bounds at every tick)."""
-
-    def __init__(self, kernel, limit: BoxLimit, kin: Kinematics) -> None:
-        from ..compiled.checks import entry, gather
-
-        self.kernel, self.kin, self.frame_ids = kernel, kin, tuple(limit.frame_ids())
-        nv = kin.model.nv
-        self.lower, self.upper = np.empty(nv), np.empty(nv)
-        self.q = np.array(kin.q, dtype=float)
-        # the parameters' own arrays (bound once: _ParamField), read by address
-        self.sources = [np.ascontiguousarray(getattr(limit, f)) for f in limit.param_fields]
-        for f, src in zip(limit.param_fields, self.sources, strict=True):
-            if not np.shares_memory(src, getattr(limit, f)):
-                raise ConfigurationError(
-                    f"box limit {limit.name!r}: parameter {f!r} must be a contiguous array"
-                )
-        self.addresses = np.array([a.ctypes.data for a in self.sources], dtype=np.int64)
-        self.sizes = np.array([a.size for a in self.sources], dtype=np.int64)
-        self.params = np.zeros(int(self.sizes.sum()))
-        self.gather = entry(gather)
-        inputs = list(arguments(kin, self.frame_ids, self.params))
-        inputs[11] = self.q  # (the kinematics' q is re-bound at each update: a copy)
-        self.args = (*inputs, self.lower, self.upper)
-        self.entry = None
-        self.result = Bounds(self.lower, self.upper)
-
-    def __call__(self, limit: BoxLimit, kin: Kinematics) -> Bounds:
-        self.gather(self.addresses, self.sizes, self.params, kin.q, self.q)
-        if self.frame_ids or limit.kernel_inputs:  # (refreshed: the frames, the optional ones)
-            fresh = arguments(kin, self.frame_ids, self.params, limit.kernel_inputs)
-            for k in (2, 3, 4, 5, 9, 10, 12):
-                np.copyto(self.args[k], fresh[k])
-        if self.entry is None:
-            from numba import typeof
-
-            self.kernel(*self.args)
-            try:
-                signature = tuple(typeof(a) for a in self.args)
-                self.entry = self.kernel.overloads[signature].entry_point
-            except (KeyError, AttributeError):  # another numba: the dispatcher
-                self.entry = self.kernel
-        else:
-            self.entry(*self.args)
-        return self.result
 
 
 def box_bounds(

@@ -25,7 +25,7 @@ import numpy as np
 from ..compiled.checks import copy_finite, copy_rotation
 from ..compiled.checks import entry as check_entry
 from ..compiled.dispatch import refresh_kernel
-from ..compiled.signature import OPTIONAL, arguments
+from ..compiled.signature import OPTIONAL, KernelCall, sources
 from ..exceptions import TaskError
 from ..model import Kinematics
 
@@ -226,25 +226,31 @@ class Task:
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def _kernel_rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """(e, J), full, from the row kernel at the configuration of ``kin``."""
+        """(e, J), full, from the row kernel at the configuration of ``kin`` (the arrays of
+        the task's :class:`~wbc.compiled.signature.KernelCall`, overwritten at its next call)."""
         kernel = type(self).row_kernel
         if kernel is None:
             raise TaskError(
                 f"task type {type(self).__name__} defines neither a row_kernel nor "
                 "compute_error/compute_jacobian"
             )
-        e = np.zeros(self.dim)
-        J = np.zeros((self.dim, kin.model.nv))
-        kernel(*arguments(kin, self.frame_ids(), self.packed_target(), self.kernel_inputs), e, J)
-        return e, J
+        fids = self.frame_ids()
+        params = sources(self, self.target_fields)
+        call = self.__dict__.get("_kernel_call")
+        if call is None or not call.matches(kin, fids, params):
+            e, J = np.zeros(self.dim), np.zeros((self.dim, kin.model.nv))
+            call = KernelCall(kernel, kin, fids, params, self.kernel_inputs, e, J)
+            self._kernel_call = call
+        call(kin)
+        return call.args[-2], call.args[-1]
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
         """Full (unmasked) error e = x* − x at the configuration of ``kin``."""
-        return self._kernel_rows(kin)[0]
+        return self._kernel_rows(kin)[0].copy()
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         """Full (unmasked) Jacobian of x (so that ẋ = J v), shape (dim, nv)."""
-        return self._kernel_rows(kin)[1]
+        return self._kernel_rows(kin)[1].copy()
 
     # ------------------------------------------------------------------ used by solvers
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
