@@ -107,3 +107,19 @@ def test_an_unknown_input_is_named():
 
         class Bad(MotionTask):
             kernel_inputs = frozenset({"speed"})
+
+
+def test_a_copied_task_reads_its_own_targets(robot):
+    """The numpy path's kernel call reads a task's targets by address: a copy of the task
+    (deepcopy, pickle) must not read the original's."""
+    import copy
+
+    from wbc.tasks import ComTask
+
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    task = ComTask(robot, [0.0, 0.0, 0.2])
+    e = task.compute_error(kin)
+    twin = copy.deepcopy(task)
+    twin.set_target([0.1, 0.0, 0.2])
+    assert twin.compute_error(kin)[0] - task.compute_error(kin)[0] == pytest.approx(0.1)
+    assert np.array_equal(task.compute_error(kin), e)
