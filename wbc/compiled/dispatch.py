@@ -96,7 +96,7 @@ from numba import carray, njit
 
 from wbc.compiled.checks import address, gather
 from wbc.compiled.rows import frame_velocities
-from wbc.compiled.ticks import cascade_solve, fold_boxes, weighted_solve
+from wbc.compiled.ticks import cascade_solve, fold_box, weighted_solve
 
 
 @njit(cache={cache})
@@ -146,10 +146,11 @@ def fill_bounds(
         pr = targets[o : o + bspec[t, 2]]
         o = bspec[t, 3]
         sl = slots[o : o + bspec[t, 4]]
-        lo = boxes[t, 0]
-        hi = boxes[t, 1]
+        lo = lower if t == 0 else boxes[t, 0]  # (the first box: the bounds themselves)
+        hi = upper if t == 0 else boxes[t, 1]
 {bound_branches}
-    fold_boxes(boxes, bspec.shape[0], lower, upper)
+        if t > 0:
+            fold_box(lower, upper, lo, hi)
 
 
 @njit(cache={cache})

@@ -57,27 +57,33 @@ PROXIMAL_STEPS = 12
 
 
 @njit(cache=True)
+def fold_box(lower: np.ndarray, upper: np.ndarray, b_lo: np.ndarray, b_hi: np.ndarray) -> None:
+    """Intersect the box [b_lo, b_hi] into [lower, upper] (what the limits before it leave);
+    where it leaves no room, it wins, moved as far towards [lower, upper] as it allows (a
+    joint outside its range comes back at the servo's speed, never further out)."""
+    for i in range(lower.shape[0]):
+        lo = lower[i]
+        hi = upper[i]
+        new_lo = max(lo, b_lo[i])
+        new_hi = min(hi, b_hi[i])
+        if new_lo > new_hi:
+            new_lo = min(max(lo, b_lo[i]), b_hi[i])
+            new_hi = max(min(hi, b_hi[i]), b_lo[i])
+        lower[i] = new_lo
+        upper[i] = new_hi
+
+
+@njit(cache=True)
 def fold_boxes(boxes: np.ndarray, n: int, lower: np.ndarray, upper: np.ndarray) -> None:
     """The box of a stack's limits from each limit's own (``boxes[i]``: lower, upper; the
-    first ``n``, the joint position limit first): each box in turn intersected with what
-    the ones before leave; where a box leaves no room, it wins, moved as far towards that
-    as it allows (a joint outside its range comes back at the servo's speed, never further
-    out). One definition for every path (:func:`wbc.limits.box_bounds` calls it too)."""
+    first ``n``, the joint position limit first): the first, then each of the others folded
+    in turn by :func:`fold_box`. One definition for every path (the compiled tick folds each
+    box as its kernel writes it; :func:`wbc.limits.box_bounds` calls this)."""
     for i in range(lower.shape[0]):
-        lo = boxes[0, 0, i]
-        hi = boxes[0, 1, i]
-        for k in range(1, n):
-            b_lo = boxes[k, 0, i]
-            b_hi = boxes[k, 1, i]
-            new_lo = max(lo, b_lo)
-            new_hi = min(hi, b_hi)
-            if new_lo > new_hi:
-                new_lo = min(max(lo, b_lo), b_hi)
-                new_hi = max(min(hi, b_hi), b_lo)
-            lo = new_lo
-            hi = new_hi
-        lower[i] = lo
-        upper[i] = hi
+        lower[i] = boxes[0, 0, i]
+        upper[i] = boxes[0, 1, i]
+    for k in range(1, n):
+        fold_box(lower, upper, boxes[k, 0], boxes[k, 1])
 
 
 @njit(cache=True)
@@ -616,6 +622,7 @@ def integrate(
 # numba caches these on ticks.py alone: flush them when the kernels they call change
 refresh(
     [
+        fold_box,
         fold_boxes,
         _violated,
         _any,
