@@ -119,9 +119,8 @@ def main() -> None:
 
 def cost(rounds: int) -> None:
     """Median solve time (µs) of each solver along walk10, afresh against warm-started."""
-    from wbc.solvers.plan import _Plan
-
     from wbc.bench.trajectories import build
+    from wbc.solvers.plan import _Plan
     from wbc.walking.loop import StackController, run
 
     _stress().compile_first()
