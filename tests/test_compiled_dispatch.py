@@ -369,3 +369,27 @@ def test_a_new_kernel_set_compiles_in_a_worker_while_the_numpy_path_answers(tmp_
     assert numpy_compiled == 0
     assert np.abs(np.array(first) - numpy_first).max() < 1e-9
     assert np.abs(np.array(q) - numpy_q).max() < 1e-9
+
+
+def test_the_compiled_kernels_are_a_leaf():
+    """wbc.compiled imports nothing above the kernels (imports inside functions counted):
+    only wbc.exceptions and wbc.types of the package; the tasks, limits and solvers pass
+    their kernels in, and the workers above it are started by module name."""
+    import ast
+
+    package = Path(dispatch.__file__).parent
+    allowed = {"wbc.exceptions", "wbc.types"}
+    above = []
+    for path in sorted(package.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                if node.level == 1:
+                    continue  # (wbc.compiled itself)
+                name = ("wbc." + (node.module or "")) if node.level == 2 else node.module
+            elif isinstance(node, ast.Import):
+                name = node.names[0].name
+            else:
+                continue
+            if name and name.startswith("wbc") and name not in allowed:
+                above.append((path.name, name))
+    assert above == []

@@ -188,3 +188,45 @@ def test_an_unknown_limit_input_is_named():
 
         class Bad(JointBand):
             kernel_inputs = frozenset({"speed"})
+
+
+@njit(cache=True)
+def _frame_floor_bounds(
+    params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lo, hi
+):
+    """The base's vertical step Δq_z >= floor − p_z of a frame (params: the floor)."""
+    for i in range(lo.shape[0]):
+        lo[i] = -np.inf
+        hi[i] = np.inf
+    lo[2] = params[0] - ps[slots[0], 2]
+
+
+class FrameFloor(BoxLimit):
+    """A box limit outside the package that reads a frame (its slot): the base may not sink
+    so that the frame ends below a floor (to first order, in the base's own z)."""
+
+    name = "frame_floor"
+    bound_kernel = staticmethod(_frame_floor_bounds)
+    param_fields = ("floor",)
+
+    def __init__(self, robot, frame: str, floor: float) -> None:
+        self.frame_id = robot.frame_id(frame)
+        self.floor = np.array([floor])
+
+    def frame_ids(self) -> tuple[int, ...]:
+        return (self.frame_id,)
+
+
+@pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
+def test_a_box_limit_reading_a_frame_runs_compiled(robot, solver):
+    """A user's box limit reading a frame's placement (its slot beside the tasks' frames):
+    compiled, and the numpy path's step to 1e-9."""
+    q = robot.configuration("walk_ready")
+    torso = robot.frame_placement(q, "torso").translation[2]
+    steps = {}
+    for compiled in (None, False):
+        s = solver(_band_stack(robot, q, FrameFloor(robot, "torso", torso)), compiled=compiled)
+        steps[compiled] = s.step(q, dt=0.01)
+        assert s.compiled_ticks == (1 if compiled is None else 0), s.compiled_reason()
+        assert s.last.lower[2] == pytest.approx(0.0, abs=1e-12)  # the floor: the frame now
+    assert np.abs(steps[None] - steps[False]).max() < 1e-9
