@@ -30,7 +30,7 @@ FIRST_TICKS = """
 import time
 start = time.perf_counter()
 from wbc import load_robot
-from wbc.compiled.dispatch import package_ticks
+from wbc.solvers.plan import package_ticks
 from wbc.stacks import load_stack
 robot = load_robot()
 q = robot.configuration("walk_ready")
@@ -63,7 +63,7 @@ INTERIM_COST = """
 import time
 import numpy as np
 from wbc import load_robot
-from wbc.compiled.plan import _Plan
+from wbc.solvers.plan import _Plan
 from wbc.stacks import load_stack
 robot = load_robot()
 q = robot.configuration("walk_ready")

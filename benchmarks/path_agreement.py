@@ -107,7 +107,7 @@ def main() -> None:
 def cost(rounds: int) -> None:
     """Median solve time (µs) of each solver along walk10, afresh against warm-started."""
     from wbc.bench.trajectories import build
-    from wbc.compiled.plan import _Plan
+    from wbc.solvers.plan import _Plan
     from wbc.walking.loop import StackController, run
 
     stress.compile_first()

@@ -280,7 +280,7 @@ def check(robot: Robot, q: np.ndarray, q_next: np.ndarray, tally: Tally) -> None
 def compile_first() -> None:
     """Build the package's compiled ticks now if they are not in numba's cache (a fresh
     checkout: about a minute per worker), so that no timed tick or pose waits for them."""
-    from wbc.compiled.dispatch import package_ticks
+    from wbc.solvers.plan import package_ticks
 
     ticks = package_ticks()
     ticks.start_build(announce=False)

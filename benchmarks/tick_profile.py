@@ -100,7 +100,7 @@ def profile(robot, ref, kind: str, at: int = 150) -> dict[str, float]:
             lambda: plan.ticks.call(plan.tick_name, plan.variant, args)
         ),
         "calling a no-op with the same arguments": best(lambda: noop(*args)),
-        "bounds + least squares + integration": best(solve),
+        "least squares + integration (the bounds: filled by the tick)": best(solve),
     }
 
 
@@ -110,13 +110,13 @@ def solve_call(plan, kind: str):
     if kind == "weighted":
         return lambda: T.weighted_solve(
             plan.soft.J, plan.soft.b, plan.hard.J, plan.hard.b, g.G, g.h, g.g_rows, plan.q,
-            plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
-            plan.state, g.working[0], plan.dq, plan.q_next,
+            plan.q_min, plan.q_max, plan.params, plan.lower, plan.upper, plan.state,
+            g.working[0], plan.dq, plan.q_next,
         )  # fmt: skip
     return lambda: T.cascade_solve(
         plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
-        plan.q, plan.q_min, plan.q_max, plan.step, plan.params, plan.lower, plan.upper,
-        plan.states, g.working, g.h_eff, plan.achieved, plan.dq, plan.q_next,
+        plan.q, plan.q_min, plan.q_max, plan.params, plan.lower, plan.upper, plan.states,
+        g.working, g.h_eff, plan.achieved, plan.dq, plan.q_next,
     )  # fmt: skip
 
 

@@ -1,5 +1,5 @@
-"""Building the package's compiled ticks in worker processes (wbc.compiled.dispatch,
-wbc.compiled.__main__)."""
+"""Building the compiled ticks in worker processes (wbc.compiled.dispatch, wbc.warmup for the
+package's, wbc.compiled.worker for another set of kernels)."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ import sys
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 pytest.importorskip("numba")
 
-from wbc.compiled import __main__ as build
 from wbc.compiled import dispatch
 
 
@@ -37,8 +37,9 @@ def _ticks(tmp_path, package=True):
     """Ticks over a stand-in module whose dispatchers have no disk cache."""
     tick = SimpleNamespace(overloads={}, _cache=None)
     module = SimpleNamespace(
-        __file__=str(tmp_path / "wbc_tick_x.py"), weighted_tick=tick, cascade_tick=tick
-    )
+        __file__=str(tmp_path / "wbc_tick_x.py"), weighted_tick=tick, cascade_tick=tick,
+        weighted_rows=tick, cascade_rows=tick,
+    )  # fmt: skip
     return dispatch.Ticks(module, package)
 
 
@@ -51,13 +52,13 @@ def test_start_build_runs_one_worker_per_solver_and_wait_reports_failures(
         started.append(FakeWorker(cmd, env, stdout, stderr, code=1 if "hierarchical" in cmd else 0))
         return started[-1]
 
-    monkeypatch.delenv(build.WORKER_ENV, raising=False)
+    monkeypatch.delenv(dispatch.WORKER_ENV, raising=False)
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
     ticks = _ticks(tmp_path)
     assert ticks.start_build(announce=False)
-    assert [w.cmd[-1] for w in started] == list(build.PARTS)
-    assert all(w.cmd[:3] == [sys.executable, "-m", "wbc.compiled"] for w in started)
-    assert all(w.env[build.WORKER_ENV] == "1" for w in started)  # no workers of their own
+    assert [w.cmd[-1] for w in started] == list(dispatch.PARTS)
+    assert all(w.cmd[:3] == [sys.executable, "-m", "wbc.warmup"] for w in started)
+    assert all(w.env[dispatch.WORKER_ENV] == "1" for w in started)  # no workers of their own
     assert not ticks.start_build()  # already building
     with caplog.at_level(logging.WARNING, logger="wbc.compiled.dispatch"):
         ticks.wait("weighted_tick")
@@ -74,24 +75,26 @@ def test_no_workers_for_other_kernel_sets_or_inside_a_worker(tmp_path, monkeypat
         raise AssertionError("no worker expected")
 
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
-    monkeypatch.delenv(build.WORKER_ENV, raising=False)
+    monkeypatch.delenv(dispatch.WORKER_ENV, raising=False)
     assert not _ticks(tmp_path, package=False).start_build()
-    monkeypatch.setenv(build.WORKER_ENV, "1")
+    monkeypatch.setenv(dispatch.WORKER_ENV, "1")
     assert not _ticks(tmp_path).start_build()
 
 
 def test_package_ticks_are_those_of_the_package_stacks(robot):
-    from wbc.compiled.plan import kernel_set
+    from wbc.solvers.plan import bound_set, box_limits, kernel_set, package_ticks
     from wbc.stacks import load_stack
 
-    tasks = [t for lv in load_stack("walk", robot).stack.levels for t in lv.active_tasks()]
-    assert dispatch.package_ticks() is dispatch.ticks(kernel_set(tasks))
-    assert dispatch.package_ticks().package
+    stack = load_stack("walk", robot).stack
+    tasks = [t for lv in stack.levels for t in lv.active_tasks()]
+    kernels, bounds = kernel_set(tasks), bound_set(box_limits(stack))
+    assert package_ticks() is dispatch.ticks(kernels, bounds, False, True)
+    assert package_ticks().package and not package_ticks().split
 
 
 def test_a_bad_part_is_named():
     run = subprocess.run(
-        [sys.executable, "-m", "wbc.compiled", "--part", "fast"], capture_output=True, text=True
+        [sys.executable, "-m", "wbc.warmup", "--part", "fast"], capture_output=True, text=True
     )
     assert run.returncode == 2
     assert "--part" in run.stderr and "weighted" in run.stderr and "hierarchical" in run.stderr
@@ -118,7 +121,7 @@ def building(tmp_path, monkeypatch):
         started.append(RunningWorker(cmd, env, stdout, stderr))
         return started[-1]
 
-    monkeypatch.delenv(build.WORKER_ENV, raising=False)
+    monkeypatch.delenv(dispatch.WORKER_ENV, raising=False)
     monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
     monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
@@ -152,7 +155,7 @@ def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
 FIRST_TICK = """
 import json, time
 from wbc import load_robot
-from wbc.compiled.dispatch import package_ticks
+from wbc.solvers.plan import package_ticks
 from wbc.stacks import load_stack
 robot = load_robot()
 q = robot.configuration("walk_ready")
@@ -187,7 +190,7 @@ def test_the_first_tick_on_an_empty_cache_is_answered_while_the_tick_compiles(ro
 
     env = {**os.environ, "WBC_CACHE_DIR": str(tmp_path / "wbc")}
     env.pop(dispatch.WAIT_ENV, None)
-    env.pop(build.WORKER_ENV, None)
+    env.pop(dispatch.WORKER_ENV, None)
     run = subprocess.run(
         [sys.executable, "-c", FIRST_TICK], env=env, capture_output=True, text=True,
         cwd=Path(__file__).resolve().parent.parent, timeout=300,
@@ -209,7 +212,7 @@ def test_the_first_tick_on_an_empty_cache_is_answered_while_the_tick_compiles(ro
 
 
 def test_only_the_default_solves_on_the_numpy_path_while_its_tick_compiles(robot, monkeypatch):
-    from wbc.compiled.plan import _Plan
+    from wbc.solvers.plan import _Plan
     from wbc.stacks import load_stack
 
     monkeypatch.setattr(_Plan, "ready", lambda self: False)  # as while the workers run
@@ -287,3 +290,106 @@ def test_a_flushed_cache_index_is_not_a_cached_kernel(tmp_path, monkeypatch):
     assert not dispatch._on_disk(kernel)
     assert kernel(2.0) == 4.0  # compiled and saved
     assert dispatch._on_disk(kernel)
+
+
+# ---------------------------------------------------------------------- another kernel set
+USER_TASK = """
+import numpy as np
+from numba import njit
+
+from wbc.tasks import Task
+
+
+@njit(cache=True)
+def height_rows(target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J):
+    e[0] = target[0] - com[2]
+    for k in range(Jcom.shape[1]):
+        J[0, k] = Jcom[2, k]
+
+
+class HeightTask(Task):
+    dim = 1
+    row_kernel = staticmethod(height_rows)
+    target_fields = ("target",)
+
+    def __init__(self, height):
+        super().__init__("height", weight=10.0)
+        self.target = np.array([height])
+"""
+
+NEW_SET = """
+import json, sys, time
+import numpy as np
+from wbc import load_robot
+from wbc.stacks import load_stack
+from user_height import HeightTask
+robot = load_robot()
+q0 = robot.configuration("walk_ready")
+out = {}
+for compiled in (None, False):
+    control = load_stack("walk", robot, solver=sys.argv[1], compiled=compiled)
+    control.stack.add(HeightTask(robot.com(q0)[2] - 0.002), level=1)
+    s = control.solver
+    start = time.perf_counter()
+    first = s.step(q0, 0.01)
+    seconds = time.perf_counter() - start
+    if compiled is None:
+        (worker,) = s.fast.ticks.builders.values()
+        assert worker.wait() == 0
+        out["first"] = [seconds, s.interim_ticks, s.compiled_ticks]
+    q = s.step(first, 0.01)  # (compiled once its worker is done)
+    out[str(compiled)] = [first.tolist(), q.tolist(), s.interim_ticks, s.compiled_ticks]
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.parametrize("solver", ["weighted", "hierarchical"])
+def test_a_new_kernel_set_compiles_in_a_worker_while_the_numpy_path_answers(tmp_path, solver):
+    """A task type defined outside the package, on an empty cache: the first tick is solved
+    at once on the numpy path while one worker compiles this set's tick (only its rows: the
+    kernels and the solve are cached each on its own); the next tick runs it, and agrees
+    with the numpy path to 1e-9."""
+    (tmp_path / "user_height.py").write_text(USER_TASK)
+    env = {**os.environ, "WBC_CACHE_DIR": str(tmp_path / "wbc")}
+    env.pop(dispatch.WAIT_ENV, None)
+    env.pop(dispatch.WORKER_ENV, None)
+    run = subprocess.run(
+        [sys.executable, "-c", NEW_SET, solver], env=env, capture_output=True, text=True,
+        cwd=tmp_path, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    out = json.loads(run.stdout.strip().splitlines()[-1])
+    assert "a new set of task types" in run.stderr
+    seconds, interim, compiled = out["first"]
+    assert (interim, compiled) == (1, 0)  # the first tick: the numpy path
+    assert seconds < 5.0  # (not compiling the tick: that takes the worker ~10 s)
+    first, q, interim, compiled = out["None"]
+    assert (interim, compiled) == (1, 1)  # then the compiled tick
+    numpy_first, numpy_q, _, numpy_compiled = out["False"]
+    assert numpy_compiled == 0
+    assert np.abs(np.array(first) - numpy_first).max() < 1e-9
+    assert np.abs(np.array(q) - numpy_q).max() < 1e-9
+
+
+def test_the_compiled_kernels_are_a_leaf():
+    """wbc.compiled imports nothing above the kernels (imports inside functions counted):
+    only wbc.exceptions and wbc.types of the package; the tasks, limits and solvers pass
+    their kernels in, and the workers above it are started by module name."""
+    import ast
+
+    package = Path(dispatch.__file__).parent
+    allowed = {"wbc.exceptions", "wbc.types"}
+    above = []
+    for path in sorted(package.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                if node.level == 1:
+                    continue  # (wbc.compiled itself)
+                name = ("wbc." + (node.module or "")) if node.level == 2 else node.module
+            elif isinstance(node, ast.Import):
+                name = node.names[0].name
+            else:
+                continue
+            if name and name.startswith("wbc") and name not in allowed:
+                above.append((path.name, name))
+    assert above == []

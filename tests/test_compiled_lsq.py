@@ -431,7 +431,7 @@ ONE_SPECIALISATION = """
 import json
 from numba.core.registry import CPUDispatcher
 from wbc.compiled import lsq, lsq_linalg, lsq_subproblem, ticks
-from wbc.compiled.__main__ import compile_part
+from wbc.warmup import compile_part
 compile_part("weighted")  # a weighted and a hierarchical solve, compiled in this process
 compile_part("hierarchical")
 print(json.dumps({

@@ -1,5 +1,5 @@
 """The tasks' row kernels and the generated tick's row bookkeeping equal Pinocchio's own
-formulas (wbc.compiled.rows, wbc.compiled.dispatch, wbc.compiled.plan).
+formulas (wbc.compiled.rows, wbc.compiled.dispatch, wbc.solvers.plan).
 
 The oracle below is written with Pinocchio's log3/Jlog3 and frame Jacobians, independently of
 the kernels: the task classes' compute/fill and the compiled tick both run the kernels."""
@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 pytest.importorskip("numba")
 
 from wbc.compiled import dispatch
-from wbc.compiled.plan import Frames, Rows, Scratch, Targets, kernel_set
 from wbc.compiled.rows import frame_jacobian, jlog3, log3
 from wbc.model import Kinematics
+from wbc.solvers.plan import Frames, Rows, Scratch, Targets, kernel_set
 from wbc.tasks import (
     ComTask,
     ContactTask,
@@ -149,12 +149,16 @@ def test_rows_equal_pinocchio(robot, seed, weighted):
     kinds = {k: i for i, k in enumerate(kernels)}
     rows = Rows(tasks, robot.nv, frames, targets, kinds, weighted, scratch, "rows")
     targets.seal()
-    module.load_frames(frames.ids, frames.R, frames.p, frames.Rs, frames.ps)
+    v, Jf = np.zeros(robot.nv), np.zeros((6, robot.nv))
+    module.load_frames(
+        frames.ids, frames.R, frames.p, frames.Rs, frames.ps, frames.vs, frames.support,
+        kin.data.J, v, Jf,
+    )  # fmt: skip
     dim = max(t.dim for t in tasks)
     module.fill_rows(
-        *rows.args, targets.gather(), frames.slots, frames.Rs, frames.ps, frames.support,
-        kin.data.J, kin.com, kin.com_jacobian, kin.q, np.zeros((6, robot.nv)), np.zeros(dim),
-        np.zeros((dim, robot.nv)),
+        *rows.args, targets.gather(), frames.slots, frames.Rs, frames.ps, frames.vs,
+        frames.support, kin.data.J, kin.com, kin.com_jacobian, np.zeros(6),
+        np.zeros((6, robot.nv)), kin.q, v, Jf, np.zeros(dim), np.zeros((dim, robot.nv)),
     )  # fmt: skip
     for t, (_, sl) in zip(tasks, rows.slices, strict=True):
         e_full, J_full = oracle(t, kin)

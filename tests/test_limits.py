@@ -7,18 +7,22 @@ import pinocchio as pin
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from numba import njit
 
-from wbc import Kinematics, TaskError
+from wbc import ConfigurationError, Kinematics, TaskError
 from wbc.geometry import convex_hull, halfplanes, signed_distance
 from wbc.limits import (
     Bounds,
+    BoxLimit,
     ComPolygonConstraint,
     GroundClearanceConstraint,
     JointPositionLimit,
     JointVelocityLimit,
     LinearInequality,
-    intersect_bounds,
+    box_bounds,
 )
+from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
+from wbc.tasks import ContactTask, PostureTask
 
 
 def random_q(robot, seed):
@@ -89,10 +93,8 @@ def test_bounds_move_a_joint_back_inside_at_the_servo_speed(robot):
     i = robot.joint_index("r_knee")
     q[7 + i] = robot.q_min[i] - 0.3  # far outside
     kin = Kinematics(robot, q)
-    pos = JointPositionLimit(robot).bounds(kin, 0.01)
-    vel = JointVelocityLimit(robot).bounds(kin, 0.01)
     lower, upper = np.empty(robot.nv), np.empty(robot.nv)
-    intersect_bounds(Bounds(pos.lower.copy(), pos.upper.copy()), [vel], lower, upper)
+    box_bounds([JointPositionLimit(robot), JointVelocityLimit(robot)], kin, 0.01, lower, upper)
     step = robot.v_max[i] * 0.01
     assert lower[6 + i] == pytest.approx(step) and upper[6 + i] == pytest.approx(step)
     assert np.all(lower <= upper)
@@ -104,3 +106,127 @@ def test_linear_inequality_validation():
         LinearInequality(np.zeros((2, 24)), np.zeros(3))
     with pytest.raises(TaskError, match="non-finite"):
         LinearInequality(np.full((1, 24), np.nan), np.zeros(1))
+
+
+# ---------------------------------------------------------------------- a user's own box limit
+@njit(cache=True)
+def _band_bounds(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lo, hi):
+    """lo_j − q_j <= Δq_j <= hi_j − q_j (params: lo, then hi, every joint; base unbounded)."""
+    nj = params.shape[0] // 2
+    nb = lo.shape[0] - nj
+    for i in range(nb):
+        lo[i] = -np.inf
+        hi[i] = np.inf
+    for j in range(nj):
+        lo[nb + j] = params[j] - q[7 + j]
+        hi[nb + j] = params[nj + j] - q[7 + j]
+
+
+class JointBand(BoxLimit):
+    """A box limit written outside the package: every joint within a band [low, high]."""
+
+    name = "joint_band"
+    bound_kernel = staticmethod(_band_bounds)
+    param_fields = ("band",)
+
+    def __init__(self, low: np.ndarray, high: np.ndarray) -> None:
+        self.band = np.concatenate([low, high])
+
+
+class PythonBand(BoxLimit):
+    """The same band in Python only (no bound kernel): the numpy path."""
+
+    name = "python_band"
+
+    def __init__(self, low: np.ndarray, high: np.ndarray) -> None:
+        self.low, self.high = low, high
+
+    def bounds(self, kin, dt):
+        lower = np.full(kin.model.nv, -np.inf)
+        upper = np.full(kin.model.nv, np.inf)
+        lower[6:] = self.low - kin.q[7:]
+        upper[6:] = self.high - kin.q[7:]
+        return Bounds(lower, upper)
+
+
+def _band_stack(robot, q, limit):
+    stack = TaskStack(robot)
+    kin = Kinematics(robot, q)
+    for sole in ("l_sole", "r_sole"):
+        stack.add(ContactTask(robot, sole, name=sole), level=0, hard=True).set_target_from(kin)
+    stack.add(PostureTask(robot, q[7:] + 0.3), level=1)  # pulls every joint up
+    stack.add_limit(limit)
+    return stack
+
+
+@pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
+def test_a_box_limit_defined_outside_the_package_runs_compiled(robot, solver):
+    """A user's box limit (a bound kernel, in a module outside wbc) keeps the stack on the
+    compiled path, binds (the joints stop at the band), and the compiled step is the numpy
+    path's to 1e-9; a limit with Python bounds only runs the numpy path, with the same step."""
+    q = robot.configuration("walk_ready")
+    low, high = robot.q_min.copy(), np.minimum(q[7:] + 0.004, robot.q_max)
+    steps = {}
+    for compiled in (None, False):
+        band = JointBand(low, high)
+        s = solver(_band_stack(robot, q, band), compiled=compiled)
+        s.step(q, dt=0.01)
+        band.band[len(low) :] += 0.001  # updated in place: read by address on every path
+        steps[compiled] = s.step(q, dt=0.01)
+        assert s.compiled_ticks == (2 if compiled is None else 0), s.compiled_reason()
+    assert np.abs(steps[None] - steps[False]).max() < 1e-9
+    assert np.all(steps[None][7:] <= high + 0.001 + 1e-12)
+    assert np.isclose(steps[None][7:], high + 0.001, atol=1e-9).sum() >= 4  # (it binds)
+    s = solver(_band_stack(robot, q, PythonBand(low, high + 0.001)))
+    assert "PythonBand" in s.compiled_reason()
+    assert np.abs(s.step(q, dt=0.01) - steps[None]).max() < 1e-6
+    assert s.compiled_ticks == 0
+
+
+def test_an_unknown_limit_input_is_named():
+    with pytest.raises(ConfigurationError, match=r"kernel_inputs \['speed'\]"):
+
+        class Bad(JointBand):
+            kernel_inputs = frozenset({"speed"})
+
+
+@njit(cache=True)
+def _frame_floor_bounds(
+    params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lo, hi
+):
+    """The base's vertical step Δq_z >= floor − p_z of a frame (params: the floor)."""
+    for i in range(lo.shape[0]):
+        lo[i] = -np.inf
+        hi[i] = np.inf
+    lo[2] = params[0] - ps[slots[0], 2]
+
+
+class FrameFloor(BoxLimit):
+    """A box limit outside the package that reads a frame (its slot): the base may not sink
+    so that the frame ends below a floor (to first order, in the base's own z)."""
+
+    name = "frame_floor"
+    bound_kernel = staticmethod(_frame_floor_bounds)
+    param_fields = ("floor",)
+
+    def __init__(self, robot, frame: str, floor: float) -> None:
+        self.frame_id = robot.frame_id(frame)
+        self.floor = np.array([floor])
+
+    def frame_ids(self) -> tuple[int, ...]:
+        return (self.frame_id,)
+
+
+@pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
+def test_a_box_limit_reading_a_frame_runs_compiled(robot, solver):
+    """A user's box limit reading a frame's placement (its slot beside the tasks' frames):
+    compiled, and the numpy path's step to 1e-9."""
+    q = robot.configuration("walk_ready")
+    torso = robot.frame_placement(q, "torso").translation[2]
+    steps = {}
+    for compiled in (None, False):
+        s = solver(_band_stack(robot, q, FrameFloor(robot, "torso", torso)), compiled=compiled)
+        steps[compiled] = s.step(q, dt=0.01)
+        assert s.compiled_ticks == (1 if compiled is None else 0), s.compiled_reason()
+        assert s.last.lower[2] == pytest.approx(0.0, abs=1e-12)  # the floor: the frame now
+    assert np.abs(steps[None] - steps[False]).max() < 1e-9

@@ -92,7 +92,9 @@ def test_bad_input(robot):
 
 # ---------------------------------------------------------------------- a user's own task
 @njit(cache=True)
-def _com_height_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def _com_height_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     e[0] = target[0] - com[2]
     for k in range(Jcom.shape[1]):
         J[0, k] = Jcom[2, k]

@@ -45,7 +45,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ),
     ("tasks and limits", ("wbc.tasks", "wbc.limits", "wbc.pinv")),
     ("solvers", ("wbc.solvers", "wbc.ik", "wbc.pose_ik")),
-    ("stacks", ("wbc.stacks",)),
+    ("stacks", ("wbc.stacks", "wbc.warmup")),
     (
         "applications",
         (

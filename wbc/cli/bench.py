@@ -477,11 +477,11 @@ _WITHOUT_TICKS = ("pinv", "peer")
 def _compile_in_background(console: Console) -> bool:
     """Start compiling the package's control ticks in background processes if they are not
     in the disk cache (:meth:`wbc.compiled.dispatch.Ticks.start_build`); True if started."""
-    from ..compiled.plan import numba_available
+    from ..solvers.plan import numba_available
 
     if not numba_available():
         return False
-    from ..compiled.dispatch import package_ticks
+    from ..solvers.plan import package_ticks
 
     if not package_ticks().start_build(announce=False):
         return False
@@ -493,7 +493,7 @@ def _compile_in_background(console: Console) -> bool:
 
 
 def _wait_for_ticks() -> None:
-    from ..compiled.dispatch import package_ticks
+    from ..solvers.plan import package_ticks
 
     package_ticks().wait_all()
 

@@ -1,5 +1,6 @@
-"""Building blocks of the tasks' row kernels (numba): the SO(3) logarithm and its Jacobian,
-a frame's Jacobian from Pinocchio's joint Jacobians, the rotation error rows.
+"""Building blocks of the kernels (numba; their signature: :mod:`wbc.compiled.signature`):
+the SO(3) logarithm and its Jacobian, a frame's Jacobian from Pinocchio's joint Jacobians
+and its velocity, the rotation error rows.
 
 A task's row kernel (see :class:`wbc.tasks.Task`) calls these; the tests check each against
 Pinocchio to 1e-12.
@@ -131,3 +132,18 @@ def rotation_rows(target: np.ndarray, R: np.ndarray, Jf: np.ndarray, e: np.ndarr
         w0, w1, w2 = Jf[3, k], Jf[4, k], Jf[5, k]
         for i in range(3):
             J[i, k] = Jl[i, 0] * w0 + Jl[i, 1] * w1 + Jl[i, 2] * w2
+
+
+@njit(cache=True)
+def frame_velocities(
+    Jw: np.ndarray, supports: np.ndarray, ps: np.ndarray, n: int, v: np.ndarray, Jf, vs
+) -> None:
+    """vs[s] = J_s v for the first ``n`` frame slots: each frame's velocity [linear; angular]
+    with world axes at its origin (:func:`frame_jacobian`), the kernels' input ``vs``."""
+    for s in range(n):
+        frame_jacobian(Jw, supports[s], ps[s], Jf)
+        for i in range(6):
+            acc = 0.0
+            for k in range(v.shape[0]):
+                acc += Jf[i, k] * v[k]
+            vs[s, i] = acc

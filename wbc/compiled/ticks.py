@@ -1,7 +1,9 @@
-"""The compiled solve of a tick, once the rows are filled: box bounds, the QP(s), integration.
+"""The compiled solve of a tick, once the rows and the bounds are filled: the QP(s), integration.
 
+* :func:`fold_boxes` — the box of a stack's limits from each box limit's own (their bound
+  kernels fill them: the joint position and velocity limits, any other);
 * :func:`weighted_solve` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
-  rows as equalities, inequality rows, joint position/velocity bounds;
+  rows as equalities, inequality rows, the bounds;
 * :func:`cascade_solve` — the lexicographic QP: level k in least squares subject to the bounds
   and to every level above kept at its achieved values (``J_i Δq = J_i Δq_i``, the exact
   optimal set of a least-squares level) and its inequality rows at their bounds plus the
@@ -12,8 +14,8 @@ the bounds) and the inequality rows by a primal active set around it
 (:func:`solve_with_inequalities`), which costs nothing while the rows are inactive. They are
 the one algorithm of both solvers on every path (the numpy assembly calls them too).
 Both return a status; anything but :data:`~wbc.compiled.lsq.OK` sends the caller back to the
-numpy path, which handles (and names) infeasible problems. The tick itself (rows, then one of
-these) is generated per set of row kernels by :mod:`wbc.compiled.dispatch`.
+numpy path, which handles (and names) infeasible problems. The tick itself (rows and bounds,
+then one of these) is generated per set of kernels by :mod:`wbc.compiled.dispatch`.
 """
 
 from __future__ import annotations
@@ -55,31 +57,33 @@ PROXIMAL_STEPS = 12
 
 
 @njit(cache=True)
-def joint_bounds(
-    joints: np.ndarray,
-    q_min: np.ndarray,
-    q_max: np.ndarray,
-    step: np.ndarray,
-    use_step: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-) -> None:
-    """Box bounds on Δq (base rows unbounded): q_min − q <= Δq_j <= q_max − q, clipped into
-    [−v dt, v dt] when stepping in time (a joint outside its range moves back at servo speed),
-    as :meth:`wbc.solvers.base.StackSolver.compute_bounds`."""
-    nb = lower.shape[0] - joints.shape[0]
-    for i in range(nb):
-        lower[i] = -np.inf
-        upper[i] = np.inf
-    for j in range(joints.shape[0]):
-        lo = q_min[j] - joints[j]
-        hi = q_max[j] - joints[j]
-        if use_step:
-            s = step[j]
-            lo = min(max(lo, -s), s)
-            hi = min(max(hi, -s), s)
-        lower[nb + j] = lo
-        upper[nb + j] = hi
+def fold_box(lower: np.ndarray, upper: np.ndarray, b_lo: np.ndarray, b_hi: np.ndarray) -> None:
+    """Intersect the box [b_lo, b_hi] into [lower, upper] (what the limits before it leave);
+    where it leaves no room, it wins, moved as far towards [lower, upper] as it allows (a
+    joint outside its range comes back at the servo's speed, never further out)."""
+    for i in range(lower.shape[0]):
+        lo = lower[i]
+        hi = upper[i]
+        new_lo = max(lo, b_lo[i])
+        new_hi = min(hi, b_hi[i])
+        if new_lo > new_hi:
+            new_lo = min(max(lo, b_lo[i]), b_hi[i])
+            new_hi = max(min(hi, b_hi[i]), b_lo[i])
+        lower[i] = new_lo
+        upper[i] = new_hi
+
+
+@njit(cache=True)
+def fold_boxes(boxes: np.ndarray, n: int, lower: np.ndarray, upper: np.ndarray) -> None:
+    """The box of a stack's limits from each limit's own (``boxes[i]``: lower, upper; the
+    first ``n``, the joint position limit first): the first, then each of the others folded
+    in turn by :func:`fold_box`. One definition for every path (the compiled tick folds each
+    box as its kernel writes it; :func:`wbc.limits.box_bounds` calls this)."""
+    for i in range(lower.shape[0]):
+        lower[i] = boxes[0, 0, i]
+        upper[i] = boxes[0, 1, i]
+    for k in range(1, n):
+        fold_box(lower, upper, boxes[k, 0], boxes[k, 1])
 
 
 @njit(cache=True)
@@ -105,18 +109,16 @@ def _any(flags, p) -> bool:
 
 @njit(cache=True)
 def weighted_solve(
-    soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, step, params, lower, upper,
-    state, working, dq, q_next,
+    soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, params, lower, upper, state,
+    working, dq, q_next,
 ) -> int:  # fmt: skip
-    """With the rows filled: the bounds, then min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
+    """With the rows and the bounds filled: min ‖soft_J Δq − soft_b‖² + μ‖Δq‖² subject to
     hard_J Δq = hard_b, G Δq <= h (its first ``g_rows[1]`` rows) and the bounds; Δq into
-    ``dq``, q ⊕ Δq into ``q_next`` (see :func:`integrate`). ``params``: [use the velocity
-    steps, μ, (unused), tolerance of the inequality rows]; ``working``: the inequality rows'
-    working set (the last tick's: a warm start; updated). Without a warm start the inequality
-    rows cost nothing while the solution without them meets them; else, and with one,
+    ``dq``, q ⊕ Δq into ``q_next`` (see :func:`integrate`). ``params``: [(unused), μ,
+    (unused), tolerance of the inequality rows]; ``working``: the inequality rows' working set
+    (the last tick's: a warm start; updated). Without a warm start the inequality rows cost
+    nothing while the solution without them meets them; else, and with one,
     :func:`solve_with_inequalities`."""
-    joints = q[q.shape[0] - q_min.shape[0] :]
-    joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     mu = params[1]
     tol = params[3]
     p = g_rows[1]
@@ -497,16 +499,16 @@ def _cascade(
 
 @njit(cache=True)
 def cascade_solve(
-    J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, step, params, lower, upper,
-    states, working, h_eff, achieved, dq, q_next,
+    J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper, states,
+    working, h_eff, achieved, dq, q_next,
 ) -> int:  # fmt: skip
-    """With every level's rows filled (weighted): the bounds, then the levels in order.
+    """With every level's rows (weighted) and the bounds filled: the levels in order.
 
     ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``g_rows``: those of
     the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
     and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
-    rows kept (work space); ``params``: [use the velocity steps, μ, tolerance of hard levels,
+    rows kept (work space); ``params``: [(unused), μ, tolerance of hard levels,
     tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.
 
     Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
@@ -524,8 +526,6 @@ def cascade_solve(
     next level's solve fails or misses their rows (:data:`DEFERRED_TOL`), the levels are
     solved again with every soft level on its own.
     """
-    joints = q[q.shape[0] - q_min.shape[0] :]
-    joint_bounds(joints, q_min, q_max, step, params[0] != 0.0, lower, upper)
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
         h_eff, achieved, dq, np.bool_(True),
@@ -622,7 +622,8 @@ def integrate(
 # numba caches these on ticks.py alone: flush them when the kernels they call change
 refresh(
     [
-        joint_bounds,
+        fold_box,
+        fold_boxes,
         _violated,
         _any,
         _finite,

@@ -1,8 +1,8 @@
 """Limits (bounds on Δq) and constraints (inequality rows on Δq)."""
 
 from .ground_clearance import GroundClearanceConstraint, LinearInequality
-from .joint_limits import JointPositionLimit, JointVelocityLimit, intersect_bounds
-from .limit import Bounds, BoxLimit, Constraint, Inequality
+from .joint_limits import JointPositionLimit, JointVelocityLimit
+from .limit import Bounds, BoxLimit, Constraint, Inequality, box_bounds
 from .self_collision import SelfCollisionConstraint
 from .support_polygon import ComPolygonConstraint, SupportPolygon
 
@@ -18,5 +18,5 @@ __all__ = [
     "LinearInequality",
     "SelfCollisionConstraint",
     "SupportPolygon",
-    "intersect_bounds",
+    "box_bounds",
 ]

@@ -3,9 +3,41 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from ..model import Kinematics, Robot
-from .limit import Bounds, BoxLimit
+from ..model import Robot
+from .limit import BoxLimit
+
+
+@njit(cache=True)
+def position_bounds(
+    params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lower, upper
+):
+    """q_min − q <= Δq_j <= q_max − q (params: q_min, then q_max; the base unbounded)."""
+    nj = params.shape[0] // 2
+    nb = lower.shape[0] - nj
+    for i in range(nb):
+        lower[i] = -np.inf
+        upper[i] = np.inf
+    o = q.shape[0] - nj
+    for j in range(nj):
+        lower[nb + j] = params[j] - q[o + j]
+        upper[nb + j] = params[nj + j] - q[o + j]
+
+
+@njit(cache=True)
+def velocity_bounds(
+    params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lower, upper
+):
+    """−s_j <= Δq_j <= s_j (params: the steps s; the base unbounded)."""
+    nj = params.shape[0]
+    nb = lower.shape[0] - nj
+    for i in range(nb):
+        lower[i] = -np.inf
+        upper[i] = np.inf
+    for j in range(nj):
+        lower[nb + j] = -params[j]
+        upper[nb + j] = params[j]
 
 
 class JointPositionLimit(BoxLimit):
@@ -16,35 +48,37 @@ class JointPositionLimit(BoxLimit):
     """
 
     name = "joint_position_limit"
+    bound_kernel = staticmethod(position_bounds)
+    param_fields = ("q_min", "q_max")
 
     def __init__(self, robot: Robot) -> None:
         self.robot = robot
-        self._lower = np.full(robot.nv, -np.inf)
-        self._upper = np.full(robot.nv, np.inf)
+        self.q_min = robot.q_min
+        self.q_max = robot.q_max
 
     def joint_bounds_into(self, joints: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-        """The joint rows only, written in place (the solvers' hot path)."""
-        np.subtract(self.robot.q_min, joints, out=lower)
-        np.subtract(self.robot.q_max, joints, out=upper)
-
-    def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
-        self.joint_bounds_into(kin.q[7:], self._lower[6:], self._upper[6:])
-        return Bounds(self._lower, self._upper)
+        """The joint rows only, written in place (the solvers' projections)."""
+        np.subtract(self.q_min, joints, out=lower)
+        np.subtract(self.q_max, joints, out=upper)
 
 
 class JointVelocityLimit(BoxLimit):
     """|Δq_j| <= scale · v_max · dt (servo speed); inactive when iterating without a time step."""
 
     name = "joint_velocity_limit"
+    bound_kernel = staticmethod(velocity_bounds)
+    param_fields = ("steps",)
 
     def __init__(self, robot: Robot, scale: float = 1.0) -> None:
         self.robot = robot
         self.scale = scale
-        self._lower = np.full(robot.nv, -np.inf)
-        self._upper = np.full(robot.nv, np.inf)
         self._dt: float | None = None
         self._step = np.zeros(robot.n_joints)
         self._neg_step = np.zeros(robot.n_joints)
+        #: the bound kernel's parameters: the steps of the last :meth:`prepare` (+inf without
+        #: a time step)
+        self.steps = np.full(robot.n_joints, np.inf)
+        self._prepared: float | None = None  # (the dt of those steps: None, no time step)
 
     def _steps(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         if dt != self._dt:
@@ -57,46 +91,13 @@ class JointVelocityLimit(BoxLimit):
         """The largest joint increment in one time step, scale · v_max · dt (cached)."""
         return self._steps(dt)[0]
 
-    def clip_joint_bounds(self, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
-        """Clip joint position bounds into [−v dt, v dt] in place.
-
-        The two never cross: a joint outside its range gets lower = upper = ±v dt, i.e. it
-        moves back towards its range at the servo's full speed.
-        """
-        step, neg = self._steps(dt)
-        np.minimum(np.maximum(lower, neg, out=lower), step, out=lower)
-        np.minimum(np.maximum(upper, neg, out=upper), step, out=upper)
-
-    def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
+    def prepare(self, dt: float | None) -> None:
+        """The steps of ``dt`` into :attr:`steps` (+inf: no time step, no bound); nothing to
+        do for the ``dt`` of the last call (every compiled tick asks: ~0.1 µs)."""
+        if dt == self._prepared:
+            return
         if dt is None:
-            self._lower[6:] = -np.inf
-            self._upper[6:] = np.inf
+            self.steps.fill(np.inf)
         else:
-            step, neg = self._steps(dt)
-            self._upper[6:] = step
-            self._lower[6:] = neg
-        return Bounds(self._lower, self._upper)
-
-
-def intersect_bounds(
-    position: Bounds, others: list[Bounds], lower: np.ndarray, upper: np.ndarray
-) -> None:
-    """Intersect box limits into ``lower``/``upper`` (in place).
-
-    Position bounds come first; where another box (e.g. velocity) leaves no room, the result
-    moves as far towards the position range as that box allows, so a joint that starts
-    outside its range is brought back at the servo's speed instead of failing.
-    """
-    lower[:] = position.lower
-    upper[:] = position.upper
-    for b in others:
-        np.maximum(lower, b.lower, out=lower)
-        np.minimum(upper, b.upper, out=upper)
-    empty = lower > upper
-    if empty.any():
-        # the non-position box wins, clipped towards the position range
-        for b in others:
-            lo = np.minimum(np.maximum(position.lower, b.lower), b.upper)
-            hi = np.maximum(np.minimum(position.upper, b.upper), b.lower)
-            lower[empty] = lo[empty]
-            upper[empty] = hi[empty]
+            np.copyto(self.steps, self.step(dt))
+        self._prepared = dt

@@ -1,18 +1,40 @@
 """Limits and constraints: they only provide bounds or inequality rows on Δq.
 
 Two kinds, mirroring pink: a :class:`BoxLimit` bounds each coordinate of Δq
-(``lower <= Δq <= upper``, intersected over all box limits); a :class:`Constraint` gives
-inequality rows ``G Δq <= h``. Solvers stack them, independently of the QP backend.
+(``lower <= Δq <= upper``, intersected over all box limits: :func:`box_bounds`); a
+:class:`Constraint` gives inequality rows ``G Δq <= h``. Solvers stack them, independently of
+the QP backend.
+
+A box limit is written once, as a task is: a **bound kernel** (a numba function with the
+kernels' one signature, :mod:`wbc.compiled.signature`) writes its lower and upper bounds;
+:meth:`BoxLimit.bounds` calls it from Python (the numpy path), the compiled tick calls the
+same kernel for every box limit of a stack, wherever its class is defined. The joint
+position and velocity limits are two of them.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
 
+from ..compiled.dispatch import refresh_kernel
+from ..compiled.signature import OPTIONAL, KernelCall, sources
+from ..exceptions import ConfigurationError
 from ..model import Kinematics
+
+#: ``bounds(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lower,
+#: upper) -> None``, compiled with ``numba.njit(cache=True)``: the kernels' one signature
+#: (:mod:`wbc.compiled.signature`), ``params`` the limit's parameters packed in one vector
+#: (the arrays named by :attr:`BoxLimit.param_fields`, in order), the outputs its bounds on
+#: Δq (nv each; ±inf where it sets none)
+BoundKernel = Callable[..., None]
+
+#: the bound kernels of the package's own box limits, in definition order: every compiled
+#: tick holds them (so that the usual stacks share one tick), plus those of its stack's others
+PACKAGE_BOUND_KERNELS: list[BoundKernel] = []
 
 
 def way_back(violation: np.ndarray, fraction: float, most: float) -> np.ndarray:
@@ -42,15 +64,124 @@ class Inequality(NamedTuple):
     h: np.ndarray
 
 
-class BoxLimit(ABC):
-    """A limit that bounds every coordinate of Δq."""
+class BoxLimit:
+    """A limit that bounds every coordinate of Δq.
+
+    Written as a **bound kernel** (:data:`BoundKernel`, ``staticmethod(kernel)``) with the
+    arrays it reads named in :attr:`param_fields` (owned by the limit, updated in place: the
+    compiled tick reads them by address) and its frames in :meth:`frame_ids`: it then runs
+    compiled, wherever its class is defined. A limit without one overrides :meth:`bounds`
+    instead, and its stacks run on the numpy path.
+    """
 
     name: str = "box"
+    #: the limit's bounds (see :data:`BoundKernel`); None: :meth:`bounds` is overridden
+    bound_kernel: BoundKernel | None = None
+    #: the names of the arrays the kernel reads (its ``params``), in order
+    param_fields: tuple[str, ...] = ()
+    #: the optional kernel inputs it reads (:data:`wbc.compiled.signature.OPTIONAL`)
+    kernel_inputs: frozenset[str] = frozenset()
 
-    @abstractmethod
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        kernel = cls.__dict__.get("bound_kernel")
+        if isinstance(kernel, staticmethod):
+            refresh_kernel(kernel.__func__)
+            if cls.__module__.startswith("wbc.") and kernel.__func__ not in PACKAGE_BOUND_KERNELS:
+                PACKAGE_BOUND_KERNELS.append(kernel.__func__)
+        elif "bounds" in cls.__dict__ and "bound_kernel" not in cls.__dict__:
+            cls.bound_kernel = None  # its own Python bounds: an inherited kernel no longer applies
+        unknown = set(cls.kernel_inputs) - OPTIONAL
+        if unknown:
+            raise ConfigurationError(
+                f"box limit type {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; "
+                f"allowed: {sorted(OPTIONAL)}"
+            )
+        for name in cls.__dict__.get("param_fields", ()):
+            if not isinstance(cls.__dict__.get(name), property):
+                setattr(cls, name, _ParamField(name))
+
+    def frame_ids(self) -> tuple[int, ...]:
+        """The frames the bound kernel reads (in its ``slots`` order)."""
+        return ()
+
+    def prepare(self, dt: float | None) -> None:
+        """Set the parameters that depend on the time step ``dt`` (None: iterating to
+        convergence), before the bounds of a solve with it (default: none do)."""
+        return None
+
+    def packed_params(self) -> np.ndarray:
+        """The arrays of :attr:`param_fields` in one new vector (the kernel's ``params``)."""
+        parts = [np.ravel(getattr(self, name)) for name in self.param_fields]
+        return np.concatenate(parts).astype(float) if parts else np.zeros(0)
+
     def bounds(self, kin: Kinematics, dt: float | None) -> Bounds:
         """Bounds on Δq at the configuration of ``kin`` for a step of ``dt`` seconds
-        (``dt=None``: iterating to convergence, no time step)."""
+        (``dt=None``: iterating to convergence, no time step): the bound kernel's (the arrays
+        returned are the limit's own, overwritten by the next call)."""
+        kernel = type(self).bound_kernel
+        if kernel is None:
+            raise ConfigurationError(
+                f"box limit type {type(self).__name__} defines neither a bound_kernel nor bounds"
+            )
+        self.prepare(dt)
+        fids = self.frame_ids()
+        params = sources(self, self.param_fields)
+        call = self.__dict__.get("_kernel_call")
+        if call is None or not call.matches(kin, fids, params):
+            nv = kin.model.nv
+            lower, upper = np.empty(nv), np.empty(nv)
+            call = KernelCall(kernel, kin, fids, params, self.kernel_inputs, lower, upper)
+            self._kernel_call = call
+            self._result = Bounds(lower, upper)
+        call(kin)
+        return self._result
+
+
+class _ParamField:
+    """The attribute ``name`` of :attr:`BoxLimit.param_fields`: bound once (in ``__init__``, a
+    float64 array kept as it is, e.g. a view of the robot's limits), then an assignment
+    writes into that array (the compiled tick and :meth:`BoxLimit.bounds` read it by
+    address: a re-bound attribute would be ignored there). (Only ``__set__``: a read is a
+    plain instance attribute read.)"""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __set__(self, limit: BoxLimit, value) -> None:
+        own = limit.__dict__.get(self.name)
+        if own is None:
+            if not (isinstance(value, np.ndarray) and value.dtype == np.float64):
+                value = np.array(value, dtype=np.float64)
+            limit.__dict__[self.name] = value
+            return
+        v = np.asarray(value, dtype=float)
+        if v.shape != own.shape:
+            raise ConfigurationError(
+                f"box limit {limit.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
+            )
+        own[...] = v
+
+
+def box_bounds(
+    limits: Sequence[BoxLimit],
+    kin: Kinematics,
+    dt: float | None,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> None:
+    """The box of a stack's limits (the joint position limit first) into ``lower``/``upper``:
+    each limit's :meth:`BoxLimit.bounds` in turn intersected with what those before leave,
+    where one leaves no room it wins, moved towards them (a joint outside its range comes
+    back at the servo's speed): :func:`wbc.compiled.ticks.fold_boxes`, as the compiled tick."""
+    from ..compiled.ticks import fold_boxes
+
+    boxes = np.empty((len(limits), 2, lower.shape[0]))
+    for k, limit in enumerate(limits):
+        boxes[k, 0], boxes[k, 1] = limit.bounds(kin, dt)
+    fold_boxes(boxes, len(limits), lower, upper)
 
 
 class Constraint(ABC):

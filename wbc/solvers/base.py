@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError, WbcError
-from ..limits import Bounds, Constraint, intersect_bounds
+from ..limits import Constraint, box_bounds
 from ..model import Kinematics
 from ..types import Solution
 from .backends import QPBackend, make_backend
@@ -90,7 +90,7 @@ class StackSolver(ABC):
         self.interim_ticks = 0
         self._layouts: dict = {}
         #: the work arrays that the compiled plans of the layouts share
-        #: (:class:`wbc.compiled.plan.Scratch`; None until a plan is built)
+        #: (:class:`wbc.solvers.plan.Scratch`; None until a plan is built)
         self._plan_scratch = None
         self.kin = Kinematics(self.robot)
         self._q_min = self.robot.q_min
@@ -302,7 +302,7 @@ class StackSolver(ABC):
     def _switch_layout(self, build: Callable[[], Any]) -> Any:
         """The layout of the stack as it is now (its :attr:`TaskStack.revision` moved): the one
         kept for its :meth:`_layout_key`, else ``build()`` (kept). A kept layout entered again
-        starts its active sets afresh (:meth:`wbc.compiled.plan._Plan.forget_warm_start`):
+        starts its active sets afresh (:meth:`wbc.solvers.plan._Plan.forget_warm_start`):
         those of its last visit (a support phase ago, at another configuration) are a worse
         start than none (the hierarchy's first tick of a phase took twice as long from them;
         benchmarks/qp_tick.md)."""
@@ -324,14 +324,14 @@ class StackSolver(ABC):
     def plan_scratch(self):
         """The work arrays that the compiled plans of this solver's layouts share."""
         if self._plan_scratch is None:
-            from ..compiled.plan import Scratch
+            from .plan import Scratch
 
             self._plan_scratch = Scratch()
         return self._plan_scratch
 
     def compiled_reason(self) -> str:
         """Why the compiled hot path cannot serve this stack ("" if it can)."""
-        from ..compiled.plan import compiled, numba_available
+        from .plan import box_limits, compiled, numba_available
 
         if not numba_available():
             return "numba is not installed (pip install numba)"
@@ -339,8 +339,9 @@ class StackSolver(ABC):
         others = sorted({type(t).__name__ for t in active if not compiled(t)})
         if others:
             return f"no row kernel (compiled form) for the task types {others}"
-        if self.stack.extra_limits:
-            return "extra box limits are not compiled"
+        limits = sorted({type(b).__name__ for b in box_limits(self.stack) if not compiled(b)})
+        if limits:
+            return f"no bound kernel (compiled form) for the box limit types {limits}"
         return ""
 
     def _use_compiled(self) -> bool:
@@ -357,22 +358,16 @@ class StackSolver(ABC):
         self, kin: Kinematics, dt: float | None, lower: np.ndarray, upper: np.ndarray
     ) -> None:
         """Box bounds on Δq, written into ``lower``/``upper`` (nv each; the floating base's rows
-        are unbounded), by :func:`wbc.compiled.ticks.joint_bounds` as the compiled tick does.
+        are unbounded): the stack's box limits' kernels, folded by :func:`wbc.limits.box_bounds`
+        as the compiled tick does.
 
         Joint position: q_min − q <= Δq <= q_max − q. With a time step and velocity limits both
         are clipped into [−v_max·dt, v_max·dt]; a joint outside its range then moves back at
         the servo's speed (the bounds never cross). Other box limits are intersected after.
         """
-        from ..compiled.ticks import joint_bounds  # the compiled tick's own, one definition
+        from .plan import box_limits
 
-        limit = self.stack.velocity_limit
-        use = dt is not None and limit is not None
-        step = limit.step(dt) if use else self._q_min  # (not read without a time step)
-        joint_bounds(kin.q[7:], self._q_min, self._q_max, step, use, lower, upper)
-        if self.stack.extra_limits:
-            position = Bounds(lower.copy(), upper.copy())
-            others = [lim.bounds(kin, dt) for lim in self.stack.extra_limits]
-            intersect_bounds(position, others, lower, upper)
+        box_bounds(box_limits(self.stack), kin, dt, lower, upper)
 
 
 def check_number(name: str, value: object, allowed: tuple[float, float]) -> float:

@@ -98,7 +98,7 @@ class HierarchicalQP(StackSolver):
         constraints = [lv.active_constraints() for lv in levels]
         fast = None
         if levels and self._use_compiled():
-            from ..compiled.plan import CascadePlan
+            from .plan import CascadePlan
 
             fast = CascadePlan(
                 self, self.kin, [lv.active_tasks() for lv in levels], [lv.hard for lv in levels]
@@ -207,7 +207,7 @@ class HierarchicalQP(StackSolver):
             self.handed_back_ticks += 1
         problems, lower, upper = self._assemble(kin, dt, inequalities, fast)
         self._problems = problems
-        if fast is None and not interim and not self.stack.extra_limits:
+        if fast is None and not interim:
             if self._level_solver_ready():
                 dq = self._level_solver(problems, kin, dt, lower, upper)
                 if dq is not None:
@@ -241,7 +241,7 @@ class HierarchicalQP(StackSolver):
 
         if cascade_solve.overloads:  # (compiled in this process: every later tick)
             return True
-        from ..compiled.dispatch import package_ticks
+        from .plan import package_ticks
 
         return package_ticks().kernel_ready(cascade_solve, "cascade_tick")
 
@@ -261,10 +261,7 @@ class HierarchicalQP(StackSolver):
         level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
         g_rows = np.cumsum([0] + [p.h.shape[0] for p in problems]).astype(np.int64)
         level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
-        limit = self.stack.velocity_limit
-        use = dt is not None and limit is not None
-        step = limit.step(dt) if use else np.zeros(self.robot.n_joints)
-        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
+        params = np.array([0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
         states = np.zeros((len(problems), nv), dtype=np.int8)
         working = np.zeros((len(problems), h.size), dtype=np.bool_)
         h_eff = np.zeros(h.size)
@@ -274,9 +271,8 @@ class HierarchicalQP(StackSolver):
         q = np.ascontiguousarray(kin.q, dtype=float)
         status = cascade_solve(
             J, b, level_rows, level_hard, np.ascontiguousarray(G, dtype=float),
-            np.ascontiguousarray(h, dtype=float), g_rows, q, self._q_min, self._q_max,
-            np.ascontiguousarray(step, dtype=float), params, lower, upper, states, working,
-            h_eff, achieved, dq, q_next,
+            np.ascontiguousarray(h, dtype=float), g_rows, q, self._q_min, self._q_max, params,
+            lower, upper, states, working, h_eff, achieved, dq, q_next,
         )  # fmt: skip
         if status != OK:
             self.compute_bounds(kin, dt, lower, upper)  # the backend cascade starts afresh

@@ -100,7 +100,7 @@ class WeightedQP(StackSolver):
         constraints = [c for lv in levels for c in lv.active_constraints()]
         fast = None
         if self._use_compiled():
-            from ..compiled.plan import WeightedPlan
+            from .plan import WeightedPlan
 
             fast = WeightedPlan(self, self.kin, soft.tasks, hard.tasks)
         return _Layout(soft, hard, constraints, fast, self.backend.workspace(nv, hard.m, 0))
@@ -156,7 +156,7 @@ class WeightedQP(StackSolver):
     ) -> Solution:
         """The QP value through the backend (its workspace filled in place); with DAQP and
         ``kernel``, the compiled tick's own least squares first (:meth:`_least_squares`)."""
-        if kernel and self.backend.name == "daqp" and not self.stack.extra_limits:
+        if kernel and self.backend.name == "daqp":
             dq = self._least_squares(kin, value, dt)
             if dq is not None:
                 return Solution(dq, value.lower, value.upper)
@@ -198,7 +198,7 @@ class WeightedQP(StackSolver):
         from ..compiled.ticks import weighted_solve
 
         if not weighted_solve.overloads:
-            from ..compiled.dispatch import package_ticks
+            from .plan import package_ticks
 
             if not package_ticks().kernel_ready(weighted_solve, "weighted_tick"):
                 self.interim_ticks += 1
@@ -206,18 +206,15 @@ class WeightedQP(StackSolver):
         nv = self.robot.nv
         G = np.ascontiguousarray(value.G, dtype=float)
         h = np.ascontiguousarray(value.h, dtype=float)
-        limit = self.stack.velocity_limit
-        use = dt is not None and limit is not None
-        step = limit.step(dt) if use else np.zeros(self.robot.n_joints)
-        params = np.array([1.0 if use else 0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
-        lower, upper = value.lower, value.upper
+        params = np.array([0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
+        lower, upper = value.lower, value.upper  # (the bounds: filled by compute_bounds)
         dq = np.zeros(nv)
         status = weighted_solve(
             np.ascontiguousarray(value.J, dtype=float), np.ascontiguousarray(value.b, dtype=float),
             np.ascontiguousarray(value.A, dtype=float), np.ascontiguousarray(value.a, dtype=float),
             G, h, np.array([0, h.size], dtype=np.int64), np.ascontiguousarray(kin.q, dtype=float),
-            self._q_min, self._q_max, np.ascontiguousarray(step, dtype=float), params, lower,
-            upper, np.zeros(nv, dtype=np.int8), np.zeros(h.size, dtype=np.bool_), dq,
+            self._q_min, self._q_max, params, lower, upper, np.zeros(nv, dtype=np.int8),
+            np.zeros(h.size, dtype=np.bool_), dq,
             np.zeros(self.robot.nq),
         )  # fmt: skip
         if status != OK:

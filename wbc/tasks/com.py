@@ -12,7 +12,7 @@ from .task import Task, check_vector
 
 
 @njit(cache=True)
-def com_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def com_rows(target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J) -> None:
     """e = c* − c, J = J_com."""
     for i in range(3):
         e[i] = target[i] - com[i]

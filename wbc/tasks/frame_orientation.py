@@ -14,7 +14,9 @@ from .task import check_rotation
 
 
 @njit(cache=True)
-def orientation_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def orientation_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """e = log(R* Rᵀ), J = Jlog3(R* Rᵀ) J_ω."""
     f = slots[0]
     frame_jacobian(Jw, supports[f], ps[f], Jf)

@@ -21,7 +21,7 @@ _F8 = np.dtype(np.float64)
 
 
 @njit(cache=True)
-def pose_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def pose_rows(target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J) -> None:
     """e = [p* − p; log(R* Rᵀ)], J = [J_v; Jlog3(R* Rᵀ) J_ω] (target: p*, then R* row-major)."""
     f = slots[0]
     p = ps[f]

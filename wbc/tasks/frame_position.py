@@ -14,7 +14,9 @@ from .task import check_vector
 
 
 @njit(cache=True)
-def position_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def position_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """e = p* − p, J = J_v (world axes at the frame origin)."""
     f = slots[0]
     p = ps[f]

@@ -12,7 +12,9 @@ from .task import Task, check_vector
 
 
 @njit(cache=True)
-def posture_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def posture_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """e = q*_j − q_j, J = [0 I] (the joints are the last coordinates of q and Δq)."""
     nv = Jw.shape[1]
     nj = target.shape[0]
@@ -24,7 +26,9 @@ def posture_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) ->
 
 
 @njit(cache=True)
-def damping_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def damping_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """e = 0, J = I (nv)."""
     nv = Jw.shape[1]
     for i in range(nv):

@@ -17,7 +17,9 @@ from .task import Task, check_vector
 
 
 @njit(cache=True)
-def relative_position_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def relative_position_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """e = x* − R_aᵀ (p_b − p_a), J = R_aᵀ (J_v,b − J_v,a + [d]ₓ J_ω,a) with d = p_b − p_a.
 
     ``slots``: [frame b, reference frame a]. ``J`` is used as scratch for frame b's rows.

@@ -9,7 +9,7 @@ A task type is one class with one **row kernel** (a numba function, see :data:`R
 it writes the full error and Jacobian into preallocated rows. The base class turns it into
 :meth:`Task.compute_error`, :meth:`Task.compute_jacobian` and :meth:`Task.fill` (the numpy
 path, the baselines, the tests), and the compiled tick calls the very same kernel for every
-task of a stack (:mod:`wbc.compiled.plan`), whichever module defines the class. A task whose
+task of a stack (:mod:`wbc.solvers.plan`), whichever module defines the class. A task whose
 rows cannot be a kernel (they keep state, e.g. :class:`~wbc.tasks.JointLimitDampingTask`)
 overrides ``compute_error``/``compute_jacobian`` instead and runs on the numpy path.
 """
@@ -25,21 +25,17 @@ import numpy as np
 
 from ..compiled.checks import copy_finite, copy_rotation
 from ..compiled.checks import entry as check_entry
+from ..compiled.dispatch import refresh_kernel
+from ..compiled.signature import OPTIONAL, KernelCall, sources
 from ..exceptions import TaskError
 from ..model import Kinematics
 
-#: ``rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None``, compiled
-#: with ``numba.njit(cache=True)``:
-#:
-#: * ``target`` — the task's targets packed in one vector (the arrays named by
-#:   :attr:`Task.target_fields`, in order, rotations row-major);
-#: * ``slots`` — for each frame of :meth:`Task.frame_ids`, its index into ``Rs`` (world
-#:   rotations, n x 3 x 3), ``ps`` (world positions, n x 3) and ``supports`` (n x nv bools:
-#:   the dofs that move it, for :func:`wbc.compiled.rows.frame_jacobian`);
-#: * ``Jw`` — Pinocchio's joint Jacobians ``data.J`` (6 x nv, world frame); ``com``/``Jcom`` —
-#:   the CoM and its Jacobian; ``q`` — the configuration;
-#: * ``Jf`` — scratch (6 x nv); ``e``/``J`` — outputs: the full (unmasked) error in ``e[:dim]``
-#:   and Jacobian in ``J[:dim]`` (the arrays may be longer).
+#: ``rows(target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J) -> None``,
+#: compiled with ``numba.njit(cache=True)``: the kernels' one signature
+#: (:mod:`wbc.compiled.signature`), ``target`` the task's targets packed in one vector (the
+#: arrays named by :attr:`Task.target_fields`, in order, rotations row-major), the outputs
+#: the full (unmasked) error in ``e[:dim]`` and Jacobian in ``J[:dim]`` (the arrays may be
+#: longer).
 RowKernel = Callable[..., None]
 
 #: the row kernels of the package's own task classes, in definition order (they join when
@@ -79,6 +75,9 @@ class Task:
     #: the task's rows (see :data:`RowKernel`), as ``staticmethod(kernel)``; None for a task
     #: that overrides :meth:`compute_error` and :meth:`compute_jacobian` instead
     row_kernel: RowKernel | None = None
+    #: the optional kernel inputs the row kernel reads (:data:`wbc.compiled.signature.OPTIONAL`:
+    #: "frame_velocities", "momentum", "velocity"), computed only for stacks that need them
+    kernel_inputs: frozenset[str] = frozenset()
     #: names of the target arrays the kernel reads, in order (owned by the task, updated in
     #: place: a handle ``h = task.target`` stays valid on every path)
     target_fields: tuple[str, ...] = ()
@@ -111,11 +110,15 @@ class Task:
         own = cls.__dict__
         kernel = own.get("row_kernel")
         if isinstance(kernel, staticmethod):
-            from ..compiled.dispatch import refresh_kernel
-
             refresh_kernel(kernel.__func__)
             if cls.__module__.startswith("wbc.") and kernel.__func__ not in PACKAGE_KERNELS:
                 PACKAGE_KERNELS.append(kernel.__func__)
+        unknown = set(cls.kernel_inputs) - OPTIONAL
+        if unknown:
+            raise TaskError(
+                f"task type {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; allowed: "
+                f"{sorted(OPTIONAL)}"
+            )
         if "row_kernel" not in own and any(
             name in own for name in ("compute_error", "compute_jacobian", "fill")
         ):
@@ -225,40 +228,31 @@ class Task:
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def _kernel_rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """(e, J), full, from the row kernel at the configuration of ``kin``."""
+        """(e, J), full, from the row kernel at the configuration of ``kin`` (the arrays of
+        the task's :class:`~wbc.compiled.signature.KernelCall`, overwritten at its next call)."""
         kernel = type(self).row_kernel
         if kernel is None:
             raise TaskError(
                 f"task type {type(self).__name__} defines neither a row_kernel nor "
                 "compute_error/compute_jacobian"
             )
-        nv = kin.model.nv
         fids = self.frame_ids()
-        n = max(len(fids), 1)
-        Rs = np.zeros((n, 3, 3))
-        ps = np.zeros((n, 3))
-        supports = np.zeros((n, nv), dtype=np.bool_)
-        for s, fid in enumerate(fids):
-            Rs[s] = kin.rotation(fid)
-            ps[s] = kin.translation(fid)
-            supports[s] = kin.robot.frame_support(fid)
-        slots = np.arange(len(fids), dtype=np.int64)
-        e = np.zeros(self.dim)
-        J = np.zeros((self.dim, nv))
-        Jf = np.zeros((6, nv))
-        kernel(
-            self.packed_target(), slots, Rs, ps, supports, kin.data.J, kin.data.com[0],
-            kin.com_jacobian, kin.q, Jf, e, J,
-        )  # fmt: skip
-        return e, J
+        params = sources(self, self.target_fields)
+        call = self.__dict__.get("_kernel_call")
+        if call is None or not call.matches(kin, fids, params):
+            e, J = np.zeros(self.dim), np.zeros((self.dim, kin.model.nv))
+            call = KernelCall(kernel, kin, fids, params, self.kernel_inputs, e, J)
+            self._kernel_call = call
+        call(kin)
+        return call.args[-2], call.args[-1]
 
     def compute_error(self, kin: Kinematics) -> np.ndarray:
         """Full (unmasked) error e = x* − x at the configuration of ``kin``."""
-        return self._kernel_rows(kin)[0]
+        return self._kernel_rows(kin)[0].copy()
 
     def compute_jacobian(self, kin: Kinematics) -> np.ndarray:
         """Full (unmasked) Jacobian of x (so that ẋ = J v), shape (dim, nv)."""
-        return self._kernel_rows(kin)[1]
+        return self._kernel_rows(kin)[1].copy()
 
     # ------------------------------------------------------------------ used by solvers
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:

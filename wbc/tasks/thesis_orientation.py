@@ -32,7 +32,9 @@ def _axis_row(a0, a1, a2, R, c, Jf, e, J, i) -> None:
 
 
 @njit(cache=True)
-def swing_axes_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def swing_axes_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """[1 − k·k_f, 1 − i·i_f] (target: R* row-major, k = its z column, i = its x column)."""
     f = slots[0]
     frame_jacobian(Jw, supports[f], ps[f], Jf)
@@ -41,7 +43,9 @@ def swing_axes_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J)
 
 
 @njit(cache=True)
-def torso_axis_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J) -> None:
+def torso_axis_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
     """1 − a·k_t (target: the axis a)."""
     f = slots[0]
     frame_jacobian(Jw, supports[f], ps[f], Jf)

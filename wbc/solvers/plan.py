@@ -1,13 +1,16 @@
-"""The Python side of the compiled hot path: a stack's tasks laid out for the kernels.
+"""The Python side of the compiled hot path: a stack's tasks and box limits laid out for the
+kernels.
 
 A plan is built when a solver (re)plans its layout (never on a plain target update): every
 task becomes a row of an integer spec table (its row kernel, target, frames and output rows),
-its target arrays are gathered by the tick into one packed buffer (by address: the tasks
-keep owning their targets), its error rows become ``task.last_error`` views, and the
+every box limit a row of another (its bound kernel, parameters and frames), their target and
+parameter arrays are gathered by the tick into one packed buffer (by address: the tasks and
+limits keep owning them), the tasks' error rows become ``task.last_error`` views, and the
 frames' placements are the cached views into Pinocchio's data. Every task with a row kernel
-is compiled, wherever its class is defined (:mod:`wbc.compiled.dispatch` generates the tick
-of the plan's set of kernels); a stack with a task without one, or with extra box limits,
-keeps the numpy path.
+and every limit with a bound kernel is compiled, wherever its class is defined
+(:mod:`wbc.compiled.dispatch` generates the tick of the plan's set of kernels, which this
+module passes in: the compiled kernels know no task); a stack with a task or a box limit
+without one keeps the numpy path.
 """
 
 from __future__ import annotations
@@ -16,11 +19,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..compiled import dispatch as D
+from ..compiled.signature import momentum_into, velocity
 from ..exceptions import TaskError
+from ..limits import BoxLimit
+from ..limits.limit import PACKAGE_BOUND_KERNELS
 from ..model import Kinematics, Robot
 from ..tasks import Task
+from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
-from . import dispatch as D
 
 
 def numba_available() -> bool:
@@ -32,20 +39,52 @@ def numba_available() -> bool:
     return True
 
 
-def compiled(task: Task) -> bool:
-    """True if the task's rows have a compiled form (a row kernel)."""
-    return type(task).row_kernel is not None
+def compiled(item: Task | BoxLimit) -> bool:
+    """True if a task's rows (a row kernel) or a box limit's bounds (a bound kernel) have a
+    compiled form."""
+    if isinstance(item, BoxLimit):
+        return type(item).bound_kernel is not None
+    return type(item).row_kernel is not None
+
+
+def box_limits(stack) -> list[BoxLimit]:
+    """The box limits of a stack, in the order their boxes are folded
+    (:func:`wbc.limits.box_bounds`): joint positions, joint velocities (if any), the others."""
+    first = [stack.position_limit]
+    if stack.velocity_limit is not None:
+        first.append(stack.velocity_limit)
+    return [*first, *stack.extra_limits]
+
+
+def _ordered(own: Sequence, kernels) -> tuple:
+    """The package's own kernels ``own`` (so the usual stacks share one compiled tick), then
+    the other ones among ``kernels``, by module and name."""
+    others = set(kernels) - set(own)
+    key = lambda k: (k.py_func.__module__, k.py_func.__qualname__)  # noqa: E731
+    return tuple(own) + tuple(sorted(others, key=key))
 
 
 def kernel_set(tasks: Sequence[Task]) -> tuple:
-    """The row kernels a tick of ``tasks`` dispatches over: the package's own (so the usual
-    stacks share one compiled tick), then those of other task types among ``tasks``."""
-    from ..tasks.task import PACKAGE_KERNELS
+    """The row kernels a tick of ``tasks`` dispatches over: the package's own, then those of
+    other task types among ``tasks``."""
+    return _ordered(PACKAGE_KERNELS, {type(t).row_kernel for t in tasks})
 
-    own = tuple(PACKAGE_KERNELS)
-    others = {type(t).row_kernel for t in tasks} - set(own)
-    key = lambda k: (k.py_func.__module__, k.py_func.__qualname__)  # noqa: E731
-    return own + tuple(sorted(others, key=key))
+
+def bound_set(limits: Sequence[BoxLimit]) -> tuple:
+    """The bound kernels a tick of ``limits`` dispatches over: the package's own, then those
+    of other box limit types among ``limits``."""
+    return _ordered(PACKAGE_BOUND_KERNELS, {type(b).bound_kernel for b in limits})
+
+
+def kernel_inputs(items: Sequence[Task | BoxLimit]) -> frozenset[str]:
+    """The optional kernel inputs that the kernels of ``items`` declare."""
+    return frozenset().union(*(type(i).kernel_inputs for i in items))
+
+
+def package_ticks() -> D.Ticks:
+    """The compiled tick of the package's own kernels (that of every package stack)."""
+    # (the package's task and limit types are defined: this module imports them)
+    return D.ticks(tuple(PACKAGE_KERNELS), tuple(PACKAGE_BOUND_KERNELS), False, True)
 
 
 #: frame slots of a tick, padded to a multiple of this (see :class:`Frames`)
@@ -64,13 +103,20 @@ class Targets:
         self.by_address = False
         self.tick_sources: tuple[np.ndarray, ...] = ()
 
-    def add(self, task: Task) -> tuple[int, int]:
-        """(offset, size) of the task's packed targets."""
+    def add(self, item: Task | BoxLimit) -> tuple[int, int]:
+        """(offset, size) of the packed targets of a task (:attr:`~wbc.tasks.Task.target_fields`)
+        or the parameters of a box limit (:attr:`~wbc.limits.BoxLimit.param_fields`)."""
         offset = self.size
-        for name in task.target_fields:
-            view = getattr(task, name).reshape(-1)  # a view of the task's own array
-            if not np.shares_memory(view, getattr(task, name)):
-                raise TaskError(f"task {task.name!r}: target {name!r} must be contiguous")
+        limit = isinstance(item, BoxLimit)
+        for name in item.param_fields if isinstance(item, BoxLimit) else item.target_fields:
+            view = getattr(item, name).reshape(-1)  # a view of the item's own array
+            if not np.shares_memory(view, getattr(item, name)):
+                what = (
+                    f"box limit {item.name!r}: parameter"
+                    if limit
+                    else f"task {item.name!r}: target"
+                )
+                raise TaskError(f"{what} {name!r} must be contiguous")
             last = self.sources[-1] if self.size > offset else None
             if last is not None and _adjacent(last, view):  # one source (a cheaper gather)
                 self.sources[-1] = np.lib.stride_tricks.as_strided(
@@ -89,7 +135,7 @@ class Targets:
     def _bind(self) -> None:
         """The sources' addresses for the compiled gather (:attr:`sources` keeps them alive),
         if every source is a contiguous float64 vector (else np.concatenate)."""
-        from .checks import entry, gather
+        from ..compiled.checks import entry, gather
 
         direct = all(s.dtype == np.float64 and s.flags.c_contiguous for s in self.sources)
         self._gather = entry(gather) if direct else None
@@ -146,12 +192,17 @@ def _adjacent(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 class Frames:
-    """One slot per frame used by a task: its frame id (the tick copies that frame's world
-    rotation/position from ``R``/``p``, every frame's, into ``Rs``/``ps``) and joint support;
-    ``slots`` lists each task's slots."""
+    """One slot per frame used by a task or a box limit: its frame id (the tick copies that
+    frame's world rotation/position from ``R``/``p``, every frame's, into ``Rs``/``ps``, and
+    its velocity into ``vs`` where a kernel reads them) and joint support; ``slots`` lists each
+    task's and limit's slots."""
 
     def __init__(
-        self, robot: Robot, kin: Kinematics, tasks: Sequence[Task], scratch: Scratch
+        self,
+        robot: Robot,
+        kin: Kinematics,
+        tasks: Sequence[Task | BoxLimit],
+        scratch: Scratch,
     ) -> None:
         self.slot: dict[int, int] = {}
         for t in tasks:
@@ -178,6 +229,7 @@ class Frames:
         self.R, self.p = views
         self.Rs = scratch.get("Rs", (n, 3, 3))
         self.ps = scratch.get("ps", (n, 3))
+        self.vs = np.zeros((n, 6))  # (the plan's own: zeros unless its kernels read them)
         self._slots: list[int] = []
         self.slots = np.zeros(0, dtype=np.int64)
 
@@ -187,8 +239,8 @@ class Frames:
             self.R[f] = R
             self.p[f] = p
 
-    def add(self, task: Task) -> tuple[int, int]:
-        """(offset, count) of the task's frame slots in :attr:`slots`."""
+    def add(self, task: Task | BoxLimit) -> tuple[int, int]:
+        """(offset, count) of the task's or limit's frame slots in :attr:`slots`."""
         offset = len(self._slots)
         self._slots.extend(self.slot[f] for f in task.frame_ids())
         self.slots = np.array(self._slots, dtype=np.int64)
@@ -341,12 +393,23 @@ class _Plan:
     def __init__(self, solver, kin: Kinematics, tasks: Sequence[Task]) -> None:
         robot = solver.robot
         self.solver = solver
-        kernels = kernel_set(tasks)
-        self.ticks = D.ticks(kernels)
+        self.limits = limits = box_limits(solver.stack)
+        kernels, bounds = kernel_set(tasks), bound_set(limits)
+        #: the optional kernel inputs that this plan's tasks and limits read
+        self.inputs = inputs = kernel_inputs([*tasks, *limits])
+        package = (
+            kernels == tuple(PACKAGE_KERNELS)
+            and bounds == tuple(PACKAGE_BOUND_KERNELS)
+            and not inputs
+        )
+        self.ticks = D.ticks(kernels, bounds, "frame_velocities" in inputs, package)
         self.kinds = {k: i for i, k in enumerate(kernels)}
+        self.bound_kinds = {k: i for i, k in enumerate(bounds)}
         self.targets = Targets()
         self.scratch = scratch = solver.plan_scratch
-        self.frames = Frames(robot, kin, tasks, scratch)
+        self.frames = Frames(robot, kin, [*tasks, *limits], scratch)
+        #: the limits whose parameters depend on the time step (:meth:`BoxLimit.prepare`)
+        self._timed = [b for b in limits if type(b).prepare is not BoxLimit.prepare]
         self.variant = 0  # (one set of argument types for every stack)
         nv = robot.nv
         dim = max([6, *(t.dim for t in tasks)])
@@ -358,13 +421,17 @@ class _Plan:
         self.Jcom = kin.com_jacobian
         self.q_min, self.q_max = robot.q_min, robot.q_max
         self.q = scratch.get("q", (robot.nq,))
-        self.step = np.zeros(robot.n_joints)
+        self.v = np.zeros(nv)  # (the optional inputs: the plan's own, zeros unless read)
+        self.hg = np.zeros(6)
+        self.Ag = np.zeros((6, nv))
+        self.bspec = np.zeros((len(limits), D.BOUND_COLUMNS), dtype=np.int64)
+        self.boxes = np.zeros((len(limits), 2, nv))
         self._mu: float | None = None  # (the solver's regularization and hard tolerance
         self._hard_tol: float | None = None  # that the parameters were set for)
         self._dt: float | None = -1.0  # (no time step yet: the parameters are set at a solve)
         self._entry = None  # the tick's compiled entry point, after the first call
-        #: [use the velocity steps (0/1), μ (damping of the last level), hard tolerance,
-        #: tolerance of the inequality rows]
+        #: [(unused), μ (damping of the last level), hard tolerance, tolerance of the
+        #: inequality rows]
         self.params = np.zeros(4)
         self.lower = scratch.get("lower", (nv,))  # (the tick's bounds: filled first)
         self.upper = scratch.get("upper", (nv,))
@@ -381,6 +448,9 @@ class _Plan:
         #: arguments passed directly (:meth:`_bind_args`)
         self.packed: tuple = ()
         self.tick_name = ""
+        #: the arguments of the solve of a split tick (:meth:`_build_solve_args`)
+        self.solve_args: tuple = ()
+        self._solve_entry = None
         self.inequalities = InequalityRows(1, nv)
         self._ready = False
 
@@ -388,7 +458,10 @@ class _Plan:
         """True if the compiled tick runs at once; False while it is being compiled in the
         background (:meth:`wbc.compiled.dispatch.Ticks.ready`): solve on the numpy path."""
         if not self._ready:
-            self._ready = self.ticks.ready(self.tick_name)
+            ready = self.ticks.ready(self.tick_name, (self.q, *self.packed))
+            if ready and self.ticks.split:  # and the solve (the package's, once compiled)
+                ready = package_ticks().kernel_ready(self._solve_kernel(), self.tick_name)
+            self._ready = ready
         return self._ready
 
     def forget_warm_start(self, previous: _Plan | None = None) -> None:
@@ -398,12 +471,22 @@ class _Plan:
         if self.inequalities.total:
             self.inequalities.working.fill(False)
 
+    def _add_limits(self) -> None:
+        """The box limits' rows of :attr:`bspec`: kernel, parameters, frames (after the
+        tasks', before the targets are sealed)."""
+        for i, limit in enumerate(self.limits):
+            row = self.bspec[i]
+            row[0] = self.bound_kinds[type(limit).bound_kernel]
+            row[1], row[2] = self.targets.add(limit)
+            row[3], row[4] = self.frames.add(limit)
+
     def _shared_args(self) -> tuple:
         f = self.frames
         return (
-            self.targets.buffer, f.slots, f.ids, f.R, f.p, f.Rs, f.ps, f.support, self.Jw, self.com,
-            self.Jcom, self.Jf, self.efull, self.Jfull, self.q, self.q_min, self.q_max,
-            self.step, self.params, self.lower, self.upper,
+            self.targets.buffer, f.slots, f.ids, f.R, f.p, f.Rs, f.ps, f.vs, f.support, self.Jw,
+            self.com, self.Jcom, self.hg, self.Ag, self.v, self.Jf, self.efull, self.Jfull,
+            self.q, self.q_min, self.q_max, self.bspec, self.boxes, self.params, self.lower,
+            self.upper,
         )  # fmt: skip
 
     def _build_args(self) -> tuple:
@@ -411,11 +494,16 @@ class _Plan:
         rows outgrow their buffers)."""
         raise NotImplementedError  # (each plan's own tick)
 
+    def _build_solve_args(self) -> tuple:
+        """The arguments of the solve of a split tick (:meth:`_solve_kernel`)."""
+        raise NotImplementedError  # (each plan's own tick)
+
     def _bind_args(self) -> None:
         """:attr:`args`, and the tick's :attr:`packed` arguments: the addresses and shapes of
         the buffers among them (each checked: the tick views it as C-contiguous, of its
         dtype; :attr:`args` keeps them alive), then the arguments passed directly."""
         self.args = args = self._build_args()
+        self.solve_args = self._build_solve_args()
         spec = D.WEIGHTED_ARGS if self.tick_name == "weighted_tick" else D.CASCADE_ARGS
         addresses, shapes, direct = [], [], []
         for (name, dtype, ndim), a in zip(spec, args, strict=True):
@@ -448,6 +536,10 @@ class _Plan:
         # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
         # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
         self.forget_warm_start()
+        for limit in self._timed:
+            limit.prepare(dt)
+        if self.inputs:
+            self._optional_inputs(kin)
         for task, view in self.error_views:
             task.last_error = view
         if self.frames.copies:
@@ -462,18 +554,44 @@ class _Plan:
             np.copyto(self.q, kin.q)  # (typed on the plan's own q: kin.q may be read-only)
             status = self.ticks.call(self.tick_name, self.variant, (self.q, *self.packed))
             self._entry = self.ticks.entry(self.tick_name, self.variant)
+            if self.ticks.split:  # (the rows of a set other than the package's: the solve)
+                return self._first_solve()
             return status
+        if self.ticks.split:
+            entry(kin.q, *self.packed)
+            return self._solve_entry(*self.solve_args)
         return entry(kin.q, *self.packed)
 
+    def _first_solve(self) -> int:
+        """The first solve of a split tick (:attr:`wbc.compiled.dispatch.Ticks.split`):
+        loads the solve kernel, then keeps its entry point."""
+        from numba import typeof
+
+        kernel = self._solve_kernel()
+        status = kernel(*self.solve_args)
+        signature = tuple(typeof(a) for a in self.solve_args)
+        try:
+            self._solve_entry = kernel.overloads[signature].entry_point
+        except (KeyError, AttributeError):  # another numba: keep the dispatcher
+            self._solve_entry = kernel
+        return status
+
+    def _solve_kernel(self):
+        """The solve a split tick calls after its rows (each plan's own)."""
+        raise NotImplementedError
+
+    def _optional_inputs(self, kin: Kinematics) -> None:
+        """The optional inputs the plan's kernels read (:attr:`inputs`): v, and the centroidal
+        momentum (the frames' velocities: the tick)."""
+        np.copyto(self.v, velocity(kin))
+        if "momentum" in self.inputs:
+            momentum_into(kin, self.v, self.hg, self.Ag)
+
     def _set_params(self, dt: float | None) -> None:
-        """The velocity steps and the scalar parameters of the tick, for ``dt``."""
+        """The scalar parameters of the tick, for ``dt``."""
         solver = self.solver
-        limit = solver.stack.velocity_limit
-        use = dt is not None and limit is not None
-        if use:
-            np.copyto(self.step, limit.step(dt))
         self.params[:] = (
-            1.0 if use else 0.0,
+            0.0,
             solver.regularization,
             solver.hard_tol,
             CONSTRAINT_TOL,
@@ -491,6 +609,7 @@ class WeightedPlan(_Plan):
         rows = (nv, self.frames, self.targets, self.kinds)
         self.soft = Rows(soft, *rows, weighted=True, scratch=self.scratch, name="soft")
         self.hard = Rows(hard, *rows, weighted=False, scratch=self.scratch, name="hard")
+        self._add_limits()
         self.targets.seal()
         self.error_views = self.soft.error_views() + self.hard.error_views()
         self.state = self.scratch.get("state", (nv,), np.int8)
@@ -498,6 +617,19 @@ class WeightedPlan(_Plan):
         self.warm_start = self.state
         self.tick_name = "weighted_tick"
         self._bind_args()
+
+    def _solve_kernel(self):
+        from ..compiled.ticks import weighted_solve
+
+        return weighted_solve
+
+    def _build_solve_args(self) -> tuple:
+        g = self.inequalities
+        return (
+            self.soft.J, self.soft.b, self.hard.J, self.hard.b, g.G, g.h, g.g_rows, self.q,
+            self.q_min, self.q_max, self.params, self.lower, self.upper, self.state,
+            g.working[0], self.dq, self.q_next,
+        )  # fmt: skip
 
     def _build_args(self) -> tuple:
         g = self.inequalities
@@ -517,6 +649,7 @@ class CascadePlan(_Plan):
         self.rows = Rows(
             tasks, nv, self.frames, self.targets, self.kinds, True, self.scratch, "rows"
         )
+        self._add_limits()
         self.targets.seal()
         bounds = np.cumsum([0] + [sum(t.rows for t in lv) for lv in levels])
         self.level_rows = bounds.astype(np.int64)
@@ -547,6 +680,19 @@ class CascadePlan(_Plan):
                 self.inequalities.working.fill(False)
         else:
             super().forget_warm_start()
+
+    def _solve_kernel(self):
+        from ..compiled.ticks import cascade_solve
+
+        return cascade_solve
+
+    def _build_solve_args(self) -> tuple:
+        g = self.inequalities
+        return (
+            self.rows.J, self.rows.b, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
+            self.q, self.q_min, self.q_max, self.params, self.lower, self.upper, self.states,
+            g.working, g.h_eff, self.achieved, self.dq, self.q_next,
+        )  # fmt: skip
 
     def _build_args(self) -> tuple:
         g = self.inequalities
