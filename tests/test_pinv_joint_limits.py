@@ -1,4 +1,4 @@
-"""Joint-limit costs, gradient projection (1.44) and Chan–Dubey weights (wbc.pinv.joint_limits)."""
+"""Joint-limit costs, gradient projection (1.44) and Chan–Dubey weights (wbc.limits.joint_costs)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from wbc.exceptions import ConfigurationError
-from wbc.pinv.joint_limits import (
+from wbc.limits.joint_costs import (
     COSTS,
     ChanDubeyWeights,
-    gradient_projection,
     marey_chaumette_gradient,
     zghal_cost,
     zghal_gradient,
 )
+from wbc.pinv.joint_limits import gradient_projection
 from wbc.pinv.pseudoinverse import moore_penrose
 
 seeds = st.integers(0, 2**32 - 1)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from wbc.exceptions import ConfigurationError
+from wbc.limits.joint_costs import zghal_cost
 from wbc.pinv import (
     SCHEME_NAMES,
     ThesisScheme,
@@ -16,7 +17,6 @@ from wbc.pinv import (
     thesis_like_step,
     track_step,
 )
-from wbc.pinv.joint_limits import zghal_cost
 
 
 @pytest.fixture(scope="module")

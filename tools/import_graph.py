@@ -43,8 +43,8 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
             "wbc.recording",
         ),
     ),
-    ("tasks and limits", ("wbc.tasks", "wbc.limits", "wbc.pinv")),
-    ("solvers", ("wbc.solvers", "wbc.ik", "wbc.pose_ik")),
+    ("tasks and limits", ("wbc.tasks", "wbc.limits")),
+    ("solvers", ("wbc.solvers", "wbc.pinv", "wbc.ik", "wbc.pose_ik")),
     ("stacks", ("wbc.stacks", "wbc.warmup")),
     (
         "applications",

@@ -9,6 +9,7 @@
 * :mod:`.benchmark` — Tables 3.3.2/3.3.3 and the walking step on our model.
 """
 
+from ..limits.joint_costs import COSTS, ChanDubeyWeights
 from .benchmark import (
     run_com_placement_benchmark,
     run_walking_benchmark,
@@ -24,7 +25,7 @@ from .com_placement import (
     default_com_target,
     place_com,
 )
-from .joint_limits import COSTS, ChanDubeyWeights, gradient_projection
+from .joint_limits import gradient_projection
 from .principal_masses import PrincipalMasses, com_mass_matrix, principal_mass_targets
 from .pseudoinverse import (
     AdaptiveDamping,

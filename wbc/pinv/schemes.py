@@ -46,7 +46,7 @@ Parameters — the thesis's, where it gives them (documented choices where it do
 * Joints are not clipped (neither does the thesis); :class:`SchemeInfo` reports any
   excursion. ``clip_to_limits=True`` clips (an improvement, not the thesis's method); a
   control loop that sends the result to servos must clip.
-* Optional ``limit_cost`` (one of :data:`~wbc.pinv.joint_limits.COSTS`) adds the gradient
+* Optional ``limit_cost`` (one of :data:`~wbc.limits.joint_costs.COSTS`) adds the gradient
   projection term of (1.44), −k ∇G, to the null-space vector — the alternatives the thesis
   tried before adopting the weighting.
 
@@ -62,10 +62,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..exceptions import ConfigurationError
+from ..limits.joint_costs import COSTS, ChanDubeyWeights
 from ..model import Robot
 from ..tasks import ComTask, FramePositionTask, SwingFootOrientationTask, TorsoOrientationTask
 from ..tasks.task import Task
-from .joint_limits import COSTS, ChanDubeyWeights
 from .pseudoinverse import moore_penrose, weighted_damped_pinv
 from .rooted import SoleRooted
 from .thesis_data import annex_b_weights

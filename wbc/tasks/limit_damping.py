@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..limits.joint_costs import ChanDubeyWeights
 from ..model import Kinematics, Robot
 from .task import Task
 
@@ -29,8 +30,6 @@ class JointLimitDampingTask(Task):
     ) -> None:
         self.dim = robot.n_joints
         super().__init__(name, 1.0, weight, None)
-        from ..pinv.joint_limits import ChanDubeyWeights  # wbc.pinv itself imports wbc.tasks
-
         self.chan_dubey = ChanDubeyWeights(robot.q_min, robot.q_max)
         self._J = np.zeros((robot.n_joints, robot.nv))
         self._diag = np.arange(robot.n_joints)
