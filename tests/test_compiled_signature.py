@@ -123,3 +123,27 @@ def test_a_copied_task_reads_its_own_targets(robot):
     twin.set_target([0.1, 0.0, 0.2])
     assert twin.compute_error(kin)[0] - task.compute_error(kin)[0] == pytest.approx(0.1)
     assert np.array_equal(task.compute_error(kin), e)
+
+
+def test_a_kernel_of_the_old_signature_is_refused_when_its_class_is_defined():
+    """A row kernel (or a box limit's bound kernel) with the wrong number of arguments is
+    refused in one line naming the class and the signature, not in numba's typing at the
+    first compiled tick (a user's 12-argument kernel of the earlier signature did that)."""
+    from wbc.exceptions import ModelError
+    from wbc.limits import BoxLimit
+
+    @njit(cache=False)
+    def old_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J):
+        e[0] = 0.0
+
+    with pytest.raises(ModelError, match=r"task type Old: row_kernel 'old_rows' takes 12 ") as e:
+
+        class Old(Task):
+            dim = 1
+            row_kernel = staticmethod(old_rows)
+
+    assert "\n" not in str(e.value) and "(params, slots, Rs, ps, vs," in str(e.value)
+    with pytest.raises(ModelError, match=r"box limit type OldBox: bound_kernel 'old_rows'"):
+
+        class OldBox(BoxLimit):
+            bound_kernel = staticmethod(old_rows)

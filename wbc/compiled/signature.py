@@ -194,3 +194,24 @@ def sources(item, fields: Sequence[str]) -> list[np.ndarray]:
             a = np.ascontiguousarray(a, dtype=np.float64)
         out.append(a)
     return out
+
+
+def check_arity(kernel, what: str) -> None:
+    """A kernel must take the signature's positional arguments (:data:`INPUTS`, then its two
+    outputs); else one :class:`~wbc.exceptions.ModelError` line naming ``what`` and the
+    signature, at class definition rather than deep in numba's typing at the first tick."""
+    import inspect
+
+    func = getattr(kernel, "py_func", kernel)
+    try:
+        params = inspect.signature(func).parameters.values()
+    except (TypeError, ValueError):  # a builtin without a readable signature: numba decides
+        return
+    if any(p.kind is p.VAR_POSITIONAL for p in params):
+        return
+    n = sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
+    if n != len(INPUTS) + 2:
+        raise ModelError(
+            f"{what} {getattr(func, '__name__', func)!r} takes {n} arguments; every kernel "
+            f"takes {len(INPUTS) + 2}: ({', '.join(INPUTS)}, out1, out2) (wbc.compiled.signature)"
+        )

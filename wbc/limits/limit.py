@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..compiled.dispatch import refresh_kernel
-from ..compiled.signature import OPTIONAL, KernelCall, sources
+from ..compiled.signature import OPTIONAL, KernelCall, check_arity, sources
 from ..exceptions import ConfigurationError
 from ..model import Kinematics
 
@@ -86,6 +86,7 @@ class BoxLimit:
         super().__init_subclass__(**kwargs)
         kernel = cls.__dict__.get("bound_kernel")
         if isinstance(kernel, staticmethod):
+            check_arity(kernel.__func__, f"box limit type {cls.__name__}: bound_kernel")
             refresh_kernel(kernel.__func__)
             if cls.__module__.startswith("wbc.") and kernel.__func__ not in PACKAGE_BOUND_KERNELS:
                 PACKAGE_BOUND_KERNELS.append(kernel.__func__)

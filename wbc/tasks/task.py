@@ -26,7 +26,7 @@ import numpy as np
 from ..compiled.checks import copy_finite, copy_rotation
 from ..compiled.checks import entry as check_entry
 from ..compiled.dispatch import refresh_kernel
-from ..compiled.signature import OPTIONAL, KernelCall, sources
+from ..compiled.signature import OPTIONAL, KernelCall, check_arity, sources
 from ..exceptions import TaskError
 from ..model import Kinematics
 
@@ -110,6 +110,7 @@ class Task:
         own = cls.__dict__
         kernel = own.get("row_kernel")
         if isinstance(kernel, staticmethod):
+            check_arity(kernel.__func__, f"task type {cls.__name__}: row_kernel")
             refresh_kernel(kernel.__func__)
             if cls.__module__.startswith("wbc.") and kernel.__func__ not in PACKAGE_KERNELS:
                 PACKAGE_KERNELS.append(kernel.__func__)
