@@ -38,6 +38,7 @@ from .options import (
     add_compensate_arguments,
     add_encoders_only_argument,
     add_robot_argument,
+    add_stepping_arguments,
     check_compensate_encoders,
     number,
     resolve_compensate,
@@ -566,16 +567,7 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
         "--compensate",
     )
     add_encoders_only_argument(parser)
-    parser.add_argument(
-        "--stepping",
-        action="store_true",
-        help="closed loop: step adjustment (the default; kept for old command lines)",
-    )
-    parser.add_argument(
-        "--no-stepping",
-        action="store_true",
-        help="closed loop: no step placement from the measured DCM (wbc.balance.stepping)",
-    )
+    add_stepping_arguments(parser)
     parser.add_argument(
         "--gyro",
         type=number(0, 10),

@@ -53,6 +53,7 @@ from .options import (
     add_motion_arguments,
     add_robot_argument,
     add_sim_arguments,
+    add_stepping_arguments,
     check_compensate_encoders,
     number,
     resolve_compensate,
@@ -163,16 +164,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "adjustment, fall detection; wbc.balance.live)",
     )
     add_imu_arguments(parser)  # --imu, --imu-baud, --encoders-only
-    parser.add_argument(
-        "--stepping",
-        action="store_true",
-        help="closed loop: step adjustment (the default; kept for old command lines)",
-    )
-    parser.add_argument(
-        "--no-stepping",
-        action="store_true",
-        help="closed loop: no step adjustment from the measured DCM (wbc.balance.stepping)",
-    )
+    add_stepping_arguments(parser)
     add_sim_arguments(parser)  # --sim, --realtime, --view (no mujoco needed)
 
 

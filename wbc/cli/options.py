@@ -146,6 +146,22 @@ def add_encoders_only_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_stepping_arguments(parser: argparse.ArgumentParser, legacy: bool = True) -> None:
+    """``--no-stepping`` (and, with ``legacy``, the old no-op ``--stepping``): the closed loop's
+    step adjustment from the measured DCM (``wbc.balance.stepping``), on by default."""
+    if legacy:
+        parser.add_argument(
+            "--stepping",
+            action="store_true",
+            help="closed loop: step adjustment (the default; kept for old command lines)",
+        )
+    parser.add_argument(
+        "--no-stepping",
+        action="store_true",
+        help="closed loop: no step adjustment from the measured DCM (wbc.balance.stepping)",
+    )
+
+
 def add_imu_arguments(parser: argparse.ArgumentParser) -> None:
     """The closed loop's torso IMU on a real robot (``wbc deploy``, ``wbc drive``)."""
     parser.add_argument(

@@ -27,6 +27,7 @@ from .options import (
     add_compensate_arguments,
     add_encoders_only_argument,
     add_robot_argument,
+    add_stepping_arguments,
     number,
     resolve_compensate,
 )
@@ -49,9 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "loop with the simulated IMU, feed-forward and step adjustment: wbc.balance.live)",
     )
     add_encoders_only_argument(parser)
-    parser.add_argument(
-        "--no-stepping", action="store_true", help="closed loop: no step adjustment"
-    )
+    add_stepping_arguments(parser, legacy=False)
     add_compensate_arguments(parser, "servo compliance feed-forward on the goals")
     parser.add_argument(
         "--rate", type=number(0, 1000, lo_open=True), help="control rate, Hz (default: recording's)"
