@@ -1,6 +1,6 @@
 """Getting-up benchmark: the simulated robot dropped on its front or back, left to settle with
 its torque off (the state a safe fall leaves), then :func:`wbc.balance.getup_play.get_up`,
-closed loop, on ``--models`` randomised models (:func:`wbc.bench.physics.models`, seeded;
+closed loop, on ``--models`` randomised models (:func:`wbc.bench.variation.models`, seeded;
 model 0 is the first randomised one, ``--nominal`` adds the nominal model) and a random
 heading on the floor. Success: the torso upright within 10°, both soles flat, the CoM above
 the feet, still so 2 s later (:func:`wbc.drive.getup_sim.judge`). Prints the success rate
@@ -27,7 +27,7 @@ import numpy as np
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")
 
 from wbc import load_robot
-from wbc.bench.physics import models
+from wbc.bench.variation import models
 from wbc.drive.getup_sim import getup_sim
 
 

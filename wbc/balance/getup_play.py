@@ -144,6 +144,9 @@ def get_up(
         return plan
 
     first = start(0, 0.0, q0)
+    stiffen = bool(getattr(bus, "can_set_stiffness", False))
+    if not stiffen and any(p.stiffness != 1.0 for p in phases):
+        out(f"get-up: the {bus.name} bus cannot stiffen the servos; the phases play as configured")
     compensator = None
     if compensate > 0:
         from .compliance import ComplianceCompensator
@@ -152,6 +155,22 @@ def get_up(
             compensator = ComplianceCompensator(robot, gain=compensate)
         except WbcError as exc:  # no servo model (X-series, no servo map): said, then off
             out(f"get-up: no compliance feed-forward ({exc})")
+    deflections: dict[float, Any] = {}
+
+    def deflection(tau: np.ndarray, stiffness: float) -> np.ndarray:
+        """The servos' deflection under ``tau`` at ``stiffness`` × the configured stiffness
+        (the ramp ``stiffness`` times steeper: the registers the bus writes)."""
+        assert compensator is not None
+        if stiffness == 1.0:
+            return compensator.servo_deflection(tau)
+        if stiffness not in deflections:
+            from .compliance import ComplianceCompensator
+
+            params = compensator.params
+            deflections[stiffness] = ComplianceCompensator(
+                robot, params.scaled(stiffness=stiffness, torque=1.0), compensator.gain
+            )
+        return deflections[stiffness].servo_deflection(tau)
 
     def target(tick: int, t: float) -> np.ndarray | None:
         plan = state["plan"]
@@ -169,11 +188,13 @@ def get_up(
                 q = placed(planner.robot, present, torso_rotation(imu, robot), plan.anchors)
             plan = start(k, t, q)
             s = 0.0
+        stiffness = plan.phase.stiffness if stiffen else 1.0
+        source.stiffness = stiffness
         i = min(round(s * rate), len(plan.q) - 1)
         if compensator is None:
             return plan.q[i, 7:]
         tau = static_torques(planner.robot, plan.q[i], plan.phase)
-        goal = plan.q[i, 7:] + compensator.gain * compensator.servo_deflection(tau)
+        goal = plan.q[i, 7:] + compensator.gain * deflection(tau, stiffness)
         return np.clip(goal, robot.q_min, robot.q_max)
 
     source = CallableSource(target, first.q[0, 7:], robot.joint_names)
