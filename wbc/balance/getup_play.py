@@ -35,6 +35,8 @@ from .getup import (
     static_torques,
 )
 
+#: s a get-up waits after a fall (its last bounces) in ``wbc drive``
+GETUP_WAIT_S = 1.0
 #: why a robot on its back is left lying by default
 SUPINE_NOTE = (
     "lying on the back: the get-up from the back does not work yet (the arms cannot lift the "

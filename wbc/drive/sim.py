@@ -100,10 +100,16 @@ def drive_sim(
     view: Callable[[Any], None] | None = None,
     walker_options: dict[str, Any] | None = None,
     out: Callable[[str], None] = lambda _line: None,
+    push: tuple[float, Sequence[float], float] | None = None,
+    get_up: bool = False,
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
-    ``params``, ``gains``, ``closed``, ``compensate``)."""
+    ``params``, ``gains``, ``closed``, ``compensate``). ``push``: ``(start s, force N (world
+    xyz), duration s)`` on the base, a scripted shove. ``get_up``: after a fall, what
+    ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
+    completed and :func:`wbc.drive.getup_sim.judge` finds the robot standing), its
+    ``getup_side``, ``getup_phases`` and ``getup_reason``."""
     holder: list[Any] = []
 
     def on_tick() -> None:
@@ -113,6 +119,9 @@ def drive_sim(
                 view(holder[0].sim)
 
     sim, bus, imu = make_sim(robot, variation, realtime=realtime, on_tick=on_tick)
+    if push is not None:
+        start, force, duration = push
+        sim.push(force, duration, start=sim.time + start)
     walker = Walker(robot, controller, imu, **(walker_options or {}))
     odo = Odometer(sim)
     holder.append(odo)
@@ -138,6 +147,14 @@ def drive_sim(
     walker.before_tick = before
     dep = walker.deployment(bus, out=out)
     result = dep.run()
+    recovery: dict[str, Any] = {}
+    if get_up and odo.fell_at is not None:
+        from .getup_sim import judge
+
+        up = after_fall(bus, imu, robot, out)
+        standing, why = judge(sim, robot)
+        recovery = {"got_up": bool(up.completed and standing), "getup_side": up.side,
+                    "getup_phases": up.phases, "getup_reason": up.reason or why}  # fmt: skip
     clipped = [Command(c.duration, *walker.limits.clip(*c.velocity)) for c in commands]
     cmd_xy, cmd_yaw = integrate(clipped)
     travelled = odo.displacement()
@@ -160,5 +177,15 @@ def drive_sim(
         "deploy_completed": bool(result.completed),
         "deploy_trip": None if result.trip is None else str(result.trip),
         "limits": walker.limits.as_dict(),
+        **recovery,
         "_path": np.asarray(odo.path),
     }
+
+
+def after_fall(bus: Any, imu: Any, robot: Robot, out: Callable[[str], None] = print) -> Any:
+    """What ``wbc drive`` does after a fall: wait :data:`~wbc.balance.getup_play.
+    GETUP_WAIT_S` (the last bounces), then :func:`~wbc.balance.getup_play.get_up` on the
+    same bus and IMU (its :class:`~wbc.balance.getup_play.GetupResult`)."""
+    from ..balance.getup_play import GETUP_WAIT_S, get_up
+
+    return get_up(bus, imu, robot, wait_s=GETUP_WAIT_S, out=out)
