@@ -44,6 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--compensate", type=float, default=1.0, help="compliance feed-forward gain (0: off)"
     )
+    ap.add_argument(
+        "--no-stiffen", action="store_true", help="every phase at the configured servo stiffness"
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
@@ -62,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
                 yaw=float(yaw),
                 replan=not args.open_loop,
                 compensate=args.compensate,
+                stiffen=not args.no_stiffen,
             )
             rec.update(model="nominal" if v is None else k - int(args.nominal), yaw=float(yaw))
             records.append(rec)
@@ -72,6 +76,12 @@ def main(argv: list[str] | None = None) -> int:
                   f"({rec['reason']}), {rec['duration_s'] or 0:.1f} s", flush=True)  # fmt: skip
         d = f", {np.median(durations):.1f} s median" if durations else ""
         print(f"{side}: {ok}/{len(variations)} up{d}", flush=True)
+        # the torso's elevation at the start of each phase (deg above the horizontal; 90 up)
+        side_recs = [r for r in records if r["side"] == side]
+        for name in side_recs[0]["phases"] if side_recs else []:
+            v = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
+            print(f"  trunk at '{name}': median {np.median(v):.0f} deg, "
+                  f"{min(v):.0f}..{max(v):.0f} ({len(v)} runs)")  # fmt: skip
     print(f"{len(records)} runs in {time.perf_counter() - start:.0f} s")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

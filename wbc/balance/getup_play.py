@@ -16,7 +16,7 @@ and judged).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -81,6 +81,9 @@ class GetupResult:
     plan_failures: int
     deploy: Any = None
     reason: str = ""
+    #: per phase played, the torso's elevation (deg: its z axis above the horizontal, 90 =
+    #: upright) in the state the phase was planned from (the measured one, closed loop)
+    trunk_deg: list[float] = field(default_factory=list)
 
 
 def get_up(
@@ -95,6 +98,7 @@ def get_up(
     wait_s: float = 0.0,
     replan: bool = True,
     compensate: float = 1.0,
+    stiffen: bool = True,
 ) -> GetupResult:
     """Get the robot up from where it lies (module docstring). ``joints``: the present joint
     angles (rad, model order; default: read from ``bus``); ``wait_s``: s to wait first (the
@@ -104,6 +108,9 @@ def get_up(
     deflection under the phase's static load, :func:`~wbc.balance.getup.static_torques` and
     :mod:`wbc.balance.compliance`; 0: off; off, with a line saying so, on servos it has no
     model of).
+    ``stiffen``: the phases' servo stiffness (:attr:`~wbc.balance.getup.Phase.stiffness`,
+    written by the deployment through :meth:`~wbc.servos.bus.ServoBus.set_stiffness`;
+    False: every phase at the configured stiffness).
     ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
     benchmarks/getup.md); without it a robot on its back is left lying, and the result says
     so."""
@@ -134,7 +141,8 @@ def get_up(
     q0 = lying_state(planner.robot, np.clip(joints, robot.q_min, robot.q_max), R)
     ground = ground_frame(q0, planner.robot, side)
     phases = phases_for(robot, side)
-    state: dict[str, Any] = {"k": -1, "plan": None, "t0": 0.0, "played": [], "failures": 0}
+    state: dict[str, Any] = {"k": -1, "plan": None, "t0": 0.0, "played": [], "failures": 0,
+                             "trunk": []}  # fmt: skip
     holder: list[Any] = []
 
     def start(k: int, t: float, q: np.ndarray) -> PhasePlan:
@@ -142,13 +150,16 @@ def get_up(
         state.update(k=k, plan=plan, t0=t)
         state["failures"] += plan.failed_solves
         state["played"].append(phases[k].name)
+        z = float(planner.robot.frame_placement(q, "torso").rotation[2, 2])
+        state["trunk"].append(float(np.degrees(np.arcsin(np.clip(z, -1.0, 1.0)))))
         out(f"get-up: {phases[k].name}")
         return plan
 
     first = start(0, 0.0, q0)
-    stiffen = bool(getattr(bus, "can_set_stiffness", False))
-    if not stiffen and any(p.stiffness != 1.0 for p in phases):
+    can = bool(getattr(bus, "can_set_stiffness", False))
+    if stiffen and not can and any(p.stiffness != 1.0 for p in phases):
         out(f"get-up: the {bus.name} bus cannot stiffen the servos; the phases play as configured")
+    stiffen = stiffen and can
     compensator = None
     if compensate > 0:
         from .compliance import ComplianceCompensator
@@ -205,4 +216,5 @@ def get_up(
     holder.append(dep)
     result = dep.run()
     done = bool(result.completed) and len(state["played"]) == len(phases)
-    return GetupResult(side, state["played"], done, state["failures"], result)
+    return GetupResult(side, state["played"], done, state["failures"], result,
+                       trunk_deg=state["trunk"])  # fmt: skip

@@ -87,19 +87,21 @@ def getup_sim(
     supine: bool = True,
     replan: bool = True,
     compensate: float = 1.0,
+    stiffen: bool = True,
 ) -> dict[str, Any]:
     """Drop the simulated robot on ``side``, get it up, judge it (module docstring): the
     record (``success``, ``reason``, ``duration_s``, ``phases``, ``plan_failures``).
     ``supine``: try the (experimental) get-up from the back too; ``replan=False``: open
-    loop, ``compensate`` the compliance feed-forward's gain
-    (:func:`~wbc.balance.getup_play.get_up`)."""
+    loop, ``compensate`` the compliance feed-forward's gain, ``stiffen=False`` the phases
+    at the configured servo stiffness (:func:`~wbc.balance.getup_play.get_up`); the record's
+    ``trunk_deg``: the torso's elevation at the start of each phase played."""
     sim, bus, imu = make_sim(robot, variation, rate)
     drop(sim, robot, side, yaw)
     t0 = sim.time
     try:
         res = get_up(bus, imu, robot, joints=sim.q()[7:], params=params, rate=rate,
                      out=lambda _line: None, supine=supine, replan=replan,
-                     compensate=compensate)  # fmt: skip
+                     compensate=compensate, stiffen=stiffen)  # fmt: skip
     except WbcError as exc:
         return {"side": side, "success": False, "reason": f"error: {exc}", "duration_s": None,
                 "phases": [], "plan_failures": 0}  # fmt: skip
@@ -118,4 +120,5 @@ def getup_sim(
         "duration_s": duration,
         "phases": res.phases,
         "plan_failures": res.plan_failures,
+        "trunk_deg": dict(zip(res.phases, res.trunk_deg, strict=True)),
     }
