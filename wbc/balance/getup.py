@@ -21,9 +21,10 @@ and toes, a pike (hips up, the toes drawn in), the soles rolled flat about the t
 brought back over the feet into a squat (the hands sliding back), the hands lifted, the rise
 to the standing pose, a settle. From **supine** (on the back): hands beside the hips, a sit-up
 onto hands and heels, a crab (the heels drawn in), the soles flat, then the same squat and
-rise. The supine plan is feasible on paper but fails in the simulator (the shoulders cannot
-lift the trunk: ``benchmarks/getup.md``); :func:`wbc.balance.getup_play.get_up` only tries it
-when asked.
+rise, the servos stiffened ×8 (:data:`SUPINE_STIFFNESS`) until the feet are flat. The supine
+plan fails in the simulator: the stiffened arms lift the trunk, but the plan never brings the
+CoM over the soles (``benchmarks/getup.md``); :func:`wbc.balance.getup_play.get_up` only
+tries it when asked.
 
 The plan is made from the measured fallen state (:func:`lying_state`: the joints from the
 servos, the torso's orientation from the IMU, the base put on the floor) and played phase by

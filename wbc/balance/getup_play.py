@@ -39,8 +39,8 @@ from .getup import (
 GETUP_WAIT_S = 1.0
 #: why a robot on its back is left lying by default
 SUPINE_NOTE = (
-    "lying on the back: the get-up from the back does not work yet (the arms cannot lift the "
-    "trunk: benchmarks/getup.md); turn the robot onto its front"
+    "lying on the back: the get-up from the back does not work yet (its plan never brings the "
+    "CoM over the feet: benchmarks/getup.md); turn the robot onto its front"
 )
 
 
