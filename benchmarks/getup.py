@@ -3,7 +3,7 @@ its torque off (the state a safe fall leaves), then :func:`wbc.balance.getup_pla
 closed loop, on ``--models`` randomised models (:func:`wbc.bench.variation.models`, seeded;
 model 0 is the first randomised one, ``--nominal`` adds the nominal model) and a random
 heading on the floor. Success: the torso upright within 10°, both soles flat, the CoM above
-the feet, still so 2 s later (:func:`wbc.drive.getup_sim.judge`). Prints the success rate
+the feet, still so 2 s later (:func:`wbc.drive.sim.judge`). Prints the success rate
 and the duration (from the first goal to the end of the rise) per side.
 
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal

@@ -1,14 +1,17 @@
-"""The driven walk on the simulator (wbc.drive.sim): a fall, then the get-up, end to end."""
+"""The driven walk on the simulator (wbc.drive.sim): a fall, then the get-up, end to end;
+the judge of standing."""
 
 from __future__ import annotations
 
+import pinocchio as pin
 import pytest
 
 pytest.importorskip("mujoco")
 
 from wbc.bench.solvers import registry
 from wbc.drive.commands import Command
-from wbc.drive.sim import drive_sim
+from wbc.drive.getup_sim import drop
+from wbc.drive.sim import drive_sim, judge, make_sim
 from wbc.model import load_robot
 
 
@@ -37,3 +40,21 @@ def test_without_get_up_a_felled_robot_stays_down() -> None:
     record = drive_sim(robot, controller, [Command(2.0, 0.0, 0.0, 0.0)],
                        push=(0.5, (20.0, 0.0, 0.0), 0.2))  # fmt: skip
     assert record["fell"] and "got_up" not in record
+
+
+def test_standing_is_judged_up_whatever_the_heading_and_lying_is_not() -> None:
+    """Standing in Walk Ready (its torso 10 deg from the vertical by design) is up, at any
+    heading; lying on the front or back is not."""
+    robot = load_robot("bioloid")
+    sim, _bus, _imu = make_sim(robot)
+    for yaw in (0.0, 2.5):
+        q = robot.configuration("stand")
+        q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
+        sim.reset(q, torque=True)
+        sim.advance(1.0)
+        ok, why = judge(sim, robot)
+        assert ok, why
+    for side in ("prone", "supine"):
+        drop(sim, robot, side)
+        ok, why = judge(sim, robot)
+        assert not ok and "from standing" in why

@@ -16,8 +16,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
-from ..geometry import wrap_angle
+from ..geometry import convex_hull, signed_distance, wrap_angle
 from ..model import Robot
 from ..walking.loop import Controller
 from .commands import Command, CommandScript, integrate
@@ -108,7 +109,7 @@ def drive_sim(
     ``params``, ``gains``, ``closed``, ``compensate``). ``push``: ``(start s, force N (world
     xyz), duration s)`` on the base, a scripted shove. ``get_up``: after a fall, what
     ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
-    completed and :func:`wbc.drive.getup_sim.judge` finds the robot standing), its
+    completed and :func:`judge` finds the robot standing), its
     ``getup_side``, ``getup_phases`` and ``getup_reason``."""
     holder: list[Any] = []
 
@@ -149,8 +150,6 @@ def drive_sim(
     result = dep.run()
     recovery: dict[str, Any] = {}
     if get_up and odo.fell_at is not None:
-        from .getup_sim import judge
-
         up = after_fall(bus, imu, robot, out)
         standing, why = judge(sim, robot)
         recovery = {"got_up": bool(up.completed and standing), "getup_side": up.side,
@@ -180,6 +179,46 @@ def drive_sim(
         **recovery,
         "_path": np.asarray(odo.path),
     }
+
+
+def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
+    """Standing? The torso within ``tilt_deg`` of its attitude in the robot's standing pose
+    (the Bioloid's Walk Ready leans its torso 10° forward over flat feet; that is upright
+    here), both soles flat on the floor (within 5 mm and 10°), the CoM above the soles'
+    hull. The tilt is the angle between the torso's z axis and the standing pose's, turned
+    to the left sole's heading; the line also gives the torso's tilt from the vertical."""
+    R = sim.site_pose("torso").rotation
+    vertical = math.degrees(math.acos(float(np.clip(R[2, 2], -1.0, 1.0))))
+    stand = robot.place_on_ground(robot.configuration(robot.stand_pose), "l_sole")
+    sole0 = robot.frame_placement(stand, "l_sole").rotation
+    z_stand = sole0.T @ robot.frame_placement(stand, "torso").rotation[:, 2]  # in the sole
+    Rs = sim.site_pose("l_sole").rotation
+    yaw = math.atan2(Rs[1, 0], Rs[0, 0])
+    z_want = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ z_stand
+    tilt = math.degrees(math.acos(float(np.clip(R[:, 2] @ z_want, -1.0, 1.0))))
+    if tilt > tilt_deg:
+        return False, f"torso {tilt:.0f} deg from standing ({vertical:.0f} deg from vertical)"
+    half_l, half_w = (0.5 * v for v in robot.foot_size)
+    corners = []
+    for s in ("l_sole", "r_sole"):
+        M = sim.site_pose(s)
+        up = math.degrees(math.acos(float(np.clip(M.rotation[2, 2], -1.0, 1.0))))
+        if M.translation[2] > 0.005 or up > 10.0:
+            return (
+                False,
+                f"{s} not flat on the floor (z {1e3 * M.translation[2]:.0f} mm, {up:.0f} deg)",
+            )
+        for dx in (-half_l, half_l):
+            for dy in (-half_w, half_w):
+                corners.append(M.act(np.array([dx, dy, 0.0]))[:2])
+    hull = convex_hull(np.asarray(corners))
+    margin = float(signed_distance(hull, sim.com()[:2]))
+    if margin < 0:
+        return False, f"CoM {1e3 * -margin:.0f} mm outside the feet"
+    return True, (
+        f"up: torso {tilt:.1f} deg from standing ({vertical:.1f} from vertical), CoM "
+        f"{1e3 * margin:.0f} mm inside the feet"
+    )
 
 
 def after_fall(bus: Any, imu: Any, robot: Robot, out: Callable[[str], None] = print) -> Any:
