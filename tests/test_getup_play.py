@@ -11,8 +11,8 @@ import pytest
 pytest.importorskip("mujoco")
 
 from wbc.balance import getup_play as P
-from wbc.drive.getup_sim import drop, judge
-from wbc.drive.sim import make_sim
+from wbc.drive.getup_sim import drop
+from wbc.drive.sim import judge, make_sim
 from wbc.model import load_robot
 
 ROBOT = load_robot("bioloid")

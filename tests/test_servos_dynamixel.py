@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 import pytest
 
 from wbc.servos.bus import COMM_OK, COMM_TIMEOUT
@@ -71,5 +72,52 @@ def test_torque_limit_for_the_safe_fall(robot, bus_on):
             assert {emu.register(i, 34, 2) for i in ids} == {round(0.3 * 1023)}
             with pytest.raises(ServoError, match="torque limit share"):
                 bus.set_torque_limit(1.5)
+        finally:
+            bus.close()
+
+
+def test_stiffness_writes_the_compliance_slopes_and_refuses_what_they_cannot_hold(robot, bus_on):
+    """set_stiffness(f): every servo's CW and CCW Compliance Slope (28/29) = its configured
+    slope / f in one SYNC_WRITE (margins untouched); 1 restores servos.toml's; a factor the
+    registers (1..254) cannot hold is refused in one line naming the servos, nothing sent."""
+    from wbc.exceptions import ServoError
+    from wbc.servos.protocol1 import ADDR_CW_COMPLIANCE_MARGIN, ADDR_CW_COMPLIANCE_SLOPE
+
+    sm = robot.servo_map
+    configured = {int(i): int(s) for i, s in zip(sm.ids, sm.settings.compliance_slope, strict=True)}
+    assert configured[1] == 128 and configured[15] == 64 and configured[11] == 32
+    with AX12Emulator() as emu:
+        bus = bus_on(emu, 20.0)
+        try:
+            bus.set_stiffness(4.0)
+            time.sleep(0.05)
+            for sid, slope in configured.items():
+                assert emu.register(sid, ADDR_CW_COMPLIANCE_SLOPE) == slope // 4
+                assert emu.register(sid, ADDR_CW_COMPLIANCE_SLOPE + 1) == slope // 4
+                assert emu.register(sid, ADDR_CW_COMPLIANCE_MARGIN) == 1  # the default
+            assert np.all(bus.stiffness == 4.0)
+            writes = [w for w in emu.writes if w.address == ADDR_CW_COMPLIANCE_SLOPE]
+            assert {w.via for w in writes} == {"sync_write"} and len(writes) == 18
+            per_joint = np.ones(18)
+            per_joint[sm.index_of_id(1)] = 2.0
+            bus.set_stiffness(per_joint)
+            time.sleep(0.05)
+            assert emu.register(1, ADDR_CW_COMPLIANCE_SLOPE) == 64
+            assert emu.register(2, ADDR_CW_COMPLIANCE_SLOPE) == 128
+            bus.set_stiffness(1.0)
+            time.sleep(0.05)
+            assert {s: emu.register(s, ADDR_CW_COMPLIANCE_SLOPE) for s in configured} == configured
+            n = len(emu.writes)
+            with pytest.raises(ServoError, match=r"compliance slope allowed 1\.\.254\): .*id 11"):
+                bus.set_stiffness(0.1)  # 32 / 0.1 = 320 ticks
+            with pytest.raises(ServoError, match=r"id 1 \(r_shoulder_pitch\) x300"):
+                bus.set_stiffness(300.0)  # 128 / 300 < 1
+            with pytest.raises(ServoError, match="finite and > 0"):
+                bus.set_stiffness(-1.0)
+            with pytest.raises(ServoError, match="expected 18 factors"):
+                bus.set_stiffness([2.0, 2.0])
+            time.sleep(0.05)
+            assert len(emu.writes) == n  # nothing sent
+            assert np.all(bus.stiffness == 1.0)
         finally:
             bus.close()

@@ -337,3 +337,36 @@ def test_garbage_before_a_sync_read_reply_fails_that_servo(op3):
         assert all(s.comm == COMM_OK for k, s in enumerate(statuses) if k != i)
         assert bus.read_positions()[i].comm == COMM_OK  # one garbled reply, then clean
         bus.close()
+
+
+def test_stiffness_writes_the_position_p_gains_and_refuses_what_they_cannot_hold(op3):
+    """set_stiffness(f): every servo's Position P Gain (84) = its configured gain × f in one
+    SYNC_WRITE (I and D untouched); 1 restores servos.toml's; a gain outside 0..16383 is
+    refused in one line naming the servos, nothing sent."""
+    from wbc.exceptions import ServoError
+
+    sm = op3.servo_map
+    configured = {int(i): int(p) for i, p in zip(sm.ids, sm.settings.position_p_gain, strict=True)}
+    with XEmulator() as emu:
+        bus = open_bus(op3, emu.port)
+        bus.identify()
+        bus.configure()
+        bus.set_stiffness(2.0)
+        time.sleep(0.05)
+        assert {s: emu.register(s, 84, 2) for s in configured} == {
+            s: 2 * p for s, p in configured.items()
+        }
+        knee = sm.spec("l_knee").id
+        assert emu.register(knee, 82, 2) == 500  # the I gain as configured
+        writes = [w for w in emu.writes if w.address == 84 and w.via == "sync_write"]
+        assert len(writes) == len(configured)
+        bus.set_stiffness(1.0)
+        time.sleep(0.05)
+        assert {s: emu.register(s, 84, 2) for s in configured} == configured
+        n = len(emu.writes)
+        with pytest.raises(ServoError, match=r"position P gain allowed 0\.\.16383\): .*l_knee"):
+            bus.set_stiffness(20.0)  # 1000 x 20 = 20000
+        time.sleep(0.05)
+        assert len(emu.writes) == n
+        bus.close()
+    assert emu.error is None

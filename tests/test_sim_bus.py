@@ -359,3 +359,64 @@ def test_ssc32_bus_in_real_time_follows_the_wall_clock(kokone):
     wall = time.perf_counter() - start
     assert sim.time == pytest.approx(len(rec) / RATE, abs=3.0 / RATE)
     assert wall >= 0.9 * sim.time
+
+
+class _StiffSource:
+    """Walk Ready held, asking the servos for ``factor`` × their stiffness from tick 5 on
+    (recording the servo law's slopes it sees each tick)."""
+
+    def __init__(self, robot, sim, factor, ticks=20):
+        self.joint_names = robot.joint_names
+        self.q = robot.configuration("walk_ready")[7:]
+        self.sim, self.factor, self.ticks = sim, factor, ticks
+        self.stiffness = None
+        self.slopes: list[np.ndarray] = []
+
+    def first(self):
+        return self.q.copy()
+
+    def __call__(self, tick, t):
+        self.slopes.append(self.sim.servos.params.slope.copy())
+        if tick >= self.ticks:
+            return None
+        self.stiffness = self.factor if tick >= 5 else None
+        return self.q
+
+
+@pytest.mark.parametrize("fault", [None, "overload"])
+def test_a_sources_stiffness_reaches_the_servo_law_and_every_end_restores_it(robot, fault):
+    """The deployment writes a source's stiffness (set_stiffness: the registers the real bus
+    writes) and the servo law follows them, keeping a randomised model's own scale; the end
+    of the motion, and a safe stop, leave the configured stiffness."""
+    from dataclasses import replace
+
+    sim = Simulation(robot)
+    sim.reset(robot.configuration("walk_ready"))
+    sim.servos.params = replace(sim.servos.params, slope=sim.servos.params.slope * 1.5)
+    base = sim.servos.params.slope.copy()
+    bus = SimServoBus(sim)
+    if fault:
+        bus.inject(fault, robot.joint_index("l_knee"), after_goals=40)
+    source = _StiffSource(robot, sim, 4.0, ticks=200 if fault else 20)
+    result = Deployment(bus, source, robot, DeployConfig(rate=RATE, read=True),
+                        out=lambda _l: None).run()  # fmt: skip
+    assert np.allclose(source.slopes[8], base / 4)  # slope 32 -> 8, 128 -> 32 (x1.5 kept)
+    assert np.array_equal(sim.servos.params.slope, base)
+    assert np.all(bus.stiffness == 1.0)
+    if fault:
+        assert not result.completed and result.stop_action == "crouch, torque-off"
+    else:
+        assert result.completed
+
+
+def test_stiffness_out_of_the_registers_range_is_refused_in_one_line(robot):
+    sim = Simulation(robot)
+    bus = SimServoBus(sim)
+    bus.open()
+    one_line = r"compliance slope allowed 1\.\.254\): id 8 \(l_hip_yaw\)"
+    with pytest.raises(ServoError, match=one_line):
+        bus.set_stiffness(0.1)
+    bus.set_stiffness(2.0)
+    assert sim.servos.params.slope[robot.joint_index("l_shoulder_pitch")] == 64
+    bus.configure()  # the start-up writes the configuration back
+    assert sim.servos.params.slope[robot.joint_index("l_shoulder_pitch")] == 128

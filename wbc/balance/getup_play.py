@@ -16,7 +16,7 @@ and judged).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -35,10 +35,12 @@ from .getup import (
     static_torques,
 )
 
+#: s a get-up waits after a fall (its last bounces) in ``wbc drive``
+GETUP_WAIT_S = 1.0
 #: why a robot on its back is left lying by default
 SUPINE_NOTE = (
-    "lying on the back: the get-up from the back does not work yet (the arms cannot lift the "
-    "trunk: benchmarks/getup.md); turn the robot onto its front"
+    "lying on the back: the get-up from the back does not work yet (its plan never brings the "
+    "CoM over the feet: benchmarks/getup.md); turn the robot onto its front"
 )
 
 
@@ -79,6 +81,9 @@ class GetupResult:
     plan_failures: int
     deploy: Any = None
     reason: str = ""
+    #: per phase played, the torso's elevation (deg: its z axis above the horizontal, 90 =
+    #: upright) in the state the phase was planned from (the measured one, closed loop)
+    trunk_deg: list[float] = field(default_factory=list)
 
 
 def get_up(
@@ -93,6 +98,7 @@ def get_up(
     wait_s: float = 0.0,
     replan: bool = True,
     compensate: float = 1.0,
+    stiffen: bool = True,
 ) -> GetupResult:
     """Get the robot up from where it lies (module docstring). ``joints``: the present joint
     angles (rad, model order; default: read from ``bus``); ``wait_s``: s to wait first (the
@@ -102,6 +108,9 @@ def get_up(
     deflection under the phase's static load, :func:`~wbc.balance.getup.static_torques` and
     :mod:`wbc.balance.compliance`; 0: off; off, with a line saying so, on servos it has no
     model of).
+    ``stiffen``: the phases' servo stiffness (:attr:`~wbc.balance.getup.Phase.stiffness`,
+    written by the deployment through :meth:`~wbc.servos.bus.ServoBus.set_stiffness`;
+    False: every phase at the configured stiffness).
     ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
     benchmarks/getup.md); without it a robot on its back is left lying, and the result says
     so."""
@@ -132,7 +141,8 @@ def get_up(
     q0 = lying_state(planner.robot, np.clip(joints, robot.q_min, robot.q_max), R)
     ground = ground_frame(q0, planner.robot, side)
     phases = phases_for(robot, side)
-    state: dict[str, Any] = {"k": -1, "plan": None, "t0": 0.0, "played": [], "failures": 0}
+    state: dict[str, Any] = {"k": -1, "plan": None, "t0": 0.0, "played": [], "failures": 0,
+                             "trunk": []}  # fmt: skip
     holder: list[Any] = []
 
     def start(k: int, t: float, q: np.ndarray) -> PhasePlan:
@@ -140,10 +150,16 @@ def get_up(
         state.update(k=k, plan=plan, t0=t)
         state["failures"] += plan.failed_solves
         state["played"].append(phases[k].name)
+        z = float(planner.robot.frame_placement(q, "torso").rotation[2, 2])
+        state["trunk"].append(float(np.degrees(np.arcsin(np.clip(z, -1.0, 1.0)))))
         out(f"get-up: {phases[k].name}")
         return plan
 
     first = start(0, 0.0, q0)
+    can = bool(getattr(bus, "can_set_stiffness", False))
+    if stiffen and not can and any(p.stiffness != 1.0 for p in phases):
+        out(f"get-up: the {bus.name} bus cannot stiffen the servos; the phases play as configured")
+    stiffen = stiffen and can
     compensator = None
     if compensate > 0:
         from .compliance import ComplianceCompensator
@@ -152,6 +168,22 @@ def get_up(
             compensator = ComplianceCompensator(robot, gain=compensate)
         except WbcError as exc:  # no servo model (X-series, no servo map): said, then off
             out(f"get-up: no compliance feed-forward ({exc})")
+    deflections: dict[float, Any] = {}
+
+    def deflection(tau: np.ndarray, stiffness: float) -> np.ndarray:
+        """The servos' deflection under ``tau`` at ``stiffness`` × the configured stiffness
+        (the ramp ``stiffness`` times steeper: the registers the bus writes)."""
+        assert compensator is not None
+        if stiffness == 1.0:
+            return compensator.servo_deflection(tau)
+        if stiffness not in deflections:
+            from .compliance import ComplianceCompensator
+
+            params = compensator.params
+            deflections[stiffness] = ComplianceCompensator(
+                robot, params.scaled(stiffness=stiffness, torque=1.0), compensator.gain
+            )
+        return deflections[stiffness].servo_deflection(tau)
 
     def target(tick: int, t: float) -> np.ndarray | None:
         plan = state["plan"]
@@ -169,11 +201,13 @@ def get_up(
                 q = placed(planner.robot, present, torso_rotation(imu, robot), plan.anchors)
             plan = start(k, t, q)
             s = 0.0
+        stiffness = plan.phase.stiffness if stiffen else 1.0
+        source.stiffness = stiffness
         i = min(round(s * rate), len(plan.q) - 1)
         if compensator is None:
             return plan.q[i, 7:]
         tau = static_torques(planner.robot, plan.q[i], plan.phase)
-        goal = plan.q[i, 7:] + compensator.gain * compensator.servo_deflection(tau)
+        goal = plan.q[i, 7:] + compensator.gain * deflection(tau, stiffness)
         return np.clip(goal, robot.q_min, robot.q_max)
 
     source = CallableSource(target, first.q[0, 7:], robot.joint_names)
@@ -182,4 +216,5 @@ def get_up(
     holder.append(dep)
     result = dep.run()
     done = bool(result.completed) and len(state["played"]) == len(phases)
-    return GetupResult(side, state["played"], done, state["failures"], result)
+    return GetupResult(side, state["played"], done, state["failures"], result,
+                       trunk_deg=state["trunk"])  # fmt: skip

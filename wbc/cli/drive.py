@@ -197,9 +197,9 @@ def run(args: argparse.Namespace) -> int:
             result.trip is not None and "fall" in result.trip.faults
         )
         if fell_now and not args.no_get_up and imu is not None:
-            from ..balance.getup_play import get_up
+            from ..drive.sim import after_fall
 
-            up = get_up(bus, imu, robot, wait_s=1.0)
+            up = after_fall(bus, imu, robot)
             print(f"get-up: {'standing' if up.completed else up.reason}")
     finally:
         if teleop is not None:

@@ -16,8 +16,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
-from ..geometry import wrap_angle
+from ..geometry import convex_hull, signed_distance, wrap_angle
 from ..model import Robot
 from ..walking.loop import Controller
 from .commands import Command, CommandScript, integrate
@@ -100,10 +101,16 @@ def drive_sim(
     view: Callable[[Any], None] | None = None,
     walker_options: dict[str, Any] | None = None,
     out: Callable[[str], None] = lambda _line: None,
+    push: tuple[float, Sequence[float], float] | None = None,
+    get_up: bool = False,
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
-    ``params``, ``gains``, ``closed``, ``compensate``)."""
+    ``params``, ``gains``, ``closed``, ``compensate``). ``push``: ``(start s, force N (world
+    xyz), duration s)`` on the base, a scripted shove. ``get_up``: after a fall, what
+    ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
+    completed and :func:`judge` finds the robot standing), its
+    ``getup_side``, ``getup_phases`` and ``getup_reason``."""
     holder: list[Any] = []
 
     def on_tick() -> None:
@@ -113,6 +120,9 @@ def drive_sim(
                 view(holder[0].sim)
 
     sim, bus, imu = make_sim(robot, variation, realtime=realtime, on_tick=on_tick)
+    if push is not None:
+        start, force, duration = push
+        sim.push(force, duration, start=sim.time + start)
     walker = Walker(robot, controller, imu, **(walker_options or {}))
     odo = Odometer(sim)
     holder.append(odo)
@@ -138,6 +148,12 @@ def drive_sim(
     walker.before_tick = before
     dep = walker.deployment(bus, out=out)
     result = dep.run()
+    recovery: dict[str, Any] = {}
+    if get_up and odo.fell_at is not None:
+        up = after_fall(bus, imu, robot, out)
+        standing, why = judge(sim, robot)
+        recovery = {"got_up": bool(up.completed and standing), "getup_side": up.side,
+                    "getup_phases": up.phases, "getup_reason": up.reason or why}  # fmt: skip
     clipped = [Command(c.duration, *walker.limits.clip(*c.velocity)) for c in commands]
     cmd_xy, cmd_yaw = integrate(clipped)
     travelled = odo.displacement()
@@ -160,5 +176,55 @@ def drive_sim(
         "deploy_completed": bool(result.completed),
         "deploy_trip": None if result.trip is None else str(result.trip),
         "limits": walker.limits.as_dict(),
+        **recovery,
         "_path": np.asarray(odo.path),
     }
+
+
+def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
+    """Standing? The torso within ``tilt_deg`` of its attitude in the robot's standing pose
+    (the Bioloid's Walk Ready leans its torso 10° forward over flat feet; that is upright
+    here), both soles flat on the floor (within 5 mm and 10°), the CoM above the soles'
+    hull. The tilt is the angle between the torso's z axis and the standing pose's, turned
+    to the left sole's heading; the line also gives the torso's tilt from the vertical."""
+    R = sim.site_pose("torso").rotation
+    vertical = math.degrees(math.acos(float(np.clip(R[2, 2], -1.0, 1.0))))
+    stand = robot.place_on_ground(robot.configuration(robot.stand_pose), "l_sole")
+    sole0 = robot.frame_placement(stand, "l_sole").rotation
+    z_stand = sole0.T @ robot.frame_placement(stand, "torso").rotation[:, 2]  # in the sole
+    Rs = sim.site_pose("l_sole").rotation
+    yaw = math.atan2(Rs[1, 0], Rs[0, 0])
+    z_want = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ z_stand
+    tilt = math.degrees(math.acos(float(np.clip(R[:, 2] @ z_want, -1.0, 1.0))))
+    if tilt > tilt_deg:
+        return False, f"torso {tilt:.0f} deg from standing ({vertical:.0f} deg from vertical)"
+    half_l, half_w = (0.5 * v for v in robot.foot_size)
+    corners = []
+    for s in ("l_sole", "r_sole"):
+        M = sim.site_pose(s)
+        up = math.degrees(math.acos(float(np.clip(M.rotation[2, 2], -1.0, 1.0))))
+        if M.translation[2] > 0.005 or up > 10.0:
+            return (
+                False,
+                f"{s} not flat on the floor (z {1e3 * M.translation[2]:.0f} mm, {up:.0f} deg)",
+            )
+        for dx in (-half_l, half_l):
+            for dy in (-half_w, half_w):
+                corners.append(M.act(np.array([dx, dy, 0.0]))[:2])
+    hull = convex_hull(np.asarray(corners))
+    margin = float(signed_distance(hull, sim.com()[:2]))
+    if margin < 0:
+        return False, f"CoM {1e3 * -margin:.0f} mm outside the feet"
+    return True, (
+        f"up: torso {tilt:.1f} deg from standing ({vertical:.1f} from vertical), CoM "
+        f"{1e3 * margin:.0f} mm inside the feet"
+    )
+
+
+def after_fall(bus: Any, imu: Any, robot: Robot, out: Callable[[str], None] = print) -> Any:
+    """What ``wbc drive`` does after a fall: wait :data:`~wbc.balance.getup_play.
+    GETUP_WAIT_S` (the last bounces), then :func:`~wbc.balance.getup_play.get_up` on the
+    same bus and IMU (its :class:`~wbc.balance.getup_play.GetupResult`)."""
+    from ..balance.getup_play import GETUP_WAIT_S, get_up
+
+    return get_up(bus, imu, robot, wait_s=GETUP_WAIT_S, out=out)

@@ -190,6 +190,8 @@ class ServoBus(ABC):
     #: where the deployment reads time and waits; None = the wall clock (a lockstep simulator
     #: brings its own, whose ``sleep`` runs the physics)
     clock: Clock | None = None
+    #: the bus can change the servos' stiffness while they run (:meth:`set_stiffness`)
+    can_set_stiffness: bool = False
 
     def __init__(self, codec: Codec, labels: Sequence[str]) -> None:
         self.codec = codec
@@ -201,6 +203,9 @@ class ServoBus(ABC):
         #: stop's crouch moves the others (a backend that cannot omit a servo from its goal
         #: transaction sends its unchanged last goal, which the deployment keeps)
         self.excluded: frozenset[int] = frozenset()
+        #: the servos' stiffness, per joint, as a factor of the configured one (1: as
+        #: ``servos.toml`` ``[settings]`` says, what :meth:`configure` writes)
+        self.stiffness = np.ones(len(self.labels))
 
     # ------------------------------------------------------------------ one owner per bus
     def open_port(
@@ -306,6 +311,14 @@ class ServoBus(ABC):
         """Bus time of one tick with ``polls_per_tick`` health polls (default: ``budget``)."""
         return self.budget(read_positions)
 
+    def set_stiffness(self, factors: float | Sequence[float] | np.ndarray) -> None:
+        """Each servo's stiffness (its position controller's gain) ``factors`` times the
+        configured one (model order, or one factor for all; 1 restores the configuration).
+        A backend that can (``can_set_stiffness``) translates it into its registers (AX-12A:
+        the compliance slopes, X series: the position P gain) and refuses, naming the servo,
+        a factor its registers cannot hold."""
+        raise ServoError(f"{self.name}: this bus cannot change the servos' stiffness")
+
     def torque_off(self) -> list[str]:
         """Torque off on every servo, verified where the bus can; returns the labels of the
         servos whose torque-off is not confirmed (default: ``set_torque(False)``, none)."""
@@ -322,6 +335,42 @@ class ServoBus(ABC):
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def stiffness_factors(factors: float | Sequence[float] | np.ndarray, n: int) -> np.ndarray:
+    """``factors`` as ``n`` finite positive stiffness factors (a scalar for all); raises
+    :class:`ServoError` otherwise."""
+    f = np.asarray(factors, dtype=float)
+    if f.ndim == 0:
+        f = np.full(n, float(f))
+    if f.shape != (n,):
+        raise ServoError(f"stiffness: expected {n} factors (one per servo), got shape {f.shape}")
+    if not np.all(np.isfinite(f) & (f > 0)):
+        raise ServoError(f"stiffness factors must be finite and > 0, got {f.tolist()}")
+    return f.astype(float).copy()
+
+
+def stiffness_registers(
+    configured: np.ndarray,
+    factors: np.ndarray,
+    labels: Sequence[str],
+    what: str,
+    allowed: tuple[int, int],
+    inverse: bool,
+) -> np.ndarray:
+    """Register values for stiffness ``factors``: ``round(configured / f)`` for a register
+    the stiffness falls with (``inverse``: the AX-12A's compliance slope), else
+    ``round(configured · f)`` (the X series' P gain); :class:`ServoError` in one line naming
+    the servos whose value falls outside ``allowed``."""
+    c = np.asarray(configured, dtype=float)
+    raw = c / factors if inverse else c * factors
+    regs = np.rint(raw).astype(int)
+    lo, hi = allowed
+    bad = np.flatnonzero((regs < lo) | (regs > hi))
+    if bad.size:
+        parts = [f"{labels[i]} x{factors[i]:g} -> {what} {raw[i]:.1f}" for i in bad]
+        raise ServoError(f"stiffness out of range ({what} allowed {lo}..{hi}): " + "; ".join(parts))
+    return regs
 
 
 class DryRunBus(ServoBus):

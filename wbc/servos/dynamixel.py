@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import ServoError
-from ..servo_map import ServoMap
+from ..servo_map import SETTING_REGISTERS, ServoMap
 from .bus import (
     COMM_CORRUPT,
     COMM_OK,
@@ -38,8 +38,12 @@ from .bus import (
     BusBudget,
     ServoBus,
     ServoStatus,
+    stiffness_factors,
+    stiffness_registers,
 )
 from .protocol1 import (
+    ADDR_CW_COMPLIANCE_MARGIN,
+    ADDR_CW_COMPLIANCE_SLOPE,
     ADDR_GOAL_POSITION,
     ADDR_MOVING_SPEED,
     ADDR_PRESENT_POSITION,
@@ -176,6 +180,9 @@ class DynamixelBus(ServoBus):
     torque_address = ADDR_TORQUE_ENABLE
     status_return_level_address = ADDR_STATUS_RETURN_LEVEL
     models: Mapping[int, str] = {AX12_MODEL_NUMBER: "AX-12A"}
+    can_set_stiffness = True
+    #: the stiffness register (:meth:`set_stiffness`): CW/CCW Compliance Slope (28/29)
+    stiffness_address = ADDR_CW_COMPLIANCE_SLOPE
 
     bus_budget = staticmethod(ax_budget)  # the protocol's wire-time budget
 
@@ -277,6 +284,7 @@ class DynamixelBus(ServoBus):
         self.port = None
         self._sync_goal = None
         self._sync_speed = None
+        self._sync_stiffness = None
         self._buf = bytearray()
         self._reads = np.zeros(len(self.ids), int)  # per servo: READ count, picks the form
 
@@ -315,6 +323,7 @@ class DynamixelBus(ServoBus):
         ph = sdk.Protocol1PacketHandler()
         self._sync_goal = sdk.GroupSyncWrite(port, ph, ADDR_GOAL_POSITION, 2)
         self._sync_speed = sdk.GroupSyncWrite(port, ph, ADDR_MOVING_SPEED, 2)
+        self._sync_stiffness = sdk.GroupSyncWrite(port, ph, self.stiffness_address, 2)
 
     def close(self) -> None:
         self.unlock_port()
@@ -564,12 +573,13 @@ class DynamixelBus(ServoBus):
             blocks = [
                 ("return delay / angle limits", ADDR_RETURN_DELAY, [0, *word(lo), *word(hi)]),
                 ("alarm shutdown", ADDR_SHUTDOWN, [int(st.alarm_shutdown)]),
-                ("compliance margins / slopes", 26, [m, m, s, s]),
+                ("compliance margins / slopes", ADDR_CW_COMPLIANCE_MARGIN, [m, m, s, s]),
                 ("torque limit", ADDR_TORQUE_LIMIT, word(int(self.torque_limit[i]))),
                 ("punch", ADDR_PUNCH, word(int(st.punch[i]))),
             ]
             for what, address, wanted in blocks:
                 self._set_block(i, what, address, wanted)
+        self.stiffness = np.ones(self.n)
 
     def _status_return_level_2(self, i: int) -> None:
         """Status Return Level 2 on servo ``i`` if it is not: without it, WRITEs get no status
@@ -638,6 +648,36 @@ class DynamixelBus(ServoBus):
         if not 0.0 <= share <= 1.0:
             raise ServoError(f"torque limit share must be in [0, 1], got {share}")
         self.exchange(BROADCAST_ID, INST_WRITE, (ADDR_TORQUE_LIMIT, *word(round(1023 * share))))
+
+    def stiffness_registers(self, factors: float | Sequence[float] | np.ndarray) -> np.ndarray:
+        """The Compliance Slope (28/29) of each servo for stiffness ``factors`` (the servo's
+        stiffness ``τ_s / (slope · rad per tick)`` falls with the slope): the configured
+        slope / factor, rounded, 1..254, else :class:`ServoError` naming the servos."""
+        f = stiffness_factors(factors, self.n)
+        return stiffness_registers(
+            self.settings.compliance_slope, f, self.labels, "compliance slope",
+            SETTING_REGISTERS["compliance_slope"][2], True,
+        )  # fmt: skip
+
+    def stiffness_bytes(self, register: int) -> list[int]:
+        """The bytes written at :attr:`stiffness_address` for one servo: CW and CCW slope."""
+        return [register, register]
+
+    def set_stiffness(self, factors: float | Sequence[float] | np.ndarray) -> None:
+        """Each servo's stiffness ``factors`` × the configured one (:meth:`ServoBus.
+        set_stiffness`): its registers (:meth:`stiffness_registers`) in one SYNC_WRITE (no
+        reply, as the goals; RAM registers, so :meth:`configure` restores the
+        configuration at the next start)."""
+        self._require_open()
+        f = stiffness_factors(factors, self.n)
+        regs = self.stiffness_registers(f)
+        sync = self._sync_stiffness
+        sync.clearParam()
+        for sid, reg in zip(self.ids, regs, strict=True):
+            sync.addParam(sid, self.stiffness_bytes(int(reg)))
+        if self._comm(sync.txPacket()) != COMM_OK:
+            raise ServoError(f"{self.port_name}: SYNC_WRITE of the stiffness failed")
+        self.stiffness = f
 
     def set_speed(self, rad_per_s: float) -> None:
         """Moving Speed (32) of every servo in one SYNC_WRITE."""

@@ -392,6 +392,26 @@ class Deployment:
             self._log_present.append(present)
         return trip
 
+    # ------------------------------------------------------------------ stiffness
+    def _follow_stiffness(self) -> None:
+        """The source's servo stiffness (its optional ``stiffness`` attribute: factors of the
+        configured stiffness, :meth:`ServoBus.set_stiffness`), written when it changes."""
+        want = getattr(self.source, "stiffness", None)
+        if want is None:
+            return
+        want = np.broadcast_to(np.asarray(want, dtype=float), (self.bus.n,))
+        if not np.array_equal(want, self.bus.stiffness):
+            self.bus.set_stiffness(want)
+
+    def _restore_stiffness(self) -> None:
+        """The configured stiffness back (a source changed it): the motion's end and every
+        safe stop leave the servos as ``servos.toml`` sets them."""
+        if self.bus.can_set_stiffness and np.any(self.bus.stiffness != 1.0):
+            try:
+                self.bus.set_stiffness(1.0)
+            except ServoError as exc:  # the stop goes on; the report says it
+                self.warn(f"stiffness not restored: {exc}")
+
     # ------------------------------------------------------------------ safe stop
     def stop_action(self, trip: Trip) -> str:
         """``hold``, ``torque-off`` or ``crouch`` for a trip (module docstring)."""
@@ -412,6 +432,7 @@ class Deployment:
             reset = getattr(self.bus, "reset", None)
             if reset is not None:
                 reset()
+            self._restore_stiffness()  # every stop acts at the configured stiffness
             if action == "hold":
                 return "hold"
             done = action
@@ -610,6 +631,7 @@ class Deployment:
                 except ServoError as exc:
                     trip = Trip(None, "source", f"bad target at tick {tick}: {exc}")
                     break
+                self._follow_stiffness()
                 self.ticker.last_sent = now
                 trip = self._tick(cmd, now, 1)
                 self.ticker.done()
@@ -622,6 +644,8 @@ class Deployment:
             trip = Trip(None, "deploy", f"{type(exc).__name__}: {exc}", faults)
             signum = None
         action = None
+        if trip is None:
+            self._restore_stiffness()
         if trip is not None:
             action = self._safe_stop(trip)
         elif cfg.at_end == "torque-off":

@@ -53,6 +53,8 @@ from .bus import (
     BudgetItem,
     BusBudget,
     ServoStatus,
+    stiffness_factors,
+    stiffness_registers,
 )
 from .dynamixel import DynamixelBus, _sdk
 from .protocol1 import BROADCAST_ID, INST_PING, INST_WRITE, SDK_BAUDS, read_variant, word
@@ -261,6 +263,8 @@ class Dynamixel2Bus(DynamixelBus):
     models: Mapping[int, str] = {x.XM430_W350_MODEL: "XM430-W350", 1030: "XM430-W210"}
     status_overhead = 11
     ping_reply = 3  # model number (2 bytes), firmware version
+    #: the stiffness register (:meth:`set_stiffness`): Position P Gain (84, 2 bytes)
+    stiffness_address = x.ADDR_POSITION_P_GAIN
 
     def __init__(
         self,
@@ -324,6 +328,7 @@ class Dynamixel2Bus(DynamixelBus):
         ph = sdk.Protocol2PacketHandler()
         self._sync_goal = sdk.GroupSyncWrite(self.port, ph, x.ADDR_GOAL_POSITION, 4)
         self._sync_speed = sdk.GroupSyncWrite(self.port, ph, x.ADDR_PROFILE_VELOCITY, 4)
+        self._sync_stiffness = sdk.GroupSyncWrite(self.port, ph, self.stiffness_address, 2)
 
     def configure(self) -> None:
         """Torque off (verified), then each setting written only if it differs and read back
@@ -363,6 +368,7 @@ class Dynamixel2Bus(DynamixelBus):
             ]  # fmt: skip
             for what, address, wanted in blocks:
                 self._set_block(i, what, address, wanted)
+        self.stiffness = np.ones(self.n)
 
     # ------------------------------------------------------------------ motion
     def set_torque(self, enabled: bool) -> None:
@@ -396,6 +402,21 @@ class Dynamixel2Bus(DynamixelBus):
         self.reset()
         self.exchange(BROADCAST_ID, INST_WRITE, self.address_params(x.ADDR_BUS_WATCHDOG, [0]))
         return super().torque_off()
+
+    def stiffness_registers(self, factors: float | Sequence[float] | np.ndarray) -> np.ndarray:
+        """The Position P Gain (84) of each servo for stiffness ``factors`` (the P term's
+        stiffness grows with it): the configured gain × factor, rounded, 0..16383, else
+        :class:`ServoError` naming the servos. The I and D gains are left as configured."""
+        st = self.settings
+        if not isinstance(st, x.XSettings):
+            raise ServoError(f"{self.name}: the servo map's settings are not X-series settings")
+        f = stiffness_factors(factors, self.n)
+        lo, hi = x.X_SETTING_REGISTERS["position_p_gain"][2]
+        return stiffness_registers(st.position_p_gain, f, self.labels, "position P gain",
+                                   (lo, hi), False)  # fmt: skip
+
+    def stiffness_bytes(self, register: int) -> list[int]:
+        return word(register)
 
     def set_speed(self, rad_per_s: float) -> None:
         """Profile Velocity (112) of every servo in one SYNC_WRITE: the servos' own speed cap."""

@@ -24,7 +24,11 @@ class TargetSource(Protocol):
     ``first()`` is where the soft start goes; ``__call__(tick, t)`` gives the target of tick
     ``tick`` at playback time ``t = tick / rate`` (s), or None when the motion is over. Ticks
     follow the wall clock: a tick the loop missed is skipped (``tick`` jumps). A live
-    controller implements the same two methods.
+    controller implements the same two methods. A source may also carry ``stiffness``
+    (factors of the servos' configured stiffness, per joint or one for all; None: as
+    configured): the deployment writes it when it changes
+    (:meth:`wbc.servos.bus.ServoBus.set_stiffness`) and restores the configuration at the
+    end and in every safe stop.
     """
 
     joint_names: tuple[str, ...]
@@ -140,6 +144,8 @@ class CallableSource:
         self.f = f
         self._first = np.asarray(first, dtype=float)
         self.joint_names = tuple(joint_names)
+        #: the servos' stiffness the function asks for (TargetSource; None: as configured)
+        self.stiffness: float | np.ndarray | None = None
 
     def first(self) -> np.ndarray:
         return self._first.copy()

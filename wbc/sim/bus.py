@@ -32,7 +32,15 @@ import numpy as np
 
 from ..exceptions import ConfigurationError, ServoError
 from ..imu import Imu, ImuReading
-from ..servos.bus import COMM_OK, COMM_TIMEOUT, BusBudget, ServoBus, ServoStatus
+from ..servos.bus import (
+    COMM_OK,
+    COMM_TIMEOUT,
+    BusBudget,
+    ServoBus,
+    ServoStatus,
+    stiffness_factors,
+    stiffness_registers,
+)
 from ..servos.protocol1 import (
     AX12_MAX_SPEED,
     ax_budget,
@@ -66,6 +74,7 @@ class SimServoBus(ServoBus):
     name = "sim"
     can_read = True
     servo_speed = AX12_MAX_SPEED
+    can_set_stiffness = True
 
     def __init__(
         self,
@@ -113,6 +122,8 @@ class SimServoBus(ServoBus):
         self._scheduled: list[tuple[int, str, int]] = []
         self._wall0 = 0.0
         self._sim0 = 0.0
+        #: the stiffness registers the simulated servos hold (configured at first)
+        self._registers = self.stiffness_registers(1.0)
 
     # ------------------------------------------------------------------ time
     def _sync(self) -> None:
@@ -154,6 +165,8 @@ class SimServoBus(ServoBus):
         """Torque off and the torque-limit register (if given), as the real bus does."""
         self._require_open()
         self.set_torque(False)
+        self._apply_registers(self.stiffness_registers(1.0))
+        self.stiffness = np.ones(self.n)
         if self.torque_limit is not None:
             p = self.sim.servos.params
             cap = np.full(self.n, p.stall_torque * self.torque_limit / 1023.0)
@@ -171,6 +184,46 @@ class SimServoBus(ServoBus):
         p = self.sim.servos.params
         cap = np.full(self.n, p.stall_torque * round(1023 * share) / 1023.0)
         self.sim.servos.params = replace(p, torque_cap=cap)
+
+    # ------------------------------------------------------------------ stiffness
+    def stiffness_registers(self, factors: float | Sequence[float] | np.ndarray) -> np.ndarray:
+        """The registers the real bus would write for stiffness ``factors``
+        (:meth:`wbc.servos.dynamixel.DynamixelBus.stiffness_registers`: AX-12A compliance
+        slopes, X-series position P gains), refused alike when out of range."""
+        from ..servo_map import SETTING_REGISTERS
+        from ..xseries import X_SETTING_REGISTERS
+
+        f = stiffness_factors(factors, self.n)
+        st = self.sim.robot.servo_map.settings
+        if self.xseries:
+            allowed = X_SETTING_REGISTERS["position_p_gain"][2]
+            return stiffness_registers(st.position_p_gain, f, self.labels, "position P gain",
+                                       allowed, False)  # fmt: skip
+        allowed = SETTING_REGISTERS["compliance_slope"][2]
+        return stiffness_registers(st.compliance_slope, f, self.labels, "compliance slope",
+                                   allowed, True)  # fmt: skip
+
+    def _apply_registers(self, registers: np.ndarray) -> None:
+        """The servo law's parameters follow the registers: the AX-12A's ramp (``slope``) and
+        the XM430's P gain scale with them, so a randomised model keeps its own scale."""
+        if np.array_equal(registers, self._registers):
+            return
+        ratio = registers / self._registers
+        p = self.sim.servos.params
+        if self.xseries:
+            self.sim.servos.params = replace(p, kp=p.kp * ratio)  # type: ignore[call-arg]
+        else:
+            self.sim.servos.params = replace(p, slope=p.slope * ratio)  # type: ignore[call-arg]
+        self._registers = np.asarray(registers).copy()
+
+    def set_stiffness(self, factors: float | Sequence[float] | np.ndarray) -> None:
+        """The simulated servos' stiffness ``factors`` × the configured one, through the
+        registers the real bus writes (:meth:`stiffness_registers`)."""
+        self._require_open()
+        self._sync()
+        f = stiffness_factors(factors, self.n)
+        self._apply_registers(self.stiffness_registers(f))
+        self.stiffness = f
 
     # ------------------------------------------------------------------ motion
     def set_torque(self, enabled: bool) -> None:
