@@ -63,7 +63,6 @@ from ..walking.schedule import (
 )
 from ..walking.spline import min_jerk, smoothstep
 
-
 #: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
 #: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
 #: robot that states none (robot.toml ``[balance.stepping]``; the OP3's: 45 mm,
