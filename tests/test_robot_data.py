@@ -33,7 +33,7 @@ def test_robot_data_bad_input(tmp_path, kokone):
     with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
         RobotData.from_folder(tmp_path, kokone.joint_names)
     robot_file.write_text("[feat]\nlength = 0.1\n")
-    with pytest.raises(ModelError, match=r"unknown keys \['feat'\]; allowed: balance, feet, frames"):
+    with pytest.raises(ModelError, match=r"unknown keys \['feat'\]; allowed: balance, feet, fr"):
         RobotData.from_folder(tmp_path, kokone.joint_names)
     for text, message in (
         ("[balance]\nstepping = 0.04\n", r"\[balance\] holds tables: stepping"),
