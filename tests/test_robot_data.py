@@ -41,7 +41,7 @@ def test_robot_data_bad_input(tmp_path, kokone):
         ("[balance.stepping]\nband = 0.04\n", r"\[balance.stepping\] has unknown keys \['band'\]"),
         (
             "[balance.stepping]\nband_x = 2\n",
-            r"\[balance.stepping\] band_x = 2: must be in \[0, 1\)",
+            r"\[balance.stepping\] band_x = 2: must be in \[0, 1\) m",
         ),
     ):
         robot_file.write_text(text)

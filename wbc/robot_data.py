@@ -29,7 +29,7 @@ robot's folder instead. Two optional files:
     frame = "torso"
     rpy_deg = [0, 0, 0]              # its axes in that frame (roll, pitch, yaw, degrees)
     [balance.stepping]               # the closed loop's step adjustment (wbc.balance.stepping)
-    band_x = 0.045                   # m: the DCM error its unpushed walks show
+    band_x = 0.06                    # m: the DCM error its unpushed walks show
 
 Without them a robot keeps the defaults: Walk Ready from the servo map if it has one, else the
 zero pose; feet from the sole link's collision box; joint roles and legs measured from the
@@ -52,9 +52,12 @@ POSES_FILE = "poses.toml"
 ROBOT_KEYS = (
     "balance", "feet", "frames", "imu", "joints", "legs", "servo", "stand", "walking",
 )  # fmt: skip
-#: ``[balance.<table>]`` keys a robot may state (m): what its unpushed walks show, measured
-#: on the robot (:class:`wbc.balance.stepping.SteppingParams` ``band_x`` / ``band_y``)
-BALANCE_KEYS = {"stepping": ("band_x", "band_y")}
+#: ``[balance.<table>]`` keys a robot may state, with the range allowed (upper bound, unit):
+#: the closed loop's settings measured on the robot — what its unpushed walks show
+#: (:class:`wbc.balance.stepping.SteppingParams` ``band_x`` / ``band_y``)
+BALANCE_KEYS: dict[str, dict[str, tuple[float, str]]] = {
+    "stepping": {"band_x": (1.0, "m"), "band_y": (1.0, "m")},
+}
 
 
 @dataclass(frozen=True)
@@ -150,7 +153,7 @@ class RobotData:
 
 
 def read_balance(table: object, where: str) -> dict[str, dict[str, float]]:
-    """``[balance.<table>]``: the keys of :data:`BALANCE_KEYS`, lengths in [0, 1) m."""
+    """``[balance.<table>]``: the keys of :data:`BALANCE_KEYS`, each in its range."""
     if not isinstance(table, Mapping) or not all(isinstance(v, Mapping) for v in table.values()):
         raise ModelError(f"{where}: [balance] holds tables: {', '.join(BALANCE_KEYS)}")
     out: dict[str, dict[str, float]] = {}
@@ -166,8 +169,11 @@ def read_balance(table: object, where: str) -> dict[str, dict[str, float]]:
                 f"{where}: [balance.{name}] has unknown keys {extra}; allowed: {', '.join(allowed)}"
             )
         for key, v in values.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < 1:
-                raise ModelError(f"{where}: [balance.{name}] {key} = {v!r}: must be in [0, 1) m")
+            hi, unit = allowed[key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < hi:
+                raise ModelError(
+                    f"{where}: [balance.{name}] {key} = {v!r}: must be in [0, {hi:g}) {unit}"
+                )
         out[name] = {k: float(v) for k, v in values.items()}
     return out
 

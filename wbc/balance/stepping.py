@@ -65,7 +65,7 @@ from ..walking.spline import min_jerk, smoothstep
 
 #: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
 #: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
-#: robot that states none (robot.toml ``[balance.stepping]``; the OP3's: 45 mm,
+#: robot that states none (robot.toml ``[balance.stepping]``; the OP3's: 60 mm,
 #: benchmarks/op3.md)
 BAND_X = 0.025
 BAND_Y = 0.018
