@@ -124,6 +124,34 @@ def test_no_replan_inside_the_dead_band_in_double_support_or_when_off(robot, wal
     assert not adj.events
 
 
+def test_the_dead_bands_are_the_robots_own(robot):
+    """A robot's ``robot.toml`` ``[balance.stepping]`` states the DCM error its unpushed walks
+    show (the OP3's 60 mm); a robot stating none gets the defaults (the Bioloid's); bands
+    given by the caller win over both."""
+    from wbc import load_robot
+    from wbc.balance.stepping import BAND_X, BAND_Y
+
+    op3 = load_robot("op3")
+    assert op3.robot_data.balance["stepping"] == {"band_x": 0.06, "band_y": 0.06}
+    assert robot.robot_data.balance == {}
+    own = SteppingParams().for_robot(op3)
+    assert (own.band_x, own.band_y) == (0.06, 0.06)
+    mine = SteppingParams().for_robot(robot)
+    assert (mine.band_x, mine.band_y) == (BAND_X, BAND_Y) == (0.025, 0.018)
+    given = SteppingParams(band_y=0.01).for_robot(op3)
+    assert (given.band_x, given.band_y) == (0.06, 0.01)
+    ref = traj.build("walk10", op3)
+    adj = StepAdjuster(op3, ref)
+    assert (adj.params.band_x, adj.params.band_y) == (0.06, 0.06)
+    # an unpushed-size DCM error (40 mm sideways, inside the OP3's band) re-plans nothing
+    a, b, _ = next(p for p in ref.phases() if p[2] != SUPPORT_DOUBLE)
+    i = (a + b) // 2
+    xi = ref.com[i, :2] + ref.com_vel[i, :2] / adj.omega
+    assert adj.update(ref, i, xi + [0.0, 0.04]) is None and not adj.events
+    bioloid_bands = StepAdjuster(op3, ref, SteppingParams(band_x=BAND_X, band_y=BAND_Y))
+    assert bioloid_bands.update(ref, i, xi + [0.0, 0.04]) is not None
+
+
 def test_bad_parameters_and_references_are_refused(robot):
     with pytest.raises(ConfigurationError, match="threshold"):
         SteppingParams(threshold=-1.0).check()

@@ -33,8 +33,24 @@ def test_robot_data_bad_input(tmp_path, kokone):
     with pytest.raises(ModelError, match=r"\[feet\] length = 7: must be in \(0, 1\) m"):
         RobotData.from_folder(tmp_path, kokone.joint_names)
     robot_file.write_text("[feat]\nlength = 0.1\n")
-    with pytest.raises(ModelError, match=r"unknown keys \['feat'\]; allowed: feet, frames"):
+    with pytest.raises(ModelError, match=r"unknown keys \['feat'\]; allowed: balance, feet, fr"):
         RobotData.from_folder(tmp_path, kokone.joint_names)
+    for text, message in (
+        ("[balance]\nstepping = 0.04\n", r"\[balance\] holds tables: stepping"),
+        ("[balance.steping]\nband_x = 0.04\n", r"unknown table \[balance.steping\]; allowed"),
+        ("[balance.stepping]\nband = 0.04\n", r"\[balance.stepping\] has unknown keys \['band'\]"),
+        (
+            "[balance.stepping]\nband_x = 2\n",
+            r"\[balance.stepping\] band_x = 2: must be in \[0, 1\) m",
+        ),
+    ):
+        robot_file.write_text(text)
+        with pytest.raises(ModelError, match=message):
+            RobotData.from_folder(tmp_path, kokone.joint_names)
+    robot_file.write_text("[balance.stepping]\nband_y = 0.03\n")
+    assert RobotData.from_folder(tmp_path, kokone.joint_names).balance == {
+        "stepping": {"band_y": 0.03}
+    }
     robot_file.unlink()
     poses_file.write_text("[poses.x]\nl_kne = 0.1\n")
     with pytest.raises(ModelError, match=r"pose 'x' names unknown joints \['l_kne'\]"):

@@ -28,6 +28,8 @@ robot's folder instead. Two optional files:
     [imu]                            # where the IMU sits (simulator and closed loop)
     frame = "torso"
     rpy_deg = [0, 0, 0]              # its axes in that frame (roll, pitch, yaw, degrees)
+    [balance.stepping]               # the closed loop's step adjustment (wbc.balance.stepping)
+    band_x = 0.06                    # m: the DCM error its unpushed walks show
 
 Without them a robot keeps the defaults: Walk Ready from the servo map if it has one, else the
 zero pose; feet from the sole link's collision box; joint roles and legs measured from the
@@ -47,7 +49,15 @@ from .paths import read_toml
 
 ROBOT_FILE = "robot.toml"
 POSES_FILE = "poses.toml"
-ROBOT_KEYS = ("feet", "frames", "imu", "joints", "legs", "servo", "stand", "walking")
+ROBOT_KEYS = (
+    "balance", "feet", "frames", "imu", "joints", "legs", "servo", "stand", "walking",
+)  # fmt: skip
+#: ``[balance.<table>]`` keys a robot may state, with the range allowed (upper bound, unit):
+#: the closed loop's settings measured on the robot — what its unpushed walks show
+#: (:class:`wbc.balance.stepping.SteppingParams` ``band_x`` / ``band_y``)
+BALANCE_KEYS: dict[str, dict[str, tuple[float, str]]] = {
+    "stepping": {"band_x": (1.0, "m"), "band_y": (1.0, "m")},
+}
 
 
 @dataclass(frozen=True)
@@ -79,6 +89,9 @@ class RobotData:
     #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
     #: more than its share of its speed (:mod:`wbc.walking.sizing`)
     fit_speed: bool = True
+    #: the closed loop's settings measured on this robot (``[balance.<table>]``, m; the keys
+    #: of :data:`BALANCE_KEYS`), e.g. ``{"stepping": {"band_y": 0.045}}``
+    balance: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
     @classmethod
     def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
@@ -134,8 +147,35 @@ class RobotData:
             joints=read_joint_roles(raw.get("joints", {}), joint_names, where),
             feet_given=tuple(k for k in ("length", "width") if k in feet),
             fit_speed=fit_speed,
+            balance=read_balance(raw.get("balance", {}), where),
             **tables,
         )
+
+
+def read_balance(table: object, where: str) -> dict[str, dict[str, float]]:
+    """``[balance.<table>]``: the keys of :data:`BALANCE_KEYS`, each in its range."""
+    if not isinstance(table, Mapping) or not all(isinstance(v, Mapping) for v in table.values()):
+        raise ModelError(f"{where}: [balance] holds tables: {', '.join(BALANCE_KEYS)}")
+    out: dict[str, dict[str, float]] = {}
+    for name, values in table.items():
+        allowed = BALANCE_KEYS.get(name)
+        if allowed is None:
+            raise ModelError(
+                f"{where}: unknown table [balance.{name}]; allowed: {', '.join(BALANCE_KEYS)}"
+            )
+        extra = sorted(set(values) - set(allowed))
+        if extra:
+            raise ModelError(
+                f"{where}: [balance.{name}] has unknown keys {extra}; allowed: {', '.join(allowed)}"
+            )
+        for key, v in values.items():
+            hi, unit = allowed[key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < hi:
+                raise ModelError(
+                    f"{where}: [balance.{name}] {key} = {v!r}: must be in [0, {hi:g}) {unit}"
+                )
+        out[name] = {k: float(v) for k, v in values.items()}
+    return out
 
 
 def read_joint_roles(

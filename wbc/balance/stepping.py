@@ -63,14 +63,23 @@ from ..walking.schedule import (
 )
 from ..walking.spline import min_jerk, smoothstep
 
+#: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
+#: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
+#: robot that states none (robot.toml ``[balance.stepping]``; the OP3's: 60 mm,
+#: benchmarks/op3.md)
+BAND_X = 0.025
+BAND_Y = 0.018
+
 
 @dataclass(frozen=True)
 class SteppingParams:
     """When and how far the footsteps move (module docstring)."""
 
     threshold: float = 0.005  # m: the smallest footstep shift worth a re-plan
-    band_x: float = 0.025  # m: DCM error along the walk (heading frame) a walk shows unpushed
-    band_y: float = 0.018  # m: ... sideways (hqp-daqp: 16 mm, its torso rolls at lift-off)
+    #: m: DCM error along the walk (heading frame) a walk shows unpushed; None: the robot's
+    #: (robot.toml ``[balance.stepping]``, measured on it), else :data:`BAND_X`
+    band_x: float | None = None
+    band_y: float | None = None  # m: ... sideways; None: the robot's, else :data:`BAND_Y`
     settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
     gain: float = 1.0  # footstep shift per m of predicted DCM error
     min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
@@ -84,12 +93,24 @@ class SteppingParams:
     episode_steps: int = 2
     rest_steps: int = 2
 
+    def for_robot(self, robot: Robot) -> SteppingParams:
+        """These parameters with the dead bands left None taken from ``robot``'s
+        ``robot.toml`` ``[balance.stepping]`` (what its unpushed walks show), else the
+        defaults :data:`BAND_X`, :data:`BAND_Y` (measured on the Bioloid)."""
+        data = getattr(robot, "robot_data", None)
+        stated = data.balance.get("stepping", {}) if data is not None else {}
+        bands = {"band_x": BAND_X, "band_y": BAND_Y}
+        out = {k: stated.get(k, d) for k, d in bands.items() if getattr(self, k) is None}
+        return replace(self, **out) if out else self
+
     def check(self) -> SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle",
         ):  # fmt: skip
             v = getattr(self, name)
+            if v is None and name in ("band_x", "band_y"):
+                continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
         for name in ("episode_steps", "rest_steps"):
@@ -218,7 +239,7 @@ class StepAdjuster:
         legs: LegGeometry | None = None,
         enabled: bool = True,
     ) -> None:
-        self.params = (params or SteppingParams()).check()
+        self.params = (params or SteppingParams()).for_robot(robot).check()
         self.enabled = enabled
         meta = ref.meta
         if not can_step(ref):
@@ -257,7 +278,7 @@ class StepAdjuster:
         yaw = float(ref.sole(side)[1][i])
         c, s = math.cos(yaw), math.sin(yaw)
         local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]])
-        band = np.array([self.params.band_x, self.params.band_y])
+        band = np.array([self.params.band_x, self.params.band_y], dtype=float)
         local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
         e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
         return ph, e
