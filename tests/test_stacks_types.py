@@ -30,7 +30,7 @@ from wbc.tasks import Task
 
 
 @njit(cache=True)
-def com_height_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J):
+def com_height_rows(target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J):
     e[0] = target[0] - com[2]
     for k in range(Jcom.shape[1]):
         J[0, k] = Jcom[2, k]

@@ -291,14 +291,16 @@ class Constraint:
         fids = self.frame_ids()
         params = sources(self, self.param_fields)
         m = self.rows
-        call = self.__dict__.get("_kernel_call")
-        if call is None or not call.matches(kin, fids, params) or call.args[-2].shape[0] != m:
+        # one call per set of frames (a swing sole's clearance alternates between two)
+        calls = self.__dict__.setdefault("_kernel_calls", {})
+        call, result = calls.get(fids, (None, None))
+        if call is None or not call.matches(kin, fids, params) or result.h.shape[0] != m:
             h, G = np.empty(m), np.empty((m, kin.model.nv))
             call = KernelCall(kernel, kin, fids, params, self.kernel_inputs, h, G)
-            self._kernel_call = call
-            self._result = Inequality(G, h)
+            result = Inequality(G, h)
+            calls[fids] = (call, result)
         call(kin)
-        return self._result
+        return result
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): a request is a row that Δq = 0
