@@ -57,6 +57,19 @@ def test_ground_clearance_rows_are_the_linearised_corner_heights(robot, seed):
     )
 
 
+def test_ground_clearance_settings_are_its_kernel_parameters(robot):
+    """clearance, damping and max_rise write into the array the kernel reads (by address)."""
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    c = GroundClearanceConstraint(robot, "r_sole", clearance=-0.01)
+    h0 = c.compute(kin).h.copy()
+    assert h0.min() > 0.0  # (no corner below: no way back)
+    c.clearance = -0.02
+    assert c.clearance == -0.02 and c.settings[0] == -0.02
+    np.testing.assert_allclose(c.compute(kin).h, h0 + 0.01, atol=1e-15)
+    c.clearance, c.max_rise = h0.max() + 0.01, 0.001  # every corner below: capped way back
+    assert np.all(c.compute(kin).h == -0.001)
+
+
 @given(st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=3, max_size=30))
 def test_convex_hull_contains_every_point(points):
     pts = np.array(points)
