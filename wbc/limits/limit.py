@@ -47,9 +47,6 @@ ConstraintKernel = Callable[..., None]
 #: tick holds them (so that the usual stacks share one tick), plus those of its stack's others
 PACKAGE_BOUND_KERNELS: list[BoundKernel] = []
 
-#: the constraint kernels of the package's own constraints, in definition order
-PACKAGE_CONSTRAINT_KERNELS: list[ConstraintKernel] = []
-
 
 def way_back(violation: np.ndarray, fraction: float, most: float) -> np.ndarray:
     """h of the rows of a constraint violated by ``violation`` > 0 at the current
@@ -222,11 +219,6 @@ class Constraint:
         kernel = cls.__dict__.get("row_kernel")
         if isinstance(kernel, staticmethod):
             refresh_kernel(kernel.__func__)
-            if (
-                cls.__module__.startswith("wbc.")
-                and kernel.__func__ not in PACKAGE_CONSTRAINT_KERNELS
-            ):
-                PACKAGE_CONSTRAINT_KERNELS.append(kernel.__func__)
         elif "compute" in cls.__dict__ and "row_kernel" not in cls.__dict__:
             cls.row_kernel = None  # its own Python rows: an inherited kernel no longer applies
         unknown = set(cls.kernel_inputs) - OPTIONAL
