@@ -10,19 +10,22 @@ from hypothesis import strategies as st
 from numba import njit
 
 from wbc import ConfigurationError, Kinematics, TaskError
+from wbc.compiled.rows import frame_jacobian
 from wbc.geometry import convex_hull, halfplanes, signed_distance
 from wbc.limits import (
     Bounds,
     BoxLimit,
     ComPolygonConstraint,
+    Constraint,
     GroundClearanceConstraint,
     JointPositionLimit,
     JointVelocityLimit,
     LinearInequality,
     box_bounds,
 )
+from wbc.limits.limit import Inequality
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
-from wbc.tasks import ContactTask, PostureTask
+from wbc.tasks import ComTask, ContactTask, PostureTask
 
 
 def random_q(robot, seed):
@@ -52,6 +55,19 @@ def test_ground_clearance_rows_are_the_linearised_corner_heights(robot, seed):
         robot.frame_placement(q, "r_sole").translation[2]
         + np.min(c.corners @ robot.frame_placement(q, "r_sole").rotation[2])
     )
+
+
+def test_ground_clearance_settings_are_its_kernel_parameters(robot):
+    """clearance, damping and max_rise write into the array the kernel reads (by address)."""
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    c = GroundClearanceConstraint(robot, "r_sole", clearance=-0.01)
+    h0 = c.compute(kin).h.copy()
+    assert h0.min() > 0.0  # (no corner below: no way back)
+    c.clearance = -0.02
+    assert c.clearance == -0.02 and c.settings[0] == -0.02
+    np.testing.assert_allclose(c.compute(kin).h, h0 + 0.01, atol=1e-15)
+    c.clearance, c.max_rise = h0.max() + 0.01, 0.001  # every corner below: capped way back
+    assert np.all(c.compute(kin).h == -0.001)
 
 
 @given(st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=3, max_size=30))
@@ -230,3 +246,99 @@ def test_a_box_limit_reading_a_frame_runs_compiled(robot, solver):
         assert s.compiled_ticks == (1 if compiled is None else 0), s.compiled_reason()
         assert s.last.lower[2] == pytest.approx(0.0, abs=1e-12)  # the floor: the frame now
     assert np.abs(steps[None] - steps[False]).max() < 1e-9
+
+
+# ---------------------------------------------------------------------- a user's own constraint
+@njit(cache=True)
+def _frame_above_rows(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, h, G):
+    """A frame stays above a floor: p_z + J_z Δq >= floor ⇔ −J_z Δq <= p_z − floor."""
+    s = slots[0]
+    frame_jacobian(Jw, supports[s], ps[s], Jf)
+    for k in range(G.shape[1]):
+        G[0, k] = -Jf[2, k]
+    h[0] = ps[s, 2] - params[0]
+
+
+class FrameAbove(Constraint):
+    """An inequality limit written outside the package (a constraint kernel, one row)."""
+
+    row_kernel = staticmethod(_frame_above_rows)
+    param_fields = ("floor",)
+    rows = 1
+
+    def __init__(self, robot, frame: str, floor: float) -> None:
+        super().__init__("frame_above")
+        self.frame_id = robot.frame_id(frame)
+        self.floor = np.array([floor])
+
+    def frame_ids(self) -> tuple[int, ...]:
+        return (self.frame_id,)
+
+
+class PythonAbove(Constraint):
+    """The same row in Python (no constraint kernel)."""
+
+    def __init__(self, robot, frame: str, floor: float) -> None:
+        super().__init__("python_above")
+        self.frame_id, self.floor = robot.frame_id(frame), floor
+
+    def compute(self, kin):
+        fid = self.frame_id
+        Jf = np.zeros((6, kin.model.nv))
+        frame_jacobian(kin.data.J, kin.robot.frame_support(fid), kin.translation(fid), Jf)
+        return Inequality(-Jf[2:3].copy(), np.array([kin.translation(fid)[2] - self.floor]))
+
+
+def _sinking_stack(robot, q, constraint):
+    """Both soles held, the CoM pulled 2 cm down; the torso kept above a floor 1 mm below it."""
+    stack = TaskStack(robot)
+    kin = Kinematics(robot, q)
+    for sole in ("l_sole", "r_sole"):
+        stack.add(ContactTask(robot, sole, name=sole), level=0, hard=True).set_target_from(kin)
+    stack.add(ComTask(robot, kin.com - [0.0, 0.0, 0.02]), level=1)
+    stack.add(PostureTask(robot, q[7:]), level=2, weight=1e-3)
+    stack.add_constraint(constraint, level=0)
+    return stack
+
+
+@pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
+def test_a_constraint_defined_outside_the_package_runs_compiled(robot, solver):
+    """A user's inequality limit (a constraint kernel, in a module outside wbc): its rows
+    are the Python twin's, the stack stays on the compiled path, the row binds (the torso
+    stops at the floor), and the compiled step is the numpy path's to 1e-9."""
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    torso = robot.frame_id("torso")
+    floor = kin.translation(torso)[2] - 0.001
+    user, twin = FrameAbove(robot, "torso", floor), PythonAbove(robot, "torso", floor)
+    (G, h), (G2, h2) = user.compute(kin), twin.compute(kin)
+    assert np.array_equal(G, G2) and np.array_equal(h, h2)
+    steps = {}
+    for compiled in (None, False):
+        s = solver(_sinking_stack(robot, q, FrameAbove(robot, "torso", floor)), compiled=compiled)
+        steps[compiled] = s.step(q, dt=0.01)
+        assert s.compiled_ticks == (1 if compiled is None else 0), s.compiled_reason()
+    assert np.abs(steps[None] - steps[False]).max() < 1e-9
+    dq = pin.difference(robot.model, q, steps[None])
+    assert G @ dq - h == pytest.approx([0.0], abs=1e-9)  # it binds: the torso at the floor
+    free = solver(_sinking_stack(robot, q, FrameAbove(robot, "torso", floor - 1.0)))
+    assert G @ pin.difference(robot.model, q, free.step(q, dt=0.01)) > h + 1e-4  # (else below)
+    s = solver(_sinking_stack(robot, q, twin))
+    assert np.abs(s.step(q, dt=0.01) - steps[None]).max() < 1e-9
+
+
+def test_a_constraint_kernel_needs_its_rows(robot):
+    class NoRows(Constraint):
+        row_kernel = staticmethod(_frame_above_rows)
+
+    with pytest.raises(ConfigurationError, match="no rows count"):
+        NoRows("no_rows").compute(Kinematics(robot, robot.configuration("walk_ready")))
+
+
+def test_a_constraint_without_rows_of_its_own_is_named():
+    with pytest.raises(ConfigurationError, match="neither a row_kernel nor compute"):
+        Constraint("bare").compute(None)
+    with pytest.raises(ConfigurationError, match=r"constraint type Bad: kernel_inputs"):
+
+        class Bad(FrameAbove):
+            kernel_inputs = frozenset({"speed"})

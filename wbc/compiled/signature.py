@@ -1,8 +1,9 @@
-"""The one signature of every kernel: a task's rows, a box limit's bounds.
+"""The one signature of every kernel: a task's rows, a box limit's bounds, a constraint's rows.
 
 A kernel is a numba function (``numba.njit(cache=True)``) that the compiled tick calls for
-each task or limit of a stack, and that the numpy path calls from Python with the same
-inputs (:meth:`wbc.tasks.Task.compute_error`, :meth:`wbc.limits.BoxLimit.bounds`)::
+each task or box limit of a stack, and that the numpy path calls from Python with the same
+inputs (:meth:`wbc.tasks.Task.compute_error`, :meth:`wbc.limits.BoxLimit.bounds`,
+:meth:`wbc.limits.Constraint.compute`, which every path calls for a constraint)::
 
     kernel(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, out1, out2)
 
@@ -10,7 +11,7 @@ Inputs (every kernel gets all of them; read what you need):
 
 * ``params`` — the object's own numbers packed in one vector: a task's targets (the arrays of
   :attr:`~wbc.tasks.Task.target_fields`, in order, matrices row-major), a limit's parameters
-  (:attr:`~wbc.limits.BoxLimit.param_fields`);
+  (:attr:`~wbc.limits.BoxLimit.param_fields`, :attr:`~wbc.limits.Constraint.param_fields`);
 * ``slots`` — for each frame of its ``frame_ids()``, in order, the frame's index ``s`` into the
   four frame arrays:
 * ``Rs[s]`` (3 x 3), ``ps[s]`` (3) — the frame's world rotation and position;
@@ -28,7 +29,8 @@ Inputs (every kernel gets all of them; read what you need):
 Outputs: a task's row kernel writes its full (unmasked) error e = x* − x into ``out1[:dim]``
 and its Jacobian into ``out2[:dim]`` (the arrays may be longer); a box limit's bound kernel
 writes its lower and upper bounds on Δq (nv each, ±inf where it sets none) into ``out1`` and
-``out2``.
+``out2``; a constraint's kernel writes its rows G Δq <= h, h into ``out1`` and G into
+``out2`` (:attr:`~wbc.limits.Constraint.rows` of each, exactly).
 
 ``vs``, ``hg``, ``Ag`` and ``v`` cost a tick something, so they are computed only for a
 stack whose tasks or limits declare them (their class's ``kernel_inputs``, a subset of
@@ -114,12 +116,12 @@ def arguments(
 
 class KernelCall:
     """A kernel called from Python (the numpy path) at the configurations of one kinematics
-    object, for an item (a task, a box limit) whose parameters are the arrays ``sources``
-    (bound once, read by address) and whose frames are ``frame_ids``: its inputs allocated
-    once and refreshed in place at each call (q and the parameters gathered in one compiled
-    call, the frames' placements copied), then its compiled entry point (no type dispatch
-    of 16 arguments: the numpy path calls every task's kernel at every tick). The outputs are
-    the call's own ``out1``/``out2``, overwritten by the next call."""
+    object, for an item (a task, a box limit, a constraint) whose parameters are the arrays
+    ``sources`` (bound once, read by address) and whose frames are ``frame_ids``: its inputs
+    allocated once and refreshed in place at each call (q and the parameters gathered in one
+    compiled call, the frames' placements copied), then its compiled entry point (no type
+    dispatch of 16 arguments: the numpy path calls every task's kernel at every tick). The
+    outputs are the call's own ``out1``/``out2``, overwritten by the next call."""
 
     def __init__(
         self,

@@ -9,7 +9,7 @@ from ..compiled.rows import frame_jacobian
 from ..exceptions import ConfigurationError, TaskError
 from ..geometry import sole_corners
 from ..model import Kinematics, Robot
-from .limit import Constraint, Inequality, way_back
+from .limit import Constraint, Inequality
 
 #: defaults of the way back of a sole corner that starts below the clearance: a fraction
 #: of its depth per step (the self-collision damper's), at most this many metres per step
@@ -19,17 +19,26 @@ DEFAULT_MAX_RISE = 0.002
 
 
 @njit(cache=True)
-def clearance_rows(Jw, support, p, R, corners, clearance, Jf, G, h) -> None:
-    """G, h of :class:`GroundClearanceConstraint` (one row per corner) before the way back:
-    h is each corner's height above the clearance."""
-    frame_jacobian(Jw, support, p, Jf)
-    for c in range(corners.shape[0]):
-        wx = R[0, 0] * corners[c, 0] + R[0, 1] * corners[c, 1] + R[0, 2] * corners[c, 2]
-        wy = R[1, 0] * corners[c, 0] + R[1, 1] * corners[c, 1] + R[1, 2] * corners[c, 2]
-        wz = R[2, 0] * corners[c, 0] + R[2, 1] * corners[c, 1] + R[2, 2] * corners[c, 2]
+def clearance_rows(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, h, G):
+    """The constraint kernel of :class:`GroundClearanceConstraint` (one row per corner; the
+    kernels' signature, :mod:`wbc.compiled.signature`): ``params`` = [clearance, damping ξ,
+    max_rise, then the corners in the sole frame (x, y, z each)], the sole in slot 0. h is
+    each corner's height above the clearance, or where negative (a corner below it) its way
+    back −min(ξ δ, max_rise) (:func:`~wbc.limits.limit.way_back`)."""
+    s = slots[0]
+    R, p = Rs[s], ps[s]
+    frame_jacobian(Jw, supports[s], p, Jf)
+    clearance, damping, most = params[0], params[1], params[2]
+    for c in range(h.shape[0]):
+        x, y, z = params[3 + 3 * c], params[4 + 3 * c], params[5 + 3 * c]
+        wx = R[0, 0] * x + R[0, 1] * y + R[0, 2] * z
+        wy = R[1, 0] * x + R[1, 1] * y + R[1, 2] * z
+        wz = R[2, 0] * x + R[2, 1] * y + R[2, 2] * z
         for k in range(Jf.shape[1]):
             G[c, k] = wx * Jf[4, k] - wy * Jf[3, k] - Jf[2, k]
         h[c] = wz + p[2] - clearance
+        if h[c] < 0.0:
+            h[c] = -min(damping * -h[c], most)
 
 
 class GroundClearanceConstraint(Constraint):
@@ -48,6 +57,8 @@ class GroundClearanceConstraint(Constraint):
     """
 
     held_rows_met = True  # the corners below the clearance are requests (:meth:`split`)
+    row_kernel = staticmethod(clearance_rows)
+    param_fields = ("settings", "corners")
 
     def __init__(
         self,
@@ -66,33 +77,45 @@ class GroundClearanceConstraint(Constraint):
         if not max_rise > 0:
             raise ConfigurationError(f"ground_clearance max_rise must be > 0 m, got {max_rise}")
         self.robot = robot
-        self.clearance = clearance
-        self.damping, self.max_rise = float(damping), float(max_rise)
+        #: [clearance, damping, max_rise] (the kernel's first parameters: :attr:`clearance`,
+        #: :attr:`damping`, :attr:`max_rise` read and write it)
+        self.settings = np.array([clearance, damping, max_rise], dtype=float)
         self.set_frame(frame)
         # the foot rectangle: the robot's (robot.toml [feet]) unless given
         foot_length, foot_width = robot.foot_size
-        self.corners = sole_corners(
-            foot_length if length is None else length, foot_width if width is None else width
+        self.corners = np.ascontiguousarray(
+            sole_corners(
+                foot_length if length is None else length, foot_width if width is None else width
+            ),
+            dtype=float,
         )
-        self._G = np.zeros((4, robot.nv))
-        self._h = np.zeros(4)
-        self._Jf = np.zeros((6, robot.nv))
+
+    clearance = property(
+        lambda self: float(self.settings[0]),
+        lambda self, value: self.settings.__setitem__(0, value),
+        doc="The height (m) every sole corner keeps above the ground.",
+    )
+    damping = property(
+        lambda self: float(self.settings[1]),
+        lambda self, value: self.settings.__setitem__(1, value),
+        doc="ξ: the fraction of a corner's depth below the clearance asked back per step.",
+    )
+    max_rise = property(
+        lambda self: float(self.settings[2]),
+        lambda self, value: self.settings.__setitem__(2, value),
+        doc="The most (m) a corner below the clearance is asked to rise per step.",
+    )
 
     def set_frame(self, frame: str) -> None:
         self.frame_id = self.robot.frame_id(frame)
         self.frame = frame
 
-    def compute(self, kin: Kinematics) -> Inequality:
-        fid = self.frame_id
-        clearance_rows(
-            kin.data.J, self.robot.frame_support(fid), kin.translation(fid), kin.rotation(fid),
-            self.corners, float(self.clearance), self._Jf, self._G, self._h,
-        )  # fmt: skip
-        h = self._h
-        if h.min() < 0.0:  # a corner below the clearance: its way back
-            below = h < 0.0
-            h[below] = way_back(-h[below], self.damping, self.max_rise)
-        return Inequality(self._G, h)
+    def frame_ids(self) -> tuple[int, ...]:
+        return (self.frame_id,)
+
+    @property
+    def rows(self) -> int:
+        return self.corners.shape[0]
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """(rows to hold, requests): the rows of the corners below the clearance (h < 0: Δq = 0

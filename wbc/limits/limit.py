@@ -10,11 +10,15 @@ kernels' one signature, :mod:`wbc.compiled.signature`) writes its lower and uppe
 :meth:`BoxLimit.bounds` calls it from Python (the numpy path), the compiled tick calls the
 same kernel for every box limit of a stack, wherever its class is defined. The joint
 position and velocity limits are two of them.
+
+A constraint is written the same way: a **constraint kernel** (the same signature) writes
+its rows h and G; :meth:`Constraint.compute` calls it. The ground clearance and the CoM
+support polygon are two of them; a constraint without one (the self-collision pairs, a
+:class:`~wbc.limits.LinearInequality`) overrides :meth:`Constraint.compute` instead.
 """
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
@@ -31,6 +35,13 @@ from ..model import Kinematics
 #: (the arrays named by :attr:`BoxLimit.param_fields`, in order), the outputs its bounds on
 #: Δq (nv each; ±inf where it sets none)
 BoundKernel = Callable[..., None]
+
+#: ``rows(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, h, G) ->
+#: None``, compiled with ``numba.njit(cache=True)``: the kernels' one signature
+#: (:mod:`wbc.compiled.signature`), ``params`` the constraint's parameters packed in one
+#: vector (the arrays named by :attr:`Constraint.param_fields`, in order), the outputs its
+#: rows G Δq <= h (:attr:`Constraint.rows` of them: h, then G)
+ConstraintKernel = Callable[..., None]
 
 #: the bound kernels of the package's own box limits, in definition order: every compiled
 #: tick holds them (so that the usual stacks share one tick), plus those of its stack's others
@@ -140,18 +151,18 @@ class BoxLimit:
 
 
 class _ParamField:
-    """The attribute ``name`` of :attr:`BoxLimit.param_fields`: bound once (in ``__init__``, a
-    float64 array kept as it is, e.g. a view of the robot's limits), then an assignment
-    writes into that array (the compiled tick and :meth:`BoxLimit.bounds` read it by
-    address: a re-bound attribute would be ignored there). (Only ``__set__``: a read is a
-    plain instance attribute read.)"""
+    """The attribute ``name`` of :attr:`BoxLimit.param_fields` (or
+    :attr:`Constraint.param_fields`): bound once (in ``__init__``, a float64 array kept as it
+    is, e.g. a view of the robot's limits), then an assignment writes into that array (the
+    compiled tick and :meth:`BoxLimit.bounds` read it by address: a re-bound attribute would
+    be ignored there). (Only ``__set__``: a read is a plain instance attribute read.)"""
 
     __slots__ = ("name",)
 
     def __init__(self, name: str) -> None:
         self.name = name
 
-    def __set__(self, limit: BoxLimit, value) -> None:
+    def __set__(self, limit: BoxLimit | Constraint, value) -> None:
         own = limit.__dict__.get(self.name)
         if own is None:
             if not (isinstance(value, np.ndarray) and value.dtype == np.float64):
@@ -160,8 +171,9 @@ class _ParamField:
             return
         v = np.asarray(value, dtype=float)
         if v.shape != own.shape:
+            what = "box limit" if isinstance(limit, BoxLimit) else "constraint"
             raise ConfigurationError(
-                f"box limit {limit.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
+                f"{what} {limit.name!r}: {self.name} must have shape {own.shape}, got {v.shape}"
             )
         own[...] = v
 
@@ -185,8 +197,40 @@ def box_bounds(
     fold_boxes(boxes, len(limits), lower, upper)
 
 
-class Constraint(ABC):
-    """Linear inequality rows on Δq, usable at any priority level."""
+class Constraint:
+    """Linear inequality rows on Δq, usable at any priority level.
+
+    Written as a **constraint kernel** (:data:`ConstraintKernel`, ``staticmethod(kernel)``)
+    with the arrays it reads named in :attr:`param_fields` (owned by the constraint, updated
+    in place), its frames in :meth:`frame_ids` and its number of rows in :attr:`rows`: the
+    kernel writes h (``out1``) and G (``out2``), as a task's row kernel writes its error and
+    Jacobian, with the same inputs (:mod:`wbc.compiled.signature`), wherever its class is
+    defined. A constraint without one overrides :meth:`compute` instead.
+    """
+
+    #: the constraint's rows (see :data:`ConstraintKernel`); None: :meth:`compute` is overridden
+    row_kernel: ConstraintKernel | None = None
+    #: the names of the arrays the kernel reads (its ``params``), in order
+    param_fields: tuple[str, ...] = ()
+    #: the optional kernel inputs it reads (:data:`wbc.compiled.signature.OPTIONAL`)
+    kernel_inputs: frozenset[str] = frozenset()
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        kernel = cls.__dict__.get("row_kernel")
+        if isinstance(kernel, staticmethod):
+            refresh_kernel(kernel.__func__)
+        elif "compute" in cls.__dict__ and "row_kernel" not in cls.__dict__:
+            cls.row_kernel = None  # its own Python rows: an inherited kernel no longer applies
+        unknown = set(cls.kernel_inputs) - OPTIONAL
+        if unknown:
+            raise ConfigurationError(
+                f"constraint type {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; "
+                f"allowed: {sorted(OPTIONAL)}"
+            )
+        for name in cls.__dict__.get("param_fields", ()):
+            if not isinstance(cls.__dict__.get(name), property):
+                setattr(cls, name, _ParamField(name))
 
     #: True if :meth:`split` holds only rows that Δq = 0 meets (h >= 0): every row violated
     #: at ``kin`` is a request, so the rows held never show a violation there (a converged
@@ -211,9 +255,45 @@ class Constraint(ABC):
             for stack in getattr(self, "_stacks", ()):
                 stack.revision += 1
 
-    @abstractmethod
+    def frame_ids(self) -> tuple[int, ...]:
+        """The frames the constraint kernel reads (in its ``slots`` order)."""
+        return ()
+
+    @property
+    def rows(self) -> int:
+        """The number of rows the constraint kernel writes (after :meth:`prepare`)."""
+        raise ConfigurationError(
+            f"constraint type {type(self).__name__} has a row_kernel but no rows count"
+        )
+
+    def prepare(self, kin: Kinematics) -> None:
+        """Set the parameters that the rows at ``kin`` need and that its kernel does not
+        compute (e.g. a support polygon rebuilt after a support switch), before they are
+        computed (default: none)."""
+        return None
+
     def compute(self, kin: Kinematics) -> Inequality:
-        """(G, h) at the configuration of ``kin``."""
+        """(G, h) at the configuration of ``kin``: the constraint kernel's (the arrays returned
+        are the constraint's own, overwritten by the next call)."""
+        kernel = type(self).row_kernel
+        if kernel is None:
+            raise ConfigurationError(
+                f"constraint type {type(self).__name__} defines neither a row_kernel nor compute"
+            )
+        self.prepare(kin)
+        fids = self.frame_ids()
+        params = sources(self, self.param_fields)
+        m = self.rows
+        # one call per set of frames (a swing sole's clearance alternates between two)
+        calls = self.__dict__.setdefault("_kernel_calls", {})
+        call, result = calls.get(fids, (None, None))
+        if call is None or not call.matches(kin, fids, params) or result.h.shape[0] != m:
+            h, G = np.empty(m), np.empty((m, kin.model.nv))
+            call = KernelCall(kernel, kin, fids, params, self.kernel_inputs, h, G)
+            result = Inequality(G, h)
+            calls[fids] = (call, result)
+        call(kin)
+        return result
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): a request is a row that Δq = 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
 from ..geometry import (
     FOOT_LENGTH,
@@ -15,7 +16,7 @@ from ..geometry import (
     world_corners,
 )
 from ..model import Kinematics, Robot
-from .limit import Constraint, Inequality
+from .limit import Constraint
 
 
 class SupportPolygon:
@@ -24,7 +25,9 @@ class SupportPolygon:
     def __init__(self, vertices: np.ndarray, margin: float = 0.0) -> None:
         self.vertices = np.asarray(vertices, dtype=float)
         self.margin = margin
-        self.A, self.b = halfplanes(self.vertices, margin)
+        A, b = halfplanes(self.vertices, margin)
+        self.A = np.ascontiguousarray(A, dtype=float)
+        self.b = np.ascontiguousarray(b, dtype=float)
 
     @classmethod
     def from_soles(
@@ -42,6 +45,17 @@ class SupportPolygon:
         return cls(convex_hull(corners[:, :2]), margin)
 
 
+@njit(cache=True)
+def com_polygon_rows(params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, h, G):
+    """The constraint kernel of :class:`ComPolygonConstraint` (the kernels' signature,
+    :mod:`wbc.compiled.signature`): ``params`` = [A (k x 2, row-major), b (k)], the polygon's
+    half-planes A x <= b; G = A J_c,xy and h = b − A c_xy (one row per edge)."""
+    k = h.shape[0]
+    A = np.ascontiguousarray(params[: 2 * k]).reshape((k, 2))
+    G[:, :] = np.dot(A, np.ascontiguousarray(Jcom[:2]))
+    h[:] = params[2 * k : 3 * k] - np.dot(A, np.ascontiguousarray(com[:2]))
+
+
 class ComPolygonConstraint(Constraint):
     """CoM ground projection inside the support polygon shrunk by ``margin``:
 
@@ -50,6 +64,9 @@ class ComPolygonConstraint(Constraint):
     The polygon is rebuilt from the soles in contact on :meth:`set_support` (rows change only
     when the support changes).
     """
+
+    row_kernel = staticmethod(com_polygon_rows)
+    param_fields = ("halfplanes_A", "halfplanes_b")
 
     def __init__(
         self,
@@ -81,10 +98,24 @@ class ComPolygonConstraint(Constraint):
         self.polygon = SupportPolygon.from_soles(kin, self.sole_ids, self.margin, *self.foot)
         return self.polygon
 
-    def compute(self, kin: Kinematics) -> Inequality:
+    def prepare(self, kin: Kinematics) -> None:
+        """The polygon of the soles in contact, from their placement at ``kin`` (once per
+        :meth:`set_support`)."""
         if self.polygon is None:
             self.update_polygon(kin)
-        A, b = self.polygon.A, self.polygon.b
-        G = A @ kin.com_jacobian[:2]
-        h = b - A @ kin.com[:2]
-        return Inequality(G, h)
+
+    @property
+    def halfplanes_A(self) -> np.ndarray:
+        """The polygon's half-planes A (k x 2; :meth:`prepare` first)."""
+        assert self.polygon is not None, "prepare() builds the polygon"
+        return self.polygon.A
+
+    @property
+    def halfplanes_b(self) -> np.ndarray:
+        """The polygon's half-planes b (k)."""
+        assert self.polygon is not None, "prepare() builds the polygon"
+        return self.polygon.b
+
+    @property
+    def rows(self) -> int:
+        return 0 if self.polygon is None else self.polygon.b.shape[0]
