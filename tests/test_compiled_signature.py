@@ -130,7 +130,7 @@ def test_a_kernel_of_the_old_signature_is_refused_when_its_class_is_defined():
     refused in one line naming the class and the signature, not in numba's typing at the
     first compiled tick (a user's 12-argument kernel of the earlier signature did that)."""
     from wbc.exceptions import ModelError
-    from wbc.limits import BoxLimit
+    from wbc.limits import BoxLimit, Constraint
 
     @njit(cache=False)
     def old_rows(target, slots, Rs, ps, supports, Jw, com, Jcom, q, Jf, e, J):
@@ -147,3 +147,9 @@ def test_a_kernel_of_the_old_signature_is_refused_when_its_class_is_defined():
 
         class OldBox(BoxLimit):
             bound_kernel = staticmethod(old_rows)
+
+    with pytest.raises(ModelError, match=r"constraint type OldRows: row_kernel 'old_rows'"):
+
+        class OldRows(Constraint):
+            rows = 1
+            row_kernel = staticmethod(old_rows)

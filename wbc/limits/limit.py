@@ -219,6 +219,7 @@ class Constraint:
         super().__init_subclass__(**kwargs)
         kernel = cls.__dict__.get("row_kernel")
         if isinstance(kernel, staticmethod):
+            check_arity(kernel.__func__, f"constraint type {cls.__name__}: row_kernel")
             refresh_kernel(kernel.__func__)
         elif "compute" in cls.__dict__ and "row_kernel" not in cls.__dict__:
             cls.row_kernel = None  # its own Python rows: an inherited kernel no longer applies
