@@ -82,13 +82,21 @@ def test_no_workers_for_other_kernel_sets_or_inside_a_worker(tmp_path, monkeypat
 
 
 def test_package_ticks_are_those_of_the_package_stacks(robot):
-    from wbc.solvers.plan import bound_set, box_limits, kernel_set, package_ticks
+    from wbc.solvers.plan import (
+        bound_set,
+        box_limits,
+        constraint_set,
+        kernel_set,
+        package_ticks,
+    )
     from wbc.stacks import load_stack
 
     stack = load_stack("walk", robot).stack
     tasks = [t for lv in stack.levels for t in lv.active_tasks()]
+    constraints = [c for lv in stack.levels for c in lv.constraints]
     kernels, bounds = kernel_set(tasks), bound_set(box_limits(stack))
-    assert package_ticks() is dispatch.ticks(kernels, bounds, False, True)
+    cons = constraint_set(constraints)
+    assert package_ticks() is dispatch.ticks(kernels, bounds, False, True, cons)
     assert package_ticks().package and not package_ticks().split
 
 

@@ -52,7 +52,8 @@ def run(job: dict) -> None:
 
     kernels = [load_kernel(e) for e in job["kernels"]]
     bounds = [load_kernel(e) for e in job["bounds"]]
-    module = load_generated(job["name"], Path(job["path"]), kernels, bounds)
+    constraints = [load_kernel(e) for e in job.get("constraints", ())]
+    module = load_generated(job["name"], Path(job["path"]), kernels, bounds, constraints)
     signature = pickle.loads(bytes.fromhex(job["signature"]))
     getattr(module, job["tick"]).compile(signature)
 

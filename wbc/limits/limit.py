@@ -47,6 +47,10 @@ ConstraintKernel = Callable[..., None]
 #: tick holds them (so that the usual stacks share one tick), plus those of its stack's others
 PACKAGE_BOUND_KERNELS: list[BoundKernel] = []
 
+#: the constraint kernels of the package's own constraints, in definition order (as
+#: :data:`PACKAGE_BOUND_KERNELS`)
+PACKAGE_CONSTRAINT_KERNELS: list[ConstraintKernel] = []
+
 
 def way_back(violation: np.ndarray, fraction: float, most: float) -> np.ndarray:
     """h of the rows of a constraint violated by ``violation`` > 0 at the current
@@ -221,6 +225,9 @@ class Constraint:
         if isinstance(kernel, staticmethod):
             check_arity(kernel.__func__, f"constraint type {cls.__name__}: row_kernel")
             refresh_kernel(kernel.__func__)
+            package = PACKAGE_CONSTRAINT_KERNELS
+            if cls.__module__.startswith("wbc.") and kernel.__func__ not in package:
+                package.append(kernel.__func__)
         elif "compute" in cls.__dict__ and "row_kernel" not in cls.__dict__:
             cls.row_kernel = None  # its own Python rows: an inherited kernel no longer applies
         unknown = set(cls.kernel_inputs) - OPTIONAL

@@ -81,7 +81,6 @@ class HierarchicalQP(StackSolver):
         nv = self.robot.nv
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
-        self._inequalities: list | None = None
         self.diagnosis = ""
 
     @property
@@ -101,7 +100,11 @@ class HierarchicalQP(StackSolver):
             from .plan import CascadePlan
 
             fast = CascadePlan(
-                self, self.kin, [lv.active_tasks() for lv in levels], [lv.hard for lv in levels]
+                self,
+                self.kin,
+                [lv.active_tasks() for lv in levels],
+                [lv.hard for lv in levels],
+                constraints,
             )
         return _Layout(
             levels,
@@ -132,7 +135,7 @@ class HierarchicalQP(StackSolver):
             return
         self._built = True
         dq = last.dq
-        problems, _, _ = self._assemble(self.kin, None, self._inequalities, self.fast)
+        problems, _, _ = self._assemble(self.kin, None, self._plan_inequalities(), self.fast)
         self._problems = [
             LevelProblem(
                 p.priority,
@@ -156,6 +159,13 @@ class HierarchicalQP(StackSolver):
             )
             for p, g0, g1 in zip(self._problems, g.g_rows[:-1], g.g_rows[1:], strict=True)
         ]
+
+    def _plan_inequalities(self) -> list | None:
+        """Each level's (G, h, row slices) of the last compiled tick: views of the plan's
+        buffers, which the tick filled (None: the stack has no constraint)."""
+        if not self._all_constraints:
+            return None
+        return self.fast.constraints.level_blocks()
 
     def _inequalities_at(self, kin: Kinematics) -> list | None:
         """Each level's (G, h, row slices) at ``kin`` (None: the stack has no constraint)."""
@@ -190,7 +200,6 @@ class HierarchicalQP(StackSolver):
         when that fails (an infeasible hard level, an active set that does not settle)."""
         if self._key != self.stack.revision:
             self._plan()
-        self._inequalities = inequalities = self._inequalities_at(kin)
         fast = self.fast
         interim = fast is not None and self.compiled is None and not fast.ready()
         if interim:  # compiling in the background: meanwhile the numpy path and the backend
@@ -198,13 +207,17 @@ class HierarchicalQP(StackSolver):
             # waits for the compiled tick
             self.interim_ticks += 1
         if fast is not None:
-            if fast.solve(kin, dt, inequalities) == 0:  # fills the plan's rows and bounds
+            # fills the plan's rows, bounds and inequality rows (the constraints' kernels)
+            if fast.solve(kin, dt) == 0:
                 self.compiled_ticks += 1
                 self.relaxed = False
                 self.diagnosis = ""
                 self._built = False
                 return fast.solution
             self.handed_back_ticks += 1
+            inequalities = self._plan_inequalities()
+        else:
+            inequalities = self._inequalities_at(kin)
         problems, lower, upper = self._assemble(kin, dt, inequalities, fast)
         self._problems = problems
         if fast is None and not interim:

@@ -22,12 +22,13 @@ import numpy as np
 from ..compiled import dispatch as D
 from ..compiled.signature import momentum_into, velocity
 from ..exceptions import TaskError
-from ..limits import BoxLimit
-from ..limits.limit import PACKAGE_BOUND_KERNELS
+from ..limits import BoxLimit, Constraint
+from ..limits.limit import PACKAGE_BOUND_KERNELS, PACKAGE_CONSTRAINT_KERNELS
 from ..model import Kinematics, Robot
 from ..tasks import Task
 from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
+from .inequalities import ConstraintRows, compiled_constraint
 
 
 def numba_available() -> bool:
@@ -76,7 +77,14 @@ def bound_set(limits: Sequence[BoxLimit]) -> tuple:
     return _ordered(PACKAGE_BOUND_KERNELS, {type(b).bound_kernel for b in limits})
 
 
-def kernel_inputs(items: Sequence[Task | BoxLimit]) -> frozenset[str]:
+def constraint_set(constraints: Sequence[Constraint]) -> tuple:
+    """The constraint kernels a tick of ``constraints`` dispatches over: the package's own,
+    then those of other constraint types among ``constraints`` (with a kernel)."""
+    kernels = {type(c).row_kernel for c in constraints if compiled_constraint(c)}
+    return _ordered(PACKAGE_CONSTRAINT_KERNELS, kernels)
+
+
+def kernel_inputs(items: Sequence[Task | BoxLimit | Constraint]) -> frozenset[str]:
     """The optional kernel inputs that the kernels of ``items`` declare."""
     return frozenset().union(*(type(i).kernel_inputs for i in items))
 
@@ -84,7 +92,13 @@ def kernel_inputs(items: Sequence[Task | BoxLimit]) -> frozenset[str]:
 def package_ticks() -> D.Ticks:
     """The compiled tick of the package's own kernels (that of every package stack)."""
     # (the package's task and limit types are defined: this module imports them)
-    return D.ticks(tuple(PACKAGE_KERNELS), tuple(PACKAGE_BOUND_KERNELS), False, True)
+    return D.ticks(
+        tuple(PACKAGE_KERNELS),
+        tuple(PACKAGE_BOUND_KERNELS),
+        False,
+        True,
+        tuple(PACKAGE_CONSTRAINT_KERNELS),
+    )
 
 
 #: frame slots of a tick, padded to a multiple of this (see :class:`Frames`)
@@ -325,59 +339,6 @@ class Rows:
         return (self.spec, self.sel, self.sqrt_w, self.gain_w, self.J, self.E, self.b)
 
 
-class InequalityRows:
-    """The inequality rows G Δq <= h of a tick, level by level, copied from the constraints
-    into buffers that the tick reads (``g_rows``: each level's first row, then the end), with
-    each level's working set (its warm start, forgotten when the levels' row counts change)."""
-
-    def __init__(self, n_levels: int, nv: int, capacity: int = 8) -> None:
-        self.n_levels, self.nv = n_levels, nv
-        self.g_rows = np.zeros(n_levels + 1, dtype=np.int64)
-        self.counts = (0,) * n_levels
-        self.total = 0  # rows at the last tick
-        self._allocate(capacity)
-
-    def _allocate(self, capacity: int) -> None:
-        self.G = np.zeros((capacity, self.nv))
-        self.h = np.zeros(capacity)
-        self.h_eff = np.zeros(capacity)
-        self.working = np.zeros((self.n_levels, capacity), dtype=np.bool_)
-
-    def load(self, blocks: Sequence | None) -> bool:
-        """Copy each level's rows (``blocks[k][0]``: G, ``blocks[k][1]``: h; None: no rows at
-        all); True if the buffers were re-allocated (the caller's argument tuple is stale).
-        (Plain Python on the hot path: a few row blocks per tick, ~1 µs.)"""
-        if blocks is None:
-            if not self.total:
-                return False  # (no rows, as at the last tick)
-            counts: tuple[int, ...] = (0,) * self.n_levels
-        else:
-            counts = tuple([blk[1].shape[0] for blk in blocks])
-        grown = False
-        if counts != self.counts:
-            total = 0
-            g_rows = self.g_rows
-            for k, m in enumerate(counts):
-                total += m
-                g_rows[k + 1] = total
-            if total > self.h.shape[0]:
-                self._allocate(max(total, 2 * self.h.shape[0]))
-                grown = True
-            else:
-                self.working.fill(False)
-            self.counts = counts
-            self.total = total
-        if blocks is not None:
-            o = 0
-            G_all, h_all = self.G, self.h
-            for blk, k in zip(blocks, counts, strict=True):
-                if k:
-                    G_all[o : o + k] = blk[0]
-                    h_all[o : o + k] = blk[1]
-                    o += k
-        return grown
-
-
 class _Plan:
     """What both compiled solvers share: targets, frames, bounds and the output buffer.
 
@@ -390,24 +351,34 @@ class _Plan:
     #: one tick to the next; each plan's own array)
     warm_start: np.ndarray
 
-    def __init__(self, solver, kin: Kinematics, tasks: Sequence[Task]) -> None:
+    def __init__(
+        self,
+        solver,
+        kin: Kinematics,
+        tasks: Sequence[Task],
+        constraints: Sequence[Sequence[Constraint]],
+    ) -> None:
         robot = solver.robot
         self.solver = solver
         self.limits = limits = box_limits(solver.stack)
+        flat = [c for lv in constraints for c in lv]
+        compiled_constraints = [c for c in flat if compiled_constraint(c)]
         kernels, bounds = kernel_set(tasks), bound_set(limits)
-        #: the optional kernel inputs that this plan's tasks and limits read
-        self.inputs = inputs = kernel_inputs([*tasks, *limits])
+        cons = constraint_set(flat)
+        #: the optional kernel inputs that this plan's tasks, limits and constraints read
+        self.inputs = inputs = kernel_inputs([*tasks, *limits, *compiled_constraints])
         package = (
             kernels == tuple(PACKAGE_KERNELS)
             and bounds == tuple(PACKAGE_BOUND_KERNELS)
+            and cons == tuple(PACKAGE_CONSTRAINT_KERNELS)
             and not inputs
         )
-        self.ticks = D.ticks(kernels, bounds, "frame_velocities" in inputs, package)
+        self.ticks = D.ticks(kernels, bounds, "frame_velocities" in inputs, package, cons)
         self.kinds = {k: i for i, k in enumerate(kernels)}
         self.bound_kinds = {k: i for i, k in enumerate(bounds)}
         self.targets = Targets()
         self.scratch = scratch = solver.plan_scratch
-        self.frames = Frames(robot, kin, [*tasks, *limits], scratch)
+        self.frames = Frames(robot, kin, [*tasks, *limits, *compiled_constraints], scratch)
         #: the limits whose parameters depend on the time step (:meth:`BoxLimit.prepare`)
         self._timed = [b for b in limits if type(b).prepare is not BoxLimit.prepare]
         self.variant = 0  # (one set of argument types for every stack)
@@ -451,7 +422,11 @@ class _Plan:
         #: the arguments of the solve of a split tick (:meth:`_build_solve_args`)
         self.solve_args: tuple = ()
         self._solve_entry = None
-        self.inequalities = InequalityRows(1, nv)
+        #: the constraints' rows, level by level (the kernel constraints' written by the tick)
+        self.constraints = ConstraintRows(
+            constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv
+        )
+        self.inequalities = self.constraints.rows
         self._ready = False
 
     def ready(self) -> bool:
@@ -489,6 +464,10 @@ class _Plan:
             self.upper,
         )  # fmt: skip
 
+    def _constraint_args(self) -> tuple:
+        c = self.constraints
+        return (c.cspec, c.cparams, c.cslots)
+
     def _build_args(self) -> tuple:
         """The body's arguments, every one a buffer of the plan (rebuilt when the inequality
         rows outgrow their buffers)."""
@@ -523,13 +502,11 @@ class _Plan:
             *direct,
         )
 
-    def solve(self, kin: Kinematics, dt: float | None, inequalities: Sequence | None) -> int:
-        """Fill the per-tick inputs (``inequalities``: each level's (G, h, ...), or None) and
-        run the tick (which gathers the targets and q itself); returns its status (0: solved,
-        Δq finite: :attr:`solution`)."""
-        if (inequalities is not None or self.inequalities.total) and self.inequalities.load(
-            inequalities
-        ):
+    def solve(self, kin: Kinematics, dt: float | None) -> int:
+        """Fill the per-tick inputs (the constraints' rows: :class:`ConstraintRows`) and run
+        the tick (which gathers the targets and q itself, and writes the kernel constraints'
+        rows); returns its status (0: solved, Δq finite: :attr:`solution`)."""
+        if self.constraints.items and self.constraints.tick(kin):
             self._bind_args()
         # every tick from no active set, as the numpy path solves: started from the last
         # tick's, the hierarchy's degenerate levels kept other (equally optimal) active sets,
@@ -603,8 +580,15 @@ class _Plan:
 class WeightedPlan(_Plan):
     """The weighted QP's soft rows (weighted) and hard rows (equalities), compiled."""
 
-    def __init__(self, solver, kin: Kinematics, soft: Sequence[Task], hard: Sequence[Task]):
-        super().__init__(solver, kin, [*soft, *hard])
+    def __init__(
+        self,
+        solver,
+        kin: Kinematics,
+        soft: Sequence[Task],
+        hard: Sequence[Task],
+        constraints: Sequence[Constraint] = (),
+    ):
+        super().__init__(solver, kin, [*soft, *hard], [list(constraints)])
         nv = solver.robot.nv
         rows = (nv, self.frames, self.targets, self.kinds)
         self.soft = Rows(soft, *rows, weighted=True, scratch=self.scratch, name="soft")
@@ -634,7 +618,8 @@ class WeightedPlan(_Plan):
     def _build_args(self) -> tuple:
         g = self.inequalities
         return (
-            *self.soft.args, *self.hard.args, g.G, g.h, g.g_rows, *self._shared_args(),
+            *self.soft.args, *self.hard.args, g.G, g.h, g.g_rows, *self._constraint_args(),
+            *self._shared_args(),
             self.state, g.working[0], self.dq, self.q_next, *self.targets.tick_sources,
         )  # fmt: skip
 
@@ -642,9 +627,18 @@ class WeightedPlan(_Plan):
 class CascadePlan(_Plan):
     """Every level's rows (weighted) in one block, solved level by level in one call."""
 
-    def __init__(self, solver, kin: Kinematics, levels: Sequence[Sequence[Task]], hard):
+    def __init__(
+        self,
+        solver,
+        kin: Kinematics,
+        levels: Sequence[Sequence[Task]],
+        hard,
+        constraints: Sequence[Sequence[Constraint]] | None = None,
+    ):
         tasks = [t for lv in levels for t in lv]
-        super().__init__(solver, kin, tasks)
+        if constraints is None:
+            constraints = [[] for _ in levels]
+        super().__init__(solver, kin, tasks, constraints)
         nv = solver.robot.nv
         self.rows = Rows(
             tasks, nv, self.frames, self.targets, self.kinds, True, self.scratch, "rows"
@@ -661,7 +655,6 @@ class CascadePlan(_Plan):
         self.states.fill(0)
         self.warm_start = self.states
         self.achieved = np.zeros(self.rows.m)
-        self.inequalities = InequalityRows(len(levels), nv)
         self.tick_name = "cascade_tick"
         self._bind_args()
 
@@ -698,6 +691,6 @@ class CascadePlan(_Plan):
         g = self.inequalities
         return (
             *self.rows.args, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
-            *self._shared_args(), self.states, g.working, g.h_eff, self.achieved, self.dq,
-            self.q_next, *self.targets.tick_sources,
+            *self._constraint_args(), *self._shared_args(), self.states, g.working, g.h_eff,
+            self.achieved, self.dq, self.q_next, *self.targets.tick_sources,
         )  # fmt: skip

@@ -102,7 +102,7 @@ class WeightedQP(StackSolver):
         if self._use_compiled():
             from .plan import WeightedPlan
 
-            fast = WeightedPlan(self, self.kin, soft.tasks, hard.tasks)
+            fast = WeightedPlan(self, self.kin, soft.tasks, hard.tasks, constraints)
         return _Layout(soft, hard, constraints, fast, self.backend.workspace(nv, hard.m, 0))
 
     def _solve(self, kin: Kinematics, dt: float | None) -> Solution:
@@ -118,17 +118,15 @@ class WeightedQP(StackSolver):
             self.interim_ticks += 1
             return self._solve_value(kin, self._assemble(kin, dt, None), dt, kernel=False)
         if fast is not None:
-            # the compiled tick: the plan's rows and bounds, the inequality rows (an active
-            # set on them in the compiled least squares), the integration
-            rows = None
-            if self.constraints:
-                rows = [stack_constraints(self.constraints, kin, self.robot.nv)]
-            if fast.solve(kin, dt, rows) == 0:
+            # the compiled tick: the plan's rows and bounds, the inequality rows (the
+            # constraints' kernels called in the tick; an active set on them in the compiled
+            # least squares), the integration
+            if fast.solve(kin, dt) == 0:
                 self.compiled_ticks += 1
                 self.relaxed = False
                 return fast.solution
-            self.handed_back_ticks += 1  # the backend, on the same arrays
-            G, h, _ = rows[0] if rows else self._no_rows
+            self.handed_back_ticks += 1  # the backend, on the same arrays (the tick's rows)
+            G, h, _ = fast.constraints.level_blocks()[0] if self.constraints else self._no_rows
             value = WeightedValue(
                 fast.soft.J, fast.soft.b, fast.hard.J, fast.hard.b, G, h, fast.lower, fast.upper
             )

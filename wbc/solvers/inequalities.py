@@ -1,0 +1,210 @@
+"""The constraints of a compiled plan: their rows G Δq <= h, level by level, in the buffers
+the tick reads.
+
+A constraint with a constraint kernel (:attr:`wbc.limits.Constraint.row_kernel`) is a row of
+the spec table ``cspec`` (:data:`wbc.compiled.dispatch.CONSTRAINT_COLUMNS`: its kernel, its
+parameters in ``cparams``, its frame slots in ``cslots``, its first row and row count): the
+tick calls its kernel, which writes its rows into ``G[r0:r0+m]``, ``h[r0:r0+m]``. The others
+(the self-collision pairs, a :class:`~wbc.limits.LinearInequality`) compute their rows in
+Python, copied into the same buffers. Every constraint's rows keep their place: level by
+level, in the level's order, as :func:`wbc.solvers.assembly.stack_constraints` stacks them.
+
+Per tick, in Python: each kernel constraint's :meth:`~wbc.limits.Constraint.prepare`, then a
+check of its row count, frames and parameter arrays against the layout (a support polygon
+rebuilt, a swing sole switched: the layout is redone, the tick's arguments re-bound), the
+other constraints' rows, the parameters gathered.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..compiled import dispatch as D
+from ..compiled.signature import sources
+from ..limits import Constraint
+from ..model import Kinematics
+
+
+def compiled_constraint(c: Constraint) -> bool:
+    """True if a constraint's rows have a compiled form (a constraint kernel)."""
+    return type(c).row_kernel is not None
+
+
+class InequalityRows:
+    """The inequality rows G Δq <= h of a tick, level by level, in buffers that the tick reads
+    (written there by the constraint kernels, or copied from Python: :class:`ConstraintRows`;
+    ``g_rows``: each level's first row, then the end), with each level's working set (its warm
+    start, forgotten when the levels' row counts change)."""
+
+    def __init__(self, n_levels: int, nv: int, capacity: int = 8) -> None:
+        self.n_levels, self.nv = n_levels, nv
+        self.g_rows = np.zeros(n_levels + 1, dtype=np.int64)
+        self.counts = (0,) * n_levels
+        self.total = 0  # rows at the last tick
+        self._allocate(capacity)
+
+    def _allocate(self, capacity: int) -> None:
+        self.G = np.zeros((capacity, self.nv))
+        self.h = np.zeros(capacity)
+        self.h_eff = np.zeros(capacity)
+        self.working = np.zeros((self.n_levels, capacity), dtype=np.bool_)
+
+    def layout(self, counts: tuple[int, ...]) -> bool:
+        """Each level's row count ``counts``; True if the buffers were re-allocated (the
+        caller's argument tuple is stale)."""
+        grown = False
+        if counts != self.counts:
+            total = 0
+            g_rows = self.g_rows
+            for k, m in enumerate(counts):
+                total += m
+                g_rows[k + 1] = total
+            if total > self.h.shape[0]:
+                self._allocate(max(total, 2 * self.h.shape[0]))
+                grown = True
+            else:
+                self.working.fill(False)
+            self.counts = counts
+            self.total = total
+        return grown
+
+
+class ConstraintRows:
+    """The constraints of a plan's levels (``levels``: each level's active constraints) and
+    their rows (:attr:`rows`); ``kinds`` maps each constraint kernel to its index in the
+    generated tick, ``slot`` each frame of the plan to its slot."""
+
+    def __init__(
+        self,
+        levels: Sequence[Sequence[Constraint]],
+        kinds: dict,
+        slot: dict[int, int],
+        nv: int,
+    ) -> None:
+        self.levels = [list(lv) for lv in levels]
+        self.items = [c for lv in self.levels for c in lv]
+        self.kinds, self.slot = kinds, slot
+        self.rows = InequalityRows(len(self.levels), nv)
+        self.kernel_items = [c for c in self.items if compiled_constraint(c)]
+        index = {id(c): j for j, c in enumerate(self.kernel_items)}
+        #: each level's constraints, with their row of :attr:`cspec` (-1: rows from Python)
+        self.order = [[(c, index.get(id(c), -1)) for c in lv] for lv in self.levels]
+        n = len(self.kernel_items)
+        self.cspec = np.zeros((n, D.CONSTRAINT_COLUMNS), dtype=np.int64)
+        self.cparams = np.zeros(0)
+        self.cslots = np.zeros(0, dtype=np.int64)
+        #: each kernel constraint's layout: (rows, frame ids, parameter arrays as read, as
+        #: gathered); None: not laid out yet
+        self._layout: list[tuple | None] = [None] * n
+        #: kernel constraints whose frames the plan lacks: their rows come from Python
+        self._python = [False] * n
+        self._gather = None
+        self._addresses = np.zeros(0, dtype=np.int64)
+        self._sizes = np.zeros(0, dtype=np.int64)
+        self._empty = np.zeros(0)
+        #: each constraint's row count at the last tick (in :attr:`items` order)
+        self.counts = [0] * len(self.items)
+
+    def _changed(self) -> bool:
+        for c, lay in zip(self.kernel_items, self._layout, strict=True):
+            if lay is None or c.rows != lay[0] or c.frame_ids() != lay[1]:
+                return True
+            for name, a in zip(type(c).param_fields, lay[2], strict=True):
+                if getattr(c, name) is not a:
+                    return True
+        return False
+
+    def _relayout(self) -> None:
+        """The kernel constraints' rows of :attr:`cspec`, their parameters and frame slots
+        (new arrays: the caller re-binds the tick's arguments)."""
+        from ..compiled.checks import entry, gather
+
+        slots: list[int] = []
+        arrays: list[np.ndarray] = []
+        offset = 0
+        for j, c in enumerate(self.kernel_items):
+            fields = type(c).param_fields
+            fids = c.frame_ids()
+            raw = [getattr(c, name) for name in fields]
+            srcs = sources(c, fields)
+            m = c.rows
+            self._layout[j] = (m, fids, raw, srcs)
+            inplan = all(f in self.slot for f in fids)
+            self._python[j] = not inplan
+            size = sum(int(a.size) for a in srcs)
+            row = self.cspec[j]
+            row[D.C_KIND] = self.kinds[type(c).row_kernel]
+            row[D.C_PARAM], row[D.C_PARAM_SIZE] = offset, size
+            row[D.C_SLOT], row[D.C_SLOTS] = len(slots), len(fids) if inplan else 0
+            row[D.C_ROWS] = m if inplan else 0
+            if inplan:
+                slots.extend(self.slot[f] for f in fids)
+            arrays.extend(srcs)
+            offset += size
+        self.cparams = np.zeros(offset)
+        self.cslots = np.array(slots, dtype=np.int64)
+        self._addresses = np.array([a.ctypes.data for a in arrays], dtype=np.int64)
+        self._sizes = np.array([a.size for a in arrays], dtype=np.int64)
+        self._gather = entry(gather)
+
+    def tick(self, kin: Kinematics) -> bool:
+        """The rows at ``kin``: the kernel constraints prepared and laid out (the tick writes
+        their rows), the others' rows copied; True if the tick's arguments must be re-bound
+        (new arrays)."""
+        kernel_items = self.kernel_items
+        for c in kernel_items:
+            c.prepare(kin)
+        rebind = False
+        if kernel_items and self._changed():
+            self._relayout()
+            rebind = True
+        cspec, python, layout, counts = self.cspec, self._python, self._layout, self.counts
+        copies = []
+        level_counts = []
+        r = i = 0
+        for level in self.order:
+            start = r
+            for c, j in level:
+                if j >= 0 and not python[j]:
+                    m = layout[j][0]
+                    cspec[j, D.C_ROW] = r
+                else:
+                    G, h = c.compute(kin)
+                    m = h.shape[0]
+                    if m:
+                        copies.append((r, m, G, h))
+                counts[i] = m
+                r += m
+                i += 1
+            level_counts.append(r - start)
+        g = self.rows
+        if g.layout(tuple(level_counts)):
+            rebind = True
+        G_all, h_all = g.G, g.h
+        for r0, m, G, h in copies:
+            G_all[r0 : r0 + m] = G
+            h_all[r0 : r0 + m] = h
+        if self._gather is not None:
+            e = self._empty
+            self._gather(self._addresses, self._sizes, self.cparams, e, e)
+        return rebind
+
+    def level_blocks(self) -> list[tuple[np.ndarray, np.ndarray, list[tuple[str, slice]]]]:
+        """Each level's (G, h, row slices) of the last tick: views of :attr:`rows` (refilled
+        at the next tick), as :func:`~wbc.solvers.assembly.stack_constraints` gives them."""
+        g = self.rows
+        out = []
+        i = 0
+        for k, level in enumerate(self.levels):
+            g0, g1 = int(g.g_rows[k]), int(g.g_rows[k + 1])
+            slices = []
+            r = 0
+            for c in level:
+                m = self.counts[i]
+                slices.append((c.name, slice(r, r + m)))
+                r += m
+                i += 1
+            out.append((g.G[g0:g1], g.h[g0:g1], slices))
+        return out
