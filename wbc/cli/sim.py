@@ -88,9 +88,13 @@ def run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     closed = best = not args.open_loop and not args.recording
     if closed and servo_kind(robot) == "hobby_pwm":
-        print(f"open loop: {robot.name}'s hobby servos report no positions (the closed loop "
-              "reads them)")  # fmt: skip
-        closed = False
+        if args.encoders_only:
+            raise ConfigurationError(
+                f"--encoders-only: {robot.name}'s hobby servos report no positions (its closed "
+                "loop is the IMU and the commanded joints)"
+            )
+        print(f"closed loop: {robot.name}'s hobby servos report no positions: the estimator "
+              "uses the IMU and the commanded joint positions")  # fmt: skip
     resolve_compensate(args, robot, best=best)  # the feed-forward's best even open loop
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise ConfigurationError(
