@@ -4,10 +4,10 @@
 and a :class:`~wbc.balance.stabilizer.Stabilizer` (estimator + feedback on the targets) to a
 :class:`~wbc.servos.playback.Deployment` on any :class:`~wbc.servos.bus.ServoBus`, reading
 any :class:`~wbc.imu.Imu` (or none: encoders only). On a bus that reads no positions
-(``can_read`` False: hobby PWM servos behind an SSC-32) the loop closes through the IMU alone:
-the estimator takes the *commanded* joint positions (the controller's last solve, uncorrected
-for the servos' lag or compliance) in place of the encoders, said with one line. Per tick, inside the deployment's loop:
-the previous tick's present positions (``Deployment.last_present``, read right after the
+(``can_read`` False: hobby PWM servos behind an SSC-32) the loop closes through the IMU and
+the *commanded* joint positions (the controller's last solve, in place of the encoders: see
+:mod:`wbc.balance.estimator`), said with one line. Per tick, inside the deployment's loop: the
+previous tick's present positions (``Deployment.last_present``, read right after the
 goals) and a fresh IMU sample → state estimate → adjusted targets → one solve → (optional
 compliance feed-forward) → the deployment's clamping, rate limit and watchdog → the servos.
 
@@ -148,9 +148,11 @@ def closed_loop(
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
     :class:`~wbc.balance.compliance.EncoderCorrection`); ``config`` defaults to the
-    reference's rate with ``read`` on (the estimator needs the encoders); a config without
-    ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
-    the whole reference).
+    reference's rate with ``read`` on if the bus can read (the estimator needs the encoders);
+    a config without ``read`` is refused when the loop is closed. On a bus that reads nothing
+    the closed loop runs on ``imu`` and the commanded joints (module docstring; refused
+    without an IMU, with ``correct`` or with ``servo="identify"``). ``duration`` (s) ends
+    the run early (None: the whole reference).
     ``stepping`` (closed loop only; on by default, None: off): re-plan the footsteps from
     the measured DCM (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
     ``hold`` (closed loop only; on by default, None: off): a lift-off waits while the
