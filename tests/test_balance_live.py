@@ -56,3 +56,37 @@ def test_an_imu_mounted_otherwise_than_the_robot_says_is_reported(robot):
         else:
             assert result.deploy.completed
             assert np.degrees(loop.stabilizer.calibration.tilt_error) == pytest.approx(3, abs=0.3)
+
+
+def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands():
+    """Issue 29 item 5: Kokone's hobby servos behind the simulated SSC-32 report no position;
+    the closed loop runs on the IMU and the commanded joints, says so in one line, reads
+    nothing back, and estimates every tick. Without an IMU it is refused, naming the bus."""
+    pytest.importorskip("mujoco")
+    from wbc.balance.live import closed_loop
+    from wbc.bench.solvers import registry
+    from wbc.bench.trajectories import build
+    from wbc.exceptions import ConfigurationError
+    from wbc.model import load_robot
+    from wbc.sim.bus import SimImu, sim_bus
+    from wbc.sim.simulator import Simulation
+    from wbc.walking.loop import start_configuration
+
+    kokone = load_robot("kokone")
+    ref = build("keyposes", kokone)
+    sim = Simulation(kokone)
+    sim.reset(start_configuration(kokone, ref))
+    rate = min(100.0, 1.0 / ref.dt)
+    lines: list[str] = []
+    make = registry()["hqp-daqp"].make
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, SimImu(sim),
+                       out=lines.append, duration=0.5)  # fmt: skip
+    assert not loop.deployment.config.read
+    said = [x for x in lines if "reports no positions" in x]
+    assert len(said) == 1 and "IMU and the commanded joint positions" in said[0]
+    result = loop.deployment.run()
+    assert result.completed and loop.deployment.last_present is None
+    est = loop.stabilizer.last  # (from the IMU and the commanded joints: nothing was read)
+    assert est is not None and np.all(np.isfinite(est.values))
+    with pytest.raises(ConfigurationError, match="sim bus cannot read and no IMU"):
+        closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, None, out=lines.append)

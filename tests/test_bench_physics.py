@@ -128,6 +128,10 @@ def test_bench_physics_refuses_bad_options(capsys):
     assert "--robustness: must be an integer in [0, 10000]" in capsys.readouterr().err
     assert main(["bench", "--physics", "--mode", "converge"]) == 2
     assert "use --mode tick" in capsys.readouterr().err
+    # hobby servos report no position: no encoders-only closed loop (IMU + commanded joints)
+    args = ["bench", "--physics", "--robot", "kokone", "--encoders-only"]
+    assert main([*args, "--trajectories", "keyposes", "--solvers", "hqp-daqp"]) == 2
+    assert "--encoders-only: kokone's hobby servos report no positions" in capsys.readouterr().err
 
 
 def test_closed_loop_spec_reaches_every_run(robot, standing, monkeypatch):

@@ -58,3 +58,20 @@ def test_wbc_sim_runs_the_closed_loop_by_default(capsys):
     out = capsys.readouterr().out
     said = "closed loop: IMU on, feed-forward x0.5 on servos.toml (nominal), step adjustment off"
     assert said in out and "(closed loop)" in out and "fell: False" in out
+
+
+def test_wbc_sim_on_hobby_servos_plays_open_loop_unless_closed_loop_is_given(capsys):
+    """Kokone's servos report no position: `wbc sim --robot kokone` plays open loop (it
+    measured better, benchmarks/kokone_sim.md section 00) and says why; `--closed-loop` runs
+    the closed loop through the IMU and the commanded joints, said in one line."""
+    args = ["sim", "--robot", "kokone", "--trajectory", "keyposes", "--settle", "0"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "open loop: kokone's hobby servos report no positions" in out
+    assert "(open loop)" in out
+    main([*args, "--closed-loop"])  # (it falls: its exit status is the run's)
+    out = capsys.readouterr().out
+    assert out.count("the estimator uses the IMU and the commanded joint positions") == 1
+    assert "(closed loop)" in out
+    assert main([*args, "--closed-loop", "--open-loop"]) == 2
+    assert "--closed-loop and --open-loop: give one" in capsys.readouterr().err

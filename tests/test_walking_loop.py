@@ -7,15 +7,18 @@ import pytest
 
 from wbc.bench import metrics
 from wbc.bench.trajectories import build
-from wbc.exceptions import TrajectoryError
+from wbc.exceptions import InfeasibleError, TrajectoryError
 from wbc.recording import Recording
 from wbc.stacks import load_stack
 from wbc.walking.loop import (
+    START_CONTACT_TICKS,
+    START_CONTACT_TOL,
     RunOptions,
     Session,
     StackController,
     run,
     run_stepwise,
+    start_configuration,
     support_roles,
 )
 
@@ -218,3 +221,41 @@ def test_a_valid_run_is_marked_valid(walk_run):
     v = walk_run.meta["validity"]
     assert v["valid"] is True and v["failed_ticks"] == 0 and v["limit_violations"] == 0
     assert walk_run.problems() == []
+
+
+def _bent_left_knee(robot, ref, bend: float) -> np.ndarray:
+    """The walk's start pose with the left knee bent ``bend`` rad more: the left sole off
+    the floor."""
+    q0 = start_configuration(robot, ref).copy()
+    q0[robot.q_index("l_knee")] += bend
+    return q0
+
+
+def test_a_start_contact_off_the_floor_is_brought_back_within_the_stated_ticks(robot, walk10):
+    """Issue 29 item 4: a sole that starts a little off its contact placement (the knee bent
+    0.1 rad) is on the floor within START_CONTACT_TICKS ticks, and the walk goes on."""
+    q0 = _bent_left_knee(robot, walk10, 0.1)
+    start = robot.frame_placement(q0, "l_sole").translation
+    assert np.linalg.norm(start - walk10.sole_placement(0, "left").translation) > START_CONTACT_TOL
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10, q0)
+    for i in range(START_CONTACT_TICKS):
+        session.tick(i)
+        sole = robot.frame_placement(session.q, "l_sole").translation
+        if np.linalg.norm(sole - walk10.sole_placement(i, "left").translation) <= START_CONTACT_TOL:
+            break
+    else:
+        pytest.fail(f"the left sole is still off the floor after {START_CONTACT_TICKS} ticks")
+    assert not session.failed
+
+
+def test_a_start_contact_that_cannot_be_met_raises_naming_the_sole_and_distance(robot, walk10):
+    """Issue 29 item 4: a sole 28 mm off the floor at the start (the knee bent 0.5 rad: the
+    hard level fails every tick) raises a typed error naming the sole frame and its distance
+    after START_CONTACT_TICKS ticks, not a walk of failed ticks."""
+    q0 = _bent_left_knee(robot, walk10, 0.5)
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10, q0)
+    for i in range(START_CONTACT_TICKS):
+        session.tick(i)
+    pattern = r"l_sole \(50\.\d mm from its contact placement, \+28\.\d mm in height\)"
+    with pytest.raises(InfeasibleError, match=pattern + r".*within 25 ticks"):
+        session.tick(START_CONTACT_TICKS)

@@ -18,6 +18,14 @@ with the gyro's bias).
 **Encoders only** (``imu=None``): the stance sole is assumed flat at its planned placement;
 ``R_base = R_sole · (ᵇR_sole)ᵀ`` with ``ᵇR_sole`` from forward kinematics of the present joints.
 
+**IMU + commanded joints** (a bus that reads no positions: hobby PWM servos behind an
+SSC-32; chosen by :func:`wbc.balance.live.closed_loop`, which says so in one line): the
+orientation as above, and every kinematic term (base, CoM, stance soles) from the *commanded*
+joints — the controller's last solve, passed as ``fallback`` with every present position
+unread. Not corrected for the servo law's lag; its compliance only through the feed-forward
+(the goals sent are the solve plus the model's expected sag, so the solve is where the
+nominal servo model expects the joints to be).
+
 **CoM**: with the base rotation ``R`` and the stance sole(s) anchored at their planned
 placement, ``p_base = p_sole − R · ᵇp_sole`` (averaged over both soles in double support) and
 ``c = p_base + R · ᵇc``. **CoM velocity**: the time derivative of the CoM *relative to the

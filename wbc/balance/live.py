@@ -3,8 +3,11 @@
 :func:`closed_loop` wires a walking :class:`~wbc.walking.loop.Session` (one solve per tick)
 and a :class:`~wbc.balance.stabilizer.Stabilizer` (estimator + feedback on the targets) to a
 :class:`~wbc.servos.playback.Deployment` on any :class:`~wbc.servos.bus.ServoBus`, reading
-any :class:`~wbc.imu.Imu` (or none: encoders only). Per tick, inside the deployment's loop:
-the previous tick's present positions (``Deployment.last_present``, read right after the
+any :class:`~wbc.imu.Imu` (or none: encoders only). On a bus that reads no positions
+(``can_read`` False: hobby PWM servos behind an SSC-32) the loop closes through the IMU and
+the *commanded* joint positions (the controller's last solve, in place of the encoders: see
+:mod:`wbc.balance.estimator`), said with one line. Per tick, inside the deployment's loop: the
+previous tick's present positions (``Deployment.last_present``, read right after the
 goals) and a fresh IMU sample → state estimate → adjusted targets → one solve → (optional
 compliance feed-forward) → the deployment's clamping, rate limit and watchdog → the servos.
 
@@ -145,9 +148,11 @@ def closed_loop(
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
     :class:`~wbc.balance.compliance.EncoderCorrection`); ``config`` defaults to the
-    reference's rate with ``read`` on (the estimator needs the encoders); a config without
-    ``read`` is refused when the loop is closed. ``duration`` (s) ends the run early (None:
-    the whole reference).
+    reference's rate with ``read`` on if the bus can read (the estimator needs the encoders);
+    a config without ``read`` is refused when the loop is closed. On a bus that reads nothing
+    the closed loop runs on ``imu`` and the commanded joints (module docstring; refused
+    without an IMU, with ``correct`` or with ``servo="identify"``). ``duration`` (s) ends
+    the run early (None: the whole reference).
     ``stepping`` (closed loop only; on by default, None: off): re-plan the footsteps from
     the measured DCM (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
     ``hold`` (closed loop only; on by default, None: off): a lift-off waits while the
@@ -170,13 +175,25 @@ def closed_loop(
 
         compensate = best_compensate(robot) if enabled else 0.0
     rate = min(100.0, 1.0 / ref.dt)
-    config = config or DeployConfig(rate=rate, read=True)
-    if enabled and not config.read:
+    commanded = enabled and not bus.can_read  # IMU + commanded joints (module docstring)
+    if commanded:
+        if imu is None:
+            raise ConfigurationError(
+                f"the closed loop needs servo positions or an IMU; the {bus.name} bus cannot "
+                "read and no IMU was given"
+            )
+        if correct or servo == "identify":
+            raise ConfigurationError(
+                f"closed_loop: {'correct' if correct else 'servo=identify'} needs the servos' "
+                f"present positions; the {bus.name} bus cannot read"
+            )
+        if config is not None and config.read:
+            raise ConfigurationError(f"the {bus.name} bus cannot read: a config without read")
+        out(f"closed loop: the {bus.name} bus reports no positions: the estimator uses the IMU "
+            "and the commanded joint positions")  # fmt: skip
+    config = config or DeployConfig(rate=rate, read=bus.can_read)
+    if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
-    if enabled and not bus.can_read:
-        raise ConfigurationError(
-            f"the closed loop needs servo positions; the {bus.name} bus cannot read"
-        )
     gains = (gains or Gains()).check()
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
         ref = narrow_sway(ref, gains.transfer, longest=NARROW_LONGEST)

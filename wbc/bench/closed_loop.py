@@ -66,13 +66,13 @@ def play_closed_loop(
     on_tick: Callable[[Any], None] | None = None,
 ):
     """One live closed-loop run on the simulated robot (:func:`wbc.balance.live.closed_loop`
-    on :class:`~wbc.sim.bus.SimServoBus` + :class:`~wbc.sim.bus.SimImu`): a
+    on the robot's simulated bus (:func:`~wbc.sim.bus.sim_bus`) + :class:`~wbc.sim.bus.SimImu`): a
     :class:`wbc.sim.log.PlayResult` and the loop (its per-tick costs, limit excursions).
     ``duration`` (s): only the walk's first seconds (None: all of it); ``on_tick`` sees the
     simulation after every logged tick (a live viewer)."""
     from ..balance.live import closed_loop
     from ..servos.sources import CallableSource
-    from ..sim.bus import SimImu, SimServoBus
+    from ..sim.bus import SimImu, sim_bus
     from ..sim.log import PlayResult, SimLogger
     from ..sim.simulator import Simulation
     from ..walking.loop import start_configuration
@@ -89,7 +89,8 @@ def play_closed_loop(
             log_only(bus)
             on_tick(sim)
 
-    bus = SimServoBus(sim, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
+    rate = min(100.0, 1.0 / spec.ref.dt)  # (closed_loop's deployment rate)
+    bus = sim_bus(sim, rate, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
     imu = None
     if spec.use_imu:
         imu = (

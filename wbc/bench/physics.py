@@ -126,8 +126,13 @@ def run_physics(
 
     closed_loop = options.closed_loop
     if closed_loop and servo_kind(robot) == "hobby_pwm":
-        console.print(f"open loop only: {robot.name}'s hobby servos report no positions")
-        closed_loop = False
+        if not options.use_imu:
+            raise ConfigurationError(
+                f"--encoders-only: {robot.name}'s hobby servos report no positions (its closed "
+                "loop is the IMU and the commanded joints)"
+            )
+        console.print(f"closed loop: {robot.name}'s hobby servos report no positions: the "
+                      "estimator uses the IMU and the commanded joint positions")  # fmt: skip
     if closed_loop:
         from ..balance.stabilizer import Gains
 

@@ -284,10 +284,13 @@ def _run(args: argparse.Namespace) -> int:
             elif not args.port and bus.name != "sim":
                 raise ConfigurationError("give --port (or --dry-run)")
             if args.closed_loop and not bus.can_read and not explicit:
-                print(f"open loop: the {bus.name} bus cannot read the servos' positions, which "
-                      "the closed loop needs")  # fmt: skip
+                print(f"open loop: the {bus.name} bus cannot read the servos' positions (the "
+                      "closed loop through the IMU and the commanded joints measured worse: "
+                      "benchmarks/kokone_sim.md; --closed-loop runs it)")  # fmt: skip
                 args.closed_loop = False
                 config = replace(config, read=args.read or args.compensate_encoders)
+            elif args.closed_loop and not bus.can_read:  # the IMU and the commanded joints
+                config = replace(config, read=False)
             if args.closed_loop:  # the IMU first: a wrong port fails before the solver builds
                 imu = make_imu(args, bus, robot)
                 if imu is not None:

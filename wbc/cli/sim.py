@@ -49,6 +49,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plan, then play the plan (by default the solver runs live in the tick, closed "
         "loop with the simulated IMU, feed-forward and step adjustment: wbc.balance.live)",
     )
+    parser.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="on hobby PWM servos (no position read back): close the loop through the IMU and "
+        "the commanded joints (by default they play open loop: it measured better, "
+        "benchmarks/kokone_sim.md); elsewhere the default",
+    )
     add_encoders_only_argument(parser)
     add_stepping_arguments(parser, legacy=False)
     add_compensate_arguments(parser, "servo compliance feed-forward on the goals")
@@ -87,10 +94,22 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigurationError(f"--settle must be a time >= 0 s, got {args.settle}")
     robot = load_robot(args.robot)
     closed = best = not args.open_loop and not args.recording
+    if args.closed_loop and args.open_loop:
+        raise ConfigurationError("--closed-loop and --open-loop: give one")
     if closed and servo_kind(robot) == "hobby_pwm":
-        print(f"open loop: {robot.name}'s hobby servos report no positions (the closed loop "
-              "reads them)")  # fmt: skip
-        closed = False
+        if args.encoders_only:
+            raise ConfigurationError(
+                f"--encoders-only: {robot.name}'s hobby servos report no positions (its closed "
+                "loop is the IMU and the commanded joints)"
+            )
+        if args.closed_loop:
+            print(f"closed loop: {robot.name}'s hobby servos report no positions: the "
+                  "estimator uses the IMU and the commanded joint positions")  # fmt: skip
+        else:
+            print(f"open loop: {robot.name}'s hobby servos report no positions, and the closed "
+                  "loop through the IMU and the commanded joints measured worse "
+                  "(benchmarks/kokone_sim.md; --closed-loop runs it)")  # fmt: skip
+            closed = False
     resolve_compensate(args, robot, best=best)  # the feed-forward's best even open loop
     if not (math.isfinite(args.compensate) and args.compensate >= 0):
         raise ConfigurationError(

@@ -56,6 +56,13 @@ def torso_target(yaw: float, pitch_roll: np.ndarray) -> np.ndarray:
 
 
 MODES = ("tick", "converge")
+#: a sole in contact at the start (both in double support, the stance sole in single support)
+#: more than START_CONTACT_TOL (m) from its contact placement must be brought there within
+#: START_CONTACT_TICKS solved ticks in a row, else :class:`InfeasibleError` naming the frame
+#: and the distance (a hard level not met: the robot started with a sole off the floor, out
+#: of the legs' reach or speed); checked only until every contact is first met
+START_CONTACT_TOL = 1e-3
+START_CONTACT_TICKS = 25
 
 
 @dataclass
@@ -402,6 +409,7 @@ class Session:
         self.iterations = 0
         self.solve_time = 0.0
         self.feedback_time = 0.0
+        self._landing = 0  # ticks solved with a start contact off its placement (-1: met)
 
     def _sole_targets(self, first: int) -> None:
         """Both soles' and the swing sole's targets of ticks ``first, …`` from :attr:`ref`."""
@@ -491,7 +499,37 @@ class Session:
             if opts.stop_on_failure:
                 raise
         self.solve_time = time.perf_counter() - start
+        if self._landing >= 0:
+            self._check_start_contacts(targets)
         return self.q
+
+    def _check_start_contacts(self, targets: TickTargets) -> None:
+        """Until every sole in contact first sits within :data:`START_CONTACT_TOL` of its
+        contact placement: count the solved ticks; past :data:`START_CONTACT_TICKS`, raise
+        :class:`InfeasibleError` naming the sole frame and its distance."""
+        frames = ["l_sole", "r_sole"] if targets.phase == "double" else [targets.support]
+        off = []
+        for frame in frames:
+            goal = targets.l_sole if frame == "l_sole" else targets.r_sole
+            d = self.robot.frame_placement(self.q, frame).translation - goal.translation
+            if float(np.linalg.norm(d)) > START_CONTACT_TOL:
+                off.append((frame, d))
+        if not off:
+            self._landing = -1
+            return
+        self._landing += 1
+        if self._landing > START_CONTACT_TICKS:
+            names = ", ".join(
+                f"{frame} ({np.linalg.norm(d) * 1e3:.1f} mm from its contact placement, "
+                f"{d[2] * 1e3:+.1f} mm in height)"
+                for frame, d in off
+            )
+            raise InfeasibleError(
+                f"{self.controller.name}: the contact(s) {names} not brought to the floor "
+                f"within {START_CONTACT_TICKS} ticks of the start: the hard contact level "
+                "cannot be met (start the robot with its soles on the floor, within the legs' "
+                "reach)"
+            )
 
     @property
     def index(self) -> int | None:
