@@ -325,6 +325,10 @@ class WalkEngine:
         #: limits and ran at half the commanded rate)
         self.on_landing: Callable[[Footstep], Footstep | None] | None = None
         self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
+        #: leg odometry's offset (x, y; world, m): the sum of the measured landings' offsets
+        #: from their plans since :meth:`start` — where the body really is is the walking
+        #: frame plus it, and the steps aim the commanded pose from there
+        self.odometry_offset = np.zeros(2)
 
     # ------------------------------------------------------------------ commands
     @property
@@ -444,7 +448,8 @@ class WalkEngine:
         step latency lost, so the walk covers the commanded displacement."""
         T = self.params.timing.step_time
         target = _advance_pose(self._pose_cmd, self._cmd, ahead)
-        c = self._centre
+        c = self._centre.copy()
+        c[:2] += self.odometry_offset  # where the body is (leg odometry), not where planned
         d = rot2(c[2]).T @ (target[:2] - c[:2])
         v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
         cmd = np.asarray(self._cmd)
@@ -535,6 +540,7 @@ class WalkEngine:
         if not (err <= MAX_LANDING_ERROR and dyaw <= MAX_LANDING_ERROR):
             return step
         self.landing_errors.append(err)
+        self.odometry_offset += landed.xy - step.xy
         return Footstep(step.side, landed.x, landed.y, step.yaw, step.z)
 
     def _anchor(self, step: Footstep) -> np.ndarray:
@@ -612,6 +618,7 @@ class WalkEngine:
                 self._next_side = "left" if lead > 0 else "right"
                 self._centre = self._mid_frame()
                 self._pose_cmd = self._centre.copy()
+                self.odometry_offset[:] = 0.0
                 self._replan("start")
                 return True
             return False
