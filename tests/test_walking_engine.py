@@ -185,6 +185,26 @@ def test_short_landings_are_caught_up(setup) -> None:
     assert commanded - real < vx * LEGS_ONLY.timing.step_time * 2.5  # caught up
 
 
+def test_make_up_keeps_the_command_at_the_limit(setup) -> None:
+    """At the forward limit, landings drifting sideways are made up only in the room the
+    limits leave: every step still strides the full forward limit (the make-up never
+    scales the command down)."""
+    e = engine(setup)
+
+    def drift(step: Footstep) -> Footstep:
+        return Footstep(step.side, step.x, step.y - 0.004, step.yaw)  # 4 mm right each
+
+    e.on_landing = drift
+    vx, _, _ = e.command(LIMITS.vx_forward, 0.0, 0.0)
+    e.start()
+    for _ in range(round(6.0 / e.dt)):
+        e.tick()
+    steps = [s for s in e.planned if s.side == "left"]
+    assert e.odometry_offset[1] < -0.02
+    strides = np.diff([s.x for s in steps])[2:]
+    assert np.allclose(strides, 2 * vx * LEGS_ONLY.timing.step_time, atol=1e-6)
+
+
 def test_turning_through_the_half_turn(setup) -> None:
     """Headings wrap at ±π: a walk turning on the spot past 180° keeps its full steps (the
     swing's yaw is interpolated the short way round) and turns as commanded."""

@@ -465,7 +465,17 @@ class WalkEngine:
         )
         if norm > self.params.catch_up:
             extra *= self.params.catch_up / norm
-        return np.asarray(lim.clip(*(cmd + extra))) * T
+        # the make-up takes only the room the limits leave beside the command: a sideways
+        # make-up at the forward limit must not slow the forward walk (the largest share of
+        # it inside the limits, by bisection)
+        share = 1.0
+        if not _inside(lim, cmd + extra):
+            lo, hi = 0.0, 1.0
+            for _ in range(12):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if _inside(lim, cmd + mid * extra) else (lo, mid)
+            share = lo
+        return np.asarray(lim.clip(*(cmd + share * extra))) * T
 
     def _replan(self, first: SegmentKind) -> None:
         """At the start of a double support (or the start phase): commit the next step from
@@ -751,6 +761,11 @@ def _starts(engine: WalkEngine, rows: list[EngineTick]) -> tuple[Footstep, Foots
         Footstep("left", float(r.l_sole[0]), float(r.l_sole[1]), r.l_yaw, float(r.l_sole[2])),
         Footstep("right", float(r.r_sole[0]), float(r.r_sole[1]), r.r_yaw, float(r.r_sole[2])),
     )
+
+
+def _inside(limits: VelocityLimits, v: np.ndarray) -> bool:
+    """Whether the velocity ``v`` is within ``limits`` (:meth:`VelocityLimits.clip` keeps it)."""
+    return limits.clip(*v) == tuple(float(x) for x in v)
 
 
 def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -> np.ndarray:
