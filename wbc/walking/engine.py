@@ -8,8 +8,9 @@ plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
   effect at the next lift-off (within one step). A walking frame moves to where the
   commanded pose (the command integrated since :meth:`start`) will be when the step lands
   — in steady walking by the command times the step time, ``(vx T, vy T, ωz T)`` in its own
-  axes; after a start or a change, the displacement the step latency lost is made up
-  within the velocity limits — and the swinging sole lands
+  axes; after a start or a change, or short landings (leg odometry, :attr:`on_landing`),
+  the displacement lost is made up in the room the velocity limits leave beside the
+  command — and the swinging sole lands
   beside it as :func:`wbc.walking.footsteps.plan_footsteps` places its soles (the leading
   sole opens sideways, the trailing one closes; the soles head with the frame). Each
   planned step is checked by :meth:`FootstepPlan.validate` (no crossing, the feet's
