@@ -8,7 +8,8 @@ Four parts (each optional):
 * ``--random N``: N random command sequences (a new command every 2–5 s anywhere inside
   the velocity envelope, ``--duration`` s each) on ``--models M`` randomised models
   (:func:`wbc.bench.physics.random_model`, seeded): falls, the displacement error
-  ``|travelled − commanded| / |commanded|`` and the heading error likewise;
+  ``|travelled − commanded| / |commanded|`` and the heading error likewise, rated on the
+  runs that stay up (a fallen run counts as a fall only);
 * ``--envelope``: per axis, the command speeds ``--speeds`` × the planning limit walked
   for ``--hold`` s on ``--models`` randomised models: the fastest that stays up on all;
 * ``--tick``: the walk tick's cost alone (no physics), engine alone and engine + feedback +
@@ -202,17 +203,20 @@ def main(argv: list[str] | None = None) -> int:
                       f"{r['xy_error_m'] * 1000:.0f} mm ({r['xy_error_rel']}) yaw err "
                       f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']})",
                       flush=True)  # fmt: skip
-        rel = [r["xy_error_rel"] for r in runs if r["xy_error_rel"] is not None]
-        yrel = [r["yaw_error_rel"] for r in runs if r["yaw_error_rel"] is not None]
+        up = [r for r in runs if not r["fell"]]  # (a fallen run's displacement is the fall's)
+        rel = [r["xy_error_rel"] for r in up if r["xy_error_rel"] is not None]
+        yrel = [r["yaw_error_rel"] for r in up if r["yaw_error_rel"] is not None]
         record["random"] = {
             "runs": runs,
             "falls": int(sum(r["fell"] for r in runs)),
             "within_15pct_xy": int(sum(x <= 0.15 for x in rel)), "xy_rated": len(rel),
             "within_15pct_yaw": int(sum(x <= 0.15 for x in yrel)), "yaw_rated": len(yrel),
+            "xy_error_m_median": float(np.median([r["xy_error_m"] for r in up])) if up else None,
         }  # fmt: skip
-        print(f"random: {len(runs)} runs, {record['random']['falls']} falls, displacement within "
-              f"15 %: {record['random']['within_15pct_xy']}/{len(rel)}, heading within 15 %: "
-              f"{record['random']['within_15pct_yaw']}/{len(yrel)}")  # fmt: skip
+        print(f"random: {len(runs)} runs, {record['random']['falls']} falls; of the runs up: "
+              f"displacement within 15 %: {record['random']['within_15pct_xy']}/{len(rel)}, "
+              f"heading within 15 %: {record['random']['within_15pct_yaw']}/{len(yrel)}, "
+              f"median displacement error {record['random']['xy_error_m_median']} m")  # fmt: skip
     if args.envelope:
         env = {}
         for axis in args.axes:

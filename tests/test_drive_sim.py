@@ -58,3 +58,33 @@ def test_standing_is_judged_up_whatever_the_heading_and_lying_is_not() -> None:
         drop(sim, robot, side)
         ok, why = judge(sim, robot)
         assert not ok and "from standing" in why
+
+
+def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
+    """With an IMU the walker first stands ``calibrate_s`` (0.3 s) at rest for the IMU's
+    start-up calibration (gyro bias, levelling: ``wbc deploy``'s closed loop does the same);
+    a start asked meanwhile waits for its end (on the randomised Bioloids of
+    benchmarks/drive.md the heading error of random sequences fell from a median 6.2° to
+    2.4° with it)."""
+    from wbc.drive.walker import Walker
+
+    robot = load_robot("bioloid")
+    _sim, _bus, imu = make_sim(robot)
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), imu)
+    walker.present = lambda: walker.q[7:]
+    assert walker.calibrating
+    walker.command(0.03, 0.0, 0.0)
+    walker.start()
+    assert walker.walking and not walker.engine.walking  # asked, waiting
+    ticks = 0
+    while walker.calibrating:
+        walker.tick()
+        ticks += 1
+    assert ticks == round(0.3 / walker.engine.dt)
+    assert walker.stabilizer.calibration is not None
+    walker.tick()
+    assert walker.engine.walking
+    assert (
+        Walker(robot, registry("physics")["hqp-daqp"].make(robot), imu, calibrate_s=0.0).calibrating
+        is False
+    )

@@ -157,6 +157,54 @@ def test_measured_landings_are_made_up(setup) -> None:
     assert feet > 0.7 * commanded + 0.03  # (not made up: the soles at 0.7 of the way)
 
 
+def test_short_landings_are_caught_up(setup) -> None:
+    """Leg odometry drives the make-up: every step lands 30 % short of its plan; where the
+    body really is (the planned walking frame plus the landings' offsets,
+    ``odometry_offset``) keeps up with the commanded pose — the steps lengthen within
+    ``catch_up`` — instead of falling behind by 30 % of the way."""
+    e = engine(setup)
+    offset = np.zeros(2)  # the landings' offsets from their plans, summed
+
+    def short(step: Footstep) -> Footstep:
+        other = e.feet["right" if step.side == "left" else "left"]
+        sign = 1.0 if step.side == "left" else -1.0
+        nominal = other.xy + np.array([0.0, sign * 2 * e.half_width])  # (heading 0 here)
+        xy = nominal + 0.7 * (step.xy - nominal)
+        offset[:] += xy - step.xy
+        return Footstep(step.side, float(xy[0]), float(xy[1]), step.yaw)
+
+    e.on_landing = short
+    vx, _, _ = e.command(0.03, 0.0, 0.0)
+    e.start()
+    for _ in range(round(10.0 / e.dt)):
+        e.tick()
+    assert e.odometry_offset == pytest.approx(offset)
+    real = 0.5 * (e.feet["left"].x + e.feet["right"].x) + offset[0]
+    commanded = e._pose_cmd[0]
+    assert offset[0] < -0.05  # the short landings add up
+    assert commanded - real < vx * LEGS_ONLY.timing.step_time * 2.5  # caught up
+
+
+def test_make_up_keeps_the_command_at_the_limit(setup) -> None:
+    """At the forward limit, landings drifting sideways are made up only in the room the
+    limits leave: every step still strides the full forward limit (the make-up never
+    scales the command down)."""
+    e = engine(setup)
+
+    def drift(step: Footstep) -> Footstep:
+        return Footstep(step.side, step.x, step.y - 0.004, step.yaw)  # 4 mm right each
+
+    e.on_landing = drift
+    vx, _, _ = e.command(LIMITS.vx_forward, 0.0, 0.0)
+    e.start()
+    for _ in range(round(6.0 / e.dt)):
+        e.tick()
+    steps = [s for s in e.planned if s.side == "left"]
+    assert e.odometry_offset[1] < -0.02
+    strides = np.diff([s.x for s in steps])[2:]
+    assert np.allclose(strides, 2 * vx * LEGS_ONLY.timing.step_time, atol=1e-6)
+
+
 def test_turning_through_the_half_turn(setup) -> None:
     """Headings wrap at ±π: a walk turning on the spot past 180° keeps its full steps (the
     swing's yaw is interpolated the short way round) and turns as commanded."""

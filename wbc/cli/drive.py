@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
         f"limits: forward {100 * lim.vx_forward:.1f} cm/s, backward {100 * lim.vx_backward:.1f} "
         f"cm/s, sideways {100 * lim.vy:.1f} cm/s, turning {math.degrees(lim.wz):.0f} deg/s"
     )
-    state: dict[str, Any] = {"stopped_at": None, "ended": False}
+    state: dict[str, Any] = {"stopped_at": None, "ended": False, "offset": 0.0}
     script = CommandScript(commands) if commands is not None else None
 
     def before(t: float) -> None:
@@ -168,7 +168,10 @@ def run(args: argparse.Namespace) -> int:
             walker.close()
             return
         if script is not None:
-            c = script.at(t)
+            if walker.calibrating:  # the script starts after the IMU's calibration at rest
+                state["offset"] = t
+                return
+            c = script.at(t - state["offset"])
             if c is not None:
                 walker.command(*c.velocity)
                 if not walker.walking:

@@ -128,16 +128,19 @@ def drive_sim(
     holder.append(odo)
     script = CommandScript(commands)
     end = script.duration
-    state = {"stopped_at": None}
+    state: dict[str, Any] = {"stopped_at": None, "offset": 0.0}
 
     def before(t: float) -> None:
         if odo.fell_at is not None:
             walker.close()
             return
-        c = script.at(t)
+        if walker.calibrating:  # the commands start after the IMU's calibration at rest
+            state["offset"] = t
+            return
+        c = script.at(t - state["offset"])
         if c is not None:
             walker.command(*c.velocity)
-            if not walker.walking and t < end:
+            if not walker.walking and t - state["offset"] < end:
                 walker.start()
         elif state["stopped_at"] is None:
             walker.stop()

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..balance.live import CALIBRATE_S
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
 from ..imu import Imu
@@ -64,7 +65,10 @@ class Walker:
     gait, None for the upright one; or give one. Both defaults
     are measured once per robot and gait and cached (:func:`wbc.drive.envelope.planning_envelope`).
     ``compensate`` > 0: the servo compliance feed-forward × gain in :meth:`deployment`.
-    ``gains``: the feedback (default :data:`DRIVE_GAINS`).
+    ``gains``: the feedback (default :data:`DRIVE_GAINS`). ``calibrate_s``: with an IMU and
+    the closed loop, the first ``calibrate_s`` s stand at rest for the IMU's start-up
+    calibration (gyro bias, levelling; as ``wbc deploy``'s closed loop), a :meth:`start`
+    waiting for its end (0: none).
     """
 
     def __init__(
@@ -79,9 +83,12 @@ class Walker:
         closed: bool = True,
         compensate: float = 0.0,
         q0: np.ndarray | None = None,
+        calibrate_s: float = CALIBRATE_S,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
+        if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
+            raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
         self.robot = robot
         self.controller = controller
         self.imu = imu
@@ -111,8 +118,11 @@ class Walker:
         #: the servos' present positions (rad, model order; NaN: unread) or None: set by
         #: :meth:`deployment` (or by a caller's own loop)
         self.present: Callable[[], np.ndarray | None] = lambda: None
+        rest = round(calibrate_s / self.engine.dt) if closed and imu is not None else 0
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
-                                     gains or DRIVE_GAINS, closed)  # fmt: skip
+                                     gains or DRIVE_GAINS, closed,
+                                     calibration_ticks=rest)  # fmt: skip
+        self._deferred_start = False  # start() asked during the calibration at rest
         self.engine.on_landing = self._landed if closed else None
         self.last: EngineTick | None = None
         self._previous: tuple[str, str, str] | None = None
@@ -136,12 +146,24 @@ class Walker:
         returns the command clipped to :attr:`limits`. Taken at the next lift-off."""
         return self.engine.command(vx, vy, wz)
 
+    @property
+    def calibrating(self) -> bool:
+        """True while the IMU's start-up calibration at rest (gyro bias, levelling:
+        :meth:`Stabilizer._calibrate <wbc.balance.stabilizer.Stabilizer>`) runs; a
+        :meth:`start` then waits for its end."""
+        return self.stabilizer.calibrating
+
     def start(self) -> None:
-        """Start walking (with the command in force; zero: on the spot)."""
-        self.engine.start()
+        """Start walking (with the command in force; zero: on the spot) — after the
+        start-up calibration at rest, if it is still running."""
+        if self.calibrating:
+            self._deferred_start = True
+        else:
+            self.engine.start()
 
     def stop(self) -> None:
         """Finish with a closing step and stand."""
+        self._deferred_start = False
         self.engine.stop()
 
     def close(self) -> None:
@@ -151,7 +173,7 @@ class Walker:
 
     @property
     def walking(self) -> bool:
-        return self.engine.walking
+        return self.engine.walking or self._deferred_start
 
     def _landed(self, step: Footstep) -> Footstep | None:
         """Leg odometry at a landing: the swing sole's placement relative to the stance sole
@@ -191,6 +213,9 @@ class Walker:
         solves; returns the configuration (the goals are its joints ``q[7:]``)."""
         start = time.perf_counter()
         engine = self.engine
+        if self._deferred_start and not self.calibrating:
+            self._deferred_start = False
+            engine.start()
         dt = engine.dt if dt is None else float(dt)
         target_t = self._t + dt
         e = self.last

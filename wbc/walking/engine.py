@@ -8,8 +8,9 @@ plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
   effect at the next lift-off (within one step). A walking frame moves to where the
   commanded pose (the command integrated since :meth:`start`) will be when the step lands
   — in steady walking by the command times the step time, ``(vx T, vy T, ωz T)`` in its own
-  axes; after a start or a change, the displacement the step latency lost is made up
-  within the velocity limits — and the swinging sole lands
+  axes; after a start or a change, or short landings (leg odometry, :attr:`on_landing`),
+  the displacement lost is made up in the room the velocity limits leave beside the
+  command — and the swinging sole lands
   beside it as :func:`wbc.walking.footsteps.plan_footsteps` places its soles (the leading
   sole opens sideways, the trailing one closes; the soles head with the frame). Each
   planned step is checked by :meth:`FootstepPlan.validate` (no crossing, the feet's
@@ -325,6 +326,10 @@ class WalkEngine:
         #: limits and ran at half the commanded rate)
         self.on_landing: Callable[[Footstep], Footstep | None] | None = None
         self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
+        #: leg odometry's offset (x, y; world, m): the sum of the measured landings' offsets
+        #: from their plans since :meth:`start` — where the body really is is the walking
+        #: frame plus it, and the steps aim the commanded pose from there
+        self.odometry_offset = np.zeros(2)
 
     # ------------------------------------------------------------------ commands
     @property
@@ -444,7 +449,8 @@ class WalkEngine:
         step latency lost, so the walk covers the commanded displacement."""
         T = self.params.timing.step_time
         target = _advance_pose(self._pose_cmd, self._cmd, ahead)
-        c = self._centre
+        c = self._centre.copy()
+        c[:2] += self.odometry_offset  # where the body is (leg odometry), not where planned
         d = rot2(c[2]).T @ (target[:2] - c[:2])
         v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
         cmd = np.asarray(self._cmd)
@@ -460,7 +466,17 @@ class WalkEngine:
         )
         if norm > self.params.catch_up:
             extra *= self.params.catch_up / norm
-        return np.asarray(lim.clip(*(cmd + extra))) * T
+        # the make-up takes only the room the limits leave beside the command: a sideways
+        # make-up at the forward limit must not slow the forward walk (the largest share of
+        # it inside the limits, by bisection)
+        share = 1.0
+        if not _inside(lim, cmd + extra):
+            lo, hi = 0.0, 1.0
+            for _ in range(12):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if _inside(lim, cmd + mid * extra) else (lo, mid)
+            share = lo
+        return np.asarray(lim.clip(*(cmd + share * extra))) * T
 
     def _replan(self, first: SegmentKind) -> None:
         """At the start of a double support (or the start phase): commit the next step from
@@ -535,6 +551,7 @@ class WalkEngine:
         if not (err <= MAX_LANDING_ERROR and dyaw <= MAX_LANDING_ERROR):
             return step
         self.landing_errors.append(err)
+        self.odometry_offset += landed.xy - step.xy
         return Footstep(step.side, landed.x, landed.y, step.yaw, step.z)
 
     def _anchor(self, step: Footstep) -> np.ndarray:
@@ -612,6 +629,7 @@ class WalkEngine:
                 self._next_side = "left" if lead > 0 else "right"
                 self._centre = self._mid_frame()
                 self._pose_cmd = self._centre.copy()
+                self.odometry_offset[:] = 0.0
                 self._replan("start")
                 return True
             return False
@@ -744,6 +762,11 @@ def _starts(engine: WalkEngine, rows: list[EngineTick]) -> tuple[Footstep, Foots
         Footstep("left", float(r.l_sole[0]), float(r.l_sole[1]), r.l_yaw, float(r.l_sole[2])),
         Footstep("right", float(r.r_sole[0]), float(r.r_sole[1]), r.r_yaw, float(r.r_sole[2])),
     )
+
+
+def _inside(limits: VelocityLimits, v: np.ndarray) -> bool:
+    """Whether the velocity ``v`` is within ``limits`` (:meth:`VelocityLimits.clip` keeps it)."""
+    return limits.clip(*v) == tuple(float(x) for x in v)
 
 
 def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -> np.ndarray:
