@@ -99,23 +99,7 @@ class BoxLimit:
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
-        kernel = cls.__dict__.get("bound_kernel")
-        if isinstance(kernel, staticmethod):
-            check_arity(kernel.__func__, f"box limit type {cls.__name__}: bound_kernel")
-            refresh_kernel(kernel.__func__)
-            if cls.__module__.startswith("wbc.") and kernel.__func__ not in PACKAGE_BOUND_KERNELS:
-                PACKAGE_BOUND_KERNELS.append(kernel.__func__)
-        elif "bounds" in cls.__dict__ and "bound_kernel" not in cls.__dict__:
-            cls.bound_kernel = None  # its own Python bounds: an inherited kernel no longer applies
-        unknown = set(cls.kernel_inputs) - OPTIONAL
-        if unknown:
-            raise ConfigurationError(
-                f"box limit type {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; "
-                f"allowed: {sorted(OPTIONAL)}"
-            )
-        for name in cls.__dict__.get("param_fields", ()):
-            if not isinstance(cls.__dict__.get(name), property):
-                setattr(cls, name, _ParamField(name))
+        _define_kernel_type(cls, "bound_kernel", "bounds", PACKAGE_BOUND_KERNELS, "box limit type")
 
     def frame_ids(self) -> tuple[int, ...]:
         """The frames the bound kernel reads (in its ``slots`` order)."""
@@ -221,24 +205,9 @@ class Constraint:
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
-        kernel = cls.__dict__.get("row_kernel")
-        if isinstance(kernel, staticmethod):
-            check_arity(kernel.__func__, f"constraint type {cls.__name__}: row_kernel")
-            refresh_kernel(kernel.__func__)
-            package = PACKAGE_CONSTRAINT_KERNELS
-            if cls.__module__.startswith("wbc.") and kernel.__func__ not in package:
-                package.append(kernel.__func__)
-        elif "compute" in cls.__dict__ and "row_kernel" not in cls.__dict__:
-            cls.row_kernel = None  # its own Python rows: an inherited kernel no longer applies
-        unknown = set(cls.kernel_inputs) - OPTIONAL
-        if unknown:
-            raise ConfigurationError(
-                f"constraint type {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; "
-                f"allowed: {sorted(OPTIONAL)}"
-            )
-        for name in cls.__dict__.get("param_fields", ()):
-            if not isinstance(cls.__dict__.get(name), property):
-                setattr(cls, name, _ParamField(name))
+        _define_kernel_type(
+            cls, "row_kernel", "compute", PACKAGE_CONSTRAINT_KERNELS, "constraint type"
+        )
 
     #: True if :meth:`split` holds only rows that Δq = 0 meets (h >= 0): every row violated
     #: at ``kin`` is a request, so the rows held never show a violation there (a converged
@@ -328,3 +297,29 @@ class Constraint:
         """max(0, G Δq − h) per row (for diagnostics and tests)."""
         G, h = self.compute(kin)
         return np.maximum(G @ dq - h, 0.0)
+
+
+def _define_kernel_type(cls, attr: str, own_python: str, package: list, kind: str) -> None:
+    """What defining a box limit or a constraint type does: its kernel (class attribute
+    ``attr``) checked against the one signature and cached, the package's own listed in
+    ``package``; a class with its own Python ``own_python`` method drops an inherited kernel;
+    its ``kernel_inputs`` checked; its ``param_fields`` made fields written in place."""
+    kernel = cls.__dict__.get(attr)
+    if isinstance(kernel, staticmethod):
+        check_arity(kernel.__func__, f"{kind} {cls.__name__}: {attr}")
+        refresh_kernel(kernel.__func__)
+        if cls.__module__.startswith("wbc.") and kernel.__func__ not in package:
+            package.append(kernel.__func__)
+    elif own_python in cls.__dict__ and attr not in cls.__dict__:
+        setattr(
+            cls, attr, None
+        )  # its own Python rows/bounds: an inherited kernel no longer applies
+    unknown = set(cls.kernel_inputs) - OPTIONAL
+    if unknown:
+        raise ConfigurationError(
+            f"{kind} {cls.__name__}: kernel_inputs {sorted(unknown)} unknown; "
+            f"allowed: {sorted(OPTIONAL)}"
+        )
+    for name in cls.__dict__.get("param_fields", ()):
+        if not isinstance(cls.__dict__.get(name), property):
+            setattr(cls, name, _ParamField(name))
