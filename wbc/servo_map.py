@@ -28,8 +28,7 @@ from .xseries import (
     X_TICK_MAX,
     X_TICK_MIN,
     XSettings,
-    checked_register,
-    per_joint_registers,
+    settings_table,
 )
 
 TICK_MIN = 0
@@ -128,15 +127,8 @@ class ServoSettings:
         cls, table: Mapping, joint_names: Sequence[str], source: str = "<memory>"
     ) -> ServoSettings:
         """Parse a ``[settings]`` table: global values plus ``[settings.joints]`` overrides."""
-        where = f"servo map {source}: [settings]"
-        known = set(SETTING_REGISTERS) | {"alarm_shutdown", "joints"}
-        extra = sorted(set(table) - known)
-        if extra:
-            raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
-        values = per_joint_registers(table, joint_names, SETTING_REGISTERS, where)
-        alarm = checked_register(
-            table.get("alarm_shutdown", ALARM_SHUTDOWN_DEFAULT), 0, 127, f"{where} alarm_shutdown"
-        )
+        byte = ("alarm_shutdown", ALARM_SHUTDOWN_DEFAULT, 127)
+        values, alarm = settings_table(table, joint_names, SETTING_REGISTERS, byte, source)
         return cls(**values, alarm_shutdown=alarm)
 
 

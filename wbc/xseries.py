@@ -129,14 +129,8 @@ class XSettings:
     ) -> XSettings:
         """Parse a ``[settings]`` table: global values plus ``[settings.joints]`` overrides;
         an unknown key is an error naming it."""
-        where = f"servo map {source}: [settings]"
-        known = set(X_SETTING_REGISTERS) | {"shutdown", "joints"}
-        extra = sorted(set(table) - known)
-        if extra:
-            raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
-        values = per_joint_registers(table, joint_names, X_SETTING_REGISTERS, where)
-        shutdown = checked_register(
-            table.get("shutdown", SHUTDOWN_DEFAULT), 0, 255, f"{where} shutdown"
+        values, shutdown = settings_table(
+            table, joint_names, X_SETTING_REGISTERS, ("shutdown", SHUTDOWN_DEFAULT, 255), source
         )
         return cls(**values, shutdown=shutdown)
 
@@ -146,6 +140,26 @@ def checked_register(value, lo: int, hi: int, label: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
         raise ServoMapError(f"{label} = {value!r}: must be an integer in {lo}..{hi}")
     return value
+
+
+def settings_table(
+    table: Mapping,
+    joint_names: Sequence[str],
+    registers: Mapping[str, tuple],
+    byte: tuple[str, int, int],
+    source: str,
+) -> tuple[dict[str, np.ndarray], int]:
+    """A servo map's ``[settings]`` table: the per-joint ``registers``
+    (:func:`per_joint_registers`) and one global byte ``(key, default, max)`` (the shutdown
+    bits); an unknown key is an error naming it."""
+    where = f"servo map {source}: [settings]"
+    key, default, hi = byte
+    known = set(registers) | {key, "joints"}
+    extra = sorted(set(table) - known)
+    if extra:
+        raise ServoMapError(f"{where} has unknown keys {extra}; allowed: {sorted(known)}")
+    values = per_joint_registers(table, joint_names, registers, where)
+    return values, checked_register(table.get(key, default), 0, hi, f"{where} {key}")
 
 
 def per_joint_registers(
