@@ -160,6 +160,39 @@ def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
     assert fresh.ready("weighted_tick") and not started[2:]
 
 
+def test_a_set_worker_compiles_the_package_solve_first_unless_it_is_cached(
+    building, tmp_path, monkeypatch
+):
+    """The split tick of another set calls the package's solve after its rows: a job names it
+    when it is not cached (a fresh install on which nothing solved a split tick yet: the CI
+    run where the worker finished and the solver then started the package's whole build),
+    and the worker compiles it before the tick, so the tick on disk means both are ready."""
+    from wbc.compiled import worker
+    from wbc.compiled.ticks import weighted_solve
+
+    _, started, cached = building
+    ticks = _ticks(tmp_path, package=False)
+    ticks.module.__name__ = "wbc_tick_x"
+    ticks.cache, ticks.kernels = True, ()
+    ticks.weighted_tick.py_func = SimpleNamespace(__name__="rows")  # (both ticks' stand-in)
+    args, solve_args = (np.zeros(3),), (np.zeros((2, 2)), 1.0)
+    assert not ticks.ready("weighted_tick", args, (weighted_solve, solve_args))
+    job = json.loads(Path(started[-1].cmd[-1]).read_text())
+    assert (job["solve"]["module"], job["solve"]["qualname"]) == (
+        "wbc.compiled.ticks", "weighted_solve"
+    )  # fmt: skip
+    compiled = []  # (the signatures compiled, in order)
+    recorder = SimpleNamespace(compile=compiled.append)
+    monkeypatch.setattr(worker, "load_kernel", lambda entry: recorder)
+    monkeypatch.setattr(dispatch, "load_generated", lambda *a: SimpleNamespace(rows=recorder))
+    worker.run({**job, "tick": "rows"})
+    assert [len(signature) for signature in compiled] == [2, 1]  # the solve's, then the tick's
+    cached.add(id(weighted_solve))  # cached: the next job does not name it
+    ticks.builders.clear()
+    ticks.ready("cascade_tick", args, (weighted_solve, solve_args))
+    assert "solve" not in json.loads(Path(started[-1].cmd[-1]).read_text())
+
+
 FIRST_TICK = """
 import json, time
 from wbc import load_robot

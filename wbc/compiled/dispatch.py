@@ -480,20 +480,24 @@ class Ticks:
         """True if both ticks are in numba's disk cache."""
         return _on_disk(self.weighted_tick) and _on_disk(self.cascade_tick)
 
-    def start_build(self, announce: bool = True, name: str = "", args: tuple = ()) -> bool:
+    def start_build(
+        self, announce: bool = True, name: str = "", args: tuple = (), solve: tuple = ()
+    ) -> bool:
         """Start compiling ticks in worker processes, unless they are cached or being built;
         True if started. The package's set: both ticks (``python -m wbc.warmup --part ...``,
         which compile the numpy path's kernels too); another set (a task or limit type
         defined elsewhere) whose kernels' source files are known: the tick ``name`` for the
         types of ``args`` (``python -m wbc.compiled.worker``: the kernels are cached each on
-        its own, the worker links them into this set's tick). A caller can do other work
+        its own, the worker links them into this set's tick; ``solve``, ``(kernel, args)``:
+        the package's solve that the split tick calls next, compiled first if it is not cached
+        yet, so that the tick on disk means both are ready). A caller can do other work
         meanwhile (``wbc bench`` runs the baselines); ``announce``: log a line saying so."""
         if self.builders.get(name) or os.environ.get(WORKER_ENV):
             return False
         if not self.package:
             if not (self.buildable() and name and args) or _on_disk(getattr(self, name)):
                 return False
-            return self._start_set_worker(name, args, announce)
+            return self._start_set_worker(name, args, announce, solve)
         if self.builders or self.cached():
             return False
         if announce:
@@ -512,8 +516,9 @@ class Ticks:
                 )
         return True
 
-    def _start_set_worker(self, name: str, args: tuple, announce: bool) -> bool:
-        """Start the worker of tick ``name`` of this (non-package) kernel set."""
+    def _start_set_worker(self, name: str, args: tuple, announce: bool, solve: tuple = ()) -> bool:
+        """Start the worker of tick ``name`` of this (non-package) kernel set (and of the
+        package's ``solve``, ``(kernel, args)``, unless it is cached)."""
         from numba import typeof
 
         def entry(kernel) -> dict:
@@ -533,6 +538,10 @@ class Ticks:
             "tick": getattr(self, name).py_func.__name__,
             "signature": pickle.dumps(signature).hex(),
         }
+        if solve and not _on_disk(solve[0]):
+            kernel, solve_args = solve
+            job["solve"] = entry(kernel)
+            job["solve_signature"] = pickle.dumps(tuple(typeof(a) for a in solve_args)).hex()
         job_file = Path(self.module.__file__).with_suffix(f".{name}.job.json")
         try:
             job_file.write_text(json.dumps(job))
@@ -594,13 +603,14 @@ class Ticks:
             )
         )
 
-    def ready(self, name: str, args: tuple = ()) -> bool:
+    def ready(self, name: str, args: tuple = (), solve: tuple = ()) -> bool:
         """True if tick ``name`` runs at once at its next :meth:`call` (compiled in this
         process or cached on disk, its worker done), or must compile here anyway (no worker
         can build it, inside a worker, ``$WBC_WAIT_FOR_COMPILE`` set: :meth:`call` then waits
         or compiles). False while a worker builds it (started here if the cache is empty; a
-        set other than the package's: for the types of ``args``, the tick's arguments): the
-        caller solves this tick another way. Says once when it becomes ready."""
+        set other than the package's: for the types of ``args``, the tick's arguments, with
+        the package's ``solve`` that follows it, ``(kernel, args)``): the caller solves this
+        tick another way. Says once when it becomes ready."""
         if name in self._ready:
             return True
         dispatcher = getattr(self, name)
@@ -616,7 +626,7 @@ class Ticks:
             self._ready.add(name)
             return True
         if not building:
-            self.start_build(name=name, args=args)
+            self.start_build(name=name, args=args, solve=solve)
         worker = self.builders.get(name)
         if worker is not None and worker.poll() is None and not _on_disk(dispatcher):
             return False  # (its worker may go on with other kernels once the tick is cached)

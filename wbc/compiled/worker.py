@@ -4,7 +4,9 @@
 ``JOB`` (JSON, written by :meth:`wbc.compiled.dispatch.Ticks.start_build`) names the generated
 module (its name and file), its kernels (module, source file and qualified name: each is
 imported by module name, else loaded from its file under that name), the tick and its
-argument types (pickled numba types, hex). The worker compiles that one signature, which
+argument types (pickled numba types, hex), and the package's solve that the split tick calls
+next if it is not cached yet (``solve``, ``solve_signature``: compiled first). The worker
+compiles that one signature, which
 numba caches on disk, and exits; the solver meanwhile solves on the numpy path and loads the
 tick from the cache once it is there. The kernels themselves are compiled once each and
 cached beside their source (numba's ``cache=True``): the tick links them in.
@@ -54,6 +56,9 @@ def run(job: dict) -> None:
     bounds = [load_kernel(e) for e in job["bounds"]]
     constraints = [load_kernel(e) for e in job.get("constraints", ())]
     module = load_generated(job["name"], Path(job["path"]), kernels, bounds, constraints)
+    if "solve" in job:  # (first: the tick on disk then means both are ready)
+        solve = load_kernel(job["solve"])
+        solve.compile(pickle.loads(bytes.fromhex(job["solve_signature"])))
     signature = pickle.loads(bytes.fromhex(job["signature"]))
     getattr(module, job["tick"]).compile(signature)
 

@@ -433,7 +433,8 @@ class _Plan:
         """True if the compiled tick runs at once; False while it is being compiled in the
         background (:meth:`wbc.compiled.dispatch.Ticks.ready`): solve on the numpy path."""
         if not self._ready:
-            ready = self.ticks.ready(self.tick_name, (self.q, *self.packed))
+            solve = (self._solve_kernel(), self.solve_args) if self.ticks.split else ()
+            ready = self.ticks.ready(self.tick_name, (self.q, *self.packed), solve)
             if ready and self.ticks.split:  # and the solve (the package's, once compiled)
                 ready = package_ticks().kernel_ready(self._solve_kernel(), self.tick_name)
             self._ready = ready
