@@ -161,7 +161,9 @@ class _Rows:
         self.J = np.zeros((18, robot.model.nv))
         self.e = np.zeros(18)
 
-    def set_targets(self, left: pin.SE3, right: pin.SE3, com: np.ndarray, torso: np.ndarray):
+    def set_targets(
+        self, left: pin.SE3, right: pin.SE3, com: np.ndarray, torso: np.ndarray
+    ) -> None:
         """The soles' placements, the CoM (world) and the torso's rotation."""
         self.soles[0].set_target(left)
         self.soles[1].set_target(right)
