@@ -95,3 +95,28 @@ def test_bad_input_and_registration(robot):
         FrameTiltTask(robot, "torso", directions=[[1.0, 0.0, np.inf], [0.0, 1.0, 0.0]])
     with pytest.raises(TaskError, match="shape"):
         FrameTiltTask(robot, "torso", target=[0.0, 0.0, 0.0])
+
+
+def test_a_stack_file_names_both_pre_motion_types(robot):
+    """``frame_tilt`` (its directions and target keys) and ``local_frame_pose`` in a stack
+    file's entries: built, the tilt's given target kept, the pose's taken where it is."""
+    import tomllib
+
+    from wbc.stacks import build_stack, stack_file
+    from wbc.tasks import LocalFramePoseTask
+
+    spec = tomllib.loads(stack_file("walk").read_text())
+    spec["levels"][-1]["tasks"] = [
+        *spec["levels"][-1]["tasks"],
+        {"type": "frame_tilt", "frame": "torso", "directions": [[0, 1, 0], [1, 0, 0]],
+         "target": [0.01, 0.0], "weight": 1.0},
+        {"type": "local_frame_pose", "frame": "l_hand", "weight": 1.0},
+    ]  # fmt: skip
+    q = robot.configuration("walk_ready")
+    control = build_stack(spec, robot, q)
+    tasks = {t.name: t for t in control.stack.tasks()}
+    tilt, hand = tasks["frame_tilt_torso"], tasks["local_frame_pose_l_hand"]
+    assert isinstance(tilt, FrameTiltTask) and isinstance(hand, LocalFramePoseTask)
+    assert np.array_equal(tilt.directions, [0, 1, 0, 1, 0, 0])
+    assert np.array_equal(tilt.target, [0.01, 0.0])
+    assert np.abs(hand.compute(Kinematics(robot, q))[1]).max() < 1e-12
