@@ -25,6 +25,8 @@ from wbc.tasks import (
     FrameOrientationTask,
     FramePoseTask,
     FramePositionTask,
+    FrameTiltTask,
+    LocalFramePoseTask,
     PostureTask,
     SwingFootOrientationTask,
     TorsoOrientationTask,
@@ -94,7 +96,13 @@ def make_tasks(robot, rng):
         DampingTask(robot, weight=1e-3, mask=[True] * 6 + [False] * robot.n_joints),
         SwingFootOrientationTask(robot, "r_sole", rot(), weight=[3.0, 0.5]),
         TorsoOrientationTask(robot, axis=rng.normal(size=3), weight=2.0, gain=0.3),
-    ]
+        LocalFramePoseTask(
+            robot, "torso", pin.SE3(rot(), rng.normal(scale=0.1, size=3)), weight=w6,
+            mask=[0, 1, 1, 1, 1, 0],
+        ),
+        FrameTiltTask(robot, "l_sole", rng.normal(size=(2, 3)), rng.normal(scale=0.2, size=2),
+                      weight=[2.0, 0.5], gain=0.5),
+    ]  # fmt: skip
     return tasks
 
 
@@ -125,6 +133,13 @@ def oracle(task, kin) -> tuple[np.ndarray, np.ndarray]:
         e = np.array([1.0 - T[:, 2] @ R[:, 2], 1.0 - T[:, 0] @ R[:, 0]])
         J = np.vstack([np.cross(R[:, 2], T[:, 2]) @ Jf[3:], np.cross(R[:, 0], T[:, 0]) @ Jf[3:]])
         return e, J
+    if isinstance(task, LocalFramePoseTask):
+        e = pin.log6(kin.placement(fid).inverse() * task.target).vector
+        return e, pin.getFrameJacobian(kin.model, kin.data, fid, pin.LOCAL)
+    if isinstance(task, FrameTiltTask):
+        k, (u, v) = R[:, 2], task.directions.reshape(2, 3)
+        J = np.vstack([np.cross(k, u) @ Jf[3:], np.cross(k, v) @ Jf[3:]])
+        return task.target - np.array([u @ k, v @ k]), J
     if isinstance(task, TorsoOrientationTask):
         k = R[:, 2]
         return np.array([1.0 - task.axis @ k]), (np.cross(k, task.axis) @ Jf[3:])[None]
@@ -167,7 +182,7 @@ def test_rows_equal_pinocchio(robot, seed, weighted):
         # near π the log's direction is only determined to ~sqrt(eps) by any method (as in
         # test_log3_and_jlog3_match_pinocchio)
         near_pi = (
-            isinstance(t, (FrameOrientationTask, FramePoseTask))
+            isinstance(t, (FrameOrientationTask, FramePoseTask, LocalFramePoseTask))
             and np.linalg.norm(e_full[-3:]) > 3.0
         )
         tol = 1e-6 if near_pi else 1e-12

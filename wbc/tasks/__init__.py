@@ -6,10 +6,12 @@ the thesis's pseudo-inverse baselines (:mod:`wbc.pinv`).
 
 from .com import ComTask
 from .contact import ContactTask
+from .frame_local_pose import LocalFramePoseTask
 from .frame_orientation import FrameOrientationTask
 from .frame_pose import FramePoseTask
 from .frame_position import FramePositionTask
 from .frame_task import FrameTask
+from .frame_tilt import FrameTiltTask
 from .limit_damping import JointLimitDampingTask
 from .posture import DampingTask, PostureTask
 from .relative_position import RelativeFramePositionTask
@@ -24,7 +26,9 @@ __all__ = [
     "FramePoseTask",
     "FramePositionTask",
     "FrameTask",
+    "FrameTiltTask",
     "JointLimitDampingTask",
+    "LocalFramePoseTask",
     "Objective",
     "PostureTask",
     "RelativeFramePositionTask",

@@ -25,8 +25,9 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import SolverError
+from ..model import Kinematics
+from ..tasks import ComTask, LocalFramePoseTask
 from .reference import WalkingReference
-from .rows import sole_rows
 
 #: the share of a servo's no-load speed (the model's velocity limit) a reference may ask for.
 #: The AX-12A's speed falls linearly with torque, ``w = w0 (1 - tau / tau_stall)``; a swing
@@ -72,13 +73,12 @@ def kinematic_feasibility(
     angles if ``hold_arms``."""
     from qpsolvers import solve_qp
 
-    model, data = robot.model, robot.data
+    model = robot.model
     if q0 is None:
         q0 = robot.place_on_ground(
             robot.configuration("stand"), "l_sole", ref.sole_placement(0, "left")
         )
     q = robot.check_configuration(q0).copy()
-    fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]
     R0 = robot.frame_placement(q, "torso").rotation
     pitch_roll = pin.rpy.rpyToMatrix(0, 0, -np.arctan2(R0[1, 0], R0[0, 0])) @ R0
     torsos = ref.torso_rotations(pitch_roll)  # with the reference's planned lean, if any
@@ -92,11 +92,12 @@ def kinematic_feasibility(
     min_margin = np.inf
     speed = np.zeros(model.nv - 6)
     q_prev = None
+    rows = _Rows(robot, q)
     for i in range(ref.n):
-        targets = [ref.sole_placement(i, "left"), ref.sole_placement(i, "right")]
-        R_torso = torsos[i]
+        rows.set_targets(ref.sole_placement(i, "left"), ref.sole_placement(i, "right"),
+                         ref.com[i], torsos[i])  # fmt: skip
         for _ in range(iterations):
-            J, e, _ = _tasks(model, data, q, fids, targets, ref.com[i], R_torso)
+            J, e = rows(q)
             H = J.T @ (W[:, None] * J) + 1e-4 * np.eye(model.nv)
             g = -J.T @ (W * e)
             lb = np.full(model.nv, -1e3)
@@ -115,7 +116,7 @@ def kinematic_feasibility(
             dq = np.zeros(model.nv)
             dq[free] = sol
             q = pin.integrate(model, q, dq)
-        _, e, _ = _tasks(model, data, q, fids, targets, ref.com[i], R_torso)
+        _, e = rows(q)
         worst = np.maximum(
             worst,
             [
@@ -145,13 +146,38 @@ def kinematic_feasibility(
     )
 
 
-def _tasks(model, data, q, fids, soles, com_target, R_torso):
-    """The rows: both soles and the CoM (:func:`.rows.sole_rows`), the torso's orientation
-    (its local SO(3) log error ``log3(Rᵀ R*)``, local angular Jacobian)."""
-    com, Jc, Js, es = sole_rows(model, data, q, fids[:2], soles)
-    J = np.vstack([Js, Jc, pin.computeFrameJacobian(model, data, q, fids[2], pin.LOCAL)[3:]])
-    e = np.concatenate([es, com_target - com, pin.log3(data.oMf[fids[2]].rotation.T @ R_torso)])
-    return J, e, com
+class _Rows:
+    """The IK's rows (:mod:`wbc.tasks`), ``J dq = e``: both soles at their placements
+    (:class:`~wbc.tasks.LocalFramePoseTask`: ``log6(M⁻¹ M*)``, local Jacobian), the CoM
+    (:class:`~wbc.tasks.ComTask`) and the torso's orientation (the local pose task's rotation
+    rows: ``log3(Rᵀ R*)``, local angular Jacobian); 6 + 6 + 3 + 3 rows."""
+
+    def __init__(self, robot: Any, q: np.ndarray) -> None:
+        self.kin = Kinematics(robot, q)
+        self.soles = [LocalFramePoseTask(robot, f) for f in ("l_sole", "r_sole")]
+        self.com = ComTask(robot)
+        self.torso = LocalFramePoseTask(robot, "torso", mask=[False] * 3 + [True] * 3)
+        self.tasks = [*self.soles, self.com, self.torso]
+        self.J = np.zeros((18, robot.model.nv))
+        self.e = np.zeros(18)
+
+    def set_targets(
+        self, left: pin.SE3, right: pin.SE3, com: np.ndarray, torso: np.ndarray
+    ) -> None:
+        """The soles' placements, the CoM (world) and the torso's rotation."""
+        self.soles[0].set_target(left)
+        self.soles[1].set_target(right)
+        self.com.set_target(com)
+        self.torso.set_rotation_target(torso)
+
+    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(J, e) at ``q`` (this object's arrays, overwritten by the next call)."""
+        self.kin.update(q)
+        r = 0
+        for task in self.tasks:
+            task.fill(self.kin, self.J[r : r + task.rows], self.e[r : r + task.rows])
+            r += task.rows
+        return self.J, self.e
 
 
 def main(argv: list[str] | None = None) -> int:

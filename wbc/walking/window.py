@@ -32,7 +32,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import TrajectoryError
-from .rows import sole_rows
+from ..model import Kinematics
+from ..tasks import ComTask, FrameTiltTask, LocalFramePoseTask
 
 #: default largest torso tilt from upright the window may use (rad; 15 deg)
 MAX_LEAN = float(np.deg2rad(15.0))
@@ -40,6 +41,8 @@ MAX_LEAN = float(np.deg2rad(15.0))
 #: Comparable roll and posture weights share the work between a torso lean and the limbs,
 #: rather than flinging the arms to their limits before the torso leans at all.
 W_PITCH, W_ROLL, W_POSTURE = 1e4, 1.0, 1.0
+#: the frames held
+SOLES = ("l_sole", "r_sole")
 
 
 @dataclass(frozen=True)
@@ -146,8 +149,8 @@ class _Problem:
         self.robot = robot
         self.model, self.data = robot.model, robot.data
         self.q0 = q
-        self.soles = [robot.frame_placement(q, f) for f in ("l_sole", "r_sole")]
-        self.fids = [robot.frame_id(f) for f in ("l_sole", "r_sole", "torso")]
+        self.soles = [robot.frame_placement(q, f) for f in SOLES]
+        self.fid_torso = robot.frame_id("torso")
         self.height = float(robot.com(q)[2]) if height is None else float(height)
         R = self.soles[0].rotation
         heading = float(np.arctan2(R[1, 0], R[0, 0]))
@@ -159,30 +162,41 @@ class _Problem:
             (self.soles[0].translation - self.soles[1].translation) @ self.left
         )
         self.com_x = float((robot.com(q) - mid) @ self.fwd)
-        self.tilt0 = np.zeros(2)
         nv = self.model.nv
         self.free = np.ones(nv, dtype=bool)
         if hold_arms:
             for side in ("left", "right"):
                 for name in robot.roles.arm(side):
                     self.free[robot.v_index(name)] = False
-        self.tilt0 = self._rows(q)[4]  # "upright" is the start pose's own torso lean
+        # the rows (wbc.tasks): the soles held at their placements, the CoM (its target set
+        # per solve), the torso's tilt about the heading; "upright" is the start pose's own lean
+        self.kin = Kinematics(robot, q)
+        self.soles_task = [
+            LocalFramePoseTask(robot, f, target=m) for f, m in zip(SOLES, self.soles, strict=True)
+        ]
+        self.com_task = ComTask(robot)
+        self.tilt_task = FrameTiltTask(robot, "torso", np.array([self.fwd, self.left]))
+        self.tilt_task.set_target_from(self.kin)
+        self._J = np.zeros((12, nv))
+        self._e = np.zeros(12)
+        #: the CoM held at its start's forward offset and height (the extreme's, the projection's)
+        self.com_hold = mid + self.com_x * self.fwd
+        self.com_hold[2] = self.height
 
     # ------------------------------------------------------------------ linearisation
-    def _rows(self, q: np.ndarray):
-        """The soles' and the CoM's rows (:func:`.rows.sole_rows`) and the torso's tilt."""
-        model, data = self.model, self.data
-        com, Jc, Js, es = sole_rows(model, data, q, self.fids[:2], self.soles)
-        Rt = data.oMf[self.fids[2]].rotation
-        Jw = pin.computeFrameJacobian(model, data, q, self.fids[2], pin.LOCAL_WORLD_ALIGNED)[3:]
-        z = Rt[:, 2]
-        # d z = w x z = -[z]x w: the torso up-axis' horizontal components (its tilt)
-        skew = np.array([[0, -z[2], z[1]], [z[2], 0, -z[0]], [-z[1], z[0], 0]])
-        Jz = -skew @ Jw
-        # sin(pitch)-like, -sin(roll)-like, relative to the start pose's own lean
-        tilt = np.array([z @ self.fwd, z @ self.left]) - self.tilt0
-        Jtilt = np.vstack([self.fwd @ Jz, self.left @ Jz])
-        return com, Jc, Js, es, tilt, Jtilt
+    def _rows(self, q: np.ndarray, com_target: np.ndarray):
+        """The rows at ``q`` (as ``J dq = e``): the CoM's toward ``com_target``, the soles'
+        stacked, and the torso's tilt ``x`` (sin pitch, −sin roll about the heading, relative
+        to the start pose's: ``−e`` of :attr:`tilt_task`) with its Jacobian. Returns
+        ``(J_c, e_c, J_s, e_s, x, J_x)``."""
+        kin = self.kin
+        kin.update(q)
+        for k, task in enumerate(self.soles_task):
+            task.fill(kin, self._J[6 * k : 6 * k + 6], self._e[6 * k : 6 * k + 6])
+        self.com_task.set_target(com_target)
+        Jc, ec = self.com_task.compute(kin)
+        Jt, e_tilt = self.tilt_task.compute(kin)
+        return Jc, ec, self._J.copy(), self._e.copy(), -e_tilt, Jt
 
     def _bounds(self, q: np.ndarray, trust: float) -> tuple[np.ndarray, np.ndarray]:
         nv = self.model.nv
@@ -223,7 +237,7 @@ class _Problem:
     def roll(self, q: np.ndarray) -> float:
         """Torso roll about the heading axis (rad): positive tilts its top to the right."""
         pin.framesForwardKinematics(self.model, self.data, q)
-        z = self.data.oMf[self.fids[2]].rotation[:, 2]
+        z = self.data.oMf[self.fid_torso].rotation[:, 2]
         return float(-np.arcsin(np.clip(z @ self.left, -1.0, 1.0)))
 
     # ------------------------------------------------------------------ the two solves
@@ -237,12 +251,10 @@ class _Problem:
         s = np.sin(max_lean)
         best = -np.inf
         for _ in range(iterations):
-            com, Jc, Js, es, tilt, Jt = self._rows(q)
+            Jc, ec, Js, es, tilt, Jt = self._rows(q, self.com_hold)
             lb, ub = self._bounds(q, trust)
             A_eq = np.vstack([Js, Jc[2:3], self.fwd @ Jc])
-            b_eq = np.concatenate(
-                [es, [self.height - com[2]], [self.com_x - (com - self.mid) @ self.fwd]]
-            )
+            b_eq = np.concatenate([es, ec[2:3], [self.fwd @ ec]])
             # |tilt + Jt dq| <= sin(max_lean), per component
             A_ub = np.vstack([Jt, -Jt])
             b_ub = np.concatenate([s - tilt, s + tilt])
@@ -263,7 +275,7 @@ class _Problem:
             q_new = pin.integrate(self.model, q, res.x)
             com_new = self.robot.com(q_new)
             y_new = float((com_new - self.mid) @ self.left)
-            _, _, _, es_new, tilt_new, _ = self._rows(q_new)
+            _, _, _, es_new, tilt_new, _ = self._rows(q_new, self.com_hold)
             ok = np.linalg.norm(es_new) < 1e-3 and np.max(np.abs(tilt_new)) <= s + 1e-3
             if ok and y_new >= best - 1e-6:
                 q = q_new
@@ -283,9 +295,9 @@ class _Problem:
         """Newton steps onto the soles and the CoM height (least norm, bounded)."""
 
         for _ in range(10):
-            com, Jc, Js, es, _, _ = self._rows(q)
+            Jc, ec, Js, es, _, _ = self._rows(q, self.com_hold)
             A = np.vstack([Js, Jc[2:3]])
-            b = np.concatenate([es, [self.height - com[2]]])
+            b = np.concatenate([es, ec[2:3]])
             if np.linalg.norm(b) < 1e-10:
                 break
             nv = self.model.nv
@@ -306,9 +318,9 @@ class _Problem:
         target[2] = self.height
         nv = self.model.nv
         for _ in range(iterations):
-            com, Jc, Js, es, tilt, Jt = self._rows(q)
+            Jc, ec, Js, es, tilt, Jt = self._rows(q, target)
             A1 = np.vstack([Js, Jc])
-            b1 = np.concatenate([es, target - com])
+            b1 = np.concatenate([es, ec])
             dpost = np.zeros(nv)
             dpost[6:] = self.q0[7:] - q[7:]
             Wt = np.array([W_PITCH, W_ROLL])[:, None]

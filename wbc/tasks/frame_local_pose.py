@@ -1,0 +1,130 @@
+"""A frame held at a placement, its error in the frame's own axes (6-D): ``log6(M⁻¹ M*)``.
+
+The rows of the pre-motion solves (:mod:`wbc.walking.window`, :mod:`wbc.walking.feasibility`):
+a sole held at its placement, the torso at an orientation (masked to its last three rows).
+:class:`~wbc.tasks.FramePoseTask` states the same goal with world axes and the exact
+Jacobian of its rotation error; this one is the body-frame form (Pinocchio's ``log6`` and
+``LOCAL`` Jacobian, as pink's frame task).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+from numba import njit
+
+from ..compiled.rows import frame_jacobian, log3
+from ..model import Kinematics, Robot
+from .frame_task import FrameTask
+from .task import TaskError, check_rotation, check_vector
+
+#: below this angle (rad) the coefficients of the logarithm's linear part are their Taylor
+#: expansions (the closed forms lose digits to ``1 − cos θ``; the expansions' first neglected
+#: terms, θ⁶/30240 and θ⁴/30240, are below 1e-22 and 4e-17 here)
+TAYLOR_ANGLE = 1e-3
+
+
+@njit(cache=True)
+def local_pose_rows(
+    target, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, e, J
+) -> None:
+    """e = log6(M⁻¹ M*) = [V(ω)⁻¹ t; ω] with (R_r, t) = (Rᵀ R*, Rᵀ p* − Rᵀ p) and
+    ω = log3(R_r); J = the frame's local Jacobian [Rᵀ J_v; Rᵀ J_ω] (target: p*, then R*
+    row-major). ``Jf`` holds R_r before it holds the frame's Jacobian."""
+    f = slots[0]
+    R, p = Rs[f], ps[f]
+    Rr = Jf[0:3, 0:3]
+    for i in range(3):
+        for j in range(3):
+            Rr[i, j] = R[0, i] * target[3 + j] + R[1, i] * target[6 + j] + R[2, i] * target[9 + j]
+    theta = log3(Rr, e[3:6])
+    t0 = (R[0, 0] * target[0] + R[1, 0] * target[1] + R[2, 0] * target[2]) - (
+        R[0, 0] * p[0] + R[1, 0] * p[1] + R[2, 0] * p[2]
+    )
+    t1 = (R[0, 1] * target[0] + R[1, 1] * target[1] + R[2, 1] * target[2]) - (
+        R[0, 1] * p[0] + R[1, 1] * p[1] + R[2, 1] * p[2]
+    )
+    t2 = (R[0, 2] * target[0] + R[1, 2] * target[1] + R[2, 2] * target[2]) - (
+        R[0, 2] * p[0] + R[1, 2] * p[1] + R[2, 2] * p[2]
+    )
+    # V(ω)⁻¹ t = α t − ½ ω × t + β (ω·t) ω (Pinocchio's log6)
+    th2 = theta * theta
+    if theta < TAYLOR_ANGLE:
+        alpha = 1.0 - th2 / 12.0 - th2 * th2 / 720.0
+        beta = 1.0 / 12.0 + th2 / 720.0
+    else:
+        st, ct = math.sin(theta), math.cos(theta)
+        alpha = theta * st / (2.0 * (1.0 - ct))
+        beta = 1.0 / th2 - st / (2.0 * theta * (1.0 - ct))
+    w0, w1, w2 = e[3], e[4], e[5]
+    bwt = beta * (w0 * t0 + w1 * t1 + w2 * t2)
+    e[0] = alpha * t0 - 0.5 * (w1 * t2 - w2 * t1) + bwt * w0
+    e[1] = alpha * t1 - 0.5 * (w2 * t0 - w0 * t2) + bwt * w1
+    e[2] = alpha * t2 - 0.5 * (w0 * t1 - w1 * t0) + bwt * w2
+    frame_jacobian(Jw, supports[f], p, Jf)
+    for k in range(Jf.shape[1]):
+        a0, a1, a2 = Jf[0, k], Jf[1, k], Jf[2, k]
+        b0, b1, b2 = Jf[3, k], Jf[4, k], Jf[5, k]
+        for i in range(3):
+            J[i, k] = R[0, i] * a0 + R[1, i] * a1 + R[2, i] * a2
+            J[3 + i, k] = R[0, i] * b0 + R[1, i] * b1 + R[2, i] * b2
+
+
+class LocalFramePoseTask(FrameTask):
+    """e = log6(M⁻¹ M*) (the frame's axes: [linear; angular]), J = the frame's local Jacobian
+    (6 x nv; Pinocchio's ``LOCAL``).
+
+    M = (R, p) is the frame's placement, M* = (R*, p*) its target. The rows are the
+    Gauss–Newton model ``J Δq = e`` of reaching M*: exact at the target (where the Jacobian
+    of ``log6`` is the identity) and first-order near it, as the pre-motion solves use it; for
+    large errors :class:`~wbc.tasks.FramePoseTask`'s exact rotation rows converge further.
+    The last three rows alone (``mask``) hold an orientation: ``log3(Rᵀ R*)``, ``Rᵀ J_ω``.
+    """
+
+    dim = 6
+    row_kernel = staticmethod(local_pose_rows)
+    target_fields = ("target_position", "target_rotation")
+    stack_type = "local_frame_pose"  # its `type` in stack files (wbc.tasks.task.register)
+
+    def __init__(
+        self,
+        robot: Robot,
+        frame: str,
+        target: pin.SE3 | None = None,
+        name: str | None = None,
+        gain: float = 1.0,
+        weight: float | Sequence[float] = 1.0,
+        mask: Sequence[bool] | None = None,
+    ) -> None:
+        super().__init__(robot, frame, name, gain, weight, mask)
+        packed = np.zeros(12)  # (both in one array: the compiled tick copies one source)
+        self.target_position = packed[:3]
+        self.target_rotation = packed[3:].reshape(3, 3)
+        self.target_rotation[:] = np.eye(3)
+        if target is not None:
+            self.set_target(target)
+
+    def set_target(self, target: pin.SE3) -> None:
+        """M* (world), copied in place (position and rotation checked as their setters do)."""
+        if not isinstance(target, pin.SE3):
+            raise TaskError(f"task {self.name!r}: target must be a pinocchio.SE3")
+        self.set_position_target(target.translation)
+        self.set_rotation_target(target.rotation)
+
+    def set_position_target(self, position: Sequence[float]) -> None:
+        check_vector(self, position, 3, "target position", out=self.target_position)
+
+    def set_rotation_target(self, rotation: np.ndarray) -> None:
+        check_rotation(self, rotation, out=self.target_rotation)
+
+    def set_target_from(self, kin: Kinematics) -> None:
+        """M* = the frame's current placement."""
+        self.target_position[:] = kin.translation(self.frame_id)
+        self.target_rotation[:] = kin.rotation(self.frame_id)
+
+    @property
+    def target(self) -> pin.SE3:
+        return pin.SE3(self.target_rotation, self.target_position)
