@@ -375,3 +375,31 @@ def test_deploy_live_without_a_stack_takes_the_robots():
     assert parser.parse_args(["--live"]).live == ""  # -> robot_stack(robot, None)
     assert parser.parse_args(["--live", "walk_strict"]).live == "walk_strict"
     assert parser.parse_args([]).live is None
+
+
+def test_length_rows_weigh_by_the_robots_size():
+    """A stack's weights are the design robot's: on Kokone (legs 0.82x the Bioloid's) the CoM's
+    and the swing sole's position rows weigh 1/0.82² as much, the angles as stated; on the
+    Bioloid exactly as stated."""
+    from wbc.model import load_robot
+    from wbc.roles import length_unit
+
+    kokone = load_robot("kokone")
+    unit = length_unit(kokone)
+    assert unit == pytest.approx(0.8196, abs=1e-3)
+    stack = load_stack("walk", kokone).stack
+    assert stack.task("com").weight == pytest.approx(1000.0 / unit**2)
+    swing = stack.task("frame_pose_swing").weight
+    assert swing[:3] == pytest.approx(100.0 / unit**2) and np.all(swing[3:] == 100.0)
+    assert np.all(stack.task("posture").weight == 0.01)
+    assert np.all(stack.task("torso").weight == 1.0)
+    bioloid = load_stack("walk", load_robot("bioloid")).stack
+    assert np.all(bioloid.task("com").weight == 1000.0)
+
+
+def test_a_length_weight_scaled_out_of_range_is_named():
+    from wbc.model import load_robot
+
+    spec = {"solver": "hierarchical", "levels": [{"tasks": [{"type": "com", "weight": 1e-6}]}]}
+    with pytest.raises(TaskError, match=r"level 0: on a robot 1.4\d*x the design size: task 'com'"):
+        build_stack(spec, load_robot("op3"))

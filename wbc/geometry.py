@@ -15,6 +15,11 @@ import numpy as np
 #: Bioloid Premium foot plate, 101 x 61 mm centred under the ankle (bioloid-facts §1.3)
 FOOT_LENGTH = 0.101
 FOOT_WIDTH = 0.061
+#: Bioloid Premium leg (m): hip centre -> knee -> ankle centre. With the foot, the design robot
+#: the defaults were tuned on: the walking settings (wbc.walking.sizing) and the stacks' weights
+#: of length rows (wbc.roles.length_unit) are scaled from it to another robot
+THIGH = 0.07639
+SHIN = 0.07247
 
 
 def sole_corners(length: float = FOOT_LENGTH, width: float = FOOT_WIDTH) -> np.ndarray:

@@ -38,6 +38,7 @@ import numpy as np
 import pinocchio as pin
 
 from .exceptions import ModelError
+from .geometry import SHIN, THIGH
 
 
 class Robot(Protocol):
@@ -300,3 +301,41 @@ def _arms(
             roles["elbow"] = names[-1]
         arms[side] = roles
     return arms, chains
+
+
+def leg_segments(robot: Robot) -> tuple[float, float]:
+    """The left leg's thigh and shin (m), measured at q = 0: hip pitch -> knee -> ankle pitch
+    joint origins (the joints by role)."""
+    model, data = robot.model, pin.Data(robot.model)
+    roles = robot.roles  # type: ignore[attr-defined]
+    pin.forwardKinematics(model, data, robot.neutral())
+    hip, knee, ankle = (
+        data.oMi[model.getJointId(roles.joint("left", r))].translation
+        for r in ("hip_pitch", "knee", "ankle_pitch")
+    )
+    return float(np.linalg.norm(knee - hip)), float(np.linalg.norm(ankle - knee))
+
+
+def leg_ratio(leg: float) -> float:
+    """λ = leg / (THIGH + SHIN): a hip-to-ankle length over the design robot's (the Bioloid's,
+    whose defaults the walking settings and stack weights are), rounded to 1e-9 so that the
+    design robot's stated leg gives exactly 1."""
+    return round(leg / (THIGH + SHIN), 9)
+
+
+def length_unit(robot: Robot) -> float:
+    """The robot's :func:`leg_ratio`: its thigh + shin (``robot.toml`` ``[legs]`` thigh and shin
+    if stated, else :func:`leg_segments`) over the design robot's; 1 for a robot without both
+    sole frames (no legs to measure). The stacks divide the weights of their length rows by
+    λ² (:func:`wbc.stacks.build_stack`): a centimetre on a robot twice the Bioloid's size
+    weighs what half a centimetre weighs on the Bioloid, against the same joint angles."""
+    if not all(robot.has_frame(f) for f in SOLE_FRAMES.values()):
+        return 1.0
+    stated = getattr(getattr(robot, "robot_data", None), "legs", {})
+    if "thigh" in stated and "shin" in stated:
+        thigh, shin = float(stated["thigh"]), float(stated["shin"])  # type: ignore[arg-type]
+    else:
+        measured = leg_segments(robot)
+        thigh = float(stated.get("thigh", measured[0]))  # type: ignore[arg-type]
+        shin = float(stated.get("shin", measured[1]))  # type: ignore[arg-type]
+    return leg_ratio(thigh + shin)

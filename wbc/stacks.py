@@ -39,6 +39,7 @@ from .limits import (
 )
 from .model import Kinematics, Robot
 from .paths import read_toml, stacks_dir
+from .roles import length_unit
 from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
 from .tasks import ContactTask, Task
 from .tasks.task import STACK_TYPES
@@ -284,6 +285,7 @@ def build_stack(
     if not isinstance(velocity_limits, bool):
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
+    unit = length_unit(robot)
     bindings: dict[str, RoleBinding] = {}
     given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
@@ -298,6 +300,7 @@ def build_stack(
         stack.level(priority, hard)
         for entry in level.get("tasks", []):
             task, binding = _make_task(entry, robot, where, priority)
+            _scale_length_weights(task, unit, f"{where}: level {priority}")
             stack.add(task, level=priority)
             if binding is not None:
                 bindings[task.name] = binding
@@ -332,6 +335,23 @@ def build_stack(
     )
     _initial_targets(control, kin, given)
     return control
+
+
+def _scale_length_weights(task: Task, unit: float, where: str) -> None:
+    """A stack's weights are stated for the design robot (the Bioloid): on a robot ``unit``
+    times its size (:func:`wbc.roles.length_unit`) the task's length rows
+    (:attr:`~wbc.tasks.Task.length_rows`) weigh ``1 / unit²`` as much, so that a weight trades
+    the same share of the robot's size against the same joint angle on any robot (a weighted
+    level's solution then scales with the robot: tests/test_walking_sizing.py)."""
+    n = task.length_rows
+    if unit == 1.0 or n == 0:
+        return
+    w = np.array(task._weight_full, dtype=float)  # (the full task's rows, before its mask)
+    w[:n] /= unit * unit
+    try:
+        task.weight = w
+    except WbcError as exc:
+        raise TaskError(f"{where}: on a robot {unit:g}x the design size: {exc}") from exc
 
 
 def _named_types(levels: list) -> set[str]:

@@ -5,8 +5,9 @@ support contact (both soles hard in double support), the swing sole's 6-D pose, 
 (weight 1000, swing 100), the torso orientation (1) and a light posture task (0.01), with joint
 position limits and servo velocity limits. Neither gets the CoM-polygon or ground-clearance
 constraints (pink has none; placo has a polygon constraint but no clearance), so they solve a
-slightly easier problem than ``walk``. They are optional: :func:`available` says which are
-installed.
+slightly easier problem than ``walk``. The weights of length rows (the CoM, the soles' positions)
+are divided by the robot's size squared as the stacks' are (:func:`wbc.roles.length_unit`).
+They are optional: :func:`available` says which are installed.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import pinocchio as pin
 
 from ..exceptions import SolverError
 from ..model import Robot
+from ..roles import length_unit
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference
 
@@ -61,7 +63,8 @@ class PlacoController(Controller):
             for s in ("l_sole", "r_sole")
         }
         self.com = solver.add_com_task(self.pr.com_world())
-        self.com.configure("com", "soft", COM_WEIGHT)
+        self.unit2 = length_unit(robot) ** 2
+        self.com.configure("com", "soft", COM_WEIGHT / self.unit2)
         R0 = self.pr.get_T_world_frame(urdf("torso", "torso"))[:3, :3]
         self.torso = solver.add_orientation_task(urdf("torso", "torso"), R0)
         self.torso.configure("torso", "soft", TORSO_WEIGHT)
@@ -78,7 +81,8 @@ class PlacoController(Controller):
                 task.T_world_frame = (
                     targets.l_sole if sole == "l_sole" else targets.r_sole
                 ).homogeneous
-                task.configure(sole, "hard" if hard else "soft", 1.0 if hard else SWING_WEIGHT)
+                weight = 1.0 if hard else SWING_WEIGHT / self.unit2  # (the position's)
+                task.configure(sole, "hard" if hard else "soft", weight)
         if targets.phase == "single":
             self.feet[targets.swing].T_world_frame = targets.swing_placement.homogeneous
         self.com.target_world = targets.com
@@ -110,14 +114,14 @@ class PinkController(Controller):
         self.data = robot.model.createData()
         self.config = Configuration(self.model, self.data, q0.copy())
         urdf = robot.frame_aliases.get  # the URDF's names of the standard frames
-        cost = np.sqrt(SWING_WEIGHT)
+        cost, unit = np.sqrt(SWING_WEIGHT), length_unit(robot)
         self.feet = {
-            s: FrameTask(urdf(s, s), position_cost=cost, orientation_cost=cost)
+            s: FrameTask(urdf(s, s), position_cost=cost / unit, orientation_cost=cost)
             for s in ("l_sole", "r_sole")
         }
         for s, task in self.feet.items():
             task.set_target(self.config.get_transform_frame_to_world(urdf(s, s)))
-        self.com = ComTask(cost=np.sqrt(COM_WEIGHT))
+        self.com = ComTask(cost=np.sqrt(COM_WEIGHT) / unit)
         self.com.set_target(robot.com(q0))
         torso = urdf("torso", "torso")
         self.torso = FrameTask(torso, position_cost=0.0, orientation_cost=np.sqrt(TORSO_WEIGHT))

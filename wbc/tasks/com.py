@@ -31,6 +31,7 @@ class ComTask(Task):
     dim = 3
     row_kernel = staticmethod(com_rows)
     target_fields = ("target",)
+    length_rows = 3
     stack_type = "com"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(

@@ -87,6 +87,7 @@ class LocalFramePoseTask(FrameTask):
     dim = 6
     row_kernel = staticmethod(local_pose_rows)
     target_fields = ("target_position", "target_rotation")
+    length_rows = 3
     stack_type = "local_frame_pose"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(

@@ -43,6 +43,7 @@ class FramePoseTask(FrameTask):
     dim = 6
     row_kernel = staticmethod(pose_rows)
     target_fields = ("target_position", "target_rotation")
+    length_rows = 3
     stack_type = "frame_pose"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(

@@ -33,6 +33,7 @@ class FramePositionTask(FrameTask):
     dim = 3
     row_kernel = staticmethod(position_rows)
     target_fields = ("target",)
+    length_rows = 3
     stack_type = "frame_position"  # its `type` in stack files (wbc.tasks.task.register)
 
     def __init__(

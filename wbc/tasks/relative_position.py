@@ -57,6 +57,7 @@ class RelativeFramePositionTask(Task):
     target_fields = ("target",)
     #: in a stack file: ``{ type = "relative_position", frame = "r_sole", reference = "l_sole",
     #: target = [0.0, -0.074, 0.0] }`` (frame names, not roles)
+    length_rows = 3
     stack_type = "relative_position"
     stack_keys = ("reference", "target")
 

@@ -86,6 +86,10 @@ class Task:
     #: :attr:`stack_keys` to ``__init__`` as keywords
     stack_type: str | None = None
     stack_keys: tuple[str, ...] = ()
+    #: how many of the first rows of the full error are lengths (m; the rest are angles): a
+    #: stack built for a robot divides their weights by its length unit squared
+    #: (:func:`wbc.roles.length_unit`, :func:`wbc.stacks.build_stack`)
+    length_rows: int = 0
     #: False for regularisation-like tasks (posture, damping) that never reach zero error;
     #: iterating a pose to convergence ignores them.
     blocks_convergence: bool = True

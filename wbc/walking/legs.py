@@ -9,13 +9,12 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ModelError, TrajectoryError
-from ..roles import SOLE_FRAMES
+from ..geometry import SHIN, THIGH
+from ..roles import SOLE_FRAMES, leg_segments
 from .geometry import rot2
 
-# Bioloid Premium leg (m): hip centre -> knee -> ankle centre, hips +-38.5 mm from the torso
+# Bioloid Premium leg (m): thigh and shin (wbc.geometry), hips +-38.5 mm from the torso
 # mid-plane, ankle axes 32.2 mm above the sole.
-THIGH = 0.07639
-SHIN = 0.07247
 HIP_HALF_WIDTH = 0.0385
 ANKLE_HEIGHT = 0.0322
 
@@ -79,8 +78,7 @@ class LegGeometry:
             return {k: data.oMi[model.getJointId(n)].translation.copy() for k, n in names.items()}
 
         o = joint_origins(robot.neutral())
-        thigh = float(np.linalg.norm(o["knee"] - o["hip"]))
-        shin = float(np.linalg.norm(o["ankle"] - o["knee"]))
+        thigh, shin = leg_segments(robot)
         half_width = 0.5 * float(abs(o["hip"][1] - o["right_hip"][1]))
         sole = robot.frame_placement(robot.neutral(), "l_sole").translation
         ankle_h = float(o["ankle"][2] - sole[2])

@@ -29,8 +29,8 @@ from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
 from ..exceptions import TrajectoryError
-from ..geometry import FOOT_WIDTH
-from .legs import SHIN, THIGH
+from ..geometry import FOOT_WIDTH, SHIN, THIGH
+from ..roles import leg_ratio
 
 #: the hip-to-ankle length (thigh + shin, m) and the foot width (m) the walking defaults
 #: were tuned with (the defaults of :class:`~wbc.walking.legs.LegGeometry` and
@@ -137,7 +137,7 @@ def sized(
     from .feasibility import kinematic_feasibility
 
     # (rounded: the robot the defaults were tuned on gets exactly 1)
-    along, across = round(leg / DESIGN_LEG, 9), round(foot[1] / DESIGN_FOOT_WIDTH, 9)
+    along, across = leg_ratio(leg), round(foot[1] / DESIGN_FOOT_WIDTH, 9)
     time = math.sqrt(along)
     own = {k: v for k, v in defaults.items() if k not in stated}
     if "turn" in own:
