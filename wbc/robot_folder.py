@@ -39,6 +39,7 @@ from .model import (
     load_robot,
 )
 from .paths import stacks_dir
+from .roles import leg_segments, length_unit
 
 #: the stack copied as a new robot's default when its URDF has the standard frames
 DEFAULT_STACK = "walk"
@@ -164,15 +165,7 @@ def standing_pose(robot: Robot, fraction: float = STAND_HEIGHT_FRACTION) -> np.n
 
     roles = robot.roles
     q = robot.configuration("zero")
-    o = {
-        r: robot.model.getJointId(roles.joint("left", r))
-        for r in ("hip_pitch", "knee", "ankle_pitch")
-    }
-    pin.forwardKinematics(robot.model, robot.data, q)
-    p = {r: robot.data.oMi[j].translation.copy() for r, j in o.items()}
-    leg = float(
-        np.linalg.norm(p["knee"] - p["hip_pitch"]) + np.linalg.norm(p["ankle_pitch"] - p["knee"])
-    )
+    leg = sum(leg_segments(robot))
     frames = ("torso", "l_sole", "r_sole")
     targets = {f: robot.frame_placement(q, f) for f in frames}
     torso = targets["torso"]
@@ -370,7 +363,8 @@ def _check_legs(robot: Robot) -> list[Finding]:
             f"legs: thigh {1e3 * legs.thigh:.1f} mm, shin {1e3 * legs.shin:.1f} mm, hips "
             f"{2e3 * legs.hip_half_width:.1f} mm apart, ankle {1e3 * legs.ankle_height:.1f} mm "
             f"above the sole, standing CoM {1e3 * robot.com(robot.configuration('stand'))[2]:.1f}"
-            " mm high",
+            f" mm high; {length_unit(robot):.3g}x the Bioloid's leg (the walking settings and"
+            " the stacks' length weights are scaled by it)",
         )
     )
     return out
