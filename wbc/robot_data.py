@@ -21,8 +21,11 @@ robot's folder instead. Two optional files:
     knee = "LKnee"
     [legs]                           # leg measurements stated by hand (LegGeometry fields)
     pelvis_gain = 1.3
+    [walking]
+    fit_speed = true                 # slow the sized walks to the servos' speed (default)
     [walking.walk10]                 # keyword overrides of a walking reference's builder
     step_length = 0.02
+    fit_speed = false                # (this walk's own choice)
     [servo]                          # the simulator's servo model (wbc.sim.actuator)
     law = "hobby_pwm"
     [imu]                            # where the IMU sits (simulator and closed loop)
