@@ -349,7 +349,7 @@ def _scale_length_weights(task: Task, unit: float, where: str) -> None:
     w = np.array(task._weight_full, dtype=float)  # (the full task's rows, before its mask)
     w[:n] /= unit * unit
     try:
-        task.weight = w
+        task.weight = w.tolist()
     except WbcError as exc:
         raise TaskError(f"{where}: on a robot {unit:g}x the design size: {exc}") from exc
 
