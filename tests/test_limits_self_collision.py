@@ -13,14 +13,12 @@ from wbc import Kinematics
 from wbc.bench.trajectories import build
 from wbc.exceptions import ConfigurationError, InfeasibleError, TaskError
 from wbc.limits import Inequality, SelfCollisionConstraint
+from wbc.limits.collision_reference import distance_jacobian, joint_masks, separating_plane_rows
 from wbc.limits.self_collision import (
     RECOVERY_TICKS,
     RECOVERY_TOL,
     PairDistances,
     damper_bound,
-    distance_jacobian,
-    joint_masks,
-    separating_plane_rows,
 )
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
 from wbc.stacks import build_stack, load_stack
