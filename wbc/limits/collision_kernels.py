@@ -603,6 +603,7 @@ PACKED = (
     ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
     ("out_n", "float64", 2), ("counts", "int64", 1), ("G", "float64", 2), ("h", "float64", 1),
     ("row_pair", "int64", 1), ("row_gap", "float64", 1), ("params", "float64", 1),
+    ("closest", "float64", 1),
 )  # fmt: skip
 
 
@@ -652,8 +653,9 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
     """:func:`collision_rows` at the configuration q (7 base coordinates, then the joints),
     with the limit's buffers by address (:data:`PACKED`; their owner keeps them alive:
     ``params`` = [margin, trigger, damping, unreachable]); −1 (nothing computed) if q equals
-    ``last_q`` exactly, the configuration of the last call (then ``last_q[0]`` is a number:
-    NaN before the first call), else the number of rows, and q into ``last_q``."""
+    ``last_q`` exactly, the configuration of the last call (NaN before the first call), else
+    the number of rows, q into ``last_q`` and the smallest distance of the close pairs into
+    ``closest[0]`` (+inf: none)."""
     last_q = _f1(addresses, shapes, 0)
     same = True
     for i in range(q.shape[0]):
@@ -676,4 +678,9 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]
+    closest = _f1(addresses, shapes, 26)
+    out_d = _f1(addresses, shapes, 16)
+    closest[0] = np.inf
+    for i in range(_i1(addresses, shapes, 20)[2]):
+        closest[0] = min(closest[0], out_d[i])
     return r

@@ -605,6 +605,7 @@ class SelfCollisionConstraint(Constraint):
         #: address (:data:`~wbc.limits.collision_kernels.PACKED`; made at the first compute,
         #: dropped by a copy: :meth:`__getstate__`)
         self._rows_q = np.full(robot.nq, np.nan)
+        self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
         #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
         self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
@@ -625,7 +626,7 @@ class SelfCollisionConstraint(Constraint):
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
             pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
             *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
-            self._params,
+            self._params, self._closest,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
         return self._packed
@@ -671,6 +672,7 @@ class SelfCollisionConstraint(Constraint):
             self._n_close = int(pd._counts[2])
         else:
             r = self._n_close = 0
+            self._closest[0] = np.inf
         self._last = None
         # (copies: the rows outlive the next call, e.g. in a backend's problem)
         rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
@@ -684,9 +686,14 @@ class SelfCollisionConstraint(Constraint):
         :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
         tick raises too). The solvers call it after each tick with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
-        d = self._out[1][: self._n_close] if self._last is None else self._last.distance
+        deep_min = self._params[0] - RECOVERY_TOL
+        if self._last is None:  # (the kernel's smallest distance of the last compute)
+            deep = self._closest[0] < deep_min
+        else:
+            d = self._last.distance
+            deep = bool(d.size and d.min() < deep_min)
         inside = self._inside
-        if not (d.size and d.min() < self.margin - RECOVERY_TOL):
+        if not deep:
             if self._counting:
                 inside[:] = 0
                 self._counting = False
