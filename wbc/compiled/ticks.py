@@ -427,7 +427,7 @@ def _cascade(
         g0 = g_rows[k]
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
-        if (level_hard[k] or defer_soft) and not last and deferred == r0:
+        if (level_hard[k] or defer_soft) and not last and g_rows[n_levels] == 0 and deferred == r0:
             # a hard level (of a tick without inequality rows; the levels above it deferred
             # too): its optimal set, when it is met, is {J_k Δq = b_k} within the bounds, so
             # the next level takes it as equalities instead of a solve of its own (the same
@@ -460,7 +460,7 @@ def _cascade(
                 # (Δq so far meets the levels above and their rows: a feasible start)
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                    soft_from, tol, working[k, :g1], entry, np.bool_(deferred == 0),
+                    soft_from, tol, working[k, :g1], entry, np.bool_(True),
                 )  # fmt: skip
             if status == OK or not warm:
                 break
