@@ -600,7 +600,8 @@ class SelfCollisionConstraint(Constraint):
         self._counting = False  # (any of _inside non-zero)
         self._out, self._n_close = self.distances.out_buffers(), 0  # (last compute's close pairs)
         self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
-        self._rows: Inequality | None = None
+        self._rows: Inequality | None = None  # (copies of the last rows, made when asked)
+        self._n_rows = 0
         #: the configuration of the last rows (NaN: none yet), and the kernel's buffers by
         #: address (:data:`~wbc.limits.collision_kernels.PACKED`; made at the first compute,
         #: dropped by a copy: :meth:`__getstate__`)
@@ -655,30 +656,41 @@ class SelfCollisionConstraint(Constraint):
     def last(self, w: Witness) -> None:
         self._last = w
 
-    def compute(self, kin: Kinematics) -> Inequality:
-        """The rows at ``kin`` (kept for a second call at the same configuration, e.g. a
-        tick the compiled path hands back to DAQP): one compiled call,
-        :func:`~wbc.limits.collision_kernels.packed_rows`."""
+    def _update(self, kin: Kinematics) -> int:
+        """The rows at ``kin`` into the limit's buffers (one compiled call,
+        :func:`~wbc.limits.collision_kernels.packed_rows`; nothing at the configuration of the
+        last call); returns their number."""
         pd = self.distances
-        if pd.pairs:
-            packed = self._packed if self._packed is not None else self._pack()
-            Rf, pf = pd.frames(kin)
-            r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, kin.data.J)
-            if r < 0 and self._rows is not None:  # (the configuration of the last rows)
-                return self._rows
-            if r < 0:  # (rows dropped meanwhile: compute them again)
-                self._rows_q.fill(np.nan)
-                r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, kin.data.J)
-            self._n_close = int(pd._counts[2])
-        else:
-            r = self._n_close = 0
+        if not pd.pairs:
+            self._n_close = self._n_rows = 0
             self._closest[0] = np.inf
-        self._last = None
-        # (copies: the rows outlive the next call, e.g. in a backend's problem)
-        rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
-        self._rows = rows
+            self._rows = None
+            return 0
+        packed = self._packed if self._packed is not None else self._pack()
+        Rf, pf = pd.frames(kin)
+        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, kin.data.J)
+        if r < 0:  # (the configuration of the last rows)
+            return self._n_rows
+        self._n_close, self._n_rows = int(pd._counts[2]), r
+        self._last = self._rows = None
         self._row_pair, self._row_gap = self._pair_buf[:r], self._gap_buf[:r]  # (views)
-        return rows
+        return r
+
+    def rows_view(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        """(G, h) of :meth:`compute` as views of the limit's buffers, valid until its next
+        call: for a caller that copies them at once (a compiled plan's rows)."""
+        if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
+            return tuple(self.compute(kin))  # type: ignore[return-value]
+        r = self._update(kin)
+        return self._G[:r], self._h[:r]
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        """The rows at ``kin`` (copies, kept for a second call at the same configuration, e.g.
+        a tick the compiled path hands back to DAQP)."""
+        r = self._update(kin)
+        if self._rows is None:  # (copies: the rows outlive the next call, e.g. in a backend's)
+            self._rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
+        return self._rows
 
     def solved(self) -> None:
         """Count, per pair, the control ticks in a row that found it more than
