@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import resource
 import sys
 import time
 from pathlib import Path
@@ -106,31 +107,56 @@ def walks(args: argparse.Namespace) -> None:
     for _ in range(args.rounds):
         for trajectory, stack, on in runs:
             spec = {**sc.walk_spec(on, stack), "solver": "hierarchical"}
-            rec = run(StackController(build_stack(spec, robot)), robot, refs[trajectory])
+            controller = StackController(build_stack(spec, robot))
+            switches = [0]
+            start = controller.start
+
+            def started(*a, start=start, s=switches) -> None:
+                start(*a)
+                s[0] = _switches()  # (the first tick's count from here)
+
+            controller.start = started  # type: ignore[method-assign]
+            rec = run(
+                controller,
+                robot,
+                refs[trajectory],
+                on_tick=lambda *_, s=switches: s.append(_switches()),
+            )
             t = rec["solve_time"] * 1e6
+            quiet = np.diff(switches) == 0  # no other process ran during the tick
             support = rec["support"]
             switch = np.flatnonzero(support[1:] != support[:-1]) + 1
-            head = np.percentile(t[: max(1, t.size // 20)], 99)
+            first = t[: max(1, t.size // 20)]
             median = np.median(t)
             figures[(trajectory, stack, on)].append(
-                (median, np.median(t[switch]), t[0], head, switch.size)
-            )
+                (median, np.median(t[switch]), t[0], np.percentile(first, 99),
+                 np.percentile(first[quiet[: first.size]], 99), switch.size,
+                 first.size - quiet[: first.size].sum())
+            )  # fmt: skip
     clock = "CPU" if args.cpu else "wall-clock"
     print(f"{args.rounds} interleaved rounds, {clock} µs (medians over rounds)")
     print(
         "| trajectory | stack | self-collision | median | switch | switch / median "
-        "| first tick | first / median | p99 first 5 % | p99 first 5 % / median | switches |"
+        "| first tick | first / median | p99 first 5 % | p99 first 5 % / median "
+        "| p99 first 5 %, ticks not preempted | / median | preempted | switches |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for (trajectory, stack, on), rows in figures.items():
         a = np.asarray(rows)
-        ratios = np.median(a[:, 1:4] / a[:, :1], axis=0)  # (each round's ratio)
-        med, sw, first, head, n = np.median(a, axis=0)
+        ratios = np.median(a[:, 1:5] / a[:, :1], axis=0)  # (each round's ratio)
+        med, sw, first, head, quiet, n, preempted = np.median(a, axis=0)
         print(
             f"| {trajectory} | {stack} | {'on' if on else 'off'} | {med:.1f} | {sw:.1f} |"
             f" {ratios[0]:.2f} | {first:.1f} | {ratios[1]:.2f} | {head:.1f} | {ratios[2]:.2f} |"
-            f" {n:.0f} |"
+            f" {quiet:.1f} | {ratios[3]:.2f} | {preempted:.0f} | {n:.0f} |"
         )
+
+
+def _switches() -> int:
+    """This process's context switches so far (a tick during which another process ran is
+    preempted: its time, CPU time included, carries the caches that process evicted)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_nivcsw + usage.ru_nvcsw
 
 
 def _load(filename: str, name: str):
