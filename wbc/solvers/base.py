@@ -109,6 +109,10 @@ class StackSolver(ABC):
         #: each kept layout's hard constraints (by its :meth:`_layout_key`: a support switch
         #: takes them with the layout instead of listing them again)
         self._layout_hard: dict = {}
+        #: (:meth:`note_phase`) the phase the stack is in at a revision, and each noted
+        #: phase's layout key
+        self._phase_note: tuple | None = None
+        self._phase_keys: dict = {}
         #: what the solver's work spent: a running :meth:`solve_pose`'s budget, the last
         #: solve's recovery steps (:class:`~wbc.solvers.budget.Work`)
         self.work = Work()
@@ -309,12 +313,29 @@ class StackSolver(ABC):
             *[c.active for c in constraints],
         )
 
+    def note_phase(self, phase: tuple, revision: int) -> None:
+        """The stack at ``revision`` is in the state that ``phase`` names (hashable; its first
+        item an epoch token, compared by identity: within one epoch, the same phase is the
+        same state of every task and constraint that a layout reads): a switch at that
+        revision takes the layout key kept for ``phase`` instead of reading the stack
+        (:meth:`wbc.stacks.ControlStack.set_phase` notes its support phases so)."""
+        self._phase_note = (phase, revision)
+
     def _switch_layout(self, build: Callable[[], Any]) -> Any:
         """The layout of the stack as it is now (its :attr:`TaskStack.revision` moved): the one
         kept for its :meth:`_layout_key`, else ``build()`` (kept), with its hard constraints
         (:meth:`_hard_constraints`). Nothing else happens at a switch: every compiled tick
         starts its active sets afresh (:meth:`wbc.solvers.plan._Plan.solve`)."""
-        key = self._layout_key()
+        note = self._phase_note
+        if note is not None and note[1] == self.stack.revision:  # a noted phase: its key
+            phase = note[0]
+            key = self._phase_keys.get(phase)
+            if key is None:
+                if self._phase_keys and next(iter(self._phase_keys))[0] is not phase[0]:
+                    self._phase_keys.clear()  # (another epoch)
+                key = self._phase_keys[phase] = self._layout_key()
+        else:
+            key = self._layout_key()
         layout = self._layouts.get(key)
         if layout is None:
             if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh
