@@ -375,3 +375,31 @@ def test_deploy_live_without_a_stack_takes_the_robots():
     assert parser.parse_args(["--live"]).live == ""  # -> robot_stack(robot, None)
     assert parser.parse_args(["--live", "walk_strict"]).live == "walk_strict"
     assert parser.parse_args([]).live is None
+
+
+@pytest.mark.parametrize("name", ["walk", "walk_strict"])
+def test_a_noted_phase_takes_the_layout_of_the_stack_as_it_is(robot, name):
+    """set_phase notes its phase to the solver, which then takes the layout key it kept for
+    that phase instead of reading the stack: along random switches with by-hand changes
+    between some (a weight, a task switched off and on, a frame), the layout a tick solves
+    with is always the one the stack's own key gives."""
+    rng = np.random.default_rng(5)
+    control = load_stack(name, robot)
+    solver, stack = control.solver, control.stack
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    posture = stack.task("posture")
+    soles = ("l_sole", "r_sole")
+    for i in range(60):
+        phase = str(rng.choice(["double", "single"]))
+        support = str(rng.choice(soles))
+        control.set_phase(phase, support, soles[1 - soles.index(support)], kin)
+        if i % 7 == 3:
+            posture.weight = float(rng.choice([0.01, 0.02]))
+        if i % 11 == 5:
+            posture.active = not posture.active
+        if i % 13 == 6:  # a frame the phases do not bind (the torso's, by hand)
+            torso = stack.task("torso")
+            torso.set_frame("l_sole" if torso.frame == "torso" else "torso")
+        solver.solve(q, 0.01)
+        assert solver.fast is solver._layouts[solver._layout_key()].fast, i
