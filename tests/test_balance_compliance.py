@@ -429,8 +429,9 @@ def test_hobby_compensator_uses_the_robots_own_servo(kokone):
 
 def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, robot):
     """best_compensate: x0.5 on the AX-12A (issue 30's sweep), x1 on hobby PWM servos (all nine
-    Kokone walks stand with it and fall without it: benchmarks/kokone_sim.md), none on the
-    XM430, whose PID holds its goal; a plain `wbc sim --robot kokone` uses it open loop."""
+    Kokone walks stand with it and fall without it: benchmarks/kokone_sim.md), x0.5 on the
+    XM430 (the OP3's walks: benchmarks/op3.md section 7); a plain `wbc sim --robot kokone`
+    uses it open loop."""
     import argparse
 
     from wbc.balance import best_compensate
@@ -438,7 +439,7 @@ def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, rob
 
     assert best_compensate(robot) == 0.5
     assert best_compensate(kokone) == 1.0
-    assert best_compensate(load_robot("op3")) == 0.0
+    assert best_compensate(load_robot("op3")) == 0.5
     args = argparse.Namespace(compensate=None, compensate_encoders=False)
     resolve_compensate(args, kokone, best=True)
     assert args.compensate == 1.0
