@@ -458,11 +458,13 @@ class _Plan:
         return self.f(t)
 
 
-def test_x_series_deflection_is_the_p_terms(op3):
+def test_x_series_deflection_is_the_p_terms(op3, comp):
     """An X-series robot's compensator inverts its P term (δ = τ / k, the servo law's own
-    stiffness); it had no model before (ServoParams of X-series settings)."""
+    stiffness); it had no model before (ServoParams of X-series settings). Its servos hold a
+    slow load on their integral (get_up then feeds nothing forward); the AX-12A's do not."""
     from wbc.sim.xm430 import XServoParams
 
+    assert not comp.integral
     comp = ComplianceCompensator(op3)
     assert isinstance(comp.params, XServoParams) and comp.integral
     q = op3.joints(op3.configuration("stand"))
