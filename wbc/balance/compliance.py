@@ -295,6 +295,15 @@ class CompensatedSource:
     (``correction=None``: the feed-forward alone, ``ŝ = 1``). The present positions a
     deployment reads right after sending a goal answer the goal before it: they are paired
     with the goal ``delay`` calls back.
+
+    On X-series servos (:class:`~wbc.sim.xm430.XServoParams`: a PI position loop) the load
+    also carries the drive torque ``b · q̇ + I_a · q̈`` of the goals
+    (:meth:`_drive`), and δ is high-passed with each servo's integral time ``T_i``
+    (:meth:`_unabsorbed`): what the integral already holds is not fed forward twice::
+
+        a ← a + (δ − a) · (1 − exp(−Δt / T_i)),    goal = q + gain · ŝ · (δ − a)
+
+    (``a`` = δ at the first call: at rest the integral holds the whole load.)
     """
 
     def __init__(
