@@ -344,7 +344,7 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
     folder's stack.toml when it has one (wbc.stacks.robot_stack), and say so."""
     import shutil
 
-    from wbc.bench.physics import physics_stack
+    from wbc.bench.physics import physics_entry, physics_stack
     from wbc.bench.solvers import select
     from wbc.model import load_robot
     from wbc.paths import robots_dir, stacks_dir
@@ -363,6 +363,9 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
     assert physics_stack(robot) == str(stack)
     entries, _ = select(["hqp-daqp"], None, "tick", stack=physics_stack(robot))
     assert entries[0].stack == str(stack) and entries[0].name == "hqp-daqp@stack"
+    # wbc sim's plan and its closed loop (which solved the benchmark's own stack before)
+    assert physics_entry("hqp-daqp", robot).stack == str(stack)
+    assert physics_entry("hqp-daqp", plain).stack == "walk"
 
 
 def test_deploy_live_without_a_stack_takes_the_robots():
