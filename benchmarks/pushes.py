@@ -33,13 +33,15 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
-LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before")
+LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before", "openff")
 
 
 def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name."""
     if loop == "open":
         return None, 0.0
+    if loop == "openff":  # the plan played open loop with the feed-forward x0.5
+        return None, 0.5
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
     step = SteppingParams() if loop in ("step", "nohipstep") else None
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
