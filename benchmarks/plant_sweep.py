@@ -43,8 +43,14 @@ VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
 }
 
 
-def spec_of(variant, entry, ref, extra: dict | None = None, step_kw: dict | None = None,
-            calibrate_s: float | None = None):
+def spec_of(
+    variant,
+    entry,
+    ref,
+    extra: dict | None = None,
+    step_kw: dict | None = None,
+    calibrate_s: float | None = None,
+):
     """(compensate, ClosedLoopSpec or None) of a variant (``extra``: more Gains keywords,
     ``step_kw``: SteppingParams keywords)."""
     if variant is None:
@@ -65,8 +71,12 @@ def main() -> None:
     p.add_argument("--gains", default="{}", help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'")
     p.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords")
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
-    p.add_argument("--calibrate", type=float, default=None,
-                   help="s at rest for the IMU calibration (default: closed_loop's)")
+    p.add_argument(
+        "--calibrate",
+        type=float,
+        default=None,
+        help="s at rest for the IMU calibration (default: closed_loop's)",
+    )
     args = p.parse_args()
     robot = load_robot("bioloid")
     entry = registry()[args.solver]
@@ -84,8 +94,14 @@ def main() -> None:
         for label, variant in VARIANTS.items():
             if args.only and label not in args.only:
                 continue
-            comp, spec = spec_of(variant, entry, ref, json.loads(args.gains),
-                                 json.loads(args.stepping), args.calibrate)
+            comp, spec = spec_of(
+                variant,
+                entry,
+                ref,
+                json.loads(args.gains),
+                json.loads(args.stepping),
+                args.calibrate,
+            )
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
             fallen, worst = [], []

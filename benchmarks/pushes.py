@@ -5,13 +5,16 @@ The largest 10 ms torso impulse survived (N·s, bisection over 0–3 N·s as ``w
 the plan played open loop (``open``), the closed loop (compliance ×0.5, ``Gains()``: with
 the hip strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
 placement from the measured DCM (``step``, :mod:`wbc.balance.stepping`), and both without the
-hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it); plus
+hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it), the
+plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
 (:func:`wbc.balance.stepping.capture_bounds`) and the angular-momentum (hip strategy) bound
 (:func:`wbc.balance.angular.hip_strategy_bound`).
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
     python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops openff step \
+        --directions forward backward toward away          # four directions (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """

@@ -109,8 +109,9 @@ def test_the_default_rest_is_long_enough_not_to_take_the_settling_for_gyro_bias(
     biases = {}
     for rest in (0.3, CALIBRATE_S):
         spec = closed_loop.ClosedLoopSpec(registry()["wqp-daqp"].make, ref, calibrate_s=rest)
-        _, loop = closed_loop.play_closed_loop(spec, robot, settle=0.0, duration=rest + 0.05,
-                                               compensate=0.5)
+        _, loop = closed_loop.play_closed_loop(
+            spec, robot, settle=0.0, duration=rest + 0.05, compensate=0.5
+        )
         biases[rest] = float(np.linalg.norm(loop.stabilizer.calibration.gyro_bias))
     assert biases[0.3] > 0.008, biases  # (what the short rest took)
     assert biases[CALIBRATE_S] < 0.005, biases
