@@ -40,6 +40,7 @@ VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
     "open ff 0.5": (0.5, {}, True, False, False),
     "closed ff 0.5": (0.5, {}, True, True, False),
     "closed ff 0.5 + step": (0.5, {}, True, True, True),
+    "closed ff 0.25 + step": (0.25, {}, True, True, True),
 }
 
 

@@ -20,10 +20,13 @@ def example():
 
 
 def test_example_walks_closed_loop(example):
-    """0.6 s of walk10 on the example's toy simulator, through the deployment, closed loop:
-    it completes, the loop's time is a share of the tick, the estimator sees the toy body's
-    lean, and no goal ever left a joint limit. (The off switch: test_balance_stabilizer.)"""
-    closed = example.main(duration=0.6, closed=True)
+    """0.6 s of walk10 (after the IMU's rest) on the example's toy simulator, through the
+    deployment, closed loop: it completes, the loop's time is a share of the tick, the
+    estimator sees the toy body's lean, and no goal ever left a joint limit. (The off
+    switch: test_balance_stabilizer.)"""
+    from wbc.balance.live import CALIBRATE_S
+
+    closed = example.main(duration=CALIBRATE_S + 0.6, closed=True)  # (the rest, then 0.6 s)
     assert closed["completed"] and closed["ticks"] >= 55
     assert 0 < closed["feedback_share"] < 1
     assert closed["goal_limit_excess_rad"] <= 0
@@ -43,7 +46,8 @@ def test_an_imu_mounted_otherwise_than_the_robot_says_is_reported(robot):
     from wbc.sim.model import ModelParams
 
     ref = build("walk10_wb", robot)
-    spec = closed_loop.ClosedLoopSpec(registry()["wqp-daqp"].make, ref)
+    # (a 0.3 s rest: the mount check needs no more; the default's 1 s is for the bias)
+    spec = closed_loop.ClosedLoopSpec(registry()["wqp-daqp"].make, ref, calibrate_s=0.3)
     for deg, stops in ((12.0, True), (3.0, False)):
         turned = ModelParams(imu_rotation=pin.rpy.rpyToMatrix(np.radians(deg), 0.0, 0.0))
         v = variation.Variation(turned, None, 0, 0.0, {})
@@ -80,7 +84,7 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     lines: list[str] = []
     make = registry()["hqp-daqp"].make
     loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, SimImu(sim),
-                       out=lines.append, duration=0.5)  # fmt: skip
+                       out=lines.append, duration=0.5, calibrate_s=0.3)  # fmt: skip
     assert not loop.deployment.config.read
     said = [x for x in lines if "reports no positions" in x]
     assert len(said) == 1 and "IMU and the commanded joint positions" in said[0]
