@@ -194,5 +194,6 @@ def test_walker_corrects_the_feed_forward_from_the_encoders(robot, closed) -> No
         assert correction is None
         return
     assert correction is not None
+    assert (correction.window, correction.rate) == (1.0, 3.0)  # DRIVE_CORRECTION
     assert np.min(correction.scale) < 0.9  # learnt: the dry-run servos do not deflect
     assert np.all(correction.scale >= correction.s_min)

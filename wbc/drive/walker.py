@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -57,7 +58,15 @@ DRIVE_GAINS = Gains(k_hip=0.0)
 #: (``Walker(correct=True)``) 0.75, without it issue 30's 0.5 (benchmarks/drive.md: on the
 #: randomised Bioloids the corrected ×0.75 falls least; the corrected ×0.5 threw the nominal
 #: Bioloid at the sideways limit, ×1 the stiff, lightly damped models at the start)
-DRIVE_COMPENSATE = {True: 0.75, False: 0.5}
+DRIVE_COMPENSATE = MappingProxyType({True: 0.75, False: 0.5})
+
+
+#: the encoders' correction's fit for driven walks (:class:`~wbc.balance.compliance.
+#: EncoderCorrection`): a 1 s forgetting window and scales moving up to 3 /s, so that a stiff
+#: servo's scale has dropped before the first steps (the defaults, 3 s and 1 /s, let the
+#: stiffest randomised Bioloids fall sideways 2.3 s in: random sequences 4 falls of 100
+#: against 2, benchmarks/drive.md)
+DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 
 
 def default_compensate(correct: bool = True) -> float:
@@ -80,7 +89,7 @@ class Walker:
     the feed-forward rescaled per servo from the encoders' present positions
     (:class:`~wbc.balance.compliance.EncoderCorrection`: a servo stiffer or softer than its
     settings gets its own scale; on the randomised Bioloids it took the random sequences'
-    falls from 16 to 2 of 36, benchmarks/drive.md).
+    falls from 29 to 2 of 100, benchmarks/drive.md).
     ``gains``: the feedback (default :data:`DRIVE_GAINS`). ``calibrate_s``: with an IMU and
     the closed loop, the first ``calibrate_s`` s stand at rest for the IMU's start-up
     calibration (gyro bias, levelling; as ``wbc deploy``'s closed loop), a :meth:`start`
@@ -293,7 +302,7 @@ class Walker:
             if self.correct and self.stabilizer.enabled:
                 from ..balance.compliance import EncoderCorrection
 
-                fix = EncoderCorrection(self.robot.n_joints)
+                fix = EncoderCorrection(self.robot.n_joints, **DRIVE_CORRECTION)
             source = CompensatedSource(
                 self, comp, lambda t: self.last.support if self.last else SUPPORT_DOUBLE,
                 self.present if fix is not None else None, fix,
