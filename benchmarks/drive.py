@@ -92,8 +92,8 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
-    options = {"compensate": default_compensate(None, correct) if compensate is None else compensate,
-               "correct": correct}  # fmt: skip
+    gain = default_compensate(correct=correct) if compensate is None else compensate
+    options = {"compensate": gain, "correct": correct}
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
