@@ -42,6 +42,7 @@ from wbc.bench.variation import models
 from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim
+from wbc.drive.walker import default_compensate
 
 
 def scripts(lim) -> dict[str, list[Command]]:
@@ -88,9 +89,11 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
     return [float(np.polyfit(t, path[sel, k], 1)[0]) for k in (1, 2, 3)]
 
 
-def run_one(robot, solver: str, commands, variation=None, limits=None, window=None, **kw):
+def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
+            correct: bool = True, compensate: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
-    options = {"compensate": 0.5}
+    gain = default_compensate(correct=correct) if compensate is None else compensate
+    options = {"compensate": gain, "correct": correct}
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
@@ -152,6 +155,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--hold", type=float, default=8.0)
     ap.add_argument("--tick", nargs="*", metavar="SOLVER")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--compensate", type=float, default=None,
+                    help="the compliance feed-forward's gain (default: 0.75 with the encoders' "
+                         "correction, 0.5 without)")  # fmt: skip
+    ap.add_argument("--no-correct", dest="correct", action="store_false",
+                    help="the compliance feed-forward on the model alone (no per-servo scale "
+                         "from the encoders, Walker(correct=False))")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -161,8 +170,10 @@ def main(argv: list[str] | None = None) -> int:
           f"{100 * limits.vx_backward:.2f} cm/s, sideways {100 * limits.vy:.2f} cm/s, turning "
           f"{math.degrees(limits.wz):.1f} deg/s", flush=True)  # fmt: skip
     record: dict = {"robot": robot.name, "solver": args.solver, "limits": limits.as_dict(),
-                    "argv": sys.argv[1:]}  # fmt: skip
+                    "argv": sys.argv[1:], "correct": args.correct,
+                    "compensate": args.compensate}  # fmt: skip
     paths = {}
+    loop = {"correct": args.correct, "compensate": args.compensate}
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
         record["tick"] = tick_cost(robot, solvers)
@@ -175,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.only and name not in args.only:
                 continue
             t0 = time.perf_counter()
-            r = run_one(robot, args.solver, cmds, limits=limits, window=window)
+            r = run_one(robot, args.solver, cmds, limits=limits, window=window, **loop)
             paths[name] = (r.pop("_path"), cmds)
             if len(cmds) == 1:  # the speed kept from 3 s in to 1 s before the stop
                 r["steady_velocity"] = steady_velocity(paths[name][0], 3.0, cmds[0].duration - 1)
@@ -196,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
             cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
                                    args.duration)  # fmt: skip
             for k, v in enumerate(variations):
-                r = run_one(robot, args.solver, cmds, v, limits=limits, window=window)
+                r = run_one(robot, args.solver, cmds, v, limits=limits, window=window, **loop)
                 r.pop("_path")
                 runs.append({"sequence": i, "model": k, **r})
                 print(f"sequence {i} model {k}: fell {r['fell']} xy err "
@@ -227,7 +238,7 @@ def main(argv: list[str] | None = None) -> int:
                 scaled = type(limits)(*(s * v for v in limits.as_dict().values()))
                 up = 0
                 for v in variations:
-                    r = run_one(robot, args.solver, [c], v, limits=scaled, window=window)
+                    r = run_one(robot, args.solver, [c], v, limits=scaled, window=window, **loop)
                     up += not r["fell"]
                 env[axis].append({"speed": [c.vx, c.vy, c.wz], "up": up,
                                   "models": len(variations)})  # fmt: skip

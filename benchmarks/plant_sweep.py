@@ -40,17 +40,26 @@ VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
     "open ff 0.5": (0.5, {}, True, False, False),
     "closed ff 0.5": (0.5, {}, True, True, False),
     "closed ff 0.5 + step": (0.5, {}, True, True, True),
+    "closed ff 0.25 + step": (0.25, {}, True, True, True),
 }
 
 
-def spec_of(variant, entry, ref, extra: dict | None = None):
-    """(compensate, ClosedLoopSpec or None) of a variant (``extra``: more Gains keywords)."""
+def spec_of(
+    variant,
+    entry,
+    ref,
+    extra: dict | None = None,
+    step_kw: dict | None = None,
+    calibrate_s: float | None = None,
+):
+    """(compensate, ClosedLoopSpec or None) of a variant (``extra``: more Gains keywords,
+    ``step_kw``: SteppingParams keywords)."""
     if variant is None:
         return 0.0, None
     comp, gains, imu, on, step = variant
-    stepping = SteppingParams() if step else None
+    stepping = SteppingParams(**(step_kw or {})) if step else None
     return comp, ClosedLoopSpec(entry.make, ref, Gains(**gains, **(extra or {})), on, imu,
-                                stepping)  # fmt: skip
+                                stepping, calibrate_s=calibrate_s)  # fmt: skip
 
 
 def main() -> None:
@@ -61,10 +70,20 @@ def main() -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--only", nargs="*", help="variant labels to run (default: all)")
     p.add_argument("--gains", default="{}", help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'")
+    p.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords")
+    p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
+    p.add_argument(
+        "--calibrate",
+        type=float,
+        default=None,
+        help="s at rest for the IMU calibration (default: closed_loop's)",
+    )
     args = p.parse_args()
     robot = load_robot("bioloid")
     entry = registry()[args.solver]
-    plants = models(robot, args.models, args.seed)
+    plants = list(enumerate(models(robot, args.models, args.seed)))
+    if args.plants:
+        plants = [plants[k] for k in args.plants]
     print(f"{args.solver}, {args.models} randomised plants (seed {args.seed})")
     print(
         "| variant | walk | nominal dev° | nominal dist | up | fallen models | dev° per plant | s |"
@@ -76,11 +95,18 @@ def main() -> None:
         for label, variant in VARIANTS.items():
             if args.only and label not in args.only:
                 continue
-            comp, spec = spec_of(variant, entry, ref, json.loads(args.gains))
+            comp, spec = spec_of(
+                variant,
+                entry,
+                ref,
+                json.loads(args.gains),
+                json.loads(args.stepping),
+                args.calibrate,
+            )
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
             fallen, worst = [], []
-            for k, v in enumerate(plants):
+            for k, v in plants:
                 run = simulate(rec, robot, v, compensate=comp, closed=spec)
                 worst.append(round(run["orientation_dev_max_deg"], 1))
                 if run["fell"]:
@@ -89,7 +115,7 @@ def main() -> None:
             nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
             print(
                 f"| {label} | {walk} | {nominal} | {dist} | "
-                f"{args.models - len(fallen)}/{args.models} | {fallen} | {worst} | "
+                f"{len(plants) - len(fallen)}/{len(plants)} | {fallen} | {worst} | "
                 f"{time.perf_counter() - started:.0f} |",
                 flush=True,
             )

@@ -5,13 +5,16 @@ The largest 10 ms torso impulse survived (N·s, bisection over 0–3 N·s as ``w
 the plan played open loop (``open``), the closed loop (compliance ×0.5, ``Gains()``: with
 the hip strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
 placement from the measured DCM (``step``, :mod:`wbc.balance.stepping`), and both without the
-hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it); plus
+hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it), the
+plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
 (:func:`wbc.balance.stepping.capture_bounds`) and the angular-momentum (hip strategy) bound
 (:func:`wbc.balance.angular.hip_strategy_bound`).
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
     python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops openff step \
+        --directions forward backward toward away          # four directions (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -33,13 +36,15 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
-LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before")
+LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before", "openff")
 
 
 def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name."""
     if loop == "open":
         return None, 0.0
+    if loop == "openff":  # the plan played open loop with the feed-forward x0.5
+        return None, 0.5
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
     step = SteppingParams() if loop in ("step", "nohipstep") else None
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold

@@ -429,8 +429,9 @@ def test_hobby_compensator_uses_the_robots_own_servo(kokone):
 
 def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, robot):
     """best_compensate: x0.5 on the AX-12A (issue 30's sweep), x1 on hobby PWM servos (all nine
-    Kokone walks stand with it and fall without it: benchmarks/kokone_sim.md), none on the
-    XM430, whose PID holds its goal; a plain `wbc sim --robot kokone` uses it open loop."""
+    Kokone walks stand with it and fall without it: benchmarks/kokone_sim.md), x0.5 on the
+    XM430 (the OP3's walks: benchmarks/op3.md section 7); a plain `wbc sim --robot kokone`
+    uses it open loop."""
     import argparse
 
     from wbc.balance import best_compensate
@@ -438,7 +439,84 @@ def test_the_default_feed_forward_is_the_measured_best_per_servo_law(kokone, rob
 
     assert best_compensate(robot) == 0.5
     assert best_compensate(kokone) == 1.0
-    assert best_compensate(load_robot("op3")) == 0.0
+    assert best_compensate(load_robot("op3")) == 0.5
     args = argparse.Namespace(compensate=None, compensate_encoders=False)
     resolve_compensate(args, kokone, best=True)
     assert args.compensate == 1.0
+
+
+class _Plan:
+    """A target source playing ``f(t)`` (joint positions) for ever."""
+
+    def __init__(self, f, names):
+        self.f, self.joint_names = f, names
+
+    def first(self):
+        return self.f(0.0)
+
+    def __call__(self, tick, t):
+        return self.f(t)
+
+
+def test_x_series_deflection_is_the_p_terms(op3, comp):
+    """An X-series robot's compensator inverts its P term (δ = τ / k, the servo law's own
+    stiffness); it had no model before (ServoParams of X-series settings). Its servos hold a
+    slow load on their integral (get_up then feeds nothing forward); the AX-12A's do not."""
+    from wbc.sim.xm430 import XServoParams
+
+    assert not comp.integral
+    comp = ComplianceCompensator(op3)
+    assert isinstance(comp.params, XServoParams) and comp.integral
+    q = op3.joints(op3.configuration("stand"))
+    tau = comp.torques(q, SUPPORT_LEFT)
+    delta = comp.servo_deflection(tau)
+    knee = op3.joint_names.index("l_knee")
+    assert abs(tau[knee]) > 1.0  # the stance knee holds the body
+    assert delta[knee] == pytest.approx(tau[knee] / comp.params.stiffness[knee])
+
+
+def test_x_series_feed_forward_decays_with_the_servos_integral(op3):
+    """At rest the integral holds the load (first goal = plan); a load step (double → left
+    support) is fed forward, then decays as exp(−t / T_i) per joint, T_i the PI's."""
+    comp = ComplianceCompensator(op3)
+    q = op3.joints(op3.configuration("stand")).copy()
+    switch, dt = 0.2, 0.01
+    src = CompensatedSource(_Plan(lambda t: q, op3.joint_names), comp,
+                            lambda t: SUPPORT_DOUBLE if t < switch else SUPPORT_LEFT)  # fmt: skip
+    assert np.array_equal(src.first(), np.clip(q, op3.q_min, op3.q_max))
+    jump = comp.servo_deflection(comp.torques(q, SUPPORT_LEFT) - comp.torques(q, SUPPORT_DOUBLE))
+    ti = comp.params.integral_time
+    out = {}
+    for k in range(200):
+        out[round(k * dt, 6)] = src(k, k * dt) - q
+    assert np.allclose(out[0.1], 0.0)  # constant load at rest: absorbed
+    for t in (0.2, 0.6, 1.5):
+        want = jump * np.exp(-(t - switch + dt) / ti)  # (a moves within the switch's tick)
+        got = out[t]
+        inside = (q + want > op3.q_min) & (q + want < op3.q_max)
+        assert np.allclose(got[inside], want[inside], atol=1e-9)
+
+
+def test_x_series_feed_forward_leads_a_moving_joint_by_its_back_emf(op3):
+    """A joint ramping at v (no load change, no integral: the head's P-only servo) gets
+    b·v / k ahead of the plan once the goals' smoothing has settled."""
+    from wbc.balance.compliance import DRIVE_FILTER_S
+
+    comp = ComplianceCompensator(op3)
+    j = op3.joint_names.index("head_pan")
+    q0 = op3.joints(op3.configuration("stand")).copy()
+    v = 0.5  # rad/s
+
+    def plan(t):
+        q = q0.copy()
+        q[j] = v * t
+        return q
+
+    src = CompensatedSource(_Plan(plan, op3.joint_names), comp, lambda t: SUPPORT_DOUBLE)
+    dt = 0.02
+    for k in range(round(20 * DRIVE_FILTER_S / dt)):
+        goal = src(k, k * dt)
+    lead = goal[j] - plan(k * dt)[j]
+    p = comp.params
+    assert p.integral_time[j] == math.inf
+    assert lead == pytest.approx(p.damping * v / p.stiffness[j], rel=1e-3)

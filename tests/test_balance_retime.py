@@ -182,7 +182,7 @@ def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot
     falls ~0.7 s later; with the narrower sway and the hold (``Gains().transfer``,
     ``HoldParams()``) it is up 2.0 s into the walk. Both with issue 15's torso gains and
     hip band (stiffer than today's defaults, which trade this push for robustness to
-    latency: benchmarks/pushes.md)."""
+    latency: benchmarks/pushes.md) and the IMU's rest as measured then (0.3 s)."""
     from wbc.balance.stabilizer import Gains
     from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
     from wbc.bench.pushes import PUSH_DURATION
@@ -198,9 +198,18 @@ def test_the_retimed_closed_loop_catches_a_push_the_closed_loop_before_it_cannot
     for name, spec in (
         (
             "before",
-            ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0, **ISSUE15), True, True, None, None),
+            ClosedLoopSpec(
+                entry.make,
+                ref,
+                Gains(transfer=0.0, **ISSUE15),
+                True,
+                True,
+                None,
+                None,
+                calibrate_s=0.3,
+            ),
         ),
-        ("now", ClosedLoopSpec(entry.make, ref, Gains(**ISSUE15), True, True)),
+        ("now", ClosedLoopSpec(entry.make, ref, Gains(**ISSUE15), True, True, calibrate_s=0.3)),
     ):
         result, loop = play_closed_loop(spec, robot, push=(t_push, force, PUSH_DURATION),
                                         settle=0.0, compensate=0.5, duration=2.0)  # fmt: skip

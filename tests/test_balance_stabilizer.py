@@ -321,7 +321,7 @@ def test_hip_strategy_catches_a_push_the_closed_loop_alone_cannot(robot, impulse
     old = dict(k_p=2.0, k_i=2.0, k_d=0.1, hip_band=0.01)  # issue 15's defaults
     for name, gains in (("closed", Gains(k_hip=0.0, transfer=0.0, **old)),
                         ("hip", Gains(transfer=0.0, **old))):  # fmt: skip
-        spec = ClosedLoopSpec(entry.make, ref, gains, True, True, None, None)
+        spec = ClosedLoopSpec(entry.make, ref, gains, True, True, None, None, calibrate_s=0.3)
         result, _ = play_closed_loop(spec, robot, push=(t_push, force, PUSH_DURATION),
                                      settle=0.0, compensate=0.5, duration=2.2)  # fmt: skip
         R = pin.Quaternion(result.log["q"][-1, 3:7]).toRotationMatrix()

@@ -208,3 +208,28 @@ def test_goal_latency_delays_the_servos_by_that_time(robot):
     assert np.array_equal(sim.servos.goal, before)
     sim.advance(0.004)  # (the step that starts at 0.014 s acts on it)
     assert np.array_equal(sim.servos.goal, before + 5)
+
+
+def test_on_the_physics_stack_the_hierarchy_is_the_weighted_qp_and_on_walk_strict_not(robot):
+    """The physics benchmark's ``walk`` stack is one hard level (contacts, self-collision)
+    and ONE soft level: a lexicographic QP then minimises that level's weighted tasks subject
+    to the hard rows and every constraint, the weighted QP's problem exactly, so hqp-daqp
+    and wqp-daqp plan the same joints (to rounding; benchmarks/physics.md). On
+    ``walk_strict`` (the torso and posture a level below) they genuinely differ."""
+    from wbc.bench import solvers
+    from wbc.bench import trajectories as traj
+    from wbc.walking.loop import Session
+
+    ref = traj.build("walk10_wb", robot)
+    ticks = range(40, 70)  # into the first single support (the swing foot tracked)
+    gaps = {}
+    for stack in ("walk", "walk_strict"):
+        reg = solvers.registry("physics", stack)
+        suffix = "" if stack == solvers.BENCH_STACKS["physics"] else f"@{stack}"
+        qs = []
+        for name in ("wqp-daqp", "hqp-daqp"):
+            session = Session(reg[name + suffix].make(robot), robot, ref)
+            qs.append(np.array([session.tick(i) for i in range(max(ticks) + 1)])[list(ticks)])
+        gaps[stack] = float(np.abs(qs[0] - qs[1]).max())
+    assert gaps["walk"] < 1e-8, gaps
+    assert gaps["walk_strict"] > 1e-4, gaps

@@ -116,3 +116,36 @@ def test_the_compiled_copy_walks_as_the_setters_do(robot):
     one_by_one.controller._writes = None  # (the setters, as a task with its own would)
     for i in range(0, 200, 3):  # support switches included
         assert np.array_equal(fast.tick(i), one_by_one.tick(i)), i
+
+
+@pytest.mark.parametrize(
+    ("solver", "backend", "rehearsed"), [("hierarchical", None, True), ("weighted", "osqp", False)]
+)
+def test_the_rehearsed_first_tick_changes_nothing(robot, solver, backend, rehearsed):
+    """A session solves its first tick once ahead (Controller.rehearse, the compiled path
+    only): the walk is bitwise the one without it, the solver's counts too; OSQP, which starts
+    from its last solution, is not rehearsed (it would move the first tick by ~1e-13)."""
+    ref = build("walk10", robot)
+    sessions, calls = [], []
+    for rehearse in (True, False):
+        controller = StackController(load_stack("walk", robot, backend=backend, solver=solver))
+        if rehearse:
+            _count_tracks(controller, calls)
+        else:
+            controller.rehearse = lambda *a: None  # type: ignore[method-assign]
+        sessions.append(Session(controller, robot, ref))
+    assert len(calls) == (1 if rehearsed else 0)  # (before the first tick)
+    for i in range(100):  # the first support switch included (tick 80)
+        assert np.array_equal(sessions[0].tick(i), sessions[1].tick(i)), i
+    a, b = (s.controller.solver for s in sessions)
+    assert (a.compiled_ticks, a.handed_back_ticks) == (b.compiled_ticks, b.handed_back_ticks)
+
+
+def _count_tracks(controller: StackController, calls: list) -> None:
+    track = controller.track
+
+    def counted(*a):
+        calls.append(a[0])
+        return track(*a)
+
+    controller.track = counted  # type: ignore[method-assign]

@@ -164,3 +164,36 @@ def test_drive_refuses_bad_arguments(tmp_path, capsys) -> None:
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert match in err and "\n" not in err, err
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_walker_corrects_the_feed_forward_from_the_encoders(robot, closed) -> None:
+    """With the compliance feed-forward, the closed-loop Walker rescales it per servo from
+    the encoders (EncoderCorrection): on ideal servos (a dry-run bus: present = goal, no
+    deflection) the learnt scales drop below 1 while it walks; open loop (or
+    ``correct=False``) the model's feed-forward is played as it is."""
+    codec = ax_codec(robot.servo_map)
+    q0 = robot.configuration("stand")
+    bus = DryRunBus(codec, robot.joint_names, np.rint(codec.encode_float(q0[7:])))
+    bus.clock = _Clock()
+    walker = Walker(robot, StackController(load_stack("walk", robot, solver="weighted")), None,
+                    params=LEGS_ONLY, limits=LIMITS, window=None, compensate=0.5,
+                    closed=closed)  # fmt: skip
+
+    def steer(t: float) -> None:
+        walker.command(0.04, 0.0, 0.0)
+        walker.start()
+        if t > 1.5:
+            walker.close()
+
+    walker.before_tick = steer
+    dep = walker.deployment(bus, out=lambda _line: None)
+    assert dep.run().completed
+    correction = dep.source.correction
+    if not closed:
+        assert correction is None
+        return
+    assert correction is not None
+    assert (correction.window, correction.rate) == (1.0, 3.0)  # DRIVE_CORRECTION
+    assert np.min(correction.scale) < 0.9  # learnt: the dry-run servos do not deflect
+    assert np.all(correction.scale >= correction.s_min)

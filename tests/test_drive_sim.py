@@ -25,7 +25,8 @@ def test_a_shove_fells_the_driven_robot_and_it_gets_up_by_itself() -> None:
     controller = registry("physics")["hqp-daqp"].make(robot)
     lines: list[str] = []
     record = drive_sim(robot, controller, [Command(3.0, 0.0, 0.0, 0.0)],
-                       walker_options={"compensate": 0.5}, push=(1.0, (20.0, 0.0, 0.0), 0.2),
+                       walker_options={"compensate": 0.5, "calibrate_s": 0.3},  # (as measured)
+                       push=(1.0, (20.0, 0.0, 0.0), 0.2),
                        get_up=True, out=lines.append)  # fmt: skip
     assert record["fell"] and 1.0 < record["fall_time_s"] < 2.0
     assert record["getup_side"] == "prone"
@@ -61,11 +62,12 @@ def test_standing_is_judged_up_whatever_the_heading_and_lying_is_not() -> None:
 
 
 def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
-    """With an IMU the walker first stands ``calibrate_s`` (0.3 s) at rest for the IMU's
+    """With an IMU the walker first stands ``calibrate_s`` (CALIBRATE_S) at rest for the IMU's
     start-up calibration (gyro bias, levelling: ``wbc deploy``'s closed loop does the same);
     a start asked meanwhile waits for its end (on the randomised Bioloids of
     benchmarks/drive.md the heading error of random sequences fell from a median 6.2° to
     2.4° with it)."""
+    from wbc.balance.live import CALIBRATE_S
     from wbc.drive.walker import Walker
 
     robot = load_robot("bioloid")
@@ -80,7 +82,7 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     while walker.calibrating:
         walker.tick()
         ticks += 1
-    assert ticks == round(0.3 / walker.engine.dt)
+    assert ticks == round(CALIBRATE_S / walker.engine.dt)
     assert walker.stabilizer.calibration is not None
     walker.tick()
     assert walker.engine.walking

@@ -13,13 +13,11 @@ from hypothesis import strategies as st
 from wbc import Kinematics
 from wbc.limits import SelfCollisionConstraint
 from wbc.limits.collision_kernels import box_distance
+from wbc.limits.collision_reference import distance_jacobian, joint_masks, separating_plane_rows
 from wbc.limits.self_collision import (
     UNREACHABLE,
     _cached_collision_model,
     damper_bound,
-    distance_jacobian,
-    joint_masks,
-    separating_plane_rows,
 )
 
 #: the distances agree with coal's to this (m), coal's GJK/EPA run to 1e-13

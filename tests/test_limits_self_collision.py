@@ -13,14 +13,12 @@ from wbc import Kinematics
 from wbc.bench.trajectories import build
 from wbc.exceptions import ConfigurationError, InfeasibleError, TaskError
 from wbc.limits import Inequality, SelfCollisionConstraint
+from wbc.limits.collision_reference import distance_jacobian, joint_masks, separating_plane_rows
 from wbc.limits.self_collision import (
     RECOVERY_TICKS,
     RECOVERY_TOL,
     PairDistances,
     damper_bound,
-    distance_jacobian,
-    joint_masks,
-    separating_plane_rows,
 )
 from wbc.solvers import HierarchicalQP, TaskStack, WeightedQP
 from wbc.stacks import build_stack, load_stack
@@ -446,3 +444,45 @@ def test_a_hard_pair_held_inside_its_margin_raises_naming_it(robot, double):
         for _ in range(RECOVERY_TICKS + 1):
             q = solver.step(q, 0.02)
         assert limit.min_distance(Kinematics(robot, q)) > MARGIN - RECOVERY_TOL
+
+
+def test_the_packed_call_follows_its_own_buffers_through_copies(robot):
+    """The limit passes its buffers to the kernel by address: a deep copy (a stack copied, a
+    plan pickled) computes from its own buffers (the same rows as the original, which keeps
+    its own), a second call at the same configuration returns the same rows without
+    computing, and the views a compiled plan copies are those rows."""
+    import copy
+
+    limit = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    rows = limit.compute(kin)
+    assert rows.h.size > 0  # (arms beside the torso: rows)
+    assert limit.compute(kin) is rows  # (same configuration: kept)
+    G, h = limit.rows_view(kin)
+    assert np.array_equal(G, rows.G) and np.array_equal(h, rows.h)
+    twin = copy.deepcopy(limit)
+    moved = q.copy()
+    moved[7:] += 0.05
+    kin_2 = Kinematics(robot, moved)
+    theirs = twin.compute(kin_2)
+    assert limit.compute(kin) is rows  # (the copy wrote none of the original's buffers)
+    assert np.array_equal(limit.rows_view(kin)[1], rows.h)
+    mine = limit.compute(kin_2)
+    assert np.array_equal(mine.G, theirs.G) and np.array_equal(mine.h, theirs.h)
+    assert not np.array_equal(mine.h, rows.h) or mine.h.size != rows.h.size
+
+
+def test_a_subclass_computing_its_own_rows_gives_them_to_a_compiled_plan(robot):
+    """``rows_view`` of a subclass that overrides :meth:`compute` gives that compute's rows."""
+
+    class Halved(SelfCollisionConstraint):
+        def compute(self, kin):
+            rows = super().compute(kin)
+            return Inequality(rows.G, rows.h / 2)
+
+    limit = Halved(robot, MARGIN, TRIGGER, DAMPING)
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    G, h = limit.rows_view(kin)
+    plain = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING).compute(kin)
+    assert np.array_equal(G, plain.G) and np.array_equal(h, plain.h / 2)

@@ -143,3 +143,24 @@ def test_walk10_keeps_its_zmp_well_inside_the_stance_sole(op3):
 
     ref = build("walk10", op3)
     assert ref.zmp_margin().min() >= 0.010
+
+
+def test_the_op3_walks_on_its_own_stack(op3):
+    """robots/op3/stack.toml is what every command runs on the OP3: tasks/walk.toml with the
+    torso weighted 10 and the posture 0.2 (benchmarks/op3.md section 7), otherwise the same
+    levels and tasks."""
+    import tomllib
+
+    from wbc.stacks import load_stack, robot_stack, stack_file
+
+    stack, note = robot_stack(op3)
+    assert stack == OP3 / "stack.toml" and "robot folder's" in note
+    own = tomllib.loads((OP3 / "stack.toml").read_text())
+    walk = tomllib.loads(stack_file("walk").read_text())
+    weights = {t["type"]: t.get("weight", 1.0) for t in own["levels"][1]["tasks"]}
+    assert weights == {"com": 1000.0, "frame_pose": 100.0, "frame_orientation": 10.0,
+                       "posture": 0.2}  # fmt: skip
+    for level, base in zip(own["levels"], walk["levels"], strict=True):
+        assert [t["type"] for t in level["tasks"]] == [t["type"] for t in base["tasks"]]
+        assert level.get("constraints") == base.get("constraints")
+    load_stack(stack, op3)

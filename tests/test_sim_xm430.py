@@ -151,3 +151,30 @@ def test_p_law_is_the_clipped_pwm(e, p, current):
     cap = STALL_TORQUE * min(1.0, current * 2.69e-3 / 2.3)
     expected = np.clip(STALL_TORQUE * np.clip(p / 128 * e / PWM_MAX, -1, 1), -cap, cap)
     assert tau == pytest.approx(expected, abs=1e-12)
+
+
+@given(st.floats(0.05, 4.0), st.sampled_from([400, 800, 1000]))
+def test_deflection_inverts_the_p_term(tau, p_gain):
+    """The servo held ``deflection(τ)`` off its goal drives τ (to a tick's torque: the encoder
+    is quantised), capped at the stall torque."""
+    servo = one_servo(p=p_gain)
+    delta = servo.params.deflection(np.array([tau]))[0]
+    torque = servo.law(np.array([-delta]), 1e-3)[0]
+    per_tick = STALL_TORQUE * (p_gain / 128) / PWM_MAX
+    assert torque == pytest.approx(min(tau, STALL_TORQUE), abs=per_tick / 2 + 1e-9)
+    assert servo.params.deflection(np.array([-tau]))[0] == -delta
+
+
+def test_integral_time_is_the_pi_law_s():
+    """T_i = K_P / K_I cycles: the integral alone gives the P term's output after T_i at a
+    constant error; no I gain: inf."""
+    servo = one_servo(p=1000, i=500)
+    ti = servo.params.integral_time[0]
+    assert ti == pytest.approx(1000 / 128 / (500 / 65536) * 1e-3)  # 1.02 s
+    assert one_servo(p=800, i=0).params.integral_time[0] == math.inf
+    q = np.array([-20 * X_RAD_PER_TICK])  # held 20 ticks off the goal
+    steps = round(ti / 1e-3)
+    for _ in range(steps):
+        servo.law(q, 1e-3)
+    p_term = STALL_TORQUE * (1000 / 128) * 20 / PWM_MAX
+    assert servo.law(q, 1e-3)[0] == pytest.approx(2 * p_term, rel=0.01)

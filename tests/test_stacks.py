@@ -344,7 +344,7 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
     folder's stack.toml when it has one (wbc.stacks.robot_stack), and say so."""
     import shutil
 
-    from wbc.bench.physics import physics_stack
+    from wbc.bench.physics import physics_entry, physics_stack
     from wbc.bench.solvers import select
     from wbc.model import load_robot
     from wbc.paths import robots_dir, stacks_dir
@@ -363,6 +363,9 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
     assert physics_stack(robot) == str(stack)
     entries, _ = select(["hqp-daqp"], None, "tick", stack=physics_stack(robot))
     assert entries[0].stack == str(stack) and entries[0].name == "hqp-daqp@stack"
+    # wbc sim's plan and its closed loop (which solved the benchmark's own stack before)
+    assert physics_entry("hqp-daqp", robot).stack == str(stack)
+    assert physics_entry("hqp-daqp", plain).stack == "walk"
 
 
 def test_deploy_live_without_a_stack_takes_the_robots():
@@ -403,3 +406,31 @@ def test_a_length_weight_scaled_out_of_range_is_named():
     spec = {"solver": "hierarchical", "levels": [{"tasks": [{"type": "com", "weight": 1e-6}]}]}
     with pytest.raises(TaskError, match=r"level 0: on a robot 1.4\d*x the design size: task 'com'"):
         build_stack(spec, load_robot("op3"))
+
+
+@pytest.mark.parametrize("name", ["walk", "walk_strict"])
+def test_a_noted_phase_takes_the_layout_of_the_stack_as_it_is(robot, name):
+    """set_phase notes its phase to the solver, which then takes the layout key it kept for
+    that phase instead of reading the stack: along random switches with by-hand changes
+    between some (a weight, a task switched off and on, a frame), the layout a tick solves
+    with is always the one the stack's own key gives."""
+    rng = np.random.default_rng(5)
+    control = load_stack(name, robot)
+    solver, stack = control.solver, control.stack
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    posture = stack.task("posture")
+    soles = ("l_sole", "r_sole")
+    for i in range(60):
+        phase = str(rng.choice(["double", "single"]))
+        support = str(rng.choice(soles))
+        control.set_phase(phase, support, soles[1 - soles.index(support)], kin)
+        if i % 7 == 3:
+            posture.weight = float(rng.choice([0.01, 0.02]))
+        if i % 11 == 5:
+            posture.active = not posture.active
+        if i % 13 == 6:  # a frame the phases do not bind (the torso's, by hand)
+            torso = stack.task("torso")
+            torso.set_frame("l_sole" if torso.frame == "torso" else "torso")
+        solver.solve(q, 0.01)
+        assert solver.fast is solver._layouts[solver._layout_key()].fast, i

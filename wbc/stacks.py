@@ -101,6 +101,10 @@ class ControlStack:
     _anchored: dict[str, str] = field(default_factory=dict)  # contact task -> anchored sole
     #: (phase, support, swing) -> what set_phase does then (kept until the stack changes)
     _phases: dict[tuple, _PhaseMoves] = field(default_factory=dict, repr=False)
+    #: the stack's revision after the last set_phase, and a token of the current stretch of
+    #: set_phase calls with no other change to the stack between them (see set_phase)
+    _after: int | None = field(default=None, repr=False)
+    _epoch: object = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ roles
     def role_tasks(self, role: str) -> list[Task]:
@@ -122,8 +126,11 @@ class ControlStack:
         ``anchors``: optional {sole frame: pinocchio.SE3} where a contact should be held
         (default: where the sole is now).
         """
+        stack = self.stack
+        if stack.revision != self._after:  # the stack changed since the last set_phase
+            self._epoch = object()
         entry = self._phases.get((phase, support, swing))
-        if entry is None or entry.version != (self.stack.version, len(self.bindings)):
+        if entry is None or entry.version != (stack.version, len(self.bindings)):
             entry = self._phase_moves(phase, support, swing)
         for item, frame in entry.frames:  # (set when it changes: a lookup and a re-plan)
             if item.frame != frame:
@@ -144,6 +151,11 @@ class ControlStack:
                     item.set_target(anchor)
                 anchored[item.name] = item.frame
         self.phase, self.support, self.swing = phase, support, swing
+        # within one epoch the stack changed only by set_phase, whose moves set everything
+        # they touch: its layout is a function of (phase, support, swing), which the solver
+        # then takes from its memo instead of reading the stack (a support switch's cost)
+        self._after = stack.revision
+        self.solver.note_phase((self._epoch, phase, support, swing), self._after)
 
     def _phase_moves(self, phase: str, support: str, swing: str | None) -> _PhaseMoves:
         """What :meth:`set_phase` makes of the role-bound tasks and constraints in this phase,

@@ -21,7 +21,7 @@ import math
 
 from wbc import load_robot
 from wbc.drive.sim import Odometer
-from wbc.drive.walker import Walker
+from wbc.drive.walker import Walker, default_compensate
 from wbc.sim.bus import SimImu, SimServoBus
 from wbc.sim.simulator import Simulation
 from wbc.stacks import load_stack
@@ -31,7 +31,9 @@ robot = load_robot("bioloid")
 sim = Simulation(robot)  # standing in its standing pose
 odometer = Odometer(sim)  # where the simulated base goes (start frame)
 bus = SimServoBus(sim, on_tick=lambda _bus: odometer())
-walker = Walker(robot, StackController(load_stack("walk", robot)), imu=SimImu(sim), compensate=0.5)
+# the AX-12A compliance feed-forward, rescaled per servo from the encoders (correct=True)
+walker = Walker(robot, StackController(load_stack("walk", robot)), imu=SimImu(sim),
+                compensate=default_compensate(robot))  # fmt: skip
 lim = walker.limits
 print(f"velocity limits: forward {100 * lim.vx_forward:.1f} cm/s, sideways "
       f"{100 * lim.vy:.1f} cm/s, turning {math.degrees(lim.wz):.0f} deg/s")  # fmt: skip

@@ -25,8 +25,10 @@ from __future__ import annotations
 #: the compliance feed-forward gain that measured best per servo law: x0.5 on the AX-12A
 #: (benchmarks/physics.md: closed loop on the plant-randomised sweep, issue 30); x1 on hobby PWM
 #: servos (benchmarks/kokone_sim.md section 0: all nine Kokone walks stand with it, none
-#: without, x1.3 worse). What the commands use by default; the XM430's stiff PID gets none.
-BEST_COMPENSATE_BY_LAW = {"ax12a": 0.5, "hobby_pwm": 1.0}
+#: without, x1.3 worse); x0.5 on the XM430 (the OP3's eight walks with its stack, closed loop:
+#: at most 3.1 deg against 4.2 at x0, 6.0 at x1; benchmarks/op3.md section 7). What the
+#: commands use by default.
+BEST_COMPENSATE_BY_LAW = {"ax12a": 0.5, "hobby_pwm": 1.0, "xm430": 0.5}
 BEST_COMPENSATE = BEST_COMPENSATE_BY_LAW["ax12a"]
 
 

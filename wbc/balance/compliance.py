@@ -36,6 +36,9 @@ SSC-32 map ``ssc32.toml``)::
 
 (the dead band blended in over the first 5 % of the stall torque, so δ is continuous at 0).
 A servo with no position read-back cannot be corrected from its encoders.
+
+An X-series servo (:class:`wbc.sim.xm430.XServoParams`, ``servos.toml`` protocol 2.0) is
+inverted through its P term, ``δ = τ / k`` (:meth:`~wbc.sim.xm430.XServoParams.deflection`).
 """
 
 from __future__ import annotations
@@ -53,6 +56,7 @@ from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT, Recording
 from ..servo_map import RAD_PER_TICK
 from ..servos.sources import TargetSource
 from ..sim.actuator import HobbyServoParams, ServoParams, nominal_servo, pwm_map
+from ..sim.xm430 import XServoParams
 
 SOLES = {
     SUPPORT_LEFT: ("l_sole",),
@@ -75,6 +79,11 @@ def servo_deflection(tau: np.ndarray, params: ServoParams) -> np.ndarray:
     )
     return np.sign(tau) * ticks * RAD_PER_TICK
 
+
+#: s: an X-series servo's drive feed-forward (:meth:`CompensatedSource._drive`) takes the
+#: goals' velocity and acceleration after smoothing them over this (the OP3's closed loop:
+#: walk10_wb deviated 23° unsmoothed, 7.7° at 30 ms; benchmarks/op3.md section 7)
+DRIVE_FILTER_S = 0.03
 
 #: the share of the stall torque over which a hobby servo's dead band is blended in
 HOBBY_BLEND = 0.05
@@ -103,12 +112,13 @@ class ComplianceCompensator:
     def __init__(
         self,
         robot: Robot,
-        params: ServoParams | HobbyServoParams | None = None,
+        params: ServoParams | HobbyServoParams | XServoParams | None = None,
         gain: float = 1.0,
     ) -> None:
         if params is None:
-            nominal = nominal_servo(robot) if robot.robot_data.servo else None
-            if isinstance(nominal, HobbyServoParams):
+            xseries = robot.servo_map is not None and robot.servo_map.protocol == 2.0
+            nominal = nominal_servo(robot) if robot.robot_data.servo or xseries else None
+            if isinstance(nominal, HobbyServoParams | XServoParams):
                 params = nominal
             elif robot.servo_map is None:
                 raise ServoMapError(f"compliance compensation needs a servo map for {robot.name}")
@@ -163,10 +173,18 @@ class ComplianceCompensator:
         """Expected servo deflection (rad) at ``joints`` on ``support`` (× ``gain``)."""
         return self.gain * self.servo_deflection(self.torques(joints, support))
 
+    @property
+    def integral(self) -> bool:
+        """Whether the servos' position loop has an integral (X-series PI): their static
+        deflection then decays (:class:`CompensatedSource` high-passes it)."""
+        return isinstance(self.params, XServoParams) and bool(np.any(self.params.ki > 0))
+
     def servo_deflection(self, tau: np.ndarray) -> np.ndarray:
         """The servos' steady deflection (rad, unscaled) holding ``tau`` (N·m)."""
         if self.us_per_rad is not None:
             return hobby_deflection(tau, self.params, self.us_per_rad)  # type: ignore[arg-type]
+        if isinstance(self.params, XServoParams):
+            return self.params.deflection(tau)
         return servo_deflection(tau, self.params)  # type: ignore[arg-type]
 
     def goals(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
@@ -277,6 +295,15 @@ class CompensatedSource:
     (``correction=None``: the feed-forward alone, ``ŝ = 1``). The present positions a
     deployment reads right after sending a goal answer the goal before it: they are paired
     with the goal ``delay`` calls back.
+
+    On X-series servos (:class:`~wbc.sim.xm430.XServoParams`: a PI position loop) the load
+    also carries the drive torque ``b · q̇ + I_a · q̈`` of the goals
+    (:meth:`_drive`), and δ is high-passed with each servo's integral time ``T_i``
+    (:meth:`_unabsorbed`): what the integral already holds is not fed forward twice::
+
+        a ← a + (δ − a) · (1 − exp(−Δt / T_i)),    goal = q + gain · ŝ · (δ − a)
+
+    (``a`` = δ at the first call: at rest the integral holds the whole load.)
     """
 
     def __init__(
@@ -301,9 +328,53 @@ class CompensatedSource:
         self._sent: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         if hasattr(source, "duration"):
             self.duration = source.duration
+        params = compensator.params
+        #: the servos' integral time (s, per joint; X-series PI) or None (no integral)
+        self._ti = params.integral_time if isinstance(params, XServoParams) else None
+        self._absorbed: np.ndarray | None = None  # the integral's share of δ
+        self._t_last = 0.0
+        self._smoothed: list[tuple[float, np.ndarray]] = []
 
     def first(self) -> np.ndarray:
+        if self._ti is not None:  # at rest the servos' integral holds the static load
+            return np.clip(self.source.first(), self.compensator.robot.q_min,
+                           self.compensator.robot.q_max)  # fmt: skip
         return self.compensator.goals(self.source.first(), self.support(0.0))
+
+    def _unabsorbed(self, delta: np.ndarray, t: float) -> np.ndarray:
+        """The deflection a servo with an integral (X-series PI, integral time ``T_i``) still
+        shows: ``δ`` high-passed, ``δ − a`` with ``a`` following ``δ`` at ``1 / T_i`` (the
+        first call at rest: all absorbed); ``δ`` itself on servos without one."""
+        if self._ti is None:
+            return delta
+        if self._absorbed is None:
+            self._absorbed = delta.copy()
+        else:
+            dt = max(t - self._t_last, 0.0)
+            self._absorbed += (delta - self._absorbed) * -np.expm1(-dt / self._ti)
+        self._t_last = t
+        return delta - self._absorbed
+
+    def _drive(self, q: np.ndarray, t: float) -> np.ndarray:
+        """The torque (N·m) an X-series servo spends moving its joint along the goals: its
+        back-EMF ``b · q̇`` and rotor inertia ``I_a · q̈`` (:class:`XServoParams` damping and
+        armature), by backward differences of the goals smoothed over
+        :data:`DRIVE_FILTER_S` (the closed loop's feedback is in the goals: unsmoothed, its
+        tick-to-tick steps become the feed-forward)."""
+        p = self.compensator.params
+        assert isinstance(p, XServoParams)
+        done = self._smoothed  # (t, smoothed goal) of the last two calls
+        v = a = np.zeros_like(q)
+        if done and t > done[-1][0]:
+            dt = t - done[-1][0]
+            q = done[-1][1] + (q - done[-1][1]) * -np.expm1(-dt / DRIVE_FILTER_S)
+            v = (q - done[-1][1]) / dt
+            if len(done) > 1 and done[-1][0] > done[-2][0]:
+                a = (v - (done[-1][1] - done[-2][1]) / (done[-1][0] - done[-2][0])) / dt
+        done.append((t, q.copy()))
+        if len(done) > 2:
+            done.pop(0)
+        return p.damping * v + p.armature * a
 
     def __call__(self, tick: int, t: float) -> np.ndarray | None:
         q = self.source(tick, t)
@@ -311,7 +382,10 @@ class CompensatedSource:
             return None
         q = np.asarray(q, dtype=float)
         comp = self.compensator
-        delta = comp.servo_deflection(comp.torques(q, self.support(t)))
+        tau = comp.torques(q, self.support(t))
+        if self._ti is not None:
+            tau = tau + self._drive(q, t)
+        delta = self._unabsorbed(comp.servo_deflection(tau), t)
         sent = self._sent
         corr = self.correction
         if corr is not None and len(sent) >= self.delay:

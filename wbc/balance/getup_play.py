@@ -166,8 +166,11 @@ def get_up(
 
         try:
             compensator = ComplianceCompensator(robot, gain=compensate)
-        except WbcError as exc:  # no servo model (X-series, no servo map): said, then off
+        except WbcError as exc:  # no servo model (no servo map): said, then off
             out(f"get-up: no compliance feed-forward ({exc})")
+        if compensator is not None and compensator.integral:  # its phases' slow loads
+            compensator = None
+            out("get-up: no compliance feed-forward (the servos' integral holds the load)")
     deflections: dict[float, Any] = {}
 
     def deflection(tau: np.ndarray, stiffness: float) -> np.ndarray:

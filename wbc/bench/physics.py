@@ -47,6 +47,7 @@ from ..sim.watch import FALL_TILT_DEG
 from .closed_loop import ClosedLoopSpec, closed_loop_figures, play_closed_loop, robustness
 from .pushes import PUSH_DIRECTIONS, largest_push, push_bounds
 from .sim_record import physics_record, simulated_recording
+from .solvers import SolverEntry
 
 #: the default solvers of --physics: one per controller (the QP backends give the same joints)
 DEFAULT_SOLVERS = (
@@ -68,18 +69,25 @@ def physics_stack(robot: Robot, stack: str | None = None) -> str | None:
     return str(robot_stack(robot, stack)[0])
 
 
-def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
-    """The recording of one benchmark solver on one trajectory (one solve per tick); the
-    wqp-*/hqp-* solvers load the robot folder's stack.toml when it has one."""
-    from . import trajectories as traj
-    from .runner import run_entry
+def physics_entry(solver: str, robot: Robot) -> SolverEntry:
+    """The benchmark entry ``solver`` runs on a body (``wbc sim``, open and closed loop): the
+    wqp-*/hqp-* solvers on the robot folder's stack.toml when it has one."""
     from .solvers import select
 
     entries, notes = select([solver], None, "tick", stack=physics_stack(robot))
     if not entries:
         raise ConfigurationError(f"solver {solver!r} cannot run here: {'; '.join(notes)}")
     exact = [e for e in entries if e.name == solver]
-    _, rec = run_entry((exact or entries)[0], robot, traj.build(trajectory, robot), "tick")
+    return (exact or entries)[0]
+
+
+def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
+    """The recording of one benchmark solver on one trajectory (one solve per tick); the
+    wqp-*/hqp-* solvers load the robot folder's stack.toml when it has one."""
+    from . import trajectories as traj
+    from .runner import run_entry
+
+    _, rec = run_entry(physics_entry(solver, robot), robot, traj.build(trajectory, robot), "tick")
     return rec
 
 

@@ -55,8 +55,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_imu_arguments(parser)  # --imu, --imu-baud, --encoders-only
     parser.add_argument("--open-loop", action="store_true", help="no feedback on the targets")
     parser.add_argument(
-        "--compensate", type=number(0, 10), default=0.5,
-        help="servo compliance feed-forward gain (AX-12A; 0: off; default 0.5)",
+        "--compensate", type=number(0, 10), default=None,
+        help="servo compliance feed-forward gain (0: off; default on AX-12A servos 0.75, "
+             "with --no-correct 0.5; on other servos the measured best of their law)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--no-correct", dest="correct", action="store_false",
+        help="no per-servo correction of the feed-forward from the encoders",
     )  # fmt: skip
     add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
@@ -99,12 +104,14 @@ def _teleop(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from ..drive.commands import CommandScript, integrate, load_commands
-    from ..drive.walker import Walker
+    from ..drive.walker import Walker, default_compensate
     from ..model import load_robot
     from ..servos.config import DeployConfig
 
     for name in ("rate", "compensate", "settle", "soft_speed"):
         v = getattr(args, name)
+        if v is None:  # (--compensate: resolved for the robot below)
+            continue
         if not (math.isfinite(v) and v >= 0):
             raise ConfigurationError(f"--{name.replace('_', '-')} must be a number >= 0, got {v}")
     if args.view and not args.sim:
@@ -116,6 +123,8 @@ def run(args: argparse.Namespace) -> int:
     teleop = _teleop(args)
     commands = load_commands(args.commands) if args.commands is not None else None
     robot = load_robot(args.robot, servo_map=args.servo_map)
+    if args.compensate is None:
+        args.compensate = default_compensate(robot, args.correct)
     controller = _controller(args.solver, robot)
     config = DeployConfig(
         rate=args.rate, read=True, on_fault=args.on_fault, soft_speed=args.soft_speed,
@@ -154,7 +163,8 @@ def run(args: argparse.Namespace) -> int:
         bus = make_bus(args, robot, args.port)
         imu = make_imu(args, bus)
     print("wbc drive: measuring the velocity limits and the balance window on the model ...")
-    walker = Walker(robot, controller, imu, closed=not args.open_loop, compensate=args.compensate)
+    walker = Walker(robot, controller, imu, closed=not args.open_loop,
+                    compensate=args.compensate, correct=args.correct)  # fmt: skip
     lim = walker.limits
     print(
         f"limits: forward {100 * lim.vx_forward:.1f} cm/s, backward {100 * lim.vx_backward:.1f} "

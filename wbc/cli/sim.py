@@ -163,14 +163,14 @@ def run(args: argparse.Namespace) -> int:
     if closed:
         from ..balance.stepping import SteppingParams
         from ..bench.closed_loop import ClosedLoopSpec, closed_loop_figures, play_closed_loop
-        from ..bench.solvers import registry
+        from ..bench.physics import physics_entry
         from ..bench.trajectories import build
 
         if args.realtime:
             raise ConfigurationError("--realtime plays a plan: give --open-loop with it")
         ref = build(args.trajectory, robot)
         step = None if args.no_stepping else SteppingParams()
-        spec = ClosedLoopSpec(registry()[args.solver].make, ref, None, True,
+        spec = ClosedLoopSpec(physics_entry(args.solver, robot).make, ref, None, True,
                               not args.encoders_only, step)  # fmt: skip
         result, loop = play_closed_loop(spec, robot, push=push, settle=args.settle,
                                         compensate=args.compensate, on_tick=on_tick)  # fmt: skip

@@ -20,7 +20,7 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
   (:func:`axis_witness`).
 * :func:`plane_rows` — the velocity-damper rows of the close pairs: the witness pair plus every
   box corner nearer than the trigger to the separating planes (see
-  :func:`wbc.limits.self_collision.separating_plane_rows`, the numpy form the tests compare),
+  :func:`wbc.limits.collision_reference.separating_plane_rows`, the numpy form the tests compare),
   each row −nᵀ(J_b − J_a) Δq <= h(gap), nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω over the point's
   joint support.
 * :func:`collision_rows` — both in one call (what a tick calls).
@@ -34,7 +34,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import carray, njit
+
+from ..compiled.checks import address
 
 #: GJK stops when its upper and lower bounds on the distance are this close (m)
 GJK_TOL = 1e-12
@@ -468,47 +470,38 @@ def damper_h(d, margin, trigger, damping) -> float:
 
 
 @njit(cache=True)
-def _body_columns(Jw, support, n, cols, sv) -> int:
-    """The columns of ``support`` (the joints carrying a body) into ``cols``, and nᵀJ_v of each
-    into ``sv`` (the first three terms of :func:`_point_terms`, summed in the same order);
-    returns how many."""
-    m = 0
+def _body_terms(Jw, support, n, A) -> None:
+    """A body's terms of nᵀJ_p (p a point it carries), dense over the velocity coordinates:
+    A[0] = nᵀJ_v, A[1:4] = J_ω on the columns of ``support`` (the joints carrying it), 0
+    elsewhere (nᵀJ_v summed in :func:`_point_row`'s order)."""
     for k in range(Jw.shape[1]):
         if support[k]:
-            cols[m] = k
-            sv[m] = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
-            m += 1
-    return m
+            A[0, k] = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
+            A[1, k] = Jw[3, k]
+            A[2, k] = Jw[4, k]
+            A[3, k] = Jw[5, k]
+        else:
+            A[0, k] = A[1, k] = A[2, k] = A[3, k] = 0.0
 
 
 @njit(cache=True, inline="always")
-def _point_terms(Jw, cols, sv, ms, i, side, p0, p1, p2, n, sign, G, r) -> None:
-    """G[r] += sign · nᵀ J_p over the columns of body ``side`` of close pair i
-    (:func:`_body_columns`): J_p is the world Jacobian of the point p = (p0, p1, p2),
-    v_p = v_O + ω × p, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω. (Indices, not views: a view per
-    row cost more than the row.)"""
-    x0 = p1 * n[i, 2] - p2 * n[i, 1]
-    x1 = p2 * n[i, 0] - p0 * n[i, 2]
-    x2 = p0 * n[i, 1] - p1 * n[i, 0]
-    for c in range(ms[i, side]):
-        k = cols[i, side, c]
-        G[r, k] += sign * (sv[i, side, c] + x0 * Jw[3, k] + x1 * Jw[4, k] + x2 * Jw[5, k])
-
-
-@njit(cache=True, inline="always")
-def _add_row(Jw, cols, sv, ms, i, pa, pb, n, gap, margin, trigger, damping, unreachable, G,
-             h, r):  # fmt: skip
-    """Row r for close pair i: −nᵀ(J_b − J_a) Δq <= h(gap) for the points pa (on body a) and
-    pb (body b); False (no row) if h(gap) >= ``unreachable``."""
-    hr = damper_h(gap, margin, trigger, damping)
-    if not hr < unreachable:
-        return False
-    for k in range(G.shape[1]):
-        G[r, k] = 0.0
-    _point_terms(Jw, cols, sv, ms, i, 1, pb[0], pb[1], pb[2], n, -1.0, G, r)
-    _point_terms(Jw, cols, sv, ms, i, 0, pa[0], pa[1], pa[2], n, 1.0, G, r)
-    h[r] = hr
-    return True
+def _write_row(A, i, pa, pb, n, G, r) -> None:
+    """G[r] = −nᵀ(J_b − J_a), the row of close pair i for the points pa (on body a) and pb
+    (body b), with nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω (v_p = v_O + ω × p) from each body's dense
+    terms ``A[i, side]`` (:func:`_body_terms`: 0 off its columns, so one pass over every
+    column, vectorised, gives the row; a column carrying neither body is 0)."""
+    a0 = pa[1] * n[2] - pa[2] * n[1]
+    a1 = pa[2] * n[0] - pa[0] * n[2]
+    a2 = pa[0] * n[1] - pa[1] * n[0]
+    b0 = pb[1] * n[2] - pb[2] * n[1]
+    b1 = pb[2] * n[0] - pb[0] * n[2]
+    b2 = pb[0] * n[1] - pb[1] * n[0]
+    Aa, Ab = A[i, 0], A[i, 1]
+    g = G[r]
+    for k in range(g.shape[0]):
+        tb = Ab[0, k] + b0 * Ab[1, k] + b1 * Ab[2, k] + b2 * Ab[3, k]
+        ta = Aa[0, k] + a0 * Aa[1, k] + a1 * Aa[2, k] + a2 * Aa[3, k]
+        g[k] = (0.0 - tb) + ta
 
 
 @njit(cache=True)
@@ -520,26 +513,24 @@ def plane_rows(
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
     returns the number of rows. The witness rows first, then the corners of each pair's
     second box near the plane through p1, then those of its first box near the plane through
-    p2 (the order of :func:`wbc.limits.self_collision.separating_plane_rows`). Each pair's
-    bodies' columns and nᵀJ_v are computed once (:func:`_body_columns`)."""
-    nv = Jw.shape[1]
-    cols = np.empty((count, 2, nv), np.int64)
-    sv = np.empty((count, 2, nv))
-    ms = np.empty((count, 2), np.int64)
+    p2 (the order of :func:`wbc.limits.collision_reference.separating_plane_rows`). Each pair's
+    bodies' terms are computed once (:func:`_body_terms`)."""
+    A = np.empty((count, 2, 4, Jw.shape[1]))
     for i in range(count):
         k = out_k[i]
-        ms[i, 0] = _body_columns(Jw, support[pair_a[k]], out_n[i], cols[i, 0], sv[i, 0])
-        ms[i, 1] = _body_columns(Jw, support[pair_b[k]], out_n[i], cols[i, 1], sv[i, 1])
-    r = 0
-    corner = np.empty(3)
+        _body_terms(Jw, support[pair_a[k]], out_n[i], A[i, 0])
+        _body_terms(Jw, support[pair_b[k]], out_n[i], A[i, 1])
+    # the candidate rows first (pair, points, gap), then their bounds, then the rows: three
+    # flat loops (the row loop vectorises; with h(gap) in it, it ran ~3x slower)
+    P = np.empty((17 * count, 2, 3))
+    which = np.empty(17 * count, np.int64)
+    gaps = np.empty(17 * count)
     for i in range(count):
-        ok = _add_row(
-            Jw, cols, sv, ms, i, out_p1[i], out_p2[i], out_n, out_d[i], margin, trigger,
-            damping, unreachable, G, h, r,
-        )  # fmt: skip
-        if ok:
-            row_pair[r], row_gap[r] = i, out_d[i]
-            r += 1
+        for m in range(3):
+            P[i, 0, m], P[i, 1, m] = out_p1[i, m], out_p2[i, m]
+        which[i], gaps[i] = i, out_d[i]
+    nc = count
+    corner = np.empty(3)
     for side in range(2):  # 0: corners of box 2 vs the plane at p1; 1: box 1 vs p2
         for i in range(count):
             k = out_k[i]
@@ -561,15 +552,22 @@ def plane_rows(
                     gap += n[m] * ((corner[m] - p1[m]) if side == 0 else (p2[m] - corner[m]))
                 if not (gap < trigger and dd > 1e-18):
                     continue
-                pa = p1 if side == 0 else corner
-                pb = corner if side == 0 else p2
-                ok = _add_row(
-                    Jw, cols, sv, ms, i, pa, pb, out_n, gap, margin, trigger, damping,
-                    unreachable, G, h, r,
-                )  # fmt: skip
-                if ok:
-                    row_pair[r], row_gap[r] = i, gap
-                    r += 1
+                for m in range(3):
+                    P[nc, 0, m] = p1[m] if side == 0 else corner[m]
+                    P[nc, 1, m] = corner[m] if side == 0 else p2[m]
+                which[nc], gaps[nc] = i, gap
+                nc += 1
+    H = np.empty(nc)
+    for j in range(nc):
+        H[j] = damper_h(gaps[j], margin, trigger, damping)
+    r = 0
+    for j in range(nc):
+        if not H[j] < unreachable:  # (no row)
+            continue
+        i = which[j]
+        _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
+        h[r], row_pair[r], row_gap[r] = H[j], i, gaps[j]
+        r += 1
     return r
 
 
@@ -591,3 +589,98 @@ def collision_rows(
         n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
         margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
     )  # fmt: skip
+
+
+#: the buffers of :func:`packed_rows`, passed by address (numba unboxes ~50 ns per array
+#: argument: ~2.5 µs of a tick went to passing :func:`collision_rows` its 32 arguments), in
+#: order, as (name, dtype, ndim); every one C-contiguous
+PACKED = (
+    ("last_q", "float64", 1), ("last_joints", "float64", 1), ("bound", "float64", 1),
+    ("L", "float64", 2), ("box_frame", "int64", 1), ("box_R", "float64", 3),
+    ("box_p", "float64", 2), ("half", "float64", 2), ("radius", "float64", 1),
+    ("pair_a", "int64", 1), ("pair_b", "int64", 1), ("support", "bool", 2),
+    ("Rw", "float64", 3), ("cw", "float64", 2), ("placed", "bool", 1), ("out_k", "int64", 1),
+    ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
+    ("out_n", "float64", 2), ("counts", "int64", 1), ("G", "float64", 2), ("h", "float64", 1),
+    ("row_pair", "int64", 1), ("row_gap", "float64", 1), ("params", "float64", 1),
+    ("closest", "float64", 1),
+)  # fmt: skip
+
+
+def pack(buffers) -> tuple[np.ndarray, np.ndarray]:
+    """The addresses (int64) and shapes (n x 3, int64) of the :data:`PACKED` buffers, each
+    checked: C-contiguous, of its dtype and dimensions (the caller keeps them alive)."""
+    shapes = np.zeros((len(PACKED), 3), dtype=np.int64)
+    for k, ((name, dtype, ndim), a) in enumerate(zip(PACKED, buffers, strict=True)):
+        if a.dtype != np.dtype(dtype) or a.ndim != ndim or not a.flags.c_contiguous:
+            raise TypeError(f"self-collision buffer {name!r}: {a.dtype} {a.shape}")
+        shapes[k, :ndim] = a.shape
+    return np.array([a.ctypes.data for a in buffers], dtype=np.int64), shapes
+
+
+@njit(cache=True)
+def _f1(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0],), np.float64)
+
+
+@njit(cache=True)
+def _f2(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0], shapes[i, 1]), np.float64)
+
+
+@njit(cache=True)
+def _f3(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0], shapes[i, 1], shapes[i, 2]), np.float64)
+
+
+@njit(cache=True)
+def _i1(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0],), np.int64)
+
+
+@njit(cache=True)
+def _b1(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0],), np.bool_)
+
+
+@njit(cache=True)
+def _b2(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0], shapes[i, 1]), np.bool_)
+
+
+@njit(cache=True)
+def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
+    """:func:`collision_rows` at the configuration q (7 base coordinates, then the joints),
+    with the limit's buffers by address (:data:`PACKED`; their owner keeps them alive:
+    ``params`` = [margin, trigger, damping, unreachable]); −1 (nothing computed) if q equals
+    ``last_q`` exactly, the configuration of the last call (NaN before the first call), else
+    the number of rows, q into ``last_q`` and the smallest distance of the close pairs into
+    ``closest[0]`` (+inf: none)."""
+    last_q = _f1(addresses, shapes, 0)
+    same = True
+    for i in range(q.shape[0]):
+        if q[i] != last_q[i]:
+            same = False
+            break
+    if same:
+        return -1
+    params = _f1(addresses, shapes, 25)
+    r = collision_rows(
+        q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _f2(addresses, shapes, 3),
+        Rf, pf, _i1(addresses, shapes, 4), _f3(addresses, shapes, 5), _f2(addresses, shapes, 6),
+        _f2(addresses, shapes, 7), _f1(addresses, shapes, 8), _i1(addresses, shapes, 9),
+        _i1(addresses, shapes, 10), _b2(addresses, shapes, 11), Jw, params[0], params[1],
+        params[2], params[3], _f3(addresses, shapes, 12), _f2(addresses, shapes, 13),
+        _b1(addresses, shapes, 14), _i1(addresses, shapes, 15), _f1(addresses, shapes, 16),
+        _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
+        _i1(addresses, shapes, 20), _f2(addresses, shapes, 21), _f1(addresses, shapes, 22),
+        _i1(addresses, shapes, 23), _f1(addresses, shapes, 24),
+    )  # fmt: skip
+    for i in range(q.shape[0]):
+        last_q[i] = q[i]
+    closest = _f1(addresses, shapes, 26)
+    out_d = _f1(addresses, shapes, 16)
+    closest[0] = np.inf
+    for i in range(_i1(addresses, shapes, 20)[2]):
+        closest[0] = min(closest[0], out_d[i])
+    return r

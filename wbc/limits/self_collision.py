@@ -7,8 +7,9 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
   ``samples`` random configurations within the joint limits (computed once, seeded);
 * :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (p1 → p2)
   of the pairs, compiled (:mod:`wbc.limits.collision_kernels`, one call per tick with the rows);
-* :func:`distance_jacobian`, :func:`separating_plane_rows` — the rows' numpy forms (the tests
-  compare the kernels to them): J_d = nᵀ (J_p2 − J_p1) for the witness pair and the box
+* :func:`~wbc.limits.collision_reference.distance_jacobian`,
+  :func:`~wbc.limits.collision_reference.separating_plane_rows` — the rows' numpy forms (the
+  tests compare the kernels to them): J_d = nᵀ (J_p2 − J_p1) for the witness pair and the box
   corners near the separating plane (parallel faces: the witness flips between corners);
 * :func:`damper_bound` — h(d) of the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
@@ -51,7 +52,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import close_pairs, collision_rows
+from .collision_kernels import close_pairs, pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -495,86 +496,6 @@ class PairDistances:
         return Witness(*(a[:n].copy() for a in out))
 
 
-def joint_masks(robot: Robot) -> np.ndarray:
-    """(njoints x nv) bools: the velocity coordinates that move each pinocchio joint."""
-    model = robot.model
-    out = np.zeros((model.njoints, robot.nv), dtype=bool)
-    for j in range(1, model.njoints):
-        for s in model.supports[j]:
-            if s:
-                jm = model.joints[s]
-                out[j, jm.idx_v : jm.idx_v + jm.nv] = True
-    return out
-
-
-def distance_jacobian(
-    J_world: np.ndarray,
-    mask_1: np.ndarray,
-    mask_2: np.ndarray,
-    p1: np.ndarray,
-    p2: np.ndarray,
-    normal: np.ndarray,
-) -> np.ndarray:
-    """J_d (K x nv) = nᵀ (J_p2 − J_p1) for K pairs.
-
-    ``J_world``: pinocchio's joint Jacobians in the world frame (6 x nv, ``data.J`` after
-    ``computeJointJacobians``): the velocity of a point p carried by a joint is
-    J_v + J_ω × p over the joint's support columns, so nᵀ J_p = nᵀ J_v + (p × n)ᵀ J_ω.
-    ``mask_i`` (K x nv) selects each pair's supports.
-    """
-    Jv, Jw = J_world[:3], J_world[3:]
-    a = normal @ Jv
-    row_2 = a + np.cross(p2, normal) @ Jw  # (the kernels' reference: tests)
-    row_1 = a + np.cross(p1, normal) @ Jw
-    return np.where(mask_2, row_2, 0.0) - np.where(mask_1, row_1, 0.0)
-
-
-class PlaneRows(NamedTuple):
-    """Points a (on the first body) and b (on the second) whose gap nᵀ(b − a) along the
-    pair's normal n must stay above the margin; ``pair`` indexes the Witness rows."""
-
-    pair: np.ndarray
-    a: np.ndarray
-    b: np.ndarray
-    normal: np.ndarray
-    gap: np.ndarray
-
-
-def separating_plane_rows(w: Witness, vertices: np.ndarray, below: float) -> PlaneRows:
-    """The witness pair of each close pair, plus every box corner nearer than ``below`` to the
-    separating planes through the witness points.
-
-    With n the unit normal from body 1 to body 2 and p1, p2 the witness points, every corner
-    v of body 2 has nᵀ(v − p1) >= d and every corner u of body 1 has nᵀ(p2 − u) >= d: keeping
-    these gaps above the margin (n held for the tick) keeps the bodies apart. The witness
-    alone is not enough for boxes: two nearly parallel faces (the feet side by side) have
-    their witness flip between corners, and a tick that turns one face lets the unprotected
-    corner through.
-    """
-    R = w.index.size
-    if R == 0:
-        z = np.zeros((0, 3))
-        return PlaneRows(np.zeros(0, int), z, z, z, np.zeros(0))
-    V1, V2 = vertices[:, 0], vertices[:, 1]  # R x 8 x 3 corners of body 1 / body 2
-    n, p1, p2 = w.normal, w.p1, w.p2
-    gap2 = ((V2 - p1[:, None]) @ n[:, :, None])[:, :, 0]  # corners of body 2 vs plane at p1
-    gap1 = ((p2[:, None] - V1) @ n[:, :, None])[:, :, 0]  # corners of body 1 vs plane at p2
-    # a corner that is the witness point itself is the witness row already (other corners
-    # at the same gap stay: parallel faces, where the witness may flip to them)
-    d2 = V2 - p2[:, None]
-    d1 = V1 - p1[:, None]
-    keep2 = (gap2 < below) & ((d2 * d2).sum(axis=2) > 1e-18)
-    keep1 = (gap1 < below) & ((d1 * d1).sum(axis=2) > 1e-18)
-    r2, r1 = np.nonzero(keep2)[0], np.nonzero(keep1)[0]
-    return PlaneRows(
-        np.concatenate([np.arange(R), r2, r1]),
-        np.concatenate([p1, p1[r2], V1[keep1]]),
-        np.concatenate([p2, V2[keep2], p2[r1]]),
-        np.concatenate([n, n[r2], n[r1]]),
-        np.concatenate([w.distance, gap2[keep2], gap1[keep1]]),
-    )
-
-
 def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: float):
     """h(d) of the rows −J_d Δq <= h(d) (see the module docstring); +inf for d >= trigger."""
     d = np.asarray(distance, dtype=float)
@@ -636,7 +557,8 @@ class SelfCollisionConstraint(Constraint):
         super().__init__(name)
         check_parameters(margin, trigger, damping)
         self.robot = robot
-        self.margin, self.trigger, self.damping = float(margin), float(trigger), float(damping)
+        #: [margin, trigger, damping, UNREACHABLE] (read by the kernel: :attr:`margin`...)
+        self._params = np.array([margin, trigger, damping, UNREACHABLE], dtype=float)
         cm = _cached_collision_model(robot)
         #: the robot's pair choice (None: explicit ``pairs``)
         self.choice: PairChoice | None = None
@@ -678,10 +600,37 @@ class SelfCollisionConstraint(Constraint):
         self._counting = False  # (any of _inside non-zero)
         self._out, self._n_close = self.distances.out_buffers(), 0  # (last compute's close pairs)
         self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
-        self._rows: Inequality | None = None
-        self._rows_q = np.zeros(0)
+        self._rows: Inequality | None = None  # (copies of the last rows, made when asked)
+        self._n_rows = 0
+        #: the configuration of the last rows (NaN: none yet), and the kernel's buffers by
+        #: address (:data:`~wbc.limits.collision_kernels.PACKED`; made at the first compute,
+        #: dropped by a copy: :meth:`__getstate__`)
+        self._rows_q = np.full(robot.nq, np.nan)
+        self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
+        self._packed: tuple | None = None
         #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
         self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
+        return state
+
+    margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
+    trigger = property(lambda self: float(self._params[1]), doc="rows below it (m)")
+    damping = property(lambda self: float(self._params[2]), doc="ξ: closed per tick")
+
+    def _pack(self) -> tuple:
+        """(addresses, shapes, buffers) of :func:`~wbc.limits.collision_kernels.packed_rows`."""
+        pd = self.distances
+        buffers = (
+            self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
+            pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
+            *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
+            self._params, self._closest,
+        )  # fmt: skip
+        self._packed = (*pack(buffers), buffers)
+        return self._packed
 
     @property
     def n_pairs(self) -> int:
@@ -707,34 +656,41 @@ class SelfCollisionConstraint(Constraint):
     def last(self, w: Witness) -> None:
         self._last = w
 
-    def compute(self, kin: Kinematics) -> Inequality:
-        """The rows at ``kin`` (kept for a second call at the same configuration, e.g. a
-        tick the compiled path hands back to DAQP)."""
-        q = kin.q
-        last_q = self._rows_q
-        if self._rows is not None and q.shape == last_q.shape and (q == last_q).all():
-            return self._rows
+    def _update(self, kin: Kinematics) -> int:
+        """The rows at ``kin`` into the limit's buffers (one compiled call,
+        :func:`~wbc.limits.collision_kernels.packed_rows`; nothing at the configuration of the
+        last call); returns their number."""
         pd = self.distances
-        G, h, row_pair, row_gap = self._G, self._h, self._pair_buf, self._gap_buf
-        out_k, out_d, out_p1, out_p2, out_n = self._out
-        if pd.pairs:
-            Rf, pf = pd.frames(kin)
-            r = collision_rows(
-                np.ascontiguousarray(q[7:], dtype=float), pd._q, pd._bound, pd._L_joints, Rf, pf,
-                pd.box_frame, pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b,
-                pd.support, kin.data.J, self.margin, self.trigger, self.damping, UNREACHABLE,
-                pd.Rw, pd.cw, pd._placed, out_k, out_d, out_p1, out_p2, out_n, pd._counts, G, h,
-                row_pair, row_gap,
-            )  # fmt: skip
-            self._n_close = int(pd._counts[2])
-        else:
-            r = self._n_close = 0
-        self._last = None
-        # (copies: the rows outlive the next call, e.g. in a backend's problem)
-        rows = Inequality(G[:r].copy(), h[:r].copy())
-        self._rows, self._rows_q = rows, q.copy()
-        self._row_pair, self._row_gap = row_pair[:r], row_gap[:r]  # (private: views)
-        return rows
+        if not pd.pairs:
+            self._n_close = self._n_rows = 0
+            self._closest[0] = np.inf
+            self._rows = None
+            return 0
+        packed = self._packed if self._packed is not None else self._pack()
+        Rf, pf = pd.frames(kin)
+        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, kin.data.J)
+        if r < 0:  # (the configuration of the last rows)
+            return self._n_rows
+        self._n_close, self._n_rows = int(pd._counts[2]), r
+        self._last = self._rows = None
+        self._row_pair, self._row_gap = self._pair_buf[:r], self._gap_buf[:r]  # (views)
+        return r
+
+    def rows_view(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        """(G, h) of :meth:`compute` as views of the limit's buffers, valid until its next
+        call: for a caller that copies them at once (a compiled plan's rows)."""
+        if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
+            return tuple(self.compute(kin))  # type: ignore[return-value]
+        r = self._update(kin)
+        return self._G[:r], self._h[:r]
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        """The rows at ``kin`` (copies, kept for a second call at the same configuration, e.g.
+        a tick the compiled path hands back to DAQP)."""
+        r = self._update(kin)
+        if self._rows is None:  # (copies: the rows outlive the next call, e.g. in a backend's)
+            self._rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
+        return self._rows
 
     def solved(self) -> None:
         """Count, per pair, the control ticks in a row that found it more than
@@ -742,9 +698,14 @@ class SelfCollisionConstraint(Constraint):
         :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
         tick raises too). The solvers call it after each tick with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
-        d = self._out[1][: self._n_close] if self._last is None else self._last.distance
+        deep_min = self._params[0] - RECOVERY_TOL
+        if self._last is None:  # (the kernel's smallest distance of the last compute)
+            deep = self._closest[0] < deep_min
+        else:
+            d = self._last.distance
+            deep = bool(d.size and d.min() < deep_min)
         inside = self._inside
-        if not (d.size and d.min() < self.margin - RECOVERY_TOL):
+        if not deep:
             if self._counting:
                 inside[:] = 0
                 self._counting = False

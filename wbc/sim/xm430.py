@@ -99,6 +99,26 @@ class XServoParams:
         """Small-error stiffness (N·m/rad) of the P term: ``τ_s · K_P / 885 / rad_per_tick``."""
         return self.stall_torque * self.kp / PWM_MAX / X_RAD_PER_TICK
 
+    def deflection(self, tau: np.ndarray) -> np.ndarray:
+        """Position error δ (rad, joint direction) at which the P term alone holds ``tau``
+        (N·m): the static inverse of the law without its integral,
+        ``δ = sign(τ) · min(|τ|, cap) / k`` (``k``: :attr:`stiffness`; a joint with P = 0:
+        no deflection). The integral removes this error over ``K_P / K_I`` cycles (the OP3's
+        knees: about 1 s), longer than a step: what the servo shows while walking."""
+        tau = np.asarray(tau, dtype=float)
+        k = self.stiffness
+        mag = np.minimum(np.abs(tau), np.minimum(self.torque_cap, self.stall_torque))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(k > 0, np.sign(tau) * mag / k, 0.0)
+
+    @property
+    def integral_time(self) -> np.ndarray:
+        """The PI's integral time ``T_i = K_P / K_I · LOOP_S`` (s; inf without an I gain):
+        a load held longer than that is taken over by the integral, the error decaying as
+        ``exp(−t / T_i)`` (quasi-static: ``k e + (k / T_i) ∫ e dt = τ``)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.ki > 0, self.kp / self.ki * LOOP_S, np.inf)
+
     def scaled(self, stiffness: float = 1.0, torque: float = 1.0) -> XServoParams:
         """A copy with the gains ``stiffness`` times higher and the torque cap scaled."""
         return replace(

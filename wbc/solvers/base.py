@@ -106,6 +106,13 @@ class StackSolver(ABC):
         self.diagnosis = ""
         self._hard: list[Constraint] = []  # (:meth:`_hard_constraints`, for a revision)
         self._hard_key: int | None = None
+        #: each kept layout's hard constraints (by its :meth:`_layout_key`: a support switch
+        #: takes them with the layout instead of listing them again)
+        self._layout_hard: dict = {}
+        #: (:meth:`note_phase`) the phase the stack is in at a revision, and each noted
+        #: phase's layout key
+        self._phase_note: tuple | None = None
+        self._phase_keys: dict = {}
         #: what the solver's work spent: a running :meth:`solve_pose`'s budget, the last
         #: solve's recovery steps (:class:`~wbc.solvers.budget.Work`)
         self.work = Work()
@@ -176,13 +183,16 @@ class StackSolver(ABC):
         (every one in the weighted QP); cached per revision of the stack."""
         if self._hard_key != self.stack.revision:
             self._hard_key = self.stack.revision
-            self._hard = [
-                c
-                for lv in self.stack.levels
-                if lv.hard or not self.lexicographic
-                for c in lv.active_constraints()
-            ]
+            self._hard = self._list_hard()
         return self._hard
+
+    def _list_hard(self) -> list[Constraint]:
+        return [
+            c
+            for lv in self.stack.levels
+            if lv.hard or not self.lexicographic
+            for c in lv.active_constraints()
+        ]
 
     def _outside_limits(self, q: np.ndarray) -> bool:
         """True if a joint of q (a configuration checked by :meth:`Kinematics.update`) is
@@ -208,13 +218,17 @@ class StackSolver(ABC):
     def prepare(self, q: np.ndarray, dt: float | None = None) -> None:
         """Pay the one-off costs of a first solve now (building the layout, loading the
         compiled kernels from numba's cache: milliseconds), e.g. before a control loop starts.
-        Solves once at q with the current targets; counts no tick."""
+        Solves once at q with the current targets, and leaves room in the compiled plan for
+        twice the inequality rows it had (:meth:`wbc.solvers.plan._Plan.reserve_rows`); counts
+        no tick."""
         ticks = self.compiled_ticks, self.handed_back_ticks, self.interim_ticks
         try:
             self.solve(q, dt)
         except WbcError:
             pass  # targets not set yet may be infeasible: the layout is built all the same
         self.compiled_ticks, self.handed_back_ticks, self.interim_ticks = ticks
+        if self.fast is not None:  # room for more inequality rows than at q (no growth later)
+            self.fast.reserve_rows()
 
     def forget_warm_starts(self) -> None:
         """Start the compiled level solvers' active sets afresh (as after building a layout)."""
@@ -299,24 +313,38 @@ class StackSolver(ABC):
             *[c.active for c in constraints],
         )
 
+    def note_phase(self, phase: tuple, revision: int) -> None:
+        """The stack at ``revision`` is in the state that ``phase`` names (hashable; its first
+        item an epoch token, compared by identity: within one epoch, the same phase is the
+        same state of every task and constraint that a layout reads): a switch at that
+        revision takes the layout key kept for ``phase`` instead of reading the stack
+        (:meth:`wbc.stacks.ControlStack.set_phase` notes its support phases so)."""
+        self._phase_note = (phase, revision)
+
     def _switch_layout(self, build: Callable[[], Any]) -> Any:
         """The layout of the stack as it is now (its :attr:`TaskStack.revision` moved): the one
-        kept for its :meth:`_layout_key`, else ``build()`` (kept). A kept layout entered again
-        starts its active sets afresh (:meth:`wbc.solvers.plan._Plan.forget_warm_start`):
-        those of its last visit (a support phase ago, at another configuration) are a worse
-        start than none (the hierarchy's first tick of a phase took twice as long from them;
-        benchmarks/qp_tick.md)."""
-        key = self._layout_key()
+        kept for its :meth:`_layout_key`, else ``build()`` (kept), with its hard constraints
+        (:meth:`_hard_constraints`). Nothing else happens at a switch: every compiled tick
+        starts its active sets afresh (:meth:`wbc.solvers.plan._Plan.solve`)."""
+        note = self._phase_note
+        if note is not None and note[1] == self.stack.revision:  # a noted phase: its key
+            phase = note[0]
+            key = self._phase_keys.get(phase)
+            if key is None:
+                if self._phase_keys and next(iter(self._phase_keys))[0] is not phase[0]:
+                    self._phase_keys.clear()  # (another epoch)
+                key = self._phase_keys[phase] = self._layout_key()
+        else:
+            key = self._layout_key()
         layout = self._layouts.get(key)
         if layout is None:
             if len(self._layouts) >= 16:  # a stack edited in many ways: start afresh
                 self._layouts.clear()
+                self._layout_hard.clear()
             layout = self._layouts[key] = build()
-        else:
-            plan = layout.fast
-            if plan is not None and plan is not self.fast:
-                plan.forget_warm_start(self.fast)
-        self._key = self.stack.revision
+            self._layout_hard[key] = self._list_hard()
+        self._hard = self._layout_hard[key]
+        self._key = self._hard_key = self.stack.revision
         return layout
 
     # ------------------------------------------------------------------ compiled path

@@ -90,7 +90,11 @@ class ConstraintRows:
         self.kernel_items = [c for c in self.items if compiled_constraint(c)]
         index = {id(c): j for j, c in enumerate(self.kernel_items)}
         #: each level's constraints, with their row of :attr:`cspec` (-1: rows from Python)
-        self.order = [[(c, index.get(id(c), -1)) for c in lv] for lv in self.levels]
+        #: and what gives their rows from Python (``rows_view``: views copied at once)
+        self.order = [
+            [(c, index.get(id(c), -1), getattr(c, "rows_view", c.compute)) for c in lv]
+            for lv in self.levels
+        ]
         n = len(self.kernel_items)
         self.cspec = np.zeros((n, D.CONSTRAINT_COLUMNS), dtype=np.int64)
         self.cparams = np.zeros(0)
@@ -166,12 +170,12 @@ class ConstraintRows:
         r = i = 0
         for level in self.order:
             start = r
-            for c, j in level:
+            for _, j, rows in level:
                 if j >= 0 and not python[j]:
                     m = layout[j][0]
                     cspec[j, D.C_ROW] = r
                 else:
-                    G, h = c.compute(kin)
+                    G, h = rows(kin)
                     m = h.shape[0]
                     if m:
                         copies.append((r, m, G, h))

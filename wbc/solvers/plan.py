@@ -103,6 +103,9 @@ def package_ticks() -> D.Ticks:
 
 #: frame slots of a tick, padded to a multiple of this (see :class:`Frames`)
 FRAME_SLOTS = 8
+#: the inequality rows' buffers hold this many times the rows of a plan's prepared tick
+#: (:meth:`_Plan.reserve_rows`)
+ROW_HEADROOM = 2
 
 
 class Targets:
@@ -440,12 +443,27 @@ class _Plan:
             self._ready = ready
         return self._ready
 
-    def forget_warm_start(self, previous: _Plan | None = None) -> None:
-        """Start the active sets of the bounds and of the inequality rows afresh (the tick
-        after a switch from the plan ``previous``: see :meth:`CascadePlan.forget_warm_start`)."""
+    def forget_warm_start(self) -> None:
+        """Start the active sets of the bounds and of the inequality rows afresh (before every
+        tick: :meth:`solve`)."""
         self.warm_start.fill(0)
         if self.inequalities.total:
             self.inequalities.working.fill(False)
+
+    def reserve_rows(self, factor: int = ROW_HEADROOM) -> None:
+        """Room in the inequality rows' buffers for ``factor`` times the rows of the last tick
+        (kept, and the tick's arguments re-bound), so that a tick whose constraints write more
+        rows (self-collision pairs coming closer) does not re-allocate them and re-bind the
+        arguments (~50 µs: the walk's first ticks and each phase's first visits)."""
+        g = self.inequalities
+        capacity = factor * g.total
+        if capacity <= g.h.shape[0]:
+            return
+        kept = g.G, g.h, g.h_eff, g.working
+        g._allocate(capacity)
+        n = kept[1].shape[0]
+        g.G[:n], g.h[:n], g.h_eff[:n], g.working[:, :n] = kept
+        self._bind_args()
 
     def _add_limits(self) -> None:
         """The box limits' rows of :attr:`bspec`: kernel, parameters, frames (after the
@@ -650,30 +668,13 @@ class CascadePlan(_Plan):
         self.level_rows = bounds.astype(np.int64)
         self.level_hard = np.array(hard, dtype=np.bool_)
         self.error_views = self.rows.error_views()
-        # (shared by the solver's plans: after a switch from a plan with as many levels, the
-        # tick starts from the active sets that plan left; see forget_warm_start)
+        # (shared by the solver's plans; cleared before every tick: forget_warm_start)
         self.states = self.scratch.get("states", (len(levels), nv), np.int8)
         self.states.fill(0)
         self.warm_start = self.states
         self.achieved = np.zeros(self.rows.m)
         self.tick_name = "cascade_tick"
         self._bind_args()
-
-    def forget_warm_start(self, previous: _Plan | None = None) -> None:
-        """As :meth:`_Plan.forget_warm_start`, but after a switch from a plan with as many
-        levels, each level's bounds start from the active set it had there at the tick before
-        (at the 20 support switches of ``walk10`` the same median time of the first compiled
-        call as from none, and a shorter tail: p90 23 against 36 µs; the weighted QP's single
-        level is better started from none: p90 9 against 15 µs)."""
-        if isinstance(previous, CascadePlan) and previous.warm_start.shape == self.warm_start.shape:
-            # (the plans share the array, which holds the previous plan's active sets already,
-            # unless its scratch block grew in between)
-            if previous.warm_start.base is not self.warm_start.base:
-                np.copyto(self.warm_start, previous.warm_start)
-            if self.inequalities.total:
-                self.inequalities.working.fill(False)
-        else:
-            super().forget_warm_start()
 
     def _solve_kernel(self):
         from ..compiled.ticks import cascade_solve

@@ -134,6 +134,10 @@ class Controller(ABC):
     ) -> np.ndarray:
         """One control tick (one QP or one iteration): the next configuration."""
 
+    def rehearse(self, q: np.ndarray, targets: TickTargets, dt: float) -> None:  # noqa: B027
+        """Solve the first tick once ahead and forget it (after :meth:`start`): a first tick
+        otherwise runs code nothing has run yet (default: nothing)."""
+
     #: the reference's time step, set by the loop before :meth:`start`
     dt: float = 0.01
 
@@ -291,6 +295,25 @@ class StackController(Controller):
         control.forget_anchors()
         self.solver.forget_warm_starts()
 
+    def rehearse(self, q: np.ndarray, targets: TickTargets, dt: float) -> None:
+        """The first tick solved once and forgotten (the solver's counts kept, the contacts
+        anchored afresh by the first tick, as after :meth:`start`): the solve at the start
+        (:meth:`StackSolver.prepare`) meets a QP without errors, and walk10's first tick then
+        ran cold (the QP's active-set code, the contacts' anchoring: ~80 against ~16 µs of a
+        tick; benchmarks/tick_tail.md). Only on the compiled path, whose ticks depend on no
+        earlier one (each starts its active sets afresh; a backend such as OSQP starts from
+        its last solution)."""
+        solver = self.solver
+        if solver.fast is None:
+            return
+        counts = solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks
+        try:
+            self.track(q, targets, dt, True)
+        except WbcError:
+            pass  # the first tick raises it again
+        solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks = counts
+        self.control.forget_anchors()
+
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         if phase_changed:
             anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
@@ -402,6 +425,8 @@ class Session:
         self._torso = list(ref.torso_rotations(pitch_roll))
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
+        if self.options.mode == "tick":
+            controller.rehearse(self.q, self.targets(0), ref.dt)
         self._previous: tuple[str, str, str] | None = None
         self._last_index: int | None = None  # reference tick of the last solve
         self.failed = False
