@@ -9,7 +9,7 @@ from wbc import Kinematics, TaskError
 from wbc.limits import ComPolygonConstraint
 from wbc.paths import stacks_dir
 from wbc.solvers import HierarchicalQP, WeightedQP
-from wbc.stacks import available_stacks, build_stack, load_stack
+from wbc.stacks import available_stacks, build_stack, load_stack, robot_stack
 from wbc.tasks import ContactTask, FramePoseTask
 
 THESIS = {"vat", "vatl", "cj_foot", "cj_com", "cjl_foot", "cjl_com"}
@@ -398,12 +398,18 @@ def test_length_rows_weigh_by_the_robots_size():
     assert np.all(stack.task("torso").weight == 1.0)
     bioloid = load_stack("walk", load_robot("bioloid")).stack
     assert np.all(bioloid.task("com").weight == 1000.0)
+    # a stack that states no design_leg (a robot folder's own) is in that robot's units
+    own = load_stack(robot_stack(load_robot("op3"))[0], load_robot("op3")).stack
+    assert np.all(own.task("com").weight == 1000.0)
+    with pytest.raises(TaskError, match="design_leg must be a positive length in m"):
+        build_stack({"design_leg": -1, "levels": [{"tasks": [{"type": "com"}]}]}, kokone)
 
 
 def test_a_length_weight_scaled_out_of_range_is_named():
     from wbc.model import load_robot
 
-    spec = {"solver": "hierarchical", "levels": [{"tasks": [{"type": "com", "weight": 1e-6}]}]}
+    spec = {"solver": "hierarchical", "design_leg": 0.14886,
+            "levels": [{"tasks": [{"type": "com", "weight": 1e-6}]}]}  # fmt: skip
     with pytest.raises(TaskError, match=r"level 0: on a robot 1.4\d*x the design size: task 'com'"):
         build_stack(spec, load_robot("op3"))
 

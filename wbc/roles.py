@@ -316,6 +316,11 @@ def leg_segments(robot: Robot) -> tuple[float, float]:
     return float(np.linalg.norm(knee - hip)), float(np.linalg.norm(ankle - knee))
 
 
+def leg_length(ratio: float) -> float:
+    """The hip-to-ankle length (m) of :func:`leg_ratio` ``ratio`` (the design robot's at 1)."""
+    return ratio * (THIGH + SHIN)
+
+
 def leg_ratio(leg: float) -> float:
     """λ = leg / (THIGH + SHIN): a hip-to-ankle length over the design robot's (the Bioloid's,
     whose defaults the walking settings and stack weights are), rounded to 1e-9 so that the

@@ -21,6 +21,7 @@ from __future__ import annotations
 import importlib
 import importlib.machinery
 import inspect
+import math
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -39,7 +40,7 @@ from .limits import (
 )
 from .model import Kinematics, Robot
 from .paths import read_toml, stacks_dir
-from .roles import length_unit
+from .roles import leg_length, length_unit
 from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
 from .tasks import ContactTask, Task
 from .tasks.task import STACK_TYPES
@@ -280,6 +281,7 @@ def build_stack(
         "levels",
         "on_infeasible",
         "import",
+        "design_leg",
     }
     if unknown:
         raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
@@ -297,7 +299,7 @@ def build_stack(
     if not isinstance(velocity_limits, bool):
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
-    unit = length_unit(robot)
+    unit = _stack_length_unit(spec.get("design_leg"), robot, where)
     bindings: dict[str, RoleBinding] = {}
     given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
@@ -349,9 +351,29 @@ def build_stack(
     return control
 
 
+def _stack_length_unit(design_leg: Any, robot: Robot, where: str) -> float:
+    """λ for a stack's length rows: the robot's hip-to-ankle length over the stack file's
+    ``design_leg`` (m: the leg of the robot its weights were tuned on; the package's stacks
+    state the Bioloid's), or 1 for a stack that states none (a robot folder's own stack is in
+    that robot's units)."""
+    if design_leg is None:
+        return 1.0
+    if (
+        isinstance(design_leg, bool)
+        or not isinstance(design_leg, int | float)
+        or not math.isfinite(design_leg)
+        or design_leg <= 0
+    ):
+        raise TaskError(
+            f"{where}: design_leg must be a positive length in m (the hip-to-ankle length "
+            f"its weights were tuned on), got {design_leg!r}"
+        )
+    return round(length_unit(robot) * leg_length(1.0) / float(design_leg), 9)
+
+
 def _scale_length_weights(task: Task, unit: float, where: str) -> None:
-    """A stack's weights are stated for the design robot (the Bioloid): on a robot ``unit``
-    times its size (:func:`wbc.roles.length_unit`) the task's length rows
+    """A stack's weights are stated for the robot its file names by ``design_leg`` (the
+    package's stacks: the Bioloid): on a robot ``unit`` times that size the task's length rows
     (:attr:`~wbc.tasks.Task.length_rows`) weigh ``1 / unit²`` as much, so that a weight trades
     the same share of the robot's size against the same joint angle on any robot (a weighted
     level's solution then scales with the robot: tests/test_walking_sizing.py)."""
