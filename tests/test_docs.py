@@ -88,6 +88,7 @@ def test_every_documented_top_level_key_is_accepted() -> None:
         "on_infeasible": "raise",
         "velocity_limits": True,
         "import": [],
+        "design_leg": 0.14886,
         "levels": [{"hard": True, "tasks": [{"type": "contact", "frame": "support"}]}],
     }
     assert set(keys) == set(values)
