@@ -90,10 +90,13 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 
 
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
-            correct: bool = True, compensate: float | None = None, **kw):  # fmt: skip
+            correct: bool = True, compensate: float | None = None,
+            calibrate: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct}
+    if calibrate is not None:
+        options["calibrate_s"] = calibrate
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
@@ -161,6 +164,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-correct", dest="correct", action="store_false",
                     help="the compliance feed-forward on the model alone (no per-servo scale "
                          "from the encoders, Walker(correct=False))")  # fmt: skip
+    ap.add_argument(
+        "--calibrate",
+        type=float,
+        default=None,
+        metavar="S",
+        help="the IMU's rest before the walk (default: the Walker's, CALIBRATE_S)",
+    )
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -173,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
                     "argv": sys.argv[1:], "correct": args.correct,
                     "compensate": args.compensate}  # fmt: skip
     paths = {}
-    loop = {"correct": args.correct, "compensate": args.compensate}
+    loop = {"correct": args.correct, "compensate": args.compensate, "calibrate": args.calibrate}
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
         record["tick"] = tick_cost(robot, solvers)
