@@ -62,13 +62,12 @@ def test_standing_is_judged_up_whatever_the_heading_and_lying_is_not() -> None:
 
 
 def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
-    """With an IMU the walker first stands ``calibrate_s`` (CALIBRATE_S) at rest for the IMU's
+    """With an IMU the walker first stands ``calibrate_s`` (DRIVE_CALIBRATE_S) at rest for the IMU's
     start-up calibration (gyro bias, levelling: ``wbc deploy``'s closed loop does the same);
     a start asked meanwhile waits for its end (on the randomised Bioloids of
     benchmarks/drive.md the heading error of random sequences fell from a median 6.2° to
     2.4° with it)."""
-    from wbc.balance.live import CALIBRATE_S
-    from wbc.drive.walker import Walker
+    from wbc.drive.walker import DRIVE_CALIBRATE_S, Walker
 
     robot = load_robot("bioloid")
     _sim, _bus, imu = make_sim(robot)
@@ -82,7 +81,7 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     while walker.calibrating:
         walker.tick()
         ticks += 1
-    assert ticks == round(CALIBRATE_S / walker.engine.dt)
+    assert ticks == round(DRIVE_CALIBRATE_S / walker.engine.dt)
     assert walker.stabilizer.calibration is not None
     walker.tick()
     assert walker.engine.walking
