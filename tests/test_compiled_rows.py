@@ -124,6 +124,9 @@ def oracle(task, kin) -> tuple[np.ndarray, np.ndarray]:
     if isinstance(task, FrameOrientationTask):
         A = task.target @ R.T
         return pin.log3(A), pin.Jlog3(A) @ Jf[3:]
+    if isinstance(task, LocalFramePoseTask):  # (a FramePoseTask: before it)
+        e = pin.log6(kin.placement(fid).inverse() * task.target).vector
+        return e, pin.getFrameJacobian(kin.model, kin.data, fid, pin.LOCAL)
     if isinstance(task, FramePoseTask):
         A = task.target_rotation @ R.T
         e = np.concatenate([task.target_position - p, pin.log3(A)])
@@ -133,9 +136,6 @@ def oracle(task, kin) -> tuple[np.ndarray, np.ndarray]:
         e = np.array([1.0 - T[:, 2] @ R[:, 2], 1.0 - T[:, 0] @ R[:, 0]])
         J = np.vstack([np.cross(R[:, 2], T[:, 2]) @ Jf[3:], np.cross(R[:, 0], T[:, 0]) @ Jf[3:]])
         return e, J
-    if isinstance(task, LocalFramePoseTask):
-        e = pin.log6(kin.placement(fid).inverse() * task.target).vector
-        return e, pin.getFrameJacobian(kin.model, kin.data, fid, pin.LOCAL)
     if isinstance(task, FrameTiltTask):
         k, (u, v) = R[:, 2], task.directions.reshape(2, 3)
         J = np.vstack([np.cross(k, u) @ Jf[3:], np.cross(k, v) @ Jf[3:]])

@@ -10,16 +10,11 @@ Jacobian of its rotation error; this one is the body-frame form (Pinocchio's ``l
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
-import numpy as np
-import pinocchio as pin
 from numba import njit
 
 from ..compiled.rows import frame_jacobian, log3
-from ..model import Kinematics, Robot
-from .frame_task import FrameTask
-from .task import TaskError, check_rotation, check_vector
+from .frame_pose import FramePoseTask
 
 #: below this angle (rad) the coefficients of the logarithm's linear part are their Taylor
 #: expansions (the closed forms lose digits to ``1 − cos θ``; the expansions' first neglected
@@ -73,7 +68,7 @@ def local_pose_rows(
             J[3 + i, k] = R[0, i] * b0 + R[1, i] * b1 + R[2, i] * b2
 
 
-class LocalFramePoseTask(FrameTask):
+class LocalFramePoseTask(FramePoseTask):
     """e = log6(M⁻¹ M*) (the frame's axes: [linear; angular]), J = the frame's local Jacobian
     (6 x nv; Pinocchio's ``LOCAL``).
 
@@ -84,48 +79,5 @@ class LocalFramePoseTask(FrameTask):
     The last three rows alone (``mask``) hold an orientation: ``log3(Rᵀ R*)``, ``Rᵀ J_ω``.
     """
 
-    dim = 6
-    row_kernel = staticmethod(local_pose_rows)
-    target_fields = ("target_position", "target_rotation")
-    length_rows = 3
+    row_kernel = staticmethod(local_pose_rows)  # (targets, dim: FramePoseTask's)
     stack_type = "local_frame_pose"  # its `type` in stack files (wbc.tasks.task.register)
-
-    def __init__(
-        self,
-        robot: Robot,
-        frame: str,
-        target: pin.SE3 | None = None,
-        name: str | None = None,
-        gain: float = 1.0,
-        weight: float | Sequence[float] = 1.0,
-        mask: Sequence[bool] | None = None,
-    ) -> None:
-        super().__init__(robot, frame, name, gain, weight, mask)
-        packed = np.zeros(12)  # (both in one array: the compiled tick copies one source)
-        self.target_position = packed[:3]
-        self.target_rotation = packed[3:].reshape(3, 3)
-        self.target_rotation[:] = np.eye(3)
-        if target is not None:
-            self.set_target(target)
-
-    def set_target(self, target: pin.SE3) -> None:
-        """M* (world), copied in place (position and rotation checked as their setters do)."""
-        if not isinstance(target, pin.SE3):
-            raise TaskError(f"task {self.name!r}: target must be a pinocchio.SE3")
-        self.set_position_target(target.translation)
-        self.set_rotation_target(target.rotation)
-
-    def set_position_target(self, position: Sequence[float]) -> None:
-        check_vector(self, position, 3, "target position", out=self.target_position)
-
-    def set_rotation_target(self, rotation: np.ndarray) -> None:
-        check_rotation(self, rotation, out=self.target_rotation)
-
-    def set_target_from(self, kin: Kinematics) -> None:
-        """M* = the frame's current placement."""
-        self.target_position[:] = kin.translation(self.frame_id)
-        self.target_rotation[:] = kin.rotation(self.frame_id)
-
-    @property
-    def target(self) -> pin.SE3:
-        return pin.SE3(self.target_rotation, self.target_position)
