@@ -181,14 +181,13 @@ def fill_constraints(
 
 
 @njit(cache={cache})
-def weighted_body(
-    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
-    cspec, cparams, cslots, targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports,
-    Jw, com, Jcom, hg, Ag, v, Jf, efull, Jfull, q, q_min, q_max, bspec, boxes, params, lower,
-    upper, state, working,
-    dq, q_next,
+def weighted_fill(
+    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, hard_spec,
+    hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, cspec, cparams, cslots,
+    targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag,
+    v, Jf, efull, Jfull, q, bspec, boxes, lower, upper,
 ):
+    """The weighted tick's rows, bounds and constraints at the frames of q (both ticks')."""
     load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
     fill_rows(
         soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, targets, slots,
@@ -205,6 +204,44 @@ def weighted_body(
     fill_constraints(
         cspec, cparams, cslots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, G, h
     )
+
+
+@njit(cache={cache})
+def cascade_fill(
+    spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
+    frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
+    Jfull, q, bspec, boxes, lower, upper,
+):
+    """The cascade tick's rows, bounds and constraints at the frames of q (both ticks')."""
+    load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
+    fill_rows(
+        spec, sel, sqrt_w, gain_w, J, E, b, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom,
+        hg, Ag, q, v, Jf, efull, Jfull,
+    )
+    fill_bounds(
+        bspec, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, boxes,
+        lower, upper,
+    )
+    fill_constraints(
+        cspec, cparams, cslots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, G, h
+    )
+
+
+@njit(cache={cache})
+def weighted_body(
+    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
+    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
+    cspec, cparams, cslots, targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports,
+    Jw, com, Jcom, hg, Ag, v, Jf, efull, Jfull, q, q_min, q_max, bspec, boxes, params, lower,
+    upper, state, working,
+    dq, q_next,
+):
+    weighted_fill(
+        soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, hard_spec,
+        hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, cspec, cparams, cslots,
+        targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag,
+        v, Jf, efull, Jfull, q, bspec, boxes, lower, upper,
+    )
     return weighted_solve(
         soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, params, lower, upper,
         state, working, dq, q_next,
@@ -219,17 +256,10 @@ def cascade_body(
     upper, states, working,
     h_eff, achieved, dq, q_next,
 ):
-    load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
-    fill_rows(
-        spec, sel, sqrt_w, gain_w, J, E, b, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom,
-        hg, Ag, q, v, Jf, efull, Jfull,
-    )
-    fill_bounds(
-        bspec, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, boxes,
-        lower, upper,
-    )
-    fill_constraints(
-        cspec, cparams, cslots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, G, h
+    cascade_fill(
+        spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
+        frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
+        Jfull, q, bspec, boxes, lower, upper,
     )
     return cascade_solve(
         J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper,
@@ -248,21 +278,11 @@ def weighted_tick(q_in, addresses, shapes, {direct}):
 def weighted_rows(q_in, addresses, shapes, {direct}):
 {weighted_views}
     gather(target_addresses, target_sizes, targets, q_in, q)
-    load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
-    fill_rows(
-        soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, targets, slots,
-        Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, efull, Jfull,
-    )
-    fill_rows(
-        hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, targets, slots,
-        Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, efull, Jfull,
-    )
-    fill_bounds(
-        bspec, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, boxes,
-        lower, upper,
-    )
-    fill_constraints(
-        cspec, cparams, cslots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, G, h
+    weighted_fill(
+        soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, hard_spec,
+        hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, cspec, cparams, cslots,
+        targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag,
+        v, Jf, efull, Jfull, q, bspec, boxes, lower, upper,
     )
 
 
@@ -277,17 +297,10 @@ def cascade_tick(q_in, addresses, shapes, {direct}):
 def cascade_rows(q_in, addresses, shapes, {direct}):
 {cascade_views}
     gather(target_addresses, target_sizes, targets, q_in, q)
-    load_frames(frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, v, Jf)
-    fill_rows(
-        spec, sel, sqrt_w, gain_w, J, E, b, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom,
-        hg, Ag, q, v, Jf, efull, Jfull,
-    )
-    fill_bounds(
-        bspec, targets, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, boxes,
-        lower, upper,
-    )
-    fill_constraints(
-        cspec, cparams, cslots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, G, h
+    cascade_fill(
+        spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
+        frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
+        Jfull, q, bspec, boxes, lower, upper,
     )
 '''
 
