@@ -121,7 +121,7 @@ def test_support_polygon_modes(robot):
     lifted[2, 3] += 0.02
     assert np.allclose(support_polygon(L, lifted, None, rect, rect), left)
     with pytest.raises(ConfigurationError, match="support code"):
-        support_polygon(L, R, 7)
+        support_polygon(L, R, 7, rect, rect)
 
 
 def test_camera_projects_target_to_centre_and_up_to_up():

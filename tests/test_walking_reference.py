@@ -10,7 +10,7 @@ import pytest
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking import forward_walk, thesis_step
-from wbc.walking.geometry import FOOT_LENGTH, FOOT_WIDTH, polygon_area
+from wbc.walking.geometry import polygon_area
 
 
 @pytest.fixture(scope="module")
@@ -46,13 +46,14 @@ def test_support_polygons_and_distances(ref):
     i_ss = int(np.argmax(ref.support == SUPPORT_LEFT))
     ds = ref.support_polygon(i_ds)
     ss = ref.support_polygon(i_ss)
-    assert polygon_area(ss) == pytest.approx(FOOT_LENGTH * FOOT_WIDTH)
-    assert polygon_area(ds) > 2 * FOOT_LENGTH * FOOT_WIDTH
+    length, width = ref.foot.length, ref.foot.width  # the robot's (101 x 61 mm)
+    assert polygon_area(ss) == pytest.approx(length * width)
+    assert polygon_area(ds) > 2 * length * width
     left = ref.l_sole[i_ss, :2]
-    assert ref.signed_distance(i_ss, left) == pytest.approx(FOOT_WIDTH / 2)
+    assert ref.signed_distance(i_ss, left) == pytest.approx(width / 2)
     assert ref.signed_distance(i_ss, ref.r_sole[i_ss, :2]) < 0  # the swing foot is not support
     shrunk = ref.support_polygon(i_ss, margin=0.01)
-    assert polygon_area(shrunk) == pytest.approx((FOOT_LENGTH - 0.02) * (FOOT_WIDTH - 0.02))
+    assert polygon_area(shrunk) == pytest.approx((length - 0.02) * (width - 0.02))
     A, b = ref.support_halfplanes(i_ss, 0.01)
     assert np.all(A @ left <= b)
     m = ref.com_margin()

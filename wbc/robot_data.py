@@ -1,8 +1,8 @@
 """Per-robot data beside the URDF: named poses, the standing pose, feet, frames, walking.
 
 What the library used to assume of the Bioloid (a Walk Ready pose in the Dynamixel servo map,
-its 101 x 61 mm feet, its frame names, walking settings tuned to its hips) is read from the
-robot's folder instead. Two optional files:
+its feet, its frame names, walking settings tuned to its hips) is read from the robot's folder
+and model instead. Two optional files:
 
 ``poses.toml``: named poses in radians of the model's joints (joints not named are 0)::
 
@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .exceptions import ModelError
-from .geometry import FOOT_LENGTH, FOOT_WIDTH
 from .paths import read_toml
 
 ROBOT_FILE = "robot.toml"
@@ -69,8 +68,10 @@ class RobotData:
 
     poses: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     stand: str | None = None
-    foot_length: float = FOOT_LENGTH
-    foot_width: float = FOOT_WIDTH
+    #: the foot size stated in ``[feet]`` (m; None: measured from the model,
+    #: :attr:`wbc.model.Robot.foot_size`)
+    foot_length: float | None = None
+    foot_width: float | None = None
     #: the project's frame names -> the URDF's (``[frames]``, e.g. ``torso = "base_link"``)
     frames: Mapping[str, str] = field(default_factory=dict)
     #: per-trajectory keyword overrides for the walking references (``[walking.<name>]``)
@@ -133,9 +134,9 @@ class RobotData:
         extra = sorted(set(feet) - {"length", "width"})
         if extra:
             raise ModelError(f"{where}: [feet] has unknown keys {extra}; allowed: length, width")
-        size = {}
-        for key, default in (("length", FOOT_LENGTH), ("width", FOOT_WIDTH)):
-            v = feet.get(key, default)
+        size: dict[str, float | None] = {"length": None, "width": None}
+        for key in (k for k in size if k in feet):
+            v = feet[key]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
                 raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
             size[key] = float(v)
