@@ -88,14 +88,19 @@ class RobotData:
     #: the leg measurements stated by hand (``[legs]``: :class:`wbc.walking.legs.LegGeometry`
     #: fields, m and rad), replacing the ones measured from the model
     legs: Mapping[str, object] = field(default_factory=dict)
-    #: which of the foot's length and width ``[feet]`` states (the others come from the model)
-    feet_given: tuple[str, ...] = ()
     #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
     #: more than its share of its speed (:mod:`wbc.walking.sizing`)
     fit_speed: bool = True
     #: the closed loop's settings measured on this robot (``[balance.<table>]``, m; the keys
     #: of :data:`BALANCE_KEYS`), e.g. ``{"stepping": {"band_y": 0.045}}``
     balance: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+
+    @property
+    def feet_given(self) -> tuple[str, ...]:
+        """Which of the foot's length and width ``[feet]`` states (the others come from the
+        model)."""
+        stated = (("length", self.foot_length), ("width", self.foot_width))
+        return tuple(k for k, v in stated if v is not None)
 
     @classmethod
     def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
@@ -149,7 +154,6 @@ class RobotData:
             walking,
             str(folder),
             joints=read_joint_roles(raw.get("joints", {}), joint_names, where),
-            feet_given=tuple(k for k in ("length", "width") if k in feet),
             fit_speed=fit_speed,
             balance=read_balance(raw.get("balance", {}), where),
             **tables,
