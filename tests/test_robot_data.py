@@ -104,3 +104,40 @@ def test_servo_and_imu_tables_are_checked(tmp_path, kokone):
     (folder / "robot.toml").write_text(text + '\n[imu]\nframe = "nowhere"\n')
     errors = [f.message for f in check_folder(folder) if f.level == "error"]
     assert len(errors) == 1 and "[imu]: frame = 'nowhere'" in errors[0]
+
+
+def _bioloid_without_left_sole_box(folder, toml: str = ""):
+    """The Bioloid's URDF with no collision box on the left foot, and ``toml`` as robot.toml."""
+    import re
+
+    text = (robots_dir() / "bioloid" / "bioloid.urdf").read_text()
+    start = text.index('<link name="l_foot"')
+    end = text.index("</link>", start)
+    foot = re.sub(r"<collision>.*?</collision>", "", text[start:end], flags=re.S)
+    folder.mkdir()
+    (folder / f"{folder.name}.urdf").write_text(text[:start] + foot + text[end:])
+    if toml:
+        (folder / "robot.toml").write_text(toml)
+    return folder
+
+
+def test_a_sole_without_a_box_is_refused_naming_what_to_add(tmp_path):
+    """No Bioloid fallback: a robot's foot is its sole link's collision box or robot.toml
+    [feet]; with neither, one line says what to add (and the walks say the same)."""
+    from wbc.bench.trajectories import build
+
+    robot = load_robot(_bioloid_without_left_sole_box(tmp_path / "boxless"))
+    with pytest.raises(ModelError, match=r"no collision box at the sole; state \[feet\]") as exc:
+        _ = robot.foot_size
+    assert "\n" not in str(exc.value)
+    with pytest.raises(ModelError, match=r"state \[feet\] length and width in robot.toml"):
+        build("walk10", robot)
+    # half a [feet] table is not enough: the other half would come from the missing box
+    half = load_robot(_bioloid_without_left_sole_box(tmp_path / "half", "[feet]\nwidth = 0.05\n"))
+    with pytest.raises(ModelError, match="no collision box at the sole"):
+        _ = half.foot_size
+    stated = "[feet]\nlength = 0.09\nwidth = 0.05\n"
+    assert load_robot(_bioloid_without_left_sole_box(tmp_path / "fed", stated)).foot_size == (
+        0.09,
+        0.05,
+    )

@@ -3,7 +3,10 @@ names left in the controller."""
 
 from __future__ import annotations
 
+import ast
 import re
+import tokenize
+import tomllib
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -158,6 +161,46 @@ def test_no_bioloid_joint_or_link_name_in_the_controller():
     assert not hits, hits
 
 
+#: the names the Bioloid's dimensions had in wbc/ (wbc.geometry, wbc.walking.legs, the viewer)
+BIOLOID_CONSTANTS = (
+    "FOOT_LENGTH", "FOOT_WIDTH", "THIGH", "SHIN", "HIP_HALF_WIDTH", "ANKLE_HEIGHT",
+    "DEFAULT_SOLE_RECT",
+)  # fmt: skip
+
+
+def bioloid_dimensions() -> set[float]:
+    """The Bioloid's dimensions (m, rad) as wbc measured and stated them: every number of its
+    robot.toml [legs], its leg (thigh + shin), its foot and their halves."""
+    legs = tomllib.loads((BIOLOID_URDF.parent / "robot.toml").read_text())["legs"]
+    values = {abs(float(x)) for v in legs.values() for x in (v if isinstance(v, list) else [v])}
+    length, width = load_robot("bioloid").foot_size
+    return values | {legs["thigh"] + legs["shin"], length, width, length / 2, width / 2}
+
+
+def bioloid_dimensions_in(package: Path) -> list[str]:
+    """Where a Python file of ``package`` writes one of :func:`bioloid_dimensions` as a number
+    or names one of :data:`BIOLOID_CONSTANTS` (code only: docstrings and comments may say
+    what the Bioloid measures)."""
+    values, hits = bioloid_dimensions(), []
+    for path in sorted(package.rglob("*.py")):
+        with open(path, "rb") as f:
+            for tok in tokenize.tokenize(f.readline):
+                number = ast.literal_eval(tok.string) if tok.type == tokenize.NUMBER else None
+                if (isinstance(number, float) and number in values) or (
+                    tok.type == tokenize.NAME and tok.string in BIOLOID_CONSTANTS
+                ):
+                    hits.append(f"{path.relative_to(package)}:{tok.start[0]}: {tok.string}")
+    return hits
+
+
+def test_no_bioloid_dimension_in_the_controller():
+    """The walking design robot's sizes are data (tasks/walking/design.toml), a robot's come
+    from its model or folder: no Bioloid length or angle is written in wbc/."""
+    assert len(bioloid_dimensions()) >= 12
+    hits = bioloid_dimensions_in(Path(__file__).resolve().parent.parent / "wbc")
+    assert not hits, hits
+
+
 def test_walking_a_robot_with_an_odd_leg_says_why_in_one_line(tmp_path, capsys):
     from wbc.cli import main
 
@@ -165,3 +208,33 @@ def test_walking_a_robot_with_an_odd_leg_says_why_in_one_line(tmp_path, capsys):
     assert main(["walk", "--robot", str(folder), "--trajectory", "walk10"]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if "note:" not in line]
     assert len(err) == 1 and "cannot understand the left leg" in err[0], err
+
+
+def test_the_walking_design_robot_is_data(tmp_path, monkeypatch):
+    """The robot the walking defaults were tuned on is read from tasks/walking/design.toml: the
+    Bioloid, whose own measurements give λ = μ = 1; a bad file is refused in one line."""
+    from wbc import roles
+    from wbc.exceptions import ConfigurationError
+    from wbc.walking.legs import LegGeometry
+
+    design = roles.design_robot()
+    assert design.robot == "bioloid"
+    bioloid = load_robot("bioloid")
+    legs = LegGeometry.from_robot(bioloid)
+    assert roles.leg_ratio(legs.thigh + legs.shin) == 1.0 == roles.length_unit(bioloid)
+    assert design.foot_width == bioloid.foot_size[1]
+    assert roles.leg_length(2.0) == 2.0 * (design.thigh + design.shin)
+    folder = tmp_path / "tasks"
+    (folder / "walking").mkdir(parents=True)
+    monkeypatch.setattr(roles, "stacks_dir", lambda: folder)
+    read = roles.design_robot.__wrapped__  # (the package's file is read once and kept)
+    for text, message in (
+        ('robot = "x"\nthigh = 0.1\nshin = 0.1\n', r"foot_width = None: a length in \(0, 1\) m"),
+        ('robot = "x"\nthigh = 0.1\nshin = -1\nfoot_width = 0.1\n', "shin = -1"),
+        ('robot = "x"\nthigh = 0.1\nshin = 0.1\nfoot_width = 0.1\nhip = 1\n', "unknown keys"),
+        ("thigh = 0.1\nshin = 0.1\nfoot_width = 0.1\n", "robot = None"),
+    ):
+        (folder / roles.DESIGN_FILE).write_text(text)
+        with pytest.raises(ConfigurationError, match=message) as exc:
+            read()
+        assert "\n" not in str(exc.value) and "design.toml" in str(exc.value)

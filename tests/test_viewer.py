@@ -97,6 +97,18 @@ def test_sole_rectangle_is_the_foot_plate(robot):
         sole_rectangle(robot, "l_toe")
 
 
+def test_sole_rectangle_without_a_visual_box_is_the_robots_foot():
+    """No visual box at the sole: the robot's own foot (robot.toml [feet] or the collision
+    box), centred, never the Bioloid's 101 x 61 mm."""
+    from wbc import load_robot
+
+    kokone = load_robot("kokone")
+    length, width = kokone.foot_size
+    rect = sole_rectangle(kokone, "l_sole", shapes=())
+    assert rect == pytest.approx((-length / 2, length / 2, -width / 2, width / 2))
+    assert (length, width) != (0.101, 0.061)
+
+
 def test_support_polygon_modes(robot):
     q = robot.configuration("walk_ready")
     L = robot.frame_placement(q, "l_sole").homogeneous
@@ -121,7 +133,7 @@ def test_support_polygon_modes(robot):
     lifted[2, 3] += 0.02
     assert np.allclose(support_polygon(L, lifted, None, rect, rect), left)
     with pytest.raises(ConfigurationError, match="support code"):
-        support_polygon(L, R, 7)
+        support_polygon(L, R, 7, rect, rect)
 
 
 def test_camera_projects_target_to_centre_and_up_to_up():

@@ -10,7 +10,6 @@ from wbc.walking import (
     Footstep,
     FootstepPlan,
     GaitTiming,
-    LegGeometry,
     SwingParams,
     ThesisStepParams,
     forward_walk,
@@ -38,7 +37,7 @@ def test_forward_plan(start):
     assert last.x == pytest.approx(before.x, abs=1e-4)  # closing step: side by side
     assert last.side == "left"
     assert last.y - before.y == pytest.approx(start.left.y - start.right.y, abs=1e-3)
-    plan.validate(legs=LegGeometry(), com_height=start.com[2])
+    plan.validate(start.foot, start.legs, com_height=start.com[2])
     back = plan_footsteps(start.left, start.right, 4, (-0.03, 0.0, 0.0))
     assert all(b.x < start.left.x + 1e-3 for b in back.steps)
 
@@ -59,7 +58,7 @@ def test_turning_plan(start):
     yaws = [s.yaw for s in plan.steps]
     np.testing.assert_allclose(np.diff(yaws[:-1]), 0.2, atol=1e-9)
     assert yaws[-1] == pytest.approx(yaws[-2])
-    plan.validate()
+    plan.validate(start.foot)
 
 
 def test_plan_bad_input(start):
@@ -78,29 +77,31 @@ def _plan(start, *steps):
 
 
 def test_validation_errors(start):
-    legs, h = LegGeometry(), float(start.com[2])
+    foot, legs, h = start.foot, start.legs, float(start.com[2])
     with pytest.raises(TrajectoryError, match="twice in a row"):
-        _plan(start, Footstep("right", 0.03, -0.0414), Footstep("right", 0.06, -0.0414)).validate()
+        _plan(start, Footstep("right", 0.03, -0.0414), Footstep("right", 0.06, -0.0414)).validate(
+            foot
+        )
     with pytest.raises(TrajectoryError, match="crossed feet"):
-        _plan(start, Footstep("left", 0.0, -0.15)).validate()
+        _plan(start, Footstep("left", 0.0, -0.15)).validate(foot)
     with pytest.raises(TrajectoryError, match="apart"):  # overlapping feet
-        _plan(start, Footstep("left", 0.0, 0.0)).validate()
+        _plan(start, Footstep("left", 0.0, 0.0)).validate(foot)
     with pytest.raises(TrajectoryError, match="headings differ"):
-        _plan(start, Footstep("left", 0.0, 0.06, 0.8)).validate()
+        _plan(start, Footstep("left", 0.0, 0.06, 0.8)).validate(foot)
     with pytest.raises(TrajectoryError, match="unreachable"):
-        _plan(start, Footstep("right", 0.2, -0.0414)).validate(legs=legs, com_height=h)
+        _plan(start, Footstep("right", 0.2, -0.0414)).validate(foot, legs, com_height=h)
     with pytest.raises(TrajectoryError, match="unreachable"):  # too wide a step
-        _plan(start, Footstep("left", 0.0, 0.25)).validate(legs=legs, com_height=h)
+        _plan(start, Footstep("left", 0.0, 0.25)).validate(foot, legs, com_height=h)
     # the same steps without the reach check are fine geometrically
-    _plan(start, Footstep("right", 0.2, -0.0414)).validate()
+    _plan(start, Footstep("right", 0.2, -0.0414)).validate(foot)
 
 
-def test_swing_path_collision():
+def test_swing_path_collision(start):
     left = Footstep("left", 0.2, 0.0)
     right = Footstep("right", 0.0, -0.0414)
     plan = FootstepPlan(left, right, (Footstep("left", -0.2, 0.0),))
     with pytest.raises(TrajectoryError, match="swinging foot passes"):
-        plan.validate()
+        plan.validate(start.foot)
 
 
 def test_walk_rejects_bad_input_before_motion(start):

@@ -54,4 +54,4 @@ def test_bad_parameters_are_refused_in_one_line():
         keypose_walk(START, KeyPoseParams(dt=0.5))
     turned = StandingState(START.com, Footstep("left", 0.0, 0.02, 0.3), START.right)
     with pytest.raises(TrajectoryError, match="must face"):
-        keypose_walk(turned)
+        keypose_walk(turned, foot=Foot(0.07, 0.04))

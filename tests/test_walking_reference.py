@@ -10,7 +10,7 @@ import pytest
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking import forward_walk, thesis_step
-from wbc.walking.geometry import FOOT_LENGTH, FOOT_WIDTH, polygon_area
+from wbc.walking.geometry import polygon_area
 
 
 @pytest.fixture(scope="module")
@@ -46,13 +46,14 @@ def test_support_polygons_and_distances(ref):
     i_ss = int(np.argmax(ref.support == SUPPORT_LEFT))
     ds = ref.support_polygon(i_ds)
     ss = ref.support_polygon(i_ss)
-    assert polygon_area(ss) == pytest.approx(FOOT_LENGTH * FOOT_WIDTH)
-    assert polygon_area(ds) > 2 * FOOT_LENGTH * FOOT_WIDTH
+    length, width = ref.foot.length, ref.foot.width  # the robot's (101 x 61 mm)
+    assert polygon_area(ss) == pytest.approx(length * width)
+    assert polygon_area(ds) > 2 * length * width
     left = ref.l_sole[i_ss, :2]
-    assert ref.signed_distance(i_ss, left) == pytest.approx(FOOT_WIDTH / 2)
+    assert ref.signed_distance(i_ss, left) == pytest.approx(width / 2)
     assert ref.signed_distance(i_ss, ref.r_sole[i_ss, :2]) < 0  # the swing foot is not support
     shrunk = ref.support_polygon(i_ss, margin=0.01)
-    assert polygon_area(shrunk) == pytest.approx((FOOT_LENGTH - 0.02) * (FOOT_WIDTH - 0.02))
+    assert polygon_area(shrunk) == pytest.approx((length - 0.02) * (width - 0.02))
     A, b = ref.support_halfplanes(i_ss, 0.01)
     assert np.all(A @ left <= b)
     m = ref.com_margin()
@@ -104,3 +105,27 @@ def test_swing_velocities_match_positions(ref):
         step = 0.5 * (vel[1:] + vel[:-1]) * ref.dt
         np.testing.assert_allclose(np.diff(pos, axis=0), step, atol=2e-4)
         assert np.all(vel[ref.in_contact(side)] == 0.0)
+
+
+def test_a_walk_takes_its_robots_foot_and_legs_never_the_bioloids(start):
+    """A start made from a robot carries that robot's foot and legs (what a walk uses unless
+    given others); a start made by hand has none, and a walk from it says what to pass."""
+    from wbc import load_robot
+    from wbc.walking import LegGeometry, StandingState
+    from wbc.walking.footsteps import Footstep
+    from wbc.walking.geometry import Foot
+    from wbc.walking.keyposes import keypose_walk
+
+    kokone = load_robot("kokone")
+    k_start = StandingState.from_robot(kokone)
+    assert k_start.foot == Foot(*kokone.foot_size) != start.foot
+    assert k_start.legs == LegGeometry.from_robot(kokone, kokone.configuration("stand"))
+    assert keypose_walk(k_start).foot == k_start.foot  # (was the Bioloid's 101 x 61 mm)
+    by_hand = StandingState(start.com, Footstep("left", *start.left.xy), start.right)
+    with pytest.raises(TrajectoryError, match=r"no foot given.*pass foot=Foot\(length, width\)"):
+        forward_walk(by_hand, 2)
+    with pytest.raises(TrajectoryError, match=r"no legs given.*LegGeometry.from_robot\(robot\)"):
+        forward_walk(by_hand, 2, foot=start.foot)
+    assert forward_walk(by_hand, 2, foot=start.foot, legs=start.legs).n > 0
+    with pytest.raises(TypeError):
+        Foot()  # type: ignore[call-arg]  # (no default foot: a robot's is measured)

@@ -9,13 +9,11 @@ import pytest
 from wbc.exceptions import TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT
 from wbc.walking import (
-    LegGeometry,
     ThesisStepParams,
     check_reference,
     thesis_lipm_step,
     thesis_step,
 )
-from wbc.walking.geometry import FOOT_WIDTH
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +38,7 @@ def test_com_shifts_over_the_left_sole_before_the_swing(ref, start):
     left = ref.l_sole[0, :2]
     # by pose 30 the CoM is over the left sole, as near its centre as the hips allow
     # (LegGeometry.max_com_lateral), and stays there
-    legs = LegGeometry()
+    legs = start.legs
     half = 0.5 * (start.left.y - start.right.y)
     mid = 0.5 * (start.left.y + start.right.y)
     target_y = mid + legs.max_com_lateral(start.com[2], half) - 5e-5
@@ -57,7 +55,7 @@ def test_com_shifts_over_the_left_sole_before_the_swing(ref, start):
     assert m.min() >= ref.margin
     single = ref.support == SUPPORT_LEFT
     assert np.all(m[single] >= ref.margin)
-    assert np.all(m[single] < FOOT_WIDTH / 2)  # not at the centre: the hips forbid it
+    assert np.all(m[single] < ref.foot.width / 2)  # not at the centre: the hips forbid it
     # the stance hip is within its roll limit, and at it
     rolls = legs.leg_rolls(ref.com, ref.torso_yaw, ref.l_sole, ref.r_sole)
     assert -rolls[:, 0].min() <= legs.max_adduction - legs.roll_margin
@@ -97,7 +95,7 @@ def test_parameters(start):
     assert ref.r_sole[-1, 0] - start.right.x == pytest.approx(0.02, abs=1e-3)
     higher = thesis_step(start, ThesisStepParams(com_height=0.178))
     assert higher.com[-1, 2] == pytest.approx(0.178)
-    assert check_reference(higher).com_margin >= higher.margin
+    assert check_reference(higher, legs=start.legs).com_margin >= higher.margin
     # a lower CoM bends the legs: the hips' roll limit then keeps the CoM off the foot
     with pytest.raises(TrajectoryError, match="CoM is -"):
         thesis_step(start, ThesisStepParams(com_height=0.165))

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from wbc.bench import trajectories as traj
 from wbc.exceptions import ConfigurationError, TrajectoryError
-from wbc.walking import LegGeometry, check_reference, forward_walk
+from wbc.walking import check_reference, forward_walk
 from wbc.walking.checks import lateral_offsets
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.window import BalanceWindow
@@ -30,7 +30,7 @@ def named(robot):
 
 
 def test_whole_body_window_is_wider_than_the_legs_alone(robot, window, start):
-    legs = LegGeometry()
+    legs = start.legs
     half = 0.5 * float(start.left.y - start.right.y)
     legs_only = legs.max_com_lateral(float(start.com[2]), half)
     assert 0.009 < legs_only < 0.013  # the legs-only model: ~11 mm
@@ -77,7 +77,7 @@ def test_whole_body_walk_is_feasible_with_the_planned_lean(robot, window, start)
     assert np.all(np.sign(ref.torso_roll[big]) == -np.sign(y[big]))
     # the legs-only model rejects the same CoM path (hip roll beyond its limit)
     with pytest.raises(TrajectoryError, match="hip would roll"):
-        check_reference(ref, legs=LegGeometry())
+        check_reference(ref, legs=start.legs)
     rep = kinematic_feasibility(robot, ref, hold_arms=False)
     assert rep.feasible, rep
     assert rep.min_limit_margin >= -1e-9
@@ -93,8 +93,8 @@ def test_window_check_rejects_a_com_beyond_it(window, start):
     y = np.abs(lateral_offsets(ref)).max()
     narrow = dataclasses.replace(window, max_lateral=0.5 * y)
     with pytest.raises(TrajectoryError, match="balance window of"):
-        check_reference(ref, window=narrow)
-    assert check_reference(ref, window=window).window_margin > 0
+        check_reference(ref, window=narrow, legs=start.legs)
+    assert check_reference(ref, window=window, legs=start.legs).window_margin > 0
 
 
 def test_session_asks_the_torso_for_the_planned_roll(robot, window, start):

@@ -14,7 +14,6 @@ from wbc.exceptions import ConfigurationError, TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE
 from wbc.walking import (
     GaitTiming,
-    LegGeometry,
     MpcParams,
     PreviewController,
     PreviewParams,
@@ -146,7 +145,7 @@ def test_mpc_keeps_the_hips_within_their_roll_limits(start):
     """A ZMP path 20 mm in from the sole centres makes the preview CoM sway beyond what the
     hips' 5.6 deg inward roll allows; the MPC's CoM inequalities keep it inside."""
     pytest.importorskip("casadi")
-    legs = LegGeometry()
+    legs = start.legs
     with pytest.raises(TrajectoryError, match="hip would roll"):
         forward_walk(start, 6, generator="preview", zmp_offset=(0.0, 0.02))
     ref = forward_walk(start, 6, generator="mpc", zmp_offset=(0.0, 0.02))

@@ -12,17 +12,8 @@ from typing import overload
 
 import numpy as np
 
-#: Bioloid Premium foot plate, 101 x 61 mm centred under the ankle (bioloid-facts §1.3)
-FOOT_LENGTH = 0.101
-FOOT_WIDTH = 0.061
-#: Bioloid Premium leg (m): hip centre -> knee -> ankle centre. With the foot, the design robot
-#: the defaults were tuned on: the walking settings (wbc.walking.sizing) and the stacks' weights
-#: of length rows (wbc.roles.length_unit) are scaled from it to another robot
-THIGH = 0.07639
-SHIN = 0.07247
 
-
-def sole_corners(length: float = FOOT_LENGTH, width: float = FOOT_WIDTH) -> np.ndarray:
+def sole_corners(length: float, width: float) -> np.ndarray:
     """The 4 corners (4, 3) of a ``length x width`` sole in its own frame, counter-clockwise
     seen from above (front-left first), on the sole plane z = 0."""
     hl, hw = 0.5 * length, 0.5 * width
@@ -68,9 +59,7 @@ def rot2(yaw: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def foot_rectangle(
-    xy: np.ndarray, yaw: float, length: float = FOOT_LENGTH, width: float = FOOT_WIDTH
-) -> np.ndarray:
+def foot_rectangle(xy: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
     """Corners (4, 2), counter-clockwise, of a ``length x width`` rectangle centred at ``xy``."""
     return np.asarray(xy, dtype=float)[:2] + sole_corners(length, width)[:, :2] @ rot2(yaw).T
 

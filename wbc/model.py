@@ -281,15 +281,12 @@ class Robot:
         ``[feet]``, else the sole link's collision box (:func:`measure_foot`)."""
         cache = self.__dict__.setdefault("_foot_size", [])
         if not cache:
-            given = self.robot_data.feet_given
-            stated = self.robot_data.foot_length, self.robot_data.foot_width
-            if len(given) == 2:
-                cache.append(stated)
-            else:
+            length, width = self.robot_data.foot_length, self.robot_data.foot_width
+            if length is None or width is None:
                 measured = measure_foot(self)
-                keys = ("length", "width")
-                pairs = zip(keys, stated, measured, strict=True)
-                cache.append(tuple(s if k in given else m for k, s, m in pairs))
+                length = measured[0] if length is None else length
+                width = measured[1] if width is None else width
+            cache.append((length, width))
         return cache[0]
 
     @property

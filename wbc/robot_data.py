@@ -1,8 +1,8 @@
 """Per-robot data beside the URDF: named poses, the standing pose, feet, frames, walking.
 
 What the library used to assume of the Bioloid (a Walk Ready pose in the Dynamixel servo map,
-its 101 x 61 mm feet, its frame names, walking settings tuned to its hips) is read from the
-robot's folder instead. Two optional files:
+its feet, its frame names, walking settings tuned to its hips) is read from the robot's folder
+and model instead. Two optional files:
 
 ``poses.toml``: named poses in radians of the model's joints (joints not named are 0)::
 
@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .exceptions import ModelError
-from .geometry import FOOT_LENGTH, FOOT_WIDTH
 from .paths import read_toml
 
 ROBOT_FILE = "robot.toml"
@@ -69,8 +68,10 @@ class RobotData:
 
     poses: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     stand: str | None = None
-    foot_length: float = FOOT_LENGTH
-    foot_width: float = FOOT_WIDTH
+    #: the foot size stated in ``[feet]`` (m; None: measured from the model,
+    #: :attr:`wbc.model.Robot.foot_size`)
+    foot_length: float | None = None
+    foot_width: float | None = None
     #: the project's frame names -> the URDF's (``[frames]``, e.g. ``torso = "base_link"``)
     frames: Mapping[str, str] = field(default_factory=dict)
     #: per-trajectory keyword overrides for the walking references (``[walking.<name>]``)
@@ -87,14 +88,19 @@ class RobotData:
     #: the leg measurements stated by hand (``[legs]``: :class:`wbc.walking.legs.LegGeometry`
     #: fields, m and rad), replacing the ones measured from the model
     legs: Mapping[str, object] = field(default_factory=dict)
-    #: which of the foot's length and width ``[feet]`` states (the others come from the model)
-    feet_given: tuple[str, ...] = ()
     #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
     #: more than its share of its speed (:mod:`wbc.walking.sizing`)
     fit_speed: bool = True
     #: the closed loop's settings measured on this robot (``[balance.<table>]``, m; the keys
     #: of :data:`BALANCE_KEYS`), e.g. ``{"stepping": {"band_y": 0.045}}``
     balance: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+
+    @property
+    def feet_given(self) -> tuple[str, ...]:
+        """Which of the foot's length and width ``[feet]`` states (the others come from the
+        model)."""
+        stated = (("length", self.foot_length), ("width", self.foot_width))
+        return tuple(k for k, v in stated if v is not None)
 
     @classmethod
     def from_folder(cls, folder: str | Path, joint_names: Sequence[str]) -> RobotData:
@@ -133,9 +139,9 @@ class RobotData:
         extra = sorted(set(feet) - {"length", "width"})
         if extra:
             raise ModelError(f"{where}: [feet] has unknown keys {extra}; allowed: length, width")
-        size = {}
-        for key, default in (("length", FOOT_LENGTH), ("width", FOOT_WIDTH)):
-            v = feet.get(key, default)
+        size: dict[str, float | None] = {"length": None, "width": None}
+        for key in (k for k in size if k in feet):
+            v = feet[key]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
                 raise ModelError(f"{where}: [feet] {key} = {v!r}: must be in (0, 1) m")
             size[key] = float(v)
@@ -148,7 +154,6 @@ class RobotData:
             walking,
             str(folder),
             joints=read_joint_roles(raw.get("joints", {}), joint_names, where),
-            feet_given=tuple(k for k in ("length", "width") if k in feet),
             fit_speed=fit_speed,
             balance=read_balance(raw.get("balance", {}), where),
             **tables,

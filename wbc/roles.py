@@ -30,6 +30,7 @@ roles are all named. Otherwise the robot is refused with one line saying why.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -37,8 +38,8 @@ from typing import Protocol
 import numpy as np
 import pinocchio as pin
 
-from .exceptions import ModelError
-from .geometry import SHIN, THIGH
+from .exceptions import ConfigurationError, ModelError
+from .paths import read_toml, stacks_dir
 
 
 class Robot(Protocol):
@@ -316,16 +317,56 @@ def leg_segments(robot: Robot) -> tuple[float, float]:
     return float(np.linalg.norm(knee - hip)), float(np.linalg.norm(ankle - knee))
 
 
+#: the walking design file, in the stacks' folder (``tasks/``): the robot the walking
+#: references' default settings and the package's stacks' weights were tuned on
+DESIGN_FILE = "walking/design.toml"
+
+
+@dataclass(frozen=True)
+class DesignRobot:
+    """The robot the walking defaults were designed on (:data:`DESIGN_FILE`): its name, its
+    thigh and shin (m, hip pitch -> knee -> ankle pitch) and its foot's width (m)."""
+
+    robot: str
+    thigh: float
+    shin: float
+    foot_width: float
+
+    @property
+    def leg(self) -> float:
+        """Its hip-to-ankle length, thigh + shin (m)."""
+        return self.thigh + self.shin
+
+
+@functools.cache
+def design_robot() -> DesignRobot:
+    """The design robot of the walking references, read once from :data:`DESIGN_FILE`
+    (ConfigurationError naming the file and key if a length is missing or not in (0, 1) m)."""
+    path = stacks_dir() / DESIGN_FILE
+    raw = read_toml(path, "walking design file", ConfigurationError)
+    keys = ("robot", "thigh", "shin", "foot_width")
+    extra = sorted(set(raw) - set(keys))
+    if extra:
+        raise ConfigurationError(f"{path}: unknown keys {extra}; allowed: {', '.join(keys)}")
+    if not isinstance(raw.get("robot"), str):
+        raise ConfigurationError(f"{path}: robot = {raw.get('robot')!r}: the robot's name")
+    for key in keys[1:]:
+        v = raw.get(key)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not 0 < v < 1:
+            raise ConfigurationError(f"{path}: {key} = {v!r}: a length in (0, 1) m")
+    return DesignRobot(raw["robot"], *(float(raw[k]) for k in keys[1:]))
+
+
 def leg_length(ratio: float) -> float:
     """The hip-to-ankle length (m) of :func:`leg_ratio` ``ratio`` (the design robot's at 1)."""
-    return ratio * (THIGH + SHIN)
+    return ratio * design_robot().leg
 
 
 def leg_ratio(leg: float) -> float:
-    """λ = leg / (THIGH + SHIN): a hip-to-ankle length over the design robot's (the Bioloid's,
-    whose defaults the walking settings and stack weights are), rounded to 1e-9 so that the
-    design robot's stated leg gives exactly 1."""
-    return round(leg / (THIGH + SHIN), 9)
+    """λ = leg / the design robot's thigh + shin (:func:`design_robot`: the Bioloid, whose
+    defaults the walking settings and stack weights are), rounded to 1e-9 so that the design
+    robot's stated leg gives exactly 1."""
+    return round(leg / design_robot().leg, 9)
 
 
 def length_unit(robot: Robot) -> float:

@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError, SolverError, TaskError
-from ..geometry import FOOT_LENGTH, FOOT_WIDTH, sole_corners
+from ..geometry import sole_corners
 from ..model import Robot
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference
@@ -131,7 +131,8 @@ class PoseNLP:
 
     ``hard_com_and_swing``: CoM and swing-sole position as equalities; ``hard_torso``: the
     torso orientation as an equality; ``ground_clearance``: the swing sole's corners stay above
-    z = 0 (single support); ``foot``: (length, width) of the sole rectangle (m); ``tol``:
+    z = 0 (single support); ``foot``: (length, width) of the sole rectangle (m; default the
+    robot's, :attr:`wbc.model.Robot.foot_size`); ``tol``:
     IPOPT's optimality and constraint-violation tolerance; ``feasibility_tol``: the largest
     hard-constraint residual (m / rad) of an accepted solution; ``warm_start``: reuse the
     previous solve's multipliers.
@@ -144,7 +145,7 @@ class PoseNLP:
         weights: NlpWeights | None = None,
         hard_torso: bool = False,
         ground_clearance: bool = True,
-        foot: tuple[float, float] = (FOOT_LENGTH, FOOT_WIDTH),
+        foot: tuple[float, float] | None = None,
         tol: float = 1e-10,
         feasibility_tol: float = 1e-8,
         max_iterations: int = 300,
@@ -157,7 +158,7 @@ class PoseNLP:
         self.hard_torso = bool(hard_torso)
         self.weights = weights or NlpWeights()
         self.ground_clearance = bool(ground_clearance)
-        self.corners = sole_corners(*foot)
+        self.corners = sole_corners(*(robot.foot_size if foot is None else foot))
         self.tol = float(tol)
         self.feasibility_tol = float(feasibility_tol)
         self.max_iterations = int(max_iterations)

@@ -7,14 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
-from ..geometry import (
-    FOOT_LENGTH,
-    FOOT_WIDTH,
-    convex_hull,
-    halfplanes,
-    sole_corners,
-    world_corners,
-)
+from ..geometry import convex_hull, halfplanes, sole_corners, world_corners
 from ..model import Kinematics, Robot
 from .limit import Constraint
 
@@ -34,10 +27,12 @@ class SupportPolygon:
         cls,
         kin: Kinematics,
         sole_ids: Sequence[int],
+        length: float,
+        width: float,
         margin: float = 0.0,
-        length: float = FOOT_LENGTH,
-        width: float = FOOT_WIDTH,
     ) -> SupportPolygon:
+        """The hull of ``length x width`` rectangles centred on the soles ``sole_ids`` (frame
+        ids; the robot's foot: :attr:`wbc.model.Robot.foot_size`), shrunk by ``margin``."""
         sole = sole_corners(length, width)
         corners = np.vstack(
             [world_corners(kin.rotation(f), kin.translation(f), sole) for f in sole_ids]
@@ -95,7 +90,7 @@ class ComPolygonConstraint(Constraint):
         self.polygon = None
 
     def update_polygon(self, kin: Kinematics) -> SupportPolygon:
-        self.polygon = SupportPolygon.from_soles(kin, self.sole_ids, self.margin, *self.foot)
+        self.polygon = SupportPolygon.from_soles(kin, self.sole_ids, *self.foot, self.margin)
         return self.polygon
 
     def prepare(self, kin: Kinematics) -> None:

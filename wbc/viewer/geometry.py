@@ -15,8 +15,6 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, ModelError
 from ..geometry import (  # noqa: F401 (convex_hull, polygon_area: re-exported)
-    FOOT_LENGTH,
-    FOOT_WIDTH,
     convex_hull,
     polygon_area,
     rect_corners,
@@ -28,9 +26,6 @@ from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 
 #: A sole is taken to touch the ground when its origin is at most this high (m).
 CONTACT_HEIGHT = 0.003
-#: Fallback sole rectangle (x_min, x_max, y_min, y_max) in the sole frame, Bioloid foot (m):
-#: :data:`wbc.geometry.FOOT_LENGTH` x :data:`~wbc.geometry.FOOT_WIDTH`, centred
-DEFAULT_SOLE_RECT = (-FOOT_LENGTH / 2, FOOT_LENGTH / 2, -FOOT_WIDTH / 2, FOOT_WIDTH / 2)
 
 
 @dataclass(frozen=True)
@@ -104,8 +99,9 @@ def sole_rectangle(
     """Footprint (x_min, x_max, y_min, y_max) of a sole in its own frame (m).
 
     Taken from the largest visual box (of ``shapes``, default the robot's) whose bottom face
-    lies in the sole plane (within 1 mm) on the sole's parent joint;
-    :data:`DEFAULT_SOLE_RECT` if there is none.
+    lies in the sole plane (within 1 mm) on the sole's parent joint; if there is none, the
+    robot's foot (:attr:`wbc.model.Robot.foot_size`: ``robot.toml`` ``[feet]`` or the sole
+    link's collision box; ModelError naming what to add if neither) centred on the sole.
     """
     fid = robot.frame_id(sole)
     frame = robot.model.frames[fid]
@@ -127,7 +123,10 @@ def sole_rectangle(
             area = (rect[1] - rect[0]) * (rect[3] - rect[2])
             if best is None or area > best[0]:
                 best = (area, tuple(float(v) for v in rect))
-    return DEFAULT_SOLE_RECT if best is None else best[1]
+    if best is None:
+        length, width = robot.foot_size
+        return (-length / 2, length / 2, -width / 2, width / 2)
+    return best[1]
 
 
 def _box_corners(size: Sequence[float]) -> np.ndarray:
@@ -140,8 +139,8 @@ def support_polygon(
     l_sole: np.ndarray,
     r_sole: np.ndarray,
     support: int | None,
-    l_rect: Sequence[float] = DEFAULT_SOLE_RECT,
-    r_rect: Sequence[float] = DEFAULT_SOLE_RECT,
+    l_rect: Sequence[float],
+    r_rect: Sequence[float],
 ) -> np.ndarray:
     """The support polygon (k, 2), counter-clockwise, from the two sole placements (4x4):
     :func:`wbc.geometry.support_hull` of the footprints ``l_rect``/``r_rect``.

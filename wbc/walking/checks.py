@@ -76,7 +76,10 @@ def check_reference(
     margin = ref.margin if margin is None else margin
     if not (np.isfinite(margin) and margin >= 0):
         raise TrajectoryError(f"{ref.name}: the stability margin must be >= 0, got {margin}")
-    legs = legs or LegGeometry()
+    if legs is None:
+        raise TrajectoryError(
+            f"{ref.name}: no legs to check against: pass legs=LegGeometry.from_robot(robot)"
+        )
     t = ref.t
 
     def at(i: int) -> str:

@@ -269,8 +269,8 @@ class WalkEngine:
         self.params = (params or EngineParams()).check()
         inf = math.inf
         self.limits = (limits or VelocityLimits(inf, inf, inf, inf)).check()
-        self.foot = foot or Foot()
-        self.legs = legs or LegGeometry()
+        self.foot = foot or start.foot
+        self.legs = legs or start.legs
         self.window = window
         timing = self.params.timing
         self.dt = timing.dt

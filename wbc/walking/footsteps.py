@@ -125,7 +125,10 @@ class FootstepPlan:
         ``max_relative_yaw``; with ``legs`` and ``com_height``, both ankles are within the leg
         reach from the hips when the pelvis is midway between the feet.
         """
-        foot = foot or Foot()
+        if foot is None:
+            raise TrajectoryError(
+                "footstep plan: no foot to check the clearance: pass foot=Foot(*robot.foot_size)"
+            )
         prev_side: str | None = None
         left0, right0 = self.start_left, self.start_right
         _check_pair(left0, right0, foot, min_clearance, max_relative_yaw, "the start placement")

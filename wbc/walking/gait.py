@@ -86,8 +86,8 @@ def walk(
     """
     timing = timing or GaitTiming()
     swing = swing or SwingParams()
-    foot = foot or Foot()
-    legs = legs or LegGeometry()
+    foot = foot or start.foot
+    legs = legs or start.legs
     if generator not in GENERATORS:
         raise TrajectoryError(f"unknown CoM generator {generator!r}; use one of {GENERATORS}")
     timing.validate()

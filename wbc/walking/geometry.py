@@ -14,8 +14,6 @@ import numpy as np
 
 from ..exceptions import ConfigurationError, TrajectoryError
 from ..geometry import (  # the plane geometry shared with wbc.limits and the viewer
-    FOOT_LENGTH,
-    FOOT_WIDTH,
     convex_hull,
     foot_rectangle,
     halfplanes,
@@ -28,8 +26,6 @@ from ..geometry import (  # the plane geometry shared with wbc.limits and the vi
 )
 
 __all__ = [
-    "FOOT_LENGTH",
-    "FOOT_WIDTH",
     "Foot",
     "convex_hull",
     "foot_rectangle",
@@ -45,10 +41,11 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Foot:
-    """Rectangular foot plate centred under the sole frame."""
+    """Rectangular foot plate centred under the sole frame: ``length x width`` (m), the
+    robot's (:attr:`wbc.model.Robot.foot_size`: ``Foot(*robot.foot_size)``)."""
 
-    length: float = FOOT_LENGTH
-    width: float = FOOT_WIDTH
+    length: float
+    width: float
 
     def __post_init__(self) -> None:
         if not (self.length > 0 and self.width > 0):
@@ -65,11 +62,10 @@ def support_polygon(
     l_yaw: float,
     r_xy: np.ndarray,
     r_yaw: float,
-    foot: Foot | None = None,
+    foot: Foot,
 ) -> np.ndarray:
-    """Convex hull of the foot rectangles in contact for a support code
+    """Convex hull of the ``foot`` rectangles in contact for a support code
     (``wbc.recording.SUPPORT_DOUBLE/LEFT/RIGHT``): :func:`wbc.geometry.support_hull`."""
-    foot = foot or Foot()
     try:
         return support_hull(support, foot.rectangle(l_xy, l_yaw), foot.rectangle(r_xy, r_yaw))
     except ConfigurationError as exc:

@@ -130,7 +130,7 @@ def keypose_walk(
     """The key-pose static walk from ``start`` as a checked :class:`WalkingReference`."""
     p = params or KeyPoseParams()
     p.validate()
-    foot = foot or Foot()
+    foot = foot or start.foot
     poses = key_poses(start, p)
     per = round(p.pose_time / p.dt)
     n = (len(poses) - 1) * per + 1
@@ -203,6 +203,8 @@ def keypose_walk(
         },
     )
     if check:
-        report = check_reference(ref, margin=p.margin, min_clearance=min_clearance, legs=legs)
+        report = check_reference(
+            ref, margin=p.margin, min_clearance=min_clearance, legs=legs or start.legs
+        )
         ref.meta["check"] = report.as_dict()
     return ref

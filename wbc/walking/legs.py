@@ -9,14 +9,8 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ModelError, TrajectoryError
-from ..geometry import SHIN, THIGH
 from ..roles import SOLE_FRAMES, leg_segments
 from .geometry import rot2
-
-# Bioloid Premium leg (m): thigh and shin (wbc.geometry), hips +-38.5 mm from the torso
-# mid-plane, ankle axes 32.2 mm above the sole.
-HIP_HALF_WIDTH = 0.0385
-ANKLE_HEIGHT = 0.0322
 
 
 @dataclass(frozen=True)
@@ -26,8 +20,8 @@ class LegGeometry:
     Pelvis model: the hips' midpoint is ``mid + pelvis_gain (c - mid) + hip_offset`` with
     ``mid`` the soles' midpoint and ``c`` the CoM (horizontal), ``hip_offset`` = (forward,
     up) in the heading frame (up measured from the CoM height). The pelvis moves further than
-    the CoM because the legs' mass lags behind it: ``pelvis_gain`` = 1.33 on the Bioloid
-    (measured by :meth:`from_robot` with the arms held; arms swinging to help lower it).
+    the CoM because the legs' mass lags behind it: ``pelvis_gain`` > 1, measured by
+    :meth:`from_robot` with the arms held (1.33 on the Bioloid; arms swinging help lower it).
     Reach: hip-to-ankle within ``[min_reach, thigh + shin - reach_margin]``.
 
     With the torso upright a leg's hip roll equals its lean in the frontal plane,
@@ -38,16 +32,21 @@ class LegGeometry:
     ``roll_margin`` is kept as a safety on the estimate.
     """
 
-    thigh: float = THIGH
-    shin: float = SHIN
-    hip_half_width: float = HIP_HALF_WIDTH
-    ankle_height: float = ANKLE_HEIGHT
-    hip_offset: tuple[float, float] = (-0.0086, -0.0099)
-    pelvis_gain: float = 1.325
+    #: measured on the robot (:meth:`from_robot`; ``robot.toml`` ``[legs]`` may state them):
+    #: the thigh and shin (m), the hips' half spacing (m), the ankle axes' height above the
+    #: sole (m), the hip offset (m), the pelvis gain, the shortest hip-to-ankle distance (m),
+    #: the hip roll's range toward the other leg and away from it (rad)
+    thigh: float
+    shin: float
+    hip_half_width: float
+    ankle_height: float
+    hip_offset: tuple[float, float]
+    pelvis_gain: float
+    min_reach: float
+    max_adduction: float
+    max_abduction: float
+    #: safety margins on the reach (m) and on the hip roll (rad)
     reach_margin: float = 0.003
-    min_reach: float = 0.036
-    max_adduction: float = 0.0972
-    max_abduction: float = 0.7011
     roll_margin: float = 0.005
 
     @property

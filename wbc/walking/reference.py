@@ -16,6 +16,7 @@ contact (``foot.length x foot.width`` centred under each sole frame).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Iterator
@@ -29,6 +30,7 @@ from ..exceptions import TrajectoryError
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from .footsteps import Footstep, FootstepPlan, Side
 from .geometry import Foot, halfplanes, shrink_polygon, signed_distance, support_polygon
+from .legs import LegGeometry
 from .lipm import GRAVITY
 
 Gait = Literal["static", "dynamic"]
@@ -36,11 +38,15 @@ Gait = Literal["static", "dynamic"]
 
 @dataclass(frozen=True)
 class StandingState:
-    """Where the robot starts: CoM (3,) and both sole placements on the ground."""
+    """Where the robot starts: CoM (3,) and both sole placements on the ground; made from a
+    robot (:meth:`from_robot`), also the robot's :attr:`foot` and :attr:`legs`."""
 
     com: np.ndarray
     left: Footstep
     right: Footstep
+    #: the robot and configuration it was measured on (:meth:`from_robot`; None: made by hand)
+    robot: Any = field(default=None, repr=False, compare=False)
+    q: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def from_robot(cls, robot: Any, q: np.ndarray | None = None) -> StandingState:
@@ -52,7 +58,33 @@ class StandingState:
             yaw = float(np.arctan2(M.rotation[1, 0], M.rotation[0, 0]))
             p = M.translation
             soles[side] = Footstep(side, float(p[0]), float(p[1]), yaw, float(p[2]))
-        return cls(np.asarray(robot.com(q), dtype=float), soles["left"], soles["right"])
+        com = np.asarray(robot.com(q), dtype=float)
+        return cls(com, soles["left"], soles["right"], robot, np.array(q, dtype=float))
+
+    @functools.cached_property
+    def foot(self) -> Foot:
+        """The robot's foot (:attr:`wbc.model.Robot.foot_size`), what a reference built from
+        this start uses unless given one; TrajectoryError for a start made by hand."""
+        return Foot(*self._robot("foot", "Foot(length, width)").foot_size)
+
+    @functools.cached_property
+    def legs(self) -> LegGeometry:
+        """The robot's legs measured at the start's configuration
+        (:meth:`~wbc.walking.legs.LegGeometry.from_robot`), what a reference built from this
+        start uses unless given them; TrajectoryError for a start made by hand."""
+        return LegGeometry.from_robot(self._robot("legs", "LegGeometry.from_robot(robot)"), self.q)
+
+    def _robot(self, what: str, hint: str) -> Any:
+        if self.robot is None:
+            raise TrajectoryError(
+                f"no {what} given, and the start was made by hand, not from a robot "
+                f"(StandingState.from_robot): pass {what}={hint}"
+            )
+        return self.robot
+
+
+def _no_foot() -> Foot:
+    raise TrajectoryError("a walking reference needs its robot's foot: foot=Foot(*robot.foot_size)")
 
 
 @dataclass
@@ -76,7 +108,7 @@ class WalkingReference:
     l_sole_vel: np.ndarray | None = None
     r_sole_vel: np.ndarray | None = None
     zmp_ref: np.ndarray | None = None
-    foot: Foot = field(default_factory=Foot)
+    foot: Foot = field(default_factory=_no_foot)  # (required: the robot's)
     margin: float = 0.0
     g: float = GRAVITY
     meta: dict[str, Any] = field(default_factory=dict)

@@ -29,16 +29,15 @@ from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
 from ..exceptions import TrajectoryError
-from ..geometry import FOOT_WIDTH, SHIN, THIGH
-from ..roles import leg_ratio
+from ..roles import design_robot, leg_ratio
 
 #: the hip-to-ankle length (thigh + shin, m) and the foot width (m) the walking defaults
-#: were tuned with (the defaults of :class:`~wbc.walking.legs.LegGeometry` and
-#: :class:`~wbc.walking.geometry.Foot`), and the share of a servo's no-load speed a sized
+#: were tuned with: the design robot's, the Bioloid's (``tasks/walking/design.toml``, read by
+#: :func:`wbc.roles.design_robot`), and the share of a servo's no-load speed a sized
 #: reference may ask for (with the lag of a loaded servo, ~80 % leaves it a margin:
 #: benchmarks/robots.md)
-DESIGN_LEG = THIGH + SHIN
-DESIGN_FOOT_WIDTH = FOOT_WIDTH
+DESIGN_LEG = design_robot().leg
+DESIGN_FOOT_WIDTH = design_robot().foot_width
 SPEED_FRACTION = 0.8
 #: keys along the walk or up (scaled by λ); across the foot (by μ); pairs (x by λ, y by μ);
 #: durations (by √λ and the speed fit)

@@ -95,8 +95,8 @@ def static_walk(
     """A whole-body static walk from ``start`` (see the module docstring)."""
     p = params or StaticWalkParams()
     p.validate()
-    foot = foot or Foot()
-    legs = legs or LegGeometry()
+    foot = foot or start.foot
+    legs = legs or start.legs
     height = float(start.com[2])
     legs.check_com_height(height, "static walk")
     plan = plan_footsteps(start.left, start.right, int(p.n_steps), (p.step_length, 0.0, 0.0))

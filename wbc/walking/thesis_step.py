@@ -94,8 +94,8 @@ def thesis_step(
     swings ``step_length`` forward. Checked as a static gait (CoM in the support polygon)."""
     p = params or ThesisStepParams()
     p.validate()
-    foot = foot or Foot()
-    legs = legs or LegGeometry()
+    foot = foot or start.foot
+    legs = legs or start.legs
     height = float(start.com[2]) if p.com_height is None else float(p.com_height)
     legs.check_com_height(height, "thesis step")
     n = int(p.n_poses)
@@ -191,7 +191,7 @@ def thesis_lipm_step(
 
     p = params or ThesisStepParams()
     p.validate()
-    legs = walk_kwargs.pop("legs", None) or LegGeometry()
+    legs = walk_kwargs.pop("legs", None) or start.legs
     height = float(start.com[2]) if p.com_height is None else float(p.com_height)
     if "zmp_offset" not in walk_kwargs:
         # a long single support brings the LIPM's CoM almost onto its ZMP: put the ZMP

@@ -341,7 +341,6 @@ class _Problem:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the Bioloid's balance windows: ``python -m wbc.walking.window``."""
-    from ..geometry import FOOT_WIDTH
     from ..model import load_robot
     from .legs import LegGeometry
     from .reference import StandingState
@@ -349,8 +348,8 @@ def main(argv: list[str] | None = None) -> int:
     robot = load_robot("bioloid")
     start = StandingState.from_robot(robot)
     half = 0.5 * float(start.left.y - start.right.y)
-    legs = LegGeometry().max_com_lateral(float(start.com[2]), half)
-    inner = half - FOOT_WIDTH / 2
+    legs = LegGeometry.from_robot(robot).max_com_lateral(float(start.com[2]), half)
+    inner = half - robot.foot_size[1] / 2
     print(f"sole centre {half * 1e3:.1f} mm, inner edge {inner * 1e3:.1f} mm from mid")
     print(f"legs-only model (LegGeometry, torso upright, arms idle): {legs * 1e3:.1f} mm")
     for arms in (True, False):
