@@ -157,7 +157,7 @@ def test_start_up_writes_the_settings_and_reads_everything_in_one_sync_read(op3)
         bus.identify()
         bus.configure()
         knee = op3.servo_map.spec("l_knee").id
-        assert emu.register(knee, 84, 2) == 1000 and emu.register(knee, 82, 2) == 500
+        assert emu.register(knee, 84, 2) == 2000 and emu.register(knee, 82, 2) == 500
         assert emu.register(knee, 9) == 0  # return delay
         lo = emu.register(knee, 52, 4)
         assert lo == bus.cmd_lo[op3.servo_map.index_of_id(knee)]

@@ -38,7 +38,7 @@ def test_the_op3_simulates_xm430_servos_with_its_gains(op3):
     assert servo_kind(op3) == "xm430"
     p = nominal_servo(op3)
     knee = op3.joint_names.index("l_knee")
-    assert p.kp[knee] == 1000 / 128 and p.ki[knee] == 500 / 65536 and p.kd[knee] == 150 / 16
+    assert p.kp[knee] == 2000 / 128 and p.ki[knee] == 500 / 65536 and p.kd[knee] == 150 / 16
     # the factory P = 800: 4.1 N·m x 6.25 / 885 per tick = 18.9 N·m/rad
     head = op3.joint_names.index("head_pan")
     assert p.stiffness[head] == pytest.approx(18.87, abs=0.01)
