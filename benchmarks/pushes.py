@@ -36,17 +36,26 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
-LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before", "openff")
+LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before", "openff", "steps")
+#: the planned recovery steps (issue 30, third pass; ``steps``): three steps placed per
+#: re-plan, the next landing re-planned in double support during a catch, the dead band
+#: centred on the error's running mean (1 s); ``--stepping`` JSON overrides any keyword
+RECOVERY_STEPS = {"steps_ahead": 3, "double_support": True, "baseline_tau": 1.0}
 
 
-def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
-    """(closed-loop spec or None for the open loop, compliance gain) of one loop name."""
+def loop_spec(
+    loop: str, entry, ref, stepping: dict | None = None
+) -> tuple[ClosedLoopSpec | None, float]:
+    """(closed-loop spec or None for the open loop, compliance gain) of one loop name
+    (``stepping``: keywords of the ``steps`` loop's SteppingParams over RECOVERY_STEPS)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward x0.5
         return None, 0.5
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
     step = SteppingParams() if loop in ("step", "nohipstep") else None
+    if loop == "steps":
+        step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
         return ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None), 0.5
     return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
@@ -59,6 +68,7 @@ def main() -> None:
     ap.add_argument("--directions", nargs="+", default=["lateral", "forward"])
     ap.add_argument("--trajectory", default="walk10")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords (steps)")
     ap.add_argument(
         "--safety",
         type=float,
@@ -95,7 +105,7 @@ def main() -> None:
             out["hip_bound"] = hip_bound(rec, robot, ref, bounds)
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
-            spec, comp = loop_spec(loop, entry, ref)
+            spec, comp = loop_spec(loop, entry, ref, json.loads(args.stepping))
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
             row = {"solver": solver, "loop": loop, "compensate": comp,
