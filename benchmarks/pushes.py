@@ -44,15 +44,16 @@ RECOVERY_STEPS = {"steps_ahead": 3, "double_support": True, "baseline_tau": 1.0}
 
 
 def loop_spec(
-    loop: str, entry, ref, stepping: dict | None = None
+    loop: str, entry, ref, stepping: dict | None = None, gains: dict | None = None
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
-    (``stepping``: keywords of the ``steps`` loop's SteppingParams over RECOVERY_STEPS)."""
+    (``stepping``: keywords of the ``steps`` loop's SteppingParams over RECOVERY_STEPS;
+    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward x0.5
         return None, 0.5
-    gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
+    gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains(**(gains or {}))
     step = SteppingParams() if loop in ("step", "nohipstep") else None
     if loop == "steps":
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
@@ -69,6 +70,7 @@ def main() -> None:
     ap.add_argument("--trajectory", default="walk10")
     ap.add_argument("--json", default=None)
     ap.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords (steps)")
+    ap.add_argument("--gains", default="{}", help="JSON of Gains keywords (closed, step, steps)")
     ap.add_argument(
         "--safety",
         type=float,
@@ -105,7 +107,9 @@ def main() -> None:
             out["hip_bound"] = hip_bound(rec, robot, ref, bounds)
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
-            spec, comp = loop_spec(loop, entry, ref, json.loads(args.stepping))
+            spec, comp = loop_spec(
+                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains)
+            )
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
             row = {"solver": solver, "loop": loop, "compensate": comp,

@@ -50,7 +50,11 @@ steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes
 Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
 survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
 pushes and hqp-daqp gain nothing; after a catch (two re-planned steps, then two at rest) the
-walk goes on displaced, covering about half its planned distance. Off by default.
+walk goes on displaced, covering about half its planned distance. On by default in the closed
+loop (issue 30). ``walk10_wb`` (issue 30, third pass): no law here — one step or three, the
+double-support re-plan, the band's centre — moves the forward, backward or toward bound
+(0.56, 0.42, 0.70 N·s): forward, the re-planned landing is solved to the millimetre but the
+compliant legs land the sole 50 mm short of it (the stance hip yields 10° under the push).
 """
 
 from __future__ import annotations
