@@ -104,7 +104,7 @@ class SteppingParams:
     gain: float = 1.0  # footstep shift per m of predicted DCM error
     min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
     min_clearance: float = 0.005  # m between the feet (as the footstep plans)
-    max_shift: float = 0.08  # m: largest total shift of the footsteps from their plan
+    max_shift: float = 0.08  # m: largest shift of a step from the plan before its re-plans
     max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
     # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
     hold_ticks: int = 3  # ticks between two re-plans
@@ -119,8 +119,10 @@ class SteppingParams:
     steps_ahead: int = 1
     #: during a catch, re-plan the next landing in double support too (its swing not started)
     double_support: bool = False
-    #: s: time constant of the DCM error's running mean (heading frame), the centre of the
-    #: dead band: the compliant body's steady lag of its plan (0: the band centred on zero)
+    #: s: time constant of the DCM error's running mean per stance side (heading frame), the
+    #: centre of the dead band: the compliant body's steady lag of its plan (0: the band
+    #: centred on zero; 0.3 s measured best without the feed-forward, 8 plants of 150 fewer
+    #: with it: benchmarks/physics.md)
     baseline_tau: float = 0.0
 
     def for_robot(self, robot: Robot) -> SteppingParams:
