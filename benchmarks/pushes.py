@@ -15,6 +15,8 @@ the nominal run's figures, the LIPM capturability bounds
     python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
     python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops openff step \
         --directions forward backward toward away          # four directions (issue 30)
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step steps \
+        --directions forward backward toward away   # planned recovery steps (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
