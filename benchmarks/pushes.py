@@ -15,6 +15,8 @@ the nominal run's figures, the LIPM capturability bounds
     python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
     python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops openff step \
         --directions forward backward toward away          # four directions (issue 30)
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step steps \
+        --directions forward backward toward away   # planned recovery steps (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -36,17 +38,27 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
-LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before", "openff")
+LOOPS = ("open", "closed", "step", "nohip", "nohipstep", "before", "openff", "steps")
+#: the planned recovery steps (issue 30, third pass; ``steps``): three steps placed per
+#: re-plan, the next landing re-planned in double support during a catch, the dead band
+#: centred on the error's running mean (1 s); ``--stepping`` JSON overrides any keyword
+RECOVERY_STEPS = {"steps_ahead": 3, "double_support": True, "baseline_tau": 1.0}
 
 
-def loop_spec(loop: str, entry, ref) -> tuple[ClosedLoopSpec | None, float]:
-    """(closed-loop spec or None for the open loop, compliance gain) of one loop name."""
+def loop_spec(
+    loop: str, entry, ref, stepping: dict | None = None, gains: dict | None = None
+) -> tuple[ClosedLoopSpec | None, float]:
+    """(closed-loop spec or None for the open loop, compliance gain) of one loop name
+    (``stepping``: keywords of the ``steps`` loop's SteppingParams over RECOVERY_STEPS;
+    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward x0.5
         return None, 0.5
-    gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains()
+    gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains(**(gains or {}))
     step = SteppingParams() if loop in ("step", "nohipstep") else None
+    if loop == "steps":
+        step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
         return ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None), 0.5
     return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
@@ -59,6 +71,8 @@ def main() -> None:
     ap.add_argument("--directions", nargs="+", default=["lateral", "forward"])
     ap.add_argument("--trajectory", default="walk10")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords (steps)")
+    ap.add_argument("--gains", default="{}", help="JSON of Gains keywords (closed, step, steps)")
     ap.add_argument(
         "--safety",
         type=float,
@@ -95,7 +109,9 @@ def main() -> None:
             out["hip_bound"] = hip_bound(rec, robot, ref, bounds)
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
-            spec, comp = loop_spec(loop, entry, ref)
+            spec, comp = loop_spec(
+                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains)
+            )
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
             row = {"solver": solver, "loop": loop, "compensate": comp,

@@ -157,6 +157,10 @@ def test_bad_parameters_and_references_are_refused(robot):
         SteppingParams(threshold=-1.0).check()
     with pytest.raises(ConfigurationError, match="hold_ticks"):
         SteppingParams(hold_ticks=0).check()
+    with pytest.raises(ConfigurationError, match="steps_ahead"):
+        SteppingParams(steps_ahead=0).check()
+    with pytest.raises(ConfigurationError, match="baseline_tau"):
+        SteppingParams(baseline_tau=-1.0).check()
     with pytest.raises(TrajectoryError, match="thesis_step"):
         StepAdjuster(robot, traj.build("thesis_step", robot))
 
@@ -215,3 +219,83 @@ def test_a_catch_replans_two_steps_then_lets_the_walk_settle(robot, walk10):
         new = adj.update(ref, i, dcm(ref, i, w) + (push if step % 2 == 0 else -push))
         assert (new is not None) is expect, step
         ref = new or ref
+
+
+def test_planned_recovery_steps_take_what_the_landing_under_way_cannot(robot, walk10):
+    """A forward DCM error too large for the swing under way (its shift clipped by the time
+    left): with ``steps_ahead = 3`` the steps after it move further, each by an increment
+    the legs can make, and the re-planned reference's DCM now comes closer to the measured
+    one (less the band) than with one step; the landing under way moves as with one step."""
+    base = StepAdjuster(robot, walk10)
+    w, p = base.omega, base.params
+    xi = dcm(walk10, MID, w) + [p.band_x + 0.05, 0.0]
+    target = xi - [p.band_x, 0.0]
+    out = {}
+    for n in (1, 3):
+        adj = StepAdjuster(robot, walk10, SteppingParams(steps_ahead=n))
+        new = adj.update(walk10, MID, xi)
+        assert new is not None
+        out[n] = (new, adj)
+    (one, a1), (three, a3) = out[1], out[3]
+    gap1 = np.linalg.norm(dcm(one, MID, w) - target)
+    gap3 = np.linalg.norm(dcm(three, MID, w) - target)
+    np.testing.assert_allclose(a3.increments[0], a1.increments[0], atol=1e-9)
+    assert a3.increments[1, 0] > 0.005  # the next step moves on further forward
+    # each later step buys its sensitivity times its increment (LIPM: ~e^{-ω T} per step,
+    # 1/20 on walk10, which is why a second step catches little)
+    bought = sum(
+        a3.sensitivity(walk10, three.plan, 1 + j, MID) * a3.increments[1 + j, 0] for j in (0, 1)
+    )
+    assert bought > 0 and gap3 < gap1
+    assert gap1 - gap3 == pytest.approx(bought, rel=0.05)
+    s1, s3 = one.plan.steps, three.plan.steps
+    assert s3[1].x > s1[1].x + 0.005 and s3[0].x == pytest.approx(s1[0].x)
+    legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
+    for k in (0, 1, 2):  # every placed step is one the legs can make
+        assert landing_ok(three.plan, k, legs, walk10.com_height, walk10.foot, p.min_clearance)
+
+
+def test_double_support_replans_the_next_landing_only_during_a_catch(robot, walk10):
+    """``double_support``: a DCM error in double support re-plans the next landing (step 1)
+    once a catch has begun, never in an unpushed walk's double support."""
+    params = SteppingParams(double_support=True)
+    w = StepAdjuster(robot, walk10).omega
+    i_ds = LAND + 2
+    err = np.array([0.05, 0.0])
+    fresh = StepAdjuster(robot, walk10, params)
+    assert fresh.update(walk10, i_ds, dcm(walk10, i_ds, w) + err) is None
+    adj = StepAdjuster(robot, walk10, params)
+    ref = adj.update(walk10, MID, dcm(walk10, MID, w) + err)
+    assert ref is not None and adj.events[-1][1] == 0
+    new = adj.update(ref, i_ds, dcm(ref, i_ds, w) + err)
+    assert new is not None and adj.events[-1][1] == 1
+    assert new.plan.steps[1].x > ref.plan.steps[1].x + 0.005
+    assert new.plan.steps[0].x == ref.plan.steps[0].x  # the landed sole stays
+    np.testing.assert_array_equal(new.r_sole[: i_ds + 1], ref.r_sole[: i_ds + 1])
+    off = StepAdjuster(robot, walk10)  # the default: not in double support
+    ref = off.update(walk10, MID, dcm(walk10, MID, w) + err)
+    assert ref is not None and off.update(ref, i_ds, dcm(ref, i_ds, w) + err) is None
+
+
+def test_the_band_is_centred_on_the_errors_running_mean_per_stance_side(robot, walk10):
+    """``baseline_tau``: a steady lag inside the band, on the left stance, becomes the band's
+    centre on that side only, so a forward error beyond the band from zero, but within it
+    from the lag, re-plans nothing there, and the same error re-plans with the band centred
+    on zero; errors beyond the band never feed the mean (a push does not move it)."""
+    params = SteppingParams(baseline_tau=0.1)
+    adj = StepAdjuster(robot, walk10, params)
+    w, p = adj.omega, adj.params
+    lag = np.array([0.8 * p.band_x, 0.0])
+    left = [i for i in range(LAND + 1, walk10.n) if walk10.stance_side(i) == "left"][:60]
+    for i in left:  # a steady forward lag, inside the band, on later left stances
+        adj._track_baseline(walk10, i, dcm(walk10, i, w) + lag)
+    assert adj.baseline[0, 0] == pytest.approx(lag[0], rel=0.05)
+    np.testing.assert_array_equal(adj.baseline[1], 0.0)  # the right stance's: untouched
+    before = adj.baseline.copy()
+    adj._track_baseline(walk10, left[0], dcm(walk10, left[0], w) + [0.2, 0.0])
+    np.testing.assert_array_equal(adj.baseline, before)  # beyond the band: not fed
+    ahead = dcm(walk10, MID, w) + [1.5 * p.band_x, 0.0]  # MID: left stance
+    assert walk10.stance_side(MID) == "left"
+    assert adj.update(walk10, MID, ahead) is None  # within the band around the lag
+    zero = StepAdjuster(robot, walk10)  # the band centred on zero: the same error re-plans
+    assert zero.update(walk10, MID, ahead) is not None

@@ -26,6 +26,22 @@ family benefits: they all track the re-planned targets. (The preview controller,
 own generator, is not used to re-plan: started off its plan it swings the ZMP far outside
 the soles to catch up, 0.4 m on ``walk10`` for a 3 cm DCM error.)
 
+**Planned recovery steps** (``steps_ahead`` > 1; off by default, measured below): one re-plan
+places the landing under way *and* the steps after it, each taking what the steps before it
+could not (:meth:`StepAdjuster.place`): step ``k + j`` and the later ones move by an increment
+``Δ_j``, chosen in turn as ``Δ_j + r / s_j`` clipped to the landings the legs can make, with
+``s_j`` the sensitivity of the reference's DCM now to it and ``r ← r − s_j ΔΔ_j`` what is left;
+with ``double_support``, once a catch has begun, the next landing is re-planned in the double
+support too (its swing not yet started, so the whole swing's reach). The LIPM says how little
+a later step buys on these walks: each is ``e^{−ω T}`` less effective than the one before (``T``
+the step's period; 1/20 on ``walk10_wb``: 0.4 s at ω = 7.5 /s), so 80 mm of second step is
+worth 4 mm of DCM now.
+
+**The band's centre** (``baseline_tau`` > 0): the compliant body lags its plan the same way
+step after step, differently on either foot (``lateral_wb``: +24 mm sideways on one stance,
+−10 mm on the other); the dead band is centred on the running mean of the error per stance
+side (fed only by errors inside the band, so a push does not move it) rather than on zero.
+
 What no step can do: a push *away from the swing foot* (the physics benchmark's lateral push)
 sends the DCM toward the stance sole's outer edge; a step of the swing foot cannot land beyond
 that edge (the legs would cross), so once the DCM is past it the robot falls whatever the
@@ -34,7 +50,11 @@ steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes
 Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
 survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
 pushes and hqp-daqp gain nothing; after a catch (two re-planned steps, then two at rest) the
-walk goes on displaced, covering about half its planned distance. Off by default.
+walk goes on displaced, covering about half its planned distance. On by default in the closed
+loop (issue 30). ``walk10_wb`` (issue 30, third pass): no law here — one step or three, the
+double-support re-plan, the band's centre — moves the forward, backward or toward bound
+(0.56, 0.42, 0.70 N·s): forward, the re-planned landing is solved to the millimetre but the
+compliant legs land the sole 50 mm short of it (the stance hip yields 10° under the push).
 """
 
 from __future__ import annotations
@@ -84,7 +104,7 @@ class SteppingParams:
     gain: float = 1.0  # footstep shift per m of predicted DCM error
     min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
     min_clearance: float = 0.005  # m between the feet (as the footstep plans)
-    max_shift: float = 0.08  # m: largest total shift of the footsteps from their plan
+    max_shift: float = 0.08  # m: largest shift of a step from the plan before its re-plans
     max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
     # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
     hold_ticks: int = 3  # ticks between two re-plans
@@ -92,6 +112,18 @@ class SteppingParams:
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
     episode_steps: int = 2
     rest_steps: int = 2
+    #: steps one re-plan places: the landing under way (or, in double support, the next) and
+    #: the ones after it, each taking what the previous could not (1: one step)
+    #: (3 measured: no push survived further, the away push 0.680 against 0.750 N·s;
+    #: benchmarks/pushes.md)
+    steps_ahead: int = 1
+    #: during a catch, re-plan the next landing in double support too (its swing not started)
+    double_support: bool = False
+    #: s: time constant of the DCM error's running mean per stance side (heading frame), the
+    #: centre of the dead band: the compliant body's steady lag of its plan (0: the band
+    #: centred on zero; 0.3 s measured best without the feed-forward, 8 plants of 150 fewer
+    #: with it: benchmarks/physics.md)
+    baseline_tau: float = 0.0
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -106,13 +138,17 @@ class SteppingParams:
     def check(self) -> SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
-            "band_x", "band_y", "settle",
+            "band_x", "band_y", "settle", "baseline_tau",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in ("band_x", "band_y"):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
+        if int(self.steps_ahead) != self.steps_ahead or self.steps_ahead < 1:
+            raise ConfigurationError(
+                f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
+            )
         for name in ("episode_steps", "rest_steps"):
             v = getattr(self, name)
             if int(v) != v or v < 0:
@@ -261,27 +297,61 @@ class StepAdjuster:
         self.phase_of = np.zeros(ref.n, dtype=int)
         for j, ph in enumerate(self.phases):
             self.phase_of[ph.i0 : ph.i1] = j
-        self.shift = np.zeros(2)  # current shift of the steps from `first` on
+        self.shift = np.zeros(2)  # current shift of the step `first` (and those after it)
         self.first: int | None = None
+        self.before = ref.plan  # the plan before the re-plans of step `first`
+        #: the increments Δ_j of steps first + j, … since `before` (:meth:`place`)
+        self.increments = np.zeros((self.params.steps_ahead, 2))
+        #: the DCM error's running mean per stance side (left, right; heading frame,
+        #: :meth:`_track_baseline`)
+        self.baseline = np.zeros((2, 2))
         self.episode: int | None = None  # the step the current catch started in
         self.plan = ref.plan
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
 
-    def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> tuple[Phase, np.ndarray]:
-        """The current phase and the DCM error beyond the dead band, ``dz(ξ_meas − ξ_ref)``
-        (``band_x``, ``band_y`` in the stance sole's heading frame: what an unpushed walk
-        shows on the body)."""
-        ph = self.phases[self.phase_of[i]]
-        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
+    def _heading(self, ref: WalkingReference, i: int) -> tuple[float, float]:
+        """cos, sin of the stance sole's heading at tick ``i`` (the left sole's in double
+        support)."""
         side = ref.stance_side(i) or "left"
         yaw = float(ref.sole(side)[1][i])
-        c, s = math.cos(yaw), math.sin(yaw)
-        local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]])
+        return math.cos(yaw), math.sin(yaw)
+
+    def _centre(self, ref: WalkingReference, i: int) -> np.ndarray:
+        """The dead band's centre at tick ``i``: the running mean of the stance side's error
+        (zero in double support)."""
+        side = ref.stance_side(i)
+        return self.baseline[0 if side == "left" else 1] if side is not None else np.zeros(2)
+
+    def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> tuple[Phase, np.ndarray]:
+        """The current phase and the DCM error beyond the dead band, ``dz(ξ_meas − ξ_ref − b)``
+        (``band_x``, ``band_y`` in the stance sole's heading frame around ``b``, the stance
+        side's running mean of the error, :attr:`baseline`: what an unpushed walk shows)."""
+        ph = self.phases[self.phase_of[i]]
+        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
+        c, s = self._heading(ref, i)
+        local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]]) - self._centre(ref, i)
         band = np.array([self.params.band_x, self.params.band_y], dtype=float)
         local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
         e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
         return ph, e
+
+    def _track_baseline(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> None:
+        """In single support, the running mean (time constant ``baseline_tau``) of the
+        heading-frame DCM error on this stance side (a walk lags its plan differently on
+        either foot: sideways, toward the side it walks to), fed only by errors inside the
+        band around it (a push does not move it)."""
+        tau = self.params.baseline_tau
+        side = ref.stance_side(i)
+        if tau <= 0 or side is None:
+            return
+        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
+        c, s = self._heading(ref, i)
+        local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]])
+        band = np.array([self.params.band_x, self.params.band_y], dtype=float)
+        b = self.baseline[0 if side == "left" else 1]
+        if np.all(np.abs(local - b) <= band):
+            b += (local - b) * min(ref.dt / tau, 1.0)
 
     def sensitivity(self, ref: WalkingReference, plan: FootstepPlan, k: int, i: int) -> float:
         """``∂ξ_ref(t_i) / ∂δ``: how far the re-planned reference's DCM at tick ``i`` moves per
@@ -300,60 +370,106 @@ class StepAdjuster:
             xi.append(pos[0, 0] + vel[0, 0] / self.omega)
         return max((xi[1] - xi[0]) / 1e-2, 1e-3)
 
+    def _swing_phase(self, k: int) -> Phase:
+        """The single support in which step ``k`` swings."""
+        return next(ph for ph in self.phases if ph.kind == "single" and ph.step == k)
+
     def update(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
-        """A re-planned reference if, in this single support, the DCM error beyond the dead
-        band asks for a footstep shift above ``threshold`` and a feasible shift changes the
-        plan (None otherwise)."""
+        """A re-planned reference if the DCM error beyond the dead band asks for a footstep
+        shift above ``threshold`` and a feasible shift changes the plan (None otherwise): in
+        single support the landing under way (after ``settle``, not in the last
+        ``min_remaining``), in double support (``double_support``) the next landing; each
+        re-plan places ``steps_ahead`` steps, each taking the share of the error the steps
+        before it could not (:meth:`place`)."""
         p = self.params
-        if (
-            not self.enabled
-            or ref.support[i] == SUPPORT_DOUBLE
-            or i - self.last_tick < p.hold_ticks
-        ):
+        if not self.enabled:
+            return None
+        self._track_baseline(ref, i, dcm)
+        if i - self.last_tick < p.hold_ticks:
             return None
         ph, err = self.error(ref, i, dcm)
-        if (
-            ph.kind != "single"
-            or (ph.i1 - i) * ref.dt < p.min_remaining
-            or (i - ph.i0) * ref.dt < p.settle - 1e-9
-        ):
+        if ph.kind == "single":
+            if (ph.i1 - i) * ref.dt < p.min_remaining or (i - ph.i0) * ref.dt < p.settle - 1e-9:
+                return None
+            k = int(ph.step)
+        elif ph.kind == "double" and p.double_support and self.episode is not None:
+            # during a catch, the next landing (its swing has not started): the DCM error of
+            # an unpushed double support (the sway crossing over) is no reason to re-plan
+            k = int(ph.step) + 1
+        else:
             return None
-        if not err.any():
+        if not err.any() or k >= len(self.plan.steps):
             return None
-        k = int(ph.step)
         if self.episode is not None and p.episode_steps > 0:
             end = self.episode + p.episode_steps
             if end <= k < end + p.rest_steps:
                 return None  # the catch is over: let the walk settle
             if k >= end + p.rest_steps:
                 self.episode = None
-        err = err / self.sensitivity(ref, self.plan, k, i)  # the shift that absorbs it
-        if math.hypot(err[0], err[1]) < p.threshold:
+        if self.first != k:  # a new step: its shifts are relative to the plan now
+            self.before, self.first = self.plan, k
+            self.increments = np.zeros((p.steps_ahead, 2))
+        placed = self.place(ref, i, k, ph, err)
+        if placed is None:
             return None
-        done = self.shift if self.first == k else np.zeros(2)  # this step's shift so far
-        total = done + p.gain * err
-        n = math.hypot(total[0], total[1])
-        if n > p.max_shift:
-            total *= p.max_shift / n
-        # the swing sole can move only so far in the time left (bend_rate: peak speed per m)
-        room = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing)
-        change = total - done
-        n = math.hypot(change[0], change[1])
-        if n > room:
-            total = done + change * (room / n)
-        # shifts are relative to the plan before this step's re-plans
-        plan0 = self.plan if self.first != k else shifted_plan(self.plan, k, -self.shift)
-        shift = feasible_shift(
-            plan0, k, total, self.legs, ref.com_height, ref.foot, p.min_clearance
-        )
-        if np.max(np.abs(shift - done)) < 1e-3:
-            return None
-        plan = shifted_plan(plan0, k, shift)
+        plan, increments, wanted = placed
         new = self.regenerate(ref, plan, i, ph)
-        self.plan, self.shift, self.first, self.last_tick = plan, shift, k, i
+        self.plan, self.increments, self.last_tick = plan, increments, i
+        self.shift = increments[0].copy()
         self.episode = k if self.episode is None else self.episode
-        self.events.append((float(ref.t[i]), k, err.copy(), shift.copy()))
+        self.events.append((float(ref.t[i]), k, wanted, increments[0].copy()))
         return new
+
+    def place(
+        self, ref: WalkingReference, i: int, k: int, ph: Phase, err: np.ndarray
+    ) -> tuple[FootstepPlan, np.ndarray, np.ndarray] | None:
+        """The footsteps ``k, k+1, …`` (``steps_ahead`` of them) re-placed for a DCM error
+        ``err`` (beyond the band): step ``k + j`` and the ones after it move by the increment
+        ``Δ_j``, chosen in turn as ``Δ_j + r / s_j`` clipped to the landings the legs can make
+        (and, for the swing under way, to what it can still cover), with ``s_j`` the
+        sensitivity of the reference's DCM now to it and ``r`` what the steps before left
+        (``r ← r − s_j ΔΔ_j``). Returns (plan, increments, the first step's wanted shift), or
+        None when nothing moves by more than a millimetre."""
+        p = self.params
+        incs = self.increments.copy()
+        r = err.copy()
+        plan = self.before
+        wanted0 = np.zeros(2)
+        changed = False
+        for j in range(p.steps_ahead):
+            kk = k + j
+            if kk >= len(plan.steps) or not r.any():
+                break
+            s = self.sensitivity(ref, plan, kk, i)
+            want = r / s
+            if j == 0:
+                wanted0 = want.copy()
+                if math.hypot(want[0], want[1]) < p.threshold:
+                    return None
+            total = incs[j] + p.gain * want
+            n = math.hypot(total[0], total[1])
+            if n > p.max_shift:
+                total *= p.max_shift / n
+            # the swing sole can move only so far in the time left (bend_rate: peak speed per m)
+            if j == 0 and ph.kind == "single":
+                room = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing)
+            else:
+                sw = self._swing_phase(kk)
+                room = p.max_foot_speed / bend_rate(sw, sw.i0, ref.dt, self.swing)
+            change = total - incs[j]
+            n = math.hypot(change[0], change[1])
+            if n > room:
+                total = incs[j] + change * (room / n)
+            got = feasible_shift(
+                plan, kk, total, self.legs, ref.com_height, ref.foot, p.min_clearance
+            )
+            r = r - s * (got - incs[j])
+            changed = changed or bool(np.max(np.abs(got - incs[j])) >= 1e-3)
+            incs[j] = got
+            plan = shifted_plan(plan, kk, got)
+        if not changed:
+            return None
+        return plan, incs, wanted0
 
     def regenerate(
         self, ref: WalkingReference, plan: FootstepPlan, i: int, ph: Phase
@@ -373,7 +489,7 @@ class StepAdjuster:
         # the swing under way: from its current target, bent toward the new landing
         side = plan.steps[ph.step].side
         old = ref.plan.steps[ph.step] if ph.step < len(ref.plan.steps) else None
-        if old is not None:
+        if old is not None and ph.kind == "single":
             key = "l_sole" if side == "left" else "r_sole"
             d = plan.steps[ph.step].position - old.position
             g, dg = bend(ph, i, dt, self.swing)
