@@ -2,11 +2,12 @@
 safely (e.g. the IMU calibration refused to start) or fell, with the torso deviation and the
 travelled / planned distance of those that walked.
 
-``wbc bench --physics --robustness N`` counts a plant "up" when it did not fall, so a run the
-deployment stopped before it walked (a safe stop) counts as up there; this sweep tells them
-apart. Same plants (:func:`wbc.bench.variation.models`, model k depends only on the seed and
-k), same closed loop as the benchmark's (the robot's stack, its defaults: IMU + encoders, step
-adjustment, the feed-forward at the measured best gain). benchmarks/op3.md section 8.
+``wbc bench --physics --robustness N`` counts a plant "up" when it walked to the end (a run
+the deployment stopped is listed under ``stopped``, a fall under ``falls``); this sweep prints
+each plant's outcome with its figures. Same plants (:func:`wbc.bench.variation.models`, model
+k depends only on the seed and k), same closed loop as the benchmark's (the robot's stack,
+its defaults: IMU + encoders, step adjustment, the feed-forward at the measured best gain).
+benchmarks/op3.md section 8.
 
     nice -n 5 python benchmarks/op3_sweep.py --models 50 --seed 1 --walk walk10
 """

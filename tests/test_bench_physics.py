@@ -73,6 +73,20 @@ def test_random_models_and_the_sweep_are_reproducible_from_the_seed(robot, stand
     assert s1 == s2 and s1["models"] == 2 and s1["up_fraction"] == 1.0
 
 
+def test_a_run_the_deployment_stopped_is_not_up(robot, standing, monkeypatch):
+    """A plant whose run was safe-stopped before the end (say its start-up IMU check refused
+    a rocking body) did not fall, but did not walk either: robustness counts it not up and
+    names why; a completed standing run carries no stop reason."""
+    done = closed_loop.simulate(standing, robot, settle=0.2)
+    assert done["stopped"] is None and not done["fell"]
+    outcomes = iter([dict(done), {**done, "stopped": "imu: gravity 7.2 deg off"}])
+    monkeypatch.setattr(closed_loop, "simulate", lambda *a, **k: next(outcomes))
+    r = closed_loop.robustness(standing, robot, 2, seed=7)
+    assert r["up"] == [True, False] and r["up_fraction"] == 0.5 and r["falls"] == []
+    assert [s["model"] for s in r["stopped"]] == [1]
+    assert r["stopped"][0]["reason"] == "imu: gravity 7.2 deg off"
+
+
 def test_bench_physics_command(robot, tmp_path, capsys):
     from wbc.cli import main
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +19,9 @@ from ..model import Robot
 from ..recording import Recording
 from .sim_record import physics_record
 from .variation import Variation, models
+
+if TYPE_CHECKING:
+    from ..servos.playback import DeployResult
 
 
 @dataclass(frozen=True)
@@ -151,6 +154,7 @@ def simulate(
                                         correct)  # fmt: skip
         record = physics_record(rec, result, robot, closed.ref)
         record.update(closed_loop_figures(loop))
+        record["stopped"] = stop_reason(result.deploy)
         return record
     from .play import play
 
@@ -160,7 +164,17 @@ def simulate(
                   latency_ticks=variation.latency_ticks, imu_noise=variation.imu_noise,
                   latency_s=variation.latency_s, imu=variation.imu)  # fmt: skip
     result = play(rec, robot, settle=settle, push=push, limit_tol=math.inf, **kw)
-    return physics_record(rec, result, robot)
+    record = physics_record(rec, result, robot)
+    record["stopped"] = stop_reason(result.deploy)
+    return record
+
+
+def stop_reason(deploy: DeployResult) -> str | None:
+    """Why the deployment stopped before the end of the walk (its trip, else its stop
+    action), or ``None`` when it completed."""
+    if deploy.completed:
+        return None
+    return str(deploy.trip) if deploy.trip is not None else str(deploy.stop_action or "stopped")
 
 
 def closed_loop_figures(loop) -> dict[str, Any]:
@@ -192,16 +206,20 @@ def robustness(
     closed: ClosedLoopSpec | None = None,
     correct: bool = False,
 ) -> dict[str, Any]:
-    """The share of ``n`` randomised models (seeded) on which the run stays up."""
-    up, falls = [], []
+    """The share of ``n`` randomised models (seeded) on which the run stays up and walks to
+    the end: a run the deployment stopped (e.g. its start-up IMU check refused a rocking
+    body) did not walk, so it is not up; it is listed in ``stopped``, a fall in ``falls``."""
+    up, falls, stopped = [], [], []
     for k, v in enumerate(models(robot, n, seed)):
         r = simulate(rec, robot, v, settle=settle, compensate=compensate, gyro=gyro,
                      closed=closed, correct=correct)  # fmt: skip
-        up.append(not r["fell"])
+        up.append(not r["fell"] and r["stopped"] is None)
+        if r["stopped"] is not None and not r["fell"]:
+            stopped.append({"model": k, "reason": r["stopped"], **v.summary})
         if r["fell"]:  # why: when, in which support phase, the most loaded joint
             falls.append({"model": k, "time_s": r["fall_time_s"], "phase": r["fall_phase"],
                           "joint": r["fall_joint"], **v.summary})  # fmt: skip
         if progress:
             progress(k)
     return {"models": n, "seed": seed, "up_fraction": float(np.mean(up)) if up else None,
-            "up": [bool(u) for u in up], "falls": falls}  # fmt: skip
+            "up": [bool(u) for u in up], "falls": falls, "stopped": stopped}  # fmt: skip
