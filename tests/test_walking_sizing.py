@@ -137,7 +137,7 @@ def test_max_turn_keeps_the_feet_apart():
     assert max_turn(0.07, 0.04, 0.0) == 0.0
 
 
-@pytest.mark.parametrize("trajectory", ["walk10", "walk10_wb", "turn", "lateral_wb"])
+@pytest.mark.parametrize("trajectory", ["walk10", "walk10_wb", "fast_wb", "turn", "lateral_wb"])
 def test_kokones_walks_ask_no_joint_for_more_than_its_speed(trajectory):
     kokone = load_robot("kokone")
     ref = build(trajectory, kokone)  # used to be refused (feet 5 mm apart) or too fast
