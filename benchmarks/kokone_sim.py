@@ -5,6 +5,7 @@
     python benchmarks/kokone_sim.py --timesteps          # the figures at 2, 1 and 0.5 ms
     python benchmarks/kokone_sim.py --speed              # simulated s per wall s
     python benchmarks/kokone_sim.py --stand              # standing still: band vs oscillation
+    python benchmarks/kokone_sim.py --stand --bands 20 30 40 60 --damping 0.5 0.75 1 1.5
 
 Each trajectory is planned once by ``hqp-daqp`` (the ``walk`` stack), then played through the
 SSC-32 backend on the simulator (:func:`wbc.bench.play.play`, as ``wbc bench --physics
@@ -59,10 +60,17 @@ def main() -> None:
     parser.add_argument("--timesteps", action="store_true", help="nominal at 2, 1, 0.5 ms")
     parser.add_argument("--speed", action="store_true", help="simulated s per wall s")
     parser.add_argument("--stand", action="store_true", help="3 s standing per servo variant")
+    parser.add_argument(
+        "--damping", nargs="+", type=float, default=None,
+        help="--stand: analog servos only, x these back-EMF damping factors (a column each)",
+    )  # fmt: skip
     args = parser.parse_args()
     robot = load_robot("kokone")
     nominal = nominal_servo(robot)
     print(f"{platform.node()} {platform.machine()}, Python {platform.python_version()}")
+    if args.stand and args.damping:
+        stand_damping(robot, nominal, args.bands, args.damping)
+        return
     if args.stand:
         stand(robot, nominal, args.bands)
         return
@@ -127,6 +135,31 @@ def stand(robot, nominal, bands) -> None:
             R = sim.base_rotation()
             tilt = math.degrees(math.acos(np.clip((np.trace(R0.T @ R) - 1) / 2, -1, 1)))
             print(f"| {label}, band {band:g} µs | {tilt:.1f} | {speed:.2f} |")
+
+
+def stand_damping(robot, nominal, bands, factors) -> None:
+    """The analog servo's crouch held 3 s for each proportional band and back-EMF damping
+    factor (the randomised plants' ranges): the largest joint speed over the last 2 s
+    (rad/s; above ~1: the servo loop oscillates)."""
+    import numpy as np
+
+    from wbc.sim.simulator import Simulation
+
+    print("\n| band | " + " | ".join(f"damping x{d:g}" for d in factors) + " |")
+    print("|---" * (len(factors) + 1) + "|")
+    for band in bands:
+        cells = []
+        for d in factors:
+            sp = replace(nominal, proportional_band_us=band)
+            sim = Simulation(robot, ModelParams(damping=nominal.damping * d), sp)
+            sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
+            sim.advance(1.0)
+            speed = 0.0
+            for _ in range(100):
+                sim.advance(0.02)
+                speed = max(speed, float(np.abs(sim.joint_velocities()).max()))
+            cells.append(f"{speed:.2f}")
+        print(f"| {band:g} µs | " + " | ".join(cells) + " |", flush=True)
 
 
 if __name__ == "__main__":

@@ -50,7 +50,14 @@ def scaled_bioloid(folder, s: float, trajectory: str):
         tick = f"[walking.static_walk]\ndt = {0.01 * t!r}\n"
     else:
         g = GaitTiming()
-        tick = (
+        # the Bioloid's own steps (robot.toml [walking.<trajectory>]: stated, so not sized)
+        own = bioloid.robot_data.walking.get(trajectory, {})
+        tick = f"[walking.{trajectory}]\n"
+        if "step_length" in own:
+            tick += f"step_length = {own['step_length'] * s!r}\n"
+        if "swing" in own:
+            tick += f"swing = {{ apex = {own['swing']['apex'] * s!r} }}\n"
+        tick += (
             f"[walking.{trajectory}.timing]\nstep_time = {g.step_time * t!r}\n"
             f"double_support_ratio = {g.double_support_ratio!r}\n"
             f"start_time = {g.start_time * t!r}\nend_time = {g.end_time * t!r}\n"
@@ -130,7 +137,7 @@ def test_max_turn_keeps_the_feet_apart():
     assert max_turn(0.07, 0.04, 0.0) == 0.0
 
 
-@pytest.mark.parametrize("trajectory", ["walk10", "walk10_wb", "turn", "lateral_wb"])
+@pytest.mark.parametrize("trajectory", ["walk10", "walk10_wb", "fast_wb", "turn", "lateral_wb"])
 def test_kokones_walks_ask_no_joint_for_more_than_its_speed(trajectory):
     kokone = load_robot("kokone")
     ref = build(trajectory, kokone)  # used to be refused (feet 5 mm apart) or too fast
@@ -138,18 +145,31 @@ def test_kokones_walks_ask_no_joint_for_more_than_its_speed(trajectory):
     assert rep.speed_fraction <= SPEED_FRACTION, (rep.fraction_joint, rep.speed_fraction)
 
 
+@pytest.mark.parametrize("trajectory", ["walk10_wb", "fast_wb", "turn_wb", "lateral_wb"])
+def test_the_bioloids_whole_body_walks_ask_no_joint_for_more_than_its_speed(trajectory):
+    """The Bioloid keeps its recorded timing (fit_speed = false); its walk10_wb asked the swing
+    knee for 1.23x the AX-12A's no-load speed, now 0.79 with 25 mm steps and an 8 mm apex
+    (robots/bioloid/robot.toml; benchmarks/robots.md)."""
+    bioloid = load_robot("bioloid")
+    rep = kinematic_feasibility(bioloid, build(trajectory, bioloid), iterations=2)
+    assert rep.speed_fraction <= SPEED_FRACTION, (rep.fraction_joint, rep.speed_fraction)
+
+
 def test_a_walks_own_fit_speed_overrides_the_robots(tmp_path):
-    """[walking.<name>] fit_speed: the Bioloid keeps its recorded timing (walk10_wb asks a knee
-    for 1.23x its no-load speed); fitted, walk10_wb is stretched to 0.8 at most (974 ticks,
-    was 564; measured worse in the simulator: benchmarks/robots.md); a wrong value is named."""
+    """[walking.<name>] fit_speed: the Bioloid keeps its recorded timing (walk10_wb with the
+    package's 35 mm steps and 12 mm apex asks a knee for 1.23x its no-load speed); fitted, it is
+    stretched to 0.8 at most (974 ticks, was 564; measured worse in the simulator:
+    benchmarks/robots.md); a wrong value is named."""
     folder = tmp_path / "bioloid"
     shutil.copytree(robots_dir() / "bioloid", folder)
     toml = folder / "robot.toml"
-    base = toml.read_text()
+    base = toml.read_text().split("[walking.walk10_wb]")[0]  # the package's walk10_wb
+    toml.write_text(base + "\n[walking.walk10_wb]\nfit_speed = false\n")
+    recorded = build("walk10_wb", load_robot(folder))
     toml.write_text(base + "\n[walking.walk10_wb]\nfit_speed = true\n")
     robot = load_robot(folder)
     ref = build("walk10_wb", robot)
-    assert len(ref.com) > len(build("walk10_wb", load_robot("bioloid")).com)
+    assert len(ref.com) > len(recorded.com)
     assert kinematic_feasibility(robot, ref, iterations=2).speed_fraction <= SPEED_FRACTION
     toml.write_text(base + "\n[walking.walk10_wb]\nfit_speed = 1\n")
     with pytest.raises(ConfigurationError, match=r"\[walking.walk10_wb\] fit_speed = 1: true or"):

@@ -120,20 +120,26 @@ def test_named_whole_body_walks_keep_the_zmp_10mm_inside(named, name):
     assert ref.meta["check"]["window_margin"] > 0
 
 
-def test_walk10_wb_keeps_walk10s_steps_and_timing_with_a_12mm_apex(named):
-    """walk10_wb: the same footsteps and duration as walk10, its swing soles 12 mm up (the
-    whole-body walks' apex; walk10's 20 mm asks the knee for 1.6x the servo speed and the
-    lagging swing landed 6-9 mm beyond each footstep: benchmarks/balance.md)."""
+def test_walk10_wb_keeps_walk10s_timing_with_shorter_lower_steps(named, robot):
+    """walk10_wb: walk10's timing and footstep plan (the package's: its steps, a 12 mm apex;
+    walk10's 20 mm asks the knee for 1.6x the servo speed and the lagging swing landed 6-9 mm
+    beyond each footstep: benchmarks/balance.md); the Bioloid's robot.toml shortens the steps
+    to 25 mm and the apex to 8 mm (35/12 mm asked 1.23x the servo speed: benchmarks/robots.md)."""
     wb, plain = named("walk10_wb"), named("walk10")
+    stated = robot.robot_data.walking["walk10_wb"]
+    assert stated["step_length"] == 0.025 and stated["swing"]["apex"] == 0.008
     assert wb.duration == pytest.approx(plain.duration)
+    assert len(wb.footsteps) == len(plain.footsteps)
+    ratio = stated["step_length"] / 0.035  # walk10's 35 mm
     for a, b in zip(wb.footsteps, plain.footsteps, strict=True):
         assert a.side == b.side
-        assert (a.x, a.y) == pytest.approx((b.x, b.y), abs=1e-9)
+        assert a.y == pytest.approx(b.y, abs=1e-4)  # the same plan, within 0.1 mm
+        assert a.x == pytest.approx(b.x * ratio, abs=1e-4)
 
     def lift(ref):  # the highest swing, above the sole's start
         return max((s[:, 2] - s[0, 2]).max() for s in (ref.l_sole, ref.r_sole))
 
-    assert lift(wb) == pytest.approx(traj.WHOLE_BODY_SWING.apex, abs=1e-9)
+    assert lift(wb) == pytest.approx(stated["swing"]["apex"], abs=1e-9)
     assert lift(plain) == pytest.approx(0.020, abs=1e-9)
 
 
