@@ -8,6 +8,13 @@ and the duration (from the first goal to the end of the rise) per side.
 
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone --nominal --open-loop
+    nice -n 5 python benchmarks/getup.py --models 0 --sides supine --nominal --trace
+
+``--trace`` watches each run: every 0.1 s the torso's elevation, the CoM ahead of the rear
+edge of the soles (along the left sole's heading: meaningful once the feet are flat), the
+soles' tilt, the base's height, the largest servo torque over its cap (the AX-12A's stall
+torque 1.5 N·m at the default torque limit) and the bodies touching the floor with their
+normal force (N); then per phase the share of ticks with a servo at its cap, and which.
 
 Figures and the exact commands they came from: benchmarks/getup.md.
 """
@@ -31,6 +38,61 @@ from wbc.bench.variation import models
 from wbc.drive.getup_sim import getup_sim
 
 
+class Watcher:
+    """``--trace``: what the simulated robot does, every 0.1 s and per phase."""
+
+    def __init__(self, robot) -> None:
+        self.robot = robot
+        self.name = "start"
+        self.stats: dict[str, list] = {}  # phase -> [ticks, ticks at the cap, {joint: n}]
+
+    def phase(self, line: str) -> None:
+        print(f"    {line}", flush=True)
+        if line.startswith("get-up: ") and not line.startswith("get-up: lying"):
+            self.name = line[len("get-up: ") :]
+
+    def __call__(self, sim) -> None:
+        tau = np.abs(sim.joint_torques())
+        cap = getattr(getattr(sim.servos, "params", None), "torque_cap", None)
+        cap = np.full_like(tau, 1.5) if cap is None else np.asarray(cap, dtype=float)
+        at_cap = tau >= 0.98 * cap
+        st = self.stats.setdefault(self.name, [0, 0, {}])
+        st[0] += 1
+        st[1] += bool(at_cap.any())
+        for j in np.flatnonzero(at_cap):
+            name = self.robot.joint_names[j]
+            st[2][name] = st[2].get(name, 0) + 1
+        if round(sim.time * 10, 6) % 1 > 1e-3:  # every 0.1 s
+            return
+        R = sim.site_pose("torso").rotation
+        elevation = math.degrees(math.asin(float(np.clip(R[2, 2], -1.0, 1.0))))
+        soles = [sim.site_pose(s) for s in ("l_sole", "r_sole")]
+        x = soles[0].rotation[:, 0]
+        half = 0.5 * self.robot.foot_size[0]
+        rear = min(float((M.translation - half * x) @ x) for M in soles)
+        tilt = [math.degrees(math.acos(float(np.clip(M.rotation[2, 2], -1, 1)))) for M in soles]
+        _pts, fz, body = sim.contacts()
+        touching: dict[str, float] = {}
+        for b, f in zip(body, fz, strict=True):
+            n = sim.model.body(int(b)).name
+            touching[n] = touching.get(n, 0.0) + float(f)
+        k = int(np.argmax(tau / cap))
+        print(f"    t {sim.time:5.1f} {self.name:11s} trunk {elevation:4.0f} deg, CoM "
+              f"{1e3 * (sim.com() @ x - rear):5.0f} mm ahead of the heels, soles "
+              f"{tilt[0]:3.0f}/{tilt[1]:3.0f} deg, base z {1e3 * sim.q()[2]:3.0f} mm, "
+              f"torque {tau[k] / cap[k]:4.0%} of cap ({self.robot.joint_names[k]}); "
+              + " ".join(f"{n} {f:.1f}" for n, f in sorted(touching.items(),
+                                                          key=lambda kv: -kv[1])),
+              flush=True)  # fmt: skip
+
+    def summary(self) -> None:
+        for name, (n, capped, joints) in self.stats.items():
+            worst = ", ".join(f"{j} {c / n:.0%}" for j, c in
+                              sorted(joints.items(), key=lambda kv: -kv[1])[:4])  # fmt: skip
+            print(f"    {name:11s}: a servo at its torque cap {capped / n:4.0%} of {n} ticks"
+                  + (f" ({worst})" if worst else ""))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robot", default="bioloid")
@@ -47,6 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-stiffen", action="store_true", help="every phase at the configured servo stiffness"
     )
+    ap.add_argument("--trace", action="store_true", help="watch each run (module docstring)")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
@@ -58,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     for side in args.sides:
         ok, durations = 0, []
         for k, (v, yaw) in enumerate(zip(variations, yaws, strict=True)):
+            watcher = Watcher(robot) if args.trace else None
             rec = getup_sim(
                 robot,
                 side,
@@ -66,7 +130,11 @@ def main(argv: list[str] | None = None) -> int:
                 replan=not args.open_loop,
                 compensate=args.compensate,
                 stiffen=not args.no_stiffen,
+                watch=watcher,
+                out=watcher.phase if watcher else (lambda _line: None),
             )
+            if watcher:
+                watcher.summary()
             rec.update(model="nominal" if v is None else k - int(args.nominal), yaw=float(yaw))
             records.append(rec)
             ok += rec["success"]
