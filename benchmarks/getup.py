@@ -89,8 +89,10 @@ class Watcher:
         for name, (n, capped, joints) in self.stats.items():
             worst = ", ".join(f"{j} {c / n:.0%}" for j, c in
                               sorted(joints.items(), key=lambda kv: -kv[1])[:4])  # fmt: skip
-            print(f"    {name:11s}: a servo at its torque cap {capped / n:4.0%} of {n} ticks"
-                  + (f" ({worst})" if worst else ""))
+            print(
+                f"    {name:11s}: a servo at its torque cap {capped / n:4.0%} of {n} ticks"
+                + (f" ({worst})" if worst else "")
+            )
 
 
 def main(argv: list[str] | None = None) -> int:

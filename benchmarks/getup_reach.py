@@ -77,10 +77,12 @@ def main(argv: list[str] | None = None) -> int:
                 if min(v - lo, hi - v) < math.radians(2) and n.startswith("l_")]  # fmt: skip
         up = math.degrees(math.asin(float(np.clip(kin.rotation(rb.frame_id("torso"))[2, 2],
                                                   -1, 1))))  # fmt: skip
-        print(f"torso pitch goal {pitch:4.0f} deg (elevation {up:3.0f}): CoM z "
-              f"{1e3 * kin.com[2]:4.0f} mm, {1e3 * (kin.com[0] - heel_x):3.0f} mm ahead of the "
-              f"heels; shoulders z {1e3 * shoulders.translation[2]:4.0f} mm; hands "
-              f"{1e3 * hand_z:3.0f} mm above the floor; at a limit: {', '.join(near) or '-'}")
+        print(
+            f"torso pitch goal {pitch:4.0f} deg (elevation {up:3.0f}): CoM z "
+            f"{1e3 * kin.com[2]:4.0f} mm, {1e3 * (kin.com[0] - heel_x):3.0f} mm ahead of the "
+            f"heels; shoulders z {1e3 * shoulders.translation[2]:4.0f} mm; hands "
+            f"{1e3 * hand_z:3.0f} mm above the floor; at a limit: {', '.join(near) or '-'}"
+        )
     return 0
 
 
