@@ -9,6 +9,12 @@ and the duration (from the first goal to the end of the rise) per side.
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone --nominal --open-loop
     nice -n 5 python benchmarks/getup.py --models 0 --sides supine --nominal --trace
+    nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal --fall
+
+``--fall``: a real fall instead of the drop: the walker standing on its velocity commands, a
+shove of 14-24 N for 0.2 s (forward for the front, backward for the back) fells it, the fall
+detection stops the walk, and ``wbc drive``'s ``after_fall`` gets it up (the side it landed
+on is printed: a shove backward may land it on its front).
 
 ``--trace`` watches each run: every 0.1 s the torso's elevation, the CoM ahead of the rear
 edge of the soles (along the left sole's heading: meaningful once the feet are flat), the
@@ -36,6 +42,30 @@ os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")
 from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.getup_sim import getup_sim
+
+#: the shove's range (N, for 0.2 s at the base) of ``--fall``: the Bioloid standing falls over
+#: from about 13 N
+FALL_FORCE_N = (14.0, 24.0)
+
+
+def fall_and_get_up(robot, side: str, variation, force: float) -> dict:
+    """``--fall``: the walker standing on its velocity commands (``wbc drive``'s path, the
+    hqp-daqp controller, closed loop), shoved at 1 s for 0.2 s (forward to fall on its front,
+    backward on its back) until the fall detection stops it; then what ``wbc drive`` does
+    (:func:`wbc.drive.sim.after_fall`), judged as the drop (:func:`wbc.drive.sim.judge`)."""
+    from wbc.bench.solvers import registry
+    from wbc.drive.commands import Command
+    from wbc.drive.sim import drive_sim
+
+    controller = registry("physics")["hqp-daqp"].make(robot)
+    push = force if side == "prone" else -force
+    rec = drive_sim(robot, controller, [Command(3.0, 0.0, 0.0, 0.0)], variation=variation,
+                    walker_options={"compensate": 0.5, "calibrate_s": 0.3},
+                    push=(1.0, (push, 0.0, 0.0), 0.2), get_up=True)  # fmt: skip
+    landed = rec.get("getup_side") or ("on a side" if rec["fell"] else "not")
+    return {"side": side, "force_n": force, "landed": landed, "fell": rec["fell"],
+            "success": bool(rec.get("got_up")), "reason": rec.get("getup_reason", ""),
+            "phases": rec.get("getup_phases", []), "duration_s": None, "trunk_deg": {}}  # fmt: skip
 
 
 class Watcher:
@@ -112,17 +142,32 @@ def main(argv: list[str] | None = None) -> int:
         "--no-stiffen", action="store_true", help="every phase at the configured servo stiffness"
     )
     ap.add_argument("--trace", action="store_true", help="watch each run (module docstring)")
+    ap.add_argument(
+        "--fall",
+        action="store_true",
+        help="a real fall instead of the drop: the walker standing, shoved (module docstring)",
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
     variations = ([None] if args.nominal else []) + models(robot, args.models, args.seed)
     rng = np.random.default_rng(args.seed)
     yaws = rng.uniform(-math.pi, math.pi, len(variations))
+    force = rng.uniform(FALL_FORCE_N[0], FALL_FORCE_N[1], len(variations))
     records = []
     start = time.perf_counter()
     for side in args.sides:
         ok, durations = 0, []
         for k, (v, yaw) in enumerate(zip(variations, yaws, strict=True)):
+            if args.fall:
+                rec = fall_and_get_up(robot, side, v, float(force[k]))
+                rec.update(model="nominal" if v is None else k - int(args.nominal))
+                records.append(rec)
+                ok += rec["success"]
+                print(f"{side} model {rec['model']}: shoved {rec['force_n']:.1f} N, fell "
+                      f"{rec['landed']}: {'UP' if rec['success'] else 'FAILED'} "
+                      f"({rec['reason']})", flush=True)  # fmt: skip
+                continue
             watcher = Watcher(robot) if args.trace else None
             rec = getup_sim(
                 robot,
@@ -146,10 +191,15 @@ def main(argv: list[str] | None = None) -> int:
                   f"({rec['reason']}), {rec['duration_s'] or 0:.1f} s", flush=True)  # fmt: skip
         d = f", {np.median(durations):.1f} s median" if durations else ""
         print(f"{side}: {ok}/{len(variations)} up{d}", flush=True)
+        if args.fall:
+            landed = [r["landed"] for r in records if r["side"] == side]
+            print("  landed: " + ", ".join(f"{n} {landed.count(n)}" for n in sorted(set(landed))))
         # the torso's elevation at the start of each phase (deg above the horizontal; 90 up)
         side_recs = [r for r in records if r["side"] == side]
         for name in side_recs[0]["phases"] if side_recs else []:
             v = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
+            if not v:
+                continue
             print(f"  trunk at '{name}': median {np.median(v):.0f} deg, "
                   f"{min(v):.0f}..{max(v):.0f} ({len(v)} runs)")  # fmt: skip
     print(f"{len(records)} runs in {time.perf_counter() - start:.0f} s")

@@ -364,12 +364,15 @@ def stand_phases(robot: Robot) -> list[Phase]:
 def supine_phases(robot: Robot) -> list[Phase]:
     """The get-up from the back (module docstring), sized from the model's lengths.
 
-    The crossing onto the feet (``cross``): the feet flat and the knees bent as far as they
-    go, the ankles turn the shins forward and the trunk leans back (:data:`CROSS_PITCH`) while
+    The crossing onto the feet: the feet flat and the knees bent as far as they go, the
+    ankles turn the shins forward with the trunk held 50° up (``shins forward``: the CoM to a
+    tenth of the foot behind the heels), then the trunk leans back (:data:`CROSS_PITCH`) while
     the hands, sliding behind, carry the rest, until the CoM is :data:`CROSS_AHEAD` of the
-    foot's length ahead of the heels; only leaning back do the arms reach the floor behind
-    the heels with the CoM over the feet (``benchmarks/getup_reach.py``). Then the trunk comes
-    forward over the feet (``sit forward``), the hands in the air."""
+    foot's length ahead of the heels (``cross``); only leaning back do the arms reach the
+    floor behind the heels with the CoM over the feet (``benchmarks/getup_reach.py``). Then
+    the trunk comes forward over the feet (``sit forward``), the hands in the air. Leaning
+    back while the shins come forward overloads the arms after a real fall (their shoulder
+    rolls at the torque cap, the trunk drops: benchmarks/getup.md)."""
     s = BodySizes.of(robot)
     ys, yh = s.shoulder_y, s.hip_y
     x_hands = 0.4 * s.trunk  # beside the waist: closer to the hips the sit-up fails
@@ -400,6 +403,16 @@ def supine_phases(robot: Robot) -> list[Phase]:
             0.8,
             flat=soles,
             torso_pitch=math.radians(-20),
+            stiffness=stiff,
+        ),
+        Phase(
+            "shins forward",
+            soles,
+            2.5,
+            sliding=("l_hand", "r_hand"),
+            com_over=soles,
+            com_shift=-0.6 * s.foot,
+            torso_pitch=math.radians(-40),
             stiffness=stiff,
         ),
         Phase(
