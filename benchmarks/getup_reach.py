@@ -4,7 +4,8 @@ can lift them quasi-statically only through a pose with the CoM over the soles a
 still on the floor behind it. This plans that pose with the get-up's own QP
 (:class:`wbc.balance.getup.PhasePlanner`): from the standing pose, a squat on both soles with
 the CoM ``--ahead`` m in front of the soles' rear edge, as low as the QP gets it (goal
-``--com-z``), the torso pitched forward by each ``--pitch``; then both hands sent to the floor
+``--com-z``), the torso pitched forward by each ``--pitch`` (a negative pitch leans it back,
+from a crouch: the knees at their limit, the shins forward); then both hands sent to the floor
 beside the feet, ``--behind`` m behind the CoM. Prints, per pitch, the CoM's height and its
 margin over the heels, the shoulders' height, the hands' lowest height (0: on the floor) and
 the joints within 2° of a limit.
@@ -35,7 +36,9 @@ from wbc.roles import HAND_FRAMES
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robot", default="bioloid")
-    ap.add_argument("--pitch", type=float, nargs="+", default=[40, 60, 75, 90, 105])
+    ap.add_argument(
+        "--pitch", type=float, nargs="+", default=[40, 60, 75, 90, 105, 125, -60, -70, -80]
+    )
     ap.add_argument("--ahead", type=float, default=0.005)
     ap.add_argument("--behind", type=float, default=0.01)
     ap.add_argument("--com-z", type=float, default=0.05)
@@ -44,6 +47,14 @@ def main(argv: list[str] | None = None) -> int:
     sizes = BodySizes.of(robot)
     soles = ("l_sole", "r_sole")
     stand = robot.place_on_ground(robot.configuration(robot.stand_pose))
+    # leaning back: from a crouch, the knees at their limit and the shins forward
+    crouch = robot.configuration(robot.stand_pose)
+    for side in ("left", "right"):
+        for role, value in (("hip_pitch", -40.0), ("knee", None), ("ankle_pitch", -80.0)):
+            j = robot.joint_names.index(robot.roles.joint(side, role))
+            crouch[7 + j] = robot.q_max[j] - 0.01 if value is None else math.radians(value)
+    crouch[7:] = np.clip(crouch[7:], robot.q_min, robot.q_max)
+    crouch = robot.place_on_ground(crouch)
     ground = pin.SE3.Identity()
     print(f"{robot.name}: joint limits ankle pitch / hip pitch / knee (deg): "
           + " / ".join(f"{math.degrees(robot.q_min[robot.joint_names.index(j)]):.0f}.."
@@ -54,13 +65,14 @@ def main(argv: list[str] | None = None) -> int:
         planner = PhasePlanner(robot)
         rb = planner.robot
         planner.floor = {f: 0.0 for f in planner.body_points}  # standing: no floor rows
-        kin = Kinematics(rb, stand)
+        start = stand if pitch >= 0 else crouch
+        kin = Kinematics(rb, start)
         heel_x = kin.translation(rb.frame_id(HEEL_FRAMES["left"]))[0]
         centre_x = np.mean([kin.translation(rb.frame_id(s))[0] for s in soles])
         shift = heel_x + args.ahead - centre_x
         squat = Phase("squat", soles, 2.0, com_over=soles, com_shift=shift, com_z=args.com_z,
                       torso_pitch=math.radians(pitch))  # fmt: skip
-        q = planner.plan(squat, stand, ground).q[-1]
+        q = planner.plan(squat, start, ground).q[-1]
         com_x = Kinematics(rb, q).com[0]
         y = sizes.hip_y + 0.5 * float(robot.foot_size[1]) + 0.02
         goal = {HAND_FRAMES["left"]: (com_x - args.behind, y, 0.0),
