@@ -8,6 +8,19 @@ and the duration (from the first goal to the end of the rise) per side.
 
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal
     nice -n 5 python benchmarks/getup.py --models 20 --sides prone --nominal --open-loop
+    nice -n 5 python benchmarks/getup.py --models 0 --sides supine --nominal --trace
+    nice -n 5 python benchmarks/getup.py --models 20 --sides prone supine --nominal --fall
+
+``--fall``: a real fall instead of the drop: the walker standing on its velocity commands, a
+shove of 14-24 N for 0.2 s (forward for the front, backward for the back) fells it, the fall
+detection stops the walk, and ``wbc drive``'s ``after_fall`` gets it up (the side it landed
+on is printed: a shove backward may land it on its front).
+
+``--trace`` watches each run: every 0.1 s the torso's elevation, the CoM ahead of the rear
+edge of the soles (along the left sole's heading: meaningful once the feet are flat), the
+soles' tilt, the base's height, the largest servo torque over its cap (the AX-12A's stall
+torque 1.5 N·m at the default torque limit) and the bodies touching the floor with their
+normal force (N); then per phase the share of ticks with a servo at its cap, and which.
 
 Figures and the exact commands they came from: benchmarks/getup.md.
 """
@@ -30,6 +43,87 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.getup_sim import getup_sim
 
+#: the shove's range (N, for 0.2 s at the base) of ``--fall``: the Bioloid standing falls over
+#: from about 13 N
+FALL_FORCE_N = (14.0, 24.0)
+
+
+def fall_and_get_up(robot, side: str, variation, force: float) -> dict:
+    """``--fall``: the walker standing on its velocity commands (``wbc drive``'s path, the
+    hqp-daqp controller, closed loop), shoved at 1 s for 0.2 s (forward to fall on its front,
+    backward on its back) until the fall detection stops it; then what ``wbc drive`` does
+    (:func:`wbc.drive.sim.after_fall`), judged as the drop (:func:`wbc.drive.sim.judge`)."""
+    from wbc.bench.solvers import registry
+    from wbc.drive.commands import Command
+    from wbc.drive.sim import drive_sim
+
+    controller = registry("physics")["hqp-daqp"].make(robot)
+    push = force if side == "prone" else -force
+    rec = drive_sim(robot, controller, [Command(3.0, 0.0, 0.0, 0.0)], variation=variation,
+                    walker_options={"compensate": 0.5, "calibrate_s": 0.3},
+                    push=(1.0, (push, 0.0, 0.0), 0.2), get_up=True)  # fmt: skip
+    landed = rec.get("getup_side") or ("on a side" if rec["fell"] else "not")
+    return {"side": side, "force_n": force, "landed": landed, "fell": rec["fell"],
+            "success": bool(rec.get("got_up")), "reason": rec.get("getup_reason", ""),
+            "phases": rec.get("getup_phases", []), "duration_s": None, "trunk_deg": {}}  # fmt: skip
+
+
+class Watcher:
+    """``--trace``: what the simulated robot does, every 0.1 s and per phase."""
+
+    def __init__(self, robot) -> None:
+        self.robot = robot
+        self.name = "start"
+        self.stats: dict[str, list] = {}  # phase -> [ticks, ticks at the cap, {joint: n}]
+
+    def phase(self, line: str) -> None:
+        print(f"    {line}", flush=True)
+        if line.startswith("get-up: ") and not line.startswith("get-up: lying"):
+            self.name = line[len("get-up: ") :]
+
+    def __call__(self, sim) -> None:
+        tau = np.abs(sim.joint_torques())
+        cap = getattr(getattr(sim.servos, "params", None), "torque_cap", None)
+        cap = np.full_like(tau, 1.5) if cap is None else np.asarray(cap, dtype=float)
+        at_cap = tau >= 0.98 * cap
+        st = self.stats.setdefault(self.name, [0, 0, {}])
+        st[0] += 1
+        st[1] += bool(at_cap.any())
+        for j in np.flatnonzero(at_cap):
+            name = self.robot.joint_names[j]
+            st[2][name] = st[2].get(name, 0) + 1
+        if round(sim.time * 10, 6) % 1 > 1e-3:  # every 0.1 s
+            return
+        R = sim.site_pose("torso").rotation
+        elevation = math.degrees(math.asin(float(np.clip(R[2, 2], -1.0, 1.0))))
+        soles = [sim.site_pose(s) for s in ("l_sole", "r_sole")]
+        x = soles[0].rotation[:, 0]
+        half = 0.5 * self.robot.foot_size[0]
+        rear = min(float((M.translation - half * x) @ x) for M in soles)
+        tilt = [math.degrees(math.acos(float(np.clip(M.rotation[2, 2], -1, 1)))) for M in soles]
+        _pts, fz, body = sim.contacts()
+        touching: dict[str, float] = {}
+        for b, f in zip(body, fz, strict=True):
+            n = sim.model.body(int(b)).name
+            touching[n] = touching.get(n, 0.0) + float(f)
+        k = int(np.argmax(tau / cap))
+        print(f"    t {sim.time:5.1f} {self.name:11s} trunk {elevation:4.0f} deg, CoM "
+              f"{1e3 * (sim.com() @ x - rear):5.0f} mm ahead of the heels, soles "
+              f"{tilt[0]:3.0f}/{tilt[1]:3.0f} deg, base z {1e3 * sim.q()[2]:3.0f} mm, "
+              f"torque {tau[k] / cap[k]:4.0%} of cap ({self.robot.joint_names[k]}); "
+              + " ".join(f"{n} {f:.1f}" for n, f in sorted(touching.items(),
+                                                          key=lambda kv: -kv[1])),
+              flush=True)  # fmt: skip
+
+    def summary(self) -> None:
+        for name, (n, capped, joints) in self.stats.items():
+            worst = ", ".join(f"{j} {c / n:.0%}" for j, c in
+                              sorted(joints.items(), key=lambda kv: -kv[1])[:4])  # fmt: skip
+            print(
+                f"    {name:11s}: a servo at its torque cap {capped / n:4.0%} of {n} ticks"
+                + (f" ({worst})" if worst else "")
+            )
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -47,17 +141,34 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-stiffen", action="store_true", help="every phase at the configured servo stiffness"
     )
+    ap.add_argument("--trace", action="store_true", help="watch each run (module docstring)")
+    ap.add_argument(
+        "--fall",
+        action="store_true",
+        help="a real fall instead of the drop: the walker standing, shoved (module docstring)",
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
     variations = ([None] if args.nominal else []) + models(robot, args.models, args.seed)
     rng = np.random.default_rng(args.seed)
     yaws = rng.uniform(-math.pi, math.pi, len(variations))
+    force = rng.uniform(FALL_FORCE_N[0], FALL_FORCE_N[1], len(variations))
     records = []
     start = time.perf_counter()
     for side in args.sides:
         ok, durations = 0, []
         for k, (v, yaw) in enumerate(zip(variations, yaws, strict=True)):
+            if args.fall:
+                rec = fall_and_get_up(robot, side, v, float(force[k]))
+                rec.update(model="nominal" if v is None else k - int(args.nominal))
+                records.append(rec)
+                ok += rec["success"]
+                print(f"{side} model {rec['model']}: shoved {rec['force_n']:.1f} N, fell "
+                      f"{rec['landed']}: {'UP' if rec['success'] else 'FAILED'} "
+                      f"({rec['reason']})", flush=True)  # fmt: skip
+                continue
+            watcher = Watcher(robot) if args.trace else None
             rec = getup_sim(
                 robot,
                 side,
@@ -66,7 +177,11 @@ def main(argv: list[str] | None = None) -> int:
                 replan=not args.open_loop,
                 compensate=args.compensate,
                 stiffen=not args.no_stiffen,
+                watch=watcher,
+                out=watcher.phase if watcher else (lambda _line: None),
             )
+            if watcher:
+                watcher.summary()
             rec.update(model="nominal" if v is None else k - int(args.nominal), yaw=float(yaw))
             records.append(rec)
             ok += rec["success"]
@@ -76,10 +191,15 @@ def main(argv: list[str] | None = None) -> int:
                   f"({rec['reason']}), {rec['duration_s'] or 0:.1f} s", flush=True)  # fmt: skip
         d = f", {np.median(durations):.1f} s median" if durations else ""
         print(f"{side}: {ok}/{len(variations)} up{d}", flush=True)
+        if args.fall:
+            landed = [r["landed"] for r in records if r["side"] == side]
+            print("  landed: " + ", ".join(f"{n} {landed.count(n)}" for n in sorted(set(landed))))
         # the torso's elevation at the start of each phase (deg above the horizontal; 90 up)
         side_recs = [r for r in records if r["side"] == side]
         for name in side_recs[0]["phases"] if side_recs else []:
             v = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
+            if not v:
+                continue
             print(f"  trunk at '{name}': median {np.median(v):.0f} deg, "
                   f"{min(v):.0f}..{max(v):.0f} ({len(v)} runs)")  # fmt: skip
     print(f"{len(records)} runs in {time.perf_counter() - start:.0f} s")

@@ -17,15 +17,18 @@ from wbc.model import Kinematics, load_robot
 ROBOT = load_robot("bioloid")
 
 
-def _prone() -> np.ndarray:
+def _lying(side: str = "prone") -> np.ndarray:
+    """Lying in the standing pose (as the simulator's torque-off fall leaves it), on the back
+    with the trunk 10° up off the floor (the knees bent, the heels down, as it settles)."""
     q = ROBOT.configuration("stand")
-    R = pin.rpy.rpyToMatrix(0.0, math.pi / 2, 0.3)
+    pitch = math.pi / 2 if side == "prone" else -math.radians(80)
+    R = pin.rpy.rpyToMatrix(0.0, pitch, 0.3)
     return G.lying_state(ROBOT, q[7:], R @ np.eye(3))
 
 
-@pytest.fixture(scope="module")
-def plans() -> list[G.PhasePlan]:
-    return G.plan_getup(ROBOT, _prone(), "prone")
+@pytest.fixture(scope="module", params=G.SIDES_LYING)
+def plans(request) -> list[G.PhasePlan]:
+    return G.plan_getup(ROBOT, _lying(request.param), request.param)
 
 
 def _support_points(robot, kin, phase) -> np.ndarray:
@@ -44,7 +47,8 @@ def _support_points(robot, kin, phase) -> np.ndarray:
 
 def test_the_plan_keeps_its_contacts_limits_and_speeds(plans) -> None:
     robot = G.with_toes(ROBOT)
-    assert [p.phase.name for p in plans] == [p.name for p in G.phases_for(ROBOT, "prone")]
+    names = [p.phase.name for p in plans]
+    assert names in ([p.name for p in G.phases_for(ROBOT, side)] for side in G.SIDES_LYING)
     for plan in plans:
         assert plan.failed_solves == 0, plan.phase.name
         joints = plan.q[:, 7:]
@@ -96,7 +100,7 @@ def test_lying_side_and_state() -> None:
     assert G.lying_side(supine) == "supine"
     assert G.lying_side(np.eye(3)) is None
     assert G.heading_of(prone, "prone") == pytest.approx(1.0)
-    q = _prone()
+    q = _lying()
     assert G.lowest_point(ROBOT, q) == pytest.approx(0.0, abs=1e-9)
     assert np.allclose(
         ROBOT.frame_placement(q, "torso").rotation, pin.rpy.rpyToMatrix(0, math.pi / 2, 0.3)
@@ -127,6 +131,6 @@ def test_static_torques_on_one_sole_are_the_compliance_models() -> None:
     expected = ComplianceCompensator(ROBOT).torques(joints, SUPPORT_LEFT)
     assert np.allclose(G.static_torques(robot, q, phase), expected, atol=1e-9)
     # on the torso alone (lying) the floor holds everything: the joints hold the limbs
-    lying = _prone()
+    lying = _lying()
     tau = G.static_torques(robot, lying, G.Phase("lying", ("torso",), 1.0))
     assert np.all(np.isfinite(tau)) and np.abs(tau).max() < 0.5

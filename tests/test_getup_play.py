@@ -39,13 +39,27 @@ def test_the_bioloid_gets_up_from_its_front() -> None:
     assert abs(math.remainder(math.atan2(R[1, 0], R[0, 0]) - 0.7, math.tau)) < 0.35
 
 
-def test_on_its_back_or_standing_it_is_left_as_it_is() -> None:
+def test_the_bioloid_gets_up_from_its_back() -> None:
+    """Dropped on its back: the sit-up, the crossing onto the feet with the hands behind, the
+    rise; standing, still up 2 s on."""
+    sim, bus, imu = make_sim(ROBOT)
+    drop(sim, ROBOT, "supine", yaw=-1.2)
+    assert judge(sim, ROBOT)[0] is False
+    result = P.get_up(bus, imu, ROBOT, out=lambda _l: None)
+    assert result.side == "supine" and result.completed, result
+    assert "cross" in result.phases and result.plan_failures == 0
+    sim.advance(2.0)
+    ok, why = judge(sim, ROBOT)
+    assert ok, why
+
+
+def test_standing_or_on_its_back_with_supine_off_it_is_left_as_it_is() -> None:
     sim, bus, imu = make_sim(ROBOT)
     result = P.get_up(bus, imu, ROBOT, joints=sim.q()[7:], out=lambda _l: None)
     assert result.side is None and not result.completed and not result.phases
     drop(sim, ROBOT, "supine")
     q = sim.q()
-    result = P.get_up(bus, imu, ROBOT, joints=q[7:], out=lambda _l: None)
+    result = P.get_up(bus, imu, ROBOT, joints=q[7:], out=lambda _l: None, supine=False)
     assert result.side == "supine" and not result.completed and result.reason == P.SUPINE_NOTE
     assert np.array_equal(sim.q(), q)  # nothing moved
 

@@ -19,12 +19,12 @@ roles, the lengths from the model (:class:`BodySizes`): nothing names a robot's 
 From **prone** (lying on the front): hands to the floor beside the chest, a push-up onto hands
 and toes, a pike (hips up, the toes drawn in), the soles rolled flat about the toes, the CoM
 brought back over the feet into a squat (the hands sliding back), the hands lifted, the rise
-to the standing pose, a settle. From **supine** (on the back): hands beside the hips, a sit-up
-onto hands and heels, a crab (the heels drawn in), the soles flat, then the same squat and
-rise, the servos stiffened ×8 (:data:`SUPINE_STIFFNESS`) until the feet are flat. The supine
-plan fails in the simulator: the stiffened arms lift the trunk, but the plan never brings the
-CoM over the soles (``benchmarks/getup.md``); :func:`wbc.balance.getup_play.get_up` only
-tries it when asked.
+to the standing pose, a settle. From **supine** (on the back): hands beside the waist, a
+sit-up onto hands and heels, a crab (the heels drawn in), the soles flat, the crossing onto
+the feet (the shins turned forward, the trunk leaning back, the hands sliding behind until the
+CoM is over the feet: :func:`supine_phases`), the trunk brought forward over the feet, the rise
+and a settle, the servos stiffened ×8 (:data:`SUPINE_STIFFNESS`) until the trunk is over the
+feet.
 
 The plan is made from the measured fallen state (:func:`lying_state`: the joints from the
 servos, the torso's orientation from the IMU, the base put on the floor) and played phase by
@@ -54,6 +54,12 @@ SIDES_LYING = ("prone", "supine")
 #: (128) it gives only a third of a radian short of its goal; x8 (slopes 16, hips 4)
 #: lifts the trunk in the simulator, x4 does not (benchmarks/getup.md)
 SUPINE_STIFFNESS = 8.0
+#: the trunk's pitch (deg about the ground frame's y; −90 face up) while the CoM crosses onto
+#: the feet from the back: −75..−85 get the randomised Bioloids up, −70 does not (its arms
+#: no longer reach the floor behind the heels: benchmarks/getup.md)
+CROSS_PITCH = -80.0
+#: where the crossing leaves the CoM: this share of the foot's length ahead of the heels
+CROSS_AHEAD = 0.15
 
 
 @dataclass(frozen=True)
@@ -328,6 +334,14 @@ def rise_phases(robot: Robot) -> list[Phase]:
             posture=stand,
             posture_weight=0.1,
         ),
+    ] + stand_phases(robot)
+
+
+def stand_phases(robot: Robot) -> list[Phase]:
+    """From a squat with the CoM over the feet to standing: the rise to the standing pose and
+    a settle re-planned from the state."""
+    stand = robot.stand_pose
+    return [
         Phase(
             "rise",
             ("l_sole", "r_sole"),
@@ -348,17 +362,28 @@ def rise_phases(robot: Robot) -> list[Phase]:
 
 
 def supine_phases(robot: Robot) -> list[Phase]:
-    """The get-up from the back (module docstring), sized from the model's lengths."""
+    """The get-up from the back (module docstring), sized from the model's lengths.
+
+    The crossing onto the feet: the feet flat and the knees bent as far as they go, the
+    ankles turn the shins forward with the trunk held 50° up (``shins forward``: the CoM to a
+    tenth of the foot behind the heels), then the trunk leans back (:data:`CROSS_PITCH`) while
+    the hands, sliding behind, carry the rest, until the CoM is :data:`CROSS_AHEAD` of the
+    foot's length ahead of the heels (``cross``); only leaning back do the arms reach the
+    floor behind the heels with the CoM over the feet (``benchmarks/getup_reach.py``). Then
+    the trunk comes forward over the feet (``sit forward``), the hands in the air. Leaning
+    back while the shins come forward overloads the arms after a real fall (their shoulder
+    rolls at the torque cap, the trunk drops: benchmarks/getup.md)."""
     s = BodySizes.of(robot)
     ys, yh = s.shoulder_y, s.hip_y
-    x_hands = 0.6 * s.trunk  # beside the hips
+    x_hands = 0.4 * s.trunk  # beside the waist: closer to the hips the sit-up fails
     hands = {
         "l_hand": (x_hands, ys + 0.6 * s.arm, 0.0),
         "r_hand": (x_hands, -ys - 0.6 * s.arm, 0.0),
     }
-    x_heels = x_hands + 0.7 * s.leg  # the crab: heels drawn in this far ahead of the hands
+    x_heels = 0.6 * s.trunk + 0.7 * s.leg  # the crab: heels drawn in this far
     heels_in = {"l_heel": (x_heels, yh, 0.0), "r_heel": (x_heels, -yh, 0.0)}
     four = ("l_hand", "r_hand", "l_heel", "r_heel")
+    soles = ("l_sole", "r_sole")
     stiff = SUPINE_STIFFNESS
     return [
         Phase("hands down", ("torso",), 0.8, moves=hands, posture="zero", stiffness=stiff),
@@ -376,11 +401,40 @@ def supine_phases(robot: Robot) -> list[Phase]:
             "feet flat",
             four,
             0.8,
-            flat=("l_sole", "r_sole"),
+            flat=soles,
             torso_pitch=math.radians(-20),
             stiffness=stiff,
         ),
-    ] + rise_phases(robot)
+        Phase(
+            "shins forward",
+            soles,
+            2.5,
+            sliding=("l_hand", "r_hand"),
+            com_over=soles,
+            com_shift=-0.6 * s.foot,
+            torso_pitch=math.radians(-40),
+            stiffness=stiff,
+        ),
+        Phase(
+            "cross",
+            soles,
+            2.0,
+            sliding=("l_hand", "r_hand"),
+            com_over=soles,
+            com_shift=(CROSS_AHEAD - 0.5) * s.foot,
+            torso_pitch=math.radians(CROSS_PITCH),
+            stiffness=stiff,
+        ),
+        Phase(
+            "sit forward",
+            soles,
+            2.0,
+            com_over=soles,
+            com_shift=-0.1 * s.foot,
+            torso_pitch=math.radians(20),
+            stiffness=stiff,
+        ),
+    ] + stand_phases(robot)
 
 
 def phases_for(robot: Robot, side: str) -> list[Phase]:

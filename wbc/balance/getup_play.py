@@ -37,11 +37,8 @@ from .getup import (
 
 #: s a get-up waits after a fall (its last bounces) in ``wbc drive``
 GETUP_WAIT_S = 1.0
-#: why a robot on its back is left lying by default
-SUPINE_NOTE = (
-    "lying on the back: the get-up from the back does not work yet (its plan never brings the "
-    "CoM over the feet: benchmarks/getup.md); turn the robot onto its front"
-)
+#: why a robot on its back is left lying when the get-up from the back is off
+SUPINE_NOTE = "lying on the back: the get-up from the back is off (supine=False)"
 
 
 def placed(
@@ -94,7 +91,7 @@ def get_up(
     params: GetupParams | None = None,
     rate: float = 50.0,
     out: Callable[[str], None] = print,
-    supine: bool = False,
+    supine: bool = True,
     wait_s: float = 0.0,
     replan: bool = True,
     compensate: float = 1.0,
@@ -111,9 +108,7 @@ def get_up(
     ``stiffen``: the phases' servo stiffness (:attr:`~wbc.balance.getup.Phase.stiffness`,
     written by the deployment through :meth:`~wbc.servos.bus.ServoBus.set_stiffness`;
     False: every phase at the configured stiffness).
-    ``supine``: also try the get-up from the back (experimental: it fails in the simulator,
-    benchmarks/getup.md); without it a robot on its back is left lying, and the result says
-    so."""
+    ``supine=False``: a robot on its back is left lying (the result says so)."""
     from ..servos.bus import WALL_CLOCK
     from ..servos.playback import DeployConfig, Deployment
     from ..servos.sources import CallableSource

@@ -9,6 +9,7 @@ over randomised models.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import pinocchio as pin
@@ -47,19 +48,30 @@ def getup_sim(
     replan: bool = True,
     compensate: float = 1.0,
     stiffen: bool = True,
+    watch: Callable[[Any], None] | None = None,
+    out: Callable[[str], None] = lambda _line: None,
 ) -> dict[str, Any]:
     """Drop the simulated robot on ``side``, get it up, judge it (module docstring): the
     record (``success``, ``reason``, ``duration_s``, ``phases``, ``plan_failures``).
-    ``supine``: try the (experimental) get-up from the back too; ``replan=False``: open
+    ``supine=False``: leave a robot on its back lying; ``replan=False``: open
     loop, ``compensate`` the compliance feed-forward's gain, ``stiffen=False`` the phases
     at the configured servo stiffness (:func:`~wbc.balance.getup_play.get_up`); the record's
-    ``trunk_deg``: the torso's elevation at the start of each phase played."""
-    sim, bus, imu = make_sim(robot, variation, rate)
+    ``trunk_deg``: the torso's elevation at the start of each phase played. ``watch(sim)``
+    is called after every control tick of the get-up (the simulation), ``out`` gets the
+    get-up's lines (the phases as they start)."""
+    holder: list[Any] = []
+
+    def on_tick() -> None:
+        if watch is not None and holder:
+            watch(holder[0])
+
+    sim, bus, imu = make_sim(robot, variation, rate, on_tick=on_tick if watch else None)
+    holder.append(sim)
     drop(sim, robot, side, yaw)
     t0 = sim.time
     try:
         res = get_up(bus, imu, robot, joints=sim.q()[7:], params=params, rate=rate,
-                     out=lambda _line: None, supine=supine, replan=replan,
+                     out=out, supine=supine, replan=replan,
                      compensate=compensate, stiffen=stiffen)  # fmt: skip
     except WbcError as exc:
         return {"side": side, "success": False, "reason": f"error: {exc}", "duration_s": None,
