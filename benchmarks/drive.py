@@ -91,10 +91,10 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None,
-            calibrate: float | None = None, **kw):  # fmt: skip
+            calibrate: float | None = None, track: bool = True, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
-    options = {"compensate": gain, "correct": correct}
+    options = {"compensate": gain, "correct": correct, "track": track}
     if calibrate is not None:
         options["calibrate_s"] = calibrate
     if limits is not None:
@@ -150,6 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scripted", action="store_true")
     ap.add_argument("--only", nargs="*", help="--scripted: these scripts only")
     ap.add_argument("--random", type=int, default=0, metavar="N")
+    ap.add_argument("--first", type=int, default=0, metavar="I",
+                    help="--random: sequences I .. I+N-1 (a set split over processes)")  # fmt: skip
     ap.add_argument("--models", type=int, default=20)
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--envelope", action="store_true")
@@ -164,6 +166,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-correct", dest="correct", action="store_false",
                     help="the compliance feed-forward on the model alone (no per-servo scale "
                          "from the encoders, Walker(correct=False))")  # fmt: skip
+    ap.add_argument("--no-track", dest="track", action="store_false",
+                    help="no outer loop on the IMU-aided pose odometry (Walker(track=False): "
+                         "the steps aim from the legs' odometry alone)")  # fmt: skip
     ap.add_argument(
         "--calibrate",
         type=float,
@@ -180,10 +185,15 @@ def main(argv: list[str] | None = None) -> int:
           f"{100 * limits.vx_backward:.2f} cm/s, sideways {100 * limits.vy:.2f} cm/s, turning "
           f"{math.degrees(limits.wz):.1f} deg/s", flush=True)  # fmt: skip
     record: dict = {"robot": robot.name, "solver": args.solver, "limits": limits.as_dict(),
-                    "argv": sys.argv[1:], "correct": args.correct,
+                    "argv": sys.argv[1:], "correct": args.correct, "track": args.track,
                     "compensate": args.compensate}  # fmt: skip
     paths = {}
-    loop = {"correct": args.correct, "compensate": args.compensate, "calibrate": args.calibrate}
+    loop = {
+        "correct": args.correct,
+        "compensate": args.compensate,
+        "calibrate": args.calibrate,
+        "track": args.track,
+    }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
         record["tick"] = tick_cost(robot, solvers)
@@ -213,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.random:
         runs = []
         share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
-        for i in range(args.random):
+        for i in range(args.first, args.first + args.random):
             cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
                                    args.duration)  # fmt: skip
             for k, v in enumerate(variations):

@@ -1,15 +1,32 @@
-"""Where a driven walk's displacement goes: per random command sequence and randomised model
-(as ``benchmarks/drive.py --random``), the commanded displacement, the engine's planned
-walking frame, the planned frame plus the leg odometry's landing offsets
-(``WalkEngine.odometry_offset``) and the simulated base's, all in the start frame; and the
-mean landing error. benchmarks/drive.md (the random sequences) quotes it::
+"""Where a driven walk's displacement and heading errors come from: per random command
+sequence and randomised model (as ``benchmarks/drive.py --random``), the final error of the
+base (travelled − commanded, start frame) split into measured causes, from the simulator's
+ground truth sampled every control tick:
 
-    nice -n 5 python benchmarks/drive_odometry.py --sequences 0 4 --models 5 1
+* ``plan``: the engine's own lag — its planned walking frame (+ the odometry's offset, moved
+  to the commanded point, :attr:`WalkEngine.origin`) against the commanded pose at the end
+  (start and stop transients, make-up capped by ``catch_up`` and the limits);
+* ``swing``: the soles' motion while swinging against the plan's (step length and turn
+  short of the plan: the servos' compliance; the encoders see it);
+* ``slip``: the soles' motion while in contact (sliding and turning on the floor: the
+  encoders cannot see it, the gyro sees the turn);
+* ``base``: the base against where the soles' midpoint puts it (``origin``) at the end (a
+  torso twisted or leaning over the standing feet);
+* ``origin``: for comparison, what the error would be had the command moved the soles'
+  midpoint and the base been measured (the start-frame convention of ``commanded_xy_m`` before
+  the command moved the base): |(R(θ) − I) b| for the base offset ``b`` and the turn ``θ``;
+* ``gyro``: the Walker's IMU heading (:class:`wbc.drive.odometry.PoseOdometry`) against the
+  simulated torso's at the end.
+
+Headings in degrees, displacements in cm. benchmarks/drive.md quotes it::
+
+    nice -n 5 python benchmarks/drive_odometry.py --sequences 0 1 2 3 --models 0 1 2 3
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -24,7 +41,71 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
+from wbc.geometry import mean_angle, wrap_angle
+from wbc.types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking.geometry import rot2
+
+
+def _yaw(R: np.ndarray) -> float:
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
+    """The error's causes of one run (module docstring); ``rows``: per tick t, the soles'
+    (x, y, yaw), the base's (x, y, yaw), the support code, the walker's gyro heading and
+    the torso's yaw."""
+    e = walker.engine
+    Rs = rot2(yaw0).T
+    out: dict = {}
+    walking = np.isfinite(rows[:, 11])
+    k0 = int(np.argmax(walking)) if walking.any() else 0
+    cmd = np.asarray(run["commanded_xy_m"])
+    # the engine's plan (+ odometry) of the commanded point, start frame
+    c0 = walker.start_frame
+    origin_w = lambda c: c[:2] + rot2(c[2]) @ e.origin  # noqa: E731
+    plan = e._centre + e.odometry_offset
+    planned = rot2(c0[2]).T @ (origin_w(plan) - origin_w(c0))
+    out["plan_cm"] = 100 * float(np.linalg.norm(planned - cmd))
+    out["plan_deg"] = math.degrees(wrap_angle(plan[2] - c0[2] - run["commanded_yaw_rad"]))
+    sup = rows[:, 10].astype(int)
+    swing_xy, slip_xy, swing_yaw, slip_yaw, planned_xy, planned_yaw = [], [], [], [], [], []
+    for col, side, own in ((1, "left", SUPPORT_LEFT), (4, "right", SUPPORT_RIGHT)):
+        xy, yaw = rows[k0:, col : col + 2], np.unwrap(rows[k0:, col + 2])
+        s = sup[k0:]
+        contact = (s == SUPPORT_DOUBLE) | (s == own)
+        both = contact[1:] & contact[:-1]
+        d, dy = np.diff(xy, axis=0), np.diff(yaw)
+        slip_xy.append(Rs @ d[both].sum(0))
+        swing_xy.append(Rs @ d[~both].sum(0))
+        slip_yaw.append(dy[both].sum())
+        swing_yaw.append(dy[~both].sum())
+        steps = [s_ for s_ in e.planned if s_.side == side]
+        if steps:
+            first = rows[k0, col : col + 3]
+            planned_xy.append(Rs @ (steps[-1].xy - first[:2]))
+            turns = np.diff([first[2]] + [s_.yaw for s_ in steps])
+            planned_yaw.append(float(np.sum(wrap_angle(turns))))
+        else:
+            planned_xy.append(np.zeros(2))
+            planned_yaw.append(0.0)
+    out["swing_cm"] = 100 * float(np.linalg.norm(np.mean(swing_xy, 0) - np.mean(planned_xy, 0)))
+    out["slip_cm"] = 100 * float(np.linalg.norm(np.mean(slip_xy, 0)))
+    out["swing_deg"] = math.degrees(np.mean(swing_yaw) - np.mean(planned_yaw))
+    out["slip_deg"] = math.degrees(np.mean(slip_yaw))
+    # the base against the soles' midpoint + origin at the end
+    last = rows[-1]
+    mid_yaw = mean_angle(last[3], last[6])
+    mid = 0.5 * (last[1:3] + last[4:6]) + rot2(mid_yaw) @ e.origin
+    out["base_cm"] = 100 * float(np.linalg.norm(last[7:9] - mid))
+    out["base_deg"] = math.degrees(wrap_angle(last[9] - mid_yaw))
+    theta = run["travelled_yaw_rad"]
+    out["origin_cm"] = 100 * float(np.linalg.norm((rot2(theta) - np.eye(2)) @ e.origin))
+    gyro = rows[:, 11]
+    ok = np.isfinite(gyro)
+    if ok.any():
+        torso = np.unwrap(rows[ok, 12])
+        out["gyro_deg"] = math.degrees((gyro[ok][-1] - gyro[ok][0]) - (torso[-1] - torso[0]))
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,13 +114,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--models", type=int, nargs="+", default=[0])
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--no-track", dest="track", action="store_false",
+                    help="the walker without its outer loop on the IMU-aided pose")  # fmt: skip
+    ap.add_argument("--calibrate", type=float, default=None, metavar="S",
+                    help="the IMU's rest before the walk (default: the Walker's)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
     share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
     variations = models(robot, max(args.models) + 1, args.seed)
     walkers: list = []
-    base = drive_sim_module.Walker
+    odometers: list = []
+    base, odometer = drive_sim_module.Walker, drive_sim_module.Odometer
 
     class Recorded(base):  # the run's walker, kept for its engine
         def __init__(self, *a, **k) -> None:
@@ -47,25 +133,57 @@ def main(argv: list[str] | None = None) -> int:
             walkers.append(self)
             self.start_frame = self.engine._centre.copy()
 
+    class Sampled(odometer):  # the soles, base, support and headings every tick
+        def __init__(self, sim) -> None:
+            super().__init__(sim)
+            self.rows: list[list[float]] = []
+            odometers.append(self)
+
+        def __call__(self) -> None:
+            super().__call__()
+            sim, w = self.sim, walkers[-1]
+            row = [sim.time]
+            for frame in ("l_sole", "r_sole"):
+                M = sim.site_pose(frame)
+                row += [M.translation[0], M.translation[1], _yaw(M.rotation)]
+            row += [*sim.q()[:2], _yaw(sim.base_rotation())]
+            row.append(w.last.support if w.last is not None else -1)
+            odo = w.odometry
+            row.append(odo.heading if odo is not None and odo.started else math.nan)
+            row.append(_yaw(sim.site_pose("torso").rotation))
+            self.rows.append(row)
+
     drive_sim_module.Walker = Recorded
+    drive_sim_module.Odometer = Sampled
+    keys = ("plan", "swing", "slip", "base", "origin")
+    table = []
     for i in args.sequences:
         cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
                                args.duration)  # fmt: skip
         for m in args.models:
             walkers.clear()
+            odometers.clear()
             r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
-                              window=window)  # fmt: skip
-            e = walkers[0].engine
-            c0 = walkers[0].start_frame
-            R = rot2(c0[2]).T
-            plan = R @ (e._centre[:2] - c0[:2])
-            odo = plan + R @ e.odometry_offset
+                              window=window, track=args.track,
+                              calibrate=args.calibrate)  # fmt: skip
+            b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
+            table.append(b)
+            cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
             print(f"sequence {i} model {m}: fell {r['fell']} commanded "
-                  f"{np.round(r['commanded_xy_m'], 3)} planned {np.round(plan, 3)} planned + "
-                  f"odometry {np.round(odo, 3)} base {np.round(r['travelled_xy_m'], 3)} m; "
-                  f"error {100 * r['xy_error_m']:.1f} cm; mean landing error "
-                  f"{1000 * np.mean(e.landing_errors):.1f} mm over {r['steps']} steps",
+                  f"{np.round(r['commanded_xy_m'], 3)} m {cy:.0f}° travelled "
+                  f"{np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°: error "
+                  f"{100 * r['xy_error_m']:.1f} cm, {ty - cy:+.1f}°; "
+                  + ", ".join(f"{k} {b[k + '_cm']:.1f} cm" for k in keys)
+                  + "; " + ", ".join(f"{k} {b[k + '_deg']:+.1f}°"
+                                     for k in ("plan", "swing", "slip", "base", "gyro")
+                                     if k + "_deg" in b),
                   flush=True)  # fmt: skip
+    if len(table) > 1:
+        print("mean |.|: " + ", ".join(
+            f"{k} {np.mean([abs(b[k]) for b in table if k in b]):.1f}"
+            for k in [f"{k}_cm" for k in keys]
+            + [f"{k}_deg" for k in ("plan", "swing", "slip", "base", "gyro")]
+            if any(k in b for b in table)))  # fmt: skip
     return 0
 
 

@@ -178,7 +178,7 @@ def test_short_landings_are_caught_up(setup) -> None:
     e.start()
     for _ in range(round(10.0 / e.dt)):
         e.tick()
-    assert e.odometry_offset == pytest.approx(offset)
+    assert e.odometry_offset == pytest.approx([*offset, 0.0])  # (x, y, heading: none here)
     real = 0.5 * (e.feet["left"].x + e.feet["right"].x) + offset[0]
     commanded = e._pose_cmd[0]
     assert offset[0] < -0.05  # the short landings add up
@@ -284,3 +284,43 @@ def test_stop_from_standing_and_bad_params(setup) -> None:
         EngineParams(horizon_steps=0).check()
     with pytest.raises(ConfigurationError, match="transfer"):
         EngineParams(transfer=0.0).check()
+
+
+def test_the_command_moves_the_origin(setup) -> None:
+    """The commanded pose is the ``origin``'s (a Walker's: the base, ahead of the soles'
+    midpoint): turning on the spot the walking frame circles the origin, which stays put,
+    instead of the origin circling the soles' midpoint (2 |b| sin(θ/2) off: 3.6 cm at a
+    half turn for the Bioloid's base). (The frame's sideways motion is a make-up: within
+    ``catch_up`` and the room the limits leave, so at 0.6 of the turning limit here.)"""
+    b = np.array([0.02, 0.0])
+    moved = {}
+    for origin in (b, np.zeros(2)):
+        e = engine(setup)
+        e.origin[:] = origin
+        c0 = e._centre.copy()
+        rollout(e, [(6.0, 0.0, 0.0, 0.3)])
+        c = e._centre
+        assert abs(wrap_angle(c[2] - c0[2])) > 1.7  # turned nearly 100°
+        point = lambda f: f[:2] + np.array([[math.cos(f[2]), -math.sin(f[2])],  # noqa: E731
+                                            [math.sin(f[2]), math.cos(f[2])]]) @ b  # fmt: skip
+        moved[origin[0]] = float(np.linalg.norm(point(c) - point(c0)))
+    assert moved[0.02] < 0.008  # the base stayed over its start (to the closing step)
+    assert moved[0.0] > 0.025  # (it circled the soles' midpoint)
+
+
+def test_a_heading_offset_turns_the_steps(setup) -> None:
+    """The odometry's heading (``odometry_offset[2]``: the body 0.1 rad right of its plan,
+    e.g. a stance sole turned on the floor, seen by a gyro) is made up like its position: walking
+    straight on, the plan turns 0.1 rad left so that the body heads as commanded."""
+    e = engine(setup)
+    e.command(0.04, 0.0, 0.0)
+    e.start()
+    for _ in range(round(1.0 / e.dt)):
+        e.tick()
+    e.odometry_offset[2] = -0.1
+    for _ in range(round(5.0 / e.dt)):
+        e.tick()
+    assert e._centre[2] == pytest.approx(0.1, abs=0.005)
+    assert max(abs(s.yaw) for s in e.planned) < 0.101  # (no overshoot)
+    yaws = [s.yaw for s in e.planned]
+    assert np.max(np.diff(yaws)) < 0.025  # gently, within catch_up

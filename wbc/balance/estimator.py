@@ -10,8 +10,13 @@ the predicted "up" direction toward the accelerometer's specific force::
     R ← R · Exp((ω + k_a · (u_m × u_p)) · dt)     u_m = a/|a|,  u_p = Rᵀ e_z
 
 (``k_a`` the tilt gain, 1/s; the correction is skipped when |a| is not within 20 % of g,
-i.e. during impacts). Only roll and pitch are observable this way; the heading (yaw) is taken
-from the encoders (below), so a gyro's yaw drift never reaches the controller, unless
+i.e. during impacts). With ``bias_gain`` ``k_b`` > 0 the correction's integral is added to
+the gyro (Mahony's filter: ``b ← b + k_b (u_m × u_p) dt``, ``ω + b`` everywhere the gyro is
+used): the bias the calibration at rest left about the horizontal axes, which otherwise
+tilts the estimate by ``b / k_a`` for good (a robot rocking at rest: 0.05 rad/s, 14° on a
+randomised Bioloid, benchmarks/drive.md). Only roll and pitch are observable this way;
+the heading (yaw) is taken from the encoders (below), so a gyro's yaw drift never reaches
+the controller, unless
 ``gyro_heading`` (the integrated gyro's heading: it sees the feet's yaw slip, and drifts
 with the gyro's bias).
 
@@ -58,8 +63,9 @@ SOLE_FRAMES = ("l_sole", "r_sole")
 # columns of a joint's row in the kinematic table (StateEstimator._joints)
 _R, _P, _AXIS, _LEVER, _MASS, _WIDTH = 0, 9, 12, 15, 18, 19
 # the filter's state (StateEstimator._state): torso rotation, has-rotation flag, CoM relative
-# to each sole at the last tick, their validity flags, the CoM velocity
-_S_ROT, _S_HAS, _S_REL, _S_VALID, _S_VEL, _S_SIZE = 0, 9, 10, 16, 18, 21
+# to each sole at the last tick, their validity flags, the CoM velocity, the gyro's bias
+# correction learnt (``bias_gain``)
+_S_ROT, _S_HAS, _S_REL, _S_VALID, _S_VEL, _S_BIAS, _S_SIZE = 0, 9, 10, 16, 18, 21, 24
 
 
 class StateEstimate:
@@ -185,6 +191,7 @@ def _estimate(
     sole0, sole1, imu = select % 2, (select // 2) % 4 - 1, select >= 8
     tilt_gain, cutoff, omega0, gyro_heading, inv_mass = (
         consts[0], consts[1], consts[2], consts[3] > 0.5, consts[4])  # fmt: skip
+    bias_gain = consts[len(consts) - 1]
     torso_b = consts[5:14].reshape(3, 3)
     # forward kinematics in the base frame (base at the origin), body by body, written in
     # place (an allocation per small product would cost more than the kinematics)
@@ -257,16 +264,22 @@ def _estimate(
         state[_S_ROT:_S_HAS] = R.ravel()
         state[_S_HAS] = 1.0
         state[_S_VALID:_S_VEL] = 0.0
-        state[_S_VEL:_S_SIZE] = 0.0
+        state[_S_VEL:_S_BIAS] = 0.0
     if imu:
         R0 = state[_S_ROT:_S_HAS].reshape(3, 3)
         w = V[2]
         norm = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
         k = tilt_gain / norm if 0.8 * 9.80665 < norm < 1.2 * 9.80665 else 0.0
-        # ω + k (a × up),  up = R[2] = Rᵀ e_z: the world's up in the torso frame
-        w[0] = (gyro[0] + k * (acc[1] * R0[2, 2] - acc[2] * R0[2, 1])) * dt
-        w[1] = (gyro[1] + k * (acc[2] * R0[2, 0] - acc[0] * R0[2, 2])) * dt
-        w[2] = (gyro[2] + k * (acc[0] * R0[2, 1] - acc[1] * R0[2, 0])) * dt
+        # ω + b + k (a × up),  up = R[2] = Rᵀ e_z: the world's up in the torso frame; the bias
+        # correction b integrates (a × up)/|a| × bias_gain (Mahony's integral term)
+        kb = bias_gain * dt * k / tilt_gain
+        for i in range(3):
+            i1, i2 = (i + 1) % 3, (i + 2) % 3
+            cross = acc[i1] * R0[2, i2] - acc[i2] * R0[2, i1]
+            state[_S_BIAS + i] += kb * cross
+            w[i] = gyro[i] + state[_S_BIAS + i]
+            V[3, i] = (w[i] + k * cross) * dt
+        w[:] = V[3]
         exp3_into(w, Ex)
         mul33_into(R0, Ex, R)
         if not gyro_heading:  # keep the filter's tilt, the heading of the kinematics
@@ -278,7 +291,8 @@ def _estimate(
                 R[0, j] = c * x - sn * y
                 R[1, j] = sn * x + c * y
         mul33t_into(R, torso_b, R_base)
-        out[7] = gyro
+        for i in range(3):
+            out[7, i] = gyro[i] + state[_S_BIAS + i]
     else:
         R_base[:] = R_kin
         mul33_into(R_base, torso_b, R)
@@ -295,7 +309,7 @@ def _estimate(
             # CoM relative to the sole: R_base (ᵇc − ᵇp_sole)
             V[4 + s, i] = (R_base[i, 0] * (com_b[0] - sp[0]) + R_base[i, 1] * (com_b[1] - sp[1])
                            + R_base[i, 2] * (com_b[2] - sp[2]))  # fmt: skip
-    vel = state[_S_VEL:_S_SIZE]
+    vel = state[_S_VEL:_S_BIAS]
     alpha = math.exp(-2.0 * math.pi * cutoff * dt) if dt > 0 else 0.0
     common = 0
     for s in range(count):  # the stance soles also in support at the last tick
@@ -360,7 +374,9 @@ class StateEstimator:
 
     ``com_height`` (m) sets ω₀; ``tilt_gain`` (1/s) is the accelerometer's pull on the
     orientation; ``velocity_cutoff`` (Hz) the CoM velocity filter; ``use_imu=False``:
-    encoders only.
+    encoders only. ``bias_gain`` (1/s², 0: off) learns the gyro's remaining bias about the
+    horizontal axes (module docstring): a bias error ``b`` left by the calibration at rest
+    otherwise tilts the estimate by ``b / tilt_gain`` for good.
     """
 
     def __init__(
@@ -371,6 +387,7 @@ class StateEstimator:
         tilt_gain: float = 0.2,
         velocity_cutoff: float = 6.0,
         gyro_heading: bool = False,
+        bias_gain: float = 0.0,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -381,6 +398,11 @@ class StateEstimator:
                 raise ConfigurationError(
                     f"state estimator: {name} must be a finite number > 0, got {v}"
                 )
+        if not (np.isfinite(bias_gain) and bias_gain >= 0):
+            raise ConfigurationError(
+                f"state estimator: bias_gain must be a finite number >= 0, got {bias_gain}"
+            )
+        self.bias_gain = float(bias_gain)
         self.robot = robot
         self.omega0 = float(np.sqrt(GRAVITY / com_height))
         self.use_imu = use_imu
@@ -394,7 +416,7 @@ class StateEstimator:
         table, links, soles = _kinematic_table(robot)
         consts = np.r_[
             self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
-            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles,
+            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, self.bias_gain,
         ]  # fmt: skip
         # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and
         # gyro_heading are fixed at construction)
@@ -413,7 +435,7 @@ class StateEstimator:
     @property
     def com_vel(self) -> np.ndarray:
         """The filtered CoM velocity (m/s)."""
-        return self._state[_S_VEL:_S_SIZE].copy()
+        return self._state[_S_VEL:_S_BIAS].copy()
 
     def restart(self) -> None:
         """Start the filter again at the next update, from the kinematics' rotation (the

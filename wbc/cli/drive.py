@@ -63,6 +63,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-correct", dest="correct", action="store_false",
         help="no per-servo correction of the feed-forward from the encoders",
     )  # fmt: skip
+    parser.add_argument(
+        "--no-track", dest="track", action="store_false",
+        help="no outer loop on the IMU-aided pose (the steps aim from the legs' odometry alone)",
+    )  # fmt: skip
     add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
         "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
@@ -164,7 +168,8 @@ def run(args: argparse.Namespace) -> int:
         imu = make_imu(args, bus)
     print("wbc drive: measuring the velocity limits and the balance window on the model ...")
     walker = Walker(robot, controller, imu, closed=not args.open_loop,
-                    compensate=args.compensate, correct=args.correct)  # fmt: skip
+                    compensate=args.compensate, correct=args.correct,
+                    track=args.track)  # fmt: skip
     lim = walker.limits
     print(
         f"limits: forward {100 * lim.vx_forward:.1f} cm/s, backward {100 * lim.vx_backward:.1f} "

@@ -30,8 +30,10 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
+from ..geometry import wrap_angle
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -40,18 +42,22 @@ from ..servos.config import DeployConfig
 from ..servos.playback import Deployment
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
 from ..walking.footsteps import Footstep
-from ..walking.geometry import Foot
+from ..walking.geometry import Foot, rot2
 from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets, heading_free
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
+from .odometry import PoseOdometry
 
 #: the feedback gains of driven walks: the closed loop's defaults without the hip strategy
 #: (``k_hip``: the torso rolled toward a DCM outward of the stance sole, for pushes). Walking
 #: sideways the DCM runs outward by design: with it a randomised Bioloid fell at 3 cm/s
 #: sideways (models 0 and 1 of benchmarks/drive.md at 3.1–3.8 s), without it both walked the
-#: commanded 15 cm
-DRIVE_GAINS = Gains(k_hip=0.0)
+#: commanded 15 cm. Keyed by the outer loop (``Walker(track=...)``): with it, no heading
+#: feedback on the torso either (``k_yaw``: the torso held at the planned heading by the
+#: gyro; the outer loop turns the plan to steer the real feet, so the torso would twist
+#: against them)
+DRIVE_GAINS = MappingProxyType({True: Gains(k_hip=0.0, k_yaw=0.0), False: Gains(k_hip=0.0)})
 
 #: the AX-12A compliance feed-forward's gain for driven walks: with the encoders' correction
 #: (``Walker(correct=True)``) 0.75, without it issue 30's 0.5 (benchmarks/drive.md: on the
@@ -75,6 +81,10 @@ DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 #: errors alike; why is not traced: the stiff, lightly damped models rock at rest, ±3° in
 #: pitch on model 0, so what any rest samples depends on its length)
 DRIVE_CALIBRATE_S = 0.3
+
+#: the state estimate's settings for driven walks (:class:`~wbc.balance.estimator.
+#: StateEstimator`)
+DRIVE_ESTIMATOR = MappingProxyType({"bias_gain": 0.05})
 
 
 def default_compensate(robot: Robot | None = None, correct: bool = True) -> float:
@@ -113,7 +123,13 @@ class Walker:
     ``gains``: the feedback (default :data:`DRIVE_GAINS`). ``calibrate_s``: with an IMU and
     the closed loop, the first ``calibrate_s`` s stand at rest for the IMU's start-up
     calibration (gyro bias, levelling; as ``wbc deploy``'s closed loop), a :meth:`start`
-    waiting for its end (0: none).
+    waiting for its end (0: none). ``track`` (with an IMU, closed loop): the outer loop —
+    the steps aim the commanded pose from where :class:`~wbc.drive.odometry.PoseOdometry`
+    (the gyro's heading, the encoders' landings) puts the body, heading included, instead of
+    the legs' odometry alone (which cannot see a stance sole turning on the floor); the
+    torso then gets no heading feedback (:data:`DRIVE_GAINS`). The command moves the base
+    (:attr:`WalkEngine.origin <wbc.walking.engine.WalkEngine.origin>`: turning on the spot
+    turns about the base, as ``commanded_xy_m`` counts it), not the soles' midpoint.
     """
 
     def __init__(
@@ -130,6 +146,7 @@ class Walker:
         q0: np.ndarray | None = None,
         calibrate_s: float = DRIVE_CALIBRATE_S,
         correct: bool = True,
+        track: bool = True,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -156,6 +173,9 @@ class Walker:
             limits = VelocityLimits.from_robot(robot, params, window, legs, foot)
         self.engine = WalkEngine(StandingState.from_robot(robot, q0), params, limits, foot, legs,
                                  window)  # fmt: skip
+        # the command moves the base (the issue's "base displacement"), not the soles' midpoint
+        centre = self.engine._centre
+        self.engine.origin[:] = rot2(centre[2]).T @ (q0[:2] - centre[:2])
         self.compensate = float(compensate)
         self.correct = bool(correct)
         self.q = q0.copy()
@@ -166,11 +186,18 @@ class Walker:
         #: :meth:`deployment` (or by a caller's own loop)
         self.present: Callable[[], np.ndarray | None] = lambda: None
         rest = round(calibrate_s / self.engine.dt) if closed and imu is not None else 0
+        track = bool(track and closed and imu is not None)
+        gains = (gains or DRIVE_GAINS[track]).check()
+        estimator = StateEstimator(robot, self.engine.height, use_imu=imu is not None,
+                                   gyro_heading=gains.k_yaw > 0, **DRIVE_ESTIMATOR)  # fmt: skip
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
-                                     gains or DRIVE_GAINS, closed,
+                                     gains, closed, estimator,
                                      calibration_ticks=rest)  # fmt: skip
         self._deferred_start = False  # start() asked during the calibration at rest
         self.engine.on_landing = self._landed if closed else None
+        #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
+        self.odometry = PoseOdometry(robot) if track else None
+        self._offset: np.ndarray | None = None  # measured − planned frame at the last landing
         self.last: EngineTick | None = None
         self._previous: tuple[str, str, str] | None = None
         self._t = 0.0  # engine time of the last solve
@@ -237,6 +264,12 @@ class Walker:
         rel = M_st.actInv(M_sw)
         dyaw = math.atan2(rel.rotation[1, 0], rel.rotation[0, 0])
         xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
+        odo = self.odometry
+        if odo is not None and odo.started:
+            measured = odo.landed(step.side, q)
+            off = measured - self.engine._centre
+            off[2] = wrap_angle(off[2])
+            self._offset = off
         return Footstep(step.side, float(xy[0]), float(xy[1]), stance.yaw + dyaw, step.z)
 
     # ------------------------------------------------------------------ ticks
@@ -268,6 +301,9 @@ class Walker:
         e = self.last
         while e is None or engine.k * engine.dt < target_t - 1e-9:
             e = engine.tick()
+            if self._offset is not None:  # the measured pose replaces the engine's own sum
+                engine.odometry_offset[:] = self._offset
+                self._offset = None
         self.last = e
         self._t = target_t
         targets = self.targets(e)
@@ -277,6 +313,14 @@ class Walker:
         stab = self.stabilizer
         if stab.enabled:
             targets = stab.adjust(targets, e.com_vel, self.q, dt)
+            odo = self.odometry
+            if odo is not None and stab.last is not None and not stab.calibrating:
+                est = stab.last
+                if engine.walking and not odo.started:
+                    odo.start(engine.feet, math.atan2(est.rotation[1, 0], est.rotation[0, 0]))
+                elif not engine.walking and odo.started:
+                    odo.stop()
+                odo.turn(est.rotation, est.angular_velocity, dt)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
         except WbcError:

@@ -326,10 +326,14 @@ class WalkEngine:
         #: limits and ran at half the commanded rate)
         self.on_landing: Callable[[Footstep], Footstep | None] | None = None
         self.landing_errors: list[float] = []  # m, |measured − planned| of each landing
-        #: leg odometry's offset (x, y; world, m): the sum of the measured landings' offsets
-        #: from their plans since :meth:`start` — where the body really is is the walking
-        #: frame plus it, and the steps aim the commanded pose from there
-        self.odometry_offset = np.zeros(2)
+        #: odometry's offset (x, y, heading; world, m and rad): where the body really is is
+        #: the walking frame plus it, and the steps aim the commanded pose from there. The
+        #: engine sums the measured landings' xy offsets from their plans since :meth:`start`;
+        #: a caller with a better estimate (the Walker's IMU-aided odometry) overwrites it
+        self.odometry_offset = np.zeros(3)
+        #: the point the command moves (x, y in the walking frame, m; default the soles'
+        #: midpoint): the commanded pose is this point's, e.g. the Walker's base
+        self.origin = np.zeros(2)
 
     # ------------------------------------------------------------------ commands
     @property
@@ -449,8 +453,8 @@ class WalkEngine:
         step latency lost, so the walk covers the commanded displacement."""
         T = self.params.timing.step_time
         target = _advance_pose(self._pose_cmd, self._cmd, ahead)
-        c = self._centre.copy()
-        c[:2] += self.odometry_offset  # where the body is (leg odometry), not where planned
+        target[:2] -= rot2(target[2]) @ self.origin  # the walking frame under that origin
+        c = self._centre + self.odometry_offset  # where the body is (odometry), not planned
         d = rot2(c[2]).T @ (target[:2] - c[:2])
         v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
         cmd = np.asarray(self._cmd)
@@ -551,7 +555,7 @@ class WalkEngine:
         if not (err <= MAX_LANDING_ERROR and dyaw <= MAX_LANDING_ERROR):
             return step
         self.landing_errors.append(err)
-        self.odometry_offset += landed.xy - step.xy
+        self.odometry_offset[:2] += landed.xy - step.xy
         return Footstep(step.side, landed.x, landed.y, step.yaw, step.z)
 
     def _anchor(self, step: Footstep) -> np.ndarray:
@@ -629,6 +633,7 @@ class WalkEngine:
                 self._next_side = "left" if lead > 0 else "right"
                 self._centre = self._mid_frame()
                 self._pose_cmd = self._centre.copy()
+                self._pose_cmd[:2] += rot2(self._centre[2]) @ self.origin
                 self.odometry_offset[:] = 0.0
                 self._replan("start")
                 return True

@@ -1,0 +1,87 @@
+"""Where a driven robot really is: the body's pose from the torso IMU's heading and the
+encoders, for the walk engine's outer loop (:attr:`wbc.walking.engine.WalkEngine.odometry_offset`).
+
+The encoders alone (the engine's own leg odometry) see where each swing sole lands relative
+to the stance sole, but not a stance sole turning on the floor: a rotational slip of a few
+tenths of a degree per step turns the whole path, and the feet's heading with it. The torso
+IMU's gyro sees it. :class:`PoseOdometry` keeps each sole's pose in the walk's world frame:
+
+* the torso's heading ``ψ`` integrates the calibrated gyro ``ω`` (torso frame) on the
+  estimated tilt (:meth:`PoseOdometry.turn`; the estimate's own heading is the encoders',
+  planned soles assumed), from the estimate's heading when the walk starts;
+* at each landing (the end of the double support that follows it) the stance sole's heading
+  is the torso's plus the torso-to-sole yaw of the present joints (forward kinematics), its
+  position where it landed (a sole standing on the floor is taken not to slide: the encoders
+  cannot see a slide, the gyro only a turn); the landed sole is placed from the stance sole
+  by the present joints;
+* the walking frame measured is the soles' midpoint, heading their mean.
+
+The error left is the gyro's bias after the calibration at rest (benchmarks/drive.md: rms
+0.004 rad/s on the randomised Bioloids, ~7° over 30 s) and the soles' sliding.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..balance.estimator import exp3
+from ..geometry import mean_angle, wrap_angle
+from ..model import Robot
+from ..roles import SOLE_FRAMES
+from ..walking.footsteps import Footstep, Side, other_side
+from ..walking.geometry import rot2
+
+
+def _yaw(R: np.ndarray) -> float:
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+class PoseOdometry:
+    """Pose odometry of a walking robot from the torso heading and the encoders (module
+    docstring). :meth:`start` at the walk's start, :meth:`turn` every tick, :meth:`landed`
+    at each landing."""
+
+    def __init__(self, robot: Robot, gyro: bool = True) -> None:
+        self.robot = robot
+        self.gyro = gyro  # False: the stance sole keeps its landed heading (encoders alone)
+        self.heading = 0.0  # the torso's heading (rad, world), gyro-integrated
+        self.soles: dict[Side, np.ndarray] = {}  # side -> (x, y, heading), world
+        self.started = False
+
+    def start(self, feet: dict[Side, Footstep], torso_heading: float) -> None:
+        """Start from the soles' planned placements and the torso's estimated heading."""
+        self.soles = {side: np.array([f.x, f.y, f.yaw]) for side, f in feet.items()}
+        self.heading = float(torso_heading)
+        self.started = True
+
+    def stop(self) -> None:
+        self.started = False
+
+    def turn(self, rotation: np.ndarray, rate: np.ndarray, dt: float) -> None:
+        """One tick of the heading: ``rotation`` the torso's estimated (3, 3) rotation (its
+        tilt used, its heading not), ``rate`` the calibrated gyro (rad/s, torso frame): the
+        heading of ``Rz(ψ) · T · Exp(ω dt)`` with ``T`` the tilt (not ``ψ += (R ω)_z dt``: a
+        torso leaning forward while it rocks sideways changes its heading by more than the
+        vertical rate's integral, ~20° over 30 s of walking, benchmarks/drive.md)."""
+        c, s = math.cos(_yaw(rotation)), math.sin(_yaw(rotation))
+        tilt = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ rotation
+        self.heading += _yaw(tilt @ exp3(np.asarray(rate, dtype=float) * dt))
+
+    def landed(self, side: Side, q: np.ndarray) -> np.ndarray:
+        """``side`` has landed (``q``: the configuration of the present joints): the soles'
+        poses updated; returns the walking frame measured (x, y, heading; world)."""
+        robot = self.robot
+        stance = other_side(side)
+        M_t = robot.frame_placement(q, "torso")
+        M_st = robot.frame_placement(q, SOLE_FRAMES[stance])
+        M_sw = robot.frame_placement(q, SOLE_FRAMES[side])
+        st = self.soles[stance]
+        if self.gyro:
+            st[2] = self.heading + _yaw(M_t.actInv(M_st).rotation)
+        rel = M_st.actInv(M_sw)
+        xy = st[:2] + rot2(st[2]) @ rel.translation[:2]
+        self.soles[side] = np.array([xy[0], xy[1], wrap_angle(st[2] + _yaw(rel.rotation))])
+        sw = self.soles[side]
+        return np.array([0.5 * (st[0] + sw[0]), 0.5 * (st[1] + sw[1]), mean_angle(st[2], sw[2])])
