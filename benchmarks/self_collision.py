@@ -22,8 +22,14 @@ per-tick median / p99.
 :meth:`wbc.solvers.plan._Plan.forget_warm_start`), interleaved in the same rounds: the
 before / after of that change, side by side.
 
+``--slowest N``: also, per controller, the p99 of each tick's smallest time over the rounds
+(the machine's preemptions taken out: with 3 rounds a tick is slow in all three only by its
+own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; * a phase's
+first tick).
+
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
-[--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]``.
+[--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
+[--slowest 8]``.
 """
 
 from __future__ import annotations
@@ -126,6 +132,9 @@ def main() -> int:
     parser.add_argument(
         "--cold-too", action="store_true", help="also ours with every level started cold"
     )
+    parser.add_argument(
+        "--slowest", type=int, default=0, help="the p99 of the per-tick minima, N slowest ticks"
+    )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -169,6 +178,7 @@ def table(robot, trajectory: str, args) -> None:
             tmp.name, margin, trigger
         )
     stats: dict[str, list[tuple]] = {k: [] for k in makers}
+    times: dict[str, list[np.ndarray]] = {k: [] for k in makers}
     kin = Kinematics(robot)
     for _ in range(args.rounds):
         for name, make in makers.items():
@@ -176,6 +186,7 @@ def table(robot, trajectory: str, args) -> None:
             with every_level_cold() if name in cold else contextlib.nullcontext():
                 rec = run(controller, robot, ref)
             t = rec["solve_time"] * 1e6
+            times[name].append(t)
             closest = np.inf
             for q in rec.q:
                 kin.update(q)
@@ -223,6 +234,22 @@ def table(robot, trajectory: str, args) -> None:
             f" {p99 / placo_off[1]:.2f} | {med / placo_on:.2f} | {com:.3f} | {foot:.3f} |"
             f" {closest:.2f} | {fmt_back} | {fmt_exact} |"
         )
+    if args.slowest:
+        slowest(times, rec["support"], args.slowest)
+
+
+def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:
+    """Per controller: the p99 of each tick's smallest time over the rounds, and its n
+    slowest ticks (tick, µs, support; * the first tick of a support phase)."""
+    first = set((np.flatnonzero(support[1:] != support[:-1]) + 1).tolist())
+    print("\neach tick's smallest time over the rounds (preemptions out):")
+    for name, runs in times.items():
+        t = np.min(runs, axis=0)
+        ticks = ", ".join(
+            f"{i}{'*' if i in first else ''} {t[i]:.0f} ({support[i]})"
+            for i in np.argsort(t)[::-1][:n].tolist()
+        )
+        print(f"- {name}: median {np.median(t):.1f}, p99 {np.percentile(t, 99):.1f} µs; {ticks}")
 
 
 if __name__ == "__main__":
