@@ -33,8 +33,10 @@ h is C¹ at d = m and grows continuously to +∞ at d = T: the QP's solution is 
 (rows are left out while h exceeds ``UNREACHABLE``). The linearised margin holds (h(d) <= d − m)
 for d <= T − ξ (T − m); a pair crosses from beyond that point only if one tick closes more than
 (1 − ξ)(T − m) (9 mm with the defaults; one tick of hip roll at 6.2 rad/s moves a foot ~12 mm):
-targets must move at a bounded speed, as walking references do (the tests pull links together
-at <= 0.1 m/s and stay within 0.5 mm of the margin: a linearised tick's second order).
+targets must move at a bounded speed, as walking references do. The rows are first order: a
+step at servo speed bends a long chain's features up to ~1 mm past them, so the solvers check
+each step's end (:meth:`SelfCollisionConstraint.short_step`) and solve the tick again with the
+rows of a pair that falls short by more than :data:`SECOND_ORDER_TOL` tightened by that.
 
 Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
 margin for more than :data:`RECOVERY_TICKS` control ticks in a row (the hard tasks hold it:
@@ -52,7 +54,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import close_pairs, pack, packed_rows
+from .collision_kernels import close_pairs, pack, packed_rows, packed_shortfall
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -71,6 +73,9 @@ DEFAULT_SAMPLES = 600
 #: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
 RECOVERY_TOL = 5e-4
+#: a pair outside the margin may end a tick at most this far (m) short of what its rows
+#: promise (their second order; :meth:`SelfCollisionConstraint.short_step`)
+SECOND_ORDER_TOL = 1e-4
 
 
 class CollisionModel(NamedTuple):
@@ -608,12 +613,14 @@ class SelfCollisionConstraint(Constraint):
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
+        self._next: tuple | None = None  # (the frames at a step's end: short_step)
         #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
         self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
+        state["_packed"] = state["_next"] = None  # (addresses of this object's buffers: a
+        # copy re-packs)
         return state
 
     margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
@@ -727,6 +734,35 @@ class SelfCollisionConstraint(Constraint):
                 f"margin for more than {RECOVERY_TICKS} ticks in a row: the hard tasks hold "
                 "them there (start the robot with its links apart, or exclude the pair)"
             )
+
+    def short_step(self, q_next: np.ndarray) -> bool:
+        """After a solve on the rows of the last :meth:`compute`: True if a pair would end the
+        step at ``q_next`` more than :data:`SECOND_ORDER_TOL` closer than its rows promise
+        (:func:`~wbc.limits.collision_kernels.packed_shortfall`: the rows are first order),
+        its rows then tightened by the shortfall for the solver to solve again (the next
+        :meth:`compute` at another configuration, or after :meth:`forget_rows`, is afresh)."""
+        packed = self._packed
+        if packed is None or not self._n_close or not np.isfinite(self._rows_q[0]):
+            return False
+        if self._next is None:  # (a Kinematics for the step's end, its frames' views)
+            kin = Kinematics(self.distances.robot)
+            self._next = (kin, kin.frame_placements())
+        kin, frames = self._next
+        R, p = frames if frames is not None else self.distances.frames(kin)
+        args = (q_next, packed[0], packed[1], R, p, self._n_rows, SECOND_ORDER_TOL)
+        if not packed_shortfall(*args, False):
+            return False
+        pin.framesForwardKinematics(kin.model, kin.data, q_next)
+        if frames is None:  # (copies, made after the kinematics)
+            args = (q_next, packed[0], packed[1], *self.distances.frames(kin), *args[5:])
+        if not packed_shortfall(*args, True):
+            return False
+        self._rows = None  # (the copies: made again from the tightened rows)
+        return True
+
+    def forget_rows(self) -> None:
+        """The next :meth:`compute` computes its rows afresh, even at the same configuration."""
+        self._rows_q[:] = np.nan
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or
