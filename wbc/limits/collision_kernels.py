@@ -689,22 +689,22 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
 @njit(cache=True)
 def packed_shortfall(q_next, addresses, shapes, Rf, pf, rows, tol, exact) -> int:
     """After a solve on the rows of the last :func:`packed_rows` call (``rows`` of them): the
-    close pairs whose distance at ``q_next`` may fall short of what their rows promise, less
-    ``tol`` — d − h(d) outside the margin (:func:`damper_h`: m + (1 − ξ)(d − m) near it), d
-    inside (no deeper) — the rows are first order, and a step at servo speed bends a long
-    chain's features past them (the second order). A pair is cleared without its distance
-    when d − Σ_j L_jk |Δq_j| (the Lipschitz bound of :func:`close_pairs`) meets that.
-    ``exact`` False: returns how many are not cleared so; True (``Rf``, ``pf``: the frames at
-    ``q_next``): their exact distance there, every row of a pair that falls short tightened by
-    the shortfall (h −= it: the rows ask that much more of the next solve), and returns how
-    many fell short."""
+    close pairs whose distance at ``q_next`` may end more than ``tol`` inside the margin (or,
+    inside it already, deeper than they are) — the rows keep them out to first order only,
+    and a step at servo speed bends a long chain's features ~1 mm past them (the second
+    order). A pair is cleared without its distance when d − Σ_j L_jk |Δq_j| (the Lipschitz
+    bound of :func:`close_pairs`) stays out. ``exact`` False: returns how many are not cleared
+    so; True (``Rf``, ``pf``: the frames at ``q_next``): their distance there (the
+    separating-axis bound first, the exact distance if that does not clear it), every row of
+    a pair that falls short tightened by the shortfall (h −= it: the rows ask that much more
+    of the next solve), and returns how many fell short."""
     last_q = _f1(addresses, shapes, 0)
     L = _f2(addresses, shapes, 3)
     out_k = _i1(addresses, shapes, 15)
     out_d = _f1(addresses, shapes, 16)
     params = _f1(addresses, shapes, 25)
     n = _i1(addresses, shapes, 20)[2]
-    margin, trigger, damping = params[0], params[1], params[2]
+    margin = params[0]
     box_frame, box_R = _i1(addresses, shapes, 4), _f3(addresses, shapes, 5)
     box_p, half = _f2(addresses, shapes, 6), _f2(addresses, shapes, 7)
     pair_a, pair_b = _i1(addresses, shapes, 9), _i1(addresses, shapes, 10)
@@ -720,12 +720,11 @@ def packed_shortfall(q_next, addresses, shapes, Rf, pf, rows, tol, exact) -> int
     F = np.empty(SCRATCH)
     Iw = np.zeros(6, np.int64)
     p = np.empty((3, 3))
+    axis = np.empty(4)
     count = 0
     for i in range(n):
         d = out_d[i]
-        target = d - tol  # inside: no deeper (its rows ask it out; the hard tasks may not let)
-        if d >= margin:
-            target -= damper_h(d, margin, trigger, damping)
+        target = min(d, margin) - tol  # (inside: no deeper; the hard tasks may hold it there)
         k = out_k[i]
         moved = 0.0
         for j in range(L.shape[0]):
@@ -740,9 +739,11 @@ def packed_shortfall(q_next, addresses, shapes, Rf, pf, rows, tol, exact) -> int
             if not placed[g]:
                 placed[g] = True
                 place_box(g, Rf, pf, box_frame, box_R, box_p, Rw, cw)
-        d_next = _box_distance(
-            Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb], p[0], p[1], p[2], F, Iw
-        )
+        R1, c1, h1, R2, c2, h2 = Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb]
+        sat = separating_axis(R1, c1, h1, R2, c2, h2, axis)  # (a lower bound: often enough)
+        if sat >= target:
+            continue
+        d_next = exact_distance(R1, c1, h1, R2, c2, h2, axis, sat, p[0], p[1], p[2], F, Iw)
         if d_next < target:
             short[i] = target - d_next
             count += 1

@@ -208,7 +208,10 @@ class StackSolver(ABC):
                     self.kin.q, solution.dq, solution.lower, solution.upper, self._q_min,
                     self._q_max, q_next,
                 )  # fmt: skip
-            if not any([c.short_step(q_next) for c in checks]):  # (every one checks)
+            short = False
+            for c in checks:  # (every one checks: each tightens its own rows)
+                short = c.short_step(q_next) or short
+            if not short:
                 break
             tightened = True
             kept = Solution(*(None if a is None else a.copy() for a in solution))
