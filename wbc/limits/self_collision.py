@@ -72,8 +72,8 @@ DEFAULT_SAMPLES = 600
 #: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
 RECOVERY_TOL = 5e-4
-#: a pair outside the margin may end a tick at most this far (m) short of what its rows
-#: promise (their second order; :meth:`SelfCollisionConstraint.short_step`)
+#: no pair ends a step more than this (m) inside the margin, or deeper than it was (the
+#: rows' second order: :meth:`SelfCollisionConstraint.short_step` solves the tick again)
 SECOND_ORDER_TOL = 1e-4
 
 
@@ -609,7 +609,8 @@ class SelfCollisionConstraint(Constraint):
         #: made at the first compute, dropped by a copy: :meth:`__getstate__`)
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
-        self._packed, self._next = None, None  # (_next: a step's end, :meth:`short_step`)
+        self._packed: tuple | None = None
+        self._next: tuple | None = None  # (a step's end: :meth:`short_step`)
         #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
         self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
 
@@ -731,11 +732,10 @@ class SelfCollisionConstraint(Constraint):
             )
 
     def short_step(self, q_next: np.ndarray) -> bool:
-        """After a solve on the rows of the last :meth:`compute`: True if a pair would end the
-        step at ``q_next`` more than :data:`SECOND_ORDER_TOL` closer than its rows promise
-        (:func:`~wbc.limits.collision_kernels.packed_shortfall`: the rows are first order),
-        its rows then tightened by the shortfall for the solver to solve again (the next
-        :meth:`compute` at another configuration, or after :meth:`forget_rows`, is afresh)."""
+        """After a solve on the last :meth:`compute`'s rows: True if a pair would end the step
+        at ``q_next`` more than :data:`SECOND_ORDER_TOL` inside the margin (or deeper than it
+        is), its rows then tightened by the shortfall for the solver to solve again
+        (:func:`~wbc.limits.collision_kernels.packed_shortfall`: the rows are first order)."""
         packed, q0 = self._packed, self._rows_q[0]
         if packed is None or not self._n_close or q0 != q0:  # (no rows, or forgotten)
             return False
@@ -759,11 +759,11 @@ class SelfCollisionConstraint(Constraint):
         if frames is not None:
             args = (q_next, packed[0], packed[1], *frames, self._n_rows, SECOND_ORDER_TOL, False)
             call(*args)  # (compiles or loads it)
-            call = call.overloads[tuple(typeof(a) for a in args)].entry_point
-        self._next = (kin, frames, call)
-        return self._next
+            call = call.overloads[tuple(typeof(a) for a in args)].entry_point  # type: ignore
+        out = self._next = (kin, frames, call)
+        return out
 
-    def forget_rows(self) -> None:  # (the next compute is afresh, even at the same q)
+    def forget_rows(self) -> None:  # (the next compute afresh, even at the same q)
         self._rows_q[:] = np.nan
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
