@@ -160,7 +160,8 @@ class StackSolver(ABC):
         self.kin.update(q)
         try:
             solution = self._solve(self.kin, dt)
-            if dt is not None:  # (a control tick)
+            checks = self._checks  # (a control tick whose stack has step checks)
+            if dt is not None and (checks[1] or checks[0] != self.stack.revision):
                 solution = self._second_order(solution, dt)
         except (InfeasibleError, SolverError) as exc:  # infeasible, or the backend undecided
             self._check_task_errors()  # a non-finite target is the cause: say so
