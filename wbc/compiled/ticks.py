@@ -427,15 +427,13 @@ def _cascade(
         g0 = g_rows[k]
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
-        if (level_hard[k] or defer_soft) and not last and deferred == r0:
-            # a hard level (the levels above it deferred too): its optimal set, when it is
-            # met, is {J_k Δq = b_k} within the bounds and its inequality rows, so the next
-            # level takes it as equalities and its rows as hard rows instead of a solve of its
-            # own (the same answer; checked after that solve, which fails if the level cannot
-            # be met; that solve starts from its first solution that meets every row, the
-            # entry not meeting the deferred equalities). A soft level likewise, if it can be
-            # met exactly with its rows (its least-squares optimum is then that set): if not,
-            # the next level's solve fails or misses its rows
+        if (level_hard[k] or defer_soft) and not last and g_rows[n_levels] == 0 and deferred == r0:
+            # a hard level (of a tick without inequality rows; the levels above it deferred
+            # too): its optimal set, when it is met, is {J_k Δq = b_k} within the bounds, so
+            # the next level takes it as equalities instead of a solve of its own (the same
+            # answer; checked after that solve, which fails if the level cannot be met). A
+            # soft level likewise, if it can be met exactly (its least-squares optimum is then
+            # that set): if not, the next level's solve fails or misses its rows
             for i in range(r0, r1):
                 achieved[i] = b[i]
             deferred = r1
@@ -462,7 +460,7 @@ def _cascade(
                 # (Δq so far meets the levels above and their rows: a feasible start)
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                    soft_from, tol, working[k, :g1], entry, np.bool_(deferred == 0),
+                    soft_from, tol, working[k, :g1], entry, np.bool_(True),
                 )  # fmt: skip
             if status == OK or not warm:
                 break
@@ -519,11 +517,10 @@ def cascade_solve(
     least-squares level) and the rows above at their bounds plus the slacks they kept
     (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
     inequality rows cost nothing on a level whose solution without them meets them (and which
-    had no working set at the last tick); else :func:`solve_with_inequalities`. The hard
-    levels at the top are not solved on their own: met, a hard level's optimal set is
-    {J_k Δq = b_k} within the bounds and its rows, which the next level takes as its
-    equalities and hard rows (the same answer, one level solve fewer; ``walk_strict`` with
-    its self-collision rows: one solve instead of three); they are checked after it.
+    had no working set at the last tick); else :func:`solve_with_inequalities`. In a tick
+    without inequality rows, the hard levels at the top are not solved on their own: met, a
+    hard level's optimal set is {J_k Δq = b_k} within the bounds, which the next level takes
+    as its equalities (the same answer, one level solve fewer); they are checked after it.
     So are the soft levels at the top, on the guess that they can be met exactly (their
     optimal set is then the same; on ``walk10`` the CoM and swing level always can): if the
     next level's solve fails or misses their rows (:data:`DEFERRED_TOL`), the levels are
