@@ -33,9 +33,8 @@ h is C¹ at d = m and grows continuously to +∞ at d = T: the QP's solution is 
 (rows are left out while h exceeds ``UNREACHABLE``). The linearised margin holds (h(d) <= d − m)
 for d <= T − ξ (T − m); a pair crosses from beyond that point only if one tick closes more than
 (1 − ξ)(T − m) (9 mm with the defaults; one tick of hip roll at 6.2 rad/s moves a foot ~12 mm):
-targets must move at a bounded speed, as walking references do. The rows are first order (a
-servo-speed step bends a long chain ~1 mm past them): the solvers check each step's end and
-solve again with a pair's rows tightened (:meth:`SelfCollisionConstraint.short_step`).
+targets must move at a bounded speed, as walking references do (the tests pull links together
+at <= 0.1 m/s and stay within 0.5 mm of the margin: a linearised tick's second order).
 
 Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
 margin for more than :data:`RECOVERY_TICKS` control ticks in a row (the hard tasks hold it:
@@ -53,7 +52,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import close_pairs, pack, packed_rows, packed_shortfall
+from .collision_kernels import close_pairs, pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -72,9 +71,6 @@ DEFAULT_SAMPLES = 600
 #: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
 RECOVERY_TOL = 5e-4
-#: no pair ends a step more than this (m) inside the margin, or deeper than it was (the
-#: rows' second order: :meth:`SelfCollisionConstraint.short_step` solves the tick again)
-SECOND_ORDER_TOL = 1e-4
 
 
 class CollisionModel(NamedTuple):
@@ -600,23 +596,24 @@ class SelfCollisionConstraint(Constraint):
         self._G, self._h = np.zeros((most, robot.nv)), np.zeros(most)
         self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
         #: per pair: the control ticks in a row that found it deep inside the margin
-        self._inside, self._counting = np.zeros(len(chosen), np.int64), False  # (any non-zero)
+        self._inside = np.zeros(len(chosen), np.int64)
+        self._counting = False  # (any of _inside non-zero)
         self._out, self._n_close = self.distances.out_buffers(), 0  # (last compute's close pairs)
         self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
         self._rows: Inequality | None = None  # (copies of the last rows, made when asked)
         self._n_rows = 0
-        #: the last rows' configuration (NaN: none), the kernel's buffers by address (PACKED;
-        #: made at the first compute, dropped by a copy: :meth:`__getstate__`)
+        #: the configuration of the last rows (NaN: none yet), and the kernel's buffers by
+        #: address (:data:`~wbc.limits.collision_kernels.PACKED`; made at the first compute,
+        #: dropped by a copy: :meth:`__getstate__`)
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
-        self._next: tuple | None = None  # (a step's end: :meth:`short_step`)
         #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
         self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        state["_packed"] = state["_next"] = None  # (this object's buffers: a copy re-packs)
+        state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
         return state
 
     margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
@@ -730,41 +727,6 @@ class SelfCollisionConstraint(Constraint):
                 f"margin for more than {RECOVERY_TICKS} ticks in a row: the hard tasks hold "
                 "them there (start the robot with its links apart, or exclude the pair)"
             )
-
-    def short_step(self, q_next: np.ndarray) -> bool:
-        """After a solve on the last :meth:`compute`'s rows: True if a pair would end the step
-        at ``q_next`` more than :data:`SECOND_ORDER_TOL` inside the margin (or deeper than it
-        is), its rows then tightened by the shortfall for the solver to solve again
-        (:func:`~wbc.limits.collision_kernels.packed_shortfall`: the rows are first order)."""
-        packed, q0 = self._packed, self._rows_q[0]
-        if packed is None or not self._n_close or q0 != q0:  # (no rows, or forgotten)
-            return False
-        kin, frames, call = self._next or self._step_kernel(q_next, packed)
-        R, p = frames if frames is not None else self.distances.frames(kin)
-        if not call(q_next, packed[0], packed[1], R, p, self._n_rows, SECOND_ORDER_TOL, False):
-            return False
-        pin.framesForwardKinematics(kin.model, kin.data, q_next)
-        R, p = frames if frames is not None else self.distances.frames(kin)
-        if not call(q_next, packed[0], packed[1], R, p, self._n_rows, SECOND_ORDER_TOL, True):
-            return False
-        self._rows = None  # (the copies: made again from the tightened rows)
-        return True
-
-    def _step_kernel(self, q_next: np.ndarray, packed: tuple) -> tuple:
-        """A step end's Kinematics, its frames' views (None: copies), the check's entry point."""
-        from numba import typeof
-
-        kin = Kinematics(self.distances.robot)
-        frames, call = kin.frame_placements(), packed_shortfall
-        if frames is not None:
-            args = (q_next, packed[0], packed[1], *frames, self._n_rows, SECOND_ORDER_TOL, False)
-            call(*args)  # (compiles or loads it)
-            call = call.overloads[tuple(typeof(a) for a in args)].entry_point  # type: ignore
-        out = self._next = (kin, frames, call)
-        return out
-
-    def forget_rows(self) -> None:  # (the next compute afresh, even at the same q)
-        self._rows_q[:] = np.nan
 
     def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
         """The rows at ``kin`` as (rows to hold, requests): the rows of the pairs at or

@@ -31,9 +31,6 @@ from .stack import TaskStack
 REGULARIZATION_RANGE = (1e-12, 1e-2)
 #: the allowed ``hard_tol`` (m, rad): a hard level's largest residual
 HARD_TOL_RANGE = (1e-12, 1e-2)
-#: at most this many more solves of a tick whose step ends a self-collision pair short of
-#: what its first-order rows promise (:meth:`StackSolver._second_order`)
-SECOND_ORDER_SOLVES = 3
 
 
 class StackSolver(ABC):
@@ -160,9 +157,6 @@ class StackSolver(ABC):
         self.kin.update(q)
         try:
             solution = self._solve(self.kin, dt)
-            checks = self._checks  # (a control tick whose stack has step checks)
-            if dt is not None and (checks[1] or checks[0] != self.stack.revision):
-                solution = self._second_order(solution, dt)
         except (InfeasibleError, SolverError) as exc:  # infeasible, or the backend undecided
             self._check_task_errors()  # a non-finite target is the cause: say so
             solution, unmet = self.recovery.solve(self.kin, dt, exc)
@@ -183,52 +177,6 @@ class StackSolver(ABC):
         self.last = solution
         self.solve_time = time.perf_counter() - start
         return solution
-
-    def _second_order(self, solution: Solution, dt: float) -> Solution:
-        """The constraints' rows are first order; an active one with a ``short_step``
-        check (the self-collision rows: :meth:`SelfCollisionConstraint.short_step
-        <wbc.limits.SelfCollisionConstraint.short_step>`) says whether the step ends a pair
-        further short of what its rows promise than their tolerance, and if so tightens them
-        by that: the tick is solved again, at most :data:`SECOND_ORDER_SOLVES` more times (a
-        solve that fails keeps the step before it). The tick counts once (as its first solve)."""
-        key, checks = self._checks
-        if key != self.stack.revision:  # (listed once per revision of the stack)
-            checks = [c for c in self.stack.constraints() if c.active and hasattr(c, "short_step")]
-            self._checks = (self.stack.revision, checks)
-        if not checks:
-            return solution
-        counts = self.compiled_ticks, self.handed_back_ticks, self.interim_ticks
-        tightened = False
-        for _ in range(SECOND_ORDER_SOLVES):
-            q_next = solution.q_next
-            if q_next is None:
-                from ..compiled.ticks import integrate
-
-                q_next = np.empty_like(self.kin.q)
-                integrate(
-                    self.kin.q, solution.dq, solution.lower, solution.upper, self._q_min,
-                    self._q_max, q_next,
-                )  # fmt: skip
-            short = False
-            for c in checks:  # (every one checks: each tightens its own rows)
-                short = c.short_step(q_next) or short
-            if not short:
-                break
-            tightened = True
-            kept = Solution(*(None if a is None else a.copy() for a in solution))
-            try:
-                solution = self._solve(self.kin, dt)
-            except WbcError:
-                solution = kept
-                break
-        if tightened:
-            for c in checks:
-                c.forget_rows()
-            self.compiled_ticks, self.handed_back_ticks, self.interim_ticks = counts
-        return solution
-
-    #: (revision, the active constraints with a ``short_step`` check) of :meth:`_second_order`
-    _checks: tuple[int | None, list] = (None, [])
 
     def _hard_constraints(self) -> list[Constraint]:
         """The active constraints whose rows the solver holds hard: those of the hard levels
