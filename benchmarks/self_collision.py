@@ -17,13 +17,25 @@ exact distance computations per tick, and the p99 of the first 5 % of the ticks 
 of a walk). Rounds are interleaved; figures are medians over rounds of each controller's
 per-tick median / p99.
 
+``--cold-too``: each of ours also with every level's active sets started cold at each tick
+(the hierarchy's last level too: as before it kept its bounds' active set from the last tick,
+:meth:`wbc.solvers.plan._Plan.forget_warm_start`), interleaved in the same rounds: the
+before / after of that change, side by side.
+
+``--slowest N``: also, per controller, the p99 of each tick's smallest time over the rounds
+(the machine's preemptions taken out: with 3 rounds a tick is slow in all three only by its
+own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; * a phase's
+first tick).
+
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
-[--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone]``.
+[--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
+[--slowest 8]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import tempfile
@@ -40,6 +52,7 @@ from wbc.bench.peers import PlacoController, available
 from wbc.bench.trajectories import build
 from wbc.limits import SelfCollisionConstraint
 from wbc.paths import stacks_dir
+from wbc.solvers.plan import _Plan
 from wbc.stacks import build_stack
 from wbc.walking.loop import StackController, run
 
@@ -64,6 +77,17 @@ def walk_limit(spec: dict) -> dict:
         for c in lv.get("constraints", [])
         if c["type"] == "self_collision"
     )
+
+
+@contextlib.contextmanager
+def every_level_cold():
+    """Every level's active sets started afresh at each tick (the last level's too)."""
+    keep = _Plan.forget_warm_start
+    _Plan.forget_warm_start = lambda self, keep_damped=False: keep(self, False)
+    try:
+        yield
+    finally:
+        _Plan.forget_warm_start = keep
 
 
 class PlacoSelfCollision(PlacoController):
@@ -105,6 +129,12 @@ def main() -> int:
         "--cpu", action="store_true", help="time the ticks in CPU time (a loaded machine)"
     )
     parser.add_argument("--robot", default="bioloid", help="a robot folder's name")
+    parser.add_argument(
+        "--cold-too", action="store_true", help="also ours with every level started cold"
+    )
+    parser.add_argument(
+        "--slowest", type=int, default=0, help="the p99 of the per-tick minima, N slowest ticks"
+    )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -133,23 +163,30 @@ def table(robot, trajectory: str, args) -> None:
         return make
 
     makers = {}
+    cold = set()
     for stack in args.stacks:
         for kind in ("hierarchical", "weighted") if args.weighted else ("hierarchical",):
             for on in (False, True):
                 label = f"{stack} ({kind}), limit {'on' if on else 'off'}"
                 makers[label] = ours(walk_spec(on, stack), kind)
+                if args.cold_too:
+                    cold.add(f"{label}, every level cold")
+                    makers[f"{label}, every level cold"] = makers[label]
     if available()["placo"]:
         makers["placo 0.10.2, off"] = PlacoController
         makers["placo 0.10.2, self-collision on"] = lambda: PlacoSelfCollision(
             tmp.name, margin, trigger
         )
     stats: dict[str, list[tuple]] = {k: [] for k in makers}
+    times: dict[str, list[np.ndarray]] = {k: [] for k in makers}
     kin = Kinematics(robot)
     for _ in range(args.rounds):
         for name, make in makers.items():
             controller = make()
-            rec = run(controller, robot, ref)
+            with every_level_cold() if name in cold else contextlib.nullcontext():
+                rec = run(controller, robot, ref)
             t = rec["solve_time"] * 1e6
+            times[name].append(t)
             closest = np.inf
             for q in rec.q:
                 kin.update(q)
@@ -168,9 +205,10 @@ def table(robot, trajectory: str, args) -> None:
             support = rec["support"]
             switch = np.flatnonzero(support[1:] != support[:-1]) + 1  # a support phase's first
             first = np.median(t[switch]) if switch.size else np.nan
+            single = np.median(t[support != 0]) if (support != 0).any() else np.nan
             stats[name].append(
-                (np.median(t), np.percentile(t, 99), head, first, com, foot, closest * 1e3, back,
-                 exact)
+                (np.median(t), np.percentile(t, 99), head, first, single, com, foot,
+                 closest * 1e3, back, exact)
             )  # fmt: skip
     Path(tmp.name).unlink()
     rows = {k: np.median(np.array(v, dtype=float), axis=0) for k, v in stats.items()}
@@ -180,22 +218,38 @@ def table(robot, trajectory: str, args) -> None:
     )
     print(
         "| controller | median µs | p99 µs | p99 first 5 % µs | support switch µs"
-        " | median / placo off"
+        " | single support µs | median / placo off"
         " | p99 / placo off p99 | median / placo on | CoM err max mm | swing err max mm"
         " | closest pair mm | handed back | exact distances / tick |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     placo_off = rows.get("placo 0.10.2, off", [np.nan] * 2)
     placo_on = rows.get("placo 0.10.2, self-collision on", [np.nan])[0]
-    for name, (med, p99, head, first, com, foot, closest, back, exact) in rows.items():
+    for name, (med, p99, head, first, single, com, foot, closest, back, exact) in rows.items():
         fmt_back = "" if np.isnan(back) else f"{back:.0f} / {len(ref)}"
         fmt_exact = "" if np.isnan(exact) else f"{exact:.1f}"
         print(
-            f"| {name} | {med:.0f} | {p99:.0f} | {head:.0f} | {first:.0f} |"
+            f"| {name} | {med:.0f} | {p99:.0f} | {head:.0f} | {first:.0f} | {single:.0f} |"
             f" {med / placo_off[0]:.2f} |"
             f" {p99 / placo_off[1]:.2f} | {med / placo_on:.2f} | {com:.3f} | {foot:.3f} |"
             f" {closest:.2f} | {fmt_back} | {fmt_exact} |"
         )
+    if args.slowest:
+        slowest(times, rec["support"], args.slowest)
+
+
+def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:
+    """Per controller: the p99 of each tick's smallest time over the rounds, and its n
+    slowest ticks (tick, µs, support; * the first tick of a support phase)."""
+    first = set((np.flatnonzero(support[1:] != support[:-1]) + 1).tolist())
+    print("\neach tick's smallest time over the rounds (preemptions out):")
+    for name, runs in times.items():
+        t = np.min(runs, axis=0)
+        ticks = ", ".join(
+            f"{i}{'*' if i in first else ''} {t[i]:.0f} ({support[i]})"
+            for i in np.argsort(t)[::-1][:n].tolist()
+        )
+        print(f"- {name}: median {np.median(t):.1f}, p99 {np.percentile(t, 99):.1f} µs; {ticks}")
 
 
 if __name__ == "__main__":

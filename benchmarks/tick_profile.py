@@ -173,14 +173,14 @@ def switch_parts(robot, ref, kind: str) -> dict[str, np.ndarray]:
         t2 = ns()
         plan = solver.fast
         start = plan.warm_start.copy()
-        plan.solve(solver.kin, ref.dt, None)
+        plan.solve(solver.kin, ref.dt)
         t3 = ns()
         after, q_next = plan.warm_start.copy(), plan.q_next.copy()
         warm = []
         for _ in range(5):
             plan.warm_start[...] = start
             t = ns()
-            plan.solve(solver.kin, ref.dt, None)
+            plan.solve(solver.kin, ref.dt)
             warm.append(ns() - t)
         plan.warm_start[...] = after
         session.q = q_next

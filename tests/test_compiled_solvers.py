@@ -308,6 +308,37 @@ def test_a_walk_is_the_same_compiled_or_not(robot, kind):
         assert np.abs(a[channel] - b[channel]).max() < 1e-6
 
 
+def test_the_last_level_starts_from_the_last_ticks_bounds_and_answers_the_same(robot):
+    """The hierarchy's last (damped, strictly convex) level keeps its bounds' active set from
+    one tick to the next (the levels above and the inequality rows start afresh): on
+    ``walk_strict``'s single-support ticks, where the swing knee's reference outruns the servo
+    and ~6 joints sit at their speed, the kept set is not empty, and the tick's Δq from it is
+    the cold start's to rounding (its minimiser is unique)."""
+    ref = build("walk10", robot)
+    controller = StackController(load_stack("walk_strict", robot))
+    session = Session(controller, robot, ref)
+    solver = controller.solver
+    kept = 0
+    for i in range(180):
+        q = session.q.copy()
+        before = solver.fast
+        start = None if before is None else before.states[-1].copy()
+        session.tick(i)
+        plan = solver.fast
+        if i < 120 or plan is not before or not start.any():
+            continue
+        warm = plan.dq.copy()  # (the tick's Δq, from the last tick's set)
+        final = plan.states[-1].copy()
+        plan.forget_warm_start(keep_damped=True)  # (what the next tick starts from)
+        assert np.array_equal(plan.states[-1], final) and not plan.states[:-1].any()
+        assert not plan.inequalities.working.any()
+        solver.forget_warm_starts()
+        cold = solver.solve(q, ref.dt)
+        assert np.abs(warm - cold).max() < 1e-12, i
+        kept += 1
+    assert kept > 20  # (single-support ticks with bounds active at the last level)
+
+
 @pytest.mark.parametrize("stack", ["vat", "cj_foot", "cj_com"])
 def test_thesis_schemes_tick_the_same_compiled_or_not(robot, stack):
     """The thesis's schemes use the swing-foot and torso axis errors. Their stacks have no

@@ -350,9 +350,12 @@ class _Plan:
     prebuilt tuple serves every tick and a tick allocates nothing.
     """
 
-    #: the active sets a tick starts from (cleared before every tick: no state carried from
-    #: one tick to the next; each plan's own array)
+    #: the active sets a tick starts from (cleared before every tick but the damped level's
+    #: bounds: :meth:`forget_warm_start`; each plan's own array)
     warm_start: np.ndarray
+    #: the index in :attr:`warm_start` of the level whose bounds' active set a tick keeps
+    #: for the next (None: none kept; see :meth:`forget_warm_start`)
+    damped_level: int | None = None
 
     def __init__(
         self,
@@ -443,10 +446,23 @@ class _Plan:
             self._ready = ready
         return self._ready
 
-    def forget_warm_start(self) -> None:
-        """Start the active sets of the bounds and of the inequality rows afresh (before every
-        tick: :meth:`solve`)."""
-        self.warm_start.fill(0)
+    def forget_warm_start(self, keep_damped: bool = False) -> None:
+        """Start the active sets of the bounds and of the inequality rows afresh.
+
+        ``keep_damped`` (before every tick: :meth:`solve`): all but the bounds' active set of
+        the damped level (the weighted QP's one level, the hierarchy's last), which the next
+        tick starts from. That level is strictly convex (μ‖Δq‖², μ > 0): its minimiser is
+        unique, so where its solve starts changes only the rounding of the answer, never
+        which optimum it is (the levels above, whose optima need not be unique, start afresh:
+        their answer then depends on no earlier tick, issue 28). Started cold, a level whose
+        reference outruns the servos (``walk_strict``'s third level in single support, ~6
+        joints at their speed) took 12–17 subproblem solves, ~60–90 µs; from the last tick's
+        active set 1–3 (benchmarks/self_collision.md). The inequality rows always start
+        afresh (a self-collision row's index names another pair from tick to tick)."""
+        if keep_damped and self.damped_level is not None and self.solver.regularization > 0.0:
+            self.warm_start[: self.damped_level].fill(0)
+        else:
+            self.warm_start.fill(0)
         if self.inequalities.total:
             self.inequalities.working.fill(False)
 
@@ -531,7 +547,7 @@ class _Plan:
         # tick's, the hierarchy's degenerate levels kept other (equally optimal) active sets,
         # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
         # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
-        self.forget_warm_start()
+        self.forget_warm_start(keep_damped=True)
         for limit in self._timed:
             limit.prepare(dt)
         if self.inputs:
@@ -672,6 +688,7 @@ class CascadePlan(_Plan):
         self.states = self.scratch.get("states", (len(levels), nv), np.int8)
         self.states.fill(0)
         self.warm_start = self.states
+        self.damped_level = len(levels) - 1
         self.achieved = np.zeros(self.rows.m)
         self.tick_name = "cascade_tick"
         self._bind_args()
