@@ -105,3 +105,8 @@ def test_a_long_legged_robots_static_walk_at_the_step_it_fits_is_tracked(longleg
     assert m["foot_err_max_mm"] < 5.0 and m["com_err_max_mm"] < 2.5, m
     # the CoM pulled in from the sole's centre to stay within the reach
     assert ref.meta["com_offset_y"] > ref.meta["params"]["com_offset"][1]
+
+
+def test_bad_reach_share_is_one_line(start, window):
+    with pytest.raises(TrajectoryError, match="reach_share must be in"):
+        static_walk(start, window, StaticWalkParams(reach_share=0.0))

@@ -9,16 +9,21 @@ share of the mass) can follow: the reachable CoM window is several times wider.
 :class:`BalanceWindow` measures it on the model, both soles flat and fixed at a stance (the
 standing stance by default), the CoM at a fixed height, every joint within its limits:
 
-* ``max_lateral``: the largest lateral CoM offset from the mid-stance with the torso tilt
-  within ``max_lean`` (sequential linear programming: maximise ``n . c(q)`` over a linearised
-  step with the soles' 6-D placements, the CoM height and the torso tilt as linear rows, the
-  joint limits and a trust region as bounds, until the step vanishes);
+* ``max_lateral``: the largest lateral CoM offset from the mid-stance with the torso's roll
+  within ``max_lean`` and its pitch and heading held at the start's, as every reference asks
+  them (sequential linear programming: maximise ``n . c(q)`` over a linearised step with the
+  soles' 6-D placements, the CoM height, the torso's pitch and heading as linear rows, its
+  roll as a bound, the joint limits and a trust region as bounds, until the step vanishes);
 * ``upright``: the same with the torso held upright (legs and arms only);
-* a table of torso rolls over lateral offsets ``0 .. max_lateral``: at each offset a
+* a table of torso rolls over lateral offsets ``0 ..`` the lean solve's reach (its torso may
+  also pitch and turn, within ``max_lean``; at least ``max_lateral``): at each offset a
   prioritised solve (soles and CoM exact, then the torso as upright as possible, then a light
   posture toward the standing pose), so the generators can ask the torso for the roll the
   body needs (:meth:`roll_for`). The roll is about the heading axis: positive tilts the
   torso's top toward -y (to the right), i.e. a CoM to the right asks for a positive roll.
+
+:func:`lateral_reach` is the bound at another stance: the soles a step apart along the
+heading, the CoM over the front (or back) sole, as a static walk's double supports have them.
 
 Everything here is a pre-motion computation (a fraction of a second), not a control tick.
 """
@@ -163,10 +168,10 @@ def lateral_reach(
     ``max_lean``, every joint within its limits, the arms held if ``hold_arms`` (as
     :func:`~wbc.walking.feasibility.kinematic_feasibility` holds them).
 
-    A static walk carries its CoM over the sole that just landed, a step ahead of the other:
-    ``forward = stagger / 2`` (over the front sole) reaches less than the standing stance
-    (the front leg is stretched forward). Raises :class:`TrajectoryError` if the legs cannot
-    stand so."""
+    A static walk's double supports stand a step long, its CoM over the back sole and then
+    over the one that just landed (the left sole behind: ``stagger < 0, forward = stagger /
+    2``; ahead: ``stagger > 0``): both reach less than the standing stance. Raises
+    :class:`TrajectoryError` if the legs cannot stand so."""
     if not (np.isfinite(max_lean) and 0.0 <= max_lean < 0.8):
         raise TrajectoryError(f"balance window: max_lean must be in [0, 0.8) rad, got {max_lean}")
     if not np.isfinite(stagger) or (forward is not None and not np.isfinite(forward)):
