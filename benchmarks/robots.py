@@ -7,6 +7,8 @@ about it is stated by hand: roles, feet, legs and walking settings are read from
 
     python benchmarks/robots.py --out /tmp/longlegs            # make the robot, then measure
     python benchmarks/robots.py --out /tmp/longlegs --random 5 # + 5 randomised sim models
+    python benchmarks/robots.py --out /tmp/ll --trajectories static_walk \\
+        --robot-toml '[walking.static_walk]\\nstep_length = 0.021'  # a stated setting
 
 Columns: kinematic (the robot's stack, one QP per tick: CoM / swing-sole error max, mm; the
 ZMP margin min of the tracked motion, mm; the reference's peak joint speed as a share of the
@@ -60,8 +62,9 @@ LEG_LINKS = ("hip_bracket", "hip_block", "thigh", "shin", "ankle_block", "foot",
 TRAJECTORIES = ("thesis_step", "static_walk", "walk10", "walk10_wb", "turn_wb", "lateral_wb")
 
 
-def make_robot(out: Path, legs: float = 1.3, body: float = 0.8) -> Path:
-    """Write the long-legged robot's folder (module docstring) to ``out``."""
+def make_robot(out: Path, legs: float = 1.3, body: float = 0.8, robot_toml: str = "") -> Path:
+    """Write the long-legged robot's folder (module docstring) to ``out``; ``robot_toml``: a
+    ``robot.toml`` for it (none if empty: every number read from the model)."""
     src = robots_dir() / "bioloid"
     bioloid = load_robot("bioloid")
     names = {j: j[:2] + OP3[j[2:]] for j in bioloid.joint_names}
@@ -78,6 +81,8 @@ def make_robot(out: Path, legs: float = 1.3, body: float = 0.8) -> Path:
     for old, new in names.items():
         servos = re.sub(rf"(?<![A-Za-z0-9_]){old}(?![A-Za-z0-9_])", new, servos)
     (out / "servos.toml").write_text(servos)
+    if robot_toml:
+        (out / "robot.toml").write_text(robot_toml)
     robot = load_robot(out)
     pose = standing_pose(robot)
     (out / "poses.toml").write_text(
@@ -149,8 +154,11 @@ def main() -> int:
     parser.add_argument("--random", type=int, default=0, help="randomised sim models per run")
     parser.add_argument("--trajectories", nargs="+", default=list(TRAJECTORIES))
     parser.add_argument("--no-sim", action="store_true")
+    parser.add_argument(
+        "--robot-toml", default="", help="a robot.toml for the made robot (TOML text; \\n allowed)"
+    )
     args = parser.parse_args()
-    made = make_robot(args.out)
+    made = make_robot(args.out, robot_toml=args.robot_toml.replace("\\n", "\n"))
     robots = {"bioloid": load_robot("bioloid"), "kokone": load_robot("kokone")}
     robots["longlegs"] = load_robot(made)
     for name, robot in robots.items():

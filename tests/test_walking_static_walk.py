@@ -50,3 +50,63 @@ def test_named_static_walk(robot):
     ref = traj.build("static_walk", robot)
     assert ref.name == "static_walk"
     assert ref.com_margin()[ref.support != 0].min() >= 0.015
+
+
+@pytest.fixture(scope="module")
+def longlegs(tmp_path_factory):
+    """benchmarks/robots.py's long-legged robot (the Bioloid's URDF, legs 1.3x, body 0.8x,
+    ROBOTIS OP3 joint names), made here; a two-step static walk."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "benchmarks" / "robots.py"
+    spec = importlib.util.spec_from_file_location("bench_robots", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.make_robot(tmp_path_factory.mktemp("made") / "longlegs")
+
+
+def _with_walk(folder, text):
+    from wbc.model import load_robot
+
+    (folder / "robot.toml").write_text("[walking.static_walk]\nn_steps = 2\n" + text)
+    return load_robot(folder)
+
+
+def test_a_long_legged_robots_static_walk_is_refused_beyond_its_reach(longlegs):
+    """Over the front sole of its 39 mm step the whole body carries the CoM only 26 mm
+    sideways (arms held, torso pitch and heading held), but 19.5 mm inside the sole is 29.9 mm
+    out: one line naming step_length (it was built, and tracked with a -280 mm ZMP margin)."""
+    robot = _with_walk(longlegs, "")
+    with pytest.raises(TrajectoryError, match=r"unreachable.*front sole.*step_length") as err:
+        traj.build("static_walk", robot)
+    assert "\n" not in str(err.value)
+
+
+def test_a_long_legged_robots_static_walk_at_the_step_it_fits_is_tracked(longlegs):
+    """At the step it fits (21 mm: the refusal's), the CoM is kept within the reach at every
+    stance: the walk stack tracks it with the ZMP inside the soles and the reference asks no
+    joint for more than the sized share of its speed (on main: the CoM 34.5 mm out, beyond
+    the 33 mm the front sole's stance reaches)."""
+    from wbc.bench import metrics
+    from wbc.stacks import load_stack, robot_stack
+    from wbc.walking.loop import StackController, run
+    from wbc.walking.sizing import SPEED_FRACTION
+
+    robot = _with_walk(longlegs, "step_length = 0.021\n")
+    ref = traj.build("static_walk", robot)
+    rep = kinematic_feasibility(robot, ref, iterations=2)
+    assert rep.speed_fraction < SPEED_FRACTION, rep
+    assert rep.max_sole_error < 1e-3, rep
+    rec = run(StackController(load_stack(robot_stack(robot)[0], robot)), robot, ref)
+    m = metrics.compute(rec, robot)
+    assert m["failures"] == 0
+    assert m["zmp_margin_min_mm"] > 10.0, m["zmp_margin_min_mm"]
+    assert m["foot_err_max_mm"] < 5.0 and m["com_err_max_mm"] < 2.5, m
+    # the CoM pulled in from the sole's centre to stay within the reach
+    assert ref.meta["com_offset_y"] > ref.meta["params"]["com_offset"][1]
+
+
+def test_bad_reach_share_is_one_line(start, window):
+    with pytest.raises(TrajectoryError, match="reach_share must be in"):
+        static_walk(start, window, StaticWalkParams(reach_share=0.0))

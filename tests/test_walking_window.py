@@ -197,3 +197,23 @@ def test_roll_is_odd_and_grows_with_the_offset(window, a, b):
     if abs(a) <= abs(b):
         assert abs(ra) <= abs(rb) + 1e-12
     assert abs(ra) <= window.max_lean + 1e-3
+
+
+def test_the_reach_over_the_front_sole_of_a_step_is_less(robot, window):
+    """lateral_reach: the standing stance with the arms held reaches less than the window
+    (arms free); the CoM over the front sole of a step less still, over the back one about
+    the same; the window's bound holds the torso's pitch and heading (below its roll table's
+    lean solve, which may pitch and turn the torso)."""
+    from wbc.walking.window import lateral_reach
+
+    stand = lateral_reach(robot)
+    assert 0.03 < stand < window.max_lateral
+    front = lateral_reach(robot, stagger=0.03, forward=0.015)
+    back = lateral_reach(robot, stagger=-0.03, forward=-0.015)
+    assert front < stand - 0.002
+    assert back < stand - 0.002
+    assert window.max_lateral <= window.offsets[-1] + 1e-9
+    with pytest.raises(TrajectoryError, match="stagger and forward must be finite"):
+        lateral_reach(robot, stagger=float("nan"))
+    with pytest.raises(TrajectoryError, match="max_lean"):
+        lateral_reach(robot, max_lean=1.0)

@@ -9,16 +9,21 @@ share of the mass) can follow: the reachable CoM window is several times wider.
 :class:`BalanceWindow` measures it on the model, both soles flat and fixed at a stance (the
 standing stance by default), the CoM at a fixed height, every joint within its limits:
 
-* ``max_lateral``: the largest lateral CoM offset from the mid-stance with the torso tilt
-  within ``max_lean`` (sequential linear programming: maximise ``n . c(q)`` over a linearised
-  step with the soles' 6-D placements, the CoM height and the torso tilt as linear rows, the
-  joint limits and a trust region as bounds, until the step vanishes);
+* ``max_lateral``: the largest lateral CoM offset from the mid-stance with the torso's roll
+  within ``max_lean`` and its pitch and heading held at the start's, as every reference asks
+  them (sequential linear programming: maximise ``n . c(q)`` over a linearised step with the
+  soles' 6-D placements, the CoM height, the torso's pitch and heading as linear rows, its
+  roll as a bound, the joint limits and a trust region as bounds, until the step vanishes);
 * ``upright``: the same with the torso held upright (legs and arms only);
-* a table of torso rolls over lateral offsets ``0 .. max_lateral``: at each offset a
+* a table of torso rolls over lateral offsets ``0 ..`` the lean solve's reach (its torso may
+  also pitch and turn, within ``max_lean``; at least ``max_lateral``): at each offset a
   prioritised solve (soles and CoM exact, then the torso as upright as possible, then a light
   posture toward the standing pose), so the generators can ask the torso for the roll the
   body needs (:meth:`roll_for`). The roll is about the heading axis: positive tilts the
   torso's top toward -y (to the right), i.e. a CoM to the right asks for a positive roll.
+
+:func:`lateral_reach` is the bound at another stance: the soles a step apart along the
+heading, the CoM over the front (or back) sole, as a static walk's double supports have them.
 
 Everything here is a pre-motion computation (a fraction of a second), not a control tick.
 """
@@ -118,8 +123,12 @@ class BalanceWindow:
             raise TrajectoryError(f"balance window: samples must be an integer >= 2, got {samples}")
         q = robot.configuration("stand") if q is None else robot.check_configuration(q).copy()
         prob = _Problem(robot, q, com_height, hold_arms)
-        upright = prob.extreme(0.0)
+        upright = prob.extreme(0.0, held=True)
+        # the range of the roll table: the lean solve's (torso pitch and yaw free)
         reach = prob.extreme(max_lean)
+        # the bound: only the torso's roll leans, its pitch and heading held as every
+        # reference asks them (Rz(yaw) Rx(roll) L) and the stacks track them
+        bound = min(reach, prob.extreme(max_lean, held=True))
         offsets = np.linspace(0.0, reach, int(samples))
         rolls = np.zeros_like(offsets)
         qq = prob.q0.copy()
@@ -134,7 +143,7 @@ class BalanceWindow:
         return cls(
             offsets=offsets,
             rolls=rolls,
-            max_lateral=float(reach),
+            max_lateral=float(bound),
             upright=float(upright),
             max_lean=float(max_lean),
             com_height=float(prob.height),
@@ -142,10 +151,50 @@ class BalanceWindow:
         )
 
 
+def lateral_reach(
+    robot: Any,
+    q: np.ndarray | None = None,
+    stagger: float = 0.0,
+    forward: float | None = None,
+    max_lean: float = MAX_LEAN,
+    com_height: float | None = None,
+    hold_arms: bool = True,
+) -> float:
+    """The largest lateral CoM offset (m) from the soles' midpoint toward the left sole that
+    the whole body reaches with both soles flat at the stance of ``q`` (default: the standing
+    pose) moved ``stagger`` apart along the heading (the left sole ``stagger / 2`` ahead, the
+    right behind), the CoM ``forward`` of their midpoint (default: as in ``q``) at
+    ``com_height``, the torso's pitch and heading held at ``q``'s and its roll within
+    ``max_lean``, every joint within its limits, the arms held if ``hold_arms`` (as
+    :func:`~wbc.walking.feasibility.kinematic_feasibility` holds them).
+
+    A static walk's double supports stand a step long, its CoM over the back sole and then
+    over the one that just landed (the left sole behind: ``stagger < 0, forward = stagger /
+    2``; ahead: ``stagger > 0``): both reach less than the standing stance. Raises
+    :class:`TrajectoryError` if the legs cannot stand so."""
+    if not (np.isfinite(max_lean) and 0.0 <= max_lean < 0.8):
+        raise TrajectoryError(f"balance window: max_lean must be in [0, 0.8) rad, got {max_lean}")
+    if not np.isfinite(stagger) or (forward is not None and not np.isfinite(forward)):
+        raise TrajectoryError(
+            f"balance window: stagger and forward must be finite, got {stagger}, {forward}"
+        )
+    q = robot.configuration("stand") if q is None else robot.check_configuration(q).copy()
+    prob = _Problem(robot, q, com_height, hold_arms, float(stagger), forward)
+    return prob.extreme(max_lean, held=True)
+
+
 class _Problem:
     """Both soles fixed at their placements in ``q``, the CoM at ``height``."""
 
-    def __init__(self, robot: Any, q: np.ndarray, height: float | None, hold_arms: bool) -> None:
+    def __init__(
+        self,
+        robot: Any,
+        q: np.ndarray,
+        height: float | None,
+        hold_arms: bool,
+        stagger: float = 0.0,
+        forward: float | None = None,
+    ) -> None:
         self.robot = robot
         self.model, self.data = robot.model, robot.data
         self.q0 = q
@@ -156,12 +205,17 @@ class _Problem:
         heading = float(np.arctan2(R[1, 0], R[0, 0]))
         self.fwd = np.array([np.cos(heading), np.sin(heading), 0.0])
         self.left = np.array([-np.sin(heading), np.cos(heading), 0.0])
+        # a staggered stance: the left sole stagger/2 ahead, the right one behind (same mid)
+        for k, sign in enumerate((0.5, -0.5)):
+            self.soles[k] = pin.SE3(
+                self.soles[k].rotation, self.soles[k].translation + sign * stagger * self.fwd
+            )
         mid = 0.5 * (self.soles[0].translation + self.soles[1].translation)
         self.mid = mid
         self.half_width = 0.5 * float(
             (self.soles[0].translation - self.soles[1].translation) @ self.left
         )
-        self.com_x = float((robot.com(q) - mid) @ self.fwd)
+        self.com_x = float((robot.com(q) - mid) @ self.fwd) if forward is None else float(forward)
         nv = self.model.nv
         self.free = np.ones(nv, dtype=bool)
         if hold_arms:
@@ -182,6 +236,25 @@ class _Problem:
         #: the CoM held at its start's forward offset and height (the extreme's, the projection's)
         self.com_hold = mid + self.com_x * self.fwd
         self.com_hold[2] = self.height
+        #: the torso's forward axis across the heading at the start (its yaw, held by
+        #: :meth:`extreme` with ``held``)
+        self.yaw0 = self._yaw(q)[0]
+        if stagger != 0.0 or forward is not None:
+            self.q0 = self._project(q, stance=True, steps=30)
+            if np.linalg.norm(self._rows(self.q0, self.com_hold)[3]) > 1e-6:
+                raise TrajectoryError(
+                    f"balance window: the soles cannot stand {stagger * 1e3:.1f} mm apart "
+                    "along the heading (the legs do not reach)"
+                )
+
+    def _yaw(self, q: np.ndarray) -> tuple[float, np.ndarray]:
+        """The torso's yaw row: ``x·left`` (x its forward axis; sin of its yaw from the
+        heading) and its Jacobian ``(x × left)ᵀ J_ω`` (``dx = ω × x``)."""
+        J = pin.computeFrameJacobian(
+            self.model, self.data, q, self.fid_torso, pin.LOCAL_WORLD_ALIGNED
+        )[3:]
+        x = self.data.oMf[self.fid_torso].rotation[:, 0]
+        return float(x @ self.left), np.cross(x, self.left) @ J
 
     # ------------------------------------------------------------------ linearisation
     def _rows(self, q: np.ndarray, com_target: np.ndarray):
@@ -241,9 +314,10 @@ class _Problem:
         return float(-np.arcsin(np.clip(z @ self.left, -1.0, 1.0)))
 
     # ------------------------------------------------------------------ the two solves
-    def extreme(self, max_lean: float, iterations: int = 60) -> float:
+    def extreme(self, max_lean: float, iterations: int = 60, held: bool = False) -> float:
         """Largest lateral CoM offset toward the left sole (SLP with a shrinking trust
-        region), torso tilt within ``max_lean``."""
+        region), torso tilt within ``max_lean``; ``held``: the torso's pitch and yaw held
+        at the start's (only its roll leans), as a reference asks of the torso."""
         from scipy.optimize import linprog
 
         q = self.q0.copy()
@@ -255,6 +329,10 @@ class _Problem:
             lb, ub = self._bounds(q, trust)
             A_eq = np.vstack([Js, Jc[2:3], self.fwd @ Jc])
             b_eq = np.concatenate([es, ec[2:3], [self.fwd @ ec]])
+            if held:
+                yaw, Jy = self._yaw(q)
+                A_eq = np.vstack([A_eq, Jt[0:1], Jy[None]])
+                b_eq = np.concatenate([b_eq, [-tilt[0], self.yaw0 - yaw]])
             # |tilt + Jt dq| <= sin(max_lean), per component
             A_ub = np.vstack([Jt, -Jt])
             b_ub = np.concatenate([s - tilt, s + tilt])
@@ -288,16 +366,25 @@ class _Problem:
                 if trust < 1e-5:
                     break
         # a few corrections onto the constraints, then measure
-        q = self._project(q, max_lean)
+        q = self._project(q, held=held)
         return float((self.robot.com(q) - self.mid) @ self.left)
 
-    def _project(self, q: np.ndarray, max_lean: float) -> np.ndarray:
-        """Newton steps onto the soles and the CoM height (least norm, bounded)."""
+    def _project(
+        self, q: np.ndarray, held: bool = False, stance: bool = False, steps: int = 10
+    ) -> np.ndarray:
+        """Newton steps onto the soles and the CoM height (least norm, bounded); ``held``:
+        also the torso's pitch and yaw at the start's; ``stance``: the torso upright as at
+        the start and the whole CoM at :attr:`com_hold` (a staggered stance's start)."""
 
-        for _ in range(10):
-            Jc, ec, Js, es, _, _ = self._rows(q, self.com_hold)
-            A = np.vstack([Js, Jc[2:3]])
-            b = np.concatenate([es, ec[2:3]])
+        for _ in range(steps):
+            Jc, ec, Js, es, tilt, Jt = self._rows(q, self.com_hold)
+            rows, errs = [Js, Jc if stance else Jc[2:3]], [es, ec if stance else ec[2:3]]
+            if held or stance:
+                yaw, Jy = self._yaw(q)
+                rows += [Jt if stance else Jt[0:1], Jy[None]]
+                errs += [-tilt if stance else -tilt[0:1], [self.yaw0 - yaw]]
+            A = np.vstack(rows)
+            b = np.concatenate(errs)
             if np.linalg.norm(b) < 1e-10:
                 break
             nv = self.model.nv
