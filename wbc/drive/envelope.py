@@ -20,7 +20,7 @@ from ..walking.engine import EngineParams, VelocityLimits
 from ..walking.window import BalanceWindow
 
 #: bump when the measurement itself changes
-VERSION = 2
+VERSION = 3  # 3: the window's max_lateral holds the torso pitch and heading (issue 29)
 
 
 def _key(robot: Any, params: EngineParams) -> str:
