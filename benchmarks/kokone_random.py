@@ -68,17 +68,10 @@ def part_kwargs(part: str, v: Variation, nominal) -> dict:
 
 def stand_speed(robot, v: Variation) -> float:
     """The largest joint speed (rad/s) over the last 2 of 3 s holding the standing pose on the
-    draw ``v`` (pulses at the pose from the start)."""
-    from wbc.sim.simulator import Simulation
+    draw ``v`` (:func:`kokone_sim.stand_speed`)."""
+    from kokone_sim import stand_speed as held
 
-    sim = Simulation(robot, v.model_params, v.servo_params)
-    sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
-    sim.advance(1.0)
-    speed = 0.0
-    for _ in range(100):
-        sim.advance(0.02)
-        speed = max(speed, float(np.abs(sim.joint_velocities()).max()))
-    return speed
+    return held(robot, v.model_params, v.servo_params)
 
 
 def main() -> int:

@@ -137,27 +137,34 @@ def stand(robot, nominal, bands) -> None:
             print(f"| {label}, band {band:g} µs | {tilt:.1f} | {speed:.2f} |")
 
 
-def stand_damping(robot, nominal, bands, factors) -> None:
-    """The analog servo's crouch held 3 s for each proportional band and back-EMF damping
-    factor (the randomised plants' ranges): the largest joint speed over the last 2 s
-    (rad/s; above ~1: the servo loop oscillates)."""
+def stand_speed(robot, model_params: ModelParams, servo_params) -> float:
+    """The largest joint speed (rad/s) over the last 2 of 3 s holding the standing pose
+    (pulses at the pose from the start) on this plant (above ~1: the servo loop oscillates)."""
     import numpy as np
 
     from wbc.sim.simulator import Simulation
 
+    sim = Simulation(robot, model_params, servo_params)
+    sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
+    sim.advance(1.0)
+    speed = 0.0
+    for _ in range(100):
+        sim.advance(0.02)
+        speed = max(speed, float(np.abs(sim.joint_velocities()).max()))
+    return speed
+
+
+def stand_damping(robot, nominal, bands, factors) -> None:
+    """The analog servo's crouch held 3 s for each proportional band and back-EMF damping
+    factor (the randomised plants' ranges): the largest joint speed over the last 2 s
+    (rad/s; above ~1: the servo loop oscillates)."""
     print("\n| band | " + " | ".join(f"damping x{d:g}" for d in factors) + " |")
     print("|---" * (len(factors) + 1) + "|")
     for band in bands:
         cells = []
         for d in factors:
             sp = replace(nominal, proportional_band_us=band)
-            sim = Simulation(robot, ModelParams(damping=nominal.damping * d), sp)
-            sim.write_goals(np.rint(sim.servos.pulses(sim.q()[7:])))
-            sim.advance(1.0)
-            speed = 0.0
-            for _ in range(100):
-                sim.advance(0.02)
-                speed = max(speed, float(np.abs(sim.joint_velocities()).max()))
+            speed = stand_speed(robot, ModelParams(damping=nominal.damping * d), sp)
             cells.append(f"{speed:.2f}")
         print(f"| {band:g} µs | " + " | ".join(cells) + " |", flush=True)
 
