@@ -30,6 +30,7 @@ import math
 import os
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -217,8 +218,8 @@ def main(argv: list[str] | None = None) -> int:
                   f" m {cy:.0f}° travelled {np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°"
                   f" xy err {'-' if rel is None else f'{100 * rel:.0f} %'} steady "
                   f"{np.round(r.get('steady_velocity', []), 4)} "
-                  f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)",
-                  flush=True)  # fmt: skip
+                  f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)"
+                  f" failed solves {r['failed_solves']}", flush=True)  # fmt: skip
     variations = models(robot, args.models, args.seed) if (args.random or args.envelope) else []
     if args.random:
         runs = []
@@ -232,9 +233,14 @@ def main(argv: list[str] | None = None) -> int:
                 runs.append({"sequence": i, "model": k, **r})
                 print(f"sequence {i} model {k}: fell {r['fell']} xy err "
                       f"{r['xy_error_m'] * 1000:.0f} mm ({r['xy_error_rel']}) yaw err "
-                      f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']})",
-                      flush=True)  # fmt: skip
+                      f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']}); "
+                      f"failed solves {r['failed_solves']}", flush=True)  # fmt: skip
+                for cause, n in r["failed_solve_causes"].items():
+                    print(f"  {n} × {cause}", flush=True)
         up = [r for r in runs if not r["fell"]]  # (a fallen run's displacement is the fall's)
+        causes: Counter[str] = Counter()
+        for r in runs:
+            causes.update(r["failed_solve_causes"])
         rel = [r["xy_error_rel"] for r in up if r["xy_error_rel"] is not None]
         yrel = [r["yaw_error_rel"] for r in up if r["yaw_error_rel"] is not None]
         record["random"] = {
@@ -243,11 +249,18 @@ def main(argv: list[str] | None = None) -> int:
             "within_15pct_xy": int(sum(x <= 0.15 for x in rel)), "xy_rated": len(rel),
             "within_15pct_yaw": int(sum(x <= 0.15 for x in yrel)), "yaw_rated": len(yrel),
             "xy_error_m_median": float(np.median([r["xy_error_m"] for r in up])) if up else None,
+            "failed_solves": int(sum(r["failed_solves"] for r in runs)),
+            "runs_with_failed_solves": int(sum(r["failed_solves"] > 0 for r in runs)),
+            "failed_solve_causes": dict(causes),
         }  # fmt: skip
         print(f"random: {len(runs)} runs, {record['random']['falls']} falls; of the runs up: "
               f"displacement within 15 %: {record['random']['within_15pct_xy']}/{len(rel)}, "
               f"heading within 15 %: {record['random']['within_15pct_yaw']}/{len(yrel)}, "
-              f"median displacement error {record['random']['xy_error_m_median']} m")  # fmt: skip
+              f"median displacement error {record['random']['xy_error_m_median']} m; "
+              f"failed solves {record['random']['failed_solves']} in "
+              f"{record['random']['runs_with_failed_solves']} runs")  # fmt: skip
+        for cause, n in causes.most_common():
+            print(f"  {n} × {cause}")
     if args.envelope:
         env = {}
         for axis in args.axes:

@@ -12,7 +12,7 @@ from wbc.cli import main
 from wbc.drive.commands import Command, CommandScript, integrate, load_commands, random_commands
 from wbc.drive.teleop import Keyboard
 from wbc.drive.walker import Walker
-from wbc.exceptions import ConfigurationError
+from wbc.exceptions import ConfigurationError, InfeasibleError
 from wbc.servos.bus import DryRunBus
 from wbc.servos.protocol1 import ax_codec
 from wbc.stacks import load_stack
@@ -197,3 +197,36 @@ def test_walker_corrects_the_feed_forward_from_the_encoders(robot, closed) -> No
     assert (correction.window, correction.rate) == (1.0, 3.0)  # DRIVE_CORRECTION
     assert np.min(correction.scale) < 0.9  # learnt: the dry-run servos do not deflect
     assert np.all(correction.scale >= correction.s_min)
+
+
+def test_measured_landings_leave_the_contacts_solvable(robot) -> None:
+    """Leg odometry measures each landing from the encoders; on compliant servos the
+    present positions sag from the goals (here a left hip roll 0.15 rad off: landings
+    measured 24 mm from their plans). The controller's contacts stay at the planned soles,
+    where its commanded configuration put them: anchored at the measured ones instead,
+    every double support's hard level was infeasible (30 failed solves of 300 ticks) and
+    the robot held its goals. The failures are counted per cause."""
+    from wbc.bench.solvers import registry
+    from wbc.drive.walker import failure_cause, failure_lines
+
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None)
+    sag = np.zeros(robot.n_joints)
+    sag[robot.joint_names.index("l_hip_roll")] = 0.15
+    walker.present = lambda: walker.q[7:] + sag
+    walker.command(0.0, 0.0, 0.0)
+    walker.start()
+    for _ in range(300):
+        walker.tick()
+    assert walker.engine.steps_taken >= 4
+    assert len(walker.engine.landing_errors) >= 3  # the measured landings were taken
+    assert min(walker.engine.landing_errors) > 0.02
+    assert walker.failed_solves == 0, dict(walker.failure_causes)
+    assert failure_lines(walker) == []
+    error = InfeasibleError(
+        "hard level 0 is infeasible: cannot satisfy contact_support (residual 0.00202) "
+        "together with self_collision (active)"
+    )
+    assert failure_cause(error, "double") == (
+        "double: InfeasibleError: hard level 0 is infeasible: cannot satisfy "
+        "contact_support together with self_collision (active)"
+    )

@@ -22,7 +22,9 @@ any :class:`~wbc.servos.bus.ServoBus` plays it with every safety feature of ``wb
 from __future__ import annotations
 
 import math
+import re
 import time
+from collections import Counter
 from collections.abc import Callable
 from types import MappingProxyType
 from typing import Any
@@ -206,7 +208,11 @@ class Walker:
         #: called with the playback time before each tick as a target source (a command
         #: script, a keyboard): it may command, start, stop or close the walker
         self.before_tick: Callable[[float], None] | None = None
+        #: solves the controller failed (the robot then holds its last goals: counted and
+        #: reported by the run's record and ``wbc drive``, never silent), and per cause
+        #: (:func:`failure_cause`)
         self.failed_solves = 0
+        self.failure_causes: Counter[str] = Counter()
         self.joint_names = robot.joint_names
         self.tick_time: list[float] = []  # s per walk tick (engine + feedback + solve)
 
@@ -321,12 +327,40 @@ class Walker:
                 elif not engine.walking and odo.started:
                     odo.stop()
                 odo.turn(est.rotation, est.angular_velocity, dt)
+        self._planned_contacts(targets)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
-        except WbcError:
+        except WbcError as exc:
             self.failed_solves += 1  # the robot holds its last goals
+            self.failure_causes[failure_cause(exc, targets.phase)] += 1
         self.tick_time.append(time.perf_counter() - start)
         return self.q
+
+    def _planned_contacts(self, targets: TickTargets) -> None:
+        """The soles in contact at their planned placements (:attr:`WalkEngine.feet`) for
+        the controller, in place of the measured ones (:attr:`WalkEngine.contact`, leg
+        odometry: what the state estimate stands on and the steps are aimed from).
+
+        The controller's configuration is the commanded one: its soles are where the swing
+        put them, the plan. A contact anchored at the measured landing (up to 24 mm away on
+        a compliant model: the servos' sag under load, which the goals must keep) asks the
+        commanded legs to close that gap in one tick: the hard level (both contacts and the
+        self-collision rows, or the servos' speed) was infeasible for the whole double
+        support and the robot held its goals (benchmarks/drive.md, "Failed solves")."""
+        engine = self.engine
+        if engine.on_landing is None:
+            return
+        supports = ("left", "right") if targets.phase == "double" else (
+            "left" if targets.support == SOLE_FRAMES["left"] else "right",)  # fmt: skip
+        for side in supports:
+            plan = engine.feet[side]
+            if engine.contact[side] is plan:
+                continue
+            placement = pin.SE3(_rz(plan.yaw), plan.position)
+            if side == "left":
+                targets.l_sole = placement
+            else:
+                targets.r_sole = placement
 
     # ------------------------------------------------------------------ target source
     def first(self) -> np.ndarray:
@@ -374,6 +408,26 @@ class Walker:
         dep = Deployment(bus, source, self.robot, config, out=out)
         holder.append(dep)
         return dep
+
+
+def failure_cause(exc: Exception, phase: str) -> str:
+    """A failed solve's cause for counting: the support phase, the exception's type and its
+    message without the figures in brackets (residuals, distances), e.g. ``double:
+    InfeasibleError: hard level 0 is infeasible: cannot satisfy contact_support, ...``."""
+    return f"{phase}: {type(exc).__name__}: {_FIGURES.sub('', str(exc))}"
+
+
+def failure_lines(walker: Walker) -> list[str]:
+    """The lines that report a walker's failed solves (none if every solve succeeded)."""
+    if not walker.failed_solves:
+        return []
+    lines = [f"WARNING: {walker.failed_solves} of {len(walker.tick_time)} walk ticks failed "
+             "to solve (the robot held its last goals):"]  # fmt: skip
+    lines += [f"  {n} × {cause}" for cause, n in walker.failure_causes.most_common()]
+    return lines
+
+
+_FIGURES = re.compile(r"\s*\([^()]*\d[^()]*\)")
 
 
 def _rz(yaw: float) -> np.ndarray:
