@@ -230,3 +230,8 @@ def test_measured_landings_leave_the_contacts_solvable(robot) -> None:
         "double: InfeasibleError: hard level 0 is infeasible: cannot satisfy "
         "contact_support together with self_collision (active)"
     )
+    walker.failed_solves += 2  # as two failed ticks count them (Walker.tick)
+    walker.failure_causes[failure_cause(error, "double")] += 2
+    lines = failure_lines(walker)
+    assert lines[0].startswith("WARNING: 2 of 300 walk ticks failed to solve")
+    assert lines[1] == "  2 × " + failure_cause(error, "double")
