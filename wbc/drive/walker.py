@@ -84,6 +84,17 @@ DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 #: pitch on model 0, so what any rest samples depends on its length)
 DRIVE_CALIBRATE_S = 0.3
 
+#: how far (m) the controller's contacts follow a measured landing away from its plan, at
+#: most (:meth:`Walker._planned_contacts`). A hard contact is anchored once, at the double
+#: support's first tick, and must be met in that tick: the commanded legs can close only a
+#: small gap there, less when the feet's self-collision dampers are active. On the issue's
+#: 100 random sequences (benchmarks/drive.md, "Failed solves"): unbounded (the measured
+#: landings themselves, up to 29 mm off) 290 failed solves and 1 fall; 8 mm still 50
+#: failed solves and 1 fall in 86 runs; 4 mm none but 2 falls (model 0); 0 (the planned
+#: soles) none and no fall, at 3 % of the forward speed at the limit (8.25 -> 7.99 cm/s,
+#: nominal model)
+DRIVE_CONTACT_REACH = 0.0
+
 #: the state estimate's settings for driven walks (:class:`~wbc.balance.estimator.
 #: StateEstimator`)
 DRIVE_ESTIMATOR = MappingProxyType({"bias_gain": 0.05})
@@ -132,6 +143,9 @@ class Walker:
     torso then gets no heading feedback (:data:`DRIVE_GAINS`). The command moves the base
     (:attr:`WalkEngine.origin <wbc.walking.engine.WalkEngine.origin>`: turning on the spot
     turns about the base, as ``commanded_xy_m`` counts it), not the soles' midpoint.
+    ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 0): how far the controller's
+    contacts follow a measured landing from its plan (``math.inf``: the measured landing
+    itself, which the commanded legs could not reach in a tick: failed solves).
     """
 
     def __init__(
@@ -149,9 +163,16 @@ class Walker:
         calibrate_s: float = DRIVE_CALIBRATE_S,
         correct: bool = True,
         track: bool = True,
+        contact_reach: float = DRIVE_CONTACT_REACH,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
+        if not contact_reach >= 0:  # (NaN too)
+            raise ConfigurationError(
+                f"contact_reach must be a number >= 0 (m; inf: the measured landings), "
+                f"got {contact_reach}"
+            )
+        self.contact_reach = float(contact_reach)
         if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
             raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
         self.robot = robot
@@ -338,8 +359,9 @@ class Walker:
 
     def _planned_contacts(self, targets: TickTargets) -> None:
         """The soles in contact at their planned placements (:attr:`WalkEngine.feet`) for
-        the controller, in place of the measured ones (:attr:`WalkEngine.contact`, leg
-        odometry: what the state estimate stands on and the steps are aimed from).
+        the controller, moved toward the measured ones (:attr:`WalkEngine.contact`, leg
+        odometry: what the state estimate stands on and the steps are aimed from) by at most
+        :attr:`contact_reach` (default :data:`DRIVE_CONTACT_REACH`: 0, the planned soles).
 
         The controller's configuration is the commanded one: its soles are where the swing
         put them, the plan. A contact anchored at the measured landing (up to 24 mm away on
@@ -356,7 +378,10 @@ class Walker:
             plan = engine.feet[side]
             if engine.contact[side] is plan:
                 continue
-            placement = pin.SE3(_rz(plan.yaw), plan.position)
+            gap = engine.contact[side].position - plan.position
+            n = float(np.linalg.norm(gap))
+            pos = plan.position + (gap * min(1.0, self.contact_reach / n) if n > 0 else 0.0)
+            placement = pin.SE3(_rz(plan.yaw), pos)
             if side == "left":
                 targets.l_sole = placement
             else:
