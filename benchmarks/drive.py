@@ -30,6 +30,7 @@ import math
 import os
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -91,12 +92,15 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None,
-            calibrate: float | None = None, track: bool = True, **kw):  # fmt: skip
+            calibrate: float | None = None, track: bool = True,
+            contact_reach: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
     if calibrate is not None:
         options["calibrate_s"] = calibrate
+    if contact_reach is not None:
+        options["contact_reach"] = contact_reach
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
@@ -176,6 +180,10 @@ def main(argv: list[str] | None = None) -> int:
         metavar="S",
         help="the IMU's rest before the walk (default: the Walker's, CALIBRATE_S)",
     )
+    ap.add_argument("--contact-reach", type=float, default=None, metavar="M",
+                    help="how far the controller's contacts follow a measured landing (m; "
+                         "default the Walker's DRIVE_CONTACT_REACH; inf: main's before 08:35 "
+                         "UTC 2026-12-05, the measured landings themselves)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -193,6 +201,7 @@ def main(argv: list[str] | None = None) -> int:
         "compensate": args.compensate,
         "calibrate": args.calibrate,
         "track": args.track,
+        "contact_reach": args.contact_reach,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
@@ -217,8 +226,8 @@ def main(argv: list[str] | None = None) -> int:
                   f" m {cy:.0f}° travelled {np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°"
                   f" xy err {'-' if rel is None else f'{100 * rel:.0f} %'} steady "
                   f"{np.round(r.get('steady_velocity', []), 4)} "
-                  f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)",
-                  flush=True)  # fmt: skip
+                  f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)"
+                  f" failed solves {r['failed_solves']}", flush=True)  # fmt: skip
     variations = models(robot, args.models, args.seed) if (args.random or args.envelope) else []
     if args.random:
         runs = []
@@ -232,9 +241,14 @@ def main(argv: list[str] | None = None) -> int:
                 runs.append({"sequence": i, "model": k, **r})
                 print(f"sequence {i} model {k}: fell {r['fell']} xy err "
                       f"{r['xy_error_m'] * 1000:.0f} mm ({r['xy_error_rel']}) yaw err "
-                      f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']})",
-                      flush=True)  # fmt: skip
+                      f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']}); "
+                      f"failed solves {r['failed_solves']}", flush=True)  # fmt: skip
+                for cause, n in r["failed_solve_causes"].items():
+                    print(f"  {n} × {cause}", flush=True)
         up = [r for r in runs if not r["fell"]]  # (a fallen run's displacement is the fall's)
+        causes: Counter[str] = Counter()
+        for r in runs:
+            causes.update(r["failed_solve_causes"])
         rel = [r["xy_error_rel"] for r in up if r["xy_error_rel"] is not None]
         yrel = [r["yaw_error_rel"] for r in up if r["yaw_error_rel"] is not None]
         record["random"] = {
@@ -243,11 +257,18 @@ def main(argv: list[str] | None = None) -> int:
             "within_15pct_xy": int(sum(x <= 0.15 for x in rel)), "xy_rated": len(rel),
             "within_15pct_yaw": int(sum(x <= 0.15 for x in yrel)), "yaw_rated": len(yrel),
             "xy_error_m_median": float(np.median([r["xy_error_m"] for r in up])) if up else None,
+            "failed_solves": int(sum(r["failed_solves"] for r in runs)),
+            "runs_with_failed_solves": int(sum(r["failed_solves"] > 0 for r in runs)),
+            "failed_solve_causes": dict(causes),
         }  # fmt: skip
         print(f"random: {len(runs)} runs, {record['random']['falls']} falls; of the runs up: "
               f"displacement within 15 %: {record['random']['within_15pct_xy']}/{len(rel)}, "
               f"heading within 15 %: {record['random']['within_15pct_yaw']}/{len(yrel)}, "
-              f"median displacement error {record['random']['xy_error_m_median']} m")  # fmt: skip
+              f"median displacement error {record['random']['xy_error_m_median']} m; "
+              f"failed solves {record['random']['failed_solves']} in "
+              f"{record['random']['runs_with_failed_solves']} runs")  # fmt: skip
+        for cause, n in causes.most_common():
+            print(f"  {n} × {cause}")
     if args.envelope:
         env = {}
         for axis in args.axes:

@@ -12,7 +12,7 @@ from wbc.cli import main
 from wbc.drive.commands import Command, CommandScript, integrate, load_commands, random_commands
 from wbc.drive.teleop import Keyboard
 from wbc.drive.walker import Walker
-from wbc.exceptions import ConfigurationError
+from wbc.exceptions import ConfigurationError, InfeasibleError
 from wbc.servos.bus import DryRunBus
 from wbc.servos.protocol1 import ax_codec
 from wbc.stacks import load_stack
@@ -197,3 +197,51 @@ def test_walker_corrects_the_feed_forward_from_the_encoders(robot, closed) -> No
     assert (correction.window, correction.rate) == (1.0, 3.0)  # DRIVE_CORRECTION
     assert np.min(correction.scale) < 0.9  # learnt: the dry-run servos do not deflect
     assert np.all(correction.scale >= correction.s_min)
+
+
+def _sagging_walk(robot, **options):
+    """A walker on the spot for 3 s whose present positions sag from its goals (a left hip
+    roll 0.15 rad off: each landing measured 24 mm from its plan)."""
+    from wbc.bench.solvers import registry
+
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None, **options)
+    sag = np.zeros(robot.n_joints)
+    sag[robot.joint_names.index("l_hip_roll")] = 0.15
+    walker.present = lambda: walker.q[7:] + sag
+    walker.command(0.0, 0.0, 0.0)
+    walker.start()
+    for _ in range(300):
+        walker.tick()
+    assert walker.engine.steps_taken >= 4
+    assert len(walker.engine.landing_errors) >= 2  # the measured landings were taken
+    assert min(walker.engine.landing_errors) > 0.02
+    return walker
+
+
+def test_measured_landings_leave_the_contacts_solvable(robot) -> None:
+    """Leg odometry measures each landing from the encoders; on compliant servos the
+    present positions sag from the goals. The controller's contacts follow a measured
+    landing by at most ``contact_reach`` from the plan (what the commanded legs can close
+    in the double support's first tick): anchored at the measured landing itself (24 mm
+    off: an unbounded reach, main's behaviour), every double support's hard level was
+    infeasible (30 failed solves of 300 ticks) and the robot held its goals. The failures
+    are counted per cause and reported."""
+    from wbc.drive.walker import failure_cause, failure_lines
+
+    held = _sagging_walk(robot, contact_reach=math.inf)
+    assert held.failed_solves >= 20
+    assert all(c.startswith("double: InfeasibleError") for c in held.failure_causes)
+    assert failure_lines(held)[0].startswith(f"WARNING: {held.failed_solves} of 300 walk ticks")
+    walker = _sagging_walk(robot)  # the default: the planned soles
+    assert walker.failed_solves == 0, dict(walker.failure_causes)
+    assert failure_lines(walker) == []
+    error = InfeasibleError(
+        "hard level 0 is infeasible: cannot satisfy contact_support (residual 0.00202) "
+        "together with self_collision (active)"
+    )
+    assert failure_cause(error, "double") == (
+        "double: InfeasibleError: hard level 0 is infeasible: cannot satisfy "
+        "contact_support together with self_collision (active)"
+    )
+    with pytest.raises(ConfigurationError, match="contact_reach"):
+        Walker(robot, held.controller, None, contact_reach=-0.001)

@@ -108,7 +108,7 @@ def _teleop(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from ..drive.commands import CommandScript, integrate, load_commands
-    from ..drive.walker import Walker, default_compensate
+    from ..drive.walker import Walker, default_compensate, failure_lines
     from ..model import load_robot
     from ..servos.config import DeployConfig
 
@@ -228,6 +228,8 @@ def run(args: argparse.Namespace) -> int:
 
     for line in report_lines(result, robot):
         print(line, file=sys.stdout if result.completed else sys.stderr)
+    for line in failure_lines(walker):
+        print(line, file=sys.stderr)
     fell = odo.fell_at is not None if odo is not None else None
     if odo is not None:
         print("sim: " + (f"FELL at {odo.fell_at:.2f} s" if fell else "stayed up") +
@@ -262,6 +264,7 @@ def _record(walker, commands, odo, result, integrate) -> dict[str, Any]:
         "travelled_yaw_rad": float(odo.yaw) if odo is not None else None,
         "steps": walker.engine.steps_taken,
         "failed_solves": walker.failed_solves,
+        "failed_solve_causes": dict(walker.failure_causes),
         "walk_tick_ms_p50": float(np.median(ticks)) if ticks.size else None,
         "deploy_completed": bool(result.completed),
         "deploy_trip": None if result.trip is None else str(result.trip),

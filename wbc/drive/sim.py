@@ -173,6 +173,7 @@ def drive_sim(
         "steps": walker.engine.steps_taken,
         "shortened_steps": walker.engine.shortened,
         "failed_solves": walker.failed_solves,
+        "failed_solve_causes": dict(walker.failure_causes),
         "tilt_max_deg": odo.tilt_max,
         "walk_tick_ms_p50": float(np.median(ticks)) if ticks.size else None,
         "walk_tick_ms_p99": float(np.percentile(ticks, 99)) if ticks.size else None,

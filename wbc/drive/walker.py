@@ -22,7 +22,9 @@ any :class:`~wbc.servos.bus.ServoBus` plays it with every safety feature of ``wb
 from __future__ import annotations
 
 import math
+import re
 import time
+from collections import Counter
 from collections.abc import Callable
 from types import MappingProxyType
 from typing import Any
@@ -82,6 +84,17 @@ DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 #: pitch on model 0, so what any rest samples depends on its length)
 DRIVE_CALIBRATE_S = 0.3
 
+#: how far (m) the controller's contacts follow a measured landing away from its plan, at
+#: most (:meth:`Walker._planned_contacts`). A hard contact is anchored once, at the double
+#: support's first tick, and must be met in that tick: the commanded legs can close only a
+#: small gap there, less when the feet's self-collision dampers are active. On the issue's
+#: 100 random sequences (benchmarks/drive.md, "Failed solves"): unbounded (the measured
+#: landings themselves, up to 29 mm off) 290 failed solves and 1 fall; 8 mm still 50
+#: failed solves and 1 fall in 86 runs; 4 mm none but 2 falls (model 0); 0 (the planned
+#: soles) none and no fall, at 3 % of the forward speed at the limit (8.25 -> 7.99 cm/s,
+#: nominal model)
+DRIVE_CONTACT_REACH = 0.0
+
 #: the state estimate's settings for driven walks (:class:`~wbc.balance.estimator.
 #: StateEstimator`)
 DRIVE_ESTIMATOR = MappingProxyType({"bias_gain": 0.05})
@@ -130,6 +143,9 @@ class Walker:
     torso then gets no heading feedback (:data:`DRIVE_GAINS`). The command moves the base
     (:attr:`WalkEngine.origin <wbc.walking.engine.WalkEngine.origin>`: turning on the spot
     turns about the base, as ``commanded_xy_m`` counts it), not the soles' midpoint.
+    ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 0): how far the controller's
+    contacts follow a measured landing from its plan (``math.inf``: the measured landing
+    itself, which the commanded legs could not reach in a tick: failed solves).
     """
 
     def __init__(
@@ -147,9 +163,16 @@ class Walker:
         calibrate_s: float = DRIVE_CALIBRATE_S,
         correct: bool = True,
         track: bool = True,
+        contact_reach: float = DRIVE_CONTACT_REACH,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
+        if not contact_reach >= 0:  # (NaN too)
+            raise ConfigurationError(
+                f"contact_reach must be a number >= 0 (m; inf: the measured landings), "
+                f"got {contact_reach}"
+            )
+        self.contact_reach = float(contact_reach)
         if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
             raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
         self.robot = robot
@@ -206,7 +229,11 @@ class Walker:
         #: called with the playback time before each tick as a target source (a command
         #: script, a keyboard): it may command, start, stop or close the walker
         self.before_tick: Callable[[float], None] | None = None
+        #: solves the controller failed (the robot then holds its last goals: counted and
+        #: reported by the run's record and ``wbc drive``, never silent), and per cause
+        #: (:func:`failure_cause`)
         self.failed_solves = 0
+        self.failure_causes: Counter[str] = Counter()
         self.joint_names = robot.joint_names
         self.tick_time: list[float] = []  # s per walk tick (engine + feedback + solve)
 
@@ -321,12 +348,44 @@ class Walker:
                 elif not engine.walking and odo.started:
                     odo.stop()
                 odo.turn(est.rotation, est.angular_velocity, dt)
+        self._planned_contacts(targets)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
-        except WbcError:
+        except WbcError as exc:
             self.failed_solves += 1  # the robot holds its last goals
+            self.failure_causes[failure_cause(exc, targets.phase)] += 1
         self.tick_time.append(time.perf_counter() - start)
         return self.q
+
+    def _planned_contacts(self, targets: TickTargets) -> None:
+        """The soles in contact at their planned placements (:attr:`WalkEngine.feet`) for
+        the controller, moved toward the measured ones (:attr:`WalkEngine.contact`, leg
+        odometry: what the state estimate stands on and the steps are aimed from) by at most
+        :attr:`contact_reach` (default :data:`DRIVE_CONTACT_REACH`: 0, the planned soles).
+
+        The controller's configuration is the commanded one: its soles are where the swing
+        put them, the plan. A contact anchored at the measured landing (up to 24 mm away on
+        a compliant model: the servos' sag under load, which the goals must keep) asks the
+        commanded legs to close that gap in one tick: the hard level (both contacts and the
+        self-collision rows, or the servos' speed) was infeasible for the whole double
+        support and the robot held its goals (benchmarks/drive.md, "Failed solves")."""
+        engine = self.engine
+        if engine.on_landing is None:
+            return
+        supports = ("left", "right") if targets.phase == "double" else (
+            "left" if targets.support == SOLE_FRAMES["left"] else "right",)  # fmt: skip
+        for side in supports:
+            plan = engine.feet[side]
+            if engine.contact[side] is plan:
+                continue
+            gap = engine.contact[side].position - plan.position
+            n = float(np.linalg.norm(gap))
+            pos = plan.position + (gap * min(1.0, self.contact_reach / n) if n > 0 else 0.0)
+            placement = pin.SE3(_rz(plan.yaw), pos)
+            if side == "left":
+                targets.l_sole = placement
+            else:
+                targets.r_sole = placement
 
     # ------------------------------------------------------------------ target source
     def first(self) -> np.ndarray:
@@ -374,6 +433,26 @@ class Walker:
         dep = Deployment(bus, source, self.robot, config, out=out)
         holder.append(dep)
         return dep
+
+
+def failure_cause(exc: Exception, phase: str) -> str:
+    """A failed solve's cause for counting: the support phase, the exception's type and its
+    message without the figures in brackets (residuals, distances), e.g. ``double:
+    InfeasibleError: hard level 0 is infeasible: cannot satisfy contact_support, ...``."""
+    return f"{phase}: {type(exc).__name__}: {_FIGURES.sub('', str(exc))}"
+
+
+def failure_lines(walker: Walker) -> list[str]:
+    """The lines that report a walker's failed solves (none if every solve succeeded)."""
+    if not walker.failed_solves:
+        return []
+    lines = [f"WARNING: {walker.failed_solves} of {len(walker.tick_time)} walk ticks failed "
+             "to solve (the robot held its last goals):"]  # fmt: skip
+    lines += [f"  {n} × {cause}" for cause, n in walker.failure_causes.most_common()]
+    return lines
+
+
+_FIGURES = re.compile(r"\s*\([^()]*\d[^()]*\)")
 
 
 def _rz(yaw: float) -> np.ndarray:
