@@ -41,13 +41,9 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
-from wbc.geometry import mean_angle, wrap_angle
+from wbc.geometry import mean_angle, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking.geometry import rot2
-
-
-def _yaw(R: np.ndarray) -> float:
-    return math.atan2(R[1, 0], R[0, 0])
 
 
 def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
@@ -145,12 +141,12 @@ def main(argv: list[str] | None = None) -> int:
             row = [sim.time]
             for frame in ("l_sole", "r_sole"):
                 M = sim.site_pose(frame)
-                row += [M.translation[0], M.translation[1], _yaw(M.rotation)]
-            row += [*sim.q()[:2], _yaw(sim.base_rotation())]
+                row += [M.translation[0], M.translation[1], yaw_of(M.rotation)]
+            row += [*sim.q()[:2], yaw_of(sim.base_rotation())]
             row.append(w.last.support if w.last is not None else -1)
             odo = w.odometry
             row.append(odo.heading if odo is not None and odo.started else math.nan)
-            row.append(_yaw(sim.site_pose("torso").rotation))
+            row.append(yaw_of(sim.site_pose("torso").rotation))
             self.rows.append(row)
 
     drive_sim_module.Walker = Recorded

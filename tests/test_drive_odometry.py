@@ -14,16 +14,13 @@ from hypothesis import strategies as st
 from wbc import load_robot
 from wbc.compiled.rows import log3
 from wbc.drive.odometry import PoseOdometry
+from wbc.geometry import yaw_of
 from wbc.walking import StandingState
 
 
 @pytest.fixture(scope="module")
 def robot():
     return load_robot("bioloid")
-
-
-def _yaw(R: np.ndarray) -> float:
-    return math.atan2(R[1, 0], R[0, 0])
 
 
 @settings(max_examples=20, deadline=None)
@@ -64,7 +61,7 @@ def test_a_stance_sole_turned_on_the_floor_is_seen(robot) -> None:
     q = robot.configuration("stand")
     start = StandingState.from_robot(robot, q)
     feet = {"left": start.left, "right": start.right}
-    torso = _yaw(robot.frame_placement(q, "torso").rotation)
+    torso = yaw_of(robot.frame_placement(q, "torso").rotation)
     odo = PoseOdometry(robot)
     odo.start(feet, torso)
     still = odo.landed("left", q)

@@ -9,7 +9,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc.geometry import mean_angle, wrap_angle
+from wbc.geometry import mean_angle, wrap_angle, yaw_of
 
 ANGLES = st.floats(-1e4, 1e4)
 
@@ -101,3 +101,12 @@ def test_mean_angle_goes_the_short_way_round():
     assert abs(mean_angle(3.0, -3.0) - math.pi) < 1e-15  # not 0: across ±π
     assert mean_angle(0.0, 0.5) == 0.25
     assert abs(mean_angle(-0.1, 0.1)) < 1e-16
+
+
+@given(st.floats(-math.pi + 1e-6, math.pi - 1e-6), st.floats(-1.2, 1.2))
+def test_yaw_of_is_the_heading_of_a_rotation_whatever_its_pitch(yaw: float, pitch: float) -> None:
+    """yaw_of(Rz(ψ) Ry(θ)) = ψ for |θ| < π/2 (the x axis keeps its ground direction)."""
+    c, s, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    assert abs(yaw_of(Rz @ Ry) - yaw) < 1e-12

@@ -53,6 +53,12 @@ def support_hull(support: int, left: np.ndarray, right: np.ndarray) -> np.ndarra
     return convex_hull(np.vstack([np.asarray(c, dtype=float)[:, :2] for c in parts]))
 
 
+def yaw_of(rotation: np.ndarray) -> float:
+    """The heading (rad) of a 3-D rotation: the angle of its x axis in the ground plane,
+    ``atan2(R₁₀, R₀₀)``."""
+    return math.atan2(rotation[1, 0], rotation[0, 0])
+
+
 def rot2(yaw: float) -> np.ndarray:
     """2-D rotation matrix."""
     c, s = np.cos(yaw), np.sin(yaw)

@@ -27,15 +27,11 @@ import math
 import numpy as np
 
 from ..balance.estimator import exp3
-from ..geometry import mean_angle, wrap_angle
+from ..geometry import mean_angle, wrap_angle, yaw_of
 from ..model import Robot
 from ..roles import SOLE_FRAMES
 from ..walking.footsteps import Footstep, Side, other_side
 from ..walking.geometry import rot2
-
-
-def _yaw(R: np.ndarray) -> float:
-    return math.atan2(R[1, 0], R[0, 0])
 
 
 class PoseOdometry:
@@ -65,9 +61,10 @@ class PoseOdometry:
         heading of ``Rz(ψ) · T · Exp(ω dt)`` with ``T`` the tilt (not ``ψ += (R ω)_z dt``: a
         torso leaning forward while it rocks sideways changes its heading by more than the
         vertical rate's integral, ~20° over 30 s of walking, benchmarks/drive.md)."""
-        c, s = math.cos(_yaw(rotation)), math.sin(_yaw(rotation))
+        yaw = yaw_of(rotation)
+        c, s = math.cos(yaw), math.sin(yaw)
         tilt = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ rotation
-        self.heading += _yaw(tilt @ exp3(np.asarray(rate, dtype=float) * dt))
+        self.heading += yaw_of(tilt @ exp3(np.asarray(rate, dtype=float) * dt))
 
     def landed(self, side: Side, q: np.ndarray) -> np.ndarray:
         """``side`` has landed (``q``: the configuration of the present joints): the soles'
@@ -79,9 +76,9 @@ class PoseOdometry:
         M_sw = robot.frame_placement(q, SOLE_FRAMES[side])
         st = self.soles[stance]
         if self.gyro:
-            st[2] = self.heading + _yaw(M_t.actInv(M_st).rotation)
+            st[2] = self.heading + yaw_of(M_t.actInv(M_st).rotation)
         rel = M_st.actInv(M_sw)
         xy = st[:2] + rot2(st[2]) @ rel.translation[:2]
-        self.soles[side] = np.array([xy[0], xy[1], wrap_angle(st[2] + _yaw(rel.rotation))])
+        self.soles[side] = np.array([xy[0], xy[1], wrap_angle(st[2] + yaw_of(rel.rotation))])
         sw = self.soles[side]
         return np.array([0.5 * (st[0] + sw[0]), 0.5 * (st[1] + sw[1]), mean_angle(st[2], sw[2])])

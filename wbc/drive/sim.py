@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..geometry import convex_hull, signed_distance, wrap_angle
+from ..geometry import convex_hull, signed_distance, wrap_angle, yaw_of
 from ..model import Robot
 from ..walking.loop import Controller
 from .commands import Command, CommandScript, integrate
@@ -26,10 +26,6 @@ from .walker import Walker
 
 FALL_TILT_DEG = 45.0  # as the physics benchmark (wbc.bench.physics)
 FALL_HEIGHT = 0.6
-
-
-def base_yaw(R: np.ndarray) -> float:
-    return math.atan2(R[1, 0], R[0, 0])
 
 
 class Odometer:
@@ -44,7 +40,7 @@ class Odometer:
         self.z0 = float(q[2])
         R = sim.base_rotation()
         self.R0 = R
-        self.yaw0 = base_yaw(R)
+        self.yaw0 = yaw_of(R)
         self.yaw = 0.0
         self._last = self.yaw0
         self.fell_at: float | None = None
@@ -54,7 +50,7 @@ class Odometer:
 
     def __call__(self) -> None:
         R = self.sim.base_rotation()
-        y = base_yaw(R)
+        y = yaw_of(R)
         self.yaw += wrap_angle(y - self._last)
         self._last = y
         up = float(np.clip(R[2, 2], -1.0, 1.0))

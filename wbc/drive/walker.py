@@ -35,7 +35,7 @@ import pinocchio as pin
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import wrap_angle
+from ..geometry import wrap_angle, yaw_of
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -289,7 +289,7 @@ class Walker:
         M_st = self.robot.frame_placement(q, SOLE_FRAMES[stance.side])
         M_sw = self.robot.frame_placement(q, SOLE_FRAMES[step.side])
         rel = M_st.actInv(M_sw)
-        dyaw = math.atan2(rel.rotation[1, 0], rel.rotation[0, 0])
+        dyaw = yaw_of(rel.rotation)
         xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
         odo = self.odometry
         if odo is not None and odo.started:
@@ -344,7 +344,7 @@ class Walker:
             if odo is not None and stab.last is not None and not stab.calibrating:
                 est = stab.last
                 if engine.walking and not odo.started:
-                    odo.start(engine.feet, math.atan2(est.rotation[1, 0], est.rotation[0, 0]))
+                    odo.start(engine.feet, yaw_of(est.rotation))
                 elif not engine.walking and odo.started:
                     odo.stop()
                 odo.turn(est.rotation, est.angular_velocity, dt)
