@@ -17,10 +17,11 @@ pytest.importorskip("casadi")  # the NLP's optional package: pip install "wbc[mp
 from wbc.bench.casadi_kinematics import CasadiKinematics, parse_urdf
 from wbc.bench.nlp import NlpController, PoseNLP, PoseTargets
 from wbc.exceptions import ModelError, TaskError
+from wbc.geometry import heading_free
 from wbc.recording import SUPPORT_DOUBLE
 from wbc.stacks import load_stack
 from wbc.walking import StandingState, forward_walk
-from wbc.walking.loop import RunOptions, StackController, TickTargets, heading_free, run
+from wbc.walking.loop import RunOptions, StackController, TickTargets, run
 
 FRAMES = ("l_sole", "r_sole", "torso", "l_hand", "r_hand", "l_knee", "r_shin", "l_sole_fixed")
 seeds = st.integers(min_value=0, max_value=2**32 - 1)

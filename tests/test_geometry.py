@@ -6,10 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc.geometry import mean_angle, wrap_angle, yaw_of
+from wbc.geometry import heading_free, mean_angle, wrap_angle, yaw_of
 
 ANGLES = st.floats(-1e4, 1e4)
 
@@ -110,3 +111,19 @@ def test_yaw_of_is_the_heading_of_a_rotation_whatever_its_pitch(yaw: float, pitc
     Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
     assert abs(yaw_of(Rz @ Ry) - yaw) < 1e-12
+
+
+@given(
+    st.floats(-3.1, 3.1),
+    st.floats(-1.4, 1.4),
+    st.floats(-1.4, 1.4),
+)
+def test_heading_free_removes_the_heading_and_keeps_the_tilt(
+    yaw: float, pitch: float, roll: float
+) -> None:
+    """heading_free(Rz(ψ) Ry(θ) Rx(φ)) = Ry(θ) Rx(φ): no heading left, the same tilt."""
+    tilt = pin.rpy.rpyToMatrix(roll, pitch, 0.0)
+    R = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ tilt
+    free = heading_free(R)
+    assert abs(yaw_of(free)) < 1e-12
+    np.testing.assert_allclose(free, tilt, atol=1e-12)

@@ -270,7 +270,8 @@ def test_walk_stack_holds_torso_and_arms_when_the_reference_outruns_the_servos(r
     import pinocchio as pin
 
     from wbc.bench.trajectories import build
-    from wbc.walking.loop import StackController, heading_free, run
+    from wbc.geometry import heading_free
+    from wbc.walking.loop import StackController, run
 
     ref = build("walk10", robot)
     rec = run(StackController(load_stack("walk", robot, solver=kind)), robot, ref)

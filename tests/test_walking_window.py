@@ -98,7 +98,8 @@ def test_window_check_rejects_a_com_beyond_it(window, start):
 
 
 def test_session_asks_the_torso_for_the_planned_roll(robot, window, start):
-    from wbc.walking.loop import Controller, Session, heading_free
+    from wbc.geometry import heading_free
+    from wbc.walking.loop import Controller, Session
 
     class Hold(Controller):
         def track(self, q, targets, dt, phase_changed):

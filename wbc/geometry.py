@@ -59,6 +59,14 @@ def yaw_of(rotation: np.ndarray) -> float:
     return math.atan2(rotation[1, 0], rotation[0, 0])
 
 
+def heading_free(rotation: np.ndarray) -> np.ndarray:
+    """The rotation with its heading removed, ``Rz(−yaw) R`` (``yaw = yaw_of(R)``): the tilt
+    (pitch and roll) seen from a frame turned with the body."""
+    yaw = yaw_of(rotation)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ rotation
+
+
 def rot2(yaw: float) -> np.ndarray:
     """2-D rotation matrix."""
     c, s = np.cos(yaw), np.sin(yaw)

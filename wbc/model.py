@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from .exceptions import ConfigurationError, ModelError, ServoMapError
+from .geometry import yaw_of
 from .paths import read_toml, robots_dir
 from .robot_data import ROBOT_KEYS, RobotData
 from .roles import JointRoles, find_roles
@@ -556,7 +557,7 @@ class Robot:
         oMs = self.frame_placement(q, sole)
         if at is None:
             R = oMs.rotation
-            yaw = np.arctan2(R[1, 0], R[0, 0])
+            yaw = yaw_of(R)
             at = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), np.array([*oMs.translation[:2], 0]))
         oMb = pin.XYZQUATToSE3(q[:7])
         new_base = at * oMs.inverse() * oMb

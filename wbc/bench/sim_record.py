@@ -88,7 +88,7 @@ def physics_record(rec: Recording, result, robot: Robot, ref=None) -> dict[str, 
         record["fall_phase"] = record["fall_joint"] = None
     record["orientation_dev_max_deg"] = float(dev[:upto].max()) if upto else 0.0
     if ref is not None:
-        from ..walking.loop import heading_free
+        from ..geometry import heading_free
 
         start = pin.XYZQUATToSE3(rec.q[0, :7]).rotation  # the base is the torso
         wanted = ref.torso_rotations(heading_free(start))

@@ -193,7 +193,7 @@ def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
     sole0 = robot.frame_placement(stand, "l_sole").rotation
     z_stand = sole0.T @ robot.frame_placement(stand, "torso").rotation[:, 2]  # in the sole
     Rs = sim.site_pose("l_sole").rotation
-    yaw = math.atan2(Rs[1, 0], Rs[0, 0])
+    yaw = yaw_of(Rs)
     z_want = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ z_stand
     tilt = math.degrees(math.acos(float(np.clip(R[:, 2] @ z_want, -1.0, 1.0))))
     if tilt > tilt_deg:

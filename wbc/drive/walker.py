@@ -35,7 +35,7 @@ import pinocchio as pin
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import wrap_angle, yaw_of
+from ..geometry import heading_free, wrap_angle, yaw_of
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -46,7 +46,7 @@ from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngin
 from ..walking.footsteps import Footstep
 from ..walking.geometry import Foot, rot2
 from ..walking.legs import LegGeometry
-from ..walking.loop import Controller, TickTargets, heading_free
+from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
 from .odometry import PoseOdometry

@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import SolverError
+from ..geometry import heading_free
 from ..model import Kinematics
 from ..tasks import ComTask, LocalFramePoseTask
 from .reference import WalkingReference
@@ -80,7 +81,7 @@ def kinematic_feasibility(
         )
     q = robot.check_configuration(q0).copy()
     R0 = robot.frame_placement(q, "torso").rotation
-    pitch_roll = pin.rpy.rpyToMatrix(0, 0, -np.arctan2(R0[1, 0], R0[0, 0])) @ R0
+    pitch_roll = heading_free(R0)
     torsos = ref.torso_rotations(pitch_roll)  # with the reference's planned lean, if any
     w_sole, w_com, w_torso = weights
     W = np.array([w_sole] * 12 + [w_com] * 3 + [w_torso] * 3)

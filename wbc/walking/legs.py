@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ModelError, TrajectoryError
+from ..geometry import yaw_of
 from ..roles import SOLE_FRAMES, leg_segments
 from .geometry import rot2
 
@@ -100,7 +101,7 @@ class LegGeometry:
         oq = joint_origins(qq)
         com = robot.com(qq)
         torso = robot.frame_placement(qq, "torso").rotation
-        heading = float(np.arctan2(torso[1, 0], torso[0, 0]))
+        heading = yaw_of(torso)
         mid_soles = 0.5 * (
             robot.frame_placement(qq, "l_sole").translation[:2]
             + robot.frame_placement(qq, "r_sole").translation[:2]

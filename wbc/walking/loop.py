@@ -21,7 +21,7 @@ import pinocchio as pin
 from ..compiled.checks import entry as check_entry
 from ..compiled.targets import copy_targets
 from ..exceptions import ConfigurationError, InfeasibleError, TrajectoryError, WbcError
-from ..geometry import sole_corners
+from ..geometry import heading_free, sole_corners
 from ..model import Kinematics, Robot
 from ..recording import SUPPORT_DOUBLE, Recording, assess
 from ..stacks import ControlStack
@@ -42,11 +42,6 @@ SOLES = {"left": "l_sole", "right": "r_sole"}
 _copy_targets = check_entry(copy_targets)
 _F8 = np.dtype(np.float64)
 _VECTOR, _MATRIX = (3,), (3, 3)
-
-
-def heading_free(R: np.ndarray) -> np.ndarray:
-    """R with its heading (yaw) removed: Rz(−yaw) R."""
-    return pin.rpy.rpyToMatrix(0.0, 0.0, -np.arctan2(R[1, 0], R[0, 0])) @ R
 
 
 def torso_target(yaw: float, pitch_roll: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import TrajectoryError
+from ..geometry import yaw_of
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from .footsteps import Footstep, FootstepPlan, Side
 from .geometry import Foot, halfplanes, shrink_polygon, signed_distance, support_polygon
@@ -55,7 +56,7 @@ class StandingState:
         soles = {}
         for side in ("left", "right"):
             M = robot.frame_placement(q, f"{side[0]}_sole")
-            yaw = float(np.arctan2(M.rotation[1, 0], M.rotation[0, 0]))
+            yaw = yaw_of(M.rotation)
             p = M.translation
             soles[side] = Footstep(side, float(p[0]), float(p[1]), yaw, float(p[2]))
         com = np.asarray(robot.com(q), dtype=float)

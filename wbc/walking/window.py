@@ -37,6 +37,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import TrajectoryError
+from ..geometry import yaw_of
 from ..model import Kinematics
 from ..tasks import ComTask, FrameTiltTask, LocalFramePoseTask
 
@@ -202,7 +203,7 @@ class _Problem:
         self.fid_torso = robot.frame_id("torso")
         self.height = float(robot.com(q)[2]) if height is None else float(height)
         R = self.soles[0].rotation
-        heading = float(np.arctan2(R[1, 0], R[0, 0]))
+        heading = yaw_of(R)
         self.fwd = np.array([np.cos(heading), np.sin(heading), 0.0])
         self.left = np.array([-np.sin(heading), np.cos(heading), 0.0])
         # a staggered stance: the left sole stagger/2 ahead, the right one behind (same mid)
