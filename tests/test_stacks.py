@@ -441,3 +441,39 @@ def test_a_noted_phase_takes_the_layout_of_the_stack_as_it_is(robot, name):
             torso.set_frame("l_sole" if torso.frame == "torso" else "torso")
         solver.solve(q, 0.01)
         assert solver.fast is solver._layouts[solver._layout_key()].fast, i
+
+
+def test_joints_key_selects_the_legs_or_the_other_joints_by_role(robot):
+    """``joints = "legs"`` / ``"others"`` on a posture or damping entry masks its rows by the
+    roles found in the model (no joint named in the file): a posture on the others has one
+    row per non-leg joint; a damping on the legs one per leg joint, none on the base."""
+    legs = {robot.joint_index(j) for s in ("left", "right") for j in robot.roles.leg(s)}
+    spec = {
+        "levels": [
+            {
+                "tasks": [
+                    {"type": "posture", "weight": 0.01, "joints": "others"},
+                    {"type": "damping", "weight": 0.001, "joints": "legs"},
+                ]
+            }
+        ]
+    }
+    stack = build_stack(spec, robot).stack
+    posture, damping = stack.task("posture"), stack.task("damping")
+    assert posture.rows == robot.n_joints - len(legs) == 6
+    assert damping.rows == len(legs) == 12
+    mask = np.asarray(damping.mask)
+    assert not mask[:6].any() and sorted(np.flatnonzero(mask[6:])) == sorted(legs)
+
+
+@pytest.mark.parametrize(
+    "entry, match",
+    [
+        ({"type": "posture", "joints": "arms"}, r"joints = 'arms': must be one of \('legs'"),
+        ({"type": "posture", "joints": "legs", "mask": [True] * 18}, "joints or mask, not both"),
+        ({"type": "com", "joints": "legs"}, "applies to posture and damping tasks only"),
+    ],
+)
+def test_bad_joints_key_is_one_line(robot, entry, match):
+    with pytest.raises(TaskError, match=match):
+        build_stack({"levels": [{"tasks": [entry]}]}, robot, source="my.toml")

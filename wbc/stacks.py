@@ -48,7 +48,10 @@ from .tasks.task import STACK_TYPES
 ROLES = ("support", "swing")
 PHASES = ("double", "single")
 SOLVERS = ("weighted", "hierarchical")
-_TASK_KEYS = {"type", "name", "frame", "weight", "gain", "mask", "phases"}
+_TASK_KEYS = {"type", "name", "frame", "weight", "gain", "mask", "phases", "joints"}
+#: ``joints = ...`` of a joint-space task (posture, damping): its rows on the legs' joints
+#: (:attr:`wbc.model.Robot.roles`) or on every other joint (arms, head); the base's rows off
+JOINT_GROUPS = ("legs", "others")
 
 
 def _check_keys(cls, kw: dict) -> None:
@@ -515,6 +518,8 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
         raise TaskError(f"{where}: task {kind!r}: phases must be among {PHASES}, got {phases}")
     kw = {k: entry[k] for k in ("weight", "gain", "mask") if k in entry}
     _check_numbers(kw, at)
+    if "joints" in entry:
+        kw["mask"] = _joint_group_mask(entry, cls, robot, at)
     kw.update({k: entry[k] for k in keys if k in entry})
     try:
         _check_keys(cls, kw)
@@ -526,6 +531,26 @@ def _make_task(entry, robot: Robot, where: str, priority: int) -> tuple[Task, Ro
         raise TaskError(f"{at}: {exc}") from exc
     binding = RoleBinding(role, phases) if (role or phases != PHASES) else None
     return task, binding
+
+
+def _joint_group_mask(entry: Mapping[str, Any], cls: type, robot: Robot, where: str) -> list:
+    """The mask of ``joints = "legs"`` / ``"others"`` (:data:`JOINT_GROUPS`) on a task with
+    one row per joint (a posture: n_joints rows) or per degree of freedom (a damping: nv rows,
+    the base's six off): the legs are those :attr:`wbc.model.Robot.roles` finds, so a file
+    names no joint. Not with ``mask``; not on a task of another kind."""
+    group = entry["joints"]
+    if group not in JOINT_GROUPS:
+        raise TaskError(f"{where}: joints = {group!r}: must be one of {JOINT_GROUPS}")
+    if "mask" in entry:
+        raise TaskError(f"{where}: give joints or mask, not both")
+    rows = {"posture": robot.n_joints, "damping": robot.model.nv}.get(
+        getattr(cls, "stack_type", "")
+    )
+    if rows is None:
+        raise TaskError(f"{where}: joints = {group!r} applies to posture and damping tasks only")
+    legs = {robot.joint_index(j) for s in ("left", "right") for j in robot.roles.leg(s)}
+    mask = [(j in legs) == (group == "legs") for j in range(robot.n_joints)]
+    return [False] * (rows - robot.n_joints) + mask
 
 
 def _check_numbers(kw: Mapping[str, Any], where: str) -> None:

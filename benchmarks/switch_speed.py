@@ -1,0 +1,54 @@
+"""Largest joint speed / no-load speed per robot and walk on a stack, anywhere, within a
+tick of each support switch and on the non-leg joints (arms, head: issue 15's walk10 test asks
+< 0.5 of the Bioloid's arms), beside what the reference itself asks (benchmarks/balance.md,
+'Joint speed at a support switch').
+
+    python benchmarks/switch_speed.py                       # the walk stack
+    python benchmarks/switch_speed.py --stack my_walk.toml  # another (by name or path)
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from wbc.bench import metrics
+from wbc.bench.trajectories import build
+from wbc.model import load_robot
+from wbc.stacks import load_stack
+from wbc.walking.feasibility import kinematic_feasibility
+from wbc.walking.loop import StackController, run
+
+WALKS = ("static_walk", "walk10", "walk10_wb", "turn", "lateral", "turn_wb", "lateral_wb",
+         "fast_wb")  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stack", default="walk")
+    parser.add_argument("--robots", nargs="+", default=["bioloid", "kokone", "op3"])
+    parser.add_argument("--walks", nargs="+", default=list(WALKS))
+    args = parser.parse_args()
+    for name in args.robots:
+        robot = load_robot(name)
+        legs = {robot.joint_index(j) for s in ("left", "right") for j in robot.roles.leg(s)}
+        others = [j for j in range(robot.n_joints) if j not in legs]
+        for walk in args.walks:
+            ref = build(walk, robot)
+            asked = kinematic_feasibility(robot, ref).speed_fraction
+            rec = run(StackController(load_stack(args.stack, robot)), robot, ref)
+            speed = np.abs(np.diff(rec.q[:, 7:], axis=0)) / ref.dt / robot.v_max
+            switches = np.flatnonzero(np.diff(rec.channels["support"]))
+            near = np.concatenate([np.arange(s - 1, min(s + 4, len(speed))) for s in switches])
+            m = metrics.compute(rec, robot)
+            print(
+                f"{name:8s} {walk:12s} ref {asked:4.2f}  max {speed.max():4.2f}  switch "
+                f"{speed[near].max():4.2f}  others {speed[:, others].max():4.2f}  com "
+                f"{m['com_err_max_mm']:.3f} mm  foot {m['foot_err_max_mm']:.3f} mm",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
