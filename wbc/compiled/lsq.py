@@ -29,7 +29,10 @@ it and a fixed one with the wrong multiplier sign is released, all at once. PDAS
 few steps when the reduced Hessian is close to an M-matrix but can cycle otherwise (typically
 p < d with a small ridge). When the number of infeasibilities stops falling, or an exchange makes
 the equalities inconsistent, the solver switches to a dual active set method (Goldfarb–Idnani
-on the bounds): from the set PDAS met with the fewest infeasibilities, less its wrong-signed
+on the bounds): from the set PDAS met with the fewest infeasibilities (its subproblem's x and
+multipliers kept, not solved again: on the hierarchy's last level with self-collision rows,
+whose re-solves start from the set of the problem with one row less, PDAS's first exchange
+mostly overshoots — 1487 → 1343 subproblems along walk10), less its wrong-signed
 bounds (released one at a time, the largest multiplier first: a dual feasible point; on the
 walk's hierarchy, 14 subproblems → 8 on the ticks where PDAS stalls), it adds the most
 violated bound, moving along the subproblem's solution, which is affine in the
@@ -95,6 +98,7 @@ from .lsq_linalg import (
 )
 from .lsq_subproblem import (
     _SUB_INCONSISTENT,
+    _SUB_OK,
     _SUB_SINGULAR,
     _dependency,
     _rank_with,
@@ -141,10 +145,9 @@ def _finish(x, lower, upper, V, mu_row, ind, state, clip):
 
 
 @njit(cache=True)
-def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, dual):
+def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     """The solver behind :func:`solve_level` (compiled once for float ridge/rank_rtol and an
-    integer max_iter, however the public functions are called); ``dual``: straight to the
-    dual method from the warm start (:func:`solve_level_dual`), without PDAS."""
+    integer max_iter, however the public functions are called)."""
     m, n = A.shape
     p = B.shape[0]
     if a.shape[0] != m:
@@ -185,8 +188,12 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, dual)
     # bounds), which first releases wrong-signed bounds (DUAL_START) and then adds violated
     # bounds one at a time along the path of the subproblem's solution (DUAL_ADD). One call
     # site of _subproblem keeps the compiled code (and the compile time) small.
-    phase = _DUAL_START if dual else _PDAS
+    phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
+    # x, μ and their tolerances of the set with the fewest (the set PDAS falls back to)
+    saved = np.empty((3, n))
+    kept = False
+    rank = 0
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -198,8 +205,16 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, dual)
                     V[_V_MU, i] = V[_V_MU0, i]
             _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
             return MAX_ITER, count
-        count += 1
-        sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
+        if kept:  # (the set PDAS falls back to: its subproblem's x and multipliers kept)
+            kept = False
+            sub = _SUB_OK
+            for i in range(n):
+                x[i] = saved[0, i]
+                V[_V_MU, i] = saved[1, i]
+                V[_V_MU_TOL, i] = saved[2, i]
+        else:
+            count += 1
+            sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
         if sub == _SUB_SINGULAR:
             _fill(x, np.nan)
             return NUMERICAL, count
@@ -221,6 +236,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, dual)
                 for i in range(n):
                     ind[_I_FIXED, i] = ind[_I_PREV, i]
                 phase = _DUAL_START
+                kept = True
                 continue
             n_inf = 0
             for i in range(n):
@@ -236,6 +252,10 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, dual)
             if n_inf < best:
                 best = n_inf
                 for i in range(n):
+                    saved[0, i] = x[i]
+                    saved[1, i] = V[_V_MU, i]
+                    saved[2, i] = V[_V_MU_TOL, i]
+                for i in range(n):
                     ind[_I_PREV, i] = ind[_I_FIXED, i]
                     if ind[_I_PINNED, i]:
                         continue
@@ -250,14 +270,9 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, dual)
             phase = _DUAL_START
             for i in range(n):
                 ind[_I_FIXED, i] = ind[_I_PREV, i]
+            kept = True  # (that set's subproblem is the one kept: not solved again)
             continue
         if phase == _DUAL_START:
-            if sub == _SUB_INCONSISTENT and count == 1 and warm:  # (dual: from a cold start)
-                warm = False
-                max_iter += 1
-                for i in range(n):
-                    ind[_I_FIXED, i] = -1 if ind[_I_PINNED, i] else 0
-                continue
             if sub == _SUB_INCONSISTENT:  # cannot happen: only releases since a consistent set
                 _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
                 return MAX_ITER, count
@@ -386,10 +401,7 @@ def solve_level_iterations(
 
     A warm start from the final active set of the same problem takes one subproblem.
     """
-    return _solve(
-        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter),
-        np.bool_(False),
-    )  # fmt: skip
+    return _solve(A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter))
 
 
 @njit(cache=True)
@@ -406,30 +418,8 @@ def solve_level(A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_i
     modified.
     """
     status, _ = _solve(
-        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter),
-        np.bool_(False),
-    )  # fmt: skip
-    return status
-
-
-@njit(cache=True)
-def solve_level_dual(A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_iter=30):
-    """:func:`solve_level` by the dual method from the warm start ``state`` at once, without
-    PDAS's exchanges first: for a strictly convex level (ridge > 0) warm-started from the
-    active set of a nearby problem — the same level with one equality more or less (an
-    inequality row joining or leaving the working set of
-    :func:`wbc.compiled.ticks.solve_with_inequalities`). From such a start PDAS's first
-    exchange, all bounds at once, mostly overshoots (more infeasibilities than the start) and
-    the dual method then starts over from the same set: one to two subproblems spent for
-    nothing (walk10, ``walk_strict`` with self-collision, the last level's re-solves: 1487
-    subproblems by PDAS first, 1203 by the dual method at once). A warm start that the new
-    equality makes inconsistent starts cold, as in :func:`solve_level`. The optimum of a
-    strictly convex level is the same either way (its final active set, whose subproblem
-    gives x)."""
-    status, _ = _solve(
-        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter),
-        np.bool_(True),
-    )  # fmt: skip
+        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter)
+    )
     return status
 
 
@@ -489,7 +479,6 @@ refresh(
         _solve,
         solve_level_iterations,
         solve_level,
-        solve_level_dual,
         equality_multipliers,
     ],
     [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"],

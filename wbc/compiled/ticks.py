@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from ._cache import refresh
-from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level, solve_level_dual
+from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
@@ -161,19 +161,13 @@ def _finite(x) -> bool:
 
 
 @njit(cache=True)
-def _level(A, a, B, r, ridge, exact, lower, upper, state, x, dual) -> int:
+def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
     """One least-squares level by :func:`~wbc.compiled.lsq.solve_level`: with ``ridge``
-    (the weighted QP, the last level of the hierarchy; ``dual``: a re-solve after an
-    inequality row joined or left, by :func:`~wbc.compiled.lsq.solve_level_dual`); or,
-    ``exact``, without (an intermediate level of the hierarchy): exact least squares when the
-    level's rows are independent in the remaining freedom, else, or when the active set
-    cycles on the flat directions of the unregularised problem, proximal steps from x
-    (:func:`_proximal_level`)."""
+    (the weighted QP, the last level of the hierarchy); or, ``exact``, without (an
+    intermediate level of the hierarchy): exact least squares when the level's rows are
+    independent in the remaining freedom, else, or when the active set cycles on the flat
+    directions of the unregularised problem, proximal steps from x (:func:`_proximal_level`)."""
     if not exact:
-        if dual:
-            return solve_level_dual(
-                A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER)
-            )
         return solve_level(
             A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER)
         )
@@ -290,9 +284,7 @@ def solve_with_inequalities(
                     B[ps] = G[i]
                     r[ps] = h[i]
                     ps += 1
-            status = _level(
-                A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x, np.bool_(True)
-            )
+            status = _level(A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x)
             if status != OK:
                 working[:] = False
                 return status
@@ -469,9 +461,7 @@ def _cascade(
             if (r1 > r0 or last) and not warm:
                 if direct and free:  # (its set without the rows at the last tick)
                     states[k, :] = states[n_levels]
-                status = _level(
-                    A, a, B, r, mu, not last, lower, upper, states[k], dq, np.bool_(False)
-                )
+                status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
                 if direct and free:
                     states[n_levels, :] = states[k]
             if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
