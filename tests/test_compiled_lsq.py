@@ -216,6 +216,30 @@ def test_warm_start_from_the_result_takes_one_subproblem(seed, m, p):
     np.testing.assert_allclose(x2, x, rtol=0, atol=1e-12)
 
 
+@given(seed=seeds, m=st.sampled_from([6, 12]), p=st.sampled_from([30, 9]))
+def test_a_warm_start_from_a_nearby_levels_set_answers_as_a_cold_start(seed, m, p):
+    """An inequality row joining the working set (one equality more), warm-started from the
+    active set of the level without it, as the cascade's re-solves: where PDAS's first
+    exchange overshoots, the dual method goes on from the set it kept (not solved again),
+    and ends at the active set and x of a cold start (the final set's subproblem gives x)."""
+    A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
+    status, _, state, _ = solve(A, a, B, r, ridge, lower, upper)
+    assert status == OK
+    rng = np.random.default_rng(seed)
+    row = rng.standard_normal(N)
+    x_feasible = np.linalg.lstsq(A, a, rcond=None)[0].clip(0.5 * lower, 0.5 * upper)
+    A2, a2 = np.vstack([A, row]), np.r_[a, row @ x_feasible]
+    status_cold, x_cold, state_cold, _ = solve(A2, a2, B, r, ridge, lower, upper, max_iter=100)
+    status_warm, x_warm, state_warm, _ = solve(
+        A2, a2, B, r, ridge, lower, upper, state=state, max_iter=100
+    )
+    assert status_warm == status_cold
+    if status_cold == OK:
+        assert_kkt(x_warm, state_warm, A2, a2, B, r, ridge, lower, upper)
+        np.testing.assert_array_equal(state_warm, state_cold)
+        np.testing.assert_allclose(x_warm, x_cold, rtol=0, atol=1e-12)
+
+
 def test_a_wrong_warm_start_still_converges():
     problem = random_level(3, 6, 30, 1e-6)
     _, x, state, _ = solve(*problem)

@@ -29,7 +29,10 @@ it and a fixed one with the wrong multiplier sign is released, all at once. PDAS
 few steps when the reduced Hessian is close to an M-matrix but can cycle otherwise (typically
 p < d with a small ridge). When the number of infeasibilities stops falling, or an exchange makes
 the equalities inconsistent, the solver switches to a dual active set method (Goldfarb–Idnani
-on the bounds): from the set PDAS met with the fewest infeasibilities, less its wrong-signed
+on the bounds): from the set PDAS met with the fewest infeasibilities (its subproblem's x and
+multipliers kept, not solved again: on the hierarchy's last level with self-collision rows,
+whose re-solves start from the set of the problem with one row less, PDAS's first exchange
+mostly overshoots — 1487 → 1343 subproblems along walk10), less its wrong-signed
 bounds (released one at a time, the largest multiplier first: a dual feasible point; on the
 walk's hierarchy, 14 subproblems → 8 on the ticks where PDAS stalls), it adds the most
 violated bound, moving along the subproblem's solution, which is affine in the
@@ -95,6 +98,7 @@ from .lsq_linalg import (
 )
 from .lsq_subproblem import (
     _SUB_INCONSISTENT,
+    _SUB_OK,
     _SUB_SINGULAR,
     _dependency,
     _rank_with,
@@ -186,6 +190,10 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     # site of _subproblem keeps the compiled code (and the compile time) small.
     phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
+    # x, μ and their tolerances of the set with the fewest (the set PDAS falls back to)
+    saved = np.empty((3, n))
+    kept = False
+    rank = 0
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -197,8 +205,16 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                     V[_V_MU, i] = V[_V_MU0, i]
             _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
             return MAX_ITER, count
-        count += 1
-        sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
+        if kept:  # (the set PDAS falls back to: its subproblem's x and multipliers kept)
+            kept = False
+            sub = _SUB_OK
+            for i in range(n):
+                x[i] = saved[0, i]
+                V[_V_MU, i] = saved[1, i]
+                V[_V_MU_TOL, i] = saved[2, i]
+        else:
+            count += 1
+            sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
         if sub == _SUB_SINGULAR:
             _fill(x, np.nan)
             return NUMERICAL, count
@@ -220,6 +236,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 for i in range(n):
                     ind[_I_FIXED, i] = ind[_I_PREV, i]
                 phase = _DUAL_START
+                kept = True
                 continue
             n_inf = 0
             for i in range(n):
@@ -235,6 +252,10 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             if n_inf < best:
                 best = n_inf
                 for i in range(n):
+                    saved[0, i] = x[i]
+                    saved[1, i] = V[_V_MU, i]
+                    saved[2, i] = V[_V_MU_TOL, i]
+                for i in range(n):
                     ind[_I_PREV, i] = ind[_I_FIXED, i]
                     if ind[_I_PINNED, i]:
                         continue
@@ -249,6 +270,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             phase = _DUAL_START
             for i in range(n):
                 ind[_I_FIXED, i] = ind[_I_PREV, i]
+            kept = True  # (that set's subproblem is the one kept: not solved again)
             continue
         if phase == _DUAL_START:
             if sub == _SUB_INCONSISTENT:  # cannot happen: only releases since a consistent set

@@ -444,29 +444,46 @@ def _cascade(
         # else the level without them first (a level of constraints only: Δq so far is one of
         # its optima, if it meets them), and if it misses one, the rows from the hard rows
         # the level above kept at their bounds. A warm start that fails: once more, cold
+        # The damped last level (one minimiser) takes its rows most violated first, from its
+        # solution without them (``direct``); if that fails, once more as the levels above:
+        # from the feasible Δq so far, the rows the level above held joining at once. Its
+        # solve without the rows starts from that solve's bounds at the last tick when
+        # ``states`` has a row for them (``states[L]``: the last tick's end, with its rows,
+        # took that solve 7-10 subproblems on walk_strict's slowest ticks)
         entry = dq.copy()
+        direct = last and mu > 0.0
+        kept = states[k].copy()
+        free = states.shape[0] > n_levels  # (a row for the last level's set without its rows)
         status = OK
         for _ in range(2):
             warm = _any(working[k], g1)
             status = OK
             if (r1 > r0 or last) and not warm:
+                if direct and free:  # (its set without the rows at the last tick)
+                    states[k, :] = states[n_levels]
                 status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
+                if direct and free:
+                    states[n_levels, :] = states[k]
             if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
                 soft_from = g1 if level_hard[k] else g0
-                if not warm and k > 0:
+                if not warm and k > 0 and not direct:
                     above = g0 if level_hard[k - 1] else g_rows[k - 1]
                     for i in range(above):
                         working[k, i] = working[k - 1, i]
                 # (Δq so far meets the levels above and their rows: a feasible start)
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                    soft_from, tol, working[k, :g1], entry, np.bool_(True),
+                    soft_from, tol, working[k, :g1], entry, np.bool_(not direct),
                 )  # fmt: skip
-            if status == OK or not warm:
+            if status == OK or not (warm or direct):
                 break
             working[k, :] = False
-            states[k, :] = 0
+            if direct:
+                states[k, :] = kept
+            else:
+                states[k, :] = 0
             dq[:] = entry
+            direct = False
         if status != OK:
             return DEFERRAL_FAILED if soft else status
         for i in range(deferred):  # the deferred levels, met by this solve's equalities
@@ -506,7 +523,9 @@ def cascade_solve(
 
     ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``g_rows``: those of
     the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
-    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated);
+    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated), and
+    ``states[L]`` if given (L + 1 rows) the last level's without its inequality rows (the
+    warm start of that solve);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
     rows kept (work space); ``params``: [(unused), μ, tolerance of hard levels,
     tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.
@@ -517,7 +536,12 @@ def cascade_solve(
     least-squares level) and the rows above at their bounds plus the slacks they kept
     (``G_i Δq <= h_i + s_i``); the last level damped by μ‖Δq‖² as the weighted QP. The
     inequality rows cost nothing on a level whose solution without them meets them (and which
-    had no working set at the last tick); else :func:`solve_with_inequalities`. In a tick
+    had no working set at the last tick); else :func:`solve_with_inequalities`: from the
+    feasible Δq of the levels above, the rows the level above held joining at once; on the
+    damped last level (one minimiser, whatever the path) from its solution without the rows,
+    the most violated joining first (on ``walk_strict``'s slowest ticks the arms' box corners
+    against the torso then join once each instead of joining and leaving in turn: the last
+    level's subproblems p99 35 -> 22 along walk10; the first way again if this one fails). In a tick
     without inequality rows, the hard levels at the top are not solved on their own: met, a
     hard level's optimal set is {J_k Δq = b_k} within the bounds, which the next level takes
     as its equalities (the same answer, one level solve fewer); they are checked after it.
