@@ -419,3 +419,31 @@ def test_the_clock_hurries_only_in_a_double_support_pushed_along_the_walk(robot,
         SteppingParams(hurry=-1.0).check()
     with pytest.raises(ConfigurationError, match="hurry must be >= 1"):
         SteppingParams(hurry=0.5).check()
+
+
+def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
+    """``landing_catch``: the swing target moves only once the DCM error has left the dead
+    band in this single support, blended in over ``landing_catch`` s (smoothstep), and not
+    in the next single support."""
+    params = SteppingParams(landing=1.0, landing_catch=0.03)
+    rot, move = [0.0, 0.1, 0.0], [0.0, 0.0, 0.0]
+    adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
+    w = adj.omega
+    adj.update(walk10, MID, dcm(walk10, MID, w))  # inside the band
+    assert adj.land(tg, est, q) is tg
+    adj.update(walk10, MID, dcm(walk10, MID, w) + [0.04, 0.0])  # a push: beyond the band
+    out = adj.land(tg, est, q)
+    x = walk10.dt / 0.03  # the first tick of the blend
+    share = x * x * (3 - 2 * x)
+    import pinocchio as pin
+
+    E = pin.exp3(share * np.array([0.0, -0.1, 0.0]))  # (the controller's torso from the
+    moved = q[:3] + E @ (tg.swing_position - est.base)  # measured one, a share of it)
+    np.testing.assert_allclose(out.swing_position,
+                               tg.swing_position + share * (moved - tg.swing_position),
+                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(out.swing_rotation, E @ tg.swing_rotation, atol=1e-12)
+    later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
+    adj.update(walk10, later, dcm(walk10, later, w))  # the next single support, unpushed
+    _, tg2, est2, q2, _ = _land_case(robot, walk10, params, rot, move, i=later)
+    assert adj.land(tg2, est2, q2) is tg2

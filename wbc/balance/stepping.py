@@ -135,6 +135,9 @@ class SteppingParams:
     landing_lateral: float = 1.0
     #: share of the swing over which the correction blends in from lift-off (smoothstep)
     landing_blend: float = 0.0
+    #: s: > 0: the correction only in a single support whose DCM error has left the dead
+    #: band (a push being caught; latched to the landing), blended in over this time
+    landing_catch: float = 0.0
     #: step timing: in double support, while the DCM error along the walk (heading frame) is
     #: beyond ``hurry_band``, the walk's clock runs ``hurry`` times as fast (the next lift-off
     #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
@@ -155,7 +158,8 @@ class SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
-            "landing_lateral", "landing_blend", "hurry", "hurry_band",
+            "landing_lateral", "landing_blend", "landing_catch", "hurry",
+            "hurry_band",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in ("band_x", "band_y"):
@@ -329,6 +333,7 @@ class StepAdjuster:
         #: :meth:`_track_baseline`)
         self.baseline = np.zeros((2, 2))
         self.episode: int | None = None  # the step the current catch started in
+        self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
         self.plan = ref.plan
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
@@ -417,6 +422,12 @@ class StepAdjuster:
         angle = float(np.linalg.norm(v))
         band = p.landing_band
         w = p.landing * (min(max((angle - band) / band, 0.0), 1.0) if band > 0 else 1.0)
+        if p.landing_catch > 0:  # only while a push is caught: since the error left the band
+            since = self._caught
+            if since is None or self.phase_of[since] != self.phase_of[targets.i]:
+                return targets
+            x = min((targets.i - since + 1) * self.base.dt / p.landing_catch, 1.0)
+            w *= x * x * (3.0 - 2.0 * x)
         if p.landing_blend > 0:  # blended in from lift-off
             ph = self.phases[self.phase_of[targets.i]]
             x = min((targets.i - ph.i0) / max(ph.i1 - ph.i0, 1) / p.landing_blend, 1.0)
@@ -462,6 +473,10 @@ class StepAdjuster:
         if not self.enabled:
             return None
         self._track_baseline(ref, i, dcm)
+        if p.landing_catch > 0 and ref.support[i] != SUPPORT_DOUBLE:
+            caught = self._caught is not None and self.phase_of[self._caught] == self.phase_of[i]
+            if not caught and self.error(ref, i, dcm)[1].any():
+                self._caught = i  # the tick the DCM error left the band in this swing
         if i - self.last_tick < p.hold_ticks:
             return None
         ph, err = self.error(ref, i, dcm)
