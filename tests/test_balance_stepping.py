@@ -447,3 +447,23 @@ def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
     adj.update(walk10, later, dcm(walk10, later, w))  # the next single support, unpushed
     _, tg2, est2, q2, _ = _land_case(robot, walk10, params, rot, move, i=later)
     assert adj.land(tg2, est2, q2) is tg2
+
+
+def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot, walk10):
+    """``landing_tau``: the correction less its running mean per stance side — a lag held
+    for many time constants is left alone, a sudden departure from it is corrected."""
+    params = SteppingParams(landing=1.0, landing_tau=0.05)
+    adj, tg, est, q, _ = _land_case(robot, walk10, params, [0.0, 0.1, 0.0], [0.0, 0.0, -0.004])
+    first = adj.land(tg, est, q)
+    assert np.linalg.norm(first.swing_position - tg.swing_position) > 1e-4
+    for _ in range(200):  # 2 s = 40 time constants of the same lag
+        out = adj.land(tg, est, q)
+    np.testing.assert_allclose(out.swing_position, tg.swing_position, atol=1e-9)
+    # a push: 0.1 rad more pitch at once; its first tick corrects what the mean has not
+    # taken yet, (1 − dt/τ) of it, as the plain correction of that much pitch would
+    _, _, pushed, _, _ = _land_case(robot, walk10, params, [0.0, 0.2, 0.0], [0.0, 0.0, -0.004])
+    moved = adj.land(tg, pushed, q).swing_position
+    plain = StepAdjuster(robot, walk10, SteppingParams(landing=1.0))
+    share = 1.0 - walk10.dt / 0.05
+    _, _, lag, _, _ = _land_case(robot, walk10, params, [0.0, 0.1 * share, 0.0], [0.0] * 3)
+    np.testing.assert_allclose(moved, plain.land(tg, lag, q).swing_position, atol=1e-9)

@@ -149,6 +149,9 @@ class SteppingParams:
     #: s: > 0: the correction only in a single support whose DCM error has left the dead
     #: band (a push being caught; latched to the landing), blended in over this time
     landing_catch: float = 0.0
+    #: s: > 0: the correction less its running mean per stance side (this time constant):
+    #: a plant's steady lag of its plan left alone, a push's departure from it corrected
+    landing_tau: float = 0.0
     #: step timing: in double support, while the DCM error along the walk (heading frame) is
     #: beyond ``hurry_band``, the walk's clock runs ``hurry`` times as fast (the next lift-off
     #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
@@ -169,7 +172,7 @@ class SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
-            "landing_lateral", "landing_blend", "landing_catch", "hurry",
+            "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
             "hurry_band",
         ):  # fmt: skip
             v = getattr(self, name)
@@ -345,6 +348,8 @@ class StepAdjuster:
         self.baseline = np.zeros((2, 2))
         self.episode: int | None = None  # the step the current catch started in
         self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
+        #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
+        self._landing_mean = np.zeros((2, 6))
         self.plan = ref.plan
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
@@ -430,6 +435,14 @@ class StepAdjuster:
         lat = p.landing_lateral
         if lat != 1.0:  # the roll part (about the heading) scaled
             v = v - (1.0 - lat) * (v @ h) * h
+        base_m = np.asarray(est.base, dtype=float)
+        if p.landing_tau > 0:  # less the running mean (per stance side) of v and p_r − p_m
+            mean = self._landing_mean[0 if targets.support == "l_sole" else 1]
+            mean += (np.concatenate([v, q[:3] - base_m]) - mean) * min(
+                self.base.dt / p.landing_tau, 1.0
+            )
+            v = v - mean[:3]
+            base_m = base_m + mean[3:]
         angle = float(np.linalg.norm(v))
         band = p.landing_band
         w = p.landing * (min(max((angle - band) / band, 0.0), 1.0) if band > 0 else 1.0)
@@ -447,7 +460,7 @@ class StepAdjuster:
             return targets
         E = pin.exp3(w * v)
         pos = np.asarray(targets.swing_position, dtype=float)
-        moved = q[:3] + E @ (pos - np.asarray(est.base))
+        moved = q[:3] + E @ (pos - base_m)
         if lat != 1.0:  # the lateral part of the move scaled
             side = np.array([-h[1], h[0], 0.0])
             moved = moved - (1.0 - lat) * ((moved - pos) @ side) * side
