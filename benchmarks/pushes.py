@@ -49,14 +49,15 @@ def loop_spec(
     loop: str, entry, ref, stepping: dict | None = None, gains: dict | None = None
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
-    (``stepping``: keywords of the ``steps`` loop's SteppingParams over RECOVERY_STEPS;
+    (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
+    over RECOVERY_STEPS;
     ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward x0.5
         return None, 0.5
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains(**(gains or {}))
-    step = SteppingParams() if loop in ("step", "nohipstep") else None
+    step = SteppingParams(**(stepping or {})) if loop in ("step", "nohipstep") else None
     if loop == "steps":
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
@@ -71,7 +72,9 @@ def main() -> None:
     ap.add_argument("--directions", nargs="+", default=["lateral", "forward"])
     ap.add_argument("--trajectory", default="walk10")
     ap.add_argument("--json", default=None)
-    ap.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords (steps)")
+    ap.add_argument(
+        "--stepping", default="{}", help="JSON of SteppingParams keywords (step, steps)"
+    )
     ap.add_argument("--gains", default="{}", help="JSON of Gains keywords (closed, step, steps)")
     ap.add_argument(
         "--safety",

@@ -299,3 +299,171 @@ def test_the_band_is_centred_on_the_errors_running_mean_per_stance_side(robot, w
     assert adj.update(walk10, MID, ahead) is None  # within the band around the lag
     zero = StepAdjuster(robot, walk10)  # the band centred on zero: the same error re-plans
     assert zero.update(walk10, MID, ahead) is not None
+
+
+def _land_case(robot, walk10, params, rot_m, shift_m, i=MID):
+    """(adjuster, targets at tick i, estimate, controller q): the estimate's torso turned by
+    ``rot_m`` (rotation vector) and moved by ``shift_m`` from the controller's."""
+    import pinocchio as pin
+
+    from wbc.balance.estimator import StateEstimate
+    from wbc.walking.loop import Session, start_configuration
+
+    adj = StepAdjuster(robot, walk10, params)
+
+    class _Noop:  # a controller that never moves (only the targets are looked at)
+        name = "noop"
+
+        def start(self, robot, q0, ref):
+            pass
+
+        def rehearse(self, q, targets, dt):
+            pass
+
+    session = Session.__new__(Session)  # the targets only: no controller needed
+    session.ref = walk10
+    from wbc.walking.loop import support_roles
+
+    session.support, session.swing = support_roles(walk10)
+    session._soles, session._swing = [], []
+    session._sole_targets(0)
+    q0 = start_configuration(robot, walk10)
+    session._torso = list(walk10.torso_rotations(np.eye(3)))
+    targets = session.targets(i)
+    q = q0.copy()
+    R_r = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+    torso_b = robot.model.frames[robot.frame_id("torso")].placement.rotation
+    values = np.zeros((8, 3))
+    values[:3] = pin.exp3(np.asarray(rot_m, float)) @ R_r @ torso_b  # the measured torso
+    values[3] = q[:3] + np.asarray(shift_m, float)
+    return adj, targets, StateEstimate(values), q, R_r @ torso_b
+
+
+@pytest.mark.parametrize("lateral", [1.0, 0.0])
+def test_the_swing_sole_lands_where_the_measured_body_puts_it(robot, walk10, lateral):
+    """The controller places the swing sole relative to its own base; the robot's base is
+    pitched and rolled (a push, the stance hip's sag) and moved: the corrected target, carried
+    by the *measured* base, puts the sole at the planned place (``landing`` 1); with
+    ``landing_lateral`` 0 only the sagittal part (pitch; the move along the walk and in
+    height) is corrected."""
+    import pinocchio as pin
+
+    rot, move = np.array([0.05, 0.2, 0.0]), np.array([0.01, -0.004, -0.006])
+    params = SteppingParams(landing=1.0, landing_lateral=lateral)
+    adj, tg, est, q, R_r = _land_case(robot, walk10, params, rot, move)
+    out = adj.land(tg, est, q)
+    assert out is not tg and out.com is tg.com  # only the swing targets change
+    E = R_r @ est.rotation.T  # controller's torso from the measured one
+    # where the measured body carries the controller's relative placement of the new target
+    real = est.base + E.T @ (out.swing_position - q[:3])
+    real_R = E.T @ out.swing_rotation
+    if lateral == 1.0:
+        np.testing.assert_allclose(real, tg.swing_position, atol=1e-12)
+        np.testing.assert_allclose(real_R, tg.swing_rotation, atol=1e-12)
+    else:  # the roll about the stance sole's heading and the sideways move left out
+        x = tg.support_placement.rotation[:, 0]
+        h = np.array([x[0], x[1], 0.0]) / math.hypot(x[0], x[1])
+        side = np.array([-h[1], h[0], 0.0])
+        v = pin.log3(E)
+        E_pitch = pin.exp3(v - (v @ h) * h)
+        np.testing.assert_allclose(out.swing_rotation, E_pitch @ tg.swing_rotation, atol=1e-12)
+        full = q[:3] + E_pitch @ (tg.swing_position - est.base)
+        d = out.swing_position - tg.swing_position
+        assert d @ side == pytest.approx(0.0, abs=1e-12)
+        np.testing.assert_allclose(
+            d - (d @ side) * side,
+            (full - tg.swing_position) - ((full - tg.swing_position) @ side) * side,
+            atol=1e-12,
+        )
+        assert abs((full - tg.swing_position) @ side) > 1e-3  # (there was a sideways part)
+    # the estimate where the controller is: nothing moves
+    adj, tg, est, q, _ = _land_case(robot, walk10, params, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    out = adj.land(tg, est, q)
+    np.testing.assert_allclose(out.swing_position, tg.swing_position, atol=1e-12)
+    np.testing.assert_allclose(out.swing_rotation, tg.swing_rotation, atol=1e-12)
+
+
+def test_the_landing_correction_is_off_in_double_support_inside_its_band_and_by_default(
+    robot, walk10
+):
+    rot, move = [0.0, 0.04, 0.0], [0.005, 0.0, 0.0]
+    adj, tg, est, q, _ = _land_case(robot, walk10, SteppingParams(landing=0.0), rot, move)
+    assert adj.land(tg, est, q) is tg
+    banded = SteppingParams(landing=1.0, landing_band=0.05)  # 0.04 rad: inside the band
+    adj, tg, est, q, _ = _land_case(robot, walk10, banded, rot, move)
+    assert adj.land(tg, est, q) is tg
+    adj, tg, est, q, _ = _land_case(robot, walk10, SteppingParams(landing=1.0), rot, move,
+                                    i=LAND + 2)  # fmt: skip
+    assert tg.phase == "double" and adj.land(tg, est, q) is tg
+    with pytest.raises(ConfigurationError, match="landing"):
+        SteppingParams(landing=-1.0).check()
+
+
+def test_the_clock_hurries_only_in_a_double_support_pushed_along_the_walk(robot, walk10):
+    """Step timing (``hurry``): the walk's clock runs faster in a double support whose DCM
+    error along the walk is beyond ``hurry_band`` (either way along it), not for a sideways
+    error, not in single support, not by default."""
+    i_ds = LAND + 2
+    params = SteppingParams(hurry=2.0, hurry_band=0.03)
+    adj = StepAdjuster(robot, walk10, params)
+    w = adj.omega
+    xi = dcm(walk10, i_ds, w)
+    assert adj.rate(walk10, i_ds, xi + [0.04, 0.0]) == 2.0
+    assert adj.rate(walk10, i_ds, xi + [-0.04, 0.0]) == 2.0
+    assert adj.rate(walk10, i_ds, xi + [0.02, 0.0]) == 1.0  # inside the band
+    assert adj.rate(walk10, i_ds, xi + [0.0, 0.08]) == 1.0  # sideways
+    assert adj.rate(walk10, MID, dcm(walk10, MID, w) + [0.08, 0.0]) == 1.0  # single support
+    default = StepAdjuster(robot, walk10)
+    assert default.rate(walk10, i_ds, xi + [0.08, 0.0]) == 1.0
+    with pytest.raises(ConfigurationError, match="hurry"):
+        SteppingParams(hurry=-1.0).check()
+    with pytest.raises(ConfigurationError, match="hurry must be >= 1"):
+        SteppingParams(hurry=0.5).check()
+
+
+def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
+    """``landing_catch``: the swing target moves only once the DCM error has left the dead
+    band in this single support, blended in over ``landing_catch`` s (smoothstep), and not
+    in the next single support."""
+    params = SteppingParams(landing=1.0, landing_catch=0.03)
+    rot, move = [0.0, 0.1, 0.0], [0.0, 0.0, 0.0]
+    adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
+    w = adj.omega
+    adj.update(walk10, MID, dcm(walk10, MID, w))  # inside the band
+    assert adj.land(tg, est, q) is tg
+    adj.update(walk10, MID, dcm(walk10, MID, w) + [0.04, 0.0])  # a push: beyond the band
+    out = adj.land(tg, est, q)
+    x = walk10.dt / 0.03  # the first tick of the blend
+    share = x * x * (3 - 2 * x)
+    import pinocchio as pin
+
+    E = pin.exp3(share * np.array([0.0, -0.1, 0.0]))  # (the controller's torso from the
+    moved = q[:3] + E @ (tg.swing_position - est.base)  # measured one, a share of it)
+    np.testing.assert_allclose(out.swing_position,
+                               tg.swing_position + share * (moved - tg.swing_position),
+                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(out.swing_rotation, E @ tg.swing_rotation, atol=1e-12)
+    later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
+    adj.update(walk10, later, dcm(walk10, later, w))  # the next single support, unpushed
+    _, tg2, est2, q2, _ = _land_case(robot, walk10, params, rot, move, i=later)
+    assert adj.land(tg2, est2, q2) is tg2
+
+
+def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot, walk10):
+    """``landing_tau``: the correction less its running mean per stance side — a lag held
+    for many time constants is left alone, a sudden departure from it is corrected."""
+    params = SteppingParams(landing=1.0, landing_tau=0.05)
+    adj, tg, est, q, _ = _land_case(robot, walk10, params, [0.0, 0.1, 0.0], [0.0, 0.0, -0.004])
+    first = adj.land(tg, est, q)
+    assert np.linalg.norm(first.swing_position - tg.swing_position) > 1e-4
+    for _ in range(200):  # 2 s = 40 time constants of the same lag
+        out = adj.land(tg, est, q)
+    np.testing.assert_allclose(out.swing_position, tg.swing_position, atol=1e-9)
+    # a push: 0.1 rad more pitch at once; its first tick corrects what the mean has not
+    # taken yet, (1 − dt/τ) of it, as the plain correction of that much pitch would
+    _, _, pushed, _, _ = _land_case(robot, walk10, params, [0.0, 0.2, 0.0], [0.0, 0.0, -0.004])
+    moved = adj.land(tg, pushed, q).swing_position
+    plain = StepAdjuster(robot, walk10, SteppingParams(landing=1.0))
+    share = 1.0 - walk10.dt / 0.05
+    _, _, lag, _, _ = _land_case(robot, walk10, params, [0.0, 0.1 * share, 0.0], [0.0] * 3)
+    np.testing.assert_allclose(moved, plain.land(tg, lag, q).swing_position, atol=1e-9)

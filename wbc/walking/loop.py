@@ -501,6 +501,8 @@ class Session:
         if stab is not None and stab.enabled:
             start = time.perf_counter()
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
+            if self.stepping is not None and stab.last is not None:  # the swing, measured
+                targets = self.stepping.land(targets, stab.last, self.q)
             self.feedback_time = time.perf_counter() - start
         start = time.perf_counter()
         self.failed = False
@@ -560,11 +562,22 @@ class Session:
         """The configuration for time ``t`` (s) from the start, None past the end (the
         reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off)."""
         ref = self.ref
+        last, stab = self._last_index, self.stabilizer
+        if (  # step timing: the clock runs faster while the stepping asks for it
+            self.stepping is not None
+            and last is not None
+            and self._last_time is not None
+            and stab is not None
+            and stab.enabled
+            and stab.last is not None
+        ):
+            self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
+                t - self._last_time
+            )
         s = t - self.delay
         if s > ref.t[-1] - ref.t[0] + 1e-9:
             return None
         i = ref.index_at(ref.t[0] + s)
-        last, stab = self._last_index, self.stabilizer
         if (
             self.hold is not None
             and last is not None
