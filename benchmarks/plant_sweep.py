@@ -69,7 +69,13 @@ def main() -> None:
     p.add_argument("--models", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--only", nargs="*", help="variant labels to run (default: all)")
-    p.add_argument("--gains", default="{}", help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'")
+    p.add_argument(
+        "--gains",
+        nargs="+",
+        default=["{}"],
+        help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'; several: each variant with each, "
+        "side by side in one run (e.g. the old and the new default)",
+    )
     p.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords")
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
     p.add_argument(
@@ -86,20 +92,23 @@ def main() -> None:
         plants = [plants[k] for k in args.plants]
     print(f"{args.solver}, {args.models} randomised plants (seed {args.seed})")
     print(
-        "| variant | walk | nominal dev° | nominal dist | up | fallen models | dev° per plant | s |"
+        "| variant | gains | walk | nominal dev° | nominal dist | up | fallen models "
+        "| dev° per plant | s |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for walk in args.walks:
         ref = traj.build(walk, robot)
         _, rec = run_entry(entry, robot, ref, "tick")
-        for label, variant in VARIANTS.items():
+        runs = [(label, g) for label in VARIANTS for g in args.gains]
+        for label, gains in runs:
             if args.only and label not in args.only:
                 continue
+            variant = VARIANTS[label]
             comp, spec = spec_of(
                 variant,
                 entry,
                 ref,
-                json.loads(args.gains),
+                json.loads(gains),
                 json.loads(args.stepping),
                 args.calibrate,
             )
@@ -114,7 +123,7 @@ def main() -> None:
             dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
             nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
             print(
-                f"| {label} | {walk} | {nominal} | {dist} | "
+                f"| {label} | {gains} | {walk} | {nominal} | {dist} | "
                 f"{len(plants) - len(fallen)}/{len(plants)} | {fallen} | {worst} | "
                 f"{time.perf_counter() - started:.0f} |",
                 flush=True,
