@@ -242,10 +242,9 @@ class Stabilizer:
         self.imu = imu
         self.gains = (gains or Gains()).check()
         self.enabled = enabled
-        self.estimator = estimator or StateEstimator(
-            robot, com_height, use_imu=imu is not None, gyro_heading=self.gains.k_yaw > 0,
-            kin_gain=self.gains.kin_tilt,
-        )
+        self.estimator = estimator or StateEstimator(robot, com_height, use_imu=imu is not None,
+                                                     gyro_heading=self.gains.k_yaw > 0,
+                                                     kin_gain=self.gains.kin_tilt)  # fmt: skip
         self.integral = np.zeros(3)
         self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
         self.hip = np.zeros(2)  # hip-strategy roll (rad, horizontal: toward where the top goes)
