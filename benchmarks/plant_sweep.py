@@ -84,6 +84,12 @@ def main() -> None:
         default=None,
         help="s at rest for the IMU calibration (default: closed_loop's)",
     )
+    p.add_argument(
+        "--why",
+        action="store_true",
+        help="a line per fallen plant: when, in which phase, the joint nearest its stall "
+        "torque, re-plans, the plant's servo parameters",
+    )
     args = p.parse_args()
     robot = load_robot("bioloid")
     entry = registry()[args.solver]
@@ -114,12 +120,13 @@ def main() -> None:
             )
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
-            fallen, worst = [], []
+            fallen, worst, why = [], [], []
             for k, v in plants:
                 run = simulate(rec, robot, v, compensate=comp, closed=spec)
                 worst.append(round(run["orientation_dev_max_deg"], 1))
                 if run["fell"]:
                     fallen.append(k)
+                    why.append(_why(k, v, run))
             dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
             nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
             print(
@@ -128,6 +135,18 @@ def main() -> None:
                 f"{time.perf_counter() - started:.0f} |",
                 flush=True,
             )
+            if args.why:
+                print("\n".join(why), flush=True)
+
+
+def _why(k: int, v, run: dict) -> str:
+    """One line on a fallen plant: when, where, which joint, what the plant is."""
+    s = v.summary
+    keys = ("stiffness", "damping", "latency_ms", "backlash_deg", "gyro_bias")
+    plant = ", ".join(f"{n} {s[n]:.3g}" for n in keys if n in s)
+    return (f"    plant {k}: fell at {run['fall_time_s']:.2f} s in {run['fall_phase']} support, "
+            f"{run['fall_joint']}; re-plans {run.get('replans')}; estimated tilt error up to "
+            f"{run.get('estimated_tilt_max_deg', float('nan')):.1f}°; {plant}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -15,7 +15,9 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
-  behind it;
+  behind it; with ``k_dcm_i`` (``k_dcm_i_y`` sideways; off) the error's integral too, kept in
+  the torso target's heading frame (the steady lag a wrong servo model leaves; measured in
+  benchmarks/physics.md, issue 30's fourth pass: not the default);
 * **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
   ``−k_lean h (e × z)``;
 * **hip strategy** (``k_hip``, on by default) — in single support, a DCM estimated beyond
@@ -65,9 +67,12 @@ class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
     # issue 30: halved from 2 / 2 / 0.1 s, which tipped plants with 12–16 ms of latency and
-    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep")
-    k_p: float = 1.0  # rad/rad torso tilt
-    k_i: float = 1.0  # 1/s
+    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep"); back to 2 / 2
+    # (k_d stays 0.05 s) once the estimate's tilt holds to the kinematics (kin_tilt): what
+    # rang up was partly a false tilt; measured best with and without the feed-forward
+    # (benchmarks/physics.md, issue 30's fourth pass)
+    k_p: float = 2.0  # rad/rad torso tilt
+    k_i: float = 2.0  # 1/s
     k_d: float = 0.05  # s
     k_dcm: float = 0.0  # m/m
     #: 1/s: integral of the DCM error on the CoM target, along the walk (the torso target's
