@@ -67,12 +67,12 @@ class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
     # issue 30: halved from 2 / 2 / 0.1 s, which tipped plants with 12–16 ms of latency and
-    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep"); back to 2 / 2
-    # (k_d stays 0.05 s) once the estimate's tilt holds to the kinematics (kin_tilt): what
-    # rang up was partly a false tilt; measured best with and without the feed-forward
-    # (benchmarks/physics.md, issue 30's fourth pass)
-    k_p: float = 2.0  # rad/rad torso tilt
-    k_i: float = 2.0  # 1/s
+    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep"); with kin_tilt,
+    # 2 / 2 keeps one more plant without the feed-forward and brings lateral_wb's nominal to
+    # 2.4° / 0.98, but loses three with it (38, 42 on every walk): not the default (issue
+    # 30's fourth pass)
+    k_p: float = 1.0  # rad/rad torso tilt
+    k_i: float = 1.0  # 1/s
     k_d: float = 0.05  # s
     k_dcm: float = 0.0  # m/m
     #: 1/s: integral of the DCM error on the CoM target, along the walk (the torso target's
@@ -95,7 +95,8 @@ class Gains:
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
     #: on its compliant servos, the encoders missing the backlash) tilts the estimate by
-    #: bias / (0.2 + kin_tilt) instead of bias / 0.2 (issue 30, benchmarks/physics.md)
+    #: bias / (0.2 + kin_tilt) instead of bias / 0.2 (issue 30, benchmarks/physics.md); used
+    #: when the Stabilizer builds its estimator (not with one given: ``wbc drive``'s)
     kin_tilt: float = 0.5
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)

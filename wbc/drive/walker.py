@@ -59,14 +59,7 @@ from .odometry import PoseOdometry
 #: feedback on the torso either (``k_yaw``: the torso held at the planned heading by the
 #: gyro; the outer loop turns the plan to steer the real feet, so the torso would twist
 #: against them)
-#: (the torso's 1 / 1 /s measured on driven walks; the fixed walks' default is 2 / 2 since
-#: issue 30's fourth pass, with the kinematic tilt this walker's estimator does not use)
-DRIVE_GAINS = MappingProxyType(
-    {
-        True: Gains(k_p=1.0, k_i=1.0, k_hip=0.0, k_yaw=0.0),
-        False: Gains(k_p=1.0, k_i=1.0, k_hip=0.0),
-    }
-)
+DRIVE_GAINS = MappingProxyType({True: Gains(k_hip=0.0, k_yaw=0.0), False: Gains(k_hip=0.0)})
 
 #: the AX-12A compliance feed-forward's gain for driven walks: with the encoders' correction
 #: (``Walker(correct=True)``) 0.75, without it issue 30's 0.5 (benchmarks/drive.md: on the
