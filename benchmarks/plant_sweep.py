@@ -69,7 +69,13 @@ def main() -> None:
     p.add_argument("--models", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--only", nargs="*", help="variant labels to run (default: all)")
-    p.add_argument("--gains", default="{}", help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'")
+    p.add_argument(
+        "--gains",
+        nargs="+",
+        default=["{}"],
+        help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'; several: each variant with each, "
+        "side by side in one run (e.g. the old and the new default)",
+    )
     p.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords")
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
     p.add_argument(
@@ -77,6 +83,12 @@ def main() -> None:
         type=float,
         default=None,
         help="s at rest for the IMU calibration (default: closed_loop's)",
+    )
+    p.add_argument(
+        "--why",
+        action="store_true",
+        help="a line per fallen plant: when, in which phase, the joint nearest its stall "
+        "torque, re-plans, the plant's servo parameters",
     )
     args = p.parse_args()
     robot = load_robot("bioloid")
@@ -86,39 +98,55 @@ def main() -> None:
         plants = [plants[k] for k in args.plants]
     print(f"{args.solver}, {args.models} randomised plants (seed {args.seed})")
     print(
-        "| variant | walk | nominal dev° | nominal dist | up | fallen models | dev° per plant | s |"
+        "| variant | gains | walk | nominal dev° | nominal dist | up | fallen models "
+        "| dev° per plant | s |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for walk in args.walks:
         ref = traj.build(walk, robot)
         _, rec = run_entry(entry, robot, ref, "tick")
-        for label, variant in VARIANTS.items():
+        runs = [(label, g) for label in VARIANTS for g in args.gains]
+        for label, gains in runs:
             if args.only and label not in args.only:
                 continue
+            variant = VARIANTS[label]
             comp, spec = spec_of(
                 variant,
                 entry,
                 ref,
-                json.loads(args.gains),
+                json.loads(gains),
                 json.loads(args.stepping),
                 args.calibrate,
             )
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
-            fallen, worst = [], []
+            fallen, worst, why = [], [], []
             for k, v in plants:
                 run = simulate(rec, robot, v, compensate=comp, closed=spec)
                 worst.append(round(run["orientation_dev_max_deg"], 1))
                 if run["fell"]:
                     fallen.append(k)
+                    why.append(_why(k, v, run))
             dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
             nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
             print(
-                f"| {label} | {walk} | {nominal} | {dist} | "
+                f"| {label} | {gains} | {walk} | {nominal} | {dist} | "
                 f"{len(plants) - len(fallen)}/{len(plants)} | {fallen} | {worst} | "
                 f"{time.perf_counter() - started:.0f} |",
                 flush=True,
             )
+            if args.why:
+                print("\n".join(why), flush=True)
+
+
+def _why(k: int, v, run: dict) -> str:
+    """One line on a fallen plant: when, where, which joint, what the plant is."""
+    s = v.summary
+    keys = ("stiffness", "damping", "latency_ms", "backlash_deg", "gyro_bias")
+    plant = ", ".join(f"{n} {s[n]:.3g}" for n in keys if n in s)
+    return (f"    plant {k}: fell at {run['fall_time_s']:.2f} s in {run['fall_phase']} support, "
+            f"{run['fall_joint']}; re-plans {run.get('replans')}; estimated tilt error up to "
+            f"{run.get('estimated_tilt_max_deg', float('nan')):.1f}°; {plant}")  # fmt: skip
 
 
 if __name__ == "__main__":

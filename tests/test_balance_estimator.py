@@ -243,3 +243,24 @@ def test_bias_gain_learns_the_gyro_bias_the_tilt_would_keep(robot):
     assert tilt[0.05] < np.radians(1.0)
     with pytest.raises(ConfigurationError, match="bias_gain"):
         StateEstimator(robot, 0.2, bias_gain=-1.0)
+
+
+def test_kin_gain_holds_the_tilt_to_the_stance_legs_kinematics(robot):
+    """A still robot standing flat whose gyro reads a pitch-rate bias of 0.05 rad/s: with
+    only the accelerometer's pull (k_a = 0.2 /s) the estimate settles b / k_a = 0.25 rad off
+    the true torso; with ``kin_gain`` k the stance legs' kinematics (the sole flat) pull too,
+    and it settles b / (k_a + k) off (a tenth at k = 1.8 /s)."""
+    q, left, _ = standing(robot)
+    R_true = robot.frame_placement(q, "torso").rotation
+    off = {}
+    for gain in (0.0, 1.8):
+        est = StateEstimator(robot, 0.2, kin_gain=gain)
+        est.reset(R_true)
+        for _ in range(3000):  # 30 s: settled
+            e = est.update(0.01, q[7:], reading(R_true, omega=(0.0, 0.05, 0.0)),
+                           [("l_sole", left)])  # fmt: skip
+        off[gain] = np.linalg.norm(pin.log3(e.rotation @ R_true.T))
+    assert off[0.0] == pytest.approx(0.05 / 0.2, rel=0.05)
+    assert off[1.8] == pytest.approx(0.05 / 2.0, rel=0.05)
+    with pytest.raises(ConfigurationError, match="kin_gain"):
+        StateEstimator(robot, 0.2, kin_gain=-1.0)

@@ -68,6 +68,7 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     nothing back, and estimates every tick. Without an IMU it is refused, naming the bus."""
     pytest.importorskip("mujoco")
     from wbc.balance.live import closed_loop
+    from wbc.balance.stabilizer import Gains
     from wbc.bench.solvers import registry
     from wbc.bench.trajectories import build
     from wbc.exceptions import ConfigurationError
@@ -90,6 +91,8 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     assert len(said) == 1 and "IMU and the commanded joint positions" in said[0]
     result = loop.deployment.run()
     assert result.completed and loop.deployment.last_present is None
+    # the commanded joints hold none of the servos' sag: no pull toward their tilt
+    assert Gains().kin_tilt > 0 and loop.stabilizer.estimator.kin_gain == 0.0
     est = loop.stabilizer.last  # (from the IMU and the commanded joints: nothing was read)
     assert est is not None and np.all(np.isfinite(est.values))
     with pytest.raises(ConfigurationError, match="sim bus cannot read and no IMU"):

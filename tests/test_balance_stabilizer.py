@@ -104,7 +104,7 @@ def test_integral_term_grows_with_a_steady_tilt(robot):
     t = targets_at(robot, q)
     e = np.array([0.02, -0.01, 0.0])
     R_true = pin.exp3(e) @ t.torso_rotation
-    gains = Gains(k_p=2.0, k_i=2.0, k_d=0.0, k_yaw=0.0)
+    gains = Gains(k_p=2.0, k_i=2.0, k_d=0.0, k_yaw=0.0, kin_tilt=0.0)  # (the IMU alone)
     stab = stabilizer(robot, q, R_true, gains)
     last = 0.0
     for n in range(1, 6):
@@ -328,3 +328,38 @@ def test_hip_strategy_catches_a_push_the_closed_loop_alone_cannot(robot, impulse
         tilt[name] = float(np.degrees(np.arccos(np.clip(R[2, 2], -1.0, 1.0))))
     assert tilt["closed"] > 45.0  # fallen
     assert tilt["hip"] < 30.0  # up
+
+
+def test_dcm_integral_takes_a_steady_lag_along_the_walk(robot):
+    """A steady DCM error ε (the robot standing still where the plan moves on): the CoM
+    target moves by −k_dcm_i · n dt · ε along the walk (the torso target's heading frame),
+    the sideways part only with k_dcm_i_y; each clipped at max_shift. With the torso target
+    turned 90° the walk's "along" is the world's y."""
+    q = standing(robot)
+    t = targets_at(robot, q, "double")
+    vel_ref = np.array([-0.05, -0.05, 0.0])  # the plan moves: the still robot is ahead (+x, +y)
+    stab = stabilizer(robot, q, t.torso_rotation, Gains(k_p=0.0, k_i=0.0, k_d=0.0, k_dcm_i=2.0))
+    for n in range(1, 6):
+        out = stab.adjust(t, vel_ref, q, 0.01)
+        err = 0.05 / stab.estimator.omega0
+        shift = out.com - t.com
+        assert shift[0] == pytest.approx(-2.0 * n * 0.01 * err, rel=1e-3)
+        assert shift[1] == pytest.approx(0.0, abs=1e-9)  # sideways: k_dcm_i_y = 0
+    for _ in range(200):
+        out = stab.adjust(t, vel_ref, q, 0.01)
+    assert out.com[0] - t.com[0] == pytest.approx(-0.02)  # max_shift
+    turned = pin.rpy.rpyToMatrix(0.0, 0.0, np.pi / 2) @ t.torso_rotation
+    t90 = _replace_torso(t, turned)
+    stab = stabilizer(robot, q, turned, Gains(k_p=0.0, k_i=0.0, k_d=0.0, k_dcm_i=2.0))
+    out = stab.adjust(t90, vel_ref, q, 0.01)
+    eps = stab.last.dcm[:2] - (t90.com[:2] + vel_ref[:2] / stab.estimator.omega0)
+    shift = out.com - t90.com
+    assert abs(eps[1]) > 1e-3
+    assert shift[1] == pytest.approx(-2.0 * 0.01 * eps[1], rel=1e-6)  # along the walk: y
+    assert shift[0] == pytest.approx(0.0, abs=1e-9)
+
+
+def _replace_torso(targets, R):
+    from dataclasses import replace
+
+    return replace(targets, torso_rotation=R)

@@ -257,7 +257,8 @@ def _estimate(
                               + Rp[i, 2] * consts[r0 + 6 + j])  # fmt: skip
     R_kin, Ex, R, R_base = W[2], W[3], W[4], W[5]
     has = state[_S_HAS] > 0.5
-    if not has or not imu or not gyro_heading:  # R_kin = A0 · (ᵇR_sole0)ᵀ
+    kin_gain = consts[len(consts) - 2]
+    if not has or not imu or not gyro_heading or kin_gain > 0:  # R_kin = A0 · (ᵇR_sole0)ᵀ
         mul33t_into(anchor0, W[0], R_kin)
     if not has:  # start the filter at the kinematics' rotation (StateEstimator.reset)
         mul33_into(R_kin, torso_b, R)
@@ -273,12 +274,16 @@ def _estimate(
         # ω + b + k (a × up),  up = R[2] = Rᵀ e_z: the world's up in the torso frame; the bias
         # correction b integrates (a × up)/|a| × bias_gain (Mahony's integral term)
         kb = bias_gain * dt * k / tilt_gain
+        if kin_gain > 0:  # the kinematics' up in the torso frame: row 2 of R_kin · ᵇR_torso
+            mul33_into(R_kin, torso_b, Ex)
         for i in range(3):
             i1, i2 = (i + 1) % 3, (i + 2) % 3
             cross = acc[i1] * R0[2, i2] - acc[i2] * R0[2, i1]
             state[_S_BIAS + i] += kb * cross
             w[i] = gyro[i] + state[_S_BIAS + i]
             V[3, i] = (w[i] + k * cross) * dt
+            if kin_gain > 0:  # + k_kin (u_kin × up): the stance sole flat, slowly
+                V[3, i] += kin_gain * (Ex[2, i1] * R0[2, i2] - Ex[2, i2] * R0[2, i1]) * dt
         w[:] = V[3]
         exp3_into(w, Ex)
         mul33_into(R0, Ex, R)
@@ -388,6 +393,7 @@ class StateEstimator:
         velocity_cutoff: float = 6.0,
         gyro_heading: bool = False,
         bias_gain: float = 0.0,
+        kin_gain: float = 0.0,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -402,7 +408,12 @@ class StateEstimator:
             raise ConfigurationError(
                 f"state estimator: bias_gain must be a finite number >= 0, got {bias_gain}"
             )
+        if not (np.isfinite(kin_gain) and kin_gain >= 0):
+            raise ConfigurationError(
+                f"state estimator: kin_gain must be a finite number >= 0, got {kin_gain}"
+            )
         self.bias_gain = float(bias_gain)
+        self.kin_gain = float(kin_gain)
         self.robot = robot
         self.omega0 = float(np.sqrt(GRAVITY / com_height))
         self.use_imu = use_imu
@@ -416,7 +427,8 @@ class StateEstimator:
         table, links, soles = _kinematic_table(robot)
         consts = np.r_[
             self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
-            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, self.bias_gain,
+            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, self.kin_gain,
+            self.bias_gain,
         ]  # fmt: skip
         # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and
         # gyro_heading are fixed at construction)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -198,6 +198,8 @@ def closed_loop(
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
     gains = (gains or Gains()).check()
+    if commanded and gains.kin_tilt > 0:  # the commanded joints hold no sag: no kinematic tilt
+        gains = replace(gains, kin_tilt=0.0)
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
         ref = narrow_sway(ref, gains.transfer, longest=NARROW_LONGEST)
     holder: list[Deployment] = []

@@ -15,7 +15,9 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
-  behind it;
+  behind it; with ``k_dcm_i`` (``k_dcm_i_y`` sideways; off) the error's integral too, kept in
+  the torso target's heading frame (the steady lag a wrong servo model leaves; measured in
+  benchmarks/physics.md, issue 30's fourth pass: not the default);
 * **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
   ``−k_lean h (e × z)``;
 * **hip strategy** (``k_hip``, on by default) — in single support, a DCM estimated beyond
@@ -53,6 +55,7 @@ import numpy as np
 
 from ..compiled.rows import log3
 from ..exceptions import ConfigurationError
+from ..geometry import rot2, yaw_of
 from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
 from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
@@ -64,11 +67,19 @@ class Gains:
     """Feedback gains (module docstring); 0 turns a term off."""
 
     # issue 30: halved from 2 / 2 / 0.1 s, which tipped plants with 12–16 ms of latency and
-    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep")
+    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep"); with kin_tilt,
+    # 2 / 2 keeps one more plant without the feed-forward and brings lateral_wb's nominal to
+    # 2.4° / 0.98, but loses three with it (38, 42 on every walk): not the default (issue
+    # 30's fourth pass)
     k_p: float = 1.0  # rad/rad torso tilt
     k_i: float = 1.0  # 1/s
     k_d: float = 0.05  # s
     k_dcm: float = 0.0  # m/m
+    #: 1/s: integral of the DCM error on the CoM target, along the walk (the torso target's
+    #: heading frame): the steady lag a wrong servo model leaves (issue 30); its share clipped
+    #: to max_shift
+    k_dcm_i: float = 0.0
+    k_dcm_i_y: float = 0.0  # 1/s: the same sideways
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
@@ -80,6 +91,13 @@ class Gains:
     hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
+    #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
+    #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
+    #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
+    #: on its compliant servos, the encoders missing the backlash) tilts the estimate by
+    #: bias / (0.2 + kin_tilt) instead of bias / 0.2 (issue 30, benchmarks/physics.md); used
+    #: when the Stabilizer builds its estimator (not with one given: ``wbc drive``'s)
+    kin_tilt: float = 0.5
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
     transfer: float = 0.15
@@ -90,6 +108,8 @@ class Gains:
             "k_i",
             "k_d",
             "k_dcm",
+            "k_dcm_i",
+            "k_dcm_i_y",
             "k_lean",
             "k_yaw",
             "j_p",
@@ -97,6 +117,7 @@ class Gains:
             "max_tilt",
             "max_shift",
             "max_offset",
+            "kin_tilt",
             "k_hip",
             "hip_band",
             "max_hip",
@@ -227,10 +248,11 @@ class Stabilizer:
         self.imu = imu
         self.gains = (gains or Gains()).check()
         self.enabled = enabled
-        self.estimator = estimator or StateEstimator(
-            robot, com_height, use_imu=imu is not None, gyro_heading=self.gains.k_yaw > 0
-        )
+        self.estimator = estimator or StateEstimator(robot, com_height, use_imu=imu is not None,
+                                                     gyro_heading=self.gains.k_yaw > 0,
+                                                     kin_gain=self.gains.kin_tilt)  # fmt: skip
         self.integral = np.zeros(3)
+        self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
         self.hip = np.zeros(2)  # hip-strategy roll (rad, horizontal: toward where the top goes)
         self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
         self.rate = np.zeros(3)
@@ -292,8 +314,8 @@ class Stabilizer:
         self.error, self.rate = e, est.angular_velocity
         self.integral = o[3:6]
         com = targets.com
-        if g.k_dcm > 0 or g.k_lean > 0:
-            com = self._shifted(targets, com_vel_ref, est, e)
+        if g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0:
+            com = self._shifted(targets, com_vel_ref, est, e, dt)
         out = _with(targets, com, o[6:15].reshape(3, 3))
         self.time = time.perf_counter() - start
         return out
@@ -367,15 +389,27 @@ class Stabilizer:
         exp3_into(np.array([-h[1], h[0], 0.0]), R)
         return R
 
-    def _shifted(self, targets, com_vel_ref: np.ndarray, est: StateEstimate, e: np.ndarray):
-        """The CoM target moved by the DCM and lean terms (clipped to ``max_shift``)."""
+    def _shifted(
+        self, targets, com_vel_ref: np.ndarray, est: StateEstimate, e: np.ndarray, dt: float
+    ):
+        """The CoM target moved by the DCM and lean terms (clipped to ``max_shift``):
+        ``−k_dcm ε − R_h K ∫ R_hᵀ ε dt`` with ``ε = ξ − ξ_ref``, ``R_h`` the torso
+        target's heading (the integral kept in the walk's frame, so a turn carries it along)
+        and ``K = diag(k_dcm_i, k_dcm_i_y)`` (each axis's integral clipped to ``max_shift / k``)."""
         g = self.gains
         com = targets.com
         shift = np.zeros(2)
-        if g.k_dcm > 0:
+        k_i = np.array([g.k_dcm_i, g.k_dcm_i_y])
+        if g.k_dcm > 0 or k_i.any():
             omega0 = self.estimator.omega0
             dcm_ref = targets.com[:2] + com_vel_ref[:2] / omega0
-            shift -= g.k_dcm * (est.dcm[:2] - dcm_ref)
+            err = est.dcm[:2] - dcm_ref
+            shift -= g.k_dcm * err
+            if k_i.any():
+                R_h = rot2(yaw_of(targets.torso_rotation))
+                limit = g.max_shift / np.maximum(k_i, 1e-9)
+                self.dcm_integral = np.clip(self.dcm_integral + (R_h.T @ err) * dt, -limit, limit)
+                shift -= R_h @ (k_i * self.dcm_integral)
         if g.k_lean > 0:  # the CoM turned by −k_lean·e about the support: −k h (e × z)
             h = com[2] - targets.support_placement.translation[2]
             shift -= g.k_lean * h * np.array([e[1], -e[0]])
