@@ -43,6 +43,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, WbcError
+from ..geometry import convex_hull
+from ..limits.limit import Constraint, Inequality, way_back
 from ..model import Kinematics, Robot
 from ..roles import HAND_FRAMES, SIDES, SOLE_FRAMES
 
@@ -70,12 +72,18 @@ class GetupParams:
     speed_scale: float = 0.5  # share of the servos' no-load speed any joint may use
     hold_s: float = 0.3  # s at the end of each phase with the targets at their goals
     self_collision_margin: float = 0.005  # m
+    #: m: the CoM kept this far inside the hull of a phase's contacts once the soles are
+    #: among them (:class:`SupportHullConstraint`); None: no such rows
+    support_margin: float | None = 0.005
 
     def check(self) -> GetupParams:
         for name in ("rate", "speed_scale", "hold_s", "self_collision_margin"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"getup: {name} must be a finite number >= 0, got {v}")
+        m = self.support_margin
+        if m is not None and not (math.isfinite(m) and m >= 0):
+            raise ConfigurationError(f"getup: support_margin must be None or >= 0 m, got {m}")
         if not 0 < self.speed_scale <= 1:
             raise ConfigurationError(
                 f"getup: speed_scale must be in (0, 1], got {self.speed_scale}"
@@ -461,6 +469,75 @@ def _smooth(s: float) -> float:
     return s * s * (3.0 - 2.0 * s)
 
 
+class SupportHullConstraint(Constraint):
+    """The CoM's ground projection inside the convex hull of the phase's contacts (points and
+    soles' corners) shrunk by ``margin``, the points free to move (a sliding hand): for each
+    hull edge (a, b) with outward unit normal n (held fixed over the step),
+
+        n · (c + J_c Δq − (m + J_m Δq)) <= −margin,   m = (a + b) / 2,
+
+    J_m the mean of the two vertices' Jacobians (xy). A CoM outside at the start
+    (a phase planned from a measured state) is asked back :func:`~wbc.limits.limit.way_back`
+    (a fraction per step, as the floor rows), never further out (:meth:`split`)."""
+
+    held_rows_met = True
+
+    def __init__(
+        self,
+        robot: Robot,
+        points: Sequence[str],
+        soles: Sequence[str],
+        margin: float = 0.005,
+        damping: float = 0.4,
+        most: float = 0.002,
+    ) -> None:
+        super().__init__("support_hull")
+        self.robot = robot
+        self.margin, self.damping, self.most = margin, damping, most
+        half_l, half_w = (0.5 * float(v) for v in robot.foot_size)
+        corners = [(sx * half_l, sy * half_w) for sx in (-1, 1) for sy in (-1, 1)]
+        #: (frame id, offset in the frame): the vertices the hull is made of
+        self.vertices = [(robot.frame_id(f), np.zeros(3)) for f in points] + [
+            (robot.frame_id(f), np.array([x, y, 0.0])) for f in soles for x, y in corners
+        ]
+
+    def _rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        pts, jacs = [], []
+        for fid, r in self.vertices:
+            R, p = kin.rotation(fid), kin.translation(fid)
+            J = kin.frame_jacobian(fid)
+            w = R @ r
+            # the point's velocity: v + ω × w = J_v − [w]× J_ω
+            Jp = J[:3] - np.cross(w, J[3:].T).T if w.any() else J[:3]
+            pts.append((p + w)[:2])
+            jacs.append(Jp[:2])
+        hull = convex_hull(np.asarray(pts))
+        if len(hull) < 3:
+            return np.zeros((0, kin.model.nv)), np.zeros(0)
+        index = [int(np.argmin(np.linalg.norm(np.asarray(pts) - v, axis=1))) for v in hull]
+        c, Jc = kin.com[:2], kin.com_jacobian[:2]
+        G, h = [], []
+        for i, a in enumerate(index):
+            b = index[(i + 1) % len(index)]
+            e = pts[b] - pts[a]
+            n = np.array([e[1], -e[0]]) / np.linalg.norm(e)
+            m = 0.5 * (pts[a] + pts[b])
+            G.append(n @ (Jc - 0.5 * (jacs[a] + jacs[b])))
+            h.append(-self.margin - n @ (c - m))
+        return np.asarray(G), np.asarray(h)
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        G, h = self._rows(kin)
+        out = h < 0.0
+        h[out] = way_back(-h[out], self.damping, self.most)
+        return Inequality(G, h)
+
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
+        G, h = self.compute(kin)
+        ask = h < 0.0
+        return Inequality(G[~ask], h[~ask]), Inequality(G[ask], h[ask])
+
+
 class PhasePlanner:
     """Plans phases with the QP stack (module docstring) on a copy of the robot with toe and
     heel frames (:attr:`robot`)."""
@@ -528,6 +605,12 @@ class PhasePlanner:
                 GroundClearanceConstraint(robot, frame, clearance, length=0.0, width=0.0),
                 level=0,
             )
+        if phase.quasi_static and p.support_margin is not None:
+            bodies = [f for f in (*phase.contacts, *phase.sliding) if not _is_point(f)]
+            if bodies and all(f in SOLE_FRAMES.values() for f in bodies):
+                pts = [f for f in (*phase.contacts, *phase.sliding) if _is_point(f)]
+                hull = SupportHullConstraint(robot, pts, bodies, p.support_margin)
+                stack.add_constraint(hull, level=0)
         stack.level(1, hard=False)
         ramps: list[tuple] = []  # (task, start, goal) for positions; rotations separately
         for frame, xyz in phase.moves.items():
