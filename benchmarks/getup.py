@@ -40,6 +40,7 @@ import numpy as np
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")
 
 from wbc import load_robot
+from wbc.balance.getup import GetupParams
 from wbc.bench.variation import models
 from wbc.drive.getup_sim import getup_sim
 
@@ -48,12 +49,15 @@ from wbc.drive.getup_sim import getup_sim
 FALL_FORCE_N = (14.0, 24.0)
 
 
-def fall_and_get_up(robot, side: str, variation, force: float, watcher=None) -> dict:
+def fall_and_get_up(
+    robot, side: str, variation, force: float, watcher=None, params: GetupParams | None = None
+) -> dict:
     """``--fall``: the walker standing on its velocity commands (``wbc drive``'s path, the
     hqp-daqp controller, closed loop), shoved at 1 s for 0.2 s (forward to fall on its front,
     backward on its back) until the fall detection stops it; then what ``wbc drive`` does
     (:func:`wbc.drive.sim.after_fall`), judged as the drop (:func:`wbc.drive.sim.judge`).
-    ``watcher``: ``--trace`` (:class:`Watcher`) watches the walk, the fall and the get-up."""
+    ``watcher``: ``--trace`` (:class:`Watcher`) watches the walk, the fall and the get-up;
+    ``params``: the get-up planner's."""
     from wbc.bench.solvers import registry
     from wbc.drive.commands import Command
     from wbc.drive.sim import drive_sim
@@ -62,7 +66,8 @@ def fall_and_get_up(robot, side: str, variation, force: float, watcher=None) -> 
     push = force if side == "prone" else -force
     rec = drive_sim(robot, controller, [Command(3.0, 0.0, 0.0, 0.0)], variation=variation,
                     walker_options={"compensate": 0.5, "calibrate_s": 0.3},
-                    push=(1.0, (push, 0.0, 0.0), 0.2), get_up=True, view=watcher,
+                    push=(1.0, (push, 0.0, 0.0), 0.2), get_up=True, getup_params=params,
+                    view=watcher,
                     out=watcher.phase if watcher else (lambda _line: None))  # fmt: skip
     landed = rec.get("getup_side") or ("on a side" if rec["fell"] else "not")
     return {"side": side, "force_n": force, "landed": landed, "fell": rec["fell"],
@@ -149,6 +154,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-stiffen", action="store_true", help="every phase at the configured servo stiffness"
     )
+    ap.add_argument(
+        "--no-support-hull",
+        action="store_true",
+        help="no rows keeping the CoM inside the contacts' hull (GetupParams.support_margin)",
+    )
     ap.add_argument("--trace", action="store_true", help="watch each run (module docstring)")
     ap.add_argument(
         "--fall",
@@ -161,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
+    params = GetupParams(support_margin=None) if args.no_support_hull else GetupParams()
     variations = ([None] if args.nominal else []) + models(robot, args.models, args.seed)
     rng = np.random.default_rng(args.seed)
     yaws = rng.uniform(-math.pi, math.pi, len(variations))
@@ -174,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             watcher = Watcher(robot) if args.trace else None
             if args.fall:
-                rec = fall_and_get_up(robot, side, v, float(force[k]), watcher)
+                rec = fall_and_get_up(robot, side, v, float(force[k]), watcher, params)
                 if watcher:
                     watcher.summary()
                 rec.update(model="nominal" if v is None else k - int(args.nominal))
@@ -189,6 +200,7 @@ def main(argv: list[str] | None = None) -> int:
                 side,
                 v,
                 yaw=float(yaw),
+                params=params,
                 replan=not args.open_loop,
                 compensate=args.compensate,
                 stiffen=not args.no_stiffen,
