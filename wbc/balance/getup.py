@@ -1,20 +1,21 @@
 """Getting up after a fall: a whole-body motion planned with the project's own QP stack.
 
-A get-up is a sequence of **support phases** (:class:`Phase`). Each phase names the frames
-in contact with the floor — held where they are as **hard** tasks of a lexicographic QP
+A get-up is a sequence of **support phases** (:class:`Phase`). Each phase names the frames in
+contact with the floor — held where they are as **hard** tasks of a lexicographic QP
 (:class:`~wbc.solvers.HierarchicalQP`): soles and the torso as 6-D contacts, hands, toes and
-heels as point contacts, *sliding* points (a hand pushing back along the floor) at their
-height only — together with self-collision rows and floor rows (no hand, toe or heel below
-the floor; the torso and the hips no lower than they lay). One level below: where some frames
-go (a hand to the floor), soles turned flat, the torso's pitch, the CoM (over the centre of
-the phase's support) and a light posture. The targets move from their values at the phase's
-start to their goals (a smooth ramp), the QP ticking at ``rate`` with the joint limits and the
+heels as point contacts, *sliding* points (a hand pushing back along the floor) at their height
+only — together with self-collision rows, floor rows (no hand, toe or heel below the floor; the
+torso and the hips no lower than they lay) and, once the soles are among the contacts, the CoM
+inside their hull (:class:`SupportHullConstraint`). One level below: where some frames go (a
+hand to the floor), soles turned flat, the torso's pitch, the CoM (over the centre of the
+phase's support) and a light posture. The targets move from their values at the phase's start
+to their goals (a smooth ramp), the QP ticking at ``rate`` with the joint limits and the
 servos' speed (``speed_scale`` · v_max) as hard bounds: the phase's joint trajectory.
 :func:`static_torques` gives the joint torques that hold a planned configuration on its
-contacts (least-norm contact forces). Every frame is a standard frame of the model
-(``torso``, ``l_sole``, ``r_sole``, ``l_hand``, ``r_hand``; toes and heels at the front and
-back edges of each sole, :func:`with_toes`), the hip and shoulder joints come from the joint
-roles, the lengths from the model (:class:`BodySizes`): nothing names a robot's joint.
+contacts (least-norm contact forces). Every frame is a standard frame of the model (``torso``,
+``l_sole``, ``r_sole``, ``l_hand``, ``r_hand``; toes and heels at the front and back edges of
+each sole, :func:`with_toes`), the hip and shoulder joints come from the joint roles, the
+lengths from the model (:class:`BodySizes`): nothing names a robot's joint.
 
 From **prone** (lying on the front): hands to the floor beside the chest, a push-up onto hands
 and toes, a pike (hips up, the toes drawn in), the soles rolled flat about the toes, the CoM
@@ -120,7 +121,9 @@ class Phase:
     com_z: float | None = None
     posture: str | None = None
     posture_weight: float = 0.01
-    quasi_static: bool = True  # the CoM must stay inside the contacts' polygon
+    #: the CoM kept inside the contacts' hull (:class:`SupportHullConstraint`: the phases
+    #: whose contacts include the soles)
+    quasi_static: bool = True
     #: the servos' stiffness during the phase, × the configured one (the bus writes it:
     #: :meth:`wbc.servos.bus.ServoBus.set_stiffness`); 1: as ``servos.toml`` sets them
     stiffness: float = 1.0
@@ -727,6 +730,7 @@ __all__: Sequence[str] = (
     "Phase",
     "PhasePlan",
     "PhasePlanner",
+    "SupportHullConstraint",
     "ground_frame",
     "lying_side",
     "lying_state",
