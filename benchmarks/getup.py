@@ -16,11 +16,16 @@ shove of 14-24 N for 0.2 s (forward for the front, backward for the back) fells 
 detection stops the walk, and ``wbc drive``'s ``after_fall`` gets it up (the side it landed
 on is printed: a shove backward may land it on its front).
 
-``--trace`` watches each run: every 0.1 s the torso's elevation, the CoM and the hands ahead of
-the rear edge of the soles (along the left sole's heading: meaningful once the feet are flat), the
-soles' tilt, the base's height, the largest servo torque over its cap (the AX-12A's stall
-torque 1.5 N·m at the default torque limit) and the bodies touching the floor with their
-normal force (N); then per phase the share of ticks with a servo at its cap, and which.
+``--no-support-hull``: the planner without its hull rows (``GetupParams.support_margin``
+None: the plan before them, for a side-by-side run); ``--only K ...``: only those randomised
+models (the same shoves and headings as in the full run).
+
+``--trace`` watches each run (with ``--fall`` too: the walk, the fall and the get-up): every
+0.1 s the torso's elevation, the CoM and the hands ahead of the rear edge of the soles (along
+the left sole's heading: meaningful once the feet are flat), the soles' tilt, the base's
+height, the largest servo torque over its cap (the AX-12A's stall torque 1.5 N·m at the default
+torque limit) and the bodies touching the floor with their normal force (N); then per phase the
+share of ticks with a servo at its cap, and which.
 
 Figures and the exact commands they came from: benchmarks/getup.md.
 """
