@@ -230,11 +230,11 @@ def main(argv: list[str] | None = None) -> int:
         # the torso's elevation at the start of each phase (deg above the horizontal; 90 up)
         side_recs = [r for r in records if r["side"] == side]
         for name in side_recs[0]["phases"] if side_recs else []:
-            v = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
-            if not v:
+            deg = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
+            if not deg:
                 continue
-            print(f"  trunk at '{name}': median {np.median(v):.0f} deg, "
-                  f"{min(v):.0f}..{max(v):.0f} ({len(v)} runs)")  # fmt: skip
+            print(f"  trunk at '{name}': median {np.median(deg):.0f} deg, "
+                  f"{min(deg):.0f}..{max(deg):.0f} ({len(deg)} runs)")  # fmt: skip
     print(f"{len(records)} runs in {time.perf_counter() - start:.0f} s")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

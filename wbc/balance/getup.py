@@ -506,9 +506,10 @@ class SupportHullConstraint(Constraint):
 
     def _rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
         pts, jacs = [], []
+        frames: dict[int, np.ndarray] = {}
         for fid, r in self.vertices:
             R, p = kin.rotation(fid), kin.translation(fid)
-            J = kin.frame_jacobian(fid)
+            J = frames[fid] if fid in frames else frames.setdefault(fid, kin.frame_jacobian(fid))
             w = R @ r
             # the point's velocity: v + ω × w = J_v − [w]× J_ω
             Jp = J[:3] - np.cross(w, J[3:].T).T if w.any() else J[:3]
@@ -611,8 +612,8 @@ class PhasePlanner:
         if phase.quasi_static and p.support_margin is not None:
             bodies = [f for f in (*phase.contacts, *phase.sliding) if not _is_point(f)]
             if bodies and all(f in SOLE_FRAMES.values() for f in bodies):
-                pts = [f for f in (*phase.contacts, *phase.sliding) if _is_point(f)]
-                hull = SupportHullConstraint(robot, pts, bodies, p.support_margin)
+                on_floor = [f for f in (*phase.contacts, *phase.sliding) if _is_point(f)]
+                hull = SupportHullConstraint(robot, on_floor, bodies, p.support_margin)
                 stack.add_constraint(hull, level=0)
         stack.level(1, hard=False)
         ramps: list[tuple] = []  # (task, start, goal) for positions; rotations separately
