@@ -38,6 +38,7 @@ import math
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -164,6 +165,12 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="no rows keeping the CoM inside the contacts' hull (GetupParams.support_margin)",
     )
+    ap.add_argument(
+        "--sliding-margin",
+        type=float,
+        default=GetupParams().sliding_margin,
+        help="m: the hull margin of the phases with sliding contacts (GetupParams)",
+    )
     ap.add_argument("--trace", action="store_true", help="watch each run (module docstring)")
     ap.add_argument(
         "--fall",
@@ -176,7 +183,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
-    params = GetupParams(support_margin=None) if args.no_support_hull else GetupParams()
+    params = GetupParams(sliding_margin=args.sliding_margin)
+    if args.no_support_hull:
+        params = replace(params, support_margin=None)
     variations = ([None] if args.nominal else []) + models(robot, args.models, args.seed)
     rng = np.random.default_rng(args.seed)
     yaws = rng.uniform(-math.pi, math.pi, len(variations))

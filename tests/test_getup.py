@@ -148,6 +148,8 @@ def test_bad_input_is_one_clear_line() -> None:
         G.GetupParams(hold_s=-1.0).check()
     with pytest.raises(ConfigurationError, match="support_margin"):
         G.GetupParams(support_margin=-0.01).check()
+    with pytest.raises(ConfigurationError, match="sliding_margin"):
+        G.GetupParams(sliding_margin=math.nan).check()
 
 
 def test_static_torques_on_one_sole_are_the_compliance_models() -> None:

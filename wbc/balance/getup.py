@@ -76,6 +76,10 @@ class GetupParams:
     #: m: the CoM kept this far inside the hull of a phase's contacts once the soles are
     #: among them (:class:`SupportHullConstraint`); None: no such rows
     support_margin: float | None = 0.005
+    #: m: the margin instead in a phase with sliding contacts (hands sliding along the floor
+    #: stop this far behind the CoM: at 5 mm the hips rose with the hands under nearly all the
+    #: weight and the arms gave way; benchmarks/getup.md)
+    sliding_margin: float = 0.015
 
     def check(self) -> GetupParams:
         for name in ("rate", "speed_scale", "hold_s", "self_collision_margin"):
@@ -85,6 +89,9 @@ class GetupParams:
         m = self.support_margin
         if m is not None and not (math.isfinite(m) and m >= 0):
             raise ConfigurationError(f"getup: support_margin must be None or >= 0 m, got {m}")
+        m = self.sliding_margin
+        if not (math.isfinite(m) and m >= 0):
+            raise ConfigurationError(f"getup: sliding_margin must be >= 0 m, got {m}")
         if not 0 < self.speed_scale <= 1:
             raise ConfigurationError(
                 f"getup: speed_scale must be in (0, 1], got {self.speed_scale}"
@@ -613,7 +620,8 @@ class PhasePlanner:
             bodies = [f for f in (*phase.contacts, *phase.sliding) if not _is_point(f)]
             if bodies and all(f in SOLE_FRAMES.values() for f in bodies):
                 on_floor = [f for f in (*phase.contacts, *phase.sliding) if _is_point(f)]
-                hull = SupportHullConstraint(robot, on_floor, bodies, p.support_margin)
+                margin = p.sliding_margin if phase.sliding else p.support_margin
+                hull = SupportHullConstraint(robot, on_floor, bodies, margin)
                 stack.add_constraint(hull, level=0)
         stack.level(1, hard=False)
         ramps: list[tuple] = []  # (task, start, goal) for positions; rotations separately
