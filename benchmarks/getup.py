@@ -16,11 +16,16 @@ shove of 14-24 N for 0.2 s (forward for the front, backward for the back) fells 
 detection stops the walk, and ``wbc drive``'s ``after_fall`` gets it up (the side it landed
 on is printed: a shove backward may land it on its front).
 
-``--trace`` watches each run: every 0.1 s the torso's elevation, the CoM ahead of the rear
-edge of the soles (along the left sole's heading: meaningful once the feet are flat), the
-soles' tilt, the base's height, the largest servo torque over its cap (the AX-12A's stall
-torque 1.5 N·m at the default torque limit) and the bodies touching the floor with their
-normal force (N); then per phase the share of ticks with a servo at its cap, and which.
+``--no-support-hull``: the planner without its hull rows (``GetupParams.support_margin``
+None: the plan before them, for a side-by-side run); ``--only K ...``: only those randomised
+models (the same shoves and headings as in the full run).
+
+``--trace`` watches each run (with ``--fall`` too: the walk, the fall and the get-up): every
+0.1 s the torso's elevation, the CoM and the hands ahead of the rear edge of the soles (along
+the left sole's heading: meaningful once the feet are flat), the soles' tilt, the base's
+height, the largest servo torque over its cap (the AX-12A's stall torque 1.5 N·m at the default
+torque limit) and the bodies touching the floor with their normal force (N); then per phase the
+share of ticks with a servo at its cap, and which.
 
 Figures and the exact commands they came from: benchmarks/getup.md.
 """
@@ -33,6 +38,7 @@ import math
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +46,7 @@ import numpy as np
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")
 
 from wbc import load_robot
+from wbc.balance.getup import GetupParams
 from wbc.bench.variation import models
 from wbc.drive.getup_sim import getup_sim
 
@@ -48,11 +55,15 @@ from wbc.drive.getup_sim import getup_sim
 FALL_FORCE_N = (14.0, 24.0)
 
 
-def fall_and_get_up(robot, side: str, variation, force: float) -> dict:
+def fall_and_get_up(
+    robot, side: str, variation, force: float, watcher=None, params: GetupParams | None = None
+) -> dict:
     """``--fall``: the walker standing on its velocity commands (``wbc drive``'s path, the
     hqp-daqp controller, closed loop), shoved at 1 s for 0.2 s (forward to fall on its front,
     backward on its back) until the fall detection stops it; then what ``wbc drive`` does
-    (:func:`wbc.drive.sim.after_fall`), judged as the drop (:func:`wbc.drive.sim.judge`)."""
+    (:func:`wbc.drive.sim.after_fall`), judged as the drop (:func:`wbc.drive.sim.judge`).
+    ``watcher``: ``--trace`` (:class:`Watcher`) watches the walk, the fall and the get-up;
+    ``params``: the get-up planner's."""
     from wbc.bench.solvers import registry
     from wbc.drive.commands import Command
     from wbc.drive.sim import drive_sim
@@ -61,7 +72,9 @@ def fall_and_get_up(robot, side: str, variation, force: float) -> dict:
     push = force if side == "prone" else -force
     rec = drive_sim(robot, controller, [Command(3.0, 0.0, 0.0, 0.0)], variation=variation,
                     walker_options={"compensate": 0.5, "calibrate_s": 0.3},
-                    push=(1.0, (push, 0.0, 0.0), 0.2), get_up=True)  # fmt: skip
+                    push=(1.0, (push, 0.0, 0.0), 0.2), get_up=True, getup_params=params,
+                    view=watcher,
+                    out=watcher.phase if watcher else (lambda _line: None))  # fmt: skip
     landed = rec.get("getup_side") or ("on a side" if rec["fell"] else "not")
     return {"side": side, "force_n": force, "landed": landed, "fell": rec["fell"],
             "success": bool(rec.get("got_up")), "reason": rec.get("getup_reason", ""),
@@ -74,6 +87,7 @@ class Watcher:
     def __init__(self, robot) -> None:
         self.robot = robot
         self.name = "start"
+        self.printed = -1  # the last 0.1 s printed
         self.stats: dict[str, list] = {}  # phase -> [ticks, ticks at the cap, {joint: n}]
 
     def phase(self, line: str) -> None:
@@ -92,8 +106,10 @@ class Watcher:
         for j in np.flatnonzero(at_cap):
             name = self.robot.joint_names[j]
             st[2][name] = st[2].get(name, 0) + 1
-        if round(sim.time * 10, 6) % 1 > 1e-3:  # every 0.1 s
+        tenth = math.floor(sim.time * 10 + 1e-6)
+        if tenth == self.printed:  # every 0.1 s
             return
+        self.printed = tenth
         R = sim.site_pose("torso").rotation
         elevation = math.degrees(math.asin(float(np.clip(R[2, 2], -1.0, 1.0))))
         soles = [sim.site_pose(s) for s in ("l_sole", "r_sole")]
@@ -106,9 +122,12 @@ class Watcher:
         for b, f in zip(body, fz, strict=True):
             n = sim.model.body(int(b)).name
             touching[n] = touching.get(n, 0.0) + float(f)
+        hands = [f"{1e3 * (sim.site_pose(h).translation @ x - rear):4.0f}"
+                 for h in ("l_hand", "r_hand") if h in sim.site]  # fmt: skip
         k = int(np.argmax(tau / cap))
         print(f"    t {sim.time:5.1f} {self.name:11s} trunk {elevation:4.0f} deg, CoM "
-              f"{1e3 * (sim.com() @ x - rear):5.0f} mm ahead of the heels, soles "
+              f"{1e3 * (sim.com() @ x - rear):5.0f} mm ahead of the heels (hands "
+              f"{'/'.join(hands)}), soles "
               f"{tilt[0]:3.0f}/{tilt[1]:3.0f} deg, base z {1e3 * sim.q()[2]:3.0f} mm, "
               f"torque {tau[k] / cap[k]:4.0%} of cap ({self.robot.joint_names[k]}); "
               + " ".join(f"{n} {f:.1f}" for n, f in sorted(touching.items(),
@@ -141,15 +160,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-stiffen", action="store_true", help="every phase at the configured servo stiffness"
     )
+    ap.add_argument(
+        "--no-support-hull",
+        action="store_true",
+        help="no rows keeping the CoM inside the contacts' hull (GetupParams.support_margin)",
+    )
+    ap.add_argument(
+        "--sliding-margin",
+        type=float,
+        default=GetupParams().sliding_margin,
+        help="m: the hull margin of the phases with sliding contacts (GetupParams)",
+    )
     ap.add_argument("--trace", action="store_true", help="watch each run (module docstring)")
     ap.add_argument(
         "--fall",
         action="store_true",
         help="a real fall instead of the drop: the walker standing, shoved (module docstring)",
     )
+    ap.add_argument(
+        "--only", type=int, nargs="+", help="run only these randomised models (their index)"
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     robot = load_robot(args.robot)
+    params = GetupParams(sliding_margin=args.sliding_margin)
+    if args.no_support_hull:
+        params = replace(params, support_margin=None)
     variations = ([None] if args.nominal else []) + models(robot, args.models, args.seed)
     rng = np.random.default_rng(args.seed)
     yaws = rng.uniform(-math.pi, math.pi, len(variations))
@@ -159,8 +195,13 @@ def main(argv: list[str] | None = None) -> int:
     for side in args.sides:
         ok, durations = 0, []
         for k, (v, yaw) in enumerate(zip(variations, yaws, strict=True)):
+            if args.only is not None and (v is None or k - int(args.nominal) not in args.only):
+                continue
+            watcher = Watcher(robot) if args.trace else None
             if args.fall:
-                rec = fall_and_get_up(robot, side, v, float(force[k]))
+                rec = fall_and_get_up(robot, side, v, float(force[k]), watcher, params)
+                if watcher:
+                    watcher.summary()
                 rec.update(model="nominal" if v is None else k - int(args.nominal))
                 records.append(rec)
                 ok += rec["success"]
@@ -168,12 +209,12 @@ def main(argv: list[str] | None = None) -> int:
                       f"{rec['landed']}: {'UP' if rec['success'] else 'FAILED'} "
                       f"({rec['reason']})", flush=True)  # fmt: skip
                 continue
-            watcher = Watcher(robot) if args.trace else None
             rec = getup_sim(
                 robot,
                 side,
                 v,
                 yaw=float(yaw),
+                params=params,
                 replan=not args.open_loop,
                 compensate=args.compensate,
                 stiffen=not args.no_stiffen,
@@ -190,18 +231,19 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{side} model {rec['model']}: {'UP' if rec['success'] else 'FAILED'} "
                   f"({rec['reason']}), {rec['duration_s'] or 0:.1f} s", flush=True)  # fmt: skip
         d = f", {np.median(durations):.1f} s median" if durations else ""
-        print(f"{side}: {ok}/{len(variations)} up{d}", flush=True)
+        n_runs = sum(r["side"] == side for r in records)
+        print(f"{side}: {ok}/{n_runs} up{d}", flush=True)
         if args.fall:
             landed = [r["landed"] for r in records if r["side"] == side]
             print("  landed: " + ", ".join(f"{n} {landed.count(n)}" for n in sorted(set(landed))))
         # the torso's elevation at the start of each phase (deg above the horizontal; 90 up)
         side_recs = [r for r in records if r["side"] == side]
         for name in side_recs[0]["phases"] if side_recs else []:
-            v = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
-            if not v:
+            deg = [r["trunk_deg"][name] for r in side_recs if name in r.get("trunk_deg", {})]
+            if not deg:
                 continue
-            print(f"  trunk at '{name}': median {np.median(v):.0f} deg, "
-                  f"{min(v):.0f}..{max(v):.0f} ({len(v)} runs)")  # fmt: skip
+            print(f"  trunk at '{name}': median {np.median(deg):.0f} deg, "
+                  f"{min(deg):.0f}..{max(deg):.0f} ({len(deg)} runs)")  # fmt: skip
     print(f"{len(records)} runs in {time.perf_counter() - start:.0f} s")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

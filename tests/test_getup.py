@@ -82,6 +82,37 @@ def test_the_com_stays_inside_the_support_polygon(plans) -> None:
     assert checked > 100
 
 
+def test_sliding_hands_never_pass_the_com(plans) -> None:
+    """The hands sent along the floor to the feet (past the CoM, which a plan from a measured
+    fall did: benchmarks/getup.md): with the hull rows the CoM stays inside the hull of the
+    soles and the hands by the margin (to first order); without them it leaves it."""
+    side = "supine" if "crab" in [p.phase.name for p in plans] else "prone"
+    robot = G.with_toes(ROBOT)
+    start = next(p for p in plans if p.phase.name == "feet flat").q[-1]
+    ground = G.ground_frame(_lying(side), robot, side)
+    kin = Kinematics(robot, start)
+    soles = ("l_sole", "r_sole")
+    x_feet = np.mean([ground.actInv(kin.translation(robot.frame_id(f)))[0] for f in soles])
+    moves = {}
+    for f in ("l_hand", "r_hand"):
+        moves[f] = (float(x_feet), float(ground.actInv(kin.translation(robot.frame_id(f)))[1]), 0.0)
+    phase = G.Phase("hands to the feet", soles, 1.0, sliding=("l_hand", "r_hand"), moves=moves)
+    worst = {}
+    margin = G.GetupParams().sliding_margin  # the phase's hands slide
+    for params in (G.GetupParams(support_margin=None), G.GetupParams()):
+        planner = G.PhasePlanner(ROBOT, params)
+        planner.floor = {f: -1.0 for f in planner.body_points}
+        plan = planner.plan(phase, start, ground)
+        inside = []
+        for q in plan.q:
+            k = Kinematics(robot, q)
+            hull = convex_hull(_support_points(robot, k, phase))
+            inside.append(signed_distance(hull, k.com[:2]))
+        worst[params.support_margin] = min(inside)
+    assert worst[None] < -0.005, worst  # the hands passed the CoM
+    assert worst[0.005] > margin - 0.002, worst  # the margin, to first order per 20 ms tick
+
+
 def test_the_plan_ends_standing(plans) -> None:
     q = plans[-1].q[-1]
     stand = ROBOT.configuration(ROBOT.stand_pose)
@@ -116,6 +147,10 @@ def test_bad_input_is_one_clear_line() -> None:
         G.GetupParams(rate=0.0).check()
     with pytest.raises(ConfigurationError, match="hold_s"):
         G.GetupParams(hold_s=-1.0).check()
+    with pytest.raises(ConfigurationError, match="support_margin"):
+        G.GetupParams(support_margin=-0.01).check()
+    with pytest.raises(ConfigurationError, match="sliding_margin"):
+        G.GetupParams(sliding_margin=math.nan).check()
 
 
 def test_static_torques_on_one_sole_are_the_compliance_models() -> None:

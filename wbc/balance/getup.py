@@ -1,20 +1,21 @@
 """Getting up after a fall: a whole-body motion planned with the project's own QP stack.
 
-A get-up is a sequence of **support phases** (:class:`Phase`). Each phase names the frames
-in contact with the floor — held where they are as **hard** tasks of a lexicographic QP
+A get-up is a sequence of **support phases** (:class:`Phase`). Each phase names the frames in
+contact with the floor — held where they are as **hard** tasks of a lexicographic QP
 (:class:`~wbc.solvers.HierarchicalQP`): soles and the torso as 6-D contacts, hands, toes and
-heels as point contacts, *sliding* points (a hand pushing back along the floor) at their
-height only — together with self-collision rows and floor rows (no hand, toe or heel below
-the floor; the torso and the hips no lower than they lay). One level below: where some frames
-go (a hand to the floor), soles turned flat, the torso's pitch, the CoM (over the centre of
-the phase's support) and a light posture. The targets move from their values at the phase's
-start to their goals (a smooth ramp), the QP ticking at ``rate`` with the joint limits and the
+heels as point contacts, *sliding* points (a hand pushing back along the floor) at their height
+only — together with self-collision rows, floor rows (no hand, toe or heel below the floor; the
+torso and the hips no lower than they lay) and, once the soles are among the contacts, the CoM
+inside their hull (:class:`SupportHullConstraint`). One level below: where some frames go (a
+hand to the floor), soles turned flat, the torso's pitch, the CoM (over the centre of the
+phase's support) and a light posture. The targets move from their values at the phase's start
+to their goals (a smooth ramp), the QP ticking at ``rate`` with the joint limits and the
 servos' speed (``speed_scale`` · v_max) as hard bounds: the phase's joint trajectory.
 :func:`static_torques` gives the joint torques that hold a planned configuration on its
-contacts (least-norm contact forces). Every frame is a standard frame of the model
-(``torso``, ``l_sole``, ``r_sole``, ``l_hand``, ``r_hand``; toes and heels at the front and
-back edges of each sole, :func:`with_toes`), the hip and shoulder joints come from the joint
-roles, the lengths from the model (:class:`BodySizes`): nothing names a robot's joint.
+contacts (least-norm contact forces). Every frame is a standard frame of the model (``torso``,
+``l_sole``, ``r_sole``, ``l_hand``, ``r_hand``; toes and heels at the front and back edges of
+each sole, :func:`with_toes`), the hip and shoulder joints come from the joint roles, the
+lengths from the model (:class:`BodySizes`): nothing names a robot's joint.
 
 From **prone** (lying on the front): hands to the floor beside the chest, a push-up onto hands
 and toes, a pike (hips up, the toes drawn in), the soles rolled flat about the toes, the CoM
@@ -43,6 +44,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, WbcError
+from ..geometry import convex_hull
+from ..limits.limit import Constraint, Inequality, way_back
 from ..model import Kinematics, Robot
 from ..roles import HAND_FRAMES, SIDES, SOLE_FRAMES
 
@@ -70,12 +73,25 @@ class GetupParams:
     speed_scale: float = 0.5  # share of the servos' no-load speed any joint may use
     hold_s: float = 0.3  # s at the end of each phase with the targets at their goals
     self_collision_margin: float = 0.005  # m
+    #: m: the CoM kept this far inside the hull of a phase's contacts once the soles are
+    #: among them (:class:`SupportHullConstraint`); None: no such rows
+    support_margin: float | None = 0.005
+    #: m: the margin instead in a phase with sliding contacts (hands sliding along the floor
+    #: stop this far behind the CoM: at 5 mm the hips rose with the hands under nearly all the
+    #: weight and the arms gave way; benchmarks/getup.md)
+    sliding_margin: float = 0.015
 
     def check(self) -> GetupParams:
         for name in ("rate", "speed_scale", "hold_s", "self_collision_margin"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"getup: {name} must be a finite number >= 0, got {v}")
+        m = self.support_margin
+        if m is not None and not (math.isfinite(m) and m >= 0):
+            raise ConfigurationError(f"getup: support_margin must be None or >= 0 m, got {m}")
+        m = self.sliding_margin
+        if not (math.isfinite(m) and m >= 0):
+            raise ConfigurationError(f"getup: sliding_margin must be >= 0 m, got {m}")
         if not 0 < self.speed_scale <= 1:
             raise ConfigurationError(
                 f"getup: speed_scale must be in (0, 1], got {self.speed_scale}"
@@ -112,7 +128,9 @@ class Phase:
     com_z: float | None = None
     posture: str | None = None
     posture_weight: float = 0.01
-    quasi_static: bool = True  # the CoM must stay inside the contacts' polygon
+    #: the CoM kept inside the contacts' hull (:class:`SupportHullConstraint`: the phases
+    #: whose contacts include the soles)
+    quasi_static: bool = True
     #: the servos' stiffness during the phase, × the configured one (the bus writes it:
     #: :meth:`wbc.servos.bus.ServoBus.set_stiffness`); 1: as ``servos.toml`` sets them
     stiffness: float = 1.0
@@ -461,6 +479,76 @@ def _smooth(s: float) -> float:
     return s * s * (3.0 - 2.0 * s)
 
 
+class SupportHullConstraint(Constraint):
+    """The CoM's ground projection inside the convex hull of the phase's contacts (points and
+    soles' corners) shrunk by ``margin``, the points free to move (a sliding hand): for each
+    hull edge (a, b) with outward unit normal n (held fixed over the step),
+
+        n · (c + J_c Δq − (m + J_m Δq)) <= −margin,   m = (a + b) / 2,
+
+    J_m the mean of the two vertices' Jacobians (xy). A CoM outside at the start
+    (a phase planned from a measured state) is asked back :func:`~wbc.limits.limit.way_back`
+    (a fraction per step, as the floor rows), never further out (:meth:`split`)."""
+
+    held_rows_met = True
+
+    def __init__(
+        self,
+        robot: Robot,
+        points: Sequence[str],
+        soles: Sequence[str],
+        margin: float = 0.005,
+        damping: float = 0.4,
+        most: float = 0.002,
+    ) -> None:
+        super().__init__("support_hull")
+        self.robot = robot
+        self.margin, self.damping, self.most = margin, damping, most
+        half_l, half_w = (0.5 * float(v) for v in robot.foot_size)
+        corners = [(sx * half_l, sy * half_w) for sx in (-1, 1) for sy in (-1, 1)]
+        #: (frame id, offset in the frame): the vertices the hull is made of
+        self.vertices = [(robot.frame_id(f), np.zeros(3)) for f in points] + [
+            (robot.frame_id(f), np.array([x, y, 0.0])) for f in soles for x, y in corners
+        ]
+
+    def _rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        pts, jacs = [], []
+        frames: dict[int, np.ndarray] = {}
+        for fid, r in self.vertices:
+            R, p = kin.rotation(fid), kin.translation(fid)
+            J = frames[fid] if fid in frames else frames.setdefault(fid, kin.frame_jacobian(fid))
+            w = R @ r
+            # the point's velocity: v + ω × w = J_v − [w]× J_ω
+            Jp = J[:3] - np.cross(w, J[3:].T).T if w.any() else J[:3]
+            pts.append((p + w)[:2])
+            jacs.append(Jp[:2])
+        hull = convex_hull(np.asarray(pts))
+        if len(hull) < 3:
+            return np.zeros((0, kin.model.nv)), np.zeros(0)
+        index = [int(np.argmin(np.linalg.norm(np.asarray(pts) - v, axis=1))) for v in hull]
+        c, Jc = kin.com[:2], kin.com_jacobian[:2]
+        G, h = [], []
+        for i, a in enumerate(index):
+            b = index[(i + 1) % len(index)]
+            e = pts[b] - pts[a]
+            n = np.array([e[1], -e[0]]) / np.linalg.norm(e)
+            m = 0.5 * (pts[a] + pts[b])
+            G.append(n @ (Jc - 0.5 * (jacs[a] + jacs[b])))
+            h.append(-self.margin - n @ (c - m))
+        return np.asarray(G), np.asarray(h)
+
+    def compute(self, kin: Kinematics) -> Inequality:
+        G, h = self._rows(kin)
+        out = h < 0.0
+        h[out] = way_back(-h[out], self.damping, self.most)
+        return Inequality(G, h)
+
+    def split(self, kin: Kinematics, recovering: bool = False) -> tuple[Inequality, Inequality]:
+        G, h = self.compute(kin)
+        ask = h < 0.0
+        return Inequality(G[~ask], h[~ask]), Inequality(G[ask], h[ask])
+
+
 class PhasePlanner:
     """Plans phases with the QP stack (module docstring) on a copy of the robot with toe and
     heel frames (:attr:`robot`)."""
@@ -528,6 +616,13 @@ class PhasePlanner:
                 GroundClearanceConstraint(robot, frame, clearance, length=0.0, width=0.0),
                 level=0,
             )
+        if phase.quasi_static and p.support_margin is not None:
+            bodies = [f for f in (*phase.contacts, *phase.sliding) if not _is_point(f)]
+            if bodies and all(f in SOLE_FRAMES.values() for f in bodies):
+                on_floor = [f for f in (*phase.contacts, *phase.sliding) if _is_point(f)]
+                margin = p.sliding_margin if phase.sliding else p.support_margin
+                hull = SupportHullConstraint(robot, on_floor, bodies, margin)
+                stack.add_constraint(hull, level=0)
         stack.level(1, hard=False)
         ramps: list[tuple] = []  # (task, start, goal) for positions; rotations separately
         for frame, xyz in phase.moves.items():
@@ -644,6 +739,7 @@ __all__: Sequence[str] = (
     "Phase",
     "PhasePlan",
     "PhasePlanner",
+    "SupportHullConstraint",
     "ground_frame",
     "lying_side",
     "lying_state",

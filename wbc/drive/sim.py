@@ -99,6 +99,7 @@ def drive_sim(
     out: Callable[[str], None] = lambda _line: None,
     push: tuple[float, Sequence[float], float] | None = None,
     get_up: bool = False,
+    getup_params: Any = None,
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
@@ -106,7 +107,8 @@ def drive_sim(
     xyz), duration s)`` on the base, a scripted shove. ``get_up``: after a fall, what
     ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
     completed and :func:`judge` finds the robot standing), its
-    ``getup_side``, ``getup_phases`` and ``getup_reason``."""
+    ``getup_side``, ``getup_phases`` and ``getup_reason``; ``getup_params``: the get-up
+    planner's :class:`~wbc.balance.getup.GetupParams`."""
     holder: list[Any] = []
 
     def on_tick() -> None:
@@ -149,7 +151,7 @@ def drive_sim(
     result = dep.run()
     recovery: dict[str, Any] = {}
     if get_up and odo.fell_at is not None:
-        up = after_fall(bus, imu, robot, out)
+        up = after_fall(bus, imu, robot, out, getup_params)
         standing, why = judge(sim, robot)
         recovery = {"got_up": bool(up.completed and standing), "getup_side": up.side,
                     "getup_phases": up.phases, "getup_reason": up.reason or why}  # fmt: skip
@@ -221,10 +223,13 @@ def judge(sim: Any, robot: Robot, tilt_deg: float = 10.0) -> tuple[bool, str]:
     )
 
 
-def after_fall(bus: Any, imu: Any, robot: Robot, out: Callable[[str], None] = print) -> Any:
+def after_fall(
+    bus: Any, imu: Any, robot: Robot, out: Callable[[str], None] = print, params: Any = None
+) -> Any:
     """What ``wbc drive`` does after a fall: wait :data:`~wbc.balance.getup_play.
     GETUP_WAIT_S` (the last bounces), then :func:`~wbc.balance.getup_play.get_up` on the
-    same bus and IMU (its :class:`~wbc.balance.getup_play.GetupResult`)."""
+    same bus and IMU (its :class:`~wbc.balance.getup_play.GetupResult`; ``params``: the
+    planner's :class:`~wbc.balance.getup.GetupParams`, default its defaults)."""
     from ..balance.getup_play import GETUP_WAIT_S, get_up
 
-    return get_up(bus, imu, robot, wait_s=GETUP_WAIT_S, out=out)
+    return get_up(bus, imu, robot, wait_s=GETUP_WAIT_S, out=out, params=params)
