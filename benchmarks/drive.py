@@ -277,13 +277,18 @@ def main(argv: list[str] | None = None) -> int:
                 cmd = scripts(limits)[axis][0]
                 c = Command(args.hold, s * cmd.vx, s * cmd.vy, s * cmd.wz)
                 scaled = type(limits)(*(s * v for v in limits.as_dict().values()))
-                up = 0
-                for v in variations:
+                fell, failed = [], 0
+                for k, v in enumerate(variations):
                     r = run_one(robot, args.solver, [c], v, limits=scaled, window=window, **loop)
-                    up += not r["fell"]
+                    if r["fell"]:
+                        fell.append(k)
+                    failed += r["failed_solves"]
+                up = len(variations) - len(fell)
                 env[axis].append({"speed": [c.vx, c.vy, c.wz], "up": up,
-                                  "models": len(variations)})  # fmt: skip
-                print(f"envelope {axis} ×{s:g}: {up}/{len(variations)} up", flush=True)
+                                  "models": len(variations), "fell": fell,
+                                  "failed_solves": failed})  # fmt: skip
+                print(f"envelope {axis} ×{s:g}: {up}/{len(variations)} up (fell: models "
+                      f"{fell or 'none'}; failed solves {failed})", flush=True)  # fmt: skip
         record["envelope"] = env
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
