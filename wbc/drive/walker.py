@@ -110,7 +110,7 @@ DRIVE_CALIBRATE_S = 0.3
 #: landing (the behaviour before 2026-12-05 08:35 UTC, an unbounded reach: up to 29 mm off),
 #: the two contacts and the feet's self-collision rows were infeasible together (290 failed
 #: solves in 100 random runs). Measured (benchmarks/drive.md, "Contacts that move"): forward
-#: at the limit on the nominal model 7.99 -> 8.6 cm/s, over 20 randomised models a mean
+#: at the limit on the nominal model 7.99 -> 8.5 cm/s, over 20 randomised models a mean
 #: 7.56 -> 7.88 cm/s; 5 cm/s or an unbounded reach (3 cm) threw the randomised models
 DRIVE_CONTACT_REACH = 0.005
 DRIVE_CONTACT_RATE = 0.02
