@@ -44,7 +44,7 @@ from ..servos.config import DeployConfig
 from ..servos.playback import Deployment
 from ..tasks.contact import ContactTask
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
-from ..walking.footsteps import Footstep
+from ..walking.footsteps import Footstep, Side
 from ..walking.geometry import Foot, rot2
 from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets, heading_free
@@ -202,7 +202,7 @@ class Walker:
         self.contact_rate = float(contact_rate)
         #: the controller's contact target per sole in contact (position) and the planned
         #: placement it started from (:meth:`_contacts`)
-        self._held: dict[str, tuple[Footstep, np.ndarray]] = {}
+        self._held: dict[Side, tuple[Footstep, np.ndarray]] = {}
         if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
             raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
         self.robot = robot
@@ -408,7 +408,7 @@ class Walker:
             return
         double = targets.phase == "double"
         left = targets.support == SOLE_FRAMES["left"]
-        supports = ("left", "right") if double else ("left" if left else "right",)
+        supports: tuple[Side, ...] = ("left", "right") if double else ("left" if left else "right",)
         held = self._held
         for side in ("left", "right"):
             if side not in supports:
