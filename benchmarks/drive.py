@@ -93,7 +93,8 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None,
             calibrate: float | None = None, track: bool = True,
-            contact_reach: float | None = None, **kw):  # fmt: skip
+            contact_reach: float | None = None, contact_rate: float | None = None,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -101,6 +102,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["calibrate_s"] = calibrate
     if contact_reach is not None:
         options["contact_reach"] = contact_reach
+    if contact_rate is not None:
+        options["contact_rate"] = contact_rate
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
@@ -181,9 +184,16 @@ def main(argv: list[str] | None = None) -> int:
         help="the IMU's rest before the walk (default: the Walker's, CALIBRATE_S)",
     )
     ap.add_argument("--contact-reach", type=float, default=None, metavar="M",
-                    help="how far the controller's contacts follow a measured landing (m; "
-                         "default the Walker's DRIVE_CONTACT_REACH; inf: main's before 08:35 "
-                         "UTC 2026-12-05, the measured landings themselves)")  # fmt: skip
+                    help="how far the stance contact slides toward a measured landing in "
+                         "single support (m; default the Walker's DRIVE_CONTACT_REACH; 0: the "
+                         "planned soles)")  # fmt: skip
+    ap.add_argument(
+        "--contact-rate",
+        type=float,
+        default=None,
+        metavar="M_S",
+        help="how fast it slides (m/s; default the Walker's DRIVE_CONTACT_RATE)",
+    )
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -202,6 +212,7 @@ def main(argv: list[str] | None = None) -> int:
         "calibrate": args.calibrate,
         "track": args.track,
         "contact_reach": args.contact_reach,
+        "contact_rate": args.contact_rate,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
@@ -277,13 +288,18 @@ def main(argv: list[str] | None = None) -> int:
                 cmd = scripts(limits)[axis][0]
                 c = Command(args.hold, s * cmd.vx, s * cmd.vy, s * cmd.wz)
                 scaled = type(limits)(*(s * v for v in limits.as_dict().values()))
-                up = 0
-                for v in variations:
+                fell, failed = [], 0
+                for k, v in enumerate(variations):
                     r = run_one(robot, args.solver, [c], v, limits=scaled, window=window, **loop)
-                    up += not r["fell"]
+                    if r["fell"]:
+                        fell.append(k)
+                    failed += r["failed_solves"]
+                up = len(variations) - len(fell)
                 env[axis].append({"speed": [c.vx, c.vy, c.wz], "up": up,
-                                  "models": len(variations)})  # fmt: skip
-                print(f"envelope {axis} ×{s:g}: {up}/{len(variations)} up", flush=True)
+                                  "models": len(variations), "fell": fell,
+                                  "failed_solves": failed})  # fmt: skip
+                print(f"envelope {axis} ×{s:g}: {up}/{len(variations)} up (fell: models "
+                      f"{fell or 'none'}; failed solves {failed})", flush=True)  # fmt: skip
         record["envelope"] = env
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -13,6 +13,7 @@ from wbc.drive.commands import Command, CommandScript, integrate, load_commands,
 from wbc.drive.teleop import Keyboard
 from wbc.drive.walker import Walker
 from wbc.exceptions import ConfigurationError, InfeasibleError
+from wbc.recording import SUPPORT_DOUBLE
 from wbc.servos.bus import DryRunBus
 from wbc.servos.protocol1 import ax_codec
 from wbc.stacks import load_stack
@@ -199,9 +200,10 @@ def test_walker_corrects_the_feed_forward_from_the_encoders(robot, closed) -> No
     assert np.all(correction.scale >= correction.s_min)
 
 
-def _sagging_walk(robot, **options):
+def _sagging_walk(robot, on_tick=None, **options):
     """A walker on the spot for 3 s whose present positions sag from its goals (a left hip
-    roll 0.15 rad off: each landing measured 24 mm from its plan)."""
+    roll 0.15 rad off: each landing measured 24 mm from its plan); ``on_tick(walker)`` after
+    each tick."""
     from wbc.bench.solvers import registry
 
     walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None, **options)
@@ -212,6 +214,8 @@ def _sagging_walk(robot, **options):
     walker.start()
     for _ in range(300):
         walker.tick()
+        if on_tick is not None:
+            on_tick(walker)
     assert walker.engine.steps_taken >= 4
     assert len(walker.engine.landing_errors) >= 2  # the measured landings were taken
     assert min(walker.engine.landing_errors) > 0.02
@@ -220,21 +224,19 @@ def _sagging_walk(robot, **options):
 
 def test_measured_landings_leave_the_contacts_solvable(robot) -> None:
     """Leg odometry measures each landing from the encoders; on compliant servos the
-    present positions sag from the goals. The controller's contacts follow a measured
-    landing by at most ``contact_reach`` from the plan (what the commanded legs can close
-    in the double support's first tick): anchored at the measured landing itself (24 mm
-    off: an unbounded reach, main's behaviour), every double support's hard level was
-    infeasible (30 failed solves of 300 ticks) and the robot held its goals. The failures
-    are counted per cause and reported."""
+    present positions sag from the goals (24 mm here). Anchored at the measured landing in
+    a double support (main's behaviour before 2026-12-05 08:35 UTC), every double
+    support's hard level was infeasible (30 failed solves of 300 ticks); the stance contact
+    now moves toward it in single support only, and even at once and all the way
+    (``contact_rate`` and ``contact_reach`` unbounded) no solve fails. A solve that fails is
+    counted per cause and reported (the robot holds its goals)."""
     from wbc.drive.walker import failure_cause, failure_lines
 
-    held = _sagging_walk(robot, contact_reach=math.inf)
-    assert held.failed_solves >= 20
-    assert all(c.startswith("double: InfeasibleError") for c in held.failure_causes)
-    assert failure_lines(held)[0].startswith(f"WARNING: {held.failed_solves} of 300 walk ticks")
-    walker = _sagging_walk(robot)  # the default: the planned soles
+    walker = _sagging_walk(robot)  # the default
     assert walker.failed_solves == 0, dict(walker.failure_causes)
     assert failure_lines(walker) == []
+    jump = _sagging_walk(robot, contact_reach=math.inf, contact_rate=math.inf)
+    assert jump.failed_solves == 0, dict(jump.failure_causes)
     error = InfeasibleError(
         "hard level 0 is infeasible: cannot satisfy contact_support (residual 0.00202) "
         "together with self_collision (active)"
@@ -243,5 +245,56 @@ def test_measured_landings_leave_the_contacts_solvable(robot) -> None:
         "double: InfeasibleError: hard level 0 is infeasible: cannot satisfy "
         "contact_support together with self_collision (active)"
     )
-    with pytest.raises(ConfigurationError, match="contact_reach"):
-        Walker(robot, held.controller, None, contact_reach=-0.001)
+    solve = jump.controller.track
+
+    def failing(q, targets, dt, changed):  # every double support's solve fails
+        if targets.phase == "double":
+            raise error
+        return solve(q, targets, dt, changed)
+
+    jump.controller.track = failing
+    for _ in range(100):
+        jump.tick()
+    assert jump.failed_solves >= 20
+    assert set(jump.failure_causes) == {failure_cause(error, "double")}
+    assert failure_lines(jump)[0].startswith(f"WARNING: {jump.failed_solves} of 400 walk ticks")
+    for option in ("contact_reach", "contact_rate"):
+        with pytest.raises(ConfigurationError, match=option):
+            Walker(robot, walker.controller, None, **{option: -0.001})
+
+
+def test_stance_contact_slides_toward_the_measured_landing(robot) -> None:
+    """In single support the controller's stance contact moves from the planned sole toward
+    the measured landing (leg odometry, 24 mm off here), at most ``contact_reach`` from the
+    plan and ``contact_rate`` × dt per tick; in double support (two hard contacts and the
+    feet's self-collision rows) no contact target moves; no solve fails."""
+    from wbc.drive.walker import DRIVE_CONTACT_RATE, DRIVE_CONTACT_REACH
+    from wbc.tasks.contact import ContactTask
+
+    rows = []  # (tick, phase, frame, plan object, target, plan position)
+
+    def record(walker) -> None:
+        tasks = [t for t in walker.controller.control.stack.tasks() if isinstance(t, ContactTask)]
+        for task in tasks:
+            if task.active:
+                side = "left" if task.frame == "l_sole" else "right"
+                plan = walker.engine.feet[side]
+                rows.append((len(walker.tick_time), walker.last.support, task.frame, plan,
+                             task.target_position.copy(), plan.position.copy()))  # fmt: skip
+
+    walker = _sagging_walk(robot, record)
+    assert walker.failed_solves == 0, dict(walker.failure_causes)
+    step = DRIVE_CONTACT_RATE * walker.engine.dt
+    off = [float(np.linalg.norm(r[4] - r[5])) for r in rows]
+    assert max(off) > 0.8 * DRIVE_CONTACT_REACH  # it moved toward the measured sole ...
+    assert max(off) <= DRIVE_CONTACT_REACH + 1e-9  # ... within the reach
+    last = {}
+    moved_in_double = 0
+    for k, support, frame, plan, target, _ in rows:
+        before = last.get(frame)
+        if before is not None and before[0] == k - 1 and before[1] is plan:
+            d = float(np.linalg.norm(target - before[2]))
+            assert d <= step + 1e-12  # at the rate
+            moved_in_double += support == SUPPORT_DOUBLE and d > 0
+        last[frame] = (k, plan, target)
+    assert moved_in_double == 0

@@ -42,8 +42,9 @@ from ..recording import SUPPORT_DOUBLE
 from ..roles import SOLE_FRAMES
 from ..servos.config import DeployConfig
 from ..servos.playback import Deployment
+from ..tasks.contact import ContactTask
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
-from ..walking.footsteps import Footstep
+from ..walking.footsteps import Footstep, Side
 from ..walking.geometry import Foot, rot2
 from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets
@@ -51,15 +52,28 @@ from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
 from .odometry import PoseOdometry
 
+#: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
+DRIVE_K_DCM = 0.1
+
 #: the feedback gains of driven walks: the closed loop's defaults without the hip strategy
 #: (``k_hip``: the torso rolled toward a DCM outward of the stance sole, for pushes). Walking
 #: sideways the DCM runs outward by design: with it a randomised Bioloid fell at 3 cm/s
 #: sideways (models 0 and 1 of benchmarks/drive.md at 3.1–3.8 s), without it both walked the
-#: commanded 15 cm. Keyed by the outer loop (``Walker(track=...)``): with it, no heading
-#: feedback on the torso either (``k_yaw``: the torso held at the planned heading by the
-#: gyro; the outer loop turns the plan to steer the real feet, so the torso would twist
-#: against them)
-DRIVE_GAINS = MappingProxyType({True: Gains(k_hip=0.0, k_yaw=0.0), False: Gains(k_hip=0.0)})
+#: commanded 15 cm. Instead the CoM target moves against the estimated DCM's error
+#: (``k_dcm`` 0.1: ``c − 0.1 (ξ − ξ_ref)``, at most 2 cm): the stiff, lightly damped,
+#: late randomised Bioloids rocked sideways with a growing amplitude and fell at 3 cm/s
+#: sideways (models 0 and 4 of 20), with it none, at 4.6 cm/s neither (0.15 and 0.3 threw
+#: a model walking forward at the limit, 0.5 five; benchmarks/drive.md, "Contacts that
+#: move"). Keyed by the outer loop
+#: (``Walker(track=...)``): with it, no heading feedback on the torso either (``k_yaw``: the
+#: torso held at the planned heading by the gyro; the outer loop turns the plan to steer the
+#: real feet, so the torso would twist against them)
+DRIVE_GAINS = MappingProxyType(
+    {
+        True: Gains(k_hip=0.0, k_yaw=0.0, k_dcm=DRIVE_K_DCM),
+        False: Gains(k_hip=0.0, k_dcm=DRIVE_K_DCM),
+    }
+)
 
 #: the AX-12A compliance feed-forward's gain for driven walks: with the encoders' correction
 #: (``Walker(correct=True)``) 0.75, without it issue 30's 0.5 (benchmarks/drive.md: on the
@@ -84,16 +98,22 @@ DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 #: pitch on model 0, so what any rest samples depends on its length)
 DRIVE_CALIBRATE_S = 0.3
 
-#: how far (m) the controller's contacts follow a measured landing away from its plan, at
-#: most (:meth:`Walker._planned_contacts`). A hard contact is anchored once, at the double
-#: support's first tick, and must be met in that tick: the commanded legs can close only a
-#: small gap there, less when the feet's self-collision dampers are active. On the issue's
-#: 100 random sequences (benchmarks/drive.md, "Failed solves"): unbounded (the measured
-#: landings themselves, up to 29 mm off) 290 failed solves and 1 fall; 8 mm still 50
-#: failed solves and 1 fall in 86 runs; 4 mm none but 2 falls (model 0); 0 (the planned
-#: soles) none and no fall, at 3 % of the forward speed at the limit (8.25 -> 7.99 cm/s,
-#: nominal model)
-DRIVE_CONTACT_REACH = 0.0
+#: how far (m) the controller's stance contact moves toward a measured landing away from
+#: its plan, at most (:meth:`Walker._contacts`), and how fast (m/s). A sole lands where the
+#: commanded legs put it, its plan; the leg odometry measures it from the encoders at the end
+#: of that double support (the compliant servos land a few millimetres short and narrow).
+#: Through the single support that follows, the stance contact's target then slides toward
+#: the measured sole, so the commanded body moves over the real stance sole as the plan has
+#: it over the planned one (the stride the servos lost is given back at once, beyond the
+#: make-up's room at the limits). Only in single support, where the stance contact is the
+#: one hard contact: moved within a double support, or re-anchored there at the measured
+#: landing (the behaviour before 2026-12-05 08:35 UTC, an unbounded reach: up to 29 mm off),
+#: the two contacts and the feet's self-collision rows were infeasible together (290 failed
+#: solves in 100 random runs). Measured (benchmarks/drive.md, "Contacts that move"): forward
+#: at the limit on the nominal model 7.99 -> 8.5 cm/s, over 20 randomised models a mean
+#: 7.56 -> 7.88 cm/s; 5 cm/s or an unbounded reach (3 cm) threw the randomised models
+DRIVE_CONTACT_REACH = 0.005
+DRIVE_CONTACT_RATE = 0.02
 
 #: the state estimate's settings for driven walks (:class:`~wbc.balance.estimator.
 #: StateEstimator`)
@@ -143,9 +163,10 @@ class Walker:
     torso then gets no heading feedback (:data:`DRIVE_GAINS`). The command moves the base
     (:attr:`WalkEngine.origin <wbc.walking.engine.WalkEngine.origin>`: turning on the spot
     turns about the base, as ``commanded_xy_m`` counts it), not the soles' midpoint.
-    ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 0): how far the controller's
-    contacts follow a measured landing from its plan (``math.inf``: the measured landing
-    itself, which the commanded legs could not reach in a tick: failed solves).
+    ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 5 mm) and ``contact_rate``
+    (m/s, default :data:`DRIVE_CONTACT_RATE` = 0.02): how far from its plan and how fast the
+    controller's stance contact moves toward the measured landing in single support (0: the
+    planned soles; :meth:`_contacts`).
     """
 
     def __init__(
@@ -164,15 +185,24 @@ class Walker:
         correct: bool = True,
         track: bool = True,
         contact_reach: float = DRIVE_CONTACT_REACH,
+        contact_rate: float = DRIVE_CONTACT_RATE,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
         if not contact_reach >= 0:  # (NaN too)
             raise ConfigurationError(
-                f"contact_reach must be a number >= 0 (m; inf: the measured landings), "
+                f"contact_reach must be a number >= 0 (m; inf: up to the measured landings), "
                 f"got {contact_reach}"
             )
+        if not contact_rate >= 0:  # (NaN too)
+            raise ConfigurationError(
+                f"contact_rate must be a number >= 0 (m/s; inf: at once), got {contact_rate}"
+            )
         self.contact_reach = float(contact_reach)
+        self.contact_rate = float(contact_rate)
+        #: the controller's contact target per sole in contact (position) and the planned
+        #: placement it started from (:meth:`_contacts`)
+        self._held: dict[Side, tuple[Footstep, np.ndarray]] = {}
         if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
             raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
         self.robot = robot
@@ -204,6 +234,11 @@ class Walker:
         self.q = q0.copy()
         self._lean = heading_free(robot.frame_placement(q0, "torso").rotation)
         controller.dt = self.engine.dt
+        # the contact tasks whose targets move within a phase (a task stack's; the other
+        # controllers anchor their contacts at each phase's start only)
+        control = getattr(controller, "control", None)
+        self._contact_tasks = [] if control is None else [
+            t for t in control.stack.tasks() if isinstance(t, ContactTask)]  # fmt: skip
         controller.start(robot, self.q, self.engine.standing_reference())
         #: the servos' present positions (rad, model order; NaN: unread) or None: set by
         #: :meth:`deployment` (or by a caller's own loop)
@@ -348,7 +383,7 @@ class Walker:
                 elif not engine.walking and odo.started:
                     odo.stop()
                 odo.turn(est.rotation, est.angular_velocity, dt)
-        self._planned_contacts(targets)
+        self._contacts(targets, dt)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
         except WbcError as exc:
@@ -357,35 +392,54 @@ class Walker:
         self.tick_time.append(time.perf_counter() - start)
         return self.q
 
-    def _planned_contacts(self, targets: TickTargets) -> None:
-        """The soles in contact at their planned placements (:attr:`WalkEngine.feet`) for
-        the controller, moved toward the measured ones (:attr:`WalkEngine.contact`, leg
-        odometry: what the state estimate stands on and the steps are aimed from) by at most
-        :attr:`contact_reach` (default :data:`DRIVE_CONTACT_REACH`: 0, the planned soles).
-
-        The controller's configuration is the commanded one: its soles are where the swing
-        put them, the plan. A contact anchored at the measured landing (up to 24 mm away on
-        a compliant model: the servos' sag under load, which the goals must keep) asks the
-        commanded legs to close that gap in one tick: the hard level (both contacts and the
-        self-collision rows, or the servos' speed) was infeasible for the whole double
-        support and the robot held its goals (benchmarks/drive.md, "Failed solves")."""
+    def _contacts(self, targets: TickTargets, dt: float) -> None:
+        """The controller's soles in contact: each starts at its planned placement
+        (:attr:`WalkEngine.feet`, where the commanded swing put it) and, in single support,
+        the stance sole's target slides toward the measured one (:attr:`WalkEngine.contact`,
+        leg odometry: what the state estimate stands on and the steps are aimed from), at
+        most :attr:`contact_reach` from the plan, at :attr:`contact_rate` (m/s;
+        :data:`DRIVE_CONTACT_REACH`, :data:`DRIVE_CONTACT_RATE`). In double support the
+        targets stay where they are: both contacts hard, with the feet's self-collision
+        rows, could not follow a gap (benchmarks/drive.md, "Failed solves"). Written into
+        the targets (the anchors of a phase's new contacts) and into a task stack's active
+        contact tasks (the targets of the contacts already made)."""
         engine = self.engine
         if engine.on_landing is None:
             return
-        supports = ("left", "right") if targets.phase == "double" else (
-            "left" if targets.support == SOLE_FRAMES["left"] else "right",)  # fmt: skip
+        double = targets.phase == "double"
+        left = targets.support == SOLE_FRAMES["left"]
+        supports: tuple[Side, ...] = ("left", "right") if double else ("left" if left else "right",)
+        held = self._held
+        for side in ("left", "right"):
+            if side not in supports:
+                held.pop(side, None)  # lifted: its next contact starts afresh
+        step = self.contact_rate * dt
         for side in supports:
             plan = engine.feet[side]
-            if engine.contact[side] is plan:
-                continue
-            gap = engine.contact[side].position - plan.position
-            n = float(np.linalg.norm(gap))
-            pos = plan.position + (gap * min(1.0, self.contact_reach / n) if n > 0 else 0.0)
+            start, pos = held.get(side, (None, None))
+            if start is not plan or pos is None:  # a new landing: where the swing put it
+                pos = plan.position.copy()
+            if not double and step > 0:
+                gap = engine.contact[side].position - plan.position
+                n = float(np.linalg.norm(gap))
+                want = (
+                    plan.position + gap * min(1.0, self.contact_reach / n)
+                    if n > 0
+                    else plan.position
+                )
+                d = want - pos
+                m = float(np.linalg.norm(d))
+                pos = want.copy() if m <= step else pos + d * (step / m)
+            held[side] = (plan, pos)
             placement = pin.SE3(_rz(plan.yaw), pos)
             if side == "left":
                 targets.l_sole = placement
             else:
                 targets.r_sole = placement
+            frame = SOLE_FRAMES[side]
+            for task in self._contact_tasks:
+                if task.active and task.frame == frame:
+                    task.set_target(placement)
 
     # ------------------------------------------------------------------ target source
     def first(self) -> np.ndarray:
