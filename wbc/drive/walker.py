@@ -42,7 +42,6 @@ from ..recording import SUPPORT_DOUBLE
 from ..roles import SOLE_FRAMES
 from ..servos.config import DeployConfig
 from ..servos.playback import Deployment
-from ..tasks.contact import ContactTask
 from ..walking.engine import EngineParams, EngineTick, VelocityLimits, WalkEngine
 from ..walking.footsteps import Footstep, Side
 from ..walking.geometry import Foot, rot2
@@ -234,11 +233,6 @@ class Walker:
         self.q = q0.copy()
         self._lean = heading_free(robot.frame_placement(q0, "torso").rotation)
         controller.dt = self.engine.dt
-        # the contact tasks whose targets move within a phase (a task stack's; the other
-        # controllers anchor their contacts at each phase's start only)
-        control = getattr(controller, "control", None)
-        self._contact_tasks = [] if control is None else [
-            t for t in control.stack.tasks() if isinstance(t, ContactTask)]  # fmt: skip
         controller.start(robot, self.q, self.engine.standing_reference())
         #: the servos' present positions (rad, model order; NaN: unread) or None: set by
         #: :meth:`deployment` (or by a caller's own loop)
@@ -401,8 +395,8 @@ class Walker:
         :data:`DRIVE_CONTACT_REACH`, :data:`DRIVE_CONTACT_RATE`). In double support the
         targets stay where they are: both contacts hard, with the feet's self-collision
         rows, could not follow a gap (benchmarks/drive.md, "Failed solves"). Written into
-        the targets (the anchors of a phase's new contacts) and into a task stack's active
-        contact tasks (the targets of the contacts already made)."""
+        the targets: the anchors of a phase's new contacts and, flagged
+        :attr:`TickTargets.contacts_move`, the targets of the contacts already made."""
         engine = self.engine
         if engine.on_landing is None:
             return
@@ -436,10 +430,7 @@ class Walker:
                 targets.l_sole = placement
             else:
                 targets.r_sole = placement
-            frame = SOLE_FRAMES[side]
-            for task in self._contact_tasks:
-                if task.active and task.frame == frame:
-                    task.set_target(placement)
+        targets.contacts_move = True
 
     # ------------------------------------------------------------------ target source
     def first(self) -> np.ndarray:

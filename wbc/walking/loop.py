@@ -82,6 +82,11 @@ class TickTargets:
     #: the swing sole's target position and rotation (arrays of :attr:`swing_placement`)
     swing_position: np.ndarray
     swing_rotation: np.ndarray
+    #: True when the soles in contact (:attr:`l_sole`, :attr:`r_sole`) move within a phase
+    #: (a driven walk's stance contact sliding toward its measured landing): then a
+    #: controller that holds contacts sets their targets at every tick, not only at the
+    #: phase's start, where they are anchored
+    contacts_move: bool = False
 
     @property
     def swing_placement(self) -> pin.SE3:
@@ -317,6 +322,11 @@ class StackController(Controller):
             self.control.set_phase(
                 targets.phase, targets.support, targets.swing, self._kin, anchors
             )
+        if targets.contacts_move:
+            soles = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
+            for task, _ in self._contacts:
+                if task.active and task.frame in soles:
+                    task.set_target(soles[task.frame])
         if self._copy_targets(targets):
             return
         for com in self._com:
