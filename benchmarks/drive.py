@@ -93,7 +93,8 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None,
             calibrate: float | None = None, track: bool = True,
-            contact_reach: float | None = None, **kw):  # fmt: skip
+            contact_reach: float | None = None, yaw_rest: float | None = None,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -101,6 +102,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["calibrate_s"] = calibrate
     if contact_reach is not None:
         options["contact_reach"] = contact_reach
+    if yaw_rest is not None:
+        options["yaw_rest_s"] = yaw_rest
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
@@ -184,6 +187,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="how far the controller's contacts follow a measured landing (m; "
                          "default the Walker's DRIVE_CONTACT_REACH; inf: main's before 08:35 "
                          "UTC 2026-12-05, the measured landings themselves)")  # fmt: skip
+    ap.add_argument("--yaw-rest", type=float, default=None, metavar="S",
+                    help="the rest after the IMU's calibration that learns the gyro's bias "
+                         "about the vertical (default: the Walker's DRIVE_YAW_REST_S; 0: "
+                         "none, main's before 2026-12-05 10:00 UTC)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -202,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
         "calibrate": args.calibrate,
         "track": args.track,
         "contact_reach": args.contact_reach,
+        "yaw_rest": args.yaw_rest,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]

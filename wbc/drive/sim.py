@@ -99,6 +99,7 @@ def drive_sim(
     out: Callable[[str], None] = lambda _line: None,
     push: tuple[float, Sequence[float], float] | None = None,
     get_up: bool = False,
+    finish: bool = True,
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
@@ -106,7 +107,9 @@ def drive_sim(
     xyz), duration s)`` on the base, a scripted shove. ``get_up``: after a fall, what
     ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
     completed and :func:`judge` finds the robot standing), its
-    ``getup_side``, ``getup_phases`` and ``getup_reason``."""
+    ``getup_side``, ``getup_phases`` and ``getup_reason``. ``finish``: at the script's end
+    the walker finishes the commanded path before it closes (:meth:`Walker.stop`
+    ``finish=True``: at most :data:`~wbc.drive.walker.DRIVE_FINISH_STEPS` steps more)."""
     holder: list[Any] = []
 
     def on_tick() -> None:
@@ -139,7 +142,7 @@ def drive_sim(
             if not walker.walking and t - state["offset"] < end:
                 walker.start()
         elif state["stopped_at"] is None:
-            walker.stop()
+            walker.stop(finish=finish)
             state["stopped_at"] = t
         elif not walker.walking and t > state["stopped_at"] + settle:
             walker.close()

@@ -58,8 +58,13 @@ from .odometry import PoseOdometry
 #: commanded 15 cm. Keyed by the outer loop (``Walker(track=...)``): with it, no heading
 #: feedback on the torso either (``k_yaw``: the torso held at the planned heading by the
 #: gyro; the outer loop turns the plan to steer the real feet, so the torso would twist
-#: against them)
-DRIVE_GAINS = MappingProxyType({True: Gains(k_hip=0.0, k_yaw=0.0), False: Gains(k_hip=0.0)})
+#: against them), and no rate feedback (``k_d``: the noisy gyro's rate in the goals set the
+#: stiff, lightly damped randomised Bioloid 0 (12 ms of latency) vibrating until it spun on
+#: its soles, −56° in 1.5 s standing, 26° of its heading lost over a walk; without it it
+#: stands still, benchmarks/drive.md)
+DRIVE_GAINS = MappingProxyType(
+    {True: Gains(k_hip=0.0, k_yaw=0.0, k_d=0.0), False: Gains(k_hip=0.0)}
+)
 
 #: the AX-12A compliance feed-forward's gain for driven walks: with the encoders' correction
 #: (``Walker(correct=True)``) 0.75, without it issue 30's 0.5 (benchmarks/drive.md: on the
@@ -83,6 +88,25 @@ DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 #: errors alike; why is not traced: the stiff, lightly damped models rock at rest, ±3° in
 #: pitch on model 0, so what any rest samples depends on its length)
 DRIVE_CALIBRATE_S = 0.3
+
+#: the rest (s) after the IMU's calibration, before a driven walk with the outer loop, over
+#: which :meth:`PoseOdometry.rest <wbc.drive.odometry.PoseOdometry.rest>` learns the gyro's
+#: bias about the vertical (the calibration's 0.15 s take a settling or rocking robot's twist
+#: for bias: up to 27° of heading over 30 s on the randomised Bioloids, benchmarks/drive.md)
+DRIVE_YAW_REST_S = 1.5
+
+#: after a walk, the rest ticks the gyro's vertical bias is learnt from start once the robot
+#: has stood this long (s): the stop's last sway is not counted
+DRIVE_REST_SETTLE_S = 0.5
+
+#: a finishing stop (:meth:`Walker.stop` ``finish=True``, a command script's end) walks on
+#: (command zero) at most this many steps while the steps make up the lag to the commanded
+#: pose (a command takes effect at the next lift-off; the make-up is capped), then closes
+DRIVE_FINISH_STEPS = 4
+
+#: ... and closes as soon as the planned walking frame, with the odometry's offset, is this
+#: close to the commanded pose (m, rad)
+DRIVE_FINISH_TOLERANCE = (0.005, math.radians(1.0))
 
 #: how far (m) the controller's contacts follow a measured landing away from its plan, at
 #: most (:meth:`Walker._planned_contacts`). A hard contact is anchored once, at the double
@@ -146,6 +170,11 @@ class Walker:
     ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 0): how far the controller's
     contacts follow a measured landing from its plan (``math.inf``: the measured landing
     itself, which the commanded legs could not reach in a tick: failed solves).
+    ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`): after the IMU's
+    calibration the walker stands this long more (:attr:`calibrating` stays True, a
+    :meth:`start` waits) while the odometry learns the gyro's bias about the vertical
+    (:meth:`PoseOdometry.rest <wbc.drive.odometry.PoseOdometry.rest>`); it goes on learning
+    at every later rest (:data:`DRIVE_REST_SETTLE_S` after a walk).
     """
 
     def __init__(
@@ -164,6 +193,7 @@ class Walker:
         correct: bool = True,
         track: bool = True,
         contact_reach: float = DRIVE_CONTACT_REACH,
+        yaw_rest_s: float = DRIVE_YAW_REST_S,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -175,6 +205,8 @@ class Walker:
         self.contact_reach = float(contact_reach)
         if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
             raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
+        if not (math.isfinite(yaw_rest_s) and yaw_rest_s >= 0):
+            raise ConfigurationError(f"yaw_rest_s must be a finite number >= 0, got {yaw_rest_s}")
         self.robot = robot
         self.controller = controller
         self.imu = imu
@@ -217,9 +249,12 @@ class Walker:
                                      gains, closed, estimator,
                                      calibration_ticks=rest)  # fmt: skip
         self._deferred_start = False  # start() asked during the calibration at rest
+        self._finish_by: int | None = None  # a finishing stop: the last step it may take
         self.engine.on_landing = self._landed if closed else None
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
         self.odometry = PoseOdometry(robot) if track else None
+        self._yaw_rest_left = round(yaw_rest_s / self.engine.dt) if track else 0  # ticks
+        self._standing = math.inf  # s standing since the last walk (inf: none yet)
         self._offset: np.ndarray | None = None  # measured − planned frame at the last landing
         self.last: EngineTick | None = None
         self._previous: tuple[str, str, str] | None = None
@@ -250,22 +285,45 @@ class Walker:
     @property
     def calibrating(self) -> bool:
         """True while the IMU's start-up calibration at rest (gyro bias, levelling:
-        :meth:`Stabilizer._calibrate <wbc.balance.stabilizer.Stabilizer>`) runs; a
-        :meth:`start` then waits for its end."""
-        return self.stabilizer.calibrating
+        :meth:`Stabilizer._calibrate <wbc.balance.stabilizer.Stabilizer>`) runs, and the
+        rest after it that learns the gyro's bias about the vertical (``yaw_rest_s``); a
+        :meth:`start` then waits for their end."""
+        return self.stabilizer.calibrating or self._yaw_rest_left > 0
 
     def start(self) -> None:
         """Start walking (with the command in force; zero: on the spot) — after the
-        start-up calibration at rest, if it is still running."""
+        start-up calibration at rest, if it is still running. (During a finishing
+        :meth:`stop`: walk on.)"""
+        self._finish_by = None
         if self.calibrating:
             self._deferred_start = True
         else:
             self.engine.start()
 
-    def stop(self) -> None:
-        """Finish with a closing step and stand."""
+    def stop(self, finish: bool = False) -> None:
+        """Finish with a closing step and stand. ``finish`` (a command script's end): first
+        walk on with the command zero while the steps make up the
+        lag to the commanded pose — until the planned frame, with the odometry's offset, is
+        within :data:`DRIVE_FINISH_TOLERANCE` of it, at most :data:`DRIVE_FINISH_STEPS`
+        steps — so that the walk ends where the commands put it, not a step's latency short
+        (a command takes effect at the next lift-off)."""
         self._deferred_start = False
-        self.engine.stop()
+        engine = self.engine
+        if finish and engine.walking:
+            engine.command(0.0, 0.0, 0.0)
+            self._finish_by = engine.steps_taken + DRIVE_FINISH_STEPS
+        else:
+            self._finish_by = None
+            engine.stop()
+
+    def lag(self) -> tuple[float, float]:
+        """The commanded pose against the walking frame's commanded point where the plan and
+        the odometry put it after the committed steps: (m, rad)."""
+        engine = self.engine
+        c = engine._centre + engine.odometry_offset
+        p = c[:2] + rot2(c[2]) @ engine.origin
+        target = engine._pose_cmd
+        return float(np.hypot(*(target[:2] - p))), abs(wrap_angle(target[2] - c[2]))
 
     def close(self) -> None:
         """End the motion: as a target source, the walker answers None from now on (the
@@ -323,6 +381,12 @@ class Walker:
         if self._deferred_start and not self.calibrating:
             self._deferred_start = False
             engine.start()
+        if self._finish_by is not None:
+            xy, yaw = self.lag()
+            tol_xy, tol_yaw = DRIVE_FINISH_TOLERANCE
+            if engine.steps_taken >= self._finish_by or (xy <= tol_xy and yaw <= tol_yaw):
+                self._finish_by = None
+                engine.stop()
         dt = engine.dt if dt is None else float(dt)
         target_t = self._t + dt
         e = self.last
@@ -343,11 +407,20 @@ class Walker:
             odo = self.odometry
             if odo is not None and stab.last is not None and not stab.calibrating:
                 est = stab.last
-                if engine.walking and not odo.started:
-                    odo.start(engine.feet, yaw_of(est.rotation))
-                elif not engine.walking and odo.started:
-                    odo.stop()
-                odo.turn(est.rotation, est.angular_velocity, dt)
+                if engine.walking:
+                    self._standing = 0.0
+                    if not odo.started:
+                        odo.start(engine.feet, yaw_of(est.rotation))
+                    odo.turn(est.rotation, est.angular_velocity, dt)
+                else:
+                    if odo.started:
+                        odo.stop()
+                    self._standing += dt
+                    if self._yaw_rest_left > 0 or self._standing >= DRIVE_REST_SETTLE_S:
+                        odo.rest(est.rotation, est.angular_velocity, dt)
+                    else:
+                        odo.turn(est.rotation, est.angular_velocity, dt)
+                    self._yaw_rest_left = max(self._yaw_rest_left - 1, 0)
         self._planned_contacts(targets)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
