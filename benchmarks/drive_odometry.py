@@ -39,8 +39,9 @@ import drive
 import wbc.drive.sim as drive_sim_module
 from wbc import load_robot
 from wbc.bench.variation import models
-from wbc.drive.commands import random_commands
+from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
+from wbc.drive.odometry import PoseOdometry
 from wbc.geometry import mean_angle, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking.geometry import rot2
@@ -110,6 +111,24 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     return out
 
 
+def vertical_bias(walker, sim) -> str:
+    """The gyro's bias about the vertical after the calibration at rest (the simulated IMU's
+    true bias less the calibration's, as the heading's rate on the standing torso) and what
+    the walker's rest learnt of it (:attr:`PoseOdometry.yaw_bias`), in ° per 30 s."""
+    stab = walker.stabilizer
+    imu = stab.imu
+    mount = imu.mount.rotation if imu.mount is not None else np.eye(3)
+    left = mount @ imu.gyro_bias - stab.calibration.gyro_bias  # in the calibrated rate
+    R = sim.site_pose("torso").rotation
+    rate = PoseOdometry._increment(R, left, 1e-3) / 1e-3
+    odo = walker.odometry
+    learnt = odo.yaw_bias if odo is not None else 0.0
+    rest = odo.rest_time if odo is not None else 0.0
+    d = math.degrees(30.0)
+    return (f"left by the calibration {d * rate:+.1f}°/30 s, learnt over {rest:.2f} s of rest "
+            f"{d * learnt:+.1f}°/30 s: heading error {d * (rate - learnt):+.1f}°/30 s")  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequences", type=int, nargs="+", default=[0])
@@ -127,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
         metavar="S",
         help="the rest that learns the gyro's vertical bias (default: the Walker's)",
     )
+    ap.add_argument("--bias", action="store_true",
+                    help="per model: the gyro's bias about the vertical the calibration at rest "
+                         "leaves, and what the walker's rest learnt of it (°/30 s)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
@@ -164,6 +186,15 @@ def main(argv: list[str] | None = None) -> int:
 
     drive_sim_module.Walker = Recorded
     drive_sim_module.Odometer = Sampled
+    if args.bias:
+        for m in args.models:
+            walkers.clear()
+            odometers.clear()
+            drive.run_one(robot, "hqp-daqp", [Command(0.05)], variations[m], limits=limits,
+                          window=window, calibrate=args.calibrate,
+                          yaw_rest=args.yaw_rest)  # fmt: skip
+            print(f"model {m}: " + vertical_bias(walkers[0], odometers[0].sim), flush=True)
+        return 0
     keys = ("plan", "odometry", "swing", "slip", "base", "origin")
     table = []
     for i in args.sequences:

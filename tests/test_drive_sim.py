@@ -69,7 +69,7 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     start-up calibration (gyro bias, levelling: ``wbc deploy``'s closed loop does the same);
     a start asked meanwhile waits for its end (on the randomised Bioloids of
     benchmarks/drive.md the heading error of random sequences fell from a median 6.2° to
-    2.4° with it); then ``yaw_rest_s`` (DRIVE_YAW_REST_S) more, over which the odometry
+    2.4° with it); ``yaw_rest_s`` > 0 rests that much longer while the outer loop's odometry
     learns the gyro's bias about the vertical (PoseOdometry.rest)."""
     from wbc.drive.walker import DRIVE_CALIBRATE_S, DRIVE_YAW_REST_S, Walker
 
@@ -85,14 +85,21 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     while walker.calibrating:
         walker.tick()
         ticks += 1
-        if ticks == round(DRIVE_CALIBRATE_S / walker.engine.dt):
-            assert walker.stabilizer.calibration is not None and walker.calibrating
     dt = walker.engine.dt
     assert ticks == round(DRIVE_CALIBRATE_S / dt) + round(DRIVE_YAW_REST_S / dt)
     assert walker.odometry.rest_time == pytest.approx(DRIVE_YAW_REST_S)
     walker.tick()
     assert walker.engine.walking
     make = registry("physics")["hqp-daqp"].make
+    longer = Walker(robot, make(robot), imu, yaw_rest_s=0.2)
+    longer.present = lambda: longer.q[7:]
+    ticks = 0
+    while longer.calibrating:
+        longer.tick()
+        ticks += 1
+    assert ticks == round(DRIVE_CALIBRATE_S / dt) + 20
+    assert longer.odometry.rest_time == pytest.approx(0.2)
+    assert longer.stabilizer.calibration is not None
     assert Walker(robot, make(robot), imu, calibrate_s=0.0, yaw_rest_s=0.0).calibrating is False
     for bad in (-1.0, math.nan):
         with pytest.raises(ConfigurationError, match="yaw_rest_s must be"):

@@ -20,17 +20,18 @@ IMU's gyro sees it. :class:`PoseOdometry` keeps each sole's pose in the walk's w
 the start-up calibration leaves about the vertical integrates into the heading unseen (the
 accelerometer levels only roll and pitch). Its 0.15 s of samples take any twist of a robot
 settling or rocking at rest for bias (on the randomised Bioloids of benchmarks/drive.md up
-to 0.016 rad/s: 27° of heading over 30 s). Standing still, the torso does not turn on
-average (it may rock, or twist back and forth a little in the servos' backlash), so the
-heading's mean rate over the rests, ``b = Σ δψ / Σ dt`` (``δψ`` each tick's heading change,
+to 14° of heading over 30 s). Standing still, the torso does not turn on average (it may
+rock, or twist back and forth a little in the servos' backlash), so the heading's mean rate
+over a rest, ``b = Σ δψ / Σ dt`` (``δψ`` each tick's heading change,
 :meth:`PoseOdometry.turn`, from the calibrated gyro), is the bias left, and the heading
-integrates ``δψ − b dt`` (the Walker rests 1.5 s for it: within 5° over 30 s on the same
+integrates ``δψ − b dt`` (1.5 s of rest: within 5° over 30 s on the same models; the
+Walker's rest for it, ``yaw_rest_s``, is off by default: the longer start threw marginal
 models). Not the vertical rate's mean, ``Σ (u · ω) dt / Σ dt`` with ``u`` the world's up:
 a torso rocking in roll and pitch out of phase has one (the rocking's enclosed area per
 cycle) while its heading stays.
 
-The error left is the bias the rest's mean leaves (noise, and the robot's slow creep at
-rest) and the soles' sliding.
+The error left is the gyro's bias (with a rest: the noise and the robot's slow creep over
+it) and the soles' sliding.
 """
 
 from __future__ import annotations

@@ -85,18 +85,13 @@ DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
 #: pitch on model 0, so what any rest samples depends on its length)
 DRIVE_CALIBRATE_S = 0.3
 
-#: the rest (s) after the IMU's calibration, before a driven walk with the outer loop, over
+#: a rest (s) after the IMU's calibration, before a driven walk with the outer loop, over
 #: which :meth:`PoseOdometry.rest <wbc.drive.odometry.PoseOdometry.rest>` learns the gyro's
-#: bias about the vertical (the calibration's 0.15 s take a settling or rocking robot's twist
-#: for bias: up to 27° of heading over 30 s on the randomised Bioloids). 1.5 s learnt it
-#: better (within 5° over 30 s on ten models) but the marginal model 0 then fell on a random
-#: sequence it walks after 0.7 s (its falls come and go with the start's timing,
-#: benchmarks/drive.md)
-DRIVE_YAW_REST_S = 0.7
-
-#: after a walk, the rest ticks the gyro's vertical bias is learnt from start once the robot
-#: has stood this long (s): the stop's last sway is not counted
-DRIVE_REST_SETTLE_S = 0.5
+#: bias about the vertical, standing without torso feedback. Off by default: 0.7–1.5 s
+#: learnt it (1.5 s: within 5° of heading over 30 s on ten randomised Bioloids, against up
+#: to 14° left by the calibration) but every such start threw one of the marginal randomised
+#: models (0 or 4) on a random sequence they walk without it (benchmarks/drive.md)
+DRIVE_YAW_REST_S = 0.0
 
 #: a finishing stop (:meth:`Walker.stop` ``finish=True``, a command script's end) walks on
 #: (command zero) at most this many steps while the steps make up the lag to the commanded
@@ -169,11 +164,10 @@ class Walker:
     ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 0): how far the controller's
     contacts follow a measured landing from its plan (``math.inf``: the measured landing
     itself, which the commanded legs could not reach in a tick: failed solves).
-    ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`): after the IMU's
-    calibration the walker stands this long more (:attr:`calibrating` stays True, a
-    :meth:`start` waits) while the odometry learns the gyro's bias about the vertical
-    (:meth:`PoseOdometry.rest <wbc.drive.odometry.PoseOdometry.rest>`); it goes on learning
-    at every later rest (:data:`DRIVE_REST_SETTLE_S` after a walk).
+    ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`, 0) > 0: after
+    the IMU's calibration the walker stands this long more, without torso feedback
+    (:attr:`calibrating` stays True, a :meth:`start` waits), while the odometry learns the
+    gyro's bias about the vertical.
     """
 
     def __init__(
@@ -242,14 +236,11 @@ class Walker:
         rest = round(calibrate_s / self.engine.dt) if closed and imu is not None else 0
         track = bool(track and closed and imu is not None)
         gains = (gains or DRIVE_GAINS[track]).check()
-        #: the gains while standing with the outer loop: no torso feedback (its integral
+        #: the gains of the extra rest (``yaw_rest_s``): no torso feedback (its integral
         #: restarts with the walk). With the rate feedback (``k_d``) the noisy gyro's rate
         #: in the goals set the stiff, lightly damped randomised Bioloid 0 (12 ms of latency)
-        #: vibrating until it spun on its soles, −56° in 1.5 s of the yaw rest; without any
-        #: it stands still, and its walk starts from an unwound integral, as after the
-        #: calibration alone (benchmarks/drive.md)
+        #: vibrating until it spun on its soles, −56° in 1.5 s of rest (benchmarks/drive.md)
         self._gains = (gains, replace(gains, k_p=0.0, k_i=0.0, k_d=0.0) if track else gains)
-        self._was_walking = False
         estimator = StateEstimator(robot, self.engine.height, use_imu=imu is not None,
                                    gyro_heading=gains.k_yaw > 0, **DRIVE_ESTIMATOR)  # fmt: skip
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
@@ -261,7 +252,6 @@ class Walker:
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
         self.odometry = PoseOdometry(robot) if track else None
         self._yaw_rest_left = round(yaw_rest_s / self.engine.dt) if track else 0  # ticks
-        self._standing = math.inf  # s standing since the last walk (inf: none yet)
         self._offset: np.ndarray | None = None  # measured − planned frame at the last landing
         self.last: EngineTick | None = None
         self._previous: tuple[str, str, str] | None = None
@@ -410,28 +400,23 @@ class Walker:
         self._previous = key
         stab = self.stabilizer
         if stab.enabled:
-            stab.gains = self._gains[0 if engine.walking else 1]
-            if engine.walking and not self._was_walking:
-                stab.integral[:] = 0.0  # (not wound up at rest)
-            self._was_walking = engine.walking
+            resting = self._yaw_rest_left > 0 and not stab.calibrating
+            stab.gains = self._gains[1 if resting else 0]
+            if resting:
+                stab.integral[:] = 0.0  # (the walk starts from an unwound integral)
             targets = stab.adjust(targets, e.com_vel, self.q, dt)
             odo = self.odometry
             if odo is not None and stab.last is not None and not stab.calibrating:
                 est = stab.last
-                if engine.walking:
-                    self._standing = 0.0
-                    if not odo.started:
-                        odo.start(engine.feet, yaw_of(est.rotation))
-                    odo.turn(est.rotation, est.angular_velocity, dt)
+                if engine.walking and not odo.started:
+                    odo.start(engine.feet, yaw_of(est.rotation))
+                elif not engine.walking and odo.started:
+                    odo.stop()
+                if resting:
+                    odo.rest(est.rotation, est.angular_velocity, dt)
+                    self._yaw_rest_left -= 1
                 else:
-                    if odo.started:
-                        odo.stop()
-                    self._standing += dt
-                    if self._yaw_rest_left > 0 or self._standing >= DRIVE_REST_SETTLE_S:
-                        odo.rest(est.rotation, est.angular_velocity, dt)
-                    else:
-                        odo.turn(est.rotation, est.angular_velocity, dt)
-                    self._yaw_rest_left = max(self._yaw_rest_left - 1, 0)
+                    odo.turn(est.rotation, est.angular_velocity, dt)
         self._planned_contacts(targets)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
