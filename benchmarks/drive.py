@@ -94,7 +94,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             correct: bool = True, compensate: float | None = None,
             calibrate: float | None = None, track: bool = True,
             contact_reach: float | None = None, yaw_rest: float | None = None,
-            **kw):  # fmt: skip
+            finish: bool = False, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -106,7 +106,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["yaw_rest_s"] = yaw_rest
     if limits is not None:
         options.update(limits=limits, window=window)
-    r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
+    r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
+                  finish=finish, **kw)  # fmt: skip
     r.update(errors(r))
     return r
 
@@ -191,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the rest after the IMU's calibration that learns the gyro's bias "
                          "about the vertical (default: the Walker's DRIVE_YAW_REST_S; 0: "
                          "none, main's before 2026-12-05 10:00 UTC)")  # fmt: skip
+    ap.add_argument("--finish", action="store_true",
+                    help="at each script's end the walker finishes the commanded path first "
+                         "(Walker.stop(finish=True))")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -210,6 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         "track": args.track,
         "contact_reach": args.contact_reach,
         "yaw_rest": args.yaw_rest,
+        "finish": args.finish,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]

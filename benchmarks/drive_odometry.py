@@ -149,6 +149,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bias", action="store_true",
                     help="per model: the gyro's bias about the vertical the calibration at rest "
                          "leaves, and what the walker's rest learnt of it (°/30 s)")  # fmt: skip
+    ap.add_argument(
+        "--finish",
+        action="store_true",
+        help="the walker finishes the commanded path at the script's end",
+    )
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
@@ -205,7 +210,8 @@ def main(argv: list[str] | None = None) -> int:
             odometers.clear()
             r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
                               window=window, track=args.track,
-                              calibrate=args.calibrate, yaw_rest=args.yaw_rest)  # fmt: skip
+                              calibrate=args.calibrate, yaw_rest=args.yaw_rest,
+                              finish=args.finish)  # fmt: skip
             b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
             table.append(b)
             cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])

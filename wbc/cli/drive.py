@@ -193,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
                     walker.start()
                 return
             if state["stopped_at"] is None:
-                walker.stop(finish=True)  # (the commanded path finished first)
+                walker.stop()
                 state["stopped_at"] = t
         elif not state["ended"] and not teleop.poll(walker):
             state["ended"] = True
