@@ -24,7 +24,7 @@ to 14° of heading over 30 s). Standing still, the torso does not turn on averag
 rock, or twist back and forth a little in the servos' backlash), so the heading's mean rate
 over a rest, ``b = Σ δψ / Σ dt`` (``δψ`` each tick's heading change,
 :meth:`PoseOdometry.turn`, from the calibrated gyro), is the bias left, and the heading
-integrates ``δψ − b dt`` (1.5 s of rest: within 5° over 30 s on the same models; the
+integrates ``δψ − b dt`` (1.5 s of rest: within 6° over 30 s on the same models; the
 Walker's rest for it, ``yaw_rest_s``, is off by default: the longer start threw marginal
 models). Not the vertical rate's mean, ``Σ (u · ω) dt / Σ dt`` with ``u`` the world's up:
 a torso rocking in roll and pitch out of phase has one (the rocking's enclosed area per

@@ -87,10 +87,11 @@ DRIVE_CALIBRATE_S = 0.3
 
 #: a rest (s) after the IMU's calibration, before a driven walk with the outer loop, over
 #: which :meth:`PoseOdometry.rest <wbc.drive.odometry.PoseOdometry.rest>` learns the gyro's
-#: bias about the vertical, standing without torso feedback. Off by default: 0.7–1.5 s
-#: learnt it (1.5 s: within 5° of heading over 30 s on ten randomised Bioloids, against up
-#: to 14° left by the calibration) but every such start threw one of the marginal randomised
-#: models (0 or 4) on a random sequence they walk without it (benchmarks/drive.md)
+#: bias about the vertical, standing without torso feedback. Off by default: 1.5 s learnt it
+#: within 6° of heading over 30 s on ten randomised Bioloids (the calibration leaves up to
+#: 14°; random sequences: heading within 15 % on 66 of 80 runs instead of 58), but every
+#: longer start measured threw a marginal randomised model (0 or 4) on a random sequence it
+#: walks without it (1 fall in those 100 runs; benchmarks/drive.md)
 DRIVE_YAW_REST_S = 0.0
 
 #: a finishing stop (:meth:`Walker.stop` ``finish=True``, a command script's end) walks on
