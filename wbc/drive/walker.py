@@ -94,7 +94,7 @@ DRIVE_CALIBRATE_S = 0.3
 #: walks without it (1 fall in those 100 runs; benchmarks/drive.md)
 DRIVE_YAW_REST_S = 0.0
 
-#: a finishing stop (:meth:`Walker.stop` ``finish=True``, a command script's end) walks on
+#: a finishing stop (:meth:`Walker.stop` ``finish=True``) walks on
 #: (command zero) at most this many steps while the steps make up the lag to the commanded
 #: pose (a command takes effect at the next lift-off; the make-up is capped), then closes
 DRIVE_FINISH_STEPS = 4
@@ -299,12 +299,13 @@ class Walker:
             self.engine.start()
 
     def stop(self, finish: bool = False) -> None:
-        """Finish with a closing step and stand. ``finish`` (a command script's end): first
-        walk on with the command zero while the steps make up the
-        lag to the commanded pose — until the planned frame, with the odometry's offset, is
-        within :data:`DRIVE_FINISH_TOLERANCE` of it, at most :data:`DRIVE_FINISH_STEPS`
-        steps — so that the walk ends where the commands put it, not a step's latency short
-        (a command takes effect at the next lift-off)."""
+        """Finish with a closing step and stand. ``finish``: first walk on with the command
+        zero while the steps make up the lag to the commanded pose — until the planned
+        frame, with the odometry's offset, is within :data:`DRIVE_FINISH_TOLERANCE` of it, at
+        most :data:`DRIVE_FINISH_STEPS` steps — so that the plan ends where the commands put
+        it, not a step's latency short (a command takes effect at the next lift-off; on the
+        random sequences of benchmarks/drive.md the base's error did not shrink with it: the
+        odometry's own)."""
         self._deferred_start = False
         engine = self.engine
         if finish and engine.walking:
