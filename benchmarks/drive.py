@@ -94,7 +94,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             correct: bool = True, compensate: float | None = None,
             calibrate: float | None = None, track: bool = True,
             contact_reach: float | None = None, contact_rate: float | None = None,
-            **kw):  # fmt: skip
+            yaw_rest: float | None = None, finish: bool = False, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -104,9 +104,12 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["contact_reach"] = contact_reach
     if contact_rate is not None:
         options["contact_rate"] = contact_rate
+    if yaw_rest is not None:
+        options["yaw_rest_s"] = yaw_rest
     if limits is not None:
         options.update(limits=limits, window=window)
-    r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options, **kw)
+    r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
+                  finish=finish, **kw)  # fmt: skip
     r.update(errors(r))
     return r
 
@@ -194,6 +197,13 @@ def main(argv: list[str] | None = None) -> int:
         metavar="M_S",
         help="how fast it slides (m/s; default the Walker's DRIVE_CONTACT_RATE)",
     )
+    ap.add_argument("--yaw-rest", type=float, default=None, metavar="S",
+                    help="the rest after the IMU's calibration that learns the gyro's bias "
+                         "about the vertical (default: the Walker's DRIVE_YAW_REST_S; 0: "
+                         "none, main's before 2026-12-05 10:00 UTC)")  # fmt: skip
+    ap.add_argument("--finish", action="store_true",
+                    help="at each script's end the walker finishes the commanded path first "
+                         "(Walker.stop(finish=True))")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -213,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
         "track": args.track,
         "contact_reach": args.contact_reach,
         "contact_rate": args.contact_rate,
+        "yaw_rest": args.yaw_rest,
+        "finish": args.finish,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]

@@ -39,8 +39,9 @@ import drive
 import wbc.drive.sim as drive_sim_module
 from wbc import load_robot
 from wbc.bench.variation import models
-from wbc.drive.commands import random_commands
+from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
+from wbc.drive.odometry import PoseOdometry
 from wbc.geometry import mean_angle, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking.geometry import rot2
@@ -63,6 +64,9 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     planned = rot2(c0[2]).T @ (origin_w(plan) - origin_w(c0))
     out["plan_cm"] = 100 * float(np.linalg.norm(planned - cmd))
     out["plan_deg"] = math.degrees(wrap_angle(plan[2] - c0[2] - run["commanded_yaw_rad"]))
+    # the odometry's own error: the base against where the plan + odometry put it at the end
+    out["odometry_cm"] = 100 * float(np.linalg.norm(np.asarray(run["travelled_xy_m"]) - planned))
+    out["odometry_deg"] = math.degrees(wrap_angle(run["travelled_yaw_rad"] - (plan[2] - c0[2])))
     sup = rows[:, 10].astype(int)
     swing_xy, slip_xy, swing_yaw, slip_yaw, planned_xy, planned_yaw = [], [], [], [], [], []
     for col, side, own in ((1, "left", SUPPORT_LEFT), (4, "right", SUPPORT_RIGHT)):
@@ -86,6 +90,9 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
             planned_yaw.append(0.0)
     out["swing_cm"] = 100 * float(np.linalg.norm(np.mean(swing_xy, 0) - np.mean(planned_xy, 0)))
     out["slip_cm"] = 100 * float(np.linalg.norm(np.mean(slip_xy, 0)))
+    # the slip along the commanded displacement (negative: the soles slid back, short)
+    u = cmd / max(float(np.linalg.norm(cmd)), 1e-9)
+    out["slip_along_cm"] = 100 * float(np.mean(slip_xy, 0) @ u)
     out["swing_deg"] = math.degrees(np.mean(swing_yaw) - np.mean(planned_yaw))
     out["slip_deg"] = math.degrees(np.mean(slip_yaw))
     # the base against the soles' midpoint + origin at the end
@@ -104,6 +111,24 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     return out
 
 
+def vertical_bias(walker, sim) -> str:
+    """The gyro's bias about the vertical after the calibration at rest (the simulated IMU's
+    true bias less the calibration's, as the heading's rate on the standing torso) and what
+    the walker's rest learnt of it (:attr:`PoseOdometry.yaw_bias`), in ° per 30 s."""
+    stab = walker.stabilizer
+    imu = stab.imu
+    mount = imu.mount.rotation if imu.mount is not None else np.eye(3)
+    left = mount @ imu.gyro_bias - stab.calibration.gyro_bias  # in the calibrated rate
+    R = sim.site_pose("torso").rotation
+    rate = PoseOdometry._increment(R, left, 1e-3) / 1e-3
+    odo = walker.odometry
+    learnt = odo.yaw_bias if odo is not None else 0.0
+    rest = odo.rest_time if odo is not None else 0.0
+    d = math.degrees(30.0)
+    return (f"left by the calibration {d * rate:+.1f}°/30 s, learnt over {rest:.2f} s of rest "
+            f"{d * learnt:+.1f}°/30 s: heading error {d * (rate - learnt):+.1f}°/30 s")  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequences", type=int, nargs="+", default=[0])
@@ -114,6 +139,21 @@ def main(argv: list[str] | None = None) -> int:
                     help="the walker without its outer loop on the IMU-aided pose")  # fmt: skip
     ap.add_argument("--calibrate", type=float, default=None, metavar="S",
                     help="the IMU's rest before the walk (default: the Walker's)")  # fmt: skip
+    ap.add_argument(
+        "--yaw-rest",
+        type=float,
+        default=None,
+        metavar="S",
+        help="the rest that learns the gyro's vertical bias (default: the Walker's)",
+    )
+    ap.add_argument("--bias", action="store_true",
+                    help="per model: the gyro's bias about the vertical the calibration at rest "
+                         "leaves, and what the walker's rest learnt of it (°/30 s)")  # fmt: skip
+    ap.add_argument(
+        "--finish",
+        action="store_true",
+        help="the walker finishes the commanded path at the script's end",
+    )
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
@@ -151,7 +191,16 @@ def main(argv: list[str] | None = None) -> int:
 
     drive_sim_module.Walker = Recorded
     drive_sim_module.Odometer = Sampled
-    keys = ("plan", "swing", "slip", "base", "origin")
+    if args.bias:
+        for m in args.models:
+            walkers.clear()
+            odometers.clear()
+            drive.run_one(robot, "hqp-daqp", [Command(0.05)], variations[m], limits=limits,
+                          window=window, calibrate=args.calibrate,
+                          yaw_rest=args.yaw_rest)  # fmt: skip
+            print(f"model {m}: " + vertical_bias(walkers[0], odometers[0].sim), flush=True)
+        return 0
+    keys = ("plan", "odometry", "swing", "slip", "base", "origin")
     table = []
     for i in args.sequences:
         cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
@@ -161,7 +210,8 @@ def main(argv: list[str] | None = None) -> int:
             odometers.clear()
             r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
                               window=window, track=args.track,
-                              calibrate=args.calibrate)  # fmt: skip
+                              calibrate=args.calibrate, yaw_rest=args.yaw_rest,
+                              finish=args.finish)  # fmt: skip
             b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
             table.append(b)
             cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
@@ -170,15 +220,16 @@ def main(argv: list[str] | None = None) -> int:
                   f"{np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°: error "
                   f"{100 * r['xy_error_m']:.1f} cm, {ty - cy:+.1f}°; "
                   + ", ".join(f"{k} {b[k + '_cm']:.1f} cm" for k in keys)
+                  + f" (slip along the command {b['slip_along_cm']:+.1f} cm)"
                   + "; " + ", ".join(f"{k} {b[k + '_deg']:+.1f}°"
-                                     for k in ("plan", "swing", "slip", "base", "gyro")
+                                     for k in ("plan", "odometry", "swing", "slip", "base", "gyro")
                                      if k + "_deg" in b),
                   flush=True)  # fmt: skip
     if len(table) > 1:
         print("mean |.|: " + ", ".join(
             f"{k} {np.mean([abs(b[k]) for b in table if k in b]):.1f}"
             for k in [f"{k}_cm" for k in keys]
-            + [f"{k}_deg" for k in ("plan", "swing", "slip", "base", "gyro")]
+            + [f"{k}_deg" for k in ("plan", "odometry", "swing", "slip", "base", "gyro")]
             if any(k in b for b in table)))  # fmt: skip
     return 0
 

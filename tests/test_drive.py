@@ -298,3 +298,38 @@ def test_stance_contact_slides_toward_the_measured_landing(robot) -> None:
             moved_in_double += support == SUPPORT_DOUBLE and d > 0
         last[frame] = (k, plan, target)
     assert moved_in_double == 0
+
+
+@pytest.mark.parametrize("finish", [False, True])
+def test_a_finishing_stop_ends_where_the_commands_put_the_walk(robot, finish) -> None:
+    """A command takes effect at the next lift-off and the walk starts with a 0.8 s start
+    phase, so a short script ends before the steps have made up the lag: 1.5 s at 6 cm/s
+    forward and 0.3 rad/s, then a plain stop closes about a step short of the commanded
+    pose. ``stop(finish=True)`` (a script's end) walks on with the command zero while the
+    steps make up the lag (at most DRIVE_FINISH_STEPS), then closes: within 1 cm and 2°.
+    (Ideal servos, no IMU: the engine's own odometry.)"""
+    from wbc.bench.solvers import registry
+    from wbc.drive.walker import DRIVE_FINISH_STEPS
+    from wbc.geometry import wrap_angle
+    from wbc.walking.geometry import rot2
+
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None)
+    walker.present = lambda: walker.q[7:]
+    engine = walker.engine
+    walker.command(0.06, 0.0, 0.3)
+    walker.start()
+    for _ in range(150):
+        walker.tick()
+    walker.stop(finish=finish)
+    steps = engine.steps_taken
+    while walker.walking:
+        walker.tick()
+    start = engine._pose_cmd  # (the commanded pose, unchanged since the stop)
+    c = engine._centre + engine.odometry_offset
+    xy = c[:2] + rot2(c[2]) @ engine.origin
+    off, turn = float(np.hypot(*(start[:2] - xy))), abs(wrap_angle(start[2] - c[2]))
+    if finish:
+        assert off < 0.01 and turn < math.radians(2.0)
+        assert engine.steps_taken <= steps + DRIVE_FINISH_STEPS + 2  # (+ the closing steps)
+    else:
+        assert off > 0.02 or turn > math.radians(5.0)

@@ -3,6 +3,8 @@ the judge of standing."""
 
 from __future__ import annotations
 
+import math
+
 import pinocchio as pin
 import pytest
 
@@ -12,6 +14,7 @@ from wbc.bench.solvers import registry
 from wbc.drive.commands import Command
 from wbc.drive.getup_sim import drop
 from wbc.drive.sim import drive_sim, judge, make_sim
+from wbc.exceptions import ConfigurationError
 from wbc.model import load_robot
 
 
@@ -66,8 +69,9 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     start-up calibration (gyro bias, levelling: ``wbc deploy``'s closed loop does the same);
     a start asked meanwhile waits for its end (on the randomised Bioloids of
     benchmarks/drive.md the heading error of random sequences fell from a median 6.2° to
-    2.4° with it)."""
-    from wbc.drive.walker import DRIVE_CALIBRATE_S, Walker
+    2.4° with it); ``yaw_rest_s`` > 0 rests that much longer while the outer loop's odometry
+    learns the gyro's bias about the vertical (PoseOdometry.rest)."""
+    from wbc.drive.walker import DRIVE_CALIBRATE_S, DRIVE_YAW_REST_S, Walker
 
     robot = load_robot("bioloid")
     _sim, _bus, imu = make_sim(robot)
@@ -81,11 +85,22 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     while walker.calibrating:
         walker.tick()
         ticks += 1
-    assert ticks == round(DRIVE_CALIBRATE_S / walker.engine.dt)
-    assert walker.stabilizer.calibration is not None
+    dt = walker.engine.dt
+    assert ticks == round(DRIVE_CALIBRATE_S / dt) + round(DRIVE_YAW_REST_S / dt)
+    assert walker.odometry.rest_time == pytest.approx(DRIVE_YAW_REST_S)
     walker.tick()
     assert walker.engine.walking
-    assert (
-        Walker(robot, registry("physics")["hqp-daqp"].make(robot), imu, calibrate_s=0.0).calibrating
-        is False
-    )
+    make = registry("physics")["hqp-daqp"].make
+    longer = Walker(robot, make(robot), imu, yaw_rest_s=0.2)
+    longer.present = lambda: longer.q[7:]
+    ticks = 0
+    while longer.calibrating:
+        longer.tick()
+        ticks += 1
+    assert ticks == round(DRIVE_CALIBRATE_S / dt) + 20
+    assert longer.odometry.rest_time == pytest.approx(0.2)
+    assert longer.stabilizer.calibration is not None
+    assert Walker(robot, make(robot), imu, calibrate_s=0.0, yaw_rest_s=0.0).calibrating is False
+    for bad in (-1.0, math.nan):
+        with pytest.raises(ConfigurationError, match="yaw_rest_s must be"):
+            Walker(robot, make(robot), imu, yaw_rest_s=bad)

@@ -16,8 +16,22 @@ IMU's gyro sees it. :class:`PoseOdometry` keeps each sole's pose in the walk's w
   by the present joints;
 * the walking frame measured is the soles' midpoint, heading their mean.
 
-The error left is the gyro's bias after the calibration at rest (benchmarks/drive.md: rms
-0.004 rad/s on the randomised Bioloids, ~7° over 30 s) and the soles' sliding.
+**The gyro's bias about the vertical**, learnt at rest (:meth:`PoseOdometry.rest`): what
+the start-up calibration leaves about the vertical integrates into the heading unseen (the
+accelerometer levels only roll and pitch). Its 0.15 s of samples take any twist of a robot
+settling or rocking at rest for bias (on the randomised Bioloids of benchmarks/drive.md up
+to 14° of heading over 30 s). Standing still, the torso does not turn on average (it may
+rock, or twist back and forth a little in the servos' backlash), so the heading's mean rate
+over a rest, ``b = Σ δψ / Σ dt`` (``δψ`` each tick's heading change,
+:meth:`PoseOdometry.turn`, from the calibrated gyro), is the bias left, and the heading
+integrates ``δψ − b dt`` (1.5 s of rest: within 6° over 30 s on the same models; the
+Walker's rest for it, ``yaw_rest_s``, is off by default: the longer start threw marginal
+models). Not the vertical rate's mean, ``Σ (u · ω) dt / Σ dt`` with ``u`` the world's up:
+a torso rocking in roll and pitch out of phase has one (the rocking's enclosed area per
+cycle) while its heading stays.
+
+The error left is the gyro's bias (with a rest: the noise and the robot's slow creep over
+it) and the soles' sliding.
 """
 
 from __future__ import annotations
@@ -45,6 +59,10 @@ class PoseOdometry:
         self.heading = 0.0  # the torso's heading (rad, world), gyro-integrated
         self.soles: dict[Side, np.ndarray] = {}  # side -> (x, y, heading), world
         self.started = False
+        #: the gyro's bias about the vertical learnt at rest (rad/s; module docstring)
+        self.yaw_bias = 0.0
+        self.rest_time = 0.0  # s of rest it was learnt over
+        self._rest_angle = 0.0  # rad, Σ (u · ω) dt over them
 
     def start(self, feet: dict[Side, Footstep], torso_heading: float) -> None:
         """Start from the soles' planned placements and the torso's estimated heading."""
@@ -60,11 +78,29 @@ class PoseOdometry:
         tilt used, its heading not), ``rate`` the calibrated gyro (rad/s, torso frame): the
         heading of ``Rz(ψ) · T · Exp(ω dt)`` with ``T`` the tilt (not ``ψ += (R ω)_z dt``: a
         torso leaning forward while it rocks sideways changes its heading by more than the
-        vertical rate's integral, ~20° over 30 s of walking, benchmarks/drive.md)."""
+        vertical rate's integral, ~20° over 30 s of walking, benchmarks/drive.md), less the
+        vertical bias learnt at rest (:attr:`yaw_bias`)."""
+        self.heading += self._increment(rotation, rate, dt) - self.yaw_bias * dt
+
+    def rest(self, rotation: np.ndarray, rate: np.ndarray, dt: float) -> None:
+        """One tick standing still (both soles on the floor, the robot not walking), as
+        :meth:`turn`; the heading's mean rate over the rests so far is the gyro's bias about
+        the vertical (:attr:`yaw_bias`, module docstring), taken out of the heading from
+        then on."""
+        d = self._increment(rotation, rate, dt)
+        self._rest_angle += d
+        self.rest_time += dt
+        if self.rest_time > 0:
+            self.yaw_bias = self._rest_angle / self.rest_time
+        self.heading += d - self.yaw_bias * dt
+
+    @staticmethod
+    def _increment(rotation: np.ndarray, rate: np.ndarray, dt: float) -> float:
+        """The heading's change over one tick of the rate (:meth:`turn`)."""
         yaw = yaw_of(rotation)
         c, s = math.cos(yaw), math.sin(yaw)
         tilt = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ rotation
-        self.heading += yaw_of(tilt @ exp3(np.asarray(rate, dtype=float) * dt))
+        return yaw_of(tilt @ exp3(np.asarray(rate, dtype=float) * dt))
 
     def landed(self, side: Side, q: np.ndarray) -> np.ndarray:
         """``side`` has landed (``q``: the configuration of the present joints): the soles'

@@ -100,6 +100,7 @@ def drive_sim(
     push: tuple[float, Sequence[float], float] | None = None,
     get_up: bool = False,
     getup_params: Any = None,
+    finish: bool = False,
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
@@ -108,7 +109,11 @@ def drive_sim(
     ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
     completed and :func:`judge` finds the robot standing), its
     ``getup_side``, ``getup_phases`` and ``getup_reason``; ``getup_params``: the get-up
-    planner's :class:`~wbc.balance.getup.GetupParams`."""
+    planner's :class:`~wbc.balance.getup.GetupParams`. ``finish``: at the script's end the
+    walker finishes the commanded path before it closes (:meth:`Walker.stop`
+    ``finish=True``: at most :data:`~wbc.drive.walker.DRIVE_FINISH_STEPS` steps more; off by
+    default: on the random sequences of benchmarks/drive.md it closed the plan's lag but not
+    the base's error)."""
     holder: list[Any] = []
 
     def on_tick() -> None:
@@ -141,7 +146,7 @@ def drive_sim(
             if not walker.walking and t - state["offset"] < end:
                 walker.start()
         elif state["stopped_at"] is None:
-            walker.stop()
+            walker.stop(finish=finish)
             state["stopped_at"] = t
         elif not walker.walking and t > state["stopped_at"] + settle:
             walker.close()
