@@ -466,12 +466,9 @@ class StepAdjuster:
         if lat != 1.0:  # the lateral part of the move scaled
             side = np.array([-h[1], h[0], 0.0])
             moved = moved - (1.0 - lat) * ((moved - pos) @ side) * side
-        out = object.__new__(type(targets))
-        values = targets.__dict__.copy()
-        values["swing_position"] = pos + w * (moved - pos)
-        values["swing_rotation"] = E @ targets.swing_rotation
-        out.__dict__ = values
-        return out
+        return targets.replace(
+            swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
+        )
 
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
         """The walk's clock speed after tick ``i``: ``hurry`` in a double support whose DCM

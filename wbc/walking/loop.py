@@ -88,6 +88,15 @@ class TickTargets:
     #: phase's start, where they are anchored
     contacts_move: bool = False
 
+    def replace(self, **changes: Any) -> TickTargets:
+        """A copy with these fields changed: a dict copy and the stores, for the feedback
+        inside a tick (``dataclasses.replace`` costs ~10 µs there)."""
+        out = object.__new__(type(self))
+        values = self.__dict__.copy()
+        values.update(changes)
+        out.__dict__ = values
+        return out
+
     @property
     def swing_placement(self) -> pin.SE3:
         return self.l_sole if self.swing == "l_sole" else self.r_sole
