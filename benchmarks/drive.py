@@ -200,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--yaw-rest", type=float, default=None, metavar="S",
                     help="the rest after the IMU's calibration that learns the gyro's bias "
                          "about the vertical (default: the Walker's DRIVE_YAW_REST_S; 0: "
-                         "none, main's before 2026-12-05 10:00 UTC)")  # fmt: skip
+                         "none, the default before 2026-12-05 11:40 UTC)")  # fmt: skip
     ap.add_argument("--finish", action="store_true",
                     help="at each script's end the walker finishes the commanded path first "
                          "(Walker.stop(finish=True))")  # fmt: skip

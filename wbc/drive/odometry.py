@@ -25,10 +25,9 @@ rock, or twist back and forth a little in the servos' backlash), so the heading'
 over a rest, ``b = Σ δψ / Σ dt`` (``δψ`` each tick's heading change,
 :meth:`PoseOdometry.turn`, from the calibrated gyro), is the bias left, and the heading
 integrates ``δψ − b dt`` (1.5 s of rest: within 6° over 30 s on the same models; the
-Walker's rest for it, ``yaw_rest_s``, is off by default: the longer start threw marginal
-models). Not the vertical rate's mean, ``Σ (u · ω) dt / Σ dt`` with ``u`` the world's up:
-a torso rocking in roll and pitch out of phase has one (the rocking's enclosed area per
-cycle) while its heading stays.
+Walker's rest for it, ``yaw_rest_s``, 1.5 s by default). Not the vertical rate's mean,
+``Σ (u · ω) dt / Σ dt`` with ``u`` the world's up: a torso rocking in roll and pitch out of
+phase has one (the rocking's enclosed area per cycle) while its heading stays.
 
 The error left is the gyro's bias (with a rest: the noise and the robot's slow creep over
 it) and the soles' sliding.

@@ -100,12 +100,13 @@ DRIVE_CALIBRATE_S = 0.3
 
 #: a rest (s) after the IMU's calibration, before a driven walk with the outer loop, over
 #: which :meth:`PoseOdometry.rest <wbc.drive.odometry.PoseOdometry.rest>` learns the gyro's
-#: bias about the vertical, standing without torso feedback. Off by default: 1.5 s learnt it
-#: within 6° of heading over 30 s on ten randomised Bioloids (the calibration leaves up to
-#: 14°; random sequences: heading within 15 % on 66 of 80 runs instead of 58), but every
-#: longer start measured threw a marginal randomised model (0 or 4) on a random sequence it
-#: walks without it (1 fall in those 100 runs; benchmarks/drive.md)
-DRIVE_YAW_REST_S = 0.0
+#: bias about the vertical, standing without torso feedback. 1.5 s learnt it within 6° of
+#: heading over 30 s on ten randomised Bioloids (the calibration leaves up to 14°). On the
+#: random sequences, side by side (benchmarks/drive.md, 2026-12-05 11:23 UTC, with the DCM
+#: feedback): no fall and no failed solve in 100 either way, heading within 15 % on 64 of
+#: 80 runs instead of 62 (median error 3.6° instead of 5.3°); the sideways envelope 20/20.
+#: (Before the DCM feedback it threw model 0 once in 100: it was off then.) 0: none
+DRIVE_YAW_REST_S = 1.5
 
 #: a finishing stop (:meth:`Walker.stop` ``finish=True``) walks on
 #: (command zero) at most this many steps while the steps make up the lag to the commanded
@@ -185,7 +186,7 @@ class Walker:
     (m/s, default :data:`DRIVE_CONTACT_RATE` = 0.02): how far from its plan and how fast the
     controller's stance contact moves toward the measured landing in single support (0: the
     planned soles; :meth:`_contacts`).
-    ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`, 0) > 0: after
+    ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`, 1.5 s) > 0: after
     the IMU's calibration the walker stands this long more, without torso feedback
     (:attr:`calibrating` stays True, a :meth:`start` waits), while the odometry learns the
     gyro's bias about the vertical.
