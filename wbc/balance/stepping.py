@@ -66,7 +66,8 @@ compliant legs land the sole 50 mm short of it (the stance hip yields 10° under
 Fourth pass: the landing in the measured frame (sagittal) lands it and moves the forward and
 backward bounds (0.56 → 0.66–0.70, 0.47 → 0.61–0.68 N·s) but loses 12 of 50 randomised plants
 without the feed-forward (5 with it); less its running mean (``landing_tau`` 0.3 s) 50/50 with
-the feed-forward and every bound as high or higher, 45/50 without it (the default: 48/50):
+the feed-forward and every bound as high or higher, 45/50 without it (the default: 48/50;
+with the estimator's ``kin_tilt`` 0.5: 48/50 against 50/50, and 50/50 against 49/50 with it):
 off by default; ``hurry`` alone moves nothing.
 """
 
