@@ -59,6 +59,12 @@ def yaw_of(rotation: np.ndarray) -> float:
     return math.atan2(rotation[1, 0], rotation[0, 0])
 
 
+def clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
+    """``v`` shortened to length ``limit`` if it is longer (its direction kept)."""
+    n = math.sqrt(float(v @ v))
+    return v if n <= limit else v * (limit / n)
+
+
 def heading_free(rotation: np.ndarray) -> np.ndarray:
     """The rotation with its heading removed, ``Rz(−yaw) R`` (``yaw = yaw_of(R)``): the tilt
     (pitch and roll) seen from a frame turned with the body."""

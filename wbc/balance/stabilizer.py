@@ -55,7 +55,7 @@ import numpy as np
 
 from ..compiled.rows import log3
 from ..exceptions import ConfigurationError
-from ..geometry import rot2, yaw_of
+from ..geometry import clip_norm, rot2, yaw_of
 from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
 from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
@@ -134,11 +134,6 @@ class Gains:
                 f"stabilizer gain transfer must be in [0, 1], got {self.transfer}"
             )
         return self
-
-
-def _clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
-    n = math.sqrt(float(v @ v))
-    return v if n <= limit else v * (limit / n)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -373,7 +368,7 @@ class Stabilizer:
         if want @ h >= h @ h:  # growing along its direction (or from rest): at once
             h = want
         else:
-            h = h + _clip_norm(want - h, g.hip_release * dt)
+            h = h + clip_norm(want - h, g.hip_release * dt)
         self.hip = h
         R = np.empty((3, 3))
         exp3_into(np.array([-h[1], h[0], 0.0]), R)
@@ -403,7 +398,7 @@ class Stabilizer:
         if g.k_lean > 0:  # the CoM turned by −k_lean·e about the support: −k h (e × z)
             h = com[2] - targets.support_placement.translation[2]
             shift -= g.k_lean * h * np.array([e[1], -e[0]])
-        shift = _clip_norm(shift, g.max_shift)
+        shift = clip_norm(shift, g.max_shift)
         return np.array([com[0] + shift[0], com[1] + shift[1], com[2]])
 
     def joint_offsets(self, joints: np.ndarray) -> np.ndarray | None:

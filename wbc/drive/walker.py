@@ -36,7 +36,7 @@ import pinocchio as pin
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import heading_free, wrap_angle, yaw_of
+from ..geometry import clip_norm, heading_free, wrap_angle, yaw_of
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -487,15 +487,8 @@ class Walker:
                 pos = plan.position.copy()
             if not double and step > 0:
                 gap = engine.contact[side].position - plan.position
-                n = float(np.linalg.norm(gap))
-                want = (
-                    plan.position + gap * min(1.0, self.contact_reach / n)
-                    if n > 0
-                    else plan.position
-                )
-                d = want - pos
-                m = float(np.linalg.norm(d))
-                pos = want.copy() if m <= step else pos + d * (step / m)
+                want = plan.position + clip_norm(gap, self.contact_reach)
+                pos = pos + clip_norm(want - pos, step)
             held[side] = (plan, pos)
             placement = pin.SE3(_rz(plan.yaw), pos)
             if side == "left":
