@@ -127,6 +127,10 @@ class SteppingParams:
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
     episode_steps: int = 2
     rest_steps: int = 2
+    #: multi-step recovery: the catch goes on, step after step (at most this many more than
+    #: episode_steps), while each next single support still finds the DCM error beyond the
+    #: dead band — until the DCM is back within it; then the rest (0: episode_steps only)
+    until_inside: int = 0
     #: steps one re-plan places: the landing under way (or, in double support, the next) and
     #: the ones after it, each taking what the previous could not (1: one step)
     #: (3 measured: no push survived further, the away push 0.680 against 0.750 N·s;
@@ -160,6 +164,10 @@ class SteppingParams:
     #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
     hurry: float = 1.0
     hurry_band: float = 0.03
+    #: step timing in single support too: during a catch (the DCM error beyond the dead band
+    #: in this single support), the clock runs ``hurry``× (the landing comes sooner: LIPM, a
+    #: landing ``T`` s sooner meets a DCM error ``e^{ω T}`` smaller)
+    hurry_single: bool = False
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -191,7 +199,7 @@ class SteppingParams:
             raise ConfigurationError(
                 f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
             )
-        for name in ("episode_steps", "rest_steps"):
+        for name in ("episode_steps", "rest_steps", "until_inside"):
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
@@ -350,6 +358,8 @@ class StepAdjuster:
         #: :meth:`_track_baseline`)
         self.baseline = np.zeros((2, 2))
         self.episode: int | None = None  # the step the current catch started in
+        self.end = 0  # the first step after the catch (until_inside extends it)
+        self.caught_step = -1  # the last step a re-plan moved
         self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
         #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
         self._landing_mean = np.zeros((2, 6))
@@ -476,8 +486,17 @@ class StepAdjuster:
         error along the walk (the stance sole's heading frame) is beyond ``hurry_band`` (a
         push along the walk: the next step should start, and land, sooner), else 1."""
         p = self.params
-        if p.hurry == 1.0 or not self.enabled or ref.support[i] != SUPPORT_DOUBLE:
+        if p.hurry == 1.0 or not self.enabled:
             return 1.0
+        if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
+            if not p.hurry_single or self.episode is None:
+                return 1.0
+            ph = self.phases[self.phase_of[i]]
+            if ph.step >= max(self.episode + p.episode_steps, self.end):
+                return 1.0  # (the catch is over)
+            if (ph.i1 - i) * ref.dt < p.min_remaining:  # (landing: its clock as planned)
+                return 1.0
+            return p.hurry if self.error(ref, i, dcm)[1].any() else 1.0
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
         return p.hurry if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
@@ -517,7 +536,13 @@ class StepAdjuster:
         if not err.any() or k >= len(self.plan.steps):
             return None
         if self.episode is not None and p.episode_steps > 0:
-            end = self.episode + p.episode_steps
+            end = max(self.episode + p.episode_steps, self.end)
+            if (  # multi-step recovery: the DCM still outside the band on the next step
+                k == end
+                and self.caught_step == k - 1
+                and k < self.episode + p.episode_steps + p.until_inside
+            ):
+                end = self.end = k + 1
             if end <= k < end + p.rest_steps:
                 return None  # the catch is over: let the walk settle
             if k >= end + p.rest_steps:
@@ -533,6 +558,7 @@ class StepAdjuster:
         self.plan, self.increments, self.last_tick = plan, increments, i
         self.shift = increments[0].copy()
         self.episode = k if self.episode is None else self.episode
+        self.caught_step = k
         self.events.append((float(ref.t[i]), k, wanted, increments[0].copy()))
         return new
 
