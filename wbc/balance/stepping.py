@@ -164,9 +164,10 @@ class SteppingParams:
     #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
     hurry: float = 1.0
     hurry_band: float = 0.03
-    #: step timing in single support too: during a catch (the DCM error beyond the dead band
-    #: in this single support), the clock runs ``hurry``× (the landing comes sooner: LIPM, a
-    #: landing ``T`` s sooner meets a DCM error ``e^{ω T}`` smaller)
+    #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
+    #: band), the landing comes sooner when that leaves the swing more room beyond the shift
+    #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
+    #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`)
     hurry_single: bool = False
 
     def for_robot(self, robot: Robot) -> SteppingParams:
@@ -494,9 +495,18 @@ class StepAdjuster:
             ph = self.phases[self.phase_of[i]]
             if ph.step >= max(self.episode + p.episode_steps, self.end):
                 return 1.0  # (the catch is over)
-            if (ph.i1 - i) * ref.dt < p.min_remaining:  # (landing: its clock as planned)
+            left = (ph.i1 - i) * ref.dt
+            if left < p.min_remaining:  # (landing: its clock as planned)
                 return 1.0
-            return p.hurry if self.error(ref, i, dcm)[1].any() else 1.0
+            e = float(np.linalg.norm(self.error(ref, i, dcm)[1]))
+            if e <= 0:
+                return 1.0
+            # the landing time T' that leaves the swing the most room beyond the shift it
+            # needs: room v T' (v the swing's added reach per second left), need e e^{ω T'}
+            # (LIPM): T* = ln(v / (ω e)) / ω; the clock runs T / T* (1 … hurry)
+            v = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing) / left
+            best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
+            return min(max(left / max(best, p.min_remaining), 1.0), p.hurry)
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
         return p.hurry if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
