@@ -55,20 +55,15 @@ sends the DCM toward the stance sole's outer edge; a step of the swing foot cann
 that edge (the legs would cross), so once the DCM is past it the robot falls whatever the
 steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes.md).
 
-Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
-survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
-pushes and hqp-daqp gain nothing; after a catch (two re-planned steps, then two at rest) the
-walk goes on displaced, covering about half its planned distance. On by default in the closed
-loop (issue 30). ``walk10_wb`` (issue 30, third pass): no law here — one step or three, the
-double-support re-plan, the band's centre — moves the forward, backward or toward bound
-(0.56, 0.42, 0.70 N·s): forward, the re-planned landing is solved to the millimetre but the
-compliant legs land the sole 50 mm short of it (the stance hip yields 10° under the push).
-Fourth pass: the landing in the measured frame (sagittal) lands it and moves the forward and
-backward bounds (0.56 → 0.66–0.70, 0.47 → 0.61–0.68 N·s) but loses 12 of 50 randomised plants
-without the feed-forward (5 with it); less its running mean (``landing_tau`` 0.3 s) 50/50 with
-the feed-forward and every bound as high or higher, 45/50 without it (the default: 48/50;
-with the estimator's ``kin_tilt`` 0.5: 48/50 against 50/50, and 50/50 against 49/50 with it):
-off by default; ``hurry`` alone moves nothing.
+**Multi-step recovery** (``until_inside``; off): the catch goes on step after step while
+each next single support still finds the DCM error beyond the band, then rests. **The
+landing time** (``hurry_single``; off): in a single support being caught, the clock runs
+faster when the swing lacks the room for the shift the error asks (:meth:`rate`).
+
+Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
+0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
+the forward and backward bounds (0.56 → 0.63–0.70, 0.47 → 0.54–0.68 N·s) but costs randomised
+plants: it, and every other term here, is off by default (issue 30).
 """
 
 from __future__ import annotations
@@ -774,4 +769,18 @@ def capture_bounds(
     out["toward_ns"] = to_ns * (f + (land + tow - f) * decay + u * xi[1])
     out["toward_in_time_ns"] = to_ns * (f + (land + min(tow, in_time) - f) * decay + u * xi[1])
     out["toward_reach_mm"] = 1e3 * tow
+    # with step timing: the landing after t' in [swing_down, t] (the sole's added reach
+    # in_time t'/t), the best t' (``*_timed_ns``, ``*_timed_s``)
+    ts = np.linspace(swing_down, t, 60)
+    reach_t, dec = in_time * ts / t, np.exp(-omega * ts)
+    f, half_l = st[0], 0.5 * ref.foot.length
+    cases = {
+        "forward": f + half_l + (step.x + np.minimum(fwd, reach_t) - st[0]) * dec - xi[0],
+        "backward": xi[0] - f + half_l - (step.x - np.minimum(bwd, reach_t) - st[0]) * dec,
+        "toward": -(u * st[1] - half_w) + (land + np.minimum(tow, reach_t) + u * st[1] - half_w)
+        * dec + u * xi[1],
+    }  # fmt: skip
+    for name, margin in cases.items():
+        j = int(np.argmax(margin))
+        out[f"{name}_timed_ns"], out[f"{name}_timed_s"] = to_ns * float(margin[j]), float(ts[j])
     return out
