@@ -175,6 +175,15 @@ def test_capture_bounds_of_walk10(robot, walk10, legs):
     assert b["away_two_step_ns"] < b["away_one_step_ns"] == b["away_ns"]
     assert b["forward_ns"] > b["forward_planned_ns"] > 0
     assert b["toward_ns"] > b["toward_planned_ns"] > 0
+    # with step timing: the best landing time; at the planned one (t) it is the in-time bound
+    for d in ("forward", "backward", "toward"):
+        assert b[f"{d}_timed_ns"] >= b[f"{d}_in_time_ns"] - 1e-12
+        assert 0.05 <= b[f"{d}_timed_s"] <= b["t_swing_left_s"]
+        if b[f"{d}_timed_s"] == pytest.approx(b["t_swing_left_s"]):
+            assert b[f"{d}_timed_ns"] == pytest.approx(b[f"{d}_in_time_ns"])
+    # toward the swing foot (a short reach in time, a long one in all): landing sooner helps
+    assert b["toward_timed_ns"] > b["toward_in_time_ns"] + 0.05
+    assert b["toward_timed_s"] < b["t_swing_left_s"]
 
 
 def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot, walk10):
