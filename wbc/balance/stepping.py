@@ -164,6 +164,9 @@ class SteppingParams:
     #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
     #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`)
     hurry_single: bool = False
+    #: m: once a catch has re-planned a step, the dead band of its later re-plans (None: the
+    #: band): the band decides whether to catch, the catch then takes the whole error
+    catch_band: float | None = None
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -180,10 +183,10 @@ class SteppingParams:
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
-            "hurry_band",
+            "hurry_band", "catch_band",
         ):  # fmt: skip
             v = getattr(self, name)
-            if v is None and name in ("band_x", "band_y"):
+            if v is None and name in ("band_x", "band_y", "catch_band"):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
@@ -384,7 +387,11 @@ class StepAdjuster:
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
         local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]]) - self._centre(ref, i)
-        band = np.array([self.params.band_x, self.params.band_y], dtype=float)
+        p = self.params
+        band = np.array([p.band_x, p.band_y], dtype=float)
+        end = max(self.episode + p.episode_steps, self.end) if self.episode is not None else 0
+        if p.catch_band is not None and ph.kind == "single" and self.caught_step <= ph.step < end:
+            band = np.minimum(band, p.catch_band)  # a catch under way: the whole error
         local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
         e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
         return ph, e
