@@ -266,6 +266,31 @@ def test_a_catch_goes_on_while_the_dcm_stays_outside_then_rests(robot, walk10, o
         SteppingParams(until_inside=-1).check()
 
 
+def test_a_catch_takes_the_whole_error_with_catch_band(robot, walk10):
+    """``catch_band``: the dead band decides whether a catch starts; once it has re-planned
+    the step, later errors in that catch are taken beyond the smaller ``catch_band`` (the
+    band as before the catch and after it, and by default)."""
+    w = StepAdjuster(robot, walk10).omega
+    out = {}
+    for cb in (None, 0.0):
+        adj = StepAdjuster(robot, walk10, SteppingParams(catch_band=cb))
+        p = adj.params
+        err = np.array([p.band_x + 0.01, 0.0])
+        _, before = adj.error(walk10, MID, dcm(walk10, MID, w) + err)
+        np.testing.assert_allclose(before, [0.01, 0.0], atol=1e-4)  # the band before a catch
+        ref = adj.update(walk10, MID, dcm(walk10, MID, w) + err)
+        assert ref is not None
+        _, during = adj.error(ref, MID + 3, dcm(ref, MID + 3, w) + err)
+        out[cb] = during
+        mids = _mids(walk10)
+        _, after = adj.error(ref, mids[3], dcm(ref, mids[3], w) + err)  # step 3: catch over
+        np.testing.assert_allclose(after, [0.01, 0.0], atol=1e-4)
+    np.testing.assert_allclose(out[None], [0.01, 0.0], atol=1e-4)
+    np.testing.assert_allclose(out[0.0], err, atol=1e-12)
+    with pytest.raises(ConfigurationError, match="catch_band"):
+        SteppingParams(catch_band=-0.01).check()
+
+
 def test_step_timing_lands_sooner_during_a_catch_when_the_swing_cannot_reach(robot, walk10):
     """``hurry_single``: in a single support being caught, the clock runs faster (at most
     ``hurry``×) when the DCM error is too large for the swing to reach in the time left
