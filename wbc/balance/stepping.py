@@ -58,7 +58,8 @@ steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes
 **Multi-step recovery** (``until_inside``; off): the catch goes on step after step while
 each next single support still finds the DCM error beyond the band, then rests. **The
 landing time** (``hurry_single``; off): in a single support being caught, the clock runs
-faster when the swing lacks the room for the shift the error asks (:meth:`rate`).
+faster when the swing lacks the room for the shift the error asks (:meth:`rate`). With
+``catch_band`` a catch under way takes the whole error, not the dead band's less.
 
 Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
 0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
