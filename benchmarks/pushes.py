@@ -9,7 +9,8 @@ hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop befo
 plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
 (:func:`wbc.balance.stepping.capture_bounds`) and the angular-momentum (hip strategy) bound
-(:func:`wbc.balance.angular.hip_strategy_bound`).
+(:func:`wbc.balance.angular.hip_strategy_bound`); the bounds include step timing
+(``*_timed_ns``) and a second timed step (:func:`second_step`).
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
     python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
@@ -17,6 +18,9 @@ the nominal run's figures, the LIPM capturability bounds
         --directions forward backward toward away          # four directions (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step steps \
         --directions forward backward toward away   # planned recovery steps (issue 30)
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step \
+        --directions forward backward toward away --stepping '{"until_inside": 3}' \
+        --gains '{"anchor_band": 0.01}'   # multi-step recovery, the landed-sole anchor
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
