@@ -9,7 +9,8 @@ hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop befo
 plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
 (:func:`wbc.balance.stepping.capture_bounds`) and the angular-momentum (hip strategy) bound
-(:func:`wbc.balance.angular.hip_strategy_bound`).
+(:func:`wbc.balance.angular.hip_strategy_bound`); the bounds include step timing
+(``*_timed_ns``) and a second timed step (:func:`second_step`).
 
     python benchmarks/pushes.py --solvers wqp-daqp hqp-daqp placo pink --json pushes.json
     python benchmarks/pushes.py --solvers wqp-daqp --loops nohip closed --directions lateral
@@ -17,6 +18,9 @@ the nominal run's figures, the LIPM capturability bounds
         --directions forward backward toward away          # four directions (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step steps \
         --directions forward backward toward away   # planned recovery steps (issue 30)
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step \
+        --directions forward backward toward away --stepping '{"until_inside": 3}' \
+        --gains '{"anchor_band": 0.01}'   # multi-step recovery, the landed-sole anchor
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -102,6 +106,7 @@ def main() -> None:
     ref = traj.build(args.trajectory, robot)
     legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
     bounds = capture_bounds(ref, robot.total_mass, legs)
+    bounds["second_step"] = second_step(bounds, ref)
     print(json.dumps(bounds, indent=1))
     out = {"bounds": bounds, "runs": []}
     for solver in args.solvers:
@@ -131,6 +136,37 @@ def main() -> None:
             if args.json:
                 with open(args.json, "w") as f:
                     json.dump(out, f, indent=1)
+
+
+def second_step(bounds: dict, ref) -> dict:
+    """What a second, timed step adds to the timed one-step bound forward and backward (LIPM,
+    N·s; toward the swing foot the other foot cannot widen the support without crossing):
+    after the first landing at ``t1`` (``*_timed_s``), the other sole swings for ``t2`` s
+    from where it stands past the landed sole by ``a2 = v t2 − travel`` (forward the stride
+    ``L`` plus the first step's added reach ``a1``; backward ``a1 − L``) (``v`` a whole
+    min-jerk swing's mean speed at ``max_foot_speed`` peak: ``v_max / 1.875``; no double
+    support: optimistic), which buys ``a2 e^{−ω (t1 + t2)}`` of DCM margin; the best ``t2``."""
+    import numpy as np
+
+    w, to_ns = bounds["omega"], bounds["mass"] * bounds["omega"]
+    v1 = bounds["in_time_reach_mm"] / 1e3 / bounds["t_swing_left_s"]
+    v2 = SteppingParams().max_foot_speed / 1.875
+    stride = abs(float(ref.plan.steps[0].x - ref.plan.start_left.x))
+    out = {}
+    for d in ("forward", "backward"):
+        t1 = bounds[f"{d}_timed_s"]
+        a1 = min(v1 * t1, bounds[f"{d}_reach_mm"] / 1e3)
+        # forward: the other sole starts the stride + a1 behind the landed one; backward it
+        # starts stride − a1 behind it already (past its back edge when a1 < stride)
+        travel = stride + a1 if d == "forward" else a1 - stride
+        t2 = np.linspace(0.05, 0.6, 111)
+        gain = np.maximum(v2 * t2 - travel, 0.0) * np.exp(-w * (t1 + t2))
+        j = int(np.argmax(gain))
+        out[f"{d}_gain_ns"] = to_ns * float(gain[j])
+        out[f"{d}_two_step_ns"] = bounds[f"{d}_timed_ns"] + to_ns * float(gain[j])
+        out[f"{d}_t2_s"] = float(t2[j])
+    out["mean_swing_speed"] = v2
+    return out
 
 
 def hip_bound(rec, robot, ref, bounds: dict) -> dict:

@@ -264,3 +264,33 @@ def test_kin_gain_holds_the_tilt_to_the_stance_legs_kinematics(robot):
     assert off[1.8] == pytest.approx(0.05 / 2.0, rel=0.05)
     with pytest.raises(ConfigurationError, match="kin_gain"):
         StateEstimator(robot, 0.2, kin_gain=-1.0)
+
+
+@pytest.mark.parametrize("use_imu", [False, True])
+def test_a_sole_landing_off_its_plan_is_anchored_where_it_landed(robot, use_imu):
+    """``anchor_band``: the right sole enters the support 30 mm ahead of its planned placement
+    (a pushed robot's step landing long): anchored at the plan, the base and CoM estimates jump
+    by half of it (double support averages the soles) and stay 30 mm behind once it is the
+    only stance sole; anchored where it landed, they stay the true ones. Inside the band (5 mm
+    off) the plan's placement is used; once it lifts, its next landing is judged anew."""
+    q, left, right = standing(robot)
+    R = robot.frame_placement(q, "torso").rotation
+    imu = reading(R) if use_imu else None
+    for band, off, expect in ((0.0, 0.03, 0.015), (0.01, 0.03, 0.0), (0.01, 0.005, 0.0025)):
+        est = StateEstimator(robot, 0.2, use_imu=use_imu, anchor_band=band)
+        for _ in range(3):
+            est.update(0.01, q[7:], imu, [("l_sole", left)])
+        planned = pin.SE3(right.rotation, right.translation + [off, 0.0, 0.0])
+        e = est.update(0.01, q[7:], imu, [("l_sole", left), ("r_sole", planned)])
+        assert e.base[0] - q[0] == pytest.approx(expect, abs=1e-9), (band, off)
+        assert e.com[0] - robot.com(q)[0] == pytest.approx(expect, abs=1e-9)
+        e = est.update(0.01, q[7:], imu, [("r_sole", planned)])  # the left sole lifts
+        assert e.base[0] - q[0] == pytest.approx(2 * expect, abs=1e-9), (band, off)
+    est = StateEstimator(robot, 0.2, use_imu=use_imu, anchor_band=0.01)
+    est.update(0.01, q[7:], imu, [("l_sole", left)])
+    est.update(0.01, q[7:], imu, [("l_sole", left), ("r_sole", planned)])
+    est.update(0.01, q[7:], imu, [("l_sole", left)])  # the right sole lifts again ...
+    e = est.update(0.01, q[7:], imu, [("l_sole", left), ("r_sole", right)])  # ... lands on plan
+    assert e.base[0] == pytest.approx(q[0], abs=1e-9)
+    with pytest.raises(ConfigurationError, match="anchor_band"):
+        StateEstimator(robot, 0.2, anchor_band=-0.01)

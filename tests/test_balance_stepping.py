@@ -175,6 +175,15 @@ def test_capture_bounds_of_walk10(robot, walk10, legs):
     assert b["away_two_step_ns"] < b["away_one_step_ns"] == b["away_ns"]
     assert b["forward_ns"] > b["forward_planned_ns"] > 0
     assert b["toward_ns"] > b["toward_planned_ns"] > 0
+    # with step timing: the best landing time; at the planned one (t) it is the in-time bound
+    for d in ("forward", "backward", "toward"):
+        assert b[f"{d}_timed_ns"] >= b[f"{d}_in_time_ns"] - 1e-12
+        assert 0.05 <= b[f"{d}_timed_s"] <= b["t_swing_left_s"]
+        if b[f"{d}_timed_s"] == pytest.approx(b["t_swing_left_s"]):
+            assert b[f"{d}_timed_ns"] == pytest.approx(b[f"{d}_in_time_ns"])
+    # toward the swing foot (a short reach in time, a long one in all): landing sooner helps
+    assert b["toward_timed_ns"] > b["toward_in_time_ns"] + 0.05
+    assert b["toward_timed_s"] < b["t_swing_left_s"]
 
 
 def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot, walk10):
@@ -219,6 +228,91 @@ def test_a_catch_replans_two_steps_then_lets_the_walk_settle(robot, walk10):
         new = adj.update(ref, i, dcm(ref, i, w) + (push if step % 2 == 0 else -push))
         assert (new is not None) is expect, step
         ref = new or ref
+
+
+def _mids(ref):
+    out = {}
+    for a, b, code in ref.phases():
+        if code != SUPPORT_DOUBLE:
+            out[len(out)] = (a + b) // 2  # mid single support of step len(out)
+    return out
+
+
+@pytest.mark.parametrize(
+    "outside, expect",
+    [
+        # the DCM stays outside the band: the catch goes on to step 3 (2 + until_inside), rests
+        ((0, 1, 2, 3, 4, 5, 6), (True, True, True, True, False, False, True)),
+        # back inside at step 2: the catch ends there, steps 2 and 3 rest
+        ((0, 1, 3, 4), (True, True, None, False, True)),
+    ],
+)
+def test_a_catch_goes_on_while_the_dcm_stays_outside_then_rests(robot, walk10, outside, expect):
+    """``until_inside`` (multi-step recovery): the catch re-plans step after step while each
+    next single support still finds the DCM error beyond the band (at most ``until_inside``
+    steps more than ``episode_steps``), then rests ``rest_steps``; once the DCM is back inside
+    the band the catch is over (the default stops after two steps whatever the DCM)."""
+    adj = StepAdjuster(robot, walk10, SteppingParams(until_inside=2))
+    ref, w = walk10, adj.omega
+    mids = _mids(ref)
+    push = np.array([0.0, -0.05])  # toward the swing foot: a shift the legs can make
+    for step, want in enumerate(expect):
+        i = mids[step]
+        err = (push if step % 2 == 0 else -push) if step in outside else np.zeros(2)
+        new = adj.update(ref, i, dcm(ref, i, w) + err)
+        assert (new is not None) is bool(want), step
+        ref = new or ref
+    with pytest.raises(ConfigurationError, match="until_inside"):
+        SteppingParams(until_inside=-1).check()
+
+
+def test_a_catch_takes_the_whole_error_with_catch_band(robot, walk10):
+    """``catch_band``: the dead band decides whether a catch starts; once it has re-planned
+    the step, later errors in that catch are taken beyond the smaller ``catch_band`` (the
+    band as before the catch and after it, and by default)."""
+    w = StepAdjuster(robot, walk10).omega
+    out = {}
+    for cb in (None, 0.0):
+        adj = StepAdjuster(robot, walk10, SteppingParams(catch_band=cb))
+        p = adj.params
+        err = np.array([p.band_x + 0.01, 0.0])
+        _, before = adj.error(walk10, MID, dcm(walk10, MID, w) + err)
+        np.testing.assert_allclose(before, [0.01, 0.0], atol=1e-4)  # the band before a catch
+        ref = adj.update(walk10, MID, dcm(walk10, MID, w) + err)
+        assert ref is not None
+        _, during = adj.error(ref, MID + 3, dcm(ref, MID + 3, w) + err)
+        out[cb] = during
+        mids = _mids(walk10)
+        _, after = adj.error(ref, mids[3], dcm(ref, mids[3], w) + err)  # step 3: catch over
+        np.testing.assert_allclose(after, [0.01, 0.0], atol=1e-4)
+    np.testing.assert_allclose(out[None], [0.01, 0.0], atol=1e-4)
+    np.testing.assert_allclose(out[0.0], err, atol=1e-12)
+    with pytest.raises(ConfigurationError, match="catch_band"):
+        SteppingParams(catch_band=-0.01).check()
+
+
+def test_step_timing_lands_sooner_during_a_catch_when_the_swing_cannot_reach(robot, walk10):
+    """``hurry_single``: in a single support being caught, the clock runs faster (at most
+    ``hurry``×) when the DCM error is too large for the swing to reach in the time left
+    (LIPM: ``T* = ln(v / (ω e)) / ω`` shorter than the time left), not for an error the swing
+    reaches in time, not before a catch, not in the swing's last ``min_remaining``, not by
+    default."""
+    params = SteppingParams(hurry=1.5, hurry_single=True)
+    adj = StepAdjuster(robot, walk10, params)
+    w, p = adj.omega, adj.params
+    big = np.array([p.band_x + 0.06, 0.0])
+    assert adj.rate(walk10, MID, dcm(walk10, MID, w) + big) == 1.0  # no catch yet
+    ref = adj.update(walk10, MID, dcm(walk10, MID, w) + big)
+    assert ref is not None
+    i = MID + 2
+    fast = adj.rate(ref, i, dcm(ref, i, w) + big)
+    assert 1.0 < fast <= 1.5
+    assert adj.rate(ref, i, dcm(ref, i, w) + [p.band_x + 0.2, 0.0]) == 1.5  # capped
+    assert adj.rate(ref, i, dcm(ref, i, w) + [p.band_x + 0.002, 0.0]) == 1.0  # reached in time
+    assert adj.rate(ref, LAND - 2, dcm(ref, LAND - 2, w) + big) == 1.0  # landing
+    off = StepAdjuster(robot, walk10, SteppingParams(hurry=1.5))  # double support only
+    assert off.update(walk10, MID, dcm(walk10, MID, w) + big) is not None
+    assert off.rate(ref, i, dcm(ref, i, w) + big) == 1.0
 
 
 def test_planned_recovery_steps_take_what_the_landing_under_way_cannot(robot, walk10):

@@ -98,6 +98,9 @@ class Gains:
     #: bias / (0.2 + kin_tilt) instead of bias / 0.2 (issue 30, benchmarks/physics.md); used
     #: when the Stabilizer builds its estimator (not with one given: ``wbc drive``'s)
     kin_tilt: float = 0.5
+    #: m: a sole landing further than this from its planned placement anchors the state
+    #: estimate where it landed until it lifts (``StateEstimator`` ``anchor_band``; 0: off)
+    anchor_band: float = 0.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
     transfer: float = 0.15
@@ -118,6 +121,7 @@ class Gains:
             "max_shift",
             "max_offset",
             "kin_tilt",
+            "anchor_band",
             "k_hip",
             "hip_band",
             "max_hip",
@@ -233,9 +237,11 @@ class Stabilizer:
         self.imu = imu
         self.gains = (gains or Gains()).check()
         self.enabled = enabled
-        self.estimator = estimator or StateEstimator(robot, com_height, use_imu=imu is not None,
-                                                     gyro_heading=self.gains.k_yaw > 0,
-                                                     kin_gain=self.gains.kin_tilt)  # fmt: skip
+        g = self.gains
+        self.estimator = estimator or StateEstimator(
+            robot, com_height, use_imu=imu is not None, gyro_heading=g.k_yaw > 0,
+            kin_gain=g.kin_tilt, anchor_band=g.anchor_band,
+        )  # fmt: skip
         self.integral = np.zeros(3)
         self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
         self.hip = np.zeros(2)  # hip-strategy roll (rad, horizontal: toward where the top goes)

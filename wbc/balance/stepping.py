@@ -55,20 +55,16 @@ sends the DCM toward the stance sole's outer edge; a step of the swing foot cann
 that edge (the legs would cross), so once the DCM is past it the robot falls whatever the
 steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes.md).
 
-Measured (benchmarks/pushes.md, ``walk10``): no re-plan on any unpushed walk; the sideways push
-survived grows from 0.797 to 0.844 N·s (wqp-daqp, placo, pink; the bound is 0.934), forward
-pushes and hqp-daqp gain nothing; after a catch (two re-planned steps, then two at rest) the
-walk goes on displaced, covering about half its planned distance. On by default in the closed
-loop (issue 30). ``walk10_wb`` (issue 30, third pass): no law here — one step or three, the
-double-support re-plan, the band's centre — moves the forward, backward or toward bound
-(0.56, 0.42, 0.70 N·s): forward, the re-planned landing is solved to the millimetre but the
-compliant legs land the sole 50 mm short of it (the stance hip yields 10° under the push).
-Fourth pass: the landing in the measured frame (sagittal) lands it and moves the forward and
-backward bounds (0.56 → 0.66–0.70, 0.47 → 0.61–0.68 N·s) but loses 12 of 50 randomised plants
-without the feed-forward (5 with it); less its running mean (``landing_tau`` 0.3 s) 50/50 with
-the feed-forward and every bound as high or higher, 45/50 without it (the default: 48/50;
-with the estimator's ``kin_tilt`` 0.5: 48/50 against 50/50, and 50/50 against 49/50 with it):
-off by default; ``hurry`` alone moves nothing.
+**Multi-step recovery** (``until_inside``; off): the catch goes on step after step while
+each next single support still finds the DCM error beyond the band, then rests. **The
+landing time** (``hurry_single``; off): in a single support being caught, the clock runs
+faster when the swing lacks the room for the shift the error asks (:meth:`rate`). With
+``catch_band`` a catch under way takes the whole error, not the dead band's less.
+
+Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
+0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
+the forward and backward bounds (0.56 → 0.63–0.70, 0.47 → 0.54–0.68 N·s) but costs randomised
+plants: it, and every other term here, is off by default (issue 30).
 """
 
 from __future__ import annotations
@@ -127,6 +123,10 @@ class SteppingParams:
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
     episode_steps: int = 2
     rest_steps: int = 2
+    #: multi-step recovery: the catch goes on, step after step (at most this many more than
+    #: episode_steps), while each next single support still finds the DCM error beyond the
+    #: dead band — until the DCM is back within it; then the rest (0: episode_steps only)
+    until_inside: int = 0
     #: steps one re-plan places: the landing under way (or, in double support, the next) and
     #: the ones after it, each taking what the previous could not (1: one step)
     #: (3 measured: no push survived further, the away push 0.680 against 0.750 N·s;
@@ -160,6 +160,14 @@ class SteppingParams:
     #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
     hurry: float = 1.0
     hurry_band: float = 0.03
+    #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
+    #: band), the landing comes sooner when that leaves the swing more room beyond the shift
+    #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
+    #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`)
+    hurry_single: bool = False
+    #: m: once a catch has re-planned a step, the dead band of its later re-plans (None: the
+    #: band): the band decides whether to catch, the catch then takes the whole error
+    catch_band: float | None = None
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -176,10 +184,10 @@ class SteppingParams:
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
-            "hurry_band",
+            "hurry_band", "catch_band",
         ):  # fmt: skip
             v = getattr(self, name)
-            if v is None and name in ("band_x", "band_y"):
+            if v is None and name in ("band_x", "band_y", "catch_band"):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
@@ -191,7 +199,7 @@ class SteppingParams:
             raise ConfigurationError(
                 f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
             )
-        for name in ("episode_steps", "rest_steps"):
+        for name in ("episode_steps", "rest_steps", "until_inside"):
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
@@ -350,6 +358,8 @@ class StepAdjuster:
         #: :meth:`_track_baseline`)
         self.baseline = np.zeros((2, 2))
         self.episode: int | None = None  # the step the current catch started in
+        self.end = 0  # the first step after the catch (until_inside extends it)
+        self.caught_step = -1  # the last step a re-plan moved
         self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
         #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
         self._landing_mean = np.zeros((2, 6))
@@ -378,7 +388,11 @@ class StepAdjuster:
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
         local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]]) - self._centre(ref, i)
-        band = np.array([self.params.band_x, self.params.band_y], dtype=float)
+        p = self.params
+        band = np.array([p.band_x, p.band_y], dtype=float)
+        end = max(self.episode + p.episode_steps, self.end) if self.episode is not None else 0
+        if p.catch_band is not None and ph.kind == "single" and self.caught_step <= ph.step < end:
+            band = np.minimum(band, p.catch_band)  # a catch under way: the whole error
         local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
         e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
         return ph, e
@@ -476,8 +490,26 @@ class StepAdjuster:
         error along the walk (the stance sole's heading frame) is beyond ``hurry_band`` (a
         push along the walk: the next step should start, and land, sooner), else 1."""
         p = self.params
-        if p.hurry == 1.0 or not self.enabled or ref.support[i] != SUPPORT_DOUBLE:
+        if p.hurry == 1.0 or not self.enabled:
             return 1.0
+        if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
+            if not p.hurry_single or self.episode is None:
+                return 1.0
+            ph = self.phases[self.phase_of[i]]
+            if ph.step >= max(self.episode + p.episode_steps, self.end):
+                return 1.0  # (the catch is over)
+            left = (ph.i1 - i) * ref.dt
+            if left < p.min_remaining:  # (landing: its clock as planned)
+                return 1.0
+            e = float(np.linalg.norm(self.error(ref, i, dcm)[1]))
+            if e <= 0:
+                return 1.0
+            # the landing time T' that leaves the swing the most room beyond the shift it
+            # needs: room v T' (v the swing's added reach per second left), need e e^{ω T'}
+            # (LIPM): T* = ln(v / (ω e)) / ω; the clock runs T / T* (1 … hurry)
+            v = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing) / left
+            best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
+            return min(max(left / max(best, p.min_remaining), 1.0), p.hurry)
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
         return p.hurry if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
@@ -517,7 +549,13 @@ class StepAdjuster:
         if not err.any() or k >= len(self.plan.steps):
             return None
         if self.episode is not None and p.episode_steps > 0:
-            end = self.episode + p.episode_steps
+            end = max(self.episode + p.episode_steps, self.end)
+            if (  # multi-step recovery: the DCM still outside the band on the next step
+                k == end
+                and self.caught_step == k - 1
+                and k < self.episode + p.episode_steps + p.until_inside
+            ):
+                end = self.end = k + 1
             if end <= k < end + p.rest_steps:
                 return None  # the catch is over: let the walk settle
             if k >= end + p.rest_steps:
@@ -533,6 +571,7 @@ class StepAdjuster:
         self.plan, self.increments, self.last_tick = plan, increments, i
         self.shift = increments[0].copy()
         self.episode = k if self.episode is None else self.episode
+        self.caught_step = k
         self.events.append((float(ref.t[i]), k, wanted, increments[0].copy()))
         return new
 
@@ -738,4 +777,18 @@ def capture_bounds(
     out["toward_ns"] = to_ns * (f + (land + tow - f) * decay + u * xi[1])
     out["toward_in_time_ns"] = to_ns * (f + (land + min(tow, in_time) - f) * decay + u * xi[1])
     out["toward_reach_mm"] = 1e3 * tow
+    # with step timing: the landing after t' in [swing_down, t] (the sole's added reach
+    # in_time t'/t), the best t' (``*_timed_ns``, ``*_timed_s``)
+    ts = np.linspace(swing_down, t, 60)
+    reach_t, dec = in_time * ts / t, np.exp(-omega * ts)
+    f, half_l = st[0], 0.5 * ref.foot.length
+    cases = {
+        "forward": f + half_l + (step.x + np.minimum(fwd, reach_t) - st[0]) * dec - xi[0],
+        "backward": xi[0] - f + half_l - (step.x - np.minimum(bwd, reach_t) - st[0]) * dec,
+        "toward": -(u * st[1] - half_w) + (land + np.minimum(tow, reach_t) + u * st[1] - half_w)
+        * dec + u * xi[1],
+    }  # fmt: skip
+    for name, margin in cases.items():
+        j = int(np.argmax(margin))
+        out[f"{name}_timed_ns"], out[f"{name}_timed_s"] = to_ns * float(margin[j]), float(ts[j])
     return out
