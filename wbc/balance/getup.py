@@ -44,7 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import convex_hull
+from ..geometry import convex_hull, sole_corners
 from ..limits.limit import Constraint, Inequality, way_back
 from ..model import Kinematics, Robot
 from ..roles import HAND_FRAMES, SIDES, SOLE_FRAMES
@@ -504,11 +504,10 @@ class SupportHullConstraint(Constraint):
         super().__init__("support_hull")
         self.robot = robot
         self.margin, self.damping, self.most = margin, damping, most
-        half_l, half_w = (0.5 * float(v) for v in robot.foot_size)
-        corners = [(sx * half_l, sy * half_w) for sx in (-1, 1) for sy in (-1, 1)]
+        corners = sole_corners(*(float(v) for v in robot.foot_size))
         #: (frame id, offset in the frame): the vertices the hull is made of
         self.vertices = [(robot.frame_id(f), np.zeros(3)) for f in points] + [
-            (robot.frame_id(f), np.array([x, y, 0.0])) for f in soles for x, y in corners
+            (robot.frame_id(f), corner) for f in soles for corner in corners
         ]
 
     def _rows(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
