@@ -3,8 +3,11 @@ tick of each support switch and on the non-leg joints (arms, head: issue 15's wa
 < 0.5 of the Bioloid's arms), beside what the reference itself asks (benchmarks/balance.md,
 'Joint speed at a support switch').
 
-    python benchmarks/switch_speed.py                       # the walk stack
+    python benchmarks/switch_speed.py                       # each robot's own stack
     python benchmarks/switch_speed.py --stack my_walk.toml  # another (by name or path)
+
+Each robot runs the stack its commands run (:func:`wbc.stacks.robot_stack`: the robot folder's
+``stack.toml``, else ``tasks/walk.toml``) unless ``--stack`` names one for all.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import numpy as np
 from wbc.bench import metrics
 from wbc.bench.trajectories import build
 from wbc.model import load_robot
-from wbc.stacks import load_stack
+from wbc.stacks import load_stack, robot_stack
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.loop import StackController, run
 
@@ -26,18 +29,20 @@ WALKS = ("static_walk", "walk10", "walk10_wb", "turn", "lateral", "turn_wb", "la
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--stack", default="walk")
+    parser.add_argument("--stack", help="one stack for every robot (default: each robot's own)")
     parser.add_argument("--robots", nargs="+", default=["bioloid", "kokone", "op3"])
     parser.add_argument("--walks", nargs="+", default=list(WALKS))
     args = parser.parse_args()
     for name in args.robots:
         robot = load_robot(name)
+        stack, said = robot_stack(robot, args.stack)
+        print(f"{name}: {said}", flush=True)
         legs = {robot.joint_index(j) for s in ("left", "right") for j in robot.roles.leg(s)}
         others = [j for j in range(robot.n_joints) if j not in legs]
         for walk in args.walks:
             ref = build(walk, robot)
             asked = kinematic_feasibility(robot, ref).speed_fraction
-            rec = run(StackController(load_stack(args.stack, robot)), robot, ref)
+            rec = run(StackController(load_stack(stack, robot)), robot, ref)
             speed = np.abs(np.diff(rec.q[:, 7:], axis=0)) / ref.dt / robot.v_max
             switches = np.flatnonzero(np.diff(rec.channels["support"]))
             near = np.concatenate([np.arange(s - 1, min(s + 4, len(speed))) for s in switches])
