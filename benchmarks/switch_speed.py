@@ -7,7 +7,10 @@ tick of each support switch and on the non-leg joints (arms, head: issue 15's wa
     python benchmarks/switch_speed.py --stack my_walk.toml  # another (by name or path)
 
 Each robot runs the stack its commands run (:func:`wbc.stacks.robot_stack`: the robot folder's
-``stack.toml``, else ``tasks/walk.toml``) unless ``--stack`` names one for all.
+``stack.toml``, else ``tasks/walk.toml``) unless ``--stack`` names one for all. ``land``: the
+reference's fastest swing-sole descent (mm/s) in the last :data:`LANDING_WINDOW` before a
+touch-down (``SwingParams.landing`` sets how soft it is; a robot folder's ``robot.toml`` may
+state it, ``--robots path/to/folder`` runs a copy).
 """
 
 from __future__ import annotations
@@ -25,6 +28,20 @@ from wbc.walking.loop import StackController, run
 
 WALKS = ("static_walk", "walk10", "walk10_wb", "turn", "lateral", "turn_wb", "lateral_wb",
          "fast_wb")  # fmt: skip
+#: s before a touch-down over which ``land`` is taken
+LANDING_WINDOW = 0.04
+
+
+def landing_speed(ref) -> float:
+    """The swing soles' fastest descent (m/s, positive) within :data:`LANDING_WINDOW` before
+    each touch-down of ``ref`` (the last tick of each swing; finite differences)."""
+    n = round(LANDING_WINDOW / ref.dt)
+    worst = 0.0
+    for side, sole in (("left", ref.l_sole), ("right", ref.r_sole)):
+        down = -np.gradient(sole[:, 2], ref.dt)
+        for i in np.flatnonzero(np.diff(ref.swing_mask(side).astype(int)) == -1):
+            worst = max(worst, float(down[max(i - n, 0) : i + 1].max()))
+    return worst
 
 
 def main() -> None:
@@ -50,7 +67,8 @@ def main() -> None:
             print(
                 f"{name:8s} {walk:12s} ref {asked:4.2f}  max {speed.max():4.2f}  switch "
                 f"{speed[near].max():4.2f}  others {speed[:, others].max():4.2f}  com "
-                f"{m['com_err_max_mm']:.3f} mm  foot {m['foot_err_max_mm']:.3f} mm",
+                f"{m['com_err_max_mm']:.3f} mm  foot {m['foot_err_max_mm']:.3f} mm  land "
+                f"{1000 * landing_speed(ref):.0f} mm/s",
                 flush=True,
             )
 
