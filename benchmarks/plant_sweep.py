@@ -22,7 +22,7 @@ from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, simulate
 from wbc.bench.runner import run_entry
-from wbc.bench.solvers import registry
+from wbc.bench.solvers import select
 from wbc.bench.variation import models
 
 #: label -> (compliance gain, gains, IMU, loop on, stepping); None: the plan played open loop
@@ -65,6 +65,7 @@ def spec_of(
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--solver", default="wqp-daqp")
+    p.add_argument("--stack", help="the wqp-*/hqp-* entries' stack (default: the physics one)")
     p.add_argument("--walks", nargs="+", default=["walk10_wb", "turn_wb", "lateral_wb"])
     p.add_argument("--models", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
@@ -92,11 +93,11 @@ def main() -> None:
     )
     args = p.parse_args()
     robot = load_robot("bioloid")
-    entry = registry()[args.solver]
+    entry = select([args.solver], None, "tick", stack=args.stack)[0][0]
     plants = list(enumerate(models(robot, args.models, args.seed)))
     if args.plants:
         plants = [plants[k] for k in args.plants]
-    print(f"{args.solver}, {args.models} randomised plants (seed {args.seed})")
+    print(f"{args.solver} ({entry.stack}), {args.models} randomised plants (seed {args.seed})")
     print(
         "| variant | gains | walk | nominal dev° | nominal dist | up | fallen models "
         "| dev° per plant | s |"

@@ -8,7 +8,9 @@ are rounded to the tick grid ``dt``.
 
 The swing sole follows a minimum-jerk quintic (or the thesis's clamped cubic) from lift-off
 to landing in x, y and yaw; its height rises to ``apex`` and back (zero velocity at
-lift-off, apex and touch-down), so it never goes below its start/landing height.
+lift-off, apex and touch-down), so it never goes below its start/landing height. The apex is
+at ``1 - landing`` of the single support (:class:`SwingParams`; half-way by default: a later
+apex lands slower and lifts faster, measured worse in the simulator, benchmarks/balance.md).
 """
 
 from __future__ import annotations
@@ -77,14 +79,22 @@ class GaitTiming:
 
 @dataclass(frozen=True)
 class SwingParams:
-    """Swing-sole shape: apex height above the higher of lift-off/landing (m), profile."""
+    """Swing-sole shape: apex height above the higher of lift-off/landing (m), profile, and
+    ``landing``: the share of the single support the sole spends coming down from its apex
+    (the rise takes the rest; 0.5: apex half-way)."""
 
     apex: float = 0.02
     profile: Literal["quintic", "cubic"] = "quintic"
+    landing: float = 0.5
 
     def validate(self) -> None:
         if not (np.isfinite(self.apex) and self.apex > 0):
             raise TrajectoryError(f"swing: the apex height must be positive, got {self.apex}")
+        if not (np.isfinite(self.landing) and 0.0 < self.landing < 1.0):
+            raise TrajectoryError(
+                f"swing: landing (the descent's share of the swing) must be in (0, 1), got "
+                f"{self.landing}"
+            )
         if self.profile not in ("quintic", "cubic"):
             raise TrajectoryError(
                 f"swing: profile must be 'quintic' or 'cubic', got {self.profile!r}"
@@ -208,14 +218,16 @@ def _swing_profile(a, b, s: np.ndarray, swing: SwingParams):
     """Swing position (len(s), 3) and its derivative d/ds for lift-off ``a``, landing ``b``.
 
     Horizontal (and the base line of the height): ``a + (b - a) f(s)``; height: the base line
-    raised toward ``top = max(z_a, z_b) + apex`` by ``h(s)``, the same profile up to s = 1/2
-    and mirrored down, so ``z(s) >= base line >= min(z_a, z_b)``.
+    raised toward ``top = max(z_a, z_b) + apex`` by ``h(s)``: the profile over the rise
+    ``s < r = 1 - landing`` (``h = f(s / r)``) and mirrored over the descent
+    (``h = f((1 - s) / landing)``), so ``z(s) >= base line >= min(z_a, z_b)``.
     """
     prof = min_jerk if swing.profile == "quintic" else smoothstep
     f, df, _ = prof(s)
-    up = s < 0.5
-    h, dh, _ = prof(np.where(up, 2.0 * s, 2.0 - 2.0 * s))
-    dh = np.where(up, 2.0 * dh, -2.0 * dh)
+    rise = 1.0 - swing.landing  # the apex's s
+    up = s < rise
+    h, dh, _ = prof(np.where(up, s / rise, (1.0 - s) / swing.landing))
+    dh = np.where(up, dh / rise, -dh / swing.landing)
     pa, pb = a.position, b.position
     pos = pa[None, :] + (pb - pa)[None, :] * f[:, None]
     dpos = (pb - pa)[None, :] * df[:, None]
