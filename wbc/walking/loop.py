@@ -422,7 +422,10 @@ class Session:
         self.hold = hold
         self.delay = 0.0  # s the walk runs behind its reference's clock (lift-offs held)
         self._last_time: float | None = None  # session time of the last at_time call
-        self.stepping_time = 0.0  # s, the last tick's re-plan check (and re-plan)
+        #: s, the last tick's step adjustment: the step timing and lift-off hold checks of
+        #: :meth:`at_time`, the re-plan check (and re-plan)
+        self.stepping_time = 0.0
+        self._clock_time = 0.0  # s, :meth:`at_time`'s checks before the tick it calls
         if self.options.mode not in MODES:
             raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
         self.controller, self.robot, self.ref = controller, robot, ref
@@ -499,6 +502,7 @@ class Session:
         of the whole interval, not of one reference tick.
         """
         stab = self.stabilizer
+        self.stepping_time, self._clock_time = self._clock_time, 0.0
         if (
             self.stepping is not None
             and stab is not None
@@ -509,7 +513,7 @@ class Session:
             new = self.stepping.update(self.ref, i, stab.last.dcm)
             if new is not None:
                 self.set_reference(new, i)
-            self.stepping_time = time.perf_counter() - start
+            self.stepping_time += time.perf_counter() - start
         targets = self.targets(i)
         gap = 1 if self._last_index is None else max(1, i - self._last_index)
         self._last_index = i
@@ -580,6 +584,7 @@ class Session:
     def at_time(self, t: float) -> np.ndarray | None:
         """The configuration for time ``t`` (s) from the start, None past the end (the
         reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off)."""
+        start = time.perf_counter()  # (the step timing and hold checks: stepping_time)
         ref = self.ref
         last, stab = self._last_index, self.stabilizer
         if (  # step timing: the clock runs faster while the stepping asks for it
@@ -610,7 +615,14 @@ class Session:
             self.delay = t - float(ref.t[last] - ref.t[0])
             i = last
         self._last_time = t
+        self._clock_time = time.perf_counter() - start
         return self.tick(i)
+
+    @property
+    def loop_time(self) -> float:
+        """s, the last tick's closed loop: step adjustment (:attr:`stepping_time`), sensor
+        reads, estimator and feedback (:attr:`feedback_time`)."""
+        return self.feedback_time + self.stepping_time
 
 
 def run(
