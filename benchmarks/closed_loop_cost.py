@@ -28,18 +28,18 @@ import os
 
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")  # time the compiled ticks, not the interim
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from wbc import load_robot  # noqa: E402
-from wbc.balance.fall import FallDetector, FallParams  # noqa: E402
-from wbc.balance.live import SessionSource  # noqa: E402
-from wbc.balance.retime import PhaseHold  # noqa: E402
-from wbc.balance.stabilizer import Stabilizer  # noqa: E402
-from wbc.balance.stepping import StepAdjuster, SteppingParams  # noqa: E402
-from wbc.bench import trajectories as traj  # noqa: E402
-from wbc.bench.solvers import registry  # noqa: E402
-from wbc.imu import GRAVITY, Imu, ImuCalibration, ImuReading  # noqa: E402
-from wbc.walking.loop import Session  # noqa: E402
+from wbc import load_robot
+from wbc.balance.fall import FallDetector, FallParams
+from wbc.balance.live import SessionSource
+from wbc.balance.retime import PhaseHold
+from wbc.balance.stabilizer import Stabilizer
+from wbc.balance.stepping import StepAdjuster, SteppingParams
+from wbc.bench import trajectories as traj
+from wbc.bench.solvers import registry
+from wbc.imu import GRAVITY, Imu, ImuCalibration, ImuReading
+from wbc.walking.loop import Session
 
 
 class StillImu(Imu):
