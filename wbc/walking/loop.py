@@ -584,38 +584,28 @@ class Session:
     def at_time(self, t: float) -> np.ndarray | None:
         """The configuration for time ``t`` (s) from the start, None past the end (the
         reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off)."""
-        start = time.perf_counter()  # (the step timing and hold checks: stepping_time)
         ref = self.ref
         last, stab = self._last_index, self.stabilizer
-        if (  # step timing: the clock runs faster while the stepping asks for it
-            self.stepping is not None
-            and last is not None
-            and self._last_time is not None
-            and stab is not None
-            and stab.enabled
-            and stab.last is not None
-        ):
+        closed = last is not None and stab is not None and stab.enabled and stab.last is not None
+        clock = 0.0  # s in the step timing and hold checks (stepping_time)
+        if self.stepping is not None and closed and self._last_time is not None:
+            start = time.perf_counter()  # step timing: the clock runs faster when asked
             self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
                 t - self._last_time
             )
+            clock = time.perf_counter() - start
         s = t - self.delay
         if s > ref.t[-1] - ref.t[0] + 1e-9:
             return None
         i = ref.index_at(ref.t[0] + s)
-        if (
-            self.hold is not None
-            and last is not None
-            and i > last
-            and self._last_time is not None
-            and stab is not None
-            and stab.enabled
-            and stab.last is not None
-            and self.hold.wait(ref, last, i, stab.last.dcm, t - self._last_time)
-        ):
-            self.delay = t - float(ref.t[last] - ref.t[0])
-            i = last
+        if self.hold is not None and closed and i > last and self._last_time is not None:
+            start = time.perf_counter()
+            if self.hold.wait(ref, last, i, stab.last.dcm, t - self._last_time):
+                self.delay = t - float(ref.t[last] - ref.t[0])
+                i = last
+            clock += time.perf_counter() - start
         self._last_time = t
-        self._clock_time = time.perf_counter() - start
+        self._clock_time = clock
         return self.tick(i)
 
     @property
