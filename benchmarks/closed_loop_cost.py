@@ -18,13 +18,20 @@ target (≤ 30 % of a tick). The compiled ticks are waited for (``WBC_WAIT_FOR_C
 the numpy path the solve is 4–6× slower and the share looks 2× smaller than it is.
 
     python benchmarks/closed_loop_cost.py [--solvers hqp-daqp wqp-daqp placo pink]
-        [--walks walk10 walk10_wb] [--repeats 3]
+        [--walks walk10 walk10_wb] [--repeats 3] [--against ROOT]
+
+``--against ROOT`` measures another checkout side by side (its runs alternate with this one's,
+a subprocess with ``PYTHONPATH=ROOT``): the before / after of a change in one run.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")  # time the compiled ticks, not the interim
 
@@ -83,23 +90,56 @@ def measure(solver: str, robot, ref) -> tuple[float, float, float, float]:
     return share, fb, rd, sv
 
 
+def measure_all(walks: list[str], solvers: list[str]) -> dict[str, tuple]:
+    """One run of every (walk, solver): ``"walk solver"`` → :func:`measure`'s answer."""
+    robot = load_robot("bioloid")
+    out = {}
+    for walk in walks:
+        ref = traj.build(walk, robot)
+        for solver in solvers:
+            out[f"{walk} {solver}"] = measure(solver, robot, ref)
+    return out
+
+
+def against(root: Path, walks: list[str], solvers: list[str]) -> dict[str, tuple]:
+    """:func:`measure_all` on the wbc checkout at ``root`` (this script in a subprocess with
+    ``PYTHONPATH=root``; a checkout with :func:`wbc.balance.live.loop_share`)."""
+    env = dict(os.environ, PYTHONPATH=str(root))
+    cmd = [sys.executable, __file__, "--walks", *walks, "--solvers", *solvers, "--json"]
+    text = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True).stdout
+    return json.loads(text.strip().splitlines()[-1])
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--solvers", nargs="+", default=["hqp-daqp", "wqp-daqp", "placo", "pink"])
     p.add_argument("--walks", nargs="+", default=["walk10_wb"])
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--against", type=Path, metavar="ROOT",
+                   help="another wbc checkout (its root), measured side by side: its run and "
+                   "this one's alternate, repeat by repeat")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="one run, printed as one JSON line")
     args = p.parse_args()
-    robot = load_robot("bioloid")
-    print(f"{'walk':<10} {'solver':<10} {'share':>6} {'loop µs':>8} {'reads µs':>9} "
-          f"{'solve µs':>9}  target ≤ 30 %")  # fmt: skip
-    for walk in args.walks:
-        ref = traj.build(walk, robot)
-        for solver in args.solvers:
-            runs = [measure(solver, robot, ref) for _ in range(args.repeats)]
-            share, fb, rd, sv = min(runs)
-            met = "met" if share <= 0.30 else "NOT met"
-            print(f"{walk:<10} {solver:<10} {100 * share:5.1f}% {fb:8.1f} {rd:9.1f} {sv:9.1f}"
-                  f"  {met}")  # fmt: skip
+    if args.json:
+        print(json.dumps(measure_all(args.walks, args.solvers)))
+        return
+    runs: dict[str, list[list[tuple]]] = {"this": [], "against": []}
+    for _ in range(args.repeats):
+        runs["this"].append(list(measure_all(args.walks, args.solvers).items()))
+        if args.against is not None:
+            runs["against"].append(list(against(args.against, args.walks, args.solvers).items()))
+    head = ["walk", "solver", "share", "loop µs", "reads µs", "solve µs"]
+    if args.against is not None:
+        head += ["ROOT: share", "loop µs", "solve µs"]
+        print(f"ROOT: {args.against}")
+    print(" | ".join(head) + " | target ≤ 30 %")
+    for n, (key, _) in enumerate(runs["this"][0]):
+        share, fb, rd, sv = min(r[n][1] for r in runs["this"])  # best of the repeats
+        cells = [*key.split(), f"{100 * share:.1f} %", f"{fb:.1f}", f"{rd:.1f}", f"{sv:.1f}"]
+        if args.against is not None:
+            o_share, o_fb, _, o_sv = min(tuple(r[n][1]) for r in runs["against"])
+            cells += [f"{100 * o_share:.1f} %", f"{o_fb:.1f}", f"{o_sv:.1f}"]
+        print(" | ".join(cells) + (" | met" if share <= 0.30 else " | NOT met"))
 
 
 if __name__ == "__main__":
