@@ -271,9 +271,10 @@ def _feedback_tick(
     sample (``ω − b``, ``L a``), the state estimate (:func:`~wbc.balance.estimator._estimate`
     into ``values``, ``state`` its filter's), the hip strategy (:func:`_hip_roll`; single
     support: ``anchor1`` the other sole), the torso feedback (:func:`_torso_feedback` into
-    ``o``) and the fall detector (:func:`~wbc.balance.fall.fall_code`, its answer returned; 0
-    without one). ``consts``: the gains (``_K_*``), the fall limits, the estimator's model;
-    ``fb``: the feedback's state (``_B_*``; the torso integral updated unless a fall)."""
+    ``o``, (6, 3): rows e, ∫e, the torso target (3), |e_xy|) and the fall detector
+    (:func:`~wbc.balance.fall.fall_code`, its answer returned; 0 without one). ``consts``:
+    the gains (``_K_*``), the fall limits, the estimator's model; ``fb``: the feedback's
+    state (``_B_*``; the torso integral updated unless a fall)."""
     model = consts[_K_SIZE + _L_SIZE :]
     imu = select >= 8
     w, a = np.empty(3), np.empty(3)
@@ -294,17 +295,18 @@ def _feedback_tick(
         _hip_roll(select % 8 < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
                   consts, dt, H)  # fmt: skip
         R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
-    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, o)
+    flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
+    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat)
     code = 0
     if consts[_K_FALL] > 0.5:
         count = 1 if select % 8 < 2 else 2
         soles = np.empty((2, 4, 4))
         soles[0] = anchor0
         soles[1] = anchor1
-        code = fall_code(o[0:3], values[0:3], values[7], values[6], soles, count,
+        code = fall_code(o[0], values[0:3], values[7], values[6], soles, count,
                          consts[_K_SIZE : _K_SIZE + _L_SIZE], fall_state)  # fmt: skip
     if code == 0:
-        fb[_B_INT : _B_INT + 3] = o[3:6]
+        fb[_B_INT : _B_INT + 3] = o[1]
     return code
 
 
@@ -421,17 +423,20 @@ class Stabilizer:
                 self._apply(self.calibration)
         else:
             w = a = estimator._zeros
-        double = targets.phase == "double"
-        if double:
-            stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
-            select, h0, h1 = estimator.select(stance, imu)
+        # the stance soles (StateEstimator.select, written out: the tick's cost); single
+        # support: the other sole second (the hip strategy's), its stance axis's length
+        select = 8 if imu else 0
+        if targets.phase == "double":
+            h0, h1 = targets.l_sole.homogeneous, targets.r_sole.homogeneous
+            select += 4  # (SOLE_FRAMES: l_sole, r_sole)
             y_norm = 1.0
         else:
-            stance = [(targets.support, targets.support_placement)]
-            select, h0, _ = estimator.select(stance, imu)
-            h1 = (targets.r_sole if targets.support == "l_sole" else targets.l_sole).homogeneous
-            y_norm = max(math.hypot(h0[0, 1], h0[1, 1]), 1e-9)  # (the stance sole's lateral axis)
-        values, o = np.empty((8, 3)), np.empty(16)  # (fresh every tick: the estimate is kept)
+            left = targets.support == "l_sole"
+            h0, h1 = targets.support_placement.homogeneous, (
+                targets.r_sole if left else targets.l_sole).homogeneous  # fmt: skip
+            select += 0 if left else 1
+            y_norm = max(math.hypot(h0[0, 1], h0[1, 1]), 1e-9)
+        values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
         if self.fall is not None:
             self.fall.tick(dt)
         code = _feedback_tick(
@@ -440,16 +445,16 @@ class Stabilizer:
             self._no_fall if self.fall is None else self.fall.state, values, o,
         )  # fmt: skip
         est = self.last = estimator.last = StateEstimate(values)
-        e = o[0:3]  # orientation error, world frame (heading part × k_yaw)
+        e = o[0]  # orientation error, world frame (heading part × k_yaw)
         if code:
             self.fall.raise_for(self.fall.declare(code))
-        self.max_tilt_error = max(self.max_tilt_error, o[15])
+        self.max_tilt_error = max(self.max_tilt_error, o[5, 0])
         self.error, self.rate = e, est.angular_velocity
         g = self.gains
         com = targets.com
         if g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0:
             com = self._shifted(targets, com_vel_ref, est, e, dt)
-        out = targets.replace(com=com, torso_rotation=o[6:15].reshape(3, 3))
+        out = targets.replace(com=com, torso_rotation=o[2:5])
         self.time = time.perf_counter() - start
         return out
 
