@@ -294,7 +294,8 @@ def _feedback_tick(
         H = np.empty((3, 3))
         _hip_roll(select % 8 < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
                   consts, dt, H)  # fmt: skip
-        R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
+        if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
+            R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
     _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat)
     code = 0
@@ -369,7 +370,8 @@ class Stabilizer:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
-        self._packed: tuple = (None, None, None)  # (gains, _feedback_tick's consts, fall)
+        #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
+        self._packed: tuple = (None, None, None, False)
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
@@ -396,7 +398,8 @@ class Stabilizer:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None)]  # fmt: skip
-            self._packed = (g, np.r_[k, limits, self.estimator._model], fall)
+            shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
+            self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
@@ -409,7 +412,7 @@ class Stabilizer:
         present = self.present()  # (its unread, NaN entries: the commanded joints)
         reading = self.imu.read() if self.imu is not None else None
         self.read_time = time.perf_counter() - start  # (the drivers')
-        if self.calibrating:
+        if self._rest_left > 0:  # (calibrating)
             return self._calibrate(targets, self._torso_sample(reading),
                                    joints if present is None else present, joints, dt)  # fmt: skip
         estimator = self.estimator
@@ -431,16 +434,21 @@ class Stabilizer:
             select += 4  # (SOLE_FRAMES: l_sole, r_sole)
             y_norm = 1.0
         else:
-            left = targets.support == "l_sole"
-            h0, h1 = targets.support_placement.homogeneous, (
-                targets.r_sole if left else targets.l_sole).homogeneous  # fmt: skip
+            left = targets.support == "l_sole"  # (TickTargets.support_placement)
+            l_sole, r_sole = targets.l_sole, targets.r_sole
+            h0, h1 = (l_sole, r_sole) if left else (r_sole, l_sole)
+            h0, h1 = h0.homogeneous, h1.homogeneous
             select += 0 if left else 1
             y_norm = max(math.hypot(h0[0, 1], h0[1, 1]), 1e-9)
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
         if self.fall is not None:
             self.fall.tick(dt)
+        packed = self._packed
+        if packed[0] is not self.gains or packed[2] is not self.fall:
+            self._consts()  # (the gains or the detector changed: packed again)
+            packed = self._packed
         code = _feedback_tick(
-            self._consts(), joints if present is None else present, joints, w, a, float(dt),
+            packed[1], joints if present is None else present, joints, w, a, float(dt),
             select, h0, h1, y_norm, estimator._state, self._fb, targets.torso_rotation,
             self._no_fall if self.fall is None else self.fall.state, values, o,
         )  # fmt: skip
@@ -450,9 +458,8 @@ class Stabilizer:
             self.fall.raise_for(self.fall.declare(code))
         self.max_tilt_error = max(self.max_tilt_error, o[5, 0])
         self.error, self.rate = e, est.angular_velocity
-        g = self.gains
         com = targets.com
-        if g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0:
+        if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
             com = self._shifted(targets, com_vel_ref, est, e, dt)
         out = targets.replace(com=com, torso_rotation=o[2:5])
         self.time = time.perf_counter() - start

@@ -402,8 +402,10 @@ class StepAdjuster:
         either foot: sideways, toward the side it walks to), fed only by errors inside the
         band around it (a push does not move it)."""
         tau = self.params.baseline_tau
+        if tau <= 0:
+            return
         side = ref.stance_side(i)
-        if tau <= 0 or side is None:
+        if side is None:
             return
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
