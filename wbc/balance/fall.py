@@ -68,8 +68,17 @@ class FallParams:
 TILT, TILT_RATE, DCM = 1, 2, 3
 _L_TILT, _L_MOVING, _L_RATE, _L_REACH, _L_TICKS, _L_HALF, _L_SIZE = 0, 1, 2, 3, 4, 5, 7
 #: :func:`fall_code`'s state (``FallDetector.state``): the DCM's consecutive ticks beyond
-#: reach; the last tilt (rad), its rate away (rad/s) and the DCM's distance (m) computed
-_F_BEYOND, _F_TILT, _F_AWAY, _F_OUT, _F_SIZE = 0, 1, 2, 3, 4
+#: reach; the last tilt (rad), its rate away (rad/s) and the DCM's distance (m) computed; the
+#: detector's clock (s) and whether it started (1/0: :meth:`FallDetector.tick`)
+_F_BEYOND, _F_TILT, _F_AWAY, _F_OUT, _F_T, _F_STARTED, _F_SIZE = 0, 1, 2, 3, 4, 5, 6
+
+
+@numba.njit(cache=True)
+def fall_tick(state: np.ndarray, dt: float) -> None:
+    """The detector's clock advanced by ``dt`` (0 at its first tick)."""
+    if state[_F_STARTED] > 0.5:
+        state[_F_T] += dt
+    state[_F_STARTED] = 1.0
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -121,10 +130,17 @@ class FallDetector:
         p = self.params
         self.limits = np.r_[p.tilt, p.tilt_moving, p.rate, p.reach, p.dcm_ticks, self.half]
         self.state = np.zeros(_F_SIZE)
-        self.t = 0.0
-        self.started = False
         self.time: float | None = None
         self.reason: str | None = None
+
+    @property
+    def t(self) -> float:
+        """The detector's clock (s; 0 at its first tick)."""
+        return float(self.state[_F_T])
+
+    @property
+    def started(self) -> bool:
+        return bool(self.state[_F_STARTED])
 
     @property
     def beyond(self) -> int:
@@ -145,10 +161,9 @@ class FallDetector:
         return self.declare(code)
 
     def tick(self, dt: float) -> None:
-        """Advance the detector's clock by ``dt`` (0 at its first tick)."""
-        if self.started:
-            self.t += dt
-        self.started = True
+        """Advance the detector's clock by ``dt`` (0 at its first tick; the closed loop's
+        tick does this inside its kernel, :func:`fall_tick`)."""
+        fall_tick(self.state, dt)
 
     def declare(self, code: int) -> str | None:
         """The reason of :func:`fall_code`'s answer ``code`` (None: no fall), kept as the

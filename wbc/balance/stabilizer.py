@@ -59,7 +59,7 @@ from ..geometry import clip_norm, rot2, yaw_of
 from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
 from .estimator import StateEstimate, StateEstimator, _estimate, exp3_into, mul33t_into
-from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code
+from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
 
 
 @dataclass(frozen=True)
@@ -193,8 +193,9 @@ def _torso_feedback(
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
 _K_SIZE = 10
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
-# IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major)
-_B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_SIZE = 0, 2, 5, 6, 9, 18
+# IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
+# largest estimated tilt error (rad)
+_B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT, _B_SIZE = 0, 2, 5, 6, 9, 18, 19
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -300,6 +301,7 @@ def _feedback_tick(
     _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat)
     code = 0
     if consts[_K_FALL] > 0.5:
+        fall_tick(fall_state, dt)
         count = 1 if select % 8 < 2 else 2
         soles = np.empty((2, 4, 4))
         soles[0] = anchor0
@@ -308,6 +310,8 @@ def _feedback_tick(
                          consts[_K_SIZE : _K_SIZE + _L_SIZE], fall_state)  # fmt: skip
     if code == 0:
         fb[_B_INT : _B_INT + 3] = o[1]
+        if o[5, 0] > fb[_B_MAX_TILT]:  # (Python's max: the first unless the second is larger)
+            fb[_B_MAX_TILT] = o[5, 0]
     return code
 
 
@@ -375,7 +379,6 @@ class Stabilizer:
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
-        self.max_tilt_error = 0.0  # rad, largest estimated torso tilt error
 
     @property
     def integral(self) -> np.ndarray:
@@ -385,6 +388,11 @@ class Stabilizer:
     @integral.setter
     def integral(self, value: np.ndarray) -> None:
         self._fb[_B_INT : _B_INT + 3] = value
+
+    @property
+    def max_tilt_error(self) -> float:
+        """rad, the largest estimated torso tilt error |e_xy| so far."""
+        return float(self._fb[_B_MAX_TILT])
 
     @property
     def hip(self) -> np.ndarray:
@@ -441,8 +449,6 @@ class Stabilizer:
             select += 0 if left else 1
             y_norm = max(math.hypot(h0[0, 1], h0[1, 1]), 1e-9)
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
-        if self.fall is not None:
-            self.fall.tick(dt)
         packed = self._packed
         if packed[0] is not self.gains or packed[2] is not self.fall:
             self._consts()  # (the gains or the detector changed: packed again)
@@ -456,7 +462,6 @@ class Stabilizer:
         e = o[0]  # orientation error, world frame (heading part × k_yaw)
         if code:
             self.fall.raise_for(self.fall.declare(code))
-        self.max_tilt_error = max(self.max_tilt_error, o[5, 0])
         self.error, self.rate = e, est.angular_velocity
         com = targets.com
         if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
