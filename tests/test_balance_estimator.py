@@ -264,3 +264,17 @@ def test_kin_gain_holds_the_tilt_to_the_stance_legs_kinematics(robot):
     assert off[1.8] == pytest.approx(0.05 / 2.0, rel=0.05)
     with pytest.raises(ConfigurationError, match="kin_gain"):
         StateEstimator(robot, 0.2, kin_gain=-1.0)
+
+
+def test_the_constants_are_read_at_their_named_offsets(robot):
+    """The compiled estimate reads its gains at named offsets of the constants (the tail of
+    the model array): each constructor argument lands where its name says."""
+    from wbc.balance import estimator as E
+
+    est = StateEstimator(robot, 0.2, tilt_gain=0.3, velocity_cutoff=5.0, gyro_heading=True,
+                         bias_gain=0.07, kin_gain=0.4)  # fmt: skip
+    consts = est._model[len(est._model) - E._C_SIZE :]
+    assert consts[E._C_TILT] == 0.3 and consts[E._C_CUTOFF] == 5.0
+    assert consts[E._C_OMEGA0] == est.omega0 and consts[E._C_HEADING] == 1.0
+    assert consts[E._C_KIN] == 0.4 and consts[E._C_BIAS] == 0.07
+    assert np.array_equal(consts[E._C_TORSO : E._C_TORSO + 9], est.torso_b.ravel())
