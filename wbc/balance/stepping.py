@@ -511,7 +511,8 @@ class StepAdjuster:
         p = self.params
         if not self.enabled:
             return None
-        self._track_baseline(ref, i, dcm)
+        if p.baseline_tau > 0:
+            self._track_baseline(ref, i, dcm)
         if p.landing_catch > 0 and ref.support[i] != SUPPORT_DOUBLE:
             caught = self._caught is not None and self.phase_of[self._caught] == self.phase_of[i]
             if not caught and self.error(ref, i, dcm)[1].any():
@@ -520,7 +521,8 @@ class StepAdjuster:
             return None
         ph = self.phases[self.phase_of[i]]
         if ph.kind == "single":
-            if (ph.i1 - i) * ref.dt < p.min_remaining or (i - ph.i0) * ref.dt < p.settle - 1e-9:
+            dt = ref.dt
+            if (ph.i1 - i) * dt < p.min_remaining or (i - ph.i0) * dt < p.settle - 1e-9:
                 return None
             k = int(ph.step)
         elif ph.kind == "double" and p.double_support and self.episode is not None:
