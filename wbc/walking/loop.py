@@ -396,10 +396,12 @@ class Session:
 
     ``stabilizer`` (a :class:`wbc.balance.stabilizer.Stabilizer`, or None): closed loop, it
     reads the sensors and adjusts each tick's targets before the solve (its time is
-    :attr:`feedback_time`, the solve's :attr:`solve_time`); ``stabilizer.enabled = False``
-    (or None) is the open loop. ``stepping`` (a :class:`wbc.balance.stepping.StepAdjuster`,
-    or None; closed loop only): each tick it may re-plan the footsteps from the stabilizer's
-    last DCM estimate; the re-planned reference replaces :attr:`ref` (:meth:`set_reference`).
+    :attr:`feedback_time`, the solve's :attr:`solve_time`, the closed loop's whole with the
+    step adjustment :attr:`loop_time`: :func:`wbc.balance.live.loop_share`);
+    ``stabilizer.enabled = False`` (or None) is the open loop. ``stepping`` (a
+    :class:`wbc.balance.stepping.StepAdjuster`, or None; closed loop only): each tick it may
+    re-plan the footsteps from the stabilizer's last DCM estimate; the re-planned reference
+    replaces :attr:`ref` (:meth:`set_reference`).
     ``hold`` (a :class:`wbc.balance.retime.PhaseHold`, or None; closed loop only): in
     :meth:`at_time`, a lift-off whose DCM is not ready waits — the last double-support tick
     is replayed and the rest of the walk runs later by :attr:`delay` seconds.
