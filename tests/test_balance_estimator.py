@@ -294,3 +294,17 @@ def test_a_sole_landing_off_its_plan_is_anchored_where_it_landed(robot, use_imu)
     assert e.base[0] == pytest.approx(q[0], abs=1e-9)
     with pytest.raises(ConfigurationError, match="anchor_band"):
         StateEstimator(robot, 0.2, anchor_band=-0.01)
+
+
+def test_the_constants_are_read_at_their_named_offsets(robot):
+    """The compiled estimate reads its gains at named offsets of the constants (the tail of
+    the model array): each constructor argument lands where its name says."""
+    from wbc.balance import estimator as E
+
+    est = StateEstimator(robot, 0.2, tilt_gain=0.3, velocity_cutoff=5.0, gyro_heading=True,
+                         bias_gain=0.07, kin_gain=0.4)  # fmt: skip
+    consts = est._model[len(est._model) - E._C_SIZE :]
+    assert consts[E._C_TILT] == 0.3 and consts[E._C_CUTOFF] == 5.0
+    assert consts[E._C_OMEGA0] == est.omega0 and consts[E._C_HEADING] == 1.0
+    assert consts[E._C_KIN] == 0.4 and consts[E._C_BIAS] == 0.07
+    assert np.array_equal(consts[E._C_TORSO : E._C_TORSO + 9], est.torso_b.ravel())

@@ -122,3 +122,42 @@ def test_the_default_rest_is_long_enough_not_to_take_the_settling_for_gyro_bias(
         biases[rest] = float(np.linalg.norm(loop.stabilizer.calibration.gyro_bias))
     assert biases[0.3] > 0.008, biases  # (what the short rest took)
     assert biases[CALIBRATE_S] < 0.005, biases
+
+
+def test_the_loop_share_counts_the_walking_ticks_only(example):
+    """The loop's share of a tick (:func:`wbc.balance.live.loop_share`, what the physics
+    benchmark and benchmarks/closed_loop_cost.py report) is taken over the walk's ticks: the
+    start-up calibration's ticks at rest are not counted; per tick, the loop's time leaves out
+    the drivers' reads, which are kept beside it."""
+    from wbc import load_robot
+    from wbc.balance.live import CALIBRATE_S, closed_loop, loop_share
+    from wbc.balance.stabilizer import Gains
+    from wbc.bench.trajectories import build
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import StackController, start_configuration
+
+    robot = load_robot("bioloid")
+    ref = build("walk10", robot)
+    sim = example.ToySimulator(robot, start_configuration(robot, ref))
+    loop = closed_loop(example.ToyBus(sim), robot, StackController(load_stack("walk", robot)),
+                       ref, imu=example.ToyImu(sim), gains=Gains(), out=lambda _l: None,
+                       duration=CALIBRATE_S + 0.2)  # fmt: skip
+    result = loop.deployment.run()
+    rest = loop.stabilizer.calibration_ticks
+    source = loop.source
+    assert rest > 0 and len(source.solve_time) == result.timing.ticks - rest
+    assert len(source.feedback_time) == len(source.read_time) == len(source.solve_time)
+    assert min(source.read_time) > 0 and min(source.feedback_time) > 0
+    fb, sv = np.array(source.feedback_time), np.array(source.solve_time)
+    assert source.cost_share() == loop_share(fb, sv) == pytest.approx(np.median(fb / (fb + sv)))
+
+
+def test_loop_share_is_the_median_share_and_scale_free():
+    """loop_share: the median over the ticks of loop / (loop + solve); the same for times
+    scaled together (a slower machine)."""
+    from wbc.balance.live import loop_share
+
+    loop, solve = [1.0, 2.0, 3.0], [1.0, 2.0, 1.0]
+    assert loop_share(loop, solve) == pytest.approx(0.5)
+    assert loop_share(np.multiply(loop, 7.0), np.multiply(solve, 7.0)) == pytest.approx(0.5)
+    assert loop_share([0.0], [1.0]) == 0.0

@@ -363,3 +363,19 @@ def _replace_torso(targets, R):
     from dataclasses import replace
 
     return replace(targets, torso_rotation=R)
+
+
+@pytest.mark.parametrize("band, expect", [(0.0, 0.015), (0.01, 0.0)])
+def test_a_sole_landing_off_its_plan_is_anchored_in_the_tick(robot, band, expect):
+    """``Gains.anchor_band`` reaches the compiled tick: the right sole enters the support
+    30 mm ahead of where its plan puts it; anchored at the plan, the base estimate moves by
+    half of it (double support averages the soles), anchored where it landed it stays."""
+    q = standing(robot)
+    R = robot.frame_placement(q, "torso").rotation
+    stab = stabilizer(robot, q, R, Gains(anchor_band=band))
+    for _ in range(3):
+        stab.adjust(targets_at(robot, q, "single"), np.zeros(3), q, 0.01)
+    t = targets_at(robot, q, "double")
+    planned = pin.SE3(t.r_sole.rotation, t.r_sole.translation + [0.03, 0.0, 0.0])
+    stab.adjust(t.replace(r_sole=planned), np.zeros(3), q, 0.01)
+    assert stab.last.base[0] - q[0] == pytest.approx(expect, abs=1e-9)

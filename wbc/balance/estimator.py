@@ -73,6 +73,14 @@ _R, _P, _AXIS, _LEVER, _MASS, _WIDTH = 0, 9, 12, 15, 18, 19
 # to each sole at the last tick, their validity flags, the CoM velocity, the gyro's bias
 # correction learnt (``bias_gain``)
 _S_ROT, _S_HAS, _S_REL, _S_VALID, _S_VEL, _S_BIAS, _S_SIZE = 0, 9, 10, 16, 18, 21, 24
+# the constants (the tail of StateEstimator._model, after the joints' table and links): the
+# accelerometer's tilt gain, the CoM velocity cutoff (Hz), ω₀, gyro_heading (1/0), 1 / mass,
+# the torso's rotation in the base frame (9), per sole (SOLE_FRAMES order, _SOLE_WIDTH each:
+# its rotation in its parent body (9), position (3), the parent's row), kin_gain, bias_gain
+_C_TILT, _C_CUTOFF, _C_OMEGA0, _C_HEADING, _C_INV_MASS, _C_TORSO, _C_SOLES = 0, 1, 2, 3, 4, 5, 14
+_SOLE_WIDTH = 13
+_C_KIN = _C_SOLES + _SOLE_WIDTH * len(SOLE_FRAMES)
+_C_BIAS, _C_SIZE = _C_KIN + 1, _C_KIN + 2
 
 
 class StateEstimate:
@@ -197,9 +205,10 @@ def _estimate(
     consts = model[1 + (_WIDTH + 2) * n :]
     sole0, sole1, imu = select % 2, (select // 2) % 4 - 1, select >= 8
     tilt_gain, cutoff, omega0, gyro_heading, inv_mass = (
-        consts[0], consts[1], consts[2], consts[3] > 0.5, consts[4])  # fmt: skip
-    bias_gain = consts[len(consts) - 1]
-    torso_b = consts[5:14].reshape(3, 3)
+        consts[_C_TILT], consts[_C_CUTOFF], consts[_C_OMEGA0], consts[_C_HEADING] > 0.5,
+        consts[_C_INV_MASS])  # fmt: skip
+    bias_gain, kin_gain = consts[_C_BIAS], consts[_C_KIN]
+    torso_b = consts[_C_TORSO : _C_TORSO + 9].reshape(3, 3)
     # forward kinematics in the base frame (base at the origin), body by body, written in
     # place (an allocation per small product would cost more than the kinematics)
     Rs = np.empty((n, 3, 3))
@@ -253,7 +262,7 @@ def _estimate(
     W = np.empty((6, 3, 3))  # sole 0, sole 1, R_kin, exp, R, R_base
     V = np.empty((6, 3))  # sole 0, sole 1, w, base, rel 0, rel 1
     for s in range(count):
-        r0 = 14 + 13 * ids[s]
+        r0 = _C_SOLES + _SOLE_WIDTH * ids[s]
         parent = int(consts[r0 + 12])
         Rp = Rs[parent]
         for i in range(3):
@@ -264,7 +273,6 @@ def _estimate(
                               + Rp[i, 2] * consts[r0 + 6 + j])  # fmt: skip
     R_kin, Ex, R, R_base = W[2], W[3], W[4], W[5]
     has = state[_S_HAS] > 0.5
-    kin_gain = consts[len(consts) - 2]
     if not has or not imu or not gyro_heading or kin_gain > 0:  # R_kin = A0 · (ᵇR_sole0)ᵀ
         mul33t_into(anchor0, W[0], R_kin)
     if not has:  # start the filter at the kinematics' rotation (StateEstimator.reset)
@@ -444,6 +452,7 @@ class StateEstimator:
             1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, self.kin_gain,
             self.bias_gain,
         ]  # fmt: skip
+        assert len(consts) == _C_SIZE and len(soles) == _SOLE_WIDTH * len(SOLE_FRAMES)
         # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and
         # gyro_heading are fixed at construction)
         self._model = np.r_[len(table), table.ravel(), links.ravel(), consts]
@@ -490,18 +499,8 @@ class StateEstimator:
         IMU's sample (ignored with ``use_imu=False``), ``stance`` the support sole frame(s)
         with their planned placements; ``fallback`` stands in for the joints whose present
         position is NaN (not read this tick)."""
-        if not stance:
-            raise ConfigurationError("state estimator: no stance sole given")
         imu = self.use_imu and reading is not None
-        name0, anchor0 = stance[0]
-        h0 = anchor0.homogeneous
-        select = SOLE_FRAMES.index(name0) + (8 if imu else 0)
-        if len(stance) > 1:
-            name1, anchor1 = stance[1]
-            select += 2 * (SOLE_FRAMES.index(name1) + 1)
-            h1 = anchor1.homogeneous
-        else:
-            h1 = h0
+        select, h0, h1 = self.select(stance, imu)
         if self.anchor_band > 0:
             h0, h1 = self._anchors(stance, h0, h1, joints, fallback)
         out = np.empty((8, 3))
@@ -562,3 +561,19 @@ class StateEstimator:
             if anchor is not None:
                 out[s] = anchor
         return out[0], (out[1] if len(stance) > 1 else out[0])
+
+    @staticmethod
+    def select(
+        stance: Sequence[tuple[str, pin.SE3]], imu: bool
+    ) -> tuple[int, np.ndarray, np.ndarray]:
+        """:func:`_estimate`'s ``select`` and anchors (the stance soles' homogeneous
+        placements; single support: the first twice) for ``stance`` (:meth:`update`)."""
+        if not stance:
+            raise ConfigurationError("state estimator: no stance sole given")
+        name0, anchor0 = stance[0]
+        h0 = anchor0.homogeneous
+        select = SOLE_FRAMES.index(name0) + (8 if imu else 0)
+        if len(stance) > 1:
+            name1, anchor1 = stance[1]
+            return select + 2 * (SOLE_FRAMES.index(name1) + 1), h0, anchor1.homogeneous
+        return select, h0, h0

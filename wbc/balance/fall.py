@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..exceptions import ConfigurationError, FallDetected
@@ -63,6 +64,62 @@ class FallParams:
         return self
 
 
+#: :func:`fall_code`'s answers (0: no fall) and its limits' layout (``FallDetector.limits``)
+TILT, TILT_RATE, DCM = 1, 2, 3
+_L_TILT, _L_MOVING, _L_RATE, _L_REACH, _L_TICKS, _L_HALF, _L_SIZE = 0, 1, 2, 3, 4, 5, 7
+#: :func:`fall_code`'s state (``FallDetector.state``): the DCM's consecutive ticks beyond
+#: reach; the last tilt (rad), its rate away (rad/s) and the DCM's distance (m) computed; the
+#: detector's clock (s) and whether it started (1/0: :meth:`FallDetector.tick`)
+_F_BEYOND, _F_TILT, _F_AWAY, _F_OUT, _F_T, _F_STARTED, _F_SIZE = 0, 1, 2, 3, 4, 5, 6
+
+
+@numba.njit(cache=True)
+def fall_tick(state: np.ndarray, dt: float) -> None:
+    """The detector's clock advanced by ``dt`` (0 at its first tick)."""
+    if state[_F_STARTED] > 0.5:
+        state[_F_T] += dt
+    state[_F_STARTED] = 1.0
+
+
+@numba.njit(cache=True, error_model="numpy")
+def fall_code(
+    e: np.ndarray,
+    R: np.ndarray,
+    omega: np.ndarray,
+    dcm: np.ndarray,
+    soles: np.ndarray,
+    count: int,
+    limits: np.ndarray,
+    state: np.ndarray,
+) -> int:
+    """One tick of :meth:`FallDetector.update` (module docstring), compiled (the closed
+    loop's tick calls it inside its kernel, :mod:`wbc.balance.stabilizer`): ``e`` the
+    orientation error (world), ``R``, ``omega``, ``dcm`` the estimate's rotation, gyro rate
+    (torso frame) and DCM, ``soles[:count]`` the stance soles' homogeneous placements,
+    ``limits`` the thresholds (``_L_*``), ``state`` the counter and the values (``_F_*``,
+    updated). Returns 0, :data:`TILT`, :data:`TILT_RATE` or :data:`DCM`."""
+    tilt = math.hypot(e[0], e[1])
+    state[_F_TILT] = tilt
+    if tilt > limits[_L_TILT]:
+        return TILT
+    if tilt > limits[_L_MOVING]:
+        w = np.dot(np.ascontiguousarray(R), np.ascontiguousarray(omega))  # (numpy's BLAS R @ ω)
+        away = (w[0] * e[0] + w[1] * e[1]) / tilt
+        state[_F_AWAY] = away
+        if away > limits[_L_RATE]:
+            return TILT_RATE
+    best = math.inf  # the distance to the nearest sole rectangle (0 inside one)
+    for k in range(count):
+        A = soles[k]
+        dx, dy = dcm[0] - A[0, 3], dcm[1] - A[1, 3]
+        lx = abs(A[0, 0] * dx + A[1, 0] * dy) - limits[_L_HALF]  # in the sole's frame (yaw)
+        ly = abs(A[0, 1] * dx + A[1, 1] * dy) - limits[_L_HALF + 1]
+        best = min(best, math.hypot(max(lx, 0.0), max(ly, 0.0)))
+    state[_F_OUT] = best
+    state[_F_BEYOND] = state[_F_BEYOND] + 1.0 if best > limits[_L_REACH] else 0.0
+    return DCM if state[_F_BEYOND] >= limits[_L_TICKS] else 0
+
+
 class FallDetector:
     """Declares a fall from the state estimate (module docstring); :attr:`time` is the
     estimator clock (s since the first tick) at the detection."""
@@ -70,60 +127,72 @@ class FallDetector:
     def __init__(self, params: FallParams | None = None, foot: tuple[float, float] = (0.1, 0.06)):
         self.params = (params or FallParams()).check()
         self.half = 0.5 * np.asarray(foot, dtype=float)  # sole half length, half width (m)
-        self.t = 0.0
-        self.started = False
-        self.beyond = 0
+        p = self.params
+        self.limits = np.r_[p.tilt, p.tilt_moving, p.rate, p.reach, p.dcm_ticks, self.half]
+        self.state = np.zeros(_F_SIZE)
         self.time: float | None = None
         self.reason: str | None = None
 
-    def _outside(self, soles, x: float, y: float) -> float:
-        """Distance (m) from (x, y) to the nearest sole rectangle (0 inside one)."""
-        hx, hy = float(self.half[0]), float(self.half[1])
-        best = math.inf
-        for placement in soles:
-            R, p = placement.rotation, placement.translation
-            dx, dy = x - float(p[0]), y - float(p[1])
-            lx = abs(R[0, 0] * dx + R[1, 0] * dy) - hx  # in the sole's frame (yaw only)
-            ly = abs(R[0, 1] * dx + R[1, 1] * dy) - hy
-            best = min(best, math.hypot(max(lx, 0.0), max(ly, 0.0)))
-        return best
+    @property
+    def t(self) -> float:
+        """The detector's clock (s; 0 at its first tick)."""
+        return float(self.state[_F_T])
+
+    @property
+    def started(self) -> bool:
+        return bool(self.state[_F_STARTED])
+
+    @property
+    def beyond(self) -> int:
+        """Consecutive ticks the DCM has been beyond ``reach``."""
+        return int(self.state[_F_BEYOND])
 
     def update(self, est, soles, dt: float, error: np.ndarray) -> str | None:
         """One tick: ``est`` the estimate, ``soles`` the stance sole placements (pin.SE3),
         ``error`` the torso's orientation error from its target (rotation vector, world).
         Returns the reason of a fall (and raises nothing), else None. The detector's clock
         (:attr:`t`, s) is 0 at its first update."""
-        if self.started:
-            self.t += dt
-        self.started = True
-        p = self.params
-        tilt = math.hypot(float(error[0]), float(error[1]))
-        reason = None
-        if tilt > p.tilt:
-            reason = f"torso tilted {math.degrees(tilt):.0f}° (> {math.degrees(p.tilt):.0f}°)"
-        elif tilt > p.tilt_moving:
-            w = est.rotation @ est.angular_velocity
-            away = float(w[0] * error[0] + w[1] * error[1]) / tilt
-            if away > p.rate:
-                reason = (
-                    f"torso tilted {math.degrees(tilt):.0f}° and falling at {away:.1f} rad/s "
-                    f"(> {math.degrees(p.tilt_moving):.0f}° and {p.rate:g} rad/s)"
-                )
-        if reason is None:
-            dcm = est.dcm
-            out = self._outside(soles, float(dcm[0]), float(dcm[1]))
-            self.beyond = self.beyond + 1 if out > p.reach else 0
-            if self.beyond >= p.dcm_ticks:
-                reason = (
-                    f"DCM {1e3 * out:.0f} mm beyond the support (> {1e3 * p.reach:.0f} mm: "
-                    "no step reaches it)"
-                )
-        if reason is not None and self.reason is None:
+        self.tick(dt)
+        placements = np.array([s.homogeneous for s in soles])
+        code = fall_code(np.asarray(error, dtype=float), np.asarray(est.rotation, dtype=float),
+                         np.asarray(est.angular_velocity, dtype=float),
+                         np.asarray(est.dcm, dtype=float), placements, len(placements),
+                         self.limits, self.state)  # fmt: skip
+        return self.declare(code)
+
+    def tick(self, dt: float) -> None:
+        """Advance the detector's clock by ``dt`` (0 at its first tick; the closed loop's
+        tick does this inside its kernel, :func:`fall_tick`)."""
+        fall_tick(self.state, dt)
+
+    def declare(self, code: int) -> str | None:
+        """The reason of :func:`fall_code`'s answer ``code`` (None: no fall), kept as the
+        first fall's (:attr:`reason`, :attr:`time`)."""
+        if code == 0:
+            return None
+        p, st = self.params, self.state
+        tilt = math.degrees(st[_F_TILT])
+        if code == TILT:
+            reason = f"torso tilted {tilt:.0f}° (> {math.degrees(p.tilt):.0f}°)"
+        elif code == TILT_RATE:
+            reason = (
+                f"torso tilted {tilt:.0f}° and falling at {st[_F_AWAY]:.1f} rad/s "
+                f"(> {math.degrees(p.tilt_moving):.0f}° and {p.rate:g} rad/s)"
+            )
+        else:
+            reason = (
+                f"DCM {1e3 * st[_F_OUT]:.0f} mm beyond the support (> {1e3 * p.reach:.0f} mm: "
+                "no step reaches it)"
+            )
+        if self.reason is None:
             self.time, self.reason = self.t, reason
         return reason
 
     def raise_if_falling(self, est, soles, dt: float, error: np.ndarray) -> None:
         """:meth:`update`, raising :class:`~wbc.exceptions.FallDetected` on a fall."""
-        reason = self.update(est, soles, dt, error)
+        self.raise_for(self.update(est, soles, dt, error))
+
+    def raise_for(self, reason: str | None) -> None:
+        """Raise :class:`~wbc.exceptions.FallDetected` for ``reason`` (a fall's), if any."""
         if reason is not None:
             raise FallDetected(f"fall detected at {self.t:.2f} s: {reason}")

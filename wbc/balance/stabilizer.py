@@ -58,8 +58,8 @@ from ..exceptions import ConfigurationError
 from ..geometry import clip_norm, rot2, yaw_of
 from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
-from .estimator import StateEstimate, StateEstimator, exp3_into, mul33t_into
-from .fall import FallDetector
+from .estimator import StateEstimate, StateEstimator, _estimate, exp3_into, mul33t_into
+from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
 
 
 @dataclass(frozen=True)
@@ -192,6 +192,133 @@ def _torso_feedback(
                                   + S[1, i, 2] * R_ref[2, j])  # fmt: skip
 
 
+# the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
+# model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0)
+_K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
+_K_SIZE = 10
+# the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
+# IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
+# largest estimated tilt error (rad)
+_B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT, _B_SIZE = 0, 2, 5, 6, 9, 18, 19
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _hip_roll(
+    single: bool,
+    stance: np.ndarray,
+    other: np.ndarray,
+    y_norm: float,
+    dcm: np.ndarray,
+    h: np.ndarray,
+    k: np.ndarray,
+    dt: float,
+    H: np.ndarray,
+) -> None:
+    """The hip strategy (``k_hip``): writes ``H``, the rotation that turns the torso target
+    toward the stance sole's outer side, and updates the roll ``h`` (2, in place). In single
+    support, with ``u`` the stance sole's lateral axis pointing away from the other sole (the
+    side no step can reach; ``stance``, ``other``: the soles' homogeneous placements,
+    ``y_norm`` the lateral axis's length, ``max(hypot, 1e-9)``) and ``s = (ξ − p_stance)·u``
+    the estimated DCM's offset from the stance sole's centre along it, the roll wanted is
+    ``min(k_hip (s − hip_band)⁺, max_hip)`` along ``u``; ``H = Exp(h (z × u))``, the torso's
+    top thrown toward the fall. Spinning the upper body that way takes angular momentum from
+    the fall: the centroidal moment pivot moves beyond the sole's edge while the torso
+    accelerates (benchmarks/pushes.md). The roll grows at once along its direction; any other
+    change (shrinking, turning, double support: back to 0) goes at ``hip_release`` rad/s at
+    most (a fast return would throw the DCM out again)."""
+    want0 = want1 = 0.0
+    if single:
+        y0, y1 = stance[0, 1] / y_norm, stance[1, 1] / y_norm
+        p0, p1 = stance[0, 3], stance[1, 3]
+        if (p0 - other[0, 3]) * y0 + (p1 - other[1, 3]) * y1 < 0:
+            y0, y1 = -y0, -y1
+        s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1 - k[_K_BAND]
+        if s > 0:
+            m = min(k[_K_HIP] * s, k[_K_MAX_HIP])
+            want0, want1 = y0 * m, y1 * m
+    h0, h1 = h[0], h[1]
+    if want0 * h0 + want1 * h1 >= h0 * h0 + h1 * h1:  # growing along its direction: at once
+        h[0], h[1] = want0, want1
+    else:  # h + clip_norm(want − h, hip_release dt)
+        d0, d1 = want0 - h0, want1 - h1
+        n = math.sqrt(d0 * d0 + d1 * d1)
+        limit = k[_K_RELEASE] * dt
+        if n > limit:
+            f = limit / n
+            d0, d1 = d0 * f, d1 * f
+        h[0], h[1] = h0 + d0, h1 + d1
+    v = np.empty(3)
+    v[0], v[1], v[2] = -h[1], h[0], 0.0
+    exp3_into(v, H)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _feedback_tick(
+    consts: np.ndarray,
+    joints: np.ndarray,
+    fallback: np.ndarray,
+    gyro: np.ndarray,
+    acc: np.ndarray,
+    dt: float,
+    select: int,
+    anchor0: np.ndarray,
+    anchor1: np.ndarray,
+    y_norm: float,
+    state: np.ndarray,
+    fb: np.ndarray,
+    R_ref: np.ndarray,
+    fall_state: np.ndarray,
+    values: np.ndarray,
+    o: np.ndarray,
+) -> int:
+    """:meth:`Stabilizer.adjust`'s tick in one compiled call (a call and a small numpy
+    operation each cost more than their arithmetic): the IMU calibration applied to the
+    sample (``ω − b``, ``L a``), the state estimate (:func:`~wbc.balance.estimator._estimate`
+    into ``values``, ``state`` its filter's), the hip strategy (:func:`_hip_roll`; single
+    support: ``anchor1`` the other sole), the torso feedback (:func:`_torso_feedback` into
+    ``o``, (6, 3): rows e, ∫e, the torso target (3), |e_xy|) and the fall detector
+    (:func:`~wbc.balance.fall.fall_code`, its answer returned; 0 without one). ``consts``:
+    the gains (``_K_*``), the fall limits, the estimator's model; ``fb``: the feedback's
+    state (``_B_*``; the torso integral updated unless a fall)."""
+    model = consts[_K_SIZE + _L_SIZE :]
+    imu = select >= 8
+    w, a = np.empty(3), np.empty(3)
+    if imu and fb[_B_CAL] > 0.5:  # the start-up calibration (wbc.imu.calibrate)
+        for i in range(3):
+            w[i] = gyro[i] - fb[_B_BIAS + i]
+        a[:] = np.dot(fb[_B_LEVEL : _B_LEVEL + 9].reshape(3, 3), acc)  # (numpy's BLAS L @ a)
+    else:
+        w[:] = gyro
+        a[:] = acc
+    _estimate(model, joints, fallback, w, a, dt, select, anchor0, anchor1, state, values)
+    R = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = R_ref[i, j]
+    if consts[_K_HIP] > 0:
+        H = np.empty((3, 3))
+        _hip_roll(select % 8 < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
+                  consts, dt, H)  # fmt: skip
+        if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
+            R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
+    flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
+    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat)
+    code = 0
+    if consts[_K_FALL] > 0.5:
+        fall_tick(fall_state, dt)
+        count = 1 if select % 8 < 2 else 2
+        soles = np.empty((2, 4, 4))
+        soles[0] = anchor0
+        soles[1] = anchor1
+        code = fall_code(o[0], values[0:3], values[7], values[6], soles, count,
+                         consts[_K_SIZE : _K_SIZE + _L_SIZE], fall_state)  # fmt: skip
+    if code == 0:
+        fb[_B_INT : _B_INT + 3] = o[1]
+        if o[5, 0] > fb[_B_MAX_TILT]:  # (Python's max: the first unless the second is larger)
+            fb[_B_MAX_TILT] = o[5, 0]
+    return code
+
+
 class _Sample:
     """An IMU sample in the torso frame, built inside the tick (no validation: its arrays
     come from a validated :class:`~wbc.imu.ImuReading`)."""
@@ -242,9 +369,10 @@ class Stabilizer:
             robot, com_height, use_imu=imu is not None, gyro_heading=g.k_yaw > 0,
             kin_gain=g.kin_tilt, anchor_band=g.anchor_band,
         )  # fmt: skip
-        self.integral = np.zeros(3)
+        self._fb = np.zeros(_B_SIZE)  # the feedback's state (_feedback_tick)
+        self._applied: ImuCalibration | None = None  # the calibration in _fb
+        self._no_fall = np.zeros(_F_SIZE)  # (fall_code's state when there is no detector)
         self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
-        self.hip = np.zeros(2)  # hip-strategy roll (rad, horizontal: toward where the top goes)
         self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
         self.rate = np.zeros(3)
         self._joint = None
@@ -252,11 +380,41 @@ class Stabilizer:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
-        self._packed: tuple = (None, None)  # (gains, their array for _torso_feedback)
+        #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
+        self._packed: tuple = (None, None, None, False)
         self.last: StateEstimate | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
-        self.max_tilt_error = 0.0  # rad, largest estimated torso tilt error
+
+    @property
+    def integral(self) -> np.ndarray:
+        """The torso feedback's integral ∫e dt (rad·s, world; a view: writable)."""
+        return self._fb[_B_INT : _B_INT + 3]
+
+    @integral.setter
+    def integral(self, value: np.ndarray) -> None:
+        self._fb[_B_INT : _B_INT + 3] = value
+
+    @property
+    def max_tilt_error(self) -> float:
+        """rad, the largest estimated torso tilt error |e_xy| so far."""
+        return float(self._fb[_B_MAX_TILT])
+
+    @property
+    def hip(self) -> np.ndarray:
+        """The hip-strategy roll (rad, horizontal: toward where the top goes; a view)."""
+        return self._fb[_B_HIP : _B_HIP + 2]
+
+    def _consts(self) -> np.ndarray:
+        """:func:`_feedback_tick`'s ``consts`` for the current gains (built when they change)."""
+        g, fall = self.gains, self.fall
+        if self._packed[0] is not g or self._packed[2] is not fall:
+            limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
+            k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
+                 g.hip_release, float(fall is not None)]  # fmt: skip
+            shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
+            self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
+        return self._packed[1]
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
         """The targets of this tick with the feedback applied (``q_cmd``: the controller's
@@ -267,49 +425,100 @@ class Stabilizer:
         joints = q_cmd[7:]
         present = self.present()  # (its unread, NaN entries: the commanded joints)
         reading = self.imu.read() if self.imu is not None else None
-        if reading is not None and (self.mount is not None or self.calibration is not None):
-            # the torso's rate and specific force (what the estimator reads; the mount's and
-            # calibration's public ImuReading methods validate more: too slow for a tick)
+        self.read_time = time.perf_counter() - start  # (the drivers')
+        if self._rest_left > 0:  # (calibrating)
+            return self._calibrate(targets, self._torso_sample(reading),
+                                   joints if present is None else present, joints, dt)  # fmt: skip
+        estimator = self.estimator
+        imu = estimator.use_imu and reading is not None
+        if imu:  # the torso's rate and specific force (the mount's and calibration's public
+            # ImuReading methods validate more: too slow for a tick)
             w, a = reading.angular_velocity, reading.linear_acceleration
             if self.mount is not None:
                 w, a = self.mount.rates(w, a)
-            if self.calibration is not None:
-                c = self.calibration
-                w, a = w - c.gyro_bias, c.level @ a
-            reading = _Sample(reading.t, reading.orientation, w, a)
-        self.read_time = time.perf_counter() - start
-        if self.calibrating:
-            return self._calibrate(targets, reading, joints if present is None else present,
-                                   joints, dt)  # fmt: skip
-        stance = (
-            [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
-            if targets.phase == "double"
-            else [(targets.support, targets.support_placement)]
-        )
-        est = self.estimator.update(
-            dt, joints if present is None else present, reading, stance, fallback=joints
-        )
-        self.last = est
-        g = self.gains
-        if self._packed[0] is not g:
-            self._packed = (g, np.array([g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt]))
-        o = np.empty(16)
-        R_ref = targets.torso_rotation
-        if g.k_hip > 0:
-            R_ref = self._hip_strategy(targets, est, dt) @ R_ref
-        _torso_feedback(est.values, R_ref, self.integral, self._packed[1], dt, o)
-        e = o[0:3]  # orientation error, world frame (heading part × k_yaw)
-        if self.fall is not None:
-            self.fall.raise_if_falling(est, [placement for _, placement in stance], dt, e)
-        self.max_tilt_error = max(self.max_tilt_error, o[15])
+            if self.calibration is not self._applied:
+                self._apply(self.calibration)
+        else:
+            w = a = estimator._zeros
+        # the stance soles (StateEstimator.select, written out: the tick's cost); single
+        # support: the other sole second (the hip strategy's), its stance axis's length
+        select = 8 if imu else 0
+        if targets.phase == "double":
+            h0, h1 = targets.l_sole.homogeneous, targets.r_sole.homogeneous
+            select += 4  # (SOLE_FRAMES: l_sole, r_sole)
+            y_norm = 1.0
+        else:
+            left = targets.support == "l_sole"  # (TickTargets.support_placement)
+            l_sole, r_sole = targets.l_sole, targets.r_sole
+            h0, h1 = (l_sole, r_sole) if left else (r_sole, l_sole)
+            h0, h1 = h0.homogeneous, h1.homogeneous
+            select += 0 if left else 1
+            y_norm = max(math.hypot(h0[0, 1], h0[1, 1]), 1e-9)
+        if estimator.anchor_band > 0:  # a sole landed off its plan (off by default)
+            read = joints if present is None else present
+            if targets.phase == "double":
+                stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
+                h0, h1 = estimator._anchors(stance, h0, h1, read, joints)
+            else:
+                stance = [(targets.support, targets.support_placement)]
+                h0 = estimator._anchors(stance, h0, h0, read, joints)[0]
+        values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
+        packed = self._packed
+        if packed[0] is not self.gains or packed[2] is not self.fall:
+            self._consts()  # (the gains or the detector changed: packed again)
+            packed = self._packed
+        code = _feedback_tick(
+            packed[1], joints if present is None else present, joints, w, a, float(dt),
+            select, h0, h1, y_norm, estimator._state, self._fb, targets.torso_rotation,
+            self._no_fall if self.fall is None else self.fall.state, values, o,
+        )  # fmt: skip
+        est = self.last = estimator.last = StateEstimate(values)
+        e = o[0]  # orientation error, world frame (heading part × k_yaw)
+        if code:
+            self.fall.raise_for(self.fall.declare(code))
         self.error, self.rate = e, est.angular_velocity
-        self.integral = o[3:6]
         com = targets.com
-        if g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0:
+        if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
             com = self._shifted(targets, com_vel_ref, est, e, dt)
-        out = targets.replace(com=com, torso_rotation=o[6:15].reshape(3, 3))
+        out = targets.replace(com=com, torso_rotation=o[2:5])
         self.time = time.perf_counter() - start
         return out
+
+    def _hip_strategy(self, targets, est: StateEstimate, dt: float) -> np.ndarray:
+        """The hip strategy's rotation of the torso target for ``targets`` and ``est``
+        (:func:`_hip_roll`, the roll :attr:`hip` updated), as :func:`_feedback_tick` applies
+        it: ``Exp(h (z × u)) R_ref``."""
+        H, st, other, y_norm = np.empty((3, 3)), np.eye(4), np.eye(4), 1.0
+        single = targets.phase != "double"
+        if single:
+            st = targets.support_placement.homogeneous
+            other = (targets.r_sole if targets.support == "l_sole" else targets.l_sole).homogeneous
+            y_norm = max(math.hypot(st[0, 1], st[1, 1]), 1e-9)
+        _hip_roll(single, st, other, y_norm, np.asarray(est.dcm, dtype=float), self.hip,
+                  self._consts(), float(dt), H)  # fmt: skip
+        return H
+
+    def _torso_sample(self, reading):
+        """``reading`` in the torso frame with the calibration applied (the start-up
+        calibration's ticks at rest; the tick's own: :func:`_feedback_tick`)."""
+        if reading is None or (self.mount is None and self.calibration is None):
+            return reading
+        w, a = reading.angular_velocity, reading.linear_acceleration
+        if self.mount is not None:
+            w, a = self.mount.rates(w, a)
+        if self.calibration is not None:
+            c = self.calibration
+            w, a = w - c.gyro_bias, c.level @ a
+        return _Sample(reading.t, reading.orientation, w, a)
+
+    def _apply(self, calibration: ImuCalibration | None) -> None:
+        """Write ``calibration`` (gyro bias, levelling) into the feedback's state."""
+        fb = self._fb
+        fb[_B_CAL] = 0.0 if calibration is None else 1.0
+        if calibration is not None:
+            fb[_B_BIAS : _B_BIAS + 3] = calibration.gyro_bias
+            fb[_B_LEVEL : _B_LEVEL + 9] = np.asarray(calibration.level, dtype=float).ravel()
+        self._applied = calibration
 
     @property
     def calibrating(self) -> bool:
@@ -345,40 +554,6 @@ class Stabilizer:
             self._samples.clear()
             self.estimator.restart()
         return targets
-
-    def _hip_strategy(self, targets, est: StateEstimate, dt: float) -> np.ndarray:
-        """The rotation that turns the torso target toward the stance sole's outer side (hip
-        strategy, ``k_hip``). In single support, with ``u`` the stance sole's lateral axis
-        pointing away from the other sole (the side no step can reach) and
-        ``s = (ξ − p_stance)·u`` the estimated DCM's offset from the stance sole's centre
-        along it, the roll is ``h = min(k_hip (s − hip_band)⁺, max_hip)`` about ``z × u``:
-        ``Exp(h (z × u)) R_ref``,
-        the torso's top thrown toward the fall. Spinning the upper body that way takes
-        angular momentum from the fall: the centroidal moment pivot moves beyond the sole's
-        edge while the torso accelerates (benchmarks/pushes.md). The roll grows at once along
-        its direction; any other change (shrinking, turning, double support: back to 0) goes
-        at ``hip_release`` rad/s at most (a fast return would throw the DCM out again)."""
-        g = self.gains
-        want = np.zeros(2)
-        if targets.phase != "double":
-            st = targets.support_placement
-            other = targets.r_sole if targets.support == "l_sole" else targets.l_sole
-            y = st.rotation[:2, 1]
-            y = y / max(math.hypot(y[0], y[1]), 1e-9)
-            p = st.translation[:2]
-            u = y if (p - other.translation[:2]) @ y >= 0 else -y
-            s = (est.dcm[:2] - p) @ u - g.hip_band
-            if s > 0:
-                want = u * min(g.k_hip * s, g.max_hip)
-        h = self.hip
-        if want @ h >= h @ h:  # growing along its direction (or from rest): at once
-            h = want
-        else:
-            h = h + clip_norm(want - h, g.hip_release * dt)
-        self.hip = h
-        R = np.empty((3, 3))
-        exp3_into(np.array([-h[1], h[0], 0.0]), R)
-        return R
 
     def _shifted(
         self, targets, com_vel_ref: np.ndarray, est: StateEstimate, e: np.ndarray, dt: float

@@ -283,6 +283,11 @@ def feasible_shift(
     return out
 
 
+def _dead_zone(x: float, band: float) -> float:
+    """``sign(x) max(|x| − band, 0)``."""
+    return (1.0 if x > 0 else -1.0 if x < 0 else 0.0) * max(abs(x) - band, 0.0)
+
+
 def bend(ph: Phase, i: int, dt: float, swing: SwingParams) -> tuple[np.ndarray, np.ndarray]:
     """The share ``g`` (0 → 1) of a landing change added to the swing sole from tick ``i`` to
     the end of its phase, and ``dg/dt``: ``g = (f(s) − f(s_i)) / (1 − f(s_i))`` with ``f``
@@ -363,6 +368,7 @@ class StepAdjuster:
         self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
         #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
         self._landing_mean = np.zeros((2, 6))
+        self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
@@ -380,22 +386,30 @@ class StepAdjuster:
         side = ref.stance_side(i)
         return self.baseline[0 if side == "left" else 1] if side is not None else np.zeros(2)
 
+    def _dcm_ref(self, ref: WalkingReference, i: int) -> np.ndarray:
+        """``ref.dcm_at(i)``, from the whole walk's array (built once per reference)."""
+        if self._dcm[0] is not ref:
+            self._dcm = (ref, ref.com[:, :2] + ref.com_vel[:, :2] / ref.omega)
+        return self._dcm[1][i]
+
     def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> tuple[Phase, np.ndarray]:
         """The current phase and the DCM error beyond the dead band, ``dz(ξ_meas − ξ_ref − b)``
         (``band_x``, ``band_y`` in the stance sole's heading frame around ``b``, the stance
         side's running mean of the error, :attr:`baseline`: what an unpushed walk shows)."""
         ph = self.phases[self.phase_of[i]]
-        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
+        d = self._dcm_ref(ref, i)
+        e0, e1 = float(dcm[0]) - float(d[0]), float(dcm[1]) - float(d[1])
         c, s = self._heading(ref, i)
-        local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]]) - self._centre(ref, i)
+        b0, b1 = self._centre(ref, i)
+        x, y = c * e0 + s * e1 - b0, -s * e0 + c * e1 - b1
         p = self.params
-        band = np.array([p.band_x, p.band_y], dtype=float)
+        band_x, band_y = p.band_x, p.band_y
         end = max(self.episode + p.episode_steps, self.end) if self.episode is not None else 0
         if p.catch_band is not None and ph.kind == "single" and self.caught_step <= ph.step < end:
-            band = np.minimum(band, p.catch_band)  # a catch under way: the whole error
-        local = np.sign(local) * np.maximum(np.abs(local) - band, 0.0)
-        e = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
-        return ph, e
+            band_x, band_y = min(band_x, p.catch_band), min(band_y, p.catch_band)  # a catch
+        x = _dead_zone(x, band_x)
+        y = _dead_zone(y, band_y)
+        return ph, np.array([c * x - s * y, s * x + c * y])
 
     def _track_baseline(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> None:
         """In single support, the running mean (time constant ``baseline_tau``) of the
@@ -403,8 +417,10 @@ class StepAdjuster:
         either foot: sideways, toward the side it walks to), fed only by errors inside the
         band around it (a push does not move it)."""
         tau = self.params.baseline_tau
+        if tau <= 0:
+            return
         side = ref.stance_side(i)
-        if tau <= 0 or side is None:
+        if side is None:
             return
         e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
         c, s = self._heading(ref, i)
@@ -528,16 +544,18 @@ class StepAdjuster:
         p = self.params
         if not self.enabled:
             return None
-        self._track_baseline(ref, i, dcm)
+        if p.baseline_tau > 0:
+            self._track_baseline(ref, i, dcm)
         if p.landing_catch > 0 and ref.support[i] != SUPPORT_DOUBLE:
             caught = self._caught is not None and self.phase_of[self._caught] == self.phase_of[i]
             if not caught and self.error(ref, i, dcm)[1].any():
                 self._caught = i  # the tick the DCM error left the band in this swing
         if i - self.last_tick < p.hold_ticks:
             return None
-        ph, err = self.error(ref, i, dcm)
+        ph = self.phases[self.phase_of[i]]
         if ph.kind == "single":
-            if (ph.i1 - i) * ref.dt < p.min_remaining or (i - ph.i0) * ref.dt < p.settle - 1e-9:
+            dt = ref.dt
+            if (ph.i1 - i) * dt < p.min_remaining or (i - ph.i0) * dt < p.settle - 1e-9:
                 return None
             k = int(ph.step)
         elif ph.kind == "double" and p.double_support and self.episode is not None:
@@ -546,7 +564,10 @@ class StepAdjuster:
             k = int(ph.step) + 1
         else:
             return None
-        if not err.any() or k >= len(self.plan.steps):
+        if k >= len(self.plan.steps):
+            return None
+        err = self.error(ref, i, dcm)[1]  # (only where a re-plan may follow: the tick's cost)
+        if not err.any():
             return None
         if self.episode is not None and p.episode_steps > 0:
             end = max(self.episode + p.episode_steps, self.end)

@@ -259,8 +259,9 @@ def run_physics(
             if r["loop"].startswith("closed"):
                 share = r.get("feedback_share")
                 console.print(
-                    f"  {r['solver']} {r['loop']} loop: estimator + feedback "
-                    f"{'-' if share is None else f'{100 * share:.0f} %'} of the tick (median); "
+                    f"  {r['solver']} {r['loop']} loop: estimator + feedback + step adjustment "
+                    f"{'-' if share is None else f'{100 * share:.0f} %'} of the tick "
+                    "(wbc.balance.live.loop_share); "
                     f"goals beyond a joint limit before clamping: "
                     f"{r['goal_limit_excess_deg']:.2f}° max"
                 )

@@ -396,10 +396,12 @@ class Session:
 
     ``stabilizer`` (a :class:`wbc.balance.stabilizer.Stabilizer`, or None): closed loop, it
     reads the sensors and adjusts each tick's targets before the solve (its time is
-    :attr:`feedback_time`, the solve's :attr:`solve_time`); ``stabilizer.enabled = False``
-    (or None) is the open loop. ``stepping`` (a :class:`wbc.balance.stepping.StepAdjuster`,
-    or None; closed loop only): each tick it may re-plan the footsteps from the stabilizer's
-    last DCM estimate; the re-planned reference replaces :attr:`ref` (:meth:`set_reference`).
+    :attr:`feedback_time`, the solve's :attr:`solve_time`, the closed loop's whole with the
+    step adjustment :attr:`loop_time`: :func:`wbc.balance.live.loop_share`);
+    ``stabilizer.enabled = False`` (or None) is the open loop. ``stepping`` (a
+    :class:`wbc.balance.stepping.StepAdjuster`, or None; closed loop only): each tick it may
+    re-plan the footsteps from the stabilizer's last DCM estimate; the re-planned reference
+    replaces :attr:`ref` (:meth:`set_reference`).
     ``hold`` (a :class:`wbc.balance.retime.PhaseHold`, or None; closed loop only): in
     :meth:`at_time`, a lift-off whose DCM is not ready waits — the last double-support tick
     is replayed and the rest of the walk runs later by :attr:`delay` seconds.
@@ -422,7 +424,10 @@ class Session:
         self.hold = hold
         self.delay = 0.0  # s the walk runs behind its reference's clock (lift-offs held)
         self._last_time: float | None = None  # session time of the last at_time call
-        self.stepping_time = 0.0  # s, the last tick's re-plan check (and re-plan)
+        #: s, the last tick's step adjustment: the step timing and lift-off hold checks of
+        #: :meth:`at_time`, the re-plan check (and re-plan)
+        self.stepping_time = 0.0
+        self._clock_time = 0.0  # s, :meth:`at_time`'s checks before the tick it calls
         if self.options.mode not in MODES:
             raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
         self.controller, self.robot, self.ref = controller, robot, ref
@@ -499,6 +504,7 @@ class Session:
         of the whole interval, not of one reference tick.
         """
         stab = self.stabilizer
+        self.stepping_time, self._clock_time = self._clock_time, 0.0
         if (
             self.stepping is not None
             and stab is not None
@@ -509,7 +515,7 @@ class Session:
             new = self.stepping.update(self.ref, i, stab.last.dcm)
             if new is not None:
                 self.set_reference(new, i)
-            self.stepping_time = time.perf_counter() - start
+            self.stepping_time += time.perf_counter() - start
         targets = self.targets(i)
         gap = 1 if self._last_index is None else max(1, i - self._last_index)
         self._last_index = i
@@ -582,35 +588,33 @@ class Session:
         reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off)."""
         ref = self.ref
         last, stab = self._last_index, self.stabilizer
-        if (  # step timing: the clock runs faster while the stepping asks for it
-            self.stepping is not None
-            and last is not None
-            and self._last_time is not None
-            and stab is not None
-            and stab.enabled
-            and stab.last is not None
-        ):
+        closed = last is not None and stab is not None and stab.enabled and stab.last is not None
+        clock = 0.0  # s in the step timing and hold checks (stepping_time)
+        if self.stepping is not None and closed and self._last_time is not None:
+            start = time.perf_counter()  # step timing: the clock runs faster when asked
             self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
                 t - self._last_time
             )
+            clock = time.perf_counter() - start
         s = t - self.delay
         if s > ref.t[-1] - ref.t[0] + 1e-9:
             return None
         i = ref.index_at(ref.t[0] + s)
-        if (
-            self.hold is not None
-            and last is not None
-            and i > last
-            and self._last_time is not None
-            and stab is not None
-            and stab.enabled
-            and stab.last is not None
-            and self.hold.wait(ref, last, i, stab.last.dcm, t - self._last_time)
-        ):
-            self.delay = t - float(ref.t[last] - ref.t[0])
-            i = last
+        if self.hold is not None and closed and i > last and self._last_time is not None:
+            start = time.perf_counter()
+            if self.hold.wait(ref, last, i, stab.last.dcm, t - self._last_time):
+                self.delay = t - float(ref.t[last] - ref.t[0])
+                i = last
+            clock += time.perf_counter() - start
         self._last_time = t
+        self._clock_time = clock
         return self.tick(i)
+
+    @property
+    def loop_time(self) -> float:
+        """s, the last tick's closed loop: step adjustment (:attr:`stepping_time`), sensor
+        reads, estimator and feedback (:attr:`feedback_time`)."""
+        return self.feedback_time + self.stepping_time
 
 
 def run(
