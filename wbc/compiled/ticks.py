@@ -447,20 +447,23 @@ def _cascade(
         # The damped last level (one minimiser) takes its rows most violated first, from its
         # solution without them (``direct``); if that fails, once more as the levels above:
         # from the feasible Δq so far, the rows the level above held joining at once. Its
-        # solve without the rows starts from the bounds it ended the last tick with, its rows
-        # held (along walk10's walk_strict that solve took 1201 subproblems, p99 9, from
-        # there; 1639, p99 16, from its own end without rows at the last tick: the last
-        # tick's rows hold the joints the rows will hold again, and a bound the new rows
-        # make inconsistent is released at once, :func:`~wbc.compiled.lsq.solve_level`)
+        # solve without the rows starts from that solve's bounds at the last tick when
+        # ``states`` has a row for them (``states[L]``: the last tick's end, with its rows,
+        # took that solve 7-10 subproblems on walk_strict's slowest ticks)
         entry = dq.copy()
         direct = last and mu > 0.0
         kept = states[k].copy()
+        free = states.shape[0] > n_levels  # (a row for the last level's set without its rows)
         status = OK
         for _ in range(2):
             warm = _any(working[k], g1)
             status = OK
             if (r1 > r0 or last) and not warm:
+                if direct and free:  # (its set without the rows at the last tick)
+                    states[k, :] = states[n_levels]
                 status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
+                if direct and free:
+                    states[n_levels, :] = states[k]
             if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
                 soft_from = g1 if level_hard[k] else g0
                 if not warm and k > 0 and not direct:
@@ -520,7 +523,9 @@ def cascade_solve(
 
     ``level_rows``: row boundaries of the levels in J (L + 1 entries); ``g_rows``: those of
     the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
-    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated);
+    and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated), and
+    ``states[L]`` if given (L + 1 rows) the last level's without its inequality rows (the
+    warm start of that solve);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
     rows kept (work space); ``params``: [(unused), μ, tolerance of hard levels,
     tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.

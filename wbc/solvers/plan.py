@@ -685,8 +685,8 @@ class CascadePlan(_Plan):
         self.level_hard = np.array(hard, dtype=np.bool_)
         self.error_views = self.rows.error_views()
         # (shared by the solver's plans; cleared before every tick: forget_warm_start, but
-        # for the last level's)
-        self.states = self.scratch.get("states", (len(levels), nv), np.int8)
+        # for the last level's and, after it, that level's without its inequality rows)
+        self.states = self.scratch.get("states", (len(levels) + 1, nv), np.int8)
         self.states.fill(0)
         self.warm_start = self.states
         self.damped_level = len(levels) - 1
