@@ -25,7 +25,8 @@ before / after of that change, side by side.
 ``--slowest N``: also, per controller, the p99 of each tick's smallest time over the rounds
 (the machine's preemptions taken out: with 3 rounds a tick is slow in all three only by its
 own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; * a phase's
-first tick).
+first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
+tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
