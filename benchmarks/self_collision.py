@@ -25,7 +25,8 @@ before / after of that change, side by side.
 ``--slowest N``: also, per controller, the p99 of each tick's smallest time over the rounds
 (the machine's preemptions taken out: with 3 rounds a tick is slow in all three only by its
 own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; * a phase's
-first tick).
+first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
+tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
@@ -240,16 +241,28 @@ def table(robot, trajectory: str, args) -> None:
 
 def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:
     """Per controller: the p99 of each tick's smallest time over the rounds, and its n
-    slowest ticks (tick, µs, support; * the first tick of a support phase)."""
+    slowest ticks (tick, µs, support; * the first tick of a support phase); then the
+    issue's tail (deliverable 3): the slowest first tick of a support phase and the p99 of the
+    walk's first 5 % of ticks, each over the median."""
     first = set((np.flatnonzero(support[1:] != support[:-1]) + 1).tolist())
     print("\neach tick's smallest time over the rounds (preemptions out):")
+    tails = []
     for name, runs in times.items():
         t = np.min(runs, axis=0)
         ticks = ", ".join(
             f"{i}{'*' if i in first else ''} {t[i]:.0f} ({support[i]})"
             for i in np.argsort(t)[::-1][:n].tolist()
         )
-        print(f"- {name}: median {np.median(t):.1f}, p99 {np.percentile(t, 99):.1f} µs; {ticks}")
+        med = np.median(t)
+        print(f"- {name}: median {med:.1f}, p99 {np.percentile(t, 99):.1f} µs; {ticks}")
+        switch = max(t[sorted(first)]) if first else np.nan
+        head = np.percentile(t[: max(1, len(t) // 20)], 99)
+        tails.append(
+            f"- {name}: slowest first tick of a phase {switch:.0f} µs = {switch / med:.2f}×,"
+            f" first 5 % p99 {head:.0f} µs = {head / med:.2f}× the median"
+        )
+    print("\nthe tail (the same minima; target ≤ 2× the median):")
+    print("\n".join(tails))
 
 
 if __name__ == "__main__":

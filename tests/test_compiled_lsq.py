@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from scipy.linalg import null_space
 from scipy.optimize import lsq_linear
@@ -240,6 +240,41 @@ def test_a_warm_start_from_a_nearby_levels_set_answers_as_a_cold_start(seed, m, 
         np.testing.assert_allclose(x_warm, x_cold, rtol=0, atol=1e-12)
 
 
+@example(seed=0, m=6, p=30)  # (one whose answer holds the warm set's other bounds)
+@given(seed=seeds, m=st.sampled_from([6, 12]), p=st.sampled_from([30, 9]))
+def test_a_warm_start_made_inconsistent_by_a_row_releases_its_bounds(seed, m, p):
+    """An equality row joining on variables the warm set holds at their bounds (as a
+    self-collision row on the joints at their speed) makes the warm start inconsistent: with
+    a ridge only the bounds of the variables in the rows found dependent are released, not
+    the whole set, and the answer is the cold start's (one minimiser). Here the answer
+    holds every other bound of the warm set, so from there it takes two subproblems: the
+    warm set, then that set less the row's variable (before: the cold start after the
+    first, three or more in all)."""
+    A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
+    status, _, state, _ = solve(A, a, B, r, ridge, lower, upper)
+    assert status == OK
+    held = np.flatnonzero(state[N_BASE:]) + N_BASE
+    if held.size < 2:
+        return
+    j = held[0]  # a row on this variable alone, at a value inside its bounds
+    row = np.zeros(N)
+    row[j] = 1.0
+    A2, a2 = np.vstack([A, row]), np.r_[a, 0.5 * (lower[j] + upper[j])]
+    status_cold, x_cold, state_cold, n_cold = solve(A2, a2, B, r, ridge, lower, upper, max_iter=100)
+    status_warm, x_warm, state_warm, n_warm = solve(
+        A2, a2, B, r, ridge, lower, upper, state=state, max_iter=100
+    )
+    assert status_warm == status_cold
+    if status_cold != OK:
+        return
+    assert_kkt(x_warm, state_warm, A2, a2, B, r, ridge, lower, upper)
+    np.testing.assert_allclose(x_warm, x_cold, rtol=0, atol=1e-12)
+    rest = state.copy()
+    rest[j] = 0
+    if np.array_equal(np.delete(state_cold, j), np.delete(rest, j)):
+        assert n_warm == 2 <= n_cold, (n_warm, n_cold)
+
+
 def test_a_wrong_warm_start_still_converges():
     problem = random_level(3, 6, 30, 1e-6)
     _, x, state, _ = solve(*problem)
@@ -292,10 +327,11 @@ def test_inconsistent_equalities():
     status, x, _, _ = solve(A_bad, a_bad, B, r, ridge, lower, upper)
     assert status == INCONSISTENT
     assert np.all(np.isnan(x))
-    # also from a warm start (retried cold), and with more rows than unknowns
+    # also from a warm start (retried with the dependent rows' bounds released, then cold),
+    # and with more rows than unknowns
     status, _, _, count = solve(A_bad, a_bad, B, r, ridge, lower, upper,
                                 state=np.ones(N, np.int8))  # fmt: skip
-    assert status == INCONSISTENT and count == 2
+    assert status == INCONSISTENT and count == 3
     A_tall = np.random.default_rng(1).standard_normal((30, N))
     assert solve(A_tall, np.ones(30), B, r, ridge, lower, upper)[0] == INCONSISTENT
 
