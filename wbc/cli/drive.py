@@ -138,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     odo = view = sim = None
     holder: list[Any] = []
     if args.sim:
-        from ..drive.sim import Odometer, make_sim
+        from ..drive.sim import Odometer, make_sim, wait_for_compiled_ticks
         from .wiring import live_view
 
         def on_tick() -> None:
@@ -148,6 +148,8 @@ def run(args: argparse.Namespace) -> int:
                 view(sim)
 
         realtime = args.realtime or teleop is not None
+        if not realtime:  # a lockstep run is repeatable: no interim ticks on a cold cache
+            wait_for_compiled_ticks()
         sim, bus, imu = make_sim(robot, None, args.rate, realtime, on_tick)
         odo = Odometer(sim)
         holder.append(odo)
