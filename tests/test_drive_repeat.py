@@ -59,8 +59,13 @@ print(json.dumps({**r, "path_sha1": hashlib.sha1(path.tobytes()).hexdigest()}))
 def test_a_driven_run_is_the_same_in_two_processes() -> None:
     env = {k: v for k, v in os.environ.items() if k != "WBC_WAIT_FOR_COMPILE"}
     procs = [
-        subprocess.Popen([sys.executable, "-c", CHILD, mode], env={**env, "PYTHONHASHSEED": seed},
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+        subprocess.Popen(
+            [sys.executable, "-c", CHILD, mode],
+            env={**env, "PYTHONHASHSEED": seed},
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         for mode, seed in (("cold", "1"), ("warm", "2"))
     ]
     outs = [p.communicate(timeout=300) for p in procs]
