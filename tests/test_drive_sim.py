@@ -104,3 +104,7 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
     for bad in (-1.0, math.nan):
         with pytest.raises(ConfigurationError, match="yaw_rest_s must be"):
             Walker(robot, make(robot), imu, yaw_rest_s=bad)
+    for option, bad in (("stride_gain", 0.9), ("stride_gain", math.inf), ("yaw_learn", -0.1),
+                        ("yaw_learn", 1.5), ("yaw_learn", math.nan)):  # fmt: skip
+        with pytest.raises(ConfigurationError, match=f"{option} must be"):
+            Walker(robot, make(robot), imu, **{option: bad})
