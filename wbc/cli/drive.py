@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="no outer loop on the IMU-aided pose (the steps aim from the legs' odometry alone)",
     )  # fmt: skip
     parser.add_argument(
-        "--stride-gain", type=float, default=None, metavar="G",
+        "--stride-gain", type=number(1, 5), default=None, metavar="G",
         help="plan the steps up to G times longer where the odometry measures them short "
              "(default 1.5; 1: as commanded)",
     )  # fmt: skip
