@@ -94,7 +94,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             correct: bool = True, compensate: float | None = None,
             calibrate: float | None = None, track: bool = True,
             contact_reach: float | None = None, contact_rate: float | None = None,
-            yaw_rest: float | None = None, finish: bool = False, **kw):  # fmt: skip
+            yaw_rest: float | None = None, finish: bool = False,
+            stride_gain: float | None = None, yaw_learn: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -106,6 +107,10 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["contact_rate"] = contact_rate
     if yaw_rest is not None:
         options["yaw_rest_s"] = yaw_rest
+    if stride_gain is not None:
+        options["stride_gain"] = stride_gain
+    if yaw_learn is not None:
+        options["yaw_learn"] = yaw_learn
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
@@ -201,6 +206,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="the rest after the IMU's calibration that learns the gyro's bias "
                          "about the vertical (default: the Walker's DRIVE_YAW_REST_S; 0: "
                          "none, the default before 2026-12-05 11:40 UTC)")  # fmt: skip
+    ap.add_argument("--stride-gain", type=float, default=None, metavar="G",
+                    help="the largest gain on the planned stride for steps measured short "
+                         "(default: the Walker's DRIVE_STRIDE_GAIN; 1: none)")  # fmt: skip
+    ap.add_argument("--yaw-learn", type=float, default=None, metavar="K",
+                    help="the gain of the gyro's vertical bias learnt while walking (default: "
+                         "the Walker's DRIVE_YAW_LEARN; 0: at rest only)")  # fmt: skip
     ap.add_argument("--finish", action="store_true",
                     help="at each script's end the walker finishes the commanded path first "
                          "(Walker.stop(finish=True))")  # fmt: skip
@@ -225,6 +236,8 @@ def main(argv: list[str] | None = None) -> int:
         "contact_rate": args.contact_rate,
         "yaw_rest": args.yaw_rest,
         "finish": args.finish,
+        "stride_gain": args.stride_gain,
+        "yaw_learn": args.yaw_learn,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]

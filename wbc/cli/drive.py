@@ -67,6 +67,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-track", dest="track", action="store_false",
         help="no outer loop on the IMU-aided pose (the steps aim from the legs' odometry alone)",
     )  # fmt: skip
+    parser.add_argument(
+        "--stride-gain", type=number(1, 5), default=None, metavar="G",
+        help="plan the steps up to G times longer where the odometry measures them short "
+             "(default 1.5; 1: as commanded)",
+    )  # fmt: skip
     add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
         "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
@@ -138,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     odo = view = sim = None
     holder: list[Any] = []
     if args.sim:
-        from ..drive.sim import Odometer, make_sim
+        from ..drive.sim import Odometer, make_sim, wait_for_compiled_ticks
         from .wiring import live_view
 
         def on_tick() -> None:
@@ -148,6 +153,8 @@ def run(args: argparse.Namespace) -> int:
                 view(sim)
 
         realtime = args.realtime or teleop is not None
+        if not realtime:  # a lockstep run is repeatable: no interim ticks on a cold cache
+            wait_for_compiled_ticks()
         sim, bus, imu = make_sim(robot, None, args.rate, realtime, on_tick)
         odo = Odometer(sim)
         holder.append(odo)
@@ -167,9 +174,10 @@ def run(args: argparse.Namespace) -> int:
         bus = make_bus(args, robot, args.port)
         imu = make_imu(args, bus)
     print("wbc drive: measuring the velocity limits and the balance window on the model ...")
+    extra = {} if args.stride_gain is None else {"stride_gain": args.stride_gain}
     walker = Walker(robot, controller, imu, closed=not args.open_loop,
                     compensate=args.compensate, correct=args.correct,
-                    track=args.track)  # fmt: skip
+                    track=args.track, **extra)  # fmt: skip
     lim = walker.limits
     print(
         f"limits: forward {100 * lim.vx_forward:.1f} cm/s, backward {100 * lim.vx_backward:.1f} "

@@ -69,6 +69,23 @@ class Odometer:
         return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 
 
+def wait_for_compiled_ticks() -> None:
+    """Before a lockstep simulated run: compile the package's control ticks if they are not
+    in the disk cache, and wait for them (:meth:`wbc.compiled.dispatch.Ticks.wait_all`), so
+    that every tick of the run solves on the compiled tick. Otherwise, on a cold cache, the
+    solvers solve on the interim path (the backend cascade: the same QP, answers that differ
+    in the last bits) until the background build ends — a wall-clock moment — and a driven
+    walk, which amplifies the last bit into centimetres over 30 s, was not repeatable across
+    processes (``tests/test_drive_repeat.py``). (Ticks of task types defined outside the
+    package are built when first asked for, as before.) A real-time run does not wait."""
+    from ..solvers.plan import numba_available, package_ticks
+
+    if numba_available():
+        ticks = package_ticks()
+        ticks.start_build()
+        ticks.wait_all()
+
+
 def make_sim(robot: Robot, variation: Any = None, rate: float = 100.0, realtime: bool = False,
              on_tick: Callable[[], None] | None = None):  # fmt: skip
     """(simulation, bus, imu) for ``robot`` standing in its standing pose (``variation``: a
@@ -122,6 +139,8 @@ def drive_sim(
             if view is not None:
                 view(holder[0].sim)
 
+    if not realtime:
+        wait_for_compiled_ticks()  # (repeatable: no interim ticks on a cold cache)
     sim, bus, imu = make_sim(robot, variation, realtime=realtime, on_tick=on_tick)
     if push is not None:
         start, force, duration = push

@@ -50,7 +50,7 @@ from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
-from .odometry import PoseOdometry
+from .odometry import PoseOdometry, StrideGain
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
 DRIVE_K_DCM = 0.1
@@ -134,6 +134,20 @@ DRIVE_FINISH_TOLERANCE = (0.005, math.radians(1.0))
 DRIVE_CONTACT_REACH = 0.005
 DRIVE_CONTACT_RATE = 0.02
 
+#: the largest gain on the planned stride (forward, sideways) for legs whose steps fall short
+#: (:class:`~wbc.drive.odometry.StrideGain`, with the outer loop; the stride then within the
+#: velocity limits); 1: the steps as commanded, the make-up alone (``EngineParams.catch_up``,
+#: 25 % of the limits) closing the lag. Random sequences over ten randomised Bioloids, side by
+#: side (benchmarks/drive.md, 2026-12-05 13:25 UTC): displacement within 15 % 48 -> 53 of 100
+#: (the compliant model 7: a mean 107 -> 71 mm off), heading 64 -> 63 of 80, no fall and no
+#: failed solve either way; the sideways envelope at 3 cm/s 20/20
+DRIVE_STRIDE_GAIN = 1.5
+
+#: the gain of the gyro's vertical bias learnt while walking (:class:`~wbc.drive.odometry.
+#: PoseOdometry` ``walk_gain``: per landing, the stance sole's heading by the gyro against the
+#: encoders'); 0: learnt at rest only (``yaw_rest_s``)
+DRIVE_YAW_LEARN = 0.0
+
 #: the state estimate's settings for driven walks (:class:`~wbc.balance.estimator.
 #: StateEstimator`)
 DRIVE_ESTIMATOR = MappingProxyType({"bias_gain": 0.05})
@@ -189,7 +203,11 @@ class Walker:
     ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`, 1.5 s) > 0: after
     the IMU's calibration the walker stands this long more, without torso feedback
     (:attr:`calibrating` stays True, a :meth:`start` waits), while the odometry learns the
-    gyro's bias about the vertical.
+    gyro's bias about the vertical. ``stride_gain`` (with the outer loop; default
+    :data:`DRIVE_STRIDE_GAIN`, 1.5; 1: off): the steps planned up to this much longer, forward
+    and sideways, where the odometry measures them falling short
+    (:class:`~wbc.drive.odometry.StrideGain`). ``yaw_learn`` (default
+    :data:`DRIVE_YAW_LEARN`, 0: off) > 0: the gyro's vertical bias learnt while walking too.
     """
 
     def __init__(
@@ -210,6 +228,8 @@ class Walker:
         contact_reach: float = DRIVE_CONTACT_REACH,
         contact_rate: float = DRIVE_CONTACT_RATE,
         yaw_rest_s: float = DRIVE_YAW_REST_S,
+        stride_gain: float = DRIVE_STRIDE_GAIN,
+        yaw_learn: float = DRIVE_YAW_LEARN,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -231,6 +251,10 @@ class Walker:
             raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
         if not (math.isfinite(yaw_rest_s) and yaw_rest_s >= 0):
             raise ConfigurationError(f"yaw_rest_s must be a finite number >= 0, got {yaw_rest_s}")
+        if not (math.isfinite(stride_gain) and stride_gain >= 1):
+            raise ConfigurationError(f"stride_gain must be a finite number >= 1, got {stride_gain}")
+        if not (math.isfinite(yaw_learn) and 0 <= yaw_learn <= 1):
+            raise ConfigurationError(f"yaw_learn must be a number in [0, 1], got {yaw_learn}")
         self.robot = robot
         self.controller = controller
         self.imu = imu
@@ -281,7 +305,9 @@ class Walker:
         self._finish_by: int | None = None  # a finishing stop: the last step it may take
         self.engine.on_landing = self._landed if closed else None
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
-        self.odometry = PoseOdometry(robot) if track else None
+        self.odometry = PoseOdometry(robot, walk_gain=yaw_learn) if track else None
+        #: the steps' measured shortfall (with the outer loop and ``stride_gain`` > 1)
+        self.stride = StrideGain(stride_gain) if track and stride_gain > 1 else None
         self._yaw_rest_left = round(yaw_rest_s / self.engine.dt) if track else 0  # ticks
         self._offset: np.ndarray | None = None  # measured − planned frame at the last landing
         self.last: EngineTick | None = None
@@ -381,6 +407,8 @@ class Walker:
         odo = self.odometry
         if odo is not None and odo.started:
             measured = odo.landed(step.side, q)
+            if self.stride is not None:
+                self.engine.stride_gain[:] = self.stride.landed(self.engine._centre, measured)
             off = measured - self.engine._centre
             off[2] = wrap_angle(off[2])
             self._offset = off
@@ -442,6 +470,8 @@ class Walker:
                 est = stab.last
                 if engine.walking and not odo.started:
                     odo.start(engine.feet, yaw_of(est.rotation))
+                    if self.stride is not None:
+                        self.stride.restart()
                 elif not engine.walking and odo.started:
                     odo.stop()
                 if resting:

@@ -334,6 +334,9 @@ class WalkEngine:
         #: the point the command moves (x, y in the walking frame, m; default the soles'
         #: midpoint): the commanded pose is this point's, e.g. the Walker's base
         self.origin = np.zeros(2)
+        #: the planned stride × this (x, y, heading; then within the limits): a caller that
+        #: measures the steps falling short (compliant servos) plans them longer
+        self.stride_gain = np.ones(3)
 
     # ------------------------------------------------------------------ commands
     @property
@@ -480,7 +483,7 @@ class WalkEngine:
                 mid = 0.5 * (lo + hi)
                 lo, hi = (mid, hi) if _inside(lim, cmd + mid * extra) else (lo, mid)
             share = lo
-        return np.asarray(lim.clip(*(cmd + share * extra))) * T
+        return np.asarray(lim.clip(*(self.stride_gain * (cmd + share * extra)))) * T
 
     def _replan(self, first: SegmentKind) -> None:
         """At the start of a double support (or the start phase): commit the next step from
