@@ -98,6 +98,10 @@ class Gains:
     #: bias / (0.2 + kin_tilt) instead of bias / 0.2 (issue 30, benchmarks/physics.md); used
     #: when the Stabilizer builds its estimator (not with one given: ``wbc drive``'s)
     kin_tilt: float = 0.5
+    #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
+    #: rotation of the tick the joints were read (a tick before the IMU sample: the
+    #: deployment reads right after the goals; StateEstimator ``joint_lag``); 0: this tick's
+    joint_lag: float = 0.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
     transfer: float = 0.15
@@ -118,6 +122,7 @@ class Gains:
             "max_shift",
             "max_offset",
             "kin_tilt",
+            "joint_lag",
             "k_hip",
             "hip_band",
             "max_hip",
@@ -233,9 +238,10 @@ class Stabilizer:
         self.imu = imu
         self.gains = (gains or Gains()).check()
         self.enabled = enabled
+        g = self.gains
         self.estimator = estimator or StateEstimator(robot, com_height, use_imu=imu is not None,
-                                                     gyro_heading=self.gains.k_yaw > 0,
-                                                     kin_gain=self.gains.kin_tilt)  # fmt: skip
+                                                     gyro_heading=g.k_yaw > 0, kin_gain=g.kin_tilt,
+                                                     joint_lag=g.joint_lag > 0)  # fmt: skip
         self.integral = np.zeros(3)
         self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
         self.hip = np.zeros(2)  # hip-strategy roll (rad, horizontal: toward where the top goes)
