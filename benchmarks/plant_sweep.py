@@ -8,6 +8,10 @@ models up / N, and on the nominal model the torso deviation and travelled / plan
 
     nice -n 5 python benchmarks/plant_sweep.py --models 10 --walks walk10_wb turn_wb \\
         lateral_wb --only "closed" "closed + step"
+
+``--gains`` and ``--stepping`` each take several JSON settings: every variant runs with each
+(gains, stepping) pair side by side in one run (:func:`settings`), e.g. the old and the new
+default under the same load.
 """
 
 from __future__ import annotations
@@ -15,6 +19,8 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
+from dataclasses import fields
 
 from wbc import load_robot
 from wbc.balance.stabilizer import Gains
@@ -62,6 +68,35 @@ def spec_of(
                                 stepping, calibrate_s=calibrate_s)  # fmt: skip
 
 
+def json_setting(cls: type) -> Callable[[str], dict]:
+    """The argparse type of one ``--gains`` / ``--stepping`` setting: a JSON object of
+    ``cls``'s keywords (anything else: one line naming the argument and what is allowed)."""
+    allowed = {f.name for f in fields(cls)}
+
+    def parse(text: str) -> dict:
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError as err:
+            raise argparse.ArgumentTypeError(f"not JSON ({err.msg}): {text!r}") from None
+        if not isinstance(value, dict):
+            raise argparse.ArgumentTypeError(f"a JSON object of keywords, got {text!r}")
+        unknown = sorted(set(value) - allowed)
+        if unknown:
+            names = ", ".join(sorted(allowed))
+            raise argparse.ArgumentTypeError(
+                f"{cls.__name__} has no {', '.join(unknown)} (allowed: {names})"
+            )
+        return value
+
+    return parse
+
+
+def settings(gains: list[dict], stepping: list[dict]) -> list[tuple[dict, dict]]:
+    """Every (Gains keywords, SteppingParams keywords) pair of ``--gains`` × ``--stepping``,
+    in the order given (gains outer): the settings each variant runs with side by side."""
+    return [(g, s) for g in gains for s in stepping]
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--solver", default="wqp-daqp")
@@ -73,11 +108,18 @@ def main() -> None:
     p.add_argument(
         "--gains",
         nargs="+",
-        default=["{}"],
+        type=json_setting(Gains),
+        default=[{}],
         help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'; several: each variant with each, "
         "side by side in one run (e.g. the old and the new default)",
     )
-    p.add_argument("--stepping", default="{}", help="JSON of SteppingParams keywords")
+    p.add_argument(
+        "--stepping",
+        nargs="+",
+        type=json_setting(SteppingParams),
+        default=[{}],
+        help="JSON of SteppingParams keywords; several: as --gains (every pair of the two)",
+    )
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
     p.add_argument(
         "--calibrate",
@@ -99,26 +141,18 @@ def main() -> None:
         plants = [plants[k] for k in args.plants]
     print(f"{args.solver} ({entry.stack}), {args.models} randomised plants (seed {args.seed})")
     print(
-        "| variant | gains | walk | nominal dev° | nominal dist | up | fallen models "
+        "| variant | gains | stepping | walk | nominal dev° | nominal dist | up | fallen models "
         "| dev° per plant | s |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for walk in args.walks:
         ref = traj.build(walk, robot)
         _, rec = run_entry(entry, robot, ref, "tick")
-        runs = [(label, g) for label in VARIANTS for g in args.gains]
-        for label, gains in runs:
+        runs = [(label, g, s) for label in VARIANTS for g, s in settings(args.gains, args.stepping)]
+        for label, gains, step_kw in runs:
             if args.only and label not in args.only:
                 continue
-            variant = VARIANTS[label]
-            comp, spec = spec_of(
-                variant,
-                entry,
-                ref,
-                json.loads(gains),
-                json.loads(args.stepping),
-                args.calibrate,
-            )
+            comp, spec = spec_of(VARIANTS[label], entry, ref, gains, step_kw, args.calibrate)
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
             fallen, worst, why = [], [], []
@@ -131,7 +165,8 @@ def main() -> None:
             dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
             nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
             print(
-                f"| {label} | {gains} | {walk} | {nominal} | {dist} | "
+                f"| {label} | {json.dumps(gains)} | {json.dumps(step_kw)} | {walk} | {nominal} "
+                f"| {dist} | "
                 f"{len(plants) - len(fallen)}/{len(plants)} | {fallen} | {worst} | "
                 f"{time.perf_counter() - started:.0f} |",
                 flush=True,

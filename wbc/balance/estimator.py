@@ -36,7 +36,12 @@ placement, ``p_base = p_sole − R · ᵇp_sole`` (averaged over both soles in d
 ``c = p_base + R · ᵇc``. **CoM velocity**: the time derivative of the CoM *relative to the
 stance sole(s)*, ``d/dt (R (ᵇc − ᵇp_sole))`` (so a support switch never makes it jump),
 low-pass filtered (first order, ``velocity_cutoff`` Hz, against the 0.29° encoder steps).
-**DCM** ``ξ = c + ċ / ω₀`` with ``ω₀ = √(g / z_c)``.
+**DCM** ``ξ = c + ċ / ω₀`` with ``ω₀ = √(g / z_c)``. With ``joint_lag`` (the deployment
+reads the servos right after writing the goals, so the joints are a tick older than the IMU
+sample) these kinematic terms use the filter's rotation of the joints' tick: a fresh rotation
+on stale joints reads a body rocking at ω as a CoM moving by ``ω × (c − p_sole)`` every tick,
+and its derivative as a CoM velocity (issue 30: 20–40 mm of false DCM on stiff plants with
+latency, ringing at a few Hz).
 
 **The landed sole** (``anchor_band`` > 0; off by default): a sole that enters the support
 is anchored where the estimate of the tick before and the present joints put it (its
@@ -79,7 +84,8 @@ _S_ROT, _S_HAS, _S_REL, _S_VALID, _S_VEL, _S_BIAS, _S_SIZE = 0, 9, 10, 16, 18, 2
 # its rotation in its parent body (9), position (3), the parent's row), kin_gain, bias_gain
 _C_TILT, _C_CUTOFF, _C_OMEGA0, _C_HEADING, _C_INV_MASS, _C_TORSO, _C_SOLES = 0, 1, 2, 3, 4, 5, 14
 _SOLE_WIDTH = 13
-_C_KIN = _C_SOLES + _SOLE_WIDTH * len(SOLE_FRAMES)
+_C_LAG = _C_SOLES + _SOLE_WIDTH * len(SOLE_FRAMES)
+_C_KIN = _C_LAG + 1
 _C_BIAS, _C_SIZE = _C_KIN + 1, _C_KIN + 2
 
 
@@ -273,6 +279,7 @@ def _estimate(
                               + Rp[i, 2] * consts[r0 + 6 + j])  # fmt: skip
     R_kin, Ex, R, R_base = W[2], W[3], W[4], W[5]
     has = state[_S_HAS] > 0.5
+    joint_lag = consts[_C_LAG] > 0.5
     if not has or not imu or not gyro_heading or kin_gain > 0:  # R_kin = A0 · (ᵇR_sole0)ᵀ
         mul33t_into(anchor0, W[0], R_kin)
     if not has:  # start the filter at the kinematics' rotation (StateEstimator.reset)
@@ -310,7 +317,9 @@ def _estimate(
                 x, y = R[0, j], R[1, j]
                 R[0, j] = c * x - sn * y
                 R[1, j] = sn * x + c * y
-        mul33t_into(R, torso_b, R_base)
+        # the kinematic terms at the joints' time: the rotation of the tick they were read
+        # (``joint_lag``: the previous tick's filter, R0, still intact here) or this one's
+        mul33t_into(R0 if joint_lag and has else R, torso_b, R_base)
         for i in range(3):
             out[7, i] = gyro[i] + state[_S_BIAS + i]
     else:
@@ -396,7 +405,11 @@ class StateEstimator:
     orientation; ``velocity_cutoff`` (Hz) the CoM velocity filter; ``use_imu=False``:
     encoders only. ``bias_gain`` (1/s², 0: off) learns the gyro's remaining bias about the
     horizontal axes (module docstring): a bias error ``b`` left by the calibration at rest
-    otherwise tilts the estimate by ``b / tilt_gain`` for good.
+    otherwise tilts the estimate by ``b / tilt_gain`` for good. ``joint_lag``: the joints
+    given to :meth:`update` were read a tick before the IMU sample (the deployment reads the
+    servos right after writing the goals, the IMU at the next tick): the base, CoM and CoM
+    velocity then use the filter's rotation of that tick, so a body rotating at ω is not
+    read as a CoM moving by ``ω × r`` × the tick (module docstring).
     """
 
     def __init__(
@@ -410,6 +423,7 @@ class StateEstimator:
         bias_gain: float = 0.0,
         kin_gain: float = 0.0,
         anchor_band: float = 0.0,
+        joint_lag: bool = False,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -436,6 +450,7 @@ class StateEstimator:
         self._data = robot.model.createData()  # (the landed sole's kinematics, own data)
         self.bias_gain = float(bias_gain)
         self.kin_gain = float(kin_gain)
+        self.joint_lag = bool(joint_lag)
         self.robot = robot
         self.omega0 = float(np.sqrt(GRAVITY / com_height))
         self.use_imu = use_imu
@@ -449,8 +464,8 @@ class StateEstimator:
         table, links, soles = _kinematic_table(robot)
         consts = np.r_[
             self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
-            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, self.kin_gain,
-            self.bias_gain,
+            1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, float(joint_lag),
+            self.kin_gain, self.bias_gain,
         ]  # fmt: skip
         assert len(consts) == _C_SIZE and len(soles) == _SOLE_WIDTH * len(SOLE_FRAMES)
         # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and
