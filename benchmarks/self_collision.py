@@ -28,9 +28,18 @@ own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; *
 first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
 tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
+``--switch-parts``: after each table, where the first tick of a support phase spends its
+time: ours with the limit walked ``--rounds`` more times, each tick's parts timed as it runs
+(``time.perf_counter_ns`` around the stack's ``set_phase``, the solver's re-plan ``_plan``,
+the compiled plan's call and, inside it, the constraints' rows ``ConstraintRows.tick``; the
+rest of the loop's tick is the targets, the kinematics and the checks), each tick's smallest
+time over the rounds, then the median of the first ticks of the double- and single-support
+phases beside the other ticks (µs; these walks are not in the table above: the timers add
+~1 µs a tick).
+
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
-[--slowest 8]``.
+[--slowest 8] [--switch-parts]``.
 """
 
 from __future__ import annotations
@@ -53,8 +62,10 @@ from wbc.bench.peers import PlacoController, available
 from wbc.bench.trajectories import build
 from wbc.limits import SelfCollisionConstraint
 from wbc.paths import stacks_dir
+from wbc.solvers.hierarchical import HierarchicalQP
+from wbc.solvers.inequalities import ConstraintRows
 from wbc.solvers.plan import _Plan
-from wbc.stacks import build_stack
+from wbc.stacks import ControlStack, build_stack
 from wbc.walking.loop import StackController, run
 
 
@@ -135,6 +146,9 @@ def main() -> int:
     )
     parser.add_argument(
         "--slowest", type=int, default=0, help="the p99 of the per-tick minima, N slowest ticks"
+    )
+    parser.add_argument(
+        "--switch-parts", action="store_true", help="where a support phase's first tick goes"
     )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
@@ -237,6 +251,8 @@ def table(robot, trajectory: str, args) -> None:
         )
     if args.slowest:
         slowest(times, rec["support"], args.slowest)
+    if args.switch_parts:
+        switch_parts(robot, ref, args)
 
 
 def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:
@@ -263,6 +279,91 @@ def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> 
         )
     print("\nthe tail (the same minima; target ≤ 2× the median):")
     print("\n".join(tails))
+
+
+PARTS = ("tick", "set_phase", "re-plan", "plan call", "rows")
+
+
+@contextlib.contextmanager
+def timed_parts(acc: dict[str, int]):
+    """The parts of :data:`PARTS` but the tick timed into ``acc`` (ns, added up) inside."""
+    wrapped = [
+        (ControlStack, "set_phase", "set_phase"),
+        (HierarchicalQP, "_plan", "re-plan"),
+        (_Plan, "solve", "plan call"),
+        (ConstraintRows, "tick", "rows"),
+    ]
+    kept = [(cls, name, cls.__dict__[name]) for cls, name, _ in wrapped]
+    ns = time.perf_counter_ns
+
+    def timer(f, label):
+        def timed(*a, **k):
+            t = ns()
+            try:
+                return f(*a, **k)
+            finally:
+                acc[label] += ns() - t
+
+        return timed
+
+    for (cls, name, label), (_, _, f) in zip(wrapped, kept, strict=True):
+        setattr(cls, name, timer(f, label))
+    try:
+        yield
+    finally:
+        for cls, name, f in kept:
+            setattr(cls, name, f)
+
+
+def switch_parts(robot, ref, args) -> None:
+    """Per stack with its limit: the parts of each tick (:func:`timed_parts`), each tick's
+    smallest over ``args.rounds`` walks; the medians of the first ticks of the double- and
+    single-support phases and of the other ticks, µs."""
+    print("\nwhere a support phase's first tick goes (µs, each tick's minimum over the rounds):")
+    print(
+        "| controller | ticks | n | tick | set_phase | re-plan | plan call | of which rows"
+        " | the rest |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for stack in args.stacks:
+        spec = walk_spec(True, stack)
+        runs = []
+        for _ in range(args.rounds):
+            acc = dict.fromkeys(PARTS, 0)
+            per_tick: list[list[int]] = []
+            controller = StackController(build_stack({**spec, "solver": "hierarchical"}, robot))
+            track = controller.track
+
+            def tick(q, targets, dt, changed, track=track, acc=acc, per_tick=per_tick):
+                for k in acc:
+                    acc[k] = 0
+                t = time.perf_counter_ns()
+                out = track(q, targets, dt, changed)
+                acc["tick"] = time.perf_counter_ns() - t
+                per_tick.append([acc[k] for k in PARTS])
+                return out
+
+            controller.track = tick
+            with timed_parts(acc):
+                rec = run(controller, robot, ref)
+            runs.append(np.array(per_tick[-len(rec["solve_time"]) :], dtype=float) / 1e3)
+        parts = np.min(np.stack(runs), axis=0)  # (ticks, parts)
+        rest = parts[:, 0] - parts[:, 1] - parts[:, 2] - parts[:, 3]
+        support = rec["support"]
+        switch = np.flatnonzero(support[1:] != support[:-1]) + 1
+        groups = {
+            "first of double support": switch[support[switch] == 0],
+            "first of single support": switch[support[switch] != 0],
+            "the others": np.setdiff1d(np.arange(1, len(support)), switch),
+        }
+        for label, ticks in groups.items():
+            if not ticks.size:
+                continue
+            m = np.median(parts[ticks], axis=0)
+            print(
+                f"| {stack} | {label} | {ticks.size} | {m[0]:.1f} | {m[1]:.1f} | {m[2]:.1f} |"
+                f" {m[3]:.1f} | {m[4]:.1f} | {np.median(rest[ticks]):.1f} |"
+            )
 
 
 if __name__ == "__main__":
