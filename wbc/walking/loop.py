@@ -553,8 +553,9 @@ class Session:
         if stab is not None and stab.enabled:
             start = time.perf_counter()
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
-            if self.stepping is not None and stab.last is not None:  # the swing, measured
-                targets = self.stepping.land(targets, stab.last, self.q)
+            stepping = self.stepping
+            if stepping is not None and stepping.lands and stab.last is not None:
+                targets = stepping.land(targets, stab.last, self.q)  # the swing, measured
             self.feedback_time = time.perf_counter() - start
         start = time.perf_counter()
         self.failed = False
@@ -617,7 +618,8 @@ class Session:
         last, stab = self._last_index, self.stabilizer
         closed = last is not None and stab is not None and stab.enabled and stab.last is not None
         clock = 0.0  # s in the step timing and hold checks (stepping_time)
-        if self.stepping is not None and closed and self._last_time is not None:
+        stepping = self.stepping  # (rate 1 at every tick unless it hurries: not called)
+        if stepping is not None and closed and self._last_time is not None and stepping.hurries:
             start = time.perf_counter()  # step timing: the clock runs faster when asked
             self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
                 t - self._last_time
