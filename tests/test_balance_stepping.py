@@ -419,7 +419,7 @@ def _land_case(robot, walk10, params, rot_m, shift_m, i=MID):
     from wbc.walking.loop import support_roles
 
     session.support, session.swing = support_roles(walk10)
-    session._soles, session._swing = [], []
+    session._soles, session._swing, session._packs = [], [], []
     session._sole_targets(0)
     q0 = start_configuration(robot, walk10)
     session._torso = list(walk10.torso_rotations(np.eye(3)))

@@ -18,6 +18,7 @@ from wbc.walking.loop import (
     StackController,
     run,
     run_stepwise,
+    sole_pack,
     start_configuration,
     support_roles,
 )
@@ -312,3 +313,34 @@ def test_a_posture_on_the_non_leg_joints_only_removes_the_support_switch_spike(r
     near = np.concatenate([np.arange(s - 1, min(s + 4, len(speed))) for s in switches])
     assert speed[near].max() < 0.1 and speed.max() < 0.6
     assert metrics.compute(rec, robot)["foot_err_max_mm"] < 0.1
+
+
+def test_the_soles_pack_is_read_only_beside_the_placements_it_was_built_from(robot, walk10):
+    """The closed loop's tick reads the soles from the Session's pack (built once per walk);
+    targets whose soles were replaced after it (a driven walk's anchors, a test's) are read
+    from their own placements: the same answers as targets without a pack."""
+    import pinocchio as pin
+
+    from wbc.balance.stabilizer import Stabilizer
+
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10)
+    i = next(k for k in range(walk10.n) if session.targets(k).phase == "single")
+    t = session.targets(i)
+    left, right, pack = t.sole_pack
+    assert left is t.l_sole and right is t.r_sole
+    np.testing.assert_array_equal(pack, sole_pack(t.l_sole, t.r_sole))
+    h = t.l_sole.homogeneous
+    np.testing.assert_array_equal(pack[:16].reshape(4, 4), h)
+    assert pack[32] == max(np.hypot(h[0, 1], h[1, 1]), 1e-9)
+    moved = t.replace(l_sole=t.l_sole * pin.SE3(np.eye(3), np.array([0.03, 0.02, 0.0])))
+    q = session.q
+
+    def estimate(targets):
+        stab = Stabilizer(robot, walk10.com_height, lambda: q[7:].copy())
+        out = stab.adjust(targets, np.zeros(3), q, walk10.dt)
+        return stab.last.values.copy(), out.torso_rotation
+
+    stale, fresh = estimate(moved), estimate(moved.replace(sole_pack=None))
+    np.testing.assert_array_equal(stale[0], fresh[0])
+    np.testing.assert_array_equal(stale[1], fresh[1])
+    assert not np.array_equal(estimate(t)[0], fresh[0])  # (the pack's soles: another answer)

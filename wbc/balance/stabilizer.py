@@ -58,6 +58,7 @@ from ..exceptions import ConfigurationError
 from ..geometry import clip_norm, rot2, yaw_of
 from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
+from ..walking.loop import sole_pack
 from .estimator import StateEstimate, StateEstimator, _estimate, exp3_into, mul33t_into
 from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
 
@@ -269,9 +270,7 @@ def _feedback_tick(
     acc: np.ndarray,
     dt: float,
     select: int,
-    anchor0: np.ndarray,
-    anchor1: np.ndarray,
-    y_norm: float,
+    soles: np.ndarray,
     state: np.ndarray,
     fb: np.ndarray,
     R_ref: np.ndarray,
@@ -282,12 +281,13 @@ def _feedback_tick(
     """:meth:`Stabilizer.adjust`'s tick in one compiled call (a call and a small numpy
     operation each cost more than their arithmetic): the IMU calibration applied to the
     sample (``ω − b``, ``L a``), the state estimate (:func:`~wbc.balance.estimator._estimate`
-    into ``values``, ``state`` its filter's), the hip strategy (:func:`_hip_roll`; single
-    support: ``anchor1`` the other sole), the torso feedback (:func:`_torso_feedback` into
-    ``o``, (6, 3): rows e, ∫e, the torso target (3), |e_xy|) and the fall detector
-    (:func:`~wbc.balance.fall.fall_code`, its answer returned; 0 without one). ``consts``:
-    the gains (``_K_*``), the fall limits, the estimator's model; ``fb``: the feedback's
-    state (``_B_*``; the torso integral updated unless a fall)."""
+    into ``values``, ``state`` its filter's; ``soles``: :func:`wbc.walking.loop.sole_pack`,
+    the stance sole first in single support, ``select % 8`` 1: the right), the hip strategy
+    (:func:`_hip_roll`; single support: the other sole second), the torso feedback
+    (:func:`_torso_feedback` into ``o``, (6, 3): rows e, ∫e, the torso target (3), |e_xy|)
+    and the fall detector (:func:`~wbc.balance.fall.fall_code`, its answer returned; 0
+    without one). ``consts``: the gains (``_K_*``), the fall limits, the estimator's model;
+    ``fb``: the feedback's state (``_B_*``; the torso integral updated unless a fall)."""
     model = consts[_K_SIZE + _L_SIZE :]
     imu = select >= 8
     w, a = np.empty(3), np.empty(3)
@@ -298,6 +298,14 @@ def _feedback_tick(
     else:
         w[:] = gyro
         a[:] = acc
+    side = select % 8
+    first = 16 if side == 1 else 0  # (single support on the right: its sole first)
+    S = np.empty((2, 4, 4))  # the anchors, stance first (fall_code's soles too)
+    for k in range(16):
+        S[0, k // 4, k % 4] = soles[first + k]
+        S[1, k // 4, k % 4] = soles[16 - first + k]
+    anchor0, anchor1 = S[0], S[1]
+    y_norm = soles[33] if side == 1 else soles[32] if side == 0 else 1.0
     _estimate(model, joints, fallback, w, a, dt, select, anchor0, anchor1, state, values)
     R = np.empty((3, 3))
     for i in range(3):
@@ -305,7 +313,7 @@ def _feedback_tick(
             R[i, j] = R_ref[i, j]
     if consts[_K_HIP] > 0:
         H = np.empty((3, 3))
-        _hip_roll(select % 8 < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
+        _hip_roll(side < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
                   consts, dt, H)  # fmt: skip
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
@@ -314,11 +322,8 @@ def _feedback_tick(
     code = 0
     if consts[_K_FALL] > 0.5:
         fall_tick(fall_state, dt)
-        count = 1 if select % 8 < 2 else 2
-        soles = np.empty((2, 4, 4))
-        soles[0] = anchor0
-        soles[1] = anchor1
-        code = fall_code(o[0], values[0:3], values[7], values[6], soles, count,
+        count = 1 if side < 2 else 2
+        code = fall_code(o[0], values[0:3], values[7], values[6], S, count,
                          consts[_K_SIZE : _K_SIZE + _L_SIZE], fall_state)  # fmt: skip
     if code == 0:
         fb[_B_INT : _B_INT + 3] = o[1]
@@ -448,28 +453,25 @@ class Stabilizer:
                 self._apply(self.calibration)
         else:
             w = a = estimator._zeros
-        # the stance soles (StateEstimator.select, written out: the tick's cost); single
-        # support: the other sole second (the hip strategy's), its stance axis's length
-        select = 8 if imu else 0
-        if targets.phase == "double":
-            h0, h1 = targets.l_sole.homogeneous, targets.r_sole.homogeneous
-            select += 4  # (SOLE_FRAMES: l_sole, r_sole)
-            y_norm = 1.0
-        else:
-            left = targets.support == "l_sole"  # (TickTargets.support_placement)
-            l_sole, r_sole = targets.l_sole, targets.r_sole
-            h0, h1 = (l_sole, r_sole) if left else (r_sole, l_sole)
-            h0, h1 = h0.homogeneous, h1.homogeneous
-            select += 0 if left else 1
-            y_norm = max(math.hypot(h0[0, 1], h0[1, 1]), 1e-9)
+        # the stance soles (StateEstimator.select, written out: the tick's cost): the soles'
+        # placements and lateral axes' lengths, built once per walk by the Session
+        pack = targets.sole_pack
+        if pack is None or pack[0] is not targets.l_sole or pack[1] is not targets.r_sole:
+            pack = (None, None, sole_pack(targets.l_sole, targets.r_sole))  # (built here)
+        soles = pack[2]
+        double = targets.phase == "double"
+        select = (8 if imu else 0) + (4 if double else 0 if targets.support == "l_sole" else 1)
         if estimator.anchor_band > 0:  # a sole landed off its plan (off by default)
             read = joints if present is None else present
-            if targets.phase == "double":
+            soles = soles.copy()
+            h = soles[:32].reshape(2, 4, 4)  # (a view: the anchors written in)
+            if double:
                 stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
-                h0, h1 = estimator._anchors(stance, h0, h1, read, joints)
+                h[0], h[1] = estimator._anchors(stance, h[0], h[1], read, joints)
             else:
                 stance = [(targets.support, targets.support_placement)]
-                h0 = estimator._anchors(stance, h0, h0, read, joints)[0]
+                k = select % 8
+                h[k] = estimator._anchors(stance, h[k], h[k], read, joints)[0]
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
         packed = self._packed
         if packed[0] is not self.gains or packed[2] is not self.fall:
@@ -477,7 +479,7 @@ class Stabilizer:
             packed = self._packed
         code = _feedback_tick(
             packed[1], joints if present is None else present, joints, w, a, float(dt),
-            select, h0, h1, y_norm, estimator._state, self._fb, targets.torso_rotation,
+            select, soles, estimator._state, self._fb, targets.torso_rotation,
             self._no_fall if self.fall is None else self.fall.state, values, o,
         )  # fmt: skip
         est = self.last = estimator.last = StateEstimate(values)
@@ -488,7 +490,7 @@ class Stabilizer:
         com = targets.com
         if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
             com = self._shifted(targets, com_vel_ref, est, e, dt)
-        out = targets.replace(com=com, torso_rotation=o[2:5])
+        out = targets.retarget(com, o[2:5])
         self.time = time.perf_counter() - start
         return out
 

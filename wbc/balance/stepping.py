@@ -501,6 +501,16 @@ class StepAdjuster:
             swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
         )
 
+    @property
+    def hurries(self) -> bool:
+        """False when :meth:`rate` is 1 at every tick (``hurry`` 1, or off): not called."""
+        return self.enabled and self.params.hurry != 1.0
+
+    @property
+    def lands(self) -> bool:
+        """False when :meth:`land` returns its targets at every tick (``landing`` 0)."""
+        return self.params.landing > 0
+
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
         """The walk's clock speed after tick ``i``: ``hurry`` in a double support whose DCM
         error along the walk (the stance sole's heading frame) is beyond ``hurry_band`` (a

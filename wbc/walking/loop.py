@@ -9,6 +9,7 @@ configurations, never from a solver's own residuals.
 
 from __future__ import annotations
 
+import math
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Generator
@@ -87,6 +88,9 @@ class TickTargets:
     #: controller that holds contacts sets their targets at every tick, not only at the
     #: phase's start, where they are anchored
     contacts_move: bool = False
+    #: (l_sole, r_sole, :func:`sole_pack` of them), built once per walk by a
+    #: :class:`Session`; a reader checks the two placements are still these (``is``)
+    sole_pack: tuple | None = None
 
     def replace(self, **changes: Any) -> TickTargets:
         """A copy with these fields changed: a dict copy and the stores, for the feedback
@@ -97,6 +101,14 @@ class TickTargets:
         out.__dict__ = values
         return out
 
+    def retarget(self, com: np.ndarray, torso_rotation: np.ndarray) -> TickTargets:
+        """:meth:`replace` of the CoM and torso targets (the feedback's; half its cost)."""
+        out = object.__new__(type(self))
+        values = self.__dict__.copy()
+        values["com"], values["torso_rotation"] = com, torso_rotation
+        out.__dict__ = values
+        return out
+
     @property
     def swing_placement(self) -> pin.SE3:
         return self.l_sole if self.swing == "l_sole" else self.r_sole
@@ -104,6 +116,18 @@ class TickTargets:
     @property
     def support_placement(self) -> pin.SE3:
         return self.l_sole if self.support == "l_sole" else self.r_sole
+
+
+def sole_pack(l_sole: pin.SE3, r_sole: pin.SE3) -> np.ndarray:
+    """(34,): both soles' homogeneous placements (row-major, left first) and the lengths of
+    their lateral axes' horizontal part (``math.hypot`` of each ``y`` axis's x, y; at least
+    1e-9): what the closed loop's tick reads of the soles (:mod:`wbc.balance.stabilizer`)."""
+    out = np.empty(34)
+    hl, hr = l_sole.homogeneous, r_sole.homogeneous
+    out[:16], out[16:32] = hl.ravel(), hr.ravel()
+    out[32] = max(math.hypot(hl[0, 1], hl[1, 1]), 1e-9)
+    out[33] = max(math.hypot(hr[0, 1], hr[1, 1]), 1e-9)
+    return out
 
 
 def support_roles(ref: WalkingReference) -> tuple[list[str], list[str]]:
@@ -438,6 +462,7 @@ class Session:
         # the targets of every tick, built once (not part of any controller's tick time)
         self._soles: list[tuple[pin.SE3, pin.SE3]] = []
         self._swing: list[tuple[np.ndarray, np.ndarray]] = []
+        self._packs: list[tuple] = []  # (left, right, sole_pack) per tick
         self._sole_targets(0)
         start = robot.frame_placement(self.q, "torso").rotation
         pitch_roll = heading_free(start)
@@ -467,6 +492,7 @@ class Session:
         ]
         self._soles[first:] = soles
         self._swing[first:] = swing
+        self._packs[first:] = [(left, right, sole_pack(left, right)) for left, right in soles]
 
     def set_reference(self, ref: WalkingReference, first: int) -> None:
         """Follow ``ref`` from tick ``first`` on (a re-planned walk: the same time grid,
@@ -494,6 +520,7 @@ class Session:
             float(ref.torso_yaw[i]),
             self._torso[i],
             *self._swing[i],
+            sole_pack=self._packs[i],
         )
 
     def tick(self, i: int) -> np.ndarray:
@@ -526,8 +553,9 @@ class Session:
         if stab is not None and stab.enabled:
             start = time.perf_counter()
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
-            if self.stepping is not None and stab.last is not None:  # the swing, measured
-                targets = self.stepping.land(targets, stab.last, self.q)
+            stepping = self.stepping
+            if stepping is not None and stepping.lands and stab.last is not None:
+                targets = stepping.land(targets, stab.last, self.q)  # the swing, measured
             self.feedback_time = time.perf_counter() - start
         start = time.perf_counter()
         self.failed = False
@@ -590,7 +618,8 @@ class Session:
         last, stab = self._last_index, self.stabilizer
         closed = last is not None and stab is not None and stab.enabled and stab.last is not None
         clock = 0.0  # s in the step timing and hold checks (stepping_time)
-        if self.stepping is not None and closed and self._last_time is not None:
+        stepping = self.stepping  # (rate 1 at every tick unless it hurries: not called)
+        if stepping is not None and closed and self._last_time is not None and stepping.hurries:
             start = time.perf_counter()  # step timing: the clock runs faster when asked
             self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
                 t - self._last_time
