@@ -8,7 +8,7 @@ placement from the measured DCM (``step``, :mod:`wbc.balance.stepping`), and bot
 hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it), the
 plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
-(:func:`wbc.balance.stepping.capture_bounds`) and the angular-momentum (hip strategy) bound
+(:func:`wbc.balance.capture.capture_bounds`) and the angular-momentum (hip strategy) bound
 (:func:`wbc.balance.angular.hip_strategy_bound`); the bounds include step timing
 (``*_timed_ns``) and a second timed step (:func:`second_step`).
 
@@ -32,8 +32,9 @@ import json
 import time
 
 from wbc.balance.angular import hip_strategy_bound
+from wbc.balance.capture import capture_bounds
 from wbc.balance.stabilizer import Gains
-from wbc.balance.stepping import SteppingParams, capture_bounds
+from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, simulate
 from wbc.bench.physics import plan

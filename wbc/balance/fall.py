@@ -13,7 +13,7 @@ beyond recovery when any of:
 * **DCM**: the estimated DCM further than ``reach`` (m) from every stance sole's rectangle
   (held for ``dcm_ticks`` ticks; the rectangles, not their hull: between the feet that is at
   most half their gap, far below ``reach``): no step lands there in time
-  (:func:`wbc.balance.stepping.capture_bounds`: 0.09–0.16 m of landing shift on the
+  (:func:`wbc.balance.capture.capture_bounds`: 0.09–0.16 m of landing shift on the
   Bioloid; beyond it the LIPM diverges whatever the feet do).
 
 The closed loop then raises :class:`~wbc.exceptions.FallDetected` from the tick; the

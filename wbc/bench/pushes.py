@@ -49,7 +49,7 @@ def push_bounds(ref, robot: Robot) -> dict[str, float] | None:
     capture_bounds`): ``away`` the CoP at the stance sole's edge; ``forward``, ``backward``,
     ``toward`` one step landing as far as the swing sole gets in the time left (None when
     ``ref`` is not a walk with a single support)."""
-    from ..balance.stepping import capture_bounds
+    from ..balance.capture import capture_bounds
     from ..walking.legs import LegGeometry
 
     try:
