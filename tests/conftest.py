@@ -81,6 +81,22 @@ def start(robot):
     return StandingState.from_robot(robot)
 
 
+@pytest.fixture(scope="module")
+def walk10(robot):
+    """The Bioloid's ``walk10`` reference (one per test module)."""
+    from wbc.bench.trajectories import build
+
+    return build("walk10", robot)
+
+
+@pytest.fixture(scope="module")
+def legs(robot):
+    """The Bioloid's leg geometry measured at its stand pose."""
+    from wbc.walking.legs import LegGeometry
+
+    return LegGeometry.from_robot(robot, robot.configuration("stand"))
+
+
 @pytest.fixture(scope="session")
 def stress_script():
     """benchmarks/stress.py as a module (its draws and stacks replay the stress trials)."""

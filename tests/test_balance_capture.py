@@ -8,20 +8,8 @@ import math
 import pytest
 
 from wbc.balance.capture import capture_bounds
-from wbc.bench import trajectories as traj
-from wbc.walking.legs import LegGeometry
 
 MID = 92  # walk10: mid first single support (left stance)
-
-
-@pytest.fixture(scope="module")
-def walk10(robot):
-    return traj.build("walk10", robot)
-
-
-@pytest.fixture(scope="module")
-def legs(robot):
-    return LegGeometry.from_robot(robot, robot.configuration("stand"))
 
 
 def test_capture_bounds_of_walk10(robot, walk10, legs):

@@ -15,11 +15,6 @@ from wbc.exceptions import ConfigurationError
 from wbc.recording import SUPPORT_DOUBLE
 
 
-@pytest.fixture(scope="module")
-def walk10(robot):
-    return build("walk10", robot)
-
-
 def first_lift_off(ref):
     """(last double-support tick, first single-support tick) of the first lift-off."""
     for a, _, code in ref.phases():

@@ -25,16 +25,6 @@ from wbc.walking.legs import LegGeometry
 MID, LAND = 92, 104  # walk10: mid first single support (left stance), its touch-down tick
 
 
-@pytest.fixture(scope="module")
-def walk10(robot):
-    return traj.build("walk10", robot)
-
-
-@pytest.fixture(scope="module")
-def legs(robot):
-    return LegGeometry.from_robot(robot, robot.configuration("stand"))
-
-
 def dcm(ref, i, omega):
     return ref.com[i, :2] + ref.com_vel[i, :2] / omega
 

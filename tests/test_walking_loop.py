@@ -25,11 +25,6 @@ from wbc.walking.loop import (
 
 
 @pytest.fixture(scope="module")
-def walk10(robot):
-    return build("walk10", robot)
-
-
-@pytest.fixture(scope="module")
 def walk_run(robot, walk10):
     return run(StackController(load_stack("walk", robot)), robot, walk10)
 
