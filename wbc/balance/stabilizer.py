@@ -149,6 +149,23 @@ class Gains:
         return self
 
 
+#: the closed loop's default gains without the compliance feed-forward (``compensate`` 0: a
+#: robot whose servo model is unknown, ``--compensate 0``): the estimator's timing
+#: (``joint_lag``) and less torso rate gain (``k_d`` 0.03 s) keep 147 of 150 randomised plants
+#: up against :class:`Gains`' 143 (``turn_wb`` 48, ``lateral_wb`` 49, ``walk10_wb`` 50); with
+#: the feed-forward they lose two on ``walk10_wb``, so it keeps :class:`Gains` (issue 30,
+#: benchmarks/physics.md, sixth pass)
+NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0)
+
+
+def default_gains(compensate: float) -> Gains:
+    """The closed loop's default gains for a feed-forward gain ``compensate``: the measured
+    best of each, :data:`NO_FEED_FORWARD_GAINS` at 0, :class:`Gains` above (the one
+    definition :func:`wbc.balance.live.closed_loop` and every command use when no gains are
+    given)."""
+    return NO_FEED_FORWARD_GAINS if compensate <= 0 else Gains()
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _torso_feedback(
     est: np.ndarray,
