@@ -105,9 +105,10 @@ class Gains:
     #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
     #: rotation of the tick the joints were read (a tick before the IMU sample: the
     #: deployment reads right after the goals; StateEstimator ``joint_lag``); 0: this tick's.
-    #: Off by default: it keeps more plants on turn_wb and lateral_wb but every setting with
-    #: it measured loses plants on walk10_wb (alone plant 42; with k_d 0.03, 147 against 143
-    #: of 150 without the feed-forward, 2 fewer on walk10_wb with it; issue 30's sixth pass)
+    #: Off here, on in :data:`NO_FEED_FORWARD_GAINS` (the default without the feed-forward):
+    #: it keeps more plants on turn_wb and lateral_wb; alone it loses plant 42 on walk10_wb;
+    #: with k_d 0.03, 147 against 143 of 150 without the feed-forward, 2 fewer on walk10_wb
+    #: with it (issue 30's sixth pass)
     joint_lag: float = 0.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
