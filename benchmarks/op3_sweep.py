@@ -22,7 +22,6 @@ import numpy as np
 
 from wbc import load_robot
 from wbc.balance import best_compensate
-from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
@@ -49,7 +48,7 @@ def main() -> None:
     entry = physics_entry(a.solver, robot)
     ref = traj.build(a.walk, robot)
     _, rec = run_entry(entry, robot, ref, "tick")
-    spec = ClosedLoopSpec(entry.make, ref, Gains(), True, True, SteppingParams())
+    spec = ClosedLoopSpec(entry.make, ref, None, True, True, SteppingParams())  # default_gains
     plants = models(robot, a.models, a.seed)
     todo = ([(None, None)] if a.nominal else []) + [
         (k, plants[k]) for k in (a.plants if a.plants else range(a.models))

@@ -20,10 +20,10 @@ import argparse
 import json
 import time
 from collections.abc import Callable
-from dataclasses import fields
+from dataclasses import fields, replace
 
 from wbc import load_robot
-from wbc.balance.stabilizer import Gains
+from wbc.balance.stabilizer import Gains, default_gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, simulate
@@ -59,13 +59,15 @@ def spec_of(
     calibrate_s: float | None = None,
 ):
     """(compensate, ClosedLoopSpec or None) of a variant (``extra``: more Gains keywords,
-    ``step_kw``: SteppingParams keywords)."""
+    ``step_kw``: SteppingParams keywords), the gains set over the closed loop's default for
+    the variant's feed-forward (:func:`wbc.balance.stabilizer.default_gains`)."""
     if variant is None:
         return 0.0, None
     comp, gains, imu, on, step = variant
     stepping = SteppingParams(**(step_kw or {})) if step else None
-    return comp, ClosedLoopSpec(entry.make, ref, Gains(**gains, **(extra or {})), on, imu,
-                                stepping, calibrate_s=calibrate_s)  # fmt: skip
+    chosen = replace(default_gains(comp), **gains, **(extra or {}))
+    return comp, ClosedLoopSpec(entry.make, ref, chosen, on, imu, stepping,
+                                calibrate_s=calibrate_s)  # fmt: skip
 
 
 def json_setting(cls: type) -> Callable[[str], dict]:
@@ -110,8 +112,10 @@ def main() -> None:
         nargs="+",
         type=json_setting(Gains),
         default=[{}],
-        help="JSON of Gains keywords, e.g. '{\"k_hip\": 0}'; several: each variant with each, "
-        "side by side in one run (e.g. the old and the new default)",
+        help="JSON of Gains keywords over the variant's default (wbc.balance.stabilizer."
+        "default_gains: joint_lag 1, k_d 0.03 without feed-forward), e.g. '{\"k_hip\": 0}'; "
+        "several: each variant with each, side by side in one run (e.g. the old and the new "
+        "default)",
     )
     p.add_argument(
         "--stepping",

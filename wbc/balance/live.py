@@ -40,7 +40,7 @@ from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
 from .fall import FallDetector, FallParams
 from .retime import HoldParams, PhaseHold
-from .stabilizer import Gains, Stabilizer
+from .stabilizer import Gains, Stabilizer, default_gains
 from .stepping import StepAdjuster, SteppingParams, can_step
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
@@ -163,9 +163,10 @@ def closed_loop(
 
     The defaults are the measured best configuration (issue 30, benchmarks/physics.md):
     ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, ×1 on
-    hobby PWM servos, 0 when open loop or on servos without a compliance model), step
-    adjustment on, the lift-off
-    hold, fall detection and the start-up calibration on.
+    hobby PWM servos, 0 when open loop or on servos without a compliance model); ``gains``
+    None = :func:`~wbc.balance.stabilizer.default_gains` for that ``compensate`` (without the
+    feed-forward ``joint_lag`` and ``k_d`` 0.03; gains given are used as they are); step
+    adjustment on, the lift-off hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
     :class:`~wbc.balance.compliance.EncoderCorrection`); ``config`` defaults to the
@@ -215,7 +216,7 @@ def closed_loop(
     config = config or DeployConfig(rate=rate, read=bus.can_read)
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
-    gains = (gains or Gains()).check()
+    gains = (gains or default_gains(compensate)).check()  # (explicit gains win)
     if commanded and gains.kin_tilt > 0:  # the commanded joints hold no sag: no kinematic tilt
         gains = replace(gains, kin_tilt=0.0)
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin

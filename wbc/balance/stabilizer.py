@@ -105,9 +105,10 @@ class Gains:
     #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
     #: rotation of the tick the joints were read (a tick before the IMU sample: the
     #: deployment reads right after the goals; StateEstimator ``joint_lag``); 0: this tick's.
-    #: Off by default: it keeps more plants on turn_wb and lateral_wb but every setting with
-    #: it measured loses plants on walk10_wb (alone plant 42; with k_d 0.03, 147 against 143
-    #: of 150 without the feed-forward, 2 fewer on walk10_wb with it; issue 30's sixth pass)
+    #: Off here, on in :data:`NO_FEED_FORWARD_GAINS` (the default without the feed-forward):
+    #: it keeps more plants on turn_wb and lateral_wb; alone it loses plant 42 on walk10_wb;
+    #: with k_d 0.03, 147 against 143 of 150 without the feed-forward, 2 fewer on walk10_wb
+    #: with it (issue 30's sixth pass)
     joint_lag: float = 0.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
@@ -147,6 +148,23 @@ class Gains:
                 f"stabilizer gain transfer must be in [0, 1], got {self.transfer}"
             )
         return self
+
+
+#: the closed loop's default gains without the compliance feed-forward (``compensate`` 0: a
+#: robot whose servo model is unknown, ``--compensate 0``): the estimator's timing
+#: (``joint_lag``) and less torso rate gain (``k_d`` 0.03 s) keep 147 of 150 randomised plants
+#: up against :class:`Gains`' 143 (``turn_wb`` 48, ``lateral_wb`` 49, ``walk10_wb`` 50); with
+#: the feed-forward they lose two on ``walk10_wb``, so it keeps :class:`Gains` (issue 30,
+#: benchmarks/physics.md, sixth pass)
+NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0)
+
+
+def default_gains(compensate: float) -> Gains:
+    """The closed loop's default gains for a feed-forward gain ``compensate``: the measured
+    best of each, :data:`NO_FEED_FORWARD_GAINS` at 0, :class:`Gains` above (the one
+    definition :func:`wbc.balance.live.closed_loop` and every command use when no gains are
+    given)."""
+    return NO_FEED_FORWARD_GAINS if compensate <= 0 else Gains()
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -27,8 +27,10 @@ if TYPE_CHECKING:
 @dataclass(frozen=True)
 class ClosedLoopSpec:
     """The closed loop of a physics run: the controller solved live in the deployment's tick
-    with :class:`wbc.balance.stabilizer.Stabilizer` (``gains``; ``enabled=False``: the same
-    live run, open loop), on ``ref``; ``use_imu=False``: encoders only."""
+    with :class:`wbc.balance.stabilizer.Stabilizer` (``gains``; None: the closed loop's
+    :func:`~wbc.balance.stabilizer.default_gains` for the run's feed-forward;
+    ``enabled=False``: the same live run, open loop), on ``ref``; ``use_imu=False``: encoders
+    only."""
 
     make: Callable[[Robot], Any]
     ref: Any

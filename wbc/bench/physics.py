@@ -141,12 +141,6 @@ def run_physics(
             )
         console.print(f"closed loop: {robot.name}'s hobby servos report no positions: the "
                       "estimator uses the IMU and the commanded joint positions")  # fmt: skip
-    if closed_loop:
-        from ..balance.stabilizer import Gains
-
-        gains = Gains()
-    else:
-        gains = None
     for name, ref in refs.items():
         for entry in entries:
             console.print(f"[dim]physics: {entry.name} on {name}[/]")
@@ -160,7 +154,9 @@ def run_physics(
 
                 imu = options.use_imu
                 step = SteppingParams() if options.stepping else None
-                specs.append(ClosedLoopSpec(entry.make, ref, gains, True, imu, step))
+                specs.append(
+                    ClosedLoopSpec(entry.make, ref, None, True, imu, step)
+                )  # default_gains
             for spec in specs:
                 loop = {"compensate": comp, "gyro": gyro if spec is None else 0.0,
                         "correct": options.correct}  # fmt: skip
