@@ -325,7 +325,7 @@ def test_a_finishing_stop_ends_where_the_commands_put_the_walk(robot, finish) ->
     while walker.walking:
         walker.tick()
     start = engine._pose_cmd  # (the commanded pose, unchanged since the stop)
-    c = engine._centre + engine.odometry_offset
+    c = engine.centre + engine.odometry_offset
     xy = c[:2] + rot2(c[2]) @ engine.origin
     off, turn = float(np.hypot(*(start[:2] - xy))), abs(wrap_angle(start[2] - c[2]))
     if finish:

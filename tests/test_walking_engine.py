@@ -114,8 +114,8 @@ def test_the_walking_frame_follows_the_commanded_pose(setup) -> None:
         e.tick()
         if e.steps_taken != steps:  # a landing: the frame against the commanded pose now
             steps = e.steps_taken
-            frames.append(e._centre.copy())
-            lags.append(float(np.linalg.norm(e._centre[:2] - e._pose_cmd[:2])))
+            frames.append(e.centre.copy())
+            lags.append(float(np.linalg.norm(e.centre[:2] - e._pose_cmd[:2])))
     T = LEGS_ONLY.timing.step_time
     chord = np.array([math.sin(wz * T), 1.0 - math.cos(wz * T)]) * vx / wz
     for a, b in itertools.pairwise(frames[20:]):
@@ -297,9 +297,9 @@ def test_the_command_moves_the_origin(setup) -> None:
     for origin in (b, np.zeros(2)):
         e = engine(setup)
         e.origin[:] = origin
-        c0 = e._centre.copy()
+        c0 = e.centre.copy()
         rollout(e, [(6.0, 0.0, 0.0, 0.3)])
-        c = e._centre
+        c = e.centre
         assert abs(wrap_angle(c[2] - c0[2])) > 1.7  # turned nearly 100°
         point = lambda f: f[:2] + np.array([[math.cos(f[2]), -math.sin(f[2])],  # noqa: E731
                                             [math.sin(f[2]), math.cos(f[2])]]) @ b  # fmt: skip
@@ -320,7 +320,7 @@ def test_a_heading_offset_turns_the_steps(setup) -> None:
     e.odometry_offset[2] = -0.1
     for _ in range(round(5.0 / e.dt)):
         e.tick()
-    assert e._centre[2] == pytest.approx(0.1, abs=0.005)
+    assert e.centre[2] == pytest.approx(0.1, abs=0.005)
     assert max(abs(s.yaw) for s in e.planned) < 0.101  # (no overshoot)
     yaws = [s.yaw for s in e.planned]
     assert np.max(np.diff(yaws)) < 0.025  # gently, within catch_up

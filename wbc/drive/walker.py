@@ -277,7 +277,7 @@ class Walker:
         self.engine = WalkEngine(StandingState.from_robot(robot, q0), params, limits, foot, legs,
                                  window)  # fmt: skip
         # the command moves the base (the issue's "base displacement"), not the soles' midpoint
-        centre = self.engine._centre
+        centre = self.engine.centre
         self.engine.origin[:] = rot2(centre[2]).T @ (q0[:2] - centre[:2])
         self.compensate = float(compensate)
         self.correct = bool(correct)
@@ -375,7 +375,7 @@ class Walker:
         """The commanded pose against the walking frame's commanded point where the plan and
         the odometry put it after the committed steps: (m, rad)."""
         engine = self.engine
-        c = engine._centre + engine.odometry_offset
+        c = engine.centre + engine.odometry_offset
         p = c[:2] + rot2(c[2]) @ engine.origin
         target = engine._pose_cmd
         return float(np.hypot(*(target[:2] - p))), abs(wrap_angle(target[2] - c[2]))
@@ -408,8 +408,8 @@ class Walker:
         if odo is not None and odo.started:
             measured = odo.landed(step.side, q)
             if self.stride is not None:
-                self.engine.stride_gain[:] = self.stride.landed(self.engine._centre, measured)
-            off = measured - self.engine._centre
+                self.engine.stride_gain[:] = self.stride.landed(self.engine.centre, measured)
+            off = measured - self.engine.centre
             off[2] = wrap_angle(off[2])
             self._offset = off
         return Footstep(step.side, float(xy[0]), float(xy[1]), stance.yaw + dyaw, step.z)

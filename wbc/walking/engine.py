@@ -289,7 +289,7 @@ class WalkEngine:
                 @ (start.left.xy - start.right.xy)
             )[1]
         )
-        self._centre = self._mid_frame()
+        self.centre = self._mid_frame()  #: (x, y, yaw): the planned frame between the feet
         self.n_ss = max(2, round(timing.single_support_time / self.dt))
         self.n_ds = max(1, round(timing.double_support_time / self.dt))
         self.n_start = max(2, round(timing.start_time / self.dt))
@@ -307,7 +307,7 @@ class WalkEngine:
         self.state: State = "standing"
         self._cmd = (0.0, 0.0, 0.0)
         #: the commanded pose (x, y, heading; world): the command integrated while walking
-        self._pose_cmd = self._centre.copy()
+        self._pose_cmd = self.centre.copy()
         self._start_requested = False
         self._stop_requested = False
         self._segments: list[_Segment] = []
@@ -457,7 +457,7 @@ class WalkEngine:
         T = self.params.timing.step_time
         target = _advance_pose(self._pose_cmd, self._cmd, ahead)
         target[:2] -= rot2(target[2]) @ self.origin  # the walking frame under that origin
-        c = self._centre + self.odometry_offset  # where the body is (odometry), not planned
+        c = self.centre + self.odometry_offset  # where the body is (odometry), not planned
         d = rot2(c[2]).T @ (target[:2] - c[:2])
         v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
         cmd = np.asarray(self._cmd)
@@ -493,7 +493,7 @@ class WalkEngine:
         closing = self._stop_requested
         n_first = self.n_start if first == "start" else self.n_ds
         stride = self._tracking_stride((n_first + self.n_ss) * self.dt)
-        centre, step, short = self._plan_step(self.feet, self._centre, side, closing,
+        centre, step, short = self._plan_step(self.feet, self.centre, side, closing,
                                               stride=stride)  # fmt: skip
         self.shortened += int(short)
         stance = self.feet[other_side(side)]
@@ -634,9 +634,9 @@ class WalkEngine:
                 _, vy, wz = self._cmd
                 lead = vy if abs(vy) > 1e-12 else wz
                 self._next_side = "left" if lead > 0 else "right"
-                self._centre = self._mid_frame()
-                self._pose_cmd = self._centre.copy()
-                self._pose_cmd[:2] += rot2(self._centre[2]) @ self.origin
+                self.centre = self._mid_frame()
+                self._pose_cmd = self.centre.copy()
+                self._pose_cmd[:2] += rot2(self.centre[2]) @ self.origin
                 self.odometry_offset[:] = 0.0
                 self._replan("start")
                 return True
@@ -649,7 +649,7 @@ class WalkEngine:
         if seg.kind == "single":  # the swing sole has landed
             step, centre = self._pending
             self.feet[step.side] = self.contact[step.side] = step
-            self._centre = centre
+            self.centre = centre
             self.steps_taken += 1
             self._next_side = other_side(step.side)
         if seg.kind == "end":
