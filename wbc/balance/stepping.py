@@ -386,6 +386,12 @@ class StepAdjuster:
         side = ref.stance_side(i)
         return self.baseline[0 if side == "left" else 1] if side is not None else np.zeros(2)
 
+    def _catch_end(self) -> int:
+        """The first step after the catch under way (``until_inside`` extends it; 0: none)."""
+        if self.episode is None:
+            return 0
+        return max(self.episode + self.params.episode_steps, self.end)
+
     def _dcm_ref(self, ref: WalkingReference, i: int) -> np.ndarray:
         """``ref.dcm_at(i)``, from the whole walk's array (built once per reference)."""
         if self._dcm[0] is not ref:
@@ -404,7 +410,7 @@ class StepAdjuster:
         x, y = c * e0 + s * e1 - b0, -s * e0 + c * e1 - b1
         p = self.params
         band_x, band_y = p.band_x, p.band_y
-        end = max(self.episode + p.episode_steps, self.end) if self.episode is not None else 0
+        end = self._catch_end()
         if p.catch_band is not None and ph.kind == "single" and self.caught_step <= ph.step < end:
             band_x, band_y = min(band_x, p.catch_band), min(band_y, p.catch_band)  # a catch
         x = _dead_zone(x, band_x)
@@ -422,7 +428,7 @@ class StepAdjuster:
         side = ref.stance_side(i)
         if side is None:
             return
-        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
+        e = np.asarray(dcm[:2], float) - self._dcm_ref(ref, i)
         c, s = self._heading(ref, i)
         local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]])
         band = np.array([self.params.band_x, self.params.band_y], dtype=float)
@@ -522,7 +528,7 @@ class StepAdjuster:
             if not p.hurry_single or self.episode is None:
                 return 1.0
             ph = self.phases[self.phase_of[i]]
-            if ph.step >= max(self.episode + p.episode_steps, self.end):
+            if ph.step >= self._catch_end():
                 return 1.0  # (the catch is over)
             left = (ph.i1 - i) * ref.dt
             if left < p.min_remaining:  # (landing: its clock as planned)
@@ -536,7 +542,7 @@ class StepAdjuster:
             v = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing) / left
             best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
             return min(max(left / max(best, p.min_remaining), 1.0), p.hurry)
-        e = np.asarray(dcm[:2], float) - ref.dcm_at(i)
+        e = np.asarray(dcm[:2], float) - self._dcm_ref(ref, i)
         c, s = self._heading(ref, i)
         return p.hurry if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
 
@@ -580,7 +586,7 @@ class StepAdjuster:
         if not err.any():
             return None
         if self.episode is not None and p.episode_steps > 0:
-            end = max(self.episode + p.episode_steps, self.end)
+            end = self._catch_end()
             if (  # multi-step recovery: the DCM still outside the band on the next step
                 k == end
                 and self.caught_step == k - 1
