@@ -447,7 +447,6 @@ class StateEstimator:
         #: it landed until it lifts (module docstring; 0: always the planned placement)
         self.anchor_band = float(anchor_band)
         self._landed: dict[str, np.ndarray | None] = {}  # per stance sole: its anchor
-        self._data = robot.model.createData()  # (the landed sole's kinematics, own data)
         self.bias_gain = float(bias_gain)
         self.kin_gain = float(kin_gain)
         self.joint_lag = bool(joint_lag)
@@ -541,9 +540,7 @@ class StateEstimator:
         R_base = est.rotation @ self.torso_b.T
         quat = pin.Quaternion(R_base).coeffs()
         config = np.concatenate([est.base, quat, q])
-        model = self.robot.model
-        pin.framesForwardKinematics(model, self._data, config)
-        return self._data.oMf[model.getFrameId(frame)].translation.copy()
+        return self.robot.frame_placement(config, frame).translation.copy()
 
     def _anchors(
         self,
