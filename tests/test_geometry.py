@@ -10,7 +10,7 @@ import pinocchio as pin
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wbc.geometry import heading_free, mean_angle, wrap_angle, yaw_of
+from wbc.geometry import heading_free, mean_angle, relative_pose, rot2, wrap_angle, yaw_of
 
 ANGLES = st.floats(-1e4, 1e4)
 
@@ -127,3 +127,17 @@ def test_heading_free_removes_the_heading_and_keeps_the_tilt(
     free = heading_free(R)
     assert abs(yaw_of(free)) < 1e-12
     np.testing.assert_allclose(free, tilt, atol=1e-12)
+
+
+@given(
+    frame=st.tuples(st.floats(-2, 2), st.floats(-2, 2), st.floats(-4, 4)),
+    pose=st.tuples(st.floats(-2, 2), st.floats(-2, 2), st.floats(-4, 4)),
+)
+def test_relative_pose_put_back_in_its_frame_is_the_pose(frame, pose):
+    """``p = p_f + Rz(ψ_f) d`` and ``ψ ≡ ψ_f + dψ`` for ``(d, dψ) = relative_pose(f, p)``,
+    ``dψ`` within (−π, π]."""
+    d = relative_pose(frame, pose)
+    back = np.asarray(frame[:2]) + rot2(frame[2]) @ d[:2]
+    np.testing.assert_allclose(back, pose[:2], atol=1e-12)
+    assert -math.pi < d[2] <= math.pi
+    assert abs(wrap_angle(frame[2] + d[2] - pose[2])) < 1e-12

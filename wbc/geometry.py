@@ -8,6 +8,7 @@ Polygons are (k, 2) arrays of counter-clockwise vertices; ``halfplanes`` gives t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import overload
 
 import numpy as np
@@ -77,6 +78,14 @@ def rot2(yaw: float) -> np.ndarray:
     """2-D rotation matrix."""
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s], [s, c]])
+
+
+def relative_pose(frame: Sequence[float], pose: Sequence[float]) -> np.ndarray:
+    """The planar pose ``pose`` (x, y, heading) in the axes of ``frame`` (x, y, heading):
+    ``(Rz(ψ_f)ᵀ (p − p_f), wrap(ψ − ψ_f))``."""
+    f, p = np.asarray(frame, dtype=float), np.asarray(pose, dtype=float)
+    d = rot2(f[2]).T @ (p[:2] - f[:2])
+    return np.array([d[0], d[1], wrap_angle(p[2] - f[2])])
 
 
 def foot_rectangle(xy: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:

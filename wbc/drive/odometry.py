@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 from ..balance.estimator import exp3
-from ..geometry import mean_angle, wrap_angle, yaw_of
+from ..geometry import mean_angle, relative_pose, wrap_angle, yaw_of
 from ..model import Robot
 from ..roles import SOLE_FRAMES
 from ..walking.footsteps import Footstep, Side, other_side
@@ -179,17 +179,11 @@ class StrideGain:
         """The walking frame planned and measured (x, y, heading; world) after a landing;
         returns the gain (3,)."""
         if self._last is not None:
-            p = _move(self._last[0], planned)
-            m = _move(self._last[1], measured)
+            p = relative_pose(self._last[0], planned)
+            m = relative_pose(self._last[1], measured)
             self.mp = self.forget * self.mp + m * p
             self.pp = self.forget * self.pp + p * p
             efficiency = (self.mp + self.prior) / (self.pp + self.prior)
             self.gain[:2] = np.clip(1.0 / np.maximum(efficiency[:2], 1e-3), 1.0, self.most)
         self._last = (np.array(planned, dtype=float), np.array(measured, dtype=float))
         return self.gain
-
-
-def _move(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Frame ``b``'s pose in frame ``a``'s axes (x, y, heading)."""
-    d = rot2(a[2]).T @ (np.asarray(b[:2]) - a[:2])
-    return np.array([d[0], d[1], wrap_angle(b[2] - a[2])])

@@ -47,7 +47,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..exceptions import ConfigurationError, TrajectoryError
-from ..geometry import mean_angle, wrap_angle
+from ..geometry import mean_angle, relative_pose, wrap_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from ..roles import SOLE_FRAMES
 from .footgaps import rectangle_gaps
@@ -458,8 +458,7 @@ class WalkEngine:
         target = _advance_pose(self._pose_cmd, self._cmd, ahead)
         target[:2] -= rot2(target[2]) @ self.origin  # the walking frame under that origin
         c = self.centre + self.odometry_offset  # where the body is (odometry), not planned
-        d = rot2(c[2]).T @ (target[:2] - c[:2])
-        v = np.array([d[0] / T, d[1] / T, wrap_angle(target[2] - c[2]) / T])
+        v = relative_pose(c, target) / T
         cmd = np.asarray(self._cmd)
         extra = v - cmd  # the make-up, at most catch_up × the limits (diamond norm)
         lim = self.limits

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
-from ..geometry import mean_angle, wrap_angle
+from ..geometry import mean_angle, relative_pose, wrap_angle
 from .geometry import Foot, polygon_distance, rot2
 
 if TYPE_CHECKING:
@@ -69,8 +69,7 @@ class Footstep:
 
     def relative_to(self, other: Footstep) -> np.ndarray:
         """``(dx, dy, dyaw)`` of this placement in the frame of ``other``."""
-        d = rot2(other.yaw).T @ (self.xy - other.xy)
-        return np.array([d[0], d[1], wrap_angle(self.yaw - other.yaw)])
+        return relative_pose((other.x, other.y, other.yaw), (self.x, self.y, self.yaw))
 
 
 @dataclass(frozen=True)
