@@ -477,14 +477,10 @@ _WITHOUT_TICKS = ("pinv", "peer")
 
 def _compile_in_background(console: Console) -> bool:
     """Start compiling the package's control ticks in background processes if they are not
-    in the disk cache (:meth:`wbc.compiled.dispatch.Ticks.start_build`); True if started."""
-    from ..solvers.plan import numba_available
+    in the disk cache (:func:`wbc.solvers.plan.start_package_ticks`); True if started."""
+    from ..solvers.plan import start_package_ticks
 
-    if not numba_available():
-        return False
-    from ..solvers.plan import package_ticks
-
-    if not package_ticks().start_build(announce=False):
+    if not start_package_ticks(announce=False):
         return False
     console.print(
         "[yellow]compiling the control ticks[/] (numba, once per installation, in background "
@@ -494,9 +490,9 @@ def _compile_in_background(console: Console) -> bool:
 
 
 def _wait_for_ticks() -> None:
-    from ..solvers.plan import package_ticks
+    from ..solvers.plan import wait_for_package_ticks
 
-    package_ticks().wait_all()
+    wait_for_package_ticks()
 
 
 def _errors_line(record: dict[str, Any]) -> str:

@@ -71,19 +71,17 @@ class Odometer:
 
 def wait_for_compiled_ticks() -> None:
     """Before a lockstep simulated run: compile the package's control ticks if they are not
-    in the disk cache, and wait for them (:meth:`wbc.compiled.dispatch.Ticks.wait_all`), so
-    that every tick of the run solves on the compiled tick. Otherwise, on a cold cache, the
-    solvers solve on the interim path (the backend cascade: the same QP, answers that differ
-    in the last bits) until the background build ends — a wall-clock moment — and a driven
-    walk, which amplifies the last bit into centimetres over 30 s, was not repeatable across
-    processes (``tests/test_drive_repeat.py``). (Ticks of task types defined outside the
-    package are built when first asked for, as before.) A real-time run does not wait."""
-    from ..solvers.plan import numba_available, package_ticks
+    in the disk cache, and wait for them, so that every tick of the run solves on the
+    compiled tick. Otherwise, on a cold cache, the solvers solve on the interim path (the
+    backend cascade: the same QP, answers that differ in the last bits) until the background
+    build ends — a wall-clock moment — and a driven walk, which amplifies the last bit into
+    centimetres over 30 s, was not repeatable across processes
+    (``tests/test_drive_repeat.py``). (Ticks of task types defined outside the package are
+    built when first asked for, as before.) A real-time run does not wait."""
+    from ..solvers.plan import start_package_ticks, wait_for_package_ticks
 
-    if numba_available():
-        ticks = package_ticks()
-        ticks.start_build()
-        ticks.wait_all()
+    start_package_ticks()
+    wait_for_package_ticks()
 
 
 def make_sim(robot: Robot, variation: Any = None, rate: float = 100.0, realtime: bool = False,

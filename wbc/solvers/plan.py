@@ -101,6 +101,22 @@ def package_ticks() -> D.Ticks:
     )
 
 
+def start_package_ticks(announce: bool = True) -> bool:
+    """Start compiling the package's control ticks in background processes unless numba is
+    missing or they are cached or already being built (:meth:`wbc.compiled.dispatch.Ticks.
+    start_build`); True if this call started them. A caller can do other work meanwhile
+    (``wbc bench`` runs the baselines), then :func:`wait_for_package_ticks`."""
+    return numba_available() and package_ticks().start_build(announce=announce)
+
+
+def wait_for_package_ticks() -> None:
+    """Wait for the package ticks' background build, if any (so that every tick after this
+    solves on the compiled tick: a lockstep run is then repeatable across processes, and
+    nothing compiles beside a timed run)."""
+    if numba_available():
+        package_ticks().wait_all()
+
+
 #: frame slots of a tick, padded to a multiple of this (see :class:`Frames`)
 FRAME_SLOTS = 8
 #: the inequality rows' buffers hold this many times the rows of a plan's prepared tick
