@@ -171,6 +171,12 @@ class Controller(ABC):
         """Solve the first tick once ahead and forget it (after :meth:`start`): a first tick
         otherwise runs code nothing has run yet (default: nothing)."""
 
+    def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:  # noqa: B027
+        """The idle part of a loop before the tick of ``targets`` (the next tick, known from
+        the reference; ``q`` the last tick's answer): its support switch made now, so that
+        the tick does not pay it; the tick checks it and takes it back if it needs another
+        phase or other anchors (default: nothing)."""
+
     #: the reference's time step, set by the loop before :meth:`start`
     dt: float = 0.01
 
@@ -244,6 +250,9 @@ class StackController(Controller):
             if isinstance(t, ContactTask)
         ]
         self._writes, self._write_arrays = self._target_writes()
+        #: a support switch made ahead (:meth:`prepare_phase`): (phase, support, swing), the
+        #: soles it anchored the contacts on, the stack's undo record
+        self._ahead: tuple | None = None
 
     def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
         """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
@@ -307,6 +316,7 @@ class StackController(Controller):
         )
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
+        self._ahead = None
         self._kin.update(q0)
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
@@ -347,7 +357,39 @@ class StackController(Controller):
         solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks = counts
         self.control.forget_anchors()
 
+    def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:
+        """The support switch to ``targets``' phase made ahead
+        (:meth:`ControlStack.set_phase_ahead`), its contacts anchored on ``targets``' soles:
+        the switch tick then only checks it was the right one (the same phase, the same sole
+        objects, the stack untouched since), else takes it back (:meth:`_set_targets`).
+        Nothing if the switch needs the configuration (a contact without a reference sole)."""
+        control = self.control
+        if self._ahead is not None or not control.bindings or control.phase is None:
+            return
+        key = (targets.phase, targets.support, targets.swing)
+        if key == (control.phase, control.support, control.swing):
+            return
+        anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
+        if not self._anchored(targets, anchors):
+            return
+        undo = control.set_phase_ahead(*key, self._kin, anchors)
+        self._ahead = (key, targets.l_sole, targets.r_sole, undo)
+
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
+        ahead = self._ahead
+        if ahead is not None:  # a switch made ahead: this one (phase, anchors), or undone
+            self._ahead = None
+            key, left, right, undo = ahead
+            if (
+                phase_changed
+                and targets.l_sole is left
+                and targets.r_sole is right
+                and key == (targets.phase, targets.support, targets.swing)
+                and self.control.ahead_intact(undo)
+            ):
+                phase_changed = False
+            else:
+                self.control.undo_phase(undo, self._kin)
         if phase_changed:
             anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
             if not self._anchored(targets, anchors):  # a contact is made where a frame is now
@@ -477,6 +519,8 @@ class Session:
         self.failure: WbcError | None = None  # why the last tick failed
         self.iterations = 0
         self.solve_time = 0.0
+        #: s, the last :meth:`prepare_next` (the idle part after a tick; not in solve_time)
+        self.prepare_time = 0.0
         self.feedback_time = 0.0
         self._landing = 0  # ticks solved with a start contact off its placement (-1: met)
 
@@ -577,6 +621,26 @@ class Session:
         if self._landing >= 0:
             self._check_start_contacts(targets)
         return self.q
+
+    def prepare_next(self) -> None:
+        """The idle part after a tick (its configuration used: recorded, or sent to the
+        servos): if the next reference tick starts a support phase, its switch is made now
+        (:meth:`Controller.prepare_phase`: the contacts anchored on its reference soles), so
+        that the tick itself does not pay it (a support phase's first tick, issue 34's
+        tail); that tick checks the switch was the one it needs, else takes it back (a
+        re-planned reference, a held lift-off, a skipped tick: the same answers as without).
+        Its time is :attr:`prepare_time` (not in :attr:`solve_time`). Ticks mode only."""
+        self.prepare_time = 0.0
+        i = self._last_index
+        if i is None or i + 1 >= self.ref.n or self.options.mode != "tick":
+            return
+        j = i + 1
+        phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
+        if (phase, self.support[j], self.swing[j]) == self._previous:
+            return
+        start = time.perf_counter()
+        self.controller.prepare_phase(self.q, self.targets(j))
+        self.prepare_time = time.perf_counter() - start
 
     def _check_start_contacts(self, targets: TickTargets) -> None:
         """Until every sole in contact first sits within :data:`START_CONTACT_TOL` of its
@@ -720,6 +784,7 @@ def run_stepwise(
                     errors[name][i] = e
         if on_tick is not None:
             on_tick(i, q, session.targets(i))
+        session.prepare_next()  # (the idle part: the next support switch, if any)
         yield i
     channels = _channels(robot, ref, Q, com, soles, lowest, session.swing)
     channels.update(solve_time=solve_time, iterations=iterations, failed=failed)
