@@ -189,7 +189,11 @@ class ControlStack:
             dict(self._anchored),
             [(c, c.target_position.copy(), c.target_rotation.copy()) for c, _ in entry.contacts],
         )
-        self.set_phase(phase, support, swing, kin, anchors)
+        try:
+            self.set_phase(phase, support, swing, kin, anchors)
+        except WbcError:  # (a bad anchor: nothing made ahead; the tick raises it again)
+            self.undo_phase(undo, kin)
+            raise
         undo.revision = self.stack.revision
         return undo
 
