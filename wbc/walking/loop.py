@@ -249,11 +249,15 @@ class StackController(Controller):
         ran cold (the QP's active-set code, the contacts' anchoring: ~80 against ~16 µs of a
         tick; benchmarks/tick_tail.md). Only on the compiled path, whose ticks depend on no
         earlier one (each starts its active sets afresh; a backend such as OSQP starts from
-        its last solution)."""
+        its last solution). The constraints compute their rows again (the same rows: the
+        self-collision kernel ran last at the start, and walk10's second tick, the first at
+        another configuration, took ~26 µs in it against ~12)."""
         solver = self.solver
         if solver.fast is None:
             return
         counts = solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks
+        for constraint in solver.stack.constraints():
+            constraint.forget_rows()
         try:
             self.track(q, targets, dt, True)
         except WbcError:
@@ -272,8 +276,6 @@ class StackController(Controller):
         if self._ahead is not None or not control.bindings or control.phase is None:
             return
         key = (targets.phase, targets.support, targets.swing)
-        if key == (control.phase, control.support, control.swing):
-            return
         anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
         if not self._anchored(targets, anchors):
             return
@@ -417,16 +419,16 @@ class Session:
         self._torso = list(ref.torso_rotations(pitch_roll))
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
+        self._previous: tuple[str, str, str] | None = None
+        self.prepare_time = 0.0
         if self.options.mode == "tick":
             controller.rehearse(self.q, self.targets(0), ref.dt)
-        self._previous: tuple[str, str, str] | None = None
+            self._prepare(0)  # (the first tick's switch: its contacts anchored afresh)
         self._last_index: int | None = None  # reference tick of the last solve
         self.failed = False
         self.failure: WbcError | None = None  # why the last tick failed
         self.iterations = 0
         self.solve_time = 0.0
-        #: s, the last :meth:`prepare_next` (the idle part after a tick; not in solve_time)
-        self.prepare_time = 0.0
         self.feedback_time = 0.0
         self._landing = 0  # ticks solved with a start contact off its placement (-1: met)
 
@@ -535,12 +537,17 @@ class Session:
         that the tick itself does not pay it (a support phase's first tick, issue 34's
         tail); that tick checks the switch was the one it needs, else takes it back (a
         re-planned reference, a held lift-off, a skipped tick: the same answers as without).
-        Its time is :attr:`prepare_time` (not in :attr:`solve_time`). Ticks mode only."""
-        self.prepare_time = 0.0
+        Its time is :attr:`prepare_time` (s; not in :attr:`solve_time`). Ticks mode only
+        (the first tick's switch is made so before the loop, after the rehearsal)."""
         i = self._last_index
-        if i is None or i + 1 >= self.ref.n or self.options.mode != "tick":
+        self.prepare_time = 0.0
+        if i is not None and self.options.mode == "tick":
+            self._prepare(i + 1)
+
+    def _prepare(self, j: int) -> None:
+        """:meth:`prepare_next` for reference tick ``j``."""
+        if j >= self.ref.n:
             return
-        j = i + 1
         phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
         if (phase, self.support[j], self.swing[j]) == self._previous:
             return
