@@ -204,7 +204,8 @@ class ControlStack:
 
     def undo_phase(self, undo: PhaseUndo, kin: Kinematics) -> None:
         """Take a :meth:`set_phase_ahead` back: the phase before it, its contacts anchored
-        where they were (the same targets, the same anchoring record)."""
+        where they were (the same targets, the same anchoring record). Exact after a
+        :meth:`set_phase` (a stack with no phase yet keeps the frames and activity moved)."""
         phase, support, swing = undo.phase
         if phase is not None and support is not None:
             self.set_phase(phase, support, swing, kin)
