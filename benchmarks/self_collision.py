@@ -35,7 +35,8 @@ the compiled plan's call and, inside it, the constraints' rows ``ConstraintRows.
 rest of the loop's tick is the targets, the kinematics and the checks), each tick's smallest
 time over the rounds, then the median of the first ticks of the double- and single-support
 phases beside the other ticks (µs; these walks are not in the table above: the timers add
-~1 µs a tick).
+~1 µs a tick); "made ahead": the switch made in the idle part before the tick
+(``StackController.prepare_phase``, not in the tick's time).
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
