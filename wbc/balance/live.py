@@ -275,6 +275,7 @@ def closed_loop(
             whole.first(),
             whole.joint_names,
         )
+        target.idle = whole.idle  # type: ignore[attr-defined]  # (the session's, forwarded)
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
     loop = ClosedLoop(deployment, session, source, stabilizer, adjuster, phase_hold, model)
