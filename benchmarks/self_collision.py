@@ -35,7 +35,8 @@ the compiled plan's call and, inside it, the constraints' rows ``ConstraintRows.
 rest of the loop's tick is the targets, the kinematics and the checks), each tick's smallest
 time over the rounds, then the median of the first ticks of the double- and single-support
 phases beside the other ticks (µs; these walks are not in the table above: the timers add
-~1 µs a tick).
+~1 µs a tick); "made ahead": the switch made in the idle part before the tick
+(``StackController.prepare_phase``, not in the tick's time).
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
@@ -281,13 +282,16 @@ def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> 
     print("\n".join(tails))
 
 
-PARTS = ("tick", "set_phase", "re-plan", "plan call", "rows")
+PARTS = ("tick", "set_phase", "re-plan", "plan call", "rows", "ahead")
 
 
 @contextlib.contextmanager
 def timed_parts(acc: dict[str, int]):
-    """The parts of :data:`PARTS` but the tick timed into ``acc`` (ns, added up) inside."""
+    """The parts of :data:`PARTS` but the tick timed into ``acc`` (ns, added up) inside;
+    ``ahead``: the support switch made in the idle part before the tick (the loop's
+    :meth:`StackController.prepare_phase`: the next tick's ``ahead``, its ``set_phase`` in it)."""
     wrapped = [
+        (StackController, "prepare_phase", "ahead"),
         (ControlStack, "set_phase", "set_phase"),
         (HierarchicalQP, "_plan", "re-plan"),
         (_Plan, "solve", "plan call"),
@@ -322,9 +326,9 @@ def switch_parts(robot, ref, args) -> None:
     print("\nwhere a support phase's first tick goes (µs, each tick's minimum over the rounds):")
     print(
         "| controller | ticks | n | tick | set_phase | re-plan | plan call | of which rows"
-        " | the rest |"
+        " | the rest | made ahead |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for stack in args.stacks:
         spec = walk_spec(True, stack)
         runs = []
@@ -335,12 +339,13 @@ def switch_parts(robot, ref, args) -> None:
             track = controller.track
 
             def tick(q, targets, dt, changed, track=track, acc=acc, per_tick=per_tick):
+                ahead = acc["ahead"]  # (made after the last tick: this tick's switch)
                 for k in acc:
                     acc[k] = 0
                 t = time.perf_counter_ns()
                 out = track(q, targets, dt, changed)
                 acc["tick"] = time.perf_counter_ns() - t
-                per_tick.append([acc[k] for k in PARTS])
+                per_tick.append([*(acc[k] for k in PARTS[:-1]), ahead])
                 return out
 
             controller.track = tick
@@ -362,7 +367,7 @@ def switch_parts(robot, ref, args) -> None:
             m = np.median(parts[ticks], axis=0)
             print(
                 f"| {stack} | {label} | {ticks.size} | {m[0]:.1f} | {m[1]:.1f} | {m[2]:.1f} |"
-                f" {m[3]:.1f} | {m[4]:.1f} | {np.median(rest[ticks]):.1f} |"
+                f" {m[3]:.1f} | {m[4]:.1f} | {np.median(rest[ticks]):.1f} | {m[5]:.1f} |"
             )
 
 

@@ -227,6 +227,18 @@ def test_source_off_switch_is_the_feed_forward(robot, comp):
         CompensatedSource(off.source, comp, lambda t: 0, None, EncoderCorrection(3))
 
 
+def test_source_forwards_its_sources_idle(robot, comp):
+    """A deployment's ``idle()`` reaches the wrapped source (a live controller's switch made
+    in the idle part); a source without one is left alone."""
+    plan = robot.joints(robot.configuration("walk_ready")).copy()
+    inner = _Const(plan, robot.joint_names)
+    calls: list[int] = []
+    inner.idle = lambda: calls.append(1)  # type: ignore[attr-defined]
+    CompensatedSource(inner, comp, lambda t: SUPPORT_DOUBLE).idle()
+    assert calls == [1]
+    CompensatedSource(_Const(plan, robot.joint_names), comp, lambda t: SUPPORT_DOUBLE).idle()
+
+
 @pytest.mark.parametrize("s_true", [0.6, 1.4])
 def test_source_learns_a_servo_the_model_gets_wrong(robot, comp, s_true):
     """Servos s_true × as compliant as their settings say, on the left foot: the feed-forward

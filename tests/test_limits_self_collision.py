@@ -505,3 +505,17 @@ def test_a_subclass_computing_its_own_rows_gives_them_to_a_compiled_plan(robot):
     G, h = limit.rows_view(kin)
     plain = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING).compute(kin)
     assert np.array_equal(G, plain.G) and np.array_equal(h, plain.h / 2)
+
+
+def test_forgotten_rows_are_computed_again_the_same(robot):
+    """forget_rows: the next call at the same configuration runs the kernel again (a
+    rehearsed first tick runs its code) and gives the same rows bit for bit."""
+    limit = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    rows = limit.compute(kin)
+    exact = limit.distances.exact_computations
+    assert limit.compute(kin) is rows and limit.distances.exact_computations == exact
+    limit.forget_rows()
+    again = limit.compute(kin)
+    assert again is not rows and limit.distances.exact_computations > exact
+    assert np.array_equal(again.G, rows.G) and np.array_equal(again.h, rows.h)

@@ -212,6 +212,28 @@ def test_a_stalled_tick_is_skipped_never_caught_up(robot, walk_ready_ticks, tmp_
     assert knee[1:] == list(goal)  # the servo received exactly the goals sent
 
 
+def test_a_sources_idle_runs_after_each_ticks_goals_are_sent(robot, walk_ready_ticks):
+    """A source with ``idle()`` (a live controller preparing its next tick) has it called
+    once per tick, after that tick's goals are written, never before a tick's solve."""
+    q0 = robot.configuration("walk_ready")[7:]
+    events: list[str] = []
+
+    def hold(tick, t):
+        events.append("solve")
+        return None if tick >= 6 else q0
+
+    source = CallableSource(hold, q0, robot.joint_names)
+    source.idle = lambda: events.append("idle")  # type: ignore[attr-defined]
+    with Emulator(positions=walk_ready_ticks) as emu:
+        bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS[False])
+        write = bus.write_goals
+        bus.write_goals = lambda goals: events.append("write") or write(goals)  # type: ignore
+        result = Deployment(bus, source, robot, DeployConfig(rate=50.0), lambda s: None).run()
+    assert result.completed
+    played = events[events.index("solve") :]
+    assert played == ["solve", "write", "idle"] * 6 + ["solve"]
+
+
 # ---------------------------------------------------------------- start-up
 @pytest.mark.parametrize(
     "fault",

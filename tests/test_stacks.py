@@ -477,3 +477,55 @@ def test_joints_key_selects_the_legs_or_the_other_joints_by_role(robot):
 def test_bad_joints_key_is_one_line(robot, entry, match):
     with pytest.raises(TaskError, match=match):
         build_stack({"levels": [{"tasks": [entry]}]}, robot, source="my.toml")
+
+
+@pytest.mark.parametrize("name", ["walk", "walk_strict"])
+def test_a_switch_made_ahead_is_the_switch_or_is_taken_back_exactly(robot, name):
+    """set_phase_ahead moves the stack as set_phase does (a loop's idle part before the
+    switch tick); undo_phase leaves every task and constraint as before it: frames,
+    activity, targets (a contact the undo switches on again is not anchored afresh), the
+    anchoring record — along random switches, anchored on random soles."""
+    rng = np.random.default_rng(5)
+    ahead, plain = load_stack(name, robot), load_stack(name, robot)
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    soles = ("l_sole", "r_sole")
+
+    def state(control):
+        tasks = [
+            (t.name, t.active, getattr(t, "frame", None), t.packed_target().tobytes())
+            for t in control.stack.tasks()
+        ]
+        constraints = [
+            (c.name, c.active, getattr(c, "frame", getattr(c, "soles", None)))
+            for c in control.stack.constraints()
+        ]
+        phase = (control.phase, control.support, control.swing)
+        return tasks, constraints, dict(control._anchored), phase
+
+    def switch():
+        support = str(rng.choice(soles))
+        anchors = {s: kin.placement(robot.frame_id(s)) for s in soles}
+        for pose in anchors.values():
+            pose.translation += rng.normal(0, 0.01, 3)
+        phase = str(rng.choice(["double", "single"]))
+        return phase, support, soles[1 - soles.index(support)], kin, anchors
+
+    for control in (ahead, plain):
+        control.set_phase("double", "l_sole", "r_sole", kin)
+    undone = 0
+    for _ in range(40):
+        move = switch()
+        before = state(ahead)
+        undo = ahead.set_phase_ahead(*move)
+        assert ahead.ahead_intact(undo)
+        if rng.random() < 0.5:
+            plain.set_phase(*move)  # the switch the tick needed
+        else:
+            ahead.undo_phase(undo, kin)  # another one: taken back
+            assert state(ahead) == before
+            undone += 1
+        assert state(ahead) == state(plain)
+    assert undone > 10
+    undo = ahead.set_phase_ahead(*switch())
+    next(iter(ahead.stack.tasks())).active = False  # the stack changed after the switch made ahead
+    assert not ahead.ahead_intact(undo)

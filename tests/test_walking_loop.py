@@ -339,3 +339,48 @@ def test_the_soles_pack_is_read_only_beside_the_placements_it_was_built_from(rob
     np.testing.assert_array_equal(stale[0], fresh[0])
     np.testing.assert_array_equal(stale[1], fresh[1])
     assert not np.array_equal(estimate(t)[0], fresh[0])  # (the pack's soles: another answer)
+
+
+def test_a_support_switch_made_in_the_idle_part_changes_no_answer(robot, walk10, walk_run):
+    """run() makes each support switch in the idle part after the tick before it
+    (Session.prepare_next, once that tick is recorded; the first tick's before the loop,
+    after the rehearsal): its walk is bit for bit the one
+    without (the tasks' errors too: the swing task is still on when the last single-support
+    tick is recorded). A tick that needs another switch takes it back: a held lift-off
+    (the last double-support tick solved again) and a re-planned reference (the landing
+    sole moved: other anchors) give a session's answers without the switch made ahead."""
+    made = []
+    controller = StackController(load_stack("walk", robot))
+    prepare = controller.prepare_phase
+    controller.prepare_phase = lambda q, t: made.append(t.i) or prepare(q, t)
+    rec = run(controller, robot, walk10)
+    s = walk10.support
+    switches = (np.flatnonzero(s[1:] != s[:-1]) + 1).tolist()
+    assert made == [0, *switches]
+    plain = StackController(load_stack("walk", robot))
+    plain.prepare_phase = lambda q, t: None
+    without = run(plain, robot, walk10)
+    assert np.array_equal(rec.q, without.q) and np.array_equal(walk_run.q, without.q)
+    errors = [k for k in without.channels if k.startswith("err/")]
+    assert errors and all(np.array_equal(rec[k], without[k], equal_nan=True) for k in errors)
+
+    from dataclasses import replace
+
+    lift, land = switches[0], switches[1]  # single support from tick 80, double from 104
+    moved = walk10.l_sole.copy() if walk10.swing_side(land - 1) == "left" else None
+    moved = walk10.r_sole.copy() if moved is None else moved
+    moved[land:, 0] += 0.004  # the landing sole 4 mm further: other anchors
+    side = "l_sole" if walk10.swing_side(land - 1) == "left" else "r_sole"
+    new = replace(walk10, **{side: moved})
+    answers = []
+    for ahead in (True, False):
+        session = Session(StackController(load_stack("walk", robot)), robot, walk10)
+        qs = []
+        for i in [*range(lift), lift - 1, *range(lift, land)]:  # the lift-off held once
+            qs.append(session.tick(i))
+            if ahead:
+                session.prepare_next()
+        session.set_reference(new, land)  # re-planned after the switch was made ahead
+        qs += [session.tick(i) for i in range(land, land + 5)]
+        answers.append(np.array(qs))
+    assert np.array_equal(answers[0], answers[1])

@@ -89,6 +89,18 @@ class _PhaseMoves:
 
 
 @dataclass
+class PhaseUndo:
+    """What :meth:`ControlStack.set_phase_ahead` changed: the (phase, support, swing) before,
+    the contacts' anchoring record, each contact's target (position, rotation) before, and
+    the stack's revision after the move."""
+
+    phase: tuple[str | None, str | None, str | None]
+    anchored: dict[str, str]
+    targets: list[tuple[Any, np.ndarray, np.ndarray]]
+    revision: int = -1
+
+
+@dataclass
 class ControlStack:
     """A loaded stack: the :class:`TaskStack`, its solver and the role bindings."""
 
@@ -133,9 +145,7 @@ class ControlStack:
         stack = self.stack
         if stack.revision != self._after:  # the stack changed since the last set_phase
             self._epoch = object()
-        entry = self._phases.get((phase, support, swing))
-        if entry is None or entry.version != (stack.version, len(self.bindings)):
-            entry = self._phase_moves(phase, support, swing)
+        entry = self._entry(phase, support, swing)
         for item, frame in entry.frames:  # (set when it changes: a lookup and a re-plan)
             if item.frame != frame:
                 item.set_frame(frame)
@@ -160,6 +170,57 @@ class ControlStack:
         # then takes from its memo instead of reading the stack (a support switch's cost)
         self._after = stack.revision
         self.solver.note_phase((self._epoch, phase, support, swing), self._after)
+
+    def set_phase_ahead(
+        self,
+        phase: str,
+        support: str,
+        swing: str | None,
+        kin: Kinematics,
+        anchors: Mapping[str, Any] | None = None,
+    ) -> PhaseUndo:
+        """:meth:`set_phase` made ahead of the tick that needs it (a control loop's idle part,
+        the next phase known from its reference), and what takes it back exactly
+        (:meth:`undo_phase`: the phase before, its contacts' anchors and targets) should the
+        tick turn out to need another phase or other anchors."""
+        entry = self._entry(phase, support, swing)
+        undo = PhaseUndo(
+            (self.phase, self.support, self.swing),
+            dict(self._anchored),
+            [(c, c.target_position.copy(), c.target_rotation.copy()) for c, _ in entry.contacts],
+        )
+        try:
+            self.set_phase(phase, support, swing, kin, anchors)
+        except WbcError:  # (a bad anchor: nothing made ahead; the tick raises it again)
+            self.undo_phase(undo, kin)
+            raise
+        undo.revision = self.stack.revision
+        return undo
+
+    def ahead_intact(self, undo: PhaseUndo) -> bool:
+        """True if nothing changed the stack since :meth:`set_phase_ahead` returned ``undo``
+        (its moves are then those :meth:`set_phase` would make now)."""
+        return self.stack.revision == undo.revision
+
+    def undo_phase(self, undo: PhaseUndo, kin: Kinematics) -> None:
+        """Take a :meth:`set_phase_ahead` back: the phase before it, its contacts anchored
+        where they were (the same targets, the same anchoring record). Exact after a
+        :meth:`set_phase` (a stack with no phase yet keeps the frames and activity moved)."""
+        phase, support, swing = undo.phase
+        if phase is not None and support is not None:
+            self.set_phase(phase, support, swing, kin)
+        for contact, position, rotation in undo.targets:
+            contact.target_position[:] = position
+            contact.target_rotation[:] = rotation
+        self._anchored.clear()
+        self._anchored.update(undo.anchored)
+
+    def _entry(self, phase: str, support: str, swing: str | None) -> _PhaseMoves:
+        """The moves of :meth:`set_phase` in this phase (kept, :meth:`_phase_moves`)."""
+        entry = self._phases.get((phase, support, swing))
+        if entry is None or entry.version != (self.stack.version, len(self.bindings)):
+            entry = self._phase_moves(phase, support, swing)
+        return entry
 
     def _phase_moves(self, phase: str, support: str, swing: str | None) -> _PhaseMoves:
         """What :meth:`set_phase` makes of the role-bound tasks and constraints in this phase,

@@ -335,6 +335,13 @@ class CompensatedSource:
         self._t_last = 0.0
         self._smoothed: list[tuple[float, np.ndarray]] = []
 
+    def idle(self) -> None:
+        """The wrapped source's ``idle()`` (:class:`~wbc.servos.sources.TargetSource`: a live
+        controller's preparation for its next tick), if it has one."""
+        idle = getattr(self.source, "idle", None)
+        if idle is not None:
+            idle()
+
     def first(self) -> np.ndarray:
         if self._ti is not None:  # at rest the servos' integral holds the static load
             return np.clip(self.source.first(), self.compensator.robot.q_min,

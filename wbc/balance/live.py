@@ -102,6 +102,11 @@ class SessionSource(CallableSource):
         super().__init__(target, session.q[7:].copy(), robot.joint_names)
         self.duration = float(session.ref.duration)
 
+    def idle(self) -> None:
+        """After a tick's goals are sent: the next support switch made now
+        (:meth:`Session.prepare_next`), not in the next tick's solve."""
+        self.session.prepare_next()
+
     def cost_share(self, skip: int = 0) -> float | None:
         """The closed loop's share of the tick (:func:`loop_share`) over the walking ticks
         so far, the first ``skip`` left out (None before any)."""
@@ -270,6 +275,7 @@ def closed_loop(
             whole.first(),
             whole.joint_names,
         )
+        target.idle = whole.idle  # type: ignore[attr-defined]  # (the session's, forwarded)
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
     loop = ClosedLoop(deployment, session, source, stabilizer, adjuster, phase_hold, model)

@@ -285,6 +285,12 @@ class Constraint:
         rows = self.compute(kin)
         return rows, Inequality(rows.G[:0], rows.h[:0])
 
+    def forget_rows(self) -> None:
+        """The next computation of the rows runs even at the configuration of the last (the
+        same rows): a rehearsed first tick runs their code, not a kept answer
+        (:meth:`wbc.walking.loop.StackController.rehearse`; default: nothing kept)."""
+        return None
+
     def solved(self) -> None:
         """Called by the solvers after each control tick (a solve with a time step) with this
         constraint at a hard level (its rows computed at that tick's configuration): a

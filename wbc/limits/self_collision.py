@@ -676,6 +676,9 @@ class SelfCollisionConstraint(Constraint):
         self._row_pair, self._row_gap = self._pair_buf[:r], self._gap_buf[:r]  # (views)
         return r
 
+    def forget_rows(self) -> None:
+        self._rows_q[:] = np.nan  # (the kernel's "configuration of the last rows")
+
     def rows_view(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
         """(G, h) of :meth:`compute` as views of the limit's buffers, valid until its next
         call: for a caller that copies them at once (a compiled plan's rows)."""

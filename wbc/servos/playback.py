@@ -615,6 +615,7 @@ class Deployment:
                 soft_ticks += 1
             if trip is None:
                 bus.set_speed(float(np.min(self.v_max)))
+            idle = getattr(self.source, "idle", None)  # (after each tick's goals: TargetSource)
             first_target = self.source(0, 0.0)  # before the clock starts: a live controller's
             while trip is None:  # first solve may be slow (compilation)
                 tick = self.ticker.wait()
@@ -635,6 +636,8 @@ class Deployment:
                 self.ticker.last_sent = now
                 trip = self._tick(cmd, now, 1)
                 self.ticker.done()
+                if idle is not None and trip is None:
+                    idle()
         except KeyboardInterrupt as exc:
             interrupted = True
             signum = getattr(exc, "signum", signal.SIGINT)

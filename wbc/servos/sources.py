@@ -28,7 +28,9 @@ class TargetSource(Protocol):
     (factors of the servos' configured stiffness, per joint or one for all; None: as
     configured): the deployment writes it when it changes
     (:meth:`wbc.servos.bus.ServoBus.set_stiffness`) and restores the configuration at the
-    end and in every safe stop.
+    end and in every safe stop. And ``idle()``: called once a tick's goals are sent (in the
+    period's slack, not in the tick's work): a live controller's preparation for the next
+    tick (:meth:`wbc.walking.loop.Session.prepare_next`).
     """
 
     joint_names: tuple[str, ...]

@@ -313,6 +313,12 @@ class StackSolver(ABC):
             *[c.active for c in constraints],
         )
 
+    def switch_layout(self) -> None:  # noqa: B027
+        """Take the layout of the stack as it is now if the stack changed since the last solve
+        (what a solve does first): a support switch made in a loop's idle part
+        (:meth:`wbc.walking.loop.StackController.prepare_phase`) then leaves its tick nothing
+        to switch. Nothing else changes: the next solve is the same."""
+
     def note_phase(self, phase: tuple, revision: int) -> None:
         """The stack at ``revision`` is in the state that ``phase`` names (hashable; its first
         item an epoch token, compared by identity: within one epoch, the same phase is the

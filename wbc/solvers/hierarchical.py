@@ -87,6 +87,10 @@ class HierarchicalQP(StackSolver):
     def name(self) -> str:
         return f"HierarchicalQP[{self.method}:{self.backend.name}]"
 
+    def switch_layout(self) -> None:
+        if self._key != self.stack.revision:
+            self._plan()
+
     def _plan(self) -> None:
         layout = self._switch_layout(self._build_layout)
         self._levels, self._blocks, self._constraints, self._all_constraints, self.fast = layout

@@ -83,6 +83,10 @@ class WeightedQP(StackSolver):
         self._lower, self._upper = np.full(nv, -np.inf), np.full(nv, np.inf)
         self._no_rows = (np.zeros((0, nv)), np.zeros(0), [])
 
+    def switch_layout(self) -> None:
+        if self._key != self.stack.revision:
+            self._plan(self.ws.shape[2] if self.ws is not None else 0)
+
     def _plan(self, m_in: int) -> None:
         """(Re)build the layout when the stack's structure changed; resize the workspace to
         ``m_in`` inequality rows."""

@@ -9,7 +9,6 @@ configurations, never from a solver's own residuals.
 
 from __future__ import annotations
 
-import math
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Generator
@@ -36,19 +35,15 @@ from ..tasks import (
 )
 from ..tasks.task import ROTATION_TOL
 from .reference import WalkingReference
+from .tick_targets import SOLES as SOLES  # (the targets' names, imported from here too)
+from .tick_targets import TickTargets, sole_pack, support_roles
+from .tick_targets import torso_target as torso_target
 
-SOLES = {"left": "l_sole", "right": "r_sole"}
 #: the checked copy of a tick's targets (:meth:`StackController._copy_targets`): its entry
 #: point, for arrays of the types and shapes below
 _copy_targets = check_entry(copy_targets)
 _F8 = np.dtype(np.float64)
 _VECTOR, _MATRIX = (3,), (3, 3)
-
-
-def torso_target(yaw: float, pitch_roll: np.ndarray) -> np.ndarray:
-    """The torso rotation every controller is asked for: Rz(yaw) · (start rotation with its
-    heading removed), so the torso keeps its start lean and turns with the walk."""
-    return pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ pitch_roll
 
 
 MODES = ("tick", "converge")
@@ -59,97 +54,6 @@ MODES = ("tick", "converge")
 #: of the legs' reach or speed); checked only until every contact is first met
 START_CONTACT_TOL = 1e-3
 START_CONTACT_TICKS = 25
-
-
-@dataclass
-class TickTargets:
-    """What every controller is asked to track at one tick (world frame).
-
-    The arrays are computed once per run (they are the reference, not part of a tick's cost)
-    and shared by every controller: read them, never write them.
-    """
-
-    i: int
-    t: float
-    phase: str  # "double" or "single"
-    support: str  # sole frame of the support foot (in double support: the stance foot of the
-    swing: str  # neighbouring single-support phase) and of the other foot
-    com: np.ndarray
-    l_sole: pin.SE3
-    r_sole: pin.SE3
-    torso_yaw: float
-    #: the torso rotation asked for: Rz(yaw) · the start rotation with its heading removed
-    torso_rotation: np.ndarray
-    #: the swing sole's target position and rotation (arrays of :attr:`swing_placement`)
-    swing_position: np.ndarray
-    swing_rotation: np.ndarray
-    #: True when the soles in contact (:attr:`l_sole`, :attr:`r_sole`) move within a phase
-    #: (a driven walk's stance contact sliding toward its measured landing): then a
-    #: controller that holds contacts sets their targets at every tick, not only at the
-    #: phase's start, where they are anchored
-    contacts_move: bool = False
-    #: (l_sole, r_sole, :func:`sole_pack` of them), built once per walk by a
-    #: :class:`Session`; a reader checks the two placements are still these (``is``)
-    sole_pack: tuple | None = None
-
-    def replace(self, **changes: Any) -> TickTargets:
-        """A copy with these fields changed: a dict copy and the stores, for the feedback
-        inside a tick (``dataclasses.replace`` costs ~10 µs there)."""
-        out = object.__new__(type(self))
-        values = self.__dict__.copy()
-        values.update(changes)
-        out.__dict__ = values
-        return out
-
-    def retarget(self, com: np.ndarray, torso_rotation: np.ndarray) -> TickTargets:
-        """:meth:`replace` of the CoM and torso targets (the feedback's; half its cost)."""
-        out = object.__new__(type(self))
-        values = self.__dict__.copy()
-        values["com"], values["torso_rotation"] = com, torso_rotation
-        out.__dict__ = values
-        return out
-
-    @property
-    def swing_placement(self) -> pin.SE3:
-        return self.l_sole if self.swing == "l_sole" else self.r_sole
-
-    @property
-    def support_placement(self) -> pin.SE3:
-        return self.l_sole if self.support == "l_sole" else self.r_sole
-
-
-def sole_pack(l_sole: pin.SE3, r_sole: pin.SE3) -> np.ndarray:
-    """(34,): both soles' homogeneous placements (row-major, left first) and the lengths of
-    their lateral axes' horizontal part (``math.hypot`` of each ``y`` axis's x, y; at least
-    1e-9): what the closed loop's tick reads of the soles (:mod:`wbc.balance.stabilizer`)."""
-    out = np.empty(34)
-    hl, hr = l_sole.homogeneous, r_sole.homogeneous
-    out[:16], out[16:32] = hl.ravel(), hr.ravel()
-    out[32] = max(math.hypot(hl[0, 1], hl[1, 1]), 1e-9)
-    out[33] = max(math.hypot(hr[0, 1], hr[1, 1]), 1e-9)
-    return out
-
-
-def support_roles(ref: WalkingReference) -> tuple[list[str], list[str]]:
-    """Support and swing sole per tick; double support takes the roles of the next single
-    support phase (or of the previous one at the end of the walk)."""
-    n = ref.n
-    swing_side: list[str | None] = [ref.swing_side(i) for i in range(n)]
-    nxt: str | None = None
-    filled: list[str | None] = [None] * n
-    for i in range(n - 1, -1, -1):
-        if swing_side[i] is not None:
-            nxt = swing_side[i]
-        filled[i] = swing_side[i] or nxt
-    prev: str | None = None
-    for i in range(n):
-        if swing_side[i] is not None:
-            prev = swing_side[i]
-        if filled[i] is None:
-            filled[i] = prev or "right"
-    swing = [SOLES[s] for s in filled]
-    support = ["r_sole" if s == "l_sole" else "l_sole" for s in swing]
-    return support, swing
 
 
 class Controller(ABC):
@@ -170,6 +74,12 @@ class Controller(ABC):
     def rehearse(self, q: np.ndarray, targets: TickTargets, dt: float) -> None:  # noqa: B027
         """Solve the first tick once ahead and forget it (after :meth:`start`): a first tick
         otherwise runs code nothing has run yet (default: nothing)."""
+
+    def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:  # noqa: B027
+        """The idle part of a loop before the tick of ``targets`` (the next tick, known from
+        the reference; ``q`` the last tick's answer): its support switch made now, so that
+        the tick does not pay it; the tick checks it and takes it back if it needs another
+        phase or other anchors (default: nothing)."""
 
     #: the reference's time step, set by the loop before :meth:`start`
     dt: float = 0.01
@@ -244,6 +154,9 @@ class StackController(Controller):
             if isinstance(t, ContactTask)
         ]
         self._writes, self._write_arrays = self._target_writes()
+        #: a support switch made ahead (:meth:`prepare_phase`): (phase, support, swing), the
+        #: soles it anchored the contacts on, the stack's undo record
+        self._ahead: tuple | None = None
 
     def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
         """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
@@ -307,6 +220,7 @@ class StackController(Controller):
         )
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
+        self._ahead = None
         self._kin.update(q0)
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
@@ -335,11 +249,15 @@ class StackController(Controller):
         ran cold (the QP's active-set code, the contacts' anchoring: ~80 against ~16 µs of a
         tick; benchmarks/tick_tail.md). Only on the compiled path, whose ticks depend on no
         earlier one (each starts its active sets afresh; a backend such as OSQP starts from
-        its last solution)."""
+        its last solution). The constraints compute their rows again (the same rows: the
+        self-collision kernel ran last at the start, and walk10's second tick, the first at
+        another configuration, took ~26 µs in it against ~12)."""
         solver = self.solver
         if solver.fast is None:
             return
         counts = solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks
+        for constraint in solver.stack.constraints():
+            constraint.forget_rows()
         try:
             self.track(q, targets, dt, True)
         except WbcError:
@@ -347,7 +265,39 @@ class StackController(Controller):
         solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks = counts
         self.control.forget_anchors()
 
+    def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:
+        """The support switch to ``targets``' phase made ahead
+        (:meth:`ControlStack.set_phase_ahead`), its contacts anchored on ``targets``' soles,
+        and the solver's layout switched (:meth:`StackSolver.switch_layout`):
+        the switch tick then only checks it was the right one (the same phase, the same sole
+        objects, the stack untouched since), else takes it back (:meth:`_set_targets`).
+        Nothing if the switch needs the configuration (a contact without a reference sole)."""
+        control = self.control
+        if self._ahead is not None or not control.bindings or control.phase is None:
+            return
+        key = (targets.phase, targets.support, targets.swing)
+        anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
+        if not self._anchored(targets, anchors):
+            return
+        undo = control.set_phase_ahead(*key, self._kin, anchors)
+        self._ahead = (key, targets.l_sole, targets.r_sole, undo)
+        self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
+
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
+        ahead = self._ahead
+        if ahead is not None:  # a switch made ahead: this one (phase, anchors), or undone
+            self._ahead = None
+            key, left, right, undo = ahead
+            if (
+                phase_changed
+                and targets.l_sole is left
+                and targets.r_sole is right
+                and key == (targets.phase, targets.support, targets.swing)
+                and self.control.ahead_intact(undo)
+            ):
+                phase_changed = False
+            else:
+                self.control.undo_phase(undo, self._kin)
         if phase_changed:
             anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
             if not self._anchored(targets, anchors):  # a contact is made where a frame is now
@@ -469,9 +419,11 @@ class Session:
         self._torso = list(ref.torso_rotations(pitch_roll))
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
+        self._previous: tuple[str, str, str] | None = None
+        self.prepare_time = 0.0
         if self.options.mode == "tick":
             controller.rehearse(self.q, self.targets(0), ref.dt)
-        self._previous: tuple[str, str, str] | None = None
+            self._prepare(0)  # (the first tick's switch: its contacts anchored afresh)
         self._last_index: int | None = None  # reference tick of the last solve
         self.failed = False
         self.failure: WbcError | None = None  # why the last tick failed
@@ -577,6 +529,34 @@ class Session:
         if self._landing >= 0:
             self._check_start_contacts(targets)
         return self.q
+
+    def prepare_next(self) -> None:
+        """The idle part after a tick (its configuration used: recorded, or sent to the
+        servos): if the next reference tick starts a support phase, its switch is made now
+        (:meth:`Controller.prepare_phase`: the contacts anchored on its reference soles), so
+        that the tick itself does not pay it (a support phase's first tick, issue 34's
+        tail); that tick checks the switch was the one it needs, else takes it back (a
+        re-planned reference, a held lift-off, a skipped tick: the same answers as without).
+        Its time is :attr:`prepare_time` (s; not in :attr:`solve_time`). Ticks mode only
+        (the first tick's switch is made so before the loop, after the rehearsal)."""
+        i = self._last_index
+        self.prepare_time = 0.0
+        if i is not None and self.options.mode == "tick":
+            self._prepare(i + 1)
+
+    def _prepare(self, j: int) -> None:
+        """:meth:`prepare_next` for reference tick ``j``."""
+        if j >= self.ref.n:
+            return
+        phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
+        if (phase, self.support[j], self.swing[j]) == self._previous:
+            return
+        start = time.perf_counter()
+        try:
+            self.controller.prepare_phase(self.q, self.targets(j))
+        except WbcError:
+            pass  # (nothing made ahead: the tick raises it again, as a failed tick)
+        self.prepare_time = time.perf_counter() - start
 
     def _check_start_contacts(self, targets: TickTargets) -> None:
         """Until every sole in contact first sits within :data:`START_CONTACT_TOL` of its
@@ -720,6 +700,7 @@ def run_stepwise(
                     errors[name][i] = e
         if on_tick is not None:
             on_tick(i, q, session.targets(i))
+        session.prepare_next()  # (the idle part: the next support switch, if any)
         yield i
     channels = _channels(robot, ref, Q, com, soles, lowest, session.swing)
     channels.update(solve_time=solve_time, iterations=iterations, failed=failed)
