@@ -35,6 +35,7 @@ from ..tasks import (
     SwingFootOrientationTask,
 )
 from ..tasks.task import ROTATION_TOL
+from .handover import SwitchHandover
 from .reference import WalkingReference
 
 SOLES = {"left": "l_sole", "right": "r_sole"}
@@ -244,6 +245,8 @@ class StackController(Controller):
             if isinstance(t, ContactTask)
         ]
         self._writes, self._write_arrays = self._target_writes()
+        #: the stack's [support_switch] across the walk's switches (None: the file has none)
+        self.handover = SwitchHandover(control) if control.support_switch else None
 
     def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
         """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
@@ -311,6 +314,8 @@ class StackController(Controller):
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
                 task.set_target_from(self._kin)
+        if self.handover is not None:
+            self.handover.start()
         self._prepare_phases(q0)
         self.solver.prepare(q0, self.dt)  # setup, not the first tick's cost
 
@@ -346,6 +351,8 @@ class StackController(Controller):
             pass  # the first tick raises it again
         solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks = counts
         self.control.forget_anchors()
+        if self.handover is not None:
+            self.handover.reset()
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         if phase_changed:
@@ -388,10 +395,14 @@ class StackController(Controller):
 
     def track(self, q, targets, dt, phase_changed):
         self._set_targets(q, targets, phase_changed)
+        if self.handover is not None:
+            self.handover.update(q, targets, phase_changed, dt)
         return self.solver.step(q, dt)
 
     def converge(self, q, targets, tol, max_iterations, phase_changed):
         self._set_targets(q, targets, phase_changed)
+        if self.handover is not None:
+            self.handover.update(q, targets, phase_changed, self.dt)
         result = self.solver.solve_pose(q, tol=tol, max_iterations=max_iterations)
         return result.q, result.iterations
 

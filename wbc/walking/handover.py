@@ -1,0 +1,118 @@
+"""A support switch without a joint-speed spike: the legs' posture targets and a landing
+contact carried continuously across it (a stack file's ``[support_switch]`` table,
+:class:`wbc.stacks.SupportSwitch`; benchmarks/balance.md, "Joint speed at a support switch").
+
+A walk stack's weighted level holds an equilibrium between its tasks: in double support the
+hard contacts hold the legs up to 0.4 rad from the posture's target, and that pull biases the
+CoM by ~0.2 mm; in single support the swing leg's pull holds the swing sole 1-3 mm off its
+target. A support switch changes which rows the pull meets (a leg freed, a sole anchored),
+so the equilibrium jumps, and a task at gain 1 asks the jump back in one tick: the freed knee,
+the landing knee or the arms (the cheapest joints) at the servo's full speed. Two changes make
+every switch continuous, whatever the solver path (they write the tasks' target arrays):
+
+* **The legs' posture targets are filtered**: each leg's target q*_leg follows its set point
+  with the time constant τ (``posture_lag``), ``q*_leg += (1 − e^(−dt/τ)) (s − q*_leg)``, the
+  set point ``s`` Walk Ready (the posture's start target) while the leg swings and the
+  configuration it holds while its sole is in contact (a leg in contact is placed by the
+  contact, the CoM and the torso; its pull there only biases them). A switch changes the set
+  point, never the target: the error asked per tick changes by at most ``dt/τ`` of the set
+  points' gap.
+* **A landing contact is settled**: at a touch-down the new contact is anchored where the sole
+  is (the swing task's residual, 1-3 mm), not where the reference puts it, and walked there
+  at ``landing_speed`` (m/s; its rotation the same share of the way each tick), instead of
+  asked in one tick by the hard row.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from ..model import Robot
+from ..stacks import ControlStack
+from ..tasks import ContactTask
+from ..tasks.posture import PostureTask
+
+SOLES = {"left": "l_sole", "right": "r_sole"}
+
+
+class SwitchHandover:
+    """The per-walk state of a stack's :class:`~wbc.stacks.SupportSwitch` (a
+    :class:`~wbc.walking.loop.StackController` keeps one): :meth:`start` at the walk's start
+    pose, then :meth:`update` after each tick's targets are set, before its solve."""
+
+    def __init__(self, control: ControlStack) -> None:
+        settings = control.support_switch
+        if settings is None:
+            raise ValueError("SwitchHandover needs a stack with a [support_switch] table")
+        self.lag = settings.posture_lag
+        self.landing_speed = settings.landing_speed
+        robot: Robot = control.robot
+        tasks = list(control.stack.tasks())
+        self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
+        self._contacts = [t for t in tasks if isinstance(t, ContactTask)]
+        self._legs = {
+            frame: np.array([robot.joint_index(j) for j in robot.roles.leg(side)], dtype=int)
+            for side, frame in SOLES.items()
+            if robot.has_frame(frame)
+        }
+        self._robot = robot
+        self._set_points: list[np.ndarray] = []
+        self._landing: tuple[str, pin.SE3] | None = None
+        self._swing: str | None = None
+
+    def start(self) -> None:
+        """The posture targets as they are now (Walk Ready, set from the start pose) are the
+        swing set points; no landing under way."""
+        self._set_points = [p.target.copy() for p in self._postures]
+        self._landing, self._swing = None, None
+
+    def reset(self) -> None:
+        """Back to the state of :meth:`start` (after a rehearsed tick)."""
+        for task, set_point in zip(self._postures, self._set_points, strict=True):
+            task.target[:] = set_point
+        self._landing, self._swing = None, None
+
+    def update(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
+        """Filter the legs' posture targets one step of ``dt`` and settle a landing contact,
+        for the tick of ``targets`` (a :class:`~wbc.walking.loop.TickTargets`) at ``q``."""
+        single = targets.phase == "single"
+        if self._postures:
+            a = 1.0 - math.exp(-dt / self.lag)
+            joints = q[7:]
+            for task, walk_ready in zip(self._postures, self._set_points, strict=True):
+                target = task.target
+                for frame, idx in self._legs.items():
+                    goal = walk_ready[idx] if single and frame == targets.swing else joints[idx]
+                    target[idx] += a * (goal - target[idx])
+        if self.landing_speed:
+            self._settle(q, targets, phase_changed, dt)
+        self._swing = targets.swing if single else None
+
+    def _settle(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
+        if targets.phase == "single":
+            self._landing = None
+            return
+        if phase_changed and self._swing is not None:  # a touch-down: anchor where it is
+            self._landing = (self._swing, self._robot.frame_placement(q, self._swing))
+        if self._landing is None:
+            return
+        frame, anchor = self._landing
+        goal = targets.l_sole if frame == "l_sole" else targets.r_sole
+        gap = goal.translation - anchor.translation
+        distance = float(np.linalg.norm(gap))
+        step = self.landing_speed * dt
+        if distance <= step:
+            anchor, self._landing = goal, None
+        else:
+            share = step / distance
+            turn = pin.log3(anchor.rotation.T @ goal.rotation)
+            anchor = pin.SE3(
+                anchor.rotation @ pin.exp3(share * turn), anchor.translation + share * gap
+            )
+            self._landing = (frame, anchor)
+        for task in self._contacts:
+            if task.active and task.frame == frame:
+                task.set_target(anchor)
