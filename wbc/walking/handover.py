@@ -30,6 +30,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from ..exceptions import TaskError
 from ..model import Robot
 from ..stacks import ControlStack
 from ..tasks import ContactTask
@@ -46,7 +47,7 @@ class SwitchHandover:
     def __init__(self, control: ControlStack) -> None:
         settings = control.support_switch
         if settings is None:
-            raise ValueError("SwitchHandover needs a stack with a [support_switch] table")
+            raise TaskError(f"stack {control.name!r} has no [support_switch] table to hand over")
         self.lag = settings.posture_lag
         self.landing_speed = settings.landing_speed
         robot: Robot = control.robot
