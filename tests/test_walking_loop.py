@@ -283,10 +283,10 @@ def test_a_support_switch_asks_no_joint_for_its_servo_speed_when_the_reference_d
 
 def test_a_posture_on_the_non_leg_joints_only_removes_the_support_switch_spike(robot):
     """The cause of the spike the test above guards against, isolated: the same walk stack
-    with its posture on the arms only (``joints = "others"``: the legs, which the contacts and the swing foot fix,
-    no longer pulled to Walk Ready) tracks static_walk at the reference's own speed share
-    (0.54) with < 0.1 of the servo speed at every switch, and its swing foot to < 0.1 mm
-    (2.95 mm with the legs pulled). Not the default: benchmarks/balance.md (walk10)."""
+    with its posture on the arms only (``joints = "others"``: the legs, which the contacts and
+    the swing foot fix, no longer pulled to Walk Ready) tracks static_walk at the reference's
+    own speed share (0.54) with < 0.1 of the servo speed at every switch, and its swing foot to
+    < 0.1 mm (2.95 mm with the legs pulled). Not the default: benchmarks/balance.md (walk10)."""
     from wbc.paths import read_toml, stacks_dir
     from wbc.stacks import build_stack
 
