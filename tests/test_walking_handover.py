@@ -49,7 +49,7 @@ def test_a_switch_moves_the_set_point_never_the_target(robot):
     session = Session(StackController(control), robot, ref)
     handover = session.controller.handover
     walk_ready = posture.target.copy()
-    legs = {f: handover._legs[f] for f in ("l_sole", "r_sole")}
+    legs = {f: handover._joints[handover._sides == k] for k, f in enumerate(("l_sole", "r_sole"))}
     arms = np.setdiff1d(np.arange(robot.n_joints), np.concatenate(list(legs.values())))
     a = 1.0 - math.exp(-ref.dt / 0.1)
     for i in range(ref.n):

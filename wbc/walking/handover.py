@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
 from ..exceptions import TaskError
 from ..model import Robot
@@ -37,6 +38,17 @@ from ..tasks import ContactTask
 from ..tasks.posture import PostureTask
 
 SOLES = {"left": "l_sole", "right": "r_sole"}
+
+
+@njit(cache=True)
+def follow_set_points(target, walk_ready, q, joints, sides, swing, a) -> None:
+    """``target[j] += a (s_j − target[j])`` for each leg joint ``j = joints[k]`` of side
+    ``sides[k]``: ``s_j`` Walk Ready on the ``swing`` side (−1: none), else ``q``'s joint."""
+    off = q.shape[0] - target.shape[0]
+    for k in range(joints.shape[0]):
+        j = joints[k]
+        goal = walk_ready[j] if sides[k] == swing else q[off + j]
+        target[j] += a * (goal - target[j])
 
 
 class SwitchHandover:
@@ -54,11 +66,17 @@ class SwitchHandover:
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
         self._contacts = [t for t in tasks if isinstance(t, ContactTask)]
-        self._legs = {
-            frame: np.array([robot.joint_index(j) for j in robot.roles.leg(side)], dtype=int)
+        legs = [
+            (frame, robot.joint_index(j))
             for side, frame in SOLES.items()
             if robot.has_frame(frame)
-        }
+            for j in robot.roles.leg(side)
+        ]
+        #: the legs' joints and the sole frame each moves (index in :data:`SOLES`' frames)
+        self._frames = tuple(SOLES.values())
+        self._joints = np.array([j for _, j in legs], dtype=np.int64)
+        self._sides = np.array([self._frames.index(f) for f, _ in legs], dtype=np.int64)
+        self._a = (0.0, 0.0)  # (dt, 1 − e^(−dt/τ)) last used
         self._robot = robot
         self._set_points: list[np.ndarray] = []
         self._landing: tuple[str, pin.SE3] | None = None
@@ -81,13 +99,13 @@ class SwitchHandover:
         for the tick of ``targets`` (a :class:`~wbc.walking.loop.TickTargets`) at ``q``."""
         single = targets.phase == "single"
         if self._postures:
-            a = 1.0 - math.exp(-dt / self.lag)
-            joints = q[7:]
+            if self._a[0] != dt:
+                self._a = (dt, 1.0 - math.exp(-dt / self.lag))
+            swing = self._frames.index(targets.swing) if single else -1
             for task, walk_ready in zip(self._postures, self._set_points, strict=True):
-                target = task.target
-                for frame, idx in self._legs.items():
-                    goal = walk_ready[idx] if single and frame == targets.swing else joints[idx]
-                    target[idx] += a * (goal - target[idx])
+                follow_set_points(
+                    task.target, walk_ready, q, self._joints, self._sides, swing, self._a[1]
+                )
         if self.landing_speed:
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
