@@ -31,7 +31,11 @@ def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
     reference asks 0.54), with it they stay at half of it."""
     ref = build("static_walk", robot)
     spec = _walk_spec()
-    assert spec["support_switch"] == {"posture_lag": 0.1, "landing_speed": 0.03}
+    assert spec["support_switch"] == {
+        "posture_lag": 0.1,
+        "landing_time": 0.1,
+        "landing_band": 0.005,
+    }
     without = {k: v for k, v in spec.items() if k != "support_switch"}
     rec = run(StackController(build_stack(without, robot)), robot, ref)
     assert _switch_speed(robot, rec, ref) > 0.95
@@ -64,12 +68,14 @@ def test_a_switch_moves_the_set_point_never_the_target(robot):
 
 
 def test_a_landing_contact_is_anchored_where_the_sole_touches_down(robot):
-    """At a touch-down the new contact holds the sole where it is (one step of landing_speed
-    toward the reference placement), then walks it there; the hard row meets it."""
+    """At a touch-down the new contact holds the sole where it is (one share dt / T of the
+    way toward the reference placement), reaches the reference in ``landing_time``; the hard
+    row meets the anchor each tick."""
     ref = build("static_walk", robot)
     control = load_stack("walk", robot)
     session = Session(StackController(control), robot, ref)
-    step = control.support_switch.landing_speed * ref.dt
+    settings = control.support_switch
+    ticks = round(settings.landing_time / ref.dt)
     seen = 0
     for i in range(ref.n):
         t = session.targets(i)
@@ -81,12 +87,40 @@ def test_a_landing_contact_is_anchored_where_the_sole_touches_down(robot):
             sole = robot.frame_placement(q, frame).translation
             goal = (t.l_sole if frame == "l_sole" else t.r_sole).translation
             contact = next(c for c in control.stack.tasks() if c.active and c.frame == frame)
-            assert np.linalg.norm(goal - sole) > 2 * step  # the swing ended off its target
-            assert np.linalg.norm(contact.target_position - sole) == pytest.approx(step)
+            miss = np.linalg.norm(goal - sole)
+            assert 1e-3 < miss < settings.landing_band  # the swing ended off its target
+            expected = sole + (goal - sole) / ticks
+            np.testing.assert_allclose(contact.target_position, expected, atol=1e-12)
             landed = robot.frame_placement(session.q, frame).translation
             assert np.linalg.norm(landed - contact.target_position) < 1e-5
+            for k in range(i + 1, i + ticks):
+                session.tick(k)
+            np.testing.assert_allclose(contact.target_position, goal, atol=1e-12)
             seen += 1
-    assert seen >= 3
+            if seen == 3:
+                break
+    assert seen == 3
+
+
+def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
+    """A touch-down 25 mm off its reference placement (a push's catch step) anchors the
+    contact ``landing_band`` from the reference, not where the sole is."""
+    from types import SimpleNamespace
+
+    import pinocchio as pin
+
+    control = load_stack("walk", robot)
+    handover = StackController(control).handover
+    handover.start()
+    q = start = robot.configuration("stand")
+    sole = robot.frame_placement(start, "l_sole")
+    goal = pin.SE3(sole.rotation, sole.translation + np.array([0.0, 0.025, 0.0]))
+    handover._swing = "l_sole"
+    t = SimpleNamespace(phase="double", swing="r_sole", l_sole=goal, r_sole=goal)
+    anchor = handover._touch_down(q, t)
+    band = control.support_switch.landing_band
+    assert np.linalg.norm(anchor.translation - goal.translation) == pytest.approx(band)
+    assert np.linalg.norm(anchor.translation - sole.translation) == pytest.approx(0.025 - band)
 
 
 def test_the_support_switch_table_is_checked_and_scaled():
@@ -98,7 +132,7 @@ def test_the_support_switch_table_is_checked_and_scaled():
     spec = _walk_spec()
     for bad, match in (
         ({"posture_lag": 0}, r"support_switch\.posture_lag must be a positive number"),
-        ({"landing_speed": True}, r"support_switch\.landing_speed must be a positive number"),
+        ({"landing_time": True}, r"support_switch\.landing_time must be a positive number"),
         ({"lag": 0.1}, r"support_switch has unknown keys \['lag'\]"),
         (0.1, "support_switch must be a table"),
     ):
@@ -108,5 +142,6 @@ def test_the_support_switch_table_is_checked_and_scaled():
 
     unit = _stack_length_unit(spec["design_leg"], kokone, "")
     got = build_stack(spec, kokone).support_switch
-    assert got == SupportSwitch(0.1 * math.sqrt(unit), 0.03 * math.sqrt(unit))
+    root = math.sqrt(unit)
+    assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit)
     assert build_stack({k: v for k, v in spec.items() if k != "support_switch"}, kokone)

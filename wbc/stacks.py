@@ -93,17 +93,20 @@ class SupportSwitch:
     """A stack file's ``[support_switch]`` table, for this robot: how a walking controller
     carries the stack across a support switch (:mod:`wbc.walking.handover`). ``posture_lag``
     (s): the legs' posture targets follow their set points (Walk Ready for the swing leg, the
-    held pose for a leg in contact) with this time constant; ``landing_speed`` (m/s): a landing
-    contact is anchored where the sole touches down and walked to its reference at this speed.
-    None: off. Both are stated for the file's ``design_leg`` and scaled by √λ (the sizing's
-    time scale, :func:`wbc.walking.sizing.scale_options`) for a robot λ times its size."""
+    held pose for a leg in contact) with this time constant; ``landing_time`` (s): a landing
+    contact is anchored where the sole touches down, at most ``landing_band`` (m) from its
+    reference placement (the rest of a larger miss asked at once), and walked there in this
+    time. None (or no band: inf): off. Stated for the file's ``design_leg``; on a robot λ times
+    that size the times are scaled by √λ (the sizing's time scale,
+    :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
 
     posture_lag: float | None = None
-    landing_speed: float | None = None
+    landing_time: float | None = None
+    landing_band: float = math.inf
 
 
 #: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
-_SWITCH_KEYS = ("posture_lag", "landing_speed")
+_SWITCH_KEYS = ("posture_lag", "landing_time", "landing_band")
 
 
 def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:
@@ -127,10 +130,10 @@ def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None
             or value <= 0
         ):
             raise TaskError(
-                f"{where}: support_switch.{key} must be a positive number (posture_lag in s, "
-                f"landing_speed in m/s), got {value!r}"
+                f"{where}: support_switch.{key} must be a positive number (posture_lag and "
+                f"landing_time in s, landing_band in m), got {value!r}"
             )
-        values[key] = float(value) * math.sqrt(unit)
+        values[key] = float(value) * (unit if key == "landing_band" else math.sqrt(unit))
     return SupportSwitch(**values)
 
 

@@ -19,8 +19,9 @@ every switch continuous, whatever the solver path (they write the tasks' target 
   points' gap.
 * **A landing contact is settled**: at a touch-down the new contact is anchored where the sole
   is (the swing task's residual, 1-3 mm), not where the reference puts it, and walked there
-  at ``landing_speed`` (m/s; its rotation the same share of the way each tick), instead of
-  asked in one tick by the hard row.
+  in ``landing_time`` (s; position and rotation the same share of the way each tick), instead
+  of asked in one tick by the hard row. A miss beyond ``landing_band`` (m; a catch step's
+  centimetres after a push) is asked at once as before, only the band's part settled.
 """
 
 from __future__ import annotations
@@ -61,7 +62,8 @@ class SwitchHandover:
         if settings is None:
             raise TaskError(f"stack {control.name!r} has no [support_switch] table to hand over")
         self.lag = settings.posture_lag
-        self.landing_speed = settings.landing_speed
+        self.landing_time = settings.landing_time
+        self.landing_band = settings.landing_band
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
@@ -79,7 +81,7 @@ class SwitchHandover:
         self._a = (0.0, 0.0)  # (dt, 1 − e^(−dt/τ)) last used
         self._robot = robot
         self._set_points: list[np.ndarray] = []
-        self._landing: tuple[str, pin.SE3] | None = None
+        self._landing: tuple[str, pin.SE3, float] | None = None
         self._swing: str | None = None
 
     def start(self) -> None:
@@ -106,32 +108,48 @@ class SwitchHandover:
                 follow_set_points(
                     task.target, walk_ready, q, self._joints, self._sides, swing, self._a[1]
                 )
-        if self.landing_speed:
+        if self.landing_time:
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
 
+    def _touch_down(self, q: np.ndarray, targets) -> pin.SE3:
+        """Where the landing sole is, or, if it missed its reference placement by more than
+        ``landing_band``, the point of the band on the way there (the miss beyond the band is
+        asked at once, as a catch step needs)."""
+        sole = self._robot.frame_placement(q, self._swing)
+        goal = targets.l_sole if self._swing == "l_sole" else targets.r_sole
+        miss = sole.translation - goal.translation
+        distance = float(np.linalg.norm(miss))
+        if distance <= self.landing_band:
+            return sole
+        share = self.landing_band / distance
+        turn = pin.log3(goal.rotation.T @ sole.rotation)
+        return pin.SE3(goal.rotation @ pin.exp3(share * turn), goal.translation + share * miss)
+
     def _settle(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
+        """The landing contact's anchor: where the sole touched down, then each tick the share
+        ``dt / (T − elapsed)`` of the way to the reference sole (there after ``T``, whatever the
+        miss: a catch step's centimetres as fast as a residual's millimetres, in time)."""
         if targets.phase == "single":
             self._landing = None
             return
         if phase_changed and self._swing is not None:  # a touch-down: anchor where it is
-            self._landing = (self._swing, self._robot.frame_placement(q, self._swing))
+            self._landing = (self._swing, self._touch_down(q, targets), 0.0)
         if self._landing is None:
             return
-        frame, anchor = self._landing
+        frame, anchor, elapsed = self._landing
         goal = targets.l_sole if frame == "l_sole" else targets.r_sole
-        gap = goal.translation - anchor.translation
-        distance = float(np.linalg.norm(gap))
-        step = self.landing_speed * dt
-        if distance <= step:
+        left = self.landing_time - elapsed
+        if left <= dt:
             anchor, self._landing = goal, None
         else:
-            share = step / distance
+            share = dt / left
             turn = pin.log3(anchor.rotation.T @ goal.rotation)
             anchor = pin.SE3(
-                anchor.rotation @ pin.exp3(share * turn), anchor.translation + share * gap
+                anchor.rotation @ pin.exp3(share * turn),
+                anchor.translation + share * (goal.translation - anchor.translation),
             )
-            self._landing = (frame, anchor)
+            self._landing = (frame, anchor, elapsed + dt)
         for task in self._contacts:
             if task.active and task.frame == frame:
                 task.set_target(anchor)
