@@ -32,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 from numba import njit
 
+from ..compiled.checks import entry
 from ..exceptions import TaskError
 from ..model import Robot
 from ..stacks import ControlStack
@@ -41,7 +42,7 @@ from ..tasks.posture import PostureTask
 SOLES = {"left": "l_sole", "right": "r_sole"}
 
 
-@njit(cache=True)
+@njit("void(float64[:], float64[:], float64[:], int64[:], int64[:], int64, float64)", cache=True)
 def follow_set_points(target, walk_ready, q, joints, sides, swing, a) -> None:
     """``target[j] += a (s_j − target[j])`` for each leg joint ``j = joints[k]`` of side
     ``sides[k]``: ``s_j`` Walk Ready on the ``swing`` side (−1: none), else ``q``'s joint."""
@@ -81,6 +82,10 @@ class SwitchHandover:
         self._a = (0.0, 0.0)  # (dt, 1 − e^(−dt/τ)) last used
         self._robot = robot
         self._set_points: list[np.ndarray] = []
+        #: (posture target array, its Walk Ready copy): the tasks own the arrays, never re-bound
+        self._pairs: list[tuple[np.ndarray, np.ndarray]] = []
+        self._side = {frame: k for k, frame in enumerate(self._frames)}
+        self._follow = entry(follow_set_points)  # (its compiled entry: no dispatch per tick)
         self._landing: tuple[str, pin.SE3, float] | None = None
         self._swing: str | None = None
 
@@ -88,6 +93,7 @@ class SwitchHandover:
         """The posture targets as they are now (Walk Ready, set from the start pose) are the
         swing set points; no landing under way."""
         self._set_points = [p.target.copy() for p in self._postures]
+        self._pairs = [(p.target, w) for p, w in zip(self._postures, self._set_points, strict=True)]
         self._landing, self._swing = None, None
 
     def reset(self) -> None:
@@ -100,15 +106,14 @@ class SwitchHandover:
         """Filter the legs' posture targets one step of ``dt`` and settle a landing contact,
         for the tick of ``targets`` (a :class:`~wbc.walking.loop.TickTargets`) at ``q``."""
         single = targets.phase == "single"
-        if self._postures:
+        if self._pairs:
             if self._a[0] != dt:
                 self._a = (dt, 1.0 - math.exp(-dt / self.lag))
-            swing = self._frames.index(targets.swing) if single else -1
-            for task, walk_ready in zip(self._postures, self._set_points, strict=True):
-                follow_set_points(
-                    task.target, walk_ready, q, self._joints, self._sides, swing, self._a[1]
-                )
-        if self.landing_time:
+            swing = self._side[targets.swing] if single else -1
+            a, joints, sides, follow = self._a[1], self._joints, self._sides, self._follow
+            for target, walk_ready in self._pairs:
+                follow(target, walk_ready, q, joints, sides, swing, a)
+        if self.landing_time and not (single and self._landing is None):
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
 
