@@ -21,7 +21,9 @@ every switch continuous, whatever the solver path (they write the tasks' target 
   is (the swing task's residual, 1-3 mm), not where the reference puts it, and walked there
   in ``landing_time`` (s; position and rotation the same share of the way each tick), instead
   of asked in one tick by the hard row. A miss beyond ``landing_band`` (m; a catch step's
-  centimetres after a push) is asked at once as before, only the band's part settled.
+  centimetres after a push) is asked at once as before, only the band's part settled. Targets
+  whose contacts move (:attr:`~wbc.walking.loop.TickTargets.contacts_move`: a driven walk,
+  whose walker anchors its landed soles itself) are left to their caller.
 """
 
 from __future__ import annotations
@@ -113,7 +115,9 @@ class SwitchHandover:
             a, joints, sides, follow = self._a[1], self._joints, self._sides, self._follow
             for target, walk_ready in self._pairs:
                 follow(target, walk_ready, q, joints, sides, swing, a)
-        if self.landing_time and not (single and self._landing is None):
+        if targets.contacts_move:  # the caller moves the contacts (a driven walk): not here
+            self._landing = None
+        elif self.landing_time and not (single and self._landing is None):
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
 
