@@ -136,9 +136,9 @@ class SwitchHandover:
         return pin.SE3(goal.rotation @ pin.exp3(share * turn), goal.translation + share * miss)
 
     def _settle(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
-        """The landing contact's anchor: where the sole touched down, then each tick the share
-        ``dt / (T − elapsed)`` of the way to the reference sole (there after ``T``, whatever the
-        miss: a catch step's centimetres as fast as a residual's millimetres, in time)."""
+        """The landing contact's anchor: where the sole touched down (:meth:`_touch_down`),
+        then each tick the share ``dt / (T − elapsed)`` of the way to the reference sole: there
+        after ``T = landing_time``."""
         if targets.phase == "single":
             self._landing = None
             return
