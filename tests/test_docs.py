@@ -89,6 +89,7 @@ def test_every_documented_top_level_key_is_accepted() -> None:
         "velocity_limits": True,
         "import": [],
         "design_leg": 0.14886,
+        "support_switch": {"posture_lag": 0.1, "landing_time": 0.1, "landing_band": 0.005},
         "levels": [{"hard": True, "tasks": [{"type": "contact", "frame": "support"}]}],
     }
     assert set(keys) == set(values)

@@ -353,6 +353,7 @@ def test_commands_pick_the_robot_folders_stack(tmp_path):
 
     folder = tmp_path / "kokone"
     shutil.copytree(robots_dir() / "kokone", folder)
+    (folder / "stack.toml").unlink()  # (Kokone's own: a folder without one here)
     plain = load_robot(folder)
     assert robot_stack(plain)[0] == "walk" and "no robot stack.toml" in robot_stack(plain)[1]
     assert physics_stack(plain) is None  # the benchmark's own

@@ -257,23 +257,16 @@ def test_a_start_contact_that_cannot_be_met_raises_naming_the_sole_and_distance(
         session.tick(START_CONTACT_TICKS)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="open (benchmarks/balance.md, 'Joint speed at a support switch'): the posture's "
-    "error held by the contacts in double support is asked back in one tick at lift-off; "
-    "the posture on the non-leg joints only (joints = 'others'), or the legs' pull slowed "
-    "(gain <= 0.1 or clipped at 0.3 v_max) passes it but breaks walk10's issue-15 tests and "
-    "the simulator on walk10 (issue 29, i29); a softer landing in the reference (a later "
-    "swing apex) does not help: it walks walk10_wb shorter and no lighter",
-)
 @pytest.mark.parametrize("name", ["bioloid", "op3"])
 def test_a_support_switch_asks_no_joint_for_its_servo_speed_when_the_reference_does_not(name):
     """At every support switch of a static walk (its reference asks each joint for < 0.8 of
-    its servo speed) the walk stack's tracked joint speed should stay below 0.9 of it. It
-    reaches 1.0 (the freed leg's knee, the arms through the CoM) at every lift-off and
-    touch-down: the posture task's error, held by the hard contacts in double support (up to
-    0.4 rad), is asked back in the first single-support tick, and its pull in single support
-    (1-3 mm against the swing foot's weight) lands the foot off the reference sole."""
+    its servo speed) the walk stack's tracked joint speed stays below 0.9 of it. Without the
+    stack's ``[support_switch]`` it reached 1.0 (the freed leg's knee, the arms through the
+    CoM) at every lift-off and touch-down: the posture's error held by the hard contacts in
+    double support (up to 0.4 rad, biasing the CoM ~0.2 mm) was asked back in the first
+    single-support tick, and its pull in single support (1-3 mm against the swing foot's
+    weight) was asked back by the new hard contact in the first double-support tick
+    (wbc.walking.handover; 0.50 / 0.59 with it)."""
     from wbc.model import load_robot
     from wbc.walking.feasibility import kinematic_feasibility
 
@@ -289,11 +282,11 @@ def test_a_support_switch_asks_no_joint_for_its_servo_speed_when_the_reference_d
 
 
 def test_a_posture_on_the_non_leg_joints_only_removes_the_support_switch_spike(robot):
-    """The cause of the xfail above, isolated: the same walk stack with its posture on the
-    arms only (``joints = "others"``: the legs, which the contacts and the swing foot fix,
-    no longer pulled to Walk Ready) tracks static_walk at the reference's own speed share
-    (0.54) with < 0.1 of the servo speed at every switch, and its swing foot to < 0.1 mm
-    (2.95 mm with the legs pulled). Not the default: benchmarks/balance.md (walk10)."""
+    """The cause of the spike the test above guards against, isolated: the same walk stack
+    with its posture on the arms only (``joints = "others"``: the legs, which the contacts and
+    the swing foot fix, no longer pulled to Walk Ready) tracks static_walk at the reference's
+    own speed share (0.54) with < 0.1 of the servo speed at every switch, and its swing foot to
+    < 0.1 mm (2.95 mm with the legs pulled). Not the default: benchmarks/balance.md (walk10)."""
     from wbc.paths import read_toml, stacks_dir
     from wbc.stacks import build_stack
 

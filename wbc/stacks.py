@@ -88,6 +88,55 @@ class _PhaseMoves:
     contacts: list[tuple[Any, bool]] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class SupportSwitch:
+    """A stack file's ``[support_switch]`` table, for this robot: how a walking controller
+    carries the stack across a support switch (:mod:`wbc.walking.handover`). ``posture_lag``
+    (s): the legs' posture targets follow their set points (Walk Ready for the swing leg, the
+    held pose for a leg in contact) with this time constant; ``landing_time`` (s): a landing
+    contact is anchored where the sole touches down, at most ``landing_band`` (m) from its
+    reference placement (the rest of a larger miss asked at once), and walked there in this
+    time. None (or no band: inf): off. Stated for the file's ``design_leg``; on a robot λ times
+    that size the times are scaled by √λ (the sizing's time scale,
+    :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
+
+    posture_lag: float | None = None
+    landing_time: float | None = None
+    landing_band: float = math.inf
+
+
+#: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
+_SWITCH_KEYS = ("posture_lag", "landing_time", "landing_band")
+
+
+def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:
+    """The ``[support_switch]`` table checked (positive numbers, known keys) and scaled."""
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise TaskError(f"{where}: support_switch must be a table with keys {list(_SWITCH_KEYS)}")
+    unknown = set(table) - set(_SWITCH_KEYS)
+    if unknown:
+        raise TaskError(
+            f"{where}: support_switch has unknown keys {sorted(unknown)}; allowed: "
+            f"{list(_SWITCH_KEYS)}"
+        )
+    values: dict[str, float] = {}
+    for key, value in table.items():
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+            or value <= 0
+        ):
+            raise TaskError(
+                f"{where}: support_switch.{key} must be a positive number (posture_lag and "
+                f"landing_time in s, landing_band in m), got {value!r}"
+            )
+        values[key] = float(value) * (unit if key == "landing_band" else math.sqrt(unit))
+    return SupportSwitch(**values)
+
+
 @dataclass
 class PhaseUndo:
     """What :meth:`ControlStack.set_phase_ahead` changed: the (phase, support, swing) before,
@@ -111,6 +160,8 @@ class ControlStack:
     solver: StackSolver
     bindings: dict[str, RoleBinding] = field(default_factory=dict)
     source: str = ""
+    #: the file's ``[support_switch]`` (None: a switch asks the tasks' jumps in one tick)
+    support_switch: SupportSwitch | None = None
     phase: str | None = None
     support: str | None = None
     swing: str | None = None
@@ -346,6 +397,7 @@ def build_stack(
         "on_infeasible",
         "import",
         "design_leg",
+        "support_switch",
     }
     if unknown:
         raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
@@ -364,6 +416,7 @@ def build_stack(
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
     unit = _stack_length_unit(spec.get("design_leg"), robot, where)
+    switch = _support_switch(spec.get("support_switch"), unit, where)
     bindings: dict[str, RoleBinding] = {}
     given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
@@ -410,6 +463,7 @@ def build_stack(
         solver,
         bindings,
         source,
+        switch,
     )
     _initial_targets(control, kin, given)
     return control

@@ -34,6 +34,7 @@ from ..tasks import (
     SwingFootOrientationTask,
 )
 from ..tasks.task import ROTATION_TOL
+from .handover import SwitchHandover
 from .reference import WalkingReference
 from .tick_targets import SOLES as SOLES  # (the targets' names, imported from here too)
 from .tick_targets import TickTargets, sole_pack, support_roles
@@ -157,6 +158,8 @@ class StackController(Controller):
         #: a support switch made ahead (:meth:`prepare_phase`): (phase, support, swing), the
         #: soles it anchored the contacts on, the stack's undo record
         self._ahead: tuple | None = None
+        #: the stack's [support_switch] across the walk's switches (None: the file has none)
+        self.handover = SwitchHandover(control) if control.support_switch else None
 
     def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
         """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
@@ -225,6 +228,8 @@ class StackController(Controller):
         for task in self.control.stack.tasks():  # posture etc. from the start pose
             if hasattr(task, "set_target_from") and task not in self._com:
                 task.set_target_from(self._kin)
+        if self.handover is not None:
+            self.handover.start()
         self._prepare_phases(q0)
         self.solver.prepare(q0, self.dt)  # setup, not the first tick's cost
 
@@ -264,6 +269,8 @@ class StackController(Controller):
             pass  # the first tick raises it again
         solver.compiled_ticks, solver.handed_back_ticks, solver.interim_ticks = counts
         self.control.forget_anchors()
+        if self.handover is not None:
+            self.handover.reset()
 
     def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:
         """The support switch to ``targets``' phase made ahead
@@ -338,10 +345,14 @@ class StackController(Controller):
 
     def track(self, q, targets, dt, phase_changed):
         self._set_targets(q, targets, phase_changed)
+        if self.handover is not None:
+            self.handover.update(q, targets, phase_changed, dt)
         return self.solver.step(q, dt)
 
     def converge(self, q, targets, tol, max_iterations, phase_changed):
         self._set_targets(q, targets, phase_changed)
+        if self.handover is not None:
+            self.handover.update(q, targets, phase_changed, self.dt)
         result = self.solver.solve_pose(q, tol=tol, max_iterations=max_iterations)
         return result.q, result.iterations
 

@@ -1,0 +1,147 @@
+"""A support switch carried continuously (wbc.walking.handover, a stack's [support_switch])."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wbc.bench.trajectories import build
+from wbc.exceptions import TaskError
+from wbc.paths import read_toml, stacks_dir
+from wbc.stacks import SupportSwitch, build_stack, load_stack
+from wbc.walking.loop import Session, StackController, run
+
+
+def _walk_spec() -> dict:
+    return read_toml(stacks_dir() / "walk.toml", "task stack", TaskError)
+
+
+def _switch_speed(robot, rec, ref) -> float:
+    speed = np.abs(np.diff(rec.q[:, 7:], axis=0)) / ref.dt / robot.v_max
+    switches = np.flatnonzero(np.diff(rec.channels["support"]))
+    near = np.concatenate([np.arange(s - 1, min(s + 4, len(speed))) for s in switches])
+    return float(speed[near].max())
+
+
+def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
+    """The defect the walk stack's [support_switch] removes (benchmarks/balance.md): the same
+    stack without the table takes static_walk's switches to the servo's full speed (1.00; the
+    reference asks 0.54), with it they stay at half of it."""
+    ref = build("static_walk", robot)
+    spec = _walk_spec()
+    assert spec["support_switch"] == {
+        "posture_lag": 0.1,
+        "landing_time": 0.1,
+        "landing_band": 0.005,
+    }
+    without = {k: v for k, v in spec.items() if k != "support_switch"}
+    rec = run(StackController(build_stack(without, robot)), robot, ref)
+    assert _switch_speed(robot, rec, ref) > 0.95
+    rec = run(StackController(build_stack(spec, robot)), robot, ref)
+    assert _switch_speed(robot, rec, ref) < 0.6
+
+
+def test_a_switch_moves_the_set_point_never_the_target(robot):
+    """At every tick each leg's posture target moves (1 - e^(-dt/τ)) of the way to its set
+    point (Walk Ready while the leg swings, the held pose in contact): continuous across a
+    switch by construction; the arms' targets stay Walk Ready."""
+    ref = build("static_walk", robot)
+    control = load_stack("walk", robot)
+    posture = control.stack.task("posture")
+    session = Session(StackController(control), robot, ref)
+    handover = session.controller.handover
+    walk_ready = posture.target.copy()
+    legs = {f: handover._joints[handover._sides == k] for k, f in enumerate(("l_sole", "r_sole"))}
+    arms = np.setdiff1d(np.arange(robot.n_joints), np.concatenate(list(legs.values())))
+    a = 1.0 - math.exp(-ref.dt / 0.1)
+    for i in range(ref.n):
+        before, q = posture.target.copy(), session.q.copy()
+        session.tick(i)
+        t = session.targets(i)
+        for frame, idx in legs.items():
+            swinging = t.phase == "single" and frame == t.swing
+            goal = walk_ready[idx] if swinging else q[7:][idx]
+            np.testing.assert_allclose(posture.target[idx], before[idx] + a * (goal - before[idx]))
+        assert np.array_equal(posture.target[arms], walk_ready[arms])
+
+
+def test_a_landing_contact_is_anchored_where_the_sole_touches_down(robot):
+    """At a touch-down the new contact holds the sole where it is (one share dt / T of the
+    way toward the reference placement), reaches the reference in ``landing_time``; the hard
+    row meets the anchor each tick."""
+    ref = build("static_walk", robot)
+    control = load_stack("walk", robot)
+    session = Session(StackController(control), robot, ref)
+    settings = control.support_switch
+    ticks = round(settings.landing_time / ref.dt)
+    seen = 0
+    for i in range(ref.n):
+        t = session.targets(i)
+        prev = session.targets(i - 1) if i else t
+        q = session.q.copy()
+        session.tick(i)
+        if t.phase == "double" and prev.phase == "single":
+            frame = prev.swing
+            sole = robot.frame_placement(q, frame).translation
+            goal = (t.l_sole if frame == "l_sole" else t.r_sole).translation
+            contact = next(c for c in control.stack.tasks() if c.active and c.frame == frame)
+            miss = np.linalg.norm(goal - sole)
+            assert 1e-3 < miss < settings.landing_band  # the swing ended off its target
+            expected = sole + (goal - sole) / ticks
+            np.testing.assert_allclose(contact.target_position, expected, atol=1e-12)
+            landed = robot.frame_placement(session.q, frame).translation
+            assert np.linalg.norm(landed - contact.target_position) < 1e-5
+            for k in range(i + 1, i + ticks):
+                session.tick(k)
+            np.testing.assert_allclose(contact.target_position, goal, atol=1e-12)
+            seen += 1
+            if seen == 3:
+                break
+    assert seen == 3
+
+
+def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
+    """A touch-down 25 mm off its reference placement (a push's catch step) anchors the
+    contact ``landing_band`` from the reference, not where the sole is."""
+    from types import SimpleNamespace
+
+    import pinocchio as pin
+
+    control = load_stack("walk", robot)
+    handover = StackController(control).handover
+    handover.start()
+    q = start = robot.configuration("stand")
+    sole = robot.frame_placement(start, "l_sole")
+    goal = pin.SE3(sole.rotation, sole.translation + np.array([0.0, 0.025, 0.0]))
+    handover._swing = "l_sole"
+    t = SimpleNamespace(phase="double", swing="r_sole", l_sole=goal, r_sole=goal)
+    anchor = handover._touch_down(q, t)
+    band = control.support_switch.landing_band
+    assert np.linalg.norm(anchor.translation - goal.translation) == pytest.approx(band)
+    assert np.linalg.norm(anchor.translation - sole.translation) == pytest.approx(0.025 - band)
+
+
+def test_the_support_switch_table_is_checked_and_scaled():
+    """Positive numbers only, known keys only, one line naming the key; a robot λ times the
+    design leg gets both values times √λ."""
+    from wbc.model import load_robot
+
+    kokone = load_robot("kokone")
+    spec = _walk_spec()
+    for bad, match in (
+        ({"posture_lag": 0}, r"support_switch\.posture_lag must be a positive number"),
+        ({"landing_time": True}, r"support_switch\.landing_time must be a positive number"),
+        ({"lag": 0.1}, r"support_switch has unknown keys \['lag'\]"),
+        (0.1, "support_switch must be a table"),
+    ):
+        with pytest.raises(TaskError, match=match):
+            build_stack({**spec, "support_switch": bad}, kokone)
+    from wbc.stacks import _stack_length_unit
+
+    unit = _stack_length_unit(spec["design_leg"], kokone, "")
+    got = build_stack(spec, kokone).support_switch
+    root = math.sqrt(unit)
+    assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit)
+    assert build_stack({k: v for k, v in spec.items() if k != "support_switch"}, kokone)

@@ -1,0 +1,164 @@
+"""A support switch without a joint-speed spike: the legs' posture targets and a landing
+contact carried continuously across it (a stack file's ``[support_switch]`` table,
+:class:`wbc.stacks.SupportSwitch`; benchmarks/balance.md, "Joint speed at a support switch").
+
+A walk stack's weighted level holds an equilibrium between its tasks: in double support the
+hard contacts hold the legs up to 0.4 rad from the posture's target, and that pull biases the
+CoM by ~0.2 mm; in single support the swing leg's pull holds the swing sole 1-3 mm off its
+target. A support switch changes which rows the pull meets (a leg freed, a sole anchored),
+so the equilibrium jumps, and a task at gain 1 asks the jump back in one tick: the freed knee,
+the landing knee or the arms (the cheapest joints) at the servo's full speed. Two changes make
+every switch continuous, whatever the solver path (they write the tasks' target arrays):
+
+* **The legs' posture targets are filtered**: each leg's target q*_leg follows its set point
+  with the time constant τ (``posture_lag``), ``q*_leg += (1 − e^(−dt/τ)) (s − q*_leg)``, the
+  set point ``s`` Walk Ready (the posture's start target) while the leg swings and the
+  configuration it holds while its sole is in contact (a leg in contact is placed by the
+  contact, the CoM and the torso; its pull there only biases them). A switch changes the set
+  point, never the target: the error asked per tick changes by at most ``dt/τ`` of the set
+  points' gap.
+* **A landing contact is settled**: at a touch-down the new contact is anchored where the sole
+  is (the swing task's residual, 1-3 mm), not where the reference puts it, and walked there
+  in ``landing_time`` (s; position and rotation the same share of the way each tick), instead
+  of asked in one tick by the hard row. A miss beyond ``landing_band`` (m; a catch step's
+  centimetres after a push) is asked at once as before, only the band's part settled. Targets
+  whose contacts move (:attr:`~wbc.walking.loop.TickTargets.contacts_move`: a driven walk,
+  whose walker anchors its landed soles itself) are left to their caller.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+from numba import njit
+
+from ..compiled.checks import entry
+from ..exceptions import TaskError
+from ..model import Robot
+from ..stacks import ControlStack
+from ..tasks import ContactTask
+from ..tasks.posture import PostureTask
+
+SOLES = {"left": "l_sole", "right": "r_sole"}
+
+
+@njit("void(float64[:], float64[:], float64[:], int64[:], int64[:], int64, float64)", cache=True)
+def follow_set_points(target, walk_ready, q, joints, sides, swing, a) -> None:
+    """``target[j] += a (s_j − target[j])`` for each leg joint ``j = joints[k]`` of side
+    ``sides[k]``: ``s_j`` Walk Ready on the ``swing`` side (−1: none), else ``q``'s joint."""
+    off = q.shape[0] - target.shape[0]
+    for k in range(joints.shape[0]):
+        j = joints[k]
+        goal = walk_ready[j] if sides[k] == swing else q[off + j]
+        target[j] += a * (goal - target[j])
+
+
+class SwitchHandover:
+    """The per-walk state of a stack's :class:`~wbc.stacks.SupportSwitch` (a
+    :class:`~wbc.walking.loop.StackController` keeps one): :meth:`start` at the walk's start
+    pose, then :meth:`update` after each tick's targets are set, before its solve."""
+
+    def __init__(self, control: ControlStack) -> None:
+        settings = control.support_switch
+        if settings is None:
+            raise TaskError(f"stack {control.name!r} has no [support_switch] table to hand over")
+        self.lag = settings.posture_lag
+        self.landing_time = settings.landing_time
+        self.landing_band = settings.landing_band
+        robot: Robot = control.robot
+        tasks = list(control.stack.tasks())
+        self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
+        self._contacts = [t for t in tasks if isinstance(t, ContactTask)]
+        legs = [
+            (frame, robot.joint_index(j))
+            for side, frame in SOLES.items()
+            if robot.has_frame(frame)
+            for j in robot.roles.leg(side)
+        ]
+        #: the legs' joints and the sole frame each moves (index in :data:`SOLES`' frames)
+        self._frames = tuple(SOLES.values())
+        self._joints = np.array([j for _, j in legs], dtype=np.int64)
+        self._sides = np.array([self._frames.index(f) for f, _ in legs], dtype=np.int64)
+        self._a = (0.0, 0.0)  # (dt, 1 − e^(−dt/τ)) last used
+        self._robot = robot
+        self._set_points: list[np.ndarray] = []
+        #: (posture target array, its Walk Ready copy): the tasks own the arrays, never re-bound
+        self._pairs: list[tuple[np.ndarray, np.ndarray]] = []
+        self._side = {frame: k for k, frame in enumerate(self._frames)}
+        self._follow = entry(follow_set_points)  # (its compiled entry: no dispatch per tick)
+        self._landing: tuple[str, pin.SE3, float] | None = None
+        self._swing: str | None = None
+
+    def start(self) -> None:
+        """The posture targets as they are now (Walk Ready, set from the start pose) are the
+        swing set points; no landing under way."""
+        self._set_points = [p.target.copy() for p in self._postures]
+        self._pairs = [(p.target, w) for p, w in zip(self._postures, self._set_points, strict=True)]
+        self._landing, self._swing = None, None
+
+    def reset(self) -> None:
+        """Back to the state of :meth:`start` (after a rehearsed tick)."""
+        for task, set_point in zip(self._postures, self._set_points, strict=True):
+            task.target[:] = set_point
+        self._landing, self._swing = None, None
+
+    def update(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
+        """Filter the legs' posture targets one step of ``dt`` and settle a landing contact,
+        for the tick of ``targets`` (a :class:`~wbc.walking.loop.TickTargets`) at ``q``."""
+        single = targets.phase == "single"
+        if self._pairs:
+            if self._a[0] != dt:
+                self._a = (dt, 1.0 - math.exp(-dt / self.lag))
+            swing = self._side[targets.swing] if single else -1
+            a, joints, sides, follow = self._a[1], self._joints, self._sides, self._follow
+            for target, walk_ready in self._pairs:
+                follow(target, walk_ready, q, joints, sides, swing, a)
+        if targets.contacts_move:  # the caller moves the contacts (a driven walk): not here
+            self._landing = None
+        elif self.landing_time and not (single and self._landing is None):
+            self._settle(q, targets, phase_changed, dt)
+        self._swing = targets.swing if single else None
+
+    def _touch_down(self, q: np.ndarray, targets) -> pin.SE3:
+        """Where the landing sole is, or, if it missed its reference placement by more than
+        ``landing_band``, the point of the band on the way there (the miss beyond the band is
+        asked at once, as a catch step needs)."""
+        sole = self._robot.frame_placement(q, self._swing)
+        goal = targets.l_sole if self._swing == "l_sole" else targets.r_sole
+        miss = sole.translation - goal.translation
+        distance = float(np.linalg.norm(miss))
+        if distance <= self.landing_band:
+            return sole
+        share = self.landing_band / distance
+        turn = pin.log3(goal.rotation.T @ sole.rotation)
+        return pin.SE3(goal.rotation @ pin.exp3(share * turn), goal.translation + share * miss)
+
+    def _settle(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
+        """The landing contact's anchor: where the sole touched down (:meth:`_touch_down`),
+        then each tick the share ``dt / (T − elapsed)`` of the way to the reference sole: there
+        after ``T = landing_time``."""
+        if targets.phase == "single":
+            self._landing = None
+            return
+        if phase_changed and self._swing is not None:  # a touch-down: anchor where it is
+            self._landing = (self._swing, self._touch_down(q, targets), 0.0)
+        if self._landing is None:
+            return
+        frame, anchor, elapsed = self._landing
+        goal = targets.l_sole if frame == "l_sole" else targets.r_sole
+        left = self.landing_time - elapsed
+        if left <= dt:
+            anchor, self._landing = goal, None
+        else:
+            share = dt / left
+            turn = pin.log3(anchor.rotation.T @ goal.rotation)
+            anchor = pin.SE3(
+                anchor.rotation @ pin.exp3(share * turn),
+                anchor.translation + share * (goal.translation - anchor.translation),
+            )
+            self._landing = (frame, anchor, elapsed + dt)
+        for task in self._contacts:
+            if task.active and task.frame == frame:
+                task.set_target(anchor)
