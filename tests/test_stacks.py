@@ -530,3 +530,17 @@ def test_a_switch_made_ahead_is_the_switch_or_is_taken_back_exactly(robot, name)
     undo = ahead.set_phase_ahead(*switch())
     next(iter(ahead.stack.tasks())).active = False  # the stack changed after the switch made ahead
     assert not ahead.ahead_intact(undo)
+
+
+def test_kokones_stack_is_the_walk_stack_but_for_its_support_switch():
+    """robots/kokone/stack.toml is tasks/walk.toml without [support_switch] (Kokone falls
+    with it: benchmarks/balance.md): a change to the walk stack must reach Kokone's copy."""
+    from wbc.paths import read_toml, robots_dir
+
+    walk = read_toml(stacks_dir() / "walk.toml", "task stack", TaskError)
+    kokone = read_toml(robots_dir() / "kokone" / "stack.toml", "task stack", TaskError)
+    assert "support_switch" in walk and "support_switch" not in kokone
+    for spec in (walk, kokone):
+        for key in ("name", "description", "support_switch"):
+            spec.pop(key, None)
+    assert kokone == walk
