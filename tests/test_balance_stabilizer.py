@@ -209,11 +209,18 @@ def _clip_norm(v, limit):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.integers(0, 2**31), st.floats(0.0, 3.0), st.floats(0.0, 2.0), st.floats(0.0, 0.3))
-def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
+@given(
+    st.integers(0, 2**31),
+    st.floats(0.0, 3.0),
+    st.floats(0.0, 2.0),
+    st.floats(0.0, 0.3),
+    st.sampled_from([1.0, 0.0, 0.5, 2.0, 3.0]),
+)
+def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll):
     """The compiled torso term gives the previous numpy / pinocchio computation's answer to
-    1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target)."""
-    from wbc.balance.stabilizer import _torso_feedback
+    1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target), with
+    the tilt's part about the target's heading scaled by ``k_roll``."""
+    from wbc.balance.stabilizer import _K_ROLL, _K_SIZE, _torso_feedback
 
     rng = np.random.default_rng(seed)
     R_ref = pin.exp3(rng.normal(0, 0.5, 3))
@@ -223,14 +230,20 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
     out = np.empty(16)
     values = np.zeros((8, 3))  # a StateEstimate's: rotation rows 0-2, gyro rate row 7
     values[:3], values[7] = R_est, omega
-    _torso_feedback(values, R_ref, integral, np.array([k_p, k_i, k_d, k_yaw, max_tilt]), dt, out)
+    k = np.zeros(_K_SIZE)
+    k[:5] = k_p, k_i, k_d, k_yaw, max_tilt
+    k[_K_ROLL] = k_roll
+    _torso_feedback(values, R_ref, integral, k, dt, out)
     e = pin.log3(R_est @ R_ref.T)
     assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
     e[2] *= k_yaw
     acc = _clip_norm(integral + e * dt, max_tilt / max(k_i, 1e-9))
     w = R_est @ omega
     w[2] *= k_yaw
-    tilt = _clip_norm(k_p * e + k_i * acc + k_d * w, max_tilt)
+    tilt = k_p * e + k_i * acc + k_d * w
+    h = np.array([R_ref[0, 0], R_ref[1, 0], 0.0])  # the target's heading (roll axis)
+    h /= np.linalg.norm(h)
+    tilt = _clip_norm(tilt + (k_roll - 1.0) * (tilt @ h) * h, max_tilt)
     assert np.allclose(out[:3], e, atol=1e-9)
     assert np.allclose(out[3:6], acc, atol=1e-9)
     assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)

@@ -82,6 +82,9 @@ class Gains:
     k_dcm_i: float = 0.0
     k_dcm_i_y: float = 0.0  # 1/s: the same sideways
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
+    #: the torso term's part about the target's heading (roll: k_p, k_i and k_d sideways)
+    #: scaled by this (1: the same gains on every axis)
+    k_roll: float = 1.0
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
@@ -123,6 +126,7 @@ class Gains:
             "k_dcm_i",
             "k_dcm_i_y",
             "k_lean",
+            "k_roll",
             "k_yaw",
             "j_p",
             "j_d",
@@ -167,6 +171,14 @@ def default_gains(compensate: float) -> Gains:
     return NO_FEED_FORWARD_GAINS if compensate <= 0 else Gains()
 
 
+# the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
+# model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
+# torso's roll scale
+_K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
+_K_ROLL = 10
+_K_SIZE = 11
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _torso_feedback(
     est: np.ndarray,
@@ -207,6 +219,16 @@ def _torso_feedback(
         if i == 2:
             w *= k_yaw
         v[i] = k_p * out[i] + k_i * out[3 + i] + k_d * w
+    k_roll = k[_K_ROLL]
+    if k_roll != 1.0:  # the part about the target's heading (roll) scaled: k_roll
+        h0, h1 = R_ref[0, 0], R_ref[1, 0]
+        m = math.sqrt(h0 * h0 + h1 * h1)
+        if m > 1e-9:
+            h0, h1 = h0 / m, h1 / m
+            r = (k_roll - 1.0) * (v[0] * h0 + v[1] * h1)
+            v[0] += r * h0
+            v[1] += r * h1
+    for i in range(3):
         n += v[i] * v[i]
     n = math.sqrt(n)
     f = -max_tilt / n if n > max_tilt else -1.0
@@ -219,10 +241,6 @@ def _torso_feedback(
                                   + S[1, i, 2] * R_ref[2, j])  # fmt: skip
 
 
-# the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
-# model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0)
-_K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_SIZE = 10
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
 # IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
 # largest estimated tilt error (rad)
@@ -442,7 +460,7 @@ class Stabilizer:
         if self._packed[0] is not g or self._packed[2] is not fall:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
-                 g.hip_release, float(fall is not None)]  # fmt: skip
+                 g.hip_release, float(fall is not None), g.k_roll]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
