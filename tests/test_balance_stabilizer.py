@@ -372,6 +372,27 @@ def test_dcm_integral_takes_a_steady_lag_along_the_walk(robot):
     assert shift[0] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_the_default_without_feed_forward_takes_a_steady_lag_along_the_walk(robot):
+    """Issue 30: without the feed-forward nothing pre-loads a soft servo, and the body sags
+    behind its plan step after step; the default gains for ``compensate`` 0 move the CoM
+    target against the steady DCM error along the walk, growing with its integral (0.25 /s);
+    with the feed-forward's default the target stays where the plan has it."""
+    from wbc.balance.stabilizer import default_gains
+
+    q = standing(robot)
+    t = targets_at(robot, q, "double")
+    vel_ref = np.array([-0.05, 0.0, 0.0])  # the plan moves back: the still robot is ahead
+    shifts = {}
+    for comp in (0.0, 0.5):
+        stab = stabilizer(robot, q, t.torso_rotation, default_gains(comp))
+        shifts[comp] = [float(stab.adjust(t, vel_ref, q, 0.01).com[0] - t.com[0])
+                        for _ in range(50)]  # fmt: skip
+    err = 0.05 / stab.estimator.omega0
+    assert shifts[0.5] == [0.0] * 50
+    assert shifts[0.0][-1] == pytest.approx(-0.25 * 50 * 0.01 * err, rel=1e-3)
+    assert np.all(np.diff(shifts[0.0]) < 0)  # growing with the integral
+
+
 def _replace_torso(targets, R):
     from dataclasses import replace
 
