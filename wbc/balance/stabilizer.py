@@ -11,13 +11,16 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   by ``k_yaw``), the torso target becomes ``Exp(−(k_p e + k_i ∫e + k_d ω)) · R_ref``. With the
   soles held by the floor, the legs' joints turn the body back by the commanded
   counter-rotation: each compliant servo's extra torque opposes the sag, ``k_d`` damps the
-  sway, ``k_i`` takes the steady part;
+  sway, ``k_i`` takes the steady part; ``k_roll`` (1: off) scales the command's part about
+  the target's heading (the roll: 2 brings ``lateral_wb``'s nominal within 3° but rings
+  plants with servo latency; issue 30's ninth pass);
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
   behind it; with ``k_dcm_i`` (``k_dcm_i_y`` sideways; off) the error's integral too, kept in
-  the torso target's heading frame (the steady lag a wrong servo model leaves; measured in
-  benchmarks/physics.md, issue 30's fourth pass: not the default);
+  the torso target's heading frame (the steady lag a wrong servo model leaves: 0.25 /s along
+  the walk is the default without the feed-forward, :data:`NO_FEED_FORWARD_GAINS`;
+  benchmarks/physics.md, issue 30's fourth and ninth passes);
 * **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
   ``−k_lean h (e × z)``;
 * **hip strategy** (``k_hip``, on by default) — in single support, a DCM estimated beyond
@@ -193,9 +196,10 @@ def _torso_feedback(
     """The torso term of :meth:`Stabilizer.adjust` in one compiled call (small numpy and
     pinocchio calls cost more than the arithmetic): with ``est`` the estimate's values
     (:class:`~wbc.balance.estimator.StateEstimate`: ``R_est`` its first three rows, the gyro
-    rate ω its last), ``k = [k_p, k_i, k_d, k_yaw, max_tilt]``, ``e = log(R_est R_refᵀ)``
+    rate ω its last), ``k``: the gains' array (``_K_*``), ``e = log(R_est R_refᵀ)``
     (``e_z`` × k_yaw), the integral ``clip(∫ + e dt, max_tilt / k_i)``, ``w = R_est ω``
-    (``w_z`` × k_yaw) and ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``; writes
+    (``w_z`` × k_yaw) and ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``, its part along the
+    target's heading ``h`` (the roll) scaled by ``k[_K_ROLL]`` first; writes
     ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
