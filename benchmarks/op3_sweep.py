@@ -10,6 +10,10 @@ its defaults: IMU + encoders, step adjustment, the feed-forward at the measured 
 benchmarks/op3.md section 8.
 
     nice -n 5 python benchmarks/op3_sweep.py --models 50 --seed 1 --walk walk10
+
+``--gains JSON`` sets :class:`~wbc.balance.stabilizer.Gains` keywords over the closed loop's
+default for the run's feed-forward (:func:`~wbc.balance.stabilizer.default_gains`), e.g. the
+no-feed-forward default's previous gains beside the current ones.
 """
 
 from __future__ import annotations
@@ -17,11 +21,14 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 
 import numpy as np
+from plant_sweep import json_setting
 
 from wbc import load_robot
 from wbc.balance import best_compensate
+from wbc.balance.stabilizer import Gains, default_gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
@@ -42,19 +49,27 @@ def main() -> None:
     p.add_argument("--compensate", type=float, default=None, help="default: the measured best")
     p.add_argument("--nominal", action="store_true", help="the nominal plant first")
     p.add_argument("--json", help="write one record per plant")
+    p.add_argument(
+        "--gains",
+        type=json_setting(Gains),
+        default=None,
+        help="JSON of Gains keywords over the default for the feed-forward, e.g. "
+        "'{\"k_dcm_i\": 0}' (default: the closed loop's default gains)",
+    )
     a = p.parse_args()
     robot = load_robot(a.robot)
     comp = best_compensate(robot) if a.compensate is None else a.compensate
     entry = physics_entry(a.solver, robot)
     ref = traj.build(a.walk, robot)
     _, rec = run_entry(entry, robot, ref, "tick")
-    spec = ClosedLoopSpec(entry.make, ref, None, True, True, SteppingParams())  # default_gains
+    gains = None if a.gains is None else replace(default_gains(comp), **a.gains)
+    spec = ClosedLoopSpec(entry.make, ref, gains, True, True, SteppingParams())  # None: default
     plants = models(robot, a.models, a.seed)
     todo = ([(None, None)] if a.nominal else []) + [
         (k, plants[k]) for k in (a.plants if a.plants else range(a.models))
     ]
     print(f"{robot.name} {a.walk} {entry.name} closed loop, feed-forward x{comp:g}, "
-          f"seed {a.seed}")  # fmt: skip
+          f"seed {a.seed}, gains {json.dumps(a.gains or {})} over the default")  # fmt: skip
     out = []
     for k, v in todo:
         started = time.perf_counter()

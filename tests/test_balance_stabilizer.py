@@ -209,11 +209,18 @@ def _clip_norm(v, limit):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.integers(0, 2**31), st.floats(0.0, 3.0), st.floats(0.0, 2.0), st.floats(0.0, 0.3))
-def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
+@given(
+    st.integers(0, 2**31),
+    st.floats(0.0, 3.0),
+    st.floats(0.0, 2.0),
+    st.floats(0.0, 0.3),
+    st.sampled_from([1.0, 0.0, 0.5, 2.0, 3.0]),
+)
+def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll):
     """The compiled torso term gives the previous numpy / pinocchio computation's answer to
-    1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target)."""
-    from wbc.balance.stabilizer import _torso_feedback
+    1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target), with
+    the tilt's part about the target's heading scaled by ``k_roll``."""
+    from wbc.balance.stabilizer import _K_ROLL, _K_SIZE, _torso_feedback
 
     rng = np.random.default_rng(seed)
     R_ref = pin.exp3(rng.normal(0, 0.5, 3))
@@ -223,14 +230,20 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d):
     out = np.empty(16)
     values = np.zeros((8, 3))  # a StateEstimate's: rotation rows 0-2, gyro rate row 7
     values[:3], values[7] = R_est, omega
-    _torso_feedback(values, R_ref, integral, np.array([k_p, k_i, k_d, k_yaw, max_tilt]), dt, out)
+    k = np.zeros(_K_SIZE)
+    k[:5] = k_p, k_i, k_d, k_yaw, max_tilt
+    k[_K_ROLL] = k_roll
+    _torso_feedback(values, R_ref, integral, k, dt, out)
     e = pin.log3(R_est @ R_ref.T)
     assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
     e[2] *= k_yaw
     acc = _clip_norm(integral + e * dt, max_tilt / max(k_i, 1e-9))
     w = R_est @ omega
     w[2] *= k_yaw
-    tilt = _clip_norm(k_p * e + k_i * acc + k_d * w, max_tilt)
+    tilt = k_p * e + k_i * acc + k_d * w
+    h = np.array([R_ref[0, 0], R_ref[1, 0], 0.0])  # the target's heading (roll axis)
+    h /= np.linalg.norm(h)
+    tilt = _clip_norm(tilt + (k_roll - 1.0) * (tilt @ h) * h, max_tilt)
     assert np.allclose(out[:3], e, atol=1e-9)
     assert np.allclose(out[3:6], acc, atol=1e-9)
     assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)
@@ -357,6 +370,27 @@ def test_dcm_integral_takes_a_steady_lag_along_the_walk(robot):
     assert abs(eps[1]) > 1e-3
     assert shift[1] == pytest.approx(-2.0 * 0.01 * eps[1], rel=1e-6)  # along the walk: y
     assert shift[0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_default_without_feed_forward_takes_a_steady_lag_along_the_walk(robot):
+    """Issue 30: without the feed-forward nothing pre-loads a soft servo, and the body sags
+    behind its plan step after step; the default gains for ``compensate`` 0 move the CoM
+    target against the steady DCM error along the walk, growing with its integral (0.25 /s);
+    with the feed-forward's default the target stays where the plan has it."""
+    from wbc.balance.stabilizer import default_gains
+
+    q = standing(robot)
+    t = targets_at(robot, q, "double")
+    vel_ref = np.array([-0.05, 0.0, 0.0])  # the plan moves back: the still robot is ahead
+    shifts = {}
+    for comp in (0.0, 0.5):
+        stab = stabilizer(robot, q, t.torso_rotation, default_gains(comp))
+        shifts[comp] = [float(stab.adjust(t, vel_ref, q, 0.01).com[0] - t.com[0])
+                        for _ in range(50)]  # fmt: skip
+    err = 0.05 / stab.estimator.omega0
+    assert shifts[0.5] == [0.0] * 50
+    assert shifts[0.0][-1] == pytest.approx(-0.25 * 50 * 0.01 * err, rel=1e-3)
+    assert np.all(np.diff(shifts[0.0]) < 0)  # growing with the integral
 
 
 def _replace_torso(targets, R):

@@ -11,13 +11,16 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   by ``k_yaw``), the torso target becomes ``Exp(−(k_p e + k_i ∫e + k_d ω)) · R_ref``. With the
   soles held by the floor, the legs' joints turn the body back by the commanded
   counter-rotation: each compliant servo's extra torque opposes the sag, ``k_d`` damps the
-  sway, ``k_i`` takes the steady part;
+  sway, ``k_i`` takes the steady part; ``k_roll`` (1: off) scales the command's part about
+  the target's heading (the roll: 2 brings ``lateral_wb``'s nominal within 3° but rings
+  plants with servo latency; issue 30's ninth pass);
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
   behind it; with ``k_dcm_i`` (``k_dcm_i_y`` sideways; off) the error's integral too, kept in
-  the torso target's heading frame (the steady lag a wrong servo model leaves; measured in
-  benchmarks/physics.md, issue 30's fourth pass: not the default);
+  the torso target's heading frame (the steady lag a wrong servo model leaves: 0.25 /s along
+  the walk is the default without the feed-forward, :data:`NO_FEED_FORWARD_GAINS`;
+  benchmarks/physics.md, issue 30's fourth and ninth passes);
 * **lean** (``k_lean``, off) — the CoM target turned about the stance sole with the torso,
   ``−k_lean h (e × z)``;
 * **hip strategy** (``k_hip``, on by default) — in single support, a DCM estimated beyond
@@ -78,10 +81,13 @@ class Gains:
     k_dcm: float = 0.0  # m/m
     #: 1/s: integral of the DCM error on the CoM target, along the walk (the torso target's
     #: heading frame): the steady lag a wrong servo model leaves (issue 30); its share clipped
-    #: to max_shift
+    #: to max_shift. Off here, 0.25 in :data:`NO_FEED_FORWARD_GAINS`
     k_dcm_i: float = 0.0
     k_dcm_i_y: float = 0.0  # 1/s: the same sideways
     k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
+    #: the torso term's part about the target's heading (roll: k_p, k_i and k_d sideways)
+    #: scaled by this (1: the same gains on every axis)
+    k_roll: float = 1.0
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
@@ -123,6 +129,7 @@ class Gains:
             "k_dcm_i",
             "k_dcm_i_y",
             "k_lean",
+            "k_roll",
             "k_yaw",
             "j_p",
             "j_d",
@@ -153,10 +160,12 @@ class Gains:
 #: the closed loop's default gains without the compliance feed-forward (``compensate`` 0: a
 #: robot whose servo model is unknown, ``--compensate 0``): the estimator's timing
 #: (``joint_lag``) and less torso rate gain (``k_d`` 0.03 s) keep 147 of 150 randomised plants
-#: up against :class:`Gains`' 143 (``turn_wb`` 48, ``lateral_wb`` 49, ``walk10_wb`` 50); with
-#: the feed-forward they lose two on ``walk10_wb``, so it keeps :class:`Gains` (issue 30,
-#: benchmarks/physics.md, sixth pass)
-NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0)
+#: up against :class:`Gains`' 143 (``turn_wb`` 48, ``lateral_wb`` 49, ``walk10_wb`` 50; with
+#: the feed-forward they lose two on ``walk10_wb``, so it keeps :class:`Gains`: issue 30's
+#: sixth pass); the DCM integral along the walk (``k_dcm_i`` 0.25 /s) takes the soft plants'
+#: steady lag (nothing pre-loads their knees: the body sags back, the DCM 30–55 mm behind):
+#: 150 of 150 (issue 30's ninth pass, benchmarks/physics.md)
+NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25)
 
 
 def default_gains(compensate: float) -> Gains:
@@ -165,6 +174,14 @@ def default_gains(compensate: float) -> Gains:
     definition :func:`wbc.balance.live.closed_loop` and every command use when no gains are
     given)."""
     return NO_FEED_FORWARD_GAINS if compensate <= 0 else Gains()
+
+
+# the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
+# model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
+# torso's roll scale
+_K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
+_K_ROLL = 10
+_K_SIZE = 11
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -179,9 +196,10 @@ def _torso_feedback(
     """The torso term of :meth:`Stabilizer.adjust` in one compiled call (small numpy and
     pinocchio calls cost more than the arithmetic): with ``est`` the estimate's values
     (:class:`~wbc.balance.estimator.StateEstimate`: ``R_est`` its first three rows, the gyro
-    rate ω its last), ``k = [k_p, k_i, k_d, k_yaw, max_tilt]``, ``e = log(R_est R_refᵀ)``
+    rate ω its last), ``k``: the gains' array (``_K_*``), ``e = log(R_est R_refᵀ)``
     (``e_z`` × k_yaw), the integral ``clip(∫ + e dt, max_tilt / k_i)``, ``w = R_est ω``
-    (``w_z`` × k_yaw) and ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``; writes
+    (``w_z`` × k_yaw) and ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``, its part along the
+    target's heading ``h`` (the roll) scaled by ``k[_K_ROLL]`` first; writes
     ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
@@ -207,6 +225,16 @@ def _torso_feedback(
         if i == 2:
             w *= k_yaw
         v[i] = k_p * out[i] + k_i * out[3 + i] + k_d * w
+    k_roll = k[_K_ROLL]
+    if k_roll != 1.0:  # the part about the target's heading (roll) scaled: k_roll
+        h0, h1 = R_ref[0, 0], R_ref[1, 0]
+        m = math.sqrt(h0 * h0 + h1 * h1)
+        if m > 1e-9:
+            h0, h1 = h0 / m, h1 / m
+            r = (k_roll - 1.0) * (v[0] * h0 + v[1] * h1)
+            v[0] += r * h0
+            v[1] += r * h1
+    for i in range(3):
         n += v[i] * v[i]
     n = math.sqrt(n)
     f = -max_tilt / n if n > max_tilt else -1.0
@@ -219,10 +247,6 @@ def _torso_feedback(
                                   + S[1, i, 2] * R_ref[2, j])  # fmt: skip
 
 
-# the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
-# model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0)
-_K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_SIZE = 10
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
 # IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
 # largest estimated tilt error (rad)
@@ -442,7 +466,7 @@ class Stabilizer:
         if self._packed[0] is not g or self._packed[2] is not fall:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
-                 g.hip_release, float(fall is not None)]  # fmt: skip
+                 g.hip_release, float(fall is not None), g.k_roll]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
