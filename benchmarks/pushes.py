@@ -36,6 +36,7 @@ import time
 
 from wbc.balance.angular import hip_strategy_bound
 from wbc.balance.capture import capture_bounds
+from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
@@ -54,12 +55,18 @@ RECOVERY_STEPS = {"steps_ahead": 3, "double_support": True, "baseline_tau": 1.0}
 
 
 def loop_spec(
-    loop: str, entry, ref, stepping: dict | None = None, gains: dict | None = None
+    loop: str,
+    entry,
+    ref,
+    stepping: dict | None = None,
+    gains: dict | None = None,
+    hold: dict | None = None,
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
     (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
     over RECOVERY_STEPS;
-    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops)."""
+    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops; ``hold``:
+    HoldParams keywords of those loops' lift-off hold)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward x0.5
@@ -70,7 +77,8 @@ def loop_spec(
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
         return ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None), 0.5
-    return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
+    return ClosedLoopSpec(entry.make, ref, gains, True, True, step,
+                          HoldParams(**(hold or {}))), 0.5  # fmt: skip
 
 
 def main() -> None:
@@ -84,6 +92,9 @@ def main() -> None:
         "--stepping", default="{}", help="JSON of SteppingParams keywords (step, steps)"
     )
     ap.add_argument("--gains", default="{}", help="JSON of Gains keywords (closed, step, steps)")
+    ap.add_argument(
+        "--hold", default="{}", help="JSON of HoldParams keywords (the lift-off hold's)"
+    )
     ap.add_argument(
         "--offsets",
         type=float,
@@ -134,8 +145,9 @@ def main() -> None:
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
             spec, comp = loop_spec(
-                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains)
-            )
+                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains),
+                json.loads(args.hold),
+            )  # fmt: skip
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
             row = {"solver": solver, "loop": loop, "compensate": comp,
