@@ -591,7 +591,7 @@ class StepAdjuster:
             if not caught and self.error(ref, i, dcm)[1].any():
                 self._caught = i  # the tick the DCM error left the band in this swing
         if p.touchdown > 0 and self.contact is not None:
-            new = self._touchdown(ref, i, dcm)
+            new = self._touchdown(ref, i)
             if new is not None:
                 return new
         if i - self.last_tick < p.hold_ticks:
@@ -640,10 +640,10 @@ class StepAdjuster:
         self.events.append((float(ref.t[i]), k, wanted, increments[0].copy()))
         return new
 
-    def _touchdown(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
+    def _touchdown(self, ref: WalkingReference, i: int) -> WalkingReference | None:
         """The walk re-based on an early touch-down (``touchdown``; module docstring), or
         None: in a single support (after ``settle``, before its last ``min_remaining``)
-        during a catch or with the DCM error beyond the band, the swing sole found down
+        of a catch (a step the DCM's re-plans moved, or the next), the swing sole found down
         (``contact.down``) ``touchdown`` ticks running: step ``k`` and every later one move
         by where it touched less where the plan lands it, the rest re-planned
         (:meth:`regenerate`) and the clock jumps to the landing (:meth:`rate`)."""
@@ -661,8 +661,8 @@ class StepAdjuster:
         self._down += 1
         if self._down < p.touchdown or (ph.i1 - i) * dt < p.min_remaining:
             return None
-        if self.episode is None and not self.error(ref, i, dcm)[1].any():
-            return None  # (no push: the swing brushing the floor)
+        if self.episode is None or k >= self._catch_end():
+            return None  # (no catch: the swing brushing the floor)
         step = self.plan.steps[k]
         shift = np.asarray(self.contact.touched[s], dtype=float) - np.array([step.x, step.y])
         plan = shifted_plan(self.plan, k, shift)
