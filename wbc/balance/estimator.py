@@ -474,6 +474,7 @@ class StateEstimator:
         self._carried: dict[int, np.ndarray] = {}
         self._corners = sole_corners(*(float(v) for v in robot.foot_size))
         self._fids = [robot.frame_id(name) for name in SOLE_FRAMES]
+        self._data = robot.model.createData()  # (its own: the controller's stays untouched)
         self.bias_gain = float(bias_gain)
         self.kin_gain = float(kin_gain)
         self.joint_lag = bool(joint_lag)
@@ -587,11 +588,10 @@ class StateEstimator:
             q = np.where(np.isfinite(q), q, fallback)
         R_base = est.rotation @ self.torso_b.T
         config = np.concatenate([est.base, pin.Quaternion(R_base).coeffs(), q])
-        robot = self.robot
-        pin.framesForwardKinematics(robot.model, robot.data, config)
+        pin.framesForwardKinematics(self.robot.model, self._data, config)
         out = np.empty(2)
         for s, fid in enumerate(self._fids):
-            M = robot.data.oMf[fid]
+            M = self._data.oMf[fid]
             out[s] = float(np.min(self._corners @ M.rotation[2] + M.translation[2]))
         return out
 
