@@ -104,7 +104,9 @@ class Gains:
     anchor_band: float = 0.0
     #: m: a sole whose lowest point stands more than this above the other's carries no
     #: weight: the estimate anchors on the soles that do (``StateEstimator`` ``contact_band``:
-    #: from the encoders' kinematics and the IMU's tilt; 0: the plan's support)
+    #: from the encoders' kinematics and the IMU's tilt; 0: the plan's support). 0.004
+    #: moves no push beyond rounding and loses a ringing plant with the feed-forward
+    #: (benchmarks/pushes.md, issue 30's seventh pass): off
     contact_band: float = 0.0
     #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
     #: rotation of the tick the joints were read (a tick before the IMU sample: the

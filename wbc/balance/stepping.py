@@ -67,7 +67,9 @@ sole's toe meets the floor early, short of its landing (issue 30: 20 mm short at
 During a catch, a swing sole found down that many ticks running lands where it is: that step
 and every later one move by its shortfall (the rest of the plan re-based on the landed
 foothold, the CoM re-planned from it) and the walk's clock jumps to the landing
-(:meth:`StepAdjuster.rate`), so the next step takes the catch.
+(:meth:`StepAdjuster.rate`), so the next step takes the catch. Measured: one bisection step
+forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
+steps of a few mm; benchmarks/pushes.md, seventh pass).
 
 Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
 0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
@@ -671,7 +673,6 @@ class StepAdjuster:
         self.increments = np.zeros((p.steps_ahead, 2))
         self.shift = np.zeros(2)
         self.last_tick, self._down, self._jump = i, 0, ph.i1
-        self.episode = k if self.episode is None else self.episode
         self.caught_step = k
         self.events.append((float(ref.t[i]), k, shift, shift.copy()))
         return new
