@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import fields, replace
 
 from wbc import load_robot
+from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains, default_gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
@@ -57,17 +58,19 @@ def spec_of(
     extra: dict | None = None,
     step_kw: dict | None = None,
     calibrate_s: float | None = None,
+    hold: dict | None = None,
 ):
     """(compensate, ClosedLoopSpec or None) of a variant (``extra``: more Gains keywords,
-    ``step_kw``: SteppingParams keywords), the gains set over the closed loop's default for
-    the variant's feed-forward (:func:`wbc.balance.stabilizer.default_gains`)."""
+    ``step_kw``: SteppingParams keywords, ``hold``: HoldParams keywords of the lift-off
+    hold), the gains set over the closed loop's default for the variant's feed-forward
+    (:func:`wbc.balance.stabilizer.default_gains`)."""
     if variant is None:
         return 0.0, None
     comp, gains, imu, on, step = variant
     stepping = SteppingParams(**(step_kw or {})) if step else None
     chosen = replace(default_gains(comp), **gains, **(extra or {}))
     return comp, ClosedLoopSpec(entry.make, ref, chosen, on, imu, stepping,
-                                calibrate_s=calibrate_s)  # fmt: skip
+                                HoldParams(**(hold or {})), calibrate_s=calibrate_s)  # fmt: skip
 
 
 def json_setting(cls: type) -> Callable[[str], dict]:
@@ -125,6 +128,12 @@ def main() -> None:
         default=[{}],
         help="JSON of SteppingParams keywords; several: as --gains (every pair of the two)",
     )
+    p.add_argument(
+        "--hold",
+        type=json_setting(HoldParams),
+        default={},
+        help="JSON of HoldParams keywords (the lift-off hold's), e.g. '{\"contact\": true}'",
+    )
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
     p.add_argument(
         "--calibrate",
@@ -157,7 +166,9 @@ def main() -> None:
         for label, gains, step_kw in runs:
             if args.only and label not in args.only:
                 continue
-            comp, spec = spec_of(VARIANTS[label], entry, ref, gains, step_kw, args.calibrate)
+            comp, spec = spec_of(
+                VARIANTS[label], entry, ref, gains, step_kw, args.calibrate, args.hold
+            )
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
             fallen, worst, why = [], [], []

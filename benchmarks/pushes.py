@@ -21,6 +21,9 @@ the nominal run's figures, the LIPM capturability bounds
     python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step \
         --directions forward backward toward away --stepping '{"until_inside": 3}' \
         --gains '{"anchor_band": 0.01}'   # multi-step recovery, the landed-sole anchor
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step \
+        --directions forward backward toward away --offsets -0.04 -0.02 0 0.02 0.04 \
+        --gains '{"contact_band": 0.004}'   # five push times, the mean; the contact state
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -33,6 +36,7 @@ import time
 
 from wbc.balance.angular import hip_strategy_bound
 from wbc.balance.capture import capture_bounds
+from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
@@ -51,12 +55,18 @@ RECOVERY_STEPS = {"steps_ahead": 3, "double_support": True, "baseline_tau": 1.0}
 
 
 def loop_spec(
-    loop: str, entry, ref, stepping: dict | None = None, gains: dict | None = None
+    loop: str,
+    entry,
+    ref,
+    stepping: dict | None = None,
+    gains: dict | None = None,
+    hold: dict | None = None,
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
     (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
     over RECOVERY_STEPS;
-    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops)."""
+    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops; ``hold``:
+    HoldParams keywords of those loops' lift-off hold)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward x0.5
@@ -67,7 +77,8 @@ def loop_spec(
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
         return ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None), 0.5
-    return ClosedLoopSpec(entry.make, ref, gains, True, True, step), 0.5
+    return ClosedLoopSpec(entry.make, ref, gains, True, True, step,
+                          HoldParams(**(hold or {}))), 0.5  # fmt: skip
 
 
 def main() -> None:
@@ -81,6 +92,18 @@ def main() -> None:
         "--stepping", default="{}", help="JSON of SteppingParams keywords (step, steps)"
     )
     ap.add_argument("--gains", default="{}", help="JSON of Gains keywords (closed, step, steps)")
+    ap.add_argument(
+        "--hold", default="{}", help="JSON of HoldParams keywords (the lift-off hold's)"
+    )
+    ap.add_argument(
+        "--offsets",
+        type=float,
+        nargs="+",
+        default=[0.0],
+        metavar="S",
+        help="push times, s after mid single support: one bisection each, their mean "
+        "reported (push_DIR_ns) beside each (push_DIR_each)",
+    )
     ap.add_argument(
         "--safety",
         type=float,
@@ -97,6 +120,9 @@ def main() -> None:
         help="instead: survive or fall at every lateral impulse of the grid (N·s), per loop",
     )
     args = ap.parse_args()
+    from wbc.drive.sim import wait_for_compiled_ticks
+
+    wait_for_compiled_ticks()  # (every run on the compiled tick: a bisection is repeatable)
     if args.grid is not None:
         grid(args)
         return
@@ -119,8 +145,9 @@ def main() -> None:
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
             spec, comp = loop_spec(
-                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains)
-            )
+                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains),
+                json.loads(args.hold),
+            )  # fmt: skip
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
             row = {"solver": solver, "loop": loop, "compensate": comp,
@@ -130,7 +157,12 @@ def main() -> None:
                    "share": nominal.get("feedback_share"), "holds": nominal.get("holds"),
                    "hold_worst_mm": nominal.get("hold_worst_mm")}  # fmt: skip
             for d in args.directions:
-                row[f"push_{d}_ns"] = largest_push(rec, robot, d, compensate=comp, closed=spec)
+                each = [largest_push(rec, robot, d, compensate=comp, closed=spec, offset=o)
+                        for o in args.offsets]  # fmt: skip
+                found = [b for b in each if b is not None]
+                row[f"push_{d}_ns"] = sum(found) / len(found) if found else None
+                if len(args.offsets) > 1:
+                    row[f"push_{d}_each"] = each
             row["wall_s"] = time.perf_counter() - started
             print(json.dumps(row), flush=True)
             out["runs"].append(row)

@@ -296,6 +296,59 @@ def test_a_sole_landing_off_its_plan_is_anchored_where_it_landed(robot, use_imu)
         StateEstimator(robot, 0.2, anchor_band=-0.01)
 
 
+def lifted_left(robot, a: float = 0.15):
+    """The standing pose on the right sole with the left one lifted flat (hip, knee, ankle
+    pitched: 11.8 mm up at ``a`` = 0.15 rad)."""
+    names = list(robot.joint_names)
+    q = robot.configuration("stand")
+    for joint, k in (("l_hip_pitch", -1.0), ("l_knee", 2.0), ("l_ankle_pitch", -1.0)):
+        q[7 + names.index(joint)] += k * a
+    return robot.place_on_ground(q, "r_sole")
+
+
+@pytest.mark.parametrize("band", [0.0, 0.004])
+def test_the_support_the_soles_heights_show(robot, band):
+    """``contact_band``: the plan stands on the left sole and swings the right; the robot
+    stands on the right, the left lifted 11.8 mm (a pushed robot still on the sole the plan
+    swings). From the IMU's rotation and the joints, the left sole's lowest point is found
+    above the right's: the right carries the weight, anchored where the last estimate put it
+    (on the floor): the CoM estimate is the true one. Anchored on the plan's lifted left
+    sole (band 0: off), it reads 11.8 mm low, the right sole below the floor. Standing
+    still on both soles, nothing changes."""
+    from wbc.walking.loop import sole_pack
+
+    q = lifted_left(robot)
+    left, right = robot.frame_placement(q, "l_sole"), robot.frame_placement(q, "r_sole")
+    assert left.translation[2] > 0.011
+    plan_left = pin.SE3(left.rotation, left.translation * [1.0, 1.0, 0.0])  # on the floor
+    swing = pin.SE3(right.rotation, right.translation + [0.02, 0.0, 0.015])  # planned mid-air
+    imu = reading(robot.frame_placement(q, "torso").rotation)
+    est = StateEstimator(robot, 0.2, contact_band=band)
+    est.update(0.01, q[7:], imu, [("l_sole", plan_left)])
+    select, pack = est.contact(8, sole_pack(plan_left, swing), q[7:], None)
+    if band == 0:
+        assert select == 8 and est.carrying == (True, True)
+        e = est.update(0.01, q[7:], imu, [("l_sole", plan_left)])
+        assert e.com[2] - robot.com(q)[2] == pytest.approx(-left.translation[2], abs=1e-6)
+        return
+    assert select == 9 and est.carrying == (False, True)
+    assert est.heights[0] - est.heights[1] == pytest.approx(left.translation[2], abs=1e-3)
+    anchor = pin.SE3(pack[16:32].reshape(4, 4))
+    assert anchor.translation == pytest.approx(right.translation * [1.0, 1.0, 0.0], abs=1e-6)
+    e = est.update(0.01, q[7:], imu, [("r_sole", anchor)])
+    assert e.com == pytest.approx(robot.com(q), abs=1e-6)
+    again = est.contact(8, sole_pack(plan_left, swing), q[7:], None)  # kept while it carries
+    assert again[0] == 9 and np.array_equal(again[1], pack)
+    q, left, right = standing(robot)  # both down: the plan's support, the plan's pack
+    imu = reading(robot.frame_placement(q, "torso").rotation)
+    est = StateEstimator(robot, 0.2, contact_band=band)
+    est.update(0.01, q[7:], imu, [("l_sole", left), ("r_sole", right)])
+    soles = sole_pack(left, right)
+    assert est.contact(12, soles, q[7:], None)[1] is soles
+    with pytest.raises(ConfigurationError, match="contact_band"):
+        StateEstimator(robot, 0.2, contact_band=-0.01)
+
+
 def test_the_constants_are_read_at_their_named_offsets(robot):
     """The compiled estimate reads its gains at named offsets of the constants (the tail of
     the model array): each constructor argument lands where its name says."""

@@ -55,6 +55,32 @@ def test_a_lift_off_waits_while_the_dcm_is_toward_the_lifting_sole(walk10):
     assert not ready.wait(walk10, last - 1, last, away, 0.01)
 
 
+class _Contact:
+    """The estimator's contact detection as the hold reads it (``down``: left, right)."""
+
+    down = (True, True)
+
+
+def test_a_lift_off_waits_while_the_sole_it_stands_on_is_not_down(walk10):
+    """``contact``: the DCM ready, the lift-off still waits (at most ``max_hold``) while the
+    sole the robot is to stand on is not down (a landing the push made late); not when
+    it is, not without ``contact``, not without a contact detection."""
+    last, i = first_lift_off(walk10)
+    stance = 0 if walk10.stance_side(i) == "left" else 1
+    dcm = dcm_ref(walk10, i)
+    contact = _Contact()
+    contact.down = (stance == 1, stance == 0)  # the stance-to-be still up
+    hold = PhaseHold(HoldParams(max_hold=0.03, contact=True))
+    hold.contact = contact
+    assert [hold.wait(walk10, last, i, dcm, 0.01) for _ in range(4)] == [True] * 3 + [False]
+    plain = PhaseHold(HoldParams(max_hold=0.03))
+    plain.contact = contact
+    assert not plain.wait(walk10, last, i, dcm, 0.01)
+    assert not PhaseHold(HoldParams(contact=True)).wait(walk10, last, i, dcm, 0.01)
+    contact.down = (True, True)
+    assert not hold.wait(walk10, last, i, dcm, 0.01)
+
+
 def test_bad_hold_parameters_are_refused():
     with pytest.raises(ConfigurationError, match="band"):
         HoldParams(band=-0.01).check()

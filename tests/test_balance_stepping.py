@@ -283,6 +283,51 @@ def test_step_timing_lands_sooner_during_a_catch_when_the_swing_cannot_reach(rob
     assert off.rate(ref, i, dcm(ref, i, w) + big) == 1.0
 
 
+class _Contact:
+    """What the estimator's contact detection tells the step adjuster (``down``, ``touched``)."""
+
+    def __init__(self) -> None:
+        self.down = (True, False)
+        self.touched = np.zeros((2, 2))
+
+
+def test_an_early_touch_down_lands_the_step_and_rebases_the_rest(robot, walk10):
+    """``touchdown``: during a push (the DCM error beyond the band), the swing sole (right,
+    on walk10's first step) found down ``touchdown`` ticks running 17 mm short of its
+    landing lands there: that step and every later one move by the shortfall (the plan
+    re-based on the landed foothold), the rest re-planned from the tick, the walk's clock
+    jumps to the landing (:meth:`rate`, once). Not without a push, not on one tick down
+    (the DCM's re-plan then), not by default."""
+    params = SteppingParams(touchdown=2)
+    adj = StepAdjuster(robot, walk10, params)
+    w, p = adj.omega, adj.params
+    contact = adj.contact = _Contact()
+    k = 0  # walk10's first step: the right sole swings through MID
+    step = walk10.plan.steps[k]
+    assert step.side == "right"
+    contact.touched[1] = [step.x - 0.017, step.y + 0.002]
+    push = dcm(walk10, MID, w) + [p.band_x + 0.03, 0.0]
+    contact.down = (True, True)
+    first = adj.update(walk10, MID - 1, push)  # one tick down: the DCM's re-plan, no landing
+    assert first is not None and adj.rate(first, MID - 1, push) == 1.0
+    unpushed = StepAdjuster(robot, walk10, params)
+    unpushed.contact = contact
+    for i in (MID - 1, MID):
+        assert unpushed.update(walk10, i, dcm(walk10, i, w)) is None  # brushing the floor
+    new = adj.update(first, MID, push)
+    assert new is not None and len(adj.events) == 2
+    moved = np.array(
+        [[s.x - o.x, s.y - o.y] for s, o in zip(new.plan.steps, walk10.plan.steps, strict=True)]
+    )
+    assert moved == pytest.approx(np.tile([-0.017, 0.002], (len(moved), 1)), abs=1e-12)
+    assert np.array_equal(new.com[:MID], walk10.com[:MID])  # the past kept
+    assert adj.rate(new, MID, push) == 1.0 + (LAND - MID)  # the clock to the landing, once
+    assert adj.rate(new, MID + 1, push) == 1.0
+    off = StepAdjuster(robot, walk10)
+    off.contact = contact
+    assert not off.hurries and off.update(walk10, MID, dcm(walk10, MID, w)) is None
+
+
 def test_planned_recovery_steps_take_what_the_landing_under_way_cannot(robot, walk10):
     """A forward DCM error too large for the swing under way (its shift clipped by the time
     left): with ``steps_ahead = 3`` the steps after it move further, each by an increment

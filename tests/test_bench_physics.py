@@ -56,6 +56,22 @@ def test_largest_push_brackets_the_fall(robot, standing):
     assert not closed_loop.simulate(standing, robot, push=(t_push, force, 0.01), settle=0.5)["fell"]
 
 
+def test_largest_push_at_a_later_push_time(robot, standing, monkeypatch):
+    """``offset``: every bisection run pushes that long after mid single support (one
+    bisection per push time: benchmarks/pushes.py ``--offsets``)."""
+    times = []
+
+    def fake(rec, robot, push=None, **kw):
+        times.append(None if push is None else push[0])
+        return {"fell": push is not None and push[1][1] * pushes.PUSH_DURATION > 0.5}
+
+    monkeypatch.setattr(pushes, "simulate", fake)
+    survived = pushes.largest_push(standing, robot, (0, 1, 0), steps=3, offset=0.03)
+    assert survived == pytest.approx(0.375)
+    t_push = sim_record.mid_single_support(standing)
+    assert times and set(times) == {t_push + 0.03}
+
+
 def test_random_models_and_the_sweep_are_reproducible_from_the_seed(robot, standing):
     a = [v.summary for v in variation.models(robot, 3, seed=7)]
     b = [v.summary for v in variation.models(robot, 3, seed=7)]

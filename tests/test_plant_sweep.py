@@ -42,3 +42,19 @@ def test_several_stepping_settings_parse_like_gains(sweep):
     for bad, what in (("{", "not JSON"), ("[1]", "JSON object"), ('{"bandx": 1}', "no bandx")):
         with pytest.raises(argparse.ArgumentTypeError, match=what):
             sweep.json_setting(SteppingParams)(bad)
+
+
+def test_the_lift_off_hold_is_set_per_run(sweep):
+    """``--hold``: the HoldParams keywords reach the closed loop's spec (the default hold
+    without them); an unknown keyword is refused, named."""
+    from types import SimpleNamespace
+
+    from wbc.balance.retime import HoldParams
+
+    entry = SimpleNamespace(make=None)
+    variant = sweep.VARIANTS["closed + step"]
+    _, spec = sweep.spec_of(variant, entry, None, hold={"contact": True})
+    assert spec.hold == HoldParams(contact=True)
+    assert sweep.spec_of(variant, entry, None)[1].hold == HoldParams()
+    with pytest.raises(argparse.ArgumentTypeError, match="no holdd"):
+        sweep.json_setting(HoldParams)('{"holdd": 1}')

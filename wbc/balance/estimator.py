@@ -50,6 +50,15 @@ placement, until it lifts again. A pushed robot's swing sole lands off its plan 
 ahead after a 0.7 N·s forward push); anchored at the plan, the base and DCM estimates jump by
 that much at touch-down and read behind the robot for the whole next step (issue 30).
 
+**The support the soles show** (``contact_band`` > 0; off by default): before each estimate,
+:meth:`StateEstimator.contact` puts both soles' lowest points (their corners) in the world
+with the last estimate's rotation (the IMU's) and the present joints (the encoders'): what
+a robot senses of which sole is down, no force sensor needed. A sole more than the band above
+the other carries no weight: the planned support soles that are down carry it, and when none
+is (a pushed robot still standing on the sole the plan swings), the sole that is down does,
+anchored where the estimate put it (continuous) until it leaves the support. The step
+adjuster's early touch-down (:mod:`.stepping`, ``touchdown``) reads it.
+
 **Cost** (it runs inside every control tick): one compiled kernel per tick
 (:func:`_estimate`) does the forward kinematics of the revolute joints in the base frame
 (``ᵇc = Σ m_k ᵇp_com,k / M`` and the stance soles), the filter and the CoM terms, with no
@@ -67,6 +76,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ConfigurationError, ModelError
+from ..geometry import sole_corners
 from ..imu import GRAVITY, ImuReading
 from ..model import Robot
 from ..roles import joint_axis
@@ -424,6 +434,7 @@ class StateEstimator:
         kin_gain: float = 0.0,
         anchor_band: float = 0.0,
         joint_lag: bool = False,
+        contact_band: float = 0.0,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -438,7 +449,9 @@ class StateEstimator:
             raise ConfigurationError(
                 f"state estimator: bias_gain must be a finite number >= 0, got {bias_gain}"
             )
-        for name, v in (("kin_gain", kin_gain), ("anchor_band", anchor_band)):
+        for name, v in (
+            ("kin_gain", kin_gain), ("anchor_band", anchor_band), ("contact_band", contact_band)
+        ):  # fmt: skip
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
                     f"state estimator: {name} must be a finite number >= 0, got {v}"
@@ -447,6 +460,21 @@ class StateEstimator:
         #: it landed until it lifts (module docstring; 0: always the planned placement)
         self.anchor_band = float(anchor_band)
         self._landed: dict[str, np.ndarray | None] = {}  # per stance sole: its anchor
+        #: m: a sole whose lowest point is more than this above the other's carries no weight
+        #: (:meth:`contact`; 0: the plan's support, always)
+        self.contact_band = float(contact_band)
+        #: the soles (SOLE_FRAMES order) :meth:`contact` found carrying the weight last tick
+        self.carrying = (True, True)
+        self.heights = np.zeros(2)  # m: the soles' lowest points last tick (:meth:`contact`)
+        self.down = (True, True)  # the soles within the band of the lowest (:meth:`contact`)
+        #: per sole (SOLE_FRAMES order): where it was last found down while the plan swung
+        #: it (x, y; :meth:`contact`)
+        self.touched = np.zeros((2, 2))
+        #: per sole carrying while the plan has it swinging: its anchor (:meth:`contact`)
+        self._carried: dict[int, np.ndarray] = {}
+        self._corners = sole_corners(*(float(v) for v in robot.foot_size))
+        self._fids = [robot.frame_id(name) for name in SOLE_FRAMES]
+        self._data = robot.model.createData()  # (its own: the controller's stays untouched)
         self.bias_gain = float(bias_gain)
         self.kin_gain = float(kin_gain)
         self.joint_lag = bool(joint_lag)
@@ -492,6 +520,9 @@ class StateEstimator:
         self._state[_S_HAS] = 0.0
         self.last = None
         self._landed.clear()
+        self._carried.clear()
+        self.carrying = (True, True)
+        self.down = (True, True)
 
     def reset(self, torso_rotation: np.ndarray) -> None:
         """Start the filter at a known torso rotation (e.g. the planned one, standing)."""
@@ -500,6 +531,9 @@ class StateEstimator:
         self._state[_S_HAS] = 1.0
         self.last = None
         self._landed.clear()
+        self._carried.clear()
+        self.carrying = (True, True)
+        self.down = (True, True)
 
     def update(
         self,
@@ -541,6 +575,72 @@ class StateEstimator:
         quat = pin.Quaternion(R_base).coeffs()
         config = np.concatenate([est.base, quat, q])
         return self.robot.frame_placement(config, frame).translation.copy()
+
+    def sole_heights(self, joints: np.ndarray, fallback: np.ndarray | None) -> np.ndarray:
+        """(2,) each sole's lowest point (of its corners, ``robot.foot_size``; SOLE_FRAMES
+        order) in the world, m, where the last estimate (the IMU's rotation, the anchored
+        base) and ``joints`` (NaN: ``fallback``'s) put it: what a robot senses of which sole
+        is down (the encoders' kinematics and the IMU's tilt)."""
+        est = self.last
+        assert est is not None
+        q = np.asarray(joints, dtype=float)
+        if fallback is not None:
+            q = np.where(np.isfinite(q), q, fallback)
+        R_base = est.rotation @ self.torso_b.T
+        config = np.concatenate([est.base, pin.Quaternion(R_base).coeffs(), q])
+        pin.framesForwardKinematics(self.robot.model, self._data, config)
+        out = np.empty(2)
+        for s, fid in enumerate(self._fids):
+            M = self._data.oMf[fid]
+            out[s] = float(np.min(self._corners @ M.rotation[2] + M.translation[2]))
+        return out
+
+    def contact(
+        self, select: int, soles: np.ndarray, joints: np.ndarray, fallback: np.ndarray | None
+    ) -> tuple[int, np.ndarray]:
+        """The support the sensors show (``contact_band`` > 0), as :func:`_estimate`'s
+        ``select`` and the soles' pack (:func:`wbc.walking.loop.sole_pack`; a copy when an
+        anchor changes) for the plan's ``select`` and ``soles``: a sole whose lowest point
+        (:meth:`sole_heights`, from the last estimate) is more than the band above the
+        other's carries no weight. The planned support soles that are down carry it; when
+        none is (a pushed robot still standing on the sole the plan swings, or already on
+        the one it has not landed), the sole that is down does, anchored where the last
+        estimate put it (its lowest point on the floor: the planned soles' height; the
+        estimate stays continuous) until it leaves the support. :attr:`carrying` keeps the
+        answer. (Called before :func:`_estimate`, on the last tick's estimate.)"""
+        band = self.contact_band
+        if band <= 0 or self.last is None:
+            return select, soles
+        side = select % 8
+        planned = (True, True) if side >= 2 else (side == 0, side == 1)
+        h = self.heights = self.sole_heights(joints, fallback)
+        down = (bool(h[0] - h.min() <= band), bool(h[1] - h.min() <= band))
+        carry = (planned[0] and down[0], planned[1] and down[1])
+        if not any(carry):
+            carry = down
+        self.carrying, self.down = carry, down
+        for s in (0, 1):  # a sole the plan swings, down: where it touched (the step adjuster's)
+            if down[s] and not planned[s]:
+                self.touched[s] = self.landed(SOLE_FRAMES[s], joints, fallback)[:2]
+        for s in list(self._carried):
+            if not carry[s]:
+                del self._carried[s]  # lifted: its plan's placement again at the next landing
+        if carry == planned and not self._carried:
+            return select, soles
+        out = soles.copy()
+        floor = min(soles[11] if planned[0] else math.inf, soles[27] if planned[1] else math.inf)
+        for s in (0, 1):
+            if carry[s] and not planned[s] and s not in self._carried:
+                anchor = soles[16 * s : 16 * s + 16].reshape(4, 4).copy()
+                anchor[:2, 3] = self.landed(SOLE_FRAMES[s], joints, fallback)[:2]
+                anchor[2, 3] = floor
+                self._carried[s] = anchor
+            if s in self._carried:
+                a = self._carried[s]
+                out[16 * s : 16 * s + 16] = a.ravel()
+                out[32 + s] = max(math.hypot(a[0, 1], a[1, 1]), 1e-9)
+        new = (select - side) + (4 if all(carry) else 0 if carry[0] else 1)
+        return new, out
 
     def _anchors(
         self,

@@ -247,7 +247,11 @@ def closed_loop(
             "wbc.walking.gait.walk)")  # fmt: skip
         stepping = None
     adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
+    if adjuster is not None:  # (its touch-down reads the estimator's contact detection)
+        adjuster.contact = stabilizer.estimator
     phase_hold = PhaseHold(hold) if hold is not None and enabled else None
+    if phase_hold is not None:  # (a late landing: the estimator's contact detection)
+        phase_hold.contact = stabilizer.estimator
     session = Session(controller, robot, ref, q0, stabilizer=stabilizer, stepping=adjuster,
                       hold=phase_hold)  # fmt: skip
     source = SessionSource(session)

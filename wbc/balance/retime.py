@@ -15,13 +15,16 @@ CoM asked where the plan wants it at the lift-off) while ``e > band``, at most `
 seconds per lift-off; then the walk resumes where it stopped, later by the time held (the
 rest of the plan is not re-timed: its CoM, soles and phases just start later). Unpushed walks
 never hold: their ``e`` stays below the band (benchmarks/pushes.md). Off unless a
-:class:`PhaseHold` is passed.
+:class:`PhaseHold` is passed. With ``contact`` (off) the lift-off also waits while the sole
+``S`` is not down (the estimator's contact detection, ``Gains.contact_band``: the soles'
+lowest points from the IMU and the encoders): a landing the push made late.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -36,6 +39,9 @@ class HoldParams:
 
     band: float = 0.04  # m: DCM error toward the sole about to lift that is left alone
     max_hold: float = 1.0  # s: longest wait of one lift-off
+    #: the lift-off also waits while the sole it stands the robot on is not down (the
+    #: estimator's contact detection, ``Gains.contact_band``: a late landing; off)
+    contact: bool = False
 
     def check(self) -> HoldParams:
         for name in ("band", "max_hold"):
@@ -57,6 +63,9 @@ class PhaseHold:
         self.held = 0.0
         self.worst = -math.inf
         self._waited = 0.0  # s waited at the current lift-off
+        #: the state estimator whose contact detection ``contact`` reads (set by
+        #: wbc.balance.live.closed_loop; None: the DCM alone)
+        self.contact: Any = None
 
     def error(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
         """``e = (ξ − ξ_ref)·v`` at tick ``i`` (a single support): the DCM's error toward the
@@ -78,7 +87,11 @@ class PhaseHold:
         e = self.error(ref, i, dcm)
         if self._waited == 0.0:
             self.worst = max(self.worst, e)
-        if e <= self.params.band or self._waited + dt > self.params.max_hold + 1e-9:
+        late = False  # the sole the lift-off stands on not down yet (``contact``)
+        if self.params.contact and self.contact is not None:
+            late = not self.contact.down[0 if ref.stance_side(i) == "left" else 1]
+        ready = e <= self.params.band and not late
+        if ready or self._waited + dt > self.params.max_hold + 1e-9:
             self._waited = 0.0
             return False
         if self._waited == 0.0:

@@ -108,6 +108,12 @@ class Gains:
     #: m: a sole landing further than this from its planned placement anchors the state
     #: estimate where it landed until it lifts (``StateEstimator`` ``anchor_band``; 0: off)
     anchor_band: float = 0.0
+    #: m: a sole whose lowest point stands more than this above the other's carries no
+    #: weight: the estimate anchors on the soles that do (``StateEstimator`` ``contact_band``:
+    #: from the encoders' kinematics and the IMU's tilt; 0: the plan's support). 0.004
+    #: moves no push beyond rounding and loses a ringing plant with the feed-forward
+    #: (benchmarks/pushes.md, issue 30's seventh pass): off
+    contact_band: float = 0.0
     #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
     #: rotation of the tick the joints were read (a tick before the IMU sample: the
     #: deployment reads right after the goals; StateEstimator ``joint_lag``); 0: this tick's.
@@ -138,6 +144,7 @@ class Gains:
             "max_offset",
             "kin_tilt",
             "anchor_band",
+            "contact_band",
             "joint_lag",
             "k_hip",
             "hip_band",
@@ -423,6 +430,7 @@ class Stabilizer:
         self.estimator = estimator or StateEstimator(
             robot, com_height, use_imu=imu is not None, gyro_heading=g.k_yaw > 0,
             kin_gain=g.kin_tilt, anchor_band=g.anchor_band, joint_lag=g.joint_lag > 0,
+            contact_band=g.contact_band,
         )  # fmt: skip
         self._fb = np.zeros(_B_SIZE)  # the feedback's state (_feedback_tick)
         self._applied: ImuCalibration | None = None  # the calibration in _fb
@@ -514,6 +522,10 @@ class Stabilizer:
                 stance = [(targets.support, targets.support_placement)]
                 k = select % 8
                 h[k] = estimator._anchors(stance, h[k], h[k], read, joints)[0]
+        if estimator.contact_band > 0:  # the support the sensors show (off by default)
+            select, soles = estimator.contact(
+                select, soles, joints if present is None else present, joints
+            )
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
         packed = self._packed
         if packed[0] is not self.gains or packed[2] is not self.fall:

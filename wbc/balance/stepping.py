@@ -61,6 +61,16 @@ landing time** (``hurry_single``; off): in a single support being caught, the cl
 faster when the swing lacks the room for the shift the error asks (:meth:`rate`). With
 ``catch_band`` a catch under way takes the whole error, not the dead band's less.
 
+**Early touch-down** (``touchdown``; off; needs the estimator's contact detection,
+``Gains.contact_band``): a push forward pitches the body about the stance toe and the swing
+sole's toe meets the floor early, short of its landing (issue 30: 20 mm short at 0.6 N·s).
+During a catch, a swing sole found down that many ticks running lands where it is: that step
+and every later one move by its shortfall (the rest of the plan re-based on the landed
+foothold, the CoM re-planned from it) and the walk's clock jumps to the landing
+(:meth:`StepAdjuster.rate`), so the next step takes the catch. Measured: one bisection step
+forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
+steps of a few mm; benchmarks/pushes.md, seventh pass).
+
 Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
 0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
 the forward and backward bounds (0.56 → 0.63–0.70, 0.47 → 0.54–0.68 N·s) but costs randomised
@@ -168,6 +178,11 @@ class SteppingParams:
     #: m: once a catch has re-planned a step, the dead band of its later re-plans (None: the
     #: band): the band decides whether to catch, the catch then takes the whole error
     catch_band: float | None = None
+    #: early touch-down (needs the estimator's contact detection, ``Gains.contact_band``):
+    #: during a catch, a swing sole found down on the floor for this many ticks running lands
+    #: where it is: that step and every later one re-based on it (moved by its shortfall),
+    #: the CoM reference re-planned, the walk's clock jumps to the landing (0: off)
+    touchdown: int = 0
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -199,7 +214,7 @@ class SteppingParams:
             raise ConfigurationError(
                 f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
             )
-        for name in ("episode_steps", "rest_steps", "until_inside"):
+        for name in ("episode_steps", "rest_steps", "until_inside", "touchdown"):
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
@@ -370,6 +385,11 @@ class StepAdjuster:
         self._landing_mean = np.zeros((2, 6))
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
+        #: the state estimator whose contact detection (``contact_band``) the touch-down reads
+        #: (set by wbc.balance.live.closed_loop; None: no touch-down)
+        self.contact: Any = None
+        self._down = 0  # ticks the swing sole has been found down (touchdown)
+        self._jump: int | None = None  # the landing tick the clock jumps to (touchdown)
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
 
@@ -509,8 +529,9 @@ class StepAdjuster:
 
     @property
     def hurries(self) -> bool:
-        """False when :meth:`rate` is 1 at every tick (``hurry`` 1, or off): not called."""
-        return self.enabled and self.params.hurry != 1.0
+        """False when :meth:`rate` is 1 at every tick (``hurry`` 1 and no ``touchdown``, or
+        off): not called."""
+        return self.enabled and (self.params.hurry != 1.0 or self.params.touchdown > 0)
 
     @property
     def lands(self) -> bool:
@@ -522,6 +543,11 @@ class StepAdjuster:
         error along the walk (the stance sole's heading frame) is beyond ``hurry_band`` (a
         push along the walk: the next step should start, and land, sooner), else 1."""
         p = self.params
+        if self._jump is not None:  # a touch-down: the clock to the landing at once (the
+            # deployment ticks at the reference's rate: closed_loop)
+            jump, self._jump = self._jump, None
+            if jump > i:
+                return 1.0 + (jump - i)
         if p.hurry == 1.0 or not self.enabled:
             return 1.0
         if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
@@ -566,6 +592,10 @@ class StepAdjuster:
             caught = self._caught is not None and self.phase_of[self._caught] == self.phase_of[i]
             if not caught and self.error(ref, i, dcm)[1].any():
                 self._caught = i  # the tick the DCM error left the band in this swing
+        if p.touchdown > 0 and self.contact is not None:
+            new = self._touchdown(ref, i)
+            if new is not None:
+                return new
         if i - self.last_tick < p.hold_ticks:
             return None
         ph = self.phases[self.phase_of[i]]
@@ -610,6 +640,41 @@ class StepAdjuster:
         self.episode = k if self.episode is None else self.episode
         self.caught_step = k
         self.events.append((float(ref.t[i]), k, wanted, increments[0].copy()))
+        return new
+
+    def _touchdown(self, ref: WalkingReference, i: int) -> WalkingReference | None:
+        """The walk re-based on an early touch-down (``touchdown``; module docstring), or
+        None: in a single support (after ``settle``, before its last ``min_remaining``)
+        of a catch (a step the DCM's re-plans moved, or the next), the swing sole found down
+        (``contact.down``) ``touchdown`` ticks running: step ``k`` and every later one move
+        by where it touched less where the plan lands it, the rest re-planned
+        (:meth:`regenerate`) and the clock jumps to the landing (:meth:`rate`)."""
+        p = self.params
+        ph = self.phases[self.phase_of[i]]
+        dt = ref.dt
+        if ph.kind != "single" or ph.step >= len(self.plan.steps):
+            self._down = 0
+            return None
+        k = int(ph.step)
+        s = 0 if self.plan.steps[k].side == "left" else 1
+        if not self.contact.down[s] or (i - ph.i0) * dt < p.settle - 1e-9:
+            self._down = 0
+            return None
+        self._down += 1
+        if self._down < p.touchdown or (ph.i1 - i) * dt < p.min_remaining:
+            return None
+        if self.episode is None or k >= self._catch_end():
+            return None  # (no catch: the swing brushing the floor)
+        step = self.plan.steps[k]
+        shift = np.asarray(self.contact.touched[s], dtype=float) - np.array([step.x, step.y])
+        plan = shifted_plan(self.plan, k, shift)
+        new = self.regenerate(ref, plan, i, ph)
+        self.plan, self.before, self.first = plan, plan, k
+        self.increments = np.zeros((p.steps_ahead, 2))
+        self.shift = np.zeros(2)
+        self.last_tick, self._down, self._jump = i, 0, ph.i1
+        self.caught_step = k
+        self.events.append((float(ref.t[i]), k, shift, shift.copy()))
         return new
 
     def place(

@@ -73,12 +73,15 @@ def largest_push(
     gyro: float = 0.0,
     closed: ClosedLoopSpec | None = None,
     correct: bool = False,
+    offset: float = 0.0,
 ) -> float | None:
-    """Largest impulse (N·s) along ``direction`` at mid single support that the run survives
-    (bisection over [0, max_impulse] in ``steps`` halvings); None if it falls unpushed."""
+    """Largest impulse (N·s) along ``direction`` at mid single support (``offset`` s later)
+    that the run survives (bisection over [0, max_impulse] in ``steps`` halvings); None if
+    it falls unpushed."""
     t_push = mid_single_support(rec)
     if t_push is None:
         return None
+    t_push += offset
     if isinstance(direction, str):
         direction = push_direction(rec, direction)
     u = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
