@@ -123,12 +123,7 @@ def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None
         )
     values: dict[str, float] = {}
     for key, value in table.items():
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(value)
-            or value <= 0
-        ):
+        if not _positive(value):
             raise TaskError(
                 f"{where}: support_switch.{key} must be a positive number (posture_lag and "
                 f"landing_time in s, landing_band in m), got {value!r}"
@@ -469,6 +464,16 @@ def build_stack(
     return control
 
 
+def _positive(value: Any) -> bool:
+    """True if a stack file's ``value`` is a finite number > 0 (a TOML bool is not one)."""
+    return (
+        not isinstance(value, bool)
+        and isinstance(value, int | float)
+        and math.isfinite(value)
+        and value > 0
+    )
+
+
 def _stack_length_unit(design_leg: Any, robot: Robot, where: str) -> float:
     """λ for a stack's length rows: the robot's hip-to-ankle length over the stack file's
     ``design_leg`` (m: the leg of the robot its weights were tuned on; the package's stacks
@@ -476,12 +481,7 @@ def _stack_length_unit(design_leg: Any, robot: Robot, where: str) -> float:
     that robot's units)."""
     if design_leg is None:
         return 1.0
-    if (
-        isinstance(design_leg, bool)
-        or not isinstance(design_leg, int | float)
-        or not math.isfinite(design_leg)
-        or design_leg <= 0
-    ):
+    if not _positive(design_leg):
         raise TaskError(
             f"{where}: design_leg must be a positive length in m (the hip-to-ankle length "
             f"its weights were tuned on), got {design_leg!r}"

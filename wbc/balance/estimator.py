@@ -566,28 +566,28 @@ class StateEstimator:
     def landed(self, frame: str, joints: np.ndarray, fallback: np.ndarray | None) -> np.ndarray:
         """Where the last estimate (base pose) and ``joints`` (NaN: ``fallback``'s) put sole
         ``frame`` (world position, m)."""
+        config = self._estimated_configuration(joints, fallback)
+        return self.robot.frame_placement(config, frame).translation.copy()
+
+    def _estimated_configuration(
+        self, joints: np.ndarray, fallback: np.ndarray | None
+    ) -> np.ndarray:
+        """The configuration the last estimate (base position, the torso's rotation as the
+        base's) and ``joints`` (NaN: ``fallback``'s) make."""
         est = self.last
         assert est is not None
         q = np.asarray(joints, dtype=float)
         if fallback is not None:
             q = np.where(np.isfinite(q), q, fallback)
         R_base = est.rotation @ self.torso_b.T
-        quat = pin.Quaternion(R_base).coeffs()
-        config = np.concatenate([est.base, quat, q])
-        return self.robot.frame_placement(config, frame).translation.copy()
+        return np.concatenate([est.base, pin.Quaternion(R_base).coeffs(), q])
 
     def sole_heights(self, joints: np.ndarray, fallback: np.ndarray | None) -> np.ndarray:
         """(2,) each sole's lowest point (of its corners, ``robot.foot_size``; SOLE_FRAMES
         order) in the world, m, where the last estimate (the IMU's rotation, the anchored
         base) and ``joints`` (NaN: ``fallback``'s) put it: what a robot senses of which sole
         is down (the encoders' kinematics and the IMU's tilt)."""
-        est = self.last
-        assert est is not None
-        q = np.asarray(joints, dtype=float)
-        if fallback is not None:
-            q = np.where(np.isfinite(q), q, fallback)
-        R_base = est.rotation @ self.torso_b.T
-        config = np.concatenate([est.base, pin.Quaternion(R_base).coeffs(), q])
+        config = self._estimated_configuration(joints, fallback)
         pin.framesForwardKinematics(self.robot.model, self._data, config)
         out = np.empty(2)
         for s, fid in enumerate(self._fids):
