@@ -18,8 +18,9 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
   penetration depth by the separating-axis theorem (exact for boxes: the minimum
   translation is along one of the 15 axes) with the contact features' points as witnesses
   (:func:`axis_witness`).
-* :func:`plane_rows` — the velocity-damper rows of the close pairs: the witness pair plus every
-  box corner nearer than the trigger to the separating planes (see
+* :func:`plane_rows` — the velocity-damper rows of the close pairs: every box corner nearer
+  than the trigger to the separating planes, with its projection brought onto the other box,
+  and the witness pair where it is not a corner's row nor a tie (:func:`witness_tie`; see
   :func:`wbc.limits.collision_reference.separating_plane_rows`, the numpy form the tests compare),
   each row −nᵀ(J_b − J_a) Δq <= h(gap), nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω over the point's
   joint support.
@@ -48,6 +49,11 @@ CONTACT = 1e-10
 #: parallel: the face axes cover them; a lower bound either way, exact where its witnesses
 #: check out, and GJK otherwise)
 EDGE_PARALLEL = 1e-6
+#: a box axis within this (rad) of the separating plane is parallel to it; two boxes whose
+#: features nearest the plane share such a direction (a face and a face or an edge, two
+#: parallel edges) have no single witness (any point of their overlap): their rows are the
+#: corners' (:func:`plane_rows`, :func:`witness_tie`)
+PARALLEL = 1e-6
 
 
 @njit(cache=True)
@@ -505,16 +511,72 @@ def _write_row(A, i, pa, pb, n, G, r) -> None:
 
 
 @njit(cache=True)
+def _clamp_to_box(x, R, c, hh, out) -> None:
+    """out = the point of the box (axes R's columns, centre c, half sides hh) nearest to x."""
+    for m in range(3):
+        out[m] = c[m]
+    for i in range(3):
+        s = R[0, i] * (x[0] - c[0]) + R[1, i] * (x[1] - c[1]) + R[2, i] * (x[2] - c[2])
+        s = min(max(s, -hh[i]), hh[i])
+        for m in range(3):
+            out[m] += s * R[m, i]
+
+
+@njit(cache=True)
+def _along_plane(R, n, out) -> int:
+    """The axes of the box (R's columns) parallel to the plane of normal n (|aᵀn| <=
+    :data:`PARALLEL`), their numbers into ``out``; returns how many (0: its feature nearest
+    the plane is a corner, 1: an edge, 2: a face)."""
+    k = 0
+    for i in range(3):
+        if abs(R[0, i] * n[0] + R[1, i] * n[1] + R[2, i] * n[2]) <= PARALLEL:
+            out[k] = i
+            k += 1
+    return k
+
+
+@njit(cache=True)
+def witness_tie(Ra, Rb, n) -> bool:
+    """True if the two boxes' features nearest the separating plane (normal n) share a
+    direction along it (to :data:`PARALLEL`): a face and a face or an edge, or two parallel
+    edges — any point of their overlap is a witness."""
+    ia = np.empty(3, np.int64)
+    ib = np.empty(3, np.int64)
+    ka = _along_plane(Ra, n, ia)
+    kb = _along_plane(Rb, n, ib)
+    if ka == 0 or kb == 0:
+        return False
+    if ka >= 2 or kb >= 2:
+        return True
+    u0, u1, u2 = Ra[0, ia[0]], Ra[1, ia[0]], Ra[2, ia[0]]
+    w0, w1, w2 = Rb[0, ib[0]], Rb[1, ib[0]], Rb[2, ib[0]]
+    x0, x1, x2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+    return math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) <= PARALLEL
+
+
+@njit(cache=True)
+def _is_corner(p, R, c, hh) -> bool:
+    """True if p is a corner of the box (to 1e-9 m: the witness a corner's own row)."""
+    dd = 0.0
+    for i in range(3):
+        s = R[0, i] * (p[0] - c[0]) + R[1, i] * (p[1] - c[1]) + R[2, i] * (p[2] - c[2])
+        dd += (abs(s) - hh[i]) ** 2
+    return dd <= 1e-18
+
+
+@njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
     margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
 ) -> int:  # fmt: skip
     """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
-    returns the number of rows. The witness rows first, then the corners of each pair's
-    second box near the plane through p1, then those of its first box near the plane through
-    p2 (the order of :func:`wbc.limits.collision_reference.separating_plane_rows`). Each pair's
-    bodies' terms are computed once (:func:`_body_terms`)."""
+    returns the number of rows. The witness rows first (only where the witness stands for
+    itself, see :func:`wbc.limits.collision_reference.separating_plane_rows`), then the
+    corners of each pair's second box near the plane through p1, each with its projection
+    on that plane brought onto the first box, then those of its first box near the plane
+    through p2 likewise (the order of the numpy form). Each pair's bodies' terms are
+    computed once (:func:`_body_terms`)."""
     A = np.empty((count, 2, 4, Jw.shape[1]))
     for i in range(count):
         k = out_k[i]
@@ -525,16 +587,28 @@ def plane_rows(
     P = np.empty((17 * count, 2, 3))
     which = np.empty(17 * count, np.int64)
     gaps = np.empty(17 * count)
+    corner2 = np.empty(count, np.bool_)  # (the witness on box 2 is one of its corners)
+    nc = 0
     for i in range(count):
+        k = out_k[i]
+        ga, gb = pair_a[k], pair_b[k]
+        n = out_n[i]
+        corner2[i] = _is_corner(out_p2[i], Rw[gb], cw[gb], half[gb])
+        if corner2[i] or _is_corner(out_p1[i], Rw[ga], cw[ga], half[ga]):
+            continue  # (a corner's own row below)
+        if witness_tie(Rw[ga], Rw[gb], n):
+            continue  # (parallel features: any point of their overlap; the corners' rows)
         for m in range(3):
-            P[i, 0, m], P[i, 1, m] = out_p1[i, m], out_p2[i, m]
-        which[i], gaps[i] = i, out_d[i]
-    nc = count
+            P[nc, 0, m], P[nc, 1, m] = out_p1[i, m], out_p2[i, m]
+        which[nc], gaps[nc] = i, out_d[i]
+        nc += 1
     corner = np.empty(3)
+    foot = np.empty(3)
     for side in range(2):  # 0: corners of box 2 vs the plane at p1; 1: box 1 vs p2
         for i in range(count):
             k = out_k[i]
             g = pair_b[k] if side == 0 else pair_a[k]
+            o = pair_a[k] if side == 0 else pair_b[k]
             n = out_n[i]
             p1, p2 = out_p1[i], out_p2[i]
             R, c, hh = Rw[g], cw[g], half[g]
@@ -544,17 +618,26 @@ def plane_rows(
                 sz = hh[2] if s & 1 else -hh[2]
                 for m in range(3):
                     corner[m] = c[m] + R[m, 0] * sx + R[m, 1] * sy + R[m, 2] * sz
-                own = p2 if side == 0 else p1
-                dd = 0.0
                 gap = 0.0
+                dd = 0.0
                 for m in range(3):
-                    dd += (corner[m] - own[m]) ** 2
                     gap += n[m] * ((corner[m] - p1[m]) if side == 0 else (p2[m] - corner[m]))
-                if not (gap < trigger and dd > 1e-18):
+                    dd += (corner[m] - p1[m]) ** 2
+                if not gap < trigger:
                     continue
+                if side == 1 and corner2[i] and dd <= 1e-18:
+                    continue  # (both witnesses corners: box 2's corner row is this one)
+                sign = -1.0 if side == 0 else 1.0
                 for m in range(3):
-                    P[nc, 0, m] = p1[m] if side == 0 else corner[m]
-                    P[nc, 1, m] = corner[m] if side == 0 else p2[m]
+                    foot[m] = corner[m] + sign * gap * n[m]
+                if side == 0:
+                    _clamp_to_box(foot, Rw[o], cw[o], half[o], P[nc, 0])
+                    for m in range(3):
+                        P[nc, 1, m] = corner[m]
+                else:
+                    for m in range(3):
+                        P[nc, 0, m] = corner[m]
+                    _clamp_to_box(foot, Rw[o], cw[o], half[o], P[nc, 1])
                 which[nc], gaps[nc] = i, gap
                 nc += 1
     H = np.empty(nc)

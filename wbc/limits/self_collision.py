@@ -9,8 +9,10 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
   of the pairs, compiled (:mod:`wbc.limits.collision_kernels`, one call per tick with the rows);
 * :func:`~wbc.limits.collision_reference.distance_jacobian`,
   :func:`~wbc.limits.collision_reference.separating_plane_rows` — the rows' numpy forms (the
-  tests compare the kernels to them): J_d = nᵀ (J_p2 − J_p1) for the witness pair and the box
-  corners near the separating plane (parallel faces: the witness flips between corners);
+  tests compare the kernels to them): J_d = nᵀ (J_b − J_a) for the box corners near the
+  separating plane, each paired with its projection on the other box, and the witness pair
+  where it stands for itself (parallel features: the witness is any point of their overlap,
+  picked by rounding; the corners' rows do not depend on it, so the rows are continuous in q);
 * :func:`damper_bound` — h(d) of the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
   margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
