@@ -466,12 +466,8 @@ def build_stack(
 
 def _positive(value: Any) -> bool:
     """True if a stack file's ``value`` is a finite number > 0 (a TOML bool is not one)."""
-    return (
-        not isinstance(value, bool)
-        and isinstance(value, int | float)
-        and math.isfinite(value)
-        and value > 0
-    )
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return number and math.isfinite(value) and value > 0
 
 
 def _stack_length_unit(design_leg: Any, robot: Robot, where: str) -> float:
