@@ -142,12 +142,23 @@ def test_converged_mode_runs(robot):
 
 def test_a_session_that_skips_ticks_steps_over_the_whole_interval(robot):
     """A live deployment at half the reference's rate solves every second tick: each solve
-    must get the velocity bounds of two reference ticks, or the robot lags at half speed
-    (it did: CoM error 0.72 mm on walk10 against 0.36 mm with the interval's bounds)."""
+    must get the velocity bounds of two reference ticks, or the robot lags at half speed. So
+    the half-rate walk tracks the CoM about as well as the full-rate one on the same ticks:
+    on walk10 max / rms 0.50 / 0.17 mm against 0.45 / 0.15 mm (both peak where walk10's
+    reference outruns the servos); with one reference tick's bounds per solve (the defect)
+    1.19 / 0.49 mm. (Was an absolute 0.5 mm, stated when the half-rate walk measured 0.36;
+    it measured 0.487 on 8efa9c1, 0.502 after the support switch and the continuous
+    collision rows, while the full-rate walk moved alike.)"""
     ref = build("walk10", robot)
-    session = Session(StackController(load_stack("walk", robot)), robot, ref)
-    err = max(np.linalg.norm(robot.com(session.tick(i)) - ref.com[i]) for i in range(0, ref.n, 2))
-    assert err < 0.5e-3
+
+    def com_errors(step: int) -> np.ndarray:
+        session = Session(StackController(load_stack("walk", robot)), robot, ref)
+        ticks = range(0, ref.n, step)
+        return np.array([np.linalg.norm(robot.com(session.tick(i)) - ref.com[i]) for i in ticks])
+
+    half, full = com_errors(2), com_errors(1)[::2]
+    assert half.max() < 1.2 * full.max()
+    assert np.sqrt(np.mean(half**2)) < 1.2 * np.sqrt(np.mean(full**2))
 
 
 def test_a_session_follows_a_replanned_reference_from_the_given_tick(robot, walk10):
