@@ -183,12 +183,8 @@ class SteppingParams:
     #: where it is: that step and every later one re-based on it (moved by its shortfall),
     #: the CoM reference re-planned, the walk's clock jumps to the landing (0: off)
     touchdown: int = 0
-    #: > 0: the dead bands at least this share of the walk's own planned DCM travel, the
-    #: largest over its single supports (stance heading frame, per axis; from the reference,
-    #: once per walk): a body lagging its plan shows errors that scale with it unpushed
-    #: (sideways: ``walk10_wb`` 20.6 mm, ``turn_wb`` 28.6, ``lateral_wb`` 47.4; 0.87 is
-    #: ``BAND_Y`` / ``walk10_wb``'s, where the band was measured; benchmarks/physics.md,
-    #: tenth pass; 0: off)
+    #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
+    #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0
 
     def for_robot(self, robot: Robot) -> SteppingParams:
@@ -399,12 +395,8 @@ class StepAdjuster:
         self._jump: int | None = None  # the landing tick the clock jumps to (touchdown)
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
-        #: the dead bands (along, sideways): the params', or ``band_travel`` × the plan's
-        #: largest DCM travel in a single support where larger (:meth:`planned_travel`)
-        self.bands = (float(self.params.band_x), float(self.params.band_y))
-        if self.params.band_travel > 0:
-            most = self.params.band_travel * self.planned_travel(ref).max(axis=0)
-            self.bands = (max(self.bands[0], float(most[0])), max(self.bands[1], float(most[1])))
+        most = self.params.band_travel * self.planned_travel(ref).max(axis=0)  # (band_travel)
+        self.bands = (max(self.params.band_x, most[0]), max(self.params.band_y, most[1]))
 
     def _heading(self, ref: WalkingReference, i: int) -> tuple[float, float]:
         """cos, sin of the stance sole's heading at tick ``i`` (the left sole's in double
@@ -420,20 +412,16 @@ class StepAdjuster:
         return self.baseline[0 if side == "left" else 1] if side is not None else np.zeros(2)
 
     def planned_travel(self, ref: WalkingReference) -> np.ndarray:
-        """Per phase, how far the reference's DCM travels (max − min) in each single support
-        relative to the stance sole, in its heading frame at the lift-off (along, sideways;
-        zero in double support)."""
-        out = np.zeros((len(self.phases), 2))
-        dcm = ref.com[:, :2] + ref.com_vel[:, :2] / ref.omega
+        """Per phase, how far the reference's DCM travels (max − min) in a single support
+        from the stance sole, its heading frame at lift-off (along, sideways; else zero)."""
+        out, dcm = np.zeros((len(self.phases), 2)), ref.com[:, :2] + ref.com_vel[:, :2] / ref.omega
         for j, ph in enumerate(self.phases):
-            side = ref.stance_side(ph.i0) if ph.kind == "single" else None
-            if side is None or ph.i1 <= ph.i0:
-                continue
-            pos, yaw = ref.sole(side)
-            c, s = math.cos(float(yaw[ph.i0])), math.sin(float(yaw[ph.i0]))
-            e = dcm[ph.i0 : ph.i1] - pos[ph.i0 : ph.i1, :2]
-            local = np.stack([c * e[:, 0] + s * e[:, 1], -s * e[:, 0] + c * e[:, 1]], axis=1)
-            out[j] = local.max(axis=0) - local.min(axis=0)
+            side = ref.stance_side(ph.i0) if ph.kind == "single" and ph.i1 > ph.i0 else None
+            if side is not None:
+                pos, yaw = ref.sole(side)
+                c, s = math.cos(float(yaw[ph.i0])), math.sin(float(yaw[ph.i0]))
+                e = (dcm[ph.i0 : ph.i1] - pos[ph.i0 : ph.i1, :2]) @ np.array([[c, -s], [s, c]])
+                out[j] = np.ptp(e, axis=0)
         return out
 
     def _catch_end(self) -> int:
