@@ -574,3 +574,26 @@ def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot
     share = 1.0 - walk10.dt / 0.05
     _, _, lag, _, _ = _land_case(robot, walk10, params, [0.0, 0.1 * share, 0.0], [0.0] * 3)
     np.testing.assert_allclose(moved, plain.land(tg, lag, q).swing_position, atol=1e-9)
+
+
+def test_band_travel_widens_the_band_to_the_walks_own_dcm_travel(robot, walk10):
+    """``band_travel``: the dead bands are at least that share of how far the walk's own DCM
+    travels in a single support (stance heading frame): on ``lateral_wb`` (47 mm sideways) a
+    30 mm sideways error mid single support re-plans with the default band (18 mm) and not
+    with it; a walk whose DCM travels less keeps the robot's band."""
+    lateral = traj.build("lateral_wb", robot)
+    on = StepAdjuster(robot, lateral, SteppingParams(band_travel=0.87))
+    off = StepAdjuster(robot, lateral)
+    most = on.planned_travel(lateral).max(axis=0)
+    assert most[1] > 0.045
+    assert on.bands == (off.params.band_x, pytest.approx(0.87 * most[1]))
+    assert off.bands == (off.params.band_x, off.params.band_y)
+    ph = next(q for q in on.phases if q.kind == "single")
+    i = (ph.i0 + ph.i1) // 2
+    xi = dcm(lateral, i, on.omega) + [0.0, 0.03]
+    assert on.update(lateral, i, xi) is None and not on.events
+    assert off.update(lateral, i, xi) is not None
+    same = StepAdjuster(robot, walk10, SteppingParams(band_travel=0.87))
+    assert same.bands == (same.params.band_x, same.params.band_y)  # walk10: 11 mm sideways
+    with pytest.raises(ConfigurationError, match="band_travel"):
+        SteppingParams(band_travel=-1.0).check()

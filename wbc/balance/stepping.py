@@ -183,6 +183,9 @@ class SteppingParams:
     #: where it is: that step and every later one re-based on it (moved by its shortfall),
     #: the CoM reference re-planned, the walk's clock jumps to the landing (0: off)
     touchdown: int = 0
+    #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
+    #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
+    band_travel: float = 0.0
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -199,7 +202,7 @@ class SteppingParams:
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
-            "hurry_band", "catch_band",
+            "hurry_band", "catch_band", "band_travel",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in ("band_x", "band_y", "catch_band"):
@@ -392,6 +395,8 @@ class StepAdjuster:
         self._jump: int | None = None  # the landing tick the clock jumps to (touchdown)
         self.last_tick = -(10**9)
         self.events: list[tuple[float, int, np.ndarray, np.ndarray]] = []
+        most = self.params.band_travel * self.planned_travel(ref).max(axis=0)  # (band_travel)
+        self.bands = (max(self.params.band_x, most[0]), max(self.params.band_y, most[1]))
 
     def _heading(self, ref: WalkingReference, i: int) -> tuple[float, float]:
         """cos, sin of the stance sole's heading at tick ``i`` (the left sole's in double
@@ -405,6 +410,19 @@ class StepAdjuster:
         (zero in double support)."""
         side = ref.stance_side(i)
         return self.baseline[0 if side == "left" else 1] if side is not None else np.zeros(2)
+
+    def planned_travel(self, ref: WalkingReference) -> np.ndarray:
+        """Per phase, how far the reference's DCM travels (max − min) in a single support
+        from the stance sole, its heading frame at lift-off (along, sideways; else zero)."""
+        out, dcm = np.zeros((len(self.phases), 2)), ref.com[:, :2] + ref.com_vel[:, :2] / ref.omega
+        for j, ph in enumerate(self.phases):
+            side = ref.stance_side(ph.i0) if ph.kind == "single" and ph.i1 > ph.i0 else None
+            if side is not None:
+                pos, yaw = ref.sole(side)
+                c, s = math.cos(float(yaw[ph.i0])), math.sin(float(yaw[ph.i0]))
+                e = (dcm[ph.i0 : ph.i1] - pos[ph.i0 : ph.i1, :2]) @ np.array([[c, -s], [s, c]])
+                out[j] = np.ptp(e, axis=0)
+        return out
 
     def _catch_end(self) -> int:
         """The first step after the catch under way (``until_inside`` extends it; 0: none)."""
@@ -429,7 +447,7 @@ class StepAdjuster:
         b0, b1 = self._centre(ref, i)
         x, y = c * e0 + s * e1 - b0, -s * e0 + c * e1 - b1
         p = self.params
-        band_x, band_y = p.band_x, p.band_y
+        band_x, band_y = self.bands
         end = self._catch_end()
         if p.catch_band is not None and ph.kind == "single" and self.caught_step <= ph.step < end:
             band_x, band_y = min(band_x, p.catch_band), min(band_y, p.catch_band)  # a catch
@@ -451,7 +469,7 @@ class StepAdjuster:
         e = np.asarray(dcm[:2], float) - self._dcm_ref(ref, i)
         c, s = self._heading(ref, i)
         local = np.array([c * e[0] + s * e[1], -s * e[0] + c * e[1]])
-        band = np.array([self.params.band_x, self.params.band_y], dtype=float)
+        band = np.array(self.bands, dtype=float)
         b = self.baseline[0 if side == "left" else 1]
         if np.all(np.abs(local - b) <= band):
             b += (local - b) * min(ref.dt / tau, 1.0)
