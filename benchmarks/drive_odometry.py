@@ -60,7 +60,7 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     # the engine's plan (+ odometry) of the commanded point, start frame
     c0 = walker.start_frame
     origin_w = lambda c: c[:2] + rot2(c[2]) @ e.origin  # noqa: E731
-    plan = e._centre + e.odometry_offset
+    plan = e.centre + e.odometry_offset
     planned = rot2(c0[2]).T @ (origin_w(plan) - origin_w(c0))
     out["plan_cm"] = 100 * float(np.linalg.norm(planned - cmd))
     out["plan_deg"] = math.degrees(wrap_angle(plan[2] - c0[2] - run["commanded_yaw_rad"]))
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         def __init__(self, *a, **k) -> None:
             super().__init__(*a, **k)
             walkers.append(self)
-            self.start_frame = self.engine._centre.copy()
+            self.start_frame = self.engine.centre.copy()
 
     class Sampled(odometer):  # the soles, base, support and headings every tick
         def __init__(self, sim) -> None:

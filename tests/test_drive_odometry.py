@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.compiled.rows import log3
-from wbc.drive.odometry import PoseOdometry, StrideGain
+from wbc.drive.odometry import LiftGain, PoseOdometry, StrideGain
 from wbc.geometry import yaw_of
 from wbc.walking import StandingState
 
@@ -171,3 +171,27 @@ def test_a_stride_gain_makes_up_short_steps(efficiency: float, turn: float, most
     g = gain.landed(planned, measured)
     assert g[0] == pytest.approx(min(1.0 / efficiency, most), rel=0.02)
     assert g[1:] == pytest.approx([1.0, 1.0], abs=0.02)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0.2, 1.0), st.floats(0.0, 0.004), st.floats(1.0, 2.5))
+def test_a_lift_gain_raises_a_low_swing_to_its_apex(efficiency: float, sag: float,
+                                                    most: float) -> None:  # fmt: skip
+    """A swing sole that reaches ``efficiency`` × its planned apex less ``sag`` (a lagging,
+    sagging leg): the gain on the apex settles where the measured apex is the wanted one
+    (within the largest, ``most``: there it stays at ``most``), never below 1."""
+    apex = 0.01
+    lift = LiftGain(most)
+    for _ in range(80):
+        lift.landed(apex, efficiency * apex * lift.gain - sag)
+    want = (apex + sag) / (efficiency * apex)
+    assert lift.gain == pytest.approx(min(max(want, 1.0), most), rel=0.01)
+    assert 1.0 <= lift.gain <= most
+
+
+def test_a_lift_gain_ignores_an_unread_swing() -> None:
+    lift = LiftGain(2.0)
+    assert lift.landed(0.01, 0.005) > 1.0
+    g = lift.gain
+    assert lift.landed(0.01, math.nan) == g
+    assert lift.landed(0.01, -math.inf) == g
