@@ -52,6 +52,10 @@ from ..walking.geometry import rot2
 #: bias at full weight)
 WALK_TURN = 0.03
 
+#: the share of the planned swing apex the swing sole should reach, measured
+#: (:class:`LiftGain`): below it the swing is planned higher
+LIFT_WANT = 0.7
+
 
 class PoseOdometry:
     """Pose odometry of a walking robot from the torso heading and the encoders (module
@@ -205,22 +209,28 @@ class LiftGain:
     """How much higher to plan the swing of legs whose swing sole stays low (compliant or
     lagging servos; the stance leg's sag): per swing, the swing sole's highest point above
     the stance sole measured from the encoders (forward kinematics of the present joints),
-    ``h``, against the apex wanted, ``a``; the gain on the planned apex moves by
-    ``(a / h)^rate`` per swing, within ``[1, most]`` (an integral on the measured apex's
-    log: the swing planned higher until the real sole reaches the apex). On the randomised
-    Bioloids of benchmarks/drive.md the swing sole planned 10 mm high reached 7 mm on a stiff
-    model and 2 mm on a compliant one (the servos lag the swing's 0.2 s rise): it touched the
-    floor for the last quarter of almost every swing and dragged, the steps short."""
+    ``h``, against the height wanted, ``a`` = ``want`` × the planned apex; the gain on the
+    planned apex moves by ``(a / h)^rate`` per swing, within ``[1, most]`` (an integral on
+    the measured apex's log: the swing planned higher until the real sole reaches ``a``). On
+    the randomised Bioloids of benchmarks/drive.md the swing sole planned 10 mm high reached
+    7 mm on the stiff models and 2 mm on the most compliant (the servos lag the swing's
+    0.2 s rise): it touched the floor for the last quarter of almost every swing, and for
+    most of it on the compliant one, dragging, the steps short. ``want``
+    (:data:`LIFT_WANT`): only the swing staying low is raised: wanting the full apex raised
+    the stiff models' too, and their errors grew as much as the compliant one's shrank."""
 
-    def __init__(self, most: float, rate: float = 0.5) -> None:
+    def __init__(self, most: float, rate: float = 0.5, want: float = LIFT_WANT) -> None:
         self.most = float(most)
         self.rate = float(rate)
+        self.want = float(want)
         self.gain = 1.0
 
     def landed(self, apex: float, peak: float) -> float:
-        """A swing ended: ``apex`` the apex wanted (m), ``peak`` the swing sole's highest
-        point measured above the stance sole (m); returns the gain on the planned apex."""
+        """A swing ended: ``apex`` the apex planned without the gain (m), ``peak`` the swing
+        sole's highest point measured above the stance sole (m); returns the gain on the
+        planned apex."""
         if math.isfinite(peak) and apex > 0:
-            ratio = apex / max(peak, apex / self.most)
+            want = self.want * apex
+            ratio = want / max(peak, want / self.most)
             self.gain = min(max(self.gain * ratio**self.rate, 1.0), self.most)
         return self.gain
