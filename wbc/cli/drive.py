@@ -75,7 +75,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--lift-gain", type=number(1, 5), default=None, metavar="G",
         help="plan the swing up to G times higher where the encoders measure the swing sole "
-             "below its apex (default 2; 1: as planned)",
+             "below 0.7 of its apex (default 2; 1: as planned)",
     )  # fmt: skip
     add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
