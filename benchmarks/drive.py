@@ -179,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--first", type=int, default=0, metavar="I",
                     help="--random: sequences I .. I+N-1 (a set split over processes)")  # fmt: skip
     ap.add_argument("--models", type=int, default=20)
+    ap.add_argument("--first-model", type=int, default=0, metavar="K",
+                    help="--random: models K .. M-1 of the --models M (a set split over "
+                         "processes)")  # fmt: skip
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--envelope", action="store_true")
     ap.add_argument("--speeds", type=float, nargs="+", default=[1.0])
@@ -297,6 +300,8 @@ def main(argv: list[str] | None = None) -> int:
             cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
                                    args.duration)  # fmt: skip
             for k, v in enumerate(variations):
+                if k < args.first_model:
+                    continue
                 r = run_one(robot, args.solver, cmds, v, limits=limits, window=window, **loop)
                 r.pop("_path")
                 runs.append({"sequence": i, "model": k, **r})
