@@ -95,7 +95,10 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             calibrate: float | None = None, track: bool = True,
             contact_reach: float | None = None, contact_rate: float | None = None,
             yaw_rest: float | None = None, finish: bool = False,
-            stride_gain: float | None = None, yaw_learn: float | None = None, **kw):  # fmt: skip
+            stride_gain: float | None = None, yaw_learn: float | None = None,
+            lift_gain: float | None = None, filter_heading: bool = False,
+            encoder_rest: bool = True,
+            params=None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -111,6 +114,14 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["stride_gain"] = stride_gain
     if yaw_learn is not None:
         options["yaw_learn"] = yaw_learn
+    if lift_gain is not None:
+        options["lift_gain"] = lift_gain
+    if filter_heading:
+        options["filter_heading"] = True
+    if not encoder_rest:
+        options["encoder_rest"] = False
+    if params is not None:
+        options["params"] = params
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
@@ -168,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--first", type=int, default=0, metavar="I",
                     help="--random: sequences I .. I+N-1 (a set split over processes)")  # fmt: skip
     ap.add_argument("--models", type=int, default=20)
+    ap.add_argument("--first-model", type=int, default=0, metavar="K",
+                    help="--random: models K .. M-1 of the --models M (a set split over "
+                         "processes)")  # fmt: skip
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--envelope", action="store_true")
     ap.add_argument("--speeds", type=float, nargs="+", default=[1.0])
@@ -212,6 +226,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--yaw-learn", type=float, default=None, metavar="K",
                     help="the gain of the gyro's vertical bias learnt while walking (default: "
                          "the Walker's DRIVE_YAW_LEARN; 0: at rest only)")  # fmt: skip
+    ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
+                    help="the largest gain on the planned swing apex for a swing sole "
+                         "measured low (default: the Walker's DRIVE_LIFT_GAIN; "
+                         "1: none)")  # fmt: skip
+    ap.add_argument("--filter-heading", action="store_true",
+                    help="the outer loop's heading on the attitude filter's rate (the gyro "
+                         "with the filter's bias correction; "
+                         "Walker(filter_heading=True))")  # fmt: skip
+    ap.add_argument("--no-encoder-rest", dest="encoder_rest", action="store_false",
+                    help="the rest's vertical gyro bias without the torso's turn seen by the "
+                         "encoders (Walker(encoder_rest=False))")  # fmt: skip
     ap.add_argument("--finish", action="store_true",
                     help="at each script's end the walker finishes the commanded path first "
                          "(Walker.stop(finish=True))")  # fmt: skip
@@ -238,6 +263,9 @@ def main(argv: list[str] | None = None) -> int:
         "finish": args.finish,
         "stride_gain": args.stride_gain,
         "yaw_learn": args.yaw_learn,
+        "lift_gain": args.lift_gain,
+        "filter_heading": args.filter_heading,
+        "encoder_rest": args.encoder_rest,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
@@ -272,6 +300,8 @@ def main(argv: list[str] | None = None) -> int:
             cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
                                    args.duration)  # fmt: skip
             for k, v in enumerate(variations):
+                if k < args.first_model:
+                    continue
                 r = run_one(robot, args.solver, cmds, v, limits=limits, window=window, **loop)
                 r.pop("_path")
                 runs.append({"sequence": i, "model": k, **r})

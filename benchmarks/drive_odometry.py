@@ -21,6 +21,13 @@ ground truth sampled every control tick:
 Headings in degrees, displacements in cm. benchmarks/drive.md quotes it::
 
     nice -n 5 python benchmarks/drive_odometry.py --sequences 0 1 2 3 --models 0 1 2 3
+
+``--contact``: the soles' slip in contact per gait phase, from MuJoCo's contacts at every
+physics step (:class:`ContactSlip`): where a sole touching the floor moved while touching
+it, by the walker's phase — ``ds_lead`` / ``ds_trail`` (double support: the sole that has
+just landed, the one that lifts next), ``stance`` (single support), ``swing0..3`` (the
+swing sole touching the floor in each quarter of its swing: dragging at lift-off, scuffing,
+touching down early).
 """
 
 from __future__ import annotations
@@ -60,7 +67,7 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     # the engine's plan (+ odometry) of the commanded point, start frame
     c0 = walker.start_frame
     origin_w = lambda c: c[:2] + rot2(c[2]) @ e.origin  # noqa: E731
-    plan = e._centre + e.odometry_offset
+    plan = e.centre + e.odometry_offset
     planned = rot2(c0[2]).T @ (origin_w(plan) - origin_w(c0))
     out["plan_cm"] = 100 * float(np.linalg.norm(planned - cmd))
     out["plan_deg"] = math.degrees(wrap_angle(plan[2] - c0[2] - run["commanded_yaw_rad"]))
@@ -111,6 +118,102 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     return out
 
 
+class ContactSlip:
+    """Per physics step, each sole's contact points with the floor (MuJoCo's contacts, the
+    force-weighted centroid in the sole's body frame): where that point moved from the last
+    step to this one while the sole touched the floor at both is the slip (a sole rolling
+    about its contact does not count), its heading change the turning slip; and the
+    friction used, Σ |f_t| / Σ μ f_n (1: sliding). Keyed by the walker's phase (module
+    docstring). ``walker()`` gives the run's walker."""
+
+    def __init__(self, sim, walker) -> None:
+        self.sim, self.walker = sim, walker
+        mj, m = sim.mj, sim.model
+        self.feet = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, b) for b in sim.robot_feet()]
+        self.prev: list = [None, None]
+        #: phase -> dx, dy, dyaw, |d|, |dyaw|, physics steps, Σ |f_t|, Σ μ f_n
+        self.sums: dict[str, np.ndarray] = {}
+        self._phase: tuple = (None, -1.0)
+        self._f6 = np.zeros(6)
+        step = sim.step
+
+        def stepped() -> None:
+            step()
+            self.sample()
+
+        sim.step = stepped
+
+    def phase(self, foot: int) -> str | None:
+        w = self.walker()
+        if w is None or w.last is None or not w.engine.walking:
+            return None
+        e, frame = w.last, SOLE_NAMES[foot]
+        if e.support == SUPPORT_DOUBLE:
+            return "ds_trail" if e.swing_frame == frame else "ds_lead"
+        if e.support_frame == frame:
+            return "stance"
+        T = w.engine.params.timing
+        swing = T.step_time * (1.0 - T.double_support_ratio)
+        quarter = min(int(4 * (self.sim.time - self._phase[1]) / swing), 3)
+        return f"swing{quarter}"
+
+    def sample(self) -> None:
+        sim, w = self.sim, self.walker()
+        d, m, mj = sim.data, sim.model, sim.mj
+        if w is not None and w.last is not None:
+            key = (w.last.support, w.engine.steps_taken)
+            if key != self._phase[0]:
+                self._phase = (key, sim.time)
+        touching: list[list] = [[], []]
+        for k in range(d.ncon):
+            c = d.contact[k]
+            if sim.floor not in (c.geom1, c.geom2):
+                continue
+            body = m.geom_bodyid[c.geom2 if c.geom1 == sim.floor else c.geom1]
+            if body in self.feet:
+                mj.mj_contactForce(m, d, k, self._f6)
+                f = self._f6
+                touching[self.feet.index(body)].append(
+                    (c.pos.copy(), f[0], math.hypot(f[1], f[2]), c.friction[0])
+                )
+        for i, body in enumerate(self.feet):
+            if not touching[i]:
+                self.prev[i] = None
+                continue
+            R, p = d.xmat[body].reshape(3, 3).copy(), d.xpos[body].copy()
+            P = np.array([t[0] for t in touching[i]])
+            fn = np.array([t[1] for t in touching[i]])
+            centre = P.mean(0) if fn.sum() <= 1e-9 else (P * fn[:, None]).sum(0) / fn.sum()
+            label = self.phase(i)
+            if self.prev[i] is not None and label is not None:
+                Rp, pp, local = self.prev[i]
+                dxy = (R @ local + p - Rp @ local - pp)[:2]
+                dyaw = wrap_angle(yaw_of(R) - yaw_of(Rp))
+                ft = sum(t[2] for t in touching[i])
+                cap = sum(t[3] * t[1] for t in touching[i])
+                acc = self.sums.setdefault(label, np.zeros(8))
+                acc += (dxy[0], dxy[1], dyaw, math.hypot(*dxy), abs(dyaw), 1.0, ft, cap)
+            self.prev[i] = (R, p, R.T @ (centre - p))
+
+    def lines(self, yaw0: float) -> list[str]:
+        """One line per phase: the net slip (start frame, cm; heading °), its path (cm, °),
+        the sole-seconds in contact and the friction used."""
+        Rs = rot2(yaw0).T
+        order = ("ds_lead", "ds_trail", "stance", "swing0", "swing1", "swing2", "swing3")
+        out = []
+        for label in (k for k in order if k in self.sums):
+            a = self.sums[label]
+            net = Rs @ a[:2]
+            out.append(f"  {label:8s} net ({100 * net[0]:+.2f}, {100 * net[1]:+.2f}) cm "
+                       f"{math.degrees(a[2]):+.1f}°, path {100 * a[3]:.2f} cm "
+                       f"{math.degrees(a[4]):.1f}°, in contact {a[5] * self.sim.dt:.2f} s, "
+                       f"friction used {a[6] / max(a[7], 1e-9):.2f}")  # fmt: skip
+        return out
+
+
+SOLE_NAMES = ("l_sole", "r_sole")
+
+
 def vertical_bias(walker, sim) -> str:
     """The gyro's bias about the vertical after the calibration at rest (the simulated IMU's
     true bias less the calibration's, as the heading's rate on the standing torso) and what
@@ -154,6 +257,10 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="the walker finishes the commanded path at the script's end",
     )
+    ap.add_argument("--contact", action="store_true",
+                    help="the soles' slip in contact per gait phase (ContactSlip)")  # fmt: skip
+    ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
+                    help="the walker's lift gain (default: the Walker's)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
@@ -167,13 +274,15 @@ def main(argv: list[str] | None = None) -> int:
         def __init__(self, *a, **k) -> None:
             super().__init__(*a, **k)
             walkers.append(self)
-            self.start_frame = self.engine._centre.copy()
+            self.start_frame = self.engine.centre.copy()
 
     class Sampled(odometer):  # the soles, base, support and headings every tick
         def __init__(self, sim) -> None:
             super().__init__(sim)
             self.rows: list[list[float]] = []
             odometers.append(self)
+            if args.contact:
+                self.slip = ContactSlip(sim, lambda: walkers[-1] if walkers else None)
 
         def __call__(self) -> None:
             super().__call__()
@@ -211,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
             r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
                               window=window, track=args.track,
                               calibrate=args.calibrate, yaw_rest=args.yaw_rest,
-                              finish=args.finish)  # fmt: skip
+                              finish=args.finish, lift_gain=args.lift_gain)  # fmt: skip
             b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
             table.append(b)
             cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
@@ -225,6 +334,8 @@ def main(argv: list[str] | None = None) -> int:
                                      for k in ("plan", "odometry", "swing", "slip", "base", "gyro")
                                      if k + "_deg" in b),
                   flush=True)  # fmt: skip
+            if args.contact:
+                print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
     if len(table) > 1:
         print("mean |.|: " + ", ".join(
             f"{k} {np.mean([abs(b[k]) for b in table if k in b]):.1f}"

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.compiled.rows import log3
-from wbc.drive.odometry import PoseOdometry, StrideGain
+from wbc.drive.odometry import LiftGain, PoseOdometry, StrideGain
 from wbc.geometry import yaw_of
 from wbc.walking import StandingState
 
@@ -171,3 +171,49 @@ def test_a_stride_gain_makes_up_short_steps(efficiency: float, turn: float, most
     g = gain.landed(planned, measured)
     assert g[0] == pytest.approx(min(1.0 / efficiency, most), rel=0.02)
     assert g[1:] == pytest.approx([1.0, 1.0], abs=0.02)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0.2, 1.0), st.floats(0.0, 0.004), st.floats(1.0, 2.5))
+def test_a_lift_gain_raises_a_low_swing_to_its_apex(efficiency: float, sag: float,
+                                                    most: float) -> None:  # fmt: skip
+    """A swing sole that reaches ``efficiency`` × its planned apex less ``sag`` (a lagging,
+    sagging leg): the gain on the apex settles where the measured apex is the height wanted
+    (``want`` × the apex; within the largest, ``most``: there it stays at ``most``), never
+    below 1."""
+    apex = 0.01
+    lift = LiftGain(most)
+    for _ in range(80):
+        lift.landed(apex, efficiency * apex * lift.gain - sag)
+    want = (lift.want * apex + sag) / (efficiency * apex)
+    assert lift.gain == pytest.approx(min(max(want, 1.0), most), rel=0.01)
+    assert 1.0 <= lift.gain <= most
+
+
+def test_a_lift_gain_ignores_an_unread_swing() -> None:
+    lift = LiftGain(2.0)
+    assert lift.landed(0.01, 0.005) > 1.0
+    g = lift.gain
+    assert lift.landed(0.01, math.nan) == g
+    assert lift.landed(0.01, -math.inf) == g
+
+
+@pytest.mark.parametrize("encoder_rest", [True, False])
+def test_a_torso_turning_at_rest_over_its_soles_is_not_bias(robot, encoder_rest: bool) -> None:
+    """Standing 1.5 s, the torso settles 0.6° about the vertical over its soles (a twist
+    in the hips the encoders see: the rotation :meth:`PoseOdometry.rest` gets is the
+    torso's over the stance sole, its heading included) while the gyro, biased 0.005 rad/s
+    about the vertical, sees the twist too: the bias learnt is the gyro's alone; without
+    the encoders' turn (``encoder_rest=False``) the twist is taken for bias (0.6° / 1.5 s
+    = 0.007 rad/s more)."""
+    dt, lean, bias, twist = 0.01, 0.17, 0.005, math.radians(0.6)
+    odo = PoseOdometry(robot, encoder_rest=encoder_rest)
+    psi = lambda t: twist * min(t / 0.5, 1.0)  # noqa: E731
+    v = np.empty(3)
+    for k in range(150):
+        Ra = pin.rpy.rpyToMatrix(0.0, lean, psi(k * dt))
+        Rc = pin.rpy.rpyToMatrix(0.0, lean, psi((k + 1) * dt))
+        log3(np.ascontiguousarray(Ra.T @ Rc), v)
+        odo.rest(Ra, v / dt + Ra.T @ np.array([0.0, 0.0, bias]), dt)
+    want = bias if encoder_rest else bias + twist / 1.5
+    assert odo.yaw_bias == pytest.approx(want, abs=3e-4)

@@ -514,6 +514,12 @@ class StateEstimator:
         """The filtered CoM velocity (m/s)."""
         return self._state[_S_VEL:_S_BIAS].copy()
 
+    @property
+    def gyro_correction(self) -> np.ndarray:
+        """The gyro's bias correction learnt by the filter (``bias_gain``; rad/s, torso
+        frame): :attr:`StateEstimate.angular_velocity` is the calibrated gyro plus it."""
+        return self._state[_S_BIAS:_S_SIZE].copy()
+
     def restart(self) -> None:
         """Start the filter again at the next update, from the kinematics' rotation (the
         stance sole flat): the levelled orientation after a start-up calibration."""

@@ -72,6 +72,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plan the steps up to G times longer where the odometry measures them short "
              "(default 1.5; 1: as commanded)",
     )  # fmt: skip
+    parser.add_argument(
+        "--lift-gain", type=number(1, 5), default=None, metavar="G",
+        help="plan the swing up to G times higher where the encoders measure the swing sole "
+             "below 0.7 of its apex (default 2; 1: as planned)",
+    )  # fmt: skip
     add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
         "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
@@ -175,6 +180,8 @@ def run(args: argparse.Namespace) -> int:
         imu = make_imu(args, bus)
     print("wbc drive: measuring the velocity limits and the balance window on the model ...")
     extra = {} if args.stride_gain is None else {"stride_gain": args.stride_gain}
+    if args.lift_gain is not None:
+        extra["lift_gain"] = args.lift_gain
     walker = Walker(robot, controller, imu, closed=not args.open_loop,
                     compensate=args.compensate, correct=args.correct,
                     track=args.track, **extra)  # fmt: skip
