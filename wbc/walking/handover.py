@@ -37,11 +37,10 @@ from numba import njit
 from ..compiled.checks import entry
 from ..exceptions import TaskError
 from ..model import Robot
+from ..roles import SOLE_FRAMES as SOLES
 from ..stacks import ControlStack
 from ..tasks import ContactTask
 from ..tasks.posture import PostureTask
-
-SOLES = {"left": "l_sole", "right": "r_sole"}
 
 
 @njit("void(float64[:], float64[:], float64[:], int64[:], int64[:], int64, float64)", cache=True)

@@ -11,9 +11,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..roles import SOLE_FRAMES as SOLES
 from .reference import WalkingReference
-
-SOLES = {"left": "l_sole", "right": "r_sole"}
 
 
 def torso_target(yaw: float, pitch_roll: np.ndarray) -> np.ndarray:
