@@ -236,8 +236,8 @@ def main(argv: list[str] | None = None) -> int:
                          "Walker(filter_heading=True))")  # fmt: skip
     ap.add_argument("--encoder-rest", action=argparse.BooleanOptionalAction, default=False,
                     help="the rest's vertical gyro bias less the torso's turn seen by the "
-                         "encoders (Walker(encoder_rest=True); default off, a wash on the "
-                         "random set: benchmarks/drive.md)")  # fmt: skip
+                         "encoders (Walker(encoder_rest=True); default off: not better on "
+                         "the random set, benchmarks/drive.md)")  # fmt: skip
     ap.add_argument("--finish", action="store_true",
                     help="at each script's end the walker finishes the commanded path first "
                          "(Walker.stop(finish=True))")  # fmt: skip
