@@ -97,7 +97,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             yaw_rest: float | None = None, finish: bool = False,
             stride_gain: float | None = None, yaw_learn: float | None = None,
             lift_gain: float | None = None, filter_heading: bool = False,
-            encoder_rest: bool = True,
+            encoder_rest: bool = False,
             params=None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
@@ -118,8 +118,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["lift_gain"] = lift_gain
     if filter_heading:
         options["filter_heading"] = True
-    if not encoder_rest:
-        options["encoder_rest"] = False
+    if encoder_rest:
+        options["encoder_rest"] = True
     if params is not None:
         options["params"] = params
     if limits is not None:
@@ -234,9 +234,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="the outer loop's heading on the attitude filter's rate (the gyro "
                          "with the filter's bias correction; "
                          "Walker(filter_heading=True))")  # fmt: skip
-    ap.add_argument("--no-encoder-rest", dest="encoder_rest", action="store_false",
-                    help="the rest's vertical gyro bias without the torso's turn seen by the "
-                         "encoders (Walker(encoder_rest=False))")  # fmt: skip
+    ap.add_argument("--encoder-rest", action=argparse.BooleanOptionalAction, default=False,
+                    help="the rest's vertical gyro bias less the torso's turn seen by the "
+                         "encoders (Walker(encoder_rest=True); default off: not better on "
+                         "the random set, benchmarks/drive.md)")  # fmt: skip
     ap.add_argument("--finish", action="store_true",
                     help="at each script's end the walker finishes the commanded path first "
                          "(Walker.stop(finish=True))")  # fmt: skip

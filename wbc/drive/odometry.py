@@ -63,7 +63,7 @@ class PoseOdometry:
     at each landing."""
 
     def __init__(
-        self, robot: Robot, gyro: bool = True, walk_gain: float = 0.0, encoder_rest: bool = True
+        self, robot: Robot, gyro: bool = True, walk_gain: float = 0.0, encoder_rest: bool = False
     ) -> None:
         self.robot = robot
         #: at rest, the torso's turn seen by the encoders is not bias (:meth:`rest`)

@@ -224,9 +224,10 @@ class Walker:
     integrates the attitude filter's rate (the calibrated gyro plus the filter's bias
     correction, :attr:`StateEstimator.gyro_correction <wbc.balance.estimator.StateEstimator.
     gyro_correction>`) instead of the calibrated gyro (the default; below).
-    ``encoder_rest`` (default True): the rest's bias about the vertical is the gyro's heading
-    change less the torso's turn seen by the encoders (:class:`~wbc.drive.odometry.
-    PoseOdometry`); False: the torso taken not to turn at rest.
+    ``encoder_rest`` (default False: the torso taken not to turn at rest): True, the rest's
+    bias about the vertical is the gyro's heading change less the torso's turn seen by the
+    encoders (:class:`~wbc.drive.odometry.PoseOdometry`; measured not better on the random
+    set, three falls in 200 runs against none: benchmarks/drive.md).
     """
 
     def __init__(
@@ -251,7 +252,7 @@ class Walker:
         yaw_learn: float = DRIVE_YAW_LEARN,
         lift_gain: float = DRIVE_LIFT_GAIN,
         filter_heading: bool = False,
-        encoder_rest: bool = True,
+        encoder_rest: bool = False,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
