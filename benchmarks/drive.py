@@ -102,26 +102,13 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
-    if calibrate is not None:
-        options["calibrate_s"] = calibrate
-    if contact_reach is not None:
-        options["contact_reach"] = contact_reach
-    if contact_rate is not None:
-        options["contact_rate"] = contact_rate
-    if yaw_rest is not None:
-        options["yaw_rest_s"] = yaw_rest
-    if stride_gain is not None:
-        options["stride_gain"] = stride_gain
-    if yaw_learn is not None:
-        options["yaw_learn"] = yaw_learn
-    if lift_gain is not None:
-        options["lift_gain"] = lift_gain
-    if filter_heading:
-        options["filter_heading"] = True
-    if encoder_rest:
-        options["encoder_rest"] = True
-    if params is not None:
-        options["params"] = params
+    given = {  # (the Walker's own defaults where not given)
+        "calibrate_s": calibrate, "contact_reach": contact_reach, "contact_rate": contact_rate,
+        "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
+        "lift_gain": lift_gain, "params": params,
+        "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
+    }  # fmt: skip
+    options.update({key: value for key, value in given.items() if value is not None})
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
