@@ -111,19 +111,15 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
             Walker(robot, make(robot), imu, **{option: bad})
 
 
-def test_the_stride_gain_lengthens_a_compliant_robots_short_steps() -> None:
-    """The most compliant randomised Bioloid of benchmarks/drive.md (model 7: servo
-    stiffness ×0.56) walks 4 s at 5 cm/s: its steps fall short of their plans, the odometry
-    measures it, and with the default ``stride_gain`` (1.5) the forward stride is planned
-    longer (the gain at its bound here) and the robot walks 2 cm further than with the steps
-    as commanded (12.9 cm against 10.2 of the 20 commanded, the swing's lift gain off in both:
-    with it, 13.6 against 11.6)."""
+def _compliant_walk(options: dict) -> tuple:
+    """benchmarks/drive.md's most compliant randomised Bioloid (model 7) walking 4 s at 5 cm/s
+    with ``options`` on top of the feed-forward and a 0.3 s rest: (its Walker, the distance
+    travelled forward, m); it must not fall."""
     from wbc.bench.variation import models
     from wbc.drive import sim as drive
-    from wbc.drive.walker import DRIVE_STRIDE_GAIN, Walker, default_compensate
+    from wbc.drive.walker import Walker, default_compensate
 
     robot = load_robot("bioloid")
-    model = models(robot, 8, 0)[7]
     made: list[Walker] = []
 
     class Kept(Walker):
@@ -131,22 +127,28 @@ def test_the_stride_gain_lengthens_a_compliant_robots_short_steps() -> None:
             super().__init__(*args, **kwargs)
             made.append(self)
 
-    travelled = []
-    for gain in (1.0, DRIVE_STRIDE_GAIN):
-        # (lift_gain 1: the stride's part alone; the lift gain lengthens this model's walk too)
-        options = {
-            "compensate": default_compensate(),
-            "yaw_rest_s": 0.3,
-            "stride_gain": gain,
-            "lift_gain": 1.0,
-        }
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(drive, "Walker", Kept)
-            r = drive.drive_sim(robot, registry("physics")["hqp-daqp"].make(robot),
-                                [Command(4.0, 0.05)], model, settle=0.2,
-                                walker_options=options)  # fmt: skip
-        assert not r["fell"]
-        travelled.append(r["travelled_xy_m"][0])
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(drive, "Walker", Kept)
+        r = drive.drive_sim(robot, registry("physics")["hqp-daqp"].make(robot),
+                            [Command(4.0, 0.05)], models(robot, 8, 0)[7], settle=0.2,
+                            walker_options={"compensate": default_compensate(),
+                                            "yaw_rest_s": 0.3, **options})  # fmt: skip
+    assert not r["fell"]
+    return made[0], r["travelled_xy_m"][0]
+
+
+def test_the_stride_gain_lengthens_a_compliant_robots_short_steps() -> None:
+    """The most compliant randomised Bioloid of benchmarks/drive.md (model 7: servo
+    stiffness ×0.56) walks 4 s at 5 cm/s: its steps fall short of their plans, the odometry
+    measures it, and with the default ``stride_gain`` (1.5) the forward stride is planned
+    longer (the gain at its bound here) and the robot walks 2 cm further than with the steps
+    as commanded (12.9 cm against 10.2 of the 20 commanded, the swing's lift gain off in both:
+    with it, 13.6 against 11.6)."""
+    from wbc.drive.walker import DRIVE_STRIDE_GAIN
+
+    # (lift_gain 1: the stride's part alone; the lift gain lengthens this model's walk too)
+    runs = [_compliant_walk({"stride_gain": g, "lift_gain": 1.0}) for g in (1.0, DRIVE_STRIDE_GAIN)]
+    made, travelled = [w for w, _ in runs], [t for _, t in runs]
     assert made[0].engine.stride_gain == pytest.approx([1.0, 1.0, 1.0])
     assert made[1].engine.stride_gain[0] > 1.3
     assert made[1].engine.stride_gain[2] == 1.0  # (the turn: not from the biased gyro)
@@ -160,30 +162,10 @@ def test_the_lift_gain_raises_a_compliant_robots_dragging_swing() -> None:
     swing's rise) and drags on the floor. The encoders see it: with the default
     ``lift_gain`` (2) the apex is planned higher (the gain above 1.5 in 4 s) and the robot
     walks 11.4 cm of the 20 commanded instead of 10.1 (1: the apex as planned)."""
-    from wbc.bench.variation import models
-    from wbc.drive import sim as drive
-    from wbc.drive.walker import DRIVE_LIFT_GAIN, Walker, default_compensate
+    from wbc.drive.walker import DRIVE_LIFT_GAIN
 
-    robot = load_robot("bioloid")
-    model = models(robot, 8, 0)[7]
-    made: list[Walker] = []
-
-    class Kept(Walker):
-        def __init__(self, *args, **kwargs) -> None:
-            super().__init__(*args, **kwargs)
-            made.append(self)
-
-    travelled = []
-    for gain in (1.0, DRIVE_LIFT_GAIN):
-        options = {"compensate": default_compensate(), "yaw_rest_s": 0.3, "stride_gain": 1.0,
-                   "lift_gain": gain}  # fmt: skip
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(drive, "Walker", Kept)
-            r = drive.drive_sim(robot, registry("physics")["hqp-daqp"].make(robot),
-                                [Command(4.0, 0.05)], model, settle=0.2,
-                                walker_options=options)  # fmt: skip
-        assert not r["fell"]
-        travelled.append(r["travelled_xy_m"][0])
+    runs = [_compliant_walk({"stride_gain": 1.0, "lift_gain": g}) for g in (1.0, DRIVE_LIFT_GAIN)]
+    made, travelled = [w for w, _ in runs], [t for _, t in runs]
     assert made[0].lift is None and made[0].engine.params.swing.apex == 0.01
     assert made[1].lift is not None and made[1].lift.gain > 1.5
     assert made[1].engine.params.swing.apex == pytest.approx(0.01 * made[1].lift.gain)
