@@ -37,6 +37,22 @@ def _rotation(rng: np.random.Generator) -> np.ndarray:
 
 @settings(max_examples=200, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), parallel=st.sampled_from(["no", "exact", "nearly"]))
+def _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h) -> None:
+    """``G``, ``h`` (the constraint's rows at ``kin``, witness ``w``) are the numpy form's:
+    separating_plane_rows' features, distance_jacobian, damper_bound (to 1e-12)."""
+    pr = separating_plane_rows(w, limit.distances.vertices(kin, w.index.tolist()), limit.trigger)
+    masks = joint_masks(robot)
+    k = w.index[pr.pair]
+    pd = limit.distances
+    J = distance_jacobian(
+        kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal
+    )
+    hb = damper_bound(pr.gap, limit.margin, limit.trigger, limit.damping)
+    keep = hb < UNREACHABLE
+    np.testing.assert_allclose(G, -J[keep], atol=1e-12)
+    np.testing.assert_allclose(h, hb[keep], atol=1e-12)
+
+
 def test_box_distance_is_coals(seed, parallel):
     """Signed distance of two random boxes (parallel faces, exactly or to 1e-9 rad, two
     times in three: the feet side by side) = coal's, separated (GJK) or overlapping (the
@@ -125,17 +141,7 @@ def test_compiled_rows_are_the_numpy_rows(robot, seed):
     G, h = limit.compute(kin)
     w = limit.witness(kin)
     assert w.index.size  # (pairs within the trigger at these seeds)
-    pr = separating_plane_rows(w, limit.distances.vertices(kin, w.index.tolist()), limit.trigger)
-    masks = joint_masks(robot)
-    k = w.index[pr.pair]
-    pd = limit.distances
-    J = distance_jacobian(
-        kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal
-    )
-    hb = damper_bound(pr.gap, limit.margin, limit.trigger, limit.damping)
-    keep = hb < UNREACHABLE
-    np.testing.assert_allclose(G, -J[keep], atol=1e-12)
-    np.testing.assert_allclose(h, hb[keep], atol=1e-12)
+    _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h)
 
 
 def _rows_around(limit, robot, q, rng, draws, size):
@@ -180,17 +186,7 @@ def test_rows_are_continuous_where_faces_are_parallel(robot, pitch, seed):
     limit.forget_rows()
     G, h = limit.compute(kin)
     w = limit.last
-    pr = separating_plane_rows(w, limit.distances.vertices(kin, w.index.tolist()), limit.trigger)
-    masks = joint_masks(robot)
-    k = w.index[pr.pair]
-    pd = limit.distances
-    J = distance_jacobian(
-        kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal
-    )
-    hb = damper_bound(pr.gap, limit.margin, limit.trigger, limit.damping)
-    keep = hb < UNREACHABLE
-    np.testing.assert_allclose(G, -J[keep], atol=1e-12)
-    np.testing.assert_allclose(h, hb[keep], atol=1e-12)
+    _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h)
 
 
 def test_the_tie_is_there_and_the_witness_jumps(robot):
