@@ -35,8 +35,6 @@ def _rotation(rng: np.random.Generator) -> np.ndarray:
     return pin.Quaternion(*rng.normal(size=4)).normalized().toRotationMatrix()
 
 
-@settings(max_examples=200, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), parallel=st.sampled_from(["no", "exact", "nearly"]))
 def _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h) -> None:
     """``G``, ``h`` (the constraint's rows at ``kin``, witness ``w``) are the numpy form's:
     separating_plane_rows' features, distance_jacobian, damper_bound (to 1e-12)."""
@@ -53,6 +51,8 @@ def _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h) -> None:
     np.testing.assert_allclose(h, hb[keep], atol=1e-12)
 
 
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), parallel=st.sampled_from(["no", "exact", "nearly"]))
 def test_box_distance_is_coals(seed, parallel):
     """Signed distance of two random boxes (parallel faces, exactly or to 1e-9 rad, two
     times in three: the feet side by side) = coal's, separated (GJK) or overlapping (the
