@@ -7,7 +7,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from wbc import Kinematics
@@ -146,11 +146,18 @@ def test_compiled_rows_are_the_numpy_rows(robot, seed):
 
 def _rows_around(limit, robot, q, rng, draws, size):
     """The rows at q and at ``draws`` configurations ``size`` rad away in random directions:
-    (rows at q, the largest change of G or h, the largest jump of a witness point (m))."""
+    (rows at q, the largest change of G or h, the largest jump of a witness point (m)). A
+    row's change of h is counted over its damper's slope dh/dd where that exceeds 1: near the
+    trigger T the bound h(d) = ξ(d − m)(T − m)/(T − d) is steep by design (ξ(T − m)²/(T − d)²,
+    ~5600ξ at 0.2 mm inside it), so a continuous row's h moves by that slope times the
+    distance's change (O(size))."""
     limit.forget_rows()
     kin = Kinematics(robot, q)
     G0, h0 = (a.copy() for a in limit.compute(kin))
     w0 = limit.last
+    span, xi = limit.trigger - limit.margin, limit.damping
+    gap = np.where(h0 > 0, h0 * span / (xi * span + np.maximum(h0, 0.0)), 0.0)  # h⁻¹: d − m
+    slope = np.maximum(1.0, xi * span**2 / (span - gap) ** 2)
     change = jump = 0.0
     for _ in range(draws):
         limit.forget_rows()
@@ -158,7 +165,7 @@ def _rows_around(limit, robot, q, rng, draws, size):
             Kinematics(robot, robot.integrate(q, rng.normal(size=robot.nv) * size))
         )
         assert G.shape == G0.shape  # (no row comes or goes)
-        change = max(change, np.abs(G - G0).max(), np.abs(h - h0).max())
+        change = max(change, np.abs(G - G0).max(), (np.abs(h - h0) / slope).max())
         w = limit.last
         assert np.array_equal(w.index, w0.index)
         jump = max(jump, np.abs(w.p1 - w0.p1).max(), np.abs(w.p2 - w0.p2).max())
@@ -167,6 +174,7 @@ def _rows_around(limit, robot, q, rng, draws, size):
 
 @settings(max_examples=15, deadline=None)
 @given(pitch=st.floats(-0.6, 0.6), seed=st.integers(0, 2**16))
+@example(pitch=0.453125, seed=0)  # (a row 0.2 mm inside the trigger: h steep there)
 def test_rows_are_continuous_where_faces_are_parallel(robot, pitch, seed):
     """The arms beside the torso and the feet side by side have parallel features (a face
     along a face or an edge): any point of their overlap is a witness, and the last bits of
