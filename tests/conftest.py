@@ -14,7 +14,7 @@ from hypothesis import settings
 from wbc import load_robot
 
 # the tests count and compare compiled ticks: from a cold cache, a solver waits for its compiled
-# tick rather than solving on the numpy path while it is built (wbc.compiled.dispatch.WAIT_ENV)
+# tick rather than solving on the numpy path while it is built (wbc.compiled.workers.WAIT_ENV)
 os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")
 
 # derandomised and without the example database: every run checks the same examples

@@ -16,7 +16,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from wbc.compiled import dispatch
+from wbc.compiled import dispatch, workers
 
 
 class FakeWorker:
@@ -48,17 +48,17 @@ def test_start_build_runs_one_worker_per_solver_and_wait_reports_failures(
 ):
     started = []
 
-    def popen(cmd, env, stdout, stderr):
+    def popen(cmd, env, stdout, stderr, pass_fds=()):
         started.append(FakeWorker(cmd, env, stdout, stderr, code=1 if "hierarchical" in cmd else 0))
         return started[-1]
 
-    monkeypatch.delenv(dispatch.WORKER_ENV, raising=False)
+    monkeypatch.delenv(workers.WORKER_ENV, raising=False)
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
     ticks = _ticks(tmp_path)
     assert ticks.start_build(announce=False)
-    assert [w.cmd[-1] for w in started] == list(dispatch.PARTS)
+    assert [w.cmd[-1] for w in started] == list(workers.PARTS)
     assert all(w.cmd[:3] == [sys.executable, "-m", "wbc.warmup"] for w in started)
-    assert all(w.env[dispatch.WORKER_ENV] == "1" for w in started)  # no workers of their own
+    assert all(w.env[workers.WORKER_ENV] == "1" for w in started)  # no workers of their own
     assert not ticks.start_build()  # already building
     with caplog.at_level(logging.WARNING, logger="wbc.compiled.dispatch"):
         ticks.wait("weighted_tick")
@@ -70,14 +70,54 @@ def test_start_build_runs_one_worker_per_solver_and_wait_reports_failures(
     ticks.wait("cascade_tick")  # nothing left to wait for
 
 
+@pytest.mark.skipif(workers.fcntl is None, reason="no flock on this platform")
+def test_a_second_process_waits_for_the_first_ones_build(tmp_path, monkeypatch):
+    """Two processes on one cold installation (here two Ticks over one module: the same lock
+    files) compile each tick once: the second sees the first's workers hold the locks, starts
+    none and waits for them (poll None while they run, then done)."""
+    holders, real_popen = [], subprocess.Popen
+
+    def popen(cmd, env, stdout, stderr, pass_fds=()):  # a worker that holds what it inherits
+        holders.append(
+            real_popen(
+                [sys.executable, "-c", "import sys; sys.stdin.read()"],
+                stdin=subprocess.PIPE,
+                pass_fds=pass_fds,
+            )
+        )
+        return holders[-1]
+
+    monkeypatch.delenv(workers.WORKER_ENV, raising=False)
+    monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
+    first = _ticks(tmp_path)
+    assert first.start_build(announce=False) and len(holders) == 2
+    try:
+        monkeypatch.setattr(dispatch.subprocess, "Popen", lambda *a, **k: pytest.fail("built"))
+        second = _ticks(tmp_path)
+        assert second.start_build(announce=False)  # waiting for the first's build
+        assert all(isinstance(w, workers.BuildElsewhere) for w in second.builders.values())
+        assert [w.poll() for w in second.builders.values()] == [None, None]
+    finally:
+        for holder in holders:
+            holder.communicate(b"")  # the first's workers end: their locks are free
+    assert [w.poll() for w in second.builders.values()] == [0, 0]
+    second.wait_all()
+    assert second.builders == {}
+    third = _ticks(tmp_path)  # nobody building: this one builds
+    monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
+    assert third.start_build(announce=False) and len(holders) == 4
+    for holder in holders[2:]:
+        holder.communicate(b"")
+
+
 def test_no_workers_for_other_kernel_sets_or_inside_a_worker(tmp_path, monkeypatch):
     def popen(*args, **kwargs):
         raise AssertionError("no worker expected")
 
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
-    monkeypatch.delenv(dispatch.WORKER_ENV, raising=False)
+    monkeypatch.delenv(workers.WORKER_ENV, raising=False)
     assert not _ticks(tmp_path, package=False).start_build()
-    monkeypatch.setenv(dispatch.WORKER_ENV, "1")
+    monkeypatch.setenv(workers.WORKER_ENV, "1")
     assert not _ticks(tmp_path).start_build()
 
 
@@ -125,12 +165,12 @@ def building(tmp_path, monkeypatch):
     ids of the dispatchers cached on disk), outside a worker and not waiting for builds."""
     started, cached = [], set()
 
-    def popen(cmd, env, stdout, stderr):
+    def popen(cmd, env, stdout, stderr, pass_fds=()):
         started.append(RunningWorker(cmd, env, stdout, stderr))
         return started[-1]
 
-    monkeypatch.delenv(dispatch.WORKER_ENV, raising=False)
-    monkeypatch.delenv(dispatch.WAIT_ENV, raising=False)
+    monkeypatch.delenv(workers.WORKER_ENV, raising=False)
+    monkeypatch.delenv(workers.WAIT_ENV, raising=False)
     monkeypatch.setattr(dispatch.subprocess, "Popen", popen)
     monkeypatch.setattr(dispatch, "_on_disk", lambda d: id(d) in cached)
     return _ticks(tmp_path), started, cached
@@ -156,7 +196,7 @@ def test_a_tick_being_built_is_ready_once_cached_or_its_worker_is_done(
     ticks.wait_all()
     assert ticks.builders == {}
     fresh = _ticks(tmp_path)
-    monkeypatch.setenv(dispatch.WAIT_ENV, "1")  # waiting instead: ready (the call waits)
+    monkeypatch.setenv(workers.WAIT_ENV, "1")  # waiting instead: ready (the call waits)
     assert fresh.ready("weighted_tick") and not started[2:]
 
 
@@ -230,8 +270,8 @@ def test_the_first_tick_on_an_empty_cache_is_answered_while_the_tick_compiles(ro
     from wbc.stacks import load_stack
 
     env = {**os.environ, "WBC_CACHE_DIR": str(tmp_path / "wbc")}
-    env.pop(dispatch.WAIT_ENV, None)
-    env.pop(dispatch.WORKER_ENV, None)
+    env.pop(workers.WAIT_ENV, None)
+    env.pop(workers.WORKER_ENV, None)
     run = subprocess.run(
         [sys.executable, "-c", FIRST_TICK], env=env, capture_output=True, text=True,
         cwd=Path(__file__).resolve().parent.parent, timeout=300,
@@ -285,7 +325,7 @@ def test_a_numpy_path_kernel_is_ready_once_compiled_or_its_worker_is_done(
     assert _ticks(tmp_path).kernel_ready(kernel, "cascade_tick")  # cached, no worker
     compiled_here = SimpleNamespace(overloads={"sig": 1}, _cache=None)
     assert _ticks(tmp_path).kernel_ready(compiled_here, "cascade_tick")
-    monkeypatch.setenv(dispatch.WAIT_ENV, "1")  # waiting instead: ready (the call compiles)
+    monkeypatch.setenv(workers.WAIT_ENV, "1")  # waiting instead: ready (the call compiles)
     assert _ticks(tmp_path).kernel_ready(SimpleNamespace(overloads={}), "cascade_tick")
     assert len(started) == 2
 
@@ -392,8 +432,8 @@ def test_a_new_kernel_set_compiles_in_a_worker_while_the_numpy_path_answers(tmp_
     with the numpy path to 1e-9."""
     (tmp_path / "user_height.py").write_text(USER_TASK)
     env = {**os.environ, "WBC_CACHE_DIR": str(tmp_path / "wbc")}
-    env.pop(dispatch.WAIT_ENV, None)
-    env.pop(dispatch.WORKER_ENV, None)
+    env.pop(workers.WAIT_ENV, None)
+    env.pop(workers.WORKER_ENV, None)
     run = subprocess.run(
         [sys.executable, "-c", NEW_SET, solver], env=env, capture_output=True, text=True,
         cwd=tmp_path, timeout=600,

@@ -6,14 +6,14 @@ stack and solves a tick with an active inequality row on the compiled tick, then
 numpy path (whose kernels Python calls), so that numba compiles and caches every kernel a
 run of the package's stacks calls (``~/.cache/wbc`` or ``$WBC_CACHE_DIR``, and numba's
 ``__pycache__``). It loads a stack, so it lives above the stacks; the compiled kernels start
-it by its module name (:data:`wbc.compiled.dispatch.WORKER_MODULE`), never importing it.
+it by its module name (:data:`wbc.compiled.workers.WORKER_MODULE`), never importing it.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from .compiled.dispatch import PARTS
+from .compiled.workers import PARTS
 from .model import Kinematics, load_robot
 from .stacks import load_stack
 

@@ -1,7 +1,7 @@
 """Compile (and cache on disk) the control ticks of the package's task types now:
 ``python -m wbc.compiled`` after installing, so that the first control loop starts at once.
 
-Two worker processes work in parallel, one per solver (:data:`wbc.compiled.dispatch.PARTS`,
+Two worker processes work in parallel, one per solver (:data:`wbc.compiled.workers.PARTS`,
 each ``python -m wbc.warmup --part ...``: started by module name, the kernels import nothing
 above them). The solvers start the same processes themselves at their first compiled tick
 when the cache is empty, solve on the numpy path meanwhile and switch when their tick is
@@ -15,7 +15,7 @@ import subprocess
 import sys
 import time
 
-from .dispatch import PARTS, command, worker_env
+from .workers import PARTS, command, worker_env
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -34,6 +34,16 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ._cache import refresh
+from .workers import (
+    PARTS,
+    SET_WORKER_MODULE,
+    WORKER_ENV,
+    BuildElsewhere,
+    command,
+    take_lock,
+    waits,
+    worker_env,
+)
 
 log = logging.getLogger(__name__)
 
@@ -410,52 +420,19 @@ def _call(args: Sequence[tuple[str, str, int]]) -> str:
     return ", ".join(names)
 
 
-#: set in the environment (to anything but "" or "0"): a solver whose compiled tick is being
-#: built in the background waits for it instead of solving on the numpy path meanwhile (the
-#: tests, and anything that counts or times compiled ticks from a cold cache)
-WAIT_ENV = "WBC_WAIT_FOR_COMPILE"
-
-
-def _waits() -> bool:
-    return os.environ.get(WAIT_ENV, "") not in ("", "0")
-
-
-#: the worker processes that compile the package's ticks, one per solver (in parallel)
-PARTS = ("weighted", "hierarchical")
-#: the module a worker runs (``python -m``): it loads the package's ``walk`` stack, so it lives
-#: above the stacks (:mod:`wbc.warmup`); started by name, never imported from here
-WORKER_MODULE = "wbc.warmup"
-#: set in a worker's environment: its own ticks compile in process (no workers of its own)
-WORKER_ENV = "WBC_COMPILE_WORKER"
-
-
-#: the module of the worker that builds a tick of another kernel set (:mod:`wbc.compiled.worker`)
-SET_WORKER_MODULE = "wbc.compiled.worker"
-
-
-def command(part: str) -> list[str]:
-    """The command line of the worker that compiles ``part``."""
-    return [sys.executable, "-m", WORKER_MODULE, "--part", part]
-
-
-def worker_env() -> dict[str, str]:
-    """A worker's environment: this one, marked as a worker's."""
-    return {**os.environ, WORKER_ENV: "1"}
-
-
 class Ticks:
     """The generated tick functions of one set of kernels, called through their entry points
     (skipping numba's per-call type dispatch).
 
     For the package's own kernels (the tick of every package stack), a tick not yet in the
-    disk cache is compiled by worker processes (:data:`WORKER_MODULE`), both solvers' in
-    parallel (:meth:`start_build`), and loaded from the cache when its worker is done
-    (:meth:`ready`: meanwhile the solvers solve on the numpy path, the same problem by the
-    backend). Another set (a task or limit type defined elsewhere) is split in two calls
-    (:attr:`split`): its rows compile in one worker (:data:`SET_WORKER_MODULE`, the tick a
-    solver asks for), the solve is the package's. A set whose kernels a worker cannot import
-    (defined in ``__main__`` or interactively), or a failed worker, compiles in this
-    process."""
+    disk cache is compiled by worker processes (:data:`~wbc.compiled.workers.WORKER_MODULE`),
+    both solvers' in parallel (:meth:`start_build`), and loaded from the cache when its worker
+    is done (:meth:`ready`: meanwhile the solvers solve on the numpy path, the same problem by
+    the backend). Another set (a task or limit type defined elsewhere) is split in two calls
+    (:attr:`split`): its rows compile in one worker
+    (:data:`~wbc.compiled.workers.SET_WORKER_MODULE`, the tick a solver asks for), the solve is
+    the package's. A set whose kernels a worker cannot import (defined in ``__main__`` or
+    interactively), or a failed worker, compiles in this process."""
 
     def __init__(
         self,
@@ -498,7 +475,10 @@ class Ticks:
     ) -> bool:
         """Start compiling ticks in worker processes, unless they are cached or being built;
         True if started. The package's set: both ticks (``python -m wbc.warmup --part ...``,
-        which compile the numpy path's kernels too); another set (a task or limit type
+        which compile the numpy path's kernels too), each unless another process's worker
+        builds it already (its lock file held): that build is waited for as this one's
+        (:class:`BuildElsewhere`), so that processes started together on a cold cache compile
+        each tick once; another set (a task or limit type
         defined elsewhere) whose kernels' source files are known: the tick ``name`` for the
         types of ``args`` (``python -m wbc.compiled.worker``: the kernels are cached each on
         its own, the worker links them into this set's tick; ``solve``, ``(kernel, args)``:
@@ -513,20 +493,36 @@ class Ticks:
             return self._start_set_worker(name, args, announce, solve)
         if self.builders or self.cached():
             return False
+        elsewhere = []
+        for part, tick in zip(PARTS, ("weighted_tick", "cascade_tick"), strict=True):
+            lock = take_lock(self._lock(tick), block=False)
+            if lock is None:  # another process's worker builds it: wait for that one
+                self.builders[tick] = BuildElsewhere(self._lock(tick))
+                elsewhere.append(tick)
+                continue
+            try:
+                with open(self._log(tick), "w") as log_file:  # the worker's messages
+                    self.builders[tick] = subprocess.Popen(
+                        command(part),
+                        env=worker_env(),
+                        stdout=log_file,
+                        stderr=subprocess.STDOUT,
+                        pass_fds=(lock,),  # the worker holds the lock until it exits
+                    )
+            finally:
+                os.close(lock)
+        if not self.builders:
+            return False
+        self.build_started = time.perf_counter()
         if announce:
             log.warning(
                 "wbc: compiling the control ticks in %d background processes (numba; once per "
-                "installation, about a minute; cached in %s); until they are ready the solvers "
-                "solve on the numpy path (the same QP by the backend, slower ticks)",
-                len(PARTS),
+                "installation, about a minute; cached in %s%s); until they are ready the "
+                "solvers solve on the numpy path (the same QP by the backend, slower ticks)",
+                len(self.builders),
                 Path(self.module.__file__).parent,
+                f"; {' and '.join(elsewhere)} by another process" if elsewhere else "",
             )
-        self.build_started = time.perf_counter()
-        for part, tick in zip(PARTS, ("weighted_tick", "cascade_tick"), strict=True):
-            with open(self._log(tick), "w") as log_file:  # the worker's messages
-                self.builders[tick] = subprocess.Popen(
-                    command(part), env=worker_env(), stdout=log_file, stderr=subprocess.STDOUT
-                )
         return True
 
     def _start_set_worker(self, name: str, args: tuple, announce: bool, solve: tuple = ()) -> bool:
@@ -581,6 +577,12 @@ class Ticks:
     def _log(self, name: str) -> Path:
         return Path(self.module.__file__).with_suffix(f".{name}.log")
 
+    def _lock(self, name: str) -> Path:
+        """The lock file of tick ``name``'s build: held by its worker while it compiles, so
+        that another process on the same installation waits for that build instead of
+        starting its own (:class:`BuildElsewhere`)."""
+        return Path(self.module.__file__).with_suffix(f".{name}.lock")
+
     def wait(self, name: str) -> None:
         """Wait for the worker building tick ``name`` (if any); a failure is logged, and the
         tick then compiles in this process."""
@@ -632,7 +634,7 @@ class Ticks:
             not self.buildable()
             or (not self.package and not args)
             or os.environ.get(WORKER_ENV)
-            or _waits()
+            or waits()
             or dispatcher.overloads
             or (not building and _on_disk(dispatcher))
         ):
@@ -665,7 +667,7 @@ class Ticks:
         cached): the caller solves another way meanwhile (the backend cascade), on every
         backend — the first ``HierarchicalQP(..., "osqp")`` tick of a cold cache compiled the
         cascade in the process for two minutes (issue 28)."""
-        if dispatcher.overloads or os.environ.get(WORKER_ENV) or _waits():
+        if dispatcher.overloads or os.environ.get(WORKER_ENV) or waits():
             return True
         worker = self.builders.get(tick)
         if worker is None:
