@@ -1,0 +1,134 @@
+"""One push, traced tick by tick: is the step adjuster triggered, when, and where does the
+swing sole go (issue 30)?
+
+A 10 ms torso push at mid first single support of ``walk10_wb`` (as ``pushes.py``), the
+closed loop with step adjustment and the feed-forward x0.5 (the push benchmark's ``step``
+loop), the nominal plant. Prints the step adjuster's re-plans (walk time, step, the shift
+wanted and applied, mm) and, per tick from 30 ms before the push, the estimated DCM error
+along the walk beside the simulator's (its CoM and finite-difference velocity), the swing
+sole's target and where the simulated sole is (x, z, mm), each sole's floor force (N) and
+the torso's pitch change since the push (deg). A probe: it observes
+:meth:`wbc.balance.stabilizer.Stabilizer.adjust` by wrapping it for the run.
+
+    nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --direction forward
+    nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping '{"band_x": 0.012}'
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from wbc import load_robot
+from wbc.balance import stabilizer as stab_mod
+from wbc.balance.retime import HoldParams
+from wbc.balance.stabilizer import Gains
+from wbc.balance.stepping import SteppingParams
+from wbc.bench import trajectories as traj
+from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
+from wbc.bench.pushes import PUSH_DURATION, push_direction
+from wbc.bench.runner import run_entry
+from wbc.bench.sim_record import mid_single_support
+from wbc.bench.solvers import select
+
+
+def trace(
+    impulse: float, direction: str, stepping: dict, gains: dict, walk: str, offset: float
+) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """(the run's summary and re-plans, a row per tick) of one push."""
+    robot = load_robot("bioloid")
+    entry = select(["wqp-daqp"], None, "tick")[0][0]
+    ref = traj.build(walk, robot)
+    _, rec = run_entry(entry, robot, ref, "tick")
+    t_push = mid_single_support(rec)
+    if t_push is None:
+        raise SystemExit(f"{walk} has no single support to push in")
+    t_push += offset
+    force = push_direction(rec, direction) * impulse / PUSH_DURATION
+    spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
+                          SteppingParams(**stepping), HoldParams())  # fmt: skip
+    sims: list[Any] = []
+    rows: list[dict[str, Any]] = []
+    last: dict[str, Any] = {}
+    original = stab_mod.Stabilizer.adjust
+
+    def observed(self, targets, com_vel_ref, q_cmd, dt):
+        out = original(self, targets, com_vel_ref, q_cmd, dt)
+        if not sims or self.last is None or self.calibrating:
+            return out
+        sim, omega = sims[0], self.estimator.omega0
+        c = sim.com()
+        v = (c - last["c"]) / (sim.time - last["t"]) if last else np.zeros(3)
+        last.update(c=c, t=sim.time)
+        dcm_ref = targets.com[:2] + com_vel_ref[:2] / omega
+        feet = sim.robot_feet()
+        _, fz, body = sim.contacts()
+        names = [sim.mj.mj_id2name(sim.model, sim.mj.mjtObj.mjOBJ_BODY, int(b)) for b in body]
+        force_of = [float(sum(f for f, n in zip(fz, names, strict=True) if n == foot))
+                    for foot in feet]  # fmt: skip
+        swing = sim.site_pose(targets.swing).translation
+        R = sim.base_rotation()
+        rows.append({
+            "t": sim.time, "phase": targets.phase, "swing": targets.swing,
+            "err_est": 1e3 * (self.last.dcm[0] - dcm_ref[0]),
+            "err_sim": 1e3 * (c[0] + v[0] / omega - dcm_ref[0]),
+            "target": 1e3 * np.asarray(out.swing_position, dtype=float),
+            "sole": 1e3 * swing, "f_l": force_of[0], "f_r": force_of[1],
+            "pitch": math.degrees(math.asin(float(np.clip(-R[2, 0], -1.0, 1.0)))),
+        })  # fmt: skip
+        return out
+
+    stab_mod.Stabilizer.adjust = observed  # type: ignore[method-assign]
+    try:
+        result, loop = play_closed_loop(spec, robot, None, push=(t_push, force, PUSH_DURATION),
+                                        compensate=0.5, on_tick=sims.append)  # fmt: skip
+    finally:
+        stab_mod.Stabilizer.adjust = original  # type: ignore[method-assign]
+    events = loop.stepping.events if loop.stepping is not None else []
+    summary = {
+        "t_push": t_push,
+        "up": bool(result.deploy.completed),
+        "stopped": None if result.deploy.completed else str(result.deploy.trip),
+        "replans": [(round(float(e[0]), 3), int(e[1]), np.round(1e3 * np.asarray(e[2]), 1).tolist(),
+                     np.round(1e3 * np.asarray(e[3]), 1).tolist()) for e in events],
+    }  # fmt: skip
+    return summary, rows
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--impulse", type=float, default=0.6, help="N·s")
+    p.add_argument("--direction", default="forward",
+                   choices=("forward", "backward", "toward", "away"))  # fmt: skip
+    p.add_argument("--stepping", type=json.loads, default={}, help="SteppingParams JSON")
+    p.add_argument("--gains", type=json.loads, default={}, help="Gains JSON")
+    p.add_argument("--walk", default="walk10_wb")
+    p.add_argument("--offset", type=float, default=0.0, help="s after mid single support")
+    p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
+    a = p.parse_args()
+    summary, rows = trace(a.impulse, a.direction, a.stepping, a.gains, a.walk, a.offset)
+    print(json.dumps(summary))
+    # the push starts at the first tick whose simulated DCM error jumps (the walk's clock
+    # starts after the calibration and soft start: find it in the simulator's time)
+    jump = next((k for k in range(1, len(rows))
+                 if abs(rows[k]["err_sim"] - rows[k - 1]["err_sim"]) > 8.0), 0)  # fmt: skip
+    print(
+        "| ms after push | phase | swing | DCM err est / sim mm | swing target x, z | sole x, z "
+        "| F left / right N | pitch change ° |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    t0, p0 = rows[jump]["t"] if rows else 0.0, rows[jump]["pitch"] if rows else 0.0
+    for r in rows[max(jump - 3, 0) : jump + a.ticks]:
+        print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} | {r['swing']} "
+              f"| {r['err_est']:.1f} / {r['err_sim']:.1f} "
+              f"| {r['target'][0]:.1f}, {r['target'][2]:.1f} | {r['sole'][0]:.1f}, "
+              f"{r['sole'][2]:.1f} | {r['f_l']:.1f} / {r['f_r']:.1f} "
+              f"| {r['pitch'] - p0:+.1f} |")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
