@@ -44,6 +44,7 @@ from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim
 from wbc.drive.walker import default_compensate
+from wbc.walking.engine import EngineParams
 
 
 def scripts(lim) -> dict[str, list[Command]]:
@@ -228,6 +229,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--finish", action="store_true",
                     help="at each script's end the walker finishes the commanded path first "
                          "(Walker.stop(finish=True))")  # fmt: skip
+    ap.add_argument("--plain-closing", action="store_true",
+                    help="a stop's closing step beside the stance sole, not on the commanded "
+                         "pose (EngineParams(close_on_target=False): the default before "
+                         "2026-12-05 19:00 UTC)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -254,6 +259,7 @@ def main(argv: list[str] | None = None) -> int:
         "lift_gain": args.lift_gain,
         "filter_heading": args.filter_heading,
         "encoder_rest": args.encoder_rest,
+        "params": EngineParams(close_on_target=False) if args.plain_closing else None,
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]

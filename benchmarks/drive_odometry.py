@@ -49,7 +49,7 @@ from wbc.bench.variation import models
 from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.odometry import PoseOdometry
-from wbc.geometry import mean_angle, wrap_angle, yaw_of
+from wbc.geometry import mean_angle, relative_pose, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking.geometry import rot2
 
@@ -214,6 +214,71 @@ class ContactSlip:
 SOLE_NAMES = ("l_sole", "r_sole")
 
 
+def soles_mid(sim) -> np.ndarray:
+    """The simulated soles' midpoint and mean heading (x, y, heading; world)."""
+    L, R = (sim.site_pose(f) for f in SOLE_NAMES)
+    m = 0.5 * (L.translation[:2] + R.translation[:2])
+    return np.array([m[0], m[1], mean_angle(yaw_of(L.rotation), yaw_of(R.rotation))])
+
+
+def accrual(run: dict, walker, odometer, commands) -> list[str]:
+    """Where the odometry's error accrues: at each landing the walking frame the walker's
+    odometry measures against the simulated soles' midpoint (each in its own start frame),
+    its change since the last landing classed by the context — ``first2`` (the start's
+    first two landings), ``change`` (a command change in the second before), ``turning``
+    (|ωz| > 0.15 rad/s), ``spot`` (|vx| + |vy| < 1 cm/s), ``steady`` —; then the
+    error at the last landing, what the soles' midpoint did after it (the closing step)
+    and the commanded displacement's direction ``u`` the "along" figures project on."""
+    c = np.asarray(run["commanded_xy_m"])
+    u = c / max(float(np.linalg.norm(c)), 1e-9)
+    rows = np.asarray(odometer.rows)
+    mid0 = soles_mid_at(rows, 0)
+    changes = np.cumsum([cm.duration for cm in commands])[:-1]
+    t0 = walker.t_walk if walker.t_walk is not None else 0.0  # (the commands' start)
+    sums: dict[str, np.ndarray] = {}
+    prev = np.zeros(3)
+    for n, (t, est, truth, cmd) in enumerate(walker.landings):
+        d = relative_pose(mid0, truth) - relative_pose(walker.start_frame, est)
+        d[2] = wrap_angle(d[2])
+        inc, prev = d - prev, d
+        ts = t - t0
+        if n < 2:
+            key = "first2"
+        elif np.any((changes < ts) & (changes > ts - 1.0)):
+            key = "change"
+        elif abs(cmd[2]) > 0.15:
+            key = "turning"
+        elif abs(cmd[0]) + abs(cmd[1]) < 0.01:
+            key = "spot"
+        else:
+            key = "steady"
+        acc = sums.setdefault(key, np.zeros(5))
+        acc += (inc[0], inc[1], inc[2], math.hypot(inc[0], inc[1]), 1.0)
+    out = [f"  odometry's error at the last landing (simulated − measured): "
+           f"{100 * prev[0]:+.2f}, {100 * prev[1]:+.2f} cm (along {100 * prev[:2] @ u:+.2f}) "
+           f"{math.degrees(prev[2]):+.1f}° over {len(walker.landings)} landings"]  # fmt: skip
+    for key in ("first2", "change", "turning", "spot", "steady"):
+        if key in sums:
+            a = sums[key]
+            out.append(f"    {key:8s} {int(a[4]):3d} landings: {100 * a[0]:+.2f}, "
+                       f"{100 * a[1]:+.2f} cm (along {100 * a[:2] @ u:+.2f}) "
+                       f"{math.degrees(a[2]):+.2f}°, path {100 * a[3]:.2f} cm")  # fmt: skip
+    if walker.landings:
+        k = int(np.searchsorted(rows[:, 0], walker.landings[-1][0]))
+        after = relative_pose(mid0, soles_mid_at(rows, -1)) - relative_pose(
+            mid0, soles_mid_at(rows, min(k, len(rows) - 1)))  # fmt: skip
+        out.append(f"  the soles' midpoint after the last landing (the closing step): "
+                   f"{100 * after[:2] @ u:+.2f} cm along, "
+                   f"{math.degrees(wrap_angle(after[2])):+.1f}°")  # fmt: skip
+    return out
+
+
+def soles_mid_at(rows: np.ndarray, k: int) -> np.ndarray:
+    """The soles' midpoint and mean heading of the sampled row ``k`` (:func:`main`'s rows)."""
+    r = rows[k]
+    return np.array([0.5 * (r[1] + r[4]), 0.5 * (r[2] + r[5]), mean_angle(r[3], r[6])])
+
+
 def vertical_bias(walker, sim) -> str:
     """The gyro's bias about the vertical after the calibration at rest (the simulated IMU's
     true bias less the calibration's, as the heading's rate on the standing torso) and what
@@ -259,6 +324,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--contact", action="store_true",
                     help="the soles' slip in contact per gait phase (ContactSlip)")  # fmt: skip
+    ap.add_argument("--accrual", action="store_true",
+                    help="where the odometry's error accrues: per landing by context "
+                         "(accrual)")  # fmt: skip
     ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
                     help="the walker's lift gain (default: the Walker's)")  # fmt: skip
     args = ap.parse_args(argv)
@@ -275,6 +343,22 @@ def main(argv: list[str] | None = None) -> int:
             super().__init__(*a, **k)
             walkers.append(self)
             self.start_frame = self.engine.centre.copy()
+            self.landings: list = []  # (t, the odometry's frame, the simulator's, command)
+            self.t_walk: float | None = None  # when the engine started walking (sim time)
+
+        def tick(self, dt=None):
+            if self.t_walk is None and self.engine.walking and odometers:
+                self.t_walk = odometers[-1].sim.time
+            return super().tick(dt)
+
+        def _landed(self, step):
+            out = super()._landed(step)
+            if self._offset is not None and odometers:
+                sim = odometers[-1].sim
+                est = self.engine.centre + self._offset
+                truth = soles_mid(sim)
+                self.landings.append((sim.time, est, truth, self.engine.command_velocity))
+            return out
 
     class Sampled(odometer):  # the soles, base, support and headings every tick
         def __init__(self, sim) -> None:
@@ -336,6 +420,8 @@ def main(argv: list[str] | None = None) -> int:
                   flush=True)  # fmt: skip
             if args.contact:
                 print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
+            if args.accrual:
+                print("\n".join(accrual(r, walkers[0], odometers[0], cmds)), flush=True)
     if len(table) > 1:
         print("mean |.|: " + ", ".join(
             f"{k} {np.mean([abs(b[k]) for b in table if k in b]):.1f}"

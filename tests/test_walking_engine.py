@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.exceptions import ConfigurationError
-from wbc.geometry import polygon_distance, wrap_angle
+from wbc.geometry import mean_angle, polygon_distance, wrap_angle
 from wbc.walking import Foot, FootstepPlan, GaitTiming, LegGeometry, StandingState, SwingParams
 from wbc.walking.checks import check_reference
 from wbc.walking.engine import (
@@ -62,8 +63,53 @@ def test_a_driven_walk_passes_the_walks_checks(setup) -> None:
     assert e.state == "standing" and e.steps_taken >= 10
     mid = 0.5 * (ref.l_sole[-1, :2] + ref.r_sole[-1, :2])
     assert np.linalg.norm(ref.com[-1, :2] - mid) < 1e-3
+    # the plain closing step (close_on_target off) lands beside the stance sole
+    plain = engine(setup, replace(LEGS_ONLY, close_on_target=False))
+    ref = rollout(plain, COMMANDS)
+    assert check_reference(ref, margin=0.0005, legs=legs).zmp_margin >= 0.0005
     width = np.linalg.norm(ref.l_sole[-1, :2] - ref.r_sole[-1, :2])
-    assert width == pytest.approx(2 * e.half_width, abs=1e-6)
+    assert width == pytest.approx(2 * plain.half_width, abs=1e-6)
+
+
+@pytest.mark.parametrize("command", [(1.3, 0.05, 0.0, 0.0), (1.45, 0.03, 0.0, 0.25),
+                                     (2.1, 0.0, 0.0, 0.4), (1.1, -0.03, -0.01, 0.0),
+                                     (1.3, 0.02, 0.0, -0.2)])  # fmt: skip
+def test_a_stop_closes_on_the_commanded_pose(setup, command) -> None:
+    """A stop's closing step lands where the commanded pose at the stop puts the walking
+    frame (``close_on_target``, the default): straight, within a millimetre of it; turning,
+    within 2.5 mm and 1.2° (a turned sole is moved outward, never closer to the other than
+    side by side); the plain closing step (beside the stance sole) ends off it by the step's
+    latency and the frame's half stride (here 4–9 mm or 1.6–2.7°; the engine's own
+    convention: short of it; with the Walker's odometry, the soles' midpoint, beyond it).
+    The commanded pose stops at the stop instead of running on with the command."""
+    _, start, foot, legs = setup
+    ends, gaps = {}, {}
+    for close in (True, False):
+        e = engine(setup, replace(LEGS_ONLY, close_on_target=close))
+        e.start()
+        e.command(*command[1:])
+        for _ in range(round(command[0] / e.dt)):
+            e.tick()
+        at_stop = e._pose_cmd.copy()
+        e.stop()
+        while e.walking:
+            e.tick()
+        left, right = e.feet["left"], e.feet["right"]
+        mid = np.r_[0.5 * (left.xy + right.xy), mean_angle(left.yaw, right.yaw)]
+        ends[close] = (float(np.linalg.norm(mid[:2] - at_stop[:2])),
+                       abs(wrap_angle(mid[2] - at_stop[2])))  # fmt: skip
+        gaps[close] = e._gap(left, right)
+        if close:
+            assert np.allclose(e._pose_cmd, at_stop)  # frozen at the stop
+            FootstepPlan(start.left, start.right, tuple(e.planned)).validate(
+                foot, legs, e.height, 0.005
+            )
+    turning = command[3] != 0.0
+    assert ends[True][0] < (0.0025 if turning else 0.001)
+    assert ends[True][1] < math.radians(1.2 if turning else 0.1)
+    assert gaps[True] >= gaps[False] - 1e-3
+    off = {k: v[0] + 0.1 * v[1] for k, v in ends.items()}  # (m; 1.75 mm a degree)
+    assert off[True] < 0.8 * off[False]
 
 
 def test_every_committed_step_passes_the_footstep_validation(setup) -> None:

@@ -36,7 +36,7 @@ import pinocchio as pin
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import clip_norm, heading_free, wrap_angle, yaw_of
+from ..geometry import clip_norm, heading_free, mean_angle, wrap_angle, yaw_of
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -445,6 +445,12 @@ class Walker:
             off = measured - self.engine.centre
             off[2] = wrap_angle(off[2])
             self._offset = off
+            # the soles' midpoint measured less planned: where a closing step aims from
+            planned = np.r_[0.5 * (feet["left"].xy + feet["right"].xy),
+                            mean_angle(feet["left"].yaw, feet["right"].yaw)]  # fmt: skip
+            error = measured - planned
+            error[2] = wrap_angle(error[2])
+            self.engine.frame_error = error
         return Footstep(step.side, float(xy[0]), float(xy[1]), stance.yaw + dyaw, step.z)
 
     # ------------------------------------------------------------------ ticks

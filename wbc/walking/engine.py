@@ -41,8 +41,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -50,13 +50,14 @@ from ..exceptions import ConfigurationError, TrajectoryError
 from ..geometry import mean_angle, relative_pose, wrap_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from ..roles import SOLE_FRAMES
+from .engine_params import EngineParams, VelocityLimits
 from .footgaps import rectangle_gaps
 from .footsteps import Footstep, FootstepPlan, Side, check_stance, other_side
 from .geometry import Foot, rot2
 from .legs import LegGeometry
-from .preview import PreviewController, PreviewParams
+from .preview import PreviewController
 from .reference import StandingState, WalkingReference
-from .schedule import GaitTiming, Phase, SwingParams, sample_knots, sole_tracks
+from .schedule import Phase, sample_knots, sole_tracks
 from .spline import min_jerk
 from .window import BalanceWindow
 
@@ -66,157 +67,6 @@ MAX_LANDING_ERROR = 0.03
 #: rad: the largest heading difference of the two soles (:meth:`FootstepPlan.validate`'s)
 MAX_RELATIVE_YAW = 0.6
 SegmentKind = Literal["start", "double", "single", "end"]
-
-
-@dataclass(frozen=True)
-class EngineParams:
-    """Gait of the engine. Defaults: the whole-body walks' (``fast_wb``, ``turn_wb``,
-    ``lateral_wb``): 0.5 s steps with 20 % double support, the torso leaning over the stance
-    sole (``whole_body``: a :class:`~wbc.drive.walker.Walker` measures the balance window),
-    the ZMP 18 mm in from each sole's centre, reached within 15 % of each double support; a
-    10 mm swing apex (12 mm: the Bioloid's forward limit is 7.5 cm/s within 0.75 of the
-    servo speed, 10 mm: 8.7 cm/s). The legs-only walks' gait (``walk10``: 0.4 s steps, the
-    torso upright, the ZMP 28.5 mm in, ``whole_body=False``) asks the swing knee for more than
-    that speed rule allows at any stride (its planning limits are 0; benchmarks/drive.md)."""
-
-    timing: GaitTiming = field(
-        default_factory=lambda: GaitTiming(step_time=0.5, double_support_ratio=0.2)
-    )
-    swing: SwingParams = field(default_factory=lambda: SwingParams(apex=0.010))
-    zmp_offset: tuple[float, float] = (0.0, 0.018)
-    transfer: float = 0.15
-    #: lean the torso over the stance sole (the whole-body balance window)
-    whole_body: bool = True
-    preview: PreviewParams = field(default_factory=PreviewParams)
-    horizon_steps: int = 4
-    min_clearance: float = 0.005
-    #: share of the start phase the ZMP stays put before it moves onto the first stance sole
-    start_hold: float = 0.2
-    #: points along each planned swing (ends included) where the feet's clearance is checked
-    swing_samples: int = 7
-    #: the largest make-up of the commanded pose's lag per step, as a share of the velocity
-    #: limits (diamond norm) on top of the command: a start or a change is caught up gently
-    #: (at the limits a randomised Bioloid falls sideways, benchmarks/drive.md)
-    catch_up: float = 0.25
-
-    def check(self) -> EngineParams:
-        self.timing.validate()
-        self.swing.validate()
-        self.preview.validate()
-        if self.timing.double_support_time < self.timing.dt:
-            raise ConfigurationError("walk engine: the gait needs a double support of >= 1 tick")
-        if not (0.0 < self.transfer <= 1.0):
-            raise ConfigurationError(
-                f"walk engine: transfer must be in (0, 1], got {self.transfer}"
-            )
-        if int(self.horizon_steps) != self.horizon_steps or self.horizon_steps < 1:
-            raise ConfigurationError(
-                f"walk engine: horizon_steps must be a positive integer, got {self.horizon_steps}"
-            )
-        if not (math.isfinite(self.catch_up) and self.catch_up >= 0):
-            raise ConfigurationError(f"walk engine: catch_up must be >= 0, got {self.catch_up}")
-        if not all(math.isfinite(v) for v in self.zmp_offset):
-            raise ConfigurationError(f"walk engine: zmp_offset must be finite, {self.zmp_offset}")
-        return self
-
-
-@dataclass(frozen=True)
-class VelocityLimits:
-    """The largest commands (m/s, rad/s): forward, backward, sideways, turning. A combined
-    command is scaled into the diamond ``|vx|/vx_max + |vy|/vy_max + |ωz|/wz_max <= 1``."""
-
-    vx_forward: float
-    vx_backward: float
-    vy: float
-    wz: float
-
-    def check(self) -> VelocityLimits:
-        for name in ("vx_forward", "vx_backward", "vy", "wz"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and v >= 0):  # (inf: no limit; NaN fails)
-                raise ConfigurationError(f"velocity limit {name} must be a number >= 0, got {v}")
-        return self
-
-    def clip(self, vx: float, vy: float, wz: float) -> tuple[float, float, float]:
-        """The command scaled (direction kept) into the limits."""
-        vxm = self.vx_forward if vx >= 0 else self.vx_backward
-        s = 0.0
-        for v, m in ((vx, vxm), (vy, self.vy), (wz, self.wz)):
-            if v != 0.0:
-                s += math.inf if m <= 0 else abs(v) / m
-        if s <= 1.0:
-            return float(vx), float(vy), float(wz)
-        if math.isinf(s):  # an axis with no range: drop it, scale the rest
-            vx, vy, wz = (v if m > 0 else 0.0 for v, m in ((vx, vxm), (vy, self.vy), (wz, self.wz)))
-            return self.clip(vx, vy, wz)
-        return float(vx / s), float(vy / s), float(wz / s)
-
-    def as_dict(self) -> dict[str, float]:
-        return dict(self.__dict__)
-
-    @classmethod
-    def from_robot(
-        cls,
-        robot: Any,
-        params: EngineParams | None = None,
-        window: BalanceWindow | None = None,
-        legs: LegGeometry | None = None,
-        foot: Foot | None = None,
-        fraction: float | None = None,
-        iterations: int = 6,
-    ) -> VelocityLimits:
-        """Measured on the model: per axis, the largest per-step stride (bisection) whose
-        three-step walk (:func:`wbc.walking.gait.walk_steps` with this gait) passes the
-        walks' checks (reach, hip roll or the balance window, clearance, ZMP margin) and is
-        tracked by the bounded IK (:func:`kinematic_feasibility`) with no joint faster than
-        ``fraction`` (default :data:`PLANNING_SPEED_FRACTION`) of its servo's speed; divided
-        by the step time. A pre-motion computation (a few seconds)."""
-        from .feasibility import PLANNING_SPEED_FRACTION, kinematic_feasibility
-        from .gait import walk_steps
-
-        params = (params or EngineParams()).check()
-        fraction = PLANNING_SPEED_FRACTION if fraction is None else fraction
-        stand = robot.configuration("stand")
-        start = StandingState.from_robot(robot, stand)
-        legs = legs or LegGeometry.from_robot(robot, stand)
-        foot = foot or Foot(*robot.foot_size)
-        margin = 0.010 if window is not None else 0.001  # (the walks' ZMP margins)
-
-        def ok(stride: tuple[float, float, float]) -> bool:
-            try:
-                ref = walk_steps(
-                    start, 3, stride, timing=params.timing, swing=params.swing, foot=foot,
-                    legs=legs, window=window, zmp_offset=params.zmp_offset, margin=margin,
-                    min_clearance=params.min_clearance,
-                )  # fmt: skip
-            except TrajectoryError:
-                return False
-            rep = kinematic_feasibility(robot, ref)
-            if not rep.feasible:
-                return False
-            j = robot.joint_names.index(rep.speed_joint) if rep.speed_joint else 0
-            return rep.max_joint_speed <= fraction * robot.v_max[j]
-
-        def largest(axis: int, sign: float, hi: float) -> float:
-            lo = 0.0
-            for _ in range(iterations):
-                mid = 0.5 * (lo + hi)
-                stride = [0.0, 0.0, 0.0]
-                stride[axis] = sign * mid
-                if ok((stride[0], stride[1], stride[2])):
-                    lo = mid
-                else:
-                    hi = mid
-            return lo
-
-        T = params.timing.step_time
-        reach = legs.thigh + legs.shin
-        return cls(
-            largest(0, 1.0, 0.6 * reach) / T,
-            largest(0, -1.0, 0.6 * reach) / T,
-            largest(1, 1.0, 0.3 * reach) / T,
-            largest(2, 1.0, 0.6) / T,
-        ).check()
 
 
 @dataclass
@@ -331,6 +181,10 @@ class WalkEngine:
         #: engine sums the measured landings' xy offsets from their plans since :meth:`start`;
         #: a caller with a better estimate (the Walker's IMU-aided odometry) overwrites it
         self.odometry_offset = np.zeros(3)
+        #: the soles' midpoint measured less planned (x, y, heading; world) if a caller's
+        #: odometry measures it (None: :attr:`odometry_offset` is it); a closing step aims
+        #: the commanded pose from it
+        self.frame_error: np.ndarray | None = None
         #: the point the command moves (x, y in the walking frame, m; default the soles'
         #: midpoint): the commanded pose is this point's, e.g. the Walker's base
         self.origin = np.zeros(2)
@@ -387,10 +241,51 @@ class WalkEngine:
         xy = c + rot2(yaw) @ np.array([0.0, lateral])
         return np.array([c[0], c[1], yaw]), Footstep(side, float(xy[0]), float(xy[1]), yaw)
 
-    def _closing(self, side: Side, stance: Footstep) -> Footstep:
+    def _closing(
+        self, feet: dict[Side, Footstep], side: Side, on_target: bool = False
+    ) -> tuple[np.ndarray, Footstep]:
+        """The closing step of ``side`` beside the stance sole and the walking frame between
+        them. ``on_target`` (``EngineParams.close_on_target``): moved so that the frame, with
+        the odometry's error (:attr:`frame_error`, else :attr:`odometry_offset`), ends on the
+        commanded pose (frozen at :meth:`stop`) — the whole way, half or a quarter of it,
+        whichever first passes the checks with the frame's move within the velocity limits
+        and the soles no closer than side by side (the feet's self-collision margin: closer,
+        the standing robot's solves failed) —, not half a stride and up to a step's latency
+        of the last command beyond it."""
+        stance = feet[other_side(side)]
         sign = 1.0 if side == "left" else -1.0
         xy = stance.xy + rot2(stance.yaw) @ np.array([0.0, 2.0 * sign * self.half_width])
-        return Footstep(side, float(xy[0]), float(xy[1]), stance.yaw)
+        step = Footstep(side, float(xy[0]), float(xy[1]), stance.yaw)
+        if on_target and self.params.close_on_target:
+            want = self._pose_cmd.copy()
+            want[:2] -= rot2(want[2]) @ self.origin
+            want -= self.odometry_offset if self.frame_error is None else self.frame_error
+            plain = np.array([step.x, step.y, step.yaw])
+            aim = 2.0 * want - np.array([stance.x, stance.y, stance.yaw])
+            aim[2] = stance.yaw + 2.0 * wrap_angle(want[2] - stance.yaw)
+            now = self._mid_frame()
+            gap = self._gap(step, stance)  # (never closer than side by side: the feet's links)
+            out = rot2(stance.yaw) @ np.array([0.0, sign])
+            for scale in (1.0, 0.5, 0.25):
+                x, y, yaw = plain + scale * (aim - plain)
+                moved = Footstep(side, float(x), float(y), float(yaw))
+                short = gap - self._gap(moved, stance)  # (a turned sole: moved outward)
+                if short > 0:
+                    xy = moved.xy + short * out
+                    moved = Footstep(side, float(xy[0]), float(xy[1]), float(yaw))
+                mid = np.r_[0.5 * (moved.xy + stance.xy), mean_angle(moved.yaw, stance.yaw)]
+                stride = relative_pose(now, mid) / self.params.timing.step_time
+                if (_inside(self.limits, stride) and self._gap(moved, stance) >= gap - 1e-3
+                        and self._valid(feet, moved)):  # fmt: skip
+                    step = moved  # (the frame's move within the velocity limits, as a step's)
+                    break
+        mid = 0.5 * (step.xy + stance.xy)
+        return np.array([mid[0], mid[1], mean_angle(step.yaw, stance.yaw)]), step
+
+    def _gap(self, step: Footstep, stance: Footstep) -> float:
+        """The soles' gap (m) with ``step`` landed beside ``stance``."""
+        xy, yaw = step.xy[None, :], np.array([step.yaw])
+        return float(np.min(rectangle_gaps(xy, yaw, stance.xy, stance.yaw, self.foot)))
 
     def _valid(self, feet: dict[Side, Footstep], step: Footstep) -> bool:
         """Whether ``step`` can be walked from ``feet``: the checks of
@@ -431,11 +326,8 @@ class WalkEngine:
         command × the step time), shortened until it passes the checks (``check=False``: as
         asked, a prediction for the ZMP path only); returns (new walking frame, step,
         shortened)."""
-        stance = feet[other_side(side)]
         if closing:
-            step = self._closing(side, stance)
-            mid = 0.5 * (step.xy + stance.xy)
-            return np.array([mid[0], mid[1], stance.yaw]), step, False
+            return (*self._closing(feet, side, on_target=True), False)
         if stride is None:
             stride = np.asarray(self._cmd) * self.params.timing.step_time
         for k in range(6):
@@ -444,9 +336,7 @@ class WalkEngine:
             if not check or self._valid(feet, step):
                 return new_centre, step, k > 0
         # in place failed too (the feet are off their nominal stance): close the feet
-        step = self._closing(side, stance)
-        mid = 0.5 * (step.xy + stance.xy)
-        return np.array([mid[0], mid[1], stance.yaw]), step, True
+        return (*self._closing(feet, side), True)
 
     def _tracking_stride(self, ahead: float) -> np.ndarray:
         """The walking frame's move for the step landing ``ahead`` s from now: to where the
@@ -637,6 +527,7 @@ class WalkEngine:
                 self._pose_cmd = self.centre.copy()
                 self._pose_cmd[:2] += rot2(self.centre[2]) @ self.origin
                 self.odometry_offset[:] = 0.0
+                self.frame_error = None
                 self._replan("start")
                 return True
             return False
@@ -670,7 +561,7 @@ class WalkEngine:
                 # the last tick before the lift-off: where the landed sole really is
                 side = seg.stance.side
                 self.contact[side] = self._measured(seg.stance, self.on_landing(seg.stance))
-        if self.state == "walking":
+        if self.state == "walking" and not (self._stop_requested and self.params.close_on_target):
             self._pose_cmd = _advance_pose(self._pose_cmd, self._cmd, self.dt)
         k = self.k
         dt = self.dt
