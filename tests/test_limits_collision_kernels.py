@@ -42,8 +42,9 @@ def _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h) -> None:
     masks = joint_masks(robot)
     k = w.index[pr.pair]
     pd = limit.distances
+    common = bool(limit._params[4])  # (the rows' normal in the pair's common frame)
     J = distance_jacobian(
-        kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal
+        kin.data.J, masks[pd.joint_1[k]], masks[pd.joint_2[k]], pr.a, pr.b, pr.normal, common
     )
     hb = damper_bound(pr.gap, limit.margin, limit.trigger, limit.damping)
     keep = hb < UNREACHABLE
@@ -128,13 +129,15 @@ def test_broad_phase_skips_far_pairs_and_misses_no_close_one(robot):
     assert limit.distances.exact_computations < 0.2 * steps * len(limit.distances.pairs)
 
 
+@pytest.mark.parametrize("common_frame", [False, True])
 @pytest.mark.parametrize("seed", range(6))
-def test_compiled_rows_are_the_numpy_rows(robot, seed):
+def test_compiled_rows_are_the_numpy_rows(robot, seed, common_frame):
     """The compiled rows (witness and corner rows, Jacobians, damper bounds) equal those of
     the numpy forms (separating_plane_rows, distance_jacobian, damper_bound) on the same
-    witnesses, at configurations where pairs are within the trigger."""
+    witnesses, at configurations where pairs are within the trigger; with the rows' normal
+    in the pair's common frame too."""
     rng = np.random.default_rng(seed)
-    limit = SelfCollisionConstraint(robot)
+    limit = SelfCollisionConstraint(robot, common_frame=common_frame)
     q = robot.configuration("stand")
     q[7:] = np.clip(q[7:] + rng.normal(0, 0.3, robot.n_joints), robot.q_min, robot.q_max)
     kin = Kinematics(robot, q)
@@ -205,3 +208,28 @@ def test_the_tie_is_there_and_the_witness_jumps(robot):
     _, change, jump = _rows_around(limit, robot, q, np.random.default_rng(0), 30, 1e-12)
     assert jump > 1e-3
     assert change < 1e-10
+
+
+@pytest.mark.parametrize("pitch", [-0.4, 0.0, 0.4])
+def test_rows_in_the_common_frame_leave_the_base_alone(robot, pitch):
+    """The arm beside the torso (walk_strict's slow ticks, benchmarks/self_collision.md ninth
+    pass): the torso's corners' rows pair each with an arm point beside it, across n, so in
+    the world frame a rotation of the base moves their gaps (non-zero base columns, up to
+    ~0.06); with ``common_frame`` the columns of the joints that carry both links are 0 and
+    the rest of each row is the world frame's."""
+    q = robot.configuration("stand")
+    q[7 + robot.joint_names.index("l_shoulder_pitch")] = pitch
+    kin = Kinematics(robot, q)
+    rows = {}
+    for common in (False, True):
+        limit = SelfCollisionConstraint(
+            robot, pairs=[["torso", "l_upper_arm"]], common_frame=common
+        )
+        G, h = (a.copy() for a in limit.compute(kin))
+        _assert_the_numpy_forms_rows(robot, limit, kin, limit.last, G, h)
+        rows[common] = G, h
+    (G0, h0), (G1, h1) = rows[False], rows[True]
+    assert G0.shape == G1.shape and np.array_equal(h0, h1)
+    assert np.abs(G0[:, :6]).max() > 1e-2  # (the world frame's rows move with the base)
+    assert np.abs(G1[:, :6]).max() == 0.0
+    np.testing.assert_array_equal(G1[:, 6:], G0[:, 6:])

@@ -369,6 +369,12 @@ def test_stack_file_bad_keys_and_values(robot):
     spec["levels"][0]["constraints"][0]["trigger"] = 0.001
     with pytest.raises(TaskError, match=r"trigger .* must be larger than the margin"):
         build_stack(spec, robot)
+    spec = _spec(0)
+    spec["levels"][0]["constraints"][0]["common_frame"] = "yes"
+    with pytest.raises(TaskError, match=r"common_frame must be true or false, got 'yes'"):
+        build_stack(spec, robot)
+    spec["levels"][0]["constraints"][0]["common_frame"] = True
+    assert build_stack(spec, robot).stack.constraint("self_collision")._params[4] == 1.0
 
 
 def test_walk_with_the_limit_is_the_same_compiled_or_not(robot):

@@ -738,7 +738,8 @@ def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
 
 
 _SELF_COLLISION_KEYS = {
-    *("type", "name", "margin", "trigger", "damping", "include", "exclude", "pairs", "optional")
+    *("type", "name", "margin", "trigger", "damping", "include", "exclude", "pairs", "optional"),
+    "common_frame",
 }
 
 
@@ -754,7 +755,7 @@ def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConst
             f"{where}: constraint 'self_collision' has unknown keys {sorted(extra)}; "
             f"allowed: {sorted(_SELF_COLLISION_KEYS)}"
         )
-    keys = ("margin", "trigger", "damping", "include", "exclude", "pairs")
+    keys = ("margin", "trigger", "damping", "include", "exclude", "pairs", "common_frame")
     kw = {k: entry[k] for k in keys if k in entry}
     if entry.get("optional", False) is not False:
         if entry["optional"] is not True:

@@ -476,12 +476,13 @@ def damper_h(d, margin, trigger, damping) -> float:
 
 
 @njit(cache=True)
-def _body_terms(Jw, support, n, A) -> None:
+def _body_terms(Jw, support, other, common, n, A) -> None:
     """A body's terms of nᵀJ_p (p a point it carries), dense over the velocity coordinates:
-    A[0] = nᵀJ_v, A[1:4] = J_ω on the columns of ``support`` (the joints carrying it), 0
+    A[0] = nᵀJ_v, A[1:4] = J_ω on the columns of ``support`` (the joints carrying it; with
+    ``common``, not those carrying the ``other`` body too: n fixed in their common frame), 0
     elsewhere (nᵀJ_v summed in :func:`_point_row`'s order)."""
     for k in range(Jw.shape[1]):
-        if support[k]:
+        if support[k] and not (common and other[k]):
             A[0, k] = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
             A[1, k] = Jw[3, k]
             A[2, k] = Jw[4, k]
@@ -567,7 +568,7 @@ def _is_corner(p, R, c, hh) -> bool:
 @njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
-    margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
+    margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
 ) -> int:  # fmt: skip
     """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
@@ -580,8 +581,8 @@ def plane_rows(
     A = np.empty((count, 2, 4, Jw.shape[1]))
     for i in range(count):
         k = out_k[i]
-        _body_terms(Jw, support[pair_a[k]], out_n[i], A[i, 0])
-        _body_terms(Jw, support[pair_b[k]], out_n[i], A[i, 1])
+        _body_terms(Jw, support[pair_a[k]], support[pair_b[k]], common, out_n[i], A[i, 0])
+        _body_terms(Jw, support[pair_b[k]], support[pair_a[k]], common, out_n[i], A[i, 1])
     # the candidate rows first (pair, points, gap), then their bounds, then the rows: three
     # flat loops (the row loop vectorises; with h(gap) in it, it ran ~3x slower)
     P = np.empty((17 * count, 2, 3))
@@ -658,7 +659,7 @@ def plane_rows(
 def collision_rows(
     joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius, pair_a,
     pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed, out_k, out_d,
-    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap,
+    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common,
 ) -> int:  # fmt: skip
     """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
     returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
@@ -670,7 +671,7 @@ def collision_rows(
     counts[2] = n
     return plane_rows(
         n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
-        margin, trigger, damping, unreachable, G, h, row_pair, row_gap,
+        margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
     )  # fmt: skip
 
 
@@ -735,10 +736,10 @@ def _b2(addresses, shapes, i):
 def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
     """:func:`collision_rows` at the configuration q (7 base coordinates, then the joints),
     with the limit's buffers by address (:data:`PACKED`; their owner keeps them alive:
-    ``params`` = [margin, trigger, damping, unreachable]); −1 (nothing computed) if q equals
-    ``last_q`` exactly, the configuration of the last call (NaN before the first call), else
-    the number of rows, q into ``last_q`` and the smallest distance of the close pairs into
-    ``closest[0]`` (+inf: none)."""
+    ``params`` = [margin, trigger, damping, unreachable, common frame]); −1 (nothing
+    computed) if q equals ``last_q`` exactly, the configuration of the last call (NaN before
+    the first call), else the number of rows, q into ``last_q`` and the smallest distance of
+    the close pairs into ``closest[0]`` (+inf: none)."""
     last_q = _f1(addresses, shapes, 0)
     same = True
     for i in range(q.shape[0]):
@@ -757,7 +758,7 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
         _b1(addresses, shapes, 14), _i1(addresses, shapes, 15), _f1(addresses, shapes, 16),
         _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
         _i1(addresses, shapes, 20), _f2(addresses, shapes, 21), _f1(addresses, shapes, 22),
-        _i1(addresses, shapes, 23), _f1(addresses, shapes, 24),
+        _i1(addresses, shapes, 23), _f1(addresses, shapes, 24), params[4] != 0.0,
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]

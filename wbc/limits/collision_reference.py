@@ -33,8 +33,10 @@ def distance_jacobian(
     p1: np.ndarray,
     p2: np.ndarray,
     normal: np.ndarray,
+    common: bool = False,
 ) -> np.ndarray:
-    """J_d (K x nv) = nᵀ (J_p2 − J_p1) for K pairs.
+    """J_d (K x nv) = nᵀ (J_p2 − J_p1) for K pairs (``common``: 0 on the columns that move
+    both bodies, n fixed in their common frame).
 
     ``J_world``: pinocchio's joint Jacobians in the world frame (6 x nv, ``data.J`` after
     ``computeJointJacobians``): the velocity of a point p carried by a joint is
@@ -45,7 +47,8 @@ def distance_jacobian(
     a = normal @ Jv
     row_2 = a + np.cross(p2, normal) @ Jw  # (the kernels' reference: tests)
     row_1 = a + np.cross(p1, normal) @ Jw
-    return np.where(mask_2, row_2, 0.0) - np.where(mask_1, row_1, 0.0)
+    own_1, own_2 = (mask_1 & ~mask_2, mask_2 & ~mask_1) if common else (mask_1, mask_2)
+    return np.where(own_2, row_2, 0.0) - np.where(own_1, row_1, 0.0)
 
 
 class PlaneRows(NamedTuple):
