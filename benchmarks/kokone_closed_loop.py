@@ -2,6 +2,7 @@
 
     python benchmarks/kokone_closed_loop.py                   # benchmarks/kokone_sim.md sec. 00
     python benchmarks/kokone_closed_loop.py --models 5 --gains open soft --trajectories walk10
+    python benchmarks/kokone_closed_loop.py --gains soft --stack my_walk.toml   # another stack
 
 Each trajectory is planned once by ``hqp-daqp`` (the robot folder's stack), then run as
 ``wbc bench --physics --robot kokone`` does (feed-forward at ``best_compensate``, ×1 on hobby
@@ -43,9 +44,10 @@ def main() -> None:
     parser.add_argument("--gains", nargs="+", default=["open", *GAINS],
                         choices=["open", *GAINS])  # fmt: skip
     parser.add_argument("--models", type=int, default=20)
+    parser.add_argument("--stack", help="the stack (default: the robot folder's)")
     args = parser.parse_args()
     robot = load_robot("kokone")
-    entries, _ = select(["hqp-daqp"], None, "tick", stack=physics_stack(robot))
+    entries, _ = select(["hqp-daqp"], None, "tick", stack=physics_stack(robot, args.stack))
     entry = next(e for e in entries if e.name == "hqp-daqp")
     comp = best_compensate(robot)
     for name in args.trajectories:

@@ -43,12 +43,18 @@ def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
     assert _switch_speed(robot, rec, ref) < 0.6
 
 
-def test_a_switch_moves_the_set_point_never_the_target(robot):
-    """At every tick each leg's posture target moves (1 - e^(-dt/τ)) of the way to its set
-    point (Walk Ready while the leg swings, the held pose in contact): continuous across a
-    switch by construction; the arms' targets stay Walk Ready."""
+@pytest.mark.parametrize("carry", [True, False])
+def test_a_switch_moves_the_set_point_never_the_target(robot, carry):
+    """At every tick a swinging leg's posture target moves (1 - e^(-dt/τ)) of the way to Walk
+    Ready; a leg in contact carries its target with its joints, the offset decaying by
+    e^(-dt/τ) a tick (``carry_contact_targets``, the default), or (false) its target moves the
+    same share of the way to its joints (a lag); continuous across a switch by construction;
+    the arms' targets stay Walk Ready."""
     ref = build("static_walk", robot)
-    control = load_stack("walk", robot)
+    spec = _walk_spec()
+    spec["support_switch"] = {**spec["support_switch"], "carry_contact_targets": carry}
+    control = build_stack(spec, robot)
+    assert control.support_switch.carry_contact_targets is carry
     posture = control.stack.task("posture")
     session = Session(StackController(control), robot, ref)
     handover = session.controller.handover
@@ -56,15 +62,21 @@ def test_a_switch_moves_the_set_point_never_the_target(robot):
     legs = {f: handover._joints[handover._sides == k] for k, f in enumerate(("l_sole", "r_sole"))}
     arms = np.setdiff1d(np.arange(robot.n_joints), np.concatenate(list(legs.values())))
     a = 1.0 - math.exp(-ref.dt / 0.1)
+    held = session.q[7:].copy()  # the joints at the last tick (the first: its own)
     for i in range(ref.n):
-        before, q = posture.target.copy(), session.q.copy()
+        before, q = posture.target.copy(), session.q[7:].copy()
         session.tick(i)
         t = session.targets(i)
         for frame, idx in legs.items():
-            swinging = t.phase == "single" and frame == t.swing
-            goal = walk_ready[idx] if swinging else q[7:][idx]
-            np.testing.assert_allclose(posture.target[idx], before[idx] + a * (goal - before[idx]))
+            if t.phase == "single" and frame == t.swing:
+                expected = before[idx] + a * (walk_ready[idx] - before[idx])
+            elif carry:
+                expected = q[idx] + (1.0 - a) * (before[idx] - held[idx])
+            else:
+                expected = before[idx] + a * (q[idx] - before[idx])
+            np.testing.assert_allclose(posture.target[idx], expected, atol=1e-12)
         assert np.array_equal(posture.target[arms], walk_ready[arms])
+        held = q
 
 
 def test_a_landing_contact_is_anchored_where_the_sole_touches_down(robot):
@@ -134,6 +146,7 @@ def test_the_support_switch_table_is_checked_and_scaled():
         ({"posture_lag": 0}, r"support_switch\.posture_lag must be a positive number"),
         ({"landing_time": True}, r"support_switch\.landing_time must be a positive number"),
         ({"lag": 0.1}, r"support_switch has unknown keys \['lag'\]"),
+        ({"carry_contact_targets": 1}, r"carry_contact_targets must be true or false"),
         (0.1, "support_switch must be a table"),
     ):
         with pytest.raises(TaskError, match=match):

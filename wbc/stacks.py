@@ -96,17 +96,19 @@ class SupportSwitch:
     held pose for a leg in contact) with this time constant; ``landing_time`` (s): a landing
     contact is anchored where the sole touches down, at most ``landing_band`` (m) from its
     reference placement (the rest of a larger miss asked at once), and walked there in this
-    time. None (or no band: inf): off. Stated for the file's ``design_leg``; on a robot λ times
-    that size the times are scaled by √λ (the sizing's time scale,
-    :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
+    time. None (or no band: inf): off. ``carry_contact_targets``: a leg in contact carries its
+    posture target with its joints, its touch-down offset decaying with ``posture_lag`` (False:
+    the target lags them). Stated for the file's ``design_leg``; on a robot λ times that size
+    the times ×√λ (:func:`wbc.walking.sizing.scale_options`), the band ×λ."""
 
     posture_lag: float | None = None
     landing_time: float | None = None
     landing_band: float = math.inf
+    carry_contact_targets: bool = False
 
 
 #: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
-_SWITCH_KEYS = ("posture_lag", "landing_time", "landing_band")
+_SWITCH_KEYS = ("posture_lag", "landing_time", "landing_band", "carry_contact_targets")
 
 
 def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:
@@ -115,20 +117,20 @@ def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None
         return None
     if not isinstance(table, dict):
         raise TaskError(f"{where}: support_switch must be a table with keys {list(_SWITCH_KEYS)}")
-    unknown = set(table) - set(_SWITCH_KEYS)
-    if unknown:
-        raise TaskError(
-            f"{where}: support_switch has unknown keys {sorted(unknown)}; allowed: "
-            f"{list(_SWITCH_KEYS)}"
-        )
-    values: dict[str, float] = {}
+    if unknown := set(table) - set(_SWITCH_KEYS):
+        raise TaskError(f"{where}: support_switch has unknown keys {sorted(unknown)}; "
+                        f"allowed: {list(_SWITCH_KEYS)}")  # fmt: skip
+    values: dict[str, Any] = {}
     for key, value in table.items():
-        if not _positive(value):
+        flag = key == "carry_contact_targets"
+        if not isinstance(value, bool) if flag else not _positive(value):
             raise TaskError(
-                f"{where}: support_switch.{key} must be a positive number (posture_lag and "
-                f"landing_time in s, landing_band in m), got {value!r}"
-            )
-        values[key] = float(value) * (unit if key == "landing_band" else math.sqrt(unit))
+                f"{where}: support_switch.{key} must be "
+                + ("true or false" if flag else "a positive number (posture_lag and "
+                   "landing_time in s, landing_band in m)") + f", got {value!r}"
+            )  # fmt: skip
+        scale = unit if key == "landing_band" else math.sqrt(unit)
+        values[key] = value if flag else float(value) * scale
     return SupportSwitch(**values)
 
 

@@ -16,7 +16,11 @@ every switch continuous, whatever the solver path (they write the tasks' target 
   configuration it holds while its sole is in contact (a leg in contact is placed by the
   contact, the CoM and the torso; its pull there only biases them). A switch changes the set
   point, never the target: the error asked per tick changes by at most ``dt/τ`` of the set
-  points' gap.
+  points' gap. With ``carry_contact_targets`` a leg in contact carries its target with its
+  joints instead, ``q*_leg = q_leg + e^(−dt/τ) (q*_leg − q_leg)_last tick``: the offset it
+  had at the touch-down decays and nothing resists the held legs' motion (the lag's pull,
+  ~weight·τ·q̇, held the OP3's double-support CoM 0.6–0.7 mm low: the freed knee took it
+  back at the servo's full speed at each lift-off).
 * **A landing contact is settled**: at a touch-down the new contact is anchored where the sole
   is (the swing task's residual, 1-3 mm), not where the reference puts it, and walked there
   in ``landing_time`` (s; position and rotation the same share of the way each tick), instead
@@ -43,15 +47,29 @@ from ..tasks import ContactTask
 from ..tasks.posture import PostureTask
 
 
-@njit("void(float64[:], float64[:], float64[:], int64[:], int64[:], int64, float64)", cache=True)
-def follow_set_points(target, walk_ready, q, joints, sides, swing, a) -> None:
-    """``target[j] += a (s_j − target[j])`` for each leg joint ``j = joints[k]`` of side
-    ``sides[k]``: ``s_j`` Walk Ready on the ``swing`` side (−1: none), else ``q``'s joint."""
+@njit(
+    "void(float64[:], float64[:], float64[:], float64[:], int64[:], int64[:], int64, float64, "
+    "boolean)",
+    cache=True,
+)
+def follow_set_points(target, walk_ready, q, held, joints, sides, swing, a, carry) -> None:
+    """For each leg joint ``j = joints[k]`` of side ``sides[k]``: on the ``swing`` side (−1:
+    none) ``target[j] += a (walk_ready[j] − target[j])``; on a side in contact, with ``carry``,
+    ``target[j] = q_j + (1 − a) (target[j] − held[k])`` (the target moves with the joint, its
+    offset decaying; ``held[k]``: the joint at the last call, NaN: none yet), else
+    ``target[j] += a (q_j − target[j])`` (the target lags the joint). ``held[k] = q_j`` after."""
     off = q.shape[0] - target.shape[0]
     for k in range(joints.shape[0]):
         j = joints[k]
-        goal = walk_ready[j] if sides[k] == swing else q[off + j]
-        target[j] += a * (goal - target[j])
+        qj = q[off + j]
+        if sides[k] == swing:
+            target[j] += a * (walk_ready[j] - target[j])
+        elif carry:
+            before = held[k] if held[k] == held[k] else qj
+            target[j] = qj + (1.0 - a) * (target[j] - before)
+        else:
+            target[j] += a * (qj - target[j])
+        held[k] = qj
 
 
 class SwitchHandover:
@@ -66,6 +84,7 @@ class SwitchHandover:
         self.lag = settings.posture_lag
         self.landing_time = settings.landing_time
         self.landing_band = settings.landing_band
+        self.carry = settings.carry_contact_targets
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
@@ -83,8 +102,9 @@ class SwitchHandover:
         self._a = (0.0, 0.0)  # (dt, 1 − e^(−dt/τ)) last used
         self._robot = robot
         self._set_points: list[np.ndarray] = []
-        #: (posture target array, its Walk Ready copy): the tasks own the arrays, never re-bound
-        self._pairs: list[tuple[np.ndarray, np.ndarray]] = []
+        #: (posture target array, its Walk Ready copy, the legs' joints at the last update (NaN:
+        #: none yet)): the tasks own the target arrays, never re-bound
+        self._pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._side = {frame: k for k, frame in enumerate(self._frames)}
         self._follow = entry(follow_set_points)  # (its compiled entry: no dispatch per tick)
         self._landing: tuple[str, pin.SE3, float] | None = None
@@ -94,13 +114,19 @@ class SwitchHandover:
         """The posture targets as they are now (Walk Ready, set from the start pose) are the
         swing set points; no landing under way."""
         self._set_points = [p.target.copy() for p in self._postures]
-        self._pairs = [(p.target, w) for p, w in zip(self._postures, self._set_points, strict=True)]
+        n = len(self._joints)
+        self._pairs = [
+            (p.target, w, np.full(n, np.nan))
+            for p, w in zip(self._postures, self._set_points, strict=True)
+        ]
         self._landing, self._swing = None, None
 
     def reset(self) -> None:
         """Back to the state of :meth:`start` (after a rehearsed tick)."""
         for task, set_point in zip(self._postures, self._set_points, strict=True):
             task.target[:] = set_point
+        for _, _, held in self._pairs:
+            held[:] = np.nan
         self._landing, self._swing = None, None
 
     def update(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
@@ -112,8 +138,8 @@ class SwitchHandover:
                 self._a = (dt, 1.0 - math.exp(-dt / self.lag))
             swing = self._side[targets.swing] if single else -1
             a, joints, sides, follow = self._a[1], self._joints, self._sides, self._follow
-            for target, walk_ready in self._pairs:
-                follow(target, walk_ready, q, joints, sides, swing, a)
+            for target, walk_ready, held in self._pairs:
+                follow(target, walk_ready, q, held, joints, sides, swing, a, self.carry)
         if targets.contacts_move:  # the caller moves the contacts (a driven walk): not here
             self._landing = None
         elif self.landing_time and not (single and self._landing is None):
