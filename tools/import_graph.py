@@ -45,7 +45,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ),
     ("tasks and limits", ("wbc.tasks", "wbc.limits")),
     ("solvers", ("wbc.solvers", "wbc.pinv", "wbc.ik", "wbc.pose_ik")),
-    ("stacks", ("wbc.stacks", "wbc.warmup")),
+    ("stacks", ("wbc.stacks", "wbc.stack_tables", "wbc.warmup")),
     (
         "applications",
         (

@@ -21,7 +21,6 @@ from __future__ import annotations
 import importlib
 import importlib.machinery
 import inspect
-import math
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -42,6 +41,7 @@ from .model import Kinematics, Robot
 from .paths import read_toml, stacks_dir
 from .roles import leg_length, length_unit
 from .solvers import HierarchicalQP, StackSolver, TaskStack, WeightedQP
+from .stack_tables import SupportSwitch, is_positive, parse_support_switch
 from .tasks import ContactTask, Task
 from .tasks.task import STACK_TYPES
 
@@ -86,52 +86,6 @@ class _PhaseMoves:
     polygons: list[tuple[Any, list[str]]] = field(default_factory=list)
     switches: list[tuple[Any, bool]] = field(default_factory=list)
     contacts: list[tuple[Any, bool]] = field(default_factory=list)
-
-
-@dataclass(frozen=True)
-class SupportSwitch:
-    """A stack file's ``[support_switch]`` table, for this robot: how a walking controller
-    carries the stack across a support switch (:mod:`wbc.walking.handover`). ``posture_lag``
-    (s): the legs' posture targets follow their set points (Walk Ready for the swing leg, the
-    held pose for a leg in contact) with this time constant; ``landing_time`` (s): a landing
-    contact is anchored where the sole touches down, at most ``landing_band`` (m) from its
-    reference placement (the rest of a larger miss asked at once), and walked there in this
-    time. None (or no band: inf): off. ``carry_contact_targets``: a leg in contact carries its
-    posture target with its joints, its touch-down offset decaying with ``posture_lag`` (False:
-    the target lags them). Stated for the file's ``design_leg``; on a robot λ times that size
-    the times ×√λ (:func:`wbc.walking.sizing.scale_options`), the band ×λ."""
-
-    posture_lag: float | None = None
-    landing_time: float | None = None
-    landing_band: float = math.inf
-    carry_contact_targets: bool = False
-
-
-#: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
-_SWITCH_KEYS = ("posture_lag", "landing_time", "landing_band", "carry_contact_targets")
-
-
-def _support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:
-    """The ``[support_switch]`` table checked (positive numbers, known keys) and scaled."""
-    if table is None:
-        return None
-    if not isinstance(table, dict):
-        raise TaskError(f"{where}: support_switch must be a table with keys {list(_SWITCH_KEYS)}")
-    if unknown := set(table) - set(_SWITCH_KEYS):
-        raise TaskError(f"{where}: support_switch has unknown keys {sorted(unknown)}; "
-                        f"allowed: {list(_SWITCH_KEYS)}")  # fmt: skip
-    values: dict[str, Any] = {}
-    for key, value in table.items():
-        flag = key == "carry_contact_targets"
-        if not isinstance(value, bool) if flag else not _positive(value):
-            raise TaskError(
-                f"{where}: support_switch.{key} must be "
-                + ("true or false" if flag else "a positive number (posture_lag and "
-                   "landing_time in s, landing_band in m)") + f", got {value!r}"
-            )  # fmt: skip
-        scale = unit if key == "landing_band" else math.sqrt(unit)
-        values[key] = value if flag else float(value) * scale
-    return SupportSwitch(**values)
 
 
 @dataclass
@@ -413,7 +367,7 @@ def build_stack(
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
     unit = _stack_length_unit(spec.get("design_leg"), robot, where)
-    switch = _support_switch(spec.get("support_switch"), unit, where)
+    switch = parse_support_switch(spec.get("support_switch"), unit, where)
     bindings: dict[str, RoleBinding] = {}
     given: set[str] = set()  # tasks whose entry gives their target
     for priority, level in enumerate(levels):
@@ -466,12 +420,6 @@ def build_stack(
     return control
 
 
-def _positive(value: Any) -> bool:
-    """True if a stack file's ``value`` is a finite number > 0 (a TOML bool is not one)."""
-    number = isinstance(value, int | float) and not isinstance(value, bool)
-    return number and math.isfinite(value) and value > 0
-
-
 def _stack_length_unit(design_leg: Any, robot: Robot, where: str) -> float:
     """λ for a stack's length rows: the robot's hip-to-ankle length over the stack file's
     ``design_leg`` (m: the leg of the robot its weights were tuned on; the package's stacks
@@ -479,7 +427,7 @@ def _stack_length_unit(design_leg: Any, robot: Robot, where: str) -> float:
     that robot's units)."""
     if design_leg is None:
         return 1.0
-    if not _positive(design_leg):
+    if not is_positive(design_leg):
         raise TaskError(
             f"{where}: design_leg must be a positive length in m (the hip-to-ankle length "
             f"its weights were tuned on), got {design_leg!r}"

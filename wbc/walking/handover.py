@@ -1,6 +1,6 @@
 """A support switch without a joint-speed spike: the legs' posture targets and a landing
 contact carried continuously across it (a stack file's ``[support_switch]`` table,
-:class:`wbc.stacks.SupportSwitch`; benchmarks/balance.md, "Joint speed at a support switch").
+:class:`wbc.stack_tables.SupportSwitch`; benchmarks/balance.md, "Joint speed at a support switch").
 
 A walk stack's weighted level holds an equilibrium between its tasks: in double support the
 hard contacts hold the legs up to 0.4 rad from the posture's target, and that pull biases the
@@ -73,7 +73,7 @@ def follow_set_points(target, walk_ready, q, held, joints, sides, swing, a, carr
 
 
 class SwitchHandover:
-    """The per-walk state of a stack's :class:`~wbc.stacks.SupportSwitch` (a
+    """The per-walk state of a stack's :class:`~wbc.stack_tables.SupportSwitch` (a
     :class:`~wbc.walking.loop.StackController` keeps one): :meth:`start` at the walk's start
     pose, then :meth:`update` after each tick's targets are set, before its solve."""
 
