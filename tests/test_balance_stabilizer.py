@@ -215,12 +215,14 @@ def _clip_norm(v, limit):
     st.floats(0.0, 2.0),
     st.floats(0.0, 0.3),
     st.sampled_from([1.0, 0.0, 0.5, 2.0, 3.0]),
+    st.sampled_from([0.0, 0.5, 2.0]),
 )
-def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll):
+def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll, yaw_cutoff):
     """The compiled torso term gives the previous numpy / pinocchio computation's answer to
     1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target), with
-    the tilt's part about the target's heading scaled by ``k_roll``."""
-    from wbc.balance.stabilizer import _K_ROLL, _K_SIZE, _torso_feedback
+    the tilt's part about the target's heading scaled by ``k_roll`` and, with ``yaw_cutoff``
+    Hz, its vertical part low-passed (first order, from the filter's state ``y``)."""
+    from wbc.balance.stabilizer import _K_ROLL, _K_SIZE, _K_YAW_CUT, _torso_feedback
 
     rng = np.random.default_rng(seed)
     R_ref = pin.exp3(rng.normal(0, 0.5, 3))
@@ -232,8 +234,10 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll):
     values[:3], values[7] = R_est, omega
     k = np.zeros(_K_SIZE)
     k[:5] = k_p, k_i, k_d, k_yaw, max_tilt
-    k[_K_ROLL] = k_roll
-    _torso_feedback(values, R_ref, integral, k, dt, out)
+    k[_K_ROLL], k[_K_YAW_CUT] = k_roll, yaw_cutoff
+    y0 = rng.normal(0, 0.05)
+    yaw = np.array([y0])
+    _torso_feedback(values, R_ref, integral, k, dt, out, yaw)
     e = pin.log3(R_est @ R_ref.T)
     assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
     e[2] *= k_yaw
@@ -243,7 +247,13 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll):
     tilt = k_p * e + k_i * acc + k_d * w
     h = np.array([R_ref[0, 0], R_ref[1, 0], 0.0])  # the target's heading (roll axis)
     h /= np.linalg.norm(h)
-    tilt = _clip_norm(tilt + (k_roll - 1.0) * (tilt @ h) * h, max_tilt)
+    tilt = tilt + (k_roll - 1.0) * (tilt @ h) * h
+    if yaw_cutoff > 0:
+        tilt[2] = y0 + (1 - np.exp(-2 * np.pi * yaw_cutoff * dt)) * (tilt[2] - y0)
+        assert yaw[0] == pytest.approx(tilt[2], abs=1e-12)
+    else:
+        assert yaw[0] == y0  # (off: the filter's state untouched)
+    tilt = _clip_norm(tilt, max_tilt)
     assert np.allclose(out[:3], e, atol=1e-9)
     assert np.allclose(out[3:6], acc, atol=1e-9)
     assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)
@@ -413,3 +423,42 @@ def test_a_sole_landing_off_its_plan_is_anchored_in_the_tick(robot, band, expect
     planned = pin.SE3(t.r_sole.rotation, t.r_sole.translation + [0.03, 0.0, 0.0])
     stab.adjust(t.replace(r_sole=planned), np.zeros(3), q, 0.01)
     assert stab.last.base[0] - q[0] == pytest.approx(expect, abs=1e-9)
+
+
+class RingingImu(StillImu):
+    """A torso at rotation R whose gyro reads a yaw rate ``amp sin(2π f t)`` (t: reads × dt)."""
+
+    def __init__(self, R, f: float, amp: float, dt: float) -> None:
+        super().__init__(R)
+        self.f, self.amp, self.dt, self.n = f, amp, dt, 0
+
+    def read(self) -> ImuReading:
+        self.omega = np.array([0.0, 0.0, self.amp * np.sin(2 * np.pi * self.f * self.n * self.dt)])
+        self.n += 1
+        return super().read()
+
+
+@pytest.mark.parametrize("f, cutoff, low, high", [(5.5, 1.0, 0.0, 0.3), (0.1, 1.0, 0.9, 1.1)])
+def test_yaw_cutoff_attenuates_the_heading_loops_ringing(robot, f, cutoff, low, high):
+    """Issue 30: a yaw rate ringing at 5.5 Hz (stiff, late plants) reaches the torso target's
+    heading through the compiled tick (Stabilizer.adjust) attenuated by ``yaw_cutoff`` 1 Hz
+    (first order: 0.18) against the same gains without it; a slow yaw (0.1 Hz) passes."""
+    q = standing(robot)
+    t = targets_at(robot, q)
+    dt, amp = 0.01, 1.0
+    peaks = []
+    for c in (0.0, cutoff):
+        g = Gains(k_p=1.0, k_i=0.0, k_d=0.05, kin_tilt=0.0, yaw_cutoff=c)
+        stab = Stabilizer(
+            robot, 0.2, lambda: q[7:].copy(), RingingImu(t.torso_rotation, f, amp, dt), g
+        )
+        stab.estimator.reset(t.torso_rotation)
+        n = round(3.0 / f / dt) + 200  # three periods after 2 s
+        yaws = []
+        for k in range(n):
+            out = stab.adjust(t, np.zeros(3), q, dt)
+            if k >= 200:
+                yaws.append(pin.log3(out.torso_rotation @ t.torso_rotation.T)[2])
+        peaks.append(np.ptp(yaws))
+    assert peaks[0] > 1e-3  # the heading feedback does answer the yaw
+    assert low < peaks[1] / peaks[0] < high

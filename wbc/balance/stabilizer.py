@@ -13,7 +13,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   counter-rotation: each compliant servo's extra torque opposes the sag, ``k_d`` damps the
   sway, ``k_i`` takes the steady part; ``k_roll`` (1: off) scales the command's part about
   the target's heading (the roll: 2 brings ``lateral_wb``'s nominal within 3° but rings
-  plants with servo latency; issue 30's ninth pass);
+  plants with servo latency; issue 30's ninth pass); ``yaw_cutoff`` (Hz, 0: off) low-passes
+  the command's heading part (first order), below the yaw loop's ringing on stiff, late plants;
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -89,6 +90,10 @@ class Gains:
     #: scaled by this (1: the same gains on every axis)
     k_roll: float = 1.0
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
+    #: Hz: the torso command's heading (vertical) part low-passed, first order, at this
+    #: cut-off (0: off): the yaw loop's ringing (~5.5 Hz on stiff, late plants: issue 30)
+    #: attenuated before it reaches the hip yaw servos
+    yaw_cutoff: float = 0.0
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
     max_offset: float = 0.2  # rad, per joint
@@ -137,6 +142,7 @@ class Gains:
             "k_lean",
             "k_roll",
             "k_yaw",
+            "yaw_cutoff",
             "j_p",
             "j_d",
             "max_tilt",
@@ -185,10 +191,10 @@ def default_gains(compensate: float) -> Gains:
 
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
 # model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
-# torso's roll scale
+# torso's roll scale, the heading part's low-pass cut-off (Hz)
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_ROLL = 10
-_K_SIZE = 11
+_K_ROLL, _K_YAW_CUT = 10, 11
+_K_SIZE = 12
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -199,6 +205,7 @@ def _torso_feedback(
     k: np.ndarray,
     dt: float,
     out: np.ndarray,
+    yaw: np.ndarray,
 ) -> None:
     """The torso term of :meth:`Stabilizer.adjust` in one compiled call (small numpy and
     pinocchio calls cost more than the arithmetic): with ``est`` the estimate's values
@@ -206,8 +213,10 @@ def _torso_feedback(
     rate ω its last), ``k``: the gains' array (``_K_*``), ``e = log(R_est R_refᵀ)``
     (``e_z`` × k_yaw), the integral ``clip(∫ + e dt, max_tilt / k_i)``, ``w = R_est ω``
     (``w_z`` × k_yaw) and ``tilt = clip(k_p e + k_i ∫ + k_d w, max_tilt)``, its part along the
-    target's heading ``h`` (the roll) scaled by ``k[_K_ROLL]`` first; writes
-    ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
+    target's heading ``h`` (the roll) scaled by ``k[_K_ROLL]`` first and, with a cut-off
+    ``f = k[_K_YAW_CUT]`` > 0 Hz, its vertical (heading) part low-passed first-order before
+    the clip: ``y ← y + (1 − exp(−2π f dt)) (tilt_z − y)``, ``tilt_z = y`` (``yaw[0]``: ``y``,
+    updated in place); writes ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
     S = np.empty((2, 3, 3))  # scratch (one allocation: a small array each costs more)
@@ -241,6 +250,10 @@ def _torso_feedback(
             r = (k_roll - 1.0) * (v[0] * h0 + v[1] * h1)
             v[0] += r * h0
             v[1] += r * h1
+    cut = k[_K_YAW_CUT]
+    if cut > 0.0:  # the heading part low-passed (first order, cut-off ``cut`` Hz)
+        yaw[0] += (1.0 - math.exp(-2.0 * math.pi * cut * dt)) * (v[2] - yaw[0])
+        v[2] = yaw[0]
     for i in range(3):
         n += v[i] * v[i]
     n = math.sqrt(n)
@@ -256,8 +269,9 @@ def _torso_feedback(
 
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
 # IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
-# largest estimated tilt error (rad)
-_B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT, _B_SIZE = 0, 2, 5, 6, 9, 18, 19
+# largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad)
+_B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT = 0, 2, 5, 6, 9, 18
+_B_YAW, _B_SIZE = 19, 20
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -367,7 +381,7 @@ def _feedback_tick(
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
-    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat)
+    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat, fb[_B_YAW : _B_YAW + 1])
     code = 0
     if consts[_K_FALL] > 0.5:
         fall_tick(fall_state, dt)
@@ -474,7 +488,7 @@ class Stabilizer:
         if self._packed[0] is not g or self._packed[2] is not fall:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
-                 g.hip_release, float(fall is not None), g.k_roll]  # fmt: skip
+                 g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
