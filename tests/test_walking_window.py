@@ -218,3 +218,62 @@ def test_the_reach_over_the_front_sole_of_a_step_is_less(robot, window):
         lateral_reach(robot, stagger=float("nan"))
     with pytest.raises(TrajectoryError, match="max_lean"):
         lateral_reach(robot, max_lean=1.0)
+
+
+def test_a_wider_stance_reads_the_lean_at_the_windows_stance(named):
+    """lean_from_window's ``from_stance``: where a lateral walk's soles are wider apart than
+    the window's stance, that share of the extra half-width comes off the CoM's offset: at 1
+    the lean is the one for the CoM's distance to the nearer sole (a CoM within the extra
+    half-width of the midpoint stands upright), at 0 the midpoint's as before; the default
+    (LEAN_FROM_STANCE) between, the lean smaller and its reversal across a wide double
+    support slower than at 0. Walks at the window's stance (within STANCE_TOLERANCE) are
+    bit for bit as before; narrow_sway plans the roll again with the reference's share."""
+    import dataclasses
+
+    from wbc.walking.checks import sole_half_widths
+    from wbc.walking.gait import (
+        LEAN_FROM_STANCE,
+        STANCE_TOLERANCE,
+        lean_from_window,
+        narrow_sway,
+    )
+
+    def rate(ref):  # deg/s, the lean's fastest change
+        return float(np.abs(np.gradient(np.rad2deg(ref.torso_roll), ref.t)).max())
+
+    def lean(ref, window, share):
+        out = dataclasses.replace(ref, meta=dict(ref.meta))
+        lean_from_window(out, window, share)
+        return out
+
+    lat = named("lateral_wb")
+    window = BalanceWindow.from_dict(lat.meta["window"])
+    assert 0.0 < LEAN_FROM_STANCE <= 1.0
+    assert lat.meta["window"]["lean_from_stance"] == LEAN_FROM_STANCE
+    old, full = lean(lat, window, 0.0), lean(lat, window, 1.0)
+    extra = sole_half_widths(lat) - window.half_width - STANCE_TOLERANCE  # at share 1
+    wide = extra > 0.005
+    assert wide.any() and not wide.all()
+    for a, b in ((old, lat), (lat, full)):  # the lean shrinks with the share, same side
+        assert np.all(np.abs(b.torso_roll) <= np.abs(a.torso_roll) + 1e-12)
+        assert np.all(np.sign(a.torso_roll) * np.sign(b.torso_roll) >= 0)
+        assert np.max(np.abs(a.torso_roll - b.torso_roll)[wide]) > np.deg2rad(0.5)
+    at_stance = extra <= 0
+    np.testing.assert_array_equal(full.torso_roll[at_stance], old.torso_roll[at_stance])
+    upright = wide & (np.abs(lateral_offsets(lat)) < extra)
+    assert upright.any() and np.all(full.torso_roll[upright] == 0.0)
+    assert rate(full) < 40.0 < 50.0 < rate(old)  # 36 against 53 deg/s on the Bioloid
+    assert rate(lat) < rate(old) - 5.0
+    # the re-planned sway leans with the reference's share
+    for ref in (lat, old, full):
+        out = narrow_sway(ref, 0.5)
+        assert out is not ref
+        again = lean(out, window, ref.meta["window"]["lean_from_stance"])
+        np.testing.assert_array_equal(out.torso_roll, again.torso_roll)
+    # a walk at the window's stance: the same lean at any share
+    walk = named("walk10_wb")
+    own = BalanceWindow.from_dict(walk.meta["window"])
+    for share in (0.0, 1.0):
+        np.testing.assert_array_equal(walk.torso_roll, lean(walk, own, share).torso_roll)
+    with pytest.raises(TrajectoryError, match="from_stance"):
+        lean_from_window(lean(lat, window, 0.0), window, 1.5)

@@ -200,6 +200,13 @@ def lateral_offsets(ref: WalkingReference) -> np.ndarray:
     return np.einsum("ij,ij->i", ref.com[:, :2] - mid, left)
 
 
+def sole_half_widths(ref: WalkingReference) -> np.ndarray:
+    """(N,) half the soles' lateral separation (m, left minus right) in the torso heading
+    frame: the stance width :func:`lateral_offsets` are measured across."""
+    left = np.column_stack([-np.sin(ref.torso_yaw), np.cos(ref.torso_yaw)])
+    return 0.5 * np.einsum("ij,ij->i", ref.l_sole[:, :2] - ref.r_sole[:, :2], left)
+
+
 def _support_name(ref: WalkingReference, i: int) -> str:
     from ..recording import SUPPORT_NAMES
 

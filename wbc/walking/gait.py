@@ -24,7 +24,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..exceptions import TrajectoryError
-from .checks import check_reference, lateral_offsets
+from .checks import check_reference, lateral_offsets, sole_half_widths
 from .footsteps import FootstepPlan, Side, plan_footsteps
 from .geometry import Foot
 from .legs import LegGeometry
@@ -38,6 +38,13 @@ from .window import BalanceWindow
 
 Generator = Literal["preview", "mpc", "lipm"]
 GENERATORS: tuple[str, ...] = ("preview", "mpc", "lipm")
+#: (m) soles within this of the balance window's half-width apart are at its stance
+#: (:func:`lean_from_window`): a turning walk's soles sit within 0.9 mm of the standing
+#: stance on the Bioloid and 1.0 mm on the OP3; a lateral walk's steps widen it by 12-22 mm
+STANCE_TOLERANCE = 0.001
+#: the share of a wider stance's extra half-width the whole-body lean is read without
+#: (:func:`lean_from_window`; 0: from the soles' midpoint, as before)
+LEAN_FROM_STANCE = 0.5
 
 
 def walk(
@@ -58,6 +65,7 @@ def walk(
     name: str | None = None,
     window: BalanceWindow | None = None,
     transfer: float = 1.0,
+    lean_from_stance: float = LEAN_FROM_STANCE,
 ) -> WalkingReference:
     """A dynamic-gait reference for ``plan`` starting from ``start`` (at rest).
 
@@ -83,6 +91,10 @@ def walk(
     reaches the sole that just landed (:func:`.schedule.zmp_knots`; 1: over the whole
     double support). A shorter transfer shifts the lateral sway earlier: the DCM has crossed
     over the new stance sole while both soles are down (:func:`narrow_sway`).
+
+    ``lean_from_stance`` (0–1): where the soles are wider apart than the window's stance,
+    the share of the extra half-width the whole-body lean is read without
+    (:func:`lean_from_window`; 0: from the soles' midpoint).
     """
     timing = timing or GaitTiming()
     swing = swing or SwingParams()
@@ -166,7 +178,7 @@ def walk(
         meta=meta,
     )
     if window is not None:
-        lean_from_window(ref, window)
+        lean_from_window(ref, window, lean_from_stance)
     if check:
         report = check_reference(
             ref, margin=margin, min_clearance=min_clearance, legs=legs, window=window
@@ -269,17 +281,39 @@ def _replan(
     )
     table = meta.get("window", {})
     if ref.torso_roll is not None and "offsets" in table:  # the torso leans for the new CoM
-        lean_from_window(out, BalanceWindow.from_dict(table))
+        lean_from_window(
+            out, BalanceWindow.from_dict(table), float(table.get("lean_from_stance", 0.0))
+        )
     return out
 
 
-def lean_from_window(ref: WalkingReference, window: BalanceWindow) -> None:
+def lean_from_window(
+    ref: WalkingReference, window: BalanceWindow, from_stance: float = LEAN_FROM_STANCE
+) -> None:
     """Plan the torso roll of a whole-body reference (in place): the roll the balance
-    window's solves use for the CoM's lateral offset from the soles' midpoint."""
-    ref.torso_roll = np.asarray(window.roll_for(lateral_offsets(ref)), dtype=float)
+    window's solves use for the CoM's lateral offset from the soles' midpoint.
+
+    ``from_stance`` (0–1): where the soles are further apart than at the window's stance (a
+    lateral walk's steps), that share of the extra half-width, less :data:`STANCE_TOLERANCE`,
+    is taken off the offset (0 when the CoM is nearer the midpoint than that).
+    1 reads the offset at the window's stance: the CoM's distance to the nearer sole is
+    the one the window's solve at that roll has; 0 reads it from the wider stance's midpoint,
+    which overstates the lean and reverses it fast across each wide double support
+    (``lateral_wb``: 5.6 deg at most, reversing at 53 deg/s; 1: 4.5 deg, 36 deg/s; 0.5:
+    4.7 deg). The default, :data:`LEAN_FROM_STANCE`, is the measured one
+    (benchmarks/physics.md, issue 30's eleventh pass)."""
+    if not (np.isfinite(from_stance) and 0.0 <= from_stance <= 1.0):
+        raise TrajectoryError(f"lean_from_window: from_stance must be in [0, 1], got {from_stance}")
+    lateral = lateral_offsets(ref)
+    if from_stance > 0.0:
+        wider = sole_half_widths(ref) - window.half_width
+        extra = np.maximum(from_stance * wider - STANCE_TOLERANCE, 0.0)
+        lateral = np.sign(lateral) * np.maximum(np.abs(lateral) - extra, 0.0)
+    ref.torso_roll = np.asarray(window.roll_for(lateral), dtype=float)
     ref.meta["window"] = {
         **window.as_dict(),  # (the whole table: narrow_sway plans the roll again)
         "max_roll": float(np.max(np.abs(ref.torso_roll))),
+        "lean_from_stance": float(from_stance),
     }
 
 
