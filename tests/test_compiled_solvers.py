@@ -515,6 +515,7 @@ def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot,
     controller = StackController(load_stack("walk_strict", robot))
     session = Session(controller, robot, ref)
     solver = controller.solver
+    solver.defer_with_rows = False  # (the levels solved one by one: see the test below)
     held_ticks = 0
     for i in range(140):
         before = solver.fast
@@ -545,3 +546,63 @@ def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot,
             assert [c for c in calls if c[0] == "rows"] == [("rows", ticks.OK)], (i, calls)
             held_ticks += 1
     assert held_ticks >= 4  # (the test can fail: ticks 91-93 and 131-133 hold 3-4 rows)
+
+
+def test_the_levels_above_deferred_while_no_row_is_active(robot, monkeypatch):
+    """``walk_strict`` along walk10 (self-collision rows): on a tick where no inequality row
+    is active, the compiled cascade solves its last level alone, the levels above as its
+    equalities (``defer_with_rows``, one level solve instead of three); where a row is
+    violated the deferral fails before any row joins and the levels are solved one by one.
+    Each tick's Δq is the one of its levels solved one by one up to rounding (1e-12)."""
+    from wbc.compiled import ticks
+
+    solves: list[bool] = []
+    level = ticks._level
+
+    def counted_level(A, a, B, r, ridge, exact, *rest):
+        solves.append(bool(exact))
+        return level(A, a, B, r, ridge, exact, *rest)
+
+    ref = build("walk10", robot)
+    controller = StackController(load_stack("walk_strict", robot))
+    assert controller.solver.defer_with_rows
+    session = Session(controller, robot, ref)
+    solver = controller.solver
+    deferred = 0
+    for i in range(120):
+        before = solver.fast
+        start = None if before is None else before.states.copy()
+        session.tick(i)
+        plan = solver.fast
+        if start is None or plan is not before:
+            continue
+        last = plan.damped_level
+        start[:last] = 0  # (what the tick started from: forget_warm_start)
+        g = plan.inequalities
+        answers = []
+        for defer in (1.0, 0.0):
+            params = plan.params.copy()
+            params[0] = defer
+            states, working = start.copy(), np.zeros_like(g.working)
+            dq = np.zeros(robot.nv)
+            solves.clear()
+            with monkeypatch.context() as patch:
+                patch.setattr(ticks, "_level", counted_level)
+                args = (
+                    plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
+                    g.g_rows, params, plan.lower, plan.upper, states, working,
+                    np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq,
+                )  # fmt: skip
+                status = ticks._cascade.py_func(*args, np.bool_(True))
+                if status == ticks.DEFERRAL_FAILED:
+                    status = ticks._cascade.py_func(*args, np.bool_(False))
+            assert status == ticks.OK
+            answers.append((dq.copy(), list(solves), working.any()))
+        (dq_deferred, solves_deferred, _), (dq_alone, solves_alone, active) = answers
+        assert np.array_equal(dq_deferred, plan.dq), i  # (the compiled tick: the same code)
+        assert np.abs(dq_deferred - dq_alone).max() <= 1e-12, i
+        if not active:  # no row active: the last level's solve alone (not every level's)
+            assert len(solves_alone) == last + 1
+            assert solves_deferred == [False], (i, solves_deferred)
+            deferred += 1
+    assert deferred >= 40  # (the test can fail: 3 level solves a tick without the deferral)

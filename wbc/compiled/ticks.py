@@ -434,13 +434,17 @@ def _cascade(
         h_eff[i] = h[i]
     deferred = 0  # the levels before this row: met exactly by the next level's solve
     soft = False  # a soft level among them
+    # with inequality rows, the levels above the last deferred too (params[0] > 0) while no
+    # row is active: the last level's solve without its rows must meet every row, else the
+    # deferral fails before any row joins (and the levels are solved on their own)
+    rows_free = g_rows[n_levels] == 0 or (defer_soft and params[0] > 0.0)
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
         g0 = g_rows[k]
         g1 = g_rows[k + 1]
         last = k == n_levels - 1
-        if (level_hard[k] or defer_soft) and not last and g_rows[n_levels] == 0 and deferred == r0:
+        if (level_hard[k] or defer_soft) and not last and rows_free and deferred == r0:
             # a hard level (of a tick without inequality rows; the levels above it deferred
             # too): its optimal set, when it is met, is {J_k Δq = b_k} within the bounds, so
             # the next level takes it as equalities instead of a solve of its own (the same
@@ -497,6 +501,12 @@ def _cascade(
                     free_x = dq.copy()
                     free_state = states[k].copy()
                     solved = True
+            if (
+                deferred > 0
+                and g1 > 0
+                and (warm or (status == OK and _violated(G, h_eff, g1, dq, tol)))
+            ):
+                return DEFERRAL_FAILED
             if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
                 soft_from = g1 if level_hard[k] else g0
                 if not warm and k > 0 and not direct:
@@ -517,7 +527,7 @@ def _cascade(
             dq[:] = entry
             direct = False
         if status != OK:
-            return DEFERRAL_FAILED if soft else status
+            return DEFERRAL_FAILED if soft or (deferred > 0 and g1 > 0) else status
         for i in range(deferred):  # the deferred levels, met by this solve's equalities
             s = 0.0
             for j in range(nv):
@@ -526,7 +536,7 @@ def _cascade(
             if soft and abs(s - b[i]) > DEFERRED_TOL * (1.0 + abs(b[i])):
                 return DEFERRAL_FAILED
             if abs(s - b[i]) > hard_tol:
-                return HARD_MISSED
+                return DEFERRAL_FAILED if g1 > 0 else HARD_MISSED
         deferred = 0
         soft = False
         for i in range(r0, r1):
@@ -559,8 +569,9 @@ def cascade_solve(
     ``states[L]`` if given (L + 1 rows) the last level's without its inequality rows (the
     warm start of that solve);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
-    rows kept (work space); ``params``: [(unused), μ, tolerance of hard levels,
-    tolerance of the inequality rows]; q ⊕ Δq into ``q_next``.
+    rows kept (work space); ``params``: [1 to defer the levels above with inequality
+    rows too (else 0), μ, tolerance of hard levels, tolerance of the inequality rows];
+    q ⊕ Δq into ``q_next``.
 
     Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
     slacks, unless the level is hard: then as rows to meet) subject to the bounds, every level
@@ -582,7 +593,13 @@ def cascade_solve(
     So are the soft levels at the top, on the guess that they can be met exactly (their
     optimal set is then the same; on ``walk10`` the CoM and swing level always can): if the
     next level's solve fails or misses their rows (:data:`DEFERRED_TOL`), the levels are
-    solved again with every soft level on its own.
+    solved again with every soft level on its own. With inequality rows too when
+    ``params[0]`` > 0 (``HierarchicalQP.defer_with_rows``): the levels above the last are its
+    equalities while its solution without the rows meets every row (and it had no working
+    set at the last tick), the same optimum up to rounding (its minimiser over a larger set
+    lies in the hierarchy's; walk_strict: Δq within 2e-15 of the levels solved one by one,
+    the median cascade 13.7 -> 7.9 µs); else the levels are solved one by one before any
+    row joins (one wasted solve of the last level).
     """
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,

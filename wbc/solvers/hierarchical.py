@@ -64,6 +64,7 @@ class HierarchicalQP(StackSolver):
         on_infeasible: str = "raise",
         hard_tol: float = 1e-6,
         compiled: bool | None = None,
+        defer_with_rows: bool = True,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -72,6 +73,9 @@ class HierarchicalQP(StackSolver):
         super().__init__(stack, backend, regularization, on_infeasible, compiled)
         self.method = method
         self.hard_tol = check_number("hard_tol", hard_tol, HARD_TOL_RANGE)
+        #: the compiled cascade defers the levels above the last into its solve while no
+        #: inequality row is active (one level solve instead of three on walk_strict)
+        self.defer_with_rows = bool(defer_with_rows)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []
@@ -278,7 +282,9 @@ class HierarchicalQP(StackSolver):
         level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
         g_rows = np.cumsum([0] + [p.h.shape[0] for p in problems]).astype(np.int64)
         level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
-        params = np.array([0.0, self.regularization, self.hard_tol, CONSTRAINT_TOL])
+        params = np.array(
+            [float(self.defer_with_rows), self.regularization, self.hard_tol, CONSTRAINT_TOL]
+        )
         states = np.zeros((len(problems), nv), dtype=np.int8)
         working = np.zeros((len(problems), h.size), dtype=np.bool_)
         h_eff = np.zeros(h.size)

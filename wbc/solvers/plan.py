@@ -422,6 +422,7 @@ class _Plan:
         self._mu: float | None = None  # (the solver's regularization and hard tolerance
         self._hard_tol: float | None = None  # that the parameters were set for)
         self._dt: float | None = -1.0  # (no time step yet: the parameters are set at a solve)
+        self._defer = False
         self._entry = None  # the tick's compiled entry point, after the first call
         #: [(unused), μ (damping of the last level), hard tolerance, tolerance of the
         #: inequality rows]
@@ -575,7 +576,13 @@ class _Plan:
         if not self.targets.by_address:  # (sources the tick cannot gather itself)
             self.targets.gather()
         solver = self.solver
-        if dt != self._dt or solver.regularization != self._mu or solver.hard_tol != self._hard_tol:
+        defer = getattr(solver, "defer_with_rows", False)
+        if (
+            dt != self._dt
+            or solver.regularization != self._mu
+            or solver.hard_tol != self._hard_tol
+            or defer != self._defer
+        ):
             self._set_params(dt)
         entry = self._entry
         if entry is None:  # the first call: compiles or loads the tick, then its entry point
@@ -618,8 +625,9 @@ class _Plan:
     def _set_params(self, dt: float | None) -> None:
         """The scalar parameters of the tick, for ``dt``."""
         solver = self.solver
+        self._defer = bool(getattr(solver, "defer_with_rows", False))
         self.params[:] = (
-            0.0,
+            1.0 if self._defer else 0.0,
             solver.regularization,
             solver.hard_tol,
             CONSTRAINT_TOL,
