@@ -487,6 +487,27 @@ def test_a_joint_coming_back_lands_on_its_limit_not_a_rounding_error_short(robot
     assert out[7] == q[7]
 
 
+def _walk_strict_ticks(robot, n: int, defer_with_rows: bool):
+    """walk10 on ``walk_strict`` (self-collision rows) for ``n`` ticks: for each tick solved
+    on the same compiled plan as the tick before, (tick, plan, the level states it started
+    from, its last level's index), the levels above the last forgotten as
+    ``forget_warm_start`` does, so that ``_cascade`` can be run again from the same inputs."""
+    controller = StackController(load_stack("walk_strict", robot))
+    controller.solver.defer_with_rows = defer_with_rows
+    session = Session(controller, robot, build("walk10", robot))
+    solver = controller.solver
+    for i in range(n):
+        before = solver.fast
+        start = None if before is None else before.states.copy()
+        session.tick(i)
+        plan = solver.fast
+        if start is None or plan is not before:
+            continue
+        last = plan.damped_level
+        start[:last] = 0  # (what the tick started from: forget_warm_start)
+        yield i, plan, start, last
+
+
 def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot, monkeypatch):
     """``walk_strict`` along walk10 (self-collision rows): where the level above holds two
     rows or more at their bounds (the arms' box corners against the torso), the damped last
@@ -511,21 +532,9 @@ def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot,
             calls.append(("rows", status))
         return status
 
-    ref = build("walk10", robot)
-    controller = StackController(load_stack("walk_strict", robot))
-    session = Session(controller, robot, ref)
-    solver = controller.solver
-    solver.defer_with_rows = False  # (the levels solved one by one: see the test below)
     held_ticks = 0
-    for i in range(140):
-        before = solver.fast
-        start = None if before is None else before.states.copy()
-        session.tick(i)
-        plan = solver.fast
-        if start is None or plan is not before:
-            continue
-        last = plan.damped_level
-        start[:last] = 0  # (what the tick started from: forget_warm_start)
+    # (the levels solved one by one: see the test below)
+    for i, plan, start, last in _walk_strict_ticks(robot, 140, defer_with_rows=False):
         g = plan.inequalities
         working = np.zeros_like(g.working)
         dq = np.zeros(robot.nv)
@@ -563,21 +572,9 @@ def test_the_levels_above_deferred_while_no_row_is_active(robot, monkeypatch):
         solves.append(bool(exact))
         return level(A, a, B, r, ridge, exact, *rest)
 
-    ref = build("walk10", robot)
-    controller = StackController(load_stack("walk_strict", robot))
-    assert controller.solver.defer_with_rows
-    session = Session(controller, robot, ref)
-    solver = controller.solver
+    assert load_stack("walk_strict", robot).solver.defer_with_rows  # (the default)
     deferred = 0
-    for i in range(120):
-        before = solver.fast
-        start = None if before is None else before.states.copy()
-        session.tick(i)
-        plan = solver.fast
-        if start is None or plan is not before:
-            continue
-        last = plan.damped_level
-        start[:last] = 0  # (what the tick started from: forget_warm_start)
+    for i, plan, start, last in _walk_strict_ticks(robot, 120, defer_with_rows=True):
         g = plan.inequalities
         answers = []
         for defer in (1.0, 0.0):
