@@ -43,18 +43,24 @@ def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
     assert _switch_speed(robot, rec, ref) < 0.6
 
 
-@pytest.mark.parametrize("carry", [True, False])
-def test_a_switch_moves_the_set_point_never_the_target(robot, carry):
+@pytest.mark.parametrize(("carry", "second"), [(True, False), (False, False), (True, True)])
+def test_a_switch_moves_the_set_point_never_the_target(robot, carry, second):
     """At every tick a swinging leg's posture target moves (1 - e^(-dt/τ)) of the way to Walk
-    Ready; a leg in contact carries its target with its joints, the offset decaying by
-    e^(-dt/τ) a tick (``carry_contact_targets``, the default), or (false) its target moves the
-    same share of the way to its joints (a lag); continuous across a switch by construction;
-    the arms' targets stay Walk Ready."""
+    Ready (``second_order_swing``: of the way to a middle stage that moves so toward Walk Ready
+    from the target at the lift-off); a leg in contact carries its target with its joints, the
+    offset decaying by e^(-dt/τ) a tick (``carry_contact_targets``), or (false) its target
+    moves the same share of the way to its joints (a lag); continuous across a switch by
+    construction; the arms' targets stay Walk Ready."""
     ref = build("static_walk", robot)
     spec = _walk_spec()
-    spec["support_switch"] = {**spec["support_switch"], "carry_contact_targets": carry}
+    spec["support_switch"] = {
+        **spec["support_switch"],
+        "carry_contact_targets": carry,
+        "second_order_swing": second,
+    }
     control = build_stack(spec, robot)
     assert control.support_switch.carry_contact_targets is carry
+    assert control.support_switch.second_order_swing is second
     posture = control.stack.task("posture")
     session = Session(StackController(control), robot, ref)
     handover = session.controller.handover
@@ -63,20 +69,30 @@ def test_a_switch_moves_the_set_point_never_the_target(robot, carry):
     arms = np.setdiff1d(np.arange(robot.n_joints), np.concatenate(list(legs.values())))
     a = 1.0 - math.exp(-ref.dt / 0.1)
     held = session.q[7:].copy()  # the joints at the last tick (the first: its own)
+    mid: dict[str, np.ndarray | None] = {f: None for f in legs}  # the middle stage
+    swung = 0
     for i in range(ref.n):
         before, q = posture.target.copy(), session.q[7:].copy()
         session.tick(i)
         t = session.targets(i)
         for frame, idx in legs.items():
-            if t.phase == "single" and frame == t.swing:
+            if t.phase == "single" and frame == t.swing and second:
+                start = before[idx] if mid[frame] is None else mid[frame]
+                mid[frame] = start + a * (walk_ready[idx] - start)
+                expected = before[idx] + a * (mid[frame] - before[idx])
+                swung += 1
+            elif t.phase == "single" and frame == t.swing:
                 expected = before[idx] + a * (walk_ready[idx] - before[idx])
             elif carry:
                 expected = q[idx] + (1.0 - a) * (before[idx] - held[idx])
             else:
                 expected = before[idx] + a * (q[idx] - before[idx])
+            if not (t.phase == "single" and frame == t.swing):
+                mid[frame] = None
             np.testing.assert_allclose(posture.target[idx], expected, atol=1e-12)
         assert np.array_equal(posture.target[arms], walk_ready[arms])
         held = q
+    assert swung > 0 or not second
 
 
 def test_a_landing_contact_is_anchored_where_the_sole_touches_down(robot):

@@ -27,20 +27,29 @@ class SupportSwitch:
     reference placement (the rest of a larger miss asked at once), and walked there in this
     time. None (or no band: inf): off. ``carry_contact_targets``: a leg in contact carries its
     posture target with its joints, its touch-down offset decaying with ``posture_lag`` (False:
-    the target lags them). Stated for the file's ``design_leg``; on a robot λ times that size
-    the times are scaled by √λ (the sizing's time scale,
-    :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
+    the target lags them). ``second_order_swing``: the freed leg's target walks to Walk Ready
+    through two such lags in series (no step in its speed at the lift-off: a shorter
+    ``posture_lag`` for the same joint speed; benchmarks/balance.md, "Sixth follow-up" item 5).
+    Stated for the file's ``design_leg``; on a robot λ times that size the times are scaled by
+    √λ (the sizing's time scale, :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
 
     posture_lag: float | None = None
     landing_time: float | None = None
     landing_band: float = math.inf
     carry_contact_targets: bool = False
+    second_order_swing: bool = False
 
 
 #: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
-SWITCH_KEYS = ("posture_lag", "landing_time", "landing_band", "carry_contact_targets")
+SWITCH_KEYS = (
+    "posture_lag",
+    "landing_time",
+    "landing_band",
+    "carry_contact_targets",
+    "second_order_swing",
+)
 #: its keys that are true or false (the others are positive numbers)
-_SWITCH_FLAGS = ("carry_contact_targets",)
+_SWITCH_FLAGS = ("carry_contact_targets", "second_order_swing")
 
 
 def parse_support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:

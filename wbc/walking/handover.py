@@ -48,20 +48,33 @@ from ..tasks.posture import PostureTask
 
 
 @njit(
-    "void(float64[:], float64[:], float64[:], float64[:], int64[:], int64[:], int64, float64, "
-    "boolean)",
+    "void(float64[:], float64[:], float64[:], float64[:], float64[:], int64[:], int64[:], int64, "
+    "float64, boolean, boolean)",
     cache=True,
 )
-def follow_set_points(target, walk_ready, q, held, joints, sides, swing, a, carry) -> None:
+def follow_set_points(
+    target, walk_ready, q, held, mid, joints, sides, swing, a, carry, second
+) -> None:
     """For each leg joint ``j = joints[k]`` of side ``sides[k]``: on the ``swing`` side (−1:
-    none) ``target[j] += a (walk_ready[j] − target[j])``; on a side in contact, with ``carry``,
-    ``target[j] = q_j + (1 − a) (target[j] − held[k])`` (the target moves with the joint, its
-    offset decaying; ``held[k]``: the joint at the last call, NaN: none yet), else
-    ``target[j] += a (q_j − target[j])`` (the target lags the joint). ``held[k] = q_j`` after."""
+    none) ``target[j] += a (walk_ready[j] − target[j])``, or with ``second`` through a middle
+    stage, ``mid[k] += a (walk_ready[j] − mid[k]); target[j] += a (mid[k] − target[j])``
+    (``mid[k]`` starts at the target at the lift-off; NaN: not swinging); on a side in contact,
+    with ``carry``, ``target[j] = q_j + (1 − a) (target[j] − held[k])`` (the target moves with
+    the joint, its offset decaying; ``held[k]``: the joint at the last call, NaN: none yet),
+    else ``target[j] += a (q_j − target[j])`` (the target lags the joint). ``held[k] = q_j``
+    after."""
     off = q.shape[0] - target.shape[0]
     for k in range(joints.shape[0]):
         j = joints[k]
         qj = q[off + j]
+        if sides[k] == swing and second:
+            if mid[k] != mid[k]:
+                mid[k] = target[j]
+            mid[k] += a * (walk_ready[j] - mid[k])
+            target[j] += a * (mid[k] - target[j])
+            held[k] = qj
+            continue
+        mid[k] = np.nan
         if sides[k] == swing:
             target[j] += a * (walk_ready[j] - target[j])
         elif carry:
@@ -85,6 +98,7 @@ class SwitchHandover:
         self.landing_time = settings.landing_time
         self.landing_band = settings.landing_band
         self.carry = settings.carry_contact_targets
+        self.second = settings.second_order_swing
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
@@ -104,7 +118,7 @@ class SwitchHandover:
         self._set_points: list[np.ndarray] = []
         #: (posture target array, its Walk Ready copy, the legs' joints at the last update (NaN:
         #: none yet)): the tasks own the target arrays, never re-bound
-        self._pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         self._side = {frame: k for k, frame in enumerate(self._frames)}
         self._follow = entry(follow_set_points)  # (its compiled entry: no dispatch per tick)
         self._landing: tuple[str, pin.SE3, float] | None = None
@@ -116,7 +130,7 @@ class SwitchHandover:
         self._set_points = [p.target.copy() for p in self._postures]
         n = len(self._joints)
         self._pairs = [
-            (p.target, w, np.full(n, np.nan))
+            (p.target, w, np.full(n, np.nan), np.full(n, np.nan))
             for p, w in zip(self._postures, self._set_points, strict=True)
         ]
         self._landing, self._swing = None, None
@@ -125,8 +139,9 @@ class SwitchHandover:
         """Back to the state of :meth:`start` (after a rehearsed tick)."""
         for task, set_point in zip(self._postures, self._set_points, strict=True):
             task.target[:] = set_point
-        for _, _, held in self._pairs:
+        for _, _, held, mid in self._pairs:
             held[:] = np.nan
+            mid[:] = np.nan
         self._landing, self._swing = None, None
 
     def update(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
@@ -138,8 +153,9 @@ class SwitchHandover:
                 self._a = (dt, 1.0 - math.exp(-dt / self.lag))
             swing = self._side[targets.swing] if single else -1
             a, joints, sides, follow = self._a[1], self._joints, self._sides, self._follow
-            for target, walk_ready, held in self._pairs:
-                follow(target, walk_ready, q, held, joints, sides, swing, a, self.carry)
+            for target, walk_ready, held, mid in self._pairs:
+                follow(target, walk_ready, q, held, mid, joints, sides, swing, a, self.carry,
+                       self.second)  # fmt: skip
         if targets.contacts_move:  # the caller moves the contacts (a driven walk): not here
             self._landing = None
         elif self.landing_time and not (single and self._landing is None):
