@@ -6,13 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from wbc import Kinematics
 from wbc.bench.trajectories import build
 from wbc.exceptions import ConfigurationError, InfeasibleError, TaskError
 from wbc.limits import Inequality, SelfCollisionConstraint
+from wbc.limits.collision_kernels import MAX_CLOSURE
 from wbc.limits.collision_reference import distance_jacobian, joint_masks, separating_plane_rows
 from wbc.limits.self_collision import (
     RECOVERY_TICKS,
@@ -132,16 +133,23 @@ def _model_and_pairs(robot, lim):
 
 
 @given(d=st.floats(-0.01, 0.0199), eps=st.floats(1e-7, 1e-4))
+@example(d=0.01556, eps=1e-6)  # stress trial 5101's pair with common_frame (uncapped: 1.35)
 def test_damper_bound_is_continuous_monotone_and_keeps_the_margin(d, eps):
+    """h is increasing and Lipschitz (constant max(ξ, c²/ξ), c = MAX_CLOSURE) everywhere
+    below the trigger, and never allows a tick to close more than c of the gap to the margin
+    (h(d) <= c (d − m) for m <= d < T: the linearised margin holds wherever the pair starts,
+    not only below T − ξ (T − m)); at the trigger the row appears with h = c (T − m), finite,
+    and no row at or beyond it. The uncapped damper (→ +∞ at T) fails all three."""
     h = damper_bound(np.array([d, d + eps]), MARGIN, TRIGGER, DAMPING)
     assert h[1] >= h[0]  # monotone
-    if d + eps < TRIGGER - 1e-4:  # continuous (Lipschitz away from the trigger)
-        slope = DAMPING * max(1.0, (TRIGGER - MARGIN) ** 2 / (TRIGGER - d - eps) ** 2)
+    if d + eps < TRIGGER:  # continuous: Lipschitz up to the trigger
+        slope = max(DAMPING, MAX_CLOSURE**2 / DAMPING)
         assert h[1] - h[0] <= slope * eps * (1 + 1e-6) + 1e-15
-    if MARGIN <= d <= TRIGGER - DAMPING * (TRIGGER - MARGIN):  # the linearised margin holds
-        assert h[0] <= d - MARGIN + 1e-15
+    if MARGIN <= d < TRIGGER:  # the linearised margin holds, with room to spare
+        assert h[0] <= MAX_CLOSURE * (d - MARGIN) * (1 + 1e-12) + 1e-15
     assert damper_bound(np.array([TRIGGER]), MARGIN, TRIGGER, DAMPING)[0] == np.inf
-    assert damper_bound(np.array([TRIGGER - 1e-9]), MARGIN, TRIGGER, DAMPING)[0] > 1e3
+    below = damper_bound(np.array([TRIGGER - 1e-9]), MARGIN, TRIGGER, DAMPING)[0]
+    assert below == pytest.approx(MAX_CLOSURE * (TRIGGER - 1e-9 - MARGIN), rel=1e-12)
 
 
 # ---------------------------------------------------------------------- in the solvers

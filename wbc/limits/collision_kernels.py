@@ -49,6 +49,10 @@ CONTACT = 1e-10
 #: parallel: the face axes cover them; a lower bound either way, exact where its witnesses
 #: check out, and GJK otherwise)
 EDGE_PARALLEL = 1e-6
+#: the damper's allowance h(d) never exceeds this fraction of the gap to the margin (d − m):
+#: a tick whose rows hold to first order ends outside the margin, whatever d below the
+#: trigger (:func:`damper_h`, :func:`wbc.limits.self_collision.damper_bound`)
+MAX_CLOSURE = 0.9
 #: a box axis within this (rad) of the separating plane is parallel to it; two boxes whose
 #: features nearest the plane share such a direction (a face and a face or an edge, two
 #: parallel edges) have no single witness (any point of their overlap): their rows are the
@@ -471,7 +475,7 @@ def damper_h(d, margin, trigger, damping) -> float:
         return np.inf
     gap = d - margin
     if gap > 0.0:
-        return damping * gap * (trigger - margin) / (trigger - d)
+        return min(damping * gap * (trigger - margin) / (trigger - d), MAX_CLOSURE * gap)
     return -min(damping * (-gap), damping * margin)
 
 

@@ -15,12 +15,13 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
   picked by rounding; the corners' rows do not depend on it, so the rows are continuous in q);
 * :func:`damper_bound` — h(d) of the rows −J_d Δq <= h(d): the velocity damper
   d + J_d Δq >= margin + (1 − ξ)(d − margin), i.e. at most a fraction ξ of the gap to the
-  margin closes in one tick, relaxed smoothly to +∞ as d → trigger (no switch).
+  margin closes in one tick, relaxed smoothly towards the trigger, never past a fraction
+  c = :data:`~wbc.limits.collision_kernels.MAX_CLOSURE` of that gap.
 
-Activation (no chatter): with m = margin, T = trigger and ξ = damping,
+Activation: with m = margin, T = trigger, ξ = damping and c = MAX_CLOSURE (0.9),
 
-    h(d) = ξ (d − m) · (T − m) / (T − d)   for m <= d < T,
-    h(d) = −ξ · min(m − d, m)             for d < m (the pair moves back out),
+    h(d) = min(ξ (d − m) · (T − m) / (T − d), c (d − m))   for m <= d < T,
+    h(d) = −ξ · min(m − d, m)                               for d < m (the pair moves back out),
 
 and no row for d >= T. Inside the margin (h < 0: Δq = 0 does not meet the row, which asks the
 pair to separate) the rate is a fraction ξ of the gap to the margin per tick, capped at ξ m: a
@@ -31,12 +32,16 @@ both, as the best achievable separation (:meth:`SelfCollisionConstraint.split`,
 :meth:`wbc.solvers.base.StackSolver.solve`); the rows of the pairs outside the margin are
 never relaxed.
 
-h is C¹ at d = m and grows continuously to +∞ at d = T: the QP's solution is continuous in d
-(rows are left out while h exceeds ``UNREACHABLE``). The linearised margin holds (h(d) <= d − m)
-for d <= T − ξ (T − m); a pair crosses from beyond that point only if one tick closes more than
-(1 − ξ)(T − m) (9 mm with the defaults; one tick of hip roll at 6.2 rad/s moves a foot ~12 mm):
-targets must move at a bounded speed, as walking references do (the tests pull links together
-at <= 0.1 m/s and stay within 0.5 mm of the margin: a linearised tick's second order).
+h is continuous and increasing below T, C¹ at d = m (for ξ <= c), Lipschitz with constant
+max(ξ, c²/ξ) (the relaxed branch binds below T − ξ (T − m)/c = 13.3 mm with the defaults, the
+cap above), and h(d) <= c (d − m) for every d < T: a tick whose rows hold to first order
+closes at most 90 % of the gap to the margin, wherever it starts (stress trial 5101 with
+``common_frame``: 15.56 mm, uncapped h = 1.35 (d − m), crossed to 2.97 mm). The price: at
+T the row appears with h = c (T − m) (13.5 mm), not +∞, so the QP's solution jumps there
+when a tick would close more than that — the ticks that would otherwise cross the margin.
+The linearised tick's second order remains (the tests pull links together at <= 0.1 m/s and
+stay within 0.5 mm of the margin). ``UNREACHABLE`` drops no row with the defaults (h <= c (T
+− m)).
 
 Never a silent result: at a hard level, a pair more than :data:`RECOVERY_TOL` inside its
 margin for more than :data:`RECOVERY_TICKS` control ticks in a row (the hard tasks hold it:
@@ -54,7 +59,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import close_pairs, pack, packed_rows
+from .collision_kernels import MAX_CLOSURE, close_pairs, pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -63,7 +68,7 @@ DEFAULT_MARGIN = 0.005
 DEFAULT_TRIGGER = 0.02
 DEFAULT_DAMPING = 0.4
 #: a bound past which a row is left out (m of closure in one tick: no two links of a small
-#: humanoid can approach by 1 m; with the defaults, the rows between 19.9 and 20 mm)
+#: humanoid can approach by 1 m; h <= MAX_CLOSURE (trigger − margin) keeps every row below it)
 UNREACHABLE = 1.0
 #: random configurations used to find the pairs that can meet
 DEFAULT_SAMPLES = 600
@@ -502,10 +507,11 @@ def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: f
     """h(d) of the rows −J_d Δq <= h(d) (see the module docstring); +inf for d >= trigger."""
     d = np.asarray(distance, dtype=float)
     gap = d - margin
-    with np.errstate(divide="ignore"):
-        scale = np.where(gap > 0, (trigger - margin) / np.maximum(trigger - d, 0.0), 1.0)
-    # inside: separate at rate ξ, at most ξ m per tick
-    h = np.where(gap > 0, damping * gap * scale, way_back(-gap, damping, damping * margin))
+    with np.errstate(divide="ignore", invalid="ignore"):  # (d >= trigger: replaced below)
+        relaxed = damping * gap * (trigger - margin) / np.maximum(trigger - d, 0.0)
+    # outside: at most MAX_CLOSURE of the gap; inside: separate at rate ξ, at most ξ m per tick
+    outside = np.minimum(relaxed, MAX_CLOSURE * gap)
+    h = np.where(gap > 0, outside, way_back(-gap, damping, damping * margin))
     return np.where(d < trigger, h, np.inf)
 
 
@@ -539,8 +545,9 @@ class SelfCollisionConstraint(Constraint):
     (:func:`choose_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
     ``exclude``. ``common_frame``: each row's normal fixed in the frame of the joints that carry
     both links (their columns 0: a common rotation changes no distance) instead of the world
-    (benchmarks/self_collision.md, ninth pass: `walk_strict`'s p99 2.6–3.3× lower; off: a
-    large step's second order, stress trial 5101, then takes a pair to 2.97 mm). Usable at
+    (benchmarks/self_collision.md, ninth pass: `walk_strict`'s p99 2.6–3.3× lower; off: it
+    took stress trial 5101's pair to 2.97 mm through the damper's allowance, which
+    MAX_CLOSURE now caps: 6.58 mm). Usable at
     any level of :class:`~wbc.solvers.TaskStack`; rows below the pulling tasks' level are what
     make it hold (inside one level it trades with the tasks).
     """
