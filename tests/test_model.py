@@ -231,3 +231,17 @@ def test_com_of_a_temporary_kinematics_stays_valid():
     junk = [np.random.default_rng(0).random(1000) for _ in range(50)]  # reuse freed memory
     assert np.allclose(c, robot.com(q), atol=1e-12), (c, robot.com(q))
     del junk
+
+
+def test_placements_in_a_frame_are_the_frames_placements_relative_to_it(robot):
+    """One forward kinematics pass gives each frame's placement in the base frame: the same
+    numbers as the one-off placements, related (bit for bit)."""
+    q = robot.configuration("walk_ready")
+    q[7:] += np.linspace(-0.1, 0.1, robot.n_joints)
+    torso, l_sole = robot.placements_in(q, "r_sole", ["torso", "l_sole"])
+    base = robot.frame_placement(q, "r_sole")
+    for got, frame in ((torso, "torso"), (l_sole, "l_sole")):
+        assert np.array_equal(
+            got.homogeneous, base.actInv(robot.frame_placement(q, frame)).homogeneous
+        )
+    assert not np.allclose(l_sole.translation, 0.0)

@@ -515,6 +515,15 @@ class Robot:
         pin.framesForwardKinematics(self.model, self.data, q)
         return pin.SE3(self.data.oMf[fid])
 
+    def placements_in(self, q: np.ndarray, base: str, frames: Sequence[str]) -> list[pin.SE3]:
+        """The placements of ``frames`` in frame ``base`` at configuration q (``base``⁻¹ ·
+        each), from one forward kinematics pass."""
+        ids = [self.frame_id(f) for f in (base, *frames)]
+        q = self.check_configuration(q)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        base_placement = self.data.oMf[ids[0]]
+        return [base_placement.actInv(self.data.oMf[i]) for i in ids[1:]]
+
     def com(self, q: np.ndarray) -> np.ndarray:
         """Centre of mass in the world frame."""
         q = self.check_configuration(q)

@@ -426,15 +426,12 @@ class Walker:
         """Leg odometry at a landing: the swing sole's placement relative to the stance sole
         from the servos' present positions (forward kinematics; flat: x, y, heading), put
         beside the stance sole where the walk has it. None if a position is unread."""
-        present = self.present()
-        if present is None or not np.all(np.isfinite(present)):
-            return None
         feet = self.engine.feet
         stance = feet["right" if step.side == "left" else "left"]
-        q = self.robot.with_joints(np.asarray(present, dtype=float))
-        M_st = self.robot.frame_placement(q, SOLE_FRAMES[stance.side])
-        M_sw = self.robot.frame_placement(q, SOLE_FRAMES[step.side])
-        rel = M_st.actInv(M_sw)
+        q = self._present_configuration()
+        if q is None:
+            return None
+        (rel,) = self.robot.placements_in(q, SOLE_FRAMES[stance.side], [SOLE_FRAMES[step.side]])
         dyaw = yaw_of(rel.rotation)
         xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
         odo = self.odometry
@@ -530,6 +527,14 @@ class Walker:
         self.tick_time.append(time.perf_counter() - start)
         return self.q
 
+    def _present_configuration(self) -> np.ndarray | None:
+        """The configuration of the servos' present positions (the base at the origin), or
+        None if a position is unread."""
+        present = self.present()
+        if present is None or not np.all(np.isfinite(present)):
+            return None
+        return self.robot.with_joints(np.asarray(present, dtype=float))
+
     def _heading_inputs(self, targets: TickTargets, est: Any) -> tuple[np.ndarray, np.ndarray]:
         """The torso's rotation (its tilt used, and at rest its turn) and rate for the outer
         loop's heading (:class:`~wbc.drive.odometry.PoseOdometry`): the calibrated gyro
@@ -538,13 +543,11 @@ class Walker:
         Bioloid 8) on the torso's tilt over the stance sole by the present joints (the sole
         flat: within 1° of the simulator's, where the filter's tilt was 10° off on the
         rocking model 0); with ``filter_heading`` the filter's rate and rotation."""
-        present = None if self.filter_heading else self.present()
-        if present is None or not np.all(np.isfinite(present)):
+        q = None if self.filter_heading else self._present_configuration()
+        if q is None:
             return est.rotation, est.angular_velocity
-        q = self.robot.with_joints(np.asarray(present, dtype=float))
-        sole = self.robot.frame_placement(q, targets.support)
-        torso = sole.actInv(self.robot.frame_placement(q, "torso")).rotation
-        return torso, est.angular_velocity - self.stabilizer.estimator.gyro_correction
+        (torso,) = self.robot.placements_in(q, targets.support, ["torso"])
+        return torso.rotation, est.angular_velocity - self.stabilizer.estimator.gyro_correction
 
     def _lift(self, targets: TickTargets) -> None:
         """The swing sole's lift (:class:`~wbc.drive.odometry.LiftGain`): in single support
@@ -552,12 +555,10 @@ class Walker:
         highest kept; at the swing's end the gain on the apex of the swings planned next
         (:attr:`WalkEngine.params <wbc.walking.engine.WalkEngine.params>`)."""
         if targets.phase == "single":
-            present = self.present()
-            if present is not None and np.all(np.isfinite(present)):
-                q = self.robot.with_joints(np.asarray(present, dtype=float))
-                stance = self.robot.frame_placement(q, targets.support)
-                h = stance.actInv(self.robot.frame_placement(q, targets.swing)).translation[2]
-                self._peak = max(self._peak, float(h))
+            q = self._present_configuration()
+            if q is not None:
+                (swing,) = self.robot.placements_in(q, targets.support, [targets.swing])
+                self._peak = max(self._peak, float(swing.translation[2]))
         elif self._peak > -math.inf:  # a swing has ended
             gain = self.lift.landed(self._apex, self._peak)  # type: ignore[union-attr]
             self._peak = -math.inf
