@@ -192,19 +192,22 @@ def check_reference(
     )
 
 
+def _heading_left(ref: WalkingReference) -> np.ndarray:
+    """(N, 2) the torso heading frame's left axis in the ground plane."""
+    return np.column_stack([-np.sin(ref.torso_yaw), np.cos(ref.torso_yaw)])
+
+
 def lateral_offsets(ref: WalkingReference) -> np.ndarray:
     """(N,) the CoM's lateral offset (m, + = left) from the midpoint of the two soles, in
     the torso heading frame: what the whole-body balance window bounds."""
     mid = 0.5 * (ref.l_sole[:, :2] + ref.r_sole[:, :2])
-    left = np.column_stack([-np.sin(ref.torso_yaw), np.cos(ref.torso_yaw)])
-    return np.einsum("ij,ij->i", ref.com[:, :2] - mid, left)
+    return np.einsum("ij,ij->i", ref.com[:, :2] - mid, _heading_left(ref))
 
 
 def sole_half_widths(ref: WalkingReference) -> np.ndarray:
     """(N,) half the soles' lateral separation (m, left minus right) in the torso heading
     frame: the stance width :func:`lateral_offsets` are measured across."""
-    left = np.column_stack([-np.sin(ref.torso_yaw), np.cos(ref.torso_yaw)])
-    return 0.5 * np.einsum("ij,ij->i", ref.l_sole[:, :2] - ref.r_sole[:, :2], left)
+    return 0.5 * np.einsum("ij,ij->i", ref.l_sole[:, :2] - ref.r_sole[:, :2], _heading_left(ref))
 
 
 def _support_name(ref: WalkingReference, i: int) -> str:
