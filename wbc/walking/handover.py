@@ -85,6 +85,16 @@ def follow_set_points(
         held[k] = qj
 
 
+def _toward(start: pin.SE3, end: pin.SE3, share: float) -> pin.SE3:
+    """The placement ``share`` of the way from ``start`` to ``end``: the translation along
+    the segment, the rotation along the geodesic (the same share of each)."""
+    turn = pin.log3(start.rotation.T @ end.rotation)
+    return pin.SE3(
+        start.rotation @ pin.exp3(share * turn),
+        start.translation + share * (end.translation - start.translation),
+    )
+
+
 class SwitchHandover:
     """The per-walk state of a stack's :class:`~wbc.stack_tables.SupportSwitch` (a
     :class:`~wbc.walking.loop.StackController` keeps one): :meth:`start` at the walk's start
@@ -172,9 +182,7 @@ class SwitchHandover:
         distance = float(np.linalg.norm(miss))
         if distance <= self.landing_band:
             return sole
-        share = self.landing_band / distance
-        turn = pin.log3(goal.rotation.T @ sole.rotation)
-        return pin.SE3(goal.rotation @ pin.exp3(share * turn), goal.translation + share * miss)
+        return _toward(goal, sole, self.landing_band / distance)
 
     def _settle(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
         """The landing contact's anchor: where the sole touched down (:meth:`_touch_down`),
@@ -193,12 +201,7 @@ class SwitchHandover:
         if left <= dt:
             anchor, self._landing = goal, None
         else:
-            share = dt / left
-            turn = pin.log3(anchor.rotation.T @ goal.rotation)
-            anchor = pin.SE3(
-                anchor.rotation @ pin.exp3(share * turn),
-                anchor.translation + share * (goal.translation - anchor.translation),
-            )
+            anchor = _toward(anchor, goal, dt / left)
             self._landing = (frame, anchor, elapsed + dt)
         for task in self._contacts:
             if task.active and task.frame == frame:
