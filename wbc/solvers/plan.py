@@ -422,10 +422,11 @@ class _Plan:
         self._mu: float | None = None  # (the solver's regularization and hard tolerance
         self._hard_tol: float | None = None  # that the parameters were set for)
         self._dt: float | None = -1.0  # (no time step yet: the parameters are set at a solve)
-        self._defer = False
+        self._defer = False  # (the solver's defer_with_rows the parameters were set for)
         self._entry = None  # the tick's compiled entry point, after the first call
-        #: [(unused), μ (damping of the last level), hard tolerance, tolerance of the
-        #: inequality rows]
+        #: [1 to defer the levels above with inequality rows too (the solver's
+        #: ``defer_with_rows``, else 0), μ (damping of the last level), hard tolerance,
+        #: tolerance of the inequality rows]
         self.params = np.zeros(4)
         self.lower = scratch.get("lower", (nv,))  # (the tick's bounds: filled first)
         self.upper = scratch.get("upper", (nv,))
