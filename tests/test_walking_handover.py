@@ -174,3 +174,45 @@ def test_the_support_switch_table_is_checked_and_scaled():
     root = math.sqrt(unit)
     assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit)
     assert build_stack({k: v for k, v in spec.items() if k != "support_switch"}, kokone)
+
+
+def test_a_touch_down_is_landed_in_the_idle_part_before_its_tick(robot):
+    """With the support switch made ahead (Session.prepare_next), a touch-down's landing is
+    made there too (SwitchHandover.prepare: where the sole is, a forward kinematics pass, and
+    the first share of the way): the touch-down tick does not compute it and takes the anchor
+    made ahead — the same answers as a walk that makes nothing ahead, and as one whose
+    touch-down tick gets another q object (then it lands in its tick)."""
+    ref = build("walk10", robot)
+    s = ref.support
+    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
+    answers = []
+    for ahead, other_q in ((True, False), (True, True), (False, False)):
+        controller = StackController(load_stack("walk", robot))
+        handover = controller.handover
+        touch_down, track = handover._touch_down, controller.track
+        ticking, inside = [False], []
+
+        def counted(q, targets, touch_down=touch_down, ticking=ticking, inside=inside):
+            inside.append(ticking[0])
+            return touch_down(q, targets)
+
+        def tick(*a, track=track, ticking=ticking):
+            ticking[0] = True
+            try:
+                return track(*a)
+            finally:
+                ticking[0] = False
+
+        handover._touch_down, controller.track = counted, tick
+        session = Session(controller, robot, ref)
+        qs = []
+        for i in range(land + 10):
+            qs.append(session.tick(i).copy())
+            if ahead:
+                session.prepare_next()
+            if other_q and i == land - 1:
+                session.q = session.q.copy()  # (the same values: not the q it was made for)
+        answers.append(np.array(qs))
+        made_ahead = [False] if ahead else []  # (made in the idle part; then in its tick)
+        assert inside == made_ahead + ([True] if other_q or not ahead else []), inside
+    assert np.array_equal(answers[0], answers[1]) and np.array_equal(answers[0], answers[2])

@@ -133,6 +133,9 @@ class SwitchHandover:
         self._follow = entry(follow_set_points)  # (its compiled entry: no dispatch per tick)
         self._landing: tuple[str, pin.SE3, float] | None = None
         self._swing: str | None = None
+        #: a touch-down's landing made ahead (:meth:`prepare`): what it was made from, then
+        #: the anchor to set and the landing after the tick
+        self._prepared: tuple | None = None
 
     def start(self) -> None:
         """The posture targets as they are now (Walk Ready, set from the start pose) are the
@@ -143,7 +146,7 @@ class SwitchHandover:
             (p.target, w, np.full(n, np.nan), np.full(n, np.nan))
             for p, w in zip(self._postures, self._set_points, strict=True)
         ]
-        self._landing, self._swing = None, None
+        self._landing, self._swing, self._prepared = None, None, None
 
     def reset(self) -> None:
         """Back to the state of :meth:`start` (after a rehearsed tick)."""
@@ -152,7 +155,59 @@ class SwitchHandover:
         for _, _, held, mid in self._pairs:
             held[:] = np.nan
             mid[:] = np.nan
-        self._landing, self._swing = None, None
+        self._landing, self._swing, self._prepared = None, None, None
+
+    def prepare(self, q: np.ndarray, targets, dt: float) -> None:
+        """A touch-down's landing made ahead (a loop's idle part before the tick of ``targets``,
+        with its support switch: :meth:`wbc.walking.loop.StackController.prepare_phase`): where
+        the landing sole is at ``q`` (a forward kinematics pass) and the landing's first share
+        of the way, kept for that tick's :meth:`update`, which takes them if it is the tick
+        prepared (the same ``q`` object, its values unchanged, the same reference soles, ``dt``
+        and swing sole: the same inputs, so the same answers) and else makes them itself. The
+        touch-down tick then only sets the anchor (~14 µs less, 40–80 µs in a running walk:
+        the tail of the ``walk`` stack's tick times)."""
+        self._prepared = None
+        if (
+            targets.contacts_move
+            or not self.landing_time
+            or targets.phase == "single"
+            or self._swing is None
+        ):
+            return
+        made = self._land(q, targets, dt)
+        self._prepared = (q, q.tobytes(), targets.l_sole, targets.r_sole, dt, self._swing, made)
+
+    def _land(self, q: np.ndarray, targets, dt: float) -> tuple:
+        """A touch-down at ``q``: (the anchor of its tick, the landing after it)."""
+        return self._step((self._swing, self._touch_down(q, targets), 0.0), targets, dt)
+
+    def _step(self, landing: tuple, targets, dt: float) -> tuple:
+        """One tick of ``landing`` (frame, anchor, elapsed): (the tick's anchor, the landing
+        after it: None once at the reference sole)."""
+        frame, anchor, elapsed = landing
+        goal = targets.l_sole if frame == "l_sole" else targets.r_sole
+        left = self.landing_time - elapsed
+        if left <= dt:
+            return goal, None
+        anchor = _toward(anchor, goal, dt / left)
+        return anchor, (frame, anchor, elapsed + dt)
+
+    def _made_ahead(self, q: np.ndarray, targets, dt: float) -> tuple | None:
+        """The landing :meth:`prepare` made, if made from this tick's inputs (else None)."""
+        made, self._prepared = self._prepared, None
+        if made is None:
+            return None
+        q0, values, left, right, dt0, swing, out = made
+        if (
+            q is q0
+            and targets.l_sole is left
+            and targets.r_sole is right
+            and dt == dt0
+            and swing == self._swing
+            and q.tobytes() == values
+        ):
+            return out
+        return None
 
     def update(self, q: np.ndarray, targets, phase_changed: bool, dt: float) -> None:
         """Filter the legs' posture targets one step of ``dt`` and settle a landing contact,
@@ -171,6 +226,7 @@ class SwitchHandover:
         elif self.landing_time and not (single and self._landing is None):
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
+        self._prepared = None  # (made for this tick only)
 
     def _touch_down(self, q: np.ndarray, targets) -> pin.SE3:
         """Where the landing sole is, or, if it missed its reference placement by more than
@@ -192,17 +248,14 @@ class SwitchHandover:
             self._landing = None
             return
         if phase_changed and self._swing is not None:  # a touch-down: anchor where it is
-            self._landing = (self._swing, self._touch_down(q, targets), 0.0)
-        if self._landing is None:
+            frame = self._swing
+            made = self._made_ahead(q, targets, dt)
+            anchor, self._landing = made if made is not None else self._land(q, targets, dt)
+        elif self._landing is None:
             return
-        frame, anchor, elapsed = self._landing
-        goal = targets.l_sole if frame == "l_sole" else targets.r_sole
-        left = self.landing_time - elapsed
-        if left <= dt:
-            anchor, self._landing = goal, None
         else:
-            anchor = _toward(anchor, goal, dt / left)
-            self._landing = (frame, anchor, elapsed + dt)
+            frame = self._landing[0]
+            anchor, self._landing = self._step(self._landing, targets, dt)
         for task in self._contacts:
             if task.active and task.frame == frame:
                 task.set_target(anchor)

@@ -278,7 +278,10 @@ class StackController(Controller):
         and the solver's layout switched (:meth:`StackSolver.switch_layout`):
         the switch tick then only checks it was the right one (the same phase, the same sole
         objects, the stack untouched since), else takes it back (:meth:`_set_targets`).
-        Nothing if the switch needs the configuration (a contact without a reference sole)."""
+        Nothing if the switch needs the configuration (a contact without a reference sole).
+        A touch-down's landing is made ahead too (:meth:`SwitchHandover.prepare`)."""
+        if self.handover is not None:
+            self.handover.prepare(q, targets, self.dt)
         control = self.control
         if self._ahead is not None or not control.bindings or control.phase is None:
             return
