@@ -176,12 +176,13 @@ def test_the_support_switch_table_is_checked_and_scaled():
     assert build_stack({k: v for k, v in spec.items() if k != "support_switch"}, kokone)
 
 
-def test_a_touch_down_is_landed_in_the_idle_part_before_its_tick(robot):
-    """With the support switch made ahead (Session.prepare_next), a touch-down's landing is
-    made there too (SwitchHandover.prepare: where the sole is, a forward kinematics pass, and
-    the first share of the way): the touch-down tick does not compute it and takes the anchor
-    made ahead — the same answers as a walk that makes nothing ahead, and as one whose
-    touch-down tick gets another q object (then it lands in its tick)."""
+def test_a_landing_is_made_in_the_idle_part_before_its_ticks(robot):
+    """With the support switch made ahead (Session.prepare_next), a landing's work is made
+    there too (SwitchHandover.prepare: at the touch-down where the sole is, a forward
+    kinematics pass, then each tick's share of the way, an SE(3) log and exp): no tick of
+    the landing computes it, each takes what was made ahead — the same answers as a walk
+    that makes nothing ahead, and as one whose touch-down tick gets another q object (then
+    the touch-down is made in its tick, the landing's next shares ahead)."""
     ref = build("walk10", robot)
     s = ref.support
     land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
@@ -189,12 +190,15 @@ def test_a_touch_down_is_landed_in_the_idle_part_before_its_tick(robot):
     for ahead, other_q in ((True, False), (True, True), (False, False)):
         controller = StackController(load_stack("walk", robot))
         handover = controller.handover
-        touch_down, track = handover._touch_down, controller.track
-        ticking, inside = [False], []
+        track, ticking = controller.track, [False]
+        inside: dict[str, list[bool]] = {"_touch_down": [], "_step": []}
 
-        def counted(q, targets, touch_down=touch_down, ticking=ticking, inside=inside):
-            inside.append(ticking[0])
-            return touch_down(q, targets)
+        def counted(name, f, ticking=ticking, inside=inside):
+            def call(*a):
+                inside[name].append(ticking[0])
+                return f(*a)
+
+            return call
 
         def tick(*a, track=track, ticking=ticking):
             ticking[0] = True
@@ -203,16 +207,20 @@ def test_a_touch_down_is_landed_in_the_idle_part_before_its_tick(robot):
             finally:
                 ticking[0] = False
 
-        handover._touch_down, controller.track = counted, tick
+        for name in inside:
+            setattr(handover, name, counted(name, getattr(handover, name)))
+        controller.track = tick
         session = Session(controller, robot, ref)
         qs = []
-        for i in range(land + 10):
+        for i in range(land + 15):
             qs.append(session.tick(i).copy())
             if ahead:
                 session.prepare_next()
             if other_q and i == land - 1:
                 session.q = session.q.copy()  # (the same values: not the q it was made for)
         answers.append(np.array(qs))
-        made_ahead = [False] if ahead else []  # (made in the idle part; then in its tick)
-        assert inside == made_ahead + ([True] if other_q or not ahead else []), inside
+        steps = inside["_step"]
+        assert len(steps) >= 5 + ahead and inside["_touch_down"].count(False) == ahead
+        assert inside["_touch_down"].count(True) == (other_q or not ahead)
+        assert steps.count(True) == (len(steps) if not ahead else 1 if other_q else 0), steps
     assert np.array_equal(answers[0], answers[1]) and np.array_equal(answers[0], answers[2])

@@ -82,6 +82,12 @@ class Controller(ABC):
         the tick does not pay it; the tick checks it and takes it back if it needs another
         phase or other anchors (default: nothing)."""
 
+    def prepare_tick(self, q: np.ndarray, targets: TickTargets) -> None:  # noqa: B027
+        """The idle part of a loop before the tick of ``targets`` when it switches no phase
+        (:meth:`prepare_phase` else): work of that tick that does not need its solve made
+        now; the tick checks it was made from its own inputs, else makes it (default:
+        nothing)."""
+
     #: the reference's time step, set by the loop before :meth:`start`
     dt: float = 0.01
 
@@ -292,6 +298,11 @@ class StackController(Controller):
         undo = control.set_phase_ahead(*key, self._kin, anchors)
         self._ahead = (key, targets.l_sole, targets.r_sole, undo)
         self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
+
+    def prepare_tick(self, q: np.ndarray, targets: TickTargets) -> None:
+        """A landing's next share of the way made ahead (:meth:`SwitchHandover.prepare`)."""
+        if self.handover is not None:
+            self.handover.prepare(q, targets, self.dt)
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         ahead = self._ahead
@@ -550,9 +561,11 @@ class Session:
         (:meth:`Controller.prepare_phase`: the contacts anchored on its reference soles), so
         that the tick itself does not pay it (a support phase's first tick, issue 34's
         tail); that tick checks the switch was the one it needs, else takes it back (a
-        re-planned reference, a held lift-off, a skipped tick: the same answers as without).
-        Its time is :attr:`prepare_time` (s; not in :attr:`solve_time`). Ticks mode only
-        (the first tick's switch is made so before the loop, after the rehearsal)."""
+        re-planned reference, a held lift-off, a skipped tick: the same answers as without);
+        else the work of the next tick that needs no solve (:meth:`Controller.prepare_tick`:
+        a landing's next share of the way), checked the same way. Its time is
+        :attr:`prepare_time` (s; not in :attr:`solve_time`). Ticks mode only (the first
+        tick's switch is made so before the loop, after the rehearsal)."""
         i = self._last_index
         self.prepare_time = 0.0
         if i is not None and self.options.mode == "tick":
@@ -563,11 +576,13 @@ class Session:
         if j >= self.ref.n:
             return
         phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
-        if (phase, self.support[j], self.swing[j]) == self._previous:
-            return
+        switch = (phase, self.support[j], self.swing[j]) != self._previous
         start = time.perf_counter()
         try:
-            self.controller.prepare_phase(self.q, self.targets(j))
+            if switch:
+                self.controller.prepare_phase(self.q, self.targets(j))
+            else:
+                self.controller.prepare_tick(self.q, self.targets(j))
         except WbcError:
             pass  # (nothing made ahead: the tick raises it again, as a failed tick)
         self.prepare_time = time.perf_counter() - start
