@@ -148,9 +148,9 @@ class StackSolver(ABC):
         <wbc.solvers.recovery.Recovery.on_hard_levels>`)."""
         return self._timed_solve(q, dt).dq.copy()  # may be a plan's buffer: copy
 
-    def _timed_solve(self, q: np.ndarray, dt: float | None) -> Solution:
+    def _timed_solve(self, q: np.ndarray, dt: float | None, dt_checked: bool = False) -> Solution:
         start = time.perf_counter()
-        if dt is not None:
+        if dt is not None and not dt_checked:
             check_dt(dt)
         self.last = None
         self.work.recovery_steps = 0
@@ -248,7 +248,7 @@ class StackSolver(ABC):
         started outside is moved back towards its range, never further out).
         """
         check_dt(dt, "step")
-        solution = self._timed_solve(q, dt)
+        solution = self._timed_solve(q, dt, True)
         if solution.q_next is not None:  # integrated by the compiled tick, the same way
             return solution.q_next.copy()
         return self.integrate(self.kin.q, solution.dq)
