@@ -628,3 +628,8 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
         assert not slow.triggered(MID) and not slow.events
     with pytest.raises(ConfigurationError, match="lift"):
         SteppingParams(lift=-0.01).check()
+    from wbc.balance.stepping import BAND_X, TRIGGER_SHARE
+
+    robots = SteppingParams(trigger_jump=None).for_robot(robot)  # none stated: of the band
+    assert robots.trigger_jump == pytest.approx(TRIGGER_SHARE * BAND_X)
+    assert SteppingParams().for_robot(robot).trigger_jump == 0.0  # off by default

@@ -73,11 +73,12 @@ steps of a few mm; benchmarks/pushes.md, seventh pass).
 
 **The push caught in its own step** (``trigger_jump``, ``lift``; issue 30): the dead band
 swallows a push's first 40 ms (the estimate reads 18–26 mm of a 39 mm DCM jump) and the
-re-plan came a step later. A jump of the DCM error in one tick (a push: 25 mm at 0.6 N·s, the
-unpushed walk's largest 6 mm) starts the catch at once: that swing's band drops to
+re-plan came a step later. A jump of the DCM error along the walk in one tick (a push: 25 mm
+at 0.6 N·s; unpushed: 6–8 mm) starts the catch at once: that swing's band drops to
 ``trigger_band``, the landing correction (``landing_catch``) starts, and the swing target is
 raised by ``lift`` (:meth:`StepAdjuster.lifted`; lift first, then reach: the pitched body
 puts the swing toe on the floor 20 ms after the push, short of any re-planned landing).
+``landing`` 1, 18, 15 mm: forward 0.547 → 0.695, backward 0.461 → 0.570 N·s; off (−2 plants).
 
 Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
 0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
