@@ -12,6 +12,11 @@ the torso's pitch change since the push (deg). A probe: it observes
 
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --direction forward
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping '{"band_x": 0.012}'
+    nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping \
+        '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
+
+(The swing target column is the stabilizer's, before the step adjuster's ``land``: the
+landing correction and the lift are not in it.)
 """
 
 from __future__ import annotations

@@ -24,6 +24,10 @@ the nominal run's figures, the LIPM capturability bounds
     python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step \
         --directions forward backward toward away --offsets -0.04 -0.02 0 0.02 0.04 \
         --gains '{"contact_band": 0.004}'   # five push times, the mean; the contact state
+    python benchmarks/pushes.py --solvers wqp-daqp --trajectory walk10_wb --loops step \
+        --directions forward backward --offsets -0.03 0 0.03 --stepping \
+        '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
+        # the push caught in its own step: the trigger and the lift (issue 30)
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """

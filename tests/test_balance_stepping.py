@@ -9,14 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wbc.balance.stepping import (
-    StepAdjuster,
-    SteppingParams,
-    feasible_shift,
-    landing_ok,
-    predicted_dcm,
-    shifted_plan,
-)
+from wbc.balance.footholds import feasible_shift, landing_ok, predicted_dcm, shifted_plan
+from wbc.balance.stepping import StepAdjuster, SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.exceptions import ConfigurationError, TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE
@@ -597,3 +591,45 @@ def test_band_travel_widens_the_band_to_the_walks_own_dcm_travel(robot, walk10):
     assert same.bands == (same.params.band_x, same.params.band_y)  # walk10: 11 mm sideways
     with pytest.raises(ConfigurationError, match="band_travel"):
         SteppingParams(band_travel=-1.0).check()
+
+
+def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
+    """``trigger_jump``: in single support, the DCM error jumping by more than it in one tick
+    (a push) drops that swing's dead band to ``trigger_band`` — a re-plan inside the usual
+    band — and ``lift`` raises the swing target (blended in over ``lift_time``, back to the
+    plan at the landing, not in the next single support); the same error reached slowly, or
+    without the trigger, re-plans nothing and lifts nothing."""
+    params = SteppingParams(trigger_jump=0.012, lift=0.01, lift_time=0.03)
+    rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+    adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
+    w, band = adj.omega, adj.params.band_x
+    err = np.array([0.8 * band, 0.0])  # inside the usual band
+    assert adj.update(walk10, MID - 1, dcm(walk10, MID - 1, w)) is None
+    assert adj.land(tg, est, q) is tg  # not triggered: the plan's swing
+    new = adj.update(walk10, MID, dcm(walk10, MID, w) + err)  # a 20 mm jump in one tick
+    assert new is not None and adj.triggered(MID)
+    out = adj.land(tg, est, q)
+    x = walk10.dt / 0.03  # the blend's first tick
+    np.testing.assert_allclose(out.swing_position - tg.swing_position,
+                               [0.0, 0.0, 0.01 * x * x * (3 - 2 * x)], atol=1e-12)  # fmt: skip
+    _, tg_late, est_late, q_late, _ = _land_case(robot, walk10, params, rot, move, i=MID + 4)
+    lifted = adj.land(tg_late, est_late, q_late)  # blended in, the landing 8 ticks away
+    assert 0.005 < lifted.swing_position[2] - tg_late.swing_position[2] <= 0.01 + 1e-12
+    _, tg_end, est_end, q_end, _ = _land_case(robot, walk10, params, rot, move, i=LAND - 1)
+    assert adj.land(tg_end, est_end, q_end).swing_position[2] - tg_end.swing_position[2] < 2e-3
+    later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
+    _, tg2, est2, q2, _ = _land_case(robot, walk10, params, rot, move, i=later)
+    assert not adj.triggered(later) and adj.land(tg2, est2, q2) is tg2
+    for p in (params, SteppingParams()):  # the same error in 4 mm steps, or no trigger
+        slow = StepAdjuster(robot, walk10, p)
+        ticks = [(MID - 4 + j, err * (j + 1) / 5) for j in range(5)] if p is params else [
+            (MID - 1, 0 * err), (MID, err)]  # fmt: skip
+        assert all(slow.update(walk10, i, dcm(walk10, i, w) + e) is None for i, e in ticks)
+        assert not slow.triggered(MID) and not slow.events
+    with pytest.raises(ConfigurationError, match="lift"):
+        SteppingParams(lift=-0.01).check()
+    from wbc.balance.stepping import BAND_X, TRIGGER_SHARE
+
+    robots = SteppingParams(trigger_jump=None).for_robot(robot)  # none stated: of the band
+    assert robots.trigger_jump == pytest.approx(TRIGGER_SHARE * BAND_X)
+    assert SteppingParams().for_robot(robot).trigger_jump == 0.0  # off by default

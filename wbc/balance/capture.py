@@ -14,7 +14,8 @@ from ..walking.footsteps import Footstep, FootstepPlan
 from ..walking.legs import LegGeometry
 from ..walking.reference import WalkingReference
 from ..walking.schedule import GaitTiming, SwingParams, build_phases
-from .stepping import SteppingParams, bend_rate, feasible_shift
+from .footholds import bend_rate, feasible_shift
+from .stepping import SteppingParams
 
 
 def capture_bounds(

@@ -71,6 +71,15 @@ foothold, the CoM re-planned from it) and the walk's clock jumps to the landing
 forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
 steps of a few mm; benchmarks/pushes.md, seventh pass).
 
+**The push caught in its own step** (``trigger_jump``, ``lift``; issue 30): the dead band
+swallows a push's first 40 ms (the estimate reads 18–26 mm of a 39 mm DCM jump) and the
+re-plan came a step later. A jump of the DCM error along the walk in one tick (a push: 25 mm
+at 0.6 N·s; unpushed: 6–8 mm) starts the catch at once: that swing's band drops to
+``trigger_band``, the landing correction (``landing_catch``) starts, and the swing target is
+raised by ``lift`` (:meth:`StepAdjuster.lifted`; lift first, then reach: the pitched body
+puts the swing toe on the floor 20 ms after the push, short of any re-planned landing).
+``landing`` 1, 18, 15 mm: forward 0.547 → 0.695, backward 0.461 → 0.570 N·s; off (−2 plants).
+
 Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
 0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
 the forward and backward bounds (0.56 → 0.63–0.70, 0.47 → 0.54–0.68 N·s) but costs randomised
@@ -102,7 +111,13 @@ from ..walking.schedule import (
     sole_tracks,
     zmp_knots,
 )
-from ..walking.spline import min_jerk, smoothstep
+from .footholds import (
+    bend,
+    bend_rate,
+    dead_zone,
+    feasible_shift,
+    shifted_plan,
+)
 
 #: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
 #: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
@@ -110,6 +125,10 @@ from ..walking.spline import min_jerk, smoothstep
 #: benchmarks/op3.md)
 BAND_X = 0.025
 BAND_Y = 0.018
+#: the push trigger's DCM jump per tick of a robot that states none, as a share of its dead
+#: band along the walk (the Bioloid: 12 mm; its unpushed ``walk10_wb``'s largest jump 6–8
+#: mm with and without the feed-forward, a 0.6 N·s push's 25 mm)
+TRIGGER_SHARE = 0.48
 
 
 @dataclass(frozen=True)
@@ -160,7 +179,8 @@ class SteppingParams:
     #: share of the swing over which the correction blends in from lift-off (smoothstep)
     landing_blend: float = 0.0
     #: s: > 0: the correction only in a single support whose DCM error has left the dead
-    #: band (a push being caught; latched to the landing), blended in over this time
+    #: band (with ``trigger_jump``: whose DCM jumped) (a push being caught; latched to the
+    #: landing), blended in over this time
     landing_catch: float = 0.0
     #: s: > 0: the correction less its running mean per stance side (this time constant):
     #: a plant's steady lag of its plan left alone, a push's departure from it corrected
@@ -186,6 +206,21 @@ class SteppingParams:
     #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
     #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0
+    #: m: a push caught in the step it comes in: in single support, the estimated DCM error
+    #: along the walk jumping by more than this from one tick to the next (the unpushed
+    #: ``walk10_wb``'s largest jump: 6–8 mm; a 0.6 N·s push: 25 mm) starts the catch at
+    #: once: that swing's dead bands drop to ``trigger_band`` (the re-plan in the pushed
+    #: step, not a step later), the landing correction (``landing_catch``) starts and the
+    #: swing lifts (``lift``) (0: off)
+    trigger_jump: float | None = 0.0  # (None: the robot's, else TRIGGER_SHARE × band_x)
+    trigger_band: float = 0.0
+    #: m: once triggered, the swing sole's target raised by this much (blended in over
+    #: ``lift_time`` s, out over the swing's last ``lift_land`` share so that it lands on
+    #: time): the push pitches the body about the stance toe and the swing toe meets the
+    #: floor 20 ms later, short of any re-planned landing (lift first, then reach; 0: off)
+    lift: float = 0.0
+    lift_time: float = 0.03
+    lift_land: float = 0.3
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -195,6 +230,9 @@ class SteppingParams:
         stated = data.balance.get("stepping", {}) if data is not None else {}
         bands = {"band_x": BAND_X, "band_y": BAND_Y}
         out = {k: stated.get(k, d) for k, d in bands.items() if getattr(self, k) is None}
+        if self.trigger_jump is None:  # the robot's, else half its band along the walk
+            band_x = float(out.get("band_x", self.band_x) or BAND_X)
+            out["trigger_jump"] = stated.get("trigger_jump", TRIGGER_SHARE * band_x)
         return replace(self, **out) if out else self
 
     def check(self) -> SteppingParams:
@@ -202,10 +240,11 @@ class SteppingParams:
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
-            "hurry_band", "catch_band", "band_travel",
+            "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
+            "lift_time", "lift_land",
         ):  # fmt: skip
             v = getattr(self, name)
-            if v is None and name in ("band_x", "band_y", "catch_band"):
+            if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
@@ -226,101 +265,6 @@ class SteppingParams:
                 f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}"
             )
         return self
-
-
-# ---------------------------------------------------------------------- the law
-def predicted_dcm(xi: np.ndarray, cop: np.ndarray, omega: float, horizon: float) -> np.ndarray:
-    """LIPM DCM after ``horizon`` s with the CoP held at ``cop``: ``p + (ξ − p) e^{ω T}``."""
-    xi, cop = np.asarray(xi, float), np.asarray(cop, float)
-    return cop + (xi - cop) * math.exp(omega * max(horizon, 0.0))
-
-
-def shifted_plan(plan: FootstepPlan, first: int, shift: np.ndarray) -> FootstepPlan:
-    """``plan`` with steps ``first, first + 1, …`` moved by ``shift`` (x, y; world)."""
-    dx, dy = float(shift[0]), float(shift[1])
-    steps = tuple(
-        replace(s, x=s.x + dx, y=s.y + dy) if k >= first else s for k, s in enumerate(plan.steps)
-    )
-    return FootstepPlan(plan.start_left, plan.start_right, steps)
-
-
-def landing_ok(
-    plan: FootstepPlan,
-    k: int,
-    legs: LegGeometry,
-    com_height: float,
-    foot: Any,
-    min_clearance: float,
-) -> bool:
-    """Can step ``k`` of ``plan`` (and the step after it) be walked: no crossing, the
-    clearance along the swing and on landing, both legs within reach and within their hip
-    roll limits (the CoM midway between the feet, torso upright)?"""
-    left, right = plan.placements()[k]
-    local = FootstepPlan(left, right, plan.steps[k : k + 2])
-    try:
-        local.validate(foot, legs, com_height, min_clearance)
-    except TrajectoryError:
-        return False
-    for left, right in local.placements()[1:]:
-        mid = 0.5 * (left.position + right.position)
-        com = np.array([[mid[0], mid[1], com_height]])
-        heading = np.array([0.5 * (left.yaw + right.yaw)])
-        rolls = legs.leg_rolls(com, heading, left.position[None], right.position[None])[0]
-        if np.any(rolls < -legs.max_adduction) or np.any(rolls > legs.max_abduction):
-            return False
-    return True
-
-
-def feasible_shift(
-    plan: FootstepPlan,
-    k: int,
-    wanted: np.ndarray,
-    legs: LegGeometry,
-    com_height: float,
-    foot: Any,
-    min_clearance: float,
-    iterations: int = 10,
-) -> np.ndarray:
-    """The shift of steps ``k, …`` closest to ``wanted`` (per axis, lateral first, by
-    bisection) that :func:`landing_ok` accepts; zero if even the plan's own step is not."""
-    out = np.zeros(2)
-    for axis in (1, 0):
-        target = out.copy()
-        target[axis] = wanted[axis]
-        if landing_ok(shifted_plan(plan, k, target), k, legs, com_height, foot, min_clearance):
-            out = target
-            continue
-        lo, hi = 0.0, 1.0
-        for _ in range(iterations):
-            mid = 0.5 * (lo + hi)
-            trial = out.copy()
-            trial[axis] = mid * wanted[axis]
-            ok = landing_ok(shifted_plan(plan, k, trial), k, legs, com_height, foot, min_clearance)
-            lo, hi = (mid, hi) if ok else (lo, mid)
-        out[axis] = lo * wanted[axis]
-    return out
-
-
-def _dead_zone(x: float, band: float) -> float:
-    """``sign(x) max(|x| − band, 0)``."""
-    return (1.0 if x > 0 else -1.0 if x < 0 else 0.0) * max(abs(x) - band, 0.0)
-
-
-def bend(ph: Phase, i: int, dt: float, swing: SwingParams) -> tuple[np.ndarray, np.ndarray]:
-    """The share ``g`` (0 → 1) of a landing change added to the swing sole from tick ``i`` to
-    the end of its phase, and ``dg/dt``: ``g = (f(s) − f(s_i)) / (1 − f(s_i))`` with ``f``
-    the swing's own profile, so the sole's target stays continuous and lands on time."""
-    T = ph.t1 - ph.t0
-    s = (np.arange(i, ph.i1) - ph.i0) * dt / T
-    f, df, _ = (min_jerk if swing.profile == "quintic" else smoothstep)(s)
-    f0 = float(f[0])
-    return (f - f0) / (1.0 - f0), df / (1.0 - f0) / T
-
-
-def bend_rate(ph: Phase, i: int, dt: float, swing: SwingParams) -> float:
-    """Peak ``dg/dt`` (1/s) of :func:`bend` from tick ``i``: the swing sole's added peak
-    speed per metre of landing change."""
-    return float(np.max(bend(ph, i, dt, swing)[1]))
 
 
 # ---------------------------------------------------------------------- the re-planner
@@ -384,6 +328,9 @@ class StepAdjuster:
         self.end = 0  # the first step after the catch (until_inside extends it)
         self.caught_step = -1  # the last step a re-plan moved
         self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
+        self._trigger: int | None = None  # tick a DCM jump started a catch (trigger_jump)
+        #: (tick, reference, raw DCM error) of the last single-support tick (trigger_jump)
+        self._last_err: tuple[int, Any, np.ndarray] | None = None
         #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
         self._landing_mean = np.zeros((2, 6))
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
@@ -451,8 +398,10 @@ class StepAdjuster:
         end = self._catch_end()
         if p.catch_band is not None and ph.kind == "single" and self.caught_step <= ph.step < end:
             band_x, band_y = min(band_x, p.catch_band), min(band_y, p.catch_band)  # a catch
-        x = _dead_zone(x, band_x)
-        y = _dead_zone(y, band_y)
+        if self.triggered(i):  # a push caught in this swing: its whole error
+            band_x, band_y = min(band_x, p.trigger_band), min(band_y, p.trigger_band)
+        x = dead_zone(x, band_x)
+        y = dead_zone(y, band_y)
         return ph, np.array([c * x - s * y, s * x + c * y])
 
     def _track_baseline(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> None:
@@ -502,8 +451,15 @@ class StepAdjuster:
         (blended by ``w``: ``landing`` × a ramp from ``landing_band`` to twice it on the
         angle of ``E``)."""
         p = self.params
-        if p.landing <= 0 or targets.phase != "single":
+        if targets.phase != "single":
             return targets
+        targets = self.lifted(targets)
+        if p.landing <= 0:
+            return targets
+        since = self._caught
+        if p.landing_catch > 0 and p.landing_tau <= 0:  # no catch in this swing: at once
+            if since is None or self.phase_of[since] != self.phase_of[targets.i]:
+                return targets
         R_r = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix() @ self._torso_b
         E = R_r @ np.asarray(est.rotation).T
         v = pin.log3(E)
@@ -545,6 +501,43 @@ class StepAdjuster:
             swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
         )
 
+    def triggered(self, i: int) -> bool:
+        """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
+        t = self._trigger
+        return t is not None and self.phase_of[t] == self.phase_of[i]
+
+    def _watch(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> None:
+        """The push trigger (``trigger_jump``): in single support, the DCM error along the walk
+        (the stance sole's heading; against the same reference) jumping by more than
+        ``trigger_jump`` since the last tick (sideways pushes: the default catch, measured
+        better toward the swing foot; benchmarks/pushes.md)."""
+        if ref.support[i] == SUPPORT_DOUBLE:
+            self._last_err = None
+            return
+        e = np.asarray(dcm[:2], dtype=float) - self._dcm_ref(ref, i)
+        last, self._last_err = self._last_err, (i, ref, e)
+        if last is None or last[0] != i - 1 or last[1] is not ref or self.triggered(i):
+            return
+        c, s = self._heading(ref, i)
+        d = e - last[2]
+        if abs(c * d[0] + s * d[1]) > (self.params.trigger_jump or 0.0):  # along the walk
+            self._trigger = i
+
+    def lifted(self, targets: Any) -> Any:
+        """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
+        (:meth:`triggered`): blended in over ``lift_time``, out over the swing's last
+        ``lift_land`` share (smoothstep both), so that it lands where and when planned."""
+        p, i = self.params, targets.i
+        if p.lift <= 0 or not self.triggered(i):
+            return targets
+        ph = self.phases[self.phase_of[i]]
+        a = min((i - self._trigger + 1) * self.base.dt / max(p.lift_time, 1e-9), 1.0)
+        b = min((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9), 1.0)
+        w = a * a * (3.0 - 2.0 * a) * b * b * (3.0 - 2.0 * b)
+        pos = np.array(targets.swing_position, dtype=float)
+        pos[2] += p.lift * w
+        return targets.replace(swing_position=pos)
+
     @property
     def hurries(self) -> bool:
         """False when :meth:`rate` is 1 at every tick (``hurry`` 1 and no ``touchdown``, or
@@ -553,8 +546,9 @@ class StepAdjuster:
 
     @property
     def lands(self) -> bool:
-        """False when :meth:`land` returns its targets at every tick (``landing`` 0)."""
-        return self.params.landing > 0
+        """False when :meth:`land` returns its targets at every tick (``landing`` and
+        ``lift`` 0)."""
+        return self.params.landing > 0 or (self.params.lift > 0 and self.enabled)
 
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
         """The walk's clock speed after tick ``i``: ``hurry`` in a double support whose DCM
@@ -606,10 +600,16 @@ class StepAdjuster:
             return None
         if p.baseline_tau > 0:
             self._track_baseline(ref, i, dcm)
+        if (p.trigger_jump or 0.0) > 0:
+            self._watch(ref, i, dcm)
         if p.landing_catch > 0 and ref.support[i] != SUPPORT_DOUBLE:
             caught = self._caught is not None and self.phase_of[self._caught] == self.phase_of[i]
-            if not caught and self.error(ref, i, dcm)[1].any():
-                self._caught = i  # the tick the DCM error left the band in this swing
+            # the tick the DCM error left the band in this swing (with trigger_jump: the
+            # tick of the jump; an unpushed walk leaving the band is no push)
+            jumps = (p.trigger_jump or 0.0) > 0
+            pushed = self.triggered(i) if jumps else self.error(ref, i, dcm)[1].any()
+            if not caught and pushed:
+                self._caught = i
         if p.touchdown > 0 and self.contact is not None:
             new = self._touchdown(ref, i)
             if new is not None:
