@@ -39,6 +39,7 @@ from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
 from .fall import FallDetector, FallParams
+from .margin import torso_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
 from .stepping import StepAdjuster, SteppingParams, can_step
@@ -169,7 +170,8 @@ def closed_loop(
     The defaults are the measured best configuration (issue 30, benchmarks/physics.md):
     ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, ×1 on
     hobby PWM servos, 0 when open loop or on servos without a compliance model); ``gains``
-    None = :func:`~wbc.balance.stabilizer.default_gains` for that ``compensate`` (without the
+    None = :func:`~wbc.balance.stabilizer.default_gains` for that ``compensate``, its torso
+    term scaled to the servos' gain margin (:func:`wbc.balance.margin.torso_gains`; without the
     feed-forward ``joint_lag`` and ``k_d`` 0.03; gains given are used as they are); step
     adjustment on, the lift-off hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
@@ -221,7 +223,13 @@ def closed_loop(
     config = config or DeployConfig(rate=rate, read=bus.can_read)
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
-    gains = (gains or default_gains(compensate)).check()  # (explicit gains win)
+    if gains is None and enabled:  # the defaults, sized to the servos' margin (explicit win)
+        gains, scale = torso_gains(default_gains(compensate), robot,
+                                   1.0 / (config.rate if config is not None else rate))
+        if scale < 1.0:
+            out(f"closed loop: torso gains x{scale:.3f} (the servos leave {scale:.3f} of the "
+                "design's gain margin: wbc.balance.margin)")  # fmt: skip
+    gains = (gains or default_gains(compensate)).check()
     if commanded and gains.kin_tilt > 0:  # the commanded joints hold no sag: no kinematic tilt
         gains = replace(gains, kin_tilt=0.0)
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin
