@@ -99,6 +99,14 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     assert est is not None and np.all(np.isfinite(est.values))
     with pytest.raises(ConfigurationError, match="sim bus cannot read and no IMU"):
         closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, None, out=lines.append)
+    # no step adjustment from a DCM the commanded joints make (the servos' sag unseen), unless
+    # asked for (benchmarks/kokone_sim.md section 0000)
+    walk, said = build("walk10", kokone), []
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim), out=said.append)
+    assert loop.stepping is None and sum("no step adjustment (its DCM" in x for x in said) == 1
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim),
+                       out=said.append, step_on_commands=True)  # fmt: skip
+    assert loop.stepping is not None
 
 
 def test_the_default_rest_is_long_enough_not_to_take_the_settling_for_gyro_bias(robot):

@@ -163,6 +163,7 @@ def closed_loop(
     fall: FallParams | None = FallParams(),  # noqa: B008 (frozen)
     calibrate_s: float = CALIBRATE_S,
     servo: ServoParams | str | None = None,
+    step_on_commands: bool = False,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
@@ -193,6 +194,9 @@ def closed_loop(
     deployment falls safely (:mod:`wbc.balance.fall`). ``calibrate_s`` (with an IMU; 0: off):
     the walk starts after that long at rest in its first pose, the IMU's gyro bias and
     levelling estimated (:func:`wbc.imu.calibrate`; a mount error stops the run, named).
+    On a bus that reads nothing, step adjustment is off unless ``step_on_commands`` (it
+    re-planned Kokone's steps from a DCM the servos' sag falsifies: walk10 on the 6 randomised
+    models open loop stands on, 1 up with it, 6 without; benchmarks/kokone_sim.md 0000).
     ``servo``: the servo model of the feed-forward — None: the robot's ``servos.toml``; a
     :class:`~wbc.sim.actuator.ServoParams`: the user's; ``"identify"``: servos.toml's with
     the stiffness identified at rest from the encoders' sag under the known gravity torques
@@ -220,12 +224,17 @@ def closed_loop(
             raise ConfigurationError(f"the {bus.name} bus cannot read: a config without read")
         out(f"closed loop: the {bus.name} bus reports no positions: the estimator uses the IMU "
             "and the commanded joint positions")  # fmt: skip
+        if stepping is not None and not step_on_commands:
+            stepping = None
+            out("closed loop: no step adjustment (its DCM would come from the commanded joints, "
+                "blind to the servos' sag: benchmarks/kokone_sim.md section 0000)")  # fmt: skip
     config = config or DeployConfig(rate=rate, read=bus.can_read)
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
     if gains is None and enabled:  # the defaults, sized to the servos' margin (explicit win)
-        gains, scale = torso_gains(default_gains(compensate), robot,
-                                   1.0 / (config.rate if config is not None else rate))
+        gains, scale = torso_gains(
+            default_gains(compensate), robot, 1.0 / (config.rate if config is not None else rate)
+        )
         if scale < 1.0:
             out(f"closed loop: torso gains x{scale:.3f} (the servos leave {scale:.3f} of the "
                 "design's gain margin: wbc.balance.margin)")  # fmt: skip

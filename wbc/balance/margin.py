@@ -19,13 +19,15 @@ half a pulse frame (the pulse waits for the board's next frame) and half its dri
 period (an analog servo holds its drive between pulses). The **gain margin** is the factor the
 whole of ``C`` could grow before ``|L| = 1`` where L's phase crosses −180°.
 
-:func:`torso_gains` scales the torso term's three gains by one factor so that the robot's
-margin is at least :data:`DESIGN_MARGIN`, the margin the default gains have on the design
-robot (the Bioloid's AX-12A, computed by :func:`gain_margin`; never scaled up). Measured on
-Kokone (BMS-380MAX hobby servos: 4× less damped than the AX-12A, a 20 ms analog drive hold;
-benchmarks/kokone_sim.md, section 000a): the model puts the proportional gain's edge at 0.38–0.40
-(the simulator: 0.3 stands, 0.5 falls on keyposes) and the rate gain's at 0.011–0.016 s (the
-simulator: 0.005 stands, 0.01 falls at a 20 ms tick), against 2.7 and 0.23 s on the Bioloid.
+:func:`torso_gains` scales the torso term's three gains by one factor when the robot's
+margin — on its nominal servo and on the randomised models' least damped servo
+(:data:`SPREAD`) — is below :data:`TOLERANCE` of the design robot's (:data:`DESIGN_PLANT`, the
+Bioloid's AX-12A, at the same tick), to the design's margin; never up. Measured on Kokone
+(BMS-380MAX hobby servos: 4× less damped than the AX-12A, a 20 ms analog drive hold;
+benchmarks/kokone_sim.md section 0000): the model puts the proportional gain's edge at
+0.31–0.35 (the simulator: 0.3 stands, 0.5 falls on keyposes) and the rate gain's at
+0.016–0.026 s (the simulator: 0.005 stands, 0.01 falls at a 20 ms tick), against 2.7 and
+0.33 s on the Bioloid; the factor is 0.025–0.04 there, 1 on the Bioloid and the OP3.
 """
 
 from __future__ import annotations
