@@ -1,6 +1,7 @@
 """Kokone closed loop through the IMU and the commanded joints: which stabilizer gains.
 
     python benchmarks/kokone_closed_loop.py                   # benchmarks/kokone_sim.md sec. 00
+    python benchmarks/kokone_closed_loop.py --gains open sized default   # section 0000
     python benchmarks/kokone_closed_loop.py --models 5 --gains open soft --trajectories walk10
     python benchmarks/kokone_closed_loop.py --gains soft --stack my_walk.toml   # another stack
 
@@ -30,7 +31,8 @@ from wbc.bench.solvers import select
 from wbc.model import load_robot
 
 GAINS = {
-    "default": Gains(),
+    "sized": None,  # the closed loop's default: Gains() sized to the servos (wbc.balance.margin)
+    "default": Gains(),  # the design robot's gains as they are
     "nohip": Gains(k_hip=0),
     "soft": Gains(k_hip=0, k_p=0.3, k_i=0.3, k_d=0.0),
     "softhip": Gains(k_p=0.3, k_i=0.3, k_d=0.0),

@@ -89,6 +89,8 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     assert not loop.deployment.config.read
     said = [x for x in lines if "reports no positions" in x]
     assert len(said) == 1 and "IMU and the commanded joint positions" in said[0]
+    sized = [x for x in lines if "torso gains x" in x]  # (wbc.balance.margin)
+    assert len(sized) == 1 and "gain margin" in sized[0]
     result = loop.deployment.run()
     assert result.completed and loop.deployment.last_present is None
     # the commanded joints hold none of the servos' sag: no pull toward their tilt
@@ -97,6 +99,14 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     assert est is not None and np.all(np.isfinite(est.values))
     with pytest.raises(ConfigurationError, match="sim bus cannot read and no IMU"):
         closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, None, out=lines.append)
+    # no step adjustment from a DCM the commanded joints make (the servos' sag unseen), unless
+    # asked for (benchmarks/kokone_sim.md section 0000)
+    walk, said = build("walk10", kokone), []
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim), out=said.append)
+    assert loop.stepping is None and sum("no step adjustment (its DCM" in x for x in said) == 1
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim),
+                       out=said.append, step_on_commands=True)  # fmt: skip
+    assert loop.stepping is not None
 
 
 def test_the_default_rest_is_long_enough_not_to_take_the_settling_for_gyro_bias(robot):

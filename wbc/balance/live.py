@@ -39,6 +39,7 @@ from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
 from .fall import FallDetector, FallParams
+from .margin import torso_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
 from .stepping import StepAdjuster, SteppingParams, can_step
@@ -162,6 +163,7 @@ def closed_loop(
     fall: FallParams | None = FallParams(),  # noqa: B008 (frozen)
     calibrate_s: float = CALIBRATE_S,
     servo: ServoParams | str | None = None,
+    step_on_commands: bool = False,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
     the servos' present positions (``enabled=False``: the same run, open loop).
@@ -169,7 +171,8 @@ def closed_loop(
     The defaults are the measured best configuration (issue 30, benchmarks/physics.md):
     ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, ×1 on
     hobby PWM servos, 0 when open loop or on servos without a compliance model); ``gains``
-    None = :func:`~wbc.balance.stabilizer.default_gains` for that ``compensate`` (without the
+    None = :func:`~wbc.balance.stabilizer.default_gains` for that ``compensate``, its torso
+    term scaled to the servos' gain margin (:func:`wbc.balance.margin.torso_gains`; without the
     feed-forward ``joint_lag`` and ``k_d`` 0.03; gains given are used as they are); step
     adjustment on, the lift-off hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
@@ -191,6 +194,9 @@ def closed_loop(
     deployment falls safely (:mod:`wbc.balance.fall`). ``calibrate_s`` (with an IMU; 0: off):
     the walk starts after that long at rest in its first pose, the IMU's gyro bias and
     levelling estimated (:func:`wbc.imu.calibrate`; a mount error stops the run, named).
+    On a bus that reads nothing, step adjustment is off unless ``step_on_commands`` (it
+    re-planned Kokone's steps from a DCM the servos' sag falsifies: walk10 on the 6 randomised
+    models open loop stands on, 1 up with it, 6 without; benchmarks/kokone_sim.md 0000).
     ``servo``: the servo model of the feed-forward — None: the robot's ``servos.toml``; a
     :class:`~wbc.sim.actuator.ServoParams`: the user's; ``"identify"``: servos.toml's with
     the stiffness identified at rest from the encoders' sag under the known gravity torques
@@ -218,10 +224,21 @@ def closed_loop(
             raise ConfigurationError(f"the {bus.name} bus cannot read: a config without read")
         out(f"closed loop: the {bus.name} bus reports no positions: the estimator uses the IMU "
             "and the commanded joint positions")  # fmt: skip
+        if stepping is not None and not step_on_commands:
+            stepping = None
+            out("closed loop: no step adjustment (its DCM would come from the commanded joints, "
+                "blind to the servos' sag: benchmarks/kokone_sim.md section 0000)")  # fmt: skip
     config = config or DeployConfig(rate=rate, read=bus.can_read)
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
-    gains = (gains or default_gains(compensate)).check()  # (explicit gains win)
+    if gains is None and enabled:  # the defaults, sized to the servos' margin (explicit win)
+        gains, scale = torso_gains(
+            default_gains(compensate), robot, 1.0 / (config.rate if config is not None else rate)
+        )
+        if scale < 1.0:
+            out(f"closed loop: torso gains x{scale:.3f} (the servos leave {scale:.3f} of the "
+                "design's gain margin: wbc.balance.margin)")  # fmt: skip
+    gains = (gains or default_gains(compensate)).check()
     if commanded and gains.kin_tilt > 0:  # the commanded joints hold no sag: no kinematic tilt
         gains = replace(gains, kin_tilt=0.0)
     if enabled and gains.transfer > 0:  # the sway narrowed within the walk's margin

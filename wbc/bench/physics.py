@@ -133,14 +133,16 @@ def run_physics(
     from ..sim.actuator import servo_kind
 
     closed_loop = options.closed_loop
-    if closed_loop and servo_kind(robot) == "hobby_pwm":
+    commanded = closed_loop and servo_kind(robot) == "hobby_pwm"
+    if commanded:
         if not options.use_imu:
             raise ConfigurationError(
                 f"--encoders-only: {robot.name}'s hobby servos report no positions (its closed "
                 "loop is the IMU and the commanded joints)"
             )
         console.print(f"closed loop: {robot.name}'s hobby servos report no positions: the "
-                      "estimator uses the IMU and the commanded joint positions")  # fmt: skip
+                      "estimator uses the IMU and the commanded joint positions (no step "
+                      "adjustment)")  # fmt: skip
     for name, ref in refs.items():
         for entry in entries:
             console.print(f"[dim]physics: {entry.name} on {name}[/]")
@@ -153,7 +155,8 @@ def run_physics(
                 from ..balance.stepping import SteppingParams
 
                 imu = options.use_imu
-                step = SteppingParams() if options.stepping else None
+                # (a robot whose servos report nothing: off, wbc.balance.live.closed_loop)
+                step = SteppingParams() if options.stepping and not commanded else None
                 specs.append(
                     ClosedLoopSpec(entry.make, ref, None, True, imu, step)
                 )  # default_gains
