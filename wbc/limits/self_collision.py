@@ -543,11 +543,12 @@ class SelfCollisionConstraint(Constraint):
 
     ``pairs``: explicit link pairs (skips the selection); otherwise the pairs that can meet
     (:func:`choose_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
-    ``exclude``. ``common_frame``: each row's normal fixed in the frame of the joints that carry
-    both links (their columns 0: a common rotation changes no distance) instead of the world
-    (benchmarks/self_collision.md, ninth pass: `walk_strict`'s p99 2.6–3.3× lower; off: it
-    took stress trial 5101's pair to 2.97 mm through the damper's allowance, which
-    MAX_CLOSURE now caps: 6.58 mm). Usable at
+    ``exclude``. ``common_frame`` (the default; ``False``: the world's): each row's normal
+    fixed in the frame of the joints that carry both links (their columns 0: a common rotation
+    changes no distance), not in the world, whose rotating normal moves a pair's two points
+    apart along it on the base's columns: degenerate active sets, `walk_strict`'s slow ticks
+    (benchmarks/self_collision.md, ninth and tenth passes: its p99 2–3× lower; safe with the
+    damper's cap MAX_CLOSURE, stress trial 5101: 6.58 mm). Usable at
     any level of :class:`~wbc.solvers.TaskStack`; rows below the pulling tasks' level are what
     make it hold (inside one level it trades with the tasks).
     """
@@ -566,7 +567,7 @@ class SelfCollisionConstraint(Constraint):
         samples: int = DEFAULT_SAMPLES,
         seed: int = 0,
         name: str = "self_collision",
-        common_frame: bool = False,
+        common_frame: bool = True,
     ) -> None:
         super().__init__(name)
         check_parameters(margin, trigger, damping)
@@ -637,6 +638,9 @@ class SelfCollisionConstraint(Constraint):
     margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
     trigger = property(lambda self: float(self._params[1]), doc="rows below it (m)")
     damping = property(lambda self: float(self._params[2]), doc="ξ: closed per tick")
+    common_frame = property(
+        lambda self: bool(self._params[4]), doc="rows' normals fixed in the pair's common frame"
+    )
 
     def _pack(self) -> tuple:
         """(addresses, shapes, buffers) of :func:`~wbc.limits.collision_kernels.packed_rows`."""
