@@ -396,7 +396,8 @@ class PairDistances:
     keeps a lower bound on its distance, lowered by Σ_i L_ki |Δq_i| for every joint motion
     since it was last computed (valid along any sequence of configurations, by the triangle
     inequality); a pair whose bound is below the query gets its boxes' bounding-sphere bound,
-    then their separating-axis bound, and only if both are below the query its exact distance
+    then the gap along its last separating axis, then their separating-axis bound (15 axes),
+    and only if all are below the query its exact distance
     (GJK on the two boxes, :func:`~wbc.limits.collision_kernels.box_distance`). A geometry
     that is not a box is replaced by its bounding box (a conservative hull).
     """
@@ -434,6 +435,8 @@ class PairDistances:
         self.Rw, self.cw = np.zeros((G, 3, 3)), np.zeros((G, 3))
         self._placed = np.zeros(G, dtype=np.bool_)
         self._bound = np.full(K, -np.inf)  # -inf: never computed
+        #: the number of the separating axis of each pair's last separating-axis gap (-1: none)
+        self._last_axis = np.full(K, -1, np.int64)
         self._q = np.zeros(robot.n_joints)
         #: the close pairs of the last query: pair index, distance, witnesses, normal
         self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n = self.out_buffers()
@@ -479,7 +482,7 @@ class PairDistances:
             joints, self._q, self._bound, self._L_joints, Rf, pf, self.box_frame, self.box_R,
             self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
             self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
-            self.out_n, self._counts,
+            self.out_n, self._counts, self._last_axis,
         )  # fmt: skip
 
     def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
@@ -649,7 +652,7 @@ class SelfCollisionConstraint(Constraint):
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
             pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
             *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
-            self._params, self._closest,
+            self._params, self._closest, pd._last_axis,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
         return self._packed
