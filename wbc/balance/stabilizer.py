@@ -181,7 +181,8 @@ class Gains:
 #: 150 of 150 (issue 30's ninth pass, benchmarks/physics.md); the heading command low-passed
 #: at 2 Hz (``yaw_cutoff``): 295 of 300 plants against 293 on seeds 0 and 1 (the three
 #: walks; it keeps the stiff, late plants whose yaw loop rings at ~6 Hz until the hip yaw
-#: stalls, loses two soft ones on ``turn_wb``; issue 30, i30p's third round)
+#: stalls, loses two soft ones on ``turn_wb``; the OP3 147 of 150 against 148; issue 30,
+#: i30p's third round)
 NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, yaw_cutoff=2.0)
 
 
