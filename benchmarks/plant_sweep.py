@@ -116,7 +116,8 @@ def main() -> None:
         type=json_setting(Gains),
         default=[{}],
         help="JSON of Gains keywords over the variant's default (wbc.balance.stabilizer."
-        "default_gains: joint_lag 1, k_d 0.03, k_dcm_i 0.25 without feed-forward), e.g. "
+        "default_gains: joint_lag 1, k_d 0.03, k_dcm_i 0.25, yaw_cutoff 2 without "
+        "feed-forward), e.g. "
         "'{\"k_hip\": 0}'; "
         "several: each variant with each, side by side in one run (e.g. the old and the new "
         "default)",
