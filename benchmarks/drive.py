@@ -233,6 +233,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="a stop's closing step beside the stance sole, not on the commanded "
                          "pose (EngineParams(close_on_target=False): the default before "
                          "2026-12-05 19:00 UTC)")  # fmt: skip
+    ap.add_argument("--swing-settle", type=float, default=None, metavar="F",
+                    help="the share of each swing at its end in which the sole only comes "
+                         "down (EngineParams(settle=F); default the engine's)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -259,7 +262,12 @@ def main(argv: list[str] | None = None) -> int:
         "lift_gain": args.lift_gain,
         "filter_heading": args.filter_heading,
         "encoder_rest": args.encoder_rest,
-        "params": EngineParams(close_on_target=False) if args.plain_closing else None,
+        "params": None
+        if not args.plain_closing and args.swing_settle is None
+        else EngineParams(
+            close_on_target=not args.plain_closing,
+            **({} if args.swing_settle is None else {"settle": args.swing_settle}),
+        ),
     }
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]

@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +52,7 @@ from wbc.drive.envelope import planning_envelope
 from wbc.drive.odometry import PoseOdometry
 from wbc.geometry import mean_angle, relative_pose, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
+from wbc.walking.engine_params import EngineParams
 from wbc.walking.geometry import rot2
 
 
@@ -131,7 +133,8 @@ class ContactSlip:
         mj, m = sim.mj, sim.model
         self.feet = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, b) for b in sim.robot_feet()]
         self.prev: list = [None, None]
-        #: phase -> dx, dy, dyaw, |d|, |dyaw|, physics steps, Σ |f_t|, Σ μ f_n
+        #: phase -> dx, dy, dyaw, |d|, |dyaw|, physics steps, Σ |f_t|, Σ μ f_n, slip along
+        #: the command, the floor's force on the sole along the command (N·steps), Σ f_n
         self.sums: dict[str, np.ndarray] = {}
         self._phase: tuple = (None, -1.0)
         self._f6 = np.zeros(6)
@@ -173,8 +176,10 @@ class ContactSlip:
             if body in self.feet:
                 mj.mj_contactForce(m, d, k, self._f6)
                 f = self._f6
+                sign = 1.0 if c.geom1 == sim.floor else -1.0  # the floor's force on the sole
+                world = sign * (c.frame.reshape(3, 3).T @ f[:3])
                 touching[self.feet.index(body)].append(
-                    (c.pos.copy(), f[0], math.hypot(f[1], f[2]), c.friction[0])
+                    (c.pos.copy(), f[0], math.hypot(f[1], f[2]), c.friction[0], world)
                 )
         for i, body in enumerate(self.feet):
             if not touching[i]:
@@ -191,13 +196,25 @@ class ContactSlip:
                 dyaw = wrap_angle(yaw_of(R) - yaw_of(Rp))
                 ft = sum(t[2] for t in touching[i])
                 cap = sum(t[3] * t[1] for t in touching[i])
-                acc = self.sums.setdefault(label, np.zeros(8))
-                acc += (dxy[0], dxy[1], dyaw, math.hypot(*dxy), abs(dyaw), 1.0, ft, cap)
+                u = self.along(yaw_of(R))
+                fw = sum(t[4] for t in touching[i])
+                acc = self.sums.setdefault(label, np.zeros(11))
+                acc += (dxy[0], dxy[1], dyaw, math.hypot(*dxy), abs(dyaw), 1.0, ft, cap,
+                        float(dxy @ u), float(fw[:2] @ u), float(fn.sum()))  # fmt: skip
             self.prev[i] = (R, p, R.T @ (centre - p))
+
+    def along(self, heading: float) -> np.ndarray:
+        """The commanded velocity's direction in the world (the sole's heading taken for the
+        walking frame's), zero when the command is nearly on the spot (< 1 cm/s)."""
+        w = self.walker()
+        v = np.asarray(w.engine.command_velocity[:2], dtype=float)
+        n = float(np.linalg.norm(v))
+        return np.zeros(2) if n < 0.01 else rot2(heading) @ (v / n)
 
     def lines(self, yaw0: float) -> list[str]:
         """One line per phase: the net slip (start frame, cm; heading °), its path (cm, °),
-        the sole-seconds in contact and the friction used."""
+        the sole-seconds in contact, the friction used, the slip along the command (cm) and
+        the floor's mean force on the sole along the command (N) and normal (N)."""
         Rs = rot2(yaw0).T
         order = ("ds_lead", "ds_trail", "stance", "swing0", "swing1", "swing2", "swing3")
         out = []
@@ -207,7 +224,9 @@ class ContactSlip:
             out.append(f"  {label:8s} net ({100 * net[0]:+.2f}, {100 * net[1]:+.2f}) cm "
                        f"{math.degrees(a[2]):+.1f}°, path {100 * a[3]:.2f} cm "
                        f"{math.degrees(a[4]):.1f}°, in contact {a[5] * self.sim.dt:.2f} s, "
-                       f"friction used {a[6] / max(a[7], 1e-9):.2f}")  # fmt: skip
+                       f"friction used {a[6] / max(a[7], 1e-9):.2f}, along the command: "
+                       f"slip {100 * a[8]:+.2f} cm, force {a[9] / a[5]:+.3f} N "
+                       f"(normal {a[10] / a[5]:.2f} N)")  # fmt: skip
         return out
 
 
@@ -329,11 +348,24 @@ def main(argv: list[str] | None = None) -> int:
                          "(accrual)")  # fmt: skip
     ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
                     help="the walker's lift gain (default: the Walker's)")  # fmt: skip
+    ap.add_argument(
+        "--swing-settle",
+        type=float,
+        default=None,
+        metavar="F",
+        help="EngineParams(settle=F): the swing's last share only comes down",
+    )
+    ap.add_argument("--no-backlash", action="store_true",
+                    help="the randomised models without their gears' backlash (the encoders "
+                         "then read the links)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
     share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
     variations = models(robot, max(args.models) + 1, args.seed)
+    if args.no_backlash:
+        variations = [replace(v, servo_params=replace(v.servo_params, backlash=0.0))
+                      for v in variations]  # fmt: skip
     walkers: list = []
     odometers: list = []
     base, odometer = drive_sim_module.Walker, drive_sim_module.Odometer
@@ -404,7 +436,9 @@ def main(argv: list[str] | None = None) -> int:
             r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
                               window=window, track=args.track,
                               calibrate=args.calibrate, yaw_rest=args.yaw_rest,
-                              finish=args.finish, lift_gain=args.lift_gain)  # fmt: skip
+                              finish=args.finish, lift_gain=args.lift_gain,
+                              params=None if args.swing_settle is None
+                              else EngineParams(settle=args.swing_settle))  # fmt: skip
             b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
             table.append(b)
             cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])

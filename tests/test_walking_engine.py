@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from wbc import load_robot
 from wbc.exceptions import ConfigurationError
 from wbc.geometry import mean_angle, polygon_distance, wrap_angle
+from wbc.types import SUPPORT_LEFT, SUPPORT_RIGHT
 from wbc.walking import Foot, FootstepPlan, GaitTiming, LegGeometry, StandingState, SwingParams
 from wbc.walking.checks import check_reference
 from wbc.walking.engine import (
@@ -370,3 +371,42 @@ def test_a_heading_offset_turns_the_steps(setup) -> None:
     assert max(abs(s.yaw) for s in e.planned) < 0.101  # (no overshoot)
     yaws = [s.yaw for s in e.planned]
     assert np.max(np.diff(yaws)) < 0.025  # gently, within catch_up
+
+
+def _swings(e: WalkEngine, commands) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per swing of a rollout: the swing sole's (x, y, yaw) per tick, its height per tick
+    and where it landed (x, y, yaw)."""
+    ref = rollout(e, commands)
+    sup = ref.support
+    out = []
+    for code, pos, yaw in ((SUPPORT_RIGHT, ref.l_sole, ref.l_sole_yaw),
+                           (SUPPORT_LEFT, ref.r_sole, ref.r_sole_yaw)):  # fmt: skip
+        single = sup == code
+        edges = np.flatnonzero(np.diff(single.astype(int)))
+        for i0, i1 in zip(edges[::2] + 1, edges[1::2] + 1, strict=False):
+            track = np.c_[pos[i0:i1, :2], yaw[i0:i1]]
+            out.append((track, pos[i0:i1, 2] - pos[i1, 2], np.r_[pos[i1, :2], yaw[i1]]))
+    return out
+
+
+def test_a_settled_swing_comes_down_in_place(setup) -> None:
+    """``settle``: over the swing's last share the sole only comes down — its horizontal
+    place and heading are the landing's while it is still above the floor — and the swing
+    is otherwise the same (the height as before, the landings where they were); without
+    it (``settle=0``, the swing before) the sole is still moving over the floor there."""
+    commands = [(1.6, 0.07, 0.0, 0.3), (1.2, 0.0, 0.025, -0.3)]
+    plain = _swings(engine(setup, replace(LEGS_ONLY, settle=0.0)), commands)
+    settled = _swings(engine(setup, replace(LEGS_ONLY, settle=0.25)), commands)
+    assert len(plain) == len(settled) >= 6
+    moved = 0.0
+    for (a, za, land_a), (b, zb, land_b) in zip(plain, settled, strict=True):
+        np.testing.assert_allclose(land_b, land_a, atol=1e-9)
+        np.testing.assert_allclose(zb, za, atol=1e-12)
+        n = len(b)
+        last = slice(int(np.ceil(0.75 * n)) + 1, n)  # (s >= 0.75 after a tick's rounding)
+        np.testing.assert_allclose(b[last], np.broadcast_to(land_b, b[last].shape), atol=1e-9)
+        assert np.all(zb[last] > 0.0)  # still above the floor: it comes down in place
+        moved = max(moved, float(np.abs(a[last] - land_a).max()))
+    assert moved > 1e-3  # the plain swing is still moving there
+    with pytest.raises(ConfigurationError, match="settle"):
+        EngineParams(settle=1.0).check()

@@ -77,6 +77,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plan the swing up to G times higher where the encoders measure the swing sole "
              "below 0.7 of its apex (default 2; 1: as planned)",
     )  # fmt: skip
+    parser.add_argument(
+        "--swing-settle", type=number(0, 0.5), default=None, metavar="F",
+        help="the share of each swing at its end in which the sole only comes down, its "
+             "horizontal move done (default 0.2; 0: moving to the end)",
+    )  # fmt: skip
     add_motion_arguments(parser, rate=100.0)  # --rate, --on-fault, --max-speed, --soft-speed, --log
     parser.add_argument(
         "--settle", type=number(0, 600), default=1.0, help="s standing after the stop"
@@ -179,9 +184,13 @@ def run(args: argparse.Namespace) -> int:
         bus = make_bus(args, robot, args.port)
         imu = make_imu(args, bus)
     print("wbc drive: measuring the velocity limits and the balance window on the model ...")
-    extra = {} if args.stride_gain is None else {"stride_gain": args.stride_gain}
+    extra: dict[str, Any] = {} if args.stride_gain is None else {"stride_gain": args.stride_gain}
     if args.lift_gain is not None:
         extra["lift_gain"] = args.lift_gain
+    if args.swing_settle is not None:
+        from ..walking.engine_params import EngineParams
+
+        extra["params"] = EngineParams(settle=args.swing_settle)
     walker = Walker(robot, controller, imu, closed=not args.open_loop,
                     compensate=args.compensate, correct=args.correct,
                     track=args.track, **extra)  # fmt: skip

@@ -23,7 +23,9 @@ plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
   CoM follows it by Kajita's preview control run tick by tick (:class:`PreviewController`'s
   gains; its jerk input from the ZMP error, its integral and the next second of the path);
 * **swing** — the swing sole's min-jerk path to its landing with an apex
-  (:func:`wbc.walking.schedule.sole_tracks` for the one step), the torso heading the mean
+  (:func:`wbc.walking.schedule.sole_tracks` for the one step; its horizontal move and
+  turn done by the last ``settle`` share of the swing, which only comes down: a sole that
+  touches down early lands in place instead of dragging), the torso heading the mean
   of the soles', and, with a :class:`~wbc.walking.window.BalanceWindow`, the torso roll the
   whole body needs for the CoM's lateral offset (as the whole-body walks plan it).
 
@@ -433,6 +435,8 @@ class WalkEngine:
         pos, yaw = (
             (tracks.l_pos, tracks.l_yaw) if step.side == "left" else (tracks.r_pos, tracks.r_yaw)
         )
+        if self.params.settle > 0:
+            pos, yaw = _settled(pos, yaw, single.lift, step, self.params.settle)
         self._swing = (pos, yaw)
         self._roles = (SOLE_FRAMES[other_side(step.side)], SOLE_FRAMES[step.side])
 
@@ -680,6 +684,20 @@ def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -
     return np.array(
         [pose[0] + ix * vx - iy * vy, pose[1] + iy * vx + ix * vy, wrap_angle(th + wz * t)]
     )
+
+
+def _settled(
+    pos: np.ndarray, yaw: np.ndarray, lift: Footstep, land: Footstep, settle: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The swing's samples (``pos`` (n, 3), ``yaw`` (n,); tick i at s = i / n of the
+    swing) with the horizontal move and the turn from ``lift`` to ``land`` done by
+    s = 1 − ``settle`` (the same min-jerk profile, compressed; the height as given)."""
+    n = len(yaw)
+    f = min_jerk(np.arange(n) / (n * (1.0 - settle)))[0]
+    out = pos.copy()
+    out[:, :2] = lift.xy[None, :] + (land.xy - lift.xy)[None, :] * f[:, None]
+    turn = wrap_angle(land.yaw - lift.yaw)
+    return out, lift.yaw + turn * f
 
 
 def _single(side: Side) -> int:
