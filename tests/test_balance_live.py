@@ -89,8 +89,11 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     assert not loop.deployment.config.read
     said = [x for x in lines if "reports no positions" in x]
     assert len(said) == 1 and "IMU and the commanded joint positions" in said[0]
-    sized = [x for x in lines if "torso gains x" in x]  # (wbc.balance.margin)
+    sized = [x for x in lines if "torso gains and hip strategy x" in x]  # (wbc.balance.margin)
     assert len(sized) == 1 and "gain margin" in sized[0]
+    g = loop.stabilizer.gains  # the hip strategy sized with the torso term (one factor)
+    assert g.k_p / Gains().k_p < 0.5
+    assert g.k_hip / Gains().k_hip == pytest.approx(g.k_p / Gains().k_p)
     result = loop.deployment.run()
     assert result.completed and loop.deployment.last_present is None
     # the commanded joints hold none of the servos' sag: no pull toward their tilt

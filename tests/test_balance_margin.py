@@ -44,7 +44,7 @@ def test_kokones_hobby_servos_scale_the_torso_term_to_the_design_margin():
     model puts k_p's edge at 0.3-0.4 and k_d's at 0.01-0.03 s (the simulator: 0.3 / 0.005
     stand, 0.5 / 0.01 fall; benchmarks/kokone_sim.md), the default gains' margin below half
     the design's; scaled, the margin is at least the design's on the nominal servo and on the
-    spread's least damped corner, only k_p, k_i and k_d changed."""
+    spread's least damped corner, only k_p, k_i, k_d and k_hip changed."""
     kokone = load_robot("kokone")
     plant = torso_plant(kokone)
     assert plant is not None and plant.delay == pytest.approx(0.02)
@@ -61,7 +61,9 @@ def test_kokones_hobby_servos_scale_the_torso_term_to_the_design_margin():
         ]  # at least the design's margin on both, exactly on the worse
         assert min(ratios) == pytest.approx(1.0, rel=1e-6) and max(ratios) > 1.0
         assert (g.k_p, g.k_i, g.k_d) == pytest.approx((scale, scale, 0.05 * scale))
-        assert g.k_hip == Gains().k_hip and g.max_tilt == Gains().max_tilt
+        # the hip strategy closes its loop through the same plant: the same factor
+        assert g.k_hip == pytest.approx(Gains().k_hip * scale)
+        assert g.max_hip == Gains().max_hip and g.max_tilt == Gains().max_tilt
 
 
 def test_a_robot_without_a_servo_model_keeps_the_gains(monkeypatch):

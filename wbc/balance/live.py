@@ -172,8 +172,9 @@ def closed_loop(
     ``compensate`` None = :func:`wbc.balance.best_compensate` (×0.5 on AX-12A servos, ×1 on
     hobby PWM servos, 0 when open loop or on servos without a compliance model); ``gains``
     None = :func:`~wbc.balance.stabilizer.default_gains` for that ``compensate``, its torso
-    term scaled to the servos' gain margin (:func:`wbc.balance.margin.torso_gains`; without the
-    feed-forward ``joint_lag`` and ``k_d`` 0.03; gains given are used as they are); step
+    term and hip strategy scaled to the servos' gain margin
+    (:func:`wbc.balance.margin.torso_gains`; without the feed-forward ``joint_lag`` and
+    ``k_d`` 0.03; gains given are used as they are); step
     adjustment on, the lift-off hold, fall detection and the start-up calibration on.
     ``compensate`` > 0 adds the servo compliance feed-forward (×gain) to the goals
     (:mod:`wbc.balance.compliance`; ``correct``: rescaled per joint from the encoders,
@@ -236,8 +237,8 @@ def closed_loop(
             default_gains(compensate), robot, 1.0 / (config.rate if config is not None else rate)
         )
         if scale < 1.0:
-            out(f"closed loop: torso gains x{scale:.3f} (the servos leave {scale:.3f} of the "
-                "design's gain margin: wbc.balance.margin)")  # fmt: skip
+            out(f"closed loop: torso gains and hip strategy x{scale:.3f} (the servos leave "
+                f"{scale:.3f} of the design's gain margin: wbc.balance.margin)")  # fmt: skip
     gains = (gains or default_gains(compensate)).check()
     if commanded and gains.kin_tilt > 0:  # the commanded joints hold no sag: no kinematic tilt
         gains = replace(gains, kin_tilt=0.0)

@@ -28,6 +28,16 @@ benchmarks/kokone_sim.md section 0000): the model puts the proportional gain's e
 0.31–0.35 (the simulator: 0.3 stands, 0.5 falls on keyposes) and the rate gain's at
 0.016–0.026 s (the simulator: 0.005 stands, 0.01 falls at a 20 ms tick), against 2.7 and
 0.33 s on the Bioloid; the factor is 0.025–0.04 there, 1 on the Bioloid and the OP3.
+
+The hip strategy (``k_hip``, rad of torso roll per m of DCM beyond its band) closes a loop
+through the same plant — the torso target rolled, the stance hip roll servo turning the upper
+body, the IMU and the kinematics reading the motion back as DCM — so the one factor scales it
+too (its ``max_hip``, a geometric bound, stays). Measured on Kokone's ``lateral_wb``, the only
+walk on which it fires (benchmarks/kokone_sim.md section 00000): at the design's 100 rad/m it
+fired on an estimated DCM 28 mm off the simulated one after a support switch, its own roll
+read back swung the estimate by ±90 mm within 60 ms, it sat at ``max_hip`` (34°) and the robot
+rolled over after it (the hip roll at stall); scaled (2.5 rad/m) the walk stands, ×2 too, ×4
+at 29°.
 """
 
 from __future__ import annotations
@@ -135,9 +145,10 @@ def torso_gains(gains: Gains, robot: Robot, dt: float) -> tuple[Gains, float]:
     """``gains`` for ``robot`` at a ``dt`` s tick, and the factor applied: when the torso
     term's gain margin on its servos (:func:`gain_margin`; the smaller of the nominal servo's
     and of the :data:`SPREAD` corner's, each over the design's on the same plant change, the
-    same tick) is below :data:`TOLERANCE` of the design's (:data:`DESIGN_PLANT`), k_p, k_i and
-    k_d scaled by one factor to the design's margin; else (and without a servo model)
-    unchanged, factor 1."""
+    same tick) is below :data:`TOLERANCE` of the design's (:data:`DESIGN_PLANT`), k_p, k_i,
+    k_d and the hip strategy's k_hip (a loop through the same plant: module docstring) scaled
+    by one factor to the design's margin; else (and without a servo model) unchanged,
+    factor 1."""
     plant = torso_plant(robot)
     if plant is None:
         return gains, 1.0
@@ -147,8 +158,8 @@ def torso_gains(gains: Gains, robot: Robot, dt: float) -> tuple[Gains, float]:
     )
     if ratio >= TOLERANCE:
         return gains, 1.0
-    return replace(gains, k_p=gains.k_p * ratio, k_i=gains.k_i * ratio,
-                   k_d=gains.k_d * ratio), ratio  # fmt: skip
+    return replace(gains, k_p=gains.k_p * ratio, k_i=gains.k_i * ratio, k_d=gains.k_d * ratio,
+                   k_hip=gains.k_hip * ratio), ratio  # fmt: skip
 
 
 def _spread(plant: TorsoPlant, corner: bool) -> TorsoPlant:
