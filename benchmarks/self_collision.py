@@ -28,8 +28,9 @@ own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; *
 first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
 tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
-``--common-frame``: also each stack with its limit's ``common_frame = true`` (the rows'
-normal fixed in the frame of the joints carrying both links: issue 34, ninth pass).
+``--world-frame``: also each stack with its limit's ``common_frame = false`` (the rows'
+normal in the world, as before the tenth pass; the default fixes it in the frame of the
+joints carrying both links: issue 34, ninth and tenth passes).
 
 ``--switch-parts``: after each table, where the first tick of a support phase spends its
 time: ours with the limit walked ``--rounds`` more times, each tick's parts timed as it runs
@@ -43,7 +44,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
-[--slowest 8] [--switch-parts] [--common-frame]``.
+[--slowest 8] [--switch-parts] [--world-frame]``.
 """
 
 from __future__ import annotations
@@ -155,7 +156,7 @@ def main() -> int:
         "--switch-parts", action="store_true", help="where a support phase's first tick goes"
     )
     parser.add_argument(
-        "--common-frame", action="store_true", help="also ours with common_frame = true"
+        "--world-frame", action="store_true", help="also ours with common_frame = false"
     )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
@@ -191,10 +192,10 @@ def table(robot, trajectory: str, args) -> None:
             for on in (False, True):
                 label = f"{stack} ({kind}), limit {'on' if on else 'off'}"
                 makers[label] = ours(walk_spec(on, stack), kind)
-                if on and args.common_frame:
+                if on and args.world_frame:
                     spec = walk_spec(True, stack)
-                    walk_limit(spec)["common_frame"] = True
-                    makers[f"{label}, common frame"] = ours(spec, kind)
+                    walk_limit(spec)["common_frame"] = False
+                    makers[f"{label}, world frame"] = ours(spec, kind)
                 if args.cold_too:
                     cold.add(f"{label}, every level cold")
                     makers[f"{label}, every level cold"] = makers[label]

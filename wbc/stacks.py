@@ -695,10 +695,11 @@ _SELF_COLLISION_KEYS = {
 
 def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint | None:
     """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
-    include = [[link, link], ...], exclude = [...], pairs = [...], optional = false }`` (all
-    but ``type`` optional). ``pairs``: only these link pairs (e.g. their own margin);
-    ``optional = true``: pairs naming a link this robot does not have are left out of
-    ``pairs`` / ``exclude`` (a stack shared by robots; with no pair left, no constraint)."""
+    include = [[link, link], ...], exclude = [...], pairs = [...], optional = false,
+    common_frame = true }`` (all but ``type`` optional). ``pairs``: only these link pairs
+    (e.g. their own margin); ``optional = true``: pairs naming a link this robot does not
+    have are left out of ``pairs`` / ``exclude`` (a stack shared by robots; with no pair
+    left, no constraint)."""
     extra = set(entry) - _SELF_COLLISION_KEYS
     if extra:
         raise TaskError(

@@ -6,10 +6,11 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
   bound on its distance, lowered at every call by Σ_i L_ki |Δq_i| (the joints' lever arms,
   :func:`wbc.limits.self_collision.lipschitz_bounds`); a pair whose bound stays above the
   query costs that product. The others get the bound of their boxes' bounding spheres
-  (|c₁ − c₂| − r₁ − r₂), then the separating-axis bound (the largest gap between the two boxes'
-  projections on their 15 candidate axes: a lower bound on the distance, exact when a face or
-  an edge pair is closest), and only a pair still below the query its exact distance:
-  :func:`box_distance`.
+  (|c₁ − c₂| − r₁ − r₂), then the gap along the axis that separated the pair last (one axis of
+  :func:`axis_gap`: turns away most far pairs), then the separating-axis bound (the largest
+  gap between the two boxes' projections on their 15 candidate axes: a lower bound on the
+  distance, exact when a face or an edge pair is closest), and only a pair still below the
+  query its exact distance: :func:`box_distance`.
 * :func:`box_distance` / :func:`exact_distance` — the signed distance of two boxes, exact to
   rounding: the separating-axis gap where the witness points along that axis lie on both
   boxes (a face and what faces it; the gap is a lower bound, two points that far apart an
@@ -196,37 +197,45 @@ def _solve_small(M, r, x, m, scale) -> bool:
     return True
 
 
+@njit(cache=True, inline="always")
+def axis_gap(R1, c1, h1, R2, c2, h2, k):
+    """The gap between the two boxes' projections on their candidate axis number k (see
+    :func:`separating_axis`; a lower bound on their distance), its unit axis (a0, a1, a2) and
+    the centres' offset along it: (gap, a0, a1, a2, dist); gap −inf for an edge pair with
+    |u × w| < :data:`EDGE_PARALLEL` (no axis of its own)."""
+    if k < 3:
+        a0, a1, a2 = R1[0, k], R1[1, k], R1[2, k]
+    elif k < 6:
+        a0, a1, a2 = R2[0, k - 3], R2[1, k - 3], R2[2, k - 3]
+    else:
+        i, j = (k - 6) // 3, (k - 6) % 3
+        u0, u1, u2 = R1[0, i], R1[1, i], R1[2, i]
+        w0, w1, w2 = R2[0, j], R2[1, j], R2[2, j]
+        a0, a1, a2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+        norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        if norm < EDGE_PARALLEL:  # (nearly) parallel edges: the face axes cover them
+            return -np.inf, a0, a1, a2, 0.0
+        a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
+    dist = a0 * (c2[0] - c1[0]) + a1 * (c2[1] - c1[1]) + a2 * (c2[2] - c1[2])
+    r1 = 0.0
+    r2 = 0.0
+    for m in range(3):
+        r1 += h1[m] * abs(R1[0, m] * a0 + R1[1, m] * a1 + R1[2, m] * a2)
+        r2 += h2[m] * abs(R2[0, m] * a0 + R2[1, m] * a1 + R2[2, m] * a2)
+    return abs(dist) - r1 - r2, a0, a1, a2, dist
+
+
 @njit(cache=True)
 def separating_axis(R1, c1, h1, R2, c2, h2, axis) -> float:
     """The largest gap between the projections of the two boxes on their 15 candidate axes
-    (face normals of each, cross products of their edges), ``axis[:3]`` its unit axis (from
-    box 1 towards box 2) and ``axis[3]`` its number (0–2: box 1's faces, 3–5: box 2's, then
-    the edge pairs 6 + 3 i + j: box 1's axis i × box 2's axis j). Positive: the boxes are
-    that far apart at least (a lower bound on their distance); negative: they overlap, and
-    −gap is their penetration depth."""
+    (face normals of each, cross products of their edges: :func:`axis_gap`), ``axis[:3]``
+    its unit axis (from box 1 towards box 2) and ``axis[3]`` its number (0–2: box 1's faces,
+    3–5: box 2's, then the edge pairs 6 + 3 i + j: box 1's axis i × box 2's axis j).
+    Positive: the boxes are that far apart at least (a lower bound on their distance);
+    negative: they overlap, and −gap is their penetration depth."""
     best = -np.inf
-    d0, d1, d2 = c2[0] - c1[0], c2[1] - c1[1], c2[2] - c1[2]
     for k in range(15):
-        if k < 3:
-            a0, a1, a2 = R1[0, k], R1[1, k], R1[2, k]
-        elif k < 6:
-            a0, a1, a2 = R2[0, k - 3], R2[1, k - 3], R2[2, k - 3]
-        else:
-            i, j = (k - 6) // 3, (k - 6) % 3
-            u0, u1, u2 = R1[0, i], R1[1, i], R1[2, i]
-            w0, w1, w2 = R2[0, j], R2[1, j], R2[2, j]
-            a0, a1, a2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
-            norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-            if norm < EDGE_PARALLEL:  # (nearly) parallel edges: the face axes cover them
-                continue
-            a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
-        dist = a0 * d0 + a1 * d1 + a2 * d2
-        r1 = 0.0
-        r2 = 0.0
-        for m in range(3):
-            r1 += h1[m] * abs(R1[0, m] * a0 + R1[1, m] * a1 + R1[2, m] * a2)
-            r2 += h2[m] * abs(R2[0, m] * a0 + R2[1, m] * a1 + R2[2, m] * a2)
-        gap = abs(dist) - r1 - r2
+        gap, a0, a1, a2, dist = axis_gap(R1, c1, h1, R2, c2, h2, k)
         if gap > best:
             best = gap
             s = 1.0 if dist >= 0.0 else -1.0
@@ -407,13 +416,15 @@ def on_box(p, R, c, h) -> bool:
 def close_pairs(
     joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
     pair_a, pair_b, query, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
+    last_axis,
 ) -> int:  # fmt: skip
     """The pairs closer than ``query`` (m), with their distances, witness points and normals
     (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
     distance at ``last_joints``) is moved to ``joints`` (``L``: joints x pairs, the lever arms)
     and tightened by what this call learnt;
     the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
-    counts the exact distances computed, ``counts[1]`` the separating-axis bounds,
+    counts the exact distances computed, ``counts[1]`` the separating-axis bounds (15 axes;
+    ``last_axis``: each pair's axis of its last one, -1 none, tried alone first),
     ``counts[3]`` the exact distances that took GJK."""
     nj = joints.shape[0]
     moved = False
@@ -449,10 +460,16 @@ def close_pairs(
         if sphere >= query:
             bound[k] = sphere
             continue
+        if last_axis[k] >= 0:  # (the axis that separated them last: one axis's gap first)
+            gap = axis_gap(Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb], last_axis[k])[0]
+            if gap >= query:
+                bound[k] = max(sphere, gap)
+                continue
         counts[1] += 1
         sat = separating_axis(Rw[ga], cw[ga], half[ga], Rw[gb], cw[gb], half[gb], axis)
+        last_axis[k] = int(axis[3])
         if sat >= query:
-            bound[k] = sat
+            bound[k] = max(sphere, sat)
             continue
         counts[0] += 1
         d = exact_distance(
@@ -663,7 +680,7 @@ def plane_rows(
 def collision_rows(
     joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius, pair_a,
     pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed, out_k, out_d,
-    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common,
+    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis,
 ) -> int:  # fmt: skip
     """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
     returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
@@ -671,6 +688,7 @@ def collision_rows(
     n = close_pairs(
         joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
         pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
+        last_axis,
     )  # fmt: skip
     counts[2] = n
     return plane_rows(
@@ -691,7 +709,7 @@ PACKED = (
     ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
     ("out_n", "float64", 2), ("counts", "int64", 1), ("G", "float64", 2), ("h", "float64", 1),
     ("row_pair", "int64", 1), ("row_gap", "float64", 1), ("params", "float64", 1),
-    ("closest", "float64", 1),
+    ("closest", "float64", 1), ("last_axis", "int64", 1),
 )  # fmt: skip
 
 
@@ -763,6 +781,7 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
         _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
         _i1(addresses, shapes, 20), _f2(addresses, shapes, 21), _f1(addresses, shapes, 22),
         _i1(addresses, shapes, 23), _f1(addresses, shapes, 24), params[4] != 0.0,
+        _i1(addresses, shapes, 27),
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]

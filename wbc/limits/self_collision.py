@@ -396,7 +396,8 @@ class PairDistances:
     keeps a lower bound on its distance, lowered by Σ_i L_ki |Δq_i| for every joint motion
     since it was last computed (valid along any sequence of configurations, by the triangle
     inequality); a pair whose bound is below the query gets its boxes' bounding-sphere bound,
-    then their separating-axis bound, and only if both are below the query its exact distance
+    then the gap along its last separating axis, then their separating-axis bound (15 axes),
+    and only if all are below the query its exact distance
     (GJK on the two boxes, :func:`~wbc.limits.collision_kernels.box_distance`). A geometry
     that is not a box is replaced by its bounding box (a conservative hull).
     """
@@ -434,6 +435,8 @@ class PairDistances:
         self.Rw, self.cw = np.zeros((G, 3, 3)), np.zeros((G, 3))
         self._placed = np.zeros(G, dtype=np.bool_)
         self._bound = np.full(K, -np.inf)  # -inf: never computed
+        #: the number of the separating axis of each pair's last separating-axis gap (-1: none)
+        self._last_axis = np.full(K, -1, np.int64)
         self._q = np.zeros(robot.n_joints)
         #: the close pairs of the last query: pair index, distance, witnesses, normal
         self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n = self.out_buffers()
@@ -479,7 +482,7 @@ class PairDistances:
             joints, self._q, self._bound, self._L_joints, Rf, pf, self.box_frame, self.box_R,
             self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
             self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
-            self.out_n, self._counts,
+            self.out_n, self._counts, self._last_axis,
         )  # fmt: skip
 
     def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
@@ -543,11 +546,12 @@ class SelfCollisionConstraint(Constraint):
 
     ``pairs``: explicit link pairs (skips the selection); otherwise the pairs that can meet
     (:func:`choose_pairs`, ``samples`` random configurations, seeded) plus ``include``, minus
-    ``exclude``. ``common_frame``: each row's normal fixed in the frame of the joints that carry
-    both links (their columns 0: a common rotation changes no distance) instead of the world
-    (benchmarks/self_collision.md, ninth pass: `walk_strict`'s p99 2.6–3.3× lower; off: it
-    took stress trial 5101's pair to 2.97 mm through the damper's allowance, which
-    MAX_CLOSURE now caps: 6.58 mm). Usable at
+    ``exclude``. ``common_frame`` (the default; ``False``: the world's): each row's normal
+    fixed in the frame of the joints that carry both links (their columns 0: a common rotation
+    changes no distance), not in the world, whose rotating normal moves a pair's two points
+    apart along it on the base's columns: degenerate active sets, `walk_strict`'s slow ticks
+    (benchmarks/self_collision.md, ninth and tenth passes: its p99 2–3× lower; safe with the
+    damper's cap MAX_CLOSURE, stress trial 5101: 6.58 mm). Usable at
     any level of :class:`~wbc.solvers.TaskStack`; rows below the pulling tasks' level are what
     make it hold (inside one level it trades with the tasks).
     """
@@ -566,7 +570,7 @@ class SelfCollisionConstraint(Constraint):
         samples: int = DEFAULT_SAMPLES,
         seed: int = 0,
         name: str = "self_collision",
-        common_frame: bool = False,
+        common_frame: bool = True,
     ) -> None:
         super().__init__(name)
         check_parameters(margin, trigger, damping)
@@ -637,6 +641,9 @@ class SelfCollisionConstraint(Constraint):
     margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
     trigger = property(lambda self: float(self._params[1]), doc="rows below it (m)")
     damping = property(lambda self: float(self._params[2]), doc="ξ: closed per tick")
+    common_frame = property(
+        lambda self: bool(self._params[4]), doc="rows' normals fixed in the pair's common frame"
+    )
 
     def _pack(self) -> tuple:
         """(addresses, shapes, buffers) of :func:`~wbc.limits.collision_kernels.packed_rows`."""
@@ -645,7 +652,7 @@ class SelfCollisionConstraint(Constraint):
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
             pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
             *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
-            self._params, self._closest,
+            self._params, self._closest, pd._last_axis,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
         return self._packed
