@@ -605,11 +605,12 @@ def cascade_solve(
     first double-support ticks' cascade 48 -> 43 µs, the p99 -7 to -10 %, replayed).
     """
     # whether the last tick ended with an inequality row active (``states``' last row, when
-    # it has one: L + 2 rows): then the deferral is not tried (it would fail on a violated
-    # row: one solve of the last level wasted, 11-38 µs on walk_strict's row ticks)
+    # it has one: L + 2 rows): then, in a tick with rows, the deferral is not tried (it would
+    # fail on a violated row: one solve of the last level wasted, 11-38 µs on walk_strict's
+    # row ticks; ``_cascade`` without ``defer_soft`` is the path it then fell back to)
     n_levels = level_rows.shape[0] - 1
     memo = states.shape[0] > n_levels + 1
-    rows_before = memo and states[states.shape[0] - 1, 0] != 0
+    rows_before = memo and states[states.shape[0] - 1, 0] != 0 and g_rows[n_levels] > 0
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
         h_eff, achieved, dq, np.bool_(not (rows_before and params[0] > 0.0)),
