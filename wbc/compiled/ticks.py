@@ -567,7 +567,8 @@ def cascade_solve(
     the levels' inequality rows in G, h; ``states[k]``: the active set of level k's bounds
     and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated), and
     ``states[L]`` if given (L + 1 rows) the last level's without its inequality rows (the
-    warm start of that solve);
+    warm start of that solve), and ``states[L + 1, 0]`` if given (L + 2 rows) 1 if the last
+    tick ended with an inequality row active, else 0 (written for the next tick);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
     rows kept (work space); ``params``: [1 to defer the levels above with inequality
     rows too (else 0), μ, tolerance of hard levels, tolerance of the inequality rows];
@@ -595,21 +596,35 @@ def cascade_solve(
     next level's solve fails or misses their rows (:data:`DEFERRED_TOL`), the levels are
     solved again with every soft level on its own. With inequality rows too when
     ``params[0]`` > 0 (``HierarchicalQP.defer_with_rows``): the levels above the last are its
-    equalities while its solution without the rows meets every row (and it had no working
-    set at the last tick), the same optimum up to rounding (its minimiser over a larger set
-    lies in the hierarchy's; walk_strict: Δq within 2e-15 of the levels solved one by one,
-    the median cascade 13.7 -> 7.9 µs); else the levels are solved one by one before any
-    row joins (one wasted solve of the last level).
+    equalities while its solution without the rows meets every row (and the last tick
+    ended with no row active, where ``states`` says), the same optimum up to rounding (its
+    minimiser over a larger set lies in the hierarchy's; walk_strict: Δq within 2e-15 of the
+    levels solved one by one, the median cascade 13.7 -> 7.9 µs); else the levels are solved
+    one by one before any row joins (one wasted solve of the last level, 11-38 µs on
+    walk_strict's row ticks: so not tried after a tick that ended with a row active; its
+    first double-support ticks' cascade 48 -> 43 µs, the p99 -7 to -10 %, replayed).
     """
+    # whether the last tick ended with an inequality row active (``states``' last row, when
+    # it has one: L + 2 rows): then, in a tick with rows, the deferral is not tried (it would
+    # fail on a violated row: one solve of the last level wasted, 11-38 µs on walk_strict's
+    # row ticks; ``_cascade`` without ``defer_soft`` is the path it then fell back to)
+    n_levels = level_rows.shape[0] - 1
+    memo = states.shape[0] > n_levels + 1
+    rows_before = memo and states[states.shape[0] - 1, 0] != 0 and g_rows[n_levels] > 0
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
-        h_eff, achieved, dq, np.bool_(True),
+        h_eff, achieved, dq, np.bool_(not (rows_before and params[0] > 0.0)),
     )  # fmt: skip
     if status == DEFERRAL_FAILED:  # a soft level above cannot be met exactly: solve it
         status = _cascade(
             J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
             h_eff, achieved, dq, np.bool_(False),
         )  # fmt: skip
+    if memo:
+        active = False
+        for k in range(n_levels):
+            active = active or _any(working[k], g_rows[n_levels])
+        states[states.shape[0] - 1, 0] = 1 if active else 0
     if status != OK:
         return status
     if not _finite(dq):

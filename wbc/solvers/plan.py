@@ -710,8 +710,9 @@ class CascadePlan(_Plan):
         self.level_hard = np.array(hard, dtype=np.bool_)
         self.error_views = self.rows.error_views()
         # (shared by the solver's plans; cleared before every tick: forget_warm_start, but
-        # for the last level's and, after it, that level's without its inequality rows)
-        self.states = self.scratch.get("states", (len(levels) + 1, nv), np.int8)
+        # for the last level's and, after it, that level's without its inequality rows and
+        # whether the last tick, in whichever layout, ended with a row active: cascade_solve)
+        self.states = self.scratch.get("states", (len(levels) + 2, nv), np.int8)
         self.states.fill(0)
         self.warm_start = self.states
         self.damped_level = len(levels) - 1
