@@ -620,7 +620,8 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
     later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
     _, tg2, est2, q2, _ = _land_case(robot, walk10, params, rot, move, i=later)
     assert not adj.triggered(later) and adj.land(tg2, est2, q2) is tg2
-    for p in (params, SteppingParams()):  # the same error in 4 mm steps, or no trigger
+    off = SteppingParams(trigger_jump=0.0)
+    for p in (params, off):  # the same error in 4 mm steps, or no trigger
         slow = StepAdjuster(robot, walk10, p)
         ticks = [(MID - 4 + j, err * (j + 1) / 5) for j in range(5)] if p is params else [
             (MID - 1, 0 * err), (MID, err)]  # fmt: skip
@@ -632,4 +633,39 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
 
     robots = SteppingParams(trigger_jump=None).for_robot(robot)  # none stated: of the band
     assert robots.trigger_jump == pytest.approx(TRIGGER_SHARE * BAND_X)
-    assert SteppingParams().for_robot(robot).trigger_jump == 0.0  # off by default
+    assert SteppingParams().for_robot(robot).trigger_jump == pytest.approx(0.018)  # default
+
+
+def test_the_trigger_skips_the_support_switch(robot, walk10):
+    """``trigger_skip``: the DCM estimate jumps at the support switch (the first single-support
+    tick; up to 40 mm on randomised plants): a jump there triggers nothing by default, the
+    same jump a tick later does; ``trigger_skip`` 0 reads it."""
+    adj = StepAdjuster(robot, walk10, SteppingParams(trigger_jump=0.012))
+    ph = adj.phases[adj.phase_of[MID]]
+    w, err = adj.omega, np.array([0.02, 0.0])
+    for skip, i, fires in ((1, ph.i0 + 1, False), (1, ph.i0 + 2, True), (0, ph.i0 + 1, True)):
+        a = StepAdjuster(robot, walk10, SteppingParams(trigger_jump=0.012, trigger_skip=skip))
+        for k in range(ph.i0, i):
+            a.update(walk10, k, dcm(walk10, k, w))
+        a.update(walk10, i, dcm(walk10, i, w) + err)
+        assert bool(a.triggered(i)) == fires, (skip, i - ph.i0)
+    with pytest.raises(ConfigurationError, match="trigger_skip"):
+        SteppingParams(trigger_skip=-1).check()
+
+
+def test_the_trigger_reads_a_jump_against_the_jitter_before_it(robot, walk10):
+    """``trigger_sigma``: a 20 mm jump after ticks that already swing by ±10 mm (a jittery
+    plant: its running RMS × 5 beyond 20 mm) is no push; after a still error it is, and with
+    ``trigger_sigma`` 0 it is either way."""
+    w = StepAdjuster(robot, walk10).omega
+    probe = StepAdjuster(robot, walk10)
+    ph = probe.phases[probe.phase_of[MID]]
+    for sigma, jitter, fires in ((5.0, 0.005, False), (5.0, 0.0, True), (0.0, 0.005, True)):
+        p = SteppingParams(trigger_jump=0.012, trigger_sigma=sigma, trigger_tau=0.05)
+        a = StepAdjuster(robot, walk10, p)
+        for k in range(ph.i0, MID):
+            a.update(walk10, k, dcm(walk10, k, w) + [jitter * (-1) ** k, 0.0])
+        assert not a.triggered(MID - 1)
+        last = jitter * (-1) ** (MID - 1)
+        a.update(walk10, MID, dcm(walk10, MID, w) + [last + 0.02, 0.0])
+        assert bool(a.triggered(MID)) == fires, (sigma, jitter)
