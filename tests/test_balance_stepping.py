@@ -450,7 +450,7 @@ def test_the_swing_sole_lands_where_the_measured_body_puts_it(robot, walk10, lat
     import pinocchio as pin
 
     rot, move = np.array([0.05, 0.2, 0.0]), np.array([0.01, -0.004, -0.006])
-    params = SteppingParams(landing=1.0, landing_lateral=lateral)
+    params = SteppingParams(landing=1.0, landing_catch=0.0, landing_lateral=lateral)
     adj, tg, est, q, R_r = _land_case(robot, walk10, params, rot, move)
     out = adj.land(tg, est, q)
     assert out is not tg and out.com is tg.com  # only the swing targets change
@@ -490,11 +490,11 @@ def test_the_landing_correction_is_off_in_double_support_inside_its_band_and_by_
     rot, move = [0.0, 0.04, 0.0], [0.005, 0.0, 0.0]
     adj, tg, est, q, _ = _land_case(robot, walk10, SteppingParams(landing=0.0), rot, move)
     assert adj.land(tg, est, q) is tg
-    banded = SteppingParams(landing=1.0, landing_band=0.05)  # 0.04 rad: inside the band
+    banded = SteppingParams(landing=1.0, landing_catch=0.0, landing_band=0.05)  # 0.04 rad: in
     adj, tg, est, q, _ = _land_case(robot, walk10, banded, rot, move)
     assert adj.land(tg, est, q) is tg
-    adj, tg, est, q, _ = _land_case(robot, walk10, SteppingParams(landing=1.0), rot, move,
-                                    i=LAND + 2)  # fmt: skip
+    plain = SteppingParams(landing=1.0, landing_catch=0.0)
+    adj, tg, est, q, _ = _land_case(robot, walk10, plain, rot, move, i=LAND + 2)
     assert tg.phase == "double" and adj.land(tg, est, q) is tg
     with pytest.raises(ConfigurationError, match="landing"):
         SteppingParams(landing=-1.0).check()
@@ -526,7 +526,7 @@ def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
     """``landing_catch``: the swing target moves only once the DCM error has left the dead
     band in this single support, blended in over ``landing_catch`` s (smoothstep), and not
     in the next single support."""
-    params = SteppingParams(landing=1.0, landing_catch=0.03)
+    params = SteppingParams(landing=1.0, landing_catch=0.03, trigger_jump=0.0, lift=0.0)
     rot, move = [0.0, 0.1, 0.0], [0.0, 0.0, 0.0]
     adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
     w = adj.omega
@@ -553,7 +553,7 @@ def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
 def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot, walk10):
     """``landing_tau``: the correction less its running mean per stance side — a lag held
     for many time constants is left alone, a sudden departure from it is corrected."""
-    params = SteppingParams(landing=1.0, landing_tau=0.05)
+    params = SteppingParams(landing=1.0, landing_tau=0.05, landing_catch=0.0, trigger_jump=0.0)
     adj, tg, est, q, _ = _land_case(robot, walk10, params, [0.0, 0.1, 0.0], [0.0, 0.0, -0.004])
     first = adj.land(tg, est, q)
     assert np.linalg.norm(first.swing_position - tg.swing_position) > 1e-4
@@ -564,7 +564,7 @@ def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot
     # taken yet, (1 − dt/τ) of it, as the plain correction of that much pitch would
     _, _, pushed, _, _ = _land_case(robot, walk10, params, [0.0, 0.2, 0.0], [0.0, 0.0, -0.004])
     moved = adj.land(tg, pushed, q).swing_position
-    plain = StepAdjuster(robot, walk10, SteppingParams(landing=1.0))
+    plain = StepAdjuster(robot, walk10, SteppingParams(landing=1.0, landing_catch=0.0))
     share = 1.0 - walk10.dt / 0.05
     _, _, lag, _, _ = _land_case(robot, walk10, params, [0.0, 0.1 * share, 0.0], [0.0] * 3)
     np.testing.assert_allclose(moved, plain.land(tg, lag, q).swing_position, atol=1e-9)
