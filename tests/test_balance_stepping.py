@@ -450,7 +450,7 @@ def test_the_swing_sole_lands_where_the_measured_body_puts_it(robot, walk10, lat
     import pinocchio as pin
 
     rot, move = np.array([0.05, 0.2, 0.0]), np.array([0.01, -0.004, -0.006])
-    params = SteppingParams(landing=1.0, landing_lateral=lateral)
+    params = SteppingParams(landing=1.0, landing_catch=0.0, landing_lateral=lateral)
     adj, tg, est, q, R_r = _land_case(robot, walk10, params, rot, move)
     out = adj.land(tg, est, q)
     assert out is not tg and out.com is tg.com  # only the swing targets change
@@ -490,11 +490,11 @@ def test_the_landing_correction_is_off_in_double_support_inside_its_band_and_by_
     rot, move = [0.0, 0.04, 0.0], [0.005, 0.0, 0.0]
     adj, tg, est, q, _ = _land_case(robot, walk10, SteppingParams(landing=0.0), rot, move)
     assert adj.land(tg, est, q) is tg
-    banded = SteppingParams(landing=1.0, landing_band=0.05)  # 0.04 rad: inside the band
+    banded = SteppingParams(landing=1.0, landing_catch=0.0, landing_band=0.05)  # 0.04 rad: in
     adj, tg, est, q, _ = _land_case(robot, walk10, banded, rot, move)
     assert adj.land(tg, est, q) is tg
-    adj, tg, est, q, _ = _land_case(robot, walk10, SteppingParams(landing=1.0), rot, move,
-                                    i=LAND + 2)  # fmt: skip
+    plain = SteppingParams(landing=1.0, landing_catch=0.0)
+    adj, tg, est, q, _ = _land_case(robot, walk10, plain, rot, move, i=LAND + 2)
     assert tg.phase == "double" and adj.land(tg, est, q) is tg
     with pytest.raises(ConfigurationError, match="landing"):
         SteppingParams(landing=-1.0).check()
@@ -526,7 +526,7 @@ def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
     """``landing_catch``: the swing target moves only once the DCM error has left the dead
     band in this single support, blended in over ``landing_catch`` s (smoothstep), and not
     in the next single support."""
-    params = SteppingParams(landing=1.0, landing_catch=0.03)
+    params = SteppingParams(landing=1.0, landing_catch=0.03, trigger_jump=0.0, lift=0.0)
     rot, move = [0.0, 0.1, 0.0], [0.0, 0.0, 0.0]
     adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
     w = adj.omega
@@ -553,7 +553,7 @@ def test_the_landing_correction_waits_for_a_catch_when_asked(robot, walk10):
 def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot, walk10):
     """``landing_tau``: the correction less its running mean per stance side — a lag held
     for many time constants is left alone, a sudden departure from it is corrected."""
-    params = SteppingParams(landing=1.0, landing_tau=0.05)
+    params = SteppingParams(landing=1.0, landing_tau=0.05, landing_catch=0.0, trigger_jump=0.0)
     adj, tg, est, q, _ = _land_case(robot, walk10, params, [0.0, 0.1, 0.0], [0.0, 0.0, -0.004])
     first = adj.land(tg, est, q)
     assert np.linalg.norm(first.swing_position - tg.swing_position) > 1e-4
@@ -564,7 +564,7 @@ def test_the_landing_correction_leaves_a_steady_lag_alone_with_landing_tau(robot
     # taken yet, (1 − dt/τ) of it, as the plain correction of that much pitch would
     _, _, pushed, _, _ = _land_case(robot, walk10, params, [0.0, 0.2, 0.0], [0.0, 0.0, -0.004])
     moved = adj.land(tg, pushed, q).swing_position
-    plain = StepAdjuster(robot, walk10, SteppingParams(landing=1.0))
+    plain = StepAdjuster(robot, walk10, SteppingParams(landing=1.0, landing_catch=0.0))
     share = 1.0 - walk10.dt / 0.05
     _, _, lag, _, _ = _land_case(robot, walk10, params, [0.0, 0.1 * share, 0.0], [0.0] * 3)
     np.testing.assert_allclose(moved, plain.land(tg, lag, q).swing_position, atol=1e-9)
@@ -620,7 +620,8 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
     later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
     _, tg2, est2, q2, _ = _land_case(robot, walk10, params, rot, move, i=later)
     assert not adj.triggered(later) and adj.land(tg2, est2, q2) is tg2
-    for p in (params, SteppingParams()):  # the same error in 4 mm steps, or no trigger
+    off = SteppingParams(trigger_jump=0.0)
+    for p in (params, off):  # the same error in 4 mm steps, or no trigger
         slow = StepAdjuster(robot, walk10, p)
         ticks = [(MID - 4 + j, err * (j + 1) / 5) for j in range(5)] if p is params else [
             (MID - 1, 0 * err), (MID, err)]  # fmt: skip
@@ -632,4 +633,39 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
 
     robots = SteppingParams(trigger_jump=None).for_robot(robot)  # none stated: of the band
     assert robots.trigger_jump == pytest.approx(TRIGGER_SHARE * BAND_X)
-    assert SteppingParams().for_robot(robot).trigger_jump == 0.0  # off by default
+    assert SteppingParams().for_robot(robot).trigger_jump == pytest.approx(0.018)  # default
+
+
+def test_the_trigger_skips_the_support_switch(robot, walk10):
+    """``trigger_skip``: the DCM estimate jumps at the support switch (the first single-support
+    tick; up to 40 mm on randomised plants): a jump there triggers nothing by default, the
+    same jump a tick later does; ``trigger_skip`` 0 reads it."""
+    adj = StepAdjuster(robot, walk10, SteppingParams(trigger_jump=0.012))
+    ph = adj.phases[adj.phase_of[MID]]
+    w, err = adj.omega, np.array([0.02, 0.0])
+    for skip, i, fires in ((1, ph.i0 + 1, False), (1, ph.i0 + 2, True), (0, ph.i0 + 1, True)):
+        a = StepAdjuster(robot, walk10, SteppingParams(trigger_jump=0.012, trigger_skip=skip))
+        for k in range(ph.i0, i):
+            a.update(walk10, k, dcm(walk10, k, w))
+        a.update(walk10, i, dcm(walk10, i, w) + err)
+        assert bool(a.triggered(i)) == fires, (skip, i - ph.i0)
+    with pytest.raises(ConfigurationError, match="trigger_skip"):
+        SteppingParams(trigger_skip=-1).check()
+
+
+def test_the_trigger_reads_a_jump_against_the_jitter_before_it(robot, walk10):
+    """``trigger_sigma``: a 20 mm jump after ticks that already swing by ±10 mm (a jittery
+    plant: its running RMS × 5 beyond 20 mm) is no push; after a still error it is, and with
+    ``trigger_sigma`` 0 it is either way."""
+    w = StepAdjuster(robot, walk10).omega
+    probe = StepAdjuster(robot, walk10)
+    ph = probe.phases[probe.phase_of[MID]]
+    for sigma, jitter, fires in ((5.0, 0.005, False), (5.0, 0.0, True), (0.0, 0.005, True)):
+        p = SteppingParams(trigger_jump=0.012, trigger_sigma=sigma, trigger_tau=0.05)
+        a = StepAdjuster(robot, walk10, p)
+        for k in range(ph.i0, MID):
+            a.update(walk10, k, dcm(walk10, k, w) + [jitter * (-1) ** k, 0.0])
+        assert not a.triggered(MID - 1)
+        last = jitter * (-1) ** (MID - 1)
+        a.update(walk10, MID, dcm(walk10, MID, w) + [last + 0.02, 0.0])
+        assert bool(a.triggered(MID)) == fires, (sigma, jitter)

@@ -71,19 +71,16 @@ foothold, the CoM re-planned from it) and the walk's clock jumps to the landing
 forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
 steps of a few mm; benchmarks/pushes.md, seventh pass).
 
-**The push caught in its own step** (``trigger_jump``, ``lift``; issue 30): the dead band
-swallows a push's first 40 ms (the estimate reads 18–26 mm of a 39 mm DCM jump) and the
-re-plan came a step later. A jump of the DCM error along the walk in one tick (a push: 25 mm
-at 0.6 N·s; unpushed: 6–8 mm) starts the catch at once: that swing's band drops to
-``trigger_band``, the landing correction (``landing_catch``) starts, and the swing target is
-raised by ``lift`` (:meth:`StepAdjuster.lifted`; lift first, then reach: the pitched body
-puts the swing toe on the floor 20 ms after the push, short of any re-planned landing).
-``landing`` 1, 18, 15 mm: forward 0.547 → 0.695, backward 0.461 → 0.570 N·s; off (−2 plants).
-
-Measured (benchmarks/pushes.md): no re-plan on the unpushed walks; sideways on ``walk10``
-0.797 → 0.844 N·s (the bound 0.934); on ``walk10_wb`` the landing in the measured frame moves
-the forward and backward bounds (0.56 → 0.63–0.70, 0.47 → 0.54–0.68 N·s) but costs randomised
-plants: it, and every other term here, is off by default (issue 30).
+**The push caught in its own step** (``trigger_jump``, ``lift``; issue 30; on by default):
+the dead band swallows a push's first 40 ms and the re-plan came a step later. A jump of the
+DCM error along the walk in one tick (a push: 25 mm at 0.6 N·s; unpushed: 14 mm at most,
+past the support switch's tick, ``trigger_skip``) starts the catch at once: that swing's band
+drops to ``trigger_band``, the landing correction (``landing``, latched by ``landing_catch``)
+starts, and the swing target is raised by ``lift`` (:meth:`StepAdjuster.lifted`; lift first,
+then reach: the pitched body puts the swing toe on the floor 20 ms after the push). Measured
+(benchmarks/pushes.md): forward 0.547 → 0.711, backward 0.461 → 0.602 N·s; the same
+randomised plants up. Off: ``{"trigger_jump": 0, "landing": 0, "lift": 0}``. Every other
+term here is off by default (sideways on ``walk10`` 0.797 → 0.844 N·s; the bound 0.934).
 """
 
 from __future__ import annotations
@@ -111,13 +108,7 @@ from ..walking.schedule import (
     sole_tracks,
     zmp_knots,
 )
-from .footholds import (
-    bend,
-    bend_rate,
-    dead_zone,
-    feasible_shift,
-    shifted_plan,
-)
+from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
 
 #: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
 #: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
@@ -126,9 +117,9 @@ from .footholds import (
 BAND_X = 0.025
 BAND_Y = 0.018
 #: the push trigger's DCM jump per tick of a robot that states none, as a share of its dead
-#: band along the walk (the Bioloid: 12 mm; its unpushed ``walk10_wb``'s largest jump 6–8
-#: mm with and without the feed-forward, a 0.6 N·s push's 25 mm)
-TRIGGER_SHARE = 0.48
+#: band along the walk (the Bioloid: 18 mm; its unpushed ``walk10_wb``'s largest jump 6–8
+#: mm, 14 mm on 50 randomised plants past the support switch; a 0.6 N·s push's 25 mm)
+TRIGGER_SHARE = 0.72
 
 
 @dataclass(frozen=True)
@@ -172,7 +163,7 @@ class SteppingParams:
     #: of the base's measured pose error (rotation and position, the estimate against the
     #: controller's own) the swing target takes, from a tilt error of ``landing_band`` rad on,
     #: fully from twice it (0: off)
-    landing: float = 0.0
+    landing: float = 1.0
     landing_band: float = 0.0
     #: the share of the sideways parts (roll, the lateral position) the swing target takes
     landing_lateral: float = 1.0
@@ -181,7 +172,7 @@ class SteppingParams:
     #: s: > 0: the correction only in a single support whose DCM error has left the dead
     #: band (with ``trigger_jump``: whose DCM jumped) (a push being caught; latched to the
     #: landing), blended in over this time
-    landing_catch: float = 0.0
+    landing_catch: float = 0.02
     #: s: > 0: the correction less its running mean per stance side (this time constant):
     #: a plant's steady lag of its plan left alone, a push's departure from it corrected
     landing_tau: float = 0.0
@@ -206,19 +197,25 @@ class SteppingParams:
     #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
     #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0
-    #: m: a push caught in the step it comes in: in single support, the estimated DCM error
-    #: along the walk jumping by more than this from one tick to the next (the unpushed
-    #: ``walk10_wb``'s largest jump: 6–8 mm; a 0.6 N·s push: 25 mm) starts the catch at
+    #: m: a push caught in the step it comes in: in single support, the DCM error along the
+    #: walk jumping by more than this in one tick (a 0.6 N·s push: 25 mm) starts the catch at
     #: once: that swing's dead bands drop to ``trigger_band`` (the re-plan in the pushed
-    #: step, not a step later), the landing correction (``landing_catch``) starts and the
-    #: swing lifts (``lift``) (0: off)
-    trigger_jump: float | None = 0.0  # (None: the robot's, else TRIGGER_SHARE × band_x)
+    #: step), the landing correction (``landing_catch``) starts, the swing lifts (0: off)
+    trigger_jump: float | None = None  # (None: the robot's, else TRIGGER_SHARE × band_x)
     trigger_band: float = 0.0
+    #: ticks of a single support whose jump is not read (the first: the estimator's support
+    #: switch makes the DCM estimate jump there, up to 40 mm on the randomised plants; 14 mm
+    #: at any later tick); and the jump must pass ``trigger_sigma`` × the RMS of the per-tick
+    #: change before it (running, ``trigger_tau`` s): a jittery plant (22 mm on ``turn_wb``,
+    #: RMS 5.5 mm) is no push (benchmarks/pushes.md)
+    trigger_skip: int = 1
+    trigger_sigma: float = 5.0
+    trigger_tau: float = 0.3
     #: m: once triggered, the swing sole's target raised by this much (blended in over
     #: ``lift_time`` s, out over the swing's last ``lift_land`` share so that it lands on
     #: time): the push pitches the body about the stance toe and the swing toe meets the
     #: floor 20 ms later, short of any re-planned landing (lift first, then reach; 0: off)
-    lift: float = 0.0
+    lift: float = 0.015
     lift_time: float = 0.03
     lift_land: float = 0.3
 
@@ -230,7 +227,7 @@ class SteppingParams:
         stated = data.balance.get("stepping", {}) if data is not None else {}
         bands = {"band_x": BAND_X, "band_y": BAND_Y}
         out = {k: stated.get(k, d) for k, d in bands.items() if getattr(self, k) is None}
-        if self.trigger_jump is None:  # the robot's, else half its band along the walk
+        if self.trigger_jump is None:  # the robot's, else a share of its band along the walk
             band_x = float(out.get("band_x", self.band_x) or BAND_X)
             out["trigger_jump"] = stated.get("trigger_jump", TRIGGER_SHARE * band_x)
         return replace(self, **out) if out else self
@@ -241,7 +238,7 @@ class SteppingParams:
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
-            "lift_time", "lift_land",
+            "lift_time", "lift_land", "trigger_sigma", "trigger_tau",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
@@ -256,7 +253,7 @@ class SteppingParams:
             raise ConfigurationError(
                 f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
             )
-        for name in ("episode_steps", "rest_steps", "until_inside", "touchdown"):
+        for name in ("episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip"):
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
@@ -331,6 +328,7 @@ class StepAdjuster:
         self._trigger: int | None = None  # tick a DCM jump started a catch (trigger_jump)
         #: (tick, reference, raw DCM error) of the last single-support tick (trigger_jump)
         self._last_err: tuple[int, Any, np.ndarray] | None = None
+        self._jitter = 0.0  # the running mean square of its per-tick change (trigger_sigma)
         #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
         self._landing_mean = np.zeros((2, 6))
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
@@ -511,17 +509,19 @@ class StepAdjuster:
         (the stance sole's heading; against the same reference) jumping by more than
         ``trigger_jump`` since the last tick (sideways pushes: the default catch, measured
         better toward the swing foot; benchmarks/pushes.md)."""
-        if ref.support[i] == SUPPORT_DOUBLE:
-            self._last_err = None
+        ph = self.phases[self.phase_of[i]]
+        if ref.support[i] == SUPPORT_DOUBLE or i - ph.i0 < self.params.trigger_skip:
+            self._last_err = None  # (the support switch: trigger_skip)
             return
         e = np.asarray(dcm[:2], dtype=float) - self._dcm_ref(ref, i)
         last, self._last_err = self._last_err, (i, ref, e)
         if last is None or last[0] != i - 1 or last[1] is not ref or self.triggered(i):
             return
         c, s = self._heading(ref, i)
-        d = e - last[2]
-        if abs(c * d[0] + s * d[1]) > (self.params.trigger_jump or 0.0):  # along the walk
+        p, d = self.params, (c * (e[0] - last[2][0]) + s * (e[1] - last[2][1]))  # along
+        if abs(d) > max(p.trigger_jump or 0.0, p.trigger_sigma * math.sqrt(self._jitter)):
             self._trigger = i
+        self._jitter += (d * d - self._jitter) * min(ref.dt / max(p.trigger_tau, 1e-9), 1.0)
 
     def lifted(self, targets: Any) -> Any:
         """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
