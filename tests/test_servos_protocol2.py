@@ -141,19 +141,31 @@ def test_plan_prints_the_ax12a_budget_beside(op3):
 
 
 # ---------------------------------------------------------------- the bus on the emulator
-def open_bus(op3, port, **kw) -> Dynamixel2Bus:
+@pytest.fixture
+def open_bus(op3):
     """The bus on a thread emulator, with a 100 ms reply deadline and 6 start-up attempts:
-    on this shared machine the test process (and the emulator's thread in it) can stall."""
-    bus = Dynamixel2Bus(port, op3.servo_map, reply_timeout_ms=100.0, attempts=6, **kw)
-    bus.open()
-    lo, hi = bus.codec.safe_range(op3.q_min, op3.q_max, op3.joint_names)
-    bus.set_command_limits(lo, hi)
-    return bus
+    on this shared machine the test process (and the emulator's thread in it) can stall.
+    Every bus opened is closed at the test's end, failed or not: a failed test's open bus
+    would hold its port's lock in this process, and the next emulator's pty, given the same
+    /dev/pts number, would be refused ("in use by PID ... (pytest)") test after test."""
+    buses: list[Dynamixel2Bus] = []
+
+    def open_(port, **kw) -> Dynamixel2Bus:
+        bus = Dynamixel2Bus(port, op3.servo_map, reply_timeout_ms=100.0, attempts=6, **kw)
+        buses.append(bus)
+        bus.open()
+        lo, hi = bus.codec.safe_range(op3.q_min, op3.q_max, op3.joint_names)
+        bus.set_command_limits(lo, hi)
+        return bus
+
+    yield open_
+    for bus in buses:
+        bus.close()
 
 
-def test_start_up_writes_the_settings_and_reads_everything_in_one_sync_read(op3):
+def test_start_up_writes_the_settings_and_reads_everything_in_one_sync_read(op3, open_bus):
     with XEmulator() as emu:
-        bus = open_bus(op3, emu.port)
+        bus = open_bus(emu.port)
         bus.identify()
         bus.configure()
         knee = op3.servo_map.spec("l_knee").id
@@ -171,14 +183,14 @@ def test_start_up_writes_the_settings_and_reads_everything_in_one_sync_read(op3)
     assert emu.error is None
 
 
-def test_a_late_sync_read_reply_is_never_taken_for_the_next(op3):
+def test_a_late_sync_read_reply_is_never_taken_for_the_next(op3, open_bus):
     """Consecutive SYNC_READs differ in length (rotated form): servo 5's reply to the first
     comes 150 ms late (deadline 100 ms), while the second waits for it (servo 5 is silent
     then); that stale reply is discarded, so the second read times out instead of reading
     old data."""
     assert read_variant(224, len(HEALTH_BLOCK), 0)[1] != read_variant(224, 10, 1)[1]
     with XEmulator() as emu:
-        bus = open_bus(op3, emu.port)
+        bus = open_bus(emu.port)
         bus.configure()
         n = emu.packets_to(5)
         emu.faults += [
@@ -194,10 +206,10 @@ def test_a_late_sync_read_reply_is_never_taken_for_the_next(op3):
         bus.close()
 
 
-def test_hardware_error_names_the_fault(op3):
+def test_hardware_error_names_the_fault(op3, open_bus):
     sid = 9
     with XEmulator() as emu:
-        bus = open_bus(op3, emu.port)
+        bus = open_bus(emu.port)
         bus.configure()
         emu.faults.append(Fault("error_bits", sid, bits=HW_OVERHEATING))
         status = bus.read_positions()[op3.servo_map.index_of_id(sid)]
@@ -206,9 +218,9 @@ def test_hardware_error_names_the_fault(op3):
         bus.close()
 
 
-def test_bus_watchdog_stops_a_servo_whose_host_went_silent(op3):
+def test_bus_watchdog_stops_a_servo_whose_host_went_silent(op3, open_bus):
     with XEmulator() as emu:
-        bus = open_bus(op3, emu.port, watchdog_ms=60.0)
+        bus = open_bus(emu.port, watchdog_ms=60.0)
         bus.identify()
         bus.configure()
         bus.set_torque(True)
@@ -310,11 +322,11 @@ def test_playback_is_soft_started_and_rate_limited(op3, squat, capsys):
         assert np.all((c >= 0) & (c <= 4095))
 
 
-def test_identify_names_missing_and_doubled_servos(op3):
+def test_identify_names_missing_and_doubled_servos(op3, open_bus):
     from wbc.exceptions import ServoError
 
     with XEmulator(faults=[Fault("missing", 4)], duplicate_ids=[9]) as emu:
-        bus = open_bus(op3, emu.port)
+        bus = open_bus(emu.port)
         with pytest.raises(ServoError) as info:
             bus.identify()
         bus.close()
@@ -326,9 +338,9 @@ def test_identify_names_missing_and_doubled_servos(op3):
     assert "id 6" not in text  # the others answer
 
 
-def test_garbage_before_a_sync_read_reply_fails_that_servo(op3):
+def test_garbage_before_a_sync_read_reply_fails_that_servo(op3, open_bus):
     with XEmulator() as emu:
-        bus = open_bus(op3, emu.port)
+        bus = open_bus(emu.port)
         bus.configure()
         emu.faults.append(Fault("garbage", 6, count=1))
         statuses = bus.read_positions()
@@ -339,7 +351,7 @@ def test_garbage_before_a_sync_read_reply_fails_that_servo(op3):
         bus.close()
 
 
-def test_stiffness_writes_the_position_p_gains_and_refuses_what_they_cannot_hold(op3):
+def test_stiffness_writes_the_position_p_gains_and_refuses_what_they_cannot_hold(op3, open_bus):
     """set_stiffness(f): every servo's Position P Gain (84) = its configured gain × f in one
     SYNC_WRITE (I and D untouched); 1 restores servos.toml's; a gain outside 0..16383 is
     refused in one line naming the servos, nothing sent."""
@@ -348,7 +360,7 @@ def test_stiffness_writes_the_position_p_gains_and_refuses_what_they_cannot_hold
     sm = op3.servo_map
     configured = {int(i): int(p) for i, p in zip(sm.ids, sm.settings.position_p_gain, strict=True)}
     with XEmulator() as emu:
-        bus = open_bus(op3, emu.port)
+        bus = open_bus(emu.port)
         bus.identify()
         bus.configure()
         bus.set_stiffness(2.0)
