@@ -13,9 +13,9 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   counter-rotation: each compliant servo's extra torque opposes the sag, ``k_d`` damps the
   sway, ``k_i`` takes the steady part; ``k_roll`` (1: off) scales the command's part about
   the target's heading (the roll: 2 brings ``lateral_wb``'s nominal within 3° but rings
-  plants with servo latency; issue 30's ninth pass); ``yaw_cutoff`` (Hz, 0: off; 2 without
-  the feed-forward, :data:`NO_FEED_FORWARD_GAINS`) low-passes the command's heading part
-  (first order), below the yaw loop's ringing on stiff, late plants;
+  plants with servo latency; issue 30's ninth pass); ``yaw_cutoff`` (Hz, 0: off) low-passes
+  the command's heading part (first order), below the yaw loop's ringing on stiff, late
+  plants;
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -178,12 +178,12 @@ class Gains:
 #: the feed-forward they lose two on ``walk10_wb``, so it keeps :class:`Gains`: issue 30's
 #: sixth pass); the DCM integral along the walk (``k_dcm_i`` 0.25 /s) takes the soft plants'
 #: steady lag (nothing pre-loads their knees: the body sags back, the DCM 30–55 mm behind):
-#: 150 of 150 (issue 30's ninth pass, benchmarks/physics.md); the heading command low-passed
-#: at 2 Hz (``yaw_cutoff``): 295 of 300 plants against 293 on seeds 0 and 1 (the three
-#: walks; it keeps the stiff, late plants whose yaw loop rings at ~6 Hz until the hip yaw
-#: stalls, loses two soft ones on ``turn_wb``; the OP3 147 of 150 against 148; issue 30,
-#: i30p's third round)
-NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, yaw_cutoff=2.0)
+#: 150 of 150 (issue 30's ninth pass, benchmarks/physics.md). The heading command
+#: low-passed at 2 Hz (``yaw_cutoff``) measured 295 of 300 plants against 293 (seeds 0 and
+#: 1, the three walks) on one code and 293 against 294 on the next (2026-12-05's final main:
+#: the same knife-edge plants flip with rounding elsewhere), the OP3 147 of 150 against 148:
+#: no better, so off (benchmarks/physics.md, issue 30, i30p's third round)
+NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25)
 
 
 def default_gains(compensate: float) -> Gains:
