@@ -48,6 +48,7 @@ from ..geometry import convex_hull, sole_corners
 from ..limits.limit import Constraint, Inequality, way_back
 from ..model import Kinematics, Robot
 from ..roles import HAND_FRAMES, SIDES, SOLE_FRAMES
+from ..walking.spline import smooth
 
 TOE_FRAMES = {"left": "l_toe", "right": "r_toe"}
 HEEL_FRAMES = {"left": "l_heel", "right": "r_heel"}
@@ -474,11 +475,6 @@ def _pitch_rotation(pitch: float, frame: pin.SE3) -> np.ndarray:
     return frame.rotation @ pin.rpy.rpyToMatrix(0.0, pitch, 0.0)
 
 
-def _smooth(s: float) -> float:
-    s = min(max(s, 0.0), 1.0)
-    return s * s * (3.0 - 2.0 * s)
-
-
 class SupportHullConstraint(Constraint):
     """The CoM's ground projection inside the convex hull of the phase's contacts (points and
     soles' corners) shrunk by ``margin``, the points free to move (a sliding hand): for each
@@ -663,7 +659,7 @@ class PhasePlanner:
         q = q0.copy()
         failed = 0
         for k in range(1, n + 1):
-            s = _smooth(k * dt / phase.duration) if phase.duration > 0 else 1.0
+            s = smooth(k * dt / phase.duration) if phase.duration > 0 else 1.0
             for task, a, b in ramps:
                 task.set_target(a + s * (b - a))
             for task, a, b in turns:

@@ -108,6 +108,7 @@ from ..walking.schedule import (
     sole_tracks,
     zmp_knots,
 )
+from ..walking.spline import smooth
 from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
 
 #: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
@@ -481,12 +482,10 @@ class StepAdjuster:
             since = self._caught
             if since is None or self.phase_of[since] != self.phase_of[targets.i]:
                 return targets
-            x = min((targets.i - since + 1) * self.base.dt / p.landing_catch, 1.0)
-            w *= x * x * (3.0 - 2.0 * x)
+            w *= smooth((targets.i - since + 1) * self.base.dt / p.landing_catch)
         if p.landing_blend > 0:  # blended in from lift-off
             ph = self.phases[self.phase_of[targets.i]]
-            x = min((targets.i - ph.i0) / max(ph.i1 - ph.i0, 1) / p.landing_blend, 1.0)
-            w *= x * x * (3.0 - 2.0 * x)
+            w *= smooth((targets.i - ph.i0) / max(ph.i1 - ph.i0, 1) / p.landing_blend)
         if w <= 0:
             return targets
         E = pin.exp3(w * v)
@@ -531,9 +530,9 @@ class StepAdjuster:
         if p.lift <= 0 or not self.triggered(i):
             return targets
         ph = self.phases[self.phase_of[i]]
-        a = min((i - self._trigger + 1) * self.base.dt / max(p.lift_time, 1e-9), 1.0)
-        b = min((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9), 1.0)
-        w = a * a * (3.0 - 2.0 * a) * b * b * (3.0 - 2.0 * b)
+        w = smooth((i - self._trigger + 1) * self.base.dt / max(p.lift_time, 1e-9)) * smooth(
+            (ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9)
+        )
         pos = np.array(targets.swing_position, dtype=float)
         pos[2] += p.lift * w
         return targets.replace(swing_position=pos)

@@ -145,6 +145,13 @@ def smoothstep(s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     )
 
 
+def smooth(s: float) -> float:
+    """The scalar cubic ``3 s^2 - 2 s^3`` of ``s`` clamped to [0, 1] (:func:`smoothstep`'s
+    value, without arrays): a blend's weight."""
+    s = min(max(s, 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
 class QuinticSegment:
     """Quintic polynomial on ``[0, duration]`` matching position, velocity and acceleration
     at both ends (values may be vectors). Held (zero velocity/acceleration) outside."""
