@@ -145,6 +145,7 @@ def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
     goal = pin.SE3(sole.rotation, sole.translation + np.array([0.0, 0.025, 0.0]))
     handover._swing = "l_sole"
     t = SimpleNamespace(phase="double", swing="r_sole", l_sole=goal, r_sole=goal)
+    t.sole = lambda frame: t.l_sole if frame == "l_sole" else t.r_sole  # (TickTargets.sole)
     anchor = handover._touch_down(q, t)
     band = control.support_switch.landing_band
     assert np.linalg.norm(anchor.translation - goal.translation) == pytest.approx(band)

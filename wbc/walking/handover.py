@@ -190,7 +190,7 @@ class SwitchHandover:
         """One tick of ``landing`` (frame, anchor, elapsed): (the tick's anchor, the landing
         after it: None once at the reference sole)."""
         frame, anchor, elapsed = landing
-        goal = targets.l_sole if frame == "l_sole" else targets.r_sole
+        goal = targets.sole(frame)
         left = self.landing_time - elapsed
         if left <= dt:
             return goal, None
@@ -239,7 +239,7 @@ class SwitchHandover:
         ``landing_band``, the point of the band on the way there (the miss beyond the band is
         asked at once, as a catch step needs)."""
         sole = self._robot.frame_placement(q, self._swing)
-        goal = targets.l_sole if self._swing == "l_sole" else targets.r_sole
+        goal = targets.sole(self._swing)
         miss = sole.translation - goal.translation
         distance = float(np.linalg.norm(miss))
         if distance <= self.landing_band:

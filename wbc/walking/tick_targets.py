@@ -69,13 +69,17 @@ class TickTargets:
         out.__dict__ = values
         return out
 
+    def sole(self, frame: str) -> pin.SE3:
+        """The reference placement of the sole ``frame`` ("l_sole" or "r_sole")."""
+        return self.l_sole if frame == "l_sole" else self.r_sole
+
     @property
     def swing_placement(self) -> pin.SE3:
-        return self.l_sole if self.swing == "l_sole" else self.r_sole
+        return self.sole(self.swing)
 
     @property
     def support_placement(self) -> pin.SE3:
-        return self.l_sole if self.support == "l_sole" else self.r_sole
+        return self.sole(self.support)
 
 
 def sole_pack(l_sole: pin.SE3, r_sole: pin.SE3) -> np.ndarray:
