@@ -257,6 +257,8 @@ def box_distance(R1, c1, h1, R2, c2, h2, p1, p2, normal) -> float:
 
 #: floats of scratch that :func:`_box_distance` uses
 SCRATCH = 68
+#: the scratch of :func:`close_pairs` (its separating axis, then GJK's)
+CLOSE_WORK = 4 + SCRATCH
 
 
 @njit(cache=True)
@@ -416,7 +418,7 @@ def on_box(p, R, c, h) -> bool:
 def close_pairs(
     joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
     pair_a, pair_b, query, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
-    last_axis,
+    last_axis, work, iwork,
 ) -> int:  # fmt: skip
     """The pairs closer than ``query`` (m), with their distances, witness points and normals
     (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
@@ -425,7 +427,8 @@ def close_pairs(
     the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
     counts the exact distances computed, ``counts[1]`` the separating-axis bounds (15 axes;
     ``last_axis``: each pair's axis of its last one, -1 none, tried alone first),
-    ``counts[3]`` the exact distances that took GJK."""
+    ``counts[3]`` the exact distances that took GJK. ``work``, ``iwork``: scratch (float64,
+    int64; at least :data:`CLOSE_WORK` and 6 long)."""
     nj = joints.shape[0]
     moved = False
     for i in range(nj):
@@ -441,9 +444,10 @@ def close_pairs(
                     bound[k] -= L[i, k] * step
             last_joints[i] = joints[i]
     placed[:] = False
-    axis = np.empty(4)
-    F = np.empty(SCRATCH)
-    Iw = np.zeros(6, np.int64)
+    axis = work[:4]
+    F = work[4:CLOSE_WORK]
+    Iw = iwork[:6]
+    Iw[:] = 0
     count = 0
     for k in range(K):
         if bound[k] >= query:
@@ -545,16 +549,18 @@ def _clamp_to_box(x, R, c, hh, out) -> None:
 
 
 @njit(cache=True)
-def _along_plane(R, n, out) -> int:
-    """The axes of the box (R's columns) parallel to the plane of normal n (|aᵀn| <=
-    :data:`PARALLEL`), their numbers into ``out``; returns how many (0: its feature nearest
-    the plane is a corner, 1: an edge, 2: a face)."""
+def _along_plane(R, n):
+    """How many of the box's axes (R's columns) are parallel to the plane of normal n (|aᵀn|
+    <= :data:`PARALLEL`: 0, its feature nearest the plane is a corner, 1 an edge, 2 a face),
+    and the number of the first (-1: none)."""
     k = 0
+    first = -1
     for i in range(3):
         if abs(R[0, i] * n[0] + R[1, i] * n[1] + R[2, i] * n[2]) <= PARALLEL:
-            out[k] = i
+            if k == 0:
+                first = i
             k += 1
-    return k
+    return k, first
 
 
 @njit(cache=True)
@@ -562,16 +568,14 @@ def witness_tie(Ra, Rb, n) -> bool:
     """True if the two boxes' features nearest the separating plane (normal n) share a
     direction along it (to :data:`PARALLEL`): a face and a face or an edge, or two parallel
     edges — any point of their overlap is a witness."""
-    ia = np.empty(3, np.int64)
-    ib = np.empty(3, np.int64)
-    ka = _along_plane(Ra, n, ia)
-    kb = _along_plane(Rb, n, ib)
+    ka, ia = _along_plane(Ra, n)
+    kb, ib = _along_plane(Rb, n)
     if ka == 0 or kb == 0:
         return False
     if ka >= 2 or kb >= 2:
         return True
-    u0, u1, u2 = Ra[0, ia[0]], Ra[1, ia[0]], Ra[2, ia[0]]
-    w0, w1, w2 = Rb[0, ib[0]], Rb[1, ib[0]], Rb[2, ib[0]]
+    u0, u1, u2 = Ra[0, ia], Ra[1, ia], Ra[2, ia]
+    w0, w1, w2 = Rb[0, ib], Rb[1, ib], Rb[2, ib]
     x0, x1, x2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
     return math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) <= PARALLEL
 
@@ -586,10 +590,18 @@ def _is_corner(p, R, c, hh) -> bool:
     return dd <= 1e-18
 
 
+def work_sizes(pairs: int, nv: int) -> tuple[int, int]:
+    """The lengths of the float64 and int64 scratch that :func:`collision_rows` needs for
+    ``pairs`` pairs and ``nv`` velocity coordinates (:func:`close_pairs`', then
+    :func:`plane_rows`' for every pair close: 17 candidate rows a pair at most)."""
+    most = 17 * pairs
+    return CLOSE_WORK + pairs * 8 * nv + 8 * most + 6, 6 + most + pairs
+
+
 @njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
-    margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
+    margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common, work, iwork,
 ) -> int:  # fmt: skip
     """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
@@ -598,25 +610,33 @@ def plane_rows(
     corners of each pair's second box near the plane through p1, each with its projection
     on that plane brought onto the first box, then those of its first box near the plane
     through p2 likewise (the order of the numpy form). Each pair's bodies' terms are
-    computed once (:func:`_body_terms`)."""
-    A = np.empty((count, 2, 4, Jw.shape[1]))
+    computed once (:func:`_body_terms`). ``work``, ``iwork``: scratch (float64, int64;
+    :func:`plane_work`'s sizes at least: nothing allocated)."""
+    nv = Jw.shape[1]
+    most = 17 * count
+    o = count * 8 * nv
+    A = work[:o].reshape((count, 2, 4, nv))
+    P = work[o : o + 6 * most].reshape((most, 2, 3))
+    o += 6 * most
+    gaps = work[o : o + most]
+    H = work[o + most : o + 2 * most]
+    corner = work[o + 2 * most : o + 2 * most + 3]
+    foot = work[o + 2 * most + 3 : o + 2 * most + 6]
+    which = iwork[:most]
+    corner2 = iwork[most : most + count]  # (1: the witness on box 2 is one of its corners)
     for i in range(count):
         k = out_k[i]
         _body_terms(Jw, support[pair_a[k]], support[pair_b[k]], common, out_n[i], A[i, 0])
         _body_terms(Jw, support[pair_b[k]], support[pair_a[k]], common, out_n[i], A[i, 1])
     # the candidate rows first (pair, points, gap), then their bounds, then the rows: three
     # flat loops (the row loop vectorises; with h(gap) in it, it ran ~3x slower)
-    P = np.empty((17 * count, 2, 3))
-    which = np.empty(17 * count, np.int64)
-    gaps = np.empty(17 * count)
-    corner2 = np.empty(count, np.bool_)  # (the witness on box 2 is one of its corners)
     nc = 0
     for i in range(count):
         k = out_k[i]
         ga, gb = pair_a[k], pair_b[k]
         n = out_n[i]
-        corner2[i] = _is_corner(out_p2[i], Rw[gb], cw[gb], half[gb])
-        if corner2[i] or _is_corner(out_p1[i], Rw[ga], cw[ga], half[ga]):
+        corner2[i] = 1 if _is_corner(out_p2[i], Rw[gb], cw[gb], half[gb]) else 0
+        if corner2[i] != 0 or _is_corner(out_p1[i], Rw[ga], cw[ga], half[ga]):
             continue  # (a corner's own row below)
         if witness_tie(Rw[ga], Rw[gb], n):
             continue  # (parallel features: any point of their overlap; the corners' rows)
@@ -624,8 +644,6 @@ def plane_rows(
             P[nc, 0, m], P[nc, 1, m] = out_p1[i, m], out_p2[i, m]
         which[nc], gaps[nc] = i, out_d[i]
         nc += 1
-    corner = np.empty(3)
-    foot = np.empty(3)
     for side in range(2):  # 0: corners of box 2 vs the plane at p1; 1: box 1 vs p2
         for i in range(count):
             k = out_k[i]
@@ -647,7 +665,7 @@ def plane_rows(
                     dd += (corner[m] - p1[m]) ** 2
                 if not gap < trigger:
                     continue
-                if side == 1 and corner2[i] and dd <= 1e-18:
+                if side == 1 and corner2[i] != 0 and dd <= 1e-18:
                     continue  # (both witnesses corners: box 2's corner row is this one)
                 sign = -1.0 if side == 0 else 1.0
                 for m in range(3):
@@ -662,7 +680,6 @@ def plane_rows(
                     _clamp_to_box(foot, Rw[o], cw[o], half[o], P[nc, 1])
                 which[nc], gaps[nc] = i, gap
                 nc += 1
-    H = np.empty(nc)
     for j in range(nc):
         H[j] = damper_h(gaps[j], margin, trigger, damping)
     r = 0
@@ -680,20 +697,22 @@ def plane_rows(
 def collision_rows(
     joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius, pair_a,
     pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed, out_k, out_d,
-    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis,
+    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis, work, iwork,
 ) -> int:  # fmt: skip
     """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
     returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
-    :func:`close_pairs`)."""
+    :func:`close_pairs`; ``work``, ``iwork``: :func:`work_sizes`' scratch, nothing
+    allocated)."""
     n = close_pairs(
         joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
         pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
-        last_axis,
+        last_axis, work, iwork,
     )  # fmt: skip
     counts[2] = n
     return plane_rows(
         n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
         margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
+        work[CLOSE_WORK:], iwork[6:],
     )  # fmt: skip
 
 
@@ -709,7 +728,8 @@ PACKED = (
     ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
     ("out_n", "float64", 2), ("counts", "int64", 1), ("G", "float64", 2), ("h", "float64", 1),
     ("row_pair", "int64", 1), ("row_gap", "float64", 1), ("params", "float64", 1),
-    ("closest", "float64", 1), ("last_axis", "int64", 1),
+    ("closest", "float64", 1), ("last_axis", "int64", 1), ("work", "float64", 1),
+    ("iwork", "int64", 1),
 )  # fmt: skip
 
 
@@ -781,7 +801,7 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
         _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
         _i1(addresses, shapes, 20), _f2(addresses, shapes, 21), _f1(addresses, shapes, 22),
         _i1(addresses, shapes, 23), _f1(addresses, shapes, 24), params[4] != 0.0,
-        _i1(addresses, shapes, 27),
+        _i1(addresses, shapes, 27), _f1(addresses, shapes, 28), _i1(addresses, shapes, 29),
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]

@@ -59,7 +59,7 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import MAX_CLOSURE, close_pairs, pack, packed_rows
+from .collision_kernels import MAX_CLOSURE, close_pairs, pack, packed_rows, work_sizes
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -437,6 +437,9 @@ class PairDistances:
         self._bound = np.full(K, -np.inf)  # -inf: never computed
         #: the number of the separating axis of each pair's last separating-axis gap (-1: none)
         self._last_axis = np.full(K, -1, np.int64)
+        #: the kernels' scratch (:func:`~wbc.limits.collision_kernels.work_sizes`)
+        n_work, n_iwork = work_sizes(K, robot.nv)
+        self._work, self._iwork = np.zeros(n_work), np.zeros(n_iwork, np.int64)
         self._q = np.zeros(robot.n_joints)
         #: the close pairs of the last query: pair index, distance, witnesses, normal
         self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n = self.out_buffers()
@@ -482,7 +485,7 @@ class PairDistances:
             joints, self._q, self._bound, self._L_joints, Rf, pf, self.box_frame, self.box_R,
             self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
             self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
-            self.out_n, self._counts, self._last_axis,
+            self.out_n, self._counts, self._last_axis, self._work, self._iwork,
         )  # fmt: skip
 
     def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
@@ -652,7 +655,7 @@ class SelfCollisionConstraint(Constraint):
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
             pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
             *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
-            self._params, self._closest, pd._last_axis,
+            self._params, self._closest, pd._last_axis, pd._work, pd._iwork,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
         return self._packed
