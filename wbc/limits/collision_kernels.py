@@ -25,7 +25,8 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
   :func:`wbc.limits.collision_reference.separating_plane_rows`, the numpy form the tests compare),
   each row −nᵀ(J_b − J_a) Δq <= h(gap), nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω over the point's
   joint support.
-* :func:`collision_rows` — both in one call (what a tick calls).
+* :func:`collision_rows` — both in one call (what a tick calls, through
+  :func:`wbc.limits.collision_packed.packed_rows`: its buffers by address).
 
 Checked against coal (hpp-fcl) on random boxes and configurations:
 ``tests/test_limits_collision_kernels.py``.
@@ -36,9 +37,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import carray, njit
-
-from ..compiled.checks import address
+from numba import njit
 
 #: GJK stops when its upper and lower bounds on the distance are this close (m)
 GJK_TOL = 1e-12
@@ -714,100 +713,3 @@ def collision_rows(
         margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
         work[CLOSE_WORK:], iwork[6:],
     )  # fmt: skip
-
-
-#: the buffers of :func:`packed_rows`, passed by address (numba unboxes ~50 ns per array
-#: argument: ~2.5 µs of a tick went to passing :func:`collision_rows` its 32 arguments), in
-#: order, as (name, dtype, ndim); every one C-contiguous
-PACKED = (
-    ("last_q", "float64", 1), ("last_joints", "float64", 1), ("bound", "float64", 1),
-    ("L", "float64", 2), ("box_frame", "int64", 1), ("box_R", "float64", 3),
-    ("box_p", "float64", 2), ("half", "float64", 2), ("radius", "float64", 1),
-    ("pair_a", "int64", 1), ("pair_b", "int64", 1), ("support", "bool", 2),
-    ("Rw", "float64", 3), ("cw", "float64", 2), ("placed", "bool", 1), ("out_k", "int64", 1),
-    ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
-    ("out_n", "float64", 2), ("counts", "int64", 1), ("G", "float64", 2), ("h", "float64", 1),
-    ("row_pair", "int64", 1), ("row_gap", "float64", 1), ("params", "float64", 1),
-    ("closest", "float64", 1), ("last_axis", "int64", 1), ("work", "float64", 1),
-    ("iwork", "int64", 1),
-)  # fmt: skip
-
-
-def pack(buffers) -> tuple[np.ndarray, np.ndarray]:
-    """The addresses (int64) and shapes (n x 3, int64) of the :data:`PACKED` buffers, each
-    checked: C-contiguous, of its dtype and dimensions (the caller keeps them alive)."""
-    shapes = np.zeros((len(PACKED), 3), dtype=np.int64)
-    for k, ((name, dtype, ndim), a) in enumerate(zip(PACKED, buffers, strict=True)):
-        if a.dtype != np.dtype(dtype) or a.ndim != ndim or not a.flags.c_contiguous:
-            raise TypeError(f"self-collision buffer {name!r}: {a.dtype} {a.shape}")
-        shapes[k, :ndim] = a.shape
-    return np.array([a.ctypes.data for a in buffers], dtype=np.int64), shapes
-
-
-@njit(cache=True)
-def _f1(addresses, shapes, i):
-    return carray(address(addresses[i]), (shapes[i, 0],), np.float64)
-
-
-@njit(cache=True)
-def _f2(addresses, shapes, i):
-    return carray(address(addresses[i]), (shapes[i, 0], shapes[i, 1]), np.float64)
-
-
-@njit(cache=True)
-def _f3(addresses, shapes, i):
-    return carray(address(addresses[i]), (shapes[i, 0], shapes[i, 1], shapes[i, 2]), np.float64)
-
-
-@njit(cache=True)
-def _i1(addresses, shapes, i):
-    return carray(address(addresses[i]), (shapes[i, 0],), np.int64)
-
-
-@njit(cache=True)
-def _b1(addresses, shapes, i):
-    return carray(address(addresses[i]), (shapes[i, 0],), np.bool_)
-
-
-@njit(cache=True)
-def _b2(addresses, shapes, i):
-    return carray(address(addresses[i]), (shapes[i, 0], shapes[i, 1]), np.bool_)
-
-
-@njit(cache=True)
-def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
-    """:func:`collision_rows` at the configuration q (7 base coordinates, then the joints),
-    with the limit's buffers by address (:data:`PACKED`; their owner keeps them alive:
-    ``params`` = [margin, trigger, damping, unreachable, common frame]); −1 (nothing
-    computed) if q equals ``last_q`` exactly, the configuration of the last call (NaN before
-    the first call), else the number of rows, q into ``last_q`` and the smallest distance of
-    the close pairs into ``closest[0]`` (+inf: none)."""
-    last_q = _f1(addresses, shapes, 0)
-    same = True
-    for i in range(q.shape[0]):
-        if q[i] != last_q[i]:
-            same = False
-            break
-    if same:
-        return -1
-    params = _f1(addresses, shapes, 25)
-    r = collision_rows(
-        q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _f2(addresses, shapes, 3),
-        Rf, pf, _i1(addresses, shapes, 4), _f3(addresses, shapes, 5), _f2(addresses, shapes, 6),
-        _f2(addresses, shapes, 7), _f1(addresses, shapes, 8), _i1(addresses, shapes, 9),
-        _i1(addresses, shapes, 10), _b2(addresses, shapes, 11), Jw, params[0], params[1],
-        params[2], params[3], _f3(addresses, shapes, 12), _f2(addresses, shapes, 13),
-        _b1(addresses, shapes, 14), _i1(addresses, shapes, 15), _f1(addresses, shapes, 16),
-        _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
-        _i1(addresses, shapes, 20), _f2(addresses, shapes, 21), _f1(addresses, shapes, 22),
-        _i1(addresses, shapes, 23), _f1(addresses, shapes, 24), params[4] != 0.0,
-        _i1(addresses, shapes, 27), _f1(addresses, shapes, 28), _i1(addresses, shapes, 29),
-    )  # fmt: skip
-    for i in range(q.shape[0]):
-        last_q[i] = q[i]
-    closest = _f1(addresses, shapes, 26)
-    out_d = _f1(addresses, shapes, 16)
-    closest[0] = np.inf
-    for i in range(_i1(addresses, shapes, 20)[2]):
-        closest[0] = min(closest[0], out_d[i])
-    return r

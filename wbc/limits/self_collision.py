@@ -59,7 +59,8 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_kernels import MAX_CLOSURE, close_pairs, pack, packed_rows, work_sizes
+from .collision_kernels import MAX_CLOSURE, close_pairs, work_sizes
+from .collision_packed import pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -446,6 +447,7 @@ class PairDistances:
         self._counts = np.zeros(4, np.int64)
         self._kin: Kinematics | None = None
         self._frames: tuple[np.ndarray, np.ndarray] | None = None
+        self.jacobians = np.zeros((6, robot.nv))  # (of the Kinematics of :meth:`frames`)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
@@ -463,10 +465,12 @@ class PairDistances:
         return int(self._counts[0])
 
     def frames(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """Every frame's world rotation and position at ``kin`` (views, else copies)."""
+        """Every frame's world rotation and position at ``kin`` (views, else copies); its
+        joints' Jacobians into :attr:`jacobians` (a view)."""
         if kin is not self._kin or self._frames is None:
             self._kin = kin
             self._frames = kin.frame_placements()
+            self.jacobians = kin.data.J  # (Pinocchio's data.J: the same array at every update)
         if self._frames is None:  # (copies: made again at every call)
             n = kin.model.nframes
             R = np.array([kin.rotation(f) for f in range(n)])
@@ -628,13 +632,11 @@ class SelfCollisionConstraint(Constraint):
         self._rows: Inequality | None = None  # (copies of the last rows, made when asked)
         self._n_rows = 0
         #: the configuration of the last rows (NaN: none yet), and the kernel's buffers by
-        #: address (:data:`~wbc.limits.collision_kernels.PACKED`; made at the first compute,
+        #: address (:data:`~wbc.limits.collision_packed.PACKED`; made at the first compute,
         #: dropped by a copy: :meth:`__getstate__`)
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
-        #: each of _rows' pair (a row of :attr:`last`) and gap (m) along its pair's normal
-        self._row_pair, self._row_gap = np.zeros(0, dtype=int), np.zeros(0)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
@@ -649,7 +651,7 @@ class SelfCollisionConstraint(Constraint):
     )
 
     def _pack(self) -> tuple:
-        """(addresses, shapes, buffers) of :func:`~wbc.limits.collision_kernels.packed_rows`."""
+        """(addresses, shapes, buffers) of :func:`~wbc.limits.collision_packed.packed_rows`."""
         pd = self.distances
         buffers = (
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
@@ -686,7 +688,7 @@ class SelfCollisionConstraint(Constraint):
 
     def _update(self, kin: Kinematics) -> int:
         """The rows at ``kin`` into the limit's buffers (one compiled call,
-        :func:`~wbc.limits.collision_kernels.packed_rows`; nothing at the configuration of the
+        :func:`~wbc.limits.collision_packed.packed_rows`; nothing at the configuration of the
         last call); returns their number."""
         pd = self.distances
         if not pd.pairs:
@@ -696,12 +698,11 @@ class SelfCollisionConstraint(Constraint):
             return 0
         packed = self._packed if self._packed is not None else self._pack()
         Rf, pf = pd.frames(kin)
-        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, kin.data.J)
+        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, pd.jacobians)
         if r < 0:  # (the configuration of the last rows)
             return self._n_rows
         self._n_close, self._n_rows = int(pd._counts[2]), r
         self._last = self._rows = None
-        self._row_pair, self._row_gap = self._pair_buf[:r], self._gap_buf[:r]  # (views)
         return r
 
     def forget_rows(self) -> None:
@@ -773,14 +774,16 @@ class SelfCollisionConstraint(Constraint):
         rate only smooths the rows' activation; a hard contact's second-order drift can
         need more than a fraction ξ of the gap to be corrected)."""
         rows = self.compute(kin)
+        r = self._n_rows  # (each row's pair, a row of :attr:`last`, and gap (m) along its normal)
+        row_pair, row_gap = self._pair_buf[:r], self._gap_buf[:r]
         pair_inside = np.zeros(self._n_close, dtype=bool)
         # any of its rows (a corner's gap to the witness plane can come out a hair below the
         # witness distance: the plane's normal is the distance query's, to its tolerance)
-        pair_inside[self._row_pair[inside_margin(rows)]] = True
-        ask = pair_inside[self._row_pair]
+        pair_inside[row_pair[inside_margin(rows)]] = True
+        ask = pair_inside[row_pair]
         h_held = rows.h[~ask]
         if recovering:
-            h_held = np.maximum(h_held, self._row_gap[~ask] - self.margin)
+            h_held = np.maximum(h_held, row_gap[~ask] - self.margin)
         return Inequality(rows.G[~ask], h_held), Inequality(rows.G[ask], rows.h[ask])
 
 
