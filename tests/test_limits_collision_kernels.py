@@ -152,6 +152,22 @@ def test_compiled_rows_are_the_numpy_rows(robot, seed, common_frame):
     _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h)
 
 
+def test_the_kernels_scratch_holds_every_pair_close(robot):
+    """A trigger past every pair's distance (1 m: every pair close, the witness and 16
+    corners' rows each at most): the rows computed in the limit's own scratch (its size
+    :func:`~wbc.limits.collision_kernels.work_sizes`: the kernels allocate nothing in a tick)
+    are the numpy form's; a second configuration reuses the same scratch."""
+    limit = SelfCollisionConstraint(robot, trigger=1.0, samples=0)
+    rng = np.random.default_rng(5)
+    for q in (robot.configuration("stand"), robot.random_configuration(rng)):
+        kin = Kinematics(robot, q)
+        G, h = limit.compute(kin)
+        w = limit.witness(kin)
+        assert w.index.size == limit.n_pairs
+        assert h.size > 8 * limit.n_pairs
+        _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h)
+
+
 def _rows_around(limit, robot, q, rng, draws, size):
     """The rows at q and at ``draws`` configurations ``size`` rad away in random directions:
     (rows at q, the largest change of G or h, the largest jump of a witness point (m)). A
