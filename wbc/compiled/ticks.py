@@ -485,7 +485,10 @@ def _cascade(
         free_x = entry
         free_state = kept
         status = OK
-        for _ in range(2):
+        # the last level from rows carried from the last tick (``working``: CarriedRows): if
+        # that fails, the cold start as without them (then the other way, as there)
+        carried = direct and free and _any(working[k], g1)
+        for _ in range(3):
             warm = _any(working[k], g1)
             status = OK
             if (r1 > r0 or last) and not warm and solved:
@@ -525,7 +528,9 @@ def _cascade(
             else:
                 states[k, :] = 0
             dq[:] = entry
-            direct = False
+            direct = direct and warm
+        if carried and status == OK and not solved:  # (its set without the rows: not solved,
+            states[n_levels, :] = states[k]  # the set with them, nearer than an older one's)
         if status != OK:
             return DEFERRAL_FAILED if soft or (deferred > 0 and g1 > 0) else status
         for i in range(deferred):  # the deferred levels, met by this solve's equalities
@@ -631,6 +636,53 @@ def cascade_solve(
         return NOT_FINITE
     integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return OK
+
+
+@njit(cache=True)
+def keep_rows(G, h, p, working, Gc, hc) -> int:
+    """The rows of G[:p], h[:p] in ``working`` into Gc, hc (the damped last level's working
+    set at the end of a tick, for the next: :func:`carry_rows`); returns their number (0 if
+    Gc cannot hold them)."""
+    n = 0
+    for i in range(p):
+        if working[i]:
+            if n == Gc.shape[0]:
+                return 0
+            Gc[n] = G[i]
+            hc[n] = h[i]
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def carry_rows(Gc, hc, n, G, h, p, working, tol) -> int:
+    """Each of the ``n`` rows kept (:func:`keep_rows`) into ``working`` (p bools) as the row
+    of G[:p], h[:p] nearest to it, if within ``tol``: ‖G_i − G_c‖ + |h_i − h_c| <=
+    tol (‖G_c‖ + |h_c|) — the same row a tick later, found by its values (a self-collision
+    pair's row changes its index as pairs come and go, its G and h little in a tick).
+    Returns how many rows it marked."""
+    marked = 0
+    for c in range(n):
+        size = abs(hc[c])
+        s = 0.0
+        for j in range(Gc.shape[1]):
+            s += Gc[c, j] * Gc[c, j]
+        size += math.sqrt(s)
+        best = -1
+        nearest = tol * size
+        for i in range(p):
+            s = 0.0
+            for j in range(Gc.shape[1]):
+                d = G[i, j] - Gc[c, j]
+                s += d * d
+            d = math.sqrt(s) + abs(h[i] - hc[c])
+            if d <= nearest:
+                nearest = d
+                best = i
+        if best >= 0 and not working[best]:
+            working[best] = True
+            marked += 1
+    return marked
 
 
 @njit(cache=True)

@@ -65,6 +65,7 @@ class HierarchicalQP(StackSolver):
         hard_tol: float = 1e-6,
         compiled: bool | None = None,
         defer_with_rows: bool = True,
+        carry_rows: bool = False,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -76,6 +77,12 @@ class HierarchicalQP(StackSolver):
         #: the compiled cascade defers the levels above the last into its solve while no
         #: inequality row is active (one level solve instead of three on walk_strict)
         self.defer_with_rows = bool(defer_with_rows)
+        #: the compiled cascade's last level starts each tick from the inequality rows its
+        #: working set held at the last tick's end, found again by their values (the
+        #: numpy path starts them afresh): the same minimiser, up to rounding (off: on
+        #: walk_strict its cascade's total -12 %, but turn's p99 +3-6 %: the ticks where
+        #: the rows carried leave; benchmarks/self_collision.md, twelfth pass)
+        self.carry_rows = bool(carry_rows)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []

@@ -15,7 +15,8 @@ without one keeps the numpy path.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 import numpy as np
 
@@ -28,7 +29,10 @@ from ..model import Kinematics, Robot
 from ..tasks import Task
 from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
+from .carry import CarriedRows
 from .inequalities import ConstraintRows, compiled_constraint
+
+T = TypeVar("T")
 
 
 def numba_available() -> bool:
@@ -289,6 +293,13 @@ class Scratch:
 
     def __init__(self) -> None:
         self._blocks: dict[str, np.ndarray] = {}
+        self._objects: dict[str, object] = {}
+
+    def shared(self, name: str, build: Callable[[], T]) -> T:
+        """The object ``name`` that the plans share (built by ``build`` for the first)."""
+        if name not in self._objects:
+            self._objects[name] = build()
+        return self._objects[name]  # type: ignore[return-value]
 
     def get(self, name: str, shape: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
         """A C-contiguous array of ``shape`` and ``dtype`` in the block ``name`` (grown as
@@ -372,6 +383,8 @@ class _Plan:
     #: the index in :attr:`warm_start` of the level whose bounds' active set a tick keeps
     #: for the next (None: none kept; see :meth:`forget_warm_start`)
     damped_level: int | None = None
+    #: the damped level's working rows carried to the next tick (None: none)
+    carried: CarriedRows | None = None
 
     def __init__(
         self,
@@ -475,14 +488,17 @@ class _Plan:
         their answer then depends on no earlier tick, issue 28). Started cold, a level whose
         reference outruns the servos (``walk_strict``'s third level in single support, ~6
         joints at their speed) took 12–17 subproblem solves, ~60–90 µs; from the last tick's
-        active set 1–3 (benchmarks/self_collision.md). The inequality rows always start
-        afresh (a self-collision row's index names another pair from tick to tick)."""
+        active set 1–3 (benchmarks/self_collision.md). The inequality rows start afresh (a
+        self-collision row's index names another pair from tick to tick), but for the damped
+        last level's found again by value (:mod:`wbc.solvers.carry`)."""
         if keep_damped and self.damped_level is not None and self.solver.regularization > 0.0:
             self.warm_start[: self.damped_level].fill(0)
         else:
             self.warm_start.fill(0)
         if self.inequalities.total:
             self.inequalities.working.fill(False)
+        if not keep_damped and self.carried is not None:
+            self.carried.count = 0
 
     def reserve_rows(self, factor: int = ROW_HEADROOM) -> None:
         """Room in the inequality rows' buffers for ``factor`` times the rows of the last tick
@@ -566,6 +582,10 @@ class _Plan:
         # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
         # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
         self.forget_warm_start(keep_damped=True)
+        g, k = self.inequalities, self.damped_level or 0
+        carried = self.carried  # (the damped level's rows at the last tick's end)
+        if carried is not None and carried.count and self.carries_rows():
+            carried.carry(g.G, g.h, g.g_rows[k + 1], g.working[k])
         for limit in self._timed:
             limit.prepare(dt)
         if self.inputs:
@@ -591,12 +611,28 @@ class _Plan:
             status = self.ticks.call(self.tick_name, self.variant, (self.q, *self.packed))
             self._entry = self.ticks.entry(self.tick_name, self.variant)
             if self.ticks.split:  # (the rows of a set other than the package's: the solve)
-                return self._first_solve()
-            return status
-        if self.ticks.split:
+                status = self._first_solve()
+        elif self.ticks.split:
             entry(kin.q, *self.packed)
-            return self._solve_entry(*self.solve_args)
-        return entry(kin.q, *self.packed)
+            status = self._solve_entry(*self.solve_args)
+        else:
+            status = entry(kin.q, *self.packed)
+        if carried is not None:  # (warm_start[-1, 0]: the tick ended with a row active)
+            if self.warm_start.item(-1, 0) and self.carries_rows():
+                carried.keep(g.G, g.h, g.g_rows[k + 1], g.working[k])
+            else:
+                carried.count = 0
+        return status
+
+    def carries_rows(self) -> bool:
+        """Whether the damped level's working rows go to the next tick (:attr:`carried`,
+        with the solver's ``carry_rows`` and μ > 0)."""
+        solver = self.solver
+        return (
+            self.carried is not None
+            and getattr(solver, "carry_rows", False)
+            and solver.regularization > 0.0
+        )
 
     def _first_solve(self) -> int:
         """The first solve of a split tick (:attr:`wbc.compiled.dispatch.Ticks.split`):
@@ -716,6 +752,7 @@ class CascadePlan(_Plan):
         self.states.fill(0)
         self.warm_start = self.states
         self.damped_level = len(levels) - 1
+        self.carried = self.scratch.shared("carried", lambda: CarriedRows(self.scratch, nv))
         self.achieved = np.zeros(self.rows.m)
         self.tick_name = "cascade_tick"
         self._bind_args()

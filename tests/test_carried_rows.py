@@ -1,0 +1,90 @@
+"""The hierarchy's damped last level carries its working inequality rows from one compiled
+tick to the next, found again by value (wbc/solvers/carry.py): the same answers, from a start
+that is the tick's own final set."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from wbc.bench.trajectories import build
+from wbc.compiled.ticks import carry_rows, keep_rows
+from wbc.solvers.carry import CARRY_TOL, CarriedRows
+from wbc.stacks import load_stack
+from wbc.walking.loop import Session, StackController
+
+
+def test_rows_kept_are_found_again_by_value_at_other_indices():
+    """Rows kept at a tick's end are marked at the next tick where their (slightly moved)
+    copies now stand; a row moved beyond the tolerance, or none near, is not marked; more
+    rows than the buffer holds are not kept."""
+    rng = np.random.default_rng(3)
+    nv, p = 8, 12
+    G, h = rng.normal(size=(p, nv)), rng.normal(size=p)
+    working = np.zeros(p, np.bool_)
+    working[[2, 9]] = True
+    Gc, hc = np.zeros((nv, nv)), np.zeros(nv)
+    assert keep_rows(G, h, p, working, Gc, hc) == 2
+    assert np.array_equal(Gc[:2], G[[2, 9]]) and np.array_equal(hc[:2], h[[2, 9]])
+    order = rng.permutation(p)  # (the next tick: rows at other indices, moved by 1 %)
+    G2, h2 = G[order] * 1.01, h[order] + 0.001
+    marked = np.zeros(p, np.bool_)
+    assert carry_rows(Gc, hc, 2, G2, h2, p, marked, CARRY_TOL) == 2
+    assert sorted(np.flatnonzero(marked)) == sorted(np.flatnonzero(np.isin(order, [2, 9])))
+    far = np.zeros(p, np.bool_)  # (row 9 gone: nothing within the tolerance of it)
+    keep = order != 9
+    G3, h3 = G2[keep], h2[keep]
+    assert carry_rows(Gc, hc, 2, G3, h3, p - 1, far, CARRY_TOL) == 1
+    assert np.flatnonzero(far).tolist() == [int(np.flatnonzero(order[keep] == 2)[0])]
+    assert keep_rows(G, h, p, np.ones(p, np.bool_), Gc, hc) == 0  # (12 rows, room for 8)
+
+
+def _walk(robot, carry: bool, ticks: int, seen: list | None = None):
+    """walk10 on ``walk_strict``, ``carry_rows`` as given: each tick's Δq; into ``seen`` for
+    each tick that started from carried rows, (the rows it started from, its final set)."""
+    controller = StackController(load_stack("walk_strict", robot))
+    solver = controller.solver
+    solver.carry_rows = carry
+    session = Session(controller, robot, build("walk10", robot))
+    started: list = []
+    original = CarriedRows.carry
+
+    def carry_seen(self, G, h, p, working):
+        original(self, G, h, p, working)
+        started.append(working[:p].copy())
+
+    CarriedRows.carry = carry_seen
+    out = []
+    try:
+        for i in range(ticks):
+            started.clear()
+            session.tick(i)
+            plan = solver.fast
+            out.append(plan.dq.copy())
+            if seen is not None and started and started[0].any():
+                k = plan.damped_level
+                seen.append((started[0], plan.inequalities.working[k, : started[0].size].copy()))
+    finally:
+        CarriedRows.carry = original
+    return out
+
+
+def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
+    """walk_strict along walk10 (self-collision rows held in every single support): with the
+    last level's rows carried (``carry_rows``, off by default) each tick's Δq is the one
+    without (each tick's inputs the same: its minimiser is unique) to rounding; the ticks that
+    start from carried rows are many, and most rows carried are in their tick's final set (59
+    of 74 on these 200 ticks; rows carried by their index, 22 of 74: a self-collision row's
+    index names another corner or pair as the legs' pairs come and go)."""
+    assert not load_stack("walk_strict", robot).solver.carry_rows  # (the default)
+    seen: list = []
+    warm = _walk(robot, True, 200, seen)
+    cold = _walk(robot, False, 200)
+    assert max(np.abs(a - b).max() for a, b in zip(warm, cold, strict=True)) <= 1e-12
+    assert len(seen) >= 20, len(seen)
+    carried = sum(int(start.sum()) for start, _ in seen)
+    final = sum(int((start & end).sum()) for start, end in seen)
+    assert final >= 0.7 * carried, (final, carried)
+    assert sum(np.array_equal(start, end) for start, end in seen) >= len(seen) // 2
