@@ -72,7 +72,7 @@ steps of a few mm; benchmarks/pushes.md, seventh pass).
 **The push caught in its own step** (:mod:`.swing_catch`; on by default): a jump of the DCM
 error along the walk in one tick starts the catch at once in the pushed swing, with the
 landing correction and the swing's lift. Measured (benchmarks/pushes.md): forward 0.547 →
-0.711, backward 0.461 → 0.602 N·s; the same randomised plants up. Off: ``{"trigger_jump": 0,
+0.703, backward 0.461 → 0.617 N·s; the same randomised plants up. Off: ``{"trigger_jump": 0,
 "landing": 0, "lift": 0}``. Every other term here is off by default (sideways on ``walk10``
 0.797 → 0.844 N·s; the bound 0.934). The parameters: :mod:`.stepping_params`.
 """
@@ -371,7 +371,8 @@ class StepAdjuster:
         ph = self.phases[self.phase_of[i]]
         if ph.kind == "single":
             dt = ref.dt
-            if (ph.i1 - i) * dt < p.min_remaining or (i - ph.i0) * dt < p.settle - 1e-9:
+            last = p.trigger_remaining if self.triggered(i) else p.min_remaining
+            if (ph.i1 - i) * dt < last or (i - ph.i0) * dt < p.settle - 1e-9:
                 return None
             k = int(ph.step)
         elif ph.kind == "double" and p.double_support and self.episode is not None:

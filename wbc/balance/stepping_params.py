@@ -34,6 +34,11 @@ class SteppingParams:
     settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
     gain: float = 1.0  # footstep shift per m of predicted DCM error
     min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
+    #: s: ... in a swing whose push the trigger caught (``trigger_jump``): a push late in the
+    #: swing re-plans once more (with the 20 mm lift, backward 0.609 → 0.617 N·s; 30 ms in
+    #: every swing: 0.625, but the unpushed ``lateral_wb`` re-planned once more;
+    #: benchmarks/pushes.md)
+    trigger_remaining: float = 0.03
     min_clearance: float = 0.005  # m between the feet (as the footstep plans)
     max_shift: float = 0.08  # m: largest shift of a step from the plan before its re-plans
     max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
@@ -115,8 +120,10 @@ class SteppingParams:
     #: ``lift_time`` s, out over the swing's last ``lift_land`` share so that it lands on
     #: time): the push pitches the body about the stance toe and the swing toe meets the
     #: floor 20 ms later, short of any re-planned landing (lift first, then reach; 0: off)
-    lift: float = 0.015
-    lift_time: float = 0.03
+    #: (20 mm over 40 ms: the 15 mm over 30 ms before it at the same mean speed, 0.5 m/s;
+    #: forward 0.648 → 0.703 N·s, benchmarks/pushes.md)
+    lift: float = 0.02
+    lift_time: float = 0.04
     lift_land: float = 0.3
 
     def for_robot(self, robot: Robot) -> SteppingParams:
@@ -138,7 +145,7 @@ class SteppingParams:
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
-            "lift_time", "lift_land", "trigger_sigma", "trigger_tau",
+            "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
