@@ -38,6 +38,7 @@ import argparse
 import json
 import time
 
+from wbc.balance import best_compensate
 from wbc.balance.angular import hip_strategy_bound
 from wbc.balance.capture import capture_bounds
 from wbc.balance.retime import HoldParams
@@ -45,9 +46,10 @@ from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, simulate
-from wbc.bench.physics import plan
+from wbc.bench.physics import physics_entry, plan
 from wbc.bench.pushes import largest_push
 from wbc.bench.solvers import select
+from wbc.exceptions import ModelError
 from wbc.model import load_robot
 from wbc.walking.legs import LegGeometry
 
@@ -65,24 +67,27 @@ def loop_spec(
     stepping: dict | None = None,
     gains: dict | None = None,
     hold: dict | None = None,
+    compensate: float = 0.5,
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
     (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
     over RECOVERY_STEPS;
     ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops; ``hold``:
-    HoldParams keywords of those loops' lift-off hold)."""
+    HoldParams keywords of those loops' lift-off hold; ``compensate``: the feed-forward gain
+    of the loops with it, the robot's measured best)."""
     if loop == "open":
         return None, 0.0
-    if loop == "openff":  # the plan played open loop with the feed-forward x0.5
-        return None, 0.5
+    if loop == "openff":  # the plan played open loop with the feed-forward (x0.5 here)
+        return None, compensate
     gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains(**(gains or {}))
     step = SteppingParams(**(stepping or {})) if loop in ("step", "nohipstep") else None
     if loop == "steps":
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
-        return ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None), 0.5
+        spec = ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None)
+        return spec, compensate
     return ClosedLoopSpec(entry.make, ref, gains, True, True, step,
-                          HoldParams(**(hold or {}))), 0.5  # fmt: skip
+                          HoldParams(**(hold or {}))), compensate  # fmt: skip
 
 
 def main() -> None:
@@ -91,6 +96,12 @@ def main() -> None:
     ap.add_argument("--loops", nargs="+", default=list(LOOPS[:3]), choices=LOOPS)
     ap.add_argument("--directions", nargs="+", default=["lateral", "forward"])
     ap.add_argument("--trajectory", default="walk10")
+    ap.add_argument(
+        "--robot",
+        default="bioloid",
+        help="robot name or folder (its stack.toml and feed-forward gain: the loops with the "
+        "feed-forward run at its measured best, the Bioloid's x0.5)",
+    )
     ap.add_argument("--json", default=None)
     ap.add_argument(
         "--stepping", default="{}", help="JSON of SteppingParams keywords (step, steps)"
@@ -133,7 +144,8 @@ def main() -> None:
     if args.safety is not None:
         safety(args)
         return
-    robot = load_robot("bioloid")
+    robot = load_robot(args.robot)
+    ff = best_compensate(robot)
     ref = traj.build(args.trajectory, robot)
     legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
     bounds = capture_bounds(ref, robot.total_mass, legs)
@@ -141,16 +153,18 @@ def main() -> None:
     print(json.dumps(bounds, indent=1))
     out = {"bounds": bounds, "runs": []}
     for solver in args.solvers:
-        entries, _ = select([solver], None, "tick")
-        entry = next(e for e in entries if e.name == solver)
+        entry = physics_entry(solver, robot)  # (the robot folder's stack.toml, if any)
         rec = plan(solver, args.trajectory, robot)
         if "hip_bound" not in out:  # at the push, on the first solver's plan
-            out["hip_bound"] = hip_bound(rec, robot, ref, bounds)
+            try:
+                out["hip_bound"] = hip_bound(rec, robot, ref, bounds)
+            except ModelError as e:  # (a hip whose joints are not plain RX/RY/RZ: the OP3)
+                out["hip_bound"] = {"skipped": str(e)}
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
             spec, comp = loop_spec(
                 loop, entry, ref, json.loads(args.stepping), json.loads(args.gains),
-                json.loads(args.hold),
+                json.loads(args.hold), ff,
             )  # fmt: skip
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)

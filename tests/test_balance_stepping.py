@@ -636,6 +636,28 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
     assert SteppingParams().for_robot(robot).trigger_jump == pytest.approx(0.018)  # default
 
 
+def test_a_triggered_swing_re_plans_closer_to_its_landing(robot, walk10):
+    """``trigger_remaining``: a push the trigger caught 40 ms before the landing re-plans (30 ms
+    by default), where ``min_remaining`` (50 ms) holds a swing without it — the same jump with
+    ``trigger_remaining`` 0.05, or the same error with the trigger off, re-plans nothing."""
+    probe = StepAdjuster(robot, walk10)
+    ph, w, dt = probe.phases[probe.phase_of[MID]], probe.omega, walk10.dt
+    i = ph.i1 - round(0.04 / dt)  # 40 ms before the landing
+    assert 0.03 <= (ph.i1 - i) * dt < 0.05
+    err = np.array([0.03, 0.0])
+    cases = ((SteppingParams(), True), (SteppingParams(trigger_remaining=0.05), False),
+             (SteppingParams(trigger_jump=0.0), False))  # fmt: skip
+    for p, fires in cases:
+        a = StepAdjuster(robot, walk10, p)
+        for k in range(ph.i0, i):
+            assert a.update(walk10, k, dcm(walk10, k, w)) is None
+        new = a.update(walk10, i, dcm(walk10, i, w) + err)
+        assert (new is not None) == fires, p
+        assert bool(a.events) == fires
+    with pytest.raises(ConfigurationError, match="trigger_remaining"):
+        SteppingParams(trigger_remaining=-0.01).check()
+
+
 def test_the_trigger_skips_the_support_switch(robot, walk10):
     """``trigger_skip``: the DCM estimate jumps at the support switch (the first single-support
     tick; up to 40 mm on randomised plants): a jump there triggers nothing by default, the

@@ -42,11 +42,9 @@ step after step, differently on either foot (``lateral_wb``: +24 mm sideways on 
 −10 mm on the other); the dead band is centred on the running mean of the error per stance
 side (fed only by errors inside the band, so a push does not move it) rather than on zero.
 
-**The swing landed in the measured frame** (``landing``; off by default, measured below):
-the controller places the swing sole relative to its own base; a pushed robot's base is
-pitched about the stance sole (the compliant stance hip yielding), and the sole lands where
-the same relative pose puts it from the *measured* base — short and high. :meth:`StepAdjuster.
-land` moves the swing target so that the measured base carries it to the planned place.
+**The swing landed in the measured frame** (``landing``) and **the push caught in its own
+step** (``trigger_jump``, ``lift``; on by default): :mod:`.swing_catch`.
+
 **Step timing** (``hurry``; off): in a double support pushed along the walk, the walk's
 clock runs faster (:meth:`StepAdjuster.rate`, read by the session's ``at_time``).
 
@@ -71,28 +69,22 @@ foothold, the CoM re-planned from it) and the walk's clock jumps to the landing
 forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
 steps of a few mm; benchmarks/pushes.md, seventh pass).
 
-**The push caught in its own step** (``trigger_jump``, ``lift``; issue 30; on by default):
-the dead band swallows a push's first 40 ms and the re-plan came a step later. A jump of the
-DCM error along the walk in one tick (a push: 25 mm at 0.6 N·s; unpushed: 14 mm at most,
-past the support switch's tick, ``trigger_skip``) starts the catch at once: that swing's band
-drops to ``trigger_band``, the landing correction (``landing``, latched by ``landing_catch``)
-starts, and the swing target is raised by ``lift`` (:meth:`StepAdjuster.lifted`; lift first,
-then reach: the pitched body puts the swing toe on the floor 20 ms after the push). Measured
-(benchmarks/pushes.md): forward 0.547 → 0.711, backward 0.461 → 0.602 N·s; the same
-randomised plants up. Off: ``{"trigger_jump": 0, "landing": 0, "lift": 0}``. Every other
-term here is off by default (sideways on ``walk10`` 0.797 → 0.844 N·s; the bound 0.934).
+**The push caught in its own step** (:mod:`.swing_catch`; on by default): a jump of the DCM
+error along the walk in one tick starts the catch at once in the pushed swing, with the
+landing correction and the swing's lift. Measured (benchmarks/pushes.md): forward 0.547 →
+0.703, backward 0.461 → 0.617 N·s; the same randomised plants up. Off: ``{"trigger_jump": 0,
+"landing": 0, "lift": 0}``. Every other term here is off by default (sideways on ``walk10``
+0.797 → 0.844 N·s; the bound 0.934). The parameters: :mod:`.stepping_params`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
-from ..exceptions import ConfigurationError, TrajectoryError
+from ..exceptions import TrajectoryError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..walking.footsteps import FootstepPlan
@@ -108,161 +100,11 @@ from ..walking.schedule import (
     sole_tracks,
     zmp_knots,
 )
-from ..walking.spline import smooth
 from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
+from .stepping_params import BAND_X, BAND_Y, TRIGGER_SHARE, SteppingParams
+from .swing_catch import MeasuredLanding, PushTrigger
 
-#: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
-#: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
-#: robot that states none (robot.toml ``[balance.stepping]``; the OP3's: 60 mm,
-#: benchmarks/op3.md)
-BAND_X = 0.025
-BAND_Y = 0.018
-#: the push trigger's DCM jump per tick of a robot that states none, as a share of its dead
-#: band along the walk (the Bioloid: 18 mm; its unpushed ``walk10_wb``'s largest jump 6–8
-#: mm, 14 mm on 50 randomised plants past the support switch; a 0.6 N·s push's 25 mm)
-TRIGGER_SHARE = 0.72
-
-
-@dataclass(frozen=True)
-class SteppingParams:
-    """When and how far the footsteps move (module docstring)."""
-
-    threshold: float = 0.005  # m: the smallest footstep shift worth a re-plan
-    #: m: DCM error along the walk (heading frame) a walk shows unpushed; None: the robot's
-    #: (robot.toml ``[balance.stepping]``, measured on it), else :data:`BAND_X`
-    band_x: float | None = None
-    band_y: float | None = None  # m: ... sideways; None: the robot's, else :data:`BAND_Y`
-    settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
-    gain: float = 1.0  # footstep shift per m of predicted DCM error
-    min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
-    min_clearance: float = 0.005  # m between the feet (as the footstep plans)
-    max_shift: float = 0.08  # m: largest shift of a step from the plan before its re-plans
-    max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
-    # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
-    hold_ticks: int = 3  # ticks between two re-plans
-    #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
-    #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
-    episode_steps: int = 2
-    rest_steps: int = 2
-    #: multi-step recovery: the catch goes on, step after step (at most this many more than
-    #: episode_steps), while each next single support still finds the DCM error beyond the
-    #: dead band — until the DCM is back within it; then the rest (0: episode_steps only)
-    until_inside: int = 0
-    #: steps one re-plan places: the landing under way (or, in double support, the next) and
-    #: the ones after it, each taking what the previous could not (1: one step)
-    #: (3 measured: no push survived further, the away push 0.680 against 0.750 N·s;
-    #: benchmarks/pushes.md)
-    steps_ahead: int = 1
-    #: during a catch, re-plan the next landing in double support too (its swing not started)
-    double_support: bool = False
-    #: s: time constant of the DCM error's running mean per stance side (heading frame), the
-    #: centre of the dead band: the compliant body's steady lag of its plan (0: the band
-    #: centred on zero; 0.3 s measured best without the feed-forward, 8 plants of 150 fewer
-    #: with it: benchmarks/physics.md)
-    baseline_tau: float = 0.0
-    #: the swing sole's target in the measured frame (:meth:`StepAdjuster.land`): the share
-    #: of the base's measured pose error (rotation and position, the estimate against the
-    #: controller's own) the swing target takes, from a tilt error of ``landing_band`` rad on,
-    #: fully from twice it (0: off)
-    landing: float = 1.0
-    landing_band: float = 0.0
-    #: the share of the sideways parts (roll, the lateral position) the swing target takes
-    landing_lateral: float = 1.0
-    #: share of the swing over which the correction blends in from lift-off (smoothstep)
-    landing_blend: float = 0.0
-    #: s: > 0: the correction only in a single support whose DCM error has left the dead
-    #: band (with ``trigger_jump``: whose DCM jumped) (a push being caught; latched to the
-    #: landing), blended in over this time
-    landing_catch: float = 0.02
-    #: s: > 0: the correction less its running mean per stance side (this time constant):
-    #: a plant's steady lag of its plan left alone, a push's departure from it corrected
-    landing_tau: float = 0.0
-    #: step timing: in double support, while the DCM error along the walk (heading frame) is
-    #: beyond ``hurry_band``, the walk's clock runs ``hurry`` times as fast (the next lift-off
-    #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
-    hurry: float = 1.0
-    hurry_band: float = 0.03
-    #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
-    #: band), the landing comes sooner when that leaves the swing more room beyond the shift
-    #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
-    #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`)
-    hurry_single: bool = False
-    #: m: once a catch has re-planned a step, the dead band of its later re-plans (None: the
-    #: band): the band decides whether to catch, the catch then takes the whole error
-    catch_band: float | None = None
-    #: early touch-down (needs the estimator's contact detection, ``Gains.contact_band``):
-    #: during a catch, a swing sole found down on the floor for this many ticks running lands
-    #: where it is: that step and every later one re-based on it (moved by its shortfall),
-    #: the CoM reference re-planned, the walk's clock jumps to the landing (0: off)
-    touchdown: int = 0
-    #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
-    #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
-    band_travel: float = 0.0
-    #: m: a push caught in the step it comes in: in single support, the DCM error along the
-    #: walk jumping by more than this in one tick (a 0.6 N·s push: 25 mm) starts the catch at
-    #: once: that swing's dead bands drop to ``trigger_band`` (the re-plan in the pushed
-    #: step), the landing correction (``landing_catch``) starts, the swing lifts (0: off)
-    trigger_jump: float | None = None  # (None: the robot's, else TRIGGER_SHARE × band_x)
-    trigger_band: float = 0.0
-    #: ticks of a single support whose jump is not read (the first: the estimator's support
-    #: switch makes the DCM estimate jump there, up to 40 mm on the randomised plants; 14 mm
-    #: at any later tick); and the jump must pass ``trigger_sigma`` × the RMS of the per-tick
-    #: change before it (running, ``trigger_tau`` s): a jittery plant (22 mm on ``turn_wb``,
-    #: RMS 5.5 mm) is no push (benchmarks/pushes.md)
-    trigger_skip: int = 1
-    trigger_sigma: float = 5.0
-    trigger_tau: float = 0.3
-    #: m: once triggered, the swing sole's target raised by this much (blended in over
-    #: ``lift_time`` s, out over the swing's last ``lift_land`` share so that it lands on
-    #: time): the push pitches the body about the stance toe and the swing toe meets the
-    #: floor 20 ms later, short of any re-planned landing (lift first, then reach; 0: off)
-    lift: float = 0.015
-    lift_time: float = 0.03
-    lift_land: float = 0.3
-
-    def for_robot(self, robot: Robot) -> SteppingParams:
-        """These parameters with the dead bands left None taken from ``robot``'s
-        ``robot.toml`` ``[balance.stepping]`` (what its unpushed walks show), else the
-        defaults :data:`BAND_X`, :data:`BAND_Y` (measured on the Bioloid)."""
-        data = getattr(robot, "robot_data", None)
-        stated = data.balance.get("stepping", {}) if data is not None else {}
-        bands = {"band_x": BAND_X, "band_y": BAND_Y}
-        out = {k: stated.get(k, d) for k, d in bands.items() if getattr(self, k) is None}
-        if self.trigger_jump is None:  # the robot's, else a share of its band along the walk
-            band_x = float(out.get("band_x", self.band_x) or BAND_X)
-            out["trigger_jump"] = stated.get("trigger_jump", TRIGGER_SHARE * band_x)
-        return replace(self, **out) if out else self
-
-    def check(self) -> SteppingParams:
-        for name in (
-            "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
-            "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
-            "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
-            "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
-            "lift_time", "lift_land", "trigger_sigma", "trigger_tau",
-        ):  # fmt: skip
-            v = getattr(self, name)
-            if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
-                continue  # (the robot's: for_robot)
-            if not (math.isfinite(v) and v >= 0):
-                raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
-        if not self.hurry >= 1.0:
-            raise ConfigurationError(
-                f"stepping: hurry must be >= 1 (a clock speed), got {self.hurry}"
-            )
-        if int(self.steps_ahead) != self.steps_ahead or self.steps_ahead < 1:
-            raise ConfigurationError(
-                f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
-            )
-        for name in ("episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip"):
-            v = getattr(self, name)
-            if int(v) != v or v < 0:
-                raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
-        if int(self.hold_ticks) != self.hold_ticks or self.hold_ticks < 1:
-            raise ConfigurationError(
-                f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}"
-            )
-        return self
+__all__ = ["BAND_X", "BAND_Y", "TRIGGER_SHARE", "StepAdjuster", "SteppingParams", "can_step"]
 
 
 # ---------------------------------------------------------------------- the re-planner
@@ -308,7 +150,7 @@ class StepAdjuster:
             raise TrajectoryError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
         torso = robot.model.frames[robot.frame_id("torso")]
-        self._torso_b = torso.placement.rotation.copy()  # the torso in the base frame
+        torso_b = torso.placement.rotation.copy()  # the torso in the base frame
         self.omega = ref.omega
         self.tc = 1.0 / self.omega
         self.phase_of = np.zeros(ref.n, dtype=int)
@@ -325,13 +167,10 @@ class StepAdjuster:
         self.episode: int | None = None  # the step the current catch started in
         self.end = 0  # the first step after the catch (until_inside extends it)
         self.caught_step = -1  # the last step a re-plan moved
-        self._caught: int | None = None  # tick the DCM error left the band (landing_catch)
-        self._trigger: int | None = None  # tick a DCM jump started a catch (trigger_jump)
-        #: (tick, reference, raw DCM error) of the last single-support tick (trigger_jump)
-        self._last_err: tuple[int, Any, np.ndarray] | None = None
-        self._jitter = 0.0  # the running mean square of its per-tick change (trigger_sigma)
-        #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
-        self._landing_mean = np.zeros((2, 6))
+        #: the push trigger and the swing's lift (trigger_jump, lift; :mod:`.swing_catch`)
+        self.trigger = PushTrigger(self.params, self.phases, self.phase_of, ref.dt)
+        #: the swing's landing in the measured frame (landing, landing_catch)
+        self.landing = MeasuredLanding(self.params, self.phases, self.phase_of, ref.dt, torso_b)
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
         #: the state estimator whose contact detection (``contact_band``) the touch-down reads
@@ -440,102 +279,16 @@ class StepAdjuster:
         return max((xi[1] - xi[0]) / 1e-2, 1e-3)
 
     def land(self, targets: Any, est: Any, q: np.ndarray) -> Any:
-        """``targets`` with the swing sole's target moved into the measured frame (single
-        support, ``landing`` > 0; else ``targets`` itself). The controller places the swing
-        sole relative to *its* base (``p_r``, ``R_r``: ``q``); the robot's base is where the
-        estimate puts it (``p_m``, ``R_m``: a push pitches the body about the stance sole and
-        the compliant stance hip yields), and the sole lands where the same relative pose puts
-        it from there, ``p_m + R_m R_rᵀ (p − p_r)``: short and high. The target
-        ``p' = p_r + E (p − p_m)``, ``R' = E R`` with ``E = R_r R_mᵀ`` lands it at ``p``
-        (blended by ``w``: ``landing`` × a ramp from ``landing_band`` to twice it on the
-        angle of ``E``)."""
-        p = self.params
+        """``targets`` with the swing sole's target raised in a triggered catch
+        (:meth:`PushTrigger.lifted`) and moved into the measured frame
+        (:meth:`MeasuredLanding.land`; single support, else ``targets`` itself)."""
         if targets.phase != "single":
             return targets
-        targets = self.lifted(targets)
-        if p.landing <= 0:
-            return targets
-        since = self._caught
-        if p.landing_catch > 0 and p.landing_tau <= 0:  # no catch in this swing: at once
-            if since is None or self.phase_of[since] != self.phase_of[targets.i]:
-                return targets
-        R_r = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix() @ self._torso_b
-        E = R_r @ np.asarray(est.rotation).T
-        v = pin.log3(E)
-        st = targets.support_placement.rotation[:2, 0]
-        h = np.array([st[0], st[1], 0.0]) / max(math.hypot(st[0], st[1]), 1e-9)  # heading
-        lat = p.landing_lateral
-        if lat != 1.0:  # the roll part (about the heading) scaled
-            v = v - (1.0 - lat) * (v @ h) * h
-        base_m = np.asarray(est.base, dtype=float)
-        if p.landing_tau > 0:  # less the running mean (per stance side) of v and p_r − p_m
-            mean = self._landing_mean[0 if targets.support == "l_sole" else 1]
-            mean += (np.concatenate([v, q[:3] - base_m]) - mean) * min(
-                self.base.dt / p.landing_tau, 1.0
-            )
-            v = v - mean[:3]
-            base_m = base_m + mean[3:]
-        angle = float(np.linalg.norm(v))
-        band = p.landing_band
-        w = p.landing * (min(max((angle - band) / band, 0.0), 1.0) if band > 0 else 1.0)
-        if p.landing_catch > 0:  # only while a push is caught: since the error left the band
-            since = self._caught
-            if since is None or self.phase_of[since] != self.phase_of[targets.i]:
-                return targets
-            w *= smooth((targets.i - since + 1) * self.base.dt / p.landing_catch)
-        if p.landing_blend > 0:  # blended in from lift-off
-            ph = self.phases[self.phase_of[targets.i]]
-            w *= smooth((targets.i - ph.i0) / max(ph.i1 - ph.i0, 1) / p.landing_blend)
-        if w <= 0:
-            return targets
-        E = pin.exp3(w * v)
-        pos = np.asarray(targets.swing_position, dtype=float)
-        moved = q[:3] + E @ (pos - base_m)
-        if lat != 1.0:  # the lateral part of the move scaled
-            side = np.array([-h[1], h[0], 0.0])
-            moved = moved - (1.0 - lat) * ((moved - pos) @ side) * side
-        return targets.replace(
-            swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
-        )
+        return self.landing.land(self.trigger.lifted(targets), est, q)
 
     def triggered(self, i: int) -> bool:
         """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
-        t = self._trigger
-        return t is not None and self.phase_of[t] == self.phase_of[i]
-
-    def _watch(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> None:
-        """The push trigger (``trigger_jump``): in single support, the DCM error along the walk
-        (the stance sole's heading; against the same reference) jumping by more than
-        ``trigger_jump`` since the last tick (sideways pushes: the default catch, measured
-        better toward the swing foot; benchmarks/pushes.md)."""
-        ph = self.phases[self.phase_of[i]]
-        if ref.support[i] == SUPPORT_DOUBLE or i - ph.i0 < self.params.trigger_skip:
-            self._last_err = None  # (the support switch: trigger_skip)
-            return
-        e = np.asarray(dcm[:2], dtype=float) - self._dcm_ref(ref, i)
-        last, self._last_err = self._last_err, (i, ref, e)
-        if last is None or last[0] != i - 1 or last[1] is not ref or self.triggered(i):
-            return
-        c, s = self._heading(ref, i)
-        p, d = self.params, (c * (e[0] - last[2][0]) + s * (e[1] - last[2][1]))  # along
-        if abs(d) > max(p.trigger_jump or 0.0, p.trigger_sigma * math.sqrt(self._jitter)):
-            self._trigger = i
-        self._jitter += (d * d - self._jitter) * min(ref.dt / max(p.trigger_tau, 1e-9), 1.0)
-
-    def lifted(self, targets: Any) -> Any:
-        """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
-        (:meth:`triggered`): blended in over ``lift_time``, out over the swing's last
-        ``lift_land`` share (smoothstep both), so that it lands where and when planned."""
-        p, i = self.params, targets.i
-        if p.lift <= 0 or not self.triggered(i):
-            return targets
-        ph = self.phases[self.phase_of[i]]
-        w = smooth((i - self._trigger + 1) * self.base.dt / max(p.lift_time, 1e-9)) * smooth(
-            (ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9)
-        )
-        pos = np.array(targets.swing_position, dtype=float)
-        pos[2] += p.lift * w
-        return targets.replace(swing_position=pos)
+        return self.trigger.triggered(i)
 
     @property
     def hurries(self) -> bool:
@@ -600,15 +353,15 @@ class StepAdjuster:
         if p.baseline_tau > 0:
             self._track_baseline(ref, i, dcm)
         if (p.trigger_jump or 0.0) > 0:
-            self._watch(ref, i, dcm)
+            e = np.asarray(dcm[:2], dtype=float) - self._dcm_ref(ref, i)
+            self.trigger.watch(ref, i, e, self._heading(ref, i))
         if p.landing_catch > 0 and ref.support[i] != SUPPORT_DOUBLE:
-            caught = self._caught is not None and self.phase_of[self._caught] == self.phase_of[i]
             # the tick the DCM error left the band in this swing (with trigger_jump: the
             # tick of the jump; an unpushed walk leaving the band is no push)
             jumps = (p.trigger_jump or 0.0) > 0
-            pushed = self.triggered(i) if jumps else self.error(ref, i, dcm)[1].any()
-            if not caught and pushed:
-                self._caught = i
+            self.landing.note(
+                i, lambda: self.triggered(i) if jumps else bool(self.error(ref, i, dcm)[1].any())
+            )
         if p.touchdown > 0 and self.contact is not None:
             new = self._touchdown(ref, i)
             if new is not None:
@@ -618,7 +371,8 @@ class StepAdjuster:
         ph = self.phases[self.phase_of[i]]
         if ph.kind == "single":
             dt = ref.dt
-            if (ph.i1 - i) * dt < p.min_remaining or (i - ph.i0) * dt < p.settle - 1e-9:
+            last = p.trigger_remaining if self.triggered(i) else p.min_remaining
+            if (ph.i1 - i) * dt < last or (i - ph.i0) * dt < p.settle - 1e-9:
                 return None
             k = int(ph.step)
         elif ph.kind == "double" and p.double_support and self.episode is not None:

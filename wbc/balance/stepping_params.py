@@ -1,0 +1,171 @@
+"""The step adjuster's parameters (:class:`SteppingParams`, :mod:`.stepping`): when and how far
+the footsteps move, the push trigger, the swing's lift and its landing in the measured frame
+(:mod:`.swing_catch`); the dead bands of a robot that states none."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from ..exceptions import ConfigurationError
+from ..model import Robot
+
+#: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
+#: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
+#: robot that states none (robot.toml ``[balance.stepping]``; the OP3's: 60 mm,
+#: benchmarks/op3.md)
+BAND_X = 0.025
+BAND_Y = 0.018
+#: the push trigger's DCM jump per tick of a robot that states none, as a share of its dead
+#: band along the walk (the Bioloid: 18 mm; its unpushed ``walk10_wb``'s largest jump 6–8
+#: mm, 14 mm on 50 randomised plants past the support switch; a 0.6 N·s push's 25 mm)
+TRIGGER_SHARE = 0.72
+
+
+@dataclass(frozen=True)
+class SteppingParams:
+    """When and how far the footsteps move (module docstring)."""
+
+    threshold: float = 0.005  # m: the smallest footstep shift worth a re-plan
+    #: m: DCM error along the walk (heading frame) a walk shows unpushed; None: the robot's
+    #: (robot.toml ``[balance.stepping]``, measured on it), else :data:`BAND_X`
+    band_x: float | None = None
+    band_y: float | None = None  # m: ... sideways; None: the robot's, else :data:`BAND_Y`
+    settle: float = 0.04  # s: no re-plan in the first 40 ms of a single support (lift-off)
+    gain: float = 1.0  # footstep shift per m of predicted DCM error
+    min_remaining: float = 0.05  # s: no re-plan in the swing's last 50 ms (it is landing)
+    #: s: ... in a swing whose push the trigger caught (``trigger_jump``): a push late in the
+    #: swing re-plans once more (with the 20 mm lift, backward 0.609 → 0.617 N·s; 30 ms in
+    #: every swing: 0.625, but the unpushed ``lateral_wb`` re-planned once more;
+    #: benchmarks/pushes.md)
+    trigger_remaining: float = 0.03
+    min_clearance: float = 0.005  # m between the feet (as the footstep plans)
+    max_shift: float = 0.08  # m: largest shift of a step from the plan before its re-plans
+    max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
+    # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
+    hold_ticks: int = 3  # ticks between two re-plans
+    #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
+    #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
+    episode_steps: int = 2
+    rest_steps: int = 2
+    #: multi-step recovery: the catch goes on, step after step (at most this many more than
+    #: episode_steps), while each next single support still finds the DCM error beyond the
+    #: dead band — until the DCM is back within it; then the rest (0: episode_steps only)
+    until_inside: int = 0
+    #: steps one re-plan places: the landing under way (or, in double support, the next) and
+    #: the ones after it, each taking what the previous could not (1: one step)
+    #: (3 measured: no push survived further, the away push 0.680 against 0.750 N·s;
+    #: benchmarks/pushes.md)
+    steps_ahead: int = 1
+    #: during a catch, re-plan the next landing in double support too (its swing not started)
+    double_support: bool = False
+    #: s: time constant of the DCM error's running mean per stance side (heading frame), the
+    #: centre of the dead band: the compliant body's steady lag of its plan (0: the band
+    #: centred on zero; 0.3 s measured best without the feed-forward, 8 plants of 150 fewer
+    #: with it: benchmarks/physics.md)
+    baseline_tau: float = 0.0
+    #: the swing sole's target in the measured frame (:meth:`StepAdjuster.land`): the share
+    #: of the base's measured pose error (rotation and position, the estimate against the
+    #: controller's own) the swing target takes, from a tilt error of ``landing_band`` rad on,
+    #: fully from twice it (0: off)
+    landing: float = 1.0
+    landing_band: float = 0.0
+    #: the share of the sideways parts (roll, the lateral position) the swing target takes
+    landing_lateral: float = 1.0
+    #: share of the swing over which the correction blends in from lift-off (smoothstep)
+    landing_blend: float = 0.0
+    #: s: > 0: the correction only in a single support whose DCM error has left the dead
+    #: band (with ``trigger_jump``: whose DCM jumped) (a push being caught; latched to the
+    #: landing), blended in over this time
+    landing_catch: float = 0.02
+    #: s: > 0: the correction less its running mean per stance side (this time constant):
+    #: a plant's steady lag of its plan left alone, a push's departure from it corrected
+    landing_tau: float = 0.0
+    #: step timing: in double support, while the DCM error along the walk (heading frame) is
+    #: beyond ``hurry_band``, the walk's clock runs ``hurry`` times as fast (the next lift-off
+    #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
+    hurry: float = 1.0
+    hurry_band: float = 0.03
+    #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
+    #: band), the landing comes sooner when that leaves the swing more room beyond the shift
+    #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
+    #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`)
+    hurry_single: bool = False
+    #: m: once a catch has re-planned a step, the dead band of its later re-plans (None: the
+    #: band): the band decides whether to catch, the catch then takes the whole error
+    catch_band: float | None = None
+    #: early touch-down (needs the estimator's contact detection, ``Gains.contact_band``):
+    #: during a catch, a swing sole found down on the floor for this many ticks running lands
+    #: where it is: that step and every later one re-based on it (moved by its shortfall),
+    #: the CoM reference re-planned, the walk's clock jumps to the landing (0: off)
+    touchdown: int = 0
+    #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
+    #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
+    band_travel: float = 0.0
+    #: m: a push caught in the step it comes in: in single support, the DCM error along the
+    #: walk jumping by more than this in one tick (a 0.6 N·s push: 25 mm) starts the catch at
+    #: once: that swing's dead bands drop to ``trigger_band`` (the re-plan in the pushed
+    #: step), the landing correction (``landing_catch``) starts, the swing lifts (0: off)
+    trigger_jump: float | None = None  # (None: the robot's, else TRIGGER_SHARE × band_x)
+    trigger_band: float = 0.0
+    #: ticks of a single support whose jump is not read (the first: the estimator's support
+    #: switch makes the DCM estimate jump there, up to 40 mm on the randomised plants; 14 mm
+    #: at any later tick); and the jump must pass ``trigger_sigma`` × the RMS of the per-tick
+    #: change before it (running, ``trigger_tau`` s): a jittery plant (22 mm on ``turn_wb``,
+    #: RMS 5.5 mm) is no push (benchmarks/pushes.md)
+    trigger_skip: int = 1
+    trigger_sigma: float = 5.0
+    trigger_tau: float = 0.3
+    #: m: once triggered, the swing sole's target raised by this much (blended in over
+    #: ``lift_time`` s, out over the swing's last ``lift_land`` share so that it lands on
+    #: time): the push pitches the body about the stance toe and the swing toe meets the
+    #: floor 20 ms later, short of any re-planned landing (lift first, then reach; 0: off)
+    #: (20 mm over 40 ms: the 15 mm over 30 ms before it at the same mean speed, 0.5 m/s;
+    #: forward 0.648 → 0.703 N·s, benchmarks/pushes.md)
+    lift: float = 0.02
+    lift_time: float = 0.04
+    lift_land: float = 0.3
+
+    def for_robot(self, robot: Robot) -> SteppingParams:
+        """These parameters with the dead bands left None taken from ``robot``'s
+        ``robot.toml`` ``[balance.stepping]`` (what its unpushed walks show), else the
+        defaults :data:`BAND_X`, :data:`BAND_Y` (measured on the Bioloid)."""
+        data = getattr(robot, "robot_data", None)
+        stated = data.balance.get("stepping", {}) if data is not None else {}
+        bands = {"band_x": BAND_X, "band_y": BAND_Y}
+        out = {k: stated.get(k, d) for k, d in bands.items() if getattr(self, k) is None}
+        if self.trigger_jump is None:  # the robot's, else a share of its band along the walk
+            band_x = float(out.get("band_x", self.band_x) or BAND_X)
+            out["trigger_jump"] = stated.get("trigger_jump", TRIGGER_SHARE * band_x)
+        return replace(self, **out) if out else self
+
+    def check(self) -> SteppingParams:
+        for name in (
+            "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
+            "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
+            "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
+            "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
+            "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
+        ):  # fmt: skip
+            v = getattr(self, name)
+            if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
+                continue  # (the robot's: for_robot)
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
+        if not self.hurry >= 1.0:
+            raise ConfigurationError(
+                f"stepping: hurry must be >= 1 (a clock speed), got {self.hurry}"
+            )
+        if int(self.steps_ahead) != self.steps_ahead or self.steps_ahead < 1:
+            raise ConfigurationError(
+                f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
+            )
+        for name in ("episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip"):
+            v = getattr(self, name)
+            if int(v) != v or v < 0:
+                raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")
+        if int(self.hold_ticks) != self.hold_ticks or self.hold_ticks < 1:
+            raise ConfigurationError(
+                f"stepping: hold_ticks must be an integer >= 1, got {self.hold_ticks}"
+            )
+        return self

@@ -1,0 +1,170 @@
+"""The swing under a push (:mod:`.stepping`'s catch): the push trigger, the swing's lift and
+its landing in the measured frame.
+
+**The push caught in its own step** (:class:`PushTrigger`; ``trigger_jump``, ``lift``): the
+dead band swallows a push's first 40 ms and the re-plan came a step later. A jump of the DCM
+error along the walk in one tick (a push: 25 mm at 0.6 N·s; unpushed: 14 mm at most, past the
+support switch's tick, ``trigger_skip``; and beyond ``trigger_sigma`` × the running RMS of the
+per-tick change: a jittery plant is no push) starts the catch at once: that swing's band drops
+to ``trigger_band``, the landing correction (:class:`MeasuredLanding`, latched by
+``landing_catch``) starts, and the swing target is raised by ``lift`` (:meth:`PushTrigger.
+lifted`; lift first, then reach: the pitched body puts the swing toe on the floor 20 ms after
+the push).
+
+**The swing landed in the measured frame** (:class:`MeasuredLanding`; ``landing``): the
+controller places the swing sole relative to its own base; a pushed robot's base is pitched
+about the stance sole (the compliant stance hip yielding), and the sole lands where the same
+relative pose puts it from the *measured* base — short and high. :meth:`MeasuredLanding.land`
+moves the swing target so that the measured base carries it to the planned place.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..recording import SUPPORT_DOUBLE
+from ..walking.reference import WalkingReference
+from ..walking.schedule import Phase
+from ..walking.spline import smooth
+from .stepping_params import SteppingParams
+
+
+class PushTrigger:
+    """The push trigger (``trigger_jump``; module docstring): the tick a DCM jump started a
+    catch, and the swing's lift in that catch."""
+
+    def __init__(
+        self, params: SteppingParams, phases: list[Phase], phase_of: np.ndarray, dt: float
+    ) -> None:
+        self.params, self.phases, self.phase_of, self.dt = params, phases, phase_of, dt
+        self.tick: int | None = None  # tick a DCM jump started a catch (trigger_jump)
+        #: (tick, reference, raw DCM error) of the last single-support tick
+        self._last_err: tuple[int, Any, np.ndarray] | None = None
+        self._jitter = 0.0  # the running mean square of its per-tick change (trigger_sigma)
+
+    def triggered(self, i: int) -> bool:
+        """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
+        t = self.tick
+        return t is not None and self.phase_of[t] == self.phase_of[i]
+
+    def watch(
+        self, ref: WalkingReference, i: int, e: np.ndarray, heading: tuple[float, float]
+    ) -> None:
+        """The push trigger (``trigger_jump``): in single support, the DCM error along the walk
+        ``e`` (raw, against the reference ``ref``; ``heading`` the stance sole's cos, sin)
+        jumping by more than ``trigger_jump`` since the last tick (sideways pushes: the default
+        catch, measured better toward the swing foot; benchmarks/pushes.md)."""
+        ph = self.phases[self.phase_of[i]]
+        if ref.support[i] == SUPPORT_DOUBLE or i - ph.i0 < self.params.trigger_skip:
+            self._last_err = None  # (the support switch: trigger_skip)
+            return
+        last, self._last_err = self._last_err, (i, ref, e)
+        if last is None or last[0] != i - 1 or last[1] is not ref or self.triggered(i):
+            return
+        c, s = heading
+        p, d = self.params, (c * (e[0] - last[2][0]) + s * (e[1] - last[2][1]))  # along
+        if abs(d) > max(p.trigger_jump or 0.0, p.trigger_sigma * math.sqrt(self._jitter)):
+            self.tick = i
+        self._jitter += (d * d - self._jitter) * min(ref.dt / max(p.trigger_tau, 1e-9), 1.0)
+
+    def lifted(self, targets: Any) -> Any:
+        """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
+        (:meth:`triggered`): blended in over ``lift_time``, out over the swing's last
+        ``lift_land`` share (smoothstep both), so that it lands where and when planned."""
+        p, i = self.params, targets.i
+        if p.lift <= 0 or not self.triggered(i):
+            return targets
+        ph = self.phases[self.phase_of[i]]
+        w = smooth((i - self.tick + 1) * self.dt / max(p.lift_time, 1e-9)) * smooth(
+            (ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9)
+        )
+        pos = np.array(targets.swing_position, dtype=float)
+        pos[2] += p.lift * w
+        return targets.replace(swing_position=pos)
+
+
+class MeasuredLanding:
+    """The swing sole's target in the measured frame (``landing``; module docstring): the
+    tick a catch began in this swing (``landing_catch``) and the correction's running mean
+    per stance side (``landing_tau``)."""
+
+    def __init__(
+        self,
+        params: SteppingParams,
+        phases: list[Phase],
+        phase_of: np.ndarray,
+        dt: float,
+        torso_b: np.ndarray,
+    ) -> None:
+        self.params, self.phases, self.phase_of, self.dt = params, phases, phase_of, dt
+        self._torso_b = torso_b  # the torso in the base frame
+        self.caught: int | None = None  # tick the DCM error left the band (landing_catch)
+        #: the landing correction's running mean per stance side (landing_tau): v, p_r − p_m
+        self._landing_mean = np.zeros((2, 6))
+
+    def note(self, i: int, pushed: Callable[[], bool]) -> None:
+        """Latch tick ``i`` (single support) as the catch's start in its swing when none is
+        latched there yet and ``pushed()`` (the DCM error left the band; with the trigger: the
+        DCM jumped)."""
+        caught = self.caught is not None and self.phase_of[self.caught] == self.phase_of[i]
+        if not caught and pushed():
+            self.caught = i
+
+    def land(self, targets: Any, est: Any, q: np.ndarray) -> Any:
+        """``targets`` with the swing sole's target moved into the measured frame (single
+        support, ``landing`` > 0; else ``targets`` itself). The controller places the swing
+        sole relative to *its* base (``p_r``, ``R_r``: ``q``); the robot's base is where the
+        estimate puts it (``p_m``, ``R_m``: a push pitches the body about the stance sole and
+        the compliant stance hip yields), and the sole lands where the same relative pose puts
+        it from there, ``p_m + R_m R_rᵀ (p − p_r)``: short and high. The target
+        ``p' = p_r + E (p − p_m)``, ``R' = E R`` with ``E = R_r R_mᵀ`` lands it at ``p``
+        (blended by ``w``: ``landing`` × a ramp from ``landing_band`` to twice it on the
+        angle of ``E``)."""
+        p = self.params
+        if p.landing <= 0:
+            return targets
+        since = self.caught
+        if p.landing_catch > 0 and p.landing_tau <= 0:  # no catch in this swing: at once
+            if since is None or self.phase_of[since] != self.phase_of[targets.i]:
+                return targets
+        R_r = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix() @ self._torso_b
+        E = R_r @ np.asarray(est.rotation).T
+        v = pin.log3(E)
+        st = targets.support_placement.rotation[:2, 0]
+        h = np.array([st[0], st[1], 0.0]) / max(math.hypot(st[0], st[1]), 1e-9)  # heading
+        lat = p.landing_lateral
+        if lat != 1.0:  # the roll part (about the heading) scaled
+            v = v - (1.0 - lat) * (v @ h) * h
+        base_m = np.asarray(est.base, dtype=float)
+        if p.landing_tau > 0:  # less the running mean (per stance side) of v and p_r − p_m
+            mean = self._landing_mean[0 if targets.support == "l_sole" else 1]
+            mean += (np.concatenate([v, q[:3] - base_m]) - mean) * min(self.dt / p.landing_tau, 1.0)
+            v = v - mean[:3]
+            base_m = base_m + mean[3:]
+        angle = float(np.linalg.norm(v))
+        band = p.landing_band
+        w = p.landing * (min(max((angle - band) / band, 0.0), 1.0) if band > 0 else 1.0)
+        if p.landing_catch > 0:  # only while a push is caught: since the error left the band
+            since = self.caught
+            if since is None or self.phase_of[since] != self.phase_of[targets.i]:
+                return targets
+            w *= smooth((targets.i - since + 1) * self.dt / p.landing_catch)
+        if p.landing_blend > 0:  # blended in from lift-off
+            ph = self.phases[self.phase_of[targets.i]]
+            w *= smooth((targets.i - ph.i0) / max(ph.i1 - ph.i0, 1) / p.landing_blend)
+        if w <= 0:
+            return targets
+        E = pin.exp3(w * v)
+        pos = np.asarray(targets.swing_position, dtype=float)
+        moved = q[:3] + E @ (pos - base_m)
+        if lat != 1.0:  # the lateral part of the move scaled
+            side = np.array([-h[1], h[0], 0.0])
+            moved = moved - (1.0 - lat) * ((moved - pos) @ side) * side
+        return targets.replace(
+            swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
+        )
