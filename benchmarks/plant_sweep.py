@@ -11,26 +11,40 @@ models up / N, and on the nominal model the torso deviation and travelled / plan
 
 ``--gains`` and ``--stepping`` each take several JSON settings: every variant runs with each
 (gains, stepping) pair side by side in one run (:func:`settings`), e.g. the old and the new
-default under the same load.
+default under the same load. ``--margins`` adds a line per walk on the plants nearest a fall:
+the fall criterion's angle split into the true tilt and the heading error, the torso
+command's share at its clip (issue 30: on ``walk10_wb`` and ``turn_wb`` what brings a plant
+near the 45° line is mostly its heading).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import fields, replace
 
+import numpy as np
+
 from wbc import load_robot
+from wbc.balance import stabilizer as stab_mod
 from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains, default_gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
-from wbc.bench.closed_loop import ClosedLoopSpec, simulate
+from wbc.bench.closed_loop import (
+    ClosedLoopSpec,
+    closed_loop_figures,
+    play_closed_loop,
+    simulate,
+)
 from wbc.bench.runner import run_entry
+from wbc.bench.sim_record import _planned, _rotation, physics_record
 from wbc.bench.solvers import select
 from wbc.bench.variation import models
+from wbc.compiled.rows import log3
 
 #: label -> (compliance gain, gains, IMU, loop on, stepping); None: the plan played open loop
 VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
@@ -116,7 +130,7 @@ def main() -> None:
         type=json_setting(Gains),
         default=[{}],
         help="JSON of Gains keywords over the variant's default (wbc.balance.stabilizer."
-        "default_gains: joint_lag 1, k_d 0.03, k_dcm_i 0.25, yaw_cutoff 2 without "
+        "default_gains: joint_lag 1, k_d 0.03, k_dcm_i 0.25 without "
         "feed-forward), e.g. "
         "'{\"k_hip\": 0}'; "
         "several: each variant with each, side by side in one run (e.g. the old and the new "
@@ -148,6 +162,14 @@ def main() -> None:
         help="a line per fallen plant: when, in which phase, the joint nearest its stall "
         "torque, re-plans, the plant's servo parameters",
     )
+    p.add_argument(
+        "--margins",
+        action="store_true",
+        help="a line per walk: the plants nearest a fall (largest deviation first), each "
+        "with its share of the walk's ticks at the torso command's tilt clip and its "
+        "largest heading command (a probe on Stabilizer.adjust: margins()); and the median "
+        "and the worst-five mean of the survivors' largest deviation",
+    )
     args = p.parse_args()
     robot = load_robot("bioloid")
     entry = select([args.solver], None, "tick", stack=args.stack)[0][0]
@@ -172,9 +194,14 @@ def main() -> None:
             )
             started = time.perf_counter()
             r = simulate(rec, robot, compensate=comp, closed=spec)
-            fallen, worst, why = [], [], []
+            fallen, worst, why, probes = [], [], [], {}
             for k, v in plants:
-                run = simulate(rec, robot, v, compensate=comp, closed=spec)
+                if args.margins:
+                    with Probe(True) as probe:
+                        run, split = split_run(rec, robot, v, comp, spec)
+                    probes[k] = (split, probe.figures())
+                else:
+                    run = simulate(rec, robot, v, compensate=comp, closed=spec)
                 worst.append(round(run["orientation_dev_max_deg"], 1))
                 if run["fell"]:
                     fallen.append(k)
@@ -190,6 +217,101 @@ def main() -> None:
             )
             if args.why:
                 print("\n".join(why), flush=True)
+            if args.margins:
+                print(margins(plants, worst, fallen, probes), flush=True)
+
+
+def split_run(rec, robot, variation, compensate: float, spec) -> tuple[dict, tuple]:
+    """:func:`~wbc.bench.closed_loop.simulate`'s record of one closed-loop run and the
+    split of its deviation (the fall criterion's angle, ``orientation_dev_max_deg``, counts
+    tilt and heading together): the largest true tilt (the angle between the planned and
+    the real torso's up axes) and the largest heading error (degrees, both until the fall)."""
+    result, loop = play_closed_loop(spec, robot, variation, compensate=compensate)
+    record = physics_record(rec, result, robot, spec.ref)
+    record.update(closed_loop_figures(loop))
+    log = result.log
+    t = log["t"] - result.playback_start
+    q_plan = _planned(rec, t)
+    upto = len(t)
+    if record["fell"]:
+        upto = int(np.searchsorted(t, record["fall_time_s"]))
+    split = [tilt_and_heading(_rotation(q_plan[k, 3:7]), _rotation(log["q"][k, 3:7]))
+             for k in range(upto)]  # fmt: skip
+    return record, tuple(np.max(split, axis=0)) if split else (0.0, 0.0)
+
+
+def tilt_and_heading(planned: np.ndarray, real: np.ndarray) -> tuple[float, float]:
+    """(tilt, heading error) in degrees between two rotations: the angle between their up
+    (z) axes and the absolute difference of their headings (x axes' directions in the
+    horizontal plane, wrapped to ±180°)."""
+    tilt = math.degrees(math.acos(min(1.0, max(-1.0, float(planned[:, 2] @ real[:, 2])))))
+    d = math.atan2(real[1, 0], real[0, 0]) - math.atan2(planned[1, 0], planned[0, 0])
+    return tilt, abs(math.degrees(math.remainder(d, math.tau)))
+
+
+class Probe:
+    """Observes :meth:`Stabilizer.adjust` during one run (``on``; else nothing): per tick
+    the torso command ``log(R_cmd R_refᵀ)`` (the hip strategy's roll included), its tilt
+    (horizontal) part against the gains' ``max_tilt`` and its heading part."""
+
+    def __init__(self, on: bool) -> None:
+        self.on, self.rows = on, []
+
+    def __enter__(self) -> Probe:
+        if self.on:
+            self.original = original = stab_mod.Stabilizer.adjust
+            rows = self.rows
+
+            def observed(stab, targets, com_vel_ref, q_cmd, dt):
+                out = original(stab, targets, com_vel_ref, q_cmd, dt)
+                if stab.last is not None:
+                    cmd = np.empty(3)
+                    R = out.torso_rotation @ targets.torso_rotation.T
+                    log3(np.ascontiguousarray(R), cmd)
+                    rows.append((math.hypot(cmd[0], cmd[1]) / stab.gains.max_tilt, abs(cmd[2])))
+                return out
+
+            stab_mod.Stabilizer.adjust = observed
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.on:
+            stab_mod.Stabilizer.adjust = self.original
+
+    def figures(self) -> tuple[float, float] | None:
+        """(share of ticks with the tilt command at ≥ 99 % of its clip, the largest heading
+        command in degrees), None without rows."""
+        if not self.rows:
+            return None
+        a = np.array(self.rows)
+        return float(np.mean(a[:, 0] >= 0.99)), float(np.degrees(a[:, 1].max()))
+
+
+def margins(plants, worst: list[float], fallen: list[int], probes: dict) -> str:
+    """The ``--margins`` line: the survivors' median and worst-five mean largest deviation
+    (the fall criterion's angle: tilt and heading, ``orientation_dev_max_deg``), then the
+    eight plants of largest deviation (fallen marked), each with its largest true tilt and
+    heading error (:func:`split_run`) and its probe's figures (:class:`Probe`); the
+    survivors' largest true tilt, median and worst-five mean."""
+    keys = [k for k, _ in plants]
+    up = sorted(d for k, d in zip(keys, worst, strict=True) if k not in fallen)
+    tilts = sorted(probes[k][0][0] for k in keys if k not in fallen and probes[k][0])
+    head = "    margins: no survivor"
+    if up:
+        head = (f"    margins: survivors' largest deviation median {np.median(up):.1f}°, "
+                f"worst five {np.mean(up[-5:]):.1f}°; their largest true tilt median "
+                f"{np.median(tilts):.1f}°, worst five {np.mean(tilts[-5:]):.1f}°")  # fmt: skip
+    order = sorted(zip(worst, keys, strict=True), reverse=True)[:8]
+    parts = []
+    for d, k in order:
+        split, f = probes.get(k, (None, None))
+        tag = " fell" if k in fallen else ""
+        extra = "" if split is None else f" (tilt {split[0]:.1f}°, heading {split[1]:.1f}°"
+        extra += (
+            "" if f is None else f"; tilt cmd at clip {100 * f[0]:.0f}%, heading cmd {f[1]:.1f}°"
+        )
+        parts.append(f"{k}: {d:.1f}°{tag}{extra}{')' if split is not None else ''}")
+    return head + "; nearest a fall: " + "; ".join(parts)
 
 
 def _why(k: int, v, run: dict) -> str:

@@ -216,13 +216,26 @@ def _clip_norm(v, limit):
     st.floats(0.0, 0.3),
     st.sampled_from([1.0, 0.0, 0.5, 2.0, 3.0]),
     st.sampled_from([0.0, 0.5, 2.0]),
+    st.sampled_from([0.0, 0.05, 0.2]),
+    st.sampled_from([0.0, 0.1]),
 )
-def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll, yaw_cutoff):
+def test_torso_term_is_the_reference_computation(
+    seed, k_p, k_i, k_d, k_roll, yaw_cutoff, max_yaw, yaw_damping
+):
     """The compiled torso term gives the previous numpy / pinocchio computation's answer to
     1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target), with
-    the tilt's part about the target's heading scaled by ``k_roll`` and, with ``yaw_cutoff``
-    Hz, its vertical part low-passed (first order, from the filter's state ``y``)."""
-    from wbc.balance.stabilizer import _K_ROLL, _K_SIZE, _K_YAW_CUT, _torso_feedback
+    the tilt's part about the target's heading scaled by ``k_roll``, with ``yaw_cutoff``
+    Hz its vertical part low-passed (first order, from the filter's state ``y``) and, with
+    ``max_yaw`` > 0, the heading and tilt parts (of the integral and the command) clipped
+    each on its own, ``yaw_damping`` added to ``k_d`` on the vertical rate."""
+    from wbc.balance.stabilizer import (
+        _K_MAX_YAW,
+        _K_ROLL,
+        _K_SIZE,
+        _K_YAW_CUT,
+        _K_YAW_D,
+        _torso_feedback,
+    )
 
     rng = np.random.default_rng(seed)
     R_ref = pin.exp3(rng.normal(0, 0.5, 3))
@@ -234,17 +247,23 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll, ya
     values[:3], values[7] = R_est, omega
     k = np.zeros(_K_SIZE)
     k[:5] = k_p, k_i, k_d, k_yaw, max_tilt
-    k[_K_ROLL], k[_K_YAW_CUT] = k_roll, yaw_cutoff
+    k[_K_ROLL], k[_K_YAW_CUT], k[_K_MAX_YAW], k[_K_YAW_D] = k_roll, yaw_cutoff, max_yaw, yaw_damping
     y0 = rng.normal(0, 0.05)
     yaw = np.array([y0])
     _torso_feedback(values, R_ref, integral, k, dt, out, yaw)
     e = pin.log3(R_est @ R_ref.T)
     assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
     e[2] *= k_yaw
-    acc = _clip_norm(integral + e * dt, max_tilt / max(k_i, 1e-9))
+    acc = integral + e * dt
+    if max_yaw > 0:
+        acc[:2] = _clip_norm(acc[:2], max_tilt / max(k_i, 1e-9))
+        acc[2] = np.clip(acc[2], -max_yaw / max(k_i, 1e-9), max_yaw / max(k_i, 1e-9))
+    else:
+        acc = _clip_norm(acc, max_tilt / max(k_i, 1e-9))
     w = R_est @ omega
     w[2] *= k_yaw
     tilt = k_p * e + k_i * acc + k_d * w
+    tilt[2] += yaw_damping * w[2]
     h = np.array([R_ref[0, 0], R_ref[1, 0], 0.0])  # the target's heading (roll axis)
     h /= np.linalg.norm(h)
     tilt = tilt + (k_roll - 1.0) * (tilt @ h) * h
@@ -253,7 +272,11 @@ def test_torso_term_is_the_reference_computation(seed, k_p, k_i, k_d, k_roll, ya
         assert yaw[0] == pytest.approx(tilt[2], abs=1e-12)
     else:
         assert yaw[0] == y0  # (off: the filter's state untouched)
-    tilt = _clip_norm(tilt, max_tilt)
+    if max_yaw > 0:
+        tilt[:2] = _clip_norm(tilt[:2], max_tilt)
+        tilt[2] = np.clip(tilt[2], -max_yaw, max_yaw)
+    else:
+        tilt = _clip_norm(tilt, max_tilt)
     assert np.allclose(out[:3], e, atol=1e-9)
     assert np.allclose(out[3:6], acc, atol=1e-9)
     assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)

@@ -58,3 +58,32 @@ def test_the_lift_off_hold_is_set_per_run(sweep):
     assert sweep.spec_of(variant, entry, None)[1].hold == HoldParams()
     with pytest.raises(argparse.ArgumentTypeError, match="no holdd"):
         sweep.json_setting(HoldParams)('{"holdd": 1}')
+
+
+def test_the_deviation_is_split_into_tilt_and_heading(sweep):
+    """``--margins``' split of the fall criterion's angle: a pure heading change is no tilt,
+    a pure pitch no heading; both together give each its own."""
+    import numpy as np
+    import pinocchio as pin
+
+    R = pin.exp3(np.array([0.0, 0.0, 0.4]))  # a planned heading
+    yaw, pitch = pin.exp3(np.array([0.0, 0.0, 0.3])), pin.exp3(np.array([0.0, 0.2, 0.0]))
+    assert sweep.tilt_and_heading(R, yaw @ R) == pytest.approx((0.0, np.degrees(0.3)), abs=1e-6)
+    assert sweep.tilt_and_heading(R, R @ pitch) == pytest.approx((np.degrees(0.2), 0.0), abs=1e-6)
+    tilt, heading = sweep.tilt_and_heading(R, yaw @ R @ pitch)
+    assert tilt == pytest.approx(np.degrees(0.2), abs=1e-6)
+    assert heading == pytest.approx(np.degrees(0.3), abs=0.5)  # (a pitch moves x a little)
+
+
+def test_the_margins_line_ranks_the_plants_nearest_a_fall(sweep):
+    """The ``--margins`` line: the survivors' median and worst-five deviation and true tilt,
+    then the plants by deviation, the fallen marked, each with its split and probe."""
+    plants = [(k, None) for k in range(6)]
+    worst = [10.0, 44.0, 20.0, 5.0, 30.0, 12.0]
+    probes = {k: ((w / 2, w), (0.1 * k, 11.5)) for k, w in enumerate(worst)}
+    line = sweep.margins(plants, worst, [1], probes)
+    assert "median 12.0°, worst five 15.4°" in line  # survivors 5, 10, 12, 20, 30
+    assert "true tilt median 6.0°, worst five 7.7°" in line
+    order = line.split("nearest a fall: ")[1]
+    assert order.startswith("1: 44.0° fell (tilt 22.0°, heading 44.0°; tilt cmd at clip 10%")
+    assert order.index("4: 30.0°") < order.index("2: 20.0°") < order.index("3: 5.0°")

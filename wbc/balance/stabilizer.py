@@ -15,7 +15,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the target's heading (the roll: 2 brings ``lateral_wb``'s nominal within 3° but rings
   plants with servo latency; issue 30's ninth pass); ``yaw_cutoff`` (Hz, 0: off) low-passes
   the command's heading part (first order), below the yaw loop's ringing on stiff, late
-  plants;
+  plants; ``max_yaw`` (rad, 0: off) clips the heading part on its own and the tilt part to
+  ``max_tilt`` (else they share ``max_tilt`` as one vector);
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -95,6 +96,14 @@ class Gains:
     #: cut-off (0: off): the yaw loop's ringing (~5.5 Hz on stiff, late plants: issue 30)
     #: attenuated before it reaches the hip yaw servos
     yaw_cutoff: float = 0.0
+    #: rad: the torso command's heading (vertical) part clipped on its own to this, its
+    #: tilt part to ``max_tilt`` (and their integrals each to its share over ``k_i``), so a
+    #: heading lag (a soft plant's turn) does not eat the tilt's command; 0: the two share
+    #: ``max_tilt`` as one vector (issue 30)
+    max_yaw: float = 0.0
+    #: s: more rate gain on the heading part alone (``k_d`` + this on the vertical gyro
+    #: rate): damping for the yaw loop's ringing on stiff, late plants (issue 30)
+    yaw_damping: float = 0.0
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
     max_offset: float = 0.2  # rad, per joint
@@ -144,6 +153,8 @@ class Gains:
             "k_roll",
             "k_yaw",
             "yaw_cutoff",
+            "max_yaw",
+            "yaw_damping",
             "j_p",
             "j_d",
             "max_tilt",
@@ -196,10 +207,11 @@ def default_gains(compensate: float) -> Gains:
 
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
 # model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
-# torso's roll scale, the heading part's low-pass cut-off (Hz)
+# torso's roll scale, the heading part's low-pass cut-off (Hz), its own clip (rad; 0: shared),
+# its extra rate gain (s)
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_ROLL, _K_YAW_CUT = 10, 11
-_K_SIZE = 12
+_K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D = 10, 11, 12, 13
+_K_SIZE = 14
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -221,7 +233,10 @@ def _torso_feedback(
     target's heading ``h`` (the roll) scaled by ``k[_K_ROLL]`` first and, with a cut-off
     ``f = k[_K_YAW_CUT]`` > 0 Hz, its vertical (heading) part low-passed first-order before
     the clip: ``y ← y + (1 − exp(−2π f dt)) (tilt_z − y)``, ``tilt_z = y`` (``yaw[0]``: ``y``,
-    updated in place); writes ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
+    updated in place); with ``m = k[_K_MAX_YAW]`` > 0 the heading parts (of ∫ and of tilt)
+    clipped on their own (to ``m / k_i``, ``m``) and the tilt's horizontal parts to theirs,
+    else each vector as a whole; ``k[_K_YAW_D]`` adds to ``k_d`` on ``w_z``; writes
+    ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
     S = np.empty((2, 3, 3))  # scratch (one allocation: a small array each costs more)
@@ -237,15 +252,24 @@ def _torso_feedback(
         n += out[3 + i] * out[3 + i]
     n = math.sqrt(n)
     limit = max_tilt / max(k_i, 1e-9)
-    if n > limit:
+    max_yaw = k[_K_MAX_YAW]
+    if max_yaw > 0.0:  # the heading's integral clipped on its own, the tilt's to its share
+        n = math.sqrt(out[3] * out[3] + out[4] * out[4])
+        if n > limit:
+            out[3] *= limit / n
+            out[4] *= limit / n
+        out[5] = min(max(out[5], -max_yaw / max(k_i, 1e-9)), max_yaw / max(k_i, 1e-9))
+    elif n > limit:
         for i in range(3):
             out[3 + i] *= limit / n
     n = 0.0
     for i in range(3):  # tilt = k_p e + k_i ∫ + k_d w,  w = R_est ω (w_z × k_yaw)
         w = R_est[i, 0] * omega[0] + R_est[i, 1] * omega[1] + R_est[i, 2] * omega[2]
+        d = k_d
         if i == 2:
             w *= k_yaw
-        v[i] = k_p * out[i] + k_i * out[3 + i] + k_d * w
+            d += k[_K_YAW_D]
+        v[i] = k_p * out[i] + k_i * out[3 + i] + d * w
     k_roll = k[_K_ROLL]
     if k_roll != 1.0:  # the part about the target's heading (roll) scaled: k_roll
         h0, h1 = R_ref[0, 0], R_ref[1, 0]
@@ -259,12 +283,19 @@ def _torso_feedback(
     if cut > 0.0:  # the heading part low-passed (first order, cut-off ``cut`` Hz)
         yaw[0] += (1.0 - math.exp(-2.0 * math.pi * cut * dt)) * (v[2] - yaw[0])
         v[2] = yaw[0]
-    for i in range(3):
-        n += v[i] * v[i]
-    n = math.sqrt(n)
-    f = -max_tilt / n if n > max_tilt else -1.0
-    for i in range(3):
-        v[i] *= f
+    if max_yaw > 0.0:  # the heading and the tilt each clipped on its own
+        n = math.sqrt(v[0] * v[0] + v[1] * v[1])
+        f = -max_tilt / n if n > max_tilt else -1.0
+        v[0] *= f
+        v[1] *= f
+        v[2] = -min(max(v[2], -max_yaw), max_yaw)
+    else:
+        for i in range(3):
+            n += v[i] * v[i]
+        n = math.sqrt(n)
+        f = -max_tilt / n if n > max_tilt else -1.0
+        for i in range(3):
+            v[i] *= f
     exp3_into(v, S[1])  # Exp(−tilt)
     for i in range(3):
         for j in range(3):
@@ -493,7 +524,8 @@ class Stabilizer:
         if self._packed[0] is not g or self._packed[2] is not fall:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
-                 g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff]  # fmt: skip
+                 g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
+                 g.max_yaw, g.yaw_damping]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
