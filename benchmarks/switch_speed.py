@@ -25,6 +25,7 @@ from wbc.model import load_robot
 from wbc.stacks import load_stack, robot_stack
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.loop import StackController, run
+from wbc.walking.sizing import SPEED_FRACTION
 
 WALKS = ("static_walk", "walk10", "walk10_wb", "turn", "lateral", "turn_wb", "lateral_wb",
          "fast_wb")  # fmt: skip
@@ -56,6 +57,7 @@ def main() -> None:
         print(f"{name}: {said}", flush=True)
         legs = {robot.joint_index(j) for s in ("left", "right") for j in robot.roles.leg(s)}
         others = [j for j in range(robot.n_joints) if j not in legs]
+        worst = {"max": 0.0, "switch": 0.0}
         for walk in args.walks:
             ref = build(walk, robot)
             asked = kinematic_feasibility(robot, ref).speed_fraction
@@ -64,6 +66,8 @@ def main() -> None:
             switches = np.flatnonzero(np.diff(rec.channels["support"]))
             near = np.concatenate([np.arange(s - 1, min(s + 4, len(speed))) for s in switches])
             m = metrics.compute(rec, robot)
+            worst["max"] = max(worst["max"], float(speed.max()))
+            worst["switch"] = max(worst["switch"], float(speed[near].max()))
             print(
                 f"{name:8s} {walk:12s} ref {asked:4.2f}  max {speed.max():4.2f}  switch "
                 f"{speed[near].max():4.2f}  others {speed[:, others].max():4.2f}  com "
@@ -71,6 +75,9 @@ def main() -> None:
                 f"{1000 * landing_speed(ref):.0f} mm/s",
                 flush=True,
             )
+        over = "" if worst["max"] <= SPEED_FRACTION else f"  ABOVE the sized share {SPEED_FRACTION}"
+        print(f"{name}: largest share at a switch {worst['switch']:.2f}, anywhere "
+              f"{worst['max']:.2f}{over}", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":
