@@ -50,7 +50,7 @@ from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
-from .odometry import LiftGain, PoseOdometry, StrideGain
+from .odometry import LiftGain, PlayInverse, PoseOdometry, StrideGain
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
 DRIVE_K_DCM = 0.1
@@ -158,6 +158,10 @@ DRIVE_LIFT_GAIN = 2.0
 #: encoders'); 0: learnt at rest only (``yaw_rest_s``)
 DRIVE_YAW_LEARN = 0.0
 
+#: s a joint's encoder may stand still and its link still be taken at the play's edge the
+#: reading last moved toward (:class:`~wbc.drive.odometry.PlayInverse`); longer, the middle
+DRIVE_PLAY_HOLD = math.inf
+
 #: the state estimate's settings for driven walks (:class:`~wbc.balance.estimator.
 #: StateEstimator`)
 DRIVE_ESTIMATOR = MappingProxyType({"bias_gain": 0.05})
@@ -228,6 +232,12 @@ class Walker:
     bias about the vertical is the gyro's heading change less the torso's turn seen by the
     encoders (:class:`~wbc.drive.odometry.PoseOdometry`; measured not better on the random
     set, three falls in 200 runs against none: benchmarks/drive.md).
+    ``play`` (rad, one or per joint, model order; default 0: none): the servos' gear play
+    (backlash) between the encoder and the link, taken out of the present positions the
+    walker's own measurements use — the leg odometry's landings, the heading's tilt, the
+    swing's lift (:class:`~wbc.drive.odometry.PlayInverse`, ``play_hold``: how long a still
+    reading keeps its side, default :data:`DRIVE_PLAY_HOLD`); the feedback's state estimate
+    keeps the raw readings.
     """
 
     def __init__(
@@ -253,6 +263,8 @@ class Walker:
         lift_gain: float = DRIVE_LIFT_GAIN,
         filter_heading: bool = False,
         encoder_rest: bool = False,
+        play: float | np.ndarray = 0.0,
+        play_hold: float = DRIVE_PLAY_HOLD,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -340,6 +352,11 @@ class Walker:
         #: (m) and the highest point of the swing so far (m above the stance sole)
         self.lift = LiftGain(lift_gain) if closed and lift_gain > 1 else None
         self.filter_heading = bool(filter_heading)
+        #: the encoders' gear play taken out of the present positions the walker's own
+        #: measurements use (closed loop, any play > 0)
+        inverse = PlayInverse(play, robot.n_joints, play_hold)  # (checks them)
+        self.play = inverse if closed and np.any(inverse.half > 0) else None
+        self._links: np.ndarray | None = None  # this tick's present positions, play out
         self._apex = params.swing.apex
         self._peak = -math.inf
         self._offset: np.ndarray | None = None  # measured − planned frame at the last landing
@@ -470,6 +487,10 @@ class Walker:
         engine advances (by whole ticks), the feedback adjusts its targets, the controller
         solves; returns the configuration (the goals are its joints ``q[7:]``)."""
         start = time.perf_counter()
+        if self.play is not None:
+            present = self.present()
+            step = self.engine.dt if dt is None else dt
+            self._links = None if present is None else self.play.update(present, step)
         engine = self.engine
         if self._deferred_start and not self.calibrating:
             self._deferred_start = False
@@ -530,7 +551,7 @@ class Walker:
     def _present_configuration(self) -> np.ndarray | None:
         """The configuration of the servos' present positions (the base at the origin), or
         None if a position is unread."""
-        present = self.present()
+        present = self.present() if self.play is None else self._links
         if present is None or not np.all(np.isfinite(present)):
             return None
         return self.robot.with_joints(np.asarray(present, dtype=float))
