@@ -98,7 +98,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             yaw_rest: float | None = None, finish: bool = False,
             stride_gain: float | None = None, yaw_learn: float | None = None,
             lift_gain: float | None = None, filter_heading: bool = False,
-            encoder_rest: bool = False,
+            encoder_rest: bool = False, play: str | float | None = None,
+            play_hold: float | None = None, play_lift: bool = False,
             params=None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
@@ -108,14 +109,36 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
+        "play_hold": play_hold, "play_lift": play_lift or None,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
+    if play is not None:
+        options["play"] = play_of(play, variation)
     if limits is not None:
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
                   finish=finish, **kw)  # fmt: skip
     r.update(errors(r))
     return r
+
+
+def play_of(play: str | float, variation=None) -> float:
+    """The encoders' play the walker takes out (rad): ``"model"`` the simulated servos' own
+    (the randomised model's backlash; the nominal model has none; what ``drive_sim`` gives
+    by default), a number: degrees."""
+    if play == "model":
+        return float(getattr(variation.servo_params, "backlash", 0.0)) if variation else 0.0
+    return math.radians(float(play))
+
+
+def play_arg(text: str) -> str | float:
+    """``--play``'s value: ``model`` or degrees (>= 0)."""
+    if text == "model":
+        return text
+    value = float(text)
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"--play: 'model' or degrees >= 0, got {text}")
+    return value
 
 
 def tick_cost(robot, solvers: list[str], seconds: float = 6.0) -> dict:
@@ -236,6 +259,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--swing-settle", type=float, default=None, metavar="F",
                     help="the share of each swing at its end in which the sole only comes "
                          "down (EngineParams(settle=F); default the engine's)")  # fmt: skip
+    ap.add_argument("--play", type=play_arg, default=None, metavar="model|DEG",
+                    help="the encoders' gear play taken out of the walker's odometry "
+                         "(Walker(play=...)): 'model' the simulated servos' own (the default, "
+                         "drive_sim's), or degrees (0: the raw encoders, as before)")  # fmt: skip
+    ap.add_argument("--play-hold", type=float, default=None, metavar="S",
+                    help="with --play: how long a still encoder keeps its side of the play "
+                         "(Walker(play_hold=S); default the Walker's)")  # fmt: skip
+    ap.add_argument("--play-lift", action="store_true",
+                    help="with --play: the swing's lift measured through it too "
+                         "(Walker(play_lift=True))")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -262,6 +295,9 @@ def main(argv: list[str] | None = None) -> int:
         "lift_gain": args.lift_gain,
         "filter_heading": args.filter_heading,
         "encoder_rest": args.encoder_rest,
+        "play": args.play,
+        "play_hold": args.play_hold,
+        "play_lift": args.play_lift,
         "params": None
         if not args.plain_closing and args.swing_settle is None
         else EngineParams(

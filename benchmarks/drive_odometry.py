@@ -358,6 +358,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-backlash", action="store_true",
                     help="the randomised models without their gears' backlash (the encoders "
                          "then read the links)")  # fmt: skip
+    ap.add_argument("--play", type=drive.play_arg, default=None, metavar="model|DEG",
+                    help="as benchmarks/drive.py --play")  # fmt: skip
+    ap.add_argument("--play-hold", type=float, default=None, metavar="S",
+                    help="as benchmarks/drive.py --play-hold")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
@@ -436,7 +440,8 @@ def main(argv: list[str] | None = None) -> int:
             r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
                               window=window, track=args.track,
                               calibrate=args.calibrate, yaw_rest=args.yaw_rest,
-                              finish=args.finish, lift_gain=args.lift_gain,
+                              finish=args.finish, lift_gain=args.lift_gain, play=args.play,
+                              play_hold=args.play_hold,
                               params=None if args.swing_settle is None
                               else EngineParams(settle=args.swing_settle))  # fmt: skip
             b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)

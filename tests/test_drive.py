@@ -333,3 +333,26 @@ def test_a_finishing_stop_ends_where_the_commands_put_the_walk(robot, finish) ->
         assert engine.steps_taken <= steps + DRIVE_FINISH_STEPS + 2  # (+ the closing steps)
     else:
         assert off > 0.02 or turn > math.radians(5.0)
+
+
+def test_the_walker_reads_its_links_through_the_play(robot) -> None:
+    """``Walker(play=p)``: the present positions its own measurements use (the leg odometry,
+    the heading's tilt, the swing's lift) have the play taken out — a joint whose reading
+    rose is read ``p / 2`` higher —; without it, they are the readings; a bad play is
+    refused in one line."""
+    q0 = robot.configuration("stand")
+    readings = [q0[7:].copy(), q0[7:] + 0.01]
+    made = {}
+    for play in (0.0, 0.02):
+        walker = Walker(robot, StackController(load_stack("walk", robot, solver="weighted")),
+                        None, params=LEGS_ONLY, limits=LIMITS, window=None,
+                        play=play)  # fmt: skip
+        for present in readings:
+            walker.present = lambda present=present: present
+            walker.tick()
+        made[play] = walker._present_configuration()[7:]
+    assert made[0.0] == pytest.approx(readings[1])
+    assert made[0.02] == pytest.approx(readings[1] + 0.01)
+    with pytest.raises(ConfigurationError, match="play"):
+        Walker(robot, StackController(load_stack("walk", robot, solver="weighted")), None,
+               params=LEGS_ONLY, limits=LIMITS, window=None, play=-0.01)  # fmt: skip

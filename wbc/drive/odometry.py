@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from ..balance.estimator import exp3
+from ..exceptions import ConfigurationError
 from ..geometry import mean_angle, relative_pose, wrap_angle, yaw_of
 from ..model import Robot
 from ..roles import SOLE_FRAMES
@@ -158,6 +159,57 @@ class PoseOdometry:
         self._turn[side] = abs(yaw_of(rel.rotation))
         sw = self.soles[side]
         return np.array([0.5 * (st[0] + sw[0]), 0.5 * (st[1] + sw[1]), mean_angle(st[2], sw[2])])
+
+
+class PlayInverse:
+    """The links' positions from encoders that read through a gear play (backlash): per joint
+    the encoder reads the motor side, which follows the link only once the play ``p`` is
+    taken up, so while a joint moves the encoder lags the link by ``p / 2`` against the
+    motion (and stands still while the link crosses the play after a reversal). The inverse
+    of that play: the link is the encoder's reading plus ``p / 2`` in the direction of the
+    reading's last change (``0`` before any: the middle of the play).
+
+    On the randomised Bioloids of benchmarks/drive.md (0–1° of play) the leg odometry read
+    the steps long by the play (a leg moving forward reads behind its links at the stance
+    sole and at the landed sole alike). ``play`` (rad, one or per joint, model order) is the
+    servo's: measured per servo on the hardware, the servo model's in the simulator.
+
+    ``hold`` (s): a reading standing still longer than this is taken at the middle of the
+    play (the link may have turned back inside it: a joint rocking by less than the play
+    never moves its reading, and its last side goes stale). The inverse is of the
+    simulator's play, where the reading follows the link's motion; in a gearbox whose link
+    is held against one flank by its load the side would be the load's (not modelled)."""
+
+    def __init__(self, play: float | np.ndarray, n: int, hold: float = math.inf) -> None:
+        given = np.asarray(play, dtype=float)
+        if given.shape not in ((), (n,)):
+            raise ConfigurationError(f"play must be one number or {n} (one per joint), got {play}")
+        half = 0.5 * np.broadcast_to(given, (n,))
+        if not (np.all(np.isfinite(half)) and np.all(half >= 0)):
+            raise ConfigurationError(f"play must be finite numbers >= 0 (rad), got {play}")
+        if not hold > 0:
+            raise ConfigurationError(f"hold must be a number > 0 (s), got {hold}")
+        self.half = half.copy()
+        self.hold = float(hold)
+        self.side = np.zeros(n)  # the direction of each reading's last change (−1, 0, 1)
+        self.still = np.full(n, math.inf)  # s since each reading last changed
+        self._last: np.ndarray | None = None
+
+    def update(self, sensed: np.ndarray, dt: float = 0.0) -> np.ndarray:
+        """One reading of the encoders (rad, NaN: unread) ``dt`` s after the last; returns
+        the links' positions."""
+        sensed = np.asarray(sensed, dtype=float)
+        if self._last is not None:
+            d = sensed - self._last
+            read = np.isfinite(d)
+            moved = read & (d != 0)
+            self.side = np.where(read & (d > 0), 1.0, np.where(read & (d < 0), -1.0, self.side))
+            self.still = np.where(moved, 0.0, self.still + dt)
+            sensed_or_last = np.where(read, sensed, self._last)
+            self._last = np.where(np.isfinite(sensed), sensed, sensed_or_last)
+        else:
+            self._last = sensed.copy()
+        return sensed + self.half * np.where(self.still <= self.hold, self.side, 0.0)
 
 
 class StrideGain:

@@ -119,10 +119,12 @@ def drive_sim(
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
-    ``params``, ``gains``, ``closed``, ``compensate``). ``push``: ``(start s, force N (world
-    xyz), duration s)`` on the base, a scripted shove. ``get_up``: after a fall, what
-    ``wbc drive`` does (:func:`after_fall`); the record then says ``got_up`` (the get-up
-    completed and :func:`judge` finds the robot standing), its
+    ``params``, ``gains``, ``closed``, ``compensate``; ``play`` defaults to the randomised
+    servos' backlash, the leg odometry reading through it: ``play=0`` the raw encoders).
+    ``push``: ``(start s, force N (world xyz), duration s)`` on the base, a scripted
+    shove. ``get_up``: after a fall, what ``wbc drive`` does (:func:`after_fall`); the
+    record then says ``got_up`` (the get-up completed and :func:`judge` finds the robot
+    standing), its
     ``getup_side``, ``getup_phases`` and ``getup_reason``; ``getup_params``: the get-up
     planner's :class:`~wbc.balance.getup.GetupParams`. ``finish``: at the script's end the
     walker finishes the commanded path before it closes (:meth:`Walker.stop`
@@ -143,7 +145,10 @@ def drive_sim(
     if push is not None:
         start, force, duration = push
         sim.push(force, duration, start=sim.time + start)
-    walker = Walker(robot, controller, imu, **(walker_options or {}))
+    options = dict(walker_options or {})
+    if variation is not None:  # the odometry knows the simulated servos' play (as measured)
+        options.setdefault("play", float(getattr(variation.servo_params, "backlash", 0.0)))
+    walker = Walker(robot, controller, imu, **options)
     odo = Odometer(sim)
     holder.append(odo)
     script = CommandScript(commands)
