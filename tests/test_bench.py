@@ -58,6 +58,7 @@ def test_json_records(bench_run):
         assert REQUIRED <= set(r), r["solver"]
         assert r["trajectory"] == "thesis_step" and r["mode"] == "tick"
         assert r["time_median_us"] > 0 and r["failures"] == 0
+        assert r["time_clock"] == "cpu"  # (the default: the thread's CPU time)
     by = {r["solver"]: r for r in records}
     # the kinematic benchmark's hierarchy (walk_strict: CoM and swing above torso and posture)
     # tracks the static step almost exactly, and never leaves the joint limits
@@ -132,12 +133,23 @@ def test_default_table_fits_100_columns_with_units_and_legend(bench_run):
     text = (bench_run / "stdout.txt").read_text()
     lines = text.splitlines()
     assert max(len(line) for line in lines) <= 100
-    assert "CoM err mm" in text and "µs / tick" in text and "margin mm" in text
+    assert "CoM err mm" in text and "cpu µs/tick" in text and "margin mm" in text
     assert "iter" not in text  # one QP per tick: always 1
     assert "thesis mm" not in text  # the thesis figures: beside converged runs only
     assert "…" not in text  # nothing cut
     words = " ".join(text.split())
     assert "the ZMP on a dynamic one" in words  # the legend explains the margins
+
+
+def test_wall_clock_on_request_is_named_in_the_header_and_records(capsys, tmp_path):
+    path = tmp_path / "b.json"
+    args = ["bench", "--solvers", "qp-cj_com", "--trajectories", "thesis_step", "--json"]
+    assert main([*args, str(path), "--clock", "wall"]) == 0
+    assert "wall µs/tick" in capsys.readouterr().out
+    (record,) = json.loads(path.read_text())["records"]
+    assert record["time_clock"] == "wall" and record["time_p99_us"] > 0
+    with pytest.raises(SystemExit):
+        main([*args, str(path), "--clock", "cycles"])
 
 
 def test_wide_table_has_every_column(capsys):

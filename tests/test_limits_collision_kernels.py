@@ -152,12 +152,37 @@ def test_compiled_rows_are_the_numpy_rows(robot, seed, common_frame):
     _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h)
 
 
-def test_the_kernels_scratch_holds_every_pair_close(robot):
+#: floats / ints past the end of the kernels' scratch, each set to a value no kernel writes
+GUARD, F_SENTINEL, I_SENTINEL = 64, -1.2345e300, -987_654_321
+
+
+def _guarded_scratch(limit, short: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The limit's scratch replaced, before its first compute, by views ``short`` elements
+    shorter than :func:`~wbc.limits.collision_kernels.work_sizes` of buffers whose
+    remainder (``GUARD`` past the full size) holds sentinels: the compiled kernels do not
+    check their bounds, and what they write past a view's end lands there. Returns the
+    float and int buffers and the lengths of the views."""
+    pd = limit.distances
+    n, ni = pd._work.size - short, pd._iwork.size - short
+    work = np.full(n + short + GUARD, F_SENTINEL)
+    iwork = np.full(ni + short + GUARD, I_SENTINEL, np.int64)
+    work[:n], iwork[:ni] = 0.0, 0  # (the scratch as the limit makes it)
+    pd._work, pd._iwork = work[:n], iwork[:ni]
+    limit._packed = None  # (the packed kernel's addresses: taken at the next compute)
+    return work, iwork, n, ni
+
+
+@pytest.mark.parametrize("short", [0, 1])
+def test_the_kernels_scratch_holds_every_pair_close(robot, short):
     """A trigger past every pair's distance (1 m: every pair close, the witness and 16
-    corners' rows each at most): the rows computed in the limit's own scratch (its size
-    :func:`~wbc.limits.collision_kernels.work_sizes`: the kernels allocate nothing in a tick)
-    are the numpy form's; a second configuration reuses the same scratch."""
+    corners' rows each at most): the kernels write nothing past the limit's own scratch
+    (its size :func:`~wbc.limits.collision_kernels.work_sizes`: the kernels allocate nothing
+    in a tick; sentinels after it, unchanged) and its rows are the numpy form's; a second
+    configuration reuses the same scratch. One element shorter (``short=1``) and both
+    scratches overflow into the sentinels: the check can fail, and the sizes are the least
+    that hold the last pair's rows."""
     limit = SelfCollisionConstraint(robot, trigger=1.0, samples=0)
+    work, iwork, n, ni = _guarded_scratch(limit, short)
     rng = np.random.default_rng(5)
     for q in (robot.configuration("stand"), robot.random_configuration(rng)):
         kin = Kinematics(robot, q)
@@ -165,6 +190,11 @@ def test_the_kernels_scratch_holds_every_pair_close(robot):
         w = limit.witness(kin)
         assert w.index.size == limit.n_pairs
         assert h.size > 8 * limit.n_pairs
+        past = (work[n:] != F_SENTINEL).any(), (iwork[ni:] != I_SENTINEL).any()
+        if short:
+            assert past == (True, True)
+            return
+        assert past == (False, False)
         _assert_the_numpy_forms_rows(robot, limit, kin, w, G, h)
 
 

@@ -388,3 +388,32 @@ def test_a_support_switch_made_in_the_idle_part_changes_no_answer(robot, walk10,
         qs += [session.tick(i) for i in range(land, land + 5)]
         answers.append(np.array(qs))
     assert np.array_equal(answers[0], answers[1])
+
+
+def test_the_ticks_are_timed_on_the_chosen_clock(robot, walk10):
+    """A tick that waits 3 ms without computing: 3 ms on the wall clock, next to nothing in
+    the thread's CPU time (``RunOptions.clock``: the benchmark's default, which leaves out
+    the time other processes run in the middle of a tick); another name: a clear error."""
+    import time
+
+    from wbc.exceptions import ConfigurationError
+    from wbc.walking.loop import Controller
+
+    class Waiting(Controller):
+        name = "waiting"
+
+        def track(self, q, targets, dt, phase_changed):
+            time.sleep(0.003)
+            return q
+
+    times = {}
+    for clock in ("wall", "cpu"):
+        session = Session(Waiting(), robot, walk10, options=RunOptions(clock=clock))
+        times[clock] = []
+        for i in range(3):
+            session.tick(i)
+            times[clock].append(session.solve_time)
+    assert min(times["wall"]) >= 0.003
+    assert max(times["cpu"]) < 0.001
+    with pytest.raises(ConfigurationError, match="clock must be one of wall, cpu"):
+        Session(Waiting(), robot, walk10, options=RunOptions(clock="cycles"))

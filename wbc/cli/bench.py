@@ -34,6 +34,7 @@ from ..bench import trajectories as traj
 from ..bench.solvers import BENCH_STACKS, FAMILIES, registry, select
 from ..exceptions import ConfigurationError
 from ..model import Robot, load_robot, print_notes
+from ..walking.clock import CLOCKS
 from .options import (
     add_compensate_arguments,
     add_encoders_only_argument,
@@ -90,6 +91,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=positive_int,
         default=100,
         help="converged mode: iteration cap per pose, an integer >= 1",
+    )
+    parser.add_argument(
+        "--clock",
+        choices=tuple(CLOCKS),
+        default="cpu",
+        help="the ticks' timings: the thread's CPU time (the default: what a tick costs, the "
+        "operating system's preemptions left out) or the wall clock (preemptions included: "
+        "the p99 of a loaded machine); the tables and the records (time_clock) name it",
     )
     parser.add_argument("--json", type=Path, metavar="FILE", help="write one record per run")
     parser.add_argument(
@@ -179,7 +188,7 @@ def _print_wide(console: Console, records: list[dict[str, Any]], mode: str) -> N
             "penetr. mm",
             "CoM margin min mm",
             "ZMP margin min mm",
-            "µs median / p99",
+            f"{_clock(rows)} µs median / p99",
             "iter",
             "fail",
             "thesis CoM / foot mm",
@@ -236,11 +245,17 @@ def _time(r: dict[str, Any], mode: str) -> str:
     return _short(med * 1e-3)
 
 
+def _clock(rows: list[dict[str, Any]]) -> str:
+    """The clock of the rows' times (``cpu``, ``wall``; ``cpu/wall`` if they mix)."""
+    return "/".join(dict.fromkeys(str(r.get("time_clock", "wall")) for r in rows))
+
+
 def _compact_columns(
-    mode: str, gait: str | None
+    mode: str, gait: str | None, clock: str = "wall"
 ) -> list[tuple[str, Callable[[dict[str, Any]], str]]]:
     """(header with units, cell of a record) of the compact table. The balance margin is the
-    CoM's on a static gait and the ZMP's on a dynamic one (``--wide`` shows both)."""
+    CoM's on a static gait and the ZMP's on a dynamic one (``--wide`` shows both); the times'
+    header names their ``clock``."""
     margin = "com" if gait == "static" else "zmp"
     if mode == "tick":
         errors: list[tuple[str, Callable[[dict[str, Any]], str]]] = [
@@ -269,10 +284,10 @@ def _compact_columns(
             ),
         ]
     if mode == "tick":
-        columns.append(("µs / tick\nmed. / p99", lambda r: _time(r, mode)))
+        columns.append((f"{clock} µs/tick\nmed. / p99", lambda r: _time(r, mode)))
     else:
         columns += [
-            ("ms / pose\nmedian", lambda r: _time(r, mode)),
+            (f"{clock} ms/pose\nmedian", lambda r: _time(r, mode)),
             ("iter", lambda r: _short(r.get("iterations_mean"))),
             # the thesis's figures are per converged pose: beside converged runs only
             ("thesis mm\nCoM / foot", lambda r: _pair(*_thesis_values(r)[:2])),
@@ -289,8 +304,9 @@ LEGEND = (
     "polygon's edge (+ inside) of the balance point: the CoM on a static gait (thesis_step), "
     "the ZMP on a dynamic one (walk10, turn, lateral), whose CoM leaves the polygon by design "
     "(its CoM margin, negative, is in --wide). fail: ticks the solver could not solve. The "
-    "thesis's own figures (per converged pose) appear beside converged runs. --wide: every "
-    "column; --verbose: solver output."
+    "thesis's own figures (per converged pose) appear beside converged runs. Times: the "
+    "thread's CPU time (cpu, the default: preemptions by other processes left out) or the "
+    "wall clock (--clock wall). --wide: every column; --verbose: solver output."
 )
 
 
@@ -309,7 +325,7 @@ def _print_tables(console: Console, records: list[dict[str, Any]], mode: str) ->
     for name in dict.fromkeys(r["trajectory"] for r in records):
         rows = [r for r in records if r["trajectory"] == name]
         row_mode = "converge" if name == traj.STATIC_COM else mode
-        columns = _compact_columns(row_mode, rows[0].get("gait"))
+        columns = _compact_columns(row_mode, rows[0].get("gait"), _clock(rows))
         cells = [[fn(r) for _, fn in columns] for r in rows]
         keep = [k for k in range(len(columns)) if any(c[k] not in ("-", "- / -") for c in cells)]
         title = f"{name} ({row_mode} mode)" if name != traj.STATIC_COM else f"{name} (ch. 3)"
@@ -437,7 +453,9 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         for name, ref in refs.items():
             for entry in entries:
                 bar.update(job, description=f"{entry.name} on {name}")
-                record, rec = run_entry(entry, robot, ref, args.mode, args.tol, args.max_iterations)
+                record, rec = run_entry(
+                    entry, robot, ref, args.mode, args.tol, args.max_iterations, args.clock
+                )
                 records.append(record)
                 if args.record:
                     save_recording(rec, args.record, entry.name, name)

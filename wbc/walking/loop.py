@@ -9,7 +9,6 @@ configurations, never from a solver's own residuals.
 
 from __future__ import annotations
 
-import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
@@ -34,6 +33,7 @@ from ..tasks import (
     SwingFootOrientationTask,
 )
 from ..tasks.task import ROTATION_TOL
+from .clock import tick_clock
 from .handover import SwitchHandover
 from .reference import WalkingReference
 from .tick_targets import SOLES as SOLES  # (the targets' names, imported from here too)
@@ -384,6 +384,7 @@ class RunOptions:
     stop_on_failure: bool = False
     record_task_errors: bool = True
     meta: dict[str, Any] = field(default_factory=dict)
+    clock: str = "wall"  # the ticks' timings: "wall" or "cpu" (thread CPU time: wbc.walking.clock)
 
 
 class Session:
@@ -429,6 +430,7 @@ class Session:
         self._clock_time = 0.0  # s, :meth:`at_time`'s checks before the tick it calls
         if self.options.mode not in MODES:
             raise ConfigurationError(f"mode must be one of {MODES}, got {self.options.mode!r}")
+        self._now = tick_clock(self.options.clock)  # every timing of the session
         self.controller, self.robot, self.ref = controller, robot, ref
         self.q = (
             start_configuration(robot, ref) if q0 is None else robot.check_configuration(q0).copy()
@@ -515,11 +517,11 @@ class Session:
             and stab.enabled
             and stab.last is not None
         ):
-            start = time.perf_counter()  # the last tick's DCM estimate: re-plan the steps?
+            start = self._now()  # the last tick's DCM estimate: re-plan the steps?
             new = self.stepping.update(self.ref, i, stab.last.dcm)
             if new is not None:
                 self.set_reference(new, i)
-            self.stepping_time += time.perf_counter() - start
+            self.stepping_time += self._now() - start
         targets = self.targets(i)
         gap = 1 if self._last_index is None else max(1, i - self._last_index)
         self._last_index = i
@@ -528,13 +530,13 @@ class Session:
         self._previous = key
         opts = self.options
         if stab is not None and stab.enabled:
-            start = time.perf_counter()
+            start = self._now()
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
             stepping = self.stepping
             if stepping is not None and stepping.lands and stab.last is not None:
                 targets = stepping.land(targets, stab.last, self.q)  # the swing, measured
-            self.feedback_time = time.perf_counter() - start
-        start = time.perf_counter()
+            self.feedback_time = self._now() - start
+        start = self._now()
         self.failed = False
         self.failure = None
         try:
@@ -550,7 +552,7 @@ class Session:
             self.failure = exc
             if opts.stop_on_failure:
                 raise
-        self.solve_time = time.perf_counter() - start
+        self.solve_time = self._now() - start
         if self._landing >= 0:
             self._check_start_contacts(targets)
         return self.q
@@ -577,7 +579,7 @@ class Session:
             return
         phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
         switch = (phase, self.support[j], self.swing[j]) != self._previous
-        start = time.perf_counter()
+        start = self._now()
         try:
             if switch:
                 self.controller.prepare_phase(self.q, self.targets(j))
@@ -585,7 +587,7 @@ class Session:
                 self.controller.prepare_tick(self.q, self.targets(j))
         except WbcError:
             pass  # (nothing made ahead: the tick raises it again, as a failed tick)
-        self.prepare_time = time.perf_counter() - start
+        self.prepare_time = self._now() - start
 
     def _check_start_contacts(self, targets: TickTargets) -> None:
         """Until every sole in contact first sits within :data:`START_CONTACT_TOL` of its
@@ -629,21 +631,21 @@ class Session:
         clock = 0.0  # s in the step timing and hold checks (stepping_time)
         stepping = self.stepping  # (rate 1 at every tick unless it hurries: not called)
         if stepping is not None and closed and self._last_time is not None and stepping.hurries:
-            start = time.perf_counter()  # step timing: the clock runs faster when asked
+            start = self._now()  # step timing: the clock runs faster when asked
             self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
                 t - self._last_time
             )
-            clock = time.perf_counter() - start
+            clock = self._now() - start
         s = t - self.delay
         if s > ref.t[-1] - ref.t[0] + 1e-9:
             return None
         i = ref.index_at(ref.t[0] + s)
         if self.hold is not None and closed and i > last and self._last_time is not None:
-            start = time.perf_counter()
+            start = self._now()
             if self.hold.wait(ref, last, i, stab.last.dcm, t - self._last_time):
                 self.delay = t - float(ref.t[last] - ref.t[0])
                 i = last
-            clock += time.perf_counter() - start
+            clock += self._now() - start
         self._last_time = t
         self._clock_time = clock
         return self.tick(i)
