@@ -490,13 +490,13 @@ def test_equality_multipliers_solve_the_stationarity(seed, m, dependent):
 ONE_SPECIALISATION = """
 import json
 from numba.core.registry import CPUDispatcher
-from wbc.compiled import lsq, lsq_linalg, lsq_subproblem, ticks
+from wbc.compiled import lsq, lsq_linalg, lsq_subproblem, lsq_update, ticks
 from wbc.warmup import compile_part
 compile_part("weighted")  # a weighted and a hierarchical solve, compiled in this process
 compile_part("hierarchical")
 print(json.dumps({
     f"{m.__name__}.{k}": len(v.signatures)
-    for m in (lsq, lsq_subproblem, lsq_linalg, ticks) for k, v in vars(m).items()
+    for m in (lsq, lsq_subproblem, lsq_update, lsq_linalg, ticks) for k, v in vars(m).items()
     if isinstance(v, CPUDispatcher) and v.py_func.__module__ == m.__name__
 }))
 """
@@ -524,7 +524,7 @@ def test_each_kernel_compiles_once(tmp_path):
         "lsq.solve_level", "lsq._solve", "lsq._finish", "lsq_subproblem._subproblem",
         "lsq_subproblem._rank_with", "lsq_subproblem._dependency", "lsq_linalg._pivoted_qr_rows",
         "lsq_linalg._reflect_rows", "lsq_linalg._reflect_vector", "lsq_linalg._reflect_columns",
-        "lsq_linalg._reflect_columns2", "lsq_linalg._cholesky_solve",
+        "lsq_linalg._reflect_columns2", "lsq_linalg._cholesky_solve", "lsq_update._updated",
     ):  # fmt: skip
         assert counts[f"wbc.compiled.{name}"] == 1, name
     for name in ("weighted_solve", "cascade_solve", "solve_with_inequalities", "_level"):

@@ -110,12 +110,21 @@ from .lsq_subproblem import (
     _rank_with,
     _subproblem,
 )
+from .lsq_update import _U_Q, _updated
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
 
 _X_TOL = 1e-12  # a free x_i is beyond a bound b when by more than _X_TOL·(1 + |b|)
 
 _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
+
+#: the subproblem of a set that only adds bounds to the last one solved afresh (its base) is
+#: updated from the base's factors (:mod:`wbc.compiled.lsq_update`) instead of solved again;
+#: False (edit it; the kernels then compile again): every subproblem solved afresh, as before
+UPDATES = True
+#: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
+#: (its condition number beyond about its square)
+_COND_MAX_SQRT = 1e2
 
 
 @njit(cache=True, inline="always")
@@ -201,6 +210,20 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     kept = False
     released = False  # (the bounds of an inconsistent warm start's dependent rows released)
     rank = 0
+    # the rank of A_F for the set now in ind (-1: not known), the set PDAS falls back to's, and
+    # that of the free set with i_add, known when i_add joined the set of the last subproblem
+    # (the dual method's rank test then needs no QR of its own)
+    rank_now = np.int64(-1)
+    saved_rank = np.int64(-1)
+    rank_with = np.int64(-1)
+    # the base of the updates (lsq_update): the fixed set of the last subproblem solved in the
+    # normal form, while its factors are in the work space, and its rank
+    base = np.zeros(n, dtype=np.int64)
+    base_ok = False
+    base_first = np.bool_(False)
+    base_k = np.int64(0)
+    U = np.empty((_U_Q + 2 * n, max(n, pp)))
+    S = np.empty((n, n + 1))
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -219,12 +242,48 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 x[i] = saved[0, i]
                 V[_V_MU, i] = saved[1, i]
                 V[_V_MU_TOL, i] = saved[2, i]
+            rank_now = saved_rank
+            base_ok = False
+        elif (
+            UPDATES
+            and base_ok
+            and _updated(
+                A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, base_k, base_first
+            )
+        ):
+            count += 1
+            base_first = np.bool_(False)
+            sub = _SUB_OK
+            rank = base_k  # (no bound added depends on the others)
+            rank_now = rank
+            rank_with = rank
         else:
             count += 1
             sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
+            rank_now = rank
+            nf = 0
+            for i in range(n):
+                base[i] = ind[_I_FIXED, i]
+                if ind[_I_FIXED, i] == 0:
+                    nf += 1
+            base_ok = sub == _SUB_OK and p >= nf - rank > 0
+            if base_ok:  # (a Schur complement on an ill-conditioned H loses its accuracy)
+                lmin = np.inf
+                lmax = 0.0
+                for j in range(nf - rank):
+                    lmin = min(lmin, N[j, j])
+                    lmax = max(lmax, N[j, j])
+                base_ok = lmax <= _COND_MAX_SQRT * lmin
+            base_first = np.bool_(True)
+            base_k = rank
         if sub == _SUB_SINGULAR:
             _fill(x, np.nan)
             return NUMERICAL, count
+        r_with = rank_with  # (for this pass's rank test only)
+        rank_with = -1
+        if phase == _DUAL_ADD and sub != _SUB_INCONSISTENT and r_with < 0:
+            r_with = _rank_with(A, i_add, rank_rtol, W, V, ind)
+            base_ok = False  # (its QR took the work space)
         if phase == _PDAS:
             if sub == _SUB_INCONSISTENT:
                 if warm and best > n:  # the warm start is inconsistent
@@ -274,6 +333,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 return OK, count
             if n_inf < best:
                 best = n_inf
+                saved_rank = rank
                 for i in range(n):
                     saved[0, i] = x[i]
                     saved[1, i] = V[_V_MU, i]
@@ -317,7 +377,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 V[_V_X0, i] = x[i]
                 V[_V_MU0, i] = V[_V_MU, i]
             phase = _DUAL_ADD
-        elif sub == _SUB_INCONSISTENT or rank < _rank_with(A, i_add, rank_rtol, W, V, ind):
+        elif sub == _SUB_INCONSISTENT or rank < r_with:
             # the bound being added is a combination e_i = Aᵀλ' + Σ_X ν_j e_j of the equalities
             # and the active bounds (holding x_i at it drops the rank of A_F; the subproblem is
             # inconsistent, or consistent only because x_i is at the bound to roundoff already,
@@ -326,6 +386,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             # −s·τ·ν_j; the first active bound whose multiplier reaches zero is released
             ind[_I_FIXED, i_add] = 0
             _dependency(A, i_add, rank_rtol, W, V, ind)
+            base_ok = False
             sgn = -side
             tau_min = np.inf
             j_drop = -1
@@ -412,6 +473,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
             return OK, count
         side = 1 if V[_V_X0, i_add] > upper[i_add] else -1
+        rank_with = rank_now  # (the set of the last subproblem, or the kept one's, is in ind)
         ind[_I_FIXED, i_add] = side
         V[_V_MU0, i_add] = 0.0
 
@@ -504,5 +566,5 @@ refresh(
         solve_level,
         equality_multipliers,
     ],
-    [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"],
+    [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py", _HERE / "lsq_update.py"],
 )

@@ -780,5 +780,8 @@ refresh(
         cascade_solve,
         integrate,
     ],
-    [Path(__file__).with_name(f) for f in ("lsq.py", "lsq_subproblem.py", "lsq_linalg.py")],
+    [
+        Path(__file__).with_name(f)
+        for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py")
+    ],
 )

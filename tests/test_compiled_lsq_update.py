@@ -1,0 +1,116 @@
+"""The compiled level solver's updated subproblem (:mod:`wbc.compiled.lsq_update`): bounds added
+to a solved set give the subproblem solved afresh (x and the bounds' multipliers), and the
+update declines where it does not apply (a base bound released, a bound that depends on the
+equalities, more bounds than the null space holds)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wbc.compiled.lsq_linalg import _I_FIXED, _N_IVEC, _N_VEC, _V_MU, _V_MU_TOL
+from wbc.compiled.lsq_subproblem import _SUB_OK, _subproblem
+from wbc.compiled.lsq_update import _U_Q, _updated
+
+
+def _work(m: int, n: int, p: int) -> tuple:
+    pp = (p + 3) & ~3
+    work = np.zeros((4, max(m, n, _N_VEC), max(m, n, pp)))
+    ind = np.zeros((_N_IVEC, max(m, n)), dtype=np.int64)
+    U = np.zeros((_U_Q + 2 * n, max(n, pp)))
+    S = np.zeros((n, n + 1))
+    return work, ind, U, S
+
+
+def _problem(seed: int, m: int, n: int = 24, p: int = 21) -> tuple:
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((m, n))
+    a = rng.standard_normal(m)
+    B = rng.standard_normal((p, n))
+    r = 3.0 * rng.standard_normal(p)
+    lower = -rng.uniform(0.1, 1.0, n)
+    upper = rng.uniform(0.1, 1.0, n)
+    return A, a, B, r, lower, upper
+
+
+def _base(A, a, B, r, ridge, lower, upper, fixed, work, ind):
+    """The base subproblem solved afresh for the fixed set ``fixed``: its x, its rank."""
+    n = A.shape[1]
+    x = np.zeros(n)
+    ind[_I_FIXED, :n] = fixed
+    status, k = _subproblem(
+        A, a, B, r, ridge, lower, upper, x, 1e-9, work[0], work[1], work[2], work[3], ind
+    )
+    assert status == _SUB_OK
+    return x, k
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("m", [6, 15])
+@pytest.mark.parametrize("added", [1, 2, 3])
+def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
+    A, a, B, r, lower, upper = _problem(seed, m)
+    n = A.shape[1]
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5, 9]] = [-1, 1, -1]
+    work, ind, U, S = _work(m, n, B.shape[0])
+    x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
+    fixed = base.copy()
+    for j, v in enumerate([3, 11, 17][:added]):
+        fixed[v] = 1 if j % 2 else -1
+    ind[_I_FIXED, :n] = fixed
+    assert _updated(
+        A, B, ridge, lower, upper, x, *work, ind, U, S, base, np.int64(k), np.bool_(True)
+    )
+    mu = work[3][_V_MU, :n].copy()
+    mu_tol = work[3][_V_MU_TOL, :n].copy()
+    # the same set solved afresh
+    work2, ind2, _, _ = _work(m, n, B.shape[0])
+    x2, _ = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
+    held = fixed != 0
+    assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+    assert np.allclose(mu[held], work2[3][_V_MU, :n][held], rtol=1e-8, atol=1e-10)
+    assert np.allclose(mu_tol[held], work2[3][_V_MU_TOL, :n][held], rtol=1e-6, atol=1e-15)
+    # and a second update from the same base (its solution kept in U) answers the same
+    ind[_I_FIXED, :n] = fixed
+    x3 = np.full(n, np.nan)
+    assert _updated(
+        A, B, ridge, lower, upper, x3, *work, ind, U, S, base, np.int64(k), np.bool_(False)
+    )
+    assert np.max(np.abs(x3 - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+
+
+def test_the_update_declines_where_it_does_not_apply():
+    m = 6
+    A, a, B, r, lower, upper = _problem(0, m)
+    n = A.shape[1]
+    A[0] = 0.0
+    A[0, 7] = 1.0  # x_7 = a_0: holding x_7 at a bound drops the rank of A_F
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5]] = [-1, 1]
+    work, ind, U, S = _work(m, n, B.shape[0])
+    x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
+    args = (np.int64(k), np.bool_(True))
+
+    def update(fixed):
+        ind[_I_FIXED, :n] = fixed
+        return _updated(A, B, ridge, lower, upper, x.copy(), *work, ind, U, S, base, *args)
+
+    released = base.copy()
+    released[5] = 0
+    assert not update(released)
+    moved = base.copy()
+    moved[5] = -1
+    assert not update(moved)
+    dependent = base.copy()
+    dependent[7] = 1
+    assert not update(dependent)
+    d = n - 2 - k  # more bounds than the null space's dimension
+    too_many = base.copy()
+    too_many[[v for v in range(n) if base[v] == 0 and v != 7][: d + 1]] = -1
+    assert not update(too_many)
+    one = base.copy()
+    one[3] = 1
+    assert update(one)
