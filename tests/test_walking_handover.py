@@ -248,3 +248,34 @@ def test_a_landing_is_made_in_the_idle_part_before_its_ticks(robot):
         assert inside["_touch_down"].count(True) == (other_q or not ahead)
         assert steps.count(True) == (len(steps) if not ahead else 1 if other_q else 0), steps
     assert np.array_equal(answers[0], answers[1]) and np.array_equal(answers[0], answers[2])
+
+
+@pytest.mark.parametrize("second", [False, True])
+def test_a_freed_legs_lag_is_fitted_to_its_servos_speed(robot, second):
+    """At a lift-off the freed leg's share per tick toward Walk Ready is the table's
+    ``a = 1 - e^(-dt/τ)`` while its first step ``a·gap`` asks no joint for more than the sized
+    share (0.8) of its no-load speed in ``dt`` (``second_order_swing``: the two lags' peak,
+    ~1/e of it); a larger gap gets a smaller share (a longer lag), never a larger one; the
+    table's ``fit_speed = false`` keeps ``a``."""
+    from wbc.walking.sizing import SPEED_FRACTION
+
+    ref = build("static_walk", robot)
+    spec = _walk_spec()
+    spec["support_switch"] = {**spec["support_switch"], "second_order_swing": second}
+    control = build_stack(spec, robot)
+    handover = Session(StackController(control), robot, ref).controller.handover
+    posture = control.stack.task("posture")
+    walk_ready = posture.target.copy()
+    dt, peak = ref.dt, math.e if second else 1.0
+    a = 1.0 - math.exp(-dt / 0.1)
+    left = handover._joints[handover._sides == 0]
+    assert handover.swing_share(0, a, dt) == a  # at Walk Ready: nothing to absorb
+    for gap in (0.05, 0.5, 1.5):
+        posture.target[left] = walk_ready[left] + gap
+        share = handover.swing_share(0, a, dt)
+        asked = share * gap / dt / robot.v_max[left] / peak
+        assert share <= a and asked.max() <= SPEED_FRACTION + 1e-12
+        assert share == a or math.isclose(asked.max(), SPEED_FRACTION)
+    assert share < a  # 1.5 rad in one lag of 0.1 s: beyond any servo here
+    handover.fit_speed = False
+    assert handover.swing_share(0, a, dt) == a

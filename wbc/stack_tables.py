@@ -30,6 +30,9 @@ class SupportSwitch:
     the target lags them). ``second_order_swing``: the freed leg's target walks to Walk Ready
     through two such lags in series (no step in its speed at the lift-off: a shorter
     ``posture_lag`` for the same joint speed; benchmarks/balance.md, "Sixth follow-up" item 5).
+    ``fit_speed`` (default): a freed leg's lag is lengthened, for that swing, until its first
+    step asks no joint for more than the sized share of its servo's no-load speed
+    (:meth:`wbc.walking.handover.SwitchHandover.swing_share`; never shortened); false: as stated.
     Stated for the file's ``design_leg``; on a robot λ times that size the times are scaled by
     √λ (the sizing's time scale, :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
 
@@ -38,6 +41,7 @@ class SupportSwitch:
     landing_band: float = math.inf
     carry_contact_targets: bool = False
     second_order_swing: bool = False
+    fit_speed: bool = True
 
 
 #: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
@@ -47,9 +51,10 @@ SWITCH_KEYS = (
     "landing_band",
     "carry_contact_targets",
     "second_order_swing",
+    "fit_speed",
 )
 #: its keys that are true or false (the others are positive numbers)
-_SWITCH_FLAGS = ("carry_contact_targets", "second_order_swing")
+_SWITCH_FLAGS = ("carry_contact_targets", "second_order_swing", "fit_speed")
 
 
 def parse_support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:

@@ -45,19 +45,21 @@ from ..roles import SOLE_FRAMES as SOLES
 from ..stacks import ControlStack
 from ..tasks import ContactTask
 from ..tasks.posture import PostureTask
+from .sizing import SPEED_FRACTION
 
 
 @njit(
     "void(float64[:], float64[:], float64[:], float64[:], float64[:], int64[:], int64[:], int64, "
-    "float64, boolean, boolean)",
+    "float64, float64, boolean, boolean)",
     cache=True,
 )
 def follow_set_points(
-    target, walk_ready, q, held, mid, joints, sides, swing, a, carry, second
+    target, walk_ready, q, held, mid, joints, sides, swing, a, a_swing, carry, second
 ) -> None:
     """For each leg joint ``j = joints[k]`` of side ``sides[k]``: on the ``swing`` side (−1:
-    none) ``target[j] += a (walk_ready[j] − target[j])``, or with ``second`` through a middle
-    stage, ``mid[k] += a (walk_ready[j] − mid[k]); target[j] += a (mid[k] − target[j])``
+    none) ``target[j] += a_swing (walk_ready[j] − target[j])``, or with ``second`` through a
+    middle stage, ``mid[k] += a_swing (walk_ready[j] − mid[k]); target[j] += a_swing (mid[k] −
+    target[j])``
     (``mid[k]`` starts at the target at the lift-off; NaN: not swinging); on a side in contact,
     with ``carry``, ``target[j] = q_j + (1 − a) (target[j] − held[k])`` (the target moves with
     the joint, its offset decaying; ``held[k]``: the joint at the last call, NaN: none yet),
@@ -70,13 +72,13 @@ def follow_set_points(
         if sides[k] == swing and second:
             if mid[k] != mid[k]:
                 mid[k] = target[j]
-            mid[k] += a * (walk_ready[j] - mid[k])
-            target[j] += a * (mid[k] - target[j])
+            mid[k] += a_swing * (walk_ready[j] - mid[k])
+            target[j] += a_swing * (mid[k] - target[j])
             held[k] = qj
             continue
         mid[k] = np.nan
         if sides[k] == swing:
-            target[j] += a * (walk_ready[j] - target[j])
+            target[j] += a_swing * (walk_ready[j] - target[j])
         elif carry:
             before = held[k] if held[k] == held[k] else qj
             target[j] = qj + (1.0 - a) * (target[j] - before)
@@ -109,6 +111,7 @@ class SwitchHandover:
         self.landing_band = settings.landing_band
         self.carry = settings.carry_contact_targets
         self.second = settings.second_order_swing
+        self.fit_speed = settings.fit_speed
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
@@ -124,6 +127,10 @@ class SwitchHandover:
         self._joints = np.array([j for _, j in legs], dtype=np.int64)
         self._sides = np.array([self._frames.index(f) for f, _ in legs], dtype=np.int64)
         self._a = (0.0, 0.0)  # (dt, 1 − e^(−dt/τ)) last used
+        #: the swinging leg's share per tick, set at its lift-off (:meth:`swing_share`)
+        self._a_swing = 0.0
+        #: the legs' joints' no-load speeds (rad/s; the robot's [servo] table, its URDF limits)
+        self._speed = np.asarray(robot.v_max, dtype=float)[self._joints]
         self._robot = robot
         self._set_points: list[np.ndarray] = []
         #: (posture target array, its Walk Ready copy, the legs' joints at the last update (NaN:
@@ -224,15 +231,39 @@ class SwitchHandover:
                 self._a = (dt, 1.0 - math.exp(-dt / self.lag))
             swing = self._side[targets.swing] if single else -1
             a, joints, sides, follow = self._a[1], self._joints, self._sides, self._follow
+            if single and self._swing != targets.swing:  # a lift-off: the freed leg's share
+                self._a_swing = self.swing_share(swing, a, dt)
             for target, walk_ready, held, mid in self._pairs:
-                follow(target, walk_ready, q, held, mid, joints, sides, swing, a, self.carry,
-                       self.second)  # fmt: skip
+                follow(target, walk_ready, q, held, mid, joints, sides, swing, a,
+                       self._a_swing, self.carry, self.second)  # fmt: skip
         if targets.contacts_move:  # the caller moves the contacts (a driven walk): not here
             self._landing = None
         elif self.landing_time and not (single and self._landing is None):
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
         self._prepared = None  # (made for this tick only)
+
+    def swing_share(self, side: int, a: float, dt: float) -> float:
+        """The share per tick ``a_s`` with which the leg of ``side`` (index in the sole frames),
+        freed now, walks its posture targets to Walk Ready: the table's ``a`` (its
+        ``posture_lag``), or less if that would ask a joint for more than
+        :data:`~wbc.walking.sizing.SPEED_FRACTION` of its no-load speed ``v``: the first step
+        ``a·gap`` in ``dt`` (the target's fastest; with ``second_order_swing`` the two lags'
+        fastest, ~``a·gap/e`` per tick) within ``SPEED_FRACTION·v·dt``. The lag then is the
+        time the freed joints need, at that share of their servos' speed, to absorb the pull
+        toward the standing pose that lift-off releases (slower than the table, never faster).
+        The table's ``fit_speed = false``: ``a`` as stated."""
+        if not self.fit_speed:
+            return a
+        legs = self._sides == side
+        gap = 0.0
+        for target, walk_ready, _, _ in self._pairs:
+            joints = self._joints[legs]
+            share = np.abs(walk_ready[joints] - target[joints]) / self._speed[legs]
+            gap = max(gap, float(share.max(initial=0.0)))
+        peak = math.e if self.second else 1.0
+        room = peak * SPEED_FRACTION * dt
+        return a if gap * a <= room else room / gap
 
     def _touch_down(self, q: np.ndarray, targets) -> pin.SE3:
         """Where the landing sole is, or, if it missed its reference placement by more than
