@@ -16,7 +16,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   plants with servo latency; issue 30's ninth pass); ``yaw_cutoff`` (Hz, 0: off) low-passes
   the command's heading part (first order), below the yaw loop's ringing on stiff, late
   plants; ``max_yaw`` (rad, 0: off) clips the heading part on its own and the tilt part to
-  ``max_tilt`` (else they share ``max_tilt`` as one vector);
+  ``max_tilt`` (else they share ``max_tilt`` as one vector); ``yaw_ring`` (rad/s, 0: off)
+  scales the heading part down by the yaw rate's measured ringing (its RMS above 3 Hz);
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -104,6 +105,13 @@ class Gains:
     #: s: more rate gain on the heading part alone (``k_d`` + this on the vertical gyro
     #: rate): damping for the yaw loop's ringing on stiff, late plants (issue 30)
     yaw_damping: float = 0.0
+    #: rad/s: the heading's gain scheduled from the yaw loop's measured ringing (0: off): the
+    #: vertical gyro rate high-passed (first order, :data:`RING_HZ`) and its RMS over a
+    #: sliding window (:data:`RING_WINDOW` s, exponential) ``r``; the torso command's heading
+    #: part scaled by ``min(1, yaw_ring / r)``, full authority while the loop is quiet (a
+    #: soft plant's turn lag: a slow rate the high-pass takes out), backed off on a plant
+    #: whose servo latency rings the hip yaw (issue 30)
+    yaw_ring: float = 0.0
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
     max_offset: float = 0.2  # rad, per joint
@@ -155,6 +163,7 @@ class Gains:
             "yaw_cutoff",
             "max_yaw",
             "yaw_damping",
+            "yaw_ring",
             "j_p",
             "j_d",
             "max_tilt",
@@ -208,10 +217,16 @@ def default_gains(compensate: float) -> Gains:
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
 # model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
 # torso's roll scale, the heading part's low-pass cut-off (Hz), its own clip (rad; 0: shared),
-# its extra rate gain (s)
+# its extra rate gain (s), the ringing's RMS threshold (rad/s; yaw_ring)
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D = 10, 11, 12, 13
-_K_SIZE = 14
+_K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING = 10, 11, 12, 13, 14
+_K_SIZE = 15
+
+#: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
+#: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
+RING_HZ = 3.0
+#: s: ``yaw_ring``'s window (the time constant of its mean square)
+RING_WINDOW = 0.5
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -235,7 +250,11 @@ def _torso_feedback(
     the clip: ``y ← y + (1 − exp(−2π f dt)) (tilt_z − y)``, ``tilt_z = y`` (``yaw[0]``: ``y``,
     updated in place); with ``m = k[_K_MAX_YAW]`` > 0 the heading parts (of ∫ and of tilt)
     clipped on their own (to ``m / k_i``, ``m``) and the tilt's horizontal parts to theirs,
-    else each vector as a whole; ``k[_K_YAW_D]`` adds to ``k_d`` on ``w_z``; writes
+    else each vector as a whole; ``k[_K_YAW_D]`` adds to ``k_d`` on ``w_z``; with
+    ``g = k[_K_RING]`` > 0 (``yaw[1]``: the low-passed ``w_z``, ``yaw[2]``: the mean square
+    of the rest, updated in place) ``u = w_z − yaw[1]``, ``yaw[1] += (1 − exp(−2π RING_HZ
+    dt)) u``, ``yaw[2] += (1 − exp(−dt / RING_WINDOW)) (u² − yaw[2])`` and the heading part
+    (before the low-pass and the clip) scaled by ``min(1, g / sqrt(yaw[2]))``; writes
     ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
@@ -279,6 +298,15 @@ def _torso_feedback(
             r = (k_roll - 1.0) * (v[0] * h0 + v[1] * h1)
             v[0] += r * h0
             v[1] += r * h1
+    ring = k[_K_RING]
+    if ring > 0.0:  # the heading's gain backed off by the yaw rate's ringing (its RMS)
+        w = R_est[2, 0] * omega[0] + R_est[2, 1] * omega[1] + R_est[2, 2] * omega[2]
+        u = w - yaw[1]
+        yaw[1] += (1.0 - math.exp(-2.0 * math.pi * RING_HZ * dt)) * u
+        yaw[2] += (1.0 - math.exp(-dt / RING_WINDOW)) * (u * u - yaw[2])
+        r = math.sqrt(yaw[2])
+        if r > ring:
+            v[2] *= ring / r
     cut = k[_K_YAW_CUT]
     if cut > 0.0:  # the heading part low-passed (first order, cut-off ``cut`` Hz)
         yaw[0] += (1.0 - math.exp(-2.0 * math.pi * cut * dt)) * (v[2] - yaw[0])
@@ -305,9 +333,10 @@ def _torso_feedback(
 
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
 # IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
-# largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad)
+# largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad) and
+# yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest
 _B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT = 0, 2, 5, 6, 9, 18
-_B_YAW, _B_SIZE = 19, 20
+_B_YAW, _B_SIZE = 19, 22  # (3: the low-pass's state, yaw_ring's two)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -417,7 +446,7 @@ def _feedback_tick(
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
-    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat, fb[_B_YAW : _B_YAW + 1])
+    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat, fb[_B_YAW : _B_YAW + 3])
     code = 0
     if consts[_K_FALL] > 0.5:
         fall_tick(fall_state, dt)
@@ -525,7 +554,7 @@ class Stabilizer:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
-                 g.max_yaw, g.yaw_damping]  # fmt: skip
+                 g.max_yaw, g.yaw_damping, g.yaw_ring]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
