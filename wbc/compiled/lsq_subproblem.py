@@ -172,19 +172,25 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
         x[ind[_I_FREE, c]] = V[_V_T, c]
     # reduced gradients of the fixed variables: μ = B_iᵀ e + ridge x_i + A_iᵀ λ
     for c in range(nx):
-        i = ind[_I_FIX, c]
-        g = 0.0
-        for j in range(p):
-            g += B[j, i] * V[_V_E, j]
-        size = abs(g) + ridge * abs(x[i])
-        s = g + ridge * x[i]
-        for j in range(k):
-            term = V[_V_LAM, j] * A[ind[_I_PERM, j], i]
-            s += term
-            size += abs(term)
-        V[_V_MU, i] = s
-        V[_V_MU_TOL, i] = _MU_TOL * size
+        _fixed_multiplier(A, B, ridge, x, V, ind, ind[_I_FIX, c], p, k)
     return _SUB_OK, k
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _fixed_multiplier(A, B, ridge, x, V, ind, i, p, k):
+    """The fixed variable i's multiplier μ_i = B_iᵀ e + ridge x_i + A_iᵀ λ into V[_V_MU, i],
+    and its tolerance (_MU_TOL × the terms' magnitudes) into V[_V_MU_TOL, i]."""
+    g = 0.0
+    for j in range(p):
+        g += B[j, i] * V[_V_E, j]
+    size = abs(g) + ridge * abs(x[i])
+    s = g + ridge * x[i]
+    for j in range(k):
+        term = V[_V_LAM, j] * A[ind[_I_PERM, j], i]
+        s += term
+        size += abs(term)
+    V[_V_MU, i] = s
+    V[_V_MU_TOL, i] = _MU_TOL * size
 
 
 @njit(cache=True, fastmath=_FAST)

@@ -22,18 +22,15 @@ from .lsq_linalg import (
     _FAST,
     _I_FIXED,
     _I_FREE,
-    _I_PERM,
     _V_E,
     _V_LAM,
-    _V_MU,
-    _V_MU_TOL,
     _V_TAU,
     _V_W2,
     _axpy,
     _cholesky_solve,
     _dot,
 )
-from .lsq_subproblem import _MU_TOL
+from .lsq_subproblem import _fixed_multiplier
 
 # U's rows: the base's x, its residual e, y₀ = (Qᵀ x_F)[:k], a work vector, then Qᵀ e_s (the
 # added bounds', n rows) and H⁻¹ c_s (n rows)
@@ -173,19 +170,8 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, k, first
         V[_V_LAM, j] = s / W[j, j]
     # reduced gradients of the fixed variables, as the subproblem's: μ = B_iᵀ e + ridge x_i + A_iᵀ λ
     for i in range(n):
-        if ind[_I_FIXED, i] == 0:
-            continue
-        g = 0.0
-        for j in range(p):
-            g += B[j, i] * V[_V_E, j]
-        size = abs(g) + ridge * abs(x[i])
-        s = g + ridge * x[i]
-        for j in range(k):
-            term = V[_V_LAM, j] * A[ind[_I_PERM, j], i]
-            s += term
-            size += abs(term)
-        V[_V_MU, i] = s
-        V[_V_MU_TOL, i] = _MU_TOL * size
+        if ind[_I_FIXED, i] != 0:
+            _fixed_multiplier(A, B, ridge, x, V, ind, i, p, k)
     return True
 
 
