@@ -100,6 +100,7 @@ from .lsq_linalg import (
     _V_X0,
     _fill,
     _pivoted_qr_rows,
+    _r11_solve,
     _reflect_vector,
 )
 from .lsq_subproblem import (
@@ -542,11 +543,7 @@ def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
         miss += V[_V_T, c] * V[_V_T, c]
     if np.sqrt(miss) > 1e-7 * (1.0 + np.sqrt(norm)):
         return False
-    for j in range(k - 1, -1, -1):  # R11 λ'' = u[:k]
-        s = V[_V_T, j]
-        for row in range(j + 1, k):
-            s -= W[row, j] * V[_V_LAM, row]
-        V[_V_LAM, j] = s / W[j, j]
+    _r11_solve(W, k, V, _V_T, _V_LAM)  # R11 λ'' = u[:k]
     for i in range(m):
         lam[i] = 0.0
     for j in range(k):

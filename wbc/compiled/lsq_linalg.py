@@ -53,6 +53,17 @@ def _dot(X, i, Y, j, c0, c1):
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
+def _r11_solve(W, k, V, src, dst):
+    """V[dst, :k] = R11⁻¹ V[src, :k], R11 upper triangular stored transposed below W's
+    diagonal (R11[j, i] = W[i, j]); back substitution, src may be dst."""
+    for j in range(k - 1, -1, -1):
+        s = V[src, j]
+        for i in range(j + 1, k):
+            s -= W[i, j] * V[dst, i]
+        V[dst, j] = s / W[j, j]
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
 def _axpy(f, X, i, Y, j, c0, c1):
     """Y[j, c] += f·X[i, c] over c0 ≤ c < c1."""
     for c in range(uint64(c0), uint64(c1)):

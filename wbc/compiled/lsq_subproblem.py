@@ -33,6 +33,7 @@ from .lsq_linalg import (
     _dot,
     _gram,
     _pivoted_qr_rows,
+    _r11_solve,
     _reflect_columns,
     _reflect_columns2,
     _reflect_vector,
@@ -159,11 +160,7 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
     if nx > 0:  # λ' (permuted, basic): R11 λ' = −(Qᵀ g_F)[:k], (Qᵀ g_F)_j = T_j·e + ridge·y₀_j
         for j in range(k):
             V[_V_LAM, j] = -(_dot(T, j, V, _V_E, 0, pp) + ridge * V[_V_T, j])
-        for j in range(k - 1, -1, -1):
-            s = V[_V_LAM, j]
-            for i in range(j + 1, k):
-                s -= W[i, j] * V[_V_LAM, i]
-            V[_V_LAM, j] = s / W[j, j]
+        _r11_solve(W, k, V, _V_LAM, _V_LAM)
     # x_F = Q (y₀, z): the reflectors in reverse order
     for j in range(k - 1, -1, -1):
         if V[_V_TAU, j] != 0.0:
@@ -222,11 +219,7 @@ def _dependency(A, i, rank_rtol, W, V, ind):
     for j in range(k):
         if V[_V_TAU, j] != 0.0:
             _reflect_vector(W, j, nf, V[_V_TAU, j], V, _V_T)
-    for j in range(k - 1, -1, -1):  # R11 λ'' = u[:k]
-        s = V[_V_T, j]
-        for row in range(j + 1, k):
-            s -= W[row, j] * V[_V_LAM, row]
-        V[_V_LAM, j] = s / W[j, j]
+    _r11_solve(W, k, V, _V_T, _V_LAM)  # R11 λ'' = u[:k]
     for j in range(n):
         if ind[_I_FIXED, j] != 0:
             s = 0.0

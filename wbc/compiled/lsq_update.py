@@ -29,6 +29,7 @@ from .lsq_linalg import (
     _axpy,
     _cholesky_solve,
     _dot,
+    _r11_solve,
 )
 from .lsq_subproblem import _fixed_multiplier
 
@@ -163,11 +164,7 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, k, first
         for t in range(q):
             s -= V[_V_W2, t] * U[_U_Q + t, j]
         V[_V_LAM, j] = -s
-    for j in range(k - 1, -1, -1):
-        s = V[_V_LAM, j]
-        for i in range(j + 1, k):
-            s -= W[i, j] * V[_V_LAM, i]
-        V[_V_LAM, j] = s / W[j, j]
+    _r11_solve(W, k, V, _V_LAM, _V_LAM)
     # reduced gradients of the fixed variables, as the subproblem's: μ = B_iᵀ e + ridge x_i + A_iᵀ λ
     for i in range(n):
         if ind[_I_FIXED, i] != 0:
