@@ -77,11 +77,12 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
     a = np.array(rows)
     ts = a[:, 0] - res.playback_start
     e, w, cmd = np.degrees(a[:, 1:4]), a[:, 4:7], np.degrees(a[:, 7:10])
+    ring = ringing(ts, w[:, 2])
     print(
-        "| s | yaw rate RMS | its frequency | tilt rate RMS | heading err° | tilt err° "
-        "| heading cmd° | tilt cmd° |"
+        "| s | yaw rate RMS | its frequency | ringing (> 3 Hz) | tilt rate RMS | heading err° "
+        "| tilt err° | heading cmd° | tilt cmd° |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for s in range(int(np.ceil(ts.max())) if len(ts) else 0):
         m = (ts >= s) & (ts < s + 1)
         if m.sum() < 8:
@@ -90,7 +91,7 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
         spectrum = np.abs(np.fft.rfft(wz))
         f = np.fft.rfftfreq(len(wz), float(np.median(np.diff(ts[m]))))
         print(f"| {s}–{s + 1} | {np.sqrt(np.mean(w[m, 2] ** 2)):.2f} "
-              f"| {f[1 + np.argmax(spectrum[1:])]:.1f} Hz "
+              f"| {f[1 + np.argmax(spectrum[1:])]:.1f} Hz | {ring[m].max():.2f} "
               f"| {np.sqrt(np.mean(w[m, :2] ** 2)):.2f} | {np.abs(e[m, 2]).max():.1f} "
               f"| {np.hypot(e[m, 0], e[m, 1]).max():.1f} | {np.abs(cmd[m, 2]).max():.1f} "
               f"| {np.hypot(cmd[m, 0], cmd[m, 1]).max():.1f} |")  # fmt: skip
@@ -110,6 +111,20 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
         print(f"{names[j]} in its single support ({m.sum()} ticks): load median "
               f"{np.median(load):.2f}, p90 {np.percentile(load, 90):.2f}, max {load.max():.2f}; "
               f"sag median {np.median(sag):.1f}°, max {sag.max():.1f}°")  # fmt: skip
+
+
+def ringing(t: np.ndarray, wz: np.ndarray) -> np.ndarray:
+    """The yaw loop's ringing as ``Gains.yaw_ring`` measures it, per tick (rad/s): the
+    vertical rate high-passed at :data:`~wbc.balance.stabilizer.RING_HZ`, the RMS of the
+    rest over :data:`~wbc.balance.stabilizer.RING_WINDOW` (exponential)."""
+    low, mean_square, out = 0.0, 0.0, np.zeros(len(wz))
+    dts = np.diff(t, prepend=t[0] - float(np.median(np.diff(t))) if len(t) > 1 else 0.01)
+    for i, (dt, x) in enumerate(zip(dts, wz, strict=True)):
+        u = x - low
+        low += (1.0 - np.exp(-2.0 * np.pi * stab_mod.RING_HZ * dt)) * u
+        mean_square += (1.0 - np.exp(-dt / stab_mod.RING_WINDOW)) * (u * u - mean_square)
+        out[i] = np.sqrt(mean_square)
+    return out
 
 
 def main() -> None:
