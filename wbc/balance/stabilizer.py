@@ -18,9 +18,6 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   plants; ``max_yaw`` (rad, 0: off) clips the heading part on its own and the tilt part to
   ``max_tilt`` (else they share ``max_tilt`` as one vector); ``yaw_ring`` (rad/s, 0: off)
   scales the heading part down by the yaw rate's measured ringing (its RMS above 3 Hz);
-  ``ring_angle`` (rad, 0: off) the same on the ringing's angle (a rate threshold that
-  follows its frequency); ``yaw_priority`` (1; 0: off) clips the tilt part first, the
-  heading to what it leaves;
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -115,17 +112,6 @@ class Gains:
     #: soft plant's turn lag: a slow rate the high-pass takes out), backed off on a plant
     #: whose servo latency rings the hip yaw (issue 30)
     yaw_ring: float = 0.0
-    #: rad: as ``yaw_ring`` on the ringing's angle instead of its rate (0: off): the
-    #: high-passed rate integrated (leaky, :data:`RING_LEAK_HZ`), its RMS ``a`` over the same
-    #: window, the heading part scaled by ``min(1, ring_angle / a)``: a rate threshold that
-    #: follows the ringing's frequency (``ring_angle · 2πf``), low on a plant whose yaw
-    #: swings slowly, high on one ringing fast (issue 30)
-    ring_angle: float = 0.0
-    #: 1: the torso command's clip by priority: its tilt part to ``max_tilt`` first, its
-    #: heading part to what the tilt leaves of it (``sqrt(max_tilt² − |tilt|²)``), so a
-    #: heading held at the clip (a soft plant's turn lag) does not take the tilt's command
-    #: while the body tips; 0: the two share ``max_tilt`` as one vector (issue 30)
-    yaw_priority: float = 0.0
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
     max_offset: float = 0.2  # rad, per joint
@@ -178,8 +164,6 @@ class Gains:
             "max_yaw",
             "yaw_damping",
             "yaw_ring",
-            "yaw_priority",
-            "ring_angle",
             "j_p",
             "j_d",
             "max_tilt",
@@ -200,10 +184,6 @@ class Gains:
                 raise ConfigurationError(
                     f"stabilizer gain {name} must be a finite number >= 0, got {v}"
                 )
-        if self.yaw_priority > 1:
-            raise ConfigurationError(
-                f"stabilizer gain yaw_priority must be 0 or 1, got {self.yaw_priority}"
-            )
         if self.transfer > 1:
             raise ConfigurationError(
                 f"stabilizer gain transfer must be in [0, 1], got {self.transfer}"
@@ -237,19 +217,16 @@ def default_gains(compensate: float) -> Gains:
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
 # model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
 # torso's roll scale, the heading part's low-pass cut-off (Hz), its own clip (rad; 0: shared),
-# its extra rate gain (s), the ringing's RMS threshold (rad/s; yaw_ring), the clip by
-# priority (1/0; yaw_priority), the ringing's angle threshold (rad; ring_angle)
+# its extra rate gain (s), the ringing's RMS threshold (rad/s; yaw_ring)
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_PRIORITY, _K_RING_ANGLE = range(10, 17)
-_K_SIZE = 17
+_K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING = 10, 11, 12, 13, 14
+_K_SIZE = 15
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
 RING_HZ = 3.0
 #: s: ``yaw_ring``'s window (the time constant of its mean square)
 RING_WINDOW = 0.5
-#: Hz: ``ring_angle``'s leak on the integral of the high-passed rate
-RING_LEAK_HZ = 0.5
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -277,12 +254,7 @@ def _torso_feedback(
     ``g = k[_K_RING]`` > 0 (``yaw[1]``: the low-passed ``w_z``, ``yaw[2]``: the mean square
     of the rest, updated in place) ``u = w_z − yaw[1]``, ``yaw[1] += (1 − exp(−2π RING_HZ
     dt)) u``, ``yaw[2] += (1 − exp(−dt / RING_WINDOW)) (u² − yaw[2])`` and the heading part
-    (before the low-pass and the clip) scaled by ``min(1, g / sqrt(yaw[2]))``; with
-    ``g' = k[_K_RING_ANGLE]`` > 0 also ``yaw[3] ← yaw[3] exp(−2π RING_LEAK_HZ dt) + u dt``
-    (the ringing's angle), ``yaw[4]`` its mean square (the same window) and the heading part
-    scaled by ``min(1, g' / sqrt(yaw[4]))``; with
-    ``k[_K_PRIORITY]`` > 0 (and no ``max_yaw``) the tilt's horizontal part clipped to
-    ``max_tilt`` first, its heading part to ``sqrt(max_tilt² − |tilt_xy|²)``; writes
+    (before the low-pass and the clip) scaled by ``min(1, g / sqrt(yaw[2]))``; writes
     ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
@@ -326,22 +298,15 @@ def _torso_feedback(
             r = (k_roll - 1.0) * (v[0] * h0 + v[1] * h1)
             v[0] += r * h0
             v[1] += r * h1
-    ring, ring_angle = k[_K_RING], k[_K_RING_ANGLE]
-    if ring > 0.0 or ring_angle > 0.0:  # the heading's gain backed off by the yaw's ringing
+    ring = k[_K_RING]
+    if ring > 0.0:  # the heading's gain backed off by the yaw rate's ringing (its RMS)
         w = R_est[2, 0] * omega[0] + R_est[2, 1] * omega[1] + R_est[2, 2] * omega[2]
         u = w - yaw[1]
         yaw[1] += (1.0 - math.exp(-2.0 * math.pi * RING_HZ * dt)) * u
-        window = 1.0 - math.exp(-dt / RING_WINDOW)
-        yaw[2] += window * (u * u - yaw[2])
+        yaw[2] += (1.0 - math.exp(-dt / RING_WINDOW)) * (u * u - yaw[2])
         r = math.sqrt(yaw[2])
-        if ring > 0.0 and r > ring:  # its rate's RMS
+        if r > ring:
             v[2] *= ring / r
-        if ring_angle > 0.0:  # its angle's RMS (the high-passed rate integrated, leaky)
-            yaw[3] = yaw[3] * math.exp(-2.0 * math.pi * RING_LEAK_HZ * dt) + u * dt
-            yaw[4] += window * (yaw[3] * yaw[3] - yaw[4])
-            a = math.sqrt(yaw[4])
-            if a > ring_angle:
-                v[2] *= ring_angle / a
     cut = k[_K_YAW_CUT]
     if cut > 0.0:  # the heading part low-passed (first order, cut-off ``cut`` Hz)
         yaw[0] += (1.0 - math.exp(-2.0 * math.pi * cut * dt)) * (v[2] - yaw[0])
@@ -352,13 +317,6 @@ def _torso_feedback(
         v[0] *= f
         v[1] *= f
         v[2] = -min(max(v[2], -max_yaw), max_yaw)
-    elif k[_K_PRIORITY] > 0.0:  # the tilt first, the heading to what it leaves
-        n = math.sqrt(v[0] * v[0] + v[1] * v[1])
-        f = -max_tilt / n if n > max_tilt else -1.0
-        v[0] *= f
-        v[1] *= f
-        room = math.sqrt(max(max_tilt * max_tilt - v[0] * v[0] - v[1] * v[1], 0.0))
-        v[2] = -min(max(v[2], -room), room)
     else:
         for i in range(3):
             n += v[i] * v[i]
@@ -376,10 +334,9 @@ def _torso_feedback(
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
 # IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
 # largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad) and
-# yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest, ring_angle's
-# angle (rad) and its mean square
+# yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest
 _B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT = 0, 2, 5, 6, 9, 18
-_B_YAW, _B_SIZE = 19, 24  # (5: the low-pass's state, yaw_ring's two, ring_angle's two)
+_B_YAW, _B_SIZE = 19, 22  # (3: the low-pass's state, yaw_ring's two)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -489,7 +446,7 @@ def _feedback_tick(
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
-    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat, fb[_B_YAW : _B_YAW + 5])
+    _torso_feedback(values, R, fb[_B_INT : _B_INT + 3], consts, dt, flat, fb[_B_YAW : _B_YAW + 3])
     code = 0
     if consts[_K_FALL] > 0.5:
         fall_tick(fall_state, dt)
@@ -597,8 +554,7 @@ class Stabilizer:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
-                 g.max_yaw, g.yaw_damping, g.yaw_ring, g.yaw_priority,
-                 g.ring_angle]  # fmt: skip
+                 g.max_yaw, g.yaw_damping, g.yaw_ring]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
         return self._packed[1]
