@@ -5,7 +5,8 @@ for the feed-forward with ``--gains`` on top) on plant K of seed S
 (:func:`wbc.bench.variation.models`; K -1: the nominal plant). A probe observes
 :meth:`wbc.balance.stabilizer.Stabilizer.adjust` (as ``push_trace.py`` does) and the
 simulation's log. Per second of the walk: the gyro's yaw rate RMS (rad/s, world vertical)
-and its dominant frequency, the RMS of the horizontal rates, the largest heading / tilt error
+and its dominant frequency, its ringing as ``Gains.yaw_ring`` measures it (above 3 Hz, the
+largest of the second), the RMS of the horizontal rates, the largest heading / tilt error
 and torso command (deg); then per stance leg (single support from the soles' floor forces)
 the knee's load (peak torque / the plant's stall torque: median, p90, max) and sag (present −
 goal, deg).
