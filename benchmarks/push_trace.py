@@ -7,16 +7,20 @@ loop), the nominal plant. Prints the step adjuster's re-plans (walk time, step, 
 wanted and applied, mm) and, per tick from 30 ms before the push, the estimated DCM error
 along the walk beside the simulator's (its CoM and finite-difference velocity), the swing
 sole's target and where the simulated sole is (x, z, mm), each sole's floor force (N) and
-the torso's pitch change since the push (deg). A probe: it observes
+the torso's pitch change since the push, its pitch and its target's (the stabilizer's), each
+sole's pitch (deg; positive: nose down, on the toe); the summary says whether the run fell
+as the benchmark counts it (45° or sunk) and why the deployment stopped (``--no-fall``: no
+fall detector, the run goes on until it falls). A probe: it observes
 :meth:`wbc.balance.stabilizer.Stabilizer.adjust` by wrapping it for the run.
 
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --direction forward
+    nice -n 5 python benchmarks/push_trace.py --impulse 0.75 --direction forward --no-fall
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping '{"band_x": 0.012}'
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping \
         '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
 
-(The swing target column is the stabilizer's, before the step adjuster's ``land``: the
-landing correction and the lift are not in it.)
+(The swing and torso target columns are the stabilizer's, before the step adjuster's
+``land``: the landing correction, the lift, the lead and ``catch_pitch`` are not in them.)
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -37,12 +42,18 @@ from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
 from wbc.bench.pushes import PUSH_DURATION, push_direction
 from wbc.bench.runner import run_entry
-from wbc.bench.sim_record import mid_single_support
+from wbc.bench.sim_record import mid_single_support, physics_record
 from wbc.bench.solvers import select
 
 
 def trace(
-    impulse: float, direction: str, stepping: dict, gains: dict, walk: str, offset: float
+    impulse: float,
+    direction: str,
+    stepping: dict,
+    gains: dict,
+    walk: str,
+    offset: float,
+    fall: bool = True,
 ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """(the run's summary and re-plans, a row per tick) of one push."""
     robot = load_robot("bioloid")
@@ -56,6 +67,8 @@ def trace(
     force = push_direction(rec, direction) * impulse / PUSH_DURATION
     spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
                           SteppingParams(**stepping), HoldParams())  # fmt: skip
+    if not fall:  # the fall detector off: does the robot come back by itself?
+        spec = replace(spec, fall=None)
     sims: list[Any] = []
     rows: list[dict[str, Any]] = []
     last: dict[str, Any] = {}
@@ -84,6 +97,11 @@ def trace(
             "target": 1e3 * np.asarray(out.swing_position, dtype=float),
             "sole": 1e3 * swing, "f_l": force_of[0], "f_r": force_of[1],
             "pitch": math.degrees(math.asin(float(np.clip(-R[2, 0], -1.0, 1.0)))),
+            "soles": [math.degrees(math.asin(float(np.clip(-sim.site_pose(f).rotation[2, 0],
+                                                           -1.0, 1.0))))
+                      for f in ("l_sole", "r_sole")],
+            "cmd": math.degrees(math.asin(float(np.clip(-np.asarray(out.torso_rotation)[2, 0],
+                                                        -1.0, 1.0)))),
         })  # fmt: skip
         return out
 
@@ -94,9 +112,12 @@ def trace(
     finally:
         stab_mod.Stabilizer.adjust = original  # type: ignore[method-assign]
     events = loop.stepping.events if loop.stepping is not None else []
+    fig = physics_record(rec, result, robot, ref)
     summary = {
         "t_push": t_push,
         "up": bool(result.deploy.completed),
+        "fell": fig["fell"],  # (tilted beyond 45° or sunk: the benchmark's fall)
+        "fall_time_s": fig["fall_time_s"],
         "stopped": None if result.deploy.completed else str(result.deploy.trip),
         "replans": [(round(float(e[0]), 3), int(e[1]), np.round(1e3 * np.asarray(e[2]), 1).tolist(),
                      np.round(1e3 * np.asarray(e[3]), 1).tolist()) for e in events],
@@ -114,8 +135,10 @@ def main() -> None:
     p.add_argument("--walk", default="walk10_wb")
     p.add_argument("--offset", type=float, default=0.0, help="s after mid single support")
     p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
+    p.add_argument("--no-fall", action="store_true", help="the fall detector off")
     a = p.parse_args()
-    summary, rows = trace(a.impulse, a.direction, a.stepping, a.gains, a.walk, a.offset)
+    summary, rows = trace(a.impulse, a.direction, a.stepping, a.gains, a.walk, a.offset,
+                          not a.no_fall)  # fmt: skip
     print(json.dumps(summary))
     # the push starts at the first tick whose simulated DCM error jumps (the walk's clock
     # starts after the calibration and soft start: find it in the simulator's time)
@@ -123,16 +146,17 @@ def main() -> None:
                  if abs(rows[k]["err_sim"] - rows[k - 1]["err_sim"]) > 8.0), 0)  # fmt: skip
     print(
         "| ms after push | phase | swing | DCM err est / sim mm | swing target x, z | sole x, z "
-        "| F left / right N | pitch change ° |"
+        "| F left / right N | pitch change ° | torso pitch, target ° | sole pitch l / r ° |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     t0, p0 = rows[jump]["t"] if rows else 0.0, rows[jump]["pitch"] if rows else 0.0
     for r in rows[max(jump - 3, 0) : jump + a.ticks]:
         print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} | {r['swing']} "
               f"| {r['err_est']:.1f} / {r['err_sim']:.1f} "
               f"| {r['target'][0]:.1f}, {r['target'][2]:.1f} | {r['sole'][0]:.1f}, "
               f"{r['sole'][2]:.1f} | {r['f_l']:.1f} / {r['f_r']:.1f} "
-              f"| {r['pitch'] - p0:+.1f} |")  # fmt: skip
+              f"| {r['pitch'] - p0:+.1f} | {r['pitch']:+.1f}, {r['cmd']:+.1f} "
+              f"| {r['soles'][0]:+.1f} / {r['soles'][1]:+.1f} |")  # fmt: skip
 
 
 if __name__ == "__main__":

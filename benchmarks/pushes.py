@@ -37,10 +37,12 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 
 from wbc.balance import best_compensate
 from wbc.balance.angular import hip_strategy_bound
 from wbc.balance.capture import capture_bounds
+from wbc.balance.fall import FallParams
 from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
@@ -68,13 +70,15 @@ def loop_spec(
     gains: dict | None = None,
     hold: dict | None = None,
     compensate: float = 0.5,
+    fall: dict | str | None = None,
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
     (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
     over RECOVERY_STEPS;
     ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops; ``hold``:
     HoldParams keywords of those loops' lift-off hold; ``compensate``: the feed-forward gain
-    of the loops with it, the robot's measured best)."""
+    of the loops with it, the robot's measured best; ``fall``: FallParams keywords of their
+    fall detector, ``"off"`` none)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward (x0.5 here)
@@ -86,8 +90,13 @@ def loop_spec(
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
         spec = ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None)
         return spec, compensate
-    return ClosedLoopSpec(entry.make, ref, gains, True, True, step,
-                          HoldParams(**(hold or {}))), compensate  # fmt: skip
+    spec = ClosedLoopSpec(entry.make, ref, gains, True, True, step,
+                          HoldParams(**(hold or {})))  # fmt: skip
+    if fall == "off":  # no fall detector: a run ends only by falling (45°)
+        spec = replace(spec, fall=None)
+    elif fall:
+        spec = replace(spec, fall=FallParams(**fall))
+    return spec, compensate
 
 
 def main() -> None:
@@ -111,6 +120,11 @@ def main() -> None:
         "--hold", default="{}", help="JSON of HoldParams keywords (the lift-off hold's)"
     )
     ap.add_argument(
+        "--fall",
+        default="{}",
+        help='JSON of FallParams keywords (the closed loops\' fall detector), or "off"',
+    )
+    ap.add_argument(
         "--offsets",
         type=float,
         nargs="+",
@@ -128,6 +142,13 @@ def main() -> None:
         "beyond the joint limits, clamped and rate-limited ticks",
     )
     ap.add_argument(
+        "--screen",
+        nargs="+",
+        metavar="DIR:NS:S",
+        help="instead: one push each (direction, impulse N·s, s after mid single support) "
+        "per loop: up, or the fall's time",
+    )
+    ap.add_argument(
         "--grid",
         type=float,
         nargs=3,
@@ -143,6 +164,9 @@ def main() -> None:
         return
     if args.safety is not None:
         safety(args)
+        return
+    if args.screen:
+        screen(args)
         return
     robot = load_robot(args.robot)
     ff = best_compensate(robot)
@@ -164,7 +188,7 @@ def main() -> None:
         for loop in args.loops:
             spec, comp = loop_spec(
                 loop, entry, ref, json.loads(args.stepping), json.loads(args.gains),
-                json.loads(args.hold), ff,
+                json.loads(args.hold), ff, "off" if args.fall == "off" else json.loads(args.fall),
             )  # fmt: skip
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
@@ -240,6 +264,35 @@ def hip_bound(rec, robot, ref, bounds: dict) -> dict:
         b["cop_plus_stance_hip_ns"] = bounds["away_ns"] + b["stance_hip_ns"]
         out[f"delay_{round(1e3 * delay)}ms"] = b
     return out
+
+
+def screen(args) -> None:
+    """One push per ``--screen`` item (``DIR:NS:S``), per solver and loop: ``UP`` or the
+    fall's time (s) — a screen beside the bisections, at the points just above them."""
+    from wbc.bench.pushes import PUSH_DURATION, push_direction
+    from wbc.bench.sim_record import mid_single_support
+
+    robot = load_robot(args.robot)
+    ff = best_compensate(robot)
+    ref = traj.build(args.trajectory, robot)
+    fall = "off" if args.fall == "off" else json.loads(args.fall)
+    for solver in args.solvers:
+        entry = physics_entry(solver, robot)
+        rec = plan(solver, args.trajectory, robot)
+        t = mid_single_support(rec)
+        for loop in args.loops:
+            spec, comp = loop_spec(loop, entry, ref, json.loads(args.stepping),
+                                   json.loads(args.gains), json.loads(args.hold), ff,
+                                   fall)  # fmt: skip
+            out = []
+            for item in args.screen:
+                d, ns, off = item.split(":")
+                push = (t + float(off), push_direction(rec, d) * float(ns) / PUSH_DURATION,
+                        PUSH_DURATION)  # fmt: skip
+                r = simulate(rec, robot, push=push, compensate=comp, closed=spec)
+                out.append(f"{item}={'UP' if not r['fell'] else round(r['fall_time_s'], 2)}")
+            print(json.dumps({"solver": solver, "loop": loop, "stepping": args.stepping,
+                              "gains": args.gains, "screen": out}), flush=True)  # fmt: skip
 
 
 def grid(args) -> None:

@@ -691,3 +691,104 @@ def test_the_trigger_reads_a_jump_against_the_jitter_before_it(robot, walk10):
         last = jitter * (-1) ** (MID - 1)
         a.update(walk10, MID, dcm(walk10, MID, w) + [last + 0.02, 0.0])
         assert bool(a.triggered(MID)) == fires, (sigma, jitter)
+
+
+def _triggered(robot, walk10, params, jump=-0.02):
+    """An adjuster whose trigger caught a DCM jump along the walk at MID (20 mm backward)."""
+    adj = StepAdjuster(robot, walk10, params)
+    w = adj.omega
+    adj.update(walk10, MID - 1, dcm(walk10, MID - 1, w))
+    adj.update(walk10, MID, dcm(walk10, MID, w) + [jump, 0.0])
+    assert adj.triggered(MID)
+    return adj
+
+
+def test_a_triggered_catch_pitches_the_torso_along_the_push(robot, walk10):
+    """``catch_pitch``: once triggered, the torso target turns about ``z × u`` (``u`` the
+    push along the walk; backward here: the top pitched back, toward the fall) by the angle,
+    blended in over ``pitch_time``, held through that swing, released over the next double
+    support; nothing before the trigger, after it or by default (the same object)."""
+    params = SteppingParams(catch_pitch=0.2, pitch_time=0.03, lift=0.0, landing=0.0)
+    adj = _triggered(robot, walk10, params)
+    rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+    import pinocchio as pin
+
+    def turn(i):
+        _, t, e, qq, _ = _land_case(robot, walk10, params, rot, move, i=i)
+        out = adj.land(t, e, qq)
+        return pin.log3(out.torso_rotation @ np.asarray(t.torso_rotation).T)
+
+    x = walk10.dt / 0.03
+    u = adj.trigger.push  # backward along the walk
+    assert u[0] < -0.9
+    np.testing.assert_allclose(turn(MID), 0.2 * x * x * (3 - 2 * x) * np.array([-u[1], u[0], 0]),
+                               atol=1e-9)  # fmt: skip
+    held = turn(LAND - 1)
+    np.testing.assert_allclose(held, 0.2 * np.array([-u[1], u[0], 0.0]), atol=1e-9)
+    assert held[1] < -0.19  # about −y: nose up, the top thrown backward
+    ds = adj.phases[adj.phase_of[LAND]]
+    assert ds.kind == "double"
+    mid_ds = turn((ds.i0 + ds.i1) // 2)
+    assert 0.0 < -mid_ds[1] < 0.2  # released over the double support
+    assert np.allclose(turn(ds.i1), 0.0)  # the next single support: none
+    fresh, tg0, est0, q0, _ = _land_case(robot, walk10, params, rot, move)
+    assert fresh.land(tg0, est0, q0) is tg0  # no trigger: none
+    with pytest.raises(ConfigurationError, match="catch_pitch"):
+        SteppingParams(catch_pitch=2.0).check()
+
+
+def test_a_triggered_swing_is_led_and_its_clock_slowed_when_asked(robot, walk10):
+    """``lead``: once triggered, the swing target moves by ``lead`` × the swing's planned
+    horizontal velocity (blended in over ``lift_time``); ``slow``: the clock runs ``slow`` ×
+    in that swing only; both off by default."""
+    params = SteppingParams(lead=0.03, lift=0.0, lift_time=0.03, landing=0.0, slow=0.5)
+    adj = _triggered(robot, walk10, params)
+    i = MID + 4
+    _, t4, e4, q4, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+    out = adj.land(t4, e4, q4)
+    ref = adj.current
+    side = "left" if t4.swing == "l_sole" else "right"
+    v = ref.sole_velocity(side)[i]
+    assert np.hypot(v[0], v[1]) > 0.05  # the swing moving
+    np.testing.assert_allclose(out.swing_position[:2] - t4.swing_position[:2], 0.03 * v[:2],
+                               atol=1e-9)  # fmt: skip
+    assert out.swing_position[2] == t4.swing_position[2]
+    w = adj.omega
+    assert adj.rate(walk10, MID + 1, dcm(walk10, MID + 1, w)) == 0.5
+    later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
+    assert adj.rate(walk10, later, dcm(walk10, later, w)) == 1.0  # not triggered there
+    assert adj.rate(walk10, LAND + 1, dcm(walk10, LAND + 1, w)) == 1.0  # double support
+    default = StepAdjuster(robot, walk10)
+    assert not default.hurries
+    with pytest.raises(ConfigurationError, match="slow"):
+        SteppingParams(slow=0.0).check()
+    with pytest.raises(ConfigurationError, match="lead"):
+        SteppingParams(lead=-0.01).check()
+
+
+def test_a_push_forward_turns_the_swing_toe_up_and_a_push_backward_does_not(robot, walk10):
+    """``toe_up``: once a push forward is triggered, the swing sole's target turns toe up
+    (about −y for a walk along x) by the angle × the lift's blend (0.15 rad by default);
+    after a push backward its rotation is the plan's."""
+    import pinocchio as pin
+
+    params = SteppingParams(toe_up=0.15, lift=0.0, lift_time=0.03, landing=0.0)
+    i = MID + 4
+    _, t4, e4, q4, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+    ph = StepAdjuster(robot, walk10).phases[StepAdjuster(robot, walk10).phase_of[i]]
+    w = (i - MID + 1) * walk10.dt / 0.03
+    w = min(w, 1.0) ** 2 * (3 - 2 * min(w, 1.0))
+    x = (ph.i1 - i) / (ph.i1 - ph.i0) / params.lift_land
+    w *= min(x, 1.0) ** 2 * (3 - 2 * min(x, 1.0))
+    fwd = _triggered(robot, walk10, params, jump=0.02)
+    assert fwd.trigger.forward
+    turn = pin.log3(fwd.land(t4, e4, q4).swing_rotation @ np.asarray(t4.swing_rotation).T)
+    u = fwd.trigger.push  # forward along the walk (its heading)
+    np.testing.assert_allclose(turn, -0.15 * w * np.array([-u[1], u[0], 0.0]), atol=1e-9)
+    assert w > 0.5 and turn[1] < -0.07  # about −y: toe up
+    back = _triggered(robot, walk10, params)
+    assert not back.trigger.forward
+    np.testing.assert_allclose(back.land(t4, e4, q4).swing_rotation, t4.swing_rotation)
+    assert SteppingParams().toe_up == 0.15
+    with pytest.raises(ConfigurationError, match="toe_up"):
+        SteppingParams(toe_up=-0.1).check()

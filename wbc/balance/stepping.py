@@ -73,8 +73,13 @@ steps of a few mm; benchmarks/pushes.md, seventh pass).
 error along the walk in one tick starts the catch at once in the pushed swing, with the
 landing correction and the swing's lift. Measured (benchmarks/pushes.md): forward 0.547 →
 0.703, backward 0.461 → 0.617 N·s; the same randomised plants up. Off: ``{"trigger_jump": 0,
-"landing": 0, "lift": 0}``. Every other term here is off by default (sideways on ``walk10``
-0.797 → 0.844 N·s; the bound 0.934). The parameters: :mod:`.stepping_params`.
+"landing": 0, "lift": 0, "toe_up": 0}``. Options of that catch: ``toe_up`` (on, 0.15 rad:
+after a push forward the swing sole turned toe up, the pitched body puts its toe on the
+floor; forward 0.703 → 0.719 N·s); off: ``lead`` (the swing target led by the servos' lag),
+``slow`` (the triggered swing's clock slowed: a later landing), ``catch_pitch`` (the torso
+target turned along the push during the catch: the hip strategy along the walk). Every other
+term here is off by default (sideways on ``walk10`` 0.797 → 0.844 N·s; the bound 0.934).
+The parameters: :mod:`.stepping_params`.
 """
 
 from __future__ import annotations
@@ -173,6 +178,7 @@ class StepAdjuster:
         self.landing = MeasuredLanding(self.params, self.phases, self.phase_of, ref.dt, torso_b)
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
+        self.current: WalkingReference | None = None  # the walk's reference (:meth:`update`)
         #: the state estimator whose contact detection (``contact_band``) the touch-down reads
         #: (set by wbc.balance.live.closed_loop; None: no touch-down)
         self.contact: Any = None
@@ -282,9 +288,14 @@ class StepAdjuster:
         """``targets`` with the swing sole's target raised in a triggered catch
         (:meth:`PushTrigger.lifted`) and moved into the measured frame
         (:meth:`MeasuredLanding.land`; single support, else ``targets`` itself)."""
+        targets = self.trigger.pitched(targets) if self.enabled else targets
         if targets.phase != "single":
             return targets
-        return self.landing.land(self.trigger.lifted(targets), est, q)
+        vel = None
+        ref = self.current
+        if self.params.lead > 0 and ref is not None and targets.i < ref.n:  # (lead)
+            vel = ref.sole_velocity("left" if targets.swing == "l_sole" else "right")[targets.i]
+        return self.landing.land(self.trigger.lifted(targets, vel), est, q)
 
     def triggered(self, i: int) -> bool:
         """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
@@ -292,15 +303,19 @@ class StepAdjuster:
 
     @property
     def hurries(self) -> bool:
-        """False when :meth:`rate` is 1 at every tick (``hurry`` 1 and no ``touchdown``, or
-        off): not called."""
-        return self.enabled and (self.params.hurry != 1.0 or self.params.touchdown > 0)
+        """False when :meth:`rate` is 1 at every tick (``hurry`` and ``slow`` 1 and no
+        ``touchdown``, or off): not called."""
+        p = self.params
+        return self.enabled and (p.hurry != 1.0 or p.touchdown > 0 or p.slow != 1.0)
 
     @property
     def lands(self) -> bool:
         """False when :meth:`land` returns its targets at every tick (``landing`` and
         ``lift`` 0)."""
-        return self.params.landing > 0 or (self.params.lift > 0 and self.enabled)
+        p = self.params
+        return p.landing > 0 or (
+            self.enabled and (p.lift > 0 or p.lead > 0 or p.toe_up > 0 or p.catch_pitch != 0.0)
+        )
 
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
         """The walk's clock speed after tick ``i``: ``hurry`` in a double support whose DCM
@@ -312,7 +327,11 @@ class StepAdjuster:
             jump, self._jump = self._jump, None
             if jump > i:
                 return 1.0 + (jump - i)
-        if p.hurry == 1.0 or not self.enabled:
+        if not self.enabled:
+            return 1.0
+        if p.slow != 1.0 and ref.support[i] != SUPPORT_DOUBLE and self.triggered(i):
+            return p.slow  # (a triggered swing: its landing later)
+        if p.hurry == 1.0:
             return 1.0
         if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
             if not p.hurry_single or self.episode is None:
@@ -341,6 +360,13 @@ class StepAdjuster:
         return next(ph for ph in self.phases if ph.kind == "single" and ph.step == k)
 
     def update(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
+        """:meth:`replan`, and the reference the walk follows after it kept
+        (:attr:`current`: the swing's planned velocity, ``lead``)."""
+        new = self.replan(ref, i, dcm)
+        self.current = new if new is not None else ref
+        return new
+
+    def replan(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> WalkingReference | None:
         """A re-planned reference if the DCM error beyond the dead band asks for a footstep
         shift above ``threshold`` and a feasible shift changes the plan (None otherwise): in
         single support the landing under way (after ``settle``, not in the last

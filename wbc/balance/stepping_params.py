@@ -86,6 +86,10 @@ class SteppingParams:
     #: and landing come earlier; :meth:`StepAdjuster.rate`; 1: off)
     hurry: float = 1.0
     hurry_band: float = 0.03
+    #: step timing in a swing whose push the trigger caught (``trigger_jump``): from the
+    #: trigger on, the walk's clock runs ``slow`` times as fast (the landing later: the
+    #: lagging servos bring the swing sole to its re-planned landing; 1: off)
+    slow: float = 1.0
     #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
     #: band), the landing comes sooner when that leaves the swing more room beyond the shift
     #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
@@ -125,6 +129,21 @@ class SteppingParams:
     lift: float = 0.02
     lift_time: float = 0.04
     lift_land: float = 0.3
+    #: rad: once triggered, the torso target turned toward the push along the walk by this
+    #: much (the hip strategy along the walk; negative: pitched against it), blended in over
+    #: ``pitch_time`` s, out over the next double support (:meth:`PushTrigger.pitched`; 0: off)
+    catch_pitch: float = 0.0
+    pitch_time: float = 0.05
+    #: s: once triggered, the swing sole's target led by this much of its planned horizontal
+    #: velocity (the servos' lag: the swing sole follows its target ~30 ms late, and lands
+    #: short of a re-planned landing; :meth:`PushTrigger.lifted`; 0: off)
+    lead: float = 0.0
+    #: rad: once a push forward is triggered, the swing sole's target turned toe up by this
+    #: much (the body pitched about the stance toe puts the swing toe on the floor, 6–9 N
+    #: for 50 ms at 0.75 N·s), blended as the lift (0: off; heel up after a push backward
+    #: measured worse: not done) (0.15: forward 0.703 → 0.719 N·s, the rest unchanged;
+    #: benchmarks/pushes.md)
+    toe_up: float = 0.15
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -146,12 +165,19 @@ class SteppingParams:
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
+            "pitch_time", "lead", "toe_up",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
+        if not (math.isfinite(self.catch_pitch) and abs(self.catch_pitch) <= 1.0):
+            raise ConfigurationError(
+                f"stepping: catch_pitch must be finite, within ±1 rad, got {self.catch_pitch}"
+            )
+        if not 0.0 < self.slow <= 1.0:
+            raise ConfigurationError(f"stepping: slow must be in (0, 1], got {self.slow}")
         if not self.hurry >= 1.0:
             raise ConfigurationError(
                 f"stepping: hurry must be >= 1 (a clock speed), got {self.hurry}"

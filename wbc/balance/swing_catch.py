@@ -43,6 +43,9 @@ class PushTrigger:
     ) -> None:
         self.params, self.phases, self.phase_of, self.dt = params, phases, phase_of, dt
         self.tick: int | None = None  # tick a DCM jump started a catch (trigger_jump)
+        #: the jump's direction (unit, horizontal world) at :attr:`tick` (catch_pitch)
+        self.push = np.zeros(2)
+        self.forward = False  # the jump was forward along the walk (toe_up)
         #: (tick, reference, raw DCM error) of the last single-support tick
         self._last_err: tuple[int, Any, np.ndarray] | None = None
         self._jitter = 0.0  # the running mean square of its per-tick change (trigger_sigma)
@@ -70,22 +73,57 @@ class PushTrigger:
         p, d = self.params, (c * (e[0] - last[2][0]) + s * (e[1] - last[2][1]))  # along
         if abs(d) > max(p.trigger_jump or 0.0, p.trigger_sigma * math.sqrt(self._jitter)):
             self.tick = i
+            self.push = math.copysign(1.0, d) * np.array([c, s])
+            self.forward = d > 0
         self._jitter += (d * d - self._jitter) * min(ref.dt / max(p.trigger_tau, 1e-9), 1.0)
 
-    def lifted(self, targets: Any) -> Any:
+    def lifted(self, targets: Any, velocity: np.ndarray | None = None) -> Any:
         """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
         (:meth:`triggered`): blended in over ``lift_time``, out over the swing's last
-        ``lift_land`` share (smoothstep both), so that it lands where and when planned."""
+        ``lift_land`` share (smoothstep both), so that it lands where and when planned; and
+        led by ``lead`` s of the swing's planned horizontal ``velocity`` (the servos' lag;
+        blended in over ``lift_time``; nothing at the landing, where the swing stops); and
+        turned toe up by ``toe_up`` rad after a push forward (:attr:`forward`; blended as the
+        lift; its heel up after a push backward measured worse: not done)."""
         p, i = self.params, targets.i
-        if p.lift <= 0 or not self.triggered(i):
+        if (p.lift <= 0 and p.lead <= 0 and p.toe_up <= 0) or not self.triggered(i):
             return targets
         ph = self.phases[self.phase_of[i]]
-        w = smooth((i - self.tick + 1) * self.dt / max(p.lift_time, 1e-9)) * smooth(
-            (ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9)
-        )
+        w_in = smooth((i - self.tick + 1) * self.dt / max(p.lift_time, 1e-9))
+        w = w_in * smooth((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9))
         pos = np.array(targets.swing_position, dtype=float)
         pos[2] += p.lift * w
-        return targets.replace(swing_position=pos)
+        if p.lead > 0 and velocity is not None:
+            pos[:2] += p.lead * w_in * np.asarray(velocity, dtype=float)[:2]
+        if p.toe_up <= 0 or not self.forward:
+            return targets.replace(swing_position=pos)
+        axis = np.array([-self.push[1], self.push[0], 0.0])  # z × u: the body's fall
+        turn = pin.exp3(-p.toe_up * w * axis)  # the swing sole's toe up, against it
+        return targets.replace(swing_position=pos, swing_rotation=turn @ targets.swing_rotation)
+
+    def pitched(self, targets: Any) -> Any:
+        """``targets`` with the torso target turned about ``z × u`` (``u`` the push along the
+        walk: :attr:`push`) by ``catch_pitch`` rad in a triggered catch (hip strategy along
+        the walk: the upper body thrown toward the fall; negative: against it), blended in
+        over ``pitch_time`` from the trigger, held in that swing and out over the next
+        double support (smoothstep both)."""
+        p, i, t = self.params, targets.i, self.tick
+        if p.catch_pitch == 0.0 or t is None:
+            return targets
+        j, jt = int(self.phase_of[i]), int(self.phase_of[t])
+        if j == jt:
+            w = smooth((i - t + 1) * self.dt / max(p.pitch_time, 1e-9))
+        elif j == jt + 1:  # the double support after it: released
+            ph = self.phases[j]
+            w = smooth(1.0 - (i - ph.i0 + 1) / max(ph.i1 - ph.i0, 1))
+            w *= smooth((ph.i0 - t) * self.dt / max(p.pitch_time, 1e-9))
+        else:
+            return targets
+        if w <= 0.0:
+            return targets
+        axis = np.array([-self.push[1], self.push[0], 0.0])  # z × u
+        turn = pin.exp3(p.catch_pitch * w * axis)
+        return targets.replace(torso_rotation=turn @ np.asarray(targets.torso_rotation))
 
 
 class MeasuredLanding:
