@@ -3,18 +3,20 @@
 
     python benchmarks/kokone_random.py --trajectory walk10_wb -n 10
     python benchmarks/kokone_random.py --robot /tmp/copy/kokone --parts all servo
+    python benchmarks/kokone_random.py --trajectory fast_wb --draws 1 6 8
 
 The plan (hqp-daqp) is played open loop with the robot's default feed-forward
 (``wbc.balance.best_compensate``: x1 on hobby PWM servos) on ``n`` draws of
-``wbc.bench.variation.random_model`` (``numpy.random.default_rng(seed)``, the draws of
-``benchmarks/robots.py --random n``). For each draw, the whole draw (``all``) and then one part
-of it on the otherwise nominal model: ``servo`` (the proportional band and stall torque),
-``stiff`` (the band alone), ``torque`` (the stall torque alone), ``joint`` (armature, back-EMF
-damping, gear friction), ``mass`` (link masses), ``com`` (link CoM offsets), ``latency``,
-``floor`` (floor friction). A cell is the max base orientation deviation from plan (deg) or
-``F<t>``: fell at t s. Column ``stand``: the whole draw holding the standing pose 3 s, the
-largest joint speed over the last 2 s (rad/s; above ~1 the servo loop oscillates: a buzzing
-servo), as ``benchmarks/kokone_sim.py --stand``.
+``wbc.bench.variation.models`` (the draws of ``wbc bench --physics --robustness n --seed S``
+and of ``benchmarks/robots.py --random n``; ``--draws``: only those of them). For each draw,
+the whole draw (``all``) and then one part of it on the otherwise nominal model: ``servo`` (the
+proportional band and stall torque), ``noservo`` (the whole draw but the servo's band and stall
+torque nominal), ``stiff`` (the band alone), ``torque`` (the stall torque alone), ``joint``
+(armature, back-EMF damping, gear friction), ``mass`` (link masses), ``com`` (link CoM
+offsets), ``latency``, ``floor`` (floor friction). A cell is the max base orientation deviation
+from plan (deg) or ``F<t>``: fell at t s. Column ``stand``: the whole draw holding the standing
+pose 3 s, the largest joint speed over the last 2 s (rad/s; above ~1 the servo loop oscillates:
+a buzzing servo), as ``benchmarks/kokone_sim.py --stand``.
 """
 
 from __future__ import annotations
@@ -22,18 +24,28 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
-import numpy as np
-
 from wbc.balance import best_compensate
 from wbc.bench.physics import plan
 from wbc.bench.play import play
 from wbc.bench.sim_record import physics_record
-from wbc.bench.variation import Variation, random_model
+from wbc.bench.variation import Variation, models
 from wbc.model import load_robot
 from wbc.sim.actuator import nominal_servo
 from wbc.sim.model import ModelParams
 
-PARTS = ("stand", "all", "servo", "stiff", "torque", "joint", "mass", "com", "latency", "floor")
+PARTS = (
+    "stand",
+    "all",
+    "noservo",
+    "servo",
+    "stiff",
+    "torque",
+    "joint",
+    "mass",
+    "com",
+    "latency",
+    "floor",
+)
 
 
 def part_kwargs(part: str, v: Variation, nominal) -> dict:
@@ -41,6 +53,11 @@ def part_kwargs(part: str, v: Variation, nominal) -> dict:
     mp, sp, s = v.model_params, v.servo_params, v.summary
     if part == "all":
         return v.play_kwargs()
+    if part == "noservo":
+        kw = v.play_kwargs()
+        band, torque = nominal.proportional_band_us, nominal.stall_torque
+        kw["servo_params"] = replace(sp, proportional_band_us=band, stall_torque=torque)
+        return kw
     if part == "servo":
         band, torque = sp.proportional_band_us, sp.stall_torque
         return {"servo_params": replace(nominal, proportional_band_us=band, stall_torque=torque)}
@@ -81,6 +98,7 @@ def main() -> int:
     parser.add_argument("-n", type=int, default=10, help="randomised draws")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--parts", nargs="+", default=list(PARTS), choices=PARTS)
+    parser.add_argument("--draws", nargs="+", type=int, help="only these of the n draws")
     args = parser.parse_args()
     robot = load_robot(args.robot)
     rec = plan("hqp-daqp", args.trajectory, robot)
@@ -97,9 +115,10 @@ def main() -> int:
     print("| draw | stiffness | torque | " + " | ".join(args.parts) + " |")
     print("|---" * (len(args.parts) + 3) + "|")
     falls = dict.fromkeys(args.parts, 0)
-    rng = np.random.default_rng(args.seed)
-    for i in range(args.n):
-        v = random_model(robot, rng)
+    draws = models(robot, args.n, args.seed)
+    chosen = range(args.n) if args.draws is None else args.draws
+    for i in chosen:
+        v = draws[i]
         cells = []
         for part in args.parts:
             if part == "stand":
@@ -113,7 +132,7 @@ def main() -> int:
         s = v.summary
         row = [str(i), f"{s['stiffness']:.2f}", f"{s['torque']:.2f}", *cells]
         print("| " + " | ".join(row) + " |", flush=True)
-    print("| fell | | | " + " | ".join(f"{falls[p]}/{args.n}" for p in args.parts) + " |")
+    print("| fell | | | " + " | ".join(f"{falls[p]}/{len(chosen)}" for p in args.parts) + " |")
     return 0
 
 

@@ -12,11 +12,17 @@ about it is stated by hand: roles, feet, legs and walking settings are read from
 
 Columns: kinematic (the robot's stack, one QP per tick: CoM / swing-sole error max, mm; the
 ZMP margin min of the tracked motion, mm; the reference's peak joint speed as a share of the
-no-load speed); simulator (the plan played open loop with the servo feed-forward at its measured
-best for the robot's servo law, `wbc.balance.best_compensate`: x0.5 AX-12A, x1 hobby PWM;
-nominal servo model: fell at s or "-", max base orientation
-deviation from plan, deg, travelled / planned distance; randomised models: fell count,
-median deviation, median travelled).
+no-load speed); simulator, ``wbc bench --physics``'s two rows: the plan (hqp-daqp) played
+open loop, and the controller run live closed through the IMU (the robot's default: step
+adjustment unless its servos report no position), both with the servo feed-forward at its
+measured best for the robot's servo law (`wbc.balance.best_compensate`: x0.5 AX-12A, x1
+hobby PWM). Nominal servo model: fell at s or "-", max base orientation deviation from plan,
+deg, travelled / planned distance; randomised models (``wbc bench --robustness N --seed S``'s
+draws, `wbc.bench.variation.models`): fell or stopped count (the deployment's
+stops, e.g. its start-up IMU check, in brackets), median deviation and median
+travelled over the runs that stayed up.
+
+    python benchmarks/robots.py --out /tmp/ll --random 20 --robots bioloid kokone longlegs op3
 """
 
 from __future__ import annotations
@@ -31,11 +37,11 @@ import numpy as np
 
 from wbc.balance import best_compensate
 from wbc.bench import metrics
-from wbc.bench.physics import plan
-from wbc.bench.play import play
-from wbc.bench.sim_record import physics_record
+from wbc.bench.closed_loop import ClosedLoopSpec
+from wbc.bench.closed_loop import simulate as closed_loop_simulate
+from wbc.bench.physics import physics_entry, plan
 from wbc.bench.trajectories import build
-from wbc.bench.variation import random_model
+from wbc.bench.variation import models
 from wbc.exceptions import WbcError
 from wbc.model import load_robot
 from wbc.paths import robots_dir
@@ -59,7 +65,9 @@ OP3 = {
     "elbow": "el",
 }
 LEG_LINKS = ("hip_bracket", "hip_block", "thigh", "shin", "ankle_block", "foot", "sole")
-TRAJECTORIES = ("thesis_step", "static_walk", "walk10", "walk10_wb", "turn_wb", "lateral_wb")
+TRAJECTORIES = ("static_walk", "walk10_wb")
+ROBOTS = ("bioloid", "kokone", "longlegs")
+LOOPS = ("open", "closed")
 
 
 def make_robot(out: Path, legs: float = 1.3, body: float = 0.8, robot_toml: str = "") -> Path:
@@ -110,36 +118,56 @@ def kinematic(robot, name: str) -> dict[str, object]:
     }
 
 
-def simulate(robot, name: str, n_random: int, seed: int = 0) -> dict[str, object]:
+def closed_spec(robot, ref) -> ClosedLoopSpec:
+    """The robot's closed loop as ``wbc bench --physics`` runs it: hqp-daqp on the robot's
+    stack, live through the IMU; step adjustment unless its servos report nothing."""
+    from wbc.balance.stepping import SteppingParams
+    from wbc.sim.actuator import servo_kind
+
+    step = None if servo_kind(robot) == "hobby_pwm" else SteppingParams()
+    return ClosedLoopSpec(physics_entry("hqp-daqp", robot).make, ref, None, True, True, step)
+
+
+def simulate(
+    robot, name: str, n_random: int, seed: int = 0, loop: str = "open"
+) -> dict[str, object]:
+    """The plan (hqp-daqp) in the simulator, ``loop`` open or closed (``wbc bench
+    --physics``'s two rows, the feed-forward at the robot's best), on the nominal model and on
+    ``n_random`` randomised ones: ``wbc bench --robustness n_random --seed seed``'s draws."""
     try:
+        ref = build(name, robot)
         rec: Recording = plan("hqp-daqp", name, robot)
     except WbcError as exc:
         return {"error": str(exc)[:60]}
-    ff = best_compensate(robot)  # the default feed-forward for the robot's servo law
-    nominal = physics_record(rec, play(rec, robot, compensate=ff), robot)
+    kw = {
+        "compensate": best_compensate(robot),  # the default feed-forward for the servo law
+        "closed": closed_spec(robot, ref) if loop == "closed" else None,
+    }
+
+    def one(v) -> dict:
+        r = closed_loop_simulate(rec, robot, v, **kw)
+        r["up"] = not r["fell"] and r["stopped"] is None
+        return r
+
+    nominal = one(None)
     out = {
         "fell": nominal["fall_time_s"] if nominal["fell"] else None,
         "dev": nominal["orientation_dev_max_deg"],
         "dist": nominal.get("distance_ratio", float("nan")),
     }
-    rng = np.random.default_rng(seed)
-    fell, devs, dists = 0, [], []
-    for _ in range(n_random):
-        v = random_model(robot, rng)
-        r = physics_record(
-            rec,
-            play(rec, robot, compensate=ff, **v.play_kwargs()),
-            robot,
-        )
-        fell += bool(r["fell"])
-        devs.append(r["orientation_dev_max_deg"])
-        d = r.get("distance_ratio")
-        dists.append(float("nan") if d is None else float(d))
-    if n_random:
+    runs = [one(v) for v in models(robot, n_random, seed)]
+    if runs:  # deviation and distance: medians over the runs that stayed up
+        up = [r for r in runs if r["up"]]
+        devs = [r["orientation_dev_max_deg"] for r in up]
+        dists = [r["distance_ratio"] for r in up if r.get("distance_ratio") is not None]
+        stopped = sum(1 for r in runs if r["stopped"] is not None and not r["fell"])
+        down = f"{len(runs) - len(up)}/{n_random}"
         out.update(
-            random=f"{fell}/{n_random}",
-            rdev=float(np.median(devs)),
-            rdist=float(np.nanmedian(dists)) if not np.all(np.isnan(dists)) else float("nan"),
+            random=down + (f" ({stopped} stopped)" if stopped else ""),
+            reasons=sorted({str(r["stopped"]) for r in runs if r["stopped"] and not r["fell"]}),
+            rdev=float(np.median(devs)) if devs else float("nan"),
+            rdist=float(np.median(dists)) if dists else float("nan"),
+            down=[k for k, r in enumerate(runs) if not r["up"]],
         )
     return out
 
@@ -152,31 +180,37 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="folder for the made robot")
     parser.add_argument("--random", type=int, default=0, help="randomised sim models per run")
+    parser.add_argument("--seed", type=int, default=0, help="the randomised models' seed")
     parser.add_argument("--trajectories", nargs="+", default=list(TRAJECTORIES))
+    parser.add_argument("--robots", nargs="+", default=list(ROBOTS), help="folders or names")
+    parser.add_argument("--loops", nargs="+", default=["open", "closed"], choices=LOOPS)
     parser.add_argument("--no-sim", action="store_true")
     parser.add_argument(
         "--robot-toml", default="", help="a robot.toml for the made robot (TOML text; \\n allowed)"
     )
     args = parser.parse_args()
-    made = make_robot(args.out, robot_toml=args.robot_toml.replace("\\n", "\n"))
-    robots = {"bioloid": load_robot("bioloid"), "kokone": load_robot("kokone")}
-    robots["longlegs"] = load_robot(made)
+    robots = {}
+    for name in args.robots:
+        if name == "longlegs":
+            made = make_robot(args.out, robot_toml=args.robot_toml.replace("\\n", "\n"))
+            robots[name] = load_robot(made)
+        else:
+            robots[name] = load_robot(name)
     for name, robot in robots.items():
         legs = robot.roles.leg("left")
         print(f"## {name}: {robot.total_mass:.3f} kg, legs {legs}, feet {robot.foot_size}")
     print(
         "| robot | trajectory | s | CoM err mm | swing err mm | ZMP margin mm | speed share "
-        "| sim fell at s | dev° | dist | random fell | rdev° | rdist |"
+        "| loop | sim fell at s | dev° | dist | random fell | rdev° | rdist |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for t in args.trajectories:
         for name, robot in robots.items():
             t0 = time.time()
             k = kinematic(robot, t)
             if "error" in k:
-                print(f"| {name} | {t} | refused: {k['error']} |||||||||||")
+                print(f"| {name} | {t} | refused: {k['error']} ||||||||||||")
                 continue
-            s = {} if args.no_sim else simulate(robot, t, args.random)
             cells = [
                 name,
                 t,
@@ -186,14 +220,23 @@ def main() -> int:
                 f"{k['zmp']:.1f}",
                 f"{k['speed']:.2f}",
             ]
-            if "error" in s:
-                cells += [f"sim: {s['error']}", "", "", "", "", ""]
-            elif s:
-                fell = "-" if s["fell"] is None else f"{s['fell']:.2f}"
-                cells += [fell, _num(s["dev"], 1), _num(s["dist"], 2)]
-                cells += [str(s.get("random", "")), _num(s.get("rdev"), 1)]
-                cells += [_num(s.get("rdist"), 2)]
-            print("| " + " | ".join(cells) + " |", flush=True)
+            for loop in [] if args.no_sim else args.loops:
+                s = simulate(robot, t, args.random, args.seed, loop)
+                row = [*cells, loop]
+                if "error" in s:
+                    row += [f"sim: {s['error']}", "", "", "", "", ""]
+                else:
+                    row += ["-" if s["fell"] is None else f"{s['fell']:.2f}"]
+                    row += [_num(s["dev"], 1), _num(s["dist"], 2)]
+                    row += [str(s.get("random", "")), _num(s.get("rdev"), 1)]
+                    row += [_num(s.get("rdist"), 2)]
+                print("| " + " | ".join(row) + " |", flush=True)
+                if s.get("down"):
+                    print(f"<!-- {name} {t} {loop}: down on draws {s['down']} -->", flush=True)
+                for reason in s.get("reasons", []):
+                    print(f"<!-- {name} {t} {loop}: stopped: {reason} -->", flush=True)
+            if args.no_sim:
+                print("| " + " | ".join([*cells, "", "", "", "", "", "", ""]) + " |", flush=True)
             print(f"<!-- {name} {t}: {time.time() - t0:.0f} s -->", flush=True)
     return 0
 

@@ -47,8 +47,9 @@ def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
 def test_kokones_own_stack_asks_no_joint_for_more_than_its_speed_share(walk):
     """Kokone's stack (robots/kokone/stack.toml: its own [support_switch]) tracks its walks
     within the sized references' share of the BMS-380MAX's speed (0.8, wbc.walking.sizing) at
-    every tick, switches included; without the table a knee reached 1.00 / 0.98 of it at
-    walk10_wb's / fast_wb's switches (benchmarks/kokone_sim.md section 000000)."""
+    every tick, switches included; without the table a knee reached 1.00 of it at walk10_wb's
+    switches (benchmarks/kokone_sim.md section 000000; fast_wb's 0.98 there was at its sized
+    32.8 mm steps: with its 22 mm steps, section 00000000, 0.44 without the table)."""
     from wbc.model import load_robot
     from wbc.stacks import robot_stack
     from wbc.walking.sizing import SPEED_FRACTION
@@ -61,9 +62,10 @@ def test_kokones_own_stack_asks_no_joint_for_more_than_its_speed_share(walk):
     rec = run(StackController(build_stack(spec, kokone)), kokone, ref)
     speed = np.abs(np.diff(rec.q[:, 7:], axis=0)) / ref.dt / kokone.v_max
     assert speed.max() < SPEED_FRACTION
-    without = {k: v for k, v in spec.items() if k != "support_switch"}
-    rec = run(StackController(build_stack(without, kokone)), kokone, ref)
-    assert _switch_speed(kokone, rec, ref) > 0.95
+    if walk == "walk10_wb":  # the table is what keeps it within the share
+        without = {k: v for k, v in spec.items() if k != "support_switch"}
+        rec = run(StackController(build_stack(without, kokone)), kokone, ref)
+        assert _switch_speed(kokone, rec, ref) > 0.95
 
 
 @pytest.mark.parametrize(("carry", "second"), [(True, False), (False, False), (True, True)])
