@@ -208,3 +208,37 @@ def test_the_default_gains_follow_the_feed_forward_and_given_gains_win(example):
                            gains=gains, compensate=compensate, out=lambda _l: None)  # fmt: skip
         assert loop.stabilizer.gains == expected, (compensate, gains)
         assert loop.stabilizer.estimator.joint_lag is lag
+
+
+def test_the_users_servo_model_is_taken_whatever_its_law_and_anything_else_is_refused():
+    """closed_loop(servo=...) takes a hobby servo's or an X-series servo's model as the
+    user's, as it takes an AX-12A's (it silently fell back to servos.toml for any law but
+    the AX-12A's), and refuses anything else in one line naming the three laws."""
+    pytest.importorskip("mujoco")
+    from dataclasses import replace
+
+    from wbc.balance.live import closed_loop
+    from wbc.bench.solvers import registry
+    from wbc.bench.trajectories import build
+    from wbc.exceptions import ConfigurationError
+    from wbc.model import load_robot
+    from wbc.sim.actuator import nominal_servo
+    from wbc.sim.bus import SimImu, sim_bus
+    from wbc.sim.simulator import Simulation
+    from wbc.walking.loop import start_configuration
+
+    kokone = load_robot("kokone")
+    ref = build("keyposes", kokone)
+    sim = Simulation(kokone)
+    sim.reset(start_configuration(kokone, ref))
+    rate = min(100.0, 1.0 / ref.dt)
+    make = registry()["hqp-daqp"].make
+    mine = replace(nominal_servo(kokone), stall_torque=nominal_servo(kokone).stall_torque * 0.8)
+    lines: list[str] = []
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, SimImu(sim),
+                       out=lines.append, calibrate_s=0.0, servo=mine)  # fmt: skip
+    assert loop.servo_model == "the user's servo model"
+    assert loop.deployment.source.compensator.params is mine  # type: ignore[attr-defined]
+    with pytest.raises(ConfigurationError, match="HobbyServoParams, XServoParams"):
+        closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, SimImu(sim),
+                    out=lines.append, servo=object())  # type: ignore[arg-type]  # fmt: skip

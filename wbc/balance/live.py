@@ -34,7 +34,8 @@ from ..servos.bus import ServoBus
 from ..servos.config import DeployConfig
 from ..servos.playback import Deployment
 from ..servos.sources import CallableSource
-from ..sim.actuator import ServoParams
+from ..sim.actuator import HobbyServoParams, ServoParams
+from ..sim.xm430 import XServoParams
 from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
@@ -54,6 +55,8 @@ NARROW_LONGEST = 0.3
 #: steps) for ~0.01 rad/s of gyro bias, a false 3° tilt through the filter, and the feedback
 #: tipped the robot by it (nominal turn_wb 3.35°, 2.76° at 1 s; benchmarks/physics.md)
 CALIBRATE_S = 1.0
+#: the servo laws a feed-forward model can be given as (``closed_loop(servo=...)``)
+SERVO_LAWS = (ServoParams, HobbyServoParams, XServoParams)
 
 
 class SessionSource(CallableSource):
@@ -162,7 +165,7 @@ def closed_loop(
     hold: HoldParams | None = HoldParams(),  # noqa: B008 (frozen)
     fall: FallParams | None = FallParams(),  # noqa: B008 (frozen)
     calibrate_s: float = CALIBRATE_S,
-    servo: ServoParams | str | None = None,
+    servo: ServoParams | HobbyServoParams | XServoParams | str | None = None,
     step_on_commands: bool = False,
 ) -> ClosedLoop:
     """A deployment of ``controller`` along ``ref`` on ``bus``, closed through ``imu`` and
@@ -199,7 +202,8 @@ def closed_loop(
     re-planned Kokone's steps from a DCM the servos' sag falsifies: walk10 on the 6 randomised
     models open loop stands on, 1 up with it, 6 without; benchmarks/kokone_sim.md 0000).
     ``servo``: the servo model of the feed-forward — None: the robot's ``servos.toml``; a
-    :class:`~wbc.sim.actuator.ServoParams`: the user's; ``"identify"``: servos.toml's with
+    :class:`~wbc.sim.actuator.ServoParams`, :class:`~wbc.sim.actuator.HobbyServoParams` or
+    :class:`~wbc.sim.xm430.XServoParams`: the user's; ``"identify"``: servos.toml's with
     the stiffness identified at rest from the encoders' sag under the known gravity torques
     (:func:`wbc.balance.compliance.identify_stiffness`; needs ``calibrate_s`` > 0). Which
     one is used is said through ``out`` and kept in :attr:`ClosedLoop.servo_model`.
@@ -249,8 +253,13 @@ def closed_loop(
     if fall is not None and enabled:
         detector = FallDetector(fall, (ref.foot.length, ref.foot.width))
     identify = isinstance(servo, str)
-    if identify and servo != "identify":
-        raise ConfigurationError(f"closed_loop: servo = {servo!r}: a ServoParams or 'identify'")
+    if (identify and servo != "identify") or not (
+        servo is None or identify or isinstance(servo, SERVO_LAWS)
+    ):
+        raise ConfigurationError(
+            f"closed_loop: servo = {servo!r}: None, 'identify' or one of "
+            + ", ".join(law.__name__ for law in SERVO_LAWS)
+        )
     if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
         raise ConfigurationError(f"closed_loop: calibrate_s must be >= 0 s, got {calibrate_s}")
     rest = round(calibrate_s * config.rate) if enabled and (imu is not None or identify) else 0
@@ -274,7 +283,7 @@ def closed_loop(
                       hold=phase_hold)  # fmt: skip
     source = SessionSource(session)
     target = source
-    params = servo if isinstance(servo, ServoParams) else None
+    params = servo if isinstance(servo, SERVO_LAWS) else None
     model = "the user's servo model" if params is not None else "servos.toml (nominal)"
     comp = None
     if compensate > 0:
