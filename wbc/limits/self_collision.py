@@ -637,10 +637,16 @@ class SelfCollisionConstraint(Constraint):
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
+        #: where the last rows are: (G, h, first row) — the limit's own buffers, or a
+        #: compiled plan's (:meth:`rows_into`)
+        self._where: tuple[np.ndarray, np.ndarray, int] = (self._G, self._h, 0)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
+        if self._where[0] is not self._G:  # (the last rows in a plan's buffers: made again)
+            state["_where"] = (self._G, self._h, 0)
+            state["_rows_q"] = np.full(self.robot.nq, np.nan)
         return state
 
     margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
@@ -656,7 +662,7 @@ class SelfCollisionConstraint(Constraint):
         buffers = (
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
             pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
-            *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
+            *self._out, pd._counts, self._pair_buf, self._gap_buf,
             self._params, self._closest, pd._last_axis, pd._work, pd._iwork,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
@@ -686,10 +692,16 @@ class SelfCollisionConstraint(Constraint):
     def last(self, w: Witness) -> None:
         self._last = w
 
-    def _update(self, kin: Kinematics) -> int:
-        """The rows at ``kin`` into the limit's buffers (one compiled call,
-        :func:`~wbc.limits.collision_packed.packed_rows`; nothing at the configuration of the
-        last call); returns their number."""
+    @property
+    def max_rows(self) -> int:
+        """The most rows a tick can have (17 a pair: the witness and 8 + 8 corners): the room
+        :meth:`rows_into` needs."""
+        return int(self._h.shape[0])
+
+    def _update(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int = 0) -> int:
+        """The rows at ``kin`` into ``G[r0:]``, ``h[r0:]`` (one compiled call,
+        :func:`~wbc.limits.collision_packed.packed_rows`, or at the configuration of the last
+        call a copy of its rows if they went elsewhere); returns their number."""
         pd = self.distances
         if not pd.pairs:
             self._n_close = self._n_rows = 0
@@ -698,12 +710,38 @@ class SelfCollisionConstraint(Constraint):
             return 0
         packed = self._packed if self._packed is not None else self._pack()
         Rf, pf = pd.frames(kin)
-        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, pd.jacobians)
-        if r < 0:  # (the configuration of the last rows)
-            return self._n_rows
+        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, pd.jacobians, G, h, r0)
+        where = self._where
+        self._where = (G, h, r0)
+        if r == -1:  # (the configuration of the last rows: where they are)
+            r = self._n_rows
+            G0, h0, s0 = where
+            if r and (G0 is not G or s0 != r0):
+                G[r0 : r0 + r] = G0[s0 : s0 + r]
+                h[r0 : r0 + r] = h0[s0 : s0 + r]
+            return r
+        if r < 0:
+            self._where = where
+            raise ValueError(
+                f"{self.name}: rows_into needs room for {self.max_rows} rows of {self.robot.nv}"
+                f" floats from row {r0}, got G {G.shape}, h {h.shape}"
+            )
         self._n_close, self._n_rows = int(pd._counts[2]), r
         self._last = self._rows = None
         return r
+
+    def rows_into(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int) -> int:
+        """The rows at ``kin`` written into ``G[r0:]``, ``h[r0:]`` (C-contiguous float64
+        buffers with nv columns and room for :attr:`max_rows` rows from ``r0``; ValueError
+        else): a compiled plan's buffers, without a copy. Returns their number. The rows are
+        those of :meth:`compute`, which finds them there while the caller leaves them."""
+        if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
+            rows = self.compute(kin)
+            m = rows.h.shape[0]
+            G[r0 : r0 + m] = rows.G
+            h[r0 : r0 + m] = rows.h
+            return m
+        return self._update(kin, G, h, r0)
 
     def forget_rows(self) -> None:
         self._rows_q[:] = np.nan  # (the kernel's "configuration of the last rows")
@@ -713,13 +751,13 @@ class SelfCollisionConstraint(Constraint):
         call: for a caller that copies them at once (a compiled plan's rows)."""
         if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
             return tuple(self.compute(kin))  # type: ignore[return-value]
-        r = self._update(kin)
+        r = self._update(kin, self._G, self._h)
         return self._G[:r], self._h[:r]
 
     def compute(self, kin: Kinematics) -> Inequality:
         """The rows at ``kin`` (copies, kept for a second call at the same configuration, e.g.
         a tick the compiled path hands back to DAQP)."""
-        r = self._update(kin)
+        r = self._update(kin, self._G, self._h)
         if self._rows is None:  # (copies: the rows outlive the next call, e.g. in a backend's)
             self._rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
         return self._rows
