@@ -5,8 +5,9 @@ A constraint with a constraint kernel (:attr:`wbc.limits.Constraint.row_kernel`)
 the spec table ``cspec`` (:data:`wbc.compiled.dispatch.CONSTRAINT_COLUMNS`: its kernel, its
 parameters in ``cparams``, its frame slots in ``cslots``, its first row and row count): the
 tick calls its kernel, which writes its rows into ``G[r0:r0+m]``, ``h[r0:r0+m]``. The others
-(the self-collision pairs, a :class:`~wbc.limits.LinearInequality`) compute their rows in
-Python, copied into the same buffers. Every constraint's rows keep their place: level by
+compute their rows in Python: written there in place by a constraint with ``rows_into`` (the
+self-collision pairs, with room reserved for their most rows), else copied (a
+:class:`~wbc.limits.LinearInequality`). Every constraint's rows keep their place: level by
 level, in the level's order, as :func:`wbc.solvers.assembly.stack_constraints` stacks them.
 
 Per tick, in Python: each kernel constraint's :meth:`~wbc.limits.Constraint.prepare`, then a
