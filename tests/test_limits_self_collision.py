@@ -561,10 +561,10 @@ def test_rows_written_into_a_plans_buffer_are_the_rows_and_found_there(robot):
     small_G, small_h = np.full((most - 1, robot.nv), 7.0), np.full(most - 1, 7.0)
     moved = q.copy()
     moved[7:] += 0.01
-    with pytest.raises(ValueError, match="room"):
+    with pytest.raises(ConfigurationError, match="room"):
         limit.rows_into(Kinematics(robot, moved), small_G, small_h, 0)
     assert (small_G == 7.0).all() and (small_h == 7.0).all()
-    with pytest.raises(ValueError, match="room"):
+    with pytest.raises(ConfigurationError, match="room"):
         limit.rows_into(kin, G, h, r0 + 4)  # (r0 + most overruns G)
 
 

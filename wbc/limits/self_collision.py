@@ -641,7 +641,7 @@ class SelfCollisionConstraint(Constraint):
             return r
         if r < 0:
             self._where = where
-            raise ValueError(
+            raise ConfigurationError(
                 f"{self.name}: rows_into needs room for {self.max_rows} rows of {self.robot.nv}"
                 f" floats from row {r0}, got G {G.shape}, h {h.shape}"
             )
@@ -651,9 +651,10 @@ class SelfCollisionConstraint(Constraint):
 
     def rows_into(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int) -> int:
         """The rows at ``kin`` written into ``G[r0:]``, ``h[r0:]`` (C-contiguous float64
-        buffers with nv columns and room for :attr:`max_rows` rows from ``r0``; ValueError
-        else): a compiled plan's buffers, without a copy. Returns their number. The rows are
-        those of :meth:`compute`, which finds them there while the caller leaves them."""
+        buffers with nv columns and room for :attr:`max_rows` rows from ``r0``;
+        ConfigurationError else): a compiled plan's buffers, without a copy. Returns their
+        number. The rows are those of :meth:`compute`, which finds them there while the
+        caller leaves them."""
         if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
             rows = self.compute(kin)
             m = rows.h.shape[0]
