@@ -526,3 +526,78 @@ def test_forgotten_rows_are_computed_again_the_same(robot):
     again = limit.compute(kin)
     assert again is not rows and limit.distances.exact_computations > exact
     assert np.array_equal(again.G, rows.G) and np.array_equal(again.h, rows.h)
+
+
+def test_rows_written_into_a_plans_buffer_are_the_rows_and_found_there(robot):
+    """``rows_into``: the rows of :meth:`compute` written at a row offset of the caller's
+    buffers (a compiled plan's: no copy), nothing outside them touched; at the same
+    configuration, into other buffers, the same rows (copied from where they are, the
+    kernel not run); :meth:`compute` and ``rows_view`` find them too; a buffer with less
+    room than the limit's most rows raises and is left as it was."""
+    q = robot.configuration("walk_ready")
+    q[7:] += np.random.default_rng(3).uniform(-0.2, 0.2, robot.nv - 6)
+    kin = Kinematics(robot, q)
+    reference = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING).compute(kin)
+    m = reference.h.size
+    assert m > 0
+    limit = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+    most, r0 = limit.max_rows, 5
+    G, h = np.full((r0 + most + 3, robot.nv), 7.0), np.full(r0 + most + 3, 7.0)
+    assert limit.rows_into(kin, G, h, r0) == m
+    assert np.array_equal(G[r0 : r0 + m], reference.G) and np.array_equal(
+        h[r0 : r0 + m], reference.h
+    )
+    assert (G[:r0] == 7.0).all() and (h[:r0] == 7.0).all()
+    assert (G[r0 + m :] == 7.0).all() and (h[r0 + m :] == 7.0).all()
+    exact = limit.distances.exact_computations
+    G2, h2 = np.zeros((most, robot.nv)), np.zeros(most)
+    assert limit.rows_into(kin, G2, h2, 0) == m
+    assert np.array_equal(G2[:m], reference.G) and np.array_equal(h2[:m], reference.h)
+    rows = limit.compute(kin)
+    assert np.array_equal(rows.G, reference.G) and np.array_equal(rows.h, reference.h)
+    Gv, hv = limit.rows_view(kin)
+    assert np.array_equal(Gv, reference.G) and np.array_equal(hv, reference.h)
+    assert limit.distances.exact_computations == exact  # (found, not computed again)
+    small_G, small_h = np.full((most - 1, robot.nv), 7.0), np.full(most - 1, 7.0)
+    moved = q.copy()
+    moved[7:] += 0.01
+    with pytest.raises(ConfigurationError, match="room"):
+        limit.rows_into(Kinematics(robot, moved), small_G, small_h, 0)
+    assert (small_G == 7.0).all() and (small_h == 7.0).all()
+    with pytest.raises(ConfigurationError, match="room"):
+        limit.rows_into(kin, G, h, r0 + 4)  # (r0 + most overruns G)
+
+
+def test_a_compiled_plan_holds_the_limits_rows_in_place(robot):
+    """Along a walk, each tick's self-collision rows in the compiled plan's buffers are the
+    limit's rows at that tick's configuration (computed afresh by another limit), and the
+    plan's buffers have room for the limit's most rows (what the in-place write needs)."""
+    from wbc.solvers.plan import _Plan
+
+    ref = build("walk10", robot)
+    control = load_stack("walk_strict", robot)
+    controller = StackController(control)
+    limit = next(c for c in control.stack.constraints() if isinstance(c, SelfCollisionConstraint))
+    fresh = SelfCollisionConstraint(robot, limit.margin, limit.trigger, limit.damping)
+    seen = []
+    solve = _Plan.solve
+
+    def checked(plan, kin, dt):
+        status = solve(plan, kin, dt)
+        if limit in plan.constraints.items and len(seen) < 150:
+            blocks = plan.constraints.level_blocks()
+            k = next(i for i, lv in enumerate(plan.constraints.levels) if limit in lv)
+            G, h, slices = blocks[k]
+            sl = dict(slices)[limit.name]
+            rows = fresh.compute(kin)
+            assert np.array_equal(G[sl], rows.G) and np.array_equal(h[sl], rows.h)
+            assert plan.inequalities.h.shape[0] >= limit.max_rows
+            seen.append(rows.h.size)
+        return status
+
+    _Plan.solve = checked
+    try:
+        run(controller, robot, ref)
+    finally:
+        _Plan.solve = solve
+    assert len(seen) == 150 and max(seen) > 0

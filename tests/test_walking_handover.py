@@ -281,3 +281,26 @@ def test_a_freed_legs_lag_is_fitted_to_its_servos_speed(robot, second):
     assert share < a  # 1.5 rad in one lag of 0.1 s: beyond any servo here
     handover.fit_speed = False
     assert handover.swing_share(0, a, dt) == a
+
+
+def test_the_swing_gap_kernel_is_the_numpy_form():
+    """``swing_gap`` (one compiled call at a lift-off) gives the numpy form's gap bit for
+    bit: the largest |walk_ready − target| / speed over the joints of one side, 0 with none
+    of that side; NaN where a term is (Python's max then keeps the gap before it)."""
+    from wbc.walking.handover import swing_gap
+
+    rng = np.random.default_rng(0)
+    for trial in range(200):
+        n, k = 20, int(rng.integers(0, 13))
+        joints = rng.choice(n, size=k, replace=False).astype(np.int64)
+        sides = rng.integers(0, 2, k).astype(np.int64)
+        speed = rng.uniform(0.5, 8.0, k)
+        target, walk_ready = rng.normal(size=n), rng.normal(size=n)
+        if trial % 17 == 0 and k:
+            target[joints[0]] = np.nan
+        for side in (0, 1):
+            legs = sides == side
+            share = np.abs(walk_ready[joints[legs]] - target[joints[legs]]) / speed[legs]
+            expected = max(0.0, float(share.max(initial=0.0)))
+            got = max(0.0, swing_gap(target, walk_ready, joints, sides, speed, side))
+            assert got == expected

@@ -24,10 +24,9 @@ PACKED = (
     ("pair_a", "int64", 1), ("pair_b", "int64", 1), ("support", "bool", 2),
     ("Rw", "float64", 3), ("cw", "float64", 2), ("placed", "bool", 1), ("out_k", "int64", 1),
     ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
-    ("out_n", "float64", 2), ("counts", "int64", 1), ("G", "float64", 2), ("h", "float64", 1),
-    ("row_pair", "int64", 1), ("row_gap", "float64", 1), ("params", "float64", 1),
-    ("closest", "float64", 1), ("last_axis", "int64", 1), ("work", "float64", 1),
-    ("iwork", "int64", 1),
+    ("out_n", "float64", 2), ("counts", "int64", 1), ("row_pair", "int64", 1),
+    ("row_gap", "float64", 1), ("params", "float64", 1), ("closest", "float64", 1),
+    ("last_axis", "int64", 1), ("work", "float64", 1), ("iwork", "int64", 1),
 )  # fmt: skip
 
 
@@ -73,13 +72,18 @@ def _b2(addresses, shapes, i):
 
 
 @njit(cache=True)
-def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
+def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     """:func:`collision_rows` at the configuration q (7 base coordinates, then the joints),
     with the limit's buffers by address (:data:`PACKED`; their owner keeps them alive:
-    ``params`` = [margin, trigger, damping, unreachable, common frame]); −1 (nothing
-    computed) if q equals ``last_q`` exactly, the configuration of the last call (NaN before
-    the first call), else the number of rows, q into ``last_q`` and the smallest distance of
-    the close pairs into ``closest[0]`` (+inf: none)."""
+    ``params`` = [margin, trigger, damping, unreachable, common frame]), the rows into
+    ``G[r0:]``, ``h[r0:]`` (the limit's own buffers, or a compiled plan's: no copy); −1
+    (nothing computed) if q equals ``last_q`` exactly, the configuration of the last call
+    (NaN before the first call); −2 (nothing computed) if ``G`` or ``h`` has less room from
+    ``r0`` than the most rows (17 a pair); else the number of rows, q into ``last_q`` and the
+    smallest distance of the close pairs into ``closest[0]`` (+inf: none)."""
+    most = 17 * shapes[9, 0]  # (rows a pair at most: the witness and 8 + 8 corners)
+    if r0 < 0 or G.shape[0] - r0 < most or h.shape[0] - r0 < most or G.shape[1] != Jw.shape[1]:
+        return -2
     last_q = _f1(addresses, shapes, 0)
     same = True
     for i in range(q.shape[0]):
@@ -88,7 +92,7 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
             break
     if same:
         return -1
-    params = _f1(addresses, shapes, 25)
+    params = _f1(addresses, shapes, 23)
     r = collision_rows(
         q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _f2(addresses, shapes, 3),
         Rf, pf, _i1(addresses, shapes, 4), _f3(addresses, shapes, 5), _f2(addresses, shapes, 6),
@@ -97,13 +101,13 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw) -> int:
         params[2], params[3], _f3(addresses, shapes, 12), _f2(addresses, shapes, 13),
         _b1(addresses, shapes, 14), _i1(addresses, shapes, 15), _f1(addresses, shapes, 16),
         _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
-        _i1(addresses, shapes, 20), _f2(addresses, shapes, 21), _f1(addresses, shapes, 22),
-        _i1(addresses, shapes, 23), _f1(addresses, shapes, 24), params[4] != 0.0,
-        _i1(addresses, shapes, 27), _f1(addresses, shapes, 28), _i1(addresses, shapes, 29),
+        _i1(addresses, shapes, 20), G[r0:], h[r0:], _i1(addresses, shapes, 21),
+        _f1(addresses, shapes, 22), params[4] != 0.0, _i1(addresses, shapes, 25),
+        _f1(addresses, shapes, 26), _i1(addresses, shapes, 27),
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]
-    closest = _f1(addresses, shapes, 26)
+    closest = _f1(addresses, shapes, 24)
     out_d = _f1(addresses, shapes, 16)
     closest[0] = np.inf
     for i in range(_i1(addresses, shapes, 20)[2]):

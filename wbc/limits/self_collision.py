@@ -5,6 +5,8 @@ The collision math is kept apart from the :class:`Constraint` glue at the bottom
 * :func:`candidate_pairs` / :func:`choose_pairs` — which geometry pairs can meet: not on the
   same joint, not on adjacent joints, and closer than a threshold in at least one of
   ``samples`` random configurations within the joint limits (computed once, seeded);
+* :mod:`wbc.limits.collision_boxes` — the robot's collision boxes, their frames and the
+  Lipschitz bounds of the pairs' distances (the broad phase);
 * :class:`PairDistances` — signed distance d, witness points p1, p2 and normal n (p1 → p2)
   of the pairs, compiled (:mod:`wbc.limits.collision_kernels`, one call per tick with the rows);
 * :func:`~wbc.limits.collision_reference.distance_jacobian`,
@@ -59,6 +61,13 @@ import pinocchio as pin
 
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
+from .collision_boxes import (
+    CollisionModel,
+    _box_in_frame,
+    _box_vertices,
+    collision_model,
+    lipschitz_bounds,
+)
 from .collision_kernels import MAX_CLOSURE, close_pairs, work_sizes
 from .collision_packed import pack, packed_rows
 from .limit import Constraint, Inequality, way_back
@@ -79,26 +88,6 @@ DEFAULT_SAMPLES = 600
 #: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
 RECOVERY_TOL = 5e-4
-
-
-class CollisionModel(NamedTuple):
-    """The robot's collision geometry and the link of each geometry."""
-
-    geometry: pin.GeometryModel
-    links: tuple[str, ...]  # link name of each geometry object
-    joints: np.ndarray  # parent joint of each geometry object
-
-
-def collision_model(robot: Robot) -> CollisionModel:
-    """The URDF's ``<collision>`` boxes as a pinocchio GeometryModel (no pairs added)."""
-    if not pin.WITH_HPP_FCL:
-        raise ConfigurationError("self-collision needs pinocchio built with hpp-fcl/coal")
-    geometry = pin.buildGeomFromUrdf(robot.model, str(robot.urdf_path), pin.GeometryType.COLLISION)
-    if geometry.ngeoms == 0:
-        raise ConfigurationError(f"URDF {robot.urdf_path} has no <collision> geometry")
-    links = tuple(robot.model.frames[g.parentFrame].name for g in geometry.geometryObjects)
-    joints = np.array([g.parentJoint for g in geometry.geometryObjects], dtype=int)
-    return CollisionModel(geometry, links, joints)
 
 
 def _link_pairs(pairs: Iterable[Sequence[str]], links: set[str], what: str) -> set[frozenset]:
@@ -307,76 +296,6 @@ def pair_report(robot: Robot, margin: float = DEFAULT_MARGIN) -> list[tuple[str,
         level = "warning" if "overlap" in why else "note"
         out.append((level, f"self-collision: {a} / {b} not checked: {why}"))
     return out
-
-
-def _box_vertices(geom: pin.GeometryObject) -> np.ndarray:
-    """Corners of a box (8 x 3), or a bounding box's, in its parent joint's frame."""
-    g = geom.geometry
-    g.computeLocalAABB()
-    aabb = g.aabb_local
-    lo, hi = np.asarray(aabb.min_), np.asarray(aabb.max_)
-    corners = np.array(
-        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
-    )
-    M = geom.placement
-    return corners @ M.rotation.T + M.translation
-
-
-def _box_in_frame(model: pin.Model, geom: pin.GeometryObject):
-    """(R, p, half sides) of a geometry's box — or, for any other shape, its local bounding
-    box — in its parent frame."""
-    g = geom.geometry
-    if type(g).__name__ == "Box":  # (hpp-fcl or coal)
-        centre, half = np.zeros(3), np.asarray(g.halfSide, dtype=float)
-    else:
-        g.computeLocalAABB()
-        lo, hi = np.asarray(g.aabb_local.min_), np.asarray(g.aabb_local.max_)
-        centre, half = (lo + hi) / 2, (hi - lo) / 2
-    M = model.frames[geom.parentFrame].placement.inverse() * geom.placement
-    return M.rotation.copy(), M.rotation @ centre + M.translation, half
-
-
-def lipschitz_bounds(
-    robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]
-) -> np.ndarray:
-    """L (K x n_joints) with |d_k(q) − d_k(q')| <= Σ_i L_ki |q_i − q'_i| for every pair k.
-
-    A revolute joint i moves a point p of a geometry it carries at speed <= |p − o_i| (o_i
-    on its axis); a joint that carries both geometries (or neither) does not change their
-    distance. |p − o_i| is bounded, whatever the configuration, by the lengths of the joint
-    offsets from joint i down to the geometry's joint plus the geometry's farthest corner.
-    """
-    model = robot.model
-    n = robot.n_joints
-    offset = np.array(
-        [np.linalg.norm(model.jointPlacements[j].translation) for j in range(model.njoints)]
-    )
-    reach_geom = []
-    for geom in cm.geometry.geometryObjects:
-        reach_geom.append(float(np.max(np.linalg.norm(_box_vertices(geom), axis=1))))
-    supports = [list(model.supports[j]) for j in range(model.njoints)]
-
-    def reach(gi: int) -> np.ndarray:
-        """Per actuated joint: bound on the distance from its axis to geometry gi (0 if the
-        joint does not carry it)."""
-        out = np.zeros(n)
-        chain = supports[int(cm.joints[gi])]  # root .. geometry's joint
-        # distance from joint chain[k] to the geometry <= Σ offsets of chain[k+1..] + corner
-        total = reach_geom[gi]
-        for k in range(len(chain) - 1, 0, -1):
-            j = chain[k]
-            if j >= 2:  # actuated joints (1 is the free flyer)
-                out[j - 2] = total
-            total += offset[j]
-        return out
-
-    L = np.zeros((len(pairs), n))
-    for k, (a, b) in enumerate(pairs):
-        ra, rb = reach(a), reach(b)
-        only_a = (ra > 0) & (rb == 0)
-        only_b = (rb > 0) & (ra == 0)
-        L[k] = np.where(only_a, ra, 0.0) + np.where(only_b, rb, 0.0)
-    return L
 
 
 class Witness(NamedTuple):
@@ -637,10 +556,16 @@ class SelfCollisionConstraint(Constraint):
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
+        #: where the last rows are: (G, h, first row) — the limit's own buffers, or a
+        #: compiled plan's (:meth:`rows_into`)
+        self._where: tuple[np.ndarray, np.ndarray, int] = (self._G, self._h, 0)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
+        if self._where[0] is not self._G:  # (the last rows in a plan's buffers: made again)
+            state["_where"] = (self._G, self._h, 0)
+            state["_rows_q"] = np.full(self.robot.nq, np.nan)
         return state
 
     margin = property(lambda self: float(self._params[0]), doc="kept between links (m)")
@@ -656,7 +581,7 @@ class SelfCollisionConstraint(Constraint):
         buffers = (
             self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
             pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
-            *self._out, pd._counts, self._G, self._h, self._pair_buf, self._gap_buf,
+            *self._out, pd._counts, self._pair_buf, self._gap_buf,
             self._params, self._closest, pd._last_axis, pd._work, pd._iwork,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
@@ -686,10 +611,16 @@ class SelfCollisionConstraint(Constraint):
     def last(self, w: Witness) -> None:
         self._last = w
 
-    def _update(self, kin: Kinematics) -> int:
-        """The rows at ``kin`` into the limit's buffers (one compiled call,
-        :func:`~wbc.limits.collision_packed.packed_rows`; nothing at the configuration of the
-        last call); returns their number."""
+    @property
+    def max_rows(self) -> int:
+        """The most rows a tick can have (17 a pair: the witness and 8 + 8 corners): the room
+        :meth:`rows_into` needs."""
+        return int(self._h.shape[0])
+
+    def _update(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int = 0) -> int:
+        """The rows at ``kin`` into ``G[r0:]``, ``h[r0:]`` (one compiled call,
+        :func:`~wbc.limits.collision_packed.packed_rows`, or at the configuration of the last
+        call a copy of its rows if they went elsewhere); returns their number."""
         pd = self.distances
         if not pd.pairs:
             self._n_close = self._n_rows = 0
@@ -698,12 +629,39 @@ class SelfCollisionConstraint(Constraint):
             return 0
         packed = self._packed if self._packed is not None else self._pack()
         Rf, pf = pd.frames(kin)
-        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, pd.jacobians)
-        if r < 0:  # (the configuration of the last rows)
-            return self._n_rows
+        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, pd.jacobians, G, h, r0)
+        where = self._where
+        self._where = (G, h, r0)
+        if r == -1:  # (the configuration of the last rows: where they are)
+            r = self._n_rows
+            G0, h0, s0 = where
+            if r and (G0 is not G or s0 != r0):
+                G[r0 : r0 + r] = G0[s0 : s0 + r]
+                h[r0 : r0 + r] = h0[s0 : s0 + r]
+            return r
+        if r < 0:
+            self._where = where
+            raise ConfigurationError(
+                f"{self.name}: rows_into needs room for {self.max_rows} rows of {self.robot.nv}"
+                f" floats from row {r0}, got G {G.shape}, h {h.shape}"
+            )
         self._n_close, self._n_rows = int(pd._counts[2]), r
         self._last = self._rows = None
         return r
+
+    def rows_into(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int) -> int:
+        """The rows at ``kin`` written into ``G[r0:]``, ``h[r0:]`` (C-contiguous float64
+        buffers with nv columns and room for :attr:`max_rows` rows from ``r0``;
+        ConfigurationError else): a compiled plan's buffers, without a copy. Returns their
+        number. The rows are those of :meth:`compute`, which finds them there while the
+        caller leaves them."""
+        if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
+            rows = self.compute(kin)
+            m = rows.h.shape[0]
+            G[r0 : r0 + m] = rows.G
+            h[r0 : r0 + m] = rows.h
+            return m
+        return self._update(kin, G, h, r0)
 
     def forget_rows(self) -> None:
         self._rows_q[:] = np.nan  # (the kernel's "configuration of the last rows")
@@ -713,13 +671,13 @@ class SelfCollisionConstraint(Constraint):
         call: for a caller that copies them at once (a compiled plan's rows)."""
         if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
             return tuple(self.compute(kin))  # type: ignore[return-value]
-        r = self._update(kin)
+        r = self._update(kin, self._G, self._h)
         return self._G[:r], self._h[:r]
 
     def compute(self, kin: Kinematics) -> Inequality:
         """The rows at ``kin`` (copies, kept for a second call at the same configuration, e.g.
         a tick the compiled path hands back to DAQP)."""
-        r = self._update(kin)
+        r = self._update(kin, self._G, self._h)
         if self._rows is None:  # (copies: the rows outlive the next call, e.g. in a backend's)
             self._rows = Inequality(self._G[:r].copy(), self._h[:r].copy())
         return self._rows

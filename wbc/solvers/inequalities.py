@@ -5,8 +5,9 @@ A constraint with a constraint kernel (:attr:`wbc.limits.Constraint.row_kernel`)
 the spec table ``cspec`` (:data:`wbc.compiled.dispatch.CONSTRAINT_COLUMNS`: its kernel, its
 parameters in ``cparams``, its frame slots in ``cslots``, its first row and row count): the
 tick calls its kernel, which writes its rows into ``G[r0:r0+m]``, ``h[r0:r0+m]``. The others
-(the self-collision pairs, a :class:`~wbc.limits.LinearInequality`) compute their rows in
-Python, copied into the same buffers. Every constraint's rows keep their place: level by
+compute their rows in Python: written there in place by a constraint with ``rows_into`` (the
+self-collision pairs, with room reserved for their most rows), else copied (a
+:class:`~wbc.limits.LinearInequality`). Every constraint's rows keep their place: level by
 level, in the level's order, as :func:`wbc.solvers.assembly.stack_constraints` stacks them.
 
 Per tick, in Python: each kernel constraint's :meth:`~wbc.limits.Constraint.prepare`, then a
@@ -51,9 +52,20 @@ class InequalityRows:
         self.h_eff = np.zeros(capacity)
         self.working = np.zeros((self.n_levels, capacity), dtype=np.bool_)
 
+    def reserve(self, rows: int) -> bool:
+        """Room for ``rows`` rows (the rows so far kept: a constraint writes its rows in
+        place, :meth:`ConstraintRows.tick`); True if the buffers were re-allocated."""
+        if rows <= self.h.shape[0]:
+            return False
+        kept = self.G, self.h, self.h_eff, self.working
+        self._allocate(max(rows, 2 * self.h.shape[0]))
+        n = kept[1].shape[0]
+        self.G[:n], self.h[:n], self.h_eff[:n], self.working[:, :n] = kept
+        return True
+
     def layout(self, counts: tuple[int, ...]) -> bool:
         """Each level's row count ``counts``; True if the buffers were re-allocated (the
-        caller's argument tuple is stale)."""
+        caller's argument tuple is stale; the rows written so far kept)."""
         grown = False
         if counts != self.counts:
             total = 0
@@ -62,13 +74,19 @@ class InequalityRows:
                 total += m
                 g_rows[k + 1] = total
             if total > self.h.shape[0]:
-                self._allocate(max(total, 2 * self.h.shape[0]))
+                self.reserve(total)
                 grown = True
-            else:
-                self.working.fill(False)
+            self.working.fill(False)
             self.counts = counts
             self.total = total
         return grown
+
+
+def _into(c: Constraint) -> tuple | None:
+    """What writes ``c``'s rows straight into a plan's buffers (its ``rows_into`` and the
+    room it needs: ``max_rows``), or None."""
+    into = getattr(c, "rows_into", None)
+    return None if into is None else (into, int(c.max_rows))
 
 
 class ConstraintRows:
@@ -89,10 +107,11 @@ class ConstraintRows:
         self.rows = InequalityRows(len(self.levels), nv)
         self.kernel_items = [c for c in self.items if compiled_constraint(c)]
         index = {id(c): j for j, c in enumerate(self.kernel_items)}
-        #: each level's constraints, with their row of :attr:`cspec` (-1: rows from Python)
-        #: and what gives their rows from Python (``rows_view``: views copied at once)
+        #: each level's constraints, with their row of :attr:`cspec` (-1: rows from Python),
+        #: what gives their rows from Python (``rows_view``: views copied at once) and what
+        #: writes them in place (``rows_into``, with the room it needs; None: copied)
         self.order = [
-            [(c, index.get(id(c), -1), getattr(c, "rows_view", c.compute)) for c in lv]
+            [(c, index.get(id(c), -1), getattr(c, "rows_view", c.compute), _into(c)) for c in lv]
             for lv in self.levels
         ]
         n = len(self.kernel_items)
@@ -165,15 +184,20 @@ class ConstraintRows:
             self._relayout()
             rebind = True
         cspec, python, layout, counts = self.cspec, self._python, self._layout, self.counts
+        g = self.rows
         copies = []
         level_counts = []
         r = i = 0
         for level in self.order:
             start = r
-            for _, j, rows in level:
+            for _, j, rows, into in level:
                 if j >= 0 and not python[j]:
                     m = layout[j][0]
                     cspec[j, D.C_ROW] = r
+                elif into is not None:  # (written in place: room for its most rows first)
+                    if r + into[1] > g.h.shape[0] and g.reserve(r + into[1]):
+                        rebind = True
+                    m = into[0](kin, g.G, g.h, r)
                 else:
                     G, h = rows(kin)
                     m = h.shape[0]
@@ -183,7 +207,6 @@ class ConstraintRows:
                 r += m
                 i += 1
             level_counts.append(r - start)
-        g = self.rows
         if g.layout(tuple(level_counts)):
             rebind = True
         G_all, h_all = g.G, g.h
