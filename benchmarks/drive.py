@@ -100,10 +100,12 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             lift_gain: float | None = None, filter_heading: bool = False,
             encoder_rest: bool = False, play: str | float | None = None,
             play_hold: float | None = None, play_lift: bool = False,
-            params=None, **kw):  # fmt: skip
+            params=None, keep_clear: bool = True, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
+    if not keep_clear:  # (the Walker's default: True)
+        options["keep_clear"] = False
     given = {  # (the Walker's own defaults where not given)
         "calibrate_s": calibrate, "contact_reach": contact_reach, "contact_rate": contact_rate,
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
@@ -269,6 +271,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--play-lift", action="store_true",
                     help="with --play: the swing's lift measured through it too "
                          "(Walker(play_lift=True))")  # fmt: skip
+    ap.add_argument("--no-keep-clear", dest="keep_clear", action="store_false",
+                    help="the stance contact's move toward the measured sole not kept clear "
+                         "of the swing's planned landing (Walker(keep_clear=False): the "
+                         "behaviour before 2026-12-06, failed solves turning on the "
+                         "spot)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -298,6 +305,7 @@ def main(argv: list[str] | None = None) -> int:
         "play": args.play,
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,
+        "keep_clear": args.keep_clear,
         "params": None
         if not args.plain_closing and args.swing_settle is None
         else EngineParams(

@@ -300,6 +300,60 @@ def test_stance_contact_slides_toward_the_measured_landing(robot) -> None:
     assert moved_in_double == 0
 
 
+def _double_support_gaps(walker, gaps: list) -> None:
+    """The gap (m) between the two hard contacts' targets (foot rectangles) at each double
+    support tick, appended to ``gaps``."""
+    from wbc.geometry import yaw_of
+    from wbc.tasks.contact import ContactTask
+    from wbc.walking.footgaps import rectangle_gaps
+
+    tasks = {
+        t.frame: t
+        for t in walker.controller.control.stack.tasks()
+        if isinstance(t, ContactTask) and t.active
+    }
+    if len(tasks) == 2:
+        left, right = tasks["l_sole"], tasks["r_sole"]
+        xy, yaw = left.target_position[None, :2], np.array([yaw_of(left.target_rotation)])
+        foot = walker.engine.foot
+        gaps.append(float(rectangle_gaps(xy, yaw, right.target_position[:2],
+                                         yaw_of(right.target_rotation), foot)[0]))  # fmt: skip
+
+
+@pytest.mark.parametrize("keep_clear", [True, False])
+def test_turning_on_the_spot_keeps_the_contacts_clear(robot, keep_clear) -> None:
+    """Turning on the spot at the turning limit the trailing sole lands 7–8 mm beside the
+    stance sole; with the encoders reading each landing ~8 mm inward of its plan (a left hip
+    roll sagging 0.05 rad), the stance contact's move toward the measured sole in single
+    support (``contact_reach``, 5 mm) took the next double support's two hard contacts to
+    0.3 mm apart, inside the feet's 5 mm self-collision margin: 50 failed solves in 400
+    ticks (main before 2026-12-06; the regression of the random sequences, turning on the
+    spot). Kept clear of the swing's planned landing (the default) the contacts stay at the
+    feet's clearance (``EngineParams.min_clearance``) and no solve fails."""
+    from wbc.bench.solvers import registry
+
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None,
+                    keep_clear=keep_clear)  # fmt: skip
+    sag = np.zeros(robot.n_joints)
+    sag[robot.joint_names.index("l_hip_roll")] = -0.05
+    walker.present = lambda: walker.q[7:] + sag
+    walker.command(0.0, 0.0, walker.limits.wz)
+    walker.start()
+    gaps: list[float] = []
+    for _ in range(400):
+        walker.tick()
+        _double_support_gaps(walker, gaps)
+    assert walker.engine.steps_taken >= 6
+    assert min(walker.engine.landing_errors) > 0.006  # the landings measured off their plans
+    clearance = walker.engine.params.min_clearance
+    if keep_clear:
+        assert walker.failed_solves == 0, dict(walker.failure_causes)
+        assert min(gaps) >= clearance - 1e-9
+    else:  # (what it guards against)
+        assert walker.failed_solves > 0
+        assert min(gaps) < clearance
+
+
 @pytest.mark.parametrize("finish", [False, True])
 def test_a_finishing_stop_ends_where_the_commands_put_the_walk(robot, finish) -> None:
     """A command takes effect at the next lift-off and the walk starts with a 0.8 s start

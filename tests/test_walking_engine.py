@@ -410,3 +410,31 @@ def test_a_settled_swing_comes_down_in_place(setup) -> None:
     assert moved > 1e-3  # the plain swing is still moving there
     with pytest.raises(ConfigurationError, match="settle"):
         EngineParams(settle=1.0).check()
+
+
+def test_a_stance_move_is_kept_clear_of_the_landing(setup) -> None:
+    """:meth:`WalkEngine.clear_of_landing`: in single support, a stance sole's move straight
+    toward the swing's planned landing stops where their rectangles are ``min_clearance``
+    apart (the last of the sampled points before it); a move away is taken whole, and so is
+    any move with nothing swinging."""
+    e = engine(setup)
+    e.command(0.0, 0.0, 0.5)
+    e.start()
+    while e.landing is None:
+        e.tick()
+    step = e.landing
+    stance = e.feet["right" if step.side == "left" else "left"]
+    start = stance.position
+    gap0 = float(rectangle_gaps(start[None, :2], np.array([stance.yaw]), step.xy, step.yaw,
+                                e.foot)[0])  # fmt: skip
+    assert gap0 >= e.params.min_clearance
+    toward = np.r_[step.xy - stance.xy, 0.0]
+    toward *= 0.02 / np.linalg.norm(toward)  # 2 cm: well inside the landing's sole
+    got = e.clear_of_landing(stance, start, start + toward)
+    gap = float(rectangle_gaps(got[None, :2], np.array([stance.yaw]), step.xy, step.yaw,
+                               e.foot)[0])  # fmt: skip
+    assert e.params.min_clearance <= gap < e.params.min_clearance + 0.02 / 8
+    assert np.allclose(e.clear_of_landing(stance, start, start - toward), start - toward)
+    while e.landing is not None:  # (the double support: nothing swings)
+        e.tick()
+    assert np.allclose(e.clear_of_landing(stance, start, start + toward), start + toward)

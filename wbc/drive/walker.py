@@ -215,7 +215,10 @@ class Walker:
     ``contact_reach`` (m, default :data:`DRIVE_CONTACT_REACH` = 5 mm) and ``contact_rate``
     (m/s, default :data:`DRIVE_CONTACT_RATE` = 0.02): how far from its plan and how fast the
     controller's stance contact moves toward the measured landing in single support (0: the
-    planned soles; :meth:`_contacts`).
+    planned soles; :meth:`_contacts`); ``keep_clear`` (default True): never closer to the
+    swing's planned landing than the engine's ``min_clearance`` (False: as before
+    2026-12-06, the double support's solve failed where the move took the feet inside their
+    self-collision margin).
     ``yaw_rest_s`` (with the outer loop; default :data:`DRIVE_YAW_REST_S`, 1.5 s) > 0: after
     the IMU's calibration the walker stands this long more, without torso feedback
     (:attr:`calibrating` stays True, a :meth:`start` waits), while the odometry learns the
@@ -270,6 +273,7 @@ class Walker:
         play: float | np.ndarray = 0.0,
         play_hold: float = DRIVE_PLAY_HOLD,
         play_lift: bool = False,
+        keep_clear: bool = True,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -284,6 +288,7 @@ class Walker:
             )
         self.contact_reach = float(contact_reach)
         self.contact_rate = float(contact_rate)
+        self.keep_clear = bool(keep_clear)
         #: the controller's contact target per sole in contact (position) and the planned
         #: placement it started from (:meth:`_contacts`)
         self._held: dict[Side, tuple[Footstep, np.ndarray]] = {}
@@ -598,7 +603,11 @@ class Walker:
         the stance sole's target slides toward the measured one (:attr:`WalkEngine.contact`,
         leg odometry: what the state estimate stands on and the steps are aimed from), at
         most :attr:`contact_reach` from the plan, at :attr:`contact_rate` (m/s;
-        :data:`DRIVE_CONTACT_REACH`, :data:`DRIVE_CONTACT_RATE`). In double support the
+        :data:`DRIVE_CONTACT_REACH`, :data:`DRIVE_CONTACT_RATE`) and, with
+        :attr:`keep_clear`, never closer to the swing's planned landing than the feet's
+        clearance (:meth:`WalkEngine.clear_of_landing`: moved inward beside a landing at 7 mm,
+        turning on the spot, the double support's two hard contacts held the feet inside
+        their 5 mm self-collision margin and its solves failed). In double support the
         targets stay where they are: both contacts hard, with the feet's self-collision
         rows, could not follow a gap (benchmarks/drive.md, "Failed solves"). Written into
         the targets: the anchors of a phase's new contacts and, flagged
@@ -622,7 +631,8 @@ class Walker:
             if not double and step > 0:
                 gap = engine.contact[side].position - plan.position
                 want = plan.position + clip_norm(gap, self.contact_reach)
-                pos = pos + clip_norm(want - pos, step)
+                moved = pos + clip_norm(want - pos, step)
+                pos = engine.clear_of_landing(plan, pos, moved) if self.keep_clear else moved
             held[side] = (plan, pos)
             placement = pin.SE3(_rz(plan.yaw), pos)
             if side == "left":

@@ -69,6 +69,8 @@ MAX_LANDING_ERROR = 0.03
 #: rad: the largest heading difference of the two soles (:meth:`FootstepPlan.validate`'s)
 MAX_RELATIVE_YAW = 0.6
 SegmentKind = Literal["start", "double", "single", "end"]
+#: points checked along a stance contact's move (:meth:`WalkEngine.clear_of_landing`)
+SLIDE_SAMPLES = 9
 
 
 @dataclass
@@ -283,6 +285,33 @@ class WalkEngine:
                     break
         mid = 0.5 * (step.xy + stance.xy)
         return np.array([mid[0], mid[1], mean_angle(step.yaw, stance.yaw)]), step
+
+    @property
+    def landing(self) -> Footstep | None:
+        """Where the swinging sole lands (its planned step) in single support, else None."""
+        if self.state == "standing" or not self._segments:
+            return None
+        seg = self._segments[0]
+        return seg.step if seg.kind == "single" else None
+
+    def clear_of_landing(self, stance: Footstep, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+        """The point furthest along the straight move of the sole ``stance`` (its heading)
+        from ``start`` to ``end`` (positions) that keeps the feet's ``min_clearance`` from
+        :attr:`landing` all the way (``SLIDE_SAMPLES`` points; from a ``start`` closer than
+        that, no closer than ``start``): a controller's stance contact moved off its plan
+        (the Walker's, toward the measured sole) must not take the double support that
+        follows inside the feet's margin, where two hard contacts and the feet's
+        self-collision rows cannot hold together. ``end`` if nothing swings."""
+        step = self.landing
+        if step is None or step.side == stance.side:
+            return end
+        s = np.linspace(0.0, 1.0, SLIDE_SAMPLES)
+        xy = start[None, :2] + s[:, None] * (end[:2] - start[:2])[None, :]
+        yaw = np.full(SLIDE_SAMPLES, stance.yaw)
+        gap = rectangle_gaps(xy, yaw, step.xy, step.yaw, self.foot)
+        ok = np.logical_and.accumulate(gap >= min(self.params.min_clearance, gap[0]))
+        k = int(np.count_nonzero(ok)) - 1  # (ok[0] holds: the last sample of the clear run)
+        return end if k == SLIDE_SAMPLES - 1 else start + s[k] * (end - start)
 
     def _gap(self, step: Footstep, stance: Footstep) -> float:
         """The soles' gap (m) with ``step`` landed beside ``stance``."""
