@@ -111,7 +111,7 @@ from .lsq_subproblem import (
     _rank_with,
     _subproblem,
 )
-from .lsq_update import _U_Q, _updated
+from .lsq_update import _U_Q, _U_ROWS, _updated
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
 
@@ -119,8 +119,9 @@ _X_TOL = 1e-12  # a free x_i is beyond a bound b when by more than _X_TOL·(1 + 
 
 _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
 
-#: the subproblem of a set that only adds bounds to the last one solved afresh (its base) is
-#: updated from the base's factors (:mod:`wbc.compiled.lsq_update`) instead of solved again;
+#: the subproblem of a set that adds bounds to the last one solved afresh (its base) or
+#: releases some of the base's is updated from the base's factors
+#: (:mod:`wbc.compiled.lsq_update`; releases: ``lsq_update.RELEASES``) instead of solved again;
 #: False (edit it; the kernels then compile again): every subproblem solved afresh, as before
 UPDATES = True
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
@@ -218,13 +219,15 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     saved_rank = np.int64(-1)
     rank_with = np.int64(-1)
     # the base of the updates (lsq_update): the fixed set of the last subproblem solved in the
-    # normal form, while its factors are in the work space, and its rank
+    # normal form, while its factors are in the work space, and its rank (U, S, K: the update's
+    # work space)
     base = np.zeros(n, dtype=np.int64)
     base_ok = False
     base_first = np.bool_(False)
     base_k = np.int64(0)
-    U = np.empty((_U_Q + 2 * n, max(n, pp)))
+    U = np.empty((_U_ROWS * n + _U_Q, max(n, pp)))
     S = np.empty((n, n + 1))
+    K = np.empty((n, 2 * n + 3))
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -244,12 +247,14 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 V[_V_MU, i] = saved[1, i]
                 V[_V_MU_TOL, i] = saved[2, i]
             rank_now = saved_rank
-            base_ok = False
+            # (the base's factors are still in the work space: only a base whose own solution
+            # was in x and is not kept in U yet is lost)
+            base_ok = base_ok and not base_first
         elif (
             UPDATES
             and base_ok
             and _updated(
-                A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, base_k, base_first
+                A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, base_k, base_first
             )
         ):
             count += 1
