@@ -1,7 +1,9 @@
 """The compiled level solver's updated subproblem (:mod:`wbc.compiled.lsq_update`): bounds added
 to a solved set give the subproblem solved afresh (x and the bounds' multipliers), and the
-update declines where it does not apply (a base bound released, a bound that depends on the
-equalities, more bounds than the null space holds)."""
+update declines where it does not apply (a base bound moved to its other side, a bound that
+depends on the equalities, more bounds than the null space holds, a released variable whose
+column leaves the range of the equalities). Base bounds released since are updated too (the
+bordered system), alone or with bounds added."""
 
 from __future__ import annotations
 
@@ -10,16 +12,17 @@ import pytest
 
 from wbc.compiled.lsq_linalg import _I_FIXED, _N_IVEC, _N_VEC, _V_MU, _V_MU_TOL
 from wbc.compiled.lsq_subproblem import _SUB_OK, _subproblem
-from wbc.compiled.lsq_update import _U_Q, _updated
+from wbc.compiled.lsq_update import _U_Q, _U_ROWS, _updated
 
 
 def _work(m: int, n: int, p: int) -> tuple:
     pp = (p + 3) & ~3
     work = np.zeros((4, max(m, n, _N_VEC), max(m, n, pp)))
     ind = np.zeros((_N_IVEC, max(m, n)), dtype=np.int64)
-    U = np.zeros((_U_Q + 2 * n, max(n, pp)))
+    U = np.zeros((_U_Q + _U_ROWS * n, max(n, pp)))
     S = np.zeros((n, n + 1))
-    return work, ind, U, S
+    K = np.zeros((n, 2 * n + 3))
+    return work, ind, U, S, K
 
 
 def _problem(seed: int, m: int, n: int = 24, p: int = 21) -> tuple:
@@ -54,19 +57,19 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
     ridge = 1e-4
     base = np.zeros(n, dtype=np.int64)
     base[[1, 5, 9]] = [-1, 1, -1]
-    work, ind, U, S = _work(m, n, B.shape[0])
+    work, ind, U, S, K = _work(m, n, B.shape[0])
     x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
     fixed = base.copy()
     for j, v in enumerate([3, 11, 17][:added]):
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
     assert _updated(
-        A, B, ridge, lower, upper, x, *work, ind, U, S, base, np.int64(k), np.bool_(True)
+        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
     )
     mu = work[3][_V_MU, :n].copy()
     mu_tol = work[3][_V_MU_TOL, :n].copy()
     # the same set solved afresh
-    work2, ind2, _, _ = _work(m, n, B.shape[0])
+    work2, ind2, _, _, _ = _work(m, n, B.shape[0])
     x2, _ = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
     held = fixed != 0
     assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
@@ -76,7 +79,7 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
     ind[_I_FIXED, :n] = fixed
     x3 = np.full(n, np.nan)
     assert _updated(
-        A, B, ridge, lower, upper, x3, *work, ind, U, S, base, np.int64(k), np.bool_(False)
+        A, B, ridge, lower, upper, x3, *work, ind, U, S, K, base, np.int64(k), np.bool_(False)
     )
     assert np.max(np.abs(x3 - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
 
@@ -90,17 +93,14 @@ def test_the_update_declines_where_it_does_not_apply():
     ridge = 1e-4
     base = np.zeros(n, dtype=np.int64)
     base[[1, 5]] = [-1, 1]
-    work, ind, U, S = _work(m, n, B.shape[0])
+    work, ind, U, S, K = _work(m, n, B.shape[0])
     x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
     args = (np.int64(k), np.bool_(True))
 
     def update(fixed):
         ind[_I_FIXED, :n] = fixed
-        return _updated(A, B, ridge, lower, upper, x.copy(), *work, ind, U, S, base, *args)
+        return _updated(A, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, *args)
 
-    released = base.copy()
-    released[5] = 0
-    assert not update(released)
     moved = base.copy()
     moved[5] = -1
     assert not update(moved)
@@ -114,3 +114,63 @@ def test_the_update_declines_where_it_does_not_apply():
     one = base.copy()
     one[3] = 1
     assert update(one)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("m", [6, 15])
+@pytest.mark.parametrize(
+    "released, added", [([5], []), ([1, 9], []), ([5], [3]), ([1, 5], [11, 17])]
+)
+def test_released_bounds_answer_as_the_subproblem_solved_afresh(seed, m, released, added):
+    A, a, B, r, lower, upper = _problem(seed, m)
+    n = A.shape[1]
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5, 9, 13]] = [-1, 1, -1, 1]
+    work, ind, U, S, K = _work(m, n, B.shape[0])
+    x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
+    fixed = base.copy()
+    fixed[released] = 0
+    for j, v in enumerate(added):
+        fixed[v] = 1 if j % 2 else -1
+    ind[_I_FIXED, :n] = fixed
+    assert _updated(
+        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+    )
+    mu = work[3][_V_MU, :n].copy()
+    work2, ind2, _, _, _ = _work(m, n, B.shape[0])
+    x2, _ = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
+    held = fixed != 0
+    assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+    assert np.allclose(mu[held], work2[3][_V_MU, :n][held], rtol=1e-8, atol=1e-10)
+    # the released variables are free and not at their base bounds any more
+    assert np.all(np.abs(x[released] - x2[released]) < 1e-10)
+
+
+def test_a_release_that_changes_the_rank_declines():
+    m = 6
+    A, a, B, r, lower, upper = _problem(0, m)
+    n = A.shape[1]
+    # row 0 holds only x_5 and x_7; with both fixed the others' columns leave row 0 out of
+    # the range of A_F: releasing x_5 raises the rank
+    A[0] = 0.0
+    A[0, 5] = 1.0
+    A[0, 7] = 1.0
+    a[0] = upper[5] + lower[7]  # (met by the base's bounds)
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5, 7]] = [-1, 1, -1]
+    work, ind, U, S, K = _work(m, n, B.shape[0])
+    x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
+    fixed = base.copy()
+    fixed[5] = 0
+    ind[_I_FIXED, :n] = fixed
+    assert not _updated(
+        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+    )
+    fixed = base.copy()
+    fixed[1] = 0  # x_1's column is in the range: updated
+    ind[_I_FIXED, :n] = fixed
+    assert _updated(
+        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+    )

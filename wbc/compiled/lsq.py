@@ -111,7 +111,7 @@ from .lsq_subproblem import (
     _rank_with,
     _subproblem,
 )
-from .lsq_update import _U_Q, _updated
+from .lsq_update import _U_Q, _U_ROWS, _updated
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
 
@@ -119,8 +119,9 @@ _X_TOL = 1e-12  # a free x_i is beyond a bound b when by more than _X_TOL·(1 + 
 
 _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
 
-#: the subproblem of a set that only adds bounds to the last one solved afresh (its base) is
-#: updated from the base's factors (:mod:`wbc.compiled.lsq_update`) instead of solved again;
+#: the subproblem of a set that adds bounds to the last one solved afresh (its base) or
+#: releases some of the base's is updated from the base's factors
+#: (:mod:`wbc.compiled.lsq_update`; releases: ``lsq_update.RELEASES``) instead of solved again;
 #: False (edit it; the kernels then compile again): every subproblem solved afresh, as before
 UPDATES = True
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
@@ -158,6 +159,15 @@ def _finish(x, lower, upper, V, mu_row, ind, state, clip):
             state[i] = ind[_I_FIXED, i]
             if clip and ind[_I_FIXED, i] == 0:
                 x[i] = min(max(x[i], lower[i]), upper[i])
+
+
+@njit(cache=True, inline="always")
+def _released(base, ind):
+    """True if a bound of the base (fixed set ``base``) is released in ``ind[_I_FIXED]``."""
+    for i in range(base.shape[0]):
+        if base[i] != 0 and ind[_I_FIXED, i] == 0:
+            return True
+    return False
 
 
 @njit(cache=True)
@@ -218,13 +228,17 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     saved_rank = np.int64(-1)
     rank_with = np.int64(-1)
     # the base of the updates (lsq_update): the fixed set of the last subproblem solved in the
-    # normal form, while its factors are in the work space, and its rank
+    # normal form, while its factors are in the work space, and its rank (U, S, K: the update's
+    # work space)
     base = np.zeros(n, dtype=np.int64)
     base_ok = False
     base_first = np.bool_(False)
     base_k = np.int64(0)
-    U = np.empty((_U_Q + 2 * n, max(n, pp)))
+    # (the released bounds' rows of U and K only once a release comes: on the walks' ticks
+    # that never update, the larger work space cost 0.1-0.3 µs a call)
+    U = np.empty((2 * n + _U_Q, max(n, pp)))
     S = np.empty((n, n + 1))
+    K = np.empty((0, 2 * n + 3))
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -236,6 +250,13 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                     V[_V_MU, i] = V[_V_MU0, i]
             _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(False))
             return MAX_ITER, count
+        if UPDATES and base_ok and not kept and K.shape[0] == 0 and _released(base, ind):
+            # U's and K's rows for the released bounds (U's first rows kept: the base's
+            # solution may be in them)
+            grown = np.empty((_U_ROWS * n + _U_Q, U.shape[1]))
+            grown[:_U_Q] = U[:_U_Q]
+            U = grown
+            K = np.empty((n, 2 * n + 3))
         if kept:  # (the set PDAS falls back to: its subproblem's x and multipliers kept)
             kept = False
             sub = _SUB_OK
@@ -244,12 +265,14 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 V[_V_MU, i] = saved[1, i]
                 V[_V_MU_TOL, i] = saved[2, i]
             rank_now = saved_rank
-            base_ok = False
+            # (the base's factors are still in the work space: only a base whose own solution
+            # was in x and is not kept in U yet is lost)
+            base_ok = base_ok and not base_first
         elif (
             UPDATES
             and base_ok
             and _updated(
-                A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, base_k, base_first
+                A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, base_k, base_first
             )
         ):
             count += 1
@@ -555,6 +578,7 @@ def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
 _HERE = Path(__file__).parent
 refresh(
     [
+        _released,
         _wrong_sign,
         _violation,
         _finish,

@@ -1,13 +1,17 @@
 """The subproblem of the compiled least-squares level solver (:mod:`wbc.compiled.lsq`) updated
-instead of solved again: after the dual active set method adds bounds to a set whose
-subproblem was solved (the *base*, its QR of ``A_Fᵀ``, its ``(B_F Q)ᵀ`` and its reduced
-Hessian's Cholesky factor still in the work space), the bounds added since are equalities
+instead of solved again: after the active set methods add bounds to a set whose subproblem
+was solved (the *base*, its QR of ``A_Fᵀ``, its ``(B_F Q)ᵀ`` and its reduced Hessian's
+Cholesky factor still in the work space), the bounds added since are equalities
 ``c_sᵀ z = β_s`` on the base's null-space coordinates z (``c_s = Zᵀ e_s``), met through the
 Schur complement ``S = Cᵀ H⁻¹ C`` of the reduced Hessian ``H = MᵀM + ridge·I`` (q × q, q the
 bounds added): ``S ν = b_S − x_S``, ``z = z₀ + H⁻¹ C ν``, and ν are the added bounds'
-multipliers. Only for the normal form (p ≥ d) and while every base bound is still held; a
-bound whose ``c_s`` is (nearly) in the span of the others' (holding it would drop the rank of
-``A_F``) or more bounds than d return False: the caller solves the subproblem afresh.
+multipliers. Base bounds released since (PDAS's exchanges, the dual method's drops) border
+that system with one variable each (the released x_j − b_j, the free variables following
+along the direction that keeps the equalities). Only for the normal form (p ≥ d); a base
+bound moved to its other side, a bound whose ``c_s`` is (nearly) in the span of the others'
+(holding it would drop the rank of ``A_F``), more added bounds than d, or a released
+variable whose column ``A_j`` is not in the range of ``A_F`` (releasing it would raise the
+rank) return False: the caller solves the subproblem afresh.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from .lsq_linalg import (
     _FAST,
     _I_FIXED,
     _I_FREE,
+    _I_PERM,
     _V_E,
     _V_LAM,
     _V_TAU,
@@ -36,8 +41,22 @@ from .lsq_subproblem import _fixed_multiplier
 # U's rows: the base's x, its residual e, y₀ = (Qᵀ x_F)[:k], a work vector, then Qᵀ e_s (the
 # added bounds', n rows) and H⁻¹ c_s (n rows)
 _U_X, _U_E, _U_Y, _U_WORK, _U_Q = 0, 1, 2, 3, 4
+# ... then for the released bounds (n rows each): u_t = (Qᵀ g_F)[:k], P_t, MᵀP_t, H⁻¹MᵀP_t and
+# S⁻¹F[t]: U has _U_Q + _U_ROWS·n rows
+_U_ROWS = 7
 _C_MIN = 1e-12  # ‖c_s‖² (‖Qᵀ e_s‖ = 1) at most this: e_s is in the row space of A_F
 _PIVOT_RTOL = 1e-8  # a Schur pivot ≤ _PIVOT_RTOL × its diagonal: the bound depends on the others
+_RANGE_TOL = 1e-10  # a released variable's column A_j misses the range of A_F by more: declined
+#: base bounds released since the base are updated too (the bordered system); False (edit it;
+#: the kernels then compile again): a release solves the subproblem afresh, as before
+RELEASES = True
+#: a released variable's reduced curvature E_tt at most this × its curvature before the free
+#: variables' share is removed: the update declines (on random ill-conditioned levels, ridge
+#: 1e-6 and p = 9 < n, x was 1e-9 from the subproblem solved afresh without it)
+_BORDER_RTOL = 1e-2
+#: ... or whose bordered system's Cholesky diagonal, or S's, spans more than this (as the
+#: base's H: on those random levels 1e-10 from it without, 2e-15 with)
+_K_SPAN = 1e2
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
@@ -50,21 +69,37 @@ def _reflect(W, j, nf, tj, U, row):
 
 
 @njit(cache=True, fastmath=_FAST)
-def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, k, first):
+def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, first):
     """The subproblem of the set in ``ind[_I_FIXED]`` from the base's (fixed set ``base``,
     rank k; its factors in W, T, N, V and its free list in ``ind[_I_FREE]``), as
     :func:`~wbc.compiled.lsq_subproblem._subproblem` leaves it (x, ``V[_V_MU]``,
     ``V[_V_MU_TOL]``, ``V[_V_E]``). ``first``: the base's solution is still in x and
-    ``V[_V_E]`` (kept into U). False (nothing written but U) if the update does not apply."""
-    n = A.shape[1]
+    ``V[_V_E]`` (kept into U). False (nothing written but U, S, K) if the update does not
+    apply.
+
+    Bounds added since the base are equalities ``c_sᵀ z + d_sᵀ w = β_s``; base bounds released
+    since are variables w (x_j = b_j + w_j, the free variables following along ``g_j``, the
+    base's particular solution moved by A_F g_F = −A_j: ``u_j = (Qᵀ g_F)[:k]``). With
+    ``P = B G`` and γ the gradient in w at the base's solution, the KKT system
+    ``[H, MᵀP, −C; PᵀM, E₀, −D; Cᵀ, Dᵀ, 0]`` is solved by eliminating z with H's factor, then
+    ν with S's (the added bounds' Schur complement): ``(E + F S⁻¹ Fᵀ) w = −γ − F S⁻¹ β`` with
+    ``E = PᵀP + ridge(UᵀU + I) − PᵀM H⁻¹ MᵀP`` and ``F = PᵀM H⁻¹ C − D``.
+    """
+    m, n = A.shape
     p = B.shape[0]
     pp = (p + 3) & ~3
     nf = np.int64(0)
+    r_ = np.int64(0)  # base bounds released since
     for i in range(n):
         if base[i] == 0:
             nf += 1
+        elif ind[_I_FIXED, i] == 0:
+            if not RELEASES:
+                return False
+            K[r_, 2 * n] = i
+            r_ += 1
         elif ind[_I_FIXED, i] != base[i]:
-            return False  # a base bound released or moved: not an update
+            return False  # a base bound moved to its other side: not an update
     d = nf - k
     if first:
         for i in range(n):
@@ -121,32 +156,143 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, k, first
         S[q, q] = np.sqrt(piv)
         S[q, n] = c  # (its position in the base's free list)
         q += 1
-    # ν from S ν = b_S − x_S (the base's), into V[_V_W2]
+    # the released bounds: u_t, P_t = B_F Y u_t + B_j, MᵀP_t, H⁻¹MᵀP_t, γ_t; E and F into K
+    for t in range(r_):
+        j = np.int64(K[t, 2 * n])
+        ru = _U_Q + 2 * n + t
+        rp = _U_Q + 3 * n + t
+        rm = _U_Q + 4 * n + t
+        rh = _U_Q + 5 * n + t
+        for i in range(k):  # R11ᵀ u = −(Πᵀ A_j)[:k]
+            U[ru, i] = (-A[ind[_I_PERM, i], j] - _dot(W, i, U, ru, 0, i)) / W[i, i]
+        res = 0.0
+        an = 0.0
+        for i in range(m):
+            an += A[i, j] * A[i, j]
+        for i in range(k, m):  # A_j in the range of A_F, else releasing it changes the rank
+            di = -A[ind[_I_PERM, i], j] - _dot(W, i, U, ru, 0, k)
+            res += di * di
+        if np.sqrt(res) > _RANGE_TOL * (1.0 + np.sqrt(an)):
+            return False
+        for i in range(p):
+            U[rp, i] = B[i, j]
+        for i in range(p, pp):
+            U[rp, i] = 0.0
+        for i in range(k):
+            _axpy(U[ru, i], T, i, U, rp, 0, pp)
+        for c in range(d):
+            V[_V_W2, c] = _dot(T, k + c, U, rp, 0, pp)
+            U[rm, c] = V[_V_W2, c]
+        _cholesky_solve(N, d, V, np.int64(_V_W2))
+        for c in range(d):
+            U[rh, c] = V[_V_W2, c]
+        # γ_t = P_t·e₀ + ridge (u_t·y₀ + b_j)
+        K[t, 2 * n + 1] = _dot(U, rp, U, _U_E, 0, pp) + ridge * (
+            _dot(U, ru, U, _U_Y, 0, k) + U[_U_X, j]
+        )
+        for t2 in range(t + 1):
+            e = _dot(U, rp, U, _U_Q + 3 * n + t2, 0, pp) + ridge * _dot(
+                U, ru, U, _U_Q + 2 * n + t2, 0, k
+            )
+            if t2 == t:
+                e += ridge
+                full = e
+            e -= _dot(U, rm, U, _U_Q + 5 * n + t2, 0, d)
+            if t2 == t and not e > _BORDER_RTOL * full:
+                return False  # (E's diagonal cancels: its digits are lost)
+            K[t, t2] = e
+        for s_ in range(q):  # F[t, s] = (MᵀP_t)·H⁻¹c_s − (Qᵀe_s)[:k]·u_t
+            K[t, n + s_] = _dot(U, rm, U, _U_Q + n + s_, 0, d) - _dot(U, _U_Q + s_, U, ru, 0, k)
+    # ν₀ = S⁻¹ β (β = b_S − x_S, the base's), into V[_V_W2]
     for t in range(q):
         v = ind[_I_FREE, np.int64(S[t, n])]
         b = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
-        s = b - U[_U_X, v]
-        for j in range(t):
-            s -= S[t, j] * V[_V_W2, j]
-        V[_V_W2, t] = s / S[t, t]
-    for t in range(q - 1, -1, -1):
-        s = V[_V_W2, t]
-        for j in range(t + 1, q):
-            s -= S[j, t] * V[_V_W2, j]
-        V[_V_W2, t] = s / S[t, t]
-    # Δz = Σ ν_t h_t (in U[_U_WORK, k:nf], zeros before), e = e₀ + M Δz, x_F = x₀ + Q (0, Δz)
+        V[_V_W2, t] = b - U[_U_X, v]
+    _chol_solve_small(S, q, V, np.int64(_V_W2))
+    if r_ > 0:
+        # K' = E + F S⁻¹ Fᵀ (X_t = S⁻¹ F[t] into U's rows), rhs −γ − F ν₀ (into K[:, 2n + 1])
+        for t in range(r_):
+            rx = _U_Q + 6 * n + t
+            for s_ in range(q):
+                U[rx, s_] = K[t, n + s_]
+            _chol_solve_small(S, q, U, np.int64(rx))
+            K[t, 2 * n + 1] = -K[t, 2 * n + 1]
+            s = 0.0
+            for s_ in range(q):
+                s += K[t, n + s_] * V[_V_W2, s_]
+            K[t, 2 * n + 1] -= s
+        for t in range(r_):
+            for t2 in range(t + 1):
+                s = 0.0
+                for s_ in range(q):
+                    s += K[t, n + s_] * U[_U_Q + 6 * n + t2, s_]
+                K[t, t2] += s
+        # its Cholesky factor (lower, in place), then w into K[:, 2n + 2]
+        lmin = np.inf
+        lmax = 0.0
+        for t in range(q):  # (S⁻¹ enters K: S must be as well conditioned as K)
+            lmin = min(lmin, S[t, t])
+            lmax = max(lmax, S[t, t])
+        if lmax > _K_SPAN * lmin:
+            return False
+        lmin = np.inf
+        lmax = 0.0
+        for t in range(r_):
+            diag = K[t, t]
+            for t2 in range(t):
+                s = K[t, t2]
+                for j in range(t2):
+                    s -= K[t, j] * K[t2, j]
+                K[t, t2] = s / K[t2, t2]
+            piv = diag
+            for j in range(t):
+                piv -= K[t, j] * K[t, j]
+            if not piv > _PIVOT_RTOL * diag:
+                return False
+            K[t, t] = np.sqrt(piv)
+            lmin = min(lmin, K[t, t])
+            lmax = max(lmax, K[t, t])
+        if lmax > _K_SPAN * lmin:
+            return False  # (ill-conditioned: the answer would lose its digits)
+        for t in range(r_):
+            s = K[t, 2 * n + 1]
+            for j in range(t):
+                s -= K[t, j] * K[j, 2 * n + 2]
+            K[t, 2 * n + 2] = s / K[t, t]
+        for t in range(r_ - 1, -1, -1):
+            s = K[t, 2 * n + 2]
+            for j in range(t + 1, r_):
+                s -= K[j, t] * K[j, 2 * n + 2]
+            K[t, 2 * n + 2] = s / K[t, t]
+        for t in range(r_):  # ν = ν₀ + Σ w_t X_t
+            _axpy(K[t, 2 * n + 2], U, _U_Q + 6 * n + t, V, _V_W2, 0, q)
+    # Δz = Σ ν_s h_s − Σ w_t H⁻¹MᵀP_t, Δy = Σ w_t u_t (U[_U_WORK], the base's Q coordinates)
     for j in range(nf):
         U[_U_WORK, j] = 0.0
     for t in range(q):
         _axpy(V[_V_W2, t], U, _U_Q + n + t, U, _U_WORK, 0, d)
+    for t in range(r_):
+        _axpy(-K[t, 2 * n + 2], U, _U_Q + 5 * n + t, U, _U_WORK, 0, d)
     for j in range(d - 1, -1, -1):
         U[_U_WORK, k + j] = U[_U_WORK, j]
     for j in range(min(k, d)):
         U[_U_WORK, j] = 0.0
+    for t in range(r_):
+        _axpy(K[t, 2 * n + 2], U, _U_Q + 2 * n + t, U, _U_WORK, 0, k)
+    # e = e₀ + M Δz + Σ w_t P_t; λ needs y = y₀ + Δy before Δ is reflected back
     for i in range(pp):
         V[_V_E, i] = U[_U_E, i]
     for c in range(d):
         _axpy(U[_U_WORK, k + c], T, k + c, V, _V_E, 0, pp)
+    for t in range(r_):
+        _axpy(K[t, 2 * n + 2], U, _U_Q + 3 * n + t, V, _V_E, 0, pp)
+    # λ' (permuted, basic): R11 λ' = −(Qᵀ (g_F − Σ ν_s e_s))[:k]
+    for j in range(k):
+        s = _dot(T, j, V, _V_E, 0, pp) + ridge * (U[_U_Y, j] + U[_U_WORK, j])
+        for t in range(q):
+            s -= V[_V_W2, t] * U[_U_Q + t, j]
+        V[_V_LAM, j] = -s
+    _r11_solve(W, k, V, _V_LAM, _V_LAM)
     for j in range(k - 1, -1, -1):
         if V[_V_TAU, j] != 0.0:
             _reflect(W, j, nf, V[_V_TAU, j], U, _U_WORK)
@@ -158,13 +304,8 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, k, first
             x[v] += U[_U_WORK, c]
         else:
             x[v] = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
-    # λ' (permuted, basic): R11 λ' = −(Qᵀ (g_F − Σ ν_s e_s))[:k]
-    for j in range(k):
-        s = _dot(T, j, V, _V_E, 0, pp) + ridge * U[_U_Y, j]
-        for t in range(q):
-            s -= V[_V_W2, t] * U[_U_Q + t, j]
-        V[_V_LAM, j] = -s
-    _r11_solve(W, k, V, _V_LAM, _V_LAM)
+    for t in range(r_):
+        x[np.int64(K[t, 2 * n])] += K[t, 2 * n + 2]
     # reduced gradients of the fixed variables, as the subproblem's: μ = B_iᵀ e + ridge x_i + A_iᵀ λ
     for i in range(n):
         if ind[_I_FIXED, i] != 0:
@@ -172,6 +313,24 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, base, k, first
     return True
 
 
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _chol_solve_small(S, q, V, row):
+    """Solve L Lᵀ w = V[row, :q] in place (L: the lower triangle of S[:q, :q], its diagonal
+    the factor's own)."""
+    for t in range(q):
+        s = V[row, t]
+        for j in range(t):
+            s -= S[t, j] * V[row, j]
+        V[row, t] = s / S[t, t]
+    for t in range(q - 1, -1, -1):
+        s = V[row, t]
+        for j in range(t + 1, q):
+            s -= S[j, t] * V[row, j]
+        V[row, t] = s / S[t, t]
+
+
 # numba caches these on this file alone: flush them when the kernels they call change
 _HERE = Path(__file__).parent
-refresh([_reflect, _updated], [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"])
+refresh(
+    [_reflect, _updated, _chol_solve_small], [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"]
+)
