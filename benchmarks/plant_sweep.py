@@ -13,8 +13,9 @@ models up / N, and on the nominal model the torso deviation and travelled / plan
 (gains, stepping) pair side by side in one run (:func:`settings`), e.g. the old and the new
 default under the same load. ``--margins`` adds a line per walk on the plants nearest a fall:
 the fall criterion's angle split into the true tilt and the heading error, the torso
-command's share at its clip (issue 30: on ``walk10_wb`` and ``turn_wb`` what brings a plant
-near the 45° line is mostly its heading).
+command's share at its clip, the servos' lag behind their goals as the loop measures it
+(issue 30: on ``walk10_wb`` and ``turn_wb`` what brings a plant near the 45° line is mostly
+its heading).
 """
 
 from __future__ import annotations
@@ -268,7 +269,8 @@ class Probe:
                     cmd = np.empty(3)
                     R = out.torso_rotation @ targets.torso_rotation.T
                     log3(np.ascontiguousarray(R), cmd)
-                    rows.append((math.hypot(cmd[0], cmd[1]) / stab.gains.max_tilt, abs(cmd[2])))
+                    rows.append((math.hypot(cmd[0], cmd[1]) / stab.gains.max_tilt, abs(cmd[2]),
+                                 stab.servo_lag))  # fmt: skip
                 return out
 
             stab_mod.Stabilizer.adjust = observed
@@ -278,13 +280,15 @@ class Probe:
         if self.on:
             stab_mod.Stabilizer.adjust = self.original
 
-    def figures(self) -> tuple[float, float] | None:
+    def figures(self) -> tuple[float, float, float] | None:
         """(share of ticks with the tilt command at ≥ 99 % of its clip, the largest heading
-        command in degrees), None without rows."""
+        command in degrees, the servos' median lag behind their goals in ms as the loop
+        measures it: :func:`wbc.balance.servo_lag.servo_lag`), None without rows."""
         if not self.rows:
             return None
         a = np.array(self.rows)
-        return float(np.mean(a[:, 0] >= 0.99)), float(np.degrees(a[:, 1].max()))
+        lag = 1e3 * float(np.median(a[:, 2]))
+        return float(np.mean(a[:, 0] >= 0.99)), float(np.degrees(a[:, 1].max())), lag
 
 
 def margins(plants, worst: list[float], fallen: list[int], probes: dict) -> str:
@@ -308,10 +312,14 @@ def margins(plants, worst: list[float], fallen: list[int], probes: dict) -> str:
         tag = " fell" if k in fallen else ""
         extra = "" if split is None else f" (tilt {split[0]:.1f}°, heading {split[1]:.1f}°"
         extra += (
-            "" if f is None else f"; tilt cmd at clip {100 * f[0]:.0f}%, heading cmd {f[1]:.1f}°"
+            ""
+            if f is None
+            else f"; tilt cmd at clip {100 * f[0]:.0f}%, heading cmd {f[1]:.1f}°, lag {f[2]:.0f} ms"
         )
         parts.append(f"{k}: {d:.1f}°{tag}{extra}{')' if split is not None else ''}")
-    return head + "; nearest a fall: " + "; ".join(parts)
+    lags = [f"{k}: {probes[k][1][2]:.0f}" for k in keys if probes.get(k, (0, None))[1]]
+    return (head + "; nearest a fall: " + "; ".join(parts)
+            + "\n    servo lag (ms, median) per plant: " + ", ".join(lags))  # fmt: skip
 
 
 def _why(k: int, v, run: dict) -> str:

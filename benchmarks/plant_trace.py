@@ -7,9 +7,10 @@ for the feed-forward with ``--gains`` on top) on plant K of seed S
 simulation's log. Per second of the walk: the gyro's yaw rate RMS (rad/s, world vertical)
 and its dominant frequency, its ringing as ``Gains.yaw_ring`` measures it (above 3 Hz, the
 largest of the second), the RMS of the horizontal rates, the largest heading / tilt error
-and torso command (deg); then per stance leg (single support from the soles' floor forces)
-the knee's load (peak torque / the plant's stall torque: median, p90, max) and sag (present −
-goal, deg).
+and torso command (deg), the servos' lag behind their goals as the loop measures it (ms, the
+second's median: :func:`wbc.balance.servo_lag.servo_lag`); then per stance leg (single
+support from the soles' floor forces) the knee's load (peak torque / the plant's stall
+torque: median, p90, max) and sag (present − goal, deg).
 
     nice -n 5 python benchmarks/plant_trace.py --walk lateral_wb --seed 1 --plant 47
     nice -n 5 python benchmarks/plant_trace.py --walk walk10_wb --seed 1 --plant 42 \\
@@ -56,7 +57,7 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
             cmd = np.empty(3)  # the torso command: log(R_cmd R_refᵀ)
             log3(np.ascontiguousarray(out.torso_rotation @ targets.torso_rotation.T), cmd)
             w = self.last.rotation @ self.last.angular_velocity  # world frame
-            rows.append((clock[0], *self.error, *w, *cmd))
+            rows.append((clock[0], *self.error, *w, *cmd, self.servo_lag))
         return out
 
     def tick(sim) -> None:
@@ -77,13 +78,13 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
     print(f"gains {json.dumps(gains)}, feed-forward {compensate}: {outcome}")
     a = np.array(rows)
     ts = a[:, 0] - res.playback_start
-    e, w, cmd = np.degrees(a[:, 1:4]), a[:, 4:7], np.degrees(a[:, 7:10])
+    e, w, cmd, lag = np.degrees(a[:, 1:4]), a[:, 4:7], np.degrees(a[:, 7:10]), 1e3 * a[:, 10]
     ring = ringing(ts, w[:, 2])
     print(
         "| s | yaw rate RMS | its frequency | ringing (> 3 Hz) | tilt rate RMS | heading err° "
-        "| tilt err° | heading cmd° | tilt cmd° |"
+        "| tilt err° | heading cmd° | tilt cmd° | servo lag ms |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for s in range(int(np.ceil(ts.max())) if len(ts) else 0):
         m = (ts >= s) & (ts < s + 1)
         if m.sum() < 8:
@@ -95,7 +96,8 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
               f"| {f[1 + np.argmax(spectrum[1:])]:.1f} Hz | {ring[m].max():.2f} "
               f"| {np.sqrt(np.mean(w[m, :2] ** 2)):.2f} | {np.abs(e[m, 2]).max():.1f} "
               f"| {np.hypot(e[m, 0], e[m, 1]).max():.1f} | {np.abs(cmd[m, 2]).max():.1f} "
-              f"| {np.hypot(cmd[m, 0], cmd[m, 1]).max():.1f} |")  # fmt: skip
+              f"| {np.hypot(cmd[m, 0], cmd[m, 1]).max():.1f} "
+              f"| {np.median(lag[m]):.1f} |")  # fmt: skip
     log, names = res.log, list(robot.joint_names)
     t, q, goal, peak, force = (log[k] for k in ("t", "q", "goal", "peak_torque", "sole_force"))
     t = t - res.playback_start

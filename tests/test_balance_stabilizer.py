@@ -162,7 +162,8 @@ def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
     """1.2 s of walk10 live on the simulated robot, closed through SimImu and the servos'
     present positions: the run completes, the estimator's torso tilt matches the
     simulator's within 2°, no goal leaves a joint limit, the loop costs a share of the tick,
-    and switching it off gives the open-loop run (no feedback time)."""
+    the servos' measured lag is tens of ms, and switching it off gives the open-loop run (no
+    feedback time)."""
     from wbc.balance.live import closed_loop
     from wbc.bench.trajectories import build
     from wbc.servos.sources import CallableSource
@@ -172,7 +173,7 @@ def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
     from wbc.walking.loop import StackController, start_configuration
 
     ref = build("walk10", robot)
-    errors, shares = [], {}
+    errors, shares, lags = [], {}, []
     for enabled in (True, False):
         sim = Simulation(robot)
         sim.reset(start_configuration(robot, ref))
@@ -198,7 +199,9 @@ def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
             est = loop.stabilizer.last
             R_true = robot.frame_placement(sim.q(), "torso").rotation
             errors.append(np.degrees(np.arccos(np.clip(est.rotation[:, 2] @ R_true[:, 2], -1, 1))))
+            lags.append(loop.stabilizer.servo_lag)
     assert errors[0] < 2.0
+    assert 0.005 < lags[0] < 0.1  # the servos' lag behind their goals, measured (s)
     assert 0 < shares[True] < 0.5
     assert shares[False] == 0.0
 
@@ -219,9 +222,10 @@ def _clip_norm(v, limit):
     st.sampled_from([0.0, 0.05, 0.2]),
     st.sampled_from([0.0, 0.1]),
     st.sampled_from([0.0, 0.05, 0.3, 50.0]),
+    st.sampled_from([0.0, 0.02, 0.05]),
 )
 def test_torso_term_is_the_reference_computation(
-    seed, k_p, k_i, k_d, k_roll, yaw_cutoff, max_yaw, yaw_damping, yaw_ring
+    seed, k_p, k_i, k_d, k_roll, yaw_cutoff, max_yaw, yaw_damping, yaw_ring, lag_yaw
 ):
     """The compiled torso term gives the previous numpy / pinocchio computation's answer to
     1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target), with
@@ -230,8 +234,10 @@ def test_torso_term_is_the_reference_computation(
     ``max_yaw`` > 0, the heading and tilt parts (of the integral and the command) clipped
     each on its own, ``yaw_damping`` added to ``k_d`` on the vertical rate and, with
     ``yaw_ring`` > 0, the heading part scaled by ``min(1, yaw_ring / RMS)`` of the vertical
-    rate's high-passed part (its filters' states updated)."""
+    rate's high-passed part (its filters' states updated) and, with ``lag_yaw`` > 0, by
+    ``min(1, lag_yaw / τ)`` of the servos' measured lag ``τ``."""
     from wbc.balance.stabilizer import (
+        _K_LAG,
         _K_MAX_YAW,
         _K_RING,
         _K_ROLL,
@@ -254,9 +260,10 @@ def test_torso_term_is_the_reference_computation(
     k = np.zeros(_K_SIZE)
     k[:5] = k_p, k_i, k_d, k_yaw, max_tilt
     k[_K_ROLL], k[_K_YAW_CUT], k[_K_MAX_YAW], k[_K_YAW_D] = k_roll, yaw_cutoff, max_yaw, yaw_damping
-    k[_K_RING] = yaw_ring
+    k[_K_RING], k[_K_LAG] = yaw_ring, lag_yaw
     y0, l0, m0 = rng.normal(0, 0.05), rng.normal(0, 0.5), rng.uniform(0, 0.5)
-    yaw = np.array([y0, l0, m0])
+    tau = rng.uniform(0.0, 0.08)
+    yaw = np.array([y0, l0, m0, tau])
     _torso_feedback(values, R_ref, integral, k, dt, out, yaw)
     e = pin.log3(R_est @ R_ref.T)
     assert out[15] == pytest.approx(np.hypot(e[0], e[1]), abs=1e-9)
@@ -282,6 +289,9 @@ def test_torso_term_is_the_reference_computation(
         tilt[2] *= min(1.0, yaw_ring / np.sqrt(mean_square))
     else:
         assert yaw[1] == l0 and yaw[2] == m0  # (off: its state untouched)
+    if lag_yaw > 0:
+        tilt[2] *= min(1.0, lag_yaw / tau)
+    assert yaw[3] == tau  # (the lag is read, never written here)
     if yaw_cutoff > 0:
         tilt[2] = y0 + (1 - np.exp(-2 * np.pi * yaw_cutoff * dt)) * (tilt[2] - y0)
         assert yaw[0] == pytest.approx(tilt[2], abs=1e-12)

@@ -77,13 +77,16 @@ def test_the_deviation_is_split_into_tilt_and_heading(sweep):
 
 def test_the_margins_line_ranks_the_plants_nearest_a_fall(sweep):
     """The ``--margins`` line: the survivors' median and worst-five deviation and true tilt,
-    then the plants by deviation, the fallen marked, each with its split and probe."""
+    then the plants by deviation, the fallen marked, each with its split and probe; then the
+    servos' measured lag per plant."""
     plants = [(k, None) for k in range(6)]
     worst = [10.0, 44.0, 20.0, 5.0, 30.0, 12.0]
-    probes = {k: ((w / 2, w), (0.1 * k, 11.5)) for k, w in enumerate(worst)}
+    probes = {k: ((w / 2, w), (0.1 * k, 11.5, 30.0 + k)) for k, w in enumerate(worst)}
     line = sweep.margins(plants, worst, [1], probes)
     assert "median 12.0°, worst five 15.4°" in line  # survivors 5, 10, 12, 20, 30
     assert "true tilt median 6.0°, worst five 7.7°" in line
     order = line.split("nearest a fall: ")[1]
     assert order.startswith("1: 44.0° fell (tilt 22.0°, heading 44.0°; tilt cmd at clip 10%")
     assert order.index("4: 30.0°") < order.index("2: 20.0°") < order.index("3: 5.0°")
+    assert "heading cmd 11.5°, lag 31 ms)" in order  # the servos' measured lag (plant 1)
+    assert line.endswith("per plant: 0: 30, 1: 31, 2: 32, 3: 33, 4: 34, 5: 35")
