@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wbc.balance.stepping_params import SteppingParams
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "closed_loop_own_robot.py"
 
 
@@ -107,9 +109,31 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     walk, said = build("walk10", kokone), []
     loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim), out=said.append)
     assert loop.stepping is None and sum("no step adjustment (its DCM" in x for x in said) == 1
+    # ... and not on a robot with no dead bands of its own (Kokone states none): the
+    # Bioloid's re-plan other robots' unpushed walks (benchmarks/robots.md, second round)
+    said.clear()
     loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim),
                        out=said.append, step_on_commands=True)  # fmt: skip
-    assert loop.stepping is not None
+    assert loop.stepping is None and sum("states no dead bands" in x for x in said) == 1
+    bands = SteppingParams(band_x=0.03, band_y=0.02)  # (the user's: the adjuster runs)
+    loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), walk, SimImu(sim),
+                       out=said.append, step_on_commands=True, stepping=bands)  # fmt: skip
+    assert loop.stepping is not None and loop.stepping.bands == (0.03, 0.02)
+
+
+def test_step_adjustment_needs_the_robots_own_dead_bands():
+    """The step adjuster's dead bands are what a robot's unpushed walks show: the Bioloid and
+    the OP3 state theirs; a robot that states none (Kokone, a robot made from a URDF) walks
+    without step adjustment unless the caller gives bands (benchmarks/robots.md)."""
+    from wbc.model import load_robot
+    from wbc.paths import robots_dir
+
+    assert SteppingParams().measured(load_robot("bioloid"))
+    assert SteppingParams().measured(load_robot(robots_dir() / "op3"))
+    kokone = load_robot("kokone")
+    assert not SteppingParams().measured(kokone)
+    assert not SteppingParams(band_x=0.03).measured(kokone)
+    assert SteppingParams(band_x=0.03, band_y=0.02).measured(kokone)
 
 
 def test_the_default_rest_is_long_enough_not_to_take_the_settling_for_gyro_bias(robot):

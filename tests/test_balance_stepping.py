@@ -109,17 +109,20 @@ def test_no_replan_inside_the_dead_band_in_double_support_or_when_off(robot, wal
 
 def test_the_dead_bands_are_the_robots_own(robot):
     """A robot's ``robot.toml`` ``[balance.stepping]`` states the DCM error its unpushed walks
-    show (the OP3's 60 mm); a robot stating none gets the defaults (the Bioloid's); bands
+    show (the OP3's 60 mm, the Bioloid's 25 / 18 mm); a robot stating none gets the defaults
+    (the Bioloid's; wbc.balance.live.closed_loop then runs without step adjustment); bands
     given by the caller win over both."""
     from wbc import load_robot
     from wbc.balance.stepping import BAND_X, BAND_Y
 
     op3 = load_robot("op3")
     assert op3.robot_data.balance["stepping"] == {"band_x": 0.06, "band_y": 0.06}
-    assert robot.robot_data.balance == {}
+    assert robot.robot_data.balance == {"stepping": {"band_x": BAND_X, "band_y": BAND_Y}}
+    kokone = load_robot("kokone")  # (states none)
+    assert kokone.robot_data.balance == {}
     own = SteppingParams().for_robot(op3)
     assert (own.band_x, own.band_y) == (0.06, 0.06)
-    mine = SteppingParams().for_robot(robot)
+    mine = SteppingParams().for_robot(kokone)
     assert (mine.band_x, mine.band_y) == (BAND_X, BAND_Y) == (0.025, 0.018)
     given = SteppingParams(band_y=0.01).for_robot(op3)
     assert (given.band_x, given.band_y) == (0.06, 0.01)

@@ -189,6 +189,7 @@ def closed_loop(
     the run early (None: the whole reference).
     ``stepping`` (closed loop only; on by default, None: off): re-plan the footsteps from
     the measured DCM (:class:`~wbc.balance.stepping.StepAdjuster` with these parameters).
+    Off on a robot with no dead bands of its own (:meth:`SteppingParams.measured`).
     ``hold`` (closed loop only; on by default, None: off): a lift-off waits while the
     measured DCM is not ready for it (:class:`~wbc.balance.retime.PhaseHold` with these
     parameters). The closed loop walks ``ref`` with its sway narrowed by the walk's
@@ -233,6 +234,12 @@ def closed_loop(
             stepping = None
             out("closed loop: no step adjustment (its DCM would come from the commanded joints, "
                 "blind to the servos' sag: benchmarks/kokone_sim.md section 0000)")  # fmt: skip
+    if stepping is not None and not stepping.measured(robot):
+        stepping = None
+        out(
+            f"closed loop: no step adjustment ({robot.name} states no dead bands: robot.toml "
+            "[balance.stepping] band_x, band_y, the DCM error its unpushed walks show)"
+        )
     config = config or DeployConfig(rate=rate, read=bus.can_read)
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")

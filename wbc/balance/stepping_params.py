@@ -158,6 +158,15 @@ class SteppingParams:
             out["trigger_jump"] = stated.get("trigger_jump", TRIGGER_SHARE * band_x)
         return replace(self, **out) if out else self
 
+    def measured(self, robot: Robot) -> bool:
+        """True when both dead bands are ``robot``'s own — stated here or in its ``robot.toml``
+        ``[balance.stepping]`` — rather than the Bioloid's defaults (:data:`BAND_X`,
+        :data:`BAND_Y`), which re-plan other robots' unpushed walks (benchmarks/op3.md,
+        benchmarks/robots.md)."""
+        data = getattr(robot, "robot_data", None)
+        stated = data.balance.get("stepping", {}) if data is not None else {}
+        return all(getattr(self, k) is not None or k in stated for k in ("band_x", "band_y"))
+
     def check(self) -> SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
