@@ -59,6 +59,27 @@ _BORDER_RTOL = 1e-2
 _K_SPAN = 1e2
 
 
+@njit(cache=True, inline="always")
+def _cholesky_row(M: np.ndarray, t: int) -> bool:
+    """Row ``t`` of the lower Cholesky factor of M, in place: M[t, :t+1] holds the matrix's
+    row, M[:t, :t] its factor's rows already; L[t, i] = (M[t, i] − Σ_j<i L[t, j] L[i, j]) /
+    L[i, i], L[t, t] = √(M[t, t] − Σ_j<t L[t, j]²). False when that pivot is ≤ _PIVOT_RTOL of
+    M[t, t] (the row depends on the others)."""
+    diag = M[t, t]
+    for i in range(t):
+        s = M[t, i]
+        for j in range(i):
+            s -= M[t, j] * M[i, j]
+        M[t, i] = s / M[i, i]
+    piv = diag
+    for j in range(t):
+        piv -= M[t, j] * M[t, j]
+    if not piv > _PIVOT_RTOL * diag:
+        return False
+    M[t, t] = np.sqrt(piv)
+    return True
+
+
 @njit(cache=True, fastmath=_FAST, inline="always")
 def _reflect(W, j, nf, tj, U, row):
     """U[row, :nf] ← (I − tj v vᵀ) U[row, :nf] (reflector j, as ``_reflect_vector``: inlined
@@ -141,19 +162,8 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
             for j in range(d):
                 s += U[_U_Q + n + t, j] * U[u, k + j]
             S[q, t] = s
-        # the new row of S's Cholesky factor (lower), and its pivot
-        diag = S[q, q]
-        for t in range(q):
-            s = S[q, t]
-            for j in range(t):
-                s -= S[q, j] * S[t, j]
-            S[q, t] = s / S[t, t]
-        piv = diag
-        for j in range(q):
-            piv -= S[q, j] * S[q, j]
-        if not piv > _PIVOT_RTOL * diag:
+        if not _cholesky_row(S, q):  # the new row of S's Cholesky factor (lower)
             return False
-        S[q, q] = np.sqrt(piv)
         S[q, n] = c  # (its position in the base's free list)
         q += 1
     # the released bounds: u_t, P_t = B_F Y u_t + B_j, MᵀP_t, H⁻¹MᵀP_t, γ_t; E and F into K
@@ -238,18 +248,8 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
         lmin = np.inf
         lmax = 0.0
         for t in range(r_):
-            diag = K[t, t]
-            for t2 in range(t):
-                s = K[t, t2]
-                for j in range(t2):
-                    s -= K[t, j] * K[t2, j]
-                K[t, t2] = s / K[t2, t2]
-            piv = diag
-            for j in range(t):
-                piv -= K[t, j] * K[t, j]
-            if not piv > _PIVOT_RTOL * diag:
+            if not _cholesky_row(K, t):
                 return False
-            K[t, t] = np.sqrt(piv)
             lmin = min(lmin, K[t, t])
             lmax = max(lmax, K[t, t])
         if lmax > _K_SPAN * lmin:
