@@ -28,6 +28,8 @@ the nominal run's figures, the LIPM capturability bounds
         --directions forward backward --offsets -0.03 0 0.03 --stepping \
         '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
         # the push caught in its own step: the trigger and the lift (issue 30)
+    python benchmarks/pushes.py --robot kokone --solvers hqp-daqp --trajectory lateral_wb \
+        --loops step --directions forward --gains sized  # the gains sized to its servos
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -67,7 +69,7 @@ def loop_spec(
     entry,
     ref,
     stepping: dict | None = None,
-    gains: dict | None = None,
+    gains: dict | str | None = None,
     hold: dict | None = None,
     compensate: float = 0.5,
     fall: dict | str | None = None,
@@ -75,7 +77,8 @@ def loop_spec(
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
     (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
     over RECOVERY_STEPS;
-    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops; ``hold``:
+    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops, or "sized"
+    (Gains() sized to the servos: the closed loop's default); ``hold``:
     HoldParams keywords of those loops' lift-off hold; ``compensate``: the feed-forward gain
     of the loops with it, the robot's measured best; ``fall``: FallParams keywords of their
     fall detector, ``"off"`` none)."""
@@ -83,14 +86,18 @@ def loop_spec(
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward (x0.5 here)
         return None, compensate
-    gains = Gains(k_hip=0.0) if loop in ("nohip", "nohipstep") else Gains(**(gains or {}))
+    g: Gains | None = None  # (the closed loop's default: Gains() sized to the servos)
+    if loop in ("nohip", "nohipstep"):
+        g = Gains(k_hip=0.0)
+    elif not isinstance(gains, str):
+        g = Gains(**(gains or {}))
     step = SteppingParams(**(stepping or {})) if loop in ("step", "nohipstep") else None
     if loop == "steps":
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
         spec = ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None)
         return spec, compensate
-    spec = ClosedLoopSpec(entry.make, ref, gains, True, True, step,
+    spec = ClosedLoopSpec(entry.make, ref, g, True, True, step,
                           HoldParams(**(hold or {})))  # fmt: skip
     if fall == "off":  # no fall detector: a run ends only by falling (45°)
         spec = replace(spec, fall=None)
@@ -115,7 +122,12 @@ def main() -> None:
     ap.add_argument(
         "--stepping", default="{}", help="JSON of SteppingParams keywords (step, steps)"
     )
-    ap.add_argument("--gains", default="{}", help="JSON of Gains keywords (closed, step, steps)")
+    ap.add_argument(
+        "--gains",
+        default="{}",
+        help='JSON of Gains keywords (closed, step, steps), or "sized": the closed loop\'s '
+        "default, Gains() sized to the robot's servos (Kokone's)",
+    )
     ap.add_argument(
         "--hold", default="{}", help="JSON of HoldParams keywords (the lift-off hold's)"
     )
@@ -187,7 +199,7 @@ def main() -> None:
             print(json.dumps(out["hip_bound"], indent=1))
         for loop in args.loops:
             spec, comp = loop_spec(
-                loop, entry, ref, json.loads(args.stepping), json.loads(args.gains),
+                loop, entry, ref, json.loads(args.stepping), gains_arg(args.gains),
                 json.loads(args.hold), ff, "off" if args.fall == "off" else json.loads(args.fall),
             )  # fmt: skip
             started = time.perf_counter()
@@ -211,6 +223,11 @@ def main() -> None:
             if args.json:
                 with open(args.json, "w") as f:
                     json.dump(out, f, indent=1)
+
+
+def gains_arg(text: str) -> dict | str:
+    """``--gains``: its JSON, or ``"sized"`` as it is."""
+    return text if text == "sized" else json.loads(text)
 
 
 def second_step(bounds: dict, ref) -> dict:
@@ -282,7 +299,7 @@ def screen(args) -> None:
         t = mid_single_support(rec)
         for loop in args.loops:
             spec, comp = loop_spec(loop, entry, ref, json.loads(args.stepping),
-                                   json.loads(args.gains), json.loads(args.hold), ff,
+                                   gains_arg(args.gains), json.loads(args.hold), ff,
                                    fall)  # fmt: skip
             out = []
             for item in args.screen:

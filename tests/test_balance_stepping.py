@@ -325,6 +325,28 @@ def test_an_early_touch_down_lands_the_step_and_rebases_the_rest(robot, walk10):
     assert not off.hurries and off.update(walk10, MID, dcm(walk10, MID, w)) is None
 
 
+def test_a_touch_down_early_in_the_swing_is_no_landing_with_touchdown_share(robot, walk10):
+    """``touchdown_share``: the same pushed swing found down two ticks running at mid single
+    support (the test above: it lands there) lands nowhere when a touch counts only after 90 %
+    of the swing (the toe brushing the floor early in a pushed swing); the DCM's re-plan
+    alone; a share outside [0, 1) is one clear error."""
+    params = SteppingParams(touchdown=2, touchdown_share=0.9)
+    adj = StepAdjuster(robot, walk10, params)
+    contact = adj.contact = _Contact()
+    step = walk10.plan.steps[0]
+    contact.touched[1] = [step.x - 0.017, step.y + 0.002]
+    contact.down = (True, True)
+    push = dcm(walk10, MID, adj.omega) + [adj.params.band_x + 0.03, 0.0]
+    first = adj.update(walk10, MID - 1, push)
+    assert first is not None  # the DCM's re-plan
+    adj.update(first, MID, push)
+    assert abs(adj.plan.steps[0].x - contact.touched[1][0]) > 1e-3  # not landed at the touch
+    assert adj.rate(first, MID, push) == 1.0  # no jump to the landing
+    for bad in (-0.1, 1.0):
+        with pytest.raises(ConfigurationError, match="touchdown_share"):
+            SteppingParams(touchdown_share=bad).check()
+
+
 def test_planned_recovery_steps_take_what_the_landing_under_way_cannot(robot, walk10):
     """A forward DCM error too large for the swing under way (its shift clipped by the time
     left): with ``steps_ahead = 3`` the steps after it move further, each by an increment

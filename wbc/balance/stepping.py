@@ -65,7 +65,9 @@ sole's toe meets the floor early, short of its landing (issue 30: 20 mm short at
 During a catch, a swing sole found down that many ticks running lands where it is: that step
 and every later one move by its shortfall (the rest of the plan re-based on the landed
 foothold, the CoM re-planned from it) and the walk's clock jumps to the landing
-(:meth:`StepAdjuster.rate`), so the next step takes the catch. Measured: one bisection step
+(:meth:`StepAdjuster.rate`), so the next step takes the catch; ``touchdown_share``: a touch
+counts only after that share of the swing (the toe brushing the floor early in a pushed swing
+is no landing). Measured: one bisection step
 forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
 steps of a few mm; benchmarks/pushes.md, seventh pass).
 
@@ -454,7 +456,8 @@ class StepAdjuster:
             return None
         k = int(ph.step)
         s = 0 if self.plan.steps[k].side == "left" else 1
-        if not self.contact.down[s] or (i - ph.i0) * dt < p.settle - 1e-9:
+        early = (i - ph.i0) < p.touchdown_share * (ph.i1 - ph.i0)  # (a brushing toe)
+        if not self.contact.down[s] or early or (i - ph.i0) * dt < p.settle - 1e-9:
             self._down = 0
             return None
         self._down += 1

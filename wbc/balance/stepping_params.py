@@ -103,6 +103,9 @@ class SteppingParams:
     #: where it is: that step and every later one re-based on it (moved by its shortfall),
     #: the CoM reference re-planned, the walk's clock jumps to the landing (0: off)
     touchdown: int = 0
+    #: the early touch-down counts a sole found down only after this share of its swing (a
+    #: toe brushing the floor early in a pushed swing is no landing; 0: from ``settle``)
+    touchdown_share: float = 0.0
     #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
     #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0
@@ -184,6 +187,10 @@ class SteppingParams:
         if not (math.isfinite(self.catch_pitch) and abs(self.catch_pitch) <= 1.0):
             raise ConfigurationError(
                 f"stepping: catch_pitch must be finite, within ±1 rad, got {self.catch_pitch}"
+            )
+        if not 0.0 <= self.touchdown_share < 1.0:
+            raise ConfigurationError(
+                f"stepping: touchdown_share must be in [0, 1), got {self.touchdown_share}"
             )
         if not 0.0 < self.slow <= 1.0:
             raise ConfigurationError(f"stepping: slow must be in (0, 1], got {self.slow}")
