@@ -98,11 +98,23 @@ def legs(robot):
 
 
 @pytest.fixture(scope="session")
-def stress_script():
+def benchmark_script():
+    """``load(name)``: benchmarks/``name``.py as a module, loaded once per session."""
+
+    def load(name: str):
+        spec_name = f"wbc_{name}_benchmark"
+        if spec_name not in sys.modules:
+            path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+            spec = importlib.util.spec_from_file_location(spec_name, path)
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[spec_name] = module  # dataclasses look their module up
+            spec.loader.exec_module(module)
+        return sys.modules[spec_name]
+
+    return load
+
+
+@pytest.fixture(scope="session")
+def stress_script(benchmark_script):
     """benchmarks/stress.py as a module (its draws and stacks replay the stress trials)."""
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stress.py"
-    spec = importlib.util.spec_from_file_location("wbc_stress_benchmark", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return benchmark_script("stress")

@@ -64,6 +64,22 @@ def test_an_imu_mounted_otherwise_than_the_robot_says_is_reported(robot):
             assert np.degrees(loop.stabilizer.calibration.tilt_error) == pytest.approx(3, abs=0.3)
 
 
+def _kokone_on_sim(trajectory: str = "keyposes"):
+    """Kokone's simulator behind the SSC-32 bus it reads nothing from: (robot, ref, sim,
+    rate, make) for :func:`wbc.balance.live.closed_loop`."""
+    from wbc.bench.solvers import registry
+    from wbc.bench.trajectories import build
+    from wbc.model import load_robot
+    from wbc.sim.simulator import Simulation
+    from wbc.walking.loop import start_configuration
+
+    kokone = load_robot("kokone")
+    ref = build(trajectory, kokone)
+    sim = Simulation(kokone)
+    sim.reset(start_configuration(kokone, ref))
+    return kokone, ref, sim, min(100.0, 1.0 / ref.dt), registry()["hqp-daqp"].make
+
+
 def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands():
     """Issue 29 item 5: Kokone's hobby servos behind the simulated SSC-32 report no position;
     the closed loop runs on the IMU and the commanded joints, says so in one line, reads
@@ -71,21 +87,12 @@ def test_a_bus_that_reads_no_positions_closes_through_the_imu_and_the_commands()
     pytest.importorskip("mujoco")
     from wbc.balance.live import closed_loop
     from wbc.balance.stabilizer import Gains
-    from wbc.bench.solvers import registry
     from wbc.bench.trajectories import build
     from wbc.exceptions import ConfigurationError
-    from wbc.model import load_robot
     from wbc.sim.bus import SimImu, sim_bus
-    from wbc.sim.simulator import Simulation
-    from wbc.walking.loop import start_configuration
 
-    kokone = load_robot("kokone")
-    ref = build("keyposes", kokone)
-    sim = Simulation(kokone)
-    sim.reset(start_configuration(kokone, ref))
-    rate = min(100.0, 1.0 / ref.dt)
+    kokone, ref, sim, rate, make = _kokone_on_sim()
     lines: list[str] = []
-    make = registry()["hqp-daqp"].make
     loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, SimImu(sim),
                        out=lines.append, duration=0.5, calibrate_s=0.3)  # fmt: skip
     assert not loop.deployment.config.read
@@ -242,21 +249,11 @@ def test_the_users_servo_model_is_taken_whatever_its_law_and_anything_else_is_re
     from dataclasses import replace
 
     from wbc.balance.live import closed_loop
-    from wbc.bench.solvers import registry
-    from wbc.bench.trajectories import build
     from wbc.exceptions import ConfigurationError
-    from wbc.model import load_robot
     from wbc.sim.actuator import nominal_servo
     from wbc.sim.bus import SimImu, sim_bus
-    from wbc.sim.simulator import Simulation
-    from wbc.walking.loop import start_configuration
 
-    kokone = load_robot("kokone")
-    ref = build("keyposes", kokone)
-    sim = Simulation(kokone)
-    sim.reset(start_configuration(kokone, ref))
-    rate = min(100.0, 1.0 / ref.dt)
-    make = registry()["hqp-daqp"].make
+    kokone, ref, sim, rate, make = _kokone_on_sim()
     mine = replace(nominal_servo(kokone), stall_torque=nominal_servo(kokone).stall_torque * 0.8)
     lines: list[str] = []
     loop = closed_loop(sim_bus(sim, rate), kokone, make(kokone), ref, SimImu(sim),

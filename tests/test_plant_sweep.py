@@ -3,21 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import sys
-from pathlib import Path
 
 import pytest
 
 
 @pytest.fixture(scope="module")
-def sweep():
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "plant_sweep.py"
-    spec = importlib.util.spec_from_file_location("wbc_plant_sweep_benchmark", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+def sweep(benchmark_script):
+    return benchmark_script("plant_sweep")
 
 
 def test_settings_pairs_every_gains_with_every_stepping(sweep):

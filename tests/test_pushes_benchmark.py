@@ -2,22 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
 
 @pytest.fixture(scope="module")
-def pushes():
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "pushes.py"
-    spec = importlib.util.spec_from_file_location("wbc_pushes_benchmark", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+def pushes(benchmark_script):
+    return benchmark_script("pushes")
 
 
 def test_gains_sized_leaves_the_gains_to_the_closed_loop(pushes):
