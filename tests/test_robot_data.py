@@ -43,13 +43,18 @@ def test_robot_data_bad_input(tmp_path, kokone):
             "[balance.stepping]\nband_x = 2\n",
             r"\[balance.stepping\] band_x = 2: must be in \[0, 1\) m",
         ),
+        (
+            "[balance.stepping]\ntrigger_jump = -0.1\n",
+            r"\[balance.stepping\] trigger_jump = -0.1: must be in \[0, 1\) m",
+        ),
+        ("[walking]\nfit_torque = 1\n", r"\[walking\] fit_torque = 1: true or false"),
     ):
         robot_file.write_text(text)
         with pytest.raises(ModelError, match=message):
             RobotData.from_folder(tmp_path, kokone.joint_names)
-    robot_file.write_text("[balance.stepping]\nband_y = 0.03\n")
+    robot_file.write_text("[balance.stepping]\nband_y = 0.03\ntrigger_jump = 0.02\n")
     assert RobotData.from_folder(tmp_path, kokone.joint_names).balance == {
-        "stepping": {"band_y": 0.03}
+        "stepping": {"band_y": 0.03, "trigger_jump": 0.02}
     }
     robot_file.unlink()
     poses_file.write_text("[poses.x]\nl_kne = 0.1\n")

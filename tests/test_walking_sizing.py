@@ -18,6 +18,7 @@ from wbc.paths import robots_dir
 from wbc.roles import length_unit
 from wbc.stacks import load_stack
 from wbc.urdf_writer import transform_urdf
+from wbc.walking import sizing
 from wbc.walking.checks import check_reference
 from wbc.walking.feasibility import kinematic_feasibility
 from wbc.walking.gait import forward_walk
@@ -174,3 +175,32 @@ def test_a_walks_own_fit_speed_overrides_the_robots(tmp_path):
     toml.write_text(base + "\n[walking.walk10_wb]\nfit_speed = 1\n")
     with pytest.raises(ConfigurationError, match=r"\[walking.walk10_wb\] fit_speed = 1: true or"):
         build("walk10_wb", load_robot(folder))
+
+
+def test_the_torque_fit_shortens_the_steps_a_robot_does_not_state(tmp_path, monkeypatch):
+    """[walking] fit_torque: Kokone's fast_wb at its sized 32.8 mm steps is predicted to ask
+    0.746 of stall (within 0.8: unchanged); with the share lowered to 0.74 its steps are
+    shortened ×0.75 and the peak is within it; a stated step_length is kept; a wrong value
+    is named."""
+    folder = tmp_path / "kokone"
+    shutil.copytree(robots_dir() / "kokone", folder)
+    toml = folder / "robot.toml"
+    text = toml.read_text().replace("step_length = 0.022\n", "")
+    toml.write_text(text)
+    sized = build("fast_wb", load_robot(folder))
+    step = sized.footsteps[2].x - sized.footsteps[1].x
+    assert step == pytest.approx(0.0328, abs=2e-4)
+    head = "[walking.fast_wb]\n"
+    toml.write_text(text.replace(head, head + "fit_torque = true\n"))
+    robot = load_robot(folder)
+    assert np.array_equal(build("fast_wb", robot).com, sized.com)
+    monkeypatch.setattr(sizing, "TORQUE_FRACTION", 0.74)
+    ref = build("fast_wb", robot)
+    assert ref.footsteps[2].x - ref.footsteps[1].x == pytest.approx(0.75 * step, rel=1e-6)
+    assert kinematic_feasibility(robot, ref, iterations=2).torque_fraction <= 0.74
+    toml.write_text(text.replace(head, head + "fit_torque = true\nstep_length = 0.03\n"))
+    ref = build("fast_wb", load_robot(folder))
+    assert ref.footsteps[2].x - ref.footsteps[1].x == pytest.approx(0.03)
+    toml.write_text(text.replace(head, head + "fit_torque = 1\n"))
+    with pytest.raises(ConfigurationError, match=r"fit_torque = 1: true or false"):
+        build("fast_wb", load_robot(folder))

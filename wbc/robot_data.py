@@ -23,6 +23,7 @@ and model instead. Two optional files:
     pelvis_gain = 1.3
     [walking]
     fit_speed = true                 # slow the sized walks to the servos' speed (default)
+    fit_torque = false               # shorten their steps to 0.8 of stall torque (default off)
     [walking.walk10]                 # keyword overrides of a walking reference's builder
     step_length = 0.02
     fit_speed = false                # (this walk's own choice)
@@ -58,7 +59,8 @@ ROBOT_KEYS = (
 #: the closed loop's settings measured on the robot — what its unpushed walks show
 #: (:class:`wbc.balance.stepping.SteppingParams` ``band_x`` / ``band_y``)
 BALANCE_KEYS: dict[str, dict[str, tuple[float, str]]] = {
-    "stepping": {"band_x": (1.0, "m"), "band_y": (1.0, "m")},
+    # the dead bands and the push trigger's DCM jump per tick (wbc.balance.stepping_params)
+    "stepping": {"band_x": (1.0, "m"), "band_y": (1.0, "m"), "trigger_jump": (1.0, "m")},
 }
 
 
@@ -91,6 +93,9 @@ class RobotData:
     #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
     #: more than its share of its speed (:mod:`wbc.walking.sizing`)
     fit_speed: bool = True
+    #: ``[walking] fit_torque``: shorten the sized walks' steps until the predicted peak joint
+    #: torque is within its share of stall (:func:`wbc.walking.sizing.fit_torque_share`; off)
+    fit_torque: bool = False
     #: the closed loop's settings measured on this robot (``[balance.<table>]``, m; the keys
     #: of :data:`BALANCE_KEYS`), e.g. ``{"stepping": {"band_y": 0.045}}``
     balance: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
@@ -120,8 +125,10 @@ class RobotData:
             raise ModelError(f"{where}: [frames] maps names to URDF frame names (strings)")
         walking = dict(raw.get("walking", {}))
         fit_speed = walking.pop("fit_speed", True)
-        if not isinstance(fit_speed, bool):
-            raise ModelError(f"{where}: [walking] fit_speed = {fit_speed!r}: true or false")
+        fit_torque = walking.pop("fit_torque", False)
+        for key, flag in (("fit_speed", fit_speed), ("fit_torque", fit_torque)):
+            if not isinstance(flag, bool):
+                raise ModelError(f"{where}: [walking] {key} = {flag!r}: true or false")
         if not all(isinstance(v, Mapping) for v in walking.values()):
             raise ModelError(f"{where}: [walking.<trajectory>] entries must be tables")
         tables = {}
@@ -155,6 +162,7 @@ class RobotData:
             str(folder),
             joints=read_joint_roles(raw.get("joints", {}), joint_names, where),
             fit_speed=fit_speed,
+            fit_torque=fit_torque,
             balance=read_balance(raw.get("balance", {}), where),
             **tables,
         )

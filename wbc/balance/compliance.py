@@ -57,6 +57,7 @@ from ..servo_map import RAD_PER_TICK
 from ..servos.sources import TargetSource
 from ..sim.actuator import HobbyServoParams, ServoParams, nominal_servo, pwm_map
 from ..sim.xm430 import XServoParams
+from ..walking.feasibility import contact_forces
 
 SOLES = {
     SUPPORT_LEFT: ("l_sole",),
@@ -157,17 +158,13 @@ class ComplianceCompensator:
         jc = np.vstack(
             [pin.getFrameJacobian(m, d, self.sole_ids[s], pin.LOCAL_WORLD_ALIGNED) for s in soles]
         )
-        a = jc[:, :6].T  # base rows: a f = g_b
+        share = 1.0
         if len(soles) == 2:  # weighted least norm: the sole nearer the CoM carries more
             com = pin.centerOfMass(m, d, q, False)[:2]
             pl, pr = (d.oMf[self.sole_ids[s]].translation[:2] for s in soles)
             seg = pl - pr
-            share = float(np.clip((com - pr) @ seg / max(seg @ seg, 1e-12), 0.02, 0.98))
-            w = np.repeat([share, 1.0 - share], 6)  # f = W aᵀ (a W aᵀ)⁻¹ g_b
-            f = w * (a.T @ np.linalg.solve((a * w) @ a.T, g[:6]))
-        else:
-            f = np.linalg.solve(a, g[:6])
-        return g[6:] - jc[:, 6:].T @ f
+            share = float((com - pr) @ seg / max(seg @ seg, 1e-12))
+        return g[6:] - jc[:, 6:].T @ contact_forces(jc[:, :6].T, g[:6], share)
 
     def deflection(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
         """Expected servo deflection (rad) at ``joints`` on ``support`` (× ``gain``)."""

@@ -191,11 +191,13 @@ def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReferen
         allowed = list(TRAJECTORIES) if walking_only else names()
         raise ConfigurationError(f"unknown trajectory {name!r}; choose from {allowed}") from None
     kw = robot_options(robot, name)
-    fit_speed = kw.pop("fit_speed", robot.robot_data.fit_speed)
-    if not isinstance(fit_speed, bool):
-        raise ConfigurationError(
-            f"{robot.robot_data.source}: [walking.{name}] fit_speed = {fit_speed!r}: true or false"
-        )
+    flags = {}
+    for key in ("fit_speed", "fit_torque"):
+        flags[key] = kw.pop(key, getattr(robot.robot_data, key))
+        if not isinstance(flags[key], bool):
+            raise ConfigurationError(
+                f"{robot.robot_data.source}: [walking.{name}] {key} = {flags[key]!r}: true or false"
+            )
     fixed = {k: kw.pop(k) for k in ("foot", "legs", "window") if k in kw}
     start = StandingState.from_robot(robot, robot.configuration("stand"))
     legs = fixed["legs"]
@@ -211,7 +213,7 @@ def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReferen
             legs.thigh + legs.shin,
             (fixed["foot"].length, fixed["foot"].width),
             make,
-            fit_speed=fit_speed,
+            **flags,
             gap=float(start.left.y - start.right.y) - fixed["foot"].width,
         )
     except TypeError as exc:  # an unknown key in [walking.<name>]

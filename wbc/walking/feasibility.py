@@ -55,6 +55,10 @@ class FeasibilityReport:
     #: and its joint
     speed_fraction: float = float("nan")
     fraction_joint: str = ""
+    #: the largest joint torque of the tracked motion as a share of that joint's stall torque
+    #: (the model's effort limit), and its joint (:func:`joint_torques`)
+    torque_fraction: float = float("nan")
+    torque_joint: str = ""
 
     @property
     def feasible(self) -> bool:
@@ -93,6 +97,7 @@ def kinematic_feasibility(
     min_margin = np.inf
     speed = np.zeros(model.nv - 6)
     q_prev = None
+    path = np.empty((ref.n, model.nq))
     rows = _Rows(robot, q)
     for i in range(ref.n):
         rows.set_targets(ref.sole_placement(i, "left"), ref.sole_placement(i, "right"),
@@ -131,9 +136,13 @@ def kinematic_feasibility(
         if q_prev is not None:
             speed = np.maximum(speed, np.abs(j - q_prev) / ref.dt)
         q_prev = j.copy()
+        path[i] = q
     k = int(np.argmax(speed))
     share = speed / robot.v_max
     f = int(np.argmax(share))
+    torque = np.abs(joint_torques(robot, ref, path)).max(axis=0)
+    torque /= np.asarray(robot.model.effortLimit[6:])
+    t = int(np.argmax(torque))
     return FeasibilityReport(
         float(worst[0]),
         float(worst[1]),
@@ -144,7 +153,56 @@ def kinematic_feasibility(
         robot.joint_names[k],
         float(share[f]),
         robot.joint_names[f],
+        float(torque[t]),
+        robot.joint_names[t],
     )
+
+
+def joint_torques(robot: Any, ref: WalkingReference, path: np.ndarray) -> np.ndarray:
+    """(N, n_joints) the joint torques (N·m) of the motion ``path`` ((N, nq), one
+    configuration per tick of ``ref``): inverse dynamics (``pin.rnea``, velocities and
+    accelerations by finite differences on the configuration space) with the floating base's
+    wrench carried by the soles in contact — all of it by the stance sole in single support;
+    in double support split between the two by where the reference's ZMP lies along the
+    segment between the soles (:func:`contact_forces`; the static torques of
+    :meth:`wbc.balance.compliance.ComplianceCompensator.torques` split by the CoM)."""
+    model = robot.model
+    data = model.createData()
+    n, dt = ref.n, ref.dt
+    diff = np.array([pin.difference(model, path[i], path[i + 1]) / dt for i in range(n - 1)])
+    vel = np.vstack([diff[:1], 0.5 * (diff[1:] + diff[:-1]), diff[-1:]])
+    acc = np.vstack([np.zeros((1, model.nv)), np.diff(diff, axis=0) / dt, np.zeros((1, model.nv))])
+    ids = {s: robot.frame_id(f"{s[0]}_sole") for s in ("left", "right")}
+    zmp = ref.zmp
+    out = np.empty((n, model.nv - 6))
+    for i in range(n):
+        tau = pin.rnea(model, data, path[i], vel[i], acc[i])
+        pin.computeJointJacobians(model, data, path[i])
+        pin.updateFramePlacements(model, data)
+        sides = ref.contact_sides(i)
+        jc = np.vstack(
+            [pin.getFrameJacobian(model, data, ids[s], pin.LOCAL_WORLD_ALIGNED) for s in sides]
+        )
+        share = 1.0
+        if len(sides) == 2:
+            pl, pr = (data.oMf[ids[s]].translation[:2] for s in sides)
+            seg = pl - pr
+            share = float((zmp[i] - pr) @ seg / max(seg @ seg, 1e-12))
+        out[i] = tau[6:] - jc[:, 6:].T @ contact_forces(jc[:, :6].T, tau[:6], share)
+    return out
+
+
+def contact_forces(a: np.ndarray, wrench: np.ndarray, share: float = 1.0) -> np.ndarray:
+    """The soles' contact wrenches ``f`` (6 a sole) that carry the floating base's ``wrench``,
+    ``a f = wrench`` (``a``: the base rows of the soles' Jacobians, transposed, (6, 6k)): one
+    sole carries all of it; two split it as the weighted least-norm
+    ``f = W aᵀ (a W aᵀ)⁻¹ wrench``, the first sole weighted ``share`` (clipped to 0.02–0.98:
+    where the load point lies from the second sole to the first), the second ``1 − share``."""
+    if a.shape[1] == 6:
+        return np.linalg.solve(a, wrench)
+    share = float(np.clip(share, 0.02, 0.98))
+    w = np.repeat([share, 1.0 - share], 6)
+    return w * (a.T @ np.linalg.solve((a * w) @ a.T, wrench))
 
 
 class _Rows:

@@ -18,6 +18,21 @@ until the reference asks no joint for more than :data:`SPEED_FRACTION` of its no
 Keys a robot states in ``[walking.<name>]`` are kept as stated (and a stated ``timing`` is not
 slowed). A slower walk sways further: if a slowed reference is refused (the hips' roll
 range), the slowest timing that builds is kept, which may still ask more than the share.
+
+With ``[walking] fit_torque = true`` (off by default: it measured no better, below) the steps
+are then shortened (:data:`STRIDES`, ×:data:`SHRINK` a round) until the reference's predicted
+peak joint torque — inverse dynamics of its tracked motion, the stance sole carrying the
+weight in single support, the two split by the ZMP in double support
+(:func:`wbc.walking.feasibility.joint_torques`) — is at most :data:`TORQUE_FRACTION` of the
+joint's stall torque (the model's effort limit); a stated stride is kept, and if shortening
+does not lower the peak the unshortened reference is kept. Why off: on the four robots of
+benchmarks/robots.md the prediction is the static load of the stance leg (Bioloid ≤ 0.64,
+Kokone 0.70–0.76, the long-legged robot's hip roll 0.9–1.0 at any step), while Kokone's fast_wb
+peaks at 0.96 of stall in the simulator at 32.8 mm steps (0.75 predicted) from the servos'
+response at lift-off and after touch-down, which the reference does not contain: the rule
+would not find the 22 mm step the simulator asks for (benchmarks/robots.md, 2026-12-06
+third round).
+
 On the robot the defaults were tuned on, ``λ = μ = 1``.
 """
 
@@ -39,6 +54,14 @@ from ..roles import design_robot, leg_ratio
 DESIGN_LEG = design_robot().leg
 DESIGN_FOOT_WIDTH = design_robot().foot_width
 SPEED_FRACTION = 0.8
+#: the share of a joint's stall torque the torque fit lets a reference's predicted peak ask
+#: for: the randomised plants' weakest servo (``wbc.bench.variation``: stall torque ×0.8–1);
+#: Kokone's fast_wb lost the plants drawn ×0.81–0.91 at a simulated peak of 0.96 and kept them
+#: at 0.79 (benchmarks/kokone_sim.md section 00000000)
+TORQUE_FRACTION = 0.8
+#: the step keys the torque fit shortens, and by how much a round
+STRIDES = ("step_length", "step_width", "stride")
+SHRINK = 0.75
 #: keys along the walk or up (scaled by λ); across the foot (by μ); pairs (x by λ, y by μ);
 #: durations (by √λ and the speed fit)
 ALONG = ("step_length", "step_width", "apex", "stride", "clearance")
@@ -126,15 +149,15 @@ def sized(
     build: Callable[[dict[str, Any]], Any],
     fit_speed: bool = True,
     gap: float = math.inf,
+    fit_torque: bool = False,
 ) -> tuple[Any, dict[str, Any]]:
     """Build a reference with ``defaults`` sized to a robot whose hip-to-ankle length is
     ``leg`` and foot ``foot = (length, width)``, ``stated`` (robot.toml) on top; then, if
     ``fit_speed`` and the robot states no timing, stretch the durations until no joint is
     asked for more than :data:`SPEED_FRACTION` of its speed. ``gap``: between the feet's inner
     edges at the start; a turn per step is kept within 90 % of what it allows with the
-    clearance (:func:`max_turn`). Returns (reference, options)."""
-    from .feasibility import kinematic_feasibility
-
+    clearance (:func:`max_turn`); ``fit_torque``: then shorten the steps to the stall torque
+    (:func:`fit_torque_share`). Returns (reference, options)."""
     # (rounded: the robot the defaults were tuned on gets exactly 1)
     along, across = leg_ratio(leg), round(foot[1] / DESIGN_FOOT_WIDTH, 9)
     time = math.sqrt(along)
@@ -145,8 +168,27 @@ def sized(
         own["turn"] = math.copysign(min(abs(own["turn"]), 0.9 * max_turn(*foot, room)), own["turn"])
     options = {**scale_options(own, along, across, time), **stated}
     ref = build(options)
-    if not fit_speed or not time_keys(own) or any(k in stated for k in ("timing", *TIMES)):
-        return ref, options
+    if fit_speed and time_keys(own) and not any(k in stated for k in ("timing", *TIMES)):
+        ref, options = _fit_speed(robot, ref, options, own, stated, along, across, time, build)
+    if fit_torque:
+        ref, options = fit_torque_share(robot, ref, options, stated, build)
+    return ref, options
+
+
+def _fit_speed(
+    robot: Any,
+    ref: Any,
+    options: dict[str, Any],
+    own: dict[str, Any],
+    stated: Mapping[str, Any],
+    along: float,
+    across: float,
+    time: float,
+    build: Callable[[dict[str, Any]], Any],
+) -> tuple[Any, dict[str, Any]]:
+    """The speed fit of :func:`sized`: stretch the durations of ``own`` (×``time`` so far)."""
+    from .feasibility import kinematic_feasibility
+
     last = math.inf
     for _ in range(FIT_ROUNDS):
         report = kinematic_feasibility(robot, ref, iterations=2)
@@ -169,3 +211,44 @@ def sized(
         else:
             break
     return ref, options
+
+
+def fit_torque_share(
+    robot: Any,
+    ref: Any,
+    options: dict[str, Any],
+    stated: Mapping[str, Any],
+    build: Callable[[dict[str, Any]], Any],
+) -> tuple[Any, dict[str, Any]]:
+    """Shorten the unstated :data:`STRIDES` of ``options`` (×:data:`SHRINK` a round, at most
+    :data:`FIT_ROUNDS` rounds) until the predicted peak joint torque of ``ref``
+    (:attr:`~wbc.walking.feasibility.FeasibilityReport.torque_fraction`) is at most
+    :data:`TORQUE_FRACTION` of stall; the first reference that fits is kept, else the one
+    with the lowest peak if it is lower by a hundredth, else ``ref``. A reference the legs
+    cannot track (errors above :data:`TRACKED`) is kept as it is."""
+    from .feasibility import kinematic_feasibility
+
+    keys = [k for k in STRIDES if k in options and k not in stated and options[k]]
+    report = kinematic_feasibility(robot, ref, iterations=2)
+    first = report.torque_fraction
+    best = (first, ref, options)
+    if not keys or max(report.max_com_error, report.max_sole_error) > TRACKED:
+        return ref, options
+    scale = 1.0
+    for _ in range(FIT_ROUNDS):
+        if not best[0] > TORQUE_FRACTION:
+            break
+        scale *= SHRINK
+        trial = {**options, **{k: options[k] * scale for k in keys}}
+        try:
+            shorter = build(trial)
+        except TrajectoryError:
+            break
+        report = kinematic_feasibility(robot, shorter, iterations=2)
+        if max(report.max_com_error, report.max_sole_error) > TRACKED:
+            break
+        if report.torque_fraction < best[0]:
+            best = (report.torque_fraction, shorter, trial)
+    if best[0] > TORQUE_FRACTION and best[0] > first - 0.01:
+        return ref, options  # shortening does not lower it: the stance leg's static load
+    return best[1], best[2]
