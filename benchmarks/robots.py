@@ -2,8 +2,9 @@
 
 The third robot is the Bioloid's URDF with other proportions and ROBOTIS OP3 joint names:
 legs 1.3x longer (masses 1.3³, inertias 1.3⁵, the AX-12A servos kept), torso and arms 0.8x,
-standing in the pose ``wbc robot init`` proposes (hips at 92 % of the leg length). Nothing
-about it is stated by hand: roles, feet, legs and walking settings are read from the model.
+standing in the pose ``wbc robot init`` proposes (hips at 92 % of the leg length). Roles,
+feet, legs and walking settings are read from the model; its ``robot.toml`` states only what
+was measured on it: the closed loop's dead bands and push trigger (:data:`STEPPING`).
 
     python benchmarks/robots.py --out /tmp/longlegs            # make the robot, then measure
     python benchmarks/robots.py --out /tmp/longlegs --random 5 # + 5 randomised sim models
@@ -12,15 +13,17 @@ about it is stated by hand: roles, feet, legs and walking settings are read from
 
 Columns: kinematic (the robot's stack, one QP per tick: CoM / swing-sole error max, mm; the
 ZMP margin min of the tracked motion, mm; the reference's peak joint speed as a share of the
-no-load speed); simulator, ``wbc bench --physics``'s two rows: the plan (hqp-daqp) played
-open loop, and the controller run live closed through the IMU (the robot's default: step
-adjustment unless its servos report no position), both with the servo feed-forward at its
-measured best for the robot's servo law (`wbc.balance.best_compensate`: x0.5 AX-12A, x1
-hobby PWM). Nominal servo model: fell at s or "-", max base orientation deviation from plan,
-deg, travelled / planned distance; randomised models (``wbc bench --robustness N --seed S``'s
-draws, `wbc.bench.variation.models`): fell or stopped count (the deployment's
-stops, e.g. its start-up IMU check, in brackets), median deviation and median
-travelled over the runs that stayed up.
+no-load speed, and its predicted peak joint torque as a share of stall,
+`wbc.walking.feasibility`); simulator, ``wbc bench --physics``'s two rows: the plan
+(hqp-daqp) played open loop, and the controller run live closed through the IMU (the robot's
+default: step adjustment unless its servos report no position or it states no dead bands),
+both with the servo feed-forward at its measured best for the robot's servo law
+(`wbc.balance.best_compensate`: x0.5 AX-12A, x1 hobby PWM). Nominal servo model: fell at s
+or "-", max base orientation deviation from plan, deg, travelled / planned distance, the
+peak servo torque over its stall (τ/τs); randomised models (``wbc bench --robustness N
+--seed S``'s draws, `wbc.bench.variation.models`): fell or stopped count (the deployment's
+stops, e.g. its start-up IMU check, in brackets), median deviation and median travelled over
+the runs that stayed up.
 
     python benchmarks/robots.py --out /tmp/ll --random 20 --robots bioloid kokone longlegs op3
 """
@@ -68,11 +71,17 @@ LEG_LINKS = ("hip_bracket", "hip_block", "thigh", "shin", "ankle_block", "foot",
 TRAJECTORIES = ("static_walk", "walk10_wb")
 ROBOTS = ("bioloid", "kokone", "longlegs")
 LOOPS = ("open", "closed")
+#: the long-legged robot's ``[balance.stepping]``, measured on it (benchmarks/robots.md,
+#: 2026-12-06 third round): its unpushed walk10_wb's DCM error in single support, closed loop
+#: with nothing re-planned, nominal and the 20 plants of ``--random 20``, reaches 71.1 mm along
+#: the walk and 89.8 mm sideways (plant 0; nominal 24.6 / 41.0), its largest jump in one tick
+#: 33.4 mm (plant 0; nominal 7.8): the bands and the trigger just above
+STEPPING = "[balance.stepping]\nband_x = 0.075\nband_y = 0.09\ntrigger_jump = 0.036\n"
 
 
 def make_robot(out: Path, legs: float = 1.3, body: float = 0.8, robot_toml: str = "") -> Path:
-    """Write the long-legged robot's folder (module docstring) to ``out``; ``robot_toml``: a
-    ``robot.toml`` for it (none if empty: every number read from the model)."""
+    """Write the long-legged robot's folder (module docstring) to ``out``; its ``robot.toml``
+    states :data:`STEPPING` and ``robot_toml`` (more of it: TOML text)."""
     src = robots_dir() / "bioloid"
     bioloid = load_robot("bioloid")
     names = {j: j[:2] + OP3[j[2:]] for j in bioloid.joint_names}
@@ -89,8 +98,7 @@ def make_robot(out: Path, legs: float = 1.3, body: float = 0.8, robot_toml: str 
     for old, new in names.items():
         servos = re.sub(rf"(?<![A-Za-z0-9_]){old}(?![A-Za-z0-9_])", new, servos)
     (out / "servos.toml").write_text(servos)
-    if robot_toml:
-        (out / "robot.toml").write_text(robot_toml)
+    (out / "robot.toml").write_text(STEPPING + robot_toml)
     robot = load_robot(out)
     pose = standing_pose(robot)
     (out / "poses.toml").write_text(
@@ -105,7 +113,7 @@ def kinematic(robot, name: str) -> dict[str, object]:
         ref = build(name, robot)
     except WbcError as exc:
         return {"error": str(exc).split(":")[-1].strip()[:60]}
-    speed = kinematic_feasibility(robot, ref, iterations=2).speed_fraction
+    report = kinematic_feasibility(robot, ref, iterations=2)
     rec = run(StackController(load_stack(robot_stack(robot)[0], robot)), robot, ref)
     m = metrics.compute(rec, robot)
     return {
@@ -113,7 +121,8 @@ def kinematic(robot, name: str) -> dict[str, object]:
         "com": m["com_err_max_mm"],
         "foot": m["foot_err_max_mm"],
         "zmp": m["zmp_margin_min_mm"],
-        "speed": speed,
+        "speed": report.speed_fraction,
+        "torque": report.torque_fraction,
         "fail": m["failures"],
     }
 
@@ -154,6 +163,7 @@ def simulate(
         "fell": nominal["fall_time_s"] if nominal["fell"] else None,
         "dev": nominal["orientation_dev_max_deg"],
         "dist": nominal.get("distance_ratio", float("nan")),
+        "torque": nominal["torque_peak_ratio"],
     }
     runs = [one(v) for v in models(robot, n_random, seed)]
     if runs:  # deviation and distance: medians over the runs that stayed up
@@ -201,15 +211,16 @@ def main() -> int:
         print(f"## {name}: {robot.total_mass:.3f} kg, legs {legs}, feet {robot.foot_size}")
     print(
         "| robot | trajectory | s | CoM err mm | swing err mm | ZMP margin mm | speed share "
-        "| loop | sim fell at s | dev° | dist | random fell | rdev° | rdist |"
+        "| torque share "
+        "| loop | sim fell at s | dev° | dist | τ/τs | random fell | rdev° | rdist |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for t in args.trajectories:
         for name, robot in robots.items():
             t0 = time.time()
             k = kinematic(robot, t)
             if "error" in k:
-                print(f"| {name} | {t} | refused: {k['error']} ||||||||||||")
+                print(f"| {name} | {t} | refused: {k['error']} ||||||||||||||")
                 continue
             cells = [
                 name,
@@ -219,15 +230,16 @@ def main() -> int:
                 f"{k['foot']:.3f}",
                 f"{k['zmp']:.1f}",
                 f"{k['speed']:.2f}",
+                f"{k['torque']:.2f}",
             ]
             for loop in [] if args.no_sim else args.loops:
                 s = simulate(robot, t, args.random, args.seed, loop)
                 row = [*cells, loop]
                 if "error" in s:
-                    row += [f"sim: {s['error']}", "", "", "", "", ""]
+                    row += [f"sim: {s['error']}", "", "", "", "", "", ""]
                 else:
                     row += ["-" if s["fell"] is None else f"{s['fell']:.2f}"]
-                    row += [_num(s["dev"], 1), _num(s["dist"], 2)]
+                    row += [_num(s["dev"], 1), _num(s["dist"], 2), _num(s["torque"], 2)]
                     row += [str(s.get("random", "")), _num(s.get("rdev"), 1)]
                     row += [_num(s.get("rdist"), 2)]
                 print("| " + " | ".join(row) + " |", flush=True)
@@ -236,7 +248,7 @@ def main() -> int:
                 for reason in s.get("reasons", []):
                     print(f"<!-- {name} {t} {loop}: stopped: {reason} -->", flush=True)
             if args.no_sim:
-                print("| " + " | ".join([*cells, "", "", "", "", "", "", ""]) + " |", flush=True)
+                print("| " + " | ".join([*cells, *[""] * 8]) + " |", flush=True)
             print(f"<!-- {name} {t}: {time.time() - t0:.0f} s -->", flush=True)
     return 0
 

@@ -161,6 +161,34 @@ def test_no_bioloid_joint_or_link_name_in_the_controller():
     assert not hits, hits
 
 
+def _strings(value: object) -> list[str]:
+    """Every string in a parsed TOML value (keys and values, nested)."""
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, dict):
+        return [s for k, v in value.items() for s in (k, *_strings(v))]
+    if isinstance(value, list):
+        return [s for v in value for s in _strings(v)]
+    return []
+
+
+def test_no_bioloid_joint_or_link_name_in_the_stack_files():
+    """The stack files (tasks/, what any robot runs) name no Bioloid joint or link: their
+    self-collision pairs and frames are chosen per robot (issue 29, item 4); comments aside."""
+    from wbc.paths import stacks_dir
+
+    joints, links = bioloid_names()
+    names = set(joints + links) - {*STANDARD_FRAMES, "l_hand", "r_hand"}
+    hits = [
+        f"{path.name}: {s}"
+        for path in sorted(stacks_dir().rglob("*.toml"))
+        for s in _strings(tomllib.loads(path.read_text()))
+        if s in names
+    ]
+    assert not hits, hits
+    assert len(list(stacks_dir().glob("*.toml"))) >= 8
+
+
 #: the names the Bioloid's dimensions had in wbc/ (wbc.geometry, wbc.walking.legs, the viewer)
 BIOLOID_CONSTANTS = (
     "FOOT_LENGTH", "FOOT_WIDTH", "THIGH", "SHIN", "HIP_HALF_WIDTH", "ANKLE_HEIGHT",

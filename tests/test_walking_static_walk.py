@@ -110,3 +110,16 @@ def test_a_long_legged_robots_static_walk_at_the_step_it_fits_is_tracked(longleg
 def test_bad_reach_share_is_one_line(start, window):
     with pytest.raises(TrajectoryError, match="reach_share must be in"):
         static_walk(start, window, StaticWalkParams(reach_share=0.0))
+
+
+def test_the_long_legged_robot_states_its_measured_dead_bands(benchmark_script, tmp_path):
+    """Its robot.toml states the DCM error its unpushed walk10_wb shows on the nominal and 20
+    randomised plants (benchmarks/robots.md, 2026-12-06 third round): the closed loop's step
+    adjustment runs on its own bands, not the Bioloid's (which re-planned 12 of 20 into falls)."""
+    from wbc.balance.stepping import SteppingParams
+    from wbc.model import load_robot
+
+    robot = load_robot(benchmark_script("robots").make_robot(tmp_path / "longlegs"))
+    params = SteppingParams().for_robot(robot)
+    assert SteppingParams().measured(robot)
+    assert (params.band_x, params.band_y, params.trigger_jump) == (0.075, 0.09, 0.036)
