@@ -69,6 +69,15 @@ which the active set iteration is not guaranteed to settle (MAX_ITER). Pass floa
 C-contiguous arrays: other layouts or dtypes compile another specialisation (~15 s, cached
 afterwards).
 
+Continued calls (:func:`solve_level_in`, in a work space from :func:`level_space`): a level
+solved again with equality rows appended (the hierarchy's inequality rows joining a level, one
+call each) starts from the last call's final subproblem's factors: the joined rows are
+equalities on its null-space coordinates, updated as added bounds are
+(:mod:`wbc.compiled.lsq_update`, ``JOINS``), and a joined row that depends on the warm set
+(on variables it holds: an inconsistent warm start) releases those bounds at once, as a
+fresh solve does after finding the set inconsistent; where the update declines, the
+subproblem is solved afresh as before.
+
 The linear algebra lives in :mod:`wbc.compiled.lsq_linalg` (Householder QR, Cholesky, the
 work space), the subproblem of a guessed active set in :mod:`wbc.compiled.lsq_subproblem`;
 this module holds the active set methods and the entry points.

@@ -11,7 +11,10 @@ along the direction that keeps the equalities). Only for the normal form (p ≥ 
 bound moved to its other side, a bound whose ``c_s`` is (nearly) in the span of the others'
 (holding it would drop the rank of ``A_F``), more added bounds than d, or a released
 variable whose column ``A_j`` is not in the range of ``A_F`` (releasing it would raise the
-rank) return False: the caller solves the subproblem afresh.
+rank) decline: the caller solves the subproblem afresh. Equality rows joined since the base
+(A's rows from the base's m on: a continued call, ``lsq.solve_level_in``) are equalities
+``c_gᵀ z + d_gᵀ w = β_g`` like the added bounds (``c_g = Zᵀ g_F``); one that depends on
+the others declines with ``_ROW_DEPENDS``.
 """
 
 from __future__ import annotations
