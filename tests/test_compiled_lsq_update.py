@@ -12,7 +12,7 @@ import pytest
 
 from wbc.compiled.lsq_linalg import _I_FIXED, _N_IVEC, _N_VEC, _V_MU, _V_MU_TOL
 from wbc.compiled.lsq_subproblem import _SUB_OK, _subproblem
-from wbc.compiled.lsq_update import _U_Q, _U_ROWS, _updated
+from wbc.compiled.lsq_update import _ROW_DEPENDS, _U_Q, _U_ROWS, _UPDATED, _updated
 
 
 def _work(m: int, n: int, p: int) -> tuple:
@@ -64,7 +64,22 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
     assert _updated(
-        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+        A,
+        a,
+        B,
+        ridge,
+        lower,
+        upper,
+        x,
+        *work,
+        ind,
+        U,
+        S,
+        K,
+        base,
+        np.int64(k),
+        np.bool_(True),
+        np.int64(m),
     )
     mu = work[3][_V_MU, :n].copy()
     mu_tol = work[3][_V_MU_TOL, :n].copy()
@@ -79,7 +94,22 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
     ind[_I_FIXED, :n] = fixed
     x3 = np.full(n, np.nan)
     assert _updated(
-        A, B, ridge, lower, upper, x3, *work, ind, U, S, K, base, np.int64(k), np.bool_(False)
+        A,
+        a,
+        B,
+        ridge,
+        lower,
+        upper,
+        x3,
+        *work,
+        ind,
+        U,
+        S,
+        K,
+        base,
+        np.int64(k),
+        np.bool_(False),
+        np.int64(m),
     )
     assert np.max(np.abs(x3 - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
 
@@ -95,11 +125,11 @@ def test_the_update_declines_where_it_does_not_apply():
     base[[1, 5]] = [-1, 1]
     work, ind, U, S, K = _work(m, n, B.shape[0])
     x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
-    args = (np.int64(k), np.bool_(True))
+    args = (np.int64(k), np.bool_(True), np.int64(m))
 
     def update(fixed):
         ind[_I_FIXED, :n] = fixed
-        return _updated(A, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, *args)
+        return _updated(A, a, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, *args)
 
     moved = base.copy()
     moved[5] = -1
@@ -135,7 +165,22 @@ def test_released_bounds_answer_as_the_subproblem_solved_afresh(seed, m, release
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
     assert _updated(
-        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+        A,
+        a,
+        B,
+        ridge,
+        lower,
+        upper,
+        x,
+        *work,
+        ind,
+        U,
+        S,
+        K,
+        base,
+        np.int64(k),
+        np.bool_(True),
+        np.int64(m),
     )
     mu = work[3][_V_MU, :n].copy()
     work2, ind2, _, _, _ = _work(m, n, B.shape[0])
@@ -166,11 +211,104 @@ def test_a_release_that_changes_the_rank_declines():
     fixed[5] = 0
     ind[_I_FIXED, :n] = fixed
     assert not _updated(
-        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+        A,
+        a,
+        B,
+        ridge,
+        lower,
+        upper,
+        x,
+        *work,
+        ind,
+        U,
+        S,
+        K,
+        base,
+        np.int64(k),
+        np.bool_(True),
+        np.int64(m),
     )
     fixed = base.copy()
     fixed[1] = 0  # x_1's column is in the range: updated
     ind[_I_FIXED, :n] = fixed
     assert _updated(
-        A, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True)
+        A,
+        a,
+        B,
+        ridge,
+        lower,
+        upper,
+        x,
+        *work,
+        ind,
+        U,
+        S,
+        K,
+        base,
+        np.int64(k),
+        np.bool_(True),
+        np.int64(m),
     )
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("m", [6, 15])
+@pytest.mark.parametrize(
+    "joined, released, added", [(1, [], []), (2, [], []), (1, [], [3]), (2, [5], [11]),
+                                (1, [1, 9], [])],
+)  # fmt: skip
+def test_joined_rows_answer_as_the_subproblem_solved_afresh(seed, m, joined, released, added):
+    """Equality rows joined since the base (A's rows from the base's m on, as a row of
+    self-collision joins the hierarchy's last level), with bounds added or released: the
+    subproblem of the whole set solved afresh (x, the held bounds' multipliers)."""
+    A, a, B, r, lower, upper = _problem(seed, m + joined)
+    n = A.shape[1]
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5, 9, 13]] = [-1, 1, -1, 1]
+    work, ind, U, S, K = _work(m + joined, n, B.shape[0])
+    x, k = _base(A[:m], a[:m], B, r, ridge, lower, upper, base, work, ind)
+    fixed = base.copy()
+    fixed[released] = 0
+    for j, v in enumerate(added):
+        fixed[v] = 1 if j % 2 else -1
+    ind[_I_FIXED, :n] = fixed
+    assert _updated(
+        A, a, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True),
+        np.int64(m),
+    )  # fmt: skip
+    mu = work[3][_V_MU, :n].copy()
+    work2, ind2, _, _, _ = _work(m + joined, n, B.shape[0])
+    x2, k2 = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
+    assert k2 == k + joined
+    held = fixed != 0
+    assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+    assert np.allclose(mu[held], work2[3][_V_MU, :n][held], rtol=1e-8, atol=1e-10)
+    assert np.max(np.abs(A @ x - a)) < 1e-10
+
+
+def test_a_joined_row_that_depends_on_the_others_declines():
+    m = 6
+    A, a, B, r, lower, upper = _problem(0, m + 1)
+    n = A.shape[1]
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5]] = [-1, 1]
+    work, ind, U, S, K = _work(m + 1, n, B.shape[0])
+    x, k = _base(A[:m], a[:m], B, r, ridge, lower, upper, base, work, ind)
+
+    def update():
+        ind[_I_FIXED, :n] = base
+        return _updated(
+            A, a, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, np.int64(k),
+            np.bool_(True), np.int64(m),
+        )  # fmt: skip
+
+    A[m] = A[0] - 2.0 * A[3]  # a combination of the base's rows
+    a[m] = a[0] - 2.0 * a[3]
+    assert update() == _ROW_DEPENDS
+    A[m] = 0.0
+    A[m, [1, 5]] = [1.0, 2.0]  # on the held variables only
+    assert update() == _ROW_DEPENDS
+    A[m, 7] = 1.0  # and a free one: an update
+    assert update() == _UPDATED

@@ -734,7 +734,10 @@ def ticks(
     cache = all(f is not None for f in files)
     text = source(kernels, cache, bounds, velocities, constraints)
     h = hashlib.sha256(text.encode())
-    lsq = [_HERE / f for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py")]
+    lsq = [
+        _HERE / f
+        for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py", "proximal.py")
+    ]
     for f in [*files, _HERE / "rows.py", _HERE / "ticks.py", *lsq, _HERE / "checks.py"]:
         if f is not None:
             h.update(f.read_bytes())

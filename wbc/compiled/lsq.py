@@ -69,6 +69,15 @@ which the active set iteration is not guaranteed to settle (MAX_ITER). Pass floa
 C-contiguous arrays: other layouts or dtypes compile another specialisation (~15 s, cached
 afterwards).
 
+Continued calls (:func:`solve_level_in`, in a work space from :func:`level_space`): a level
+solved again with equality rows appended (the hierarchy's inequality rows joining a level, one
+call each) starts from the last call's final subproblem's factors: the joined rows are
+equalities on its null-space coordinates, updated as added bounds are
+(:mod:`wbc.compiled.lsq_update`, ``JOINS``), and a joined row that depends on the warm set
+(on variables it holds: an inconsistent warm start) releases those bounds at once, as a
+fresh solve does after finding the set inconsistent; where the update declines, the
+subproblem is solved afresh as before.
+
 The linear algebra lives in :mod:`wbc.compiled.lsq_linalg` (Householder QR, Cholesky, the
 work space), the subproblem of a guessed active set in :mod:`wbc.compiled.lsq_subproblem`;
 this module holds the active set methods and the entry points.
@@ -111,7 +120,7 @@ from .lsq_subproblem import (
     _rank_with,
     _subproblem,
 )
-from .lsq_update import _U_Q, _U_ROWS, _updated
+from .lsq_update import _DECLINED, _ROW_DEPENDS, _U_Q, _U_ROWS, _U_X, _UPDATED, _keep_base, _updated
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
 
@@ -171,11 +180,58 @@ def _released(base, ind):
 
 
 @njit(cache=True)
-def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
-    """The solver behind :func:`solve_level` (compiled once for float ridge/rank_rtol and an
-    integer max_iter, however the public functions are called)."""
+def level_space(m: int, n: int, p: int) -> tuple:
+    """A work space for :func:`solve_level_in` on levels of at most m equality rows, n
+    variables and p least-squares rows (the subproblem's factors, the update's, the active
+    set's vectors; and what a following call on the same level continues from)."""
+    pp = (p + 3) & ~3
+    return (
+        np.empty((4, max(m, n, _N_VEC), max(m, n, pp))),
+        np.empty((_N_IVEC, max(m, n)), dtype=np.int64),
+        # (the update's rows for released bounds, in U and K, only once a release comes: on
+        # the walks' ticks that never update, the larger work space cost 0.1-0.3 µs a call)
+        np.empty((2 * n + _U_Q, max(n, pp))),
+        np.empty((n, n + 1)),
+        np.empty((0, 2 * n + 3)),
+        np.empty((3, n)),
+        np.zeros(n, dtype=np.int64),
+        # the base a following call may continue from: [valid, its rows of A, its rank, its
+        # solution only in U's first row]
+        np.zeros(4, dtype=np.int64),
+        np.int64(m),
+        np.int64(p),
+    )
+
+
+@njit(cache=True)
+def _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp):
+    """At an optimal set: the base for a following call (:func:`solve_level_in` with
+    ``cont``); if the base was the last subproblem, its x into U (its y₀ and residual are
+    kept there by the call that continues: most calls are not continued)."""
+    if not base_ok:
+        return
+    if base_first:  # (its x now: the rest of it, if a following call continues)
+        for i in range(x.shape[0]):
+            U[_U_X, i] = x[i]
+    if U.shape[0] != U0.shape[0]:  # (grown in this call: its first rows into the space's)
+        U0[:_U_Q] = U[:_U_Q]
+    carry[3] = 1 if base_first else 0
+    carry[0] = 1
+    carry[1] = base_m
+    carry[2] = base_k
+
+
+@njit(cache=True)
+def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, keep):
+    """The solver behind :func:`solve_level` and :func:`solve_level_in` (compiled once for
+    float ridge/rank_rtol, an integer max_iter and a bool ``cont``, however the public
+    functions are called)."""
     m, n = A.shape
     p = B.shape[0]
+    work, ind, U0, S, K, saved, base, carry, m_max, p_max = space
+    U = U0
+    if m > m_max or p > p_max or base.shape[0] != n:
+        raise ValueError("solve_level_in: the work space is for other shapes")
     if a.shape[0] != m:
         raise ValueError("solve_level: a must have one entry per row of A")
     if B.shape[1] != n:
@@ -187,13 +243,11 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     if not ridge >= 0.0:
         raise ValueError("solve_level: ridge must be >= 0")
     pp = (p + 3) & ~3
-    work = np.empty((4, max(m, n, _N_VEC), max(m, n, pp)))
     W = work[0]
     T = work[1]
     N = work[2]
     V = work[3]
     # (the vectors are used as rows of V and ind: a view per vector costs reference counting)
-    ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
     warm = False
     for i in range(n):
         if not lower[i] <= upper[i] or lower[i] == np.inf or upper[i] == -np.inf:
@@ -217,7 +271,6 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
     # x, μ and their tolerances of the set with the fewest (the set PDAS falls back to)
-    saved = np.empty((3, n))
     kept = False
     released = False  # (the bounds of an inconsistent warm start's dependent rows released)
     rank = 0
@@ -228,17 +281,19 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
     saved_rank = np.int64(-1)
     rank_with = np.int64(-1)
     # the base of the updates (lsq_update): the fixed set of the last subproblem solved in the
-    # normal form, while its factors are in the work space, and its rank (U, S, K: the update's
-    # work space)
-    base = np.zeros(n, dtype=np.int64)
-    base_ok = False
+    # normal form, while its factors are in the work space, its rank and its rows of A (U, S,
+    # K: the update's work space); with ``cont``, the last call's (A's rows from its m on
+    # joined since, as equalities)
+    base_ok = cont and carry[0] == 1 and carry[1] <= m
     base_first = np.bool_(False)
-    base_k = np.int64(0)
-    # (the released bounds' rows of U and K only once a release comes: on the walks' ticks
-    # that never update, the larger work space cost 0.1-0.3 µs a call)
-    U = np.empty((2 * n + _U_Q, max(n, pp)))
-    S = np.empty((n, n + 1))
-    K = np.empty((0, 2 * n + 3))
+    base_k = carry[2]
+    base_m = carry[1]
+    if base_ok and carry[3] == 1:  # (the rest of the base's solution into U)
+        nf = np.int64(0)
+        for i in range(n):
+            nf += base[i] == 0
+        _keep_base(U[_U_X], W, V, ind, U, nf, base_k, pp)
+    carry[0] = 0
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -257,6 +312,12 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             grown[:_U_Q] = U[:_U_Q]
             U = grown
             K = np.empty((n, 2 * n + 3))
+        code = _DECLINED
+        if UPDATES and base_ok and not kept:
+            code = _updated(
+                A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, base_k,
+                base_first, base_m,
+            )  # fmt: skip
         if kept:  # (the set PDAS falls back to: its subproblem's x and multipliers kept)
             kept = False
             sub = _SUB_OK
@@ -268,19 +329,23 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             # (the base's factors are still in the work space: only a base whose own solution
             # was in x and is not kept in U yet is lost)
             base_ok = base_ok and not base_first
-        elif (
-            UPDATES
-            and base_ok
-            and _updated(
-                A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, base_k, base_first
-            )
-        ):
+        elif code == _UPDATED:
             count += 1
             base_first = np.bool_(False)
             sub = _SUB_OK
-            rank = base_k  # (no bound added depends on the others)
+            rank = base_k + m - base_m  # (no bound added or row joined depends on the others)
             rank_now = rank
             rank_with = rank
+        elif code == _ROW_DEPENDS and count == 0 and warm and not released and ridge > 0.0:
+            # a row joined since the last call depends on the warm set (its variables held at
+            # their bounds): the warm start is inconsistent, and its bounds in the joined rows
+            # are released as a fresh solve would after finding it so (below); then on
+            released = True
+            for row in range(base_m, m):
+                for j in range(n):
+                    if ind[_I_FIXED, j] != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
+                        ind[_I_FIXED, j] = 0
+            continue
         else:
             count += 1
             sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
@@ -300,6 +365,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 base_ok = lmax <= _COND_MAX_SQRT * lmin
             base_first = np.bool_(True)
             base_k = rank
+            base_m = np.int64(m)
         if sub == _SUB_SINGULAR:
             _fill(x, np.nan)
             return NUMERICAL, count
@@ -353,6 +419,10 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
                 else:
                     n_inf += _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i])
             if n_inf == 0:
+                if keep:
+                    _carry(
+                        carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp
+                    )
                 _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
                 return OK, count
             if n_inf < best:
@@ -494,6 +564,8 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter):
             for i in range(n):
                 x[i] = V[_V_X0, i]
                 V[_V_MU, i] = V[_V_MU0, i]
+            if keep:
+                _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp)
             _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
             return OK, count
         side = 1 if V[_V_X0, i_add] > upper[i_add] else -1
@@ -510,7 +582,12 @@ def solve_level_iterations(
 
     A warm start from the final active set of the same problem takes one subproblem.
     """
-    return _solve(A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter))
+    m, n = A.shape
+    space = level_space(m, n, B.shape[0])
+    return _solve(
+        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
+        np.bool_(False), np.bool_(False),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -526,10 +603,26 @@ def solve_level(A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_i
     subproblem, possible only with ridge = 0; x is NaN). A, a, B, r, lower, upper are not
     modified.
     """
+    m, n = A.shape
+    space = level_space(m, n, B.shape[0])
     status, _ = _solve(
-        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter)
-    )
+        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
+        np.bool_(False), np.bool_(False),
+    )  # fmt: skip
     return status
+
+
+@njit(cache=True)
+def solve_level_in(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont):
+    """:func:`solve_level` in a work space from :func:`level_space` (no allocation), returning
+    (status, subproblems solved). ``cont``: this level is the last call's in ``space`` with
+    equality rows appended (A's and a's first rows, B, r, ridge and the bounds unchanged):
+    its final subproblem's factors are updated with the joined rows (``lsq_update.JOINS``)
+    instead of solved afresh, where that applies."""
+    return _solve(
+        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
+        np.bool_(cont), np.bool_(True),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -578,7 +671,10 @@ def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
 _HERE = Path(__file__).parent
 refresh(
     [
+        level_space,
         _released,
+        _carry,
+        solve_level_in,
         _wrong_sign,
         _violation,
         _finish,

@@ -11,7 +11,10 @@ along the direction that keeps the equalities). Only for the normal form (p ≥ 
 bound moved to its other side, a bound whose ``c_s`` is (nearly) in the span of the others'
 (holding it would drop the rank of ``A_F``), more added bounds than d, or a released
 variable whose column ``A_j`` is not in the range of ``A_F`` (releasing it would raise the
-rank) return False: the caller solves the subproblem afresh.
+rank) decline: the caller solves the subproblem afresh. Equality rows joined since the base
+(A's rows from the base's m on: a continued call, ``lsq.solve_level_in``) are equalities
+``c_gᵀ z + d_gᵀ w = β_g`` like the added bounds (``c_g = Zᵀ g_F``); one that depends on
+the others declines with ``_ROW_DEPENDS``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ from .lsq_linalg import (
     _I_PERM,
     _V_E,
     _V_LAM,
+    _V_MU,
+    _V_MU_TOL,
     _V_TAU,
     _V_W2,
     _axpy,
@@ -36,7 +41,7 @@ from .lsq_linalg import (
     _dot,
     _r11_solve,
 )
-from .lsq_subproblem import _fixed_multiplier
+from .lsq_subproblem import _MU_TOL, _fixed_multiplier
 
 # U's rows: the base's x, its residual e, y₀ = (Qᵀ x_F)[:k], a work vector, then Qᵀ e_s (the
 # added bounds', n rows) and H⁻¹ c_s (n rows)
@@ -50,6 +55,14 @@ _RANGE_TOL = 1e-10  # a released variable's column A_j misses the range of A_F b
 #: base bounds released since the base are updated too (the bordered system); False (edit it;
 #: the kernels then compile again): a release solves the subproblem afresh, as before
 RELEASES = True
+#: equality rows joined since the base (the hierarchy's rows joining its last level, each a
+#: new ``solve_level`` call on the last call's factors: ``lsq.solve_level_in``) are updated
+#: too; False (edit it; the kernels then compile again): a joined row solves afresh, as before
+JOINS = True
+#: what :func:`_updated` returns: the subproblem updated; declined (solve it afresh); declined
+#: because a joined row depends on the base's rows and the set's bounds (as an inconsistent
+#: warm start: the caller may release the row's bounds first, as after a fresh solve)
+_DECLINED, _UPDATED, _ROW_DEPENDS = 0, 1, 2
 #: a released variable's reduced curvature E_tt at most this × its curvature before the free
 #: variables' share is removed: the update declines (on random ill-conditioned levels, ridge
 #: 1e-6 and p = 9 < n, x was 1e-9 from the subproblem solved afresh without it)
@@ -90,7 +103,7 @@ def _reflect(W, j, nf, tj, U, row):
 
 
 @njit(cache=True, fastmath=_FAST)
-def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, first):
+def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, first, m):
     """The subproblem of the set in ``ind[_I_FIXED]`` from the base's (fixed set ``base``,
     rank k; its factors in W, T, N, V and its free list in ``ind[_I_FREE]``), as
     :func:`~wbc.compiled.lsq_subproblem._subproblem` leaves it (x, ``V[_V_MU]``,
@@ -106,7 +119,7 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
     ν with S's (the added bounds' Schur complement): ``(E + F S⁻¹ Fᵀ) w = −γ − F S⁻¹ β`` with
     ``E = PᵀP + ridge(UᵀU + I) − PᵀM H⁻¹ MᵀP`` and ``F = PᵀM H⁻¹ C − D``.
     """
-    m, n = A.shape
+    m_all, n = A.shape
     p = B.shape[0]
     pp = (p + 3) & ~3
     nf = np.int64(0)
@@ -116,34 +129,39 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
             nf += 1
         elif ind[_I_FIXED, i] == 0:
             if not RELEASES:
-                return False
+                return _DECLINED
             K[r_, 2 * n] = i
             r_ += 1
         elif ind[_I_FIXED, i] != base[i]:
-            return False  # a base bound moved to its other side: not an update
+            return _DECLINED  # a base bound moved to its other side: not an update
     d = nf - k
     if first:
-        for i in range(n):
-            U[_U_X, i] = x[i]
-        for i in range(pp):
-            U[_U_E, i] = V[_V_E, i]
-        for c in range(nf):
-            U[_U_Y, c] = x[ind[_I_FREE, c]]
-        for j in range(k):
-            if V[_V_TAU, j] != 0.0:
-                _reflect(W, j, nf, V[_V_TAU, j], U, _U_Y)
-    # the bounds added since the base: u_s = Qᵀ e_s, h_s = H⁻¹ c_s, S = Cᵀ H⁻¹ C (Cholesky)
+        _keep_base(x, W, V, ind, U, nf, k, pp)
+    # the equality rows joined since the base (A's rows from m on: ``c_g = Zᵀ g_F``), then the
+    # bounds added since the base (``c_s = Zᵀ e_s``): u_s = Qᵀ g_s, h_s = H⁻¹ c_s, S = Cᵀ H⁻¹ C
+    # (Cholesky); S[s, n]: a bound's position in the base's free list, or −1 − a row's index
     q = np.int64(0)
-    for c in range(nf):
-        v = ind[_I_FREE, c]
-        if ind[_I_FIXED, v] == 0:
+    for c in range(nf + m_all - m):
+        row = np.int64(-1)
+        if c >= nf:
+            if not JOINS:
+                return _DECLINED
+            row = m + c - nf
+        elif ind[_I_FIXED, ind[_I_FREE, c]] == 0:
             continue
         if q >= d:
-            return False
+            return _DECLINED if row < 0 else _ROW_DEPENDS
         u = np.int64(_U_Q) + q
-        for j in range(nf):
-            U[u, j] = 0.0
-        U[u, c] = 1.0
+        size = 1.0
+        if row >= 0:
+            size = 0.0
+            for j in range(nf):
+                U[u, j] = A[row, ind[_I_FREE, j]]
+                size += U[u, j] * U[u, j]
+        else:
+            for j in range(nf):
+                U[u, j] = 0.0
+            U[u, c] = 1.0
         for j in range(k):
             if V[_V_TAU, j] != 0.0:
                 _reflect(W, j, nf, V[_V_TAU, j], U, u)
@@ -151,8 +169,8 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
         for j in range(d):
             V[_V_W2, j] = U[u, k + j]
             cc += U[u, k + j] * U[u, k + j]
-        if not cc > _C_MIN:  # e_s (nearly) in the row space of A_F: holding it drops the rank
-            return False
+        if not cc > _C_MIN * size:  # g_s (nearly) in the row space of A_F: the rank drops
+            return _DECLINED if row < 0 else _ROW_DEPENDS
         _cholesky_solve(N, d, V, np.int64(_V_W2))
         hrow = _U_Q + n + q
         for j in range(d):
@@ -163,8 +181,8 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
                 s += U[_U_Q + n + t, j] * U[u, k + j]
             S[q, t] = s
         if not _cholesky_row(S, q):  # the new row of S's Cholesky factor (lower)
-            return False
-        S[q, n] = c  # (its position in the base's free list)
+            return _DECLINED if row < 0 else _ROW_DEPENDS
+        S[q, n] = c if row < 0 else -1 - row
         q += 1
     # the released bounds: u_t, P_t = B_F Y u_t + B_j, MᵀP_t, H⁻¹MᵀP_t, γ_t; E and F into K
     for t in range(r_):
@@ -183,7 +201,7 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
             di = -A[ind[_I_PERM, i], j] - _dot(W, i, U, ru, 0, k)
             res += di * di
         if np.sqrt(res) > _RANGE_TOL * (1.0 + np.sqrt(an)):
-            return False
+            return _DECLINED
         for i in range(p):
             U[rp, i] = B[i, j]
         for i in range(p, pp):
@@ -209,15 +227,21 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
                 full = e
             e -= _dot(U, rm, U, _U_Q + 5 * n + t2, 0, d)
             if t2 == t and not e > _BORDER_RTOL * full:
-                return False  # (E's diagonal cancels: its digits are lost)
+                return _DECLINED  # (E's diagonal cancels: its digits are lost)
             K[t, t2] = e
-        for s_ in range(q):  # F[t, s] = (MᵀP_t)·H⁻¹c_s − (Qᵀe_s)[:k]·u_t
+        for s_ in range(q):  # F[t, s] = (MᵀP_t)·H⁻¹c_s − (Qᵀg_s)[:k]·u_t (− g_j for a row)
             K[t, n + s_] = _dot(U, rm, U, _U_Q + n + s_, 0, d) - _dot(U, _U_Q + s_, U, ru, 0, k)
+            if S[s_, n] < 0:
+                K[t, n + s_] -= A[np.int64(-1 - S[s_, n]), j]
     # ν₀ = S⁻¹ β (β = b_S − x_S, the base's), into V[_V_W2]
     for t in range(q):
-        v = ind[_I_FREE, np.int64(S[t, n])]
-        b = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
-        V[_V_W2, t] = b - U[_U_X, v]
+        if S[t, n] < 0:  # a row: β = a_g − g·x
+            row = np.int64(-1 - S[t, n])
+            V[_V_W2, t] = a[row] - _dot(A, row, U, _U_X, 0, n)
+        else:
+            v = ind[_I_FREE, np.int64(S[t, n])]
+            b = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
+            V[_V_W2, t] = b - U[_U_X, v]
     _chol_solve_small(S, q, V, np.int64(_V_W2))
     if r_ > 0:
         # K' = E + F S⁻¹ Fᵀ (X_t = S⁻¹ F[t] into U's rows), rhs −γ − F ν₀ (into K[:, 2n + 1])
@@ -244,16 +268,16 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
             lmin = min(lmin, S[t, t])
             lmax = max(lmax, S[t, t])
         if lmax > _K_SPAN * lmin:
-            return False
+            return _DECLINED
         lmin = np.inf
         lmax = 0.0
         for t in range(r_):
             if not _cholesky_row(K, t):
-                return False
+                return _DECLINED
             lmin = min(lmin, K[t, t])
             lmax = max(lmax, K[t, t])
         if lmax > _K_SPAN * lmin:
-            return False  # (ill-conditioned: the answer would lose its digits)
+            return _DECLINED  # (ill-conditioned: the answer would lose its digits)
         for t in range(r_):
             s = K[t, 2 * n + 1]
             for j in range(t):
@@ -310,7 +334,30 @@ def _updated(A, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, fi
     for i in range(n):
         if ind[_I_FIXED, i] != 0:
             _fixed_multiplier(A, B, ridge, x, V, ind, i, p, k)
-    return True
+    for t in range(q):  # ... and the joined rows' (their multipliers −ν)
+        if S[t, n] < 0:
+            row = np.int64(-1 - S[t, n])
+            for i in range(n):
+                if ind[_I_FIXED, i] != 0:
+                    term = V[_V_W2, t] * A[row, i]
+                    V[_V_MU, i] -= term
+                    V[_V_MU_TOL, i] += _MU_TOL * abs(term)
+    return _UPDATED
+
+
+@njit(cache=True, fastmath=_FAST)
+def _keep_base(x, W, V, ind, U, nf, k, pp):
+    """The base's solution into U (its x, its residual e and y₀ = (Qᵀ x_F)[:k]), from x and
+    ``V[_V_E]`` as the subproblem solved afresh leaves them."""
+    for i in range(x.shape[0]):
+        U[_U_X, i] = x[i]
+    for i in range(pp):
+        U[_U_E, i] = V[_V_E, i]
+    for c in range(nf):
+        U[_U_Y, c] = x[ind[_I_FREE, c]]
+    for j in range(k):
+        if V[_V_TAU, j] != 0.0:
+            _reflect(W, j, nf, V[_V_TAU, j], U, _U_Y)
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
@@ -332,5 +379,6 @@ def _chol_solve_small(S, q, V, row):
 # numba caches these on this file alone: flush them when the kernels they call change
 _HERE = Path(__file__).parent
 refresh(
-    [_reflect, _updated, _chol_solve_small], [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"]
+    [_reflect, _updated, _keep_base, _chol_solve_small],
+    [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"],
 )

@@ -27,7 +27,15 @@ import numpy as np
 from numba import njit
 
 from ._cache import refresh
-from .lsq import MAX_ITER, NUMERICAL, OK, equality_multipliers, solve_level
+from .lsq import (
+    MAX_ITER,
+    NUMERICAL,
+    OK,
+    equality_multipliers,
+    level_space,
+    solve_level_in,
+)
+from .proximal import proximal_level
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
@@ -38,8 +46,6 @@ NOT_FINITE = 101
 DEFERRAL_FAILED = 102
 #: a deferred soft level counts as met when each row is within this × (1 + |b_i|)
 DEFERRED_TOL = 1e-9
-#: ridge of a proximal step on an intermediate level, relative to its mean squared row norm
-PROXIMAL_RIDGE = 1e-8
 #: at most this many subproblem solves of an intermediate level without a ridge (a warm
 #: start takes 1 or 2; beyond a few, the active set is cycling on the level's flat directions
 #: and proximal steps take over)
@@ -52,8 +58,9 @@ MAX_DROPS = 2
 #: a joint within this (rad) outside a limit after a step back towards it is put at the
 #: limit by :func:`integrate` (the step's rounding, not a position)
 LIMIT_ROUNDING = 1e-12
-#: at most this many proximal steps (the residual's bias shrinks by ε/(σ² + ε) per step)
-PROXIMAL_STEPS = 12
+#: the level solver's work space holds this many inequality rows joining a level (more: a
+#: larger one, allocated then)
+SPACE_ROWS = 8
 #: the damped last level takes its rows most violated first (``_cascade``'s ``direct``) only
 #: while the level above holds fewer of its hard rows than this at their bounds
 DIRECT_HELD_ROWS = 2
@@ -126,17 +133,31 @@ def weighted_solve(
     tol = params[3]
     p = g_rows[1]
     status = OK
+    space = level_space(hard_J.shape[0] + SPACE_ROWS, dq.shape[0], soft_J.shape[0])
     for _ in range(2):  # a warm start that fails: once more, cold
         warm = _any(working, p)  # a working set from the last tick: straight to the rows
         status = OK
         if not warm:
-            status = solve_level(
-                hard_J, hard_b, soft_J, soft_b, mu, lower, upper, state, dq, 1e-9, np.int64(30)
-            )  # (solve_level's defaults, as values: one specialisation, see _level)
+            status, _ = solve_level_in(
+                hard_J,
+                hard_b,
+                soft_J,
+                soft_b,
+                mu,
+                lower,
+                upper,
+                state,
+                dq,
+                1e-9,
+                np.int64(30),
+                space,
+                np.bool_(False),
+            )  # fmt: skip  (solve_level's defaults, as values: one specialisation, see _level)
         if status == OK and (warm or _violated(G, h, p, dq, tol)):
             status = solve_with_inequalities(
                 hard_J, hard_b, soft_J, soft_b, mu, np.bool_(False), lower, upper, state, dq,
-                G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False),
+                G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False), space,
+                np.bool_(not warm),
             )  # fmt: skip
         if status == OK or not warm:
             break
@@ -174,21 +195,27 @@ def _finite(x) -> bool:
 
 
 @njit(cache=True)
-def _level(A, a, B, r, ridge, exact, lower, upper, state, x) -> int:
+def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont) -> int:
     """One least-squares level by :func:`~wbc.compiled.lsq.solve_level`: with ``ridge``
     (the weighted QP, the last level of the hierarchy); or, ``exact``, without (an
     intermediate level of the hierarchy): exact least squares when the level's rows are
     independent in the remaining freedom, else, or when the active set cycles on the flat
-    directions of the unregularised problem, proximal steps from x (:func:`_proximal_level`)."""
+    directions of the unregularised problem, proximal steps from x
+    (:func:`~wbc.compiled.proximal.proximal_level`). In ``space``
+    (:func:`~wbc.compiled.lsq.level_space`); ``cont``: the last call's level in it with
+    equality rows joined (:func:`~wbc.compiled.lsq.solve_level_in`)."""
     if not exact:
-        return solve_level(
-            A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER)
+        status, _ = solve_level_in(
+            A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER), space, cont
         )
+        return status
     previous = x.copy()
-    status = solve_level(A, a, B, r, 0.0, lower, upper, state, x, 1e-9, np.int64(EXACT_MAX_ITER))
+    status, _ = solve_level_in(
+        A, a, B, r, 0.0, lower, upper, state, x, 1e-9, np.int64(EXACT_MAX_ITER), space, cont
+    )
     if status == NUMERICAL or status == MAX_ITER:
         x[:] = previous
-        status = _proximal_level(A, a, B, r, lower, upper, state, x)
+        status = proximal_level(A, a, B, r, lower, upper, state, x, np.int64(LEVEL_MAX_ITER))
     return status
 
 
@@ -224,7 +251,7 @@ def _row(G, h, i, x):
 @njit(cache=True)
 def solve_with_inequalities(
     A0, a0, B0, r0, ridge, exact, lower, upper, state, x, G, h, soft_from, tol, working, start,
-    from_start,
+    from_start, space, cont,
 ) -> int:  # fmt: skip
     """min ‖B0 x − r0‖² + ridge‖x‖² + Σ_{i ≥ soft_from} max(G_i x − h_i, 0)² subject to
     A0 x = a0, G_i x <= h_i (i < soft_from) and the bounds: a primal active set on the G
@@ -245,7 +272,10 @@ def solve_with_inequalities(
     OK the final one, else cleared. Returns OK (x optimal, ``state`` its bounds' active set),
     NUMERICAL (the stationarity has no solution: no certificate), MAX_ITER (also when a row
     leaves more than :data:`MAX_DROPS` times: cycling, on degenerate or dependent rows) or the
-    status of a failed level solve.
+    status of a failed level solve. ``space``: the level solver's work space
+    (:func:`~wbc.compiled.lsq.level_space`); ``cont``: its last call solved this level
+    without the rows (x its solution, ``state`` its set): hard rows joining since are then
+    updates of that call's factors, as after each solve here that only hard rows followed.
     """
     m0, n = A0.shape
     p0 = B0.shape[0]
@@ -297,10 +327,16 @@ def solve_with_inequalities(
                     B[ps] = G[i]
                     r[ps] = h[i]
                     ps += 1
-            status = _level(A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x)
+            if mh > space[8] or ps > space[9]:  # (more rows than it was made for)
+                space = level_space(m0 + p, n, p0 + p)
+                cont = False
+            status = _level(
+                A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x, space, cont
+            )
             if status != OK:
                 working[:] = False
                 return status
+            cont = True  # (until a soft row joins, changing B, or a row leaves)
         solve = True
         k = -1
         if feasible:  # the first hard row that blocks the step from x_c to x joins
@@ -331,6 +367,7 @@ def solve_with_inequalities(
             rows[nw] = k
             working[k] = True
             nw += 1
+            cont = cont and k < soft_from
             continue
         if not feasible:  # x meets every row: from here on, the feasible point
             feasible = True
@@ -366,52 +403,9 @@ def solve_with_inequalities(
         for w in range(drop, nw - 1):
             rows[w] = rows[w + 1]
         nw -= 1
+        cont = False
     working[:] = False
     return MAX_ITER
-
-
-@njit(cache=True)
-def _proximal_level(A, a, B, r, lower, upper, state, x) -> int:
-    """min ‖B x − r‖² s.t. A x = a and the bounds, from a feasible x, by proximal steps:
-    y = argmin ‖B (x + y) − r‖² + ε‖y‖² (same constraints), x += y, until y vanishes.
-
-    Each step is strictly convex (the active set settles), and the ridge only pulls towards
-    the last iterate, so the steps converge to the exact least-squares optimum (closest to
-    the start among the optima) instead of leaving a ridge's bias on the level's residual.
-    ε is relative to the rows' mean squared norm.
-    """
-    m, n = B.shape
-    scale = 0.0
-    for i in range(m):
-        for j in range(n):
-            scale += B[i, j] * B[i, j]
-    ridge = PROXIMAL_RIDGE * max(1.0, scale / max(m, 1))
-    a_s = np.empty(a.shape[0])
-    r_s = np.empty(m)
-    lo = np.empty(n)
-    hi = np.empty(n)
-    y = np.zeros(n)
-    status = OK
-    for _ in range(PROXIMAL_STEPS):
-        for i in range(a.shape[0]):
-            a_s[i] = a[i] - np.dot(A[i], x)
-        for i in range(m):
-            r_s[i] = r[i] - np.dot(B[i], x)
-        for j in range(n):
-            lo[j] = lower[j] - x[j]
-            hi[j] = upper[j] - x[j]
-        status = solve_level(
-            A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, np.int64(LEVEL_MAX_ITER)
-        )
-        if status != OK:
-            return status
-        step = 0.0
-        for j in range(n):
-            x[j] = min(max(x[j] + y[j], lower[j]), upper[j])
-            step = max(step, abs(y[j]))
-        if step <= 1e-13:
-            break
-    return status
 
 
 @njit(cache=True)
@@ -432,6 +426,10 @@ def _cascade(
         dq[i] = 0.0
     for i in range(g_rows[n_levels]):
         h_eff[i] = h[i]
+    widest = 0
+    for k in range(n_levels):
+        widest = max(widest, level_rows[k + 1] - level_rows[k])
+    space = level_space(level_rows[max(n_levels - 1, 0)] + SPACE_ROWS, nv, widest + SPACE_ROWS)
     deferred = 0  # the levels before this row: met exactly by the next level's solve
     soft = False  # a soft level among them
     # with inequality rows, the levels above the last deferred too (params[0] > 0) while no
@@ -491,13 +489,17 @@ def _cascade(
         for _ in range(3):
             warm = _any(working[k], g1)
             status = OK
+            cont = False  # (the space's last call: this level without its rows)
             if (r1 > r0 or last) and not warm and solved:
                 dq[:] = free_x
                 states[k, :] = free_state
             elif (r1 > r0 or last) and not warm:
                 if direct and free:  # (its set without the rows at the last tick)
                     states[k, :] = states[n_levels]
-                status = _level(A, a, B, r, mu, not last, lower, upper, states[k], dq)
+                status = _level(
+                    A, a, B, r, mu, not last, lower, upper, states[k], dq, space, np.bool_(False)
+                )
+                cont = status == OK
                 if direct and free:
                     states[n_levels, :] = states[k]
                 if direct and status == OK:
@@ -518,7 +520,8 @@ def _cascade(
                 # (Δq so far meets the levels above and their rows: a feasible start)
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
-                    soft_from, tol, working[k, :g1], entry, np.bool_(not direct),
+                    soft_from, tol, working[k, :g1], entry, np.bool_(not direct), space,
+                    np.bool_(cont),
                 )  # fmt: skip
             if status == OK or not (warm or direct):
                 break
@@ -775,13 +778,12 @@ refresh(
         _level,
         _hard_multipliers,
         solve_with_inequalities,
-        _proximal_level,
         _cascade,
         cascade_solve,
         integrate,
     ],
     [
         Path(__file__).with_name(f)
-        for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py")
+        for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py", "proximal.py")
     ],
 )

@@ -1,0 +1,134 @@
+"""The compiled level solver continued across calls (:func:`wbc.compiled.lsq.solve_level_in`):
+equality rows joining a solved level (the hierarchy's rows joining its last level, one call
+each) update the last call's factors, and the answers are a fresh solve's from the same warm
+start: on random levels, with rows that are independent, dependent on the level's rows
+(consistent or not) or on the variables the warm set holds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import example, given
+from hypothesis import strategies as st
+from test_compiled_lsq import N, random_level, solve
+
+from wbc.compiled.lsq import INCONSISTENT, OK, level_space, solve_level_in
+
+_KINDS = ["random", "dependent", "inconsistent", "held", "sparse"]
+
+
+def _row(kind, rng, A, a, state, x):
+    """A row to join (and its target) of the given kind."""
+    if kind == "dependent":  # a combination of the level's rows: consistent
+        c = rng.standard_normal(A.shape[0])
+        return c @ A, c @ a
+    if kind == "inconsistent":
+        c = rng.standard_normal(A.shape[0])
+        return c @ A, c @ a + 1.0
+    row = np.zeros(N)
+    if kind == "held":  # on variables the warm set holds at their bounds (as a collision row
+        held = np.flatnonzero(state != 0)  # on joints at their speed), met halfway in
+        row[held[: max(1, len(held) // 2)]] = rng.standard_normal(max(1, len(held) // 2))
+        return row, row @ (0.5 * x)
+    elif kind == "sparse":
+        row[rng.choice(N, 4, replace=False)] = rng.standard_normal(4)
+    else:
+        row = rng.standard_normal(N)
+    return row, row @ x - 0.05  # (x moved a little: as a violated row held at its bound)
+
+
+def _continued(A, a, B, r, ridge, lower, upper, state, space, cont):
+    x = np.zeros(N)
+    state = state.copy()
+    status, count = solve_level_in(
+        A, a, B, r, float(ridge), lower, upper, state, x, 1e-9, 100, space, np.bool_(cont)
+    )
+    return status, x, state, count
+
+
+@example(seed=0, m=6, p=30, kinds=["random", "random", "random"])
+@example(seed=1, m=12, p=9, kinds=["held", "random"])
+@example(seed=2, m=6, p=30, kinds=["dependent", "sparse"])
+@example(seed=3, m=6, p=9, kinds=["inconsistent"])
+@given(
+    seed=st.integers(0, 2**32 - 1), m=st.sampled_from([6, 12]), p=st.sampled_from([30, 9]),
+    kinds=st.lists(st.sampled_from(_KINDS), min_size=1, max_size=3),
+)  # fmt: skip
+def test_rows_joining_a_level_answer_as_a_fresh_solve(seed, m, p, kinds):
+    A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
+    rng = np.random.default_rng(seed)
+    space = level_space(m + len(kinds), N, p)
+    status, x, state, _ = _continued(A, a, B, r, ridge, lower, upper, np.zeros(N, np.int8),
+                                     space, False)  # fmt: skip
+    assert status == OK
+    for kind in kinds:
+        row, target = _row(kind, rng, A, a, state, x)
+        A, a = np.vstack([A, row]), np.r_[a, target]
+        status_c, x_c, state_c, _ = _continued(A, a, B, r, ridge, lower, upper, state, space,
+                                               True)  # fmt: skip
+        status_f, x_f, state_f, _ = solve(A, a, B, r, ridge, lower, upper, state=state,
+                                          max_iter=100)  # fmt: skip
+        assert status_c == status_f
+        if status_f != OK:
+            return
+        np.testing.assert_array_equal(state_c, state_f)
+        np.testing.assert_allclose(x_c, x_f, rtol=0, atol=1e-10)
+        x, state = x_c, state_c
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_joined_row_updates_the_last_calls_factors(seed):
+    """An independent row joining: the continued call's final subproblem is an update of the
+    last call's base (its rows: the level's without the row), not solved afresh; and without
+    ``cont`` it is solved afresh."""
+    m, p = 6, 30
+    A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
+    rng = np.random.default_rng(seed)
+    space = level_space(m + 1, N, p)
+    status, x, state, _ = _continued(A, a, B, r, ridge, lower, upper, np.zeros(N, np.int8),
+                                     space, False)  # fmt: skip
+    assert status == OK
+    carry = space[7]
+    assert carry[0] == 1 and carry[1] == m
+    row, target = _row("random", rng, A, a, state, x)
+    A2, a2 = np.vstack([A, row]), np.r_[a, target]
+    status, x2, _, _ = _continued(A2, a2, B, r, ridge, lower, upper, state, space, True)
+    assert status == OK
+    assert carry[0] == 1 and carry[1] == m  # (the base kept: every subproblem an update)
+    status, x3, _, _ = _continued(A2, a2, B, r, ridge, lower, upper, state, space, False)
+    assert carry[0] == 1 and carry[1] == m + 1
+    np.testing.assert_allclose(x2, x3, rtol=0, atol=1e-10)
+
+
+def test_an_inconsistent_joined_row_is_reported_as_a_fresh_solve():
+    A, a, B, r, ridge, lower, upper = random_level(5, 6, 30, 1e-6)
+    space = level_space(7, N, 30)
+    status, _, state, _ = _continued(A, a, B, r, ridge, lower, upper, np.zeros(N, np.int8),
+                                     space, False)  # fmt: skip
+    A2, a2 = np.vstack([A, A[0] + A[1]]), np.r_[a, a[0] + a[1] + 1.0]
+    status, x, _, _ = _continued(A2, a2, B, r, ridge, lower, upper, state, space, True)
+    assert status == INCONSISTENT and np.all(np.isnan(x))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_row_on_held_variables_releases_them_without_a_solve(seed):
+    """A row joining on variables the warm set holds (an inconsistent warm start): their
+    bounds released at once, where a fresh solve finds the set inconsistent first (one
+    subproblem more); the same answer."""
+    m, p = 6, 30
+    A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
+    rng = np.random.default_rng(seed)
+    space = level_space(m + 1, N, p)
+    status, x, state, _ = _continued(A, a, B, r, ridge, lower, upper, np.zeros(N, np.int8),
+                                     space, False)  # fmt: skip
+    assert status == OK and np.any(state != 0)
+    row, target = _row("held", rng, A, a, state, x)
+    A2, a2 = np.vstack([A, row]), np.r_[a, target]
+    status_c, x_c, state_c, count_c = _continued(A2, a2, B, r, ridge, lower, upper, state,
+                                                 space, True)  # fmt: skip
+    status_f, x_f, state_f, count_f = solve(A2, a2, B, r, ridge, lower, upper, state=state,
+                                            max_iter=100)  # fmt: skip
+    assert status_c == status_f == OK
+    assert count_c < count_f
+    np.testing.assert_array_equal(state_c, state_f)
+    np.testing.assert_allclose(x_c, x_f, rtol=0, atol=1e-10)
