@@ -42,7 +42,7 @@ from wbc.bench.closed_loop import (
     simulate,
 )
 from wbc.bench.runner import run_entry
-from wbc.bench.sim_record import _planned, _rotation, physics_record
+from wbc.bench.sim_record import _planned, _rotation, physics_record, plan_time
 from wbc.bench.solvers import select
 from wbc.bench.variation import models
 from wbc.compiled.rows import log3
@@ -232,7 +232,7 @@ def split_run(rec, robot, variation, compensate: float, spec) -> tuple[dict, tup
     record.update(closed_loop_figures(loop))
     log = result.log
     t = log["t"] - result.playback_start
-    q_plan = _planned(rec, t)
+    q_plan = _planned(rec, plan_time(result))  # (the reference time the walk played)
     upto = len(t)
     if record["fell"]:
         upto = int(np.searchsorted(t, record["fall_time_s"]))
@@ -264,6 +264,7 @@ class Probe:
             rows = self.rows
 
             def observed(stab, targets, com_vel_ref, q_cmd, dt):
+                stab.measure_lag = True  # (measured only when read)
                 out = original(stab, targets, com_vel_ref, q_cmd, dt)
                 if stab.last is not None:
                     cmd = np.empty(3)

@@ -8,7 +8,8 @@ simulation's log. Per second of the walk: the gyro's yaw rate RMS (rad/s, world 
 and its dominant frequency, its ringing as ``Gains.yaw_ring`` measures it (above 3 Hz, the
 largest of the second), the RMS of the horizontal rates, the largest heading / tilt error
 and torso command (deg), the servos' lag behind their goals as the loop measures it (ms, the
-second's median: :func:`wbc.balance.servo_lag.servo_lag`); then per stance leg (single
+second's median: :func:`wbc.balance.servo_lag.servo_lag`) and the walk's clock rate (the
+second's lowest: ``Gains.lag_clock``); then per stance leg (single
 support from the soles' floor forces) the knee's load (peak torque / the plant's stall
 torque: median, p90, max) and sag (present − goal, deg).
 
@@ -52,12 +53,13 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
     original = stab_mod.Stabilizer.adjust
 
     def observed(self, targets, com_vel_ref, q_cmd, dt):
+        self.measure_lag = True  # (measured only when read)
         out = original(self, targets, com_vel_ref, q_cmd, dt)
         if self.last is not None:  # (not while calibrating)
             cmd = np.empty(3)  # the torso command: log(R_cmd R_refᵀ)
             log3(np.ascontiguousarray(out.torso_rotation @ targets.torso_rotation.T), cmd)
             w = self.last.rotation @ self.last.angular_velocity  # world frame
-            rows.append((clock[0], *self.error, *w, *cmd, self.servo_lag))
+            rows.append((clock[0], *self.error, *w, *cmd, self.servo_lag, self.clock))
         return out
 
     def tick(sim) -> None:
@@ -82,9 +84,9 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
     ring = ringing(ts, w[:, 2])
     print(
         "| s | yaw rate RMS | its frequency | ringing (> 3 Hz) | tilt rate RMS | heading err° "
-        "| tilt err° | heading cmd° | tilt cmd° | servo lag ms |"
+        "| tilt err° | heading cmd° | tilt cmd° | servo lag ms | clock |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for s in range(int(np.ceil(ts.max())) if len(ts) else 0):
         m = (ts >= s) & (ts < s + 1)
         if m.sum() < 8:
@@ -97,7 +99,7 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
               f"| {np.sqrt(np.mean(w[m, :2] ** 2)):.2f} | {np.abs(e[m, 2]).max():.1f} "
               f"| {np.hypot(e[m, 0], e[m, 1]).max():.1f} | {np.abs(cmd[m, 2]).max():.1f} "
               f"| {np.hypot(cmd[m, 0], cmd[m, 1]).max():.1f} "
-              f"| {np.median(lag[m]):.1f} |")  # fmt: skip
+              f"| {np.median(lag[m]):.1f} | {a[m, 11].min():.2f} |")  # fmt: skip
     log, names = res.log, list(robot.joint_names)
     t, q, goal, peak, force = (log[k] for k in ("t", "q", "goal", "peak_torque", "sole_force"))
     t = t - res.playback_start

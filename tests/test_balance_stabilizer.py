@@ -185,6 +185,7 @@ def test_closed_loop_runs_in_the_tick_on_the_simulator(robot):
         bus = SimServoBus(sim, on_tick=watch)
         loop = closed_loop(bus, robot, StackController(load_stack("walk", robot)), ref,
                            SimImu(sim), Gains(), enabled, out=lambda _l: None)  # fmt: skip
+        loop.stabilizer.measure_lag = True  # (Gains() reads no lag: measured when asked)
         inner = loop.deployment.source  # the first 1.2 s of the walk (test time)
         loop.deployment.source = CallableSource(
             lambda k, t, inner=inner: None if t > 1.2 else inner(k, t),

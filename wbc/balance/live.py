@@ -75,6 +75,10 @@ class SessionSource(CallableSource):
         self.read_time: list[float] = []
         self.solve_time: list[float] = []
         self.start_offset = 0.0  # s the walk starts late: the start-up calibration at rest
+        #: per walking tick: the walk's time (s since its start) and the reference time it
+        #: played (its clock: held lift-offs, the stabilizer's ``clock``); see :meth:`played`
+        self._played: list[tuple[float, float]] = []
+        self._slowed = False  # the stabilizer's clock (Gains.lag_clock) left 1 at some tick
 
         self.rest_hook: Callable[[bool], None] | None = None  # called each tick: at rest?
 
@@ -88,6 +92,10 @@ class SessionSource(CallableSource):
             q = session.at_time(t - self.start_offset)
             if q is None:
                 return None
+            if not resting:
+                walk = t - self.start_offset
+                self._played.append((walk, walk - session.delay))
+                self._slowed |= stab is not None and stab.clock != 1.0
             j = q[7:].copy()
             start = time.perf_counter()
             offsets = session.stabilizer.joint_offsets(j) if session.stabilizer else None
@@ -110,6 +118,14 @@ class SessionSource(CallableSource):
         """After a tick's goals are sent: the next support switch made now
         (:meth:`Session.prepare_next`), not in the next tick's solve."""
         self.session.prepare_next()
+
+    def played(self) -> np.ndarray | None:
+        """(2, n): the walk's time and the reference time it played per walking tick (s),
+        what a physics record compares the run with (:attr:`wbc.sim.log.PlayResult.played`);
+        None unless the stabilizer's clock slowed the walk (``Gains.lag_clock``): a run
+        whose only delay is held lift-offs is compared at the wall time, as before (the
+        lift-off hold's records unchanged; issue 30, i30p's eighth round)."""
+        return np.array(self._played).T if self._slowed and self._played else None
 
     def cost_share(self, skip: int = 0) -> float | None:
         """The closed loop's share of the tick (:func:`loop_share`) over the walking ticks

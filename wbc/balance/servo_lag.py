@@ -20,6 +20,8 @@ import numpy as np
 LAG_WINDOW = 0.5
 #: s: :func:`servo_lag`'s answer is clipped to [0, LAG_MAX]
 LAG_MAX = 0.2
+#: 1/s: how fast :func:`clock_rate` moves the walk's clock rate
+CLOCK_RAMP = 0.5
 
 
 def lag_state(n: int) -> np.ndarray:
@@ -59,3 +61,21 @@ def servo_lag(present: np.ndarray, goal: np.ndarray, dt: float, state: np.ndarra
     if den > 1e-4:
         state[1] = min(max(num / den, 0.0), LAG_MAX)
     return state[1]
+
+
+def clock_rate(clock: float, lag: float, lag_clock: float, clock_min: float, dt: float) -> float:
+    """The walk's clock rate (reference s per real s) after one tick of ``dt`` s: from
+    ``clock`` toward ``clip(lag_clock / lag, clock_min, 1)`` (``lag``: the servos' measured
+    lag, s; 1 while unmeasured, 0), by at most :data:`CLOCK_RAMP` · dt. A plant whose servos
+    follow late walks the same plan slower (``Gains.lag_clock``: issue 30, i30p's eighth
+    round, benchmarks/physics.md)."""
+    want = min(max(lag_clock / lag, clock_min), 1.0) if lag > 0.0 else 1.0
+    step = CLOCK_RAMP * float(dt)
+    return clock + min(max(want - clock, -step), step)
+
+
+def phase_clock(clock: float, double: bool, single: float) -> float:
+    """The clock rate of a tick: ``clock`` (:func:`clock_rate`) in a double support, in a
+    single support only the share ``single`` of its slowing (``Gains.clock_single``; 0: a
+    soft plant's single support, its knees near their stall torque, not made longer)."""
+    return clock if double or single == 1.0 else 1.0 - single * (1.0 - clock)

@@ -20,6 +20,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   scales the heading part down by the yaw rate's measured ringing (its RMS above 3 Hz),
   ``lag_yaw`` (s, 0: off) by the servos' measured lag behind their goals
   (:mod:`wbc.balance.servo_lag`, :attr:`Stabilizer.servo_lag`);
+* **the walk's clock** (``lag_clock``) — the reference time runs slower on a plant whose
+  servos follow late (:attr:`Stabilizer.clock`, read by :meth:`Session.at_time`);
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -70,7 +72,7 @@ from ..model import Robot
 from ..walking.loop import sole_pack
 from .estimator import StateEstimate, StateEstimator, _estimate, exp3_into, mul33t_into
 from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
-from .servo_lag import lag_state, servo_lag
+from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 
 
 @dataclass(frozen=True)
@@ -122,6 +124,11 @@ class Gains:
     #: keeps 295 of 300 randomised plants against 294 but loses one the default keeps (issue
     #: 30, i30p's seventh round, benchmarks/physics.md): off
     lag_yaw: float = 0.0
+    #: s: the walk's clock slowed by the servos' measured lag τ (0: off): ``clip(lag_clock / τ,
+    #: clock_min, 1)`` (:func:`.servo_lag.clock_rate`), the DCM reference's velocity alike
+    lag_clock: float = 0.0
+    clock_min: float = 0.7  # the slowest clock lag_clock sets (0 < clock_min <= 1)
+    clock_single: float = 1.0  # the share of lag_clock's slowing in single support (0..1)
     j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
     j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
     max_offset: float = 0.2  # rad, per joint
@@ -175,6 +182,8 @@ class Gains:
             "yaw_damping",
             "yaw_ring",
             "lag_yaw",
+            "lag_clock",
+            "clock_single",
             "j_p",
             "j_d",
             "max_tilt",
@@ -195,10 +204,11 @@ class Gains:
                 raise ConfigurationError(
                     f"stabilizer gain {name} must be a finite number >= 0, got {v}"
                 )
-        if self.transfer > 1:
-            raise ConfigurationError(
-                f"stabilizer gain transfer must be in [0, 1], got {self.transfer}"
-            )
+        if not 0.0 < self.clock_min <= 1.0:
+            raise ConfigurationError(f"stabilizer gain clock_min: (0, 1], got {self.clock_min}")
+        if self.transfer > 1 or self.clock_single > 1:
+            raise ConfigurationError(f"stabilizer gains transfer, clock_single: [0, 1], got "
+                                     f"{self.transfer}, {self.clock_single}")  # fmt: skip
         return self
 
 
@@ -433,7 +443,7 @@ def _feedback_tick(
     without one). ``consts``: the gains (``_K_*``), the fall limits, the estimator's model;
     ``fb``: the feedback's state (``_B_*``; the torso integral updated unless a fall); ``lag``:
     :func:`~wbc.balance.servo_lag.servo_lag`'s state (the joints read against ``fallback``,
-    the goals they follow: ``τ`` into ``fb[_B_LAG]``)."""
+    the goals they follow: ``τ`` into ``fb[_B_LAG]``; empty: not measured)."""
     model = consts[_K_SIZE + _L_SIZE :]
     imu = select >= 8
     w, a = np.empty(3), np.empty(3)
@@ -453,7 +463,8 @@ def _feedback_tick(
     anchor0, anchor1 = S[0], S[1]
     y_norm = soles[33] if side == 1 else soles[32] if side == 0 else 1.0
     _estimate(model, joints, fallback, w, a, dt, select, anchor0, anchor1, state, values)
-    fb[_B_LAG] = servo_lag(joints, fallback, dt, lag)
+    if lag.shape[0] > 0:  # (an empty state: the lag not read, not measured)
+        fb[_B_LAG] = servo_lag(joints, fallback, dt, lag)
     R = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
@@ -532,6 +543,8 @@ class Stabilizer:
         )  # fmt: skip
         self._fb = np.zeros(_B_SIZE)  # the feedback's state (_feedback_tick)
         self._lag = lag_state(len(robot.joint_names))  # (servo_lag's)
+        self._no_lag = np.zeros(0)  # (passed instead while the lag is not read)
+        self._measure_lag = False
         self._applied: ImuCalibration | None = None  # the calibration in _fb
         self._no_fall = np.zeros(_F_SIZE)  # (fall_code's state when there is no detector)
         self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
@@ -543,8 +556,9 @@ class Stabilizer:
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
         #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
-        self._packed: tuple = (None, None, None, False)
+        self._packed: tuple = (None, None, None, False, self._no_lag)
         self.last: StateEstimate | None = None
+        self.clock = self._clock = 1.0  # the walk's clock rate (lag_clock; Session.at_time)
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
 
@@ -565,8 +579,21 @@ class Stabilizer:
     @property
     def servo_lag(self) -> float:
         """s, the servos' lag behind their goals as last measured
-        (:func:`~wbc.balance.servo_lag.servo_lag`; 0 until the goals have moved)."""
+        (:func:`~wbc.balance.servo_lag.servo_lag`; 0 until the goals have moved). Measured
+        only when read: ``lag_yaw`` or ``lag_clock`` > 0, or :attr:`measure_lag`."""
         return float(self._fb[_B_LAG])
+
+    @property
+    def measure_lag(self) -> bool:
+        """True: :attr:`servo_lag` measured every tick even when no gain reads it (a
+        diagnostic's; set before the walk)."""
+        return self._measure_lag
+
+    @measure_lag.setter
+    def measure_lag(self, on: bool) -> None:
+        if bool(on) != self._measure_lag:
+            self._measure_lag = bool(on)
+            self._packed = (None, None, None, False, self._no_lag)  # (packed again)
 
     @property
     def hip(self) -> np.ndarray:
@@ -576,13 +603,15 @@ class Stabilizer:
     def _consts(self) -> np.ndarray:
         """:func:`_feedback_tick`'s ``consts`` for the current gains (built when they change)."""
         g, fall = self.gains, self.fall
-        if self._packed[0] is not g or self._packed[2] is not fall:
+        if self._packed[0] is not g or self._packed[2] is not fall or self._packed[1] is None:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
                  g.max_yaw, g.yaw_damping, g.yaw_ring, g.lag_yaw]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
-            self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift)
+            read = g.lag_yaw > 0 or g.lag_clock > 0 or self._measure_lag
+            lag = self._lag if read else self._no_lag
+            self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift, lag)
         return self._packed[1]
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
@@ -634,19 +663,25 @@ class Stabilizer:
             )
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
         packed = self._packed
-        if packed[0] is not self.gains or packed[2] is not self.fall:
+        if packed[0] is not self.gains or packed[2] is not self.fall or packed[1] is None:
             self._consts()  # (the gains or the detector changed: packed again)
             packed = self._packed
         code = _feedback_tick(
             packed[1], joints if present is None else present, joints, w, a, float(dt),
             select, soles, estimator._state, self._fb, targets.torso_rotation,
-            self._no_fall if self.fall is None else self.fall.state, values, o, self._lag,
+            self._no_fall if self.fall is None else self.fall.state, values, o, packed[4],
         )  # fmt: skip
         est = self.last = estimator.last = StateEstimate(values)
         e = o[0]  # orientation error, world frame (heading part × k_yaw)
         if code:
             self.fall.raise_for(self.fall.declare(code))
         self.error, self.rate = e, est.angular_velocity
+        if self.gains.lag_clock > 0.0:  # the walk's clock from the servos' lag
+            g, lag = self.gains, self._fb[_B_LAG]  # (ramped to clip(lag_clock / τ, clock_min, 1))
+            c = self._clock = clock_rate(self._clock, lag, g.lag_clock, g.clock_min, dt)
+            self.clock = phase_clock(c, double, g.clock_single)
+        if self.clock != 1.0:  # (the reference's velocity at the clock's rate: its DCM)
+            com_vel_ref = com_vel_ref * self.clock
         com = targets.com
         if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
             com = self._shifted(targets, com_vel_ref, est, e, dt)

@@ -130,7 +130,8 @@ def play_closed_loop(
             sim.advance(1.0 / rate)
             logger(bus)
     base = log_only if on_tick is not None else logger
-    return PlayResult(result, base.log.arrays(), playback_start - base.t0, sim), loop
+    played = loop.source.played()  # (the walk off its reference's clock: compared so)
+    return PlayResult(result, base.log.arrays(), playback_start - base.t0, sim, played), loop
 
 
 def simulate(

@@ -45,6 +45,19 @@ def _planned(rec: Recording, t: np.ndarray) -> np.ndarray:
     return q
 
 
+def plan_time(result) -> np.ndarray:
+    """The plan's time (s from its start) at each of ``result``'s log samples: the log's time
+    since the playback start, or where a closed loop's walk ran off its reference's clock (a
+    held lift-off, a slowed clock: :attr:`~wbc.sim.log.PlayResult.played`) the reference
+    time it played there (past the walk's last tick: shifted by its last delay)."""
+    t = result.log["t"] - result.playback_start
+    played = getattr(result, "played", None)
+    if played is None:
+        return t
+    tp = np.interp(t, played[0], played[1])
+    return np.where(t > played[0, -1], t - (played[0, -1] - played[1, -1]), tp)
+
+
 def _rotation(quat_xyzw: np.ndarray) -> np.ndarray:
     return pin.Quaternion(np.asarray(quat_xyzw)).toRotationMatrix()
 
@@ -60,7 +73,8 @@ def physics_record(rec: Recording, result, robot: Robot, ref=None) -> dict[str, 
     log = result.log
     t = log["t"] - result.playback_start
     q_real = log["q"]
-    q_plan = _planned(rec, t)
+    tp = plan_time(result)
+    q_plan = _planned(rec, tp)
     n = len(t)
     dev = np.array([_angle(_rotation(q_plan[k, 3:7]), _rotation(q_real[k, 3:7])) for k in range(n)])
     low = q_real[:, 2] < FALL_HEIGHT * q_plan[:, 2]
@@ -70,7 +84,7 @@ def physics_record(rec: Recording, result, robot: Robot, ref=None) -> dict[str, 
     rec_t = rec.t - rec.t[0]
     support = rec.channels.get("support")
     sup = (
-        support[np.clip(np.searchsorted(rec_t, t, side="right") - 1, 0, len(rec_t) - 1)]
+        support[np.clip(np.searchsorted(rec_t, tp, side="right") - 1, 0, len(rec_t) - 1)]
         if support is not None
         else np.zeros(n, int)
     )
@@ -92,12 +106,12 @@ def physics_record(rec: Recording, result, robot: Robot, ref=None) -> dict[str, 
 
         start = pin.XYZQUATToSE3(rec.q[0, :7]).rotation  # the base is the torso
         wanted = ref.torso_rotations(heading_free(start))
-        k_ref = np.clip(np.round((t + rec.t[0] - ref.t[0]) / ref.dt).astype(int), 0, ref.n - 1)
+        k_ref = np.clip(np.round((tp + rec.t[0] - ref.t[0]) / ref.dt).astype(int), 0, ref.n - 1)
         played = np.arange(n) < upto
         rdev = [_angle(wanted[k_ref[k]], _rotation(q_real[k, 3:7])) for k in np.flatnonzero(played)]
         record["torso_ref_dev_max_deg"] = float(max(rdev)) if rdev else 0.0
     # distance along the planned displacement of the base (playback part only)
-    play_end = min(upto, int(np.searchsorted(t, rec_t[-1], side="right")))
+    play_end = min(upto, int(np.searchsorted(tp, rec_t[-1], side="right")))
     d_plan = q_plan[play_end - 1, :2] - q_plan[0, :2] if play_end else np.zeros(2)
     planned = float(np.linalg.norm(d_plan))
     if planned > 0.01 and play_end and fall_k is None:  # none if it fell: not travel

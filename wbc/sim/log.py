@@ -44,6 +44,11 @@ class PlayResult:
     log: dict[str, np.ndarray]
     playback_start: float
     sim: Simulation
+    #: a closed loop whose walk ran off its reference's clock (a held lift-off, the
+    #: stabilizer's slowed clock: :attr:`wbc.balance.live.SessionSource.played`): (2, n), the
+    #: walk's time since the playback start and the reference time it played (s); None: the
+    #: reference's own clock (what the physics record compares the run with)
+    played: np.ndarray | None = None
 
 
 def hull_margin(points: np.ndarray, p: np.ndarray) -> float:

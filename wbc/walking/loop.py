@@ -624,17 +624,18 @@ class Session:
 
     def at_time(self, t: float) -> np.ndarray | None:
         """The configuration for time ``t`` (s) from the start, None past the end (the
-        reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off)."""
+        reference's time ``t − delay``: :attr:`delay` grows while ``hold`` holds a lift-off,
+        and changes with the clock's rate: the step timing's, the stabilizer's ``clock``)."""
         ref = self.ref
         last, stab = self._last_index, self.stabilizer
         closed = last is not None and stab is not None and stab.enabled and stab.last is not None
         clock = 0.0  # s in the step timing and hold checks (stepping_time)
-        stepping = self.stepping  # (rate 1 at every tick unless it hurries: not called)
-        if stepping is not None and closed and self._last_time is not None and stepping.hurries:
-            start = self._now()  # step timing: the clock runs faster when asked
-            self.delay -= (self.stepping.rate(ref, last, stab.last.dcm) - 1.0) * (
-                t - self._last_time
-            )
+        hurries = self.stepping is not None and self.stepping.hurries  # (else its rate is 1)
+        slow = getattr(stab, "clock", 1.0) if closed else 1.0  # the stabilizer's (lag_clock)
+        if closed and self._last_time is not None and (hurries or slow != 1.0):
+            start = self._now()  # the step timing's rate while it asks one, else the clock's
+            rate = self.stepping.rate(ref, last, stab.last.dcm) if hurries else 1.0
+            self.delay -= ((slow if rate == 1.0 else rate) - 1.0) * (t - self._last_time)
             clock = self._now() - start
         s = t - self.delay
         if s > ref.t[-1] - ref.t[0] + 1e-9:
