@@ -364,7 +364,8 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
     """``hip_jump``: a DCM offset grown outward by more than hip_jump × hip_band in one tick
     asks the whole max_hip while the DCM is outward of the stance sole's centre (within the
     band: nothing without it), until the support changes; the first tick of a single support
-    (the support switch) does not count; a slow drift never fires it."""
+    (the support switch) does not count; a slow drift never fires it, nor a jump within five
+    times the running RMS of the estimate's per-tick change."""
     q = standing(robot)
     t = targets_at(robot, q)
     g = Gains(k_hip=100.0, max_hip=0.5, hip_release=2.0, hip_band=0.025, hip_jump=hip_jump)
@@ -389,6 +390,11 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
     drift = Stabilizer(robot, 0.2, lambda: None, None, g)
     for offset in np.linspace(-0.03, 0.01, 9):  # 5 mm a tick: no push
         assert roll(drift, offset) == 0.0
+    jitter = Stabilizer(robot, 0.2, lambda: None, None, g)
+    for n in range(60):  # an estimate swinging 10 mm a tick (inward): 20 mm is no push there
+        roll(jitter, -0.03 if n % 2 else -0.02)
+    roll(jitter, 0.0)
+    assert roll(jitter, 0.005) == 0.0
     switch = Stabilizer(robot, 0.2, lambda: None, None, g)
     roll(switch, -0.03, double)
     roll(switch, -0.03)  # the first single-support tick

@@ -132,8 +132,8 @@ class Gains:
     hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
-    #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): in a
-    #: single support whose estimated DCM jumps outward of the stance sole by more than
+    #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
+    #: single support's estimated DCM jumps outward of the stance sole by more than
     #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
     #: ``max_hip`` is asked while the DCM is outward of the sole's centre until the support
     #: changes: the roll starts at once, not 40–50 ms later when the lagging estimate leaves
@@ -242,6 +242,9 @@ _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, 
 _K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
 _K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
 _K_SIZE = 17
+#: ``hip_jump``'s jitter guard: the jump must beat this × the running RMS of the per-tick change
+#: too (time constant ``HIP_JUMP_TAU`` s; as ``SteppingParams.trigger_sigma`` along the walk)
+HIP_JUMP_SIGMA, HIP_JUMP_TAU = 5.0, 0.3
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -361,9 +364,9 @@ def _torso_feedback(
 # largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad) and
 # yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest, the servos' lag (s),
 # the hip strategy's push trigger (hip_jump: the last outward offset, m; the single support's
-# ticks so far; 1 once it fired in this single support)
+# ticks so far; 1 once it fired in this single support; the mean square of the per-tick change)
 _B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT = 0, 2, 5, 6, 9, 18
-_B_YAW, _B_LAG, _B_JUMP, _B_SIZE = 19, 22, 23, 26  # (3: the low-pass's state, yaw_ring's two)
+_B_YAW, _B_LAG, _B_JUMP, _B_SIZE = 19, 22, 23, 27  # (3: the low-pass's state, yaw_ring's two)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -392,8 +395,9 @@ def _hip_roll(
     change (shrinking, turning, double support: back to 0) goes at ``hip_release`` rad/s at
     most (a fast return would throw the DCM out again). With ``k[_K_HIP_JUMP]`` > 0 (m) the
     push trigger (``hip_jump``; ``jump``: the last offset, the single support's ticks, the
-    latch; updated in place): an offset grown by more than that in one tick, past the support
-    switch's first tick, asks the whole ``max_hip`` while the DCM is outward of the sole's
+    latch, the per-tick change's mean square; updated in place): an offset grown by more than
+    that and :data:`HIP_JUMP_SIGMA` × its running RMS in one tick, past the support switch's
+    first tick, asks the whole ``max_hip`` while the DCM is outward of the sole's
     centre until the support changes."""
     want0 = want1 = 0.0
     if single:
@@ -404,8 +408,11 @@ def _hip_roll(
         s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1
         threshold = k[_K_HIP_JUMP]
         if threshold > 0:
-            if jump[1] >= 2 and s - jump[0] > threshold:  # (not across the support switch)
-                jump[2] = 1.0
+            if jump[1] >= 2:  # (not across the support switch)
+                d = s - jump[0]
+                if d > max(threshold, HIP_JUMP_SIGMA * math.sqrt(jump[3])):
+                    jump[2] = 1.0
+                jump[3] += (d * d - jump[3]) * min(dt / HIP_JUMP_TAU, 1.0)
             jump[0] = s
             jump[1] += 1
         pushed = jump[2] > 0.5
@@ -413,7 +420,7 @@ def _hip_roll(
         if s > 0:
             m = k[_K_MAX_HIP] if pushed else min(k[_K_HIP] * s, k[_K_MAX_HIP])
             want0, want1 = y0 * m, y1 * m
-    else:  # (double support: the trigger re-armed)
+    else:  # (double support: the trigger re-armed; the jitter's mean square kept)
         jump[0], jump[1], jump[2] = 0.0, 0.0, 0.0
     h0, h1 = h[0], h[1]
     if want0 * h0 + want1 * h1 >= h0 * h0 + h1 * h1:  # growing along its direction: at once
@@ -488,7 +495,7 @@ def _feedback_tick(
     if consts[_K_HIP] > 0:
         H = np.empty((3, 3))
         _hip_roll(side < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
-                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 3])  # fmt: skip
+                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 4])  # fmt: skip
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
@@ -693,7 +700,7 @@ class Stabilizer:
             other = (targets.r_sole if targets.support == "l_sole" else targets.l_sole).homogeneous
             y_norm = max(math.hypot(st[0, 1], st[1, 1]), 1e-9)
         _hip_roll(single, st, other, y_norm, np.asarray(est.dcm, dtype=float), self.hip,
-                  self._consts(), float(dt), H, self._fb[_B_JUMP : _B_JUMP + 3])  # fmt: skip
+                  self._consts(), float(dt), H, self._fb[_B_JUMP : _B_JUMP + 4])  # fmt: skip
         return H
 
     def _torso_sample(self, reading):
