@@ -10,10 +10,14 @@ sole's target and where the simulated sole is (x, z, mm), each sole's floor forc
 the torso's pitch change since the push, its pitch and its target's (the stabilizer's), each
 sole's pitch (deg; positive: nose down, on the toe); the summary says whether the run fell
 as the benchmark counts it (45° or sunk) and why the deployment stopped (``--no-fall``: no
-fall detector, the run goes on until it falls). A probe: it observes
+fall detector, the run goes on until it falls). ``--lateral``: the sideways columns instead,
+along the push from the stance sole's centre (the DCM, the CoP and the sole's furthest
+contact, the swing sole; the hip strategy's roll, the torso's top, the hip and shoulder
+rolls: :func:`lateral_table`). A probe: it observes
 :meth:`wbc.balance.stabilizer.Stabilizer.adjust` by wrapping it for the run.
 
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --direction forward
+    nice -n 5 python benchmarks/push_trace.py --impulse 0.8 --direction away --lateral
     nice -n 5 python benchmarks/push_trace.py --impulse 0.75 --direction forward --no-fall
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping '{"band_x": 0.012}'
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --stepping \
@@ -64,7 +68,12 @@ def trace(
     if t_push is None:
         raise SystemExit(f"{walk} has no single support to push in")
     t_push += offset
-    force = push_direction(rec, direction) * impulse / PUSH_DURATION
+    u = push_direction(rec, direction)
+    force = u * impulse / PUSH_DURATION
+    roles = robot.roles
+    side_joint = {(side, role): robot.joint_index(j) for side in ("left", "right")
+                  for role in ("hip_roll", "shoulder_roll", "ankle_roll")
+                  if (j := roles.get(side, role)) is not None}  # fmt: skip
     spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
                           SteppingParams(**stepping), HoldParams())  # fmt: skip
     if not fall:  # the fall detector off: does the robot come back by itself?
@@ -90,7 +99,29 @@ def trace(
                     for foot in feet]  # fmt: skip
         swing = sim.site_pose(targets.swing).translation
         R = sim.base_rotation()
+        pts, _, _ = sim.contacts()
+        stance_site = "r_sole" if targets.swing == "l_sole" else "l_sole"
+        p_st = sim.site_pose(stance_site).translation
+        on_stance = [n == feet[0 if stance_site == "l_sole" else 1] for n in names]
+        cop = sim.cop()
+        edge = max((float((pt - p_st) @ u) for pt, o in zip(pts, on_stance, strict=True) if o),
+                   default=float("nan"))  # fmt: skip
+        q = sim.q()[7:]
+        top = float(np.asarray(out.torso_rotation)[:, 2] @ u)
         rows.append({
+            "dcm_u": 1e3 * float((self.last.dcm[:2] - p_st[:2]) @ u[:2]),
+            "dcm_u_sim": 1e3 * float((c[:2] + v[:2] / omega - p_st[:2]) @ u[:2]),
+            "cop_u": 1e3 * float((cop - p_st[:2]) @ u[:2]) if cop is not None else float("nan"),
+            "edge_u": 1e3 * edge,
+            "hip": math.degrees(float(np.hypot(*self.hip))),
+            "roll": math.degrees(math.asin(float(np.clip(R[:, 2] @ u, -1, 1)))),
+            "roll_cmd": math.degrees(math.asin(float(np.clip(top, -1, 1)))),
+            "swing_u": 1e3 * float((swing - p_st) @ u),
+            "target_u": 1e3 * float((np.asarray(out.swing_position, dtype=float) - p_st) @ u),
+            "joints": {f"{s[0]}_{r}": math.degrees(float(q[k]))
+                       for (s, r), k in side_joint.items()},
+            "tau_hip": [float(sim.joint_torques()[side_joint[(s, "hip_roll")]])
+                        for s in ("left", "right")],
             "t": sim.time, "phase": targets.phase, "swing": targets.swing,
             "err_est": 1e3 * (self.last.dcm[0] - dcm_ref[0]),
             "err_sim": 1e3 * (c[0] + v[0] / omega - dcm_ref[0]),
@@ -136,14 +167,23 @@ def main() -> None:
     p.add_argument("--offset", type=float, default=0.0, help="s after mid single support")
     p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
     p.add_argument("--no-fall", action="store_true", help="the fall detector off")
+    p.add_argument(
+        "--lateral",
+        action="store_true",
+        help="sideways columns (along the push, from the stance sole's centre)",
+    )
     a = p.parse_args()
     summary, rows = trace(a.impulse, a.direction, a.stepping, a.gains, a.walk, a.offset,
                           not a.no_fall)  # fmt: skip
     print(json.dumps(summary))
     # the push starts at the first tick whose simulated DCM error jumps (the walk's clock
     # starts after the calibration and soft start: find it in the simulator's time)
+    key = "dcm_u_sim" if a.lateral else "err_sim"
     jump = next((k for k in range(1, len(rows))
-                 if abs(rows[k]["err_sim"] - rows[k - 1]["err_sim"]) > 8.0), 0)  # fmt: skip
+                 if abs(rows[k][key] - rows[k - 1][key]) > 8.0), 0)  # fmt: skip
+    if a.lateral:
+        lateral_table(rows, jump, a.ticks)
+        return
     print(
         "| ms after push | phase | swing | DCM err est / sim mm | swing target x, z | sole x, z "
         "| F left / right N | pitch change ° | torso pitch, target ° | sole pitch l / r ° |"
@@ -157,6 +197,31 @@ def main() -> None:
               f"{r['sole'][2]:.1f} | {r['f_l']:.1f} / {r['f_r']:.1f} "
               f"| {r['pitch'] - p0:+.1f} | {r['pitch']:+.1f}, {r['cmd']:+.1f} "
               f"| {r['soles'][0]:+.1f} / {r['soles'][1]:+.1f} |")  # fmt: skip
+
+
+def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
+    """The sideways rows: along the push ``u``, from the stance sole's centre (mm): the DCM
+    (estimated / simulated), the CoP and the stance sole's furthest contact point, the
+    swing sole and its target; the hip strategy's roll (deg), the torso's top tilted along
+    ``u`` and its target's, the hip and shoulder rolls (deg) and the hip rolls' torques. (In
+    double support "stance" is the sole of the next single support, "swing" the other.)"""
+    print(
+        "| ms | phase | DCM est / sim | CoP / edge | swing sole u, z / target u | F l / r "
+        "| hip roll h | torso top along u, target | hip roll l / r ° (τ N·m) | shoulder l / r ° |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    t0 = rows[jump]["t"] if rows else 0.0
+    for r in rows[max(jump - 3, 0) : jump + ticks]:
+        j = r["joints"]
+        print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} "
+              f"| {r['dcm_u']:.1f} / {r['dcm_u_sim']:.1f} "
+              f"| {r['cop_u']:.1f} / {r['edge_u']:.1f} | {r['swing_u']:.1f}, {r['sole'][2]:.1f} / "
+              f"{r['target_u']:.1f} | {r['f_l']:.1f} / {r['f_r']:.1f} | {r['hip']:.1f} "
+              f"| {r['roll']:+.1f}, {r['roll_cmd']:+.1f} "
+              f"| {j.get('l_hip_roll', 0):+.1f} / {j.get('r_hip_roll', 0):+.1f} "
+              f"({r['tau_hip'][0]:+.2f} / {r['tau_hip'][1]:+.2f}) "
+              f"| {j.get('l_shoulder_roll', 0):+.1f} / "
+              f"{j.get('r_shoulder_roll', 0):+.1f} |")  # fmt: skip
 
 
 if __name__ == "__main__":

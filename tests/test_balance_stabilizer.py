@@ -360,6 +360,48 @@ def test_hip_strategy_returns_slowly_and_not_in_double_support(robot):
     assert np.linalg.norm(pin.log3(R)) == pytest.approx(0.5)
 
 
+@pytest.mark.parametrize("hip_jump", [0.0, 0.6])
+def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
+    """``hip_jump``: a DCM offset grown outward by more than hip_jump × hip_band in one tick
+    asks the whole max_hip while the DCM is outward of the stance sole's centre (within the
+    band: nothing without it), until the support changes; the first tick of a single support
+    (the support switch) does not count; a slow drift never fires it, nor a jump within five
+    times the running RMS of the estimate's per-tick change."""
+    q = standing(robot)
+    t = targets_at(robot, q)
+    g = Gains(k_hip=100.0, max_hip=0.5, hip_release=2.0, hip_band=0.025, hip_jump=hip_jump)
+    p = t.l_sole.translation[:2]
+    u = t.l_sole.rotation[:2, 1] / np.linalg.norm(t.l_sole.rotation[:2, 1])
+
+    def roll(stab, offset, targets=t):
+        est = _estimate_with_dcm(stab, p + offset * u)
+        return np.linalg.norm(pin.log3(stab._hip_strategy(targets, est, 0.01)))
+
+    stab = Stabilizer(robot, 0.2, lambda: None, None, g)
+    for offset in (-0.03, -0.03, -0.03):
+        assert roll(stab, offset) == 0.0
+    assert roll(stab, -0.005) == 0.0  # the jump (25 mm): inward still, nothing yet
+    fired = hip_jump > 0
+    assert roll(stab, 0.005) == pytest.approx(0.5 if fired else 0.0)  # outward, within the band
+    assert roll(stab, 0.01) == pytest.approx(0.5 if fired else 0.0)
+    double = targets_at(robot, q, "double")
+    roll(stab, 0.01, double)  # the support changes: re-armed
+    stab.hip[:] = 0.0  # (the roll itself released)
+    assert roll(stab, 0.01) == 0.0  # within the band again
+    drift = Stabilizer(robot, 0.2, lambda: None, None, g)
+    for offset in np.linspace(-0.03, 0.01, 9):  # 5 mm a tick: no push
+        assert roll(drift, offset) == 0.0
+    jitter = Stabilizer(robot, 0.2, lambda: None, None, g)
+    for n in range(60):  # an estimate swinging 10 mm a tick (inward): 20 mm is no push there
+        roll(jitter, -0.03 if n % 2 else -0.02)
+    roll(jitter, 0.0)
+    assert roll(jitter, 0.005) == 0.0
+    switch = Stabilizer(robot, 0.2, lambda: None, None, g)
+    roll(switch, -0.03, double)
+    roll(switch, -0.03)  # the first single-support tick
+    assert roll(switch, 0.005) == 0.0  # its change from the support switch does not count
+
+
 def test_hip_strategy_is_off_with_k_hip_zero(robot):
     """k_hip = 0: the torso target is the torso term's alone (the hip's roll never asked)."""
     q = standing(robot)

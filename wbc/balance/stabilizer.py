@@ -36,7 +36,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the torso target toward it, ``Exp(h (z × u)) R_ref``, ``h = min(k_hip (s − hip_band)⁺, max_hip)``:
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
   sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
-  returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`);
+  returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`); a push (``hip_jump``:
+  the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band;
 * **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
   closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
   walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
@@ -138,6 +139,13 @@ class Gains:
     hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
+    #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
+    #: single support's estimated DCM jumps outward of the stance sole by more than
+    #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
+    #: ``max_hip`` is asked while the DCM is outward of the sole's centre until the support
+    #: changes: the roll starts at once, not 40–50 ms later when the lagging estimate leaves
+    #: the band (issue 30, benchmarks/pushes.md: away 0.727 → 0.789 N·s on ``walk10_wb``)
+    hip_jump: float = 0.6
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -197,6 +205,7 @@ class Gains:
             "hip_band",
             "max_hip",
             "hip_release",
+            "hip_jump",
             "transfer",
         ):
             v = getattr(self, name)
@@ -241,7 +250,11 @@ def default_gains(compensate: float) -> Gains:
 # its extra rate gain (s), the ringing's RMS threshold (rad/s; yaw_ring), the lag's (s; lag_yaw)
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
 _K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
-_K_SIZE = 16
+_K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
+_K_SIZE = 17
+#: ``hip_jump``'s jitter guard: the jump must beat this × the running RMS of the per-tick change
+#: too (time constant ``HIP_JUMP_TAU`` s; as ``SteppingParams.trigger_sigma`` along the walk)
+HIP_JUMP_SIGMA, HIP_JUMP_TAU = 5.0, 0.3
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -359,9 +372,11 @@ def _torso_feedback(
 # the feedback's state (Stabilizer._fb): the hip-strategy roll (2), the torso integral (3), the
 # IMU calibration applied (1/0), its gyro bias (3) and levelling rotation (9, row-major), the
 # largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad) and
-# yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest, the servos' lag (s)
+# yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest, the servos' lag (s),
+# the hip strategy's push trigger (hip_jump: the last outward offset, m; the single support's
+# ticks so far; 1 once it fired in this single support; the mean square of the per-tick change)
 _B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT = 0, 2, 5, 6, 9, 18
-_B_YAW, _B_LAG, _B_SIZE = 19, 22, 23  # (3: the low-pass's state, yaw_ring's two; then τ)
+_B_YAW, _B_LAG, _B_JUMP, _B_SIZE = 19, 22, 23, 27  # (3: the low-pass's state, yaw_ring's two)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -375,6 +390,7 @@ def _hip_roll(
     k: np.ndarray,
     dt: float,
     H: np.ndarray,
+    jump: np.ndarray,
 ) -> None:
     """The hip strategy (``k_hip``): writes ``H``, the rotation that turns the torso target
     toward the stance sole's outer side, and updates the roll ``h`` (2, in place). In single
@@ -387,17 +403,35 @@ def _hip_roll(
     the fall: the centroidal moment pivot moves beyond the sole's edge while the torso
     accelerates (benchmarks/pushes.md). The roll grows at once along its direction; any other
     change (shrinking, turning, double support: back to 0) goes at ``hip_release`` rad/s at
-    most (a fast return would throw the DCM out again)."""
+    most (a fast return would throw the DCM out again). With ``k[_K_HIP_JUMP]`` > 0 (m) the
+    push trigger (``hip_jump``; ``jump``: the last offset, the single support's ticks, the
+    latch, the per-tick change's mean square; updated in place): an offset grown by more than
+    that and :data:`HIP_JUMP_SIGMA` × its running RMS in one tick, past the support switch's
+    first tick, asks the whole ``max_hip`` while the DCM is outward of the sole's
+    centre until the support changes."""
     want0 = want1 = 0.0
     if single:
         y0, y1 = stance[0, 1] / y_norm, stance[1, 1] / y_norm
         p0, p1 = stance[0, 3], stance[1, 3]
         if (p0 - other[0, 3]) * y0 + (p1 - other[1, 3]) * y1 < 0:
             y0, y1 = -y0, -y1
-        s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1 - k[_K_BAND]
+        s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1
+        threshold = k[_K_HIP_JUMP]
+        if threshold > 0:
+            if jump[1] >= 2:  # (not across the support switch)
+                d = s - jump[0]
+                if d > max(threshold, HIP_JUMP_SIGMA * math.sqrt(jump[3])):
+                    jump[2] = 1.0
+                jump[3] += (d * d - jump[3]) * min(dt / HIP_JUMP_TAU, 1.0)
+            jump[0] = s
+            jump[1] += 1
+        pushed = jump[2] > 0.5
+        s -= 0.0 if pushed else k[_K_BAND]
         if s > 0:
-            m = min(k[_K_HIP] * s, k[_K_MAX_HIP])
+            m = k[_K_MAX_HIP] if pushed else min(k[_K_HIP] * s, k[_K_MAX_HIP])
             want0, want1 = y0 * m, y1 * m
+    else:  # (double support: the trigger re-armed; the jitter's mean square kept)
+        jump[0], jump[1], jump[2] = 0.0, 0.0, 0.0
     h0, h1 = h[0], h[1]
     if want0 * h0 + want1 * h1 >= h0 * h0 + h1 * h1:  # growing along its direction: at once
         h[0], h[1] = want0, want1
@@ -472,7 +506,7 @@ def _feedback_tick(
     if consts[_K_HIP] > 0:
         H = np.empty((3, 3))
         _hip_roll(side < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
-                  consts, dt, H)  # fmt: skip
+                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 4])  # fmt: skip
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
@@ -607,7 +641,8 @@ class Stabilizer:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
-                 g.max_yaw, g.yaw_damping, g.yaw_ring, g.lag_yaw]  # fmt: skip
+                 g.max_yaw, g.yaw_damping, g.yaw_ring, g.lag_yaw,
+                 g.hip_jump * g.hip_band]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             read = g.lag_yaw > 0 or g.lag_clock > 0 or self._measure_lag
             lag = self._lag if read else self._no_lag
@@ -700,7 +735,7 @@ class Stabilizer:
             other = (targets.r_sole if targets.support == "l_sole" else targets.l_sole).homogeneous
             y_norm = max(math.hypot(st[0, 1], st[1, 1]), 1e-9)
         _hip_roll(single, st, other, y_norm, np.asarray(est.dcm, dtype=float), self.hip,
-                  self._consts(), float(dt), H)  # fmt: skip
+                  self._consts(), float(dt), H, self._fb[_B_JUMP : _B_JUMP + 4])  # fmt: skip
         return H
 
     def _torso_sample(self, reading):
