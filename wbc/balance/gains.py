@@ -1,0 +1,179 @@
+"""The closed loop's feedback gains (:class:`Gains`) and their measured defaults
+(:func:`default_gains`); the feedback itself is :mod:`wbc.balance.stabilizer`'s."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import ConfigurationError
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Feedback gains (each term: :mod:`wbc.balance.stabilizer`'s docstring); 0 turns a term
+    off."""
+
+    # issue 30: halved from 2 / 2 / 0.1 s, which tipped plants with 12–16 ms of latency and
+    # stiff servos to 44° (benchmarks/physics.md, "Plant-randomised sweep"); with kin_tilt,
+    # 2 / 2 keeps one more plant without the feed-forward and brings lateral_wb's nominal to
+    # 2.4° / 0.98, but loses three with it (38, 42 on every walk): not the default (issue
+    # 30's fourth pass)
+    k_p: float = 1.0  # rad/rad torso tilt
+    k_i: float = 1.0  # 1/s
+    k_d: float = 0.05  # s
+    k_dcm: float = 0.0  # m/m
+    #: 1/s: integral of the DCM error on the CoM target, along the walk (the torso target's
+    #: heading frame): the steady lag a wrong servo model leaves (issue 30); its share clipped
+    #: to max_shift. Off here, 0.25 in :data:`NO_FEED_FORWARD_GAINS`
+    k_dcm_i: float = 0.0
+    k_dcm_i_y: float = 0.0  # 1/s: the same sideways
+    k_lean: float = 0.0  # rad/rad: the CoM turned back about the stance sole by k_lean·e
+    #: the torso term's part about the target's heading (roll: k_p, k_i and k_d sideways)
+    #: scaled by this (1: the same gains on every axis)
+    k_roll: float = 1.0
+    k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
+    #: Hz: the torso command's heading (vertical) part low-passed, first order, at this
+    #: cut-off (0: off): the yaw loop's ringing (~5.5 Hz on stiff, late plants: issue 30)
+    #: attenuated before it reaches the hip yaw servos
+    yaw_cutoff: float = 0.0
+    #: rad: the torso command's heading (vertical) part clipped on its own to this, its
+    #: tilt part to ``max_tilt`` (and their integrals each to its share over ``k_i``), so a
+    #: heading lag (a soft plant's turn) does not eat the tilt's command; 0: the two share
+    #: ``max_tilt`` as one vector (issue 30)
+    max_yaw: float = 0.0
+    #: s: more rate gain on the heading part alone (``k_d`` + this on the vertical gyro
+    #: rate): damping for the yaw loop's ringing on stiff, late plants (issue 30)
+    yaw_damping: float = 0.0
+    #: rad/s: the heading's gain scheduled from the yaw loop's measured ringing (0: off): the
+    #: vertical gyro rate high-passed (first order, :data:`RING_HZ`) and its RMS over a
+    #: sliding window (:data:`RING_WINDOW` s, exponential) ``r``; the torso command's heading
+    #: part scaled by ``min(1, yaw_ring / r)``, full authority while the loop is quiet (a
+    #: soft plant's turn lag: a slow rate the high-pass takes out), backed off on a plant
+    #: whose servo latency rings the hip yaw (issue 30)
+    yaw_ring: float = 0.0
+    #: s: the heading's gain scheduled from the servos' measured lag behind their goals
+    #: (:func:`~wbc.balance.servo_lag.servo_lag`, ``τ``; 0: off): the torso command's heading
+    #: part scaled by ``min(1, lag_yaw / τ)`` — less heading authority on a plant whose
+    #: servos follow late (soft: τ 35–60 ms, stiff 5–36 ms). Without the feed-forward, 0.04
+    #: keeps 295 of 300 randomised plants against 294 but loses one the default keeps (issue
+    #: 30, i30p's seventh round, benchmarks/physics.md): off
+    lag_yaw: float = 0.0
+    #: s: the walk's clock slowed by the servos' measured lag τ (0: off): ``clip(lag_clock / τ,
+    #: clock_min, 1)`` (:func:`.servo_lag.clock_rate`), the DCM reference's velocity alike
+    lag_clock: float = 0.0
+    clock_min: float = 0.7  # the slowest clock lag_clock sets (0 < clock_min <= 1)
+    clock_single: float = 1.0  # the share of lag_clock's slowing in single support (0..1)
+    j_p: float = 0.0  # joint level: leg goals turned by OP3 gain × j_p × tilt error
+    j_d: float = 0.0  # joint level: ... × j_d × gyro rate (s)
+    max_offset: float = 0.2  # rad, per joint
+    max_tilt: float = 0.2  # rad
+    max_shift: float = 0.02  # m
+    k_hip: float = 100.0  # rad/m: hip strategy, the torso rolled toward a DCM beyond hip_band
+    hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
+    max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
+    hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
+    #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
+    #: single support's estimated DCM jumps outward of the stance sole by more than
+    #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
+    #: ``max_hip`` is asked while the DCM is outward of the sole's centre until the support
+    #: changes: the roll starts at once, not 40–50 ms later when the lagging estimate leaves
+    #: the band (issue 30, benchmarks/pushes.md: away 0.727 → 0.789 N·s on ``walk10_wb``)
+    hip_jump: float = 0.6
+    #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
+    #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
+    #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
+    #: on its compliant servos, the encoders missing the backlash) tilts the estimate by
+    #: bias / (0.2 + kin_tilt) instead of bias / 0.2 (issue 30, benchmarks/physics.md); used
+    #: when the Stabilizer builds its estimator (not with one given: ``wbc drive``'s)
+    kin_tilt: float = 0.5
+    #: m: a sole landing further than this from its planned placement anchors the state
+    #: estimate where it landed until it lifts (``StateEstimator`` ``anchor_band``; 0: off)
+    anchor_band: float = 0.0
+    #: m: a sole whose lowest point stands more than this above the other's carries no
+    #: weight: the estimate anchors on the soles that do (``StateEstimator`` ``contact_band``:
+    #: from the encoders' kinematics and the IMU's tilt; 0: the plan's support). 0.004
+    #: moves no push beyond rounding and loses a ringing plant with the feed-forward
+    #: (benchmarks/pushes.md, issue 30's seventh pass): off
+    contact_band: float = 0.0
+    #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
+    #: rotation of the tick the joints were read (a tick before the IMU sample: the
+    #: deployment reads right after the goals; StateEstimator ``joint_lag``); 0: this tick's.
+    #: Off here, on in :data:`NO_FEED_FORWARD_GAINS` (the default without the feed-forward):
+    #: it keeps more plants on turn_wb and lateral_wb; alone it loses plant 42 on walk10_wb;
+    #: with k_d 0.03, 147 against 143 of 150 without the feed-forward, 2 fewer on walk10_wb
+    #: with it (issue 30's sixth pass)
+    joint_lag: float = 0.0
+    #: share of the double support in which the closed loop's reference moves its ZMP to the
+    #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
+    transfer: float = 0.15
+
+    def check(self) -> Gains:
+        for name in (
+            "k_p",
+            "k_i",
+            "k_d",
+            "k_dcm",
+            "k_dcm_i",
+            "k_dcm_i_y",
+            "k_lean",
+            "k_roll",
+            "k_yaw",
+            "yaw_cutoff",
+            "max_yaw",
+            "yaw_damping",
+            "yaw_ring",
+            "lag_yaw",
+            "lag_clock",
+            "clock_single",
+            "j_p",
+            "j_d",
+            "max_tilt",
+            "max_shift",
+            "max_offset",
+            "kin_tilt",
+            "anchor_band",
+            "contact_band",
+            "joint_lag",
+            "k_hip",
+            "hip_band",
+            "max_hip",
+            "hip_release",
+            "hip_jump",
+            "transfer",
+        ):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ConfigurationError(
+                    f"stabilizer gain {name} must be a finite number >= 0, got {v}"
+                )
+        if not 0.0 < self.clock_min <= 1.0:
+            raise ConfigurationError(f"stabilizer gain clock_min: (0, 1], got {self.clock_min}")
+        if self.transfer > 1 or self.clock_single > 1:
+            raise ConfigurationError(f"stabilizer gains transfer, clock_single: [0, 1], got "
+                                     f"{self.transfer}, {self.clock_single}")  # fmt: skip
+        return self
+
+
+#: the closed loop's default gains without the compliance feed-forward (``compensate`` 0: a
+#: robot whose servo model is unknown, ``--compensate 0``): the estimator's timing
+#: (``joint_lag``) and less torso rate gain (``k_d`` 0.03 s) keep 147 of 150 randomised plants
+#: up against :class:`Gains`' 143 (``turn_wb`` 48, ``lateral_wb`` 49, ``walk10_wb`` 50; with
+#: the feed-forward they lose two on ``walk10_wb``, so it keeps :class:`Gains`: issue 30's
+#: sixth pass); the DCM integral along the walk (``k_dcm_i`` 0.25 /s) takes the soft plants'
+#: steady lag (nothing pre-loads their knees: the body sags back, the DCM 30–55 mm behind):
+#: 150 of 150 (issue 30's ninth pass, benchmarks/physics.md). The heading command
+#: low-passed at 2 Hz (``yaw_cutoff``) measured 295 of 300 plants against 293 (seeds 0 and
+#: 1, the three walks) on one code and 293 against 294 on the next (2026-12-05's final main:
+#: the same knife-edge plants flip with rounding elsewhere), the OP3 147 of 150 against 148:
+#: no better, so off (benchmarks/physics.md, issue 30, i30p's third round)
+NO_FEED_FORWARD_GAINS = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25)
+
+
+def default_gains(compensate: float) -> Gains:
+    """The closed loop's default gains for a feed-forward gain ``compensate``: the measured
+    best of each, :data:`NO_FEED_FORWARD_GAINS` at 0, :class:`Gains` above (the one
+    definition :func:`wbc.balance.live.closed_loop` and every command use when no gains are
+    given)."""
+    return NO_FEED_FORWARD_GAINS if compensate <= 0 else Gains()
