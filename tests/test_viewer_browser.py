@@ -34,6 +34,8 @@ CHROMIUM_ARGS = [
 W, H = 640, 480
 ORANGE = (0.85, 0.45, 0.1)
 TIMEOUT_MS = 20_000
+# one worker runs them all (under pytest-xdist): one Chromium and one viewer server
+pytestmark = pytest.mark.xdist_group("browser")
 
 if not Path(CHROMIUM).is_file():
     pytest.skip(
