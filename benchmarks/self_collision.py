@@ -113,6 +113,7 @@ class PlacoSelfCollision(PlacoController):
     name = "placo-self-collision"
 
     def __init__(self, pairs_file: str, margin: float, trigger: float) -> None:
+        super().__init__()  # (the robot's stack's tasks, read at start)
         self.pairs_file, self.margin, self.trigger = pairs_file, margin, trigger
 
     def start(self, robot, q0, ref) -> None:

@@ -314,3 +314,54 @@ def test_peers_use_the_mapped_frame_names(tmp_path, peer):
     _, rec = run_entry(entries[0], robot, traj.build("thesis_step", robot), "tick")
     m = metrics.compute(rec, robot)
     assert m["failures"] == 0 and m["com_err_max_mm"] < 5.0
+
+
+def test_peers_take_the_robot_folders_stack_and_say_what_they_leave_out(tmp_path):
+    """Issue 29: placo, pink and the weighted NLP read the stack a command runs on the robot
+    (its folder's stack.toml, else walk), as the stack loader built it (the weights scaled to
+    the robot by its design_leg), and name what they cannot express; a stack without their
+    tasks is refused in one line."""
+    import importlib.util
+
+    from wbc.bench.peers import peer_stack
+    from wbc.exceptions import TaskError
+    from wbc.model import load_robot
+    from wbc.paths import stacks_dir
+    from wbc.stacks import load_stack
+    from wbc.tasks import ComTask
+
+    op3 = load_robot("robots/op3")
+    tasks = peer_stack(op3)
+    assert (tasks.stack, tasks.torso, tasks.posture) == ("op3", 10.0, 0.2)
+    assert (tasks.com, tasks.swing_position, tasks.swing_orientation) == (1000.0, 100.0, 100.0)
+    assert tasks.cannot == ("self_collision 5 mm", "ground_clearance")
+    assert tasks.com_margin is None
+    for name in ("placo", "pink"):
+        assert solvers.registry("kinematic")[name].make(op3).tasks == tasks
+    if importlib.util.find_spec("casadi") is not None:  # the weighted NLP: the same weights
+        nlp = solvers.registry("kinematic")["nlp-ipopt"].make(op3)
+        assert (nlp.stack, nlp.nlp_options["weights"].torso) == ("op3", 10.0)
+    bioloid = load_robot("bioloid")
+    walk = peer_stack(bioloid)
+    assert (walk.stack, walk.com, walk.swing_position, walk.torso, walk.posture) == (
+        "walk", 1000.0, 100.0, 1.0, 0.01,
+    )  # fmt: skip
+    kokone = load_robot("kokone")  # its stack.toml states the Bioloid's leg: weights scaled
+    com = next(t for t in load_stack(kokone.default_stack, kokone).stack.tasks()
+               if isinstance(t, ComTask))  # fmt: skip
+    assert peer_stack(kokone).com == float(com.weight[0]) > 1000.0
+    strict = peer_stack(bioloid, "walk_strict")
+    assert "2 soft levels (flattened into one weighted level)" in strict.cannot
+    text = (
+        (stacks_dir() / "walk.toml")
+        .read_text()
+        .replace(
+            'constraints = [{ type = "ground_clearance"',
+            'constraints = [{ type = "com_polygon", margin = 0.012 }, { type = "ground_clearance"',
+        )
+    )
+    (tmp_path / "poly.toml").write_text(text)
+    poly = peer_stack(bioloid, tmp_path / "poly.toml")
+    assert poly.com_margin == 0.012 and poly.cannot[1].startswith("com_polygon 0.012 m")
+    with pytest.raises(TaskError, match=r"the peers cannot run stack cj_foot .* no .*posture"):
+        peer_stack(bioloid, "cj_foot")

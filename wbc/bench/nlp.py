@@ -12,7 +12,8 @@ singularity near the start) and the joints — :class:`PoseNLP` solves, with IPO
          z of the swing sole's corners ≥ 0                          (single support, optional)
          q_min ≤ q_j ≤ q_max,
 
-the tasks and weights of ``tasks/walk.toml`` (and of the peers, :mod:`wbc.bench.peers`).
+the tasks and weights of the peers' stack (:func:`wbc.bench.peers.peer_stack`; by default
+``tasks/walk.toml``'s).
 ½‖R − R*‖_F² = 2(1 − cos θ) = θ² − θ⁴/12 + … is the smooth stand-in for the QP tasks'
 ‖log(R* Rᵀ)‖² = θ². ``hard_com_and_swing=True`` turns the CoM and the swing sole's position
 into equalities: the thesis's tasks met exactly, and the residual says whether the pose is
@@ -39,7 +40,7 @@ from ..model import Robot
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference
 from .casadi_kinematics import CasadiKinematics
-from .peers import COM_WEIGHT, POSTURE_WEIGHT, SWING_WEIGHT, TORSO_WEIGHT
+from .peers import PeerTasks
 
 PHASES = ("double", "single")
 SOLES = ("l_sole", "r_sole")
@@ -52,12 +53,20 @@ SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 @dataclass(frozen=True)
 class NlpWeights:
-    """Weights of the soft tasks (those of ``tasks/walk.toml``)."""
+    """Weights of the soft tasks (by default ``tasks/walk.toml``'s on the Bioloid; a stack's:
+    :meth:`of`)."""
 
-    com: float = COM_WEIGHT
-    swing: float = SWING_WEIGHT
-    torso: float = TORSO_WEIGHT
-    posture: float = POSTURE_WEIGHT
+    com: float = 1000.0
+    swing: float = 100.0
+    torso: float = 1.0
+    posture: float = 0.01
+    #: the stack they were read from (None: these defaults)
+    stack: str | None = None
+
+    @classmethod
+    def of(cls, tasks: PeerTasks) -> NlpWeights:
+        """The weights of a stack read for the peers (the swing sole's: its position rows')."""
+        return cls(tasks.com, tasks.swing_position, tasks.torso, tasks.posture, tasks.stack)
 
 
 @dataclass
@@ -482,6 +491,9 @@ class NlpController(Controller):
             raise ConfigurationError(f"com_margin must be None or >= 0 (m), got {com_margin!r}")
         self.com_margin = com_margin
         self.nlp_options = nlp_options
+        weights = nlp_options.get("weights")
+        #: the stack its weights come from (recorded; None: the defaults, or the hard tasks)
+        self.stack: str | None = getattr(weights, "stack", None)
         if name is not None:
             self.name = name
         elif hard_com_and_swing:

@@ -1,33 +1,137 @@
 """The peers placo and pink as :class:`~wbc.walking.loop.Controller` objects.
 
-Both are configured with our URDF and the tasks of our recommended ``walk`` stack: hard
-support contact (both soles hard in double support), the swing sole's 6-D pose, the CoM
-(weight 1000, swing 100), the torso orientation (1) and a light posture task (0.01), with joint
-position limits and servo velocity limits. Neither gets the CoM-polygon or ground-clearance
-constraints (pink has none; placo has a polygon constraint but no clearance), so they solve a
-slightly easier problem than ``walk``. The weights of length rows (the CoM, the soles' positions)
-are divided by the robot's size squared as the stacks' are (:func:`wbc.roles.length_unit`).
+Both are configured with our URDF and the tasks of the run's stack (:func:`peer_stack`: the
+``--stack`` given, else the robot folder's ``stack.toml``, else ``tasks/walk.toml``), read from
+the :class:`~wbc.stacks.ControlStack` the stack loader builds (:func:`peer_tasks`: its weights,
+the length rows already scaled to the robot): hard support contact (both soles hard in double
+support), the swing sole's 6-D pose, the CoM, the torso orientation and the posture, in one
+weighted level, with joint position limits and servo velocity limits. What they cannot express
+(self-collision rows, ground clearance, the CoM polygon, a second soft level, another task
+type) is listed in :attr:`PeerTasks.cannot` and printed by ``wbc bench`` in one line.
 They are optional: :func:`available` says which are installed.
 """
 
 from __future__ import annotations
 
 import importlib.util
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import SolverError
+from ..exceptions import SolverError, TaskError
 from ..model import Robot
-from ..roles import length_unit
+from ..stacks import ControlStack, load_stack, robot_stack
+from ..tasks import ComTask, ContactTask, FrameOrientationTask, FramePoseTask, PostureTask
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import WalkingReference
 
-# the weights of tasks/walk.toml
-COM_WEIGHT = 1000.0
-SWING_WEIGHT = 100.0
-TORSO_WEIGHT = 1.0
-POSTURE_WEIGHT = 0.01
+
+@dataclass(frozen=True)
+class PeerTasks:
+    """The soft tasks of a stack as the peers and the NLP take them: weights (the CoM's and
+    the swing sole's position rows already scaled to the robot by the stack loader), the CoM
+    polygon's margin (m; None without one), the stack's name and source, and what a peer
+    cannot express (one phrase each)."""
+
+    com: float
+    swing_position: float
+    swing_orientation: float
+    torso: float
+    posture: float
+    com_margin: float | None
+    stack: str
+    source: str
+    cannot: tuple[str, ...] = field(default_factory=tuple)
+
+    def line(self) -> str:
+        """One line: the stack, its weights and what the peers leave out."""
+        w = (
+            f"CoM {self.com:g}, swing {self.swing_position:g} / {self.swing_orientation:g}, "
+            f"torso {self.torso:g}, posture {self.posture:g}"
+        )
+        left = f"; cannot express: {', '.join(self.cannot)}" if self.cannot else ""
+        return f"stack {self.stack} ({self.source}): {w}{left}"
+
+
+def _uniform(task, what: str, cannot: list[str]) -> float:
+    w = np.asarray(task.weight, dtype=float)
+    if np.ptp(w) > 0:
+        cannot.append(f"{what}'s per-row weights (their largest taken)")
+    return float(w.max())
+
+
+def peer_tasks(control: ControlStack) -> PeerTasks:
+    """Read the peers' tasks from a loaded stack: hard contacts, then one weighted level of
+    the CoM, the swing sole's pose, the torso's orientation and the posture. A task or
+    constraint outside that is named in ``cannot``; a stack without a CoM, swing or posture
+    task is refused in one line."""
+    robot = control.robot
+    torso = robot.frame_id("torso")
+    swing = set(id(t) for t in control.role_tasks("swing"))
+    found: dict[str, float] = {}
+    margin: float | None = None
+    cannot: list[str] = []
+    soft_levels = 0
+    for level in control.stack.all_levels():
+        soft_levels += not level.hard
+        for task in level.tasks:
+            if isinstance(task, ContactTask) and level.hard:
+                continue
+            if isinstance(task, ComTask) and not level.hard:
+                found["com"] = _uniform(task, "com", cannot)
+            elif isinstance(task, FramePoseTask) and id(task) in swing and not level.hard:
+                w = np.asarray(task.weight, dtype=float)
+                found["swing_position"], found["swing_orientation"] = float(w[0]), float(w[-1])
+            elif (
+                isinstance(task, FrameOrientationTask) and task.frame_id == torso and not level.hard
+            ):
+                found["torso"] = _uniform(task, "torso", cannot)
+            elif type(task) is PostureTask and not level.hard:
+                found["posture"] = _uniform(task, "posture", cannot)
+            else:
+                kind = "hard " if level.hard else ""
+                cannot.append(f"{kind}{type(task).__name__} {task.name!r}")
+        for c in level.constraints:
+            kind = type(c).__name__.removesuffix("Constraint")
+            if kind == "ComPolygon":
+                margin = float(c.margin)
+                cannot.append(f"com_polygon {margin:g} m (placo, pink; the NLP keeps it)")
+            elif kind == "SelfCollision":
+                cannot.append(f"self_collision {float(c.margin) * 1e3:g} mm")
+            else:
+                cannot.append(_snake(kind))
+    if soft_levels > 1:
+        cannot.append(f"{soft_levels} soft levels (flattened into one weighted level)")
+    missing = [k for k in ("com", "swing_position", "torso", "posture") if k not in found]
+    if missing:
+        raise TaskError(
+            f"the peers cannot run stack {control.name} ({control.source}): it has no "
+            f"{', '.join(missing)} task (they need the CoM, swing pose, torso and posture)"
+        )
+    return PeerTasks(
+        com=found["com"],
+        swing_position=found["swing_position"],
+        swing_orientation=found["swing_orientation"],
+        torso=found["torso"],
+        posture=found["posture"],
+        com_margin=margin,
+        stack=control.name,
+        source=control.source,
+        cannot=tuple(dict.fromkeys(cannot)),
+    )
+
+
+def _snake(name: str) -> str:
+    return "".join("_" + ch.lower() if ch.isupper() else ch for ch in name).lstrip("_")
+
+
+def peer_stack(robot: Robot, stack: str | Path | None = None) -> PeerTasks:
+    """The peers' tasks on ``robot``: the stack a command runs there (:func:`robot_stack`:
+    ``stack``, else the robot folder's ``stack.toml``, else ``tasks/walk.toml``), loaded by
+    the stack loader and read by :func:`peer_tasks`."""
+    return peer_tasks(load_stack(robot_stack(robot, stack)[0], robot))
 
 
 def available() -> dict[str, bool]:
@@ -43,6 +147,10 @@ class PlacoController(Controller):
 
     name = "placo"
     family = "peer"
+
+    def __init__(self, tasks: PeerTasks | None = None) -> None:
+        self.tasks = tasks  # None: the robot's stack, read at start (peer_stack)
+        self.stack = None if tasks is None else tasks.stack  # (recorded)
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         import placo
@@ -63,14 +171,15 @@ class PlacoController(Controller):
             for s in ("l_sole", "r_sole")
         }
         self.com = solver.add_com_task(self.pr.com_world())
-        self.unit2 = length_unit(robot) ** 2
-        self.com.configure("com", "soft", COM_WEIGHT / self.unit2)
+        w = self.w = self.tasks or peer_stack(robot)
+        self.stack = w.stack
+        self.com.configure("com", "soft", w.com)
         R0 = self.pr.get_T_world_frame(urdf("torso", "torso"))[:3, :3]
         self.torso = solver.add_orientation_task(urdf("torso", "torso"), R0)
-        self.torso.configure("torso", "soft", TORSO_WEIGHT)
+        self.torso.configure("torso", "soft", w.torso)
         posture = solver.add_joints_task()
         posture.set_joints({n: float(q0[7 + i]) for i, n in enumerate(robot.joint_names)})
-        posture.configure("posture", "soft", POSTURE_WEIGHT)
+        posture.configure("posture", "soft", w.posture)
         solver.add_regularization_task(1e-6)
 
     def _set(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
@@ -81,7 +190,7 @@ class PlacoController(Controller):
                 task.T_world_frame = (
                     targets.l_sole if sole == "l_sole" else targets.r_sole
                 ).homogeneous
-                weight = 1.0 if hard else SWING_WEIGHT / self.unit2  # (the position's)
+                weight = 1.0 if hard else self.w.swing_position  # (the position's)
                 task.configure(sole, "hard" if hard else "soft", weight)
         if targets.phase == "single":
             self.feet[targets.swing].T_world_frame = targets.swing_placement.homogeneous
@@ -104,6 +213,10 @@ class PinkController(Controller):
     name = "pink"
     family = "peer"
 
+    def __init__(self, tasks: PeerTasks | None = None) -> None:
+        self.tasks = tasks  # None: the robot's stack, read at start (peer_stack)
+        self.stack = None if tasks is None else tasks.stack  # (recorded)
+
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         from pink import Configuration
         from pink.limits import ConfigurationLimit, VelocityLimit
@@ -114,19 +227,21 @@ class PinkController(Controller):
         self.data = robot.model.createData()
         self.config = Configuration(self.model, self.data, q0.copy())
         urdf = robot.frame_aliases.get  # the URDF's names of the standard frames
-        cost, unit = np.sqrt(SWING_WEIGHT), length_unit(robot)
+        w = self.tasks or peer_stack(robot)
+        self.stack = w.stack
+        position, orientation = np.sqrt(w.swing_position), np.sqrt(w.swing_orientation)
         self.feet = {
-            s: FrameTask(urdf(s, s), position_cost=cost / unit, orientation_cost=cost)
+            s: FrameTask(urdf(s, s), position_cost=position, orientation_cost=orientation)
             for s in ("l_sole", "r_sole")
         }
         for s, task in self.feet.items():
             task.set_target(self.config.get_transform_frame_to_world(urdf(s, s)))
-        self.com = ComTask(cost=np.sqrt(COM_WEIGHT) / unit)
+        self.com = ComTask(cost=np.sqrt(w.com))
         self.com.set_target(robot.com(q0))
         torso = urdf("torso", "torso")
-        self.torso = FrameTask(torso, position_cost=0.0, orientation_cost=np.sqrt(TORSO_WEIGHT))
+        self.torso = FrameTask(torso, position_cost=0.0, orientation_cost=np.sqrt(w.torso))
         self.torso.set_target(self.config.get_transform_frame_to_world(torso))
-        self.posture = PostureTask(cost=np.sqrt(POSTURE_WEIGHT))
+        self.posture = PostureTask(cost=np.sqrt(w.posture))
         self.posture.set_target(q0.copy())
         self.limits = [ConfigurationLimit(self.model), VelocityLimit(self.model)]
         self.hard: list = [self.feet["l_sole"], self.feet["r_sole"]]

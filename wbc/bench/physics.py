@@ -146,7 +146,7 @@ def run_physics(
     for name, ref in refs.items():
         for entry in entries:
             console.print(f"[dim]physics: {entry.name} on {name}[/]")
-            _, rec = run_entry(entry, robot, ref, "tick")
+            planned, rec = run_entry(entry, robot, ref, "tick")
             if options.record:
                 save_recording(rec, options.record, entry.name, name)
             excess = np.maximum(robot.q_min - rec.joints, rec.joints - robot.q_max).max()
@@ -188,7 +188,7 @@ def run_physics(
                 r["plan_limit_excess_deg"] = float(np.degrees(max(excess, 0.0)))
                 r["clamped_ticks"] = int(result.deploy.limits.clamped.max())
                 wall = time.perf_counter() - started
-                r.update(solver=entry.name, family=entry.family, stack=entry.stack,
+                r.update(solver=entry.name, family=entry.family, stack=planned["stack"],
                          trajectory=name, **loop,
                          sim_steps=int(result.sim.steps), wall_s=wall,
                          steps_per_s=result.sim.steps / wall,

@@ -37,7 +37,8 @@ def run_entry(
     record = metrics.compute(rec, robot)
     record["time_clock"] = clock
     record["solver"], record["family"] = entry.name, entry.family
-    record["stack"] = entry.stack  # the task stack file (None: a pinv scheme, a peer, the NLP)
+    # the task stack file (a peer's and the NLP's: the stack they read; None: a pinv scheme)
+    record["stack"] = entry.stack if entry.stack is not None else getattr(controller, "stack", None)
     record["gait"] = ref.gait  # static: the CoM margin is the balance figure; dynamic: the ZMP's
     rec.meta.update(solver=entry.name, family=entry.family)
     return record, rec

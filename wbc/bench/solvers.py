@@ -7,7 +7,7 @@ Every entry builds a :class:`~wbc.walking.loop.Controller` for a robot:
   or another one named ``<entry>@<stack>`` (``wbc bench --stack``);
 * ``qp-<scheme>`` — the QP counterparts of the thesis's six walking schemes (``tasks/``);
 * ``pinv-<scheme>`` — the thesis's pseudo-inverse schemes themselves (:mod:`wbc.pinv`);
-* ``placo``, ``pink`` — the peers, same URDF and tasks (optional extra);
+* ``placo``, ``pink`` — the peers, same URDF and the run's stack's tasks (optional extra);
 * ``nlp-ipopt`` / ``nlp-ipopt-hard`` — each pose as one nonlinear program (casadi + IPOPT),
   weighted like the ``walk`` stack or with the CoM and swing sole as equalities: the accuracy
   references of the converged mode.
@@ -27,7 +27,7 @@ from ..solvers.backends import BACKENDS
 from ..stacks import RENAMED_STACKS, available_stacks, load_stack, stack_file
 from ..walking.loop import Controller, StackController, TickTargets
 from ..walking.reference import WalkingReference
-from .peers import PEERS, available
+from .peers import PEERS, available, peer_stack
 
 THESIS_SCHEMES = ("vat", "vatl", "cj_foot", "cj_com", "cjl_foot", "cjl_com")
 FAMILIES = ("qp-weighted", "qp-hierarchical", "qp-thesis", "pinv", "peer", "nlp")
@@ -95,11 +95,21 @@ def _stack(
     return make
 
 
-def _nlp(hard: bool) -> Callable[[Robot], Controller]:
+def _nlp(hard: bool, stack: str | None) -> Callable[[Robot], Controller]:
     def make(robot: Robot) -> Controller:
-        from .nlp import NlpController
+        from .nlp import NlpController, NlpWeights
 
-        return NlpController(hard_com_and_swing=hard, com_margin=None)  # as tasks/walk.toml
+        if hard:  # the thesis's tasks alone (no weights, no polygon)
+            return NlpController(hard_com_and_swing=True, com_margin=None)
+        tasks = peer_stack(robot, stack)  # the peers' stack, weights and CoM polygon
+        return NlpController(com_margin=tasks.com_margin, weights=NlpWeights.of(tasks))
+
+    return make
+
+
+def _peer(cls: type, stack: str | None) -> Callable[[Robot], Controller]:
+    def make(robot: Robot) -> Controller:
+        return cls(peer_stack(robot, stack))
 
     return make
 
@@ -132,12 +142,14 @@ def registry(benchmark: str = "physics", stack: str | None = None) -> dict[str, 
         entries.append(
             SolverEntry(f"pinv-{scheme}", "pinv", lambda robot, s=scheme: PinvController(s))
         )
+    # the peers and the weighted NLP: the tasks of the stack a command runs on the robot
+    # (``stack``, else its folder's stack.toml, else walk: wbc.bench.peers.peer_stack)
     for name, cls in PEERS.items():
-        entries.append(SolverEntry(name, "peer", lambda robot, c=cls: c(), needs=name))
-    # the weighted reference (the walk stack's weights, as the weighted QP and the peers) and
-    # the hard one (CoM and swing sole as equalities: what the hierarchies should reach)
-    entries.append(SolverEntry("nlp-ipopt", "nlp", _nlp(False), real_time=False))
-    entries.append(SolverEntry("nlp-ipopt-hard", "nlp", _nlp(True), real_time=False))
+        entries.append(SolverEntry(name, "peer", _peer(cls, stack), needs=name))
+    # the weighted reference (the peers' weights) and the hard one (CoM and swing sole as
+    # equalities: what the hierarchies should reach)
+    entries.append(SolverEntry("nlp-ipopt", "nlp", _nlp(False, stack), real_time=False))
+    entries.append(SolverEntry("nlp-ipopt-hard", "nlp", _nlp(True, None), real_time=False))
     return {e.name: e for e in entries}
 
 

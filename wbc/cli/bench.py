@@ -411,6 +411,12 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         console.print(f"wqp-*/hqp-* load the stack {escape(str(stack))}")
     for note in notes:
         console.print(f"[yellow]note[/]: {escape(note)}")
+    peers = [e.name for e in entries if e.family == "peer" or e.name == "nlp-ipopt"]
+    if peers:  # the stack they take their tasks from, and what they leave out
+        from ..bench.peers import peer_stack
+
+        line = peer_stack(robot, stack).line()
+        console.print(f"{', '.join(peers)}: {escape(line)}")
     if args.physics:
         return run_physics_command(args, console, robot, entries)
     walking = [t for t in args.trajectories if t != traj.STATIC_COM]

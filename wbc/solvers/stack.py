@@ -136,6 +136,10 @@ class TaskStack:
             if self._levels[p].active_tasks() or self._levels[p].active_constraints()
         ]
 
+    def all_levels(self) -> list[Level]:
+        """Every level, active or not (a phase's tasks off), in priority order."""
+        return [self._levels[p] for p in sorted(self._levels)]
+
     def tasks(self) -> Iterator[Task]:
         for p in sorted(self._levels):
             yield from self._levels[p].tasks
