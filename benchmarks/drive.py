@@ -31,6 +31,7 @@ import os
 import sys
 import time
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +45,7 @@ from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim
 from wbc.drive.walker import default_compensate
+from wbc.sim.model import FRICTION_CONES, ModelParams
 from wbc.walking.engine import EngineParams
 
 
@@ -276,9 +278,24 @@ def main(argv: list[str] | None = None) -> int:
                          "of the swing's planned landing (Walker(keep_clear=False): the "
                          "behaviour before 2026-12-06, failed solves turning on the "
                          "spot)")  # fmt: skip
+    ap.add_argument("--friction-cone", choices=FRICTION_CONES, default=None,
+                    help="the simulated floor's friction cone (ModelParams.friction_cone; "
+                         "default: the plant's, pyramidal)")  # fmt: skip
+    ap.add_argument("--impratio", type=float, default=None, metavar="R",
+                    help="MuJoCo's impratio (ModelParams.impratio; default 1)")  # fmt: skip
+    ap.add_argument("--noslip", type=int, default=None, metavar="N",
+                    help="MuJoCo's noslip iterations (ModelParams.noslip_iterations; "
+                         "default 0)")  # fmt: skip
+    ap.add_argument("--start-yaw", type=float, default=0.0, metavar="DEG",
+                    help="the robot starts turned DEG about the simulator's vertical (the record "
+                         "stays in the start frame)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
+    contact = {key: value for key, value in (("friction_cone", args.friction_cone),
+                                             ("impratio", args.impratio),
+                                             ("noslip_iterations", args.noslip))
+               if value is not None}  # fmt: skip
     robot = load_robot(args.robot)
     limits, window = planning_envelope(robot)
     print(f"planning limits: forward {100 * limits.vx_forward:.2f} cm/s, backward "
@@ -286,7 +303,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{math.degrees(limits.wz):.1f} deg/s", flush=True)  # fmt: skip
     record: dict = {"robot": robot.name, "solver": args.solver, "limits": limits.as_dict(),
                     "argv": sys.argv[1:], "correct": args.correct, "track": args.track,
-                    "compensate": args.compensate}  # fmt: skip
+                    "compensate": args.compensate, "contact": contact,
+                    "start_yaw_deg": args.start_yaw}  # fmt: skip
     paths = {}
     loop = {
         "correct": args.correct,
@@ -306,6 +324,7 @@ def main(argv: list[str] | None = None) -> int:
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,
         "keep_clear": args.keep_clear,
+        "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None
         else EngineParams(
@@ -325,7 +344,8 @@ def main(argv: list[str] | None = None) -> int:
             if args.only and name not in args.only:
                 continue
             t0 = time.perf_counter()
-            r = run_one(robot, args.solver, cmds, limits=limits, window=window, **loop)
+            r = run_one(robot, args.solver, cmds, limits=limits, window=window,
+                        model_params=ModelParams(**contact), **loop)  # fmt: skip
             paths[name] = (r.pop("_path"), cmds)
             if len(cmds) == 1:  # the speed kept from 3 s in to 1 s before the stop
                 r["steady_velocity"] = steady_velocity(paths[name][0], 3.0, cmds[0].duration - 1)
@@ -339,6 +359,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"tick p50 {r['walk_tick_ms_p50']:.2f} ms ({time.perf_counter() - t0:.0f} s)"
                   f" failed solves {r['failed_solves']}", flush=True)  # fmt: skip
     variations = models(robot, args.models, args.seed) if (args.random or args.envelope) else []
+    if contact:  # the randomised plants with the contact options asked for
+        variations = [replace(v, model_params=replace(v.model_params, **contact))
+                      for v in variations]  # fmt: skip
     if args.random:
         runs = []
         share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)

@@ -227,6 +227,12 @@ class ContactSlip:
                        f"friction used {a[6] / max(a[7], 1e-9):.2f}, along the command: "
                        f"slip {100 * a[8]:+.2f} cm, force {a[9] / a[5]:+.3f} N "
                        f"(normal {a[10] / a[5]:.2f} N)")  # fmt: skip
+        total = sum(self.sums.values())
+        if isinstance(total, np.ndarray):
+            net = Rs @ total[:2]
+            out.append(f"  all      net ({100 * net[0]:+.2f}, {100 * net[1]:+.2f}) cm start "
+                       f"frame, ({100 * total[0]:+.2f}, {100 * total[1]:+.2f}) cm world, "
+                       f"{math.degrees(total[2]):+.1f}°")  # fmt: skip
         return out
 
 
@@ -362,6 +368,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="as benchmarks/drive.py --play")  # fmt: skip
     ap.add_argument("--play-hold", type=float, default=None, metavar="S",
                     help="as benchmarks/drive.py --play-hold")  # fmt: skip
+    ap.add_argument("--start-yaw", type=float, default=0.0, metavar="DEG",
+                    help="the robot starts turned DEG about the simulator's vertical (a drift "
+                         "fixed in the floor's frame stays; one of the walk's turns with "
+                         "it)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
     limits, window = planning_envelope(robot)
@@ -443,7 +453,8 @@ def main(argv: list[str] | None = None) -> int:
                               finish=args.finish, lift_gain=args.lift_gain, play=args.play,
                               play_hold=args.play_hold,
                               params=None if args.swing_settle is None
-                              else EngineParams(settle=args.swing_settle))  # fmt: skip
+                              else EngineParams(settle=args.swing_settle),
+                              start_yaw=math.radians(args.start_yaw))  # fmt: skip
             b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
             table.append(b)
             cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
@@ -457,6 +468,11 @@ def main(argv: list[str] | None = None) -> int:
                                      for k in ("plan", "odometry", "swing", "slip", "base", "gyro")
                                      if k + "_deg" in b),
                   flush=True)  # fmt: skip
+            err = np.subtract(r["travelled_xy_m"], r["commanded_xy_m"])
+            world = rot2(odometers[0].yaw0) @ err
+            print(f"  error (travelled − commanded): start frame ({100 * err[0]:+.2f}, "
+                  f"{100 * err[1]:+.2f}) cm, world ({100 * world[0]:+.2f}, "
+                  f"{100 * world[1]:+.2f}) cm", flush=True)  # fmt: skip
             if args.contact:
                 print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
             if args.accrual:

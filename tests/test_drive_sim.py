@@ -170,3 +170,27 @@ def test_the_lift_gain_raises_a_compliant_robots_dragging_swing() -> None:
     assert made[1].lift is not None and made[1].lift.gain > 1.5
     assert made[1].engine.params.swing.apex == pytest.approx(0.01 * made[1].lift.gain)
     assert travelled[1] > travelled[0] + 0.01
+
+
+def test_a_run_can_start_turned_in_the_simulators_world() -> None:
+    """``make_sim(start_yaw=...)``: the standing robot turned about the world's vertical
+    (its soles, base and IMU with it), so that a drift fixed in the floor's frame and one
+    that turns with the robot can be told apart (benchmarks/drive.md)."""
+    import numpy as np
+
+    from wbc.geometry import yaw_of
+    from wbc.sim.model import ModelParams
+
+    robot = load_robot("bioloid")
+    sim0, _, _ = make_sim(robot)
+    sim, _, imu = make_sim(robot, start_yaw=math.radians(90.0),
+                           model_params=ModelParams(noslip_iterations=2))  # fmt: skip
+    assert sim.model.opt.noslip_iterations == 2 and sim0.model.opt.noslip_iterations == 0
+    assert yaw_of(sim.base_rotation()) == pytest.approx(yaw_of(sim0.base_rotation()) + math.pi / 2)
+    for s in ("l_sole", "r_sole"):
+        p0, p = sim0.site_pose(s).translation, sim.site_pose(s).translation
+        np.testing.assert_allclose(p, [-p0[1], p0[0], p0[2]], atol=1e-12)
+    q = imu.read().orientation
+    assert yaw_of(pin.Quaternion(q[3], q[0], q[1], q[2]).matrix()) == pytest.approx(
+        yaw_of(sim.site_pose("imu").rotation)
+    )

@@ -69,6 +69,18 @@ class Odometer:
         return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 
 
+def turned(q: np.ndarray, yaw: float) -> np.ndarray:
+    """The configuration ``q`` (free flyer first) turned ``yaw`` rad about the world's z
+    axis through the origin."""
+    if yaw == 0.0:
+        return q
+    q = np.array(q, dtype=float)
+    Rz = pin.rpy.rpyToMatrix(0.0, 0.0, yaw)
+    M = pin.XYZQUATToSE3(q[:7])
+    q[:7] = pin.SE3ToXYZQUAT(pin.SE3(Rz, np.zeros(3)) * M)
+    return q
+
+
 def wait_for_compiled_ticks() -> None:
     """Before a lockstep simulated run: compile the package's control ticks if they are not
     in the disk cache, and wait for them, so that every tick of the run solves on the
@@ -85,15 +97,19 @@ def wait_for_compiled_ticks() -> None:
 
 
 def make_sim(robot: Robot, variation: Any = None, rate: float = 100.0, realtime: bool = False,
-             on_tick: Callable[[], None] | None = None):  # fmt: skip
+             on_tick: Callable[[], None] | None = None, start_yaw: float = 0.0,
+             model_params: Any = None):  # fmt: skip
     """(simulation, bus, imu) for ``robot`` standing in its standing pose (``variation``: a
-    :class:`wbc.bench.physics.Variation`, None: nominal)."""
+    :class:`wbc.bench.physics.Variation`, None: nominal; ``model_params``: the nominal
+    plant's :class:`~wbc.sim.model.ModelParams` where ``variation`` is None), turned
+    ``start_yaw`` rad about the world's vertical (the floor's frame: a plant with a
+    direction of its own shows it)."""
     from ..sim.bus import SimImu, sim_bus
     from ..sim.simulator import Simulation
 
     v = variation
-    sim = Simulation(robot, v.model_params if v else None, v.servo_params if v else None)
-    sim.reset(robot.configuration("stand"))
+    sim = Simulation(robot, v.model_params if v else model_params, v.servo_params if v else None)
+    sim.reset(turned(robot.configuration("stand"), start_yaw))
     sim.goal_delay = v.latency_s if v else 0.0
     bus = sim_bus(sim, rate, realtime=realtime, latency_ticks=v.latency_ticks if v else 0,
                   on_tick=(lambda _bus: on_tick()) if on_tick else None)  # fmt: skip
@@ -116,6 +132,8 @@ def drive_sim(
     get_up: bool = False,
     getup_params: Any = None,
     finish: bool = False,
+    start_yaw: float = 0.0,
+    model_params: Any = None,
 ) -> dict[str, Any]:
     """Walk ``commands`` on the simulated robot (module docstring); the run's record.
     ``walker_options``: keyword arguments of :class:`Walker` (``limits``, ``window``,
@@ -130,7 +148,10 @@ def drive_sim(
     walker finishes the commanded path before it closes (:meth:`Walker.stop`
     ``finish=True``: at most :data:`~wbc.drive.walker.DRIVE_FINISH_STEPS` steps more; off by
     default: on the random sequences of benchmarks/drive.md it closed the plan's lag but not
-    the base's error)."""
+    the base's error). ``start_yaw``: the robot starts turned that much (rad) in the
+    simulator's world (the record stays in the start frame). ``model_params``: the nominal
+    plant's (:class:`~wbc.sim.model.ModelParams`, e.g. its contact options) where
+    ``variation`` is None."""
     holder: list[Any] = []
 
     def on_tick() -> None:
@@ -141,7 +162,8 @@ def drive_sim(
 
     if not realtime:
         wait_for_compiled_ticks()  # (repeatable: no interim ticks on a cold cache)
-    sim, bus, imu = make_sim(robot, variation, realtime=realtime, on_tick=on_tick)
+    sim, bus, imu = make_sim(robot, variation, realtime=realtime, on_tick=on_tick,
+                             start_yaw=start_yaw, model_params=model_params)  # fmt: skip
     if push is not None:
         start, force, duration = push
         sim.push(force, duration, start=sim.time + start)

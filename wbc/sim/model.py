@@ -57,6 +57,16 @@ class ModelParams:
     #: the IMU's real rotation in its frame (3x3; None: the robot data's ``[imu] rpy_deg``):
     #: a plant whose IMU is mounted otherwise than its robot folder says
     imu_rotation: np.ndarray | None = None
+    #: MuJoCo's friction cone: ``"pyramidal"`` (MuJoCo's default) or ``"elliptic"``
+    #: (isotropic); :data:`FRICTION_CONES`
+    friction_cone: str = "pyramidal"
+    #: MuJoCo's ``impratio``: the friction constraints' impedance over the normal's (> 1:
+    #: stiffer friction, a loaded sole creeps less below the friction limit; MuJoCo advises
+    #: it with the elliptic cone)
+    impratio: float = 1.0
+    #: MuJoCo's ``noslip_iterations`` (0: off): a post-solve pass that removes the soft
+    #: friction's slip
+    noslip_iterations: int = 0
     extra: dict = field(default_factory=dict)
 
     def resolved(self, servo: ServoParams | HobbyServoParams) -> ModelParams:
@@ -68,6 +78,9 @@ class ModelParams:
             friction_loss=servo.friction_loss if self.friction_loss is None else self.friction_loss,
         )
 
+
+#: :attr:`ModelParams.friction_cone`'s choices
+FRICTION_CONES = ("pyramidal", "elliptic")
 
 IMU_KEYS = ("frame", "offset", "rpy_deg")
 
@@ -139,6 +152,7 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
         raise ModelError(f"MuJoCo cannot read the URDF {robot.urdf_path}: {exc}") from exc
     spec.option.timestep = p.timestep
     spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
+    _contact_options(spec, p, mj)
     bodies = {b.name: b for b in spec.bodies}
     root = _root_body(robot, bodies)
     root.add_freejoint(name="base")
@@ -206,6 +220,23 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
     spec.add_sensor(name="imu_acc", type=mj.mjtSensor.mjSENS_ACCELEROMETER,
                     objtype=mj.mjtObj.mjOBJ_SITE, objname=IMU_SITE)  # fmt: skip
     return spec
+
+
+def _contact_options(spec, p: ModelParams, mj) -> None:
+    """The friction cone, ``impratio`` and noslip iterations of ``p`` on ``spec``'s options
+    (bad values: one clear line)."""
+    if p.friction_cone not in FRICTION_CONES:
+        raise ModelError(f"friction_cone {p.friction_cone!r}: choose from {FRICTION_CONES}")
+    if not (np.isfinite(p.impratio) and p.impratio > 0.0):
+        raise ModelError(f"impratio must be > 0, got {p.impratio}")
+    if int(p.noslip_iterations) != p.noslip_iterations or p.noslip_iterations < 0:
+        raise ModelError(
+            f"noslip_iterations must be a whole number >= 0, got {p.noslip_iterations}"
+        )
+    cones = {"pyramidal": mj.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mj.mjtCone.mjCONE_ELLIPTIC}
+    spec.option.cone = cones[p.friction_cone]
+    spec.option.impratio = float(p.impratio)
+    spec.option.noslip_iterations = int(p.noslip_iterations)
 
 
 def build_model(robot: Robot, params: ModelParams | None = None):
