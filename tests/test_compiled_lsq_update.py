@@ -15,6 +15,13 @@ from wbc.compiled.lsq_subproblem import _SUB_OK, _subproblem
 from wbc.compiled.lsq_update import _ROW_DEPENDS, _U_Q, _U_ROWS, _UPDATED, _updated
 
 
+def _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, first):
+    """:func:`_updated` on the base's work arrays (rank ``k``, ``m`` rows; ``first``: the base's
+    solution still in x), the integer and flag arguments typed as the tick passes them."""
+    return _updated(A, a, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k),
+                    np.bool_(first), np.int64(m))  # fmt: skip
+
+
 def _work(m: int, n: int, p: int) -> tuple:
     pp = (p + 3) & ~3
     work = np.zeros((4, max(m, n, _N_VEC), max(m, n, pp)))
@@ -63,24 +70,7 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
     for j, v in enumerate([3, 11, 17][:added]):
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
-    assert _updated(
-        A,
-        a,
-        B,
-        ridge,
-        lower,
-        upper,
-        x,
-        *work,
-        ind,
-        U,
-        S,
-        K,
-        base,
-        np.int64(k),
-        np.bool_(True),
-        np.int64(m),
-    )
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
     mu = work[3][_V_MU, :n].copy()
     mu_tol = work[3][_V_MU_TOL, :n].copy()
     # the same set solved afresh
@@ -93,24 +83,7 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
     # and a second update from the same base (its solution kept in U) answers the same
     ind[_I_FIXED, :n] = fixed
     x3 = np.full(n, np.nan)
-    assert _updated(
-        A,
-        a,
-        B,
-        ridge,
-        lower,
-        upper,
-        x3,
-        *work,
-        ind,
-        U,
-        S,
-        K,
-        base,
-        np.int64(k),
-        np.bool_(False),
-        np.int64(m),
-    )
+    assert _update(A, a, B, ridge, lower, upper, x3, work, ind, U, S, K, base, k, m, False)
     assert np.max(np.abs(x3 - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
 
 
@@ -164,24 +137,7 @@ def test_released_bounds_answer_as_the_subproblem_solved_afresh(seed, m, release
     for j, v in enumerate(added):
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
-    assert _updated(
-        A,
-        a,
-        B,
-        ridge,
-        lower,
-        upper,
-        x,
-        *work,
-        ind,
-        U,
-        S,
-        K,
-        base,
-        np.int64(k),
-        np.bool_(True),
-        np.int64(m),
-    )
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
     mu = work[3][_V_MU, :n].copy()
     work2, ind2, _, _, _ = _work(m, n, B.shape[0])
     x2, _ = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
@@ -210,45 +166,11 @@ def test_a_release_that_changes_the_rank_declines():
     fixed = base.copy()
     fixed[5] = 0
     ind[_I_FIXED, :n] = fixed
-    assert not _updated(
-        A,
-        a,
-        B,
-        ridge,
-        lower,
-        upper,
-        x,
-        *work,
-        ind,
-        U,
-        S,
-        K,
-        base,
-        np.int64(k),
-        np.bool_(True),
-        np.int64(m),
-    )
+    assert not _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
     fixed = base.copy()
     fixed[1] = 0  # x_1's column is in the range: updated
     ind[_I_FIXED, :n] = fixed
-    assert _updated(
-        A,
-        a,
-        B,
-        ridge,
-        lower,
-        upper,
-        x,
-        *work,
-        ind,
-        U,
-        S,
-        K,
-        base,
-        np.int64(k),
-        np.bool_(True),
-        np.int64(m),
-    )
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -273,10 +195,7 @@ def test_joined_rows_answer_as_the_subproblem_solved_afresh(seed, m, joined, rel
     for j, v in enumerate(added):
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
-    assert _updated(
-        A, a, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k), np.bool_(True),
-        np.int64(m),
-    )  # fmt: skip
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
     mu = work[3][_V_MU, :n].copy()
     work2, ind2, _, _, _ = _work(m + joined, n, B.shape[0])
     x2, k2 = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
@@ -299,10 +218,7 @@ def test_a_joined_row_that_depends_on_the_others_declines():
 
     def update():
         ind[_I_FIXED, :n] = base
-        return _updated(
-            A, a, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, np.int64(k),
-            np.bool_(True), np.int64(m),
-        )  # fmt: skip
+        return _update(A, a, B, ridge, lower, upper, x.copy(), work, ind, U, S, K, base, k, m, True)
 
     A[m] = A[0] - 2.0 * A[3]  # a combination of the base's rows
     a[m] = a[0] - 2.0 * a[3]
