@@ -55,6 +55,29 @@ def _base(A, a, B, r, ridge, lower, upper, fixed, work, ind):
     return x, k
 
 
+def _updated_and_afresh(A, a, B, r, lower, upper, m, released, added) -> tuple:
+    """The base (A's first ``m`` rows, x_1, x_5, x_9, x_13 held at their bounds) updated to
+    every row of A with the bounds ``released`` freed and ``added`` held (the update must
+    apply), and the same set solved afresh: (x, μ, x afresh, μ afresh, the base's rank, the
+    fresh rank, the held mask)."""
+    n = A.shape[1]
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5, 9, 13]] = [-1, 1, -1, 1]
+    work, ind, U, S, K = _work(A.shape[0], n, B.shape[0])
+    x, k = _base(A[:m], a[:m], B, r, ridge, lower, upper, base, work, ind)
+    fixed = base.copy()
+    fixed[released] = 0
+    for j, v in enumerate(added):
+        fixed[v] = 1 if j % 2 else -1
+    ind[_I_FIXED, :n] = fixed
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
+    mu = work[3][_V_MU, :n].copy()
+    work2, ind2, _, _, _ = _work(A.shape[0], n, B.shape[0])
+    x2, k2 = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
+    return x, mu, x2, work2[3][_V_MU, :n], k, k2, fixed != 0
+
+
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize("m", [6, 15])
 @pytest.mark.parametrize("added", [1, 2, 3])
@@ -126,24 +149,9 @@ def test_the_update_declines_where_it_does_not_apply():
 )
 def test_released_bounds_answer_as_the_subproblem_solved_afresh(seed, m, released, added):
     A, a, B, r, lower, upper = _problem(seed, m)
-    n = A.shape[1]
-    ridge = 1e-4
-    base = np.zeros(n, dtype=np.int64)
-    base[[1, 5, 9, 13]] = [-1, 1, -1, 1]
-    work, ind, U, S, K = _work(m, n, B.shape[0])
-    x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
-    fixed = base.copy()
-    fixed[released] = 0
-    for j, v in enumerate(added):
-        fixed[v] = 1 if j % 2 else -1
-    ind[_I_FIXED, :n] = fixed
-    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
-    mu = work[3][_V_MU, :n].copy()
-    work2, ind2, _, _, _ = _work(m, n, B.shape[0])
-    x2, _ = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
-    held = fixed != 0
+    x, mu, x2, mu2, _, _, held = _updated_and_afresh(A, a, B, r, lower, upper, m, released, added)
     assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
-    assert np.allclose(mu[held], work2[3][_V_MU, :n][held], rtol=1e-8, atol=1e-10)
+    assert np.allclose(mu[held], mu2[held], rtol=1e-8, atol=1e-10)
     # the released variables are free and not at their base bounds any more
     assert np.all(np.abs(x[released] - x2[released]) < 1e-10)
 
@@ -184,25 +192,10 @@ def test_joined_rows_answer_as_the_subproblem_solved_afresh(seed, m, joined, rel
     self-collision joins the hierarchy's last level), with bounds added or released: the
     subproblem of the whole set solved afresh (x, the held bounds' multipliers)."""
     A, a, B, r, lower, upper = _problem(seed, m + joined)
-    n = A.shape[1]
-    ridge = 1e-4
-    base = np.zeros(n, dtype=np.int64)
-    base[[1, 5, 9, 13]] = [-1, 1, -1, 1]
-    work, ind, U, S, K = _work(m + joined, n, B.shape[0])
-    x, k = _base(A[:m], a[:m], B, r, ridge, lower, upper, base, work, ind)
-    fixed = base.copy()
-    fixed[released] = 0
-    for j, v in enumerate(added):
-        fixed[v] = 1 if j % 2 else -1
-    ind[_I_FIXED, :n] = fixed
-    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
-    mu = work[3][_V_MU, :n].copy()
-    work2, ind2, _, _, _ = _work(m + joined, n, B.shape[0])
-    x2, k2 = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
+    x, mu, x2, mu2, k, k2, held = _updated_and_afresh(A, a, B, r, lower, upper, m, released, added)
     assert k2 == k + joined
-    held = fixed != 0
     assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
-    assert np.allclose(mu[held], work2[3][_V_MU, :n][held], rtol=1e-8, atol=1e-10)
+    assert np.allclose(mu[held], mu2[held], rtol=1e-8, atol=1e-10)
     assert np.max(np.abs(A @ x - a)) < 1e-10
 
 
