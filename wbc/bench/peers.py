@@ -142,15 +142,27 @@ def available() -> dict[str, bool]:
     }
 
 
-class PlacoController(Controller):
-    """placo 0.10 ``KinematicsSolver`` (C++, eiquadprog): hard/soft tasks, one QP per tick."""
+class _Peer(Controller):
+    """A peer's tasks: given, or the robot's stack read at start (:func:`peer_stack`); the
+    stack's name recorded in :attr:`stack`."""
 
-    name = "placo"
     family = "peer"
 
     def __init__(self, tasks: PeerTasks | None = None) -> None:
-        self.tasks = tasks  # None: the robot's stack, read at start (peer_stack)
+        self.tasks = tasks
         self.stack = None if tasks is None else tasks.stack  # (recorded)
+
+    def _tasks_on(self, robot: Robot) -> PeerTasks:
+        """The tasks to run on ``robot`` (the given ones, else its stack's), :attr:`stack` set."""
+        tasks = self.tasks or peer_stack(robot)
+        self.stack = tasks.stack
+        return tasks
+
+
+class PlacoController(_Peer):
+    """placo 0.10 ``KinematicsSolver`` (C++, eiquadprog): hard/soft tasks, one QP per tick."""
+
+    name = "placo"
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         import placo
@@ -171,8 +183,7 @@ class PlacoController(Controller):
             for s in ("l_sole", "r_sole")
         }
         self.com = solver.add_com_task(self.pr.com_world())
-        w = self.w = self.tasks or peer_stack(robot)
-        self.stack = w.stack
+        w = self.w = self._tasks_on(robot)
         self.com.configure("com", "soft", w.com)
         R0 = self.pr.get_T_world_frame(urdf("torso", "torso"))[:3, :3]
         self.torso = solver.add_orientation_task(urdf("torso", "torso"), R0)
@@ -207,15 +218,10 @@ class PlacoController(Controller):
         return np.array(self.pr.state.q)
 
 
-class PinkController(Controller):
+class PinkController(_Peer):
     """pink 4.x ``solve_ik`` with DAQP: costs as tasks, hard feet as ``constraints``."""
 
     name = "pink"
-    family = "peer"
-
-    def __init__(self, tasks: PeerTasks | None = None) -> None:
-        self.tasks = tasks  # None: the robot's stack, read at start (peer_stack)
-        self.stack = None if tasks is None else tasks.stack  # (recorded)
 
     def start(self, robot: Robot, q0: np.ndarray, ref: WalkingReference) -> None:
         from pink import Configuration
@@ -227,8 +233,7 @@ class PinkController(Controller):
         self.data = robot.model.createData()
         self.config = Configuration(self.model, self.data, q0.copy())
         urdf = robot.frame_aliases.get  # the URDF's names of the standard frames
-        w = self.tasks or peer_stack(robot)
-        self.stack = w.stack
+        w = self._tasks_on(robot)
         position, orientation = np.sqrt(w.swing_position), np.sqrt(w.swing_orientation)
         self.feet = {
             s: FrameTask(urdf(s, s), position_cost=position, orientation_cost=orientation)
