@@ -150,7 +150,7 @@ class VelocityLimits:
                 )  # fmt: skip
             except TrajectoryError:
                 return False
-            rep = kinematic_feasibility(robot, ref)
+            rep = kinematic_feasibility(robot, ref, torques=False)
             if not rep.feasible:
                 return False
             j = robot.joint_names.index(rep.speed_joint) if rep.speed_joint else 0

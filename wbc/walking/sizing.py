@@ -191,7 +191,7 @@ def _fit_speed(
 
     last = math.inf
     for _ in range(FIT_ROUNDS):
-        report = kinematic_feasibility(robot, ref, iterations=2)
+        report = kinematic_feasibility(robot, ref, iterations=2, torques=False)
         share = report.speed_fraction
         # done; or a reference the legs cannot track (the IK's jumps are no servo speed); or
         # a speed that slowing down does not lower
