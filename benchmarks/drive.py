@@ -102,7 +102,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             lift_gain: float | None = None, filter_heading: bool = False,
             encoder_rest: bool = False, play: str | float | None = None,
             play_hold: float | None = None, play_lift: bool = False,
-            params=None, keep_clear: bool = True, **kw):  # fmt: skip
+            params=None, keep_clear: bool = True, base_hold: float | None = None,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -113,7 +114,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
-        "play_hold": play_hold, "play_lift": play_lift or None,
+        "play_hold": play_hold, "play_lift": play_lift or None, "hold": base_hold,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if play is not None:
@@ -278,6 +279,10 @@ def main(argv: list[str] | None = None) -> int:
                          "of the swing's planned landing (Walker(keep_clear=False): the "
                          "behaviour before 2026-12-06, failed solves turning on the "
                          "spot)")  # fmt: skip
+    ap.add_argument("--base-hold", type=float, default=None, metavar="M",
+                    help="after each stop, the base brought onto its commanded place, the CoM "
+                         "target shifted at most M m (Walker(hold=M); default the Walker's, "
+                         "0: off; measured with 0.02, DRIVE_HOLD)")  # fmt: skip
     ap.add_argument("--friction-cone", choices=FRICTION_CONES, default=None,
                     help="the simulated floor's friction cone (ModelParams.friction_cone; "
                          "default: the plant's, pyramidal)")  # fmt: skip
@@ -324,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,
         "keep_clear": args.keep_clear,
+        "base_hold": args.base_hold,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None

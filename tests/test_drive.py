@@ -389,6 +389,43 @@ def test_a_finishing_stop_ends_where_the_commands_put_the_walk(robot, finish) ->
         assert off > 0.02 or turn > math.radians(5.0)
 
 
+@pytest.mark.parametrize("hold", [0.0, 0.02])
+def test_a_stop_holds_the_base_on_the_commanded_place(robot, hold) -> None:
+    """The last steps land on the commanded pose, but the standing robot's base is not
+    where the standing pose has it over them (the engine's rest puts the CoM at the soles'
+    midpoint; the Bioloid's standing CoM is ~5 mm ahead of it): without the base's hold the
+    base (by the joints, here the commanded ones) ends > 3 mm off the commanded pose; with
+    it, after the walk, the CoM target moves until it is within 1 mm, and the walker
+    reports walking until then (at most the hold's seconds more)."""
+    from wbc.bench.solvers import registry
+    from wbc.drive.walker import DRIVE_HOLD
+
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None, hold=hold)
+    walker.present = lambda: walker.q[7:]
+    engine = walker.engine
+    walker.command(0.05, 0.0, 0.0)
+    walker.start()
+    for _ in range(100):
+        walker.tick()
+    walker.stop()
+    ended = None
+    for n in range(1000):
+        if not walker.walking:
+            break
+        walker.tick()
+        if ended is None and not engine.walking:
+            ended = n
+    assert not walker.walking and ended is not None
+    off = engine.odometry_offset if engine.frame_error is None else engine.frame_error
+    error = float(np.hypot(*(engine._pose_cmd[:2] - off[:2] - walker._measured_base())))
+    if hold:
+        assert error < 0.001
+        assert n - ended <= round(DRIVE_HOLD["seconds"] / engine.dt) + 1
+        assert walker.failed_solves == 0
+    else:
+        assert error > 0.003 and n - ended <= 1
+
+
 def test_the_walker_reads_its_links_through_the_play(robot) -> None:
     """``Walker(play=p)``: the present positions its own measurements use (the leg odometry,
     the heading's tilt, the swing's lift) have the play taken out — a joint whose reading

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.compiled.rows import log3
-from wbc.drive.odometry import LiftGain, PlayInverse, PoseOdometry, StrideGain
+from wbc.drive.odometry import BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
 from wbc.exceptions import ConfigurationError
 from wbc.geometry import yaw_of
 from wbc.walking import StandingState
@@ -287,3 +287,32 @@ def test_a_still_reading_is_taken_at_the_middle_of_the_play_after_the_hold() -> 
     assert inverse.update(np.array([0.0]), 0.01) == pytest.approx([-0.01])
     with pytest.raises(ConfigurationError, match="hold"):
         PlayInverse(0.02, 1, hold=0.0)
+
+
+def test_the_base_hold_moves_the_com_target_against_the_error_within_its_bounds() -> None:
+    """Holding (after :meth:`BaseHold.begin`), the CoM target's shift moves against the
+    base's error at ``rate`` and no further than ``reach``; it stops when the error is
+    within the tolerance, or after ``seconds``; standing it is kept; walking it returns to
+    none at ``rate``; before any :meth:`begin` nothing moves."""
+    dt = 0.01
+    hold = BaseHold(reach=0.02, rate=0.02, seconds=1.0)
+    assert not hold.update(np.array([0.01, 0.0]), dt, walking=False).any()  # (no walk ended)
+    hold.begin()
+    assert hold.active
+    error = np.array([0.006, -0.008])  # 10 mm
+    out = hold.update(error, dt, walking=False)
+    assert np.hypot(*out) == pytest.approx(0.02 * dt)
+    assert out / np.hypot(*out) == pytest.approx(error / 0.01)
+    for _ in range(200):  # a base that does not follow: the shift stops at the reach
+        out = hold.update(error, dt, walking=False)
+    assert np.hypot(*out) == pytest.approx(0.02) and not hold.active  # (1 s is over)
+    kept = out.copy()
+    assert hold.update(np.array([0.005, 0.0]), dt, walking=False) == pytest.approx(kept)
+    hold.begin()
+    hold.update(np.array([0.0002, 0.0]), dt, walking=False)  # within the tolerance: done
+    assert not hold.active
+    for k in range(1, 5):
+        out = hold.update(None, dt, walking=True)
+        assert np.hypot(*out) == pytest.approx(0.02 - k * 0.02 * dt, abs=1e-4)
+    with pytest.raises(ConfigurationError, match="rate"):
+        BaseHold(0.02, -1.0, 1.0)

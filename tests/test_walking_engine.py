@@ -438,3 +438,33 @@ def test_a_stance_move_is_kept_clear_of_the_landing(setup) -> None:
     while e.landing is not None:  # (the double support: nothing swings)
         e.tick()
     assert np.allclose(e.clear_of_landing(stance, start, start + toward), start + toward)
+
+
+@pytest.mark.parametrize("seed", [2, 5, 9])
+def test_a_random_sequence_ends_where_its_integral_puts_it(setup, seed) -> None:
+    """A random 30 s command sequence (a change every 2–5 s inside the velocity limits, as
+    benchmarks/drive.py draws them) played on the engine alone, then a stop: its walking
+    frame ends within 5 mm and 0.5° of where :func:`~wbc.drive.commands.integrate` — the
+    drive record's commanded displacement — puts it: the turns, the starts' latency, the
+    step latency of each change and the closing step add no error of their own (on the
+    Bioloid's 20 sequences of benchmarks/drive.md: 0.94 mm mean, 4.2 mm at most)."""
+    from wbc.drive.commands import integrate, random_commands
+    from wbc.walking.geometry import rot2
+
+    e = engine(setup)
+    share = (LIMITS.vx_forward, LIMITS.vx_backward, LIMITS.vy, LIMITS.wz)
+    commands = random_commands(np.random.default_rng([0, 1000 + seed]), share, 30.0)
+    c0 = e.centre.copy()
+    e.command(*commands[0].velocity)
+    e.start()
+    for c in commands:
+        e.command(*c.velocity)
+        for _ in range(round(c.duration / e.dt)):
+            e.tick()
+    e.stop()
+    while e.walking:
+        e.tick()
+    xy, yaw = integrate(commands)
+    moved = rot2(c0[2]).T @ (e.centre[:2] - c0[:2])
+    assert np.linalg.norm(moved - xy) < 0.005
+    assert abs(wrap_angle(e.centre[2] - c0[2] - yaw)) < math.radians(0.5)

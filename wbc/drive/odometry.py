@@ -41,7 +41,7 @@ import numpy as np
 
 from ..balance.estimator import exp3
 from ..exceptions import ConfigurationError
-from ..geometry import mean_angle, relative_pose, wrap_angle, yaw_of
+from ..geometry import clip_norm, mean_angle, relative_pose, wrap_angle, yaw_of
 from ..model import Robot
 from ..roles import SOLE_FRAMES
 from ..walking.footsteps import Footstep, Side, other_side
@@ -286,3 +286,50 @@ class LiftGain:
             ratio = want / max(peak, want / self.most)
             self.gain = min(max(self.gain * ratio**self.rate, 1.0), self.most)
         return self.gain
+
+
+class BaseHold:
+    """After a stop, the base brought onto its commanded place: the walk's last steps land
+    where the commands put the soles, but the robot then stands with its base off its
+    standing pose over them (compliant joints sag, the feedback's integral, the CoM's
+    rest target at the soles' midpoint: on the randomised Bioloids of
+    benchmarks/drive.md 5–25 mm, a steady error of the whole walk). For ``seconds`` after
+    the walk ends (:meth:`begin`) the CoM target is shifted (:attr:`offset`, world xy)
+    against the measured base's error (the state estimate: encoders and IMU) at most
+    ``rate`` m/s, at most ``reach`` m from the plan, until the error is within
+    ``tolerance``; standing, the shift is kept; walking, it returns to none at ``rate``."""
+
+    def __init__(self, reach: float, rate: float, seconds: float, tolerance: float = 5e-4) -> None:
+        for name, value in (("reach", reach), ("rate", rate), ("seconds", seconds)):
+            if not (math.isfinite(value) and value >= 0):
+                raise ConfigurationError(
+                    f"base hold: {name} must be a finite number >= 0, got {value}"
+                )
+        self.reach, self.rate, self.seconds = float(reach), float(rate), float(seconds)
+        self.tolerance = float(tolerance)
+        self.offset = np.zeros(2)  #: the CoM target's shift (m, world xy)
+        self.left = 0.0  #: s of holding left
+
+    @property
+    def active(self) -> bool:
+        return self.left > 0
+
+    def begin(self) -> None:
+        """The walk has ended: hold for ``seconds``."""
+        self.left = self.seconds
+
+    def end(self) -> None:
+        """A new walk starts: stop holding (the shift then returns to none)."""
+        self.left = 0.0
+
+    def update(self, error: np.ndarray | None, dt: float, walking: bool) -> np.ndarray:
+        """One tick: ``error`` the base's commanded less measured position (m, world xy;
+        None: unknown); returns :attr:`offset`."""
+        step = self.rate * dt
+        if walking:
+            self.offset = self.offset - clip_norm(self.offset, step)
+        elif self.left > 0 and error is not None:
+            self.left = 0.0 if float(np.hypot(*error)) <= self.tolerance else self.left - dt
+            self.offset = clip_norm(self.offset + clip_norm(np.asarray(error, float), step),
+                                     self.reach)  # fmt: skip
+        return self.offset
