@@ -182,10 +182,11 @@ def build(
     walking reference); the message then lists only the walking references.
 
     ``on_servos``: the walk is played on servos (the simulator, the robot: ``wbc sim``,
-    ``wbc bench --physics``, ``wbc deploy``, the closed loop): its speed is always fitted
+    ``wbc bench --physics``, ``wbc deploy``, the closed loop, and ``wbc walk``, whose
+    recording ``wbc deploy`` plays): its speed is always fitted
     (:data:`wbc.walking.sizing.SPEED_FRACTION` of the servos' no-load speed), whatever the
     robot's ``[walking] fit_speed``; only the walk's own ``[walking.<name>] fit_speed =
-    false`` keeps it unfitted. False (the kinematic benchmark, ``wbc walk``): the robot's
+    false`` keeps it unfitted. False (the kinematic benchmark, ``wbc bench``): the robot's
     setting (the Bioloid's false: the thesis's walks as recorded).
     """
     if name == STATIC_COM:
