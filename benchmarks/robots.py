@@ -144,7 +144,7 @@ def simulate(
     --physics``'s two rows, the feed-forward at the robot's best), on the nominal model and on
     ``n_random`` randomised ones: ``wbc bench --robustness n_random --seed seed``'s draws."""
     try:
-        ref = build(name, robot)
+        ref = build(name, robot, on_servos=True)  # as plan() plays it
         rec: Recording = plan("hqp-daqp", name, robot)
     except WbcError as exc:
         return {"error": str(exc)[:60]}

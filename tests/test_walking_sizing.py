@@ -1,6 +1,6 @@
 """Walking settings sized to the robot (wbc.walking.sizing): a scaled, renamed Bioloid walks as
-the Bioloid does; the Bioloid's own references are unchanged; Kokone's ask its servos for no
-more than their speed."""
+the Bioloid does; the Bioloid's own references are unchanged for the kinematic benchmark; every
+robot's walks, as played on servos, ask its servos for no more than 0.8 of their speed."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from wbc.bench import metrics
-from wbc.bench.trajectories import build, robot_options
-from wbc.exceptions import ConfigurationError
+from wbc.bench.trajectories import TRAJECTORIES, build, robot_options
+from wbc.exceptions import ConfigurationError, TrajectoryError
 from wbc.model import load_robot
 from wbc.paths import robots_dir
 from wbc.roles import length_unit
@@ -138,22 +138,61 @@ def test_max_turn_keeps_the_feet_apart():
     assert max_turn(0.07, 0.04, 0.0) == 0.0
 
 
-@pytest.mark.parametrize("trajectory", ["walk10", "walk10_wb", "fast_wb", "turn", "lateral_wb"])
-def test_kokones_walks_ask_no_joint_for_more_than_its_speed(trajectory):
-    kokone = load_robot("kokone")
-    ref = build(trajectory, kokone)  # used to be refused (feet 5 mm apart) or too fast
-    rep = kinematic_feasibility(kokone, ref, iterations=2)
+#: every robot in robots/ and the walks it refuses (a refused walk is never played)
+ROBOTS = sorted(p.name for p in robots_dir().iterdir() if (p / "robot.toml").is_file())
+REFUSED = {("bioloid", "keyposes"): "the start soles must face"}
+
+
+@pytest.mark.parametrize("trajectory", list(TRAJECTORIES))
+@pytest.mark.parametrize("name", ROBOTS)
+def test_every_walk_played_on_servos_asks_no_joint_for_more_than_its_speed(name, trajectory):
+    """As the simulator and the robot play it (build(on_servos=True): the speed fit on, whatever
+    [walking] fit_speed says), no walk of any robot asks a joint for more than 0.8 of its
+    no-load speed (the Bioloid's walk10, turn and lateral asked 1.68 / 1.54 / 1.58 before the
+    swing fit; Kokone's walk10 ~1.0 at the Bioloid's timing)."""
+    robot = load_robot(name)
+    if (name, trajectory) in REFUSED:
+        with pytest.raises(TrajectoryError, match=REFUSED[name, trajectory]):
+            build(trajectory, robot, on_servos=True)
+        return
+    rep = kinematic_feasibility(robot, build(trajectory, robot, on_servos=True), iterations=2)
     assert rep.speed_fraction <= SPEED_FRACTION, (rep.fraction_joint, rep.speed_fraction)
+    assert max(rep.max_com_error, rep.max_sole_error) < sizing.TRACKED  # (tracked: real speeds)
 
 
-@pytest.mark.parametrize("trajectory", ["walk10_wb", "fast_wb", "turn_wb", "lateral_wb"])
-def test_the_bioloids_whole_body_walks_ask_no_joint_for_more_than_its_speed(trajectory):
-    """The Bioloid keeps its recorded timing (fit_speed = false); its walk10_wb asked the swing
-    knee for 1.23x the AX-12A's no-load speed, now 0.79 with 25 mm steps and an 8 mm apex
-    (robots/bioloid/robot.toml; benchmarks/robots.md)."""
+def test_the_kinematic_benchmark_keeps_the_thesis_walks_and_the_servos_get_their_swing_fitted():
+    """The Bioloid's [walking] fit_speed = false keeps walk10 as recorded for the kinematic
+    benchmark (the swing knee at 1.68x the AX-12A's no-load speed, 20 mm quintic apex); played
+    on servos only its swing changes (the cubic profile, a lower apex): the same footsteps,
+    timing, ZMP and CoM, so the same sway within the hips' roll."""
     bioloid = load_robot("bioloid")
-    rep = kinematic_feasibility(bioloid, build(trajectory, bioloid), iterations=2)
-    assert rep.speed_fraction <= SPEED_FRACTION, (rep.fraction_joint, rep.speed_fraction)
+    recorded, played = build("walk10", bioloid), build("walk10", bioloid, on_servos=True)
+    assert kinematic_feasibility(bioloid, recorded, iterations=2).speed_fraction > 1.6
+    assert recorded.meta["swing"] == {"apex": 0.02, "profile": "quintic", "landing": 0.5}
+    assert played.meta["swing"]["profile"] == "cubic"
+    assert 0.25 * 0.02 <= played.meta["swing"]["apex"] < 0.01
+    assert played.meta["timing"] == recorded.meta["timing"]
+    for key in ("com", "zmp_ref", "support"):
+        assert np.array_equal(getattr(played, key), getattr(recorded, key)), key
+    assert not np.array_equal(played.l_sole[:, :2], recorded.l_sole[:, :2])  # (the profile)
+    assert np.abs(played.l_sole[:, 2]).max() < np.abs(recorded.l_sole[:, 2]).max()
+
+
+def test_on_servos_a_walks_stated_swing_or_fit_speed_wins(tmp_path):
+    """[walking.walk10] swing (stated) is kept on servos; [walking.walk10] fit_speed = false
+    plays the recorded walk10 on servos (the thesis's timing and swing)."""
+    folder = tmp_path / "bioloid"
+    shutil.copytree(robots_dir() / "bioloid", folder)
+    toml = folder / "robot.toml"
+    text = toml.read_text()
+    toml.write_text(text + "\n[walking.walk10]\nswing = { apex = 0.015 }\n")
+    ref = build("walk10", load_robot(folder), on_servos=True)
+    assert ref.meta["swing"] == {"apex": 0.015, "profile": "quintic", "landing": 0.5}
+    toml.write_text(text + "\n[walking.walk10]\nfit_speed = false\n")
+    robot = load_robot(folder)
+    played, recorded = build("walk10", robot, on_servos=True), build("walk10", robot)
+    assert played.meta["swing"] == recorded.meta["swing"]
+    assert np.array_equal(played.l_sole, recorded.l_sole)
 
 
 def test_a_walks_own_fit_speed_overrides_the_robots(tmp_path):

@@ -22,7 +22,8 @@ and model instead. Two optional files:
     [legs]                           # leg measurements stated by hand (LegGeometry fields)
     pelvis_gain = 1.3
     [walking]
-    fit_speed = true                 # slow the sized walks to the servos' speed (default)
+    fit_speed = true                 # fit the sized walks to the servos' speed (default;
+                                     # false: only on servos, wbc.walking.sizing)
     fit_torque = false               # shorten their steps to 0.8 of stall torque (default off)
     [walking.walk10]                 # keyword overrides of a walking reference's builder
     step_length = 0.02
@@ -90,8 +91,9 @@ class RobotData:
     #: the leg measurements stated by hand (``[legs]``: :class:`wbc.walking.legs.LegGeometry`
     #: fields, m and rad), replacing the ones measured from the model
     legs: Mapping[str, object] = field(default_factory=dict)
-    #: ``[walking] fit_speed``: slow the sized walking references until no joint is asked for
-    #: more than its share of its speed (:mod:`wbc.walking.sizing`)
+    #: ``[walking] fit_speed``: fit the sized walking references (slower, then a lower swing)
+    #: until no joint is asked for more than its share of its speed (:mod:`wbc.walking.sizing`);
+    #: false: only where a walk is played on servos (``build(on_servos=True)``)
     fit_speed: bool = True
     #: ``[walking] fit_torque``: shorten the sized walks' steps until the predicted peak joint
     #: torque is within its share of stall (:func:`wbc.walking.sizing.fit_torque_share`; off)

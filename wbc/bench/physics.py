@@ -36,7 +36,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -48,6 +48,9 @@ from .closed_loop import ClosedLoopSpec, closed_loop_figures, play_closed_loop, 
 from .pushes import PUSH_DIRECTIONS, largest_push, push_bounds
 from .sim_record import physics_record, simulated_recording
 from .solvers import SolverEntry
+
+if TYPE_CHECKING:
+    from ..walking.reference import WalkingReference
 
 #: the default solvers of --physics: one per controller (the QP backends give the same joints)
 DEFAULT_SOLVERS = (
@@ -81,13 +84,19 @@ def physics_entry(solver: str, robot: Robot) -> SolverEntry:
     return (exact or entries)[0]
 
 
-def plan(solver: str, trajectory: str, robot: Robot) -> Recording:
+def plan(
+    solver: str, trajectory: str, robot: Robot, ref: WalkingReference | None = None
+) -> Recording:
     """The recording of one benchmark solver on one trajectory (one solve per tick); the
-    wqp-*/hqp-* solvers load the robot folder's stack.toml when it has one."""
+    wqp-*/hqp-* solvers load the robot folder's stack.toml when it has one. The walk is the
+    one played on servos (``build(on_servos=True)``: within their speed), or ``ref`` if given
+    (that walk, already built)."""
     from . import trajectories as traj
     from .runner import run_entry
 
-    _, rec = run_entry(physics_entry(solver, robot), robot, traj.build(trajectory, robot), "tick")
+    if ref is None:
+        ref = traj.build(trajectory, robot, on_servos=True)
+    _, rec = run_entry(physics_entry(solver, robot), robot, ref, "tick")
     return rec
 
 

@@ -172,12 +172,22 @@ def robot_options(robot: Robot, name: str) -> dict[str, Any]:
     return kw
 
 
-def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReference:
+def build(
+    name: str, robot: Robot, walking_only: bool = False, on_servos: bool = False
+) -> WalkingReference:
     """A walking reference by name, starting from the robot's standing pose, its settings
     sized to the robot (:mod:`wbc.walking.sizing`; ``robot.toml`` ``[walking.<name>]`` on top).
 
     ``walking_only``: the caller cannot run :data:`STATIC_COM` (a benchmark set, not a
     walking reference); the message then lists only the walking references.
+
+    ``on_servos``: the walk is played on servos (the simulator, the robot: ``wbc sim``,
+    ``wbc bench --physics``, ``wbc deploy``, the closed loop, and ``wbc walk``, whose
+    recording ``wbc deploy`` plays): its speed is always fitted
+    (:data:`wbc.walking.sizing.SPEED_FRACTION` of the servos' no-load speed), whatever the
+    robot's ``[walking] fit_speed``; only the walk's own ``[walking.<name>] fit_speed =
+    false`` keeps it unfitted. False (the kinematic benchmark, ``wbc bench``): the robot's
+    setting (the Bioloid's false: the thesis's walks as recorded).
     """
     if name == STATIC_COM:
         raise ConfigurationError(
@@ -193,7 +203,8 @@ def build(name: str, robot: Robot, walking_only: bool = False) -> WalkingReferen
     kw = robot_options(robot, name)
     flags = {}
     for key in ("fit_speed", "fit_torque"):
-        flags[key] = kw.pop(key, getattr(robot.robot_data, key))
+        robots = True if on_servos and key == "fit_speed" else getattr(robot.robot_data, key)
+        flags[key] = kw.pop(key, robots)
         if not isinstance(flags[key], bool):
             raise ConfigurationError(
                 f"{robot.robot_data.source}: [walking.{name}] {key} = {flags[key]!r}: true or false"

@@ -619,7 +619,7 @@ def run_physics_command(args: argparse.Namespace, console: Console, robot: Robot
     if args.mode != "tick":
         raise ConfigurationError("--physics plays real-time plans: use --mode tick (the default)")
     names = [t for t in args.trajectories if t != traj.STATIC_COM]
-    refs = {t: traj.build(t, robot) for t in names}
+    refs = {t: traj.build(t, robot, on_servos=True) for t in names}
     if not args.open_loop and _compile_in_background(console):
         _wait_for_ticks()  # the closed loop solves live: its share of the compiled tick
     started = time.perf_counter()

@@ -186,7 +186,7 @@ def _live(args: argparse.Namespace, robot, bus: ServoBus, config: DeployConfig, 
     from ..walking.loop import StackController
 
     stack, note = robot_stack(robot, args.live or None)
-    ref = build(args.trajectory, robot)
+    ref = build(args.trajectory, robot, on_servos=True)
     stepping = None
     if not args.no_stepping:
         from ..balance.stepping import SteppingParams

@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         physics_record,
         simulated_recording,
     )
+    from ..bench.trajectories import build
     from ..model import load_robot
     from ..recording import Recording
     from ..sim.actuator import servo_kind
@@ -127,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
             which = "the robot folder's" if stack is not None else "the default"
             stack = stack or BENCH_STACKS["physics"]
             print(f"wbc sim: {args.solver} loads {which} stack {stack}", flush=True)
-        rec = plan(args.solver, args.trajectory, robot)
+        walk = build(args.trajectory, robot, on_servos=True)  # (once: the fit takes seconds)
+        rec = plan(args.solver, args.trajectory, robot, walk)
         label = f"{args.solver} on {args.trajectory}"
         label += " (closed loop)" if closed else " (open loop)"
     push = None
@@ -164,11 +166,10 @@ def run(args: argparse.Namespace) -> int:
         from ..balance.stepping import SteppingParams
         from ..bench.closed_loop import ClosedLoopSpec, closed_loop_figures, play_closed_loop
         from ..bench.physics import physics_entry
-        from ..bench.trajectories import build
 
         if args.realtime:
             raise ConfigurationError("--realtime plays a plan: give --open-loop with it")
-        ref = build(args.trajectory, robot)
+        ref = walk
         step = None if args.no_stepping else SteppingParams()
         spec = ClosedLoopSpec(physics_entry(args.solver, robot).make, ref, None, True,
                               not args.encoders_only, step)  # fmt: skip

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         robot = load_robot(args.robot)
         print_notes(robot, "walk")
-        ref = build(args.trajectory, robot, walking_only=True)
+        ref = build(args.trajectory, robot, walking_only=True, on_servos=True)  # (deployable)
         stack, note = robot_stack(robot, args.stack)
         control = load_stack(stack, robot, backend=args.backend, solver=args.solver)
     except WbcError as exc:

@@ -12,12 +12,29 @@ were tuned on one robot. On another they are scaled by its own dimensions:
   and times by ``√λ``); the ZMP preview's horizon with them, and its jerk weight as time⁶;
 * not the control period ``dt`` (the servo bus's tick: a robot states its own);
 
-and then, unless the robot's ``robot.toml`` says ``[walking] fit_speed = false``, slowed
+and then, unless the robot's ``robot.toml`` says ``[walking] fit_speed = false``, fitted
 until the reference asks no joint for more than :data:`SPEED_FRACTION` of its no-load speed
-(the model's velocity limit), measured by :func:`wbc.walking.feasibility.kinematic_feasibility`.
-Keys a robot states in ``[walking.<name>]`` are kept as stated (and a stated ``timing`` is not
-slowed). A slower walk sways further: if a slowed reference is refused (the hips' roll
-range), the slowest timing that builds is kept, which may still ask more than the share.
+(the model's velocity limit), measured by :func:`wbc.walking.feasibility.kinematic_feasibility`:
+
+1. slowed: every duration stretched alike. A slower walk sways further: if a slowed
+   reference is refused (the hips' roll range), the slowest timing that builds is kept;
+2. if it still asks more (a walk that cannot be slowed: the Bioloid's walk10, turn and
+   lateral sway past its 5.6 deg hip roll at any slower timing), its swing is fitted
+   (:func:`fit_swing`), footsteps, timing, ZMP and CoM unchanged: the swing sole's profile
+   becomes the clamped cubic (its peak speed 1.5 times the mean where the quintic's is
+   1.875, its peak acceleration about the same: 6 against 5.77 distance / time²), then its
+   apex is lowered (not below :data:`MIN_APEX` of the sized one) until within the share.
+   The trace (benchmarks/robots.md, "Issue 29's last gap"): what asks the 1.5-1.7x on those
+   walks is the swing knee at mid-rise and mid-descent of each single support (the apex's
+   vertical speed), then the swing ankle pitch (the step's forward speed); the start, the
+   stop and the double supports ask at most 0.33.
+
+Keys a robot states in ``[walking.<name>]`` are kept as stated: a walk whose timing is
+stated is not fitted (a robot that times a walk has sized it), a stated ``swing`` is not
+changed. A walk played on servos (:func:`wbc.bench.trajectories.build` ``on_servos``: the
+simulator, the robot) is always fitted, whatever ``[walking] fit_speed`` says (the
+Bioloid's false keeps the thesis's walks as recorded for the kinematic benchmark); a walk's
+own ``[walking.<name>] fit_speed = false`` is kept there too.
 
 With ``[walking] fit_torque = true`` (off by default: it measured no better, below) the steps
 are then shortened (:data:`STRIDES`, ×:data:`SHRINK` a round) until the reference's predicted
@@ -84,6 +101,11 @@ JERK_WEIGHTS = ("r_input",)
 FIT_ROUNDS = 3
 #: the most one round stretches the timing by
 MAX_STRETCH = 2.0
+#: the lowest swing apex the swing fit leaves, as a share of the sized apex
+MIN_APEX = 0.25
+#: the swing fit aims this far under :data:`SPEED_FRACTION` (the share is not linear in the
+#: apex: a little under lands within it in fewer rounds)
+SWING_AIM = 0.97
 #: the CoM and sole errors (m) within which the tracking IK follows a reference (beyond, its
 #: joint speeds are jumps, not what the timing asks)
 TRACKED = 0.005
@@ -154,7 +176,8 @@ def sized(
     """Build a reference with ``defaults`` sized to a robot whose hip-to-ankle length is
     ``leg`` and foot ``foot = (length, width)``, ``stated`` (robot.toml) on top; then, if
     ``fit_speed`` and the robot states no timing, stretch the durations until no joint is
-    asked for more than :data:`SPEED_FRACTION` of its speed. ``gap``: between the feet's inner
+    asked for more than :data:`SPEED_FRACTION` of its speed, and if that is not enough lower
+    the swing (:func:`fit_swing`) unless the robot states it. ``gap``: between the feet's inner
     edges at the start; a turn per step is kept within 90 % of what it allows with the
     clearance (:func:`max_turn`); ``fit_torque``: then shorten the steps to the stall torque
     (:func:`fit_torque_share`). Returns (reference, options)."""
@@ -169,7 +192,11 @@ def sized(
     options = {**scale_options(own, along, across, time), **stated}
     ref = build(options)
     if fit_speed and time_keys(own) and not any(k in stated for k in ("timing", *TIMES)):
-        ref, options = _fit_speed(robot, ref, options, own, stated, along, across, time, build)
+        ref, options, report = _fit_speed(
+            robot, ref, options, own, stated, along, across, time, build
+        )
+        if "swing" not in stated:
+            ref, options = fit_swing(robot, ref, options, build, report)
     if fit_torque:
         ref, options = fit_torque_share(robot, ref, options, stated, build)
     return ref, options
@@ -185,11 +212,14 @@ def _fit_speed(
     across: float,
     time: float,
     build: Callable[[dict[str, Any]], Any],
-) -> tuple[Any, dict[str, Any]]:
-    """The speed fit of :func:`sized`: stretch the durations of ``own`` (×``time`` so far)."""
+) -> tuple[Any, dict[str, Any], Any]:
+    """The speed fit of :func:`sized`: stretch the durations of ``own`` (×``time`` so far).
+    Returns (reference, options, the reference's feasibility report, or None if the last
+    stretched reference was not measured)."""
     from .feasibility import kinematic_feasibility
 
     last = math.inf
+    report = None
     for _ in range(FIT_ROUNDS):
         report = kinematic_feasibility(robot, ref, iterations=2, torques=False)
         share = report.speed_fraction
@@ -204,13 +234,72 @@ def _fit_speed(
         for _ in range(3):  # a slower walk sways further: it may leave what the hips allow
             try:
                 trial = {**scale_options(own, along, across, time), **stated}
-                ref, options = build(trial), trial
+                ref, options, report = build(trial), trial, None
                 break
             except TrajectoryError:
                 time = 0.5 * (good + time)  # the slowest timing that still builds
         else:
             break
-    return ref, options
+    return ref, options, report
+
+
+def _swing_of(options: Mapping[str, Any]) -> Any:
+    """The swing sole's settings the swing fit changes: a ``swing``
+    (:class:`~wbc.walking.schedule.SwingParams`), else None."""
+    swing = options.get("swing")
+    return swing if hasattr(swing, "apex") and hasattr(swing, "profile") else None
+
+
+def fit_swing(
+    robot: Any,
+    ref: Any,
+    options: dict[str, Any],
+    build: Callable[[dict[str, Any]], Any],
+    report: Any = None,
+) -> tuple[Any, dict[str, Any]]:
+    """Step 2 of the speed fit (module docstring): if ``ref`` (``report``: its feasibility,
+    measured here if None) asks a joint for more than :data:`SPEED_FRACTION` of its speed,
+    the swing of ``options`` (:func:`_swing_of`) takes the cubic profile, then the highest
+    apex (secant steps on the measured share, :data:`FIT_ROUNDS` + 1 at most, not below
+    :data:`MIN_APEX` of the sized apex) within the share. The first swing within it is
+    kept; else the one asking least, if it asks less than ``ref``. A reference the legs
+    cannot track (errors above :data:`TRACKED`) is kept as it is."""
+    from .feasibility import kinematic_feasibility
+
+    def measure(r: Any) -> Any:
+        return kinematic_feasibility(robot, r, iterations=2, torques=False)
+
+    report = report or measure(ref)
+    swing = _swing_of(options)
+    if not report.speed_fraction > SPEED_FRACTION or swing is None:
+        return ref, options
+    if max(report.max_com_error, report.max_sole_error) > TRACKED:
+        return ref, options
+    best = (report.speed_fraction, ref, options)
+    floor = MIN_APEX * swing.apex
+    # (apex, share) pairs measured with the cubic profile: the secant's two last
+    tried: list[tuple[float, float]] = []
+    apex = swing.apex
+    for _ in range(FIT_ROUNDS + 1):
+        trial = {**options, "swing": replace(swing, profile="cubic", apex=apex)}
+        try:
+            r = build(trial)
+        except TrajectoryError:
+            break
+        share = measure(r).speed_fraction
+        tried.append((apex, share))
+        if share < best[0]:
+            best = (share, r, trial)
+        if not share > SPEED_FRACTION or apex <= floor:
+            break
+        aim = SWING_AIM * SPEED_FRACTION
+        if len(tried) < 2 or tried[-2][1] == share:
+            apex *= aim / share  # as if the share were the apex's alone
+        else:
+            (a0, s0), (a1, s1) = tried[-2:]
+            apex = a1 + (aim - s1) * (a0 - a1) / (s0 - s1)
+        apex = max(floor, min(apex, tried[-1][0]))
+    return best[1], best[2]
 
 
 def fit_torque_share(
