@@ -366,7 +366,8 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
     asks the whole max_hip while the DCM is outward of the stance sole's centre (within the
     band: nothing without it), until the support changes; the first tick of a single support
     (the support switch) does not count; a slow drift never fires it, nor a jump within five
-    times the running RMS of the estimate's per-tick change."""
+    times the running RMS of the estimate's per-tick change, nor a jump inward (one way only:
+    the shared test, :func:`wbc.balance.push_jump.jumped`, is two-sided for the steps')."""
     q = standing(robot)
     t = targets_at(robot, q)
     g = Gains(k_hip=100.0, max_hip=0.5, hip_release=2.0, hip_band=0.025, hip_jump=hip_jump)
@@ -396,6 +397,10 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
         roll(jitter, -0.03 if n % 2 else -0.02)
     roll(jitter, 0.0)
     assert roll(jitter, 0.005) == 0.0
+    inward = Stabilizer(robot, 0.2, lambda: None, None, g)
+    for offset in (0.0, 0.0, 0.0, -0.02, -0.01, 0.0):  # a 20 mm jump inward: no push
+        assert roll(inward, offset) == 0.0
+    assert roll(inward, 0.005) == 0.0  # (outward within the band: the roll only if it fired)
     switch = Stabilizer(robot, 0.2, lambda: None, None, g)
     roll(switch, -0.03, double)
     roll(switch, -0.03)  # the first single-support tick

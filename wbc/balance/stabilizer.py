@@ -74,6 +74,7 @@ from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
 from .gains import NO_FEED_FORWARD_GAINS as NO_FEED_FORWARD_GAINS  # (re-exported)
 from .gains import Gains as Gains
 from .gains import default_gains as default_gains
+from .push_jump import JUMP_SIGMA, JUMP_TAU, jumped
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
@@ -84,9 +85,6 @@ _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, 
 _K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
 _K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
 _K_SIZE = 17
-#: ``hip_jump``'s jitter guard: the jump must beat this × the running RMS of the per-tick change
-#: too (time constant ``HIP_JUMP_TAU`` s; as ``SteppingParams.trigger_sigma`` along the walk)
-HIP_JUMP_SIGMA, HIP_JUMP_TAU = 5.0, 0.3
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -238,9 +236,10 @@ def _hip_roll(
     most (a fast return would throw the DCM out again). With ``k[_K_HIP_JUMP]`` > 0 (m) the
     push trigger (``hip_jump``; ``jump``: the last offset, the single support's ticks, the
     latch, the per-tick change's mean square; updated in place): an offset grown by more than
-    that and :data:`HIP_JUMP_SIGMA` × its running RMS in one tick, past the support switch's
-    first tick, asks the whole ``max_hip`` while the DCM is outward of the sole's
-    centre until the support changes."""
+    that and :data:`~wbc.balance.push_jump.JUMP_SIGMA` × its running RMS in one tick
+    (:func:`~wbc.balance.push_jump.jumped`, one-sided; the step adjustment's push trigger
+    asks the same both ways), past the support switch's first tick, asks the whole
+    ``max_hip`` while the DCM is outward of the sole's centre until the support changes."""
     want0 = want1 = 0.0
     if single:
         y0, y1 = stance[0, 1] / y_norm, stance[1, 1] / y_norm
@@ -250,11 +249,11 @@ def _hip_roll(
         s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1
         threshold = k[_K_HIP_JUMP]
         if threshold > 0:
-            if jump[1] >= 2:  # (not across the support switch)
-                d = s - jump[0]
-                if d > max(threshold, HIP_JUMP_SIGMA * math.sqrt(jump[3])):
+            if jump[1] >= 2:  # (not across the support switch; outward only)
+                share = min(dt / JUMP_TAU, 1.0)
+                fired, jump[3] = jumped(s - jump[0], False, threshold, JUMP_SIGMA, share, jump[3])
+                if fired:
                     jump[2] = 1.0
-                jump[3] += (d * d - jump[3]) * min(dt / HIP_JUMP_TAU, 1.0)
             jump[0] = s
             jump[1] += 1
         pushed = jump[2] > 0.5
