@@ -25,7 +25,7 @@ Two kinds of pass, alternated:
 Medians over the walking ticks (the first 20 left out), µs, best of the rounds.
 
     nice -n 5 python benchmarks/loop_trace.py [--solvers hqp-daqp wqp-daqp] [--rounds 3]
-        [--walk walk10_wb] [--against ROOT]
+        [--walk walk10_wb] [--compensate GAIN] [--against ROOT]
 
 ``--against ROOT`` runs the same passes on another checkout (a subprocess with
 ``PYTHONPATH=ROOT``), alternating with this one round by round: a change's before / after.
@@ -80,8 +80,9 @@ class Timers:
         return {p: 1e6 * float(np.median([t.get(p, 0.0) for t in rows])) for p in parts}
 
 
-def run(solver: str, walk: str, split: bool) -> dict[str, float]:
-    """One closed-loop run (module docstring); the medians (µs) and ``share``."""
+def run(solver: str, walk: str, split: bool, compensate: float | None = None) -> dict[str, float]:
+    """One closed-loop run (module docstring; ``compensate``: the feed-forward's gain, None:
+    the best, as ``wbc sim``); the medians (µs) and ``share``."""
     from wbc import load_robot
     from wbc.balance import best_compensate
     from wbc.balance import stabilizer as stab_mod
@@ -155,7 +156,8 @@ def run(solver: str, walk: str, split: bool) -> dict[str, float]:
     if split:
         stab_mod._feedback_tick = timed_kernel
     try:
-        _, loop = cl.play_closed_loop(spec, robot, settle=0.0, compensate=best_compensate(robot))
+        gain = best_compensate(robot) if compensate is None else compensate
+        _, loop = cl.play_closed_loop(spec, robot, settle=0.0, compensate=gain)
     finally:
         live.closed_loop = original
         stab_mod._feedback_tick = kernel
@@ -175,14 +177,16 @@ def run(solver: str, walk: str, split: bool) -> dict[str, float]:
     return out
 
 
-def runs(solvers: list[str], walk: str) -> dict[str, dict[str, dict[str, float]]]:
+def runs(solvers: list[str], walk: str, gain: float | None) -> dict[str, dict]:
     """{solver: {"plain": ..., "split": ...}} for one round."""
-    return {s: {"plain": run(s, walk, False), "split": run(s, walk, True)} for s in solvers}
+    return {s: {"plain": run(s, walk, False, gain), "split": run(s, walk, True, gain)}
+            for s in solvers}  # fmt: skip
 
 
-def against(root: Path, solvers: list[str], walk: str) -> dict:
+def against(root: Path, solvers: list[str], walk: str, gain: float | None) -> dict:
     env = dict(os.environ, PYTHONPATH=str(root))
     cmd = [sys.executable, __file__, "--solvers", *solvers, "--walk", walk, "--json"]
+    cmd += [] if gain is None else ["--compensate", str(gain)]
     text = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(text.strip().splitlines()[-1])
 
@@ -199,17 +203,20 @@ def main() -> None:
     p.add_argument("--walk", default="walk10_wb")
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--against", type=Path, metavar="ROOT")
+    p.add_argument("--compensate", type=float, default=None,
+                   help="the feed-forward's gain (default: the best, as wbc sim; 0: none, the "
+                   "closed loop's gains without it)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="one round, one JSON line")
     args = p.parse_args()
     if args.json:
-        print(json.dumps(runs(args.solvers, args.walk)))
+        print(json.dumps(runs(args.solvers, args.walk, args.compensate)))
         return
     mine: list[dict] = []
     other: list[dict] = []
     for _ in range(args.rounds):
-        mine.append(runs(args.solvers, args.walk))
+        mine.append(runs(args.solvers, args.walk, args.compensate))
         if args.against is not None:
-            other.append(against(args.against, args.solvers, args.walk))
+            other.append(against(args.against, args.solvers, args.walk, args.compensate))
     if args.against is not None:
         print(f"ROOT: {args.against}")
     for solver in args.solvers:
