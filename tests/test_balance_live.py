@@ -196,6 +196,33 @@ def test_the_loop_share_counts_the_walking_ticks_only(example):
     assert source.cost_share() == loop_share(fb, sv) == pytest.approx(np.median(fb / (fb + sv)))
 
 
+def test_the_limit_excess_is_the_largest_excursion_of_any_tick():
+    """SessionSource.limit_excess (the physics record's goal_limit_excess): the largest
+    ``max(q_min − j, j − q_max)`` of any tick's targets, exactly the per-tick formula's number
+    (kept as running extremes, read when asked); 0 before any target and within the limits."""
+    from wbc import load_robot
+    from wbc.balance.live import SessionSource
+    from wbc.bench.trajectories import build
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import Session, StackController
+
+    robot = load_robot("bioloid")
+    session = Session(StackController(load_stack("walk", robot)), robot, build("walk10", robot))
+    source = SessionSource(session)
+    assert source.limit_excess == 0.0
+    rng, span, worst = np.random.default_rng(0), robot.q_max - robot.q_min, 0.0
+    for tick in range(40):
+        scale = 1.0 if tick < 10 else 1.08  # (within the limits first)
+        j = robot.q_min + span * (0.5 + scale * rng.uniform(-0.5, 0.5, robot.n_joints))
+        q = session.q.copy()
+        q[7:] = j
+        session.at_time = lambda _t, q=q: q  # (the tick's solve: these targets)
+        assert np.array_equal(source(tick, 0.01 * tick), j)
+        worst = max(worst, float(np.max(np.maximum(robot.q_min - j, j - robot.q_max))))
+        assert source.limit_excess == worst
+    assert worst > 0
+
+
 def test_loop_share_is_the_median_share_and_scale_free():
     """loop_share: the median over the ticks of loop / (loop + solve); the same for times
     scaled together (a slower machine)."""

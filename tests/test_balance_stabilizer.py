@@ -366,7 +366,8 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
     asks the whole max_hip while the DCM is outward of the stance sole's centre (within the
     band: nothing without it), until the support changes; the first tick of a single support
     (the support switch) does not count; a slow drift never fires it, nor a jump within five
-    times the running RMS of the estimate's per-tick change."""
+    times the running RMS of the estimate's per-tick change, nor a jump inward (one way only:
+    the shared test, :func:`wbc.balance.push_jump.jumped`, is two-sided for the steps')."""
     q = standing(robot)
     t = targets_at(robot, q)
     g = Gains(k_hip=100.0, max_hip=0.5, hip_release=2.0, hip_band=0.025, hip_jump=hip_jump)
@@ -396,6 +397,10 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
         roll(jitter, -0.03 if n % 2 else -0.02)
     roll(jitter, 0.0)
     assert roll(jitter, 0.005) == 0.0
+    inward = Stabilizer(robot, 0.2, lambda: None, None, g)
+    for offset in (0.0, 0.0, 0.0, -0.02, -0.01, 0.0):  # a 20 mm jump inward: no push
+        assert roll(inward, offset) == 0.0
+    assert roll(inward, 0.005) == 0.0  # (outward within the band: the roll only if it fired)
     switch = Stabilizer(robot, 0.2, lambda: None, None, g)
     roll(switch, -0.03, double)
     roll(switch, -0.03)  # the first single-support tick
@@ -553,3 +558,36 @@ def test_yaw_cutoff_attenuates_the_heading_loops_ringing(robot, f, cutoff, low, 
         peaks.append(np.ptp(yaws))
     assert peaks[0] > 1e-3  # the heading feedback does answer the yaw
     assert low < peaks[1] / peaks[0] < high
+
+
+def test_the_com_shift_kernel_gives_the_numpy_formulas_bits():
+    """Stabilizer._shifted's compiled call (:func:`_com_shift`) against the formulas it
+    replaced written in numpy (``−k_dcm ε − R_h K ∫ R_hᵀ ε dt``, the integral clipped per
+    axis, the lean, the norm clipped), bit for bit on random states (the matrix products
+    through numpy's BLAS, as the kernel's ``np.dot``)."""
+    from wbc.balance.stabilizer import _com_shift
+    from wbc.geometry import clip_norm, rot2, yaw_of
+
+    rng = np.random.default_rng(0)
+    for _ in range(400):
+        k_dcm, k_x, k_y, k_lean, limit = rng.choice([0.0, 0.3]), *rng.choice([0.0, 0.25], 2), \
+            rng.choice([0.0, 0.5]), rng.choice([0.01, 0.5])  # fmt: skip
+        R = pin.rpy.rpyToMatrix(*rng.normal(0, 0.1, 2), rng.uniform(-3.2, 3.2))
+        com, vel, dcm, e = rng.normal(0, 0.1, 3), *rng.normal(0, 0.2, (3, 3))
+        integral, omega0, dt, h = rng.normal(0, 0.02, 2), 7.3, 0.01, 0.2
+        k_i, shift, want_i = np.array([k_x, k_y]), np.zeros(2), integral.copy()
+        if k_dcm > 0 or k_i.any():
+            err = dcm[:2] - (com[:2] + vel[:2] / omega0)
+            shift -= k_dcm * err
+            if k_i.any():
+                R_h = rot2(yaw_of(R))
+                bound = limit / np.maximum(k_i, 1e-9)
+                want_i = np.clip(integral + (R_h.T @ err) * dt, -bound, bound)
+                shift -= R_h @ (k_i * want_i)
+        if k_lean > 0:
+            shift -= k_lean * h * np.array([e[1], -e[0]])
+        shift = clip_norm(shift, limit)
+        want = np.array([com[0] + shift[0], com[1] + shift[1], com[2]])
+        k = np.array([k_dcm, k_x, k_y, k_lean, limit, omega0])
+        got = _com_shift(com, vel, dcm, R, k, dt, integral, h, e)
+        assert np.array_equal(got, want) and np.array_equal(integral, want_i)

@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 
 from ..exceptions import ConfigurationError
@@ -59,6 +60,17 @@ CALIBRATE_S = 1.0
 SERVO_LAWS = (ServoParams, HobbyServoParams, XServoParams)
 
 
+@numba.njit(cache=True)
+def _envelope(j: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+    """``lo``, ``hi`` (in place): the running minimum and maximum of ``j`` (NaN not counted)."""
+    for k in range(j.size):
+        v = j[k]
+        if v < lo[k]:
+            lo[k] = v
+        if v > hi[k]:
+            hi[k] = v
+
+
 class SessionSource(CallableSource):
     """A target source solving ``session`` live: target of time t = the session's solve for
     the reference tick at t (None past the end). Keeps the largest excursion of its targets
@@ -67,7 +79,9 @@ class SessionSource(CallableSource):
     def __init__(self, session: Session) -> None:
         self.session = session
         robot = session.robot
-        self.limit_excess = 0.0
+        #: the targets' running minimum and maximum per joint (:attr:`limit_excess`)
+        self._low = np.full(robot.n_joints, np.inf)
+        self._high = np.full(robot.n_joints, -np.inf)
         #: per walking tick (the start-up calibration's ticks at rest not counted), s: the
         #: closed loop's own work (step adjustment, estimator, feedback: :func:`loop_share`),
         #: the sensor reads it did (the drivers'), the controller's tick (solve + integration)
@@ -102,8 +116,7 @@ class SessionSource(CallableSource):
             if offsets is not None:  # joint-level feedback (counted with the feedback)
                 j = np.clip(j + offsets, robot.q_min, robot.q_max)
             extra = time.perf_counter() - start if offsets is not None else 0.0
-            excess = float(np.max(np.maximum(robot.q_min - j, j - robot.q_max)))
-            self.limit_excess = max(self.limit_excess, excess)
+            _envelope(j, self._low, self._high)  # (the excess when read: limit_excess)
             if not resting:
                 read = stab.read_time if stab is not None else 0.0
                 self.feedback_time.append(session.loop_time - read + extra)
@@ -113,6 +126,15 @@ class SessionSource(CallableSource):
 
         super().__init__(target, session.q[7:].copy(), robot.joint_names)
         self.duration = float(session.ref.duration)
+
+    @property
+    def limit_excess(self) -> float:
+        """rad: the targets' largest excursion beyond a joint limit so far (0 if none): the
+        per-tick maximum of ``max(q_min − j, j − q_max)`` over the joints, taken from the
+        targets' running extremes per joint when read (the same number: a rounded
+        difference keeps its operands' order)."""
+        q_min, q_max = self.session.robot.q_min, self.session.robot.q_max  # (none yet: ±inf)
+        return max(0.0, float(np.max(np.maximum(q_min - self._low, self._high - q_max))))
 
     def idle(self) -> None:
         """After a tick's goals are sent: the next support switch made now

@@ -65,7 +65,6 @@ import numba
 import numpy as np
 
 from ..compiled.rows import log3
-from ..geometry import clip_norm, rot2, yaw_of
 from ..imu import Imu, ImuCalibration, calibrate
 from ..model import Robot
 from ..walking.loop import sole_pack
@@ -74,6 +73,7 @@ from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
 from .gains import NO_FEED_FORWARD_GAINS as NO_FEED_FORWARD_GAINS  # (re-exported)
 from .gains import Gains as Gains
 from .gains import default_gains as default_gains
+from .push_jump import JUMP_SIGMA, JUMP_TAU, jumped
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
@@ -84,9 +84,6 @@ _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, 
 _K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
 _K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
 _K_SIZE = 17
-#: ``hip_jump``'s jitter guard: the jump must beat this × the running RMS of the per-tick change
-#: too (time constant ``HIP_JUMP_TAU`` s; as ``SteppingParams.trigger_sigma`` along the walk)
-HIP_JUMP_SIGMA, HIP_JUMP_TAU = 5.0, 0.3
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -238,9 +235,10 @@ def _hip_roll(
     most (a fast return would throw the DCM out again). With ``k[_K_HIP_JUMP]`` > 0 (m) the
     push trigger (``hip_jump``; ``jump``: the last offset, the single support's ticks, the
     latch, the per-tick change's mean square; updated in place): an offset grown by more than
-    that and :data:`HIP_JUMP_SIGMA` × its running RMS in one tick, past the support switch's
-    first tick, asks the whole ``max_hip`` while the DCM is outward of the sole's
-    centre until the support changes."""
+    that and :data:`~wbc.balance.push_jump.JUMP_SIGMA` × its running RMS in one tick
+    (:func:`~wbc.balance.push_jump.jumped`, one-sided; the step adjustment's push trigger
+    asks the same both ways), past the support switch's first tick, asks the whole
+    ``max_hip`` while the DCM is outward of the sole's centre until the support changes."""
     want0 = want1 = 0.0
     if single:
         y0, y1 = stance[0, 1] / y_norm, stance[1, 1] / y_norm
@@ -250,11 +248,11 @@ def _hip_roll(
         s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1
         threshold = k[_K_HIP_JUMP]
         if threshold > 0:
-            if jump[1] >= 2:  # (not across the support switch)
-                d = s - jump[0]
-                if d > max(threshold, HIP_JUMP_SIGMA * math.sqrt(jump[3])):
+            if jump[1] >= 2:  # (not across the support switch; outward only)
+                share = min(dt / JUMP_TAU, 1.0)
+                fired, jump[3] = jumped(s - jump[0], False, threshold, JUMP_SIGMA, share, jump[3])
+                if fired:
                     jump[2] = 1.0
-                jump[3] += (d * d - jump[3]) * min(dt / HIP_JUMP_TAU, 1.0)
             jump[0] = s
             jump[1] += 1
         pushed = jump[2] > 0.5
@@ -356,6 +354,52 @@ def _feedback_tick(
     return code
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _com_shift(
+    com: np.ndarray,
+    com_vel_ref: np.ndarray,
+    dcm: np.ndarray,
+    R_ref: np.ndarray,
+    k: np.ndarray,
+    dt: float,
+    integral: np.ndarray,
+    h: float,
+    e: np.ndarray,
+) -> np.ndarray:
+    """:meth:`Stabilizer._shifted`'s CoM target in one compiled call (its numpy operations,
+    one a tick each, cost more than their arithmetic): ``k``: ``k_dcm``, ``k_dcm_i``,
+    ``k_dcm_i_y``, ``k_lean``, ``max_shift``, ω₀; ``integral`` (the DCM error's, 2) updated in
+    place; ``h`` the CoM's height over the support sole (``k_lean``), ``e`` the orientation
+    error. The matrix products are numpy's (BLAS, ``np.dot``: the same bits)."""
+    shift = np.zeros(2)
+    k_i = k[1:3]
+    if k[0] > 0 or k_i[0] != 0 or k_i[1] != 0:
+        err = np.empty(2)
+        for a in range(2):  # ε = ξ − (c_ref + ċ_ref / ω₀)
+            err[a] = dcm[a] - (com[a] + com_vel_ref[a] / k[5])
+            shift[a] -= k[0] * err[a]
+        if k_i[0] != 0 or k_i[1] != 0:
+            yaw = math.atan2(R_ref[1, 0], R_ref[0, 0])  # (geometry.yaw_of, rot2)
+            c, s = np.cos(yaw), np.sin(yaw)
+            R_h = np.empty((2, 2))
+            R_h[0, 0], R_h[0, 1], R_h[1, 0], R_h[1, 1] = c, -s, s, c
+            local = np.dot(R_h.T, err)
+            for a in range(2):
+                limit = k[4] / max(k_i[a], 1e-9)
+                integral[a] = min(max(integral[a] + local[a] * dt, -limit), limit)
+            shift -= np.dot(R_h, k_i * integral)
+    if k[3] > 0:  # the CoM turned by −k_lean·e about the support: −k h (e × z)
+        lean = k[3] * h
+        shift[0] -= lean * e[1]
+        shift[1] -= lean * -e[0]
+    n = math.sqrt(np.dot(shift, shift))  # (geometry.clip_norm)
+    if n > k[4]:
+        shift = shift * (k[4] / n)
+    out = np.empty(3)
+    out[0], out[1], out[2] = com[0] + shift[0], com[1] + shift[1], com[2]
+    return out
+
+
 class _Sample:
     """An IMU sample in the torso frame, built inside the tick (no validation: its arrays
     come from a validated :class:`~wbc.imu.ImuReading`)."""
@@ -414,6 +458,7 @@ class Stabilizer:
         self._applied: ImuCalibration | None = None  # the calibration in _fb
         self._no_fall = np.zeros(_F_SIZE)  # (fall_code's state when there is no detector)
         self.dcm_integral = np.zeros(2)  # m·s, ∫ DCM error dt in the torso target's heading frame
+        self._shift_k: tuple = (None, np.zeros(6))  # (gains, _com_shift's k: _shifted)
         self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
         self.rate = np.zeros(3)
         self._joint = None
@@ -633,26 +678,17 @@ class Stabilizer:
         """The CoM target moved by the DCM and lean terms (clipped to ``max_shift``):
         ``−k_dcm ε − R_h K ∫ R_hᵀ ε dt`` with ``ε = ξ − ξ_ref``, ``R_h`` the torso
         target's heading (the integral kept in the walk's frame, so a turn carries it along)
-        and ``K = diag(k_dcm_i, k_dcm_i_y)`` (each axis's integral clipped to ``max_shift / k``)."""
-        g = self.gains
-        com = targets.com
-        shift = np.zeros(2)
-        k_i = np.array([g.k_dcm_i, g.k_dcm_i_y])
-        if g.k_dcm > 0 or k_i.any():
-            omega0 = self.estimator.omega0
-            dcm_ref = targets.com[:2] + com_vel_ref[:2] / omega0
-            err = est.dcm[:2] - dcm_ref
-            shift -= g.k_dcm * err
-            if k_i.any():
-                R_h = rot2(yaw_of(targets.torso_rotation))
-                limit = g.max_shift / np.maximum(k_i, 1e-9)
-                self.dcm_integral = np.clip(self.dcm_integral + (R_h.T @ err) * dt, -limit, limit)
-                shift -= R_h @ (k_i * self.dcm_integral)
-        if g.k_lean > 0:  # the CoM turned by −k_lean·e about the support: −k h (e × z)
-            h = com[2] - targets.support_placement.translation[2]
-            shift -= g.k_lean * h * np.array([e[1], -e[0]])
-        shift = clip_norm(shift, g.max_shift)
-        return np.array([com[0] + shift[0], com[1] + shift[1], com[2]])
+        and ``K = diag(k_dcm_i, k_dcm_i_y)`` (each axis's integral clipped to ``max_shift / k``);
+        one compiled call (:func:`_com_shift`)."""
+        g, com, omega0 = self.gains, targets.com, self.estimator.omega0
+        key, k = self._shift_k
+        if key is not g or k[5] != omega0:  # (the gains changed: packed again)
+            k = np.array([g.k_dcm, g.k_dcm_i, g.k_dcm_i_y, g.k_lean, g.max_shift, omega0])
+            self._shift_k = (g, k)
+        h = com[2] - targets.support_placement.translation[2] if g.k_lean > 0 else 0.0
+        return _com_shift(np.asarray(com, dtype=float), np.asarray(com_vel_ref, dtype=float),
+                          est.dcm, np.asarray(targets.torso_rotation, dtype=float), k,
+                          float(dt), self.dcm_integral, float(h), e)  # fmt: skip
 
     def joint_offsets(self, joints: np.ndarray) -> np.ndarray | None:
         """Joint-level feedback on the solved goals (``j_p``, ``j_d``; None when off):

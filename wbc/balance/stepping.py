@@ -381,8 +381,7 @@ class StepAdjuster:
         if p.baseline_tau > 0:
             self._track_baseline(ref, i, dcm)
         if (p.trigger_jump or 0.0) > 0:
-            e = np.asarray(dcm[:2], dtype=float) - self._dcm_ref(ref, i)
-            self.trigger.watch(ref, i, e, self._heading(ref, i))
+            self.trigger.watch(ref, i, dcm, self._dcm_ref(ref, i))
         if p.landing_catch > 0 and ref.support[i] != SUPPORT_DOUBLE:
             # the tick the DCM error left the band in this swing (with trigger_jump: the
             # tick of the jump; an unpushed walk leaving the band is no push)

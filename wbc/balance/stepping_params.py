@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 
 from ..exceptions import ConfigurationError
 from ..model import Robot
+from .push_jump import JUMP_SIGMA, JUMP_TAU
 
 #: m: the DCM error an unpushed walk shows on the Bioloid (stance heading frame), along the
 #: walk and sideways (hqp-daqp: 16 mm, its torso rolls at lift-off): the dead bands of a
@@ -121,8 +122,8 @@ class SteppingParams:
     #: change before it (running, ``trigger_tau`` s): a jittery plant (22 mm on ``turn_wb``,
     #: RMS 5.5 mm) is no push (benchmarks/pushes.md)
     trigger_skip: int = 1
-    trigger_sigma: float = 5.0
-    trigger_tau: float = 0.3
+    trigger_sigma: float = JUMP_SIGMA
+    trigger_tau: float = JUMP_TAU
     #: m: once triggered, the swing sole's target raised by this much (blended in over
     #: ``lift_time`` s, out over the swing's last ``lift_land`` share so that it lands on
     #: time): the push pitches the body about the stance toe and the swing toe meets the

@@ -24,14 +24,54 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+import numba
 import numpy as np
 import pinocchio as pin
 
-from ..recording import SUPPORT_DOUBLE
+from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT
 from ..walking.reference import WalkingReference
 from ..walking.schedule import Phase
 from ..walking.spline import smooth
+from .push_jump import jumped
 from .stepping_params import SteppingParams
+
+#: :func:`_watch`'s state: the last watched tick (``_NO_TICK``: none to compare with), its DCM
+#: error (2), the per-tick change's mean square; the last test's change along the walk and the
+#: stance sole's heading (cos, sin); then its parameters: ``trigger_jump``, ``trigger_sigma``,
+#: the running mean's step ``min(dt / trigger_tau, 1)``, ``trigger_skip``
+_W_TICK, _W_ERR, _W_MS, _W_D, _W_HEADING, _W_K, _W_SIZE = 0, 1, 3, 4, 5, 7, 11
+_NO_TICK = -10.0
+#: :func:`_watch`'s table, per tick of a reference: its support, the stance sole's heading
+#: (yaw; the right sole's in double support), the ticks since its phase began, its phase
+_T_SUPPORT, _T_YAW, _T_SINCE, _T_PHASE = range(4)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _watch(
+    i: int, dcm: np.ndarray, dcm_ref: np.ndarray, table: np.ndarray, tick: int, state: np.ndarray
+) -> bool:
+    """:meth:`PushTrigger.watch`'s tick in one compiled call: at tick ``i`` (``table``: the
+    reference's rows, ``_T_*``) the DCM error ``e = dcm − dcm_ref`` (horizontal); in single
+    support past its first ``trigger_skip`` ticks, against the error of tick ``i − 1`` kept in
+    ``state`` (``_W_*``; of the same reference: the caller resets it) and unless a catch
+    started in this phase (``tick``: its tick, −1: none), the change along the stance sole's
+    heading (``StepAdjuster._heading``) ``d``, tested by :func:`~wbc.balance.push_jump.jumped`
+    (both ways). True: a push (``state``: ``d`` and the heading)."""
+    row = table[i]
+    if row[_T_SUPPORT] == SUPPORT_DOUBLE or row[_T_SINCE] < state[_W_K + 3]:
+        state[_W_TICK] = _NO_TICK  # (the support switch: trigger_skip)
+        return False
+    e0, e1 = dcm[0] - dcm_ref[0], dcm[1] - dcm_ref[1]
+    last, l0, l1 = state[_W_TICK], state[_W_ERR], state[_W_ERR + 1]
+    state[_W_TICK], state[_W_ERR], state[_W_ERR + 1] = i, e0, e1
+    if last != i - 1 or (tick >= 0 and table[tick, _T_PHASE] == row[_T_PHASE]):
+        return False
+    c, s = math.cos(row[_T_YAW]), math.sin(row[_T_YAW])
+    d = c * (e0 - l0) + s * (e1 - l1)  # along the walk
+    k = state[_W_K : _W_K + 3]
+    fired, state[_W_MS] = jumped(d, True, k[0], k[1], k[2], state[_W_MS])
+    state[_W_D], state[_W_HEADING], state[_W_HEADING + 1] = d, c, s
+    return fired
 
 
 class PushTrigger:
@@ -46,36 +86,40 @@ class PushTrigger:
         #: the jump's direction (unit, horizontal world) at :attr:`tick` (catch_pitch)
         self.push = np.zeros(2)
         self.forward = False  # the jump was forward along the walk (toe_up)
-        #: (tick, reference, raw DCM error) of the last single-support tick
-        self._last_err: tuple[int, Any, np.ndarray] | None = None
-        self._jitter = 0.0  # the running mean square of its per-tick change (trigger_sigma)
+        #: the last single-support tick and its raw DCM error, the running mean square of
+        #: the per-tick change (trigger_sigma): :func:`_watch`'s state
+        self._state = np.zeros(_W_SIZE)
+        self._state[_W_TICK] = _NO_TICK
+        self._since = np.array([i - phases[j].i0 for i, j in enumerate(phase_of)], dtype=float)
+        #: the reference of the last tick watched and its :func:`_watch` table
+        self._table: tuple[Any, np.ndarray | None] = (None, None)
 
     def triggered(self, i: int) -> bool:
         """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
         t = self.tick
         return t is not None and self.phase_of[t] == self.phase_of[i]
 
-    def watch(
-        self, ref: WalkingReference, i: int, e: np.ndarray, heading: tuple[float, float]
-    ) -> None:
+    def watch(self, ref: WalkingReference, i: int, dcm: np.ndarray, dcm_ref: np.ndarray) -> None:
         """The push trigger (``trigger_jump``): in single support, the DCM error along the walk
-        ``e`` (raw, against the reference ``ref``; ``heading`` the stance sole's cos, sin)
-        jumping by more than ``trigger_jump`` since the last tick (sideways pushes: the default
-        catch, measured better toward the swing foot; benchmarks/pushes.md)."""
-        ph = self.phases[self.phase_of[i]]
-        if ref.support[i] == SUPPORT_DOUBLE or i - ph.i0 < self.params.trigger_skip:
-            self._last_err = None  # (the support switch: trigger_skip)
-            return
-        last, self._last_err = self._last_err, (i, ref, e)
-        if last is None or last[0] != i - 1 or last[1] is not ref or self.triggered(i):
-            return
-        c, s = heading
-        p, d = self.params, (c * (e[0] - last[2][0]) + s * (e[1] - last[2][1]))  # along
-        if abs(d) > max(p.trigger_jump or 0.0, p.trigger_sigma * math.sqrt(self._jitter)):
+        (``dcm`` measured, ``dcm_ref`` the reference ``ref``'s at tick ``i``; along the stance
+        sole's heading) jumping by more than ``trigger_jump`` since the last tick, and by more
+        than ``trigger_sigma`` × the running RMS of that change (:func:`_watch`; sideways
+        pushes: the default catch, measured better toward the swing foot;
+        benchmarks/pushes.md)."""
+        state, (last, table) = self._state, self._table
+        if ref is not last or table is None:  # (a re-planned reference: no jump across it)
+            p, support = self.params, ref.support
+            yaw = np.where(support == SUPPORT_LEFT, ref.l_sole_yaw, ref.r_sole_yaw)
+            table = np.column_stack([support, yaw, self._since, self.phase_of]).astype(float)
+            self._table = (ref, table)
+            state[_W_TICK] = _NO_TICK
+            share = min(ref.dt / max(p.trigger_tau, 1e-9), 1.0)  # (the running mean's step)
+            state[_W_K : _W_K + 4] = (p.trigger_jump or 0.0, p.trigger_sigma, share, p.trigger_skip)
+        if _watch(i, dcm, dcm_ref, table, -1 if self.tick is None else self.tick, state):
+            d = state[_W_D]
             self.tick = i
-            self.push = math.copysign(1.0, d) * np.array([c, s])
-            self.forward = d > 0
-        self._jitter += (d * d - self._jitter) * min(ref.dt / max(p.trigger_tau, 1e-9), 1.0)
+            self.push = math.copysign(1.0, d) * state[_W_HEADING : _W_HEADING + 2]
+            self.forward = bool(d > 0)
 
     def lifted(self, targets: Any, velocity: np.ndarray | None = None) -> Any:
         """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
