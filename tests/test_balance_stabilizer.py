@@ -452,8 +452,9 @@ def test_a_push_kicks_the_stance_hip_toward_the_roll(robot, hip_kick):
     assert np.allclose(np.diff([0.5] + rolls), -0.5 * 0.01)  # kick_release, not hip_release
     assert np.allclose(sizes, hip_kick * np.array(rolls) / 0.5)
     right = TickTargets(0, 0.0, "single", "r_sole", "l_sole", t.com, t.l_sole, t.r_sole, 0.0,
-                        t.torso_rotation, t.l_sole.translation.copy(), t.l_sole.rotation.copy())
-    out = [abs(tick(0.0, right)[k]) for _ in range(int(hip_kick / step) + 1)]  # fmt: skip
+                        t.torso_rotation, t.l_sole.translation.copy(),
+                        t.l_sole.rotation.copy())  # fmt: skip
+    out = [abs(tick(0.0, right)[k]) for _ in range(int(hip_kick / step) + 1)]
     assert out[0] == pytest.approx(sizes[-1] - step) and out[-1] == 0.0  # its leg lifts
     assert np.linalg.norm(stab.hip) > 0 and tick(0.0, right) is None  # (the kick is over)
     stab.hip[:] = 0.0  # (the roll released)

@@ -700,10 +700,10 @@ class Stabilizer:
         toward the roll (its sign from the joint's axis ``a`` at the trigger: with the sole
         held, turning it by dθ turns the torso by ``−a dθ``), the goal's change per tick within
         the joint's speed limit (``Robot.v_max``; once that leg lifts, the kick ramps out at
-        it). The whole-body solve, whose CoM task
-        outweighs the torso's, stops the stance hip ~20° short of the roll asked (the servo
-        leaves its stall torque at +80 ms); the kick keeps it spinning the upper body toward
-        the joint's range, as :func:`wbc.balance.angular.hip_strategy_bound` counts."""
+        it). The whole-body solve, whose CoM task outweighs the torso's, stops the stance hip
+        ~20° short of the roll asked (the servo leaves its stall torque 90 ms after the push);
+        the kick keeps it spinning the upper body toward the joint's range, as
+        :func:`wbc.balance.angular.hip_strategy_bound` counts (benchmarks/pushes.md)."""
         kick, g, est = self._kick, self.gains, self.last
         if est is None or self._axes is None:
             return d
