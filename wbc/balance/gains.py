@@ -89,7 +89,8 @@ class Gains:
     #: shrink at ``kick_release`` rad/s, not ``hip_release`` (:meth:`Stabilizer.joint_offsets
     #: <wbc.balance.stabilizer.Stabilizer.joint_offsets>`). Away 0.789 → 0.828 N·s on
     #: ``walk10_wb`` (0.1: 0.813, 0.2: 0.820; 0.4: 0.773, the torso beyond 45° of its plan),
-    #: the other pushes and every unpushed plant the same (issue 30, benchmarks/pushes.md)
+    #: the OP3 1.164 → 1.211; the other pushes and every unpushed plant the same (issue 30,
+    #: benchmarks/pushes.md)
     hip_kick: float = 0.3
     kick_release: float = 0.5  # rad/s (> 0 with a kick)
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
