@@ -13,7 +13,11 @@ as the benchmark counts it (45° or sunk) and why the deployment stopped (``--no
 fall detector, the run goes on until it falls). ``--lateral``: the sideways columns instead,
 along the push from the stance sole's centre (the DCM, the CoP and the sole's furthest
 contact, the swing sole; the hip strategy's roll, the torso's top, the hip and shoulder
-rolls: :func:`lateral_table`). A probe: it observes
+rolls; from the pushed single support's stance sole the simulator's DCM ``ξ`` and ``η = ξ +
+L / (m h ω₀)``, the DCM with the centroidal angular momentum ``L`` about ``z × u`` returned
+(what the hip strategy must bring inside the sole's edge: ``η̇ = ω₀ (η − p) − L / (m h)``,
+:mod:`wbc.balance.angular`), ``L`` itself and that sole's hip and ankle roll with their goals:
+:func:`lateral_table`). A probe: it observes
 :meth:`wbc.balance.stabilizer.Stabilizer.adjust` by wrapping it for the run.
 
     nice -n 5 python benchmarks/push_trace.py --impulse 0.6 --direction forward
@@ -72,7 +76,7 @@ def trace(
     force = u * impulse / PUSH_DURATION
     roles = robot.roles
     side_joint = {(side, role): robot.joint_index(j) for side in ("left", "right")
-                  for role in ("hip_roll", "shoulder_roll", "ankle_roll")
+                  for role in ("hip_roll", "shoulder_roll", "ankle_roll", "knee")
                   if (j := roles.get(side, role)) is not None}  # fmt: skip
     spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
                           SteppingParams(**stepping), HoldParams())  # fmt: skip
@@ -107,6 +111,11 @@ def trace(
         edge = max((float((pt - p_st) @ u) for pt, o in zip(pts, on_stance, strict=True) if o),
                    default=float("nan"))  # fmt: skip
         q = sim.q()[7:]
+        goals = sim.servos.goal_angles()
+        sim.mj.mj_subtreeVel(sim.model, sim.data)  # the centroidal angular momentum
+        axis = np.array([-u[1], u[0], 0.0])  # z × u: positive, the top toward u
+        L = float(sim.data.subtree_angmom[sim.root] @ axis)
+        mass, h = float(sim.model.body_subtreemass[sim.root]), float(ref.com_height)
         top = float(np.asarray(out.torso_rotation)[:, 2] @ u)
         rows.append({
             "dcm_u": 1e3 * float((self.last.dcm[:2] - p_st[:2]) @ u[:2]),
@@ -114,6 +123,16 @@ def trace(
             "cop_u": 1e3 * float((cop - p_st[:2]) @ u[:2]) if cop is not None else float("nan"),
             "edge_u": 1e3 * edge,
             "hip": math.degrees(float(np.hypot(*self.hip))),
+            "L": L,
+            "u": u[:2].copy(), "xi_w": c[:2] + v[:2] / omega,
+            "eta_w": c[:2] + v[:2] / omega + u[:2] * L / (mass * h * omega),
+            "soles_w": {f: sim.site_pose(f).translation[:2].copy() for f in ("l_sole", "r_sole")},
+            "stance_site": stance_site,
+            # the DCM with the angular momentum returned: ξ + L / (m h ω₀) (pushes.md)
+            "eta_u_sim": 1e3 * (float((c[:2] + v[:2] / omega - p_st[:2]) @ u[:2])
+                                + L / (mass * h * omega)),
+            "goals": {f"{s[0]}_{r}": math.degrees(float(goals[k]))
+                      for (s, r), k in side_joint.items()},
             "roll": math.degrees(math.asin(float(np.clip(R[:, 2] @ u, -1, 1)))),
             "roll_cmd": math.degrees(math.asin(float(np.clip(top, -1, 1)))),
             "swing_u": 1e3 * float((swing - p_st) @ u),
@@ -203,16 +222,29 @@ def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
     """The sideways rows: along the push ``u``, from the stance sole's centre (mm): the DCM
     (estimated / simulated), the CoP and the stance sole's furthest contact point, the
     swing sole and its target; the hip strategy's roll (deg), the torso's top tilted along
-    ``u`` and its target's, the hip and shoulder rolls (deg) and the hip rolls' torques. (In
+    ``u`` and its target's, the hip and shoulder rolls (deg) and the hip rolls' torques; from
+    the pushed single support's stance sole (through the double support after it) ``ξ`` and
+    ``η`` (the simulator's, mm), ``L`` (kg·m²/s) and that leg's hip and ankle roll (their
+    goals). (In
     double support "stance" is the sole of the next single support, "swing" the other.)"""
     print(
         "| ms | phase | DCM est / sim | CoP / edge | swing sole u, z / target u | F l / r "
-        "| hip roll h | torso top along u, target | hip roll l / r ° (τ N·m) | shoulder l / r ° |"
+        "| hip roll h | torso top along u, target | hip roll l / r ° (τ N·m) | shoulder l / r ° "
+        "| ξ / η from the pushed stance | L | stance hip, ankle roll (goal) ° |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     t0 = rows[jump]["t"] if rows else 0.0
+    pushed = rows[jump]["stance_site"] if rows else "l_sole"
+    side = "l" if pushed == "l_sole" else "r"
     for r in rows[max(jump - 3, 0) : jump + ticks]:
-        j = r["joints"]
+        j, g = r["joints"], r["goals"]
+        p0, u = r["soles_w"][pushed], r["u"]
+        xi, eta = 1e3 * float((r["xi_w"] - p0) @ u), 1e3 * float((r["eta_w"] - p0) @ u)
+        extra = (
+            f" {xi:.1f} / {eta:.1f} | {r['L']:+.4f} | {j.get(side + '_hip_roll', 0):+.1f} "
+            f"({g.get(side + '_hip_roll', 0):+.1f}), {j.get(side + '_ankle_roll', 0):+.1f} "
+            f"({g.get(side + '_ankle_roll', 0):+.1f}) |"
+        )
         print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} "
               f"| {r['dcm_u']:.1f} / {r['dcm_u_sim']:.1f} "
               f"| {r['cop_u']:.1f} / {r['edge_u']:.1f} | {r['swing_u']:.1f}, {r['sole'][2]:.1f} / "
@@ -221,7 +253,7 @@ def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
               f"| {j.get('l_hip_roll', 0):+.1f} / {j.get('r_hip_roll', 0):+.1f} "
               f"({r['tau_hip'][0]:+.2f} / {r['tau_hip'][1]:+.2f}) "
               f"| {j.get('l_shoulder_roll', 0):+.1f} / "
-              f"{j.get('r_shoulder_roll', 0):+.1f} |")  # fmt: skip
+              f"{j.get('r_shoulder_roll', 0):+.1f} |" + extra)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -407,6 +407,65 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
     assert roll(switch, 0.005) == 0.0  # its change from the support switch does not count
 
 
+@pytest.mark.parametrize("hip_kick", [0.0, 0.3])
+def test_a_push_kicks_the_stance_hip_toward_the_roll(robot, hip_kick):
+    """``hip_kick``: from the tick the push trigger fires, the stance hip roll's solved goal is
+    moved toward the roll (with the sole held, the torso turns by −a dθ: toward the fall), by
+    at most the joint's speed limit a tick, up to hip_kick; no other joint moves; nothing
+    before the trigger (None: the goals untouched); after the single support the roll and the
+    kick shrink together at kick_release (not hip_release), and end with the roll."""
+    from wbc.balance.feedback import GyroFeedback
+
+    q = standing(robot)
+    t = targets_at(robot, q)
+    g = Gains(k_hip=100.0, max_hip=0.5, hip_release=2.0, hip_band=0.025, hip_jump=0.6,
+              hip_kick=hip_kick, kick_release=0.5)  # fmt: skip
+    p = t.l_sole.translation[:2]
+    u = t.l_sole.rotation[:2, 1] / np.linalg.norm(t.l_sole.rotation[:2, 1])
+    stab = Stabilizer(robot, 0.2, lambda: None, None, g)
+    joints = q[7:].copy()
+    k = robot.joint_index(robot.roles.joint("left", "hip_roll"))
+    axis = GyroFeedback(robot, None, 0.0).axes(joints)[k]
+    step = robot.v_max[k] * 0.01
+
+    def tick(offset, targets=t):
+        est = _estimate_with_dcm(stab, p + offset * u)
+        stab.last = est
+        stab._stance = "" if targets.phase == "double" else targets.support
+        stab._dt = 0.01
+        stab._hip_strategy(targets, est, 0.01)
+        return stab.joint_offsets(joints)
+
+    for offset in (-0.03, -0.03, -0.03):
+        assert tick(offset) is None  # no push: the goals untouched
+    d = tick(0.005)  # the jump: the trigger fires, the whole max_hip asked
+    if hip_kick == 0:
+        assert d is None
+        return
+    assert np.count_nonzero(d) == 1 and abs(d[k]) == pytest.approx(step)
+    v = np.array([-u[1], u[0], 0.0])  # the roll's axis: the torso's top toward u
+    assert d[k] * float(axis @ v) < 0  # the torso turns by −a dθ: toward the fall
+    kicks = [abs(tick(0.005)[k]) for _ in range(10)]
+    assert np.all(np.diff([abs(d[k])] + kicks) <= step + 1e-12)
+    assert kicks[-1] == pytest.approx(hip_kick)
+    double = targets_at(robot, q, "double")
+    rolls, sizes = [], []
+    for _ in range(5):
+        d = tick(0.005, double)
+        rolls.append(float(np.linalg.norm(stab.hip)))
+        sizes.append(abs(d[k]))
+    assert np.allclose(np.diff([0.5] + rolls), -0.5 * 0.01)  # kick_release, not hip_release
+    assert np.allclose(sizes, hip_kick * np.array(rolls) / 0.5)
+    right = TickTargets(0, 0.0, "single", "r_sole", "l_sole", t.com, t.l_sole, t.r_sole, 0.0,
+                        t.torso_rotation, t.l_sole.translation.copy(),
+                        t.l_sole.rotation.copy())  # fmt: skip
+    out = [abs(tick(0.0, right)[k]) for _ in range(int(hip_kick / step) + 1)]
+    assert out[0] == pytest.approx(sizes[-1] - step) and out[-1] == 0.0  # its leg lifts
+    assert np.linalg.norm(stab.hip) > 0 and tick(0.0, right) is None  # (the kick is over)
+    stab.hip[:] = 0.0  # (the roll released)
+    assert tick(0.005, double) is None
+
+
 def test_hip_strategy_is_off_with_k_hip_zero(robot):
     """k_hip = 0: the torso target is the torso term's alone (the hip's roll never asked)."""
     q = standing(robot)

@@ -34,7 +34,7 @@ class GyroFeedback:
     def __init__(
         self,
         robot: Robot,
-        imu: Imu,
+        imu: Imu | None,
         scale: float = 1.0,
         gains: dict[str, float] | None = None,
         max_offset: float = 0.2,
@@ -74,6 +74,8 @@ class GyroFeedback:
 
     def offsets(self, joints: np.ndarray) -> np.ndarray:
         """Goal offsets (rad) from the gyro's present reading at planned ``joints``."""
+        if self.imu is None:
+            raise ConfigurationError("gyro feedback: no IMU to read (built for its axes only)")
         omega = self.imu.read().angular_velocity
         d = self.k * (self.axes(joints) @ omega)
         return np.clip(d, -self.max_offset, self.max_offset)

@@ -81,6 +81,18 @@ class Gains:
     #: changes: the roll starts at once, not 40–50 ms later when the lagging estimate leaves
     #: the band (issue 30, benchmarks/pushes.md: away 0.727 → 0.789 N·s on ``walk10_wb``)
     hip_jump: float = 0.6
+    #: rad: the push's hip roll driven to the joint (0: off): once ``hip_jump``'s trigger
+    #: fires, the stance hip roll's solved goal is moved by this much further toward the roll
+    #: (× the roll's share of ``max_hip``), so the servo spins the upper body at its stall
+    #: torque until the joint's range ends it instead of stopping where the whole-body solve
+    #: (the CoM held by the stack's heaviest task) leaves it; the roll and the kick then
+    #: shrink at ``kick_release`` rad/s, not ``hip_release`` (:meth:`Stabilizer.joint_offsets
+    #: <wbc.balance.stabilizer.Stabilizer.joint_offsets>`). Away 0.789 → 0.828 N·s on
+    #: ``walk10_wb`` (0.1: 0.813, 0.2: 0.820; 0.4: 0.773, the torso beyond 45° of its plan),
+    #: the OP3 1.164 → 1.211; the other pushes and every unpushed plant the same (issue 30,
+    #: benchmarks/pushes.md)
+    hip_kick: float = 0.3
+    kick_release: float = 0.5  # rad/s (> 0 with a kick)
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -141,6 +153,8 @@ class Gains:
             "max_hip",
             "hip_release",
             "hip_jump",
+            "hip_kick",
+            "kick_release",
             "transfer",
         ):
             v = getattr(self, name)
@@ -150,6 +164,8 @@ class Gains:
                 )
         if not 0.0 < self.clock_min <= 1.0:
             raise ConfigurationError(f"stabilizer gain clock_min: (0, 1], got {self.clock_min}")
+        if self.hip_kick > 0 and self.kick_release <= 0:
+            raise ConfigurationError("stabilizer gain kick_release must be > 0 with hip_kick")
         if self.transfer > 1 or self.clock_single > 1:
             raise ConfigurationError(f"stabilizer gains transfer, clock_single: [0, 1], got "
                                      f"{self.transfer}, {self.clock_single}")  # fmt: skip

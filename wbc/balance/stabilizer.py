@@ -37,7 +37,10 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
   sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`); a push (``hip_jump``:
-  the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band;
+  the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band, and
+  (``hip_kick``) moves the stance hip roll's solved goal further toward the roll, which then
+  returns at ``kick_release`` (:meth:`Stabilizer.joint_offsets`: the whole-body solve, its CoM
+  task the heaviest, leaves the stance hip ~20° short of the roll asked);
 * **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
   closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
   walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
@@ -46,8 +49,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   is further from the stance sole's outer edge (a push away from the swing foot has
   further to go) while the CoM and its ZMP stay consistent, the ZMP ``margin`` inside;
 * **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
-  axis, OP3 gains (:meth:`Stabilizer.joint_offsets`, applied by
-  :class:`wbc.balance.live.SessionSource`).
+  axis, OP3 gains; and the push's hip kick (``hip_kick``, above) (:meth:`Stabilizer.joint_offsets`,
+  applied by :class:`wbc.balance.live.SessionSource`).
 
 Each term is clipped (``max_tilt`` rad, ``max_shift`` m), and the joint limits stay hard in
 every solver (and the deployment clamps again): no goal ever leaves a joint limit.
@@ -83,7 +86,8 @@ from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
 _K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
 _K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
-_K_SIZE = 17
+_K_KICK_RELEASE = 17  # (kick_release, rad/s, when hip_kick > 0; else 0: no kick)
+_K_SIZE = 18
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -203,9 +207,10 @@ def _torso_feedback(
 # largest estimated tilt error (rad), the low-passed heading command (yaw_cutoff; rad) and
 # yaw_ring's low-passed vertical rate (rad/s) and mean square of the rest, the servos' lag (s),
 # the hip strategy's push trigger (hip_jump: the last outward offset, m; the single support's
-# ticks so far; 1 once it fired in this single support; the mean square of the per-tick change)
+# ticks so far; 1 once it fired in this single support; the mean square of the per-tick change;
+# hip_kick: 1 from the trigger until the roll is back to 0)
 _B_HIP, _B_INT, _B_CAL, _B_BIAS, _B_LEVEL, _B_MAX_TILT = 0, 2, 5, 6, 9, 18
-_B_YAW, _B_LAG, _B_JUMP, _B_SIZE = 19, 22, 23, 27  # (3: the low-pass's state, yaw_ring's two)
+_B_YAW, _B_LAG, _B_JUMP, _B_SIZE = 19, 22, 23, 28  # (3: the low-pass's state, yaw_ring's two)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -262,17 +267,22 @@ def _hip_roll(
             want0, want1 = y0 * m, y1 * m
     else:  # (double support: the trigger re-armed; the jitter's mean square kept)
         jump[0], jump[1], jump[2] = 0.0, 0.0, 0.0
+    kick = k[_K_KICK_RELEASE] > 0
+    if kick and jump[2] > 0.5:
+        jump[4] = 1.0  # (hip_kick: the roll after a push shrinks at kick_release)
     h0, h1 = h[0], h[1]
     if want0 * h0 + want1 * h1 >= h0 * h0 + h1 * h1:  # growing along its direction: at once
         h[0], h[1] = want0, want1
     else:  # h + clip_norm(want − h, hip_release dt)
         d0, d1 = want0 - h0, want1 - h1
         n = math.sqrt(d0 * d0 + d1 * d1)
-        limit = k[_K_RELEASE] * dt
+        limit = (k[_K_KICK_RELEASE] if kick and jump[4] > 0.5 else k[_K_RELEASE]) * dt
         if n > limit:
             f = limit / n
             d0, d1 = d0 * f, d1 * f
         h[0], h[1] = h0 + d0, h1 + d1
+    if h[0] == 0.0 and h[1] == 0.0:
+        jump[4] = 0.0
     v = np.empty(3)
     v[0], v[1], v[2] = -h[1], h[0], 0.0
     exp3_into(v, H)
@@ -336,7 +346,7 @@ def _feedback_tick(
     if consts[_K_HIP] > 0:
         H = np.empty((3, 3))
         _hip_roll(side < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
-                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 4])  # fmt: skip
+                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 5])  # fmt: skip
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
@@ -462,10 +472,20 @@ class Stabilizer:
         self.error = np.zeros(3)  # last orientation error (world) and gyro rate (torso frame)
         self.rate = np.zeros(3)
         self._joint = None
+        self._stance = ""  # the stance sole of the last tick ("" in double support)
+        #: hip_kick: the stance hip roll joint, the kick's sign, its last goal (rad; None), the
+        #: stance sole it kicks
+        self._kick: list = [0, 0.0, None, ""]
+        self._dt = 0.01  # s: the last tick's
         if self.gains.j_p > 0 or self.gains.j_d > 0:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
+        self._axes = None  # (hip_kick: the joint axes, GyroFeedback.axes)
+        if self.gains.hip_kick > 0:
+            from .feedback import GyroFeedback
+
+            self._axes = GyroFeedback(robot, None, 0.0)
         #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
         self._packed: tuple = (None, None, None, False, self._no_lag)
         self.last: StateEstimate | None = None
@@ -519,7 +539,7 @@ class Stabilizer:
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
                  g.max_yaw, g.yaw_damping, g.yaw_ring, g.lag_yaw,
-                 g.hip_jump * g.hip_band]  # fmt: skip
+                 g.hip_jump * g.hip_band, g.kick_release if g.hip_kick > 0 else 0.0]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             read = g.lag_yaw > 0 or g.lag_clock > 0 or self._measure_lag
             lag = self._lag if read else self._no_lag
@@ -557,6 +577,8 @@ class Stabilizer:
             pack = (None, None, sole_pack(targets.l_sole, targets.r_sole))  # (built here)
         soles = pack[2]
         double = targets.phase == "double"
+        self._stance = "" if double else targets.support
+        self._dt = float(dt)
         select = (8 if imu else 0) + (4 if double else 0 if targets.support == "l_sole" else 1)
         if estimator.anchor_band > 0:  # a sole landed off its plan (off by default)
             read = joints if present is None else present
@@ -612,7 +634,7 @@ class Stabilizer:
             other = (targets.r_sole if targets.support == "l_sole" else targets.l_sole).homogeneous
             y_norm = max(math.hypot(st[0, 1], st[1, 1]), 1e-9)
         _hip_roll(single, st, other, y_norm, np.asarray(est.dcm, dtype=float), self.hip,
-                  self._consts(), float(dt), H, self._fb[_B_JUMP : _B_JUMP + 4])  # fmt: skip
+                  self._consts(), float(dt), H, self._fb[_B_JUMP : _B_JUMP + 5])  # fmt: skip
         return H
 
     def _torso_sample(self, reading):
@@ -691,13 +713,60 @@ class Stabilizer:
                           float(dt), self.dcm_integral, float(h), e)  # fmt: skip
 
     def joint_offsets(self, joints: np.ndarray) -> np.ndarray | None:
-        """Joint-level feedback on the solved goals (``j_p``, ``j_d``; None when off):
-        ``δ_j = k_j a_j · (j_p Rᵀe + j_d ω)`` (OP3 gains ``k_j``, axes ``a_j`` in the torso
-        frame, :mod:`wbc.balance.feedback`), clipped to ``max_offset``."""
-        if not self.enabled or self._joint is None or self.last is None:
+        """Joint-level feedback on the solved goals (None when there is none this tick):
+        ``δ_j = k_j a_j · (j_p Rᵀe + j_d ω)`` (``j_p``, ``j_d``; OP3 gains ``k_j``, axes
+        ``a_j`` in the torso frame, :mod:`wbc.balance.feedback`), clipped to ``max_offset``;
+        and the push's hip kick (``hip_kick``: :meth:`_hip_kick`)."""
+        if not self.enabled or self.last is None:
             return None
         g = self.gains
-        e_body = self.last.rotation.T @ self.error
-        v = g.j_p * e_body + g.j_d * self.rate
-        d = self._joint.k * (self._joint.axes(joints) @ v)
-        return np.clip(d, -g.max_offset, g.max_offset)
+        d = None
+        if self._joint is not None and (g.j_p > 0 or g.j_d > 0):
+            e_body = self.last.rotation.T @ self.error
+            v = g.j_p * e_body + g.j_d * self.rate
+            d = np.clip(self._joint.k * (self._joint.axes(joints) @ v), -g.max_offset, g.max_offset)
+        if g.hip_kick > 0:
+            d = self._hip_kick(joints, d)
+        return d
+
+    def _hip_kick(self, joints: np.ndarray, d: np.ndarray | None) -> np.ndarray | None:
+        """``d`` with the push's hip kick added (``hip_kick``; ``d`` None: no other offset):
+        from the tick the push trigger fires (``hip_jump``) until the hip-strategy roll ``h``
+        is back to 0, the stance hip roll's goal moved by ``hip_kick × min(|h| / max_hip, 1)``
+        toward the roll (its sign from the joint's axis ``a`` at the trigger: with the sole
+        held, turning it by dθ turns the torso by ``−a dθ``), the goal's change per tick within
+        the joint's speed limit (``Robot.v_max``; once that leg lifts, the kick ramps out at
+        it). The whole-body solve, whose CoM task outweighs the torso's, stops the stance hip
+        ~20° short of the roll asked (the servo leaves its stall torque 90 ms after the push);
+        the kick keeps it spinning the upper body toward the joint's range, as
+        :func:`wbc.balance.angular.hip_strategy_bound` counts (benchmarks/pushes.md)."""
+        kick, g, est = self._kick, self.gains, self.last
+        if est is None or self._axes is None:
+            return d
+        h = self._fb[_B_HIP : _B_HIP + 2]
+        m = math.hypot(h[0], h[1])
+        if m > 0 and self._stance and self._fb[_B_JUMP + 2] > 0.5:
+            name = self.robot.roles.get("left" if self._stance == "l_sole" else "right", "hip_roll")
+            if name is None:  # (a robot without a hip roll: no kick)
+                return d
+            k = self.robot.joint_index(name)
+            if kick[1] == 0.0 or kick[0] != k:  # (the trigger's first tick: the sign)
+                v = est.rotation.T @ np.array([-h[1], h[0], 0.0]) / m
+                axis = self._axes.axes(joints)[k]
+                kick[:] = [k, -float(np.sign(axis @ v)), None, self._stance]
+        if kick[1] == 0.0 or self._fb[_B_JUMP + 4] < 0.5:  # (no push, or its roll is over)
+            kick[1], kick[2] = 0.0, None
+            return d
+        d = np.zeros(len(joints)) if d is None else d
+        k = int(kick[0])
+        solved = joints[k] + d[k]
+        lifted = bool(self._stance) and self._stance != kick[3]  # (its leg swings: ramped out)
+        share = 0.0 if lifted else min(m / max(g.max_hip, 1e-9), 1.0)
+        want = solved + kick[1] * g.hip_kick * share
+        last = solved if kick[2] is None else kick[2]
+        step = float(self.robot.v_max[k]) * self._dt  # (never a goal above the servo's speed)
+        kick[2] = min(max(want, last - step), last + step)
+        d[k] = kick[2] - joints[k]
+        if lifted and kick[2] == solved:
+            kick[1], kick[2] = 0.0, None  # (over)
+        return d
