@@ -623,8 +623,8 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
     """``trigger_jump``: in single support, the DCM error jumping by more than it in one tick
     (a push) drops that swing's dead band to ``trigger_band`` — a re-plan inside the usual
     band — and ``lift`` raises the swing target (blended in over ``lift_time``, back to the
-    plan at the landing, not in the next single support with ``catch_swings`` 0); the same error reached slowly, or
-    without the trigger, re-plans nothing and lifts nothing."""
+    plan at the landing, not in the next single support with ``catch_swings`` 0); the same
+    error reached slowly, or without the trigger, re-plans nothing and lifts nothing."""
     params = SteppingParams(trigger_jump=0.012, lift=0.01, lift_time=0.03, catch_swings=0)
     rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
     adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
