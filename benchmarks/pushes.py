@@ -154,6 +154,11 @@ def main() -> None:
         "beyond the joint limits, clamped and rate-limited ticks",
     )
     ap.add_argument(
+        "--safety-direction",
+        default="lateral",
+        help="--safety's push direction (lateral, forward, backward, toward, away)",
+    )
+    ap.add_argument(
         "--screen",
         nargs="+",
         metavar="DIR:NS:S",
@@ -352,10 +357,10 @@ def safety(args) -> None:
     for solver in args.solvers:
         entry = next(e for e in select([solver], None, "tick")[0] if e.name == solver)
         rec = plan(solver, args.trajectory, robot)
-        u = push_direction(rec, "lateral")
+        u = push_direction(rec, args.safety_direction)
         push = (mid_single_support(rec), u * args.safety / PUSH_DURATION, PUSH_DURATION)
         for loop in [lp for lp in args.loops if lp != "open"] or ["closed", "step"]:
-            spec, _ = loop_spec(loop, entry, ref)
+            spec, _ = loop_spec(loop, entry, ref, json.loads(args.stepping))
             result, cl = play_closed_loop(spec, robot, push=push, compensate=0.5)
             rec_fig = physics_record(rec, result, robot, ref)
             lim = result.deploy.limits
@@ -363,6 +368,7 @@ def safety(args) -> None:
                 "solver": solver,
                 "loop": loop,
                 "impulse_ns": args.safety,
+                "direction": args.safety_direction,
                 "fell": rec_fig["fell"],
                 "replans": len(cl.stepping.events) if cl.stepping else None,
                 "goal_limit_excess_deg": float(np.degrees(max(cl.source.limit_excess, 0.0))),

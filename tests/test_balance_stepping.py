@@ -322,7 +322,8 @@ def test_an_early_touch_down_lands_the_step_and_rebases_the_rest(robot, walk10):
     assert adj.rate(new, MID + 1, push) == 1.0
     off = StepAdjuster(robot, walk10)
     off.contact = contact
-    assert not off.hurries and off.update(walk10, MID, dcm(walk10, MID, w)) is None
+    assert off.params.touchdown == 0 and off.update(walk10, MID, dcm(walk10, MID, w)) is None
+    assert off.rate(walk10, MID, dcm(walk10, MID, w)) == 1.0
 
 
 def test_a_touch_down_early_in_the_swing_is_no_landing_with_touchdown_share(robot, walk10):
@@ -622,9 +623,9 @@ def test_a_dcm_jump_starts_the_catch_at_once_and_lifts_the_swing(robot, walk10):
     """``trigger_jump``: in single support, the DCM error jumping by more than it in one tick
     (a push) drops that swing's dead band to ``trigger_band`` — a re-plan inside the usual
     band — and ``lift`` raises the swing target (blended in over ``lift_time``, back to the
-    plan at the landing, not in the next single support); the same error reached slowly, or
-    without the trigger, re-plans nothing and lifts nothing."""
-    params = SteppingParams(trigger_jump=0.012, lift=0.01, lift_time=0.03)
+    plan at the landing, not in the next single support with ``catch_swings`` 0); the same
+    error reached slowly, or without the trigger, re-plans nothing and lifts nothing."""
+    params = SteppingParams(trigger_jump=0.012, lift=0.01, lift_time=0.03, catch_swings=0)
     rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
     adj, tg, est, q, _ = _land_case(robot, walk10, params, rot, move)
     w, band = adj.omega, adj.params.band_x
@@ -783,8 +784,8 @@ def test_a_triggered_swing_is_led_and_its_clock_slowed_when_asked(robot, walk10)
     later = next(a + 5 for a, b, c in walk10.phases() if c != SUPPORT_DOUBLE and a > LAND)
     assert adj.rate(walk10, later, dcm(walk10, later, w)) == 1.0  # not triggered there
     assert adj.rate(walk10, LAND + 1, dcm(walk10, LAND + 1, w)) == 1.0  # double support
-    default = StepAdjuster(robot, walk10)
-    assert not default.hurries
+    default = StepAdjuster(robot, walk10).params
+    assert default.slow == 1.0 and default.lead == 0.0
     with pytest.raises(ConfigurationError, match="slow"):
         SteppingParams(slow=0.0).check()
     with pytest.raises(ConfigurationError, match="lead"):
@@ -817,3 +818,58 @@ def test_a_push_forward_turns_the_swing_toe_up_and_a_push_backward_does_not(robo
     assert SteppingParams().toe_up == 0.15
     with pytest.raises(ConfigurationError, match="toe_up"):
         SteppingParams(toe_up=-0.1).check()
+
+
+def test_a_multi_step_catch_lifts_and_lands_the_next_swing_when_asked(robot, walk10):
+    """``catch_swings``: the lift and the landing in the measured frame go on in that many
+    single supports after the triggered one (blended in from their lift-off) — after a push
+    backward the body stands pitched back and the next swing's heel drags on the floor —
+    and not in a double support, nor in the swing after them, nor with 0 (2 by default)."""
+    singles = [ph for ph in StepAdjuster(robot, walk10).phases if ph.kind == "single"]
+    at = [ph.i0 + 6 for ph in singles if ph.i0 > LAND][:2]  # the next two swings
+    rot, move = [0.0, 0.1, 0.0], [0.0, 0.0, 0.0]  # the measured body pitched 0.1 rad
+    for n in (0, 1):
+        params = SteppingParams(catch_swings=n, lift=0.01, lift_time=0.03)
+        adj = _triggered(robot, walk10, params)
+        for k in range(MID + 1, at[1] + 1):  # the walk goes on unpushed
+            adj.update(walk10, k, dcm(walk10, k, adj.omega))
+            if k == LAND + 1:  # a double support: the plan's
+                _, td, ed, qd, _ = _land_case(robot, walk10, params, rot, move, i=k)
+                assert adj.land(td, ed, qd).swing_position is td.swing_position
+            if k in at:
+                _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=k)
+                out = adj.land(t, e, q)
+                moved = np.linalg.norm(out.swing_position - t.swing_position)
+                carried = n == 1 and k == at[0]
+                assert adj.trigger.carried(k) == carried, (n, k)
+                assert (moved > 0.005) == carried, (n, k, moved)
+    assert SteppingParams().catch_swings == 2
+    with pytest.raises(ConfigurationError, match="catch_swings"):
+        SteppingParams(catch_swings=-1).check()
+
+
+def test_a_multi_step_catch_hurries_the_double_support_before_its_next_swing(robot, walk10):
+    """``catch_hurry``: in the double support before a carried swing (``catch_swings``), with
+    the DCM error along the walk beyond ``hurry_band``, the clock runs ``catch_hurry`` ×;
+    not inside the band, not in the double support after the last carried swing, not
+    without a carried swing, nor unpushed; the other double supports keep ``hurry`` (1)."""
+    back = np.array([-0.04, 0.0])  # beyond hurry_band (30 mm), behind
+    for n, first in ((1, 3.0), (0, 1.0)):
+        params = SteppingParams(catch_swings=n, catch_hurry=3.0)
+        adj = _triggered(robot, walk10, params)
+        w = adj.omega
+        ds = [ph for ph in adj.phases if ph.kind == "double" and ph.i0 >= LAND][:2]
+        i, j = ds[0].i0 + 2, ds[1].i0 + 2
+        assert adj.trigger.before_carried(i) == (n == 1)
+        assert adj.rate(walk10, i, dcm(walk10, i, w) + back) == first
+        assert adj.rate(walk10, i, dcm(walk10, i, w) + 0.5 * back) == 1.0  # inside the band
+        assert adj.rate(walk10, j, dcm(walk10, j, w) + back) == 1.0  # after the last carried
+    fresh = StepAdjuster(robot, walk10, SteppingParams(catch_swings=1, catch_hurry=3.0))
+    assert (
+        fresh.hurries
+        and fresh.rate(walk10, LAND + 2, dcm(walk10, LAND + 2, fresh.omega) + back) == 1.0
+    )
+    assert not StepAdjuster(robot, walk10, SteppingParams(catch_hurry=1.0)).hurries
+    assert StepAdjuster(robot, walk10).hurries  # (catch_hurry 3 by default)
+    with pytest.raises(ConfigurationError, match="catch_hurry"):
+        SteppingParams(catch_hurry=0.5).check()

@@ -81,6 +81,14 @@ floor; forward 0.703 → 0.719 N·s); off: ``lead`` (the swing target led by the
 ``slow`` (the triggered swing's clock slowed: a later landing), ``catch_pitch`` (the torso
 target turned along the push during the catch: the hip strategy along the walk). Every other
 term here is off by default (sideways on ``walk10`` 0.797 → 0.844 N·s; the bound 0.934).
+
+**The catch's later swings** (``catch_swings``, ``catch_hurry``; :mod:`.swing_catch`): a
+push backward leaves the robot on its heels after the caught landing, the body pitched back;
+the next swing's sole, placed in the controller's upright frame, drags its heel on the floor
+(7–19 N) and lands 70 mm short of its re-planned landing. With ``catch_swings`` the lift and
+the landing in the measured frame go on in that many swings after the triggered one, and
+``catch_hurry`` runs the clock faster in the double supports before them (the next step
+lifts sooner); the placement is the catch's own (``episode_steps``, the re-plans above).
 The parameters: :mod:`.stepping_params`.
 """
 
@@ -305,10 +313,12 @@ class StepAdjuster:
 
     @property
     def hurries(self) -> bool:
-        """False when :meth:`rate` is 1 at every tick (``hurry`` and ``slow`` 1 and no
-        ``touchdown``, or off): not called."""
+        """False when :meth:`rate` is 1 at every tick (``hurry``, ``catch_hurry`` and ``slow``
+        1 and no ``touchdown``, or off): not called."""
         p = self.params
-        return self.enabled and (p.hurry != 1.0 or p.touchdown > 0 or p.slow != 1.0)
+        return self.enabled and (
+            p.hurry != 1.0 or p.catch_hurry != 1.0 or p.touchdown > 0 or p.slow != 1.0
+        )
 
     @property
     def lands(self) -> bool:
@@ -333,10 +343,10 @@ class StepAdjuster:
             return 1.0
         if p.slow != 1.0 and ref.support[i] != SUPPORT_DOUBLE and self.triggered(i):
             return p.slow  # (a triggered swing: its landing later)
-        if p.hurry == 1.0:
+        if p.hurry == 1.0 and p.catch_hurry == 1.0:
             return 1.0
         if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
-            if not p.hurry_single or self.episode is None:
+            if p.hurry == 1.0 or not p.hurry_single or self.episode is None:
                 return 1.0
             ph = self.phases[self.phase_of[i]]
             if ph.step >= self._catch_end():
@@ -353,9 +363,12 @@ class StepAdjuster:
             v = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing) / left
             best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
             return min(max(left / max(best, p.min_remaining), 1.0), p.hurry)
+        speed = p.catch_hurry if self.trigger.before_carried(i) else p.hurry  # (catch_hurry)
+        if speed == 1.0:
+            return 1.0
         e = np.asarray(dcm[:2], float) - self._dcm_ref(ref, i)
         c, s = self._heading(ref, i)
-        return p.hurry if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
+        return speed if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
 
     def _swing_phase(self, k: int) -> Phase:
         """The single support in which step ``k`` swings."""
@@ -387,7 +400,10 @@ class StepAdjuster:
             # tick of the jump; an unpushed walk leaving the band is no push)
             jumps = (p.trigger_jump or 0.0) > 0
             self.landing.note(
-                i, lambda: self.triggered(i) if jumps else bool(self.error(ref, i, dcm)[1].any())
+                i,
+                lambda: (
+                    self.trigger.carried(i) if jumps else bool(self.error(ref, i, dcm)[1].any())
+                ),
             )
         if p.touchdown > 0 and self.contact is not None:
             new = self._touchdown(ref, i)

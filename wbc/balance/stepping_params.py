@@ -148,6 +148,18 @@ class SteppingParams:
     #: measured worse: not done) (0.15: forward 0.703 → 0.719 N·s, the rest unchanged;
     #: benchmarks/pushes.md)
     toe_up: float = 0.15
+    #: multi-step recovery's swings: the lift and the landing in the measured frame go on in
+    #: this many swings after the triggered one (:meth:`PushTrigger.carried`): a push backward
+    #: leaves the body pitched back on its heels and the next swing's sole, placed in the
+    #: controller's upright frame, drags its heel on the floor (0: the triggered swing only)
+    #: (2, with ``catch_hurry`` 3: backward 0.617 → 0.695, forward 0.719 → 0.852 N·s, toward
+    #: and away unchanged; benchmarks/pushes.md)
+    catch_swings: int = 2
+    #: step timing in a multi-step catch: in a double support before a carried swing
+    #: (``catch_swings``), while the DCM error along the walk is beyond ``hurry_band``, the
+    #: walk's clock runs this many times as fast (the next step lifts sooner: the body on its
+    #: heels loses less; :meth:`StepAdjuster.rate`; 1: off; the other double supports: ``hurry``)
+    catch_hurry: float = 3.0
 
     def for_robot(self, robot: Robot) -> SteppingParams:
         """These parameters with the dead bands left None taken from ``robot``'s
@@ -195,15 +207,19 @@ class SteppingParams:
             )
         if not 0.0 < self.slow <= 1.0:
             raise ConfigurationError(f"stepping: slow must be in (0, 1], got {self.slow}")
-        if not self.hurry >= 1.0:
-            raise ConfigurationError(
-                f"stepping: hurry must be >= 1 (a clock speed), got {self.hurry}"
-            )
+        for name in ("hurry", "catch_hurry"):
+            if not getattr(self, name) >= 1.0:
+                raise ConfigurationError(
+                    f"stepping: {name} must be >= 1 (a clock speed), got {getattr(self, name)}"
+                )
         if int(self.steps_ahead) != self.steps_ahead or self.steps_ahead < 1:
             raise ConfigurationError(
                 f"stepping: steps_ahead must be an integer >= 1, got {self.steps_ahead}"
             )
-        for name in ("episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip"):
+        for name in (
+            "episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip",
+            "catch_swings",
+        ):  # fmt: skip
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigurationError(f"stepping: {name} must be an integer >= 0, got {v}")

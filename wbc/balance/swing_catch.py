@@ -99,6 +99,27 @@ class PushTrigger:
         t = self.tick
         return t is not None and self.phase_of[t] == self.phase_of[i]
 
+    def carried(self, i: int) -> bool:
+        """True in the triggered swing (:meth:`triggered`) and in the ``catch_swings`` single
+        supports after it: the swings of a multi-step catch that the lift and the landing in
+        the measured frame go on in."""
+        t = self.tick
+        if t is None:
+            return False
+        if self.phase_of[t] == self.phase_of[i]:
+            return True
+        n = self.params.catch_swings
+        ph, pt = self.phases[self.phase_of[i]], self.phases[self.phase_of[t]]
+        return n > 0 and ph.kind == "single" and 0 < int(ph.step) - int(pt.step) <= n
+
+    def before_carried(self, i: int) -> bool:
+        """True in a double support whose next single support is a carried swing of the
+        catch (:meth:`carried`, not the triggered one): ``catch_hurry``'s."""
+        j = int(self.phase_of[i])
+        if self.tick is None or self.phases[j].kind != "double" or j + 1 >= len(self.phases):
+            return False
+        return self.carried(self.phases[j + 1].i0)
+
     def watch(self, ref: WalkingReference, i: int, dcm: np.ndarray, dcm_ref: np.ndarray) -> None:
         """The push trigger (``trigger_jump``): in single support, the DCM error along the walk
         (``dcm`` measured, ``dcm_ref`` the reference ``ref``'s at tick ``i``; along the stance
@@ -130,10 +151,11 @@ class PushTrigger:
         turned toe up by ``toe_up`` rad after a push forward (:attr:`forward`; blended as the
         lift; its heel up after a push backward measured worse: not done)."""
         p, i = self.params, targets.i
-        if (p.lift <= 0 and p.lead <= 0 and p.toe_up <= 0) or not self.triggered(i):
+        if (p.lift <= 0 and p.lead <= 0 and p.toe_up <= 0) or not self.carried(i):
             return targets
         ph = self.phases[self.phase_of[i]]
-        w_in = smooth((i - self.tick + 1) * self.dt / max(p.lift_time, 1e-9))
+        start = self.tick if self.triggered(i) else ph.i0  # (a later swing of the catch)
+        w_in = smooth((i - start + 1) * self.dt / max(p.lift_time, 1e-9))
         w = w_in * smooth((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9))
         pos = np.array(targets.swing_position, dtype=float)
         pos[2] += p.lift * w
