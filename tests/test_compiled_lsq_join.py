@@ -2,7 +2,9 @@
 equality rows joining a solved level (the hierarchy's rows joining its last level, one call
 each) update the last call's factors, and the answers are a fresh solve's from the same warm
 start: on random levels, with rows that are independent, dependent on the level's rows
-(consistent or not) or on the variables the warm set holds."""
+(consistent or not), on the variables the warm set holds, or a combination of the level's
+rows that reaches held variables beyond it (no part in the null space until they are
+released: ``lsq_update.WFIRST``)."""
 
 from __future__ import annotations
 
@@ -14,7 +16,7 @@ from test_compiled_lsq import N, random_level, solve
 
 from wbc.compiled.lsq import INCONSISTENT, OK, level_space, solve_level_in
 
-_KINDS = ["random", "dependent", "inconsistent", "held", "sparse"]
+_KINDS = ["random", "dependent", "inconsistent", "held", "sparse", "lifted"]
 
 
 def _row(kind, rng, A, a, state, x):
@@ -25,6 +27,11 @@ def _row(kind, rng, A, a, state, x):
     if kind == "inconsistent":
         c = rng.standard_normal(A.shape[0])
         return c @ A, c @ a + 1.0
+    if kind == "lifted" and np.any(state != 0):  # the level's rows, and a held variable more
+        c = rng.standard_normal(A.shape[0])
+        row = c @ A
+        row[np.flatnonzero(state != 0)[0]] += 1.0 + rng.uniform()
+        return row, row @ x - 0.05
     row = np.zeros(N)
     if kind == "held":  # on variables the warm set holds at their bounds (as a collision row
         held = np.flatnonzero(state != 0)  # on joints at their speed), met halfway in
@@ -50,6 +57,8 @@ def _continued(A, a, B, r, ridge, lower, upper, state, space, cont):
 @example(seed=1, m=12, p=9, kinds=["held", "random"])
 @example(seed=2, m=6, p=30, kinds=["dependent", "sparse"])
 @example(seed=3, m=6, p=9, kinds=["inconsistent"])
+@example(seed=4, m=6, p=30, kinds=["lifted", "held", "lifted"])
+@example(seed=5, m=12, p=9, kinds=["held", "held", "held"])
 @given(
     seed=st.integers(0, 2**32 - 1), m=st.sampled_from([6, 12]), p=st.sampled_from([30, 9]),
     kinds=st.lists(st.sampled_from(_KINDS), min_size=1, max_size=3),
@@ -114,7 +123,8 @@ def test_an_inconsistent_joined_row_is_reported_as_a_fresh_solve():
 def test_a_row_on_held_variables_releases_them_without_a_solve(seed):
     """A row joining on variables the warm set holds (an inconsistent warm start): their
     bounds released at once, where a fresh solve finds the set inconsistent first (one
-    subproblem more); the same answer."""
+    subproblem more), and the row on the released variables an update of the last call's
+    base (``lsq_update.WFIRST``: no subproblem solved afresh); the same answer."""
     m, p = 6, 30
     A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
     rng = np.random.default_rng(seed)
@@ -130,5 +140,6 @@ def test_a_row_on_held_variables_releases_them_without_a_solve(seed):
                                             max_iter=100)  # fmt: skip
     assert status_c == status_f == OK
     assert count_c < count_f
+    assert space[7][0] == 1 and space[7][1] == m  # (the base kept: every subproblem an update)
     np.testing.assert_array_equal(state_c, state_f)
     np.testing.assert_allclose(x_c, x_f, rtol=0, atol=1e-10)

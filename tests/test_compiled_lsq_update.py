@@ -71,7 +71,9 @@ def _updated_and_afresh(A, a, B, r, lower, upper, m, released, added) -> tuple:
     for j, v in enumerate(added):
         fixed[v] = 1 if j % 2 else -1
     ind[_I_FIXED, :n] = fixed
-    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True)
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True) == (
+        _UPDATED
+    )
     mu = work[3][_V_MU, :n].copy()
     work2, ind2, _, _, _ = _work(A.shape[0], n, B.shape[0])
     x2, k2 = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
@@ -221,3 +223,48 @@ def test_a_joined_row_that_depends_on_the_others_declines():
     assert update() == _ROW_DEPENDS
     A[m, 7] = 1.0  # and a free one: an update
     assert update() == _UPDATED
+
+
+def _on_released(seed: int, m: int, extra: float) -> tuple:
+    """A problem whose joined row A[m] is, on the base's free variables, a combination of the
+    base's rows (no part in its null space: ``c_g = 0``) and reaches the held x_1 by
+    ``extra`` more than that combination does."""
+    A, a, B, r, lower, upper = _problem(seed, m + 1)
+    A[m] = A[0] - 2.0 * A[3]
+    A[m, 1] += extra
+    return A, a, B, r, lower, upper
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("m", [6, 15])
+@pytest.mark.parametrize("released, added", [([1], []), ([1, 9], []), ([1], [3]), ([1, 5], [11])])
+def test_a_joined_row_on_released_variables_answers_as_solved_afresh(seed, m, released, added):
+    """A joined row with no part in the base's null space that reaches a released variable
+    (``WFIRST``: w eliminated before ν, as on walk_strict's double-support ticks after a row's
+    bounds are released): the subproblem solved afresh, x and the held bounds' multipliers."""
+    A, a, B, r, lower, upper = _on_released(seed, m, 0.7)
+    x, mu, x2, mu2, k, k2, held = _updated_and_afresh(A, a, B, r, lower, upper, m, released, added)
+    assert k2 == k + 1
+    assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+    assert np.allclose(mu[held], mu2[held], rtol=1e-8, atol=1e-10)
+    assert np.max(np.abs(A @ x - a)) < 1e-10
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_joined_row_still_dependent_after_the_release_declines(seed):
+    """The same row without the extra reach (a combination of the base's rows on every
+    variable, released ones included): dependent whatever is released, so no update."""
+    m = 6
+    A, a, B, r, lower, upper = _on_released(seed, m, 0.0)
+    n = A.shape[1]
+    ridge = 1e-4
+    base = np.zeros(n, dtype=np.int64)
+    base[[1, 5, 9, 13]] = [-1, 1, -1, 1]
+    work, ind, U, S, K = _work(m + 1, n, B.shape[0])
+    x, k = _base(A[:m], a[:m], B, r, ridge, lower, upper, base, work, ind)
+    fixed = base.copy()
+    fixed[1] = 0
+    ind[_I_FIXED, :n] = fixed
+    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True) == (
+        _ROW_DEPENDS
+    )

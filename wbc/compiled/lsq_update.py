@@ -14,7 +14,8 @@ variable whose column ``A_j`` is not in the range of ``A_F`` (releasing it would
 rank) decline: the caller solves the subproblem afresh. Equality rows joined since the base
 (A's rows from the base's m on: a continued call, ``lsq.solve_level_in``) are equalities
 ``c_gᵀ z + d_gᵀ w = β_g`` like the added bounds (``c_g = Zᵀ g_F``); one that depends on
-the others declines with ``_ROW_DEPENDS``.
+the others declines with ``_ROW_DEPENDS``, unless it reaches released variables: then the
+bordered system is solved with w eliminated first (``WFIRST``: S may be singular there).
 """
 
 from __future__ import annotations
@@ -34,7 +35,9 @@ from .lsq_linalg import (
     _V_LAM,
     _V_MU,
     _V_MU_TOL,
+    _V_NRM,
     _V_TAU,
+    _V_W,
     _V_W2,
     _axpy,
     _cholesky_solve,
@@ -59,6 +62,15 @@ RELEASES = True
 #: new ``solve_level`` call on the last call's factors: ``lsq.solve_level_in``) are updated
 #: too; False (edit it; the kernels then compile again): a joined row solves afresh, as before
 JOINS = True
+#: a joined row with (nearly) no part in the base's null space (``c_g ≈ 0``: on the base's
+#: free variables a combination of its rows) that reaches released variables: w eliminated
+#: before ν (``(S + Fᵀ E⁻¹ F) ν = β − Fᵀ E⁻¹ γ``, the Schur complement in ν of the bordered
+#: system, nonsingular while the row is independent of the others on the set's free
+#: variables), where z-then-ν needs S nonsingular; on ``walk_strict``'s double-support ticks
+#: with a row active, each joining row then took a fresh subproblem after its bounds were
+#: released. False (edit it; the kernels then compile again): such a row declines
+#: (``_ROW_DEPENDS``) and is solved afresh, as before
+WFIRST = True
 #: what :func:`_updated` returns: the subproblem updated; declined (solve it afresh); declined
 #: because a joined row depends on the base's rows and the set's bounds (as an inconsistent
 #: warm start: the caller may release the row's bounds first, as after a fresh solve)
@@ -103,13 +115,14 @@ def _reflect(W, j, nf, tj, U, row):
 
 
 @njit(cache=True, fastmath=_FAST)
-def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, first, m):
+def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k, first, m, wf=True):
     """The subproblem of the set in ``ind[_I_FIXED]`` from the base's (fixed set ``base``,
     rank k; its factors in W, T, N, V and its free list in ``ind[_I_FREE]``), as
     :func:`~wbc.compiled.lsq_subproblem._subproblem` leaves it (x, ``V[_V_MU]``,
     ``V[_V_MU_TOL]``, ``V[_V_E]``). ``first``: the base's solution is still in x and
     ``V[_V_E]`` (kept into U). False (nothing written but U, S, K) if the update does not
-    apply.
+    apply. ``wf``: a joined row without a part in the base's null space may be met on the
+    released variables (:func:`_w_first`); else it declines (``_ROW_DEPENDS``).
 
     Bounds added since the base are equalities ``c_sᵀ z + d_sᵀ w = β_s``; base bounds released
     since are variables w (x_j = b_j + w_j, the free variables following along ``g_j``, the
@@ -141,6 +154,7 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
     # bounds added since the base (``c_s = Zᵀ e_s``): u_s = Qᵀ g_s, h_s = H⁻¹ c_s, S = Cᵀ H⁻¹ C
     # (Cholesky); S[s, n]: a bound's position in the base's free list, or −1 − a row's index
     q = np.int64(0)
+    wfirst = False  # (a joined row whose c_g is ≈ 0, or S's pivot: ν after w, WFIRST)
     for c in range(nf + m_all - m):
         row = np.int64(-1)
         if c >= nf:
@@ -170,7 +184,12 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             V[_V_W2, j] = U[u, k + j]
             cc += U[u, k + j] * U[u, k + j]
         if not cc > _C_MIN * size:  # g_s (nearly) in the row space of A_F: the rank drops
-            return _DECLINED if row < 0 else _ROW_DEPENDS
+            if row < 0 or r_ == 0 or not (WFIRST and wf):  # (... unless released variables lift it)
+                return _DECLINED if row < 0 else _ROW_DEPENDS
+            wfirst = True
+            V[_V_W, q] = 0.0  # (its reach on the released variables is checked: _w_first)
+        else:
+            V[_V_W, q] = -1.0
         _cholesky_solve(N, d, V, np.int64(_V_W2))
         hrow = _U_Q + n + q
         for j in range(d):
@@ -180,8 +199,11 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             for j in range(d):
                 s += U[_U_Q + n + t, j] * U[u, k + j]
             S[q, t] = s
-        if not _cholesky_row(S, q):  # the new row of S's Cholesky factor (lower)
-            return _DECLINED if row < 0 else _ROW_DEPENDS
+        if not wfirst and not _cholesky_row(S, q):  # the new row of S's Cholesky factor
+            if row < 0 or r_ == 0 or not (WFIRST and wf):
+                return _DECLINED if row < 0 else _ROW_DEPENDS
+            wfirst = True
+            V[_V_W, q] = 0.0
         S[q, n] = c if row < 0 else -1 - row
         q += 1
     # the released bounds: u_t, P_t = B_F Y u_t + B_j, MᵀP_t, H⁻¹MᵀP_t, γ_t; E and F into K
@@ -230,9 +252,12 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
                 return _DECLINED  # (E's diagonal cancels: its digits are lost)
             K[t, t2] = e
         for s_ in range(q):  # F[t, s] = (MᵀP_t)·H⁻¹c_s − (Qᵀg_s)[:k]·u_t (− g_j for a row)
-            K[t, n + s_] = _dot(U, rm, U, _U_Q + n + s_, 0, d) - _dot(U, _U_Q + s_, U, ru, 0, k)
-            if S[s_, n] < 0:
-                K[t, n + s_] -= A[np.int64(-1 - S[s_, n]), j]
+            f1 = _dot(U, rm, U, _U_Q + n + s_, 0, d)
+            f2 = _dot(U, _U_Q + s_, U, ru, 0, k)
+            f3 = A[np.int64(-1 - S[s_, n]), j] if S[s_, n] < 0 else 0.0
+            K[t, n + s_] = f1 - f2 - f3
+            if wfirst and V[_V_W, s_] >= 0.0:  # (the terms' size, for _w_first's check)
+                V[_V_W, s_] += (abs(f1) + abs(f2) + abs(f3)) ** 2
     # ν₀ = S⁻¹ β (β = b_S − x_S, the base's), into V[_V_W2]
     for t in range(q):
         if S[t, n] < 0:  # a row: β = a_g − g·x
@@ -242,8 +267,12 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             v = ind[_I_FREE, np.int64(S[t, n])]
             b = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
             V[_V_W2, t] = b - U[_U_X, v]
-    _chol_solve_small(S, q, V, np.int64(_V_W2))
-    if r_ > 0:
+    if wfirst:
+        if not _w_first(S, K, U, V, q, r_, n, d, k):
+            return _ROW_DEPENDS
+    else:
+        _chol_solve_small(S, q, V, np.int64(_V_W2))
+    if r_ > 0 and not wfirst:
         # K' = E + F S⁻¹ Fᵀ (X_t = S⁻¹ F[t] into U's rows), rhs −γ − F ν₀ (into K[:, 2n + 1])
         for t in range(r_):
             rx = _U_Q + 6 * n + t
@@ -346,6 +375,82 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
 
 
 @njit(cache=True, fastmath=_FAST)
+def _w_first(S, K, U, V, q, r_, n, d, k) -> bool:
+    """ν and w of the bordered system ``E w + F ν = −γ``, ``Fᵀ w − S ν = −β`` with w
+    eliminated first (S may be singular: a joined row with no part in the base's null space):
+    ``(S + Fᵀ E⁻¹ F) ν = β − Fᵀ E⁻¹ γ``, ``w = −E⁻¹(γ + F ν)``. E (K[:r_, :r_], lower), F
+    (K[:r_, n:n + q]) and γ (K[:r_, 2n + 1]) as :func:`_updated` leaves them, β in
+    ``V[_V_W2, :q]``; S again from c_s = U[_U_Q + s, k:k + d] and H⁻¹c_s = U[_U_Q + n + s, :d]
+    (its factor's rows were begun in place). ν into ``V[_V_W2]``, w into K[:r_, 2n + 2],
+    E⁻¹F into U's rows _U_Q + 6n + t. False if E or the Schur complement is singular or
+    spans more than _K_SPAN on its Cholesky diagonal (the row depends on the others)."""
+    for s1 in range(q):
+        for t in range(s1 + 1):
+            s = 0.0
+            for j in range(d):
+                s += U[_U_Q + n + t, j] * U[_U_Q + s1, k + j]
+            S[s1, t] = s
+    for s1 in range(q):  # a row without a part in the null space must reach the released
+        if V[_V_W, s1] >= 0.0:  # variables by more than its terms' roundoff
+            f = 0.0
+            for t in range(r_):
+                f += K[t, n + s1] * K[t, n + s1]
+            if not f > _C_MIN * V[_V_W, s1]:
+                return False
+    lmin = np.inf
+    lmax = 0.0
+    for t in range(r_):  # E's factor
+        if not _cholesky_row(K, t):
+            return False
+        lmin = min(lmin, K[t, t])
+        lmax = max(lmax, K[t, t])
+    if lmax > _K_SPAN * lmin:
+        return False
+    for s1 in range(q + 1):  # E⁻¹F's columns, then E⁻¹γ (into K[:, 2n + 2])
+        for t in range(r_):
+            v = K[t, 2 * n + 1] if s1 == q else K[t, n + s1]
+            for j in range(t):
+                v -= K[t, j] * V[_V_NRM, j]  # (the QR's column norms: free)
+            V[_V_NRM, t] = v / K[t, t]
+        for t in range(r_ - 1, -1, -1):
+            v = V[_V_NRM, t]
+            for j in range(t + 1, r_):
+                v -= K[j, t] * V[_V_NRM, j]
+            V[_V_NRM, t] = v / K[t, t]
+        for t in range(r_):
+            if s1 == q:
+                K[t, 2 * n + 2] = V[_V_NRM, t]
+            else:
+                U[_U_Q + 6 * n + t, s1] = V[_V_NRM, t]
+    for s1 in range(q):  # S + Fᵀ E⁻¹ F, and β − Fᵀ E⁻¹ γ
+        for t2 in range(s1 + 1):
+            s = 0.0
+            for t in range(r_):
+                s += K[t, n + s1] * U[_U_Q + 6 * n + t, t2]
+            S[s1, t2] += s
+        s = 0.0
+        for t in range(r_):
+            s += K[t, n + s1] * K[t, 2 * n + 2]
+        V[_V_W2, s1] -= s
+    lmin = np.inf
+    lmax = 0.0
+    for s1 in range(q):
+        if not _cholesky_row(S, s1):
+            return False
+        lmin = min(lmin, S[s1, s1])
+        lmax = max(lmax, S[s1, s1])
+    if lmax > _K_SPAN * lmin:
+        return False
+    _chol_solve_small(S, q, V, np.int64(_V_W2))
+    for t in range(r_):  # w = −E⁻¹γ − E⁻¹F ν
+        s = K[t, 2 * n + 2]
+        for s1 in range(q):
+            s += U[_U_Q + 6 * n + t, s1] * V[_V_W2, s1]
+        K[t, 2 * n + 2] = -s
+    return True
+
+
+@njit(cache=True, fastmath=_FAST)
 def _keep_base(x, W, V, ind, U, nf, k, pp):
     """The base's solution into U (its x, its residual e and y₀ = (Qᵀ x_F)[:k]), from x and
     ``V[_V_E]`` as the subproblem solved afresh leaves them."""
@@ -379,6 +484,6 @@ def _chol_solve_small(S, q, V, row):
 # numba caches these on this file alone: flush them when the kernels they call change
 _HERE = Path(__file__).parent
 refresh(
-    [_reflect, _updated, _keep_base, _chol_solve_small],
+    [_reflect, _updated, _w_first, _keep_base, _chol_solve_small],
     [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py"],
 )
