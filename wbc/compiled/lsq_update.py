@@ -105,6 +105,21 @@ def _cholesky_row(M: np.ndarray, t: int) -> bool:
     return True
 
 
+@njit(cache=True, inline="always")
+def _cholesky_spanned(M: np.ndarray, r: int) -> bool:
+    """Rows ``0..r-1`` of M's lower Cholesky factor, in place (:func:`_cholesky_row`); False
+    when a row depends on the others or the factor's diagonal spans more than
+    :data:`_K_SPAN` (ill-conditioned: the answer would lose its digits)."""
+    lmin = np.inf
+    lmax = 0.0
+    for t in range(r):
+        if not _cholesky_row(M, t):
+            return False
+        lmin = min(lmin, M[t, t])
+        lmax = max(lmax, M[t, t])
+    return not lmax > _K_SPAN * lmin
+
+
 @njit(cache=True, fastmath=_FAST, inline="always")
 def _reflect(W, j, nf, tj, U, row):
     """U[row, :nf] ← (I − tj v vᵀ) U[row, :nf] (reflector j, as ``_reflect_vector``: inlined
@@ -298,15 +313,8 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             lmax = max(lmax, S[t, t])
         if lmax > _K_SPAN * lmin:
             return _DECLINED
-        lmin = np.inf
-        lmax = 0.0
-        for t in range(r_):
-            if not _cholesky_row(K, t):
-                return _DECLINED
-            lmin = min(lmin, K[t, t])
-            lmax = max(lmax, K[t, t])
-        if lmax > _K_SPAN * lmin:
-            return _DECLINED  # (ill-conditioned: the answer would lose its digits)
+        if not _cholesky_spanned(K, r_):
+            return _DECLINED
         for t in range(r_):
             s = K[t, 2 * n + 1]
             for j in range(t):
@@ -397,14 +405,7 @@ def _w_first(S, K, U, V, q, r_, n, d, k) -> bool:
                 f += K[t, n + s1] * K[t, n + s1]
             if not f > _C_MIN * V[_V_W, s1]:
                 return False
-    lmin = np.inf
-    lmax = 0.0
-    for t in range(r_):  # E's factor
-        if not _cholesky_row(K, t):
-            return False
-        lmin = min(lmin, K[t, t])
-        lmax = max(lmax, K[t, t])
-    if lmax > _K_SPAN * lmin:
+    if not _cholesky_spanned(K, r_):  # E's factor
         return False
     for s1 in range(q + 1):  # E⁻¹F's columns, then E⁻¹γ (into K[:, 2n + 2])
         for t in range(r_):
@@ -432,14 +433,7 @@ def _w_first(S, K, U, V, q, r_, n, d, k) -> bool:
         for t in range(r_):
             s += K[t, n + s1] * K[t, 2 * n + 2]
         V[_V_W2, s1] -= s
-    lmin = np.inf
-    lmax = 0.0
-    for s1 in range(q):
-        if not _cholesky_row(S, s1):
-            return False
-        lmin = min(lmin, S[s1, s1])
-        lmax = max(lmax, S[s1, s1])
-    if lmax > _K_SPAN * lmin:
+    if not _cholesky_spanned(S, q):
         return False
     _chol_solve_small(S, q, V, np.int64(_V_W2))
     for t in range(r_):  # w = −E⁻¹γ − E⁻¹F ν
