@@ -408,16 +408,9 @@ def _w_first(S, K, U, V, q, r_, n, d, k) -> bool:
     if not _cholesky_spanned(K, r_):  # E's factor
         return False
     for s1 in range(q + 1):  # E⁻¹F's columns, then E⁻¹γ (into K[:, 2n + 2])
-        for t in range(r_):
-            v = K[t, 2 * n + 1] if s1 == q else K[t, n + s1]
-            for j in range(t):
-                v -= K[t, j] * V[_V_NRM, j]  # (the QR's column norms: free)
-            V[_V_NRM, t] = v / K[t, t]
-        for t in range(r_ - 1, -1, -1):
-            v = V[_V_NRM, t]
-            for j in range(t + 1, r_):
-                v -= K[j, t] * V[_V_NRM, j]
-            V[_V_NRM, t] = v / K[t, t]
+        for t in range(r_):  # (V's row of the QR's column norms: free)
+            V[_V_NRM, t] = K[t, 2 * n + 1] if s1 == q else K[t, n + s1]
+        _chol_solve_small(K, r_, V, np.int64(_V_NRM))
         for t in range(r_):
             if s1 == q:
                 K[t, 2 * n + 2] = V[_V_NRM, t]
