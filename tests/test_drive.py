@@ -416,8 +416,8 @@ def test_a_stop_holds_the_base_on_the_commanded_place(robot, hold) -> None:
         if ended is None and not engine.walking:
             ended = n
     assert not walker.walking and ended is not None
-    off = engine.odometry_offset if engine.frame_error is None else engine.frame_error
-    error = float(np.hypot(*(engine._pose_cmd[:2] - off[:2] - walker._measured_base())))
+    error = float(np.hypot(*(engine._pose_cmd[:2] - engine.frame_offset[:2]
+                             - walker._measured_base())))  # fmt: skip
     if hold:
         assert error < 0.001
         assert n - ended <= round(DRIVE_HOLD["seconds"] / engine.dt) + 1

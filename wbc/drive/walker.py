@@ -624,8 +624,7 @@ class Walker:
         error = None
         base = self._measured_base() if hold.active else None
         if base is not None:
-            off = engine.odometry_offset if engine.frame_error is None else engine.frame_error
-            error = engine._pose_cmd[:2] - off[:2] - base
+            error = engine._pose_cmd[:2] - engine.frame_offset[:2] - base
         offset = hold.update(error, dt, engine.walking)
         if not offset.any():
             return targets

@@ -196,6 +196,13 @@ class WalkEngine:
         #: measures the steps falling short (compliant servos) plans them longer
         self.stride_gain = np.ones(3)
 
+    @property
+    def frame_offset(self) -> np.ndarray:
+        """The walking frame's error as the commanded pose is aimed from it (x, y, heading;
+        world): :attr:`frame_error` where a caller's odometry measures it, else
+        :attr:`odometry_offset`."""
+        return self.odometry_offset if self.frame_error is None else self.frame_error
+
     # ------------------------------------------------------------------ commands
     @property
     def command_velocity(self) -> tuple[float, float, float]:
@@ -263,7 +270,7 @@ class WalkEngine:
         if on_target and self.params.close_on_target:
             want = self._pose_cmd.copy()
             want[:2] -= rot2(want[2]) @ self.origin
-            want -= self.odometry_offset if self.frame_error is None else self.frame_error
+            want -= self.frame_offset
             plain = np.array([step.x, step.y, step.yaw])
             aim = 2.0 * want - np.array([stance.x, stance.y, stance.yaw])
             aim[2] = stance.yaw + 2.0 * wrap_angle(want[2] - stance.yaw)
