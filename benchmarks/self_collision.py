@@ -28,6 +28,11 @@ own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; *
 first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
 tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
+``--idle S``: S seconds slept after each tick of every controller (0.02: a 50 Hz loop, as on
+a robot: each tick then starts with the caches that the sleep and the machine's other
+processes left, where back to back, the default, it finds its code and data from the tick
+before; benchmarks/self_collision.md, sixteenth pass).
+
 ``--world-frame``: also each stack with its limit's ``common_frame = false`` (the rows'
 normal in the world, as before the tenth pass; the default fixes it in the frame of the
 joints carrying both links: issue 34, ninth and tenth passes).
@@ -44,7 +49,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
-[--slowest 8] [--switch-parts] [--world-frame]``.
+[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02]``.
 """
 
 from __future__ import annotations
@@ -71,7 +76,7 @@ from wbc.solvers.hierarchical import HierarchicalQP
 from wbc.solvers.inequalities import ConstraintRows
 from wbc.solvers.plan import _Plan
 from wbc.stacks import ControlStack, build_stack
-from wbc.walking.loop import StackController, run
+from wbc.walking.loop import StackController, run, run_stepwise
 
 
 def walk_spec(with_limit: bool, stack: str = "walk") -> dict:
@@ -159,6 +164,9 @@ def main() -> int:
     parser.add_argument(
         "--world-frame", action="store_true", help="also ours with common_frame = false"
     )
+    parser.add_argument(
+        "--idle", type=float, default=0.0, help="s slept after each tick (a robot's loop)"
+    )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -212,7 +220,7 @@ def table(robot, trajectory: str, args) -> None:
         for name, make in makers.items():
             controller = make()
             with every_level_cold() if name in cold else contextlib.nullcontext():
-                rec = run(controller, robot, ref)
+                rec = walk(controller, robot, ref, args.idle)
             t = rec["solve_time"] * 1e6
             times[name].append(t)
             closest = np.inf
@@ -266,6 +274,20 @@ def table(robot, trajectory: str, args) -> None:
         slowest(times, rec["support"], args.slowest)
     if args.switch_parts:
         switch_parts(robot, ref, args)
+
+
+def walk(controller, robot, ref, idle: float):
+    """:func:`wbc.walking.loop.run`, with ``idle`` s slept after each tick (0: none, the ticks
+    back to back)."""
+    if idle <= 0.0:
+        return run(controller, robot, ref)
+    ticks = run_stepwise(controller, robot, ref)
+    while True:
+        try:
+            next(ticks)
+        except StopIteration as end:
+            return end.value
+        time.sleep(idle)
 
 
 def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:
