@@ -9,9 +9,10 @@ and its dominant frequency, its ringing as ``Gains.yaw_ring`` measures it (above
 largest of the second), the RMS of the horizontal rates, the largest heading / tilt error
 and torso command (deg), the servos' lag behind their goals as the loop measures it (ms, the
 second's median: :func:`wbc.balance.servo_lag.servo_lag`) and the walk's clock rate (the
-second's lowest: ``Gains.lag_clock``); then per stance leg (single
-support from the soles' floor forces) the knee's load (peak torque / the plant's stall
-torque: median, p90, max) and sag (present − goal, deg).
+second's lowest: ``Gains.lag_clock``), the soles' largest heading error (the simulator's
+soles against the plan's: issue 30, the footsteps' heading, ``Gains.step_yaw``); then per
+stance leg (single support from the soles' floor forces) the knee's load (peak torque / the
+plant's stall torque: median, p90, max) and sag (present − goal, deg).
 
     nice -n 5 python benchmarks/plant_trace.py --walk lateral_wb --seed 1 --plant 47
     nice -n 5 python benchmarks/plant_trace.py --walk walk10_wb --seed 1 --plant 42 \\
@@ -49,7 +50,7 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
     v = None if plant < 0 else models(robot, plant + 1, seed)[plant]
     g = replace(default_gains(compensate), **gains)
     spec = ClosedLoopSpec(entry.make, ref, g, True, True, SteppingParams())
-    clock, rows = [0.0], []
+    clock, rows, soles = [0.0], [], [0.0]
     original = stab_mod.Stabilizer.adjust
 
     def observed(self, targets, com_vel_ref, q_cmd, dt):
@@ -59,11 +60,16 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
             cmd = np.empty(3)  # the torso command: log(R_cmd R_refᵀ)
             log3(np.ascontiguousarray(out.torso_rotation @ targets.torso_rotation.T), cmd)
             w = self.last.rotation @ self.last.angular_velocity  # world frame
-            rows.append((clock[0], *self.error, *w, *cmd, self.servo_lag, self.clock))
+            rows.append((clock[0], *self.error, *w, *cmd, self.servo_lag, self.clock, soles[0]))
+            soles.append(targets)  # (the plan's soles: compared in the next simulator tick)
         return out
 
     def tick(sim) -> None:
         clock[0] = sim.time
+        if len(soles) > 1:  # the soles' largest heading error, the simulator's against the plan
+            t = soles.pop()
+            soles[0] = max(abs(wrap(yaw(sim.site_pose(f).rotation) - yaw(t.sole(f).rotation)))
+                           for f in ("l_sole", "r_sole"))  # fmt: skip
 
     stab_mod.Stabilizer.adjust = observed
     try:
@@ -84,9 +90,9 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
     ring = ringing(ts, w[:, 2])
     print(
         "| s | yaw rate RMS | its frequency | ringing (> 3 Hz) | tilt rate RMS | heading err° "
-        "| tilt err° | heading cmd° | tilt cmd° | servo lag ms | clock |"
+        "| tilt err° | heading cmd° | tilt cmd° | servo lag ms | clock | soles' heading err° |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for s in range(int(np.ceil(ts.max())) if len(ts) else 0):
         m = (ts >= s) & (ts < s + 1)
         if m.sum() < 8:
@@ -99,7 +105,8 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
               f"| {np.sqrt(np.mean(w[m, :2] ** 2)):.2f} | {np.abs(e[m, 2]).max():.1f} "
               f"| {np.hypot(e[m, 0], e[m, 1]).max():.1f} | {np.abs(cmd[m, 2]).max():.1f} "
               f"| {np.hypot(cmd[m, 0], cmd[m, 1]).max():.1f} "
-              f"| {np.median(lag[m]):.1f} | {a[m, 11].min():.2f} |")  # fmt: skip
+              f"| {np.median(lag[m]):.1f} | {a[m, 11].min():.2f} "
+              f"| {np.degrees(a[m, 12].max()):.1f} |")  # fmt: skip
     log, names = res.log, list(robot.joint_names)
     t, q, goal, peak, force = (log[k] for k in ("t", "q", "goal", "peak_torque", "sole_force"))
     t = t - res.playback_start
@@ -116,6 +123,16 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
         print(f"{names[j]} in its single support ({m.sum()} ticks): load median "
               f"{np.median(load):.2f}, p90 {np.percentile(load, 90):.2f}, max {load.max():.2f}; "
               f"sag median {np.median(sag):.1f}°, max {sag.max():.1f}°")  # fmt: skip
+
+
+def yaw(R: np.ndarray) -> float:
+    """The heading of a rotation (its x axis's)."""
+    return float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def wrap(a: float) -> float:
+    """``a`` wrapped to (−π, π]."""
+    return float((a + np.pi) % (2 * np.pi) - np.pi)
 
 
 def ringing(t: np.ndarray, wz: np.ndarray) -> np.ndarray:

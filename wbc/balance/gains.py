@@ -120,6 +120,18 @@ class Gains:
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
     transfer: float = 0.15
+    #: the footsteps take the heading (:mod:`wbc.balance.step_yaw`; 0: off): at each
+    #: lift-off the stance sole's measured heading error against the controller's, beyond
+    #: ``step_yaw_band``, × this turns the swing sole's target rotation (clipped to
+    #: ``max_step_yaw``, ramped, never nearer the stance sole than the plans' clearance);
+    #: the landed sole keeps it while down. Issue 30 (i30p's tenth round, benchmarks/
+    #: physics.md): a soft plant's turning walk under-turns every step
+    step_yaw: float = 0.0
+    max_step_yaw: float = 0.35  # rad: step_yaw's largest turn of the swing target
+    step_yaw_band: float = 0.0  # rad: the stance sole's heading error step_yaw leaves alone
+    #: rad/s: step_yaw only on a step whose reference heading turned at least this fast over
+    #: the double support before it (a turning walk's; 0: every step)
+    step_yaw_turn: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -156,6 +168,10 @@ class Gains:
             "hip_kick",
             "kick_release",
             "transfer",
+            "step_yaw",
+            "max_step_yaw",
+            "step_yaw_band",
+            "step_yaw_turn",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

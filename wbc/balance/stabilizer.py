@@ -22,6 +22,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   (:mod:`wbc.balance.servo_lag`, :attr:`Stabilizer.servo_lag`);
 * **the walk's clock** (``lag_clock``) — the reference time runs slower on a plant whose
   servos follow late (:attr:`Stabilizer.clock`, read by :meth:`Session.at_time`);
+* **the heading by the footsteps** (``step_yaw``, off) — the stance sole's measured heading
+  error at each lift-off turns the swing sole's target (:mod:`wbc.balance.step_yaw`);
 * **DCM (capture point) on the CoM reference** (``k_dcm``, off by default) —
   ``c_cmd = c_ref − k_dcm (ξ − ξ_ref)`` (horizontal), ``ξ = c + ċ/ω₀`` estimated, ``ξ_ref``
   from the reference's CoM and velocity: a CoM running ahead of its plan gets a commanded CoM
@@ -78,6 +80,7 @@ from .gains import Gains as Gains
 from .gains import default_gains as default_gains
 from .push_jump import JUMP_SIGMA, JUMP_TAU, jumped
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
+from .step_yaw import StepYaw
 
 # the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
 # model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
@@ -490,6 +493,7 @@ class Stabilizer:
         self._packed: tuple = (None, None, None, False, self._no_lag)
         self.last: StateEstimate | None = None
         self.clock = self._clock = 1.0  # the walk's clock rate (lag_clock; Session.at_time)
+        self.steps_yaw = StepYaw(robot)  # the footsteps' heading correction (step_yaw)
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
 
@@ -620,6 +624,12 @@ class Stabilizer:
         if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
             com = self._shifted(targets, com_vel_ref, est, e, dt)
         out = targets.retarget(com, o[2:5])
+        g = self.gains
+        if g.step_yaw > 0:  # the footsteps take the measured heading error (step_yaw)
+            read = joints if present is None else np.where(np.isfinite(present), present, joints)
+            out = self.steps_yaw.apply(targets, out, est.rotation, read, q_cmd, g.step_yaw,
+                                       g.max_step_yaw, g.step_yaw_band, g.step_yaw_turn,
+                                       dt)  # fmt: skip
         self.time = time.perf_counter() - start
         return out
 
