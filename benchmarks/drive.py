@@ -103,7 +103,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             encoder_rest: bool = False, play: str | float | None = None,
             play_hold: float | None = None, play_lift: bool = False,
             params=None, keep_clear: bool = True, base_hold: float | None = None,
-            **kw):  # fmt: skip
+            finish_steps: int | None = None, finish_xy: bool = False, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -115,6 +115,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
         "play_hold": play_hold, "play_lift": play_lift or None, "hold": base_hold,
+        "finish_steps": finish_steps, "finish_xy": finish_xy or None,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if play is not None:
@@ -283,6 +284,13 @@ def main(argv: list[str] | None = None) -> int:
                     help="after each stop, the base brought onto its commanded place, the CoM "
                          "target shifted at most M m (Walker(hold=M); default the Walker's, "
                          "0: off; measured with 0.02, DRIVE_HOLD)")  # fmt: skip
+    ap.add_argument("--finish-steps", type=int, default=None, metavar="N",
+                    help="finish steps after a stop when the closing step's measured landing "
+                         "is off the commanded pose (the Walker's default: "
+                         "DRIVE_FINISH_STEPS_AFTER, 0: none)")  # fmt: skip
+    ap.add_argument("--finish-xy", action="store_true",
+                    help="finish steps correct the measured position too (default: the "
+                         "heading alone)")  # fmt: skip
     ap.add_argument("--friction-cone", choices=FRICTION_CONES, default=None,
                     help="the simulated floor's friction cone (ModelParams.friction_cone; "
                          "default: the plant's, pyramidal)")  # fmt: skip
@@ -330,6 +338,8 @@ def main(argv: list[str] | None = None) -> int:
         "play_lift": args.play_lift,
         "keep_clear": args.keep_clear,
         "base_hold": args.base_hold,
+        "finish_steps": args.finish_steps,
+        "finish_xy": args.finish_xy,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None

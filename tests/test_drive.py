@@ -447,3 +447,69 @@ def test_the_walker_reads_its_links_through_the_play(robot) -> None:
     with pytest.raises(ConfigurationError, match="play"):
         Walker(robot, StackController(load_stack("walk", robot, solver="weighted")), None,
                params=LEGS_ONLY, limits=LIMITS, window=None, play=-0.01)  # fmt: skip
+
+
+class _TurnedOdometry:
+    """An outer loop's odometry that measures the walking frame and the torso turned
+    ``error`` (rad) off the planned soles' midpoint (a closing step landed turned, as the
+    gyro would see it)."""
+
+    def __init__(self, walker: Walker, error: float) -> None:
+        self.walker, self.error, self.started = walker, error, True
+        self.start_heading = 0.0  # (the walk starts facing x)
+
+    @property
+    def heading(self) -> float:
+        from wbc.geometry import mean_angle
+
+        feet = self.walker.engine.feet
+        return mean_angle(feet["left"].yaw, feet["right"].yaw) + self.error
+
+    def landed(self, side, q) -> np.ndarray:
+        feet = self.walker.engine.feet
+        return np.r_[0.5 * (feet["left"].xy + feet["right"].xy), self.heading]
+
+    def stop(self) -> None:
+        self.started = False
+
+    def turn(self, *args) -> None:
+        pass
+
+
+@pytest.mark.parametrize(("steps", "error", "taken"), [(0, 2.0, 0), (1, 2.0, 1), (1, -3.0, 0)])
+def test_a_finish_step_turns_a_closing_step_measured_off(robot, steps, error, taken) -> None:
+    """When the walk has ended, the walker measures the closing step's landing by its
+    odometry (here one that sees the soles 2° counter-clockwise of their plan, where the
+    turning walk's plan ended ~5° short of the commanded heading) and, off the commanded
+    pose by more than DRIVE_FINISH_TOLERANCE (within DRIVE_FINISH_BELIEVED), takes one finish
+    step aimed from the measured frame (``finish_steps``): the measured heading then ends
+    within 0.6° of the commanded one (without: 2° and more off), one step more, the walker
+    walking until it ends; the measured errors are kept per walk's end. Measured ~8° off
+    (beyond DRIVE_FINISH_BELIEVED), none is taken."""
+    from wbc.bench.solvers import registry
+    from wbc.geometry import wrap_angle
+
+    walker = Walker(robot, registry("physics")["hqp-daqp"].make(robot), None)
+    walker.present = lambda: walker.q[7:]
+    walker.odometry = _TurnedOdometry(walker, math.radians(error))  # type: ignore[assignment]
+    walker.finish.steps = steps
+    engine = walker.engine
+    walker.command(0.04, 0.0, 0.3)
+    walker.start()
+    for _ in range(150):
+        walker.tick()
+    walker.stop()
+    ended = None
+    for _ in range(1000):
+        if not walker.walking:
+            break
+        walker.tick()
+        if ended is None and walker.finish.errors:
+            ended = engine.steps_taken
+    assert not walker.walking and ended is not None
+    assert len(walker.finish.errors) == 1 + taken
+    turn = abs(wrap_angle(walker.finish.errors[-1][2]))
+    assert abs(wrap_angle(walker.finish.errors[0][2])) > math.radians(2.0)
+    assert engine.steps_taken == ended + taken
+    assert (turn < math.radians(0.6)) if taken else (turn > math.radians(2.0))
+    assert walker.failed_solves == 0

@@ -468,3 +468,47 @@ def test_a_random_sequence_ends_where_its_integral_puts_it(setup, seed) -> None:
     moved = rot2(c0[2]).T @ (e.centre[:2] - c0[:2])
     assert np.linalg.norm(moved - xy) < 0.005
     assert abs(wrap_angle(e.centre[2] - c0[2] - yaw)) < math.radians(0.5)
+
+
+@pytest.mark.parametrize("error", [(0.0, 0.0, 0.035), (0.006, -0.004, -0.03), (-0.008, 0.005, 0.0)])
+def test_a_finish_step_closes_a_measured_error(setup, error) -> None:
+    """Standing after a stop, :meth:`WalkEngine.finish_step` takes one more closing step
+    aimed at the same commanded pose from the walking frame's measured error (measured less
+    planned): the planned frame plus the error ends closer to the commanded pose (here the
+    turning walk's own closing step was 1.5–5° and 9–15 mm off it too: less than half of
+    that is left, the heading's less than 0.4), the commanded pose kept, the step valid, one
+    step more; asked while walking it is refused in one line."""
+    _, _, foot, legs = setup
+    e = engine(setup)
+    e.start()
+    e.command(0.04, 0.0, 0.3)
+    for _ in range(150):
+        e.tick()
+    e.stop()
+    while e.walking:
+        e.tick()
+    with pytest.raises(ConfigurationError, match="standing"):
+        walking = engine(setup)
+        walking.start()
+        walking.tick()
+        walking.finish_step(np.zeros(3), "left")
+    error = np.asarray(error)
+    at_stop, steps = e.commanded_frame(), e.steps_taken
+
+    def off() -> tuple[float, float]:
+        d = e.commanded_frame() - (e._mid_frame() + error)
+        return float(np.hypot(*d[:2])), abs(wrap_angle(d[2]))
+
+    before = off()
+    assert before[0] > 0.005 or before[1] > math.radians(1.0)
+    feet = (e.feet["left"], e.feet["right"])
+    e.finish_step(error)  # (the side whose step ends nearer)
+    assert e.starting and not e.walking
+    while e.starting or e.walking:
+        e.tick()
+    after = off()
+    assert np.allclose(e.commanded_frame(), at_stop)
+    assert e.steps_taken == steps + 1
+    assert after[1] < 0.4 * before[1]
+    assert after[0] + 0.1 * after[1] < 0.5 * (before[0] + 0.1 * before[1])  # (1.75 mm a degree)
+    FootstepPlan(*feet, (e.planned[-1],)).validate(foot, legs, e.height, 0.005)

@@ -76,6 +76,7 @@ class PoseOdometry:
         self._turn: dict[Side, float] = {}  # |the soles' relative heading| at its landing
         self.gyro = gyro  # False: the stance sole keeps its landed heading (encoders alone)
         self.heading = 0.0  # the torso's heading (rad, world), gyro-integrated
+        self.start_heading = 0.0
         self.soles: dict[Side, np.ndarray] = {}  # side -> (x, y, heading), world
         self.started = False
         #: the gyro's bias about the vertical learnt at rest (rad/s; module docstring)
@@ -89,6 +90,7 @@ class PoseOdometry:
         """Start from the soles' planned placements and the torso's estimated heading."""
         self.soles = {side: np.array([f.x, f.y, f.yaw]) for side, f in feet.items()}
         self.heading = float(torso_heading)
+        self.start_heading = self.heading  #: the torso's heading at :meth:`start` (rad)
         self.started = True
         self._placed, self._turn = {}, {}
 

@@ -218,6 +218,7 @@ def drive_sim(
         "requested_xy_m": [float(v) for v in integrate(commands)[0]],
         "duration_s": end,
         "steps": walker.engine.steps_taken,
+        "finish_errors": [[float(v) for v in e] for e in walker.finish.errors],
         "shortened_steps": walker.engine.shortened,
         "failed_solves": walker.failed_solves,
         "failed_solve_causes": dict(walker.failure_causes),

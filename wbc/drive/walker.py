@@ -50,6 +50,7 @@ from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
+from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
 from .odometry import BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
@@ -111,11 +112,8 @@ DRIVE_YAW_REST_S = 1.5
 #: a finishing stop (:meth:`Walker.stop` ``finish=True``) walks on
 #: (command zero) at most this many steps while the steps make up the lag to the commanded
 #: pose (a command takes effect at the next lift-off; the make-up is capped), then closes
+#: (within :data:`~wbc.drive.finish.DRIVE_FINISH_TOLERANCE`)
 DRIVE_FINISH_STEPS = 4
-
-#: ... and closes as soon as the planned walking frame, with the odometry's offset, is this
-#: close to the commanded pose (m, rad)
-DRIVE_FINISH_TOLERANCE = (0.005, math.radians(1.0))
 
 #: how far (m) the controller's stance contact moves toward a measured landing away from
 #: its plan, at most (:meth:`Walker._contacts`), and how fast (m/s). A sole lands where the
@@ -260,6 +258,11 @@ class Walker:
     joints over the planned soles, stands on the commanded pose
     (:class:`~wbc.drive.odometry.BaseHold`; :attr:`walking` stays True meanwhile, at most
     ``DRIVE_HOLD["seconds"]``).
+    ``finish_steps`` (with the outer loop; default :data:`~wbc.drive.finish.
+    DRIVE_FINISH_STEPS_AFTER`; 0: none): after a stop, the closing step's landing measured
+    by the odometry and, off the commanded pose, at most this many finish steps aimed from
+    the measured frame (:class:`~wbc.drive.finish.FinishSteps`, ``finish_xy``: the position
+    corrected too; :attr:`walking` stays True meanwhile).
     """
 
     def __init__(
@@ -290,6 +293,8 @@ class Walker:
         play_lift: bool = False,
         keep_clear: bool = True,
         hold: float = 0.0,
+        finish_steps: int = DRIVE_FINISH_STEPS_AFTER,
+        finish_xy: bool = False,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -316,6 +321,8 @@ class Walker:
             raise ConfigurationError(f"stride_gain must be a finite number >= 1, got {stride_gain}")
         if not (math.isfinite(lift_gain) and lift_gain >= 1):
             raise ConfigurationError(f"lift_gain must be a finite number >= 1, got {lift_gain}")
+        if not (isinstance(finish_steps, int) and finish_steps >= 0):
+            raise ConfigurationError(f"finish_steps must be an integer >= 0, got {finish_steps}")
         if not (math.isfinite(hold) and hold >= 0):
             raise ConfigurationError(f"hold must be a finite number >= 0 (m), got {hold}")
         if not (math.isfinite(yaw_learn) and 0 <= yaw_learn <= 1):
@@ -389,6 +396,9 @@ class Walker:
         rate, seconds = DRIVE_HOLD["rate"], DRIVE_HOLD["seconds"]
         self.hold = BaseHold(hold, rate, seconds) if closed and hold > 0 else None
         self._walked = False  # the engine walked at the last tick (the hold begins at its end)
+        #: finish steps after a stop (with the outer loop)
+        self.finish = FinishSteps(finish_steps if track else 0, finish_xy)
+        self._engine_walked = False  # the engine walked at the last tick
         self._links: np.ndarray | None = None  # this tick's present positions, play out
         self._apex = params.swing.apex
         self._peak = -math.inf
@@ -449,6 +459,7 @@ class Walker:
         odometry's own)."""
         self._deferred_start = False
         engine = self.engine
+        self.finish.stop()
         if finish and engine.walking:
             engine.command(0.0, 0.0, 0.0)
             self._finish_by = engine.steps_taken + DRIVE_FINISH_STEPS
@@ -474,7 +485,8 @@ class Walker:
     def walking(self) -> bool:
         """Walking, a start waiting for the calibration, or the base's hold after a stop."""
         held = self.hold is not None and self.hold.active
-        return self.engine.walking or self._deferred_start or held
+        engine = self.engine
+        return engine.walking or engine.starting or self._deferred_start or held
 
     def _landed(self, step: Footstep) -> Footstep | None:
         """Leg odometry at a landing: the swing sole's placement relative to the stance sole
@@ -548,6 +560,9 @@ class Walker:
                 self._offset = None
         self.last = e
         self._t = target_t
+        if self._engine_walked and not engine.walking:
+            self._walk_ended()
+        self._engine_walked = engine.walking
         targets = self.targets(e)
         key = (targets.phase, targets.support, targets.swing)
         changed = key != self._previous
@@ -568,8 +583,8 @@ class Walker:
                     odo.start(engine.feet, yaw_of(est.rotation))
                     if self.stride is not None:
                         self.stride.restart()
-                elif not engine.walking and odo.started:
-                    odo.stop()
+                elif not (engine.walking or engine.starting) and odo.started:
+                    odo.stop()  # (kept through a finish step)
                 rotation, rate = self._heading_inputs(targets, est)
                 if resting:
                     odo.rest(rotation, rate, dt)
@@ -586,6 +601,13 @@ class Walker:
             self.failure_causes[failure_cause(exc, targets.phase)] += 1
         self.tick_time.append(time.perf_counter() - start)
         return self.q
+
+    def _walk_ended(self) -> None:
+        """The walk has ended: finish steps (:meth:`FinishSteps.after_walk
+        <wbc.drive.finish.FinishSteps.after_walk>`), with the outer loop's odometry."""
+        odo, q = self.odometry, self._present_configuration()
+        if odo is not None and odo.started and self.engine.planned and q is not None:
+            self.finish.after_walk(self.engine, odo, q)
 
     def _present_configuration(self, links: bool = True) -> np.ndarray | None:
         """The configuration of the servos' present positions (the base at the origin), or

@@ -71,6 +71,9 @@ MAX_RELATIVE_YAW = 0.6
 SegmentKind = Literal["start", "double", "single", "end"]
 #: points checked along a stance contact's move (:meth:`WalkEngine.clear_of_landing`)
 SLIDE_SAMPLES = 9
+#: m per rad: a finish step's miss of the commanded pose, heading against position
+#: (:meth:`WalkEngine.finish_step`; 1.75 mm a degree)
+FINISH_YAW_M = 0.1
 
 
 @dataclass
@@ -162,8 +165,11 @@ class WalkEngine:
         self._cmd = (0.0, 0.0, 0.0)
         #: the commanded pose (x, y, heading; world): the command integrated while walking
         self._pose_cmd = self.centre.copy()
+        #: the commanded pose at the last :meth:`start` (x, y, heading; world)
+        self.start_pose = self._pose_cmd.copy()
         self._start_requested = False
         self._stop_requested = False
+        self._finishing = False  # the requested start is a finish step (:meth:`finish_step`)
         self._segments: list[_Segment] = []
         self._seg_i = 0  # tick within the current segment
         self._swing: tuple[np.ndarray, np.ndarray] | None = None  # (pos (n,3), yaw (n,))
@@ -221,15 +227,60 @@ class WalkEngine:
     def start(self) -> None:
         """Start walking (from standing: the ZMP moves onto the first stance sole first)."""
         self._stop_requested = False
+        self._finishing = False
         if self.state == "standing":
             self._start_requested = True
 
     def stop(self) -> None:
         """Finish with a closing step and stand (the walk ends a step or two later)."""
         if self.state == "standing":
-            self._start_requested = False
+            self._start_requested = self._finishing = False
         else:
             self._stop_requested = True
+
+    def finish_step(self, frame_error: np.ndarray, side: Side | None = None) -> None:
+        """Standing after a walk (:meth:`stop`): one more closing step of ``side``, aimed
+        (as the closing step is: ``EngineParams.close_on_target``) at the commanded pose the
+        walk ended with, from the walking frame's measured error ``frame_error`` (x, y,
+        heading; world: the soles' midpoint measured less planned, :attr:`frame_error`) —
+        a walker's finish step, the closing step's landing (which no later step measures)
+        found off. A start phase, the step, the end phase; the commanded pose kept. ``side``
+        None: the sole whose step ends nearer it (m + ``FINISH_YAW_M`` × rad)."""
+        if self.state != "standing" or not self.params.close_on_target:
+            raise ConfigurationError(
+                "walk engine: a finish step is taken standing, with close_on_target on"
+            )
+        if side is not None and side not in ("left", "right"):
+            raise ConfigurationError(f"walk engine: a finish step's side is left or right, "
+                                     f"got {side!r}")  # fmt: skip
+        error = np.asarray(frame_error, dtype=float)
+        if error.shape != (3,) or not np.all(np.isfinite(error)):
+            raise ConfigurationError(f"walk engine: frame_error must be 3 finite numbers, "
+                                     f"got {frame_error}")  # fmt: skip
+        self.frame_error = error.copy()
+        if side is None:
+            want = self.commanded_frame() - error
+
+            def miss(s: Side) -> float:
+                frame, _ = self._closing(self.feet, s, on_target=True)
+                d = want - frame
+                return float(np.hypot(*d[:2]) + FINISH_YAW_M * abs(wrap_angle(d[2])))
+
+            side = min(("left", "right"), key=miss)
+        self._next_side = side
+        self._start_requested = self._stop_requested = self._finishing = True
+
+    @property
+    def starting(self) -> bool:
+        """A start (or a finish step) asked for, taken at the next tick."""
+        return self._start_requested
+
+    def commanded_frame(self) -> np.ndarray:
+        """The commanded pose of the walking frame (x, y, heading; world): the commanded
+        pose (:attr:`origin`'s) less the origin."""
+        want = self._pose_cmd.copy()
+        want[:2] -= rot2(want[2]) @ self.origin
+        return want
 
     @property
     def walking(self) -> bool:
@@ -268,9 +319,7 @@ class WalkEngine:
         xy = stance.xy + rot2(stance.yaw) @ np.array([0.0, 2.0 * sign * self.half_width])
         step = Footstep(side, float(xy[0]), float(xy[1]), stance.yaw)
         if on_target and self.params.close_on_target:
-            want = self._pose_cmd.copy()
-            want[:2] -= rot2(want[2]) @ self.origin
-            want -= self.frame_offset
+            want = self.commanded_frame() - self.frame_offset
             plain = np.array([step.x, step.y, step.yaw])
             aim = 2.0 * want - np.array([stance.x, stance.y, stance.yaw])
             aim[2] = stance.yaw + 2.0 * wrap_angle(want[2] - stance.yaw)
@@ -560,12 +609,18 @@ class WalkEngine:
             if self._start_requested:
                 self._start_requested = False
                 self.state = "walking"
+                if self._finishing:  # one closing step more, aimed at the same pose
+                    self._finishing = False
+                    self.centre = self._mid_frame()
+                    self._replan("start")
+                    return True
                 _, vy, wz = self._cmd
                 lead = vy if abs(vy) > 1e-12 else wz
                 self._next_side = "left" if lead > 0 else "right"
                 self.centre = self._mid_frame()
                 self._pose_cmd = self.centre.copy()
                 self._pose_cmd[:2] += rot2(self.centre[2]) @ self.origin
+                self.start_pose = self._pose_cmd.copy()
                 self.odometry_offset[:] = 0.0
                 self.frame_error = None
                 self._replan("start")
