@@ -40,7 +40,10 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band, and
   (``hip_kick``) moves the stance hip roll's solved goal further toward the roll, which then
   returns at ``kick_release`` (:meth:`Stabilizer.joint_offsets`: the whole-body solve, its CoM
-  task the heaviest, leaves the stance hip ~20° short of the roll asked);
+  task the heaviest, leaves the stance hip ~20° short of the roll asked), the other leg's hip
+  roll and that side's shoulder roll with it (``counter_leg``, ``counter_arm``: those limbs
+  spun toward the fall beside the torso), the kick braked before the torso tips past
+  ``kick_tilt`` (:mod:`wbc.balance.hip_kick`);
 * **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
   closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
   walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
