@@ -409,17 +409,19 @@ def test_hip_strategy_started_by_an_outward_jump(robot, hip_jump):
 
 @pytest.mark.parametrize("hip_kick", [0.0, 0.3])
 def test_a_push_kicks_the_stance_hip_toward_the_roll(robot, hip_kick):
-    """``hip_kick``: from the tick the push trigger fires, the stance hip roll's solved goal is
-    moved toward the roll (with the sole held, the torso turns by −a dθ: toward the fall), by
-    at most the joint's speed limit a tick, up to hip_kick; no other joint moves; nothing
-    before the trigger (None: the goals untouched); after the single support the roll and the
-    kick shrink together at kick_release (not hip_release), and end with the roll."""
+    """``hip_kick`` (the stance hip alone; the limbs and the brake: test_balance_hip_kick):
+    from the tick the push trigger fires, the stance hip roll's solved goal is moved toward
+    the roll (with the sole held, the torso turns by −a dθ: toward the fall), by at most the
+    joint's speed limit a tick, up to hip_kick; no other joint moves; nothing before the
+    trigger (None: the goals untouched); after the single support the roll and the kick
+    shrink together at kick_release (not hip_release), and end with the roll."""
     from wbc.balance.feedback import GyroFeedback
 
     q = standing(robot)
     t = targets_at(robot, q)
     g = Gains(k_hip=100.0, max_hip=0.5, hip_release=2.0, hip_band=0.025, hip_jump=0.6,
-              hip_kick=hip_kick, kick_release=0.5)  # fmt: skip
+              hip_kick=hip_kick, kick_release=0.5, kick_tilt=0.0, counter_leg=0.0,
+              counter_arm=0.0)  # fmt: skip
     p = t.l_sole.translation[:2]
     u = t.l_sole.rotation[:2, 1] / np.linalg.norm(t.l_sole.rotation[:2, 1])
     stab = Stabilizer(robot, 0.2, lambda: None, None, g)

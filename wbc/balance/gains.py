@@ -93,6 +93,22 @@ class Gains:
     #: benchmarks/pushes.md)
     hip_kick: float = 0.3
     kick_release: float = 0.5  # rad/s (> 0 with a kick)
+    #: rad: the kick braked before the torso tips past this tilt toward the fall (0: no
+    #: brake): ``kick_brake × (θ + kick_lead θ̇ − kick_tilt)⁺`` taken off the kick, ``θ`` the
+    #: estimated torso's tilt along the roll, ``θ̇`` its gyro rate (:mod:`wbc.balance.hip_kick`):
+    #: the spin out of stall stopped by the servo's whole torque, not by its position error
+    #: alone (with the limbs below: away 0.875 → 0.891 N·s on ``walk10_wb``, issue 30)
+    kick_tilt: float = 0.7
+    kick_lead: float = 0.05  # s: how far ahead the brake reads the tilt
+    kick_brake: float = 2.0  # rad of kick taken off per rad of predicted tilt beyond kick_tilt
+    #: rad: with the kick, the other leg's hip roll (``counter_leg``) and that side's shoulder
+    #: roll (``counter_arm``) moved toward the roll's spin: the swing leg and its arm spun
+    #: toward the fall beside the torso (momentum reserves: the torso tilts less for the same
+    #: angular momentum), within their joints' limits and speeds (0: off). Away 0.828 → 0.852
+    #: (leg 0.4), 0.867 (leg 0.7), 0.875 (+ arm 1.0), 0.891 N·s (+ arm 2.0, the brake) on
+    #: ``walk10_wb`` (issue 30, benchmarks/pushes.md)
+    counter_leg: float = 0.7
+    counter_arm: float = 2.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -167,6 +183,11 @@ class Gains:
             "hip_jump",
             "hip_kick",
             "kick_release",
+            "kick_tilt",
+            "kick_lead",
+            "kick_brake",
+            "counter_leg",
+            "counter_arm",
             "transfer",
             "step_yaw",
             "max_step_yaw",

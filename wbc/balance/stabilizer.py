@@ -42,7 +42,10 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band, and
   (``hip_kick``) moves the stance hip roll's solved goal further toward the roll, which then
   returns at ``kick_release`` (:meth:`Stabilizer.joint_offsets`: the whole-body solve, its CoM
-  task the heaviest, leaves the stance hip ~20° short of the roll asked);
+  task the heaviest, leaves the stance hip ~20° short of the roll asked), the other leg's hip
+  roll and that side's shoulder roll with it (``counter_leg``, ``counter_arm``: those limbs
+  spun toward the fall beside the torso), the kick braked before the torso tips past
+  ``kick_tilt`` (:mod:`wbc.balance.hip_kick`);
 * **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
   closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
   walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
@@ -78,6 +81,7 @@ from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
 from .gains import NO_FEED_FORWARD_GAINS as NO_FEED_FORWARD_GAINS  # (re-exported)
 from .gains import Gains as Gains
 from .gains import default_gains as default_gains
+from .hip_kick import HipKick
 from .push_jump import JUMP_SIGMA, JUMP_TAU, jumped
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 from .step_yaw import StepYaw
@@ -476,19 +480,12 @@ class Stabilizer:
         self.rate = np.zeros(3)
         self._joint = None
         self._stance = ""  # the stance sole of the last tick ("" in double support)
-        #: hip_kick: the stance hip roll joint, the kick's sign, its last goal (rad; None), the
-        #: stance sole it kicks
-        self._kick: list = [0, 0.0, None, ""]
         self._dt = 0.01  # s: the last tick's
         if self.gains.j_p > 0 or self.gains.j_d > 0:
             from .feedback import GyroFeedback
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
-        self._axes = None  # (hip_kick: the joint axes, GyroFeedback.axes)
-        if self.gains.hip_kick > 0:
-            from .feedback import GyroFeedback
-
-            self._axes = GyroFeedback(robot, None, 0.0)
+        self._kick = HipKick(robot) if self.gains.hip_kick > 0 else None  # (hip_kick)
         #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
         self._packed: tuple = (None, None, None, False, self._no_lag)
         self.last: StateEstimate | None = None
@@ -740,43 +737,13 @@ class Stabilizer:
         return d
 
     def _hip_kick(self, joints: np.ndarray, d: np.ndarray | None) -> np.ndarray | None:
-        """``d`` with the push's hip kick added (``hip_kick``; ``d`` None: no other offset):
-        from the tick the push trigger fires (``hip_jump``) until the hip-strategy roll ``h``
-        is back to 0, the stance hip roll's goal moved by ``hip_kick × min(|h| / max_hip, 1)``
-        toward the roll (its sign from the joint's axis ``a`` at the trigger: with the sole
-        held, turning it by dθ turns the torso by ``−a dθ``), the goal's change per tick within
-        the joint's speed limit (``Robot.v_max``; once that leg lifts, the kick ramps out at
-        it). The whole-body solve, whose CoM task outweighs the torso's, stops the stance hip
-        ~20° short of the roll asked (the servo leaves its stall torque 90 ms after the push);
-        the kick keeps it spinning the upper body toward the joint's range, as
-        :func:`wbc.balance.angular.hip_strategy_bound` counts (benchmarks/pushes.md)."""
-        kick, g, est = self._kick, self.gains, self.last
-        if est is None or self._axes is None:
+        """``d`` with the push's hip kick added (``hip_kick``, :class:`~wbc.balance.hip_kick.
+        HipKick`: from the tick the push trigger fires until the hip-strategy roll is back to
+        0; braked by ``kick_tilt``)."""
+        est = self.last
+        if est is None or self._kick is None:
             return d
-        h = self._fb[_B_HIP : _B_HIP + 2]
-        m = math.hypot(h[0], h[1])
-        if m > 0 and self._stance and self._fb[_B_JUMP + 2] > 0.5:
-            name = self.robot.roles.get("left" if self._stance == "l_sole" else "right", "hip_roll")
-            if name is None:  # (a robot without a hip roll: no kick)
-                return d
-            k = self.robot.joint_index(name)
-            if kick[1] == 0.0 or kick[0] != k:  # (the trigger's first tick: the sign)
-                v = est.rotation.T @ np.array([-h[1], h[0], 0.0]) / m
-                axis = self._axes.axes(joints)[k]
-                kick[:] = [k, -float(np.sign(axis @ v)), None, self._stance]
-        if kick[1] == 0.0 or self._fb[_B_JUMP + 4] < 0.5:  # (no push, or its roll is over)
-            kick[1], kick[2] = 0.0, None
-            return d
-        d = np.zeros(len(joints)) if d is None else d
-        k = int(kick[0])
-        solved = joints[k] + d[k]
-        lifted = bool(self._stance) and self._stance != kick[3]  # (its leg swings: ramped out)
-        share = 0.0 if lifted else min(m / max(g.max_hip, 1e-9), 1.0)
-        want = solved + kick[1] * g.hip_kick * share
-        last = solved if kick[2] is None else kick[2]
-        step = float(self.robot.v_max[k]) * self._dt  # (never a goal above the servo's speed)
-        kick[2] = min(max(want, last - step), last + step)
-        d[k] = kick[2] - joints[k]
-        if lifted and kick[2] == solved:
-            kick[1], kick[2] = 0.0, None  # (over)
-        return d
+        fb = self._fb
+        return self._kick.offsets(joints, d, self.gains, fb[_B_HIP : _B_HIP + 2],
+                                  fb[_B_JUMP + 2] > 0.5, fb[_B_JUMP + 4] > 0.5, self._stance,
+                                  est.rotation, est.angular_velocity, self._dt)  # fmt: skip

@@ -1,0 +1,114 @@
+"""The push's hip kick (:mod:`wbc.balance.hip_kick`): the swing leg and its arm spun toward
+the fall beside the stance hip (``counter_leg``, ``counter_arm``) and the brake before the
+torso tips past ``kick_tilt``."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc import load_robot
+from wbc.balance.estimator import StateEstimate
+from wbc.balance.feedback import GyroFeedback
+from wbc.balance.stabilizer import Gains, Stabilizer
+from wbc.walking.loop import TickTargets
+
+DT = 0.01
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot()
+
+
+def _setup(robot, gains):
+    """(a stabilizer, its tick(offset, R, ω) → joint offsets, the joints, u, the roll's axis
+    v = z × u): single support on the left sole, the estimated DCM ``offset`` outward of its
+    centre along ``u``, the torso's estimated rotation ``R`` and gyro rate ``ω``."""
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    left = robot.frame_placement(q, "l_sole")
+    right = robot.frame_placement(q, "r_sole")
+    R0 = robot.frame_placement(q, "torso").rotation
+    t = TickTargets(0, 0.0, "single", "l_sole", "r_sole", robot.com(q), left, right, 0.0, R0,
+                    right.translation.copy(), right.rotation.copy())  # fmt: skip
+    p = left.translation[:2]
+    u = left.rotation[:2, 1] / np.linalg.norm(left.rotation[:2, 1])  # (away from the right)
+    stab = Stabilizer(robot, 0.2, lambda: None, None, gains)
+    joints = q[7:].copy()
+
+    def tick(offset, R=None, omega=None):
+        values = np.zeros((8, 3))
+        values[:3] = np.eye(3) if R is None else R
+        values[6, :2] = p + offset * u
+        values[7] = 0.0 if omega is None else omega
+        est = stab.last = StateEstimate(values)
+        stab._stance, stab._dt = "l_sole", DT
+        stab._hip_strategy(t, est, DT)
+        return stab.joint_offsets(joints)
+
+    return stab, tick, joints, u, np.array([-u[1], u[0], 0.0])
+
+
+def _pushed(tick):
+    for offset in (-0.03, -0.03, -0.03):
+        assert tick(offset) is None  # no push: the goals untouched
+    return tick(0.005)  # the jump: the trigger fires, the whole max_hip asked
+
+
+@pytest.mark.parametrize("counter", [0.0, 1.0])
+def test_a_push_spins_the_swing_leg_and_its_arm_toward_the_fall(robot, counter):
+    """``counter_leg`` / ``counter_arm``: from the trigger, the other leg's hip roll and that
+    side's shoulder roll move so their limbs turn about the roll's axis toward the fall
+    (``+a·v``: the swing sole moves away from the stance sole), each by at most its joint's
+    speed limit a tick, up to the gain; 0: the stance hip alone is kicked."""
+    g = Gains(max_hip=0.5, hip_kick=0.3, kick_tilt=0.0, counter_leg=0.4 * counter,
+              counter_arm=1.0 * counter)  # fmt: skip
+    _, tick, joints, u, v = _setup(robot, g)
+    roles = robot.roles
+    pairs = (("left", "hip_roll"), ("right", "hip_roll"), ("right", "shoulder_roll"))
+    hip, leg, arm = (robot.joint_index(roles.joint(s, r)) for s, r in pairs)
+    axes = GyroFeedback(robot, None, 0.0).axes(joints) @ v
+    d = _pushed(tick)
+    moved = sorted(int(k) for k in np.flatnonzero(d))
+    assert moved == (sorted([hip, leg, arm]) if counter else [hip])
+    assert d[hip] * axes[hip] < 0  # the stance hip: the torso turns by −a dθ
+    if not counter:
+        return
+    for k in (leg, arm):
+        assert d[k] * axes[k] > 0  # a free limb turns by +a dθ: toward the fall
+        assert abs(d[k]) == pytest.approx(robot.v_max[k] * DT)
+    out = [tick(0.005) for _ in range(30)]
+    steps = np.abs(np.diff([d] + out, axis=0))
+    assert np.all(steps <= robot.v_max * DT + 1e-12)  # never above a servo's speed
+    assert abs(out[-1][leg]) == pytest.approx(0.4) and abs(out[-1][arm]) == pytest.approx(1.0)
+    # the swing sole goes away from the stance sole (the leg abducted: its mass out, spun)
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    kicked = q.copy()
+    kicked[7 + leg] += out[-1][leg]
+    before = robot.frame_placement(q, "r_sole").translation[:2] @ u
+    after = robot.frame_placement(kicked, "r_sole").translation[:2] @ u
+    assert after < before - 0.02
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.7])
+def test_the_kick_is_braked_before_the_torso_tips_past_kick_tilt(robot, tilt):
+    """``kick_tilt``: with the estimated torso tilted θ toward the fall and turning at θ̇, the
+    kick loses ``kick_brake (θ + kick_lead θ̇ − kick_tilt)⁺`` (beyond the kick: the goal
+    pulled back behind the solved one); 0: no brake, the whole kick at any tilt."""
+    g = Gains(max_hip=0.5, hip_kick=0.3, kick_tilt=tilt, kick_lead=0.05, kick_brake=2.0,
+              counter_leg=0.0, counter_arm=0.0)  # fmt: skip
+    stab, tick, _, u, v = _setup(robot, g)
+    hip = robot.joint_index(robot.roles.joint("left", "hip_roll"))
+    d = _pushed(tick)
+    sign = np.sign(d[hip])
+    for _ in range(10):
+        d = tick(0.005)
+    assert d[hip] == pytest.approx(sign * 0.3)  # upright, still: the whole kick
+    for theta, rate, brake in ((0.75, 0.0, 0.1), (0.5, 6.0, 0.2), (0.6, 10.0, 0.8)):
+        R = pin.exp3(theta * v)  # the torso's top tilted θ toward u
+        assert R[:, 2] @ np.r_[u, 0.0] == pytest.approx(np.sin(theta))
+        omega = R.T @ (rate * v)  # (the gyro's, in the torso frame)
+        for _ in range(30):
+            d = tick(0.005, R, omega)
+        want = 0.3 - (brake if tilt else 0.0)
+        assert d[hip] == pytest.approx(sign * want)
+        assert stab._kick.brake == pytest.approx(brake if tilt else 0.0)

@@ -1,0 +1,136 @@
+"""The push's hip kick: the stance hip roll's solved goal driven on toward the hip strategy's
+roll, and braked before the torso tips past the tilt it may reach (issue 30).
+
+After a push away from the swing foot, the hip strategy (:mod:`wbc.balance.stabilizer`) asks
+the torso to roll toward the fall; the whole-body solve, its CoM task the heaviest, stops the
+stance hip ~20° short of that roll. :class:`HipKick` moves that one joint's solved goal further
+(``Gains.hip_kick``, benchmarks/pushes.md), so the servo spins the upper body at its stall
+torque. Once out of stall the upper body carries on by its own angular momentum: the servo,
+whose goal it has just passed, brakes it only by its position error, and the torso overshoots
+(0.4 rad of kick at 0.85 N·s: the robot comes back, the torso 46° from its plan). The **brake**
+(``kick_tilt`` > 0) reads the estimated torso's tilt toward the fall ``θ`` and its rate ``θ̇``
+(the gyro's, about ``z × u``, ``u`` the roll's direction at the trigger) and takes
+``kick_brake × (θ + kick_lead θ̇ − kick_tilt)⁺`` off the kick (below zero: the goal pulled
+back behind the solved one), so the servo's full torque stops the spin before the tilt
+passes ``kick_tilt``. Every goal's change per tick stays within the joint's speed limit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model import Robot
+from .gains import Gains
+
+
+class HipKick:
+    """The kick's state for one walk (:meth:`offsets`, called by
+    :meth:`Stabilizer.joint_offsets <wbc.balance.stabilizer.Stabilizer.joint_offsets>`)."""
+
+    def __init__(self, robot: Robot) -> None:
+        from .feedback import GyroFeedback
+
+        self.robot = robot
+        self._axes = GyroFeedback(robot, None, 0.0)  # (the joints' axes in the torso frame)
+        #: the kicked joints: [joint index, sign, gain name, last goal (rad; None)], the stance
+        #: hip roll first; empty: no kick
+        self.joints: list[list] = []
+        self.stance = ""  # the stance sole it kicks
+        self.u = np.zeros(2)  # the roll's horizontal direction at the trigger (world)
+        self.brake = 0.0  # rad: the brake's share of the last goal (a diagnostic)
+
+    def _start(
+        self,
+        joints: np.ndarray,
+        g: Gains,
+        h: np.ndarray,
+        m: float,
+        stance: str,
+        rotation: np.ndarray,
+    ) -> None:
+        """The trigger's first tick: the joints kicked (the stance hip roll first: a robot
+        with one) and their signs."""
+        side, other = ("left", "right") if stance == "l_sole" else ("right", "left")
+        roles = self.robot.roles
+        name = roles.joint(side, "hip_roll")
+        v = rotation.T @ np.array([-h[1], h[0], 0.0]) / m  # the roll's axis (torso frame)
+        axes = self._axes.axes(joints) @ v
+        # with the sole held, turning the stance hip by dθ turns the torso by −a dθ; turning a
+        # free limb's joint turns the limb by +a dθ (its spin toward the fall, the same way)
+        picks = [(name, -1.0, "hip_kick"), (roles.get(other, "hip_roll"), 1.0, "counter_leg"),
+                 (roles.get(other, "shoulder_roll"), 1.0, "counter_arm")]  # fmt: skip
+        self.joints = []
+        for n, s, gain in picks:
+            if n is not None and (gain == "hip_kick" or getattr(g, gain) > 0):
+                k = self.robot.joint_index(n)
+                self.joints.append([k, s * float(np.sign(axes[k])), gain, None])
+        self.stance, self.u = stance, np.array([h[0], h[1]]) / m
+
+    def offsets(
+        self,
+        joints: np.ndarray,
+        d: np.ndarray | None,
+        gains: Gains,
+        h: np.ndarray,
+        pushed: bool,
+        active: bool,
+        stance: str,
+        rotation: np.ndarray,
+        rate: np.ndarray,
+        dt: float,
+    ) -> np.ndarray | None:
+        """``d`` with the kick added (``d`` None: no other offset): ``h`` the hip-strategy
+        roll (2, world), ``pushed`` the push trigger fired in this single support, ``active``
+        its roll not yet back to 0, ``stance`` the stance sole ("" in double support),
+        ``rotation``, ``rate`` the estimated torso rotation (world) and gyro rate (torso
+        frame). From the trigger until the roll is back to 0, the stance hip roll's goal is
+        moved by ``hip_kick × min(|h| / max_hip, 1)`` toward the roll (its sign from the
+        joint's axis ``a`` at the trigger: with the sole held, turning it by dθ turns the
+        torso by ``−a dθ``) less the brake (module docstring); the other leg's hip roll and
+        that side's shoulder roll by ``counter_leg``, ``counter_arm`` × the same share, their
+        limbs spun toward the fall; each goal's change per tick within its joint's speed
+        limit (``Robot.v_max``); once the kicked leg lifts, the kick ramps out at it."""
+        g = gains
+        m = math.hypot(h[0], h[1])
+        if m > 0 and stance and pushed:
+            name = self.robot.roles.get("left" if stance == "l_sole" else "right", "hip_roll")
+            if name is None:  # (a robot without a hip roll: no kick)
+                return d
+            if not self.joints or self.robot.joint_index(name) != self.joints[0][0]:
+                self._start(joints, g, h, m, stance, rotation)
+        if not self.joints or not active:  # (no push, or its roll is over)
+            self.joints = []
+            return d
+        d = np.zeros(len(joints)) if d is None else d
+        lifted = bool(stance) and stance != self.stance  # (its leg swings: ramped out)
+        share = 0.0 if lifted else min(m / max(g.max_hip, 1e-9), 1.0)
+        self.brake = 0.0 if lifted else self._brake(g, rotation, rate)
+        over = lifted
+        for j in self.joints:
+            k, sign, gain, last = j
+            solved = joints[k] + d[k]
+            amount = getattr(g, gain) * share - (self.brake if gain == "hip_kick" else 0.0)
+            want = solved + sign * amount
+            last = solved if last is None else last
+            step = float(self.robot.v_max[k]) * dt  # (never a goal above the servo's speed)
+            j[3] = min(max(want, last - step), last + step)
+            d[k] = j[3] - joints[k]
+            over = over and j[3] == solved
+        if over:
+            self.joints = []  # (over)
+        return d
+
+    def _brake(self, g: Gains, rotation: np.ndarray, rate: np.ndarray) -> float:
+        """rad taken off the kick: ``kick_brake × (θ + kick_lead θ̇ − kick_tilt)⁺`` (0 with
+        ``kick_tilt`` 0): ``θ`` the torso's top tilted along the roll's direction ``u``,
+        ``θ̇`` the world-frame gyro rate about ``z × u`` (positive: the top toward ``u``)."""
+        if g.kick_tilt <= 0:
+            return 0.0
+        u0, u1 = float(self.u[0]), float(self.u[1])
+        top = rotation[:, 2]
+        theta = math.asin(min(max(top[0] * u0 + top[1] * u1, -1.0), 1.0))
+        w = rotation @ rate
+        theta_dot = -u1 * float(w[0]) + u0 * float(w[1])
+        return g.kick_brake * max(theta + g.kick_lead * theta_dot - g.kick_tilt, 0.0)
