@@ -28,7 +28,8 @@ L / (m h ω₀)``, the DCM with the centroidal angular momentum ``L`` about ``z 
         '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
 
 (The swing and torso target columns are the stabilizer's, before the step adjuster's
-``land``: the landing correction, the lift, the lead and ``catch_pitch`` are not in them.)
+``land``: the landing correction, the lift, the lead and ``catch_pitch`` are not in them;
+the last column, "sent", is the swing target after ``land``: what the solve is given.)
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ import numpy as np
 
 from wbc import load_robot
 from wbc.balance import stabilizer as stab_mod
+from wbc.balance import stepping as step_mod
 from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
@@ -155,12 +157,22 @@ def trace(
         })  # fmt: skip
         return out
 
+    landed_original = step_mod.StepAdjuster.land
+
+    def landed(self, targets, est, q):  # the swing target the step adjuster sends
+        out = landed_original(self, targets, est, q)
+        if rows:
+            rows[-1]["landed"] = 1e3 * np.asarray(out.swing_position, dtype=float)
+        return out
+
     stab_mod.Stabilizer.adjust = observed  # type: ignore[method-assign]
+    step_mod.StepAdjuster.land = landed  # type: ignore[method-assign]
     try:
         result, loop = play_closed_loop(spec, robot, None, push=(t_push, force, PUSH_DURATION),
                                         compensate=0.5, on_tick=sims.append)  # fmt: skip
     finally:
         stab_mod.Stabilizer.adjust = original  # type: ignore[method-assign]
+        step_mod.StepAdjuster.land = landed_original  # type: ignore[method-assign]
     events = loop.stepping.events if loop.stepping is not None else []
     fig = physics_record(rec, result, robot, ref)
     summary = {
@@ -205,17 +217,20 @@ def main() -> None:
         return
     print(
         "| ms after push | phase | swing | DCM err est / sim mm | swing target x, z | sole x, z "
-        "| F left / right N | pitch change ° | torso pitch, target ° | sole pitch l / r ° |"
+        "| F left / right N | pitch change ° | torso pitch, target ° | sole pitch l / r ° "
+        "| sent x, z |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     t0, p0 = rows[jump]["t"] if rows else 0.0, rows[jump]["pitch"] if rows else 0.0
     for r in rows[max(jump - 3, 0) : jump + a.ticks]:
+        sent = r.get("landed", r["target"])
         print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} | {r['swing']} "
               f"| {r['err_est']:.1f} / {r['err_sim']:.1f} "
               f"| {r['target'][0]:.1f}, {r['target'][2]:.1f} | {r['sole'][0]:.1f}, "
               f"{r['sole'][2]:.1f} | {r['f_l']:.1f} / {r['f_r']:.1f} "
               f"| {r['pitch'] - p0:+.1f} | {r['pitch']:+.1f}, {r['cmd']:+.1f} "
-              f"| {r['soles'][0]:+.1f} / {r['soles'][1]:+.1f} |")  # fmt: skip
+              f"| {r['soles'][0]:+.1f} / {r['soles'][1]:+.1f} "
+              f"| {sent[0]:.1f}, {sent[2]:.1f} |")  # fmt: skip
 
 
 def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:

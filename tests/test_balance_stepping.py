@@ -275,7 +275,7 @@ def test_step_timing_lands_sooner_during_a_catch_when_the_swing_cannot_reach(rob
     assert adj.rate(ref, i, dcm(ref, i, w) + [p.band_x + 0.2, 0.0]) == 1.5  # capped
     assert adj.rate(ref, i, dcm(ref, i, w) + [p.band_x + 0.002, 0.0]) == 1.0  # reached in time
     assert adj.rate(ref, LAND - 2, dcm(ref, LAND - 2, w) + big) == 1.0  # landing
-    off = StepAdjuster(robot, walk10, SteppingParams(hurry=1.5))  # double support only
+    off = StepAdjuster(robot, walk10, SteppingParams(hurry=1.5, hurry_single=False))  # (DS only)
     assert off.update(walk10, MID, dcm(walk10, MID, w) + big) is not None
     assert off.rate(ref, i, dcm(ref, i, w) + big) == 1.0
 
@@ -873,3 +873,115 @@ def test_a_multi_step_catch_hurries_the_double_support_before_its_next_swing(rob
     assert StepAdjuster(robot, walk10).hurries  # (catch_hurry 3 by default)
     with pytest.raises(ConfigurationError, match="catch_hurry"):
         SteppingParams(catch_hurry=0.5).check()
+
+
+def _rolled(robot, walk10, params, pitch):
+    """(adjuster, targets at MID, controller q, the stance sole's rotation): the measured
+    robot turned by ``pitch`` rad about ``y`` about its stance sole's centre (on the floor, as
+    the estimator anchors it: a sole rolled onto its heel), read by a real estimator whose
+    present positions are the controller's joints."""
+    import pinocchio as pin
+
+    from wbc.balance.estimator import StateEstimate, StateEstimator
+
+    adj, tg, _, q, R_r = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3)
+    sole = robot.frame_placement(q, tg.support)
+    R = pin.exp3(np.array([0.0, pitch, 0.0]))
+    values = np.zeros((8, 3))
+    values[:3] = R @ R_r
+    values[3] = sole.translation + R @ (q[:3] - sole.translation)
+    estimator = StateEstimator(robot, walk10.com_height)
+    estimator.last = StateEstimate(values)
+    adj.contact, adj.present = estimator, lambda: q[7:].copy()
+    return adj, tg, estimator.last, q, R @ sole.rotation
+
+
+def test_the_measured_base_rises_by_the_stance_soles_roll_onto_its_heel(robot, walk10):
+    """``landing_tilt``: the estimate anchors the stance sole's centre on the floor; a sole
+    rolled onto its heel (the body turned about it) puts its heel corners below the floor, and
+    the base is that much higher than read: the swing target comes down by it (in the
+    measured frame), so the sole does not land high. Nothing with the sole flat, without the
+    present positions, after a push forward, nor with 0."""
+    from wbc.geometry import sole_corners
+
+    params = SteppingParams(landing=1.0, landing_catch=0.0, landing_tilt=1.0)
+    off = SteppingParams(landing=1.0, landing_catch=0.0, landing_tilt=0.0)
+    adj, tg, est, q, R_sole = _rolled(robot, walk10, params, -0.25)
+    corners = sole_corners(*robot.foot_size)
+    expected = -float(np.min(corners @ R_sole[2]))
+    assert expected > 0.01  # (the heel 12 mm below the sole's centre)
+    assert adj.stance_rise(tg, q) == pytest.approx(expected, abs=1e-9)
+    adj0, _, _, _, _ = _rolled(robot, walk10, off, -0.25)
+    a, b = adj.land(tg, est, q), adj0.land(tg, est, q)
+    import pinocchio as pin
+
+    base = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+    torso_b = robot.model.frames[robot.frame_id("torso")].placement.rotation
+    E = base @ torso_b @ est.rotation.T  # the controller's torso from the measured one
+    np.testing.assert_allclose(
+        a.swing_position - b.swing_position, -E @ [0.0, 0.0, expected], atol=1e-9
+    )
+    np.testing.assert_allclose(a.swing_rotation, b.swing_rotation)
+    adj.trigger.forward = True  # after a push forward (the sole on its toe): not read
+    np.testing.assert_allclose(adj.land(tg, est, q).swing_position, b.swing_position)
+    adj.trigger.forward = False
+    flat, tg, est, q, _ = _rolled(robot, walk10, params, 0.0)
+    assert flat.stance_rise(tg, q) == pytest.approx(0.0, abs=1e-9)
+    adj.present = None  # (no present positions: nothing known of the sole's roll)
+    assert adj.stance_rise(tg, q) == 0.0
+    assert SteppingParams().landing_tilt == 1.0
+    with pytest.raises(ConfigurationError, match="landing_tilt"):
+        SteppingParams(landing_tilt=-1.0).check()
+
+
+def test_a_catch_lands_its_swings_below_the_floor_with_landing_depth(robot, walk10):
+    """``landing_depth``: in a catch's swings the sole's target comes down by that much at the
+    landing (blended in over the lift's ``lift_land`` share), not mid-swing, not in a swing
+    the catch does not carry, not by default."""
+    params = SteppingParams(landing_depth=0.01, lift=0.0, landing=0.0, toe_up=0.0)
+    adj = _triggered(robot, walk10, params)
+    ph = adj.phases[adj.phase_of[MID]]
+    x = 1.0 / (ph.i1 - ph.i0) / params.lift_land  # (the last tick's share left)
+    w_out = x**2 * (3 - 2 * x)
+    for i, drop in ((MID + 2, 0.0), (ph.i1 - 1, 0.01 * (1.0 - w_out))):
+        _, t, e, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+        out = adj.land(t, e, q)
+        np.testing.assert_allclose(
+            out.swing_position, np.asarray(t.swing_position) - [0.0, 0.0, drop], atol=1e-12
+        )
+    assert 0.009 < 0.01 * (1.0 - w_out)
+    fresh = StepAdjuster(robot, walk10, params)  # no catch: the plan's
+    _, t, e, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=ph.i1 - 1)
+    assert fresh.land(t, e, q).swing_position is t.swing_position
+    assert SteppingParams().landing_depth == 0.0
+    with pytest.raises(ConfigurationError, match="landing_depth"):
+        SteppingParams(landing_depth=-0.01).check()
+
+
+def test_a_triggered_swing_lands_sooner_up_to_catch_hurry_with_hurry_single(robot, walk10):
+    """``hurry_single`` in a swing the catch carries (a push backward the trigger caught):
+    the clock runs up to ``catch_hurry``× (3; ``hurry`` 1 leaves every other single support
+    alone) when the swing cannot reach the error in the time left; after a push forward, and
+    in a catch the trigger did not start (an error beyond the band alone), ``hurry``'s 1."""
+    params = SteppingParams(hurry_single=True)
+    assert params.hurry == 1.0 and params.catch_hurry == 3.0
+    adj = _triggered(robot, walk10, params)
+    ref, w = adj.current, adj.omega
+    assert adj.episode is not None and adj.trigger.carried(MID + 2)
+    i, big = MID + 2, np.array([-0.08, 0.0])
+    fast = adj.rate(ref, i, dcm(ref, i, w) + big)
+    assert 1.0 < fast <= 3.0
+    assert SteppingParams().hurry_single  # (on by default)
+    ph = adj.phases[adj.phase_of[i]]
+    soonest = (ph.i1 - i) * walk10.dt / params.min_remaining  # (landing in min_remaining)
+    huge = dcm(ref, i, w) + [-0.3, 0.0]
+    assert adj.rate(ref, i, huge) == pytest.approx(min(soonest, 3.0)) and soonest > 1.5
+    capped = _triggered(robot, walk10, SteppingParams(hurry_single=True, catch_hurry=1.5))
+    assert capped.rate(capped.current, i, huge) == 1.5  # at most catch_hurry
+    fwd = _triggered(robot, walk10, params, jump=0.02)  # a push forward: not hurried
+    assert fwd.trigger.forward and fwd.trigger.carried(i) and fwd.episode is not None
+    assert fwd.rate(fwd.current, i, dcm(fwd.current, i, w) - big) == 1.0
+    plain = StepAdjuster(robot, walk10, params)  # no trigger: a catch by the band alone
+    new = plain.update(walk10, MID, dcm(walk10, MID, w) + big)
+    assert new is not None and plain.episode is not None and not plain.trigger.carried(i)
+    assert plain.rate(new, i, dcm(new, i, w) + big) == 1.0

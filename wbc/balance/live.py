@@ -321,6 +321,7 @@ def closed_loop(
     adjuster = StepAdjuster(robot, ref, stepping) if stepping is not None and enabled else None
     if adjuster is not None:  # (its touch-down reads the estimator's contact detection)
         adjuster.contact = stabilizer.estimator
+        adjuster.present = stabilizer.present  # (landing_tilt: the stance sole's roll)
     phase_hold = PhaseHold(hold) if hold is not None and enabled else None
     if phase_hold is not None:  # (a late landing: the estimator's contact detection)
         phase_hold.contact = stabilizer.estimator

@@ -55,8 +55,10 @@ steps (LIPM, :func:`capture_bounds`: 0.934 N·s on ``walk10``, benchmarks/pushes
 
 **Multi-step recovery** (``until_inside``; off): the catch goes on step after step while
 each next single support still finds the DCM error beyond the band, then rests. **The
-landing time** (``hurry_single``; off): in a single support being caught, the clock runs
-faster when the swing lacks the room for the shift the error asks (:meth:`rate`). With
+landing time** (``hurry_single``; on): in a single support being caught, the clock runs
+faster when the swing lacks the room for the shift the error asks (:meth:`rate`), at most
+``hurry``× (1: off), in a swing the trigger's catch of a push backward carries at most
+``catch_hurry``×. With
 ``catch_band`` a catch under way takes the whole error, not the dead band's less.
 
 **Early touch-down** (``touchdown``; off; needs the estimator's contact detection,
@@ -88,13 +90,20 @@ the next swing's sole, placed in the controller's upright frame, drags its heel 
 (7–19 N) and lands 70 mm short of its re-planned landing. With ``catch_swings`` the lift and
 the landing in the measured frame go on in that many swings after the triggered one, and
 ``catch_hurry`` runs the clock faster in the double supports before them (the next step
-lifts sooner); the placement is the catch's own (``episode_steps``, the re-plans above).
+lifts sooner) and, with ``hurry_single``, in those swings when they lack the room; the
+placement is the catch's own (``episode_steps``, the re-plans above). After a push
+backward, the stance sole rolled onto its heel (``landing_tilt``, on): the estimate anchors
+its centre on the floor
+and reads the base low by the heel's drop (:meth:`StepAdjuster.stance_rise`, from the IMU
+and the present joints), so the measured-frame landing put the next sole 13–22 mm high;
+the correction takes the base that much higher.
 The parameters: :mod:`.stepping_params`.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -192,6 +201,10 @@ class StepAdjuster:
         #: the state estimator whose contact detection (``contact_band``) the touch-down reads
         #: (set by wbc.balance.live.closed_loop; None: no touch-down)
         self.contact: Any = None
+        #: the servos' present positions (rad, model order; NaN or None: unread), as the
+        #: stabilizer reads them (set by wbc.balance.live.closed_loop; None: ``landing_tilt``
+        #: not done)
+        self.present: Callable[[], np.ndarray | None] | None = None
         self._down = 0  # ticks the swing sole has been found down (touchdown)
         self._jump: int | None = None  # the landing tick the clock jumps to (touchdown)
         self.last_tick = -(10**9)
@@ -305,7 +318,27 @@ class StepAdjuster:
         ref = self.current
         if self.params.lead > 0 and ref is not None and targets.i < ref.n:  # (lead)
             vel = ref.sole_velocity("left" if targets.swing == "l_sole" else "right")[targets.i]
-        return self.landing.land(self.trigger.lifted(targets, vel), est, q)
+        # (the stance sole's roll read after a push backward, on its heel; after a push
+        # forward, on its toe, measured worse: forward 0.852 → 0.820 N·s)
+        rise = None if self.trigger.forward else (lambda: self.stance_rise(targets, q))
+        return self.landing.land(self.trigger.lifted(targets, vel), est, q, rise)
+
+    def stance_rise(self, targets: Any, q: np.ndarray) -> float:
+        """How far (m, ≥ 0) the stance sole's lowest corner lies below the floor where the
+        estimate anchors its centre (:meth:`~.estimator.StateEstimator.sole_heights`: the
+        IMU's rotation and the present joints): a sole rolled onto its heel (a push
+        backward: 15–25°) reads the base that much low (``landing_tilt``; 0 without the
+        estimator or the present positions)."""
+        est, present = self.contact, self.present
+        if est is None or present is None or est.last is None:
+            return 0.0
+        joints = present()
+        if joints is None:
+            return 0.0
+        h = est.sole_heights(np.asarray(joints, dtype=float), np.asarray(q[7:], dtype=float))
+        s = 0 if targets.support == "l_sole" else 1
+        floor = float(targets.support_placement.translation[2])
+        return max(0.0, floor - float(h[s]))
 
     def triggered(self, i: int) -> bool:
         """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
@@ -326,7 +359,14 @@ class StepAdjuster:
         ``lift`` 0)."""
         p = self.params
         return p.landing > 0 or (
-            self.enabled and (p.lift > 0 or p.lead > 0 or p.toe_up > 0 or p.catch_pitch != 0.0)
+            self.enabled
+            and (
+                p.lift > 0
+                or p.lead > 0
+                or p.toe_up > 0
+                or p.catch_pitch != 0.0
+                or p.landing_depth > 0
+            )
         )
 
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
@@ -346,7 +386,13 @@ class StepAdjuster:
         if p.hurry == 1.0 and p.catch_hurry == 1.0:
             return 1.0
         if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
-            if p.hurry == 1.0 or not p.hurry_single or self.episode is None:
+            if not p.hurry_single or self.episode is None:
+                return 1.0
+            # (at most hurry×; in a swing the catch of a push backward carries, catch_hurry×
+            # if more: after a push forward measured worse, forward 0.852 → 0.820 N·s)
+            back = self.trigger.carried(i) and not self.trigger.forward
+            cap = max(p.hurry, p.catch_hurry) if back else p.hurry
+            if cap == 1.0:
                 return 1.0
             ph = self.phases[self.phase_of[i]]
             if ph.step >= self._catch_end():
@@ -362,7 +408,7 @@ class StepAdjuster:
             # (LIPM): T* = ln(v / (ω e)) / ω; the clock runs T / T* (1 … hurry)
             v = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing) / left
             best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
-            return min(max(left / max(best, p.min_remaining), 1.0), p.hurry)
+            return min(max(left / max(best, p.min_remaining), 1.0), cap)
         speed = p.catch_hurry if self.trigger.before_carried(i) else p.hurry  # (catch_hurry)
         if speed == 1.0:
             return 1.0

@@ -79,6 +79,19 @@ class SteppingParams:
     #: band (with ``trigger_jump``: whose DCM jumped) (a push being caught; latched to the
     #: landing), blended in over this time
     landing_catch: float = 0.02
+    #: the share of the stance sole's roll onto an edge the measured base takes in the
+    #: landing correction (its lowest corner below the floor, :meth:`~.stepping.StepAdjuster.
+    #: stance_rise`: the estimate anchors the sole's centre on the floor, so a sole rolled
+    #: onto its heel reads the base low and the swing sole lands high; 0: off) (1: at a push
+    #: backward the second step's target at its landing 27 → 11 mm up, the sole 22 → 13 mm;
+    #: with ``hurry_single``: backward 0.695 → 0.711 N·s; benchmarks/pushes.md; not after a
+    #: push forward, the sole on its toe: forward 0.852 → 0.820)
+    landing_tilt: float = 1.0
+    #: m: in a catch's swings (:meth:`~.swing_catch.PushTrigger.carried`), the swing sole's
+    #: target lowered by this much at the landing (blended in over the lift's ``lift_land``
+    #: share): the servos' lag and a body rolling back on its stance heel keep the sole
+    #: above the floor at the planned landing (0: off)
+    landing_depth: float = 0.0
     #: s: > 0: the correction less its running mean per stance side (this time constant):
     #: a plant's steady lag of its plan left alone, a push's departure from it corrected
     landing_tau: float = 0.0
@@ -94,8 +107,12 @@ class SteppingParams:
     #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
     #: band), the landing comes sooner when that leaves the swing more room beyond the shift
     #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
-    #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`)
-    hurry_single: bool = False
+    #: runs ``T / T*``, ``T* = ln(v / (ω e)) / ω``, at most ``hurry``× (:meth:`rate`); in a
+    #: swing the catch of a push backward carries (the trigger's, :meth:`~.swing_catch.
+    #: PushTrigger.carried`) at most ``catch_hurry``× if more (on: with ``hurry`` 1 only those
+    #: swings; with ``landing_tilt``: backward 0.695 → 0.711 N·s; forward measured worse, not
+    #: done: 0.852 → 0.820; benchmarks/pushes.md)
+    hurry_single: bool = True
     #: m: once a catch has re-planned a step, the dead band of its later re-plans (None: the
     #: band): the band decides whether to catch, the catch then takes the whole error
     catch_band: float | None = None
@@ -187,7 +204,8 @@ class SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
-            "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "hurry",
+            "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
+            "landing_depth", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
             "pitch_time", "lead", "toe_up",

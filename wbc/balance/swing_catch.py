@@ -151,14 +151,17 @@ class PushTrigger:
         turned toe up by ``toe_up`` rad after a push forward (:attr:`forward`; blended as the
         lift; its heel up after a push backward measured worse: not done)."""
         p, i = self.params, targets.i
-        if (p.lift <= 0 and p.lead <= 0 and p.toe_up <= 0) or not self.carried(i):
+        if (p.lift <= 0 and p.lead <= 0 and p.toe_up <= 0 and p.landing_depth <= 0) or (
+            not self.carried(i)
+        ):
             return targets
         ph = self.phases[self.phase_of[i]]
         start = self.tick if self.triggered(i) else ph.i0  # (a later swing of the catch)
         w_in = smooth((i - start + 1) * self.dt / max(p.lift_time, 1e-9))
-        w = w_in * smooth((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9))
+        w_out = smooth((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9))
+        w = w_in * w_out
         pos = np.array(targets.swing_position, dtype=float)
-        pos[2] += p.lift * w
+        pos[2] += p.lift * w - p.landing_depth * (1.0 - w_out)
         if p.lead > 0 and velocity is not None:
             pos[:2] += p.lead * w_in * np.asarray(velocity, dtype=float)[:2]
         if p.toe_up <= 0 or not self.forward:
@@ -219,7 +222,9 @@ class MeasuredLanding:
         if not caught and pushed():
             self.caught = i
 
-    def land(self, targets: Any, est: Any, q: np.ndarray) -> Any:
+    def land(
+        self, targets: Any, est: Any, q: np.ndarray, rise: Callable[[], float] | None = None
+    ) -> Any:
         """``targets`` with the swing sole's target moved into the measured frame (single
         support, ``landing`` > 0; else ``targets`` itself). The controller places the swing
         sole relative to *its* base (``p_r``, ``R_r``: ``q``); the robot's base is where the
@@ -228,7 +233,9 @@ class MeasuredLanding:
         it from there, ``p_m + R_m R_rᵀ (p − p_r)``: short and high. The target
         ``p' = p_r + E (p − p_m)``, ``R' = E R`` with ``E = R_r R_mᵀ`` lands it at ``p``
         (blended by ``w``: ``landing`` × a ramp from ``landing_band`` to twice it on the
-        angle of ``E``)."""
+        angle of ``E``). ``rise()`` (``landing_tilt``): how far the stance sole's lowest
+        corner lies below the floor where the estimate anchors the sole's centre (a sole
+        rolled onto its heel: the measured base is that much higher)."""
         p = self.params
         if p.landing <= 0:
             return targets
@@ -245,6 +252,8 @@ class MeasuredLanding:
         if lat != 1.0:  # the roll part (about the heading) scaled
             v = v - (1.0 - lat) * (v @ h) * h
         base_m = np.asarray(est.base, dtype=float)
+        if p.landing_tilt > 0 and rise is not None:  # the stance sole on an edge: base higher
+            base_m = base_m + np.array([0.0, 0.0, p.landing_tilt * rise()])
         if p.landing_tau > 0:  # less the running mean (per stance side) of v and p_r − p_m
             mean = self._landing_mean[0 if targets.support == "l_sole" else 1]
             mean += (np.concatenate([v, q[:3] - base_m]) - mean) * min(self.dt / p.landing_tau, 1.0)
