@@ -8,6 +8,8 @@ released: ``lsq_update.WFIRST``)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import example, given
@@ -16,7 +18,7 @@ from test_compiled_lsq import N, random_level, solve
 
 from wbc.compiled.lsq import INCONSISTENT, OK, level_space, solve_level_in
 
-_KINDS = ["random", "dependent", "inconsistent", "held", "sparse", "lifted"]
+_KINDS = ["random", "dependent", "inconsistent", "held", "held_rounded", "sparse", "lifted"]
 
 
 def _row(kind, rng, A, a, state, x):
@@ -33,10 +35,14 @@ def _row(kind, rng, A, a, state, x):
         row[np.flatnonzero(state != 0)[0]] += 1.0 + rng.uniform()
         return row, row @ x - 0.05
     row = np.zeros(N)
-    if kind == "held":  # on variables the warm set holds at their bounds (as a collision row
-        held = np.flatnonzero(state != 0)  # on joints at their speed), met halfway in
+    if kind in ("held", "held_rounded"):  # on variables the warm set holds at their bounds
+        held = np.flatnonzero(state != 0)  # (a collision row on joints at their speed), met
         row[held[: max(1, len(held) // 2)]] = rng.standard_normal(max(1, len(held) // 2))
-        return row, row @ (0.5 * x)
+        target = row @ (0.5 * x)  # halfway in; ... with rounding on the free variables (the
+        if kind == "held_rounded":  # walk's rows: ~1e-20 on joints outside the pair's chains)
+            free = np.flatnonzero(state == 0)
+            row[free] = 1e-18 * np.abs(row).max() * rng.standard_normal(free.size)
+        return row, target
     elif kind == "sparse":
         row[rng.choice(N, 4, replace=False)] = rng.standard_normal(4)
     else:
@@ -59,6 +65,7 @@ def _continued(A, a, B, r, ridge, lower, upper, state, space, cont):
 @example(seed=3, m=6, p=9, kinds=["inconsistent"])
 @example(seed=4, m=6, p=30, kinds=["lifted", "held", "lifted"])
 @example(seed=5, m=12, p=9, kinds=["held", "held", "held"])
+@example(seed=6, m=6, p=30, kinds=["held_rounded", "held_rounded"])
 @given(
     seed=st.integers(0, 2**32 - 1), m=st.sampled_from([6, 12]), p=st.sampled_from([30, 9]),
     kinds=st.lists(st.sampled_from(_KINDS), min_size=1, max_size=3),
@@ -119,12 +126,16 @@ def test_an_inconsistent_joined_row_is_reported_as_a_fresh_solve():
     assert status == INCONSISTENT and np.all(np.isnan(x))
 
 
+@pytest.mark.parametrize("kind", ["held", "held_rounded"])
 @pytest.mark.parametrize("seed", range(8))
-def test_a_row_on_held_variables_releases_them_without_a_solve(seed):
+def test_a_row_on_held_variables_releases_them_without_a_solve(seed, kind):
     """A row joining on variables the warm set holds (an inconsistent warm start): their
     bounds released at once, where a fresh solve finds the set inconsistent first (one
     subproblem more), and the row on the released variables an update of the last call's
-    base (``lsq_update.WFIRST``: no subproblem solved afresh); the same answer."""
+    base (``lsq_update.WFIRST``: no subproblem solved afresh); the same answer. Also with
+    rounding (1e-18 of the row) on the free variables, as the walk's rows have (these random
+    levels decline the same way with ``lsq_update.ROW_FULL_SIZE`` off: the walk's own case,
+    :func:`test_a_walks_row_on_a_held_joint_is_one_update`, is the one that tells)."""
     m, p = 6, 30
     A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
     rng = np.random.default_rng(seed)
@@ -132,7 +143,7 @@ def test_a_row_on_held_variables_releases_them_without_a_solve(seed):
     status, x, state, _ = _continued(A, a, B, r, ridge, lower, upper, np.zeros(N, np.int8),
                                      space, False)  # fmt: skip
     assert status == OK and np.any(state != 0)
-    row, target = _row("held", rng, A, a, state, x)
+    row, target = _row(kind, rng, A, a, state, x)
     A2, a2 = np.vstack([A, row]), np.r_[a, target]
     status_c, x_c, state_c, count_c = _continued(A2, a2, B, r, ridge, lower, upper, state,
                                                  space, True)  # fmt: skip
@@ -141,5 +152,33 @@ def test_a_row_on_held_variables_releases_them_without_a_solve(seed):
     assert status_c == status_f == OK
     assert count_c < count_f
     assert space[7][0] == 1 and space[7][1] == m  # (the base kept: every subproblem an update)
+    np.testing.assert_array_equal(state_c, state_f)
+    np.testing.assert_allclose(x_c, x_f, rtol=0, atol=1e-10)
+
+
+def test_a_walks_row_on_a_held_joint_is_one_update():
+    """walk_strict's walk10 tick 287 (benchmarks/cascade_replay.py), its last level: a
+    self-collision row joining on one joint the warm set holds, ~1e-20 on the others (the
+    rows' Jacobians' rounding). Measured against its whole size (``lsq_update.ROW_FULL_SIZE``)
+    it depends on the held bound, which is released, and the row on the released joint is one
+    update; measured on the free variables alone it passed as independent, its update moved x
+    beyond 15 of the 24 bounds and the call took 3 subproblems (2 fresh). The answer is the
+    fresh solve's from the same warm set."""
+    d = np.load(Path(__file__).parent / "data" / "walk10_joined_row_on_a_held_joint.npz")
+    keys = ("A", "a", "B", "r", "lower", "upper")
+    A, a, B, r, lower, upper = (np.ascontiguousarray(d[k]) for k in keys)
+    ridge, warm = float(d["ridge"]), d["state"]
+    n = A.shape[1]
+    space = level_space(A.shape[0], n, B.shape[0])
+    state = warm.copy()
+    x = np.zeros(n)
+    status, _ = solve_level_in(A[:-1].copy(), a[:-1].copy(), B, r, ridge, lower, upper, state,
+                               x, 1e-9, 100, space, np.bool_(False))  # fmt: skip
+    assert status == OK and np.array_equal(state, warm)
+    status_c, x_c, state_c, count_c = _continued(A, a, B, r, ridge, lower, upper, state, space,
+                                                 True)  # fmt: skip
+    status_f, x_f, state_f, _ = solve(A, a, B, r, ridge, lower, upper, state=warm, max_iter=100)
+    assert status_c == status_f == OK
+    assert count_c == 1
     np.testing.assert_array_equal(state_c, state_f)
     np.testing.assert_allclose(x_c, x_f, rtol=0, atol=1e-10)

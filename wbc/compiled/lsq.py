@@ -27,8 +27,9 @@ The active set is first updated by the primal-dual active set method (PDAS,
 Hintermüller–Ito–Kunisch; block principal pivoting): a free variable beyond a bound is fixed at
 it and a fixed one with the wrong multiplier sign is released, all at once. PDAS converges in a
 few steps when the reduced Hessian is close to an M-matrix but can cycle otherwise (typically
-p < d with a small ridge). When the number of infeasibilities stops falling, or an exchange makes
-the equalities inconsistent, the solver switches to a dual active set method (Goldfarb–Idnani
+p < d with a small ridge). When the number of infeasibilities stops falling (on a damped level:
+after ``PDAS_TIES`` such steps), or an exchange makes the equalities inconsistent, the solver
+switches to a dual active set method (Goldfarb–Idnani
 on the bounds): from the set PDAS met with the fewest infeasibilities (its subproblem's x and
 multipliers kept, not solved again: on the hierarchy's last level with self-collision rows,
 whose re-solves start from the set of the problem with one row less, PDAS's first exchange
@@ -135,6 +136,18 @@ _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
 #: (:mod:`wbc.compiled.lsq_update`; releases: ``lsq_update.RELEASES``) instead of solved again;
 #: False (edit it; the kernels then compile again): every subproblem solved afresh, as before
 UPDATES = True
+#: on a damped level (ridge > 0: one minimiser, whatever the path), PDAS goes on through this
+#: many steps that do not lower its number of infeasibilities (raising it by PDAS_RISE at
+#: most) before the dual method takes over from the set with the fewest (kept as before). On
+#: walk_strict's slowest ticks the last level's set from the last tick PDAS had two bounds to
+#: fix, then two others (a tie), which the dual method took one at a time: with 2 (and
+#: PDAS_RISE 1) 6 subproblems -> 3, the replayed walk10 p99 48.6 -> 44.7 µs; but the weighted
+#: QP's other path changed its rounding, and the thesis's ill-posed qp-* controllers' runs
+#: (their null space left to drift) went elsewhere from there (up to 0.4 rad, 68 % on their
+#: metrics; benchmarks/self_collision.md, sixteenth pass): an option, off (0: the dual method
+#: at the first such step; edit it, the kernels then compile again)
+PDAS_TIES = 0
+PDAS_RISE = 1
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
 #: (its condition number beyond about its square)
 _COND_MAX_SQRT = 1e2
@@ -273,6 +286,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space
     # site of _subproblem keeps the compiled code (and the compile time) small.
     phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
+    ties = 0  # PDAS steps that did not lower the count (PDAS_TIES)
     # x, μ and their tolerances of the set with the fewest (the set PDAS falls back to)
     kept = False
     released = False  # (the bounds of an inconsistent warm start's dependent rows released)
@@ -434,15 +448,22 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space
                     )  # fmt: skip
                 _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
                 return OK, count
-            if n_inf < best:
-                best = n_inf
-                saved_rank = rank
+            improved = n_inf < best
+            if improved or (ridge > 0.0 and ties < PDAS_TIES and n_inf <= best + PDAS_RISE):
+                # (a step that does not lower the count: on with PDAS, the set with the fewest
+                # kept as the one to fall back to; a damped level only, whose minimiser is
+                # unique whatever the path)
+                if improved:
+                    best = n_inf
+                    saved_rank = rank
+                    for i in range(n):
+                        saved[0, i] = x[i]
+                        saved[1, i] = V[_V_MU, i]
+                        saved[2, i] = V[_V_MU_TOL, i]
+                        ind[_I_PREV, i] = ind[_I_FIXED, i]
+                else:
+                    ties += 1
                 for i in range(n):
-                    saved[0, i] = x[i]
-                    saved[1, i] = V[_V_MU, i]
-                    saved[2, i] = V[_V_MU_TOL, i]
-                for i in range(n):
-                    ind[_I_PREV, i] = ind[_I_FIXED, i]
                     if ind[_I_PINNED, i]:
                         continue
                     if ind[_I_FIXED, i] == 0:

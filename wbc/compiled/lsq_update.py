@@ -71,6 +71,15 @@ JOINS = True
 #: released. False (edit it; the kernels then compile again): such a row declines
 #: (``_ROW_DEPENDS``) and is solved afresh, as before
 WFIRST = True
+#: a joined row's part in the base's null space is measured against the row's size on every
+#: variable, held ones too: a row on held variables only but for rounding on the free ones
+#: (walk_strict's self-collision rows, ~1e-20 on joints outside the pair's chains) was measured
+#: against that rounding, passed as independent, and its update moved x by ~β/S with S ~ its
+#: square (15 of 24 bounds violated, then 2 fresh subproblems; or the active set cycling to its
+#: budget, ~200 µs a tick); now it depends (``_ROW_DEPENDS``: the warm set's bounds in the row
+#: released first, as a fresh subproblem finds it). False (edit it; the kernels then compile
+#: again): measured on the free variables, as before
+ROW_FULL_SIZE = True
 #: what :func:`_updated` returns: the subproblem updated; declined (solve it afresh); declined
 #: because a joined row depends on the base's rows and the set's bounds (as an inconsistent
 #: warm start: the caller may release the row's bounds first, as after a fresh solve)
@@ -186,7 +195,12 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             size = 0.0
             for j in range(nf):
                 U[u, j] = A[row, ind[_I_FREE, j]]
-                size += U[u, j] * U[u, j]
+            if ROW_FULL_SIZE:  # (its held variables' terms too: see ROW_FULL_SIZE)
+                for j in range(n):
+                    size += A[row, j] * A[row, j]
+            else:
+                for j in range(nf):
+                    size += U[u, j] * U[u, j]
         else:
             for j in range(nf):
                 U[u, j] = 0.0
