@@ -204,9 +204,9 @@ def counts(ticks: list[dict], which: list[int]) -> dict[int, list[dict]]:
         kinds[key] = kinds.get(key, 0) + 1
         return code
 
-    def sli_counted(A, a, B, r, ridge, lower, upper, state, x, rtol, max_iter, space, cont):
+    def sli_counted(A, a, B, r, ridge, lower, upper, state, x, rtol, max_iter, space, cont, *ties):
         kinds.clear()
-        st, c = sli(A, a, B, r, ridge, lower, upper, state, x, rtol, max_iter, space, cont)
+        st, c = sli(A, a, B, r, ridge, lower, upper, state, x, rtol, max_iter, space, cont, *ties)
         J, rows = current["J"], current["level_rows"]
         level = -1
         if B.base is not None and B.shape[0] and J.shape[0]:

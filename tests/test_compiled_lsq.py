@@ -78,10 +78,11 @@ def equality_constrained_minimiser(A, a, B, r, ridge):
     return x_p + Z @ z
 
 
-def solve(A, a, B, r, ridge, lower, upper, state=None, max_iter=30):
+def solve(A, a, B, r, ridge, lower, upper, state=None, max_iter=30, ties=0):
     """Run solve_level_iterations on copies; check that the inputs were left alone.
 
-    (rank_rtol and max_iter are always passed, so that one compiled signature serves all.)
+    (rank_rtol, max_iter and ties are always passed, so that one compiled signature serves
+    all.)
     """
     inputs = [np.array(v, dtype=float) for v in (A, a, B, r, lower, upper)]
     copies = [v.copy() for v in inputs]
@@ -89,7 +90,7 @@ def solve(A, a, B, r, ridge, lower, upper, state=None, max_iter=30):
     x = np.zeros(A.shape[1])
     status, count = solve_level_iterations(
         inputs[0], inputs[1], inputs[2], inputs[3], float(ridge), inputs[4], inputs[5], state,
-        x, 1e-9, max_iter,
+        x, 1e-9, max_iter, ties,
     )  # fmt: skip
     for before, after in zip(copies, inputs, strict=True):
         np.testing.assert_array_equal(before, after)

@@ -54,7 +54,7 @@ def _continued(A, a, B, r, ridge, lower, upper, state, space, cont):
     x = np.zeros(N)
     state = state.copy()
     status, count = solve_level_in(
-        A, a, B, r, float(ridge), lower, upper, state, x, 1e-9, 100, space, np.bool_(cont)
+        A, a, B, r, float(ridge), lower, upper, state, x, 1e-9, 100, space, np.bool_(cont), 0
     )
     return status, x, state, count
 
@@ -173,7 +173,7 @@ def test_a_walks_row_on_a_held_joint_is_one_update():
     state = warm.copy()
     x = np.zeros(n)
     status, _ = solve_level_in(A[:-1].copy(), a[:-1].copy(), B, r, ridge, lower, upper, state,
-                               x, 1e-9, 100, space, np.bool_(False))  # fmt: skip
+                               x, 1e-9, 100, space, np.bool_(False), 0)  # fmt: skip
     assert status == OK and np.array_equal(state, warm)
     status_c, x_c, state_c, count_c = _continued(A, a, B, r, ridge, lower, upper, state, space,
                                                  True)  # fmt: skip

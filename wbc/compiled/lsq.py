@@ -28,8 +28,8 @@ Hintermüller–Ito–Kunisch; block principal pivoting): a free variable beyond
 it and a fixed one with the wrong multiplier sign is released, all at once. PDAS converges in a
 few steps when the reduced Hessian is close to an M-matrix but can cycle otherwise (typically
 p < d with a small ridge). When the number of infeasibilities stops falling (on a damped level:
-after ``PDAS_TIES`` such steps), or an exchange makes the equalities inconsistent, the solver
-switches to a dual active set method (Goldfarb–Idnani
+after ``ties`` such steps, :data:`PDAS_TIES` on the hierarchy's levels), or an exchange makes
+the equalities inconsistent, the solver switches to a dual active set method (Goldfarb–Idnani
 on the bounds): from the set PDAS met with the fewest infeasibilities (its subproblem's x and
 multipliers kept, not solved again: on the hierarchy's last level with self-collision rows,
 whose re-solves start from the set of the problem with one row less, PDAS's first exchange
@@ -136,17 +136,17 @@ _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
 #: (:mod:`wbc.compiled.lsq_update`; releases: ``lsq_update.RELEASES``) instead of solved again;
 #: False (edit it; the kernels then compile again): every subproblem solved afresh, as before
 UPDATES = True
-#: on a damped level (ridge > 0: one minimiser, whatever the path), PDAS goes on through this
-#: many steps that do not lower its number of infeasibilities (raising it by PDAS_RISE at
-#: most) before the dual method takes over from the set with the fewest (kept as before). On
-#: walk_strict's slowest ticks the last level's set from the last tick PDAS had two bounds to
-#: fix, then two others (a tie), which the dual method took one at a time: with 2 (and
-#: PDAS_RISE 1) 6 subproblems -> 3, the replayed walk10 p99 48.6 -> 44.7 µs; but the weighted
-#: QP's other path changed its rounding, and the thesis's ill-posed qp-* controllers' runs
-#: (their null space left to drift) went elsewhere from there (up to 0.4 rad, 68 % on their
-#: metrics; benchmarks/self_collision.md, sixteenth pass): an option, off (0: the dual method
-#: at the first such step; edit it, the kernels then compile again)
-PDAS_TIES = 0
+#: on a damped level (ridge > 0: one minimiser, whatever the path), PDAS may go on through
+#: ``ties`` steps that do not lower its number of infeasibilities (raising it by PDAS_RISE at
+#: most) before the dual method takes over from the set with the fewest (0: at the first such
+#: step). PDAS_TIES is the hierarchy's value (``ticks._level`` passes it; edit it to 0 to turn
+#: it off, the kernels then compile again). On walk_strict's slowest ticks the last level's set
+#: from the last tick PDAS had two bounds to fix, then two others (a tie), which the dual
+#: method took one at a time: with 2 (and PDAS_RISE 1) 6 subproblems -> 3, the replayed walk10
+#: p99 48.6 -> 44.7 µs. The weighted QP passes 0: on it the other path changed the rounding,
+#: and the thesis's ill-posed qp-* controllers' runs (their null space left to drift) went
+#: elsewhere from there (up to 0.4 rad; benchmarks/self_collision.md, sixteenth pass)
+PDAS_TIES = 2
 PDAS_RISE = 1
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
 #: (its condition number beyond about its square)
@@ -238,10 +238,13 @@ def _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0
 
 
 @njit(cache=True)
-def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, keep):
+def _solve(
+    A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, keep, ties
+):  # fmt: skip
     """The solver behind :func:`solve_level` and :func:`solve_level_in` (compiled once for
     float ridge/rank_rtol, an integer max_iter and a bool ``cont``, however the public
-    functions are called)."""
+    functions are called); ``ties``: PDAS's budget of steps that do not lower its count
+    (see :data:`PDAS_TIES`)."""
     m, n = A.shape
     p = B.shape[0]
     work, ind, U0, S, K, saved, base, carry, m_max, p_max = space
@@ -286,7 +289,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space
     # site of _subproblem keeps the compiled code (and the compile time) small.
     phase = _PDAS
     best = n + 1  # fewest PDAS infeasibilities so far
-    ties = 0  # PDAS steps that did not lower the count (PDAS_TIES)
+    tied = 0  # PDAS steps that did not lower the count (at most ``ties``)
     # x, μ and their tolerances of the set with the fewest (the set PDAS falls back to)
     kept = False
     released = False  # (the bounds of an inconsistent warm start's dependent rows released)
@@ -449,7 +452,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space
                 _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
                 return OK, count
             improved = n_inf < best
-            if improved or (ridge > 0.0 and ties < PDAS_TIES and n_inf <= best + PDAS_RISE):
+            if improved or (ridge > 0.0 and tied < ties and n_inf <= best + PDAS_RISE):
                 # (a step that does not lower the count: on with PDAS, the set with the fewest
                 # kept as the one to fall back to; a damped level only, whose minimiser is
                 # unique whatever the path)
@@ -462,7 +465,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space
                         saved[2, i] = V[_V_MU_TOL, i]
                         ind[_I_PREV, i] = ind[_I_FIXED, i]
                 else:
-                    ties += 1
+                    tied += 1
                 for i in range(n):
                     if ind[_I_PINNED, i]:
                         continue
@@ -606,7 +609,7 @@ def _solve(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space
 
 @njit(cache=True)
 def solve_level_iterations(
-    A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_iter=30
+    A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_iter=30, ties=0
 ):  # fmt: skip
     """:func:`solve_level` that also returns how many subproblems it solved: (status, count).
 
@@ -616,12 +619,14 @@ def solve_level_iterations(
     space = level_space(m, n, B.shape[0])
     return _solve(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(False), np.bool_(False),
+        np.bool_(False), np.bool_(False), int(ties),
     )  # fmt: skip
 
 
 @njit(cache=True)
-def solve_level(A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_iter=30):
+def solve_level(
+    A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_iter=30, ties=0
+):  # fmt: skip
     """Solve one least-squares level with equalities and box bounds (see the module docstring).
 
     Writes the minimiser into ``x`` (n,) and the final active set into ``state`` (n,) int8
@@ -631,27 +636,30 @@ def solve_level(A, a, B, r, ridge, lower, upper, state, x, rank_rtol=1e-9, max_i
     bounds: fall back to a general QP solver), INCONSISTENT (the equalities cannot be met with
     the pinned variables, even from a cold start; x is NaN) or NUMERICAL (a singular
     subproblem, possible only with ridge = 0; x is NaN). A, a, B, r, lower, upper are not
-    modified.
+    modified. ``ties``: on a damped level, PDAS's budget of steps that do not lower its count
+    of infeasibilities before the dual method takes over (:data:`PDAS_TIES`; 0: at the first).
     """
     m, n = A.shape
     space = level_space(m, n, B.shape[0])
     status, _ = _solve(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(False), np.bool_(False),
+        np.bool_(False), np.bool_(False), int(ties),
     )  # fmt: skip
     return status
 
 
 @njit(cache=True)
-def solve_level_in(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont):
+def solve_level_in(
+    A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, ties
+):  # fmt: skip
     """:func:`solve_level` in a work space from :func:`level_space` (no allocation), returning
     (status, subproblems solved). ``cont``: this level is the last call's in ``space`` with
     equality rows appended (A's and a's first rows, B, r, ridge and the bounds unchanged):
     its final subproblem's factors are updated with the joined rows (``lsq_update.JOINS``)
-    instead of solved afresh, where that applies."""
+    instead of solved afresh, where that applies. ``ties``: as :func:`solve_level`'s."""
     return _solve(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(cont), np.bool_(True),
+        np.bool_(cont), np.bool_(True), int(ties),
     )  # fmt: skip
 
 

@@ -18,14 +18,15 @@ PROXIMAL_STEPS = 12
 
 
 @njit(cache=True)
-def proximal_level(A, a, B, r, lower, upper, state, x, max_iter) -> int:
+def proximal_level(A, a, B, r, lower, upper, state, x, max_iter, ties) -> int:
     """min ‖B x − r‖² s.t. A x = a and the bounds, from a feasible x, by proximal steps:
     y = argmin ‖B (x + y) − r‖² + ε‖y‖² (same constraints), x += y, until y vanishes.
 
     Each step is strictly convex (the active set settles), and the ridge only pulls towards
     the last iterate, so the steps converge to the exact least-squares optimum (closest to
     the start among the optima) instead of leaving a ridge's bias on the level's residual.
-    ε is relative to the rows' mean squared norm.
+    ε is relative to the rows' mean squared norm. ``ties``: the steps' PDAS budget
+    (:func:`~wbc.compiled.lsq.solve_level`'s).
     """
     m, n = B.shape
     scale = 0.0
@@ -47,7 +48,7 @@ def proximal_level(A, a, B, r, lower, upper, state, x, max_iter) -> int:
         for j in range(n):
             lo[j] = lower[j] - x[j]
             hi[j] = upper[j] - x[j]
-        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, max_iter)
+        status = solve_level(A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, max_iter, ties)
         if status != OK:
             return status
         step = 0.0

@@ -31,6 +31,7 @@ from .lsq import (
     MAX_ITER,
     NUMERICAL,
     OK,
+    PDAS_TIES,
     equality_multipliers,
     level_space,
     solve_level_in,
@@ -152,12 +153,13 @@ def weighted_solve(
                 np.int64(30),
                 space,
                 np.bool_(False),
+                np.int64(0),
             )  # fmt: skip  (solve_level's defaults, as values: one specialisation, see _level)
         if status == OK and (warm or _violated(G, h, p, dq, tol)):
             status = solve_with_inequalities(
                 hard_J, hard_b, soft_J, soft_b, mu, np.bool_(False), lower, upper, state, dq,
                 G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False), space,
-                np.bool_(not warm),
+                np.bool_(not warm), np.int64(0),
             )  # fmt: skip
         if status == OK or not warm:
             break
@@ -195,7 +197,7 @@ def _finite(x) -> bool:
 
 
 @njit(cache=True)
-def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont) -> int:
+def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties) -> int:
     """One least-squares level by :func:`~wbc.compiled.lsq.solve_level`: with ``ridge``
     (the weighted QP, the last level of the hierarchy); or, ``exact``, without (an
     intermediate level of the hierarchy): exact least squares when the level's rows are
@@ -203,19 +205,22 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont) -> int
     directions of the unregularised problem, proximal steps from x
     (:func:`~wbc.compiled.proximal.proximal_level`). In ``space``
     (:func:`~wbc.compiled.lsq.level_space`); ``cont``: the last call's level in it with
-    equality rows joined (:func:`~wbc.compiled.lsq.solve_level_in`)."""
+    equality rows joined (:func:`~wbc.compiled.lsq.solve_level_in`); ``ties``: its PDAS
+    budget (the hierarchy's :data:`~wbc.compiled.lsq.PDAS_TIES`, the weighted QP's 0)."""
     if not exact:
         status, _ = solve_level_in(
-            A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER), space, cont
-        )
+            A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER), space, cont,
+            ties,
+        )  # fmt: skip
         return status
     previous = x.copy()
     status, _ = solve_level_in(
-        A, a, B, r, 0.0, lower, upper, state, x, 1e-9, np.int64(EXACT_MAX_ITER), space, cont
-    )
+        A, a, B, r, 0.0, lower, upper, state, x, 1e-9, np.int64(EXACT_MAX_ITER), space, cont,
+        ties,
+    )  # fmt: skip
     if status == NUMERICAL or status == MAX_ITER:
         x[:] = previous
-        status = proximal_level(A, a, B, r, lower, upper, state, x, np.int64(LEVEL_MAX_ITER))
+        status = proximal_level(A, a, B, r, lower, upper, state, x, LEVEL_MAX_ITER, ties)
     return status
 
 
@@ -251,7 +256,7 @@ def _row(G, h, i, x):
 @njit(cache=True)
 def solve_with_inequalities(
     A0, a0, B0, r0, ridge, exact, lower, upper, state, x, G, h, soft_from, tol, working, start,
-    from_start, space, cont,
+    from_start, space, cont, ties,
 ) -> int:  # fmt: skip
     """min ‖B0 x − r0‖² + ridge‖x‖² + Σ_{i ≥ soft_from} max(G_i x − h_i, 0)² subject to
     A0 x = a0, G_i x <= h_i (i < soft_from) and the bounds: a primal active set on the G
@@ -276,6 +281,7 @@ def solve_with_inequalities(
     (:func:`~wbc.compiled.lsq.level_space`); ``cont``: its last call solved this level
     without the rows (x its solution, ``state`` its set): hard rows joining since are then
     updates of that call's factors, as after each solve here that only hard rows followed.
+    ``ties``: :func:`_level`'s.
     """
     m0, n = A0.shape
     p0 = B0.shape[0]
@@ -331,8 +337,9 @@ def solve_with_inequalities(
                 space = level_space(m0 + p, n, p0 + p)
                 cont = False
             status = _level(
-                A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x, space, cont
-            )
+                A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x, space, cont,
+                ties,
+            )  # fmt: skip
             if status != OK:
                 working[:] = False
                 return status
@@ -436,6 +443,9 @@ def _cascade(
     # row is active: the last level's solve without its rows must meet every row, else the
     # deferral fails before any row joins (and the levels are solved on their own)
     rows_free = g_rows[n_levels] == 0 or (defer_soft and params[0] > 0.0)
+    # PDAS's budget (lsq.PDAS_TIES) on the ticks with inequality rows; without (the thesis's
+    # qp-* schemes, ill-posed: rounding moves their runs) 0, as the weighted QP
+    ties = np.int64(PDAS_TIES) if g_rows[n_levels] > 0 else np.int64(0)
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
@@ -497,8 +507,9 @@ def _cascade(
                 if direct and free:  # (its set without the rows at the last tick)
                     states[k, :] = states[n_levels]
                 status = _level(
-                    A, a, B, r, mu, not last, lower, upper, states[k], dq, space, np.bool_(False)
-                )
+                    A, a, B, r, mu, not last, lower, upper, states[k], dq, space, np.bool_(False),
+                    ties,
+                )  # fmt: skip
                 cont = status == OK
                 if direct and free:
                     states[n_levels, :] = states[k]
@@ -521,7 +532,7 @@ def _cascade(
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
                     soft_from, tol, working[k, :g1], entry, np.bool_(not direct), space,
-                    np.bool_(cont),
+                    np.bool_(cont), ties,
                 )  # fmt: skip
             if status == OK or not (warm or direct):
                 break
