@@ -100,16 +100,25 @@ def capture(trajectory: str, stack: str, robot_name: str = "bioloid") -> dict:
         ticks.append(tick)
         return status
 
-    _Plan.forget_warm_start, CarriedRows.carry, CascadePlan.solve = (
-        forget_kept, carry_kept, solve_kept,
-    )  # fmt: skip
+    patches = ((_Plan, "forget_warm_start", forget_kept), (CarriedRows, "carry", carry_kept),
+               (CascadePlan, "solve", solve_kept))  # fmt: skip
+    # each class's own attribute, or None where it is inherited (then deleted again after:
+    # CascadePlan's solve is _Plan's, and one set on CascadePlan would hide any later patch of
+    # _Plan.solve in the same process)
+    saved = [(cls, name, cls.__dict__.get(name)) for cls, name, _ in patches]
+    for cls, name, wrapped in patches:
+        setattr(cls, name, wrapped)
     try:
         controller = StackController(
             build_stack({**walk_spec(True, stack), "solver": "hierarchical"}, robot)
         )
         rec = run(controller, robot, ref, on_tick=lambda i, q, t: done.__setitem__(0, i + 1))
     finally:
-        _Plan.forget_warm_start, CarriedRows.carry, CascadePlan.solve = forget, carry, solve
+        for cls, name, own in saved:
+            if own is None:
+                delattr(cls, name)
+            else:
+                setattr(cls, name, own)
     support = np.asarray(rec["support"])
     if {t["tick"] for t in ticks} != set(range(len(support))):
         raise RuntimeError(f"captured {len(ticks)} solves of {len(support)} ticks (compiled?)")
