@@ -10,7 +10,8 @@ import pinocchio as pin
 import pytest
 
 from wbc.balance.stabilizer import Gains, Stabilizer
-from wbc.balance.step_yaw import RATE, StepYaw, ramp, stance_heading_error, yaw_of
+from wbc.balance.step_yaw import RATE, StepYaw, ramp, stance_heading_error
+from wbc.geometry import yaw_of
 from wbc.imu import GRAVITY, Imu, ImuReading
 from wbc.model import load_robot
 from wbc.walking.loop import TickTargets

@@ -378,7 +378,7 @@ def test_a_finishing_stop_ends_where_the_commands_put_the_walk(robot, finish) ->
     steps = engine.steps_taken
     while walker.walking:
         walker.tick()
-    start = engine._pose_cmd  # (the commanded pose, unchanged since the stop)
+    start = engine.pose_cmd  # (the commanded pose, unchanged since the stop)
     c = engine.centre + engine.odometry_offset
     xy = c[:2] + rot2(c[2]) @ engine.origin
     off, turn = float(np.hypot(*(start[:2] - xy))), abs(wrap_angle(start[2] - c[2]))
@@ -416,7 +416,7 @@ def test_a_stop_holds_the_base_on_the_commanded_place(robot, hold) -> None:
         if ended is None and not engine.walking:
             ended = n
     assert not walker.walking and ended is not None
-    error = float(np.hypot(*(engine._pose_cmd[:2] - engine.frame_offset[:2]
+    error = float(np.hypot(*(engine.pose_cmd[:2] - engine.frame_offset[:2]
                              - walker._measured_base())))  # fmt: skip
     if hold:
         assert error < 0.001

@@ -91,7 +91,7 @@ def test_a_stop_closes_on_the_commanded_pose(setup, command) -> None:
         e.command(*command[1:])
         for _ in range(round(command[0] / e.dt)):
             e.tick()
-        at_stop = e._pose_cmd.copy()
+        at_stop = e.pose_cmd.copy()
         e.stop()
         while e.walking:
             e.tick()
@@ -101,7 +101,7 @@ def test_a_stop_closes_on_the_commanded_pose(setup, command) -> None:
                        abs(wrap_angle(mid[2] - at_stop[2])))  # fmt: skip
         gaps[close] = e._gap(left, right)
         if close:
-            assert np.allclose(e._pose_cmd, at_stop)  # frozen at the stop
+            assert np.allclose(e.pose_cmd, at_stop)  # frozen at the stop
             FootstepPlan(start.left, start.right, tuple(e.planned)).validate(
                 foot, legs, e.height, 0.005
             )
@@ -162,7 +162,7 @@ def test_the_walking_frame_follows_the_commanded_pose(setup) -> None:
         if e.steps_taken != steps:  # a landing: the frame against the commanded pose now
             steps = e.steps_taken
             frames.append(e.centre.copy())
-            lags.append(float(np.linalg.norm(e.centre[:2] - e._pose_cmd[:2])))
+            lags.append(float(np.linalg.norm(e.centre[:2] - e.pose_cmd[:2])))
     T = LEGS_ONLY.timing.step_time
     chord = np.array([math.sin(wz * T), 1.0 - math.cos(wz * T)]) * vx / wz
     for a, b in itertools.pairwise(frames[20:]):
@@ -199,7 +199,7 @@ def test_measured_landings_are_made_up(setup) -> None:
         held = e.contact[side]
         assert held == foot or held == e.feet[side]  # (or landed since: not measured yet)
     feet = 0.5 * (e.feet["left"].x + e.feet["right"].x)  # where the soles really are
-    commanded = e._pose_cmd[0]
+    commanded = e.pose_cmd[0]
     assert commanded - feet < vx * LEGS_ONLY.timing.step_time * 2.5  # no growing lag
     assert feet > 0.7 * commanded + 0.03  # (not made up: the soles at 0.7 of the way)
 
@@ -227,7 +227,7 @@ def test_short_landings_are_caught_up(setup) -> None:
         e.tick()
     assert e.odometry_offset == pytest.approx([*offset, 0.0])  # (x, y, heading: none here)
     real = 0.5 * (e.feet["left"].x + e.feet["right"].x) + offset[0]
-    commanded = e._pose_cmd[0]
+    commanded = e.pose_cmd[0]
     assert offset[0] < -0.05  # the short landings add up
     assert commanded - real < vx * LEGS_ONLY.timing.step_time * 2.5  # caught up
 
@@ -496,7 +496,7 @@ def test_a_finish_step_closes_a_measured_error(setup, error) -> None:
     at_stop, steps = e.commanded_frame(), e.steps_taken
 
     def off() -> tuple[float, float]:
-        d = e.commanded_frame() - (e._mid_frame() + error)
+        d = e.commanded_frame() - (e.mid_frame() + error)
         return float(np.hypot(*d[:2])), abs(wrap_angle(d[2]))
 
     before = off()

@@ -74,6 +74,12 @@ def heading_free(rotation: np.ndarray) -> np.ndarray:
     return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ rotation
 
 
+def rot_z(yaw: float) -> np.ndarray:
+    """The 3-D rotation about the vertical by ``yaw`` (rad), ``Rz(yaw)``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def rot2(yaw: float) -> np.ndarray:
     """2-D rotation matrix."""
     c, s = np.cos(yaw), np.sin(yaw)

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from ..geometry import polygon_distance
+from ..geometry import polygon_distance, rot_z, wrap_angle, yaw_of
 from ..walking.geometry import Foot
 
 #: rad/s: the largest rate of the swing target's yaw correction
@@ -44,11 +44,6 @@ RATE = 2.0
 #: m: the gap the turned swing sole keeps from the stance sole (on the floor plane; the
 #: footstep plans' ``min_clearance``), or the plan's own gap when that is less
 CLEARANCE = 0.005
-
-
-def yaw_of(R: np.ndarray) -> float:
-    """The heading of a rotation (its x axis's, about the world vertical)."""
-    return math.atan2(R[1, 0], R[0, 0])
 
 
 def stance_heading_error(
@@ -61,8 +56,7 @@ def stance_heading_error(
     q[6] = 1.0
     q[7:] = joints
     M = robot.placements_in(q, "torso", [stance])[0]
-    d = yaw_of(R_est @ M.rotation) - yaw_of(planned)
-    return (d + math.pi) % (2 * math.pi) - math.pi
+    return wrap_angle(yaw_of(R_est @ M.rotation) - yaw_of(planned))
 
 
 def ramp(applied: float, want: float, share: float, limit: float, dt: float) -> float:
@@ -71,11 +65,6 @@ def ramp(applied: float, want: float, share: float, limit: float, dt: float) -> 
     goal = min(max(share * want, -limit), limit)
     step = RATE * dt
     return applied + min(max(goal - applied, -step), step)
-
-
-def _rz(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 class StepYaw:
@@ -113,11 +102,11 @@ class StepYaw:
                 # it (the angle asked may be beyond what its joints reached)
                 landed = self.robot.frame_placement(q, self._swing).rotation
                 d = yaw_of(targets.sole(self._swing).rotation) - yaw_of(landed)
-                self.off[self._swing] = (d + math.pi) % (2 * math.pi) - math.pi
+                self.off[self._swing] = wrap_angle(d)
             if swing:  # a lift-off: the freed sole starts from the plan
                 self.off[swing] = 0.0
                 stance = targets.support
-                planned = _rz(-self.off[stance]) @ targets.support_placement.rotation
+                planned = rot_z(-self.off[stance]) @ targets.support_placement.rotation
                 w = stance_heading_error(self.robot, joints, R_est, stance, planned)
                 self.want = math.copysign(max(abs(w) - band, 0.0), w)
                 t0, yaw0 = self._turn  # (the reference's heading at the last lift-off)
@@ -135,15 +124,15 @@ class StepYaw:
         for frame in ("l_sole", "r_sole"):
             if off[frame] != 0.0 and frame != swing:
                 M = targets.sole(frame)
-                changes[frame] = type(M)(_rz(-off[frame]) @ M.rotation, M.translation)
+                changes[frame] = type(M)(rot_z(-off[frame]) @ M.rotation, M.translation)
         if changes:  # (the controller sets its contacts' targets to these every tick)
             changes["sole_pack"] = None
             changes["contacts_move"] = True
         if single and self.angle != 0.0:
-            changes["swing_rotation"] = _rz(-self.angle) @ targets.swing_rotation
+            changes["swing_rotation"] = rot_z(-self.angle) @ targets.swing_rotation
         turn = off[targets.support]
         if turn != 0.0:
-            changes["torso_rotation"] = _rz(-turn) @ out.torso_rotation
+            changes["torso_rotation"] = rot_z(-turn) @ out.torso_rotation
         return out.replace(**changes)
 
     def _clear(self, targets, angle: float) -> float:

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry import mean_angle, wrap_angle
+from ..geometry import wrap_angle
 
 #: a finishing stop (``Walker.stop(finish=True)``) closes as soon as the planned walking
 #: frame, with the odometry's offset, is this close to the commanded pose (m, rad); a finish
@@ -66,12 +66,10 @@ class FinishSteps:
         closing step aimed from the measured frame (:meth:`WalkEngine.finish_step
         <wbc.walking.engine.WalkEngine.finish_step>`: the sole whose step ends nearer)."""
         measured = odometry.landed(engine.planned[-1].side, q)
-        feet = engine.feet
-        planned = np.r_[0.5 * (feet["left"].xy + feet["right"].xy),
-                        mean_angle(feet["left"].yaw, feet["right"].yaw)]  # fmt: skip
+        planned = engine.mid_frame()
         want = engine.commanded_frame()
         off = want - measured
-        turned = wrap_angle(engine._pose_cmd[2] - engine.start_pose[2])
+        turned = wrap_angle(engine.pose_cmd[2] - engine.start_pose[2])
         off[2] = wrap_angle(turned - (odometry.heading - odometry.start_heading))
         self.errors.append(off)
         xy, yaw = float(np.hypot(*off[:2])), abs(float(off[2]))

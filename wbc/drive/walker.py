@@ -36,7 +36,7 @@ import pinocchio as pin
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import clip_norm, heading_free, mean_angle, wrap_angle, yaw_of
+from ..geometry import clip_norm, heading_free, rot_z, wrap_angle, yaw_of
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -473,7 +473,7 @@ class Walker:
         engine = self.engine
         c = engine.centre + engine.odometry_offset
         p = c[:2] + rot2(c[2]) @ engine.origin
-        target = engine._pose_cmd
+        target = engine.pose_cmd
         return float(np.hypot(*(target[:2] - p))), abs(wrap_angle(target[2] - c[2]))
 
     def close(self) -> None:
@@ -499,7 +499,7 @@ class Walker:
             return None
         (rel,) = self.robot.placements_in(q, SOLE_FRAMES[stance.side], [SOLE_FRAMES[step.side]])
         dyaw = yaw_of(rel.rotation)
-        xy = stance.xy + _rz(stance.yaw)[:2, :2] @ rel.translation[:2]
+        xy = stance.xy + rot_z(stance.yaw)[:2, :2] @ rel.translation[:2]
         odo = self.odometry
         if odo is not None and odo.started:
             measured = odo.landed(step.side, q)
@@ -509,9 +509,7 @@ class Walker:
             off[2] = wrap_angle(off[2])
             self._offset = off
             # the soles' midpoint measured less planned: where a closing step aims from
-            planned = np.r_[0.5 * (feet["left"].xy + feet["right"].xy),
-                            mean_angle(feet["left"].yaw, feet["right"].yaw)]  # fmt: skip
-            error = measured - planned
+            error = measured - self.engine.mid_frame()
             error[2] = wrap_angle(error[2])
             self.engine.frame_error = error
         return Footstep(step.side, float(xy[0]), float(xy[1]), stance.yaw + dyaw, step.z)
@@ -519,12 +517,12 @@ class Walker:
     # ------------------------------------------------------------------ ticks
     def targets(self, e: EngineTick) -> TickTargets:
         """The controller's targets for one engine tick."""
-        rl = pin.SE3(_rz(e.l_yaw), e.l_sole)
-        rr = pin.SE3(_rz(e.r_yaw), e.r_sole)
+        rl = pin.SE3(rot_z(e.l_yaw), e.l_sole)
+        rr = pin.SE3(rot_z(e.r_yaw), e.r_sole)
         phase = "double" if e.support == SUPPORT_DOUBLE else "single"
         cr, sr = math.cos(e.torso_roll), math.sin(e.torso_roll)
         roll = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-        torso = _rz(e.torso_yaw) @ roll @ self._lean
+        torso = rot_z(e.torso_yaw) @ roll @ self._lean
         swing = rl if e.swing_frame == "l_sole" else rr
         return TickTargets(
             self.engine.k - 1, e.t, phase, e.support_frame, e.swing_frame, e.com, rl, rr,
@@ -646,7 +644,7 @@ class Walker:
         error = None
         base = self._measured_base() if hold.active else None
         if base is not None:
-            error = engine._pose_cmd[:2] - engine.frame_offset[:2] - base
+            error = engine.pose_cmd[:2] - engine.frame_offset[:2] - base
         offset = hold.update(error, dt, engine.walking)
         if not offset.any():
             return targets
@@ -662,7 +660,7 @@ class Walker:
         xy = np.zeros(2)
         for side, step in self.engine.feet.items():
             sole = self.robot.frame_placement(q, SOLE_FRAMES[side])  # (the base at the origin)
-            base = pin.SE3(_rz(step.yaw), step.position) * sole.inverse()
+            base = pin.SE3(rot_z(step.yaw), step.position) * sole.inverse()
             xy += 0.5 * base.translation[:2]
         return xy
 
@@ -719,7 +717,7 @@ class Walker:
                 moved = pos + clip_norm(want - pos, step)
                 pos = engine.clear_of_landing(plan, pos, moved) if self.keep_clear else moved
             held[side] = (plan, pos)
-            placement = pin.SE3(_rz(plan.yaw), pos)
+            placement = pin.SE3(rot_z(plan.yaw), pos)
             if side == "left":
                 targets.l_sole = placement
             else:
@@ -792,8 +790,3 @@ def failure_lines(walker: Walker) -> list[str]:
 
 
 _FIGURES = re.compile(r"\s*\([^()]*\d[^()]*\)")
-
-
-def _rz(yaw: float) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -146,7 +146,7 @@ class WalkEngine:
                 @ (start.left.xy - start.right.xy)
             )[1]
         )
-        self.centre = self._mid_frame()  #: (x, y, yaw): the planned frame between the feet
+        self.centre = self.mid_frame()  #: (x, y, yaw): the planned frame between the feet
         self.n_ss = max(2, round(timing.single_support_time / self.dt))
         self.n_ds = max(1, round(timing.double_support_time / self.dt))
         self.n_start = max(2, round(timing.start_time / self.dt))
@@ -164,9 +164,9 @@ class WalkEngine:
         self.state: State = "standing"
         self._cmd = (0.0, 0.0, 0.0)
         #: the commanded pose (x, y, heading; world): the command integrated while walking
-        self._pose_cmd = self.centre.copy()
+        self.pose_cmd = self.centre.copy()
         #: the commanded pose at the last :meth:`start` (x, y, heading; world)
-        self.start_pose = self._pose_cmd.copy()
+        self.start_pose = self.pose_cmd.copy()
         self._start_requested = False
         self._stop_requested = False
         self._finishing = False  # the requested start is a finish step (:meth:`finish_step`)
@@ -278,7 +278,7 @@ class WalkEngine:
     def commanded_frame(self) -> np.ndarray:
         """The commanded pose of the walking frame (x, y, heading; world): the commanded
         pose (:attr:`origin`'s) less the origin."""
-        want = self._pose_cmd.copy()
+        want = self.pose_cmd.copy()
         want[:2] -= rot2(want[2]) @ self.origin
         return want
 
@@ -287,8 +287,8 @@ class WalkEngine:
         return self.state != "standing"
 
     # ------------------------------------------------------------------ planning
-    def _mid_frame(self) -> np.ndarray:
-        """(x, y, yaw) midway between the soles, heading their mean."""
+    def mid_frame(self) -> np.ndarray:
+        """(x, y, yaw) midway between the planned soles, heading their mean."""
         left, right = self.feet["left"], self.feet["right"]
         mid = 0.5 * (left.xy + right.xy)
         return np.array([mid[0], mid[1], mean_angle(left.yaw, right.yaw)])
@@ -323,7 +323,7 @@ class WalkEngine:
             plain = np.array([step.x, step.y, step.yaw])
             aim = 2.0 * want - np.array([stance.x, stance.y, stance.yaw])
             aim[2] = stance.yaw + 2.0 * wrap_angle(want[2] - stance.yaw)
-            now = self._mid_frame()
+            now = self.mid_frame()
             gap = self._gap(step, stance)  # (never closer than side by side: the feet's links)
             out = rot2(stance.yaw) @ np.array([0.0, sign])
             for scale in (1.0, 0.5, 0.25):
@@ -432,7 +432,7 @@ class WalkEngine:
         the command × the step time; after a start or a command change it recovers what the
         step latency lost, so the walk covers the commanded displacement."""
         T = self.params.timing.step_time
-        target = _advance_pose(self._pose_cmd, self._cmd, ahead)
+        target = _advance_pose(self.pose_cmd, self._cmd, ahead)
         target[:2] -= rot2(target[2]) @ self.origin  # the walking frame under that origin
         c = self.centre + self.odometry_offset  # where the body is (odometry), not planned
         v = relative_pose(c, target) / T
@@ -611,16 +611,16 @@ class WalkEngine:
                 self.state = "walking"
                 if self._finishing:  # one closing step more, aimed at the same pose
                     self._finishing = False
-                    self.centre = self._mid_frame()
+                    self.centre = self.mid_frame()
                     self._replan("start")
                     return True
                 _, vy, wz = self._cmd
                 lead = vy if abs(vy) > 1e-12 else wz
                 self._next_side = "left" if lead > 0 else "right"
-                self.centre = self._mid_frame()
-                self._pose_cmd = self.centre.copy()
-                self._pose_cmd[:2] += rot2(self.centre[2]) @ self.origin
-                self.start_pose = self._pose_cmd.copy()
+                self.centre = self.mid_frame()
+                self.pose_cmd = self.centre.copy()
+                self.pose_cmd[:2] += rot2(self.centre[2]) @ self.origin
+                self.start_pose = self.pose_cmd.copy()
                 self.odometry_offset[:] = 0.0
                 self.frame_error = None
                 self._replan("start")
@@ -657,7 +657,7 @@ class WalkEngine:
                 side = seg.stance.side
                 self.contact[side] = self._measured(seg.stance, self.on_landing(seg.stance))
         if self.state == "walking" and not (self._stop_requested and self.params.close_on_target):
-            self._pose_cmd = _advance_pose(self._pose_cmd, self._cmd, self.dt)
+            self.pose_cmd = _advance_pose(self.pose_cmd, self._cmd, self.dt)
         k = self.k
         dt = self.dt
         left, right = self.contact["left"], self.contact["right"]
