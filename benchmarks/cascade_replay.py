@@ -128,18 +128,33 @@ def capture(trajectory: str, stack: str, robot_name: str = "bioloid") -> dict:
     )  # fmt: skip
 
 
-def call_args(tick: dict) -> list[np.ndarray]:
-    """The tick's cascade_solve arguments (fresh copies of those the solve writes)."""
-    return [tick[k].copy() if k in WRITTEN else tick[k] for k in ARGS]
+def work_space(ticks: list[dict]) -> tuple:
+    """The work space of a checkout whose cascade_solve takes one (:mod:`wbc.compiled.space`:
+    allocated once for the capture's largest tick, as a solver's plans share theirs), else ()."""
+    try:
+        from wbc.compiled.space import cascade_space_size
+    except ImportError:  # (a checkout before the work space: its solve allocates its own)
+        return ()
+    f, i = np.max(
+        [cascade_space_size(t["level_rows"], t["dq"].shape[0], t["g_rows"][-1]) for t in ticks],
+        axis=0,
+    )
+    return np.zeros(f), np.zeros(i, np.int64)
 
 
-def _entry(tick: dict):
+def call_args(tick: dict, space: tuple = ()) -> list[np.ndarray]:
+    """The tick's cascade_solve arguments (fresh copies of those the solve writes), then the
+    work space ``space`` if given (:func:`work_space`)."""
+    return [tick[k].copy() if k in WRITTEN else tick[k] for k in ARGS] + list(space)
+
+
+def _entry(tick: dict, space: tuple = ()):
     """The compiled cascade_solve's entry point for the tick's argument types."""
     from numba import typeof
 
     from wbc.compiled.ticks import cascade_solve
 
-    args = call_args(tick)
+    args = call_args(tick, space)
     cascade_solve(*args)
     try:
         return cascade_solve.overloads[tuple(typeof(a) for a in args)].entry_point
@@ -157,19 +172,25 @@ def _clock_overhead() -> float:
     return float(best)
 
 
-def replay(ticks: list[dict], reps: int) -> dict[str, np.ndarray]:
+def replay(ticks: list[dict], reps: int, cold: float = 0.0) -> dict[str, np.ndarray]:
     """Each tick's cascade_solve, best of ``reps`` on the thread CPU clock (µs, the clock's
-    overhead off), its answer Δq and status."""
-    entry = _entry(ticks[0])
+    overhead off), its answer Δq and status. ``cold`` (MB): that much of another array read
+    before each call (its arguments copied first), which evicts the solve's code and data
+    from the caches as the Python of a tick does before its compiled part."""
+    space = work_space(ticks)
+    entry = _entry(ticks[0], space)
     clock = time.thread_time_ns
     overhead = _clock_overhead()
     t = np.zeros(len(ticks))
     dq = np.zeros((len(ticks), ticks[0]["dq"].shape[0]))
     status = np.zeros(len(ticks), dtype=np.int64)
+    other = np.ones(int(cold * (1 << 20)) // 8)
     for i, tick in enumerate(ticks):
         best = 1 << 62
         for _ in range(reps):
-            args = call_args(tick)
+            args = call_args(tick, space)
+            if other.size:
+                other.sum()
             s = clock()
             st = entry(*args)
             best = min(best, clock() - s)
@@ -177,6 +198,68 @@ def replay(ticks: list[dict], reps: int) -> dict[str, np.ndarray]:
         dq[i] = args[ARGS.index("dq")]
         status[i] = st
     return dict(t=t, dq=dq, status=status)
+
+
+def _lines(a: np.ndarray) -> int:
+    """The bytes of the 64-byte cache lines an array spans."""
+    start = a.ctypes.data
+    return ((start + a.nbytes + 63) // 64 - start // 64) * 64 if a.nbytes else 0
+
+
+def footprint(ticks: list[dict]) -> dict[str, np.ndarray]:
+    """Per tick: the bytes of the inputs cascade_solve reads or writes (the cache lines of
+    J, b, the first ``g_rows[-1]`` inequality rows, the bounds, the sets, the outputs), its work
+    arrays' (the work space for the tick's own rows, where the checkout has one:
+    :func:`wbc.compiled.space.cascade_space_size`, else 0), the arrays it allocated
+    (numba's NRT allocations in the call, the arguments' records not counted: when
+    ``NUMBA_NRT_STATS=1``, else -1), and
+    the machine code of the compiled solve (its cached object's .text/.ltext, one figure)."""
+    from numba.core.runtime import rtsys
+
+    space = work_space(ticks)
+    entry = _entry(ticks[0], space)
+    try:
+        from wbc.compiled.space import cascade_space_size
+    except ImportError:
+        cascade_space_size = None
+    stats = os.environ.get("NUMBA_NRT_STATS") == "1"
+    inputs, work, allocs = (np.zeros(len(ticks), dtype=np.int64) for _ in range(3))
+    for i, tick in enumerate(ticks):
+        g = int(tick["g_rows"][-1])
+        args = call_args(tick, space)
+        sizes = {k: _lines(a) for k, a in zip(ARGS, args, strict=False)}
+        for k in ("G", "h", "h_eff"):
+            sizes[k] = _lines(tick[k][:g])
+        sizes["working"] = _lines(tick["working"][:, :g])
+        inputs[i] = sum(sizes.values())
+        if cascade_space_size is not None:
+            f, n = cascade_space_size(tick["level_rows"], tick["dq"].shape[0], g)
+            work[i] = 8 * (f + n)
+        before = rtsys.get_allocation_stats().alloc if stats else 0
+        entry(*args)
+        # (less one an argument: numba wraps each array it is passed in an NRT record)
+        allocs[i] = rtsys.get_allocation_stats().alloc - before - len(args) if stats else -1
+    return dict(inputs=inputs, work=work, allocs=allocs, code=np.array([_code_bytes()]))
+
+
+def _code_bytes() -> int:
+    """The machine code of the compiled cascade_solve: the .text and .ltext sections of its
+    cached object (numba's cache of ticks.py; -1 if not found or no ``size`` tool)."""
+    import glob
+    import shutil
+
+    from wbc.compiled.ticks import cascade_solve
+
+    path = getattr(getattr(cascade_solve, "_cache", None), "cache_path", None)
+    files = sorted(glob.glob(f"{path}/ticks.cascade_solve-*.nbc"), key=os.path.getmtime)
+    if not files or not shutil.which("size"):
+        return -1
+    data = Path(files[-1]).read_bytes()
+    with tempfile.NamedTemporaryFile(suffix=".o") as f:
+        f.write(data[data.find(b"\x7fELF") :])
+        f.flush()
+        out = subprocess.run(["size", "-A", f.name], capture_output=True, text=True).stdout
+    return sum(int(x.split()[1]) for x in out.splitlines() if x.startswith((".text", ".ltext")))
 
 
 def counts(ticks: list[dict], which: list[int]) -> dict[int, list[dict]]:
@@ -231,9 +314,10 @@ def counts(ticks: list[dict], which: list[int]) -> dict[int, list[dict]]:
         return st, c
 
     lsq._subproblem, lsq._updated, T.solve_level_in = sub_counted, upd_counted, sli_counted
+    space = work_space(ticks)
     try:
         for i in which:
-            args = call_args(ticks[i])
+            args = call_args(ticks[i], space)
             current.update(J=args[0], level_rows=args[2], calls=[])
             T.cascade_solve(*args)
             out[i] = current["calls"]
@@ -242,28 +326,33 @@ def counts(ticks: list[dict], which: list[int]) -> dict[int, list[dict]]:
     return out
 
 
-def _child(path: str, out: str, reps: int, which: str) -> None:
-    """A round in this process: times (``which`` empty) or counts of the ticks ``which``."""
+def _child(path: str, out: str, reps: int, which: str, cold: float = 0.0) -> None:
+    """A round in this process: times (``which`` empty), counts of the ticks ``which`` or
+    (``which`` "footprint") the footprint."""
     with open(path, "rb") as f:
         cap = pickle.load(f)
-    if which:
-        result: dict = {"counts": counts(cap["ticks"], [int(i) for i in which.split(",")])}
+    if which == "footprint":
+        result: dict = footprint(cap["ticks"])
+    elif which:
+        result = {"counts": counts(cap["ticks"], [int(i) for i in which.split(",")])}
     else:
-        result = replay(cap["ticks"], reps)
+        result = replay(cap["ticks"], reps, cold)
     with open(out, "wb") as f:
         pickle.dump(result, f)
 
 
-def _run_child(root: Path, path: str, reps: int, which: str = "") -> dict:
+def _run_child(root: Path, path: str, reps: int, which: str = "", cold: float = 0.0) -> dict:
     """One round in a separate process on the checkout at ``root``."""
     env = dict(os.environ, PYTHONPATH=str(root), WBC_REPLAY_CHILD="1")
-    if which:
+    if which == "footprint":
+        env["NUMBA_NRT_STATS"] = "1"
+    elif which:
         env["NUMBA_DISABLE_JIT"] = "1"
     with tempfile.NamedTemporaryFile(suffix=".pkl", delete=False) as f:
         out = f.name
     try:
         cmd = [sys.executable, str(Path(__file__).resolve()), path, "--child", out]
-        cmd += ["--reps", str(reps), "--which", which]
+        cmd += ["--reps", str(reps), "--which", which, "--cold", str(cold)]
         subprocess.run(cmd, env=env, check=True)
         with open(out, "rb") as f:
             return pickle.load(f)
@@ -349,6 +438,31 @@ def report(cap: dict, runs: dict[str, list[dict]], slowest: int, calls: dict) ->
             print(f"    {_fmt_calls(calls[i])}")
 
 
+def report_footprint(cap: dict, runs: dict[str, dict]) -> None:
+    """The footprint of each checkout (:func:`footprint`): median and max over the ticks, and
+    the phases' first ticks' medians, kB (allocations: counts)."""
+    tick_of = np.array([x["tick"] for x in cap["ticks"]])
+    switch = set(phase_firsts(cap["support"]))
+    firsts = np.array([k in switch for k in tick_of.tolist()])
+    print(f"{cap['stack']} {cap['trajectory']}: cascade_solve's footprint per call")
+    print("| | " + " | ".join(runs) + " |")
+    print("|---|" + "---|" * len(runs))
+    for key, unit in (("inputs", 1e3), ("work", 1e3), ("allocs", 1)):
+        cells = []
+        for r in runs.values():
+            x = r[key][1:] / unit
+            cells.append(
+                f"{np.median(x):.1f} / {x.max():.1f} / {np.median(r[key][firsts] / unit):.1f}"
+            )
+        print(f"| {key} (median / max / first of a phase) | " + " | ".join(cells) + " |")
+    print(
+        "| ticks that allocate | "
+        + " | ".join(f"{int((r['allocs'][1:] > 0).sum())}" for r in runs.values())
+        + " |"
+    )
+    print("| code (kB) | " + " | ".join(f"{r['code'][0] / 1e3:.1f}" for r in runs.values()) + " |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("path", nargs="?", help="a capture to replay")
@@ -361,11 +475,19 @@ def main() -> None:
     parser.add_argument("--slowest", type=int, default=8)
     parser.add_argument("--no-counts", action="store_true", help="no subproblem counts")
     parser.add_argument("--against", metavar="ROOT", help="another checkout, alternated")
+    parser.add_argument(
+        "--cold", type=float, default=0.0, metavar="MB",
+        help="read MB of another array before each replayed call (the caches evicted)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--footprint", action="store_true",
+        help="the bytes of each call's inputs and work arrays, its allocations, the code's",
+    )  # fmt: skip
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--which", default="", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        _child(args.path, args.child, args.reps, args.which)
+        _child(args.path, args.child, args.reps, args.which, args.cold)
         return
     if args.capture:
         cap = capture(args.trajectory, args.stack, args.robot)
@@ -381,10 +503,15 @@ def main() -> None:
     roots = {"this": ROOT}
     if args.against:
         roots["against"] = Path(args.against).resolve()
+    if args.footprint:
+        report_footprint(
+            cap, {k: _run_child(r, args.path, 1, "footprint") for k, r in roots.items()}
+        )
+        return
     runs: dict[str, list[dict]] = {k: [] for k in roots}
     for _ in range(args.rounds):
         for name, root in roots.items():
-            runs[name].append(_run_child(root, args.path, args.reps))
+            runs[name].append(_run_child(root, args.path, args.reps, cold=args.cold))
     calls: dict = {}
     if not args.no_counts and args.slowest:
         t = np.min([r["t"] for r in runs["this"]], axis=0)

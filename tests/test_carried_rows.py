@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("numba")
 
 from wbc.bench.trajectories import build
-from wbc.compiled.ticks import carry_rows, keep_rows
+from wbc.compiled.carried import carry_rows, keep_rows
 from wbc.solvers.carry import CARRY_TOL, CarriedRows
 from wbc.stacks import load_stack
 from wbc.walking.loop import Session, StackController

@@ -193,12 +193,13 @@ def test_the_weighted_qp_keeps_the_dual_method_at_the_first_tie(monkeypatch):
     assert len(seen) >= 2 and all(ties == 0 for _, ties in seen), seen  # (alone, with rows)
 
 
-def test_the_hierarchys_levels_get_its_budget_on_ticks_with_rows(robot, monkeypatch):
-    """``walk_strict`` along walk10 (self-collision rows): every level solve of the compiled
-    cascade, run with the kernels around the level solver as Python, gets the hierarchy's
-    budget (``lsq.PDAS_TIES``), damped last levels included, and answers the compiled tick
-    bit for bit (the same code). The same levels without inequality rows (as the thesis's
-    qp-* schemes, whose ill-posed runs rounding moves) get 0, as the weighted QP."""
+def test_the_hierarchys_levels_get_the_stacks_budget(robot, monkeypatch):
+    """``walk_strict`` along walk10 (its file sets ``pdas_ties``): every level solve of the
+    compiled cascade, run with the kernels around the level solver as Python, gets the budget
+    (``lsq.PDAS_TIES``), damped last levels included, and answers the compiled tick bit for
+    bit (the same code); with its rows dropped too (the stack's option, not the tick's rows).
+    With the option off (``params[4]`` 0: the thesis's stacks, whose ill-posed runs rounding
+    moves) every solve gets 0, as the weighted QP's."""
     from test_compiled_solvers import _walk_strict_ticks
 
     seen: list = []
@@ -211,6 +212,7 @@ def test_the_hierarchys_levels_get_its_budget_on_ticks_with_rows(robot, monkeypa
                 plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
                 g.g_rows, plan.params, plan.lower, plan.upper, start, np.zeros_like(g.working),
                 np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq, np.bool_(True),
+                *plan.space,
             )  # fmt: skip
         assert status == OK, i
         assert np.array_equal(dq, plan.dq), i
@@ -218,15 +220,33 @@ def test_the_hierarchys_levels_get_its_budget_on_ticks_with_rows(robot, monkeypa
     assert checked >= 20
     assert any(ridge > 0.0 for ridge, _ in seen)
     assert all(ties == lsq.PDAS_TIES for _, ties in seen), set(seen)
-    seen.clear()
-    for _, plan, start, _, _ in _walk_strict_ticks(robot, 12, defer_with_rows=True):
-        g = plan.inequalities
-        with monkeypatch.context() as patch:
-            _recording(patch, seen)._cascade.py_func(
-                plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
-                np.zeros_like(g.g_rows), plan.params, plan.lower, plan.upper, start,
-                np.zeros_like(g.working), np.zeros_like(g.h_eff), np.zeros_like(plan.achieved),
-                np.zeros(robot.nv), np.bool_(True),
-            )  # fmt: skip
-    assert any(ridge > 0.0 for ridge, _ in seen)
-    assert all(ties == 0 for _, ties in seen), set(seen)
+    for budget in (lsq.PDAS_TIES, 0):
+        seen.clear()
+        for _, plan, start, _, _ in _walk_strict_ticks(robot, 12, defer_with_rows=True):
+            g = plan.inequalities
+            params = plan.params.copy()
+            params[4] = budget
+            with monkeypatch.context() as patch:
+                _recording(patch, seen)._cascade.py_func(
+                    plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
+                    np.zeros_like(g.g_rows), params, plan.lower, plan.upper, start,
+                    np.zeros_like(g.working), np.zeros_like(g.h_eff),
+                    np.zeros_like(plan.achieved), np.zeros(robot.nv), np.bool_(True),
+                    *plan.space,
+                )  # fmt: skip
+        assert any(ridge > 0.0 for ridge, _ in seen)
+        assert all(ties == budget for _, ties in seen), (budget, set(seen))
+
+
+def test_the_stacks_set_the_budget(robot):
+    """The stacks with self-collision rows set ``pdas_ties`` in their files, the thesis's do
+    not (nor a hierarchy built without it), and the plan passes it to the tick."""
+    from wbc.solvers import HierarchicalQP
+    from wbc.stacks import load_stack
+
+    for name, on in (("walk", True), ("walk_strict", True), ("cj_com", False)):
+        solver = load_stack(name, robot).solver
+        assert getattr(solver, "pdas_ties", False) is on, name
+    weighted = load_stack("walk_strict", robot, solver="weighted").solver
+    assert not hasattr(weighted, "pdas_ties")
+    assert not HierarchicalQP(load_stack("walk", robot).solver.stack).pdas_ties

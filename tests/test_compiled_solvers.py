@@ -267,7 +267,7 @@ def test_a_soft_level_deferred_to_the_next_is_the_oracles_met_or_not(robot, phas
             status = ticks._cascade(
                 plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
                 plan.params, plan.lower, plan.upper, plan.states.copy(), g.working.copy(),
-                g.h_eff, plan.achieved.copy(), np.zeros(robot.nv), np.bool_(True),
+                g.h_eff, plan.achieved.copy(), np.zeros(robot.nv), np.bool_(True), *plan.space,
             )  # fmt: skip
             assert status == (ticks.OK if met else ticks.DEFERRAL_FAILED)
 
@@ -563,6 +563,7 @@ def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot,
                 plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
                 g.g_rows, plan.params, plan.lower, plan.upper, start, working,
                 np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq, np.bool_(True),
+                *plan.space,
             )  # fmt: skip
         assert status == ticks.OK
         assert np.array_equal(dq, plan.dq), i  # (the same code: bit for bit)
@@ -610,9 +611,10 @@ def test_the_levels_above_deferred_while_no_row_is_active(robot, monkeypatch):
                     g.g_rows, params, plan.lower, plan.upper, states, working,
                     np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq,
                 )  # fmt: skip
-                status = ticks._cascade.py_func(*args, np.bool_(defer == 2.0 or not after_active))
+                first = np.bool_(defer == 2.0 or not after_active)
+                status = ticks._cascade.py_func(*args, first, *plan.space)
                 if status == ticks.DEFERRAL_FAILED:
-                    status = ticks._cascade.py_func(*args, np.bool_(False))
+                    status = ticks._cascade.py_func(*args, np.bool_(False), *plan.space)
             assert status == ticks.OK
             answers.append((dq.copy(), list(solves), working.any()))
         (dq_deferred, solves_deferred, _), (dq_alone, solves_alone, active) = answers[:2]

@@ -349,6 +349,7 @@ def build_stack(
         "import",
         "design_leg",
         "support_switch",
+        "pdas_ties",
     }
     if unknown:
         raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
@@ -398,8 +399,9 @@ def build_stack(
     options = {k: spec[k] for k in ("regularization", "on_infeasible") if k in spec}
     options.update(solver_options)
     be = backend or spec.get("backend", "daqp")
-    if solver_kind != "weighted" and "method" in spec:
-        options.setdefault("method", spec["method"])
+    for key in ("method", "pdas_ties"):  # (the hierarchy's own)
+        if solver_kind != "weighted" and key in spec:
+            options.setdefault(key, spec[key])
     try:
         solver: StackSolver = (WeightedQP if solver_kind == "weighted" else HierarchicalQP)(
             stack, be, **options

@@ -98,7 +98,8 @@ WEIGHTED_ARGS: tuple[tuple[str, str, int], ...] = (
 CASCADE_ARGS: tuple[tuple[str, str, int], ...] = (
     *_ROWS, ("level_rows", "int64", 1), ("level_hard", "bool_", 1), *_INEQUALITIES,
     *_SHARED, ("states", "int8", 2), ("working", "bool_", 2), ("h_eff", "float64", 1),
-    ("achieved", "float64", 1), ("dq", "float64", 1), ("q_next", "float64", 1), *_SOURCES,
+    ("achieved", "float64", 1), ("dq", "float64", 1), ("q_next", "float64", 1),
+    ("fspace", "float64", 1), ("ispace", "int64", 1), *_SOURCES,
 )  # fmt: skip
 #: the arguments passed directly, in the tick's order after ``q_in, addresses, shapes``
 DIRECT = tuple(name for name, dtype, _ in WEIGHTED_ARGS if dtype == "direct")
@@ -264,7 +265,7 @@ def cascade_body(
     cspec, cparams, cslots, targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports,
     Jw, com, Jcom, hg, Ag, v, Jf, efull, Jfull, q, q_min, q_max, bspec, boxes, params, lower,
     upper, states, working,
-    h_eff, achieved, dq, q_next,
+    h_eff, achieved, dq, q_next, fspace, ispace,
 ):
     cascade_fill(
         spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
@@ -273,7 +274,7 @@ def cascade_body(
     )
     return cascade_solve(
         J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper,
-        states, working, h_eff, achieved, dq, q_next,
+        states, working, h_eff, achieved, dq, q_next, fspace, ispace,
     )
 
 
@@ -736,7 +737,7 @@ def ticks(
     h = hashlib.sha256(text.encode())
     lsq = [
         _HERE / f
-        for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py", "proximal.py")
+        for f in "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py".split()
     ]
     for f in [*files, _HERE / "rows.py", _HERE / "ticks.py", *lsq, _HERE / "checks.py"]:
         if f is not None:

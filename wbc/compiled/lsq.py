@@ -28,7 +28,7 @@ Hintermüller–Ito–Kunisch; block principal pivoting): a free variable beyond
 it and a fixed one with the wrong multiplier sign is released, all at once. PDAS converges in a
 few steps when the reduced Hessian is close to an M-matrix but can cycle otherwise (typically
 p < d with a small ridge). When the number of infeasibilities stops falling (on a damped level:
-after ``ties`` such steps, :data:`PDAS_TIES` on the hierarchy's levels), or an exchange makes
+after ``ties`` such steps, :data:`PDAS_TIES` where a stack sets it), or an exchange makes
 the equalities inconsistent, the solver switches to a dual active set method (Goldfarb–Idnani
 on the bounds): from the set PDAS met with the fewest infeasibilities (its subproblem's x and
 multipliers kept, not solved again: on the hierarchy's last level with self-collision rows,
@@ -139,13 +139,14 @@ UPDATES = True
 #: on a damped level (ridge > 0: one minimiser, whatever the path), PDAS may go on through
 #: ``ties`` steps that do not lower its number of infeasibilities (raising it by PDAS_RISE at
 #: most) before the dual method takes over from the set with the fewest (0: at the first such
-#: step). PDAS_TIES is the hierarchy's value (``ticks._level`` passes it; edit it to 0 to turn
-#: it off, the kernels then compile again). On walk_strict's slowest ticks the last level's set
-#: from the last tick PDAS had two bounds to fix, then two others (a tie), which the dual
-#: method took one at a time: with 2 (and PDAS_RISE 1) 6 subproblems -> 3, the replayed walk10
-#: p99 48.6 -> 44.7 µs. The weighted QP passes 0: on it the other path changed the rounding,
-#: and the thesis's ill-posed qp-* controllers' runs (their null space left to drift) went
-#: elsewhere from there (up to 0.4 rad; benchmarks/self_collision.md, sixteenth pass)
+#: step). PDAS_TIES is the value of a hierarchy whose stack sets ``pdas_ties`` (the stacks with
+#: self-collision rows; ``cascade_solve``'s ``params[4]``, else 0). On walk_strict's slowest
+#: ticks the last level's set from the last tick PDAS had two bounds to fix, then two others
+#: (a tie), which the dual method took one at a time: with 2 (and PDAS_RISE 1) 6 subproblems
+#: -> 3, the replayed walk10 p99 48.6 -> 44.7 µs. The weighted QP passes 0: on it the other
+#: path changed the rounding, and the thesis's ill-posed qp-* controllers' runs (their null
+#: space left to drift) went elsewhere from there (up to 0.4 rad; benchmarks/self_collision.md,
+#: sixteenth pass)
 PDAS_TIES = 2
 PDAS_RISE = 1
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
@@ -672,9 +673,15 @@ def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
     m, n = A.shape
     size = max(m, n, _N_VEC)
     work = np.empty((2, size, max(m, n)))
-    W = work[0]
-    V = work[1]
     ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
+    return equality_multipliers_in(A, state, g, lam, rank_rtol, work[0], work[1], ind)
+
+
+@njit(cache=True)
+def equality_multipliers_in(A, state, g, lam, rank_rtol, W, V, ind) -> bool:
+    """:func:`equality_multipliers` in work arrays W, V (at least max(m, n, 16) × max(m, n))
+    and ind (6 × max(m, n), int64): no allocation."""
+    m, n = A.shape
     nf = np.int64(0)
     for j in range(n):
         if state[j] == 0:
@@ -720,6 +727,7 @@ refresh(
         solve_level_iterations,
         solve_level,
         equality_multipliers,
+        equality_multipliers_in,
     ],
     [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py", _HERE / "lsq_update.py"],
 )

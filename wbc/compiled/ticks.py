@@ -31,12 +31,23 @@ from .lsq import (
     MAX_ITER,
     NUMERICAL,
     OK,
-    PDAS_TIES,
-    equality_multipliers,
+    equality_multipliers_in,
     level_space,
     solve_level_in,
 )
 from .proximal import proximal_level
+from .space import (
+    LEVEL_FLOATS,
+    LEVEL_INTS,
+    SPACE_ROWS,
+    cascade_space_size,
+    inequality_size,
+    inequality_work,
+    level_space_at,
+    level_space_size,
+    multiplier_size,
+    multiplier_work,
+)
 
 #: the hard rows of the last solve missed their targets by more than the caller's tolerance
 HARD_MISSED = 100
@@ -59,9 +70,6 @@ MAX_DROPS = 2
 #: a joint within this (rad) outside a limit after a step back towards it is put at the
 #: limit by :func:`integrate` (the step's rounding, not a position)
 LIMIT_ROUNDING = 1e-12
-#: the level solver's work space holds this many inequality rows joining a level (more: a
-#: larger one, allocated then)
-SPACE_ROWS = 8
 #: the damped last level takes its rows most violated first (``_cascade``'s ``direct``) only
 #: while the level above holds fewer of its hard rows than this at their bounds
 DIRECT_HELD_ROWS = 2
@@ -159,7 +167,7 @@ def weighted_solve(
             status = solve_with_inequalities(
                 hard_J, hard_b, soft_J, soft_b, mu, np.bool_(False), lower, upper, state, dq,
                 G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False), space,
-                np.bool_(not warm), np.int64(0),
+                np.bool_(not warm), np.int64(0), np.empty(0), np.empty(0, np.int64),
             )  # fmt: skip
         if status == OK or not warm:
             break
@@ -197,7 +205,7 @@ def _finite(x) -> bool:
 
 
 @njit(cache=True)
-def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties) -> int:
+def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties, previous) -> int:
     """One least-squares level by :func:`~wbc.compiled.lsq.solve_level`: with ``ridge``
     (the weighted QP, the last level of the hierarchy); or, ``exact``, without (an
     intermediate level of the hierarchy): exact least squares when the level's rows are
@@ -206,14 +214,15 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties) 
     (:func:`~wbc.compiled.proximal.proximal_level`). In ``space``
     (:func:`~wbc.compiled.lsq.level_space`); ``cont``: the last call's level in it with
     equality rows joined (:func:`~wbc.compiled.lsq.solve_level_in`); ``ties``: its PDAS
-    budget (the hierarchy's :data:`~wbc.compiled.lsq.PDAS_TIES`, the weighted QP's 0)."""
+    budget (the stack's, ``params[4]`` of :func:`cascade_solve`; the weighted QP's 0);
+    ``previous``: n floats of work (x before the exact solve)."""
     if not exact:
         status, _ = solve_level_in(
             A, a, B, r, ridge, lower, upper, state, x, 1e-9, np.int64(LEVEL_MAX_ITER), space, cont,
             ties,
         )  # fmt: skip
         return status
-    previous = x.copy()
+    previous[:] = x
     status, _ = solve_level_in(
         A, a, B, r, 0.0, lower, upper, state, x, 1e-9, np.int64(EXACT_MAX_ITER), space, cont,
         ties,
@@ -225,13 +234,17 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties) 
 
 
 @njit(cache=True)
-def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
+def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam, fw, iw):
     """Multipliers of the equalities A[:mh] at x from the stationarity on the free variables,
     ``A_Fᵀ λ = −∇f_F`` with ∇f = Bᵀ(B x − r) (+ ridge·x unless ``exact``), in least squares
     (:func:`~wbc.compiled.lsq.equality_multipliers`: a basic solution if the rows are
-    dependent), into ``lam``; False if it has no solution (no certificate)."""
+    dependent), into ``lam``; False if it has no solution (no certificate). Its work in fw, iw
+    (:func:`~wbc.compiled.space.multiplier_work`; allocated if they are too small)."""
     n = x.shape[0]
-    grad = np.zeros(n)
+    f, i_ = multiplier_size(mh, n)
+    if fw.shape[0] < f or iw.shape[0] < i_:
+        fw, iw = np.empty(f), np.empty(i_, np.int64)
+    grad, W, V, ind = multiplier_work(fw, iw, mh, n)
     for i in range(ps):
         e = -r[i]
         for j in range(n):
@@ -241,7 +254,7 @@ def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
     if not exact:
         for j in range(n):
             grad[j] += ridge * x[j]
-    return equality_multipliers(A[:mh], state, grad, lam[:mh])
+    return equality_multipliers_in(A[:mh], state, grad, lam[:mh], 1e-9, W, V, ind)
 
 
 @njit(cache=True, inline="always")
@@ -256,7 +269,7 @@ def _row(G, h, i, x):
 @njit(cache=True)
 def solve_with_inequalities(
     A0, a0, B0, r0, ridge, exact, lower, upper, state, x, G, h, soft_from, tol, working, start,
-    from_start, space, cont, ties,
+    from_start, space, cont, ties, fw, iw,
 ) -> int:  # fmt: skip
     """min ‖B0 x − r0‖² + ridge‖x‖² + Σ_{i ≥ soft_from} max(G_i x − h_i, 0)² subject to
     A0 x = a0, G_i x <= h_i (i < soft_from) and the bounds: a primal active set on the G
@@ -281,21 +294,20 @@ def solve_with_inequalities(
     (:func:`~wbc.compiled.lsq.level_space`); ``cont``: its last call solved this level
     without the rows (x its solution, ``state`` its set): hard rows joining since are then
     updates of that call's factors, as after each solve here that only hard rows followed.
-    ``ties``: :func:`_level`'s.
+    ``ties``: :func:`_level`'s. fw, iw: its work (:func:`~wbc.compiled.space.inequality_work`,
+    then the multipliers'; allocated if they are too small).
     """
     m0, n = A0.shape
     p0 = B0.shape[0]
     p = G.shape[0]
-    A = np.empty((m0 + p, n))
-    a = np.empty(m0 + p)
-    B = np.empty((p0 + p, n))
-    r = np.empty(p0 + p)
+    f, i_ = inequality_size(m0, p0, p, n)
+    if fw.shape[0] < f or iw.shape[0] < i_:
+        fw, iw = np.empty(f), np.empty(i_, np.int64)
+    A, a, B, r, lam, xc, previous, rows, drops = inequality_work(fw, iw, m0, p0, p, n)
     A[:m0] = A0
     a[:m0] = a0
     B[:p0] = B0
     r[:p0] = r0
-    lam = np.empty(m0 + p)
-    xc = np.empty(n)
     solve = _any(working, p)  # a warm start is solved first (x: a solution without the rows)
     feasible = from_start
     if feasible:
@@ -310,8 +322,7 @@ def solve_with_inequalities(
                 feasible = False
     if feasible:
         xc[:] = start
-    rows = np.empty(p, np.int64)  # the working set, in the order its rows joined
-    drops = np.zeros(p, np.int64)  # how often each row left it
+    # rows: the working set, in the order its rows joined; drops: how often each row left it
     nw = 0
     for i in range(p):
         if working[i]:
@@ -338,7 +349,7 @@ def solve_with_inequalities(
                 cont = False
             status = _level(
                 A[:mh], a[:mh], B[:ps], r[:ps], ridge, exact, lower, upper, state, x, space, cont,
-                ties,
+                ties, previous,
             )  # fmt: skip
             if status != OK:
                 working[:] = False
@@ -379,7 +390,9 @@ def solve_with_inequalities(
         if not feasible:  # x meets every row: from here on, the feasible point
             feasible = True
             xc[:] = x
-        if mh > m0 and not _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam):
+        if mh > m0 and not _hard_multipliers(
+            A, mh, B, ps, r, ridge, exact, state, x, lam, fw[f:], iw[i_:]
+        ):
             working[:] = False
             return NUMERICAL
         scale = 0.0
@@ -418,12 +431,13 @@ def solve_with_inequalities(
 @njit(cache=True)
 def _cascade(
     J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working, h_eff,
-    achieved, dq, defer_soft,
+    achieved, dq, defer_soft, fw, iw,
 ) -> int:  # fmt: skip
     """The levels of :func:`cascade_solve` in order, with the bounds set. ``defer_soft``: an
     intermediate soft level (at the top, every level above it deferred too) is deferred as a
     hard one, on the guess that it can be met exactly; returns :data:`DEFERRAL_FAILED` if
-    the guess is wrong (the next level's solve fails, or misses its rows)."""
+    the guess is wrong (the next level's solve fails, or misses its rows). fw, iw: the work
+    space (:func:`~wbc.compiled.space.cascade_space_size` of the tick, at least)."""
     mu = params[1]
     hard_tol = params[2]
     tol = params[3]
@@ -436,16 +450,21 @@ def _cascade(
     widest = 0
     for k in range(n_levels):
         widest = max(widest, level_rows[k + 1] - level_rows[k])
-    space = level_space(level_rows[max(n_levels - 1, 0)] + SPACE_ROWS, nv, widest + SPACE_ROWS)
+    m_space = level_rows[max(n_levels - 1, 0)] + SPACE_ROWS
+    space = level_space_at(fw, iw, m_space, nv, widest + SPACE_ROWS)
+    f0, i0 = level_space_size(m_space, nv, widest + SPACE_ROWS)
+    entry, free_x = fw[f0 : f0 + nv], fw[f0 + nv : f0 + 2 * nv]
+    previous = fw[f0 + 2 * nv : f0 + 3 * nv]
+    kept, free_state = iw[i0 : i0 + nv], iw[i0 + nv : i0 + 2 * nv]
+    fw, iw = fw[f0 + LEVEL_FLOATS * nv :], iw[i0 + LEVEL_INTS * nv :]  # (the rows' work)
     deferred = 0  # the levels before this row: met exactly by the next level's solve
     soft = False  # a soft level among them
     # with inequality rows, the levels above the last deferred too (params[0] > 0) while no
     # row is active: the last level's solve without its rows must meet every row, else the
     # deferral fails before any row joins (and the levels are solved on their own)
     rows_free = g_rows[n_levels] == 0 or (defer_soft and params[0] > 0.0)
-    # PDAS's budget (lsq.PDAS_TIES) on the ticks with inequality rows; without (the thesis's
-    # qp-* schemes, ill-posed: rounding moves their runs) 0, as the weighted QP
-    ties = np.int64(PDAS_TIES) if g_rows[n_levels] > 0 else np.int64(0)
+    # PDAS's budget: the stack's (its solver's ``pdas_ties``: lsq.PDAS_TIES or 0)
+    ties = np.int64(params[4]) if params.shape[0] > 4 else np.int64(0)
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
@@ -482,16 +501,14 @@ def _cascade(
         # several solves (walk_strict, walk10: 21 ticks, 60-90 µs each)
         above = 0 if k == 0 else (g0 if level_hard[k - 1] else g_rows[k - 1])
         held = 0 if k == 0 else _count(working[k - 1], above)
-        entry = dq.copy()
+        entry[:] = dq
         direct = last and mu > 0.0 and held < DIRECT_HELD_ROWS
-        kept = states[k].copy()
+        kept[:] = states[k]
         free = states.shape[0] > n_levels  # (a row for the last level's set without its rows)
         # the damped level's solution without its rows and its bounds' set, kept for a second
         # attempt (the same strictly convex problem, which the second attempt solved again
         # from another start to the same set and the same Δq: 10-35 µs a time)
-        solved = False
-        free_x = entry
-        free_state = kept
+        solved = False  # (then free_x, free_state: that solution and its set)
         status = OK
         # the last level from rows carried from the last tick (``working``: CarriedRows): if
         # that fails, the cold start as without them (then the other way, as there)
@@ -508,14 +525,14 @@ def _cascade(
                     states[k, :] = states[n_levels]
                 status = _level(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, space, np.bool_(False),
-                    ties,
+                    ties, previous,
                 )  # fmt: skip
                 cont = status == OK
                 if direct and free:
                     states[n_levels, :] = states[k]
                 if direct and status == OK:
-                    free_x = dq.copy()
-                    free_state = states[k].copy()
+                    free_x[:] = dq
+                    free_state[:] = states[k]
                     solved = True
             if (
                 deferred > 0
@@ -532,7 +549,7 @@ def _cascade(
                 status = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
                     soft_from, tol, working[k, :g1], entry, np.bool_(not direct), space,
-                    np.bool_(cont), ties,
+                    np.bool_(cont), ties, fw, iw,
                 )  # fmt: skip
             if status == OK or not (warm or direct):
                 break
@@ -578,7 +595,7 @@ def _cascade(
 @njit(cache=True)
 def cascade_solve(
     J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper, states,
-    working, h_eff, achieved, dq, q_next,
+    working, h_eff, achieved, dq, q_next, fspace, ispace,
 ) -> int:  # fmt: skip
     """With every level's rows (weighted) and the bounds filled: the levels in order.
 
@@ -590,8 +607,10 @@ def cascade_solve(
     tick ended with an inequality row active, else 0 (written for the next tick);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
     rows kept (work space); ``params``: [1 to defer the levels above with inequality
-    rows too (else 0), μ, tolerance of hard levels, tolerance of the inequality rows];
-    q ⊕ Δq into ``q_next``.
+    rows too (else 0), μ, tolerance of hard levels, tolerance of the inequality rows, and if
+    given PDAS's budget of ties (:data:`~wbc.compiled.lsq.PDAS_TIES` or 0: the stack's
+    ``pdas_ties``; else 0)]; q ⊕ Δq into ``q_next``; ``fspace``, ``ispace``: the work space
+    (float64, int64: :mod:`wbc.compiled.space`, allocated here if smaller than the tick needs).
 
     Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
     slacks, unless the level is hard: then as rows to meet) subject to the bounds, every level
@@ -630,14 +649,17 @@ def cascade_solve(
     n_levels = level_rows.shape[0] - 1
     memo = states.shape[0] > n_levels + 1
     rows_before = memo and states[states.shape[0] - 1, 0] != 0 and g_rows[n_levels] > 0
+    f, i_ = cascade_space_size(level_rows, dq.shape[0], g_rows[n_levels])
+    if fspace.shape[0] < f or ispace.shape[0] < i_:
+        fspace, ispace = np.empty(f), np.empty(i_, np.int64)
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
-        h_eff, achieved, dq, np.bool_(not (rows_before and params[0] > 0.0)),
+        h_eff, achieved, dq, np.bool_(not (rows_before and params[0] > 0.0)), fspace, ispace,
     )  # fmt: skip
     if status == DEFERRAL_FAILED:  # a soft level above cannot be met exactly: solve it
         status = _cascade(
             J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
-            h_eff, achieved, dq, np.bool_(False),
+            h_eff, achieved, dq, np.bool_(False), fspace, ispace,
         )  # fmt: skip
     if memo:
         active = False
@@ -650,53 +672,6 @@ def cascade_solve(
         return NOT_FINITE
     integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return OK
-
-
-@njit(cache=True)
-def keep_rows(G, h, p, working, Gc, hc) -> int:
-    """The rows of G[:p], h[:p] in ``working`` into Gc, hc (the damped last level's working
-    set at the end of a tick, for the next: :func:`carry_rows`); returns their number (0 if
-    Gc cannot hold them)."""
-    n = 0
-    for i in range(p):
-        if working[i]:
-            if n == Gc.shape[0]:
-                return 0
-            Gc[n] = G[i]
-            hc[n] = h[i]
-            n += 1
-    return n
-
-
-@njit(cache=True)
-def carry_rows(Gc, hc, n, G, h, p, working, tol) -> int:
-    """Each of the ``n`` rows kept (:func:`keep_rows`) into ``working`` (p bools) as the row
-    of G[:p], h[:p] nearest to it, if within ``tol``: ‖G_i − G_c‖ + |h_i − h_c| <=
-    tol (‖G_c‖ + |h_c|) — the same row a tick later, found by its values (a self-collision
-    pair's row changes its index as pairs come and go, its G and h little in a tick).
-    Returns how many rows it marked."""
-    marked = 0
-    for c in range(n):
-        size = abs(hc[c])
-        s = 0.0
-        for j in range(Gc.shape[1]):
-            s += Gc[c, j] * Gc[c, j]
-        size += math.sqrt(s)
-        best = -1
-        nearest = tol * size
-        for i in range(p):
-            s = 0.0
-            for j in range(Gc.shape[1]):
-                d = G[i, j] - Gc[c, j]
-                s += d * d
-            d = math.sqrt(s) + abs(h[i] - hc[c])
-            if d <= nearest:
-                nearest = d
-                best = i
-        if best >= 0 and not working[best]:
-            working[best] = True
-            marked += 1
-    return marked
 
 
 @njit(cache=True)
@@ -795,6 +770,6 @@ refresh(
     ],
     [
         Path(__file__).with_name(f)
-        for f in ("lsq.py", "lsq_subproblem.py", "lsq_update.py", "lsq_linalg.py", "proximal.py")
+        for f in "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py".split()
     ],
 )

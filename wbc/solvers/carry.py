@@ -4,7 +4,7 @@ The hierarchy's last level is damped (μ‖Δq‖², μ > 0): strictly convex, s
 set starts changes only the rounding of its one minimiser. Its inequality rows' working set
 could not simply be kept, since a self-collision row's index names another pair from tick to
 tick; so the rows it held at a tick's end are kept by value (G and h) and found again at the
-next tick as the nearest rows (:func:`wbc.compiled.ticks.carry_rows`). The last level then
+next tick as the nearest rows (:func:`wbc.compiled.carried.carry_rows`). The last level then
 starts from them and from the last tick's bounds' set instead of from its solve without rows
 (:func:`wbc.compiled.ticks.cascade_solve`; if that fails, from its solve without rows as
 without them): on ``walk_strict``'s slowest ticks (a row held in each single support) the
@@ -24,14 +24,14 @@ CARRY_TOL = 0.2
 
 
 def _entry(name: str, args: tuple):
-    """The entry point of the compiled kernel ``name`` of :mod:`wbc.compiled.ticks` for the
+    """The entry point of the compiled kernel ``name`` of :mod:`wbc.compiled.carried` for the
     types of ``args``, called once on them (loaded, or compiled, here: not in a tick; numba's
     dispatcher resolves the types at every call, ~2 µs)."""
     from numba import typeof
 
-    from ..compiled import ticks
+    from ..compiled import carried
 
-    kernel = getattr(ticks, name)
+    kernel = getattr(carried, name)
     kernel(*args)
     try:
         return kernel.overloads[tuple(typeof(a) for a in args)].entry_point

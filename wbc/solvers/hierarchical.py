@@ -66,6 +66,7 @@ class HierarchicalQP(StackSolver):
         compiled: bool | None = None,
         defer_with_rows: bool = True,
         carry_rows: bool = False,
+        pdas_ties: bool = False,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -83,6 +84,11 @@ class HierarchicalQP(StackSolver):
         #: walk_strict its cascade's total -12 %, but turn's p99 +3-6 %: the ticks where
         #: the rows carried leave; benchmarks/self_collision.md, twelfth pass)
         self.carry_rows = bool(carry_rows)
+        #: the compiled levels' PDAS goes on through :data:`wbc.compiled.lsq.PDAS_TIES` steps
+        #: that do not lower its count before the dual method takes over (on: the stacks with
+        #: self-collision rows, ``pdas_ties = true`` in their file; off: the thesis's schemes,
+        #: ill-posed, whose runs the other rounding moves; benchmarks/self_collision.md)
+        self.pdas_ties = bool(pdas_ties)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []
@@ -278,7 +284,7 @@ class HierarchicalQP(StackSolver):
         (:func:`wbc.compiled.ticks.cascade_solve`, inequality rows included) on these rows,
         so that one hierarchy algorithm serves every path. None if it cannot finish (the
         backend cascade then solves the tick, or names why it is infeasible)."""
-        from ..compiled.lsq import OK
+        from ..compiled.lsq import OK, PDAS_TIES
         from ..compiled.ticks import cascade_solve
 
         nv = self.robot.nv
@@ -289,8 +295,9 @@ class HierarchicalQP(StackSolver):
         level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
         g_rows = np.cumsum([0] + [p.h.shape[0] for p in problems]).astype(np.int64)
         level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
+        ties = PDAS_TIES if self.pdas_ties else 0
         params = np.array(
-            [float(self.defer_with_rows), self.regularization, self.hard_tol, CONSTRAINT_TOL]
+            [float(self.defer_with_rows), self.regularization, self.hard_tol, CONSTRAINT_TOL, ties]
         )
         states = np.zeros((len(problems), nv), dtype=np.int8)
         working = np.zeros((len(problems), h.size), dtype=np.bool_)
@@ -302,7 +309,8 @@ class HierarchicalQP(StackSolver):
         status = cascade_solve(
             J, b, level_rows, level_hard, np.ascontiguousarray(G, dtype=float),
             np.ascontiguousarray(h, dtype=float), g_rows, q, self._q_min, self._q_max, params,
-            lower, upper, states, working, h_eff, achieved, dq, q_next,
+            lower, upper, states, working, h_eff, achieved, dq, q_next, np.zeros(0),
+            np.zeros(0, np.int64),
         )  # fmt: skip
         if status != OK:
             self.compute_bounds(kin, dt, lower, upper)  # the backend cascade starts afresh

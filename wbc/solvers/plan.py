@@ -439,8 +439,8 @@ class _Plan:
         self._entry = None  # the tick's compiled entry point, after the first call
         #: [1 to defer the levels above with inequality rows too (the solver's
         #: ``defer_with_rows``, else 0), μ (damping of the last level), hard tolerance,
-        #: tolerance of the inequality rows]
-        self.params = np.zeros(4)
+        #: tolerance of the inequality rows, PDAS's ties (the solver's ``pdas_ties``)]
+        self.params = np.zeros(5)
         self.lower = scratch.get("lower", (nv,))  # (the tick's bounds: filled first)
         self.upper = scratch.get("upper", (nv,))
         self.dq = scratch.get("dq", (nv,))
@@ -661,6 +661,8 @@ class _Plan:
 
     def _set_params(self, dt: float | None) -> None:
         """The scalar parameters of the tick, for ``dt``."""
+        from ..compiled.lsq import PDAS_TIES
+
         solver = self.solver
         self._defer = bool(getattr(solver, "defer_with_rows", False))
         self.params[:] = (
@@ -668,6 +670,7 @@ class _Plan:
             solver.regularization,
             solver.hard_tol,
             CONSTRAINT_TOL,
+            PDAS_TIES if getattr(solver, "pdas_ties", False) else 0,
         )
         self._dt = dt
         self._mu, self._hard_tol = solver.regularization, solver.hard_tol
@@ -755,6 +758,7 @@ class CascadePlan(_Plan):
         self.carried = self.scratch.shared("carried", lambda: CarriedRows(self.scratch, nv))
         self.achieved = np.zeros(self.rows.m)
         self.tick_name = "cascade_tick"
+        self.space = (np.zeros(0), np.zeros(0, np.int64))  # (_bind_args: the solver's)
         self._bind_args()
 
     def _solve_kernel(self):
@@ -767,13 +771,19 @@ class CascadePlan(_Plan):
         return (
             self.rows.J, self.rows.b, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
             self.q, self.q_min, self.q_max, self.params, self.lower, self.upper, self.states,
-            g.working, g.h_eff, self.achieved, self.dq, self.q_next,
+            g.working, g.h_eff, self.achieved, self.dq, self.q_next, *self.space,
         )  # fmt: skip
 
     def _build_args(self) -> tuple:
-        g = self.inequalities
+        from ..compiled.space import cascade_space_size
+
+        # the work space (wbc.compiled.space) for the rows' capacity, in the solver's
+        # scratch: its plans share it, at the same addresses at every tick
+        g, nv = self.inequalities, self.dq.shape[0]
+        f, i = cascade_space_size(self.level_rows, nv, g.h.shape[0])
+        self.space = self.scratch.get("fspace", (f,)), self.scratch.get("ispace", (i,), np.int64)
         return (
             *self.rows.args, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
             *self._constraint_args(), *self._shared_args(), self.states, g.working, g.h_eff,
-            self.achieved, self.dq, self.q_next, *self.targets.tick_sources,
+            self.achieved, self.dq, self.q_next, *self.space, *self.targets.tick_sources,
         )  # fmt: skip
