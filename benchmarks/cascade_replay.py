@@ -20,7 +20,11 @@ rounds alternate between this checkout and the one at ROOT (``PYTHONPATH=ROOT``,
 exported) on the same captured inputs, and both are printed side by side with the largest
 difference of their answers (Δq) and of their statuses. The replayed answer is checked
 against the captured one (``--check``: the largest |Δq − Δq captured| over the ticks;
-tests/test_cascade_replay.py: 1e-12).
+tests/test_cascade_replay.py: 1e-12). ``--cold MB``: that much of another array read before
+each call (the caches evicted, as after a tick's Python). ``--footprint``: per call, the
+bytes of its inputs and work arrays, its allocations and the solve's machine code (each
+checkout); a checkout with a work space (:mod:`wbc.compiled.space`) gets one for the replay,
+allocated once.
 """
 
 from __future__ import annotations

@@ -72,3 +72,6 @@ def test_the_space_is_the_solvers_and_follows_the_rows(robot):
     f, i = cascade_space_size(plan.level_rows, plan.dq.shape[0], plan.inequalities.h.size)
     assert fw.size == f > before and iw.size == i
     assert fw.ctypes.data in plan.packed[0] and iw.ctypes.data in plan.packed[0]
+    plan.work_space = False  # (off: none given, the solve allocates its arrays per call)
+    plan._bind_args()
+    assert plan.space[0].size == plan.space[1].size == 0

@@ -726,6 +726,10 @@ class WeightedPlan(_Plan):
 class CascadePlan(_Plan):
     """Every level's rows (weighted) in one block, solved level by level in one call."""
 
+    #: the tick works in the solver's work space (:mod:`wbc.compiled.space`); False: none
+    #: given, the solve allocates its arrays at every call (as before; the same answers)
+    work_space = True
+
     def __init__(
         self,
         solver,
@@ -780,7 +784,7 @@ class CascadePlan(_Plan):
         # the work space (wbc.compiled.space) for the rows' capacity, in the solver's
         # scratch: its plans share it, at the same addresses at every tick
         g, nv = self.inequalities, self.dq.shape[0]
-        f, i = cascade_space_size(self.level_rows, nv, g.h.shape[0])
+        f, i = cascade_space_size(self.level_rows, nv, g.h.shape[0]) if self.work_space else (0, 0)
         self.space = self.scratch.get("fspace", (f,)), self.scratch.get("ispace", (i,), np.int64)
         return (
             *self.rows.args, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
