@@ -652,7 +652,9 @@ class PhasePlanner:
         target = q0 if phase.posture is None else robot.configuration(phase.posture)
         posture.set_target(target)
         stack.add(posture, level=1)
-        solver = HierarchicalQP(stack, "daqp", regularization=1e-6, on_infeasible="relax")
+        solver = HierarchicalQP(
+            stack, "daqp", regularization=1e-6, on_infeasible="relax", pdas_ties=True
+        )
         dt = 1.0 / p.rate
         n = max(1, round(phase.duration * p.rate)) + max(0, round(p.hold_s * p.rate))
         ts, qs = [0.0], [q0.copy()]
