@@ -80,3 +80,18 @@ def test_the_stabilizer_adds_the_integral_only_with_j_i(robot):
         stab.last = object()  # (a walk under way: an estimate exists)
         d = stab.joint_offsets(q[7:].copy())
         assert bool(d is not None and np.count_nonzero(d) > 0) is on
+
+
+def test_a_joint_whose_goal_moves_faster_than_still_holds_its_integral(robot):
+    """``j_i_still`` 0.5 rad/s: the left knee's solved goal moving at 1 rad/s (its error
+    then the servo's lag) holds its integral; at 0.2 rad/s it integrates; without the
+    gate (0) it integrates both."""
+    q = robot.configuration("stand")[7:]
+    k = _knee(robot, "left")
+    for speed, still, grows in ((1.0, 0.5, False), (0.2, 0.5, True), (1.0, 0.0, True)):
+        ji = JointIntegral(robot)
+        for t in range(20):
+            solved = q.copy()
+            solved[k] += speed * 0.01 * t
+            v = ji.offsets(solved, solved - 0.02, "l_sole", 2.0, 0.1, 0.0, 0.01, still)
+        assert bool(v[k] > 0.005) is grows  # (20 ticks: 0.008; the first tick has no last goal)

@@ -158,6 +158,9 @@ class Gains:
     j_i: float = 0.0
     j_i_max: float = 0.1
     j_i_leak: float = 0.5
+    #: rad/s: j_i holds on a joint whose solved goal moves faster (its error then the servo's
+    #: lag, not sag; 0: integrate always)
+    j_i_still: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -207,6 +210,7 @@ class Gains:
             "j_i",
             "j_i_max",
             "j_i_leak",
+            "j_i_still",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -11,7 +11,12 @@ position would be the deflection again, and the integral would wind up). A leg t
 starts swinging lets its integral go, at no more than the joint's speed limit per tick
 (its goals never jump); joints whose encoders are not read (NaN) hold theirs. The
 offsets keep the goals within the joint limits (the deployment's clip) and each tick's
-change within the speed limits. Feedback only: no model of the servos.
+change within the speed limits; with ``j_i_still`` a joint whose solved goal moves faster
+holds its integral. Feedback only: no model of the servos. Measured (issue 30, i30p's
+twelfth round, benchmarks/physics.md; no feed-forward, plant-randomised, 150 plants a
+seed): ``j_i`` 1 /s, ``j_i_max`` 0.05 rad brings the nominal ``turn_wb`` 19.2 → 12.8° and
+keeps the soft plants main loses there, but loses stiff, late plants (145 / 143 against
+146 / 148 on seeds 0 / 1): off.
 """
 
 from __future__ import annotations
@@ -38,14 +43,15 @@ def _integrate(
 ) -> None:
     """One tick of :meth:`JointIntegral.offsets` in place (``value``, ``last``; the offsets
     also in ``out``); ``k = [rate, most, leak, dt, read (1: present given), first (1: no
-    last goals)]``."""
-    rate, most, leak, dt = k[0], k[1], k[2], k[3]
+    last goals), still (rad/s; 0: none)]``."""
+    rate, most, leak, dt, still = k[0], k[1], k[2], k[3], k[6]
     read, first = k[4] > 0.5, k[5] > 0.5
     for j in range(value.shape[0]):
         v = value[j]
         step = 0.5 * v_max[j] * dt  # (half the speed limit: the solve keeps the rest)
+        moving = still > 0 and not first and abs(solved[j] - (last[j] - v)) > still * dt
         if loaded[j]:
-            if read and math.isfinite(present[j]):
+            if read and math.isfinite(present[j]) and not moving:
                 grown = v * (1.0 - leak * dt) + rate * dt * (solved[j] - present[j])
                 grown = min(max(grown, -most), most)
                 v += min(max(grown - v, -step), step)
@@ -80,7 +86,7 @@ class JointIntegral:
             self.loaded[""][idx] = True
         self._v_max = np.where(np.isfinite(robot.v_max) & (robot.v_max > 0), robot.v_max, 1.0)
         self._last = np.zeros(n)  # the last goals with the offsets (rad)
-        self._k = np.zeros(6)
+        self._k = np.zeros(7)
         self._k[5] = 1.0  # (no last goals yet)
         self._none = np.zeros(n)
 
@@ -93,14 +99,18 @@ class JointIntegral:
         most: float,
         leak: float,
         dt: float,
+        still: float = 0.0,
     ) -> np.ndarray:
         """The offsets (rad, model order) for this tick's solved goals ``solved``, the
         encoders' ``present`` positions (None or NaN: not read), the stance sole ``stance``
         ("" in double support), ``rate`` (1/s: ``j_i``), ``most`` (rad: ``j_i_max``),
-        ``leak`` (1/s: ``j_i_leak``), ``dt`` (s); one compiled call (:func:`_integrate`)."""
+        ``leak`` (1/s: ``j_i_leak``), ``dt`` (s), ``still`` (rad/s: ``j_i_still``; a joint
+        whose solved goal moves faster holds its integral: its error is then mostly the
+        servo's lag, not sag; 0: none); one compiled call (:func:`_integrate`)."""
         k = self._k
         k[0], k[1], k[2], k[3] = rate, most, leak, dt
         k[4] = 0.0 if present is None else 1.0
+        k[6] = still
         out = np.empty(len(self.value))
         _integrate(self.value, self._last, np.asarray(solved, dtype=float),
                    self._none if present is None else np.asarray(present, dtype=float),

@@ -739,7 +739,7 @@ class Stabilizer:
             if self._sag is None:
                 self._sag = JointIntegral(self.robot)
             i = self._sag.offsets(joints, self.present(), self._stance, g.j_i, g.j_i_max,
-                                  g.j_i_leak, self._dt)  # fmt: skip
+                                  g.j_i_leak, self._dt, g.j_i_still)  # fmt: skip
             d = i if d is None else d + i
         if g.hip_kick > 0:
             d = self._hip_kick(joints, d)
