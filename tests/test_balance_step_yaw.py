@@ -185,3 +185,53 @@ def test_step_yaw_turn_acts_only_on_a_turning_walks_steps(robot, turned, on):
         if k == 1:
             assert stab.steps_yaw.want == 0.0  # (the first: no turn since the start)
     assert (stab.steps_yaw.want != 0.0) is on
+
+
+def _cap_run(robot, turn: float, kept: float, delta: float = -0.3, ticks: int = 60):
+    """``step_yaw_cap`` 1: the stance (left) sole kept ``kept`` rad off its plan, the
+    robot measured turned by ``delta``, a step planned to turn ``turn`` rad: the swing's
+    angle after ``ticks`` of single support."""
+    q = _standing(robot)
+    g = Gains(step_yaw=1.0, step_yaw_cap=1.0)
+    double = _targets(robot, q, "double")
+    R_imu = _rz(delta) @ double.torso_rotation
+    stab = Stabilizer(robot, 0.2, lambda: q[7:].copy(), StillImu(R_imu), g)
+    stab.estimator.reset(R_imu)
+    stab.steps_yaw.turns = np.full(5, turn)  # (every tick's step: the targets' i is 0)
+    stab.adjust(double, np.zeros(3), q, 0.01)
+    stab.steps_yaw.off["l_sole"] = kept
+    single = _targets(robot, q, "single", 0.3)
+    for _ in range(ticks):
+        stab.adjust(single, np.zeros(3), q, 0.01)
+    return stab.steps_yaw
+
+
+@pytest.mark.parametrize("turn, kept, angle", [(0.2, 0.0, -0.2), (0.0, 0.0, 0.0),
+                                               (0.0, 0.05, 0.05), (0.1, 0.05, -0.05)])  # fmt: skip
+def test_step_yaw_cap_keeps_the_swing_within_the_steps_planned_turn(robot, turn, kept, angle):
+    """The correction asked is ≤ −0.25 rad (the measured −0.3 less the kept yaw): with
+    ``step_yaw_cap`` 1 the swing's angle stays within ``kept`` ± the step's planned turn —
+    a closing (0-turn) step lands parallel to the stance sole as the controller holds it
+    (``kept``), a straight walk's step with nothing kept not at all."""
+    s = _cap_run(robot, turn, kept)
+    assert s.want <= -0.25 + 1e-9
+    assert s.angle == pytest.approx(angle, abs=1e-9)
+    assert s.window == pytest.approx((kept - turn, kept + turn))
+
+
+def test_step_yaw_plan_reads_each_steps_turn_from_the_reference(robot):
+    """:meth:`StepYaw.plan` on the turning walk: each single support's planned turn is its
+    swing sole's landing yaw less its stance sole's (0.2 rad a step on ``turn_wb``, 0 on its
+    closing step and in double support); on the straight walk, 0 everywhere."""
+    from wbc.bench import trajectories as traj
+
+    s = StepYaw(robot)
+    ref = traj.build("turn_wb", robot)
+    s.plan(ref)
+    singles = [(a, b) for a, b, code in ref.phases() if ref.swing_side(a) is not None]
+    steps = [float(s.turns[a]) for a, _ in singles]
+    assert steps[1:-1] == pytest.approx([0.2] * (len(steps) - 2), abs=1e-6)
+    assert steps[-1] == pytest.approx(0.0, abs=1e-9)
+    assert all(s.turns[a - 1] == 0.0 for a, _ in singles)  # (double support before each)
+    s.plan(traj.build("walk10_wb", robot))
+    assert np.max(np.abs(s.turns)) < 0.01

@@ -148,6 +148,19 @@ class Gains:
     #: rad/s: step_yaw only on a step whose reference heading turned at least this fast over
     #: the double support before it (a turning walk's; 0: every step)
     step_yaw_turn: float = 0.0
+    #: step_yaw's swing angle within this × the step's planned turn (its swing sole's
+    #: landing yaw less its stance sole's: StepYaw.plan) of the stance sole's kept yaw: a
+    #: straight or closing step lands parallel to the stance sole (0: no window)
+    step_yaw_cap: float = 0.0
+    #: 1/s: the loaded legs' sag (solved goal − encoder) integrated into their goals
+    #: (:mod:`wbc.balance.joint_integral`; 0: off), at most ``j_i_max`` rad, leaking at
+    #: ``j_i_leak`` 1/s; a leg that swings lets it go
+    j_i: float = 0.0
+    j_i_max: float = 0.1
+    j_i_leak: float = 0.5
+    #: rad/s: j_i holds on a joint whose solved goal moves faster (its error then the servo's
+    #: lag, not sag; 0: integrate always)
+    j_i_still: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -193,6 +206,11 @@ class Gains:
             "max_step_yaw",
             "step_yaw_band",
             "step_yaw_turn",
+            "step_yaw_cap",
+            "j_i",
+            "j_i_max",
+            "j_i_leak",
+            "j_i_still",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -314,6 +314,7 @@ def closed_loop(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled, fall=detector, calibration_ticks=rest,
     )  # fmt: skip
+    stabilizer.steps_yaw.plan(ref)  # (the steps' planned turns: Gains.step_yaw_cap)
     if stepping is not None and enabled and not can_step(ref):
         out("closed loop: no step adjustment on this walk (it re-plans dynamic walks made by "
             "wbc.walking.gait.walk)")  # fmt: skip

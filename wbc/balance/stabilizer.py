@@ -54,8 +54,9 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   is further from the stance sole's outer edge (a push away from the swing foot has
   further to go) while the CoM and its ZMP stay consistent, the ZMP ``margin`` inside;
 * **joint level** (``j_p``, ``j_d``, off) — offsets on the solved leg goals along each joint's
-  axis, OP3 gains; and the push's hip kick (``hip_kick``, above) (:meth:`Stabilizer.joint_offsets`,
-  applied by :class:`wbc.balance.live.SessionSource`).
+  axis, OP3 gains; the loaded legs' sag (solved goal − encoder) integrated slowly into their
+  goals (``j_i``, :mod:`wbc.balance.joint_integral`); and the push's hip kick (``hip_kick``,
+  above) (:meth:`Stabilizer.joint_offsets`, applied by :class:`wbc.balance.live.SessionSource`).
 
 Each term is clipped (``max_tilt`` rad, ``max_shift`` m), and the joint limits stay hard in
 every solver (and the deployment clamps again): no goal ever leaves a joint limit.
@@ -82,6 +83,7 @@ from .gains import NO_FEED_FORWARD_GAINS as NO_FEED_FORWARD_GAINS  # (re-exporte
 from .gains import Gains as Gains
 from .gains import default_gains as default_gains
 from .hip_kick import HipKick
+from .joint_integral import JointIntegral
 from .push_jump import JUMP_SIGMA, JUMP_TAU, jumped
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 from .step_yaw import StepYaw
@@ -491,6 +493,7 @@ class Stabilizer:
         self.last: StateEstimate | None = None
         self.clock = self._clock = 1.0  # the walk's clock rate (lag_clock; Session.at_time)
         self.steps_yaw = StepYaw(robot)  # the footsteps' heading correction (step_yaw)
+        self._sag: JointIntegral | None = None  # the loaded joints' integral (j_i)
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
 
@@ -626,7 +629,7 @@ class Stabilizer:
             read = joints if present is None else np.where(np.isfinite(present), present, joints)
             out = self.steps_yaw.apply(targets, out, est.rotation, read, q_cmd, g.step_yaw,
                                        g.max_step_yaw, g.step_yaw_band, g.step_yaw_turn,
-                                       dt)  # fmt: skip
+                                       dt, g.step_yaw_cap)  # fmt: skip
         self.time = time.perf_counter() - start
         return out
 
@@ -732,6 +735,12 @@ class Stabilizer:
             e_body = self.last.rotation.T @ self.error
             v = g.j_p * e_body + g.j_d * self.rate
             d = np.clip(self._joint.k * (self._joint.axes(joints) @ v), -g.max_offset, g.max_offset)
+        if g.j_i > 0:  # the loaded joints' sag, integrated (joint_integral)
+            if self._sag is None:
+                self._sag = JointIntegral(self.robot)
+            i = self._sag.offsets(joints, self.present(), self._stance, g.j_i, g.j_i_max,
+                                  g.j_i_leak, self._dt, g.j_i_still)  # fmt: skip
+            d = i if d is None else d + i
         if g.hip_kick > 0:
             d = self._hip_kick(joints, d)
         return d

@@ -23,11 +23,14 @@ footstep plans' no-crossing; the controller's joint limits and speed bounds stay
 At the touch-down the landed sole keeps the yaw the controller landed it at (``off``: its
 contact targets turned so, ``contacts_move``, until it lifts; the torso target turned with
 the stance sole's): else the double support turns it back and the correction is lost.
-``step_yaw_turn`` limits it to a turning walk's steps. Feedback only: no model of the
-servos. Measured (issue 30, benchmarks/physics.md, i30p's tenth round; no feed-forward,
-plant-randomised): ``step_yaw`` 1, band 0.15 rad keeps the two soft ``turn_wb`` plants the
-torso term could not and brings the nominal turn 19.2 → 15.3°, but loses five other soft
-``turn_wb`` plants and, without ``step_yaw_turn``, nine ``walk10_wb`` ones: off.
+``step_yaw_turn`` limits it to a turning walk's steps; ``step_yaw_cap`` keeps the swing's
+angle within that many times the step's planned turn of the stance sole's kept yaw
+(:meth:`StepYaw.plan`: the walk's closing step lands parallel to the stance sole).
+Feedback only: no model of the servos. Measured (issue 30, benchmarks/physics.md, i30p's
+tenth and twelfth rounds; no feed-forward, plant-randomised): ``step_yaw`` 1, band 0.15
+rad keeps the two soft ``turn_wb`` plants the torso term could not and brings the nominal
+turn 19.2 → 15.3°, but loses five other soft ``turn_wb`` plants and, without
+``step_yaw_turn``, nine ``walk10_wb`` ones; ``step_yaw_cap`` does not keep those: off.
 """
 
 from __future__ import annotations
@@ -59,10 +62,17 @@ def stance_heading_error(
     return wrap_angle(yaw_of(R_est @ M.rotation) - yaw_of(planned))
 
 
-def ramp(applied: float, want: float, share: float, limit: float, dt: float) -> float:
-    """The swing's next angle (rad): toward ``clip(share · want, ±limit)`` by at most
-    :data:`RATE` · ``dt``."""
-    goal = min(max(share * want, -limit), limit)
+def ramp(
+    applied: float,
+    want: float,
+    share: float,
+    limit: float,
+    dt: float,
+    window: tuple[float, float] = (-math.inf, math.inf),
+) -> float:
+    """The swing's next angle (rad): toward ``clip(share · want, ±limit)``, within
+    ``window`` (lowest, highest), by at most :data:`RATE` · ``dt``."""
+    goal = min(max(share * want, -limit, window[0]), limit, window[1])
     step = RATE * dt
     return applied + min(max(goal - applied, -step), step)
 
@@ -81,9 +91,28 @@ class StepYaw:
         self.off = {"l_sole": 0.0, "r_sole": 0.0}  # rad: the landed soles'
         self._swing = ""  # the swing sole of the last tick ("" in double support)
         self._turn = (0.0, 0.0)  # (t, the reference's heading) at the last lift-off
+        #: rad per reference tick: the planned turn of the step under way (its swing sole's
+        #: landing yaw less its stance sole's; 0 in double support), None: unknown (:meth:`plan`)
+        self.turns: np.ndarray | None = None
+        #: rad: the swing's angle's (lowest, highest) this step (Gains.step_yaw_cap)
+        self.window = (-math.inf, math.inf)
+
+    def plan(self, ref) -> None:
+        """Read the walk's planned step turns (:attr:`turns`) from the reference ``ref``
+        (a :class:`~wbc.walking.reference.WalkingReference`): for each single support, its
+        swing sole's yaw at the touch-down less its stance sole's."""
+        turns = np.zeros(ref.n)
+        for a, b, _ in ref.phases():
+            swing, stance = ref.swing_side(a), ref.stance_side(a)
+            if swing is None or stance is None:
+                continue
+            end = min(b, ref.n - 1)
+            turns[a:b] = wrap_angle(float(ref.sole(swing)[1][end] - ref.sole(stance)[1][end]))
+        self.turns = turns
 
     def apply(self, targets, out, R_est: np.ndarray, joints: np.ndarray, q: np.ndarray,
-              share: float, limit: float, band: float, turn: float, dt: float):  # fmt: skip
+              share: float, limit: float, band: float, turn: float, dt: float,
+              cap: float = 0.0):  # fmt: skip
         """``out`` (the feedback's targets for ``targets``) with the correction. At a
         lift-off, once: the stance sole's measured heading (``R_est``, the encoders
         ``joints``) less the controller's (its planned placement turned by its ``off``),
@@ -94,7 +123,10 @@ class StepYaw:
         contact targets (``contacts_move``), the swing's and the torso's (by the stance
         sole's ``off``) turned about the vertical. With ``turn`` > 0 (rad/s) only on a step
         whose reference heading turned at least that fast since the last lift-off (a turning
-        walk's; else ``want`` 0)."""
+        walk's; else ``want`` 0). With ``cap`` > 0 and the walk's :attr:`turns` known,
+        the swing's angle stays within ``cap`` × the step's planned turn of the stance
+        sole's kept yaw (``off``): a straight walk's steps and a walk's closing step land
+        parallel to the stance sole as the controller holds it (:attr:`window`)."""
         single = targets.phase != "double"
         swing = targets.swing if single else ""
         if swing != self._swing:
@@ -113,10 +145,16 @@ class StepYaw:
                 if turn > 0 and abs(targets.torso_yaw - yaw0) < turn * (targets.t - t0):
                     self.want = 0.0  # (not a turning step)
                 self._turn = (targets.t, targets.torso_yaw)
+                self.window = (-math.inf, math.inf)
+                if cap > 0 and self.turns is not None and 0 <= targets.i < len(self.turns):
+                    most, kept = cap * abs(float(self.turns[targets.i])), self.off[stance]
+                    self.window = (kept - most, kept + most)
             self.angle = 0.0
             self._swing = swing
         if single:
-            self.angle = self._clear(targets, ramp(self.angle, self.want, share, limit, dt))
+            self.angle = self._clear(
+                targets, ramp(self.angle, self.want, share, limit, dt, self.window)
+            )
         off = self.off
         if self.angle == 0.0 and off["l_sole"] == 0.0 and off["r_sole"] == 0.0:
             return out

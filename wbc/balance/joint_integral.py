@@ -1,0 +1,119 @@
+"""A joint-level integral from the encoders (``Gains.j_i``, issue 30; off by default).
+
+Without the feed-forward nothing pre-loads a soft plant's loaded joints: the stance knee
+and the hips sag under the body's weight (the servo's goal minus its present position is
+its deflection, ``τ / k``), and the whole body stands lower and behind the plan. This term
+measures that sag on the loaded legs' joints (the stance leg's in single support, both
+legs' in double support) and integrates it, slowly, into an offset added to the solved
+goals: ``I ← clip(I (1 − j_i_leak dt) + j_i dt (q_solve − q_present), ±j_i_max)`` — the
+solve's goal, not the goal sent (that one includes ``I``: its difference with the present
+position would be the deflection again, and the integral would wind up). A leg that
+starts swinging lets its integral go, at no more than the joint's speed limit per tick
+(its goals never jump); joints whose encoders are not read (NaN) hold theirs. The
+offsets keep the goals within the joint limits (the deployment's clip) and each tick's
+change within the speed limits; with ``j_i_still`` a joint whose solved goal moves faster
+holds its integral. Feedback only: no model of the servos. Measured (issue 30, i30p's
+twelfth round, benchmarks/physics.md; no feed-forward, plant-randomised, 150 plants a
+seed): ``j_i`` 1 /s, ``j_i_max`` 0.05 rad brings the nominal ``turn_wb`` 19.2 → 12.8° and
+keeps the soft plants main loses there, but loses stiff, late plants (145 / 143 against
+146 / 148 on seeds 0 / 1): off.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..model import Robot
+from ..roles import LEG_ROLES
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _integrate(
+    value: np.ndarray,
+    last: np.ndarray,
+    solved: np.ndarray,
+    present: np.ndarray,
+    loaded: np.ndarray,
+    v_max: np.ndarray,
+    k: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """One tick of :meth:`JointIntegral.offsets` in place (``value``, ``last``; the offsets
+    also in ``out``); ``k = [rate, most, leak, dt, read (1: present given), first (1: no
+    last goals), still (rad/s; 0: none)]``."""
+    rate, most, leak, dt, still = k[0], k[1], k[2], k[3], k[6]
+    read, first = k[4] > 0.5, k[5] > 0.5
+    for j in range(value.shape[0]):
+        v = value[j]
+        step = 0.5 * v_max[j] * dt  # (half the speed limit: the solve keeps the rest)
+        moving = still > 0 and not first and abs(solved[j] - (last[j] - v)) > still * dt
+        if loaded[j]:
+            if read and math.isfinite(present[j]) and not moving:
+                grown = v * (1.0 - leak * dt) + rate * dt * (solved[j] - present[j])
+                grown = min(max(grown, -most), most)
+                v += min(max(grown - v, -step), step)
+        else:  # (a swinging leg's, the arms': let go)
+            v -= min(max(v, -step), step)
+        if not first:  # (the goals sent change within the speed limits)
+            fast = v_max[j] * dt
+            g = min(max(solved[j] + v, last[j] - fast), last[j] + fast)
+            v = min(max(g - solved[j], -most), most)
+        value[j] = v
+        last[j] = solved[j] + v
+        out[j] = v
+
+
+class JointIntegral:
+    """The integral's state for one walk (:meth:`offsets`)."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        n = robot.n_joints
+        self.value = np.zeros(n)  # rad: the offset per joint (model order)
+        names = robot.joint_names
+        roles = robot.roles
+        #: the loaded joints per stance sole ("l_sole", "r_sole"; "": double support)
+        legs = {
+            sole: [names.index(roles.joint(side, r)) for r in LEG_ROLES]
+            for sole, side in (("l_sole", "left"), ("r_sole", "right"))
+        }
+        self.loaded = {key: np.zeros(n, dtype=np.bool_) for key in ("l_sole", "r_sole", "")}
+        for sole, idx in legs.items():
+            self.loaded[sole][idx] = True
+            self.loaded[""][idx] = True
+        self._v_max = np.where(np.isfinite(robot.v_max) & (robot.v_max > 0), robot.v_max, 1.0)
+        self._last = np.zeros(n)  # the last goals with the offsets (rad)
+        self._k = np.zeros(7)
+        self._k[5] = 1.0  # (no last goals yet)
+        self._none = np.zeros(n)
+
+    def offsets(
+        self,
+        solved: np.ndarray,
+        present: np.ndarray | None,
+        stance: str,
+        rate: float,
+        most: float,
+        leak: float,
+        dt: float,
+        still: float = 0.0,
+    ) -> np.ndarray:
+        """The offsets (rad, model order) for this tick's solved goals ``solved``, the
+        encoders' ``present`` positions (None or NaN: not read), the stance sole ``stance``
+        ("" in double support), ``rate`` (1/s: ``j_i``), ``most`` (rad: ``j_i_max``),
+        ``leak`` (1/s: ``j_i_leak``), ``dt`` (s), ``still`` (rad/s: ``j_i_still``; a joint
+        whose solved goal moves faster holds its integral: its error is then mostly the
+        servo's lag, not sag; 0: none); one compiled call (:func:`_integrate`)."""
+        k = self._k
+        k[0], k[1], k[2], k[3] = rate, most, leak, dt
+        k[4] = 0.0 if present is None else 1.0
+        k[6] = still
+        out = np.empty(len(self.value))
+        _integrate(self.value, self._last, np.asarray(solved, dtype=float),
+                   self._none if present is None else np.asarray(present, dtype=float),
+                   self.loaded[stance], self._v_max, k, out)  # fmt: skip
+        k[5] = 0.0
+        return out
