@@ -424,6 +424,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="the odometry's error at the last landing split into the encoders' "
                          "placements, the heading and the soles' unseen moves "
                          "(LandingBudget)")  # fmt: skip
+    ap.add_argument("--trace", action="store_true",
+                    help="per landing: the stance sole's heading by the encoders' chain, "
+                         "the gyro, the blend, the band's switch, against the simulator's; "
+                         "then the soles, base and torso after the last landing")  # fmt: skip
     ap.add_argument("--heading-gain", type=float, default=None, metavar="K",
                     help="as benchmarks/drive.py --heading-gain")  # fmt: skip
     ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
@@ -448,6 +452,29 @@ def main(argv: list[str] | None = None) -> int:
                          "it)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
+
+    def trace_line(walker, sim, side: str, q: np.ndarray, chain: float) -> None:
+        """--trace: one landing's stance-sole headings (degrees, world): the encoders'
+        chain, the gyro's, the blend, the band's switch, the truth; the gyro's torso heading
+        and the encoders' torso-to-sole turn against the simulator's."""
+        odo = walker.odometry
+        stance = "right" if side == "left" else "left"
+        frames = {"left": SOLE_NAMES[0], "right": SOLE_NAMES[1]}
+        (ts,) = robot.placements_in(q, "torso", [frames[stance]])
+        gyro = odo.heading + yaw_of(ts.rotation)
+        true_st = yaw_of(sim.site_pose(frames[stance]).rotation)
+        true_torso = yaw_of(sim.site_pose("torso").rotation)
+        true_ts = wrap_angle(true_st - true_torso)
+        switch = abs(wrap_angle(gyro - chain)) > odo.heading_band
+        d = math.degrees
+        print(f"  trace t {sim.time:6.2f} {stance:5s} stance: chain "
+              f"{d(wrap_angle(chain - true_st)):+6.2f} gyro "
+              f"{d(wrap_angle(gyro - true_st)):+6.2f} blend "
+              f"{d(wrap_angle(odo.soles[stance][2] - true_st)):+6.2f} (against the truth "
+              f"{d(true_st):+7.2f}){' SWITCH' if switch else ''}; torso heading "
+              f"{d(wrap_angle(odo.heading - true_torso)):+6.2f}, torso-to-sole "
+              f"{d(wrap_angle(yaw_of(ts.rotation) - true_ts)):+6.2f}", flush=True)  # fmt: skip
+
     limits, window = planning_envelope(robot)
     share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
     variations = models(robot, max(args.models) + 1, args.seed)
@@ -473,6 +500,10 @@ def main(argv: list[str] | None = None) -> int:
             return super().tick(dt)
 
         def _landed(self, step):
+            odo = self.odometry
+            stance = "right" if step.side == "left" else "left"
+            chain = (float(odo.soles[stance][2]) if odo is not None and odo.started
+                     and stance in odo.soles else None)  # fmt: skip
             out = super()._landed(step)
             if self._offset is not None and odometers:
                 sim = odometers[-1].sim
@@ -482,6 +513,8 @@ def main(argv: list[str] | None = None) -> int:
                 q = self._present_configuration()
                 if q is not None and self.odometry is not None:
                     self.budget.landed(self.robot, sim, self.odometry, step.side, q)
+                    if args.trace and chain is not None:
+                        trace_line(self, sim, step.side, q, chain)
             return out
 
     class Sampled(odometer):  # the soles, base, support and headings every tick
@@ -554,6 +587,16 @@ def main(argv: list[str] | None = None) -> int:
             print("  parts (start frame): " + ", ".join(
                 f"{k} ({b[k + '_vec'][0]:+.2f}, {b[k + '_vec'][1]:+.2f}) cm"
                 for k in ("plan", "soles", "base")), flush=True)  # fmt: skip
+            if args.trace and walkers[0].landings:
+                rows = np.asarray(odometers[0].rows)
+                t_last = walkers[0].landings[-1][0]
+                for k in range(int(np.searchsorted(rows[:, 0], t_last)), len(rows), 10):
+                    print(f"  after the last landing: t {rows[k, 0]:6.2f} soles' yaw "
+                          f"{math.degrees(rows[k, 3]):+6.1f} {math.degrees(rows[k, 6]):+6.1f}° "
+                          f"base {math.degrees(rows[k, 9]):+6.1f}° support {rows[k, 10]:.0f} "
+                          f"torso {math.degrees(rows[k, 12]):+6.1f}° odometry's "
+                          f"{math.degrees(rows[k, 11]):+6.1f}°",
+                          flush=True)  # fmt: skip
             if args.contact:
                 print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
             if args.accrual:

@@ -71,15 +71,14 @@ WALK_TURN = 0.03
 #: The gyro's heading of a stance sole goes through the stance leg's joints, whose play and
 #: ticks read each leg's turn a few tenths of a degree off, differently for the two legs: at
 #: every landing the landed sole, 6–7 cm beside the stance sole, is then placed forward or
-#: back by that error, alternately, and the walk's position drifts (on the random sequences
-#: of benchmarks/drive.md, 2026-12-06: 2–23 mm over 30 s, as much as the encoders'
-#: placements or the soles' creep). Half of it damps the alternation and still follows a
-#: stance sole turned on the floor within a few landings. Random sequences 0–9 × randomised
-#: Bioloids 0–9 beside main (73 runs, with the band below): displacement within 15 % 44 -> 48
-#: of 73, the mean error 22.0 -> 20.0 mm (smaller on 47 runs); heading 58 -> 58 of 63, the
-#: median 1.64 -> 1.50° but the mean 2.64 -> 2.95° (model 0, the most play: 14–22° on three
-#: runs); no fall
-DRIVE_HEADING_GAIN = 0.5
+#: back by that error, alternately, and the walk's position drifts. 0.5 damps it: random
+#: sequences 0–9 × randomised Bioloids 0–9 beside 1 (73 runs, with the band below,
+#: benchmarks/drive.md, 2026-12-06): displacement within 15 % 44 -> 48 of 73, mean error
+#: 22.0 -> 20.0 mm; heading 58 -> 58 of 63, mean 2.64 -> 2.95° (model 0, the most play:
+#: 14–22° on three runs: it turns on its soles while standing after the walk, with either
+#: gain — 4 s after the stop +31° with 1 on one of them —, its stance headings read no worse
+#: blended). An option (1 by default) until that standing spin is understood
+DRIVE_HEADING_GAIN = 1.0
 
 #: ... within this disagreement of the two (rad): beyond it the gyro's is followed (within
 #: (1 − gain) × it), a stance sole turned on the floor being taken at once (without it the
