@@ -103,7 +103,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             encoder_rest: bool = False, play: str | float | None = None,
             play_hold: float | None = None, play_lift: bool = False,
             params=None, keep_clear: bool = True, base_hold: float | None = None,
-            finish_steps: int | None = None, finish_xy: bool = False, **kw):  # fmt: skip
+            finish_steps: int | None = None, finish_xy: bool = False,
+            heading_gain: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -116,6 +117,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
         "play_hold": play_hold, "play_lift": play_lift or None, "hold": base_hold,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
+        "heading_gain": heading_gain,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if play is not None:
@@ -265,6 +267,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--swing-settle", type=float, default=None, metavar="F",
                     help="the share of each swing at its end in which the sole only comes "
                          "down (EngineParams(settle=F); default the engine's)")  # fmt: skip
+    ap.add_argument("--heading-gain", type=float, default=None, metavar="K",
+                    help="the share of the gyro's stance-sole heading the odometry takes at "
+                         "each landing, the rest the encoders' chain (Walker(heading_gain=K); "
+                         "default the Walker's)")  # fmt: skip
     ap.add_argument("--play", type=play_arg, default=None, metavar="model|DEG",
                     help="the encoders' gear play taken out of the walker's odometry "
                          "(Walker(play=...)): 'model' the simulated servos' own (the default, "
@@ -340,6 +346,7 @@ def main(argv: list[str] | None = None) -> int:
         "base_hold": args.base_hold,
         "finish_steps": args.finish_steps,
         "finish_xy": args.finish_xy,
+        "heading_gain": args.heading_gain,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None

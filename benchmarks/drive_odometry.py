@@ -28,6 +28,12 @@ it, by the walker's phase — ``ds_lead`` / ``ds_trail`` (double support: the so
 just landed, the one that lifts next), ``stance`` (single support), ``swing0..3`` (the
 swing sole touching the floor in each quarter of its swing: dragging at lift-off, scuffing,
 touching down early).
+
+``--budget``: the outer loop's odometry error at the last landing split per landing into the
+encoders' placements, the odometry's heading and the soles' unseen moves
+(:class:`LandingBudget`); each run also prints the final error's parts as vectors (start
+frame): the plan's, the soles' (the simulated soles against the odometry's) and the base's
+standing posture over its soles.
 """
 
 from __future__ import annotations
@@ -109,6 +115,13 @@ def breakdown(run: dict, walker, rows: np.ndarray, yaw0: float) -> dict:
     mid_yaw = mean_angle(last[3], last[6])
     mid = 0.5 * (last[1:3] + last[4:6]) + rot2(mid_yaw) @ e.origin
     out["base_cm"] = 100 * float(np.linalg.norm(last[7:9] - mid))
+    # the error's parts as vectors (start frame, cm): the plan's, the soles' (where the
+    # simulated soles put the base against where the odometry has them: unseen slips and
+    # the odometry's own errors) and the base's standing posture over its soles
+    out["plan_vec"] = 100 * (planned - cmd)
+    start = rows[0, 7:9]
+    out["base_vec"] = 100 * (Rs @ (last[7:9] - mid))
+    out["soles_vec"] = 100 * (Rs @ (mid - start) - planned)
     out["base_deg"] = math.degrees(wrap_angle(last[9] - mid_yaw))
     theta = run["travelled_yaw_rad"]
     out["origin_cm"] = 100 * float(np.linalg.norm((rot2(theta) - np.eye(2)) @ e.origin))
@@ -239,6 +252,61 @@ class ContactSlip:
 SOLE_NAMES = ("l_sole", "r_sole")
 
 
+class LandingBudget:
+    """The outer loop's odometry error at each measured landing, split (world, m): the
+    landed sole is placed from the stance sole's odometry pose by the encoders (forward
+    kinematics of the present joints), so its error is the stance sole's error plus three
+    parts per landing, summed over the walk — ``placement``: the encoders' relative placement
+    against the simulator's (the servos' play and quantisation; the true joints' kinematics
+    place it within 0.05 mm rms), rotated by the true stance heading; the odometry's stance
+    heading against the true one, applied to the measured placement, in two — ``gyro``: the
+    gyro's torso heading against the simulated torso's, ``encoders' turn``: the torso-to-sole
+    turn of the present joints against the simulated one —; ``unseen``: minus the stance
+    sole's true move since its own landing was measured (its slip or creep in contact,
+    which no sensor of the robot sees). ``total``:
+    the landed sole's odometry position less the simulator's at the last landing."""
+
+    def __init__(self) -> None:
+        self.sums = {k: np.zeros(2) for k in ("placement", "gyro", "encoders' turn", "unseen")}
+        self.total = np.zeros(2)
+        self.heading_error = 0.0  # rad, the stance sole's at the last landing
+        self.landings = 0
+        self._placed: dict[str, np.ndarray] = {}  # each sole's true position at its landing
+
+    def landed(self, robot, sim, odometry, side: str, q: np.ndarray) -> None:
+        """A landing of ``side`` just measured by ``odometry`` (q: the present joints)."""
+        stance = "right" if side == "left" else "left"
+        frames = {"left": SOLE_NAMES[0], "right": SOLE_NAMES[1]}
+        M_st, M_sw = sim.site_pose(frames[stance]), sim.site_pose(frames[side])
+        st_xy, sw_xy, st_yaw = M_st.translation[:2], M_sw.translation[:2], yaw_of(M_st.rotation)
+        (rel,) = robot.placements_in(q, frames[stance], [frames[side]])
+        measured = rel.translation[:2]
+        odo_st = odometry.soles[stance]
+        self.sums["placement"] += rot2(st_yaw) @ (measured - rot2(st_yaw).T @ (sw_xy - st_xy))
+        # the heading's error split: the gyro's torso heading against the simulated torso's,
+        # and the encoders' torso-to-sole turn against the simulated one
+        (torso_sole,) = robot.placements_in(q, "torso", [frames[stance]])
+        mid = yaw_of(sim.site_pose("torso").rotation) + yaw_of(torso_sole.rotation)
+        self.sums["gyro"] += (rot2(odo_st[2]) - rot2(mid)) @ measured
+        self.sums["encoders' turn"] += (rot2(mid) - rot2(st_yaw)) @ measured
+        self.sums["unseen"] -= st_xy - self._placed.get(stance, st_xy)
+        self._placed[side] = sw_xy.copy()
+        self.total = odometry.soles[side][:2] - sw_xy
+        self.heading_error = wrap_angle(odo_st[2] - st_yaw)
+        self.landings += 1
+
+    def line(self) -> str:
+        """The split as one line (mm; the parts add up to the total but for the first
+        landing's own error)."""
+        parts = ", ".join(f"{k} ({1000 * v[0]:+.1f}, {1000 * v[1]:+.1f})"
+                          for k, v in self.sums.items())  # fmt: skip
+        x, y = 1000 * self.total
+        return (f"  the odometry's error at the last landing (world): ({x:+.1f}, {y:+.1f}) mm, "
+                f"heading "
+                f"{math.degrees(self.heading_error):+.1f}°, over {self.landings} landings: "
+                f"Σ {parts} mm")  # fmt: skip
+
+
 def soles_mid(sim) -> np.ndarray:
     """The simulated soles' midpoint and mean heading (x, y, heading; world)."""
     L, R = (sim.site_pose(f) for f in SOLE_NAMES)
@@ -352,6 +420,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--accrual", action="store_true",
                     help="where the odometry's error accrues: per landing by context "
                          "(accrual)")  # fmt: skip
+    ap.add_argument("--budget", action="store_true",
+                    help="the odometry's error at the last landing split into the encoders' "
+                         "placements, the heading and the soles' unseen moves "
+                         "(LandingBudget)")  # fmt: skip
+    ap.add_argument("--trace", action="store_true",
+                    help="per landing: the stance sole's heading by the encoders' chain, "
+                         "the gyro, the blend, the band's switch, against the simulator's; "
+                         "then the soles, base and torso after the last landing")  # fmt: skip
+    ap.add_argument("--heading-gain", type=float, default=None, metavar="K",
+                    help="as benchmarks/drive.py --heading-gain")  # fmt: skip
     ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
                     help="the walker's lift gain (default: the Walker's)")  # fmt: skip
     ap.add_argument(
@@ -374,6 +452,29 @@ def main(argv: list[str] | None = None) -> int:
                          "it)")  # fmt: skip
     args = ap.parse_args(argv)
     robot = load_robot("bioloid")
+
+    def trace_line(walker, sim, side: str, q: np.ndarray, chain: float) -> None:
+        """--trace: one landing's stance-sole headings (degrees, world): the encoders'
+        chain, the gyro's, the blend, the band's switch, the truth; the gyro's torso heading
+        and the encoders' torso-to-sole turn against the simulator's."""
+        odo = walker.odometry
+        stance = "right" if side == "left" else "left"
+        frames = {"left": SOLE_NAMES[0], "right": SOLE_NAMES[1]}
+        (ts,) = robot.placements_in(q, "torso", [frames[stance]])
+        gyro = odo.heading + yaw_of(ts.rotation)
+        true_st = yaw_of(sim.site_pose(frames[stance]).rotation)
+        true_torso = yaw_of(sim.site_pose("torso").rotation)
+        true_ts = wrap_angle(true_st - true_torso)
+        switch = abs(wrap_angle(gyro - chain)) > odo.heading_band
+        d = math.degrees
+        print(f"  trace t {sim.time:6.2f} {stance:5s} stance: chain "
+              f"{d(wrap_angle(chain - true_st)):+6.2f} gyro "
+              f"{d(wrap_angle(gyro - true_st)):+6.2f} blend "
+              f"{d(wrap_angle(odo.soles[stance][2] - true_st)):+6.2f} (against the truth "
+              f"{d(true_st):+7.2f}){' SWITCH' if switch else ''}; torso heading "
+              f"{d(wrap_angle(odo.heading - true_torso)):+6.2f}, torso-to-sole "
+              f"{d(wrap_angle(yaw_of(ts.rotation) - true_ts)):+6.2f}", flush=True)  # fmt: skip
+
     limits, window = planning_envelope(robot)
     share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
     variations = models(robot, max(args.models) + 1, args.seed)
@@ -391,6 +492,7 @@ def main(argv: list[str] | None = None) -> int:
             self.start_frame = self.engine.centre.copy()
             self.landings: list = []  # (t, the odometry's frame, the simulator's, command)
             self.t_walk: float | None = None  # when the engine started walking (sim time)
+            self.budget = LandingBudget()
 
         def tick(self, dt=None):
             if self.t_walk is None and self.engine.walking and odometers:
@@ -398,12 +500,21 @@ def main(argv: list[str] | None = None) -> int:
             return super().tick(dt)
 
         def _landed(self, step):
+            odo = self.odometry
+            stance = "right" if step.side == "left" else "left"
+            chain = (float(odo.soles[stance][2]) if odo is not None and odo.started
+                     and stance in odo.soles else None)  # fmt: skip
             out = super()._landed(step)
             if self._offset is not None and odometers:
                 sim = odometers[-1].sim
                 est = self.engine.centre + self._offset
                 truth = soles_mid(sim)
                 self.landings.append((sim.time, est, truth, self.engine.command_velocity))
+                q = self._present_configuration()
+                if q is not None and self.odometry is not None:
+                    self.budget.landed(self.robot, sim, self.odometry, step.side, q)
+                    if args.trace and chain is not None:
+                        trace_line(self, sim, step.side, q, chain)
             return out
 
     class Sampled(odometer):  # the soles, base, support and headings every tick
@@ -451,7 +562,7 @@ def main(argv: list[str] | None = None) -> int:
                               window=window, track=args.track,
                               calibrate=args.calibrate, yaw_rest=args.yaw_rest,
                               finish=args.finish, lift_gain=args.lift_gain, play=args.play,
-                              play_hold=args.play_hold,
+                              play_hold=args.play_hold, heading_gain=args.heading_gain,
                               params=None if args.swing_settle is None
                               else EngineParams(settle=args.swing_settle),
                               start_yaw=math.radians(args.start_yaw))  # fmt: skip
@@ -473,10 +584,25 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  error (travelled − commanded): start frame ({100 * err[0]:+.2f}, "
                   f"{100 * err[1]:+.2f}) cm, world ({100 * world[0]:+.2f}, "
                   f"{100 * world[1]:+.2f}) cm", flush=True)  # fmt: skip
+            print("  parts (start frame): " + ", ".join(
+                f"{k} ({b[k + '_vec'][0]:+.2f}, {b[k + '_vec'][1]:+.2f}) cm"
+                for k in ("plan", "soles", "base")), flush=True)  # fmt: skip
+            if args.trace and walkers[0].landings:
+                rows = np.asarray(odometers[0].rows)
+                t_last = walkers[0].landings[-1][0]
+                for k in range(int(np.searchsorted(rows[:, 0], t_last)), len(rows), 10):
+                    print(f"  after the last landing: t {rows[k, 0]:6.2f} soles' yaw "
+                          f"{math.degrees(rows[k, 3]):+6.1f} {math.degrees(rows[k, 6]):+6.1f}° "
+                          f"base {math.degrees(rows[k, 9]):+6.1f}° support {rows[k, 10]:.0f} "
+                          f"torso {math.degrees(rows[k, 12]):+6.1f}° odometry's "
+                          f"{math.degrees(rows[k, 11]):+6.1f}°",
+                          flush=True)  # fmt: skip
             if args.contact:
                 print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
             if args.accrual:
                 print("\n".join(accrual(r, walkers[0], odometers[0], cmds)), flush=True)
+            if args.budget:
+                print(walkers[0].budget.line(), flush=True)
     if len(table) > 1:
         print("mean |.|: " + ", ".join(
             f"{k} {np.mean([abs(b[k]) for b in table if k in b]):.1f}"

@@ -14,7 +14,14 @@ from hypothesis import strategies as st
 
 from wbc import load_robot
 from wbc.compiled.rows import log3
-from wbc.drive.odometry import BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
+from wbc.drive.odometry import (
+    DRIVE_HEADING_BAND,
+    BaseHold,
+    LiftGain,
+    PlayInverse,
+    PoseOdometry,
+    StrideGain,
+)
 from wbc.exceptions import ConfigurationError
 from wbc.geometry import yaw_of
 from wbc.walking import StandingState
@@ -77,6 +84,47 @@ def test_a_stance_sole_turned_on_the_floor_is_seen(robot) -> None:
     left = start.right.xy + np.array([[c, -s], [s, c]]) @ (start.left.xy - start.right.xy)
     assert odo.soles["left"][:2] == pytest.approx(left, abs=1e-5)
     assert odo.soles["right"][:2] == pytest.approx(start.right.xy)  # (a sole does not slide)
+
+
+@pytest.mark.parametrize("gain", [0.25, 0.5, 1.0])
+def test_a_heading_gain_blends_the_gyros_stance_heading_with_the_encoders_chain(
+    robot, gain: float
+) -> None:
+    """``heading_gain`` k: at each landing the stance sole's heading moves the share k of
+    the way from the encoders' chain (where the last landing placed it) to the gyro's; a
+    turn the gyro keeps seeing is followed within (1 − k)^n after n landings, and a reading
+    that flips sign from one landing to the next is damped (k = 1: the gyro's at once)."""
+    q = robot.configuration("stand")
+    start = StandingState.from_robot(robot, q)
+    feet = {"left": start.left, "right": start.right}
+    torso = yaw_of(robot.frame_placement(q, "torso").rotation)
+    plain = PoseOdometry(robot)
+    plain.start(feet, torso)
+    planned = {side: plain.landed(side, q)[2] for side in ("left", "right")}
+    odo = PoseOdometry(robot, heading_gain=gain, heading_band=math.inf)
+    odo.start(feet, torso + 0.2)  # the gyro's heading 0.2 rad off the planned soles'
+    for n, side in enumerate(("left", "right", "left", "right"), start=1):
+        frame = odo.landed(side, q)
+        # (abs: the stand pose's soles are not quite flat: its planned soles and its joints'
+        # turn differ by 4e-4 rad)
+        assert frame[2] - planned[side] == pytest.approx(0.2 * (1 - (1 - gain) ** n), abs=1e-3)
+    banded = PoseOdometry(robot, heading_gain=gain)  # (DRIVE_HEADING_BAND: 1°)
+    banded.start(feet, torso + 0.2)  # a turn beyond the band: followed at once
+    frame = banded.landed("left", q)
+    assert frame[2] - planned["left"] == pytest.approx(
+        0.2 - (1 - gain) * DRIVE_HEADING_BAND, abs=1e-3
+    )
+    flip = PoseOdometry(robot, heading_gain=gain)
+    flip.start(feet, torso)
+    seen = []
+    for n, side in enumerate(("left", "right") * 4):
+        flip.heading = torso + (0.01 if n % 2 else -0.01)  # alternating ±0.01 rad
+        seen.append(flip.landed(side, q)[2] - planned[side])
+    assert max(abs(v) for v in seen[-4:]) == pytest.approx(0.01 * gain / (2 - gain), abs=1e-3)
+    with pytest.raises(ConfigurationError, match="heading_gain"):
+        PoseOdometry(robot, heading_gain=0.0)
+    with pytest.raises(ConfigurationError, match="heading_band"):
+        PoseOdometry(robot, heading_band=-1.0)
 
 
 @settings(max_examples=15, deadline=None)

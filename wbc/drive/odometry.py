@@ -16,6 +16,18 @@ IMU's gyro sees it. :class:`PoseOdometry` keeps each sole's pose in the walk's w
   by the present joints;
 * the walking frame measured is the soles' midpoint, heading their mean.
 
+**The stance sole's heading, blended** (``heading_gain`` k, the Walker's
+:data:`DRIVE_HEADING_GAIN`): at each landing the stance sole's heading
+moves the share k from the encoders' chain (where the last landing placed it, from the other
+sole) to the gyro's (the torso's heading plus the stance leg's torso-to-sole turn). The
+gyro's goes through one leg's joints, whose play and ticks read that leg's turn a few
+tenths of a degree off, differently for the two legs; the landed sole 6–7 cm beside it is
+then placed forward or back by that error, alternately, and the walk's position drifts. The
+blend damps the alternation (to k / (2 − k) of it) and follows a turn the gyro keeps seeing
+within (1 − k)^n after n landings (k = 1: the gyro's alone); where the two disagree by more
+than ``heading_band`` (:data:`DRIVE_HEADING_BAND`, 1°: a sole turned on the floor) the gyro's
+is followed at once, within (1 − k) × the band.
+
 **The gyro's bias about the vertical**, learnt at rest (:meth:`PoseOdometry.rest`): what
 the start-up calibration leaves about the vertical integrates into the heading unseen (the
 accelerometer levels only roll and pitch). Its 0.15 s of samples take any twist of a robot
@@ -53,6 +65,26 @@ from ..walking.geometry import rot2
 #: bias at full weight)
 WALK_TURN = 0.03
 
+#: the share of the gyro's stance-sole heading the outer loop's odometry takes at each
+#: landing (:class:`PoseOdometry` ``heading_gain``), the rest the
+#: encoders' chain (the heading the last landing placed the sole at); 1: the gyro's alone.
+#: The gyro's heading of a stance sole goes through the stance leg's joints, whose play and
+#: ticks read each leg's turn a few tenths of a degree off, differently for the two legs: at
+#: every landing the landed sole, 6–7 cm beside the stance sole, is then placed forward or
+#: back by that error, alternately, and the walk's position drifts. 0.5 damps it: random
+#: sequences 0–9 × randomised Bioloids 0–9 beside 1 (73 runs, with the band below,
+#: benchmarks/drive.md, 2026-12-06): displacement within 15 % 44 -> 48 of 73, mean error
+#: 22.0 -> 20.0 mm; heading 58 -> 58 of 63, mean 2.64 -> 2.95° (model 0, the most play:
+#: 14–22° on three runs: it turns on its soles while standing after the walk, with either
+#: gain — 4 s after the stop +31° with 1 on one of them —, its stance headings read no worse
+#: blended). An option (1 by default) until that standing spin is understood
+DRIVE_HEADING_GAIN = 1.0
+
+#: ... within this disagreement of the two (rad): beyond it the gyro's is followed (within
+#: (1 − gain) × it), a stance sole turned on the floor being taken at once (without it the
+#: randomised Bioloid with the most play ended a 30 s walk 41° off, benchmarks/drive.md)
+DRIVE_HEADING_BAND = math.radians(1.0)
+
 #: the share of the planned swing apex the swing sole should reach, measured
 #: (:class:`LiftGain`): below it the swing is planned higher
 LIFT_WANT = 0.7
@@ -64,9 +96,25 @@ class PoseOdometry:
     at each landing."""
 
     def __init__(
-        self, robot: Robot, gyro: bool = True, walk_gain: float = 0.0, encoder_rest: bool = False
+        self,
+        robot: Robot,
+        gyro: bool = True,
+        walk_gain: float = 0.0,
+        encoder_rest: bool = False,
+        heading_gain: float = 1.0,
+        heading_band: float = DRIVE_HEADING_BAND,
     ) -> None:
+        if not 0.0 < heading_gain <= 1.0:  # (NaN too)
+            raise ConfigurationError(f"heading_gain must be in (0, 1], got {heading_gain}")
+        if not heading_band >= 0.0:  # (NaN too)
+            raise ConfigurationError(f"heading_band must be >= 0 (rad), got {heading_band}")
+        #: the largest disagreement of the gyro's and the chain's stance heading blended (rad;
+        #: beyond it the gyro's is followed within (1 − heading_gain) × the band)
+        self.heading_band = float(heading_band)
         self.robot = robot
+        #: the share of the gyro's stance-sole heading taken at each landing (1: all of it;
+        #: below, the rest is the encoders' chain: :meth:`landed`)
+        self.heading_gain = float(heading_gain)
         #: at rest, the torso's turn seen by the encoders is not bias (:meth:`rest`)
         self.encoder_rest = bool(encoder_rest)
         #: > 0: the bias about the vertical learnt while walking too (:meth:`landed`)
@@ -153,7 +201,11 @@ class PoseOdometry:
                 # floor — less likely the less the feet turn (WALK_TURN, rad)
                 weight = self.walk_gain / (1.0 + (turn / WALK_TURN) ** 2)
                 self.yaw_bias += weight * wrap_angle(gyro - st[2]) / (self.time - since)
-            st[2] = gyro
+            k, band = self.heading_gain, self.heading_band
+            if k >= 1.0:
+                st[2] = gyro
+            else:  # (beyond the band the gyro's turn is taken: a sole turned on the floor)
+                st[2] = gyro - (1.0 - k) * min(max(wrap_angle(gyro - st[2]), -band), band)
         rel = M_st.actInv(M_sw)
         xy = st[:2] + rot2(st[2]) @ rel.translation[:2]
         self.soles[side] = np.array([xy[0], xy[1], wrap_angle(st[2] + yaw_of(rel.rotation))])

@@ -51,7 +51,7 @@ from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
-from .odometry import BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
+from .odometry import DRIVE_HEADING_GAIN, BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
 DRIVE_K_DCM = 0.1
@@ -263,6 +263,9 @@ class Walker:
     by the odometry and, off the commanded pose, at most this many finish steps aimed from
     the measured frame (:class:`~wbc.drive.finish.FinishSteps`, ``finish_xy``: the position
     corrected too; :attr:`walking` stays True meanwhile).
+    ``heading_gain`` (outer loop; :data:`~wbc.drive.odometry.DRIVE_HEADING_GAIN`, 1: the gyro's
+    alone; 0.5 an option, docs/drive.md): the share of the gyro's stance-sole heading taken
+    at each landing (PoseOdometry).
     """
 
     def __init__(
@@ -295,6 +298,7 @@ class Walker:
         hold: float = 0.0,
         finish_steps: int = DRIVE_FINISH_STEPS_AFTER,
         finish_xy: bool = False,
+        heading_gain: float = DRIVE_HEADING_GAIN,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -378,7 +382,11 @@ class Walker:
         self.engine.on_landing = self._landed if closed else None
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
         self.odometry = (
-            PoseOdometry(robot, walk_gain=yaw_learn, encoder_rest=encoder_rest) if track else None
+            PoseOdometry(
+                robot, walk_gain=yaw_learn, encoder_rest=encoder_rest, heading_gain=heading_gain
+            )
+            if track
+            else None
         )
         #: the steps' measured shortfall (with the outer loop and ``stride_gain`` > 1)
         self.stride = StrideGain(stride_gain) if track and stride_gain > 1 else None
