@@ -29,7 +29,10 @@ L / (m h ω₀)``, the DCM with the centroidal angular momentum ``L`` about ``z 
 
 (The swing and torso target columns are the stabilizer's, before the step adjuster's
 ``land``: the landing correction, the lift, the lead and ``catch_pitch`` are not in them;
-the last column, "sent", is the swing target after ``land``: what the solve is given.)
+the column "sent" is the swing target after ``land``: what the solve is given; then both
+soles' z with the controller's own (the last solve's) z and pitch, in the double support after
+a caught landing the ``descend`` gap and offset, the knees and the hip and ankle pitches with
+their goals.)
 """
 
 from __future__ import annotations
@@ -78,7 +81,8 @@ def trace(
     force = u * impulse / PUSH_DURATION
     roles = robot.roles
     side_joint = {(side, role): robot.joint_index(j) for side in ("left", "right")
-                  for role in ("hip_roll", "shoulder_roll", "ankle_roll", "knee")
+                  for role in ("hip_roll", "shoulder_roll", "ankle_roll", "knee", "hip_pitch",
+                               "ankle_pitch")
                   if (j := roles.get(side, role)) is not None}  # fmt: skip
     spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
                           SteppingParams(**stepping), HoldParams())  # fmt: skip
@@ -148,6 +152,12 @@ def trace(
             "err_sim": 1e3 * (c[0] + v[0] / omega - dcm_ref[0]),
             "target": 1e3 * np.asarray(out.swing_position, dtype=float),
             "sole": 1e3 * swing, "f_l": force_of[0], "f_r": force_of[1],
+            "z_lr": [1e3 * float(sim.site_pose(f).translation[2]) for f in ("l_sole", "r_sole")],
+            "z_cmd": [1e3 * float(robot.frame_placement(q_cmd, f).translation[2])
+                      for f in ("l_sole", "r_sole")],
+            "pitch_cmd": [math.degrees(math.asin(float(np.clip(
+                -robot.frame_placement(q_cmd, f).rotation[2, 0], -1, 1))))
+                for f in ("l_sole", "r_sole")],
             "pitch": math.degrees(math.asin(float(np.clip(-R[2, 0], -1.0, 1.0)))),
             "soles": [math.degrees(math.asin(float(np.clip(-sim.site_pose(f).rotation[2, 0],
                                                            -1.0, 1.0))))
@@ -163,6 +173,7 @@ def trace(
         out = landed_original(self, targets, est, q)
         if rows:
             rows[-1]["landed"] = 1e3 * np.asarray(out.swing_position, dtype=float)
+            rows[-1]["descent"] = (1e3 * self.descent.gap, 1e3 * self.descent.offset)
         return out
 
     stab_mod.Stabilizer.adjust = observed  # type: ignore[method-assign]
@@ -218,19 +229,30 @@ def main() -> None:
     print(
         "| ms after push | phase | swing | DCM err est / sim mm | swing target x, z | sole x, z "
         "| F left / right N | pitch change ° | torso pitch, target ° | sole pitch l / r ° "
-        "| sent x, z |"
+        "| sent x, z | sole z l / r (solved) | landed gap, lowered mm | knee l / r (goal) ° |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     t0, p0 = rows[jump]["t"] if rows else 0.0, rows[jump]["pitch"] if rows else 0.0
     for r in rows[max(jump - 3, 0) : jump + a.ticks]:
         sent = r.get("landed", r["target"])
+        gap, low = r.get("descent", (0.0, 0.0)) if r["phase"] == "double" else (0.0, 0.0)
         print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} | {r['swing']} "
               f"| {r['err_est']:.1f} / {r['err_sim']:.1f} "
               f"| {r['target'][0]:.1f}, {r['target'][2]:.1f} | {r['sole'][0]:.1f}, "
               f"{r['sole'][2]:.1f} | {r['f_l']:.1f} / {r['f_r']:.1f} "
               f"| {r['pitch'] - p0:+.1f} | {r['pitch']:+.1f}, {r['cmd']:+.1f} "
               f"| {r['soles'][0]:+.1f} / {r['soles'][1]:+.1f} "
-              f"| {sent[0]:.1f}, {sent[2]:.1f} |")  # fmt: skip
+              f"| {sent[0]:.1f}, {sent[2]:.1f} | {r['z_lr'][0]:.1f} / {r['z_lr'][1]:.1f} "
+              f"({r['z_cmd'][0]:.1f} / {r['z_cmd'][1]:.1f}; "
+              f"{r['pitch_cmd'][0]:+.1f} / {r['pitch_cmd'][1]:+.1f}°) "
+              f"| {gap:.1f}, {low:.1f} | {r['joints'].get('l_knee', 0):+.1f} / "
+              f"{r['joints'].get('r_knee', 0):+.1f} ({r['goals'].get('l_knee', 0):+.1f} / "
+              f"{r['goals'].get('r_knee', 0):+.1f}) "
+              + "| " + " / ".join(f"{r['joints'][s + '_hip_pitch']:+.1f}, "
+                                  f"{r['joints'][s + '_ankle_pitch']:+.1f} "
+                                  f"({r['goals'][s + '_hip_pitch']:+.1f}, "
+                                  f"{r['goals'][s + '_ankle_pitch']:+.1f})" for s in "lr")
+              + " |")  # fmt: skip
 
 
 def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
@@ -247,7 +269,7 @@ def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
         "| hip roll h | torso top along u, target | hip roll l / r ° (τ N·m) | shoulder l / r ° "
         "| ξ / η from the pushed stance | L | stance hip, ankle roll (goal) ° |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     t0 = rows[jump]["t"] if rows else 0.0
     pushed = rows[jump]["stance_site"] if rows else "l_sole"
     side = "l" if pushed == "l_sole" else "r"

@@ -985,3 +985,127 @@ def test_a_triggered_swing_lands_sooner_up_to_catch_hurry_with_hurry_single(robo
     new = plain.update(walk10, MID, dcm(walk10, MID, w) + big)
     assert new is not None and plain.episode is not None and not plain.trigger.carried(i)
     assert plain.rate(new, i, dcm(new, i, w) + big) == 1.0
+
+
+def _landed_up(robot, walk10, params, jump=-0.02, knee=0.15, tick=1):
+    """(adjuster triggered at MID, targets at the ``tick``-th tick of the double support
+    after that swing's landing, estimate, q, the landed sole's frame, its measured gap): the
+    landed leg's knee read ``knee`` rad more bent than solved (its sole up)."""
+    from wbc.balance.estimator import StateEstimator
+
+    adj = _triggered(robot, walk10, params, jump=jump)
+    j = next(k for k, ph in enumerate(adj.phases) if ph.kind == "double" and ph.i0 >= LAND)
+    ds, prev = adj.phases[j], adj.phases[j - 1]
+    side = adj.plan.steps[prev.step].side
+    _, tg, est, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=ds.i0 + tick)
+    estimator = StateEstimator(robot, walk10.com_height)
+    estimator.last = est
+    s = 0 if side == "left" else 1
+    best = None
+    for sign in (1.0, -1.0):  # (the ankle turned back by as much: the sole kept level)
+        joints = q[7:].copy()
+        joints[robot.joint_index(robot.roles.get(side, "knee"))] += knee
+        joints[robot.joint_index(robot.roles.get(side, "ankle_pitch"))] -= sign * knee
+        h = estimator.sole_heights(joints, q[7:])
+        if best is None or h[s] - h[1 - s] > best[1]:
+            best = (joints, float(h[s] - h[1 - s]))
+    joints, gap = best
+    adj.contact, adj.present = estimator, lambda: joints.copy()
+    return adj, tg, est, q, f"{side[0]}_sole", gap
+
+
+def test_the_landed_sole_comes_down_after_a_caught_swing_with_descend(robot, walk10):
+    """``descend``: in the double support after a swing the catch of a push backward carried,
+    the landed sole's contact target comes down by ``d += descend · gap · dt`` (its lowest
+    point measured above the other sole's), at most ``descend_depth``, blended out over the
+    support's last ``descend_out`` share (``contacts_move``: the controller takes it); the
+    other sole and everything else as planned. Nothing without a catch, after a push
+    forward, with the sole down, nor by default."""
+    params = SteppingParams(descend=50.0, descend_depth=0.012, lift=0.0, landing=0.0, toe_up=0.0)
+    adj, tg, est, q, frame, gap = _landed_up(robot, walk10, params)
+    assert gap > 0.004  # (the bent knee lifts the sole: 5 mm and more)
+    other = "r_sole" if frame == "l_sole" else "l_sole"
+    dt = walk10.dt
+    out = adj.land(tg, est, q)
+    d1 = min(50.0 * gap * dt, 0.012)
+    assert out.contacts_move and d1 > 1e-3
+    np.testing.assert_allclose(
+        out.sole(frame).translation, tg.sole(frame).translation - [0.0, 0.0, d1], atol=1e-12
+    )
+    np.testing.assert_allclose(out.sole(frame).rotation, tg.sole(frame).rotation)
+    assert out.sole(other) is tg.sole(other) and out.com is tg.com
+    again = adj.land(tg, est, q)  # (the same gap a tick later: the offset grows, capped)
+    d2 = min(d1 + 50.0 * gap * dt, 0.012)
+    assert d2 > d1
+    np.testing.assert_allclose(
+        again.sole(frame).translation[2], tg.sole(frame).translation[2] - d2, atol=1e-12
+    )
+    for _ in range(20):
+        adj.land(tg, est, q)
+    assert adj.descent.offset == pytest.approx(0.012)  # (descend_depth)
+    ph = adj.phases[adj.phase_of[tg.i]]  # the double support's last tick: blended out
+    _, last, e, qq, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=ph.i1 - 1)
+    x = 1.0 / (ph.i1 - ph.i0) / params.descend_out
+    low = adj.land(last, e, qq).sole(frame).translation[2] - last.sole(frame).translation[2]
+    assert low == pytest.approx(-0.012 * x * x * (3 - 2 * x), abs=1e-12) and low > -0.012
+    down, tg, est, q, _, gap = _landed_up(robot, walk10, params, knee=0.0)
+    assert gap <= 0.0 and down.land(tg, est, q) is tg  # (down: nothing to lower)
+    fwd, tg, est, q, _, _ = _landed_up(robot, walk10, params, jump=0.02)
+    assert fwd.trigger.forward and fwd.land(tg, est, q) is tg
+    fresh = StepAdjuster(robot, walk10, params)  # no catch
+    fresh.contact, fresh.present = adj.contact, adj.present
+    assert fresh.land(tg, est, q) is tg
+    off, tg, est, q, _, _ = _landed_up(robot, walk10, SteppingParams(lift=0.0, toe_up=0.0))
+    assert off.land(tg, est, q).l_sole is tg.l_sole and SteppingParams().descend == 0.0
+    with pytest.raises(ConfigurationError, match="descend"):
+        SteppingParams(descend=-1.0).check()
+
+
+def test_the_clock_stands_while_the_landed_sole_is_up_with_descend_hold(robot, walk10):
+    """``descend_hold``: in that double support the walk's clock stands (rate 0) while the
+    landed sole was last measured more than ``descend_band`` up, at most ``descend_hold`` s;
+    then the rate it had (``catch_hurry``'s); not with the sole down, not without it."""
+    params = SteppingParams(descend=50.0, descend_hold=0.03, lift=0.0, landing=0.0, toe_up=0.0)
+    adj, tg, est, q, _, gap = _landed_up(robot, walk10, params)
+    assert gap > params.descend_band and adj.hurries
+    ref, i = adj.current, tg.i
+    xi = dcm(ref, i, adj.omega)
+    adj.land(tg, est, q)
+    rates = [adj.rate(ref, i, xi) for _ in range(5)]
+    assert rates[:3] == [0.0, 0.0, 0.0] and 0.0 not in rates[3:]  # 3 ticks of 10 ms
+    down, tg, est, q, _, _ = _landed_up(robot, walk10, params, knee=0.0)
+    down.land(tg, est, q)
+    assert down.rate(down.current, tg.i, xi) != 0.0
+    plain, tg, est, q, _, _ = _landed_up(robot, walk10, replace_params(params, descend_hold=0.0))
+    plain.land(tg, est, q)
+    assert plain.rate(plain.current, tg.i, xi) != 0.0
+
+
+def replace_params(params, **changes):
+    from dataclasses import replace
+
+    return replace(params, **changes)
+
+
+def test_a_catch_of_a_push_backward_reaches_further_with_back_shift(robot, walk10):
+    """``back_shift``, ``back_foot_speed``: in the swings the catch of a push backward carries
+    the footstep may move that far and the swing's bend that fast (the re-plan takes more of
+    a large error); after a push forward, without a catch, or at 0: ``max_shift`` and
+    ``max_foot_speed``."""
+    params = SteppingParams()
+    assert (params.back_shift, params.back_foot_speed) == (0.1, 0.8)
+    same = SteppingParams(back_shift=0.0, back_foot_speed=0.0)
+    plain = (params.max_shift, params.max_foot_speed)
+    adj, off = _triggered(robot, walk10, params), _triggered(robot, walk10, same)
+    i = MID + params.hold_ticks + 1
+    assert adj.reach(i) == (0.1, 0.8) and off.reach(i) == plain
+    assert _triggered(robot, walk10, params, jump=0.02).reach(i) == plain  # (forward)
+    assert StepAdjuster(robot, walk10, params).reach(i) == plain  # (no catch)
+    got = []
+    for a in (adj, off):
+        ref = a.current
+        assert a.update(ref, i, dcm(ref, i, a.omega) + [-0.2, 0.0]) is not None
+        got.append(float(np.linalg.norm(a.shift)))
+    assert got[0] > got[1] + 0.005 and got[0] <= 0.1 + 1e-9 and got[1] <= 0.08 + 1e-9
+    with pytest.raises(ConfigurationError, match="back_shift"):
+        SteppingParams(back_shift=-0.1).check()

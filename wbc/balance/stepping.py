@@ -96,7 +96,17 @@ backward, the stance sole rolled onto its heel (``landing_tilt``, on): the estim
 its centre on the floor
 and reads the base low by the heel's drop (:meth:`StepAdjuster.stance_rise`, from the IMU
 and the present joints), so the measured-frame landing put the next sole 13–22 mm high;
-the correction takes the base that much higher.
+the correction takes the base that much higher. In those swings (after a push backward)
+the footstep may move ``back_shift`` (0.10 m, not ``max_shift``'s 0.08) and the bend run at
+``back_foot_speed`` (0.8 m/s, the servos' no-load speed at the lever): :meth:`StepAdjuster.
+reach` (backward 0.711 → 0.727 N·s; after any push, forward 0.852 → 0.688: not done there).
+**The double support after a caught
+landing** (``descend``, ``descend_hold``; off: measured worse, benchmarks/pushes.md): the
+landed sole is a support in the plan from its first tick while a body rolled back on its
+stance heel keeps it 10–18 mm up; :class:`~.swing_catch.LandedDescent` lowers its contact
+target by the gap the soles' lowest points show, and with ``descend_hold`` the clock stands
+until it is down (bounded) — the sole comes down no sooner: its knee extends at the servo's
+speed behind a goal already moving at the limiter's.
 The parameters: :mod:`.stepping_params`.
 """
 
@@ -126,7 +136,7 @@ from ..walking.schedule import (
 )
 from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
 from .stepping_params import BAND_X, BAND_Y, TRIGGER_SHARE, SteppingParams
-from .swing_catch import MeasuredLanding, PushTrigger
+from .swing_catch import LandedDescent, MeasuredLanding, PushTrigger
 
 __all__ = ["BAND_X", "BAND_Y", "TRIGGER_SHARE", "StepAdjuster", "SteppingParams", "can_step"]
 
@@ -195,6 +205,8 @@ class StepAdjuster:
         self.trigger = PushTrigger(self.params, self.phases, self.phase_of, ref.dt)
         #: the swing's landing in the measured frame (landing, landing_catch)
         self.landing = MeasuredLanding(self.params, self.phases, self.phase_of, ref.dt, torso_b)
+        #: the landed sole lowered in the double support after a caught landing (descend)
+        self.descent = LandedDescent(self.params, self.phases, self.phase_of, ref.dt)
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
         self.current: WalkingReference | None = None  # the walk's reference (:meth:`update`)
@@ -313,7 +325,15 @@ class StepAdjuster:
         (:meth:`MeasuredLanding.land`; single support, else ``targets`` itself)."""
         targets = self.trigger.pitched(targets) if self.enabled else targets
         if targets.phase != "single":
-            return targets
+            step = self._descending(targets.i)
+            if step is None:
+                return targets
+            h = self._heights(q)
+            if h is None:
+                return targets
+            frame = "l_sole" if self.plan.steps[step].side == "left" else "r_sole"
+            s = 0 if frame == "l_sole" else 1
+            return self.descent.lowered(targets, frame, float(h[s] - h[1 - s]))
         vel = None
         ref = self.current
         if self.params.lead > 0 and ref is not None and targets.i < ref.n:  # (lead)
@@ -329,16 +349,32 @@ class StepAdjuster:
         IMU's rotation and the present joints): a sole rolled onto its heel (a push
         backward: 15–25°) reads the base that much low (``landing_tilt``; 0 without the
         estimator or the present positions)."""
-        est, present = self.contact, self.present
-        if est is None or present is None or est.last is None:
+        h = self._heights(q)
+        if h is None:
             return 0.0
-        joints = present()
-        if joints is None:
-            return 0.0
-        h = est.sole_heights(np.asarray(joints, dtype=float), np.asarray(q[7:], dtype=float))
         s = 0 if targets.support == "l_sole" else 1
         floor = float(targets.support_placement.translation[2])
         return max(0.0, floor - float(h[s]))
+
+    def _heights(self, q: np.ndarray) -> np.ndarray | None:
+        """Both soles' lowest points (m, SOLE_FRAMES order) where the estimator's last estimate
+        and the present joints put them (:meth:`~.estimator.StateEstimator.sole_heights`;
+        the joints ``q`` solved last stand in for the unread), or None without them."""
+        est, present = self.contact, self.present
+        if est is None or present is None or est.last is None:
+            return None
+        joints = present()
+        if joints is None:
+            return None
+        return est.sole_heights(np.asarray(joints, dtype=float), np.asarray(q[7:], dtype=float))
+
+    def _descending(self, i: int) -> int | None:
+        """The step that landed at tick ``i``'s double support when ``descend`` lowers it (the
+        swing before it a caught one after a push backward: :class:`LandedDescent`), else
+        None."""
+        if self.params.descend <= 0 or not self.enabled or self.trigger.forward:
+            return None
+        return self.descent.active(i, self.trigger.carried)
 
     def triggered(self, i: int) -> bool:
         """True when a DCM jump (``trigger_jump``) started a catch in tick ``i``'s phase."""
@@ -350,7 +386,11 @@ class StepAdjuster:
         1 and no ``touchdown``, or off): not called."""
         p = self.params
         return self.enabled and (
-            p.hurry != 1.0 or p.catch_hurry != 1.0 or p.touchdown > 0 or p.slow != 1.0
+            p.hurry != 1.0
+            or p.catch_hurry != 1.0
+            or p.touchdown > 0
+            or p.slow != 1.0
+            or (p.descend > 0 and p.descend_hold > 0)
         )
 
     @property
@@ -366,6 +406,7 @@ class StepAdjuster:
                 or p.toe_up > 0
                 or p.catch_pitch != 0.0
                 or p.landing_depth > 0
+                or p.descend > 0
             )
         )
 
@@ -381,6 +422,8 @@ class StepAdjuster:
                 return 1.0 + (jump - i)
         if not self.enabled:
             return 1.0
+        if p.descend_hold > 0 and self._descending(i) is not None and self.descent.holds(ref.dt):
+            return 0.0  # (the landed sole still up: the clock stands, descend_hold)
         if p.slow != 1.0 and ref.support[i] != SUPPORT_DOUBLE and self.triggered(i):
             return p.slow  # (a triggered swing: its landing later)
         if p.hurry == 1.0 and p.catch_hurry == 1.0:
@@ -406,7 +449,7 @@ class StepAdjuster:
             # the landing time T' that leaves the swing the most room beyond the shift it
             # needs: room v T' (v the swing's added reach per second left), need e e^{ω T'}
             # (LIPM): T* = ln(v / (ω e)) / ω; the clock runs T / T* (1 … hurry)
-            v = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing) / left
+            v = self.reach(i)[1] / bend_rate(ph, i, ref.dt, self.swing) / left
             best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
             return min(max(left / max(best, p.min_remaining), 1.0), cap)
         speed = p.catch_hurry if self.trigger.before_carried(i) else p.hurry  # (catch_hurry)
@@ -415,6 +458,17 @@ class StepAdjuster:
         e = np.asarray(dcm[:2], float) - self._dcm_ref(ref, i)
         c, s = self._heading(ref, i)
         return speed if abs(c * e[0] + s * e[1]) > p.hurry_band else 1.0
+
+    def reach(self, i: int) -> tuple[float, float]:
+        """(``max_shift``, ``max_foot_speed``) for the swing of tick ``i``: in a swing the
+        catch of a push backward carries (the trigger's, :meth:`~.swing_catch.PushTrigger.
+        carried`), ``back_shift`` and ``back_foot_speed`` instead (0: the same)."""
+        p = self.params
+        if (p.back_shift > 0 or p.back_foot_speed > 0) and (
+            self.trigger.carried(i) and not self.trigger.forward
+        ):
+            return p.back_shift or p.max_shift, p.back_foot_speed or p.max_foot_speed
+        return p.max_shift, p.max_foot_speed
 
     def _swing_phase(self, k: int) -> Phase:
         """The single support in which step ``k`` swings."""
@@ -564,16 +618,15 @@ class StepAdjuster:
                 wanted0 = want.copy()
                 if math.hypot(want[0], want[1]) < p.threshold:
                     return None
+            sw = ph if j == 0 and ph.kind == "single" else self._swing_phase(kk)
+            at = i if sw is ph else sw.i0
+            most, speed = self.reach(at)
             total = incs[j] + p.gain * want
             n = math.hypot(total[0], total[1])
-            if n > p.max_shift:
-                total *= p.max_shift / n
+            if n > most:
+                total *= most / n
             # the swing sole can move only so far in the time left (bend_rate: peak speed per m)
-            if j == 0 and ph.kind == "single":
-                room = p.max_foot_speed / bend_rate(ph, i, ref.dt, self.swing)
-            else:
-                sw = self._swing_phase(kk)
-                room = p.max_foot_speed / bend_rate(sw, sw.i0, ref.dt, self.swing)
+            room = speed / bend_rate(sw, at, ref.dt, self.swing)
             change = total - incs[j]
             n = math.hypot(change[0], change[1])
             if n > room:

@@ -44,6 +44,13 @@ class SteppingParams:
     max_shift: float = 0.08  # m: largest shift of a step from the plan before its re-plans
     max_foot_speed: float = 0.6  # m/s: peak speed the bend adds to the swing sole (≈ 0.75 of
     # the AX-12A's no-load speed at the ~0.13 m hip-to-ankle lever)
+    #: m, m/s: ``max_shift`` and ``max_foot_speed`` in the swings the catch of a push backward
+    #: carries (:meth:`~.stepping.StepAdjuster.reach`; 0: the same): the body falling back
+    #: on its heels needs the reach and the first swing's room (its bend at the AX-12A's
+    #: no-load speed at the lever, the limiter holding every goal within the servos'
+    #: speed); after a push forward measured worse (0.852 → 0.688 N·s), kept there
+    back_shift: float = 0.1
+    back_foot_speed: float = 0.8
     hold_ticks: int = 3  # ticks between two re-plans
     #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
@@ -92,6 +99,19 @@ class SteppingParams:
     #: share): the servos' lag and a body rolling back on its stance heel keep the sole
     #: above the floor at the planned landing (0: off)
     landing_depth: float = 0.0
+    #: 1/s: in the double support after a caught landing (:class:`~.swing_catch.
+    #: LandedDescent`), the landed sole's contact target lowered by ``d``, ``d += descend ·
+    #: gap · dt`` (``gap``: its lowest point measured above the other sole's), within
+    #: ``0 … descend_depth`` m, blended out over the double support's last ``descend_out``
+    #: share (0: off); ``descend_hold`` s: the walk's clock stands, at most that long, while
+    #: the gap is above ``descend_band`` m (0: not held) (off: measured worse, every push
+    #: of the backward screen the same or sooner down; the landed knee extends at the servo's
+    #: speed behind a goal the limiter already moves at its own; benchmarks/pushes.md)
+    descend: float = 0.0
+    descend_depth: float = 0.02
+    descend_out: float = 0.3
+    descend_hold: float = 0.0
+    descend_band: float = 0.003
     #: s: > 0: the correction less its running mean per stance side (this time constant):
     #: a plant's steady lag of its plan left alone, a push's departure from it corrected
     landing_tau: float = 0.0
@@ -203,9 +223,11 @@ class SteppingParams:
     def check(self) -> SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
+            "back_shift", "back_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
-            "landing_depth", "hurry",
+            "landing_depth", "descend", "descend_depth", "descend_out",
+            "descend_hold", "descend_band", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
             "pitch_time", "lead", "toe_up",

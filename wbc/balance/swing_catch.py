@@ -281,3 +281,70 @@ class MeasuredLanding:
         return targets.replace(
             swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
         )
+
+
+class LandedDescent:
+    """The double support after a caught landing (``descend``; :mod:`.stepping`): the sole
+    that just landed is a support in the plan from its first tick, but a body rolled back on
+    its stance heel keeps it 10–18 mm above the floor, carrying nothing, for 40–60 ms (issue
+    30). While it is measured up — its lowest point above the other sole's
+    (:meth:`~.estimator.StateEstimator.sole_heights`: the IMU's rotation and the present
+    joints; the stance sole on its heel has its lowest corner on the floor) — its contact
+    target is lowered: the offset integrates the measured gap, ``d += descend · gap · dt``
+    (within ``0 … descend_depth``; a gap below zero takes it back), and is blended out over
+    the double support's last ``descend_out`` share (the support after it starts from the
+    plan's soles). With ``descend_hold`` > 0 the walk's clock stops while the gap is above
+    ``descend_band`` (the stance sole is not lifted off before the landed one carries), at
+    most that long per double support."""
+
+    def __init__(
+        self, params: SteppingParams, phases: list[Phase], phase_of: np.ndarray, dt: float
+    ) -> None:
+        self.params, self.phases, self.phase_of, self.dt = params, phases, phase_of, dt
+        self._phase = -1  # the double support the offset belongs to
+        self.offset = 0.0  # m: how far the landed sole's contact target is lowered
+        self.gap = 0.0  # m: the landed sole's lowest point above the other's, last read
+        self.held = 0.0  # s the clock has stood in this double support (descend_hold)
+
+    def active(self, i: int, carried: Callable[[int], bool]) -> int | None:
+        """The step that landed at the start of tick ``i``'s double support when its swing was
+        a caught one (``carried``), else None (a new double support: the offset from zero)."""
+        j = int(self.phase_of[i])
+        ph = self.phases[j]
+        if ph.kind != "double" or j == 0:
+            return None
+        prev = self.phases[j - 1]
+        if prev.kind != "single" or prev.i1 <= prev.i0 or not carried(prev.i1 - 1):
+            return None
+        if j != self._phase:
+            self._phase, self.offset, self.gap, self.held = j, 0.0, 0.0, 0.0
+        return int(prev.step)
+
+    def lowered(self, targets: Any, frame: str, gap: float) -> Any:
+        """``targets`` with the contact target of ``frame`` (the landed sole) lowered by the
+        offset after this tick's measured ``gap`` (m), blended out over the double
+        support's last ``descend_out`` share; ``contacts_move`` set (the controller sets the
+        contacts' targets this tick)."""
+        p = self.params
+        self.gap = gap
+        self.offset = min(max(self.offset + p.descend * gap * self.dt, 0.0), p.descend_depth)
+        ph = self.phases[self.phase_of[targets.i]]
+        w = smooth((ph.i1 - targets.i) / max(ph.i1 - ph.i0, 1) / max(p.descend_out, 1e-9))
+        d = self.offset * w
+        if d <= 0.0:
+            return targets
+        sole = targets.sole(frame)
+        moved = pin.SE3(sole.rotation, sole.translation - np.array([0.0, 0.0, d]))
+        key = "l_sole" if frame == "l_sole" else "r_sole"
+        return targets.replace(**{key: moved}, contacts_move=True)
+
+    def holds(self, dt: float) -> bool:
+        """True when the walk's clock should stand for ``dt`` more seconds (``descend_hold``):
+        the landed sole last measured more than ``descend_band`` up, not yet held that long."""
+        p = self.params
+        if p.descend_hold <= 0 or self.gap <= p.descend_band:
+            return False
+        if self.held + dt > p.descend_hold + 1e-9:
+            return False
+        self.held += dt
+        return True
