@@ -125,6 +125,70 @@ def test_cached_distances_equal_the_exact_ones_along_a_motion(robot):
     assert lim.distances.exact_computations < fresh.exact_computations
 
 
+def test_the_kernels_lever_arms_move_the_bounds_as_the_whole_matrix_does(robot):
+    """The lever arms the kernel reads (each joint's non-zero ones, :func:`sparse_arms`) are L
+    without its zeros, and move every pair's bound, bit for bit, as the whole of L does joint
+    by joint (a query below every bound: the bounds are the arms' alone)."""
+    from wbc.limits.collision_kernels import sparse_arms
+
+    lim = SelfCollisionConstraint(robot, samples=100)
+    pd = lim.distances
+    start, pair, arm = sparse_arms(pd.L)
+    assert np.array_equal(start, pd._L_start) and np.array_equal(arm, pd._L_arm)
+    dense = np.zeros_like(pd.L.T)
+    for i in range(dense.shape[0]):
+        e = slice(start[i], start[i + 1])
+        assert np.all(np.diff(pair[e]) > 0) and np.all(arm[e] != 0.0)
+        dense[i, pair[e]] = arm[e]
+    assert np.array_equal(dense, pd.L.T) and 0 < arm.size < pd.L.size
+    rng = np.random.default_rng(5)
+    q = robot.configuration("walk_ready")
+    kin = Kinematics(robot, q)
+    pd.close(kin, -np.inf)
+    pd._bound[:] = rng.uniform(0.01, 0.2, pd._bound.size)
+    want, last = pd._bound.copy(), q[7:].copy()
+    for _ in range(30):
+        q = robot.clip_to_limits(robot.integrate(q, np.r_[np.zeros(6), rng.normal(0, 0.03, 18)]))
+        kin.update(q)
+        assert pd.close(kin, -np.inf) == 0
+        for i, step in enumerate(np.abs(q[7:] - last)):
+            if step != 0.0:
+                for k in range(want.size):
+                    want[k] -= pd.L[k, i] * step
+        last = q[7:].copy()
+        assert np.array_equal(pd._bound, want)
+
+
+def test_the_bound_kernel_call_follows_its_kinematics_and_buffers(robot):
+    """``rows_into`` keeps the kernel's arguments for one Kinematics and its compiled entry
+    point (no dispatch) per G, h: with two buffers taken in turn, then another Kinematics,
+    every call's rows are those of a fresh limit at that call's configuration."""
+    limit = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING)
+    rng = np.random.default_rng(6)
+    kins = [Kinematics(robot, robot.configuration("walk_ready")) for _ in range(2)]
+    most = limit.max_rows
+    buffers = [(np.zeros((most + 2, robot.nv)), np.zeros(most + 2)) for _ in range(2)]
+    q = robot.configuration("walk_ready")
+    seen = 0
+    for t in range(12):
+        q = robot.clip_to_limits(robot.integrate(q, np.r_[np.zeros(6), rng.normal(0, 0.05, 18)]))
+        kin = kins[t // 6]
+        kin.update(q)
+        G, h = buffers[t % 2]
+        m = limit.rows_into(kin, G, h, 1)
+        want = SelfCollisionConstraint(robot, MARGIN, TRIGGER, DAMPING).compute(
+            Kinematics(robot, q)
+        )
+        assert m == want.h.size
+        assert np.array_equal(G[1 : 1 + m], want.G) and np.array_equal(h[1 : 1 + m], want.h)
+        seen += m
+    assert seen > 0
+    from wbc.limits.collision_packed import packed_rows
+
+    entries = list(limit._entries.values())
+    assert len(entries) == 2 and all(e[0] is not packed_rows for e in entries)  # (entry points)
+
+
 def _model_and_pairs(robot, lim):
     from wbc.limits.self_collision import _cached_collision_model
 

@@ -23,6 +23,8 @@ from .robot_data import ROBOT_KEYS, RobotData
 from .roles import JointRoles, find_roles
 from .servo_map import ServoMap
 
+_F8 = np.dtype(np.float64)  # (the dtype of a float64 array: checked by identity)
+
 WORLD = pin.ReferenceFrame.WORLD
 #: how far the base quaternion of a configuration may be from unit norm
 QUATERNION_TOL = 1e-6
@@ -392,7 +394,8 @@ class Robot:
         """Return ``q`` as a C-contiguous float array after checking its size, its finiteness
         and its base quaternion (unit to :data:`QUATERNION_TOL`: a zero or scaled quaternion
         is no rotation, and is refused rather than normalised)."""
-        q = np.ascontiguousarray(q, dtype=float)
+        if not (type(q) is np.ndarray and q.dtype is _F8 and q.flags.c_contiguous):
+            q = np.ascontiguousarray(q, dtype=float)  # (else q itself, as this returns it)
         if q.shape != (self.nq,):
             raise ConfigurationError(
                 f"{what}: expected a configuration of size nq={self.nq} (7 base + "

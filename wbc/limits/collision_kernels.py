@@ -413,16 +413,29 @@ def on_box(p, R, c, h) -> bool:
     return True
 
 
+def sparse_arms(L: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lever arms L (pairs x joints, :func:`~wbc.limits.collision_boxes.lipschitz_bounds`)
+    by joint without their zeros, as :func:`close_pairs` reads them: each joint's first entry
+    (n_joints + 1, int64), each entry's pair (int32) and arm (float64), pairs ascending within
+    a joint. A bound lowered by these entries is the one the whole of L gives, bit for bit
+    (a zero arm's term subtracts 0)."""
+    by_joint = np.ascontiguousarray(L.T)
+    joint, pair = np.nonzero(by_joint)
+    start = np.zeros(by_joint.shape[0] + 1, np.int64)
+    np.cumsum(np.bincount(joint, minlength=by_joint.shape[0]), out=start[1:])
+    return start, pair.astype(np.int32), np.ascontiguousarray(by_joint[joint, pair])
+
+
 @njit(cache=True)
 def close_pairs(
-    joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
-    pair_a, pair_b, query, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
+    joints, last_joints, bound, L_start, L_pair, L_arm, Rf, pf, box_frame, box_R, box_p, half,
+    radius, pair_a, pair_b, query, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
     last_axis, work, iwork,
 ) -> int:  # fmt: skip
     """The pairs closer than ``query`` (m), with their distances, witness points and normals
     (into ``out_*``, in pair order); returns how many. ``bound`` (per pair, a lower bound on its
-    distance at ``last_joints``) is moved to ``joints`` (``L``: joints x pairs, the lever arms)
-    and tightened by what this call learnt;
+    distance at ``last_joints``) is moved to ``joints`` (the lever arms L, joints x pairs, by
+    joint without their zeros: :func:`sparse_arms`) and tightened by what this call learnt;
     the boxes it placed (``placed``) have their world axes Rw and centres cw; ``counts[0]``
     counts the exact distances computed, ``counts[1]`` the separating-axis bounds (15 axes;
     ``last_axis``: each pair's axis of its last one, -1 none, tried alone first),
@@ -435,12 +448,13 @@ def close_pairs(
             moved = True
             break
     K = pair_a.shape[0]
-    if moved:  # (joint by joint: K independent sums, not one chain per pair)
+    if moved:  # (joint by joint: K independent sums, not one chain per pair; a zero lever
+        # arm's term, which leaves the bound as it is, skipped: a third of L is read)
         for i in range(nj):
             step = abs(joints[i] - last_joints[i])
             if step != 0.0:
-                for k in range(K):
-                    bound[k] -= L[i, k] * step
+                for e in range(L_start[i], L_start[i + 1]):
+                    bound[L_pair[e]] -= L_arm[e] * step
             last_joints[i] = joints[i]
     placed[:] = False
     axis = work[:4]
@@ -694,18 +708,19 @@ def plane_rows(
 
 @njit(cache=True)
 def collision_rows(
-    joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius, pair_a,
-    pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed, out_k, out_d,
-    out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis, work, iwork,
+    joints, last_joints, bound, L_start, L_pair, L_arm, Rf, pf, box_frame, box_R, box_p, half,
+    radius, pair_a, pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed,
+    out_k, out_d, out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis,
+    work, iwork,
 ) -> int:  # fmt: skip
     """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
     returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
     :func:`close_pairs`; ``work``, ``iwork``: :func:`work_sizes`' scratch, nothing
     allocated)."""
     n = close_pairs(
-        joints, last_joints, bound, L, Rf, pf, box_frame, box_R, box_p, half, radius,
-        pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2, out_n, counts,
-        last_axis, work, iwork,
+        joints, last_joints, bound, L_start, L_pair, L_arm, Rf, pf, box_frame, box_R, box_p,
+        half, radius, pair_a, pair_b, trigger, Rw, cw, placed, out_k, out_d, out_p1, out_p2,
+        out_n, counts, last_axis, work, iwork,
     )  # fmt: skip
     counts[2] = n
     return plane_rows(

@@ -19,15 +19,20 @@ from .collision_kernels import collision_rows
 #: order, as (name, dtype, ndim); every one C-contiguous
 PACKED = (
     ("last_q", "float64", 1), ("last_joints", "float64", 1), ("bound", "float64", 1),
-    ("L", "float64", 2), ("box_frame", "int64", 1), ("box_R", "float64", 3),
-    ("box_p", "float64", 2), ("half", "float64", 2), ("radius", "float64", 1),
-    ("pair_a", "int64", 1), ("pair_b", "int64", 1), ("support", "bool", 2),
-    ("Rw", "float64", 3), ("cw", "float64", 2), ("placed", "bool", 1), ("out_k", "int64", 1),
+    ("L_start", "int64", 1), ("L_pair", "int32", 1), ("L_arm", "float64", 1),
+    ("box_frame", "int64", 1), ("box_R", "float64", 3), ("box_p", "float64", 2),
+    ("half", "float64", 2), ("radius", "float64", 1), ("pair_a", "int64", 1),
+    ("pair_b", "int64", 1), ("support", "bool", 2), ("Rw", "float64", 3), ("cw", "float64", 2),
+    ("placed", "bool", 1), ("out_k", "int64", 1),
     ("out_d", "float64", 1), ("out_p1", "float64", 2), ("out_p2", "float64", 2),
     ("out_n", "float64", 2), ("counts", "int64", 1), ("row_pair", "int64", 1),
     ("row_gap", "float64", 1), ("params", "float64", 1), ("closest", "float64", 1),
     ("last_axis", "int64", 1), ("work", "float64", 1), ("iwork", "int64", 1),
 )  # fmt: skip
+
+
+#: the row of :data:`PACKED` of the pairs' first geometries
+_PAIR_A = [name for name, *_ in PACKED].index("pair_a")
 
 
 def pack(buffers) -> tuple[np.ndarray, np.ndarray]:
@@ -62,6 +67,11 @@ def _i1(addresses, shapes, i):
 
 
 @njit(cache=True)
+def _j1(addresses, shapes, i):
+    return carray(address(addresses[i]), (shapes[i, 0],), np.int32)
+
+
+@njit(cache=True)
 def _b1(addresses, shapes, i):
     return carray(address(addresses[i]), (shapes[i, 0],), np.bool_)
 
@@ -81,7 +91,7 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     (NaN before the first call); −2 (nothing computed) if ``G`` or ``h`` has less room from
     ``r0`` than the most rows (17 a pair); else the number of rows, q into ``last_q`` and the
     smallest distance of the close pairs into ``closest[0]`` (+inf: none)."""
-    most = 17 * shapes[9, 0]  # (rows a pair at most: the witness and 8 + 8 corners)
+    most = 17 * shapes[_PAIR_A, 0]  # (rows a pair at most: the witness and 8 + 8 corners)
     if r0 < 0 or G.shape[0] - r0 < most or h.shape[0] - r0 < most or G.shape[1] != Jw.shape[1]:
         return -2
     last_q = _f1(addresses, shapes, 0)
@@ -92,24 +102,25 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
             break
     if same:
         return -1
-    params = _f1(addresses, shapes, 23)
+    params = _f1(addresses, shapes, 25)
     r = collision_rows(
-        q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _f2(addresses, shapes, 3),
-        Rf, pf, _i1(addresses, shapes, 4), _f3(addresses, shapes, 5), _f2(addresses, shapes, 6),
-        _f2(addresses, shapes, 7), _f1(addresses, shapes, 8), _i1(addresses, shapes, 9),
-        _i1(addresses, shapes, 10), _b2(addresses, shapes, 11), Jw, params[0], params[1],
-        params[2], params[3], _f3(addresses, shapes, 12), _f2(addresses, shapes, 13),
-        _b1(addresses, shapes, 14), _i1(addresses, shapes, 15), _f1(addresses, shapes, 16),
-        _f2(addresses, shapes, 17), _f2(addresses, shapes, 18), _f2(addresses, shapes, 19),
-        _i1(addresses, shapes, 20), G[r0:], h[r0:], _i1(addresses, shapes, 21),
-        _f1(addresses, shapes, 22), params[4] != 0.0, _i1(addresses, shapes, 25),
-        _f1(addresses, shapes, 26), _i1(addresses, shapes, 27),
+        q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _i1(addresses, shapes, 3),
+        _j1(addresses, shapes, 4), _f1(addresses, shapes, 5), Rf, pf, _i1(addresses, shapes, 6),
+        _f3(addresses, shapes, 7), _f2(addresses, shapes, 8), _f2(addresses, shapes, 9),
+        _f1(addresses, shapes, 10), _i1(addresses, shapes, 11), _i1(addresses, shapes, 12),
+        _b2(addresses, shapes, 13), Jw, params[0], params[1], params[2], params[3],
+        _f3(addresses, shapes, 14), _f2(addresses, shapes, 15), _b1(addresses, shapes, 16),
+        _i1(addresses, shapes, 17), _f1(addresses, shapes, 18), _f2(addresses, shapes, 19),
+        _f2(addresses, shapes, 20), _f2(addresses, shapes, 21), _i1(addresses, shapes, 22),
+        G[r0:], h[r0:], _i1(addresses, shapes, 23), _f1(addresses, shapes, 24),
+        params[4] != 0.0, _i1(addresses, shapes, 27), _f1(addresses, shapes, 28),
+        _i1(addresses, shapes, 29),
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]
-    closest = _f1(addresses, shapes, 24)
-    out_d = _f1(addresses, shapes, 16)
+    closest = _f1(addresses, shapes, 26)
+    out_d = _f1(addresses, shapes, 18)
     closest[0] = np.inf
-    for i in range(_i1(addresses, shapes, 20)[2]):
+    for i in range(_i1(addresses, shapes, 22)[2]):
         closest[0] = min(closest[0], out_d[i])
     return r

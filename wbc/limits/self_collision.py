@@ -68,7 +68,7 @@ from .collision_boxes import (
     collision_model,
     lipschitz_bounds,
 )
-from .collision_kernels import MAX_CLOSURE, close_pairs, work_sizes
+from .collision_kernels import MAX_CLOSURE, close_pairs, sparse_arms, work_sizes
 from .collision_packed import pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
@@ -88,6 +88,7 @@ DEFAULT_SAMPLES = 600
 #: naming it (the hard tasks hold it inside: a hard level that cannot be met)
 RECOVERY_TICKS = 25
 RECOVERY_TOL = 5e-4
+KEPT_ENTRIES = 8  # (the kernel's entry points kept: one per G, h written, a plan's a phase)
 
 
 def _link_pairs(pairs: Iterable[Sequence[str]], links: set[str], what: str) -> set[frozenset]:
@@ -327,7 +328,8 @@ class PairDistances:
         self.pairs = list(pairs)
         self.geometry = cm.geometry
         self.L = lipschitz_bounds(robot, cm, self.pairs)
-        self._L_joints = np.ascontiguousarray(self.L.T)  # (joints x pairs: the kernels')
+        #: the lever arms by joint without their zeros (the kernels': ~1/3 of L on a walk)
+        self._L_start, self._L_pair, self._L_arm = sparse_arms(self.L)
         #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
         self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
         self._geom_joint = np.asarray(cm.joints, dtype=int)
@@ -405,10 +407,11 @@ class PairDistances:
         Rf, pf = self.frames(kin)
         joints = np.ascontiguousarray(kin.q[7:], dtype=float)
         return close_pairs(
-            joints, self._q, self._bound, self._L_joints, Rf, pf, self.box_frame, self.box_R,
-            self.box_p, self.half, self.radius, self.pair_a, self.pair_b, float(distance),
-            self.Rw, self.cw, self._placed, self.out_k, self.out_d, self.out_p1, self.out_p2,
-            self.out_n, self._counts, self._last_axis, self._work, self._iwork,
+            joints, self._q, self._bound, self._L_start, self._L_pair, self._L_arm, Rf, pf,
+            self.box_frame, self.box_R, self.box_p, self.half, self.radius, self.pair_a,
+            self.pair_b, float(distance), self.Rw, self.cw, self._placed, self.out_k,
+            self.out_d, self.out_p1, self.out_p2, self.out_n, self._counts, self._last_axis,
+            self._work, self._iwork,
         )  # fmt: skip
 
     def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
@@ -546,7 +549,7 @@ class SelfCollisionConstraint(Constraint):
         #: per pair: the control ticks in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
         self._counting = False  # (any of _inside non-zero)
-        self._out, self._n_close = self.distances.out_buffers(), 0  # (last compute's close pairs)
+        self._out = self.distances.out_buffers()  # (last compute's close pairs)
         self._last: Witness | None = None  # (built from _out when asked: :attr:`last`)
         self._rows: Inequality | None = None  # (copies of the last rows, made when asked)
         self._n_rows = 0
@@ -556,6 +559,9 @@ class SelfCollisionConstraint(Constraint):
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
+        #: the kernel's arguments for one Kinematics, its entry points by the buffers written
+        self._call: tuple | None = None
+        self._entries: dict[tuple[int, int], tuple] = {}
         #: where the last rows are: (G, h, first row) — the limit's own buffers, or a
         #: compiled plan's (:meth:`rows_into`)
         self._where: tuple[np.ndarray, np.ndarray, int] = (self._G, self._h, 0)
@@ -563,6 +569,7 @@ class SelfCollisionConstraint(Constraint):
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
+        state["_call"], state["_entries"] = None, {}  # (the same, a Kinematics' views)
         if self._where[0] is not self._G:  # (the last rows in a plan's buffers: made again)
             state["_where"] = (self._G, self._h, 0)
             state["_rows_q"] = np.full(self.robot.nq, np.nan)
@@ -579,13 +586,19 @@ class SelfCollisionConstraint(Constraint):
         """(addresses, shapes, buffers) of :func:`~wbc.limits.collision_packed.packed_rows`."""
         pd = self.distances
         buffers = (
-            self._rows_q, pd._q, pd._bound, pd._L_joints, pd.box_frame, pd.box_R, pd.box_p,
-            pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw, pd.cw, pd._placed,
+            self._rows_q, pd._q, pd._bound, pd._L_start, pd._L_pair, pd._L_arm, pd.box_frame,
+            pd.box_R, pd.box_p, pd.half, pd.radius, pd.pair_a, pd.pair_b, pd.support, pd.Rw,
+            pd.cw, pd._placed,
             *self._out, pd._counts, self._pair_buf, self._gap_buf,
             self._params, self._closest, pd._last_axis, pd._work, pd._iwork,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
         return self._packed
+
+    @property
+    def _n_close(self) -> int:
+        """The close pairs of the last rows (the kernel's count, read when asked)."""
+        return int(self.distances._counts[2])
 
     @property
     def n_pairs(self) -> int:
@@ -623,13 +636,16 @@ class SelfCollisionConstraint(Constraint):
         call a copy of its rows if they went elsewhere); returns their number."""
         pd = self.distances
         if not pd.pairs:
-            self._n_close = self._n_rows = 0
+            self._n_rows = 0
             self._closest[0] = np.inf
             self._rows = None
             return 0
-        packed = self._packed if self._packed is not None else self._pack()
-        Rf, pf = pd.frames(kin)
-        r = packed_rows(kin.q, packed[0], packed[1], Rf, pf, pd.jacobians, G, h, r0)
+        call = self._call
+        if call is None or call[0] is not kin:
+            call = self._bind(kin)
+        found = self._entries.get((id(G), id(h)))
+        entry = found[0] if found is not None else self._entry(call, G, h)
+        r = entry(kin.q, call[1], call[2], call[3], call[4], call[5], G, h, r0)
         where = self._where
         self._where = (G, h, r0)
         if r == -1:  # (the configuration of the last rows: where they are)
@@ -645,9 +661,39 @@ class SelfCollisionConstraint(Constraint):
                 f"{self.name}: rows_into needs room for {self.max_rows} rows of {self.robot.nv}"
                 f" floats from row {r0}, got G {G.shape}, h {h.shape}"
             )
-        self._n_close, self._n_rows = int(pd._counts[2]), r
-        self._last = self._rows = None
+        self._n_rows, self._last, self._rows = r, None, None
         return r
+
+    def _bind(self, kin: Kinematics) -> tuple:
+        """The kernel's arguments for ``kin`` (kin, addresses, shapes, frame rotations and
+        positions, joint Jacobians), kept while ``kin`` is the same object (views following
+        its updates), the entry points forgotten; not kept if the frames are copies."""
+        pd = self.distances
+        packed = self._packed if self._packed is not None else self._pack()
+        Rf, pf = pd.frames(kin)
+        call = (kin, packed[0], packed[1], Rf, pf, pd.jacobians)
+        self._call = call if pd._frames is not None else None
+        self._entries = {}
+        return call
+
+    def _entry(self, call: tuple, G: np.ndarray, h: np.ndarray):
+        """The kernel for ``call`` into ``G``, ``h``: its entry point for these arrays' types,
+        kept by the buffers' identity (with them: their ids stay theirs) — cold, in a 50 Hz
+        loop, the dispatcher's typing of the nine arguments cost ~5 µs a tick, the entry's
+        call ~1 (``kin.q``: C-contiguous float64, :meth:`~wbc.Robot.check_configuration`).
+        The dispatcher where the frames are copies."""
+        from numba import typeof
+
+        if self._call is None:
+            return packed_rows
+        signature = tuple(typeof(a) for a in (call[0].q, *call[1:], G, h, 0))
+        if signature not in packed_rows.overloads:
+            packed_rows.compile(signature)  # (loaded from numba's cache once compiled)
+        entry = packed_rows.overloads[signature].entry_point  # type: ignore[attr-defined]
+        if len(self._entries) >= KEPT_ENTRIES:
+            self._entries.clear()
+        self._entries[(id(G), id(h))] = (entry, G, h)
+        return entry
 
     def rows_into(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int) -> int:
         """The rows at ``kin`` written into ``G[r0:]``, ``h[r0:]`` (C-contiguous float64
