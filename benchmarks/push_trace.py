@@ -124,6 +124,9 @@ def trace(
         mass, h = float(sim.model.body_subtreemass[sim.root]), float(ref.com_height)
         top = float(np.asarray(out.torso_rotation)[:, 2] @ u)
         rows.append({
+            # each sole's normal tilted along u (deg; positive: rolled onto its u-side edge)
+            "tilts": {f: math.degrees(math.asin(float(np.clip(
+                sim.site_pose(f).rotation[:, 2] @ u, -1.0, 1.0)))) for f in ("l_sole", "r_sole")},
             "dcm_u": 1e3 * float((self.last.dcm[:2] - p_st[:2]) @ u[:2]),
             "dcm_u_sim": 1e3 * float((c[:2] + v[:2] / omega - p_st[:2]) @ u[:2]),
             "cop_u": 1e3 * float((cop - p_st[:2]) @ u[:2]) if cop is not None else float("nan"),
@@ -262,14 +265,15 @@ def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
     ``u`` and its target's, the hip and shoulder rolls (deg) and the hip rolls' torques; from
     the pushed single support's stance sole (through the double support after it) ``ξ`` and
     ``η`` (the simulator's, mm), ``L`` (kg·m²/s) and that leg's hip and ankle roll (their
-    goals). (In
+    goals), the pushed stance sole's tilt along ``u`` (deg: positive, rolled onto its edge on
+    the ``u`` side). (In
     double support "stance" is the sole of the next single support, "swing" the other.)"""
     print(
         "| ms | phase | DCM est / sim | CoP / edge | swing sole u, z / target u | F l / r "
         "| hip roll h | torso top along u, target | hip roll l / r ° (τ N·m) | shoulder l / r ° "
-        "| ξ / η from the pushed stance | L | stance hip, ankle roll (goal) ° |"
+        "| ξ / η from the pushed stance | L | stance hip, ankle roll (goal) ° | sole tilt ° |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     t0 = rows[jump]["t"] if rows else 0.0
     pushed = rows[jump]["stance_site"] if rows else "l_sole"
     side = "l" if pushed == "l_sole" else "r"
@@ -280,7 +284,7 @@ def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
         extra = (
             f" {xi:.1f} / {eta:.1f} | {r['L']:+.4f} | {j.get(side + '_hip_roll', 0):+.1f} "
             f"({g.get(side + '_hip_roll', 0):+.1f}), {j.get(side + '_ankle_roll', 0):+.1f} "
-            f"({g.get(side + '_ankle_roll', 0):+.1f}) |"
+            f"({g.get(side + '_ankle_roll', 0):+.1f}) | {r['tilts'][pushed]:+.1f} |"
         )
         print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} "
               f"| {r['dcm_u']:.1f} / {r['dcm_u_sim']:.1f} "

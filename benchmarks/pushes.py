@@ -42,7 +42,7 @@ import time
 from dataclasses import replace
 
 from wbc.balance import best_compensate
-from wbc.balance.angular import hip_strategy_bound
+from wbc.balance.angular import hip_strategy_bound, point_push_bound
 from wbc.balance.capture import capture_bounds
 from wbc.balance.fall import FallParams
 from wbc.balance.retime import HoldParams
@@ -268,7 +268,9 @@ def second_step(bounds: dict, ref) -> dict:
 
 def hip_bound(rec, robot, ref, bounds: dict) -> dict:
     """The angular-momentum bound at the lateral push (:mod:`wbc.balance.angular`), at once
-    and 30 ms late (the estimated DCM's lag), added to the CoP bound (``away_ns``)."""
+    and 30 ms late (the estimated DCM's lag), added to the CoP bound (``away_ns``); and the
+    same bound for the push where the benchmark applies it (``at_push_point``:
+    :func:`wbc.balance.angular.point_push_bound`, the torso's CoM above the robot's)."""
     import numpy as np
 
     from wbc.bench.pushes import push_direction
@@ -280,10 +282,14 @@ def hip_bound(rec, robot, ref, bounds: dict) -> dict:
     stance = ref.stance_side(i)
     u = push_direction(rec, "lateral")
     out = {}
+    cop = bounds["away_ns"] / (bounds["mass"] * bounds["omega"])  # the CoP's margin, m
     for delay in (0.0, 0.03):
         b = hip_strategy_bound(robot, rec.q[k], stance, u, ref.com_height, delay=delay)
         b["cop_plus_hip_ns"] = bounds["away_ns"] + b["ns"]
         b["cop_plus_stance_hip_ns"] = bounds["away_ns"] + b["stance_hip_ns"]
+        # the push where the benchmark applies it (the root body's CoM), not at the CoM
+        b["at_push_point"] = point_push_bound(robot, rec.q[k], stance, u, ref.com_height,
+                                              cop, delay=delay)  # fmt: skip
         out[f"delay_{round(1e3 * delay)}ms"] = b
     return out
 

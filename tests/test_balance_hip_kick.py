@@ -112,3 +112,34 @@ def test_the_kick_is_braked_before_the_torso_tips_past_kick_tilt(robot, tilt):
         want = 0.3 - (brake if tilt else 0.0)
         assert d[hip] == pytest.approx(sign * want)
         assert stab._kick.brake == pytest.approx(brake if tilt else 0.0)
+
+
+@pytest.mark.parametrize("held", [False, True])
+def test_the_limbs_are_held_while_the_pushed_sole_stays_on_its_edge(robot, held):
+    """``kick_hold``: after a push, the pushed stance sole counts as rolled onto its edge
+    once its normal (the estimate's rotation, the present joints) tilts along the roll by
+    more than ``kick_hold``; while it is (``held``), the limbs' goals do not move back as the
+    roll shrinks, the stance hip's does; not held, all come back with the roll."""
+    g = Gains(max_hip=0.5, hip_kick=0.3, kick_tilt=0.0, counter_leg=0.4, counter_arm=1.0,
+              kick_hold=0.035)  # fmt: skip
+    stab, tick, joints, u, v = _setup(robot, g)
+    roles = robot.roles
+    pairs = (("left", "hip_roll"), ("right", "hip_roll"), ("right", "shoulder_roll"))
+    hip, leg, arm = (robot.joint_index(roles.joint(s, r)) for s, r in pairs)
+    _pushed(tick)
+    kick = stab._kick
+    assert kick.stance == "l_sole" and np.allclose(kick.u, u)
+    for theta, rolled in ((0.0, False), (0.02, False), (0.1, True), (-0.1, False)):
+        values = np.zeros((8, 3))
+        values[:3] = pin.exp3(theta * v)  # the whole robot tilted θ toward u on that sole
+        stab.estimator.last = StateEstimate(values)
+        assert kick.rolled(stab.estimator, joints, joints, g.kick_hold) is rolled
+    for _ in range(40):
+        out = tick(0.005)  # the limbs spun out to their gains
+    stab.hip[:] *= 0.5  # the roll half back: the kick's share with it
+    kick.held = held
+    for _ in range(40):
+        back = stab.joint_offsets(joints)
+    assert abs(back[hip]) == pytest.approx(0.5 * abs(out[hip]))  # the stance hip: always
+    for k in (leg, arm):
+        assert abs(back[k]) == pytest.approx(abs(out[k]) if held else 0.5 * abs(out[k]))

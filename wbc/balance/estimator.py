@@ -588,6 +588,14 @@ class StateEstimator:
         R_base = est.rotation @ self.torso_b.T
         return np.concatenate([est.base, pin.Quaternion(R_base).coeffs(), q])
 
+    def sole_normals(self, joints: np.ndarray, fallback: np.ndarray | None) -> np.ndarray:
+        """(2, 3) each sole's normal (its z axis; SOLE_FRAMES order) in the world where the
+        last estimate's rotation (the IMU's) and ``joints`` (NaN: ``fallback``'s) turn it:
+        a sole rolled onto one edge tilts its normal toward that edge's side."""
+        config = self._estimated_configuration(joints, fallback)
+        pin.framesForwardKinematics(self.robot.model, self._data, config)
+        return np.array([self._data.oMf[fid].rotation[:, 2] for fid in self._fids])
+
     def sole_heights(self, joints: np.ndarray, fallback: np.ndarray | None) -> np.ndarray:
         """(2,) each sole's lowest point (of its corners, ``robot.foot_size``; SOLE_FRAMES
         order) in the world, m, where the last estimate (the IMU's rotation, the anchored

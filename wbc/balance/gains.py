@@ -106,9 +106,19 @@ class Gains:
     #: toward the fall beside the torso (momentum reserves: the torso tilts less for the same
     #: angular momentum), within their joints' limits and speeds (0: off). Away 0.828 → 0.852
     #: (leg 0.4), 0.867 (leg 0.7), 0.875 (+ arm 1.0), 0.891 N·s (+ arm 2.0, the brake) on
-    #: ``walk10_wb`` (issue 30, benchmarks/pushes.md)
+    #: ``walk10_wb`` (issue 30, benchmarks/pushes.md); the leg at 1.0 with ``kick_hold``
+    #: 0.035: 0.906 (alone, either: 0.891), but the OP3 1.516 → 1.117 (the leg at 1.0
+    #: alone: 1.469): not the default
     counter_leg: float = 0.7
     counter_arm: float = 2.0
+    #: rad: after a push's kick, the limbs (``counter_leg``, ``counter_arm``) not brought
+    #: back while the pushed stance sole stays rolled onto its edge toward the fall by more
+    #: than this (its normal's tilt, from the IMU and the encoders): returning them then
+    #: gives back angular momentum with the DCM still at the edge (0: off). With
+    #: ``counter_leg`` 1.0: away 0.891 → 0.906 N·s on ``walk10_wb`` (0.02 and 0.05: the same;
+    #: alone 0.891); the OP3's away 1.516 → 1.086 with it (unexplained): off (issue 30,
+    #: benchmarks/pushes.md)
+    kick_hold: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -201,6 +211,7 @@ class Gains:
             "kick_brake",
             "counter_leg",
             "counter_arm",
+            "kick_hold",
             "transfer",
             "step_yaw",
             "max_step_yaw",

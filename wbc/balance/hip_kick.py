@@ -13,6 +13,10 @@ whose goal it has just passed, brakes it only by its position error, and the tor
 ``kick_brake × (θ + kick_lead θ̇ − kick_tilt)⁺`` off the kick (below zero: the goal pulled
 back behind the solved one), so the servo's full torque stops the spin before the tilt
 passes ``kick_tilt``. Every goal's change per tick stays within the joint's speed limit.
+**The hold** (``kick_hold`` > 0): while the pushed stance sole stays rolled onto its edge
+toward the fall (:meth:`HipKick.rolled`: its normal, from the IMU and the encoders, tilted
+beyond ``kick_hold``), the limbs are not brought back: their return would give back angular
+momentum while the DCM is still at the sole's edge (the robot hangs there, then tips out).
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ class HipKick:
         self.stance = ""  # the stance sole it kicks
         self.u = np.zeros(2)  # the roll's horizontal direction at the trigger (world)
         self.brake = 0.0  # rad: the brake's share of the last goal (a diagnostic)
+        self.held = False  # the limbs' goals not brought back this tick (kick_hold)
 
     def _start(
         self,
@@ -67,6 +72,7 @@ class HipKick:
                 k = self.robot.joint_index(n)
                 self.joints.append([k, s * float(np.sign(axes[k])), gain, None])
         self.stance, self.u = stance, np.array([h[0], h[1]]) / m
+        self.held = False
 
     def offsets(
         self,
@@ -91,7 +97,9 @@ class HipKick:
         torso by ``−a dθ``) less the brake (module docstring); the other leg's hip roll and
         that side's shoulder roll by ``counter_leg``, ``counter_arm`` × the same share, their
         limbs spun toward the fall; each goal's change per tick within its joint's speed
-        limit (``Robot.v_max``); once the kicked leg lifts, the kick ramps out at it."""
+        limit (``Robot.v_max``); once the kicked leg lifts, the kick ramps out at it. While
+        :attr:`held` (``kick_hold``: the pushed sole still on its edge) the limbs' goals
+        do not move back against their spin (the stance hip's goal keeps its brake)."""
         g = gains
         m = math.hypot(h[0], h[1])
         if m > 0 and stance and pushed:
@@ -114,6 +122,8 @@ class HipKick:
             amount = getattr(g, gain) * share - (self.brake if gain == "hip_kick" else 0.0)
             want = solved + sign * amount
             last = solved if last is None else last
+            if self.held and gain != "hip_kick" and sign * (want - last) < 0:
+                want = last  # (kick_hold: a limb not brought back while the sole is rolled)
             step = float(self.robot.v_max[k]) * dt  # (never a goal above the servo's speed)
             j[3] = min(max(want, last - step), last + step)
             d[k] = j[3] - joints[k]
@@ -121,6 +131,18 @@ class HipKick:
         if over:
             self.joints = []  # (over)
         return d
+
+    def rolled(self, estimator, present: np.ndarray, joints: np.ndarray, tilt: float) -> bool:
+        """The kicked stance sole rolled onto its edge toward the fall: its normal, where the
+        last estimate's rotation and the ``present`` joints (NaN: ``joints``) turn it,
+        tilted along the roll's direction by more than ``tilt`` rad (``kick_hold``: the
+        limbs are not brought back while it is, :attr:`held`; False without a kick)."""
+        if not self.joints or estimator.last is None or not self.stance:
+            return False
+        from .estimator import SOLE_FRAMES
+
+        n = estimator.sole_normals(present, joints)[SOLE_FRAMES.index(self.stance)]
+        return float(n[0] * self.u[0] + n[1] * self.u[1]) > math.sin(tilt)
 
     def _brake(self, g: Gains, rotation: np.ndarray, rate: np.ndarray) -> float:
         """rad taken off the kick: ``kick_brake × (θ + kick_lead θ̇ − kick_tilt)⁺`` (0 with

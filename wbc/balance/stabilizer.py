@@ -604,6 +604,11 @@ class Stabilizer:
         if packed[0] is not self.gains or packed[2] is not self.fall or packed[1] is None:
             self._consts()  # (the gains or the detector changed: packed again)
             packed = self._packed
+        if self._kick is not None:  # (kick_hold: the limbs held while the sole is rolled)
+            held = self.gains.kick_hold > 0 and self._fb[_B_JUMP + 4] > 0.5
+            read = joints if present is None else present
+            self._kick.held = held and self._kick.rolled(estimator, read, joints,
+                                                         self.gains.kick_hold)  # fmt: skip
         code = _feedback_tick(
             packed[1], joints if present is None else present, joints, w, a, float(dt),
             select, soles, estimator._state, self._fb, targets.torso_rotation,
