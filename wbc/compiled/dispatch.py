@@ -34,6 +34,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ._cache import refresh
+from .entry import entry_point
 from .workers import (
     PARTS,
     SET_WORKER_MODULE,
@@ -707,14 +708,7 @@ class Ticks:
                 Path(self.module.__file__).parent,
             )
         result = dispatcher(*args)
-        try:
-            from numba import typeof
-
-            signature = tuple(typeof(a) for a in args)
-            entry = dispatcher.overloads[signature].entry_point
-        except (KeyError, AttributeError):  # another numba: keep the dispatcher
-            entry = dispatcher
-        self._entries[(name, variant)] = entry
+        self._entries[(name, variant)] = entry_point(dispatcher, args)
         return result
 
 

@@ -176,13 +176,10 @@ class KernelCall:
         if self.entry is not None:
             self.entry(*self.args)
             return
-        from numba import typeof
+        from .entry import entry_point
 
         self.kernel(*self.args)
-        try:
-            self.entry = self.kernel.overloads[tuple(typeof(a) for a in self.args)].entry_point
-        except (KeyError, AttributeError):  # another numba: the dispatcher
-            self.entry = self.kernel
+        self.entry = entry_point(self.kernel, self.args)
 
 
 def sources(item, fields: Sequence[str]) -> list[np.ndarray]:

@@ -59,6 +59,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from ..compiled.entry import entry_point
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
 from .collision_boxes import (
@@ -682,14 +683,10 @@ class SelfCollisionConstraint(Constraint):
         loop, the dispatcher's typing of the nine arguments cost ~5 µs a tick, the entry's
         call ~1 (``kin.q``: C-contiguous float64, :meth:`~wbc.Robot.check_configuration`).
         The dispatcher where the frames are copies."""
-        from numba import typeof
-
         if self._call is None:
             return packed_rows
-        signature = tuple(typeof(a) for a in (call[0].q, *call[1:], G, h, 0))
-        if signature not in packed_rows.overloads:
-            packed_rows.compile(signature)  # (loaded from numba's cache once compiled)
-        entry = packed_rows.overloads[signature].entry_point  # type: ignore[attr-defined]
+        # (compiled, or loaded from numba's cache, for these types without running it)
+        entry = entry_point(packed_rows, (call[0].q, *call[1:], G, h, 0), compile=True)
         if len(self._entries) >= KEPT_ENTRIES:
             self._entries.clear()
         self._entries[(id(G), id(h))] = (entry, G, h)

@@ -27,16 +27,12 @@ def _entry(name: str, args: tuple):
     """The entry point of the compiled kernel ``name`` of :mod:`wbc.compiled.carried` for the
     types of ``args``, called once on them (loaded, or compiled, here: not in a tick; numba's
     dispatcher resolves the types at every call, ~2 µs)."""
-    from numba import typeof
-
     from ..compiled import carried
+    from ..compiled.entry import entry_point
 
     kernel = getattr(carried, name)
     kernel(*args)
-    try:
-        return kernel.overloads[tuple(typeof(a) for a in args)].entry_point
-    except (KeyError, AttributeError):  # another numba: keep the dispatcher
-        return kernel
+    return entry_point(kernel, args)
 
 
 class CarriedRows:
