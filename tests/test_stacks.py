@@ -164,6 +164,7 @@ def test_bad_stack_files_are_rejected(robot, spec, match):
         ("regularization", float("nan"), r"regularization must be a number in"),
         ("regularization", "small", r"regularization must be a number in"),
         ("velocity_limits", "yes", r"velocity_limits must be true or false"),
+        ("pdas_ties", "no", r"pdas_ties must be true or false, got 'no'"),
     ],
 )
 def test_solver_options_out_of_range_name_the_file(robot, key, value, match):

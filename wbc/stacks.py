@@ -366,6 +366,8 @@ def build_stack(
     velocity_limits = spec.get("velocity_limits", True)
     if not isinstance(velocity_limits, bool):
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
+    if not isinstance(spec.get("pdas_ties", False), bool):
+        raise TaskError(f"{where}: pdas_ties must be true or false, got {spec['pdas_ties']!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
     unit = _stack_length_unit(spec.get("design_leg"), robot, where)
     switch = parse_support_switch(spec.get("support_switch"), unit, where)

@@ -137,6 +137,14 @@ class HierarchicalQP(StackSolver):
 
     # ------------------------------------------------------------------ per-level results
     @property
+    def pdas_budget(self) -> int:
+        """The compiled levels' PDAS tie budget this hierarchy passes (``cascade_solve``'s
+        ``params[4]``): :data:`wbc.compiled.lsq.PDAS_TIES` with :attr:`pdas_ties`, else 0."""
+        from ..compiled.lsq import PDAS_TIES
+
+        return PDAS_TIES if self.pdas_ties else 0
+
+    @property
     def problems(self) -> list[LevelProblem]:
         """Each level's rows at the last solve."""
         self._build_compiled()
@@ -284,7 +292,7 @@ class HierarchicalQP(StackSolver):
         (:func:`wbc.compiled.ticks.cascade_solve`, inequality rows included) on these rows,
         so that one hierarchy algorithm serves every path. None if it cannot finish (the
         backend cascade then solves the tick, or names why it is infeasible)."""
-        from ..compiled.lsq import OK, PDAS_TIES
+        from ..compiled.lsq import OK
         from ..compiled.ticks import cascade_solve
 
         nv = self.robot.nv
@@ -295,9 +303,14 @@ class HierarchicalQP(StackSolver):
         level_rows = np.cumsum([0] + [p.J.shape[0] for p in problems]).astype(np.int64)
         g_rows = np.cumsum([0] + [p.h.shape[0] for p in problems]).astype(np.int64)
         level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
-        ties = PDAS_TIES if self.pdas_ties else 0
         params = np.array(
-            [float(self.defer_with_rows), self.regularization, self.hard_tol, CONSTRAINT_TOL, ties]
+            [
+                float(self.defer_with_rows),
+                self.regularization,
+                self.hard_tol,
+                CONSTRAINT_TOL,
+                self.pdas_budget,
+            ]
         )
         states = np.zeros((len(problems), nv), dtype=np.int8)
         working = np.zeros((len(problems), h.size), dtype=np.bool_)

@@ -637,15 +637,11 @@ class _Plan:
     def _first_solve(self) -> int:
         """The first solve of a split tick (:attr:`wbc.compiled.dispatch.Ticks.split`):
         loads the solve kernel, then keeps its entry point."""
-        from numba import typeof
+        from ..compiled.entry import entry_point
 
         kernel = self._solve_kernel()
         status = kernel(*self.solve_args)
-        signature = tuple(typeof(a) for a in self.solve_args)
-        try:
-            self._solve_entry = kernel.overloads[signature].entry_point
-        except (KeyError, AttributeError):  # another numba: keep the dispatcher
-            self._solve_entry = kernel
+        self._solve_entry = entry_point(kernel, self.solve_args)
         return status
 
     def _solve_kernel(self):
@@ -661,8 +657,6 @@ class _Plan:
 
     def _set_params(self, dt: float | None) -> None:
         """The scalar parameters of the tick, for ``dt``."""
-        from ..compiled.lsq import PDAS_TIES
-
         solver = self.solver
         self._defer = bool(getattr(solver, "defer_with_rows", False))
         self.params[:] = (
@@ -670,7 +664,7 @@ class _Plan:
             solver.regularization,
             solver.hard_tol,
             CONSTRAINT_TOL,
-            PDAS_TIES if getattr(solver, "pdas_ties", False) else 0,
+            getattr(solver, "pdas_budget", 0),  # (the weighted QP: none)
         )
         self._dt = dt
         self._mu, self._hard_tol = solver.regularization, solver.hard_tol
