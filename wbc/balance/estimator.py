@@ -79,9 +79,11 @@ from ..exceptions import ConfigurationError, ModelError
 from ..geometry import sole_corners
 from ..imu import GRAVITY, ImuReading
 from ..model import Robot
+from ..roles import SOLE_FRAMES as _SOLE_BY_SIDE
 from ..roles import joint_axis
 
-SOLE_FRAMES = ("l_sole", "r_sole")
+#: the soles' frames in the estimator's order, left first (:data:`wbc.roles.SOLE_FRAMES`)
+SOLE_FRAMES = (_SOLE_BY_SIDE["left"], _SOLE_BY_SIDE["right"])
 # columns of a joint's row in the kinematic table (StateEstimator._joints)
 _R, _P, _AXIS, _LEVER, _MASS, _WIDTH = 0, 9, 12, 15, 18, 19
 # the filter's state (StateEstimator._state): torso rotation, has-rotation flag, CoM relative

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from ..model import Robot
-from ..roles import LEG_ROLES
+from ..roles import LEG_ROLES, SOLE_FRAMES
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -75,12 +75,12 @@ class JointIntegral:
         self.value = np.zeros(n)  # rad: the offset per joint (model order)
         names = robot.joint_names
         roles = robot.roles
-        #: the loaded joints per stance sole ("l_sole", "r_sole"; "": double support)
+        #: the loaded joints per stance sole (SOLE_FRAMES' values; "": double support)
         legs = {
             sole: [names.index(roles.joint(side, r)) for r in LEG_ROLES]
-            for sole, side in (("l_sole", "left"), ("r_sole", "right"))
+            for side, sole in SOLE_FRAMES.items()
         }
-        self.loaded = {key: np.zeros(n, dtype=np.bool_) for key in ("l_sole", "r_sole", "")}
+        self.loaded = {key: np.zeros(n, dtype=np.bool_) for key in (*legs, "")}
         for sole, idx in legs.items():
             self.loaded[sole][idx] = True
             self.loaded[""][idx] = True

@@ -121,6 +121,7 @@ import numpy as np
 from ..exceptions import TrajectoryError
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
+from ..roles import SOLE_FRAMES
 from ..walking.footsteps import FootstepPlan
 from ..walking.legs import LegGeometry
 from ..walking.lipm import lipm_com_for_zmp
@@ -331,9 +332,9 @@ class StepAdjuster:
             h = self._heights(q)
             if h is None:
                 return targets
-            frame = "l_sole" if self.plan.steps[step].side == "left" else "r_sole"
-            s = 0 if frame == "l_sole" else 1
-            return self.descent.lowered(targets, frame, float(h[s] - h[1 - s]))
+            side = self.plan.steps[step].side
+            s = 0 if side == "left" else 1  # (h: SOLE_FRAMES order, left first)
+            return self.descent.lowered(targets, SOLE_FRAMES[side], float(h[s] - h[1 - s]))
         vel = None
         ref = self.current
         if self.params.lead > 0 and ref is not None and targets.i < ref.n:  # (lead)

@@ -335,8 +335,7 @@ class LandedDescent:
             return targets
         sole = targets.sole(frame)
         moved = pin.SE3(sole.rotation, sole.translation - np.array([0.0, 0.0, d]))
-        key = "l_sole" if frame == "l_sole" else "r_sole"
-        return targets.replace(**{key: moved}, contacts_move=True)
+        return targets.replace(**{frame: moved}, contacts_move=True)
 
     def holds(self, dt: float) -> bool:
         """True when the walk's clock should stand for ``dt`` more seconds (``descend_hold``):
