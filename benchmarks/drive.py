@@ -271,6 +271,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the share of the gyro's stance-sole heading the odometry takes at "
                          "each landing, the rest the encoders' chain (Walker(heading_gain=K); "
                          "default the Walker's)")  # fmt: skip
+    ap.add_argument("--settle", type=float, default=None, metavar="S",
+                    help="s the robot stands after the walk ends before the run's figures "
+                         "are taken (wbc.drive.sim.run's settle; default its 1 s)")  # fmt: skip
     ap.add_argument("--play", type=play_arg, default=None, metavar="model|DEG",
                     help="the encoders' gear play taken out of the walker's odometry "
                          "(Walker(play=...)): 'model' the simulated servos' own (the default, "
@@ -355,6 +358,10 @@ def main(argv: list[str] | None = None) -> int:
             **({} if args.swing_settle is None else {"settle": args.swing_settle}),
         ),
     }
+    if args.settle is not None:
+        if not args.settle >= 0:  # (NaN too)
+            ap.error(f"--settle must be >= 0 s, got {args.settle}")
+        loop["settle"] = args.settle
     if args.tick is not None:
         solvers = args.tick or ["hqp-daqp", "wqp-daqp", "qp-vat", "placo", "pink"]
         record["tick"] = tick_cost(robot, solvers)
