@@ -88,3 +88,55 @@ def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
     final = sum(int((start & end).sum()) for start, end in seen)
     assert final >= 0.7 * carried, (final, carried)
     assert sum(np.array_equal(start, end) for start, end in seen) >= len(seen) // 2
+
+
+def _switch_walk(robot, on: bool, ticks: int, seen: list | None = None):
+    """walk10 on ``walk_strict`` with ``carry_at_switch`` as given: each tick's Δq; into
+    ``seen`` for each tick whose switch marked rows, (its tick, the rows marked, its final
+    set)."""
+    controller = StackController(load_stack("walk_strict", robot))
+    solver = controller.solver
+    solver.carry_at_switch = on
+    session = Session(controller, robot, build("walk10", robot))
+    marked: list = []
+    original = CarriedRows.switch
+
+    def switch_seen(self, states, G, h, p, working):
+        original(self, states, G, h, p, working)
+        marked.append(working[:p].copy())
+
+    CarriedRows.switch = switch_seen
+    out = []
+    try:
+        for i in range(ticks):
+            marked.clear()
+            session.tick(i)
+            plan = solver.fast
+            out.append(plan.dq.copy())
+            assert plan.carried.count == 0  # (nothing carried to an ordinary tick)
+            if seen is not None and marked and marked[0].any():
+                k = plan.damped_level
+                seen.append((i, marked[0], plan.inequalities.working[k, : marked[0].size].copy()))
+    finally:
+        CarriedRows.switch = original
+    return out
+
+
+def test_a_support_switch_starts_from_the_last_phases_rows(robot):
+    """``walk_strict`` (its file sets ``carry_at_switch``; ``walk``'s does not) along walk10's
+    first 160 ticks: the touch-downs (ticks 104, 144: self-collision rows held as single
+    support ends) start the last level from the rows the last phase ended with, found in the
+    new layout's rows by value, and most are in the tick's final set; no other tick is
+    started so; each tick's Δq is the one without to rounding (its minimiser is unique)."""
+    assert load_stack("walk_strict", robot).solver.carry_at_switch
+    assert not load_stack("walk", robot).solver.carry_at_switch
+    seen: list = []
+    on = _switch_walk(robot, True, 160, seen)
+    off = _switch_walk(robot, False, 160)
+    assert max(np.abs(a - b).max() for a, b in zip(on, off, strict=True)) <= 1e-12
+    ref = build("walk10", robot)
+    firsts = set((np.flatnonzero(np.diff(ref.support[:160]) != 0) + 1).tolist())
+    assert {104, 144} <= {i for i, *_ in seen} <= firsts, [i for i, *_ in seen]
+    carried = sum(int(start.sum()) for _, start, _ in seen)
+    final = sum(int((start & end).sum()) for _, start, end in seen)
+    assert final >= 0.7 * carried > 0, (final, carried)

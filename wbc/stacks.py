@@ -350,6 +350,7 @@ def build_stack(
         "design_leg",
         "support_switch",
         "pdas_ties",
+        "carry_at_switch",
     }
     if unknown:
         raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
@@ -366,8 +367,9 @@ def build_stack(
     velocity_limits = spec.get("velocity_limits", True)
     if not isinstance(velocity_limits, bool):
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
-    if not isinstance(spec.get("pdas_ties", False), bool):
-        raise TaskError(f"{where}: pdas_ties must be true or false, got {spec['pdas_ties']!r}")
+    for key in ("pdas_ties", "carry_at_switch"):
+        if not isinstance(spec.get(key, False), bool):
+            raise TaskError(f"{where}: {key} must be true or false, got {spec[key]!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
     unit = _stack_length_unit(spec.get("design_leg"), robot, where)
     switch = parse_support_switch(spec.get("support_switch"), unit, where)
@@ -401,7 +403,7 @@ def build_stack(
     options = {k: spec[k] for k in ("regularization", "on_infeasible") if k in spec}
     options.update(solver_options)
     be = backend or spec.get("backend", "daqp")
-    for key in ("method", "pdas_ties"):  # (the hierarchy's own)
+    for key in ("method", "pdas_ties", "carry_at_switch"):  # (the hierarchy's own)
         if solver_kind != "weighted" and key in spec:
             options.setdefault(key, spec[key])
     try:

@@ -46,6 +46,13 @@ class CarriedRows:
         #: how many rows are kept (0: none)
         self.count = 0
         self._carry = self._keep = None
+        #: the plan whose tick ran last (:meth:`switch`: its buffers hold that tick's rows)
+        self.source = None
+
+    def bind(self) -> None:
+        """The kernels' entry points loaded now (once per solver), not at a tick."""
+        if self._keep is None:
+            self._bind()
 
     def _bind(self) -> None:
         """The kernels' entry points, for the argument types of a tick (at the first rows
@@ -58,6 +65,9 @@ class CarriedRows:
     def __getstate__(self) -> dict:
         return {**self.__dict__, "_carry": None, "_keep": None}  # (entry points: not pickled)
 
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update({"source": None, **state})
+
     def carry(self, G: np.ndarray, h: np.ndarray, p: int, working: np.ndarray) -> None:
         """The kept rows marked in ``working`` (the last level's, of this tick's rows G[:p],
         h[:p]), each as its nearest row by value."""
@@ -69,3 +79,24 @@ class CarriedRows:
         if self._keep is None:
             self._bind()
         self.count = int(self._keep(G, h, p, working, self.G, self.h))  # type: ignore[misc]
+
+    def switch(
+        self, states: np.ndarray, G: np.ndarray, h: np.ndarray, p: int, working: np.ndarray
+    ) -> None:
+        """At the first tick of another plan (a support switch): if the last tick ended with
+        a row active in its damped level (``states[-1, 0]``, the solver's shared states), the
+        rows of that level's working set at its end — still in the last plan's buffers,
+        untouched since — kept and marked in ``working`` (this plan's rows G[:p], h[:p]) as
+        the nearest rows by value. That level is strictly convex: where it starts changes the
+        rounding of its one minimiser, not which it is; a start that fails falls back to its
+        solve without rows (:func:`wbc.compiled.ticks.cascade_solve`)."""
+        source = self.source
+        self.count = 0
+        if source is None or not p or not states.item(-1, 0):
+            return
+        g, k = source.inequalities, source.damped_level or 0
+        if self._keep is None:
+            self._bind()
+        self.count = int(self._keep(g.G, g.h, g.g_rows[k + 1], g.working[k], self.G, self.h))  # type: ignore[misc]
+        self.carry(G, h, p, working)
+        self.count = 0

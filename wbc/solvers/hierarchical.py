@@ -67,6 +67,7 @@ class HierarchicalQP(StackSolver):
         defer_with_rows: bool = True,
         carry_rows: bool = False,
         pdas_ties: bool = False,
+        carry_at_switch: bool = False,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -89,6 +90,13 @@ class HierarchicalQP(StackSolver):
         #: self-collision rows, ``pdas_ties = true`` in their file; off: the thesis's schemes,
         #: ill-posed, whose runs the other rounding moves; benchmarks/self_collision.md)
         self.pdas_ties = bool(pdas_ties)
+        #: the compiled cascade's last level starts the first tick of a support phase (another
+        #: layout) from the inequality rows its working set held at the last phase's end,
+        #: found again by their values (the rows carried only across a switch: the same
+        #: minimiser, up to rounding; on: the stacks with self-collision rows,
+        #: ``carry_at_switch = true`` in their file — a touch-down's cascade 35 -> 24 µs
+        #: replayed on walk_strict walk10; benchmarks/self_collision.md, thirteenth session)
+        self.carry_at_switch = bool(carry_at_switch)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []

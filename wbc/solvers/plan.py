@@ -584,8 +584,11 @@ class _Plan:
         self.forget_warm_start(keep_damped=True)
         g, k = self.inequalities, self.damped_level or 0
         carried = self.carried  # (the damped level's rows at the last tick's end)
-        if carried is not None and carried.count and self.carries_rows():
-            carried.carry(g.G, g.h, g.g_rows[k + 1], g.working[k])
+        if carried is not None:
+            if carried.count and self.carries_rows():
+                carried.carry(g.G, g.h, g.g_rows[k + 1], g.working[k])
+            elif carried.source is not self and self.carries_rows("carry_at_switch"):
+                carried.switch(self.warm_start, g.G, g.h, g.g_rows[k + 1], g.working[k])
         for limit in self._timed:
             limit.prepare(dt)
         if self.inputs:
@@ -622,16 +625,16 @@ class _Plan:
                 carried.keep(g.G, g.h, g.g_rows[k + 1], g.working[k])
             else:
                 carried.count = 0
+            carried.source = self
         return status
 
-    def carries_rows(self) -> bool:
+    def carries_rows(self, option: str = "carry_rows") -> bool:
         """Whether the damped level's working rows go to the next tick (:attr:`carried`,
-        with the solver's ``carry_rows`` and μ > 0)."""
+        with the solver's ``carry_rows`` and μ > 0); ``option`` "carry_at_switch": to the
+        first tick of another layout only (:meth:`wbc.solvers.carry.CarriedRows.switch`)."""
         solver = self.solver
-        return (
-            self.carried is not None
-            and getattr(solver, "carry_rows", False)
-            and solver.regularization > 0.0
+        return self.carried is not None and bool(
+            getattr(solver, option, False) and solver.regularization > 0.0
         )
 
     def _first_solve(self) -> int:
@@ -754,6 +757,8 @@ class CascadePlan(_Plan):
         self.warm_start = self.states
         self.damped_level = len(levels) - 1
         self.carried = self.scratch.shared("carried", lambda: CarriedRows(self.scratch, nv))
+        if self.carries_rows("carry_at_switch"):  # (its kernels loaded now, not in a tick)
+            self.carried.bind()
         self.achieved = np.zeros(self.rows.m)
         self.tick_name = "cascade_tick"
         self.space = (np.zeros(0), np.zeros(0, np.int64))  # (_bind_args: the solver's)
