@@ -12,7 +12,7 @@ pytest.importorskip("numba")
 from wbc.bench.trajectories import build
 from wbc.compiled.carried import carry_rows, keep_rows
 from wbc.solvers.carry import CARRY_TOL, CarriedRows
-from wbc.stacks import load_stack
+from wbc.stacks import build_stack, load_stack
 from wbc.walking.loop import Session, StackController
 
 
@@ -94,9 +94,8 @@ def _switch_walk(robot, on: bool, ticks: int, seen: list | None = None):
     """walk10 on ``walk_strict`` with ``carry_at_switch`` as given: each tick's Δq; into
     ``seen`` for each tick whose switch marked rows, (its tick, the rows marked, its final
     set)."""
-    controller = StackController(load_stack("walk_strict", robot))
+    controller = StackController(load_stack("walk_strict", robot, carry_at_switch=on))
     solver = controller.solver
-    solver.carry_at_switch = on
     session = Session(controller, robot, build("walk10", robot))
     marked: list = []
     original = CarriedRows.switch
@@ -123,13 +122,14 @@ def _switch_walk(robot, on: bool, ticks: int, seen: list | None = None):
 
 
 def test_a_support_switch_starts_from_the_last_phases_rows(robot):
-    """``walk_strict`` (its file sets ``carry_at_switch``; ``walk``'s does not) along walk10's
-    first 160 ticks: the touch-downs (ticks 104, 144: self-collision rows held as single
+    """``walk_strict`` with ``carry_at_switch`` (off by default; a stack file's key) along
+    walk10's first 160 ticks: the touch-downs (ticks 104, 144: self-collision rows held as single
     support ends) start the last level from the rows the last phase ended with, found in the
     new layout's rows by value, and most are in the tick's final set; no other tick is
     started so; each tick's Δq is the one without to rounding (its minimiser is unique)."""
-    assert load_stack("walk_strict", robot).solver.carry_at_switch
-    assert not load_stack("walk", robot).solver.carry_at_switch
+    assert not load_stack("walk_strict", robot).solver.carry_at_switch  # (the default)
+    assert build_stack({"solver": "hierarchical", "carry_at_switch": True, "levels": [
+        {"tasks": [{"type": "com"}]}]}, robot).solver.carry_at_switch  # fmt: skip
     seen: list = []
     on = _switch_walk(robot, True, 160, seen)
     off = _switch_walk(robot, False, 160)

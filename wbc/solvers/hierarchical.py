@@ -92,10 +92,10 @@ class HierarchicalQP(StackSolver):
         self.pdas_ties = bool(pdas_ties)
         #: the compiled cascade's last level starts the first tick of a support phase (another
         #: layout) from the inequality rows its working set held at the last phase's end,
-        #: found again by their values (the rows carried only across a switch: the same
-        #: minimiser, up to rounding; on: the stacks with self-collision rows,
-        #: ``carry_at_switch = true`` in their file — a touch-down's cascade 35 -> 24 µs
-        #: replayed on walk_strict walk10; benchmarks/self_collision.md, thirteenth session)
+        #: found again by their values: the same minimiser, up to rounding (off: walk_strict's
+        #: touch-down tick -3 to -6 µs on the Bioloid, the OP3's phases' first ticks +3 µs;
+        #: ``carry_at_switch = true`` in a stack file; benchmarks/self_collision.md, 2026-12-06
+        #: thirteenth session)
         self.carry_at_switch = bool(carry_at_switch)
         self._backends: list[QPBackend] = []
         self._key = None
