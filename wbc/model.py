@@ -417,11 +417,9 @@ class Robot:
         q_min, q_max = self.checked_limits
         check = self._configuration_check
         if check is None:  # (numba is imported by the first check, not by ``import wbc``)
-            from .compiled.entry import entry_point
-            from .compiled.prelude import configuration_check
+            from .compiled.prelude import configuration_entry
 
-            args = (q, q_min, q_max)
-            check = self._configuration_check = entry_point(configuration_check, args, True)
+            check = self._configuration_check = configuration_entry()
         defect, outside = check(q, q_min, q_max)
         if defect <= 2.0 * QUATERNION_TOL:  # (one compiled call: the hot path)
             return q, outside

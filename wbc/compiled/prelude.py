@@ -19,10 +19,11 @@ numba caches a kernel on its own file only: :func:`refresh` flushes these when
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from ._cache import refresh
 from .checks import outside, quaternion_defect
@@ -46,6 +47,15 @@ def forget_sets(states: np.ndarray, upto: int, working: np.ndarray) -> None:
     for k in range(working.shape[0]):
         for j in range(working.shape[1]):
             working[k, j] = False
+
+
+def configuration_entry() -> Callable[..., tuple[float, bool]]:
+    """:func:`configuration_check`'s entry point for float64 vectors of any strides (as
+    :func:`~wbc.compiled.checks.outside`'s own: an entry point checks no argument's layout)."""
+    vector = types.float64[:]
+    signature = (vector, vector, vector)
+    configuration_check.compile(signature)
+    return configuration_check.overloads[signature].entry_point
 
 
 refresh([configuration_check, forget_sets], [Path(__file__).with_name("checks.py")])
