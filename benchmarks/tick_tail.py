@@ -204,7 +204,7 @@ def tick_parts(
 
     patched = [
         (StackController, "_set_targets", "targets"), (StackSolver, "_timed_solve", "solve"),
-        (StackSolver, "_outside_limits", "outside"), (ConstraintRows, "tick", "rows"),
+        (StackSolver, "_outside_kin", "outside"), (ConstraintRows, "tick", "rows"),
         (SelfCollisionConstraint, "rows_into", "sc"), (SelfCollisionConstraint, "solved", "ok"),
         (_Plan, "forget_warm_start", "forget"), (_Plan, "solve", "plan"),
         (SwitchHandover, "update", "handover"),

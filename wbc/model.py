@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -232,13 +232,17 @@ class Robot:
         self._joint_index = {n: i for i, n in enumerate(names)}
         self.q_min = np.array(self.model.lowerPositionLimit[7:])
         self.q_max = np.array(self.model.upperPositionLimit[7:])
+        #: the joint limits that :meth:`checked_configuration` compares with (q_min and q_max
+        #: as built: edited in place they follow, re-assigned they do not)
+        self.checked_limits = (self.q_min, self.q_max)
         self.v_max = np.array(self.model.velocityLimit[6:])
         self.total_mass = float(pin.computeTotalMass(self.model))
         self.frame_names = tuple(f.name for f in self.model.frames)
         self._frame_ids: dict[str, int] = {}  # frame_id's answers, by name
-        #: |‖base quaternion‖² − 1| of a configuration, +inf if an entry is not finite: the
-        #: compiled check of :meth:`check_configuration` (loaded at its first call)
-        self._quaternion_defect = None
+        #: (|‖base quaternion‖² − 1| of a configuration, +inf if an entry is not finite; a
+        #: joint outside :attr:`checked_limits`): the compiled check of
+        #: :meth:`checked_configuration` (loaded at its first call)
+        self._configuration_check: Callable[..., tuple[float, bool]] | None = None
         #: standard frame name (``torso``, ``l_sole``, ``r_sole``) -> this URDF's frame name
         self.frame_aliases: dict[str, str] = dict(frames or {})
         for alias, actual in self.frame_aliases.items():
@@ -394,6 +398,15 @@ class Robot:
         """Return ``q`` as a C-contiguous float array after checking its size, its finiteness
         and its base quaternion (unit to :data:`QUATERNION_TOL`: a zero or scaled quaternion
         is no rotation, and is refused rather than normalised)."""
+        return self.checked_configuration(q, what)[0]
+
+    def checked_configuration(
+        self, q: Sequence[float] | np.ndarray, what: str = "q"
+    ) -> tuple[np.ndarray, bool]:
+        """:meth:`check_configuration`'s q, and True if a joint of it is outside
+        :attr:`checked_limits` (a NaN joint is not), both from one compiled call
+        (:func:`wbc.compiled.prelude.configuration_check`: a tick's
+        :meth:`Kinematics.update`, whose solver reads the second after its solve)."""
         if not (type(q) is np.ndarray and q.dtype is _F8 and q.flags.c_contiguous):
             q = np.ascontiguousarray(q, dtype=float)  # (else q itself, as this returns it)
         if q.shape != (self.nq,):
@@ -401,13 +414,15 @@ class Robot:
                 f"{what}: expected a configuration of size nq={self.nq} (7 base + "
                 f"{self.n_joints} joints), got shape {q.shape}"
             )
-        defect = self._quaternion_defect
-        if defect is None:  # (numba is imported by the first check, not by ``import wbc``)
-            from .compiled.checks import entry, quaternion_defect
+        q_min, q_max = self.checked_limits
+        check = self._configuration_check
+        if check is None:  # (numba is imported by the first check, not by ``import wbc``)
+            from .compiled.prelude import configuration_entry
 
-            defect = self._quaternion_defect = entry(quaternion_defect)
-        if defect(q) <= 2.0 * QUATERNION_TOL:  # (one compiled call: the hot path)
-            return q
+            check = self._configuration_check = configuration_entry()
+        defect, outside = check(q, q_min, q_max)
+        if defect <= 2.0 * QUATERNION_TOL:  # (one compiled call: the hot path)
+            return q, outside
         if not np.isfinite(q).all():
             idx = np.flatnonzero(~np.isfinite(q))
             names = [self._q_name(i) for i in idx]
@@ -420,7 +435,7 @@ class Robot:
                 f"{q[3:7].tolist()} has norm {math.sqrt(norm2):.6g}; it must be unit "
                 f"(to {QUATERNION_TOL:g}): normalise it"
             )
-        return q
+        return q, outside
 
     def _q_name(self, i: int) -> str:
         base = ("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw")
@@ -603,8 +618,11 @@ class Kinematics:
 
     def update(self, q: np.ndarray) -> None:
         """Recompute every kinematic quantity at q (checked for size and finiteness)."""
-        q = self.robot.check_configuration(q)
+        q, outside = self.robot.checked_configuration(q)
         self.q = q
+        #: True if a joint of :attr:`q` is outside the robot's range
+        #: (:attr:`Robot.checked_limits`)
+        self.outside = outside
         model, data = self.model, self.data
         # one pass: the joints' placements and Jacobians (data.oMi, data.J: what
         # computeJointJacobians gives, bitwise), the CoM and its Jacobian; then the frames

@@ -169,7 +169,7 @@ class StackSolver(ABC):
         if solution.q_next is None and not math.isfinite(solution.dq.dot(solution.dq)):
             self._check_task_errors()
             raise SolverError(f"{self.name}: the solve returned a non-finite Δq")
-        if not self.relaxed and self._outside_limits(self.kin.q):
+        if not self.relaxed and self._outside_kin():
             solution = self.recovery.on_hard_levels(self.kin, solution)
         if dt is not None:  # a control tick (not an iterate of a pose: its guard checks it)
             for c in self._hard_constraints():
@@ -193,6 +193,16 @@ class StackSolver(ABC):
             if lv.hard or not self.lexicographic
             for c in lv.active_constraints()
         ]
+
+    def _outside_kin(self) -> bool:
+        """:meth:`_outside_limits` of :attr:`kin`'s q: what its update found
+        (:attr:`wbc.model.Kinematics.outside`, one compiled call with the configuration's check)
+        where the robot checks the limits this solver holds, else asked again."""
+        kin = self.kin
+        q_min, q_max = self.robot.checked_limits
+        if q_min is self._q_min and q_max is self._q_max:
+            return kin.outside
+        return self._outside_limits(kin.q)
 
     def _outside_limits(self, q: np.ndarray) -> bool:
         """True if a joint of q (a configuration checked by :meth:`Kinematics.update`) is

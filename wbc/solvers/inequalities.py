@@ -76,7 +76,8 @@ class InequalityRows:
             if total > self.h.shape[0]:
                 self.reserve(total)
                 grown = True
-            self.working.fill(False)
+            # (the working sets: every tick's plan starts them afresh after its rows,
+            # :meth:`wbc.solvers.plan._Plan.forget_warm_start`)
             self.counts = counts
             self.total = total
         return grown

@@ -385,6 +385,10 @@ class _Plan:
     damped_level: int | None = None
     #: the damped level's working rows carried to the next tick (None: none)
     carried: CarriedRows | None = None
+    #: :meth:`forget_warm_start`'s compiled call (:func:`wbc.compiled.prelude.forget_sets`)
+    #: and :attr:`warm_start` as rows (None: not bound yet)
+    _forget: Callable | None = None
+    _sets: np.ndarray | None = None
 
     def __init__(
         self,
@@ -491,12 +495,21 @@ class _Plan:
         active set 1–3 (benchmarks/self_collision.md). The inequality rows start afresh (a
         self-collision row's index names another pair from tick to tick), but for the damped
         last level's found again by value (:mod:`wbc.solvers.carry`)."""
+        forget, sets = self._forget, self._sets  # (warm_start as rows: the weighted's one)
+        if forget is None:  # (its entry point, once: a tick makes one compiled call here)
+            from ..compiled.entry import entry_point
+            from ..compiled.prelude import forget_sets
+
+            sets = self._sets = self.warm_start.reshape(-1, self.warm_start.shape[-1])
+            args = (sets, sets.shape[0], self.inequalities.working)
+            forget = self._forget = entry_point(forget_sets, args, True)
         if keep_damped and self.damped_level is not None and self.solver.regularization > 0.0:
-            self.warm_start[: self.damped_level].fill(0)
+            upto = self.damped_level
         else:
-            self.warm_start.fill(0)
-        if self.inequalities.total:
-            self.inequalities.working.fill(False)
+            upto = sets.shape[0]
+        # the bounds' sets above ``upto`` and every inequality row's flag (the rows start
+        # afresh; :meth:`InequalityRows.layout` leaves them to this)
+        forget(sets, upto, self.inequalities.working)
         if not keep_damped and self.carried is not None:
             self.carried.count = 0
 
@@ -621,7 +634,7 @@ class _Plan:
         else:
             status = entry(kin.q, *self.packed)
         if carried is not None:  # (warm_start[-1, 0]: the tick ended with a row active)
-            if self.warm_start.item(-1, 0) and self.carries_rows():
+            if self.carries_rows() and self.warm_start.item(-1, 0):
                 carried.keep(g.G, g.h, g.g_rows[k + 1], g.working[k])
             else:
                 carried.count = 0
