@@ -326,11 +326,11 @@ class StackController(Controller):
             self.control.set_phase(
                 targets.phase, targets.support, targets.swing, self._kin, anchors
             )
+        self.control.lower_swing_floor(targets.swing_floor)  # (0 but in a caught landing)
         if targets.contacts_move:
-            soles = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
             for task, _ in self._contacts:
-                if task.active and task.frame in soles:
-                    task.set_target(soles[task.frame])
+                if task.active and task.frame in SOLES:
+                    task.set_target(targets.sole(task.frame))
         if self._copy_targets(targets):
             return
         for com in self._com:
