@@ -307,8 +307,7 @@ class StackController(Controller):
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         ahead = self._ahead
         if ahead is not None:  # a switch made ahead: this one (phase, anchors), or undone
-            self._ahead = None
-            key, left, right, undo = ahead
+            self._ahead, (key, left, right, undo) = None, ahead
             if (
                 phase_changed
                 and targets.l_sole is left
@@ -328,9 +327,10 @@ class StackController(Controller):
             )
         self.control.lower_swing_floor(targets.swing_floor)  # (0 but in a caught landing)
         if targets.contacts_move:
+            soles = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
             for task, _ in self._contacts:
-                if task.active and task.frame in SOLES:
-                    task.set_target(targets.sole(task.frame))
+                if task.active and task.frame in soles:
+                    task.set_target(soles[task.frame])
         if self._copy_targets(targets):
             return
         for com in self._com:
