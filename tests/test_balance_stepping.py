@@ -1109,3 +1109,107 @@ def test_a_catch_of_a_push_backward_reaches_further_with_back_shift(robot, walk1
     assert got[0] > got[1] + 0.005 and got[0] <= 0.1 + 1e-9 and got[1] <= 0.08 + 1e-9
     with pytest.raises(ConfigurationError, match="back_shift"):
         SteppingParams(back_shift=-0.1).check()
+
+
+def test_a_catch_of_a_push_backward_lowers_the_swings_floor_at_its_landing(robot, walk10):
+    """``landing_floor``: in a swing the catch of a push backward carries, over its last
+    ``landing_floor`` share (smoothstep in), the swing's ground clearance comes down to the
+    lowest corner of its target below the stance sole's floor (``swing_floor``) — the target
+    turned toe down by the measured body's pitch has its toe below the controller's floor —;
+    nothing earlier in the swing, after a push forward, without a catch, nor by default."""
+    from wbc.geometry import sole_corners
+
+    params = SteppingParams(landing_floor=0.4, lift=0.0, toe_up=0.0)
+    rot, move = [0.0, -0.4, 0.0], [0.0, 0.0, 0.0]  # the measured body pitched back 0.4 rad
+    adj = _triggered(robot, walk10, params)
+    ph = adj.phases[adj.phase_of[MID]]
+    i = ph.i1 - 1  # its last tick
+    _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=i)
+    out = adj.land(t, e, q)
+    R, p = np.asarray(out.swing_rotation), np.asarray(out.swing_position)
+    low = min(float((R @ c + p)[2]) for c in sole_corners(*robot.foot_size))
+    low -= float(t.support_placement.translation[2])
+    x = 1.0 - 1.0 / (ph.i1 - ph.i0) / 0.4
+    w = x**2 * (3 - 2 * x)
+    assert low < 0.0  # the toe below the controller's floor
+    assert out.swing_floor == pytest.approx(w * low, abs=1e-12)
+    _, t0, e0, q0, _ = _land_case(robot, walk10, params, rot, move, i=MID + 2)  # mid-swing
+    assert adj.land(t0, e0, q0).swing_floor == 0.0
+    fwd = _triggered(robot, walk10, params, jump=0.02)  # a push forward: its floor
+    assert fwd.trigger.forward and fwd.land(t, e, q).swing_floor == 0.0
+    fresh = StepAdjuster(robot, walk10, params)  # no catch
+    assert fresh.land(t, e, q).swing_floor == 0.0
+    off = _triggered(robot, walk10, SteppingParams(lift=0.0, toe_up=0.0))
+    assert off.land(t, e, q).swing_floor == 0.0
+    skip = _triggered(robot, walk10, SteppingParams(landing_floor=0.4, floor_skip=1, lift=0.0))
+    assert skip.land(t, e, q).swing_floor == 0.0  # (the triggered swing skipped)
+    assert SteppingParams().landing_floor == 0.0
+    with pytest.raises(ConfigurationError, match="landing_floor"):
+        SteppingParams(landing_floor=1.5).check()
+
+
+def test_a_catch_of_a_push_backward_lifts_by_back_lift(robot, walk10):
+    """``back_lift``: the lift in the swings the catch of a push backward carries (None: the
+    ``lift``); a push forward's keeps ``lift``."""
+    i = MID + 6
+    z = {}
+    for back_lift, jump in ((None, -0.02), (0.005, -0.02), (0.005, 0.02)):
+        params = SteppingParams(lift=0.02, back_lift=back_lift, landing=0.0, toe_up=0.0)
+        adj = _triggered(robot, walk10, params, jump=jump)
+        _, t, e, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+        z[(back_lift, jump)] = float(adj.land(t, e, q).swing_position[2] - t.swing_position[2])
+    assert z[(None, -0.02)] > 0.01
+    assert z[(0.005, -0.02)] == pytest.approx(z[(None, -0.02)] * 0.25, rel=1e-9)
+    assert z[(0.005, 0.02)] == pytest.approx(z[(None, -0.02)], rel=1e-9)
+    assert SteppingParams().back_lift is None
+    with pytest.raises(ConfigurationError, match="back_lift"):
+        SteppingParams(back_lift=-0.01).check()
+
+
+def test_a_catch_of_a_push_backward_turns_the_sole_by_at_most_landing_turn(robot, walk10):
+    """``landing_turn``: after a push backward the swing sole's rotation in the measured frame
+    turns by at most that angle (about the correction's own axis), its position by the whole
+    correction; after a push forward, and by default (0), the whole correction."""
+    import pinocchio as pin
+
+    rot, move = [0.0, -0.4, 0.0], [0.0, 0.0, 0.0]  # the measured body pitched back 0.4 rad
+    i = MID + 6
+    out = {}
+    for turn, jump in ((0.0, -0.02), (0.1, -0.02), (0.1, 0.02)):
+        params = SteppingParams(landing_turn=turn, lift=0.0, toe_up=0.0, landing_catch=1e-6)
+        adj = _triggered(robot, walk10, params, jump=jump)
+        _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=i)
+        out[(turn, jump)] = (t, adj.land(t, e, q))
+    t, whole = out[(0.0, -0.02)]
+    turned = pin.log3(whole.swing_rotation @ np.asarray(t.swing_rotation).T)
+    assert np.linalg.norm(turned) > 0.3  # the whole correction
+    _, capped = out[(0.1, -0.02)]
+    small = pin.log3(capped.swing_rotation @ np.asarray(t.swing_rotation).T)
+    np.testing.assert_allclose(small, 0.1 * turned / np.linalg.norm(turned), atol=1e-9)
+    np.testing.assert_allclose(capped.swing_position, whole.swing_position, atol=1e-12)
+    _, fwd = out[(0.1, 0.02)]
+    np.testing.assert_allclose(fwd.swing_rotation, whole.swing_rotation, atol=1e-12)
+    fresh = StepAdjuster(robot, walk10, SteppingParams(landing_turn=0.1, landing_catch=0.0))
+    _, t0, e0, q0, _ = _land_case(robot, walk10, SteppingParams(), rot, move, i=i)
+    np.testing.assert_allclose(  # no push caught: the whole correction
+        fresh.land(t0, e0, q0).swing_rotation, whole.swing_rotation, atol=1e-12
+    )
+    assert SteppingParams().landing_turn == 0.5
+    with pytest.raises(ConfigurationError, match="landing_turn"):
+        SteppingParams(landing_turn=-0.1).check()
+
+
+def test_a_catch_of_a_push_backward_lasts_back_episode_steps(robot, walk10):
+    """``back_episode``: after a push backward the trigger caught, the catch re-plans that many
+    steps (its end: the episode's step + ``back_episode``); after a push forward, without a
+    trigger, and by default (0), ``episode_steps``."""
+    for back, jump, steps in ((3, -0.02, 3), (3, 0.02, 2), (0, -0.02, 2), (4, -0.02, 4)):
+        adj = _triggered(robot, walk10, SteppingParams(back_episode=back), jump=jump)
+        adj.episode = 0
+        assert adj._catch_end() == steps, (back, jump)
+    fresh = StepAdjuster(robot, walk10, SteppingParams(back_episode=3))
+    fresh.episode = 0
+    assert fresh._catch_end() == 2
+    assert SteppingParams().back_episode == 3 and SteppingParams().episode_steps == 2
+    with pytest.raises(ConfigurationError, match="back_episode"):
+        SteppingParams(back_episode=-1).check()

@@ -550,3 +550,21 @@ def test_kokones_stack_is_the_walk_stack_but_for_its_support_switch():
         for key in ("name", "description", "support_switch"):
             spec.pop(key, None)
     assert kokone == walk
+
+
+def test_the_swing_floor_lowers_the_swing_soles_ground_clearance_only(robot):
+    """``ControlStack.lower_swing_floor`` (``TickTargets.swing_floor``): every ground
+    clearance bound to the swing role comes down by the floor from its own clearance; 0
+    gives it back."""
+    from wbc.limits import GroundClearanceConstraint
+
+    control = load_stack("walk", robot)
+    kin = Kinematics(robot, robot.configuration("walk_ready"))
+    control.set_phase("single", "r_sole", "l_sole", kin)
+    floors = [c for c in control.stack.constraints() if isinstance(c, GroundClearanceConstraint)]
+    assert floors and all(c.clearance == 0.0 for c in floors)
+    control.lower_swing_floor(-0.02)
+    assert [c.clearance for c in floors] == [-0.02] * len(floors)
+    assert control.swing_floor == -0.02
+    control.lower_swing_floor(0.0)
+    assert [c.clearance for c in floors] == [0.0] * len(floors)

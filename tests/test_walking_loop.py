@@ -417,3 +417,38 @@ def test_the_ticks_are_timed_on_the_chosen_clock(robot, walk10):
     assert max(times["cpu"]) < 0.001
     with pytest.raises(ConfigurationError, match="clock must be one of wall, cpu"):
         Session(Waiting(), robot, walk10, options=RunOptions(clock="cycles"))
+
+
+def test_moving_contacts_and_the_swing_floor_reach_the_stack(robot):
+    """``TickTargets.contacts_move``: every active contact's target is set to its sole's this
+    tick (a driven walk's stance contact sliding); ``swing_floor`` lowers the swing's ground
+    clearance, 0 gives it back."""
+    import pinocchio as pin
+
+    from wbc.limits import GroundClearanceConstraint
+    from wbc.walking.loop import StackController
+    from wbc.walking.tick_targets import TickTargets
+
+    control = load_stack("walk", robot)
+    ctrl = StackController(control)
+    q = robot.configuration("walk_ready")
+    ctrl._kin.update(q)
+    soles = {f: robot.frame_placement(q, f) for f in ("l_sole", "r_sole")}
+    targets = TickTargets(
+        i=0, t=0.0, phase="single", support="l_sole", swing="r_sole", com=np.zeros(3),
+        l_sole=soles["l_sole"], r_sole=soles["r_sole"], torso_yaw=0.0,
+        torso_rotation=np.eye(3), swing_position=soles["r_sole"].translation.copy(),
+        swing_rotation=soles["r_sole"].rotation.copy(),
+    )  # fmt: skip
+    ctrl._set_targets(q, targets, True)
+    moved = pin.SE3(soles["l_sole"].rotation, soles["l_sole"].translation + [0.01, 0.0, 0.0])
+    ctrl._set_targets(
+        q, targets.replace(l_sole=moved, contacts_move=True, swing_floor=-0.02), False
+    )
+    contact = control.stack.task("contact_support")
+    assert contact.active and contact.frame == "l_sole"
+    np.testing.assert_allclose(contact.target_position, moved.translation, atol=1e-12)
+    floors = [c for c in control.stack.constraints() if isinstance(c, GroundClearanceConstraint)]
+    assert floors and all(c.clearance == -0.02 for c in floors)
+    ctrl._set_targets(q, targets, False)
+    assert all(c.clearance == 0.0 for c in floors)

@@ -123,10 +123,31 @@ class ControlStack:
     #: set_phase calls with no other change to the stack between them (see set_phase)
     _after: int | None = field(default=None, repr=False)
     _epoch: object = field(default=None, repr=False)
+    #: m: the swing's ground clearances lowered this much (:meth:`lower_swing_floor`), and
+    #: those clearances each with its own (None: not read yet)
+    swing_floor: float = 0.0
+    _floors: list | None = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ roles
     def role_tasks(self, role: str) -> list[Task]:
         return [t for t in self.stack.tasks() if self.bindings.get(t.name, _NO).role == role]
+
+    def lower_swing_floor(self, floor: float) -> None:
+        """The ground clearances whose frame follows the swing sole set ``floor`` m (≤ 0)
+        from their own (:attr:`~wbc.walking.tick_targets.TickTargets.swing_floor`; 0: their
+        own again)."""
+        if floor == self.swing_floor:
+            return
+        if self._floors is None:  # (their own clearances, read once)
+            self._floors = [
+                (c, c.clearance)
+                for c in self.stack.constraints()
+                if isinstance(c, GroundClearanceConstraint)
+                and self.bindings.get(c.name, _NO).role == "swing"
+            ]
+        for constraint, clearance in self._floors:
+            constraint.clearance = clearance + floor
+        self.swing_floor = float(floor)
 
     # ------------------------------------------------------------------ phases
     def set_phase(

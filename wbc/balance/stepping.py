@@ -119,6 +119,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import TrajectoryError
+from ..geometry import sole_corners
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
 from ..roles import SOLE_FRAMES
@@ -135,6 +136,7 @@ from ..walking.schedule import (
     sole_tracks,
     zmp_knots,
 )
+from ..walking.spline import smooth
 from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
 from .stepping_params import BAND_X, BAND_Y, TRIGGER_SHARE, SteppingParams
 from .swing_catch import LandedDescent, MeasuredLanding, PushTrigger
@@ -184,6 +186,7 @@ class StepAdjuster:
         if self.phases[-1].i1 != ref.n:
             raise TrajectoryError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
+        self._corners = sole_corners(*robot.foot_size)  # (landing_floor)
         torso = robot.model.frames[robot.frame_id("torso")]
         torso_b = torso.placement.rotation.copy()  # the torso in the base frame
         self.omega = ref.omega
@@ -255,7 +258,17 @@ class StepAdjuster:
         """The first step after the catch under way (``until_inside`` extends it; 0: none)."""
         if self.episode is None:
             return 0
-        return max(self.episode + self.params.episode_steps, self.end)
+        return max(self.episode + self._episode_steps(), self.end)
+
+    def _episode_steps(self) -> int:
+        """``episode_steps``, or ``back_episode`` (> 0) after a push backward the trigger
+        caught."""
+        p, t = self.params, self.trigger
+        return (
+            p.back_episode
+            if p.back_episode > 0 and t.tick is not None and not t.forward
+            else p.episode_steps
+        )
 
     def _dcm_ref(self, ref: WalkingReference, i: int) -> np.ndarray:
         """``ref.dcm_at(i)``, from the whole walk's array (built once per reference)."""
@@ -342,7 +355,35 @@ class StepAdjuster:
         # (the stance sole's roll read after a push backward, on its heel; after a push
         # forward, on its toe, measured worse: forward 0.852 → 0.820 N·s)
         rise = None if self.trigger.forward else (lambda: self.stance_rise(targets, q))
-        return self.landing.land(self.trigger.lifted(targets, vel), est, q, rise)
+        back = self.trigger.tick is not None and not self.trigger.forward  # (a push backward)
+        turn = self.params.landing_turn if back else 0.0
+        lifted = self.trigger.lifted(targets, vel)
+        return self.floor(self.landing.land(lifted, est, q, rise, turn))
+
+    def floor(self, targets: Any) -> Any:
+        """``targets`` with the swing's ground clearance lowered (``landing_floor``;
+        :attr:`~wbc.walking.tick_targets.TickTargets.swing_floor`) in a swing the catch of a
+        push backward carries, over its last ``landing_floor`` share (smoothstep in): to the
+        lowest corner of the swing target (after :meth:`land`: in the measured frame, where
+        its corners lie on the floor) below the stance sole's planned floor, else
+        ``targets``."""
+        p, i = self.params, targets.i
+        if p.landing_floor <= 0 or not self.enabled or self.trigger.forward:
+            return targets
+        if not self.trigger.carried(i):
+            return targets
+        ph = self.phases[self.phase_of[i]]
+        first = self.phases[self.phase_of[self.trigger.tick or 0]].step
+        if int(ph.step) - int(first) < p.floor_skip:  # (the catch's first floor_skip swings)
+            return targets
+        left = (ph.i1 - i) / max(ph.i1 - ph.i0, 1)  # (the swing's share left)
+        w = smooth(1.0 - left / p.landing_floor)
+        if w <= 0.0:
+            return targets
+        R = np.asarray(targets.swing_rotation, dtype=float)
+        z = float(targets.swing_position[2]) + float(np.min(self._corners @ R[2]))
+        low = z - float(targets.support_placement.translation[2])
+        return targets.replace(swing_floor=w * low) if low < 0.0 else targets
 
     def stance_rise(self, targets: Any, q: np.ndarray) -> float:
         """How far (m, ≥ 0) the stance sole's lowest corner lies below the floor where the
@@ -530,12 +571,11 @@ class StepAdjuster:
         err = self.error(ref, i, dcm)[1]  # (only where a re-plan may follow: the tick's cost)
         if not err.any():
             return None
-        if self.episode is not None and p.episode_steps > 0:
+        steps = self._episode_steps()
+        if self.episode is not None and steps > 0:
             end = self._catch_end()
             if (  # multi-step recovery: the DCM still outside the band on the next step
-                k == end
-                and self.caught_step == k - 1
-                and k < self.episode + p.episode_steps + p.until_inside
+                k == end and self.caught_step == k - 1 and k < self.episode + steps + p.until_inside
             ):
                 end = self.end = k + 1
             if end <= k < end + p.rest_steps:

@@ -55,6 +55,11 @@ class SteppingParams:
     #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
     episode_steps: int = 2
+    #: ... after a push backward the trigger caught (0: ``episode_steps``): the body on its
+    #: heels falls in the third swing, at the plan's pace (240 ms) and not re-planned; with
+    #: ``landing_turn`` 0.5: backward 0.727 → 0.734 N·s, the other three and the OP3's
+    #: backward identical (benchmarks/pushes.md; ``episode_steps`` 3 after any push: 0.719)
+    back_episode: int = 3
     rest_steps: int = 2
     #: multi-step recovery: the catch goes on, step after step (at most this many more than
     #: episode_steps), while each next single support still finds the DCM error beyond the
@@ -99,6 +104,25 @@ class SteppingParams:
     #: share): the servos' lag and a body rolling back on its stance heel keep the sole
     #: above the floor at the planned landing (0: off)
     landing_depth: float = 0.0
+    #: the measured floor: in the swings the catch of a push backward carries, over the
+    #: swing's last ``landing_floor`` share (smoothstep in), the swing sole's ground clearance
+    #: in the solve lowered to the lowest corner of its target in the measured frame
+    #: (:meth:`~.stepping.StepAdjuster.floor`; ``TickTargets.swing_floor``): that target,
+    #: turned toe down by the torso's error, has its toe on the controller's own floor, which
+    #: held the sole 15–40 mm above it (0: off)
+    landing_floor: float = 0.0
+    #: ... not in the catch's first ``floor_skip`` swings (1: from the swing after the
+    #: triggered one)
+    floor_skip: int = 0
+    #: rad: after a push backward the trigger caught, the swing sole's rotation in the
+    #: measured frame turned by at most this angle (its position by the whole correction):
+    #: the torso's error, 30–45° in the third swing of a 0.8 N·s push, turns the sole toe
+    #: down 35–47° in the solve, its toe on the controller's floor 25–40 mm above its target
+    #: (0: the whole correction; 0.25: the first swing's heel on the floor; 0.4 lost a push
+    #: the default keeps; with ``back_episode`` 3: backward 0.727 → 0.734 N·s)
+    landing_turn: float = 0.5
+    #: m: the lift (``lift``) in the swings the catch of a push backward carries (None: ``lift``)
+    back_lift: float | None = None
     #: 1/s: in the double support after a caught landing (:class:`~.swing_catch.
     #: LandedDescent`), the landed sole's contact target lowered by ``d``, ``d += descend ·
     #: gap · dt`` (``gap``: its lowest point measured above the other sole's), within
@@ -226,20 +250,31 @@ class SteppingParams:
             "back_shift", "back_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
-            "landing_depth", "descend", "descend_depth", "descend_out",
+            "landing_depth", "landing_floor", "landing_turn", "back_lift", "descend",
+            "descend_depth", "descend_out",
             "descend_hold", "descend_band", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
             "pitch_time", "lead", "toe_up",
         ):  # fmt: skip
             v = getattr(self, name)
-            if v is None and name in ("band_x", "band_y", "catch_band", "trigger_jump"):
+            if v is None and name in (
+                "band_x",
+                "band_y",
+                "catch_band",
+                "trigger_jump",
+                "back_lift",
+            ):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigurationError(f"stepping: {name} must be a finite number >= 0, got {v}")
         if not (math.isfinite(self.catch_pitch) and abs(self.catch_pitch) <= 1.0):
             raise ConfigurationError(
                 f"stepping: catch_pitch must be finite, within ±1 rad, got {self.catch_pitch}"
+            )
+        if self.landing_floor > 1.0:
+            raise ConfigurationError(
+                f"stepping: landing_floor must be a share in [0, 1], got {self.landing_floor}"
             )
         if not 0.0 <= self.touchdown_share < 1.0:
             raise ConfigurationError(
@@ -258,7 +293,7 @@ class SteppingParams:
             )
         for name in (
             "episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip",
-            "catch_swings",
+            "catch_swings", "floor_skip", "back_episode",
         ):  # fmt: skip
             v = getattr(self, name)
             if int(v) != v or v < 0:

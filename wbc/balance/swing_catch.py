@@ -161,7 +161,8 @@ class PushTrigger:
         w_out = smooth((ph.i1 - i) / max(ph.i1 - ph.i0, 1) / max(p.lift_land, 1e-9))
         w = w_in * w_out
         pos = np.array(targets.swing_position, dtype=float)
-        pos[2] += p.lift * w - p.landing_depth * (1.0 - w_out)
+        lift = p.lift if p.back_lift is None or self.forward else p.back_lift
+        pos[2] += lift * w - p.landing_depth * (1.0 - w_out)
         if p.lead > 0 and velocity is not None:
             pos[:2] += p.lead * w_in * np.asarray(velocity, dtype=float)[:2]
         if p.toe_up <= 0 or not self.forward:
@@ -223,7 +224,12 @@ class MeasuredLanding:
             self.caught = i
 
     def land(
-        self, targets: Any, est: Any, q: np.ndarray, rise: Callable[[], float] | None = None
+        self,
+        targets: Any,
+        est: Any,
+        q: np.ndarray,
+        rise: Callable[[], float] | None = None,
+        turn: float = 0.0,
     ) -> Any:
         """``targets`` with the swing sole's target moved into the measured frame (single
         support, ``landing`` > 0; else ``targets`` itself). The controller places the swing
@@ -235,7 +241,9 @@ class MeasuredLanding:
         (blended by ``w``: ``landing`` × a ramp from ``landing_band`` to twice it on the
         angle of ``E``). ``rise()`` (``landing_tilt``): how far the stance sole's lowest
         corner lies below the floor where the estimate anchors the sole's centre (a sole
-        rolled onto its heel: the measured base is that much higher)."""
+        rolled onto its heel: the measured base is that much higher). ``turn`` > 0
+        (``landing_turn``): the sole's rotation turned by at most that angle (rad), its
+        position by the whole ``E``."""
         p = self.params
         if p.landing <= 0:
             return targets
@@ -273,13 +281,15 @@ class MeasuredLanding:
         if w <= 0:
             return targets
         E = pin.exp3(w * v)
+        a = w * float(np.linalg.norm(v))
+        E_sole = pin.exp3(w * v * (turn / a)) if 0.0 < turn < a else E  # (landing_turn)
         pos = np.asarray(targets.swing_position, dtype=float)
         moved = q[:3] + E @ (pos - base_m)
         if lat != 1.0:  # the lateral part of the move scaled
             side = np.array([-h[1], h[0], 0.0])
             moved = moved - (1.0 - lat) * ((moved - pos) @ side) * side
         return targets.replace(
-            swing_position=pos + w * (moved - pos), swing_rotation=E @ targets.swing_rotation
+            swing_position=pos + w * (moved - pos), swing_rotation=E_sole @ targets.swing_rotation
         )
 
 

@@ -307,8 +307,7 @@ class StackController(Controller):
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         ahead = self._ahead
         if ahead is not None:  # a switch made ahead: this one (phase, anchors), or undone
-            self._ahead = None
-            key, left, right, undo = ahead
+            self._ahead, (key, left, right, undo) = None, ahead
             if (
                 phase_changed
                 and targets.l_sole is left
@@ -326,6 +325,7 @@ class StackController(Controller):
             self.control.set_phase(
                 targets.phase, targets.support, targets.swing, self._kin, anchors
             )
+        self.control.lower_swing_floor(targets.swing_floor)  # (0 but in a caught landing)
         if targets.contacts_move:
             soles = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
             for task, _ in self._contacts:

@@ -48,6 +48,11 @@ class TickTargets:
     #: controller that holds contacts sets their targets at every tick, not only at the
     #: phase's start, where they are anchored
     contacts_move: bool = False
+    #: m (≤ 0): the swing sole's ground clearance this tick relative to the stack's (a
+    #: controller with a swing-bound ``ground_clearance`` lowers it by this much: the floor
+    #: where the measured frame puts it; :attr:`~wbc.balance.stepping_params.SteppingParams.
+    #: landing_floor`); 0: the stack's own
+    swing_floor: float = 0.0
     #: (l_sole, r_sole, :func:`sole_pack` of them), built once per walk by a
     #: :class:`Session`; a reader checks the two placements are still these (``is``)
     sole_pack: tuple | None = None
