@@ -95,3 +95,75 @@ def test_a_joint_whose_goal_moves_faster_than_still_holds_its_integral(robot):
             solved[k] += speed * 0.01 * t
             v = ji.offsets(solved, solved - 0.02, "l_sole", 2.0, 0.1, 0.0, 0.01, still)
         assert bool(v[k] > 0.005) is grows  # (20 ticks: 0.008; the first tick has no last goal)
+
+
+def test_the_servos_lag_is_not_integrated_with_a_delay_but_their_sag_is(robot):
+    """``j_i_lag``: the left knee's solved goal ramps at 0.5 rad/s and its encoder follows
+    it 50 ms late (a late servo, no sag): compared with the goals of 50 ms ago nothing is
+    integrated, with this tick's (delay 0) the lag is; with a 0.02 rad sag on top the
+    delayed form integrates the sag alone (rate · dt · sag a tick); a delay between ticks
+    is interpolated; a delay longer than the ticks stored so far reads the oldest."""
+    q = robot.configuration("stand")[7:]
+    k = _knee(robot, "left")
+    dt = 0.01
+    for delay, sag, want in ((0.05, 0.0, 0.0), (0.0, 0.0, None), (0.05, 0.02, 1.0 * dt * 0.02),
+                             (0.045, 0.0, None)):  # fmt: skip
+        ji = JointIntegral(robot)
+        for t in range(60):
+            solved = q.copy()
+            solved[k] += 0.5 * dt * t
+            present = q.copy()
+            present[k] += 0.5 * max(dt * t - 0.05, 0.0) - sag
+            before = ji.value[k]
+            v = ji.offsets(solved, present, "l_sole", 1.0, 0.1, 0.0, dt, 0.0, delay)
+        if want is None:  # (a lag integrated: 0.025 rad a second at delay 0)
+            assert v[k] > 0.0 and (delay > 0 or v[k] > 0.01)
+        else:
+            assert v[k] - before == pytest.approx(want, abs=1e-12)
+    ji = JointIntegral(robot)
+    solved = q.copy()
+    solved[k] += 0.1  # (the first tick: the oldest stored is this one; no lag yet)
+    v = ji.offsets(solved, solved.copy(), "l_sole", 1.0, 0.1, 0.0, dt, 0.0, 0.15)
+    assert v[k] == 0.0
+
+
+def test_the_band_leaves_a_small_error_and_a_ringing_alone_and_integrates_a_sag(robot):
+    """``j_i_band`` 0.03 rad: a steady 0.02 rad error (a stiff servo's) integrates nothing;
+    an 8 Hz ±0.1 rad ringing about the goal (low-passed 0.1 s: ±0.02) all but nothing; a steady
+    0.1 rad sag integrates what lies beyond the band (rate · dt · 0.07 a tick, once the
+    low-pass has settled); without the band (0) the ringing is integrated a tick at a time."""
+    q = robot.configuration("stand")[7:]
+    k = _knee(robot, "left")
+    dt = 0.01
+
+    def run(err, band: float) -> tuple[float, float]:
+        ji = JointIntegral(robot)
+        before = v = 0.0
+        for t in range(200):
+            present = q.copy()
+            present[k] -= err(t * dt)
+            before = ji.value[k]
+            v = ji.offsets(q, present, "l_sole", 1.0, 0.5, 0.0, dt, 0.0, 0.0, False, band)[k]
+        return v, v - before
+
+    assert run(lambda t: 0.02, 0.03) == (0.0, 0.0)
+    ring = lambda t: 0.1 * np.sin(2 * np.pi * 8.0 * t)  # noqa: E731
+    assert abs(run(ring, 0.03)[0]) < 1e-5  # (the low-pass's first cycle: 2e-6 rad)
+    assert run(ring, 0.0)[1] != 0.0
+    total, last = run(lambda t: 0.1, 0.03)
+    assert last == pytest.approx(dt * 0.07, rel=1e-6) and total > 0.1
+
+
+def test_sagittal_integrates_the_pitch_joints_only(robot):
+    """``j_i_sagittal``: every joint of the loaded left leg sags 0.02 rad; the hip pitch, knee
+    and ankle pitch integrate, its hip yaw, hip roll and ankle roll do not (all six do
+    without it)."""
+    q = robot.configuration("stand")[7:]
+    leg = {r: robot.joint_names.index(robot.roles.joint("left", r)) for r in
+           ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")}  # fmt: skip
+    present = q - 0.02
+    for sagittal in (True, False):
+        v = JointIntegral(robot).offsets(q, present, "l_sole", 1.0, 0.1, 0.0, 0.01,
+                                         0.0, 0.0, sagittal)  # fmt: skip
+        on = {r for r, j in leg.items() if v[j] > 0}
+        assert on == ({"hip_pitch", "knee", "ankle_pitch"} if sagittal else set(leg))

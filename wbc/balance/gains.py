@@ -171,6 +171,19 @@ class Gains:
     #: rad/s: j_i holds on a joint whose solved goal moves faster (its error then the servo's
     #: lag, not sag; 0: integrate always)
     j_i_still: float = 0.0
+    #: j_i's encoders compared with the solved goals of (a tick + j_i_lag × the servos'
+    #: measured lag, :func:`~wbc.balance.servo_lag.servo_lag`) ago, not this tick's: the
+    #: tracking error a late servo shows on a moving goal is not integrated, its sag is
+    #: (0: this tick's goals). 1: a soft plant's sag eaten with its lag (s0 turn_wb 38 lost
+    #: again; s1 turn_wb 46 of 50): off
+    j_i_lag: float = 0.0
+    #: 1: j_i on the loaded legs' hip pitch, knee and ankle pitch only (their yaw and roll
+    #: joints let go); 0: the six joints of each loaded leg
+    j_i_sagittal: float = 0.0
+    #: rad: j_i integrates its low-passed difference (0.1 s) only beyond ± this (0: all).
+    #: 0.06 (with j_i 1, j_i_max 0.05): 149 / 145 of 150 on seeds 0 / 1 against main's
+    #: 146 / 148 without the feed-forward (issue 30, i30n; benchmarks/physics.md): off
+    j_i_band: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -222,6 +235,9 @@ class Gains:
             "j_i_max",
             "j_i_leak",
             "j_i_still",
+            "j_i_lag",
+            "j_i_sagittal",
+            "j_i_band",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -16,7 +16,10 @@ holds its integral. Feedback only: no model of the servos. Measured (issue 30, i
 twelfth round, benchmarks/physics.md; no feed-forward, plant-randomised, 150 plants a
 seed): ``j_i`` 1 /s, ``j_i_max`` 0.05 rad brings the nominal ``turn_wb`` 19.2 → 12.8° and
 keeps the soft plants main loses there, but loses stiff, late plants (145 / 143 against
-146 / 148 on seeds 0 / 1): off.
+146 / 148 on seeds 0 / 1): off. Three gates on what is integrated, options (issue 30,
+i30n's thirteenth round, benchmarks/physics.md): ``j_i_lag`` (the encoders against the
+solved goals of the servos' measured lag ago), ``j_i_sagittal`` (hip pitch, knee and
+ankle pitch only), ``j_i_band`` (the difference low-passed and integrated beyond a band).
 """
 
 from __future__ import annotations
@@ -28,6 +31,12 @@ import numpy as np
 
 from ..model import Robot
 from ..roles import LEG_ROLES, SOLE_FRAMES
+from .servo_lag import LAG_MAX
+
+#: the leg roles that carry the weight in the sagittal plane (``j_i_sagittal``)
+SAGITTAL = ("hip_pitch", "knee", "ankle_pitch")
+#: s: the time constant of the low-pass ``j_i_band`` compares with its band
+BAND_SMOOTH = 0.1
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -35,6 +44,7 @@ def _integrate(
     value: np.ndarray,
     last: np.ndarray,
     solved: np.ndarray,
+    target: np.ndarray,
     present: np.ndarray,
     loaded: np.ndarray,
     v_max: np.ndarray,
@@ -42,8 +52,9 @@ def _integrate(
     out: np.ndarray,
 ) -> None:
     """One tick of :meth:`JointIntegral.offsets` in place (``value``, ``last``; the offsets
-    also in ``out``); ``k = [rate, most, leak, dt, read (1: present given), first (1: no
-    last goals), still (rad/s; 0: none)]``."""
+    also in ``out``); ``target``: what the encoders should read (``solved``, or ``solved``
+    as it was the servos' lag ago: ``j_i_lag``); ``k = [rate, most, leak, dt, read (1:
+    present given), first (1: no last goals), still (rad/s; 0: none)]``."""
     rate, most, leak, dt, still = k[0], k[1], k[2], k[3], k[6]
     read, first = k[4] > 0.5, k[5] > 0.5
     for j in range(value.shape[0]):
@@ -52,7 +63,7 @@ def _integrate(
         moving = still > 0 and not first and abs(solved[j] - (last[j] - v)) > still * dt
         if loaded[j]:
             if read and math.isfinite(present[j]) and not moving:
-                grown = v * (1.0 - leak * dt) + rate * dt * (solved[j] - present[j])
+                grown = v * (1.0 - leak * dt) + rate * dt * (target[j] - present[j])
                 grown = min(max(grown, -most), most)
                 v += min(max(grown - v, -step), step)
         else:  # (a swinging leg's, the arms': let go)
@@ -84,11 +95,21 @@ class JointIntegral:
         for sole, idx in legs.items():
             self.loaded[sole][idx] = True
             self.loaded[""][idx] = True
+        #: the same, the sagittal joints only (hip pitch, knee, ankle pitch: j_i_sagittal)
+        pitch = [names.index(roles.joint(side, r)) for side in SOLE_FRAMES for r in SAGITTAL]
+        keep = np.zeros(n, dtype=np.bool_)
+        keep[pitch] = True
+        self.sagittal = {key: mask & keep for key, mask in self.loaded.items()}
         self._v_max = np.where(np.isfinite(robot.v_max) & (robot.v_max > 0), robot.v_max, 1.0)
         self._last = np.zeros(n)  # the last goals with the offsets (rad)
         self._k = np.zeros(7)
         self._k[5] = 1.0  # (no last goals yet)
         self._none = np.zeros(n)
+        #: the solved goals of the last ticks (j_i_lag: a ring, newest at ``_head``)
+        self._past = np.zeros((0, n))
+        self._head = 0
+        self._filled = 0
+        self._smooth = np.zeros(n)  # rad: the low-passed target − present (j_i_band)
 
     def offsets(
         self,
@@ -100,20 +121,60 @@ class JointIntegral:
         leak: float,
         dt: float,
         still: float = 0.0,
+        delay: float = 0.0,
+        sagittal: bool = False,
+        band: float = 0.0,
     ) -> np.ndarray:
         """The offsets (rad, model order) for this tick's solved goals ``solved``, the
         encoders' ``present`` positions (None or NaN: not read), the stance sole ``stance``
         ("" in double support), ``rate`` (1/s: ``j_i``), ``most`` (rad: ``j_i_max``),
         ``leak`` (1/s: ``j_i_leak``), ``dt`` (s), ``still`` (rad/s: ``j_i_still``; a joint
         whose solved goal moves faster holds its integral: its error is then mostly the
-        servo's lag, not sag; 0: none); one compiled call (:func:`_integrate`)."""
+        servo's lag, not sag; 0: none), ``delay`` (s; 0: none): the encoders are compared
+        with the solved goals of ``delay`` ago (linearly interpolated between ticks; at most
+        :data:`~wbc.balance.servo_lag.LAG_MAX` + 2 ticks), not this tick's — the part of the
+        difference the servos' lag explains is left out (``j_i_lag``); ``sagittal``: only
+        the loaded legs' hip pitch, knee and ankle pitch integrate (the others let go:
+        ``j_i_sagittal``); ``band`` (rad; 0: none): the difference, low-passed
+        (:data:`BAND_SMOOTH`: a ringing servo's oscillation averages out), integrated only
+        beyond ± ``band`` (``j_i_band``: a stiff servo's small tracking error left alone,
+        a soft one's sag integrated); one compiled call (:func:`_integrate`)."""
         k = self._k
+        solved = np.asarray(solved, dtype=float)
+        target = solved if delay <= 0.0 or dt <= 0.0 else self._delayed(solved, delay, dt)
+        if band > 0.0 and present is not None and dt > 0.0:
+            p = np.asarray(present, dtype=float)
+            e = target - p
+            seen = np.isfinite(e)
+            a = 1.0 - math.exp(-dt / BAND_SMOOTH)
+            self._smooth[seen] += a * (e[seen] - self._smooth[seen])
+            m = self._smooth
+            target = p + np.sign(m) * np.maximum(np.abs(m) - band, 0.0)
         k[0], k[1], k[2], k[3] = rate, most, leak, dt
         k[4] = 0.0 if present is None else 1.0
         k[6] = still
         out = np.empty(len(self.value))
-        _integrate(self.value, self._last, np.asarray(solved, dtype=float),
+        loaded = (self.sagittal if sagittal else self.loaded)[stance]
+        _integrate(self.value, self._last, solved, target,
                    self._none if present is None else np.asarray(present, dtype=float),
-                   self.loaded[stance], self._v_max, k, out)  # fmt: skip
+                   loaded, self._v_max, k, out)  # fmt: skip
         k[5] = 0.0
         return out
+
+    def _delayed(self, solved: np.ndarray, delay: float, dt: float) -> np.ndarray:
+        """``solved`` stored as this tick's, and the solved goals of ``delay`` s ago (the
+        oldest stored while fewer ticks have passed)."""
+        size = math.ceil(LAG_MAX / dt) + 3
+        if self._past.shape[0] != size:
+            self._past = np.zeros((size, len(solved)))
+            self._head, self._filled = 0, 0
+        self._head = (self._head + 1) % size
+        self._past[self._head] = solved
+        self._filled = min(self._filled + 1, size)
+        back = min(delay / dt, self._filled - 1.0)
+        i = int(back)
+        f = back - i
+        a = self._past[(self._head - i) % size]
+        if f <= 0.0:
+            return a.copy()
+        return (1.0 - f) * a + f * self._past[(self._head - i - 1) % size]

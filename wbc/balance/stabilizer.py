@@ -546,6 +546,7 @@ class Stabilizer:
                  g.hip_jump * g.hip_band, g.kick_release if g.hip_kick > 0 else 0.0]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             read = g.lag_yaw > 0 or g.lag_clock > 0 or self._measure_lag
+            read = read or (g.j_i > 0 and g.j_i_lag > 0)
             lag = self._lag if read else self._no_lag
             self._packed = (g, np.r_[k, limits, self.estimator._model], fall, shift, lag)
         return self._packed[1]
@@ -743,8 +744,10 @@ class Stabilizer:
         if g.j_i > 0:  # the loaded joints' sag, integrated (joint_integral)
             if self._sag is None:
                 self._sag = JointIntegral(self.robot)
+            delay = self._dt + g.j_i_lag * self.servo_lag if g.j_i_lag > 0 else 0.0
             i = self._sag.offsets(joints, self.present(), self._stance, g.j_i, g.j_i_max,
-                                  g.j_i_leak, self._dt, g.j_i_still)  # fmt: skip
+                                  g.j_i_leak, self._dt, g.j_i_still, delay,
+                                  g.j_i_sagittal > 0, g.j_i_band)  # fmt: skip
             d = i if d is None else d + i
         if g.hip_kick > 0:
             d = self._hip_kick(joints, d)
