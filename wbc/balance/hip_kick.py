@@ -50,7 +50,7 @@ class HipKick:
         self.brake = 0.0  # rad: the brake's share of the last goal (a diagnostic)
         self.held = False  # the limbs' goals not brought back this tick (kick_hold)
         self.was_held = False  # held since the trigger: the kick ramps out after its roll
-        self.holding = False  # the hold applied this tick (held, the kicked sole not lifted)
+        self.holding = False  # the hold applied this tick (held, in the double support after)
 
     def _start(
         self,
