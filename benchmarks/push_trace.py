@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from wbc import load_robot
+from wbc.balance import best_compensate
 from wbc.balance import stabilizer as stab_mod
 from wbc.balance import stepping as step_mod
 from wbc.balance.retime import HoldParams
@@ -53,6 +54,7 @@ from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
+from wbc.bench.physics import physics_entry, plan
 from wbc.bench.pushes import PUSH_DURATION, push_direction
 from wbc.bench.runner import run_entry
 from wbc.bench.sim_record import mid_single_support, physics_record
@@ -67,12 +69,20 @@ def trace(
     walk: str,
     offset: float,
     fall: bool = True,
+    robot_name: str = "bioloid",
 ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """(the run's summary and re-plans, a row per tick) of one push."""
-    robot = load_robot("bioloid")
-    entry = select(["wqp-daqp"], None, "tick")[0][0]
-    ref = traj.build(walk, robot)
-    _, rec = run_entry(entry, robot, ref, "tick")
+    """(the run's summary and re-plans, a row per tick) of one push (``robot_name``: as
+    ``pushes.py --robot``: its stack.toml and feed-forward gain)."""
+    robot = load_robot(robot_name)
+    if robot_name == "bioloid":
+        entry = select(["wqp-daqp"], None, "tick")[0][0]
+        ref = traj.build(walk, robot)
+        _, rec = run_entry(entry, robot, ref, "tick")
+    else:  # (as pushes.py: the robot folder's stack, the plan on servos)
+        entry = physics_entry("wqp-daqp", robot)
+        ref = traj.build(walk, robot)
+        rec = plan("wqp-daqp", walk, robot)
+    ff = best_compensate(robot)
     t_push = mid_single_support(rec)
     if t_push is None:
         raise SystemExit(f"{walk} has no single support to push in")
@@ -127,6 +137,7 @@ def trace(
             # each sole's normal tilted along u (deg; positive: rolled onto its u-side edge)
             "tilts": {f: math.degrees(math.asin(float(np.clip(
                 sim.site_pose(f).rotation[:, 2] @ u, -1.0, 1.0)))) for f in ("l_sole", "r_sole")},
+            "holding": bool(getattr(self._kick, "holding", False)),
             "dcm_u": 1e3 * float((self.last.dcm[:2] - p_st[:2]) @ u[:2]),
             "dcm_u_sim": 1e3 * float((c[:2] + v[:2] / omega - p_st[:2]) @ u[:2]),
             "cop_u": 1e3 * float((cop - p_st[:2]) @ u[:2]) if cop is not None else float("nan"),
@@ -183,7 +194,7 @@ def trace(
     step_mod.StepAdjuster.land = landed  # type: ignore[method-assign]
     try:
         result, loop = play_closed_loop(spec, robot, None, push=(t_push, force, PUSH_DURATION),
-                                        compensate=0.5, on_tick=sims.append)  # fmt: skip
+                                        compensate=ff, on_tick=sims.append)  # fmt: skip
     finally:
         stab_mod.Stabilizer.adjust = original  # type: ignore[method-assign]
         step_mod.StepAdjuster.land = landed_original  # type: ignore[method-assign]
@@ -209,6 +220,7 @@ def main() -> None:
     p.add_argument("--stepping", type=json.loads, default={}, help="SteppingParams JSON")
     p.add_argument("--gains", type=json.loads, default={}, help="Gains JSON")
     p.add_argument("--walk", default="walk10_wb")
+    p.add_argument("--robot", default="bioloid", help="robot name (as pushes.py --robot)")
     p.add_argument("--offset", type=float, default=0.0, help="s after mid single support")
     p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
     p.add_argument("--no-fall", action="store_true", help="the fall detector off")
@@ -219,7 +231,7 @@ def main() -> None:
     )
     a = p.parse_args()
     summary, rows = trace(a.impulse, a.direction, a.stepping, a.gains, a.walk, a.offset,
-                          not a.no_fall)  # fmt: skip
+                          not a.no_fall, a.robot)  # fmt: skip
     print(json.dumps(summary))
     # the push starts at the first tick whose simulated DCM error jumps (the walk's clock
     # starts after the calibration and soft start: find it in the simulator's time)
@@ -284,7 +296,8 @@ def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
         extra = (
             f" {xi:.1f} / {eta:.1f} | {r['L']:+.4f} | {j.get(side + '_hip_roll', 0):+.1f} "
             f"({g.get(side + '_hip_roll', 0):+.1f}), {j.get(side + '_ankle_roll', 0):+.1f} "
-            f"({g.get(side + '_ankle_roll', 0):+.1f}) | {r['tilts'][pushed]:+.1f} |"
+            f"({g.get(side + '_ankle_roll', 0):+.1f}) | {r['tilts'][pushed]:+.1f}"
+            f"{' held' if r['holding'] else ''} |"
         )
         print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} "
               f"| {r['dcm_u']:.1f} / {r['dcm_u_sim']:.1f} "

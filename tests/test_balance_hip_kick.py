@@ -137,9 +137,53 @@ def test_the_limbs_are_held_while_the_pushed_sole_stays_on_its_edge(robot, held)
     for _ in range(40):
         out = tick(0.005)  # the limbs spun out to their gains
     stab.hip[:] *= 0.5  # the roll half back: the kick's share with it
+    stab._stance = ""  # (the double support after the pushed single support: held only there)
     kick.held = held
     for _ in range(40):
         back = stab.joint_offsets(joints)
     assert abs(back[hip]) == pytest.approx(0.5 * abs(out[hip]))  # the stance hip: always
     for k in (leg, arm):
         assert abs(back[k]) == pytest.approx(abs(out[k]) if held else 0.5 * abs(out[k]))
+
+
+@pytest.mark.parametrize("case", ["lifted", "over"])
+def test_a_held_kick_lets_go_when_its_sole_lifts_and_ramps_out_after_its_roll(robot, case):
+    """``kick_hold`` holds the limbs only while the kicked sole still stands (a sole in its
+    own swing is not on its edge: ``lifted``, the limbs come back at their speed); once the
+    roll is back to 0 after a hold (``over``), the held limbs' goals ramp back at their
+    joints' speed limits, not in one tick. Held only in the double support after the pushed
+    single support (in it, the limbs follow the roll)."""
+    from wbc.balance.stabilizer import _B_JUMP
+
+    g = Gains(max_hip=0.5, hip_kick=0.3, kick_tilt=0.0, counter_leg=0.4, counter_arm=1.0,
+              kick_hold=0.035)  # fmt: skip
+    stab, tick, joints, _, _ = _setup(robot, g)
+    roles = robot.roles
+    leg, arm = (robot.joint_index(roles.joint("right", r)) for r in ("hip_roll", "shoulder_roll"))
+    _pushed(tick)
+    for _ in range(40):
+        out = tick(0.005)  # the limbs spun out to their gains
+    kick = stab._kick
+    kick.held = True
+    stab.hip[:] *= 0.5
+    single = stab.joint_offsets(joints).copy()  # its single support: following the roll back
+    for k in (leg, arm):
+        assert abs(single[k]) < abs(out[k])
+    stab._stance = ""  # the double support after it, the pushed sole still rolled
+    for _ in range(5):
+        held = stab.joint_offsets(joints)  # held: the limbs go no further back
+    for k in (leg, arm):
+        assert held[k] == pytest.approx(single[k])
+    if case == "lifted":
+        stab._fb[_B_JUMP + 2] = 0.0  # (the trigger re-armed by the double support between)
+        stab._stance = "r_sole"  # the kicked (left) sole lifts: its leg swings
+    else:
+        stab.hip[:] = 0.0
+        stab._fb[_B_JUMP + 4] = 0.0  # the roll is over
+    first = stab.joint_offsets(joints)
+    for k in (leg, arm):
+        step = float(robot.v_max[k]) * DT
+        assert abs(first[k]) == pytest.approx(abs(held[k]) - step)  # one tick's speed back
+    for _ in range(300):
+        last = stab.joint_offsets(joints)
+    assert last is None or not np.any(last[[leg, arm]])  # all the way back, then over

@@ -116,8 +116,11 @@ class Gains:
     #: than this (its normal's tilt, from the IMU and the encoders): returning them then
     #: gives back angular momentum with the DCM still at the edge (0: off). With
     #: ``counter_leg`` 1.0: away 0.891 → 0.906 N·s on ``walk10_wb`` (0.02 and 0.05: the same;
-    #: alone 0.891); the OP3's away 1.516 → 1.086 with it (unexplained): off (issue 30,
-    #: benchmarks/pushes.md)
+    #: alone 0.891); the OP3's away 1.516 → 1.086 with it: the hold acted while the pushed
+    #: sole was in its own swing (traced, thirteenth session). Held now only in the double
+    #: support after the pushed single support: the Bioloid 0.906 with ``counter_leg`` 1.0,
+    #: the OP3 1.195 (a grid of 21 pushes: 9 up against main's 15; ``counter_leg`` 1.0
+    #: alone 11, the hold alone 13): off (issue 30, benchmarks/pushes.md)
     kick_hold: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the

@@ -15,8 +15,12 @@ back behind the solved one), so the servo's full torque stops the spin before th
 passes ``kick_tilt``. Every goal's change per tick stays within the joint's speed limit.
 **The hold** (``kick_hold`` > 0): while the pushed stance sole stays rolled onto its edge
 toward the fall (:meth:`HipKick.rolled`: its normal, from the IMU and the encoders, tilted
-beyond ``kick_hold``), the limbs are not brought back: their return would give back angular
-momentum while the DCM is still at the sole's edge (the robot hangs there, then tips out).
+beyond ``kick_hold``) in the double support after the pushed single support (the catch's
+landing has not taken the robot off that sole), the limbs are not brought back: their
+return would give back angular momentum while the DCM is still at the sole's edge (the
+robot hangs there, then tips out). Not in the pushed single support itself (there the
+limbs follow the roll) nor once the pushed sole lifts; after a hold the kick ramps out at
+the joints' speeds when the roll is over (not dropped in one tick).
 """
 
 from __future__ import annotations
@@ -45,6 +49,8 @@ class HipKick:
         self.u = np.zeros(2)  # the roll's horizontal direction at the trigger (world)
         self.brake = 0.0  # rad: the brake's share of the last goal (a diagnostic)
         self.held = False  # the limbs' goals not brought back this tick (kick_hold)
+        self.was_held = False  # held since the trigger: the kick ramps out after its roll
+        self.holding = False  # the hold applied this tick (held, in the double support after)
 
     def _start(
         self,
@@ -72,7 +78,7 @@ class HipKick:
                 k = self.robot.joint_index(n)
                 self.joints.append([k, s * float(np.sign(axes[k])), gain, None])
         self.stance, self.u = stance, np.array([h[0], h[1]]) / m
-        self.held = False
+        self.held = self.was_held = False
 
     def offsets(
         self,
@@ -98,8 +104,9 @@ class HipKick:
         that side's shoulder roll by ``counter_leg``, ``counter_arm`` × the same share, their
         limbs spun toward the fall; each goal's change per tick within its joint's speed
         limit (``Robot.v_max``); once the kicked leg lifts, the kick ramps out at it. While
-        :attr:`held` (``kick_hold``: the pushed sole still on its edge) the limbs' goals
-        do not move back against their spin (the stance hip's goal keeps its brake)."""
+        :attr:`held` (``kick_hold``: the pushed sole still on its edge) in the double support
+        (``stance`` "") the limbs' goals do not move back against their spin (the stance
+        hip's goal keeps its brake); after a hold, the kick ramps out once the roll is over."""
         g = gains
         m = math.hypot(h[0], h[1])
         if m > 0 and stance and pushed:
@@ -108,13 +115,19 @@ class HipKick:
                 return d
             if not self.joints or self.robot.joint_index(name) != self.joints[0][0]:
                 self._start(joints, g, h, m, stance, rotation)
-        if not self.joints or not active:  # (no push, or its roll is over)
+        if not self.joints or (not active and not self.was_held):  # (no push, or over)
             self.joints = []
             return d
         d = np.zeros(len(joints)) if d is None else d
-        lifted = bool(stance) and stance != self.stance  # (its leg swings: ramped out)
+        # its leg swings, or the roll is over after a hold: the kick ramped out at the servos'
+        # speed (a held limb's goal is not dropped back in one tick)
+        lifted = (bool(stance) and stance != self.stance) or not active
         share = 0.0 if lifted else min(m / max(g.max_hip, 1e-9), 1.0)
         self.brake = 0.0 if lifted else self._brake(g, rotation, rate)
+        # (held only in the double support after the pushed single support: the catch's
+        # landing did not take the robot off its rolled sole)
+        hold = self.holding = self.held and not lifted and not stance
+        self.was_held = self.was_held or hold
         over = lifted
         for j in self.joints:
             k, sign, gain, last = j
@@ -122,9 +135,9 @@ class HipKick:
             amount = getattr(g, gain) * share - (self.brake if gain == "hip_kick" else 0.0)
             want = solved + sign * amount
             last = solved if last is None else last
-            if self.held and gain != "hip_kick" and sign * (want - last) < 0:
-                want = last  # (kick_hold: a limb not brought back while the sole is rolled)
             step = float(self.robot.v_max[k]) * dt  # (never a goal above the servo's speed)
+            if hold and gain != "hip_kick" and sign * (want - last) < 0:
+                want = last  # (kick_hold: a limb not brought back while the sole is rolled)
             j[3] = min(max(want, last - step), last + step)
             d[k] = j[3] - joints[k]
             over = over and j[3] == solved
