@@ -12,30 +12,39 @@ from wbc.exceptions import ConfigurationError
 from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT
 
 
-def _tick(state: str, support: int = SUPPORT_DOUBLE) -> SimpleNamespace:
-    return SimpleNamespace(state=state, support=support)
+def _tick(state: str, double: bool = True) -> SimpleNamespace:
+    return SimpleNamespace(state=state, support=SUPPORT_DOUBLE if double else SUPPORT_LEFT)
 
 
 def test_quiet_stand_says_when_the_robot_stands_still() -> None:
-    """``"end"``: quiet from the closing step's landing (state stopping, double support after
-    its single support) and while the engine stands, not before the closing step has swung
-    nor once a start is asked; ``"standing"``: only while the engine stands; ``""``: never.
-    A mode not known is refused, with ``on`` False too."""
-    walk = [_tick("walking"), _tick("walking", SUPPORT_LEFT), _tick("stopping"),
-            _tick("stopping", SUPPORT_LEFT), _tick("stopping"), _tick("stopping"),
-            _tick("standing"), _tick("standing")]  # fmt: skip
+    """``"end"``: quiet in the walk's end phase (a closing step landed: the engine's
+    ``ending``), while the engine stands and, until the next start, in a finish step's
+    double supports (its start and end phases; not its single support); ``"standing"``:
+    only while the engine stands, never while a start is asked; ``""``: never. A mode not
+    known is refused, with ``on`` False too."""
+    # (state, double support, ending, starting): a walk, its stop, a finish step
+    walk = [("walking", True, False, False), ("walking", False, False, False),
+            ("stopping", True, False, False), ("stopping", False, False, False),
+            ("stopping", True, True, False), ("standing", True, False, False),
+            ("standing", True, False, True), ("walking", True, False, False),
+            ("walking", False, False, False), ("walking", True, True, False),
+            ("standing", True, False, False)]  # fmt: skip
     expected = {
-        "end": [False, False, False, False, True, True, True, True],
-        "standing": [False] * 6 + [True, True],
-        "": [False] * 8,
+        "end": [False, False, False, False, True, True, True, True, False, True, True],
+        "standing": [False] * 5 + [True, False, False, False, False, True],
+        "": [False] * 11,
     }
     for mode, want in expected.items():
         quiet = QuietStand(mode)
-        assert [quiet(e, False) for e in walk] == want, mode
-        assert quiet(_tick("standing"), True) is False  # a start asked: the feedback back
-        assert quiet(_tick("walking"), False) is False
-        assert quiet(_tick("stopping"), False) is False  # (a new stop: not yet swung)
-    assert QuietStand("end", on=False)(_tick("standing"), False) is False
+        got = [quiet(_tick(state, double), starting, ending)
+               for state, double, ending, starting in walk]  # fmt: skip
+        assert got == want, mode
+        quiet.start()  # a walk starts: the feedback on from its start phase
+        assert quiet(_tick("standing"), True, False) is False
+        assert quiet(_tick("walking"), False, False) is False
+        assert quiet(_tick("stopping"), False, False) is False
+    assert QuietStand("end", on=False)(_tick("standing"), False, False) is False
+    assert QuietStand("end", on=False)(_tick("stopping"), False, True) is False
     assert DRIVE_QUIET_STAND in QUIET_STAND_MODES
     for bad in ("yes", None, "END"):
         with pytest.raises(ConfigurationError, match="quiet_stand must be one of"):
@@ -46,10 +55,11 @@ def test_quiet_stand_says_when_the_robot_stands_still() -> None:
 
 @pytest.mark.parametrize("mode", ["end", ""])
 def test_the_walker_stands_without_torso_feedback_after_its_walk(mode: str) -> None:
-    """The walker (outer loop, IMU) walks on the spot and stops; once it stands with
-    ``quiet_stand`` on, its stabilizer runs without the torso feedback (k_p, k_i, k_d 0)
-    and with the integral unwound (this tick's error in it alone), and a new start brings
-    the walking gains back; off, the walking gains stay on while it stands."""
+    """The walker (outer loop, IMU) walks on the spot and stops; from the closing step's
+    landing (its end phase) on, with ``quiet_stand`` "end", its stabilizer runs without the
+    torso feedback (k_p, k_i, k_d 0) and with the integral unwound (this tick's error in it
+    alone), and a new start brings the walking gains back; off, the walking gains stay on.
+    """
     pytest.importorskip("mujoco")
     from wbc.bench.solvers import registry
     from wbc.drive.sim import make_sim
@@ -72,11 +82,15 @@ def test_the_walker_stands_without_torso_feedback_after_its_walk(mode: str) -> N
         seen.add(walker.stabilizer.gains.k_p)
     assert seen == {walking.k_p}  # walking: the torso feedback on
     walker.stop()
+    ending: set[float] = set()  # k_p in the end phase (the closing step landed)
     for _ in range(400):
         walker.tick()
+        if walker.engine.ending:
+            ending.add(walker.stabilizer.gains.k_p)
         if not walker.walking:
             break
     assert not walker.walking
+    assert ending == ({0.0} if mode == "end" else {walking.k_p})
     walker.tick()
     gains = walker.stabilizer.gains
     if mode:

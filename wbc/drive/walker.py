@@ -455,6 +455,7 @@ class Walker:
         start-up calibration at rest, if it is still running. (During a finishing
         :meth:`stop`: walk on.)"""
         self._finish_by = None
+        self.quiet.start()
         if self.hold is not None:
             self.hold.end()
         if self.calibrating:
@@ -583,7 +584,7 @@ class Walker:
             targets = self._held_base(targets, dt)
         if stab.enabled:
             resting = self._yaw_rest_left > 0 and not stab.calibrating
-            quiet = resting or self.quiet(e, engine.starting or self._deferred_start)
+            quiet = resting or self.quiet(e, engine.starting or self._deferred_start, engine.ending)
             stab.gains = self._gains[1 if quiet else 0]
             if quiet:
                 stab.integral[:] = 0.0  # (the walk starts from an unwound integral)
