@@ -265,9 +265,9 @@ class Walker:
     by the odometry and, off the commanded pose, at most this many finish steps aimed from
     the measured frame (:class:`~wbc.drive.finish.FinishSteps`, ``finish_xy``: the position
     corrected too; :attr:`walking` stays True meanwhile).
-    ``heading_gain`` (outer loop; :data:`~wbc.drive.odometry.DRIVE_HEADING_GAIN`, 1: the gyro's
-    alone; 0.5 an option, docs/drive.md): the share of the gyro's stance-sole heading taken
-    at each landing (PoseOdometry).
+    ``heading_gain`` (outer loop; :data:`~wbc.drive.odometry.DRIVE_HEADING_GAIN`, 0.5; 1: the
+    gyro's alone): the share of the gyro's stance-sole heading taken at each landing
+    (PoseOdometry).
     ``quiet_stand`` (outer loop; :data:`~wbc.drive.stand.DRIVE_QUIET_STAND`): when standing
     still, no torso feedback (``"end"``, ``"standing"``, ``""``: :mod:`wbc.drive.stand`).
     """
