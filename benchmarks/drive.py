@@ -104,7 +104,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             play_hold: float | None = None, play_lift: bool = False,
             params=None, keep_clear: bool = True, base_hold: float | None = None,
             finish_steps: int | None = None, finish_xy: bool = False,
-            heading_gain: float | None = None, **kw):  # fmt: skip
+            heading_gain: float | None = None, quiet_stand: str | None = None,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -117,7 +118,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
         "play_hold": play_hold, "play_lift": play_lift or None, "hold": base_hold,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
-        "heading_gain": heading_gain,
+        "heading_gain": heading_gain, "quiet_stand": quiet_stand,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if play is not None:
@@ -271,6 +272,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="the share of the gyro's stance-sole heading the odometry takes at "
                          "each landing, the rest the encoders' chain (Walker(heading_gain=K); "
                          "default the Walker's)")  # fmt: skip
+    ap.add_argument("--quiet-stand", choices=["off", "standing", "end"], default=None,
+                    help="when the robot stands still, no torso feedback: 'end' from the "
+                         "closing step's landing, 'standing' once the engine stands, 'off' "
+                         "never (Walker(quiet_stand=...); default the Walker's, "
+                         "wbc.drive.stand.DRIVE_QUIET_STAND)")  # fmt: skip
     ap.add_argument("--settle", type=float, default=None, metavar="S",
                     help="s the robot stands after the walk ends before the run's figures "
                          "are taken (wbc.drive.sim.run's settle; default its 1 s)")  # fmt: skip
@@ -350,6 +356,7 @@ def main(argv: list[str] | None = None) -> int:
         "finish_steps": args.finish_steps,
         "finish_xy": args.finish_xy,
         "heading_gain": args.heading_gain,
+        "quiet_stand": {"off": ""}.get(args.quiet_stand, args.quiet_stand),
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None

@@ -22,7 +22,6 @@ any :class:`~wbc.servos.bus.ServoBus` plays it with every safety feature of ``wb
 from __future__ import annotations
 
 import math
-import re
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -50,8 +49,11 @@ from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
+from .failures import failure_cause
+from .failures import failure_lines as failure_lines  # (re-exported)
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
 from .odometry import DRIVE_HEADING_GAIN, BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
+from .stand import DRIVE_QUIET_STAND, QuietStand
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
 DRIVE_K_DCM = 0.1
@@ -263,9 +265,11 @@ class Walker:
     by the odometry and, off the commanded pose, at most this many finish steps aimed from
     the measured frame (:class:`~wbc.drive.finish.FinishSteps`, ``finish_xy``: the position
     corrected too; :attr:`walking` stays True meanwhile).
-    ``heading_gain`` (outer loop; :data:`~wbc.drive.odometry.DRIVE_HEADING_GAIN`, 1: the gyro's
-    alone; 0.5 an option, docs/drive.md): the share of the gyro's stance-sole heading taken
-    at each landing (PoseOdometry).
+    ``heading_gain`` (outer loop; :data:`~wbc.drive.odometry.DRIVE_HEADING_GAIN`, 0.5; 1: the
+    gyro's alone): the share of the gyro's stance-sole heading taken at each landing
+    (PoseOdometry).
+    ``quiet_stand`` (outer loop; :data:`~wbc.drive.stand.DRIVE_QUIET_STAND`): when standing
+    still, no torso feedback (``"end"``, ``"standing"``, ``""``: :mod:`wbc.drive.stand`).
     """
 
     def __init__(
@@ -299,6 +303,7 @@ class Walker:
         finish_steps: int = DRIVE_FINISH_STEPS_AFTER,
         finish_xy: bool = False,
         heading_gain: float = DRIVE_HEADING_GAIN,
+        quiet_stand: str = DRIVE_QUIET_STAND,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -367,11 +372,11 @@ class Walker:
         rest = round(calibrate_s / self.engine.dt) if closed and imu is not None else 0
         track = bool(track and closed and imu is not None)
         gains = (gains or DRIVE_GAINS[track]).check()
-        #: the gains of the extra rest (``yaw_rest_s``): no torso feedback (its integral
-        #: restarts with the walk). With the rate feedback (``k_d``) the noisy gyro's rate
-        #: in the goals set the stiff, lightly damped randomised Bioloid 0 (12 ms of latency)
-        #: vibrating until it spun on its soles, −56° in 1.5 s of rest (benchmarks/drive.md)
+        #: the gains of the extra rest (``yaw_rest_s``) and of standing still (``quiet_stand``):
+        #: no torso feedback (its integral restarts with the walk); with it the stiff, late
+        #: randomised Bioloid 0 rang and spun on its soles, −56° in 1.5 s of rest (drive.md)
         self._gains = (gains, replace(gains, k_p=0.0, k_i=0.0, k_d=0.0) if track else gains)
+        self.quiet = QuietStand(quiet_stand, on=track)
         estimator = StateEstimator(robot, self.engine.height, use_imu=imu is not None,
                                    gyro_heading=gains.k_yaw > 0, **DRIVE_ESTIMATOR)  # fmt: skip
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
@@ -450,6 +455,7 @@ class Walker:
         start-up calibration at rest, if it is still running. (During a finishing
         :meth:`stop`: walk on.)"""
         self._finish_by = None
+        self.quiet.start()
         if self.hold is not None:
             self.hold.end()
         if self.calibrating:
@@ -578,8 +584,9 @@ class Walker:
             targets = self._held_base(targets, dt)
         if stab.enabled:
             resting = self._yaw_rest_left > 0 and not stab.calibrating
-            stab.gains = self._gains[1 if resting else 0]
-            if resting:
+            quiet = resting or self.quiet(e, engine.starting or self._deferred_start, engine.ending)
+            stab.gains = self._gains[1 if quiet else 0]
+            if quiet:
                 stab.integral[:] = 0.0  # (the walk starts from an unwound integral)
             targets = stab.adjust(targets, e.com_vel, self.q, dt)
             odo = self.odometry
@@ -778,23 +785,3 @@ class Walker:
         dep = Deployment(bus, source, self.robot, config, out=out)
         holder.append(dep)
         return dep
-
-
-def failure_cause(exc: Exception, phase: str) -> str:
-    """A failed solve's cause for counting: the support phase, the exception's type and its
-    message without the figures in brackets (residuals, distances), e.g. ``double:
-    InfeasibleError: hard level 0 is infeasible: cannot satisfy contact_support, ...``."""
-    return f"{phase}: {type(exc).__name__}: {_FIGURES.sub('', str(exc))}"
-
-
-def failure_lines(walker: Walker) -> list[str]:
-    """The lines that report a walker's failed solves (none if every solve succeeded)."""
-    if not walker.failed_solves:
-        return []
-    lines = [f"WARNING: {walker.failed_solves} of {len(walker.tick_time)} walk ticks failed "
-             "to solve (the robot held its last goals):"]  # fmt: skip
-    lines += [f"  {n} × {cause}" for cause, n in walker.failure_causes.most_common()]
-    return lines
-
-
-_FIGURES = re.compile(r"\s*\([^()]*\d[^()]*\)")

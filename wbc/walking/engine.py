@@ -6,16 +6,15 @@ plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
 * **footsteps, online** — at the start of every double support (and at :meth:`start`) the
   step about to be taken is planned from the *current* command, so a new command takes
   effect at the next lift-off (within one step). A walking frame moves to where the
-  commanded pose (the command integrated since :meth:`start`) will be when the step lands
-  — in steady walking by the command times the step time, ``(vx T, vy T, ωz T)`` in its own
-  axes; after a start or a change, or short landings (leg odometry, :attr:`on_landing`),
-  the displacement lost is made up in the room the velocity limits leave beside the
-  command — and the swinging sole lands
-  beside it as :func:`wbc.walking.footsteps.plan_footsteps` places its soles (the leading
-  sole opens sideways, the trailing one closes; the soles head with the frame). Each
-  planned step is checked by :meth:`FootstepPlan.validate` (no crossing, the feet's
-  clearance along the swing, relative yaw, the legs' reach at the CoM height); a step that
-  fails is shortened (halved, up to four times, then a step in place);
+  commanded pose (the command integrated since :meth:`start`) will be when the step lands —
+  in steady walking by the command times the step time, ``(vx T, vy T, ωz T)`` in its own
+  axes; after a start or a change, or short landings (leg odometry, :attr:`on_landing`), the
+  displacement lost is made up in the room the velocity limits leave beside the command —
+  and the swinging sole lands beside it as :func:`wbc.walking.footsteps.plan_footsteps`
+  places its soles (the leading sole opens sideways, the trailing one closes; the soles head
+  with the frame). Each planned step is checked by :meth:`FootstepPlan.validate` (no
+  crossing, the feet's clearance along the swing, relative yaw, the legs' reach at the CoM
+  height); a step that fails is shortened (halved, up to four times, then a step in place);
 * **CoM, receding horizon** — the ZMP path through the planned footsteps (as
   :func:`wbc.walking.schedule.zmp_knots` lays it: onto each landed sole within ``transfer``
   of the double support, on the stance sole in single support, ``zmp_offset`` toward the
@@ -23,11 +22,11 @@ plans it while it walks, one tick at a time (:meth:`WalkEngine.tick`):
   CoM follows it by Kajita's preview control run tick by tick (:class:`PreviewController`'s
   gains; its jerk input from the ZMP error, its integral and the next second of the path);
 * **swing** — the swing sole's min-jerk path to its landing with an apex
-  (:func:`wbc.walking.schedule.sole_tracks` for the one step; its horizontal move and
-  turn done by the last ``settle`` share of the swing, which only comes down: a sole that
-  touches down early lands in place instead of dragging), the torso heading the mean
-  of the soles', and, with a :class:`~wbc.walking.window.BalanceWindow`, the torso roll the
-  whole body needs for the CoM's lateral offset (as the whole-body walks plan it).
+  (:func:`wbc.walking.schedule.sole_tracks` for the one step; its horizontal move and turn
+  done by the last ``settle`` share of the swing, which only comes down: a sole that touches
+  down early lands in place instead of dragging), the torso heading the mean of the soles',
+  and, with a :class:`~wbc.walking.window.BalanceWindow`, the torso roll the whole body
+  needs for the CoM's lateral offset (as the whole-body walks plan it).
 
 Why the preview controller and not the casadi MPC: measured on the Bioloid, one receding
 MPC solve of a 1.5 s window costs tens of milliseconds (``benchmarks/drive.md``), beyond a
@@ -205,8 +204,7 @@ class WalkEngine:
     @property
     def frame_offset(self) -> np.ndarray:
         """The walking frame's error as the commanded pose is aimed from it (x, y, heading;
-        world): :attr:`frame_error` where a caller's odometry measures it, else
-        :attr:`odometry_offset`."""
+        world): :attr:`frame_error` if a caller's odometry measures it, else odometry_offset."""
         return self.odometry_offset if self.frame_error is None else self.frame_error
 
     # ------------------------------------------------------------------ commands
@@ -276,8 +274,7 @@ class WalkEngine:
         return self._start_requested
 
     def commanded_frame(self) -> np.ndarray:
-        """The commanded pose of the walking frame (x, y, heading; world): the commanded
-        pose (:attr:`origin`'s) less the origin."""
+        """The walking frame's commanded pose (x, y, heading; world): pose_cmd less the origin."""
         want = self.pose_cmd.copy()
         want[:2] -= rot2(want[2]) @ self.origin
         return want
@@ -285,6 +282,11 @@ class WalkEngine:
     @property
     def walking(self) -> bool:
         return self.state != "standing"
+
+    @property
+    def ending(self) -> bool:
+        """In a walk's end phase: its closing step (or a finish step) landed, the CoM settling."""
+        return self.state != "standing" and self._segments[0].kind == "end"
 
     # ------------------------------------------------------------------ planning
     def mid_frame(self) -> np.ndarray:
@@ -411,8 +413,7 @@ class WalkEngine:
     ) -> tuple[np.ndarray, Footstep, bool]:
         """The next step of ``side`` (``stride``: the walking frame's move, default the
         command × the step time), shortened until it passes the checks (``check=False``: as
-        asked, a prediction for the ZMP path only); returns (new walking frame, step,
-        shortened)."""
+        asked, a prediction for the ZMP path only); returns (walking frame, step, shortened)."""
         if closing:
             return (*self._closing(feet, side, on_target=True), False)
         if stride is None:
@@ -763,8 +764,7 @@ def _inside(limits: VelocityLimits, v: np.ndarray) -> bool:
 
 
 def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -> np.ndarray:
-    """``pose`` (x, y, heading) moved for ``t`` s at ``cmd`` (body-frame velocities; the arc
-    in closed form)."""
+    """``pose`` (x, y, heading) moved for ``t`` s at ``cmd`` (body-frame velocities; arc)."""
     vx, vy, wz = cmd
     th = float(pose[2])
     if abs(wz) < 1e-9:
