@@ -66,6 +66,23 @@ def rng():
 
 
 @pytest.fixture(scope="session")
+def random_configuration(robot):
+    """``make(seed)``: Walk Ready with every joint drawn inside its range (even seeds) or up to
+    0.05 rad beyond it (odd), and one joint NaN when ``seed % 5 == 0``."""
+
+    def make(seed: int) -> np.ndarray:
+        rng = np.random.default_rng(seed)
+        lo, hi = robot.q_min, robot.q_max
+        q = robot.configuration("walk_ready").copy()
+        q[7:] = rng.uniform(lo - 0.05, hi + 0.05) if seed % 2 else rng.uniform(lo, hi)
+        if seed % 5 == 0:
+            q[7 + seed % robot.n_joints] = np.nan  # numpy: a NaN joint is neither below nor above
+        return q
+
+    return make
+
+
+@pytest.fixture(scope="session")
 def window(robot):
     """The Bioloid's whole-body balance window (coarse: 6 samples), built once."""
     from wbc.walking.window import BalanceWindow

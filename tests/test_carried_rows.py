@@ -41,34 +41,44 @@ def test_rows_kept_are_found_again_by_value_at_other_indices():
     assert keep_rows(G, h, p, np.ones(p, np.bool_), Gc, hc) == 0  # (12 rows, room for 8)
 
 
-def _walk(robot, carry: bool, ticks: int, seen: list | None = None):
-    """walk10 on ``walk_strict``, ``carry_rows`` as given: each tick's Δq; into ``seen`` for
-    each tick that started from carried rows, (the rows it started from, its final set)."""
-    controller = StackController(load_stack("walk_strict", robot))
+def _watched_walk(robot, stack, method: str, ticks: int, seen: list | None = None):
+    """walk10 on ``stack``, ``CarriedRows.<method>`` watched: each tick's Δq; into ``seen``
+    for each tick whose ``method`` marked rows, (its tick, the rows marked, its final set).
+    Watching ``switch``, no ordinary tick may carry rows."""
+    controller = StackController(stack)
     solver = controller.solver
-    solver.carry_rows = carry
     session = Session(controller, robot, build("walk10", robot))
-    started: list = []
-    original = CarriedRows.carry
+    marked: list = []
+    original = getattr(CarriedRows, method)
 
-    def carry_seen(self, G, h, p, working):
-        original(self, G, h, p, working)
-        started.append(working[:p].copy())
+    def watch(self, *args):
+        original(self, *args)
+        p, working = args[-2], args[-1]
+        marked.append(working[:p].copy())
 
-    CarriedRows.carry = carry_seen
+    setattr(CarriedRows, method, watch)
     out = []
     try:
         for i in range(ticks):
-            started.clear()
+            marked.clear()
             session.tick(i)
             plan = solver.fast
             out.append(plan.dq.copy())
-            if seen is not None and started and started[0].any():
+            if method == "switch":
+                assert plan.carried.count == 0  # (nothing carried to an ordinary tick)
+            if seen is not None and marked and marked[0].any():
                 k = plan.damped_level
-                seen.append((started[0], plan.inequalities.working[k, : started[0].size].copy()))
+                seen.append((i, marked[0], plan.inequalities.working[k, : marked[0].size].copy()))
     finally:
-        CarriedRows.carry = original
+        setattr(CarriedRows, method, original)
     return out
+
+
+def _walk(robot, carry: bool, ticks: int, seen: list | None = None):
+    """walk10 on ``walk_strict``, ``carry_rows`` as given (see ``_watched_walk``)."""
+    stack = load_stack("walk_strict", robot)
+    stack.solver.carry_rows = carry
+    return _watched_walk(robot, stack, "carry", ticks, seen)
 
 
 def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
@@ -84,41 +94,16 @@ def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
     cold = _walk(robot, False, 200)
     assert max(np.abs(a - b).max() for a, b in zip(warm, cold, strict=True)) <= 1e-12
     assert len(seen) >= 20, len(seen)
-    carried = sum(int(start.sum()) for start, _ in seen)
-    final = sum(int((start & end).sum()) for start, end in seen)
+    carried = sum(int(start.sum()) for _, start, _ in seen)
+    final = sum(int((start & end).sum()) for _, start, end in seen)
     assert final >= 0.7 * carried, (final, carried)
-    assert sum(np.array_equal(start, end) for start, end in seen) >= len(seen) // 2
+    assert sum(np.array_equal(start, end) for _, start, end in seen) >= len(seen) // 2
 
 
 def _switch_walk(robot, on: bool, ticks: int, seen: list | None = None):
-    """walk10 on ``walk_strict`` with ``carry_at_switch`` as given: each tick's Δq; into
-    ``seen`` for each tick whose switch marked rows, (its tick, the rows marked, its final
-    set)."""
-    controller = StackController(load_stack("walk_strict", robot, carry_at_switch=on))
-    solver = controller.solver
-    session = Session(controller, robot, build("walk10", robot))
-    marked: list = []
-    original = CarriedRows.switch
-
-    def switch_seen(self, states, G, h, p, working):
-        original(self, states, G, h, p, working)
-        marked.append(working[:p].copy())
-
-    CarriedRows.switch = switch_seen
-    out = []
-    try:
-        for i in range(ticks):
-            marked.clear()
-            session.tick(i)
-            plan = solver.fast
-            out.append(plan.dq.copy())
-            assert plan.carried.count == 0  # (nothing carried to an ordinary tick)
-            if seen is not None and marked and marked[0].any():
-                k = plan.damped_level
-                seen.append((i, marked[0], plan.inequalities.working[k, : marked[0].size].copy()))
-    finally:
-        CarriedRows.switch = original
-    return out
+    """walk10 on ``walk_strict`` with ``carry_at_switch`` as given (see ``_watched_walk``)."""
+    stack = load_stack("walk_strict", robot, carry_at_switch=on)
+    return _watched_walk(robot, stack, "switch", ticks, seen)
 
 
 def test_a_support_switch_starts_from_the_last_phases_rows(robot):
