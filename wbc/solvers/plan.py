@@ -385,8 +385,7 @@ class _Plan:
     damped_level: int | None = None
     #: the damped level's working rows carried to the next tick (None: none)
     carried: CarriedRows | None = None
-    #: :meth:`forget_warm_start`'s compiled call (:func:`wbc.compiled.prelude.forget_sets`)
-    #: and :attr:`warm_start` as rows (None: not bound yet)
+    #: :meth:`forget_warm_start`'s compiled call and :attr:`warm_start` as rows (or None)
     _forget: Callable | None = None
     _sets: np.ndarray | None = None
 
@@ -492,9 +491,8 @@ class _Plan:
         their answer then depends on no earlier tick, issue 28). Started cold, a level whose
         reference outruns the servos (``walk_strict``'s third level in single support, ~6
         joints at their speed) took 12–17 subproblem solves, ~60–90 µs; from the last tick's
-        active set 1–3 (benchmarks/self_collision.md). The inequality rows start afresh (a
-        self-collision row's index names another pair from tick to tick), but for the damped
-        last level's found again by value (:mod:`wbc.solvers.carry`)."""
+        active set 1–3 (benchmarks/self_collision.md). The inequality rows start afresh but
+        for the damped level's found again by value (:mod:`wbc.solvers.carry`)."""
         forget, sets = self._forget, self._sets  # (warm_start as rows: the weighted's one)
         if forget is None:  # (its entry point, once: a tick makes one compiled call here)
             from ..compiled.entry import entry_point
@@ -507,9 +505,7 @@ class _Plan:
             upto = self.damped_level
         else:
             upto = sets.shape[0]
-        # the bounds' sets above ``upto`` and every inequality row's flag (the rows start
-        # afresh; :meth:`InequalityRows.layout` leaves them to this)
-        forget(sets, upto, self.inequalities.working)
+        forget(sets, upto, self.inequalities.working)  # (and every inequality row's flag)
         if not keep_damped and self.carried is not None:
             self.carried.count = 0
 
@@ -642,9 +638,8 @@ class _Plan:
         return status
 
     def carries_rows(self, option: str = "carry_rows") -> bool:
-        """Whether the damped level's working rows go to the next tick (:attr:`carried`,
-        with the solver's ``carry_rows`` and μ > 0); ``option`` "carry_at_switch": to the
-        first tick of another layout only (:meth:`wbc.solvers.carry.CarriedRows.switch`)."""
+        """Whether the damped level's working rows go to the next tick (the solver's ``option``
+        and μ > 0; "carry_at_switch": to another layout's first tick only, CarriedRows.switch)."""
         solver = self.solver
         return self.carried is not None and bool(
             getattr(solver, option, False) and solver.regularization > 0.0
@@ -770,8 +765,8 @@ class CascadePlan(_Plan):
         self.warm_start = self.states
         self.damped_level = len(levels) - 1
         self.carried = self.scratch.shared("carried", lambda: CarriedRows(self.scratch, nv))
-        if self.carries_rows("carry_at_switch"):  # (its kernels loaded now, not in a tick)
-            self.carried.bind()
+        if self.carries_rows("carry_at_switch"):
+            self.carried.bind()  # (its kernels loaded now, not in a tick)
         self.achieved = np.zeros(self.rows.m)
         self.tick_name = "cascade_tick"
         self.space = (np.zeros(0), np.zeros(0, np.int64))  # (_bind_args: the solver's)
