@@ -1213,3 +1213,94 @@ def test_a_catch_of_a_push_backward_lasts_back_episode_steps(robot, walk10):
     assert SteppingParams().back_episode == 3 and SteppingParams().episode_steps == 2
     with pytest.raises(ConfigurationError, match="back_episode"):
         SteppingParams(back_episode=-1).check()
+
+
+def test_a_catch_of_a_push_backward_releases_the_torso_with_back_torso(robot, walk10):
+    """``back_torso``: after a push backward the trigger caught, in the swings the catch
+    carries past the first ``back_skip``, the torso target turns that share of the way to the
+    measured torso; not in the skipped swings, after a push forward, nor by default."""
+    import pinocchio as pin
+
+    rot, move = [0.0, -0.4, 0.0], [0.0, 0.0, 0.0]  # the measured torso pitched back 0.4 rad
+    i = MID + 6
+
+    def turned(params, jump=-0.02):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=i)
+        out = adj.land(t, e, q)
+        R = np.asarray(t.torso_rotation)
+        to_measured = pin.log3(np.asarray(e.rotation) @ R.T)
+        return pin.log3(np.asarray(out.torso_rotation) @ R.T), to_measured
+
+    base = {"lift": 0.0, "toe_up": 0.0, "landing": 0.0}
+    half, whole = turned(SteppingParams(back_torso=0.5, **base))
+    assert np.linalg.norm(whole) > 0.15
+    np.testing.assert_allclose(half, 0.5 * whole, atol=1e-9)
+    skipped, _ = turned(SteppingParams(back_torso=0.5, back_skip=1, **base))
+    np.testing.assert_allclose(skipped, 0.0, atol=1e-12)  # (the triggered swing: skipped)
+    fwd, _ = turned(SteppingParams(back_torso=0.5, **base), jump=0.02)
+    np.testing.assert_allclose(fwd, 0.0, atol=1e-12)
+    off, _ = turned(SteppingParams(**base))
+    np.testing.assert_allclose(off, 0.0, atol=1e-12)
+    assert SteppingParams().back_torso == 0.0 and SteppingParams().back_skip == 0
+    with pytest.raises(ConfigurationError, match="back_torso"):
+        SteppingParams(back_torso=1.5).check()
+
+
+def test_a_catch_of_a_push_backward_lands_by_the_runaway_with_back_runaway(robot, walk10):
+    """``back_runaway``: in a swing the catch of a push backward carries, the clock runs so
+    the step lands no later than the DCM error takes (LIPM) to grow to ``back_runaway``,
+    though the room rule leaves it longer (at most ``catch_hurry``×); after a push forward
+    and by default, the room rule's."""
+    i = MID + 2
+    small = np.array([-0.02, 0.0])
+
+    def rate(params, jump=-0.02):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        ref = adj.current
+        return adj.rate(ref, i, dcm(ref, i, adj.omega) + small * np.sign(-jump)), adj
+
+    room, adj = rate(SteppingParams())
+    run, _ = rate(SteppingParams(back_runaway=0.03))
+    assert run > room and run <= 3.0
+    e = float(np.linalg.norm(adj.error(adj.current, i, dcm(adj.current, i, adj.omega) + small)[1]))
+    if e > 0:  # the landing at the runaway's time (or min_remaining's), clipped to 1 … 3
+        ph = adj.phases[adj.phase_of[i]]
+        left = (ph.i1 - i) * walk10.dt
+        T = math.log(max(0.03 / e, 1.0)) / adj.omega
+        assert run == pytest.approx(min(max(left / max(T, 0.05), 1.0), 3.0))
+    fwd, _ = rate(SteppingParams(back_runaway=0.03), jump=0.02)
+    assert fwd == 1.0
+    skipped, _ = rate(SteppingParams(back_runaway=0.03, back_skip=1))
+    assert skipped == room
+    assert SteppingParams().back_runaway == 0.0
+    with pytest.raises(ConfigurationError, match="back_runaway"):
+        SteppingParams(back_runaway=-0.01).check()
+
+
+def test_a_catch_of_a_push_backward_anchors_the_landed_soles_with_back_anchor(robot, walk10):
+    """``back_anchor``: once the trigger caught a push backward, the estimator's
+    ``anchor_band`` is set to it (a sole landing off its plan anchored where it landed);
+    not after a push forward, without a trigger, nor with 0."""
+
+    class _Est:
+        anchor_band = 0.0
+
+    rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+    for params, jump, band in (
+        (SteppingParams(back_anchor=0.03), -0.02, 0.03),
+        (SteppingParams(back_anchor=0.03), 0.02, 0.0),
+        (SteppingParams(back_anchor=0.0), -0.02, 0.0),
+    ):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        adj.contact = _Est()
+        _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=MID + 2)
+        adj.land(t, e, q)
+        assert adj.contact.anchor_band == band, (params.back_anchor, jump)
+    fresh, t, e, q, _ = _land_case(robot, walk10, SteppingParams(back_anchor=0.03), rot, move)
+    fresh.contact = _Est()
+    fresh.land(t, e, q)
+    assert fresh.contact.anchor_band == 0.0  # no trigger
+    assert SteppingParams().back_anchor == 0.06  # (on by default)
+    with pytest.raises(ConfigurationError, match="back_anchor"):
+        SteppingParams(back_anchor=-0.01).check()

@@ -117,6 +117,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from ..exceptions import TrajectoryError
 from ..geometry import sole_corners
@@ -338,6 +339,11 @@ class StepAdjuster:
         (:meth:`PushTrigger.lifted`) and moved into the measured frame
         (:meth:`MeasuredLanding.land`; single support, else ``targets`` itself)."""
         targets = self.trigger.pitched(targets) if self.enabled else targets
+        targets = self.released(targets, est)
+        if self.params.back_anchor > 0 and self.contact is not None and self.enabled:
+            t = self.trigger  # (back_anchor: the landed soles anchored where they landed)
+            if t.tick is not None and not t.forward and self.contact.anchor_band <= 0:
+                self.contact.anchor_band = self.params.back_anchor
         if targets.phase != "single":
             step = self._descending(targets.i)
             if step is None:
@@ -359,6 +365,27 @@ class StepAdjuster:
         turn = self.params.landing_turn if back else 0.0
         lifted = self.trigger.lifted(targets, vel)
         return self.floor(self.landing.land(lifted, est, q, rise, turn))
+
+    def released(self, targets: Any, est: Any) -> Any:
+        """``targets`` with the torso target turned ``back_torso`` of the way to the measured
+        torso (``est.rotation``) after a push backward the trigger caught, in the swings the
+        catch carries and the double supports before them; else ``targets``."""
+        p, t, i = self.params, self.trigger, targets.i
+        if p.back_torso <= 0 or not self.enabled or t.tick is None or t.forward:
+            return targets
+        if not (t.carried(i) or t.before_carried(i)):
+            return targets
+        j = int(self.phase_of[i])
+        if not self._back_skipped(self.phases[j if self.phases[j].kind == "single" else j + 1]):
+            return targets  # (the catch's first back_skip swings)
+        R = np.asarray(targets.torso_rotation, dtype=float)
+        v = pin.log3(np.asarray(est.rotation, dtype=float) @ R.T)
+        return targets.replace(torso_rotation=pin.exp3(p.back_torso * v) @ R)
+
+    def _back_skipped(self, ph: Phase) -> bool:
+        """True when the swing ``ph`` is past the catch's first ``back_skip`` swings."""
+        first = self.phases[self.phase_of[self.trigger.tick or 0]].step
+        return int(ph.step) - int(first) >= self.params.back_skip
 
     def floor(self, targets: Any) -> Any:
         """``targets`` with the swing's ground clearance lowered (``landing_floor``;
@@ -493,6 +520,9 @@ class StepAdjuster:
             # (LIPM): T* = ln(v / (ω e)) / ω; the clock runs T / T* (1 … hurry)
             v = self.reach(i)[1] / bend_rate(ph, i, ref.dt, self.swing) / left
             best = math.log(v / (self.omega * e)) / self.omega if v > self.omega * e else 0.0
+            if back and p.back_runaway > 0 and self._back_skipped(ph):  # (back_runaway)
+                run = math.log(max(p.back_runaway / e, 1.0)) / self.omega
+                best = min(best, run) if best > 0 else 0.0
             return min(max(left / max(best, p.min_remaining), 1.0), cap)
         speed = p.catch_hurry if self.trigger.before_carried(i) else p.hurry  # (catch_hurry)
         if speed == 1.0:

@@ -121,6 +121,23 @@ class SteppingParams:
     #: (0: the whole correction; 0.25: the first swing's heel on the floor; 0.4 lost a push
     #: the default keeps; with ``back_episode`` 3: backward 0.727 → 0.734 N·s)
     landing_turn: float = 0.5
+    #: share (0: off): after a push backward the trigger caught, in the swings the catch
+    #: carries and the double supports before them, the torso target turned this share of the
+    #: way to the measured torso (the stabilizer's clipped target, +21.7° against a torso at
+    #: −9° in the third swing of a 0.8 N·s push, turns the measured-frame landing)
+    back_torso: float = 0.0
+    #: m (0: off): after a push backward, in a swing the catch carries, its landing no later
+    #: than the time the DCM error (LIPM) takes to grow to this (``hurry_single``'s clock,
+    #: at most ``catch_hurry``×), though the room rule would leave it longer
+    back_runaway: float = 0.0
+    #: m (0: off): after a push backward the trigger caught, the estimator's ``anchor_band``
+    #: from then on (a sole landing further than this from its plan anchored where it landed:
+    #: the catch's short second step, 50 mm behind its plan at 0.8 N·s; on: backward 0.734 →
+    #: 0.742 N·s, the other three and the OP3's backward identical; 0.02–0.04 lose pushes;
+    #: benchmarks/pushes.md)
+    back_anchor: float = 0.06
+    #: swings: neither ``back_torso`` nor ``back_runaway`` in the catch's first ones
+    back_skip: int = 0
     #: m: the lift (``lift``) in the swings the catch of a push backward carries (None: ``lift``)
     back_lift: float | None = None
     #: 1/s: in the double support after a caught landing (:class:`~.swing_catch.
@@ -250,7 +267,9 @@ class SteppingParams:
             "back_shift", "back_foot_speed",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
-            "landing_depth", "landing_floor", "landing_turn", "back_lift", "descend",
+            "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
+            "back_anchor",
+            "back_lift", "descend",
             "descend_depth", "descend_out",
             "descend_hold", "descend_band", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
@@ -271,6 +290,10 @@ class SteppingParams:
         if not (math.isfinite(self.catch_pitch) and abs(self.catch_pitch) <= 1.0):
             raise ConfigurationError(
                 f"stepping: catch_pitch must be finite, within ±1 rad, got {self.catch_pitch}"
+            )
+        if self.back_torso > 1.0:
+            raise ConfigurationError(
+                f"stepping: back_torso must be a share in [0, 1], got {self.back_torso}"
             )
         if self.landing_floor > 1.0:
             raise ConfigurationError(
@@ -293,7 +316,7 @@ class SteppingParams:
             )
         for name in (
             "episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip",
-            "catch_swings", "floor_skip", "back_episode",
+            "catch_swings", "floor_skip", "back_episode", "back_skip",
         ):  # fmt: skip
             v = getattr(self, name)
             if int(v) != v or v < 0:
