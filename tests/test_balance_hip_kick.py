@@ -187,3 +187,70 @@ def test_a_held_kick_lets_go_when_its_sole_lifts_and_ramps_out_after_its_roll(ro
     for _ in range(300):
         last = stab.joint_offsets(joints)
     assert last is None or not np.any(last[[leg, arm]])  # all the way back, then over
+
+
+def test_under_angle_swings_the_leg_com_across_the_hips_spacing():
+    """:func:`under_angle`: the OP3's swing hip roll turned by it carries that leg's CoM
+    (its hip roll's subtree) across the hips' spacing to within a few mm (its leg is longer
+    than the spacing); the Bioloid's leg CoM sits closer to its hip than the spacing: π/2."""
+    from wbc.balance.hip_kick import under_angle
+
+    assert under_angle(load_robot("bioloid")) == pytest.approx(np.pi / 2)
+    op3 = load_robot("op3")
+    theta = under_angle(op3)
+    assert 0.3 < theta < 1.2
+    model = op3.model
+    data = model.createData()
+    q = op3.configuration(op3.stand_pose)
+    names = [op3.roles.joint(s, "hip_roll") for s in ("left", "right")]
+    ids = [model.getJointId(n) for n in names]
+    sub = [i for i in range(1, model.njoints) if ids[0] in model.supports[i]]
+
+    def leg_com(q):
+        pin.forwardKinematics(model, data, q)
+        m = sum(model.inertias[i].mass for i in sub)
+        return sum(model.inertias[i].mass * data.oMi[i].act(model.inertias[i].lever)
+                   for i in sub) / m  # fmt: skip
+
+    before = leg_com(q)  # (and the stand's kinematics: the hips below)
+    spacing = data.oMi[ids[1]].translation - data.oMi[ids[0]].translation
+    w = float(np.linalg.norm(spacing))
+    moved = [(leg_com(_turned(op3, q, names[0], s * theta)) - before) @ spacing / w
+             for s in (-1, 1)]  # fmt: skip
+    best = min(abs(m - w) for m in moved)
+    assert best < 0.01  # the CoM moved across the spacing toward the other hip
+
+
+def _turned(robot, q, name, angle):
+    q = q.copy()
+    q[robot.q_index(name)] += angle
+    return q
+
+
+@pytest.mark.parametrize("under", [0.0, 0.2])
+def test_counter_under_caps_the_swing_leg_at_its_share_of_the_under_angle(robot, under):
+    """``counter_under``: the leg's goal settles at ``min(counter_leg, counter_under ×
+    under_angle)`` (the Bioloid's π/2 × 0.2 = 0.31 rad below 0.4); 0: ``counter_leg``."""
+    g = Gains(max_hip=0.5, hip_kick=0.3, kick_tilt=0.0, counter_leg=0.4, counter_arm=1.0,
+              counter_under=under)  # fmt: skip
+    _, tick, _, _, _ = _setup(robot, g)
+    leg = robot.joint_index(robot.roles.joint("right", "hip_roll"))
+    _pushed(tick)
+    for _ in range(40):
+        out = tick(0.005)
+    assert abs(out[leg]) == pytest.approx(min(0.4, under * np.pi / 2) if under else 0.4)
+
+
+def test_kick_hold_for_ignores_a_one_tick_tilt_reading(robot):
+    """``kick_hold_for``: the sole's tilt must read rolled without a break for that long
+    before the limbs are held; a single tick's reading (a support switch) does not hold,
+    a break restarts the count."""
+    g = Gains(max_hip=0.5, hip_kick=0.3, kick_tilt=0.0, counter_leg=0.4, kick_hold=0.035,
+              kick_hold_for=0.05)  # fmt: skip
+    stab, tick, _, _, _ = _setup(robot, g)
+    _pushed(tick)
+    kick = stab._kick
+    reads = [True, False] + [True] * 5
+    held = [kick.debounced(r, DT, g.kick_hold_for) for r in reads]
+    assert held == [False, False, False, False, False, False, True]
+    assert kick.debounced(True, DT, 0.0)  # 0: at once

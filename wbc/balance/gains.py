@@ -111,6 +111,13 @@ class Gains:
     #: alone: 1.469): not the default
     counter_leg: float = 0.7
     counter_arm: float = 2.0
+    #: with ``counter_leg``: the leg's goal capped at this × the hip roll that swings the leg's
+    #: CoM under the other hip (from the robot's model at its stand pose, :func:`wbc.balance.
+    #: hip_kick.under_angle`: the Bioloid π/2, never reached within its leg; the OP3 0.65
+    #: rad): a per-robot size for ``counter_leg`` (0: off, the fixed rad). With
+    #: ``counter_leg`` 1.0: the OP3's away grid 14 of 21 pushes up (1.0 rad: 11; main's 0.7:
+    #: 15), the Bioloid's unchanged: off (issue 30, benchmarks/pushes.md)
+    counter_under: float = 0.0
     #: rad: after a push's kick, the limbs (``counter_leg``, ``counter_arm``) not brought
     #: back while the pushed stance sole stays rolled onto its edge toward the fall by more
     #: than this (its normal's tilt, from the IMU and the encoders): returning them then
@@ -122,6 +129,11 @@ class Gains:
     #: the OP3 1.195 (a grid of 21 pushes: 9 up against main's 15; ``counter_leg`` 1.0
     #: alone 11, the hold alone 13): off (issue 30, benchmarks/pushes.md)
     kick_hold: float = 0.0
+    #: s: ``kick_hold``'s tilt read without a break for this long before the limbs are held
+    #: (a one-tick reading at the support switch, the sole flat: no hold; 0: at once). 0.05
+    #: with ``kick_hold`` 0.035: the OP3's away grid 12 → 13 of 21 (main 15), the Bioloid's
+    #: with ``counter_leg`` 1.0 unchanged (11 of 18): off (benchmarks/pushes.md)
+    kick_hold_for: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -228,6 +240,8 @@ class Gains:
             "counter_leg",
             "counter_arm",
             "kick_hold",
+            "kick_hold_for",
+            "counter_under",
             "transfer",
             "step_yaw",
             "max_step_yaw",

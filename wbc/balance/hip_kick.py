@@ -51,6 +51,10 @@ class HipKick:
         self.held = False  # the limbs' goals not brought back this tick (kick_hold)
         self.was_held = False  # held since the trigger: the kick ramps out after its roll
         self.holding = False  # the hold applied this tick (held, in the double support after)
+        self.tilted = 0.0  # s: how long the sole has read rolled without a break (kick_hold_for)
+        #: rad: the swing hip roll that brings that leg's CoM under the other hip (the
+        #: ``counter_under`` cap on ``counter_leg``; π/2: never, within the leg's length)
+        self.under = under_angle(robot)
 
     def _start(
         self,
@@ -79,6 +83,13 @@ class HipKick:
                 self.joints.append([k, s * float(np.sign(axes[k])), gain, None])
         self.stance, self.u = stance, np.array([h[0], h[1]]) / m
         self.held = self.was_held = False
+        self.tilted = 0.0
+
+    def debounced(self, rolled: bool, dt: float, after: float) -> bool:
+        """``rolled`` read without a break for ``after`` s or more (``kick_hold_for``: a
+        tilt read for one tick at a support switch does not hold the limbs; 0: at once)."""
+        self.tilted = self.tilted + dt if rolled else 0.0
+        return rolled and self.tilted >= after - 1e-9
 
     def offsets(
         self,
@@ -132,7 +143,10 @@ class HipKick:
         for j in self.joints:
             k, sign, gain, last = j
             solved = joints[k] + d[k]
-            amount = getattr(g, gain) * share - (self.brake if gain == "hip_kick" else 0.0)
+            size = getattr(g, gain)
+            if gain == "counter_leg" and g.counter_under > 0:  # (capped: the CoM under the hip)
+                size = min(size, g.counter_under * self.under)
+            amount = size * share - (self.brake if gain == "hip_kick" else 0.0)
             want = solved + sign * amount
             last = solved if last is None else last
             step = float(self.robot.v_max[k]) * dt  # (never a goal above the servo's speed)
@@ -169,3 +183,26 @@ class HipKick:
         w = rotation @ rate
         theta_dot = -u1 * float(w[0]) + u0 * float(w[1])
         return g.kick_brake * max(theta + g.kick_lead * theta_dot - g.kick_tilt, 0.0)
+
+
+def under_angle(robot: Robot) -> float:
+    """rad: the hip roll that swings one leg's CoM (the hip roll's subtree, the stand pose)
+    across the hips' spacing ``w``: ``asin(min(w / l, 1))``, ``l`` the CoM's distance from
+    its hip roll's axis point (π/2: a leg too short to reach; 0: no hip rolls)."""
+    import pinocchio as pin
+
+    names = [robot.roles.get(side, "hip_roll") for side in ("left", "right")]
+    if None in names:
+        return 0.0
+    model = robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, robot.configuration(robot.stand_pose))
+    ids = [model.getJointId(n) for n in names]
+    w = float(np.linalg.norm(data.oMi[ids[0]].translation - data.oMi[ids[1]].translation))
+    sub = [i for i in range(1, model.njoints) if ids[0] in model.supports[i]]
+    mass = sum(model.inertias[i].mass for i in sub)
+    if mass <= 0:
+        return 0.0
+    com = sum(model.inertias[i].mass * data.oMi[i].act(model.inertias[i].lever) for i in sub)
+    lever = float(np.linalg.norm(com / mass - data.oMi[ids[0]].translation))
+    return math.asin(min(w / lever, 1.0)) if lever > 0 else math.pi / 2

@@ -608,8 +608,8 @@ class Stabilizer:
         if self._kick is not None:  # (kick_hold: the limbs held while the sole is rolled)
             held = self.gains.kick_hold > 0 and self._fb[_B_JUMP + 4] > 0.5
             read = joints if present is None else present
-            self._kick.held = held and self._kick.rolled(estimator, read, joints,
-                                                         self.gains.kick_hold)  # fmt: skip
+            rolled = held and self._kick.rolled(estimator, read, joints, self.gains.kick_hold)
+            self._kick.held = self._kick.debounced(rolled, float(dt), self.gains.kick_hold_for)
         code = _feedback_tick(
             packed[1], joints if present is None else present, joints, w, a, float(dt),
             select, soles, estimator._state, self._fb, targets.torso_rotation,
