@@ -57,7 +57,8 @@ def make_bus(robot: Robot, port: str | None, options: BusOptions) -> ServoBus:
             print(f"warning: {warning}", file=sys.stderr)
         move_ms = max(1, round(1000.0 / options.rate))
         baud = options.baud or ssc_map.baudrate
-        return Ssc32Bus(port or "", ssc_map, baud, move_time_ms=move_ms)
+        timeout_s = 0.05 if options.reply_timeout_ms is None else options.reply_timeout_ms / 1e3
+        return Ssc32Bus(port or "", ssc_map, baud, move_time_ms=move_ms, reply_timeout_s=timeout_s)
     if sm is not None and sm.protocol == 2.0:  # servos.toml [bus] protocol = 2.0
         from .protocol2 import Dynamixel2Bus
 
