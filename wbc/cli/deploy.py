@@ -112,7 +112,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--reply-timeout-ms",
         type=number(0, 1000, lo_open=True),
-        help="reply deadline per exchange, ms (default: 2 x latency + 2 ms + wire time; SSC-32: 50)",
+        help="reply deadline per exchange, ms (default: 2 x latency + 2 ms + wire; SSC-32 50)",
     )
     parser.add_argument(
         "--attempts",
