@@ -582,6 +582,22 @@ def test_a_sole_landing_off_its_plan_is_anchored_in_the_tick(robot, band, expect
     assert stab.last.base[0] - q[0] == pytest.approx(expect, abs=1e-9)
 
 
+@pytest.mark.parametrize("band, expect", [(None, 0.015), (0.0, 0.015), (0.01, 0.0)])
+def test_the_ticks_own_anchor_band_reaches_the_compiled_tick(robot, band, expect):
+    """``TickTargets.anchor_band`` (``back_anchor``'s, passed per tick): the same anchoring
+    as the estimator's own band, the estimator's ``anchor_band`` left at 0."""
+    q = standing(robot)
+    R = robot.frame_placement(q, "torso").rotation
+    stab = stabilizer(robot, q, R, Gains(anchor_band=0.0))
+    for _ in range(3):
+        stab.adjust(targets_at(robot, q, "single").replace(anchor_band=band), np.zeros(3), q, 0.01)
+    t = targets_at(robot, q, "double")
+    planned = pin.SE3(t.r_sole.rotation, t.r_sole.translation + [0.03, 0.0, 0.0])
+    stab.adjust(t.replace(r_sole=planned, anchor_band=band), np.zeros(3), q, 0.01)
+    assert stab.last.base[0] - q[0] == pytest.approx(expect, abs=1e-9)
+    assert stab.estimator.anchor_band == 0.0
+
+
 class RingingImu(StillImu):
     """A torso at rotation R whose gyro reads a yaw rate ``amp sin(2π f t)`` (t: reads × dt)."""
 

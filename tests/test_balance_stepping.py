@@ -1199,6 +1199,34 @@ def test_a_catch_of_a_push_backward_turns_the_sole_by_at_most_landing_turn(robot
         SteppingParams(landing_turn=-0.1).check()
 
 
+def test_a_catch_of_a_push_backward_turns_the_later_soles_by_back_turn(robot, walk10):
+    """``back_turn``: in the swings past ``back_skip`` the sole's rotation is turned by at most
+    ``back_turn`` (0: not at all, the torso target's frame) instead of ``landing_turn``, its
+    position by the whole correction; in the skipped swings and by default, ``landing_turn``."""
+    import pinocchio as pin
+
+    rot, move = [0.0, -0.4, 0.0], [0.0, 0.0, 0.0]  # the measured body pitched back 0.4 rad
+    i = MID + 6
+
+    def landed(**kw):
+        params = SteppingParams(landing_turn=0.3, lift=0.0, toe_up=0.0, landing_catch=1e-6, **kw)
+        adj = _triggered(robot, walk10, params)
+        _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=i)
+        out = adj.land(t, e, q)
+        return out, float(np.linalg.norm(pin.log3(out.swing_rotation @ t.swing_rotation.T)))
+
+    base, a = landed()
+    assert a == pytest.approx(0.3)
+    flat, b = landed(back_turn=0.0)
+    assert b == pytest.approx(0.0, abs=1e-9)
+    np.testing.assert_allclose(flat.swing_position, base.swing_position, atol=1e-12)
+    assert landed(back_turn=0.1)[1] == pytest.approx(0.1)
+    assert landed(back_turn=0.0, back_skip=1)[1] == pytest.approx(0.3)  # (the first swing)
+    assert SteppingParams().back_turn is None
+    with pytest.raises(ConfigurationError, match="back_turn"):
+        SteppingParams(back_turn=-0.1).check()
+
+
 def test_a_catch_of_a_push_backward_lasts_back_episode_steps(robot, walk10):
     """``back_episode``: after a push backward the trigger caught, the catch re-plans that many
     steps (its end: the episode's step + ``back_episode``); after a push forward, without a
@@ -1278,10 +1306,60 @@ def test_a_catch_of_a_push_backward_lands_by_the_runaway_with_back_runaway(robot
         SteppingParams(back_runaway=-0.01).check()
 
 
+def test_a_catch_of_a_push_backward_waits_for_the_swing_sole_with_back_reach(robot, walk10):
+    """``back_reach``: in a swing the catch of a push backward carries, the clock no faster
+    than leaves the swing sole (where the estimate and the present joints put it) the time to
+    reach its re-planned landing at that speed (never slower than the plan's); after a push
+    forward, in the skipped swings and by default, the room rule's."""
+    i = MID + 2
+    small = np.array([-0.06, 0.0])
+    far = np.array([0.3, 0.0, 0.0])  # the sole 300 mm from its landing
+
+    class _Est:  # the estimator's sole, ``far`` from the landing of step k
+        anchor_band = 0.0
+        last = object()
+
+        def __init__(self, adj, k):
+            self.at = np.array([adj.plan.steps[k].x, adj.plan.steps[k].y, 0.0]) + far
+
+        def landed(self, frame, joints, fallback):
+            return self.at
+
+        def sole_heights(self, joints, fallback):  # (landing_tilt: both soles on the floor)
+            return np.zeros(2)
+
+    def rate(params, jump=-0.02):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        ref = adj.current
+        ph = adj.phases[adj.phase_of[i]]
+        adj.contact, adj.present = _Est(adj, ph.step), (lambda: np.zeros(robot.n_joints))
+        _, t, e, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+        adj.land(t, e, q)
+        return adj.rate(ref, i, dcm(ref, i, adj.omega) + small * np.sign(-jump)), adj, ph
+
+    room, _, _ = rate(SteppingParams())
+    assert room > 1.0  # (the room rule hurries this swing)
+    out, adj, ph = rate(SteppingParams(back_reach=0.8))
+    assert adj.reach_left == (i, pytest.approx(0.3))
+    left = (ph.i1 - i) * walk10.dt
+    assert out == pytest.approx(min(room, max(left * 0.8 / 0.3, 1.0)))
+    assert out < room
+    near, _, _ = rate(SteppingParams(back_reach=100.0))  # (reached at once: the room rule's)
+    assert near == room
+    fwd, _, _ = rate(SteppingParams(back_reach=0.8), jump=0.02)
+    assert fwd == rate(SteppingParams(), jump=0.02)[0]
+    skipped, _, _ = rate(SteppingParams(back_reach=0.8, back_skip=1))
+    assert skipped == room
+    assert SteppingParams().back_reach == 0.0
+    with pytest.raises(ConfigurationError, match="back_reach"):
+        SteppingParams(back_reach=-0.1).check()
+
+
 def test_a_catch_of_a_push_backward_anchors_the_landed_soles_with_back_anchor(robot, walk10):
-    """``back_anchor``: once the trigger caught a push backward, the estimator's
-    ``anchor_band`` is set to it (a sole landing off its plan anchored where it landed);
-    not after a push forward, without a trigger, nor with 0."""
+    """``back_anchor``: once the trigger caught a push backward, the next ticks' targets carry
+    it as the estimator's ``anchor_band`` (a sole landing off its plan anchored where it
+    landed), the estimator itself untouched; not after a push forward, without a trigger,
+    with 0, nor over the estimator's own band."""
 
     class _Est:
         anchor_band = 0.0
@@ -1289,18 +1367,24 @@ def test_a_catch_of_a_push_backward_anchors_the_landed_soles_with_back_anchor(ro
     rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
     for params, jump, band in (
         (SteppingParams(back_anchor=0.03), -0.02, 0.03),
-        (SteppingParams(back_anchor=0.03), 0.02, 0.0),
-        (SteppingParams(back_anchor=0.0), -0.02, 0.0),
+        (SteppingParams(back_anchor=0.03), 0.02, None),
+        (SteppingParams(back_anchor=0.0), -0.02, None),
     ):
         adj = _triggered(robot, walk10, params, jump=jump)
         adj.contact = _Est()
         _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=MID + 2)
+        assert adj.banded(t).anchor_band is None  # (not before land saw the catch)
         adj.land(t, e, q)
-        assert adj.contact.anchor_band == band, (params.back_anchor, jump)
+        assert adj.banded(t).anchor_band == band, (params.back_anchor, jump)
+        assert adj.contact.anchor_band == 0.0  # (no side channel: the estimator unchanged)
+        adj.trigger.tick = None  # (the catch over: the band stays for the walk)
+        assert adj.banded(t).anchor_band == band
+        adj.contact.anchor_band = 0.01  # the estimator's own band (Gains.anchor_band) wins
+        assert adj.banded(t).anchor_band is None
     fresh, t, e, q, _ = _land_case(robot, walk10, SteppingParams(back_anchor=0.03), rot, move)
     fresh.contact = _Est()
     fresh.land(t, e, q)
-    assert fresh.contact.anchor_band == 0.0  # no trigger
+    assert fresh.banded(t).anchor_band is None  # no trigger
     assert SteppingParams().back_anchor == 0.06  # (on by default)
     with pytest.raises(ConfigurationError, match="back_anchor"):
         SteppingParams(back_anchor=-0.01).check()

@@ -665,10 +665,13 @@ class StateEstimator:
         h1: np.ndarray,
         joints: np.ndarray,
         fallback: np.ndarray | None,
+        band: float | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The stance soles' anchors (``anchor_band``): a sole entering the support more than
-        the band from its planned placement is anchored where it landed (its horizontal
-        position; height and rotation planned) until it leaves the support."""
+        """The stance soles' anchors (``anchor_band``; ``band`` this tick's, None: it): a
+        sole entering the support more than the band from its planned placement is anchored
+        where it landed (its horizontal position; height and rotation planned) until it
+        leaves the support."""
+        band = self.anchor_band if band is None else band
         names = [name for name, _ in stance]
         for name in list(self._landed):
             if name not in names:
@@ -681,7 +684,7 @@ class StateEstimator:
                 if known:
                     p = self.landed(name, joints, fallback)
                     d = p[:2] - placement.translation[:2]
-                    if math.hypot(d[0], d[1]) > self.anchor_band:
+                    if math.hypot(d[0], d[1]) > band:
                         anchor = placement.homogeneous.copy()
                         anchor[:2, 3] = p[:2]
                 self._landed[name] = anchor

@@ -585,17 +585,19 @@ class Stabilizer:
         self._stance = "" if double else targets.support
         self._dt = float(dt)
         select = (8 if imu else 0) + (4 if double else 0 if targets.support == "l_sole" else 1)
-        if estimator.anchor_band > 0:  # a sole landed off its plan (off by default)
+        band = targets.anchor_band  # (this tick's: back_anchor; None: the estimator's)
+        band = estimator.anchor_band if band is None else band
+        if band > 0:  # a sole landed off its plan (off by default)
             read = joints if present is None else present
             soles = soles.copy()
             h = soles[:32].reshape(2, 4, 4)  # (a view: the anchors written in)
             if double:
                 stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
-                h[0], h[1] = estimator._anchors(stance, h[0], h[1], read, joints)
+                h[0], h[1] = estimator._anchors(stance, h[0], h[1], read, joints, band)
             else:
                 stance = [(targets.support, targets.support_placement)]
                 k = select % 8
-                h[k] = estimator._anchors(stance, h[k], h[k], read, joints)[0]
+                h[k] = estimator._anchors(stance, h[k], h[k], read, joints, band)[0]
         if estimator.contact_band > 0:  # the support the sensors show (off by default)
             select, soles = estimator.contact(
                 select, soles, joints if present is None else present, joints

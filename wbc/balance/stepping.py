@@ -222,6 +222,9 @@ class StepAdjuster:
         #: stabilizer reads them (set by wbc.balance.live.closed_loop; None: ``landing_tilt``
         #: not done)
         self.present: Callable[[], np.ndarray | None] | None = None
+        #: (tick, m): the swing sole's distance to its landing (``back_reach``: :meth:`rate`)
+        self.reach_left: tuple[int, float] = (-1, 0.0)
+        self.back_caught = False  # :meth:`land` saw a push backward caught (:meth:`banded`)
         self._down = 0  # ticks the swing sole has been found down (touchdown)
         self._jump: int | None = None  # the landing tick the clock jumps to (touchdown)
         self.last_tick = -(10**9)
@@ -341,9 +344,9 @@ class StepAdjuster:
         targets = self.trigger.pitched(targets) if self.enabled else targets
         targets = self.released(targets, est)
         if self.params.back_anchor > 0 and self.contact is not None and self.enabled:
-            t = self.trigger  # (back_anchor: the landed soles anchored where they landed)
-            if t.tick is not None and not t.forward and self.contact.anchor_band <= 0:
-                self.contact.anchor_band = self.params.back_anchor
+            t = self.trigger  # (back_anchor: from the next tick on, :meth:`banded`)
+            if t.tick is not None and not t.forward:
+                self.back_caught = True
         if targets.phase != "single":
             step = self._descending(targets.i)
             if step is None:
@@ -362,9 +365,35 @@ class StepAdjuster:
         # forward, on its toe, measured worse: forward 0.852 → 0.820 N·s)
         rise = None if self.trigger.forward else (lambda: self.stance_rise(targets, q))
         back = self.trigger.tick is not None and not self.trigger.forward  # (a push backward)
+        if back and self.params.back_reach > 0:
+            self._reach_left(targets, q)
         turn = self.params.landing_turn if back else 0.0
+        if back and self.params.back_turn is not None and self.trigger.carried(targets.i):
+            if self._back_skipped(self.phases[self.phase_of[targets.i]]):  # (back_turn)
+                turn = max(self.params.back_turn, 1e-12)
         lifted = self.trigger.lifted(targets, vel)
         return self.floor(self.landing.land(lifted, est, q, rise, turn))
+
+    def banded(self, targets: Any) -> Any:
+        """``targets`` with the estimator's landed-sole band (``anchor_band``) set to
+        ``back_anchor`` once :meth:`land` saw the trigger catch a push backward (for the rest
+        of the walk; the estimator's own band, if any, is left to it), else ``targets``."""
+        if not self.back_caught or self.contact is None or self.contact.anchor_band > 0:
+            return targets
+        return targets.replace(anchor_band=self.params.back_anchor)
+
+    def _reach_left(self, targets: Any, q: np.ndarray) -> None:
+        """``back_reach``: the swing sole's horizontal distance (m) to its re-planned landing,
+        the sole where the estimator's last estimate and the present joints put it, kept for
+        :meth:`rate` at tick ``targets.i`` (a swing the catch carries, past ``back_skip``)."""
+        i, est, present = targets.i, self.contact, self.present
+        ph = self.phases[self.phase_of[i]]
+        joints = None if est is None or present is None or est.last is None else present()
+        if joints is None or not (self.trigger.carried(i) and self._back_skipped(ph)):
+            return
+        sole = est.landed(targets.swing, np.asarray(joints, float), np.asarray(q[7:], float))
+        step = self.plan.steps[ph.step]
+        self.reach_left = (i, math.hypot(step.x - float(sole[0]), step.y - float(sole[1])))
 
     def released(self, targets: Any, est: Any) -> Any:
         """``targets`` with the torso target turned ``back_torso`` of the way to the measured
@@ -523,7 +552,9 @@ class StepAdjuster:
             if back and p.back_runaway > 0 and self._back_skipped(ph):  # (back_runaway)
                 run = math.log(max(p.back_runaway / e, 1.0)) / self.omega
                 best = min(best, run) if best > 0 else 0.0
-            return min(max(left / max(best, p.min_remaining), 1.0), cap)
+            out = min(max(left / max(best, p.min_remaining), 1.0), cap)
+            d = self.reach_left[1] if back and p.back_reach > 0 and self.reach_left[0] == i else 0
+            return min(out, max(left * p.back_reach / d, 1.0)) if d > 0 else out  # (back_reach)
         speed = p.catch_hurry if self.trigger.before_carried(i) else p.hurry  # (catch_hurry)
         if speed == 1.0:
             return 1.0

@@ -136,7 +136,17 @@ class SteppingParams:
     #: 0.742 N·s, the other three and the OP3's backward identical; 0.02–0.04 lose pushes;
     #: benchmarks/pushes.md)
     back_anchor: float = 0.06
-    #: swings: neither ``back_torso`` nor ``back_runaway`` in the catch's first ones
+    #: m/s (0: off): after a push backward, in a swing the catch carries, ``hurry_single``'s
+    #: clock no faster than leaves the swing sole (where the estimate and the present joints
+    #: put it) the time to reach its re-planned landing at this speed: the third swing of a
+    #: 0.8 N·s push, hurried 1.6×, landed 66 mm short of it, its sole still loaded for the
+    #: first 30 ms (:meth:`~.stepping.StepAdjuster.rate`)
+    back_reach: float = 0.0
+    #: rad (None: ``landing_turn``): ``landing_turn`` in the swings past ``back_skip`` (0: the
+    #: sole's rotation the torso target's, not turned into the measured frame at all)
+    back_turn: float | None = None
+    #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach`` nor ``back_turn`` in
+    #: the catch's first ones
     back_skip: int = 0
     #: m: the lift (``lift``) in the swings the catch of a push backward carries (None: ``lift``)
     back_lift: float | None = None
@@ -268,7 +278,7 @@ class SteppingParams:
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
             "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
-            "back_anchor",
+            "back_anchor", "back_reach", "back_turn",
             "back_lift", "descend",
             "descend_depth", "descend_out",
             "descend_hold", "descend_band", "hurry",
@@ -283,6 +293,7 @@ class SteppingParams:
                 "catch_band",
                 "trigger_jump",
                 "back_lift",
+                "back_turn",
             ):
                 continue  # (the robot's: for_robot)
             if not (math.isfinite(v) and v >= 0):

@@ -531,6 +531,8 @@ class Session:
         opts = self.options
         if stab is not None and stab.enabled:
             start = self._now()
+            if self.stepping is not None:  # (back_anchor: the estimator's band this tick)
+                targets = self.stepping.banded(targets)
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
             stepping = self.stepping
             if stepping is not None and stepping.lands and stab.last is not None:

@@ -53,6 +53,11 @@ class TickTargets:
     #: where the measured frame puts it; :attr:`~wbc.balance.stepping_params.SteppingParams.
     #: landing_floor`); 0: the stack's own
     swing_floor: float = 0.0
+    #: m (> 0): the state estimator's landed-sole band this tick (a sole entering the support
+    #: further than that from its plan is anchored where it landed:
+    #: :class:`~wbc.balance.estimator.StateEstimator` ``anchor_band``;
+    #: :attr:`~wbc.balance.stepping_params.SteppingParams.back_anchor`); None: its own
+    anchor_band: float | None = None
     #: (l_sole, r_sole, :func:`sole_pack` of them), built once per walk by a
     #: :class:`Session`; a reader checks the two placements are still these (``is``)
     sole_pack: tuple | None = None
