@@ -357,21 +357,22 @@ class StepAdjuster:
             side = self.plan.steps[step].side
             s = 0 if side == "left" else 1  # (h: SOLE_FRAMES order, left first)
             return self.descent.lowered(targets, SOLE_FRAMES[side], float(h[s] - h[1 - s]))
-        vel = None
-        ref = self.current
-        if self.params.lead > 0 and ref is not None and targets.i < ref.n:  # (lead)
+        vel, p, ref = None, self.params, self.current
+        back = self.trigger.tick is not None and not self.trigger.forward  # (a push backward)
+        later = back and self.trigger.carried(targets.i)  # (past back_skip: back_turn, _lead)
+        later = later and self._back_skipped(self.phases[self.phase_of[targets.i]])
+        lead = p.back_lead if later and p.back_lead > 0 else p.lead
+        if lead > 0 and ref is not None and targets.i < ref.n:  # (lead)
             vel = ref.sole_velocity("left" if targets.swing == "l_sole" else "right")[targets.i]
         # (the stance sole's roll read after a push backward, on its heel; after a push
         # forward, on its toe, measured worse: forward 0.852 → 0.820 N·s)
         rise = None if self.trigger.forward else (lambda: self.stance_rise(targets, q))
-        back = self.trigger.tick is not None and not self.trigger.forward  # (a push backward)
-        if back and self.params.back_reach > 0:
+        if back and p.back_reach > 0:
             self._reach_left(targets, q)
-        turn = self.params.landing_turn if back else 0.0
-        if back and self.params.back_turn is not None and self.trigger.carried(targets.i):
-            if self._back_skipped(self.phases[self.phase_of[targets.i]]):  # (back_turn)
-                turn = max(self.params.back_turn, 1e-12)
-        lifted = self.trigger.lifted(targets, vel)
+        turn = p.landing_turn if back else 0.0
+        if later and p.back_turn is not None:  # (back_turn; 0: not turned)
+            turn = max(p.back_turn, 1e-12)
+        lifted = self.trigger.lifted(targets, vel, lead)
         return self.floor(self.landing.land(lifted, est, q, rise, turn))
 
     def banded(self, targets: Any) -> Any:

@@ -145,8 +145,10 @@ class SteppingParams:
     #: rad (None: ``landing_turn``): ``landing_turn`` in the swings past ``back_skip`` (0: the
     #: sole's rotation the torso target's, not turned into the measured frame at all)
     back_turn: float | None = None
-    #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach`` nor ``back_turn`` in
-    #: the catch's first ones
+    #: s (0: ``lead``): ``lead`` in the swings past ``back_skip`` after a push backward
+    back_lead: float = 0.0
+    #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn`` nor
+    #: ``back_lead`` in the catch's first ones
     back_skip: int = 0
     #: m: the lift (``lift``) in the swings the catch of a push backward carries (None: ``lift``)
     back_lift: float | None = None
@@ -278,7 +280,7 @@ class SteppingParams:
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
             "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
-            "back_anchor", "back_reach", "back_turn",
+            "back_anchor", "back_reach", "back_turn", "back_lead",
             "back_lift", "descend",
             "descend_depth", "descend_out",
             "descend_hold", "descend_band", "hurry",

@@ -142,16 +142,20 @@ class PushTrigger:
             self.push = math.copysign(1.0, d) * state[_W_HEADING : _W_HEADING + 2]
             self.forward = bool(d > 0)
 
-    def lifted(self, targets: Any, velocity: np.ndarray | None = None) -> Any:
+    def lifted(
+        self, targets: Any, velocity: np.ndarray | None = None, lead: float | None = None
+    ) -> Any:
         """``targets`` with the swing sole's target raised by ``lift`` in a triggered catch
         (:meth:`triggered`): blended in over ``lift_time``, out over the swing's last
         ``lift_land`` share (smoothstep both), so that it lands where and when planned; and
-        led by ``lead`` s of the swing's planned horizontal ``velocity`` (the servos' lag;
-        blended in over ``lift_time``; nothing at the landing, where the swing stops); and
-        turned toe up by ``toe_up`` rad after a push forward (:attr:`forward`; blended as the
-        lift; its heel up after a push backward measured worse: not done)."""
+        led by ``lead`` s (None: ``lead``'s) of the swing's planned horizontal ``velocity``
+        (the servos' lag; blended in over ``lift_time``; nothing at the landing, where the
+        swing stops); and turned toe up by ``toe_up`` rad after a push forward
+        (:attr:`forward`; blended as the lift; its heel up after a push backward measured
+        worse: not done)."""
         p, i = self.params, targets.i
-        if (p.lift <= 0 and p.lead <= 0 and p.toe_up <= 0 and p.landing_depth <= 0) or (
+        lead = p.lead if lead is None else lead
+        if (p.lift <= 0 and lead <= 0 and p.toe_up <= 0 and p.landing_depth <= 0) or (
             not self.carried(i)
         ):
             return targets
@@ -163,8 +167,8 @@ class PushTrigger:
         pos = np.array(targets.swing_position, dtype=float)
         lift = p.lift if p.back_lift is None or self.forward else p.back_lift
         pos[2] += lift * w - p.landing_depth * (1.0 - w_out)
-        if p.lead > 0 and velocity is not None:
-            pos[:2] += p.lead * w_in * np.asarray(velocity, dtype=float)[:2]
+        if lead > 0 and velocity is not None:
+            pos[:2] += lead * w_in * np.asarray(velocity, dtype=float)[:2]
         if p.toe_up <= 0 or not self.forward:
             return targets.replace(swing_position=pos)
         axis = np.array([-self.push[1], self.push[0], 0.0])  # z × u: the body's fall
