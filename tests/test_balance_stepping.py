@@ -792,6 +792,58 @@ def test_a_triggered_swing_is_led_and_its_clock_slowed_when_asked(robot, walk10)
         SteppingParams(lead=-0.01).check()
 
 
+def test_a_catch_of_a_push_backward_leads_its_later_swings_by_back_lead(robot, walk10):
+    """``back_lead``: after a push backward, in the swings past ``back_skip``, the swing
+    target is led by ``back_lead`` × the swing's planned horizontal velocity instead of
+    ``lead``; in the skipped swings, after a push forward and by default, ``lead``'s (0)."""
+    i = MID + 4
+
+    def moved(jump=-0.02, **kw):
+        params = SteppingParams(lift=0.0, lift_time=0.03, landing=0.0, **kw)
+        adj = _triggered(robot, walk10, params, jump=jump)
+        _, t, e, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+        out = adj.land(t, e, q)
+        v = adj.current.sole_velocity("left" if t.swing == "l_sole" else "right")[i]
+        return out.swing_position[:2] - t.swing_position[:2], v[:2]
+
+    d, v = moved(back_lead=0.03)
+    assert np.hypot(v[0], v[1]) > 0.05  # the swing moving
+    np.testing.assert_allclose(d, 0.03 * v, atol=1e-9)
+    np.testing.assert_allclose(moved(back_lead=0.03, back_skip=1)[0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(moved(jump=0.02, back_lead=0.03)[0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(moved()[0], 0.0, atol=1e-12)
+    assert SteppingParams().back_lead == 0.0
+    with pytest.raises(ConfigurationError, match="back_lead"):
+        SteppingParams(back_lead=-0.01).check()
+
+
+def test_a_backward_catch_hurries_its_later_double_supports_by_back_hurry(robot, walk10):
+    """``back_hurry``: after a push backward, in the double support before a carried swing
+    past ``back_skip`` (the DCM error beyond ``hurry_band``), the clock runs ``back_hurry`` ×
+    instead of ``catch_hurry``; before the skipped swings, after a push forward and by
+    default (0), ``catch_hurry``."""
+    back = np.array([-0.04, 0.0])  # beyond hurry_band (30 mm), behind
+    ds = None
+
+    def rate(k, jump=-0.02, **kw):  # in the double support before the catch's swing k + 1
+        nonlocal ds
+        adj = _triggered(robot, walk10, SteppingParams(catch_swings=2, catch_hurry=3.0, **kw),
+                         jump=jump)  # fmt: skip
+        ds = [ph for ph in adj.phases if ph.kind == "double" and ph.i0 >= LAND][:2]
+        i = ds[k].i0 + 2
+        assert adj.trigger.before_carried(i)
+        return adj.rate(walk10, i, dcm(walk10, i, adj.omega) + back * np.sign(-jump))
+
+    assert rate(1, back_hurry=1.5, back_skip=2) == 1.5  # before the third swing
+    assert rate(0, back_hurry=1.5, back_skip=2) == 3.0  # before the second: skipped
+    assert rate(0, back_hurry=1.5, back_skip=1) == 1.5
+    assert rate(1, jump=0.02, back_hurry=1.5, back_skip=2) == 3.0  # after a push forward
+    assert rate(1, back_skip=2) == 3.0
+    assert SteppingParams().back_hurry == 0.0
+    with pytest.raises(ConfigurationError, match="back_hurry"):
+        SteppingParams(back_hurry=-1.0).check()
+
+
 def test_a_push_forward_turns_the_swing_toe_up_and_a_push_backward_does_not(robot, walk10):
     """``toe_up``: once a push forward is triggered, the swing sole's target turns toe up
     (about −y for a walk along x) by the angle × the lift's blend (0.15 rad by default);

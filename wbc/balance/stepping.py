@@ -376,17 +376,15 @@ class StepAdjuster:
         return self.floor(self.landing.land(lifted, est, q, rise, turn))
 
     def banded(self, targets: Any) -> Any:
-        """``targets`` with the estimator's landed-sole band (``anchor_band``) set to
-        ``back_anchor`` once :meth:`land` saw the trigger catch a push backward (for the rest
-        of the walk; the estimator's own band, if any, is left to it), else ``targets``."""
+        """``targets`` with ``anchor_band`` ``back_anchor`` once :meth:`land` saw a push
+        backward caught (for the walk; the estimator's own band, if any, wins)."""
         if not self.back_caught or self.contact is None or self.contact.anchor_band > 0:
             return targets
         return targets.replace(anchor_band=self.params.back_anchor)
 
     def _reach_left(self, targets: Any, q: np.ndarray) -> None:
-        """``back_reach``: the swing sole's horizontal distance (m) to its re-planned landing,
-        the sole where the estimator's last estimate and the present joints put it, kept for
-        :meth:`rate` at tick ``targets.i`` (a swing the catch carries, past ``back_skip``)."""
+        """``back_reach``: the swing sole's distance (m) to its landing, the sole where the
+        estimate and the present joints put it, for :meth:`rate` (a carried swing)."""
         i, est, present = targets.i, self.contact, self.present
         ph = self.phases[self.phase_of[i]]
         joints = None if est is None or present is None or est.last is None else present()
@@ -557,6 +555,9 @@ class StepAdjuster:
             d = self.reach_left[1] if back and p.back_reach > 0 and self.reach_left[0] == i else 0
             return min(out, max(left * p.back_reach / d, 1.0)) if d > 0 else out  # (back_reach)
         speed = p.catch_hurry if self.trigger.before_carried(i) else p.hurry  # (catch_hurry)
+        if p.back_hurry > 0 and speed == p.catch_hurry and self.trigger.before_carried(i):
+            nxt = self.phases[self.phase_of[i] + 1]  # (back_hurry: before a later swing)
+            speed = p.back_hurry if not self.trigger.forward and self._back_skipped(nxt) else speed
         if speed == 1.0:
             return 1.0
         e = np.asarray(dcm[:2], float) - self._dcm_ref(ref, i)

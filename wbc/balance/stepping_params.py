@@ -140,15 +140,23 @@ class SteppingParams:
     #: clock no faster than leaves the swing sole (where the estimate and the present joints
     #: put it) the time to reach its re-planned landing at this speed: the third swing of a
     #: 0.8 N·s push, hurried 1.6×, landed 66 mm short of it, its sole still loaded for the
-    #: first 30 ms (:meth:`~.stepping.StepAdjuster.rate`)
+    #: first 30 ms (:meth:`~.stepping.StepAdjuster.rate`) (off: 0.8 with ``back_skip`` 2 lands
+    #: it 12 mm further and falls 0.09 s later, no push more; in every swing loses one;
+    #: benchmarks/pushes.md)
     back_reach: float = 0.0
     #: rad (None: ``landing_turn``): ``landing_turn`` in the swings past ``back_skip`` (0: the
-    #: sole's rotation the torso target's, not turned into the measured frame at all)
+    #: sole's rotation the torso target's, not turned into the measured frame at all) (off:
+    #: 0, 0.25 and 0.8 in the third swing lose 2–4 of 5 screened pushes)
     back_turn: float | None = None
-    #: s (0: ``lead``): ``lead`` in the swings past ``back_skip`` after a push backward
+    #: s (0: ``lead``): ``lead`` in the swings past ``back_skip`` after a push backward (off:
+    #: 0.03–0.06 from the second or third swing lose 3–4 of 5 screened pushes)
     back_lead: float = 0.0
-    #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn`` nor
-    #: ``back_lead`` in the catch's first ones
+    #: × (0: ``catch_hurry``): ``catch_hurry`` in the double supports before the swings past
+    #: ``back_skip`` after a push backward (the third swing's sole still loaded at lift-off)
+    #: (off: 1.5 and 2 before the third swing lose one of 5 screened pushes)
+    back_hurry: float = 0.0
+    #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn``,
+    #: ``back_lead`` nor ``back_hurry`` in the catch's first ones
     back_skip: int = 0
     #: m: the lift (``lift``) in the swings the catch of a push backward carries (None: ``lift``)
     back_lift: float | None = None
@@ -281,6 +289,7 @@ class SteppingParams:
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
             "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
             "back_anchor", "back_reach", "back_turn", "back_lead",
+            "back_hurry",
             "back_lift", "descend",
             "descend_depth", "descend_out",
             "descend_hold", "descend_band", "hurry",
