@@ -530,17 +530,15 @@ class Session:
         self._previous = key
         opts = self.options
         if stab is not None and stab.enabled:
-            start = self._now()
-            if self.stepping is not None:  # (back_anchor: the estimator's band this tick)
-                targets = self.stepping.banded(targets)
+            start, stepping = self._now(), self.stepping
+            if stepping is not None:  # (back_anchor: the estimator's band this tick)
+                targets = stepping.banded(targets)
             targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
-            stepping = self.stepping
             if stepping is not None and stepping.lands and stab.last is not None:
                 targets = stepping.land(targets, stab.last, self.q)  # the swing, measured
             self.feedback_time = self._now() - start
         start = self._now()
-        self.failed = False
-        self.failure = None
+        self.failed, self.failure = False, None
         try:
             if opts.mode == "tick":
                 self.q = self.controller.track(self.q, targets, gap * self.ref.dt, changed)
