@@ -24,8 +24,8 @@ def test_rows_join_the_deferred_solve_to_rounding(robot):
     """walk_strict along walk10's first 160 ticks (self-collision rows active around the
     touch-downs 104 and 144): each tick's Δq with the rows joining the deferred solve is the
     one without to 1e-12 (a strictly convex last level over the same set where the levels
-    above are met exactly), and on ticks with rows it differs in its last bits (another path:
-    the option does something)."""
+    above are met exactly), and from the first tick that took the other path (84, rows
+    active) the walk differs in its last bits: the option does something."""
     assert not load_stack("walk_strict", robot).solver.defer_rows_join  # (the default)
     assert build_stack({"solver": "hierarchical", "defer_rows_join": True, "levels": [
         {"tasks": [{"type": "com"}]}]}, robot).solver.defer_rows_join  # fmt: skip
@@ -35,4 +35,3 @@ def test_rows_join_the_deferred_solve_to_rounding(robot):
     assert diffs.max() <= 1e-12, diffs.max()
     moved = np.flatnonzero(diffs > 0)
     assert moved.size >= 3, moved  # (ticks whose path changed)
-    print("ticks moved", moved.tolist(), "largest", diffs.max())
