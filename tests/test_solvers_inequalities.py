@@ -69,3 +69,37 @@ def test_the_tick_writes_the_constraint_rows(robot, kind):
         numpy_solver = SOLVERS[kind](solver.stack, compiled=False)
         assert np.abs(numpy_solver.solve(q, 0.01) - dq).max() < 1e-9
     assert counts[1] != counts[0]  # (the one-sole polygon has other edges)
+
+
+class _OwnClearance(GroundClearanceConstraint):
+    """A subclass: it does not inherit the layout token (its plan checks by value)."""
+
+
+@pytest.mark.parametrize("cls", [GroundClearanceConstraint, _OwnClearance])
+def test_a_swing_sole_alternating_lays_the_rows_out_again(robot, cls):
+    """The clearance's frame alternating (a walk's swing sole) re-lays its rows out each time
+    (its layout token, one per frame; a subclass's rows checked by value) and the tick's rows
+    are the numpy path's, bit for bit; the same frame again is the same token."""
+    q = robot.configuration("walk_ready")
+    stack = walking_stack(robot, q, polygon=False, lift=0.01)
+    clearance = cls(robot, "r_sole", clearance=-0.01)
+    stack.add_constraint(clearance, level=0)
+    solver = HierarchicalQP(stack, compiled=True)
+    rows = solver.fast.constraints if solver.fast is not None else None
+    tokens = []
+    for frame in ("r_sole", "l_sole", "r_sole", "l_sole", "l_sole"):
+        clearance.set_frame(frame)
+        tokens.append(clearance.layout_token)
+        solver.solve(q, 0.01)
+        assert solver.compiled_ticks > 0 and solver.handed_back_ticks == 0
+        plan = solver.fast
+        rows = plan.constraints
+        assert rows._tokened == [cls is GroundClearanceConstraint]
+        g = plan.inequalities
+        (G, h) = _expected(solver, Kinematics(robot, q))[0]
+        assert np.array_equal(g.G[g.g_rows[0] : g.g_rows[1]], G)
+        assert np.array_equal(g.h[g.g_rows[0] : g.g_rows[1]], h)
+        slot = rows.cslots[rows.cspec[0, D.C_SLOT]]
+        assert slot == rows.slot[clearance.frame_id]
+    assert tokens[0] is tokens[2] and tokens[1] is tokens[3] is tokens[4]
+    assert tokens[0] is not tokens[1]

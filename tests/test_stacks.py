@@ -166,6 +166,7 @@ def test_bad_stack_files_are_rejected(robot, spec, match):
         ("velocity_limits", "yes", r"velocity_limits must be true or false"),
         ("pdas_ties", "no", r"pdas_ties must be true or false, got 'no'"),
         ("carry_at_switch", 1, r"carry_at_switch must be true or false, got 1"),
+        ("defer_rows_join", 1, r"defer_rows_join must be true or false, got 1"),
     ],
 )
 def test_solver_options_out_of_range_name_the_file(robot, key, value, match):

@@ -465,6 +465,9 @@ def _cascade(
     rows_free = g_rows[n_levels] == 0 or (defer_soft and params[0] > 0.0)
     # PDAS's budget: the stack's (its solver's ``pdas_ties``: lsq.PDAS_TIES or 0)
     ties = np.int64(params[4]) if params.shape[0] > 4 else np.int64(0)
+    # (params[0] = 2: the rows join the last level's solve with the levels above deferred;
+    # they are checked after it)
+    joining = params[0] > 1.0
     for k in range(n_levels):
         r0 = level_rows[k]
         r1 = level_rows[k + 1]
@@ -537,6 +540,7 @@ def _cascade(
             if (
                 deferred > 0
                 and g1 > 0
+                and not joining
                 and (warm or (status == OK and _violated(G, h_eff, g1, dq, tol)))
             ):
                 return DEFERRAL_FAILED
@@ -607,10 +611,11 @@ def cascade_solve(
     tick ended with an inequality row active, else 0 (written for the next tick);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
     rows kept (work space); ``params``: [1 to defer the levels above with inequality
-    rows too (else 0), μ, tolerance of hard levels, tolerance of the inequality rows, and if
-    given PDAS's budget of ties (:data:`~wbc.compiled.lsq.PDAS_TIES` or 0: the stack's
-    ``pdas_ties``; else 0)]; q ⊕ Δq into ``q_next``; ``fspace``, ``ispace``: the work space
-    (float64, int64: :mod:`wbc.compiled.space`, allocated here if smaller than the tick needs).
+    rows too, 2 with the rows joining that solve (else 0), μ, tolerance of hard levels,
+    tolerance of the inequality rows, and if given PDAS's budget of ties
+    (:data:`~wbc.compiled.lsq.PDAS_TIES` or 0: the stack's ``pdas_ties``; else 0)]; q ⊕ Δq
+    into ``q_next``; ``fspace``, ``ispace``: the work space (float64, int64:
+    :mod:`wbc.compiled.space`, allocated here if smaller than the tick needs).
 
     Level k: min ‖J_k Δq − b_k‖² (+ Σ max(G_k Δq − h_k, 0)², its own inequality rows as
     slacks, unless the level is hard: then as rows to meet) subject to the bounds, every level
@@ -649,6 +654,7 @@ def cascade_solve(
     n_levels = level_rows.shape[0] - 1
     memo = states.shape[0] > n_levels + 1
     rows_before = memo and states[states.shape[0] - 1, 0] != 0 and g_rows[n_levels] > 0
+    rows_before = rows_before and params[0] <= 1.0  # (2: the rows join the deferred solve)
     f, i_ = cascade_space_size(level_rows, dq.shape[0], g_rows[n_levels])
     if fspace.shape[0] < f or ispace.shape[0] < i_:
         fspace, ispace = np.empty(f), np.empty(i_, np.int64)

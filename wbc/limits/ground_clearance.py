@@ -59,6 +59,9 @@ class GroundClearanceConstraint(Constraint):
     held_rows_met = True  # the corners below the clearance are requests (:meth:`split`)
     row_kernel = staticmethod(clearance_rows)
     param_fields = ("settings", "corners")
+    # (its rows: one per corner, a fixed count; its arrays written in place: its layout
+    # changes with its frame alone, one token per frame)
+    keeps_layout_token = True
 
     def __init__(
         self,
@@ -80,6 +83,7 @@ class GroundClearanceConstraint(Constraint):
         #: [clearance, damping, max_rise] (the kernel's first parameters: :attr:`clearance`,
         #: :attr:`damping`, :attr:`max_rise` read and write it)
         self.settings = np.array([clearance, damping, max_rise], dtype=float)
+        self._tokens: dict[int, object] = {}  # (:attr:`layout_token`, one per frame)
         self.set_frame(frame)
         # the foot rectangle: the robot's (robot.toml [feet]) unless given
         foot_length, foot_width = robot.foot_size
@@ -109,6 +113,7 @@ class GroundClearanceConstraint(Constraint):
     def set_frame(self, frame: str) -> None:
         self.frame_id = self.robot.frame_id(frame)
         self.frame = frame
+        self.layout_token = self._tokens.setdefault(self.frame_id, object())
 
     def frame_ids(self) -> tuple[int, ...]:
         return (self.frame_id,)

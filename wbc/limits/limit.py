@@ -214,6 +214,14 @@ class Constraint:
     #: pose's hard-level error then skips computing them:
     #: :meth:`wbc.solvers.base.StackSolver.solve_pose`)
     held_rows_met = False
+    #: True (in the class's own body; a subclass does not inherit it) if the class keeps
+    #: :attr:`layout_token`: then a plan checks the rows' layout by that one identity
+    keeps_layout_token = False
+    #: an object that stands for the constraint's :attr:`rows`, :meth:`frame_ids` and
+    #: parameter arrays (their identity): the same object whenever they are the same as when
+    #: it was set (e.g. one per frame of a constraint whose frame alternates), another when one
+    #: changes; read only where :attr:`keeps_layout_token` (else every tick checks them)
+    layout_token: object | None = None
 
     def __init__(self, name: str) -> None:
         self.name = name

@@ -68,6 +68,7 @@ class HierarchicalQP(StackSolver):
         carry_rows: bool = False,
         pdas_ties: bool = False,
         carry_at_switch: bool = False,
+        defer_rows_join: bool = False,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -97,6 +98,15 @@ class HierarchicalQP(StackSolver):
         #: ``carry_at_switch = true`` in a stack file; benchmarks/self_collision.md, 2026-12-06
         #: thirteenth session)
         self.carry_at_switch = bool(carry_at_switch)
+        #: with ``defer_with_rows``, the deferral holds on ticks with inequality rows active
+        #: too: the levels above the last stay its equalities while the rows join its solve
+        #: (the hierarchy's optimum where the levels above are met exactly with the rows, up
+        #: to rounding; checked after the solve, else the levels are solved one by one),
+        #: and it is tried after a tick that ended with a row active (off: replayed on
+        #: walk_strict walk10 the cascade's p99 -32 %, Δq 2e-15 apart; measured on one
+        #: machine only: benchmarks/self_collision.md, 2026-12-06 fourteenth session). Read
+        #: when a plan sets its parameters (its first tick)
+        self.defer_rows_join = bool(defer_rows_join)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []
@@ -313,7 +323,7 @@ class HierarchicalQP(StackSolver):
         level_hard = np.array([p.hard for p in problems], dtype=np.bool_)
         params = np.array(
             [
-                float(self.defer_with_rows),
+                (1.0 + self.defer_rows_join) if self.defer_with_rows else 0.0,
                 self.regularization,
                 self.hard_tol,
                 CONSTRAINT_TOL,

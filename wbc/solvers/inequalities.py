@@ -10,10 +10,12 @@ self-collision pairs, with room reserved for their most rows), else copied (a
 :class:`~wbc.limits.LinearInequality`). Every constraint's rows keep their place: level by
 level, in the level's order, as :func:`wbc.solvers.assembly.stack_constraints` stacks them.
 
-Per tick, in Python: each kernel constraint's :meth:`~wbc.limits.Constraint.prepare`, then a
-check of its row count, frames and parameter arrays against the layout (a support polygon
-rebuilt, a swing sole switched: the layout is redone, the tick's arguments re-bound), the
-other constraints' rows, the parameters gathered.
+Per tick, in Python: each kernel constraint's :meth:`~wbc.limits.Constraint.prepare` (where
+its class has one), then a check of its row count, frames and parameter arrays against the
+layout (a support polygon rebuilt, a swing sole switched: the layout is redone, the tick's
+arguments re-bound) — one identity test where its class keeps a
+:attr:`~wbc.limits.Constraint.layout_token` — the other constraints' rows, the parameters
+gathered.
 """
 
 from __future__ import annotations
@@ -26,6 +28,12 @@ from ..compiled import dispatch as D
 from ..compiled.signature import sources
 from ..limits import Constraint
 from ..model import Kinematics
+
+
+def _token(c: Constraint) -> object | None:
+    """``c``'s :attr:`~wbc.limits.Constraint.layout_token` if its own class keeps it (not
+    inherited: a subclass may lay out its rows otherwise), else None."""
+    return c.layout_token if type(c).__dict__.get("keeps_layout_token", False) else None
 
 
 def compiled_constraint(c: Constraint) -> bool:
@@ -107,6 +115,15 @@ class ConstraintRows:
         self.kinds, self.slot = kinds, slot
         self.rows = InequalityRows(len(self.levels), nv)
         self.kernel_items = [c for c in self.items if compiled_constraint(c)]
+        #: those with a :meth:`~wbc.limits.Constraint.prepare` of their own (the default's
+        #: does nothing: not called)
+        self._prepared = [
+            c
+            for c in self.kernel_items
+            if type(c).prepare is not Constraint.prepare or "prepare" in c.__dict__
+        ]
+        #: whether each keeps a layout token (:func:`_token`)
+        self._tokened = [_token(c) is not None for c in self.kernel_items]
         index = {id(c): j for j, c in enumerate(self.kernel_items)}
         #: each level's constraints, with their row of :attr:`cspec` (-1: rows from Python),
         #: what gives their rows from Python (``rows_view``: views copied at once) and what
@@ -120,7 +137,7 @@ class ConstraintRows:
         self.cparams = np.zeros(0)
         self.cslots = np.zeros(0, dtype=np.int64)
         #: each kernel constraint's layout: (rows, frame ids, parameter arrays as read, as
-        #: gathered); None: not laid out yet
+        #: gathered, its layout token or None); None: not laid out yet
         self._layout: list[tuple | None] = [None] * n
         #: kernel constraints whose frames the plan lacks: their rows come from Python
         self._python = [False] * n
@@ -132,8 +149,12 @@ class ConstraintRows:
         self.counts = [0] * len(self.items)
 
     def _changed(self) -> bool:
-        for c, lay in zip(self.kernel_items, self._layout, strict=True):
-            if lay is None or c.rows != lay[0] or c.frame_ids() != lay[1]:
+        for c, lay, tokened in zip(self.kernel_items, self._layout, self._tokened, strict=True):
+            if lay is None:
+                return True
+            if tokened and c.layout_token is lay[4]:  # (the same rows, frames and arrays)
+                continue
+            if c.rows != lay[0] or c.frame_ids() != lay[1]:
                 return True
             for name, a in zip(type(c).param_fields, lay[2], strict=True):
                 if getattr(c, name) is not a:
@@ -154,7 +175,7 @@ class ConstraintRows:
             raw = [getattr(c, name) for name in fields]
             srcs = sources(c, fields)
             m = c.rows
-            self._layout[j] = (m, fids, raw, srcs)
+            self._layout[j] = (m, fids, raw, srcs, _token(c))
             inplan = all(f in self.slot for f in fids)
             self._python[j] = not inplan
             size = sum(int(a.size) for a in srcs)
@@ -178,7 +199,7 @@ class ConstraintRows:
         their rows), the others' rows copied; True if the tick's arguments must be re-bound
         (new arrays)."""
         kernel_items = self.kernel_items
-        for c in kernel_items:
+        for c in self._prepared:
             c.prepare(kin)
         rebind = False
         if kernel_items and self._changed():
