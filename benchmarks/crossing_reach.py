@@ -42,8 +42,11 @@ def reach(
     gap: float,
     yaw: float,
     seed: int = 0,
+    start: np.ndarray | None = None,
 ) -> dict:
-    """The best reach beyond the stance (right) sole's outer edge of the swing (left) sole."""
+    """The best reach beyond the stance (right) sole's outer edge of the swing (left) sole;
+    with ``start`` (the joints at the push, the left sole the stance: mirrored), the least
+    time the servos need to turn every leg joint from there at its speed limit."""
     robot = load_robot(name)
     model, data = robot.model, robot.model.createData()
     q0 = robot.configuration(robot.stand_pose)
@@ -158,6 +161,10 @@ def reach(
                     "swing_yaw_deg": round(turn, 1),
                     "legs_rad": {robot.joint_names[j]: round(float(v), 3)
                                  for j, v in zip(legs, x[6:], strict=True)}}  # fmt: skip
+            if start is not None:
+                need = np.abs(x[6:] - mirrored(robot, start)[legs]) / robot.v_max[legs]
+                best["servo_time_s"] = round(float(need.max()), 3)
+                best["slowest"] = robot.joint_names[legs[int(np.argmax(need))]]
     return {
         "robot": name,
         "mode": mode,
@@ -168,6 +175,33 @@ def reach(
         "foot_mm": [1e3 * length, 1e3 * width],
         **best,
     }
+
+
+def mirrored(robot, joints: np.ndarray) -> np.ndarray:
+    """``joints`` with the legs' sides swapped (the yaw and roll joints negated)."""
+    out = joints.copy()
+    for j in LEG:
+        names = [robot.roles.get(side, j) for side in ("left", "right")]
+        if None in names:
+            continue
+        a, b = (robot.joint_index(n) for n in names)
+        sign = -1.0 if j.endswith(("yaw", "roll")) else 1.0
+        out[a], out[b] = sign * joints[b], sign * joints[a]
+    return out
+
+
+def at_push(robot, walk: str) -> np.ndarray:
+    """The plan's joints at mid single support (the push; wqp-daqp): its stance the left
+    sole on the robots here (checked)."""
+    from wbc.bench.physics import plan
+    from wbc.bench.sim_record import mid_single_support
+
+    rec = plan("wqp-daqp", walk, robot)
+    k = int(np.searchsorted(rec.t - rec.t[0], mid_single_support(rec)))
+    q = rec.q[k]
+    low = min(("l_sole", "r_sole"), key=lambda s: robot.frame_placement(q, s).translation[2])
+    assert low == "l_sole", low
+    return q[7:]
 
 
 def main() -> None:
@@ -191,11 +225,13 @@ def main() -> None:
     )
     ap.add_argument("--yaw", type=float, default=0.6, help="rad: the soles' relative yaw")
     ap.add_argument("--low", type=float, default=0.75, help="the CoM's lowest, × standing")
+    ap.add_argument("--walk", default=None, help="the servos' time from this walk's push")
     args = ap.parse_args()
     for name in args.robot:
+        start = at_push(load_robot(name), args.walk) if args.walk else None
         for mode in args.modes:
             out = reach(name, mode, args.clearance, args.starts, args.tilt, args.low,
-                        args.ahead, args.gap, args.yaw)  # fmt: skip
+                        args.ahead, args.gap, args.yaw, start=start)  # fmt: skip
             print(json.dumps(out), flush=True)
 
 
