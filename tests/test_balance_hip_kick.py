@@ -254,3 +254,65 @@ def test_kick_hold_for_ignores_a_one_tick_tilt_reading(robot):
     held = [kick.debounced(r, DT, g.kick_hold_for) for r in reads]
     assert held == [False, False, False, False, False, False, True]
     assert kick.debounced(True, DT, 0.0)  # 0: at once
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.5])
+def test_kick_hold_edge_reads_the_dcm_beyond_the_soles_outer_edge(robot, yaw):
+    """``kick_hold_edge``: the measured DCM beyond the kicked sole's outer edge along the
+    push (the sole rectangle's half extent along ``u``, × the share), not before; no kick:
+    never."""
+    from wbc.balance.hip_kick import HipKick
+
+    kick = HipKick(robot)
+    length, width = robot.foot_size
+    sole = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), np.array([0.1, 0.05, 0.0]))
+    u = np.array([-np.sin(yaw), np.cos(yaw)])  # (the sole's lateral axis: its edge at w/2)
+    c = sole.translation[:2]
+    assert not kick.beyond(np.r_[c + u, 0.0], sole, 1.0)  # (no kick under way)
+    kick.joints, kick.stance, kick.u = [[0, 1.0, "hip_kick", None]], "l_sole", u
+    for share in (1.0, 0.5):
+        edge = share * width / 2
+        assert not kick.beyond(np.r_[c + (edge - 1e-3) * u, 0.0], sole, share)
+        assert kick.beyond(np.r_[c + (edge + 1e-3) * u, 0.0], sole, share)
+    # along the sole's length the edge is its half length
+    along = np.array([np.cos(yaw), np.sin(yaw)])
+    kick.u = along
+    assert not kick.beyond(np.r_[c + (length / 2 - 1e-3) * along, 0.0], sole, 1.0)
+    assert kick.beyond(np.r_[c + (length / 2 + 1e-3) * along, 0.0], sole, 1.0)
+
+
+def test_sole_dcm_reads_the_com_and_its_velocity_from_the_kicked_sole(robot):
+    """``kick_hold_edge``'s DCM: from the IMU's rotation and the encoders alone (not the
+    estimate's anchored base, set here 50 mm off): the CoM, its velocity relative to the
+    kicked sole differenced over ticks (low-passed) over ω₀; the sole where the joints put it."""
+    from wbc.balance.estimator import StateEstimator
+    from wbc.balance.hip_kick import HipKick
+
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    est = StateEstimator(robot, 0.2)
+    values = np.zeros((8, 3))
+    kick = HipKick(robot)
+    torso = robot.frame_placement(q, "torso").rotation
+    values[:3] = torso
+    values[3] = q[:3] + np.array([0.05, 0.0, 0.0])  # (an anchor gone wrong)
+    est.last = StateEstimate(values)
+    assert kick.sole_dcm(est, q[7:], q[7:], DT) is None  # (no kick)
+    kick.joints, kick.stance = [[0, 1.0, "hip_kick", None]], "l_sole"
+    dcm, sole = kick.sole_dcm(est, q[7:], q[7:], DT)
+    shift = np.array([0.05, 0.0, 0.0])
+    assert np.allclose(dcm, robot.com(q) + shift, atol=1e-9)  # (first tick: no velocity)
+    assert np.allclose(sole.translation, robot.frame_placement(q, "l_sole").translation + shift)
+    # the left ankle roll turned: the CoM moves relative to the sole
+    q2 = q.copy()
+    k = robot.joint_index(robot.roles.joint("left", "ankle_roll"))
+    q2[7 + k] += 0.01
+    dcm2, sole2 = kick.sole_dcm(est, q2[7:], q2[7:], DT)
+    rel = lambda d, s: d[:2] - s.translation[:2]  # noqa: E731
+    moved = (robot.com(q2) - robot.frame_placement(q2, "l_sole").translation)[:2] - (
+        robot.com(q) - robot.frame_placement(q, "l_sole").translation
+    )[:2]
+    a = DT / (DT + 0.02)
+    want = (robot.com(q2) - robot.frame_placement(q2, "l_sole").translation)[:2]
+    want = want + a * moved / DT / est.omega0
+    assert np.linalg.norm(moved) > 1e-4
+    assert np.allclose(rel(dcm2, sole2), want, atol=1e-6)

@@ -134,6 +134,18 @@ class Gains:
     #: with ``kick_hold`` 0.035: the OP3's away grid 12 → 13 of 21 (main 15), the Bioloid's
     #: with ``counter_leg`` 1.0 unchanged (11 of 18): off (benchmarks/pushes.md)
     kick_hold_for: float = 0.0
+    #: with the kick: the limbs held (as ``kick_hold``) while the DCM measured from the
+    #: kinematics alone (the IMU's rotation and the encoders, relative to the pushed stance
+    #: sole: :meth:`~wbc.balance.hip_kick.HipKick.sole_dcm`) is beyond that sole's outer
+    #: edge along the push (its distance from the sole's centre above this × the sole's half
+    #: extent, :attr:`wbc.model.Robot.foot_size`; 1: the edge), released when it comes back
+    #: inside: a hold triggered by the state (with ``kick_hold`` > 0 as well: both must
+    #: read; 0: off). 1.0 or 0.8: the OP3's away grid main's 21 outcomes (the estimate's
+    #: fused DCM instead: 7 of 21, thrown 100 mm off at the catch's support switch); the
+    #: Bioloid's with ``counter_leg`` 1.0 that leg's alone (11 of 18; it holds only in falls
+    #: under way: the Bioloid's hang is the CoP on the edge, the DCM inside): off, it
+    #: changes no outcome (issue 30, benchmarks/pushes.md)
+    kick_hold_edge: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -241,6 +253,7 @@ class Gains:
             "counter_arm",
             "kick_hold",
             "kick_hold_for",
+            "kick_hold_edge",
             "counter_under",
             "transfer",
             "step_yaw",

@@ -20,7 +20,11 @@ landing has not taken the robot off that sole), the limbs are not brought back: 
 return would give back angular momentum while the DCM is still at the sole's edge (the
 robot hangs there, then tips out). Not in the pushed single support itself (there the
 limbs follow the roll) nor once the pushed sole lifts; after a hold the kick ramps out at
-the joints' speeds when the roll is over (not dropped in one tick).
+the joints' speeds when the roll is over (not dropped in one tick). **By the state**
+(``kick_hold_edge`` > 0): held while the DCM, from the kinematics alone (the IMU's rotation
+and the encoders: :meth:`HipKick.sole_dcm`), is beyond that sole's outer edge along the push
+(:meth:`HipKick.beyond`, the sole's rectangle from the model), released when it is back
+inside.
 """
 
 from __future__ import annotations
@@ -55,6 +59,9 @@ class HipKick:
         #: rad: the swing hip roll that brings that leg's CoM under the other hip (the
         #: ``counter_under`` cap on ``counter_leg``; π/2: never, within the leg's length)
         self.under = under_angle(robot)
+        self._data = robot.model.createData()  # (sole_dcm's kinematics)
+        self._rel: np.ndarray | None = None
+        self._vel = np.zeros(3)
 
     def _start(
         self,
@@ -84,6 +91,7 @@ class HipKick:
         self.stance, self.u = stance, np.array([h[0], h[1]]) / m
         self.held = self.was_held = False
         self.tilted = 0.0
+        self._rel = None  # (sole_dcm: the CoM from the kicked sole, last tick)
 
     def debounced(self, rolled: bool, dt: float, after: float) -> bool:
         """``rolled`` read without a break for ``after`` s or more (``kick_hold_for``: a
@@ -170,6 +178,46 @@ class HipKick:
 
         n = estimator.sole_normals(present, joints)[SOLE_FRAMES.index(self.stance)]
         return float(n[0] * self.u[0] + n[1] * self.u[1]) > math.sin(tilt)
+
+    def sole_dcm(self, estimator, present: np.ndarray, joints: np.ndarray, dt: float):
+        """(the DCM, the kicked sole's placement), world, from the kinematics alone: the last
+        estimate's rotation (the IMU's) and the ``present`` joints (NaN: ``joints``), the
+        CoM's velocity relative to that sole differenced over the ticks (low-passed, 20 ms):
+        not the estimate's anchored base, which a catch's sole still in the air at its
+        planned landing throws off (``kick_hold_edge``). None without a kick or estimate."""
+        if not self.joints or estimator.last is None or not self.stance:
+            return None
+        import pinocchio as pin
+
+        model, data = self.robot.model, self._data
+        config = estimator._estimated_configuration(present, joints)
+        com = pin.centerOfMass(model, data, config)
+        pin.updateFramePlacements(model, data)
+        sole = data.oMf[self.robot.frame_id(self.stance)]
+        rel = com - sole.translation
+        if self._rel is None:
+            self._vel = np.zeros(3)
+        else:
+            a = dt / (dt + 0.02)
+            self._vel = self._vel + a * ((rel - self._rel) / max(dt, 1e-9) - self._vel)
+        self._rel = rel
+        return com + self._vel / estimator.omega0, sole
+
+    def beyond(self, dcm: np.ndarray, sole, share: float) -> bool:
+        """The measured DCM ``dcm`` (world) beyond the kicked stance sole's outer edge along
+        the roll's direction ``u``: its distance from the sole's centre (``sole``: the sole's
+        placement, ``pin.SE3``) along ``u`` above ``share`` × the sole rectangle's half extent
+        along ``u`` (:attr:`wbc.model.Robot.foot_size`; ``kick_hold_edge``: the limbs held
+        while it is, released when it comes back inside; False without a kick)."""
+        if not self.joints or not self.stance:
+            return False
+        u0, u1 = float(self.u[0]), float(self.u[1])
+        r = sole.rotation
+        length, width = self.robot.foot_size
+        reach = 0.5 * length * abs(r[0, 0] * u0 + r[1, 0] * u1)
+        reach += 0.5 * width * abs(r[0, 1] * u0 + r[1, 1] * u1)
+        c = sole.translation
+        return float((dcm[0] - c[0]) * u0 + (dcm[1] - c[1]) * u1) > share * reach
 
     def _brake(self, g: Gains, rotation: np.ndarray, rate: np.ndarray) -> float:
         """rad taken off the kick: ``kick_brake × (θ + kick_lead θ̇ − kick_tilt)⁺`` (0 with

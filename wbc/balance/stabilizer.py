@@ -607,11 +607,17 @@ class Stabilizer:
         if packed[0] is not self.gains or packed[2] is not self.fall or packed[1] is None:
             self._consts()  # (the gains or the detector changed: packed again)
             packed = self._packed
-        if self._kick is not None:  # (kick_hold: the limbs held while the sole is rolled)
-            held = self.gains.kick_hold > 0 and self._fb[_B_JUMP + 4] > 0.5
+        if self._kick is not None:  # (kick_hold: the limbs held while the sole is rolled;
+            # kick_hold_edge: while the measured DCM is beyond its outer edge)
+            g = self.gains
+            held = (g.kick_hold > 0 or g.kick_hold_edge > 0) and self._fb[_B_JUMP + 4] > 0.5
             read = joints if present is None else present
-            rolled = held and self._kick.rolled(estimator, read, joints, self.gains.kick_hold)
-            self._kick.held = self._kick.debounced(rolled, float(dt), self.gains.kick_hold_for)
+            if held and g.kick_hold_edge > 0:  # (every tick of the kick: its velocity)
+                got = self._kick.sole_dcm(estimator, read, joints, float(dt))
+                held = got is not None and self._kick.beyond(got[0], got[1], g.kick_hold_edge)
+            if held and g.kick_hold > 0:
+                held = self._kick.rolled(estimator, read, joints, g.kick_hold)
+            self._kick.held = self._kick.debounced(held, float(dt), g.kick_hold_for)
         code = _feedback_tick(
             packed[1], joints if present is None else present, joints, w, a, float(dt),
             select, soles, estimator._state, self._fb, targets.torso_rotation,
