@@ -44,7 +44,7 @@ from wbc.bench.variation import models
 from wbc.drive.commands import Command, random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim
-from wbc.drive.walker import default_compensate
+from wbc.drive.walker import DRIVE_GAINS, default_compensate
 from wbc.sim.model import FRICTION_CONES, ModelParams
 from wbc.walking.engine import EngineParams
 
@@ -105,7 +105,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             params=None, keep_clear: bool = True, base_hold: float | None = None,
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
-            **kw):  # fmt: skip
+            twist: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -121,6 +121,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "heading_gain": heading_gain, "quiet_stand": quiet_stand,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
+    if twist is not None:
+        options["gains"] = replace(DRIVE_GAINS[track], k_twist=twist)
     if play is not None:
         options["play"] = play_of(play, variation)
     if limits is not None:
@@ -277,6 +279,11 @@ def main(argv: list[str] | None = None) -> int:
                          "closing step's landing, 'standing' once the engine stands, 'off' "
                          "never (Walker(quiet_stand=...); default the Walker's, "
                          "wbc.drive.stand.DRIVE_QUIET_STAND)")  # fmt: skip
+    ap.add_argument("--twist", type=float, default=None, metavar="K",
+                    help="the torso's tilt command's part about the torso's own vertical "
+                         "axis (what turns the hip yaws) scaled by K (Gains.k_twist; default "
+                         "the Walker's, wbc.drive.walker.DRIVE_K_TWIST; 1: main's before "
+                         "2026-12-06 21:00 UTC)")  # fmt: skip
     ap.add_argument("--settle", type=float, default=None, metavar="S",
                     help="s the robot stands after the walk ends before the run's figures "
                          "are taken (wbc.drive.sim.run's settle; default its 1 s)")  # fmt: skip
@@ -357,6 +364,7 @@ def main(argv: list[str] | None = None) -> int:
         "finish_xy": args.finish_xy,
         "heading_gain": args.heading_gain,
         "quiet_stand": {"off": ""}.get(args.quiet_stand, args.quiet_stand),
+        "twist": args.twist,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None

@@ -224,9 +224,10 @@ def _clip_norm(v, limit):
     st.sampled_from([0.0, 0.1]),
     st.sampled_from([0.0, 0.05, 0.3, 50.0]),
     st.sampled_from([0.0, 0.02, 0.05]),
+    st.sampled_from([1.0, 0.0, 0.5]),
 )
 def test_torso_term_is_the_reference_computation(
-    seed, k_p, k_i, k_d, k_roll, yaw_cutoff, max_yaw, yaw_damping, yaw_ring, lag_yaw
+    seed, k_p, k_i, k_d, k_roll, yaw_cutoff, max_yaw, yaw_damping, yaw_ring, lag_yaw, k_twist
 ):
     """The compiled torso term gives the previous numpy / pinocchio computation's answer to
     1e-9 (orientation error, clipped integral, clipped tilt, the tilted torso target), with
@@ -236,13 +237,16 @@ def test_torso_term_is_the_reference_computation(
     each on its own, ``yaw_damping`` added to ``k_d`` on the vertical rate and, with
     ``yaw_ring`` > 0, the heading part scaled by ``min(1, yaw_ring / RMS)`` of the vertical
     rate's high-passed part (its filters' states updated) and, with ``lag_yaw`` > 0, by
-    ``min(1, lag_yaw / τ)`` of the servos' measured lag ``τ``."""
+    ``min(1, lag_yaw / τ)`` of the servos' measured lag ``τ``; after the clip, the part
+    about the target's own vertical axis scaled by ``k_twist`` (0: the target turned about
+    its own horizontal axes only)."""
     from wbc.balance.stabilizer import (
         _K_LAG,
         _K_MAX_YAW,
         _K_RING,
         _K_ROLL,
         _K_SIZE,
+        _K_TWIST,
         _K_YAW_CUT,
         _K_YAW_D,
         RING_HZ,
@@ -261,7 +265,7 @@ def test_torso_term_is_the_reference_computation(
     k = np.zeros(_K_SIZE)
     k[:5] = k_p, k_i, k_d, k_yaw, max_tilt
     k[_K_ROLL], k[_K_YAW_CUT], k[_K_MAX_YAW], k[_K_YAW_D] = k_roll, yaw_cutoff, max_yaw, yaw_damping
-    k[_K_RING], k[_K_LAG] = yaw_ring, lag_yaw
+    k[_K_RING], k[_K_LAG], k[_K_TWIST] = yaw_ring, lag_yaw, k_twist
     y0, l0, m0 = rng.normal(0, 0.05), rng.normal(0, 0.5), rng.uniform(0, 0.5)
     tau = rng.uniform(0.0, 0.08)
     yaw = np.array([y0, l0, m0, tau])
@@ -303,6 +307,10 @@ def test_torso_term_is_the_reference_computation(
         tilt[2] = np.clip(tilt[2], -max_yaw, max_yaw)
     else:
         tilt = _clip_norm(tilt, max_tilt)
+    z = R_ref[:, 2]  # the target's own vertical axis
+    tilt = tilt + (k_twist - 1.0) * (tilt @ z) * z
+    if k_twist == 0.0:  # no twist: the target turned about its own horizontal axes only
+        assert abs(pin.log3(R_ref.T @ out[6:15].reshape(3, 3))[2]) < 1e-9
     assert np.allclose(out[:3], e, atol=1e-9)
     assert np.allclose(out[3:6], acc, atol=1e-9)
     assert np.allclose(out[6:15].reshape(3, 3), pin.exp3(-tilt) @ R_ref, atol=1e-9)

@@ -33,6 +33,12 @@ class Gains:
     #: the torso term's part about the target's heading (roll: k_p, k_i and k_d sideways)
     #: scaled by this (1: the same gains on every axis)
     k_roll: float = 1.0
+    #: the torso command's part about the torso target's own vertical axis (its twist, what
+    #: the hip yaws turn) scaled by this after the clip (1: as is; 0: none): a roll about the
+    #: heading of a torso leaned forward is partly a twist, so the tilt feedback drives the
+    #: hip yaws (issue 33: through their play and latency the loaded soles stick, slip and
+    #: turn; benchmarks/drive.md)
+    k_twist: float = 1.0
     k_yaw: float = 1.0  # 0..1: share of the heading error fed back (the gyro's heading)
     #: Hz: the torso command's heading (vertical) part low-passed, first order, at this
     #: cut-off (0: off): the yaw loop's ringing (~5.5 Hz on stiff, late plants: issue 30)
@@ -222,6 +228,7 @@ class Gains:
             "k_dcm_i_y",
             "k_lean",
             "k_roll",
+            "k_twist",
             "k_yaw",
             "yaw_cutoff",
             "max_yaw",

@@ -19,7 +19,9 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   ``max_tilt`` (else they share ``max_tilt`` as one vector); ``yaw_ring`` (rad/s, 0: off)
   scales the heading part down by the yaw rate's measured ringing (its RMS above 3 Hz),
   ``lag_yaw`` (s, 0: off) by the servos' measured lag behind their goals
-  (:mod:`wbc.balance.servo_lag`, :attr:`Stabilizer.servo_lag`);
+  (:mod:`wbc.balance.servo_lag`, :attr:`Stabilizer.servo_lag`); ``k_twist`` (1: off) scales
+  the clipped command's part about the torso target's own vertical axis (its twist: a roll
+  about the heading of a torso leaned forward turns the hip yaws; issue 33);
 * **the walk's clock** (``lag_clock``) — the reference time runs slower on a plant whose
   servos follow late (:attr:`Stabilizer.clock`, read by :meth:`Session.at_time`);
 * **the heading by the footsteps** (``step_yaw``, off) — the stance sole's measured heading
@@ -96,7 +98,8 @@ _K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, 
 _K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
 _K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
 _K_KICK_RELEASE = 17  # (kick_release, rad/s, when hip_kick > 0; else 0: no kick)
-_K_SIZE = 18
+_K_TWIST = 18  # (k_twist: the command's part about the target's own vertical axis, scaled)
+_K_SIZE = 19
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -131,7 +134,9 @@ def _torso_feedback(
     of the rest, updated in place) ``u = w_z − yaw[1]``, ``yaw[1] += (1 − exp(−2π RING_HZ
     dt)) u``, ``yaw[2] += (1 − exp(−dt / RING_WINDOW)) (u² − yaw[2])`` and the heading part
     (before the low-pass and the clip) scaled by ``min(1, g / sqrt(yaw[2]))`` and with
-    ``s = k[_K_LAG]`` > 0 by ``min(1, s / yaw[3])`` (``yaw[3]``: the servos' lag); writes
+    ``s = k[_K_LAG]`` > 0 by ``min(1, s / yaw[3])`` (``yaw[3]``: the servos' lag); after
+    the clip, the part along the target's own vertical axis (``R_ref``'s third column: the
+    twist, what the hip yaws turn) scaled by ``k[_K_TWIST]``; writes
     ``out = [e, ∫, Exp(−tilt) R_ref (9, row-major), |e_xy|]``."""
     k_p, k_i, k_d, k_yaw, max_tilt = k[0], k[1], k[2], k[3], k[4]
     R_est, omega = est[:3], est[7]
@@ -204,6 +209,11 @@ def _torso_feedback(
         f = -max_tilt / n if n > max_tilt else -1.0
         for i in range(3):
             v[i] *= f
+    twist = k[_K_TWIST]
+    if twist != 1.0:  # the part about the target's own vertical axis z scaled: k_twist
+        r = (twist - 1.0) * (v[0] * R_ref[0, 2] + v[1] * R_ref[1, 2] + v[2] * R_ref[2, 2])
+        for i in range(3):
+            v[i] += r * R_ref[i, 2]
     exp3_into(v, S[1])  # Exp(−tilt)
     for i in range(3):
         for j in range(3):
@@ -543,7 +553,8 @@ class Stabilizer:
             k = [g.k_p, g.k_i, g.k_d, g.k_yaw, g.max_tilt, g.k_hip, g.hip_band, g.max_hip,
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
                  g.max_yaw, g.yaw_damping, g.yaw_ring, g.lag_yaw,
-                 g.hip_jump * g.hip_band, g.kick_release if g.hip_kick > 0 else 0.0]  # fmt: skip
+                 g.hip_jump * g.hip_band, g.kick_release if g.hip_kick > 0 else 0.0,
+                 g.k_twist]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             read = g.lag_yaw > 0 or g.lag_clock > 0 or self._measure_lag
             read = read or (g.j_i > 0 and g.j_i_lag > 0)

@@ -71,9 +71,13 @@ DRIVE_K_DCM = 0.1
 #: (``Walker(track=...)``): with it, no heading feedback on the torso either (``k_yaw``: the
 #: torso held at the planned heading by the gyro; the outer loop turns the plan to steer the
 #: real feet, so the torso would twist against them)
+#: ``k_twist`` (with the outer loop): the torso's tilt command with no part about the leaned
+#: torso's own vertical axis, so it turns no hip yaw: through their play and latency the
+#: loaded soles stuck, slipped and turned (benchmarks/drive.md, 2026-12-06 fourteenth session)
+DRIVE_K_TWIST = 0.0
 DRIVE_GAINS = MappingProxyType(
     {
-        True: Gains(k_hip=0.0, k_yaw=0.0, k_dcm=DRIVE_K_DCM),
+        True: Gains(k_hip=0.0, k_yaw=0.0, k_dcm=DRIVE_K_DCM, k_twist=DRIVE_K_TWIST),
         False: Gains(k_hip=0.0, k_dcm=DRIVE_K_DCM),
     }
 )
