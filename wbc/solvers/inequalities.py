@@ -107,6 +107,10 @@ class ConstraintRows:
         self.kinds, self.slot = kinds, slot
         self.rows = InequalityRows(len(self.levels), nv)
         self.kernel_items = [c for c in self.items if compiled_constraint(c)]
+        #: those whose ``prepare`` does something (the others' a tick does not call)
+        self._preparing = [
+            c for c in self.kernel_items if type(c).prepare is not Constraint.prepare
+        ]
         index = {id(c): j for j, c in enumerate(self.kernel_items)}
         #: each level's constraints, with their row of :attr:`cspec` (-1: rows from Python),
         #: what gives their rows from Python (``rows_view``: views copied at once) and what
@@ -178,7 +182,7 @@ class ConstraintRows:
         their rows), the others' rows copied; True if the tick's arguments must be re-bound
         (new arrays)."""
         kernel_items = self.kernel_items
-        for c in kernel_items:
+        for c in self._preparing:
             c.prepare(kin)
         rebind = False
         if kernel_items and self._changed():
@@ -208,7 +212,8 @@ class ConstraintRows:
                 r += m
                 i += 1
             level_counts.append(r - start)
-        if g.layout(tuple(level_counts)):
+        counts_now = tuple(level_counts)
+        if counts_now != g.counts and g.layout(counts_now):  # (a call only for a change)
             rebind = True
         G_all, h_all = g.G, g.h
         for r0, m, G, h in copies:
