@@ -128,6 +128,7 @@ class ConstraintRows:
         self._layout: list[tuple | None] = [None] * n
         #: kernel constraints whose frames the plan lacks: their rows come from Python
         self._python = [False] * n
+        self._row_at = [0] * n  # (:attr:`cspec`'s C_ROW column as written, as ints)
         self._gather = None
         self._addresses = np.zeros(0, dtype=np.int64)
         self._sizes = np.zeros(0, dtype=np.int64)
@@ -189,6 +190,7 @@ class ConstraintRows:
             self._relayout()
             rebind = True
         cspec, python, layout, counts = self.cspec, self._python, self._layout, self.counts
+        row_at = self._row_at
         g = self.rows
         copies = []
         level_counts = []
@@ -198,7 +200,8 @@ class ConstraintRows:
             for _, j, rows, into in level:
                 if j >= 0 and not python[j]:
                     m = layout[j][0]
-                    cspec[j, D.C_ROW] = r
+                    if row_at[j] != r:  # (a numpy write only for a change: cold in a tick)
+                        cspec[j, D.C_ROW] = row_at[j] = r
                 elif into is not None:  # (written in place: room for its most rows first)
                     if r + into[1] > g.h.shape[0] and g.reserve(r + into[1]):
                         rebind = True
