@@ -178,10 +178,11 @@ class ConstraintRows:
         self._sizes = np.array([a.size for a in arrays], dtype=np.int64)
         self._gather = entry(gather)
 
-    def tick(self, kin: Kinematics) -> bool:
+    def tick(self, kin: Kinematics, gather: bool = True) -> bool:
         """The rows at ``kin``: the kernel constraints prepared and laid out (the tick writes
-        their rows), the others' rows copied; True if the tick's arguments must be re-bound
-        (new arrays)."""
+        their rows), the others' rows copied, their parameters gathered (:meth:`gather`; not
+        with ``gather`` False: the caller's, :meth:`wbc.solvers.plan._Plan.forget_warm_start`);
+        True if the tick's arguments must be re-bound (new arrays)."""
         kernel_items = self.kernel_items
         for c in self._preparing:
             c.prepare(kin)
@@ -222,10 +223,22 @@ class ConstraintRows:
         for r0, m, G, h in copies:
             G_all[r0 : r0 + m] = G
             h_all[r0 : r0 + m] = h
+        if gather and self._gather is not None:
+            self.gather()
+        return rebind
+
+    def gather(self) -> None:
+        """The kernel constraints' parameters into :attr:`cparams` (one compiled call)."""
         if self._gather is not None:
             e = self._empty
             self._gather(self._addresses, self._sizes, self.cparams, e, e)
-        return rebind
+
+    def gather_args(self) -> tuple | None:
+        """:meth:`gather`'s arrays (addresses, sizes, :attr:`cparams`; None: nothing to
+        gather), for a compiled call that gathers them with its own work."""
+        if self._gather is None:
+            return None
+        return self._addresses, self._sizes, self.cparams
 
     def level_blocks(self) -> list[tuple[np.ndarray, np.ndarray, list[tuple[str, slice]]]]:
         """Each level's (G, h, row slices) of the last tick: views of :attr:`rows` (refilled

@@ -359,6 +359,7 @@ class _Plan:
     #: :meth:`forget_warm_start`'s compiled call and :attr:`warm_start` as rows (or None)
     _forget: Callable | None = None
     _sets: np.ndarray | None = None
+    _gather_forget: Callable | None = None
 
     def __init__(
         self,
@@ -454,8 +455,11 @@ class _Plan:
             self.is_ready = ready
         return self.is_ready
 
-    def forget_warm_start(self, keep_damped: bool = False) -> None:
-        """Start the active sets of the bounds and of the inequality rows afresh.
+    def forget_warm_start(
+        self, keep_damped: bool = False, rows: ConstraintRows | None = None
+    ) -> None:
+        """Start the active sets of the bounds and of the inequality rows afresh (and gather
+        ``rows``' parameters in the same compiled call: :meth:`ConstraintRows.gather`).
 
         ``keep_damped`` (before every tick: :meth:`solve`): all but the bounds' active set of
         the damped level (the weighted QP's one level, the hierarchy's last), which the next
@@ -479,7 +483,18 @@ class _Plan:
             upto = self.damped_level
         else:
             upto = sets.shape[0]
-        forget(sets, upto, self.inequalities.working)  # (and every inequality row's flag)
+        gathered = rows.gather_args() if rows is not None else None
+        if gathered is None:
+            forget(sets, upto, self.inequalities.working)  # (and every inequality row's flag)
+        else:  # (one compiled call: its entry point bound at the first)
+            args = (*gathered, sets, upto, self.inequalities.working)
+            both = self._gather_forget
+            if both is None:
+                from ..compiled.entry import entry_point
+                from ..compiled.prelude import gather_forget
+
+                both = self._gather_forget = entry_point(gather_forget, args, True)
+            both(*args)
         if not keep_damped and self.carried is not None:
             self.carried.count = 0
 
@@ -560,13 +575,14 @@ class _Plan:
         rows); returns its status (0: solved, Δq finite: :attr:`solution`)."""
         if self.lent:  # (its q ⊕ Δq handed out, no fresh array bound since: its own again)
             restore(self)
-        if self.constraints.items and self.constraints.tick(kin):
+        rows = self.constraints if self.constraints.items else None
+        if rows is not None and rows.tick(kin, gather=False):  # (gathered with the reset)
             self._bind_args()
         # every tick from no active set, as the numpy path solves: started from the last
         # tick's, the hierarchy's degenerate levels kept other (equally optimal) active sets,
         # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
         # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
-        self.forget_warm_start(keep_damped=True)
+        self.forget_warm_start(keep_damped=True, rows=rows)
         g, k = self.inequalities, self.damped_level or 0
         carried = self.carried  # (the damped level's rows at the last tick's end)
         if carried is not None:
