@@ -18,6 +18,7 @@ def _walk(robot, stack: str, ticks: int, prepare: bool) -> tuple[list, list, int
     many were the plan's bound array itself (not a copy)."""
     ref = build("walk10", robot)
     controller = StackController(load_stack(stack, robot))
+    controller.solver.output_ahead = prepare  # (off by default: the copy)
     session = Session(controller, robot, ref)
     returned, values, bound = [], [], 0
     for i in range(ticks):
@@ -42,7 +43,7 @@ def test_the_bound_output_is_the_copy_and_is_never_written_again(robot, stack):
         assert np.array_equal(v, c)
         assert np.array_equal(q, v)  # (not written since it was returned)
     assert len({id(q) for q in returned}) == len(returned)
-    assert bound == 80 and none == 1  # (the session binds one before its first tick too)
+    assert bound == 80 and none == 0  # (the session binds one before its first tick too)
 
 
 def test_a_step_without_the_idle_part_copies_and_spares_the_lent_array(robot):
@@ -50,6 +51,7 @@ def test_a_step_without_the_idle_part_copies_and_spares_the_lent_array(robot):
     array again (the lent one is left as returned), and the step returns a copy."""
     controller = StackController(load_stack("walk_strict", robot))
     solver = controller.solver
+    solver.output_ahead = True
     q0 = robot.configuration("walk_ready").copy()
     solver.prepare(q0, 0.01)
     q1 = solver.step(q0, 0.01)  # (the first compiled tick: a copy)
@@ -67,6 +69,15 @@ def test_a_step_without_the_idle_part_copies_and_spares_the_lent_array(robot):
     bound = solver.fast.q_next
     assert bound is not solver.fast.own_q_next
     assert solver.step(q3, 0.01) is bound
+
+
+def test_off_by_default_the_step_copies(robot):
+    _, _, bound = _walk(robot, "walk_strict", 20, False)
+    controller = StackController(load_stack("walk_strict", robot))
+    assert controller.solver.output_ahead is False and bound == 0
+    controller.solver.prepare(robot.configuration("walk_ready").copy(), 0.01)
+    controller.solver.prepare_output()
+    assert controller.solver.fast.q_next is controller.solver.fast.own_q_next
 
 
 def test_bind_checks_the_array(robot):

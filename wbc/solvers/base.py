@@ -80,6 +80,10 @@ class StackSolver(ABC):
         self.fast = None
         #: (plan, array) that :meth:`prepare_output` bound, not returned yet
         self._fresh: tuple[Any, np.ndarray] | None = None
+        #: :meth:`prepare_output` binds the tick's output ahead (False: it does nothing, the
+        #: step copies): ~6 µs less in a 50 Hz loop's cold tick, ~3.5 µs more back to back
+        #: (benchmarks/self_collision.md, fourteenth session): off by default
+        self.output_ahead = False
         #: solves done by the compiled kernels / handed back by them to the numpy path (an
         #: active inequality row, an active set that did not settle, an infeasible level)
         self.compiled_ticks = 0
@@ -276,12 +280,13 @@ class StackSolver(ABC):
     def prepare_output(self) -> None:
         """The idle part of a loop, before a :meth:`step`: the compiled plan's tick made to
         write q ⊕ Δq into a new array, which the step then returns as it is (no copy in the
-        tick: :mod:`wbc.solvers.buffers`). The same numbers as without; nothing if no compiled
-        plan has ticked yet, or if a new array is bound and not returned yet."""
+        tick: :mod:`wbc.solvers.buffers`). The same numbers as without; nothing unless
+        :attr:`output_ahead`, if no compiled plan has ticked yet, or if a new array is bound
+        and not returned yet."""
         from .buffers import bind
 
         plan = self.fast
-        if plan is None or plan._entry is None:
+        if not self.output_ahead or plan is None or plan._entry is None:
             return
         fresh = self._fresh
         if fresh is not None and fresh[0] is plan and plan.q_next is fresh[1] and not plan.lent:
