@@ -74,8 +74,8 @@ def capture(trajectory: str, stack: str, robot_name: str = "bioloid") -> dict:
     done = [0]  # (the loop's ticks done: a solve belongs to the next)
     forget, carry, solve = _Plan.forget_warm_start, CarriedRows.carry, CascadePlan.solve
 
-    def forget_kept(self, keep_damped=False):
-        forget(self, keep_damped)
+    def forget_kept(self, keep_damped=False, rows=None):
+        forget(self, keep_damped, rows)
         if isinstance(self, CascadePlan):  # the warm sets the tick's solve starts from
             snap["states"] = self.states.copy()
             snap["working"] = self.inequalities.working.copy()

@@ -105,7 +105,7 @@ def walk_limit(spec: dict) -> dict:
 def every_level_cold():
     """Every level's active sets started afresh at each tick (the last level's too)."""
     keep = _Plan.forget_warm_start
-    _Plan.forget_warm_start = lambda self, keep_damped=False: keep(self, False)
+    _Plan.forget_warm_start = lambda self, keep_damped=False, rows=None: keep(self, False, rows)
     try:
         yield
     finally:

@@ -10,7 +10,7 @@ import pytest
 from wbc import Kinematics
 from wbc.bench.trajectories import build
 from wbc.compiled.checks import outside, quaternion_defect
-from wbc.compiled.prelude import configuration_check, forget_sets
+from wbc.compiled.prelude import configuration_check, forget_sets, gather_forget
 from wbc.stacks import load_stack
 from wbc.walking.loop import Session, StackController
 
@@ -56,6 +56,22 @@ def test_forget_sets_is_the_fills_it_replaces():
         assert np.array_equal(states, expected) and not working.any()
 
 
+def test_gather_forget_is_the_gather_then_the_fills():
+    rng = np.random.default_rng(1)
+    sources = [rng.random(3), rng.random(5), rng.random(1)]
+    addresses = np.array([a.ctypes.data for a in sources], dtype=np.int64)
+    sizes = np.array([a.size for a in sources], dtype=np.int64)
+    for upto in (0, 2, 9):
+        out = np.full(12, np.nan)
+        states = rng.integers(-1, 2, (5, 24)).astype(np.int8)
+        working = rng.random((4, 60)) < 0.3
+        expected = states.copy()
+        expected[:upto] = 0
+        gather_forget(addresses, sizes, out, states, upto, working)
+        assert np.array_equal(out[:9], np.concatenate(sources)) and np.isnan(out[9:]).all()
+        assert np.array_equal(states, expected) and not working.any()
+
+
 @pytest.mark.parametrize("stack", ["walk_strict", "walk"])
 def test_a_walks_ticks_forget_what_they_forgot(robot, stack):
     """Along walk10 (inequality rows from self-collision, their counts changing from tick to
@@ -67,7 +83,7 @@ def test_a_walks_ticks_forget_what_they_forgot(robot, stack):
     controller = StackController(load_stack(stack, robot))
     session = Session(controller, robot, ref)
     solver = controller.solver
-    seen = 0
+    seen = gathers = 0
     for i in range(120):
         session.tick(i)
         plan = solver.fast
@@ -85,6 +101,14 @@ def test_a_walks_ticks_forget_what_they_forgot(robot, stack):
         plan.states[:] = 1
         plan.forget_warm_start()
         assert not plan.states.any()
+        rows = plan.constraints  # (its parameters gathered with the reset, as the tick does)
+        if rows.gather_args() is not None:
+            gathered = rows.cparams.copy()
+            rows.cparams[:] = np.nan
+            plan.forget_warm_start(keep_damped=True, rows=rows)
+            assert np.array_equal(rows.cparams, gathered) and not g.working.any()
+            gathers += 1
         plan.states[:], g.working[:] = kept  # (the walk goes on from its own sets)
         seen += g.total > 0
     assert seen > 50  # (ticks with inequality rows)
+    assert gathers > 20  # (a layout with the ground clearance: single support)

@@ -24,6 +24,7 @@ from .roles import JointRoles, find_roles
 from .servo_map import ServoMap
 
 _F8 = np.dtype(np.float64)  # (the dtype of a float64 array: checked by identity)
+_STRIDE = (8,)  # (the strides of a contiguous float64 vector)
 
 WORLD = pin.ReferenceFrame.WORLD
 #: how far the base quaternion of a configuration may be from unit norm
@@ -407,7 +408,8 @@ class Robot:
         :attr:`checked_limits` (a NaN joint is not), both from one compiled call
         (:func:`wbc.compiled.prelude.configuration_check`: a tick's
         :meth:`Kinematics.update`, whose solver reads the second after its solve)."""
-        if not (type(q) is np.ndarray and q.dtype is _F8 and q.flags.c_contiguous):
+        # (1-D and contiguous: the strides' tuple, cheaper cold than the flags' object)
+        if not (type(q) is np.ndarray and q.dtype is _F8 and q.strides == _STRIDE):
             q = np.ascontiguousarray(q, dtype=float)  # (else q itself, as this returns it)
         if q.shape != (self.nq,):
             raise ConfigurationError(

@@ -11,7 +11,9 @@ call each here:
   solver reads the second after its solve instead of asking again);
 - :func:`forget_sets`: a compiled plan's warm sets started afresh before its tick (its bounds'
   active sets above a level, every inequality row's working flag), what two numpy ``fill``
-  calls did.
+  calls did; :func:`gather_forget`: the same after the plan's constraints' parameters
+  gathered (:func:`~wbc.compiled.checks.gather`), the call before it in a tick (a numba entry
+  point ~5 µs at the end of a cold tick: benchmarks/self_collision.md).
 
 numba caches a kernel on its own file only: :func:`refresh` flushes these when
 :mod:`wbc.compiled.checks` changed.
@@ -26,7 +28,7 @@ import numpy as np
 from numba import njit, types
 
 from ._cache import refresh
-from .checks import outside, quaternion_defect
+from .checks import gather, outside, quaternion_defect
 
 
 @njit(cache=True)
@@ -49,6 +51,22 @@ def forget_sets(states: np.ndarray, upto: int, working: np.ndarray) -> None:
             working[k, j] = False
 
 
+@njit(cache=True)
+def gather_forget(
+    addresses: np.ndarray,
+    sizes: np.ndarray,
+    out: np.ndarray,
+    states: np.ndarray,
+    upto: int,
+    working: np.ndarray,
+) -> None:
+    """:func:`~wbc.compiled.checks.gather` (``addresses``, ``sizes`` into ``out``; no q), then
+    :func:`forget_sets` (``states``, ``upto``, ``working``): one call."""
+    empty = np.empty(0)
+    gather(addresses, sizes, out, empty, empty)
+    forget_sets(states, upto, working)
+
+
 def configuration_entry() -> Callable[..., tuple[float, bool]]:
     """:func:`configuration_check`'s entry point for float64 vectors of any strides (as
     :func:`~wbc.compiled.checks.outside`'s own: an entry point checks no argument's layout)."""
@@ -58,4 +76,4 @@ def configuration_entry() -> Callable[..., tuple[float, bool]]:
     return configuration_check.overloads[signature].entry_point
 
 
-refresh([configuration_check, forget_sets], [Path(__file__).with_name("checks.py")])
+refresh([configuration_check, forget_sets, gather_forget], [Path(__file__).with_name("checks.py")])

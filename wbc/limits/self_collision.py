@@ -731,9 +731,10 @@ class SelfCollisionConstraint(Constraint):
         :class:`InfeasibleError` naming the pairs past :data:`RECOVERY_TICKS` (every later
         tick raises too). The solvers call it after each tick with this constraint at a hard
         level: a pair held inside its margin is a hard level not met."""
-        deep_min = self._params[0] - RECOVERY_TOL
+        # (Python floats, no numpy scalars: their code is cold in a 50 Hz loop's tick)
+        deep_min = self._params.item(0) - RECOVERY_TOL
         if self._last is None:  # (the kernel's smallest distance of the last compute)
-            deep = self._closest[0] < deep_min
+            deep = self._closest.item(0) < deep_min
         else:
             d = self._last.distance
             deep = bool(d.size and d.min() < deep_min)

@@ -248,7 +248,7 @@ class HierarchicalQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan()
         fast = self.fast
-        interim = fast is not None and self.compiled is None and not fast.ready()
+        interim = fast is not None and self.compiled is None and not (fast.is_ready or fast.ready())
         if interim:  # compiling in the background: meanwhile the numpy path and the backend
             fast = None  # cascade (the compiled level algorithm is being built); compiled=True
             # waits for the compiled tick

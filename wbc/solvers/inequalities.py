@@ -141,6 +141,7 @@ class ConstraintRows:
         self._layout: list[tuple | None] = [None] * n
         #: kernel constraints whose frames the plan lacks: their rows come from Python
         self._python = [False] * n
+        self._row_at = [0] * n  # (:attr:`cspec`'s C_ROW column as written, as ints)
         self._gather = None
         self._addresses = np.zeros(0, dtype=np.int64)
         self._sizes = np.zeros(0, dtype=np.int64)
@@ -194,10 +195,11 @@ class ConstraintRows:
         self._sizes = np.array([a.size for a in arrays], dtype=np.int64)
         self._gather = entry(gather)
 
-    def tick(self, kin: Kinematics) -> bool:
+    def tick(self, kin: Kinematics, gather: bool = True) -> bool:
         """The rows at ``kin``: the kernel constraints prepared and laid out (the tick writes
-        their rows), the others' rows copied; True if the tick's arguments must be re-bound
-        (new arrays)."""
+        their rows), the others' rows copied, their parameters gathered (:meth:`gather`; not
+        with ``gather`` False: the caller's, :meth:`wbc.solvers.plan._Plan.forget_warm_start`);
+        True if the tick's arguments must be re-bound (new arrays)."""
         kernel_items = self.kernel_items
         for c in self._prepared:
             c.prepare(kin)
@@ -206,6 +208,7 @@ class ConstraintRows:
             self._relayout()
             rebind = True
         cspec, python, layout, counts = self.cspec, self._python, self._layout, self.counts
+        row_at = self._row_at
         g = self.rows
         copies = []
         level_counts = []
@@ -215,7 +218,8 @@ class ConstraintRows:
             for _, j, rows, into in level:
                 if j >= 0 and not python[j]:
                     m = layout[j][0]
-                    cspec[j, D.C_ROW] = r
+                    if row_at[j] != r:  # (a numpy write only for a change: cold in a tick)
+                        cspec[j, D.C_ROW] = row_at[j] = r
                 elif into is not None:  # (written in place: room for its most rows first)
                     if r + into[1] > g.h.shape[0] and g.reserve(r + into[1]):
                         rebind = True
@@ -229,16 +233,29 @@ class ConstraintRows:
                 r += m
                 i += 1
             level_counts.append(r - start)
-        if g.layout(tuple(level_counts)):
+        counts_now = tuple(level_counts)
+        if counts_now != g.counts and g.layout(counts_now):  # (a call only for a change)
             rebind = True
         G_all, h_all = g.G, g.h
         for r0, m, G, h in copies:
             G_all[r0 : r0 + m] = G
             h_all[r0 : r0 + m] = h
+        if gather and self._gather is not None:
+            self.gather()
+        return rebind
+
+    def gather(self) -> None:
+        """The kernel constraints' parameters into :attr:`cparams` (one compiled call)."""
         if self._gather is not None:
             e = self._empty
             self._gather(self._addresses, self._sizes, self.cparams, e, e)
-        return rebind
+
+    def gather_args(self) -> tuple | None:
+        """:meth:`gather`'s arrays (addresses, sizes, :attr:`cparams`; None: nothing to
+        gather), for a compiled call that gathers them with its own work."""
+        if self._gather is None:
+            return None
+        return self._addresses, self._sizes, self.cparams
 
     def level_blocks(self) -> list[tuple[np.ndarray, np.ndarray, list[tuple[str, slice]]]]:
         """Each level's (G, h, row slices) of the last tick: views of :attr:`rows` (refilled

@@ -16,7 +16,6 @@ without one keeps the numpy path.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import TypeVar
 
 import numpy as np
 
@@ -29,10 +28,9 @@ from ..model import Kinematics, Robot
 from ..tasks import Task
 from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
+from .buffers import Scratch, restore
 from .carry import CarriedRows
 from .inequalities import ConstraintRows, compiled_constraint
-
-T = TypeVar("T")
 
 
 def numba_available() -> bool:
@@ -284,33 +282,6 @@ class Frames:
         return offset, len(self._slots) - offset
 
 
-class Scratch:
-    """Arrays that the plans of one solver share: whatever a tick writes before it reads it
-    (the rows J and b, the kernels' work rows, the frames' copies, q, the bounds, Δq, q ⊕ Δq).
-    The first tick after a support switch then works in memory the last tick used, instead of
-    in the buffers of a layout last used a support phase ago (evicted from the caches: that
-    tick was ~10 µs slower)."""
-
-    def __init__(self) -> None:
-        self._blocks: dict[str, np.ndarray] = {}
-        self._objects: dict[str, object] = {}
-
-    def shared(self, name: str, build: Callable[[], T]) -> T:
-        """The object ``name`` that the plans share (built by ``build`` for the first)."""
-        if name not in self._objects:
-            self._objects[name] = build()
-        return self._objects[name]  # type: ignore[return-value]
-
-    def get(self, name: str, shape: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
-        """A C-contiguous array of ``shape`` and ``dtype`` in the block ``name`` (grown as
-        needed; a plan keeps the block it was given)."""
-        size = int(np.prod(shape))
-        block = self._blocks.get(name)
-        if block is None or block.size < size or block.dtype != dtype:
-            block = self._blocks[name] = np.zeros(size, dtype)
-        return block[:size].reshape(shape)
-
-
 class Rows:
     """A fixed list of tasks as one block of rows: J (m x nv), raw errors E, right side b.
 
@@ -388,6 +359,7 @@ class _Plan:
     #: :meth:`forget_warm_start`'s compiled call and :attr:`warm_start` as rows (or None)
     _forget: Callable | None = None
     _sets: np.ndarray | None = None
+    _gather_forget: Callable | None = None
 
     def __init__(
         self,
@@ -447,7 +419,10 @@ class _Plan:
         self.lower = scratch.get("lower", (nv,))  # (the tick's bounds: filled first)
         self.upper = scratch.get("upper", (nv,))
         self.dq = scratch.get("dq", (nv,))
-        self.q_next = scratch.get("q_next", (robot.nq,))
+        #: where the tick writes q ⊕ Δq (:attr:`own_q_next`, or an array bound by
+        #: :func:`wbc.solvers.output.bind`; ``lent``: handed to a caller, not to be written)
+        self.q_next = self.own_q_next = scratch.get("q_next", (robot.nq,))
+        self.lent = False
         #: what a solved tick returns (the same arrays at every tick)
         self.solution = Solution(self.dq, self.lower, self.upper, self.q_next)
         #: (task, view of its rows of E): re-pointed at every solve, since anything may have
@@ -467,21 +442,24 @@ class _Plan:
             constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv
         )
         self.inequalities = self.constraints.rows
-        self._ready = False
+        self.is_ready = False  # (:meth:`ready`'s answer once True: a tick reads it first)
 
     def ready(self) -> bool:
         """True if the compiled tick runs at once; False while it is being compiled in the
         background (:meth:`wbc.compiled.dispatch.Ticks.ready`): solve on the numpy path."""
-        if not self._ready:
+        if not self.is_ready:
             solve = (self._solve_kernel(), self.solve_args) if self.ticks.split else ()
             ready = self.ticks.ready(self.tick_name, (self.q, *self.packed), solve)
             if ready and self.ticks.split:  # and the solve (the package's, once compiled)
                 ready = package_ticks().kernel_ready(self._solve_kernel(), self.tick_name)
-            self._ready = ready
-        return self._ready
+            self.is_ready = ready
+        return self.is_ready
 
-    def forget_warm_start(self, keep_damped: bool = False) -> None:
-        """Start the active sets of the bounds and of the inequality rows afresh.
+    def forget_warm_start(
+        self, keep_damped: bool = False, rows: ConstraintRows | None = None
+    ) -> None:
+        """Start the active sets of the bounds and of the inequality rows afresh (and gather
+        ``rows``' parameters in the same compiled call: :meth:`ConstraintRows.gather`).
 
         ``keep_damped`` (before every tick: :meth:`solve`): all but the bounds' active set of
         the damped level (the weighted QP's one level, the hierarchy's last), which the next
@@ -505,7 +483,18 @@ class _Plan:
             upto = self.damped_level
         else:
             upto = sets.shape[0]
-        forget(sets, upto, self.inequalities.working)  # (and every inequality row's flag)
+        gathered = rows.gather_args() if rows is not None else None
+        if gathered is None:
+            forget(sets, upto, self.inequalities.working)  # (and every inequality row's flag)
+        else:  # (one compiled call: its entry point bound at the first)
+            args = (*gathered, sets, upto, self.inequalities.working)
+            both = self._gather_forget
+            if both is None:
+                from ..compiled.entry import entry_point
+                from ..compiled.prelude import gather_forget
+
+                both = self._gather_forget = entry_point(gather_forget, args, True)
+            both(*args)
         if not keep_damped and self.carried is not None:
             self.carried.count = 0
 
@@ -584,13 +573,16 @@ class _Plan:
         """Fill the per-tick inputs (the constraints' rows: :class:`ConstraintRows`) and run
         the tick (which gathers the targets and q itself, and writes the kernel constraints'
         rows); returns its status (0: solved, Δq finite: :attr:`solution`)."""
-        if self.constraints.items and self.constraints.tick(kin):
+        if self.lent:  # (its q ⊕ Δq handed out, no fresh array bound since: its own again)
+            restore(self)
+        rows = self.constraints if self.constraints.items else None
+        if rows is not None and rows.tick(kin, gather=False):  # (gathered with the reset)
             self._bind_args()
         # every tick from no active set, as the numpy path solves: started from the last
         # tick's, the hierarchy's degenerate levels kept other (equally optimal) active sets,
         # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
         # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
-        self.forget_warm_start(keep_damped=True)
+        self.forget_warm_start(keep_damped=True, rows=rows)
         g, k = self.inequalities, self.damped_level or 0
         carried = self.carried  # (the damped level's rows at the last tick's end)
         if carried is not None:

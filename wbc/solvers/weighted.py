@@ -116,7 +116,7 @@ class WeightedQP(StackSolver):
         if self._key != self.stack.revision:
             self._plan(self.ws.shape[2] if self.ws is not None else 0)
         fast = self.fast
-        if fast is not None and self.compiled is None and not fast.ready():
+        if fast is not None and self.compiled is None and not (fast.is_ready or fast.ready()):
             # compiling in the background: meanwhile the numpy path (the same QP, by the
             # backend); compiled=True waits for the compiled tick
             self.interim_ticks += 1

@@ -285,24 +285,24 @@ class StackController(Controller):
         the switch tick then only checks it was the right one (the same phase, the same sole
         objects, the stack untouched since), else takes it back (:meth:`_set_targets`).
         Nothing if the switch needs the configuration (a contact without a reference sole).
-        A touch-down's landing is made ahead too (:meth:`SwitchHandover.prepare`)."""
+        A landing and the tick's output are made ahead too (SwitchHandover, StackSolver)."""
         if self.handover is not None:
             self.handover.prepare(q, targets, self.dt)
         control = self.control
-        if self._ahead is not None or not control.bindings or control.phase is None:
-            return
         key = (targets.phase, targets.support, targets.swing)
         anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
-        if not self._anchored(targets, anchors):
-            return
-        undo = control.set_phase_ahead(*key, self._kin, anchors)
-        self._ahead = (key, targets.l_sole, targets.r_sole, undo)
-        self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
+        free = self._ahead is None and control.bindings and control.phase is not None
+        if free and self._anchored(targets, anchors):
+            undo = control.set_phase_ahead(*key, self._kin, anchors)
+            self._ahead = (key, targets.l_sole, targets.r_sole, undo)
+            self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
+        self.solver.prepare_output()
 
     def prepare_tick(self, q: np.ndarray, targets: TickTargets) -> None:
-        """A landing's next share of the way made ahead (:meth:`SwitchHandover.prepare`)."""
+        """A landing's next share made ahead (:meth:`SwitchHandover.prepare`), the output too."""
         if self.handover is not None:
             self.handover.prepare(q, targets, self.dt)
+        self.solver.prepare_output()
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         ahead = self._ahead
