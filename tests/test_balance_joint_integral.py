@@ -167,3 +167,48 @@ def test_sagittal_integrates_the_pitch_joints_only(robot):
                                          0.0, 0.0, sagittal)  # fmt: skip
         on = {r for r, j in leg.items() if v[j] > 0}
         assert on == ({"hip_pitch", "knee", "ankle_pitch"} if sagittal else set(leg))
+
+
+def test_joints_selects_the_integrating_set(robot):
+    """``j_i_joints``: every joint of both loaded legs (double support) sags 0.02 rad; each
+    set integrates its roles on both legs and nothing else (the others, the arms, hold 0)."""
+    q = robot.configuration("stand")[7:]
+    present = q - 0.02
+    expect = (
+        {"hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"},
+        {"hip_pitch", "knee", "ankle_pitch", "ankle_roll"},
+        {"knee", "ankle_pitch"},
+        {"knee"},
+    )
+    for code, roles in enumerate(expect):
+        v = JointIntegral(robot).offsets(q, present, "", 1.0, 0.1, 0.0, 0.01,
+                                         joints=code)  # fmt: skip
+        on = {robot.joint_names[j] for j in np.flatnonzero(v > 0)}
+        assert on == {robot.roles.joint(s, r) for s in ("left", "right") for r in roles}
+    with pytest.raises(Exception, match="j_i_joints"):
+        Gains(j_i_joints=4).check()
+
+
+def test_single_grows_in_single_support_and_holds_or_leaks_in_double_support(robot):
+    """``j_i_single``: the knees' integral grows in single support; in double support it
+    grows without the gate (0), holds with 1 and leaks (without growing) with 2."""
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    sag = q[7:] - 0.03
+    k = _knee(robot, "left")
+    for single in (0.0, 1.0, 2.0):
+        g = Gains(hip_kick=0.0, j_i=2.0, j_i_leak=2.0, j_i_joints=3, j_i_single=single)
+        stab = Stabilizer(robot, 0.2, lambda: sag.copy(), None, g)
+        stab.last = object()  # (a walk under way: an estimate exists)
+        stab._stance = "l_sole"
+        for _ in range(20):
+            grown = stab.joint_offsets(q[7:].copy())[k]
+        assert grown > 0.005
+        stab._stance = ""
+        for _ in range(10):
+            after = stab.joint_offsets(q[7:].copy())[k]
+        if single == 0:
+            assert after > grown
+        elif single == 1:
+            assert after == pytest.approx(grown)
+        else:
+            assert 0 < after < grown

@@ -217,6 +217,17 @@ class Gains:
     #: 0.06 (with j_i 1, j_i_max 0.05): 149 / 145 of 150 on seeds 0 / 1 against main's
     #: 146 / 148 without the feed-forward (issue 30, i30n; benchmarks/physics.md): off
     j_i_band: float = 0.0
+    #: which of the loaded legs' joints j_i integrates (the others let go): 0 the six, 1
+    #: all but the hip yaw and hip roll, 2 the knee and ankle pitch, 3 the knee
+    #: (:data:`~wbc.balance.joint_integral.JOINT_SETS`)
+    j_i_joints: float = 0.0
+    #: 1: j_i grows (and leaks) in single support only; in double support both legs hold
+    #: theirs; 2: it grows in single support only and leaks in double support too (0: both
+    #: legs' sag integrated in double support too). 2 with j_i_joints 3, j_i 1, j_i_max
+    #: 0.05, j_i_leak 2: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148 without
+    #: the feed-forward, but s1 turn_wb 50 -> 49 (issue 30, i30n's fourteenth round;
+    #: benchmarks/physics.md): off
+    j_i_single: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -275,12 +286,22 @@ class Gains:
             "j_i_lag",
             "j_i_sagittal",
             "j_i_band",
+            "j_i_joints",
+            "j_i_single",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
                     f"stabilizer gain {name} must be a finite number >= 0, got {v}"
                 )
+        if self.j_i_single not in (0, 1, 2):
+            raise ConfigurationError(
+                f"stabilizer gain j_i_single: 0, 1 or 2, got {self.j_i_single}"
+            )
+        if self.j_i_joints not in (0, 1, 2, 3):
+            raise ConfigurationError(
+                f"stabilizer gain j_i_joints: 0, 1, 2 or 3, got {self.j_i_joints}"
+            )
         if not 0.0 < self.clock_min <= 1.0:
             raise ConfigurationError(f"stabilizer gain clock_min: (0, 1], got {self.clock_min}")
         if self.hip_kick > 0 and self.kick_release <= 0:

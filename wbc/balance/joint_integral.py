@@ -20,6 +20,11 @@ keeps the soft plants main loses there, but loses stiff, late plants (145 / 143 
 i30n's thirteenth round, benchmarks/physics.md): ``j_i_lag`` (the encoders against the
 solved goals of the servos' measured lag ago), ``j_i_sagittal`` (hip pitch, knee and
 ankle pitch only), ``j_i_band`` (the difference low-passed and integrated beyond a band).
+Two more (issue 30, i30n's fourteenth round): ``j_i_joints`` (which of the loaded legs'
+joints integrate, by role: :data:`JOINT_SETS`) and ``j_i_single`` (the integral grows in
+single support only; both legs hold or leak theirs in double support): the knees alone,
+growing in single support and leaking at 2 /s, keep 148 / 149 of 150 plants on seeds 0 / 1
+against 146 / 148, but lose one ``turn_wb`` plant of seed 1's: off.
 """
 
 from __future__ import annotations
@@ -35,6 +40,15 @@ from .servo_lag import LAG_MAX
 
 #: the leg roles that carry the weight in the sagittal plane (``j_i_sagittal``)
 SAGITTAL = ("hip_pitch", "knee", "ankle_pitch")
+#: the joint sets ``j_i_joints`` selects (its value: the index): the six leg joints; without
+#: the hip yaw and hip roll (the stalls of stiff, late plants); the knee and ankle pitch; the
+#: knee alone (the sag of a soft plant's stance leg is its knee's)
+JOINT_SETS = (
+    LEG_ROLES,
+    ("hip_pitch", "knee", "ankle_pitch", "ankle_roll"),
+    ("knee", "ankle_pitch"),
+    ("knee",),
+)
 #: s: the time constant of the low-pass ``j_i_band`` compares with its band
 BAND_SMOOTH = 0.1
 
@@ -100,6 +114,12 @@ class JointIntegral:
         keep = np.zeros(n, dtype=np.bool_)
         keep[pitch] = True
         self.sagittal = {key: mask & keep for key, mask in self.loaded.items()}
+        #: the same per joint set of :data:`JOINT_SETS` (``j_i_joints``)
+        self.sets = []
+        for roles_kept in JOINT_SETS:
+            keep = np.zeros(n, dtype=np.bool_)
+            keep[[names.index(roles.joint(s, r)) for s in SOLE_FRAMES for r in roles_kept]] = True
+            self.sets.append({key: mask & keep for key, mask in self.loaded.items()})
         self._v_max = np.where(np.isfinite(robot.v_max) & (robot.v_max > 0), robot.v_max, 1.0)
         self._last = np.zeros(n)  # the last goals with the offsets (rad)
         self._k = np.zeros(7)
@@ -124,6 +144,7 @@ class JointIntegral:
         delay: float = 0.0,
         sagittal: bool = False,
         band: float = 0.0,
+        joints: int = 0,
     ) -> np.ndarray:
         """The offsets (rad, model order) for this tick's solved goals ``solved``, the
         encoders' ``present`` positions (None or NaN: not read), the stance sole ``stance``
@@ -138,7 +159,9 @@ class JointIntegral:
         ``j_i_sagittal``); ``band`` (rad; 0: none): the difference, low-passed
         (:data:`BAND_SMOOTH`: a ringing servo's oscillation averages out), integrated only
         beyond ± ``band`` (``j_i_band``: a stiff servo's small tracking error left alone,
-        a soft one's sag integrated); one compiled call (:func:`_integrate`)."""
+        a soft one's sag integrated); ``joints``: the index of the loaded joints' set in
+        :data:`JOINT_SETS` that integrates (the others let go: ``j_i_joints``); one compiled
+        call (:func:`_integrate`)."""
         k = self._k
         solved = np.asarray(solved, dtype=float)
         target = solved if delay <= 0.0 or dt <= 0.0 else self._delayed(solved, delay, dt)
@@ -154,7 +177,7 @@ class JointIntegral:
         k[4] = 0.0 if present is None else 1.0
         k[6] = still
         out = np.empty(len(self.value))
-        loaded = (self.sagittal if sagittal else self.loaded)[stance]
+        loaded = (self.sagittal if sagittal else self.sets[joints])[stance]
         _integrate(self.value, self._last, solved, target,
                    self._none if present is None else np.asarray(present, dtype=float),
                    loaded, self._v_max, k, out)  # fmt: skip

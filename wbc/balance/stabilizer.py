@@ -764,9 +764,13 @@ class Stabilizer:
             if self._sag is None:
                 self._sag = JointIntegral(self.robot)
             delay = self._dt + g.j_i_lag * self.servo_lag if g.j_i_lag > 0 else 0.0
-            i = self._sag.offsets(joints, self.present(), self._stance, g.j_i, g.j_i_max,
-                                  g.j_i_leak, self._dt, g.j_i_still, delay,
-                                  g.j_i_sagittal > 0, g.j_i_band)  # fmt: skip
+            hold = g.j_i_single > 0 and not self._stance  # (double support: held)
+            leak = 0.0 if hold and g.j_i_single < 2 else g.j_i_leak  # (2: it leaks)
+            i = self._sag.offsets(joints, self.present(), self._stance,
+                                  0.0 if hold else g.j_i, g.j_i_max,
+                                  leak, self._dt, g.j_i_still, delay,
+                                  g.j_i_sagittal > 0, g.j_i_band,
+                                  int(g.j_i_joints))  # fmt: skip
             d = i if d is None else d + i
         if g.hip_kick > 0:
             d = self._hip_kick(joints, d)
