@@ -109,17 +109,17 @@ class JointIntegral:
         for sole, idx in legs.items():
             self.loaded[sole][idx] = True
             self.loaded[""][idx] = True
-        #: the same, the sagittal joints only (hip pitch, knee, ankle pitch: j_i_sagittal)
-        pitch = [names.index(roles.joint(side, r)) for side in SOLE_FRAMES for r in SAGITTAL]
-        keep = np.zeros(n, dtype=np.bool_)
-        keep[pitch] = True
-        self.sagittal = {key: mask & keep for key, mask in self.loaded.items()}
-        #: the same per joint set of :data:`JOINT_SETS` (``j_i_joints``)
-        self.sets = []
-        for roles_kept in JOINT_SETS:
+
+        def kept(roles_kept: tuple[str, ...]) -> dict[str, np.ndarray]:
+            """:attr:`loaded` with only the joints of these roles (both legs)."""
             keep = np.zeros(n, dtype=np.bool_)
             keep[[names.index(roles.joint(s, r)) for s in SOLE_FRAMES for r in roles_kept]] = True
-            self.sets.append({key: mask & keep for key, mask in self.loaded.items()})
+            return {key: mask & keep for key, mask in self.loaded.items()}
+
+        #: the same, the sagittal joints only (hip pitch, knee, ankle pitch: j_i_sagittal)
+        self.sagittal = kept(SAGITTAL)
+        #: the same per joint set of :data:`JOINT_SETS` (``j_i_joints``)
+        self.sets = [kept(roles_kept) for roles_kept in JOINT_SETS]
         self._v_max = np.where(np.isfinite(robot.v_max) & (robot.v_max > 0), robot.v_max, 1.0)
         self._last = np.zeros(n)  # the last goals with the offsets (rad)
         self._k = np.zeros(7)

@@ -367,7 +367,7 @@ class StepAdjuster:
         # (the stance sole's roll read after a push backward, on its heel; after a push
         # forward, on its toe, measured worse: forward 0.852 → 0.820 N·s)
         rise = None if self.trigger.forward else (lambda: self.stance_rise(targets, q))
-        if back and p.back_reach > 0:
+        if later and p.back_reach > 0:  # (a swing the catch carries, past back_skip)
             self._reach_left(targets, q)
         turn = p.landing_turn if back else 0.0
         if later and p.back_turn is not None:  # (back_turn; 0: not turned)
@@ -384,14 +384,14 @@ class StepAdjuster:
 
     def _reach_left(self, targets: Any, q: np.ndarray) -> None:
         """``back_reach``: the swing sole's distance (m) to its landing, the sole where the
-        estimate and the present joints put it, for :meth:`rate` (a carried swing)."""
+        estimate and the present joints put it, for :meth:`rate` (called in a carried swing
+        past ``back_skip``)."""
         i, est, present = targets.i, self.contact, self.present
-        ph = self.phases[self.phase_of[i]]
         joints = None if est is None or present is None or est.last is None else present()
-        if joints is None or not (self.trigger.carried(i) and self._back_skipped(ph)):
+        if joints is None:
             return
         sole = est.landed(targets.swing, np.asarray(joints, float), np.asarray(q[7:], float))
-        step = self.plan.steps[ph.step]
+        step = self.plan.steps[self.phases[self.phase_of[i]].step]
         self.reach_left = (i, math.hypot(step.x - float(sole[0]), step.y - float(sole[1])))
 
     def released(self, targets: Any, est: Any) -> Any:

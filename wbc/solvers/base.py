@@ -283,11 +283,11 @@ class StackSolver(ABC):
         tick: :mod:`wbc.solvers.buffers`). The same numbers as without; nothing unless
         :attr:`output_ahead`, if no compiled plan has ticked yet, or if a new array is bound
         and not returned yet."""
-        from .buffers import bind
-
         plan = self.fast
         if not self.output_ahead or plan is None or plan._entry is None:
-            return
+            return  # (off by default: every tick's idle part returns here)
+        from .buffers import bind
+
         fresh = self._fresh
         if fresh is not None and fresh[0] is plan and plan.q_next is fresh[1] and not plan.lent:
             return

@@ -420,7 +420,7 @@ class _Plan:
         self.upper = scratch.get("upper", (nv,))
         self.dq = scratch.get("dq", (nv,))
         #: where the tick writes q ⊕ Δq (:attr:`own_q_next`, or an array bound by
-        #: :func:`wbc.solvers.output.bind`; ``lent``: handed to a caller, not to be written)
+        #: :func:`wbc.solvers.buffers.bind`; ``lent``: handed to a caller, not to be written)
         self.q_next = self.own_q_next = scratch.get("q_next", (robot.nq,))
         self.lent = False
         #: what a solved tick returns (the same arrays at every tick)
