@@ -1440,3 +1440,84 @@ def test_a_catch_of_a_push_backward_anchors_the_landed_soles_with_back_anchor(ro
     assert SteppingParams().back_anchor == 0.06  # (on by default)
     with pytest.raises(ConfigurationError, match="back_anchor"):
         SteppingParams(back_anchor=-0.01).check()
+
+
+def test_a_catch_of_a_push_backward_moves_the_com_target_against_the_dcm_with_back_dcm(
+    robot, walk10
+):
+    """``back_dcm``: after a push backward the trigger caught, while the catch is on, the CoM
+    target moves by ``−back_dcm`` × the DCM error (estimate less reference), clipped to
+    ``back_dcm_max``; not after a push forward, once the catch is over, nor by default."""
+    rot, move = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+
+    def moved(params, jump=-0.02, err=(-0.01, 0.004), over=False):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        _, t, e, q, _ = _land_case(robot, walk10, params, rot, move, i=MID + 2)
+        e.values[6, :2] = adj._dcm_ref(adj.current, MID + 2) + np.asarray(err)  # (re-planned)
+        if over:
+            adj.episode, adj.end = -10, 0  # (the catch ended steps ago)
+        return np.asarray(adj.land(t, e, q).com) - np.asarray(t.com), adj
+
+    d, adj = moved(SteppingParams(back_dcm=1.0))
+    assert adj.episode is not None  # (the trigger's re-plan started the catch)
+    assert np.allclose(d, [0.01, -0.004, 0.0], atol=1e-12)
+    d, _ = moved(SteppingParams(back_dcm=2.0, back_dcm_max=0.015), err=(-0.03, 0.0))
+    assert np.allclose(d, [0.015, 0.0, 0.0], atol=1e-12)  # (clipped)
+    for d, _ in (
+        moved(SteppingParams(back_dcm=1.0), jump=0.02),  # a push forward
+        moved(SteppingParams(back_dcm=1.0), over=True),
+        moved(SteppingParams()),
+    ):
+        assert np.allclose(d, 0.0)
+    assert SteppingParams().back_dcm == 0.0
+    with pytest.raises(ConfigurationError, match="back_dcm"):
+        SteppingParams(back_dcm=-1.0).check()
+
+
+def test_a_short_landing_of_a_push_backward_rebases_the_plan_with_back_rebase(robot, walk10):
+    """``back_rebase``: at the double support after a carried swing of a push backward, the
+    landed sole read (the estimate's rotation, the present joints) off where the plan puts it
+    from the other sole by more than the band: the next tick re-bases that step and every
+    later one by the difference, and the catch goes on ``back_rebase_steps`` more steps
+    (carried); not inside the band, after a push forward, nor by default."""
+    from wbc.balance.estimator import StateEstimator
+
+    def case(params, off, jump=-0.02):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        j = next(k for k, ph in enumerate(adj.phases) if ph.kind == "double" and ph.i0 >= LAND)
+        ds, prev = adj.phases[j], adj.phases[j - 1]
+        _, tg, est, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=ds.i0)
+        estimator = StateEstimator(robot, walk10.com_height)
+        estimator.last = est
+        frame = f"{adj.plan.steps[prev.step].side[0]}_sole"
+        plan = {f: getattr(tg, f).translation for f in ("l_sole", "r_sole")}
+
+        def landed(name, joints, fallback):  # the landed sole read `off` from the plan's
+            return plan[name] + (np.array([*off, 0.0]) if name == frame else 0.0)
+
+        estimator.landed = landed  # type: ignore[method-assign]
+        adj.contact, adj.present = estimator, lambda: q[7:].copy()
+        before, n = adj.plan, len(adj.events)
+        adj.land(tg, est, q)
+        new = adj.update(walk10, ds.i0 + 1, dcm(walk10, ds.i0 + 1, adj.omega))
+        return adj, before, new, int(prev.step), n
+
+    p = SteppingParams(back_rebase=0.02)
+    adj, before, new, k, n = case(p, (0.05, -0.01))
+    assert new is not None and len(adj.events) == n + 1 and adj.events[-1][1] == k
+    for m, (a, b) in enumerate(zip(before.steps, adj.plan.steps, strict=True)):
+        want = (0.05, -0.01) if m >= k else (0.0, 0.0)
+        assert (b.x - a.x, b.y - a.y) == pytest.approx(want, abs=1e-12), m
+    assert adj._catch_end() == max(adj.episode + adj._episode_steps(), k + 2)
+    later = next(ph for ph in adj.phases if ph.kind == "single" and ph.step == k + 1)
+    assert adj.trigger.carried(later.i0)  # (the extended step lifts, lands measured)
+    for params, off, jump in (
+        (p, (0.015, 0.0), -0.02),  # inside the band
+        (p, (0.05, -0.01), 0.02),  # a push forward
+        (SteppingParams(), (0.05, -0.01), -0.02),
+    ):
+        adj, before, new, k, n = case(params, off, jump)
+        assert len(adj.events) == n and adj.plan is before, (params.back_rebase, off, jump)
+    assert SteppingParams().back_rebase == 0.0
+    with pytest.raises(ConfigurationError, match="back_rebase"):
+        SteppingParams(back_rebase=-0.01).check()

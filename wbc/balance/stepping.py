@@ -73,40 +73,10 @@ is no landing). Measured: one bisection step
 forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
 steps of a few mm; benchmarks/pushes.md, seventh pass).
 
-**The push caught in its own step** (:mod:`.swing_catch`; on by default): a jump of the DCM
-error along the walk in one tick starts the catch at once in the pushed swing, with the
-landing correction and the swing's lift. Measured (benchmarks/pushes.md): forward 0.547 →
-0.703, backward 0.461 → 0.617 N·s; the same randomised plants up. Off: ``{"trigger_jump": 0,
-"landing": 0, "lift": 0, "toe_up": 0}``. Options of that catch: ``toe_up`` (on, 0.15 rad:
-after a push forward the swing sole turned toe up, the pitched body puts its toe on the
-floor; forward 0.703 → 0.719 N·s); off: ``lead`` (the swing target led by the servos' lag),
-``slow`` (the triggered swing's clock slowed: a later landing), ``catch_pitch`` (the torso
-target turned along the push during the catch: the hip strategy along the walk). Every other
-term here is off by default (sideways on ``walk10`` 0.797 → 0.844 N·s; the bound 0.934).
+**The push caught in its own step**, **the catch's later swings**, **the double support after
+a caught landing** (``trigger_jump``, ``catch_swings``, ``descend``, ``back_rebase``):
+:mod:`.swing_catch`.
 
-**The catch's later swings** (``catch_swings``, ``catch_hurry``; :mod:`.swing_catch`): a
-push backward leaves the robot on its heels after the caught landing, the body pitched back;
-the next swing's sole, placed in the controller's upright frame, drags its heel on the floor
-(7–19 N) and lands 70 mm short of its re-planned landing. With ``catch_swings`` the lift and
-the landing in the measured frame go on in that many swings after the triggered one, and
-``catch_hurry`` runs the clock faster in the double supports before them (the next step
-lifts sooner) and, with ``hurry_single``, in those swings when they lack the room; the
-placement is the catch's own (``episode_steps``, the re-plans above). After a push
-backward, the stance sole rolled onto its heel (``landing_tilt``, on): the estimate anchors
-its centre on the floor
-and reads the base low by the heel's drop (:meth:`StepAdjuster.stance_rise`, from the IMU
-and the present joints), so the measured-frame landing put the next sole 13–22 mm high;
-the correction takes the base that much higher. In those swings (after a push backward)
-the footstep may move ``back_shift`` (0.10 m, not ``max_shift``'s 0.08) and the bend run at
-``back_foot_speed`` (0.8 m/s, the servos' no-load speed at the lever): :meth:`StepAdjuster.
-reach` (backward 0.711 → 0.727 N·s; after any push, forward 0.852 → 0.688: not done there).
-**The double support after a caught
-landing** (``descend``, ``descend_hold``; off: measured worse, benchmarks/pushes.md): the
-landed sole is a support in the plan from its first tick while a body rolled back on its
-stance heel keeps it 10–18 mm up; :class:`~.swing_catch.LandedDescent` lowers its contact
-target by the gap the soles' lowest points show, and with ``descend_hold`` the clock stands
-until it is down (bounded) — the sole comes down no sooner: its knee extends at the servo's
-speed behind a goal already moving at the limiter's.
 The parameters: :mod:`.stepping_params`.
 """
 
@@ -137,10 +107,16 @@ from ..walking.schedule import (
     sole_tracks,
     zmp_knots,
 )
-from ..walking.spline import smooth
 from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
 from .stepping_params import BAND_X, BAND_Y, TRIGGER_SHARE, SteppingParams
-from .swing_catch import LandedDescent, MeasuredLanding, PushTrigger
+from .swing_catch import (
+    LandedDescent,
+    LandedRebase,
+    MeasuredLanding,
+    PushTrigger,
+    dcm_shifted,
+    floored,
+)
 
 __all__ = ["BAND_X", "BAND_Y", "TRIGGER_SHARE", "StepAdjuster", "SteppingParams", "can_step"]
 
@@ -212,6 +188,7 @@ class StepAdjuster:
         self.landing = MeasuredLanding(self.params, self.phases, self.phase_of, ref.dt, torso_b)
         #: the landed sole lowered in the double support after a caught landing (descend)
         self.descent = LandedDescent(self.params, self.phases, self.phase_of, ref.dt)
+        self.rebase = LandedRebase(self.params, self.phases, self.phase_of)  # (back_rebase)
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
         self.current: WalkingReference | None = None  # the walk's reference (:meth:`update`)
@@ -342,12 +319,16 @@ class StepAdjuster:
         (:meth:`PushTrigger.lifted`) and moved into the measured frame
         (:meth:`MeasuredLanding.land`; single support, else ``targets`` itself)."""
         targets = self.trigger.pitched(targets) if self.enabled else targets
+        if self.params.back_dcm > 0 and self.enabled:  # (the ankle strategy in the catch)
+            targets = self._dcm_moved(targets, est)
         targets = self.released(targets, est)
         if self.params.back_anchor > 0 and self.contact is not None and self.enabled:
             t = self.trigger  # (back_anchor: from the next tick on, :meth:`banded`)
             if t.tick is not None and not t.forward:
                 self.back_caught = True
         if targets.phase != "single":
+            if self.params.back_rebase > 0 and self.enabled:
+                self._rebase_note(targets, q)
             step = self._descending(targets.i)
             if step is None:
                 return targets
@@ -374,6 +355,19 @@ class StepAdjuster:
             turn = max(p.back_turn, 1e-12)
         lifted = self.trigger.lifted(targets, vel, lead)
         return self.floor(self.landing.land(lifted, est, q, rise, turn))
+
+    def _rebase_note(self, targets: Any, q: np.ndarray) -> None:
+        """``back_rebase``: :meth:`LandedRebase.note` after a push backward's carried swing."""
+        t, est, present = self.trigger, self.contact, self.present
+        if int(self.phase_of[targets.i]) == self.rebase.seen or t.tick is None or t.forward:
+            return
+        joints = None if est is None or present is None or est.last is None else present()
+        if joints is None:
+            return
+        j, f = np.asarray(joints, dtype=float), np.asarray(q[7:], dtype=float)
+        self.rebase.note(targets, lambda k: self.plan.steps[k].side,
+                         lambda ph: t.carried(ph.i0) and self._back_skipped(ph),
+                         lambda frame: est.landed(frame, j, f))  # fmt: skip
 
     def banded(self, targets: Any) -> Any:
         """``targets`` with ``anchor_band`` ``back_anchor`` once :meth:`land` saw a push
@@ -416,29 +410,23 @@ class StepAdjuster:
         return int(ph.step) - int(first) >= self.params.back_skip
 
     def floor(self, targets: Any) -> Any:
-        """``targets`` with the swing's ground clearance lowered (``landing_floor``;
-        :attr:`~wbc.walking.tick_targets.TickTargets.swing_floor`) in a swing the catch of a
-        push backward carries, over its last ``landing_floor`` share (smoothstep in): to the
-        lowest corner of the swing target (after :meth:`land`: in the measured frame, where
-        its corners lie on the floor) below the stance sole's planned floor, else
-        ``targets``."""
-        p, i = self.params, targets.i
-        if p.landing_floor <= 0 or not self.enabled or self.trigger.forward:
+        """``targets`` with the swing's ground clearance lowered (``landing_floor``:
+        :func:`~.swing_catch.floored`), else ``targets``."""
+        if self.params.landing_floor <= 0 or not self.enabled:
             return targets
-        if not self.trigger.carried(i):
+        return floored(targets, self.params, self.trigger, self._corners)
+
+    def _dcm_moved(self, targets: Any, est: Any) -> Any:
+        """``targets`` with the CoM target moved against the DCM error (``back_dcm``:
+        :func:`~.swing_catch.dcm_shifted`) while the catch of a push backward is on."""
+        t, ref, i, p = self.trigger, self.current, targets.i, self.params
+        if t.tick is None or t.forward or ref is None or self.episode is None or i >= ref.n:
             return targets
-        ph = self.phases[self.phase_of[i]]
-        first = self.phases[self.phase_of[self.trigger.tick or 0]].step
-        if int(ph.step) - int(first) < p.floor_skip:  # (the catch's first floor_skip swings)
+        if self.phases[self.phase_of[i]].step >= self._catch_end() + p.back_dcm_steps:
             return targets
-        left = (ph.i1 - i) / max(ph.i1 - ph.i0, 1)  # (the swing's share left)
-        w = smooth(1.0 - left / p.landing_floor)
-        if w <= 0.0:
-            return targets
-        R = np.asarray(targets.swing_rotation, dtype=float)
-        z = float(targets.swing_position[2]) + float(np.min(self._corners @ R[2]))
-        low = z - float(targets.support_placement.translation[2])
-        return targets.replace(swing_floor=w * low) if low < 0.0 else targets
+        err = np.asarray(est.dcm[:2], dtype=float) - self._dcm_ref(ref, i)
+        w = min((i - t.tick) * ref.dt / p.back_dcm_time, 1.0) if p.back_dcm_time > 0 else 1.0
+        return dcm_shifted(targets, err, w * p.back_dcm, w * p.back_dcm_max)
 
     def stance_rise(self, targets: Any, q: np.ndarray) -> float:
         """How far (m, ≥ 0) the stance sole's lowest corner lies below the floor where the
@@ -495,17 +483,8 @@ class StepAdjuster:
         """False when :meth:`land` returns its targets at every tick (``landing`` and
         ``lift`` 0)."""
         p = self.params
-        return p.landing > 0 or (
-            self.enabled
-            and (
-                p.lift > 0
-                or p.lead > 0
-                or p.toe_up > 0
-                or p.catch_pitch != 0.0
-                or p.landing_depth > 0
-                or p.descend > 0
-            )
-        )
+        on = (p.lift, p.lead, p.toe_up, abs(p.catch_pitch), p.landing_depth, p.descend, p.back_dcm)
+        return p.landing > 0 or (self.enabled and max(on) > 0)
 
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
         """The walk's clock speed after tick ``i``: ``hurry`` in a double support whose DCM
@@ -610,6 +589,8 @@ class StepAdjuster:
                     self.trigger.carried(i) if jumps else bool(self.error(ref, i, dcm)[1].any())
                 ),
             )
+        if self.rebase.pending is not None:
+            return self._rebased(ref, i)
         if p.touchdown > 0 and self.contact is not None:
             new = self._touchdown(ref, i)
             if new is not None:
@@ -693,6 +674,24 @@ class StepAdjuster:
         self.shift = np.zeros(2)
         self.last_tick, self._down, self._jump = i, 0, ph.i1
         self.caught_step = k
+        self.events.append((float(ref.t[i]), k, shift, shift.copy()))
+        return new
+
+    def _rebased(self, ref: WalkingReference, i: int) -> WalkingReference:
+        """The walk re-based on a landed sole (``back_rebase``: :class:`LandedRebase`'s
+        pending step and shift, it and every later step moved, the rest re-planned), the
+        catch extended by ``back_rebase_steps`` (re-planned and carried)."""
+        p, (k, shift) = self.params, self.rebase.pending or (0, np.zeros(2))
+        self.rebase.pending = None
+        plan = shifted_plan(self.plan, k, shift)
+        new = self.regenerate(ref, plan, i, self.phases[self.phase_of[i]])
+        self.plan, self.before, self.first, self.last_tick = plan, plan, k, i
+        self.increments = np.zeros((p.steps_ahead, 2))
+        if self.episode is not None and p.back_rebase_steps > 0 and self.trigger.tick is not None:
+            most = self.episode + self._episode_steps() + p.back_rebase_steps
+            self.end = max(self.end, min(k + 1 + p.back_rebase_steps, most))
+            first = int(self.phases[self.phase_of[self.trigger.tick]].step)
+            self.trigger.extra = max(self.trigger.extra, self.end - 1 - first - p.catch_swings)
         self.events.append((float(ref.t[i]), k, shift, shift.copy()))
         return new
 

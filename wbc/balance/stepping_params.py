@@ -155,6 +155,24 @@ class SteppingParams:
     #: ``back_skip`` after a push backward (the third swing's sole still loaded at lift-off)
     #: (off: 1.5 and 2 before the third swing lose one of 5 screened pushes)
     back_hurry: float = 0.0
+    #: m (0: off): after a push backward, at the first tick of the double support after a
+    #: carried swing past ``back_skip``, where the landed sole stands from the other sole (the
+    #: IMU's rotation and the present joints: no base, no drift) against the plan; beyond this,
+    #: that step and every later one re-based on it (:class:`~.swing_catch.LandedRebase`), the
+    #: CoM re-planned: the third sole of a 0.8 N·s push lands 66 mm short and the solve, its
+    #: target left at the plan, holds that leg stretched toward it while the body tips back
+    back_rebase: float = 0.0
+    #: steps: a re-base (``back_rebase``) extends the catch (re-planned, carried) to this many
+    #: steps after the re-based one (at most this many past ``back_episode``)
+    back_rebase_steps: int = 1
+    #: m/m (0: off): after a push backward the trigger caught, while the catch is on (and
+    #: ``back_dcm_steps`` steps after it), the CoM target moved by ``−back_dcm`` × the DCM
+    #: error (the estimate's less the reference's), at most ``back_dcm_max`` m: the ankle
+    #: strategy (``Gains.k_dcm``'s term) in the catch alone, the unpushed walk untouched
+    back_dcm: float = 0.0
+    back_dcm_max: float = 0.02
+    back_dcm_steps: int = 0
+    back_dcm_time: float = 0.0  # s: ... ramped in over this time from the trigger (0: at once)
     #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn``,
     #: ``back_lead`` nor ``back_hurry`` in the catch's first ones
     back_skip: int = 0
@@ -288,7 +306,8 @@ class SteppingParams:
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
             "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
-            "back_anchor", "back_reach", "back_turn", "back_lead",
+            "back_anchor", "back_reach", "back_turn", "back_lead", "back_rebase",
+            "back_dcm", "back_dcm_max", "back_dcm_time",
             "back_hurry",
             "back_lift", "descend",
             "descend_depth", "descend_out",
@@ -338,7 +357,8 @@ class SteppingParams:
             )
         for name in (
             "episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip",
-            "catch_swings", "floor_skip", "back_episode", "back_skip",
+            "catch_swings", "floor_skip", "back_episode", "back_skip", "back_rebase_steps",
+            "back_dcm_steps",
         ):  # fmt: skip
             v = getattr(self, name)
             if int(v) != v or v < 0:

@@ -16,6 +16,39 @@ controller places the swing sole relative to its own base; a pushed robot's base
 about the stance sole (the compliant stance hip yielding), and the sole lands where the same
 relative pose puts it from the *measured* base — short and high. :meth:`MeasuredLanding.land`
 moves the swing target so that the measured base carries it to the planned place.
+
+**The push caught in its own step** (on by default): a jump of the DCM
+error along the walk in one tick starts the catch at once in the pushed swing, with the
+landing correction and the swing's lift. Measured (benchmarks/pushes.md): forward 0.547 →
+0.703, backward 0.461 → 0.617 N·s; the same randomised plants up. Off: ``{"trigger_jump": 0,
+"landing": 0, "lift": 0, "toe_up": 0}``. Options of that catch: ``toe_up`` (on, 0.15 rad:
+after a push forward the swing sole turned toe up, the pitched body puts its toe on the
+floor; forward 0.703 → 0.719 N·s); off: ``lead`` (the swing target led by the servos' lag),
+``slow`` (the triggered swing's clock slowed: a later landing), ``catch_pitch`` (the torso
+target turned along the push during the catch: the hip strategy along the walk). Every other
+term here is off by default (sideways on ``walk10`` 0.797 → 0.844 N·s; the bound 0.934).
+
+**The catch's later swings** (``catch_swings``, ``catch_hurry``): a push backward leaves the robot
+on its heels after the caught landing, the body pitched back; the next swing's sole, placed in the
+controller's upright frame, drags its heel on the floor (7–19 N) and lands 70 mm short of its
+re-planned landing. With ``catch_swings`` the lift and the landing in the measured frame go on in
+that many swings after the triggered one, and ``catch_hurry`` runs the clock faster in the double
+supports before them (the next step lifts sooner) and, with ``hurry_single``, in those swings when
+they lack the room; the placement is the catch's own (``episode_steps``, :mod:`.stepping`'s
+re-plans). After a push backward, the stance sole rolled onto its heel (``landing_tilt``, on): the
+estimate anchors its centre on the floor and reads the base low by the heel's drop
+(:meth:`~.stepping.StepAdjuster.stance_rise`, from the IMU and the present joints), so the
+measured-frame landing put the next sole 13–22 mm high; the correction takes the base that much
+higher. In those swings (after a push backward) the footstep may move ``back_shift`` (0.10 m, not
+``max_shift``'s 0.08) and the bend run at ``back_foot_speed`` (0.8 m/s, the servos' no-load speed at
+the lever): :meth:`~.stepping. StepAdjuster.reach` (backward 0.711 → 0.727 N·s; after any push,
+forward 0.852 → 0.688: not done there).
+**The double support after a caught landing** (``descend``, ``descend_hold``; off: measured worse,
+benchmarks/pushes.md): the landed sole is a support in the plan from its first tick while a body
+rolled back on its stance heel keeps it 10–18 mm up; :class:`LandedDescent` lowers its contact
+target by the gap the soles' lowest points show, and with ``descend_hold`` the clock stands until it
+is down (bounded) — the sole comes down no sooner: its knee extends at the servo's speed behind a
+goal already moving at the limiter's.
 """
 
 from __future__ import annotations
@@ -29,6 +62,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT
+from ..roles import SOLE_FRAMES
 from ..walking.reference import WalkingReference
 from ..walking.schedule import Phase
 from ..walking.spline import smooth
@@ -86,6 +120,7 @@ class PushTrigger:
         #: the jump's direction (unit, horizontal world) at :attr:`tick` (catch_pitch)
         self.push = np.zeros(2)
         self.forward = False  # the jump was forward along the walk (toe_up)
+        self.extra = 0  # carried swings beyond ``catch_swings`` (a re-base: back_rebase_steps)
         #: the last single-support tick and its raw DCM error, the running mean square of
         #: the per-tick change (trigger_sigma): :func:`_watch`'s state
         self._state = np.zeros(_W_SIZE)
@@ -108,7 +143,7 @@ class PushTrigger:
             return False
         if self.phase_of[t] == self.phase_of[i]:
             return True
-        n = self.params.catch_swings
+        n = self.params.catch_swings + self.extra
         ph, pt = self.phases[self.phase_of[i]], self.phases[self.phase_of[t]]
         return n > 0 and ph.kind == "single" and 0 < int(ph.step) - int(pt.step) <= n
 
@@ -361,3 +396,82 @@ class LandedDescent:
             return False
         self.held += dt
         return True
+
+
+class LandedRebase:
+    """``back_rebase`` (:class:`~.stepping.StepAdjuster`): at the first tick of the double
+    support after a carried swing of a push backward's catch, where the landed sole stands
+    from the other (the estimate's rotation and the present joints: the base cancels) against
+    where the plan puts it from that sole; beyond ``back_rebase``, :attr:`pending` (the step,
+    its shift) for the adjuster's next tick."""
+
+    def __init__(self, params: SteppingParams, phases: list[Phase], phase_of: np.ndarray) -> None:
+        self.params, self.phases, self.phase_of = params, phases, phase_of
+        self.pending: tuple[int, np.ndarray] | None = None
+        self.seen = -1  # the last double support read
+
+    def note(
+        self,
+        targets: Any,
+        side: Callable[[int], str],
+        carried: Callable[[Phase], bool],
+        where: Callable[[str], np.ndarray | None],
+    ) -> None:
+        """Read the landing of the swing before ``targets``' double support (once per double
+        support): ``side(step)`` its side, ``carried(phase)`` True for a swing re-based,
+        ``where(frame)`` a sole's position (world, m; the estimate's base: only differences
+        are used) or None unread."""
+        j = int(self.phase_of[targets.i])
+        if targets.phase == "single" or j == self.seen or j == 0:
+            return
+        self.seen = j
+        prev = self.phases[j - 1]
+        if prev.kind != "single" or not carried(prev):
+            return
+        landed = side(int(prev.step))
+        other = "right" if landed == "left" else "left"
+        a, b = where(SOLE_FRAMES[landed]), where(SOLE_FRAMES[other])
+        if a is None or b is None:
+            return
+        plan_a = getattr(targets, SOLE_FRAMES[landed]).translation
+        plan_b = getattr(targets, SOLE_FRAMES[other]).translation
+        shift = (np.asarray(plan_b[:2]) + (a[:2] - b[:2])) - np.asarray(plan_a[:2])
+        if math.hypot(float(shift[0]), float(shift[1])) > self.params.back_rebase:
+            self.pending = (int(prev.step), shift)
+
+
+def floored(targets: Any, p: SteppingParams, trigger: PushTrigger, corners: np.ndarray) -> Any:
+    """``targets`` with the swing's ground clearance lowered (``landing_floor``;
+    :attr:`~wbc.walking.tick_targets.TickTargets.swing_floor`) in a swing the catch of a push
+    backward carries (``trigger``'s), over its last ``landing_floor`` share (smoothstep in):
+    to the lowest corner (``corners``: the sole's, in its frame) of the swing target (after
+    the landing: in the measured frame, where its corners lie on the floor) below the stance
+    sole's planned floor, else ``targets``."""
+    i = targets.i
+    if trigger.forward or not trigger.carried(i):
+        return targets
+    ph = trigger.phases[trigger.phase_of[i]]
+    first = trigger.phases[trigger.phase_of[trigger.tick or 0]].step
+    if int(ph.step) - int(first) < p.floor_skip:  # (the catch's first floor_skip swings)
+        return targets
+    left = (ph.i1 - i) / max(ph.i1 - ph.i0, 1)  # (the swing's share left)
+    w = smooth(1.0 - left / p.landing_floor)
+    if w <= 0.0:
+        return targets
+    R = np.asarray(targets.swing_rotation, dtype=float)
+    z = float(targets.swing_position[2]) + float(np.min(corners @ R[2]))
+    low = z - float(targets.support_placement.translation[2])
+    return targets.replace(swing_floor=w * low) if low < 0.0 else targets
+
+
+def dcm_shifted(targets: Any, err: np.ndarray, gain: float, most: float) -> Any:
+    """``targets`` with the CoM target moved horizontally by ``−gain · err`` (``err`` the DCM
+    error, m), at most ``most`` m (``back_dcm``, ``back_dcm_max``: the ankle strategy in a
+    catch: the CoM target ahead of a DCM behind its reference puts the CoP behind it)."""
+    shift = -gain * np.asarray(err[:2], dtype=float)
+    n = math.hypot(float(shift[0]), float(shift[1]))
+    if n > most:
+        shift *= most / n
+    com = np.array(targets.com, dtype=float)
+    com[:2] += shift
+    return targets.replace(com=com)
