@@ -1463,7 +1463,10 @@ def test_a_catch_of_a_push_backward_moves_the_com_target_against_the_dcm_with_ba
     assert np.allclose(d, [0.01, -0.004, 0.0], atol=1e-12)
     d, _ = moved(SteppingParams(back_dcm=2.0, back_dcm_max=0.015), err=(-0.03, 0.0))
     assert np.allclose(d, [0.015, 0.0, 0.0], atol=1e-12)  # (clipped)
+    d, _ = moved(SteppingParams(back_dcm=1.0, back_dcm_time=0.04))  # (2 ticks of 40 ms in)
+    assert np.allclose(d, 2 * 0.01 / 0.04 * np.array([0.01, -0.004, 0.0]), atol=1e-12)
     for d, _ in (
+        moved(SteppingParams(back_dcm=1.0, back_dcm_from=1)),  # (in the triggered swing)
         moved(SteppingParams(back_dcm=1.0), jump=0.02),  # a push forward
         moved(SteppingParams(back_dcm=1.0), over=True),
         moved(SteppingParams()),

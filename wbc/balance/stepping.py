@@ -419,14 +419,11 @@ class StepAdjuster:
     def _dcm_moved(self, targets: Any, est: Any) -> Any:
         """``targets`` with the CoM target moved against the DCM error (``back_dcm``:
         :func:`~.swing_catch.dcm_shifted`) while the catch of a push backward is on."""
-        t, ref, i, p = self.trigger, self.current, targets.i, self.params
+        t, ref, i = self.trigger, self.current, targets.i
         if t.tick is None or t.forward or ref is None or self.episode is None or i >= ref.n:
             return targets
-        if self.phases[self.phase_of[i]].step >= self._catch_end() + p.back_dcm_steps:
-            return targets
         err = np.asarray(est.dcm[:2], dtype=float) - self._dcm_ref(ref, i)
-        w = min((i - t.tick) * ref.dt / p.back_dcm_time, 1.0) if p.back_dcm_time > 0 else 1.0
-        return dcm_shifted(targets, err, w * p.back_dcm, w * p.back_dcm_max)
+        return dcm_shifted(targets, err, self.params, t, self._catch_end(), ref.dt)
 
     def stance_rise(self, targets: Any, q: np.ndarray) -> float:
         """How far (m, ≥ 0) the stance sole's lowest corner lies below the floor where the

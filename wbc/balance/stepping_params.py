@@ -172,7 +172,10 @@ class SteppingParams:
     back_dcm: float = 0.0
     back_dcm_max: float = 0.02
     back_dcm_steps: int = 0
-    back_dcm_time: float = 0.0  # s: ... ramped in over this time from the trigger (0: at once)
+    back_dcm_time: float = 0.0  # s: ... ramped in over this time from its start (0: at once)
+    back_dcm_from: int = (
+        0  # phases: ... from the start of this phase after the trigger's (0: its tick)
+    )
     #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn``,
     #: ``back_lead`` nor ``back_hurry`` in the catch's first ones
     back_skip: int = 0
@@ -358,7 +361,7 @@ class SteppingParams:
         for name in (
             "episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip",
             "catch_swings", "floor_skip", "back_episode", "back_skip", "back_rebase_steps",
-            "back_dcm_steps",
+            "back_dcm_steps", "back_dcm_from",
         ):  # fmt: skip
             v = getattr(self, name)
             if int(v) != v or v < 0:

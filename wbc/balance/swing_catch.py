@@ -464,12 +464,24 @@ def floored(targets: Any, p: SteppingParams, trigger: PushTrigger, corners: np.n
     return targets.replace(swing_floor=w * low) if low < 0.0 else targets
 
 
-def dcm_shifted(targets: Any, err: np.ndarray, gain: float, most: float) -> Any:
-    """``targets`` with the CoM target moved horizontally by ``−gain · err`` (``err`` the DCM
-    error, m), at most ``most`` m (``back_dcm``, ``back_dcm_max``: the ankle strategy in a
-    catch: the CoM target ahead of a DCM behind its reference puts the CoP behind it)."""
-    shift = -gain * np.asarray(err[:2], dtype=float)
-    n = math.hypot(float(shift[0]), float(shift[1]))
+def dcm_shifted(
+    targets: Any, err: np.ndarray, p: SteppingParams, trigger: PushTrigger, end: int, dt: float
+) -> Any:
+    """``targets`` with the CoM target moved horizontally by ``−back_dcm · err`` (``err`` the
+    DCM error, m), at most ``back_dcm_max`` m, from the ``back_dcm_from``-th phase after the
+    trigger's (0: its tick; ramped in over ``back_dcm_time``) until ``back_dcm_steps`` after
+    the catch's end step ``end`` (the ankle strategy in a catch: the CoM target ahead of a DCM
+    behind its reference puts the CoP behind it); else ``targets``."""
+    i, tick, phases = targets.i, int(trigger.tick or 0), trigger.phases
+    if phases[trigger.phase_of[i]].step >= end + p.back_dcm_steps:
+        return targets
+    j = min(int(trigger.phase_of[tick]) + p.back_dcm_from, len(phases) - 1)
+    start = phases[j].i0 if p.back_dcm_from else tick
+    if i < start:
+        return targets
+    w = min((i - start) * dt / p.back_dcm_time, 1.0) if p.back_dcm_time > 0 else 1.0
+    shift = -w * p.back_dcm * np.asarray(err[:2], dtype=float)
+    n, most = math.hypot(float(shift[0]), float(shift[1])), w * p.back_dcm_max
     if n > most:
         shift *= most / n
     com = np.array(targets.com, dtype=float)
