@@ -1524,3 +1524,22 @@ def test_a_short_landing_of_a_push_backward_rebases_the_plan_with_back_rebase(ro
     assert SteppingParams().back_rebase == 0.0
     with pytest.raises(ConfigurationError, match="back_rebase"):
         SteppingParams(back_rebase=-0.01).check()
+
+
+def test_back_dcm_walk_moves_the_com_target_along_the_walk_against_a_lagging_dcm(robot, walk10):
+    """``back_dcm_walk``: ``back_dcm`` over the whole walk, no trigger needed: the CoM target
+    moved forward along the stance sole's heading by ``back_dcm`` × the DCM's lag behind its
+    reference along it (clipped), never for a DCM ahead nor sideways; off by default."""
+    params = SteppingParams(back_dcm=1.0, back_dcm_max=0.015, back_dcm_walk=True)
+    i = MID + 2
+    c, s = StepAdjuster(robot, walk10, params)._heading(walk10, i)
+    along, side = np.array([c, s]), np.array([-s, c])
+    for err, want in ((-0.01 * along + 0.004 * side, 0.01), (-0.03 * along, 0.015),
+                      (0.01 * along + 0.004 * side, 0.0)):  # fmt: skip
+        adj, t, e, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=i)
+        adj.update(walk10, i - 1, dcm(walk10, i - 1, adj.omega))  # (no jump: no trigger)
+        assert adj.trigger.tick is None
+        e.values[6, :2] = dcm(walk10, i, adj.omega) + err
+        d = np.asarray(adj.land(t, e, q).com) - np.asarray(t.com)
+        assert np.allclose(d[:2], want * along, atol=1e-12) and d[2] == 0.0, (err, d)
+    assert SteppingParams().back_dcm_walk is False

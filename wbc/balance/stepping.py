@@ -116,6 +116,7 @@ from .swing_catch import (
     PushTrigger,
     dcm_shifted,
     floored,
+    walk_shifted,
 )
 
 __all__ = ["BAND_X", "BAND_Y", "TRIGGER_SHARE", "StepAdjuster", "SteppingParams", "can_step"]
@@ -419,7 +420,12 @@ class StepAdjuster:
     def _dcm_moved(self, targets: Any, est: Any) -> Any:
         """``targets`` with the CoM target moved against the DCM error (``back_dcm``:
         :func:`~.swing_catch.dcm_shifted`) while the catch of a push backward is on."""
-        t, ref, i = self.trigger, self.current, targets.i
+        t, ref, i, p = self.trigger, self.current, targets.i, self.params
+        if p.back_dcm_walk and ref is not None and i < ref.n:  # (the whole walk, along it)
+            e = np.asarray(est.dcm[:2], dtype=float) - self._dcm_ref(ref, i)
+            c, s = self._heading(ref, i)
+            x = min(c * e[0] + s * e[1], 0.0)  # (only a DCM behind its reference)
+            return walk_shifted(targets, x, (c, s), p.back_dcm, p.back_dcm_max)
         if t.tick is None or t.forward or ref is None or self.episode is None or i >= ref.n:
             return targets
         err = np.asarray(est.dcm[:2], dtype=float) - self._dcm_ref(ref, i)

@@ -172,10 +172,14 @@ class SteppingParams:
     back_dcm: float = 0.0
     back_dcm_max: float = 0.02
     back_dcm_steps: int = 0
-    back_dcm_time: float = 0.0  # s: ... ramped in over this time from its start (0: at once)
-    back_dcm_from: int = (
-        0  # phases: ... from the start of this phase after the trigger's (0: its tick)
-    )
+    #: s: ... ramped in over this time from its start (0: at once); phases: ... from the start
+    #: of the ``back_dcm_from``-th phase after the trigger's (0: the trigger's tick)
+    back_dcm_time: float = 0.0
+    back_dcm_from: int = 0
+    #: True: ``back_dcm`` over the whole walk instead (no trigger), along the walk's heading and
+    #: only against a DCM behind its reference (``Gains.k_dcm`` 1.0 on every axis: backward
+    #: 0.742 → 0.781 N·s, forward 0.852 → 0.656; benchmarks/pushes.md)
+    back_dcm_walk: bool = False
     #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn``,
     #: ``back_lead`` nor ``back_hurry`` in the catch's first ones
     back_skip: int = 0

@@ -487,3 +487,15 @@ def dcm_shifted(
     com = np.array(targets.com, dtype=float)
     com[:2] += shift
     return targets.replace(com=com)
+
+
+def walk_shifted(
+    targets: Any, err: float, heading: tuple[float, float], gain: float, most: float
+) -> Any:
+    """``targets`` with the CoM target moved by ``−gain · err`` (``err`` the DCM error along the
+    walk's heading ``(cos, sin)``, m), at most ``most`` m along it (``back_dcm_walk``)."""
+    d = min(max(-gain * err, -most), most)
+    com = np.array(targets.com, dtype=float)
+    com[0] += d * heading[0]
+    com[1] += d * heading[1]
+    return targets.replace(com=com)
