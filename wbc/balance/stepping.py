@@ -42,11 +42,11 @@ step after step, differently on either foot (``lateral_wb``: +24 mm sideways on 
 −10 mm on the other); the dead band is centred on the running mean of the error per stance
 side (fed only by errors inside the band, so a push does not move it) rather than on zero.
 
-**The swing landed in the measured frame** (``landing``) and **the push caught in its own
-step** (``trigger_jump``, ``lift``; on by default): :mod:`.swing_catch`.
-
-**Step timing** (``hurry``; off): in a double support pushed along the walk, the walk's
-clock runs faster (:meth:`StepAdjuster.rate`, read by the session's ``at_time``).
+**The swing landed in the measured frame** (``landing``), **the push caught in its own step**
+(``trigger_jump``, ``lift``; on by default), the catch's later swings, the double support after
+a caught landing and the re-based landing (``catch_swings``, ``descend``, ``back_rebase``):
+:mod:`.swing_catch`. **Step timing** (``hurry``; off): in a double support pushed along the
+walk, the walk's clock runs faster (:meth:`StepAdjuster.rate`, read by the session's ``at_time``).
 
 What no step can do: a push *away from the swing foot* (the physics benchmark's lateral push)
 sends the DCM toward the stance sole's outer edge; a step of the swing foot cannot land beyond
@@ -58,8 +58,8 @@ each next single support still finds the DCM error beyond the band, then rests. 
 landing time** (``hurry_single``; on): in a single support being caught, the clock runs
 faster when the swing lacks the room for the shift the error asks (:meth:`rate`), at most
 ``hurry``× (1: off), in a swing the trigger's catch of a push backward carries at most
-``catch_hurry``×. With
-``catch_band`` a catch under way takes the whole error, not the dead band's less.
+``catch_hurry``×. With ``catch_band`` a catch under way takes the whole error, not the dead
+band's less.
 
 **Early touch-down** (``touchdown``; off; needs the estimator's contact detection,
 ``Gains.contact_band``): a push forward pitches the body about the stance toe and the swing
@@ -72,10 +72,6 @@ counts only after that share of the swing (the toe brushing the floor early in a
 is no landing). Measured: one bisection step
 forward, costs the walk without the feed-forward (the next swing's toe meets the floor too:
 steps of a few mm; benchmarks/pushes.md, seventh pass).
-
-**The push caught in its own step**, **the catch's later swings**, **the double support after
-a caught landing** (``trigger_jump``, ``catch_swings``, ``descend``, ``back_rebase``):
-:mod:`.swing_catch`.
 
 The parameters: :mod:`.stepping_params`.
 """

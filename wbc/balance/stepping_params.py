@@ -160,7 +160,9 @@ class SteppingParams:
     #: IMU's rotation and the present joints: no base, no drift) against the plan; beyond this,
     #: that step and every later one re-based on it (:class:`~.swing_catch.LandedRebase`), the
     #: CoM re-planned: the third sole of a 0.8 N·s push lands 66 mm short and the solve, its
-    #: target left at the plan, holds that leg stretched toward it while the body tips back
+    #: target left at the plan, holds that sole 24 mm up toward it while the body tips back
+    #: (off: with ``back_skip`` 2 the 8 screened backward pushes main's; at every carried
+    #: landing 1 of main's 5 kept; benchmarks/pushes.md)
     back_rebase: float = 0.0
     #: steps: a re-base (``back_rebase``) extends the catch (re-planned, carried) to this many
     #: steps after the re-based one (at most this many past ``back_episode``)
@@ -168,7 +170,8 @@ class SteppingParams:
     #: m/m (0: off): after a push backward the trigger caught, while the catch is on (and
     #: ``back_dcm_steps`` steps after it), the CoM target moved by ``−back_dcm`` × the DCM
     #: error (the estimate's less the reference's), at most ``back_dcm_max`` m: the ankle
-    #: strategy (``Gains.k_dcm``'s term) in the catch alone, the unpushed walk untouched
+    #: strategy (``Gains.k_dcm``'s term) in the catch alone, the unpushed walk untouched (off:
+    #: 1–3 of 8 screened backward pushes against main's 5 at every gain, ramp and start)
     back_dcm: float = 0.0
     back_dcm_max: float = 0.02
     back_dcm_steps: int = 0
@@ -177,8 +180,9 @@ class SteppingParams:
     back_dcm_time: float = 0.0
     back_dcm_from: int = 0
     #: True: ``back_dcm`` over the whole walk instead (no trigger), along the walk's heading and
-    #: only against a DCM behind its reference (``Gains.k_dcm`` 1.0 on every axis: backward
-    #: 0.742 → 0.781 N·s, forward 0.852 → 0.656; benchmarks/pushes.md)
+    #: only against a DCM behind its reference (off: with ``back_dcm`` 1.0 backward 0.742 →
+    #: 0.789 N·s, forward 0.852 → 0.773, away 0.891 → 0.578; ``Gains.k_dcm`` 1.0: 0.781,
+    #: 0.656, 0.922; benchmarks/pushes.md)
     back_dcm_walk: bool = False
     #: swings: neither ``back_torso``, ``back_runaway``, ``back_reach``, ``back_turn``,
     #: ``back_lead`` nor ``back_hurry`` in the catch's first ones
