@@ -175,3 +175,29 @@ def test_ssc32_garbage_answers_are_failed_exchanges(robot, monkeypatch):
     ):
         monkeypatch.setattr(bus, "_query", lambda text, until=None, r=reply: r)
         assert bus.poll(0).comm == comm
+
+
+def test_ssc32_query_looks_once_more_after_its_deadline(robot, monkeypatch):
+    """A host stalled past the reply deadline still takes the reply waiting on the port (the
+    last look comes after the deadline, as the Dynamixel exchange's); silence still fails."""
+
+    class Port:
+        def __init__(self, data):
+            self.data = data
+
+        def reset_input_buffer(self):
+            pass
+
+        def write(self, text):
+            pass
+
+        def read(self, n):
+            out, self.data = self.data, b""
+            return out
+
+    bus = Ssc32Bus("/dev/null", Ssc32Map.default(robot.joint_names))
+    for waiting, want in ((b".", b"."), (b"", None)):
+        bus.ser = Port(waiting)
+        times = iter([0.0, 1.0, 1.0])  # the deadline from 0 s; the first look at 1 s, past it
+        monkeypatch.setattr(Ssc32Bus, "reply_clock", staticmethod(lambda t=times: next(t)))
+        assert bus._query(b"Q\r") == want
