@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +59,54 @@ def pose_recording(tmp_path_factory):
         return str(path)
 
     return make
+
+
+class PacedClock:
+    """A deployment's clock (``ServoBus.clock``) on which no tick is late: ``now`` advances by
+    the sleeps only, and a sleep waits until the wall clock reaches the new time plus the
+    lateness absorbed so far. A stall of the test machine delays the rest of the run instead of
+    skipping ticks, and never causes a burst: ticks stay at least a period apart on the wall
+    clock, so the goals' speed law holds on the servos' own receive times."""
+
+    def __init__(self) -> None:
+        self.t = time.perf_counter()
+        self.behind = 0.0  # wall clock minus this clock, absorbed lateness (s)
+
+    def now(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        self.t += max(seconds, 0.0)
+        late = time.perf_counter() - (self.t + self.behind)
+        if late < 0:
+            time.sleep(-late)
+        else:
+            self.behind += late
+
+
+@pytest.fixture()
+def device_time(monkeypatch):
+    """Reply deadlines on the emulators' device clock (``wbc.servos.pty_runner.device_clock``):
+    a deadline is judged once the emulators of this process have answered what they were sent,
+    so a late-scheduled emulator is no servo timeout (as on real servos, whose replies do not
+    wait for the host's scheduler); silence and late replies (injected faults) still time out.
+    """
+    from wbc.servos.bus import ServoBus
+    from wbc.servos.pty_runner import device_clock
+
+    monkeypatch.setattr(ServoBus, "reply_clock", staticmethod(device_clock))
+
+
+@pytest.fixture()
+def paced_clock(monkeypatch):
+    """The deployments' ticks on a :class:`PacedClock`: a stalled host plays every tick, later,
+    so a test that counts goal writes (a fault injected after N) does not depend on the load.
+    Not for tests of a time bound on the wall clock."""
+    from wbc.servos.bus import ServoBus
+
+    clock = PacedClock()
+    monkeypatch.setattr(ServoBus, "clock", clock)
+    return clock
 
 
 @pytest.fixture()

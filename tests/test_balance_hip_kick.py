@@ -316,3 +316,34 @@ def test_sole_dcm_reads_the_com_and_its_velocity_from_the_kicked_sole(robot):
     want = want + a * moved / DT / est.omega0
     assert np.linalg.norm(moved) > 1e-4
     assert np.allclose(rel(dcm2, sole2), want, atol=1e-6)
+
+
+def test_estimator_com_and_placement_is_the_estimates_kinematics(robot):
+    """``StateEstimator.com_and_placement`` (what ``sole_dcm`` reads): the CoM and a frame's
+    placement where the last estimate (its base, the torso's rotation) and the joints (NaN:
+    the fallback's) put the model; the placement is a copy a later call leaves alone."""
+    from wbc.balance.estimator import StateEstimator
+
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    est = StateEstimator(robot, 0.2)
+    values = np.zeros((8, 3))
+    values[:3] = robot.frame_placement(q, "torso").rotation
+    shift = np.array([0.03, -0.01, 0.0])
+    values[3] = q[:3] + shift
+    est.last = StateEstimate(values)
+    com, sole = est.com_and_placement("l_sole", q[7:], None)
+    assert np.allclose(com, robot.com(q) + shift, atol=1e-9)
+    want = robot.frame_placement(q, "l_sole")
+    assert np.allclose(sole.translation, want.translation + shift, atol=1e-9)
+    assert np.allclose(sole.rotation, want.rotation, atol=1e-9)
+    q2 = q.copy()
+    k = robot.joint_index(robot.roles.joint("left", "ankle_roll"))
+    q2[7 + k] += 0.05
+    com2, sole2 = est.com_and_placement("l_sole", q2[7:], None)
+    assert not np.allclose(com2, com, atol=1e-5)
+    assert not np.allclose(sole2.rotation, want.rotation, atol=1e-3)  # the sole rolled
+    assert np.allclose(sole.translation, want.translation + shift, atol=1e-9)  # (a copy)
+    gap = q2[7:].copy()
+    gap[k] = np.nan  # an encoder that did not answer: the fallback's joint
+    com3, _ = est.com_and_placement("l_sole", gap, q[7:])
+    assert np.allclose(com3, com, atol=1e-12)

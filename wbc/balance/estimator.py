@@ -577,6 +577,18 @@ class StateEstimator:
         config = self._estimated_configuration(joints, fallback)
         return self.robot.frame_placement(config, frame).translation.copy()
 
+    def com_and_placement(
+        self, frame: str, joints: np.ndarray, fallback: np.ndarray | None
+    ) -> tuple[np.ndarray, pin.SE3]:
+        """The CoM (world) and frame ``frame``'s placement (a copy) where the last estimate's
+        rotation (the IMU's) and base and ``joints`` (NaN: ``fallback``'s) put the model: the
+        kinematics alone, no velocity estimate."""
+        config = self._estimated_configuration(joints, fallback)
+        model, data = self.robot.model, self._data
+        com = np.array(pin.centerOfMass(model, data, config))
+        pin.updateFramePlacements(model, data)
+        return com, pin.SE3(data.oMf[self.robot.frame_id(frame)])
+
     def _estimated_configuration(
         self, joints: np.ndarray, fallback: np.ndarray | None
     ) -> np.ndarray:

@@ -59,7 +59,6 @@ class HipKick:
         #: rad: the swing hip roll that brings that leg's CoM under the other hip (the
         #: ``counter_under`` cap on ``counter_leg``; π/2: never, within the leg's length)
         self.under = under_angle(robot)
-        self._data = robot.model.createData()  # (sole_dcm's kinematics)
         self._rel: np.ndarray | None = None
         self._vel = np.zeros(3)
 
@@ -187,13 +186,7 @@ class HipKick:
         planned landing throws off (``kick_hold_edge``). None without a kick or estimate."""
         if not self.joints or estimator.last is None or not self.stance:
             return None
-        import pinocchio as pin
-
-        model, data = self.robot.model, self._data
-        config = estimator._estimated_configuration(present, joints)
-        com = pin.centerOfMass(model, data, config)
-        pin.updateFramePlacements(model, data)
-        sole = data.oMf[self.robot.frame_id(self.stance)]
+        com, sole = estimator.com_and_placement(self.stance, present, joints)
         rel = com - sole.translation
         if self._rel is None:
             self._vel = np.zeros(3)

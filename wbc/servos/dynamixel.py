@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 import os
 import select
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -367,7 +366,7 @@ class DynamixelBus(ServoBus):
 
     def _transmit(self, pkt: bytes) -> float | None:
         """Write ``pkt`` to the port: the time it went out, or None if not all was written."""
-        t0 = time.perf_counter()
+        t0 = self.reply_clock()
         try:
             written = self.port.writePort(pkt)
         except Exception:
@@ -428,7 +427,7 @@ class DynamixelBus(ServoBus):
         deadline = t0 + patience * self.reply_timeout_s(len(pkt), n_reply + self.status_overhead)
         junk = 0  # bytes on the line that belong to no packet (noise, a babbling device)
         while True:
-            now = time.perf_counter()
+            now = self.reply_clock()
             self._receive()
             while True:
                 reply, skipped = self._take_counted()
@@ -449,7 +448,7 @@ class DynamixelBus(ServoBus):
                     self.log.junk_bytes += junk
                     self.log.count(self.log.corrupt, servo_id)
                     return COMM_CORRUPT, 0, b""
-                self.log.rtt.append(time.perf_counter() - t0)
+                self.log.rtt.append(self.reply_clock() - t0)
                 return COMM_OK, st[1], st[2]
             if now >= deadline:  # the last look came after the deadline
                 self.log.count(self.log.timeouts, servo_id)

@@ -28,14 +28,9 @@ servos do not answer (they could not decode the bytes).
 from __future__ import annotations
 
 import math
-import multiprocessing
-import os
 import re
-import select
 import termios
-import threading
 import time
-import tty
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -91,6 +86,7 @@ from .protocol1 import (
     status_packet,
     take_packet,
 )
+from .pty_runner import PtyRunner, _sleep_until
 
 FAULT_KINDS = ("timeout", "bad_checksum", "error_bits", "missing", "garbage", "late")
 _TWO_BYTE = {0, 6, 8, 14, 30, 32, 34, 36, 38, 40, 48}
@@ -288,115 +284,7 @@ class AX12:
         return err, goal
 
 
-class _PtyRunner:
-    """A pty plus a reader calling ``self._on_bytes``, in a thread or (``process=True``) in a
-    forked process, like a separate device; a process sends its state back at :meth:`stop`."""
-
-    _state: tuple[str, ...] = ()  # attributes a process sends back
-
-    def __init__(self, process: bool = False) -> None:
-        self.process = process
-        self._master: int | None = None
-        self._slave: int | None = None
-        self._thread: threading.Thread | None = None
-        self._proc = None
-        self._conn = None
-        self._stop = threading.Event()
-        self.port = ""
-        self.error: BaseException | None = None
-        self._scheduled: list[tuple[float, bytes]] = []  # (monotonic time, bytes) to send
-
-    def start(self):
-        master, slave = os.openpty()
-        tty.setraw(slave)
-        self._master, self._slave = master, slave
-        self.port = os.ttyname(slave)
-        if self.process:
-            ctx = multiprocessing.get_context("fork")
-            self._stop = ctx.Event()
-            self._conn, child = ctx.Pipe(duplex=False)
-            self._proc = ctx.Process(target=self._child, args=(child,), daemon=True)
-            self._proc.start()
-        else:
-            self._stop = threading.Event()
-            self._thread = threading.Thread(target=self._run, name=type(self).__name__, daemon=True)
-            self._thread.start()
-        return self
-
-    def _child(self, conn) -> None:
-        self._run()
-        conn.send({name: getattr(self, name) for name in (*self._state, "error")})
-        conn.close()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-            self._thread = None
-        if self._proc is not None:
-            if self._conn.poll(5.0):
-                self.__dict__.update(self._conn.recv())
-            self._proc.join(timeout=2.0)
-            if self._proc.is_alive():
-                self._proc.kill()
-            self._proc = None
-        for fd in (self._master, self._slave):
-            if fd is not None:
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
-        self._master = self._slave = None
-
-    def __enter__(self):
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
-
-    def _host_speed(self) -> int:
-        return termios.tcgetattr(self._master)[4]
-
-    def _send(self, data: bytes) -> None:
-        if data and self._master is not None:
-            os.write(self._master, data)
-
-    def _run(self) -> None:
-        try:
-            while True:  # after stop(), drain what the host already wrote, then exit
-                stopping = self._stop.is_set()
-                wait = 0.0 if stopping else 0.05
-                if self._scheduled:
-                    wait = min(wait, max(0.0, self._scheduled[0][0] - time.monotonic()))
-                ready, _, _ = select.select([self._master], [], [], wait)
-                self._send_due()
-                if not ready:
-                    if stopping:
-                        break
-                    continue
-                try:
-                    chunk = os.read(self._master, 4096)
-                except OSError:
-                    continue
-                self._on_bytes(chunk, time.monotonic())
-        except BaseException as exc:  # surfaced to tests through .error
-            self.error = exc
-
-    def _on_bytes(self, chunk: bytes, now: float) -> None:
-        raise NotImplementedError
-
-    def _schedule(self, at: float, data: bytes) -> None:
-        """Send ``data`` at time ``at`` (monotonic) without blocking other replies."""
-        self._scheduled.append((at, data))
-        self._scheduled.sort(key=lambda x: x[0])
-
-    def _send_due(self) -> None:
-        now = time.monotonic()
-        while self._scheduled and self._scheduled[0][0] <= now:
-            self._send(self._scheduled.pop(0)[1])
-
-
-class ServoBusEmulator(_PtyRunner):
+class ServoBusEmulator(PtyRunner):
     """What the AX-12A (Protocol 1.0) and X-series (Protocol 2.0) emulators share: servos by
     ID, goal and write records, fault injection (:class:`Fault`), SYNC_WRITE and the status
     reply's faults. A subclass gives the protocol: :meth:`_take_packet`, :meth:`_dispatch`,
@@ -681,15 +569,6 @@ class AX12Emulator(ServoBusEmulator):
         return err
 
 
-def _sleep_until(deadline: float, spin_s: float = 0.0) -> None:
-    """Sleep, then spin the last ``spin_s`` (sleep alone overshoots by ~0.1 ms)."""
-    delay = deadline - time.monotonic() - spin_s
-    if delay > 0:
-        time.sleep(delay)
-    while time.monotonic() < deadline:
-        pass
-
-
 # ---------------------------------------------------------------------- SSC-32
 _GROUP = re.compile(rb"#(\d+)\s*(?:P(\d+)|(L)|(H))(?:S(\d+))?")
 _TIME = re.compile(rb"T(\d+)\s*$")
@@ -705,7 +584,7 @@ class PulseRecord:
     move_ms: int | None
 
 
-class Ssc32Emulator(_PtyRunner):
+class Ssc32Emulator(PtyRunner):
     """A Lynxmotion SSC-32 on a pty: records ``#<ch>P<pw>...T<ms>\\r`` and answers VER / Q.
 
     ``silent_after``: stop answering queries after this many move commands (a dead board).

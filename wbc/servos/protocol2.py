@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -483,7 +482,7 @@ class Dynamixel2Bus(DynamixelBus):
         by_id = dict(zip(ids, idx, strict=True))
         junk = 0  # bytes that belong to no packet (noise, a babbling device)
         while len(out) < len(ids):
-            now = time.perf_counter()
+            now = self.reply_clock()
             self._receive()
             while True:
                 reply, skipped = self._take_counted()
@@ -505,7 +504,7 @@ class Dynamixel2Bus(DynamixelBus):
                 if sid not in pending or len(data) != n:
                     self.log.count(self.log.late, sid)
                     continue
-                self.log.rtt.append(time.perf_counter() - t0)
+                self.log.rtt.append(self.reply_clock() - t0)
                 out[by_id[sid]] = self._health(by_id[sid], error, data[ADDR_INDIRECT_DATA - a :])
             if len(out) == len(ids) or now >= deadline:
                 break

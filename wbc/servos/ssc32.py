@@ -280,14 +280,16 @@ class Ssc32Bus(ServoBus):
     def _query(self, text: bytes, until: bytes | None = None) -> bytes | None:
         self.ser.reset_input_buffer()
         self.ser.write(text)
-        deadline = time.monotonic() + self.reply_timeout_s
+        deadline = self.reply_clock() + self.reply_timeout_s
         data = b""
-        while time.monotonic() < deadline:
+        while True:  # the last look comes after the deadline (a stalled host misses no reply)
+            now = self.reply_clock()
             data += self.ser.read(64)
             if data and (until is None or until in data):
                 return data
+            if now >= deadline:
+                return None
             time.sleep(0.0002)
-        return None
 
     def identify(self) -> None:
         if self.ser is None:
