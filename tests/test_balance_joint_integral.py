@@ -212,3 +212,53 @@ def test_single_grows_in_single_support_and_holds_or_leaks_in_double_support(rob
             assert after == pytest.approx(grown)
         else:
             assert 0 < after < grown
+
+
+def test_j_i_stiff_integrates_only_on_servos_identified_softer(robot):
+    """``j_i_stiff`` 1: no integral while the stiffness is not identified, none on servos
+    identified at 1.2 × servos.toml's, the integral on servos identified at 0.6 ×; without
+    the gate (0) it integrates unidentified."""
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    sag = q[7:] - 0.03
+    for stiff, scale, on in ((1.0, None, False), (1.0, 1.2, False), (1.0, 0.6, True),
+                             (0.0, None, True)):  # fmt: skip
+        g = Gains(hip_kick=0.0, j_i=2.0, j_i_stiff=stiff)
+        stab = Stabilizer(robot, 0.2, lambda: sag.copy(), None, g)
+        stab.stiffness_scale = scale
+        stab.last = object()  # (a walk under way: an estimate exists)
+        d = stab.joint_offsets(q[7:].copy())
+        assert bool(d is not None and np.count_nonzero(d) > 0) is on
+        assert stab.sag_integrated is on
+
+
+@pytest.mark.parametrize("stiffness", [0.55, 1.8])
+def test_closed_loop_identifies_the_stiffness_at_rest_for_j_i_stiff(robot, stiffness):
+    """Through :func:`wbc.balance.live.closed_loop` on the simulated robot: with
+    ``j_i_stiff`` 1.2 the rest identifies the servos' stiffness from the encoders' sag (a
+    plant ``stiffness`` × servos.toml's: identified on its side of 1.2), the stabilizer
+    gets it, the integral runs on the soft plant only and says so; the feed-forward's model
+    stays servos.toml's (no ``servo='identify'``)."""
+    from wbc.balance.live import closed_loop
+    from wbc.bench import trajectories as traj
+    from wbc.bench.solvers import select
+    from wbc.sim.actuator import nominal_servo
+    from wbc.sim.bus import SimImu, sim_bus
+    from wbc.sim.simulator import Simulation
+    from wbc.walking.loop import start_configuration
+
+    ref = traj.build("walk10_wb", robot)
+    entry = select(["wqp-daqp"], None, "tick")[0][0]
+    sim = Simulation(robot, None, nominal_servo(robot).scaled(stiffness=stiffness))
+    sim.reset(start_configuration(robot, ref))
+    bus = sim_bus(sim, min(100.0, 1.0 / ref.dt))
+    said: list[str] = []
+    g = Gains(j_i=1.0, j_i_max=0.05, j_i_joints=3, j_i_stiff=1.2)
+    loop = closed_loop(bus, robot, entry.make(robot), ref, SimImu(sim), g, compensate=0.0,
+                       out=said.append, duration=1.2, calibrate_s=0.5)  # fmt: skip
+    assert loop.stabilizer.stiffness_scale is None
+    loop.deployment.run()
+    k = loop.stabilizer.stiffness_scale
+    assert k is not None and loop.stiffness_scale == k and (k < 1.2) is (stiffness < 1.0)
+    assert loop.stabilizer.sag_integrated is (stiffness < 1.0)
+    assert any(f"joint integral {'on' if stiffness < 1.0 else 'off'}" in s for s in said)
+    assert loop.servo_model == "servos.toml (nominal)"

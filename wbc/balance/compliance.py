@@ -453,6 +453,10 @@ def identify_stiffness(
     scale over the loaded joints (modelled sag ≥ :data:`IDENTIFY_MIN_TICKS`) is
     ``k = Σ s² / Σ s·(δ_m − b)``. Returns ``(k, joints used)``; raises when no joint is loaded
     enough or the sag points against the load."""
+    if params is None and robot.servo_map is None:
+        raise ConfigurationError(
+            f"stiffness identification: {robot.name} has no servos.toml (the AX-12A model)"
+        )
     params = params or ServoParams.from_settings(robot.servo_map.settings)
     comp = ComplianceCompensator(robot, params)
     tau = comp.torques(joints, SUPPORT_DOUBLE)

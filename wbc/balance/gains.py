@@ -228,6 +228,16 @@ class Gains:
     #: the feed-forward, but s1 turn_wb 50 -> 49 (issue 30, i30n's fourteenth round;
     #: benchmarks/physics.md): off
     j_i_single: float = 0.0
+    #: j_i only on servos softer than this × servos.toml's (0: always): the stiffness
+    #: identified at rest at start-up (:func:`wbc.balance.live.closed_loop`'s rest,
+    #: :func:`~wbc.balance.compliance.identify_stiffness`); j_i stays off while it is not
+    #: identified (no rest, a bus that reads nothing) — the sag of a soft plant integrated,
+    #: a stiff, late plant's tracking error left alone. 0.75 over j_i 1, j_i_max 0.05,
+    #: j_i_joints 3, j_i_single 2, j_i_leak 2: 148 / 149 of 150 on seeds 0 / 1 against main's
+    #: 146 / 148 without the feed-forward, but held out, seed 2's soft plants 57 of 60
+    #: against 58 (and seed 3's at 0.62, 49 of 51 against 50): soft plants traded at the
+    #: walk's end (issue 30, i30n's fifteenth round; benchmarks/physics.md): off
+    j_i_stiff: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -288,6 +298,7 @@ class Gains:
             "j_i_band",
             "j_i_joints",
             "j_i_single",
+            "j_i_stiff",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

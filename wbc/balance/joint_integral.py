@@ -24,7 +24,10 @@ Two more (issue 30, i30n's fourteenth round): ``j_i_joints`` (which of the loade
 joints integrate, by role: :data:`JOINT_SETS`) and ``j_i_single`` (the integral grows in
 single support only; both legs hold or leak theirs in double support): the knees alone,
 growing in single support and leaking at 2 /s, keep 148 / 149 of 150 plants on seeds 0 / 1
-against 146 / 148, but lose one ``turn_wb`` plant of seed 1's: off.
+against 146 / 148, but lose one ``turn_wb`` plant of seed 1's: off. ``j_i_stiff`` (the
+fifteenth round): the integral only on servos identified softer than that at start-up
+(:func:`wbc.balance.live.closed_loop`'s rest): 148 / 149, but held-out seeds lose soft
+plants at the walk's end: off.
 """
 
 from __future__ import annotations

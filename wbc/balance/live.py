@@ -310,6 +310,12 @@ def closed_loop(
     rest = round(calibrate_s * config.rate) if enabled and (imu is not None or identify) else 0
     if identify and rest < 2:
         raise ConfigurationError("closed_loop: servo='identify' measures at rest: calibrate_s > 0")
+    gate = enabled and gains.j_i > 0 and gains.j_i_stiff > 0  # (j_i_stiff: identified at rest)
+    if gate and (commanded or rest < 2):
+        gate = False
+        out("closed loop: no joint integral (j_i_stiff: the servos' stiffness is identified "
+            "from their encoders during the start-up rest: an IMU or servo='identify', "
+            "calibrate_s > 0, a bus that reads)")  # fmt: skip
     stabilizer = Stabilizer(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled, fall=detector, calibration_ticks=rest,
@@ -360,17 +366,21 @@ def closed_loop(
     if identify:
         model = "servos.toml with the stiffness identified at rest"
         loop.servo_model = model
-        source.rest_hook = _identifier(loop, comp, rest, out)
+    if identify or gate:
+        source.rest_hook = _identifier(loop, comp if identify else None, rest, out, identify)
     if compensate > 0:
         out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
     return loop
 
 
-def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None]):
-    """The rest hook of ``servo='identify'``: averages the goals written and the encoders'
-    positions over the second half of the rest, then identifies the stiffness
-    (:func:`wbc.balance.compliance.identify_stiffness`) and gives the feed-forward
-    (``comp``, if any) the identified model."""
+def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
+                strict: bool = True):  # fmt: skip
+    """The rest hook of ``servo='identify'`` and of ``Gains.j_i_stiff``: averages the goals
+    written and the encoders' positions over the second half of the rest, then identifies
+    the stiffness (:func:`wbc.balance.compliance.identify_stiffness`), gives the feed-forward
+    (``comp``, if any) the identified model and the stabilizer the scale (``j_i_stiff``'s
+    gate). ``strict`` False: a failed identification is said, not raised (the gate stays
+    shut: no joint integral)."""
     from .compliance import identify_stiffness
 
     goals: list[np.ndarray] = []
@@ -388,13 +398,24 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None]):
             return
         if loop.stiffness_scale is not None or not goals:
             return
-        k, used = identify_stiffness(loop.session.robot, loop.session.q[7:],
-                                     np.mean(goals, axis=0), np.nanmean(present, axis=0),
-                                     None if comp is None else comp.params)  # fmt: skip
-        loop.stiffness_scale = k
+        try:
+            k, used = identify_stiffness(loop.session.robot, loop.session.q[7:],
+                                         np.mean(goals, axis=0), np.nanmean(present, axis=0),
+                                         None if comp is None else comp.params)  # fmt: skip
+        except ConfigurationError as err:
+            if strict:
+                raise
+            goals.clear()  # (said once)
+            out(f"closed loop: no joint integral (j_i_stiff): {err}")
+            return
+        loop.stiffness_scale = loop.stabilizer.stiffness_scale = k
         if comp is not None:
             comp.params = comp.params.scaled(stiffness=k)
         out(f"closed loop: servo stiffness identified at rest: {k:.2f} x servos.toml's "
             f"({used} loaded joints)")  # fmt: skip
+        g = loop.stabilizer.gains
+        if g.j_i > 0 and g.j_i_stiff > 0:
+            on = "on" if loop.stabilizer.sag_integrated else "off"
+            out(f"closed loop: joint integral {on} (j_i_stiff {g.j_i_stiff:g})")
 
     return hook

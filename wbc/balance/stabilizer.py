@@ -504,6 +504,9 @@ class Stabilizer:
         self.clock = self._clock = 1.0  # the walk's clock rate (lag_clock; Session.at_time)
         self.steps_yaw = StepYaw(robot)  # the footsteps' heading correction (step_yaw)
         self._sag: JointIntegral | None = None  # the loaded joints' integral (j_i)
+        #: the servos' stiffness / servos.toml's identified at rest (None: not identified;
+        #: set by :func:`wbc.balance.live.closed_loop`'s rest: ``j_i_stiff``)
+        self.stiffness_scale: float | None = None
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
 
@@ -760,7 +763,7 @@ class Stabilizer:
             e_body = self.last.rotation.T @ self.error
             v = g.j_p * e_body + g.j_d * self.rate
             d = np.clip(self._joint.k * (self._joint.axes(joints) @ v), -g.max_offset, g.max_offset)
-        if g.j_i > 0:  # the loaded joints' sag, integrated (joint_integral)
+        if g.j_i > 0 and self.sag_integrated:  # the loaded joints' sag (joint_integral)
             if self._sag is None:
                 self._sag = JointIntegral(self.robot)
             delay = self._dt + g.j_i_lag * self.servo_lag if g.j_i_lag > 0 else 0.0
@@ -775,6 +778,14 @@ class Stabilizer:
         if g.hip_kick > 0:
             d = self._hip_kick(joints, d)
         return d
+
+    @property
+    def sag_integrated(self) -> bool:
+        """Whether ``j_i`` may run: always without ``j_i_stiff``; with it only once the
+        stiffness identified at rest (:attr:`stiffness_scale`) is below ``j_i_stiff``."""
+        g = self.gains
+        k = self.stiffness_scale
+        return g.j_i_stiff <= 0 or (k is not None and k < g.j_i_stiff)
 
     def _hip_kick(self, joints: np.ndarray, d: np.ndarray | None) -> np.ndarray | None:
         """``d`` with the push's hip kick added (``hip_kick``, :class:`~wbc.balance.hip_kick.
