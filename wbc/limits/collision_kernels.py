@@ -611,10 +611,37 @@ def work_sizes(pairs: int, nv: int) -> tuple[int, int]:
     return CLOSE_WORK + pairs * 8 * nv + 8 * most + 6, 6 + most + pairs
 
 
+#: a row is left out in the box only if its largest value there is below its bound by this
+#: (m) times 1 + Σ|G_ik| (:func:`can_bind`): the solvers' Δq lie in the box to their
+#: tolerance (:data:`wbc.types.CONSTRAINT_TOL`, 1e-9), so such a row is never violated by more
+#: than that tolerance, the test that makes a row join (or block) a working set
+CULL_TOL = 1e-8
+
+
+@njit(cache=True, inline="always")
+def can_bind(g, bound, lower, upper) -> bool:
+    """False if no Δq of the box [lower, upper] violates the row g Δq <= bound:
+    max_{lower <= Δq <= upper} g Δq = Σ_k max(g_k lower_k, g_k upper_k) <= bound − CULL_TOL
+    (1 + Σ_k |g_k|) (a zero g_k adds 0 whatever its interval, an unbounded one with g_k != 0
+    +inf: kept). Such a row never joins a working set (:data:`CULL_TOL`)."""
+    most = 0.0
+    size = 0.0
+    for k in range(g.shape[0]):
+        gk = g[k]
+        if gk > 0.0:
+            most += gk * upper[k]
+            size += gk
+        elif gk < 0.0:
+            most += gk * lower[k]
+            size -= gk
+    return not most + CULL_TOL * (1.0 + size) <= bound
+
+
 @njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
     margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common, work, iwork,
+    lower, upper, counts,
 ) -> int:  # fmt: skip
     """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
@@ -623,7 +650,9 @@ def plane_rows(
     corners of each pair's second box near the plane through p1, each with its projection
     on that plane brought onto the first box, then those of its first box near the plane
     through p2 likewise (the order of the numpy form). Each pair's bodies' terms are
-    computed once (:func:`_body_terms`). ``work``, ``iwork``: scratch (float64, int64;
+    computed once (:func:`_body_terms`). With a box (``lower``, ``upper``: nv long, the
+    tick's bounds on Δq; empty: none), the rows that cannot bind in it (:func:`can_bind`) are
+    left out (``counts[4]`` += their number). ``work``, ``iwork``: scratch (float64, int64;
     :func:`plane_work`'s sizes at least: nothing allocated)."""
     nv = Jw.shape[1]
     most = 17 * count
@@ -695,14 +724,20 @@ def plane_rows(
                 nc += 1
     for j in range(nc):
         H[j] = damper_h(gaps[j], margin, trigger, damping)
+    boxed = lower.shape[0] == nv
     r = 0
+    left = 0
     for j in range(nc):
         if not H[j] < unreachable:  # (no row)
             continue
         i = which[j]
         _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
+        if boxed and not can_bind(G[r], H[j], lower, upper):
+            left += 1  # (written over by the next row)
+            continue
         h[r], row_pair[r], row_gap[r] = H[j], i, gaps[j]
         r += 1
+    counts[4] += left
     return r
 
 
@@ -711,10 +746,11 @@ def collision_rows(
     joints, last_joints, bound, L_start, L_pair, L_arm, Rf, pf, box_frame, box_R, box_p, half,
     radius, pair_a, pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed,
     out_k, out_d, out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis,
-    work, iwork,
+    work, iwork, lower, upper,
 ) -> int:  # fmt: skip
-    """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
-    returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
+    """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call
+    (``lower``, ``upper``: its box, or empty); returns the number of rows (``counts[2]``: the
+    number of close pairs, ``counts[4]`` the rows left out; ``counts``: see
     :func:`close_pairs`; ``work``, ``iwork``: :func:`work_sizes`' scratch, nothing
     allocated)."""
     n = close_pairs(
@@ -726,5 +762,5 @@ def collision_rows(
     return plane_rows(
         n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
         margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
-        work[CLOSE_WORK:], iwork[6:],
+        work[CLOSE_WORK:], iwork[6:], lower, upper, counts,
     )  # fmt: skip
