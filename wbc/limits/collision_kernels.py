@@ -4,7 +4,7 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
 
 * :func:`close_pairs` — the broad phase and the exact distances. Each pair keeps a lower
   bound on its distance, lowered at every call by Σ_i L_ki |Δq_i| (the joints' lever arms,
-  :func:`wbc.limits.self_collision.lipschitz_bounds`); a pair whose bound stays above the
+  :func:`wbc.limits.collision_boxes.lipschitz_bounds`); a pair whose bound stays above the
   query costs that product. The others get the bound of their boxes' bounding spheres
   (|c₁ − c₂| − r₁ − r₂), then the gap along the axis that separated the pair last (one axis of
   :func:`axis_gap`: turns away most far pairs), then the separating-axis bound (the largest
