@@ -544,7 +544,13 @@ class SelfCollisionConstraint(Constraint):
 
     def _set_box(self, box: tuple) -> None:
         """Pack the box's limits ``box`` (q_min, q_max, steps: 1-D float64, n_joints long,
-        the arrays the stack's limits read: their values at each call)."""
+        the arrays the stack's limits read: their values at each call), unless they are the
+        arrays packed (each plan has its own tuple: a support switch re-packed them, and the
+        kernel's entry point was looked up again, ~1–15 ms)."""
+        kept = self._box
+        if kept is not None and all(a is b for a, b in zip(box, kept, strict=True)):
+            self._box = box  # (another plan's tuple of the same arrays: nothing to pack)
+            return
         nj = self.robot.n_joints
         for a in box:
             if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == (nj,)):
