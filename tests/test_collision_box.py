@@ -18,6 +18,12 @@ from wbc.walking.loop import Session, StackController
 TICKS = 150  # (walk10's first touch-down at 104: rows active around it)
 
 
+def _cut(stack):
+    """``stack`` with its self-collision limit's ``cut_in_box`` on (before any plan)."""
+    _limit(stack).rows_in_box = True
+    return stack
+
+
 def _limit(stack) -> SelfCollisionConstraint:
     """The stack's self-collision limit."""
     constraints = stack.solver.stack.constraints()
@@ -25,13 +31,14 @@ def _limit(stack) -> SelfCollisionConstraint:
 
 
 def _walk(robot, boxed: bool, ticks: int = TICKS, check=None):
-    """walk_strict along walk10, the rows left out in the box or not (``joint_box`` made to
-    say None); each tick's Δq (``check(plan, limit)`` after each tick) and the limit."""
+    """walk_strict along walk10 with ``cut_in_box`` (its default, off: every row; and on,
+    with ``joint_box`` made to say None: every row too); each tick's Δq (``check(plan,
+    limit)`` after each tick) and the limit."""
     keep = plan_module.joint_box
     if not boxed:
         plan_module.joint_box = lambda limits: None
     try:
-        stack = load_stack("walk_strict", robot)
+        stack = _cut(load_stack("walk_strict", robot))
         controller = StackController(stack)
         solver = controller.solver
         session = Session(controller, robot, build("walk10", robot))
@@ -89,7 +96,7 @@ def test_rows_left_out_cannot_bind_and_the_walk_is_the_same(robot):
 def test_the_rows_of_a_call_without_the_box_are_every_row(robot):
     """A call at the configuration of a tick whose rows were cut in its box gives every row
     (made again), and the tick's rows again after it (the box's rows made again too)."""
-    stack = load_stack("walk_strict", robot)
+    stack = _cut(load_stack("walk_strict", robot))
     controller = StackController(stack)
     session = Session(controller, robot, build("walk10", robot))
     limit = _limit(stack)
@@ -106,3 +113,18 @@ def test_the_rows_of_a_call_without_the_box_are_every_row(robot):
     again = limit.rows_into(kin, plan.inequalities.G, plan.inequalities.h, r0, box)
     assert again == r
     np.testing.assert_array_equal(plan.inequalities.h[r0 : r0 + r], cut)
+
+
+def test_the_option_is_off_by_default_and_read_from_the_stack_file(robot):
+    """``cut_in_box``: off unless the stack file says so; anything but a boolean is one
+    error line."""
+    from wbc.exceptions import TaskError
+    from wbc.stacks import build_stack
+
+    assert _limit(load_stack("walk_strict", robot)).rows_in_box is False
+    spec = {"solver": "hierarchical", "levels": [{"tasks": [{"type": "com"}], "constraints": [
+        {"type": "self_collision", "cut_in_box": True}]}]}  # fmt: skip
+    assert _limit(build_stack(spec, robot)).rows_in_box is True
+    spec["levels"][0]["constraints"][0]["cut_in_box"] = 1
+    with pytest.raises(TaskError, match="cut_in_box"):
+        build_stack(spec, robot)

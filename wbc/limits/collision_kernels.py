@@ -619,29 +619,49 @@ CULL_TOL = 1e-8
 
 
 @njit(cache=True, inline="always")
-def can_bind(g, bound, lower, upper) -> bool:
-    """False if no Δq of the box [lower, upper] violates the row g Δq <= bound:
-    max_{lower <= Δq <= upper} g Δq = Σ_k max(g_k lower_k, g_k upper_k) <= bound − CULL_TOL
-    (1 + Σ_k |g_k|) (a zero g_k adds 0 whatever its interval, an unbounded one with g_k != 0
-    +inf: kept). Such a row never joins a working set (:data:`CULL_TOL`)."""
+def _write_row_most(A, i, pa, pb, n, G, r, mid, wide) -> float:
+    """:func:`_write_row`, returning Σ_k G_rk mid_k + |G_rk| wide_k in the same pass (with
+    ``mid`` the box's centres and ``wide`` its half widths plus :data:`CULL_TOL`: the row's
+    largest value over the box plus CULL_TOL Σ|G_rk|, :func:`can_bind`)."""
+    a0 = pa[1] * n[2] - pa[2] * n[1]
+    a1 = pa[2] * n[0] - pa[0] * n[2]
+    a2 = pa[0] * n[1] - pa[1] * n[0]
+    b0 = pb[1] * n[2] - pb[2] * n[1]
+    b1 = pb[2] * n[0] - pb[0] * n[2]
+    b2 = pb[0] * n[1] - pb[1] * n[0]
+    Aa, Ab = A[i, 0], A[i, 1]
+    g = G[r]
     most = 0.0
-    size = 0.0
     for k in range(g.shape[0]):
-        gk = g[k]
-        if gk > 0.0:
-            most += gk * upper[k]
-            size += gk
-        elif gk < 0.0:
-            most += gk * lower[k]
-            size -= gk
-    return not most + CULL_TOL * (1.0 + size) <= bound
+        tb = Ab[0, k] + b0 * Ab[1, k] + b1 * Ab[2, k] + b2 * Ab[3, k]
+        ta = Aa[0, k] + a0 * Aa[1, k] + a1 * Aa[2, k] + a2 * Aa[3, k]
+        gk = (0.0 - tb) + ta
+        g[k] = gk
+        most += gk * mid[k] + abs(gk) * wide[k]
+    return most
+
+
+@njit(cache=True, inline="always")
+def can_bind(g, most, bound, free) -> bool:
+    """False if no Δq of the box [lower, upper] violates the row g Δq <= bound:
+
+        max_{lower <= Δq <= upper} g Δq + CULL_TOL (1 + Σ_k |g_k|) <= bound,
+
+    the largest value Σ_k g_k mid_k + |g_k| rad_k (mid, rad: the box's centres and half
+    widths) summed by :func:`_write_row_most` into ``most`` with CULL_TOL Σ|g_k|; the first
+    ``free`` columns (unbounded: the base's) must be 0 in g (else, and where ``most`` is not a
+    number, the row is kept). Such a row never joins a working set (:data:`CULL_TOL`)."""
+    for k in range(free):
+        if g[k] != 0.0:
+            return True
+    return not most + CULL_TOL <= bound
 
 
 @njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
     margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common, work, iwork,
-    lower, upper, counts,
+    mid, wide, free, counts,
 ) -> int:  # fmt: skip
     """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
@@ -650,10 +670,11 @@ def plane_rows(
     corners of each pair's second box near the plane through p1, each with its projection
     on that plane brought onto the first box, then those of its first box near the plane
     through p2 likewise (the order of the numpy form). Each pair's bodies' terms are
-    computed once (:func:`_body_terms`). With a box (``lower``, ``upper``: nv long, the
-    tick's bounds on Δq; empty: none), the rows that cannot bind in it (:func:`can_bind`) are
-    left out (``counts[4]`` += their number). ``work``, ``iwork``: scratch (float64, int64;
-    :func:`plane_work`'s sizes at least: nothing allocated)."""
+    computed once (:func:`_body_terms`). With a box (``mid``, ``wide``: nv long, the centres
+    and the half widths plus :data:`CULL_TOL` of the tick's bounds on Δq, 0 on the ``free``
+    unbounded first columns; empty: none), the rows that cannot bind in it
+    (:func:`can_bind`) are left out (``counts[4]`` += their number). ``work``, ``iwork``:
+    scratch (float64, int64; :func:`plane_work`'s sizes at least: nothing allocated)."""
     nv = Jw.shape[1]
     most = 17 * count
     o = count * 8 * nv
@@ -724,17 +745,20 @@ def plane_rows(
                 nc += 1
     for j in range(nc):
         H[j] = damper_h(gaps[j], margin, trigger, damping)
-    boxed = lower.shape[0] == nv
+    boxed = mid.shape[0] == nv
     r = 0
     left = 0
     for j in range(nc):
         if not H[j] < unreachable:  # (no row)
             continue
         i = which[j]
-        _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
-        if boxed and not can_bind(G[r], H[j], lower, upper):
-            left += 1  # (written over by the next row)
-            continue
+        if boxed:
+            most = _write_row_most(A, i, P[j, 0], P[j, 1], out_n[i], G, r, mid, wide)
+            if not can_bind(G[r], most, H[j], free):
+                left += 1  # (written over by the next row)
+                continue
+        else:
+            _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
         h[r], row_pair[r], row_gap[r] = H[j], i, gaps[j]
         r += 1
     counts[4] += left
@@ -746,10 +770,10 @@ def collision_rows(
     joints, last_joints, bound, L_start, L_pair, L_arm, Rf, pf, box_frame, box_R, box_p, half,
     radius, pair_a, pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed,
     out_k, out_d, out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis,
-    work, iwork, lower, upper,
+    work, iwork, mid, wide, free,
 ) -> int:  # fmt: skip
     """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call
-    (``lower``, ``upper``: its box, or empty); returns the number of rows (``counts[2]``: the
+    (``mid``, ``wide``, ``free``: its box, or empty); returns the number of rows (``counts[2]``: the
     number of close pairs, ``counts[4]`` the rows left out; ``counts``: see
     :func:`close_pairs`; ``work``, ``iwork``: :func:`work_sizes`' scratch, nothing
     allocated)."""
@@ -762,5 +786,5 @@ def collision_rows(
     return plane_rows(
         n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
         margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
-        work[CLOSE_WORK:], iwork[6:], lower, upper, counts,
+        work[CLOSE_WORK:], iwork[6:], mid, wide, free, counts,
     )  # fmt: skip

@@ -17,7 +17,7 @@ from ..compiled import ticks as _ticks
 from ..compiled._cache import refresh
 from ..compiled.checks import address
 from ..compiled.ticks import fold_box
-from .collision_kernels import collision_rows
+from .collision_kernels import CULL_TOL, collision_rows
 
 #: the buffers of :func:`packed_rows`, passed by address (numba unboxes ~50 ns per array
 #: argument: ~2.5 µs of a tick went to passing :func:`collision_rows` its 32 arguments), in
@@ -155,9 +155,17 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
         same = box[2, 0] != box[2, 0]
     if same:
         return -1
-    lower, upper = box[0, :0], box[1, :0]  # (no box: nothing left out)
-    if boxed:
-        lower, upper = box[0], box[1]
+    mid, wide = box[4, :0], box[5, :0]  # (no box: nothing left out)
+    free = 0
+    if boxed:  # (its centres and half widths + CULL_TOL, 0 on the free base columns)
+        mid, wide = box[4], box[5]
+        free = nv - shapes[30, 0]
+        for i in range(nv):
+            if i < free:
+                mid[i] = wide[i] = 0.0
+            else:
+                mid[i] = 0.5 * (box[0, i] + box[1, i])
+                wide[i] = 0.5 * (box[1, i] - box[0, i]) + CULL_TOL
     r = collision_rows(
         q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _i1(addresses, shapes, 3),
         _j1(addresses, shapes, 4), _f1(addresses, shapes, 5), Rf, pf, _i1(addresses, shapes, 6),
@@ -169,7 +177,7 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
         _f2(addresses, shapes, 20), _f2(addresses, shapes, 21), _i1(addresses, shapes, 22),
         G[r0:], h[r0:], _i1(addresses, shapes, 23), _f1(addresses, shapes, 24),
         params[4] != 0.0, _i1(addresses, shapes, 27), _f1(addresses, shapes, 28),
-        _i1(addresses, shapes, 29), lower, upper,
+        _i1(addresses, shapes, 29), mid, wide, free,
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]

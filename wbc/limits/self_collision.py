@@ -360,13 +360,19 @@ class SelfCollisionConstraint(Constraint):
         seed: int = 0,
         name: str = "self_collision",
         common_frame: bool = True,
+        cut_in_box: bool = False,
     ) -> None:
         super().__init__(name)
         check_parameters(margin, trigger, damping)
-        if not isinstance(common_frame, bool):
-            raise ConfigurationError(
-                f"self_collision common_frame must be true or false, got {common_frame!r}"
-            )
+        for flag, value in (("common_frame", common_frame), ("cut_in_box", cut_in_box)):
+            if not isinstance(value, bool):
+                raise ConfigurationError(
+                    f"self_collision {flag} must be true or false, got {value!r}"
+                )
+        #: a compiled plan passes its tick's box to :meth:`rows_into`, which leaves out the
+        #: rows that cannot bind in it (``cut_in_box``; off by default: the kernel's test
+        #: costs about what the cascade saves, benchmarks/self_collision.md, fifteenth session)
+        self.rows_in_box = cut_in_box
         self.robot = robot
         #: [margin, trigger, damping, UNREACHABLE, common_frame, 1: the rows that cannot bind
         #: in the box left out] (read by the kernel)
@@ -585,9 +591,6 @@ class SelfCollisionConstraint(Constraint):
             self._entries.clear()
         self._entries[(id(G), id(h))] = (entry, G, h)
         return entry
-
-    #: :meth:`rows_into` takes the tick's box (:class:`wbc.solvers.inequalities.ConstraintRows`)
-    rows_in_box = True
 
     def rows_into(
         self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int, box: tuple | None = None
