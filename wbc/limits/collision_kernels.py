@@ -618,26 +618,15 @@ def work_sizes(pairs: int, nv: int) -> tuple[int, int]:
 CULL_TOL = 1e-8
 
 
-@njit(cache=True, inline="always")
-def _write_row_most(A, i, pa, pb, n, G, r, mid, wide) -> float:
-    """:func:`_write_row`, returning Σ_k G_rk mid_k + |G_rk| wide_k in the same pass (with
-    ``mid`` the box's centres and ``wide`` its half widths plus :data:`CULL_TOL`: the row's
-    largest value over the box plus CULL_TOL Σ|G_rk|, :func:`can_bind`)."""
-    a0 = pa[1] * n[2] - pa[2] * n[1]
-    a1 = pa[2] * n[0] - pa[0] * n[2]
-    a2 = pa[0] * n[1] - pa[1] * n[0]
-    b0 = pb[1] * n[2] - pb[2] * n[1]
-    b1 = pb[2] * n[0] - pb[0] * n[2]
-    b2 = pb[0] * n[1] - pb[1] * n[0]
-    Aa, Ab = A[i, 0], A[i, 1]
-    g = G[r]
+@njit(cache=True, fastmath=True)
+def box_most(g, mid, wide) -> float:
+    """Σ_k g_k mid_k + |g_k| wide_k (``mid``: the box's centres, ``wide``: its half widths plus
+    :data:`CULL_TOL`): the row's largest value over the box plus CULL_TOL Σ|g_k|
+    (:func:`can_bind`). Summed in any order (fastmath: the reduction vectorised; the test's
+    margin CULL_TOL covers the rounding)."""
     most = 0.0
     for k in range(g.shape[0]):
-        tb = Ab[0, k] + b0 * Ab[1, k] + b1 * Ab[2, k] + b2 * Ab[3, k]
-        ta = Aa[0, k] + a0 * Aa[1, k] + a1 * Aa[2, k] + a2 * Aa[3, k]
-        gk = (0.0 - tb) + ta
-        g[k] = gk
-        most += gk * mid[k] + abs(gk) * wide[k]
+        most += g[k] * mid[k] + abs(g[k]) * wide[k]
     return most
 
 
@@ -648,7 +637,7 @@ def can_bind(g, most, bound, free) -> bool:
         max_{lower <= Δq <= upper} g Δq + CULL_TOL (1 + Σ_k |g_k|) <= bound,
 
     the largest value Σ_k g_k mid_k + |g_k| rad_k (mid, rad: the box's centres and half
-    widths) summed by :func:`_write_row_most` into ``most`` with CULL_TOL Σ|g_k|; the first
+    widths) summed by :func:`box_most` into ``most`` with CULL_TOL Σ|g_k|; the first
     ``free`` columns (unbounded: the base's) must be 0 in g (else, and where ``most`` is not a
     number, the row is kept). Such a row never joins a working set (:data:`CULL_TOL`)."""
     for k in range(free):
@@ -752,13 +741,10 @@ def plane_rows(
         if not H[j] < unreachable:  # (no row)
             continue
         i = which[j]
-        if boxed:
-            most = _write_row_most(A, i, P[j, 0], P[j, 1], out_n[i], G, r, mid, wide)
-            if not can_bind(G[r], most, H[j], free):
-                left += 1  # (written over by the next row)
-                continue
-        else:
-            _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
+        _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
+        if boxed and not can_bind(G[r], box_most(G[r], mid, wide), H[j], free):
+            left += 1  # (written over by the next row)
+            continue
         h[r], row_pair[r], row_gap[r] = H[j], i, gaps[j]
         r += 1
     counts[4] += left
