@@ -718,23 +718,28 @@ def _build_constraint(kind, entry, robot, where, actual, frame) -> Constraint:
 _SELF_COLLISION_KEYS = {
     *("type", "name", "margin", "trigger", "damping", "include", "exclude", "pairs", "optional"),
     "common_frame",
+    "cut_in_box",
 }
 
 
 def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint | None:
     """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
     include = [[link, link], ...], exclude = [...], pairs = [...], optional = false,
-    common_frame = true }`` (all but ``type`` optional). ``pairs``: only these link pairs
-    (e.g. their own margin); ``optional = true``: pairs naming a link this robot does not
-    have are left out of ``pairs`` / ``exclude`` (a stack shared by robots; with no pair
-    left, no constraint)."""
+    common_frame = true, cut_in_box = false }`` (all but ``type`` optional). ``pairs``: only
+    these link pairs (e.g. their own margin); ``optional = true``: pairs naming a link this
+    robot does not have are left out of ``pairs`` / ``exclude`` (a stack shared by robots;
+    with no pair left, no constraint); ``cut_in_box``:
+    :class:`~wbc.limits.SelfCollisionConstraint`'s."""
     extra = set(entry) - _SELF_COLLISION_KEYS
     if extra:
         raise TaskError(
             f"{where}: constraint 'self_collision' has unknown keys {sorted(extra)}; "
             f"allowed: {sorted(_SELF_COLLISION_KEYS)}"
         )
-    keys = ("margin", "trigger", "damping", "include", "exclude", "pairs", "common_frame")
+    keys = (
+        *("margin", "trigger", "damping", "include", "exclude", "pairs", "common_frame"),
+        "cut_in_box",
+    )
     kw = {k: entry[k] for k in keys if k in entry}
     if entry.get("optional", False) is not False:
         if entry["optional"] is not True:

@@ -242,7 +242,7 @@ def heading_of(torso_rotation: np.ndarray, side: str) -> float:
 
 def lowest_point(robot: Robot, q: np.ndarray) -> float:
     """The height (m) of the lowest corner of the robot's collision boxes at ``q``."""
-    from ..limits.self_collision import _box_vertices, collision_model
+    from ..limits.collision_boxes import _box_vertices, collision_model
 
     cm = collision_model(robot)
     data = robot.model.createData()

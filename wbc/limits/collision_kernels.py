@@ -4,7 +4,7 @@ The hot path of :class:`wbc.limits.SelfCollisionConstraint`, one call per tick:
 
 * :func:`close_pairs` — the broad phase and the exact distances. Each pair keeps a lower
   bound on its distance, lowered at every call by Σ_i L_ki |Δq_i| (the joints' lever arms,
-  :func:`wbc.limits.self_collision.lipschitz_bounds`); a pair whose bound stays above the
+  :func:`wbc.limits.collision_boxes.lipschitz_bounds`); a pair whose bound stays above the
   query costs that product. The others get the bound of their boxes' bounding spheres
   (|c₁ − c₂| − r₁ − r₂), then the gap along the axis that separated the pair last (one axis of
   :func:`axis_gap`: turns away most far pairs), then the separating-axis bound (the largest
@@ -611,10 +611,46 @@ def work_sizes(pairs: int, nv: int) -> tuple[int, int]:
     return CLOSE_WORK + pairs * 8 * nv + 8 * most + 6, 6 + most + pairs
 
 
+#: a row is left out in the box only if its largest value there is below its bound by this
+#: (m) times 1 + Σ|G_ik| (:func:`can_bind`): the solvers' Δq lie in the box to their
+#: tolerance (:data:`wbc.types.CONSTRAINT_TOL`, 1e-9), so such a row is never violated by more
+#: than that tolerance, the test that makes a row join (or block) a working set
+CULL_TOL = 1e-8
+
+
+@njit(cache=True, fastmath=True)
+def box_most(g, mid, wide) -> float:
+    """Σ_k g_k mid_k + |g_k| wide_k (``mid``: the box's centres, ``wide``: its half widths plus
+    :data:`CULL_TOL`): the row's largest value over the box plus CULL_TOL Σ|g_k|
+    (:func:`can_bind`). Summed in any order (fastmath: the reduction vectorised; the test's
+    margin CULL_TOL covers the rounding)."""
+    most = 0.0
+    for k in range(g.shape[0]):
+        most += g[k] * mid[k] + abs(g[k]) * wide[k]
+    return most
+
+
+@njit(cache=True, inline="always")
+def can_bind(g, most, bound, free) -> bool:
+    """False if no Δq of the box [lower, upper] violates the row g Δq <= bound:
+
+        max_{lower <= Δq <= upper} g Δq + CULL_TOL (1 + Σ_k |g_k|) <= bound,
+
+    the largest value Σ_k g_k mid_k + |g_k| rad_k (mid, rad: the box's centres and half
+    widths) summed by :func:`box_most` into ``most`` with CULL_TOL Σ|g_k|; the first
+    ``free`` columns (unbounded: the base's) must be 0 in g (else, and where ``most`` is not a
+    number, the row is kept). Such a row never joins a working set (:data:`CULL_TOL`)."""
+    for k in range(free):
+        if g[k] != 0.0:
+            return True
+    return not most + CULL_TOL <= bound
+
+
 @njit(cache=True)
 def plane_rows(
     count, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
     margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common, work, iwork,
+    mid, wide, free, counts,
 ) -> int:  # fmt: skip
     """The damper rows of the ``count`` close pairs of :func:`close_pairs` into G, h (each
     row's pair, an index into the close pairs, and gap into ``row_pair``, ``row_gap``);
@@ -623,8 +659,11 @@ def plane_rows(
     corners of each pair's second box near the plane through p1, each with its projection
     on that plane brought onto the first box, then those of its first box near the plane
     through p2 likewise (the order of the numpy form). Each pair's bodies' terms are
-    computed once (:func:`_body_terms`). ``work``, ``iwork``: scratch (float64, int64;
-    :func:`plane_work`'s sizes at least: nothing allocated)."""
+    computed once (:func:`_body_terms`). With a box (``mid``, ``wide``: nv long, the centres
+    and the half widths plus :data:`CULL_TOL` of the tick's bounds on Δq, 0 on the ``free``
+    unbounded first columns; empty: none), the rows that cannot bind in it
+    (:func:`can_bind`) are left out (``counts[4]`` += their number). ``work``, ``iwork``:
+    scratch (float64, int64; :func:`plane_work`'s sizes at least: nothing allocated)."""
     nv = Jw.shape[1]
     most = 17 * count
     o = count * 8 * nv
@@ -695,14 +734,20 @@ def plane_rows(
                 nc += 1
     for j in range(nc):
         H[j] = damper_h(gaps[j], margin, trigger, damping)
+    boxed = mid.shape[0] == nv
     r = 0
+    left = 0
     for j in range(nc):
         if not H[j] < unreachable:  # (no row)
             continue
         i = which[j]
         _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
+        if boxed and not can_bind(G[r], box_most(G[r], mid, wide), H[j], free):
+            left += 1  # (written over by the next row)
+            continue
         h[r], row_pair[r], row_gap[r] = H[j], i, gaps[j]
         r += 1
+    counts[4] += left
     return r
 
 
@@ -711,10 +756,11 @@ def collision_rows(
     joints, last_joints, bound, L_start, L_pair, L_arm, Rf, pf, box_frame, box_R, box_p, half,
     radius, pair_a, pair_b, support, Jw, margin, trigger, damping, unreachable, Rw, cw, placed,
     out_k, out_d, out_p1, out_p2, out_n, counts, G, h, row_pair, row_gap, common, last_axis,
-    work, iwork,
+    work, iwork, mid, wide, free,
 ) -> int:  # fmt: skip
-    """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call;
-    returns the number of rows (``counts[2]``: the number of close pairs; ``counts``: see
+    """:func:`close_pairs` below the trigger, then their :func:`plane_rows`, in one call
+    (``mid``, ``wide``, ``free``: its box, or empty); returns the number of rows (``counts[2]``: the
+    number of close pairs, ``counts[4]`` the rows left out; ``counts``: see
     :func:`close_pairs`; ``work``, ``iwork``: :func:`work_sizes`' scratch, nothing
     allocated)."""
     n = close_pairs(
@@ -726,5 +772,5 @@ def collision_rows(
     return plane_rows(
         n, out_k, out_d, out_p1, out_p2, out_n, pair_a, pair_b, Rw, cw, half, support, Jw,
         margin, trigger, damping, unreachable, G, h, row_pair, row_gap, common,
-        work[CLOSE_WORK:], iwork[6:],
+        work[CLOSE_WORK:], iwork[6:], mid, wide, free, counts,
     )  # fmt: skip

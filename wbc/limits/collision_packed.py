@@ -8,11 +8,16 @@ argument (~50 ns): ~2.5 µs of a tick went to passing them one by one.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from numba import carray, njit
 
+from ..compiled import ticks as _ticks
+from ..compiled._cache import refresh
 from ..compiled.checks import address
-from .collision_kernels import collision_rows
+from ..compiled.ticks import fold_box
+from .collision_kernels import CULL_TOL, collision_rows
 
 #: the buffers of :func:`packed_rows`, passed by address (numba unboxes ~50 ns per array
 #: argument: ~2.5 µs of a tick went to passing :func:`collision_rows` its 32 arguments), in
@@ -28,6 +33,8 @@ PACKED = (
     ("out_n", "float64", 2), ("counts", "int64", 1), ("row_pair", "int64", 1),
     ("row_gap", "float64", 1), ("params", "float64", 1), ("closest", "float64", 1),
     ("last_axis", "int64", 1), ("work", "float64", 1), ("iwork", "int64", 1),
+    ("box_min", "float64", 1), ("box_max", "float64", 1), ("box_step", "float64", 1),
+    ("box", "float64", 2),
 )  # fmt: skip
 
 
@@ -82,6 +89,29 @@ def _b2(addresses, shapes, i):
 
 
 @njit(cache=True)
+def joint_box(q, q_min, q_max, steps, lower, upper, speed) -> None:
+    """The box of a stack whose box limits are the joint position limit then the joint
+    velocity limit (:func:`~wbc.limits.joint_limits.position_bounds` folded with
+    :func:`~wbc.limits.joint_limits.velocity_bounds` by
+    :func:`~wbc.compiled.ticks.fold_box`, the compiled tick's arithmetic): the base
+    unbounded, joint j in [q_min_j − q_j, q_max_j − q_j] ∩ [−s_j, s_j] (where they do not
+    meet, the speed's end nearest the range). ``speed``: 2 x nv scratch."""
+    nj = q_min.shape[0]
+    nb = lower.shape[0] - nj
+    o = q.shape[0] - nj
+    for i in range(nb):
+        lower[i] = -np.inf
+        upper[i] = np.inf
+    for j in range(nj):
+        lower[nb + j] = q_min[j] - q[o + j]
+        upper[nb + j] = q_max[j] - q[o + j]
+    for j in range(nj):
+        speed[0, j] = -steps[j]
+        speed[1, j] = steps[j]
+    fold_box(lower[nb:], upper[nb:], speed[0, :nj], speed[1, :nj])
+
+
+@njit(cache=True)
 def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     """:func:`collision_rows` at the configuration q (7 base coordinates, then the joints),
     with the limit's buffers by address (:data:`PACKED`; their owner keeps them alive:
@@ -90,19 +120,52 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     (nothing computed) if q equals ``last_q`` exactly, the configuration of the last call
     (NaN before the first call); −2 (nothing computed) if ``G`` or ``h`` has less room from
     ``r0`` than the most rows (17 a pair); else the number of rows, q into ``last_q`` and the
-    smallest distance of the close pairs into ``closest[0]`` (+inf: none)."""
+    smallest distance of the close pairs into ``closest[0]`` (+inf: none).
+
+    With ``params[5]`` != 0 and the box's limits (``box_min``, ``box_max``, ``box_step``: the
+    joints' position limits and steps) the rows that cannot bind in the tick's box
+    (:func:`joint_box`, into ``box[0]``, ``box[1]``; ``box``: 6 x nv) are left out
+    (:func:`~wbc.limits.collision_kernels.can_bind`); the rows of the last call are those of
+    q only if they were made in the same box (``box[2]``, ``box[3]``: the last call's, NaN
+    after a call without one)."""
     most = 17 * shapes[_PAIR_A, 0]  # (rows a pair at most: the witness and 8 + 8 corners)
     if r0 < 0 or G.shape[0] - r0 < most or h.shape[0] - r0 < most or G.shape[1] != Jw.shape[1]:
         return -2
+    params = _f1(addresses, shapes, 25)
+    box = _f2(addresses, shapes, 33)
+    boxed = params[5] != 0.0 and shapes[30, 0] > 0
+    nv = Jw.shape[1]
+    if boxed:
+        joint_box(
+            q, _f1(addresses, shapes, 30), _f1(addresses, shapes, 31), _f1(addresses, shapes, 32),
+            box[0], box[1], box[4:6],
+        )  # fmt: skip
     last_q = _f1(addresses, shapes, 0)
     same = True
     for i in range(q.shape[0]):
         if q[i] != last_q[i]:
             same = False
             break
+    if same and boxed:  # (the last rows made in this box)
+        for i in range(nv):
+            if box[0, i] != box[2, i] or box[1, i] != box[3, i]:
+                same = False
+                break
+    elif same:  # (the last rows made without a box: box[2] NaN)
+        same = box[2, 0] != box[2, 0]
     if same:
         return -1
-    params = _f1(addresses, shapes, 25)
+    mid, wide = box[4, :0], box[5, :0]  # (no box: nothing left out)
+    free = 0
+    if boxed:  # (its centres and half widths + CULL_TOL, 0 on the free base columns)
+        mid, wide = box[4], box[5]
+        free = nv - shapes[30, 0]
+        for i in range(nv):
+            if i < free:
+                mid[i] = wide[i] = 0.0
+            else:
+                mid[i] = 0.5 * (box[0, i] + box[1, i])
+                wide[i] = 0.5 * (box[1, i] - box[0, i]) + CULL_TOL
     r = collision_rows(
         q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _i1(addresses, shapes, 3),
         _j1(addresses, shapes, 4), _f1(addresses, shapes, 5), Rf, pf, _i1(addresses, shapes, 6),
@@ -114,13 +177,25 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
         _f2(addresses, shapes, 20), _f2(addresses, shapes, 21), _i1(addresses, shapes, 22),
         G[r0:], h[r0:], _i1(addresses, shapes, 23), _f1(addresses, shapes, 24),
         params[4] != 0.0, _i1(addresses, shapes, 27), _f1(addresses, shapes, 28),
-        _i1(addresses, shapes, 29),
+        _i1(addresses, shapes, 29), mid, wide, free,
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]
+    for i in range(nv):
+        box[2, i] = box[0, i] if boxed else np.nan
+        box[3, i] = box[1, i] if boxed else np.nan
     closest = _f1(addresses, shapes, 26)
     out_d = _f1(addresses, shapes, 18)
     closest[0] = np.inf
     for i in range(_i1(addresses, shapes, 22)[2]):
         closest[0] = min(closest[0], out_d[i])
     return r
+
+
+# numba caches these on this file alone: flush them when the kernels they call change (the
+# rows' kernels, the box's fold; before this, an edit of collision_kernels.py alone left
+# packed_rows running the old rows)
+refresh(
+    [joint_box, packed_rows],
+    [Path(__file__).with_name("collision_kernels.py"), Path(_ticks.__file__)],
+)

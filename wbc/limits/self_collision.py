@@ -62,14 +62,9 @@ import pinocchio as pin
 from ..compiled.entry import entry_point
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
-from .collision_boxes import (
-    CollisionModel,
-    _box_in_frame,
-    _box_vertices,
-    collision_model,
-    lipschitz_bounds,
-)
-from .collision_kernels import MAX_CLOSURE, close_pairs, sparse_arms, work_sizes
+from .collision_boxes import CollisionModel, collision_model
+from .collision_distances import PairDistances, Witness
+from .collision_kernels import MAX_CLOSURE
 from .collision_packed import pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
@@ -300,142 +295,6 @@ def pair_report(robot: Robot, margin: float = DEFAULT_MARGIN) -> list[tuple[str,
     return out
 
 
-class Witness(NamedTuple):
-    """The pairs closer than the query distance: indices into the pair list, signed
-    distances (m), witness points on the first / second geometry and unit normals (world)."""
-
-    index: np.ndarray  # type: ignore[assignment]  # the field shadows tuple.index
-    distance: np.ndarray
-    p1: np.ndarray
-    p2: np.ndarray
-    normal: np.ndarray
-
-
-class PairDistances:
-    """Distances of a fixed pair list at a configuration, with a conservative cache.
-
-    One compiled call per query (:func:`wbc.limits.collision_kernels.close_pairs`): each pair
-    keeps a lower bound on its distance, lowered by Σ_i L_ki |Δq_i| for every joint motion
-    since it was last computed (valid along any sequence of configurations, by the triangle
-    inequality); a pair whose bound is below the query gets its boxes' bounding-sphere bound,
-    then the gap along its last separating axis, then their separating-axis bound (15 axes),
-    and only if all are below the query its exact distance
-    (GJK on the two boxes, :func:`~wbc.limits.collision_kernels.box_distance`). A geometry
-    that is not a box is replaced by its bounding box (a conservative hull).
-    """
-
-    def __init__(self, robot: Robot, cm: CollisionModel, pairs: Sequence[tuple[int, int]]):
-        self.robot = robot
-        self.pairs = list(pairs)
-        self.geometry = cm.geometry
-        self.L = lipschitz_bounds(robot, cm, self.pairs)
-        #: the lever arms by joint without their zeros (the kernels': ~1/3 of L on a walk)
-        self._L_start, self._L_pair, self._L_arm = sparse_arms(self.L)
-        #: box corners of each geometry in its parent joint's frame (ngeoms x 8 x 3)
-        self.corners = np.array([_box_vertices(g) for g in self.geometry.geometryObjects])
-        self._geom_joint = np.asarray(cm.joints, dtype=int)
-        self._pair_geoms = np.array(self.pairs, dtype=int).reshape(-1, 2)
-        self._R = np.zeros((robot.model.njoints, 3, 3))  # joint placements of a call
-        self._t = np.zeros((robot.model.njoints, 3))
-        K = len(self.pairs)
-        self.joint_1 = cm.joints[[p[0] for p in self.pairs]] if K else np.zeros(0, int)
-        self.joint_2 = cm.joints[[p[1] for p in self.pairs]] if K else np.zeros(0, int)
-        # the boxes in their parent frames, for the kernels
-        model = robot.model
-        boxes = [_box_in_frame(model, g) for g in self.geometry.geometryObjects]
-        self.box_frame = np.array([g.parentFrame for g in self.geometry.geometryObjects], np.int64)
-        self.box_R = np.array([b[0] for b in boxes]).reshape(-1, 3, 3)
-        self.box_p = np.array([b[1] for b in boxes]).reshape(-1, 3)
-        self.half = np.array([b[2] for b in boxes]).reshape(-1, 3)
-        self.radius = np.linalg.norm(self.half, axis=1)
-        #: the velocity coordinates that move each geometry (ngeoms x nv)
-        self.support = np.array(
-            [robot.frame_support(int(f)) for f in self.box_frame], dtype=np.bool_
-        ).reshape(-1, robot.nv)
-        self.pair_a = np.ascontiguousarray(self._pair_geoms[:, 0], dtype=np.int64)
-        self.pair_b = np.ascontiguousarray(self._pair_geoms[:, 1], dtype=np.int64)
-        G = len(self.geometry.geometryObjects)
-        self.Rw, self.cw = np.zeros((G, 3, 3)), np.zeros((G, 3))
-        self._placed = np.zeros(G, dtype=np.bool_)
-        self._bound = np.full(K, -np.inf)  # -inf: never computed
-        #: the number of the separating axis of each pair's last separating-axis gap (-1: none)
-        self._last_axis = np.full(K, -1, np.int64)
-        #: the kernels' scratch (:func:`~wbc.limits.collision_kernels.work_sizes`)
-        n_work, n_iwork = work_sizes(K, robot.nv)
-        self._work, self._iwork = np.zeros(n_work), np.zeros(n_iwork, np.int64)
-        self._q = np.zeros(robot.n_joints)
-        #: the close pairs of the last query: pair index, distance, witnesses, normal
-        self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n = self.out_buffers()
-        self._counts = np.zeros(4, np.int64)
-        self._kin: Kinematics | None = None
-        self._frames: tuple[np.ndarray, np.ndarray] | None = None
-        self.jacobians = np.zeros((6, robot.nv))  # (of the Kinematics of :meth:`frames`)
-
-    def __getstate__(self) -> dict:
-        state = self.__dict__.copy()
-        state["_kin"] = state["_frames"] = None  # (views of one Kinematics: a copy re-binds)
-        return state
-
-    def out_buffers(self) -> tuple[np.ndarray, ...]:
-        """New arrays for :meth:`close`'s output: pair index, distance, witnesses, normal."""
-        K = len(self.pairs)
-        return (np.zeros(K, np.int64), np.zeros(K), *(np.zeros((K, 3)) for _ in range(3)))
-
-    @property
-    def exact_computations(self) -> int:
-        """Exact (GJK) distance computations so far (benchmarks and tests)."""
-        return int(self._counts[0])
-
-    def frames(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """Every frame's world rotation and position at ``kin`` (views, else copies); its
-        joints' Jacobians into :attr:`jacobians` (a view)."""
-        if kin is not self._kin or self._frames is None:
-            self._kin = kin
-            self._frames = kin.frame_placements()
-            self.jacobians = kin.data.J  # (Pinocchio's data.J: the same array at every update)
-        if self._frames is None:  # (copies: made again at every call)
-            n = kin.model.nframes
-            R = np.array([kin.rotation(f) for f in range(n)])
-            p = np.array([kin.translation(f) for f in range(n)])
-            return R, p
-        return self._frames
-
-    def close(self, kin: Kinematics, distance: float) -> int:
-        """The number of pairs closer than ``distance`` at ``kin`` (updated): their indices,
-        distances, witnesses and normals are the first of :attr:`out_k`, :attr:`out_d`..."""
-        if not self.pairs:
-            return 0
-        Rf, pf = self.frames(kin)
-        joints = np.ascontiguousarray(kin.q[7:], dtype=float)
-        return close_pairs(
-            joints, self._q, self._bound, self._L_start, self._L_pair, self._L_arm, Rf, pf,
-            self.box_frame, self.box_R, self.box_p, self.half, self.radius, self.pair_a,
-            self.pair_b, float(distance), self.Rw, self.cw, self._placed, self.out_k,
-            self.out_d, self.out_p1, self.out_p2, self.out_n, self._counts, self._last_axis,
-            self._work, self._iwork,
-        )  # fmt: skip
-
-    def vertices(self, kin: Kinematics, pairs: Sequence[int]) -> np.ndarray:
-        """World corners (P x 2 x 8 x 3) of the two boxes of each pair, at ``kin``."""
-        if not len(pairs):
-            return np.zeros((0, 2, 8, 3))
-        g = self._pair_geoms[np.asarray(pairs)]  # P x 2 geometry indices
-        joints = self._geom_joint[g]  # P x 2
-        oMi, R, t = kin.data.oMi, self._R, self._t
-        for j in np.unique(joints).tolist():
-            M = oMi[j]
-            R[j] = M.rotation
-            t[j] = M.translation
-        return self.corners[g] @ R[joints].transpose(0, 1, 3, 2) + t[joints][:, :, None]
-
-    def below(self, kin: Kinematics, distance: float) -> Witness:
-        """The pairs closer than ``distance`` at the configuration of ``kin`` (its placements
-        must be up to date: :meth:`Kinematics.update`)."""
-        n = self.close(kin, distance)
-        out = (self.out_k, self.out_d, self.out_p1, self.out_p2, self.out_n)
-        return Witness(*(a[:n].copy() for a in out))
-
-
 def damper_bound(distance: np.ndarray, margin: float, trigger: float, damping: float):
     """h(d) of the rows −J_d Δq <= h(d) (see the module docstring); +inf for d >= trigger."""
     d = np.asarray(distance, dtype=float)
@@ -501,16 +360,25 @@ class SelfCollisionConstraint(Constraint):
         seed: int = 0,
         name: str = "self_collision",
         common_frame: bool = True,
+        cut_in_box: bool = False,
     ) -> None:
         super().__init__(name)
         check_parameters(margin, trigger, damping)
-        if not isinstance(common_frame, bool):
-            raise ConfigurationError(
-                f"self_collision common_frame must be true or false, got {common_frame!r}"
-            )
+        for flag, value in (("common_frame", common_frame), ("cut_in_box", cut_in_box)):
+            if not isinstance(value, bool):
+                raise ConfigurationError(
+                    f"self_collision {flag} must be true or false, got {value!r}"
+                )
+        #: a compiled plan passes its tick's box to :meth:`rows_into`, which leaves out the
+        #: rows that cannot bind in it (``cut_in_box``; off by default: the kernel's test
+        #: costs about what the cascade saves, benchmarks/self_collision.md, fifteenth session)
+        self.rows_in_box = cut_in_box
         self.robot = robot
-        #: [margin, trigger, damping, UNREACHABLE, common_frame] (read by the kernel)
-        self._params = np.array([margin, trigger, damping, UNREACHABLE, common_frame], dtype=float)
+        #: [margin, trigger, damping, UNREACHABLE, common_frame, 1: the rows that cannot bind
+        #: in the box left out] (read by the kernel)
+        self._params = np.array(
+            [margin, trigger, damping, UNREACHABLE, common_frame, 0.0], dtype=float
+        )
         cm = _cached_collision_model(robot)
         #: the robot's pair choice (None: explicit ``pairs``)
         self.choice: PairChoice | None = None
@@ -546,6 +414,7 @@ class SelfCollisionConstraint(Constraint):
         self.distances = PairDistances(robot, cm, chosen)
         most = 17 * len(chosen)  # rows per pair at most: the witness and 8 + 8 corners
         self._G, self._h = np.zeros((most, robot.nv)), np.zeros(most)
+        self._empty = np.zeros(0)
         self._pair_buf, self._gap_buf = np.zeros(most, np.int64), np.zeros(most)
         #: per pair: the control ticks in a row that found it deep inside the margin
         self._inside = np.zeros(len(chosen), np.int64)
@@ -560,6 +429,11 @@ class SelfCollisionConstraint(Constraint):
         self._rows_q = np.full(robot.nq, np.nan)
         self._closest = np.full(1, np.inf)  # (the close pairs' smallest distance: the kernel)
         self._packed: tuple | None = None
+        #: the box's limits (q_min, q_max, steps: :meth:`rows_into`'s ``box``) packed, and
+        #: the kernel's box scratch (6 x nv: :func:`~wbc.limits.collision_packed.packed_rows`)
+        self._box: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._boxed = False  # (params[5] as written)
+        self._box_work = np.full((6, robot.nv), np.nan)
         #: the kernel's arguments for one Kinematics, its entry points by the buffers written
         self._call: tuple | None = None
         self._entries: dict[tuple[int, int], tuple] = {}
@@ -592,6 +466,7 @@ class SelfCollisionConstraint(Constraint):
             pd.cw, pd._placed,
             *self._out, pd._counts, self._pair_buf, self._gap_buf,
             self._params, self._closest, pd._last_axis, pd._work, pd._iwork,
+            *(self._box if self._box is not None else (self._empty,) * 3), self._box_work,
         )  # fmt: skip
         self._packed = (*pack(buffers), buffers)
         return self._packed
@@ -631,16 +506,24 @@ class SelfCollisionConstraint(Constraint):
         :meth:`rows_into` needs."""
         return int(self._h.shape[0])
 
-    def _update(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int = 0) -> int:
+    def _update(
+        self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int = 0, box: tuple | None = None
+    ) -> int:
         """The rows at ``kin`` into ``G[r0:]``, ``h[r0:]`` (one compiled call,
-        :func:`~wbc.limits.collision_packed.packed_rows`, or at the configuration of the last
-        call a copy of its rows if they went elsewhere); returns their number."""
+        :func:`~wbc.limits.collision_packed.packed_rows`, or at the configuration and in the
+        box of the last call a copy of its rows if they went elsewhere); returns their number.
+        ``box``: :meth:`rows_into`'s."""
         pd = self.distances
         if not pd.pairs:
             self._n_rows = 0
             self._closest[0] = np.inf
             self._rows = None
             return 0
+        if box is not None and box is not self._box:
+            self._set_box(box)
+        if self._boxed is not (box is not None):  # (a write only for a change)
+            self._boxed = box is not None
+            self._params[5] = 1.0 if self._boxed else 0.0
         call = self._call
         if call is None or call[0] is not kin:
             call = self._bind(kin)
@@ -664,6 +547,23 @@ class SelfCollisionConstraint(Constraint):
             )
         self._n_rows, self._last, self._rows = r, None, None
         return r
+
+    def _set_box(self, box: tuple) -> None:
+        """Pack the box's limits ``box`` (q_min, q_max, steps: 1-D float64, n_joints long,
+        the arrays the stack's limits read: their values at each call), unless they are the
+        arrays packed (each plan has its own tuple: a support switch re-packed them, and the
+        kernel's entry point was looked up again, ~1–15 ms)."""
+        kept = self._box
+        if kept is not None and all(a is b for a, b in zip(box, kept, strict=True)):
+            self._box = box  # (another plan's tuple of the same arrays: nothing to pack)
+            return
+        nj = self.robot.n_joints
+        for a in box:
+            if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == (nj,)):
+                raise ConfigurationError(f"{self.name}: a box's limits are {nj} floats each")
+        self._box = box
+        self._packed = None
+        self._call, self._entries = None, {}
 
     def _bind(self, kin: Kinematics) -> tuple:
         """The kernel's arguments for ``kin`` (kin, addresses, shapes, frame rotations and
@@ -692,19 +592,38 @@ class SelfCollisionConstraint(Constraint):
         self._entries[(id(G), id(h))] = (entry, G, h)
         return entry
 
-    def rows_into(self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int) -> int:
+    def rows_into(
+        self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int, box: tuple | None = None
+    ) -> int:
         """The rows at ``kin`` written into ``G[r0:]``, ``h[r0:]`` (C-contiguous float64
         buffers with nv columns and room for :attr:`max_rows` rows from ``r0``;
         ConfigurationError else): a compiled plan's buffers, without a copy. Returns their
         number. The rows are those of :meth:`compute`, which finds them there while the
-        caller leaves them."""
+        caller leaves them — but with ``box`` (q_min, q_max, steps: the arrays of a stack
+        whose box limits are the joint position then the joint velocity limit), only those
+        that can bind in the tick's box [lower, upper] of Δq
+        (:func:`~wbc.limits.collision_packed.joint_box`): a row G_i Δq <= h_i with
+
+            max_{lower <= Δq <= upper} G_i Δq = Σ_k max(G_ik lower_k, G_ik upper_k)
+                                              <= h_i − 1e-8 (1 + Σ_k |G_ik|)
+
+        is met by every Δq the solvers can return (within the box to their tolerance, 1e-9),
+        so it never joins a working set, blocks a step or keeps a slack
+        (:func:`~wbc.limits.collision_kernels.can_bind`): left out, the answer is the same
+        (86-92 % of the rows on the Bioloid's walks). :meth:`compute` at the same
+        configuration then makes every row again."""
         if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
             rows = self.compute(kin)
             m = rows.h.shape[0]
             G[r0 : r0 + m] = rows.G
             h[r0 : r0 + m] = rows.h
             return m
-        return self._update(kin, G, h, r0)
+        return self._update(kin, G, h, r0, box)
+
+    @property
+    def rows_left_out(self) -> int:
+        """The rows left out so far as unable to bind in their tick's box (:meth:`rows_into`)."""
+        return int(self.distances._counts[4])
 
     def forget_rows(self) -> None:
         self._rows_q[:] = np.nan  # (the kernel's "configuration of the last rows")

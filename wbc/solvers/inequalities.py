@@ -26,7 +26,8 @@ import numpy as np
 
 from ..compiled import dispatch as D
 from ..compiled.signature import sources
-from ..limits import Constraint
+from ..limits import BoxLimit, Constraint
+from ..limits.joint_limits import position_bounds, velocity_bounds
 from ..model import Kinematics
 
 
@@ -34,6 +35,23 @@ def _token(c: Constraint) -> object | None:
     """``c``'s :attr:`~wbc.limits.Constraint.layout_token` if its own class keeps it (not
     inherited: a subclass may lay out its rows otherwise), else None."""
     return c.layout_token if type(c).__dict__.get("keeps_layout_token", False) else None
+
+
+def joint_box(limits: Sequence[BoxLimit]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The arrays the box of ``limits`` is made of (q_min, q_max, steps) if they are the joint
+    position limit then the joint velocity limit, as their bound kernels say
+    (:func:`~wbc.limits.collision_packed.joint_box` makes that box the compiled tick's way);
+    else None."""
+    kinds = [type(b).bound_kernel for b in limits]
+    if kinds != [position_bounds, velocity_bounds]:
+        return None
+    arrays = (limits[0].q_min, limits[0].q_max, limits[1].steps)  # type: ignore[attr-defined]
+    for a in arrays:  # (read in place at each tick: the limits' own arrays, never copies)
+        if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.ndim == 1):
+            return None
+        if not a.flags.c_contiguous:
+            return None
+    return arrays
 
 
 def compiled_constraint(c: Constraint) -> bool:
@@ -92,10 +110,12 @@ class InequalityRows:
 
 
 def _into(c: Constraint) -> tuple | None:
-    """What writes ``c``'s rows straight into a plan's buffers (its ``rows_into`` and the
-    room it needs: ``max_rows``), or None."""
+    """What writes ``c``'s rows straight into a plan's buffers (its ``rows_into``, the room it
+    needs: ``max_rows``, and whether it takes the tick's box: ``rows_in_box``), or None."""
     into = getattr(c, "rows_into", None)
-    return None if into is None else (into, int(c.max_rows))
+    if into is None:
+        return None
+    return into, int(c.max_rows), bool(getattr(c, "rows_in_box", False))
 
 
 class ConstraintRows:
@@ -109,8 +129,14 @@ class ConstraintRows:
         kinds: dict,
         slot: dict[int, int],
         nv: int,
+        box: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     ) -> None:
         self.levels = [list(lv) for lv in levels]
+        #: the tick's box of Δq as its limits' arrays (q_min, q_max, steps: a stack whose box
+        #: limits are the joint position then the joint velocity limit), passed to the
+        #: constraints that leave out the rows that cannot bind in it (``rows_in_box``); None:
+        #: every row
+        self.box = box
         self.items = [c for lv in self.levels for c in lv]
         self.kinds, self.slot = kinds, slot
         self.rows = InequalityRows(len(self.levels), nv)
@@ -223,7 +249,10 @@ class ConstraintRows:
                 elif into is not None:  # (written in place: room for its most rows first)
                     if r + into[1] > g.h.shape[0] and g.reserve(r + into[1]):
                         rebind = True
-                    m = into[0](kin, g.G, g.h, r)
+                    if into[2]:
+                        m = into[0](kin, g.G, g.h, r, self.box)
+                    else:
+                        m = into[0](kin, g.G, g.h, r)
                 else:
                     G, h = rows(kin)
                     m = h.shape[0]

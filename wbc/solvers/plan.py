@@ -15,6 +15,7 @@ without one keeps the numpy path.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -30,7 +31,7 @@ from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
 from .buffers import Scratch, restore
 from .carry import CarriedRows
-from .inequalities import ConstraintRows, compiled_constraint
+from .inequalities import ConstraintRows, compiled_constraint, joint_box
 
 
 def numba_available() -> bool:
@@ -438,8 +439,13 @@ class _Plan:
         self.solve_args: tuple = ()
         self._solve_entry = None
         #: the constraints' rows, level by level (the kernel constraints' written by the tick)
+        box = joint_box(limits)
+        kept = getattr(solver, "_joint_box", None)  # (the solver's plans share one tuple)
+        if box is not None and kept is not None and all(map(operator.is_, box, kept)):
+            box = kept
+        solver._joint_box = box
         self.constraints = ConstraintRows(
-            constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv
+            constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv, box
         )
         self.inequalities = self.constraints.rows
         self.is_ready = False  # (:meth:`ready`'s answer once True: a tick reads it first)
@@ -575,6 +581,8 @@ class _Plan:
         rows); returns its status (0: solved, Δq finite: :attr:`solution`)."""
         if self.lent:  # (its q ⊕ Δq handed out, no fresh array bound since: its own again)
             restore(self)
+        for limit in self._timed:  # (before the rows: a box they are left out in reads them)
+            limit.prepare(dt)
         rows = self.constraints if self.constraints.items else None
         if rows is not None and rows.tick(kin, gather=False):  # (gathered with the reset)
             self._bind_args()
@@ -590,8 +598,6 @@ class _Plan:
                 carried.carry(g.G, g.h, g.g_rows[k + 1], g.working[k])
             elif carried.source is not self and self.carries_rows("carry_at_switch"):
                 carried.switch(self.warm_start, g.G, g.h, g.g_rows[k + 1], g.working[k])
-        for limit in self._timed:
-            limit.prepare(dt)
         if self.inputs:
             self._optional_inputs(kin)
         for task, view in self.error_views:
