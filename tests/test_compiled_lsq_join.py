@@ -16,7 +16,8 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 from test_compiled_lsq import N, random_level, solve
 
-from wbc.compiled.lsq import INCONSISTENT, OK, level_space, solve_level_in
+from wbc.compiled import lsq
+from wbc.compiled.lsq import INCONSISTENT, OK, PDAS_TIES, level_space, solve_level_in
 
 _KINDS = ["random", "dependent", "inconsistent", "held", "held_rounded", "sparse", "lifted"]
 
@@ -182,3 +183,53 @@ def test_a_walks_row_on_a_held_joint_is_one_update():
     assert count_c == 1
     np.testing.assert_array_equal(state_c, state_f)
     np.testing.assert_allclose(x_c, x_f, rtol=0, atol=1e-10)
+
+
+def test_a_touch_downs_row_releases_the_bounds_it_pushes_inwards(monkeypatch):
+    """walk_strict's walk10 touch-down at tick 144 (solve 150 of a benchmarks/cascade_replay.py
+    capture), its last level: a self-collision row joining on joints the warm set holds
+    (``lsq_update._ROW_DEPENDS``). With ``lsq.INWARD_RELEASE`` (an option, off: the solver
+    run here as Python with it set, its kernels compiled) only the bounds the row's miss
+    pushes inwards are released and the call takes one subproblem, an update (the stack's
+    PDAS budget, ``lsq.PDAS_TIES``); releasing every bound in the row (off, as the compiled
+    solver does), PDAS fixes most of them again in 4. Both answer as the fresh solve from the
+    same warm set."""
+    d = np.load(Path(__file__).parent / "data" / "walk10_touch_down_row_on_held_joints.npz")
+    keys = ("A", "a", "B", "r", "lower", "upper")
+    A, a, B, r, lower, upper = (np.ascontiguousarray(d[k]) for k in keys)
+    ridge = float(d["ridge"])
+    n = A.shape[1]
+    cold = np.zeros(n, np.int8)  # (the cold start: the same minimiser)
+    status_f, x_f, _, _ = solve(A, a, B, r, ridge, lower, upper, state=cold, max_iter=100)
+
+    def joined(inward: bool, compiled: bool):
+        monkeypatch.setattr(lsq, "INWARD_RELEASE", inward)
+        level = lsq.solve_level_in if compiled else _as_python
+        space = level_space(A.shape[0], n, B.shape[0])
+        state, x = d["state"].copy(), np.zeros(n)
+        status, _ = level(A[:-1].copy(), a[:-1].copy(), B, r, ridge, lower, upper, state, x,
+                          1e-9, 100, space, np.bool_(False), PDAS_TIES)  # fmt: skip
+        assert status == OK and np.any(state != 0)
+        assert A[-1] @ x > a[-1]  # (the row joins violated)
+        warm = state.copy()
+        status, count = level(A, a, B, r, ridge, lower, upper, state, x, 1e-9, 100, space,
+                              np.bool_(True), PDAS_TIES)  # fmt: skip
+        status_w, x_w, state_w, _ = solve(A, a, B, r, ridge, lower, upper, state=warm,
+                                          max_iter=100)  # fmt: skip
+        assert status == status_w == status_f == OK
+        np.testing.assert_array_equal(state, state_w)
+        np.testing.assert_allclose(x, x_w, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(x, x_f, rtol=0, atol=1e-10)
+        return count
+
+    assert joined(True, False) == 1
+    assert joined(False, False) == joined(False, True) == 4
+
+
+def _as_python(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, ties):
+    """:func:`~wbc.compiled.lsq.solve_level_in` with its solver run as Python (the module's
+    switches read at the call; the kernels it calls compiled)."""
+    return lsq._solve.py_func(
+        A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
+        np.bool_(cont), np.bool_(True), int(ties),
+    )  # fmt: skip

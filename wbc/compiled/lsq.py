@@ -77,7 +77,8 @@ equalities on its null-space coordinates, updated as added bounds are
 (:mod:`wbc.compiled.lsq_update`, ``JOINS``), and a joined row that depends on the warm set
 (on variables it holds: an inconsistent warm start) releases those bounds at once (the
 rows joined since the last call's: the rows before met its set), as a fresh solve does
-after finding the set inconsistent, and is then an update on the released variables
+after finding the set inconsistent (:data:`INWARD_RELEASE`: an option, off, to release
+first only those its miss pushes inwards), and is then an update on the released variables
 (``lsq_update.WFIRST``); where the update declines, the subproblem is solved afresh as
 before.
 
@@ -149,6 +150,16 @@ UPDATES = True
 #: sixteenth pass)
 PDAS_TIES = 2
 PDAS_RISE = 1
+#: True (edit it; the kernels then compile again): a joined row that depends on the warm set
+#: (``lsq_update._ROW_DEPENDS``) releases first only the bounds its miss at the last call's x
+#: pushes inwards (x_j held at its upper bound where the row falls with x_j, or at its lower
+#: where it rises), the others kept; if none is, or the row still depends, every bound in it.
+#: On walk_strict's walk10 touch-downs a row then took 1 update where PDAS fixed most of the
+#: released bounds again in 4 (the answers bit for bit the same: the updates are of the same
+#: base; the first ticks of a phase -12 % replayed), but on random levels whose row needs all
+#: its held variables to move it took 5 subproblems where releasing them all takes <= 3
+#: (benchmarks/self_collision.md, 2026-12-07): off, every bound in the row at once
+INWARD_RELEASE = False
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
 #: (its condition number beyond about its square)
 _COND_MAX_SQRT = 1e2
@@ -293,7 +304,9 @@ def _solve(
     tied = 0  # PDAS steps that did not lower the count (at most ``ties``)
     # x, μ and their tolerances of the set with the fewest (the set PDAS falls back to)
     kept = False
-    released = False  # (the bounds of an inconsistent warm start's dependent rows released)
+    # the bounds of an inconsistent warm start's dependent rows released: 0 not yet, 1 those
+    # a joined row's miss pushes inwards (INWARD_RELEASE), 2 every one in the rows
+    released = 0
     rank = 0
     # the rank of A_F for the set now in ind (-1: not known), the set PDAS falls back to's, and
     # that of the free set with i_add, known when i_add joined the set of the last subproblem
@@ -339,7 +352,7 @@ def _solve(
             # (a joined row that depends on the warm set releases its bounds first, below: from
             # there fewer subproblems than met on the base's released variables at once — the
             # replayed walk_strict turn's first double-support ticks 31 against 42 µs at most)
-            first_try = count == 0 and warm and not released and ridge > 0.0
+            first_try = count == 0 and warm and released == 0 and ridge > 0.0
             code = _updated(
                 A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, base_k,
                 base_first, base_m, np.bool_(not first_try),
@@ -362,15 +375,32 @@ def _solve(
             rank = base_k + m - base_m  # (no bound added or row joined depends on the others)
             rank_now = rank
             rank_with = rank
-        elif code == _ROW_DEPENDS and count == 0 and warm and not released and ridge > 0.0:
+        elif code == _ROW_DEPENDS and count == 0 and warm and released < 2 and ridge > 0.0:
             # a row joined since the last call depends on the warm set (its variables held at
             # their bounds): the warm start is inconsistent, and its bounds in the joined rows
             # are released as a fresh solve would after finding it so (below); then on
-            released = True
+            # (INWARD_RELEASE: first only the bounds the row's miss at x pushes inwards; if
+            # the row still depends on the set, every bound in it, as before)
+            inward = INWARD_RELEASE and released == 0
+            released = 1 if inward else 2
+            freed = 0
             for row in range(joined, m):  # (the last call's set met the rows before)
+                miss = -a[row]
+                if inward:
+                    for j in range(n):
+                        miss += A[row, j] * x[j]
                 for j in range(n):
-                    if ind[_I_FIXED, j] != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
-                        ind[_I_FIXED, j] = 0
+                    side_j = ind[_I_FIXED, j]
+                    if side_j != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
+                        if not inward or side_j * miss * A[row, j] > 0.0:
+                            ind[_I_FIXED, j] = 0
+                            freed += 1
+            if inward and freed == 0:  # (none pushed inwards: every bound in the rows)
+                released = 2
+                for row in range(joined, m):
+                    for j in range(n):
+                        if ind[_I_FIXED, j] != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
+                            ind[_I_FIXED, j] = 0
             continue
         else:
             count += 1
@@ -403,11 +433,11 @@ def _solve(
         if phase == _PDAS:
             if sub == _SUB_INCONSISTENT:
                 if warm and best > n:  # the warm start is inconsistent
-                    if not released and ridge > 0.0:
+                    if released < 2 and ridge > 0.0:
                         # release the bounds in the rows found dependent (an equality row that
                         # joined since, on the variables the warm set holds), then on; a
                         # strictly convex level's answer is the same whatever the start
-                        released = True
+                        released = 2
                         freed = 0
                         for t in range(rank, m):
                             row = ind[_I_PERM, t]
