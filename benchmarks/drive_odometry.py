@@ -432,6 +432,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="as benchmarks/drive.py --heading-gain")  # fmt: skip
     ap.add_argument("--lift-gain", type=float, default=None, metavar="G",
                     help="the walker's lift gain (default: the Walker's)")  # fmt: skip
+    ap.add_argument("--stride-gain", type=float, default=None, metavar="G",
+                    help="as benchmarks/drive.py --stride-gain (1: none)")  # fmt: skip
     ap.add_argument(
         "--swing-settle",
         type=float,
@@ -562,6 +564,7 @@ def main(argv: list[str] | None = None) -> int:
                               window=window, track=args.track,
                               calibrate=args.calibrate, yaw_rest=args.yaw_rest,
                               finish=args.finish, lift_gain=args.lift_gain, play=args.play,
+                              stride_gain=args.stride_gain,
                               play_hold=args.play_hold, heading_gain=args.heading_gain,
                               params=None if args.swing_settle is None
                               else EngineParams(settle=args.swing_settle),
