@@ -64,9 +64,10 @@ def pose_recording(tmp_path_factory):
 class PacedClock:
     """A deployment's clock (``ServoBus.clock``) on which no tick is late: ``now`` advances by
     the sleeps only, and a sleep waits until the wall clock reaches the new time plus the
-    lateness absorbed so far. A stall of the test machine delays the rest of the run instead of
-    skipping ticks, and never causes a burst: ticks stay at least a period apart on the wall
-    clock, so the goals' speed law holds on the servos' own receive times."""
+    lateness absorbed so far — or, when it is already past that, the whole interval asked
+    for. A stall of the test machine delays the rest of the run instead of skipping ticks, and
+    never causes a burst: ticks stay at least a period apart on the wall clock, so the goals'
+    speed law holds on the servos' own receive times."""
 
     def __init__(self) -> None:
         self.t = time.perf_counter()
@@ -76,12 +77,17 @@ class PacedClock:
         return self.t
 
     def sleep(self, seconds: float) -> None:
-        self.t += max(seconds, 0.0)
-        late = time.perf_counter() - (self.t + self.behind)
-        if late < 0:
-            time.sleep(-late)
-        else:
-            self.behind += late
+        seconds = max(seconds, 0.0)
+        self.t += seconds
+        wall = time.perf_counter()
+        target = self.t + self.behind
+        if wall >= target:
+            # late (a stall, or the set-up before a run's first ticks, which no sleep paced):
+            # the whole interval from now, not at once — returning at once would put this
+            # tick right after the last one (the burst of a run's first two ticks)
+            target = wall + seconds
+            self.behind = target - self.t
+        time.sleep(target - wall)
 
 
 @pytest.fixture()
