@@ -417,15 +417,17 @@ class StepAdjuster:
         """``targets`` with the CoM target moved against the DCM error (``back_dcm``:
         :func:`~.swing_catch.dcm_shifted`) while the catch of a push backward is on."""
         t, ref, i, p = self.trigger, self.current, targets.i, self.params
-        if p.back_dcm_walk and ref is not None and i < ref.n:  # (the whole walk, along it)
-            e = np.asarray(est.dcm[:2], dtype=float) - self._dcm_ref(ref, i)
-            c, s = self._heading(ref, i)
-            x = min(c * e[0] + s * e[1], 0.0)  # (only a DCM behind its reference)
-            return walk_shifted(targets, x, (c, s), p.back_dcm, p.back_dcm_max)
-        if t.tick is None or t.forward or ref is None or self.episode is None or i >= ref.n:
+        if ref is None or i >= ref.n:
+            return targets
+        walk = p.back_dcm_walk  # (the whole walk, along it; else the catch of a push backward)
+        if not walk and (t.tick is None or t.forward or self.episode is None):
             return targets
         err = np.asarray(est.dcm[:2], dtype=float) - self._dcm_ref(ref, i)
-        return dcm_shifted(targets, err, self.params, t, self._catch_end(), ref.dt)
+        if walk:
+            c, s = self._heading(ref, i)
+            x = min(c * err[0] + s * err[1], 0.0)  # (only a DCM behind its reference)
+            return walk_shifted(targets, x, (c, s), p.back_dcm, p.back_dcm_max)
+        return dcm_shifted(targets, err, p, t, self._catch_end(), ref.dt)
 
     def stance_rise(self, targets: Any, q: np.ndarray) -> float:
         """How far (m, ≥ 0) the stance sole's lowest corner lies below the floor where the

@@ -41,7 +41,7 @@ estimate anchors its centre on the floor and reads the base low by the heel's dr
 measured-frame landing put the next sole 13–22 mm high; the correction takes the base that much
 higher. In those swings (after a push backward) the footstep may move ``back_shift`` (0.10 m, not
 ``max_shift``'s 0.08) and the bend run at ``back_foot_speed`` (0.8 m/s, the servos' no-load speed at
-the lever): :meth:`~.stepping. StepAdjuster.reach` (backward 0.711 → 0.727 N·s; after any push,
+the lever): :meth:`~.stepping.StepAdjuster.reach` (backward 0.711 → 0.727 N·s; after any push,
 forward 0.852 → 0.688: not done there).
 **The double support after a caught landing** (``descend``, ``descend_hold``; off: measured worse,
 benchmarks/pushes.md): the landed sole is a support in the plan from its first tick while a body
@@ -63,6 +63,7 @@ import pinocchio as pin
 
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT
 from ..roles import SOLE_FRAMES
+from ..walking.footsteps import other_side
 from ..walking.reference import WalkingReference
 from ..walking.schedule import Phase
 from ..walking.spline import smooth
@@ -429,7 +430,7 @@ class LandedRebase:
         if prev.kind != "single" or not carried(prev):
             return
         landed = side(int(prev.step))
-        other = "right" if landed == "left" else "left"
+        other = other_side(landed)
         a, b = where(SOLE_FRAMES[landed]), where(SOLE_FRAMES[other])
         if a is None or b is None:
             return
@@ -484,9 +485,7 @@ def dcm_shifted(
     n, most = math.hypot(float(shift[0]), float(shift[1])), w * p.back_dcm_max
     if n > most:
         shift *= most / n
-    com = np.array(targets.com, dtype=float)
-    com[:2] += shift
-    return targets.replace(com=com)
+    return _com_moved(targets, shift)
 
 
 def walk_shifted(
@@ -495,7 +494,11 @@ def walk_shifted(
     """``targets`` with the CoM target moved by ``−gain · err`` (``err`` the DCM error along the
     walk's heading ``(cos, sin)``, m), at most ``most`` m along it (``back_dcm_walk``)."""
     d = min(max(-gain * err, -most), most)
+    return _com_moved(targets, d * np.asarray(heading, dtype=float))
+
+
+def _com_moved(targets: Any, shift: np.ndarray) -> Any:
+    """``targets`` with the CoM target moved horizontally by ``shift`` (m)."""
     com = np.array(targets.com, dtype=float)
-    com[0] += d * heading[0]
-    com[1] += d * heading[1]
+    com[:2] += shift
     return targets.replace(com=com)

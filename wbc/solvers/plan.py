@@ -15,7 +15,6 @@ without one keeps the numpy path.
 
 from __future__ import annotations
 
-import operator
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -439,13 +438,8 @@ class _Plan:
         self.solve_args: tuple = ()
         self._solve_entry = None
         #: the constraints' rows, level by level (the kernel constraints' written by the tick)
-        box = joint_box(limits)
-        kept = getattr(solver, "_joint_box", None)  # (the solver's plans share one tuple)
-        if box is not None and kept is not None and all(map(operator.is_, box, kept)):
-            box = kept
-        solver._joint_box = box
         self.constraints = ConstraintRows(
-            constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv, box
+            constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv, joint_box(limits)
         )
         self.inequalities = self.constraints.rows
         self.is_ready = False  # (:meth:`ready`'s answer once True: a tick reads it first)
