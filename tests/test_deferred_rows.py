@@ -1,8 +1,11 @@
-"""The hierarchy's compiled cascade with ``defer_rows_join`` (off by default): the levels above
+"""The hierarchy's compiled cascade with ``defer_rows_join`` (on by default): the levels above
 the last stay deferred on ticks with inequality rows active, the rows joining the last level's
-solve — the same answers to rounding, by another path."""
+solve — the same answers to rounding, by another path; where its answer is degenerate, the
+levels one by one from the sets they would have started from."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +14,11 @@ pytest.importorskip("numba")
 
 from test_carried_rows import _watched_walk
 
+from wbc.compiled import ticks
+from wbc.compiled.space import cascade_space_size
 from wbc.stacks import build_stack, load_stack
+
+DATA = Path(__file__).parent / "data"
 
 
 def _joined_walk(robot, on: bool, ticks: int):
@@ -26,8 +33,8 @@ def test_rows_join_the_deferred_solve_to_rounding(robot):
     one without to 1e-12 (a strictly convex last level over the same set where the levels
     above are met exactly), and from the first tick that took the other path (84, rows
     active) the walk differs in its last bits: the option does something."""
-    assert not load_stack("walk_strict", robot).solver.defer_rows_join  # (the default)
-    assert build_stack({"solver": "hierarchical", "defer_rows_join": True, "levels": [
+    assert load_stack("walk_strict", robot).solver.defer_rows_join  # (the default)
+    assert not build_stack({"solver": "hierarchical", "defer_rows_join": False, "levels": [
         {"tasks": [{"type": "com"}]}]}, robot).solver.defer_rows_join  # fmt: skip
     on = _joined_walk(robot, True, 160)
     off = _joined_walk(robot, False, 160)
@@ -35,3 +42,38 @@ def test_rows_join_the_deferred_solve_to_rounding(robot):
     assert diffs.max() <= 1e-12, diffs.max()
     moved = np.flatnonzero(diffs > 0)
     assert moved.size >= 3, moved  # (ticks whose path changed)
+
+
+def _solve(tick, join: bool, space: bool) -> tuple[int, np.ndarray, np.ndarray]:
+    """The captured tick's cascade_solve, the rows joining the deferred solve or not, in a work
+    space of its size or none (allocated in the call): (status, Δq, its levels' final sets)."""
+    params = tick["params"].copy()
+    params[0] = 2.0 if join else 1.0
+    f, i = cascade_space_size(tick["level_rows"], tick["dq"].shape[0], int(tick["g_rows"][-1]))
+    fw, iw = (np.full(f, np.nan), np.full(i, -(1 << 40))) if space else (np.zeros(0),) * 2
+    states, dq = tick["states"].copy(), np.zeros_like(tick["dq"])
+    status = ticks.cascade_solve(
+        tick["J"], tick["b"], tick["level_rows"], tick["level_hard"], tick["G"], tick["h"],
+        tick["g_rows"], tick["q"], tick["q_min"], tick["q_max"], params, tick["lower"],
+        tick["upper"], states, tick["working"].copy(), np.zeros_like(tick["h_eff"]),
+        np.zeros_like(tick["achieved"]), dq, np.zeros_like(tick["q_next"]), fw,
+        iw.astype(np.int64),
+    )  # fmt: skip
+    return int(status), dq, states
+
+
+def test_a_degenerate_answer_falls_back_to_the_levels_one_by_one():
+    """The OP3's walk_strict walk10, tick 308 (captured with the levels one by one): four
+    self-collision rows within 1e-9 of their bounds at the answer, two held. With the rows
+    joining the deferred solve its answer held two others, 1.5e-8 from the levels one by one
+    (the OP3's closed loop then departed 0.03 rad); seeing a hard row outside its working set
+    at its bound, the cascade solves the levels one by one from the sets they start from
+    without it: the same Δq and sets bit for bit, with the space or without."""
+    tick = dict(np.load(DATA / "op3_walk_strict_degenerate_rows_tick.npz"))
+    for space in (True, False):
+        s1, dq1, st1 = _solve(tick, False, space)
+        s2, dq2, st2 = _solve(tick, True, space)
+        assert s1 == s2 == 0
+        assert np.abs(dq1 - tick["dq_out"]).max() <= 1e-15
+        np.testing.assert_array_equal(dq2, dq1)
+        np.testing.assert_array_equal(st2, st1)

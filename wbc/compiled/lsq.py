@@ -382,25 +382,23 @@ def _solve(
             # (INWARD_RELEASE: first only the bounds the row's miss at x pushes inwards; if
             # the row still depends on the set, every bound in it, as before)
             inward = INWARD_RELEASE and released == 0
+            for _ in range(2):  # (a second sweep, every bound, if none was pushed inwards)
+                freed = 0
+                for row in range(joined, m):  # (the last call's set met the rows before)
+                    miss = -a[row]
+                    if inward:
+                        for j in range(n):
+                            miss += A[row, j] * x[j]
+                    for j in range(n):
+                        side_j = ind[_I_FIXED, j]
+                        if side_j != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
+                            if not inward or side_j * miss * A[row, j] > 0.0:
+                                ind[_I_FIXED, j] = 0
+                                freed += 1
+                if freed > 0 or not inward:
+                    break
+                inward = False
             released = 1 if inward else 2
-            freed = 0
-            for row in range(joined, m):  # (the last call's set met the rows before)
-                miss = -a[row]
-                if inward:
-                    for j in range(n):
-                        miss += A[row, j] * x[j]
-                for j in range(n):
-                    side_j = ind[_I_FIXED, j]
-                    if side_j != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
-                        if not inward or side_j * miss * A[row, j] > 0.0:
-                            ind[_I_FIXED, j] = 0
-                            freed += 1
-            if inward and freed == 0:  # (none pushed inwards: every bound in the rows)
-                released = 2
-                for row in range(joined, m):
-                    for j in range(n):
-                        if ind[_I_FIXED, j] != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
-                            ind[_I_FIXED, j] = 0
             continue
         else:
             count += 1

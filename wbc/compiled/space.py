@@ -125,11 +125,19 @@ def multiplier_work(fw, iw, m, n) -> tuple:
 
 
 @njit(cache=True)
+def keep_size(levels: int, n: int, p: int) -> int:
+    """The integers of the sets :func:`wbc.compiled.ticks.cascade_solve` keeps for its fallback
+    (a flag, up to levels + 2 bounds' sets of n, the levels' working sets of p rows)."""
+    return 1 + (levels + 2) * n + levels * p
+
+
+@njit(cache=True)
 def cascade_space_size(level_rows, n: int, p: int) -> tuple:
     """The floats and integers of the space of :func:`wbc.compiled.ticks.cascade_solve` for
     levels ``level_rows`` (boundaries), n variables and p inequality rows: the level solver's
     space, the levels' vectors, then the inequality rows' arrays with room for the
-    multipliers of :data:`SPACE_ROWS` hard rows joining the last level."""
+    multipliers of :data:`SPACE_ROWS` hard rows joining the last level, and at the end the
+    sets kept for the fallback (:func:`keep_size`)."""
     levels = level_rows.shape[0] - 1
     above = level_rows[max(levels - 1, 0)]
     widest = 0
@@ -138,7 +146,7 @@ def cascade_space_size(level_rows, n: int, p: int) -> tuple:
     f0, i0 = level_space_size(above + SPACE_ROWS, n, widest + SPACE_ROWS)
     f1, i1 = inequality_size(above, widest, p, n)
     f2, i2 = multiplier_size(above + min(p, SPACE_ROWS), n)
-    return f0 + LEVEL_FLOATS * n + f1 + f2, i0 + LEVEL_INTS * n + i1 + i2
+    return f0 + LEVEL_FLOATS * n + f1 + f2, i0 + LEVEL_INTS * n + i1 + i2 + keep_size(levels, n, p)
 
 
 # numba caches these on this file alone: flush them when the layout constants change
@@ -151,6 +159,7 @@ refresh(
         inequality_work,
         multiplier_size,
         multiplier_work,
+        keep_size,
         cascade_space_size,
     ],
     [_HERE / "lsq_linalg.py", _HERE / "lsq_update.py"],

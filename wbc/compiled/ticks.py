@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from ._cache import refresh
+from .integrate import LIMIT_ROUNDING, integrate  # noqa: F401 (the tick's, here as before)
 from .lsq import (
     MAX_ITER,
     NUMERICAL,
@@ -43,6 +44,7 @@ from .space import (
     cascade_space_size,
     inequality_size,
     inequality_work,
+    keep_size,
     level_space_at,
     level_space_size,
     multiplier_size,
@@ -67,9 +69,10 @@ EXACT_MAX_ITER = 6
 LEVEL_MAX_ITER = 100
 #: a row that leaves the working set more often than this: the active set is cycling
 MAX_DROPS = 2
-#: a joint within this (rad) outside a limit after a step back towards it is put at the
-#: limit by :func:`integrate` (the step's rounding, not a position)
-LIMIT_ROUNDING = 1e-12
+#: with the rows joining the deferred solve (``params[0]`` = 2), its answer is degenerate when a
+#: hard row outside its working set is within this × (1 + |h_i|) of its bound: then the levels
+#: are solved one by one, as without the rows joining (:func:`_degenerate`)
+DEGENERATE_ROW = 1e-8
 #: the damped last level takes its rows most violated first (``_cascade``'s ``direct``) only
 #: while the level above holds fewer of its hard rows than this at their bounds
 DIRECT_HELD_ROWS = 2
@@ -429,15 +432,69 @@ def solve_with_inequalities(
 
 
 @njit(cache=True)
+def _degenerate(G, h, hard, working, x) -> bool:
+    """Whether a hard row G_i x <= h_i (i < ``hard``) outside the working set is within
+    :data:`DEGENERATE_ROW` of its bound at x: then x is at a vertex of more rows than it
+    holds, and which of them a path holds (each answer within the rows' tolerance of them)
+    moves Δq by up to ~1e-8 (the OP3's walk_strict walk10, ticks 308–311)."""
+    for i in range(hard):
+        if not working[i] and _row(G, h, i, x) > -DEGENERATE_ROW * (1.0 + abs(h[i])):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _keep(states, working, g, saved) -> None:
+    """``states`` and ``working``'s first g columns into saved[1:] (:func:`keep_size`)."""
+    o = 1
+    for k in range(states.shape[0]):
+        for j in range(states.shape[1]):
+            saved[o] = states[k, j]
+            o += 1
+    for k in range(working.shape[0]):
+        for i in range(g):
+            saved[o] = working[k, i]
+            o += 1
+
+
+@njit(cache=True)
+def _keep_level(states, saved, k, n_levels) -> None:
+    """Level k's bounds' set and the last level's without its rows (row ``n_levels``, if
+    ``states`` has it) into their places in saved (:func:`_keep`)."""
+    nv = states.shape[1]
+    for j in range(nv):
+        saved[1 + k * nv + j] = states[k, j]
+        if states.shape[0] > n_levels:
+            saved[1 + n_levels * nv + j] = states[n_levels, j]
+
+
+@njit(cache=True)
+def _restore(states, working, g, saved) -> None:
+    """:func:`_keep` undone."""
+    o = 1
+    for k in range(states.shape[0]):
+        for j in range(states.shape[1]):
+            states[k, j] = saved[o]
+            o += 1
+    for k in range(working.shape[0]):
+        for i in range(g):
+            working[k, i] = saved[o] != 0
+            o += 1
+
+
+@njit(cache=True)
 def _cascade(
     J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working, h_eff,
-    achieved, dq, defer_soft, fw, iw,
+    achieved, dq, defer_soft, fw, iw, saved,
 ) -> int:  # fmt: skip
     """The levels of :func:`cascade_solve` in order, with the bounds set. ``defer_soft``: an
     intermediate soft level (at the top, every level above it deferred too) is deferred as a
     hard one, on the guess that it can be met exactly; returns :data:`DEFERRAL_FAILED` if
-    the guess is wrong (the next level's solve fails, or misses its rows). fw, iw: the work
-    space (:func:`~wbc.compiled.space.cascade_space_size` of the tick, at least)."""
+    the guess is wrong (the next level's solve fails, or misses its rows; with the rows
+    joining it, also where its answer is degenerate: :func:`_degenerate`). fw, iw: the work
+    space (:func:`~wbc.compiled.space.cascade_space_size` of the tick, at least); ``saved``:
+    the sets the fallback starts from (:func:`_keep`), written where the cascade without the
+    rows joining would have failed."""
     mu = params[1]
     hard_tol = params[2]
     tol = params[3]
@@ -537,14 +594,14 @@ def _cascade(
                     free_x[:] = dq
                     free_state[:] = states[k]
                     solved = True
-            if (
-                deferred > 0
-                and g1 > 0
-                and not joining
-                and (warm or (status == OK and _violated(G, h_eff, g1, dq, tol)))
-            ):
-                return DEFERRAL_FAILED
-            if status == OK and (warm or _violated(G, h_eff, g1, dq, tol)):
+            violated = warm or (status == OK and _violated(G, h_eff, g1, dq, tol))
+            if deferred > 0 and g1 > 0 and violated:
+                if not joining:
+                    return DEFERRAL_FAILED
+                if saved[0] == 0:  # (without the rows joining, the deferral failed here:
+                    saved[0] = 1  # the fallback starts from the sets it then had)
+                    _keep_level(states, saved, k, n_levels)
+            if status == OK and violated:
                 soft_from = g1 if level_hard[k] else g0
                 if not warm and k > 0 and not direct:
                     for i in range(above):
@@ -577,6 +634,9 @@ def _cascade(
                 return DEFERRAL_FAILED
             if abs(s - b[i]) > hard_tol:
                 return DEFERRAL_FAILED if g1 > 0 else HARD_MISSED
+        if joining and deferred > 0 and g1 > 0 and _any(working[k], g1):
+            if _degenerate(G, h_eff, g1 if level_hard[k] else g0, working[k], dq):
+                return DEFERRAL_FAILED
         deferred = 0
         soft = False
         for i in range(r0, r1):
@@ -654,18 +714,27 @@ def cascade_solve(
     n_levels = level_rows.shape[0] - 1
     memo = states.shape[0] > n_levels + 1
     rows_before = memo and states[states.shape[0] - 1, 0] != 0 and g_rows[n_levels] > 0
-    rows_before = rows_before and params[0] <= 1.0  # (2: the rows join the deferred solve)
+    joining = params[0] > 1.0 and g_rows[n_levels] > 0  # (2: the rows join the deferred solve)
     f, i_ = cascade_space_size(level_rows, dq.shape[0], g_rows[n_levels])
     if fspace.shape[0] < f or ispace.shape[0] < i_:
         fspace, ispace = np.empty(f), np.empty(i_, np.int64)
+    # (the sets the levels one by one start from if the deferral with the rows fails: those
+    # the cascade without the rows joining would have started them from, at the space's end)
+    saved = ispace[i_ - keep_size(n_levels, dq.shape[0], g_rows[n_levels]) : i_]
+    if joining:
+        _keep(states, working, g_rows[n_levels], saved)
+        saved[0] = 2 if rows_before else 0  # (2: it would not have tried the deferral)
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
-        h_eff, achieved, dq, np.bool_(not (rows_before and params[0] > 0.0)), fspace, ispace,
+        h_eff, achieved, dq, np.bool_(joining or not (rows_before and params[0] > 0.0)), fspace,
+        ispace, saved,
     )  # fmt: skip
     if status == DEFERRAL_FAILED:  # a soft level above cannot be met exactly: solve it
+        if joining and saved[0] != 0:
+            _restore(states, working, g_rows[n_levels], saved)
         status = _cascade(
             J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
-            h_eff, achieved, dq, np.bool_(False), fspace, ispace,
+            h_eff, achieved, dq, np.bool_(False), fspace, ispace, saved,
         )  # fmt: skip
     if memo:
         active = False
@@ -678,82 +747,6 @@ def cascade_solve(
         return NOT_FINITE
     integrate(q, dq, lower, upper, q_min, q_max, q_next)
     return OK
-
-
-@njit(cache=True)
-def integrate(
-    q: np.ndarray,
-    dq: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    q_min: np.ndarray,
-    q_max: np.ndarray,
-    out: np.ndarray,
-) -> None:
-    """out = q ⊕ Δq for a free-flyer root and revolute joints, as
-    :meth:`wbc.solvers.base.StackSolver.integrate`: the joint increments clipped to the box
-    [lower, upper], the joints to [min(q_min, q_j), max(q_max, q_j)], the base moved by the
-    SE(3) exponential of its local twist Δq[:6] (Pinocchio's free-flyer integration)."""
-    vx, vy, vz = dq[0], dq[1], dq[2]
-    wx, wy, wz = dq[3], dq[4], dq[5]
-    t2 = wx * wx + wy * wy + wz * wz
-    t = math.sqrt(t2)
-    # V(ω) v = v + a (ω × v) + b (ω × (ω × v)), a = (1 − cos t)/t², b = (t − sin t)/t³
-    if t < 1e-4:
-        a = 0.5 - t2 / 24.0
-        b = 1.0 / 6.0 - t2 / 120.0
-        half = 0.5 - t2 / 48.0  # sin(t/2)/t
-        cw = 1.0 - t2 / 8.0  # cos(t/2)
-    else:
-        a = (1.0 - math.cos(t)) / t2
-        b = (t - math.sin(t)) / (t2 * t)
-        half = math.sin(0.5 * t) / t
-        cw = math.cos(0.5 * t)
-    cx = wy * vz - wz * vy
-    cy = wz * vx - wx * vz
-    cz = wx * vy - wy * vx
-    ux = vx + a * cx + b * (wy * cz - wz * cy)
-    uy = vy + a * cy + b * (wz * cx - wx * cz)
-    uz = vz + a * cz + b * (wx * cy - wy * cx)
-    # base rotation from its quaternion (x, y, z, w)
-    qx, qy, qz, qw = q[3], q[4], q[5], q[6]
-    r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
-    r01 = 2.0 * (qx * qy - qz * qw)
-    r02 = 2.0 * (qx * qz + qy * qw)
-    r10 = 2.0 * (qx * qy + qz * qw)
-    r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
-    r12 = 2.0 * (qy * qz - qx * qw)
-    r20 = 2.0 * (qx * qz - qy * qw)
-    r21 = 2.0 * (qy * qz + qx * qw)
-    r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
-    out[0] = q[0] + r00 * ux + r01 * uy + r02 * uz
-    out[1] = q[1] + r10 * ux + r11 * uy + r12 * uz
-    out[2] = q[2] + r20 * ux + r21 * uy + r22 * uz
-    # q ⊗ exp(ω/2), normalised
-    ex, ey, ez, ew = half * wx, half * wy, half * wz, cw
-    nx = qw * ex + qx * ew + qy * ez - qz * ey
-    ny = qw * ey - qx * ez + qy * ew + qz * ex
-    nz = qw * ez + qx * ey - qy * ex + qz * ew
-    nw = qw * ew - qx * ex - qy * ey - qz * ez
-    norm = math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
-    out[3] = nx / norm
-    out[4] = ny / norm
-    out[5] = nz / norm
-    out[6] = nw / norm
-    nb = dq.shape[0] - q_min.shape[0]
-    for j in range(q_min.shape[0]):
-        d = min(max(dq[nb + j], lower[nb + j]), upper[nb + j])
-        qj = q[7 + j]
-        v = min(max(qj + d, min(q_min[j], qj)), max(q_max[j], qj))
-        # a joint coming back from outside that lands a rounding error short of its limit
-        # (q + (q_min − q) != q_min in floating point) is at it: 4e-16 rad outside made the
-        # next tick a start outside the limits, another problem (issue 28: the two paths'
-        # Δq, 1e-15 apart, then differed by 1e-3)
-        if v < q_min[j] and q_min[j] - v <= LIMIT_ROUNDING:
-            v = q_min[j]
-        elif v > q_max[j] and v - q_max[j] <= LIMIT_ROUNDING:
-            v = q_max[j]
-        out[7 + j] = v
 
 
 # numba caches these on ticks.py alone: flush them when the kernels they call change
@@ -770,12 +763,17 @@ refresh(
         _level,
         _hard_multipliers,
         solve_with_inequalities,
+        _degenerate,
+        _keep,
+        _keep_level,
+        _restore,
         _cascade,
         cascade_solve,
-        integrate,
     ],
     [
         Path(__file__).with_name(f)
-        for f in "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py".split()
+        for f in (
+            "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py integrate.py"
+        ).split()
     ],
 )

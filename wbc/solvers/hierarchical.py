@@ -68,7 +68,7 @@ class HierarchicalQP(StackSolver):
         carry_rows: bool = False,
         pdas_ties: bool = False,
         carry_at_switch: bool = False,
-        defer_rows_join: bool = False,
+        defer_rows_join: bool = True,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -102,10 +102,14 @@ class HierarchicalQP(StackSolver):
         #: too: the levels above the last stay its equalities while the rows join its solve
         #: (the hierarchy's optimum where the levels above are met exactly with the rows, up
         #: to rounding; checked after the solve, else the levels are solved one by one),
-        #: and it is tried after a tick that ended with a row active (off: replayed on
-        #: walk_strict walk10 the cascade's p99 -32 %, Δq 2e-15 apart; measured on one
-        #: machine only: benchmarks/self_collision.md, 2026-12-06 fourteenth session). Read
-        #: when a plan sets its parameters (its first tick)
+        #: and it is tried after a tick that ended with a row active; where its answer is
+        #: degenerate (a hard row outside its working set at its bound,
+        #: :func:`wbc.compiled.ticks._degenerate`) the levels are solved one by one from the
+        #: sets the cascade without it would have had. On by default (the stacks'
+        #: ``defer_rows_join = false`` turns it off): replayed, Δq within 2.5e-15 of the
+        #: levels one by one on every tick of the walks' captures, the row ticks' p99 -20 to
+        #: -40 % (benchmarks/self_collision.md, 2026-12-07 sixteenth session). Read when a
+        #: plan sets its parameters (its first tick)
         self.defer_rows_join = bool(defer_rows_join)
         self._backends: list[QPBackend] = []
         self._key = None
