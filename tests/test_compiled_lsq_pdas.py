@@ -200,7 +200,7 @@ def test_the_hierarchys_levels_get_the_stacks_budget(robot, monkeypatch):
     bit (the same code); with its rows dropped too (the stack's option, not the tick's rows).
     With the option off (``params[4]`` 0: the thesis's stacks, whose ill-posed runs rounding
     moves) every solve gets 0, as the weighted QP's."""
-    from test_compiled_solvers import _walk_strict_ticks
+    from test_compiled_solvers import _saved, _walk_strict_ticks
 
     seen: list = []
     checked = 0
@@ -212,7 +212,7 @@ def test_the_hierarchys_levels_get_the_stacks_budget(robot, monkeypatch):
                 plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
                 g.g_rows, plan.params, plan.lower, plan.upper, start, np.zeros_like(g.working),
                 np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq, np.bool_(True),
-                *plan.space,
+                *plan.space, _saved(plan),
             )  # fmt: skip
         assert status == OK, i
         assert np.array_equal(dq, plan.dq), i
@@ -232,7 +232,7 @@ def test_the_hierarchys_levels_get_the_stacks_budget(robot, monkeypatch):
                     np.zeros_like(g.g_rows), params, plan.lower, plan.upper, start,
                     np.zeros_like(g.working), np.zeros_like(g.h_eff),
                     np.zeros_like(plan.achieved), np.zeros(robot.nv), np.bool_(True),
-                    *plan.space,
+                    *plan.space, _saved(plan),
                 )  # fmt: skip
         assert any(ridge > 0.0 for ridge, _ in seen)
         assert all(ties == budget for _, ties in seen), (budget, set(seen))

@@ -268,6 +268,7 @@ def test_a_soft_level_deferred_to_the_next_is_the_oracles_met_or_not(robot, phas
                 plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h, g.g_rows,
                 plan.params, plan.lower, plan.upper, plan.states.copy(), g.working.copy(),
                 g.h_eff, plan.achieved.copy(), np.zeros(robot.nv), np.bool_(True), *plan.space,
+                _saved(plan),
             )  # fmt: skip
             assert status == (ticks.OK if met else ticks.DEFERRAL_FAILED)
 
@@ -489,13 +490,16 @@ def test_a_joint_coming_back_lands_on_its_limit_not_a_rounding_error_short(robot
     assert out[7] == q[7]
 
 
-def _walk_strict_ticks(robot, n: int, defer_with_rows: bool, common_frame: bool = True):
+def _walk_strict_ticks(
+    robot, n: int, defer_with_rows: bool, common_frame: bool = True, defer_rows_join: bool = False
+):
     """walk10 on ``walk_strict`` (self-collision rows) for ``n`` ticks: for each tick solved
     on the same compiled plan as the tick before, (tick, plan, the level states it started
     from, its last level's index, whether the tick before ended with a row active), the
     levels above the last forgotten as ``forget_warm_start`` does, so that ``_cascade`` can
     be run again from the same inputs.
-    ``common_frame``: the self-collision limit's (False: its rows' normals in the world)."""
+    ``common_frame``: the self-collision limit's (False: its rows' normals in the world);
+    ``defer_rows_join``: the solver's (off here: the cascade's paths without it)."""
     spec = tomllib.loads(stack_file("walk_strict").read_text())
     for level in spec["levels"]:
         for c in level.get("constraints", []):
@@ -503,6 +507,7 @@ def _walk_strict_ticks(robot, n: int, defer_with_rows: bool, common_frame: bool 
                 c["common_frame"] = common_frame
     controller = StackController(build_stack(spec, robot))
     controller.solver.defer_with_rows = defer_with_rows
+    controller.solver.defer_rows_join = defer_rows_join
     session = Session(controller, robot, build("walk10", robot))
     solver = controller.solver
     for i in range(n):
@@ -517,6 +522,14 @@ def _walk_strict_ticks(robot, n: int, defer_with_rows: bool, common_frame: bool 
         start[:last] = 0  # (what the tick started from: forget_warm_start)
         active = bool(ended[:, : before.inequalities.g_rows[-1]].any())
         yield i, plan, start, last, active
+
+
+def _saved(plan) -> np.ndarray:
+    """The sets ``ticks._cascade`` keeps for its fallback (:func:`wbc.compiled.space.keep_size`)."""
+    from wbc.compiled.space import keep_size
+
+    levels = plan.level_rows.shape[0] - 1
+    return np.zeros(keep_size(levels, plan.dq.shape[0], plan.inequalities.g_rows[-1]), np.int64)
 
 
 def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot, monkeypatch):
@@ -563,7 +576,7 @@ def test_the_last_levels_rows_from_the_rows_held_above_and_its_solve_kept(robot,
                 plan.rows.J, plan.rows.b, plan.level_rows, plan.level_hard, g.G, g.h,
                 g.g_rows, plan.params, plan.lower, plan.upper, start, working,
                 np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq, np.bool_(True),
-                *plan.space,
+                *plan.space, _saved(plan),
             )  # fmt: skip
         assert status == ticks.OK
         assert np.array_equal(dq, plan.dq), i  # (the same code: bit for bit)
@@ -612,9 +625,11 @@ def test_the_levels_above_deferred_while_no_row_is_active(robot, monkeypatch):
                     np.zeros_like(g.h_eff), np.zeros_like(plan.achieved), dq,
                 )  # fmt: skip
                 first = np.bool_(defer == 2.0 or not after_active)
-                status = ticks._cascade.py_func(*args, first, *plan.space)
+                status = ticks._cascade.py_func(*args, first, *plan.space, _saved(plan))
                 if status == ticks.DEFERRAL_FAILED:
-                    status = ticks._cascade.py_func(*args, np.bool_(False), *plan.space)
+                    status = ticks._cascade.py_func(
+                        *args, np.bool_(False), *plan.space, _saved(plan)
+                    )
             assert status == ticks.OK
             answers.append((dq.copy(), list(solves), working.any()))
         (dq_deferred, solves_deferred, _), (dq_alone, solves_alone, active) = answers[:2]
