@@ -107,9 +107,9 @@ class HierarchicalQP(StackSolver):
         #: :func:`wbc.compiled.ticks._degenerate`) the levels are solved one by one from the
         #: sets the cascade without it would have had. On by default (the stacks'
         #: ``defer_rows_join = false`` turns it off): replayed, Δq within 2.5e-15 of the
-        #: levels one by one on every tick of the walks' captures, the row ticks' p99 -20 to
-        #: -40 % (benchmarks/self_collision.md, 2026-12-07 sixteenth session). Read when a
-        #: plan sets its parameters (its first tick)
+        #: levels one by one on every tick of the walks' captures, walk_strict's cascade -9 to
+        #: -16 % in total (benchmarks/self_collision.md, 2026-12-07 sixteenth session). Read
+        #: when a plan sets its parameters (its first tick)
         self.defer_rows_join = bool(defer_rows_join)
         self._backends: list[QPBackend] = []
         self._key = None
