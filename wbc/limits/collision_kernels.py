@@ -514,34 +514,38 @@ def damper_h(d, margin, trigger, damping) -> float:
 
 
 @njit(cache=True)
-def _normal_terms(Jw, n, a) -> None:
-    """a = nᵀJ_v over every velocity coordinate (the pair's normal n against the joints'
-    linear Jacobians: the same for both of its bodies; :func:`_write_row` keeps each body's
-    columns), summed in :func:`_write_row`'s order."""
+def _body_terms(Jw, support, other, common, n, A) -> None:
+    """A body's terms of nᵀJ_p (p a point it carries), dense over the velocity coordinates:
+    A[0] = nᵀJ_v, A[1:4] = J_ω on the columns of ``support`` (the joints carrying it; with
+    ``common``, not those carrying the ``other`` body too: n fixed in their common frame), 0
+    elsewhere (nᵀJ_v summed in :func:`_point_row`'s order)."""
     for k in range(Jw.shape[1]):
-        a[k] = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
+        if support[k] and not (common and other[k]):
+            A[0, k] = n[0] * Jw[0, k] + n[1] * Jw[1, k] + n[2] * Jw[2, k]
+            A[1, k] = Jw[3, k]
+            A[2, k] = Jw[4, k]
+            A[3, k] = Jw[5, k]
+        else:
+            A[0, k] = A[1, k] = A[2, k] = A[3, k] = 0.0
 
 
 @njit(cache=True, inline="always")
-def _write_row(nJ, pa, pb, n, Jw, sa, sb, common, G, r) -> None:
-    """G[r] = −nᵀ(J_b − J_a), the row of a close pair for the points pa (on body a, carried
-    by the joints ``sa``) and pb (body b, ``sb``), with nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω
-    (v_p = v_O + ω × p) on the columns of the joints carrying the point (with ``common``,
-    not those carrying both bodies: n fixed in their common frame), 0 elsewhere; ``nJ``:
-    nᵀJ_v (:func:`_normal_terms`). One pass over every column, each body's terms selected
-    (0.0 off its columns: what dense per-body terms, zero there, summed to)."""
+def _write_row(A, i, pa, pb, n, G, r) -> None:
+    """G[r] = −nᵀ(J_b − J_a), the row of close pair i for the points pa (on body a) and pb
+    (body b), with nᵀJ_p = nᵀJ_v + (p × n)ᵀJ_ω (v_p = v_O + ω × p) from each body's dense
+    terms ``A[i, side]`` (:func:`_body_terms`: 0 off its columns, so one pass over every
+    column, vectorised, gives the row; a column carrying neither body is 0)."""
     a0 = pa[1] * n[2] - pa[2] * n[1]
     a1 = pa[2] * n[0] - pa[0] * n[2]
     a2 = pa[0] * n[1] - pa[1] * n[0]
     b0 = pb[1] * n[2] - pb[2] * n[1]
     b1 = pb[2] * n[0] - pb[0] * n[2]
     b2 = pb[0] * n[1] - pb[1] * n[0]
+    Aa, Ab = A[i, 0], A[i, 1]
     g = G[r]
     for k in range(g.shape[0]):
-        on_a = sa[k] and not (common and sb[k])
-        on_b = sb[k] and not (common and sa[k])
-        tb = (nJ[k] + b0 * Jw[3, k] + b1 * Jw[4, k] + b2 * Jw[5, k]) if on_b else 0.0
-        ta = (nJ[k] + a0 * Jw[3, k] + a1 * Jw[4, k] + a2 * Jw[5, k]) if on_a else 0.0
+        tb = Ab[0, k] + b0 * Ab[1, k] + b1 * Ab[2, k] + b2 * Ab[3, k]
+        ta = Aa[0, k] + a0 * Aa[1, k] + a1 * Aa[2, k] + a2 * Aa[3, k]
         g[k] = (0.0 - tb) + ta
 
 
@@ -604,7 +608,7 @@ def work_sizes(pairs: int, nv: int) -> tuple[int, int]:
     ``pairs`` pairs and ``nv`` velocity coordinates (:func:`close_pairs`', then
     :func:`plane_rows`' for every pair close: 17 candidate rows a pair at most)."""
     most = 17 * pairs
-    return CLOSE_WORK + pairs * nv + 8 * most + 6, 6 + most + pairs
+    return CLOSE_WORK + pairs * 8 * nv + 8 * most + 6, 6 + most + pairs
 
 
 #: a row is left out in the box only if its largest value there is below its bound by this
@@ -654,17 +658,16 @@ def plane_rows(
     itself, see :func:`wbc.limits.collision_reference.separating_plane_rows`), then the
     corners of each pair's second box near the plane through p1, each with its projection
     on that plane brought onto the first box, then those of its first box near the plane
-    through p2 likewise (the order of the numpy form). Each pair's nᵀJ_v is computed once
-    (:func:`_normal_terms`; the rest read from ``Jw`` by :func:`_write_row`: 1/8 of the
-    scratch that dense terms per body took). With a box (``mid``, ``wide``: nv long, the centres
+    through p2 likewise (the order of the numpy form). Each pair's bodies' terms are
+    computed once (:func:`_body_terms`). With a box (``mid``, ``wide``: nv long, the centres
     and the half widths plus :data:`CULL_TOL` of the tick's bounds on Δq, 0 on the ``free``
     unbounded first columns; empty: none), the rows that cannot bind in it
     (:func:`can_bind`) are left out (``counts[4]`` += their number). ``work``, ``iwork``:
     scratch (float64, int64; :func:`plane_work`'s sizes at least: nothing allocated)."""
     nv = Jw.shape[1]
     most = 17 * count
-    o = count * nv
-    nJ = work[:o].reshape((count, nv))
+    o = count * 8 * nv
+    A = work[:o].reshape((count, 2, 4, nv))
     P = work[o : o + 6 * most].reshape((most, 2, 3))
     o += 6 * most
     gaps = work[o : o + most]
@@ -674,7 +677,9 @@ def plane_rows(
     which = iwork[:most]
     corner2 = iwork[most : most + count]  # (1: the witness on box 2 is one of its corners)
     for i in range(count):
-        _normal_terms(Jw, out_n[i], nJ[i])
+        k = out_k[i]
+        _body_terms(Jw, support[pair_a[k]], support[pair_b[k]], common, out_n[i], A[i, 0])
+        _body_terms(Jw, support[pair_b[k]], support[pair_a[k]], common, out_n[i], A[i, 1])
     # the candidate rows first (pair, points, gap), then their bounds, then the rows: three
     # flat loops (the row loop vectorises; with h(gap) in it, it ran ~3x slower)
     nc = 0
@@ -736,9 +741,7 @@ def plane_rows(
         if not H[j] < unreachable:  # (no row)
             continue
         i = which[j]
-        k = out_k[i]
-        sa, sb = support[pair_a[k]], support[pair_b[k]]
-        _write_row(nJ[i], P[j, 0], P[j, 1], out_n[i], Jw, sa, sb, common, G, r)
+        _write_row(A, i, P[j, 0], P[j, 1], out_n[i], G, r)
         if boxed and not can_bind(G[r], box_most(G[r], mid, wide), H[j], free):
             left += 1  # (written over by the next row)
             continue
