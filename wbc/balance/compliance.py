@@ -136,6 +136,8 @@ class ComplianceCompensator:
             else None
         )
         self.gain = float(gain)
+        #: per joint, × ``gain`` (None: 1 for every joint; ``Gains.ff_sagittal``)
+        self.scale: np.ndarray | None = None
         self.model = robot.model
         self.data = robot.model.createData()
         self.sole_ids = {s: robot.frame_id(s) for s in ("l_sole", "r_sole")}
@@ -168,7 +170,8 @@ class ComplianceCompensator:
 
     def deflection(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
         """Expected servo deflection (rad) at ``joints`` on ``support`` (× ``gain``)."""
-        return self.gain * self.servo_deflection(self.torques(joints, support))
+        d = self.gain * self.servo_deflection(self.torques(joints, support))
+        return d if self.scale is None else d * self.scale
 
     @property
     def integral(self) -> bool:
@@ -399,6 +402,8 @@ class CompensatedSource:
                 dt = t - sent[-1][0]
                 corr.update(d_then, v_then, goal - np.asarray(now, dtype=float), dt)
         scale = corr.scale if corr is not None else 1.0
+        if comp.scale is not None:  # (per joint: Gains.ff_sagittal)
+            scale = scale * comp.scale
         out = np.clip(q + comp.gain * scale * delta, comp.robot.q_min, comp.robot.q_max)
         # the goal's velocity: what the servo lags behind
         velocity = (out - sent[-1][2]) / (t - sent[-1][0]) if sent and t > sent[-1][0] else 0 * q
