@@ -66,8 +66,28 @@ def test_goal_lead_leads_the_goals_by_the_joints_velocity(robot) -> None:
         assert np.allclose(plain(tick, t), np.clip(j0 + 0.1 * t, robot.q_min, robot.q_max))
 
 
+@pytest.mark.parametrize("code", [0, 1, 2])
+def test_goal_lead_stance_leads_only_the_loaded_legs_pitch_joints(robot, code: int) -> None:
+    """With ``goal_lead_stance`` only the hip pitch, knee and ankle pitch of the legs on the
+    floor in the tick's planned support are led (double: both legs; 1 / 2: the left /
+    right); every other joint gets the solve's goal."""
+    from wbc.balance.live import sagittal_scale
+
+    source, j0, _ = _source(robot, Gains(goal_lead=0.04, goal_lead_stance=1.0))
+    source.session.ref.support[:] = code
+    source.session._last_index = 5
+    sides = {0: ("left", "right"), 1: ("left",), 2: ("right",)}[code]
+    led = sagittal_scale(robot, 0.0, sides) == 0.0
+    assert led.sum() == 3 * len(sides)
+    source(0, 0.0)
+    out = source(1, 0.01)
+    j = j0 + 0.001
+    assert np.allclose(out[led], np.clip(j + 0.004, robot.q_min, robot.q_max)[led])
+    assert np.allclose(out[~led], np.clip(j, robot.q_min, robot.q_max)[~led])
+
+
 def test_a_negative_lead_is_refused() -> None:
-    for name in ("ref_lead", "goal_lead"):
+    for name in ("ref_lead", "goal_lead", "goal_lead_stance"):
         with pytest.raises(ConfigurationError, match=name):
             Gains(**{name: -0.01}).check()
 
@@ -101,3 +121,34 @@ def test_ff_sagittal_scales_the_feed_forward_on_the_legs_pitch_joints(robot) -> 
     inside = (np.abs(j + scaled - robot.q_min) > 1e-9) & (np.abs(j + scaled - robot.q_max) > 1e-9)
     keep = np.intersect1d(pitch, np.flatnonzero(inside))
     assert np.allclose(scaled[keep], 2.0 * plain[keep])
+
+
+def test_ff_inertial_takes_the_torques_under_the_gravito_inertial_field(robot) -> None:
+    """``torques(.., accel)``: the static torques under ``g − accel`` (0: gravity's, exactly;
+    a forward acceleration loads the stance ankle's pitch like a backward tilt of gravity),
+    the model's gravity left as it was; the compensated goals take ``accel(t)``."""
+    from wbc.balance.compliance import CompensatedSource, ComplianceCompensator
+    from wbc.recording import SUPPORT_LEFT
+    from wbc.servos.sources import CallableSource
+
+    comp = ComplianceCompensator(robot, gain=1.0)
+    j = robot.configuration("stand")[7:]
+    static = comp.torques(j, SUPPORT_LEFT)
+    assert np.array_equal(comp.torques(j, SUPPORT_LEFT, np.zeros(3)), static)
+    a = np.array([0.5, 0.0, 0.0])
+    moved = comp.torques(j, SUPPORT_LEFT, a)
+    assert np.array_equal(robot.model.gravity.linear, [0.0, 0.0, -9.81])
+    m = robot.model
+    kept = m.gravity.linear.copy()
+    m.gravity.linear = np.zeros(3)  # the field −a alone: the torques are linear in the field
+    try:
+        alone = comp.torques(j, SUPPORT_LEFT, a)
+    finally:
+        m.gravity.linear = kept
+    assert np.any(np.abs(moved - static) > 1e-3)
+    assert np.allclose(moved - static, alone, atol=1e-9)
+    source = CompensatedSource(CallableSource(lambda _k, _t: j, j, robot.joint_names), comp,
+                               lambda _t: SUPPORT_LEFT)  # fmt: skip
+    plain = source(0, 0.0)
+    source.accel = lambda _t: a
+    assert not np.allclose(source(1, 0.01), plain)

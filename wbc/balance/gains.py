@@ -246,10 +246,17 @@ class Gains:
     #: difference: the servos' lag led at the goal, the solve and its targets untouched;
     #: issue 30, sixteenth session; 0: off)
     goal_lead: float = 0.0
+    #: 1: ``goal_lead`` on the pitch joints of the legs on the floor only (hip pitch, knee,
+    #: ankle pitch of the tick's planned support: the loaded joints that lag); 0: every joint
+    goal_lead_stance: float = 0.0
     #: the compliance feed-forward on the legs' pitch joints (hip pitch, knee, ankle pitch:
     #: the sag along the walk) × this over the others' (1: the same; issue 30, sixteenth
     #: session, benchmarks/pushes.md)
     ff_sagittal: float = 1.0
+    #: the compliance feed-forward's torques under the gravito-inertial field ``g − this ×
+    #: c̈_ref`` (the plan's CoM acceleration: the stance ankle fed the planned CoP's moment,
+    #: not the CoM's; 0: gravity alone, the static model; issue 30, sixteenth session)
+    ff_inertial: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -313,7 +320,9 @@ class Gains:
             "j_i_stiff",
             "ref_lead",
             "goal_lead",
+            "goal_lead_stance",
             "ff_sagittal",
+            "ff_inertial",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
