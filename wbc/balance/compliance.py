@@ -136,6 +136,8 @@ class ComplianceCompensator:
             else None
         )
         self.gain = float(gain)
+        #: per joint, × ``gain`` (None: 1 for every joint; ``Gains.ff_sagittal``)
+        self.scale: np.ndarray | None = None
         self.model = robot.model
         self.data = robot.model.createData()
         self.sole_ids = {s: robot.frame_id(s) for s in ("l_sole", "r_sole")}
@@ -145,14 +147,26 @@ class ComplianceCompensator:
         q = self.robot.with_joints(joints)
         return self.robot.place_on_ground(q, soles[0])
 
-    def torques(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
-        """Static joint torques (N·m, model joint order) holding ``joints`` on ``support``."""
+    def torques(
+        self, joints: np.ndarray, support: int = SUPPORT_DOUBLE, accel: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Static joint torques (N·m, model joint order) holding ``joints`` on ``support``;
+        ``accel`` (m/s², world): under the field ``g − accel`` instead of gravity (the body
+        accelerated as one: ``Gains.ff_inertial``)."""
         if support not in SOLES:
             raise ConfigurationError(f"support must be one of {sorted(SOLES)}, got {support!r}")
         soles = SOLES[support]
         q = self._standing(np.asarray(joints, dtype=float), soles)
         m, d = self.model, self.data
-        g = pin.computeGeneralizedGravity(m, d, q)
+        if accel is None:
+            g = pin.computeGeneralizedGravity(m, d, q)
+        else:
+            kept = m.gravity.linear.copy()
+            m.gravity.linear = kept - np.asarray(accel, dtype=float)
+            try:
+                g = pin.computeGeneralizedGravity(m, d, q)
+            finally:
+                m.gravity.linear = kept
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
         jc = np.vstack(
@@ -168,7 +182,8 @@ class ComplianceCompensator:
 
     def deflection(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
         """Expected servo deflection (rad) at ``joints`` on ``support`` (× ``gain``)."""
-        return self.gain * self.servo_deflection(self.torques(joints, support))
+        d = self.gain * self.servo_deflection(self.torques(joints, support))
+        return d if self.scale is None else d * self.scale
 
     @property
     def integral(self) -> bool:
@@ -320,6 +335,8 @@ class CompensatedSource:
         self.joint_names = tuple(source.joint_names)
         self.present = present
         self.correction = correction
+        #: the body's acceleration at time t (m/s², world; None: static): ``Gains.ff_inertial``
+        self.accel: Callable[[float], np.ndarray | None] | None = None
         self.delay = max(1, int(delay))
         # (t, plan, goal, model deflection, goal velocity) of the last goals sent
         self._sent: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -386,7 +403,8 @@ class CompensatedSource:
             return None
         q = np.asarray(q, dtype=float)
         comp = self.compensator
-        tau = comp.torques(q, self.support(t))
+        accel = self.accel(t) if self.accel is not None else None  # (Gains.ff_inertial)
+        tau = comp.torques(q, self.support(t), accel)
         if self._ti is not None:
             tau = tau + self._drive(q, t)
         delta = self._unabsorbed(comp.servo_deflection(tau), t)
@@ -399,6 +417,8 @@ class CompensatedSource:
                 dt = t - sent[-1][0]
                 corr.update(d_then, v_then, goal - np.asarray(now, dtype=float), dt)
         scale = corr.scale if corr is not None else 1.0
+        if comp.scale is not None:  # (per joint: Gains.ff_sagittal)
+            scale = scale * comp.scale
         out = np.clip(q + comp.gain * scale * delta, comp.robot.q_min, comp.robot.q_max)
         # the goal's velocity: what the servo lags behind
         velocity = (out - sent[-1][2]) / (t - sent[-1][0]) if sent and t > sent[-1][0] else 0 * q

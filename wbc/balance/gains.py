@@ -238,6 +238,25 @@ class Gains:
     #: against 58 (and seed 3's at 0.62, 49 of 51 against 50): soft plants traded at the
     #: walk's end (issue 30, i30n's fifteenth round; benchmarks/physics.md): off
     j_i_stiff: float = 0.0
+    #: s: the closed loop plays its reference this far ahead of the walk's clock, every
+    #: target at once (the servos' lag led; issue 30, sixteenth session, benchmarks/
+    #: pushes.md; 0: off)
+    ref_lead: float = 0.0
+    #: s: the goals led by this × the solved joints' velocity (each joint's, a tick's
+    #: difference: the servos' lag led at the goal, the solve and its targets untouched;
+    #: issue 30, sixteenth session; 0: off)
+    goal_lead: float = 0.0
+    #: 1: ``goal_lead`` on the pitch joints of the legs on the floor only (hip pitch, knee,
+    #: ankle pitch of the tick's planned support: the loaded joints that lag); 0: every joint
+    goal_lead_stance: float = 0.0
+    #: the compliance feed-forward on the legs' pitch joints (hip pitch, knee, ankle pitch:
+    #: the sag along the walk) × this over the others' (1: the same; issue 30, sixteenth
+    #: session, benchmarks/pushes.md)
+    ff_sagittal: float = 1.0
+    #: the compliance feed-forward's torques under the gravito-inertial field ``g − this ×
+    #: c̈_ref`` (the plan's CoM acceleration: the stance ankle fed the planned CoP's moment,
+    #: not the CoM's; 0: gravity alone, the static model; issue 30, sixteenth session)
+    ff_inertial: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -299,6 +318,11 @@ class Gains:
             "j_i_joints",
             "j_i_single",
             "j_i_stiff",
+            "ref_lead",
+            "goal_lead",
+            "goal_lead_stance",
+            "ff_sagittal",
+            "ff_inertial",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -37,6 +37,7 @@ from ..servos.playback import Deployment
 from ..servos.sources import CallableSource
 from ..sim.actuator import HobbyServoParams, ServoParams
 from ..sim.xm430 import XServoParams
+from ..types import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
 from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
@@ -93,6 +94,7 @@ class SessionSource(CallableSource):
         #: played (its clock: held lift-offs, the stabilizer's ``clock``); see :meth:`played`
         self._played: list[tuple[float, float]] = []
         self._slowed = False  # the stabilizer's clock (Gains.lag_clock) left 1 at some tick
+        self._last: tuple[float, np.ndarray] | None = None  # (t, joints): Gains.goal_lead
 
         self.rest_hook: Callable[[bool], None] | None = None  # called each tick: at rest?
 
@@ -103,7 +105,9 @@ class SessionSource(CallableSource):
                 self.start_offset = t
             if self.rest_hook is not None:
                 self.rest_hook(resting)
-            q = session.at_time(t - self.start_offset)
+            g = stab.gains if stab is not None and stab.enabled and not resting else None
+            lead = g.ref_lead if g is not None else 0.0  # (Gains.ref_lead: the plan ahead)
+            q = session.at_time(t - self.start_offset + lead)
             if q is None:
                 return None
             if not resting:
@@ -115,6 +119,8 @@ class SessionSource(CallableSource):
             offsets = session.stabilizer.joint_offsets(j) if session.stabilizer else None
             if offsets is not None:  # joint-level feedback (counted with the feedback)
                 j = np.clip(j + offsets, robot.q_min, robot.q_max)
+            if g is not None and g.goal_lead > 0:  # the goals led by the joints' velocity
+                j = self._led(j, t, g.goal_lead, g.goal_lead_stance > 0)
             extra = time.perf_counter() - start if offsets is not None else 0.0
             _envelope(j, self._low, self._high)  # (the excess when read: limit_excess)
             if not resting:
@@ -126,6 +132,26 @@ class SessionSource(CallableSource):
 
         super().__init__(target, session.q[7:].copy(), robot.joint_names)
         self.duration = float(session.ref.duration)
+
+    def _led(self, j: np.ndarray, t: float, lead: float, stance: bool = False) -> np.ndarray:
+        """``j`` led by ``lead`` s of its velocity since the last tick (``Gains.goal_lead``),
+        within the joint limits (the first tick: ``j``); ``stance``: only the pitch joints
+        of the legs on the floor in the tick's planned support (``goal_lead_stance``)."""
+        last, self._last = self._last, (t, j.copy())
+        if last is None or t <= last[0]:
+            return j
+        session = self.session
+        robot = session.robot
+        step = (lead / (t - last[0])) * (j - last[1])
+        if stance:
+            i = session.index
+            support = int(session.ref.support[i]) if i is not None else SUPPORT_DOUBLE
+            keep = np.zeros(robot.n_joints, dtype=bool)
+            for side, code in (("left", SUPPORT_LEFT), ("right", SUPPORT_RIGHT)):
+                if support in (SUPPORT_DOUBLE, code):
+                    keep |= sagittal_scale(robot, 0.0, (side,)) == 0.0
+            step = np.where(keep, step, 0.0)
+        return np.clip(j + step, robot.q_min, robot.q_max)
 
     @property
     def limit_excess(self) -> float:
@@ -349,7 +375,17 @@ def closed_loop(
         present = (lambda: holder[0].last_present) if correct else None
         fix = EncoderCorrection(robot.n_joints) if correct else None
         comp = ComplianceCompensator(robot, params, gain=compensate)
+        if gains is not None and gains.ff_sagittal != 1.0:  # (Gains.ff_sagittal)
+            comp.scale = sagittal_scale(robot, gains.ff_sagittal)
         target = CompensatedSource(source, comp, support, present, fix)
+        if gains is not None and gains.ff_inertial > 0:  # the plan's CoM acceleration
+            k, acc = gains.ff_inertial, session.ref.com_acc
+
+            def accel(t: float) -> np.ndarray | None:
+                i = session.index
+                return None if i is None else k * acc[i]
+
+            target.accel = accel
     if duration is not None:
         from ..servos.sources import CallableSource
 
@@ -371,6 +407,20 @@ def closed_loop(
     if compensate > 0:
         out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
     return loop
+
+
+def sagittal_scale(
+    robot: Robot, factor: float, sides: Sequence[str] = ("left", "right")
+) -> np.ndarray:
+    """Per joint: ``factor`` on the pitch joints (their roles hip pitch, knee, ankle pitch)
+    of the legs of ``sides``, 1 elsewhere (``Gains.ff_sagittal``, ``goal_lead_stance``)."""
+    scale = np.ones(robot.n_joints)
+    for side in sides:
+        for role in ("hip_pitch", "knee", "ankle_pitch"):
+            name = robot.roles.get(side, role)
+            if name is not None:
+                scale[robot.joint_index(name)] = factor
+    return scale
 
 
 def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],

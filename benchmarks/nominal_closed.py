@@ -1,0 +1,39 @@
+"""The nominal closed loop of the push benchmark (its ``step`` loop: wqp-daqp, the
+feed-forward at the robot's best, step adjustment, no push) on several walks, with Gains
+keywords: fallen, the largest orientation deviation, travelled / planned, re-plans (issue 30,
+sixteenth session: the options' nominal walks beside main's).
+
+    nice -n 5 python benchmarks/nominal_closed.py '{"ff_sagittal": 2}' walk10_wb turn_wb lateral_wb
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from pushes import loop_spec
+
+from wbc import load_robot
+from wbc.balance import best_compensate
+from wbc.bench import trajectories as traj
+from wbc.bench.closed_loop import simulate
+from wbc.bench.physics import physics_entry, plan
+
+
+def main() -> None:
+    gains = json.loads(sys.argv[1])
+    robot = load_robot("bioloid")
+    ff = best_compensate(robot)
+    entry = physics_entry("wqp-daqp", robot)
+    for walk in sys.argv[2:]:
+        rec = plan("wqp-daqp", walk, robot)
+        spec, comp = loop_spec("step", entry, traj.build(walk, robot), {}, gains, {}, ff, None)
+        r = simulate(rec, robot, compensate=comp, closed=spec)
+        print(json.dumps({"walk": walk, "gains": gains, "fell": r["fell"],
+                          "dev_deg": round(r["orientation_dev_max_deg"], 2),
+                          "dist": round(r["distance_ratio"], 3),
+                          "replans": r.get("replans")}), flush=True)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
