@@ -238,6 +238,11 @@ class Gains:
     #: against 58 (and seed 3's at 0.62, 49 of 51 against 50): soft plants traded at the
     #: walk's end (issue 30, i30n's fifteenth round; benchmarks/physics.md): off
     j_i_stiff: float = 0.0
+    #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
+    #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`): straighter
+    #: stance knees, less gravity torque on them (issue 30, i30s's sixteenth round)
+    lift: float = 0.0
+    lift_stiff: float = 0.75
 
     def check(self) -> Gains:
         for name in (
@@ -299,12 +304,15 @@ class Gains:
             "j_i_joints",
             "j_i_single",
             "j_i_stiff",
+            "lift_stiff",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
                     f"stabilizer gain {name} must be a finite number >= 0, got {v}"
                 )
+        if not np.isfinite(self.lift):
+            raise ConfigurationError(f"stabilizer gain lift must be finite, got {self.lift}")
         if self.j_i_single not in (0, 1, 2):
             raise ConfigurationError(
                 f"stabilizer gain j_i_single: 0, 1 or 2, got {self.j_i_single}"
