@@ -411,8 +411,9 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
                 raise
             goals.clear()  # (said once)
             g = loop.stabilizer.gains
-            out(f"closed loop: no joint integral (j_i_stiff){' nor CoM lift' * (g.lift != 0)}"
-                f": {err}")  # fmt: skip
+            what = [n for n, on in (("joint integral (j_i_stiff)", g.j_i > 0 and g.j_i_stiff > 0),
+                                    ("CoM lift (lift)", g.lift != 0)) if on]  # fmt: skip
+            out(f"closed loop: no {' nor '.join(what) or 'identified stiffness'}: {err}")
             return
         loop.stiffness_scale = loop.stabilizer.stiffness_scale = k
         if comp is not None:

@@ -1,10 +1,10 @@
 """The CoM target moved vertically on plants identified soft (``Gains.lift``, off).
 
 A soft servo plant (issue 30: servos softer than ``servos.toml``, no feed-forward) loses
-the walk's end with a stance knee near its stall torque: the knee carries the body's
-weight on the lever of its own bend. ``lift`` (m) moves the walk's CoM target vertically
-(+: up, straighter knees, less gravity torque on them; −: down) once the stiffness
-identified at the start-up rest (:func:`wbc.balance.live.closed_loop`'s rest,
+the walk's end with a stance knee near its stall torque. ``lift`` (m) moves the walk's CoM
+target vertically (+: up; −: down, the way measured better: −8 mm kept every soft plant of
+seeds 0 and 1, but traded one on a held-out seed; benchmarks/physics.md) once the
+stiffness identified at the start-up rest (:func:`wbc.balance.live.closed_loop`'s rest,
 :func:`~wbc.balance.compliance.identify_stiffness`) is below ``lift_stiff`` × servos.toml's,
 ramped in over the walk's first :data:`LIFT_RAMP` s. Not identified, nothing moves.
 :class:`LiftedStabilizer` is the :class:`~wbc.balance.stabilizer.Stabilizer` with the
