@@ -241,9 +241,9 @@ class Gains:
     #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
     #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`). −0.008
     #: without the feed-forward: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148;
-    #: held out, seed 2's soft plants 59 of 60 against 58, seed 3's 77 of 78 against 77 (one
-    #: traded; −0.004 and −0.012 each lose another plant): off (issue 30, i30s's sixteenth
-    #: round; benchmarks/physics.md)
+    #: held out, the soft plants of seed 2: 59 of 60 against 58, seed 3: 77 of 78 against 77
+    #: (one traded), seed 4: 41 of 42 against 38; −0.004 and −0.012 each lose another plant:
+    #: off (issue 30, i30s's sixteenth round; benchmarks/physics.md)
     lift: float = 0.0
     lift_stiff: float = 0.75
 
