@@ -151,6 +151,7 @@ def main() -> None:
         help="JSON of HoldParams keywords (the lift-off hold's), e.g. '{\"contact\": true}'",
     )
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
+    p.add_argument("--no-nominal", action="store_true", help="skip the nominal plant (screens)")
     p.add_argument(
         "--calibrate",
         type=float,
@@ -194,7 +195,7 @@ def main() -> None:
                 VARIANTS[label], entry, ref, gains, step_kw, args.calibrate, args.hold
             )
             started = time.perf_counter()
-            r = simulate(rec, robot, compensate=comp, closed=spec)
+            r = None if args.no_nominal else simulate(rec, robot, compensate=comp, closed=spec)
             fallen, worst, why, probes = [], [], [], {}
             for k, v in plants:
                 if args.margins:
@@ -207,8 +208,10 @@ def main() -> None:
                 if run["fell"]:
                     fallen.append(k)
                     why.append(_why(k, v, run))
-            dist = "-" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
-            nominal = "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
+            dist = "-" if r is None or r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
+            nominal = (
+                "-" if r is None else "fell" if r["fell"] else f"{r['orientation_dev_max_deg']:.1f}"
+            )
             print(
                 f"| {label} | {json.dumps(gains)} | {json.dumps(step_kw)} | {walk} | {nominal} "
                 f"| {dist} | "

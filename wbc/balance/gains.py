@@ -257,6 +257,14 @@ class Gains:
     #: c̈_ref`` (the plan's CoM acceleration: the stance ankle fed the planned CoP's moment,
     #: not the CoM's; 0: gravity alone, the static model; issue 30, sixteenth session)
     ff_inertial: float = 0.0
+    #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
+    #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`). −0.008
+    #: without the feed-forward: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148;
+    #: held out, the soft plants of seed 2: 59 of 60 against 58, seed 3: 77 of 78 against 77
+    #: (one traded), seed 4: 41 of 42 against 38; −0.004 and −0.012 each lose another plant:
+    #: off (issue 30, i30s's sixteenth round; benchmarks/physics.md)
+    lift: float = 0.0
+    lift_stiff: float = 0.75
 
     def check(self) -> Gains:
         for name in (
@@ -323,12 +331,15 @@ class Gains:
             "goal_lead_stance",
             "ff_sagittal",
             "ff_inertial",
+            "lift_stiff",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
                     f"stabilizer gain {name} must be a finite number >= 0, got {v}"
                 )
+        if not np.isfinite(self.lift):
+            raise ConfigurationError(f"stabilizer gain lift must be finite, got {self.lift}")
         if self.j_i_single not in (0, 1, 2):
             raise ConfigurationError(
                 f"stabilizer gain j_i_single: 0, 1 or 2, got {self.j_i_single}"

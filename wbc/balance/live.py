@@ -45,6 +45,7 @@ from .fall import FallDetector, FallParams
 from .margin import torso_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
+from .stance_lift import LiftedStabilizer
 from .stepping import StepAdjuster, SteppingParams, can_step
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
@@ -337,12 +338,15 @@ def closed_loop(
     if identify and rest < 2:
         raise ConfigurationError("closed_loop: servo='identify' measures at rest: calibrate_s > 0")
     gate = enabled and gains.j_i > 0 and gains.j_i_stiff > 0  # (j_i_stiff: identified at rest)
-    if gate and (commanded or rest < 2):
-        gate = False
-        out("closed loop: no joint integral (j_i_stiff: the servos' stiffness is identified "
-            "from their encoders during the start-up rest: an IMU or servo='identify', "
-            "calibrate_s > 0, a bus that reads)")  # fmt: skip
-    stabilizer = Stabilizer(
+    lift = enabled and gains.lift != 0  # (lift: the CoM target moved on soft servos)
+    if (gate or lift) and (commanded or rest < 2):
+        what = " and ".join(n for n, on in (("joint integral (j_i_stiff)", gate),
+                                            ("CoM lift (lift)", lift)) if on)  # fmt: skip
+        gate = lift = False
+        out(f"closed loop: no {what}: the servos' stiffness is identified from their "
+            "encoders during the start-up rest: an IMU or servo='identify', calibrate_s > 0, "
+            "a bus that reads")  # fmt: skip
+    stabilizer = (LiftedStabilizer if lift else Stabilizer)(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled, fall=detector, calibration_ticks=rest,
     )  # fmt: skip
@@ -402,7 +406,7 @@ def closed_loop(
     if identify:
         model = "servos.toml with the stiffness identified at rest"
         loop.servo_model = model
-    if identify or gate:
+    if identify or gate or lift:
         source.rest_hook = _identifier(loop, comp if identify else None, rest, out, identify)
     if compensate > 0:
         out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
@@ -456,7 +460,10 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
             if strict:
                 raise
             goals.clear()  # (said once)
-            out(f"closed loop: no joint integral (j_i_stiff): {err}")
+            g = loop.stabilizer.gains
+            what = [n for n, on in (("joint integral (j_i_stiff)", g.j_i > 0 and g.j_i_stiff > 0),
+                                    ("CoM lift (lift)", g.lift != 0)) if on]  # fmt: skip
+            out(f"closed loop: no {' nor '.join(what) or 'identified stiffness'}: {err}")
             return
         loop.stiffness_scale = loop.stabilizer.stiffness_scale = k
         if comp is not None:
@@ -467,5 +474,8 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
         if g.j_i > 0 and g.j_i_stiff > 0:
             on = "on" if loop.stabilizer.sag_integrated else "off"
             out(f"closed loop: joint integral {on} (j_i_stiff {g.j_i_stiff:g})")
+        if g.lift != 0 and loop.stabilizer.enabled:
+            on = f"{g.lift * 1000:+.1f} mm" if k < g.lift_stiff else "none"
+            out(f"closed loop: CoM target lift {on} (lift_stiff {g.lift_stiff:g})")
 
     return hook
