@@ -24,7 +24,7 @@ from wbc.recording import Recording
 from wbc.servos.bus import ServoBus
 from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator
-from wbc.servos.pty_runner import device_clock
+from wbc.servos.pty_runner import DeviceClock
 
 
 def main() -> None:
@@ -41,8 +41,9 @@ def main() -> None:
     q[:, robot.q_index("l_knee")] += 0.15 * np.sin(np.pi * t) ** 2
     path = str(Path(tempfile.mkdtemp()) / "bend.npz")
     Recording(t, q, robot.joint_names).save(path)
+    clock = DeviceClock()  # watches this script's emulators
     if args.device_clock:
-        ServoBus.reply_clock = staticmethod(device_clock)  # type: ignore[method-assign]
+        ServoBus.reply_clock = clock  # type: ignore[method-assign]
     buses: list[DynamixelBus] = []
     init = DynamixelBus.__init__
 
@@ -52,7 +53,7 @@ def main() -> None:
 
     DynamixelBus.__init__ = keep  # type: ignore[method-assign]
     for run in range(args.runs):
-        with AX12Emulator(positions=ticks, process=True) as emu:
+        with clock.watch(AX12Emulator(positions=ticks, process=True)) as emu:
             parser = argparse.ArgumentParser()
             deploy_cmd.add_arguments(parser)
             argv = [path, "--port", emu.port, "--rate", "50", "--read", "--max-failures", "20"]

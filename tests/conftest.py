@@ -92,15 +92,18 @@ class PacedClock:
 
 @pytest.fixture()
 def device_time(monkeypatch):
-    """Reply deadlines on the emulators' device clock (``wbc.servos.pty_runner.device_clock``):
-    a deadline is judged once the emulators of this process have answered what they were sent,
-    so a late-scheduled emulator is no servo timeout (as on real servos, whose replies do not
-    wait for the host's scheduler); silence and late replies (injected faults) still time out.
+    """Reply deadlines on the emulators' device clock (``wbc.servos.pty_runner.DeviceClock``,
+    returned: a test has it watch the emulators it starts, ``device_time.watch(emu)``): a
+    deadline is judged once those emulators have answered what they were sent, so a
+    late-scheduled emulator is no servo timeout (as on real servos, whose replies do not wait
+    for the host's scheduler); silence and late replies (injected faults) still time out.
     """
     from wbc.servos.bus import ServoBus
-    from wbc.servos.pty_runner import device_clock
+    from wbc.servos.pty_runner import DeviceClock
 
-    monkeypatch.setattr(ServoBus, "reply_clock", staticmethod(device_clock))
+    clock = DeviceClock()
+    monkeypatch.setattr(ServoBus, "reply_clock", clock)
+    return clock
 
 
 @pytest.fixture()

@@ -331,7 +331,7 @@ def test_kokone_walk_on_the_ssc32_emulator(kokone, short_walk, capsys, device_ti
 
     _, _, recording = short_walk
     rate = 50
-    with Ssc32Emulator(process=True) as board:
+    with device_time.watch(Ssc32Emulator(process=True)) as board:
         rc = _deploy(
             [recording, "--robot", "kokone", "--bus", "ssc32", "--port", board.port,
              "--rate", str(rate)]

@@ -10,7 +10,6 @@ tests/test_servos_faults.py.
 from __future__ import annotations
 
 import argparse
-import functools
 import math
 import os
 import signal
@@ -48,8 +47,6 @@ from wbc.servos.safety import HealthSchedule
 pytestmark = pytest.mark.usefixtures("device_time", "paced_clock")
 
 RATE = 100.0
-# the servos run in their own process, like hardware (no GIL shared with the host)
-Emulator = functools.partial(AX12Emulator, process=True)
 # reply deadline: the emulator answers in well under 1 ms of device time (a real FTDI at
 # latency 1 ms: 4.1 ms)
 TIMEOUT_MS = 15.0
@@ -62,6 +59,13 @@ STAMP_JITTER_S = 0.02
 
 
 # ---------------------------------------------------------------- fixtures and helpers
+@pytest.fixture()
+def emulator(device_time):
+    """``emulator(**options)``: an AX-12A bus emulator in its own process, like hardware (no
+    GIL shared with the host), watched by the test's device clock (tests/conftest.py)."""
+    return lambda **options: device_time.watch(AX12Emulator(process=True, **options))
+
+
 def _smooth_motion(robot, duration=1.0, rate=50.0, amplitude=0.15):
     """Walk Ready plus a smooth sway of hips, knees, ankles and arms, zero speed at the ends."""
     q0 = robot.configuration("walk_ready")
@@ -150,13 +154,13 @@ def torque_enabled_ever(emu) -> bool:
 
 # ---------------------------------------------------------------- nominal playback
 def test_playback_with_reads_soft_start_and_settings(
-    robot, recording, walk_ready_ticks, tmp_path, capsys
+    emulator, robot, recording, walk_ready_ticks, tmp_path, capsys
 ):
     start = dict(walk_ready_ticks)
     start[14] += 25  # l_knee and r_elbow away from the first pose: soft start needed
     start[5] -= 20
     log = tmp_path / "log.npz"
-    with Emulator(positions=start) as emu:
+    with emulator(positions=start) as emu:
         rc, out, err = run_deploy(emu.port, recording, "--read", "--log", str(log), capsys=capsys)
     assert rc == 0, err
     assert emu.error is None
@@ -214,9 +218,9 @@ def test_playback_with_reads_soft_start_and_settings(
 
 
 def test_write_only_playback_at_50_hz_ends_with_torque_off(
-    robot, recording, walk_ready_ticks, capsys
+    emulator, robot, recording, walk_ready_ticks, capsys
 ):
-    with Emulator(positions=walk_ready_ticks) as emu:
+    with emulator(positions=walk_ready_ticks) as emu:
         parser = argparse.ArgumentParser()
         deploy_cmd.add_arguments(parser)
         args = parser.parse_args(
@@ -295,11 +299,11 @@ FAULTS = [
     ids=[f"{f.kind}-{f.servo_id}" for f, *_ in FAULTS],
 )
 def test_fault_ends_in_the_safe_stop(
-    robot, recording, walk_ready_ticks, capsys, fault, on_fault, extra, expected
+    emulator, robot, recording, walk_ready_ticks, capsys, fault, on_fault, extra, expected
 ):
     # the 15 ms deadline on device time: a stall of the emulator's process (150 ms seen on the
     # 2-core CI machine) is no other servo's false timeout that stops the run first
-    with Emulator(positions=walk_ready_ticks, faults=[fault]) as emu:
+    with emulator(positions=walk_ready_ticks, faults=[fault]) as emu:
         rc, _, err = run_deploy(emu.port, recording, "--rate", "50", "--on-fault", on_fault,
                                 *extra, capsys=capsys)  # fmt: skip
     assert emu.error is None
@@ -322,7 +326,7 @@ def test_fault_ends_in_the_safe_stop(
         assert all(s.table[ADDR_TORQUE_ENABLE] == 1 for s in others)
 
 
-def test_transient_faults_are_tolerated(robot, recording, walk_ready_ticks, capsys):
+def test_transient_faults_are_tolerated(emulator, robot, recording, walk_ready_ticks, capsys):
     # early in the 1 s motion (~100 goal writes at 100 Hz), so that every fault fires even
     # when a loaded machine makes the deployment skip ticks
     faults = [
@@ -331,18 +335,18 @@ def test_transient_faults_are_tolerated(robot, recording, walk_ready_ticks, caps
         Fault("bad_checksum", 8, after_goals=20, count=1),
         Fault("garbage", 4, after_goals=5, count=2, data=b"\x00\x13\x37"),  # 2 < 3 in a row
     ]
-    with Emulator(positions=walk_ready_ticks, faults=faults) as emu:
+    with emulator(positions=walk_ready_ticks, faults=faults) as emu:
         rc, _, err = run_deploy(emu.port, recording, "--read", capsys=capsys)
     assert rc == 0, err
     assert_goals_safe(emu, robot, walk_ready_ticks)
     assert {f.kind for _, f, _ in emu.fault_log} == {"timeout", "bad_checksum", "garbage", "late"}
 
 
-def test_ctrl_c_ends_in_the_safe_stop(robot, recording, walk_ready_ticks, capsys):
+def test_ctrl_c_ends_in_the_safe_stop(emulator, robot, recording, walk_ready_ticks, capsys):
     """A real SIGINT to this process, sent by the servos' process at the 20th goal write."""
     me = os.getpid()
     press = {20: lambda: os.kill(me, signal.SIGINT)}
-    with Emulator(positions=walk_ready_ticks, on_goal_write=press) as emu:
+    with emulator(positions=walk_ready_ticks, on_goal_write=press) as emu:
         rc, _, err = run_deploy(
             emu.port, recording, "--read", "--on-fault", "torque-off", capsys=capsys
         )
@@ -354,7 +358,7 @@ def test_ctrl_c_ends_in_the_safe_stop(robot, recording, walk_ready_ticks, capsys
 
 
 # ---------------------------------------------------------------- a live source
-def test_live_source_is_clamped_and_rate_limited(robot, walk_ready_ticks):
+def test_live_source_is_clamped_and_rate_limited(emulator, robot, walk_ready_ticks):
     q0 = robot.configuration("walk_ready")[7:]
     j = robot.joint_index("r_knee")
 
@@ -366,7 +370,7 @@ def test_live_source_is_clamped_and_rate_limited(robot, walk_ready_ticks):
         return q
 
     lines = []
-    with Emulator(positions=walk_ready_ticks) as emu:
+    with emulator(positions=walk_ready_ticks) as emu:
         bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS)
         source = CallableSource(wild, q0, robot.joint_names)
         result = Deployment(bus, source, robot, DeployConfig(rate=RATE), lines.append).run()
@@ -382,7 +386,7 @@ def test_live_source_is_clamped_and_rate_limited(robot, walk_ready_ticks):
     assert knee.min() == lo and knee.max() == hi  # reached both limits, never beyond
 
 
-def test_nan_from_a_live_source_ends_in_the_safe_stop(robot, walk_ready_ticks):
+def test_nan_from_a_live_source_ends_in_the_safe_stop(emulator, robot, walk_ready_ticks):
     q0 = robot.configuration("walk_ready")[7:]
 
     def broken(tick, t):
@@ -391,7 +395,7 @@ def test_nan_from_a_live_source_ends_in_the_safe_stop(robot, walk_ready_ticks):
             q[robot.joint_index("l_ankle_roll")] = np.nan
         return q
 
-    with Emulator(positions=walk_ready_ticks) as emu:
+    with emulator(positions=walk_ready_ticks) as emu:
         bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS)
         source = CallableSource(broken, q0, robot.joint_names)
         result = Deployment(
@@ -407,7 +411,7 @@ def test_nan_from_a_live_source_ends_in_the_safe_stop(robot, walk_ready_ticks):
 
 @pytest.mark.parametrize("error", [RuntimeError("solver crashed"), SystemExit(1)])
 def test_an_exception_in_the_loop_ends_in_the_safe_stop_with_the_log(
-    robot, walk_ready_ticks, tmp_path, error
+    emulator, robot, walk_ready_ticks, tmp_path, error
 ):
     """Anything raised in the loop (a crashed live controller, even SystemExit) takes the
     safe stop: torque off verified per servo, the log written, the reason in one line."""
@@ -420,7 +424,7 @@ def test_an_exception_in_the_loop_ends_in_the_safe_stop_with_the_log(
 
     log = tmp_path / "log.npz"
     config = DeployConfig(rate=RATE, on_fault="torque-off", log_path=str(log))
-    with Emulator(positions=walk_ready_ticks) as emu:
+    with emulator(positions=walk_ready_ticks) as emu:
         bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS)
         source = CallableSource(crashing, q0, robot.joint_names)
         result = Deployment(bus, source, robot, config, lambda s: None).run()
@@ -446,8 +450,8 @@ def test_unknown_port_is_refused(recording, capsys):
     _refused(None, rc, err, "unknown port '/dev/ttyNOPE0'")
 
 
-def test_wrong_baud_is_refused(recording, walk_ready_ticks, capsys):
-    with Emulator(positions=walk_ready_ticks) as emu:  # servos at 1 Mbps
+def test_wrong_baud_is_refused(emulator, recording, walk_ready_ticks, capsys):
+    with emulator(positions=walk_ready_ticks) as emu:  # servos at 1 Mbps
         rc, _, err = run_deploy(
             emu.port, recording, "--baud", "57600", "--latency-ms", "1", capsys=capsys
         )
@@ -457,22 +461,24 @@ def test_wrong_baud_is_refused(recording, walk_ready_ticks, capsys):
     _refused(None, rc, err, "300000 is not an AX-12A rate")
 
 
-def test_missing_servo_at_start_is_refused(recording, walk_ready_ticks, capsys):
-    with Emulator(positions=walk_ready_ticks, faults=[Fault("missing", 13)]) as emu:
+def test_missing_servo_at_start_is_refused(emulator, recording, walk_ready_ticks, capsys):
+    with emulator(positions=walk_ready_ticks, faults=[Fault("missing", 13)]) as emu:
         rc, _, err = run_deploy(emu.port, recording, capsys=capsys)
     _refused(emu, rc, err, "no reply to PING from id 13 (r_knee)")
 
 
-def test_duplicate_id_on_the_bus_is_refused(recording, walk_ready_ticks, capsys):
-    with Emulator(positions=walk_ready_ticks, duplicate_ids=[11]) as emu:
+def test_duplicate_id_on_the_bus_is_refused(emulator, recording, walk_ready_ticks, capsys):
+    with emulator(positions=walk_ready_ticks, duplicate_ids=[11]) as emu:
         rc, _, err = run_deploy(emu.port, recording, capsys=capsys)
     _refused(emu, rc, err, "garbled reply to PING from id 11 (r_hip_pitch)")
 
 
-def test_servo_outside_its_limits_at_start_is_refused(recording, walk_ready_ticks, capsys):
+def test_servo_outside_its_limits_at_start_is_refused(
+    emulator, recording, walk_ready_ticks, capsys
+):
     start = dict(walk_ready_ticks)
     start[14] = 400  # l_knee limits are 512..953 ticks
-    with Emulator(positions=start) as emu:
+    with emulator(positions=start) as emu:
         rc, _, err = run_deploy(emu.port, recording, capsys=capsys)
     _refused(emu, rc, err, "id 14 (l_knee) at 400 ticks, limits 512..953")
 
@@ -508,12 +514,14 @@ def test_inconsistent_servo_maps_are_refused(robot, recording, tmp_path, capsys)
         (3.0, "tick 7 (t = 0.140 s): joint l_knee = 3.0000 rad is above its upper limit"),
     ],
 )
-def test_bad_trajectories_are_refused(robot, walk_ready_ticks, tmp_path, capsys, value, text):
+def test_bad_trajectories_are_refused(
+    emulator, robot, walk_ready_ticks, tmp_path, capsys, value, text
+):
     t, q = _smooth_motion(robot)
     q[7, robot.q_index("l_knee")] = value
     path = tmp_path / "bad.npz"
     Recording(t, q, robot.joint_names).save(path)
-    with Emulator(positions=walk_ready_ticks) as emu:
+    with emulator(positions=walk_ready_ticks) as emu:
         rc, _, err = run_deploy(emu.port, str(path), capsys=capsys)
     _refused(emu, rc, err, text)
     assert emu.packets == 0  # refused before the port was even opened
@@ -553,12 +561,14 @@ def test_plan_prints_the_bus_budget(capsys):
 
 
 # ---------------------------------------------------------------- live controller
-def test_live_controller_plays_through_the_safety_layer(robot, walk_ready_ticks, tmp_path, capsys):
+def test_live_controller_plays_through_the_safety_layer(
+    emulator, robot, walk_ready_ticks, tmp_path, capsys
+):
     """`wbc deploy --live walk --open-loop`: the walk stack solved tick by tick, goals sent
     to the bus (the closed loop, the default, reads every servo each tick: tests/test_sim_cli
     runs it on the simulated robot)."""
     log = tmp_path / "live.npz"
-    with Emulator(positions=walk_ready_ticks) as emu:
+    with emulator(positions=walk_ready_ticks) as emu:
         rc, out, err = run_deploy(
             emu.port,
             None,

@@ -93,10 +93,10 @@ def recording(robot, tmp_path_factory):
 
 # the board emulator is a second process: its replies are judged on its device time, the ticks
 # on a paced clock (tests/conftest.py), with the production deadline (50 ms) and streak (3)
-@pytest.mark.usefixtures("device_time", "paced_clock")
-def test_deploy_on_ssc32_sends_safe_pulses(robot, recording, tmp_path, capsys):
+@pytest.mark.usefixtures("paced_clock")
+def test_deploy_on_ssc32_sends_safe_pulses(robot, recording, tmp_path, capsys, device_time):
     map_path = str(_map_toml(robot, tmp_path / "map.toml"))
-    with Ssc32Emulator(process=True) as board:
+    with device_time.watch(Ssc32Emulator(process=True)) as board:
         rc = _run(board.port, recording, "--ssc32-map", map_path, "--rate", "50")
     out, err = capsys.readouterr()
     assert rc == 0, err
@@ -125,10 +125,10 @@ def test_deploy_on_ssc32_sends_safe_pulses(robot, recording, tmp_path, capsys):
         assert np.all((v >= 500) & (v <= 2500))
 
 
-@pytest.mark.usefixtures("device_time", "paced_clock")  # silence still times out
-def test_dead_ssc32_board_ends_in_torque_off(robot, recording, tmp_path, capsys):
+@pytest.mark.usefixtures("paced_clock")  # silence still times out on the device clock
+def test_dead_ssc32_board_ends_in_torque_off(robot, recording, tmp_path, capsys, device_time):
     map_path = str(_map_toml(robot, tmp_path / "map.toml"))
-    with Ssc32Emulator(process=True, silent_after=10) as board:
+    with device_time.watch(Ssc32Emulator(process=True, silent_after=10)) as board:
         rc = _run(board.port, recording, "--ssc32-map", map_path, "--on-fault", "torque-off")
     _, err = capsys.readouterr()
     assert rc == deploy_cmd.EXIT_SAFE_STOP

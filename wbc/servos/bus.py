@@ -193,7 +193,7 @@ class ServoBus(ABC):
     #: the bus can change the servos' stiffness while they run (:meth:`set_stiffness`)
     can_set_stiffness: bool = False
     #: the clock of reply deadlines (s): the wall clock. A test replaces it with an emulator's
-    #: device clock (:func:`wbc.servos.pty_runner.device_clock`), which first
+    #: device clock (:class:`wbc.servos.pty_runner.DeviceClock`), which first
     #: waits until the emulator has handled every byte sent to it, so that a deadline measures
     #: the emulated device, not the test machine's load
     reply_clock: Callable[[], float] = staticmethod(time.perf_counter)

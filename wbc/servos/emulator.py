@@ -86,7 +86,7 @@ from .protocol1 import (
     status_packet,
     take_packet,
 )
-from .pty_runner import PtyRunner, _sleep_until
+from .pty_runner import PtyRunner, sleep_until
 
 FAULT_KINDS = ("timeout", "bad_checksum", "error_bits", "missing", "garbage", "late")
 _TWO_BYTE = {0, 6, 8, 14, 30, 32, 34, 36, 38, 40, 48}
@@ -500,7 +500,7 @@ class AX12Emulator(ServoBusEmulator):
                 rdt = 2e-6 * self.servos[reply_to].table[ADDR_RETURN_DELAY]
                 ready = end_in + rdt + AX12_RESPONSE_S + len(reply) * 10.0 / baud
                 self._bus_free = ready
-                _sleep_until(ready + self.usb_latency_s)
+                sleep_until(ready + self.usb_latency_s)
             else:
                 self._bus_free = end_in
         self._send(reply)

@@ -28,7 +28,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 
 from .. import xseries as x
-from .emulator import Fault, GoalRecord, ServoBusEmulator, WriteRecord, _sleep_until, lag_step
+from .emulator import Fault, GoalRecord, ServoBusEmulator, WriteRecord, lag_step
 from .protocol1 import BROADCAST_ID, INST_PING, INST_READ, INST_WRITE
 from .protocol2 import (
     ADDR_INDIRECT_ADDRESS,
@@ -43,6 +43,7 @@ from .protocol2 import (
     status_packet2,
     take_packet2,
 )
+from .pty_runner import sleep_until
 
 TABLE_SIZE = 256  # through Indirect Data 28 (251)
 N_INDIRECT = 28
@@ -246,7 +247,7 @@ class XEmulator(ServoBusEmulator):
                 end += rdt + X_RESPONSE_S + len(reply) * 10.0 / self.baud
             self._bus_free = end
             if any(r for _, r in replies):
-                _sleep_until(end + self.usb_latency_s)
+                sleep_until(end + self.usb_latency_s)
         self._send(b"".join(r for _, r in replies))
 
     def handle(self, pkt: bytes, now: float | None = None) -> list[tuple[int, bytes]]:

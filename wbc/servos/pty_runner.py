@@ -1,6 +1,6 @@
 """What the bus emulators share: a pseudo-terminal whose far end a reader answers, in a thread
-or a forked process (:class:`PtyRunner`), and :func:`device_clock`, the reply-deadline clock of
-tests on an emulator (``ServoBus.reply_clock``)."""
+or a forked process (:class:`PtyRunner`); :class:`DeviceClock`, the reply-deadline clock of
+tests on an emulator (``ServoBus.reply_clock``); :func:`sleep_until`, an emulator's wait."""
 
 from __future__ import annotations
 
@@ -12,18 +12,31 @@ import threading
 import time
 import tty
 import weakref
+from typing import TypeVar
 
-_RUNNING: weakref.WeakSet[PtyRunner] = weakref.WeakSet()  # started, not stopped
+R = TypeVar("R", bound="PtyRunner")
 
 
-def device_clock() -> float:
-    """``time.perf_counter()`` once every emulator running in this process has answered all
-    it was sent (:meth:`PtyRunner.settle`). Reply deadlines on this clock (a test sets
+class DeviceClock:
+    """``time.perf_counter()`` once every runner it watches has answered all it was sent
+    (:meth:`PtyRunner.settle`). Reply deadlines on this clock (a test sets
     ``ServoBus.reply_clock`` to it) count the emulated device's time, not the time the test
-    machine's load kept an emulator from running; silence and late replies still fail."""
-    for runner in list(_RUNNING):
-        runner.settle()
-    return time.perf_counter()
+    machine's load kept an emulator from running; silence and late replies still fail. Whoever
+    starts the runners owns one and tells it which (:meth:`watch`)."""
+
+    def __init__(self) -> None:
+        self._runners: weakref.WeakSet[PtyRunner] = weakref.WeakSet()
+
+    def watch(self, runner: R) -> R:
+        """Wait for ``runner`` at each reading from now on (once stopped, it is idle); returns
+        it (``with clock.watch(Emulator(...)) as emu:``)."""
+        self._runners.add(runner)
+        return runner
+
+    def __call__(self) -> float:
+        for runner in list(self._runners):
+            runner.settle()
+        return time.perf_counter()
 
 
 class PtyRunner:
@@ -66,7 +79,6 @@ class PtyRunner:
             self._stop = threading.Event()
             self._thread = threading.Thread(target=self._run, name=type(self).__name__, daemon=True)
             self._thread.start()
-        _RUNNING.add(self)
         return self
 
     def _child(self, conn) -> None:
@@ -75,7 +87,6 @@ class PtyRunner:
         conn.close()
 
     def stop(self) -> None:
-        _RUNNING.discard(self)
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
@@ -184,8 +195,9 @@ class PtyRunner:
             self._send(self._scheduled.pop(0)[1])
 
 
-def _sleep_until(deadline: float, spin_s: float = 0.0) -> None:
-    """Sleep, then spin the last ``spin_s`` (sleep alone overshoots by ~0.1 ms)."""
+def sleep_until(deadline: float, spin_s: float = 0.0) -> None:
+    """Wait until ``deadline`` (``time.monotonic``, the emulators' clock): sleep, then spin the
+    last ``spin_s`` (sleep alone overshoots by ~0.1 ms)."""
     delay = deadline - time.monotonic() - spin_s
     if delay > 0:
         time.sleep(delay)
