@@ -18,9 +18,11 @@ leg in single support, both in double support (the truth at the tick, the readin
 older: the lag is in every estimator alike), and at each landing the swing sole's placement
 relative to the stance sole by forward kinematics of the estimate against that of the
 simulator's joints (world axes, summed over the landings: the play's share of the leg
-odometry's placement error). Then, over the leg joints, the simulator's side of the play
-(−1 … 1 of half the play) times the reading's last-change side, by how long the reading has
-stood still, and times the load's side. benchmarks/drive.md quotes it::
+odometry's placement error), and averaged over the double support that follows each
+landing (the two soles standing, their relative placement fixed). Then, over the leg
+joints, the simulator's side of the play (−1 … 1 of half the play) times the reading's
+last-change side, by how long the reading has stood still, and times the load's side.
+benchmarks/drive.md quotes it::
 
     nice -n 5 python benchmarks/play_side.py --sequence 13 --model 0
 """
@@ -71,6 +73,7 @@ def main(argv: list[str] | None = None) -> None:
     errors: dict[str, dict[str, list]] = {e: {"stance": [], "swing": [], "double": []}
                                           for e in ESTIMATORS}  # fmt: skip
     landings: dict[str, list] = {e: [] for e in ESTIMATORS}
+    averaged: dict[str, list] = {e: [] for e in ESTIMATORS}  # over each double support
     sides: list[np.ndarray] = []  # (still s, true side × last-change side, × load side)
     sims: list = []
     base = drive_sim_module.Walker
@@ -86,6 +89,7 @@ def main(argv: list[str] | None = None) -> None:
                 "plain": PlayInverse(play, robot.n_joints, hold),
             }
             self.estimates: dict[str, np.ndarray] = {}
+            self._open: tuple | None = None  # the landing whose double support goes on
 
         def tick(self, dt=None):
             present = self.present()
@@ -110,6 +114,13 @@ def main(argv: list[str] | None = None) -> None:
                 )
             est["decay30"] = present + plain.half * plain.side * np.exp(-plain.still / 0.03)
             self.estimates = est
+            if support == SUPPORT_DOUBLE and self._open is not None:
+                self._open[1].append(self._placement_errors(sim, *self._open[0]))
+            elif support != SUPPORT_DOUBLE and self._open is not None:
+                rows = self._open[1]
+                for key in ESTIMATORS if rows else ():
+                    averaged[key].append(np.mean([row[key] for row in rows], axis=0))
+                self._open = None
             if support == SUPPORT_DOUBLE:
                 groups = {"double": legs["left"] + legs["right"]}
             else:
@@ -125,21 +136,30 @@ def main(argv: list[str] | None = None) -> None:
                                (true_side * push)[both]])  # fmt: skip
             return q
 
+        def _placement_errors(self, sim, stance: str, swing: str) -> dict[str, np.ndarray]:
+            """Per estimate: the swing sole's placement from the stance sole by forward
+            kinematics less that of the simulator's joints (x, y world axes; turn)."""
+            frames = [SOLES[swing]]
+            (true_rel,) = robot.placements_in(robot.with_joints(sim.q()[7:]),
+                                              SOLES[stance], frames)  # fmt: skip
+            yaw = yaw_of(sim.site_pose(SOLES[stance]).rotation)
+            c, s = math.cos(yaw), math.sin(yaw)
+            world = np.array([[c, -s], [s, c]])
+            out = {}
+            for key, value in self.estimates.items():
+                (rel,) = robot.placements_in(robot.with_joints(value), SOLES[stance], frames)
+                d = world @ (rel.translation[:2] - true_rel.translation[:2])
+                out[key] = np.r_[d, yaw_of(rel.rotation) - yaw_of(true_rel.rotation)]
+            return out
+
         def _landed(self, step):
             out = super()._landed(step)
             if self.estimates and sims:
-                sim = sims[0]
                 stance = "right" if step.side == "left" else "left"
-                frames = [SOLES[step.side]]
-                (true_rel,) = robot.placements_in(robot.with_joints(sim.q()[7:]),
-                                                  SOLES[stance], frames)  # fmt: skip
-                yaw = yaw_of(sim.site_pose(SOLES[stance]).rotation)
-                c, s = math.cos(yaw), math.sin(yaw)
-                world = np.array([[c, -s], [s, c]])
-                for key, value in self.estimates.items():
-                    (rel,) = robot.placements_in(robot.with_joints(value), SOLES[stance], frames)
-                    d = world @ (rel.translation[:2] - true_rel.translation[:2])
-                    landings[key].append(np.r_[d, yaw_of(rel.rotation) - yaw_of(true_rel.rotation)])
+                errs = self._placement_errors(sims[0], stance, step.side)
+                for key, value in errs.items():
+                    landings[key].append(value)
+                self._open = ((stance, step.side), [])  # the double support's ticks to come
             return out
 
     class Watched(drive_sim_module.Odometer):
@@ -166,6 +186,13 @@ def main(argv: list[str] | None = None) -> None:
               f"({1e3 * a[:, 0].sum():+.1f}, {1e3 * a[:, 1].sum():+.1f}) mm, Σ |placement| "
               f"{1e3 * np.linalg.norm(a[:, :2], axis=1).sum():.0f} mm, Σ turn "
               f"{math.degrees(a[:, 2].sum()):+.2f}°")  # fmt: skip
+    for key in ESTIMATORS:
+        a = np.array(averaged[key])
+        if a.size:
+            print(f"  {key:12s} the placement averaged over each landing's double support "
+                  f"({len(a)}): Σ ({1e3 * a[:, 0].sum():+.1f}, {1e3 * a[:, 1].sum():+.1f}) mm, "
+                  f"Σ |placement| {1e3 * np.linalg.norm(a[:, :2], axis=1).sum():.0f} mm, "
+                  f"Σ turn {math.degrees(a[:, 2].sum()):+.2f}°")  # fmt: skip
     b = np.concatenate(sides)
     for lo, hi in STILL_BINS:
         m = (b[:, 0] >= lo) & (b[:, 0] < hi)
