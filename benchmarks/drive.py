@@ -102,7 +102,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             lift_gain: float | None = None, filter_heading: bool = False,
             encoder_rest: bool = False, play: str | float | None = None,
             play_hold: float | None = None, play_lift: bool = False,
-            params=None, keep_clear: bool = True, base_hold: float | None = None,
+            play_load: str | None = None, params=None, keep_clear: bool = True,
+            base_hold: float | None = None,
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
             twist: float | None = None, **kw):  # fmt: skip
@@ -116,7 +117,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
-        "play_hold": play_hold, "play_lift": play_lift or None, "hold": base_hold,
+        "play_hold": play_hold, "play_lift": play_lift or None, "play_load": play_load,
+        "hold": base_hold,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand,
     }  # fmt: skip
@@ -297,6 +299,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--play-lift", action="store_true",
                     help="with --play: the swing's lift measured through it too "
                          "(Walker(play_lift=True))")  # fmt: skip
+    ap.add_argument("--play-load", choices=["off", "still", "always"], default=None,
+                    help="with --play: the loaded links' side of the play from the static "
+                         "joint torques (Walker(play_load=...)): 'still' for the readings "
+                         "standing still, 'always'; default the Walker's (off)")  # fmt: skip
     ap.add_argument("--no-keep-clear", dest="keep_clear", action="store_false",
                     help="the stance contact's move toward the measured sole not kept clear "
                          "of the swing's planned landing (Walker(keep_clear=False): the "
@@ -358,6 +364,7 @@ def main(argv: list[str] | None = None) -> int:
         "play": args.play,
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,
+        "play_load": {"off": ""}.get(args.play_load, args.play_load),
         "keep_clear": args.keep_clear,
         "base_hold": args.base_hold,
         "finish_steps": args.finish_steps,

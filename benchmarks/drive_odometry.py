@@ -448,6 +448,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="as benchmarks/drive.py --play")  # fmt: skip
     ap.add_argument("--play-hold", type=float, default=None, metavar="S",
                     help="as benchmarks/drive.py --play-hold")  # fmt: skip
+    ap.add_argument("--play-load", choices=["off", "still", "always"], default=None,
+                    help="as benchmarks/drive.py --play-load")  # fmt: skip
     ap.add_argument("--start-yaw", type=float, default=0.0, metavar="DEG",
                     help="the robot starts turned DEG about the simulator's vertical (a drift "
                          "fixed in the floor's frame stays; one of the walk's turns with "
@@ -566,6 +568,7 @@ def main(argv: list[str] | None = None) -> int:
                               finish=args.finish, lift_gain=args.lift_gain, play=args.play,
                               stride_gain=args.stride_gain,
                               play_hold=args.play_hold, heading_gain=args.heading_gain,
+                              play_load={"off": ""}.get(args.play_load, args.play_load),
                               params=None if args.swing_settle is None
                               else EngineParams(settle=args.swing_settle),
                               start_yaw=math.radians(args.start_yaw))  # fmt: skip

@@ -337,6 +337,29 @@ def test_a_still_reading_is_taken_at_the_middle_of_the_play_after_the_hold() -> 
         PlayInverse(0.02, 1, hold=0.0)
 
 
+def test_a_loaded_link_is_read_on_the_flank_its_load_pushes_it_to() -> None:
+    """``load="still"``: a reading standing still past the hold is taken at the load's flank
+    (not the middle), a moving one at its motion's side; ``"always"``: the load's flank
+    wherever the load is known (0 or NaN: unknown, the motion's side); ``""`` ignores it."""
+    load = np.array([-1.0, 1.0, 0.0, math.nan])
+    out = {}
+    for mode in ("", "still", "always"):
+        inverse = PlayInverse(0.02, 4, hold=0.1, load=mode)
+        inverse.update(np.zeros(4), 0.01, load)
+        moved = inverse.update(np.full(4, 0.005), 0.01, load)  # all moved up
+        for _ in range(11):  # 0.11 s still: past the hold
+            still = inverse.update(np.full(4, 0.005), 0.01, load)
+        out[mode] = (moved, still)
+    assert out[""][0] == pytest.approx([0.015] * 4)
+    assert out[""][1] == pytest.approx([0.005] * 4)  # (the middle)
+    assert out["still"][0] == pytest.approx([0.015] * 4)
+    assert out["still"][1] == pytest.approx([-0.005, 0.015, 0.005, 0.005])
+    assert out["always"][0] == pytest.approx([-0.005, 0.015, 0.015, 0.015])
+    assert out["always"][1] == pytest.approx([-0.005, 0.015, 0.005, 0.005])
+    with pytest.raises(ConfigurationError, match="load"):
+        PlayInverse(0.02, 1, load="motor")
+
+
 def test_the_base_hold_moves_the_com_target_against_the_error_within_its_bounds() -> None:
     """Holding (after :meth:`BaseHold.begin`), the CoM target's shift moves against the
     base's error at ``rate`` and no further than ``reach``; it stops when the error is

@@ -216,6 +216,11 @@ class PoseOdometry:
         return np.array([0.5 * (st[0] + sw[0]), 0.5 * (st[1] + sw[1]), mean_angle(st[2], sw[2])])
 
 
+#: :class:`PlayInverse`'s ``load`` modes: the load's side of the play unused, for the still
+#: readings, everywhere it is known
+PLAY_LOAD_MODES = ("", "still", "always")
+
+
 class PlayInverse:
     """The links' positions from encoders that read through a gear play (backlash): per joint
     the encoder reads the motor side, which follows the link only once the play ``p`` is
@@ -232,10 +237,19 @@ class PlayInverse:
     ``hold`` (s): a reading standing still longer than this is taken at the middle of the
     play (the link may have turned back inside it: a joint rocking by less than the play
     never moves its reading, and its last side goes stale). The inverse is of the
-    simulator's play, where the reading follows the link's motion; in a gearbox whose link
-    is held against one flank by its load the side would be the load's (not modelled)."""
+    simulator's play, where the reading follows the link's motion.
 
-    def __init__(self, play: float | np.ndarray, n: int, hold: float = math.inf) -> None:
+    ``load`` (the side of a loaded link, from :meth:`update`'s ``load``: the direction the
+    static load pushes each link, the negated torque its servo holds): ``""`` unused (the
+    default); ``"still"``: a reading standing still longer than ``hold`` is taken at the
+    load's flank instead of the middle (a link that sagged under its load dragged its
+    reading along and rocks inside the play without moving it); ``"always"``: the load's
+    flank wherever the load is known (a gearbox whose link is held against one flank by
+    its load)."""
+
+    def __init__(
+        self, play: float | np.ndarray, n: int, hold: float = math.inf, load: str = ""
+    ) -> None:
         given = np.asarray(play, dtype=float)
         if given.shape not in ((), (n,)):
             raise ConfigurationError(f"play must be one number or {n} (one per joint), got {play}")
@@ -244,15 +258,21 @@ class PlayInverse:
             raise ConfigurationError(f"play must be finite numbers >= 0 (rad), got {play}")
         if not hold > 0:
             raise ConfigurationError(f"hold must be a number > 0 (s), got {hold}")
+        if load not in PLAY_LOAD_MODES:
+            raise ConfigurationError(f"load must be one of {PLAY_LOAD_MODES}, got {load!r}")
+        self.load = load
         self.half = half.copy()
         self.hold = float(hold)
         self.side = np.zeros(n)  # the direction of each reading's last change (−1, 0, 1)
         self.still = np.full(n, math.inf)  # s since each reading last changed
         self._last: np.ndarray | None = None
 
-    def update(self, sensed: np.ndarray, dt: float = 0.0) -> np.ndarray:
+    def update(
+        self, sensed: np.ndarray, dt: float = 0.0, load: np.ndarray | None = None
+    ) -> np.ndarray:
         """One reading of the encoders (rad, NaN: unread) ``dt`` s after the last; returns
-        the links' positions."""
+        the links' positions. ``load`` (per joint −1, 0, 1, or None: unknown): the direction
+        the load pushes each link, used by the ``load`` mode."""
         sensed = np.asarray(sensed, dtype=float)
         if self._last is not None:
             d = sensed - self._last
@@ -264,7 +284,13 @@ class PlayInverse:
             self._last = np.where(np.isfinite(sensed), sensed, sensed_or_last)
         else:
             self._last = sensed.copy()
-        return sensed + self.half * np.where(self.still <= self.hold, self.side, 0.0)
+        moving = self.still <= self.hold
+        side = np.where(moving, self.side, 0.0)
+        if load is not None and self.load:
+            pushed = np.sign(np.asarray(load, dtype=float))
+            known = np.isfinite(pushed) & (pushed != 0)
+            side = np.where(known & (~moving if self.load == "still" else True), pushed, side)
+        return sensed + self.half * side
 
 
 class StrideGain:

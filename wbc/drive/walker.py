@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..balance.compliance import ComplianceCompensator
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
@@ -257,7 +258,9 @@ class Walker:
     stance sole (:class:`~wbc.drive.odometry.PlayInverse`; ``play_hold``: how long a still
     reading keeps its side, default :data:`DRIVE_PLAY_HOLD`; ``play_lift``: the swing's lift
     measured through it too — two falls in 100 random runs against none,
-    benchmarks/drive.md); the feedback's state estimate keeps the raw readings.
+    benchmarks/drive.md; ``play_load``, ``"still"`` or ``"always"``: the loaded links' side
+    from the static joint torques, ``""`` off); the feedback's state estimate keeps the raw
+    readings.
     :func:`wbc.drive.sim.drive_sim` gives the simulated servos' own play.
     ``hold`` (m, closed loop; default 0: off; :data:`DRIVE_HOLD`'s reach, 0.02, measured):
     after a stop, the CoM target shifted at most this far until the base, by the present
@@ -302,6 +305,7 @@ class Walker:
         play: float | np.ndarray = 0.0,
         play_hold: float = DRIVE_PLAY_HOLD,
         play_lift: bool = False,
+        play_load: str = "",
         keep_clear: bool = True,
         hold: float = 0.0,
         finish_steps: int = DRIVE_FINISH_STEPS_AFTER,
@@ -406,9 +410,11 @@ class Walker:
         self.filter_heading = bool(filter_heading)
         #: the encoders' gear play taken out of the present positions the odometry uses
         #: (closed loop, any play > 0)
-        inverse = PlayInverse(play, robot.n_joints, play_hold)  # (checks them)
+        inverse = PlayInverse(play, robot.n_joints, play_hold, play_load)  # (checks them)
         self.play = inverse if closed and np.any(inverse.half > 0) else None
         self.play_lift = bool(play_lift)  # the swing's lift measured through it too
+        #: the static joint torques: each loaded link's side of the play (``play_load``)
+        self._loads = ComplianceCompensator(robot) if self.play is not None and play_load else None
         #: after a stop, the base held onto its commanded place (closed loop, ``hold`` > 0)
         rate, seconds = DRIVE_HOLD["rate"], DRIVE_HOLD["seconds"]
         self.hold = BaseHold(hold, rate, seconds) if closed and hold > 0 else None
@@ -555,7 +561,10 @@ class Walker:
         if self.play is not None:
             present = self.present()
             step = self.engine.dt if dt is None else dt
-            self._links = None if present is None else self.play.update(present, step)
+            load, links = None, self._links
+            if self._loads is not None and self.last is not None and links is not None:
+                load = -np.sign(self._loads.torques(links, self.last.support))  # (NaN: unread)
+            self._links = None if present is None else self.play.update(present, step, load)
         engine = self.engine
         if self._deferred_start and not self.calibrating:
             self._deferred_start = False
