@@ -119,6 +119,33 @@ def paced_clock(monkeypatch):
 
 
 @pytest.fixture()
+def soft_plant_loop(robot):
+    """A factory: ``closed_loop`` on the simulated Bioloid whose servos are ``stiffness`` ×
+    servos.toml's, walk10_wb's first ``duration`` s after a 0.5 s rest (the stiffness identified
+    there), wqp-daqp, no feed-forward; what the loop says goes to ``said``."""
+    from wbc.balance.live import closed_loop
+    from wbc.bench import trajectories as traj
+    from wbc.bench.solvers import select
+    from wbc.sim.actuator import nominal_servo
+    from wbc.sim.bus import SimImu, sim_bus
+    from wbc.sim.simulator import Simulation
+    from wbc.walking.loop import start_configuration
+
+    ref = traj.build("walk10_wb", robot)
+    entry = select(["wqp-daqp"], None, "tick")[0][0]
+
+    def make(stiffness: float, gains, said: list[str], duration: float = 1.2):
+        sim = Simulation(robot, None, nominal_servo(robot).scaled(stiffness=stiffness))
+        sim.reset(start_configuration(robot, ref))
+        bus = sim_bus(sim, min(100.0, 1.0 / ref.dt))
+        solver = entry.make(robot)
+        return closed_loop(bus, robot, solver, ref, SimImu(sim), gains, compensate=0.0,
+                           out=said.append, duration=duration, calibrate_s=0.5)  # fmt: skip
+
+    return make
+
+
+@pytest.fixture()
 def rng():
     return np.random.default_rng(12345)
 

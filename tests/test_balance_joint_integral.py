@@ -232,29 +232,15 @@ def test_j_i_stiff_integrates_only_on_servos_identified_softer(robot):
 
 
 @pytest.mark.parametrize("stiffness", [0.55, 1.8])
-def test_closed_loop_identifies_the_stiffness_at_rest_for_j_i_stiff(robot, stiffness):
+def test_closed_loop_identifies_the_stiffness_at_rest_for_j_i_stiff(soft_plant_loop, stiffness):
     """Through :func:`wbc.balance.live.closed_loop` on the simulated robot: with
     ``j_i_stiff`` 1.2 the rest identifies the servos' stiffness from the encoders' sag (a
     plant ``stiffness`` × servos.toml's: identified on its side of 1.2), the stabilizer
     gets it, the integral runs on the soft plant only and says so; the feed-forward's model
     stays servos.toml's (no ``servo='identify'``)."""
-    from wbc.balance.live import closed_loop
-    from wbc.bench import trajectories as traj
-    from wbc.bench.solvers import select
-    from wbc.sim.actuator import nominal_servo
-    from wbc.sim.bus import SimImu, sim_bus
-    from wbc.sim.simulator import Simulation
-    from wbc.walking.loop import start_configuration
-
-    ref = traj.build("walk10_wb", robot)
-    entry = select(["wqp-daqp"], None, "tick")[0][0]
-    sim = Simulation(robot, None, nominal_servo(robot).scaled(stiffness=stiffness))
-    sim.reset(start_configuration(robot, ref))
-    bus = sim_bus(sim, min(100.0, 1.0 / ref.dt))
     said: list[str] = []
     g = Gains(j_i=1.0, j_i_max=0.05, j_i_joints=3, j_i_stiff=1.2)
-    loop = closed_loop(bus, robot, entry.make(robot), ref, SimImu(sim), g, compensate=0.0,
-                       out=said.append, duration=1.2, calibrate_s=0.5)  # fmt: skip
+    loop = soft_plant_loop(stiffness, g, said)
     assert loop.stabilizer.stiffness_scale is None
     loop.deployment.run()
     k = loop.stabilizer.stiffness_scale

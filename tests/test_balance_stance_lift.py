@@ -31,28 +31,15 @@ def test_lift_height_only_on_servos_identified_softer_and_ramped():
 
 
 @pytest.mark.parametrize("stiffness", [0.55, 1.8])
-def test_closed_loop_lifts_the_com_on_servos_identified_soft(robot, stiffness):
+def test_closed_loop_lifts_the_com_on_servos_identified_soft(robot, soft_plant_loop, stiffness):
     """Through :func:`wbc.balance.live.closed_loop` on the simulated robot (walk10_wb's
     first 1.2 s after a 0.5 s rest): with ``lift`` −8 mm the soft plant's solved CoM stands
     ~8 mm below the reference once ramped in and the loop says so; the stiff plant's
     stays on it (no lift said); without ``lift`` the stabilizer is main's class."""
-    from wbc.balance.live import closed_loop
-    from wbc.bench import trajectories as traj
-    from wbc.bench.solvers import select
-    from wbc.sim.actuator import nominal_servo
-    from wbc.sim.bus import SimImu, sim_bus
-    from wbc.sim.simulator import Simulation
-    from wbc.walking.loop import start_configuration
-
-    ref = traj.build("walk10_wb", robot)
-    entry = select(["wqp-daqp"], None, "tick")[0][0]
-    sim = Simulation(robot, None, nominal_servo(robot).scaled(stiffness=stiffness))
-    sim.reset(start_configuration(robot, ref))
-    bus = sim_bus(sim, min(100.0, 1.0 / ref.dt))
     said: list[str] = []
     g = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008)
-    loop = closed_loop(bus, robot, entry.make(robot), ref, SimImu(sim), g, compensate=0.0,
-                       out=said.append, duration=1.2, calibrate_s=0.5)  # fmt: skip
+    loop = soft_plant_loop(stiffness, g, said)
+    ref = loop.session.ref
     assert isinstance(loop.stabilizer, LiftedStabilizer)
     rise: list[float] = []
     session = loop.session
@@ -72,7 +59,5 @@ def test_closed_loop_lifts_the_com_on_servos_identified_soft(robot, stiffness):
     assert bool(np.median(rise) < -0.006) is soft
     assert bool(abs(np.median(rise)) < 0.002) is not soft
     assert any("CoM target lift -8.0 mm" in s for s in said) is soft
-    plain = closed_loop(bus, robot, entry.make(robot), ref, SimImu(sim),
-                        Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25), compensate=0.0,
-                        out=said.append, duration=0.1, calibrate_s=0.5)  # fmt: skip
+    plain = soft_plant_loop(stiffness, Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25), said, 0.1)
     assert type(plain.stabilizer) is Stabilizer
