@@ -32,11 +32,11 @@ def _limit(stack) -> SelfCollisionConstraint:
 
 def _walk(robot, boxed: bool, ticks: int = TICKS, check=None):
     """walk_strict along walk10 with ``cut_in_box`` (its default, off: every row; and on,
-    with ``joint_box`` made to say None: every row too); each tick's Δq (``check(plan,
+    with ``joint_box_arrays`` made to say None: every row too); each tick's Δq (``check(plan,
     limit)`` after each tick) and the limit."""
-    keep = plan_module.joint_box
+    keep = plan_module.joint_box_arrays
     if not boxed:
-        plan_module.joint_box = lambda limits: None
+        plan_module.joint_box_arrays = lambda limits: None
     try:
         stack = _cut(load_stack("walk_strict", robot))
         controller = StackController(stack)
@@ -52,7 +52,7 @@ def _walk(robot, boxed: bool, ticks: int = TICKS, check=None):
         assert solver.handed_back_ticks == 0
         return out, limit
     finally:
-        plan_module.joint_box = keep
+        plan_module.joint_box_arrays = keep
 
 
 def _most(G: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:

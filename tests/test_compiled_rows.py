@@ -252,7 +252,7 @@ def test_targets_gather_every_source_in_order(robot):
 @settings(deadline=None)
 @given(seeds)
 def test_compiled_integrate_matches_pinocchio(robot, seed):
-    from wbc.compiled.ticks import integrate
+    from wbc.compiled.integrate import integrate
 
     rng = np.random.default_rng(seed)
     q = robot.random_configuration(rng)

@@ -464,7 +464,7 @@ def test_a_joint_coming_back_lands_on_its_limit_not_a_rounding_error_short(robot
     back from outside by its whole way back ends at its limit exactly (4e-16 rad outside
     made the next tick a start outside the limits, and the two paths' Δq 1e-3 apart: issue
     28), never further out."""
-    from wbc.compiled.ticks import integrate
+    from wbc.compiled.integrate import integrate
 
     nv = robot.nv
     cases = [

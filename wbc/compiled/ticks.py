@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from ._cache import refresh
-from .integrate import LIMIT_ROUNDING, integrate  # noqa: F401 (the tick's, here as before)
+from .integrate import integrate
 from .lsq import (
     MAX_ITER,
     NUMERICAL,

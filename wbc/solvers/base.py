@@ -298,8 +298,8 @@ class StackSolver(ABC):
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """q ⊕ dq with dq's joint part clipped to the last solve's box bounds and the joints
         to [min(q_min, q_j), max(q_max, q_j)] (exact limits despite solver tolerances);
-        :func:`wbc.compiled.ticks.integrate`, as the compiled tick does."""
-        from ..compiled.ticks import integrate
+        :func:`wbc.compiled.integrate.integrate`, as the compiled tick does."""
+        from ..compiled.integrate import integrate
 
         if self.last is not None:
             lower, upper = self.last.lower, self.last.upper

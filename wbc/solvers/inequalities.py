@@ -37,7 +37,9 @@ def _token(c: Constraint) -> object | None:
     return c.layout_token if type(c).__dict__.get("keeps_layout_token", False) else None
 
 
-def joint_box(limits: Sequence[BoxLimit]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def joint_box_arrays(
+    limits: Sequence[BoxLimit],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The arrays the box of ``limits`` is made of (q_min, q_max, steps) if they are the joint
     position limit then the joint velocity limit, as their bound kernels say
     (:func:`~wbc.limits.collision_packed.joint_box` makes that box the compiled tick's way);

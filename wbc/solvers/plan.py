@@ -30,7 +30,7 @@ from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
 from .buffers import Scratch, restore
 from .carry import CarriedRows
-from .inequalities import ConstraintRows, compiled_constraint, joint_box
+from .inequalities import ConstraintRows, compiled_constraint, joint_box_arrays
 
 
 def numba_available() -> bool:
@@ -439,7 +439,11 @@ class _Plan:
         self._solve_entry = None
         #: the constraints' rows, level by level (the kernel constraints' written by the tick)
         self.constraints = ConstraintRows(
-            constraints, {k: i for i, k in enumerate(cons)}, self.frames.slot, nv, joint_box(limits)
+            constraints,
+            {k: i for i, k in enumerate(cons)},
+            self.frames.slot,
+            nv,
+            joint_box_arrays(limits),
         )
         self.inequalities = self.constraints.rows
         self.is_ready = False  # (:meth:`ready`'s answer once True: a tick reads it first)
