@@ -44,15 +44,19 @@ def test_rows_join_the_deferred_solve_to_rounding(robot):
     assert moved.size >= 3, moved  # (ticks whose path changed)
 
 
-def _solve(tick, join: bool, space: bool) -> tuple[int, np.ndarray, np.ndarray]:
-    """The captured tick's cascade_solve, the rows joining the deferred solve or not, in a work
-    space of its size or none (allocated in the call): (status, Δq, its levels' final sets)."""
+def _solve(
+    tick, join: bool, space: bool, p0: float = 0.0, refused: int = 0, solve=ticks.cascade_solve
+) -> tuple[int, np.ndarray, np.ndarray]:
+    """The captured tick's cascade_solve, the rows joining the deferred solve or not (or with
+    ``params[0]`` = ``p0`` if given, and ``refused`` as the last tick's degenerate answer's flag),
+    in a work space of its size or none (allocated in the call): (status, Δq, its final sets)."""
     params = tick["params"].copy()
-    params[0] = 2.0 if join else 1.0
+    params[0] = p0 or (2.0 if join else 1.0)
     f, i = cascade_space_size(tick["level_rows"], tick["dq"].shape[0], int(tick["g_rows"][-1]))
     fw, iw = (np.full(f, np.nan), np.full(i, -(1 << 40))) if space else (np.zeros(0),) * 2
     states, dq = tick["states"].copy(), np.zeros_like(tick["dq"])
-    status = ticks.cascade_solve(
+    states[-1, 1] = refused
+    status = solve(
         tick["J"], tick["b"], tick["level_rows"], tick["level_hard"], tick["G"], tick["h"],
         tick["g_rows"], tick["q"], tick["q_min"], tick["q_max"], params, tick["lower"],
         tick["upper"], states, tick["working"].copy(), np.zeros_like(tick["h_eff"]),
@@ -77,3 +81,32 @@ def test_a_degenerate_answer_falls_back_to_the_levels_one_by_one():
         assert np.abs(dq1 - tick["dq_out"]).max() <= 1e-15
         np.testing.assert_array_equal(dq2, dq1)
         np.testing.assert_array_equal(st2, st1)
+
+
+def test_after_a_degenerate_answer_the_deferral_is_not_tried(robot, monkeypatch):
+    """``skip_degenerate`` (``params[0]`` = 3, on by default): the OP3's tick 308 again. Its
+    answer is degenerate, so the cascade marks it for the next tick (``states[L + 1, 1]``);
+    a tick after such a mark solves the levels one by one at once (one ``_cascade`` call, not
+    deferred) where the guard tries the deferral first and refuses it (two calls): the same Δq
+    and sets bit for bit, as without the rows joining."""
+    assert load_stack("walk_strict", robot).solver.skip_degenerate  # (the default)
+    tick = dict(np.load(DATA / "op3_walk_strict_degenerate_rows_tick.npz"))
+    assert tick["states"][-1, 0] == 1  # (the last tick ended with a row active)
+    s1, dq1, st1 = _solve(tick, False, True)
+    calls: list[bool] = []
+    cascade = ticks._cascade
+
+    def counted(*args):
+        calls.append(bool(args[15]))  # (defer_soft)
+        return cascade(*args)
+
+    monkeypatch.setattr(ticks, "_cascade", counted)
+    python = ticks.cascade_solve.py_func  # (its calls to _cascade seen: the kernels compiled)
+    for p0, refused, path in ((3.0, 0, [True, False]), (3.0, 1, [False]), (2.0, 1, [True, False])):
+        calls.clear()
+        status, dq, states = _solve(tick, True, True, p0, refused, python)
+        assert status == s1 == 0 and calls == path, (p0, refused, calls)
+        np.testing.assert_array_equal(dq, dq1)
+        np.testing.assert_array_equal(states[:-1], st1[:-1])
+        assert states[-1, 0] == st1[-1, 0] == 1
+        assert states[-1, 1] == (p0 == 3.0)  # (degenerate again: marked, with the option)

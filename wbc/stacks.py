@@ -373,6 +373,7 @@ def build_stack(
         "pdas_ties",
         "carry_at_switch",
         "defer_rows_join",
+        "skip_degenerate",
     }
     if unknown:
         raise TaskError(f"{where}: unknown keys {sorted(unknown)}")
@@ -389,7 +390,7 @@ def build_stack(
     velocity_limits = spec.get("velocity_limits", True)
     if not isinstance(velocity_limits, bool):
         raise TaskError(f"{where}: velocity_limits must be true or false, got {velocity_limits!r}")
-    for key in ("pdas_ties", "carry_at_switch", "defer_rows_join"):
+    for key in ("pdas_ties", "carry_at_switch", "defer_rows_join", "skip_degenerate"):
         if not isinstance(spec.get(key, False), bool):
             raise TaskError(f"{where}: {key} must be true or false, got {spec[key]!r}")
     stack = TaskStack(robot, velocity_limits=velocity_limits)
@@ -425,7 +426,8 @@ def build_stack(
     options = {k: spec[k] for k in ("regularization", "on_infeasible") if k in spec}
     options.update(solver_options)
     be = backend or spec.get("backend", "daqp")
-    for key in ("method", "pdas_ties", "carry_at_switch", "defer_rows_join"):  # (its own)
+    solver_keys = ("method", "pdas_ties", "carry_at_switch", "defer_rows_join", "skip_degenerate")
+    for key in solver_keys:  # (its own)
         if solver_kind != "weighted" and key in spec:
             options.setdefault(key, spec[key])
     try:

@@ -444,6 +444,15 @@ def _degenerate(G, h, hard, working, x) -> bool:
 
 
 @njit(cache=True)
+def _refused(G, h, g_rows, level_hard, working, x) -> int:
+    """1 if the last level's answer x (its working set ``working``) is degenerate
+    (:func:`_degenerate`): the guard would refuse the next tick's deferral with the rows."""
+    n_levels = g_rows.shape[0] - 1
+    hard = g_rows[n_levels] if level_hard[n_levels - 1] else g_rows[n_levels - 1]
+    return 1 if _degenerate(G, h, hard, working[n_levels - 1], x) else 0
+
+
+@njit(cache=True)
 def _keep(states, working, g, saved) -> None:
     """``states`` and ``working``'s first g columns into saved[1:] (:func:`keep_size`)."""
     o = 1
@@ -668,10 +677,12 @@ def cascade_solve(
     and ``working[k]`` of its inequality rows (the last tick's: a warm start; updated), and
     ``states[L]`` if given (L + 1 rows) the last level's without its inequality rows (the
     warm start of that solve), and ``states[L + 1, 0]`` if given (L + 2 rows) 1 if the last
-    tick ended with an inequality row active, else 0 (written for the next tick);
+    tick ended with an inequality row active, else 0, and ``states[L + 1, 1]`` 1 if its
+    answer was degenerate (:func:`_refused`), else 0 (both written for the next tick);
     ``achieved``: J Δq of each solved level; ``h_eff``: h plus the slack each soft level's
     rows kept (work space); ``params``: [1 to defer the levels above with inequality
-    rows too, 2 with the rows joining that solve (else 0), μ, tolerance of hard levels,
+    rows too, 2 with the rows joining that solve, 3 and that solve not tried after a
+    tick whose answer was degenerate (else 0), μ, tolerance of hard levels,
     tolerance of the inequality rows, and if given PDAS's budget of ties
     (:data:`~wbc.compiled.lsq.PDAS_TIES` or 0: the stack's ``pdas_ties``; else 0)]; q ⊕ Δq
     into ``q_next``; ``fspace``, ``ispace``: the work space (float64, int64:
@@ -715,21 +726,26 @@ def cascade_solve(
     memo = states.shape[0] > n_levels + 1
     rows_before = memo and states[states.shape[0] - 1, 0] != 0 and g_rows[n_levels] > 0
     joining = params[0] > 1.0 and g_rows[n_levels] > 0  # (2: the rows join the deferred solve)
+    # (3: and not tried after a tick whose answer the guard would refuse, ``states``' last
+    # row's column 1: :func:`_refused`; the levels one by one at once, the guard's fallback)
+    skipping = memo and params[0] > 2.0
+    skip = joining and skipping and rows_before and states[states.shape[0] - 1, 1] != 0
     f, i_ = cascade_space_size(level_rows, dq.shape[0], g_rows[n_levels])
     if fspace.shape[0] < f or ispace.shape[0] < i_:
         fspace, ispace = np.empty(f), np.empty(i_, np.int64)
     # (the sets the levels one by one start from if the deferral with the rows fails: those
     # the cascade without the rows joining would have started them from, at the space's end)
     saved = ispace[i_ - keep_size(n_levels, dq.shape[0], g_rows[n_levels]) : i_]
-    if joining:
+    if joining and not skip:
         _keep(states, working, g_rows[n_levels], saved)
         saved[0] = 2 if rows_before else 0  # (2: it would not have tried the deferral)
+    defer = (joining and not skip) or not (rows_before and params[0] > 0.0)
     status = _cascade(
         J, b, level_rows, level_hard, G, h, g_rows, params, lower, upper, states, working,
-        h_eff, achieved, dq, np.bool_(joining or not (rows_before and params[0] > 0.0)), fspace,
-        ispace, saved,
+        h_eff, achieved, dq, np.bool_(defer), fspace, ispace, saved,
     )  # fmt: skip
-    if status == DEFERRAL_FAILED:  # a soft level above cannot be met exactly: solve it
+    failed = status == DEFERRAL_FAILED
+    if failed:  # a soft level above cannot be met exactly: solve it
         if joining and saved[0] != 0:
             _restore(states, working, g_rows[n_levels], saved)
         status = _cascade(
@@ -741,6 +757,10 @@ def cascade_solve(
         for k in range(n_levels):
             active = active or _any(working[k], g_rows[n_levels])
         states[states.shape[0] - 1, 0] = 1 if active else 0
+        refused = skipping and active and (skip or failed) and status == OK
+        states[states.shape[0] - 1, 1] = (
+            _refused(G, h_eff, g_rows, level_hard, working, dq) if refused else 0
+        )
     if status != OK:
         return status
     if not _finite(dq):
@@ -764,6 +784,7 @@ refresh(
         _hard_multipliers,
         solve_with_inequalities,
         _degenerate,
+        _refused,
         _keep,
         _keep_level,
         _restore,

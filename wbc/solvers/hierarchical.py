@@ -69,6 +69,7 @@ class HierarchicalQP(StackSolver):
         pdas_ties: bool = False,
         carry_at_switch: bool = False,
         defer_rows_join: bool = True,
+        skip_degenerate: bool = True,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -111,6 +112,12 @@ class HierarchicalQP(StackSolver):
         #: -16 % in total (benchmarks/self_collision.md, 2026-12-07 sixteenth session). Read
         #: when a plan sets its parameters (its first tick)
         self.defer_rows_join = bool(defer_rows_join)
+        #: with ``defer_rows_join``, after a tick whose answer was degenerate the next tick
+        #: solves the levels one by one at once, without the deferral the guard would most
+        #: likely refuse (:func:`wbc.compiled.ticks._refused`): the guard's fallback, so the
+        #: same answer. On by default (``skip_degenerate = false`` in a stack file turns it
+        #: off; benchmarks/self_collision.md, 2026-12-07 seventeenth session)
+        self.skip_degenerate = bool(skip_degenerate)
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []

@@ -412,8 +412,9 @@ class _Plan:
         self._dt: float | None = -1.0  # (no time step yet: the parameters are set at a solve)
         self._defer = False  # (the solver's defer_with_rows the parameters were set for)
         self._entry = None  # the tick's compiled entry point, after the first call
-        #: [1 to defer the levels above with inequality rows too, 2 with the rows joining
-        #: (``defer_with_rows``, ``defer_rows_join``), else 0, μ, hard tolerance,
+        #: [1 to defer the levels above with inequality rows too, 2 with the rows joining, 3
+        #: and not after a degenerate answer (``defer_with_rows``, ``defer_rows_join``,
+        #: ``skip_degenerate``), else 0, μ, hard tolerance,
         #: tolerance of the inequality rows, PDAS's ties (the solver's ``pdas_ties``)]
         self.params = np.zeros(5)
         self.lower = scratch.get("lower", (nv,))  # (the tick's bounds: filled first)
@@ -666,8 +667,10 @@ class _Plan:
         """The scalar parameters of the tick, for ``dt``."""
         solver = self.solver
         self._defer = bool(getattr(solver, "defer_with_rows", False))
+        join = bool(getattr(solver, "defer_rows_join", False))
+        skip = join and bool(getattr(solver, "skip_degenerate", False))
         self.params[:] = (
-            (1.0 + getattr(solver, "defer_rows_join", False)) if self._defer else 0.0,
+            (1.0 + join + skip) if self._defer else 0.0,
             solver.regularization,
             solver.hard_tol,
             CONSTRAINT_TOL,
