@@ -40,13 +40,14 @@ def test_the_replay_reproduces_the_captured_answers(captured):
 
 
 def test_the_levels_one_by_one_give_the_rows_joining_deferred_answers(captured):
-    """walk_strict walk10 is captured with the rows joining the deferred solve (the default):
+    """walk_strict walk10 is captured with the rows joining the deferred solve (the default,
+    ``params[0]`` = 3 with ``skip_degenerate``, which never acts on this walk):
     replayed with the levels above solved one by one on the row ticks (``params[0]`` = 1),
     every tick's Δq is the captured one to rounding (a strictly convex last level over the
     same set: the deferral holds only where the levels above are met exactly with the rows,
     and its answer is not degenerate), and some ticks took the other path."""
     ticks = captured["ticks"]
-    assert all(t["params"][0] == 2.0 for t in ticks)
+    assert all(t["params"][0] == 3.0 for t in ticks)
     apart = [dict(t, params=np.concatenate([[1.0], t["params"][1:]])) for t in ticks]
     out = R.replay(apart, 1)
     diff = np.abs(out["dq"] - np.array([t["dq_out"] for t in ticks])).max(axis=1)
