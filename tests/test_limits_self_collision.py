@@ -665,33 +665,3 @@ def test_a_compiled_plan_holds_the_limits_rows_in_place(robot):
     finally:
         _Plan.solve = solve
     assert len(seen) == 150 and max(seen) > 0
-
-
-@pytest.mark.parametrize("solver", ["hierarchical", "weighted"])
-def test_the_plans_reset_in_the_rows_call_walks_as_the_reset_after_them(robot, solver):
-    """The compiled plan's reset (its constraints' parameters gathered, its warm sets
-    cleared) made in the self-collision rows' compiled call
-    (:func:`~wbc.limits.collision_packed.packed_rows_reset`) walks walk10 bit for bit as
-    the reset in its own call after the rows (the limit's ``rows_reset`` off)."""
-    from wbc.solvers.inequalities import ConstraintRows
-
-    ref = build("walk10", robot)
-    made, recordings = {}, {}
-    tick = ConstraintRows.tick
-
-    def counted(rows, kin, gather=True, reset=None):
-        rebind = tick(rows, kin, gather, reset)
-        made[current] = made.get(current, 0) + rows.reset_done
-        return rebind
-
-    ConstraintRows.tick = counted
-    try:
-        for current in (True, False):
-            control = load_stack("walk_strict", robot, solver=solver)
-            limit = control.stack.constraint("self_collision")
-            limit.rows_reset = current
-            recordings[current] = run(StackController(control), robot, ref)
-    finally:
-        ConstraintRows.tick = tick
-    assert made[True] >= ref.n and made.get(False, 0) == 0
-    assert np.array_equal(recordings[True].q, recordings[False].q)

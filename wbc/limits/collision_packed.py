@@ -13,12 +13,9 @@ from pathlib import Path
 import numpy as np
 from numba import carray, njit
 
-from ..compiled import checks as _checks
-from ..compiled import prelude as _prelude
 from ..compiled import ticks as _ticks
 from ..compiled._cache import refresh
 from ..compiled.checks import address
-from ..compiled.prelude import gather_forget
 from ..compiled.ticks import fold_box
 from .collision_kernels import CULL_TOL, collision_rows
 
@@ -195,36 +192,10 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     return r
 
 
-@njit(cache=True)
-def packed_rows_reset(
-    q,
-    addresses,
-    shapes,
-    Rf,
-    pf,
-    Jw,
-    G,
-    h,
-    r0,
-    g_addresses,
-    g_sizes,
-    cparams,
-    states,
-    upto,
-    working,
-) -> int:
-    """:func:`packed_rows`, then :func:`~wbc.compiled.prelude.gather_forget` (a compiled
-    plan's constraints' parameters gathered, its warm sets started afresh: the call after the
-    rows in a tick) — one compiled call for the two (each numba entry point a tick crosses
-    costs 1–3 µs in its tick: benchmarks/self_collision.md, seventeenth session)."""
-    r = packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0)
-    gather_forget(g_addresses, g_sizes, cparams, states, upto, working)
-    return r
-
-
 # numba caches these on this file alone: flush them when the kernels they call change (the
 # rows' kernels, the box's fold; before this, an edit of collision_kernels.py alone left
 # packed_rows running the old rows)
-_KERNELS = [Path(__file__).with_name("collision_kernels.py"), Path(_ticks.__file__)]
-refresh([joint_box, packed_rows], _KERNELS)
-refresh([packed_rows_reset], [*_KERNELS, Path(_prelude.__file__), Path(_checks.__file__)])
+refresh(
+    [joint_box, packed_rows],
+    [Path(__file__).with_name("collision_kernels.py"), Path(_ticks.__file__)],
+)

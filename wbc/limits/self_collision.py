@@ -60,13 +60,12 @@ import numpy as np
 import pinocchio as pin
 
 from ..compiled.entry import entry_point
-from ..compiled.prelude import gather_forget
 from ..exceptions import ConfigurationError, InfeasibleError
 from ..model import Kinematics, Robot
 from .collision_boxes import CollisionModel, collision_model
 from .collision_distances import PairDistances, Witness
 from .collision_kernels import MAX_CLOSURE
-from .collision_packed import pack, packed_rows, packed_rows_reset
+from .collision_packed import pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -347,8 +346,6 @@ class SelfCollisionConstraint(Constraint):
     """
 
     held_rows_met = True  # the pairs inside the margin are requests (:meth:`split`)
-    #: :meth:`rows_into` takes a plan's reset (``reset``) into its compiled call
-    rows_reset = True
 
     def __init__(
         self,
@@ -439,10 +436,7 @@ class SelfCollisionConstraint(Constraint):
         self._box_work = np.full((6, robot.nv), np.nan)
         #: the kernel's arguments for one Kinematics, its entry points by the buffers written
         self._call: tuple | None = None
-        self._entries: dict[tuple[int, int, bool], tuple] = {}
-        #: the last call's (kin, G, h, box, entry point, its arguments, no reset): the next call
-        #: with the same objects reads this one tuple (:meth:`_call_kernel`; None: looked up)
-        self._hot: tuple | None = None
+        self._entries: dict[tuple[int, int], tuple] = {}
         #: where the last rows are: (G, h, first row) — the limit's own buffers, or a
         #: compiled plan's (:meth:`rows_into`)
         self._where: tuple[np.ndarray, np.ndarray, int] = (self._G, self._h, 0)
@@ -451,7 +445,6 @@ class SelfCollisionConstraint(Constraint):
         state = self.__dict__.copy()
         state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
         state["_call"], state["_entries"] = None, {}  # (the same, a Kinematics' views)
-        state["_hot"] = None
         if self._where[0] is not self._G:  # (the last rows in a plan's buffers: made again)
             state["_where"] = (self._G, self._h, 0)
             state["_rows_q"] = np.full(self.robot.nq, np.nan)
@@ -514,41 +507,29 @@ class SelfCollisionConstraint(Constraint):
         return int(self._h.shape[0])
 
     def _update(
-        self,
-        kin: Kinematics,
-        G: np.ndarray,
-        h: np.ndarray,
-        r0: int = 0,
-        box: tuple | None = None,
-        reset: tuple | None = None,
+        self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int = 0, box: tuple | None = None
     ) -> int:
         """The rows at ``kin`` into ``G[r0:]``, ``h[r0:]`` (one compiled call,
         :func:`~wbc.limits.collision_packed.packed_rows`, or at the configuration and in the
         box of the last call a copy of its rows if they went elsewhere); returns their number.
-        ``box``, ``reset``: :meth:`rows_into`'s (with ``reset`` the same call makes it:
-        :func:`~wbc.limits.collision_packed.packed_rows_reset`)."""
-        hot = self._hot  # (the last call's objects: its box's flag and entry hold)
-        if (
-            hot is not None
-            and hot[0] is kin
-            and hot[1] is G
-            and hot[2] is h
-            and hot[3] is box
-            and hot[10] is (reset is None)
-        ):
-            if reset is None:
-                r = hot[4](kin.q, hot[5], hot[6], hot[7], hot[8], hot[9], G, h, r0)
-            else:
-                r = hot[4](kin.q, hot[5], hot[6], hot[7], hot[8], hot[9], G, h, r0, *reset)
-        elif not self.distances.pairs:
-            if reset is not None:
-                gather_forget(*reset)
+        ``box``: :meth:`rows_into`'s."""
+        pd = self.distances
+        if not pd.pairs:
             self._n_rows = 0
             self._closest[0] = np.inf
             self._rows = None
             return 0
-        else:
-            r = self._call_kernel(kin, G, h, r0, box, reset)
+        if box is not None and box is not self._box:
+            self._set_box(box)
+        if self._boxed is not (box is not None):  # (a write only for a change)
+            self._boxed = box is not None
+            self._params[5] = 1.0 if self._boxed else 0.0
+        call = self._call
+        if call is None or call[0] is not kin:
+            call = self._bind(kin)
+        found = self._entries.get((id(G), id(h)))
+        entry = found[0] if found is not None else self._entry(call, G, h)
+        r = entry(kin.q, call[1], call[2], call[3], call[4], call[5], G, h, r0)
         where = self._where
         self._where = (G, h, r0)
         if r == -1:  # (the configuration of the last rows: where they are)
@@ -566,35 +547,6 @@ class SelfCollisionConstraint(Constraint):
             )
         self._n_rows, self._last, self._rows = r, None, None
         return r
-
-    def _call_kernel(
-        self,
-        kin: Kinematics,
-        G: np.ndarray,
-        h: np.ndarray,
-        r0: int,
-        box: tuple | None,
-        reset: tuple | None = None,
-    ) -> int:
-        """:meth:`_update`'s kernel call for a new ``kin``, ``G``, ``h`` or ``box`` (the
-        arguments bound, the entry point looked up), kept in :attr:`_hot` for the next call
-        with the same objects (and ``reset`` or not) where the frames are views (a tick then
-        reads one tuple)."""
-        if box is not None and box is not self._box:
-            self._set_box(box)
-        if self._boxed is not (box is not None):  # (a write only for a change)
-            self._boxed = box is not None
-            self._params[5] = 1.0 if self._boxed else 0.0
-        call = self._call
-        if call is None or call[0] is not kin:
-            call = self._bind(kin)
-        found = self._entries.get((id(G), id(h), reset is None))
-        entry = found[0] if found is not None else self._entry(call, G, h, reset)
-        kept = self._call is not None and (self._box is box or box is None)
-        self._hot = (kin, G, h, box, entry, *call[1:], reset is None) if kept else None
-        if reset is None:
-            return entry(kin.q, call[1], call[2], call[3], call[4], call[5], G, h, r0)
-        return entry(kin.q, call[1], call[2], call[3], call[4], call[5], G, h, r0, *reset)
 
     def _set_box(self, box: tuple) -> None:
         """Pack the box's limits ``box`` (q_min, q_max, steps: 1-D float64, n_joints long,
@@ -625,31 +577,23 @@ class SelfCollisionConstraint(Constraint):
         self._entries = {}
         return call
 
-    def _entry(self, call: tuple, G: np.ndarray, h: np.ndarray, reset: tuple | None = None):
+    def _entry(self, call: tuple, G: np.ndarray, h: np.ndarray):
         """The kernel for ``call`` into ``G``, ``h``: its entry point for these arrays' types,
         kept by the buffers' identity (with them: their ids stay theirs) — cold, in a 50 Hz
         loop, the dispatcher's typing of the nine arguments cost ~5 µs a tick, the entry's
         call ~1 (``kin.q``: C-contiguous float64, :meth:`~wbc.Robot.check_configuration`).
         The dispatcher where the frames are copies."""
-        kernel = packed_rows if reset is None else packed_rows_reset
         if self._call is None:
-            return kernel
+            return packed_rows
         # (compiled, or loaded from numba's cache, for these types without running it)
-        args = (call[0].q, *call[1:], G, h, 0, *(reset or ()))
-        entry = entry_point(kernel, args, compile=True)
+        entry = entry_point(packed_rows, (call[0].q, *call[1:], G, h, 0), compile=True)
         if len(self._entries) >= KEPT_ENTRIES:
             self._entries.clear()
-        self._entries[(id(G), id(h), reset is None)] = (entry, G, h)
+        self._entries[(id(G), id(h))] = (entry, G, h)
         return entry
 
     def rows_into(
-        self,
-        kin: Kinematics,
-        G: np.ndarray,
-        h: np.ndarray,
-        r0: int,
-        box: tuple | None = None,
-        reset: tuple | None = None,
+        self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int, box: tuple | None = None
     ) -> int:
         """The rows at ``kin`` written into ``G[r0:]``, ``h[r0:]`` (C-contiguous float64
         buffers with nv columns and room for :attr:`max_rows` rows from ``r0``;
@@ -667,20 +611,14 @@ class SelfCollisionConstraint(Constraint):
         so it never joins a working set, blocks a step or keeps a slack
         (:func:`~wbc.limits.collision_kernels.can_bind`): left out, the answer is the same
         (86-92 % of the rows on the Bioloid's walks). :meth:`compute` at the same
-        configuration then makes every row again.
-
-        ``reset``: the arguments of :func:`~wbc.compiled.prelude.gather_forget` (a compiled
-        plan's reset after its rows: :meth:`wbc.solvers.inequalities.ConstraintRows.tick`),
-        made in the same compiled call as the rows."""
+        configuration then makes every row again."""
         if type(self).compute is not SelfCollisionConstraint.compute:  # (a subclass's rows)
             rows = self.compute(kin)
             m = rows.h.shape[0]
             G[r0 : r0 + m] = rows.G
             h[r0 : r0 + m] = rows.h
-            if reset is not None:
-                gather_forget(*reset)
             return m
-        return self._update(kin, G, h, r0, box, reset)
+        return self._update(kin, G, h, r0, box)
 
     @property
     def rows_left_out(self) -> int:

@@ -113,13 +113,11 @@ class InequalityRows:
 
 def _into(c: Constraint) -> tuple | None:
     """What writes ``c``'s rows straight into a plan's buffers (its ``rows_into``, the room it
-    needs: ``max_rows``, whether it takes the tick's box: ``rows_in_box``, and the plan's
-    reset: ``rows_reset``), or None."""
+    needs: ``max_rows``, and whether it takes the tick's box: ``rows_in_box``), or None."""
     into = getattr(c, "rows_into", None)
     if into is None:
         return None
-    box, reset = bool(getattr(c, "rows_in_box", False)), bool(getattr(c, "rows_reset", False))
-    return into, int(c.max_rows), box, reset
+    return into, int(c.max_rows), bool(getattr(c, "rows_in_box", False))
 
 
 class ConstraintRows:
@@ -178,8 +176,6 @@ class ConstraintRows:
         self._empty = np.zeros(0)
         #: each constraint's row count at the last tick (in :attr:`items` order)
         self.counts = [0] * len(self.items)
-        #: whether the last :meth:`tick` made its caller's ``reset``
-        self.reset_done = False
 
     def _changed(self) -> bool:
         for c, lay, tokened in zip(self.kernel_items, self._layout, self._tokened, strict=True):
@@ -227,18 +223,11 @@ class ConstraintRows:
         self._sizes = np.array([a.size for a in arrays], dtype=np.int64)
         self._gather = entry(gather)
 
-    def tick(self, kin: Kinematics, gather: bool = True, reset: tuple | None = None) -> bool:
+    def tick(self, kin: Kinematics, gather: bool = True) -> bool:
         """The rows at ``kin``: the kernel constraints prepared and laid out (the tick writes
         their rows), the others' rows copied, their parameters gathered (:meth:`gather`; not
         with ``gather`` False: the caller's, :meth:`wbc.solvers.plan._Plan.forget_warm_start`);
-        True if the tick's arguments must be re-bound (new arrays).
-
-        ``reset`` (a plan's warm sets and the levels to clear, ``gather`` False): the first
-        constraint that writes its rows in place and takes it (``rows_reset``) gathers the
-        parameters and clears the sets in its own compiled call
-        (:func:`~wbc.compiled.prelude.gather_forget`'s work, after every constraint's
-        ``prepare``); :attr:`reset_done` says whether one did (else the caller's)."""
-        self.reset_done = False
+        True if the tick's arguments must be re-bound (new arrays)."""
         kernel_items = self.kernel_items
         for c in self._prepared:
             c.prepare(kin)
@@ -262,11 +251,7 @@ class ConstraintRows:
                 elif into is not None:  # (written in place: room for its most rows first)
                     if r + into[1] > g.h.shape[0] and g.reserve(r + into[1]):
                         rebind = True
-                    if reset is not None and into[3] and not self.reset_done:
-                        then = (self._addresses, self._sizes, self.cparams, *reset, g.working)
-                        self.reset_done = True
-                        m = into[0](kin, g.G, g.h, r, self.box if into[2] else None, then)
-                    elif into[2]:
+                    if into[2]:
                         m = into[0](kin, g.G, g.h, r, self.box)
                     else:
                         m = into[0](kin, g.G, g.h, r)

@@ -475,16 +475,21 @@ class _Plan:
         joints at their speed) took 12–17 subproblem solves, ~60–90 µs; from the last tick's
         active set 1–3 (benchmarks/self_collision.md). The inequality rows start afresh but
         for the damped level's found again by value (:mod:`wbc.solvers.carry`)."""
-        sets, upto = self._reset_sets(keep_damped)
-        if self._forget is None:  # (its entry point, once: a tick makes one compiled call here)
+        forget, sets = self._forget, self._sets  # (warm_start as rows: the weighted's one)
+        if forget is None:  # (its entry point, once: a tick makes one compiled call here)
             from ..compiled.entry import entry_point
             from ..compiled.prelude import forget_sets
 
+            sets = self._sets = self.warm_start.reshape(-1, self.warm_start.shape[-1])
             args = (sets, sets.shape[0], self.inequalities.working)
-            self._forget = entry_point(forget_sets, args, True)
+            forget = self._forget = entry_point(forget_sets, args, True)
+        if keep_damped and self.damped_level is not None and self.solver.regularization > 0.0:
+            upto = self.damped_level
+        else:
+            upto = sets.shape[0]
         gathered = rows.gather_args() if rows is not None else None
-        if gathered is None:  # (and every inequality row's flag)
-            self._forget(sets, upto, self.inequalities.working)
+        if gathered is None:
+            forget(sets, upto, self.inequalities.working)  # (and every inequality row's flag)
         else:  # (one compiled call: its entry point bound at the first)
             args = (*gathered, sets, upto, self.inequalities.working)
             both = self._gather_forget
@@ -496,15 +501,6 @@ class _Plan:
             both(*args)
         if not keep_damped and self.carried is not None:
             self.carried.count = 0
-
-    def _reset_sets(self, keep_damped: bool) -> tuple[np.ndarray, int]:
-        """The warm sets as rows and how many :meth:`forget_warm_start` clears."""
-        sets = self._sets
-        if sets is None:
-            sets = self._sets = self.warm_start.reshape(-1, self.warm_start.shape[-1])
-        if keep_damped and self.damped_level is not None and self.solver.regularization > 0.0:
-            return sets, self.damped_level
-        return sets, sets.shape[0]
 
     def reserve_rows(self, factor: int = ROW_HEADROOM) -> None:
         """Room in the inequality rows' buffers for ``factor`` times the rows of the last tick
@@ -586,13 +582,13 @@ class _Plan:
         for limit in self._timed:  # (before the rows: a box they are left out in reads them)
             limit.prepare(dt)
         rows = self.constraints if self.constraints.items else None
-        # every tick from no active set, as the numpy path solves (from the last tick's, the
-        # answer depended on the ticks before: issue 28; benchmarks/stress.md), reset in the
-        # rows' compiled call where one takes it (ConstraintRows.tick's ``reset``)
-        if rows is not None and rows.tick(kin, False, self._reset_sets(True)):
+        if rows is not None and rows.tick(kin, gather=False):  # (gathered with the reset)
             self._bind_args()
-        if rows is None or not rows.reset_done:
-            self.forget_warm_start(keep_damped=True, rows=rows)
+        # every tick from no active set, as the numpy path solves: started from the last
+        # tick's, the hierarchy's degenerate levels kept other (equally optimal) active sets,
+        # and the answer depended on the ticks before, up to 2e-7 rad from the numpy path's
+        # (issue 28); the warm start saved no measurable time on walk10 (benchmarks/stress.md)
+        self.forget_warm_start(keep_damped=True, rows=rows)
         g, k = self.inequalities, self.damped_level or 0
         carried = self.carried  # (the damped level's rows at the last tick's end)
         if carried is not None:
