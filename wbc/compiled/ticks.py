@@ -621,8 +621,8 @@ def _cascade(
                     soft_from, tol, working[k, :g1], entry, np.bool_(not direct), space,
                     np.bool_(cont), ties, fw, iw,
                 )  # fmt: skip
-            if status == OK or not (warm or direct):
-                break
+            if status == OK or not (warm or direct) or (deferred > 0 and not violated):
+                break  # (a deferred solve failed without rows: a retry is the same problem)
             working[k, :] = False
             if direct:
                 states[k, :] = kept
