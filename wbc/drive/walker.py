@@ -240,7 +240,8 @@ class Walker:
     benchmarks/drive.md; ``play_load``, ``"still"`` or ``"always"``: the loaded links' side
     from the static joint torques, ``""`` off); the feedback's state estimate keeps the raw
     readings. ``landing_share`` (closed loop; default 0: off): each landing's placement the
-    mean over this last share of its double support (:class:`~wbc.drive.odometry.LandingMean`).
+    mean over this last share of its double support (:class:`~wbc.drive.odometry.LandingMean`),
+    for the outer loop's odometry and, with ``landing_contact`` (default True), the contact.
     :func:`wbc.drive.sim.drive_sim` gives the simulated servos' own play.
     ``hold`` (m, closed loop; default 0: off; :data:`DRIVE_HOLD`'s reach, 0.02, measured):
     after a stop, the CoM target shifted at most this far until the base, by the present
@@ -287,6 +288,7 @@ class Walker:
         play_lift: bool = False,
         play_load: str = "",
         landing_share: float = 0.0,
+        landing_contact: bool = True,
         keep_clear: bool = True,
         hold: float = 0.0,
         finish_steps: int = DRIVE_FINISH_STEPS_AFTER,
@@ -398,6 +400,7 @@ class Walker:
         self._loads = ComplianceCompensator(robot) if self.play is not None and play_load else None
         mean = LandingMean(robot, landing_share)  # (checks it)
         self.landing = mean if closed and landing_share > 0 else None  #: landings averaged
+        self.landing_contact = bool(landing_contact)  # the engine's measured contact too
         #: after a stop, the base held onto its commanded place (closed loop, ``hold`` > 0)
         rate, seconds = DRIVE_HOLD["rate"], DRIVE_HOLD["seconds"]
         self.hold = BaseHold(hold, rate, seconds) if closed and hold > 0 else None
@@ -505,7 +508,7 @@ class Walker:
         if q is None:
             return None
         placed = None if self.landing is None else self.landing.placed(step.side)
-        if placed is None:
+        if placed is None or not self.landing_contact:
             (rel,) = self.robot.placements_in(q, SOLE_FRAMES[stance.side], [SOLE_FRAMES[step.side]])
             xy, dyaw = rel.translation[:2], yaw_of(rel.rotation)
         else:
