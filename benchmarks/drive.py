@@ -103,6 +103,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             encoder_rest: bool = False, play: str | float | None = None,
             play_hold: float | None = None, play_lift: bool = False,
             play_load: str | None = None, params=None, keep_clear: bool = True,
+            landing_share: float | None = None, landing_contact: bool = True,
             base_hold: float | None = None,
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
@@ -118,7 +119,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
         "play_hold": play_hold, "play_lift": play_lift or None, "play_load": play_load,
-        "hold": base_hold,
+        "hold": base_hold, "landing_share": landing_share,
+        "landing_contact": None if landing_contact else False,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand,
     }  # fmt: skip
@@ -303,6 +305,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="with --play: the loaded links' side of the play from the static "
                          "joint torques (Walker(play_load=...)): 'still' for the readings "
                          "standing still, 'always'; default the Walker's (off)")  # fmt: skip
+    ap.add_argument("--landing-share", type=float, default=None, metavar="F",
+                    help="each landing's placement the mean over the last share F of its "
+                         "double support (Walker(landing_share=F); default the Walker's, 0: "
+                         "the landing's tick alone)")  # fmt: skip
+    ap.add_argument("--landing-odometry-only", dest="landing_contact", action="store_false",
+                    help="with --landing-share: the mean for the outer loop's odometry only, "
+                         "the engine's measured contact the landing's tick "
+                         "(Walker(landing_contact=False))")  # fmt: skip
     ap.add_argument("--no-keep-clear", dest="keep_clear", action="store_false",
                     help="the stance contact's move toward the measured sole not kept clear "
                          "of the swing's planned landing (Walker(keep_clear=False): the "
@@ -366,6 +376,8 @@ def main(argv: list[str] | None = None) -> int:
         "play_lift": args.play_lift,
         "play_load": {"off": ""}.get(args.play_load, args.play_load),
         "keep_clear": args.keep_clear,
+        "landing_share": args.landing_share,
+        "landing_contact": args.landing_contact,
         "base_hold": args.base_hold,
         "finish_steps": args.finish_steps,
         "finish_xy": args.finish_xy,

@@ -270,19 +270,23 @@ class LandingBudget:
         self.sums = {k: np.zeros(2) for k in ("placement", "gyro", "encoders' turn", "unseen")}
         self.total = np.zeros(2)
         self.heading_error = 0.0  # rad, the stance sole's at the last landing
+        self.placement_norm = 0.0  # m, Σ |placement error| over the landings
         self.landings = 0
         self._placed: dict[str, np.ndarray] = {}  # each sole's true position at its landing
 
-    def landed(self, robot, sim, odometry, side: str, q: np.ndarray) -> None:
-        """A landing of ``side`` just measured by ``odometry`` (q: the present joints)."""
+    def landed(self, robot, sim, odometry, side: str, q: np.ndarray, placed=None) -> None:
+        """A landing of ``side`` just measured by ``odometry`` (q: the present joints;
+        ``placed``: the landed sole's placement the odometry took, if not ``q``'s)."""
         stance = "right" if side == "left" else "left"
         frames = {"left": SOLE_NAMES[0], "right": SOLE_NAMES[1]}
         M_st, M_sw = sim.site_pose(frames[stance]), sim.site_pose(frames[side])
         st_xy, sw_xy, st_yaw = M_st.translation[:2], M_sw.translation[:2], yaw_of(M_st.rotation)
         (rel,) = robot.placements_in(q, frames[stance], [frames[side]])
-        measured = rel.translation[:2]
+        measured = rel.translation[:2] if placed is None else np.asarray(placed[:2])
         odo_st = odometry.soles[stance]
-        self.sums["placement"] += rot2(st_yaw) @ (measured - rot2(st_yaw).T @ (sw_xy - st_xy))
+        error = rot2(st_yaw) @ (measured - rot2(st_yaw).T @ (sw_xy - st_xy))
+        self.sums["placement"] += error
+        self.placement_norm += float(np.linalg.norm(error))
         # the heading's error split: the gyro's torso heading against the simulated torso's,
         # and the encoders' torso-to-sole turn against the simulated one
         (torso_sole,) = robot.placements_in(q, "torso", [frames[stance]])
@@ -304,7 +308,7 @@ class LandingBudget:
         return (f"  the odometry's error at the last landing (world): ({x:+.1f}, {y:+.1f}) mm, "
                 f"heading "
                 f"{math.degrees(self.heading_error):+.1f}°, over {self.landings} landings: "
-                f"Σ {parts} mm")  # fmt: skip
+                f"Σ {parts} mm; Σ |placement| {1000 * self.placement_norm:.0f} mm")  # fmt: skip
 
 
 def soles_mid(sim) -> np.ndarray:
@@ -450,6 +454,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="as benchmarks/drive.py --play-hold")  # fmt: skip
     ap.add_argument("--play-load", choices=["off", "still", "always"], default=None,
                     help="as benchmarks/drive.py --play-load")  # fmt: skip
+    ap.add_argument("--landing-share", type=float, default=None, metavar="F",
+                    help="as benchmarks/drive.py --landing-share")  # fmt: skip
     ap.add_argument("--start-yaw", type=float, default=0.0, metavar="DEG",
                     help="the robot starts turned DEG about the simulator's vertical (a drift "
                          "fixed in the floor's frame stays; one of the walk's turns with "
@@ -508,6 +514,7 @@ def main(argv: list[str] | None = None) -> int:
             stance = "right" if step.side == "left" else "left"
             chain = (float(odo.soles[stance][2]) if odo is not None and odo.started
                      and stance in odo.soles else None)  # fmt: skip
+            mean = None if self.landing is None else self.landing.placed(step.side)
             out = super()._landed(step)
             if self._offset is not None and odometers:
                 sim = odometers[-1].sim
@@ -516,7 +523,7 @@ def main(argv: list[str] | None = None) -> int:
                 self.landings.append((sim.time, est, truth, self.engine.command_velocity))
                 q = self._present_configuration()
                 if q is not None and self.odometry is not None:
-                    self.budget.landed(self.robot, sim, self.odometry, step.side, q)
+                    self.budget.landed(self.robot, sim, self.odometry, step.side, q, mean)
                     if args.trace and chain is not None:
                         trace_line(self, sim, step.side, q, chain)
             return out
@@ -569,6 +576,7 @@ def main(argv: list[str] | None = None) -> int:
                               stride_gain=args.stride_gain,
                               play_hold=args.play_hold, heading_gain=args.heading_gain,
                               play_load={"off": ""}.get(args.play_load, args.play_load),
+                              landing_share=args.landing_share,
                               params=None if args.swing_settle is None
                               else EngineParams(settle=args.swing_settle),
                               start_yaw=math.radians(args.start_yaw))  # fmt: skip

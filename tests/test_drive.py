@@ -465,7 +465,7 @@ class _TurnedOdometry:
         feet = self.walker.engine.feet
         return mean_angle(feet["left"].yaw, feet["right"].yaw) + self.error
 
-    def landed(self, side, q) -> np.ndarray:
+    def landed(self, side, q, placed=None) -> np.ndarray:
         feet = self.walker.engine.feet
         return np.r_[0.5 * (feet["left"].xy + feet["right"].xy), self.heading]
 

@@ -17,6 +17,7 @@ from wbc.compiled.rows import log3
 from wbc.drive.odometry import (
     DRIVE_HEADING_BAND,
     BaseHold,
+    LandingMean,
     LiftGain,
     PlayInverse,
     PoseOdometry,
@@ -387,3 +388,44 @@ def test_the_base_hold_moves_the_com_target_against_the_error_within_its_bounds(
         assert np.hypot(*out) == pytest.approx(0.02 - k * 0.02 * dt, abs=1e-4)
     with pytest.raises(ConfigurationError, match="rate"):
         BaseHold(0.02, -1.0, 1.0)
+
+
+def test_a_landing_is_placed_by_the_mean_over_its_double_support(robot) -> None:
+    """Readings dithering ±δ about the standing joints through a double support: the mean
+    placement of either landed sole is the still one's within δ² terms, the last tick's
+    alone is δ off; the share takes the last ticks only; a tick out of the double support
+    restarts; PoseOdometry places the landed sole by the placement given (the walking frame, the
+    soles' midpoint, by half of it)."""
+    q = robot.configuration("stand")
+    (still,) = robot.placements_in(q, "l_sole", ["r_sole"])
+    right = np.r_[still.translation[:2], yaw_of(still.rotation)]
+    left = np.r_[still.inverse().translation[:2], yaw_of(still.inverse().rotation)]
+    delta = 0.02  # rad, on every joint
+    dither = [robot.with_joints(q[7:] + (delta if k % 2 else -delta)) for k in range(8)]
+    mean = LandingMean(robot, 1.0)
+    assert mean.placed("left") is None
+    mean.sample(robot.with_joints(q[7:] + 0.3), double=False)  # (forgotten at the next)
+    for k, qk in enumerate(dither):
+        mean.sample(qk, double=k > 0)
+    last = LandingMean(robot, 0.0)
+    last.sample(dither[-1], double=True)
+    for side, want in (("right", right), ("left", left)):
+        assert np.abs(mean.placed(side) - want).max() < 2e-4  # type: ignore[operator]
+        assert np.abs(last.placed(side) - want).max() > 1e-3  # type: ignore[operator]
+    half = LandingMean(robot, 0.5)
+    for qk in [robot.with_joints(q[7:] + 0.3)] * 4 + dither[:4]:  # (the first four: outside)
+        half.sample(qk, double=True)
+    assert np.abs(half.placed("right") - right).max() < 2e-4  # type: ignore[operator]
+    start = StandingState.from_robot(robot, q)
+    feet = {"left": start.left, "right": start.right}
+    torso = yaw_of(robot.frame_placement(q, "torso").rotation)
+    odo, plain = PoseOdometry(robot), PoseOdometry(robot)
+    odo.start(feet, torso)
+    plain.start(feet, torso)
+    assert odo.landed("right", q, mean.placed("right")) == pytest.approx(
+        plain.landed("right", q), abs=2e-4
+    )
+    shifted = odo.landed("right", q, right + np.array([0.01, 0.0, 0.0]))  # 1 cm forward
+    assert np.hypot(*(shifted[:2] - plain.landed("right", q)[:2])) == pytest.approx(0.005)
+    with pytest.raises(ConfigurationError, match="share"):
+        LandingMean(robot, 1.5)

@@ -183,9 +183,11 @@ class PoseOdometry:
         tilt = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ rotation
         return yaw_of(tilt @ exp3(np.asarray(rate, dtype=float) * dt))
 
-    def landed(self, side: Side, q: np.ndarray) -> np.ndarray:
+    def landed(self, side: Side, q: np.ndarray, placed: np.ndarray | None = None) -> np.ndarray:
         """``side`` has landed (``q``: the configuration of the present joints): the soles'
-        poses updated; returns the walking frame measured (x, y, heading; world)."""
+        poses updated; returns the walking frame measured (x, y, heading; world). ``placed``
+        (x, y, heading): the landed sole in the stance sole's frame, if not ``q``'s
+        (:class:`LandingMean`)."""
         robot = self.robot
         stance = other_side(side)
         M_t = robot.frame_placement(q, "torso")
@@ -207,13 +209,54 @@ class PoseOdometry:
                 st[2] = gyro
             else:  # (beyond the band the gyro's turn is taken: a sole turned on the floor)
                 st[2] = gyro - (1.0 - k) * min(max(wrap_angle(gyro - st[2]), -band), band)
-        rel = M_st.actInv(M_sw)
-        xy = st[:2] + rot2(st[2]) @ rel.translation[:2]
-        self.soles[side] = np.array([xy[0], xy[1], wrap_angle(st[2] + yaw_of(rel.rotation))])
+        if placed is None:
+            rel = M_st.actInv(M_sw)
+            placed = np.r_[rel.translation[:2], yaw_of(rel.rotation)]
+        xy = st[:2] + rot2(st[2]) @ placed[:2]
+        self.soles[side] = np.array([xy[0], xy[1], wrap_angle(st[2] + placed[2])])
         self._placed[side] = self.time
-        self._turn[side] = abs(yaw_of(rel.rotation))
+        self._turn[side] = abs(float(placed[2]))
         sw = self.soles[side]
         return np.array([0.5 * (st[0] + sw[0]), 0.5 * (st[1] + sw[1]), mean_angle(st[2], sw[2])])
+
+
+class LandingMean:
+    """A landed sole's placement from the stance sole averaged over the double support that
+    ends with its landing's measurement (the engine measures a landing at the double
+    support's last tick, :attr:`wbc.walking.engine.WalkEngine.on_landing`): both soles stand,
+    their relative placement is fixed while the readings through the servos' play and dither
+    move. :meth:`sample` every tick with the present joints, :meth:`placed` at the landing:
+    the mean over the last ``share`` of the double support's ticks so far (at least the
+    present one; 0: the present tick alone, as without it)."""
+
+    def __init__(self, robot: Robot, share: float) -> None:
+        if not 0.0 <= share <= 1.0:  # (NaN too)
+            raise ConfigurationError(f"landing share must be in [0, 1], got {share}")
+        self.robot = robot
+        self.share = float(share)
+        #: per tick of the double support so far: the right sole from the left (x, y, yaw)
+        #: and the left from the right
+        self._rows: list[np.ndarray] = []
+
+    def sample(self, q: np.ndarray | None, double: bool) -> None:
+        """One tick: ``double`` False (the last tick not a walking double support) restarts
+        the mean; ``q`` the present joints' configuration (None: unread, not sampled)."""
+        if not double:
+            self._rows.clear()
+        if q is not None:
+            (rel,) = self.robot.placements_in(q, SOLE_FRAMES["left"], [SOLE_FRAMES["right"]])
+            inv = rel.inverse()
+            self._rows.append(np.r_[rel.translation[:2], yaw_of(rel.rotation),
+                                    inv.translation[:2], yaw_of(inv.rotation)])  # fmt: skip
+
+    def placed(self, side: Side) -> np.ndarray | None:
+        """The landed ``side``'s mean placement in the other sole's frame (x, y, heading), or
+        None if no tick was sampled."""
+        if not self._rows:
+            return None
+        n = max(1, math.ceil(self.share * len(self._rows)))
+        mean = np.mean(self._rows[-n:], axis=0)
+        return mean[:3] if side == "right" else mean[3:]
 
 
 #: :class:`PlayInverse`'s ``load`` modes: the load's side of the play unused, for the still

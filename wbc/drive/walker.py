@@ -50,10 +50,21 @@ from ..walking.legs import LegGeometry
 from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
+from .compensate import DRIVE_COMPENSATE as DRIVE_COMPENSATE  # (re-exported)
+from .compensate import DRIVE_CORRECTION
+from .compensate import default_compensate as default_compensate  # (re-exported)
 from .failures import failure_cause
 from .failures import failure_lines as failure_lines  # (re-exported)
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
-from .odometry import DRIVE_HEADING_GAIN, BaseHold, LiftGain, PlayInverse, PoseOdometry, StrideGain
+from .odometry import (
+    DRIVE_HEADING_GAIN,
+    BaseHold,
+    LandingMean,
+    LiftGain,
+    PlayInverse,
+    PoseOdometry,
+    StrideGain,
+)
 from .stand import DRIVE_QUIET_STAND, QuietStand
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
@@ -82,21 +93,6 @@ DRIVE_GAINS = MappingProxyType(
         False: Gains(k_hip=0.0, k_dcm=DRIVE_K_DCM),
     }
 )
-
-#: the AX-12A compliance feed-forward's gain for driven walks: with the encoders' correction
-#: (``Walker(correct=True)``) 0.75, without it issue 30's 0.5 (benchmarks/drive.md: on the
-#: randomised Bioloids the corrected ×0.75 falls least; the corrected ×0.5 threw the nominal
-#: Bioloid at the sideways limit, ×1 the stiff, lightly damped models at the start)
-DRIVE_COMPENSATE = MappingProxyType({True: 0.75, False: 0.5})
-
-
-#: the encoders' correction's fit for driven walks (:class:`~wbc.balance.compliance.
-#: EncoderCorrection`): a 1 s forgetting window and scales moving up to 3 /s, so that a stiff
-#: servo's scale has dropped before the first steps (the defaults, 3 s and 1 /s, let the
-#: stiffest randomised Bioloids fall sideways 2.3 s in: random sequences 4 falls of 100
-#: against 2, benchmarks/drive.md)
-DRIVE_CORRECTION = MappingProxyType({"window": 1.0, "rate": 3.0})
-
 
 #: the IMU's rest before a driven walk (s): shorter than the fixed walks'
 #: :data:`wbc.balance.live.CALIBRATE_S` (1 s), measured side by side on the same code:
@@ -184,23 +180,6 @@ DRIVE_HOLD = MappingProxyType({"reach": 0.02, "rate": 0.02, "seconds": 1.0})
 DRIVE_ESTIMATOR = MappingProxyType({"bias_gain": 0.05})
 
 
-def default_compensate(robot: Robot | None = None, correct: bool = True) -> float:
-    """The feed-forward gain a driven walk uses: on AX-12A servos (or ``robot`` None)
-    :data:`DRIVE_COMPENSATE` (measured on driven walks); on other servo laws the commands'
-    measured best (:func:`wbc.balance.best_compensate`: driven walks not measured there)."""
-    if robot is not None:
-        from ..balance import best_compensate
-        from ..sim.actuator import servo_kind
-
-        try:
-            kind = servo_kind(robot)
-        except WbcError:  # no servo model at all: nothing to feed forward
-            return 0.0
-        if kind != "ax12a":
-            return best_compensate(robot)
-    return DRIVE_COMPENSATE[bool(correct)]
-
-
 class Walker:
     """Velocity-commanded walking on a robot (module docstring).
 
@@ -260,7 +239,9 @@ class Walker:
     measured through it too — two falls in 100 random runs against none,
     benchmarks/drive.md; ``play_load``, ``"still"`` or ``"always"``: the loaded links' side
     from the static joint torques, ``""`` off); the feedback's state estimate keeps the raw
-    readings.
+    readings. ``landing_share`` (closed loop; default 0: off): each landing's placement the
+    mean over this last share of its double support (:class:`~wbc.drive.odometry.LandingMean`),
+    for the outer loop's odometry and, with ``landing_contact`` (default True), the contact.
     :func:`wbc.drive.sim.drive_sim` gives the simulated servos' own play.
     ``hold`` (m, closed loop; default 0: off; :data:`DRIVE_HOLD`'s reach, 0.02, measured):
     after a stop, the CoM target shifted at most this far until the base, by the present
@@ -306,6 +287,8 @@ class Walker:
         play_hold: float = DRIVE_PLAY_HOLD,
         play_lift: bool = False,
         play_load: str = "",
+        landing_share: float = 0.0,
+        landing_contact: bool = True,
         keep_clear: bool = True,
         hold: float = 0.0,
         finish_steps: int = DRIVE_FINISH_STEPS_AFTER,
@@ -415,6 +398,9 @@ class Walker:
         self.play_lift = bool(play_lift)  # the swing's lift measured through it too
         #: the static joint torques: each loaded link's side of the play (``play_load``)
         self._loads = ComplianceCompensator(robot) if self.play is not None and play_load else None
+        mean = LandingMean(robot, landing_share)  # (checks it)
+        self.landing = mean if closed and landing_share > 0 else None  #: landings averaged
+        self.landing_contact = bool(landing_contact)  # the engine's measured contact too
         #: after a stop, the base held onto its commanded place (closed loop, ``hold`` > 0)
         rate, seconds = DRIVE_HOLD["rate"], DRIVE_HOLD["seconds"]
         self.hold = BaseHold(hold, rate, seconds) if closed and hold > 0 else None
@@ -521,12 +507,16 @@ class Walker:
         q = self._present_configuration()
         if q is None:
             return None
-        (rel,) = self.robot.placements_in(q, SOLE_FRAMES[stance.side], [SOLE_FRAMES[step.side]])
-        dyaw = yaw_of(rel.rotation)
-        xy = stance.xy + rot_z(stance.yaw)[:2, :2] @ rel.translation[:2]
+        placed = None if self.landing is None else self.landing.placed(step.side)
+        if placed is None or not self.landing_contact:
+            (rel,) = self.robot.placements_in(q, SOLE_FRAMES[stance.side], [SOLE_FRAMES[step.side]])
+            xy, dyaw = rel.translation[:2], yaw_of(rel.rotation)
+        else:
+            xy, dyaw = placed[:2], float(placed[2])
+        xy = stance.xy + rot_z(stance.yaw)[:2, :2] @ xy
         odo = self.odometry
         if odo is not None and odo.started:
-            measured = odo.landed(step.side, q)
+            measured = odo.landed(step.side, q, placed)
             if self.stride is not None:
                 self.engine.stride_gain[:] = self.stride.landed(self.engine.centre, measured)
             off = measured - self.engine.centre
@@ -565,6 +555,10 @@ class Walker:
             if self._loads is not None and self.last is not None and links is not None:
                 load = -np.sign(self._loads.torques(links, self.last.support))  # (NaN: unread)
             self._links = None if present is None else self.play.update(present, step, load)
+        if self.landing is not None:  # (the last tick a walking double support: the mean goes on)
+            e = self.last
+            double = e is not None and e.support == SUPPORT_DOUBLE and e.state != "standing"
+            self.landing.sample(self._present_configuration(), double)
         engine = self.engine
         if self._deferred_start and not self.calibrating:
             self._deferred_start = False
