@@ -257,6 +257,15 @@ class Gains:
     #: c̈_ref`` (the plan's CoM acceleration: the stance ankle fed the planned CoP's moment,
     #: not the CoM's; 0: gravity alone, the static model; issue 30, sixteenth session)
     ff_inertial: float = 0.0
+    #: 1: ``ff_inertial``'s field along the walk's heading only, and only while the plan's
+    #: CoM is behind its ZMP (``c̈`` backward: the CoM decelerating over the stance foot,
+    #: where the static model under-feeds the stance ankle); 0: the whole ``c̈`` (issue 30,
+    #: seventeenth session, benchmarks/pushes.md; :mod:`wbc.balance.inertial_ff`)
+    ff_inertial_back: float = 0.0
+    #: m: ``ff_inertial``'s field × ``clip(−e / this, 0, 1)``, ``e`` the estimated DCM's
+    #: error along the heading (``ξ − ξ_ref``): fed while the DCM lags, released on a push
+    #: forward (0: no gate; issue 30, seventeenth session)
+    ff_inertial_band: float = 0.0
     #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
     #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`). −0.008
     #: without the feed-forward: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148;
@@ -331,6 +340,8 @@ class Gains:
             "goal_lead_stance",
             "ff_sagittal",
             "ff_inertial",
+            "ff_inertial_back",
+            "ff_inertial_band",
             "lift_stiff",
         ):
             v = getattr(self, name)
@@ -343,6 +354,10 @@ class Gains:
         if self.j_i_single not in (0, 1, 2):
             raise ConfigurationError(
                 f"stabilizer gain j_i_single: 0, 1 or 2, got {self.j_i_single}"
+            )
+        if self.ff_inertial_back not in (0, 1):
+            raise ConfigurationError(
+                f"stabilizer gain ff_inertial_back: 0 or 1, got {self.ff_inertial_back}"
             )
         if self.j_i_joints not in (0, 1, 2, 3):
             raise ConfigurationError(
