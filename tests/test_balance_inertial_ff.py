@@ -88,3 +88,22 @@ def test_the_closed_loop_field_follows_the_replanned_reference_and_the_gate(robo
     assert np.allclose(gated(0.0), 0.5 * ref.com_acc[i])
     stab.last = _Est(ref.dcm_at(i) + 0.005 * u)
     assert np.allclose(gated(0.0), 0.0)
+
+
+def test_ff_inertial_first_keeps_the_first_plans_acceleration(robot) -> None:
+    """``ff_inertial_first``: the walk's first plan's ``c̈``, a re-planned one ignored."""
+    from wbc.balance.live import _inertial_field
+    from wbc.bench.trajectories import build
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import Session, StackController
+
+    ref = build("walk10", robot)
+    session = Session(StackController(load_stack("walk", robot)), robot, ref)
+    session.stabilizer = _Stab()  # type: ignore[assignment]
+    i = int(np.argmax(np.abs(ref.com_acc[:, 0])))
+    session._last_index = i
+    field = _inertial_field(session, Gains(ff_inertial=1.0, ff_inertial_first=1))
+    session.ref = replace(ref, com_acc=3.0 * ref.com_acc)
+    assert np.allclose(field(0.0), ref.com_acc[i])
+    with pytest.raises(ConfigurationError, match="ff_inertial_first"):
+        Gains(ff_inertial_first=2).check()

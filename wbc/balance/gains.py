@@ -266,6 +266,9 @@ class Gains:
     #: error along the heading (``ξ − ξ_ref``): fed while the DCM lags, released on a push
     #: forward (0: no gate; issue 30, seventeenth session)
     ff_inertial_band: float = 0.0
+    #: 1: ``ff_inertial`` takes the walk's first plan's ``c̈`` (the unpushed walk's, as the
+    #: sixteenth session measured it), not the re-planned catch's; 0: the re-planned plan's
+    ff_inertial_first: float = 0.0
     #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
     #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`). −0.008
     #: without the feed-forward: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148;
@@ -342,6 +345,7 @@ class Gains:
             "ff_inertial",
             "ff_inertial_back",
             "ff_inertial_band",
+            "ff_inertial_first",
             "lift_stiff",
         ):
             v = getattr(self, name)
@@ -355,9 +359,10 @@ class Gains:
             raise ConfigurationError(
                 f"stabilizer gain j_i_single: 0, 1 or 2, got {self.j_i_single}"
             )
-        if self.ff_inertial_back not in (0, 1):
+        if self.ff_inertial_back not in (0, 1) or self.ff_inertial_first not in (0, 1):
             raise ConfigurationError(
-                f"stabilizer gain ff_inertial_back: 0 or 1, got {self.ff_inertial_back}"
+                "stabilizer gains ff_inertial_back, ff_inertial_first: 0 or 1, got "
+                f"{self.ff_inertial_back}, {self.ff_inertial_first}"
             )
         if self.j_i_joints not in (0, 1, 2, 3):
             raise ConfigurationError(

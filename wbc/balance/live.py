@@ -411,19 +411,21 @@ def closed_loop(
 
 def _inertial_field(session: Session, gains: Gains) -> Callable[[float], np.ndarray | None]:
     """The feed-forward's field at the tick just solved (``Gains.ff_inertial``): ``k ×`` the
-    plan's CoM acceleration (the re-planned plan's: ``session.ref``), gated by
+    plan's CoM acceleration (the re-planned plan's: ``session.ref``; with
+    ``ff_inertial_first`` the first plan's), gated by
     ``ff_inertial_back`` and ``ff_inertial_band`` (:func:`~wbc.balance.inertial_ff.gated_field`;
     the DCM error: the stabilizer's last estimate against the plan's)."""
     from .inertial_ff import gated_field
 
     k, back, band = gains.ff_inertial, gains.ff_inertial_back > 0, gains.ff_inertial_band
+    first = session.ref if gains.ff_inertial_first > 0 else None  # (the unpushed walk's c̈)
 
     def accel(t: float) -> np.ndarray | None:
         i = session.index
         if i is None:
             return None
         ref = session.ref
-        acc = k * ref.com_acc[i]
+        acc = k * (ref if first is None else first).com_acc[i]
         if not back and band <= 0:
             return acc
         est = session.stabilizer.last if session.stabilizer is not None else None
