@@ -38,6 +38,10 @@ def test_band_feeds_while_the_dcm_lags_and_releases_ahead() -> None:
     assert np.allclose(gated_field(ACC, 0.0, None, False, band), 0.0)  # not yet estimated
     # along the heading: a lag sideways of the walk opens nothing
     assert np.allclose(gated_field(ACC, 0.0, np.array([0.0, -0.05]), False, band), 0.0)
+    # from a lag of 20 mm on (``ff_inertial_from``): the walk's own lag left out
+    assert np.allclose(gated_field(ACC, 0.0, np.array([-0.015, 0.0]), False, 0.01, 0.02), 0.0)
+    assert np.allclose(gated_field(ACC, 0.0, np.array([-0.025, 0.0]), False, 0.01, 0.02), 0.5 * ACC)
+    assert np.allclose(gated_field(ACC, 0.0, np.array([-0.04, 0.0]), False, 0.01, 0.02), ACC)
     both = gated_field(ACC, 0.0, np.array([-0.0025, 0.0]), True, band)
     assert np.allclose(both, [-0.3, 0.0, 0.05])
 
@@ -45,11 +49,14 @@ def test_band_feeds_while_the_dcm_lags_and_releases_ahead() -> None:
 def test_gains_refuse_bad_values_and_default_off() -> None:
     g = Gains()
     assert g.ff_inertial == 0 and g.ff_inertial_back == 0 and g.ff_inertial_band == 0
+    assert g.ff_inertial_first == 0 and g.ff_inertial_from == 0
     g.check()
     with pytest.raises(ConfigurationError, match="ff_inertial_back"):
         Gains(ff_inertial_back=0.5).check()
     with pytest.raises(ConfigurationError, match="ff_inertial_band"):
         Gains(ff_inertial_band=-0.01).check()
+    with pytest.raises(ConfigurationError, match="ff_inertial_from"):
+        Gains(ff_inertial_from=-0.01).check()
 
 
 class _Est:
@@ -88,6 +95,10 @@ def test_the_closed_loop_field_follows_the_replanned_reference_and_the_gate(robo
     assert np.allclose(gated(0.0), 0.5 * ref.com_acc[i])
     stab.last = _Est(ref.dcm_at(i) + 0.005 * u)
     assert np.allclose(gated(0.0), 0.0)
+    scoped = _inertial_field(session, Gains(ff_inertial=1.0, ff_inertial_band=0.01,
+                                            ff_inertial_from=0.02))  # fmt: skip
+    stab.last = _Est(ref.dcm_at(i) - 0.025 * u)
+    assert np.allclose(scoped(0.0), 0.5 * ref.com_acc[i])
 
 
 def test_ff_inertial_first_keeps_the_first_plans_acceleration(robot) -> None:

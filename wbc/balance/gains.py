@@ -269,6 +269,9 @@ class Gains:
     #: 1: ``ff_inertial`` takes the walk's first plan's ``c̈`` (the unpushed walk's, as the
     #: sixteenth session measured it), not the re-planned catch's; 0: the re-planned plan's
     ff_inertial_first: float = 0.0
+    #: m: the band's gate opens from this lag on, ``clip((−e − this) / band, 0, 1)`` (0: from
+    #: a DCM on its reference; > 0: the unpushed walk's own lag left out, a push backward in)
+    ff_inertial_from: float = 0.0
     #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
     #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`). −0.008
     #: without the feed-forward: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148;
@@ -346,6 +349,7 @@ class Gains:
             "ff_inertial_back",
             "ff_inertial_band",
             "ff_inertial_first",
+            "ff_inertial_from",
             "lift_stiff",
         ):
             v = getattr(self, name)

@@ -13,7 +13,8 @@ grows and drop it where a catch forward needs the body over the stance foot:
   stance foot); the sideways part dropped;
 * ``band`` > 0: × ``clip(−e / band, 0, 1)``, ``e = (ξ − ξ_ref) · u`` the estimated DCM's
   error along the heading: full while the DCM lags by ``band`` or more, none once it is
-  ahead (a push forward releases it).
+  ahead (a push forward releases it); from ``start`` (``ff_inertial_from``) on:
+  ``clip((−e − start) / band, 0, 1)``, the unpushed walk's own lag left out.
 """
 
 from __future__ import annotations
@@ -24,11 +25,16 @@ import numpy as np
 
 
 def gated_field(
-    acc: np.ndarray, heading: float, dcm_error: np.ndarray | None, back: bool, band: float
+    acc: np.ndarray,
+    heading: float,
+    dcm_error: np.ndarray | None,
+    back: bool,
+    band: float,
+    start: float = 0.0,
 ) -> np.ndarray:
     """(3,) the CoM acceleration (m/s², world; already × ``ff_inertial``) the feed-forward
     takes, gated by ``back`` and ``band`` (module docstring; ``dcm_error``: (2,) ``ξ − ξ_ref``,
-    None: not yet estimated, the gate shut)."""
+    None: not yet estimated, the gate shut; ``start``: the lag, m, the gate opens from)."""
     out = np.array(acc, dtype=float)
     u = np.array([math.cos(heading), math.sin(heading)])
     if back:
@@ -38,5 +44,5 @@ def gated_field(
         if dcm_error is None:
             return np.zeros(3)
         e = float(np.asarray(dcm_error, dtype=float)[:2] @ u)
-        out *= min(max(-e / band, 0.0), 1.0)
+        out *= min(max((-e - start) / band, 0.0), 1.0)
     return out

@@ -419,6 +419,7 @@ def _inertial_field(session: Session, gains: Gains) -> Callable[[float], np.ndar
 
     k, back, band = gains.ff_inertial, gains.ff_inertial_back > 0, gains.ff_inertial_band
     first = session.ref if gains.ff_inertial_first > 0 else None  # (the unpushed walk's c̈)
+    start = gains.ff_inertial_from
 
     def accel(t: float) -> np.ndarray | None:
         i = session.index
@@ -430,7 +431,7 @@ def _inertial_field(session: Session, gains: Gains) -> Callable[[float], np.ndar
             return acc
         est = session.stabilizer.last if session.stabilizer is not None else None
         err = None if est is None else np.asarray(est.dcm)[:2] - ref.dcm_at(i)
-        return gated_field(acc, float(ref.torso_yaw[i]), err, back, band)
+        return gated_field(acc, float(ref.torso_yaw[i]), err, back, band, start)
 
     return accel
 
