@@ -258,13 +258,15 @@ class Gains:
     #: not the CoM's; 0: gravity alone, the static model; issue 30, sixteenth session)
     ff_inertial: float = 0.0
     #: 1: ``ff_inertial``'s field along the walk's heading only, and only while the plan's
-    #: CoM is behind its ZMP (``c̈`` backward: the CoM decelerating over the stance foot,
-    #: where the static model under-feeds the stance ankle); 0: the whole ``c̈`` (issue 30,
-    #: seventeenth session, benchmarks/pushes.md; :mod:`wbc.balance.inertial_ff`)
+    #: CoM is behind its ZMP (``c̈`` backward); 0: the whole ``c̈`` (issue 30, seventeenth
+    #: session, benchmarks/pushes.md; :mod:`wbc.balance.inertial_ff`). On ``walk10_wb`` the
+    #: plan's CoM leads its ZMP through each single support: shut there. With
+    #: ``ff_inertial_band`` 0.005 (k 1.0) forward, toward and away keep main's bounds but 3 of
+    #: main's 5 screened backward pushes stand: off
     ff_inertial_back: float = 0.0
     #: m: ``ff_inertial``'s field × ``clip(−e / this, 0, 1)``, ``e`` the estimated DCM's
     #: error along the heading (``ξ − ξ_ref``): fed while the DCM lags, released on a push
-    #: forward (0: no gate; issue 30, seventeenth session)
+    #: forward (0: no gate; alone it loses every forward push at main's bounds: off)
     ff_inertial_band: float = 0.0
     #: 1: ``ff_inertial`` takes the walk's first plan's ``c̈`` (the unpushed walk's, as the
     #: sixteenth session measured it), not the re-planned catch's; 0: the re-planned plan's

@@ -5,8 +5,10 @@ The static feed-forward loads the stance ankle with the CoM's moment ``m g (c �
 must carry the planned CoP's, ``m g (p − a)``: they differ by ``m h c̈``. ``ff_inertial`` feeds
 the torques under ``g − k c̈_ref`` (:meth:`~wbc.balance.compliance.ComplianceCompensator.
 torques`), which helps the backward push and costs the forward catch and the walk's length
-(benchmarks/pushes.md, sixteenth session). The gates keep the field where the walk's lag
-grows and drop it where a catch forward needs the body over the stance foot:
+(benchmarks/pushes.md, sixteenth session). The gates were built to keep the field where the
+sixteenth session placed the walk's lag (the CoM decelerating over the stance foot) and to
+drop it where a catch forward needs the body over the stance foot (measured, seventeenth
+session: neither gate keeps main's backward pushes; all off):
 
 * ``back``: the field's part along the walk's heading ``u`` (the torso target's yaw), only
   while it points backward (``c̈ · u < 0``: the CoM behind the ZMP, decelerating over the
