@@ -257,6 +257,23 @@ class Gains:
     #: c̈_ref`` (the plan's CoM acceleration: the stance ankle fed the planned CoP's moment,
     #: not the CoM's; 0: gravity alone, the static model; issue 30, sixteenth session)
     ff_inertial: float = 0.0
+    #: 1: ``ff_inertial``'s field along the walk's heading only, and only while the plan's
+    #: CoM is behind its ZMP (``c̈`` backward); 0: the whole ``c̈`` (issue 30, seventeenth
+    #: session, benchmarks/pushes.md; :mod:`wbc.balance.inertial_ff`). On ``walk10_wb`` the
+    #: plan's CoM leads its ZMP through each single support: shut there. With
+    #: ``ff_inertial_band`` 0.005 (k 1.0) forward, toward and away keep main's bounds but 3 of
+    #: main's 5 screened backward pushes stand: off
+    ff_inertial_back: float = 0.0
+    #: m: ``ff_inertial``'s field × ``clip(−e / this, 0, 1)``, ``e`` the estimated DCM's
+    #: error along the heading (``ξ − ξ_ref``): fed while the DCM lags, released on a push
+    #: forward (0: no gate; alone it loses every forward push at main's bounds: off)
+    ff_inertial_band: float = 0.0
+    #: 1: ``ff_inertial`` takes the walk's first plan's ``c̈`` (the unpushed walk's, as the
+    #: sixteenth session measured it), not the re-planned catch's; 0: the re-planned plan's
+    ff_inertial_first: float = 0.0
+    #: m: the band's gate opens from this lag on, ``clip((−e − this) / band, 0, 1)`` (0: from
+    #: a DCM on its reference; > 0: the unpushed walk's own lag left out, a push backward in)
+    ff_inertial_from: float = 0.0
     #: m the CoM target moves up (+; −: down) on servos identified at rest softer than
     #: ``lift_stiff`` × servos.toml's (0: off; :mod:`wbc.balance.stance_lift`). −0.008
     #: without the feed-forward: 148 / 149 of 150 on seeds 0 / 1 against main's 146 / 148;
@@ -331,6 +348,10 @@ class Gains:
             "goal_lead_stance",
             "ff_sagittal",
             "ff_inertial",
+            "ff_inertial_back",
+            "ff_inertial_band",
+            "ff_inertial_first",
+            "ff_inertial_from",
             "lift_stiff",
         ):
             v = getattr(self, name)
@@ -343,6 +364,11 @@ class Gains:
         if self.j_i_single not in (0, 1, 2):
             raise ConfigurationError(
                 f"stabilizer gain j_i_single: 0, 1 or 2, got {self.j_i_single}"
+            )
+        if self.ff_inertial_back not in (0, 1) or self.ff_inertial_first not in (0, 1):
+            raise ConfigurationError(
+                "stabilizer gains ff_inertial_back, ff_inertial_first: 0 or 1, got "
+                f"{self.ff_inertial_back}, {self.ff_inertial_first}"
             )
         if self.j_i_joints not in (0, 1, 2, 3):
             raise ConfigurationError(

@@ -383,11 +383,7 @@ def closed_loop(
             comp.scale = sagittal_scale(robot, gains.ff_sagittal)
         target = CompensatedSource(source, comp, support, present, fix)
         if gains is not None and gains.ff_inertial > 0:  # the plan's CoM acceleration
-            k, acc = gains.ff_inertial, session.ref.com_acc
-
-            def accel(t: float) -> np.ndarray | None:
-                i = session.index
-                return None if i is None else k * acc[i]
+            accel = _inertial_field(session, gains)
 
             target.accel = accel
     if duration is not None:
@@ -411,6 +407,33 @@ def closed_loop(
     if compensate > 0:
         out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
     return loop
+
+
+def _inertial_field(session: Session, gains: Gains) -> Callable[[float], np.ndarray | None]:
+    """The feed-forward's field at the tick just solved (``Gains.ff_inertial``): ``k ×`` the
+    plan's CoM acceleration (the re-planned plan's: ``session.ref``; with
+    ``ff_inertial_first`` the first plan's), gated by
+    ``ff_inertial_back`` and ``ff_inertial_band`` (:func:`~wbc.balance.inertial_ff.gated_field`;
+    the DCM error: the stabilizer's last estimate against the plan's)."""
+    from .inertial_ff import gated_field
+
+    k, back, band = gains.ff_inertial, gains.ff_inertial_back > 0, gains.ff_inertial_band
+    first = session.ref if gains.ff_inertial_first > 0 else None  # (the unpushed walk's c̈)
+    start = gains.ff_inertial_from
+
+    def accel(t: float) -> np.ndarray | None:
+        i = session.index
+        if i is None:
+            return None
+        ref = session.ref
+        acc = k * (ref if first is None else first).com_acc[i]
+        if not back and band <= 0:
+            return acc
+        est = session.stabilizer.last if session.stabilizer is not None else None
+        err = None if est is None else np.asarray(est.dcm)[:2] - ref.dcm_at(i)
+        return gated_field(acc, float(ref.torso_yaw[i]), err, back, band, start)
+
+    return accel
 
 
 def sagittal_scale(
