@@ -274,9 +274,10 @@ class Gains:
     end_lead: float = 0.0  # s: end_clock's (end_leak's) start this long before that support
     #: /s: on the same plants and from the same time on, the DCM integral (``k_dcm_i``'s: the
     #: walk's steady lag taken as a forward CoM shift) leaks at this rate, the shift not
-    #: carried into the stop (0: off). With ``lift`` −0.008, 2: the dev seeds' soft plants as
-    #: ``lift`` (39 / 39, 48 / 48), held-out seed 3's ``turn_wb`` 26 of 26 against 25, but
-    #: fresh seed 5 53 of 54 as main (``turn_wb`` 29 lost, ``walk10_wb`` 40 kept): off
+    #: carried into the stop (0: off). With ``lift`` −0.008 and ``end_lead`` 0.4: the soft
+    #: plants of seeds 0–6 391 of 393 against main's 378 (fresh seed 6: 72 of 72 against
+    #: 68), no walk losing; off until a full 150-plant seed is run side by side (issue 30,
+    #: i30e's seventeenth session; benchmarks/physics.md)
     end_leak: float = 0.0
 
     def check(self) -> Gains:
