@@ -1,15 +1,24 @@
 """The CoM target lifted on servos identified soft at rest (``Gains.lift``, issue 30): no
 move unidentified or on servos at or above ``lift_stiff``, a ramp into the lift on softer
 ones; through ``closed_loop`` the solved CoM rises on a soft plant only; off, the closed
-loop builds main's stabilizer."""
+loop builds main's stabilizer. The walk's end re-timed on the same plants
+(``Gains.end_clock``): the clock slowed from the final double support on, soft plants only."""
 
 from __future__ import annotations
+
+from itertools import pairwise
 
 import numpy as np
 import pytest
 
 from wbc.balance.stabilizer import Gains, Stabilizer
-from wbc.balance.stance_lift import LIFT_RAMP, LiftedStabilizer, lift_height
+from wbc.balance.stance_lift import (
+    LIFT_RAMP,
+    LiftedStabilizer,
+    end_rate,
+    final_double_start,
+    lift_height,
+)
 from wbc.exceptions import ConfigurationError
 from wbc.model import load_robot
 
@@ -61,3 +70,72 @@ def test_closed_loop_lifts_the_com_on_servos_identified_soft(robot, soft_plant_l
     assert any("CoM target lift -8.0 mm" in s for s in said) is soft
     plain = soft_plant_loop(stiffness, Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25), said, 0.1)
     assert type(plain.stabilizer) is Stabilizer
+
+
+def test_end_rate_from_the_final_double_support_on_soft_servos_only(robot):
+    from wbc.bench import trajectories as traj
+
+    ref = traj.build("walk10_wb", robot)
+    start = final_double_start(ref)
+    assert start is not None
+    assert ref.support[ref.index_at(start)] != ref.support[ref.index_at(start - 0.05)]
+    assert 0.5 < ref.t[-1] - start < 1.5
+    assert end_rate(0.5, 0.75, 0.5, start + 0.1, start) == 0.5
+    assert end_rate(0.5, 0.75, 0.5, start - 0.1, start) == 1.0  # (before it)
+    assert end_rate(0.5, 0.75, 0.8, start + 0.1, start) == 1.0  # (not softer)
+    assert end_rate(0.5, 0.75, None, start + 0.1, start) == 1.0  # (not identified)
+    assert end_rate(1.0, 0.75, 0.5, start + 0.1, start) == 1.0  # (off)
+    assert end_rate(0.5, 0.75, 0.5, start + 0.1, None) == 1.0  # (no final double support)
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(ConfigurationError):
+            Gains(end_clock=bad).check()
+
+
+@pytest.mark.parametrize("stiffness", [0.55, 1.8])
+def test_closed_loop_slows_the_walks_end_on_servos_identified_soft(
+    robot, soft_plant_loop, stiffness
+):
+    """Through :func:`wbc.balance.live.closed_loop` (walk10_wb's first 0.7 s after a 0.5 s
+    rest, its final double support's start moved to 0.3 s so that the short run reaches
+    it): with ``end_clock`` 0.5 the soft plant's played reference runs at half the walk's
+    time from there on, and the loop says so; with ``end_leak`` 5 /s its DCM integral
+    shrinks by exp(−5 dt) between ticks from there on (not before); the stiff plant's
+    is neither slowed nor leaked."""
+    said: list[str] = []
+    soft = stiffness < 1.0
+    g = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, end_clock=0.5, end_leak=5.0)
+    loop = soft_plant_loop(stiffness, g, said)
+    stab = loop.stabilizer
+    assert isinstance(stab, LiftedStabilizer)
+    assert stab.end_start == final_double_start(loop.session.ref)
+    stab.end_start = t_end = float(loop.session.ref.t[0]) + 0.3
+    seen: list[tuple[float, float, np.ndarray, np.ndarray]] = []  # (t, dt, integral in, out)
+    shifted = stab._shifted
+
+    def recorded(targets, com_vel_ref, est, e, dt):
+        before = stab.dcm_integral.copy()
+        out = shifted(targets, com_vel_ref, est, e, dt)
+        seen.append((float(targets.t), float(dt), before, stab.dcm_integral.copy()))
+        return out
+
+    stab._shifted = recorded  # type: ignore[method-assign]
+    loop.deployment.run()
+    leak = [(t, dt, a[0] / b[-1][0]) for b, (t, dt, a, _) in pairwise(seen)
+            if abs(b[-1][0]) > 1e-9]  # fmt: skip
+    assert [k for t, _, k in leak if t < t_end - 1e-9] == pytest.approx(
+        [1.0] * sum(t < t_end - 1e-9 for t, _, _ in leak)
+    )
+    after = [(k, np.exp(-5.0 * dt)) for t, dt, k in leak if t >= t_end]
+    assert after
+    assert [k for k, _ in after] == pytest.approx([e if soft else 1.0 for _, e in after])
+    assert bool(stab.stiffness_scale < 0.75) is soft
+    played = loop.source.played()
+    assert (played is not None) is soft
+    assert any("walk-end clock x0.5" in s for s in said) is soft
+    if soft:
+        walk, ref_time = played
+        rate = np.diff(ref_time) / np.diff(walk)
+        early, late = walk[1:] < 0.25, walk[1:] > 0.4
+        assert early.any() and late.any()
+        assert np.median(rate[early]) == pytest.approx(1.0, abs=0.02)
+        assert np.median(rate[late]) == pytest.approx(0.5, abs=0.02)

@@ -282,6 +282,20 @@ class Gains:
     #: off (issue 30, i30s's sixteenth round; benchmarks/physics.md)
     lift: float = 0.0
     lift_stiff: float = 0.75
+    #: the walk's clock rate (0 < · ≤ 1) from the reference's final double support on, on
+    #: servos identified at rest softer than ``lift_stiff`` × servos.toml's (1: off;
+    #: :mod:`wbc.balance.stance_lift`). Slowing the end moves which soft plant falls: 0.6
+    #: from 0.4 or 0.9 s earlier (``end_lead``) loses 1–2 dev-seed plants ``lift`` keeps
+    #: (issue 30, i30e's seventeenth session; benchmarks/physics.md): off
+    end_clock: float = 1.0
+    end_lead: float = 0.0  # s: end_clock's (end_leak's) start this long before that support
+    #: /s: on the same plants and from the same time on, the DCM integral (``k_dcm_i``'s: the
+    #: walk's steady lag taken as a forward CoM shift) leaks at this rate, the shift not
+    #: carried into the stop (0: off). With ``lift`` −0.008 and ``end_lead`` 0.4: the soft
+    #: plants of seeds 0–6 391 of 393 against main's 378 (fresh seed 6: 72 of 72 against
+    #: 68), no walk losing; off until a full 150-plant seed is run side by side (issue 30,
+    #: i30e's seventeenth session; benchmarks/physics.md)
+    end_leak: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -353,6 +367,8 @@ class Gains:
             "ff_inertial_first",
             "ff_inertial_from",
             "lift_stiff",
+            "end_lead",
+            "end_leak",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
@@ -376,6 +392,8 @@ class Gains:
             )
         if not 0.0 < self.clock_min <= 1.0:
             raise ConfigurationError(f"stabilizer gain clock_min: (0, 1], got {self.clock_min}")
+        if not 0.0 < self.end_clock <= 1.0:
+            raise ConfigurationError(f"stabilizer gain end_clock: (0, 1], got {self.end_clock}")
         if self.hip_kick > 0 and self.kick_release <= 0:
             raise ConfigurationError("stabilizer gain kick_release must be > 0 with hip_kick")
         if self.transfer > 1 or self.clock_single > 1:

@@ -45,7 +45,7 @@ from .fall import FallDetector, FallParams
 from .margin import torso_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
-from .stance_lift import LiftedStabilizer
+from .stance_lift import LiftedStabilizer, final_double_start
 from .stepping import StepAdjuster, SteppingParams, can_step
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
@@ -338,10 +338,11 @@ def closed_loop(
     if identify and rest < 2:
         raise ConfigurationError("closed_loop: servo='identify' measures at rest: calibrate_s > 0")
     gate = enabled and gains.j_i > 0 and gains.j_i_stiff > 0  # (j_i_stiff: identified at rest)
-    lift = enabled and gains.lift != 0  # (lift: the CoM target moved on soft servos)
+    lift = enabled and (gains.lift != 0 or gains.end_clock != 1 or gains.end_leak > 0)  # (soft)
     if (gate or lift) and (commanded or rest < 2):
         what = " and ".join(n for n, on in (("joint integral (j_i_stiff)", gate),
-                                            ("CoM lift (lift)", lift)) if on)  # fmt: skip
+                                            ("CoM lift (lift, end_clock)", lift))
+                            if on)  # fmt: skip
         gate = lift = False
         out(f"closed loop: no {what}: the servos' stiffness is identified from their "
             "encoders during the start-up rest: an IMU or servo='identify', calibrate_s > 0, "
@@ -351,6 +352,8 @@ def closed_loop(
         enabled, fall=detector, calibration_ticks=rest,
     )  # fmt: skip
     stabilizer.steps_yaw.plan(ref)  # (the steps' planned turns: Gains.step_yaw_cap)
+    if lift:  # (Gains.end_clock: the walk's end re-timed from its final double support)
+        stabilizer.end_start = final_double_start(ref)
     if stepping is not None and enabled and not can_step(ref):
         out("closed loop: no step adjustment on this walk (it re-plans dynamic walks made by "
             "wbc.walking.gait.walk)")  # fmt: skip
@@ -485,7 +488,10 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
             goals.clear()  # (said once)
             g = loop.stabilizer.gains
             what = [n for n, on in (("joint integral (j_i_stiff)", g.j_i > 0 and g.j_i_stiff > 0),
-                                    ("CoM lift (lift)", g.lift != 0)) if on]  # fmt: skip
+                                    ("CoM lift (lift)", g.lift != 0),
+                                    ("walk's end (end_clock, end_leak)",
+                                     g.end_clock != 1 or g.end_leak > 0))
+                    if on]  # fmt: skip
             out(f"closed loop: no {' nor '.join(what) or 'identified stiffness'}: {err}")
             return
         loop.stiffness_scale = loop.stabilizer.stiffness_scale = k
@@ -500,5 +506,12 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
         if g.lift != 0 and loop.stabilizer.enabled:
             on = f"{g.lift * 1000:+.1f} mm" if k < g.lift_stiff else "none"
             out(f"closed loop: CoM target lift {on} (lift_stiff {g.lift_stiff:g})")
+        if g.end_clock != 1 and loop.stabilizer.enabled:
+            on = f"x{g.end_clock:g}" if k < g.lift_stiff else "none"
+            out(f"closed loop: walk-end clock {on} (end_clock, lift_stiff {g.lift_stiff:g})")
+        if g.end_leak > 0 and loop.stabilizer.enabled:
+            on = f"{g.end_leak:g} /s" if k < g.lift_stiff else "none"
+            out(f"closed loop: walk-end DCM integral leak {on} (end_leak, lift_stiff "
+                f"{g.lift_stiff:g})")  # fmt: skip
 
     return hook

@@ -8,14 +8,26 @@ stiffness identified at the start-up rest (:func:`wbc.balance.live.closed_loop`'
 :func:`~wbc.balance.compliance.identify_stiffness`) is below ``lift_stiff`` × servos.toml's,
 ramped in over the walk's first :data:`LIFT_RAMP` s. Not identified, nothing moves.
 :class:`LiftedStabilizer` is the :class:`~wbc.balance.stabilizer.Stabilizer` with the
-move applied to its adjusted targets (the closed loop builds it only when ``lift`` is set:
-off, the stabilizer is main's).
+move applied to its adjusted targets (the closed loop builds it only when ``lift`` or
+``end_clock`` is set: off, the stabilizer is main's).
+
+The walk's end (issue 30, seventeenth session; both off): on the same soft plants, from
+the reference's final double support on (``end_lead`` s earlier), the walk's clock runs at
+``Gains.end_clock`` (the body brought to rest over both feet more slowly: :func:`end_rate`,
+read by :meth:`wbc.walking.loop.Session.at_time` as the ``lag_clock``'s rate is) and the
+DCM integral (``k_dcm_i``'s: the walk's steady lag behind its reference, taken as a
+forward CoM shift) leaks at ``Gains.end_leak`` /s, so the shift that carried the walk is
+not carried into the stop (a soft plant pitched over its toes after the last landing).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ..types import SUPPORT_DOUBLE
+from ..walking.reference import WalkingReference
 from .stabilizer import Stabilizer
 
 #: s: the lift ramped in from the walk's first tick (the rest's pose, then the lifted one)
@@ -30,20 +42,57 @@ def lift_height(lift: float, stiff: float, scale: float | None, t: float) -> flo
     return lift * min(max(t / LIFT_RAMP, 0.0), 1.0)
 
 
+def final_double_start(ref: WalkingReference) -> float | None:
+    """s: the reference time (``ref.t``'s) its final double support starts (None: the
+    reference ends in single support, or is double support throughout)."""
+    support = np.asarray(ref.support)
+    if len(support) == 0 or support[-1] != SUPPORT_DOUBLE:
+        return None
+    single = np.flatnonzero(support != SUPPORT_DOUBLE)
+    return None if len(single) == 0 else float(ref.t[single[-1] + 1])
+
+
+def at_end(stiff: float, scale: float | None, t: float, start: float | None) -> bool:
+    """True at reference time ``t`` (s) from the final double support's ``start`` on
+    (:func:`final_double_start`) for a plant identified at ``scale`` × servos.toml's below
+    ``lift_stiff`` ``stiff`` (not identified, or no final double support: False)."""
+    return scale is not None and scale < stiff and start is not None and t >= start - 1e-9
+
+
+def end_rate(end_clock: float, stiff: float, scale: float | None, t: float,
+             start: float | None) -> float:  # fmt: skip
+    """The walk's clock rate at reference time ``t`` (s) with ``end_clock`` and ``lift_stiff``
+    ``stiff`` for a plant identified at ``scale`` × servos.toml's: ``end_clock`` where
+    :func:`at_end`, else 1."""
+    return end_clock if at_end(stiff, scale, t, start) else 1.0
+
+
 class LiftedStabilizer(Stabilizer):
     """A :class:`~wbc.balance.stabilizer.Stabilizer` whose adjusted CoM target moves up by
-    :func:`lift_height` (``Gains.lift``, ``Gains.lift_stiff``)."""
+    :func:`lift_height` (``Gains.lift``, ``Gains.lift_stiff``) and whose walk's clock runs
+    at :func:`end_rate` (``Gains.end_clock``), its DCM integral leaking at the walk's end
+    (``Gains.end_leak``; :attr:`end_start` set by the closed loop)."""
 
     t0: float | None = None  # the reference time of the walk's first tick
+    end_start: float | None = None  # the reference's final double support (end_clock)
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
-        """:meth:`Stabilizer.adjust`, then the CoM target lifted (not during the rest)."""
+        """:meth:`Stabilizer.adjust` (its DCM integral leaked first at the walk's end), then
+        the CoM target lifted and the next tick's clock set (not during the rest)."""
+        g = self.gains
+        if g.end_leak > 0 and self.enabled and not self.calibrating:  # (end_leak)
+            t = float(targets.t) + g.end_lead
+            if at_end(g.lift_stiff, self.stiffness_scale, t, self.end_start):
+                self.dcm_integral *= math.exp(-g.end_leak * float(dt))
         out = super().adjust(targets, com_vel_ref, q_cmd, dt)
         if not self.enabled or self.calibrating:
             return out
         if self.t0 is None:
             self.t0 = float(targets.t)
-        g = self.gains
+        if g.end_clock != 1.0:  # (the next tick's clock: Session.at_time reads it)
+            s = self.stiffness_scale
+            t = float(targets.t) + g.end_lead  # (end_lead: from that long before)
+            self.clock = end_rate(g.end_clock, g.lift_stiff, s, t, self.end_start)
         dz = lift_height(g.lift, g.lift_stiff, self.stiffness_scale, float(targets.t) - self.t0)
         if dz == 0.0:
             return out
