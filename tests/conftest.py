@@ -24,6 +24,18 @@ settings.register_profile("dev", max_examples=40, deadline=None)
 settings.load_profile("ci")
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The tests marked ``long(seconds)`` first, the longest first (the others in their
+    order): the workers take the tests in collection order, and a long test taken last would
+    run alone while the other worker idles."""
+
+    def seconds(item: pytest.Item) -> float:
+        mark = item.get_closest_marker("long")
+        return -float(mark.args[0]) if mark is not None else 0.0
+
+    items.sort(key=seconds)  # (stable: same order on every worker)
+
+
 @pytest.fixture(scope="session")
 def robot():
     return load_robot("bioloid")
