@@ -24,6 +24,38 @@ settings.register_profile("dev", max_examples=40, deadline=None)
 settings.load_profile("ci")
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The tests marked ``long(seconds)`` first, the longest first (the others in their
+    order): the workers take the tests in collection order, and a long test taken last would
+    run alone while the other worker idles."""
+
+    def seconds(item: pytest.Item) -> float:
+        mark = item.get_closest_marker("long")
+        return -float(mark.args[0]) if mark is not None else 0.0
+
+    items.sort(key=seconds)  # (stable: same order on every worker)
+    _xdist_groups(config, items)
+
+
+def _xdist_groups(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """``--dist loadgroup``'s suffix ``@group`` on the node ids of the tests marked
+    ``xdist_group(group)``, where pytest-xdist's own did not take: it sets ``item._nodeid``,
+    which pytest 9 no longer reads (a node keeps its id in ``_id``), so every such test was
+    scheduled alone (pytest 9.2, pytest-xdist 3.8: the browser tests each worker's Chromium,
+    ``bench_run`` set up on both workers)."""
+    if not getattr(config.option, "loadgroup", False):  # (set in the workers only)
+        return
+    for item in items:
+        names = {str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                 for m in item.iter_markers("xdist_group")}  # fmt: skip
+        if not names or item.nodeid.rfind("@") > item.nodeid.rfind("]"):
+            continue  # (no group, or xdist's suffix is there)
+        grouped = f"{item.nodeid}@{'_'.join(sorted(names))}"
+        node_id = getattr(item, "_id", None)
+        if node_id is not None and hasattr(type(node_id), "parse"):
+            item._id = type(node_id).parse(grouped)  # type: ignore[attr-defined]
+
+
 @pytest.fixture(scope="session")
 def robot():
     return load_robot("bioloid")

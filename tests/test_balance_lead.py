@@ -152,3 +152,31 @@ def test_ff_inertial_takes_the_torques_under_the_gravito_inertial_field(robot) -
     plain = source(0, 0.0)
     source.accel = lambda _t: a
     assert not np.allclose(source(1, 0.01), plain)
+
+
+def test_ff_inertial_torques_are_the_static_torques_under_g_minus_accel(robot, op3) -> None:
+    """``torques(.., accel)`` (computed with the model's gravity untouched) equals the static
+    torques of a model whose gravity is ``g − accel``, to 1e-12 N·m: random joints (the base
+    tilted on its sole), each support, accelerations of a few m/s² in every direction."""
+    from wbc.balance.compliance import ComplianceCompensator
+    from wbc.recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
+
+    rng = np.random.default_rng(7)
+    for r in (robot, op3):
+        comp = ComplianceCompensator(r, gain=1.0)
+        m = r.model
+        kept = m.gravity.linear.copy()
+        for _ in range(4):
+            j = np.clip(r.configuration("stand")[7:] + rng.uniform(-0.3, 0.3, r.n_joints),
+                        r.q_min, r.q_max)  # fmt: skip
+            a = rng.normal(0.0, 3.0, 3)
+            for support in (SUPPORT_LEFT, SUPPORT_RIGHT, SUPPORT_DOUBLE):
+                got = comp.torques(j, support, a)
+                assert np.array_equal(m.gravity.linear, kept)
+                m.gravity.linear = kept - a  # (the definition: the field g − accel)
+                try:
+                    field = comp.torques(j, support)
+                finally:
+                    m.gravity.linear = kept
+                assert np.abs(got - field).max() < 1e-12, (r.name, support)
+                assert np.abs(got - comp.torques(j, support)).max() > 1e-3  # (a load)

@@ -60,6 +60,7 @@ def test_off_switch_passes_targets_through(robot):
     assert stab.joint_offsets(q[7:]) is None
 
 
+@pytest.mark.long(40)
 @settings(max_examples=25, deadline=None)
 @given(
     st.floats(-0.15, 0.15),
@@ -116,6 +117,7 @@ def test_integral_term_grows_with_a_steady_tilt(robot):
     assert Gains().k_i > 0  # on by default (benchmarks/balance.md)
 
 
+@pytest.mark.long(45)
 def test_dcm_feedback_moves_the_com_target_back(robot):
     """A CoM running sideways faster than planned (DCM ahead of the reference's) moves the
     CoM target the other way, by k_dcm × the DCM error, clipped to max_shift."""

@@ -151,6 +151,7 @@ def test_bad_parameters_and_references_are_refused(robot):
         StepAdjuster(robot, traj.build("thesis_step", robot))
 
 
+@pytest.mark.long(20)
 def test_stepping_survives_a_sideways_push_the_closed_loop_alone_does_not(robot, walk10):
     """wqp-daqp on walk10, closed loop (compliance ×0.5), 0.83 N·s sideways away from the
     swing foot at mid first single support: without stepping it falls (it survives 0.797,

@@ -28,6 +28,10 @@ def test_keys_match_the_issue():
     assert set(metrics.KEYS) == REQUIRED
 
 
+#: the tests of :func:`bench_run` in one worker: it runs once (~20 s), not once per worker
+on_bench_run = pytest.mark.xdist_group("bench_run")
+
+
 @pytest.fixture(scope="module")
 def bench_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
@@ -43,6 +47,7 @@ def bench_run(tmp_path_factory):
     return out
 
 
+@on_bench_run
 def test_json_records(bench_run):
     payload = json.loads((bench_run / "b.json").read_text())
     assert {"date", "machine", "command", "records"} <= set(payload)
@@ -67,6 +72,7 @@ def test_json_records(bench_run):
     assert by["hqp-daqp"]["limit_violations"] == 0
 
 
+@on_bench_run
 def test_recordings_hold_the_promised_arrays(robot, bench_run):
     path = bench_run / "runs" / "hqp-daqp__thesis_step.npz"
     with np.load(path) as data:
@@ -85,6 +91,7 @@ def test_recordings_hold_the_promised_arrays(robot, bench_run):
     assert err == pytest.approx(record["com_err_max_mm"], rel=1e-9, abs=1e-12)
 
 
+@on_bench_run
 def test_figures_one_per_quantity_png_and_svg(bench_run):
     from wbc.bench.plots import QUANTITIES
 
@@ -100,6 +107,7 @@ def test_figures_one_per_quantity_png_and_svg(bench_run):
     assert "time (s)" in svg
 
 
+@on_bench_run
 def test_reference_and_achieved_share_a_colour(robot, bench_run, tmp_path):
     pytest.importorskip("matplotlib")
     from matplotlib import pyplot as plt
@@ -129,6 +137,7 @@ def test_reference_and_achieved_share_a_colour(robot, bench_run, tmp_path):
     assert solid == dashed and solid[0] != solid[1]
 
 
+@on_bench_run
 def test_default_table_fits_100_columns_with_units_and_legend(bench_run):
     text = (bench_run / "stdout.txt").read_text()
     lines = text.splitlines()

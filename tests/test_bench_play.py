@@ -88,7 +88,14 @@ def test_kokone_key_pose_walk_stands_with_the_compliance_feed_forward():
     assert np.nanmax(goal_speed) <= speed
 
 
-@pytest.fixture(scope="module", params=["walk10_wb", "static_walk"])
+@pytest.fixture(
+    scope="module",
+    # (each walk's tests in one worker: it is played once, not once per worker)
+    params=[
+        pytest.param(w, marks=pytest.mark.xdist_group(f"kokone_{w}"))
+        for w in ("walk10_wb", "static_walk")
+    ],
+)
 def kokone_walk(request):
     """One of Kokone's walks as ``wbc bench --physics --robot kokone`` plays it open loop:
     planned by hqp-daqp on the robot folder's stack.toml, its goals sent to the nominal

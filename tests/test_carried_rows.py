@@ -81,6 +81,7 @@ def _walk(robot, carry: bool, ticks: int, seen: list | None = None):
     return _watched_walk(robot, stack, "carry", ticks, seen)
 
 
+@pytest.mark.long(15)
 def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
     """walk_strict along walk10 (self-collision rows held in every single support): with the
     last level's rows carried (``carry_rows``, off by default) each tick's Δq is the one
@@ -106,6 +107,7 @@ def _switch_walk(robot, on: bool, ticks: int, seen: list | None = None):
     return _watched_walk(robot, stack, "switch", ticks, seen)
 
 
+@pytest.mark.long(11)
 def test_a_support_switch_starts_from_the_last_phases_rows(robot):
     """``walk_strict`` with ``carry_at_switch`` (off by default; a stack file's key) along
     walk10's first 160 ticks: the touch-downs (ticks 104, 144: self-collision rows held as single

@@ -424,6 +424,7 @@ print(json.dumps(out))
 """
 
 
+@pytest.mark.long(40)
 @pytest.mark.parametrize("solver", ["weighted", "hierarchical"])
 def test_a_new_kernel_set_compiles_in_a_worker_while_the_numpy_path_answers(tmp_path, solver):
     """A task type defined outside the package, on an empty cache: the first tick is solved

@@ -157,6 +157,7 @@ def assert_close(x, reference, tol=1e-7):
 seeds = st.integers(0, 2**32 - 1)
 
 
+@pytest.mark.long(20)
 @given(seed=seeds, m=st.sampled_from([6, 12]), p=st.sampled_from([30, 9]),
        ridge=st.sampled_from([1e-6, 1e-10]))  # fmt: skip
 def test_random_levels_are_solved_like_daqp(seed, m, p, ridge):
@@ -508,6 +509,7 @@ print(json.dumps({
 """
 
 
+@pytest.mark.long(130)
 def test_each_kernel_compiles_once(tmp_path):
     """A weighted and a hierarchical solve from empty caches compile every kernel of the level
     solver and the ticks for one argument type only (numba specialises on literal ints/bools,

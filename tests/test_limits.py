@@ -175,6 +175,7 @@ def _band_stack(robot, q, limit):
     return stack
 
 
+@pytest.mark.long(15)
 @pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
 def test_a_box_limit_defined_outside_the_package_runs_compiled(robot, solver):
     """A user's box limit (a bound kernel, in a module outside wbc) keeps the stack on the
@@ -233,6 +234,7 @@ class FrameFloor(BoxLimit):
         return (self.frame_id,)
 
 
+@pytest.mark.long(15)
 @pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
 def test_a_box_limit_reading_a_frame_runs_compiled(robot, solver):
     """A user's box limit reading a frame's placement (its slot beside the tasks' frames):
@@ -301,6 +303,7 @@ def _sinking_stack(robot, q, constraint):
     return stack
 
 
+@pytest.mark.long(15)
 @pytest.mark.parametrize("solver", [WeightedQP, HierarchicalQP])
 def test_a_constraint_defined_outside_the_package_runs_compiled(robot, solver):
     """A user's inequality limit (a constraint kernel, in a module outside wbc): its rows

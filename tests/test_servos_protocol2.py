@@ -324,6 +324,7 @@ def test_playback_is_soft_started_and_rate_limited(op3, squat, capsys):
         assert np.all((c >= 0) & (c <= 4095))
 
 
+@pytest.mark.long(12)
 def test_identify_names_missing_and_doubled_servos(op3, open_bus):
     from wbc.exceptions import ServoError
 

@@ -264,6 +264,7 @@ def test_the_command_line_names_the_bad_import(tmp_path, capsys):
     assert len(err.splitlines()) == 1
 
 
+@pytest.mark.long(12)
 def test_walk_and_bench_run_a_users_task_from_its_stack_file(tmp_path):
     """``wbc walk --stack my.toml`` (and ``wbc bench --stack my.toml``) run a task type
     defined in ``my_tasks.py`` beside the file: its error is recorded at every tick and

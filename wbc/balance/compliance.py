@@ -160,13 +160,10 @@ class ComplianceCompensator:
         m, d = self.model, self.data
         if accel is None:
             g = pin.computeGeneralizedGravity(m, d, q)
-        else:
-            kept = m.gravity.linear.copy()
-            m.gravity.linear = kept - np.asarray(accel, dtype=float)
-            try:
-                g = pin.computeGeneralizedGravity(m, d, q)
-            finally:
-                m.gravity.linear = kept
+        else:  # (the whole body accelerated by ``accel``, at rest: M a + gravity's, by RNEA)
+            a = np.zeros(m.nv)
+            a[:3] = pin.XYZQUATToSE3(q[:7]).rotation.T @ np.asarray(accel, dtype=float)
+            g = pin.rnea(m, d, q, np.zeros(m.nv), a)
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
         jc = np.vstack(

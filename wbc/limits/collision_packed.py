@@ -18,6 +18,7 @@ from ..compiled._cache import refresh
 from ..compiled.checks import address
 from ..compiled.ticks import fold_box
 from .collision_kernels import CULL_TOL, collision_rows
+from .joint_limits import position_box, speed_box
 
 #: the buffers of :func:`packed_rows`, passed by address (numba unboxes ~50 ns per array
 #: argument: ~2.5 µs of a tick went to passing :func:`collision_rows` its 32 arguments), in
@@ -91,24 +92,13 @@ def _b2(addresses, shapes, i):
 @njit(cache=True)
 def joint_box(q, q_min, q_max, steps, lower, upper, speed) -> None:
     """The box of a stack whose box limits are the joint position limit then the joint
-    velocity limit (:func:`~wbc.limits.joint_limits.position_bounds` folded with
-    :func:`~wbc.limits.joint_limits.velocity_bounds` by
-    :func:`~wbc.compiled.ticks.fold_box`, the compiled tick's arithmetic): the base
-    unbounded, joint j in [q_min_j − q_j, q_max_j − q_j] ∩ [−s_j, s_j] (where they do not
-    meet, the speed's end nearest the range). ``speed``: 2 x nv scratch."""
-    nj = q_min.shape[0]
-    nb = lower.shape[0] - nj
-    o = q.shape[0] - nj
-    for i in range(nb):
-        lower[i] = -np.inf
-        upper[i] = np.inf
-    for j in range(nj):
-        lower[nb + j] = q_min[j] - q[o + j]
-        upper[nb + j] = q_max[j] - q[o + j]
-    for j in range(nj):
-        speed[0, j] = -steps[j]
-        speed[1, j] = steps[j]
-    fold_box(lower[nb:], upper[nb:], speed[0, :nj], speed[1, :nj])
+    velocity limit, the compiled tick's way: their boxes
+    (:func:`~wbc.limits.joint_limits.position_box`, :func:`~wbc.limits.joint_limits.speed_box`:
+    what their bound kernels write) folded by :func:`~wbc.compiled.ticks.fold_box`. ``speed``:
+    2 x nv scratch."""
+    position_box(q_min, q_max, q, lower, upper)
+    speed_box(steps, speed[0], speed[1])
+    fold_box(lower, upper, speed[0], speed[1])
 
 
 @njit(cache=True)
@@ -193,9 +183,13 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
 
 
 # numba caches these on this file alone: flush them when the kernels they call change (the
-# rows' kernels, the box's fold; before this, an edit of collision_kernels.py alone left
-# packed_rows running the old rows)
+# rows' kernels, the joint limits' boxes and their fold; before this, an edit of
+# collision_kernels.py alone left packed_rows running the old rows)
 refresh(
     [joint_box, packed_rows],
-    [Path(__file__).with_name("collision_kernels.py"), Path(_ticks.__file__)],
+    [
+        Path(__file__).with_name("collision_kernels.py"),
+        Path(__file__).with_name("joint_limits.py"),
+        Path(_ticks.__file__),
+    ],
 )

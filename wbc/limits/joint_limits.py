@@ -10,19 +10,41 @@ from .limit import BoxLimit
 
 
 @njit(cache=True)
-def position_bounds(
-    params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lower, upper
-):
-    """q_min − q <= Δq_j <= q_max − q (params: q_min, then q_max; the base unbounded)."""
-    nj = params.shape[0] // 2
+def position_box(q_min, q_max, q, lower, upper) -> None:
+    """The joint position limit's box: q_min − q <= Δq_j <= q_max − q, the base unbounded (one
+    definition: :func:`position_bounds`, :func:`~wbc.limits.collision_packed.joint_box`)."""
+    nj = q_min.shape[0]
     nb = lower.shape[0] - nj
     for i in range(nb):
         lower[i] = -np.inf
         upper[i] = np.inf
     o = q.shape[0] - nj
     for j in range(nj):
-        lower[nb + j] = params[j] - q[o + j]
-        upper[nb + j] = params[nj + j] - q[o + j]
+        lower[nb + j] = q_min[j] - q[o + j]
+        upper[nb + j] = q_max[j] - q[o + j]
+
+
+@njit(cache=True)
+def speed_box(steps, lower, upper) -> None:
+    """The joint velocity limit's box: −s_j <= Δq_j <= s_j, the base unbounded (one
+    definition: :func:`velocity_bounds`, :func:`~wbc.limits.collision_packed.joint_box`)."""
+    nj = steps.shape[0]
+    nb = lower.shape[0] - nj
+    for i in range(nb):
+        lower[i] = -np.inf
+        upper[i] = np.inf
+    for j in range(nj):
+        lower[nb + j] = -steps[j]
+        upper[nb + j] = steps[j]
+
+
+@njit(cache=True)
+def position_bounds(
+    params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lower, upper
+):
+    """q_min − q <= Δq_j <= q_max − q (params: q_min, then q_max; the base unbounded)."""
+    nj = params.shape[0] // 2
+    position_box(params[:nj], params[nj:], q, lower, upper)
 
 
 @njit(cache=True)
@@ -30,14 +52,7 @@ def velocity_bounds(
     params, slots, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, lower, upper
 ):
     """−s_j <= Δq_j <= s_j (params: the steps s; the base unbounded)."""
-    nj = params.shape[0]
-    nb = lower.shape[0] - nj
-    for i in range(nb):
-        lower[i] = -np.inf
-        upper[i] = np.inf
-    for j in range(nj):
-        lower[nb + j] = -params[j]
-        upper[nb + j] = params[j]
+    speed_box(params, lower, upper)
 
 
 class JointPositionLimit(BoxLimit):
