@@ -45,7 +45,7 @@ from .fall import FallDetector, FallParams
 from .margin import torso_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
-from .stance_lift import LiftedStabilizer, final_double_start
+from .stance_lift import LiftedStabilizer, final_double_start, identified_soft
 from .stepping import StepAdjuster, SteppingParams, can_step
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
@@ -341,7 +341,8 @@ def closed_loop(
     lift = enabled and (gains.lift != 0 or gains.end_clock != 1 or gains.end_leak > 0)  # (soft)
     if (gate or lift) and (commanded or rest < 2):
         what = " and ".join(n for n, on in (("joint integral (j_i_stiff)", gate),
-                                            ("CoM lift (lift, end_clock)", lift))
+                                            ("CoM lift or walk's end (lift, end_clock, end_leak)",
+                                             lift))
                             if on)  # fmt: skip
         gate = lift = False
         out(f"closed loop: no {what}: the servos' stiffness is identified from their "
@@ -386,9 +387,7 @@ def closed_loop(
             comp.scale = sagittal_scale(robot, gains.ff_sagittal)
         target = CompensatedSource(source, comp, support, present, fix)
         if gains is not None and gains.ff_inertial > 0:  # the plan's CoM acceleration
-            accel = _inertial_field(session, gains)
-
-            target.accel = accel
+            target.accel = _inertial_field(session, gains)
     if duration is not None:
         from ..servos.sources import CallableSource
 
@@ -503,15 +502,14 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
         if g.j_i > 0 and g.j_i_stiff > 0:
             on = "on" if loop.stabilizer.sag_integrated else "off"
             out(f"closed loop: joint integral {on} (j_i_stiff {g.j_i_stiff:g})")
-        if g.lift != 0 and loop.stabilizer.enabled:
-            on = f"{g.lift * 1000:+.1f} mm" if k < g.lift_stiff else "none"
-            out(f"closed loop: CoM target lift {on} (lift_stiff {g.lift_stiff:g})")
-        if g.end_clock != 1 and loop.stabilizer.enabled:
-            on = f"x{g.end_clock:g}" if k < g.lift_stiff else "none"
-            out(f"closed loop: walk-end clock {on} (end_clock, lift_stiff {g.lift_stiff:g})")
-        if g.end_leak > 0 and loop.stabilizer.enabled:
-            on = f"{g.end_leak:g} /s" if k < g.lift_stiff else "none"
-            out(f"closed loop: walk-end DCM integral leak {on} (end_leak, lift_stiff "
-                f"{g.lift_stiff:g})")  # fmt: skip
+        soft = identified_soft(g.lift_stiff, k)  # (what lift and the walk's end act on)
+        for on, what, value, key in (
+            (g.lift != 0, "CoM target lift", f"{g.lift * 1000:+.1f} mm", ""),
+            (g.end_clock != 1, "walk-end clock", f"x{g.end_clock:g}", "end_clock, "),
+            (g.end_leak > 0, "walk-end DCM integral leak", f"{g.end_leak:g} /s", "end_leak, "),
+        ):
+            if on and loop.stabilizer.enabled:
+                out(f"closed loop: {what} {value if soft else 'none'} "
+                    f"({key}lift_stiff {g.lift_stiff:g})")  # fmt: skip
 
     return hook

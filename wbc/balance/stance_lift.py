@@ -34,10 +34,16 @@ from .stabilizer import Stabilizer
 LIFT_RAMP = 0.5
 
 
+def identified_soft(stiff: float, scale: float | None) -> bool:
+    """True for a plant identified at ``scale`` × servos.toml's below ``lift_stiff``
+    ``stiff`` (None: not identified, False): the plants ``lift`` and the walk's end act on."""
+    return scale is not None and scale < stiff
+
+
 def lift_height(lift: float, stiff: float, scale: float | None, t: float) -> float:
     """m the CoM target moves up at walk time ``t`` (s) with ``lift`` and ``lift_stiff``
     ``stiff`` for a plant identified at ``scale`` × servos.toml's (None: not identified)."""
-    if lift == 0.0 or scale is None or not scale < stiff:
+    if lift == 0.0 or not identified_soft(stiff, scale):
         return 0.0
     return lift * min(max(t / LIFT_RAMP, 0.0), 1.0)
 
@@ -56,7 +62,7 @@ def at_end(stiff: float, scale: float | None, t: float, start: float | None) -> 
     """True at reference time ``t`` (s) from the final double support's ``start`` on
     (:func:`final_double_start`) for a plant identified at ``scale`` × servos.toml's below
     ``lift_stiff`` ``stiff`` (not identified, or no final double support: False)."""
-    return scale is not None and scale < stiff and start is not None and t >= start - 1e-9
+    return identified_soft(stiff, scale) and start is not None and t >= start - 1e-9
 
 
 def end_rate(end_clock: float, stiff: float, scale: float | None, t: float,
