@@ -2,7 +2,8 @@
 move unidentified or on servos at or above ``lift_stiff``, a ramp into the lift on softer
 ones; through ``closed_loop`` the solved CoM rises on a soft plant only; off, the closed
 loop builds main's stabilizer. The walk's end re-timed on the same plants
-(``Gains.end_clock``): the clock slowed from the final double support on, soft plants only."""
+(``Gains.end_clock``): the clock slowed from the final double support on, soft plants only.
+The hip strategy held from each single support's start on the same plants (``Gains.soft_hip``)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import pytest
 
 from wbc.balance.stabilizer import Gains, Stabilizer
 from wbc.balance.stance_lift import (
+    HIP_OFF_BAND,
     LIFT_RAMP,
     LiftedStabilizer,
     end_rate,
@@ -139,3 +141,53 @@ def test_closed_loop_slows_the_walks_end_on_servos_identified_soft(
         assert early.any() and late.any()
         assert np.median(rate[early]) == pytest.approx(1.0, abs=0.02)
         assert np.median(rate[late]) == pytest.approx(0.5, abs=0.02)
+
+
+@pytest.mark.parametrize("stiffness", [0.55, 1.8])
+def test_closed_loop_holds_the_hip_strategy_early_in_single_support_on_soft_servos(
+    robot, soft_plant_loop, stiffness
+):
+    """Through :func:`wbc.balance.live.closed_loop` (walk10_wb's first 1.4 s after a 0.5 s
+    rest: its first two single supports): with ``soft_hip`` 0.15 s the soft plant's
+    stabilizer runs with the hip strategy's band out of reach during the first 0.15 s of
+    each single support and with the given gains everywhere else (the double supports, the
+    rest of each single support), the hip-strategy roll never grows there, and the loop
+    says so; the stiff plant's always runs the given gains."""
+    said: list[str] = []
+    soft = stiffness < 1.0
+    g = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, soft_hip=0.15)
+    loop = soft_plant_loop(stiffness, g, said, 1.9)
+    stab = loop.stabilizer
+    assert isinstance(stab, LiftedStabilizer)
+    seen: list[tuple[str, str, float, float, float]] = []  # (phase, sole, dt, band, |h| out)
+    adjust = Stabilizer.adjust
+
+    def recorded(self, targets, com_vel_ref, q_cmd, dt):
+        out = adjust(self, targets, com_vel_ref, q_cmd, dt)
+        if not self.calibrating:
+            h = float(np.hypot(*self.hip))
+            seen.append((targets.phase, targets.support, float(dt), self.gains.hip_band, h))
+        return out
+
+    Stabilizer.adjust = recorded  # type: ignore[method-assign]
+    try:
+        loop.deployment.run()
+    finally:
+        Stabilizer.adjust = adjust  # type: ignore[method-assign]
+    assert bool(stab.stiffness_scale < 0.75) is soft
+    into, last, early = 0.0, ("", ""), []
+    for phase, sole, dt, _, _ in seen:  # the time into each single support
+        into = into + dt if (phase, sole) == last and phase == "single" else 0.0
+        last = (phase, sole)
+        early.append(phase == "single" and into < 0.15 - 1e-9)
+    assert any(early) and not all(early)
+    bands = [band for _, _, _, band, _ in seen]
+    want = [HIP_OFF_BAND if e and soft else g.hip_band for e in early]
+    assert bands == want
+    held = [(a[4], b[4]) for a, b, e in zip(seen, seen[1:], early[1:], strict=False) if e]
+    assert all(b <= a + 1e-12 for a, b in held) or not soft
+    assert (
+        any("hip strategy held from each single support's start 0.15 s" in s for s in said) is soft
+    )
+    with pytest.raises(ConfigurationError):
+        Gains(soft_hip=-0.1).check()

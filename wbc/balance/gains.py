@@ -296,6 +296,13 @@ class Gains:
     #: 68), no walk losing; off until a full 150-plant seed is run side by side (issue 30,
     #: i30e's seventeenth session; benchmarks/physics.md)
     end_leak: float = 0.0
+    #: s: on the same plants, the hip strategy (``k_hip``, its push trigger with it) held off
+    #: for this long from the start of each single support: there the plan's new stance sole
+    #: may not carry the robot yet (a soft stance knee that sagged and rolled the body toward
+    #: its side lands the swing foot late), the DCM estimated against it already reads
+    #: outward and the strategy would throw the torso toward that side at once (0: off;
+    #: :mod:`wbc.balance.stance_lift`; issue 30, the eighteenth session's i30g)
+    soft_hip: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -369,6 +376,7 @@ class Gains:
             "lift_stiff",
             "end_lead",
             "end_leak",
+            "soft_hip",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -338,11 +338,13 @@ def closed_loop(
     if identify and rest < 2:
         raise ConfigurationError("closed_loop: servo='identify' measures at rest: calibrate_s > 0")
     gate = enabled and gains.j_i > 0 and gains.j_i_stiff > 0  # (j_i_stiff: identified at rest)
-    lift = enabled and (gains.lift != 0 or gains.end_clock != 1 or gains.end_leak > 0)  # (soft)
+    lift = enabled and (
+        gains.lift != 0 or gains.end_clock != 1 or gains.end_leak > 0 or gains.soft_hip > 0
+    )  # (soft)
     if (gate or lift) and (commanded or rest < 2):
         what = " and ".join(n for n, on in (("joint integral (j_i_stiff)", gate),
-                                            ("CoM lift or walk's end (lift, end_clock, end_leak)",
-                                             lift))
+                                            ("CoM lift, walk's end or hip hold (lift, "
+                                             "end_clock, end_leak, soft_hip)", lift))
                             if on)  # fmt: skip
         gate = lift = False
         out(f"closed loop: no {what}: the servos' stiffness is identified from their "
@@ -489,7 +491,8 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
             what = [n for n, on in (("joint integral (j_i_stiff)", g.j_i > 0 and g.j_i_stiff > 0),
                                     ("CoM lift (lift)", g.lift != 0),
                                     ("walk's end (end_clock, end_leak)",
-                                     g.end_clock != 1 or g.end_leak > 0))
+                                     g.end_clock != 1 or g.end_leak > 0),
+                                    ("single support's hip hold (soft_hip)", g.soft_hip > 0))
                     if on]  # fmt: skip
             out(f"closed loop: no {' nor '.join(what) or 'identified stiffness'}: {err}")
             return
@@ -507,6 +510,12 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
             (g.lift != 0, "CoM target lift", f"{g.lift * 1000:+.1f} mm", ""),
             (g.end_clock != 1, "walk-end clock", f"x{g.end_clock:g}", "end_clock, "),
             (g.end_leak > 0, "walk-end DCM integral leak", f"{g.end_leak:g} /s", "end_leak, "),
+            (
+                g.soft_hip > 0,
+                "hip strategy held from each single support's start",
+                f"{g.soft_hip:g} s",
+                "soft_hip, ",
+            ),
         ):
             if on and loop.stabilizer.enabled:
                 out(f"closed loop: {what} {value if soft else 'none'} "

@@ -18,20 +18,33 @@ read by :meth:`wbc.walking.loop.Session.at_time` as the ``lag_clock``'s rate is)
 DCM integral (``k_dcm_i``'s: the walk's steady lag behind its reference, taken as a
 forward CoM shift) leaks at ``Gains.end_leak`` /s, so the shift that carried the walk is
 not carried into the stop (a soft plant pitched over its toes after the last landing).
+
+The single support's start (issue 30, eighteenth session; off): on the same plants the hip
+strategy (``Gains.k_hip``) is held off for the first ``Gains.soft_hip`` s of each single
+support (its band moved out of reach, :data:`HIP_OFF_BAND`: the roll it holds is released
+as in a double support). A soft stance knee sags and rolls the body toward its own side,
+the swing foot lands late, and when the plan's next single support starts the robot still
+stands on the sole the plan lifts: the DCM estimated against the new stance sole then reads
+outward of it and the strategy threw the torso toward that side at once (traced:
+benchmarks/physics.md).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from ..types import SUPPORT_DOUBLE
 from ..walking.reference import WalkingReference
+from .gains import Gains
 from .stabilizer import Stabilizer
 
 #: s: the lift ramped in from the walk's first tick (the rest's pose, then the lifted one)
 LIFT_RAMP = 0.5
+#: m: the hip strategy's band while ``soft_hip`` holds it off (no DCM is that far outward)
+HIP_OFF_BAND = 1.0
 
 
 def identified_soft(stiff: float, scale: float | None) -> bool:
@@ -77,15 +90,44 @@ class LiftedStabilizer(Stabilizer):
     """A :class:`~wbc.balance.stabilizer.Stabilizer` whose adjusted CoM target moves up by
     :func:`lift_height` (``Gains.lift``, ``Gains.lift_stiff``) and whose walk's clock runs
     at :func:`end_rate` (``Gains.end_clock``), its DCM integral leaking at the walk's end
-    (``Gains.end_leak``; :attr:`end_start` set by the closed loop)."""
+    (``Gains.end_leak``; :attr:`end_start` set by the closed loop) and its hip strategy held
+    at each single support's start (``Gains.soft_hip``: :attr:`gains` swapped meanwhile)."""
 
     t0: float | None = None  # the reference time of the walk's first tick
     end_start: float | None = None  # the reference's final double support (end_clock)
+    _own: Gains | None = None  # the gains given (soft_hip swaps self.gains for _held)
+    _held: Gains | None = None  # them with the hip strategy's band out of reach
+    _sole = ""  # the stance sole of the single support under way ("": none)
+    _single = 0.0  # s of it so far
+
+    def _soft_hip(self, targets, dt: float) -> None:
+        """``soft_hip``: :attr:`gains` the given ones, or during the first ``soft_hip`` s of
+        a single support on a plant identified soft, them with the hip strategy's band out
+        of reach (:data:`HIP_OFF_BAND`)."""
+        if self._own is None:
+            self._own = self.gains
+            self._held = replace(self.gains, hip_band=HIP_OFF_BAND)
+        g = self._own
+        if targets.phase != "single":
+            self._sole, self._single = "", 0.0
+        elif targets.support != self._sole:
+            self._sole, self._single = targets.support, 0.0
+        else:
+            self._single += float(dt)
+        early = self._sole != "" and self._single < g.soft_hip - 1e-9
+        soft = identified_soft(g.lift_stiff, self.stiffness_scale)
+        want = self._held if early and soft else g
+        if self.gains is not want:
+            self.gains = want
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
-        """:meth:`Stabilizer.adjust` (its DCM integral leaked first at the walk's end), then
-        the CoM target lifted and the next tick's clock set (not during the rest)."""
-        g = self.gains
+        """:meth:`Stabilizer.adjust` (its gains chosen first by ``soft_hip``, its DCM integral
+        leaked at the walk's end), then the CoM target lifted and the next tick's clock set
+        (not during the rest)."""
+        if self._own is not None or (self.gains.soft_hip > 0 and self.enabled):  # (soft_hip)
+            if not self.calibrating:
+                self._soft_hip(targets, dt)
+        g = self._own or self.gains
         if g.end_leak > 0 and self.enabled and not self.calibrating:  # (end_leak)
             t = float(targets.t) + g.end_lead
             if at_end(g.lift_stiff, self.stiffness_scale, t, self.end_start):
