@@ -301,7 +301,11 @@ class Gains:
     #: may not carry the robot yet (a soft stance knee that sagged and rolled the body toward
     #: its side lands the swing foot late), the DCM estimated against it already reads
     #: outward and the strategy would throw the torso toward that side at once (0: off;
-    #: :mod:`wbc.balance.stance_lift`; issue 30, the eighteenth session's i30g)
+    #: :mod:`wbc.balance.stance_lift`). 1.0 (longer than any single support: the strategy off
+    #: on soft plants) keeps the two soft plants E loses (s2 turn_wb 8, s4 turn_wb 33) and
+    #: loses none E keeps over seeds 0-7; the held-out seeds had none left to gain and no
+    #: push was measured on a soft plant: off (issue 30, i30g's eighteenth session;
+    #: benchmarks/physics.md)
     soft_hip: float = 0.0
 
     def check(self) -> Gains:
