@@ -412,7 +412,6 @@ class Ticks:
         return result
 
 
-@functools.lru_cache(maxsize=32)
 def ticks(
     kernels: tuple,
     bounds: tuple = (),
@@ -428,6 +427,20 @@ def ticks(
     in worker processes); ``placer``: (kernel, source files it calls...) — the set's placed
     ticks (:data:`TICK_ARGS`) call that kernel first. The caller (:mod:`wbc.solvers.plan`)
     knows the tasks and limits."""
+    # (one object per set however the call spells it: its workers are in its builders)
+    return _ticks(tuple(kernels), tuple(bounds), velocities, package, tuple(constraints), placer)
+
+
+@functools.lru_cache(maxsize=32)
+def _ticks(
+    kernels: tuple,
+    bounds: tuple,
+    velocities: bool,
+    package: bool,
+    constraints: tuple,
+    placer: tuple,
+) -> Ticks:
+    """:func:`ticks`, kept for the process."""
     files = [_source_file(k) for k in (*kernels, *bounds, *constraints, *placer[:1])]
     files += [Path(f) for f in placer[1:]]
     cache = all(f is not None for f in files)
