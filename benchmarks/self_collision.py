@@ -28,6 +28,10 @@ own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; *
 first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
 tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
+``--in-tick``: also each stack with its limit's ``in_tick = true`` (the rows made inside the
+compiled tick, one call from Python for the rows and the solve; issue 34, eighteenth session),
+interleaved in the same rounds.
+
 ``--idle S``: S seconds slept after each tick of every controller (0.02: a 50 Hz loop, as on
 a robot: each tick then starts with the caches that the sleep and the machine's other
 processes left, where back to back, the default, it finds its code and data from the tick
@@ -49,7 +53,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
-[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02]``.
+[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--in-tick]``.
 """
 
 from __future__ import annotations
@@ -167,6 +171,9 @@ def main() -> int:
     parser.add_argument(
         "--idle", type=float, default=0.0, help="s slept after each tick (a robot's loop)"
     )
+    parser.add_argument(
+        "--in-tick", action="store_true", help="also ours with in_tick = true (rows in the tick)"
+    )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -205,6 +212,10 @@ def table(robot, trajectory: str, args) -> None:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
                     makers[f"{label}, world frame"] = ours(spec, kind)
+                if on and args.in_tick:
+                    spec = walk_spec(True, stack)
+                    walk_limit(spec)["in_tick"] = True
+                    makers[f"{label}, in tick"] = ours(spec, kind)
                 if args.cold_too:
                     cold.add(f"{label}, every level cold")
                     makers[f"{label}, every level cold"] = makers[label]

@@ -721,16 +721,18 @@ _SELF_COLLISION_KEYS = {
     *("type", "name", "margin", "trigger", "damping", "include", "exclude", "pairs", "optional"),
     "common_frame",
     "cut_in_box",
+    "in_tick",
 }
 
 
 def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint | None:
     """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
     include = [[link, link], ...], exclude = [...], pairs = [...], optional = false,
-    common_frame = true, cut_in_box = false }`` (all but ``type`` optional). ``pairs``: only
-    these link pairs (e.g. their own margin); ``optional = true``: pairs naming a link this
-    robot does not have are left out of ``pairs`` / ``exclude`` (a stack shared by robots;
-    with no pair left, no constraint); ``cut_in_box``:
+    common_frame = true, cut_in_box = false, in_tick = false }`` (all but ``type``
+    optional). ``pairs``: only these link pairs (e.g. their own margin); ``optional =
+    true``: pairs naming a link this robot does not have are left out of ``pairs`` /
+    ``exclude`` (a stack shared by robots; with no pair left, no constraint); ``cut_in_box``,
+    ``in_tick``:
     :class:`~wbc.limits.SelfCollisionConstraint`'s."""
     extra = set(entry) - _SELF_COLLISION_KEYS
     if extra:
@@ -740,7 +742,7 @@ def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConst
         )
     keys = (
         *("margin", "trigger", "damping", "include", "exclude", "pairs", "common_frame"),
-        "cut_in_box",
+        *("cut_in_box", "in_tick"),
     )
     kw = {k: entry[k] for k in keys if k in entry}
     if entry.get("optional", False) is not False:

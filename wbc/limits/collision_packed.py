@@ -16,6 +16,7 @@ from numba import carray, njit
 from ..compiled import ticks as _ticks
 from ..compiled._cache import refresh
 from ..compiled.checks import address
+from ..compiled.dispatch import C_ROW
 from ..compiled.ticks import fold_box
 from .collision_kernels import CULL_TOL, collision_rows
 from .joint_limits import position_box, speed_box
@@ -182,11 +183,57 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     return r
 
 
+#: a plan's placement of the rows (:func:`placed_rows`, int64): their first row (−1: not
+#: made in the tick), their count at the last call, 1 if that call made them (0: the rows of
+#: the same configuration, where they were), their level, the number of levels L, then each
+#: level's first row and the end without them (L + 1), the number n of the kernel constraints
+#: after them and each one's row of ``cspec`` and first row without them (2 n)
+P_ROW, P_COUNT, P_MADE, P_LEVEL, P_LEVELS, P_FIRST = range(6)
+
+
+@njit(cache=True)
+def placed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, place, g_rows, cspec) -> int:
+    """:func:`packed_rows` inside a compiled tick: the rows at q into ``G``, ``h`` from the
+    row ``place[P_ROW]`` (nothing if it is −1), then every row after them moved by their
+    count — each level's bounds in ``g_rows`` and the first row (``cspec[:, C_ROW]``) of
+    each kernel constraint after them, from their places without these rows (:data:`P_ROW`...:
+    the plan's layout). Returns the count, or −2 (no room: nothing moved).
+    The rows of the last call (its −1) are where that call put them: the caller forgets
+    them (``last_q``) when they are not at ``place[P_ROW]`` of these buffers."""
+    r0 = place[P_ROW]
+    if r0 < 0:
+        return 0
+    m = packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0)
+    if m == -1:
+        m = place[P_COUNT]
+        place[P_MADE] = 0
+    elif m < 0:
+        place[P_COUNT] = m
+        return m
+    else:
+        place[P_MADE] = 1
+    place[P_COUNT] = m
+    level, n = place[P_LEVEL], place[P_LEVELS]
+    for k in range(n + 1):
+        g_rows[k] = place[P_FIRST + k] + (m if k > level else 0)
+    o = P_FIRST + n + 1
+    for i in range(place[o]):
+        cspec[place[o + 1 + 2 * i], C_ROW] = place[o + 2 + 2 * i] + m
+    return m
+
+
+#: the files :func:`placed_rows` calls into (a compiled tick that calls it digests them)
+PLACED_SOURCES = tuple(
+    str(Path(__file__).with_name(f))
+    for f in ("collision_packed.py", "collision_kernels.py", "joint_limits.py")
+)
+
+
 # numba caches these on this file alone: flush them when the kernels they call change (the
 # rows' kernels, the joint limits' boxes and their fold; before this, an edit of
 # collision_kernels.py alone left packed_rows running the old rows)
 refresh(
-    [joint_box, packed_rows],
+    [joint_box, packed_rows, placed_rows],
     [
         Path(__file__).with_name("collision_kernels.py"),
         Path(__file__).with_name("joint_limits.py"),

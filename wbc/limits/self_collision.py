@@ -65,7 +65,7 @@ from ..model import Kinematics, Robot
 from .collision_boxes import CollisionModel, collision_model
 from .collision_distances import PairDistances, Witness
 from .collision_kernels import MAX_CLOSURE
-from .collision_packed import pack, packed_rows
+from .collision_packed import PLACED_SOURCES, pack, packed_rows, placed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -361,10 +361,12 @@ class SelfCollisionConstraint(Constraint):
         name: str = "self_collision",
         common_frame: bool = True,
         cut_in_box: bool = False,
+        in_tick: bool = False,
     ) -> None:
         super().__init__(name)
         check_parameters(margin, trigger, damping)
-        for flag, value in (("common_frame", common_frame), ("cut_in_box", cut_in_box)):
+        flags = (("common_frame", common_frame), ("cut_in_box", cut_in_box), ("in_tick", in_tick))
+        for flag, value in flags:
             if not isinstance(value, bool):
                 raise ConfigurationError(
                     f"self_collision {flag} must be true or false, got {value!r}"
@@ -373,6 +375,9 @@ class SelfCollisionConstraint(Constraint):
         #: rows that cannot bind in it (``cut_in_box``; off by default: the kernel's test
         #: costs about what the cascade saves, benchmarks/self_collision.md, fifteenth session)
         self.rows_in_box = cut_in_box
+        #: a compiled plan makes the rows inside its tick (``in_tick``: :attr:`row_placer`,
+        #: one call from Python for the rows and the solve), else before it (:meth:`rows_into`)
+        self.in_tick = in_tick
         self.robot = robot
         #: [margin, trigger, damping, UNREACHABLE, common_frame, 1: the rows that cannot bind
         #: in the box left out] (read by the kernel)
@@ -591,6 +596,42 @@ class SelfCollisionConstraint(Constraint):
             self._entries.clear()
         self._entries[(id(G), id(h))] = (entry, G, h)
         return entry
+
+    #: the kernel a compiled tick calls for the rows (and the files it calls), when
+    #: :attr:`rows_in_tick`
+    row_placer = (placed_rows, *PLACED_SOURCES)
+
+    @property
+    def rows_in_tick(self) -> bool:
+        """True if a compiled plan's tick makes the rows (``in_tick``; not with ``cut_in_box``,
+        nor for a subclass's rows, nor without pairs)."""
+        return (
+            self.in_tick
+            and not self.rows_in_box
+            and type(self).compute is SelfCollisionConstraint.compute
+            and bool(self.distances.pairs)
+        )
+
+    def placed_args(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray] | None:
+        """The kernel's buffers by address (addresses, shapes) for a tick at ``kin``'s frames
+        and joint Jacobians (the views it reads; None: its frames are copies)."""
+        call = self._call
+        if call is None or call[0] is not kin:
+            call = self._bind(kin)
+        return (call[1], call[2]) if self._call is not None else None
+
+    def placing(self, where: tuple) -> None:
+        """Before a tick that makes the rows at ``where`` (G, h, first row): the last rows
+        forgotten if they are elsewhere (the tick's kernel then makes them again)."""
+        if self._where is not where:
+            self._rows_q[0] = np.nan
+
+    def placed(self, where: tuple, m: int, made: bool) -> None:
+        """After that tick: its ``m`` rows at ``where`` (``made``: computed, not kept)."""
+        self._where = where
+        self._n_rows = m
+        if made:
+            self._last = self._rows = None
 
     def rows_into(
         self, kin: Kinematics, G: np.ndarray, h: np.ndarray, r0: int, box: tuple | None = None

@@ -26,7 +26,9 @@ import numpy as np
 
 from ..compiled import dispatch as D
 from ..compiled.signature import sources
+from ..exceptions import ConfigurationError
 from ..limits import BoxLimit, Constraint
+from ..limits.collision_packed import P_COUNT, P_FIRST, P_LEVEL, P_LEVELS, P_MADE, P_ROW
 from ..limits.joint_limits import position_bounds, velocity_bounds
 from ..model import Kinematics
 
@@ -54,6 +56,20 @@ def joint_box_arrays(
         if not a.flags.c_contiguous:
             return None
     return arrays
+
+
+def placed_constraint(
+    levels: Sequence[Sequence[Constraint]], kin: Kinematics, package: bool, solver: object
+) -> Constraint | None:
+    """The constraint whose rows a compiled tick makes itself (``rows_in_tick``: its
+    ``row_placer`` called first in the tick), if there is one and only one, the tick is the
+    package's (one fused call), reads the frames' views (not copies) and the ``solver``
+    carries no rows to the next tick; else None."""
+    carry = getattr(solver, "carry_rows", False) or getattr(solver, "carry_at_switch", False)
+    if not package or carry or kin.frame_placements() is None:
+        return None
+    found = [c for lv in levels for c in lv if getattr(c, "rows_in_tick", False)]
+    return found[0] if len(found) == 1 else None
 
 
 def compiled_constraint(c: Constraint) -> bool:
@@ -132,6 +148,7 @@ class ConstraintRows:
         slot: dict[int, int],
         nv: int,
         box: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+        placed: Constraint | None = None,
     ) -> None:
         self.levels = [list(lv) for lv in levels]
         #: the tick's box of Δq as its limits' arrays (q_min, q_max, steps: a stack whose box
@@ -176,6 +193,17 @@ class ConstraintRows:
         self._empty = np.zeros(0)
         #: each constraint's row count at the last tick (in :attr:`items` order)
         self.counts = [0] * len(self.items)
+        #: the constraint whose rows the tick makes (:func:`placed_constraint`; None: every
+        #: row before the tick), its placement for the tick (``place``:
+        #: :data:`~wbc.limits.collision_packed.P_ROW`..., written at a layout: :meth:`_place`),
+        #: where its rows go (G, h, first row) and whether this layout has the tick make them
+        self.placed = placed
+        self.place = np.full(P_FIRST + len(self.levels) + 2 + 2 * n, -1, dtype=np.int64)
+        self._where: tuple | None = None
+        self.in_tick = False
+        #: the layout without the placed rows: each level's count, the total, the placed
+        #: constraint's level and index in :attr:`items`
+        self._base: tuple = ((), 0, 0, 0)
 
     def _changed(self) -> bool:
         for c, lay, tokened in zip(self.kernel_items, self._layout, self._tokened, strict=True):
@@ -235,6 +263,16 @@ class ConstraintRows:
         if kernel_items and self._changed():
             self._relayout()
             rebind = True
+        placed = self.placed
+        if placed is not None:
+            where = self._where
+            if rebind or where is None or where[0] is not self.rows.G:
+                rebind = self._place() or rebind
+            if self.in_tick:
+                placed.placing(self._where)  # type: ignore[attr-defined]
+                if gather and self._gather is not None:
+                    self.gather()
+                return rebind
         cspec, python, layout, counts = self.cspec, self._python, self._layout, self.counts
         row_at = self._row_at
         g = self.rows
@@ -274,6 +312,85 @@ class ConstraintRows:
         if gather and self._gather is not None:
             self.gather()
         return rebind
+
+    def _place(self) -> bool:
+        """The layout of a tick that makes :attr:`placed`'s rows: every other row where it
+        goes without them (the kernel constraints' first rows, the levels' bounds; room for
+        its most rows after them), and :attr:`place`, for the tick to move them by its count
+        (:func:`~wbc.limits.collision_packed.placed_rows`). Not in the tick
+        (:attr:`in_tick` False, ``place[P_ROW]`` −1) where another constraint's rows come from
+        Python. True if the buffers were re-allocated."""
+        placed, g, python, layout = self.placed, self.rows, self._python, self._layout
+        place, row_at = self.place, self._row_at
+        row0 = level0 = index = -1
+        after: list[int] = []
+        levels: list[int] = []
+        r = i = 0
+        for k, level in enumerate(self.order):
+            start = r
+            for c, j, _, _ in level:
+                if c is placed:
+                    row0, level0, index = r, k, i
+                elif j < 0 or python[j]:  # (rows from Python: laid out before the tick)
+                    return self._not_in_tick()
+                else:
+                    if row0 >= 0:
+                        after.extend((j, r))
+                    self.cspec[j, D.C_ROW] = row_at[j] = r
+                    self.counts[i] = layout[j][0]
+                    r += layout[j][0]
+                i += 1
+            levels.append(r - start)
+        if row0 < 0:
+            return self._not_in_tick()
+        grown = g.reserve(r + placed.max_rows)  # type: ignore[union-attr]
+        n = len(levels)
+        first = np.cumsum([0, *levels])
+        place[:] = -1
+        place[P_ROW], place[P_COUNT], place[P_MADE] = row0, 0, 0
+        place[P_LEVEL], place[P_LEVELS] = level0, n
+        place[P_FIRST : P_FIRST + n + 1] = first
+        place[P_FIRST + n + 1] = len(after) // 2
+        place[P_FIRST + n + 2 : P_FIRST + n + 2 + len(after)] = after
+        g.g_rows[:] = first
+        g.counts, g.total = tuple(levels), r
+        self.counts[index] = 0
+        self._base = (tuple(levels), r, level0, index)
+        self._where = (g.G, g.h, row0)
+        self.in_tick = True
+        return grown
+
+    def _not_in_tick(self) -> bool:
+        """:meth:`_place` for a layout whose rows are all made before the tick (the placed
+        tick makes none: ``place[P_ROW]`` −1); False."""
+        self.in_tick = False
+        self.place[P_ROW] = -1
+        self._where = (self.rows.G, self.rows.h, -1)
+        self._row_at[:] = [-1] * len(self._row_at)  # (cspec's rows: written again)
+        return False
+
+    def took(self) -> None:
+        """After a tick that made :attr:`placed`'s rows: their count where Python reads it
+        (:attr:`counts`, the rows' levels, the constraint's own)."""
+        place = self.place
+        m = place.item(P_COUNT)
+        if m < 0:
+            raise ConfigurationError(f"{self.placed.name}: no room for its rows in the tick")
+        self.placed.placed(self._where, m, place.item(P_MADE) != 0)  # type: ignore[union-attr]
+        levels, total, level0, index = self._base
+        if m != self.counts[index]:
+            self.counts[index] = m
+            counts = list(levels)
+            counts[level0] += m
+            self.rows.counts, self.rows.total = tuple(counts), total + m
+
+    def placed_args(self, kin: Kinematics) -> tuple:
+        """The placed tick's last arguments: :attr:`placed`'s buffers by address and
+        :attr:`place` (ValueError: no placed constraint, or its frames are copies)."""
+        args = self.placed.placed_args(kin) if self.placed is not None else None  # type: ignore[attr-defined]
+        if args is None:
+            raise ValueError("no constraint whose rows a tick makes with the frames' views")
+        return (*args, self.place)
 
     def gather(self) -> None:
         """The kernel constraints' parameters into :attr:`cparams` (one compiled call)."""

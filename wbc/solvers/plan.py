@@ -24,13 +24,14 @@ from ..compiled.signature import momentum_into, velocity
 from ..exceptions import TaskError
 from ..limits import BoxLimit, Constraint
 from ..limits.limit import PACKAGE_BOUND_KERNELS, PACKAGE_CONSTRAINT_KERNELS
-from ..model import Kinematics, Robot
+from ..model import Kinematics
 from ..tasks import Task
 from ..tasks.task import PACKAGE_KERNELS
 from ..types import CONSTRAINT_TOL, Solution
 from .buffers import Scratch, restore
 from .carry import CarriedRows
-from .inequalities import ConstraintRows, compiled_constraint, joint_box_arrays
+from .frames import Frames
+from .inequalities import ConstraintRows, compiled_constraint, joint_box_arrays, placed_constraint
 
 
 def numba_available() -> bool:
@@ -119,8 +120,6 @@ def wait_for_package_ticks() -> None:
         package_ticks().wait_all()
 
 
-#: frame slots of a tick, padded to a multiple of this (see :class:`Frames`)
-FRAME_SLOTS = 8
 #: the inequality rows' buffers hold this many times the rows of a plan's prepared tick
 #: (:meth:`_Plan.reserve_rows`)
 ROW_HEADROOM = 2
@@ -226,62 +225,6 @@ def _adjacent(a: np.ndarray, b: np.ndarray) -> bool:
     )
 
 
-class Frames:
-    """One slot per frame used by a task or a box limit: its frame id (the tick copies that
-    frame's world rotation/position from ``R``/``p``, every frame's, into ``Rs``/``ps``, and
-    its velocity into ``vs`` where a kernel reads them) and joint support; ``slots`` lists each
-    task's and limit's slots."""
-
-    def __init__(
-        self,
-        robot: Robot,
-        kin: Kinematics,
-        tasks: Sequence[Task | BoxLimit],
-        scratch: Scratch,
-    ) -> None:
-        self.slot: dict[int, int] = {}
-        for t in tasks:
-            for fid in t.frame_ids():
-                self.slot.setdefault(fid, len(self.slot))
-        ids = list(self.slot)
-        n = len(ids) + (-len(ids) % FRAME_SLOTS) if ids else FRAME_SLOTS
-        self.support = np.zeros((n, robot.nv), dtype=np.bool_)
-        for s, fid in enumerate(ids):
-            self.support[s] = robot.frame_support(fid)
-        self.ids = np.array(ids, dtype=np.int64)
-        # every frame's placement: views of Pinocchio's that follow every Kinematics.update,
-        # or (another layout) a copy in the same strided layout, refreshed before each tick
-        views = kin.frame_placements()
-        self.copies: list[tuple[int, np.ndarray, np.ndarray]] = []
-        if views is None:
-            records = np.zeros((robot.model.nframes, 12))  # R column-major, then p
-            as_strided = np.lib.stride_tricks.as_strided
-            views = (
-                as_strided(records, shape=(len(records), 3, 3), strides=(96, 8, 24)),
-                as_strided(records[:, 9:], shape=(len(records), 3), strides=(96, 8)),
-            )
-            self.copies = [(f, kin.rotation(f), kin.translation(f)) for f in ids]
-        self.R, self.p = views
-        self.Rs = scratch.get("Rs", (n, 3, 3))
-        self.ps = scratch.get("ps", (n, 3))
-        self.vs = np.zeros((n, 6))  # (the plan's own: zeros unless its kernels read them)
-        self._slots: list[int] = []
-        self.slots = np.zeros(0, dtype=np.int64)
-
-    def refresh(self) -> None:
-        """Copy the frames' placements (only when they are not views of Pinocchio's)."""
-        for f, R, p in self.copies:
-            self.R[f] = R
-            self.p[f] = p
-
-    def add(self, task: Task | BoxLimit) -> tuple[int, int]:
-        """(offset, count) of the task's or limit's frame slots in :attr:`slots`."""
-        offset = len(self._slots)
-        self._slots.extend(self.slot[f] for f in task.frame_ids())
-        self.slots = np.array(self._slots, dtype=np.int64)
-        return offset, len(self._slots) - offset
-
-
 class Rows:
     """A fixed list of tasks as one block of rows: J (m x nv), raw errors E, right side b.
 
@@ -383,7 +326,10 @@ class _Plan:
             and cons == tuple(PACKAGE_CONSTRAINT_KERNELS)
             and not inputs
         )
-        self.ticks = D.ticks(kernels, bounds, "frame_velocities" in inputs, package, cons)
+        placed = placed_constraint(constraints, kin, package, solver)
+        placer = type(placed).row_placer if placed is not None else ()
+        self.placed = "_placed" if placed is not None else ""  # (its ticks: "*_tick_placed")
+        self.ticks = D.ticks(kernels, bounds, "frame_velocities" in inputs, package, cons, placer)
         self.kinds = {k: i for i, k in enumerate(kernels)}
         self.bound_kinds = {k: i for i, k in enumerate(bounds)}
         self.targets = Targets()
@@ -445,8 +391,10 @@ class _Plan:
             self.frames.slot,
             nv,
             joint_box_arrays(limits),
+            placed,
         )
         self.inequalities = self.constraints.rows
+        self._placed_args = self.constraints.placed_args(kin) if placed is not None else ()
         self.is_ready = False  # (:meth:`ready`'s answer once True: a tick reads it first)
 
     def ready(self) -> bool:
@@ -555,7 +503,7 @@ class _Plan:
         dtype; :attr:`args` keeps them alive), then the arguments passed directly."""
         self.args = args = self._build_args()
         self.solve_args = self._build_solve_args()
-        spec = D.WEIGHTED_ARGS if self.tick_name == "weighted_tick" else D.CASCADE_ARGS
+        spec = D.TICK_ARGS[self.tick_name]
         addresses, shapes, direct = [], [], []
         for (name, dtype, ndim), a in zip(spec, args, strict=True):
             if dtype == "direct":
@@ -626,6 +574,8 @@ class _Plan:
             status = self._solve_entry(*self.solve_args)
         else:
             status = entry(kin.q, *self.packed)
+        if rows is not None and rows.in_tick:  # (the rows the tick made: their count)
+            rows.took()
         if carried is not None:  # (warm_start[-1, 0]: the tick ended with a row active)
             if self.carries_rows() and self.warm_start.item(-1, 0):
                 carried.keep(g.G, g.h, g.g_rows[k + 1], g.working[k])
@@ -702,7 +652,7 @@ class WeightedPlan(_Plan):
         self.state = self.scratch.get("state", (nv,), np.int8)
         self.state.fill(0)
         self.warm_start = self.state
-        self.tick_name = "weighted_tick"
+        self.tick_name = "weighted_tick" + self.placed
         self._bind_args()
 
     def _solve_kernel(self):
@@ -724,6 +674,7 @@ class WeightedPlan(_Plan):
             *self.soft.args, *self.hard.args, g.G, g.h, g.g_rows, *self._constraint_args(),
             *self._shared_args(),
             self.state, g.working[0], self.dq, self.q_next, *self.targets.tick_sources,
+            *self._placed_args,
         )  # fmt: skip
 
 
@@ -767,7 +718,7 @@ class CascadePlan(_Plan):
         if self.carries_rows("carry_at_switch"):
             self.carried.bind()  # (its kernels loaded now, not in a tick)
         self.achieved = np.zeros(self.rows.m)
-        self.tick_name = "cascade_tick"
+        self.tick_name = "cascade_tick" + self.placed
         self.space = (np.zeros(0), np.zeros(0, np.int64))  # (_bind_args: the solver's)
         self._bind_args()
 
@@ -796,4 +747,5 @@ class CascadePlan(_Plan):
             *self.rows.args, self.level_rows, self.level_hard, g.G, g.h, g.g_rows,
             *self._constraint_args(), *self._shared_args(), self.states, g.working, g.h_eff,
             self.achieved, self.dq, self.q_next, *self.space, *self.targets.tick_sources,
+            *self._placed_args,
         )  # fmt: skip
