@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -1568,7 +1569,8 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
     (the encoders and the IMU: the estimate's heights) lands it: the clock jumps to the
     landing, that step and every later one re-based by where it stands from the stance sole
     less the plan (beyond ``accept``), the catch goes on a step (carried), and the double
-    support after it sets the controller's contacts (``contacts_move``); with ``accept_lift``
+    support after it sets the controller's contacts (``contacts_move``, with
+    ``accept_contacts``; else the handover's landing); with ``accept_lift``
     the sole to lift next found up two ticks there starts its swing (the clock to the
     lift-off). Not before the share, not with the sole up, not after a push forward, not by
     default; a sole landed on time is re-based at the double support's first tick."""
@@ -1587,7 +1589,7 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
             out = adj.update(ref, i, dcm(ref, i, adj.omega)) or out
         return adj, ref, before, out, n, q, est
 
-    p = SteppingParams(accept=0.02, accept_lift=2)
+    p = SteppingParams(accept=0.02, accept_lift=2, accept_contacts=True)
     adj, ref, before, new, n, q, est = case(p)
     ph = adj.phases[adj.phase_of[MID]]
     assert new is not None and len(adj.events) == n + 1 and adj.events[-1][1] == 0
@@ -1601,6 +1603,9 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
     assert adj.update(new, ds.i0, dcm(new, ds.i0, adj.omega)) is None  # (accepted already)
     _, tg, _, _, _ = _land_case(robot, walk10, p, [0.0] * 3, [0.0] * 3, i=ds.i0)
     assert adj.land(tg, est, q).contacts_move and not tg.contacts_move
+    adj.params = replace(adj.params, accept_contacts=False)  # (the handover's landing)
+    assert not adj.land(tg, est, q).contacts_move
+    adj.params = p.for_robot(robot)
     adj.contact.heights = np.array([0.01, 0.0])  # the left sole (to lift next) up
     for i in (ds.i0 + 1, ds.i0 + 2):
         adj.update(new, i, dcm(new, i, adj.omega))

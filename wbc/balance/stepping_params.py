@@ -252,6 +252,11 @@ class SteppingParams:
     accept_lift: int = 0
     accept_back: bool = True  # ... only after a push backward (False: any push)
     accept_skip: int = 0  # ... not in the catch's first that many carried swings
+    #: the double support of an accepted landing sets the controller's contacts to the
+    #: reference's soles at once (``contacts_move``; off: the handover's landing, anchored at
+    #: the solve's sole and walked to the re-based reference). Measured: the contact's jump
+    #: fails the solve through that double support (the last configuration held)
+    accept_contacts: bool = False
     #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
     #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0

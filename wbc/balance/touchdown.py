@@ -20,10 +20,11 @@ walk's clock jumps to the landing (the support changes now); at that double supp
 the first tick of the double support after a carried swing, when the sole came down on
 time) the landed step is re-based where the sole stands from the other sole (beyond
 ``accept`` m; every later step moved with it, the CoM re-planned from its target: the DCM
-plan restarts from the measured foot) and the controller's contacts are set to the
-reference's soles through that double support (``contacts_move``: the landed contact where
-the sole stands, flat, not the solve's own sole walked to the plan); the catch goes on
-``accept_steps`` more steps. ``accept_lift`` (ticks): in that double support, the sole to lift
+plan restarts from the measured foot): the handover's landing then walks the contact from the
+solve's sole to the re-based place, not to the plan's (with ``accept_contacts`` the
+controller's contacts are set to the reference's soles at once, ``contacts_move``: measured,
+that jump fails the solve through the double support); the catch goes on ``accept_steps``
+more steps. ``accept_lift`` (ticks): in that double support, the sole to lift
 next found up (the body turning back over the landed heel unloads it) that many ticks
 running starts its swing at once (the clock jumps to the lift-off).
 """
@@ -197,6 +198,8 @@ class TouchdownAcceptance:
     def moved(self, adj: Any, targets: Any) -> Any:
         """``targets`` with ``contacts_move`` set in the double support of an accepted landing
         (the controller's contacts the reference's soles: the landed one where it stands)."""
-        if targets.phase == "single" or int(adj.phase_of[targets.i]) != self.landed:
+        if not adj.params.accept_contacts or targets.phase == "single":
+            return targets
+        if int(adj.phase_of[targets.i]) != self.landed:
             return targets
         return targets.replace(contacts_move=True)
