@@ -1628,7 +1628,25 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
     assert [e[1] for e in adj.accepted.events] == ["touch"] and new is None
     assert adj.plan is before and len(adj.events) == n
     assert adj.rate(ref, 99, dcm(ref, 99, adj.omega)) == 1.0 + (ph.i1 - 99)  # (it lands)
-    assert SteppingParams().accept == 0.0
-    for bad in ({"accept": -0.01}, {"accept_share": 1.0}, {"accept_lift": -1}):
+    # accept_settle: the landed contact from the solve's sole, 3 mm a tick toward the reference's
+    ps = SteppingParams(accept=0.02, accept_settle=0.003)
+    adj, ref, before, new, n, q, est = case(ps)
+    _, tg, _, _, _ = _land_case(robot, walk10, ps, [0.0] * 3, [0.0] * 3, i=ds.i0)
+    solve = robot.frame_placement(q, "r_sole").translation
+    goal = np.asarray(tg.r_sole.translation)
+    gaps = []
+    for _ in range(3):
+        out = adj.land(tg, est, q)
+        assert out.contacts_move and out.l_sole is tg.l_sole
+        gaps.append(float(np.linalg.norm(np.asarray(out.r_sole.translation) - goal)))
+    far = float(np.linalg.norm(solve - goal))
+    assert far > 0.01 and gaps == pytest.approx([far - 0.003, far - 0.006, far - 0.009], abs=1e-9)
+    assert SteppingParams().accept == 0.0 and SteppingParams().accept_settle == 0.0
+    for bad in (
+        {"accept": -0.01},
+        {"accept_share": 1.0},
+        {"accept_lift": -1},
+        {"accept_settle": -0.001},
+    ):
         with pytest.raises(ConfigurationError, match=next(iter(bad))):
             SteppingParams(**bad).check()

@@ -162,6 +162,7 @@ class StepAdjuster:
         if self.phases[-1].i1 != ref.n:
             raise TrajectoryError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
+        self.robot = robot  # (accept_settle: the solve's sole)
         self._corners = sole_corners(*robot.foot_size)  # (landing_floor)
         torso = robot.model.frames[robot.frame_id("torso")]
         torso_b = torso.placement.rotation.copy()  # the torso in the base frame

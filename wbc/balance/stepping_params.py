@@ -257,6 +257,12 @@ class SteppingParams:
     #: the solve's sole and walked to the re-based reference). Measured: the contact's jump
     #: fails the solve through that double support (the last configuration held)
     accept_contacts: bool = False
+    #: m per tick (0: off): the accepted double support's landed contact anchored where the
+    #: solve's sole is and walked to the reference's by at most this much per tick
+    #: (``contacts_move``): the catch's landing asks the hard contact row for the solve's miss
+    #: (40–60 mm) in one tick, infeasible through the double support on the Bioloid (no
+    #: ``landing_time`` in its stack)
+    accept_settle: float = 0.0
     #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
     #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0
@@ -348,7 +354,7 @@ class SteppingParams:
             "descend_hold", "descend_band", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
-            "pitch_time", "lead", "toe_up", "accept", "accept_down",
+            "pitch_time", "lead", "toe_up", "accept", "accept_down", "accept_settle",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in (

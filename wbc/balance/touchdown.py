@@ -35,6 +35,7 @@ import math
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from ..roles import SOLE_FRAMES
 from ..walking.reference import WalkingReference
@@ -91,6 +92,7 @@ class TouchdownAcceptance:
         self.landed = -1  # the double support (phase index) of the last accepted landing
         self.lifted = -1  # the double support whose lift-off was taken early
         self.seen = -1  # the last double support read at its first tick
+        self.anchor: Any = None  # the landed contact walked to the reference (accept_settle)
         self.events: list[tuple[float, str, int, np.ndarray]] = []
 
     def check(self, adj: Any, ref: WalkingReference, i: int, q: np.ndarray | None) -> Any:
@@ -197,9 +199,27 @@ class TouchdownAcceptance:
 
     def moved(self, adj: Any, targets: Any) -> Any:
         """``targets`` with ``contacts_move`` set in the double support of an accepted landing
-        (the controller's contacts the reference's soles: the landed one where it stands)."""
-        if not adj.params.accept_contacts or targets.phase == "single":
+        (``accept_contacts``: the controller's contacts the reference's soles at once;
+        ``accept_settle``: the landed contact from the solve's sole, walked to the reference's
+        by at most that much per tick)."""
+        p = adj.params
+        j = int(adj.phase_of[targets.i])
+        if targets.phase == "single" or j != self.landed:
+            self.anchor = None
             return targets
-        if int(adj.phase_of[targets.i]) != self.landed:
+        if p.accept_settle > 0 and adj._q is not None and j > 0:
+            step = adj.plan.steps[int(adj.phases[j - 1].step)]
+            frame = SOLE_FRAMES[step.side]
+            goal = targets.sole(frame)
+            if self.anchor is None:  # (the first tick: where the solve's sole is)
+                self.anchor = adj.robot.frame_placement(adj._q, frame)
+            a = self.anchor
+            d = goal.translation - a.translation
+            n = float(np.linalg.norm(d))
+            share = 1.0 if n <= p.accept_settle else p.accept_settle / n
+            w = pin.log3(goal.rotation @ a.rotation.T)
+            self.anchor = pin.SE3(pin.exp3(share * w) @ a.rotation, a.translation + share * d)
+            return targets.replace(**{frame: self.anchor}, contacts_move=True)
+        if not p.accept_contacts:
             return targets
         return targets.replace(contacts_move=True)
