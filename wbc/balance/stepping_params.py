@@ -253,9 +253,9 @@ class SteppingParams:
     accept_back: bool = True  # ... only after a push backward (False: any push)
     accept_skip: int = 0  # ... not in the catch's first that many carried swings
     #: the double support of an accepted landing sets the controller's contacts to the
-    #: reference's soles at once (``contacts_move``; off: the handover's landing, anchored at
-    #: the solve's sole and walked to the re-based reference). Measured: the contact's jump
-    #: fails the solve through that double support (the last configuration held)
+    #: reference's soles at once (``contacts_move``; off: the stack's own landing). Measured:
+    #: the contact's jump fails the solve through that double support (the last configuration
+    #: held)
     accept_contacts: bool = False
     #: m per tick (0: off): the accepted double support's landed contact anchored where the
     #: solve's sole is and walked to the reference's by at most this much per tick

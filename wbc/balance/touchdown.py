@@ -8,10 +8,11 @@ walk's clock jumps to the landing.
 
 **The touch-down acceptance** (:class:`TouchdownAcceptance`; ``accept``, off): a pushed
 robot's catch step lands short (issue 30: after a push backward the third step lands 66 mm
-short of its plan) and the controller does not accept it: at the touch-down its contact is
-anchored where the *solve's* sole is (the handover's landing: 24 mm up, 28° toe down, at the
-plan's place) and walked toward the plan's, while the real sole stands flat nearer the body;
-the solve pulls the real leg toward a place it cannot reach and the body turns over the heel.
+short of its plan) and the controller does not accept it: its own sole is 41 mm behind and 30
+mm above the landing (the measured-frame landing on a body pitched back), the plan's contact is
+asked of the hard row at once (the Bioloid's stack settles no landing: ``landing_time``) and the
+solve fails through the whole double support (``InfeasibleError``: the last configuration held;
+benchmarks/pushes.md, eighteenth session) while the real sole stands flat nearer the body.
 Accepted, from what a robot senses — the servos' present positions and the IMU (the estimate's
 rotation: :meth:`~.estimator.StateEstimator.sole_heights`, ``landed``), no force sensor: in
 a swing the catch carries, past ``accept_share`` of it, the swing sole's lowest point within
@@ -20,13 +21,14 @@ walk's clock jumps to the landing (the support changes now); at that double supp
 the first tick of the double support after a carried swing, when the sole came down on
 time) the landed step is re-based where the sole stands from the other sole (beyond
 ``accept`` m; every later step moved with it, the CoM re-planned from its target: the DCM
-plan restarts from the measured foot): the handover's landing then walks the contact from the
-solve's sole to the re-based place, not to the plan's (with ``accept_contacts`` the
-controller's contacts are set to the reference's soles at once, ``contacts_move``: measured,
-that jump fails the solve through the double support); the catch goes on ``accept_steps``
-more steps. ``accept_lift`` (ticks): in that double support, the sole to lift
-next found up (the body turning back over the landed heel unloads it) that many ticks
-running starts its swing at once (the clock jumps to the lift-off).
+plan restarts from the measured foot), the controller's landing then made to the re-based
+place (its stack's own landing; with ``accept_contacts`` the contacts set to the reference's
+soles at once, ``contacts_move``: measured, that jump fails the solve as the plan's did; with
+``accept_settle`` the landed contact anchored at the solve's sole and walked there, so every
+tick solves); the catch goes on ``accept_steps`` more steps. ``accept_lift`` (ticks): in that
+double support, the sole to lift next found up (the body turning back over the landed heel
+unloads it) that many ticks running starts its swing at once (the clock jumps to the
+lift-off).
 """
 
 from __future__ import annotations
