@@ -4,6 +4,9 @@ keywords: fallen, the largest orientation deviation, travelled / planned, re-pla
 sixteenth session: the options' nominal walks beside main's).
 
     nice -n 5 python benchmarks/nominal_closed.py '{"ff_sagittal": 2}' walk10_wb turn_wb lateral_wb
+    nice -n 5 python benchmarks/nominal_closed.py '{}' '{"accept": 0.02}' walk10_wb turn_wb
+
+(a second JSON: SteppingParams keywords of the ``step`` loop.)
 """
 
 from __future__ import annotations
@@ -22,14 +25,17 @@ from wbc.bench.physics import physics_entry, plan
 
 def main() -> None:
     gains = json.loads(sys.argv[1])
+    args = sys.argv[2:]
+    stepping = json.loads(args.pop(0)) if args and args[0].startswith("{") else {}
     robot = load_robot("bioloid")
     ff = best_compensate(robot)
     entry = physics_entry("wqp-daqp", robot)
-    for walk in sys.argv[2:]:
+    for walk in args:
         rec = plan("wqp-daqp", walk, robot)
-        spec, comp = loop_spec("step", entry, traj.build(walk, robot), {}, gains, {}, ff, None)
+        ref = traj.build(walk, robot)
+        spec, comp = loop_spec("step", entry, ref, stepping, gains, {}, ff, None)
         r = simulate(rec, robot, compensate=comp, closed=spec)
-        print(json.dumps({"walk": walk, "gains": gains, "fell": r["fell"],
+        print(json.dumps({"walk": walk, "gains": gains, "stepping": stepping, "fell": r["fell"],
                           "dev_deg": round(r["orientation_dev_max_deg"], 2),
                           "dist": round(r["distance_ratio"], 3),
                           "replans": r.get("replans")}), flush=True)  # fmt: skip

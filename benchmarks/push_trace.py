@@ -208,6 +208,10 @@ def trace(
         "stopped": None if result.deploy.completed else str(result.deploy.trip),
         "replans": [(round(float(e[0]), 3), int(e[1]), np.round(1e3 * np.asarray(e[2]), 1).tolist(),
                      np.round(1e3 * np.asarray(e[3]), 1).tolist()) for e in events],
+        # the touch-down acceptance's (accept): walk s, touch / land / lift, step, shift mm
+        "accepted": [(round(float(e[0]), 3), e[1], int(e[2]),
+                      np.round(1e3 * np.asarray(e[3]), 1).tolist())
+                     for e in (loop.stepping.accepted.events if loop.stepping else [])],
     }  # fmt: skip
     return summary, rows
 

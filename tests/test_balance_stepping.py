@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -1544,3 +1545,108 @@ def test_back_dcm_walk_moves_the_com_target_along_the_walk_against_a_lagging_dcm
         d = np.asarray(adj.land(t, e, q).com) - np.asarray(t.com)
         assert np.allclose(d[:2], want * along, atol=1e-12) and d[2] == 0.0, (err, d)
     assert SteppingParams().back_dcm_walk is False
+
+
+class _Soles:
+    """A state estimator as the touch-down acceptance reads it: the soles' lowest points
+    (``heights``, SOLE_FRAMES order) and where the soles stand (``at``: frame → world x, y)."""
+
+    def __init__(self, est) -> None:
+        self.last, self.anchor_band = est, 0.0
+        self.heights = np.zeros(2)
+        self.at: dict[str, np.ndarray] = {}
+
+    def sole_heights(self, joints, fallback):
+        return self.heights.copy()
+
+    def landed(self, name, joints, fallback):
+        return np.array([*self.at[name], 0.0])
+
+
+def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, walk10):
+    """``accept``: after a push backward, in the carried swing past ``accept_share``, the swing
+    sole's lowest point found within ``accept_down`` of the stance sole's two ticks running
+    (the encoders and the IMU: the estimate's heights) lands it: the clock jumps to the
+    landing, that step and every later one re-based by where it stands from the stance sole
+    less the plan (beyond ``accept``), the catch goes on a step (carried), and the double
+    support after it sets the controller's contacts (``contacts_move``, with
+    ``accept_contacts``; else the handover's landing); with ``accept_lift``
+    the sole to lift next found up two ticks there starts its swing (the clock to the
+    lift-off). Not before the share, not with the sole up, not after a push forward, not by
+    default; a sole landed on time is re-based at the double support's first tick."""
+
+    def case(params, jump=-0.02, swing_h=0.0, off=(-0.05, 0.01), ticks=(98, 99)):
+        adj = _triggered(robot, walk10, params, jump=jump)
+        ref = adj.current
+        _, _, est, q, _ = _land_case(robot, walk10, params, [0.0] * 3, [0.0] * 3, i=MID)
+        soles = _Soles(est)
+        step = ref.plan.steps[0]  # (the right sole swings: stance left)
+        soles.at = {"r_sole": np.array([step.x, step.y]) + off, "l_sole": ref.l_sole[MID, :2]}
+        soles.heights = np.array([0.0, swing_h])
+        adj.contact, adj.present, adj._q = soles, (lambda: q[7:].copy()), q
+        before, n, out = adj.plan, len(adj.events), None
+        for i in ticks:
+            out = adj.update(ref, i, dcm(ref, i, adj.omega)) or out
+        return adj, ref, before, out, n, q, est
+
+    p = SteppingParams(accept=0.02, accept_lift=2, accept_contacts=True)
+    adj, ref, before, new, n, q, est = case(p)
+    ph = adj.phases[adj.phase_of[MID]]
+    assert new is not None and len(adj.events) == n + 1 and adj.events[-1][1] == 0
+    for m, (a, b) in enumerate(zip(before.steps, adj.plan.steps, strict=True)):
+        assert (b.x - a.x, b.y - a.y) == pytest.approx((-0.05, 0.01), abs=1e-12), m
+    assert [e[1] for e in adj.accepted.events] == ["touch"]
+    assert adj.rate(new, 99, dcm(new, 99, adj.omega)) == 1.0 + (ph.i1 - 99)  # to the landing
+    assert adj._catch_end() >= 2  # (the catch goes on a step)
+    ds = adj.phases[adj.phase_of[ph.i1]]
+    assert ds.kind == "double"
+    assert adj.update(new, ds.i0, dcm(new, ds.i0, adj.omega)) is None  # (accepted already)
+    _, tg, _, _, _ = _land_case(robot, walk10, p, [0.0] * 3, [0.0] * 3, i=ds.i0)
+    assert adj.land(tg, est, q).contacts_move and not tg.contacts_move
+    adj.params = replace(adj.params, accept_contacts=False)  # (the handover's landing)
+    assert not adj.land(tg, est, q).contacts_move
+    adj.params = p.for_robot(robot)
+    adj.contact.heights = np.array([0.01, 0.0])  # the left sole (to lift next) up
+    for i in (ds.i0 + 1, ds.i0 + 2):
+        adj.update(new, i, dcm(new, i, adj.omega))
+    assert adj.accepted.events[-1][1] == "lift"
+    assert adj.rate(new, ds.i0 + 2, dcm(new, ds.i0 + 2, adj.omega)) == 1.0 + (ds.i1 - ds.i0 - 2)
+    # a sole landing on time (up through the swing): re-based at the double support's start
+    adj, ref, before, _, n, q, est = case(p, swing_h=0.02, ticks=(98, 99, ph.i1))
+    assert [e[1] for e in adj.accepted.events] == ["land"] and len(adj.events) == n + 1
+    assert adj.plan.steps[0].x - before.steps[0].x == pytest.approx(-0.05, abs=1e-12)
+    for params, kw in (
+        (p, {"ticks": (MID + 1, MID + 2)}),  # before accept_share of the swing
+        (p, {"swing_h": 0.02}),  # the sole still up
+        (p, {"jump": 0.02}),  # a push forward
+        (SteppingParams(), {}),
+    ):
+        adj, ref, before, new, n, _, _ = case(params, **kw)
+        assert adj.plan is before and not adj.accepted.events, kw
+        assert adj.rate(ref, 99, dcm(ref, 99, adj.omega)) == 1.0
+    adj, ref, before, new, n, _, _ = case(p, off=(-0.01, 0.0))  # within the band: not re-based
+    assert [e[1] for e in adj.accepted.events] == ["touch"] and new is None
+    assert adj.plan is before and len(adj.events) == n
+    assert adj.rate(ref, 99, dcm(ref, 99, adj.omega)) == 1.0 + (ph.i1 - 99)  # (it lands)
+    # accept_settle: the landed contact from the solve's sole, 3 mm a tick toward the reference's
+    ps = SteppingParams(accept=0.02, accept_settle=0.003)
+    adj, ref, before, new, n, q, est = case(ps)
+    _, tg, _, _, _ = _land_case(robot, walk10, ps, [0.0] * 3, [0.0] * 3, i=ds.i0)
+    solve = robot.frame_placement(q, "r_sole").translation
+    goal = np.asarray(tg.r_sole.translation)
+    gaps = []
+    for _ in range(3):
+        out = adj.land(tg, est, q)
+        assert out.contacts_move and out.l_sole is tg.l_sole
+        gaps.append(float(np.linalg.norm(np.asarray(out.r_sole.translation) - goal)))
+    far = float(np.linalg.norm(solve - goal))
+    assert far > 0.01 and gaps == pytest.approx([far - 0.003, far - 0.006, far - 0.009], abs=1e-9)
+    assert SteppingParams().accept == 0.0 and SteppingParams().accept_settle == 0.0
+    for bad in (
+        {"accept": -0.01},
+        {"accept_share": 1.0},
+        {"accept_lift": -1},
+        {"accept_settle": -0.001},
+    ):
+        with pytest.raises(ConfigurationError, match=next(iter(bad))):
+            SteppingParams(**bad).check()

@@ -61,7 +61,8 @@ faster when the swing lacks the room for the shift the error asks (:meth:`rate`)
 ``catch_hurry``×. With ``catch_band`` a catch under way takes the whole error, not the dead
 band's less.
 
-**Early touch-down** (``touchdown``; off; needs the estimator's contact detection,
+**The touch-down acceptance** (``accept``; off): :mod:`.touchdown`. **Early touch-down**
+(``touchdown``; off; needs the estimator's contact detection,
 ``Gains.contact_band``): a push forward pitches the body about the stance toe and the swing
 sole's toe meets the floor early, short of its landing (issue 30: 20 mm short at 0.6 N·s).
 During a catch, a swing sole found down that many ticks running lands where it is: that step
@@ -114,6 +115,7 @@ from .swing_catch import (
     floored,
     walk_shifted,
 )
+from .touchdown import TouchdownAcceptance, early
 
 __all__ = ["BAND_X", "BAND_Y", "TRIGGER_SHARE", "StepAdjuster", "SteppingParams", "can_step"]
 
@@ -160,6 +162,7 @@ class StepAdjuster:
         if self.phases[-1].i1 != ref.n:
             raise TrajectoryError(f"stepping: reference {ref.name!r} does not match its own timing")
         self.legs = legs or LegGeometry.from_robot(robot, robot.configuration("stand"))
+        self.robot = robot  # (accept_settle: the solve's sole)
         self._corners = sole_corners(*robot.foot_size)  # (landing_floor)
         torso = robot.model.frames[robot.frame_id("torso")]
         torso_b = torso.placement.rotation.copy()  # the torso in the base frame
@@ -186,6 +189,8 @@ class StepAdjuster:
         #: the landed sole lowered in the double support after a caught landing (descend)
         self.descent = LandedDescent(self.params, self.phases, self.phase_of, ref.dt)
         self.rebase = LandedRebase(self.params, self.phases, self.phase_of)  # (back_rebase)
+        self.accepted = TouchdownAcceptance()  # (accept: :mod:`.touchdown`)
+        self._q: np.ndarray | None = None  # the last solve's configuration (:meth:`land`)
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
         self.current: WalkingReference | None = None  # the walk's reference (:meth:`update`)
@@ -316,6 +321,7 @@ class StepAdjuster:
         (:meth:`PushTrigger.lifted`) and moved into the measured frame
         (:meth:`MeasuredLanding.land`; single support, else ``targets`` itself)."""
         targets = self.trigger.pitched(targets) if self.enabled else targets
+        self._q = q
         if self.params.back_dcm > 0 and self.enabled:  # (the ankle strategy in the catch)
             targets = self._dcm_moved(targets, est)
         targets = self.released(targets, est)
@@ -324,6 +330,8 @@ class StepAdjuster:
             if t.tick is not None and not t.forward:
                 self.back_caught = True
         if targets.phase != "single":
+            if self.params.accept > 0 and self.enabled:  # (an accepted landing's contacts)
+                targets = self.accepted.moved(self, targets)
             if self.params.back_rebase > 0 and self.enabled:
                 self._rebase_note(targets, q)
             step = self._descending(targets.i)
@@ -475,6 +483,7 @@ class StepAdjuster:
             p.hurry != 1.0
             or p.catch_hurry != 1.0
             or p.touchdown > 0
+            or p.accept > 0
             or p.slow != 1.0
             or (p.descend > 0 and p.descend_hold > 0)
         )
@@ -484,7 +493,16 @@ class StepAdjuster:
         """False when :meth:`land` returns its targets at every tick (``landing`` and
         ``lift`` 0)."""
         p = self.params
-        on = (p.lift, p.lead, p.toe_up, abs(p.catch_pitch), p.landing_depth, p.descend, p.back_dcm)
+        on = (
+            p.lift,
+            p.lead,
+            p.toe_up,
+            abs(p.catch_pitch),
+            p.landing_depth,
+            p.descend,
+            p.back_dcm,
+            p.accept,
+        )
         return p.landing > 0 or (self.enabled and max(on) > 0)
 
     def rate(self, ref: WalkingReference, i: int, dcm: np.ndarray) -> float:
@@ -592,8 +610,12 @@ class StepAdjuster:
             )
         if self.rebase.pending is not None:
             return self._rebased(ref, i)
+        if p.accept > 0 and self.contact is not None:
+            new = self.accepted.check(self, ref, i, self._q)
+            if new is not None:
+                return new
         if p.touchdown > 0 and self.contact is not None:
-            new = self._touchdown(ref, i)
+            new = early(self, ref, i)
             if new is not None:
                 return new
         if i - self.last_tick < p.hold_ticks:
@@ -640,42 +662,6 @@ class StepAdjuster:
         self.episode = k if self.episode is None else self.episode
         self.caught_step = k
         self.events.append((float(ref.t[i]), k, wanted, increments[0].copy()))
-        return new
-
-    def _touchdown(self, ref: WalkingReference, i: int) -> WalkingReference | None:
-        """The walk re-based on an early touch-down (``touchdown``; module docstring), or
-        None: in a single support (after ``settle``, before its last ``min_remaining``)
-        of a catch (a step the DCM's re-plans moved, or the next), the swing sole found down
-        (``contact.down``) ``touchdown`` ticks running: step ``k`` and every later one move
-        by where it touched less where the plan lands it, the rest re-planned
-        (:meth:`regenerate`) and the clock jumps to the landing (:meth:`rate`)."""
-        p = self.params
-        ph = self.phases[self.phase_of[i]]
-        dt = ref.dt
-        if ph.kind != "single" or ph.step >= len(self.plan.steps):
-            self._down = 0
-            return None
-        k = int(ph.step)
-        s = 0 if self.plan.steps[k].side == "left" else 1
-        early = (i - ph.i0) < p.touchdown_share * (ph.i1 - ph.i0)  # (a brushing toe)
-        if not self.contact.down[s] or early or (i - ph.i0) * dt < p.settle - 1e-9:
-            self._down = 0
-            return None
-        self._down += 1
-        if self._down < p.touchdown or (ph.i1 - i) * dt < p.min_remaining:
-            return None
-        if self.episode is None or k >= self._catch_end():
-            return None  # (no catch: the swing brushing the floor)
-        step = self.plan.steps[k]
-        shift = np.asarray(self.contact.touched[s], dtype=float) - np.array([step.x, step.y])
-        plan = shifted_plan(self.plan, k, shift)
-        new = self.regenerate(ref, plan, i, ph)
-        self.plan, self.before, self.first = plan, plan, k
-        self.increments = np.zeros((p.steps_ahead, 2))
-        self.shift = np.zeros(2)
-        self.last_tick, self._down, self._jump = i, 0, ph.i1
-        self.caught_step = k
-        self.events.append((float(ref.t[i]), k, shift, shift.copy()))
         return new
 
     def _rebased(self, ref: WalkingReference, i: int) -> WalkingReference:

@@ -234,6 +234,35 @@ class SteppingParams:
     #: the early touch-down counts a sole found down only after this share of its swing (a
     #: toe brushing the floor early in a pushed swing is no landing; 0: from ``settle``)
     touchdown_share: float = 0.0
+    #: m: the touch-down acceptance (:mod:`.touchdown`; 0: off): in a swing the catch carries
+    #: (past ``accept_share`` of it) the swing sole found down by the encoders and the IMU
+    #: (its lowest point within ``accept_down`` of the stance sole's, ``accept_ticks`` ticks
+    #: running) lands: the walk's clock jumps to the landing and, when it stands more than
+    #: this from its planned place (from the stance sole), that step and every later one are
+    #: re-based where it stands; at the double support after a carried swing not accepted in
+    #: it, the same re-base; the catch goes on ``accept_steps`` more steps
+    accept: float = 0.0
+    accept_down: float = 0.004
+    accept_ticks: int = 2
+    accept_share: float = 0.6
+    accept_steps: int = 1
+    #: ticks: in the double support after an accepted landing, the sole to lift next found
+    #: up (beyond ``accept_down`` above the landed one) that many ticks running: its swing
+    #: starts now (the clock jumps to the lift-off; 0: off)
+    accept_lift: int = 0
+    accept_back: bool = True  # ... only after a push backward (False: any push)
+    accept_skip: int = 0  # ... not in the catch's first that many carried swings
+    #: the double support of an accepted landing sets the controller's contacts to the
+    #: reference's soles at once (``contacts_move``; off: the stack's own landing). Measured:
+    #: the contact's jump fails the solve through that double support (the last configuration
+    #: held)
+    accept_contacts: bool = False
+    #: m per tick (0: off): the accepted double support's landed contact anchored where the
+    #: solve's sole is and walked to the reference's by at most this much per tick
+    #: (``contacts_move``): the catch's landing asks the hard contact row for the solve's miss
+    #: (40–60 mm) in one tick, infeasible through the double support on the Bioloid (no
+    #: ``landing_time`` in its stack)
+    accept_settle: float = 0.0
     #: > 0: the dead bands at least this share of the walk's largest DCM travel in a single
     #: support (:meth:`StepAdjuster.planned_travel`; benchmarks/physics.md, tenth pass)
     band_travel: float = 0.0
@@ -325,7 +354,7 @@ class SteppingParams:
             "descend_hold", "descend_band", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
-            "pitch_time", "lead", "toe_up",
+            "pitch_time", "lead", "toe_up", "accept", "accept_down", "accept_settle",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in (
@@ -351,6 +380,10 @@ class SteppingParams:
             raise ConfigurationError(
                 f"stepping: landing_floor must be a share in [0, 1], got {self.landing_floor}"
             )
+        if not 0.0 <= self.accept_share < 1.0:
+            raise ConfigurationError(
+                f"stepping: accept_share must be in [0, 1), got {self.accept_share}"
+            )
         if not 0.0 <= self.touchdown_share < 1.0:
             raise ConfigurationError(
                 f"stepping: touchdown_share must be in [0, 1), got {self.touchdown_share}"
@@ -369,7 +402,8 @@ class SteppingParams:
         for name in (
             "episode_steps", "rest_steps", "until_inside", "touchdown", "trigger_skip",
             "catch_swings", "floor_skip", "back_episode", "back_skip", "back_rebase_steps",
-            "back_dcm_steps", "back_dcm_from",
+            "back_dcm_steps", "back_dcm_from", "accept_ticks", "accept_steps", "accept_lift",
+            "accept_skip",
         ):  # fmt: skip
             v = getattr(self, name)
             if int(v) != v or v < 0:
