@@ -1,25 +1,30 @@
 """The compiled level solver's updated subproblem (:mod:`wbc.compiled.lsq_update`): bounds added
 to a solved set give the subproblem solved afresh (x and the bounds' multipliers), and the
-update declines where it does not apply (a base bound moved to its other side, a bound that
-depends on the equalities, more bounds than the null space holds, a released variable whose
-column leaves the range of the equalities). Base bounds released since are updated too (the
-bordered system), alone or with bounds added."""
+update declines where it does not apply (a bound that depends on the equalities, more bounds
+than the null space holds, a released variable whose column leaves the range of the
+equalities, a base bound moved to its other side). Base bounds released since are updated too
+(the bordered system), alone or with bounds added; and with ``FLIPS`` (an option, off: the
+update run as Python with it set, its kernels compiled) base bounds moved to their other
+side (a released bound whose w is known), alone, with the others, with rows joined."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from wbc.compiled import lsq_update
 from wbc.compiled.lsq_linalg import _I_FIXED, _N_IVEC, _N_VEC, _V_MU, _V_MU_TOL
 from wbc.compiled.lsq_subproblem import _SUB_OK, _subproblem
-from wbc.compiled.lsq_update import _ROW_DEPENDS, _U_Q, _U_ROWS, _UPDATED, _updated
+from wbc.compiled.lsq_update import _DECLINED, _ROW_DEPENDS, _U_Q, _U_ROWS, _UPDATED, _updated
 
 
-def _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, first):
+def _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, first, flips=False):
     """:func:`_updated` on the base's work arrays (rank ``k``, ``m`` rows; ``first``: the base's
-    solution still in x), the integer and flag arguments typed as the tick passes them."""
-    return _updated(A, a, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k),
-                    np.bool_(first), np.int64(m))  # fmt: skip
+    solution still in x), the integer and flag arguments typed as the tick passes them;
+    ``flips``: its Python body with ``lsq_update.FLIPS`` set (the kernels it calls compiled)."""
+    update = _updated.py_func if flips else _updated
+    return update(A, a, B, ridge, lower, upper, x, *work, ind, U, S, K, base, np.int64(k),
+                  np.bool_(first), np.int64(m))  # fmt: skip
 
 
 def _work(m: int, n: int, p: int) -> tuple:
@@ -55,11 +60,11 @@ def _base(A, a, B, r, ridge, lower, upper, fixed, work, ind):
     return x, k
 
 
-def _updated_and_afresh(A, a, B, r, lower, upper, m, released, added) -> tuple:
+def _updated_and_afresh(A, a, B, r, lower, upper, m, released, added, moved=()) -> tuple:
     """The base (A's first ``m`` rows, x_1, x_5, x_9, x_13 held at their bounds) updated to
-    every row of A with the bounds ``released`` freed and ``added`` held (the update must
-    apply), and the same set solved afresh: (x, μ, x afresh, μ afresh, the base's rank, the
-    fresh rank, the held mask)."""
+    every row of A with the bounds ``released`` freed, ``added`` held and ``moved`` held at
+    their other bound (the update must apply), and the same set solved afresh: (x, μ,
+    x afresh, μ afresh, the base's rank, the fresh rank, the held mask)."""
     n = A.shape[1]
     ridge = 1e-4
     base = np.zeros(n, dtype=np.int64)
@@ -70,10 +75,13 @@ def _updated_and_afresh(A, a, B, r, lower, upper, m, released, added) -> tuple:
     fixed[released] = 0
     for j, v in enumerate(added):
         fixed[v] = 1 if j % 2 else -1
+    for v in moved:
+        fixed[v] = -base[v]
     ind[_I_FIXED, :n] = fixed
-    assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True) == (
-        _UPDATED
-    )
+    flips = len(moved) > 0
+    assert _update(
+        A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True, flips
+    ) == (_UPDATED)
     mu = work[3][_V_MU, :n].copy()
     work2, ind2, _, _, _ = _work(A.shape[0], n, B.shape[0])
     x2, k2 = _base(A, a, B, r, ridge, lower, upper, fixed, work2, ind2)
@@ -112,7 +120,7 @@ def test_added_bounds_answer_as_the_subproblem_solved_afresh(seed, m, added):
     assert np.max(np.abs(x3 - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
 
 
-def test_the_update_declines_where_it_does_not_apply():
+def test_the_update_declines_where_it_does_not_apply(monkeypatch):
     m = 6
     A, a, B, r, lower, upper = _problem(0, m)
     n = A.shape[1]
@@ -125,20 +133,25 @@ def test_the_update_declines_where_it_does_not_apply():
     x, k = _base(A, a, B, r, ridge, lower, upper, base, work, ind)
     args = (np.int64(k), np.bool_(True), np.int64(m))
 
-    def update(fixed):
+    def update(fixed, flips=False):
         ind[_I_FIXED, :n] = fixed
-        return _updated(A, a, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, *args)
+        solve = _updated.py_func if flips else _updated
+        return solve(A, a, B, ridge, lower, upper, x.copy(), *work, ind, U, S, K, base, *args)
 
-    moved = base.copy()
+    moved = base.copy()  # a base bound moved to its other side: declined, unless FLIPS
     moved[5] = -1
-    assert not update(moved)
+    assert update(moved) == _DECLINED
+    monkeypatch.setattr(lsq_update, "FLIPS", True)
+    assert update(moved, True) == _UPDATED
     dependent = base.copy()
     dependent[7] = 1
     assert not update(dependent)
     d = n - 2 - k  # more bounds than the null space's dimension
     too_many = base.copy()
     too_many[[v for v in range(n) if base[v] == 0 and v != 7][: d + 1]] = -1
-    assert not update(too_many)
+    assert update(too_many) == _DECLINED
+    too_many[5] = -1  # (... with a bound moved too)
+    assert update(too_many, True) == _DECLINED
     one = base.copy()
     one[3] = 1
     assert update(one)
@@ -268,3 +281,46 @@ def test_a_joined_row_still_dependent_after_the_release_declines(seed):
     assert _update(A, a, B, ridge, lower, upper, x, work, ind, U, S, K, base, k, m, True) == (
         _ROW_DEPENDS
     )
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("m", [6, 15])
+@pytest.mark.parametrize(
+    "joined, released, added, moved",
+    [(0, [], [], [5]), (0, [], [], [1, 13]), (0, [9], [], [5]), (0, [], [3], [5]),
+     (0, [1], [11, 17], [9, 13]), (1, [], [], [5]), (2, [9], [3], [1, 5])],
+)  # fmt: skip
+def test_moved_bounds_answer_as_the_subproblem_solved_afresh(
+    seed, m, joined, released, added, moved, monkeypatch
+):
+    """Base bounds moved to their other side (a joint from one speed bound to the other, as on
+    walk_strict's mid-swing ticks), alone, with bounds released or added, with rows joined:
+    the subproblem of the whole set solved afresh (x, the held bounds' multipliers); the
+    moved variables exactly on their new bounds (``FLIPS`` set)."""
+    monkeypatch.setattr(lsq_update, "FLIPS", True)
+    A, a, B, r, lower, upper = _problem(seed, m + joined)
+    x, mu, x2, mu2, k, k2, held = _updated_and_afresh(
+        A, a, B, r, lower, upper, m, released, added, moved
+    )
+    assert k2 == k + joined
+    assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+    assert np.allclose(mu[held], mu2[held], rtol=1e-8, atol=1e-10)
+    assert np.array_equal(x[moved], x2[moved])
+    assert np.max(np.abs(A @ x - a)) < 1e-10
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_moved_bound_with_a_joined_row_on_released_variables_answers_as_solved_afresh(
+    seed, monkeypatch
+):
+    """A joined row with no part in the base's null space, met on a released variable (w
+    first: ``_w_first``), with a base bound moved to its other side (its known w in the
+    bordered system's right-hand side; ``FLIPS`` set)."""
+    monkeypatch.setattr(lsq_update, "FLIPS", True)
+    m = 6
+    A, a, B, r, lower, upper = _on_released(seed, m, 0.7)
+    x, mu, x2, mu2, k, k2, held = _updated_and_afresh(A, a, B, r, lower, upper, m, [1], [], [9])
+    assert k2 == k + 1
+    assert np.max(np.abs(x - x2)) < 1e-10 * (1.0 + np.max(np.abs(x2)))
+    assert np.allclose(mu[held], mu2[held], rtol=1e-8, atol=1e-10)
+    assert np.max(np.abs(A @ x - a)) < 1e-10

@@ -124,7 +124,17 @@ from .lsq_subproblem import (
     _rank_with,
     _subproblem,
 )
-from .lsq_update import _DECLINED, _ROW_DEPENDS, _U_Q, _U_ROWS, _U_X, _UPDATED, _keep_base, _updated
+from .lsq_update import (
+    _DECLINED,
+    _ROW_DEPENDS,
+    _U_Q,
+    _U_ROWS,
+    _U_X,
+    _UPDATED,
+    FLIPS,
+    _keep_base,
+    _updated,
+)
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
 
@@ -199,10 +209,12 @@ def _finish(x, lower, upper, V, mu_row, ind, state, clip):
 
 @njit(cache=True, inline="always")
 def _released(base, ind):
-    """True if a bound of the base (fixed set ``base``) is released in ``ind[_I_FIXED]``."""
+    """True if a bound of the base (fixed set ``base``) is released in ``ind[_I_FIXED]``, or
+    (``lsq_update.FLIPS``) moved to its other side."""
     for i in range(base.shape[0]):
-        if base[i] != 0 and ind[_I_FIXED, i] == 0:
-            return True
+        if base[i] != 0 and ind[_I_FIXED, i] != base[i]:
+            if ind[_I_FIXED, i] == 0 or FLIPS:
+                return True
     return False
 
 

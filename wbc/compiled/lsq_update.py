@@ -7,8 +7,10 @@ Schur complement ``S = Cᵀ H⁻¹ C`` of the reduced Hessian ``H = MᵀM + ridg
 bounds added): ``S ν = b_S − x_S``, ``z = z₀ + H⁻¹ C ν``, and ν are the added bounds'
 multipliers. Base bounds released since (PDAS's exchanges, the dual method's drops) border
 that system with one variable each (the released x_j − b_j, the free variables following
-along the direction that keeps the equalities). Only for the normal form (p ≥ d); a base
-bound moved to its other side, a bound whose ``c_s`` is (nearly) in the span of the others'
+along the direction that keeps the equalities); a base bound moved to its other side is such
+a variable whose value is known (``FLIPS``: its terms go to the right-hand side, the free set
+and the factors the same). Only for the normal form (p ≥ d); a bound whose ``c_s`` is
+(nearly) in the span of the others'
 (holding it would drop the rank of ``A_F``), more added bounds than d, or a released
 variable whose column ``A_j`` is not in the range of ``A_F`` (releasing it would raise the
 rank) decline: the caller solves the subproblem afresh. Equality rows joined since the base
@@ -62,6 +64,15 @@ RELEASES = True
 #: new ``solve_level`` call on the last call's factors: ``lsq.solve_level_in``) are updated
 #: too; False (edit it; the kernels then compile again): a joined row solves afresh, as before
 JOINS = True
+#: True (edit it; the kernels then compile again): a base bound moved to its other side since
+#: the base (a joint from one speed bound to the other: the free set the same, only x_j's value
+#: changed) is updated too, as a released bound whose w_j is known (the bound's distance to
+#: the other), where it declined and the set was solved afresh. Exact (walk_strict's captures:
+#: Δq within 3.1e-15, walk10's fresh subproblems 610 -> 575), but not faster: the update from
+#: a base 4-6 bounds away costs about the fresh solve it saves, and the later updates carry
+#: the older base (the 34 walk10 solves where it acts 33.3 -> 32.9 µs replayed, turn's 8
+#: 33.3 -> 33.5; benchmarks/self_collision.md, eighteenth session): off
+FLIPS = False
 #: a joined row with (nearly) no part in the base's null space (``c_g ≈ 0``: on the base's
 #: free variables a combination of its rows) that reaches released variables: w eliminated
 #: before ν (``(S + Fᵀ E⁻¹ F) ν = β − Fᵀ E⁻¹ γ``, the Schur complement in ν of the bordered
@@ -161,6 +172,7 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
     pp = (p + 3) & ~3
     nf = np.int64(0)
     r_ = np.int64(0)  # base bounds released since
+    flips = np.int64(0)  # ... and moved to their other side (after the released, in K)
     for i in range(n):
         if base[i] == 0:
             nf += 1
@@ -170,7 +182,17 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             K[r_, 2 * n] = i
             r_ += 1
         elif ind[_I_FIXED, i] != base[i]:
-            return _DECLINED  # a base bound moved to its other side: not an update
+            if not FLIPS:
+                return _DECLINED  # a base bound moved to its other side: not an update
+            flips += 1
+    r_u = r_  # (the released: w_t unknown; the moved: w_t their bounds' distance)
+    if flips > 0:
+        for i in range(n):
+            side = ind[_I_FIXED, i]
+            if base[i] != 0 and side != 0 and side != base[i]:
+                K[r_, 2 * n] = i
+                K[r_, 2 * n + 2] = (upper[i] - lower[i]) if side > 0 else (lower[i] - upper[i])
+                r_ += 1
     d = nf - k
     if first:
         _keep_base(x, W, V, ind, U, nf, k, pp)
@@ -213,7 +235,7 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             V[_V_W2, j] = U[u, k + j]
             cc += U[u, k + j] * U[u, k + j]
         if not cc > _C_MIN * size:  # g_s (nearly) in the row space of A_F: the rank drops
-            if row < 0 or r_ == 0 or not (WFIRST and wf):  # (... unless released variables lift it)
+            if row < 0 or r_u == 0 or not (WFIRST and wf):  # (... unless released ones lift it)
                 return _DECLINED if row < 0 else _ROW_DEPENDS
             wfirst = True
             V[_V_W, q] = 0.0  # (its reach on the released variables is checked: _w_first)
@@ -229,7 +251,7 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
                 s += U[_U_Q + n + t, j] * U[u, k + j]
             S[q, t] = s
         if not wfirst and not _cholesky_row(S, q):  # the new row of S's Cholesky factor
-            if row < 0 or r_ == 0 or not (WFIRST and wf):
+            if row < 0 or r_u == 0 or not (WFIRST and wf):
                 return _DECLINED if row < 0 else _ROW_DEPENDS
             wfirst = True
             V[_V_W, q] = 0.0
@@ -296,12 +318,19 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             v = ind[_I_FREE, np.int64(S[t, n])]
             b = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
             V[_V_W2, t] = b - U[_U_X, v]
+    # the moved bounds' known w into the released ones' γ (E_rf w_f) and into β (F_fᵀ w_f)
+    for t2 in range(r_u, r_):
+        w = K[t2, 2 * n + 2]
+        for t in range(r_u):
+            K[t, 2 * n + 1] += K[t2, t] * w
+        for s_ in range(q):
+            V[_V_W2, s_] += K[t2, n + s_] * w
     if wfirst:
-        if not _w_first(S, K, U, V, q, r_, n, d, k):
+        if not _w_first(S, K, U, V, q, r_u, n, d, k):
             return _ROW_DEPENDS
     else:
         _chol_solve_small(S, q, V, np.int64(_V_W2))
-    if r_ > 0 and not wfirst:
+    if r_u > 0 and not wfirst:
         # K' = E + F S⁻¹ Fᵀ (X_t = S⁻¹ F[t] into U's rows), rhs −γ − F ν₀ (into K[:, 2n + 1])
         for t in range(r_):
             rx = _U_Q + 6 * n + t
@@ -327,19 +356,19 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             lmax = max(lmax, S[t, t])
         if lmax > _K_SPAN * lmin:
             return _DECLINED
-        if not _cholesky_spanned(K, r_):
+        if not _cholesky_spanned(K, r_u):
             return _DECLINED
-        for t in range(r_):
+        for t in range(r_u):
             s = K[t, 2 * n + 1]
             for j in range(t):
                 s -= K[t, j] * K[j, 2 * n + 2]
             K[t, 2 * n + 2] = s / K[t, t]
-        for t in range(r_ - 1, -1, -1):
+        for t in range(r_u - 1, -1, -1):
             s = K[t, 2 * n + 2]
-            for j in range(t + 1, r_):
+            for j in range(t + 1, r_u):
                 s -= K[j, t] * K[j, 2 * n + 2]
             K[t, 2 * n + 2] = s / K[t, t]
-        for t in range(r_):  # ν = ν₀ + Σ w_t X_t
+        for t in range(r_u):  # ν = ν₀ + Σ w_t X_t (the moved bounds' terms in ν₀: β)
             _axpy(K[t, 2 * n + 2], U, _U_Q + 6 * n + t, V, _V_W2, 0, q)
     # Δz = Σ ν_s h_s − Σ w_t H⁻¹MᵀP_t, Δy = Σ w_t u_t (U[_U_WORK], the base's Q coordinates)
     for j in range(nf):
@@ -379,8 +408,11 @@ def _updated(A, a, B, ridge, lower, upper, x, W, T, N, V, ind, U, S, K, base, k,
             x[v] += U[_U_WORK, c]
         else:
             x[v] = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
-    for t in range(r_):
+    for t in range(r_u):
         x[np.int64(K[t, 2 * n])] += K[t, 2 * n + 2]
+    for t in range(r_u, r_):  # (a moved bound's x exactly on it)
+        v = np.int64(K[t, 2 * n])
+        x[v] = lower[v] if ind[_I_FIXED, v] < 0 else upper[v]
     # reduced gradients of the fixed variables, as the subproblem's: μ = B_iᵀ e + ridge x_i + A_iᵀ λ
     for i in range(n):
         if ind[_I_FIXED, i] != 0:
