@@ -162,8 +162,9 @@ DRIVE_YAW_LEARN = 0.0
 #: s a joint's encoder may stand still and its link still be taken at the play's edge the
 #: reading last moved toward (:class:`~wbc.drive.odometry.PlayInverse`); longer, the middle
 #: (on 20 random sequences × 10 randomised Bioloids, benchmarks/drive.md: held for ever the
-#: heading was worse on 16 of 20 runs, at 0.1 s on 9)
-DRIVE_PLAY_HOLD = 0.1
+#: heading was worse on 16 of 20 runs, at 0.1 s on 9); 0.03 s reads the landings unbiased (0.1
+#: s: 0.2 mm behind): over 40 runs won 7 of 16 misses, lost none; envelope 20/20 (drive.md)
+DRIVE_PLAY_HOLD = 0.03
 
 #: the base's hold after a stop (``Walker(hold=DRIVE_HOLD["reach"])``; off by default;
 #: :class:`~wbc.drive.odometry.BaseHold`, closed loop): the CoM target shifted at most this
