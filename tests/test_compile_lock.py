@@ -49,7 +49,7 @@ def _waiting(pid: int) -> bool:
 @pytest.mark.skipif(not Path("/proc/locks").exists(), reason="reads /proc/locks (Linux)")
 def test_a_process_waits_for_anothers_compilation_then_loads_it(tmp_path):
     (tmp_path / "user_kernel.py").write_text(KERNEL)
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "WBC_TEST_COMPILE_LOCK": "1"}
     code = CHILD.format(tests=str(TESTS), folder=str(tmp_path))
 
     def child(what: str) -> list[str]:
