@@ -25,7 +25,8 @@ import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import fields, replace
+from dataclasses import dataclass, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -43,9 +44,12 @@ from wbc.bench.closed_loop import (
 )
 from wbc.bench.runner import run_entry
 from wbc.bench.sim_record import _planned, _rotation, physics_record, plan_time
-from wbc.bench.solvers import select
-from wbc.bench.variation import models
+from wbc.bench.solvers import SolverEntry, select
+from wbc.bench.variation import Variation, models
 from wbc.compiled.rows import log3
+from wbc.model import Robot
+from wbc.recording import Recording
+from wbc.sim.log import PlayResult
 
 #: label -> (compliance gain, gains, IMU, loop on, stepping); None: the plan played open loop
 VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
@@ -86,6 +90,52 @@ def spec_of(
     chosen = replace(default_gains(comp), **gains, **(extra or {}))
     return comp, ClosedLoopSpec(entry.make, ref, chosen, on, imu, stepping,
                                 HoldParams(**(hold or {})), calibrate_s=calibrate_s)  # fmt: skip
+
+
+def bioloid_entry(solver: str = "wqp-daqp", stack: str | None = None) -> tuple[Robot, SolverEntry]:
+    """The Bioloid and ``solver``'s tick entry (``stack``: the wqp-*/hqp-* entries' stack;
+    None: the physics one): the controller of the sweep and the traces."""
+    return load_robot("bioloid"), select([solver], None, "tick", stack=stack)[0][0]
+
+
+def planned(robot: Robot, entry: SolverEntry, walk: str) -> tuple[Any, Recording]:
+    """``walk``'s reference and ``entry``'s open-loop plan of it: the recording a closed-loop
+    run is measured against (:func:`~wbc.bench.sim_record.physics_record`)."""
+    ref = traj.build(walk, robot)
+    return ref, run_entry(entry, robot, ref, "tick")[1]
+
+
+@dataclass
+class PlantRun:
+    """One plant's closed loop as the traces run it (:func:`plant_run`), ready to play."""
+
+    robot: Robot
+    ref: Any
+    rec: Recording
+    plant: Variation | None  # None: the nominal plant
+    spec: ClosedLoopSpec
+    compensate: float
+
+    def play(self, on_tick: Callable[[Any], None] | None = None) -> tuple[PlayResult, dict]:
+        """The run (:func:`~wbc.bench.closed_loop.play_closed_loop`, ``on_tick`` seeing the
+        simulation after each logged tick) and its physics record."""
+        result, _ = play_closed_loop(
+            self.spec, self.robot, self.plant, compensate=self.compensate, on_tick=on_tick
+        )
+        return result, physics_record(self.rec, result, self.robot, self.ref)
+
+
+def plant_run(walk: str, seed: int, plant: int, gains: dict, compensate: float = 0.0) -> PlantRun:
+    """Plant ``plant`` of seed ``seed`` (:func:`~wbc.bench.variation.models`; < 0: the nominal
+    plant) on ``walk`` as the ``closed + step`` variant runs it with the feed-forward's gain
+    ``compensate`` (wqp-daqp on the physics stack; the variant's default gains, ``gains`` on
+    top; the lift-off hold's defaults)."""
+    robot, entry = bioloid_entry()
+    ref, rec = planned(robot, entry, walk)
+    variation = None if plant < 0 else models(robot, plant + 1, seed)[plant]
+    _, spec = spec_of((compensate, {}, True, True, True), entry, ref, gains)
+    assert spec is not None
+    return PlantRun(robot, ref, rec, variation, spec, compensate)
 
 
 def json_setting(cls: type) -> Callable[[str], dict]:
@@ -173,8 +223,7 @@ def main() -> None:
         "and the worst-five mean of the survivors' largest deviation",
     )
     args = p.parse_args()
-    robot = load_robot("bioloid")
-    entry = select([args.solver], None, "tick", stack=args.stack)[0][0]
+    robot, entry = bioloid_entry(args.solver, args.stack)
     plants = list(enumerate(models(robot, args.models, args.seed)))
     if args.plants:
         plants = [plants[k] for k in args.plants]
@@ -185,8 +234,7 @@ def main() -> None:
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for walk in args.walks:
-        ref = traj.build(walk, robot)
-        _, rec = run_entry(entry, robot, ref, "tick")
+        ref, rec = planned(robot, entry, walk)
         runs = [(label, g, s) for label in VARIANTS for g, s in settings(args.gains, args.stepping)]
         for label, gains, step_kw in runs:
             if args.only and label not in args.only:

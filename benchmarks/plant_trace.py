@@ -23,33 +23,19 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import replace
 
 import numpy as np
-from plant_sweep import json_setting
+from plant_sweep import json_setting, plant_run
 
-from wbc import load_robot
 from wbc.balance import stabilizer as stab_mod
-from wbc.balance.stabilizer import Gains, default_gains
-from wbc.balance.stepping import SteppingParams
-from wbc.bench import trajectories as traj
-from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
-from wbc.bench.runner import run_entry
-from wbc.bench.sim_record import physics_record
-from wbc.bench.solvers import select
-from wbc.bench.variation import models
+from wbc.balance.stabilizer import Gains
 from wbc.compiled.rows import log3
 
 
 def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> None:
     """Run plant ``plant`` of ``seed`` on ``walk`` and print its trace (module docstring)."""
-    robot = load_robot("bioloid")
-    entry = select(["wqp-daqp"], None, "tick")[0][0]
-    ref = traj.build(walk, robot)
-    _, rec = run_entry(entry, robot, ref, "tick")
-    v = None if plant < 0 else models(robot, plant + 1, seed)[plant]
-    g = replace(default_gains(compensate), **gains)
-    spec = ClosedLoopSpec(entry.make, ref, g, True, True, SteppingParams())
+    run = plant_run(walk, seed, plant, gains, compensate)
+    robot, v = run.robot, run.plant
     clock, rows, soles = [0.0], [], [0.0]
     original = stab_mod.Stabilizer.adjust
 
@@ -73,10 +59,9 @@ def trace(walk: str, seed: int, plant: int, gains: dict, compensate: float) -> N
 
     stab_mod.Stabilizer.adjust = observed
     try:
-        res, _ = play_closed_loop(spec, robot, v, compensate=compensate, on_tick=tick)
+        res, r = run.play(on_tick=tick)
     finally:
         stab_mod.Stabilizer.adjust = original
-    r = physics_record(rec, res, robot, ref)
     summary = json.dumps(v.summary if v else {}, default=float)
     print(f"{walk}, seed {seed}, plant {plant}: {summary}")
     if r["fell"]:

@@ -16,34 +16,18 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import replace
 
 import numpy as np
-from plant_sweep import json_setting
+from plant_sweep import json_setting, plant_run
 
-from wbc import load_robot
-from wbc.balance.retime import HoldParams
-from wbc.balance.stabilizer import Gains, default_gains
-from wbc.balance.stepping import SteppingParams
-from wbc.bench import trajectories as traj
-from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
-from wbc.bench.runner import run_entry
-from wbc.bench.sim_record import physics_record
-from wbc.bench.solvers import select
-from wbc.bench.variation import models
+from wbc.balance.stabilizer import Gains
 
 
 def trace(walk: str, seed: int, plant: int, gains: dict, start: float) -> None:
     """Run plant ``plant`` of ``seed`` on ``walk`` and print its end (module docstring)."""
-    robot = load_robot("bioloid")
-    entry = select(["wqp-daqp"], None, "tick")[0][0]
-    ref = traj.build(walk, robot)
-    _, rec = run_entry(entry, robot, ref, "tick")
-    v = models(robot, plant + 1, seed)[plant]
-    g = replace(default_gains(0.0), **gains)
-    spec = ClosedLoopSpec(entry.make, ref, g, True, True, SteppingParams(), HoldParams())
-    res, _ = play_closed_loop(spec, robot, v)
-    r = physics_record(rec, res, robot, ref)
+    run = plant_run(walk, seed, plant, gains)
+    robot = run.robot
+    res, r = run.play()
     print(f"{walk}, seed {seed}, plant {plant}, gains {json.dumps(gains)}: "
           + (f"fell at {r['fall_time_s']:.2f} s, {r['fall_joint']}" if r["fell"]
              else f"up, {r['orientation_dev_max_deg']:.1f}°"))  # fmt: skip

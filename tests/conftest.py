@@ -10,9 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from compile_lock import install as install_compile_lock
 from hypothesis import settings
 
-from wbc import load_robot
+# numba's compilations one at a time across the workers (tests/compile_lock.py); before wbc's
+# kernels with signatures compile at import
+install_compile_lock()
+
+from wbc import load_robot  # noqa: E402
 
 # the tests count and compare compiled ticks: from a cold cache, a solver waits for its compiled
 # tick rather than solving on the numpy path while it is built (wbc.compiled.workers.WAIT_ENV)
