@@ -386,10 +386,11 @@ class ConstraintRows:
 
     def placed_args(self, kin: Kinematics) -> tuple:
         """The placed tick's last arguments: :attr:`placed`'s buffers by address and
-        :attr:`place` (ValueError: no placed constraint, or its frames are copies)."""
+        :attr:`place` (ConfigurationError: no placed constraint, or its frames are
+        copies)."""
         args = self.placed.placed_args(kin) if self.placed is not None else None  # type: ignore[attr-defined]
         if args is None:
-            raise ValueError("no constraint whose rows a tick makes with the frames' views")
+            raise ConfigurationError("no constraint whose rows a tick makes with the frames' views")
         return (*args, self.place)
 
     def gather(self) -> None:
