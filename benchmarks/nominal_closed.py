@@ -1,7 +1,8 @@
 """The nominal closed loop of the push benchmark (its ``step`` loop: wqp-daqp, the
 feed-forward at the robot's best, step adjustment, no push) on several walks, with Gains
-keywords: fallen, the largest orientation deviation, travelled / planned, re-plans (issue 30,
-sixteenth session: the options' nominal walks beside main's).
+keywords: fallen, the largest orientation deviation, travelled / planned, re-plans, the walking
+ticks whose solve failed and those the stack's ``landing_fallback`` solved (issue 30, sixteenth
+and nineteenth sessions: the options' nominal walks beside main's).
 
     nice -n 5 python benchmarks/nominal_closed.py '{"ff_sagittal": 2}' walk10_wb turn_wb lateral_wb
     nice -n 5 python benchmarks/nominal_closed.py '{}' '{"accept": 0.02}' walk10_wb turn_wb
@@ -38,7 +39,8 @@ def main() -> None:
         print(json.dumps({"walk": walk, "gains": gains, "stepping": stepping, "fell": r["fell"],
                           "dev_deg": round(r["orientation_dev_max_deg"], 2),
                           "dist": round(r["distance_ratio"], 3),
-                          "replans": r.get("replans")}), flush=True)  # fmt: skip
+                          "replans": r.get("replans"), "failed_solves": r.get("failed_solves"),
+                          "fallbacks": r.get("landing_fallbacks")}), flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

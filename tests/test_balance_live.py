@@ -223,6 +223,37 @@ def test_the_limit_excess_is_the_largest_excursion_of_any_tick():
     assert worst > 0
 
 
+def test_the_source_counts_the_walking_ticks_whose_solve_failed():
+    """SessionSource.failed_ticks (the closed loop's ``failed_solves``): every walking tick
+    whose solve raised (the session held its last configuration), not whether the last one
+    did; a tick of the stack relaxed by its solver counts in ``relaxed_ticks``."""
+    from wbc import load_robot
+    from wbc.balance.live import SessionSource
+    from wbc.bench.trajectories import build
+    from wbc.exceptions import InfeasibleError
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import Session, StackController
+
+    robot = load_robot("bioloid")
+    controller = StackController(load_stack("walk", robot))
+    session = Session(controller, robot, build("walk10", robot))
+    source = SessionSource(session)
+    track, failing = controller.track, {5, 6, 7, 12}
+
+    def flaky(q, targets, dt, changed):
+        if targets.i in failing:
+            raise InfeasibleError("hard level 0 is infeasible (the test's)")
+        out = track(q, targets, dt, changed)
+        controller.solver.relaxed = targets.i == 20  # (as a relaxing solver marks its tick)
+        return out
+
+    controller.track = flaky
+    for tick in range(25):
+        source(tick, session.ref.dt * tick)
+    assert source.failed_ticks == 4 and not session.failed  # (the last tick solved)
+    assert source.relaxed_ticks == 1
+
+
 def test_loop_share_is_the_median_share_and_scale_free():
     """loop_share: the median over the ticks of loop / (loop + solve); the same for times
     scaled together (a slower machine)."""

@@ -177,6 +177,58 @@ def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
     assert np.linalg.norm(anchor.translation - sole.translation) == pytest.approx(0.025 - band)
 
 
+def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
+    """A touch-down 50 mm and 0.4 rad off its reference (a catch's miss, more than the servos
+    move in a tick): the tick fails without ``landing_fallback`` (the controller holds its last
+    configuration); with it the landing is re-anchored where the sole is, one share
+    ``dt / landing_time`` of the way to the reference this tick, the tick solves, the hard row
+    meets the anchor, the fallback is counted, and the later ticks walk the rest (at the
+    reference after ``landing_time``, failing again only to fall back again)."""
+    import pinocchio as pin
+
+    from wbc.exceptions import InfeasibleError
+
+    ref = build("static_walk", robot)
+    s = ref.support
+    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
+    spec = _walk_spec()
+    answers = {}
+    for fallback in (False, True):
+        table = {**spec["support_switch"], "landing_fallback": fallback}
+        control = build_stack({**spec, "support_switch": table}, robot)
+        controller = StackController(control)
+        session = Session(controller, robot, ref)
+        for i in range(land):
+            session.tick(i)
+        frame = session.targets(land - 1).swing
+        q = session.q.copy()
+        sole = robot.frame_placement(q, frame)
+        t = session.targets(land)
+        turn = pin.exp3(np.array([0.0, 0.4, 0.0]))
+        goal = pin.SE3(t.sole(frame).rotation @ turn,
+                       t.sole(frame).translation + np.array([0.05, 0.0, 0.0]))  # fmt: skip
+        moved = t.replace(**{frame: goal})
+        if not fallback:
+            with pytest.raises(InfeasibleError, match="contact"):
+                controller.track(q, moved, ref.dt, True)
+            assert controller.handover.fallbacks == 0
+            continue
+        q_next = controller.track(q, moved, ref.dt, True)
+        handover = controller.handover
+        assert handover.fallbacks == 1
+        share = ref.dt / control.support_switch.landing_time
+        contact = next(c for c in control.stack.tasks() if c.active and c.frame == frame)
+        expected = sole.translation + share * (goal.translation - sole.translation)
+        np.testing.assert_allclose(contact.target_position, expected, atol=1e-12)
+        landed = robot.frame_placement(q_next, frame)  # (first order: a 5 mm, 0.04 rad share)
+        assert np.linalg.norm(landed.translation - contact.target_position) < 5e-4
+        for k in range(land + 1, land + 40):
+            q_next = controller.track(q_next, t.replace(i=k, **{frame: goal}), ref.dt, False)
+        answers[fallback] = robot.frame_placement(q_next, frame)
+        np.testing.assert_allclose(answers[True].translation, goal.translation, atol=1e-4)
+        assert handover.fallbacks >= 1
+
+
 def test_the_support_switch_table_is_checked_and_scaled():
     """Positive numbers only, known keys only, one line naming the key; a robot λ times the
     design leg gets both values times √λ."""

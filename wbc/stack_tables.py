@@ -33,6 +33,12 @@ class SupportSwitch:
     ``fit_speed`` (default): a freed leg's lag is lengthened, for that swing, until its first
     step asks no joint for more than the sized share of its servo's no-load speed
     (:meth:`wbc.walking.handover.SwitchHandover.swing_share`; never shortened); false: as stated.
+    ``landing_fallback``: a tick whose hard level fails while a landing is under way (a miss
+    beyond the band asked of the hard row, more than the servos move in a tick) is solved
+    again with that landing re-anchored where the sole is and walked from there in a new
+    ``landing_time`` (:meth:`wbc.walking.handover.SwitchHandover.solve`; counted); false: the
+    tick fails (the controller holds its last configuration). ``fallback_hold``: that anchor
+    held where the sole is through the double support, not walked to the reference.
     Stated for the file's ``design_leg``; on a robot λ times that size the times are scaled by
     √λ (the sizing's time scale, :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
 
@@ -42,6 +48,8 @@ class SupportSwitch:
     carry_contact_targets: bool = False
     second_order_swing: bool = False
     fit_speed: bool = True
+    landing_fallback: bool = False
+    fallback_hold: bool = False
 
 
 #: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
@@ -52,9 +60,17 @@ SWITCH_KEYS = (
     "carry_contact_targets",
     "second_order_swing",
     "fit_speed",
+    "landing_fallback",
+    "fallback_hold",
 )
 #: its keys that are true or false (the others are positive numbers)
-_SWITCH_FLAGS = ("carry_contact_targets", "second_order_swing", "fit_speed")
+_SWITCH_FLAGS = (
+    "carry_contact_targets",
+    "second_order_swing",
+    "fit_speed",
+    "landing_fallback",
+    "fallback_hold",
+)
 
 
 def parse_support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:

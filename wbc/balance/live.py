@@ -96,6 +96,10 @@ class SessionSource(CallableSource):
         self._played: list[tuple[float, float]] = []
         self._slowed = False  # the stabilizer's clock (Gains.lag_clock) left 1 at some tick
         self._last: tuple[float, np.ndarray] | None = None  # (t, joints): Gains.goal_lead
+        #: walking ticks whose solve failed (the last configuration held: a failed hard
+        #: level) and whose hard level the solver relaxed (its least-squares best kept)
+        self.failed_ticks = 0
+        self.relaxed_ticks = 0
 
         self.rest_hook: Callable[[bool], None] | None = None  # called each tick: at rest?
 
@@ -112,6 +116,9 @@ class SessionSource(CallableSource):
             if q is None:
                 return None
             if not resting:
+                self.failed_ticks += session.failed
+                solver = getattr(session.controller, "solver", None)  # (a stack's: its QP)
+                self.relaxed_ticks += bool(getattr(solver, "relaxed", False))
                 walk = t - self.start_offset
                 self._played.append((walk, walk - session.delay))
                 self._slowed |= stab is not None and stab.clock != 1.0

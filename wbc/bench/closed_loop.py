@@ -185,11 +185,18 @@ def closed_loop_figures(loop) -> dict[str, Any]:
     deployment's clamp), the estimator + feedback share of the tick, the largest estimated
     torso tilt error."""
     share = loop.source.cost_share()
-    return {
+    controller = loop.session.controller
+    handover = getattr(controller, "handover", None)
+    extra: dict[str, Any] = {}  # (only where a fallback is configured: the stack's)
+    if handover is not None and handover.fallback:
+        extra["landing_fallbacks"] = handover.fallbacks
+    if getattr(getattr(controller, "solver", None), "on_infeasible", "raise") == "relax":
+        extra["relaxed_solves"] = loop.source.relaxed_ticks
+    return extra | {
         "goal_limit_excess_deg": float(np.degrees(max(loop.source.limit_excess, 0.0))),
         "feedback_share": share,
         "estimated_tilt_max_deg": float(np.degrees(loop.stabilizer.max_tilt_error)),
-        "failed_solves": int(loop.session.failed),
+        "failed_solves": loop.source.failed_ticks,  # (walking ticks: held, not solved)
         "replans": len(loop.stepping.events) if loop.stepping is not None else None,
         "holds": loop.hold.holds if loop.hold is not None else None,
         "held_s": loop.hold.held if loop.hold is not None else None,

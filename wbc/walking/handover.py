@@ -27,7 +27,11 @@ every switch continuous, whatever the solver path (they write the tasks' target 
   of asked in one tick by the hard row. A miss beyond ``landing_band`` (m; a catch step's
   centimetres after a push) is asked at once as before, only the band's part settled. Targets
   whose contacts move (:attr:`~wbc.walking.loop.TickTargets.contacts_move`: a driven walk,
-  whose walker anchors its landed soles itself) are left to their caller.
+  whose walker anchors its landed soles itself) are left to their caller. With
+  ``landing_fallback``, a tick whose hard level cannot be met while a landing is under way
+  (a catch's miss beyond the band, more than the servos move in one tick: the solve failed
+  and the controller held its last configuration through the whole double support, issue 30)
+  is solved again with the landing re-anchored where the sole is (:meth:`SwitchHandover.solve`).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ import pinocchio as pin
 from numba import njit
 
 from ..compiled.checks import entry
-from ..exceptions import TaskError
+from ..exceptions import InfeasibleError, TaskError
 from ..model import Robot
 from ..roles import SOLE_FRAMES as SOLES
 from ..stacks import ControlStack
@@ -134,6 +138,12 @@ class SwitchHandover:
         self.carry = settings.carry_contact_targets
         self.second = settings.second_order_swing
         self.fit_speed = settings.fit_speed
+        self.fallback = settings.landing_fallback
+        self.fallback_hold = settings.fallback_hold
+        #: ticks the fallback solved again (:meth:`solve`), since :meth:`start`
+        self.fallbacks = 0
+        #: the sole that landed at this double support's start (None in single support)
+        self._landed: str | None = None
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
@@ -177,6 +187,7 @@ class SwitchHandover:
             for p, w in zip(self._postures, self._set_points, strict=True)
         ]
         self._landing, self._swing, self._prepared = None, None, None
+        self._landed, self.fallbacks = None, 0
 
     def reset(self) -> None:
         """Back to the state of :meth:`start` (after a rehearsed tick)."""
@@ -186,6 +197,7 @@ class SwitchHandover:
             held[:] = np.nan
             mid[:] = np.nan
         self._landing, self._swing, self._prepared = None, None, None
+        self._landed, self.fallbacks = None, 0
 
     def prepare(self, q: np.ndarray, targets, dt: float) -> None:
         """The landing's work of the tick of ``targets`` made ahead (a loop's idle part before
@@ -260,7 +272,7 @@ class SwitchHandover:
                 follow(target, walk_ready, q, held, mid, joints, sides, swing, a,
                        self._a_swing, self.carry, self.second)  # fmt: skip
         if targets.contacts_move:  # the caller moves the contacts (a driven walk): not here
-            self._landing = None
+            self._landing = self._landed = None
         elif self.landing_time and not (single and self._landing is None):
             self._settle(q, targets, phase_changed, dt)
         self._swing = targets.swing if single else None
@@ -304,10 +316,10 @@ class SwitchHandover:
         then each tick the share ``dt / (T − elapsed)`` of the way to the reference sole: there
         after ``T = landing_time``."""
         if targets.phase == "single":
-            self._landing = None
+            self._landing = self._landed = None
             return
         if phase_changed and self._swing is not None:  # a touch-down: anchor where it is
-            frame = self._swing
+            frame = self._landed = self._swing
             made = self._made_ahead(q, targets, dt)
             anchor, self._landing = made if made is not None else self._land(q, targets, dt)
         elif self._landing is None:
@@ -319,3 +331,37 @@ class SwitchHandover:
         for task in self._contacts:
             if task.active and task.frame == frame:
                 task.set_target(anchor)
+
+    def solve(self, solver, q: np.ndarray, targets, dt: float) -> np.ndarray:
+        """``solver.step(q, dt)`` (a :class:`~wbc.solvers.base.StackSolver`), after
+        :meth:`update`. With ``landing_fallback``, where that raises
+        :class:`~wbc.exceptions.InfeasibleError` in the double support of a landing (its miss
+        beyond ``landing_band`` asked of the hard contact row in one tick, more than the
+        servos move in it): the landing re-anchored where the sole is at ``q`` and walked
+        from there to the reference sole in a new ``landing_time`` (this tick its first
+        share), solved again; if that fails too, the anchor at the sole itself (the landed
+        contact met as it stands). ``fallback_hold``: the anchor at the sole, held there
+        through the double support (not walked to the reference). Each tick solved so counts
+        in :attr:`fallbacks`; a tick neither solves raises the first error (the controller
+        then holds its last configuration, as without)."""
+        if not self.fallback or targets.phase == "single" or self._landed is None:
+            return solver.step(q, dt)
+        try:
+            return solver.step(q, dt)
+        except InfeasibleError as exc:
+            frame, failure = self._landed, exc
+        sole = self._robot.frame_placement(q, frame)
+        shares = (0.0,) if self.fallback_hold else (dt / self.landing_time, 0.0)
+        for share in shares:
+            anchor = _toward(sole, targets.sole(frame), min(share, 1.0))
+            self._landing = None if self.fallback_hold else (frame, anchor, dt if share else 0.0)
+            for task in self._contacts:
+                if task.active and task.frame == frame:
+                    task.set_target(anchor)
+            try:
+                q_next = solver.step(q, dt)
+            except InfeasibleError:
+                continue
+            self.fallbacks += 1
+            return q_next
+        raise failure

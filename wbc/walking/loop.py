@@ -127,10 +127,8 @@ class StackController(Controller):
     def __init__(self, control: ControlStack, name: str | None = None) -> None:
         self.control = control
         self.solver = control.solver
-        solver_kind = (
-            "hierarchical" if "Hierarchical" in type(self.solver).__name__ else ("weighted")
-        )
-        self.family = f"qp-{solver_kind}"
+        kind = "hierarchical" if "Hierarchical" in type(self.solver).__name__ else "weighted"
+        self.family = f"qp-{kind}"
         self.name = name or f"{control.name}[{self.solver.backend.name}]"
         robot = control.robot
         stack = control.stack
@@ -359,9 +357,10 @@ class StackController(Controller):
 
     def track(self, q, targets, dt, phase_changed):
         self._set_targets(q, targets, phase_changed)
-        if self.handover is not None:
-            self.handover.update(q, targets, phase_changed, dt)
-        return self.solver.step(q, dt)
+        if self.handover is None:
+            return self.solver.step(q, dt)
+        self.handover.update(q, targets, phase_changed, dt)
+        return self.handover.solve(self.solver, q, targets, dt)  # (its landing_fallback)
 
     def converge(self, q, targets, tol, max_iterations, phase_changed):
         self._set_targets(q, targets, phase_changed)
