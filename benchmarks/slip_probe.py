@@ -180,6 +180,14 @@ def estimates(robot, d: dict, rng: np.random.Generator) -> tuple[np.ndarray, dic
                     D += v * h + 0.5 * a * h * h
                     v = v + a * h
             out.setdefault(name, []).append(1000 * D[:2] - legs)
+    sample = np.einsum("nij,nj->ni", R, acc)[1:-1] - GRAVITY - a_avg[1:-1]
+    out["_sample"] = sample[:, :2]  # the accelerometer's samples less the tick's mean
+    phase = np.zeros((2, 10))  # the slide's path per tenth of the interval (mm), intervals
+    for a0, a1, A in intervals(d):
+        step = 1000 * np.linalg.norm(np.diff(d["soles"][a0 : a1 + 1, A, :2], axis=0), axis=1)
+        np.add.at(phase[0], (10 * np.arange(len(step)) // len(step)), step)
+        phase[1] += 1
+    out["_phase"] = phase
     return np.array(slides), {k: np.array(v) for k, v in out.items()}
 
 
@@ -197,6 +205,11 @@ def analyse(files: list[str]) -> None:
     print(f"{len(S)} stance intervals: the slide's mean {np.round(S.mean(0), 2)} and spread "
           f"{np.round(S.std(0), 2)} mm (x, y world); per estimate, its error's mean and "
           f"spread, and the best blend's share and the slide's spread left")  # fmt: skip
+    sample = np.concatenate(est.pop("_sample"))
+    phase = np.sum(est.pop("_phase"), axis=0)
+    print(f"  the accelerometer's samples less the tick's mean acceleration (world xy): "
+          f"{np.round(sample.mean(0), 2)} ± {np.round(sample.std(0), 2)} m/s²; the slide's "
+          f"path per tenth of the interval: {np.round(phase[0] / phase[1], 2)} mm")  # fmt: skip
     for k, parts in est.items():
         E = np.concatenate(parts)
         c = E - E.mean(0)
