@@ -107,7 +107,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             base_hold: float | None = None,
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
-            twist: float | None = None, **kw):  # fmt: skip
+            twist: float | None = None, slip_gain: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -122,7 +122,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "hold": base_hold, "landing_share": landing_share,
         "landing_contact": None if landing_contact else False,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
-        "heading_gain": heading_gain, "quiet_stand": quiet_stand,
+        "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -340,6 +340,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--start-yaw", type=float, default=0.0, metavar="DEG",
                     help="the robot starts turned DEG about the simulator's vertical (the record "
                          "stays in the start frame)")  # fmt: skip
+    ap.add_argument("--slip-gain", type=float, default=None, metavar="K",
+                    help="the walker's slip_gain: the stance sole's slide by the IMU, this share "
+                         "of it in the odometry (wbc.drive.slip; default 0, off)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -384,6 +387,7 @@ def main(argv: list[str] | None = None) -> int:
         "heading_gain": args.heading_gain,
         "quiet_stand": {"off": ""}.get(args.quiet_stand, args.quiet_stand),
         "twist": args.twist,
+        "slip_gain": args.slip_gain,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing and args.swing_settle is None

@@ -50,10 +50,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 
 from ..balance.estimator import exp3
 from ..exceptions import ConfigurationError
-from ..geometry import clip_norm, mean_angle, relative_pose, wrap_angle, yaw_of
+from ..geometry import clip_norm, mean_angle, relative_pose, rot_z, wrap_angle, yaw_of
 from ..model import Robot
 from ..roles import SOLE_FRAMES
 from ..walking.footsteps import Footstep, Side, other_side
@@ -457,3 +458,19 @@ class BaseHold:
             self.offset = clip_norm(self.offset + clip_norm(np.asarray(error, float), step),
                                      self.reach)  # fmt: skip
         return self.offset
+
+
+def base_over_soles(
+    robot: Robot, feet: dict[Side, Footstep], q: np.ndarray | None
+) -> np.ndarray | None:
+    """Standing on both soles: the base's position (x, y) over the planned soles ``feet`` by
+    the configuration ``q`` (forward kinematics, the soles flat; the mean of the two), or
+    None if ``q`` is (a position unread)."""
+    if q is None:
+        return None
+    xy = np.zeros(2)
+    for side, step in feet.items():
+        sole = robot.frame_placement(q, SOLE_FRAMES[side])  # (the base at the origin)
+        base = pin.SE3(rot_z(step.yaw), step.position) * sole.inverse()
+        xy += 0.5 * base.translation[:2]
+    return xy

@@ -64,7 +64,9 @@ from .odometry import (
     PlayInverse,
     PoseOdometry,
     StrideGain,
+    base_over_soles,
 )
+from .slip import LastReading, SlipEstimate
 from .stand import DRIVE_QUIET_STAND, QuietStand
 
 #: the DCM feedback's gain of driven walks (:data:`DRIVE_GAINS`)
@@ -259,6 +261,8 @@ class Walker:
     (PoseOdometry).
     ``quiet_stand`` (outer loop; :data:`~wbc.drive.stand.DRIVE_QUIET_STAND`): when standing
     still, no torso feedback (``"end"``, ``"standing"``, ``""``: :mod:`wbc.drive.stand`).
+    ``slip_gain`` (outer loop, 0: off): the stance sole's slide by the IMU moved into the
+    odometry, this share of it (:class:`~wbc.drive.slip.SlipEstimate`).
     """
 
     def __init__(
@@ -296,6 +300,7 @@ class Walker:
         finish_xy: bool = False,
         heading_gain: float = DRIVE_HEADING_GAIN,
         quiet_stand: str = DRIVE_QUIET_STAND,
+        slip_gain: float = 0.0,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -369,6 +374,9 @@ class Walker:
         #: randomised Bioloid 0 rang and spun on its soles, −56° in 1.5 s of rest (drive.md)
         self._gains = (gains, replace(gains, k_p=0.0, k_i=0.0, k_d=0.0) if track else gains)
         self.quiet = QuietStand(quiet_stand, on=track)
+        slip = SlipEstimate(robot, slip_gain)  # (checks it)
+        self.slip = slip if track and slip_gain > 0 else None  #: the stance sole's slide (IMU)
+        imu = LastReading(imu) if self.slip is not None and imu is not None else imu
         estimator = StateEstimator(robot, self.engine.height, use_imu=imu is not None,
                                    gyro_heading=gains.k_yaw > 0, **DRIVE_ESTIMATOR)  # fmt: skip
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
@@ -517,6 +525,8 @@ class Walker:
         xy = stance.xy + rot_z(stance.yaw)[:2, :2] @ xy
         odo = self.odometry
         if odo is not None and odo.started:
+            if self.slip is not None:
+                odo.soles[stance.side][:2] += self.slip.landed(step.side)
             measured = odo.landed(step.side, q, placed)
             if self.stride is not None:
                 self.engine.stride_gain[:] = self.stride.landed(self.engine.centre, measured)
@@ -604,6 +614,8 @@ class Walker:
                     odo.start(engine.feet, yaw_of(est.rotation))
                     if self.stride is not None:
                         self.stride.restart()
+                    if self.slip is not None:
+                        self.slip.restart()
                 elif not (engine.walking or engine.starting) and odo.started:
                     odo.stop()  # (kept through a finish step)
                 rotation, rate = self._heading_inputs(targets, est)
@@ -612,6 +624,8 @@ class Walker:
                     self._yaw_rest_left -= 1
                 else:
                     odo.turn(rotation, rate, dt)
+                    if self.slip is not None and odo.started:
+                        self.slip.walker_tick(self, dt)
         if self.lift is not None:
             self._lift(targets)
         self._contacts(targets, dt)
@@ -674,18 +688,9 @@ class Walker:
         return targets.retarget(targets.com + np.r_[offset, 0.0], targets.torso_rotation)
 
     def _measured_base(self) -> np.ndarray | None:
-        """Standing on both soles: the base's position (x, y) over the planned soles by the
-        present joints (forward kinematics, the soles flat; the mean of the two), or None if
-        a position is unread."""
-        q = self._present_configuration()
-        if q is None:
-            return None
-        xy = np.zeros(2)
-        for side, step in self.engine.feet.items():
-            sole = self.robot.frame_placement(q, SOLE_FRAMES[side])  # (the base at the origin)
-            base = pin.SE3(rot_z(step.yaw), step.position) * sole.inverse()
-            xy += 0.5 * base.translation[:2]
-        return xy
+        """The base over the planned soles by the present joints (:func:`~wbc.drive.odometry.
+        base_over_soles`), or None if a position is unread."""
+        return base_over_soles(self.robot, self.engine.feet, self._present_configuration())
 
     def _lift(self, targets: TickTargets) -> None:
         """The swing sole's lift (:class:`~wbc.drive.odometry.LiftGain`): in single support

@@ -1,0 +1,242 @@
+"""What a real robot's sensors see of the stance sole's slip: per tick of a random command
+sequence on a randomised model (as ``benchmarks/drive.py --random``), the IMU's calibrated
+specific force and rate as the walker reads them (the reading the stabiliser took, not a
+second one), the present links (the play out), the walker's support and odometry heading,
+and the simulator's truth (the IMU site's pose, the soles' poses); the landings the walker
+measured. Saved as an ``.npz``; ``--analyse FILE ...`` then, per stance interval (a sole's
+landing to the next landing: that sole the stance sole throughout), the stance sole's slide
+(the simulator's) against what the IMU and the legs can tell of it — the torso's displacement
+by the specific force integrated twice, less its displacement over the stance sole by the
+kinematics (:class:`wbc.drive.slip.SlipEstimate`'s estimate) — with the torso's rotation the
+simulator's (``trueR``) or the kinematics' tilt (``kinR``), the start velocity the
+simulator's (``v0true``, an oracle) or the legs' over the last 5 or 10 ticks; ``filtered``:
+the same from an accelerometer that averages over the tick (the simulator's acceleration so
+averaged, plus the model's white noise: a real IMU's low-pass, which this simulated one
+lacks); ``legs``: the simulator's own torso displacement (an ideal IMU): the legs' error
+alone; per estimate its error's spread and the best linear blend's (the share fitted on
+the truth: the most any Kalman gain on it could take out of the slide)::
+
+    nice -n 10 python benchmarks/slip_probe.py --sequence 13 --model 0 --out /tmp/s13m0.npz
+    python benchmarks/slip_probe.py --analyse /tmp/s13m0.npz /tmp/s3m15.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+import drive
+
+import wbc.drive.sim as drive_sim_module
+from wbc import load_robot
+from wbc.bench.variation import models
+from wbc.drive.commands import random_commands
+from wbc.drive.envelope import planning_envelope
+from wbc.geometry import heading_free, rot_z, yaw_of
+from wbc.types import SUPPORT_DOUBLE
+
+SOLES = {"left": "l_sole", "right": "r_sole"}
+GRAVITY = np.array([0.0, 0.0, 9.81])
+ESTIMATES = ("trueR_v0true", "kinR_v0true", "kinR_v0kin5", "kinR_v0kin10",
+             "filtered_trueR_v0true", "filtered_kinR_v0true", "filtered_kinR_v0kin5")  # fmt: skip
+
+
+def record(args) -> None:
+    robot = load_robot("bioloid")
+    limits, window = planning_envelope(robot)
+    share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
+    variation = models(robot, args.model + 1, args.seed)[args.model]
+    rows: list[dict] = []
+    landings: list[tuple[float, str]] = []
+    sims: list = []
+    base, odometer = drive_sim_module.Walker, drive_sim_module.Odometer
+
+    class Recorder:
+        """The IMU as the walker reads it, the last reading kept."""
+
+        def __init__(self, imu) -> None:
+            self.imu, self.last = imu, None
+
+        def read(self):
+            self.last = self.imu.read()
+            return self.last
+
+        def __getattr__(self, name):
+            return getattr(self.imu, name)
+
+    class Probed(base):
+        def __init__(self, *a, **k) -> None:
+            super().__init__(*a, **k)
+            self.stabilizer.imu = Recorder(self.stabilizer.imu)
+
+        def tick(self, dt=None):
+            q = super().tick(dt)
+            stab, e = self.stabilizer, self.last
+            reading = stab.imu.last
+            if not sims or reading is None or e is None or stab.calibrating:
+                return q
+            sim = sims[-1]
+            w, a = reading.angular_velocity, reading.linear_acceleration
+            if stab.mount is not None:
+                w, a = stab.mount.rates(w, a)
+            if stab.calibration is not None:
+                w = w - stab.calibration.gyro_bias
+                a = stab.calibration.level @ a
+            links = self._links if self.play is not None else self.present()
+            imu = sim.site_pose("imu")
+            soles = [sim.site_pose(f) for f in SOLES.values()]
+            odo = self.odometry
+            rows.append({
+                "t": sim.time, "acc": np.array(a, float), "gyro": np.array(w, float),
+                "links": np.array(links, float), "double": e.support == SUPPORT_DOUBLE,
+                "stance": 0 if e.support_frame == "l_sole" else 1,
+                "walking": bool(self.engine.walking),
+                "heading": odo.heading if odo is not None else math.nan,
+                "est_R": np.array(stab.last.rotation) if stab.last is not None else np.eye(3),
+                "true_R": imu.rotation.copy(), "true_p": imu.translation.copy(),
+                "soles": np.array([np.r_[s.translation, yaw_of(s.rotation)] for s in soles]),
+            })  # fmt: skip
+            return q
+
+        def _landed(self, step):
+            if sims:
+                landings.append((sims[-1].time, step.side))
+            return super()._landed(step)
+
+    class Sampled(odometer):
+        def __init__(self, sim) -> None:
+            super().__init__(sim)
+            sims.append(sim)
+
+    drive_sim_module.Walker = Probed
+    drive_sim_module.Odometer = Sampled
+    cmds = random_commands(np.random.default_rng([args.seed, 1000 + args.sequence]), share,
+                           args.duration)  # fmt: skip
+    r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window)
+    print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
+          f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
+    out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
+    out["landing_t"] = np.array([t for t, _ in landings])
+    out["landing_side"] = np.array([0 if s == "left" else 1 for _, s in landings])
+    out["acc_noise"] = np.array(variation.imu.get("acc_noise", 0.0))
+    np.savez(args.out, **out)
+
+
+def intervals(d: dict) -> list[tuple[int, int, int]]:
+    """(first tick, last tick, stance side) of each stance interval between two landings."""
+    t, lt, ls = d["t"], d["landing_t"], d["landing_side"]
+    idx = np.clip(np.searchsorted(t, lt - 1e-9), 0, len(t) - 1)
+    keep = [i for i in range(1, len(lt)) if ls[i] != ls[i - 1] and idx[i - 1] >= 10]
+    return [(int(idx[i - 1]), int(idx[i]), int(ls[i - 1])) for i in keep
+            if 5 <= idx[i] - idx[i - 1] <= 150]  # fmt: skip
+
+
+def estimates(robot, d: dict, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+    """The slides (mm, world xy) of one run's stance intervals and each estimate's."""
+    t, p, R, acc = d["t"], d["true_p"], d["true_R"], d["acc"]
+    n = len(t)
+    v_mid = np.diff(p, axis=0) / np.diff(t)[:, None]  # the velocity over each tick
+    a_avg = np.zeros_like(p)
+    a_avg[1:-1] = np.diff(v_mid, axis=0) / np.diff(t)[1:, None]
+    noise = float(d.get("acc_noise", 0.0))
+    filtered = np.einsum("nji,nj->ni", R, a_avg + GRAVITY) + rng.normal(0.0, noise, (n, 3))
+    rel = np.zeros((2, n, 3))
+    rot = np.zeros((2, n, 3, 3))
+    for k in range(n):
+        for j, M in enumerate(robot.placements_in(robot.with_joints(d["links"][k]), "torso",
+                                                  list(SOLES.values()))):  # fmt: skip
+            rel[j, k], rot[j, k] = M.inverse().translation, M.inverse().rotation
+    slides, out = [], {}
+    for a0, a1, A in intervals(d):
+        slides.append(1000 * (d["soles"][a1, A, :2] - d["soles"][a0, A, :2]))
+        Rz = rot_z(float(d["soles"][a0, A, 3]))
+        legs = 1000 * (Rz @ (rel[A, a1] - rel[A, a0]))[:2]
+        out.setdefault("legs", []).append(1000 * (p[a1] - p[a0])[:2] - legs)  # (the ideal IMU)
+        for name in ESTIMATES:
+            box = name.startswith("filtered")  # (its velocity per tick: exact if noiseless)
+            if "v0true" in name:
+                v = v_mid[a0 - 1] if box else (p[a0 + 1] - p[a0 - 1]) / (t[a0 + 1] - t[a0 - 1])
+            else:
+                m = int(name.rsplit("kin", 1)[1])
+                v = Rz @ (rel[A, a0] - rel[A, a0 - m]) / (t[a0] - t[a0 - m])
+            D = np.zeros(3)
+            for k in range(a0, a1):
+                h = t[k + 1] - t[k]
+                if "trueR" in name:
+                    Rk = R[k]
+                else:  # the kinematics' tilt, the heading the simulator's
+                    Rk = rot_z(yaw_of(R[k])) @ heading_free(Rz @ rot[A, k])
+                a = Rk @ (filtered[k] if box else acc[k]) - GRAVITY
+                if box:  # the mean velocity over tick k from the mean acceleration around k
+                    v = v + a * h
+                    D += v * h
+                else:
+                    D += v * h + 0.5 * a * h * h
+                    v = v + a * h
+            out.setdefault(name, []).append(1000 * D[:2] - legs)
+    sample = np.einsum("nij,nj->ni", R, acc)[1:-1] - GRAVITY - a_avg[1:-1]
+    out["_sample"] = sample[:, :2]  # the accelerometer's samples less the tick's mean
+    phase = np.zeros((2, 10))  # the slide's path per tenth of the interval (mm), intervals
+    for a0, a1, A in intervals(d):
+        step = 1000 * np.linalg.norm(np.diff(d["soles"][a0 : a1 + 1, A, :2], axis=0), axis=1)
+        np.add.at(phase[0], (10 * np.arange(len(step)) // len(step)), step)
+        phase[1] += 1
+    out["_phase"] = phase
+    return np.array(slides), {k: np.array(v) for k, v in out.items()}
+
+
+def analyse(files: list[str]) -> None:
+    robot = load_robot("bioloid")
+    rng = np.random.default_rng(0)
+    slides: list = []
+    est: dict = {}
+    for f in files:
+        s, e = estimates(robot, dict(np.load(f)), rng)
+        slides.append(s)
+        for k, v in e.items():
+            est.setdefault(k, []).append(v)
+    S = np.concatenate(slides)
+    print(f"{len(S)} stance intervals: the slide's mean {np.round(S.mean(0), 2)} and spread "
+          f"{np.round(S.std(0), 2)} mm (x, y world); per estimate, its error's mean and "
+          f"spread, and the best blend's share and the slide's spread left")  # fmt: skip
+    sample = np.concatenate(est.pop("_sample"))
+    phase = np.sum(est.pop("_phase"), axis=0)
+    print(f"  the accelerometer's samples less the tick's mean acceleration (world xy): "
+          f"{np.round(sample.mean(0), 2)} ± {np.round(sample.std(0), 2)} m/s²; the slide's "
+          f"path per tenth of the interval: {np.round(phase[0] / phase[1], 2)} mm")  # fmt: skip
+    for k, parts in est.items():
+        E = np.concatenate(parts)
+        c = E - E.mean(0)
+        share = (c * S).sum(0) / (c * c).sum(0)
+        left = (S - share * c).std(0)
+        err = E - S
+        spread, kept = np.round(S.std(0), 2), np.round(left, 2)
+        print(f"  {k:22s} error {np.round(err.mean(0), 1)} ± {np.round(err.std(0), 1)}; "
+              f"blend {np.round(share, 3)}: {spread} -> {kept}")  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sequence", type=int, default=13)
+    ap.add_argument("--model", type=int, default=0)
+    ap.add_argument("--duration", type=float, default=30.0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="/tmp/slip_probe.npz")
+    ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
+                    help="analyse these recordings instead of running")  # fmt: skip
+    args = ap.parse_args(argv)
+    if args.analyse:
+        analyse(args.analyse)
+    else:
+        record(args)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
