@@ -188,12 +188,12 @@ def test_a_walks_row_on_a_held_joint_is_one_update():
 def test_a_touch_downs_row_releases_the_bounds_it_pushes_inwards(monkeypatch):
     """walk_strict's walk10 touch-down at tick 144 (solve 150 of a benchmarks/cascade_replay.py
     capture), its last level: a self-collision row joining on joints the warm set holds
-    (``lsq_update._ROW_DEPENDS``). With ``lsq.INWARD_RELEASE`` (an option, off: the solver
-    run here as Python with it set, its kernels compiled) only the bounds the row's miss
-    pushes inwards are released and the call takes one subproblem, an update (the stack's
-    PDAS budget, ``lsq.PDAS_TIES``); releasing every bound in the row (off, as the compiled
-    solver does), PDAS fixes most of them again in 4. Both answer as the fresh solve from the
-    same warm set."""
+    (``lsq_update._ROW_DEPENDS``). With ``lsq.INWARD_RELEASE`` (the default: compiled, and
+    the solver run here as Python with it set, its kernels compiled) only the bounds the
+    row's miss pushes inwards are released and the call takes one subproblem, an update (the
+    stack's PDAS budget, ``lsq.PDAS_TIES``); releasing every bound in the row (off, as
+    Python), PDAS fixes most of them again in 4. Both answer as the fresh solve from the same
+    warm set."""
     d = np.load(Path(__file__).parent / "data" / "walk10_touch_down_row_on_held_joints.npz")
     keys = ("A", "a", "B", "r", "lower", "upper")
     A, a, B, r, lower, upper = (np.ascontiguousarray(d[k]) for k in keys)
@@ -222,8 +222,55 @@ def test_a_touch_downs_row_releases_the_bounds_it_pushes_inwards(monkeypatch):
         np.testing.assert_allclose(x, x_f, rtol=0, atol=1e-10)
         return count
 
-    assert joined(True, False) == 1
-    assert joined(False, False) == joined(False, True) == 4
+    assert joined(True, False) == joined(True, True) == 1
+    assert joined(False, False) == 4
+
+
+@pytest.mark.parametrize("m, p", [(6, 30), (12, 9)])
+def test_a_held_row_releases_first_the_bounds_its_miss_at_the_last_answer_pushes_inwards(
+    monkeypatch, m, p
+):  # fmt: skip
+    """Rows on variables the warm set holds (``held``: halfway in, or ``lifted``: a
+    combination of the level's rows and a held variable), each joining a solved random level
+    (``lsq.INWARD_RELEASE``, the default, compiled): the row's miss and the bounds'
+    multipliers are taken at the last call's answer, which the work space keeps — the same
+    subproblems whatever x the caller passes (zeros here, the last answer in the tick); on
+    these 2 × 12 levels they take fewer subproblems in sum than releasing every bound in the
+    row (off, as Python), with the same answers and active sets."""
+    counts = {"zeros": 0, "last": 0, "off": 0}
+    for seed in range(12):
+        for kind in ("held", "lifted"):
+            A, a, B, r, ridge, lower, upper = random_level(seed, m, p, 1e-6)
+            rng = np.random.default_rng(seed)
+            space = level_space(m + 1, N, p)
+            x0 = np.zeros(N)
+            warm = np.zeros(N, np.int8)
+            status, _ = solve_level_in(A, a, B, r, ridge, lower, upper, warm, x0, 1e-9, 100,
+                                       space, np.bool_(False), 0)  # fmt: skip
+            assert status == OK and np.any(warm != 0)
+            row, target = _row(kind, rng, A, a, warm, x0)
+            A2, a2 = np.vstack([A, row]), np.r_[a, target]
+            out = {}
+            for how in counts:
+                level = _as_python if how == "off" else solve_level_in
+                monkeypatch.setattr(lsq, "INWARD_RELEASE", how != "off")
+                space = level_space(m + 1, N, p)  # (the base call again: its factors, x)
+                x, state = np.zeros(N), np.zeros(N, np.int8)
+                level(A, a, B, r, ridge, lower, upper, state, x, 1e-9, 100, space,
+                      np.bool_(False), 0)  # fmt: skip
+                if how == "zeros":
+                    x[:] = 0.0
+                status, count = level(A2, a2, B, r, ridge, lower, upper, state, x, 1e-9, 100,
+                                      space, np.bool_(True), 0)  # fmt: skip
+                counts[how] += count
+                out[how] = (status, x, state)
+            assert out["zeros"][0] == out["last"][0] == out["off"][0]
+            if out["off"][0] != OK:
+                continue
+            np.testing.assert_array_equal(out["zeros"][1], out["last"][1])
+            np.testing.assert_array_equal(out["last"][2], out["off"][2])
+            np.testing.assert_allclose(out["last"][1], out["off"][1], rtol=0, atol=1e-10)
+    assert counts["zeros"] == counts["last"] < counts["off"]
 
 
 def _as_python(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, ties):

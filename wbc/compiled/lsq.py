@@ -77,8 +77,9 @@ equalities on its null-space coordinates, updated as added bounds are
 (:mod:`wbc.compiled.lsq_update`, ``JOINS``), and a joined row that depends on the warm set
 (on variables it holds: an inconsistent warm start) releases those bounds at once (the
 rows joined since the last call's: the rows before met its set), as a fresh solve does
-after finding the set inconsistent (:data:`INWARD_RELEASE`: an option, off, to release
-first only those its miss pushes inwards), and is then an update on the released variables
+after finding the set inconsistent — first only those its miss at the last call's answer
+pushes inwards (:data:`INWARD_RELEASE`), the others if it still depends —, and is then an
+update on the released variables
 (``lsq_update.WFIRST``); where the update declines, the subproblem is solved afresh as
 before.
 
@@ -160,16 +161,23 @@ UPDATES = True
 #: sixteenth pass)
 PDAS_TIES = 2
 PDAS_RISE = 1
-#: True (edit it; the kernels then compile again): a joined row that depends on the warm set
-#: (``lsq_update._ROW_DEPENDS``) releases first only the bounds its miss at the last call's x
-#: pushes inwards (x_j held at its upper bound where the row falls with x_j, or at its lower
-#: where it rises), the others kept; if none is, or the row still depends, every bound in it.
-#: On walk_strict's walk10 touch-downs a row then took 1 update where PDAS fixed most of the
+#: a joined row that depends on the warm set (``lsq_update._ROW_DEPENDS``) releases first only
+#: the bounds its miss at the last call's answer pushes inwards (x_j held at its upper bound
+#: where the row falls with x_j, or at its lower where it rises) and whose multiplier there is
+#: small against the row's pull, |μ_j / A_rj| at most :data:`INWARD_RATIO` × the smallest of
+#: them (the answer and μ kept in the work space by :func:`_carry`, whatever x the caller
+#: passes); the others kept; if none is, or the row still depends, every bound in it. On
+#: walk_strict's walk10 touch-downs a row then takes 1 update where PDAS fixed most of the
 #: released bounds again in 4 (the answers bit for bit the same: the updates are of the same
-#: base; the first ticks of a phase -12 % replayed), but on random levels whose row needs all
-#: its held variables to move it took 5 subproblems where releasing them all takes <= 3
-#: (benchmarks/self_collision.md, 2026-12-07): off, every bound in the row at once
-INWARD_RELEASE = False
+#: base); on random levels' held and lifted rows fewer subproblems in sum for each kind
+#: (benchmarks/self_collision.md, nineteenth session). False (edit it; the kernels then
+#: compile again): every bound in the row at once
+INWARD_RELEASE = True
+#: (the bound whose multiplier the row's pull overcomes first is released with those within
+#: this factor of it: the others' multipliers hold them; random levels' continued calls with
+#: held and lifted rows 2767 subproblems with every bound released, 2102 with every inward
+#: one, 1914 with this 10)
+INWARD_RATIO = 10.0
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
 #: (its condition number beyond about its square)
 _COND_MAX_SQRT = 1e2
@@ -243,12 +251,17 @@ def level_space(m: int, n: int, p: int) -> tuple:
 
 
 @njit(cache=True)
-def _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp, m):
+def _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp, m, last):
     """At an optimal set: the base for a following call (:func:`solve_level_in` with
     ``cont``); if the base was the last subproblem, its x into U (its y₀ and residual are
-    kept there by the call that continues: most calls are not continued)."""
+    kept there by the call that continues: most calls are not continued); the answer x and
+    its multipliers into ``last`` (2 × n: a joined row's miss and the bounds' multipliers,
+    :data:`INWARD_RELEASE`, whatever x the caller passes next)."""
     if not base_ok:
         return
+    for i in range(x.shape[0]):
+        last[0, i] = x[i]
+        last[1, i] = V[_V_MU, i]
     if base_first:  # (its x now: the rest of it, if a following call continues)
         for i in range(x.shape[0]):
             U[_U_X, i] = x[i]
@@ -391,20 +404,29 @@ def _solve(
             # a row joined since the last call depends on the warm set (its variables held at
             # their bounds): the warm start is inconsistent, and its bounds in the joined rows
             # are released as a fresh solve would after finding it so (below); then on
-            # (INWARD_RELEASE: first only the bounds the row's miss at x pushes inwards; if
+            # (INWARD_RELEASE: first only the bounds the row's miss pushes inwards; if
             # the row still depends on the set, every bound in it, as before)
             inward = INWARD_RELEASE and released == 0
             for _ in range(2):  # (a second sweep, every bound, if none was pushed inwards)
                 freed = 0
                 for row in range(joined, m):  # (the last call's set met the rows before)
                     miss = -a[row]
-                    if inward:
+                    pull = np.inf  # (the smallest |μ_j / A_rj| of the bounds pushed inwards)
+                    if inward:  # (at the last call's answer, its μ: saved[:2], by _carry)
                         for j in range(n):
-                            miss += A[row, j] * x[j]
+                            miss += A[row, j] * saved[0, j]
+                        for j in range(n):
+                            side_j = ind[_I_FIXED, j]
+                            if side_j != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
+                                if side_j * miss * A[row, j] > 0.0:
+                                    pull = min(pull, abs(saved[1, j] / A[row, j]))
                     for j in range(n):
                         side_j = ind[_I_FIXED, j]
                         if side_j != 0 and not ind[_I_PINNED, j] and A[row, j] != 0.0:
-                            if not inward or side_j * miss * A[row, j] > 0.0:
+                            if not inward or (
+                                side_j * miss * A[row, j] > 0.0
+                                and abs(saved[1, j] / A[row, j]) <= INWARD_RATIO * pull
+                            ):
                                 ind[_I_FIXED, j] = 0
                                 freed += 1
                 if freed > 0 or not inward:
@@ -488,7 +510,7 @@ def _solve(
                 if keep:
                     _carry(
                         carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0,
-                        pp, m,
+                        pp, m, saved,
                     )  # fmt: skip
                 _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
                 return OK, count
@@ -639,7 +661,10 @@ def _solve(
                 x[i] = V[_V_X0, i]
                 V[_V_MU, i] = V[_V_MU0, i]
             if keep:
-                _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp, m)
+                _carry(
+                    carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0, pp, m,
+                    saved,
+                )  # fmt: skip
             _finish(x, lower, upper, V, np.int64(_V_MU), ind, state, np.bool_(True))
             return OK, count
         side = 1 if V[_V_X0, i_add] > upper[i_add] else -1
