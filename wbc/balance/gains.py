@@ -307,6 +307,11 @@ class Gains:
     #: push was measured on a soft plant: off (issue 30, i30g's eighteenth session;
     #: benchmarks/physics.md)
     soft_hip: float = 0.0
+    #: ``k_twist`` × this on servos identified at rest at least ``lift_stiff`` ×
+    #: servos.toml's (stiff; 1: off; :mod:`wbc.balance.stiff_twist`): on stiff servos that
+    #: follow late the hip yaws' loop rings and spins the stance sole (issue 30, nineteenth
+    #: session, benchmarks/physics.md)
+    stiff_twist: float = 1.0
 
     def check(self) -> Gains:
         for name in (
@@ -381,6 +386,7 @@ class Gains:
             "end_lead",
             "end_leak",
             "soft_hip",
+            "stiff_twist",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
