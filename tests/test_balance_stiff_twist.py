@@ -47,8 +47,9 @@ def test_closed_loop_scales_the_twist_on_servos_identified_stiff(soft_plant_loop
 
     def recorded(self, targets, com_vel_ref, q_cmd, dt):
         out = adjust(self, targets, com_vel_ref, q_cmd, dt)
-        if not self.calibrating:
-            packed.append(float(self._packed[1][_K_TWIST]))
+        k = self._packed[1]  # (None until the first walking tick's feedback)
+        if not self.calibrating and k is not None:
+            packed.append(float(k[_K_TWIST]))
         return out
 
     Stabilizer.adjust = recorded  # type: ignore[method-assign]
@@ -56,6 +57,7 @@ def test_closed_loop_scales_the_twist_on_servos_identified_stiff(soft_plant_loop
         loop.deployment.run()
     finally:
         Stabilizer.adjust = adjust  # type: ignore[method-assign]
+    assert stab.stiffness_scale is not None, said
     assert bool(stab.stiffness_scale >= 0.75) is stiff
     assert len(packed) > 20
     assert np.allclose(packed, 0.25 if stiff else 1.0)
