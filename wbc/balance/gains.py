@@ -307,6 +307,14 @@ class Gains:
     #: push was measured on a soft plant: off (issue 30, i30g's eighteenth session;
     #: benchmarks/physics.md)
     soft_hip: float = 0.0
+    #: ``k_twist`` × this on servos identified at rest at least ``lift_stiff`` ×
+    #: servos.toml's (stiff; 1: off; :mod:`wbc.balance.stiff_twist`): on stiff servos that
+    #: follow late the hip yaws' loop rings and spins the stance sole. 0.5 keeps the three
+    #: stiff plants main loses on seeds 0 / 1 without the feed-forward and loses three it
+    #: keeps (148 / 149 of 150 either way; nominal turn_wb 19.2° → 22.4°); 0.75: 149 / 149
+    #: but two plants main keeps lost; held-out seed 8 59 of 60 as main: off (issue 30,
+    #: nineteenth session, benchmarks/physics.md)
+    stiff_twist: float = 1.0
 
     def check(self) -> Gains:
         for name in (
@@ -381,6 +389,7 @@ class Gains:
             "end_lead",
             "end_leak",
             "soft_hip",
+            "stiff_twist",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -47,6 +47,7 @@ from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
 from .stance_lift import LiftedStabilizer, final_double_start, identified_soft
 from .stepping import StepAdjuster, SteppingParams, can_step
+from .stiff_twist import stiff_class
 
 #: s: the longest single support whose sway the closed loop narrows. Measured (wqp-daqp,
 #: nominal, benchmarks/pushes.md): on the 0.4 s single supports of ``fast_wb`` and
@@ -348,16 +349,19 @@ def closed_loop(
     lift = enabled and (
         gains.lift != 0 or gains.end_clock != 1 or gains.end_leak > 0 or gains.soft_hip > 0
     )  # (soft)
-    if (gate or lift) and (commanded or rest < 2):
+    stiff = enabled and gains.stiff_twist != 1  # (stiff plants: the twist scaled)
+    if (gate or lift or stiff) and (commanded or rest < 2):
         what = " and ".join(n for n, on in (("joint integral (j_i_stiff)", gate),
                                             ("CoM lift, walk's end or hip hold (lift, "
-                                             "end_clock, end_leak, soft_hip)", lift))
+                                             "end_clock, end_leak, soft_hip)", lift),
+                                            ("twist on stiff servos (stiff_twist)", stiff))
                             if on)  # fmt: skip
-        gate = lift = False
+        gate = lift = stiff = False
         out(f"closed loop: no {what}: the servos' stiffness is identified from their "
             "encoders during the start-up rest: an IMU or servo='identify', calibrate_s > 0, "
             "a bus that reads")  # fmt: skip
-    stabilizer = (LiftedStabilizer if lift else Stabilizer)(
+    kind = LiftedStabilizer if lift else Stabilizer
+    stabilizer = (stiff_class(kind) if stiff else kind)(
         robot, ref.com_height, lambda: holder[0].last_present if holder else None, imu, gains,
         enabled, fall=detector, calibration_ticks=rest,
     )  # fmt: skip
@@ -413,7 +417,7 @@ def closed_loop(
     if identify:
         model = "servos.toml with the stiffness identified at rest"
         loop.servo_model = model
-    if identify or gate or lift:
+    if identify or gate or lift or stiff:
         source.rest_hook = _identifier(loop, comp if identify else None, rest, out, identify)
     if compensate > 0:
         out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
@@ -499,7 +503,8 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
                                     ("CoM lift (lift)", g.lift != 0),
                                     ("walk's end (end_clock, end_leak)",
                                      g.end_clock != 1 or g.end_leak > 0),
-                                    ("single support's hip hold (soft_hip)", g.soft_hip > 0))
+                                    ("single support's hip hold (soft_hip)", g.soft_hip > 0),
+                                    ("twist on stiff servos (stiff_twist)", g.stiff_twist != 1))
                     if on]  # fmt: skip
             out(f"closed loop: no {' nor '.join(what) or 'identified stiffness'}: {err}")
             return
@@ -527,5 +532,8 @@ def _identifier(loop: ClosedLoop, comp, rest: int, out: Callable[[str], None],
             if on and loop.stabilizer.enabled:
                 out(f"closed loop: {what} {value if soft else 'none'} "
                     f"({key}lift_stiff {g.lift_stiff:g})")  # fmt: skip
+        if g.stiff_twist != 1 and loop.stabilizer.enabled:  # (stiff plants: the complement)
+            out(f"closed loop: torso command's twist {'none' if soft else f'x{g.stiff_twist:g}'}"
+                f" (stiff_twist, lift_stiff {g.lift_stiff:g})")  # fmt: skip
 
     return hook
