@@ -140,3 +140,48 @@ def test_one_package_tick_with_or_without_rows_made_in_it(robot, name, solver):
     assert with_rows.constraints.in_tick and with_rows.constraints.place[P_ROW] >= 0
     for plan in (without, plain):
         assert not plan.constraints.in_tick and plan.constraints.place[P_ROW] == -1
+
+
+def test_rows_all_made_in_the_tick_are_laid_out_once_and_walk_as_laid_out_each_tick(
+    robot, monkeypatch
+):
+    """A plan whose rows are all kernel rows (``walk_strict`` without the limit: its ground
+    clearance, in single support) is laid out at a change only (``static``, no placed rows):
+    walk10's Δq and
+    every level's rows bit for bit as with the per-tick layout (the layout of rows from
+    Python, forced here)."""
+    import tomllib
+    from pathlib import Path
+
+    from wbc.solvers.inequalities import ConstraintRows
+
+    spec = tomllib.loads((Path(__file__).parents[1] / "tasks" / "walk_strict.toml").read_text())
+    for level in spec["levels"]:
+        level["constraints"] = [
+            c for c in level.get("constraints", []) if c["type"] != "self_collision"
+        ]
+
+    def walk(static: bool):
+        controller = StackController(build_stack(spec, robot))
+        session = Session(controller, robot, build("walk10", robot))
+        out = []
+        for i in range(TICKS):
+            session.tick(i)
+            plan = controller.solver.fast
+            if plan.constraints.items:  # (single support: the swing's ground clearance)
+                assert plan.constraints.static is static and not plan.constraints.in_tick
+            blocks = [(G.copy(), h.copy()) for G, h, _ in plan.constraints.level_blocks()]
+            out.append((plan.dq.copy(), blocks))
+        return out
+
+    static = walk(True)
+    monkeypatch.setattr(ConstraintRows, "_place", ConstraintRows._not_in_tick)
+    each_tick = walk(False)
+    rows = 0
+    for i, (a, b) in enumerate(zip(static, each_tick, strict=True)):
+        np.testing.assert_array_equal(a[0], b[0], err_msg=f"tick {i}")
+        for (Ga, ha), (Gb, hb) in zip(a[1], b[1], strict=True):
+            np.testing.assert_array_equal(Ga, Gb, err_msg=f"tick {i}")
+            np.testing.assert_array_equal(ha, hb, err_msg=f"tick {i}")
+            rows += ha.shape[0]
+    assert rows > 0  # (the ground clearance's rows in single support)
