@@ -28,9 +28,10 @@ own work) and its N slowest ticks (tick, µs, support: 0 double, 1 / 2 single; *
 first tick); then the tail of issue 34's deliverable 3 on the same minima: the slowest first
 tick of a support phase and the p99 of the walk's first 5 % of ticks, over the median.
 
-``--in-tick``: also each stack with its limit's ``in_tick = true`` (the rows made inside the
-compiled tick, one call from Python for the rows and the solve; issue 34, eighteenth session),
-interleaved in the same rounds.
+``--rows-before``: also each stack with its limit's ``in_tick = false`` (the rows made by
+Python before the compiled tick, as until the nineteenth session; the default makes them
+inside it, one call from Python for the rows and the solve: issue 34), interleaved in the
+same rounds.
 
 ``--idle S``: S seconds slept after each tick of every controller (0.02: a 50 Hz loop, as on
 a robot: each tick then starts with the caches that the sleep and the machine's other
@@ -53,7 +54,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
-[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--in-tick]``.
+[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--rows-before]``.
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ def main() -> int:
         "--idle", type=float, default=0.0, help="s slept after each tick (a robot's loop)"
     )
     parser.add_argument(
-        "--in-tick", action="store_true", help="also ours with in_tick = true (rows in the tick)"
+        "--rows-before", action="store_true", help="also ours with in_tick = false (rows before)"
     )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
@@ -212,10 +213,10 @@ def table(robot, trajectory: str, args) -> None:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
                     makers[f"{label}, world frame"] = ours(spec, kind)
-                if on and args.in_tick:
+                if on and args.rows_before:
                     spec = walk_spec(True, stack)
-                    walk_limit(spec)["in_tick"] = True
-                    makers[f"{label}, in tick"] = ours(spec, kind)
+                    walk_limit(spec)["in_tick"] = False
+                    makers[f"{label}, rows before"] = ours(spec, kind)
                 if args.cold_too:
                     cold.add(f"{label}, every level cold")
                     makers[f"{label}, every level cold"] = makers[label]

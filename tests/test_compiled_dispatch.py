@@ -122,6 +122,7 @@ def test_no_workers_for_other_kernel_sets_or_inside_a_worker(tmp_path, monkeypat
 
 
 def test_package_ticks_are_those_of_the_package_stacks(robot):
+    from wbc.limits.collision_packed import ROW_PLACER
     from wbc.solvers.plan import (
         bound_set,
         box_limits,
@@ -136,8 +137,10 @@ def test_package_ticks_are_those_of_the_package_stacks(robot):
     constraints = [c for lv in stack.levels for c in lv.constraints]
     kernels, bounds = kernel_set(tasks), bound_set(box_limits(stack))
     cons = constraint_set(constraints)
-    assert package_ticks() is dispatch.ticks(kernels, bounds, False, True, cons)
+    # (the package's set: its fused ticks make the self-collision rows, ROW_PLACER)
+    assert package_ticks() is dispatch.ticks(kernels, bounds, False, True, cons, ROW_PLACER)
     assert package_ticks().package and not package_ticks().split
+    assert package_ticks().placer is ROW_PLACER[0] and package_ticks().buildable()
 
 
 def test_a_bad_part_is_named():

@@ -728,7 +728,7 @@ _SELF_COLLISION_KEYS = {
 def _self_collision(entry: dict, robot: Robot, where: str) -> SelfCollisionConstraint | None:
     """``{ type = "self_collision", margin = 0.005, trigger = 0.02, damping = 0.4,
     include = [[link, link], ...], exclude = [...], pairs = [...], optional = false,
-    common_frame = true, cut_in_box = false, in_tick = false }`` (all but ``type``
+    common_frame = true, cut_in_box = false, in_tick = true }`` (all but ``type``
     optional). ``pairs``: only these link pairs (e.g. their own margin); ``optional =
     true``: pairs naming a link this robot does not have are left out of ``pairs`` /
     ``exclude`` (a stack shared by robots; with no pair left, no constraint); ``cut_in_box``,

@@ -138,12 +138,9 @@ class Ticks:
         placer: object = None,
     ) -> None:
         self.module = module
-        #: the kernel the ``*_tick_placed`` ticks call first (None: the set has none); those
-        #: ticks compile in the process at their first call (no worker builds them)
+        #: the kernel the fused ticks call first (a constraint's rows made in the tick: the
+        #: package's set; None: a split set, whose ``*_rows`` do not call it)
         self.placer = placer
-        if placer is not None:
-            self.weighted_tick_placed = module.weighted_tick_placed
-            self.cascade_tick_placed = module.cascade_tick_placed
         #: True for a set other than the package's: its ticks are split in two calls, the
         #: rows (``weighted_rows``, ``cascade_rows``: generated, small, so that a new set
         #: compiles in seconds, only what is new, each kernel cached on its own) and the
@@ -185,7 +182,7 @@ class Ticks:
         the package's solve that the split tick calls next, compiled first if it is not cached
         yet, so that the tick on disk means both are ready). A caller can do other work
         meanwhile (``wbc bench`` runs the baselines); ``announce``: log a line saying so."""
-        if self.builders.get(name) or os.environ.get(WORKER_ENV) or self.placer is not None:
+        if self.builders.get(name) or os.environ.get(WORKER_ENV):
             return False
         if not self.package:
             if not (self.buildable() and name and args) or _on_disk(getattr(self, name)):
@@ -310,8 +307,6 @@ class Ticks:
     def buildable(self) -> bool:
         """True if workers can build this set's ticks: the package's, or a set whose kernels
         numba caches on disk and a worker can import (not defined in ``__main__``)."""
-        if self.placer is not None:  # (its placed ticks: compiled where they are called)
-            return False
         return self.package or (
             self.cache
             and all(
@@ -424,9 +419,9 @@ def ticks(
     (generated, imported and kept
     for the process); ``velocities``: it computes the frames' velocities; ``package``: the
     package's own set (the tick of every package stack: :meth:`Ticks.start_build` compiles it
-    in worker processes); ``placer``: (kernel, source files it calls...) — the set's placed
-    ticks (:data:`TICK_ARGS`) call that kernel first. The caller (:mod:`wbc.solvers.plan`)
-    knows the tasks and limits."""
+    in worker processes); ``placer``: (kernel, source files it calls...) — the kernel the
+    fused ticks call first (:data:`PLACED_ARGS`; the package's set has it). The caller
+    (:mod:`wbc.solvers.plan`) knows the tasks and limits."""
     # (one object per set however the call spells it: its workers are in its builders)
     return _ticks(tuple(kernels), tuple(bounds), velocities, package, tuple(constraints), placer)
 
@@ -444,7 +439,7 @@ def _ticks(
     files = [_source_file(k) for k in (*kernels, *bounds, *constraints, *placer[:1])]
     files += [Path(f) for f in placer[1:]]
     cache = all(f is not None for f in files)
-    text = source(kernels, cache, bounds, velocities, constraints, bool(placer))
+    text = source(kernels, cache, bounds, velocities, constraints)
     h = hashlib.sha256(text.encode())
     lsq = [
         _HERE / f

@@ -63,21 +63,20 @@ CASCADE_ARGS: tuple[tuple[str, str, int], ...] = (
 )  # fmt: skip
 #: the arguments passed directly, in the tick's order after ``q_in, addresses, shapes``
 DIRECT = tuple(name for name, dtype, _ in WEIGHTED_ARGS if dtype == "direct")
-#: the extra arguments of a tick that makes one constraint's rows itself before the others'
-#: (``*_tick_placed``: a set built with a ``placer``, e.g.
-#: :func:`wbc.limits.collision_packed.placed_rows`): that constraint's buffers by address
-#: (its own ``addresses`` and ``shapes``) and its placement (``place``: where its rows go,
-#: and the rows after them that its count moves)
+#: the last arguments of every fused tick (``weighted_tick``, ``cascade_tick``): the buffers
+#: by address (its own ``addresses`` and ``shapes``) of the constraint whose rows the tick makes
+#: itself before the others (the set's ``placer``, e.g.
+#: :func:`wbc.limits.collision_packed.placed_rows`), and its placement (``place``: where its
+#: rows go, and the rows after them that its count moves; ``place[0]`` −1: no such rows, the
+#: placer returns at once)
 PLACED_ARGS = (("p_addresses", "int64", 1), ("p_shapes", "int64", 2), ("place", "int64", 1))
-#: each tick's arguments, by its name
+#: each tick's arguments, by its name (a split set's ``*_rows`` read the first ones)
 TICK_ARGS = {
-    "weighted_tick": WEIGHTED_ARGS,
-    "cascade_tick": CASCADE_ARGS,
-    "weighted_tick_placed": (*WEIGHTED_ARGS, *PLACED_ARGS),
-    "cascade_tick_placed": (*CASCADE_ARGS, *PLACED_ARGS),
+    "weighted_tick": (*WEIGHTED_ARGS, *PLACED_ARGS),
+    "cascade_tick": (*CASCADE_ARGS, *PLACED_ARGS),
 }
-#: a placed tick's status when its placer found no room for the rows (the caller's layout
-#: reserves it: never on a plan's tick)
+#: a tick's status when its placer found no room for the rows (the caller's layout reserves
+#: it: never on a plan's tick)
 NO_ROOM = 201
 
 _TEMPLATE = '''\
@@ -254,8 +253,10 @@ def cascade_body(
 
 @njit(cache={cache})
 def weighted_tick(q_in, addresses, shapes, {direct}):
-{weighted_views}
+{weighted_tick_views}
     gather(target_addresses, target_sizes, targets, q_in, q)
+    if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
+        return {no_room}
     return weighted_body({weighted_call})
 
 
@@ -273,8 +274,10 @@ def weighted_rows(q_in, addresses, shapes, {direct}):
 
 @njit(cache={cache})
 def cascade_tick(q_in, addresses, shapes, {direct}):
-{cascade_views}
+{cascade_tick_views}
     gather(target_addresses, target_sizes, targets, q_in, q)
+    if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
+        return {no_room}
     return cascade_body({cascade_call})
 
 
@@ -288,27 +291,6 @@ def cascade_rows(q_in, addresses, shapes, {direct}):
         Jfull, q, bspec, boxes, lower, upper,
     )
 '''
-#: the ticks of a set built with a placer (bound as ``placer``): its rows first, then the tick
-_PLACED_TEMPLATE = """
-
-@njit(cache={cache})
-def weighted_tick_placed(q_in, addresses, shapes, {direct}):
-{weighted_views}
-    gather(target_addresses, target_sizes, targets, q_in, q)
-    if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
-        return {no_room}
-    return weighted_body({weighted_call})
-
-
-@njit(cache={cache})
-def cascade_tick_placed(q_in, addresses, shapes, {direct}):
-{cascade_views}
-    gather(target_addresses, target_sizes, targets, q_in, q)
-    if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
-        return {no_room}
-    return cascade_body({cascade_call})
-"""
-
 _BRANCH = """\
         {keyword} kind == {i}:
             k{i}(tg, sl, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, q, v, Jf, efull, Jfull)
@@ -333,12 +315,11 @@ def source(
     bounds: Sequence[object] = (),
     velocities: bool = False,
     constraints: Sequence[object] = (),
-    placed: bool = False,
 ) -> str:
     """The generated module's text for these row kernels, bound kernels and constraint
     kernels (in this order);
-    ``velocities``: the tick computes the frames' velocities (a kernel of the set reads them);
-    ``placed``: with the ticks that call the set's ``placer`` first (``*_tick_placed``)."""
+    ``velocities``: the tick computes the frames' velocities (a kernel of the set reads them).
+    The fused ticks call the module's ``placer`` first (bound by the caller: the package's)."""
 
     def chain(template: str, n: int) -> str:
         lines = "".join(template.format(keyword="if" if i == 0 else "elif", i=i) for i in range(n))
@@ -352,22 +333,16 @@ def source(
         SEL=SEL, ROWS=ROWS, C_KIND=C_KIND, C_PARAM=C_PARAM, C_PARAM_SIZE=C_PARAM_SIZE,
         C_SLOT=C_SLOT, C_SLOTS=C_SLOTS, C_ROW=C_ROW, C_ROWS=C_ROWS,
     )  # fmt: skip
-    text = _TEMPLATE.format(
+    return _TEMPLATE.format(
         names=named(kernels), bound_names=named(bounds), cache=cache,
         branches=chain(_BRANCH, len(kernels)), bound_branches=chain(_BOUND_BRANCH, len(bounds)),
         constraint_names=named(constraints),
         constraint_branches=chain(_CONSTRAINT_BRANCH, len(constraints)),
         velocities=_VELOCITIES if velocities else "", direct=", ".join(DIRECT),
         weighted_views=_views(WEIGHTED_ARGS), cascade_views=_views(CASCADE_ARGS),
+        weighted_tick_views=_views(TICK_ARGS["weighted_tick"]),
+        cascade_tick_views=_views(TICK_ARGS["cascade_tick"]), no_room=NO_ROOM,
         weighted_call=_call(WEIGHTED_ARGS), cascade_call=_call(CASCADE_ARGS), **columns,
-    )  # fmt: skip
-    if not placed:
-        return text
-    return text + _PLACED_TEMPLATE.format(
-        cache=cache, direct=", ".join(DIRECT), no_room=NO_ROOM,
-        weighted_views=_views(TICK_ARGS["weighted_tick_placed"]),
-        cascade_views=_views(TICK_ARGS["cascade_tick_placed"]),
-        weighted_call=_call(WEIGHTED_ARGS), cascade_call=_call(CASCADE_ARGS),
     )  # fmt: skip
 
 

@@ -227,6 +227,9 @@ PLACED_SOURCES = tuple(
     str(Path(__file__).with_name(f))
     for f in ("collision_packed.py", "collision_kernels.py", "joint_limits.py")
 )
+#: the kernel the package's compiled tick calls first, and the files it calls
+#: (:func:`wbc.compiled.dispatch.ticks`' ``placer``): the self-collision rows made in the tick
+ROW_PLACER = (placed_rows, *PLACED_SOURCES)
 
 
 # numba caches these on this file alone: flush them when the kernels they call change (the

@@ -65,7 +65,7 @@ from ..model import Kinematics, Robot
 from .collision_boxes import CollisionModel, collision_model
 from .collision_distances import PairDistances, Witness
 from .collision_kernels import MAX_CLOSURE
-from .collision_packed import PLACED_SOURCES, pack, packed_rows, placed_rows
+from .collision_packed import ROW_PLACER, pack, packed_rows
 from .limit import Constraint, Inequality, way_back
 
 #: defaults: 5 mm kept between any two links (placo's default), rows below 20 mm, and at most
@@ -361,7 +361,7 @@ class SelfCollisionConstraint(Constraint):
         name: str = "self_collision",
         common_frame: bool = True,
         cut_in_box: bool = False,
-        in_tick: bool = False,
+        in_tick: bool = True,
     ) -> None:
         super().__init__(name)
         check_parameters(margin, trigger, damping)
@@ -375,8 +375,9 @@ class SelfCollisionConstraint(Constraint):
         #: rows that cannot bind in it (``cut_in_box``; off by default: the kernel's test
         #: costs about what the cascade saves, benchmarks/self_collision.md, fifteenth session)
         self.rows_in_box = cut_in_box
-        #: a compiled plan makes the rows inside its tick (``in_tick``: :attr:`row_placer`,
-        #: one call from Python for the rows and the solve), else before it (:meth:`rows_into`)
+        #: a compiled plan makes the rows inside its tick (``in_tick``, the default:
+        #: :attr:`row_placer`, one call from Python for the rows and the solve, bit for bit
+        #: the rows made before it), else before it (:meth:`rows_into`)
         self.in_tick = in_tick
         self.robot = robot
         #: [margin, trigger, damping, UNREACHABLE, common_frame, 1: the rows that cannot bind
@@ -599,7 +600,7 @@ class SelfCollisionConstraint(Constraint):
 
     #: the kernel a compiled tick calls for the rows (and the files it calls), when
     #: :attr:`rows_in_tick`
-    row_placer = (placed_rows, *PLACED_SOURCES)
+    row_placer = ROW_PLACER
 
     @property
     def rows_in_tick(self) -> bool:

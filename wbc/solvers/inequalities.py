@@ -28,7 +28,15 @@ from ..compiled import dispatch as D
 from ..compiled.signature import sources
 from ..exceptions import ConfigurationError
 from ..limits import BoxLimit, Constraint
-from ..limits.collision_packed import P_COUNT, P_FIRST, P_LEVEL, P_LEVELS, P_MADE, P_ROW
+from ..limits.collision_packed import (
+    P_COUNT,
+    P_FIRST,
+    P_LEVEL,
+    P_LEVELS,
+    P_MADE,
+    P_ROW,
+    ROW_PLACER,
+)
 from ..limits.joint_limits import position_bounds, velocity_bounds
 from ..model import Kinematics
 
@@ -62,14 +70,17 @@ def placed_constraint(
     levels: Sequence[Sequence[Constraint]], kin: Kinematics, package: bool, solver: object
 ) -> Constraint | None:
     """The constraint whose rows a compiled tick makes itself (``rows_in_tick``: its
-    ``row_placer`` called first in the tick), if there is one and only one, the tick is the
-    package's (one fused call), reads the frames' views (not copies) and the ``solver``
-    carries no rows to the next tick; else None."""
+    ``row_placer``, the package's :data:`~wbc.limits.collision_packed.ROW_PLACER`, called
+    first in the tick), if there is one and only one, the tick is the package's (one fused
+    call), reads the frames' views (not copies) and the ``solver`` carries no rows to the
+    next tick; else None."""
     carry = getattr(solver, "carry_rows", False) or getattr(solver, "carry_at_switch", False)
     if not package or carry or kin.frame_placements() is None:
         return None
     found = [c for lv in levels for c in lv if getattr(c, "rows_in_tick", False)]
-    return found[0] if len(found) == 1 else None
+    if len(found) != 1 or getattr(type(found[0]), "row_placer", None) != ROW_PLACER:
+        return None
+    return found[0]
 
 
 def compiled_constraint(c: Constraint) -> bool:
@@ -201,6 +212,10 @@ class ConstraintRows:
         self.place = np.full(P_FIRST + len(self.levels) + 2 + 2 * n, -1, dtype=np.int64)
         self._where: tuple | None = None
         self.in_tick = False
+        #: True if every row is made in the tick (the kernel constraints', and the placed
+        #: constraint's if :attr:`in_tick`): laid out by :meth:`_place` at a change only;
+        #: False: some rows come from Python, laid out at every tick (:meth:`tick`)
+        self.static = False
         #: the layout without the placed rows: each level's count, the total, the placed
         #: constraint's level and index in :attr:`items`
         self._base: tuple = ((), 0, 0, 0)
@@ -263,16 +278,15 @@ class ConstraintRows:
         if kernel_items and self._changed():
             self._relayout()
             rebind = True
-        placed = self.placed
-        if placed is not None:
-            where = self._where
-            if rebind or where is None or where[0] is not self.rows.G:
-                rebind = self._place() or rebind
+        where = self._where
+        if rebind or where is None or where[0] is not self.rows.G:
+            rebind = self._place() or rebind
+        if self.static:  # (every row made in the tick: laid out at a change only)
             if self.in_tick:
-                placed.placing(self._where)  # type: ignore[attr-defined]
-                if gather and self._gather is not None:
-                    self.gather()
-                return rebind
+                self.placed.placing(self._where)  # type: ignore[union-attr]
+            if gather and self._gather is not None:
+                self.gather()
+            return rebind
         cspec, python, layout, counts = self.cspec, self._python, self._layout, self.counts
         row_at = self._row_at
         g = self.rows
@@ -314,12 +328,13 @@ class ConstraintRows:
         return rebind
 
     def _place(self) -> bool:
-        """The layout of a tick that makes :attr:`placed`'s rows: every other row where it
-        goes without them (the kernel constraints' first rows, the levels' bounds; room for
-        its most rows after them), and :attr:`place`, for the tick to move them by its count
-        (:func:`~wbc.limits.collision_packed.placed_rows`). Not in the tick
-        (:attr:`in_tick` False, ``place[P_ROW]`` −1) where another constraint's rows come from
-        Python. True if the buffers were re-allocated."""
+        """The layout of a tick that makes every row (:attr:`static`): the kernel constraints'
+        first rows and the levels' bounds where they go without :attr:`placed`'s rows, room
+        for its most rows after them, and :attr:`place`, for the tick to move the rows after
+        them by their count (:func:`~wbc.limits.collision_packed.placed_rows`; no placed
+        constraint: ``place[P_ROW]`` −1, the tick's placer returns at once). Not static
+        (``place[P_ROW]`` −1, every row laid out at each :meth:`tick`) where a constraint's
+        rows come from Python. True if the buffers were re-allocated."""
         placed, g, python, layout = self.placed, self.rows, self._python, self._layout
         place, row_at = self.place, self._row_at
         row0 = level0 = index = -1
@@ -341,9 +356,7 @@ class ConstraintRows:
                     r += layout[j][0]
                 i += 1
             levels.append(r - start)
-        if row0 < 0:
-            return self._not_in_tick()
-        grown = g.reserve(r + placed.max_rows)  # type: ignore[union-attr]
+        grown = g.reserve(r + (placed.max_rows if row0 >= 0 else 0))  # type: ignore[union-attr]
         n = len(levels)
         first = np.cumsum([0, *levels])
         place[:] = -1
@@ -354,16 +367,18 @@ class ConstraintRows:
         place[P_FIRST + n + 2 : P_FIRST + n + 2 + len(after)] = after
         g.g_rows[:] = first
         g.counts, g.total = tuple(levels), r
-        self.counts[index] = 0
+        if index >= 0:
+            self.counts[index] = 0
         self._base = (tuple(levels), r, level0, index)
         self._where = (g.G, g.h, row0)
-        self.in_tick = True
+        self.in_tick = row0 >= 0
+        self.static = True
         return grown
 
     def _not_in_tick(self) -> bool:
-        """:meth:`_place` for a layout whose rows are all made before the tick (the placed
-        tick makes none: ``place[P_ROW]`` −1); False."""
-        self.in_tick = False
+        """:meth:`_place` for a layout with rows from Python: every row laid out at each
+        :meth:`tick`, made before the tick (``place[P_ROW]`` −1); False."""
+        self.in_tick = self.static = False
         self.place[P_ROW] = -1
         self._where = (self.rows.G, self.rows.h, -1)
         self._row_at[:] = [-1] * len(self._row_at)  # (cspec's rows: written again)
@@ -385,10 +400,13 @@ class ConstraintRows:
             self.rows.counts, self.rows.total = tuple(counts), total + m
 
     def placed_args(self, kin: Kinematics) -> tuple:
-        """The placed tick's last arguments: :attr:`placed`'s buffers by address and
-        :attr:`place` (ConfigurationError: no placed constraint, or its frames are
-        copies)."""
-        args = self.placed.placed_args(kin) if self.placed is not None else None  # type: ignore[attr-defined]
+        """The fused tick's last arguments (:data:`~wbc.compiled.template.PLACED_ARGS`):
+        :attr:`placed`'s buffers by address and :attr:`place` — without a placed constraint,
+        none and ``place[P_ROW]`` −1 (the tick's placer returns at once). ConfigurationError:
+        the placed constraint's frames are copies."""
+        if self.placed is None:
+            return (np.zeros(0, np.int64), np.zeros((0, 3), np.int64), self.place)
+        args = self.placed.placed_args(kin)  # type: ignore[attr-defined]
         if args is None:
             raise ConfigurationError("no constraint whose rows a tick makes with the frames' views")
         return (*args, self.place)

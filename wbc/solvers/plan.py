@@ -23,6 +23,7 @@ from ..compiled import dispatch as D
 from ..compiled.signature import momentum_into, velocity
 from ..exceptions import TaskError
 from ..limits import BoxLimit, Constraint
+from ..limits.collision_packed import ROW_PLACER
 from ..limits.limit import PACKAGE_BOUND_KERNELS, PACKAGE_CONSTRAINT_KERNELS
 from ..model import Kinematics
 from ..tasks import Task
@@ -101,6 +102,7 @@ def package_ticks() -> D.Ticks:
         False,
         True,
         tuple(PACKAGE_CONSTRAINT_KERNELS),
+        ROW_PLACER,
     )
 
 
@@ -327,8 +329,7 @@ class _Plan:
             and not inputs
         )
         placed = placed_constraint(constraints, kin, package, solver)
-        placer = type(placed).row_placer if placed is not None else ()
-        self.placed = "_placed" if placed is not None else ""  # (its ticks: "*_tick_placed")
+        placer = ROW_PLACER if package else ()  # (the package's tick makes those rows itself)
         self.ticks = D.ticks(kernels, bounds, "frame_velocities" in inputs, package, cons, placer)
         self.kinds = {k: i for i, k in enumerate(kernels)}
         self.bound_kinds = {k: i for i, k in enumerate(bounds)}
@@ -394,7 +395,7 @@ class _Plan:
             placed,
         )
         self.inequalities = self.constraints.rows
-        self._placed_args = self.constraints.placed_args(kin) if placed is not None else ()
+        self._placed_args = self.constraints.placed_args(kin)
         self.is_ready = False  # (:meth:`ready`'s answer once True: a tick reads it first)
 
     def ready(self) -> bool:
@@ -652,7 +653,7 @@ class WeightedPlan(_Plan):
         self.state = self.scratch.get("state", (nv,), np.int8)
         self.state.fill(0)
         self.warm_start = self.state
-        self.tick_name = "weighted_tick" + self.placed
+        self.tick_name = "weighted_tick"
         self._bind_args()
 
     def _solve_kernel(self):
@@ -718,7 +719,7 @@ class CascadePlan(_Plan):
         if self.carries_rows("carry_at_switch"):
             self.carried.bind()  # (its kernels loaded now, not in a tick)
         self.achieved = np.zeros(self.rows.m)
-        self.tick_name = "cascade_tick" + self.placed
+        self.tick_name = "cascade_tick"
         self.space = (np.zeros(0), np.zeros(0, np.int64))  # (_bind_args: the solver's)
         self._bind_args()
 
