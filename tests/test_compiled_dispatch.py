@@ -402,7 +402,7 @@ class HeightTask(Task):
 """
 
 NEW_SET = """
-import json, sys, time
+import json, sys
 import numpy as np
 from wbc import load_robot
 from wbc.stacks import load_stack
@@ -414,13 +414,12 @@ for compiled in (None, False):
     control = load_stack("walk", robot, solver=sys.argv[1], compiled=compiled)
     control.stack.add(HeightTask(robot.com(q0)[2] - 0.002), level=1)
     s = control.solver
-    start = time.perf_counter()
     first = s.step(q0, 0.01)
-    seconds = time.perf_counter() - start
     if compiled is None:
         (worker,) = s.fast.ticks.builders.values()
+        building = worker.poll() is None  # the first tick answered while its worker compiles
         assert worker.wait() == 0
-        out["first"] = [seconds, s.interim_ticks, s.compiled_ticks]
+        out["first"] = [building, s.interim_ticks, s.compiled_ticks]
     q = s.step(first, 0.01)  # (compiled once its worker is done)
     out[str(compiled)] = [first.tolist(), q.tolist(), s.interim_ticks, s.compiled_ticks]
 print(json.dumps(out))
@@ -445,9 +444,9 @@ def test_a_new_kernel_set_compiles_in_a_worker_while_the_numpy_path_answers(tmp_
     assert run.returncode == 0, run.stderr[-2000:]
     out = json.loads(run.stdout.strip().splitlines()[-1])
     assert "a new set of task types" in run.stderr
-    seconds, interim, compiled = out["first"]
+    building, interim, compiled = out["first"]
     assert (interim, compiled) == (1, 0)  # the first tick: the numpy path
-    assert seconds < 5.0  # (not compiling the tick: that takes the worker ~10 s)
+    assert building  # it did not wait for the compile (the worker was still at it)
     first, q, interim, compiled = out["None"]
     assert (interim, compiled) == (1, 1)  # then the compiled tick
     numpy_first, numpy_q, _, numpy_compiled = out["False"]
