@@ -41,6 +41,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
@@ -394,6 +395,40 @@ def vertical_bias(walker, sim) -> str:
             f"{d * learnt:+.1f}°/30 s: heading error {d * (rate - learnt):+.1f}°/30 s")  # fmt: skip
 
 
+def shadowed_runs(
+    robot,
+    sequences,
+    model_ids,
+    seed: int,
+    duration: float,
+    walker,
+    odometer,
+    records=(),
+    variations=None,
+    **run_kw,
+) -> Iterator[tuple[int, int, list, dict]]:
+    """Each (sequence ``i``, model ``m``) as ``benchmarks/drive.py --random`` draws them (the
+    commands of ``default_rng([seed, 1000 + i])`` over ``duration`` s within the planning
+    envelope; model ``m`` of :func:`~wbc.bench.variation.models` of ``seed``, or of
+    ``variations``) run by :func:`drive.run_one` on hqp-daqp (``run_kw`` its options) with
+    the drive simulator's walker and odometer classes ``walker`` and ``odometer`` (a
+    script's subclasses, installed in :mod:`wbc.drive.sim`), the lists in ``records`` (what
+    they keep) emptied before each run: yields ``(i, m, the commands, the run's record)``."""
+    limits, window = planning_envelope(robot)
+    share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
+    if variations is None:
+        variations = models(robot, max(model_ids) + 1, seed)
+    drive_sim_module.Walker, drive_sim_module.Odometer = walker, odometer
+    for i in sequences:
+        cmds = random_commands(np.random.default_rng([seed, 1000 + i]), share, duration)
+        for m in model_ids:
+            for kept in records:
+                kept.clear()
+            r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
+                              window=window, **run_kw)  # fmt: skip
+            yield i, m, cmds, r
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequences", type=int, nargs="+", default=[0])
@@ -485,8 +520,6 @@ def main(argv: list[str] | None = None) -> int:
               f"{d(wrap_angle(odo.heading - true_torso)):+6.2f}, torso-to-sole "
               f"{d(wrap_angle(yaw_of(ts.rotation) - true_ts)):+6.2f}", flush=True)  # fmt: skip
 
-    limits, window = planning_envelope(robot)
-    share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
     variations = models(robot, max(args.models) + 1, args.seed)
     if args.no_backlash:
         variations = [replace(v, servo_params=replace(v.servo_params, backlash=0.0))
@@ -550,9 +583,9 @@ def main(argv: list[str] | None = None) -> int:
             row.append(yaw_of(sim.site_pose("torso").rotation))
             self.rows.append(row)
 
-    drive_sim_module.Walker = Recorded
-    drive_sim_module.Odometer = Sampled
     if args.bias:
+        drive_sim_module.Walker, drive_sim_module.Odometer = Recorded, Sampled
+        limits, window = planning_envelope(robot)
         for m in args.models:
             walkers.clear()
             odometers.clear()
@@ -563,60 +596,68 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     keys = ("plan", "odometry", "swing", "slip", "base", "origin")
     table = []
-    for i in args.sequences:
-        cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
-                               args.duration)  # fmt: skip
-        for m in args.models:
-            walkers.clear()
-            odometers.clear()
-            r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
-                              window=window, track=args.track,
-                              calibrate=args.calibrate, yaw_rest=args.yaw_rest,
-                              finish=args.finish, lift_gain=args.lift_gain, play=args.play,
-                              stride_gain=args.stride_gain,
-                              play_hold=args.play_hold, heading_gain=args.heading_gain,
-                              play_load={"off": ""}.get(args.play_load, args.play_load),
-                              landing_share=args.landing_share,
-                              params=None if args.swing_settle is None
-                              else EngineParams(settle=args.swing_settle),
-                              start_yaw=math.radians(args.start_yaw))  # fmt: skip
-            b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
-            table.append(b)
-            cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
-            print(f"sequence {i} model {m}: fell {r['fell']} commanded "
-                  f"{np.round(r['commanded_xy_m'], 3)} m {cy:.0f}° travelled "
-                  f"{np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°: error "
-                  f"{100 * r['xy_error_m']:.1f} cm, {ty - cy:+.1f}°; "
-                  + ", ".join(f"{k} {b[k + '_cm']:.1f} cm" for k in keys)
-                  + f" (slip along the command {b['slip_along_cm']:+.1f} cm)"
-                  + "; " + ", ".join(f"{k} {b[k + '_deg']:+.1f}°"
-                                     for k in ("plan", "odometry", "swing", "slip", "base", "gyro")
-                                     if k + "_deg" in b),
-                  flush=True)  # fmt: skip
-            err = np.subtract(r["travelled_xy_m"], r["commanded_xy_m"])
-            world = rot2(odometers[0].yaw0) @ err
-            print(f"  error (travelled − commanded): start frame ({100 * err[0]:+.2f}, "
-                  f"{100 * err[1]:+.2f}) cm, world ({100 * world[0]:+.2f}, "
-                  f"{100 * world[1]:+.2f}) cm", flush=True)  # fmt: skip
-            print("  parts (start frame): " + ", ".join(
-                f"{k} ({b[k + '_vec'][0]:+.2f}, {b[k + '_vec'][1]:+.2f}) cm"
-                for k in ("plan", "soles", "base")), flush=True)  # fmt: skip
-            if args.trace and walkers[0].landings:
-                rows = np.asarray(odometers[0].rows)
-                t_last = walkers[0].landings[-1][0]
-                for k in range(int(np.searchsorted(rows[:, 0], t_last)), len(rows), 10):
-                    print(f"  after the last landing: t {rows[k, 0]:6.2f} soles' yaw "
-                          f"{math.degrees(rows[k, 3]):+6.1f} {math.degrees(rows[k, 6]):+6.1f}° "
-                          f"base {math.degrees(rows[k, 9]):+6.1f}° support {rows[k, 10]:.0f} "
-                          f"torso {math.degrees(rows[k, 12]):+6.1f}° odometry's "
-                          f"{math.degrees(rows[k, 11]):+6.1f}°",
-                          flush=True)  # fmt: skip
-            if args.contact:
-                print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
-            if args.accrual:
-                print("\n".join(accrual(r, walkers[0], odometers[0], cmds)), flush=True)
-            if args.budget:
-                print(walkers[0].budget.line(), flush=True)
+    params = None if args.swing_settle is None else EngineParams(settle=args.swing_settle)
+    for i, m, cmds, r in shadowed_runs(
+        robot,
+        args.sequences,
+        args.models,
+        args.seed,
+        args.duration,
+        Recorded,
+        Sampled,
+        (walkers, odometers),
+        variations,
+        track=args.track,
+        calibrate=args.calibrate,
+        yaw_rest=args.yaw_rest,
+        finish=args.finish,
+        lift_gain=args.lift_gain,
+        play=args.play,
+        stride_gain=args.stride_gain,
+        play_hold=args.play_hold,
+        heading_gain=args.heading_gain,
+        play_load={"off": ""}.get(args.play_load, args.play_load),
+        landing_share=args.landing_share,
+        params=params,
+        start_yaw=math.radians(args.start_yaw),
+    ):
+        b = breakdown(r, walkers[0], np.asarray(odometers[0].rows), odometers[0].yaw0)
+        table.append(b)
+        cy, ty = math.degrees(r["commanded_yaw_rad"]), math.degrees(r["travelled_yaw_rad"])
+        print(f"sequence {i} model {m}: fell {r['fell']} commanded "
+              f"{np.round(r['commanded_xy_m'], 3)} m {cy:.0f}° travelled "
+              f"{np.round(r['travelled_xy_m'], 3)} m {ty:.0f}°: error "
+              f"{100 * r['xy_error_m']:.1f} cm, {ty - cy:+.1f}°; "
+              + ", ".join(f"{k} {b[k + '_cm']:.1f} cm" for k in keys)
+              + f" (slip along the command {b['slip_along_cm']:+.1f} cm)"
+              + "; " + ", ".join(f"{k} {b[k + '_deg']:+.1f}°"
+                                 for k in ("plan", "odometry", "swing", "slip", "base", "gyro")
+                                 if k + "_deg" in b),
+              flush=True)  # fmt: skip
+        err = np.subtract(r["travelled_xy_m"], r["commanded_xy_m"])
+        world = rot2(odometers[0].yaw0) @ err
+        print(f"  error (travelled − commanded): start frame ({100 * err[0]:+.2f}, "
+              f"{100 * err[1]:+.2f}) cm, world ({100 * world[0]:+.2f}, "
+              f"{100 * world[1]:+.2f}) cm", flush=True)  # fmt: skip
+        print("  parts (start frame): " + ", ".join(
+            f"{k} ({b[k + '_vec'][0]:+.2f}, {b[k + '_vec'][1]:+.2f}) cm"
+            for k in ("plan", "soles", "base")), flush=True)  # fmt: skip
+        if args.trace and walkers[0].landings:
+            rows = np.asarray(odometers[0].rows)
+            t_last = walkers[0].landings[-1][0]
+            for k in range(int(np.searchsorted(rows[:, 0], t_last)), len(rows), 10):
+                print(f"  after the last landing: t {rows[k, 0]:6.2f} soles' yaw "
+                      f"{math.degrees(rows[k, 3]):+6.1f} {math.degrees(rows[k, 6]):+6.1f}° "
+                      f"base {math.degrees(rows[k, 9]):+6.1f}° support {rows[k, 10]:.0f} "
+                      f"torso {math.degrees(rows[k, 12]):+6.1f}° odometry's "
+                      f"{math.degrees(rows[k, 11]):+6.1f}°",
+                      flush=True)  # fmt: skip
+        if args.contact:
+            print("\n".join(odometers[0].slip.lines(odometers[0].yaw0)), flush=True)
+        if args.accrual:
+            print("\n".join(accrual(r, walkers[0], odometers[0], cmds)), flush=True)
+        if args.budget:
+            print(walkers[0].budget.line(), flush=True)
     if len(table) > 1:
         print("mean |.|: " + ", ".join(
             f"{k} {np.mean([abs(b[k]) for b in table if k in b]):.1f}"

@@ -49,13 +49,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import drive
+from drive_odometry import shadowed_runs
 
 import wbc.drive.sim as drive_sim_module
 from wbc import load_robot
-from wbc.bench.variation import models
-from wbc.drive.commands import random_commands
-from wbc.drive.envelope import planning_envelope
 from wbc.drive.odometry import PlayInverse
 from wbc.geometry import wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE
@@ -111,9 +108,6 @@ def classify(step, stance, width: float) -> tuple[str, np.ndarray]:
 
 def run(args) -> None:
     robot = load_robot("bioloid")
-    limits, window = planning_envelope(robot)
-    share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
-    variations = models(robot, max(args.models) + 1, args.seed)
     walkers: list = []
     sims: list = []
     base, odometer = drive_sim_module.Walker, drive_sim_module.Odometer
@@ -253,38 +247,39 @@ def run(args) -> None:
             super().__init__(sim)
             sims.append(sim)
 
-    drive_sim_module.Walker = Shadowed
-    drive_sim_module.Odometer = Sampled
-    for i in args.sequences:
-        cmds = random_commands(np.random.default_rng([args.seed, 1000 + i]), share,
-                               args.duration)  # fmt: skip
-        for m in args.models:
-            walkers.clear()
-            sims.clear()
-            r = drive.run_one(robot, "hqp-daqp", cmds, variations[m], limits=limits,
-                              window=window, landing_share=args.landing_share,
-                              play_hold=args.play_hold)  # fmt: skip
-            w = walkers[0]
-            err, rel = 1000 * r["xy_error_m"], r["xy_error_rel"]
-            print(f"sequence {i} model {m}: fell {r['fell']}, error {err:.1f} mm "
-                  f"({'—' if rel is None else f'{100 * rel:.0f} %'}), "
-                  f"{math.degrees(r['travelled_yaw_rad'] - r['commanded_yaw_rad']):+.1f}°, "
-                  f"{len(w.rows)} landings", flush=True)  # fmt: skip
-            for row in w.rows:
-                row.update(sequence=i, model=m, run_error_mm=err)
-                if out is not None:
-                    out.write(json.dumps(row) + "\n")
+    for i, m, _, r in shadowed_runs(
+        robot,
+        args.sequences,
+        args.models,
+        args.seed,
+        args.duration,
+        Shadowed,
+        Sampled,
+        (walkers, sims),
+        landing_share=args.landing_share,
+        play_hold=args.play_hold,
+    ):
+        w = walkers[0]
+        err, rel = 1000 * r["xy_error_m"], r["xy_error_rel"]
+        print(f"sequence {i} model {m}: fell {r['fell']}, error {err:.1f} mm "
+              f"({'—' if rel is None else f'{100 * rel:.0f} %'}), "
+              f"{math.degrees(r['travelled_yaw_rad'] - r['commanded_yaw_rad']):+.1f}°, "
+              f"{len(w.rows)} landings", flush=True)  # fmt: skip
+        for row in w.rows:
+            row.update(sequence=i, model=m, run_error_mm=err)
             if out is not None:
-                out.flush()
-            if args.runs:
-                with open(args.runs, "a") as f:
-                    keep = ("fell", "failed_solves", "xy_error_m", "xy_error_rel", "yaw_error_rad",
-                            "yaw_error_rel", "commanded_xy_m", "travelled_xy_m",
-                            "commanded_yaw_rad", "travelled_yaw_rad", "walk_tick_ms_p50",
-                            "tilt_max_deg")  # fmt: skip
-                    f.write(json.dumps({"sequence": i, "model": m, "play_hold": args.play_hold,
-                                        **{k: r[k] for k in keep}}) + "\n")  # fmt: skip
-            print("\n".join(summary(w.rows)), flush=True)
+                out.write(json.dumps(row) + "\n")
+        if out is not None:
+            out.flush()
+        if args.runs:
+            with open(args.runs, "a") as f:
+                keep = ("fell", "failed_solves", "xy_error_m", "xy_error_rel", "yaw_error_rad",
+                        "yaw_error_rel", "commanded_xy_m", "travelled_xy_m",
+                        "commanded_yaw_rad", "travelled_yaw_rad", "walk_tick_ms_p50",
+                        "tilt_max_deg")  # fmt: skip
+                f.write(json.dumps({"sequence": i, "model": m, "play_hold": args.play_hold,
+                                    **{k: r[k] for k in keep}}) + "\n")  # fmt: skip
+        print("\n".join(summary(w.rows)), flush=True)
 
 
 def stats(values: list) -> str:

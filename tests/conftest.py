@@ -10,12 +10,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from compile_lock import install as install_compile_lock
 from hypothesis import settings
 
-# numba's compilations one at a time across the workers (tests/compile_lock.py); before wbc's
-# kernels with signatures compile at import
-install_compile_lock()
+from wbc.compiled.workers import LOCK_ENV, share_compilations
+
+# numba's compilations of a kernel one at a time across the test workers and the package's
+# compile workers they start (wbc.compiled.workers.share_compilations: they inherit the
+# setting; WBC_COMPILE_LOCK=0: off); before wbc's kernels with signatures compile at import
+os.environ.setdefault(LOCK_ENV, "1")
+share_compilations()
 
 from wbc import load_robot  # noqa: E402
 

@@ -12,7 +12,8 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
-from wbc.balance.stabilizer import Gains, Stabilizer
+from wbc.balance import stabilizer as stabilizer_module
+from wbc.balance.stabilizer import _K_BAND, _K_HIP_JUMP, Gains, Stabilizer
 from wbc.balance.stance_lift import (
     HIP_OFF_BAND,
     LIFT_RAMP,
@@ -145,35 +146,45 @@ def test_closed_loop_slows_the_walks_end_on_servos_identified_soft(
 
 @pytest.mark.parametrize("stiffness", [0.55, 1.8])
 def test_closed_loop_holds_the_hip_strategy_early_in_single_support_on_soft_servos(
-    robot, soft_plant_loop, stiffness
+    robot, soft_plant_loop, stiffness, monkeypatch
 ):
     """Through :func:`wbc.balance.live.closed_loop` (walk10_wb's first 1.4 s after a 0.5 s
     rest: its first two single supports): with ``soft_hip`` 0.15 s the soft plant's
-    stabilizer runs with the hip strategy's band out of reach during the first 0.15 s of
-    each single support and with the given gains everywhere else (the double supports, the
-    rest of each single support), the hip-strategy roll never grows there, and the loop
-    says so; the stiff plant's always runs the given gains."""
+    stabilizer's compiled tick runs with the hip strategy's band out of reach during the
+    first 0.15 s of each single support and with the given band everywhere else (the double
+    supports, the rest of each single support), its gains never swapped, the hip-strategy
+    roll never grows there, and the loop says so; the stiff plant's always runs the given band."""
     said: list[str] = []
     soft = stiffness < 1.0
     g = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, soft_hip=0.15)
     loop = soft_plant_loop(stiffness, g, said, 1.9)
     stab = loop.stabilizer
     assert isinstance(stab, LiftedStabilizer)
+    given = stab.gains
     seen: list[tuple[str, str, float, float, float]] = []  # (phase, sole, dt, band, |h| out)
-    adjust = Stabilizer.adjust
+    ticked: list[float] = []  # the band the compiled tick was given
+    adjust, tick = Stabilizer.adjust, stabilizer_module._feedback_tick
+
+    def banded(consts, *args):
+        ticked.append(float(consts[_K_BAND]))
+        assert consts[_K_HIP_JUMP] == given.hip_jump * consts[_K_BAND]
+        return tick(consts, *args)
 
     def recorded(self, targets, com_vel_ref, q_cmd, dt):
+        ticked.clear()
+        resting = self.calibrating  # (the rest's last tick ends it: no feedback yet)
         out = adjust(self, targets, com_vel_ref, q_cmd, dt)
-        if not self.calibrating:
+        assert self.gains is given
+        if not resting:
             h = float(np.hypot(*self.hip))
-            seen.append((targets.phase, targets.support, float(dt), self.gains.hip_band, h))
+            (band,) = ticked
+            seen.append((targets.phase, targets.support, float(dt), band, h))
         return out
 
-    Stabilizer.adjust = recorded  # type: ignore[method-assign]
-    try:
-        loop.deployment.run()
-    finally:
-        Stabilizer.adjust = adjust  # type: ignore[method-assign]
+    monkeypatch.setattr(stabilizer_module, "_feedback_tick", banded)
+    monkeypatch.setattr(Stabilizer, "adjust", recorded)
+    loop.deployment.run()
+    monkeypatch.undo()
     assert bool(stab.stiffness_scale < 0.75) is soft
     into, last, early = 0.0, ("", ""), []
     for phase, sole, dt, _, _ in seen:  # the time into each single support

@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import argparse
 
-from .compiled.workers import PARTS
+from .compiled.workers import PARTS, share_compilations
 from .model import Kinematics, load_robot
-from .stacks import load_stack
 
 
 def compile_part(part: str) -> None:
@@ -24,6 +23,8 @@ def compile_part(part: str) -> None:
     on disk. The compiled tick comes first: a solver waiting for it loads it from the cache
     as soon as it is there (:meth:`wbc.compiled.dispatch.Ticks.ready`), while the worker goes
     on with the numpy path's kernels."""
+    from .stacks import load_stack  # (here: its import compiles kernels, see main)
+
     robot = load_robot()
     q = robot.configuration("stand")
     # the compiled tick, then the numpy path's kernels: rows, bounds, the solver's least
@@ -46,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--part", choices=PARTS, required=True, help="the solver to compile")
     args = parser.parse_args(argv)
+    share_compilations()  # (WBC_COMPILE_LOCK=1: the kernels it shares compiled once)
     compile_part(args.part)
     return 0
 

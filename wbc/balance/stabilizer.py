@@ -549,7 +549,8 @@ class Stabilizer:
         return self._fb[_B_HIP : _B_HIP + 2]
 
     def _consts(self) -> np.ndarray:
-        """:func:`_feedback_tick`'s ``consts`` for the current gains (built when they change)."""
+        """:func:`_feedback_tick`'s ``consts`` for the current gains (built when they change;
+        each tick's: a subclass's may differ, ``LiftedStabilizer``'s hip band)."""
         g, fall = self.gains, self.fall
         if self._packed[0] is not g or self._packed[2] is not fall or self._packed[1] is None:
             limits = fall.limits if fall is not None else np.zeros(_L_SIZE)
@@ -617,10 +618,8 @@ class Stabilizer:
                 select, soles, joints if present is None else present, joints
             )
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
+        consts = self._consts()  # (packed again when the gains or the detector changed)
         packed = self._packed
-        if packed[0] is not self.gains or packed[2] is not self.fall or packed[1] is None:
-            self._consts()  # (the gains or the detector changed: packed again)
-            packed = self._packed
         if self._kick is not None:  # (kick_hold: the limbs held while the sole is rolled;
             # kick_hold_edge: while the measured DCM is beyond its outer edge)
             g = self.gains
@@ -633,7 +632,7 @@ class Stabilizer:
                 held = self._kick.rolled(estimator, read, joints, g.kick_hold)
             self._kick.held = self._kick.debounced(held, float(dt), g.kick_hold_for)
         code = _feedback_tick(
-            packed[1], joints if present is None else present, joints, w, a, float(dt),
+            consts, joints if present is None else present, joints, w, a, float(dt),
             select, soles, estimator._state, self._fb, targets.torso_rotation,
             self._no_fall if self.fall is None else self.fall.state, values, o, packed[4],
         )  # fmt: skip

@@ -32,14 +32,12 @@ benchmarks/physics.md).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
 from ..types import SUPPORT_DOUBLE
 from ..walking.reference import WalkingReference
-from .gains import Gains
-from .stabilizer import Stabilizer
+from .stabilizer import _K_BAND, _K_HIP_JUMP, Stabilizer
 
 #: s: the lift ramped in from the walk's first tick (the rest's pose, then the lifted one)
 LIFT_RAMP = 0.5
@@ -91,43 +89,54 @@ class LiftedStabilizer(Stabilizer):
     :func:`lift_height` (``Gains.lift``, ``Gains.lift_stiff``) and whose walk's clock runs
     at :func:`end_rate` (``Gains.end_clock``), its DCM integral leaking at the walk's end
     (``Gains.end_leak``; :attr:`end_start` set by the closed loop) and its hip strategy held
-    at each single support's start (``Gains.soft_hip``: :attr:`gains` swapped meanwhile)."""
+    at each single support's start (``Gains.soft_hip``: each tick's band, :meth:`hip_band`;
+    the gains are never changed)."""
 
     t0: float | None = None  # the reference time of the walk's first tick
     end_start: float | None = None  # the reference's final double support (end_clock)
-    _own: Gains | None = None  # the gains given (soft_hip swaps self.gains for _held)
-    _held: Gains | None = None  # them with the hip strategy's band out of reach
     _sole = ""  # the stance sole of the single support under way ("": none)
     _single = 0.0  # s of it so far
+    _banded: tuple = (None, 0.0, None)  # (the gains' consts, a band, them with it: _consts)
 
-    def _soft_hip(self, targets, dt: float) -> None:
-        """``soft_hip``: :attr:`gains` the given ones, or during the first ``soft_hip`` s of
-        a single support on a plant identified soft, them with the hip strategy's band out
-        of reach (:data:`HIP_OFF_BAND`)."""
-        if self._own is None:
-            self._own = self.gains
-            self._held = replace(self.gains, hip_band=HIP_OFF_BAND)
-        g = self._own
+    def _track_single(self, targets, dt: float) -> None:
+        """The single support under way (its stance sole) and the time into it (``soft_hip``)."""
         if targets.phase != "single":
             self._sole, self._single = "", 0.0
         elif targets.support != self._sole:
             self._sole, self._single = targets.support, 0.0
         else:
             self._single += float(dt)
-        early = self._sole != "" and self._single < g.soft_hip - 1e-9
-        soft = identified_soft(g.lift_stiff, self.stiffness_scale)
-        want = self._held if early and soft else g
-        if self.gains is not want:
-            self.gains = want
+
+    def hip_band(self) -> float:
+        """m: this tick's hip-strategy band: during the first ``soft_hip`` s of a single
+        support on a plant identified soft, :data:`HIP_OFF_BAND` (out of reach), else
+        ``Gains.hip_band``."""
+        g = self.gains
+        early = g.soft_hip > 0 and self._sole != "" and self._single < g.soft_hip - 1e-9
+        if early and identified_soft(g.lift_stiff, self.stiffness_scale):
+            return HIP_OFF_BAND
+        return g.hip_band
+
+    def _consts(self) -> np.ndarray:
+        """:meth:`Stabilizer._consts` with this tick's :meth:`hip_band` (a copy when it is
+        not the gains': the band and the push trigger's ``hip_jump`` × band)."""
+        k, band = super()._consts(), self.hip_band()
+        if band == k[_K_BAND]:
+            return k
+        base, held, banded = self._banded
+        if base is not k or held != band:
+            banded = k.copy()
+            banded[_K_BAND], banded[_K_HIP_JUMP] = band, self.gains.hip_jump * band
+            self._banded = (k, band, banded)
+        return banded
 
     def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
-        """:meth:`Stabilizer.adjust` (its gains chosen first by ``soft_hip``, its DCM integral
-        leaked at the walk's end), then the CoM target lifted and the next tick's clock set
-        (not during the rest)."""
-        if self._own is not None or (self.gains.soft_hip > 0 and self.enabled):  # (soft_hip)
-            if not self.calibrating:
-                self._soft_hip(targets, dt)
-        g = self._own or self.gains
+        """:meth:`Stabilizer.adjust` (the single support tracked first for ``soft_hip``, its
+        DCM integral leaked at the walk's end), then the CoM target lifted and the next
+        tick's clock set (not during the rest)."""
+        g = self.gains
+        if g.soft_hip > 0 and self.enabled and not self.calibrating:  # (soft_hip)
+            self._track_single(targets, dt)
         if g.end_leak > 0 and self.enabled and not self.calibrating:  # (end_leak)
             t = float(targets.t) + g.end_lead
             if at_end(g.lift_stiff, self.stiffness_scale, t, self.end_start):
