@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from wbc.balance import stabilizer as stabilizer_module
 from wbc.balance.stabilizer import _K_TWIST, Gains, Stabilizer
 from wbc.balance.stance_lift import LiftedStabilizer
 from wbc.balance.stiff_twist import StiffStabilizer, stiff_class, twist_factor
@@ -31,7 +32,9 @@ def test_stiff_class_runs_its_scaling_after_the_base_and_before_the_stabilizer()
 
 
 @pytest.mark.parametrize("stiffness", [0.55, 1.8])
-def test_closed_loop_scales_the_twist_on_servos_identified_stiff(soft_plant_loop, stiffness):
+def test_closed_loop_scales_the_twist_on_servos_identified_stiff(
+    soft_plant_loop, stiffness, monkeypatch
+):
     """Through :func:`wbc.balance.live.closed_loop` on the simulated robot (walk10_wb's first
     1.2 s after a 0.5 s rest): with ``stiff_twist`` 0.25 the stiff plant's feedback runs with
     ``k_twist`` × 0.25 packed on every walking tick, the soft plant's with ``k_twist``; the
@@ -42,21 +45,28 @@ def test_closed_loop_scales_the_twist_on_servos_identified_stiff(soft_plant_loop
     loop = soft_plant_loop(stiffness, g, said)
     stab = loop.stabilizer
     assert isinstance(stab, StiffStabilizer) and isinstance(stab, LiftedStabilizer)
-    packed: list[float] = []
-    adjust = Stabilizer.adjust
+    packed: list[float] = []  # the k_twist each walking tick's compiled feedback was given
+    given = stab.gains
+    adjust, tick = Stabilizer.adjust, stabilizer_module._feedback_tick
+    ticked: list[float] = []
+
+    def twisted(consts, *args):
+        ticked.append(float(consts[_K_TWIST]))
+        return tick(consts, *args)
 
     def recorded(self, targets, com_vel_ref, q_cmd, dt):
+        ticked.clear()
+        resting = self.calibrating  # (the rest's last tick ends it: no feedback yet)
         out = adjust(self, targets, com_vel_ref, q_cmd, dt)
-        k = self._packed[1]  # (None until the first walking tick's feedback)
-        if not self.calibrating and k is not None:
-            packed.append(float(k[_K_TWIST]))
+        assert self.gains is given  # (never swapped)
+        if not resting:
+            packed.extend(ticked)
         return out
 
-    Stabilizer.adjust = recorded  # type: ignore[method-assign]
-    try:
-        loop.deployment.run()
-    finally:
-        Stabilizer.adjust = adjust  # type: ignore[method-assign]
+    monkeypatch.setattr(stabilizer_module, "_feedback_tick", twisted)
+    monkeypatch.setattr(Stabilizer, "adjust", recorded)
+    loop.deployment.run()
+    monkeypatch.undo()
     assert stab.stiffness_scale is not None, said
     assert bool(stab.stiffness_scale >= 0.75) is stiff
     assert len(packed) > 20

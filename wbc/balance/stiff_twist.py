@@ -41,26 +41,38 @@ def twist_factor(stiff_twist: float, stiff: float, scale: float | None) -> float
 
 class StiffStabilizer(Stabilizer):
     """A :class:`~wbc.balance.stabilizer.Stabilizer` whose torso command's twist is scaled by
-    :func:`twist_factor` (module docstring)."""
+    :func:`twist_factor` (module docstring): its compiled tick is given a copy of the packed
+    gains with ``k_twist`` × :attr:`twist` (the gains themselves never changed)."""
 
-    twist = 1.0  # the factor of the last tick (1: untouched)
+    _twisted: tuple = (None, 1.0, None)  # (the gains' consts, a factor, them with it: _consts)
 
-    def adjust(self, targets, com_vel_ref: np.ndarray, q_cmd: np.ndarray, dt: float):
-        """The tick's ``k_twist`` scaled (:func:`twist_factor`), then the stabilizer's adjust."""
+    @property
+    def twist(self) -> float:
+        """This tick's factor on ``k_twist`` (1: untouched; not during the rest)."""
         g = self.gains
-        if self.enabled and g.stiff_twist != 1.0 and not self.calibrating:
-            f = twist_factor(g.stiff_twist, g.lift_stiff, self.stiffness_scale)
-            k = self._consts()  # (the packed gains of the tick: set in place from g's)
-            k[_K_TWIST] = g.k_twist * f
-            self.twist = f
-        return super().adjust(targets, com_vel_ref, q_cmd, dt)
+        if not self.enabled or g.stiff_twist == 1.0 or self.calibrating:
+            return 1.0
+        return twist_factor(g.stiff_twist, g.lift_stiff, self.stiffness_scale)
+
+    def _consts(self) -> np.ndarray:
+        """:meth:`Stabilizer._consts` with ``k_twist`` × :attr:`twist` (a copy when it is not
+        1)."""
+        k, f = super()._consts(), self.twist
+        if f == 1.0:
+            return k
+        base, held, twisted = self._twisted
+        if base is not k or held != f:
+            twisted = k.copy()
+            twisted[_K_TWIST] = self.gains.k_twist * f
+            self._twisted = (k, f, twisted)
+        return twisted
 
 
 @cache
 def stiff_class(base: type[Stabilizer]) -> type[Stabilizer]:
     """``base`` (a :class:`~wbc.balance.stabilizer.Stabilizer` class) with ``stiff_twist``
-    applied after its own :meth:`adjust` work and before the stabilizer's (one class per
-    base: :class:`StiffStabilizer` for the stabilizer itself)."""
+    applied to the gains its compiled tick is given (one class per base:
+    :class:`StiffStabilizer` for the stabilizer itself)."""
     if base is Stabilizer:
         return StiffStabilizer
     return type(f"Stiff{base.__name__}", (base, StiffStabilizer), {})
