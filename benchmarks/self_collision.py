@@ -33,6 +33,11 @@ Python before the compiled tick, as until the nineteenth session; the default ma
 inside it, one call from Python for the rows and the solve: issue 34), interleaved in the
 same rounds.
 
+``--no-rehearse``: also each stack with its limit without the rehearsal of a support phase's
+first tick in the idle part (``rehearse_switch`` off, as until the twentieth session; the
+default runs that tick once there and forgets it: :mod:`wbc.solvers.rehearsal`), interleaved
+in the same rounds.
+
 ``--idle S``: S seconds slept after each tick of every controller (0.02: a 50 Hz loop, as on
 a robot: each tick then starts with the caches that the sleep and the machine's other
 processes left, where back to back, the default, it finds its code and data from the tick
@@ -54,7 +59,8 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
-[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--rows-before]``.
+[--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--rows-before]
+[--no-rehearse]``.
 """
 
 from __future__ import annotations
@@ -175,6 +181,9 @@ def main() -> int:
     parser.add_argument(
         "--rows-before", action="store_true", help="also ours with in_tick = false (rows before)"
     )
+    parser.add_argument(
+        "--no-rehearse", action="store_true", help="also ours with rehearse_switch off"
+    )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -196,9 +205,12 @@ def table(robot, trajectory: str, args) -> None:
     json.dump(pairs, tmp)
     tmp.close()
 
-    def ours(spec: dict, kind: str):
+    def ours(spec: dict, kind: str, rehearse: bool = True):
         def make():
-            return StackController(build_stack({**spec, "solver": kind}, robot))
+            controller = StackController(build_stack({**spec, "solver": kind}, robot))
+            if not rehearse:
+                controller.solver.rehearse_switch = False
+            return controller
 
         return make
 
@@ -213,6 +225,8 @@ def table(robot, trajectory: str, args) -> None:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
                     makers[f"{label}, world frame"] = ours(spec, kind)
+                if on and args.no_rehearse:
+                    makers[f"{label}, no rehearsal"] = ours(walk_spec(True, stack), kind, False)
                 if on and args.rows_before:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["in_tick"] = False

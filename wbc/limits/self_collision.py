@@ -53,7 +53,7 @@ pair (:meth:`SelfCollisionConstraint.solved`, called by the solvers after each s
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -626,6 +626,22 @@ class SelfCollisionConstraint(Constraint):
         forgotten if they are elsewhere (the tick's kernel then makes them again)."""
         if self._where is not where:
             self._rows_q[0] = np.nan
+
+    def snapshot(self) -> Callable[[], None]:
+        """A function that puts the limit back as it is now: every buffer its kernel reads or
+        writes (the last rows' configuration, the distance bounds and separating axes it
+        starts from...) and where its last rows are (a tick rehearsed and forgotten:
+        :func:`wbc.solvers.rehearsal.rehearse`)."""
+        buffers = (self._packed if self._packed is not None else self._pack())[2]
+        kept = [b.copy() for b in buffers]
+        state = self._where, self._n_rows, self._last, self._rows
+
+        def put_back() -> None:
+            for b, k in zip(buffers, kept, strict=True):
+                np.copyto(b, k)
+            self._where, self._n_rows, self._last, self._rows = state
+
+        return put_back
 
     def placed(self, where: tuple, m: int, made: bool) -> None:
         """After that tick: its ``m`` rows at ``where`` (``made``: computed, not kept)."""

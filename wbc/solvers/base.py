@@ -31,6 +31,9 @@ from .stack import TaskStack
 REGULARIZATION_RANGE = (1e-12, 1e-2)
 #: the allowed ``hard_tol`` (m, rad): a hard level's largest residual
 HARD_TOL_RANGE = (1e-12, 1e-2)
+#: :attr:`StackSolver.rehearse_switch`'s default: a support phase's first tick rehearsed in
+#: the idle part (:mod:`wbc.solvers.rehearsal`; benchmarks/self_collision.md, twentieth session)
+REHEARSE_SWITCH = True
 
 
 class StackSolver(ABC):
@@ -84,6 +87,10 @@ class StackSolver(ABC):
         #: step copies): ~6 µs less in a 50 Hz loop's cold tick, ~3.5 µs more back to back
         #: (benchmarks/self_collision.md, fourteenth session): off by default
         self.output_ahead = False
+        #: :meth:`rehearse` runs the first tick of a layout switched to ahead once in the idle
+        #: part and forgets it (the same answers; that tick then finds its memory and code in
+        #: the caches: :mod:`wbc.solvers.rehearsal`)
+        self.rehearse_switch = REHEARSE_SWITCH
         #: solves done by the compiled kernels / handed back by them to the numpy path (an
         #: active inequality row, an active set that did not settle, an infeasible level)
         self.compiled_ticks = 0
@@ -354,6 +361,18 @@ class StackSolver(ABC):
             *[(t.params_version, t.frame_ids()) if t.active else -1 for t in tasks],
             *[c.active for c in constraints],
         )
+
+    def rehearse(self, dt: float) -> bool:
+        """In a loop's idle part, after :meth:`switch_layout`: the compiled tick of the layout
+        switched to run once at the last tick's kinematics and forgotten
+        (:func:`wbc.solvers.rehearsal.rehearse`; nothing unless :attr:`rehearse_switch`, a
+        compiled plan ready, and one that leaves no trace). True if it ran."""
+        plan = self.fast
+        if not self.rehearse_switch or plan is None or not plan.is_ready:
+            return False
+        from .rehearsal import rehearse
+
+        return rehearse(plan, self.kin, dt)
 
     def switch_layout(self) -> None:  # noqa: B027
         """Take the layout of the stack as it is now if the stack changed since the last solve

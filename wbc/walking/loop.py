@@ -283,7 +283,7 @@ class StackController(Controller):
         the switch tick then only checks it was the right one (the same phase, the same sole
         objects, the stack untouched since), else takes it back (:meth:`_set_targets`).
         Nothing if the switch needs the configuration (a contact without a reference sole).
-        A landing and the tick's output are made ahead too (SwitchHandover, StackSolver)."""
+        A landing, the tick's output and a rehearsal of the tick are made ahead too."""
         if self.handover is not None:
             self.handover.prepare(q, targets, self.dt)
         control = self.control
@@ -294,6 +294,7 @@ class StackController(Controller):
             undo = control.set_phase_ahead(*key, self._kin, anchors)
             self._ahead = (key, targets.l_sole, targets.r_sole, undo)
             self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
+            self.solver.rehearse(self.dt)  # (its first tick run once and forgotten)
         self.solver.prepare_output()
 
     def prepare_tick(self, q: np.ndarray, targets: TickTargets) -> None:

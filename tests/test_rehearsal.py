@@ -1,0 +1,95 @@
+"""A support phase's first tick rehearsed in the loop's idle part and forgotten
+(:mod:`wbc.solvers.rehearsal`): the walk's answers bit for bit those without the rehearsal,
+and every buffer the rehearsed tick wrote put back."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from wbc.bench.trajectories import build
+from wbc.limits import SelfCollisionConstraint
+from wbc.solvers import rehearsal
+from wbc.stacks import load_stack
+from wbc.walking.loop import Session, StackController
+
+TICKS = 150  # (walk10: a support switch every 20-40 ticks, rows active around 104)
+
+
+def _walk(robot, name: str, solver: str, rehearse: bool):
+    """``name`` along walk10's first :data:`TICKS` ticks, the idle part after each (the next
+    support switch made ahead): each tick's q and Δq, the self-collision limit's smallest
+    distance and row count; and how many rehearsals ran."""
+    stack = load_stack(name, robot, solver=solver)
+    controller = StackController(stack)
+    qp = controller.solver
+    qp.rehearse_switch = rehearse
+    limit = next(c for c in qp.stack.constraints() if isinstance(c, SelfCollisionConstraint))
+    ran = []
+    own = qp.rehearse
+    qp.rehearse = lambda dt: ran.append(own(dt)) or ran[-1]
+    session = Session(controller, robot, build("walk10", robot))
+    out = []
+    for i in range(TICKS):
+        q = session.tick(i)
+        assert not session.failed
+        out.append((q.copy(), qp.fast.dq.copy(), limit._closest[0], limit._n_rows))
+        session.prepare_next()
+    assert qp.handed_back_ticks == 0
+    return out, sum(ran)
+
+
+@pytest.mark.parametrize("name, solver", [("walk_strict", "hierarchical"), ("walk", "weighted")])
+def test_rehearsed_switches_walk_as_without(robot, name, solver):
+    """walk10 with each support phase's first tick rehearsed: every tick's q, Δq, the limit's
+    closest pair and row count bit for bit as without; rehearsals ran (else vacuous)."""
+    without, none = _walk(robot, name, solver, False)
+    rehearsed, ran = _walk(robot, name, solver, True)
+    assert none == 0 and ran >= 3
+    for i, (a, b) in enumerate(zip(without, rehearsed, strict=True)):
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]), f"tick {i}"
+        assert a[2:] == b[2:], f"tick {i}"
+
+
+def test_a_rehearsal_puts_back_what_the_tick_wrote(robot, monkeypatch):
+    """Around each rehearsal: every array of the plan's tick arguments and every buffer of the
+    limit whose rows the tick makes as before it, though the tick wrote some of them (its
+    warm start, Δq, the rows: else the check is vacuous)."""
+    checked = []
+    own = rehearsal.rehearse
+
+    def watched(plan, kin, dt):
+        arrays = rehearsal._arrays(plan)
+        placed = plan.constraints.placed
+        buffers = [*arrays, *placed._packed[2]]
+        before = [a.copy() for a in buffers]
+        solve = plan.solve
+        wrote = []
+
+        def solve_and_look(*args):
+            status = solve(*args)
+            wrote.append(
+                any(
+                    not np.array_equal(a, b, equal_nan=True)
+                    for a, b in zip(buffers, before, strict=True)
+                )
+            )
+            return status
+
+        plan.solve = solve_and_look
+        try:
+            ran = own(plan, kin, dt)
+        finally:
+            del plan.solve
+        same = all(
+            np.array_equal(a, b, equal_nan=True) for a, b in zip(buffers, before, strict=True)
+        )
+        checked.append((ran, wrote == [True], same))
+        return ran
+
+    monkeypatch.setattr(rehearsal, "rehearse", watched)
+    _walk(robot, "walk_strict", "hierarchical", True)
+    assert len(checked) >= 3
+    assert all(c == (True, True, True) for c in checked), checked
