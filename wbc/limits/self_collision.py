@@ -628,11 +628,14 @@ class SelfCollisionConstraint(Constraint):
             self._rows_q[0] = np.nan
 
     def snapshot(self) -> Callable[[], None]:
-        """A function that puts the limit back as it is now: every buffer its kernel reads or
-        writes (the last rows' configuration, the distance bounds and separating axes it
-        starts from...) and where its last rows are (a tick rehearsed and forgotten:
-        :func:`wbc.solvers.rehearsal.rehearse`)."""
-        buffers = (self._packed if self._packed is not None else self._pack())[2]
+        """A function that puts the limit back as it is now: every buffer its kernel reads
+        (the last rows' configuration, the distance bounds and separating axes it starts
+        from...; not its scratch, written before it is read) and where its last rows are (a
+        tick rehearsed and forgotten: :func:`wbc.solvers.rehearsal.rehearse`)."""
+        pd = self.distances
+        scratch = (pd._work, pd._iwork)  # (written before read in every call: not kept)
+        packed = (self._packed if self._packed is not None else self._pack())[2]
+        buffers = [b for b in packed if not any(b is w for w in scratch)]
         kept = [b.copy() for b in buffers]
         state = self._where, self._n_rows, self._last, self._rows
 

@@ -6,9 +6,11 @@ took what the others take (30–33 µs): the work is the same, the memory and co
 layout switched to were cold (the switch made ahead, :meth:`StackController.prepare_phase
 <wbc.walking.loop.StackController.prepare_phase>`, runs ~100 µs of Python right before the
 tick). :func:`rehearse` runs the new layout's tick once at the last tick's kinematics in the
-idle part and puts back every buffer that tick writes (each array of its arguments, the
-constraint whose rows it makes: its buffers and where its last rows are, the tasks' error
-views, the carried rows' count), so the next tick computes exactly what it would have without
+idle part and puts back what that tick writes and a later one reads (the active sets' warm
+start, the solution the solver hands out, the constraint whose rows it makes: its buffers and
+where its last rows are, the tasks' error views, the carried rows' count; not the rows, the
+work space, the rest of its arguments, written before they are read: copying those, ~2 MB
+with the rows' headroom, evicted what the rehearsal brought in), so the next tick computes exactly what it would have without
 the rehearsal — bit for bit, its active sets started as before — with its layout's memory and
 code in the caches (issue 34's tail; benchmarks/self_collision.md, twentieth session).
 """
@@ -23,13 +25,12 @@ from ..exceptions import WbcError
 from ..model import Kinematics
 
 
-def _arrays(plan: Any) -> list[np.ndarray]:
-    """The distinct arrays among the plan's tick arguments and its split solve's."""
-    seen: dict[int, np.ndarray] = {}
-    for a in (*plan.args, *plan.solve_args):
-        if isinstance(a, np.ndarray) and id(a) not in seen:
-            seen[id(a)] = a
-    return list(seen.values())
+def _state(plan: Any) -> list[np.ndarray]:
+    """The arrays of ``plan``'s tick that outlive it: its active sets' warm start (shared by
+    the solver's plans) and the solution the solver hands out (Δq, its bounds, q ⊕ Δq), and
+    q. Every other array of its arguments is written by a tick before it reads it (the rows,
+    the targets, the frames, the work space), or is the plan's own layout."""
+    return [plan.warm_start, plan.dq, plan.lower, plan.upper, plan.q_next, plan.q]
 
 
 def rehearse(plan: Any, kin: Kinematics, dt: float) -> bool:
@@ -48,7 +49,7 @@ def rehearse(plan: Any, kin: Kinematics, dt: float) -> bool:
         or plan.carries_rows("carry_at_switch")
     ):
         return False
-    arrays = _arrays(plan)
+    arrays = _state(plan)
     kept = [a.copy() for a in arrays]
     placed = rows.placed if rows.in_tick else None
     put_back = placed.snapshot() if placed is not None else None
