@@ -10,9 +10,10 @@ idle part and puts back what that tick writes and a later one reads (the active 
 start, the solution the solver hands out, the constraint whose rows it makes: its buffers and
 where its last rows are, the tasks' error views, the carried rows' count; not the rows, the
 work space, the rest of its arguments, written before they are read: copying those, ~2 MB
-with the rows' headroom, evicted what the rehearsal brought in), so the next tick computes exactly what it would have without
-the rehearsal — bit for bit, its active sets started as before — with its layout's memory and
-code in the caches (issue 34's tail; benchmarks/self_collision.md, twentieth session).
+with the rows' headroom, evicted what the rehearsal brought in), so the next tick computes
+exactly what it would have without the rehearsal — bit for bit, its active sets started as
+before — with its layout's memory and code in the caches (issue 34's tail;
+benchmarks/self_collision.md, twentieth session).
 """
 
 from __future__ import annotations
