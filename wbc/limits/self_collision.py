@@ -446,11 +446,14 @@ class SelfCollisionConstraint(Constraint):
         #: where the last rows are: (G, h, first row) — the limit's own buffers, or a
         #: compiled plan's (:meth:`rows_into`)
         self._where: tuple[np.ndarray, np.ndarray, int] = (self._G, self._h, 0)
+        #: :meth:`snapshot`'s (buffer, backup) pairs
+        self._backups: list[tuple[np.ndarray, np.ndarray]] = []
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_packed"] = None  # (addresses of this object's buffers: a copy re-packs)
         state["_call"], state["_entries"] = None, {}  # (the same, a Kinematics' views)
+        state["_backups"] = []
         if self._where[0] is not self._G:  # (the last rows in a plan's buffers: made again)
             state["_where"] = (self._G, self._h, 0)
             state["_rows_q"] = np.full(self.robot.nq, np.nan)
@@ -628,20 +631,29 @@ class SelfCollisionConstraint(Constraint):
             self._rows_q[0] = np.nan
 
     def snapshot(self) -> Callable[[], None]:
-        """A function that puts the limit back as it is now: every buffer its kernel reads
-        (the last rows' configuration, the distance bounds and separating axes it starts
-        from...; not its scratch, written before it is read) and where its last rows are (a
-        tick rehearsed and forgotten: :func:`wbc.solvers.rehearsal.rehearse`)."""
+        """A function that puts the limit back as it is now: every buffer its kernel writes
+        and a later call reads (the last rows' configuration and box, the distance bounds,
+        placements and separating axes it starts from, the last close pairs and rows' pairs
+        and gaps, the counts; not its scratch, written before it is read, nor its constant
+        geometry), copied into backups kept from call to call, and where its last rows are
+        (a tick rehearsed and forgotten: :func:`wbc.solvers.rehearsal.rehearse`)."""
         pd = self.distances
-        scratch = (pd._work, pd._iwork)  # (written before read in every call: not kept)
-        packed = (self._packed if self._packed is not None else self._pack())[2]
-        buffers = [b for b in packed if not any(b is w for w in scratch)]
-        kept = [b.copy() for b in buffers]
+        written = (
+            self._rows_q, pd._q, pd._bound, pd.Rw, pd.cw, pd._placed, *self._out, pd._counts,
+            self._pair_buf, self._gap_buf, self._closest, pd._last_axis, self._box_work,
+        )  # fmt: skip
+        backups = self._backups
+        if len(backups) != len(written) or any(
+            a is not b for a, (b, _) in zip(written, backups, strict=True)
+        ):
+            backups = self._backups = [(a, np.empty_like(a)) for a in written]
+        for a, kept in backups:
+            np.copyto(kept, a)
         state = self._where, self._n_rows, self._last, self._rows
 
         def put_back() -> None:
-            for b, k in zip(buffers, kept, strict=True):
-                np.copyto(b, k)
+            for a, kept in backups:
+                np.copyto(a, kept)
             self._where, self._n_rows, self._last, self._rows = state
 
         return put_back
