@@ -40,6 +40,7 @@ from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
 from wbc.geometry import heading_free, rot_z, yaw_of
 from wbc.types import SUPPORT_DOUBLE
+from wbc.walking.engine import EngineParams
 
 SOLES = {"left": "l_sole", "right": "r_sole"}
 GRAVITY = np.array([0.0, 0.0, 9.81])
@@ -118,7 +119,9 @@ def record(args) -> None:
     drive_sim_module.Odometer = Sampled
     cmds = random_commands(np.random.default_rng([args.seed, 1000 + args.sequence]), share,
                            args.duration)  # fmt: skip
-    r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window)
+    params = None if args.transfer is None else EngineParams(transfer=args.transfer)
+    r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
+                      params=params)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
     out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
@@ -221,6 +224,54 @@ def analyse(files: list[str]) -> None:
               f"blend {np.round(share, 3)}: {spread} -> {kept}")  # fmt: skip
 
 
+def contacts(d: dict) -> list[tuple[int, int, int, int, int]]:
+    """(sole, landing tick, its first single-support tick, the first tick of the double
+    support before its lift-off, its lift-off tick) of each whole contact between a landing
+    and the sole's next lift-off (the walk's, not the standing start's or end's)."""
+    t, double, stance = d["t"], d["double"], d["stance"]
+    n, out = len(t), []
+    for lt, side in zip(d["landing_t"], d["landing_side"], strict=True):
+        a = int(np.searchsorted(t, lt - 1e-9))
+        b = a
+        while b < n and double[b]:
+            b += 1
+        c = b
+        while c < n and not double[c] and stance[c] == side:
+            c += 1
+        e = c
+        while e < n and double[e]:
+            e += 1
+        if e < n and not double[e] and stance[e] != side and d["walking"][e]:
+            out.append((int(side), a, b, c, e))
+    return out
+
+
+def phases(f: str) -> None:
+    """Each sole's slide (the simulator's, world xy, mm) per contact phase of one recording
+    (:func:`contacts`): the vector sums (what the odometry's chain of landings misses, a
+    drift) and the mean path length per contact (the spread's source)."""
+    d = dict(np.load(f))
+    soles = d["soles"]
+    parts = {"landing double": (1, 2), "single": (2, 3), "lift-off double": (3, 4)}
+    cs = contacts(d)
+    print(f"{f}: {len(cs)} contacts")
+    total = np.zeros(2)  # the odometry's miss: a sole's slide from its landing to the other's
+    for name, (i, j) in parts.items():
+        moves = np.array([1000 * (soles[c[j], c[0], :2] - soles[c[i], c[0], :2]) for c in cs])
+        paths = [1000 * np.linalg.norm(np.diff(soles[c[i] : c[j] + 1, c[0], :2], axis=0),
+                                       axis=1).sum() for c in cs]  # fmt: skip
+        total += moves.sum(0) if name != "lift-off double" else 0.0  # (re-measured after)
+        print(
+            f"  {name:16s} sum {np.round(moves.sum(0), 1)} mm, mean move "
+            f"{np.round(moves.mean(0), 2)} ± {np.round(moves.std(0), 2)}, mean path "
+            f"{np.mean(paths):.2f} mm, ticks {np.mean([c[j] - c[i] for c in cs]):.1f}"
+        )
+    print(
+        f"  missed by the landings' chain (landing double + single): {np.round(total, 1)} "
+        f"mm ({np.linalg.norm(total):.1f})"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequence", type=int, default=13)
@@ -228,10 +279,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="/tmp/slip_probe.npz")
+    ap.add_argument(
+        "--transfer",
+        type=float,
+        default=None,
+        metavar="F",
+        help="EngineParams(transfer=F) for the recorded run (default the engine's)",
+    )
     ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
                     help="analyse these recordings instead of running")  # fmt: skip
+    ap.add_argument("--phases", nargs="+", default=None, metavar="FILE",
+                    help="per recording, each sole's slide over its contact split by phase "
+                         "(its landing's double support, its single support, the double "
+                         "support before its lift-off): sums and mean lengths")  # fmt: skip
     args = ap.parse_args(argv)
-    if args.analyse:
+    if args.phases:
+        for f in args.phases:
+            phases(f)
+    elif args.analyse:
         analyse(args.analyse)
     else:
         record(args)
