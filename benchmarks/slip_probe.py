@@ -121,7 +121,7 @@ def record(args) -> None:
                            args.duration)  # fmt: skip
     params = None if args.transfer is None else EngineParams(transfer=args.transfer)
     r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
-                      params=params)  # fmt: skip
+                      params=params, load_ramp=args.load_ramp)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
     out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
@@ -225,14 +225,16 @@ def analyse(files: list[str]) -> None:
 
 
 def contacts(d: dict) -> list[tuple[int, int, int, int, int]]:
-    """(sole, landing tick, its first single-support tick, the first tick of the double
-    support before its lift-off, its lift-off tick) of each whole contact between a landing
-    and the sole's next lift-off (the walk's, not the standing start's or end's)."""
+    """(sole, the first tick of its landing's double support, its first single-support tick,
+    the first tick of the double support before its lift-off, its lift-off tick) of each
+    whole contact of a walk (a landing's record, :meth:`Walker._landed`, comes at the last
+    tick of that double support: the odometry places the sole there)."""
     t, double, stance = d["t"], d["double"], d["stance"]
     n, out = len(t), []
     for lt, side in zip(d["landing_t"], d["landing_side"], strict=True):
-        a = int(np.searchsorted(t, lt - 1e-9))
-        b = a
+        a = b = int(np.searchsorted(t, lt - 1e-9))
+        while a > 0 and double[a - 1]:
+            a -= 1
         while b < n and double[b]:
             b += 1
         c = b
@@ -248,26 +250,27 @@ def contacts(d: dict) -> list[tuple[int, int, int, int, int]]:
 
 def phases(f: str) -> None:
     """Each sole's slide (the simulator's, world xy, mm) per contact phase of one recording
-    (:func:`contacts`): the vector sums (what the odometry's chain of landings misses, a
-    drift) and the mean path length per contact (the spread's source)."""
+    (:func:`contacts`): the vector sums (those after the sole's placement at its landing
+    double support's end are what the odometry's chain of landings misses, a drift) and
+    the mean path length per contact."""
     d = dict(np.load(f))
     soles = d["soles"]
     parts = {"landing double": (1, 2), "single": (2, 3), "lift-off double": (3, 4)}
     cs = contacts(d)
     print(f"{f}: {len(cs)} contacts")
-    total = np.zeros(2)  # the odometry's miss: a sole's slide from its landing to the other's
+    total = np.zeros(2)  # the odometry's miss: a sole's slide once placed, to the other's
     for name, (i, j) in parts.items():
         moves = np.array([1000 * (soles[c[j], c[0], :2] - soles[c[i], c[0], :2]) for c in cs])
         paths = [1000 * np.linalg.norm(np.diff(soles[c[i] : c[j] + 1, c[0], :2], axis=0),
                                        axis=1).sum() for c in cs]  # fmt: skip
-        total += moves.sum(0) if name != "lift-off double" else 0.0  # (re-measured after)
+        total += moves.sum(0) if name != "landing double" else 0.0  # (placed at its end)
         print(
             f"  {name:16s} sum {np.round(moves.sum(0), 1)} mm, mean move "
             f"{np.round(moves.mean(0), 2)} ± {np.round(moves.std(0), 2)}, mean path "
             f"{np.mean(paths):.2f} mm, ticks {np.mean([c[j] - c[i] for c in cs]):.1f}"
         )
     print(
-        f"  missed by the landings' chain (landing double + single): {np.round(total, 1)} "
+        f"  missed by the landings' chain (single + lift-off double): {np.round(total, 1)} "
         f"mm ({np.linalg.norm(total):.1f})"
     )
 
@@ -285,6 +288,9 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         metavar="F",
         help="EngineParams(transfer=F) for the recorded run (default the engine's)",
+    )
+    ap.add_argument(
+        "--load-ramp", action="store_true", help="Walker(load_ramp=True) for the recorded run"
     )
     ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
                     help="analyse these recordings instead of running")  # fmt: skip
