@@ -38,7 +38,7 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
-from wbc.geometry import heading_free, rot_z, yaw_of
+from wbc.geometry import heading_free, rot_z, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE
 from wbc.walking.engine import EngineParams
 
@@ -269,6 +269,19 @@ def phases(f: str) -> None:
             f"{np.round(moves.mean(0), 2)} ± {np.round(moves.std(0), 2)}, mean path "
             f"{np.mean(paths):.2f} mm, ticks {np.mean([c[j] - c[i] for c in cs]):.1f}"
         )
+    path, height, ticks = np.zeros(10), np.zeros(10), np.zeros(10)  # per tenth of the single
+    for side, a, b, c, e in cs:
+        seg = soles[b : c + 1, side]
+        step = 1000 * np.linalg.norm(np.diff(seg[:, :2], axis=0), axis=1)
+        tenth = 10 * np.arange(len(step)) // len(step)
+        np.add.at(path, tenth, step)
+        np.add.at(height, tenth, 1000 * (seg[1:, 2] - soles[a:e, side, 2].min()))
+        np.add.at(ticks, tenth, 1)
+    turn = [math.degrees(wrap_angle(soles[c, side, 3] - soles[b, side, 3]))
+            for side, a, b, c, e in cs]  # fmt: skip
+    print(f"  single support per tenth: path {np.round(path / len(cs), 2)} mm, the sole above "
+          f"its contact's lowest {np.round(height / ticks, 2)} mm; its turn ± "
+          f"{np.std(turn):.1f}°")  # fmt: skip
     print(
         f"  missed by the landings' chain (single + lift-off double): {np.round(total, 1)} "
         f"mm ({np.linalg.norm(total):.1f})"
