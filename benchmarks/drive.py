@@ -280,6 +280,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="the share of each double support within which the planned ZMP moves "
                          "onto the landed sole (EngineParams(transfer=F); default the "
                          "engine's)")  # fmt: skip
+    ap.add_argument("--double-support", type=float, default=None, metavar="F",
+                    help="the share of each 0.5 s step in double support (EngineParams' "
+                         "GaitTiming(double_support_ratio=F); default the engine's 0.2; the "
+                         "velocity limits stay the default gait's)")  # fmt: skip
     ap.add_argument("--heading-gain", type=float, default=None, metavar="K",
                     help="the share of the gyro's stance-sole heading the odometry takes at "
                          "each landing, the rest the encoders' chain (Walker(heading_gain=K); "
@@ -401,11 +405,23 @@ def main(argv: list[str] | None = None) -> int:
         "load_ramp": args.load_ramp,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
-        if not args.plain_closing and args.swing_settle is None and args.transfer is None
+        if not args.plain_closing
+        and args.swing_settle is None
+        and args.transfer is None
+        and args.double_support is None
         else EngineParams(
             close_on_target=not args.plain_closing,
             **({} if args.swing_settle is None else {"settle": args.swing_settle}),
             **({} if args.transfer is None else {"transfer": args.transfer}),
+            **(
+                {}
+                if args.double_support is None
+                else {
+                    "timing": replace(
+                        EngineParams().timing, double_support_ratio=args.double_support
+                    )
+                }
+            ),
         ),
     }
     if args.settle is not None:
