@@ -107,7 +107,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             base_hold: float | None = None,
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
-            twist: float | None = None, slip_gain: float | None = None, **kw):  # fmt: skip
+            twist: float | None = None, slip_gain: float | None = None,
+            load_ramp: bool = False, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -123,6 +124,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "landing_contact": None if landing_contact else False,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
+        "load_ramp": load_ramp or None,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -274,6 +276,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--swing-settle", type=float, default=None, metavar="F",
                     help="the share of each swing at its end in which the sole only comes "
                          "down (EngineParams(settle=F); default the engine's)")  # fmt: skip
+    ap.add_argument("--transfer", type=float, default=None, metavar="F",
+                    help="the share of each double support within which the planned ZMP moves "
+                         "onto the landed sole (EngineParams(transfer=F); default the "
+                         "engine's)")  # fmt: skip
+    ap.add_argument("--double-support", type=float, default=None, metavar="F",
+                    help="the share of each 0.5 s step in double support (EngineParams' "
+                         "GaitTiming(double_support_ratio=F); default the engine's 0.2; the "
+                         "velocity limits stay the default gait's)")  # fmt: skip
     ap.add_argument("--heading-gain", type=float, default=None, metavar="K",
                     help="the share of the gyro's stance-sole heading the odometry takes at "
                          "each landing, the rest the encoders' chain (Walker(heading_gain=K); "
@@ -343,6 +353,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--slip-gain", type=float, default=None, metavar="K",
                     help="the walker's slip_gain: the stance sole's slide by the IMU, this share "
                          "of it in the odometry (wbc.drive.slip; default 0, off)")  # fmt: skip
+    ap.add_argument("--load-ramp", action="store_true",
+                    help="the compliance feed-forward's load moved from sole to sole over each "
+                         "walking double support, min-jerk (Walker(load_ramp=True); default "
+                         "off: split by the CoM's place)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -388,12 +402,26 @@ def main(argv: list[str] | None = None) -> int:
         "quiet_stand": {"off": ""}.get(args.quiet_stand, args.quiet_stand),
         "twist": args.twist,
         "slip_gain": args.slip_gain,
+        "load_ramp": args.load_ramp,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
-        if not args.plain_closing and args.swing_settle is None
+        if not args.plain_closing
+        and args.swing_settle is None
+        and args.transfer is None
+        and args.double_support is None
         else EngineParams(
             close_on_target=not args.plain_closing,
             **({} if args.swing_settle is None else {"settle": args.swing_settle}),
+            **({} if args.transfer is None else {"transfer": args.transfer}),
+            **(
+                {}
+                if args.double_support is None
+                else {
+                    "timing": replace(
+                        EngineParams().timing, double_support_ratio=args.double_support
+                    )
+                }
+            ),
         ),
     }
     if args.settle is not None:

@@ -38,8 +38,9 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
-from wbc.geometry import heading_free, rot_z, yaw_of
+from wbc.geometry import heading_free, rot_z, wrap_angle, yaw_of
 from wbc.types import SUPPORT_DOUBLE
+from wbc.walking.engine import EngineParams
 
 SOLES = {"left": "l_sole", "right": "r_sole"}
 GRAVITY = np.array([0.0, 0.0, 9.81])
@@ -118,7 +119,9 @@ def record(args) -> None:
     drive_sim_module.Odometer = Sampled
     cmds = random_commands(np.random.default_rng([args.seed, 1000 + args.sequence]), share,
                            args.duration)  # fmt: skip
-    r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window)
+    params = None if args.transfer is None else EngineParams(transfer=args.transfer)
+    r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
+                      params=params, load_ramp=args.load_ramp)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
     out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
@@ -221,6 +224,70 @@ def analyse(files: list[str]) -> None:
               f"blend {np.round(share, 3)}: {spread} -> {kept}")  # fmt: skip
 
 
+def contacts(d: dict) -> list[tuple[int, int, int, int, int]]:
+    """(sole, the first tick of its landing's double support, its first single-support tick,
+    the first tick of the double support before its lift-off, its lift-off tick) of each
+    whole contact of a walk (a landing's record, :meth:`Walker._landed`, comes at the last
+    tick of that double support: the odometry places the sole there)."""
+    t, double, stance = d["t"], d["double"], d["stance"]
+    n, out = len(t), []
+    for lt, side in zip(d["landing_t"], d["landing_side"], strict=True):
+        a = b = int(np.searchsorted(t, lt - 1e-9))
+        while a > 0 and double[a - 1]:
+            a -= 1
+        while b < n and double[b]:
+            b += 1
+        c = b
+        while c < n and not double[c] and stance[c] == side:
+            c += 1
+        e = c
+        while e < n and double[e]:
+            e += 1
+        if e < n and not double[e] and stance[e] != side and d["walking"][e]:
+            out.append((int(side), a, b, c, e))
+    return out
+
+
+def phases(f: str) -> None:
+    """Each sole's slide (the simulator's, world xy, mm) per contact phase of one recording
+    (:func:`contacts`): the vector sums (those after the sole's placement at its landing
+    double support's end are what the odometry's chain of landings misses, a drift) and
+    the mean path length per contact."""
+    d = dict(np.load(f))
+    soles = d["soles"]
+    parts = {"landing double": (1, 2), "single": (2, 3), "lift-off double": (3, 4)}
+    cs = contacts(d)
+    print(f"{f}: {len(cs)} contacts")
+    total = np.zeros(2)  # the odometry's miss: a sole's slide once placed, to the other's
+    for name, (i, j) in parts.items():
+        moves = np.array([1000 * (soles[c[j], c[0], :2] - soles[c[i], c[0], :2]) for c in cs])
+        paths = [1000 * np.linalg.norm(np.diff(soles[c[i] : c[j] + 1, c[0], :2], axis=0),
+                                       axis=1).sum() for c in cs]  # fmt: skip
+        total += moves.sum(0) if name != "landing double" else 0.0  # (placed at its end)
+        print(
+            f"  {name:16s} sum {np.round(moves.sum(0), 1)} mm, mean move "
+            f"{np.round(moves.mean(0), 2)} ± {np.round(moves.std(0), 2)}, mean path "
+            f"{np.mean(paths):.2f} mm, ticks {np.mean([c[j] - c[i] for c in cs]):.1f}"
+        )
+    path, height, ticks = np.zeros(10), np.zeros(10), np.zeros(10)  # per tenth of the single
+    for side, a, b, c, e in cs:
+        seg = soles[b : c + 1, side]
+        step = 1000 * np.linalg.norm(np.diff(seg[:, :2], axis=0), axis=1)
+        tenth = 10 * np.arange(len(step)) // len(step)
+        np.add.at(path, tenth, step)
+        np.add.at(height, tenth, 1000 * (seg[1:, 2] - soles[a:e, side, 2].min()))
+        np.add.at(ticks, tenth, 1)
+    turn = [math.degrees(wrap_angle(soles[c, side, 3] - soles[b, side, 3]))
+            for side, a, b, c, e in cs]  # fmt: skip
+    print(f"  single support per tenth: path {np.round(path / len(cs), 2)} mm, the sole above "
+          f"its contact's lowest {np.round(height / ticks, 2)} mm; its turn ± "
+          f"{np.std(turn):.1f}°")  # fmt: skip
+    print(
+        f"  missed by the landings' chain (single + lift-off double): {np.round(total, 1)} "
+        f"mm ({np.linalg.norm(total):.1f})"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequence", type=int, default=13)
@@ -228,10 +295,27 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="/tmp/slip_probe.npz")
+    ap.add_argument(
+        "--transfer",
+        type=float,
+        default=None,
+        metavar="F",
+        help="EngineParams(transfer=F) for the recorded run (default the engine's)",
+    )
+    ap.add_argument(
+        "--load-ramp", action="store_true", help="Walker(load_ramp=True) for the recorded run"
+    )
     ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
                     help="analyse these recordings instead of running")  # fmt: skip
+    ap.add_argument("--phases", nargs="+", default=None, metavar="FILE",
+                    help="per recording, each sole's slide over its contact split by phase "
+                         "(its landing's double support, its single support, the double "
+                         "support before its lift-off): sums and mean lengths")  # fmt: skip
     args = ap.parse_args(argv)
-    if args.analyse:
+    if args.phases:
+        for f in args.phases:
+            phases(f)
+    elif args.analyse:
         analyse(args.analyse)
     else:
         record(args)

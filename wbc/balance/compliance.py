@@ -148,11 +148,16 @@ class ComplianceCompensator:
         return self.robot.place_on_ground(q, soles[0])
 
     def torques(
-        self, joints: np.ndarray, support: int = SUPPORT_DOUBLE, accel: np.ndarray | None = None
+        self,
+        joints: np.ndarray,
+        support: int = SUPPORT_DOUBLE,
+        accel: np.ndarray | None = None,
+        share: float | None = None,
     ) -> np.ndarray:
         """Static joint torques (N·m, model joint order) holding ``joints`` on ``support``;
         ``accel`` (m/s², world): under the field ``g − accel`` instead of gravity (the body
-        accelerated as one: ``Gains.ff_inertial``)."""
+        accelerated as one: ``Gains.ff_inertial``); ``share`` (double support): the left
+        sole's share of the load instead of the CoM's place between the soles."""
         if support not in SOLES:
             raise ConfigurationError(f"support must be one of {sorted(SOLES)}, got {support!r}")
         soles = SOLES[support]
@@ -169,12 +174,12 @@ class ComplianceCompensator:
         jc = np.vstack(
             [pin.getFrameJacobian(m, d, self.sole_ids[s], pin.LOCAL_WORLD_ALIGNED) for s in soles]
         )
-        share = 1.0
-        if len(soles) == 2:  # weighted least norm: the sole nearer the CoM carries more
+        if len(soles) == 2 and share is None:  # weighted least norm: the sole nearer the CoM
             com = pin.centerOfMass(m, d, q, False)[:2]
             pl, pr = (d.oMf[self.sole_ids[s]].translation[:2] for s in soles)
             seg = pl - pr
             share = float((com - pr) @ seg / max(seg @ seg, 1e-12))
+        share = 1.0 if share is None else share  # (one sole carries all)
         return g[6:] - jc[:, 6:].T @ contact_forces(jc[:, :6].T, g[:6], share)
 
     def deflection(self, joints: np.ndarray, support: int = SUPPORT_DOUBLE) -> np.ndarray:
@@ -334,6 +339,9 @@ class CompensatedSource:
         self.correction = correction
         #: the body's acceleration at time t (m/s², world; None: static): ``Gains.ff_inertial``
         self.accel: Callable[[float], np.ndarray | None] | None = None
+        #: the left sole's share of the load in double support at time t (None: by the CoM;
+        #: :meth:`ComplianceCompensator.torques`), e.g. :class:`wbc.drive.compensate.LoadRamp`
+        self.share: Callable[[float], float | None] | None = None
         self.delay = max(1, int(delay))
         # (t, plan, goal, model deflection, goal velocity) of the last goals sent
         self._sent: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -401,7 +409,8 @@ class CompensatedSource:
         q = np.asarray(q, dtype=float)
         comp = self.compensator
         accel = self.accel(t) if self.accel is not None else None  # (Gains.ff_inertial)
-        tau = comp.torques(q, self.support(t), accel)
+        share = self.share(t) if self.share is not None else None
+        tau = comp.torques(q, self.support(t), accel, share)
         if self._ti is not None:
             tau = tau + self._drive(q, t)
         delta = self._unabsorbed(comp.servo_deflection(tau), t)

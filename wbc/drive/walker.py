@@ -36,7 +36,7 @@ from ..balance.compliance import ComplianceCompensator
 from ..balance.estimator import StateEstimator
 from ..balance.stabilizer import Gains, Stabilizer
 from ..exceptions import ConfigurationError, WbcError
-from ..geometry import clip_norm, heading_free, rot_z, wrap_angle, yaw_of
+from ..geometry import heading_free, rot_z, wrap_angle, yaw_of
 from ..imu import Imu
 from ..model import Robot
 from ..recording import SUPPORT_DOUBLE
@@ -51,8 +51,9 @@ from ..walking.loop import Controller, TickTargets
 from ..walking.reference import StandingState
 from ..walking.window import BalanceWindow
 from .compensate import DRIVE_COMPENSATE as DRIVE_COMPENSATE  # (re-exported)
-from .compensate import DRIVE_CORRECTION
+from .compensate import DRIVE_CORRECTION, LoadRamp
 from .compensate import default_compensate as default_compensate  # (re-exported)
+from .contacts import move_contacts
 from .failures import failure_cause
 from .failures import failure_lines as failure_lines  # (re-exported)
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
@@ -120,20 +121,20 @@ DRIVE_YAW_REST_S = 1.5
 #: (within :data:`~wbc.drive.finish.DRIVE_FINISH_TOLERANCE`)
 DRIVE_FINISH_STEPS = 4
 
-#: how far (m) the controller's stance contact moves toward a measured landing away from
-#: its plan, at most (:meth:`Walker._contacts`), and how fast (m/s). A sole lands where the
-#: commanded legs put it, its plan; the leg odometry measures it from the encoders at the end
-#: of that double support (the compliant servos land a few millimetres short and narrow).
-#: Through the single support that follows, the stance contact's target then slides toward
-#: the measured sole, so the commanded body moves over the real stance sole as the plan has
-#: it over the planned one (the stride the servos lost is given back at once, beyond the
-#: make-up's room at the limits). Only in single support, where the stance contact is the
-#: one hard contact: moved within a double support, or re-anchored there at the measured
-#: landing (the behaviour before 2026-12-05 08:35 UTC, an unbounded reach: up to 29 mm off),
-#: the two contacts and the feet's self-collision rows were infeasible together (290 failed
-#: solves in 100 random runs). Measured (benchmarks/drive.md, "Contacts that move"): forward
-#: at the limit on the nominal model 7.99 -> 8.5 cm/s, over 20 randomised models a mean
-#: 7.56 -> 7.88 cm/s; 5 cm/s or an unbounded reach (3 cm) threw the randomised models
+#: how far (m) the controller's stance contact moves toward a measured landing away from its plan,
+#: at most (:func:`wbc.drive.contacts.move_contacts`), and how fast (m/s). A sole lands where the
+#: commanded legs put it, its plan; the leg odometry measures it from the encoders at the end of
+#: that double support (the compliant servos land a few millimetres short and narrow). Through the
+#: single support that follows, the stance contact's target then slides toward the measured sole, so
+#: the commanded body moves over the real stance sole as the plan has it over the planned one (the
+#: stride the servos lost is given back at once, beyond the make-up's room at the limits). Only in
+#: single support, where the stance contact is the one hard contact: moved within a double support,
+#: or re-anchored there at the measured landing (the behaviour before 2026-12-05 08:35 UTC, an
+#: unbounded reach: up to 29 mm off), the two contacts and the feet's self-collision rows were
+#: infeasible together (290 failed solves in 100 random runs). Measured (benchmarks/drive.md,
+#: "Contacts that move"): forward at the limit on the nominal model 7.99 -> 8.5 cm/s, over 20
+#: randomised models a mean 7.56 -> 7.88 cm/s; 5 cm/s or an unbounded reach (3 cm) threw the
+#: randomised models
 DRIVE_CONTACT_REACH = 0.005
 DRIVE_CONTACT_RATE = 0.02
 
@@ -263,6 +264,8 @@ class Walker:
     still, no torso feedback (``"end"``, ``"standing"``, ``""``: :mod:`wbc.drive.stand`).
     ``slip_gain`` (outer loop, 0: off): the stance sole's slide by the IMU moved into the
     odometry, this share of it (:class:`~wbc.drive.slip.SlipEstimate`).
+    ``load_ramp`` (with ``compensate``): the feed-forward's load moved from sole to sole over
+    each walking double support, min-jerk (:class:`~wbc.drive.compensate.LoadRamp`; off).
     """
 
     def __init__(
@@ -301,6 +304,7 @@ class Walker:
         heading_gain: float = DRIVE_HEADING_GAIN,
         quiet_stand: str = DRIVE_QUIET_STAND,
         slip_gain: float = 0.0,
+        load_ramp: bool = False,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -358,6 +362,8 @@ class Walker:
         centre = self.engine.centre
         self.engine.origin[:] = rot2(centre[2]).T @ (q0[:2] - centre[:2])
         self.compensate = float(compensate)
+        ramp = LoadRamp(max(1, round(params.timing.double_support_time / self.engine.dt)))
+        self.load_ramp = ramp if load_ramp else None  #: the feed-forward's load split
         self.correct = bool(correct)
         self.q = q0.copy()
         self._lean = heading_free(robot.frame_placement(q0, "torso").rotation)
@@ -709,48 +715,15 @@ class Walker:
             self.engine.params = replace(p, swing=replace(p.swing, apex=self._apex * gain))
 
     def _contacts(self, targets: TickTargets, dt: float) -> None:
-        """The controller's soles in contact: each starts at its planned placement
-        (:attr:`WalkEngine.feet`, where the commanded swing put it) and, in single support,
-        the stance sole's target slides toward the measured one (:attr:`WalkEngine.contact`,
-        leg odometry: what the state estimate stands on and the steps are aimed from), at
-        most :attr:`contact_reach` from the plan, at :attr:`contact_rate` (m/s;
-        :data:`DRIVE_CONTACT_REACH`, :data:`DRIVE_CONTACT_RATE`) and, with
-        :attr:`keep_clear`, never closer to the swing's planned landing than the feet's
-        clearance (:meth:`WalkEngine.clear_of_landing`: moved inward beside a landing at 7 mm,
-        turning on the spot, the double support's two hard contacts held the feet inside
-        their 5 mm self-collision margin and its solves failed). In double support the
-        targets stay where they are: both contacts hard, with the feet's self-collision
-        rows, could not follow a gap (benchmarks/drive.md, "Failed solves"). Written into
-        the targets: the anchors of a phase's new contacts and, flagged
-        :attr:`TickTargets.contacts_move`, the targets of the contacts already made."""
-        engine = self.engine
-        if engine.on_landing is None:
-            return
-        double = targets.phase == "double"
-        left = targets.support == SOLE_FRAMES["left"]
-        supports: tuple[Side, ...] = ("left", "right") if double else ("left" if left else "right",)
-        held = self._held
-        for side in ("left", "right"):
-            if side not in supports:
-                held.pop(side, None)  # lifted: its next contact starts afresh
-        step = self.contact_rate * dt
-        for side in supports:
-            plan = engine.feet[side]
-            start, pos = held.get(side, (None, None))
-            if start is not plan or pos is None:  # a new landing: where the swing put it
-                pos = plan.position.copy()
-            if not double and step > 0:
-                gap = engine.contact[side].position - plan.position
-                want = plan.position + clip_norm(gap, self.contact_reach)
-                moved = pos + clip_norm(want - pos, step)
-                pos = engine.clear_of_landing(plan, pos, moved) if self.keep_clear else moved
-            held[side] = (plan, pos)
-            placement = pin.SE3(rot_z(plan.yaw), pos)
-            if side == "left":
-                targets.l_sole = placement
-            else:
-                targets.r_sole = placement
-        targets.contacts_move = True
+        """The controller's soles in contact (:func:`~wbc.drive.contacts.move_contacts`)."""
+        if self.engine.on_landing is not None:
+            move_contacts(self.engine, self._held, targets, dt, self.contact_reach,
+                          self.contact_rate, self.keep_clear)  # fmt: skip
+
+    def _load_share(self, t: float) -> float | None:
+        """The feed-forward's left share of the load (:attr:`load_ramp`) at this walk tick."""
+        e, ramp = self.last, self.load_ramp
+        return None if e is None or ramp is None else ramp.update(e.support, e.support_frame)
 
     # ------------------------------------------------------------------ target source
     def first(self) -> np.ndarray:
@@ -795,6 +768,8 @@ class Walker:
                 self, comp, lambda t: self.last.support if self.last else SUPPORT_DOUBLE,
                 self.present if fix is not None else None, fix,
             )  # fmt: skip
+            if self.load_ramp is not None:  # (one update a goal: the walk tick just taken)
+                source.share = self._load_share
         dep = Deployment(bus, source, self.robot, config, out=out)
         holder.append(dep)
         return dep
