@@ -229,6 +229,53 @@ def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
         assert handover.fallbacks >= 1
 
 
+@pytest.mark.parametrize("speed", [None, 0.1])
+def test_a_landing_the_hard_row_cannot_meet_is_braced_where_it_stands(robot, speed):
+    """``brace`` (issue 30): the touch-down 50 mm and 0.4 rad off its reference that fails
+    without it (the test above) is solved braced: the landed contact anchored where the sole
+    is (with ``brace_speed`` one step of speed·dt toward the landing's anchor), the CoM and
+    torso targets where they are: the solve holds the pose (the landed sole where it was, the
+    CoM within 1 mm, no joint moving more than 0.02 rad), counted; the targets are put back
+    after it (the next tick tries the landing again, and is braced again)."""
+    import pinocchio as pin
+
+    ref = build("static_walk", robot)
+    s = ref.support
+    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
+    spec = _walk_spec()
+    table = {**spec["support_switch"], "brace": True} | ({"brace_speed": speed} if speed else {})
+    control = build_stack({**spec, "support_switch": table}, robot)
+    controller = StackController(control)
+    session = Session(controller, robot, ref)
+    for i in range(land):
+        session.tick(i)
+    frame = session.targets(land - 1).swing
+    q = session.q.copy()
+    sole = robot.frame_placement(q, frame)
+    t = session.targets(land)
+    turn = pin.exp3(np.array([0.0, 0.4, 0.0]))
+    goal = pin.SE3(t.sole(frame).rotation @ turn,
+                   t.sole(frame).translation + np.array([0.05, 0.0, 0.0]))  # fmt: skip
+    moved = t.replace(**{frame: goal})
+    q_next = controller.track(q, moved, ref.dt, True)  # (raises without the brace: above)
+    handover = controller.handover
+    assert handover.braced == 1 and handover.fallbacks == 0
+    contact = next(c for c in control.stack.tasks() if c.active and c.frame == frame)
+    anchor = contact.target_position.copy()  # (the landing's, put back)
+    assert np.linalg.norm(anchor - sole.translation) > 0.04
+    com = next(c for c in control.stack.tasks() if type(c).__name__ == "ComTask")
+    np.testing.assert_array_equal(com.target, moved.com)
+    step = 0.0 if speed is None else speed * ref.dt
+    landed = robot.frame_placement(q_next, frame).translation
+    assert abs(np.linalg.norm(landed - sole.translation) - step) < 1e-4
+    if speed:  # (toward the landing's anchor)
+        assert np.linalg.norm(landed - anchor) < np.linalg.norm(sole.translation - anchor)
+    assert np.linalg.norm(robot.com(q_next) - robot.com(q)) < 1e-3
+    assert np.max(np.abs(q_next[7:] - q[7:])) < 0.02
+    controller.track(q_next, moved, ref.dt, False)  # (the lift-off hold's replay of the tick)
+    assert handover.braced == 2
+
+
 def test_the_support_switch_table_is_checked_and_scaled():
     """Positive numbers only, known keys only, one line naming the key; a robot λ times the
     design leg gets both values times √λ."""
