@@ -233,10 +233,10 @@ def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
 def test_a_landing_the_hard_row_cannot_meet_is_braced_where_it_stands(robot, speed):
     """``brace`` (issue 30): the touch-down 50 mm and 0.4 rad off its reference that fails
     without it (the test above) is solved braced: the landed contact anchored where the sole
-    is (with ``brace_speed`` one step of speed·dt toward the landing's anchor), the CoM and
-    torso targets where they are: the solve holds the pose (the landed sole where it was, the
-    CoM within 1 mm, no joint moving more than 0.02 rad), counted; the targets are put back
-    after it (the next tick tries the landing again, and is braced again)."""
+    is (with ``brace_speed`` one step of speed·dt toward the landing's anchor), the other
+    contact, the CoM, torso and posture targets where they are: the solve holds the pose (the
+    landed sole where it was, the CoM within 1 mm, no joint moving 1e-3 rad), counted; the
+    targets are put back after it (the next tick tries the landing again, braced again)."""
     import pinocchio as pin
 
     ref = build("static_walk", robot)
@@ -271,7 +271,8 @@ def test_a_landing_the_hard_row_cannot_meet_is_braced_where_it_stands(robot, spe
     if speed:  # (toward the landing's anchor)
         assert np.linalg.norm(landed - anchor) < np.linalg.norm(sole.translation - anchor)
     assert np.linalg.norm(robot.com(q_next) - robot.com(q)) < 1e-3
-    assert np.max(np.abs(q_next[7:] - q[7:])) < 0.02
+    # the pose held (every target at q: no joint moves 1e-3 rad), or moved by the anchor's step
+    assert np.max(np.abs(q_next[7:] - q[7:])) < (1e-3 if speed is None else 0.03)
     controller.track(q_next, moved, ref.dt, False)  # (the lift-off hold's replay of the tick)
     assert handover.braced == 2
 

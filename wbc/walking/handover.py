@@ -161,6 +161,8 @@ class SwitchHandover:
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
+        #: the tasks whose targets a braced tick sets to the pose at q (:meth:`_braced`)
+        self._posed = [t for t in tasks if isinstance(t, PostureTask)]
         self._contacts = [t for t in tasks if isinstance(t, ContactTask)]
         legs = [
             (frame, robot.joint_index(j))
@@ -296,11 +298,12 @@ class SwitchHandover:
         """A landing's tick whose solve failed, solved braced (``brace``, issue 30): the
         landed sole ``frame``'s contact anchored where the sole is at ``q`` (with
         ``brace_speed``, m/s, one step of ``brace_speed·dt`` from there toward its anchor),
-        the CoM and torso targets where they are at ``q`` (the feedback's targets frozen):
-        the pose held by a solve, as the failed tick held it by accident (the survivors of
-        main's pushes stand on those held poses, benchmarks/pushes.md); the tasks' targets
-        are put back after it (the next tick tries the landing again). None if that fails
-        too."""
+        the other contacts where their soles are,
+        the CoM, torso and posture targets where they are at ``q`` (the feedback's targets
+        frozen): the pose held by a solve, as the failed tick held it by accident (the
+        survivors of main's pushes stand on those held poses, benchmarks/pushes.md); the
+        tasks' targets are put back after it (the next tick tries the landing again). None
+        if that fails too."""
         robot = self._robot
         sole = robot.frame_placement(q, frame)
         anchor = sole
@@ -309,16 +312,19 @@ class SwitchHandover:
             gap = float(np.linalg.norm(goal.translation - sole.translation))
             share = 1.0 if gap <= self.brace_speed * dt else self.brace_speed * dt / gap
             anchor = _toward(sole, goal, share)
-        contacts = [t for t in self._contacts if t.active and t.frame == frame]
+        contacts = [t for t in self._contacts if t.active]
         saved = [(t.target_position.copy(), t.target_rotation.copy()) for t in contacts]
-        held = [(t, t.target.copy()) for t in (*self._com_tasks, *self._torso_tasks)]
-        for task in contacts:
-            task.set_target(anchor)
+        posed = (*self._com_tasks, *self._torso_tasks, *self._posed)
+        held = [(t, t.target.copy()) for t in posed]
+        for task in contacts:  # (the other sole's too: where it is at q)
+            task.set_target(anchor if task.frame == frame else robot.frame_placement(q, task.frame))
         com = robot.com(q)
         for task in self._com_tasks:
             task.set_target(com)
         for task in self._torso_tasks:
             task.set_target(robot.frame_placement(q, task.frame).rotation)
+        for task in self._posed:
+            task.set_target(q)
         try:
             q_next = solver.step(q, dt)
             self.braced += 1
