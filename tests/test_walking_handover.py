@@ -298,7 +298,7 @@ def test_the_support_switch_table_is_checked_and_scaled():
     unit = _stack_length_unit(spec["design_leg"], kokone, "")
     got = build_stack(spec, kokone).support_switch
     root = math.sqrt(unit)
-    assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit)
+    assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit, brace=True)
     assert build_stack({k: v for k, v in spec.items() if k != "support_switch"}, kokone)
 
 
