@@ -35,6 +35,7 @@ def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
         "posture_lag": 0.1,
         "landing_time": 0.1,
         "landing_band": 0.005,
+        "brace": True,
     }
     without = {k: v for k, v in spec.items() if k != "support_switch"}
     rec = run(StackController(build_stack(without, robot)), robot, ref)
@@ -179,8 +180,8 @@ def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
 
 def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
     """A touch-down 50 mm and 0.4 rad off its reference (a catch's miss, more than the servos
-    move in a tick): the tick fails without ``landing_fallback`` (the controller holds its last
-    configuration); with it the landing is re-anchored where the sole is, one share
+    move in a tick): the tick fails without ``landing_fallback`` and ``brace`` (the controller
+    holds its last configuration); with it the landing is re-anchored where the sole is, one share
     ``dt / landing_time`` of the way to the reference this tick, the tick solves, the hard row
     meets the anchor, the fallback is counted, and the later ticks walk the rest (at the
     reference after ``landing_time``, failing again only to fall back again)."""
@@ -194,7 +195,7 @@ def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
     spec = _walk_spec()
     answers = {}
     for fallback in (False, True):
-        table = {**spec["support_switch"], "landing_fallback": fallback}
+        table = {**spec["support_switch"], "landing_fallback": fallback, "brace": False}
         control = build_stack({**spec, "support_switch": table}, robot)
         controller = StackController(control)
         session = Session(controller, robot, ref)
