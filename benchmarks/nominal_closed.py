@@ -40,7 +40,8 @@ def main() -> None:
                           "dev_deg": round(r["orientation_dev_max_deg"], 2),
                           "dist": round(r["distance_ratio"], 3),
                           "replans": r.get("replans"), "failed_solves": r.get("failed_solves"),
-                          "fallbacks": r.get("landing_fallbacks")}), flush=True)  # fmt: skip
+                          "fallbacks": r.get("landing_fallbacks"),
+                          "braced": r.get("braced_ticks")}), flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -298,7 +298,8 @@ def screen(args) -> None:
     """One push per ``--screen`` item (``DIR:NS:S``), per solver and loop: ``UP`` or the
     fall's time (s) — a screen beside the bisections, at the points just above them; then
     ``/Nf`` (N walking ticks whose solve failed: the last configuration held), ``/Nr`` (N
-    ticks relaxed) and ``/Nl`` (N ticks of the stack's ``landing_fallback``), if any."""
+    ticks relaxed), ``/Nl`` (N ticks of the stack's ``landing_fallback``) and ``/Nb`` (N ticks
+    braced, its ``brace``), if any."""
     from wbc.bench.pushes import PUSH_DURATION, push_direction
     from wbc.bench.sim_record import mid_single_support
 
@@ -321,7 +322,7 @@ def screen(args) -> None:
                         PUSH_DURATION)  # fmt: skip
                 r = simulate(rec, robot, push=push, compensate=comp, closed=spec)
                 held = "".join(f"/{r[k]}{k[0]}" for k in ("failed_solves", "relaxed_solves",
-                               "landing_fallbacks") if r.get(k))  # fmt: skip
+                               "landing_fallbacks", "braced_ticks") if r.get(k))  # fmt: skip
                 out.append(f"{item}={'UP' if not r['fell'] else round(r['fall_time_s'], 2)}{held}")
             print(json.dumps({"solver": solver, "loop": loop, "stepping": args.stepping,
                               "gains": args.gains, "screen": out}), flush=True)  # fmt: skip

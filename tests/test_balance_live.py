@@ -252,6 +252,10 @@ def test_the_source_counts_the_walking_ticks_whose_solve_failed():
         source(tick, session.ref.dt * tick)
     assert source.failed_ticks == 4 and not session.failed  # (the last tick solved)
     assert source.relaxed_ticks == 1
+    # what `wbc sim` (its JSON) and `wbc deploy --live` report
+    assert source.solve_counts() == {"walking_ticks": 25, "failed_solves": 4, "relaxed_solves": 1}
+    assert source.solve_line() == ("live solves: 4 of 25 walking ticks failed (the last pose "
+                                   "held), 1 relaxed")  # fmt: skip
 
 
 def test_loop_share_is_the_median_share_and_scale_free():

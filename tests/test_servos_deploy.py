@@ -585,6 +585,7 @@ def test_live_controller_plays_through_the_safety_layer(
         )
     assert rc == 0, err
     assert "live walk on thesis_step" in out
+    assert "live solves: 0 of " in out and "held), 0 relaxed" in out  # (every tick counted)
     # the solver runs in this process: its work can starve the emulator's process, whose
     # receive stamps then bunch up; the speed law is checked on the host's send times, and
     # the servos received exactly the goals logged

@@ -58,6 +58,8 @@ def test_wbc_sim_runs_the_closed_loop_by_default(capsys):
     out = capsys.readouterr().out
     said = "closed loop: IMU on, feed-forward x0.5 on servos.toml (nominal), step adjustment off"
     assert said in out and "(closed loop)" in out and "fell: False" in out
+    ticks = int(out.split("live solves: 0 of ")[1].split(" walking ticks failed")[0])
+    assert ticks > 50 and "held), 0 relaxed" in out  # (the step's 99 ticks, each solved)
 
 
 def test_wbc_sim_on_hobby_servos_plays_open_loop_unless_closed_loop_is_given(capsys):

@@ -35,6 +35,7 @@ def test_without_the_handover_every_switch_asks_the_full_servo_speed(robot):
         "posture_lag": 0.1,
         "landing_time": 0.1,
         "landing_band": 0.005,
+        "brace": True,
     }
     without = {k: v for k, v in spec.items() if k != "support_switch"}
     rec = run(StackController(build_stack(without, robot)), robot, ref)
@@ -179,8 +180,8 @@ def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
 
 def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
     """A touch-down 50 mm and 0.4 rad off its reference (a catch's miss, more than the servos
-    move in a tick): the tick fails without ``landing_fallback`` (the controller holds its last
-    configuration); with it the landing is re-anchored where the sole is, one share
+    move in a tick): the tick fails without ``landing_fallback`` and ``brace`` (the controller
+    holds its last configuration); with it the landing is re-anchored where the sole is, one share
     ``dt / landing_time`` of the way to the reference this tick, the tick solves, the hard row
     meets the anchor, the fallback is counted, and the later ticks walk the rest (at the
     reference after ``landing_time``, failing again only to fall back again)."""
@@ -194,7 +195,7 @@ def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
     spec = _walk_spec()
     answers = {}
     for fallback in (False, True):
-        table = {**spec["support_switch"], "landing_fallback": fallback}
+        table = {**spec["support_switch"], "landing_fallback": fallback, "brace": False}
         control = build_stack({**spec, "support_switch": table}, robot)
         controller = StackController(control)
         session = Session(controller, robot, ref)
@@ -229,6 +230,54 @@ def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
         assert handover.fallbacks >= 1
 
 
+@pytest.mark.parametrize("speed", [None, 0.1])
+def test_a_landing_the_hard_row_cannot_meet_is_braced_where_it_stands(robot, speed):
+    """``brace`` (issue 30): the touch-down 50 mm and 0.4 rad off its reference that fails
+    without it (the test above) is solved braced: the landed contact anchored where the sole
+    is (with ``brace_speed`` one step of speed·dt toward the landing's anchor), the other
+    contact, the CoM, torso and posture targets where they are: the solve holds the pose (the
+    landed sole where it was, the CoM within 1 mm, no joint moving 1e-3 rad), counted; the
+    targets are put back after it (the next tick tries the landing again, braced again)."""
+    import pinocchio as pin
+
+    ref = build("static_walk", robot)
+    s = ref.support
+    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
+    spec = _walk_spec()
+    table = {**spec["support_switch"], "brace": True} | ({"brace_speed": speed} if speed else {})
+    control = build_stack({**spec, "support_switch": table}, robot)
+    controller = StackController(control)
+    session = Session(controller, robot, ref)
+    for i in range(land):
+        session.tick(i)
+    frame = session.targets(land - 1).swing
+    q = session.q.copy()
+    sole = robot.frame_placement(q, frame)
+    t = session.targets(land)
+    turn = pin.exp3(np.array([0.0, 0.4, 0.0]))
+    goal = pin.SE3(t.sole(frame).rotation @ turn,
+                   t.sole(frame).translation + np.array([0.05, 0.0, 0.0]))  # fmt: skip
+    moved = t.replace(**{frame: goal})
+    q_next = controller.track(q, moved, ref.dt, True)  # (raises without the brace: above)
+    handover = controller.handover
+    assert handover.braced == 1 and handover.fallbacks == 0
+    contact = next(c for c in control.stack.tasks() if c.active and c.frame == frame)
+    anchor = contact.target_position.copy()  # (the landing's, put back)
+    assert np.linalg.norm(anchor - sole.translation) > 0.04
+    com = next(c for c in control.stack.tasks() if type(c).__name__ == "ComTask")
+    np.testing.assert_array_equal(com.target, moved.com)
+    step = 0.0 if speed is None else speed * ref.dt
+    landed = robot.frame_placement(q_next, frame).translation
+    assert abs(np.linalg.norm(landed - sole.translation) - step) < 1e-4
+    if speed:  # (toward the landing's anchor)
+        assert np.linalg.norm(landed - anchor) < np.linalg.norm(sole.translation - anchor)
+    assert np.linalg.norm(robot.com(q_next) - robot.com(q)) < 1e-3
+    # the pose held (every target at q: no joint moves 1e-3 rad), or moved by the anchor's step
+    assert np.max(np.abs(q_next[7:] - q[7:])) < (1e-3 if speed is None else 0.03)
+    controller.track(q_next, moved, ref.dt, False)  # (the lift-off hold's replay of the tick)
+    assert handover.braced == 2
+
+
 def test_the_support_switch_table_is_checked_and_scaled():
     """Positive numbers only, known keys only, one line naming the key; a robot λ times the
     design leg gets both values times √λ."""
@@ -250,7 +299,7 @@ def test_the_support_switch_table_is_checked_and_scaled():
     unit = _stack_length_unit(spec["design_leg"], kokone, "")
     got = build_stack(spec, kokone).support_switch
     root = math.sqrt(unit)
-    assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit)
+    assert got == SupportSwitch(0.1 * root, 0.1 * root, 0.005 * unit, brace=True)
     assert build_stack({k: v for k, v in spec.items() if k != "support_switch"}, kokone)
 
 

@@ -39,6 +39,11 @@ class SupportSwitch:
     ``landing_time`` (:meth:`wbc.walking.handover.SwitchHandover.solve`; counted); false: the
     tick fails (the controller holds its last configuration). ``fallback_hold``: that anchor
     held where the sole is through the double support, not walked to the reference.
+    ``brace`` (issue 30): such a tick is instead solved braced — the landed contact anchored
+    where the sole is, the CoM and torso targets where they are: the pose held by a solve
+    (:meth:`wbc.walking.handover.SwitchHandover._braced`; counted), the next tick trying the
+    landing again; ``brace_speed`` (m/s; none: held): the braced anchor one step of that
+    speed from the sole toward the landing's (the miss settled at that speed).
     Stated for the file's ``design_leg``; on a robot λ times that size the times are scaled by
     √λ (the sizing's time scale, :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
 
@@ -50,6 +55,8 @@ class SupportSwitch:
     fit_speed: bool = True
     landing_fallback: bool = False
     fallback_hold: bool = False
+    brace: bool = False
+    brace_speed: float = 0.0
 
 
 #: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
@@ -62,6 +69,8 @@ SWITCH_KEYS = (
     "fit_speed",
     "landing_fallback",
     "fallback_hold",
+    "brace",
+    "brace_speed",
 )
 #: its keys that are true or false (the others are positive numbers)
 _SWITCH_FLAGS = (
@@ -70,6 +79,7 @@ _SWITCH_FLAGS = (
     "fit_speed",
     "landing_fallback",
     "fallback_hold",
+    "brace",
 )
 
 
@@ -98,7 +108,7 @@ def parse_support_switch(table: Any, unit: float, where: str) -> SupportSwitch |
         if not is_positive(value):
             raise TaskError(
                 f"{where}: support_switch.{key} must be a positive number (posture_lag and "
-                f"landing_time in s, landing_band in m), got {value!r}"
+                f"landing_time in s, landing_band in m, brace_speed in m/s), got {value!r}"
             )
         values[key] = float(value) * (unit if key == "landing_band" else math.sqrt(unit))
     return SupportSwitch(**values)

@@ -184,6 +184,20 @@ class SessionSource(CallableSource):
         lift-off hold's records unchanged; issue 30, i30p's eighth round)."""
         return np.array(self._played).T if self._slowed and self._played else None
 
+    def solve_counts(self) -> dict[str, int]:
+        """The walking ticks so far (``walking_ticks``), those whose solve failed (the last
+        configuration held: ``failed_solves``) and those whose hard level the solver relaxed
+        (``relaxed_solves``): what ``wbc sim`` and ``wbc deploy --live`` report."""
+        return {"walking_ticks": len(self.solve_time), "failed_solves": self.failed_ticks,
+                "relaxed_solves": self.relaxed_ticks}  # fmt: skip
+
+    def solve_line(self) -> str:
+        """One line of :meth:`solve_counts`: ``live solves: F of N walking ticks failed (the
+        last pose held), R relaxed``."""
+        c = self.solve_counts()
+        return (f"live solves: {c['failed_solves']} of {c['walking_ticks']} walking ticks "
+                f"failed (the last pose held), {c['relaxed_solves']} relaxed")  # fmt: skip
+
     def cost_share(self, skip: int = 0) -> float | None:
         """The closed loop's share of the tick (:func:`loop_share`) over the walking ticks
         so far, the first ``skip`` left out (None before any)."""

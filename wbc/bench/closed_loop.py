@@ -190,6 +190,8 @@ def closed_loop_figures(loop) -> dict[str, Any]:
     extra: dict[str, Any] = {}  # (only where a fallback is configured: the stack's)
     if handover is not None and handover.fallback:
         extra["landing_fallbacks"] = handover.fallbacks
+    if handover is not None and handover.brace:
+        extra["braced_ticks"] = handover.braced
     if getattr(getattr(controller, "solver", None), "on_infeasible", "raise") == "relax":
         extra["relaxed_solves"] = loop.source.relaxed_ticks
     return extra | {

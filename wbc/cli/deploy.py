@@ -347,6 +347,7 @@ def _run(args: argparse.Namespace) -> int:
                 print(f"closed loop: estimator + feedback {100 * share:.0f} % of the tick "
                       f"(median), largest estimated torso tilt error "
                       f"{math.degrees(loop.stabilizer.max_tilt_error):.1f}°")  # fmt: skip
+            print(loop.source.solve_line())
     except WbcError as exc:
         print(f"wbc deploy: refused before any torque was enabled: {exc}", file=err)
         return EXIT_REFUSED

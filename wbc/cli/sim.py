@@ -177,9 +177,11 @@ def run(args: argparse.Namespace) -> int:
                                         compensate=args.compensate, on_tick=on_tick)  # fmt: skip
         record = physics_record(rec, result, robot, ref)
         record.update(closed_loop_figures(loop))
+        record.update(loop.source.solve_counts())
         print(f"closed loop: IMU {'off (encoders only)' if args.encoders_only else 'on'}, "
               f"feed-forward x{args.compensate:g} on {loop.servo_model}, step adjustment "
               f"{'off' if loop.stepping is None else 'on'}, fall detection on")  # fmt: skip
+        print(loop.source.solve_line())
     else:
         result = play(
             rec, robot, rate=args.rate, settle=args.settle, realtime=args.realtime,

@@ -37,6 +37,7 @@ every switch continuous, whatever the solver path (they write the tasks' target 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -47,7 +48,7 @@ from ..exceptions import InfeasibleError, TaskError
 from ..model import Robot
 from ..roles import SOLE_FRAMES as SOLES
 from ..stacks import ControlStack
-from ..tasks import ContactTask
+from ..tasks import ComTask, ContactTask, FrameOrientationTask
 from ..tasks.posture import PostureTask
 from .sizing import SPEED_FRACTION
 
@@ -128,7 +129,14 @@ class SwitchHandover:
     :class:`~wbc.walking.loop.StackController` keeps one): :meth:`start` at the walk's start
     pose, then :meth:`update` after each tick's targets are set, before its solve."""
 
-    def __init__(self, control: ControlStack) -> None:
+    def __init__(
+        self,
+        control: ControlStack,
+        com: Sequence[ComTask] = (),
+        torso: Sequence[FrameOrientationTask] = (),
+    ) -> None:
+        """``com``, ``torso``: the controller's CoM and torso tasks, whose targets a brace
+        freezes (``brace``: :meth:`solve`)."""
         settings = control.support_switch
         if settings is None:
             raise TaskError(f"stack {control.name!r} has no [support_switch] table to hand over")
@@ -142,11 +150,19 @@ class SwitchHandover:
         self.fallback_hold = settings.fallback_hold
         #: ticks the fallback solved again (:meth:`solve`), since :meth:`start`
         self.fallbacks = 0
+        self.brace = settings.brace
+        self.brace_speed = settings.brace_speed
+        self._com_tasks, self._torso_tasks = tuple(com), tuple(torso)
+        #: ticks braced (:meth:`_braced`: a landing's failed tick solved holding the pose),
+        #: since :meth:`start`
+        self.braced = 0
         #: the sole that landed at this double support's start (None in single support)
         self._landed: str | None = None
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
         self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
+        #: the tasks whose targets a braced tick sets to the pose at q (:meth:`_braced`)
+        self._posed = [t for t in tasks if isinstance(t, PostureTask)]
         self._contacts = [t for t in tasks if isinstance(t, ContactTask)]
         legs = [
             (frame, robot.joint_index(j))
@@ -187,7 +203,7 @@ class SwitchHandover:
             for p, w in zip(self._postures, self._set_points, strict=True)
         ]
         self._landing, self._swing, self._prepared = None, None, None
-        self._landed, self.fallbacks = None, 0
+        self._landed, self.fallbacks, self.braced = None, 0, 0
 
     def reset(self) -> None:
         """Back to the state of :meth:`start` (after a rehearsed tick)."""
@@ -197,7 +213,7 @@ class SwitchHandover:
             held[:] = np.nan
             mid[:] = np.nan
         self._landing, self._swing, self._prepared = None, None, None
-        self._landed, self.fallbacks = None, 0
+        self._landed, self.fallbacks, self.braced = None, 0, 0
 
     def prepare(self, q: np.ndarray, targets, dt: float) -> None:
         """The landing's work of the tick of ``targets`` made ahead (a loop's idle part before
@@ -278,6 +294,55 @@ class SwitchHandover:
         self._swing = targets.swing if single else None
         self._prepared = None  # (made for this tick only)
 
+    def _braced(self, solver, q: np.ndarray, frame: str, targets, dt: float) -> np.ndarray | None:
+        """A landing's tick whose solve failed, solved braced (``brace``, issue 30): the
+        landed sole ``frame``'s contact anchored where the sole is at ``q`` (with
+        ``brace_speed``, m/s, one step of ``brace_speed·dt`` from there toward its anchor),
+        the other contacts where their soles are,
+        the CoM, torso and posture targets where they are at ``q`` (the feedback's targets
+        frozen): the pose held by a solve, as the failed tick held it by accident (the
+        survivors of main's pushes stand on those held poses, benchmarks/pushes.md); the
+        tasks' targets are put back after it (the next tick tries the landing again). None
+        if that fails too."""
+        robot = self._robot
+        sole = robot.frame_placement(q, frame)
+        anchor = sole
+        if self.brace_speed > 0:
+            goal = self.anchor_of(frame)
+            gap = float(np.linalg.norm(goal.translation - sole.translation))
+            share = 1.0 if gap <= self.brace_speed * dt else self.brace_speed * dt / gap
+            anchor = _toward(sole, goal, share)
+        contacts = [t for t in self._contacts if t.active]
+        saved = [(t.target_position.copy(), t.target_rotation.copy()) for t in contacts]
+        posed = (*self._com_tasks, *self._torso_tasks, *self._posed)
+        held = [(t, t.target.copy()) for t in posed]
+        for task in contacts:  # (the other sole's too: where it is at q)
+            task.set_target(anchor if task.frame == frame else robot.frame_placement(q, task.frame))
+        com = robot.com(q)
+        for task in self._com_tasks:
+            task.set_target(com)
+        for task in self._torso_tasks:
+            task.set_target(robot.frame_placement(q, task.frame).rotation)
+        for task in self._posed:
+            task.set_target(q)
+        try:
+            q_next = solver.step(q, dt)
+            self.braced += 1
+            return q_next
+        except InfeasibleError:
+            return None
+        finally:
+            for task, (position, rotation) in zip(contacts, saved, strict=True):
+                task.target_position[:] = position
+                task.target_rotation[:] = rotation
+            for task, target in held:
+                task.target[:] = target
+
+    def anchor_of(self, frame: str) -> pin.SE3:
+        """The active contact's anchor on ``frame`` (the landing's, this tick)."""
+        task = next(t for t in self._contacts if t.active and t.frame == frame)
+        return pin.SE3(task.target_rotation.copy(), task.target_position.copy())
+
     def swing_share(self, side: int, a: float, dt: float) -> float:
         """The share per tick ``a_s`` with which the leg of ``side`` (index in the sole frames),
         freed now, walks its posture targets to Walk Ready: the table's ``a`` (its
@@ -343,13 +408,20 @@ class SwitchHandover:
         contact met as it stands). ``fallback_hold``: the anchor at the sole, held there
         through the double support (not walked to the reference). Each tick solved so counts
         in :attr:`fallbacks`; a tick neither solves raises the first error (the controller
-        then holds its last configuration, as without)."""
-        if not self.fallback or targets.phase == "single" or self._landed is None:
+        then holds its last configuration, as without). With ``brace`` (before the fallback),
+        that tick is solved braced (:meth:`_braced`), counted in :attr:`braced`."""
+        if not (self.fallback or self.brace) or targets.phase == "single" or not self._landed:
             return solver.step(q, dt)
         try:
             return solver.step(q, dt)
         except InfeasibleError as exc:
             frame, failure = self._landed, exc
+        if self.brace:
+            q_next = self._braced(solver, q, frame, targets, dt)
+            if q_next is not None:
+                return q_next
+        if not self.fallback:
+            raise failure
         sole = self._robot.frame_placement(q, frame)
         shares = (0.0,) if self.fallback_hold else (dt / self.landing_time, 0.0)
         for share in shares:

@@ -163,7 +163,8 @@ class StackController(Controller):
         #: soles it anchored the contacts on, the stack's undo record
         self._ahead: tuple | None = None
         #: the stack's [support_switch] across the walk's switches (None: the file has none)
-        self.handover = SwitchHandover(control) if control.support_switch else None
+        switch = control.support_switch
+        self.handover = SwitchHandover(control, self._com, self._torso) if switch else None
 
     def _target_writes(self) -> tuple[np.ndarray | None, list[np.ndarray]]:
         """Where a tick's targets go, for :func:`~wbc.compiled.targets.copy_targets` (one
