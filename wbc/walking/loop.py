@@ -159,8 +159,7 @@ class StackController(Controller):
             if isinstance(t, ContactTask)
         ]
         self._writes, self._write_arrays = self._target_writes()
-        #: a support switch made ahead (:meth:`prepare_phase`): (phase, support, swing), the
-        #: soles it anchored the contacts on, the stack's undo record
+        #: a switch made ahead (:meth:`prepare_phase`): (phase, support, swing), soles, undo
         self._ahead: tuple | None = None
         #: the stack's [support_switch] across the walk's switches (None: the file has none)
         switch = control.support_switch
