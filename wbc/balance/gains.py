@@ -80,6 +80,10 @@ class Gains:
     hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
+    #: the hip strategy's roll about the torso's own axis (:mod:`wbc.balance.hip_roll`; 0: off,
+    #: about the level axis ``z × u``): the axis less its part along the vertical of 1: the
+    #: torso target, 2: the estimated torso — a torso leaned forward is rolled, not twisted
+    hip_axis: int = 0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
     #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
@@ -407,6 +411,8 @@ class Gains:
                 "stabilizer gains ff_inertial_back, ff_inertial_first: 0 or 1, got "
                 f"{self.ff_inertial_back}, {self.ff_inertial_first}"
             )
+        if self.hip_axis not in (0, 1, 2):
+            raise ConfigurationError(f"stabilizer gain hip_axis: 0, 1 or 2, got {self.hip_axis}")
         if self.j_i_joints not in (0, 1, 2, 3):
             raise ConfigurationError(
                 f"stabilizer gain j_i_joints: 0, 1, 2 or 3, got {self.j_i_joints}"
