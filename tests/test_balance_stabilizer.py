@@ -371,7 +371,7 @@ def test_hip_strategy_rolls_about_the_torsos_own_axis(robot, hip_axis):
             assert a @ z == pytest.approx(0.0, abs=1e-9)
         else:
             assert abs(a @ z) > 0.05  # (a different axis: a twist about that vertical)
-    assert a @ [-u[1], u[0], 0.0] > 0.45  # still the roll toward the fall
+    assert a @ [-u[1], u[0], 0.0] > 0.4  # still mostly the roll toward the fall
 
 
 def test_hip_strategy_returns_slowly_and_not_in_double_support(robot):

@@ -319,6 +319,10 @@ class Gains:
     #: but two plants main keeps lost; held-out seed 8 59 of 60 as main: off (issue 30,
     #: nineteenth session, benchmarks/physics.md)
     stiff_twist: float = 1.0
+    #: rad: the start-up goal probe's step (0: off; :mod:`wbc.balance.goal_probe`): during
+    #: the rest the arms' elbows step by this and back, the encoders' response gives the
+    #: servos' goal latency and response time (said, kept in ``ClosedLoop.goal_probe``)
+    probe_step: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -394,6 +398,7 @@ class Gains:
             "end_leak",
             "soft_hip",
             "stiff_twist",
+            "probe_step",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -435,6 +435,7 @@ class Stabilizer:
         #: the servos' stiffness / servos.toml's identified at rest (None: not identified;
         #: set by :func:`wbc.balance.live.closed_loop`'s rest: ``j_i_stiff``)
         self.stiffness_scale: float | None = None
+        self.goal_probe = None  # the start-up goal probe's fit (wbc.balance.goal_probe), if run
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
 
