@@ -38,7 +38,8 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for p in a.plants:
         run = plant_run(a.walk, a.seed, p, {"probe_step": a.step})
-        _, loop = play_closed_loop(run.spec, run.robot, run.plant, duration=1.0 + a.walk_s)  # (the 1 s rest first)
+        rest = 1.0  # (the closed loop's start-up rest, CALIBRATE_S, first)
+        _, loop = play_closed_loop(run.spec, run.robot, run.plant, duration=rest + a.walk_s)
         fit = loop.goal_probe
         s = (
             run.plant.summary

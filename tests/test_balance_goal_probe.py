@@ -28,18 +28,19 @@ def test_fit_recovers_the_dead_time_and_response(L, T):
 
 
 def test_probe_steps_its_window_and_fits_what_it_read():
-    probe = GoalProbe([3, 5], step=0.05, start=0.095, hold=0.2)  # (off the ticks' times)
+    probe = GoalProbe([3, 5], step=0.05, start=0.095, hold=0.2, pre=0.05)  # (off the ticks)
     seen = []
     for k in range(60):  # 10 ms ticks from t = 2 s; the servo follows 8 ms late, T 20 ms
         t = 2.0 + 0.01 * k
         off = probe.offset(t)
-        seen.append(off is not None)
+        seen.append(None if off is None else off[0])
         prev = t - 0.01
         s = (prev - 2.1 - 0.008) if prev >= 2.1 else -1.0
         x = np.zeros(8)
-        x[[3, 5]] = 0.05 * (1 - np.exp(-s / 0.02)) if s > 0 else 0.0
+        x[[3, 5]] = 0.05 * (1 + (1 - np.exp(-s / 0.02) if s > 0 else 0.0))
         probe.sample(t, x if k else None)
-    assert seen == [10 <= k < 30 for k in range(60)]
+    want = [0.1 if 10 <= k < 30 else 0.05 if 5 <= k < 10 else None for k in range(60)]
+    assert seen == want
     fit = probe.result()
     assert fit.latency == pytest.approx(0.008, abs=0.002)
     assert fit.response == pytest.approx(0.02, rel=0.2)

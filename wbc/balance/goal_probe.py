@@ -4,10 +4,12 @@ The stiff, late plants the closed loop loses (benchmarks/physics.md, nineteenth 
 are not picked out by the servo lag measured while walking (:mod:`wbc.balance.servo_lag`:
 it reads the servo's own following more than its delay). At rest the deployment can ask the
 servos directly: a small goal step ``step`` (rad) on a few lightly loaded joints (the arms'
-elbows by default, :func:`probe_joints`: the body hardly moves), held for ``hold`` s, then
-back. The encoders read through the same :class:`~wbc.servos.bus.ServoBus` as the walk give
-the normalised response ``y(t) = mean_j (x_j(t) − x_j⁰) / step`` (``x⁰``: the mean before
-the step), and :func:`fit_response` fits a first-order response after a dead time::
+elbows by default, :func:`probe_joints`: the body hardly moves) held ``pre`` s, the measured
+step (``step`` more, the same way: the first one took up the gears' backlash, behind which
+the encoder would not see the output move) held ``hold`` s, then back. The encoders read
+through the same :class:`~wbc.servos.bus.ServoBus` as the walk give the normalised
+response ``y(t) = mean_j (x_j(t) − x_j⁰) / step`` (``x⁰``: the mean before the step), and
+:func:`fit_response` fits a first-order response after a dead time::
 
     y(t) = g (1 − exp(−(t − t₀ − L) / T))   for t > t₀ + L, else 0
 
@@ -87,19 +89,21 @@ def probe_joints(robot) -> list[int]:
 
 class GoalProbe:
     """The probe during the start-up rest (:func:`wbc.balance.live.closed_loop`,
-    ``probe``): :meth:`offset` adds ``step`` rad to :attr:`joints`' goals from ``start`` s
-    into the rest for ``hold`` s; :meth:`sample` keeps each encoder reading (the deployment
-    reads right after its write: a reading taken at the tick of time ``t`` is seen at the
-    next one); :meth:`result` fits it (:func:`fit_response`) once the step is over."""
+    ``probe``): :meth:`offset` adds ``step`` rad to :attr:`joints`' goals from ``start`` −
+    ``pre`` s into the rest, ``2 step`` from ``start`` for ``hold`` s; :meth:`sample` keeps
+    each encoder reading (the deployment reads right after its write: a reading taken at the
+    tick of time ``t`` is seen at the next one); :meth:`result` fits it
+    (:func:`fit_response`) once the step is over."""
 
-    def __init__(self, joints: list[int], step: float = 0.05, start: float = 0.1,
-                 hold: float = 0.25) -> None:  # fmt: skip
-        if not (math.isfinite(step) and step != 0 and start >= 0 and hold > 0):
+    def __init__(self, joints: list[int], step: float = 0.05, start: float = 0.25,
+                 hold: float = 0.15, pre: float = 0.15) -> None:  # fmt: skip
+        if not (math.isfinite(step) and step != 0 and start >= pre >= 0 and hold > 0):
             raise ConfigurationError(
-                f"goal probe: step must be a non-zero number of rad, start >= 0 s, hold > 0 s; "
-                f"got {step}, {start}, {hold}"
+                f"goal probe: step must be a non-zero number of rad, start >= pre >= 0 s, "
+                f"hold > 0 s; got {step}, {start}, {pre}, {hold}"
             )
         self.joints, self.step, self.start, self.hold = list(joints), step, start, hold
+        self.pre = pre
         self._t: list[float] = []
         self._x: list[np.ndarray] = []
         self._last_t: float | None = None  # (the tick whose reading the next call sees)
@@ -112,10 +116,13 @@ class GoalProbe:
         the deployment's; the rest's first call starts the probe's clock; None: none)."""
         if self._first is None:
             self._first = t
-        if self.start <= t - self._first < self.start + self.hold:
+        rest_t = t - self._first
+        if self.start <= rest_t < self.start + self.hold:
             if self._t0 is None:
-                self._t0 = t  # (the first stepped goal's write)
-            return np.full(len(self.joints), self.step)
+                self._t0 = t  # (the measured step's first write)
+            return np.full(len(self.joints), 2.0 * self.step)
+        if self.start - self.pre <= rest_t < self.start:
+            return np.full(len(self.joints), self.step)  # (the backlash taken up)
         return None
 
     def sample(self, t: float, present: np.ndarray | None) -> None:
@@ -133,7 +140,7 @@ class GoalProbe:
         t, x, t0 = np.asarray(self._t), np.asarray(self._x), self._t0
         if t0 is None or t.size == 0:
             raise ConfigurationError("goal probe: the rest is over before the step (start)")
-        before = (t < t0) & (t >= t0 - 0.1)
+        before = (t < t0) & (t >= t0 - min(0.05, self.pre))
         during = (t >= t0) & (t < t0 + self.hold)
         if not before.any() or during.sum() < 3:
             raise ConfigurationError(
