@@ -82,7 +82,11 @@ class Gains:
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
     #: the hip strategy's roll about the torso's own axis (:mod:`wbc.balance.hip_roll`; 0: off,
     #: about the level axis ``z × u``): the axis less its part along the vertical of 1: the
-    #: torso target, 2: the estimated torso — a torso leaned forward is rolled, not twisted
+    #: torso target, 2: the estimated torso — a torso leaned forward is rolled, not twisted.
+    #: 2 is the default without the feed-forward (:data:`NO_FEED_FORWARD_GAINS`): lateral_wb
+    #: 100 of 100 plants on seeds 0–1 against 99 (s0 18 kept), held-out seeds 8–9 every walk
+    #: as before to the 0.1° (119 of 120 both); 1 loses s0 lateral_wb 18 like 0 (issue 30,
+    #: twentieth session, benchmarks/physics.md). With the feed-forward: 0 (pushes unmeasured)
     hip_axis: int = 0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
@@ -450,9 +454,11 @@ class Gains:
 #: (``lift``) and the DCM integral leaked from 0.4 s before the final double support
 #: (``end_leak`` 2 /s, ``end_lead``): soft plants kept 391 of 393 over seeds 0–6 against 378,
 #: every seed gaining, the fresh seed 6 72 of 72 against 68; stiffer plants untouched
-#: (issue 30, the seventeenth session's i30e, benchmarks/physics.md)
+#: (issue 30, the seventeenth session's i30e, benchmarks/physics.md). The hip strategy's roll
+#: about the estimated torso's own axis (``hip_axis`` 2): s0 lateral_wb 18 kept, nothing lost
+#: on seeds 0–1 lateral_wb nor held-out seeds 8–9 (issue 30, twentieth session)
 NO_FEED_FORWARD_GAINS = Gains(
-    k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008, end_leak=2.0, end_lead=0.4
+    k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008, end_leak=2.0, end_lead=0.4, hip_axis=2
 )
 
 
