@@ -39,7 +39,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   ``hip_band`` outward of the stance sole's centre (toward the side no step can reach) rolls
   the torso target toward it, ``Exp(h (z × u)) R_ref``, ``h = min(k_hip (s − hip_band)⁺, max_hip)``:
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
-  sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
+  sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy;
+  ``hip_axis``: about the torso's own axis, :mod:`wbc.balance.hip_roll`); it
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`); a push (``hip_jump``:
   the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band, and
   (``hip_kick``) moves the stance hip roll's solved goal further toward the roll, which then
