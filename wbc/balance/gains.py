@@ -83,9 +83,9 @@ class Gains:
     #: the hip strategy's roll about the torso's own axis (:mod:`wbc.balance.hip_roll`; 0: off,
     #: about the level axis ``z × u``): the axis less its part along the vertical of 1: the
     #: torso target, 2: the estimated torso — a torso leaned forward is rolled, not twisted.
-    #: 2 is the default without the feed-forward (:data:`NO_FEED_FORWARD_GAINS`): lateral_wb
-    #: 100 of 100 plants on seeds 0–1 against 99 (s0 18 kept), held-out seeds 8–9 every walk
-    #: as before to the 0.1° (119 of 120 both); 1 loses s0 lateral_wb 18 like 0 (issue 30,
+    #: 2 is the default without the feed-forward (:data:`NO_FEED_FORWARD_GAINS`): 298 of 300
+    #: plants on seeds 0–1 against 297 (s0 lateral_wb 18 kept, none lost), held-out seeds 8–9
+    #: every walk as before to the 0.1° (119 of 120 both); 1 loses s0 lateral_wb 18 like 0 (issue 30,
     #: twentieth session, benchmarks/physics.md). With the feed-forward: 0 (pushes unmeasured)
     hip_axis: int = 0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
