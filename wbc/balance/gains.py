@@ -85,8 +85,9 @@ class Gains:
     #: torso target, 2: the estimated torso — a torso leaned forward is rolled, not twisted.
     #: 2 is the default without the feed-forward (:data:`NO_FEED_FORWARD_GAINS`): 298 of 300
     #: plants on seeds 0–1 against 297 (s0 lateral_wb 18 kept, none lost), held-out seeds 8–9
-    #: every walk as before to the 0.1° (119 of 120 both); 1 loses s0 lateral_wb 18 like 0 (issue 30,
-    #: twentieth session, benchmarks/physics.md). With the feed-forward: 0 (pushes unmeasured)
+    #: every walk as before to the 0.1° (119 of 120 both); 1 loses s0 lateral_wb 18 like 0
+    #: (issue 30, twentieth session, benchmarks/physics.md). With the feed-forward: 0 (the
+    #: pushes, measured with it, not re-measured)
     hip_axis: int = 0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
