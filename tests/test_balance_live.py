@@ -275,7 +275,8 @@ def test_the_default_gains_follow_the_feed_forward_and_given_gains_win(example):
     0) the estimator's ``joint_lag``, the torso's ``k_d`` 0.03 and the DCM integral along the
     walk, ``k_dcm_i`` 0.25 (150 of 150 plants against 147 without it and 143 with
     :class:`Gains`, benchmarks/physics.md), and on plants identified soft the CoM 8 mm lower
-    and the DCM integral leaked at the walk's end (``lift``, ``end_leak``, ``end_lead``); with
+    and the DCM integral leaked at the walk's end (``lift``, ``end_leak``, ``end_lead``), the
+    hip strategy rolled about the estimated torso's own axis (``hip_axis`` 2); with
     it :class:`Gains` as they are; gains given are used unchanged whatever the feed-forward."""
     from wbc import load_robot
     from wbc.balance.live import closed_loop
@@ -284,7 +285,8 @@ def test_the_default_gains_follow_the_feed_forward_and_given_gains_win(example):
     from wbc.stacks import load_stack
     from wbc.walking.loop import StackController, start_configuration
 
-    no_ff = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008, end_leak=2.0, end_lead=0.4)
+    no_ff = Gains(k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008, end_leak=2.0, end_lead=0.4,
+                  hip_axis=2)  # fmt: skip
     assert default_gains(0.0) == no_ff == NO_FEED_FORWARD_GAINS
     assert default_gains(0.5) == default_gains(1.0) == Gains()
     robot = load_robot("bioloid")

@@ -348,6 +348,32 @@ def test_hip_strategy_rolls_the_torso_toward_an_outward_dcm(offset, k_hip, max_h
         assert (R @ [0, 0, 1])[1] > 0  # the torso's top goes outward, toward the fall
 
 
+@pytest.mark.parametrize("hip_axis", [0, 1, 2])
+def test_hip_strategy_rolls_about_the_torsos_own_axis(robot, hip_axis):
+    """``hip_axis``: with the torso target leaned 0.3 rad forward and the estimate 0.2 rad
+    back, the roll (its length the strategy's) has no part about the level axis's vertical
+    (0), the target's vertical (1) or the estimate's (2): 1 and 2 roll, never twist, the
+    torso they are taken about; 0 keeps the level axis z × u (the target then twisted)."""
+    q = standing(robot)
+    t = targets_at(robot, q)
+    t.torso_rotation = pin.exp3(np.array([0.0, 0.3, 0.0])) @ t.torso_rotation
+    g = Gains(k_hip=100.0, max_hip=0.5, hip_band=0.01, hip_axis=hip_axis)
+    stab = Stabilizer(robot, 0.2, lambda: None, None, g)
+    p = t.l_sole.translation[:2]
+    u = t.l_sole.rotation[:2, 1] / np.linalg.norm(t.l_sole.rotation[:2, 1])
+    est = _estimate_with_dcm(stab, p + 0.05 * u)
+    est.values[:3] = pin.exp3(np.array([0.0, -0.2, 0.0]))
+    a = pin.log3(stab._hip_strategy(t, est, 0.01))
+    up = [np.array([0.0, 0.0, 1.0]), t.torso_rotation[:, 2], est.values[:3, 2]]
+    assert np.linalg.norm(a) == pytest.approx(0.5)
+    for i, z in enumerate(up):
+        if i == hip_axis:
+            assert a @ z == pytest.approx(0.0, abs=1e-9)
+        else:
+            assert abs(a @ z) > 0.05  # (a different axis: a twist about that vertical)
+    assert a @ [-u[1], u[0], 0.0] > 0.4  # still mostly the roll toward the fall
+
+
 def test_hip_strategy_returns_slowly_and_not_in_double_support(robot):
     """Once the DCM is back, the roll shrinks by hip_release·dt per tick (a fast return
     would throw the DCM out again); double support releases it the same way; a new

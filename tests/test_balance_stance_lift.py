@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from wbc.balance import stabilizer as stabilizer_module
-from wbc.balance.stabilizer import _K_BAND, _K_HIP_JUMP, Gains, Stabilizer
+from wbc.balance.hip_roll import _K_BAND, _K_HIP_JUMP
+from wbc.balance.stabilizer import Gains, Stabilizer
 from wbc.balance.stance_lift import (
     HIP_OFF_BAND,
     LIFT_RAMP,

@@ -80,6 +80,15 @@ class Gains:
     hip_band: float = 0.025  # m: DCM offset outward of the stance sole's centre left alone
     max_hip: float = 0.6  # rad: largest hip-strategy roll of the torso target
     hip_release: float = 2.0  # rad/s: how fast the hip-strategy roll may shrink
+    #: the hip strategy's roll about the torso's own axis (:mod:`wbc.balance.hip_roll`; 0: off,
+    #: about the level axis ``z × u``): the axis less its part along the vertical of 1: the
+    #: torso target, 2: the estimated torso — a torso leaned forward is rolled, not twisted.
+    #: 2 is the default without the feed-forward (:data:`NO_FEED_FORWARD_GAINS`): 298 of 300
+    #: plants on seeds 0–1 against 297 (s0 lateral_wb 18 kept, none lost), held-out seeds 8–9
+    #: every walk as before to the 0.1° (119 of 120 both); 1 loses s0 lateral_wb 18 like 0
+    #: (issue 30, twentieth session, benchmarks/physics.md). With the feed-forward: 0 (the
+    #: pushes, measured with it, not re-measured)
+    hip_axis: int = 0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
     #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
@@ -315,6 +324,10 @@ class Gains:
     #: but two plants main keeps lost; held-out seed 8 59 of 60 as main: off (issue 30,
     #: nineteenth session, benchmarks/physics.md)
     stiff_twist: float = 1.0
+    #: rad: the start-up goal probe's step (0: off; :mod:`wbc.balance.goal_probe`): during
+    #: the rest the arms' elbows step by this and back, the encoders' response gives the
+    #: servos' goal latency and response time (said, kept in ``ClosedLoop.goal_probe``)
+    probe_step: float = 0.0
 
     def check(self) -> Gains:
         for name in (
@@ -390,6 +403,7 @@ class Gains:
             "end_leak",
             "soft_hip",
             "stiff_twist",
+            "probe_step",
         ):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
@@ -407,6 +421,8 @@ class Gains:
                 "stabilizer gains ff_inertial_back, ff_inertial_first: 0 or 1, got "
                 f"{self.ff_inertial_back}, {self.ff_inertial_first}"
             )
+        if self.hip_axis not in (0, 1, 2):
+            raise ConfigurationError(f"stabilizer gain hip_axis: 0, 1 or 2, got {self.hip_axis}")
         if self.j_i_joints not in (0, 1, 2, 3):
             raise ConfigurationError(
                 f"stabilizer gain j_i_joints: 0, 1, 2 or 3, got {self.j_i_joints}"
@@ -439,9 +455,11 @@ class Gains:
 #: (``lift``) and the DCM integral leaked from 0.4 s before the final double support
 #: (``end_leak`` 2 /s, ``end_lead``): soft plants kept 391 of 393 over seeds 0–6 against 378,
 #: every seed gaining, the fresh seed 6 72 of 72 against 68; stiffer plants untouched
-#: (issue 30, the seventeenth session's i30e, benchmarks/physics.md)
+#: (issue 30, the seventeenth session's i30e, benchmarks/physics.md). The hip strategy's roll
+#: about the estimated torso's own axis (``hip_axis`` 2): s0 lateral_wb 18 kept, nothing lost
+#: on seeds 0–1 lateral_wb nor held-out seeds 8–9 (issue 30, twentieth session)
 NO_FEED_FORWARD_GAINS = Gains(
-    k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008, end_leak=2.0, end_lead=0.4
+    k_d=0.03, joint_lag=1.0, k_dcm_i=0.25, lift=-0.008, end_leak=2.0, end_lead=0.4, hip_axis=2
 )
 
 

@@ -42,6 +42,7 @@ from ..walking.gait import narrow_sway
 from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
 from .fall import FallDetector, FallParams
+from .goal_probe import GoalProbe, ProbeResult, probe_joints
 from .margin import torso_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
@@ -103,6 +104,11 @@ class SessionSource(CallableSource):
         self.relaxed_ticks = 0
 
         self.rest_hook: Callable[[bool], None] | None = None  # called each tick: at rest?
+        #: the start-up goal probe (``Gains.probe_step``; :mod:`wbc.balance.goal_probe`), the
+        #: encoders it reads and what is told its fit after the rest
+        self.probe: GoalProbe | None = None
+        self.probe_present: Callable[[], np.ndarray | None] = lambda: None
+        self.probe_done: Callable[[GoalProbe], None] = lambda probe: None
 
         def target(tick: int, t: float) -> np.ndarray | None:
             stab = session.stabilizer
@@ -111,6 +117,12 @@ class SessionSource(CallableSource):
                 self.start_offset = t
             if self.rest_hook is not None:
                 self.rest_hook(resting)
+            probe = self.probe
+            if probe is not None and resting:
+                probe.sample(t, self.probe_present())
+            elif probe is not None:
+                self.probe = None
+                self.probe_done(probe)
             g = stab.gains if stab is not None and stab.enabled and not resting else None
             lead = g.ref_lead if g is not None else 0.0  # (Gains.ref_lead: the plan ahead)
             q = session.at_time(t - self.start_offset + lead)
@@ -124,6 +136,9 @@ class SessionSource(CallableSource):
                 self._played.append((walk, walk - session.delay))
                 self._slowed |= stab is not None and stab.clock != 1.0
             j = q[7:].copy()
+            if probe is not None and resting and (step := probe.offset(t)) is not None:
+                j[probe.joints] = np.clip(j[probe.joints] + step, robot.q_min[probe.joints],
+                                          robot.q_max[probe.joints])  # fmt: skip
             start = time.perf_counter()
             offsets = session.stabilizer.joint_offsets(j) if session.stabilizer else None
             if offsets is not None:  # joint-level feedback (counted with the feedback)
@@ -232,6 +247,8 @@ class ClosedLoop:
     servo_model: str = "servos.toml (nominal)"
     #: the identified stiffness / servos.toml's (``servo="identify"``, after the rest)
     stiffness_scale: float | None = None
+    #: the start-up goal probe's fit (``Gains.probe_step``, after the rest; None: not run)
+    goal_probe: ProbeResult | None = None
 
 
 def closed_loop(
@@ -428,6 +445,8 @@ def closed_loop(
     deployment = Deployment(bus, target, robot, config, out=out)
     holder.append(deployment)
     loop = ClosedLoop(deployment, session, source, stabilizer, adjuster, phase_hold, model)
+    if enabled and gains.probe_step > 0:
+        _probe(loop, robot, gains.probe_step, rest, commanded, out, holder)
     if identify:
         model = "servos.toml with the stiffness identified at rest"
         loop.servo_model = model
@@ -436,6 +455,32 @@ def closed_loop(
     if compensate > 0:
         out(f"closed loop: compliance feed-forward x{compensate:g} on {model}")
     return loop
+
+
+def _probe(loop: ClosedLoop, robot: Robot, step: float, rest: int, commanded: bool,
+           out: Callable[[str], None], holder: list[Deployment]) -> None:  # fmt: skip
+    """The start-up goal probe (``Gains.probe_step``, :mod:`wbc.balance.goal_probe`) on
+    ``loop``'s rest: its fit said through ``out`` and kept in :attr:`ClosedLoop.goal_probe`
+    and the stabilizer's ``goal_probe``; a rest too short or a bus that reads nothing: said,
+    no probe."""
+    if commanded or rest < 2:
+        out("closed loop: no goal probe (probe_step): it steps the goals during the start-up "
+            "rest and reads the encoders: calibrate_s > 0, a bus that reads")  # fmt: skip
+        return
+    source = loop.source
+    source.probe = GoalProbe(probe_joints(robot), step)
+    source.probe_present = lambda: holder[0].last_present if holder else None
+
+    def done(probe: GoalProbe) -> None:
+        try:
+            fit = probe.result()
+        except ConfigurationError as err:
+            out(f"closed loop: no goal probe: {err}")
+            return
+        loop.goal_probe = loop.stabilizer.goal_probe = fit
+        out(f"closed loop: goal probe at rest: {fit.line()}")
+
+    source.probe_done = done
 
 
 def _inertial_field(session: Session, gains: Gains) -> Callable[[float], np.ndarray | None]:

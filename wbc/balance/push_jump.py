@@ -2,7 +2,7 @@
 
 A push shows as a DCM offset that jumps in one tick. Two triggers read it: the step
 adjustment's (:class:`wbc.balance.swing_catch.PushTrigger`, ``trigger_jump``: the DCM error
-along the walk, either way) and the hip strategy's (:func:`wbc.balance.stabilizer._hip_roll`,
+along the walk, either way) and the hip strategy's (:func:`wbc.balance.hip_roll._hip_roll`,
 ``hip_jump``: the offset outward of the stance sole, one-sided). Both ask the same of the
 per-tick change ``d``: beyond the threshold *and* beyond ``sigma`` × the running RMS of the
 changes before it (a jittery plant is no push), the mean square then updated with ``d``

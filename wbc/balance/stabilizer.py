@@ -39,7 +39,8 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   ``hip_band`` outward of the stance sole's centre (toward the side no step can reach) rolls
   the torso target toward it, ``Exp(h (z × u)) R_ref``, ``h = min(k_hip (s − hip_band)⁺, max_hip)``:
   the upper body spun about the stance hip moves the centroidal moment pivot beyond the
-  sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy); it
+  sole's edge while it accelerates (:mod:`wbc.balance.angular` bounds what it can buy;
+  ``hip_axis``: about the torso's own axis, :mod:`wbc.balance.hip_roll`); it
   returns at ``hip_release`` rad/s (:meth:`Stabilizer._hip_strategy`); a push (``hip_jump``:
   the outward offset jumping in one tick) asks the whole ``max_hip`` at once, no band, and
   (``hip_kick``) moves the stance hip roll's solved goal further toward the roll, which then
@@ -85,21 +86,23 @@ from .gains import NO_FEED_FORWARD_GAINS as NO_FEED_FORWARD_GAINS  # (re-exporte
 from .gains import Gains as Gains
 from .gains import default_gains as default_gains
 from .hip_kick import HipKick
+from .hip_roll import (
+    _K_FALL,
+    _K_HIP,
+    _K_HIP_AXIS,
+    _K_LAG,
+    _K_MAX_YAW,
+    _K_RING,
+    _K_ROLL,
+    _K_SIZE,
+    _K_TWIST,
+    _K_YAW_CUT,
+    _K_YAW_D,
+    _hip_roll,
+)
 from .joint_integral import JointIntegral
-from .push_jump import JUMP_SIGMA, JUMP_TAU, jumped
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 from .step_yaw import StepYaw
-
-# the gains' array (Stabilizer._consts: these, the fall detector's limits, the estimator's
-# model): _torso_feedback's five, the hip strategy's four, the fall detector on (1/0), the
-# torso's roll scale, the heading part's low-pass cut-off (Hz), its own clip (rad; 0: shared),
-# its extra rate gain (s), the ringing's RMS threshold (rad/s; yaw_ring), the lag's (s; lag_yaw)
-_K_P, _K_I, _K_D, _K_YAW, _K_MAX_TILT, _K_HIP, _K_BAND, _K_MAX_HIP, _K_RELEASE, _K_FALL = range(10)
-_K_ROLL, _K_YAW_CUT, _K_MAX_YAW, _K_YAW_D, _K_RING, _K_LAG = 10, 11, 12, 13, 14, 15
-_K_HIP_JUMP = 16  # (hip_jump × hip_band, m; 0: off)
-_K_KICK_RELEASE = 17  # (kick_release, rad/s, when hip_kick > 0; else 0: no kick)
-_K_TWIST = 18  # (k_twist: the command's part about the target's own vertical axis, scaled)
-_K_SIZE = 19
 
 #: Hz: ``yaw_ring``'s high-pass on the vertical gyro rate (above a turn's rate and the
 #: steps' sway, below the 5-8 Hz ringing of stiff, late plants: issue 30)
@@ -233,81 +236,6 @@ _B_YAW, _B_LAG, _B_JUMP, _B_SIZE = 19, 22, 23, 28  # (3: the low-pass's state, y
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _hip_roll(
-    single: bool,
-    stance: np.ndarray,
-    other: np.ndarray,
-    y_norm: float,
-    dcm: np.ndarray,
-    h: np.ndarray,
-    k: np.ndarray,
-    dt: float,
-    H: np.ndarray,
-    jump: np.ndarray,
-) -> None:
-    """The hip strategy (``k_hip``): writes ``H``, the rotation that turns the torso target
-    toward the stance sole's outer side, and updates the roll ``h`` (2, in place). In single
-    support, with ``u`` the stance sole's lateral axis pointing away from the other sole (the
-    side no step can reach; ``stance``, ``other``: the soles' homogeneous placements,
-    ``y_norm`` the lateral axis's length, ``max(hypot, 1e-9)``) and ``s = (ξ − p_stance)·u``
-    the estimated DCM's offset from the stance sole's centre along it, the roll wanted is
-    ``min(k_hip (s − hip_band)⁺, max_hip)`` along ``u``; ``H = Exp(h (z × u))``, the torso's
-    top thrown toward the fall. Spinning the upper body that way takes angular momentum from
-    the fall: the centroidal moment pivot moves beyond the sole's edge while the torso
-    accelerates (benchmarks/pushes.md). The roll grows at once along its direction; any other
-    change (shrinking, turning, double support: back to 0) goes at ``hip_release`` rad/s at
-    most (a fast return would throw the DCM out again). With ``k[_K_HIP_JUMP]`` > 0 (m) the
-    push trigger (``hip_jump``; ``jump``: the last offset, the single support's ticks, the
-    latch, the per-tick change's mean square; updated in place): an offset grown by more than
-    that and :data:`~wbc.balance.push_jump.JUMP_SIGMA` × its running RMS in one tick
-    (:func:`~wbc.balance.push_jump.jumped`, one-sided; the step adjustment's push trigger
-    asks the same both ways), past the support switch's first tick, asks the whole
-    ``max_hip`` while the DCM is outward of the sole's centre until the support changes."""
-    want0 = want1 = 0.0
-    if single:
-        y0, y1 = stance[0, 1] / y_norm, stance[1, 1] / y_norm
-        p0, p1 = stance[0, 3], stance[1, 3]
-        if (p0 - other[0, 3]) * y0 + (p1 - other[1, 3]) * y1 < 0:
-            y0, y1 = -y0, -y1
-        s = (dcm[0] - p0) * y0 + (dcm[1] - p1) * y1
-        threshold = k[_K_HIP_JUMP]
-        if threshold > 0:
-            if jump[1] >= 2:  # (not across the support switch; outward only)
-                share = min(dt / JUMP_TAU, 1.0)
-                fired, jump[3] = jumped(s - jump[0], False, threshold, JUMP_SIGMA, share, jump[3])
-                if fired:
-                    jump[2] = 1.0
-            jump[0] = s
-            jump[1] += 1
-        pushed = jump[2] > 0.5
-        s -= 0.0 if pushed else k[_K_BAND]
-        if s > 0:
-            m = k[_K_MAX_HIP] if pushed else min(k[_K_HIP] * s, k[_K_MAX_HIP])
-            want0, want1 = y0 * m, y1 * m
-    else:  # (double support: the trigger re-armed; the jitter's mean square kept)
-        jump[0], jump[1], jump[2] = 0.0, 0.0, 0.0
-    kick = k[_K_KICK_RELEASE] > 0
-    if kick and jump[2] > 0.5:
-        jump[4] = 1.0  # (hip_kick: the roll after a push shrinks at kick_release)
-    h0, h1 = h[0], h[1]
-    if want0 * h0 + want1 * h1 >= h0 * h0 + h1 * h1:  # growing along its direction: at once
-        h[0], h[1] = want0, want1
-    else:  # h + clip_norm(want − h, hip_release dt)
-        d0, d1 = want0 - h0, want1 - h1
-        n = math.sqrt(d0 * d0 + d1 * d1)
-        limit = (k[_K_KICK_RELEASE] if kick and jump[4] > 0.5 else k[_K_RELEASE]) * dt
-        if n > limit:
-            f = limit / n
-            d0, d1 = d0 * f, d1 * f
-        h[0], h[1] = h0 + d0, h1 + d1
-    if h[0] == 0.0 and h[1] == 0.0:
-        jump[4] = 0.0
-    v = np.empty(3)
-    v[0], v[1], v[2] = -h[1], h[0], 0.0
-    exp3_into(v, H)
-
-
-@numba.njit(cache=True, error_model="numpy")
 def _feedback_tick(
     consts: np.ndarray,
     joints: np.ndarray,
@@ -364,8 +292,9 @@ def _feedback_tick(
             R[i, j] = R_ref[i, j]
     if consts[_K_HIP] > 0:
         H = np.empty((3, 3))
+        up = R[:, 2] if consts[_K_HIP_AXIS] < 1.5 else values[0:3, 2]  # (hip_axis: target, torso)
         _hip_roll(side < 2, anchor0, anchor1, y_norm, values[6], fb[_B_HIP : _B_HIP + 2],
-                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 5])  # fmt: skip
+                  consts, dt, H, fb[_B_JUMP : _B_JUMP + 5], up.copy())  # fmt: skip
         if fb[_B_HIP] != 0.0 or fb[_B_HIP + 1] != 0.0:  # (else H = I exactly: R as it is)
             R = np.dot(H, R)  # (numpy's BLAS H @ R_ref)
     flat = o.reshape(o.size)  # (_torso_feedback's layout: rows e, ∫, R (3), |e_xy|)
@@ -507,6 +436,7 @@ class Stabilizer:
         #: the servos' stiffness / servos.toml's identified at rest (None: not identified;
         #: set by :func:`wbc.balance.live.closed_loop`'s rest: ``j_i_stiff``)
         self.stiffness_scale: float | None = None
+        self.goal_probe = None  # the start-up goal probe's fit (wbc.balance.goal_probe), if run
         self.time = 0.0  # s spent in the last adjust (estimator + feedback)
         self.read_time = 0.0  # s of it spent reading the sensors
 
@@ -558,7 +488,7 @@ class Stabilizer:
                  g.hip_release, float(fall is not None), g.k_roll, g.yaw_cutoff,
                  g.max_yaw, g.yaw_damping, g.yaw_ring, g.lag_yaw,
                  g.hip_jump * g.hip_band, g.kick_release if g.hip_kick > 0 else 0.0,
-                 g.k_twist]  # fmt: skip
+                 g.k_twist, g.hip_axis]  # fmt: skip
             shift = g.k_dcm > 0 or g.k_lean > 0 or g.k_dcm_i > 0 or g.k_dcm_i_y > 0
             read = g.lag_yaw > 0 or g.lag_clock > 0 or self._measure_lag
             read = read or (g.j_i > 0 and g.j_i_lag > 0)
@@ -670,8 +600,10 @@ class Stabilizer:
             st = targets.support_placement.homogeneous
             other = (targets.r_sole if targets.support == "l_sole" else targets.l_sole).homogeneous
             y_norm = max(math.hypot(st[0, 1], st[1, 1]), 1e-9)
+        k = self._consts()
+        R = np.asarray(targets.torso_rotation if k[_K_HIP_AXIS] < 1.5 else est.rotation, float)
         _hip_roll(single, st, other, y_norm, np.asarray(est.dcm, dtype=float), self.hip,
-                  self._consts(), float(dt), H, self._fb[_B_JUMP : _B_JUMP + 5])  # fmt: skip
+                  k, float(dt), H, self._fb[_B_JUMP : _B_JUMP + 5], R[:, 2].copy())  # fmt: skip
         return H
 
     def _torso_sample(self, reading):

@@ -37,7 +37,8 @@ import numpy as np
 
 from ..types import SUPPORT_DOUBLE
 from ..walking.reference import WalkingReference
-from .stabilizer import _K_BAND, _K_HIP_JUMP, Stabilizer
+from .hip_roll import _K_BAND, _K_HIP_JUMP
+from .stabilizer import Stabilizer
 
 #: s: the lift ramped in from the walk's first tick (the rest's pose, then the lifted one)
 LIFT_RAMP = 0.5
