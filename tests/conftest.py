@@ -241,12 +241,17 @@ def legs(robot):
 
 @pytest.fixture(scope="session")
 def benchmark_script():
-    """``load(name)``: benchmarks/``name``.py as a module, loaded once per session."""
+    """``load(name)``: benchmarks/``name``.py as a module, loaded once per session (its
+    folder on the import path, last, as for a script run there: the scripts import their
+    siblings, e.g. ``_args``)."""
+    folder = Path(__file__).resolve().parents[1] / "benchmarks"
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
 
     def load(name: str):
         spec_name = f"wbc_{name}_benchmark"
         if spec_name not in sys.modules:
-            path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+            path = folder / f"{name}.py"
             spec = importlib.util.spec_from_file_location(spec_name, path)
             module = importlib.util.module_from_spec(spec)
             sys.modules[spec_name] = module  # dataclasses look their module up
