@@ -34,8 +34,9 @@ settings.load_profile("ci")
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The tests marked ``long(seconds)`` first, the longest first (the others in their
-    order): the workers take the tests in collection order, and a long test taken last would
-    run alone while the other worker idles."""
+    order): the workers take the tests in collection order (pyproject.toml's
+    ``--no-loadscope-reorder``; xdist's default puts the groups first), and a long test taken
+    last would run alone while the other worker idles."""
 
     def seconds(item: pytest.Item) -> float:
         mark = item.get_closest_marker("long")
