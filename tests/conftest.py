@@ -32,6 +32,22 @@ settings.register_profile("dev", max_examples=40, deadline=None)
 settings.load_profile("ci")
 
 
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """With test workers (``-n 2``, pyproject.toml's), the controller starts the package's
+    compiled ticks' build (:func:`wbc.solvers.plan.start_package_ticks`: nothing if cached)
+    before the workers collect: on a cold cache the build (one core's worth: the compile
+    lock has its two workers take turns) then runs beside the long tests that need no
+    package tick (the compile test, the dispatch and stabilizer tests), instead of starting
+    when the first test needing it does while both workers wait for it. The workers' tests
+    find its lock files held and wait for it (``BuildElsewhere``). ``-n 0``: nothing."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    from wbc.solvers.plan import start_package_ticks
+
+    start_package_ticks(announce=False)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The tests marked ``long(seconds)`` first, the longest first (the others in their
     order): the workers take the tests in collection order (pyproject.toml's
