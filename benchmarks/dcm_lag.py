@@ -23,9 +23,9 @@ measured lag (:func:`wbc.balance.servo_lag.servo_lag`).
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
+import _args
 import numpy as np
 
 from wbc import load_robot
@@ -118,8 +118,7 @@ def trace(compensate: float | None, gains: dict, stepping: dict, until: float) -
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--compensate", type=float, default=None, help="feed-forward (robot's best)")
-    p.add_argument("--gains", type=json.loads, default={}, help="Gains JSON")
-    p.add_argument("--stepping", type=json.loads, default={}, help="SteppingParams JSON")
+    _args.settings(p)
     p.add_argument("--until", type=float, default=None, help="s of simulation (the push's)")
     p.add_argument("--every", type=int, default=5, help="print every n-th tick")
     a = p.parse_args()

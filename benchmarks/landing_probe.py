@@ -16,19 +16,20 @@ import argparse
 import json
 from typing import Any
 
+import _args
 import numpy as np
 import push_trace
 
 from wbc import load_robot
+from wbc.balance.stepping import SteppingParams
 from wbc.walking import loop as loop_mod
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("stepping", help="SteppingParams JSON")
-    ap.add_argument("--impulse", type=float, default=0.70)
-    ap.add_argument("--direction", default="backward")
-    ap.add_argument("--offset", type=float, default=0.03)
+    ap.add_argument("stepping", type=_args.json_setting(SteppingParams),
+                    help="JSON SteppingParams keywords")  # fmt: skip
+    _args.push(ap, impulse=0.70, direction="backward", offset=0.03)
     ap.add_argument("--ticks", type=int, nargs=2, default=(178, 200), help="reference ticks")
     a = ap.parse_args()
     robot = load_robot("bioloid")
@@ -57,7 +58,7 @@ def main() -> None:
 
     loop_mod.StackController.track = track  # type: ignore[method-assign]
     try:
-        summary, _ = push_trace.trace(a.impulse, a.direction, json.loads(a.stepping), {},
+        summary, _ = push_trace.trace(a.impulse, a.direction, a.stepping, {},
                                       "walk10_wb", a.offset, False)  # fmt: skip
     finally:
         loop_mod.StackController.track = original  # type: ignore[method-assign]

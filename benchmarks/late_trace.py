@@ -18,11 +18,11 @@ from __future__ import annotations
 import argparse
 import json
 
+import _args
 import numpy as np
-from plant_sweep import json_setting, plant_run
+from plant_sweep import plant_run
 
 from wbc.balance import stabilizer as stab_mod
-from wbc.balance.stabilizer import Gains
 from wbc.compiled.rows import log3
 
 
@@ -99,13 +99,9 @@ def trace(walk: str, seed: int, plant: int, gains: dict, joints: list[str], star
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--walk", default="lateral_wb")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--plant", type=int, default=18, help="the sweep's plant")
-    p.add_argument("--gains", type=json_setting(Gains), default={}, help="JSON Gains keywords")
+    _args.plant(p, walk="lateral_wb", seed=0, plant=18)
     p.add_argument("--joints", nargs="+", default=["hip_yaw", "hip_pitch"])
-    p.add_argument("--from", dest="start", type=float, default=2.0, help="s: first row")
-    p.add_argument("--every", type=float, default=0.04, help="s between rows")
+    _args.rows(p, start=2.0, every=0.04)
     args = p.parse_args()
     trace(args.walk, args.seed, args.plant, args.gains, args.joints, args.start, args.every)
 

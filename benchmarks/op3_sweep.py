@@ -24,7 +24,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
-from plant_sweep import json_setting
+from _args import json_setting
 
 from wbc import load_robot
 from wbc.balance import best_compensate

@@ -25,10 +25,11 @@ import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from _args import json_setting
 
 from wbc import load_robot
 from wbc.balance import stabilizer as stab_mod
@@ -136,29 +137,6 @@ def plant_run(walk: str, seed: int, plant: int, gains: dict, compensate: float =
     _, spec = spec_of((compensate, {}, True, True, True), entry, ref, gains)
     assert spec is not None
     return PlantRun(robot, ref, rec, variation, spec, compensate)
-
-
-def json_setting(cls: type) -> Callable[[str], dict]:
-    """The argparse type of one ``--gains`` / ``--stepping`` setting: a JSON object of
-    ``cls``'s keywords (anything else: one line naming the argument and what is allowed)."""
-    allowed = {f.name for f in fields(cls)}
-
-    def parse(text: str) -> dict:
-        try:
-            value = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise argparse.ArgumentTypeError(f"not JSON ({err.msg}): {text!r}") from None
-        if not isinstance(value, dict):
-            raise argparse.ArgumentTypeError(f"a JSON object of keywords, got {text!r}")
-        unknown = sorted(set(value) - allowed)
-        if unknown:
-            names = ", ".join(sorted(allowed))
-            raise argparse.ArgumentTypeError(
-                f"{cls.__name__} has no {', '.join(unknown)} (allowed: {names})"
-            )
-        return value
-
-    return parse
 
 
 def settings(gains: list[dict], stepping: list[dict]) -> list[tuple[dict, dict]]:

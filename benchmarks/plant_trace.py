@@ -24,11 +24,11 @@ from __future__ import annotations
 import argparse
 import json
 
+import _args
 import numpy as np
-from plant_sweep import json_setting, plant_run
+from plant_sweep import plant_run
 
 from wbc.balance import stabilizer as stab_mod
-from wbc.balance.stabilizer import Gains
 from wbc.compiled.rows import log3
 
 
@@ -136,10 +136,7 @@ def ringing(t: np.ndarray, wz: np.ndarray) -> np.ndarray:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--walk", default="lateral_wb")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--plant", type=int, default=47, help="the sweep's plant (-1: nominal)")
-    p.add_argument("--gains", type=json_setting(Gains), default={}, help="JSON Gains keywords")
+    _args.plant(p, walk="lateral_wb", seed=1, plant=47, nominal=True)
     p.add_argument("--compensate", type=float, default=0.0, help="the feed-forward's gain")
     args = p.parse_args()
     trace(args.walk, args.seed, args.plant, args.gains, args.compensate)

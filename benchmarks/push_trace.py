@@ -43,6 +43,7 @@ import math
 from dataclasses import replace
 from typing import Any
 
+import _args
 import numpy as np
 
 from wbc import load_robot
@@ -218,14 +219,10 @@ def trace(
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--impulse", type=float, default=0.6, help="N·s")
-    p.add_argument("--direction", default="forward",
-                   choices=("forward", "backward", "toward", "away"))  # fmt: skip
-    p.add_argument("--stepping", type=json.loads, default={}, help="SteppingParams JSON")
-    p.add_argument("--gains", type=json.loads, default={}, help="Gains JSON")
+    _args.push(p, impulse=0.6, direction="forward", offset=0.0)
+    _args.settings(p)
     p.add_argument("--walk", default="walk10_wb")
     p.add_argument("--robot", default="bioloid", help="robot name (as pushes.py --robot)")
-    p.add_argument("--offset", type=float, default=0.0, help="s after mid single support")
     p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
     p.add_argument("--no-fall", action="store_true", help="the fall detector off")
     p.add_argument(

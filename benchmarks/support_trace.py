@@ -18,13 +18,13 @@ import argparse
 import json
 from dataclasses import replace
 
+import _args
 import numpy as np
-from plant_sweep import json_setting
 
 from wbc import load_robot
 from wbc.balance import stabilizer as stab_mod
 from wbc.balance.retime import HoldParams
-from wbc.balance.stabilizer import Gains, default_gains
+from wbc.balance.stabilizer import default_gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
@@ -125,12 +125,8 @@ def trace(walk: str, seed: int, plant: int, gains: dict, start: float, every: fl
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--walk", default="turn_wb")
-    p.add_argument("--seed", type=int, default=2)
-    p.add_argument("--plant", type=int, default=8, help="the sweep's plant")
-    p.add_argument("--gains", type=json_setting(Gains), default={}, help="JSON Gains keywords")
-    p.add_argument("--from", dest="start", type=float, default=3.6, help="s: first row")
-    p.add_argument("--every", type=float, default=0.04, help="s between rows")
+    _args.plant(p, walk="turn_wb", seed=2, plant=8)
+    _args.rows(p, start=3.6, every=0.04)
     args = p.parse_args()
     trace(args.walk, args.seed, args.plant, args.gains, args.start, args.every)
 

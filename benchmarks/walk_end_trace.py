@@ -17,10 +17,9 @@ from __future__ import annotations
 import argparse
 import json
 
+import _args
 import numpy as np
-from plant_sweep import json_setting, plant_run
-
-from wbc.balance.stabilizer import Gains
+from plant_sweep import plant_run
 
 
 def trace(walk: str, seed: int, plant: int, gains: dict, start: float) -> None:
@@ -59,11 +58,8 @@ def trace(walk: str, seed: int, plant: int, gains: dict, start: float) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--walk", default="turn_wb")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--plant", type=int, default=45, help="the sweep's plant")
-    p.add_argument("--gains", type=json_setting(Gains), default={}, help="JSON Gains keywords")
-    p.add_argument("--from", dest="start", type=float, default=3.6, help="s: first row")
+    _args.plant(p, walk="turn_wb", seed=0, plant=45)
+    _args.rows(p, start=3.6)
     args = p.parse_args()
     trace(args.walk, args.seed, args.plant, args.gains, args.start)
 

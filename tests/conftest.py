@@ -32,10 +32,27 @@ settings.register_profile("dev", max_examples=40, deadline=None)
 settings.load_profile("ci")
 
 
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """With test workers (``-n 2``, pyproject.toml's), the controller starts the package's
+    compiled ticks' build (:func:`wbc.solvers.plan.start_package_ticks`: nothing if cached)
+    before the workers collect: on a cold cache the build (one core's worth: the compile
+    lock has its two workers take turns) then runs beside the long tests that need no
+    package tick (the compile test, the dispatch and stabilizer tests), instead of starting
+    when the first test needing it does while both workers wait for it. The workers' tests
+    find its lock files held and wait for it (``BuildElsewhere``). ``-n 0``: nothing."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    from wbc.solvers.plan import start_package_ticks
+
+    start_package_ticks(announce=False)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The tests marked ``long(seconds)`` first, the longest first (the others in their
-    order): the workers take the tests in collection order, and a long test taken last would
-    run alone while the other worker idles."""
+    order): the workers take the tests in collection order (pyproject.toml's
+    ``--no-loadscope-reorder``; xdist's default puts the groups first), and a long test taken
+    last would run alone while the other worker idles."""
 
     def seconds(item: pytest.Item) -> float:
         mark = item.get_closest_marker("long")
@@ -241,12 +258,17 @@ def legs(robot):
 
 @pytest.fixture(scope="session")
 def benchmark_script():
-    """``load(name)``: benchmarks/``name``.py as a module, loaded once per session."""
+    """``load(name)``: benchmarks/``name``.py as a module, loaded once per session (its
+    folder on the import path, last, as for a script run there: the scripts import their
+    siblings, e.g. ``_args``)."""
+    folder = Path(__file__).resolve().parents[1] / "benchmarks"
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
 
     def load(name: str):
         spec_name = f"wbc_{name}_benchmark"
         if spec_name not in sys.modules:
-            path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+            path = folder / f"{name}.py"
             spec = importlib.util.spec_from_file_location(spec_name, path)
             module = importlib.util.module_from_spec(spec)
             sys.modules[spec_name] = module  # dataclasses look their module up

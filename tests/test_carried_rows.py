@@ -81,8 +81,20 @@ def _walk(robot, carry: bool, ticks: int, seen: list | None = None):
     return _watched_walk(robot, stack, "carry", ticks, seen)
 
 
+#: the two walks' tests in one worker: their reference walk (:func:`plain_walk`) made once
+same_walk = pytest.mark.xdist_group("carried_rows_walk")
+
+
+@pytest.fixture(scope="module")
+def plain_walk(robot):
+    """Each tick's Δq of walk_strict along walk10's first 200 ticks as loaded (``carry_rows``
+    and ``carry_at_switch`` off, the defaults): the answers both carries must give."""
+    return _walk(robot, False, 200)
+
+
+@same_walk
 @pytest.mark.long(15)
-def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
+def test_carried_rows_give_the_same_answers_from_the_final_set(robot, plain_walk):
     """walk_strict along walk10 (self-collision rows held in every single support): with the
     last level's rows carried (``carry_rows``, off by default) each tick's Δq is the one
     without (each tick's inputs the same: its minimiser is unique) to rounding; the ticks that
@@ -92,8 +104,7 @@ def test_carried_rows_give_the_same_answers_from_the_final_set(robot):
     assert not load_stack("walk_strict", robot).solver.carry_rows  # (the default)
     seen: list = []
     warm = _walk(robot, True, 200, seen)
-    cold = _walk(robot, False, 200)
-    assert max(np.abs(a - b).max() for a, b in zip(warm, cold, strict=True)) <= 1e-12
+    assert max(np.abs(a - b).max() for a, b in zip(warm, plain_walk, strict=True)) <= 1e-12
     assert len(seen) >= 20, len(seen)
     carried = sum(int(start.sum()) for _, start, _ in seen)
     final = sum(int((start & end).sum()) for _, start, end in seen)
@@ -107,8 +118,9 @@ def _switch_walk(robot, on: bool, ticks: int, seen: list | None = None):
     return _watched_walk(robot, stack, "switch", ticks, seen)
 
 
+@same_walk
 @pytest.mark.long(11)
-def test_a_support_switch_starts_from_the_last_phases_rows(robot):
+def test_a_support_switch_starts_from_the_last_phases_rows(robot, plain_walk):
     """``walk_strict`` with ``carry_at_switch`` (off by default; a stack file's key) along
     walk10's first 160 ticks: the touch-downs (ticks 104, 144: self-collision rows held as single
     support ends) start the last level from the rows the last phase ended with, found in the
@@ -119,8 +131,7 @@ def test_a_support_switch_starts_from_the_last_phases_rows(robot):
         {"tasks": [{"type": "com"}]}]}, robot).solver.carry_at_switch  # fmt: skip
     seen: list = []
     on = _switch_walk(robot, True, 160, seen)
-    off = _switch_walk(robot, False, 160)
-    assert max(np.abs(a - b).max() for a, b in zip(on, off, strict=True)) <= 1e-12
+    assert max(np.abs(a - b).max() for a, b in zip(on, plain_walk[:160], strict=True)) <= 1e-12
     ref = build("walk10", robot)
     firsts = set((np.flatnonzero(np.diff(ref.support[:160]) != 0) + 1).tolist())
     assert {104, 144} <= {i for i, *_ in seen} <= firsts, [i for i, *_ in seen]

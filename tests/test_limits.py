@@ -172,6 +172,21 @@ def _band_stack(robot, q, limit):
         stack.add(ContactTask(robot, sole, name=sole), level=0, hard=True).set_target_from(kin)
     stack.add(PostureTask(robot, q[7:] + 0.3), level=1)  # pulls every joint up
     stack.add_limit(limit)
+    return _one_user_set(robot, stack)
+
+
+def _one_user_set(robot, stack):
+    """``stack`` with each of this module's kernel types (JointBand, FrameFloor, FrameAbove)
+    it lacks, where it cannot bind (bounds and a floor 10 m beyond): a compiled tick is built
+    per set of kernel types, whatever their values, so the tests of a user's limits share one
+    set per solver instead of compiling three."""
+    have = {type(b) for b in stack.extra_limits} | {type(c) for c in stack.constraints()}
+    if JointBand not in have:
+        stack.add_limit(JointBand(robot.q_min - 10.0, robot.q_max + 10.0))
+    if FrameFloor not in have:
+        stack.add_limit(FrameFloor(robot, "torso", -10.0))
+    if FrameAbove not in have:
+        stack.add_constraint(FrameAbove(robot, "torso", -10.0), level=0)
     return stack
 
 
@@ -300,7 +315,7 @@ def _sinking_stack(robot, q, constraint):
     stack.add(ComTask(robot, kin.com - [0.0, 0.0, 0.02]), level=1)
     stack.add(PostureTask(robot, q[7:]), level=2, weight=1e-3)
     stack.add_constraint(constraint, level=0)
-    return stack
+    return _one_user_set(robot, stack)
 
 
 @pytest.mark.long(15)

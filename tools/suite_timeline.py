@@ -6,6 +6,11 @@ compile worker, a subprocess, or another process's compilation of a kernel it ne
 
     PYTHONPATH=tools WBC_TEST_TIMELINE=/tmp/t.jsonl python -m pytest -p suite_timeline ...
     python tools/suite_timeline.py /tmp/t.jsonl [--top 20]
+    python tools/suite_timeline.py --signatures CLONE CACHE   # kernels compiled more than once
+
+``--signatures``: after a cold run, numba's cache indexes (``*.nbi``: ``__pycache__`` beside
+the sources, the generated ticks' in the cache folder) list every signature a kernel was
+compiled for; a kernel listed under several was compiled (with its callees) once each.
 """
 
 from __future__ import annotations
@@ -13,9 +18,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import pickle
 import resource
 import time
 from collections import defaultdict
+from pathlib import Path
 
 #: the file the plugin appends its records to (JSON lines; unset: nothing recorded)
 ENV = "WBC_TEST_TIMELINE"
@@ -77,11 +84,32 @@ def summary(records: list[dict], top: int = 20) -> list[str]:
     return out
 
 
+def signatures(folders: list[str]) -> list[tuple[str, list[str]]]:
+    """(index file, its signatures) of every numba cache index below ``folders``, the most
+    signatures first."""
+    out = []
+    for folder in folders:
+        for path in Path(folder).rglob("*.nbi"):
+            with open(path, "rb") as f:
+                pickle.load(f)  # (numba's version)
+                _, overloads = pickle.loads(f.read())
+            out.append((str(path), [str(key[0]) for key in overloads]))
+    return sorted(out, key=lambda r: (-len(r[1]), r[0]))
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("files", nargs="+")
+    p.add_argument("files", nargs="+", help="timeline files (folders with --signatures)")
     p.add_argument("--top", type=int, default=20)
+    p.add_argument("--signatures", action="store_true", help="kernels cached more than once")
     args = p.parse_args(argv)
+    if args.signatures:
+        rows = signatures(args.files)
+        print(f"{len(rows)} kernels, {sum(len(s) for _, s in rows)} compilations")
+        for path, sigs in rows[: args.top]:
+            if len(sigs) > 1:
+                print(f"  {len(sigs)} {path}\n" + "\n".join(f"      {s[:200]}" for s in sigs))
+        return 0
     records = [json.loads(line) for f in args.files for line in open(f) if line.strip()]
     print("\n".join(summary(records, args.top)))
     return 0

@@ -130,8 +130,7 @@ class SessionSource(CallableSource):
                 return None
             if not resting:
                 self.failed_ticks += session.failed
-                solver = getattr(session.controller, "solver", None)  # (a stack's: its QP)
-                self.relaxed_ticks += bool(getattr(solver, "relaxed", False))
+                self.relaxed_ticks += session.controller.relaxed
                 walk = t - self.start_offset
                 self._played.append((walk, walk - session.delay))
                 self._slowed |= stab is not None and stab.clock != 1.0

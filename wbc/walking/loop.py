@@ -40,12 +40,10 @@ from .tick_targets import SOLES as SOLES  # (the targets' names, imported from h
 from .tick_targets import TickTargets, sole_pack, support_roles
 from .tick_targets import torso_target as torso_target
 
-#: the checked copy of a tick's targets (:meth:`StackController._copy_targets`): its entry
-#: point, for arrays of the types and shapes below
+#: the checked entry of a tick's targets' copy (StackController._copy_targets), arrays as below
 _copy_targets = check_entry(copy_targets)
 _F8 = np.dtype(np.float64)
 _VECTOR, _MATRIX = (3,), (3, 3)
-
 
 MODES = ("tick", "converge")
 #: a sole in contact at the start (both in double support, the stance sole in single support)
@@ -106,10 +104,8 @@ class Controller(ABC):
         """
         for iteration in range(1, max_iterations + 1):
             q_next = self.track(q, targets, self.dt, phase_changed and iteration == 1)
-            if (
-                np.max(np.abs(q_next[7:] - q[7:])) < tol
-                and np.max(np.abs(q_next[:3] - q[:3])) < tol
-            ):
+            step = np.abs(q_next - q)
+            if np.max(step[7:]) < tol and np.max(step[:3]) < tol:
                 return q_next, iteration
             q = q_next
         return q, max_iterations
@@ -117,6 +113,10 @@ class Controller(ABC):
     def task_errors(self) -> dict[str, np.ndarray]:
         """Task errors at the last solve, for the recording (optional)."""
         return {}
+
+    @property  # the last solve relaxed a hard level, kept its least-squares best (no levels: no)
+    def relaxed(self) -> bool:
+        return False
 
 
 class StackController(Controller):
@@ -373,6 +373,8 @@ class StackController(Controller):
     def task_errors(self) -> dict[str, np.ndarray]:
         return self.control.stack.errors()
 
+    relaxed = property(lambda self: self.solver.relaxed)  # (its QP's: StackSolver.relaxed)
+
 
 @dataclass
 class RunOptions:
@@ -477,9 +479,8 @@ class Session:
         """Follow ``ref`` from tick ``first`` on (a re-planned walk: the same time grid,
         support schedule and torso headings, other footsteps and CoM)."""
         if ref.n != self.ref.n or np.any(ref.support != self.ref.support):
-            raise TrajectoryError(
-                "a re-planned reference must keep the time grid and support schedule"
-            )
+            msg = "a re-planned reference must keep the time grid and support schedule"
+            raise TrajectoryError(msg)
         self.ref = ref
         self._sole_targets(first)
 
