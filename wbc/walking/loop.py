@@ -51,8 +51,7 @@ MODES = ("tick", "converge")
 #: START_CONTACT_TICKS solved ticks in a row, else :class:`InfeasibleError` naming the frame
 #: and the distance (a hard level not met: the robot started with a sole off the floor, out
 #: of the legs' reach or speed); checked only until every contact is first met
-START_CONTACT_TOL = 1e-3
-START_CONTACT_TICKS = 25
+START_CONTACT_TOL, START_CONTACT_TICKS = 1e-3, 25
 
 
 class Controller(ABC):
