@@ -1,4 +1,4 @@
-"""The peers placo and pink as :class:`~wbc.walking.loop.Controller` objects.
+"""The peers placo and pink as :class:`~wbc.walking.controller.Controller` objects.
 
 Both are configured with our URDF and the tasks of the run's stack (:func:`peer_stack`: the
 ``--stack`` given, else the robot folder's ``stack.toml``, else ``tasks/walk.toml``), read from

@@ -1,6 +1,6 @@
 """The solvers the benchmark compares, by name and family.
 
-Every entry builds a :class:`~wbc.walking.loop.Controller` for a robot:
+Every entry builds a :class:`~wbc.walking.controller.Controller` for a robot:
 
 * ``wqp-<backend>`` / ``hqp-<backend>`` — a walking stack as a weighted or a lexicographic QP,
   for each backend (daqp, proxqp, quadprog, osqp): the benchmark's stack (:data:`BENCH_STACKS`),

@@ -1,5 +1,5 @@
 """The walking loop's targets of a tick copied into the tasks' own arrays in one compiled
-call (:meth:`wbc.walking.loop.StackController._copy_targets`), checked as the tasks' setters
+call (:meth:`wbc.walking.controller.StackController._copy_targets`), checked as the tasks' setters
 check them. Apart from :mod:`wbc.compiled.checks` so that only a walking loop compiles it
 (~1 s once, then cached) and the compiled tick does not depend on it."""
 

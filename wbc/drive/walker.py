@@ -5,7 +5,7 @@ soles, swing, torso) from the command in force → the
 :class:`~wbc.balance.stabilizer.Stabilizer` reads the servos' present positions and the IMU
 and adjusts them (state estimate, torso feedback; the closed loop of
 :func:`wbc.balance.live.closed_loop`) → one solve of any
-:class:`~wbc.walking.loop.Controller` (a task stack as a weighted or hierarchical QP, the
+:class:`~wbc.walking.controller.Controller` (a task stack as a weighted or hierarchical QP, the
 thesis's schemes, placo, pink) → the joint goals. A :class:`Walker` is a target source
 (:class:`wbc.servos.sources.TargetSource`), so a :class:`~wbc.servos.playback.Deployment` on
 any :class:`~wbc.servos.bus.ServoBus` plays it with every safety feature of ``wbc deploy``

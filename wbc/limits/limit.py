@@ -296,7 +296,7 @@ class Constraint:
     def forget_rows(self) -> None:
         """The next computation of the rows runs even at the configuration of the last (the
         same rows): a rehearsed first tick runs their code, not a kept answer
-        (:meth:`wbc.walking.loop.StackController.rehearse`; default: nothing kept)."""
+        (:meth:`wbc.solvers.base.StackSolver.rehearse`; default: nothing kept)."""
         return None
 
     def solved(self) -> None:

@@ -377,7 +377,7 @@ class StackSolver(ABC):
     def switch_layout(self) -> None:  # noqa: B027
         """Take the layout of the stack as it is now if the stack changed since the last solve
         (what a solve does first): a support switch made in a loop's idle part
-        (:meth:`wbc.walking.loop.StackController.prepare_phase`) then leaves its tick nothing
+        (:meth:`wbc.walking.controller.StackController.prepare_phase`) then leaves its tick nothing
         to switch. Nothing else changes: the next solve is the same."""
 
     def note_phase(self, phase: tuple, revision: int) -> None:

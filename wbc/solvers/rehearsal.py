@@ -4,7 +4,7 @@ Back to back, the first tick of a support phase ran its compiled call about twic
 the others (walk10, ``walk``: 54–74 µs against 34), although replayed at once the same call
 took what the others take (30–33 µs): the work is the same, the memory and code of the
 layout switched to were cold (the switch made ahead, :meth:`StackController.prepare_phase
-<wbc.walking.loop.StackController.prepare_phase>`, runs ~100 µs of Python right before the
+<wbc.walking.controller.StackController.prepare_phase>`, runs ~100 µs of Python right before the
 tick). :func:`rehearse` runs the new layout's tick once at the last tick's kinematics in the
 idle part and puts back what that tick writes and a later one reads (the active sets' warm
 start, the solution the solver hands out, the constraint whose rows it makes: its buffers and

@@ -701,7 +701,7 @@ class WalkEngine:
 
     def standing_reference(self) -> WalkingReference:
         """A two-tick reference of the robot standing where the engine starts (what a
-        :class:`~wbc.walking.loop.Controller` is started on)."""
+        :class:`~wbc.walking.controller.Controller` is started on)."""
         left, right = self.feet["left"], self.feet["right"]
         n = 2
         com = np.tile([*self.x[0], self.height], (n, 1))

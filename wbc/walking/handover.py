@@ -126,7 +126,7 @@ def _toward(start: pin.SE3, end: pin.SE3, share: float) -> pin.SE3:
 
 class SwitchHandover:
     """The per-walk state of a stack's :class:`~wbc.stack_tables.SupportSwitch` (a
-    :class:`~wbc.walking.loop.StackController` keeps one): :meth:`start` at the walk's start
+    :class:`~wbc.walking.controller.StackController` keeps one): :meth:`start` at the walk's start
     pose, then :meth:`update` after each tick's targets are set, before its solve."""
 
     def __init__(
@@ -217,7 +217,7 @@ class SwitchHandover:
 
     def prepare(self, q: np.ndarray, targets, dt: float) -> None:
         """The landing's work of the tick of ``targets`` made ahead (a loop's idle part before
-        it: :meth:`wbc.walking.loop.StackController.prepare_phase` and ``prepare_tick``): at a
+        it: :meth:`wbc.walking.controller.StackController.prepare_phase` and ``prepare_tick``): at a
         touch-down where the landing sole is at ``q`` (a forward kinematics pass) and the
         landing's first share of the way, on a landing under way its next share (an SE(3)
         log and exp); kept for that tick's :meth:`update`, which takes it if it is the tick
