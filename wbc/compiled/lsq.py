@@ -301,7 +301,8 @@ def _solve(
         V[_V_MU, i] = 0.0
         ind[_I_PINNED, i] = 0
         ind[_I_FIXED, i] = 0
-        ind[_I_LAST, i] = 0
+        if REFIX_GUARD > 0:
+            ind[_I_LAST, i] = 0
         if lower[i] == upper[i]:
             ind[_I_PINNED, i] = 1
             ind[_I_FIXED, i] = -1
@@ -476,7 +477,8 @@ def _solve(
                     max_iter += 1
                     for i in range(n):
                         ind[_I_FIXED, i] = -1 if ind[_I_PINNED, i] else 0
-                        ind[_I_LAST, i] = 0
+                        if REFIX_GUARD > 0:
+                            ind[_I_LAST, i] = 0
                     continue
                 if best > n:  # even the cold start is inconsistent
                     _fill(x, np.nan)

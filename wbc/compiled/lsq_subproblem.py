@@ -291,8 +291,9 @@ def _exchange(x, lower, upper, V, ind, guard, track):
                 others += 1
         guard = others > 0
     for i in range(n):
-        last = ind[_I_LAST, i]
+        last = 0
         if track:
+            last = ind[_I_LAST, i]
             ind[_I_LAST, i] = ind[_I_FIXED, i]
         if ind[_I_PINNED, i]:
             continue
