@@ -10,6 +10,10 @@ ticks answered bit for bit the same)::
 
     python benchmarks/cascade_replay.py --capture walk10.pkl --trajectory walk10 --stack walk_strict
     NUMBA_DISABLE_JIT=1 python benchmarks/lsq_refix.py walk10.pkl [--guards 0 1 2]
+
+Guards other than 0 need a checkout with ``lsq.REFIX_GUARD`` (commit 7247334 of the twentieth
+session's branch i34h: measured, not merged — it cost the default path 2-3 % replayed,
+benchmarks/self_collision.md); on main only ``--guards 0`` (the counts).
 """
 
 from __future__ import annotations
@@ -33,6 +37,8 @@ def trace(path: str, guard: int) -> dict:
     from wbc.compiled import lsq, lsq_update
     from wbc.compiled import ticks as T
 
+    if not hasattr(lsq, "REFIX_GUARD") and guard != 0:
+        raise SystemExit(f"--guards {guard}: this checkout has no lsq.REFIX_GUARD (only 0)")
     lsq.REFIX_GUARD = guard
     with open(path, "rb") as f:
         ticks = pickle.load(f)["ticks"]
@@ -88,7 +94,7 @@ def trace(path: str, guard: int) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("path", help="a benchmarks/cascade_replay.py capture")
-    parser.add_argument("--guards", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--guards", type=int, nargs="+", default=[0])
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--guard", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()

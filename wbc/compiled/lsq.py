@@ -99,7 +99,6 @@ from ._cache import refresh
 from .lsq_linalg import (
     _I_FIXED,
     _I_FREE,
-    _I_LAST,
     _I_PERM,
     _I_PINNED,
     _I_PREV,
@@ -123,11 +122,8 @@ from .lsq_subproblem import (
     _SUB_OK,
     _SUB_SINGULAR,
     _dependency,
-    _exchange,
     _rank_with,
     _subproblem,
-    _violation,
-    _wrong_sign,
 )
 from .lsq_update import (
     _DECLINED,
@@ -142,6 +138,8 @@ from .lsq_update import (
 )
 
 OK, MAX_ITER, INCONSISTENT, NUMERICAL = 0, 1, 2, 3
+
+_X_TOL = 1e-12  # a free x_i is beyond a bound b when by more than _X_TOL·(1 + |b|)
 
 _PDAS, _DUAL_START, _DUAL_ADD = 0, 1, 2
 
@@ -180,15 +178,27 @@ INWARD_RELEASE = True
 #: held and lifted rows 2767 subproblems with every bound released, 2102 with every inward
 #: one, 1914 with this 10)
 INWARD_RATIO = 10.0
-#: PDAS's exchange on a damped level does not fix a variable again on the side the step before
-#: released it from while other variables change (:func:`~wbc.compiled.lsq_subproblem._exchange`):
-#: 0 off; 1 at every step; 2 at the steps that did not lower the count (ties). Subproblems of
-#: walk_strict's walk10 / turn / walk10_wb replayed: 1336 / 913 / 620 off, 1355 / 901 / 620
-#: with 1, 1334 / 898 / 620 with 2 (benchmarks/self_collision.md, twentieth session)
-REFIX_GUARD = 0
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
 #: (its condition number beyond about its square)
 _COND_MAX_SQRT = 1e2
+
+
+@njit(cache=True, inline="always")
+def _wrong_sign(side, mu, tol):
+    """True when the multiplier ``mu`` of a bound on ``side`` (±1) has the wrong sign."""
+    if side > 0:
+        return mu > tol
+    return mu < -tol
+
+
+@njit(cache=True, inline="always")
+def _violation(xi, lo, up):
+    """How far xi lies beyond [lo, up] relative to 1 + |bound| (0 inside, or within _X_TOL)."""
+    if xi > up + _X_TOL * (1.0 + abs(up)):
+        return (xi - up) / (1.0 + abs(up))
+    if xi < lo - _X_TOL * (1.0 + abs(lo)):
+        return (lo - xi) / (1.0 + abs(lo))
+    return 0.0
 
 
 @njit(cache=True)
@@ -301,8 +311,6 @@ def _solve(
         V[_V_MU, i] = 0.0
         ind[_I_PINNED, i] = 0
         ind[_I_FIXED, i] = 0
-        if REFIX_GUARD > 0:
-            ind[_I_LAST, i] = 0
         if lower[i] == upper[i]:
             ind[_I_PINNED, i] = 1
             ind[_I_FIXED, i] = -1
@@ -477,8 +485,6 @@ def _solve(
                     max_iter += 1
                     for i in range(n):
                         ind[_I_FIXED, i] = -1 if ind[_I_PINNED, i] else 0
-                        if REFIX_GUARD > 0:
-                            ind[_I_LAST, i] = 0
                     continue
                 if best > n:  # even the cold start is inconsistent
                     _fill(x, np.nan)
@@ -523,8 +529,14 @@ def _solve(
                         ind[_I_PREV, i] = ind[_I_FIXED, i]
                 else:
                     tied += 1
-                guard = REFIX_GUARD == 1 or (REFIX_GUARD == 2 and not improved)
-                _exchange(x, lower, upper, V, ind, guard and ridge > 0.0, REFIX_GUARD > 0)
+                for i in range(n):
+                    if ind[_I_PINNED, i]:
+                        continue
+                    if ind[_I_FIXED, i] == 0:
+                        if _violation(x[i], lower[i], upper[i]) > 0.0:
+                            ind[_I_FIXED, i] = 1 if x[i] > upper[i] else -1
+                    elif _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i]):
+                        ind[_I_FIXED, i] = 0
                 continue
             # PDAS is not making progress (it may cycle): the dual method, from the set with
             # the fewest infeasibilities (the last exchange made things worse)
@@ -773,6 +785,8 @@ refresh(
         _released,
         _carry,
         solve_level_in,
+        _wrong_sign,
+        _violation,
         _finish,
         _solve,
         solve_level_iterations,

@@ -31,8 +31,8 @@ _SING_TOL = 1e-13  # with ridge = 0, a Cholesky pivot ≤ _SING_TOL·max diagona
 (_V_TAU, _V_NRM, _V_NRM_REF, _V_CVEC, _V_LAM, _V_RP, _V_E, _V_W, _V_W2, _V_T, _V_DINV,
  _V_MU, _V_MU_TOL, _V_X0, _V_MU0, _V_NU) = range(16)  # fmt: skip
 _N_VEC = 16
-_I_PERM, _I_FREE, _I_FIX, _I_FIXED, _I_PREV, _I_PINNED, _I_LAST = range(7)
-_N_IVEC = 7
+_I_PERM, _I_FREE, _I_FIX, _I_FIXED, _I_PREV, _I_PINNED = range(6)
+_N_IVEC = 6
 
 # The linear algebra allows reassociation (so that reductions vectorise) and fused
 # multiply-adds; numba inlines a function with its caller's flags, hence on the callers too.

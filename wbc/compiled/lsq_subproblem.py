@@ -1,10 +1,7 @@
 """The subproblem of the compiled least-squares level solver (:mod:`wbc.compiled.lsq`) for a
 guessed active set: the equality-constrained least squares of the free variables in the null
 space of their equality rows, with the bounds' multipliers; and the rank tests of the dual
-active set method (does a bound depend on the active ones and the equalities); and the step of
-the primal-dual active set method (PDAS) from one guess to the next (:func:`_exchange`: every
-free variable beyond a bound fixed at it, every fixed one whose multiplier has the wrong sign
-released), with its tests of a bound."""
+active set method (does a bound depend on the active ones and the equalities)."""
 
 from __future__ import annotations
 
@@ -19,9 +16,7 @@ from .lsq_linalg import (
     _I_FIX,
     _I_FIXED,
     _I_FREE,
-    _I_LAST,
     _I_PERM,
-    _I_PINNED,
     _V_CVEC,
     _V_E,
     _V_LAM,
@@ -250,64 +245,5 @@ def _rank_with(A, i, rank_rtol, W, V, ind):
     return _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol)
 
 
-_X_TOL = 1e-12  # a free x_i is beyond a bound b when by more than _X_TOL·(1 + |b|)
-
-
-@njit(cache=True, inline="always")
-def _wrong_sign(side, mu, tol):
-    """True when the multiplier ``mu`` of a bound on ``side`` (±1) has the wrong sign."""
-    if side > 0:
-        return mu > tol
-    return mu < -tol
-
-
-@njit(cache=True, inline="always")
-def _violation(xi, lo, up):
-    """How far xi lies beyond [lo, up] relative to 1 + |bound| (0 inside, or within _X_TOL)."""
-    if xi > up + _X_TOL * (1.0 + abs(up)):
-        return (xi - up) / (1.0 + abs(up))
-    if xi < lo - _X_TOL * (1.0 + abs(lo)):
-        return (lo - xi) / (1.0 + abs(lo))
-    return 0.0
-
-
-@njit(cache=True, inline="always")
-def _exchange(x, lower, upper, V, ind, guard, track):
-    """One PDAS exchange on ``ind[_I_FIXED]`` at the subproblem's x and μ (``V[_V_MU]``).
-    ``track``: the set before it kept in ``ind[_I_LAST]`` (for a guarded step after it);
-    ``guard``: a variable the step before released stays free on that side while other
-    variables change (if none does, every re-fix is made: the step must change the set)."""
-    n = x.shape[0]
-    if guard:
-        others = 0
-        for i in range(n):
-            if ind[_I_PINNED, i]:
-                continue
-            if ind[_I_FIXED, i] == 0:
-                if _violation(x[i], lower[i], upper[i]) > 0.0:
-                    if ind[_I_LAST, i] != (1 if x[i] > upper[i] else -1):
-                        others += 1
-            elif _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i]):
-                others += 1
-        guard = others > 0
-    for i in range(n):
-        last = 0
-        if track:
-            last = ind[_I_LAST, i]
-            ind[_I_LAST, i] = ind[_I_FIXED, i]
-        if ind[_I_PINNED, i]:
-            continue
-        if ind[_I_FIXED, i] == 0:
-            if _violation(x[i], lower[i], upper[i]) > 0.0:
-                side = 1 if x[i] > upper[i] else -1
-                if not (guard and last == side):
-                    ind[_I_FIXED, i] = side
-        elif _wrong_sign(ind[_I_FIXED, i], V[_V_MU, i], V[_V_MU_TOL, i]):
-            ind[_I_FIXED, i] = 0
-
-
 # numba caches these on this file alone: flush them when the kernels they call change
-refresh(
-    [_subproblem, _dependency, _rank_with, _wrong_sign, _violation, _exchange],
-    [Path(__file__).with_name("lsq_linalg.py")],
-)
+refresh([_subproblem, _dependency, _rank_with], [Path(__file__).with_name("lsq_linalg.py")])
