@@ -102,6 +102,10 @@ def main() -> None:
         with open(args.child, "wb") as f:
             pickle.dump(trace(args.path, args.guard), f)
         return
+    from wbc.compiled import lsq
+
+    if not hasattr(lsq, "REFIX_GUARD") and any(g != 0 for g in args.guards):
+        raise SystemExit("--guards: this checkout has no lsq.REFIX_GUARD (only 0 is allowed)")
     env = dict(os.environ, NUMBA_DISABLE_JIT="1", WBC_REPLAY_CHILD="1")
     runs = {}
     for g in args.guards:
