@@ -178,6 +178,31 @@ def test_a_catch_step_miss_beyond_the_band_is_asked_at_once(robot):
     assert np.linalg.norm(anchor.translation - sole.translation) == pytest.approx(0.025 - band)
 
 
+def _missed_landing(robot, table: dict):
+    """The walk stack with ``[support_switch]`` ``table`` along static_walk to its first
+    landing, and that landing's targets moved 50 mm and 0.4 rad off the reference (a catch's
+    miss): (controller, control, ref, land, q, frame, sole at q, goal, targets, moved)."""
+    import pinocchio as pin
+
+    ref = build("static_walk", robot)
+    s = ref.support
+    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
+    spec = _walk_spec()
+    control = build_stack({**spec, "support_switch": {**spec["support_switch"], **table}}, robot)
+    controller = StackController(control)
+    session = Session(controller, robot, ref)
+    for i in range(land):
+        session.tick(i)
+    frame = session.targets(land - 1).swing
+    q = session.q.copy()
+    sole = robot.frame_placement(q, frame)
+    t = session.targets(land)
+    turn = pin.exp3(np.array([0.0, 0.4, 0.0]))
+    goal = pin.SE3(t.sole(frame).rotation @ turn,
+                   t.sole(frame).translation + np.array([0.05, 0.0, 0.0]))  # fmt: skip
+    return controller, control, ref, land, q, frame, sole, goal, t, t.replace(**{frame: goal})
+
+
 def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
     """A touch-down 50 mm and 0.4 rad off its reference (a catch's miss, more than the servos
     move in a tick): the tick fails without ``landing_fallback`` and ``brace`` (the controller
@@ -185,30 +210,14 @@ def test_a_landing_the_hard_row_cannot_meet_falls_back_to_the_sole(robot):
     ``dt / landing_time`` of the way to the reference this tick, the tick solves, the hard row
     meets the anchor, the fallback is counted, and the later ticks walk the rest (at the
     reference after ``landing_time``, failing again only to fall back again)."""
-    import pinocchio as pin
-
     from wbc.exceptions import InfeasibleError
 
-    ref = build("static_walk", robot)
-    s = ref.support
-    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
-    spec = _walk_spec()
     answers = {}
     for fallback in (False, True):
-        table = {**spec["support_switch"], "landing_fallback": fallback, "brace": False}
-        control = build_stack({**spec, "support_switch": table}, robot)
-        controller = StackController(control)
-        session = Session(controller, robot, ref)
-        for i in range(land):
-            session.tick(i)
-        frame = session.targets(land - 1).swing
-        q = session.q.copy()
-        sole = robot.frame_placement(q, frame)
-        t = session.targets(land)
-        turn = pin.exp3(np.array([0.0, 0.4, 0.0]))
-        goal = pin.SE3(t.sole(frame).rotation @ turn,
-                       t.sole(frame).translation + np.array([0.05, 0.0, 0.0]))  # fmt: skip
-        moved = t.replace(**{frame: goal})
+        table = {"landing_fallback": fallback, "brace": False}
+        controller, control, ref, land, q, frame, sole, goal, t, moved = _missed_landing(
+            robot, table
+        )
         if not fallback:
             with pytest.raises(InfeasibleError, match="contact"):
                 controller.track(q, moved, ref.dt, True)
@@ -238,26 +247,8 @@ def test_a_landing_the_hard_row_cannot_meet_is_braced_where_it_stands(robot, spe
     contact, the CoM, torso and posture targets where they are: the solve holds the pose (the
     landed sole where it was, the CoM within 1 mm, no joint moving 1e-3 rad), counted; the
     targets are put back after it (the next tick tries the landing again, braced again)."""
-    import pinocchio as pin
-
-    ref = build("static_walk", robot)
-    s = ref.support
-    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
-    spec = _walk_spec()
-    table = {**spec["support_switch"], "brace": True} | ({"brace_speed": speed} if speed else {})
-    control = build_stack({**spec, "support_switch": table}, robot)
-    controller = StackController(control)
-    session = Session(controller, robot, ref)
-    for i in range(land):
-        session.tick(i)
-    frame = session.targets(land - 1).swing
-    q = session.q.copy()
-    sole = robot.frame_placement(q, frame)
-    t = session.targets(land)
-    turn = pin.exp3(np.array([0.0, 0.4, 0.0]))
-    goal = pin.SE3(t.sole(frame).rotation @ turn,
-                   t.sole(frame).translation + np.array([0.05, 0.0, 0.0]))  # fmt: skip
-    moved = t.replace(**{frame: goal})
+    table = {"brace": True} | ({"brace_speed": speed} if speed else {})
+    controller, control, ref, _, q, frame, sole, _, _, moved = _missed_landing(robot, table)
     q_next = controller.track(q, moved, ref.dt, True)  # (raises without the brace: above)
     handover = controller.handover
     assert handover.braced == 1 and handover.fallbacks == 0
