@@ -5,7 +5,7 @@ the check of a positive number that the stack file's other numbers share (:func:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 from .exceptions import TaskError
@@ -59,28 +59,10 @@ class SupportSwitch:
     brace_speed: float = 0.0
 
 
-#: the keys of a stack file's ``[support_switch]`` table (:class:`SupportSwitch`)
-SWITCH_KEYS = (
-    "posture_lag",
-    "landing_time",
-    "landing_band",
-    "carry_contact_targets",
-    "second_order_swing",
-    "fit_speed",
-    "landing_fallback",
-    "fallback_hold",
-    "brace",
-    "brace_speed",
-)
-#: its keys that are true or false (the others are positive numbers)
-_SWITCH_FLAGS = (
-    "carry_contact_targets",
-    "second_order_swing",
-    "fit_speed",
-    "landing_fallback",
-    "fallback_hold",
-    "brace",
-)
+#: the keys of a stack file's ``[support_switch]`` table: :class:`SupportSwitch`'s fields
+SWITCH_KEYS = tuple(f.name for f in fields(SupportSwitch))
+#: its keys that are true or false (the others are positive numbers): the fields typed bool
+_SWITCH_FLAGS = tuple(f.name for f in fields(SupportSwitch) if f.type in (bool, "bool"))
 
 
 def parse_support_switch(table: Any, unit: float, where: str) -> SupportSwitch | None:

@@ -294,7 +294,7 @@ class SwitchHandover:
         self._swing = targets.swing if single else None
         self._prepared = None  # (made for this tick only)
 
-    def _braced(self, solver, q: np.ndarray, frame: str, targets, dt: float) -> np.ndarray | None:
+    def _braced(self, solver, q: np.ndarray, frame: str, dt: float) -> np.ndarray | None:
         """A landing's tick whose solve failed, solved braced (``brace``, issue 30): the
         landed sole ``frame``'s contact anchored where the sole is at ``q`` (with
         ``brace_speed``, m/s, one step of ``brace_speed·dt`` from there toward its anchor),
@@ -417,7 +417,7 @@ class SwitchHandover:
         except InfeasibleError as exc:
             frame, failure = self._landed, exc
         if self.brace:
-            q_next = self._braced(solver, q, frame, targets, dt)
+            q_next = self._braced(solver, q, frame, dt)
             if q_next is not None:
                 return q_next
         if not self.fallback:
