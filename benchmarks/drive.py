@@ -41,12 +41,12 @@ os.environ.setdefault("WBC_WAIT_FOR_COMPILE", "1")  # time the compiled ticks, n
 from wbc import load_robot
 from wbc.bench.solvers import registry
 from wbc.bench.variation import models
-from wbc.drive.commands import Command, random_commands
+from wbc.drive.commands import Command, random_commands, walked
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim
 from wbc.drive.walker import DRIVE_GAINS, default_compensate
 from wbc.sim.model import FRICTION_CONES, ModelParams
-from wbc.walking.engine import EngineParams
+from wbc.walking.engine import EngineParams, VelocityLimits
 
 
 def scripts(lim) -> dict[str, list[Command]]:
@@ -68,8 +68,11 @@ def scripts(lim) -> dict[str, list[Command]]:
     }
 
 
-def errors(r: dict) -> dict:
-    """Displacement and heading errors of a run (relative where the command is not tiny)."""
+def errors(r: dict, commands=None) -> dict:
+    """Displacement and heading errors of a run (relative where the command is not tiny);
+    with ``commands`` (clipped to the run's limits, as ``commanded_xy_m``) also the path
+    walked and the turn made on the way (:func:`wbc.drive.commands.walked`) and the errors
+    relative to them."""
     c, t = np.asarray(r["commanded_xy_m"]), np.asarray(r["travelled_xy_m"])
     dxy = float(np.linalg.norm(t - c))
     nc = float(np.linalg.norm(c))
@@ -80,7 +83,20 @@ def errors(r: dict) -> dict:
         "xy_error_rel": dxy / nc if nc > 0.05 else None,
         "yaw_error_rad": dyaw,
         "yaw_error_rel": dyaw / cy if cy > 0.3 else None,
+        **(path_errors(r, commands, dxy, dyaw) if commands is not None else {}),
     }
+
+
+def path_errors(r: dict, commands, dxy: float, dyaw: float) -> dict:
+    """The commanded path's length and turn (the commands clipped to ``r["limits"]``) and
+    the displacement and heading errors relative to them."""
+    lim = VelocityLimits(**r["limits"])
+    path, turn = walked([Command(c.duration, *lim.clip(*c.velocity)) for c in commands])
+    return {
+        "commanded_path_m": path, "commanded_turn_rad": turn,
+        "xy_error_path_rel": dxy / path if path > 0.05 else None,
+        "yaw_error_turn_rel": dyaw / turn if turn > 0.3 else None,
+    }  # fmt: skip
 
 
 def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
@@ -108,7 +124,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
             twist: float | None = None, slip_gain: float | None = None,
-            load_ramp: bool = False, **kw):  # fmt: skip
+            load_ramp: bool = False, flat_liftoff: float | None = None, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -124,7 +140,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "landing_contact": None if landing_contact else False,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
-        "load_ramp": load_ramp or None,
+        "load_ramp": load_ramp or None, "flat_liftoff": flat_liftoff,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -135,7 +151,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options.update(limits=limits, window=window)
     r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
                   finish=finish, **kw)  # fmt: skip
-    r.update(errors(r))
+    r.update(errors(r, commands))
     return r
 
 
@@ -357,6 +373,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the compliance feed-forward's load moved from sole to sole over each "
                          "walking double support, min-jerk (Walker(load_ramp=True); default "
                          "off: split by the CoM's place)")  # fmt: skip
+    ap.add_argument("--flat-liftoff", type=float, default=None, metavar="DEG",
+                    help="a lift-off waits while the soles' normals by the encoders differ by "
+                         "more than DEG (Walker(flat_liftoff=DEG); default off)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -403,6 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         "twist": args.twist,
         "slip_gain": args.slip_gain,
         "load_ramp": args.load_ramp,
+        "flat_liftoff": args.flat_liftoff,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing
@@ -473,6 +493,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"sequence {i} model {k}: fell {r['fell']} xy err "
                       f"{r['xy_error_m'] * 1000:.0f} mm ({r['xy_error_rel']}) yaw err "
                       f"{math.degrees(r['yaw_error_rad']):.1f}° ({r['yaw_error_rel']}); "
+                      f"of the path {1000 * r['commanded_path_m']:.0f} mm: "
+                      f"{r['xy_error_path_rel']}, of the turn "
+                      f"{math.degrees(r['commanded_turn_rad']):.0f}°: {r['yaw_error_turn_rel']}; "
                       f"failed solves {r['failed_solves']}", flush=True)  # fmt: skip
                 for cause, n in r["failed_solve_causes"].items():
                     print(f"  {n} × {cause}", flush=True)

@@ -122,6 +122,20 @@ def integrate(
     return p, th
 
 
+def walked(
+    commands: Sequence[Command | tuple[float, float, float, float]],
+) -> tuple[float, float]:
+    """The path length (m) and the turn (rad, summed unsigned) of a body following the
+    commands exactly: ``Σ T·|(vx, vy)|`` and ``Σ T·|ωz|`` — what a run walks on the way to
+    its net displacement and heading (:func:`integrate`)."""
+    path = turn = 0.0
+    for c in commands:
+        T, vx, vy, wz = (c.duration, c.vx, c.vy, c.wz) if isinstance(c, Command) else c
+        path += T * math.hypot(vx, vy)
+        turn += T * abs(wz)
+    return path, turn
+
+
 def random_commands(
     rng: np.random.Generator,
     limits: tuple[float, float, float, float],

@@ -229,6 +229,14 @@ def drive_sim(
         "deploy_trip": None if result.trip is None else str(result.trip),
         "limits": walker.limits.as_dict(),
         **recovery,
+        **(
+            {}
+            if walker.flat_liftoff is None
+            else {
+                "lift_offs_held": walker.flat_liftoff.lift_offs_held,
+                "lift_off_ticks_held": walker.flat_liftoff.held,
+            }
+        ),
         "_path": np.asarray(odo.path),
     }
 

@@ -57,6 +57,7 @@ from .contacts import move_contacts
 from .failures import failure_cause
 from .failures import failure_lines as failure_lines  # (re-exported)
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
+from .liftoff import FlatLiftoff
 from .odometry import (
     DRIVE_HEADING_GAIN,
     BaseHold,
@@ -266,6 +267,8 @@ class Walker:
     odometry, this share of it (:class:`~wbc.drive.slip.SlipEstimate`).
     ``load_ramp`` (with ``compensate``): the feed-forward's load moved from sole to sole over
     each walking double support, min-jerk (:class:`~wbc.drive.compensate.LoadRamp`; off).
+    ``flat_liftoff`` (°, closed loop; 0: off): a lift-off waits while the soles' normals by
+    the encoders differ by more (:class:`~wbc.drive.liftoff.FlatLiftoff`).
     """
 
     def __init__(
@@ -305,6 +308,7 @@ class Walker:
         quiet_stand: str = DRIVE_QUIET_STAND,
         slip_gain: float = 0.0,
         load_ramp: bool = False,
+        flat_liftoff: float = 0.0,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -364,6 +368,9 @@ class Walker:
         self.compensate = float(compensate)
         ramp = LoadRamp(max(1, round(params.timing.double_support_time / self.engine.dt)))
         self.load_ramp = ramp if load_ramp else None  #: the feed-forward's load split
+        flat = FlatLiftoff(robot, flat_liftoff)  # (checks it)
+        self.flat_liftoff = flat if closed and flat_liftoff > 0 else None  #: lift-offs held
+        self._paused = 0.0  # s of walk ticks the engine waited (:attr:`flat_liftoff`)
         self.correct = bool(correct)
         self.q = q0.copy()
         self._lean = heading_free(robot.frame_placement(q0, "torso").rotation)
@@ -520,6 +527,8 @@ class Walker:
         feet = self.engine.feet
         stance = feet["right" if step.side == "left" else "left"]
         q = self._present_configuration()
+        if self.flat_liftoff is not None:
+            self.flat_liftoff.landed(q)
         if q is None:
             return None
         placed = None if self.landing is None else self.landing.placed(step.side)
@@ -589,7 +598,10 @@ class Walker:
         dt = engine.dt if dt is None else float(dt)
         target_t = self._t + dt
         e = self.last
-        while e is None or engine.k * engine.dt < target_t - 1e-9:
+        if self.flat_liftoff is not None and self.flat_liftoff.hold(self._present_configuration()):
+            self._paused += dt  # (the lift-off waits; the command's pose moves on)
+            engine.advance_command(dt)
+        while e is None or engine.k * engine.dt + self._paused < target_t - 1e-9:
             e = engine.tick()
             if self._offset is not None:  # the measured pose replaces the engine's own sum
                 engine.odometry_offset[:] = self._offset

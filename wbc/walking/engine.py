@@ -58,7 +58,7 @@ from .geometry import Foot, rot2
 from .legs import LegGeometry
 from .preview import PreviewController
 from .reference import StandingState, WalkingReference
-from .schedule import Phase, sample_knots, sole_tracks
+from .schedule import Phase, sample_knots, settled_swing, sole_tracks
 from .spline import min_jerk
 from .window import BalanceWindow
 
@@ -522,7 +522,7 @@ class WalkEngine:
             (tracks.l_pos, tracks.l_yaw) if step.side == "left" else (tracks.r_pos, tracks.r_yaw)
         )
         if self.params.settle > 0:
-            pos, yaw = _settled(pos, yaw, single.lift, step, self.params.settle)
+            pos, yaw = settled_swing(pos, yaw, single.lift, step, self.params.settle)
         self._swing = (pos, yaw)
         self._roles = (SOLE_FRAMES[other_side(step.side)], SOLE_FRAMES[step.side])
 
@@ -648,6 +648,11 @@ class WalkEngine:
             self._replan("double")
         return True
 
+    def advance_command(self, dt: float) -> None:
+        """The commanded pose moved on by ``dt`` s of the command in force (while walking)."""
+        if self.state == "walking" and not (self._stop_requested and self.params.close_on_target):
+            self.pose_cmd = _advance_pose(self.pose_cmd, self._cmd, dt)
+
     def tick(self) -> EngineTick:
         """The targets of the next tick (the engine advances by one ``dt``)."""
         new = self._advance_segment()
@@ -657,8 +662,7 @@ class WalkEngine:
                 # the last tick before the lift-off: where the landed sole really is
                 side = seg.stance.side
                 self.contact[side] = self._measured(seg.stance, self.on_landing(seg.stance))
-        if self.state == "walking" and not (self._stop_requested and self.params.close_on_target):
-            self.pose_cmd = _advance_pose(self.pose_cmd, self._cmd, self.dt)
+        self.advance_command(self.dt)
         k = self.k
         dt = self.dt
         left, right = self.contact["left"], self.contact["right"]
@@ -775,20 +779,6 @@ def _advance_pose(pose: np.ndarray, cmd: tuple[float, float, float], t: float) -
     return np.array(
         [pose[0] + ix * vx - iy * vy, pose[1] + iy * vx + ix * vy, wrap_angle(th + wz * t)]
     )
-
-
-def _settled(
-    pos: np.ndarray, yaw: np.ndarray, lift: Footstep, land: Footstep, settle: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The swing's samples (``pos`` (n, 3), ``yaw`` (n,); tick i at s = i / n of the
-    swing) with the horizontal move and the turn from ``lift`` to ``land`` done by
-    s = 1 − ``settle`` (the same min-jerk profile, compressed; the height as given)."""
-    n = len(yaw)
-    f = min_jerk(np.arange(n) / (n * (1.0 - settle)))[0]
-    out = pos.copy()
-    out[:, :2] = lift.xy[None, :] + (land.xy - lift.xy)[None, :] * f[:, None]
-    turn = wrap_angle(land.yaw - lift.yaw)
-    return out, lift.yaw + turn * f
 
 
 def _single(side: Side) -> int:

@@ -24,7 +24,7 @@ import numpy as np
 from ..exceptions import TrajectoryError
 from ..geometry import mean_angle, wrap_angle
 from ..recording import SUPPORT_DOUBLE, SUPPORT_LEFT, SUPPORT_RIGHT
-from .footsteps import FootstepPlan
+from .footsteps import Footstep, FootstepPlan
 from .geometry import rot2
 from .spline import min_jerk, smoothstep
 
@@ -324,3 +324,17 @@ def sample_knots(knot_t: np.ndarray, knot_p: np.ndarray, t: np.ndarray) -> np.nd
     w = np.where(span > 0, (t - knot_t[j]) / np.where(span > 0, span, 1.0), 0.0)
     w = np.clip(w, 0.0, 1.0)[:, None]
     return (1.0 - w) * knot_p[j] + w * knot_p[nxt]
+
+
+def settled_swing(
+    pos: np.ndarray, yaw: np.ndarray, lift: Footstep, land: Footstep, settle: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The swing's samples (``pos`` (n, 3), ``yaw`` (n,); tick i at s = i / n of the
+    swing) with the horizontal move and the turn from ``lift`` to ``land`` done by
+    s = 1 − ``settle`` (the same min-jerk profile, compressed; the height as given)."""
+    n = len(yaw)
+    f = min_jerk(np.arange(n) / (n * (1.0 - settle)))[0]
+    out = pos.copy()
+    out[:, :2] = lift.xy[None, :] + (land.xy - lift.xy)[None, :] * f[:, None]
+    turn = wrap_angle(land.yaw - lift.yaw)
+    return out, lift.yaw + turn * f
