@@ -121,7 +121,8 @@ def record(args) -> None:
                            args.duration)  # fmt: skip
     params = None if args.transfer is None else EngineParams(transfer=args.transfer)
     r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
-                      params=params, load_ramp=args.load_ramp)  # fmt: skip
+                      params=params, load_ramp=args.load_ramp,
+                      flat_liftoff=args.flat_liftoff)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
     out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
@@ -288,6 +289,41 @@ def phases(f: str) -> None:
     )
 
 
+def edges(f: str, thresholds: tuple[float, ...] = (2.0, 4.0, 6.0)) -> None:
+    """Per whole contact of one recording (:func:`contacts`): the angle between the two
+    soles' normals by the encoders at the last tick before the other sole lifts (the
+    present links' forward kinematics, :func:`wbc.drive.liftoff.soles_tilt`), the stance
+    sole's height above its contact's lowest then (the simulator's: on an edge), its turn
+    over the single support that follows; the turn and the slide (single + lift-off double,
+    the odometry's miss) of the contacts whose tilt exceeds each threshold."""
+    from wbc.drive.liftoff import soles_tilt
+
+    robot = load_robot("bioloid")
+    d = dict(np.load(f))
+    soles, cs = d["soles"], contacts(d)
+    rows = []
+    for side, a, b, c, e in cs:
+        tilt = math.degrees(soles_tilt(robot, robot.with_joints(d["links"][b - 1])))
+        low = soles[a:e, side, 2].min()
+        turn = abs(math.degrees(wrap_angle(soles[c, side, 3] - soles[b, side, 3])))
+        move = 1000 * (soles[e, side, :2] - soles[b, side, :2])
+        rows.append((tilt, 1000 * (soles[b - 1, side, 2] - low), turn, *move))
+    R = np.array(rows)
+    print(f"{f}: {len(R)} contacts; the tilt at the lift-off against the sole's height "
+          f"then: correlation {np.corrcoef(R[:, 0], R[:, 1])[0, 1]:.2f}, against its turn "
+          f"{np.corrcoef(R[:, 0], R[:, 2])[0, 1]:.2f}; turn summed {R[:, 2].sum():.1f}°, "
+          f"slide {np.round(R[:, 3:5].sum(0), 1)} mm")  # fmt: skip
+    for thr in thresholds:
+        m = R[:, 0] > thr
+        print(
+            f"  tilt > {thr:g}°: {m.sum()} contacts (height > 3 mm: {(R[m, 1] > 3).sum()}), "
+            f"turn {R[m, 2].sum():.1f}°, slide {np.round(R[m, 3:5].sum(0), 1)} mm"
+        )
+    top = np.argsort(-R[:, 2])[:5]
+    print("  largest turns (tilt °, height mm, turn °): "
+          + ", ".join(f"{R[i, 0]:.1f}/{R[i, 1]:.1f}/{R[i, 2]:.1f}" for i in top))  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequence", type=int, default=13)
@@ -305,6 +341,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--load-ramp", action="store_true", help="Walker(load_ramp=True) for the recorded run"
     )
+    ap.add_argument("--flat-liftoff", type=float, default=None, metavar="DEG",
+                    help="Walker(flat_liftoff=DEG) for the recorded run")  # fmt: skip
+    ap.add_argument("--edges", nargs="+", default=None, metavar="FILE",
+                    help="per recording, the soles' tilt by the encoders at each lift-off "
+                         "against the stance sole's height, turn and slide after it")  # fmt: skip
     ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
                     help="analyse these recordings instead of running")  # fmt: skip
     ap.add_argument("--phases", nargs="+", default=None, metavar="FILE",
@@ -312,7 +353,10 @@ def main(argv: list[str] | None = None) -> int:
                          "(its landing's double support, its single support, the double "
                          "support before its lift-off): sums and mean lengths")  # fmt: skip
     args = ap.parse_args(argv)
-    if args.phases:
+    if args.edges:
+        for f in args.edges:
+            edges(f)
+    elif args.phases:
         for f in args.phases:
             phases(f)
     elif args.analyse:
