@@ -505,11 +505,15 @@ def main(argv: list[str] | None = None) -> int:
             causes.update(r["failed_solve_causes"])
         rel = [r["xy_error_rel"] for r in up if r["xy_error_rel"] is not None]
         yrel = [r["yaw_error_rel"] for r in up if r["yaw_error_rel"] is not None]
+        prel = [r["xy_error_path_rel"] for r in up if r["xy_error_path_rel"] is not None]
+        trel = [r["yaw_error_turn_rel"] for r in up if r["yaw_error_turn_rel"] is not None]
         record["random"] = {
             "runs": runs,
             "falls": int(sum(r["fell"] for r in runs)),
             "within_15pct_xy": int(sum(x <= 0.15 for x in rel)), "xy_rated": len(rel),
             "within_15pct_yaw": int(sum(x <= 0.15 for x in yrel)), "yaw_rated": len(yrel),
+            "xy_error_path_rel_max": max(prel, default=None),
+            "yaw_error_turn_rel_max": max(trel, default=None),
             "xy_error_m_median": float(np.median([r["xy_error_m"] for r in up])) if up else None,
             "failed_solves": int(sum(r["failed_solves"] for r in runs)),
             "runs_with_failed_solves": int(sum(r["failed_solves"] > 0 for r in runs)),
@@ -519,6 +523,8 @@ def main(argv: list[str] | None = None) -> int:
               f"displacement within 15 %: {record['random']['within_15pct_xy']}/{len(rel)}, "
               f"heading within 15 %: {record['random']['within_15pct_yaw']}/{len(yrel)}, "
               f"median displacement error {record['random']['xy_error_m_median']} m; "
+              f"the largest error of the path walked {max(prel, default=None)}, of the turn "
+              f"made {max(trel, default=None)}; "
               f"failed solves {record['random']['failed_solves']} in "
               f"{record['random']['runs_with_failed_solves']} runs")  # fmt: skip
         for cause, n in causes.most_common():
