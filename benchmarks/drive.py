@@ -45,7 +45,7 @@ from wbc.drive.commands import Command, random_commands, walked
 from wbc.drive.envelope import planning_envelope
 from wbc.drive.sim import drive_sim
 from wbc.drive.walker import DRIVE_GAINS, default_compensate
-from wbc.sim.model import FRICTION_CONES, ModelParams
+from wbc.sim.model import CONDIMS, FRICTION_CONES, ModelParams
 from wbc.walking.engine import EngineParams, VelocityLimits
 
 
@@ -360,6 +360,9 @@ def main(argv: list[str] | None = None) -> int:
                          "default: the plant's, pyramidal)")  # fmt: skip
     ap.add_argument("--impratio", type=float, default=None, metavar="R",
                     help="MuJoCo's impratio (ModelParams.impratio; default 1)")  # fmt: skip
+    ap.add_argument("--condim", type=int, default=None, choices=CONDIMS,
+                    help="the simulated floor's contact dimensions (ModelParams.condim; "
+                         "default 3; 4: torsional friction)")  # fmt: skip
     ap.add_argument("--noslip", type=int, default=None, metavar="N",
                     help="MuJoCo's noslip iterations (ModelParams.noslip_iterations; "
                          "default 0)")  # fmt: skip
@@ -381,7 +384,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     contact = {key: value for key, value in (("friction_cone", args.friction_cone),
                                              ("impratio", args.impratio),
-                                             ("noslip_iterations", args.noslip))
+                                             ("noslip_iterations", args.noslip),
+                                             ("condim", args.condim))
                if value is not None}  # fmt: skip
     robot = load_robot(args.robot)
     limits, window = planning_envelope(robot)

@@ -67,6 +67,10 @@ class ModelParams:
     #: MuJoCo's ``noslip_iterations`` (0: off): a post-solve pass that removes the soft
     #: friction's slip
     noslip_iterations: int = 0
+    #: the floor's contact dimensions (MuJoCo ``condim``: 3 sliding friction, MuJoCo's
+    #: default; 4 adds torsional friction, the floor's ``friction[1]``, 5 mm: a sole on an
+    #: edge or a corner then resists a turn; 6 rolling friction too); :data:`CONDIMS`
+    condim: int = 3
     extra: dict = field(default_factory=dict)
 
     def resolved(self, servo: ServoParams | HobbyServoParams) -> ModelParams:
@@ -81,6 +85,8 @@ class ModelParams:
 
 #: :attr:`ModelParams.friction_cone`'s choices
 FRICTION_CONES = ("pyramidal", "elliptic")
+#: :attr:`ModelParams.condim`'s choices
+CONDIMS = (1, 3, 4, 6)
 
 IMU_KEYS = ("frame", "offset", "rpy_deg")
 
@@ -161,6 +167,7 @@ def build_spec(robot: Robot, params: ModelParams | None = None):
         type=mj.mjtGeom.mjGEOM_PLANE,
         size=[5.0, 5.0, 0.05],
         friction=[p.floor_friction, 0.005, 0.0001],
+        condim=p.condim,
         contype=1,
         conaffinity=1,
         rgba=[0.8, 0.8, 0.8, 1.0],
@@ -229,6 +236,8 @@ def _contact_options(spec, p: ModelParams, mj) -> None:
         raise ModelError(f"friction_cone {p.friction_cone!r}: choose from {FRICTION_CONES}")
     if not (np.isfinite(p.impratio) and p.impratio > 0.0):
         raise ModelError(f"impratio must be > 0, got {p.impratio}")
+    if p.condim not in CONDIMS:
+        raise ModelError(f"condim {p.condim!r}: choose from {CONDIMS}")
     if int(p.noslip_iterations) != p.noslip_iterations or p.noslip_iterations < 0:
         raise ModelError(
             f"noslip_iterations must be a whole number >= 0, got {p.noslip_iterations}"
