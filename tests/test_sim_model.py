@@ -172,10 +172,22 @@ def test_contact_options_reach_the_model():
     assert m.opt.impratio == 10.0 and m.opt.noslip_iterations == 3
 
 
+def test_the_floors_condim_reaches_the_model():
+    """3 (MuJoCo's default) unless asked; 4: the floor's contacts get torsional friction."""
+    import mujoco
+
+    robot = load_robot("bioloid")
+    floor = lambda m: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")  # noqa: E731
+    m = build_model(robot)
+    assert m.geom_condim[floor(m)] == 3
+    m = build_model(robot, ModelParams(condim=4))
+    assert m.geom_condim[floor(m)] == 4
+
+
 @pytest.mark.parametrize(
     "bad, match",
     [({"friction_cone": "round"}, "friction_cone"), ({"impratio": 0.0}, "impratio"),
-     ({"noslip_iterations": -1}, "noslip_iterations")],
+     ({"noslip_iterations": -1}, "noslip_iterations"), ({"condim": 2}, "condim")],
 )  # fmt: skip
 def test_bad_contact_options_are_one_clear_line(bad, match):
     from wbc.exceptions import ModelError
