@@ -445,7 +445,8 @@ def _ticks(
         _HERE / f
         for f in "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py".split()
     ]
-    for f in [*files, _HERE / "rows.py", _HERE / "ticks.py", *lsq, _HERE / "checks.py"]:
+    own = [_HERE / f for f in ("rows.py", "ticks.py", "boxes.py", "checks.py")]
+    for f in [*files, *own, *lsq]:
         if f is not None:
             h.update(f.read_bytes())
     name = f"wbc_tick_{h.hexdigest()[:20]}"

@@ -88,7 +88,8 @@ from numba import carray, njit
 
 from wbc.compiled.checks import address, gather
 from wbc.compiled.rows import frame_velocities
-from wbc.compiled.ticks import cascade_solve, fold_box, weighted_solve
+from wbc.compiled.boxes import fold_box
+from wbc.compiled.ticks import cascade_solve, weighted_solve
 
 
 @njit(cache={cache})

@@ -1,7 +1,7 @@
 """The compiled solve of a tick, once the rows and the bounds are filled: the QP(s), integration.
 
-* :func:`fold_boxes` — the box of a stack's limits from each box limit's own (their bound
-  kernels fill them: the joint position and velocity limits, any other);
+* (the box of a stack's limits, which the tick's bound kernels fill before these:
+  :mod:`wbc.compiled.boxes`);
 * :func:`weighted_solve` — the weighted QP: soft rows in least squares (damping μ‖Δq‖²), hard
   rows as equalities, inequality rows, the bounds;
 * :func:`cascade_solve` — the lexicographic QP: level k in least squares subject to the bounds
@@ -79,36 +79,6 @@ DIRECT_HELD_ROWS = 2
 
 
 @njit(cache=True)
-def fold_box(lower: np.ndarray, upper: np.ndarray, b_lo: np.ndarray, b_hi: np.ndarray) -> None:
-    """Intersect the box [b_lo, b_hi] into [lower, upper] (what the limits before it leave);
-    where it leaves no room, it wins, moved as far towards [lower, upper] as it allows (a
-    joint outside its range comes back at the servo's speed, never further out)."""
-    for i in range(lower.shape[0]):
-        lo = lower[i]
-        hi = upper[i]
-        new_lo = max(lo, b_lo[i])
-        new_hi = min(hi, b_hi[i])
-        if new_lo > new_hi:
-            new_lo = min(max(lo, b_lo[i]), b_hi[i])
-            new_hi = max(min(hi, b_hi[i]), b_lo[i])
-        lower[i] = new_lo
-        upper[i] = new_hi
-
-
-@njit(cache=True)
-def fold_boxes(boxes: np.ndarray, n: int, lower: np.ndarray, upper: np.ndarray) -> None:
-    """The box of a stack's limits from each limit's own (``boxes[i]``: lower, upper; the
-    first ``n``, the joint position limit first): the first, then each of the others folded
-    in turn by :func:`fold_box`. One definition for every path (the compiled tick folds each
-    box as its kernel writes it; :func:`wbc.limits.box_bounds` calls this)."""
-    for i in range(lower.shape[0]):
-        lower[i] = boxes[0, 0, i]
-        upper[i] = boxes[0, 1, i]
-    for k in range(1, n):
-        fold_box(lower, upper, boxes[k, 0], boxes[k, 1])
-
-
-@njit(cache=True)
 def _violated(G, h, p, x, tol) -> bool:
     """True if one of the first p rows of G x <= h is violated by more than tol."""
     for i in range(p):
@@ -167,7 +137,7 @@ def weighted_solve(
                 np.int64(0),
             )  # fmt: skip  (solve_level's defaults, as values: one specialisation, see _level)
         if status == OK and (warm or _violated(G, h, p, dq, tol)):
-            status = solve_with_inequalities(
+            status, _ = solve_with_inequalities(
                 hard_J, hard_b, soft_J, soft_b, mu, np.bool_(False), lower, upper, state, dq,
                 G[:p], h[:p], p, tol, working[:p], dq, np.bool_(False), space,
                 np.bool_(not warm), np.int64(0), np.empty(0), np.empty(0, np.int64),
@@ -290,10 +260,13 @@ def solve_with_inequalities(
     (:func:`_hard_multipliers`) — and the most negative leaves (below −tol, relative for the
     hard ones), else x is optimal. ``working`` (p bools): the working set to start from (the
     last tick's: a warm start, whose rows join at once); on
-    OK the final one, else cleared. Returns OK (x optimal, ``state`` its bounds' active set),
-    NUMERICAL (the stationarity has no solution: no certificate), MAX_ITER (also when a row
-    leaves more than :data:`MAX_DROPS` times: cycling, on degenerate or dependent rows) or the
-    status of a failed level solve. ``space``: the level solver's work space
+    OK the final one, else cleared. Returns (status, near): OK (x optimal, ``state`` its
+    bounds' active set), NUMERICAL (the stationarity has no solution: no certificate),
+    MAX_ITER (also when a row leaves more than :data:`MAX_DROPS` times: cycling, on degenerate
+    or dependent rows) or the status of a failed level solve; ``near``: with OK, whether x is
+    degenerate (:func:`_degenerate` on its hard rows, from the values its last scan computed).
+    A lone hard row joined from the damped level's minimiser without rows keeps its place
+    without its multiplier computed (it is ≥ 0). ``space``: the level solver's work space
     (:func:`~wbc.compiled.lsq.level_space`); ``cont``: its last call solved this level
     without the rows (x its solution, ``state`` its set): hard rows joining since are then
     updates of that call's factors, as after each solve here that only hard rows followed.
@@ -312,6 +285,10 @@ def solve_with_inequalities(
     B[:p0] = B0
     r[:p0] = r0
     solve = _any(working, p)  # a warm start is solved first (x: a solution without the rows)
+    # a lone hard row joined at x, the damped level's minimiser without rows, which violates
+    # it: its multiplier λ = −v'(h) ≥ 0 (v(t) = min{f : A0 x = a0, bounds, G_i x = t} is
+    # convex, least at G_i x > h_i), so it cannot leave: no multipliers to compute (3-5 µs)
+    lone = not solve and not exact and ridge > 0.0
     feasible = from_start
     if feasible:
         for j in range(n):
@@ -356,15 +333,19 @@ def solve_with_inequalities(
             )  # fmt: skip
             if status != OK:
                 working[:] = False
-                return status
+                return status, False
             cont = True  # (until a soft row joins, changing B, or a row leaves)
         solve = True
         k = -1
+        # (a hard row outside the working set within DEGENERATE_ROW of its bound at x:
+        # :func:`_degenerate` at the answer, from the rows' values the scans below compute)
+        near = False
         if feasible:  # the first hard row that blocks the step from x_c to x joins
             t_min = 1.0
             for i in range(soft_from):
                 if not working[i]:
                     vn = _row(G, h, i, x)
+                    near = near or vn > -DEGENERATE_ROW * (1.0 + abs(h[i]))
                     if vn > tol:
                         vc = min(_row(G, h, i, xc), 0.0)
                         t = -vc / (vn - vc)
@@ -381,6 +362,8 @@ def solve_with_inequalities(
             for i in range(soft_from if feasible else 0, p):
                 if not working[i]:
                     v = _row(G, h, i, x)
+                    if i < soft_from:
+                        near = near or v > -DEGENERATE_ROW * (1.0 + abs(h[i]))
                     if v > worst:
                         worst = v
                         k = i
@@ -393,11 +376,13 @@ def solve_with_inequalities(
         if not feasible:  # x meets every row: from here on, the feasible point
             feasible = True
             xc[:] = x
+        if lone and nw == 1 and mh == m0 + 1:
+            return OK, near
         if mh > m0 and not _hard_multipliers(
             A, mh, B, ps, r, ridge, exact, state, x, lam, fw[f:], iw[i_:]
         ):
             working[:] = False
-            return NUMERICAL
+            return NUMERICAL, False
         scale = 0.0
         for c in range(m0, mh):
             scale = max(scale, abs(lam[c]))
@@ -417,18 +402,19 @@ def solve_with_inequalities(
                 lowest = mult
                 drop = w
         if drop < 0:
-            return OK
+            return OK, near
+        lone = False
         drops[rows[drop]] += 1
         if drops[rows[drop]] > MAX_DROPS:  # cycling (degenerate or dependent rows): give up
             working[:] = False
-            return MAX_ITER
+            return MAX_ITER, False
         working[rows[drop]] = False
         for w in range(drop, nw - 1):
             rows[w] = rows[w + 1]
         nw -= 1
         cont = False
     working[:] = False
-    return MAX_ITER
+    return MAX_ITER, False
 
 
 @njit(cache=True)
@@ -585,6 +571,7 @@ def _cascade(
         for _ in range(3):
             warm = _any(working[k], g1)
             status = OK
+            near = False
             cont = False  # (the space's last call: this level without its rows)
             if (r1 > r0 or last) and not warm and solved:
                 dq[:] = free_x
@@ -616,7 +603,7 @@ def _cascade(
                     for i in range(above):
                         working[k, i] = working[k - 1, i]
                 # (Δq so far meets the levels above and their rows: a feasible start)
-                status = solve_with_inequalities(
+                status, near = solve_with_inequalities(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, G[:g1], h_eff[:g1],
                     soft_from, tol, working[k, :g1], entry, np.bool_(not direct), space,
                     np.bool_(cont), ties, fw, iw,
@@ -644,7 +631,7 @@ def _cascade(
             if abs(s - b[i]) > hard_tol:
                 return DEFERRAL_FAILED if g1 > 0 else HARD_MISSED
         if joining and deferred > 0 and g1 > 0 and _any(working[k], g1):
-            if _degenerate(G, h_eff, g1 if level_hard[k] else g0, working[k], dq):
+            if near:  # (:func:`_degenerate` at dq, from solve_with_inequalities' last scan)
                 return DEFERRAL_FAILED
         deferred = 0
         soft = False
@@ -772,8 +759,6 @@ def cascade_solve(
 # numba caches these on ticks.py alone: flush them when the kernels they call change
 refresh(
     [
-        fold_box,
-        fold_boxes,
         _violated,
         _any,
         _count,

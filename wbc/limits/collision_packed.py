@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 from numba import carray, njit
 
-from ..compiled import ticks as _ticks
+from ..compiled import boxes as _boxes
 from ..compiled._cache import refresh
+from ..compiled.boxes import fold_box
 from ..compiled.checks import address
 from ..compiled.dispatch import C_ROW
-from ..compiled.ticks import fold_box
 from .collision_kernels import CULL_TOL, collision_rows
 from .joint_limits import position_box, speed_box
 
@@ -95,7 +95,7 @@ def joint_box(q, q_min, q_max, steps, lower, upper, speed) -> None:
     """The box of a stack whose box limits are the joint position limit then the joint
     velocity limit, the compiled tick's way: their boxes
     (:func:`~wbc.limits.joint_limits.position_box`, :func:`~wbc.limits.joint_limits.speed_box`:
-    what their bound kernels write) folded by :func:`~wbc.compiled.ticks.fold_box`. ``speed``:
+    what their bound kernels write) folded by :func:`~wbc.compiled.boxes.fold_box`. ``speed``:
     2 x nv scratch."""
     position_box(q_min, q_max, q, lower, upper)
     speed_box(steps, speed[0], speed[1])
@@ -240,6 +240,6 @@ refresh(
     [
         Path(__file__).with_name("collision_kernels.py"),
         Path(__file__).with_name("joint_limits.py"),
-        Path(_ticks.__file__),
+        Path(_boxes.__file__),
     ],
 )

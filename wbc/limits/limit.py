@@ -176,8 +176,8 @@ def box_bounds(
     """The box of a stack's limits (the joint position limit first) into ``lower``/``upper``:
     each limit's :meth:`BoxLimit.bounds` in turn intersected with what those before leave,
     where one leaves no room it wins, moved towards them (a joint outside its range comes
-    back at the servo's speed): :func:`wbc.compiled.ticks.fold_boxes`, as the compiled tick."""
-    from ..compiled.ticks import fold_boxes
+    back at the servo's speed): :func:`wbc.compiled.boxes.fold_boxes`, as the compiled tick."""
+    from ..compiled.boxes import fold_boxes
 
     boxes = np.empty((len(limits), 2, lower.shape[0]))
     for k, limit in enumerate(limits):
