@@ -214,6 +214,11 @@ class SteppingParams:
     #: trigger on, the walk's clock runs ``slow`` times as fast (the landing later: the
     #: lagging servos bring the swing sole to its re-planned landing; 1: off)
     slow: float = 1.0
+    #: share (0: off): after a push backward, in the swing the trigger caught, when its
+    #: re-planned landing asks more than the swing's time left covers at the foot speed, the
+    #: walk's clock slowed so that it does, the time left at most ``1 + stretch`` times as
+    #: long (:mod:`.stretch`)
+    stretch: float = 0.0
     #: step timing in single support too: during a catch (the DCM error ``e`` beyond the dead
     #: band), the landing comes sooner when that leaves the swing more room beyond the shift
     #: it needs (LIPM: the shift needed grows as ``e e^{ω T}``, the room as ``v T``): the clock
@@ -354,7 +359,7 @@ class SteppingParams:
             "descend_hold", "descend_band", "hurry",
             "hurry_band", "catch_band", "band_travel", "trigger_jump", "trigger_band", "lift",
             "lift_time", "lift_land", "trigger_sigma", "trigger_tau", "trigger_remaining",
-            "pitch_time", "lead", "toe_up", "accept", "accept_down", "accept_settle",
+            "pitch_time", "lead", "toe_up", "accept", "accept_down", "accept_settle", "stretch",
         ):  # fmt: skip
             v = getattr(self, name)
             if v is None and name in (
