@@ -43,9 +43,7 @@ class SupportSwitch:
     where the sole is, the CoM and torso targets where they are: the pose held by a solve
     (:meth:`wbc.walking.handover.SwitchHandover._braced`; counted), the next tick trying the
     landing again; ``brace_speed`` (m/s; none: held): the braced anchor one step of that
-    speed from the sole toward the landing's (the miss settled at that speed);
-    ``brace_torso``: the torso targets left to the feedback in a braced tick (the hip
-    strategy goes on; off: held where the torso is).
+    speed from the sole toward the landing's (the miss settled at that speed).
     Stated for the file's ``design_leg``; on a robot λ times that size the times are scaled by
     √λ (the sizing's time scale, :func:`wbc.walking.sizing.scale_options`) and the band by λ."""
 
@@ -59,7 +57,6 @@ class SupportSwitch:
     fallback_hold: bool = False
     brace: bool = False
     brace_speed: float = 0.0
-    brace_torso: bool = False
 
 
 #: the keys of a stack file's ``[support_switch]`` table: :class:`SupportSwitch`'s fields

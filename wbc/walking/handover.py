@@ -152,7 +152,6 @@ class SwitchHandover:
         self.fallbacks = 0
         self.brace = settings.brace
         self.brace_speed = settings.brace_speed
-        self.brace_torso = settings.brace_torso  # (the torso's targets not held when braced)
         self._com_tasks, self._torso_tasks = tuple(com), tuple(torso)
         #: ticks braced (:meth:`_braced`: a landing's failed tick solved holding the pose),
         #: since :meth:`start`
@@ -300,8 +299,8 @@ class SwitchHandover:
         landed sole ``frame``'s contact anchored where the sole is at ``q`` (with
         ``brace_speed``, m/s, one step of ``brace_speed·dt`` from there toward its anchor),
         the other contacts where their soles are,
-        the CoM, torso (not with ``brace_torso``) and posture targets where they are at ``q``
-        (the feedback's targets frozen): the pose held by a solve, as the failed tick held it by accident (the
+        the CoM, torso and posture targets where they are at ``q`` (the feedback's targets
+        frozen): the pose held by a solve, as the failed tick held it by accident (the
         survivors of main's pushes stand on those held poses, benchmarks/pushes.md); the
         tasks' targets are put back after it (the next tick tries the landing again). None
         if that fails too."""
@@ -315,15 +314,14 @@ class SwitchHandover:
             anchor = _toward(sole, goal, share)
         contacts = [t for t in self._contacts if t.active]
         saved = [(t.target_position.copy(), t.target_rotation.copy()) for t in contacts]
-        torso = () if self.brace_torso else self._torso_tasks
-        posed = (*self._com_tasks, *torso, *self._posed)
+        posed = (*self._com_tasks, *self._torso_tasks, *self._posed)
         held = [(t, t.target.copy()) for t in posed]
         for task in contacts:  # (the other sole's too: where it is at q)
             task.set_target(anchor if task.frame == frame else robot.frame_placement(q, task.frame))
         com = robot.com(q)
         for task in self._com_tasks:
             task.set_target(com)
-        for task in torso:
+        for task in self._torso_tasks:
             task.set_target(robot.frame_placement(q, task.frame).rotation)
         for task in self._posed:
             task.set_target(q)
