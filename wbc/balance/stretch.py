@@ -6,8 +6,13 @@ room that time leaves at the foot speed (:meth:`~.stepping.StepAdjuster.place`: 
 ``r`` (< 1) the same bend takes ``1 / r`` as long, so the room at the same foot speed is
 ``room / r``: the clock is slowed just enough that the room covers the change the re-plan
 wants, ``r = room / |Δ|``, but no slower than ``1 / (1 + stretch)`` (the swing's time left
-at most ``1 + stretch`` times as long); the landing is placed with that room
-(benchmarks/pushes.md, twenty-first session).
+at most ``1 + stretch`` times as long); the landing is placed with that room. Each re-plan
+decides anew: one whose change the room covers at the reference's pace puts the clock back
+to it (the earlier bend then asked faster than the foot speed, the servos' limiter lagging
+it). Kept slowed to the landing instead (every later room at the slowed pace), the backward
+screen kept 3 of 8 pushes against this form's 7 and main's 5; over a grid of 53 backward
+pushes this form keeps 25, main 24: an option, off (benchmarks/pushes.md, twenty-first
+session).
 """
 
 from __future__ import annotations
