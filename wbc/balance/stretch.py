@@ -10,11 +10,11 @@ at most ``1 + stretch`` times as long); the landing is placed with that room. Ea
 decides anew: one whose change the room covers at the reference's pace puts the clock back
 to it (the earlier bend then asked faster than the foot speed, the servos' limiter lagging
 it). Kept slowed to the landing instead (every later room at the slowed pace), the backward
-screen kept 3 of 8 pushes against this form's 7 (both at 0.5) and main's 5. On by default at 0.3: of 80
-backward pushes at seven push times it keeps every push main keeps and 8 more (43 against
-35; 16 against 11 on the 27 at times no earlier screen used); the bisected mean reads 0.734
-against main's 0.742 N·s (the survival is not monotone near the bound) (benchmarks/pushes.md,
-twenty-first session).
+screen kept 3 of 8 pushes against this form's 7 (both at 0.5) and main's 5. On by default
+at 0.3: of 80 backward pushes at seven push times it keeps every push main keeps and 8 more
+(43 against 35; 16 against 11 on the 27 at times no earlier screen used); the bisected mean
+reads 0.734 against main's 0.742 N·s (the survival is not monotone near the bound)
+(benchmarks/pushes.md, twenty-first session).
 """
 
 from __future__ import annotations
