@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from wbc.balance.footholds import feasible_shift, landing_ok, predicted_dcm, shifted_plan
 from wbc.balance.stepping import StepAdjuster, SteppingParams
+from wbc.balance.stretch import SwingStretch
 from wbc.bench import trajectories as traj
 from wbc.exceptions import ConfigurationError, TrajectoryError
 from wbc.recording import SUPPORT_DOUBLE
@@ -909,7 +910,7 @@ def test_a_multi_step_catch_hurries_the_double_support_before_its_next_swing(rob
     without a carried swing, nor unpushed; the other double supports keep ``hurry`` (1)."""
     back = np.array([-0.04, 0.0])  # beyond hurry_band (30 mm), behind
     for n, first in ((1, 3.0), (0, 1.0)):
-        params = SteppingParams(catch_swings=n, catch_hurry=3.0)
+        params = SteppingParams(stretch=0.0, catch_swings=n, catch_hurry=3.0)
         adj = _triggered(robot, walk10, params)
         w = adj.omega
         ds = [ph for ph in adj.phases if ph.kind == "double" and ph.i0 >= LAND][:2]
@@ -918,12 +919,14 @@ def test_a_multi_step_catch_hurries_the_double_support_before_its_next_swing(rob
         assert adj.rate(walk10, i, dcm(walk10, i, w) + back) == first
         assert adj.rate(walk10, i, dcm(walk10, i, w) + 0.5 * back) == 1.0  # inside the band
         assert adj.rate(walk10, j, dcm(walk10, j, w) + back) == 1.0  # after the last carried
-    fresh = StepAdjuster(robot, walk10, SteppingParams(catch_swings=1, catch_hurry=3.0))
+    fresh = StepAdjuster(
+        robot, walk10, SteppingParams(stretch=0.0, catch_swings=1, catch_hurry=3.0)
+    )
     assert (
         fresh.hurries
         and fresh.rate(walk10, LAND + 2, dcm(walk10, LAND + 2, fresh.omega) + back) == 1.0
     )
-    assert not StepAdjuster(robot, walk10, SteppingParams(catch_hurry=1.0)).hurries
+    assert not StepAdjuster(robot, walk10, SteppingParams(stretch=0.0, catch_hurry=1.0)).hurries
     assert StepAdjuster(robot, walk10).hurries  # (catch_hurry 3 by default)
     with pytest.raises(ConfigurationError, match="catch_hurry"):
         SteppingParams(catch_hurry=0.5).check()
@@ -1017,7 +1020,7 @@ def test_a_triggered_swing_lands_sooner_up_to_catch_hurry_with_hurry_single(robo
     the clock runs up to ``catch_hurry``× (3; ``hurry`` 1 leaves every other single support
     alone) when the swing cannot reach the error in the time left; after a push forward, and
     in a catch the trigger did not start (an error beyond the band alone), ``hurry``'s 1."""
-    params = SteppingParams(hurry_single=True)
+    params = SteppingParams(stretch=0.0, hurry_single=True)
     assert params.hurry == 1.0 and params.catch_hurry == 3.0
     adj = _triggered(robot, walk10, params)
     ref, w = adj.current, adj.omega
@@ -1030,7 +1033,9 @@ def test_a_triggered_swing_lands_sooner_up_to_catch_hurry_with_hurry_single(robo
     soonest = (ph.i1 - i) * walk10.dt / params.min_remaining  # (landing in min_remaining)
     huge = dcm(ref, i, w) + [-0.3, 0.0]
     assert adj.rate(ref, i, huge) == pytest.approx(min(soonest, 3.0)) and soonest > 1.5
-    capped = _triggered(robot, walk10, SteppingParams(hurry_single=True, catch_hurry=1.5))
+    capped = _triggered(
+        robot, walk10, SteppingParams(stretch=0.0, hurry_single=True, catch_hurry=1.5)
+    )
     assert capped.rate(capped.current, i, huge) == 1.5  # at most catch_hurry
     fwd = _triggered(robot, walk10, params, jump=0.02)  # a push forward: not hurried
     assert fwd.trigger.forward and fwd.trigger.carried(i) and fwd.episode is not None
@@ -1342,8 +1347,8 @@ def test_a_catch_of_a_push_backward_lands_by_the_runaway_with_back_runaway(robot
         ref = adj.current
         return adj.rate(ref, i, dcm(ref, i, adj.omega) + small * np.sign(-jump)), adj
 
-    room, adj = rate(SteppingParams())
-    run, _ = rate(SteppingParams(back_runaway=0.03))
+    room, adj = rate(SteppingParams(stretch=0.0))
+    run, _ = rate(SteppingParams(stretch=0.0, back_runaway=0.03))
     assert run > room and run <= 3.0
     e = float(np.linalg.norm(adj.error(adj.current, i, dcm(adj.current, i, adj.omega) + small)[1]))
     if e > 0:  # the landing at the runaway's time (or min_remaining's), clipped to 1 … 3
@@ -1351,9 +1356,9 @@ def test_a_catch_of_a_push_backward_lands_by_the_runaway_with_back_runaway(robot
         left = (ph.i1 - i) * walk10.dt
         T = math.log(max(0.03 / e, 1.0)) / adj.omega
         assert run == pytest.approx(min(max(left / max(T, 0.05), 1.0), 3.0))
-    fwd, _ = rate(SteppingParams(back_runaway=0.03), jump=0.02)
+    fwd, _ = rate(SteppingParams(stretch=0.0, back_runaway=0.03), jump=0.02)
     assert fwd == 1.0
-    skipped, _ = rate(SteppingParams(back_runaway=0.03, back_skip=1))
+    skipped, _ = rate(SteppingParams(stretch=0.0, back_runaway=0.03, back_skip=1))
     assert skipped == room
     assert SteppingParams().back_runaway == 0.0
     with pytest.raises(ConfigurationError, match="back_runaway"):
@@ -1391,18 +1396,20 @@ def test_a_catch_of_a_push_backward_waits_for_the_swing_sole_with_back_reach(rob
         adj.land(t, e, q)
         return adj.rate(ref, i, dcm(ref, i, adj.omega) + small * np.sign(-jump)), adj, ph
 
-    room, _, _ = rate(SteppingParams())
+    room, _, _ = rate(SteppingParams(stretch=0.0))
     assert room > 1.0  # (the room rule hurries this swing)
-    out, adj, ph = rate(SteppingParams(back_reach=0.8))
+    out, adj, ph = rate(SteppingParams(stretch=0.0, back_reach=0.8))
     assert adj.reach_left == (i, pytest.approx(0.3))
     left = (ph.i1 - i) * walk10.dt
     assert out == pytest.approx(min(room, max(left * 0.8 / 0.3, 1.0)))
     assert out < room
-    near, _, _ = rate(SteppingParams(back_reach=100.0))  # (reached at once: the room rule's)
+    near, _, _ = rate(
+        SteppingParams(stretch=0.0, back_reach=100.0)
+    )  # (reached at once: the room rule's)
     assert near == room
-    fwd, _, _ = rate(SteppingParams(back_reach=0.8), jump=0.02)
-    assert fwd == rate(SteppingParams(), jump=0.02)[0]
-    skipped, _, _ = rate(SteppingParams(back_reach=0.8, back_skip=1))
+    fwd, _, _ = rate(SteppingParams(stretch=0.0, back_reach=0.8), jump=0.02)
+    assert fwd == rate(SteppingParams(stretch=0.0), jump=0.02)[0]
+    skipped, _, _ = rate(SteppingParams(stretch=0.0, back_reach=0.8, back_skip=1))
     assert skipped == room
     assert SteppingParams().back_reach == 0.0
     with pytest.raises(ConfigurationError, match="back_reach"):
@@ -1589,7 +1596,7 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
             out = adj.update(ref, i, dcm(ref, i, adj.omega)) or out
         return adj, ref, before, out, n, q, est
 
-    p = SteppingParams(accept=0.02, accept_lift=2, accept_contacts=True)
+    p = SteppingParams(stretch=0.0, accept=0.02, accept_lift=2, accept_contacts=True)
     adj, ref, before, new, n, q, est = case(p)
     ph = adj.phases[adj.phase_of[MID]]
     assert new is not None and len(adj.events) == n + 1 and adj.events[-1][1] == 0
@@ -1619,7 +1626,7 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
         (p, {"ticks": (MID + 1, MID + 2)}),  # before accept_share of the swing
         (p, {"swing_h": 0.02}),  # the sole still up
         (p, {"jump": 0.02}),  # a push forward
-        (SteppingParams(), {}),
+        (SteppingParams(stretch=0.0), {}),
     ):
         adj, ref, before, new, n, _, _ = case(params, **kw)
         assert adj.plan is before and not adj.accepted.events, kw
@@ -1629,7 +1636,7 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
     assert adj.plan is before and len(adj.events) == n
     assert adj.rate(ref, 99, dcm(ref, 99, adj.omega)) == 1.0 + (ph.i1 - 99)  # (it lands)
     # accept_settle: the landed contact from the solve's sole, 3 mm a tick toward the reference's
-    ps = SteppingParams(accept=0.02, accept_settle=0.003)
+    ps = SteppingParams(stretch=0.0, accept=0.02, accept_settle=0.003)
     adj, ref, before, new, n, q, est = case(ps)
     _, tg, _, _, _ = _land_case(robot, walk10, ps, [0.0] * 3, [0.0] * 3, i=ds.i0)
     solve = robot.frame_placement(q, "r_sole").translation
@@ -1650,3 +1657,37 @@ def test_the_touch_down_acceptance_lands_the_step_where_the_sole_stands(robot, w
     ):
         with pytest.raises(ConfigurationError, match=next(iter(bad))):
             SteppingParams(**bad).check()
+
+
+def test_a_pushed_swing_is_stretched_to_reach_its_landing_with_stretch(robot, walk10):
+    """``stretch``: after a push backward, when a re-plan of the triggered swing asks more
+    than its time left covers at the foot speed, the clock is slowed (no slower than ``1 / (1
+    + stretch)``) and the landing placed with the room that time leaves (``room / rate``);
+    a later re-plan whose change is in reach puts the clock back to the reference's pace;
+    only in that swing; never after a push forward (on by default: 0.3)."""
+    assert SteppingParams().stretch == 0.3
+    on = _triggered(robot, walk10, SteppingParams(stretch=0.5))  # (the trigger's re-plan)
+    off = _triggered(robot, walk10, SteppingParams(stretch=0.0))
+    n_on, n_off = (float(np.linalg.norm(a.shift)) for a in (on, off))
+    ref, w, i = on.current, on.omega, MID + 1
+    assert on.rate(ref, i, dcm(ref, i, w)) == pytest.approx(1.0 / 1.5)  # (far beyond reach)
+    assert off.rate(off.current, i, dcm(off.current, i, w)) >= 1.0
+    assert n_on == pytest.approx(1.5 * n_off)  # (the landing placed with the stretched room)
+    ph = on.phases[on.phase_of[MID]]
+    assert on.stretched.rate(int(on.phase_of[ph.i1])) is None  # (the double support after)
+    i = MID + SteppingParams().hold_ticks + 1
+    on.update(ref, i, dcm(ref, i, w) + [-0.2, 0.0])  # (the rest, to back_shift, in reach)
+    assert (
+        on.stretched.rate(int(on.phase_of[i])) is None
+        and on.rate(on.current, i, dcm(ref, i, w)) >= 1.0
+    )
+    fwd = _triggered(robot, walk10, SteppingParams(stretch=0.5), jump=0.02)
+    assert fwd.trigger.forward and fwd.stretched.rate(int(fwd.phase_of[MID])) is None
+    s = SwingStretch(0.5)  # the room covers the change: not stretched
+    assert s.room(3, 0.05, 0.03) == 0.05 and s.rate(3) is None
+    assert s.room(3, 0.05, 0.06) == pytest.approx(0.06) and s.rate(3) == pytest.approx(5 / 6)
+    assert s.room(3, 0.01, 0.05) == pytest.approx(0.015) and s.rate(3) == pytest.approx(2 / 3)
+    assert s.rate(5) is None
+    assert s.room(3, 0.02, 0.01) == 0.02 and s.rate(3) is None  # (in reach: the pace back)
+    with pytest.raises(ConfigurationError, match="stretch"):
+        SteppingParams(stretch=-0.1).check()

@@ -106,6 +106,7 @@ from ..walking.schedule import (
 )
 from .footholds import bend, bend_rate, dead_zone, feasible_shift, shifted_plan
 from .stepping_params import BAND_X, BAND_Y, TRIGGER_SHARE, SteppingParams
+from .stretch import SwingStretch
 from .swing_catch import (
     LandedDescent,
     LandedRebase,
@@ -190,6 +191,7 @@ class StepAdjuster:
         self.descent = LandedDescent(self.params, self.phases, self.phase_of, ref.dt)
         self.rebase = LandedRebase(self.params, self.phases, self.phase_of)  # (back_rebase)
         self.accepted = TouchdownAcceptance()  # (accept: :mod:`.touchdown`)
+        self.stretched = SwingStretch(self.params.stretch)  # (stretch: :mod:`.stretch`)
         self._q: np.ndarray | None = None  # the last solve's configuration (:meth:`land`)
         self._dcm: tuple = (None, None)  # (a reference, its DCM per tick: _dcm_ref)
         self.plan = ref.plan
@@ -485,6 +487,7 @@ class StepAdjuster:
             or p.touchdown > 0
             or p.accept > 0
             or p.slow != 1.0
+            or p.stretch > 0
             or (p.descend > 0 and p.descend_hold > 0)
         )
 
@@ -521,6 +524,8 @@ class StepAdjuster:
             return 0.0  # (the landed sole still up: the clock stands, descend_hold)
         if p.slow != 1.0 and ref.support[i] != SUPPORT_DOUBLE and self.triggered(i):
             return p.slow  # (a triggered swing: its landing later)
+        if p.stretch > 0 and (r := self.stretched.rate(int(self.phase_of[i]))) is not None:
+            return r  # (stretch: the pushed swing given the time its landing needs)
         if p.hurry == 1.0 and p.catch_hurry == 1.0:
             return 1.0
         if ref.support[i] != SUPPORT_DOUBLE:  # single support: while a catch is on
@@ -719,6 +724,8 @@ class StepAdjuster:
             room = speed / bend_rate(sw, at, ref.dt, self.swing)
             change = total - incs[j]
             n = math.hypot(change[0], change[1])
+            if sw is ph and self.trigger.triggered(i) and not self.trigger.forward:
+                room = self.stretched.room(int(self.phase_of[i]), room, n)  # (stretch)
             if n > room:
                 total = incs[j] + change * (room / n)
             got = feasible_shift(
