@@ -112,6 +112,7 @@ class Session:
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
         self.prepare_time = 0.0
+        self.warm_time = 0.0
         if self.options.mode == "tick":
             controller.rehearse(self.q, self.targets(0), ref.dt)
             self._prepare(0)  # (the first tick's switch: its contacts anchored afresh)
@@ -235,6 +236,17 @@ class Session:
         self.prepare_time = 0.0
         if i is not None and self.options.mode == "tick":
             self._prepare(i + 1)
+
+    def warm_next(self) -> None:
+        """The end of the idle part, just before the next tick's deadline (a paced loop):
+        :meth:`Controller.warm` (the tick's code and arrays brought back into the caches that
+        the wait left cold; the same answers). Its time is :attr:`warm_time` (s). Ticks mode
+        only."""
+        self.warm_time = 0.0
+        if self._last_index is not None and self.options.mode == "tick":
+            start = self._now()
+            self.controller.warm()
+            self.warm_time = self._now() - start
 
     def _prepare(self, j: int) -> None:
         """:meth:`prepare_next` for reference tick ``j``."""
