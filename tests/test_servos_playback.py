@@ -24,6 +24,7 @@ from wbc.cli import deploy as deploy_cmd
 from wbc.servo_map import RAD_PER_TICK
 from wbc.servos import CallableSource, DeployConfig, Deployment
 from wbc.servos.dynamixel import DynamixelBus
+from wbc.servos.playback import WARM_LEAD_S
 from wbc.servos.emulator import AX12Emulator, Fault
 from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE, AX12_MAX_SPEED, ERR_OVERHEATING, ERR_OVERLOAD
 
@@ -232,6 +233,36 @@ def test_a_sources_idle_runs_after_each_ticks_goals_are_sent(robot, walk_ready_t
     assert result.completed
     played = events[events.index("solve") :]
     assert played == ["solve", "write", "idle"] * 6 + ["solve"]
+
+
+def test_a_sources_warm_runs_just_before_each_ticks_deadline(robot, walk_ready_ticks):
+    """A source with ``warm()`` (a live controller bringing its tick's code and arrays back
+    into the caches) has it called in each wait before a tick, after the last tick's
+    ``idle()``, no earlier than :data:`WARM_LEAD_S` before the slot's deadline and before the
+    tick starts (the first tick has no wait: none before it)."""
+    q0 = robot.configuration("walk_ready")[7:]
+    events: list[str] = []
+    warmed: list[float] = []
+
+    def hold(tick, t):
+        events.append("solve")
+        return None if tick >= 6 else q0
+
+    source = CallableSource(hold, q0, robot.joint_names)
+    source.idle = lambda: events.append("idle")  # type: ignore[attr-defined]
+    source.warm = lambda: events.append("warm") or warmed.append(time.perf_counter())  # type: ignore[attr-defined]
+    with Emulator(positions=walk_ready_ticks) as emu:
+        bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS[False])
+        config = DeployConfig(rate=50.0)
+        result = Deployment(bus, source, robot, config, lambda s: None).run()
+    assert result.completed
+    played = events[events.index("solve") :]
+    assert played == ["solve", "idle"] + ["warm", "solve", "idle"] * 5 + ["warm", "solve"]
+    starts = result.timing.starts  # (the walking ticks' slots: 0.02 s apart from the first)
+    assert len(warmed) == 6 and len(starts) == 6  # (the seventh slot ended the motion)
+    for k, t in enumerate(warmed, start=1):
+        assert starts[0] + k * 0.02 - WARM_LEAD_S <= t, k
+        assert k == 6 or t < starts[k], k
 
 
 # ---------------------------------------------------------------- start-up

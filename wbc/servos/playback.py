@@ -153,12 +153,19 @@ class DeployResult:
         return signal_exit_code(self.signum) if self.interrupted else EXIT_SAFE_STOP
 
 
+#: s before a slot's deadline at which :meth:`Ticker.wait` calls its ``warm`` (a source's
+#: ``warm()``: the tick's code and arrays brought back into the caches the wait left cold)
+WARM_LEAD_S = 1e-3
+
+
 class Ticker:
     """Absolute-deadline scheduler on the wall clock: slot ``k`` starts at ``t0 + k·period``.
 
     A slot that would start more than half a period late, or less than half a period after
     the last goal was sent (:attr:`last_sent`, set by the caller), is skipped: never caught
-    up in a burst. :meth:`wait` returns the slot.
+    up in a burst. :meth:`wait` returns the slot; ``wait(warm)`` calls ``warm()``
+    :data:`WARM_LEAD_S` before the slot's deadline when it sleeps longer than that on the
+    wall clock (a simulated clock's sleep runs the physics: not split).
     """
 
     def __init__(self, period: float, clock: Clock | None = None) -> None:
@@ -175,7 +182,7 @@ class Ticker:
         self.missed = 0
         self.last_sent: float | None = None  # perf_counter time of the last goal sent
 
-    def wait(self) -> int:
+    def wait(self, warm: Callable[[], None] | None = None) -> int:
         now = self.clock.now()
         if self.t0 is None:
             self.t0 = now
@@ -190,6 +197,10 @@ class Ticker:
             self.missed += k - self.k
             self.k = k
         deadline = self.t0 + self.k * p
+        if warm is not None and self.clock is WALL_CLOCK and deadline - now > WARM_LEAD_S:
+            self.clock.sleep(deadline - WARM_LEAD_S - now)
+            warm()
+            now = self.clock.now()
         if deadline > now:
             self.clock.sleep(deadline - now)
             now = self.clock.now()
@@ -616,9 +627,10 @@ class Deployment:
             if trip is None:
                 bus.set_speed(float(np.min(self.v_max)))
             idle = getattr(self.source, "idle", None)  # (after each tick's goals: TargetSource)
+            warm = getattr(self.source, "warm", None)  # (just before each tick's deadline)
             first_target = self.source(0, 0.0)  # before the clock starts: a live controller's
             while trip is None:  # first solve may be slow (compilation)
-                tick = self.ticker.wait()
+                tick = self.ticker.wait(warm)
                 self._check_interrupt()
                 q = first_target if tick == 0 else self.source(tick, tick * self.period)
                 if q is None:
