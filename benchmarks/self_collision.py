@@ -47,9 +47,10 @@ before; benchmarks/self_collision.md, sixteenth pass).
 layout's tick rehearsed at the end of each idle part, just before the tick:
 :meth:`wbc.solvers.base.StackSolver.warm`; with ``--idle`` only: back to back there is no idle
 part), interleaved in the same rounds; the warm-up's own time per tick (µs, the ticks' clock;
-not in the tick's) printed after the table. ``--warm-lead S``: S seconds of the idle part left
-after the warm-up (a real loop wakes before its deadline: 0, the default, warms right before
-the tick). ``--limit-on``: ours with the limit only (not the stacks without it).
+not in the tick's) printed after the table. ``--warm-lead S [S …]``: S seconds of the idle
+part left after the warm-up, a variant each (a real loop wakes before its deadline:
+:data:`wbc.servos.playback.WARM_LEAD_S`; 0, the default, warms right before the tick).
+``--limit-on``: ours with the limit only (not the stacks without it).
 
 ``--world-frame``: also each stack with its limit's ``common_frame = false`` (the rows'
 normal in the world, as before the tenth pass; the default fixes it in the frame of the
@@ -68,7 +69,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
 [--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--rows-before]
-[--no-rehearse] [--warm] [--warm-lead 0.001] [--limit-on]``.
+[--no-rehearse] [--warm] [--warm-lead 0 0.001] [--limit-on]``.
 """
 
 from __future__ import annotations
@@ -196,8 +197,9 @@ def main() -> int:
         "--warm", action="store_true", help="also ours with warm_ahead on (with --idle)"
     )
     parser.add_argument(
-        "--warm-lead", type=float, default=0.0, help="s of the idle part left after the warm-up"
-    )
+        "--warm-lead", type=float, nargs="+", default=[0.0],
+        help="s of the idle part left after the warm-up (several: a variant each)",
+    )  # fmt: skip
     parser.add_argument(
         "--limit-on", action="store_true", help="ours with the limit only (not without it)"
     )
@@ -234,6 +236,7 @@ def table(robot, trajectory: str, args) -> None:
         return make
 
     makers = {}
+    leads: dict[str, float] = {}  # (--warm: the warm-up's lead before the tick, s)
     cold = set()
     for stack in args.stacks:
         for kind in ("hierarchical", "weighted") if args.weighted else ("hierarchical",):
@@ -241,8 +244,11 @@ def table(robot, trajectory: str, args) -> None:
                 label = f"{stack} ({kind}), limit {'on' if on else 'off'}"
                 makers[label] = ours(walk_spec(on, stack), kind)
                 if on and args.warm:
-                    makers[f"{label}, warm"] = ours(walk_spec(True, stack), kind, warm=True)
                     makers[label] = ours(walk_spec(True, stack), kind, warm=False)
+                    for lead in args.warm_lead:
+                        warm = f"{label}, warm" + (f" {lead * 1e3:g} ms ahead" if lead else "")
+                        makers[warm] = ours(walk_spec(True, stack), kind, warm=True)
+                        leads[warm] = lead
                 if on and args.world_frame:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
@@ -269,7 +275,7 @@ def table(robot, trajectory: str, args) -> None:
         for name, make in makers.items():
             controller = make()
             with every_level_cold() if name in cold else contextlib.nullcontext():
-                rec, warmed = walk(controller, robot, ref, args.idle, args.warm_lead)
+                rec, warmed = walk(controller, robot, ref, args.idle, leads.get(name, 0.0))
             warm_cost[name].append(float(np.mean(warmed)) * 1e6 if warmed.size else np.nan)
             t = rec["solve_time"] * 1e6
             times[name].append(t)
@@ -323,7 +329,7 @@ def table(robot, trajectory: str, args) -> None:
     if args.warm and args.idle > 0.0:
         print("\nthe idle part's warm-up (µs per tick, mean over the walk, median of the rounds):")
         for name, cost in warm_cost.items():
-            if name.endswith(", warm"):
+            if name in leads:
                 print(f"- {name}: {np.median(cost):.1f}")
     if args.slowest:
         slowest(times, rec["support"], args.slowest)

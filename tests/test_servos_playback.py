@@ -24,8 +24,8 @@ from wbc.cli import deploy as deploy_cmd
 from wbc.servo_map import RAD_PER_TICK
 from wbc.servos import CallableSource, DeployConfig, Deployment
 from wbc.servos.dynamixel import DynamixelBus
-from wbc.servos.playback import WARM_LEAD_S
 from wbc.servos.emulator import AX12Emulator, Fault
+from wbc.servos.playback import WARM_LEAD_S
 from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE, AX12_MAX_SPEED, ERR_OVERHEATING, ERR_OVERLOAD
 
 Emulator = functools.partial(AX12Emulator, process=True)
