@@ -49,7 +49,9 @@ layout's tick rehearsed at the end of each idle part, just before the tick:
 part), interleaved in the same rounds; the warm-up's own time per tick (µs, the ticks' clock;
 not in the tick's) printed after the table. ``--warm-lead S [S …]``: S seconds of the idle
 part left after the warm-up, a variant each (a real loop wakes before its deadline:
-:data:`wbc.servos.playback.WARM_LEAD_S`; 0, the default, warms right before the tick).
+:data:`wbc.servos.playback.WARM_LEAD_S`; 0, the default, warms right before the tick);
+``--warm-spin``: each lead > 0 also with the rest of it spun (a busy wait: the scheduler runs
+nothing else in it) instead of slept.
 ``--limit-on``: ours with the limit only (not the stacks without it).
 
 ``--world-frame``: also each stack with its limit's ``common_frame = false`` (the rows'
@@ -69,7 +71,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
 [--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--rows-before]
-[--no-rehearse] [--warm] [--warm-lead 0 0.001] [--limit-on]``.
+[--no-rehearse] [--warm] [--warm-lead 0 0.001] [--warm-spin] [--limit-on]``.
 """
 
 from __future__ import annotations
@@ -201,6 +203,10 @@ def main() -> int:
         help="s of the idle part left after the warm-up (several: a variant each)",
     )  # fmt: skip
     parser.add_argument(
+        "--warm-spin", action="store_true",
+        help="also each lead > 0 with its rest spun (busy-wait) instead of slept",
+    )  # fmt: skip
+    parser.add_argument(
         "--limit-on", action="store_true", help="ours with the limit only (not without it)"
     )
     args = parser.parse_args()
@@ -249,6 +255,9 @@ def table(robot, trajectory: str, args) -> None:
                         warm = f"{label}, warm" + (f" {lead * 1e3:g} ms ahead" if lead else "")
                         makers[warm] = ours(walk_spec(True, stack), kind, warm=True)
                         leads[warm] = lead
+                        if lead and args.warm_spin:  # (a negative lead: spun)
+                            makers[f"{warm}, spun"] = makers[warm]
+                            leads[f"{warm}, spun"] = -lead
                 if on and args.world_frame:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
@@ -340,7 +349,8 @@ def table(robot, trajectory: str, args) -> None:
 def walk(controller, robot, ref, idle: float, lead: float = 0.0):
     """:func:`wbc.walking.loop.run`, with ``idle`` s slept after each tick (0: none, the ticks
     back to back), the controller's :meth:`~wbc.walking.controller.Controller.warm` ``lead``
-    s before its end; and each warm-up's time (s, the ticks' clock: empty back to back)."""
+    s before its end (< 0: ``-lead`` s before it, the rest spun, not slept); and each
+    warm-up's time (s, the ticks' clock: empty back to back)."""
     if idle <= 0.0:
         return run(controller, robot, ref), np.zeros(0)
     ticks = run_stepwise(controller, robot, ref)
@@ -351,12 +361,16 @@ def walk(controller, robot, ref, idle: float, lead: float = 0.0):
             next(ticks)
         except StopIteration as end:
             return end.value, np.array(warmed[:-1])  # (the last: after the walk's end)
-        time.sleep(idle - lead)
+        time.sleep(idle - abs(lead))
+        wake = time.monotonic()
         start = clock()
         controller.warm()
         warmed.append(clock() - start)
         if lead > 0.0:
-            time.sleep(lead)
+            time.sleep(lead - (time.monotonic() - wake))
+        elif lead < 0.0:
+            while time.monotonic() - wake < -lead:
+                pass
 
 
 def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:
