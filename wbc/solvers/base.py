@@ -35,8 +35,10 @@ HARD_TOL_RANGE = (1e-12, 1e-2)
 #: the idle part (:mod:`wbc.solvers.rehearsal`; benchmarks/self_collision.md, twentieth session)
 REHEARSE_SWITCH = True
 #: :attr:`StackSolver.warm_ahead`'s default: the current layout's tick rehearsed at the end of
-#: a paced loop's idle part, just before the next tick (:meth:`StackSolver.warm`)
-WARM_AHEAD = False
+#: a paced loop's idle part, just before the next tick (:meth:`StackSolver.warm`): a 50 Hz
+#: tick 0.39–0.44× its time without (~300 µs of idle CPU a tick; benchmarks/self_collision.md,
+#: twenty-first session)
+WARM_AHEAD = True
 
 
 class StackSolver(ABC):
