@@ -367,7 +367,7 @@ def walk(controller, robot, ref, idle: float, lead: float = 0.0):
         controller.warm()
         warmed.append(clock() - start)
         if lead > 0.0:
-            time.sleep(lead - (time.monotonic() - wake))
+            time.sleep(max(0.0, lead - (time.monotonic() - wake)))
         elif lead < 0.0:
             while time.monotonic() - wake < -lead:
                 pass
