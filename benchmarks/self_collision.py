@@ -364,7 +364,7 @@ def walk(controller, robot, ref, idle: float, lead: float = 0.0):
         time.sleep(idle - abs(lead))
         wake = time.monotonic()
         start = clock()
-        controller.warm()
+        controller.warm(ref.dt)
         warmed.append(clock() - start)
         if lead > 0.0:
             time.sleep(max(0.0, lead - (time.monotonic() - wake)))

@@ -113,3 +113,36 @@ def test_a_rehearsal_puts_back_what_the_tick_wrote(robot, monkeypatch):
     assert len(checked) >= 3
     assert all(ran and same for ran, _, same in checked), checked
     assert sum(wrote for _, wrote, _ in checked) >= 3, checked  # (it wrote: not vacuous)
+
+
+def test_a_loop_at_half_the_reference_rate_switches_ahead(robot):
+    """A live loop at 50 Hz plays every other tick of a 100 Hz reference: the idle part
+    prepares the tick it will play (the last plus the last gap), so every support switch is
+    made ahead, none in a tick, and the walk is bit for bit the one without the idle part."""
+    ref = build("walk10", robot)
+    runs = []
+    for idle in (False, True):
+        controller = StackController(load_stack("walk", robot, solver="hierarchical"))
+        control = controller.control
+        calls = []
+
+        def counted(*a, own=control.set_phase, calls=calls, **k):
+            calls.append(1)
+            return own(*a, **k)
+
+        control.set_phase = counted
+        session = Session(controller, robot, ref)
+        qs, in_tick = [], 0
+        for i in range(0, 2 * TICKS, 2):
+            before = len(calls)
+            qs.append(session.tick(i).copy())
+            in_tick += len(calls) - before  # (a switch made in the tick, not ahead)
+            assert not session.failed
+            if idle:
+                session.prepare_next()
+                session.warm_next()
+        runs.append((qs, in_tick))
+    (without, made_in_tick), (with_idle, made_ahead_missed) = runs
+    assert made_in_tick >= 5 and made_ahead_missed == 0, runs[0][1]
+    for i, (a, b) in enumerate(zip(without, with_idle, strict=True)):
+        assert np.array_equal(a, b), f"tick {2 * i}"

@@ -63,10 +63,10 @@ class Controller(ABC):
         now; the tick checks it was made from its own inputs, else makes it (default:
         nothing)."""
 
-    def warm(self) -> None:  # noqa: B027
-        """The end of a paced loop's idle part, just before its next tick: what that tick
-        will touch brought back into the caches, with no effect on its answer (default:
-        nothing)."""
+    def warm(self, dt: float) -> None:  # noqa: B027
+        """The end of a paced loop's idle part, just before its next tick (of time step
+        ``dt``): what that tick will touch brought back into the caches, with no effect on its
+        answer (default: nothing)."""
 
     #: the reference's time step, set by the loop before :meth:`start`
     dt: float = 0.01
@@ -285,10 +285,10 @@ class StackController(Controller):
             self.handover.prepare(q, targets, self.dt)
         self.solver.prepare_output()
 
-    def warm(self) -> None:
+    def warm(self, dt: float) -> None:
         """The solver's tick rehearsed (:meth:`StackSolver.warm`; off unless its
         ``warm_ahead``)."""
-        self.solver.warm(self.dt)
+        self.solver.warm(dt)
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         ahead = self._ahead

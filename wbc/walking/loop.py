@@ -117,6 +117,9 @@ class Session:
             controller.rehearse(self.q, self.targets(0), ref.dt)
             self._prepare(0)  # (the first tick's switch: its contacts anchored afresh)
         self._last_index: int | None = None  # reference tick of the last solve
+        #: reference ticks from the solve before the last one to it (1 before two): a loop
+        #: slower than the reference plays every ``gap``-th tick, the idle part prepares it
+        self._gap = 1
         self.failed = False
         self.failure: WbcError | None = None  # why the last tick failed
         self.iterations = 0
@@ -188,7 +191,7 @@ class Session:
             self.stepping_time += self._now() - start
         targets = self.targets(i)
         gap = 1 if self._last_index is None else max(1, i - self._last_index)
-        self._last_index = i
+        self._last_index, self._gap = i, gap
         key = (targets.phase, targets.support, targets.swing)
         changed = key != self._previous
         self._previous = key
@@ -231,11 +234,13 @@ class Session:
         else the work of the next tick that needs no solve (:meth:`Controller.prepare_tick`:
         a landing's next share of the way), checked the same way. Its time is
         :attr:`prepare_time` (s; not in :attr:`solve_time`). Ticks mode only (the first
-        tick's switch is made so before the loop, after the rehearsal)."""
+        tick's switch is made so before the loop, after the rehearsal). The next reference
+        tick is the last one plus the last gap between solves (a live loop at 50 Hz on a
+        100 Hz reference plays every other one: its switches were made in the tick, cold)."""
         i = self._last_index
         self.prepare_time = 0.0
         if i is not None and self.options.mode == "tick":
-            self._prepare(i + 1)
+            self._prepare(i + self._gap)
 
     def warm_next(self) -> None:
         """The end of the idle part, just before the next tick's deadline (a paced loop):
@@ -245,7 +250,7 @@ class Session:
         self.warm_time = 0.0
         if self._last_index is not None and self.options.mode == "tick":
             start = self._now()
-            self.controller.warm()
+            self.controller.warm(self._gap * self.ref.dt)  # (the next tick's step, as last)
             self.warm_time = self._now() - start
 
     def _prepare(self, j: int) -> None:
