@@ -36,8 +36,8 @@ HARD_TOL_RANGE = (1e-12, 1e-2)
 REHEARSE_SWITCH = True
 #: :attr:`StackSolver.warm_ahead`'s default: the current layout's tick rehearsed at the end of
 #: a paced loop's idle part, just before the next tick (:meth:`StackSolver.warm`): a 50 Hz
-#: tick 0.39–0.44× its time without (~300 µs of idle CPU a tick; benchmarks/self_collision.md,
-#: twenty-first session)
+#: tick 0.37–0.51× its time without on the three robots (~300 µs of idle CPU a tick;
+#: benchmarks/self_collision.md, twenty-first session)
 WARM_AHEAD = True
 
 
