@@ -14,6 +14,7 @@ from wbc.bench.trajectories import build
 from wbc.limits import SelfCollisionConstraint
 from wbc.solvers import rehearsal
 from wbc.stacks import load_stack
+from wbc.walking.handover import SwitchHandover
 from wbc.walking.loop import Session, StackController
 
 TICKS = 150  # (walk10: a support switch every 20-40 ticks, rows active around 104)
@@ -115,11 +116,21 @@ def test_a_rehearsal_puts_back_what_the_tick_wrote(robot, monkeypatch):
     assert sum(wrote for _, wrote, _ in checked) >= 3, checked  # (it wrote: not vacuous)
 
 
-def test_a_loop_at_half_the_reference_rate_switches_ahead(robot):
+def test_a_loop_at_half_the_reference_rate_switches_ahead(robot, monkeypatch):
     """A live loop at 50 Hz plays every other tick of a 100 Hz reference: the idle part
-    prepares the tick it will play (the last plus the last gap), so every support switch is
-    made ahead, none in a tick, and the walk is bit for bit the one without the idle part."""
+    prepares the tick it will play (the last plus the last gap, at its step), so every support
+    switch is made ahead, none in a tick, every landing tick takes its share made ahead, and
+    the walk is bit for bit the one without the idle part."""
     ref = build("walk10", robot)
+    taken = []
+    made_ahead = SwitchHandover._made_ahead
+
+    def watched(self, *args):
+        out = made_ahead(self, *args)
+        taken.append(out is not None)
+        return out
+
+    monkeypatch.setattr(SwitchHandover, "_made_ahead", watched)
     runs = []
     for idle in (False, True):
         controller = StackController(load_stack("walk", robot, solver="hierarchical"))
@@ -144,5 +155,7 @@ def test_a_loop_at_half_the_reference_rate_switches_ahead(robot):
         runs.append((qs, in_tick))
     (without, made_in_tick), (with_idle, made_ahead_missed) = runs
     assert made_in_tick >= 5 and made_ahead_missed == 0, runs[0][1]
+    landings = taken[len(taken) // 2 :]  # (the second walk's: the first made none ahead)
+    assert not any(taken[: len(taken) // 2]) and len(landings) >= 5 and all(landings), taken
     for i, (a, b) in enumerate(zip(without, with_idle, strict=True)):
         assert np.array_equal(a, b), f"tick {2 * i}"

@@ -111,15 +111,15 @@ class Session:
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
+        #: reference ticks from the solve before the last one to it (1 before two): a loop
+        #: slower than the reference plays every ``gap``-th tick, the idle part prepares it
+        self._gap = 1
         self.prepare_time = 0.0
         self.warm_time = 0.0
         if self.options.mode == "tick":
             controller.rehearse(self.q, self.targets(0), ref.dt)
             self._prepare(0)  # (the first tick's switch: its contacts anchored afresh)
         self._last_index: int | None = None  # reference tick of the last solve
-        #: reference ticks from the solve before the last one to it (1 before two): a loop
-        #: slower than the reference plays every ``gap``-th tick, the idle part prepares it
-        self._gap = 1
         self.failed = False
         self.failure: WbcError | None = None  # why the last tick failed
         self.iterations = 0
@@ -260,11 +260,12 @@ class Session:
         phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
         switch = (phase, self.support[j], self.swing[j]) != self._previous
         start = self._now()
+        dt = self._gap * self.ref.dt  # (the step of that tick, as the tick computes it)
         try:
             if switch:
-                self.controller.prepare_phase(self.q, self.targets(j))
+                self.controller.prepare_phase(self.q, self.targets(j), dt)
             else:
-                self.controller.prepare_tick(self.q, self.targets(j))
+                self.controller.prepare_tick(self.q, self.targets(j), dt)
         except WbcError:
             pass  # (nothing made ahead: the tick raises it again, as a failed tick)
         self.prepare_time = self._now() - start
