@@ -10,7 +10,7 @@ time (µs), the slots missed and the ticks' lateness p99 (benchmarks/self_collis
 twenty-first session).
 
 Run: ``python benchmarks/live_warm.py [--trajectory walk10] [--stack walk_strict]
-[--rounds 2] [--rate 50]``.
+[--rounds 2] [--rate 50] [--slowest]``.
 """
 
 from __future__ import annotations
@@ -33,9 +33,9 @@ from wbc.stacks import load_stack
 from wbc.walking.loop import Session, StackController
 
 
-def play(robot, ref, stack: str, warm: bool, rate: float) -> tuple:
+def play(robot, ref, stack: str, warm: bool, rate: float, verbose: bool = False) -> tuple:
     """One walk through the deployment: (median, p99, first ÷ median, warm-up µs, ticks,
-    missed slots, lateness p99 µs)."""
+    missed slots, lateness p99 µs); ``verbose``: its slowest first ticks of a phase printed."""
     controller = StackController(load_stack(stack, robot, solver="hierarchical"))
     controller.solver.warm_ahead = warm
     session = Session(controller, robot, ref)
@@ -67,6 +67,11 @@ def play(robot, ref, stack: str, warm: bool, rate: float) -> tuple:
     support = ref.support[np.array(played[-len(t) :])]  # (the phases of the ticks played)
     first = np.flatnonzero(support[1:] != support[:-1]) + 1
     med = float(np.median(t))
+    if first.size and verbose:
+        slow = first[np.argsort(t[first])[::-1][:4]]
+        index = played[-len(t) :]
+        ticks = ", ".join(f"{index[k]} {support[k]} {t[k]:.0f}" for k in slow)
+        print(f"  slowest first ticks (reference tick, support, µs): {ticks}")
     return (
         med,
         float(np.percentile(t, 99)),
@@ -84,13 +89,14 @@ def main() -> int:
     parser.add_argument("--stack", default="walk_strict")
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--rate", type=float, default=50.0)
+    parser.add_argument("--slowest", action="store_true", help="each run's slowest first ticks")
     args = parser.parse_args()
     robot = load_robot("bioloid")
     ref = build(args.trajectory, robot)
     runs: dict[bool, list[tuple]] = {False: [], True: []}
     for r in range(args.rounds):
         for warm in (False, True):
-            runs[warm].append(play(robot, ref, args.stack, warm, args.rate))
+            runs[warm].append(play(robot, ref, args.stack, warm, args.rate, args.slowest))
             print(
                 f"{r} {'warm' if warm else 'off '} median %.0f p99 %.0f first/median %.2f "
                 "warm-up %.0f µs ticks %d missed %d lateness p99 %.0f µs" % runs[warm][-1],
