@@ -43,6 +43,17 @@ a robot: each tick then starts with the caches that the sleep and the machine's 
 processes left, where back to back, the default, it finds its code and data from the tick
 before; benchmarks/self_collision.md, sixteenth pass).
 
+``--warm``: also each stack with its limit with the solver's ``warm_ahead`` on (the current
+layout's tick rehearsed at the end of each idle part, just before the tick:
+:meth:`wbc.solvers.base.StackSolver.warm`; with ``--idle`` only: back to back there is no idle
+part), interleaved in the same rounds; the warm-up's own time per tick (µs, the ticks' clock;
+not in the tick's) printed after the table. ``--warm-lead S [S …]``: S seconds of the idle
+part left after the warm-up, a variant each (a real loop wakes before its deadline:
+:data:`wbc.servos.playback.WARM_LEAD_S`; 0, the default, warms right before the tick);
+``--warm-spin``: each lead > 0 also with the rest of it spun (a busy wait: the scheduler runs
+nothing else in it) instead of slept.
+``--limit-on``: ours with the limit only (not the stacks without it).
+
 ``--world-frame``: also each stack with its limit's ``common_frame = false`` (the rows'
 normal in the world, as before the tenth pass; the default fixes it in the frame of the
 joints carrying both links: issue 34, ninth and tenth passes).
@@ -60,7 +71,7 @@ phases beside the other ticks (µs; these walks are not in the table above: the 
 Run: ``python benchmarks/self_collision.py [--rounds 3] [--trajectories walk10 walk10_wb turn]
 [--stacks walk walk_strict] [--weighted] [--cpu] [--robot kokone] [--cold-too]
 [--slowest 8] [--switch-parts] [--world-frame] [--idle 0.02] [--rows-before]
-[--no-rehearse]``.
+[--no-rehearse] [--warm] [--warm-lead 0 0.001] [--warm-spin] [--limit-on]``.
 """
 
 from __future__ import annotations
@@ -184,6 +195,20 @@ def main() -> int:
     parser.add_argument(
         "--no-rehearse", action="store_true", help="also ours with rehearse_switch off"
     )
+    parser.add_argument(
+        "--warm", action="store_true", help="also ours with warm_ahead on (with --idle)"
+    )
+    parser.add_argument(
+        "--warm-lead", type=float, nargs="+", default=[0.0],
+        help="s of the idle part left after the warm-up (several: a variant each)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--warm-spin", action="store_true",
+        help="also each lead > 0 with its rest spun (busy-wait) instead of slept",
+    )  # fmt: skip
+    parser.add_argument(
+        "--limit-on", action="store_true", help="ours with the limit only (not without it)"
+    )
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -205,22 +230,34 @@ def table(robot, trajectory: str, args) -> None:
     json.dump(pairs, tmp)
     tmp.close()
 
-    def ours(spec: dict, kind: str, rehearse: bool = True):
+    def ours(spec: dict, kind: str, rehearse: bool = True, warm: bool | None = None):
         def make():
             controller = StackController(build_stack({**spec, "solver": kind}, robot))
             if not rehearse:
                 controller.solver.rehearse_switch = False
+            if warm is not None:
+                controller.solver.warm_ahead = warm
             return controller
 
         return make
 
     makers = {}
+    leads: dict[str, float] = {}  # (--warm: the warm-up's lead before the tick, s)
     cold = set()
     for stack in args.stacks:
         for kind in ("hierarchical", "weighted") if args.weighted else ("hierarchical",):
-            for on in (False, True):
+            for on in (False, True) if not args.limit_on else (True,):
                 label = f"{stack} ({kind}), limit {'on' if on else 'off'}"
                 makers[label] = ours(walk_spec(on, stack), kind)
+                if on and args.warm:
+                    makers[label] = ours(walk_spec(True, stack), kind, warm=False)
+                    for lead in args.warm_lead:
+                        warm = f"{label}, warm" + (f" {lead * 1e3:g} ms ahead" if lead else "")
+                        makers[warm] = ours(walk_spec(True, stack), kind, warm=True)
+                        leads[warm] = lead
+                        if lead and args.warm_spin:  # (a negative lead: spun)
+                            makers[f"{warm}, spun"] = makers[warm]
+                            leads[f"{warm}, spun"] = -lead
                 if on and args.world_frame:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
@@ -240,13 +277,15 @@ def table(robot, trajectory: str, args) -> None:
             tmp.name, margin, trigger
         )
     stats: dict[str, list[tuple]] = {k: [] for k in makers}
+    warm_cost: dict[str, list[float]] = {k: [] for k in makers}
     times: dict[str, list[np.ndarray]] = {k: [] for k in makers}
     kin = Kinematics(robot)
     for _ in range(args.rounds):
         for name, make in makers.items():
             controller = make()
             with every_level_cold() if name in cold else contextlib.nullcontext():
-                rec = walk(controller, robot, ref, args.idle)
+                rec, warmed = walk(controller, robot, ref, args.idle, leads.get(name, 0.0))
+            warm_cost[name].append(float(np.mean(warmed)) * 1e6 if warmed.size else np.nan)
             t = rec["solve_time"] * 1e6
             times[name].append(t)
             closest = np.inf
@@ -296,24 +335,42 @@ def table(robot, trajectory: str, args) -> None:
             f" {p99 / placo_off[1]:.2f} | {med / placo_on:.2f} | {com:.3f} | {foot:.3f} |"
             f" {closest:.2f} | {fmt_back} | {fmt_exact} |"
         )
+    if args.warm and args.idle > 0.0:
+        print("\nthe idle part's warm-up (µs per tick, mean over the walk, median of the rounds):")
+        for name, cost in warm_cost.items():
+            if name in leads:
+                print(f"- {name}: {np.median(cost):.1f}")
     if args.slowest:
         slowest(times, rec["support"], args.slowest)
     if args.switch_parts:
         switch_parts(robot, ref, args)
 
 
-def walk(controller, robot, ref, idle: float):
+def walk(controller, robot, ref, idle: float, lead: float = 0.0):
     """:func:`wbc.walking.loop.run`, with ``idle`` s slept after each tick (0: none, the ticks
-    back to back)."""
+    back to back), the controller's :meth:`~wbc.walking.controller.Controller.warm` ``lead``
+    s before its end (< 0: ``-lead`` s before it, the rest spun, not slept); and each
+    warm-up's time (s, the ticks' clock: empty back to back)."""
     if idle <= 0.0:
-        return run(controller, robot, ref)
+        return run(controller, robot, ref), np.zeros(0)
     ticks = run_stepwise(controller, robot, ref)
+    warmed = []
+    clock = time.perf_counter  # (time.process_time with --cpu)
     while True:
         try:
             next(ticks)
         except StopIteration as end:
-            return end.value
-        time.sleep(idle)
+            return end.value, np.array(warmed[:-1])  # (the last: after the walk's end)
+        time.sleep(idle - abs(lead))
+        wake = time.monotonic()
+        start = clock()
+        controller.warm(ref.dt)
+        warmed.append(clock() - start)
+        if lead > 0.0:
+            time.sleep(max(0.0, lead - (time.monotonic() - wake)))
+        elif lead < 0.0:
+            while time.monotonic() - wake < -lead:
+                pass
 
 
 def slowest(times: dict[str, list[np.ndarray]], support: np.ndarray, n: int) -> None:

@@ -25,6 +25,7 @@ from wbc.servo_map import RAD_PER_TICK
 from wbc.servos import CallableSource, DeployConfig, Deployment
 from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator, Fault
+from wbc.servos.playback import WARM_FIRST_S, WARM_LEAD_S
 from wbc.servos.protocol1 import ADDR_TORQUE_ENABLE, AX12_MAX_SPEED, ERR_OVERHEATING, ERR_OVERLOAD
 
 Emulator = functools.partial(AX12Emulator, process=True)
@@ -232,6 +233,44 @@ def test_a_sources_idle_runs_after_each_ticks_goals_are_sent(robot, walk_ready_t
     assert result.completed
     played = events[events.index("solve") :]
     assert played == ["solve", "write", "idle"] * 6 + ["solve"]
+
+
+def test_a_sources_warm_runs_just_before_each_ticks_deadline(robot, walk_ready_ticks):
+    """A source with ``warm()`` (a live controller bringing its tick's code and arrays back
+    into the caches) has it called in the wait before a tick, after the last tick's
+    ``idle()``, no earlier than its lead before the slot's deadline (:data:`WARM_LEAD_S` and
+    the warm-ups' own time, taken as :data:`WARM_FIRST_S` at first: this one's is ~µs) and
+    before the tick starts (the first tick has no wait; a wait shorter than the lead, a late
+    loop's, has none either)."""
+    q0 = robot.configuration("walk_ready")[7:]
+    events: list[str] = []
+    warmed: list[tuple[int, float]] = []  # (the wait's index, time)
+
+    def hold(tick, t):
+        events.append("solve")
+        return None if tick >= 6 else q0
+
+    def warm():
+        events.append("warm")
+        warmed.append((events.count("solve"), time.perf_counter()))
+
+    source = CallableSource(hold, q0, robot.joint_names)
+    source.idle = lambda: events.append("idle")  # type: ignore[attr-defined]
+    source.warm = warm  # type: ignore[attr-defined]
+    with Emulator(positions=walk_ready_ticks) as emu:
+        bus = DynamixelBus(emu.port, robot.servo_map, reply_timeout_ms=TIMEOUT_MS[False])
+        config = DeployConfig(rate=50.0)
+        result = Deployment(bus, source, robot, config, lambda s: None).run()
+    assert result.completed
+    played = events[events.index("solve") :]
+    assert [e for e in played if e != "warm"] == ["solve", "idle"] * 6 + ["solve"]
+    assert played[:2] == ["solve", "idle"] and warmed  # (none before the first tick)
+    for i, e in enumerate(played):  # each between an idle and a solve
+        assert e != "warm" or (played[i - 1] == "idle" and played[i + 1] == "solve"), played
+    starts = result.timing.starts  # (the walking ticks' starts, from the first slot's)
+    for i, t in warmed:  # (a skipped slot only moves the deadline later)
+        assert starts[0] + i * 0.02 - WARM_LEAD_S - WARM_FIRST_S <= t, i
+        assert i == len(starts) or t < starts[i], i
 
 
 # ---------------------------------------------------------------- start-up

@@ -356,13 +356,13 @@ def test_a_support_switch_made_in_the_idle_part_changes_no_answer(robot, walk10,
     made = []
     controller = StackController(load_stack("walk", robot))
     prepare = controller.prepare_phase
-    controller.prepare_phase = lambda q, t: made.append(t.i) or prepare(q, t)
+    controller.prepare_phase = lambda q, t, dt=None: made.append(t.i) or prepare(q, t, dt)
     rec = run(controller, robot, walk10)
     s = walk10.support
     switches = (np.flatnonzero(s[1:] != s[:-1]) + 1).tolist()
     assert made == [0, *switches]
     plain = StackController(load_stack("walk", robot))
-    plain.prepare_phase = lambda q, t: None
+    plain.prepare_phase = lambda q, t, dt=None: None
     without = run(plain, robot, walk10)
     assert np.array_equal(rec.q, without.q) and np.array_equal(walk_run.q, without.q)
     errors = [k for k in without.channels if k.startswith("err/")]

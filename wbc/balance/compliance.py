@@ -361,6 +361,13 @@ class CompensatedSource:
         if idle is not None:
             idle()
 
+    def warm(self) -> None:
+        """The wrapped source's ``warm()`` (:class:`~wbc.servos.sources.TargetSource`: just
+        before its next tick's deadline), if it has one."""
+        warm = getattr(self.source, "warm", None)
+        if warm is not None:
+            warm()
+
     def first(self) -> np.ndarray:
         if self._ti is not None:  # at rest the servos' integral holds the static load
             return np.clip(self.source.first(), self.compensator.robot.q_min,

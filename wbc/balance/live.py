@@ -190,6 +190,11 @@ class SessionSource(CallableSource):
         (:meth:`Session.prepare_next`), not in the next tick's solve."""
         self.session.prepare_next()
 
+    def warm(self) -> None:
+        """Just before the next tick's deadline: :meth:`Session.warm_next` (the tick's code
+        and arrays back in the caches; nothing unless the solver's ``warm_ahead``)."""
+        self.session.warm_next()
+
     def played(self) -> np.ndarray | None:
         """(2, n): the walk's time and the reference time it played per walking tick (s),
         what a physics record compares the run with (:attr:`wbc.sim.log.PlayResult.played`);

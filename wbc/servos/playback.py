@@ -30,6 +30,7 @@ import math
 import signal
 import threading
 from array import array
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -153,12 +154,30 @@ class DeployResult:
         return signal_exit_code(self.signum) if self.interrupted else EXIT_SAFE_STOP
 
 
+#: s of margin before a slot's deadline with which :meth:`Ticker.wait` calls its ``warm`` (a
+#: source's ``warm()``: the tick's code and arrays brought back into the caches the wait left
+#: cold), on top of the shortest of the last :data:`WARM_KEPT` warm-ups' durations; the rest
+#: of the wait is spun, not slept: a sleep lets the machine's other processes run, which evict
+#: what the warm-up brought in (walk10 at 50 Hz, load ~25: the tick 0.54× its time without a
+#: warm-up with 0.5 ms slept after it, 0.41–0.43× spun; benchmarks/self_collision.md,
+#: twenty-first session)
+WARM_LEAD_S = 2e-4
+#: how many of the last warm-ups' durations :meth:`Ticker.wait` keeps (their shortest: the
+#: warm-up's own time, a preempted one's left out)
+WARM_KEPT = 8
+#: s taken as the first warm-up's duration (none measured yet)
+WARM_FIRST_S = 1e-3
+
+
 class Ticker:
     """Absolute-deadline scheduler on the wall clock: slot ``k`` starts at ``t0 + k·period``.
 
     A slot that would start more than half a period late, or less than half a period after
     the last goal was sent (:attr:`last_sent`, set by the caller), is skipped: never caught
-    up in a burst. :meth:`wait` returns the slot.
+    up in a burst. :meth:`wait` returns the slot; ``wait(warm)`` calls ``warm()`` the
+    warm-up's own time (the shortest of the last :data:`WARM_KEPT`) plus :data:`WARM_LEAD_S`
+    before the slot's deadline, then spins to it, when it waits longer than that on the wall
+    clock (a simulated clock's sleep runs the physics: not split, no warm-up).
     """
 
     def __init__(self, period: float, clock: Clock | None = None) -> None:
@@ -174,8 +193,9 @@ class Ticker:
         self.overruns = 0
         self.missed = 0
         self.last_sent: float | None = None  # perf_counter time of the last goal sent
+        self.warm_times: deque[float] = deque(maxlen=WARM_KEPT)  # s, the last warm-ups'
 
-    def wait(self) -> int:
+    def wait(self, warm: Callable[[], None] | None = None) -> int:
         now = self.clock.now()
         if self.t0 is None:
             self.t0 = now
@@ -190,6 +210,8 @@ class Ticker:
             self.missed += k - self.k
             self.k = k
         deadline = self.t0 + self.k * p
+        if warm is not None and self.clock is WALL_CLOCK:
+            now = self._warm(warm, deadline, now)
         if deadline > now:
             self.clock.sleep(deadline - now)
             now = self.clock.now()
@@ -199,6 +221,22 @@ class Ticker:
         self.lateness.append(late)
         self.k += 1
         return slot
+
+    def _warm(self, warm: Callable[[], None], deadline: float, now: float) -> float:
+        """``warm()`` its own time plus :data:`WARM_LEAD_S` before ``deadline`` (nothing if
+        the wait is shorter), then a spin to the deadline; the clock's time after it."""
+        lead = WARM_LEAD_S + min(self.warm_times, default=WARM_FIRST_S)
+        if deadline - now <= lead:
+            return now
+        clock = self.clock
+        clock.sleep(deadline - lead - now)
+        start = clock.now()
+        warm()
+        now = clock.now()
+        self.warm_times.append(now - start)
+        while now < deadline:  # (spun: a sleep hands the caches to other processes)
+            now = clock.now()
+        return now
 
     def done(self) -> None:
         self.work.append(self.clock.now() - self.starts[-1])
@@ -616,9 +654,10 @@ class Deployment:
             if trip is None:
                 bus.set_speed(float(np.min(self.v_max)))
             idle = getattr(self.source, "idle", None)  # (after each tick's goals: TargetSource)
+            warm = getattr(self.source, "warm", None)  # (just before each tick's deadline)
             first_target = self.source(0, 0.0)  # before the clock starts: a live controller's
             while trip is None:  # first solve may be slow (compilation)
-                tick = self.ticker.wait()
+                tick = self.ticker.wait(warm)
                 self._check_interrupt()
                 q = first_target if tick == 0 else self.source(tick, tick * self.period)
                 if q is None:

@@ -30,7 +30,10 @@ class TargetSource(Protocol):
     (:meth:`wbc.servos.bus.ServoBus.set_stiffness`) and restores the configuration at the
     end and in every safe stop. And ``idle()``: called once a tick's goals are sent (in the
     period's slack, not in the tick's work): a live controller's preparation for the next
-    tick (:meth:`wbc.walking.loop.Session.prepare_next`).
+    tick (:meth:`wbc.walking.loop.Session.prepare_next`). And ``warm()``: called just before
+    each tick's deadline on the wall clock (:meth:`wbc.servos.playback.Ticker.wait`):
+    the tick's code and arrays brought back into the caches (:meth:`wbc.walking.loop.Session.
+    warm_next`).
     """
 
     joint_names: tuple[str, ...]

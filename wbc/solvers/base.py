@@ -34,6 +34,11 @@ HARD_TOL_RANGE = (1e-12, 1e-2)
 #: :attr:`StackSolver.rehearse_switch`'s default: a support phase's first tick rehearsed in
 #: the idle part (:mod:`wbc.solvers.rehearsal`; benchmarks/self_collision.md, twentieth session)
 REHEARSE_SWITCH = True
+#: :attr:`StackSolver.warm_ahead`'s default: the current layout's tick rehearsed at the end of
+#: a paced loop's idle part, just before the next tick (:meth:`StackSolver.warm`): a 50 Hz
+#: tick 0.37–0.51× its time without on the three robots (~300 µs of idle CPU a tick;
+#: benchmarks/self_collision.md, twenty-first session)
+WARM_AHEAD = True
 
 
 class StackSolver(ABC):
@@ -91,6 +96,9 @@ class StackSolver(ABC):
         #: part and forgets it (the same answers; that tick then finds its memory and code in
         #: the caches: :mod:`wbc.solvers.rehearsal`)
         self.rehearse_switch = REHEARSE_SWITCH
+        #: :meth:`warm` rehearses the current layout's tick just before a paced loop's next
+        #: tick (the caches the idle part's sleep left cold warmed; the same answers)
+        self.warm_ahead = WARM_AHEAD
         #: solves done by the compiled kernels / handed back by them to the numpy path (an
         #: active inequality row, an active set that did not settle, an infeasible level)
         self.compiled_ticks = 0
@@ -367,8 +375,24 @@ class StackSolver(ABC):
         switched to run once at the last tick's kinematics and forgotten
         (:func:`wbc.solvers.rehearsal.rehearse`; nothing unless :attr:`rehearse_switch`, a
         compiled plan ready, and one that leaves no trace). True if it ran."""
+        return self.rehearse_switch and self._rehearse(dt)
+
+    def warm(self, dt: float) -> bool:
+        """At the end of a paced loop's idle part, just before its next tick: the kinematics
+        at the last tick's q computed again (the same numbers) and the current layout's
+        compiled tick run once there and forgotten (:func:`wbc.solvers.rehearsal.rehearse`,
+        the switch's rehearsal): after the idle part's sleep every tick starts with its code
+        and arrays evicted; this brings them back. Nothing unless :attr:`warm_ahead`, a
+        compiled plan ready and one that leaves no trace. True if it ran."""
+        if not self.warm_ahead:
+            return False
+        self.kin.update(self.kin.q)
+        return self._rehearse(dt)
+
+    def _rehearse(self, dt: float) -> bool:
+        """:func:`wbc.solvers.rehearsal.rehearse` of the current plan at :attr:`kin`."""
         plan = self.fast
-        if not self.rehearse_switch or plan is None or not plan.is_ready:
+        if plan is None or not plan.is_ready:
             return False
         from .rehearsal import rehearse
 

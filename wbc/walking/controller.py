@@ -51,17 +51,26 @@ class Controller(ABC):
         """Solve the first tick once ahead and forget it (after :meth:`start`): a first tick
         otherwise runs code nothing has run yet (default: nothing)."""
 
-    def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:  # noqa: B027
+    def prepare_phase(  # noqa: B027
+        self, q: np.ndarray, targets: TickTargets, dt: float | None = None
+    ) -> None:
         """The idle part of a loop before the tick of ``targets`` (the next tick, known from
-        the reference; ``q`` the last tick's answer): its support switch made now, so that
-        the tick does not pay it; the tick checks it and takes it back if it needs another
-        phase or other anchors (default: nothing)."""
+        the reference; ``q`` the last tick's answer; ``dt`` its step, None: :attr:`dt`): its
+        support switch made now, so that the tick does not pay it; the tick checks it and
+        takes it back if it needs another phase or other anchors (default: nothing)."""
 
-    def prepare_tick(self, q: np.ndarray, targets: TickTargets) -> None:  # noqa: B027
+    def prepare_tick(  # noqa: B027
+        self, q: np.ndarray, targets: TickTargets, dt: float | None = None
+    ) -> None:
         """The idle part of a loop before the tick of ``targets`` when it switches no phase
-        (:meth:`prepare_phase` else): work of that tick that does not need its solve made
-        now; the tick checks it was made from its own inputs, else makes it (default:
-        nothing)."""
+        (:meth:`prepare_phase` else; ``dt`` as there): work of that tick that does not need
+        its solve made now; the tick checks it was made from its own inputs, else makes it
+        (default: nothing)."""
+
+    def warm(self, dt: float) -> None:  # noqa: B027
+        """The end of a paced loop's idle part, just before its next tick (of time step
+        ``dt``): what that tick will touch brought back into the caches, with no effect on its
+        answer (default: nothing)."""
 
     #: the reference's time step, set by the loop before :meth:`start`
     dt: float = 0.01
@@ -253,7 +262,7 @@ class StackController(Controller):
         if self.handover is not None:
             self.handover.reset()
 
-    def prepare_phase(self, q: np.ndarray, targets: TickTargets) -> None:
+    def prepare_phase(self, q: np.ndarray, targets: TickTargets, dt: float | None = None) -> None:
         """The support switch to ``targets``' phase made ahead
         (:meth:`ControlStack.set_phase_ahead`), its contacts anchored on ``targets``' soles,
         and the solver's layout switched (:meth:`StackSolver.switch_layout`):
@@ -261,8 +270,9 @@ class StackController(Controller):
         objects, the stack untouched since), else takes it back (:meth:`_set_targets`).
         Nothing if the switch needs the configuration (a contact without a reference sole).
         A landing, the tick's output and a rehearsal of the tick are made ahead too."""
+        dt = self.dt if dt is None else dt
         if self.handover is not None:
-            self.handover.prepare(q, targets, self.dt)
+            self.handover.prepare(q, targets, dt)
         control = self.control
         key = (targets.phase, targets.support, targets.swing)
         anchors = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
@@ -271,14 +281,19 @@ class StackController(Controller):
             undo = control.set_phase_ahead(*key, self._kin, anchors)
             self._ahead = (key, targets.l_sole, targets.r_sole, undo)
             self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
-            self.solver.rehearse(self.dt)  # (its first tick run once and forgotten)
+            self.solver.rehearse(dt)  # (its first tick run once and forgotten)
         self.solver.prepare_output()
 
-    def prepare_tick(self, q: np.ndarray, targets: TickTargets) -> None:
+    def prepare_tick(self, q: np.ndarray, targets: TickTargets, dt: float | None = None) -> None:
         """A landing's next share made ahead (:meth:`SwitchHandover.prepare`), the output too."""
         if self.handover is not None:
-            self.handover.prepare(q, targets, self.dt)
+            self.handover.prepare(q, targets, self.dt if dt is None else dt)
         self.solver.prepare_output()
+
+    def warm(self, dt: float) -> None:
+        """The solver's tick rehearsed (:meth:`StackSolver.warm`; off unless its
+        ``warm_ahead``)."""
+        self.solver.warm(dt)
 
     def _set_targets(self, q: np.ndarray, targets: TickTargets, phase_changed: bool) -> None:
         ahead = self._ahead

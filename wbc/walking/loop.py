@@ -111,7 +111,11 @@ class Session:
         controller.dt = ref.dt
         controller.start(robot, self.q, ref)
         self._previous: tuple[str, str, str] | None = None
+        #: reference ticks from the solve before the last one to it (1 before two): a loop
+        #: slower than the reference plays every ``gap``-th tick, the idle part prepares it
+        self._gap = 1
         self.prepare_time = 0.0
+        self.warm_time = 0.0
         if self.options.mode == "tick":
             controller.rehearse(self.q, self.targets(0), ref.dt)
             self._prepare(0)  # (the first tick's switch: its contacts anchored afresh)
@@ -187,7 +191,7 @@ class Session:
             self.stepping_time += self._now() - start
         targets = self.targets(i)
         gap = 1 if self._last_index is None else max(1, i - self._last_index)
-        self._last_index = i
+        self._last_index, self._gap = i, gap
         key = (targets.phase, targets.support, targets.swing)
         changed = key != self._previous
         self._previous = key
@@ -230,11 +234,24 @@ class Session:
         else the work of the next tick that needs no solve (:meth:`Controller.prepare_tick`:
         a landing's next share of the way), checked the same way. Its time is
         :attr:`prepare_time` (s; not in :attr:`solve_time`). Ticks mode only (the first
-        tick's switch is made so before the loop, after the rehearsal)."""
+        tick's switch is made so before the loop, after the rehearsal). The next reference
+        tick is the last one plus the last gap between solves (a live loop at 50 Hz on a
+        100 Hz reference plays every other one: its switches were made in the tick, cold)."""
         i = self._last_index
         self.prepare_time = 0.0
         if i is not None and self.options.mode == "tick":
-            self._prepare(i + 1)
+            self._prepare(i + self._gap)
+
+    def warm_next(self) -> None:
+        """The end of the idle part, just before the next tick's deadline (a paced loop):
+        :meth:`Controller.warm` (the tick's code and arrays brought back into the caches that
+        the wait left cold; the same answers). Its time is :attr:`warm_time` (s). Ticks mode
+        only."""
+        self.warm_time = 0.0
+        if self._last_index is not None and self.options.mode == "tick":
+            start = self._now()
+            self.controller.warm(self._gap * self.ref.dt)  # (the next tick's step, as last)
+            self.warm_time = self._now() - start
 
     def _prepare(self, j: int) -> None:
         """:meth:`prepare_next` for reference tick ``j``."""
@@ -243,11 +260,12 @@ class Session:
         phase = "double" if self.ref.support[j] == SUPPORT_DOUBLE else "single"
         switch = (phase, self.support[j], self.swing[j]) != self._previous
         start = self._now()
+        dt = self._gap * self.ref.dt  # (the step of that tick, as the tick computes it)
         try:
             if switch:
-                self.controller.prepare_phase(self.q, self.targets(j))
+                self.controller.prepare_phase(self.q, self.targets(j), dt)
             else:
-                self.controller.prepare_tick(self.q, self.targets(j))
+                self.controller.prepare_tick(self.q, self.targets(j), dt)
         except WbcError:
             pass  # (nothing made ahead: the tick raises it again, as a failed tick)
         self.prepare_time = self._now() - start
