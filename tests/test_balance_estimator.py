@@ -53,10 +53,11 @@ class ReferenceEstimator:
     time): the compiled kernel must give its answers."""
 
     def __init__(self, robot, com_height, use_imu=True, tilt_gain=0.2, cutoff=6.0,
-                 gyro_heading=False):  # fmt: skip
+                 gyro_heading=False, kin_heading=False):  # fmt: skip
         self.robot, self.omega0 = robot, np.sqrt(GRAVITY / com_height)
         self.use_imu, self.gyro_heading, self.tilt_gain, self.cutoff = (
             use_imu, gyro_heading, tilt_gain, cutoff)  # fmt: skip
+        self.kin_heading = kin_heading
         self.model, self.data = robot.model, robot.model.createData()
         self.q = robot.neutral()
         self.torso_b = robot.model.frames[robot.frame_id("torso")].placement.rotation.copy()
@@ -71,7 +72,7 @@ class ReferenceEstimator:
         name0, anchor0 = stance[0]
         imu = self.use_imu and reading is not None
         R_kin = None
-        if self.rotation is None or not imu or not self.gyro_heading:
+        if self.rotation is None or not imu or not self.gyro_heading or self.kin_heading:
             R_kin = anchor0.rotation @ soles[name0].rotation.T
         if self.rotation is None:
             self.rotation, self.rel, self.com_vel = R_kin @ self.torso_b, {}, np.zeros(3)
@@ -86,6 +87,9 @@ class ReferenceEstimator:
                 z = yaw(R_kin @ self.torso_b) - yaw(R_t)
                 R_t = pin.rpy.rpyToMatrix(0.0, 0.0, z) @ R_t
             self.rotation, R_base = R_t, R_t @ self.torso_b.T
+            if self.gyro_heading and self.kin_heading:  # the soles' heading, the gyro's tilt
+                z = yaw(R_kin @ self.torso_b) - yaw(R_t)
+                R_base = pin.rpy.rpyToMatrix(0.0, 0.0, z) @ R_base
             omega = reading.angular_velocity
         else:
             R_base = R_kin
@@ -108,13 +112,13 @@ class ReferenceEstimator:
 
 
 @settings(max_examples=12, deadline=None)
-@given(st.integers(0, 2**31), st.booleans(), st.booleans())
-def test_estimator_gives_the_reference_answers(robot, seed, use_imu, gyro_heading):
+@given(st.integers(0, 2**31), st.booleans(), st.booleans(), st.booleans())
+def test_estimator_gives_the_reference_answers(robot, seed, use_imu, gyro_heading, kin_heading):
     """Random joints (some unread: NaN, the fallback's), IMU samples (some impacts), stance
     switches: every output equals the reference implementation's to 1e-9."""
     rng = np.random.default_rng(seed)
     q, left, right = standing(robot)
-    kw = dict(use_imu=use_imu, gyro_heading=gyro_heading)
+    kw = dict(use_imu=use_imu, gyro_heading=gyro_heading, kin_heading=kin_heading)
     new = StateEstimator(robot, 0.2, velocity_cutoff=7.0, tilt_gain=0.5, **kw)
     ref = ReferenceEstimator(robot, 0.2, cutoff=7.0, tilt_gain=0.5, **kw)
     phases = [[("l_sole", left), ("r_sole", right)], [("l_sole", left)], [("r_sole", right)],
@@ -165,6 +169,30 @@ def test_imu_tilt_moves_the_com(robot):
     assert np.allclose(e.com, robot.com(q_true), atol=1e-6)
     enc = StateEstimator(robot, 0.2, use_imu=False).update(0.01, q[7:], None, [("l_sole", left)])
     assert np.linalg.norm(enc.com - robot.com(q_true)) > 0.01  # the encoders alone miss it
+
+
+@pytest.mark.parametrize("kin_heading", [False, True])
+def test_kin_heading_reads_the_com_about_the_slipped_sole(robot, kin_heading):
+    """Standing on the left sole, the whole robot (the sole too) turned 20° about the
+    vertical through it, the gyro's heading following it: with ``kin_heading`` the CoM and
+    base are read about the sole where the plan holds it (the robot balanced about its
+    feet: the standing pose's CoM), the torso's rotation keeps the gyro's heading; without,
+    the CoM is the turned robot's."""
+    q, left, _ = standing(robot)
+    turn = pin.rpy.rpyToMatrix(0.0, 0.0, 0.349)
+    moved = pin.SE3(turn, left.translation - turn @ left.translation) * pin.XYZQUATToSE3(q[:7])
+    q_true = q.copy()
+    q_true[:7] = pin.SE3ToXYZQUAT(moved)
+    R_torso = robot.frame_placement(q_true, "torso").rotation
+    est = StateEstimator(robot, 0.2, gyro_heading=True, kin_heading=kin_heading)
+    est.reset(R_torso)
+    e = est.update(0.01, q[7:], reading(R_torso), [("l_sole", left)])
+    assert np.allclose(e.rotation, R_torso, atol=1e-6)  # (the gyro's heading, both)
+    want = robot.com(q) if kin_heading else robot.com(q_true)
+    assert np.allclose(e.com, want, atol=1e-6)
+    assert np.linalg.norm(robot.com(q) - robot.com(q_true)) > 0.005  # (the two differ)
+    if kin_heading:
+        assert np.allclose(e.base, q[:3], atol=1e-6)
 
 
 def test_filter_converges_to_the_accelerometer_tilt(robot):
