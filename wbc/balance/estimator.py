@@ -98,7 +98,7 @@ _C_TILT, _C_CUTOFF, _C_OMEGA0, _C_HEADING, _C_INV_MASS, _C_TORSO, _C_SOLES = 0, 
 _SOLE_WIDTH = 13
 _C_LAG = _C_SOLES + _SOLE_WIDTH * len(SOLE_FRAMES)
 _C_KIN = _C_LAG + 1
-_C_BIAS, _C_FRAME, _C_SIZE = _C_KIN + 1, _C_KIN + 2, _C_KIN + 3  # (_C_FRAME: kin_heading)
+_C_BIAS, _C_FRAME, _C_SIZE = _C_KIN + 1, _C_KIN + 2, _C_KIN + 4  # (kin_heading, kin_band)
 
 
 class StateEstimate:
@@ -226,6 +226,7 @@ def _estimate(
         consts[_C_TILT], consts[_C_CUTOFF], consts[_C_OMEGA0], consts[_C_HEADING] > 0.5,
         consts[_C_INV_MASS])  # fmt: skip
     bias_gain, kin_gain, kin_heading = consts[_C_BIAS], consts[_C_KIN], consts[_C_FRAME] > 0.5
+    kin_band = consts[_C_FRAME + 1]
     torso_b = consts[_C_TORSO : _C_TORSO + 9].reshape(3, 3)
     # forward kinematics in the base frame (base at the origin), body by body, written in
     # place (an allocation per small product would cost more than the kinematics)
@@ -335,6 +336,9 @@ def _estimate(
         if kin_heading and gyro_heading:  # the kinematic terms at the soles' heading
             mul33_into(R_kin, torso_b, Ex)
             d = _yaw(Ex) - _yaw(R)
+            if kin_band > 0.0:  # the soles' slip (wrapped), less kin_band
+                d = (d + math.pi) % (2.0 * math.pi) - math.pi
+                d = math.copysign(max(abs(d) - kin_band, 0.0), d)
             c, sn = math.cos(d), math.sin(d)
             for j in range(3):  # M = Rz(d) src: the stance sole where the plan turned it
                 M[0, j] = c * src[0, j] - sn * src[1, j]
@@ -448,6 +452,7 @@ class StateEstimator:
         joint_lag: bool = False,
         contact_band: float = 0.0,
         kin_heading: bool = False,
+        kin_band: float = 0.0,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -463,7 +468,8 @@ class StateEstimator:
                 f"state estimator: bias_gain must be a finite number >= 0, got {bias_gain}"
             )
         for name, v in (
-            ("kin_gain", kin_gain), ("anchor_band", anchor_band), ("contact_band", contact_band)
+            ("kin_gain", kin_gain), ("anchor_band", anchor_band), ("contact_band", contact_band),
+            ("kin_band", kin_band),
         ):  # fmt: skip
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
@@ -499,8 +505,8 @@ class StateEstimator:
         #: kinematics' heading, the stance sole where the plan turned it (the torso's rotation
         #: keeps the gyro's heading): a robot whose soles slipped round stands balanced about
         #: them, and the plan's frame would read its CoM's lead along the walk as a sideways
-        #: error (``Gains.kin_heading``)
-        self.kin_heading = bool(kin_heading)
+        #: error (``Gains.kin_heading``); ``kin_band`` (rad): only the soles' slip beyond it
+        self.kin_heading, self.kin_band = bool(kin_heading), float(kin_band)
         self.tilt_gain = float(tilt_gain)
         self.cutoff = float(velocity_cutoff)
         torso = robot.model.frames[robot.frame_id("torso")]
@@ -511,7 +517,7 @@ class StateEstimator:
         consts = np.r_[
             self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
             1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, float(joint_lag),
-            self.kin_gain, self.bias_gain, float(kin_heading),
+            self.kin_gain, self.bias_gain, float(kin_heading), self.kin_band,
         ]  # fmt: skip
         assert len(consts) == _C_SIZE and len(soles) == _SOLE_WIDTH * len(SOLE_FRAMES)
         # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and

@@ -98,6 +98,10 @@ class Gains:
     #: ``walk10_wb`` 10, the soles 25° round after 2.3 s, four re-plans of the step adjuster
     #: before the spin that ends it; needs ``k_yaw`` > 0, the gyro's heading)
     kin_heading: int = 0
+    #: rad: with ``kin_heading``, only the soles' slip beyond this turns the kinematic terms
+    #: (the slip's sign kept, its size less the band: a plant whose soles stay within it runs
+    #: exactly as without ``kin_heading``)
+    kin_band: float = 0.0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
     #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
@@ -349,6 +353,7 @@ class Gains:
             "k_lean",
             "k_roll",
             "k_twist",
+            "kin_band",
             "k_yaw",
             "yaw_cutoff",
             "max_yaw",
