@@ -20,6 +20,12 @@ the controller, unless
 ``gyro_heading`` (the integrated gyro's heading: it sees the feet's yaw slip, and drifts
 with the gyro's bias).
 
+**The soles' heading** (``kin_heading``, off; with ``gyro_heading``): the kinematic terms
+below (base, CoM, its velocity, the DCM) at the kinematics' heading (the stance sole where
+the plan turned it) while the torso's rotation keeps the gyro's: soles that slipped round by
+``δ`` leave a robot balanced about them, whose CoM lead along the walk ``a`` the gyro's frame
+reads as a sideways ``a sin δ``; ``kin_band`` (rad): only the slip beyond it (issue 30).
+
 **Encoders only** (``imu=None``): the stance sole is assumed flat at its planned placement;
 ``R_base = R_sole · (ᵇR_sole)ᵀ`` with ``ᵇR_sole`` from forward kinematics of the present joints.
 

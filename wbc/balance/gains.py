@@ -96,11 +96,15 @@ class Gains:
     #: slipped round by δ leave a robot balanced about them; in the plan's frame its CoM's
     #: lead along the walk ``a`` reads as a sideways DCM error ``a sin δ`` (issue 30: s1
     #: ``walk10_wb`` 10, the soles 25° round after 2.3 s, four re-plans of the step adjuster
-    #: before the spin that ends it; needs ``k_yaw`` > 0, the gyro's heading)
+    #: before the spin that ends it; needs ``k_yaw`` > 0, the gyro's heading). Off: without the
+    #: feed-forward it keeps s1 walk10_wb 10 and s0 turn_wb 37 (main's two losses on seeds
+    #: 0–1) but loses six plants main keeps over seeds 0, 1, 8, 9 (stiff, late ones;
+    #: 297 of 300 on seeds 0–1 against 298; benchmarks/physics.md, twenty-first session)
     kin_heading: int = 0
     #: rad: with ``kin_heading``, only the soles' slip beyond this turns the kinematic terms
     #: (the slip's sign kept, its size less the band: a plant whose soles stay within it runs
-    #: exactly as without ``kin_heading``)
+    #: exactly as without ``kin_heading``). 0.1 keeps s0 turn_wb 37 (not s1 walk10_wb 10) and
+    #: loses three plants main keeps (298 of 300 on seeds 0–1, main's count): off
     kin_band: float = 0.0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
