@@ -6,7 +6,9 @@ of seed S; every ``--every`` s from ``--from`` s: the played reference's phase, 
 estimated tilt error (roll, pitch about the reference heading; heading error; deg), the
 torso command's tilt and heading parts (deg: what the feedback asks of the legs), the gyro's
 horizontal and vertical rates (rad/s), the hip strategy's roll (deg), the servos' measured lag
-(ms, :func:`wbc.balance.servo_lag.servo_lag`), and for the joints named by ``--joints``
+(ms, :func:`wbc.balance.servo_lag.servo_lag`), the soles' heading error (the simulator's soles
+against the plan's, deg) and the stance sole's spin (its heading error's rate over the last 10
+simulator ticks, deg/s; twenty-first session), and for the joints named by ``--joints``
 (substrings) goal − present (deg) and peak torque / stall.
 
     nice -n 5 python benchmarks/late_trace.py --walk lateral_wb --seed 0 --plant 18 \\
@@ -21,6 +23,8 @@ import json
 import _args
 import numpy as np
 from plant_sweep import plant_run
+from plant_trace import wrap
+from plant_trace import yaw as heading
 
 from wbc.balance import stabilizer as stab_mod
 from wbc.compiled.rows import log3
@@ -31,7 +35,7 @@ def trace(walk: str, seed: int, plant: int, gains: dict, joints: list[str], star
     """Run plant ``plant`` of ``seed`` on ``walk`` and print its trace (module docstring)."""
     run = plant_run(walk, seed, plant, gains)
     robot, v = run.robot, run.plant
-    clock, rows = [0.0], []
+    clock, rows, soles, plan = [0.0], [], {}, [None]
     original = stab_mod.Stabilizer.adjust
 
     def observed(self, targets, com_vel_ref, q_cmd, dt):
@@ -50,10 +54,16 @@ def trace(walk: str, seed: int, plant: int, gains: dict, joints: list[str], star
                          cmd @ n, cmd[2], np.hypot(w[0], w[1]), w[2],
                          float(np.hypot(*self.hip)), self.servo_lag,
                          float(getattr(self, "stiffness_scale", None) or 0.0), yaw))  # fmt: skip
+            plan[0] = targets  # (the soles' plan: compared in the next simulator tick)
         return out
 
     def tick(sim) -> None:
         clock[0] = sim.time
+        if plan[0] is not None:  # the soles' heading, the simulator's against the plan (deg)
+            soles[round(sim.time, 4)] = [
+                np.degrees(wrap(heading(sim.site_pose(f).rotation)
+                                - heading(plan[0].sole(f).rotation)))
+                for f in ("l_sole", "r_sole")]  # fmt: skip
 
     stab_mod.Stabilizer.adjust = observed
     try:
@@ -72,9 +82,11 @@ def trace(walk: str, seed: int, plant: int, gains: dict, joints: list[str], star
     ta = np.array([row[0] for row in rows]) - res.playback_start
     watch = [k for k, nm in enumerate(names) if any(s in nm for s in joints)]
     print("| s | ref t | stance | true roll/pitch° | err roll/pitch/yaw° | cmd roll/pitch/yaw° "
-          "| gyro xy/z rad/s | hip° | lag ms | "
+          "| gyro xy/z rad/s | hip° | lag ms | soles' heading err l/r° | stance spin °/s | "
           + " | ".join(names[k] for k in watch) + " |")  # fmt: skip
-    print("|---" * (9 + len(watch)) + "|")
+    print("|---" * (11 + len(watch)) + "|")
+    st = np.array(sorted(soles))
+    sy = np.array([soles[k] for k in st])
     for tt in np.arange(start, t[-1], every):
         i = int(np.searchsorted(t, tt))
         j = min(int(np.searchsorted(ta, tt)), len(ta) - 1)
@@ -89,11 +101,19 @@ def trace(walk: str, seed: int, plant: int, gains: dict, joints: list[str], star
         along = np.cos(yaw) * up[0] + np.sin(yaw) * up[1]
         left = -np.sin(yaw) * up[0] + np.cos(yaw) * up[1]
         true = np.degrees(np.arcsin(np.clip([-left, along], -1, 1)))
+        k = min(int(np.searchsorted(st, a[0])), len(st) - 1)
+        side = 0 if a[2] == "l_sole" else 1 if a[2] == "r_sole" else None
+        spin = (
+            "-"
+            if side is None or k < 10
+            else f"{(sy[k, side] - sy[k - 10, side]) / (st[k] - st[k - 10]):+.0f}"
+        )
         print(
             f"| {tt:.2f} | {a[1]:.2f} | {a[2]} | {true[0]:+.1f} {true[1]:+.1f} "
             f"| {d[0]:+.1f} {d[1]:+.1f} {d[2]:+.1f} "
             f"| {d[3]:+.1f} {d[4]:+.1f} {d[5]:+.1f} | {a[9]:.2f} {a[10]:+.2f} "
-            f"| {np.degrees(a[11]):.1f} | {a[12] * 1e3:.0f} | {cols} |"
+            f"| {np.degrees(a[11]):.1f} | {a[12] * 1e3:.0f} | {sy[k, 0]:+.1f} {sy[k, 1]:+.1f} "
+            f"| {spin} | {cols} |"
         )
 
 

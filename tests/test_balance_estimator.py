@@ -53,10 +53,11 @@ class ReferenceEstimator:
     time): the compiled kernel must give its answers."""
 
     def __init__(self, robot, com_height, use_imu=True, tilt_gain=0.2, cutoff=6.0,
-                 gyro_heading=False):  # fmt: skip
+                 gyro_heading=False, kin_heading=False, kin_band=0.0):  # fmt: skip
         self.robot, self.omega0 = robot, np.sqrt(GRAVITY / com_height)
         self.use_imu, self.gyro_heading, self.tilt_gain, self.cutoff = (
             use_imu, gyro_heading, tilt_gain, cutoff)  # fmt: skip
+        self.kin_heading, self.kin_band = kin_heading, kin_band
         self.model, self.data = robot.model, robot.model.createData()
         self.q = robot.neutral()
         self.torso_b = robot.model.frames[robot.frame_id("torso")].placement.rotation.copy()
@@ -71,7 +72,7 @@ class ReferenceEstimator:
         name0, anchor0 = stance[0]
         imu = self.use_imu and reading is not None
         R_kin = None
-        if self.rotation is None or not imu or not self.gyro_heading:
+        if self.rotation is None or not imu or not self.gyro_heading or self.kin_heading:
             R_kin = anchor0.rotation @ soles[name0].rotation.T
         if self.rotation is None:
             self.rotation, self.rel, self.com_vel = R_kin @ self.torso_b, {}, np.zeros(3)
@@ -86,6 +87,12 @@ class ReferenceEstimator:
                 z = yaw(R_kin @ self.torso_b) - yaw(R_t)
                 R_t = pin.rpy.rpyToMatrix(0.0, 0.0, z) @ R_t
             self.rotation, R_base = R_t, R_t @ self.torso_b.T
+            if self.gyro_heading and self.kin_heading:  # the soles' heading, the gyro's tilt
+                z = yaw(R_kin @ self.torso_b) - yaw(R_t)
+                if self.kin_band > 0:  # (wrapped, less the band)
+                    z = np.arctan2(np.sin(z), np.cos(z))
+                    z = np.sign(z) * max(abs(z) - self.kin_band, 0.0)
+                R_base = pin.rpy.rpyToMatrix(0.0, 0.0, z) @ R_base
             omega = reading.angular_velocity
         else:
             R_base = R_kin
@@ -108,13 +115,17 @@ class ReferenceEstimator:
 
 
 @settings(max_examples=12, deadline=None)
-@given(st.integers(0, 2**31), st.booleans(), st.booleans())
-def test_estimator_gives_the_reference_answers(robot, seed, use_imu, gyro_heading):
+@given(st.integers(0, 2**31), st.booleans(), st.booleans(), st.booleans(), st.sampled_from(
+    [0.0, 0.02, 0.1]))  # fmt: skip
+def test_estimator_gives_the_reference_answers(
+    robot, seed, use_imu, gyro_heading, kin_heading, kin_band
+):
     """Random joints (some unread: NaN, the fallback's), IMU samples (some impacts), stance
     switches: every output equals the reference implementation's to 1e-9."""
     rng = np.random.default_rng(seed)
     q, left, right = standing(robot)
-    kw = dict(use_imu=use_imu, gyro_heading=gyro_heading)
+    kw = dict(use_imu=use_imu, gyro_heading=gyro_heading, kin_heading=kin_heading)
+    kw["kin_band"] = kin_band
     new = StateEstimator(robot, 0.2, velocity_cutoff=7.0, tilt_gain=0.5, **kw)
     ref = ReferenceEstimator(robot, 0.2, cutoff=7.0, tilt_gain=0.5, **kw)
     phases = [[("l_sole", left), ("r_sole", right)], [("l_sole", left)], [("r_sole", right)],
@@ -165,6 +176,38 @@ def test_imu_tilt_moves_the_com(robot):
     assert np.allclose(e.com, robot.com(q_true), atol=1e-6)
     enc = StateEstimator(robot, 0.2, use_imu=False).update(0.01, q[7:], None, [("l_sole", left)])
     assert np.linalg.norm(enc.com - robot.com(q_true)) > 0.01  # the encoders alone miss it
+
+
+@pytest.mark.parametrize("kin_heading, kin_band", [(False, 0.0), (True, 0.0), (True, 0.1),
+                                                     (True, 0.5)])  # fmt: skip
+def test_kin_heading_reads_the_com_about_the_slipped_sole(robot, kin_heading, kin_band):
+    """Standing on the left sole, the whole robot (the sole too) turned 20° about the
+    vertical through it, the gyro's heading following it: with ``kin_heading`` the CoM and
+    base are read about the sole where the plan holds it (the robot balanced about its
+    feet: the standing pose's CoM), the torso's rotation keeps the gyro's heading; without,
+    the CoM is the turned robot's; with ``kin_band`` the robot turned by the band (0.1 rad)
+    or, a band beyond the slip (0.5 rad), as without."""
+
+    def turned(angle):
+        turn = pin.rpy.rpyToMatrix(0.0, 0.0, angle)
+        moved = pin.SE3(turn, left.translation - turn @ left.translation)
+        out = q.copy()
+        out[:7] = pin.SE3ToXYZQUAT(moved * pin.XYZQUATToSE3(q[:7]))
+        return out
+
+    q, left, _ = standing(robot)
+    q_true = turned(0.349)
+    R_torso = robot.frame_placement(q_true, "torso").rotation
+    est = StateEstimator(robot, 0.2, gyro_heading=True, kin_heading=kin_heading,
+                         kin_band=kin_band)  # fmt: skip
+    est.reset(R_torso)
+    e = est.update(0.01, q[7:], reading(R_torso), [("l_sole", left)])
+    assert np.allclose(e.rotation, R_torso, atol=1e-6)  # (the gyro's heading, all)
+    read = 0.349 if not kin_heading else min(kin_band, 0.349)  # the turn the CoM is read at
+    want = turned(read)
+    assert np.allclose(e.com, robot.com(want), atol=1e-6)
+    assert np.allclose(e.base, want[:3], atol=1e-6)
+    assert np.linalg.norm(robot.com(q) - robot.com(q_true)) > 0.005  # (the two differ)
 
 
 def test_filter_converges_to_the_accelerometer_tilt(robot):

@@ -20,6 +20,12 @@ the controller, unless
 ``gyro_heading`` (the integrated gyro's heading: it sees the feet's yaw slip, and drifts
 with the gyro's bias).
 
+**The soles' heading** (``kin_heading``, off; with ``gyro_heading``): the kinematic terms
+below (base, CoM, its velocity, the DCM) at the kinematics' heading (the stance sole where
+the plan turned it) while the torso's rotation keeps the gyro's: soles that slipped round by
+``δ`` leave a robot balanced about them, whose CoM lead along the walk ``a`` the gyro's frame
+reads as a sideways ``a sin δ``; ``kin_band`` (rad): only the slip beyond it (issue 30).
+
 **Encoders only** (``imu=None``): the stance sole is assumed flat at its planned placement;
 ``R_base = R_sole · (ᵇR_sole)ᵀ`` with ``ᵇR_sole`` from forward kinematics of the present joints.
 
@@ -98,7 +104,7 @@ _C_TILT, _C_CUTOFF, _C_OMEGA0, _C_HEADING, _C_INV_MASS, _C_TORSO, _C_SOLES = 0, 
 _SOLE_WIDTH = 13
 _C_LAG = _C_SOLES + _SOLE_WIDTH * len(SOLE_FRAMES)
 _C_KIN = _C_LAG + 1
-_C_BIAS, _C_SIZE = _C_KIN + 1, _C_KIN + 2
+_C_BIAS, _C_FRAME, _C_SIZE = _C_KIN + 1, _C_KIN + 2, _C_KIN + 4  # (kin_heading, kin_band)
 
 
 class StateEstimate:
@@ -225,7 +231,8 @@ def _estimate(
     tilt_gain, cutoff, omega0, gyro_heading, inv_mass = (
         consts[_C_TILT], consts[_C_CUTOFF], consts[_C_OMEGA0], consts[_C_HEADING] > 0.5,
         consts[_C_INV_MASS])  # fmt: skip
-    bias_gain, kin_gain = consts[_C_BIAS], consts[_C_KIN]
+    bias_gain, kin_gain, kin_heading = consts[_C_BIAS], consts[_C_KIN], consts[_C_FRAME] > 0.5
+    kin_band = consts[_C_FRAME + 1]
     torso_b = consts[_C_TORSO : _C_TORSO + 9].reshape(3, 3)
     # forward kinematics in the base frame (base at the origin), body by body, written in
     # place (an allocation per small product would cost more than the kinematics)
@@ -292,7 +299,7 @@ def _estimate(
     R_kin, Ex, R, R_base = W[2], W[3], W[4], W[5]
     has = state[_S_HAS] > 0.5
     joint_lag = consts[_C_LAG] > 0.5
-    if not has or not imu or not gyro_heading or kin_gain > 0:  # R_kin = A0 · (ᵇR_sole0)ᵀ
+    if not has or not imu or not gyro_heading or kin_gain > 0 or kin_heading:  # A0 (ᵇR_sole0)ᵀ
         mul33t_into(anchor0, W[0], R_kin)
     if not has:  # start the filter at the kinematics' rotation (StateEstimator.reset)
         mul33_into(R_kin, torso_b, R)
@@ -331,7 +338,20 @@ def _estimate(
                 R[1, j] = sn * x + c * y
         # the kinematic terms at the joints' time: the rotation of the tick they were read
         # (``joint_lag``: the previous tick's filter, R0, still intact here) or this one's
-        mul33t_into(R0 if joint_lag and has else R, torso_b, R_base)
+        src = R0 if joint_lag and has else R
+        if kin_heading and gyro_heading:  # the kinematic terms at the soles' heading
+            mul33_into(R_kin, torso_b, Ex)
+            d = _yaw(Ex) - _yaw(R)
+            if kin_band > 0.0:  # the soles' slip (wrapped), less kin_band
+                d = (d + math.pi) % (2.0 * math.pi) - math.pi
+                d = math.copysign(max(abs(d) - kin_band, 0.0), d)
+            c, sn = math.cos(d), math.sin(d)
+            for j in range(3):  # M = Rz(d) src: the stance sole where the plan turned it
+                M[0, j] = c * src[0, j] - sn * src[1, j]
+                M[1, j] = sn * src[0, j] + c * src[1, j]
+                M[2, j] = src[2, j]
+            src = M
+        mul33t_into(src, torso_b, R_base)
         for i in range(3):
             out[7, i] = gyro[i] + state[_S_BIAS + i]
     else:
@@ -437,6 +457,8 @@ class StateEstimator:
         anchor_band: float = 0.0,
         joint_lag: bool = False,
         contact_band: float = 0.0,
+        kin_heading: bool = False,
+        kin_band: float = 0.0,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -452,7 +474,8 @@ class StateEstimator:
                 f"state estimator: bias_gain must be a finite number >= 0, got {bias_gain}"
             )
         for name, v in (
-            ("kin_gain", kin_gain), ("anchor_band", anchor_band), ("contact_band", contact_band)
+            ("kin_gain", kin_gain), ("anchor_band", anchor_band), ("contact_band", contact_band),
+            ("kin_band", kin_band),
         ):  # fmt: skip
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
@@ -484,6 +507,12 @@ class StateEstimator:
         self.omega0 = float(np.sqrt(GRAVITY / com_height))
         self.use_imu = use_imu
         self.gyro_heading = gyro_heading
+        #: with ``gyro_heading``: the kinematic terms (base, CoM, its velocity, the DCM) at the
+        #: kinematics' heading, the stance sole where the plan turned it (the torso's rotation
+        #: keeps the gyro's heading): a robot whose soles slipped round stands balanced about
+        #: them, and the plan's frame would read its CoM's lead along the walk as a sideways
+        #: error (``Gains.kin_heading``); ``kin_band`` (rad): only the soles' slip beyond it
+        self.kin_heading, self.kin_band = bool(kin_heading), float(kin_band)
         self.tilt_gain = float(tilt_gain)
         self.cutoff = float(velocity_cutoff)
         torso = robot.model.frames[robot.frame_id("torso")]
@@ -494,7 +523,7 @@ class StateEstimator:
         consts = np.r_[
             self.tilt_gain, self.cutoff, self.omega0, float(gyro_heading),
             1.0 / table[:, _MASS].sum(), self.torso_b.ravel(), soles, float(joint_lag),
-            self.kin_gain, self.bias_gain,
+            self.kin_gain, self.bias_gain, float(kin_heading), self.kin_band,
         ]  # fmt: skip
         assert len(consts) == _C_SIZE and len(soles) == _SOLE_WIDTH * len(SOLE_FRAMES)
         # everything constant in one array (:func:`_estimate`'s layout; the gains, ω₀ and

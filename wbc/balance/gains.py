@@ -89,6 +89,23 @@ class Gains:
     #: (issue 30, twentieth session, benchmarks/physics.md). With the feed-forward: 0 (the
     #: pushes, measured with it, not re-measured)
     hip_axis: int = 0
+    #: 1: the state estimate's kinematic terms (base, CoM, its velocity, the DCM: what the
+    #: step adjuster, the hip strategy and the DCM integral read) at the kinematics' heading,
+    #: the stance sole where the plan turned it, while the torso's rotation keeps the gyro's
+    #: heading for the heading feedback (0: every term at the gyro's heading). Soles that
+    #: slipped round by δ leave a robot balanced about them; in the plan's frame its CoM's
+    #: lead along the walk ``a`` reads as a sideways DCM error ``a sin δ`` (issue 30: s1
+    #: ``walk10_wb`` 10, the soles 25° round after 2.3 s, four re-plans of the step adjuster
+    #: before the spin that ends it; needs ``k_yaw`` > 0, the gyro's heading). Off: without the
+    #: feed-forward it keeps s1 walk10_wb 10 and s0 turn_wb 37 (main's two losses on seeds
+    #: 0–1) but loses six plants main keeps over seeds 0, 1, 8, 9 (stiff, late ones;
+    #: 297 of 300 on seeds 0–1 against 298; benchmarks/physics.md, twenty-first session)
+    kin_heading: int = 0
+    #: rad: with ``kin_heading``, only the soles' slip beyond this turns the kinematic terms
+    #: (the slip's sign kept, its size less the band: a plant whose soles stay within it runs
+    #: exactly as without ``kin_heading``). 0.1 keeps s0 turn_wb 37 (not s1 walk10_wb 10) and
+    #: loses three plants main keeps (298 of 300 on seeds 0–1, main's count): off
+    kin_band: float = 0.0
     #: the hip strategy started by a push (0: off; 0.6: 15 mm at the default band): once a
     #: single support's estimated DCM jumps outward of the stance sole by more than
     #: ``hip_jump`` × ``hip_band`` in one tick (not across the support switch), the whole
@@ -340,6 +357,7 @@ class Gains:
             "k_lean",
             "k_roll",
             "k_twist",
+            "kin_band",
             "k_yaw",
             "yaw_cutoff",
             "max_yaw",
@@ -421,6 +439,8 @@ class Gains:
                 "stabilizer gains ff_inertial_back, ff_inertial_first: 0 or 1, got "
                 f"{self.ff_inertial_back}, {self.ff_inertial_first}"
             )
+        if self.kin_heading not in (0, 1):
+            raise ConfigurationError(f"stabilizer gain kin_heading: 0 or 1, got {self.kin_heading}")
         if self.hip_axis not in (0, 1, 2):
             raise ConfigurationError(f"stabilizer gain hip_axis: 0, 1 or 2, got {self.hip_axis}")
         if self.j_i_joints not in (0, 1, 2, 3):
