@@ -362,8 +362,8 @@ class Walker:
         centre = self.engine.centre
         self.engine.origin[:] = rot2(centre[2]).T @ (q0[:2] - centre[:2])
         self.compensate = float(compensate)
-        ramp = LoadRamp(max(1, round(params.timing.double_support_time / self.engine.dt)))
-        self.load_ramp = ramp if load_ramp else None  #: the feed-forward's load split
+        ramp_ticks = max(1, round(params.timing.double_support_time / self.engine.dt))
+        self.load_ramp = LoadRamp(ramp_ticks) if load_ramp else None  #: the load's split
         self.correct = bool(correct)
         self.q = q0.copy()
         self._lean = heading_free(robot.frame_placement(q0, "torso").rotation)
