@@ -212,14 +212,11 @@ def cascade_fill(
 
 
 @njit(cache={cache})
-def weighted_body(
-    soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
-    hard_spec, hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, g_rows,
-    cspec, cparams, cslots, targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports,
-    Jw, com, Jcom, hg, Ag, v, Jf, efull, Jfull, q, q_min, q_max, bspec, boxes, params, lower,
-    upper, state, working,
-    dq, q_next,
-):
+def weighted_tick(q_in, addresses, shapes, {direct}):
+{weighted_tick_views}
+    gather(target_addresses, target_sizes, targets, q_in, q)
+    if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
+        return {no_room}
     weighted_fill(
         soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b, hard_spec,
         hard_sel, hard_sqrt_w, hard_gain_w, hard_J, hard_E, hard_b, G, h, cspec, cparams, cslots,
@@ -230,34 +227,6 @@ def weighted_body(
         soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, params, lower, upper,
         state, working, dq, q_next,
     )
-
-
-@njit(cache={cache})
-def cascade_body(
-    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard, G, h, g_rows,
-    cspec, cparams, cslots, targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports,
-    Jw, com, Jcom, hg, Ag, v, Jf, efull, Jfull, q, q_min, q_max, bspec, boxes, params, lower,
-    upper, states, working,
-    h_eff, achieved, dq, q_next, fspace, ispace,
-):
-    cascade_fill(
-        spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
-        frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
-        Jfull, q, bspec, boxes, lower, upper,
-    )
-    return cascade_solve(
-        J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper,
-        states, working, h_eff, achieved, dq, q_next, fspace, ispace,
-    )
-
-
-@njit(cache={cache})
-def weighted_tick(q_in, addresses, shapes, {direct}):
-{weighted_tick_views}
-    gather(target_addresses, target_sizes, targets, q_in, q)
-    if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
-        return {no_room}
-    return weighted_body({weighted_call})
 
 
 @njit(cache={cache})
@@ -278,7 +247,15 @@ def cascade_tick(q_in, addresses, shapes, {direct}):
     gather(target_addresses, target_sizes, targets, q_in, q)
     if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
         return {no_room}
-    return cascade_body({cascade_call})
+    cascade_fill(
+        spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
+        frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
+        Jfull, q, bspec, boxes, lower, upper,
+    )
+    return cascade_solve(
+        J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper,
+        states, working, h_eff, achieved, dq, q_next, fspace, ispace,
+    )
 
 
 @njit(cache={cache})
@@ -342,7 +319,7 @@ def source(
         weighted_views=_views(WEIGHTED_ARGS), cascade_views=_views(CASCADE_ARGS),
         weighted_tick_views=_views(TICK_ARGS["weighted_tick"]),
         cascade_tick_views=_views(TICK_ARGS["cascade_tick"]), no_room=NO_ROOM,
-        weighted_call=_call(WEIGHTED_ARGS), cascade_call=_call(CASCADE_ARGS), **columns,
+        **columns,
     )  # fmt: skip
 
 
@@ -357,9 +334,3 @@ def _views(args: Sequence[tuple[str, str, int]]) -> str:
         lines.append(f"    {name} = carray(address(addresses[{k}]), ({shape}), np.{dtype})")
         k += 1
     return "\n".join(lines)
-
-
-def _call(args: Sequence[tuple[str, str, int]]) -> str:
-    """The body's arguments (all but the gather's target sources, which the tick reads)."""
-    names = [name for name, _, _ in args if name not in ("target_addresses", "target_sizes")]
-    return ", ".join(names)
