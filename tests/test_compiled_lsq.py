@@ -497,13 +497,21 @@ def test_equality_multipliers_solve_the_stationarity(seed, m, dependent):
 ONE_SPECIALISATION = """
 import json
 from numba.core.registry import CPUDispatcher
-from wbc.compiled import lsq, lsq_linalg, lsq_subproblem, lsq_update, ticks
+from wbc import load_robot
+from wbc.compiled import lsq, lsq_linalg, lsq_subproblem, lsq_update, space, ticks
+from wbc.limits import collision_kernels, collision_packed
+from wbc.stacks import load_stack
+from wbc.tasks import thesis_orientation
 from wbc.warmup import compile_part
 compile_part("weighted")  # a weighted and a hierarchical solve, compiled in this process
 compile_part("hierarchical")
+robot = load_robot()  # (the thesis's orientation rows, on the numpy path)
+load_stack("vat", robot, compiled=False).solver.step(robot.configuration("walk_ready"), 0.01)
+modules = (lsq, lsq_subproblem, lsq_update, lsq_linalg, space, ticks, collision_kernels,
+           collision_packed, thesis_orientation)
 print(json.dumps({
     f"{m.__name__}.{k}": len(v.signatures)
-    for m in (lsq, lsq_subproblem, lsq_update, lsq_linalg, ticks) for k, v in vars(m).items()
+    for m in modules for k, v in vars(m).items()
     if isinstance(v, CPUDispatcher) and v.py_func.__module__ == m.__name__
 }))
 """
@@ -512,7 +520,8 @@ print(json.dumps({
 @pytest.mark.long(130)
 def test_each_kernel_compiles_once(tmp_path):
     """A weighted and a hierarchical solve from empty caches compile every kernel of the level
-    solver and the ticks for one argument type only (numba specialises on literal ints/bools,
+    solver, the ticks, the self-collision rows (and a thesis stack's orientation rows on the
+    numpy path) for one argument type only (numba specialises on literal ints/bools,
     omitted defaults, array layouts: each would be a second compilation of the call tree).
     In a fresh process with empty caches and LLVM optimisation off: only the typing counts."""
     env = {
@@ -537,4 +546,10 @@ def test_each_kernel_compiles_once(tmp_path):
         assert counts[f"wbc.compiled.{name}"] == 1, name
     for name in ("weighted_solve", "cascade_solve", "solve_with_inequalities", "_level"):
         assert counts[f"wbc.compiled.ticks.{name}"] == 1, name
+    # the self-collision rows' buffers by address: one accessor per dtype and dimension, not
+    # one per buffer (31 compilations before); the thesis's orientation rows' one axis row
+    for name in ("_f1", "_i1", "_f2", "_f3", "packed_rows"):
+        assert counts[f"wbc.limits.collision_packed.{name}"] == 1, name
+    assert counts["wbc.tasks.thesis_orientation._axis_row"] == 1
+    assert counts["wbc.compiled.space.inequality_size"] == 1
     assert {k: c for k, c in counts.items() if c > 1} == {}

@@ -396,3 +396,47 @@ def test_the_swing_gap_kernel_is_the_numpy_form():
             expected = max(0.0, float(share.max(initial=0.0)))
             got = max(0.0, swing_gap(target, walk_ready, joints, sides, speed, side))
             assert got == expected
+
+
+def test_closed_loop_figures_read_the_controllers_handover_and_relaxing(robot):
+    """``closed_loop_figures`` reads any controller's ``handover`` and ``relaxes`` (the
+    :class:`~wbc.walking.controller.Controller` defaults: None, False): the walk stack's
+    handover counts (its brace on, no fallback) and the relaxed solves only where the solver
+    relaxes; a pseudo-inverse controller has neither."""
+    from types import SimpleNamespace
+
+    from wbc.bench.closed_loop import closed_loop_figures
+    from wbc.bench.solvers import PinvController
+
+    def figures(controller):
+        source = SimpleNamespace(cost_share=lambda: 0.5, limit_excess=0.0, failed_ticks=2,
+                                 relaxed_ticks=3)  # fmt: skip
+        loop = SimpleNamespace(source=source, session=SimpleNamespace(controller=controller),
+                               stabilizer=SimpleNamespace(max_tilt_error=0.0), stepping=None,
+                               hold=None)  # fmt: skip
+        return closed_loop_figures(loop)
+
+    relaxing = StackController(load_stack("walk", robot, on_infeasible="relax"))
+    assert relaxing.relaxes and relaxing.handover is not None
+    relaxing.handover.braced = 4
+    out = figures(relaxing)
+    assert (out["braced_ticks"], out["relaxed_solves"]) == (4, 3)
+    assert "landing_fallbacks" not in out
+    walk = StackController(load_stack("walk", robot))
+    assert not walk.relaxes and "relaxed_solves" not in figures(walk)
+    pinv = PinvController("vat")
+    assert pinv.handover is None and not pinv.relaxes
+    out = figures(pinv)
+    assert not {"braced_ticks", "relaxed_solves", "landing_fallbacks"} & set(out)
+    assert out["failed_solves"] == 2
+
+
+def test_the_braced_posture_tasks_are_the_lagged_ones(robot):
+    """One list of the stack's posture tasks: a braced tick sets them all (``_posed``); with
+    a ``posture_lag`` the same tasks follow the legs (``_postures``), without one none."""
+    spec = _walk_spec()
+    handover = StackController(build_stack(spec, robot)).handover
+    assert handover._posed and handover._postures == handover._posed
+    spec["support_switch"] = {k: v for k, v in spec["support_switch"].items() if k != "posture_lag"}
+    unlagged = StackController(build_stack(spec, robot)).handover
+    assert unlagged._posed and unlagged._postures == []

@@ -22,6 +22,7 @@ from .variation import Variation, models
 
 if TYPE_CHECKING:
     from ..servos.playback import DeployResult
+    from ..walking.controller import Controller
 
 
 @dataclass(frozen=True)
@@ -185,14 +186,14 @@ def closed_loop_figures(loop) -> dict[str, Any]:
     deployment's clamp), the estimator + feedback share of the tick, the largest estimated
     torso tilt error."""
     share = loop.source.cost_share()
-    controller = loop.session.controller
-    handover = getattr(controller, "handover", None)
+    controller: Controller = loop.session.controller
+    handover = controller.handover
     extra: dict[str, Any] = {}  # (only where a fallback is configured: the stack's)
     if handover is not None and handover.fallback:
         extra["landing_fallbacks"] = handover.fallbacks
     if handover is not None and handover.brace:
         extra["braced_ticks"] = handover.braced
-    if getattr(getattr(controller, "solver", None), "on_infeasible", "raise") == "relax":
+    if controller.relaxes:
         extra["relaxed_solves"] = loop.source.relaxed_ticks
     return extra | {
         "goal_limit_excess_deg": float(np.degrees(max(loop.source.limit_excess, 0.0))),

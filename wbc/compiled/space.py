@@ -140,7 +140,7 @@ def cascade_space_size(level_rows, n: int, p: int) -> tuple:
     sets kept for the fallback (:func:`keep_size`)."""
     levels = level_rows.shape[0] - 1
     above = level_rows[max(levels - 1, 0)]
-    widest = 0
+    widest = np.int64(0)  # (not a literal 0: inequality_size compiled for int64 once)
     for k in range(levels):
         widest = max(widest, level_rows[k + 1] - level_rows[k])
     f0, i0 = level_space_size(above + SPACE_ROWS, n, widest + SPACE_ROWS)

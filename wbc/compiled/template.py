@@ -212,6 +212,9 @@ def cascade_fill(
     )
 
 
+# (the weighted tick keeps its body a function of its own: without it, the tick compiled
+# 11 s less at load ~30 but stepped 3-6 % slower, benchmarks/cold_start.md; the cascade
+# tick calls its fill and solve itself: 12 s less, 1-3 % faster)
 @njit(cache={cache})
 def weighted_body(
     soft_spec, soft_sel, soft_sqrt_w, soft_gain_w, soft_J, soft_E, soft_b,
@@ -230,25 +233,6 @@ def weighted_body(
     return weighted_solve(
         soft_J, soft_b, hard_J, hard_b, G, h, g_rows, q, q_min, q_max, params, lower, upper,
         state, working, dq, q_next,
-    )
-
-
-@njit(cache={cache})
-def cascade_body(
-    spec, sel, sqrt_w, gain_w, J, E, b, level_rows, level_hard, G, h, g_rows,
-    cspec, cparams, cslots, targets, slots, frame_ids, frame_R, frame_p, Rs, ps, vs, supports,
-    Jw, com, Jcom, hg, Ag, v, Jf, efull, Jfull, q, q_min, q_max, bspec, boxes, params, lower,
-    upper, states, working,
-    h_eff, achieved, dq, q_next, fspace, ispace,
-):
-    cascade_fill(
-        spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
-        frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
-        Jfull, q, bspec, boxes, lower, upper,
-    )
-    return cascade_solve(
-        J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper,
-        states, working, h_eff, achieved, dq, q_next, fspace, ispace,
     )
 
 
@@ -279,7 +263,15 @@ def cascade_tick(q_in, addresses, shapes, {direct}):
     gather(target_addresses, target_sizes, targets, q_in, q)
     if placer(q, p_addresses, p_shapes, frame_R, frame_p, Jw, G, h, place, g_rows, cspec) < 0:
         return {no_room}
-    return cascade_body({cascade_call})
+    cascade_fill(
+        spec, sel, sqrt_w, gain_w, J, E, b, G, h, cspec, cparams, cslots, targets, slots,
+        frame_ids, frame_R, frame_p, Rs, ps, vs, supports, Jw, com, Jcom, hg, Ag, v, Jf, efull,
+        Jfull, q, bspec, boxes, lower, upper,
+    )
+    return cascade_solve(
+        J, b, level_rows, level_hard, G, h, g_rows, q, q_min, q_max, params, lower, upper,
+        states, working, h_eff, achieved, dq, q_next, fspace, ispace,
+    )
 
 
 @njit(cache={cache})
@@ -343,7 +335,7 @@ def source(
         weighted_views=_views(WEIGHTED_ARGS), cascade_views=_views(CASCADE_ARGS),
         weighted_tick_views=_views(TICK_ARGS["weighted_tick"]),
         cascade_tick_views=_views(TICK_ARGS["cascade_tick"]), no_room=NO_ROOM,
-        weighted_call=_call(WEIGHTED_ARGS), cascade_call=_call(CASCADE_ARGS), **columns,
+        weighted_call=_call(WEIGHTED_ARGS), **columns,
     )  # fmt: skip
 
 

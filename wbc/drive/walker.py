@@ -366,8 +366,8 @@ class Walker:
         centre = self.engine.centre
         self.engine.origin[:] = rot2(centre[2]).T @ (q0[:2] - centre[:2])
         self.compensate = float(compensate)
-        ramp = LoadRamp(max(1, round(params.timing.double_support_time / self.engine.dt)))
-        self.load_ramp = ramp if load_ramp else None  #: the feed-forward's load split
+        ramp_ticks = max(1, round(params.timing.double_support_time / self.engine.dt))
+        self.load_ramp = LoadRamp(ramp_ticks) if load_ramp else None  #: the load's split
         flat = FlatLiftoff(robot, flat_liftoff)  # (checks it)
         self.flat_liftoff = flat if closed and flat_liftoff > 0 else None  #: lift-offs held
         self._paused = 0.0  # s of walk ticks the engine waited (:attr:`flat_liftoff`)

@@ -40,8 +40,28 @@ PACKED = (
 )  # fmt: skip
 
 
-#: the row of :data:`PACKED` of the pairs' first geometries
-_PAIR_A = [name for name, *_ in PACKED].index("pair_a")
+def _rows(*names: str) -> tuple[np.int64, ...]:
+    """The rows of :data:`PACKED` named ``names``, as int64 scalars: a global numba reads as a
+    plain int64, not a literal, so that each accessor (:func:`_f1`...) compiles once, not once
+    per row it is called with (31 compilations in each compile worker before)."""
+    order = [name for name, *_ in PACKED]
+    return tuple(np.int64(order.index(name)) for name in names)
+
+
+_LAST_Q, _LAST_JOINTS, _BOUND, _L_START, _L_PAIR, _L_ARM = _rows(
+    "last_q", "last_joints", "bound", "L_start", "L_pair", "L_arm"
+)
+_BOX_FRAME, _BOX_R, _BOX_P, _HALF, _RADIUS = _rows("box_frame", "box_R", "box_p", "half", "radius")
+_PAIR_A, _PAIR_B, _SUPPORT, _RW, _CW, _PLACED = _rows(
+    "pair_a", "pair_b", "support", "Rw", "cw", "placed"
+)
+_OUT_K, _OUT_D, _OUT_P1, _OUT_P2, _OUT_N, _COUNTS = _rows(
+    "out_k", "out_d", "out_p1", "out_p2", "out_n", "counts"
+)
+_ROW_PAIR, _ROW_GAP, _PARAMS, _CLOSEST, _LAST_AXIS, _WORK, _IWORK = _rows(
+    "row_pair", "row_gap", "params", "closest", "last_axis", "work", "iwork"
+)
+_BOX_MIN, _BOX_MAX, _BOX_STEP, _BOX = _rows("box_min", "box_max", "box_step", "box")
 
 
 def pack(buffers) -> tuple[np.ndarray, np.ndarray]:
@@ -122,16 +142,16 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     most = 17 * shapes[_PAIR_A, 0]  # (rows a pair at most: the witness and 8 + 8 corners)
     if r0 < 0 or G.shape[0] - r0 < most or h.shape[0] - r0 < most or G.shape[1] != Jw.shape[1]:
         return -2
-    params = _f1(addresses, shapes, 25)
-    box = _f2(addresses, shapes, 33)
-    boxed = params[5] != 0.0 and shapes[30, 0] > 0
+    params = _f1(addresses, shapes, _PARAMS)
+    box = _f2(addresses, shapes, _BOX)
+    boxed = params[5] != 0.0 and shapes[_BOX_MIN, 0] > 0
     nv = Jw.shape[1]
     if boxed:
         joint_box(
-            q, _f1(addresses, shapes, 30), _f1(addresses, shapes, 31), _f1(addresses, shapes, 32),
-            box[0], box[1], box[4:6],
+            q, _f1(addresses, shapes, _BOX_MIN), _f1(addresses, shapes, _BOX_MAX),
+            _f1(addresses, shapes, _BOX_STEP), box[0], box[1], box[4:6],
         )  # fmt: skip
-    last_q = _f1(addresses, shapes, 0)
+    last_q = _f1(addresses, shapes, _LAST_Q)
     same = True
     for i in range(q.shape[0]):
         if q[i] != last_q[i]:
@@ -150,35 +170,33 @@ def packed_rows(q, addresses, shapes, Rf, pf, Jw, G, h, r0) -> int:
     free = 0
     if boxed:  # (its centres and half widths + CULL_TOL, 0 on the free base columns)
         mid, wide = box[4], box[5]
-        free = nv - shapes[30, 0]
+        free = nv - shapes[_BOX_MIN, 0]
         for i in range(nv):
             if i < free:
                 mid[i] = wide[i] = 0.0
             else:
                 mid[i] = 0.5 * (box[0, i] + box[1, i])
                 wide[i] = 0.5 * (box[1, i] - box[0, i]) + CULL_TOL
+    a, s = addresses, shapes
     r = collision_rows(
-        q[7:], _f1(addresses, shapes, 1), _f1(addresses, shapes, 2), _i1(addresses, shapes, 3),
-        _j1(addresses, shapes, 4), _f1(addresses, shapes, 5), Rf, pf, _i1(addresses, shapes, 6),
-        _f3(addresses, shapes, 7), _f2(addresses, shapes, 8), _f2(addresses, shapes, 9),
-        _f1(addresses, shapes, 10), _i1(addresses, shapes, 11), _i1(addresses, shapes, 12),
-        _b2(addresses, shapes, 13), Jw, params[0], params[1], params[2], params[3],
-        _f3(addresses, shapes, 14), _f2(addresses, shapes, 15), _b1(addresses, shapes, 16),
-        _i1(addresses, shapes, 17), _f1(addresses, shapes, 18), _f2(addresses, shapes, 19),
-        _f2(addresses, shapes, 20), _f2(addresses, shapes, 21), _i1(addresses, shapes, 22),
-        G[r0:], h[r0:], _i1(addresses, shapes, 23), _f1(addresses, shapes, 24),
-        params[4] != 0.0, _i1(addresses, shapes, 27), _f1(addresses, shapes, 28),
-        _i1(addresses, shapes, 29), mid, wide, free,
+        q[7:], _f1(a, s, _LAST_JOINTS), _f1(a, s, _BOUND), _i1(a, s, _L_START), _j1(a, s, _L_PAIR),
+        _f1(a, s, _L_ARM), Rf, pf, _i1(a, s, _BOX_FRAME), _f3(a, s, _BOX_R), _f2(a, s, _BOX_P),
+        _f2(a, s, _HALF), _f1(a, s, _RADIUS), _i1(a, s, _PAIR_A), _i1(a, s, _PAIR_B),
+        _b2(a, s, _SUPPORT), Jw, params[0], params[1], params[2], params[3], _f3(a, s, _RW),
+        _f2(a, s, _CW), _b1(a, s, _PLACED), _i1(a, s, _OUT_K), _f1(a, s, _OUT_D),
+        _f2(a, s, _OUT_P1), _f2(a, s, _OUT_P2), _f2(a, s, _OUT_N), _i1(a, s, _COUNTS), G[r0:],
+        h[r0:], _i1(a, s, _ROW_PAIR), _f1(a, s, _ROW_GAP), params[4] != 0.0, _i1(a, s, _LAST_AXIS),
+        _f1(a, s, _WORK), _i1(a, s, _IWORK), mid, wide, free,
     )  # fmt: skip
     for i in range(q.shape[0]):
         last_q[i] = q[i]
     for i in range(nv):
         box[2, i] = box[0, i] if boxed else np.nan
         box[3, i] = box[1, i] if boxed else np.nan
-    closest = _f1(addresses, shapes, 26)
-    out_d = _f1(addresses, shapes, 18)
+    closest = _f1(addresses, shapes, _CLOSEST)
+    out_d = _f1(addresses, shapes, _OUT_D)
     closest[0] = np.inf
-    for i in range(_i1(addresses, shapes, 22)[2]):
+    for i in range(_i1(addresses, shapes, _COUNTS)[2]):
         closest[0] = min(closest[0], out_d[i])
     return r
 

@@ -18,6 +18,10 @@ from ..model import Kinematics, Robot
 from .frame_task import FrameTask
 from .task import TaskError, check_rotation, check_vector
 
+#: the columns (x, z) and rows of :func:`_axis_row`'s calls, int64 scalars: a global numba
+#: reads as a plain int64, not a literal, so that it compiles once, not once per call
+_X, _Z, _ROW0, _ROW1 = np.int64(0), np.int64(2), np.int64(0), np.int64(1)
+
 
 @njit(cache=True)
 def _axis_row(a0, a1, a2, R, c, Jf, e, J, i) -> None:
@@ -38,8 +42,8 @@ def swing_axes_rows(
     """[1 − k·k_f, 1 − i·i_f] (target: R* row-major, k = its z column, i = its x column)."""
     f = slots[0]
     frame_jacobian(Jw, supports[f], ps[f], Jf)
-    _axis_row(target[2], target[5], target[8], Rs[f], 2, Jf, e, J, 0)
-    _axis_row(target[0], target[3], target[6], Rs[f], 0, Jf, e, J, 1)
+    _axis_row(target[2], target[5], target[8], Rs[f], _Z, Jf, e, J, _ROW0)
+    _axis_row(target[0], target[3], target[6], Rs[f], _X, Jf, e, J, _ROW1)
 
 
 @njit(cache=True)
@@ -49,7 +53,7 @@ def torso_axis_rows(
     """1 − a·k_t (target: the axis a)."""
     f = slots[0]
     frame_jacobian(Jw, supports[f], ps[f], Jf)
-    _axis_row(target[0], target[1], target[2], Rs[f], 2, Jf, e, J, 0)
+    _axis_row(target[0], target[1], target[2], Rs[f], _Z, Jf, e, J, _ROW0)
 
 
 class SwingFootOrientationTask(FrameTask):

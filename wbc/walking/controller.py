@@ -104,6 +104,14 @@ class Controller(ABC):
     def relaxed(self) -> bool:
         return False
 
+    @property  # its solver relaxes an infeasible hard level (on_infeasible "relax"; no levels: no)
+    def relaxes(self) -> bool:
+        return False
+
+    #: the stack's support-switch handover (:class:`~wbc.walking.handover.SwitchHandover`;
+    #: None: no stack's, or a stack without a ``[support_switch]`` table)
+    handover: SwitchHandover | None = None
+
 
 class StackController(Controller):
     """A declarative task stack (:mod:`wbc.stacks`) driven by the walking targets."""
@@ -366,3 +374,4 @@ class StackController(Controller):
         return self.control.stack.errors()
 
     relaxed = property(lambda self: self.solver.relaxed)  # (its QP's: StackSolver.relaxed)
+    relaxes = property(lambda self: self.solver.on_infeasible == "relax")

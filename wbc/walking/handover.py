@@ -160,9 +160,10 @@ class SwitchHandover:
         self._landed: str | None = None
         robot: Robot = control.robot
         tasks = list(control.stack.tasks())
-        self._postures = [t for t in tasks if isinstance(t, PostureTask)] if self.lag else []
-        #: the tasks whose targets a braced tick sets to the pose at q (:meth:`_braced`)
+        #: the posture tasks: their targets a braced tick sets to the pose at q (:meth:`_braced`)
         self._posed = [t for t in tasks if isinstance(t, PostureTask)]
+        #: the posture tasks whose targets follow the legs (:meth:`update`; with a lag only)
+        self._postures = self._posed if self.lag else []
         self._contacts = [t for t in tasks if isinstance(t, ContactTask)]
         legs = [
             (frame, robot.joint_index(j))
