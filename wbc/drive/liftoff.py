@@ -58,6 +58,11 @@ class FlatLiftoff:
         wait if the soles in ``q`` (present positions; None: unread) are not flat."""
         self._left = self.ticks if q is not None and soles_tilt(self.robot, q) > self.tilt else 0
 
+    @property
+    def armed(self) -> bool:
+        """A lift-off may still wait (:meth:`hold` reads the soles only then)."""
+        return self._left > 0
+
     def hold(self, q: np.ndarray | None) -> bool:
         """Whether this tick waits (the engine not advanced): armed, some wait left and the
         soles in ``q`` still tilted (unread: no wait)."""

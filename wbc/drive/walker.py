@@ -598,7 +598,8 @@ class Walker:
         dt = engine.dt if dt is None else float(dt)
         target_t = self._t + dt
         e = self.last
-        if self.flat_liftoff is not None and self.flat_liftoff.hold(self._present_configuration()):
+        flat = self.flat_liftoff  # (the present configuration read only while one is armed)
+        if flat is not None and flat.armed and flat.hold(self._present_configuration()):
             self._paused += dt  # (the lift-off waits; the command's pose moves on)
             engine.advance_command(dt)
         while e is None or engine.k * engine.dt + self._paused < target_t - 1e-9:
