@@ -173,3 +173,34 @@ def test_bad_task_parameters(robot):
 
     with pytest.raises(ModelError, match="unknown frame"):
         FramePositionTask(robot, "nose")
+
+
+def test_a_pose_target_packed_ahead_is_set_as_set_target_sets_it(robot):
+    """FramePoseTask.pack_target checks a target as set_target does and packs it
+    (position, rotation row-major); set_target(target, packed) then copies it: the same
+    target arrays bit for bit. A rotation that fails the check packs to None (set_target
+    raises as before); a subclass with its own setter ignores a packed target (its setter
+    runs)."""
+    rng = np.random.default_rng(3)
+    for _ in range(8):
+        target = pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(size=3))
+        direct, packed_task = FramePoseTask(robot, "l_sole"), FramePoseTask(robot, "l_sole")
+        direct.set_target(target)
+        packed = packed_task.pack_target(target)
+        assert packed is not None and not np.array_equal(packed_task.target_packed, packed)
+        packed_task.set_target(target, packed)
+        assert np.array_equal(direct.target_packed, packed_task.target_packed)
+        assert np.array_equal(packed_task.target_position, target.translation)
+        assert np.array_equal(packed_task.target_rotation, target.rotation)
+    skewed = pin.SE3(np.diag([1.0, 1.0, 1.1]), np.zeros(3))
+    assert FramePoseTask(robot, "l_sole").pack_target(skewed) is None
+    with pytest.raises(TaskError):
+        FramePoseTask(robot, "l_sole").set_target(skewed)
+
+    class Own(FramePoseTask):
+        def set_position_target(self, position) -> None:
+            super().set_position_target(np.asarray(position) + 1.0)
+
+    own = Own(robot, "l_sole")
+    own.set_target(target, FramePoseTask(robot, "l_sole").pack_target(target))
+    assert np.array_equal(own.target_position, target.translation + 1.0)

@@ -440,3 +440,46 @@ def test_the_braced_posture_tasks_are_the_lagged_ones(robot):
     spec["support_switch"] = {k: v for k, v in spec["support_switch"].items() if k != "posture_lag"}
     unlagged = StackController(build_stack(spec, robot)).handover
     assert unlagged._posed and unlagged._postures == []
+
+
+@pytest.mark.parametrize("change", ["none", "nudged q", "skipped tick"])
+def test_a_landing_anchor_placed_ahead_is_the_ticks_own_or_rewritten(robot, change):
+    """The landing's anchor made ahead is written into its contact in the idle part
+    (SwitchHandover.place_ahead, so that the idle part's rehearsals solve the tick's own
+    contact target): at the touch-down and on the landing's way the contacts hold, before
+    each tick, the targets the tick then sets (a walk without the idle part moves them in the
+    tick). Where the tick is not the one prepared — its q nudged after the idle part (the
+    touch-down made in the tick), or the prepared tick skipped (the switch made ahead taken
+    back) — the tick writes its own: every walk bit for bit the one without the idle part."""
+    ref = build("walk10", robot)
+    s = ref.support
+    land = int(np.flatnonzero((s[1:] == 0) & (s[:-1] != 0))[0]) + 1
+    runs = []
+    for idle in (False, True):
+        controller = StackController(load_stack("walk", robot))
+        contacts = controller.handover._contacts
+        session = Session(controller, robot, ref)
+        qs, moved = [], []
+        for i in range(land + 8):
+            if change == "skipped tick" and i == land:
+                continue
+            before = [t.target_packed.copy() for t in contacts]
+            qs.append(session.tick(i).copy())
+            assert not session.failed
+            if land <= i < land + 6:
+                after = [t.target_packed for t in contacts]
+                moved.append(not all(map(np.array_equal, before, after)))
+            if idle:
+                session.prepare_next()
+                session.warm_next()
+            if change == "nudged q" and i == land - 1:
+                session.q = session.q.copy()
+                session.q[7:] += 1e-5  # (after the idle part: not the q it was made for)
+        runs.append((np.array(qs), moved))
+    (without, moved_in_tick), (with_idle, moved_ahead) = runs
+    assert all(moved_in_tick), moved_in_tick
+    # (the tick made its own; after the skip the idle part prepares the last tick plus a gap
+    # of 2, and the next tick played is 1 on: made in the tick once more)
+    made_in_tick = {"none": 0, "nudged q": 1, "skipped tick": 2}[change]
+    assert all(moved_ahead[:made_in_tick]) and not any(moved_ahead[made_in_tick:]), moved_ahead
+    assert np.array_equal(without, with_idle)

@@ -58,32 +58,65 @@ class FramePoseTask(FrameTask):
     ) -> None:
         super().__init__(robot, frame, name, gain, weight, mask)
         packed = np.zeros(12)  # (both in one array: the compiled tick copies one source)
+        #: the position and rotation (row-major) targets in one array (never re-bound)
+        self.target_packed = packed
         self.target_position = packed[:3]
         self.target_rotation = packed[3:].reshape(3, 3)
         self.target_rotation[:] = np.eye(3)
         if target is not None:
             self.set_target(target)
 
-    def set_target(self, target: pin.SE3) -> None:
+    def set_target(self, target: pin.SE3, packed: np.ndarray | None = None) -> None:
         """Position and rotation, checked as their setters check them. In one compiled call
         when those setters are this class's own (a support switch anchors its contacts so:
         ~10 µs less at a switch to double support); a target that fails a check goes
-        through the setters, which raise."""
+        through the setters, which raise. ``packed``: :meth:`pack_target` of ``target``, made
+        ahead (a loop's idle part: a landing's anchor), copied as it is (checked there)."""
         if not isinstance(target, pin.SE3):
             raise TaskError(f"task {self.name!r}: target must be a pinocchio.SE3")
-        cls, p, R = type(self), self.target_position, self.target_rotation
+        whole = self.target_packed
         if (
+            packed is not None
+            and self._packed_setters()
+            and self.target_position.base is whole
+            and self.target_rotation.base is whole
+        ):
+            np.copyto(whole, packed)
+            return
+        if self._packed_setters() and self._copy(
+            target, self.target_position, self.target_rotation
+        ):
+            return
+        self.set_position_target(target.translation)
+        self.set_rotation_target(target.rotation)
+
+    def pack_target(self, target: pin.SE3) -> np.ndarray | None:
+        """``target`` checked as :meth:`set_target` checks it, in a new array laid out as
+        :attr:`target_packed` (position, rotation row-major), for a later ``set_target(target,
+        packed)``: None where the setters must run (a subclass's own, or a check fails)."""
+        packed = np.empty(12)
+        if self._packed_setters() and self._copy(target, packed[:3], packed[3:].reshape(3, 3)):
+            return packed
+        return None
+
+    def _packed_setters(self) -> bool:
+        """Whether the targets go in by one compiled check and copy: the setters this class's
+        own, the target arrays float64 views of :attr:`target_packed`."""
+        cls, p, R = type(self), self.target_position, self.target_rotation
+        return (
             cls.set_position_target is FramePoseTask.set_position_target
             and cls.set_rotation_target is FramePoseTask.set_rotation_target
             and p.dtype is _F8
             and R.dtype is _F8
             and p.shape == (3,)
             and R.shape == (3, 3)
-            and _copy_pose(target.translation, target.rotation, p, R, ROTATION_TOL) <= ROTATION_TOL
-        ):
-            return
-        self.set_position_target(target.translation)
-        self.set_rotation_target(target.rotation)
+        )
+
+    @staticmethod
+    def _copy(target: pin.SE3, p: np.ndarray, R: np.ndarray) -> bool:
+        """``target`` checked and copied into ``p``, ``R`` (:func:`wbc.compiled.checks.copy_pose`);
+        False (nothing copied) if a check fails."""
+        return _copy_pose(target.translation, target.rotation, p, R, ROTATION_TOL) <= ROTATION_TOL
 
     def set_position_target(self, position: Sequence[float]) -> None:
         check_vector(self, position, 3, "target position", out=self.target_position)

@@ -288,14 +288,19 @@ class StackController(Controller):
         if free and self._anchored(targets, anchors):
             undo = control.set_phase_ahead(*key, self._kin, anchors)
             self._ahead = (key, targets.l_sole, targets.r_sole, undo)
+            if self.handover is not None:
+                self.handover.place_ahead()  # (the landing's anchor: the rehearsal's too)
             self.solver.switch_layout()  # (its layout too: kept, taken by the phase's key)
             self.solver.rehearse(dt)  # (its first tick run once and forgotten)
         self.solver.prepare_output()
 
     def prepare_tick(self, q: np.ndarray, targets: TickTargets, dt: float | None = None) -> None:
-        """A landing's next share made ahead (:meth:`SwitchHandover.prepare`), the output too."""
+        """A landing's next share made ahead (:meth:`SwitchHandover.prepare`) and written
+        into its contact (:meth:`SwitchHandover.place_ahead`: the warm-up rehearses the tick
+        with it), the output too."""
         if self.handover is not None:
             self.handover.prepare(q, targets, self.dt if dt is None else dt)
+            self.handover.place_ahead()
         self.solver.prepare_output()
 
     def warm(self, dt: float) -> None:

@@ -232,14 +232,34 @@ class SwitchHandover:
         if targets.contacts_move or not self.landing_time or targets.phase == "single":
             return
         if self._swing is not None:  # (the last tick in single support: a touch-down next)
-            made = self._land(q, targets, dt)
+            anchor, landing = self._land(q, targets, dt)
             inputs: tuple = (q, q.tobytes())
         elif self._landing is not None:
-            made = self._step(self._landing, targets, dt)
+            anchor, landing = self._step(self._landing, targets, dt)
             inputs = (self._landing, None)
         else:
             return
+        packed = self._contacts[0].pack_target(anchor) if self._contacts else None
+        made = (anchor, landing, packed)
         self._prepared = (*inputs, targets.l_sole, targets.r_sole, dt, self._swing, made)
+
+    def place_ahead(self) -> None:
+        """The landing's anchor :meth:`prepare` made written into its contact now (the loop's
+        idle part, after the support switch made ahead: the contact of the landing sole
+        active in the tick's phase), so that the idle part's rehearsals of the tick
+        (:func:`wbc.solvers.rehearsal.rehearse`: the switch's, the warm-up's) solve it with
+        the tick's own contact target. The tick writes its anchor itself all the same
+        (:meth:`update`: the same numbers if it is the tick prepared, else its own); a switch
+        made ahead and taken back puts back the targets from before it; a contact of that
+        sole not active in the tick's phase is anchored afresh when it becomes active."""
+        made = self._prepared
+        if made is None:
+            return
+        frame = made[5] if made[5] is not None else made[0][0]  # (a touch-down's, the way's)
+        anchor, _, packed = made[-1]
+        for task in self._contacts:
+            if task.active and task.frame == frame:
+                task.set_target(anchor, packed)
 
     def _land(self, q: np.ndarray, targets, dt: float) -> tuple:
         """A touch-down at ``q``: (the anchor of its tick, the landing after it)."""
@@ -386,17 +406,19 @@ class SwitchHandover:
             return
         if phase_changed and self._swing is not None:  # a touch-down: anchor where it is
             frame = self._landed = self._swing
-            made = self._made_ahead(q, targets, dt)
-            anchor, self._landing = made if made is not None else self._land(q, targets, dt)
+            made = self._made_ahead(q, targets, dt) or (*self._land(q, targets, dt), None)
         elif self._landing is None:
             return
         else:
             frame, landing = self._landing[0], self._landing
-            made = self._made_ahead(landing, targets, dt)
-            anchor, self._landing = made if made is not None else self._step(landing, targets, dt)
+            made = self._made_ahead(landing, targets, dt) or (
+                *self._step(landing, targets, dt),
+                None,
+            )
+        anchor, self._landing, packed = made
         for task in self._contacts:
             if task.active and task.frame == frame:
-                task.set_target(anchor)
+                task.set_target(anchor, packed)  # (packed: checked ahead, copied)
 
     def solve(self, solver, q: np.ndarray, targets, dt: float) -> np.ndarray:
         """``solver.step(q, dt)`` (a :class:`~wbc.solvers.base.StackSolver`), after
