@@ -10,7 +10,7 @@ time (µs), the slots missed and the ticks' lateness p99 (benchmarks/self_collis
 twenty-first session).
 
 Run: ``python benchmarks/live_warm.py [--trajectory walk10] [--stack walk_strict]
-[--rounds 2] [--rate 50] [--slowest]``.
+[--rounds 2] [--rate 50] [--slowest] [--clock cpu]``.
 """
 
 from __future__ import annotations
@@ -30,15 +30,19 @@ from wbc.servos import DeployConfig, Deployment
 from wbc.servos.dynamixel import DynamixelBus
 from wbc.servos.emulator import AX12Emulator
 from wbc.stacks import load_stack
-from wbc.walking.loop import Session, StackController
+from wbc.walking.loop import RunOptions, Session, StackController
 
 
-def play(robot, ref, stack: str, warm: bool, rate: float, verbose: bool = False) -> tuple:
+def play(
+    robot, ref, stack: str, warm: bool, rate: float, verbose: bool = False, clock: str = "wall"
+) -> tuple:
     """One walk through the deployment: (median, p99, first ÷ median, warm-up µs, ticks,
-    missed slots, lateness p99 µs); ``verbose``: its slowest first ticks of a phase printed."""
+    missed slots, lateness p99 µs); ``verbose``: its slowest first ticks of a phase printed;
+    ``clock``: the ticks' and warm-ups' clock ("cpu": the thread's CPU time, a loaded
+    machine's preemptions left out; :mod:`wbc.walking.clock`)."""
     controller = StackController(load_stack(stack, robot, solver="hierarchical"))
     controller.solver.warm_ahead = warm
-    session = Session(controller, robot, ref)
+    session = Session(controller, robot, ref, options=RunOptions(clock=clock))
     source = SessionSource(session)
     warmed: list[float] = []
     warm_next = session.warm_next
@@ -90,13 +94,16 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--rate", type=float, default=50.0)
     parser.add_argument("--slowest", action="store_true", help="each run's slowest first ticks")
+    parser.add_argument("--clock", default="wall", help="the ticks' clock: wall or cpu")
     args = parser.parse_args()
     robot = load_robot("bioloid")
     ref = build(args.trajectory, robot)
     runs: dict[bool, list[tuple]] = {False: [], True: []}
     for r in range(args.rounds):
         for warm in (False, True):
-            runs[warm].append(play(robot, ref, args.stack, warm, args.rate, args.slowest))
+            runs[warm].append(
+                play(robot, ref, args.stack, warm, args.rate, args.slowest, args.clock)
+            )
             print(
                 f"{r} {'warm' if warm else 'off '} median %.0f p99 %.0f first/median %.2f "
                 "warm-up %.0f µs ticks %d missed %d lateness p99 %.0f µs" % runs[warm][-1],
