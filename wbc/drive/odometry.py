@@ -105,6 +105,7 @@ class PoseOdometry:
         encoder_rest: bool = False,
         heading_gain: float = 1.0,
         heading_band: float = DRIVE_HEADING_BAND,
+        rest_rotation: bool = False,
     ) -> None:
         if not 0.0 < heading_gain <= 1.0:  # (NaN too)
             raise ConfigurationError(f"heading_gain must be in (0, 1], got {heading_gain}")
@@ -119,6 +120,14 @@ class PoseOdometry:
         self.heading_gain = float(heading_gain)
         #: at rest, the torso's turn seen by the encoders is not bias (:meth:`rest`)
         self.encoder_rest = bool(encoder_rest)
+        #: at rest, the gyro's whole bias (3, torso frame) is learnt less the torso's rotation
+        #: seen by the encoders, and taken out of the rate before the heading's increment
+        #: (:meth:`rest`; ``encoder_rest``'s turn included)
+        self.rest_rotation = bool(rest_rotation)
+        #: the gyro's bias learnt at rest with ``rest_rotation`` (rad/s, torso frame)
+        self.rate_bias = np.zeros(3)
+        self._rest_rate = np.zeros(3)  # Σ ω dt over the rests, less the encoders' rotation
+        self._rest_rotation: np.ndarray | None = None  # the torso's last rotation at rest
         #: > 0: the bias about the vertical learnt while walking too (:meth:`landed`)
         self.walk_gain = float(walk_gain)
         self.time = 0.0  # s of :meth:`turn` and :meth:`rest` ticks
@@ -154,6 +163,7 @@ class PoseOdometry:
         torso leaning forward while it rocks sideways changes its heading by more than the
         vertical rate's integral, ~20° over 30 s of walking, benchmarks/drive.md), less the
         vertical bias learnt at rest (:attr:`yaw_bias`)."""
+        rate = np.asarray(rate, dtype=float) - self.rate_bias
         self.heading += self._increment(rotation, rate, dt) - self.yaw_bias * dt
         self.time += dt
 
@@ -161,7 +171,21 @@ class PoseOdometry:
         """One tick standing still (both soles on the floor, the robot not walking), as
         :meth:`turn`; the heading's mean rate over the rests so far is the gyro's bias about
         the vertical (:attr:`yaw_bias`, module docstring), taken out of the heading from
-        then on."""
+        then on. With ``rest_rotation``: the bias is the whole rate's, in the torso's frame,
+        ``b = (Σ ω dt − Σ log(R_{k−1}ᵀ R_k)) / Σ dt`` with ``R`` the torso's rotation over
+        the soles by the encoders (``rotation``), taken out of the rate (:attr:`rate_bias`):
+        a torso that settles or twists over its soles at rest is not bias, and the bias about
+        the torso's other axes is not projected onto the vertical at the rest's lean alone
+        (the walk leans further: benchmarks/drive.md, 2026-12-07)."""
+        if self.rest_rotation:
+            last, self._rest_rotation = self._rest_rotation, np.array(rotation, dtype=float)
+            seen = np.zeros(3) if last is None else pin.log3(last.T @ self._rest_rotation)
+            self._rest_rate += np.asarray(rate, dtype=float) * dt - seen
+            self.rest_time += dt
+            self.rate_bias = self._rest_rate / self.rest_time
+            self.heading += self._increment(rotation, np.asarray(rate) - self.rate_bias, dt)
+            self.time += dt
+            return
         d = self._increment(rotation, rate, dt)
         self._rest_angle += d
         self.rest_time += dt
