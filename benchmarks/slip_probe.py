@@ -39,6 +39,7 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
+from wbc.drive.odometry import PoseOdometry
 from wbc.geometry import heading_free, rot_z, wrap_angle, yaw_of
 from wbc.sim.model import CONDIMS
 from wbc.types import SUPPORT_DOUBLE
@@ -350,8 +351,10 @@ def heading(f: str, every: float = 2.0) -> None:
     t, walking = d["t"], d["walking"]
     k0 = int(np.argmax(walking)) + 1  # (the odometry starts at the walk's first tick)
 
-    def unwrap(a: np.ndarray) -> np.ndarray:
-        return np.degrees(np.unwrap(a) - np.unwrap(a)[k0])
+    def unwrap(a: np.ndarray) -> np.ndarray:  # (from the walk's first tick: NaN before it)
+        out = np.full(len(a), math.nan)
+        out[k0:] = np.degrees(np.unwrap(a[k0:]) - a[k0])
+        return out
 
     true_torso = unwrap(np.array([yaw_of(R) for R in d["true_R"]]))
     soles_true = unwrap(np.array([math.atan2(np.sin(r).sum(), np.cos(r).sum())
@@ -369,6 +372,18 @@ def heading(f: str, every: float = 2.0) -> None:
     for k in [*marks, len(t) - 1]:
         print(f"  {t[k]:5.1f} " + "".join(f"{v[k]:10.2f}" for v in cols.values())
               + f"   {math.degrees(d['yaw_bias'][k]):+.4f}  {int(walking[k])}")  # fmt: skip
+    rest, dt = np.flatnonzero(d["resting"]), float(np.median(np.diff(t)))
+    if rest.size > 1:  # the rest's learning against the simulator's turn
+        a, b = int(rest[0]), int(rest[-1])
+        yaw = np.unwrap([yaw_of(R) for R in d["true_R"]])
+        step = np.array([PoseOdometry._increment(d["true_R"][k], d["gyro"][k + 1], dt)
+                         - (yaw[k + 1] - yaw[k]) for k in range(len(t) - 1)])  # fmt: skip
+        walk = walking[:-1]
+        print(f"  rest {t[a]:.2f}-{t[b]:.2f} s: the torso turned "
+              f"{math.degrees(yaw[b] - yaw[a]):+.3f} deg (simulator); the gyro's rate about "
+              f"the vertical less the simulator's "
+              f"(on its tilt) {math.degrees(step[a:b].mean() / dt):+.3f} deg/s at rest, "
+              f"{math.degrees(step[walk].mean() / dt):+.3f} walking")  # fmt: skip
     end = len(t) - 1
     print(f"  at the end: gyro - torso {cols['gyro'][end] - cols['torso'][end]:+.2f}, odo soles"
           f" - soles {cols['odo soles'][end] - cols['soles'][end]:+.2f}, base - cmd "
