@@ -42,7 +42,12 @@ Walker's rest for it, ``yaw_rest_s``, 1.5 s by default). Not the vertical rate's
 phase has one (the rocking's enclosed area per cycle) while its heading stays.
 
 The error left is the gyro's bias (with a rest: the noise and the robot's slow creep over
-it) and the soles' sliding.
+it) and the soles' sliding. On the stiff, rocking randomised Bioloid 0 the torso twists
+±0.25° over the 1.5 s rest inside the servos' play (the encoders read 0.03–0.1° of it), a
+bias error of ±0.17°/s, and walking the gyro reads the heading's rate 0.12–0.16°/s lower
+than at rest (its bias about the torso's pitch axis, 3°/s after the start-up calibration,
+at the walk's lean and roll, and what 100 Hz samples miss): 5° and 4–5° over 30 s, which
+add or cancel with the rest's twist (benchmarks/drive.md, 2026-12-07, i33t).
 """
 
 from __future__ import annotations
