@@ -116,8 +116,9 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             yaw_rest: float | None = None, finish: bool = False,
             stride_gain: float | None = None, yaw_learn: float | None = None,
             lift_gain: float | None = None, filter_heading: bool = False,
-            encoder_rest: bool = False, play: str | float | None = None,
-            play_hold: float | None = None, play_lift: bool = False,
+            encoder_rest: bool = False, rest_rotation: bool = False,
+            play: str | float | None = None, play_hold: float | None = None,
+            play_lift: bool = False,
             play_load: str | None = None, params=None, keep_clear: bool = True,
             landing_share: float | None = None, landing_contact: bool = True,
             base_hold: float | None = None,
@@ -135,6 +136,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
+        "rest_rotation": rest_rotation or None,
         "play_hold": play_hold, "play_lift": play_lift or None, "play_load": play_load,
         "hold": base_hold, "landing_share": landing_share,
         "landing_contact": None if landing_contact else False,
@@ -278,6 +280,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="the outer loop's heading on the attitude filter's rate (the gyro "
                          "with the filter's bias correction; "
                          "Walker(filter_heading=True))")  # fmt: skip
+    ap.add_argument("--rest-rotation", action="store_true",
+                    help="the rest learns the gyro's whole bias (3 axes) less the torso's "
+                         "rotation over the soles seen by the encoders, taken out of the rate "
+                         "(Walker(rest_rotation=True); default off)")  # fmt: skip
     ap.add_argument("--encoder-rest", action=argparse.BooleanOptionalAction, default=False,
                     help="the rest's vertical gyro bias less the torso's turn seen by the "
                          "encoders (Walker(encoder_rest=True); default off: not better on "
@@ -411,6 +417,7 @@ def main(argv: list[str] | None = None) -> int:
         "lift_gain": args.lift_gain,
         "filter_heading": args.filter_heading,
         "encoder_rest": args.encoder_rest,
+        "rest_rotation": args.rest_rotation,
         "play": args.play,
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,

@@ -51,6 +51,7 @@ from wbc.compiled.rows import log3
 from wbc.model import Robot
 from wbc.recording import Recording
 from wbc.sim.log import PlayResult
+from wbc.sim.model import CONDIMS
 
 #: label -> (compliance gain, gains, IMU, loop on, stepping); None: the plan played open loop
 VARIANTS: dict[str, tuple[float, dict, bool, bool, bool] | None] = {
@@ -179,6 +180,9 @@ def main() -> None:
         help="JSON of HoldParams keywords (the lift-off hold's), e.g. '{\"contact\": true}'",
     )
     p.add_argument("--plants", type=int, nargs="*", help="only these plants of the sweep")
+    p.add_argument("--condim", type=int, default=3, choices=CONDIMS,
+                   help="the randomised plants' floor contact dimensions (ModelParams.condim; "
+                        "the nominal plant keeps its own)")  # fmt: skip
     p.add_argument("--no-nominal", action="store_true", help="skip the nominal plant (screens)")
     p.add_argument(
         "--calibrate",
@@ -202,7 +206,8 @@ def main() -> None:
     )
     args = p.parse_args()
     robot, entry = bioloid_entry(args.solver, args.stack)
-    plants = list(enumerate(models(robot, args.models, args.seed)))
+    plants = [(k, replace(v, model_params=replace(v.model_params, condim=args.condim)))
+              for k, v in enumerate(models(robot, args.models, args.seed))]  # fmt: skip
     if args.plants:
         plants = [plants[k] for k in args.plants]
     print(f"{args.solver} ({entry.stack}), {args.models} randomised plants (seed {args.seed})")

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,9 @@ from wbc import load_robot
 from wbc.bench.variation import models
 from wbc.drive.commands import random_commands
 from wbc.drive.envelope import planning_envelope
+from wbc.drive.odometry import PoseOdometry
 from wbc.geometry import heading_free, rot_z, wrap_angle, yaw_of
+from wbc.sim.model import CONDIMS
 from wbc.types import SUPPORT_DOUBLE
 from wbc.walking.engine import EngineParams
 
@@ -53,6 +56,8 @@ def record(args) -> None:
     limits, window = planning_envelope(robot)
     share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)
     variation = models(robot, args.model + 1, args.seed)[args.model]
+    variation = replace(variation, model_params=replace(variation.model_params,
+                                                        condim=args.condim))  # fmt: skip
     rows: list[dict] = []
     landings: list[tuple[float, str]] = []
     sims: list = []
@@ -99,6 +104,14 @@ def record(args) -> None:
                 "stance": 0 if e.support_frame == "l_sole" else 1,
                 "walking": bool(self.engine.walking),
                 "heading": odo.heading if odo is not None else math.nan,
+                "yaw_bias": odo.yaw_bias if odo is not None else math.nan,
+                "resting": self._yaw_rest_left > 0,
+                "odo_soles": np.array([odo.soles.get(s, np.full(3, math.nan))
+                                       for s in SOLES]) if odo is not None and odo.soles
+                else np.full((2, 3), math.nan),
+                "pose_cmd": np.array(self.engine.pose_cmd, float),
+                "centre": np.array(self.engine.centre + self.engine.odometry_offset, float),
+                "base_yaw": yaw_of(sim.base_rotation()),
                 "est_R": np.array(stab.last.rotation) if stab.last is not None else np.eye(3),
                 "true_R": imu.rotation.copy(), "true_p": imu.translation.copy(),
                 "soles": np.array([np.r_[s.translation, yaw_of(s.rotation)] for s in soles]),
@@ -122,8 +135,10 @@ def record(args) -> None:
     params = None if args.transfer is None else EngineParams(transfer=args.transfer)
     r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
                       params=params, load_ramp=args.load_ramp,
-                      flat_liftoff=args.flat_liftoff)  # fmt: skip
+                      flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
+                      rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
+          f"heading {math.degrees(r['travelled_yaw_rad'] - r['commanded_yaw_rad']):+.2f} deg, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
     out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
     out["landing_t"] = np.array([t for t, _ in landings])
@@ -324,6 +339,58 @@ def edges(f: str, thresholds: tuple[float, ...] = (2.0, 4.0, 6.0)) -> None:
           + ", ".join(f"{R[i, 0]:.1f}/{R[i, 1]:.1f}/{R[i, 2]:.1f}" for i in top))  # fmt: skip
 
 
+def heading(f: str, every: float = 2.0) -> None:
+    """The outer loop's heading against the simulator's, tick by tick, of one recording
+    (degrees, each from the walk's first tick): the command's (``cmd``, the engine's
+    commanded pose), the walking frame the engine aims from (``frame``: its plan plus the
+    odometry's offset), the odometry's soles' mean heading (``odo soles``) against the
+    simulator's (``soles``), the gyro's torso heading (``gyro``) against the simulator's
+    torso (``torso``) and base (``base``), and the bias about the vertical learnt so far
+    (deg/s); every ``every`` s and at the end."""
+    d = dict(np.load(f))
+    t, walking = d["t"], d["walking"]
+    k0 = int(np.argmax(walking)) + 1  # (the odometry starts at the walk's first tick)
+
+    def unwrap(a: np.ndarray) -> np.ndarray:  # (from the walk's first tick: NaN before it)
+        out = np.full(len(a), math.nan)
+        out[k0:] = np.degrees(np.unwrap(a[k0:]) - a[k0])
+        return out
+
+    true_torso = unwrap(np.array([yaw_of(R) for R in d["true_R"]]))
+    soles_true = unwrap(np.array([math.atan2(np.sin(r).sum(), np.cos(r).sum())
+                                  for r in d["soles"][:, :, 3]]))  # fmt: skip
+    odo = d["odo_soles"][:, :, 2]
+    soles_odo = unwrap(np.array([math.atan2(np.sin(r).sum(), np.cos(r).sum()) for r in odo]))
+    cols = {"cmd": unwrap(d["pose_cmd"][:, 2]), "frame": unwrap(d["centre"][:, 2]),
+            "odo soles": soles_odo, "soles": soles_true, "gyro": unwrap(d["heading"]),
+            "torso": true_torso, "base": unwrap(d["base_yaw"])}  # fmt: skip
+    print(f"{f}: walk from t = {t[k0]:.2f} s, bias learnt "
+          f"{math.degrees(d['yaw_bias'][k0]):+.3f} deg/s at it, "
+          f"{math.degrees(d['yaw_bias'][-1]):+.3f} at the end")  # fmt: skip
+    print("  t s   " + "".join(f"{k:>10s}" for k in cols) + "   bias deg/s  walking")
+    marks = list(range(k0, len(t), max(1, round(every / float(np.median(np.diff(t)))))))
+    for k in [*marks, len(t) - 1]:
+        print(f"  {t[k]:5.1f} " + "".join(f"{v[k]:10.2f}" for v in cols.values())
+              + f"   {math.degrees(d['yaw_bias'][k]):+.4f}  {int(walking[k])}")  # fmt: skip
+    rest, dt = np.flatnonzero(d["resting"]), float(np.median(np.diff(t)))
+    if rest.size > 1:  # the rest's learning against the simulator's turn
+        a, b = int(rest[0]), int(rest[-1])
+        yaw = np.unwrap([yaw_of(R) for R in d["true_R"]])
+        step = np.array([PoseOdometry._increment(d["true_R"][k], d["gyro"][k + 1], dt)
+                         - (yaw[k + 1] - yaw[k]) for k in range(len(t) - 1)])  # fmt: skip
+        walk = walking[:-1]
+        print(f"  rest {t[a]:.2f}-{t[b]:.2f} s: the torso turned "
+              f"{math.degrees(yaw[b] - yaw[a]):+.3f} deg (simulator); the gyro's rate about "
+              f"the vertical less the simulator's "
+              f"(on its tilt) {math.degrees(step[a:b].mean() / dt):+.3f} deg/s at rest, "
+              f"{math.degrees(step[walk].mean() / dt):+.3f} walking")  # fmt: skip
+    end = len(t) - 1
+    print(f"  at the end: gyro - torso {cols['gyro'][end] - cols['torso'][end]:+.2f}, odo soles"
+          f" - soles {cols['odo soles'][end] - cols['soles'][end]:+.2f}, base - cmd "
+          f"{cols['base'][end] - cols['cmd'][end]:+.2f}, frame - cmd "
+          f"{cols['frame'][end] - cols['cmd'][end]:+.2f}")  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequence", type=int, default=13)
@@ -343,9 +410,21 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--flat-liftoff", type=float, default=None, metavar="DEG",
                     help="Walker(flat_liftoff=DEG) for the recorded run")  # fmt: skip
+    ap.add_argument("--encoder-rest", action="store_true",
+                    help="Walker(encoder_rest=True) for the recorded run")  # fmt: skip
+    ap.add_argument("--rest-rotation", action="store_true",
+                    help="Walker(rest_rotation=True) for the recorded run")  # fmt: skip
+    ap.add_argument("--yaw-rest", type=float, default=None, metavar="S",
+                    help="Walker(yaw_rest_s=S) for the recorded run")  # fmt: skip
+    ap.add_argument("--condim", type=int, default=3, choices=CONDIMS,
+                    help="the floor's contact dimensions (ModelParams.condim)")  # fmt: skip
     ap.add_argument("--edges", nargs="+", default=None, metavar="FILE",
                     help="per recording, the soles' tilt by the encoders at each lift-off "
                          "against the stance sole's height, turn and slide after it")  # fmt: skip
+    ap.add_argument("--heading", nargs="+", default=None, metavar="FILE",
+                    help="per recording, the outer loop's heading against the simulator's "
+                         "every 2 s (the command's, the walking frame's, the soles', the "
+                         "gyro's torso; the bias learnt)")  # fmt: skip
     ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
                     help="analyse these recordings instead of running")  # fmt: skip
     ap.add_argument("--phases", nargs="+", default=None, metavar="FILE",
@@ -356,6 +435,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.edges:
         for f in args.edges:
             edges(f)
+    elif args.heading:
+        for f in args.heading:
+            heading(f)
     elif args.phases:
         for f in args.phases:
             phases(f)

@@ -513,3 +513,19 @@ def test_a_finish_step_turns_a_closing_step_measured_off(robot, steps, error, ta
     assert engine.steps_taken == ended + taken
     assert (turn < math.radians(0.6)) if taken else (turn > math.radians(2.0))
     assert walker.failed_solves == 0
+
+
+@pytest.mark.parametrize("rest_rotation", [False, True])
+def test_the_walker_passes_rest_rotation_to_its_odometry(robot, rest_rotation: bool) -> None:
+    """``Walker(rest_rotation=...)`` reaches the outer loop's odometry (off by default)."""
+    from wbc.imu import Imu, ImuReading
+
+    class Still(Imu):
+        def read(self) -> ImuReading:
+            return ImuReading(0.0, np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3))
+
+    controller = StackController(load_stack("walk", robot, solver="weighted"))
+    options = {"rest_rotation": True} if rest_rotation else {}
+    walker = Walker(robot, controller, Still(), **options)
+    assert walker.odometry is not None
+    assert walker.odometry.rest_rotation is rest_rotation

@@ -42,7 +42,12 @@ Walker's rest for it, ``yaw_rest_s``, 1.5 s by default). Not the vertical rate's
 phase has one (the rocking's enclosed area per cycle) while its heading stays.
 
 The error left is the gyro's bias (with a rest: the noise and the robot's slow creep over
-it) and the soles' sliding.
+it) and the soles' sliding. On the stiff, rocking randomised Bioloid 0 the torso twists
+±0.25° over the 1.5 s rest inside the servos' play (the encoders read 0.03–0.1° of it), a
+bias error of ±0.17°/s, and walking the gyro reads the heading's rate 0.12–0.16°/s lower
+than at rest (its bias about the torso's pitch axis, 3°/s after the start-up calibration,
+at the walk's lean and roll, and what 100 Hz samples miss): 5° and 4–5° over 30 s, which
+add or cancel with the rest's twist (benchmarks/drive.md, 2026-12-07, i33t).
 """
 
 from __future__ import annotations
@@ -105,6 +110,7 @@ class PoseOdometry:
         encoder_rest: bool = False,
         heading_gain: float = 1.0,
         heading_band: float = DRIVE_HEADING_BAND,
+        rest_rotation: bool = False,
     ) -> None:
         if not 0.0 < heading_gain <= 1.0:  # (NaN too)
             raise ConfigurationError(f"heading_gain must be in (0, 1], got {heading_gain}")
@@ -119,6 +125,14 @@ class PoseOdometry:
         self.heading_gain = float(heading_gain)
         #: at rest, the torso's turn seen by the encoders is not bias (:meth:`rest`)
         self.encoder_rest = bool(encoder_rest)
+        #: at rest, the gyro's whole bias (3, torso frame) is learnt less the torso's rotation
+        #: seen by the encoders, and taken out of the rate before the heading's increment
+        #: (:meth:`rest`; ``encoder_rest``'s turn included)
+        self.rest_rotation = bool(rest_rotation)
+        #: the gyro's bias learnt at rest with ``rest_rotation`` (rad/s, torso frame)
+        self.rate_bias = np.zeros(3)
+        self._rest_rate = np.zeros(3)  # Σ ω dt over the rests, less the encoders' rotation
+        self._rest_rotation: np.ndarray | None = None  # the torso's last rotation at rest
         #: > 0: the bias about the vertical learnt while walking too (:meth:`landed`)
         self.walk_gain = float(walk_gain)
         self.time = 0.0  # s of :meth:`turn` and :meth:`rest` ticks
@@ -154,6 +168,7 @@ class PoseOdometry:
         torso leaning forward while it rocks sideways changes its heading by more than the
         vertical rate's integral, ~20° over 30 s of walking, benchmarks/drive.md), less the
         vertical bias learnt at rest (:attr:`yaw_bias`)."""
+        rate = np.asarray(rate, dtype=float) - self.rate_bias
         self.heading += self._increment(rotation, rate, dt) - self.yaw_bias * dt
         self.time += dt
 
@@ -161,7 +176,21 @@ class PoseOdometry:
         """One tick standing still (both soles on the floor, the robot not walking), as
         :meth:`turn`; the heading's mean rate over the rests so far is the gyro's bias about
         the vertical (:attr:`yaw_bias`, module docstring), taken out of the heading from
-        then on."""
+        then on. With ``rest_rotation``: the bias is the whole rate's, in the torso's frame,
+        ``b = (Σ ω dt − Σ log(R_{k−1}ᵀ R_k)) / Σ dt`` with ``R`` the torso's rotation over
+        the soles by the encoders (``rotation``), taken out of the rate (:attr:`rate_bias`):
+        a torso that settles or twists over its soles at rest is not bias, and the bias about
+        the torso's other axes is not projected onto the vertical at the rest's lean alone
+        (the walk leans further: benchmarks/drive.md, 2026-12-07)."""
+        if self.rest_rotation:
+            last, self._rest_rotation = self._rest_rotation, np.array(rotation, dtype=float)
+            seen = np.zeros(3) if last is None else pin.log3(last.T @ self._rest_rotation)
+            self._rest_rate += np.asarray(rate, dtype=float) * dt - seen
+            self.rest_time += dt
+            self.rate_bias = self._rest_rate / self.rest_time
+            self.heading += self._increment(rotation, np.asarray(rate) - self.rate_bias, dt)
+            self.time += dt
+            return
         d = self._increment(rotation, rate, dt)
         self._rest_angle += d
         self.rest_time += dt

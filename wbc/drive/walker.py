@@ -235,7 +235,9 @@ class Walker:
     ``encoder_rest`` (default False: the torso taken not to turn at rest): True, the rest's
     bias about the vertical is the gyro's heading change less the torso's turn seen by the
     encoders (:class:`~wbc.drive.odometry.PoseOdometry`; measured not better on the random
-    set, three falls in 200 runs against none: benchmarks/drive.md).
+    set, three falls in 200 runs against none: benchmarks/drive.md). ``rest_rotation``: the
+    rest learns the gyro's whole bias less the torso's rotation seen by the encoders
+    (PoseOdometry; off).
     ``play`` (rad, one or per joint, model order; default 0: none): the servos' gear play
     (backlash) between the encoder and the link, taken out of the present positions the
     walker's odometry uses — the leg odometry's landings and the heading's tilt over the
@@ -294,6 +296,7 @@ class Walker:
         lift_gain: float = DRIVE_LIFT_GAIN,
         filter_heading: bool = False,
         encoder_rest: bool = False,
+        rest_rotation: bool = False,
         play: float | np.ndarray = 0.0,
         play_hold: float = DRIVE_PLAY_HOLD,
         play_lift: bool = False,
@@ -401,7 +404,11 @@ class Walker:
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
         self.odometry = (
             PoseOdometry(
-                robot, walk_gain=yaw_learn, encoder_rest=encoder_rest, heading_gain=heading_gain
+                robot,
+                walk_gain=yaw_learn,
+                encoder_rest=encoder_rest,
+                heading_gain=heading_gain,
+                rest_rotation=rest_rotation,
             )
             if track
             else None
