@@ -70,5 +70,5 @@ def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
     "kw", [{"push_rise": -0.01}, {"rise_time": 0.0}, {"rise_back": float("nan")}]
 )
 def test_bad_rise_gains_are_refused(kw):
-    with pytest.raises(ConfigurationError, match="push_rise|rise_time|rise_back"):
+    with pytest.raises(ConfigurationError, match=r"push_rise|rise_time|rise_back"):
         Gains(**kw).check()
