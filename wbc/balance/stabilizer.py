@@ -49,6 +49,10 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   roll and that side's shoulder roll with it (``counter_leg``, ``counter_arm``: those limbs
   spun toward the fall beside the torso), the kick braked before the torso tips past
   ``kick_tilt`` (:mod:`wbc.balance.hip_kick`);
+* **the push's rise** (``push_rise``, off) — after a push away (the hip strategy's trigger) the
+  CoM target raised, held while the push's kick lasts, lowered after
+  (:mod:`wbc.balance.push_rise`: the body driven up while the CoM is inside the edge the CoP
+  is on pulls it back);
 * **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
   closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
   walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
