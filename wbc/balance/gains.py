@@ -181,7 +181,11 @@ class Gains:
     #: m: after a push away from the swing foot (``hip_jump``'s trigger), the CoM target
     #: raised by this within ``rise_time`` s, held while the trigger or the push's kick lasts,
     #: then lowered over ``rise_back`` s (:mod:`wbc.balance.push_rise`: the body driven up
-    #: while the CoM is inside the edge the CoP is on pulls it back; 0: off)
+    #: while the CoM is inside the edge the CoP is on pulls it back; 0: off). 0.015 on
+    #: ``walk10_wb``: away pushes just above main's bounds 5 of 5 up against 2, held out
+    #: (±22.5 ms) 7 of 14 against 5, every push main keeps kept; the other directions, the
+    #: nominal walks and 20 plants unchanged; but the OP3's away pushes fail 53–138 solves a
+    #: run with it: off (issue 30, benchmarks/pushes.md)
     push_rise: float = 0.0
     rise_time: float = 0.03  # s (> 0)
     rise_back: float = 0.3  # s (> 0)
