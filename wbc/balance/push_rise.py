@@ -15,7 +15,12 @@ strategy's roll is back to 0), then lowered back at ``push_rise / rise_back`` m/
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from .gains import Gains
 
 
 class PushRise:
@@ -40,7 +45,7 @@ class PushRise:
             self.dz = max(self.dz - rise * dt / back, 0.0)
         return self.dz
 
-    def raised(self, com: np.ndarray, pushed: bool, dt: float, g) -> np.ndarray:
+    def raised(self, com: np.ndarray, pushed: bool, dt: float, g: Gains) -> np.ndarray:
         """``com`` (the CoM target, world) raised by this tick's offset (``g``: the
         :class:`~wbc.balance.gains.Gains`; ``com`` itself when the offset is 0)."""
         dz = self.update(pushed, dt, g.push_rise, g.rise_time, g.rise_back)
