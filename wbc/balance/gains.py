@@ -178,6 +178,17 @@ class Gains:
     #: under way: the Bioloid's hang is the CoP on the edge, the DCM inside): off, it
     #: changes no outcome (issue 30, benchmarks/pushes.md)
     kick_hold_edge: float = 0.0
+    #: m: after a push away from the swing foot (``hip_jump``'s trigger), the CoM target
+    #: raised by this within ``rise_time`` s, held while the trigger or the push's kick lasts,
+    #: then lowered over ``rise_back`` s (:mod:`wbc.balance.push_rise`: the body driven up
+    #: while the CoM is inside the edge the CoP is on pulls it back; 0: off). 0.015 on
+    #: ``walk10_wb``: away pushes just above main's bounds 5 of 5 up against 2, held out
+    #: (±22.5 ms) 7 of 14 against 5, every push main keeps kept; the other directions, the
+    #: nominal walks and 20 plants unchanged; but the OP3's away pushes fail 53–138 solves a
+    #: run with it: off (issue 30, benchmarks/pushes.md)
+    push_rise: float = 0.0
+    rise_time: float = 0.03  # s (> 0)
+    rise_back: float = 0.3  # s (> 0)
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -391,6 +402,7 @@ class Gains:
             "kick_hold_for",
             "kick_hold_edge",
             "counter_under",
+            "push_rise",
             "transfer",
             "step_yaw",
             "max_step_yaw",
@@ -451,6 +463,13 @@ class Gains:
             raise ConfigurationError(f"stabilizer gain clock_min: (0, 1], got {self.clock_min}")
         if not 0.0 < self.end_clock <= 1.0:
             raise ConfigurationError(f"stabilizer gain end_clock: (0, 1], got {self.end_clock}")
+        if not (np.isfinite(self.rise_time) and self.rise_time > 0) or not (
+            np.isfinite(self.rise_back) and self.rise_back > 0
+        ):
+            raise ConfigurationError(
+                f"stabilizer gains rise_time, rise_back must be finite numbers > 0, got "
+                f"{self.rise_time}, {self.rise_back}"
+            )
         if self.hip_kick > 0 and self.kick_release <= 0:
             raise ConfigurationError("stabilizer gain kick_release must be > 0 with hip_kick")
         if self.transfer > 1 or self.clock_single > 1:

@@ -49,6 +49,10 @@ family (QP stacks, placo, pink) gets the same feedback through the tasks it alre
   roll and that side's shoulder roll with it (``counter_leg``, ``counter_arm``: those limbs
   spun toward the fall beside the torso), the kick braked before the torso tips past
   ``kick_tilt`` (:mod:`wbc.balance.hip_kick`);
+* **the push's rise** (``push_rise``, off) — after a push away (the hip strategy's trigger) the
+  CoM target raised, held while the push's kick lasts, lowered after
+  (:mod:`wbc.balance.push_rise`: the body driven up while the CoM is inside the edge the CoP
+  is on pulls it back);
 * **narrower sway** (``transfer``, 0.15 by default; 0: off) — not a feedback term: the
   closed loop (:func:`wbc.balance.live.closed_loop`) walks its reference re-planned by the
   walk's own generator (:func:`wbc.walking.gait.narrow_sway`): the ZMP reaches each landed
@@ -101,6 +105,7 @@ from .hip_roll import (
     _hip_roll,
 )
 from .joint_integral import JointIntegral
+from .push_rise import PushRise
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 from .step_yaw import StepYaw
 
@@ -428,6 +433,7 @@ class Stabilizer:
 
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
         self._kick = HipKick(robot) if self.gains.hip_kick > 0 else None  # (hip_kick)
+        self._rise = PushRise()  # (push_rise: the CoM target raised after a push)
         #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
         self._packed: tuple = (None, None, None, False, self._no_lag)
         self.last: StateEstimate | None = None
@@ -581,8 +587,10 @@ class Stabilizer:
         com = targets.com
         if packed[3]:  # (k_dcm, k_lean, k_dcm_i or k_dcm_i_y > 0)
             com = self._shifted(targets, com_vel_ref, est, e, dt)
-        out = targets.retarget(com, o[2:5])
         g = self.gains
+        if g.push_rise > 0:  # (the CoM target raised after a push away: push_rise)
+            com = self._push_rise(com, float(dt))
+        out = targets.retarget(com, o[2:5])
         if g.step_yaw > 0:  # the footsteps take the measured heading error (step_yaw)
             read = joints if present is None else np.where(np.isfinite(present), present, joints)
             out = self.steps_yaw.apply(targets, out, est.rotation, read, q_cmd, g.step_yaw,
@@ -606,6 +614,13 @@ class Stabilizer:
         _hip_roll(single, st, other, y_norm, np.asarray(est.dcm, dtype=float), self.hip,
                   k, float(dt), H, self._fb[_B_JUMP : _B_JUMP + 5], R[:, 2].copy())  # fmt: skip
         return H
+
+    def _push_rise(self, com: np.ndarray, dt: float) -> np.ndarray:
+        """``com`` raised by ``push_rise`` (:class:`~wbc.balance.push_rise.PushRise`) while
+        the hip strategy's push trigger is latched or the push's kick lasts."""
+        fb = self._fb
+        pushed = fb[_B_JUMP + 2] > 0.5 or fb[_B_JUMP + 4] > 0.5
+        return self._rise.raised(com, pushed, dt, self.gains)
 
     def _torso_sample(self, reading):
         """``reading`` in the torso frame with the calibration applied (the start-up

@@ -1,0 +1,74 @@
+"""The push's rise (:mod:`wbc.balance.push_rise`, ``Gains.push_rise``): the CoM target raised
+after a push away from the swing foot, held while the push lasts, lowered after."""
+
+import numpy as np
+import pytest
+
+from wbc import load_robot
+from wbc.balance.push_rise import PushRise
+from wbc.balance.stabilizer import Gains, Stabilizer
+from wbc.exceptions import ConfigurationError
+from wbc.walking.loop import TickTargets
+
+DT = 0.01
+
+
+def test_the_rise_ramps_up_holds_and_comes_back_at_its_rate():
+    """``push_rise × min(t / rise_time, 1)`` while pushed, held, then down at
+    ``push_rise / rise_back`` m/s; a push again while coming down never lowers it."""
+    r = PushRise()
+    assert r.update(False, DT, 0.012, 0.03, 0.3) == 0.0
+    up = [r.update(True, DT, 0.012, 0.03, 0.3) for _ in range(5)]
+    assert up == pytest.approx([0.004, 0.008, 0.012, 0.012, 0.012])
+    down = [r.update(False, DT, 0.012, 0.03, 0.3) for _ in range(3)]
+    assert down == pytest.approx([0.0116, 0.0112, 0.0108])
+    assert r.update(True, DT, 0.012, 0.03, 0.3) == pytest.approx(0.0108)  # (not 0.004)
+    assert r.update(True, DT, 0.012, 0.03, 0.3) == pytest.approx(0.0108)
+    assert r.update(True, DT, 0.012, 0.03, 0.3) == pytest.approx(0.012)
+    for _ in range(40):
+        last = r.update(False, DT, 0.012, 0.03, 0.3)
+    assert last == 0.0  # (back, not below)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot()
+
+
+@pytest.mark.parametrize("rise", [0.0, 0.015])
+def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
+    """Single support on the left sole: the estimated DCM still, the CoM target as given;
+    the DCM jumping outward (the hip strategy's push trigger) raises it by ``rise`` /
+    ``rise_time`` a second (only the height), held while the trigger is latched."""
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    left = robot.frame_placement(q, "l_sole")
+    right = robot.frame_placement(q, "r_sole")
+    R0 = robot.frame_placement(q, "torso").rotation
+    com = robot.com(q)
+    t = TickTargets(0, 0.0, "single", "l_sole", "r_sole", com, left, right, 0.0, R0,
+                    right.translation.copy(), right.rotation.copy())  # fmt: skip
+    u = left.rotation[:2, 1] / np.linalg.norm(left.rotation[:2, 1])  # (away from the right)
+    stab = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=rise, rise_time=0.03))
+    from wbc.balance.estimator import StateEstimate
+
+    def tick(offset):
+        values = np.zeros((8, 3))
+        values[:3] = np.eye(3)
+        values[6, :2] = left.translation[:2] + offset * u
+        stab._hip_strategy(t, StateEstimate(values), DT)
+        return stab._push_rise(com, DT)
+
+    for _ in range(3):
+        assert tick(-0.03) is com  # no push: the target itself
+    heights = [tick(0.005)[2] - com[2] for _ in range(5)]  # the jump, then latched
+    want = [rise * min(k / 3, 1.0) for k in (1, 2, 3, 4, 5)]
+    assert heights == pytest.approx(want, abs=1e-12)
+    assert np.array_equal(tick(0.005)[:2], com[:2])
+
+
+@pytest.mark.parametrize(
+    "kw", [{"push_rise": -0.01}, {"rise_time": 0.0}, {"rise_back": float("nan")}]
+)
+def test_bad_rise_gains_are_refused(kw):
+    with pytest.raises(ConfigurationError, match=r"push_rise|rise_time|rise_back"):
+        Gains(**kw).check()
