@@ -122,7 +122,7 @@ def record(args) -> None:
     params = None if args.transfer is None else EngineParams(transfer=args.transfer)
     r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
                       params=params, load_ramp=args.load_ramp,
-                      flat_liftoff=args.flat_liftoff)  # fmt: skip
+                      flat_liftoff=args.flat_liftoff, flatten=args.flatten)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
     out = {k: np.array([row[k] for row in rows]) for k in rows[0]}
@@ -343,6 +343,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--flat-liftoff", type=float, default=None, metavar="DEG",
                     help="Walker(flat_liftoff=DEG) for the recorded run")  # fmt: skip
+    ap.add_argument("--flatten", type=float, default=None, metavar="RATE",
+                    help="Walker(flatten=RATE) for the recorded run")  # fmt: skip
     ap.add_argument("--edges", nargs="+", default=None, metavar="FILE",
                     help="per recording, the soles' tilt by the encoders at each lift-off "
                          "against the stance sole's height, turn and slide after it")  # fmt: skip
