@@ -125,7 +125,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             heading_gain: float | None = None, quiet_stand: str | None = None,
             twist: float | None = None, slip_gain: float | None = None,
             load_ramp: bool = False, flat_liftoff: float | None = None,
-            flatten: float | None = None, **kw):  # fmt: skip
+            flatten: float | None = None, flatten_band: float | None = None,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -142,6 +143,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
         "load_ramp": load_ramp or None, "flat_liftoff": flat_liftoff, "flatten": flatten,
+        "flatten_band": flatten_band,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -384,6 +386,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="a landed sole's contact target tilted against its tilt by the "
                          "encoders over the double support, an integral loop at RATE 1/s "
                          "(Walker(flatten=RATE); default off)")  # fmt: skip
+    ap.add_argument("--flatten-band", type=float, default=None, metavar="DEG",
+                    help="with --flatten: the tilt's dead band (Walker(flatten_band=DEG); "
+                         "default 0)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -433,6 +438,7 @@ def main(argv: list[str] | None = None) -> int:
         "load_ramp": args.load_ramp,
         "flat_liftoff": args.flat_liftoff,
         "flatten": args.flatten,
+        "flatten_band": args.flatten_band,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing

@@ -112,9 +112,27 @@ def test_the_correction_is_capped_and_standing_still_holds_it(robot):
     assert np.array_equal(flat.correction["l_sole"], c)
 
 
+def test_a_tilt_inside_the_dead_band_is_left_alone(robot):
+    """``band_deg`` 5: the soles read 3.5° apart take no correction, 9° apart the excess."""
+    flat = SoleFlatten(robot, rate=100.0, band_deg=5.0)
+    flat.update(targets("single", "r_sole", "l_sole"), pitched(robot, 0.0), True, 0.01)
+    flat.update(targets("double", "r_sole", "l_sole"), pitched(robot, 3.5), True, 0.01)
+    assert float(np.linalg.norm(flat.correction["l_sole"])) == 0.0
+    q = pitched(robot, 9.0)
+    flat.update(targets("double", "r_sole", "l_sole"), q, True, 0.01)
+    excess = math.degrees(float(np.linalg.norm(flat.correction["l_sole"])))
+    assert excess == pytest.approx(math.degrees(soles_tilt(robot, q)) - 5.0, abs=1e-6)
+
+
 @pytest.mark.parametrize(
     "kw",
-    [{"rate": -1.0}, {"rate": math.nan}, {"rate": 1.0, "max_deg": 0.0}, {"rate": 1.0, "fade": 0}],
+    [
+        {"rate": -1.0},
+        {"rate": math.nan},
+        {"rate": 1.0, "max_deg": 0.0},
+        {"rate": 1.0, "fade": 0},
+        {"rate": 1.0, "band_deg": -1.0},
+    ],
 )
 def test_bad_arguments_are_refused(robot, kw):
     with pytest.raises(ConfigurationError, match="flatten"):

@@ -1,10 +1,11 @@
 """A landed sole flattened on the floor from the encoders' tilt (:class:`SoleFlatten`,
 ``Walker(flatten=rate)``; off by default).
 
-On the lightly damped randomised Bioloids a sole sometimes lands on its heel or toe edge
-and stays there through the double support (9–13° against the other sole), the other sole
-lifts all the same and the single support stands on an edge, where the floor resists no
-turn (benchmarks/drive.md, 2026-12-07 twenty-first session). The controller's model has the
+On the lightly damped randomised Bioloids a landed sole sometimes rolls onto its heel or
+toe edge as the load comes onto it (1–4° against the other sole at the touch-down, 5–13° at
+the lift-off), the other sole lifts all the same and the single support stands on an edge,
+where the floor resists no turn (benchmarks/drive.md, 2026-12-07 twenty-first and
+twenty-second sessions). The controller's model has the
 sole flat (its contact target); the plant's joints (compliance, play, latency) do not.
 
 Both soles are on the floor in a walking double support, so the landed sole's tilt against
@@ -14,10 +15,13 @@ taking the stance sole's normal to the landed one's, ``v``) is its tilt on the f
 no IMU. The landed sole's contact target is tilted against it, an integral loop: each tick
 of that double support ``c ← c + min(1, k·dt)·v`` (``k``: ``rate``, 1/s), ``|c|`` at most
 ``max_deg``, and the target's rotation ``exp(−c)·Rz(ψ)``: what the plant adds, ``d``, the
-target takes away (``v ≈ d − c`` → 0). The correction ``c`` is held while that sole stays
-in contact (its single support: no other sole to measure against) and, when it lifts,
-faded out of the swing's rotation target over ``fade`` ticks. Both soles' contact targets
-and the swing's rotation only; positions as planned.
+target takes away (``v ≈ d − c`` → 0). At the other sole's lift-off ``c`` fades out of the
+standing sole's target over ``fade`` ticks (with one sole down there is nothing to read it
+against; held, it tilted the next double support and the loop ran away), and a sole that
+lifts with a correction left has it faded out of the swing's rotation target likewise.
+``band_deg``: a dead band, the tilt's size less it taken (0: all of it). Both soles'
+contact targets and the swing's rotation only; positions as planned. Measured
+(benchmarks/drive.md, 2026-12-07 twenty-second session): off.
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ class SoleFlatten:
         rate: float,
         max_deg: float = FLATTEN_MAX_DEG,
         fade: int = FLATTEN_FADE_TICKS,
+        band_deg: float = 0.0,
     ) -> None:
         if not (math.isfinite(rate) and rate >= 0):
             raise ConfigurationError(
@@ -59,12 +64,15 @@ class SoleFlatten:
             )
         if not (math.isfinite(max_deg) and max_deg > 0):
             raise ConfigurationError(f"flatten: max_deg must be a finite angle > 0, got {max_deg}")
+        if not (math.isfinite(band_deg) and band_deg >= 0):
+            raise ConfigurationError(f"flatten_band must be a finite angle >= 0, got {band_deg}")
         if not (isinstance(fade, int) and fade >= 1):
             raise ConfigurationError(f"flatten: fade must be an integer >= 1, got {fade}")
         self.robot = robot
         self.rate = float(rate)
         self.max = math.radians(max_deg)
         self.fade = fade
+        self.band = math.radians(band_deg)
         #: per sole in contact, its correction (world, horizontal rotation vector, rad)
         self.correction: dict[str, np.ndarray] = {}
         self._fading: tuple[str, np.ndarray, int] | None = None  # (swing frame, c, ticks left)
@@ -102,6 +110,8 @@ class SoleFlatten:
                 (rel,) = self.robot.placements_in(q, stance, [landed])
                 held = targets.l_sole if stance == SOLE_FRAMES["left"] else targets.r_sole
                 v = held.rotation @ tilt_vector(rel.rotation)  # (the stance sole's target: flat)
+                size = float(np.linalg.norm(v))
+                v *= max(0.0, 1.0 - self.band / size) if size > 0 else 0.0  # the dead band
                 c = self.correction.get(landed, np.zeros(3)) + min(1.0, self.rate * dt) * v
                 c[2] = 0.0
                 norm = float(np.linalg.norm(c))

@@ -271,7 +271,7 @@ class Walker:
     ``flat_liftoff`` (°, closed loop; 0: off): a lift-off waits while the soles' normals by
     the encoders differ by more (:class:`~wbc.drive.liftoff.FlatLiftoff`). ``flatten`` (1/s,
     closed loop; 0: off): a landed sole's target tilted against its tilt by the encoders
-    (:class:`~wbc.drive.flatten.SoleFlatten`).
+    (:class:`~wbc.drive.flatten.SoleFlatten`; ``flatten_band`` °, its tilt's dead band).
     """
 
     def __init__(
@@ -313,6 +313,7 @@ class Walker:
         load_ramp: bool = False,
         flat_liftoff: float = 0.0,
         flatten: float = 0.0,
+        flatten_band: float = 0.0,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -374,7 +375,7 @@ class Walker:
         self.load_ramp = LoadRamp(ramp_ticks) if load_ramp else None  #: the load's split
         flat = FlatLiftoff(robot, flat_liftoff)  # (checks it)
         self.flat_liftoff = flat if closed and flat_liftoff > 0 else None  #: lift-offs held
-        level = SoleFlatten(robot, flatten)  # (checks it)
+        level = SoleFlatten(robot, flatten, band_deg=flatten_band)  # (checks them)
         self.flatten = level if closed and flatten > 0 else None  #: landed soles flattened
         self._paused = 0.0  # s of walk ticks the engine waited (:attr:`flat_liftoff`)
         self.correct = bool(correct)
