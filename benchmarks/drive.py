@@ -125,7 +125,9 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             finish_steps: int | None = None, finish_xy: bool = False,
             heading_gain: float | None = None, quiet_stand: str | None = None,
             twist: float | None = None, slip_gain: float | None = None,
-            load_ramp: bool = False, flat_liftoff: float | None = None, **kw):  # fmt: skip
+            load_ramp: bool = False, flat_liftoff: float | None = None,
+            flatten: float | None = None, flatten_band: float | None = None,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -142,7 +144,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "landing_contact": None if landing_contact else False,
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
-        "load_ramp": load_ramp or None, "flat_liftoff": flat_liftoff,
+        "load_ramp": load_ramp or None, "flat_liftoff": flat_liftoff, "flatten": flatten,
+        "flatten_band": flatten_band,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -385,6 +388,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--flat-liftoff", type=float, default=None, metavar="DEG",
                     help="a lift-off waits while the soles' normals by the encoders differ by "
                          "more than DEG (Walker(flat_liftoff=DEG); default off)")  # fmt: skip
+    ap.add_argument("--flatten", type=float, default=None, metavar="RATE",
+                    help="a landed sole's contact target tilted against its tilt by the "
+                         "encoders over the double support, an integral loop at RATE 1/s "
+                         "(Walker(flatten=RATE); default off)")  # fmt: skip
+    ap.add_argument("--flatten-band", type=float, default=None, metavar="DEG",
+                    help="with --flatten: the tilt's dead band (Walker(flatten_band=DEG); "
+                         "default 0)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -434,6 +444,8 @@ def main(argv: list[str] | None = None) -> int:
         "slip_gain": args.slip_gain,
         "load_ramp": args.load_ramp,
         "flat_liftoff": args.flat_liftoff,
+        "flatten": args.flatten,
+        "flatten_band": args.flatten_band,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing

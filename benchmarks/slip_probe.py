@@ -136,7 +136,8 @@ def record(args) -> None:
     r = drive.run_one(robot, "hqp-daqp", cmds, variation, limits=limits, window=window,
                       params=params, load_ramp=args.load_ramp,
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
-                      rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest)  # fmt: skip
+                      rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
+                      flatten=args.flatten)  # fmt: skip
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"heading {math.degrees(r['travelled_yaw_rad'] - r['commanded_yaw_rad']):+.2f} deg, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
@@ -418,6 +419,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="Walker(yaw_rest_s=S) for the recorded run")  # fmt: skip
     ap.add_argument("--condim", type=int, default=3, choices=CONDIMS,
                     help="the floor's contact dimensions (ModelParams.condim)")  # fmt: skip
+    ap.add_argument("--flatten", type=float, default=None, metavar="RATE",
+                    help="Walker(flatten=RATE) for the recorded run")  # fmt: skip
     ap.add_argument("--edges", nargs="+", default=None, metavar="FILE",
                     help="per recording, the soles' tilt by the encoders at each lift-off "
                          "against the stance sole's height, turn and slide after it")  # fmt: skip

@@ -26,9 +26,22 @@ from ..roles import SOLE_FRAMES
 FLAT_LIFTOFF_TICKS = 10
 
 
+def tilt_vector(rotation: np.ndarray) -> np.ndarray:
+    """The tilt of a frame of rotation ``rotation`` against its reference: the rotation
+    vector (rad, in the reference) about a horizontal axis that takes the reference's
+    normal ``z`` to the frame's ``n = R[:, 2]``, ``(z × n)/|z × n| · acos(n_z)``; its norm is
+    the angle between the normals."""
+    n = rotation[:, 2]
+    axis = np.array([-n[1], n[0], 0.0])
+    s = float(np.linalg.norm(axis))
+    angle = math.acos(min(1.0, max(-1.0, float(n[2]))))
+    return axis * (angle / s) if s > 1e-12 else np.zeros(3)
+
+
 def soles_tilt(robot: Robot, q: np.ndarray) -> float:
     """The angle (rad) between the two soles' normals in configuration ``q`` (forward
-    kinematics): 0 when both lie in one plane (the floor's)."""
+    kinematics; the norm of :func:`tilt_vector` of their relative rotation): 0 when both lie
+    in one plane (the floor's)."""
     (rel,) = robot.placements_in(q, SOLE_FRAMES["left"], [SOLE_FRAMES["right"]])
     return math.acos(min(1.0, max(-1.0, float(rel.rotation[2, 2]))))
 

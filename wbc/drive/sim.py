@@ -237,6 +237,11 @@ def drive_sim(
                 "lift_off_ticks_held": walker.flat_liftoff.held,
             }
         ),
+        **(
+            {}
+            if walker.flatten is None
+            else {"flatten_largest_deg": math.degrees(walker.flatten.largest)}
+        ),
         "_path": np.asarray(odo.path),
     }
 

@@ -57,6 +57,7 @@ from .contacts import move_contacts
 from .failures import failure_cause
 from .failures import failure_lines as failure_lines  # (re-exported)
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
+from .flatten import SoleFlatten
 from .liftoff import FlatLiftoff
 from .odometry import (
     DRIVE_HEADING_GAIN,
@@ -270,7 +271,9 @@ class Walker:
     ``load_ramp`` (with ``compensate``): the feed-forward's load moved from sole to sole over
     each walking double support, min-jerk (:class:`~wbc.drive.compensate.LoadRamp`; off).
     ``flat_liftoff`` (°, closed loop; 0: off): a lift-off waits while the soles' normals by
-    the encoders differ by more (:class:`~wbc.drive.liftoff.FlatLiftoff`).
+    the encoders differ by more (:class:`~wbc.drive.liftoff.FlatLiftoff`). ``flatten`` (1/s,
+    closed loop; 0: off): a landed sole's target tilted against its tilt by the encoders
+    (:class:`~wbc.drive.flatten.SoleFlatten`; ``flatten_band`` °, its tilt's dead band).
     """
 
     def __init__(
@@ -312,6 +315,8 @@ class Walker:
         slip_gain: float = 0.0,
         load_ramp: bool = False,
         flat_liftoff: float = 0.0,
+        flatten: float = 0.0,
+        flatten_band: float = 0.0,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -373,6 +378,8 @@ class Walker:
         self.load_ramp = LoadRamp(ramp_ticks) if load_ramp else None  #: the load's split
         flat = FlatLiftoff(robot, flat_liftoff)  # (checks it)
         self.flat_liftoff = flat if closed and flat_liftoff > 0 else None  #: lift-offs held
+        level = SoleFlatten(robot, flatten, band_deg=flatten_band)  # (checks them)
+        self.flatten = level if closed and flatten > 0 else None  #: landed soles flattened
         self._paused = 0.0  # s of walk ticks the engine waited (:attr:`flat_liftoff`)
         self.correct = bool(correct)
         self.q = q0.copy()
@@ -655,6 +662,8 @@ class Walker:
         if self.lift is not None:
             self._lift(targets)
         self._contacts(targets, dt)
+        if self.flatten is not None:
+            self.flatten.update(targets, self._present_configuration(), engine.walking, dt)
         try:
             self.q = self.controller.track(self.q, targets, dt, changed)
         except WbcError as exc:
