@@ -53,6 +53,8 @@ from ..walking.window import BalanceWindow
 from .compensate import DRIVE_COMPENSATE as DRIVE_COMPENSATE  # (re-exported)
 from .compensate import DRIVE_CORRECTION, LoadRamp
 from .compensate import default_compensate as default_compensate  # (re-exported)
+from .contacts import DRIVE_CONTACT_RATE as DRIVE_CONTACT_RATE  # (re-exported)
+from .contacts import DRIVE_CONTACT_REACH as DRIVE_CONTACT_REACH  # (re-exported)
 from .contacts import move_contacts
 from .failures import failure_cause
 from .failures import failure_lines as failure_lines  # (re-exported)
@@ -122,23 +124,6 @@ DRIVE_YAW_REST_S = 1.5
 #: pose (a command takes effect at the next lift-off; the make-up is capped), then closes
 #: (within :data:`~wbc.drive.finish.DRIVE_FINISH_TOLERANCE`)
 DRIVE_FINISH_STEPS = 4
-
-#: how far (m) the controller's stance contact moves toward a measured landing away from its plan,
-#: at most (:func:`wbc.drive.contacts.move_contacts`), and how fast (m/s). A sole lands where the
-#: commanded legs put it, its plan; the leg odometry measures it from the encoders at the end of
-#: that double support (the compliant servos land a few millimetres short and narrow). Through the
-#: single support that follows, the stance contact's target then slides toward the measured sole, so
-#: the commanded body moves over the real stance sole as the plan has it over the planned one (the
-#: stride the servos lost is given back at once, beyond the make-up's room at the limits). Only in
-#: single support, where the stance contact is the one hard contact: moved within a double support,
-#: or re-anchored there at the measured landing (the behaviour before 2026-12-05 08:35 UTC, an
-#: unbounded reach: up to 29 mm off), the two contacts and the feet's self-collision rows were
-#: infeasible together (290 failed solves in 100 random runs). Measured (benchmarks/drive.md,
-#: "Contacts that move"): forward at the limit on the nominal model 7.99 -> 8.5 cm/s, over 20
-#: randomised models a mean 7.56 -> 7.88 cm/s; 5 cm/s or an unbounded reach (3 cm) threw the
-#: randomised models
-DRIVE_CONTACT_REACH = 0.005
-DRIVE_CONTACT_RATE = 0.02
 
 #: the largest gain on the planned stride (forward, sideways) for legs whose steps fall short
 #: (:class:`~wbc.drive.odometry.StrideGain`, with the outer loop; the stride then within the
