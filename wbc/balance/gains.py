@@ -202,6 +202,12 @@ class Gains:
     #: with k_d 0.03, 147 against 143 of 150 without the feed-forward, 2 fewer on walk10_wb
     #: with it (issue 30's sixth pass)
     joint_lag: float = 0.0
+    #: 1: the estimate and the feedback stepped by the real time since the last tick (the
+    #: session's ``at_time`` clock); 0: by the walk's reference time since the last solved
+    #: tick, which the step timing's clock (``catch_hurry`` 3×, ``hurry_single``) makes up to 3×
+    #: the real step: the gyro integrated 3× over (the tilt 10–15° off in a catch's double
+    #: support), the CoM velocity read at 1/3 (issue 30, benchmarks/pushes.md)
+    real_step: float = 0.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
     transfer: float = 0.15
@@ -375,6 +381,7 @@ class Gains:
             "anchor_band",
             "contact_band",
             "joint_lag",
+            "real_step",
             "k_hip",
             "hip_band",
             "max_hip",
