@@ -72,8 +72,6 @@ class _Slow:
         return targets
 
 
-
-
 @pytest.mark.parametrize("rate", [1.0, 0.5])
 def test_a_session_walks_its_reference_at_the_stabilizers_clock(robot, walk10, rate) -> None:
     """At clock 0.5 the reference advances one tick per two ticks of time (the delay grows
