@@ -205,8 +205,10 @@ class Gains:
     #: 1: the estimate and the feedback stepped by the real time since the last tick (the
     #: session's ``at_time`` clock); 0: by the walk's reference time since the last solved
     #: tick, which the step timing's clock (``catch_hurry`` 3×, ``hurry_single``) makes up to 3×
-    #: the real step: the gyro integrated 3× over (the tilt 10–15° off in a catch's double
-    #: support), the CoM velocity read at 1/3 (issue 30, benchmarks/pushes.md)
+    #: the real step: the gyro integrated 3× over (the tilt 8–15° off in a catch's double
+    #: support), the CoM velocity read at 1/3. Off: with ``back_anchor`` 0.02 it keeps 43 of
+    #: 80 backward pushes as main (two gained, two lost), every other direction, the nominal
+    #: walks and 20 plants main's (issue 30, benchmarks/pushes.md, twenty-second session)
     real_step: float = 0.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
