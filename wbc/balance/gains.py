@@ -188,6 +188,10 @@ class Gains:
     #: m: a sole landing further than this from its planned placement anchors the state
     #: estimate where it landed until it lifts (``StateEstimator`` ``anchor_band``; 0: off)
     anchor_band: float = 0.0
+    #: m (0: off): a landed sole judged for ``anchor_band`` / ``back_anchor`` only once its
+    #: lowest point is within this of the other's (``StateEstimator`` ``anchor_down``: not
+    #: while it is still in the air at its first support tick, issue 30)
+    anchor_down: float = 0.0
     #: m: a sole whose lowest point stands more than this above the other's carries no
     #: weight: the estimate anchors on the soles that do (``StateEstimator`` ``contact_band``:
     #: from the encoders' kinematics and the IMU's tilt; 0: the plan's support). 0.004
@@ -381,6 +385,7 @@ class Gains:
             "max_offset",
             "kin_tilt",
             "anchor_band",
+            "anchor_down",
             "contact_band",
             "joint_lag",
             "real_step",
