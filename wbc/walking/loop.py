@@ -336,14 +336,14 @@ class Session:
 
     def _step(self, stab: Any, gap: int) -> float:
         """The stabilizer's step (s): the reference's time since the last solved tick, or with
-        ``Gains.real_step`` the real time since the last :meth:`at_time` where it differs
-        from that by more than a microsecond (a clock run faster or slower than the
-        reference's: the step timing's rate)."""
+        ``Gains.real_step`` the real time since the last :meth:`at_time` where the two differ
+        by more than half a reference tick (the walk's clock skipped reference ticks: the step
+        timing's rate; a paced loop's jitter keeps the reference's own number)."""
         dt = gap * self.ref.dt
         real, self._elapsed = self._elapsed, None
         if real is None or stab.gains.real_step <= 0:
             return dt
-        return real if real > 0 and abs(real - dt) > 1e-6 else dt
+        return real if real > 0 and abs(real - dt) > 0.5 * self.ref.dt else dt
 
     @property
     def loop_time(self) -> float:
