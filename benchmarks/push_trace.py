@@ -164,6 +164,18 @@ def trace(
                         for s in ("left", "right")],
             "t": sim.time, "phase": targets.phase, "swing": targets.swing,
             "err_est": 1e3 * (self.last.dcm[0] - dcm_ref[0]),
+            # the DCM estimate's parts against the simulator's (world, x, y; mm, mm/s): the
+            # CoM, its velocity, the stance sole where the estimate and the true joints put
+            # it, the ref's DCM (--dcm)
+            "c_est": 1e3 * np.asarray(self.last.com[:2], dtype=float),
+            "c_sim": 1e3 * c[:2], "v_est": 1e3 * np.asarray(self.last.com_vel[:2], dtype=float),
+            "v_sim": 1e3 * v[:2], "dcm_ref": 1e3 * np.asarray(dcm_ref, dtype=float),
+            "st_est": 1e3 * self.estimator.landed(stance_site, q, None)[:2],
+            "st_sim": 1e3 * p_st[:2], "omega": omega, "R_sim": R.copy(),
+            "R_est": np.asarray(self.last.rotation) @ self.estimator.torso_b.T,
+            "w_est": np.asarray(self.last.angular_velocity, dtype=float).copy(),
+            "pitch_est": math.degrees(math.asin(float(np.clip(-(np.asarray(
+                self.last.rotation) @ self.estimator.torso_b.T)[2, 0], -1.0, 1.0)))),
             "err_sim": 1e3 * (c[0] + v[0] / omega - dcm_ref[0]),
             "target": 1e3 * np.asarray(out.swing_position, dtype=float),
             "sole": 1e3 * swing, "f_l": force_of[0], "f_r": force_of[1],
@@ -226,6 +238,11 @@ def main() -> None:
     p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
     p.add_argument("--no-fall", action="store_true", help="the fall detector off")
     p.add_argument(
+        "--dcm",
+        action="store_true",
+        help="the DCM estimate's parts against the simulator's (dcm_table)",
+    )
+    p.add_argument(
         "--lateral",
         action="store_true",
         help="sideways columns (along the push, from the stance sole's centre)",
@@ -241,6 +258,9 @@ def main() -> None:
                  if abs(rows[k][key] - rows[k - 1][key]) > 8.0), 0)  # fmt: skip
     if a.lateral:
         lateral_table(rows, jump, a.ticks)
+        return
+    if a.dcm:
+        dcm_table(rows, jump, a.ticks)
         return
     print(
         "| ms after push | phase | swing | DCM err est / sim mm | swing target x, z | sole x, z "
@@ -269,6 +289,32 @@ def main() -> None:
                                   f"({r['goals'][s + '_hip_pitch']:+.1f}, "
                                   f"{r['goals'][s + '_ankle_pitch']:+.1f})" for s in "lr")
               + " |")  # fmt: skip
+
+
+def dcm_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:
+    """The DCM estimate against the simulator's, in its parts (world x / y, mm; velocities
+    mm/s): the DCM error (estimate − reference, simulator − reference), the CoM (estimate −
+    simulator), its velocity (estimate, simulator), the stance sole where the estimate and the
+    true joints put it less where it is (its anchor's error), the base's pitch (the estimate's,
+    the simulator's) and the stance sole's (deg; negative: on the heel)."""
+    print(
+        "| ms | phase | stance | DCM err x est / sim | DCM err y est / sim | CoM est − sim x, y "
+        "| ċ x est / sim | ċ y est / sim | stance sole est − sim x, y | base pitch est / sim "
+        "| stance sole pitch |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    t0 = rows[jump]["t"] if rows else 0.0
+    for r in rows[max(jump - 3, 0) : jump + ticks]:
+        ref = r["dcm_ref"]
+        est = r["c_est"] + r["v_est"] / r["omega"] - ref
+        sim = r["c_sim"] + r["v_sim"] / r["omega"] - ref
+        dc, ds = r["c_est"] - r["c_sim"], r["st_est"] - r["st_sim"]
+        s = 0 if r["stance_site"] == "l_sole" else 1
+        print(f"| {1e3 * (r['t'] - t0):.0f} | {r['phase']} | {r['stance_site'][0]} "
+              f"| {est[0]:.1f} / {sim[0]:.1f} | {est[1]:.1f} / {sim[1]:.1f} "
+              f"| {dc[0]:+.1f}, {dc[1]:+.1f} | {r['v_est'][0]:.0f} / {r['v_sim'][0]:.0f} "
+              f"| {r['v_est'][1]:.0f} / {r['v_sim'][1]:.0f} | {ds[0]:+.1f}, {ds[1]:+.1f} "
+              f"| {r['pitch_est']:+.1f} / {r['pitch']:+.1f} | {r['soles'][s]:+.1f} |")  # fmt: skip
 
 
 def lateral_table(rows: list[dict[str, Any]], jump: int, ticks: int) -> None:

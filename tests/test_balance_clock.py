@@ -58,14 +58,17 @@ def test_a_bad_clock_min_is_refused(bad: float) -> None:
 class _Slow:
     """A stand-in stabilizer: enabled, its DCM the plan's, its clock ``clock``."""
 
-    def __init__(self, clock: float) -> None:
+    def __init__(self, clock: float, gains: Gains | None = None) -> None:
         self.enabled, self.clock, self.dcm = True, clock, np.zeros(2)
+        self.gains = gains or Gains()
+        self.steps: list[float] = []  # the dt of every adjust
 
     @property
     def last(self):
         return self
 
     def adjust(self, targets, com_vel_ref, q, dt):
+        self.steps.append(dt)
         return targets
 
 
@@ -84,6 +87,32 @@ def test_a_session_walks_its_reference_at_the_stabilizers_clock(robot, walk10, r
     # (the first tick has no previous time: the clock counts from the second)
     assert session.index == round(40 * rate)
     assert session.delay == pytest.approx(40 * dt * (1 - rate))
+
+
+@pytest.mark.parametrize("real", [0.0, 1.0])
+def test_the_stabilizer_steps_by_the_real_time_with_real_step(robot, walk10, real) -> None:
+    """A clock run at 3× (the step timing's catch_hurry) skips two reference ticks a tick:
+    the stabilizer is stepped by the reference's 3 dt without ``real_step``, by the real
+    time since the last tick (one dt) with it; at the reference's own pace (1 ms of jitter)
+    both are dt."""
+    from wbc.stacks import load_stack
+    from wbc.walking.loop import Session, StackController
+
+    stab = _Slow(3.0, Gains(real_step=real))
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10,
+                      stabilizer=stab)  # fmt: skip
+    dt = walk10.dt
+    for k in range(11):
+        session.at_time(k * dt)
+    assert session.index == 30  # (the first tick has no previous time: 0, then 3 a tick)
+    assert stab.steps[0] == pytest.approx(dt)
+    assert stab.steps[1:] == pytest.approx([dt if real else 3 * dt] * 10)
+    paced = _Slow(1.0, Gains(real_step=real))
+    session = Session(StackController(load_stack("walk", robot)), robot, walk10,
+                      stabilizer=paced)  # fmt: skip
+    for k in range(5):
+        session.at_time(k * dt + (0.001 if k % 2 else 0.0))  # (a paced loop's jitter)
+    assert paced.steps == [dt] * 5  # (the reference's own number, bit for bit)
 
 
 def test_the_physics_record_compares_a_run_with_the_reference_time_it_played() -> None:

@@ -349,6 +349,31 @@ def lifted_left(robot, a: float = 0.15):
     return robot.place_on_ground(q, "r_sole")
 
 
+def test_a_landed_sole_is_judged_once_it_is_down_with_anchor_down(robot):
+    """``anchor_down``: the robot stands on the right sole, the left 11.8 mm up, when the plan
+    puts the left in the support 30 mm ahead of it. Without ``anchor_down`` it is judged at
+    once (anchored where the estimate puts it: the base estimate the true one); with 3 mm it
+    is not judged while it is up (the plan's placement: the double support's base half the
+    30 mm ahead), and is judged at the first tick the joints put it down."""
+    q = lifted_left(robot)
+    left, right = robot.frame_placement(q, "l_sole"), robot.frame_placement(q, "r_sole")
+    plan_left = pin.SE3(left.rotation, left.translation * [1.0, 1.0, 0.0] + [0.03, 0.0, 0.0])
+    imu = reading(robot.frame_placement(q, "torso").rotation)
+    for down, expect in ((0.0, 0.0), (0.003, 0.015)):
+        est = StateEstimator(robot, 0.2, anchor_band=0.01, anchor_down=down)
+        for _ in range(3):
+            est.update(0.01, q[7:], imu, [("r_sole", right)])
+        e = est.update(0.01, q[7:], imu, [("r_sole", right), ("l_sole", plan_left)])
+        assert e.base[0] - q[0] == pytest.approx(expect, abs=1e-6), down
+    assert "l_sole" not in est._landed  # (not judged yet)
+    q_down = q.copy()
+    q_down[7:] = robot.configuration("stand")[7:]  # the left leg straightened: down
+    est.update(0.01, q_down[7:], imu, [("r_sole", right), ("l_sole", plan_left)])
+    assert est._landed["l_sole"] is not None  # judged: 30 mm off its plan, anchored
+    with pytest.raises(ConfigurationError, match="anchor_down"):
+        StateEstimator(robot, 0.2, anchor_down=-0.01)
+
+
 @pytest.mark.parametrize("band", [0.0, 0.004])
 def test_the_support_the_soles_heights_show(robot, band):
     """``contact_band``: the plan stands on the left sole and swings the right; the robot

@@ -10,6 +10,7 @@ import pinocchio as pin
 import pytest
 
 from wbc.balance.retime import HoldParams, PhaseHold
+from wbc.balance.stabilizer import Gains
 from wbc.bench.trajectories import build
 from wbc.exceptions import ConfigurationError
 from wbc.recording import SUPPORT_DOUBLE
@@ -152,6 +153,7 @@ class _FixedDcm:
     def __init__(self, dcm) -> None:
         self.enabled = True
         self.dcm = np.asarray(dcm, float)
+        self.gains = Gains()
 
     @property
     def last(self):

@@ -1446,7 +1446,7 @@ def test_a_catch_of_a_push_backward_anchors_the_landed_soles_with_back_anchor(ro
     fresh.contact = _Est()
     fresh.land(t, e, q)
     assert fresh.banded(t).anchor_band is None  # no trigger
-    assert SteppingParams().back_anchor == 0.06  # (on by default)
+    assert SteppingParams().back_anchor == 0.02  # (on by default)
     with pytest.raises(ConfigurationError, match="back_anchor"):
         SteppingParams(back_anchor=-0.01).check()
 

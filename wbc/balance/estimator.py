@@ -459,6 +459,7 @@ class StateEstimator:
         contact_band: float = 0.0,
         kin_heading: bool = False,
         kin_band: float = 0.0,
+        anchor_down: float = 0.0,
     ) -> None:
         for name, v in (
             ("com_height", com_height),
@@ -475,7 +476,7 @@ class StateEstimator:
             )
         for name, v in (
             ("kin_gain", kin_gain), ("anchor_band", anchor_band), ("contact_band", contact_band),
-            ("kin_band", kin_band),
+            ("kin_band", kin_band), ("anchor_down", anchor_down),
         ):  # fmt: skip
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigurationError(
@@ -485,6 +486,10 @@ class StateEstimator:
         #: it landed until it lifts (module docstring; 0: always the planned placement)
         self.anchor_band = float(anchor_band)
         self._landed: dict[str, np.ndarray | None] = {}  # per stance sole: its anchor
+        #: m (0: off): a sole entering the support is judged (anchored or not) only once its
+        #: lowest point is within this of the other sole's (:meth:`sole_heights`): not at the
+        #: first support tick while it is still in the air (planned until then)
+        self.anchor_down = float(anchor_down)
         #: m: a sole whose lowest point is more than this above the other's carries no weight
         #: (:meth:`contact`; 0: the plan's support, always)
         self.contact_band = float(contact_band)
@@ -722,6 +727,8 @@ class StateEstimator:
         for s, (name, placement) in enumerate(stance):
             if name not in self._landed:
                 anchor = None
+                if known and self.anchor_down > 0 and self._up(name, joints, fallback):
+                    continue  # (still in the air: planned this tick, judged when down)
                 if known:
                     p = self.landed(name, joints, fallback)
                     d = p[:2] - placement.translation[:2]
@@ -733,6 +740,13 @@ class StateEstimator:
             if anchor is not None:
                 out[s] = anchor
         return out[0], (out[1] if len(stance) > 1 else out[0])
+
+    def _up(self, name: str, joints: np.ndarray, fallback: np.ndarray | None) -> bool:
+        """True when sole ``name``'s lowest point stands more than ``anchor_down`` above the
+        other sole's (:meth:`sole_heights`, from the last estimate)."""
+        h = self.sole_heights(joints, fallback)
+        s = SOLE_FRAMES.index(name)
+        return bool(h[s] - h[1 - s] > self.anchor_down)
 
     @staticmethod
     def select(

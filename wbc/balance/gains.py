@@ -199,6 +199,12 @@ class Gains:
     #: m: a sole landing further than this from its planned placement anchors the state
     #: estimate where it landed until it lifts (``StateEstimator`` ``anchor_band``; 0: off)
     anchor_band: float = 0.0
+    #: m (0: off): a landed sole judged for ``anchor_band`` / ``back_anchor`` only once its
+    #: lowest point is within this of the other's (``StateEstimator`` ``anchor_down``: not
+    #: while it is still in the air at its first support tick, where ``back_anchor`` 0.02 put
+    #: the catch's second sole 23–50 mm off). 0.003 by default, with ``real_step``: 48 of 80
+    #: backward pushes against 43 (issue 30, benchmarks/pushes.md)
+    anchor_down: float = 0.003
     #: m: a sole whose lowest point stands more than this above the other's carries no
     #: weight: the estimate anchors on the soles that do (``StateEstimator`` ``contact_band``:
     #: from the encoders' kinematics and the IMU's tilt; 0: the plan's support). 0.004
@@ -213,6 +219,17 @@ class Gains:
     #: with k_d 0.03, 147 against 143 of 150 without the feed-forward, 2 fewer on walk10_wb
     #: with it (issue 30's sixth pass)
     joint_lag: float = 0.0
+    #: 1: the estimate and the feedback stepped by the real time since the last tick (the
+    #: session's ``at_time`` clock) where the walk's clock skipped (or repeated) reference ticks
+    #: (``Session._step``); 0: by the walk's reference time since the last solved tick, which
+    #: the step timing's clock (``catch_hurry`` 3×, ``hurry_single``) makes up to 3× the real
+    #: step: the gyro integrated 3× over (the tilt 8–15° off in a catch's double support), the
+    #: CoM velocity read at 1/3. On by default: with ``anchor_down`` 0.003 and ``back_anchor``
+    #: 0.02, 48 of 80 backward pushes against 43 (held out 31 of 47 against 26; 3 of the old
+    #: default's lost), the bisected bound 0.758 against 0.734 N·s; every other direction at
+    #: its bound, the nominal walks and 20 plants unchanged (issue 30, benchmarks/pushes.md,
+    #: twenty-second session)
+    real_step: float = 1.0
     #: share of the double support in which the closed loop's reference moves its ZMP to the
     #: landed sole, the sway narrowed within the walk's margin (0: the plan as it is)
     transfer: float = 0.15
@@ -384,8 +401,10 @@ class Gains:
             "max_offset",
             "kin_tilt",
             "anchor_band",
+            "anchor_down",
             "contact_band",
             "joint_lag",
+            "real_step",
             "k_hip",
             "hip_band",
             "max_hip",

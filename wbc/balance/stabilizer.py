@@ -413,7 +413,7 @@ class Stabilizer:
             robot, com_height, use_imu=imu is not None, gyro_heading=g.k_yaw > 0,
             kin_gain=g.kin_tilt, anchor_band=g.anchor_band, joint_lag=g.joint_lag > 0,
             contact_band=g.contact_band, kin_heading=g.kin_heading > 0,
-            kin_band=g.kin_band,
+            kin_band=g.kin_band, anchor_down=g.anchor_down,
         )  # fmt: skip
         self._fb = np.zeros(_B_SIZE)  # the feedback's state (_feedback_tick)
         self._lag = lag_state(len(robot.joint_names))  # (servo_lag's)

@@ -134,8 +134,9 @@ class SteppingParams:
     #: from then on (a sole landing further than this from its plan anchored where it landed:
     #: the catch's short second step, 50 mm behind its plan at 0.8 N·s; on: backward 0.734 →
     #: 0.742 N·s, the other three and the OP3's backward identical; 0.02–0.04 lose pushes;
-    #: benchmarks/pushes.md)
-    back_anchor: float = 0.06
+    #: benchmarks/pushes.md); 0.02 since ``Gains.real_step`` and ``anchor_down`` (the sole
+    #: judged once down): with them, 48 of 80 backward pushes against 43 (twenty-second session)
+    back_anchor: float = 0.02
     #: m/s (0: off): after a push backward, in a swing the catch carries, ``hurry_single``'s
     #: clock no faster than leaves the swing sole (where the estimate and the present joints
     #: put it) the time to reach its re-planned landing at this speed: the third swing of a

@@ -88,6 +88,7 @@ class Session:
         self.hold = hold
         self.delay = 0.0  # s the walk runs behind its reference's clock (lift-offs held)
         self._last_time: float | None = None  # session time of the last at_time call
+        self._elapsed: float | None = None  # s since that call, for the tick it calls
         #: s, the last tick's step adjustment: the step timing and lift-off hold checks of
         #: :meth:`at_time`, the re-plan check (and re-plan)
         self.stepping_time = 0.0
@@ -200,7 +201,7 @@ class Session:
             start, stepping = self._now(), self.stepping
             if stepping is not None:  # (back_anchor: the estimator's band this tick)
                 targets = stepping.banded(targets)
-            targets = stab.adjust(targets, self.ref.com_vel[i], self.q, gap * self.ref.dt)
+            targets = stab.adjust(targets, self.ref.com_vel[i], self.q, self._step(stab, gap))
             if stepping is not None and stepping.lands and stab.last is not None:
                 targets = stepping.land(targets, stab.last, self.q)  # the swing, measured
             self.feedback_time = self._now() - start
@@ -328,9 +329,21 @@ class Session:
                 self.delay = t - float(ref.t[last] - ref.t[0])
                 i = last
             clock += self._now() - start
+        self._elapsed = None if self._last_time is None else t - self._last_time
         self._last_time = t
         self._clock_time = clock
         return self.tick(i)
+
+    def _step(self, stab: Any, gap: int) -> float:
+        """The stabilizer's step (s): the reference's time since the last solved tick, or with
+        ``Gains.real_step`` the real time since the last :meth:`at_time` where the two differ
+        by more than half a reference tick (the walk's clock skipped reference ticks: the step
+        timing's rate; a paced loop's jitter keeps the reference's own number)."""
+        dt = gap * self.ref.dt
+        real, self._elapsed = self._elapsed, None
+        if real is None or stab.gains.real_step <= 0:
+            return dt
+        return real if real > 0 and abs(real - dt) > 0.5 * self.ref.dt else dt
 
     @property
     def loop_time(self) -> float:
