@@ -25,10 +25,10 @@ from wbc.compiled.lsq import (
     MAX_ITER,
     NUMERICAL,
     OK,
-    equality_multipliers,
     solve_level,
     solve_level_iterations,
 )
+from wbc.compiled.lsq_multipliers import equality_multipliers
 from wbc.exceptions import SolverError
 from wbc.solvers.backends import DaqpBackend
 
