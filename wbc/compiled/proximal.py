@@ -52,9 +52,9 @@ def proximal_level(A, a, B, r, lower, upper, state, x, max_iter, ties, space) ->
             lo[j] = lower[j] - x[j]
             hi[j] = upper[j] - x[j]
         status, _ = _solve(
-            A, a_s, B, r_s, ridge, lo, hi, state, y, 1e-9, max_iter, space, np.bool_(False),
-            np.bool_(False), ties, np.bool_(step > 0),
-        )  # fmt: skip
+            A, a_s, B, r_s, float(ridge), lo, hi, state, y, 1e-9, int(max_iter), space,
+            np.bool_(False), np.bool_(False), int(ties), np.bool_(step > 0),
+        )  # fmt: skip  (as solve_level_in's values: one specialisation of _solve)
         if status != OK:
             return status
         moved = 0.0
