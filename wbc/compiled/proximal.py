@@ -51,10 +51,11 @@ def proximal_level(A, a, B, r, lower, upper, state, x, max_iter, ties, space) ->
         for j in range(n):
             lo[j] = lower[j] - x[j]
             hi[j] = upper[j] - x[j]
+        # (solve_level_in's value types: one specialisation of _solve)
         status, _ = _solve(
             A, a_s, B, r_s, float(ridge), lo, hi, state, y, 1e-9, int(max_iter), space,
             np.bool_(False), np.bool_(False), int(ties), np.bool_(step > 0),
-        )  # fmt: skip  (as solve_level_in's values: one specialisation of _solve)
+        )  # fmt: skip
         if status != OK:
             return status
         moved = 0.0
