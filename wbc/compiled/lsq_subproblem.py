@@ -74,17 +74,19 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind, 
     # equalities restricted to F: A_F x_F = a − A_X x_X
     a_norm = 0.0
     ax_norm = 0.0
-    for i in range(m):
-        s = 0.0
-        for c in range(nx):
-            s += A[i, ind[_I_FIX, c]] * x[ind[_I_FIX, c]]
-        V[_V_CVEC, i] = a[i] - s
-        a_norm += a[i] * a[i]
-        ax_norm += s * s
-    if factored > 0:
+    if factored > 0:  # (A_F's QR kept: the right-hand side only)
+        for i in range(m):
+            s = _fixed_part(A, x, ind, i, nx)
+            V[_V_CVEC, i] = a[i] - s
+            a_norm += a[i] * a[i]
+            ax_norm += s * s
         k = factored - 1
     else:
         for i in range(m):
+            s = _fixed_part(A, x, ind, i, nx)
+            V[_V_CVEC, i] = a[i] - s
+            a_norm += a[i] * a[i]
+            ax_norm += s * s
             ind[_I_PERM, i] = i
             for c in range(nf):
                 W[i, c] = A[i, ind[_I_FREE, c]]
@@ -116,12 +118,14 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind, 
     if d > 0 and p >= d:  # normal form: (MᵀM + ridge·I) z = Mᵀ r'
         if factored == 0:
             _gram(T, k, d, pp, N)
-        for c in range(d):
-            if factored == 0:
+            for c in range(d):
                 N[c, c] += ridge
-            V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
-        if factored == 0 and not _cholesky(N, d, ridge, V):
-            return _SUB_SINGULAR, k
+                V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
+            if not _cholesky(N, d, ridge, V):
+                return _SUB_SINGULAR, k
+        else:  # (its Cholesky factor kept)
+            for c in range(d):
+                V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
         _cholesky_solve(N, d, V, np.int64(_V_W))
         for i in range(pp):  # e = M z − r'
             V[_V_E, i] = -V[_V_RP, i]
@@ -136,12 +140,14 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind, 
             for c in range(d):
                 for i in range(p):
                     _axpy(T[k + c, i], T, k + c, N, i, 0, i + 1)
-        for i in range(p):
-            if factored == 0:
+            for i in range(p):
                 N[i, i] += ridge
-            V[_V_E, i] = V[_V_RP, i]
-        if factored == 0 and not _cholesky(N, p, ridge, V):
-            return _SUB_SINGULAR, k
+                V[_V_E, i] = V[_V_RP, i]
+            if not _cholesky(N, p, ridge, V):
+                return _SUB_SINGULAR, k
+        else:  # (its Cholesky factor kept)
+            for i in range(p):
+                V[_V_E, i] = V[_V_RP, i]
         _cholesky_solve(N, p, V, np.int64(_V_E))  # w = (M Mᵀ + ridge I)⁻¹ r'
         for i in range(p, pp):
             V[_V_E, i] = 0.0
@@ -166,6 +172,15 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind, 
     for c in range(nx):
         _fixed_multiplier(A, B, ridge, x, V, ind, ind[_I_FIX, c], p, k)
     return _SUB_OK, k
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _fixed_part(A, x, ind, i, nx):
+    """A_X x_X of row i (the fixed variables' part)."""
+    s = 0.0
+    for c in range(nx):
+        s += A[i, ind[_I_FIX, c]] * x[ind[_I_FIX, c]]
+    return s
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")
