@@ -269,8 +269,9 @@ def _code_bytes() -> int:
 def counts(ticks: list[dict], which: list[int]) -> dict[int, list[dict]]:
     """Each ``solve_level_in`` call of the ticks ``which``: its level, rows of A and B,
     continued or not, status, subproblems, and by kind (``fresh`` normal form, ``fresh row``
-    row form, ``upd`` updated, ``decl`` declined, ``dep`` a joined row depending). Needs the
-    kernels as Python (``NUMBA_DISABLE_JIT=1`` before numba is imported)."""
+    row form, ``factored`` its right-hand sides on factors kept, ``upd`` updated, ``decl``
+    declined, ``dep`` a joined row depending). Needs the kernels as Python
+    (``NUMBA_DISABLE_JIT=1`` before numba is imported)."""
     from wbc.compiled import lsq, lsq_update
     from wbc.compiled import ticks as T
 
@@ -288,9 +289,10 @@ def counts(ticks: list[dict], which: list[int]) -> dict[int, list[dict]]:
 
     def sub_counted(*a):
         result = sub(*a)
-        ind = a[-1]
+        ind = a[13]  # (then its factors, if in the work space already: lsq._FACTORED)
         nf = int((ind[lsq._I_FIXED] == 0).sum())
         key = "fresh row" if a[2].shape[0] < nf - result[1] else "fresh"
+        key = "factored" if len(a) > 14 and a[14] > 0 else key
         kinds[key] = kinds.get(key, 0) + 1
         return result
 

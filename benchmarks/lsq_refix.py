@@ -49,7 +49,7 @@ def trace(path: str, guard: int) -> dict:
     sub, upd, level, mult = lsq._subproblem, lsq._updated, T.solve_level_in, T._hard_multipliers
 
     def sub_counted(*a):
-        seq.append(a[-1][lsq._I_FIXED, : len(a[5])].copy())
+        seq.append(a[13][lsq._I_FIXED, : len(a[5])].copy())
         return sub(*a)
 
     def upd_counted(*a):

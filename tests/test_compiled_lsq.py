@@ -25,10 +25,10 @@ from wbc.compiled.lsq import (
     MAX_ITER,
     NUMERICAL,
     OK,
-    equality_multipliers,
     solve_level,
     solve_level_iterations,
 )
+from wbc.compiled.lsq_multipliers import equality_multipliers
 from wbc.exceptions import SolverError
 from wbc.solvers.backends import DaqpBackend
 
@@ -498,7 +498,7 @@ ONE_SPECIALISATION = """
 import json
 from numba.core.registry import CPUDispatcher
 from wbc import load_robot
-from wbc.compiled import lsq, lsq_linalg, lsq_subproblem, lsq_update, space, ticks
+from wbc.compiled import lsq, lsq_linalg, lsq_multipliers, lsq_subproblem, lsq_update, space, ticks
 from wbc.limits import collision_kernels, collision_packed
 from wbc.stacks import load_stack
 from wbc.tasks import thesis_orientation
@@ -507,8 +507,8 @@ compile_part("weighted")  # a weighted and a hierarchical solve, compiled in thi
 compile_part("hierarchical")
 robot = load_robot()  # (the thesis's orientation rows, on the numpy path)
 load_stack("vat", robot, compiled=False).solver.step(robot.configuration("walk_ready"), 0.01)
-modules = (lsq, lsq_subproblem, lsq_update, lsq_linalg, space, ticks, collision_kernels,
-           collision_packed, thesis_orientation)
+modules = (lsq, lsq_subproblem, lsq_update, lsq_linalg, lsq_multipliers, space, ticks,
+           collision_kernels, collision_packed, thesis_orientation)
 print(json.dumps({
     f"{m.__name__}.{k}": len(v.signatures)
     for m in modules for k, v in vars(m).items()
@@ -538,12 +538,16 @@ def test_each_kernel_compiles_once(tmp_path):
     assert run.returncode == 0, run.stderr[-2000:]
     counts = json.loads(run.stdout.strip().splitlines()[-1])
     for name in (
-        "lsq.solve_level", "lsq._solve", "lsq._finish", "lsq_subproblem._subproblem",
+        "lsq.solve_level_in", "lsq._solve", "lsq._finish", "lsq_subproblem._subproblem",
         "lsq_subproblem._rank_with", "lsq_subproblem._dependency", "lsq_linalg._pivoted_qr_rows",
         "lsq_linalg._reflect_rows", "lsq_linalg._reflect_vector", "lsq_linalg._reflect_columns",
         "lsq_linalg._reflect_columns2", "lsq_linalg._cholesky_solve", "lsq_update._updated",
+        "lsq_multipliers.equality_multipliers_in",
     ):  # fmt: skip
         assert counts[f"wbc.compiled.{name}"] == 1, name
+    # (the proximal steps call the solver in the level's work space: the allocating wrapper
+    # solve_level is compiled by no tick)
+    assert counts["wbc.compiled.lsq.solve_level"] == 0
     for name in ("weighted_solve", "cascade_solve", "solve_with_inequalities", "_level"):
         assert counts[f"wbc.compiled.ticks.{name}"] == 1, name
     # the self-collision rows' buffers by address: one accessor per dtype and dimension, not

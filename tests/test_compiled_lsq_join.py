@@ -278,5 +278,5 @@ def _as_python(A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, s
     switches read at the call; the kernels it calls compiled)."""
     return lsq._solve.py_func(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(cont), np.bool_(True), int(ties),
+        np.bool_(cont), np.bool_(True), int(ties), np.bool_(False),
     )  # fmt: skip

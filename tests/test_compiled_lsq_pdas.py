@@ -38,7 +38,7 @@ def run_python(A, a, B, r, ridge, lower, upper, state, ties: int, rise: int):
         space = level_space(A.shape[0], N, B.shape[0])
         status, count = lsq._solve.py_func(
             A, a, B, r, float(ridge), lower, upper, state, x, 1e-9, 100, space,
-            np.bool_(False), np.bool_(False), ties,
+            np.bool_(False), np.bool_(False), ties, np.bool_(False),
         )  # fmt: skip
     finally:
         lsq.PDAS_RISE = keep

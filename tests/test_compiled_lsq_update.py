@@ -54,7 +54,21 @@ def _base(A, a, B, r, ridge, lower, upper, fixed, work, ind):
     x = np.zeros(n)
     ind[_I_FIXED, :n] = fixed
     status, k = _subproblem(
-        A, a, B, r, ridge, lower, upper, x, 1e-9, work[0], work[1], work[2], work[3], ind
+        A,
+        a,
+        B,
+        r,
+        ridge,
+        lower,
+        upper,
+        x,
+        1e-9,
+        work[0],
+        work[1],
+        work[2],
+        work[3],
+        ind,
+        np.int64(0),
     )
     assert status == _SUB_OK
     return x, k

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from test_compiled_lsq import N, random_level, solve
 
-from wbc.compiled.lsq import OK, equality_multipliers, level_space
+from wbc.compiled.lsq import OK, level_space
+from wbc.compiled.lsq_multipliers import equality_multipliers
 from wbc.compiled.ticks import DEGENERATE_ROW, _degenerate, solve_with_inequalities
 
 TOL = 1e-9

@@ -443,7 +443,10 @@ def _ticks(
     h = hashlib.sha256(text.encode())
     lsq = [
         _HERE / f
-        for f in "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py".split()
+        for f in (
+            "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py lsq_multipliers.py proximal.py "
+            "space.py"
+        ).split()
     ]
     own = [_HERE / f for f in ("rows.py", "ticks.py", "boxes.py", "checks.py")]
     for f in [*files, *own, *lsq]:

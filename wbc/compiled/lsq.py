@@ -98,24 +98,17 @@ from numba import njit
 from ._cache import refresh
 from .lsq_linalg import (
     _I_FIXED,
-    _I_FREE,
     _I_PERM,
     _I_PINNED,
     _I_PREV,
     _N_IVEC,
     _N_VEC,
-    _V_LAM,
     _V_MU,
     _V_MU0,
     _V_MU_TOL,
     _V_NU,
-    _V_T,
-    _V_TAU,
     _V_X0,
     _fill,
-    _pivoted_qr_rows,
-    _r11_solve,
-    _reflect_vector,
 )
 from .lsq_subproblem import (
     _SUB_INCONSISTENT,
@@ -178,6 +171,13 @@ INWARD_RELEASE = True
 #: held and lifted rows 2767 subproblems with every bound released, 2102 with every inward
 #: one, 1914 with this 10)
 INWARD_RATIO = 10.0
+#: a subproblem of the set whose factors (A_F's QR, T, the Cholesky factor) are in the work
+#: space already — the last solved afresh there, of the same A, B and ridge: in one call, or
+#: the last call's with ``_solve``'s ``same`` (the proximal steps) — solves only its
+#: right-hand sides again (``lsq_subproblem._subproblem``'s ``factored``), the same
+#: arithmetic (the same answers, bit for bit); False (edit it; the kernels then compile
+#: again): every subproblem factored afresh, as before
+_FACTORED = True
 #: ... but not from a base whose reduced Hessian's Cholesky diagonal spans more than this
 #: (its condition number beyond about its square)
 _COND_MAX_SQRT = 1e2
@@ -243,8 +243,9 @@ def level_space(m: int, n: int, p: int) -> tuple:
         np.empty((3, n)),
         np.zeros(n, dtype=np.int64),
         # the base a following call may continue from: [valid, its rows of A, its rank, its
-        # solution only in U's first row, the rows of A of the call that kept it]
-        np.zeros(5, dtype=np.int64),
+        # solution only in U's first row, the rows of A of the call that kept it, its rank + 1
+        # while its factors are in the work space (:data:`_FACTORED`; else 0)]
+        np.zeros(6, dtype=np.int64),
         np.int64(m),
         np.int64(p),
     )
@@ -276,12 +277,15 @@ def _carry(carry, base, base_ok, base_first, base_m, base_k, x, W, V, ind, U, U0
 
 @njit(cache=True)
 def _solve(
-    A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, keep, ties
+    A, a, B, r, ridge, lower, upper, state, x, rank_rtol, max_iter, space, cont, keep, ties, same
 ):  # fmt: skip
     """The solver behind :func:`solve_level` and :func:`solve_level_in` (compiled once for
     float ridge/rank_rtol, an integer max_iter and a bool ``cont``, however the public
     functions are called); ``ties``: PDAS's budget of steps that do not lower its count
-    (see :data:`PDAS_TIES`)."""
+    (see :data:`PDAS_TIES`). ``same``: A, B and ridge are the last call's in ``space`` (only
+    a, r and the bounds changed: :mod:`wbc.compiled.proximal`'s steps), so a first
+    subproblem of the set that call solved last afresh takes its factors
+    (:data:`_FACTORED`)."""
     m, n = A.shape
     p = B.shape[0]
     work, ind, U0, S, K, saved, base, carry, m_max, p_max = space
@@ -354,6 +358,9 @@ def _solve(
             nf += base[i] == 0
         _keep_base(U[_U_X], W, V, ind, U, nf, base_k, pp)
     carry[0] = 0
+    # (the factors of the set ``base`` in the work space, for a subproblem of that set again:
+    # this call's, or with ``same`` the last call's; carry[5] is its rank + 1, else 0)
+    factors_ok = same and _FACTORED
     count = 0
     i_add = np.int64(-1)
     side = 0
@@ -436,7 +443,19 @@ def _solve(
             continue
         else:
             count += 1
-            sub, rank = _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind)
+            factored = np.int64(0)
+            if factors_ok and carry[5] > 0:
+                factored = carry[5]
+                for i in range(n):
+                    if base[i] != ind[_I_FIXED, i]:
+                        factored = 0
+            carry[5] = 0
+            sub, rank = _subproblem(
+                A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind, factored
+            )  # fmt: skip
+            if sub == _SUB_OK:
+                carry[5] = rank + 1
+            factors_ok = _FACTORED
             rank_now = rank
             nf = 0
             for i in range(n):
@@ -461,6 +480,7 @@ def _solve(
         rank_with = -1
         if phase == _DUAL_ADD and sub != _SUB_INCONSISTENT and r_with < 0:
             r_with = _rank_with(A, i_add, rank_rtol, W, V, ind)
+            carry[5] = 0  # (its QR took the work space)
             base_ok = False  # (its QR took the work space)
         if phase == _PDAS:
             if sub == _SUB_INCONSISTENT:
@@ -576,6 +596,7 @@ def _solve(
             # −s·τ·ν_j; the first active bound whose multiplier reaches zero is released
             ind[_I_FIXED, i_add] = 0
             _dependency(A, i_add, rank_rtol, W, V, ind)
+            carry[5] = 0
             base_ok = False
             sgn = -side
             tau_min = np.inf
@@ -685,7 +706,7 @@ def solve_level_iterations(
     space = level_space(m, n, B.shape[0])
     return _solve(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(False), np.bool_(False), int(ties),
+        np.bool_(False), np.bool_(False), int(ties), np.bool_(False),
     )  # fmt: skip
 
 
@@ -709,7 +730,7 @@ def solve_level(
     space = level_space(m, n, B.shape[0])
     status, _ = _solve(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(False), np.bool_(False), int(ties),
+        np.bool_(False), np.bool_(False), int(ties), np.bool_(False),
     )  # fmt: skip
     return status
 
@@ -725,56 +746,8 @@ def solve_level_in(
     instead of solved afresh, where that applies. ``ties``: as :func:`solve_level`'s."""
     return _solve(
         A, a, B, r, float(ridge), lower, upper, state, x, float(rank_rtol), int(max_iter), space,
-        np.bool_(cont), np.bool_(True), int(ties),
+        np.bool_(cont), np.bool_(True), int(ties), np.bool_(False),
     )  # fmt: skip
-
-
-@njit(cache=True)
-def equality_multipliers(A, state, g, lam, rank_rtol=1e-9) -> bool:
-    """λ with ``A_Fᵀ λ = −g_F`` on the free variables F (``state == 0``): the multipliers of
-    the equalities A x = a at a point whose gradient is g, a basic solution from the pivoted
-    QR of A_Fᵀ (rows found dependent get λ = 0), into ``lam`` (m). False if the system has no
-    solution (residual above 1e-7·(1 + ‖g_F‖)): the point is not stationary."""
-    m, n = A.shape
-    size = max(m, n, _N_VEC)
-    work = np.empty((2, size, max(m, n)))
-    ind = np.empty((_N_IVEC, max(m, n)), dtype=np.int64)
-    return equality_multipliers_in(A, state, g, lam, rank_rtol, work[0], work[1], ind)
-
-
-@njit(cache=True)
-def equality_multipliers_in(A, state, g, lam, rank_rtol, W, V, ind) -> bool:
-    """:func:`equality_multipliers` in work arrays W, V (at least max(m, n, 16) × max(m, n))
-    and ind (6 × max(m, n), int64): no allocation."""
-    m, n = A.shape
-    nf = np.int64(0)
-    for j in range(n):
-        if state[j] == 0:
-            ind[_I_FREE, nf] = j
-            nf += 1
-    for row in range(m):
-        ind[_I_PERM, row] = row
-        for c in range(nf):
-            W[row, c] = A[row, ind[_I_FREE, c]]
-    k = _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol) if m > 0 and nf > 0 else 0
-    norm = 0.0
-    for c in range(nf):  # u = Qᵀ (−g_F), the reflectors in order
-        V[_V_T, c] = -g[ind[_I_FREE, c]]
-        norm += V[_V_T, c] * V[_V_T, c]
-    for j in range(k):
-        if V[_V_TAU, j] != 0.0:
-            _reflect_vector(W, j, nf, V[_V_TAU, j], V, _V_T)
-    miss = 0.0
-    for c in range(k, nf):
-        miss += V[_V_T, c] * V[_V_T, c]
-    if np.sqrt(miss) > 1e-7 * (1.0 + np.sqrt(norm)):
-        return False
-    _r11_solve(W, k, V, _V_T, _V_LAM)  # R11 λ'' = u[:k]
-    for i in range(m):
-        lam[i] = 0.0
-    for j in range(k):
-        lam[ind[_I_PERM, j]] = V[_V_LAM, j]
-    return True
 
 
 # numba caches these on this file alone: flush them when the kernels they call change
@@ -791,8 +764,6 @@ refresh(
         _solve,
         solve_level_iterations,
         solve_level,
-        equality_multipliers,
-        equality_multipliers_in,
     ],
     [_HERE / "lsq_linalg.py", _HERE / "lsq_subproblem.py", _HERE / "lsq_update.py"],
 )

@@ -46,12 +46,17 @@ _SUB_OK, _SUB_INCONSISTENT, _SUB_SINGULAR = 0, 1, 2
 
 
 @njit(cache=True, fastmath=_FAST)
-def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
+def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind, factored):
     """Solve the equality-constrained subproblem for the fixed set ``ind[_I_FIXED]`` (-1/+1 = at
     the lower/upper bound).
 
     Writes x, and for fixed i the multiplier ``V[_V_MU, i]`` with its tolerance
     ``V[_V_MU_TOL, i]``. Returns (_SUB_OK, _SUB_INCONSISTENT or _SUB_SINGULAR; the rank of A_F).
+    ``factored`` > 0: the work space holds this set's factors already (the QR of A_F of rank
+    ``factored − 1`` in W, ``V[_V_TAU]`` and ``ind[_I_PERM]``, T, the Cholesky factor in N and
+    ``V[_V_DINV]``: the last subproblem solved here, of the same A, B and ridge, was of this
+    set and consistent); only the right-hand sides (a, r, the bounds) are solved again, with
+    the same arithmetic as a fresh solve, so the same answer.
     """
     m, n = A.shape
     p = B.shape[0]
@@ -69,17 +74,23 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
     # equalities restricted to F: A_F x_F = a − A_X x_X
     a_norm = 0.0
     ax_norm = 0.0
-    for i in range(m):
-        s = 0.0
-        for c in range(nx):
-            s += A[i, ind[_I_FIX, c]] * x[ind[_I_FIX, c]]
-        V[_V_CVEC, i] = a[i] - s
-        a_norm += a[i] * a[i]
-        ax_norm += s * s
-        ind[_I_PERM, i] = i
-        for c in range(nf):
-            W[i, c] = A[i, ind[_I_FREE, c]]
-    k = _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol)
+    if factored > 0:  # (A_F's QR kept: the right-hand side only)
+        for i in range(m):
+            s = _fixed_part(A, x, ind, i, nx)
+            V[_V_CVEC, i] = a[i] - s
+            a_norm += a[i] * a[i]
+            ax_norm += s * s
+        k = factored - 1
+    else:
+        for i in range(m):
+            s = _fixed_part(A, x, ind, i, nx)
+            V[_V_CVEC, i] = a[i] - s
+            a_norm += a[i] * a[i]
+            ax_norm += s * s
+            ind[_I_PERM, i] = i
+            for c in range(nf):
+                W[i, c] = A[i, ind[_I_FREE, c]]
+        k = _pivoted_qr_rows(W, m, nf, V, ind, rank_rtol)
     # y₀ from R11ᵀ y₀ = (Πᵀ c)[:k]; the dependent rows must agree
     for i in range(k):
         V[_V_T, i] = (V[_V_CVEC, ind[_I_PERM, i]] - _dot(W, i, V, _V_T, 0, i)) / W[i, i]
@@ -91,26 +102,8 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
         return _SUB_INCONSISTENT, k
     d = nf - k
     # T = (B_F Q)ᵀ = Qᵀ B_Fᵀ = H_{k−1} ⋯ H_0 B_Fᵀ: rows 0…k−1 are (B_F Y)ᵀ, rows k…nf−1 are Mᵀ
-    i = 0
-    while i + 4 <= p:  # (four rows of B at a time: a quarter of the loop overhead)
-        for c in range(nf):
-            fc = ind[_I_FREE, c]
-            T[c, i] = B[i, fc]
-            T[c, i + 1] = B[i + 1, fc]
-            T[c, i + 2] = B[i + 2, fc]
-            T[c, i + 3] = B[i + 3, fc]
-        i += 4
-    while i < p:
-        for c in range(nf):
-            T[c, i] = B[i, ind[_I_FREE, c]]
-        i += 1
-    for c in range(nf):
-        for i in range(p, pp):
-            T[c, i] = 0.0
-    for j in range(0, k - 1, 2):
-        _reflect_columns2(T, W, j, nf, V[_V_TAU, j], V[_V_TAU, j + 1], V, pp)
-    if k % 2 == 1 and V[_V_TAU, k - 1] != 0.0:
-        _reflect_columns(T, W, k - 1, nf, V[_V_TAU, k - 1], V, pp)
+    if factored == 0:
+        _reflected(B, W, T, V, ind, nf, k, p, pp)
     # r' = r − B x₀, x₀ = (x_X, Y y₀)
     for i in range(p):
         s = 0.0
@@ -123,12 +116,16 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
         _axpy(-V[_V_T, j], T, j, V, _V_RP, 0, pp)
     # null-space least squares for z (into t[k:nf]), and the residual e = B x − r
     if d > 0 and p >= d:  # normal form: (MᵀM + ridge·I) z = Mᵀ r'
-        _gram(T, k, d, pp, N)
-        for c in range(d):
-            N[c, c] += ridge
-            V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
-        if not _cholesky(N, d, ridge, V):
-            return _SUB_SINGULAR, k
+        if factored == 0:
+            _gram(T, k, d, pp, N)
+            for c in range(d):
+                N[c, c] += ridge
+                V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
+            if not _cholesky(N, d, ridge, V):
+                return _SUB_SINGULAR, k
+        else:  # (its Cholesky factor kept)
+            for c in range(d):
+                V[_V_W, c] = _dot(T, k + c, V, _V_RP, 0, pp)
         _cholesky_solve(N, d, V, np.int64(_V_W))
         for i in range(pp):  # e = M z − r'
             V[_V_E, i] = -V[_V_RP, i]
@@ -136,17 +133,21 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
             V[_V_T, k + c] = V[_V_W, c]
             _axpy(V[_V_W, c], T, k + c, V, _V_E, 0, pp)
     elif d > 0:  # row form: z = Mᵀ (M Mᵀ + ridge·I)⁻¹ r'
-        for i in range(p):
-            for i2 in range(i + 1):
-                N[i, i2] = 0.0
-        for c in range(d):
+        if factored == 0:
             for i in range(p):
-                _axpy(T[k + c, i], T, k + c, N, i, 0, i + 1)
-        for i in range(p):
-            N[i, i] += ridge
-            V[_V_E, i] = V[_V_RP, i]
-        if not _cholesky(N, p, ridge, V):
-            return _SUB_SINGULAR, k
+                for i2 in range(i + 1):
+                    N[i, i2] = 0.0
+            for c in range(d):
+                for i in range(p):
+                    _axpy(T[k + c, i], T, k + c, N, i, 0, i + 1)
+            for i in range(p):
+                N[i, i] += ridge
+                V[_V_E, i] = V[_V_RP, i]
+            if not _cholesky(N, p, ridge, V):
+                return _SUB_SINGULAR, k
+        else:  # (its Cholesky factor kept)
+            for i in range(p):
+                V[_V_E, i] = V[_V_RP, i]
         _cholesky_solve(N, p, V, np.int64(_V_E))  # w = (M Mᵀ + ridge I)⁻¹ r'
         for i in range(p, pp):
             V[_V_E, i] = 0.0
@@ -171,6 +172,40 @@ def _subproblem(A, a, B, r, ridge, lower, upper, x, rank_rtol, W, T, N, V, ind):
     for c in range(nx):
         _fixed_multiplier(A, B, ridge, x, V, ind, ind[_I_FIX, c], p, k)
     return _SUB_OK, k
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _fixed_part(A, x, ind, i, nx):
+    """A_X x_X of row i (the fixed variables' part)."""
+    s = 0.0
+    for c in range(nx):
+        s += A[i, ind[_I_FIX, c]] * x[ind[_I_FIX, c]]
+    return s
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _reflected(B, W, T, V, ind, nf, k, p, pp):
+    """T = (B_F Q)ᵀ = Qᵀ B_Fᵀ from the reflectors of the QR of A_F in W (the first k)."""
+    i = 0
+    while i + 4 <= p:  # (four rows of B at a time: a quarter of the loop overhead)
+        for c in range(nf):
+            fc = ind[_I_FREE, c]
+            T[c, i] = B[i, fc]
+            T[c, i + 1] = B[i + 1, fc]
+            T[c, i + 2] = B[i + 2, fc]
+            T[c, i + 3] = B[i + 3, fc]
+        i += 4
+    while i < p:
+        for c in range(nf):
+            T[c, i] = B[i, ind[_I_FREE, c]]
+        i += 1
+    for c in range(nf):
+        for i in range(p, pp):
+            T[c, i] = 0.0
+    for j in range(0, k - 1, 2):
+        _reflect_columns2(T, W, j, nf, V[_V_TAU, j], V[_V_TAU, j + 1], V, pp)
+    if k % 2 == 1 and V[_V_TAU, k - 1] != 0.0:
+        _reflect_columns(T, W, k - 1, nf, V[_V_TAU, k - 1], V, pp)
 
 
 @njit(cache=True, fastmath=_FAST, inline="always")

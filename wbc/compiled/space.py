@@ -44,7 +44,7 @@ def level_space_size(m: int, n: int, p: int) -> tuple:
     cols = max(m, n, pp)
     floats = 4 * rows * cols + (_U_ROWS * n + _U_Q) * max(n, pp) + n * (n + 1)
     floats += n * (2 * n + 3) + 3 * n
-    return floats, _N_IVEC * max(m, n) + n + 5
+    return floats, _N_IVEC * max(m, n) + n + 6
 
 
 @njit(cache=True)
@@ -69,7 +69,7 @@ def level_space_at(fw, iw, m, n, p) -> tuple:
     k = _N_IVEC * max(m, n)
     ind = iw[:k].reshape((_N_IVEC, max(m, n)))
     base = iw[k : k + n]
-    carry = iw[k + n : k + n + 5]
+    carry = iw[k + n : k + n + 6]
     base[:] = 0
     carry[:] = 0
     return (work, ind, U, S, K, saved, base, carry, np.int64(m), np.int64(p))
@@ -113,8 +113,8 @@ def multiplier_size(m: int, n: int) -> tuple:
 
 @njit(cache=True)
 def multiplier_work(fw, iw, m, n) -> tuple:
-    """:func:`wbc.compiled.lsq.equality_multipliers`' work arrays (its gradient, zeroed; W, V
-    and ind) as views of fw and iw from their starts."""
+    """:func:`wbc.compiled.lsq_multipliers.equality_multipliers`' work arrays (its gradient,
+    zeroed; W, V and ind) as views of fw and iw from their starts."""
     rows = max(m, n, _N_VEC)
     cols = max(m, n)
     grad = fw[:n]

@@ -32,10 +32,10 @@ from .lsq import (
     MAX_ITER,
     NUMERICAL,
     OK,
-    equality_multipliers_in,
     level_space,
     solve_level_in,
 )
+from .lsq_multipliers import equality_multipliers_in
 from .proximal import proximal_level
 from .space import (
     LEVEL_FLOATS,
@@ -202,7 +202,7 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties, 
     )  # fmt: skip
     if status == NUMERICAL or status == MAX_ITER:
         x[:] = previous
-        status = proximal_level(A, a, B, r, lower, upper, state, x, LEVEL_MAX_ITER, ties)
+        status = proximal_level(A, a, B, r, lower, upper, state, x, LEVEL_MAX_ITER, ties, space)
     return status
 
 
@@ -210,7 +210,7 @@ def _level(A, a, B, r, ridge, exact, lower, upper, state, x, space, cont, ties, 
 def _hard_multipliers(A, mh, B, ps, r, ridge, exact, state, x, lam, fw, iw):
     """Multipliers of the equalities A[:mh] at x from the stationarity on the free variables,
     ``A_Fᵀ λ = −∇f_F`` with ∇f = Bᵀ(B x − r) (+ ridge·x unless ``exact``), in least squares
-    (:func:`~wbc.compiled.lsq.equality_multipliers`: a basic solution if the rows are
+    (:func:`~wbc.compiled.lsq_multipliers.equality_multipliers`: a basic solution if the rows are
     dependent), into ``lam``; False if it has no solution (no certificate). Its work in fw, iw
     (:func:`~wbc.compiled.space.multiplier_work`; allocated if they are too small)."""
     n = x.shape[0]
@@ -779,7 +779,8 @@ refresh(
     [
         Path(__file__).with_name(f)
         for f in (
-            "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py proximal.py space.py integrate.py"
+            "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py lsq_multipliers.py proximal.py "
+            "space.py integrate.py"
         ).split()
     ],
 )
