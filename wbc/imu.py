@@ -231,6 +231,28 @@ def calibrate(
     return ImuCalibration(bias, level, angle, len(g))
 
 
+#: rad/s: the gyro's spread (RMS of a window's samples about their mean, 3 axes) below which
+#: a settling calibration (:func:`quietest_window`'s caller) takes the robot as still
+SETTLE_STILL = 0.03
+
+
+def window_spread(gyros: np.ndarray) -> float:
+    """The gyro's spread over a window of samples (rows, rad/s): ``sqrt(mean |ω_k − ω̄|²)``
+    — the true bias is constant, so it is the window's motion (and the noise)."""
+    g = np.asarray(gyros, dtype=float)
+    return float(np.sqrt(np.mean(np.sum((g - g.mean(axis=0)) ** 2, axis=1))))
+
+
+def quietest_window(gyros: np.ndarray, length: int, first_end: int) -> int:
+    """The start of the ``length``-sample window of ``gyros`` (rows) with the least
+    :func:`window_spread`, among those ending at sample ``first_end`` (exclusive end index)
+    or later: where the robot turned least, so its mean is the bias with least motion in it."""
+    g = np.atleast_2d(np.asarray(gyros, dtype=float))
+    length = max(1, min(int(length), len(g)))
+    starts = range(max(0, min(int(first_end), len(g)) - length), len(g) - length + 1)
+    return min(starts, key=lambda i: window_spread(g[i : i + length]))
+
+
 class Imu(ABC):
     """A source of :class:`ImuReading` values (simulated or real). ``mount``: where it sits
     on the torso (:class:`ImuMount`; None: its frame is the torso frame); the closed loop
