@@ -103,3 +103,5 @@ def test_the_quietest_window_is_where_the_gyro_moved_least():
     assert start >= 15 and window_spread(g[start : start + 15]) < 1e-12  # (in 0.50–0.80 s)
     assert 50 <= start <= 65
     assert quietest_window(g, 15, 100) == 85  # only the last window ends that late
+    noisy = np.random.default_rng(0).normal(0.0, 0.02, (30, 3))  # white noise: no motion
+    assert window_spread(noisy) < 0.01 < window_spread(g[10:40])

@@ -231,16 +231,21 @@ def calibrate(
     return ImuCalibration(bias, level, angle, len(g))
 
 
-#: rad/s: the gyro's spread (RMS of a window's samples about their mean, 3 axes) below which
-#: a settling calibration (:func:`quietest_window`'s caller) takes the robot as still
-SETTLE_STILL = 0.03
+#: rad/s: the gyro's motion over a window (:func:`window_spread`, 3 axes) below which a
+#: settling calibration (:func:`quietest_window`'s caller) takes the robot as still
+SETTLE_STILL = 0.01
 
 
 def window_spread(gyros: np.ndarray) -> float:
-    """The gyro's spread over a window of samples (rows, rad/s): ``sqrt(mean |ω_k − ω̄|²)``
-    — the true bias is constant, so it is the window's motion (and the noise)."""
+    """The motion in a window of gyro samples (rows, rad/s, at a steady rate): the true bias
+    is constant, so the samples' spread about their mean is motion and white noise,
+    ``mean |ω_k − ω̄|²``, less the noise's share estimated from successive differences
+    (``mean |ω_k − ω_{k−1}|² / 2``: smooth motion hardly changes between samples);
+    ``sqrt`` of what is left (0 if none)."""
     g = np.asarray(gyros, dtype=float)
-    return float(np.sqrt(np.mean(np.sum((g - g.mean(axis=0)) ** 2, axis=1))))
+    total = float(np.mean(np.sum((g - g.mean(axis=0)) ** 2, axis=1)))
+    noise = 0.5 * float(np.mean(np.sum(np.diff(g, axis=0) ** 2, axis=1))) if len(g) > 1 else 0.0
+    return math.sqrt(max(0.0, total - noise))
 
 
 def quietest_window(gyros: np.ndarray, length: int, first_end: int) -> int:
