@@ -119,7 +119,7 @@ def test_a_settling_calibration_waits_for_a_still_gyro_and_takes_its_quietest_wi
     nothing by 0.6 s) leaves its rocking out of the bias; without it (the default) the 0.3 s
     calibration takes part of a swing as bias. Bounded: never still, it stops after S."""
     from wbc.drive.walker import DRIVE_CALIBRATE_S, Walker
-    from wbc.imu import ImuReading
+    from wbc.imu import SETTLE_STILL, ImuReading
 
     robot = load_robot("bioloid")
     _sim, _bus, imu = make_sim(robot)
@@ -151,9 +151,9 @@ def test_a_settling_calibration_waits_for_a_still_gyro_and_takes_its_quietest_wi
 
     planned = round(DRIVE_CALIBRATE_S / 0.01)
     ticks, off = rest(0.0)
-    assert ticks == planned and np.max(np.abs(off)) > 0.02  # the rocking taken as bias
+    assert ticks == planned and np.max(np.abs(off)) > 2 * SETTLE_STILL  # the rocking as bias
     ticks, off = rest(1.0)
-    assert planned < ticks < planned + 100 and np.max(np.abs(off)) < 0.002
+    assert planned < ticks < planned + 100 and np.max(np.abs(off)) < SETTLE_STILL  # (its motion)
     ticks, off = rest(0.2, decay=100.0)  # never still: bounded, the quietest window taken
     assert ticks == planned + 20
     with pytest.raises(ConfigurationError, match="settle_s must be"):
