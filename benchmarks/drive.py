@@ -111,7 +111,7 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None,
-            calibrate: float | None = None, settle: float | None = None,
+            calibrate: float | None = None, calibrate_settle: float | None = None,
             track: bool = True,
             contact_reach: float | None = None, contact_rate: float | None = None,
             yaw_rest: float | None = None, finish: bool = False,
@@ -135,7 +135,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
     if not keep_clear:  # (the Walker's default: True)
         options["keep_clear"] = False
     given = {  # (the Walker's own defaults where not given)
-        "calibrate_s": calibrate, "settle_s": settle,
+        "calibrate_s": calibrate, "settle_s": calibrate_settle,
         "contact_reach": contact_reach, "contact_rate": contact_rate,
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
         "lift_gain": lift_gain, "params": params,
@@ -286,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
                          "with the filter's bias correction; "
                          "Walker(filter_heading=True))")  # fmt: skip
     ap.add_argument(
-        "--settle",
+        "--calibrate-settle",
         type=float,
         default=None,
         metavar="S",
@@ -427,7 +427,7 @@ def main(argv: list[str] | None = None) -> int:
         "correct": args.correct,
         "compensate": args.compensate,
         "calibrate": args.calibrate,
-        "settle": args.settle,
+        "calibrate_settle": args.calibrate_settle,
         "track": args.track,
         "contact_reach": args.contact_reach,
         "contact_rate": args.contact_rate,

@@ -139,7 +139,7 @@ def record(args) -> None:
                       params=params, load_ramp=args.load_ramp,
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
                       rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
-                      flatten=args.flatten, settle=args.settle)  # fmt: skip
+                      flatten=args.flatten, calibrate_settle=args.calibrate_settle)  # fmt: skip
     stab = walkers[-1].stabilizer
     imu = stab.imu
     while not hasattr(imu, "gyro_bias") and hasattr(imu, "imu"):
@@ -428,7 +428,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="Walker(encoder_rest=True) for the recorded run")  # fmt: skip
     ap.add_argument("--rest-rotation", action="store_true",
                     help="Walker(rest_rotation=True) for the recorded run")  # fmt: skip
-    ap.add_argument("--settle", type=float, default=None, metavar="S",
+    ap.add_argument("--calibrate-settle", type=float, default=None, metavar="S",
                     help="Walker(settle_s=S) for the recorded run")  # fmt: skip
     ap.add_argument("--yaw-rest", type=float, default=None, metavar="S",
                     help="Walker(yaw_rest_s=S) for the recorded run")  # fmt: skip
