@@ -111,7 +111,8 @@ def steady_velocity(path: np.ndarray, t0: float, t1: float) -> list[float]:
 
 def run_one(robot, solver: str, commands, variation=None, limits=None, window=None,
             correct: bool = True, compensate: float | None = None,
-            calibrate: float | None = None, track: bool = True,
+            calibrate: float | None = None, calibrate_settle: float | None = None,
+            track: bool = True,
             contact_reach: float | None = None, contact_rate: float | None = None,
             yaw_rest: float | None = None, finish: bool = False,
             stride_gain: float | None = None, yaw_learn: float | None = None,
@@ -134,7 +135,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
     if not keep_clear:  # (the Walker's default: True)
         options["keep_clear"] = False
     given = {  # (the Walker's own defaults where not given)
-        "calibrate_s": calibrate, "contact_reach": contact_reach, "contact_rate": contact_rate,
+        "calibrate_s": calibrate, "settle_s": calibrate_settle,
+        "contact_reach": contact_reach, "contact_rate": contact_rate,
         "yaw_rest_s": yaw_rest, "stride_gain": stride_gain, "yaw_learn": yaw_learn,
         "lift_gain": lift_gain, "params": params,
         "filter_heading": filter_heading or None, "encoder_rest": encoder_rest or None,
@@ -283,6 +285,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="the outer loop's heading on the attitude filter's rate (the gyro "
                          "with the filter's bias correction; "
                          "Walker(filter_heading=True))")  # fmt: skip
+    ap.add_argument(
+        "--calibrate-settle",
+        type=float,
+        default=None,
+        metavar="S",
+        help="the IMU's calibration rests up to S s more until the gyro is still "
+        "and takes its quietest window (Walker(settle_s=S); default 0: off)",
+    )
     ap.add_argument("--rest-rotation", action="store_true",
                     help="the rest learns the gyro's whole bias (3 axes) less the torso's "
                          "rotation over the soles seen by the encoders, taken out of the rate "
@@ -417,6 +427,7 @@ def main(argv: list[str] | None = None) -> int:
         "correct": args.correct,
         "compensate": args.compensate,
         "calibrate": args.calibrate,
+        "calibrate_settle": args.calibrate_settle,
         "track": args.track,
         "contact_reach": args.contact_reach,
         "contact_rate": args.contact_rate,

@@ -61,6 +61,7 @@ def record(args) -> None:
     rows: list[dict] = []
     landings: list[tuple[float, str]] = []
     sims: list = []
+    walkers: list = []
     base, odometer = drive_sim_module.Walker, drive_sim_module.Odometer
 
     class Recorder:
@@ -80,6 +81,7 @@ def record(args) -> None:
         def __init__(self, *a, **k) -> None:
             super().__init__(*a, **k)
             self.stabilizer.imu = Recorder(self.stabilizer.imu)
+            walkers.append(self)
 
         def tick(self, dt=None):
             q = super().tick(dt)
@@ -137,7 +139,18 @@ def record(args) -> None:
                       params=params, load_ramp=args.load_ramp,
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
                       rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
-                      flatten=args.flatten)  # fmt: skip
+                      flatten=args.flatten, calibrate_settle=args.calibrate_settle)  # fmt: skip
+    stab = walkers[-1].stabilizer
+    imu = stab.imu
+    while not hasattr(imu, "gyro_bias") and hasattr(imu, "imu"):
+        imu = imu.imu
+    if stab.calibration is not None and hasattr(imu, "gyro_bias"):
+        true = stab.mount.rotation @ imu.gyro_bias if stab.mount is not None else imu.gyro_bias
+        err = np.degrees(stab.calibration.gyro_bias - true)
+        print(
+            f"start-up calibration: {stab.calibration.samples} samples, the gyro bias learnt "
+            f"less the IMU's true bias (torso frame, deg/s): {np.round(err, 3).tolist()}"
+        )
     print(f"sequence {args.sequence} model {args.model}: error {1000 * r['xy_error_m']:.1f} mm, "
           f"heading {math.degrees(r['travelled_yaw_rad'] - r['commanded_yaw_rad']):+.2f} deg, "
           f"{len(rows)} ticks, {len(landings)} landings", flush=True)  # fmt: skip
@@ -415,6 +428,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="Walker(encoder_rest=True) for the recorded run")  # fmt: skip
     ap.add_argument("--rest-rotation", action="store_true",
                     help="Walker(rest_rotation=True) for the recorded run")  # fmt: skip
+    ap.add_argument("--calibrate-settle", type=float, default=None, metavar="S",
+                    help="Walker(settle_s=S) for the recorded run")  # fmt: skip
     ap.add_argument("--yaw-rest", type=float, default=None, metavar="S",
                     help="Walker(yaw_rest_s=S) for the recorded run")  # fmt: skip
     ap.add_argument("--condim", type=int, default=3, choices=CONDIMS,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pinocchio as pin
 import pytest
 
@@ -109,6 +110,54 @@ def test_the_walker_calibrates_its_imu_at_rest_before_it_walks() -> None:
                         ("lift_gain", math.inf)):  # fmt: skip
         with pytest.raises(ConfigurationError, match=f"{option} must be"):
             Walker(robot, make(robot), imu, **{option: bad})
+
+
+def test_a_settling_calibration_waits_for_a_still_gyro_and_takes_its_quietest_window() -> None:
+    """``Walker(settle_s=S)``: the IMU's start-up calibration rests up to S s more until its
+    window's gyro is still (wbc.imu.SETTLE_STILL) and takes the quietest window, so a robot
+    still rocking at the planned end (here 4 Hz about the pitch axis, ±0.3 rad/s decaying to
+    nothing by 0.6 s) leaves its rocking out of the bias; without it (the default) the 0.3 s
+    calibration takes part of a swing as bias. Bounded: never still, it stops after S."""
+    from wbc.drive.walker import DRIVE_CALIBRATE_S, Walker
+    from wbc.imu import SETTLE_STILL, ImuReading
+
+    robot = load_robot("bioloid")
+    _sim, _bus, imu = make_sim(robot)
+    bias = np.array([0.01, -0.02, 0.005])
+
+    class Rocking:  # the simulated IMU (at rest) plus a bias and a decaying rocking
+        mount = imu.mount
+
+        def __init__(self, decay: float) -> None:
+            self.k, self.decay = 0, decay
+
+        def read(self) -> ImuReading:
+            r, t = imu.read(), 0.01 * self.k
+            self.k += 1
+            rock = 0.3 * max(0.0, 1.0 - t / self.decay) * math.sin(2 * math.pi * 4 * t + 0.7)
+            w = r.angular_velocity + bias + np.array([0.0, rock, 0.0])
+            return ImuReading(r.t, r.orientation, w, r.linear_acceleration)
+
+    def rest(settle_s: float, decay: float = 0.6) -> tuple[int, np.ndarray]:
+        make = registry("physics")["hqp-daqp"].make
+        walker = Walker(robot, make(robot), Rocking(decay), yaw_rest_s=0.0, settle_s=settle_s)
+        walker.present = lambda: walker.q[7:]
+        ticks = 0
+        while walker.calibrating:
+            walker.tick()
+            ticks += 1
+        true = imu.mount.rotation @ bias if imu.mount is not None else bias
+        return ticks, walker.stabilizer.calibration.gyro_bias - true
+
+    planned = round(DRIVE_CALIBRATE_S / 0.01)
+    ticks, off = rest(0.0)
+    assert ticks == planned and np.max(np.abs(off)) > 2 * SETTLE_STILL  # the rocking as bias
+    ticks, off = rest(1.0)
+    assert planned < ticks < planned + 100 and np.max(np.abs(off)) < SETTLE_STILL  # (its motion)
+    ticks, off = rest(0.2, decay=100.0)  # never still: bounded, the quietest window taken
+    assert ticks == planned + 20
+    with pytest.raises(ConfigurationError, match="settle_s must be"):
+        Walker(robot, registry("physics")["hqp-daqp"].make(robot), imu, settle_s=-1.0)
 
 
 def _compliant_walk(options: dict) -> tuple:

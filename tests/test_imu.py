@@ -88,3 +88,20 @@ def test_calibration_at_rest_finds_the_bias_levels_and_refuses_a_wrong_mount():
         calibrate(gyros, tilted, [0, 0, 1], where="the mount")
     with pytest.raises(ImuError, match="not at rest"):
         calibrate(gyros, accs * 2, [0, 0, 1])
+
+
+def test_the_quietest_window_is_where_the_gyro_moved_least():
+    """wbc.imu.quietest_window: among the windows ending at ``first_end`` or later, the one
+    whose samples spread least about their mean (window_spread: 0 for a constant rate)."""
+    from wbc.imu import quietest_window, window_spread
+
+    t = np.arange(100) * 0.01
+    amp = np.where(t < 0.5, 0.3, 0.0) + np.where((t > 0.8) & (t < 0.9), 0.1, 0.0)
+    g = np.c_[np.zeros(100), amp * np.sin(2 * np.pi * 4 * t), np.full(100, 0.01)]
+    assert window_spread(np.tile([0.01, 0.02, 0.03], (10, 1))) < 1e-12
+    start = quietest_window(g, 15, 30)
+    assert start >= 15 and window_spread(g[start : start + 15]) < 1e-12  # (in 0.50–0.80 s)
+    assert 50 <= start <= 65
+    assert quietest_window(g, 15, 100) == 85  # only the last window ends that late
+    noisy = np.random.default_rng(0).normal(0.0, 0.02, (30, 3))  # white noise: no motion
+    assert window_spread(noisy) < 0.01 < window_spread(g[10:40])

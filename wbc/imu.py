@@ -231,6 +231,33 @@ def calibrate(
     return ImuCalibration(bias, level, angle, len(g))
 
 
+#: rad/s: the gyro's motion over a window (:func:`window_spread`, 3 axes) below which a
+#: settling calibration (:func:`quietest_window`'s caller) takes the robot as still
+SETTLE_STILL = 0.01
+
+
+def window_spread(gyros: np.ndarray) -> float:
+    """The motion in a window of gyro samples (rows, rad/s, at a steady rate): the true bias
+    is constant, so the samples' spread about their mean is motion and white noise,
+    ``mean |ω_k − ω̄|²``, less the noise's share estimated from successive differences
+    (``mean |ω_k − ω_{k−1}|² / 2``: smooth motion hardly changes between samples);
+    ``sqrt`` of what is left (0 if none)."""
+    g = np.asarray(gyros, dtype=float)
+    total = float(np.mean(np.sum((g - g.mean(axis=0)) ** 2, axis=1)))
+    noise = 0.5 * float(np.mean(np.sum(np.diff(g, axis=0) ** 2, axis=1))) if len(g) > 1 else 0.0
+    return math.sqrt(max(0.0, total - noise))
+
+
+def quietest_window(gyros: np.ndarray, length: int, first_end: int) -> int:
+    """The start of the ``length``-sample window of ``gyros`` (rows) with the least
+    :func:`window_spread`, among those ending at sample ``first_end`` (exclusive end index)
+    or later: where the robot turned least, so its mean is the bias with least motion in it."""
+    g = np.atleast_2d(np.asarray(gyros, dtype=float))
+    length = max(1, min(int(length), len(g)))
+    starts = range(max(0, min(int(first_end), len(g)) - length), len(g) - length + 1)
+    return min(starts, key=lambda i: window_spread(g[i : i + length]))
+
+
 class Imu(ABC):
     """A source of :class:`ImuReading` values (simulated or real). ``mount``: where it sits
     on the torso (:class:`ImuMount`; None: its frame is the torso frame); the closed loop

@@ -81,7 +81,7 @@ import numba
 import numpy as np
 
 from ..compiled.rows import log3
-from ..imu import Imu, ImuCalibration, calibrate
+from ..imu import SETTLE_STILL, Imu, ImuCalibration, calibrate, quietest_window, window_spread
 from ..model import Robot
 from ..walking.loop import sole_pack
 from .estimator import StateEstimate, StateEstimator, _estimate, exp3_into, mul33t_into
@@ -393,6 +393,7 @@ class Stabilizer:
         estimator: StateEstimator | None = None,
         fall: FallDetector | None = None,
         calibration_ticks: int = 0,
+        settle_ticks: int = 0,
     ) -> None:
         self.robot = robot
         mount = getattr(imu, "mount", None)
@@ -402,6 +403,10 @@ class Stabilizer:
         self.calibration: ImuCalibration | None = None
         self.calibration_ticks = int(calibration_ticks)  # ticks at rest before the walk
         self._rest_left = self.calibration_ticks
+        #: up to this many ticks more at rest while the calibration's window (its last half)
+        #: is not still (:data:`~wbc.imu.SETTLE_STILL`); then the quietest window is taken
+        self._settle_left = int(settle_ticks) if self.calibration_ticks > 0 else 0
+        self._settling = self._settle_left > 0
         self._samples: list[tuple[np.ndarray, np.ndarray]] = []
         self.fall = fall  # raises FallDetected from adjust() on a state beyond recovery
         self.present = present
@@ -655,7 +660,9 @@ class Stabilizer:
         ``calibration_ticks`` samples, :func:`wbc.imu.calibrate` on the second half (the
         robot settles in the first; its remaining motion, the kinematic rotation's mean rate,
         is not counted as gyro bias; raises on a mount error) and the filter restarted from
-        the levelled kinematic orientation. The targets pass unchanged."""
+        the levelled kinematic orientation. With ``settle_ticks``: the rest goes on (at most
+        that many ticks) until that window's gyro is still, then the quietest window
+        (:func:`wbc.imu.quietest_window`) is taken. The targets pass unchanged."""
         stance = [("l_sole", targets.l_sole), ("r_sole", targets.r_sole)]
         self.estimator.restart()
         est = self.estimator.update(dt, present, reading, stance, fallback=joints)
@@ -663,8 +670,18 @@ class Stabilizer:
             self._samples.append((reading.angular_velocity, reading.linear_acceleration,
                                   est.rotation.copy(), dt))  # fmt: skip
         self._rest_left -= 1
+        n = self.calibration_ticks - self.calibration_ticks // 2  # the window's length
+        if self._rest_left == 0 and self._settle_left > 0 and len(self._samples) >= n:
+            g = np.array([s[0] for s in self._samples[-n:]])
+            if window_spread(g) > SETTLE_STILL:  # not still yet: one tick more
+                self._rest_left, self._settle_left = 1, self._settle_left - 1
+                return targets
         if self._rest_left == 0 and self._samples:
-            half = self._samples[len(self._samples) // 2 :]
+            first = len(self._samples) // 2
+            if self._settling:  # the quietest window from the planned end on
+                g = np.array([s[0] for s in self._samples])
+                first = quietest_window(g, n, self.calibration_ticks)
+            half = self._samples[first : first + n] if self._settling else self._samples[first:]
             g, a = (np.array([s[k] for s in half]) for k in (0, 1))
             span = sum(s[3] for s in half[1:])
             motion = np.zeros(3)

@@ -190,7 +190,9 @@ class Walker:
     ``gains``: the feedback (default :data:`DRIVE_GAINS`). ``calibrate_s``: with an IMU and
     the closed loop, the first ``calibrate_s`` s stand at rest for the IMU's start-up
     calibration (gyro bias, levelling; as ``wbc deploy``'s closed loop), a :meth:`start`
-    waiting for its end (0: none). ``track`` (with an IMU, closed loop): the outer loop —
+    waiting for its end (0: none); ``settle_s`` > 0 (off): it rests up to this long more
+    until the gyro is still, and takes its quietest window (Stabilizer ``settle_ticks``).
+    ``track`` (with an IMU, closed loop): the outer loop —
     the steps aim the commanded pose from where :class:`~wbc.drive.odometry.PoseOdometry`
     (the gyro's heading, the encoders' landings) puts the body, heading included, instead of
     the legs' odometry alone (which cannot see a stance sole turning on the floor); the
@@ -274,6 +276,7 @@ class Walker:
         compensate: float = 0.0,
         q0: np.ndarray | None = None,
         calibrate_s: float = DRIVE_CALIBRATE_S,
+        settle_s: float = 0.0,
         correct: bool = True,
         track: bool = True,
         contact_reach: float = DRIVE_CONTACT_REACH,
@@ -320,8 +323,9 @@ class Walker:
         #: the controller's contact target per sole in contact (position) and the planned
         #: placement it started from (:meth:`_contacts`)
         self._held: dict[Side, tuple[Footstep, np.ndarray]] = {}
-        if not (math.isfinite(calibrate_s) and calibrate_s >= 0):
-            raise ConfigurationError(f"calibrate_s must be a finite number >= 0, got {calibrate_s}")
+        for key, v in (("calibrate_s", calibrate_s), ("settle_s", settle_s)):
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigurationError(f"{key} must be a finite number >= 0, got {v}")
         if not (math.isfinite(yaw_rest_s) and yaw_rest_s >= 0):
             raise ConfigurationError(f"yaw_rest_s must be a finite number >= 0, got {yaw_rest_s}")
         if not (math.isfinite(stride_gain) and stride_gain >= 1):
@@ -389,7 +393,8 @@ class Walker:
                                    gyro_heading=gains.k_yaw > 0, **DRIVE_ESTIMATOR)  # fmt: skip
         self.stabilizer = Stabilizer(robot, self.engine.height, lambda: self.present(), imu,
                                      gains, closed, estimator,
-                                     calibration_ticks=rest)  # fmt: skip
+                                     calibration_ticks=rest,
+                                     settle_ticks=round(settle_s / self.engine.dt))  # fmt: skip
         self._deferred_start = False  # start() asked during the calibration at rest
         self._finish_by: int | None = None  # a finishing stop: the last step it may take
         self.engine.on_landing = self._landed if closed else None
