@@ -189,6 +189,10 @@ class Gains:
     push_rise: float = 0.0
     rise_time: float = 0.03  # s (> 0)
     rise_back: float = 0.3  # s (> 0)
+    #: the push's rise clipped to this share of the loaded legs' room to extend (the CoM
+    #: target's rise before a stance leg is straight, from the model's legs:
+    #: :func:`wbc.balance.push_rise.leg_room`; 0: not clipped) (issue 30, benchmarks/pushes.md)
+    rise_room: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -403,6 +407,7 @@ class Gains:
             "kick_hold_edge",
             "counter_under",
             "push_rise",
+            "rise_room",
             "transfer",
             "step_yaw",
             "max_step_yaw",
