@@ -31,23 +31,29 @@ if TYPE_CHECKING:
     from .gains import Gains
 
 
+def straight_room(legs: LegGeometry, hip: np.ndarray, sole: np.ndarray) -> np.ndarray:
+    """How far (m) each hip (N, 3) can rise above its sole (N, 3) before the leg is straight:
+    ``√(R² − d_h²) − d_v`` (hip-above-ankle ``d_v``, beside it ``d_h``, ``R``:
+    :attr:`LegGeometry.max_reach <wbc.walking.legs.LegGeometry.max_reach>`)."""
+    d = np.atleast_2d(hip) - np.atleast_2d(sole)
+    d_h2 = d[:, 0] ** 2 + d[:, 1] ** 2
+    return np.sqrt(np.maximum(legs.max_reach**2 - d_h2, 0.0)) - (d[:, 2] - legs.ankle_height)
+
+
 def leg_room(legs: LegGeometry, targets: TickTargets, com: np.ndarray) -> float:
     """How far (m) the CoM target ``com`` can rise before a loaded leg of ``targets`` (the
-    support sole in single support, both soles in double) is straight:
-    ``min √(R² − d_h²) − d_v`` over those legs (hip-above-ankle ``d_v``, beside it ``d_h``,
-    :meth:`LegGeometry.hips <wbc.walking.legs.LegGeometry.hips>`); negative when a leg is
+    support sole in single support, both soles in double) is straight: the least
+    :func:`straight_room` of those legs, their hips from
+    :meth:`LegGeometry.hips <wbc.walking.legs.LegGeometry.hips>`; negative when a leg is
     already beyond its reach."""
     l_sole, r_sole = targets.l_sole.translation, targets.r_sole.translation
     x = targets.torso_rotation[:2, 0]
     lh, rh = legs.hips(com, np.array([np.arctan2(x[1], x[0])]), l_sole, r_sole)
     loaded = ("l_sole", "r_sole") if targets.phase == "double" else (targets.support,)
-    reach2, room = legs.max_reach**2, np.inf
-    for name, hip, sole in (("l_sole", lh[0], l_sole), ("r_sole", rh[0], r_sole)):
+    room = np.inf
+    for name, hip, sole in (("l_sole", lh, l_sole), ("r_sole", rh, r_sole)):
         if name in loaded:
-            d = hip - sole
-            d_v = d[2] - legs.ankle_height
-            d_h2 = d[0] ** 2 + d[1] ** 2
-            room = min(room, np.sqrt(max(reach2 - d_h2, 0.0)) - d_v)
+            room = min(room, float(straight_room(legs, hip, sole)[0]))
     return float(room)
 
 
