@@ -191,7 +191,11 @@ class Gains:
     rise_back: float = 0.3  # s (> 0)
     #: the push's rise clipped to this share of the loaded legs' room to extend (the CoM
     #: target's rise before a stance leg is straight, from the model's legs:
-    #: :func:`wbc.balance.push_rise.leg_room`; 0: not clipped) (issue 30, benchmarks/pushes.md)
+    #: :func:`wbc.balance.push_rise.leg_room`; 0: not clipped). With ``push_rise`` 0.015:
+    #: 0.5 and 0.75 end the OP3's failed solves (its hard contact and self-collision rows
+    #: with the legs near straight) but each loses 2 of main's 4 OP3 away survivors (1.0–1.6
+    #: N·s); the Bioloid's screen 3 and 4 of 5 (0.015 alone 5, main 2): off (issue 30,
+    #: benchmarks/pushes.md)
     rise_room: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
