@@ -114,9 +114,11 @@ def test_the_legs_room_is_where_a_loaded_leg_is_straight(robot, phase):
         assert room < leg_room(legs, t.replace(phase="single"), com)
 
 
-def test_the_rise_is_clipped_to_a_share_of_the_legs_room(robot):
+@pytest.mark.parametrize("swapped", [False, True])
+def test_the_rise_is_clipped_to_a_share_of_the_legs_room(robot, swapped):
     """``rise_room`` 0.5: a push raises the CoM target by at most half the stance leg's room,
-    not ``push_rise`` (which is more)."""
+    not ``push_rise`` (which is more); also with the gains swapped in after the start (as
+    ``Walker`` does)."""
     from wbc.balance.estimator import StateEstimate
     from wbc.balance.push_rise import leg_room
 
@@ -128,9 +130,13 @@ def test_the_rise_is_clipped_to_a_share_of_the_legs_room(robot):
     t = TickTargets(0, 0.0, "single", "l_sole", "r_sole", com, left, right, 0.0, R0,
                     right.translation.copy(), right.rotation.copy())  # fmt: skip
     u = left.rotation[:2, 1] / np.linalg.norm(left.rotation[:2, 1])
-    stab = Stabilizer(robot, 0.2, lambda: None, None,
-                      Gains(push_rise=0.05, rise_time=0.03, rise_room=0.5))  # fmt: skip
-    room = leg_room(stab._legs, t, com)
+    from wbc.walking.legs import LegGeometry
+
+    gains = Gains(push_rise=0.05, rise_time=0.03, rise_room=0.5)
+    stab = Stabilizer(robot, 0.2, lambda: None, None, Gains() if swapped else gains)
+    if swapped:
+        stab.gains = gains
+    room = leg_room(LegGeometry.from_robot(robot, robot.configuration("stand")), t, com)
     assert 0.5 * room < 0.05
 
     def tick(offset):

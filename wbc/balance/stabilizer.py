@@ -435,7 +435,7 @@ class Stabilizer:
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
         self._kick = HipKick(robot) if self.gains.hip_kick > 0 else None  # (hip_kick)
         self._rise = PushRise()  # (push_rise: the CoM target raised after a push)
-        self._legs = None  # (rise_room's legs: the loaded legs' room to extend)
+        self._legs: LegGeometry | None = None  # (rise_room's: the loaded legs' room)
         if self.gains.push_rise > 0 and self.gains.rise_room > 0:
             self._legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
         #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
@@ -627,9 +627,10 @@ class Stabilizer:
         fb = self._fb
         pushed = fb[_B_JUMP + 2] > 0.5 or fb[_B_JUMP + 4] > 0.5
         room = np.inf
-        legs = self._legs
-        if legs is not None and targets is not None and (pushed or self._rise.dz > 0):
-            room = leg_room(legs, targets, com)
+        if self.gains.rise_room > 0 and targets is not None and (pushed or self._rise.dz > 0):
+            if self._legs is None:  # (gains swapped in after the start: Walker's)
+                self._legs = LegGeometry.from_robot(self.robot, self.robot.configuration("stand"))
+            room = leg_room(self._legs, targets, com)
         return self._rise.raised(com, pushed, dt, self.gains, room)
 
     def _torso_sample(self, reading):
