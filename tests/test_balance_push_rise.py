@@ -67,8 +67,87 @@ def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
 
 
 @pytest.mark.parametrize(
-    "kw", [{"push_rise": -0.01}, {"rise_time": 0.0}, {"rise_back": float("nan")}]
+    "kw",
+    [{"push_rise": -0.01}, {"rise_room": -0.5}, {"rise_time": 0.0}, {"rise_back": float("nan")}],
 )
 def test_bad_rise_gains_are_refused(kw):
-    with pytest.raises(ConfigurationError, match=r"push_rise|rise_time|rise_back"):
+    with pytest.raises(ConfigurationError, match=r"push_rise|rise_room|rise_time|rise_back"):
         Gains(**kw).check()
+
+
+def test_the_rise_stops_at_its_cap_and_follows_it_down():
+    """``cap`` (the legs' room): the offset never above it, lowered with it, never below 0."""
+    r = PushRise()
+    up = [r.update(True, DT, 0.012, 0.03, 0.3, cap=0.005) for _ in range(3)]
+    assert up == pytest.approx([0.004, 0.005, 0.005])
+    assert r.update(True, DT, 0.012, 0.03, 0.3, cap=0.002) == pytest.approx(0.002)
+    assert r.update(True, DT, 0.012, 0.03, 0.3, cap=-0.001) == 0.0
+
+
+@pytest.mark.parametrize("phase", ["single", "double"])
+def test_the_legs_room_is_where_a_loaded_leg_is_straight(robot, phase):
+    """The CoM target raised by :func:`leg_room` puts the nearest loaded leg at the model's
+    ``max_reach`` (:meth:`LegGeometry.leg_lengths`), the other loaded leg within it; in single
+    support the swing leg does not count."""
+    from wbc.balance.push_rise import leg_room
+    from wbc.walking.legs import LegGeometry
+
+    legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    left = robot.frame_placement(q, "l_sole")
+    right = robot.frame_placement(q, "r_sole").copy()
+    right.translation = right.translation + np.array([0.0, -0.04, 0.0])  # (further out)
+    R0 = robot.frame_placement(q, "torso").rotation
+    com = robot.com(q) + np.array([0.0, 0.01, 0.0])  # (toward the left sole)
+    t = TickTargets(0, 0.0, phase, "l_sole", "r_sole", com, left, right, 0.0, R0,
+                    right.translation.copy(), right.rotation.copy())  # fmt: skip
+    room = leg_room(legs, t, com)
+    assert 0.0 < room < 0.05
+    up = com + np.array([0.0, 0.0, room])
+    lengths = legs.leg_lengths(up, np.zeros(1), left.translation, right.translation)[0]
+    if phase == "single":  # (the left leg straight, the swing leg's reach passed)
+        assert lengths[0] == pytest.approx(legs.max_reach, abs=1e-9)
+        assert lengths[1] > legs.max_reach
+    else:  # (the right leg, further out, straight first)
+        assert lengths[1] == pytest.approx(legs.max_reach, abs=1e-9)
+        assert lengths[0] < legs.max_reach
+        assert room < leg_room(legs, t.replace(phase="single"), com)
+
+
+@pytest.mark.parametrize("swapped", [False, True])
+def test_the_rise_is_clipped_to_a_share_of_the_legs_room(robot, swapped):
+    """``rise_room`` 0.5: a push raises the CoM target by at most half the stance leg's room,
+    not ``push_rise`` (which is more); also with the gains swapped in after the start (as
+    ``Walker`` does)."""
+    from wbc.balance.estimator import StateEstimate
+    from wbc.balance.push_rise import leg_room
+
+    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
+    left = robot.frame_placement(q, "l_sole")
+    right = robot.frame_placement(q, "r_sole")
+    R0 = robot.frame_placement(q, "torso").rotation
+    com = robot.com(q)
+    t = TickTargets(0, 0.0, "single", "l_sole", "r_sole", com, left, right, 0.0, R0,
+                    right.translation.copy(), right.rotation.copy())  # fmt: skip
+    u = left.rotation[:2, 1] / np.linalg.norm(left.rotation[:2, 1])
+    from wbc.walking.legs import LegGeometry
+
+    gains = Gains(push_rise=0.05, rise_time=0.03, rise_room=0.5)
+    stab = Stabilizer(robot, 0.2, lambda: None, None, Gains() if swapped else gains)
+    if swapped:
+        stab.gains = gains
+    room = leg_room(LegGeometry.from_robot(robot, robot.configuration("stand")), t, com)
+    assert 0.5 * room < 0.05
+
+    def tick(offset):
+        values = np.zeros((8, 3))
+        values[:3] = np.eye(3)
+        values[6, :2] = left.translation[:2] + offset * u
+        stab._hip_strategy(t, StateEstimate(values), DT)
+        return stab._push_rise(com, DT, t)
+
+    for _ in range(3):
+        assert tick(-0.03) is com
+    for _ in range(6):
+        out = tick(0.005)
+    assert out[2] - com[2] == pytest.approx(0.5 * room, abs=1e-12)

@@ -189,6 +189,14 @@ class Gains:
     push_rise: float = 0.0
     rise_time: float = 0.03  # s (> 0)
     rise_back: float = 0.3  # s (> 0)
+    #: the push's rise clipped to this share of the loaded legs' room to extend (the CoM
+    #: target's rise before a stance leg is straight, from the model's legs:
+    #: :func:`wbc.balance.push_rise.leg_room`; 0: not clipped). With ``push_rise`` 0.015:
+    #: 0.5 and 0.75 end the OP3's failed solves (its hard contact and self-collision rows
+    #: with the legs near straight) but each loses 2 of main's 4 OP3 away survivors (1.0–1.6
+    #: N·s); the Bioloid's screen 3 and 4 of 5 (0.015 alone 5, main 2): off (issue 30,
+    #: benchmarks/pushes.md)
+    rise_room: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -422,6 +430,7 @@ class Gains:
             "kick_hold_edge",
             "counter_under",
             "push_rise",
+            "rise_room",
             "transfer",
             "step_yaw",
             "max_step_yaw",

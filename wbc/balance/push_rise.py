@@ -11,6 +11,12 @@ speed). Lowering instead loses it (benchmarks/pushes.md, twenty-second session).
 trigger fires (``hip_jump``) the CoM target's height is raised to ``push_rise`` within
 ``rise_time`` s, held while the trigger is latched or the push's kick lasts (until the hip
 strategy's roll is back to 0), then lowered back at ``push_rise / rise_back`` m/s.
+
+The rise is clipped to the loaded legs' room (``rise_room`` > 0: that share of it; 0: not
+clipped): with the pelvis model of :class:`~wbc.walking.legs.LegGeometry` a hip ``d_v`` above
+its ankle and ``d_h`` beside it can rise ``√(R² − d_h²) − d_v`` before the leg is straight
+(``R``: :attr:`~wbc.walking.legs.LegGeometry.max_reach`), computed from the CoM target as
+given and the contact soles (the stance sole in single support, both in double).
 """
 
 from __future__ import annotations
@@ -20,7 +26,35 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from ..walking.legs import LegGeometry
+    from ..walking.tick_targets import TickTargets
     from .gains import Gains
+
+
+def straight_room(legs: LegGeometry, hip: np.ndarray, sole: np.ndarray) -> np.ndarray:
+    """How far (m) each hip (N, 3) can rise above its sole (N, 3) before the leg is straight:
+    ``√(R² − d_h²) − d_v`` (hip-above-ankle ``d_v``, beside it ``d_h``, ``R``:
+    :attr:`LegGeometry.max_reach <wbc.walking.legs.LegGeometry.max_reach>`)."""
+    d = np.atleast_2d(hip) - np.atleast_2d(sole)
+    d_h2 = d[:, 0] ** 2 + d[:, 1] ** 2
+    return np.sqrt(np.maximum(legs.max_reach**2 - d_h2, 0.0)) - (d[:, 2] - legs.ankle_height)
+
+
+def leg_room(legs: LegGeometry, targets: TickTargets, com: np.ndarray) -> float:
+    """How far (m) the CoM target ``com`` can rise before a loaded leg of ``targets`` (the
+    support sole in single support, both soles in double) is straight: the least
+    :func:`straight_room` of those legs, their hips from
+    :meth:`LegGeometry.hips <wbc.walking.legs.LegGeometry.hips>`; negative when a leg is
+    already beyond its reach."""
+    l_sole, r_sole = targets.l_sole.translation, targets.r_sole.translation
+    x = targets.torso_rotation[:2, 0]
+    lh, rh = legs.hips(com, np.array([np.arctan2(x[1], x[0])]), l_sole, r_sole)
+    loaded = ("l_sole", "r_sole") if targets.phase == "double" else (targets.support,)
+    room = np.inf
+    for name, hip, sole in (("l_sole", lh, l_sole), ("r_sole", rh, r_sole)):
+        if name in loaded:
+            room = min(room, float(straight_room(legs, hip, sole)[0]))
+    return float(room)
 
 
 class PushRise:
@@ -33,22 +67,35 @@ class PushRise:
         self.dz = 0.0  # m: the CoM target's height offset now
         self.since = 0.0  # s since the push trigger fired (0: not pushed)
 
-    def update(self, pushed: bool, dt: float, rise: float, rise_time: float, back: float) -> float:
+    def update(
+        self,
+        pushed: bool,
+        dt: float,
+        rise: float,
+        rise_time: float,
+        back: float,
+        cap: float = np.inf,
+    ) -> float:
         """The height offset (m) for this tick: ``rise × min(t / rise_time, 1)`` ``t`` s after
         the trigger while ``pushed`` (never lower than it already is), else back toward 0 at
-        ``rise / back`` m/s."""
+        ``rise / back`` m/s; never above ``cap`` (m; the legs' room), nor below 0."""
         if pushed:
             self.since += dt
             self.dz = max(self.dz, rise * min(self.since / rise_time, 1.0))
         else:
             self.since = 0.0
             self.dz = max(self.dz - rise * dt / back, 0.0)
+        self.dz = max(min(self.dz, cap), 0.0)
         return self.dz
 
-    def raised(self, com: np.ndarray, pushed: bool, dt: float, g: Gains) -> np.ndarray:
+    def raised(
+        self, com: np.ndarray, pushed: bool, dt: float, g: Gains, room: float = np.inf
+    ) -> np.ndarray:
         """``com`` (the CoM target, world) raised by this tick's offset (``g``: the
-        :class:`~wbc.balance.gains.Gains`; ``com`` itself when the offset is 0)."""
-        dz = self.update(pushed, dt, g.push_rise, g.rise_time, g.rise_back)
+        :class:`~wbc.balance.gains.Gains`; ``room``: the loaded legs' room, :func:`leg_room`,
+        of which ``g.rise_room`` is used when > 0; ``com`` itself when the offset is 0)."""
+        cap = g.rise_room * room if g.rise_room > 0 else np.inf
+        dz = self.update(pushed, dt, g.push_rise, g.rise_time, g.rise_back, cap)
         if dz == 0.0:
             return com
         out = np.array(com, dtype=float)

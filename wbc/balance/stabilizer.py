@@ -83,6 +83,7 @@ import numpy as np
 from ..compiled.rows import log3
 from ..imu import SETTLE_STILL, Imu, ImuCalibration, calibrate, quietest_window, window_spread
 from ..model import Robot
+from ..walking.legs import LegGeometry
 from ..walking.loop import sole_pack
 from .estimator import StateEstimate, StateEstimator, _estimate, exp3_into, mul33t_into
 from .fall import _F_SIZE, _L_SIZE, FallDetector, fall_code, fall_tick
@@ -105,7 +106,7 @@ from .hip_roll import (
     _hip_roll,
 )
 from .joint_integral import JointIntegral
-from .push_rise import PushRise
+from .push_rise import PushRise, leg_room
 from .servo_lag import clock_rate, lag_state, phase_clock, servo_lag
 from .step_yaw import StepYaw
 
@@ -439,6 +440,9 @@ class Stabilizer:
             self._joint = GyroFeedback(robot, imu, 1.0) if imu is not None else None
         self._kick = HipKick(robot) if self.gains.hip_kick > 0 else None  # (hip_kick)
         self._rise = PushRise()  # (push_rise: the CoM target raised after a push)
+        self._legs: LegGeometry | None = None  # (rise_room's: the loaded legs' room)
+        if self.gains.push_rise > 0 and self.gains.rise_room > 0:
+            self._legs = LegGeometry.from_robot(robot, robot.configuration("stand"))
         #: (gains, _feedback_tick's consts, fall detector, the CoM target moved: _shifted)
         self._packed: tuple = (None, None, None, False, self._no_lag)
         self.last: StateEstimate | None = None
@@ -594,7 +598,7 @@ class Stabilizer:
             com = self._shifted(targets, com_vel_ref, est, e, dt)
         g = self.gains
         if g.push_rise > 0:  # (the CoM target raised after a push away: push_rise)
-            com = self._push_rise(com, float(dt))
+            com = self._push_rise(com, float(dt), targets)
         out = targets.retarget(com, o[2:5])
         if g.step_yaw > 0:  # the footsteps take the measured heading error (step_yaw)
             read = joints if present is None else np.where(np.isfinite(present), present, joints)
@@ -620,12 +624,19 @@ class Stabilizer:
                   k, float(dt), H, self._fb[_B_JUMP : _B_JUMP + 5], R[:, 2].copy())  # fmt: skip
         return H
 
-    def _push_rise(self, com: np.ndarray, dt: float) -> np.ndarray:
+    def _push_rise(self, com: np.ndarray, dt: float, targets=None) -> np.ndarray:
         """``com`` raised by ``push_rise`` (:class:`~wbc.balance.push_rise.PushRise`) while
-        the hip strategy's push trigger is latched or the push's kick lasts."""
+        the hip strategy's push trigger is latched or the push's kick lasts (with
+        ``rise_room``: at most that share of ``targets``' loaded legs' room,
+        :func:`~wbc.balance.push_rise.leg_room`)."""
         fb = self._fb
         pushed = fb[_B_JUMP + 2] > 0.5 or fb[_B_JUMP + 4] > 0.5
-        return self._rise.raised(com, pushed, dt, self.gains)
+        room = np.inf
+        if self.gains.rise_room > 0 and targets is not None and (pushed or self._rise.dz > 0):
+            if self._legs is None:  # (gains swapped in after the start: Walker's)
+                self._legs = LegGeometry.from_robot(self.robot, self.robot.configuration("stand"))
+            room = leg_room(self._legs, targets, com)
+        return self._rise.raised(com, pushed, dt, self.gains, room)
 
     def _torso_sample(self, reading):
         """``reading`` in the torso frame with the calibration applied (the start-up
