@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from test_drive_liftoff import tilted as pitched  # (the standing pose, left ankle pitched)
 
 from wbc import load_robot
 from wbc.drive.flatten import SoleFlatten
@@ -24,13 +25,6 @@ from wbc.walking.loop import StackController, TickTargets
 @pytest.fixture(scope="module")
 def robot():
     return load_robot("bioloid")
-
-
-def pitched(robot, deg: float) -> np.ndarray:
-    """The standing configuration with the left ankle pitched ``deg``."""
-    q = robot.configuration("stand").copy()
-    q[7 + robot.joint_names.index("l_ankle_pitch")] += math.radians(deg)
-    return q
 
 
 def targets(phase: str, support: str, swing: str, yaw: float = 0.3) -> TickTargets:
