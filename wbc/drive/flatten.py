@@ -108,8 +108,9 @@ class SoleFlatten:
             if walking and landed is not None and q is not None and self.rate > 0:
                 stance = SOLE_FRAMES["right" if _FRAMES[landed] == "left" else "left"]
                 (rel,) = self.robot.placements_in(q, stance, [landed])
-                held = targets.l_sole if stance == SOLE_FRAMES["left"] else targets.r_sole
-                v = held.rotation @ tilt_vector(rel.rotation)  # (the stance sole's target: flat)
+                v = targets.sole(stance).rotation @ tilt_vector(
+                    rel.rotation
+                )  # (the stance sole's target: flat)
                 size = float(np.linalg.norm(v))
                 v *= max(0.0, 1.0 - self.band / size) if size > 0 else 0.0  # the dead band
                 c = self.correction.get(landed, np.zeros(3)) + min(1.0, self.rate * dt) * v
@@ -121,7 +122,7 @@ class SoleFlatten:
                 self.largest = max(self.largest, min(norm, self.max))
         for frame, c in self.correction.items():
             if frame == targets.support or targets.phase == "double":
-                held = targets.l_sole if frame == SOLE_FRAMES["left"] else targets.r_sole
+                held = targets.sole(frame)
                 placed = pin.SE3(pin.exp3(-c) @ held.rotation, held.translation)
                 if frame == SOLE_FRAMES["left"]:
                     targets.l_sole = placed

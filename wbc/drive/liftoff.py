@@ -26,6 +26,12 @@ from ..roles import SOLE_FRAMES
 FLAT_LIFTOFF_TICKS = 10
 
 
+def normal_angle(rotation: np.ndarray) -> float:
+    """The angle (rad) between a frame's normal ``R[:, 2]`` and its reference's ``z``:
+    ``acos(R[2, 2])``."""
+    return math.acos(min(1.0, max(-1.0, float(rotation[2, 2]))))
+
+
 def tilt_vector(rotation: np.ndarray) -> np.ndarray:
     """The tilt of a frame of rotation ``rotation`` against its reference: the rotation
     vector (rad, in the reference) about a horizontal axis that takes the reference's
@@ -34,8 +40,7 @@ def tilt_vector(rotation: np.ndarray) -> np.ndarray:
     n = rotation[:, 2]
     axis = np.array([-n[1], n[0], 0.0])
     s = float(np.linalg.norm(axis))
-    angle = math.acos(min(1.0, max(-1.0, float(n[2]))))
-    return axis * (angle / s) if s > 1e-12 else np.zeros(3)
+    return axis * (normal_angle(rotation) / s) if s > 1e-12 else np.zeros(3)
 
 
 def soles_tilt(robot: Robot, q: np.ndarray) -> float:
@@ -43,7 +48,7 @@ def soles_tilt(robot: Robot, q: np.ndarray) -> float:
     kinematics; the norm of :func:`tilt_vector` of their relative rotation): 0 when both lie
     in one plane (the floor's)."""
     (rel,) = robot.placements_in(q, SOLE_FRAMES["left"], [SOLE_FRAMES["right"]])
-    return math.acos(min(1.0, max(-1.0, float(rel.rotation[2, 2]))))
+    return normal_angle(rel.rotation)
 
 
 class FlatLiftoff:

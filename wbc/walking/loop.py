@@ -278,8 +278,10 @@ class Session:
         frames = ["l_sole", "r_sole"] if targets.phase == "double" else [targets.support]
         off = []
         for frame in frames:
-            goal = targets.l_sole if frame == "l_sole" else targets.r_sole
-            d = self.robot.frame_placement(self.q, frame).translation - goal.translation
+            d = (
+                self.robot.frame_placement(self.q, frame).translation
+                - targets.sole(frame).translation
+            )
             if float(np.linalg.norm(d)) > START_CONTACT_TOL:
                 off.append((frame, d))
         if not off:
