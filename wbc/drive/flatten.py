@@ -108,9 +108,8 @@ class SoleFlatten:
             if walking and landed is not None and q is not None and self.rate > 0:
                 stance = SOLE_FRAMES["right" if _FRAMES[landed] == "left" else "left"]
                 (rel,) = self.robot.placements_in(q, stance, [landed])
-                v = targets.sole(stance).rotation @ tilt_vector(
-                    rel.rotation
-                )  # (the stance sole's target: flat)
+                flat = targets.sole(stance).rotation  # (the stance sole's target: flat)
+                v = flat @ tilt_vector(rel.rotation)
                 size = float(np.linalg.norm(v))
                 v *= max(0.0, 1.0 - self.band / size) if size > 0 else 0.0  # the dead band
                 c = self.correction.get(landed, np.zeros(3)) + min(1.0, self.rate * dt) * v
