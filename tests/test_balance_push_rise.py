@@ -35,11 +35,13 @@ def robot():
     return load_robot()
 
 
-@pytest.mark.parametrize("rise", [0.0, 0.015])
-def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
-    """Single support on the left sole: the estimated DCM still, the CoM target as given;
-    the DCM jumping outward (the hip strategy's push trigger) raises it by ``rise`` /
-    ``rise_time`` a second (only the height), held while the trigger is latched."""
+def _left_stance(robot):
+    """Single support on the left sole, standing: (the tick's targets, the CoM target, a
+    function ``tick(stab, offset, targets=None)``: one tick of ``stab``'s hip strategy with
+    the estimated DCM ``offset`` m from the left sole's centre away from the right sole,
+    then its :meth:`_push_rise` of the CoM target (``targets``: for the legs' room))."""
+    from wbc.balance.estimator import StateEstimate
+
     q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
     left = robot.frame_placement(q, "l_sole")
     right = robot.frame_placement(q, "r_sole")
@@ -48,22 +50,31 @@ def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
     t = TickTargets(0, 0.0, "single", "l_sole", "r_sole", com, left, right, 0.0, R0,
                     right.translation.copy(), right.rotation.copy())  # fmt: skip
     u = left.rotation[:2, 1] / np.linalg.norm(left.rotation[:2, 1])  # (away from the right)
-    stab = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=rise, rise_time=0.03))
-    from wbc.balance.estimator import StateEstimate
 
-    def tick(offset):
+    def tick(stab, offset, targets=None):
         values = np.zeros((8, 3))
         values[:3] = np.eye(3)
         values[6, :2] = left.translation[:2] + offset * u
         stab._hip_strategy(t, StateEstimate(values), DT)
-        return stab._push_rise(com, DT)
+        return stab._push_rise(com, DT, targets)
+
+    return t, com, tick
+
+
+@pytest.mark.parametrize("rise", [0.0, 0.015])
+def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
+    """Single support on the left sole: the estimated DCM still, the CoM target as given;
+    the DCM jumping outward (the hip strategy's push trigger) raises it by ``rise`` /
+    ``rise_time`` a second (only the height), held while the trigger is latched."""
+    _, com, tick = _left_stance(robot)
+    stab = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=rise, rise_time=0.03))
 
     for _ in range(3):
-        assert tick(-0.03) is com  # no push: the target itself
-    heights = [tick(0.005)[2] - com[2] for _ in range(5)]  # the jump, then latched
+        assert tick(stab, -0.03) is com  # no push: the target itself
+    heights = [tick(stab, 0.005)[2] - com[2] for _ in range(5)]  # the jump, then latched
     want = [rise * min(k / 3, 1.0) for k in (1, 2, 3, 4, 5)]
     assert heights == pytest.approx(want, abs=1e-12)
-    assert np.array_equal(tick(0.005)[:2], com[:2])
+    assert np.array_equal(tick(stab, 0.005)[:2], com[:2])
 
 
 @pytest.mark.parametrize(
@@ -119,18 +130,10 @@ def test_the_rise_is_clipped_to_a_share_of_the_legs_room(robot, swapped):
     """``rise_room`` 0.5: a push raises the CoM target by at most half the stance leg's room,
     not ``push_rise`` (which is more); also with the gains swapped in after the start (as
     ``Walker`` does)."""
-    from wbc.balance.estimator import StateEstimate
     from wbc.balance.push_rise import leg_room
-
-    q = robot.place_on_ground(robot.configuration("stand"), "l_sole")
-    left = robot.frame_placement(q, "l_sole")
-    right = robot.frame_placement(q, "r_sole")
-    R0 = robot.frame_placement(q, "torso").rotation
-    com = robot.com(q)
-    t = TickTargets(0, 0.0, "single", "l_sole", "r_sole", com, left, right, 0.0, R0,
-                    right.translation.copy(), right.rotation.copy())  # fmt: skip
-    u = left.rotation[:2, 1] / np.linalg.norm(left.rotation[:2, 1])
     from wbc.walking.legs import LegGeometry
+
+    t, com, tick = _left_stance(robot)
 
     gains = Gains(push_rise=0.05, rise_time=0.03, rise_room=0.5)
     stab = Stabilizer(robot, 0.2, lambda: None, None, Gains() if swapped else gains)
@@ -139,15 +142,8 @@ def test_the_rise_is_clipped_to_a_share_of_the_legs_room(robot, swapped):
     room = leg_room(LegGeometry.from_robot(robot, robot.configuration("stand")), t, com)
     assert 0.5 * room < 0.05
 
-    def tick(offset):
-        values = np.zeros((8, 3))
-        values[:3] = np.eye(3)
-        values[6, :2] = left.translation[:2] + offset * u
-        stab._hip_strategy(t, StateEstimate(values), DT)
-        return stab._push_rise(com, DT, t)
-
     for _ in range(3):
-        assert tick(-0.03) is com
+        assert tick(stab, -0.03, t) is com
     for _ in range(6):
-        out = tick(0.005)
+        out = tick(stab, 0.005, t)
     assert out[2] - com[2] == pytest.approx(0.5 * room, abs=1e-12)
