@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -124,6 +125,19 @@ def _toward(start: pin.SE3, end: pin.SE3, share: float) -> pin.SE3:
     )
 
 
+class _Prepared(NamedTuple):
+    """A tick's landing made ahead (:meth:`SwitchHandover.prepare`): what it was made from
+    and what it made."""
+
+    start: object  # the touch-down's q, or the landing under way (frame, anchor, elapsed)
+    values: bytes | None  # the touch-down's q's bytes (None: a landing under way)
+    left: object  # the tick's reference soles (identity-compared)
+    right: object
+    dt: float
+    swing: str | None  # the swing sole's frame then (None: a landing under way)
+    made: tuple  # (the anchor of the tick, the landing after it, the anchor packed)
+
+
 class SwitchHandover:
     """The per-walk state of a stack's :class:`~wbc.stack_tables.SupportSwitch` (a
     :class:`~wbc.walking.controller.StackController` keeps one): :meth:`start` at the walk's start
@@ -192,7 +206,7 @@ class SwitchHandover:
         self._swing: str | None = None
         #: a touch-down's landing made ahead (:meth:`prepare`): what it was made from, then
         #: the anchor to set and the landing after the tick
-        self._prepared: tuple | None = None
+        self._prepared: _Prepared | None = None
 
     def start(self) -> None:
         """The posture targets as they are now (Walk Ready, set from the start pose) are the
@@ -241,7 +255,7 @@ class SwitchHandover:
             return
         packed = self._contacts[0].pack_target(anchor) if self._contacts else None
         made = (anchor, landing, packed)
-        self._prepared = (*inputs, targets.l_sole, targets.r_sole, dt, self._swing, made)
+        self._prepared = _Prepared(*inputs, targets.l_sole, targets.r_sole, dt, self._swing, made)
 
     def place_ahead(self) -> None:
         """The landing's anchor :meth:`prepare` made written into its contact now (the loop's
@@ -252,11 +266,11 @@ class SwitchHandover:
         (:meth:`update`: the same numbers if it is the tick prepared, else its own); a switch
         made ahead and taken back puts back the targets from before it; a contact of that
         sole not active in the tick's phase is anchored afresh when it becomes active."""
-        made = self._prepared
-        if made is None:
+        prepared = self._prepared
+        if prepared is None:
             return
-        frame = made[5] if made[5] is not None else made[0][0]  # (a touch-down's, the way's)
-        anchor, _, packed = made[-1]
+        frame = prepared.swing if prepared.swing is not None else prepared.start[0]
+        anchor, _, packed = prepared.made
         for task in self._contacts:
             if task.active and task.frame == frame:
                 task.set_target(anchor, packed)
