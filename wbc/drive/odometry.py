@@ -172,6 +172,13 @@ class PoseOdometry:
         self.heading += self._increment(rotation, rate, dt) - self.yaw_bias * dt
         self.time += dt
 
+    def unbiased(self, rotation: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """``rate`` (torso frame) less the biases :meth:`turn` takes out: :attr:`rate_bias`
+        and the vertical bias :attr:`yaw_bias` about the world's up in the torso's frame
+        (``rotation``'s tilt)."""
+        up = np.asarray(rotation, dtype=float)[2]  # (Rᵀ e_z)
+        return np.asarray(rate, dtype=float) - self.rate_bias - self.yaw_bias * up
+
     def rest(self, rotation: np.ndarray, rate: np.ndarray, dt: float) -> None:
         """One tick standing still (both soles on the floor, the robot not walking), as
         :meth:`turn`; the heading's mean rate over the rests so far is the gyro's bias about

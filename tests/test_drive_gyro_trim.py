@@ -1,0 +1,95 @@
+"""The gyro's bias trimmed in walking double supports against the encoders
+(wbc.drive.gyro_trim, ``Walker(gyro_trim=T0)``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc import load_robot
+from wbc.drive.gyro_trim import TRIM_BOUND, StanceTrim, stance_trim
+from wbc.drive.odometry import PoseOdometry
+from wbc.exceptions import ConfigurationError
+
+DT = 0.01
+BIAS = np.array([0.01, -0.02, 0.005])  # rad/s, torso frame
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("bioloid")
+
+
+def turning(robot, ticks: int, rate: float = 0.2) -> list[np.ndarray]:
+    """Standing, both hips' yaw turned together at ``rate`` (rad/s): the torso turns over
+    both soles, which stay flat on each other."""
+    q = robot.configuration("stand")
+    out = []
+    for k in range(ticks):
+        qk = q.copy()
+        for name in ("l_hip_yaw", "r_hip_yaw"):
+            qk[7 + robot.joint_names.index(name)] += rate * DT * k
+        out.append(qk)
+    return out
+
+
+def torso_rates(robot, qs: list[np.ndarray]) -> list[np.ndarray]:
+    """The torso's rate over the left sole per tick (torso frame), by its placement."""
+    R = [robot.frame_placement(q, "l_sole").actInv(robot.frame_placement(q, "torso")).rotation
+         for q in qs]  # fmt: skip
+    return [np.zeros(3)] + [pin.log3(a.T @ b) / DT for a, b in zip(R, R[1:], strict=False)]
+
+
+def test_the_trim_is_the_bias_the_torso_turning_over_its_soles_taken_out(robot):
+    """The gyro reads the torso's turn plus a bias: the trim is the bias (prior 0), its
+    share T / (T0 + T) with a prior of T0 s; the turn alone (no bias) leaves no trim."""
+    qs = turning(robot, 101)
+    rates = torso_rates(robot, qs)
+    assert np.linalg.norm(rates[-1]) == pytest.approx(0.2, rel=1e-3)  # (it does turn)
+    for prior, share in ((0.0, 1.0), (1.0, 1.0 / 2.0)):
+        trim = StanceTrim(robot, prior)
+        for q, w in zip(qs, rates, strict=True):
+            got = trim.sample(q, True, w + BIAS, DT)
+        assert trim.time == pytest.approx(1.0)
+        np.testing.assert_allclose(got, share * BIAS, atol=2e-4)
+    still = StanceTrim(robot, 0.0)
+    for q, w in zip(qs, rates, strict=True):
+        got = still.sample(q, True, w, DT)
+    np.testing.assert_allclose(got, 0.0, atol=2e-4)
+
+
+def test_only_flat_walking_double_supports_are_taken_and_the_trim_is_bounded(robot):
+    stand = robot.configuration("stand")
+    tilted = stand.copy()
+    tilted[7 + robot.joint_names.index("l_ankle_pitch")] += math.radians(8.0)
+    trim = StanceTrim(robot, 0.0)
+    for q, double in ((stand, False), (stand, False), (tilted, True), (tilted, True),
+                      (None, True), (stand, True)):  # fmt: skip
+        assert not trim.sample(q, double, BIAS, DT).any()
+    assert trim.time == 0.0  # (a first flat tick has no last to compare with)
+    big = np.array([0.0, 0.0, 1.0])
+    for _ in range(5):
+        got = trim.sample(stand, True, big, DT)
+    assert got[2] == pytest.approx(TRIM_BOUND)
+    assert trim.time == pytest.approx(5 * DT)
+
+
+def test_the_odometry_s_unbiased_rate_takes_out_its_own_biases(robot):
+    odo = PoseOdometry(robot)
+    odo.yaw_bias, odo.rate_bias = 0.1, np.array([0.01, 0.0, 0.0])
+    c, s = math.cos(0.3), math.sin(0.3)
+    R = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # leaning 0.3 rad
+    got = odo.unbiased(R, np.array([0.1, 0.2, 0.3]))
+    np.testing.assert_allclose(got, [0.1 - 0.01 + 0.1 * s, 0.2, 0.3 - 0.1 * c])
+
+
+def test_bad_priors_are_refused_and_zero_is_off(robot):
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(ConfigurationError, match="gyro_trim"):
+            stance_trim(robot, bad, True)
+    assert stance_trim(robot, 0.0, True) is None
+    assert stance_trim(robot, 5.0, False) is None
+    assert isinstance(stance_trim(robot, 5.0, True), StanceTrim)
