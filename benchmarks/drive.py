@@ -299,7 +299,8 @@ def main(argv: list[str] | None = None) -> int:
                          "(Walker(rest_rotation=True); default off)")  # fmt: skip
     ap.add_argument("--gyro-trim", type=float, default=None, metavar="T0",
                     help="the gyro's bias trimmed in walking double supports against the "
-                         "encoders, a prior of T0 s (Walker(gyro_trim=T0); default 0: off)")  # fmt: skip
+                         "encoders, a prior of T0 s (Walker(gyro_trim=T0); default 0: "
+                         "off)")  # fmt: skip
     ap.add_argument("--encoder-rest", action=argparse.BooleanOptionalAction, default=False,
                     help="the rest's vertical gyro bias less the torso's turn seen by the "
                          "encoders (Walker(encoder_rest=True); default off: not better on "

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -40,7 +41,7 @@ def torso_rates(robot, qs: list[np.ndarray]) -> list[np.ndarray]:
     """The torso's rate over the left sole per tick (torso frame), by its placement."""
     R = [robot.frame_placement(q, "l_sole").actInv(robot.frame_placement(q, "torso")).rotation
          for q in qs]  # fmt: skip
-    return [np.zeros(3)] + [pin.log3(a.T @ b) / DT for a, b in zip(R, R[1:], strict=False)]
+    return [np.zeros(3)] + [pin.log3(a.T @ b) / DT for a, b in itertools.pairwise(R)]
 
 
 def test_the_trim_is_the_bias_the_torso_turning_over_its_soles_taken_out(robot):
