@@ -128,7 +128,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             twist: float | None = None, slip_gain: float | None = None,
             load_ramp: bool = False, flat_liftoff: float | None = None,
             flatten: float | None = None, flatten_band: float | None = None,
-            gyro_trim: float | None = None, **kw):  # fmt: skip
+            gyro_trim: float | None = None, rest_periods: bool = False, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -148,6 +148,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
         "load_ramp": load_ramp or None, "flat_liftoff": flat_liftoff, "flatten": flatten,
         "flatten_band": flatten_band, "gyro_trim": gyro_trim,
+        "rest_periods": rest_periods or None,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -301,6 +302,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the gyro's bias trimmed in walking double supports against the "
                          "encoders, a prior of T0 s (Walker(gyro_trim=T0); default 0: "
                          "off)")  # fmt: skip
+    ap.add_argument("--rest-periods", action="store_true",
+                    help="the rest's vertical gyro bias over whole periods of the torso's "
+                         "rocking (Walker(rest_periods=True); default off)")  # fmt: skip
     ap.add_argument("--encoder-rest", action=argparse.BooleanOptionalAction, default=False,
                     help="the rest's vertical gyro bias less the torso's turn seen by the "
                          "encoders (Walker(encoder_rest=True); default off: not better on "
@@ -444,6 +448,7 @@ def main(argv: list[str] | None = None) -> int:
         "encoder_rest": args.encoder_rest,
         "rest_rotation": args.rest_rotation,
         "gyro_trim": args.gyro_trim,
+        "rest_periods": args.rest_periods,
         "play": args.play,
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,

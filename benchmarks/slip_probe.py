@@ -141,7 +141,7 @@ def record(args) -> None:
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
                       rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
                       flatten=args.flatten, calibrate_settle=args.calibrate_settle,
-                      gyro_trim=args.gyro_trim)  # fmt: skip
+                      gyro_trim=args.gyro_trim, rest_periods=args.rest_periods)  # fmt: skip
     stab = walkers[-1].stabilizer
     imu = stab.imu
     while not hasattr(imu, "gyro_bias") and hasattr(imu, "imu"):
@@ -438,6 +438,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the floor's contact dimensions (ModelParams.condim)")  # fmt: skip
     ap.add_argument("--gyro-trim", type=float, default=None, metavar="T0",
                     help="Walker(gyro_trim=T0) for the recorded run")  # fmt: skip
+    ap.add_argument("--rest-periods", action="store_true",
+                    help="Walker(rest_periods=True) for the recorded run")  # fmt: skip
     ap.add_argument("--flatten", type=float, default=None, metavar="RATE",
                     help="Walker(flatten=RATE) for the recorded run")  # fmt: skip
     ap.add_argument("--edges", nargs="+", default=None, metavar="FILE",

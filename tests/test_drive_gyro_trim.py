@@ -11,7 +11,7 @@ import pinocchio as pin
 import pytest
 
 from wbc import load_robot
-from wbc.drive.gyro_trim import TRIM_BOUND, StanceTrim, stance_trim
+from wbc.drive.gyro_trim import TRIM_BOUND, RestPeriods, StanceTrim, stance_trim
 from wbc.drive.odometry import PoseOdometry
 from wbc.exceptions import ConfigurationError
 
@@ -94,3 +94,41 @@ def test_bad_priors_are_refused_and_zero_is_off(robot):
     assert stance_trim(robot, 0.0, True) is None
     assert stance_trim(robot, 5.0, False) is None
     assert isinstance(stance_trim(robot, 5.0, True), StanceTrim)
+
+
+def test_the_rest_s_bias_over_whole_periods_takes_a_twist_in_step_with_the_rocking_out():
+    """A torso rocking in pitch at 0.7 Hz twists with it about the vertical (a cosine of
+    1°/s): over 1.5 s (about one period and a twentieth) the whole rest's mean takes the
+    twist's incomplete period for bias, the whole periods' does not; without two upward
+    crossings the given mean stands."""
+    bias, w, dt = 0.004, 2 * math.pi * 0.7, DT
+    t = np.arange(150) * dt
+    pitch = 0.2 * np.sin(w * t)  # rad/s
+    steps = (bias + math.radians(1.0) * np.cos(w * t + 0.3)) * dt
+    periods = RestPeriods()
+    for k in range(len(t)):
+        got = periods.add(
+            np.array([0.0, pitch[k], 0.01]), steps[k], dt, steps[: k + 1].sum() / ((k + 1) * dt)
+        )
+    plain = steps.sum() / (len(t) * dt)
+    assert abs(plain - bias) > math.radians(0.01)  # (the plain mean is off)
+    assert got == pytest.approx(bias, abs=math.radians(0.003))
+    short = RestPeriods()
+    assert short.add(np.zeros(3), 0.0, dt, 0.5) == 0.5
+    assert short.add(np.array([0.0, 1.0, 0.0]), 0.0, dt, 0.7) == 0.7
+
+
+def test_the_odometry_s_rest_over_whole_periods_is_the_rest_periods_mean(robot):
+    """PoseOdometry(rest_periods=True) learns the whole periods' bias, the default the
+    whole rest's mean."""
+    w, dt = 2 * math.pi * 0.7, DT
+    learnt = {}
+    for on in (False, True):
+        odo = PoseOdometry(robot, rest_periods=on)
+        for k in range(150):
+            t = k * dt
+            twist = 0.004 + math.radians(1.0) * math.cos(w * t + 0.3)
+            odo.rest(np.eye(3), np.array([0.0, 0.2 * math.sin(w * t), twist]), dt)
+        learnt[on] = odo.yaw_bias
+    assert learnt[True] == pytest.approx(0.004, abs=math.radians(0.003))
+    assert abs(learnt[False] - 0.004) > math.radians(0.01)

@@ -104,3 +104,41 @@ def stance_trim(robot: Robot, prior: float, track: bool) -> StanceTrim | None:
     without the outer loop, ``track`` False)."""
     trim = StanceTrim(robot, prior)
     return trim if track and prior > 0 else None
+
+
+def upward_crossings(x: np.ndarray) -> list[int]:
+    """The samples where ``x`` turns from negative to non-negative."""
+    return [int(k) + 1 for k in np.flatnonzero((x[:-1] < 0) & (x[1:] >= 0))]
+
+
+class RestPeriods:
+    """The rest's bias about the vertical over whole periods of the torso's rocking
+    (``PoseOdometry(rest_periods=True)``, ``Walker(rest_periods=True)``; off): a torso
+    rocking at rest twists inside the servos' play with it, and the rest's mean takes the
+    incomplete period's share for bias. The window runs from the first to the last upward
+    zero crossing of the de-meaned rate about the axis that rocks most (the torso's
+    frame); with fewer than two crossings, the whole rest's mean stands.
+
+    Measured against the simulator's bias (``benchmarks/gyro_trim_probe.py --rest``,
+    benchmarks/drive.md 2026-12-07): model 0's error (pitch rocking ±14°/s) +0.165 →
+    +0.008°/s and −0.184 → −0.039°/s, but on 20 rests of models 1–10 no better on average
+    (0.071 against 0.073°/s)."""
+
+    def __init__(self) -> None:
+        self._rates: list[np.ndarray] = []  # the gyro per rest tick (rad/s, torso frame)
+        self._steps: list[float] = []  # the heading's change per rest tick (rad)
+        self._dts: list[float] = []
+
+    def add(self, rate: np.ndarray, step: float, dt: float, mean: float) -> float:
+        """One rest tick (``step`` the heading's change over ``dt``); returns the bias over
+        the whole periods so far, or ``mean`` (the whole rest's) without two crossings."""
+        self._rates.append(np.asarray(rate, dtype=float))
+        self._steps.append(float(step))
+        self._dts.append(float(dt))
+        rates = np.array(self._rates)
+        rates -= rates.mean(axis=0)
+        up = upward_crossings(rates[:, int(np.argmax(rates.std(axis=0)))])
+        if len(up) < 2:
+            return mean
+        i, j = up[0], up[-1]
+        return sum(self._steps[i:j]) / sum(self._dts[i:j])

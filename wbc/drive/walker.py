@@ -263,6 +263,7 @@ class Walker:
     closed loop; 0: off): a landed sole's target tilted against its tilt by the encoders
     (:class:`~wbc.drive.flatten.SoleFlatten`; ``flatten_band`` °, its tilt's dead band).
     ``gyro_trim`` (s, outer loop; 0: off): :class:`~wbc.drive.gyro_trim.StanceTrim`'s prior.
+    ``rest_periods`` (off): the rest's bias over whole periods of the rocking (PoseOdometry).
     """
 
     def __init__(
@@ -308,6 +309,7 @@ class Walker:
         flatten: float = 0.0,
         flatten_band: float = 0.0,
         gyro_trim: float = 0.0,
+        rest_periods: bool = False,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -402,17 +404,10 @@ class Walker:
         self._finish_by: int | None = None  # a finishing stop: the last step it may take
         self.engine.on_landing = self._landed if closed else None
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
-        self.odometry = (
-            PoseOdometry(
-                robot,
-                walk_gain=yaw_learn,
-                encoder_rest=encoder_rest,
-                heading_gain=heading_gain,
-                rest_rotation=rest_rotation,
-            )
-            if track
-            else None
-        )
+        odometry = PoseOdometry(robot, walk_gain=yaw_learn, encoder_rest=encoder_rest,
+                                heading_gain=heading_gain, rest_rotation=rest_rotation,
+                                rest_periods=rest_periods)  # fmt: skip
+        self.odometry = odometry if track else None
         #: the steps' measured shortfall (with the outer loop and ``stride_gain`` > 1)
         self.stride = StrideGain(stride_gain) if track and stride_gain > 1 else None
         self.trim = stance_trim(robot, gyro_trim, track)  #: the gyro's bias trimmed walking
