@@ -302,6 +302,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the gyro's bias trimmed in walking double supports against the "
                          "encoders, a prior of T0 s (Walker(gyro_trim=T0); default 0: "
                          "off)")  # fmt: skip
+    ap.add_argument("--imu-integrate", action="store_true",
+                    help="the simulated gyro reads the rotation since its last reading over "
+                         "the time since it (SimImu(integrate=True); default off)")  # fmt: skip
     ap.add_argument("--rest-periods", action="store_true",
                     help="the rest's vertical gyro bias over whole periods of the torso's "
                          "rocking (Walker(rest_periods=True); default off)")  # fmt: skip
@@ -522,6 +525,8 @@ def main(argv: list[str] | None = None) -> int:
     if contact:  # the randomised plants with the contact options asked for
         variations = [replace(v, model_params=replace(v.model_params, **contact))
                       for v in variations]  # fmt: skip
+    if args.imu_integrate:  # the simulated gyro a delta-angle IMU's (SimImu(integrate=True))
+        variations = [replace(v, imu={**v.imu, "integrate": True}) for v in variations]
     if args.random:
         runs = []
         share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)

@@ -58,6 +58,8 @@ def record(args) -> None:
     variation = models(robot, args.model + 1, args.seed)[args.model]
     variation = replace(variation, model_params=replace(variation.model_params,
                                                         condim=args.condim))  # fmt: skip
+    if args.imu_integrate:
+        variation = replace(variation, imu={**variation.imu, "integrate": True})
     rows: list[dict] = []
     landings: list[tuple[float, str]] = []
     sims: list = []
@@ -438,6 +440,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the floor's contact dimensions (ModelParams.condim)")  # fmt: skip
     ap.add_argument("--gyro-trim", type=float, default=None, metavar="T0",
                     help="Walker(gyro_trim=T0) for the recorded run")  # fmt: skip
+    ap.add_argument("--imu-integrate", action="store_true",
+                    help="SimImu(integrate=True) for the recorded run")  # fmt: skip
     ap.add_argument("--rest-periods", action="store_true",
                     help="Walker(rest_periods=True) for the recorded run")  # fmt: skip
     ap.add_argument("--flatten", type=float, default=None, metavar="RATE",
