@@ -19,6 +19,7 @@ out, the simulated IMU's pose).
     nice -n 10 python benchmarks/slip_probe.py --sequence 13 --model 0 --out /tmp/p.npz
     python benchmarks/gyro_trim_probe.py --walk /tmp/p.npz
     python benchmarks/gyro_trim_probe.py --rest /tmp/r_m*_c*.npz
+    python benchmarks/gyro_trim_probe.py --known /tmp/p.npz --error 0.051 3.095 0.618
 """
 
 from __future__ import annotations
@@ -78,6 +79,24 @@ def walk(robot, f: str, flat_deg: float) -> None:
           f"rest's bias {rest:+.3f}: {whole - rest:+.3f}")  # fmt: skip
 
 
+def known(f: str, error_deg: list[float]) -> None:
+    """``--known``: the gyro's residual (gyro − the simulator's rate over the tick) less the
+    true residual bias at rest and walking (the start-up calibration's error as
+    ``slip_probe.py`` prints it, deg/s, torso frame: the residual bias is its negative), and
+    the heading's rate error with that 3-axis bias taken out."""
+    d = dict(np.load(f))
+    t, R, G = d["t"], d["true_R"], d["gyro"]
+    dt, n = float(np.median(np.diff(t))), len(t)
+    b = -np.radians(error_deg)
+    res = np.array([G[k] - pin.log3(R[k - 1].T @ R[k]) / dt for k in range(1, n)]) - b
+    yaw = np.unwrap([yaw_of(x) for x in R])
+    h = np.array([increment(R[k - 1], G[k] - b, dt) for k in range(1, n)]) - np.diff(yaw)
+    for name, at in (("rest", d["resting"][1:]), ("walking", d["walking"][1:])):
+        print(f"{f}: {name}: the residual less the true bias (deg/s; roll, pitch, yaw) "
+              f"{np.round(np.degrees(res[at].mean(axis=0)), 3)}; the heading's rate with the "
+              f"true bias out {math.degrees(h[at].mean() / dt):+.3f}")  # fmt: skip
+
+
 def upward(x: np.ndarray, hysteresis: float) -> list[int]:
     """The upward zero crossings of ``x`` that follow a dip below −hysteresis × its spread."""
     h, out, armed = hysteresis * float(x.std()), [], False
@@ -130,6 +149,21 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--walk", nargs="+", default=[], metavar="FILE")
     ap.add_argument("--rest", nargs="+", default=[], metavar="FILE")
+    ap.add_argument(
+        "--known",
+        nargs="+",
+        default=[],
+        metavar="FILE",
+        help="with --error: the residual and the heading with the true bias out",
+    )
+    ap.add_argument(
+        "--error",
+        nargs=3,
+        type=float,
+        default=None,
+        metavar=("R", "P", "Y"),
+        help="the start-up calibration's error slip_probe.py printed (deg/s)",
+    )
     ap.add_argument("--flat", type=float, default=5.0, metavar="DEG",
                     help="--walk: the soles' tilt a tick may have (default 5)")  # fmt: skip
     args = ap.parse_args(argv)
@@ -138,6 +172,10 @@ def main(argv: list[str] | None = None) -> int:
         walk(robot, f, args.flat)
     if args.rest:
         rest(args.rest)
+    if args.known and args.error is None:
+        ap.error("--known needs --error R P Y")
+    for f in args.known:
+        known(f, args.error)
     return 0
 
 
