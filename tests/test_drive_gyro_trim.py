@@ -13,7 +13,13 @@ import pytest
 from wbc import load_robot
 from wbc.drive.gyro_trim import TRIM_BOUND, RestPeriods, StanceTrim, stance_trim
 from wbc.drive.odometry import PoseOdometry
+from wbc.drive.walker import Walker
 from wbc.exceptions import ConfigurationError
+from wbc.imu import GRAVITY, Imu, ImuReading
+from wbc.stacks import load_stack
+from wbc.walking import GaitTiming, SwingParams
+from wbc.walking.engine import EngineParams, VelocityLimits
+from wbc.walking.loop import StackController
 
 DT = 0.01
 BIAS = np.array([0.01, -0.02, 0.005])  # rad/s, torso frame
@@ -132,3 +138,41 @@ def test_the_odometry_s_rest_over_whole_periods_is_the_rest_periods_mean(robot):
         learnt[on] = odo.yaw_bias
     assert learnt[True] == pytest.approx(0.004, abs=math.radians(0.003))
     assert abs(learnt[False] - 0.004) > math.radians(0.01)
+
+
+def _walked(robot, **options) -> Walker:
+    """A walker with a still IMU (zero rates, gravity at the stand's lean) on a plant that
+    reads its goals, 450 ticks of a forward command (its 1.8 s rests first)."""
+    (torso,) = robot.placements_in(robot.configuration("stand"), "l_sole", ["torso"])
+    up = GRAVITY * torso.rotation[2]  # (the world's up in the torso frame, the sole flat)
+
+    class Still(Imu):
+        def read(self) -> ImuReading:
+            return ImuReading(0.0, np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), up)
+
+    params = EngineParams(timing=GaitTiming(), swing=SwingParams(apex=0.015),
+                          zmp_offset=(0.0, 0.0285), transfer=1.0)  # fmt: skip
+    walker = Walker(robot, StackController(load_stack("walk", robot, solver="weighted")),
+                    Still(), params=params, limits=VelocityLimits(0.08, 0.06, 0.03, 0.5),
+                    window=None, **options)  # fmt: skip
+    walker.present = lambda: walker.q[7:]
+    walker.command(0.05, 0.0, 0.2)
+    walker.start()
+    for _ in range(450):
+        walker.tick()
+    return walker
+
+
+def test_the_walker_trims_its_heading_in_double_supports_only_when_asked(robot):
+    """Off by default (no trim, the rest's plain mean); ``gyro_trim``: the trim samples the
+    walking double supports and reaches the odometry's heading; ``rest_periods`` reaches
+    the odometry."""
+    off = _walked(robot)
+    assert off.trim is None and off.odometry is not None and off.odometry.periods is None
+    on = _walked(robot, gyro_trim=0.5)
+    assert isinstance(on.trim, StanceTrim) and on.trim.prior == 0.5
+    assert 0.05 < on.trim.time < 4.5 * 0.6  # (double supports only)
+    assert np.abs(on.trim.bias).max() > 1e-4
+    assert abs(on.odometry.heading - off.odometry.heading) > 1e-5  # (bit for bit without)
+    assert Walker(robot, StackController(load_stack("walk", robot, solver="weighted")),
+                  on.imu, rest_periods=True).odometry.periods is not None  # fmt: skip
