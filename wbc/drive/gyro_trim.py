@@ -126,7 +126,8 @@ class RestPeriods:
     Measured against the simulator's bias (``benchmarks/gyro_trim_probe.py --rest``,
     benchmarks/drive.md 2026-12-07): model 0's error (pitch rocking ±14°/s) +0.165 →
     +0.008°/s and −0.184 → −0.039°/s, but on 20 rests of models 1–10 no better on average
-    (0.071 against 0.073°/s)."""
+    (0.071 against 0.073°/s); the held-out drive block's heading 1.54° against 1.02°
+    (`condim` 3), 1.55° against 1.45° (`condim` 4): off."""
 
     def __init__(self) -> None:
         self._rates: list[np.ndarray] = []  # the gyro per rest tick (rad/s, torso frame)
