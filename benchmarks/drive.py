@@ -128,7 +128,7 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             twist: float | None = None, slip_gain: float | None = None,
             load_ramp: bool = False, flat_liftoff: float | None = None,
             flatten: float | None = None, flatten_band: float | None = None,
-            **kw):  # fmt: skip
+            gyro_trim: float | None = None, rest_periods: bool = False, **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -147,7 +147,8 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         "finish_steps": finish_steps, "finish_xy": finish_xy or None,
         "heading_gain": heading_gain, "quiet_stand": quiet_stand, "slip_gain": slip_gain,
         "load_ramp": load_ramp or None, "flat_liftoff": flat_liftoff, "flatten": flatten,
-        "flatten_band": flatten_band,
+        "flatten_band": flatten_band, "gyro_trim": gyro_trim,
+        "rest_periods": rest_periods or None,
     }  # fmt: skip
     options.update({key: value for key, value in given.items() if value is not None})
     if twist is not None:
@@ -297,6 +298,16 @@ def main(argv: list[str] | None = None) -> int:
                     help="the rest learns the gyro's whole bias (3 axes) less the torso's "
                          "rotation over the soles seen by the encoders, taken out of the rate "
                          "(Walker(rest_rotation=True); default off)")  # fmt: skip
+    ap.add_argument("--gyro-trim", type=float, default=None, metavar="T0",
+                    help="the gyro's bias trimmed in walking double supports against the "
+                         "encoders, a prior of T0 s (Walker(gyro_trim=T0); default 0: "
+                         "off)")  # fmt: skip
+    ap.add_argument("--imu-integrate", action="store_true",
+                    help="the simulated gyro reads the rotation since its last reading over "
+                         "the time since it (SimImu(integrate=True); default off)")  # fmt: skip
+    ap.add_argument("--rest-periods", action="store_true",
+                    help="the rest's vertical gyro bias over whole periods of the torso's "
+                         "rocking (Walker(rest_periods=True); default off)")  # fmt: skip
     ap.add_argument("--encoder-rest", action=argparse.BooleanOptionalAction, default=False,
                     help="the rest's vertical gyro bias less the torso's turn seen by the "
                          "encoders (Walker(encoder_rest=True); default off: not better on "
@@ -439,6 +450,8 @@ def main(argv: list[str] | None = None) -> int:
         "filter_heading": args.filter_heading,
         "encoder_rest": args.encoder_rest,
         "rest_rotation": args.rest_rotation,
+        "gyro_trim": args.gyro_trim,
+        "rest_periods": args.rest_periods,
         "play": args.play,
         "play_hold": args.play_hold,
         "play_lift": args.play_lift,
@@ -512,6 +525,8 @@ def main(argv: list[str] | None = None) -> int:
     if contact:  # the randomised plants with the contact options asked for
         variations = [replace(v, model_params=replace(v.model_params, **contact))
                       for v in variations]  # fmt: skip
+    if args.imu_integrate:  # the simulated gyro a delta-angle IMU's (SimImu(integrate=True))
+        variations = [replace(v, imu={**v.imu, "integrate": True}) for v in variations]
     if args.random:
         runs = []
         share = (limits.vx_forward, limits.vx_backward, limits.vy, limits.wz)

@@ -58,6 +58,8 @@ def record(args) -> None:
     variation = models(robot, args.model + 1, args.seed)[args.model]
     variation = replace(variation, model_params=replace(variation.model_params,
                                                         condim=args.condim))  # fmt: skip
+    if args.imu_integrate:
+        variation = replace(variation, imu={**variation.imu, "integrate": True})
     rows: list[dict] = []
     landings: list[tuple[float, str]] = []
     sims: list = []
@@ -108,6 +110,7 @@ def record(args) -> None:
                 "heading": odo.heading if odo is not None else math.nan,
                 "yaw_bias": odo.yaw_bias if odo is not None else math.nan,
                 "resting": self._yaw_rest_left > 0,
+                "trim": self.trim.bias.copy() if self.trim is not None else np.zeros(3),
                 "odo_soles": np.array([odo.soles.get(s, np.full(3, math.nan))
                                        for s in SOLES]) if odo is not None and odo.soles
                 else np.full((2, 3), math.nan),
@@ -139,7 +142,8 @@ def record(args) -> None:
                       params=params, load_ramp=args.load_ramp,
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
                       rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
-                      flatten=args.flatten, calibrate_settle=args.calibrate_settle)  # fmt: skip
+                      flatten=args.flatten, calibrate_settle=args.calibrate_settle,
+                      gyro_trim=args.gyro_trim, rest_periods=args.rest_periods)  # fmt: skip
     stab = walkers[-1].stabilizer
     imu = stab.imu
     while not hasattr(imu, "gyro_bias") and hasattr(imu, "imu"):
@@ -434,6 +438,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="Walker(yaw_rest_s=S) for the recorded run")  # fmt: skip
     ap.add_argument("--condim", type=int, default=3, choices=CONDIMS,
                     help="the floor's contact dimensions (ModelParams.condim)")  # fmt: skip
+    ap.add_argument("--gyro-trim", type=float, default=None, metavar="T0",
+                    help="Walker(gyro_trim=T0) for the recorded run")  # fmt: skip
+    ap.add_argument("--imu-integrate", action="store_true",
+                    help="SimImu(integrate=True) for the recorded run")  # fmt: skip
+    ap.add_argument("--rest-periods", action="store_true",
+                    help="Walker(rest_periods=True) for the recorded run")  # fmt: skip
     ap.add_argument("--flatten", type=float, default=None, metavar="RATE",
                     help="Walker(flatten=RATE) for the recorded run")  # fmt: skip
     ap.add_argument("--edges", nargs="+", default=None, metavar="FILE",

@@ -420,3 +420,24 @@ def test_stiffness_out_of_the_registers_range_is_refused_in_one_line(robot):
     assert sim.servos.params.slope[robot.joint_index("l_shoulder_pitch")] == 64
     bus.configure()  # the start-up writes the configuration back
     assert sim.servos.params.slope[robot.joint_index("l_shoulder_pitch")] == 128
+
+
+def test_an_integrating_imu_reads_the_rotation_since_its_last_reading(robot):
+    """SimImu(integrate=True): the gyro is the site's rotation since the last reading over
+    the time since it (a delta-angle IMU), where MuJoCo's sensor is the rate at the read;
+    the first reading, with no last, is the sensor's."""
+    import pinocchio as pin
+
+    sim = Simulation(robot)
+    sim.set_torque(False)  # (it collapses: the torso's rate changes between reads)
+    mean, instant = SimImu(sim, integrate=True), SimImu(sim)
+    first = mean.read()
+    np.testing.assert_allclose(first.angular_velocity, instant.read().angular_velocity)
+    R, t, apart = sim.site_pose("imu").rotation, sim.time, []
+    for _ in range(20):
+        sim.advance(0.02)
+        got, now = mean.read().angular_velocity, sim.site_pose("imu").rotation
+        np.testing.assert_allclose(got, pin.log3(R.T @ now) / (sim.time - t), atol=1e-9)
+        apart.append(np.linalg.norm(got - instant.read().angular_velocity))
+        R, t = now, sim.time
+    assert max(apart) > 0.05  # (rad/s: the mean rate is not the rate at the read)

@@ -64,6 +64,7 @@ from ..model import Robot
 from ..roles import SOLE_FRAMES
 from ..walking.footsteps import Footstep, Side, other_side
 from ..walking.geometry import rot2
+from .gyro_trim import RestPeriods
 
 #: the soles' relative heading (rad) at which the bias learnt while walking
 #: (:meth:`PoseOdometry.landed`) takes half the weight: a stance sole turns on the floor
@@ -111,6 +112,7 @@ class PoseOdometry:
         heading_gain: float = 1.0,
         heading_band: float = DRIVE_HEADING_BAND,
         rest_rotation: bool = False,
+        rest_periods: bool = False,
     ) -> None:
         if not 0.0 < heading_gain <= 1.0:  # (NaN too)
             raise ConfigurationError(f"heading_gain must be in (0, 1], got {heading_gain}")
@@ -129,6 +131,8 @@ class PoseOdometry:
         #: seen by the encoders, and taken out of the rate before the heading's increment
         #: (:meth:`rest`; ``encoder_rest``'s turn included)
         self.rest_rotation = bool(rest_rotation)
+        #: the rest's bias over whole periods of its rocking (:class:`RestPeriods`), or None
+        self.periods = RestPeriods() if rest_periods else None
         #: the gyro's bias learnt at rest with ``rest_rotation`` (rad/s, torso frame)
         self.rate_bias = np.zeros(3)
         self._rest_rate = np.zeros(3)  # Σ ω dt over the rests, less the encoders' rotation
@@ -172,6 +176,13 @@ class PoseOdometry:
         self.heading += self._increment(rotation, rate, dt) - self.yaw_bias * dt
         self.time += dt
 
+    def unbiased(self, rotation: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """``rate`` (torso frame) less the biases :meth:`turn` takes out: :attr:`rate_bias`
+        and the vertical bias :attr:`yaw_bias` about the world's up in the torso's frame
+        (``rotation``'s tilt)."""
+        up = np.asarray(rotation, dtype=float)[2]  # (Rᵀ e_z)
+        return np.asarray(rate, dtype=float) - self.rate_bias - self.yaw_bias * up
+
     def rest(self, rotation: np.ndarray, rate: np.ndarray, dt: float) -> None:
         """One tick standing still (both soles on the floor, the robot not walking), as
         :meth:`turn`; the heading's mean rate over the rests so far is the gyro's bias about
@@ -202,6 +213,8 @@ class PoseOdometry:
             self._rest_turn = (yaw, turned)
         if self.rest_time > 0:
             self.yaw_bias = (self._rest_angle - turned) / self.rest_time
+        if self.periods is not None:  # (over whole periods of the rocking)
+            self.yaw_bias = self.periods.add(rate, d, dt, self.yaw_bias)
         self.heading += d - self.yaw_bias * dt
         self.time += dt
 

@@ -60,6 +60,7 @@ from .failures import failure_cause
 from .failures import failure_lines as failure_lines  # (re-exported)
 from .finish import DRIVE_FINISH_STEPS_AFTER, DRIVE_FINISH_TOLERANCE, FinishSteps
 from .flatten import SoleFlatten
+from .gyro_trim import stance_trim
 from .liftoff import FlatLiftoff
 from .odometry import (
     DRIVE_HEADING_GAIN,
@@ -261,6 +262,8 @@ class Walker:
     the encoders differ by more (:class:`~wbc.drive.liftoff.FlatLiftoff`). ``flatten`` (1/s,
     closed loop; 0: off): a landed sole's target tilted against its tilt by the encoders
     (:class:`~wbc.drive.flatten.SoleFlatten`; ``flatten_band`` °, its tilt's dead band).
+    ``gyro_trim`` (s, outer loop; 0: off): :class:`~wbc.drive.gyro_trim.StanceTrim`'s prior.
+    ``rest_periods`` (off): the rest's bias over whole periods of the rocking (PoseOdometry).
     """
 
     def __init__(
@@ -305,6 +308,8 @@ class Walker:
         flat_liftoff: float = 0.0,
         flatten: float = 0.0,
         flatten_band: float = 0.0,
+        gyro_trim: float = 0.0,
+        rest_periods: bool = False,
     ) -> None:
         if not (math.isfinite(compensate) and compensate >= 0):
             raise ConfigurationError(f"compensate must be a finite number >= 0, got {compensate}")
@@ -399,19 +404,13 @@ class Walker:
         self._finish_by: int | None = None  # a finishing stop: the last step it may take
         self.engine.on_landing = self._landed if closed else None
         #: the outer loop's pose (IMU heading + encoders), with an IMU and the closed loop
-        self.odometry = (
-            PoseOdometry(
-                robot,
-                walk_gain=yaw_learn,
-                encoder_rest=encoder_rest,
-                heading_gain=heading_gain,
-                rest_rotation=rest_rotation,
-            )
-            if track
-            else None
-        )
+        odometry = PoseOdometry(robot, walk_gain=yaw_learn, encoder_rest=encoder_rest,
+                                heading_gain=heading_gain, rest_rotation=rest_rotation,
+                                rest_periods=rest_periods)  # fmt: skip
+        self.odometry = odometry if track else None
         #: the steps' measured shortfall (with the outer loop and ``stride_gain`` > 1)
         self.stride = StrideGain(stride_gain) if track and stride_gain > 1 else None
+        self.trim = stance_trim(robot, gyro_trim, track)  #: the gyro's bias trimmed walking
         self._yaw_rest_left = round(yaw_rest_s / self.engine.dt) if track else 0  # ticks
         #: the swing sole's measured lift (closed loop, ``lift_gain`` > 1): the apex wanted
         #: (m) and the highest point of the swing so far (m above the stance sole)
@@ -646,6 +645,8 @@ class Walker:
                     odo.rest(rotation, rate, dt)
                     self._yaw_rest_left -= 1
                 else:
+                    if self.trim is not None:  # (the gyro's bias trimmed in double supports)
+                        rate = rate - self.trim.walker_tick(self, e, rotation, rate, dt)
                     odo.turn(rotation, rate, dt)
                     if self.slip is not None and odo.started:
                         self.slip.walker_tick(self, dt)

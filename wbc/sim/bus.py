@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 
 from ..exceptions import ConfigurationError, ServoError
 from ..imu import Imu, ImuReading
@@ -464,9 +465,10 @@ def sim_bus(sim: Simulation, rate: float, **kwargs) -> SimServoBus | SimSsc32Bus
 class SimImu(Imu):
     """The simulated torso IMU: MuJoCo's frame-quaternion, gyro and accelerometer sensors
     at the ``imu`` site, with white noise (standard deviations) and a constant bias per
-    axis drawn once from ``bias_std`` (seeded). Its :attr:`mount` is the robot folder's
-    (``robot.toml`` ``[imu]``, :func:`wbc.sim.model.imu_mount`): what the controller is told,
-    whatever the simulated model's ``imu_rotation``."""
+    axis drawn once from ``bias_std`` (seeded); ``integrate`` (off): the gyro the rotation
+    since the last reading over the time since it, as a delta-angle IMU. Its :attr:`mount` is
+    the robot folder's (``robot.toml`` ``[imu]``, :func:`wbc.sim.model.imu_mount`): what the
+    controller is told, whatever the simulated model's ``imu_rotation``."""
 
     name = "sim-imu"
 
@@ -479,6 +481,7 @@ class SimImu(Imu):
         gyro_bias_std: float = 0.0,  # rad/s
         acc_bias_std: float = 0.0,  # m/s²
         seed: int | None = 0,
+        integrate: bool = False,
     ) -> None:
         for name, v in (
             ("gyro_noise", gyro_noise),
@@ -501,6 +504,10 @@ class SimImu(Imu):
         )
         self.gyro_bias = self.rng.normal(0.0, gyro_bias_std, 3) if gyro_bias_std else np.zeros(3)
         self.acc_bias = self.rng.normal(0.0, acc_bias_std, 3) if acc_bias_std else np.zeros(3)
+        #: the gyro read as the site's rotation since the last reading over the time since it
+        #: (a delta-angle IMU: the mean rate over the interval), not MuJoCo's rate at the read
+        self.integrate = bool(integrate)
+        self._last: tuple[float, np.ndarray] | None = None  # (time, rotation) at the last read
         m, mj = sim.model, sim.mj
         self._adr = {}
         for key in ("imu_quat", "imu_gyro", "imu_acc"):
@@ -518,6 +525,11 @@ class SimImu(Imu):
             dq /= np.linalg.norm(dq)
             quat = _quat_mul(quat, dq)
         gyro = s[self._adr["imu_gyro"]] + self.gyro_bias
+        if self.integrate:
+            R = pin.Quaternion(w, x, y, z).toRotationMatrix()
+            last, self._last = self._last, (self.sim.time, R)
+            if last is not None and self.sim.time > last[0]:
+                gyro = pin.log3(last[1].T @ R) / (self.sim.time - last[0]) + self.gyro_bias
         acc = s[self._adr["imu_acc"]] + self.acc_bias
         if self.gyro_noise:
             gyro = gyro + self.rng.normal(0.0, self.gyro_noise, 3)
