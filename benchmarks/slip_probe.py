@@ -120,7 +120,8 @@ def record(args) -> None:
                 "soles": np.array([np.r_[s.translation, yaw_of(s.rotation)] for s in soles]),
                 "wrench": np.array([np.r_[F, M] for F, M, _ in wrench]),
                 "capacity": np.array([c for _, _, c in wrench]),
-                "momenta": branch_momenta(sim, branches),
+                "momenta": branch_momenta(sim, branches), "com": sim.com(),
+                "points": np.array([np.count_nonzero(sim.contacts()[2] == b) for b in feet]),
             })  # fmt: skip
             return q
 
@@ -150,7 +151,9 @@ def record(args) -> None:
                       params=params, load_ramp=args.load_ramp,
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
                       rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
-                      flatten=args.flatten, calibrate_settle=args.calibrate_settle)  # fmt: skip
+                      flatten=args.flatten, calibrate_settle=args.calibrate_settle,
+                      yaw_momentum=args.yaw_momentum,
+                      yaw_momentum_step=args.yaw_momentum_step)  # fmt: skip
     stab = walkers[-1].stabilizer
     imu = stab.imu
     while not hasattr(imu, "gyro_bias") and hasattr(imu, "imu"):
@@ -464,46 +467,48 @@ def heading(f: str, every: float = 2.0) -> None:
 
 def yaw(f: str, spin_deg: float = 5.0, first: int = 8) -> None:
     """Per single support of a recording, the stance sole's turn against the floor's yaw moment
-    on it (about its site; the simulator's contact forces) and its friction's reach (the most
-    its contacts resist about their centre of pressure), and the vertical angular momentum
-    each branch gains about that site (the stance sole's at the support's start): the floor's
-    yaw impulse is their sum (gravity has no moment about a vertical axis)."""
+    on it (about its site; the simulator's contact forces, sampled at the ticks), the share of
+    its ticks on an edge (≤ 2 contact points) or a corner (1), and the vertical angular
+    momentum each branch gains about the whole body's CoM: their sum, dL_z/dt, is the free
+    yaw moment the sole must resist (the horizontal force of an inverted pendulum, along
+    CoM − CoP, has no moment about the vertical through the CoM)."""
     d = dict(np.load(f))
     if "wrench" not in d:
         raise SystemExit(f"{f}: recorded without contact forces (record it again)")
     t, dt = d["t"], float(np.median(np.diff(d["t"])))
+    mom, g = d["momenta"], d["com"][:, None, :]  # (n, branch, 6), (n, 1, 3)
+    Lz = mom[:, :, 2] - (g[..., 0] * mom[:, :, 4] - g[..., 1] * mom[:, :, 3])  # about the CoM
+    rate = np.diff(Lz.sum(axis=1)) / np.diff(t)  # the free yaw moment, tick to tick
     rows = []
     for side, _a, b, c, _e in contacts(d):
         if c - b < first + 2:
             continue
-        P = d["soles"][b, side, :3]
-        mom = d["momenta"]  # (n, branch, 6): L about the origin, p
-        Lz = mom[:, :, 2] - (P[0] * mom[:, :, 4] - P[1] * mom[:, :, 3])  # about P, z
-        mz, cap = d["wrench"][b:c, side, 5], d["capacity"][b:c, side]
+        mz = d["wrench"][b:c, side, 5]
         yaw_s = np.unwrap(d["soles"][b : c + 1, side, 3])
         stance_b, swing_b = 1 + side, 2 - side
         order = (0, stance_b, swing_b, 3)  # torso, stance leg, swing leg, upper
         gain_first = [Lz[b + first, j] - Lz[b, j] for j in order]
         gain_all = [Lz[c, j] - Lz[b, j] for j in order]
+        pts = d["points"][b:c, side]
         rows.append((t[b], side, math.degrees(yaw_s[-1] - yaw_s[0]),
                      math.degrees(yaw_s[first] - yaw_s[0]), mz[:first].sum() * dt,
-                     mz.sum() * dt, np.abs(mz).max(), (np.abs(mz) / np.maximum(cap, 1e-9)).max(),
-                     np.median(np.abs(mz[:first]) / np.maximum(cap[:first], 1e-9)),
+                     np.abs(rate[b:c]).max(), np.abs(mz).max(), np.mean(pts <= 2),
+                     np.mean(pts <= 1),
                      *gain_first, *gain_all))  # fmt: skip
     R = np.array(rows)
     spin = np.abs(R[:, 2]) > spin_deg
     print(
-        f"{f}: {len(R)} single supports, {int(spin.sum())} turn > {spin_deg:g} deg "
-        "(moments N·mm, impulses and momenta N·mm·s, about the stance sole's site)"
+        f"{f}: {len(R)} single supports, {int(spin.sum())} turn > {spin_deg:g} deg (moments "
+        "N·mm: the floor's about the stance sole's site, sampled; momenta N·mm·s about the CoM)"
     )
     print(
-        "   t s  side  turn° (first) | impulse first, all | peak |Mz|, /reach, median "
-        "first | ΔL first: torso stance swing upper | ΔL all: torso stance swing upper"
+        "   t s  side  turn° (first) | impulse first, peak |dL_G/dt| | peak |Mz|, edge, corner "
+        "first | ΔL_G first: torso stance swing upper | ΔL_G all: torso stance swing upper"
     )
     for r in R:
         mark = "*" if abs(r[2]) > spin_deg else " "
         print(f"{mark}{r[0]:6.2f}  {'LR'[int(r[1])]}  {r[2]:+6.1f} ({r[3]:+5.1f}) | "
-              f"{1e3 * r[4]:+6.2f} {1e3 * r[5]:+6.2f} | {1e3 * r[6]:6.1f} {r[7]:5.2f} "
+              f"{1e3 * r[4]:+6.2f} {1e3 * r[5]:6.1f} | {1e3 * r[6]:6.1f} {r[7]:5.2f} "
               f"{r[8]:5.2f} | "
               + " ".join(f"{1e3 * v:+6.2f}" for v in r[9:13]) + " | "
               + " ".join(f"{1e3 * v:+6.2f}" for v in r[13:17]))  # fmt: skip
@@ -513,15 +518,16 @@ def yaw(f: str, spin_deg: float = 5.0, first: int = 8) -> None:
         Q = R[m]
         print(
             f"  {name} ({int(m.sum())}): |turn| {np.abs(Q[:, 2]).mean():.1f}°, |impulse| "
-            f"first {1e3 * np.abs(Q[:, 4]).mean():.2f} all {1e3 * np.abs(Q[:, 5]).mean():.2f}, "
-            f"peak |Mz| {1e3 * Q[:, 6].mean():.1f} (/reach {Q[:, 7].mean():.2f}, median first "
-            f"{Q[:, 8].mean():.2f}); |ΔL| first torso/stance/swing/upper "
+            f"first {1e3 * np.abs(Q[:, 4]).mean():.2f}, peak |dL_G/dt| {1e3 * Q[:, 5].mean():.1f}, "
+            f"peak |Mz| {1e3 * Q[:, 6].mean():.1f} (on an edge {Q[:, 7].mean():.2f}, a corner "
+            f"{Q[:, 8].mean():.2f}); |ΔL_G| first torso/stance/swing/upper "
             + "/".join(f"{1e3 * np.abs(Q[:, j]).mean():.2f}" for j in range(9, 13))
             + "; all "
             + "/".join(f"{1e3 * np.abs(Q[:, j]).mean():.2f}" for j in range(13, 17))
         )
-    c = np.corrcoef(R[:, 2], R[:, 5])[0, 1]
-    print(f"  correlation of the turn with the whole impulse {c:+.2f}")
+    net = R[:, 13:17].sum(axis=1)
+    c = np.corrcoef(R[:, 2], net)[0, 1]
+    print(f"  correlation of the turn with the whole body's ΔL_G {c:+.2f}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -562,6 +568,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="per recording, the outer loop's heading against the simulator's "
                          "every 2 s (the command's, the walking frame's, the soles', the "
                          "gyro's torso; the bias learnt)")  # fmt: skip
+    ap.add_argument("--yaw-momentum", type=float, default=None, metavar="W",
+                    help="a yaw-momentum task at weight W for the recorded run")  # fmt: skip
+    ap.add_argument("--yaw-momentum-step", action="store_true",
+                    help="with --yaw-momentum: its target the torso's yaw step")  # fmt: skip
     ap.add_argument("--yaw", nargs="+", default=None, metavar="FILE",
                     help="per recording, each single support's turn against the floor's yaw "
                          "moment on the stance sole, its friction's reach and each branch's "
