@@ -95,3 +95,36 @@ def test_bad_input_and_a_stack_file_entry(robot):
     (task,) = [t for t in control.stack.tasks() if isinstance(t, YawMomentumTask)]
     assert task.name == "yaw_momentum" and task.target.tolist() == [0.001]
     assert task.weight.tolist() == [2.0]
+
+
+@pytest.mark.parametrize("follow", [True, False])
+def test_a_walking_controller_sets_the_followed_target_to_the_yaw_step(robot, follow):
+    """Along the ``turn`` walk, a ``follow`` task's target is the reference torso's yaw step of
+    each tick (0 on the first); without ``follow`` it stays the file's."""
+    from wbc.bench.trajectories import build
+    from wbc.stacks import build_stack, stack_file
+    from wbc.walking.loop import Session, StackController
+
+    spec = tomllib.loads(stack_file("walk").read_text())
+    spec["levels"][-1]["tasks"] = [
+        *spec["levels"][-1]["tasks"],
+        {"type": "yaw_momentum", "weight": 0.3, "follow": follow, "target": 0.002},
+    ]
+    controller = StackController(build_stack(spec, robot))
+    (task,) = [t for t in controller.control.stack.tasks() if isinstance(t, YawMomentumTask)]
+    yaws, seen = [], []
+    track = controller.track
+
+    def spy(q, targets, dt, phase_changed):
+        yaws.append(targets.torso_yaw)
+        out = track(q, targets, dt, phase_changed)
+        seen.append(float(task.target[0]))
+        return out
+
+    controller.track = spy  # type: ignore[method-assign]
+    session = Session(controller, robot, build("turn", robot))
+    for i in range(120):
+        session.tick(i)
+    steps = np.r_[0.0, np.diff(yaws)] if follow else np.full(len(yaws), 0.002)
+    assert np.abs(np.array(seen) - steps).max() < 1e-12
+    assert not follow or np.abs(steps).max() > 1e-4  # (the walk turns in these ticks)
