@@ -84,6 +84,8 @@ def test_bad_input_and_a_stack_file_entry(robot):
         YawMomentumTask(robot, target=float("nan"))
     with pytest.raises(TaskError, match="1 numbers"):
         YawMomentumTask(robot, target="left")  # type: ignore[arg-type]
+    with pytest.raises(TaskError, match="follow must be true or false"):
+        YawMomentumTask(robot, follow="yes")  # type: ignore[arg-type]
     from wbc.stacks import build_stack, stack_file
 
     spec = tomllib.loads(stack_file("walk").read_text())
