@@ -128,7 +128,9 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
             twist: float | None = None, slip_gain: float | None = None,
             load_ramp: bool = False, flat_liftoff: float | None = None,
             flatten: float | None = None, flatten_band: float | None = None,
-            gyro_trim: float | None = None, rest_periods: bool = False, **kw):  # fmt: skip
+            gyro_trim: float | None = None, rest_periods: bool = False,
+            yaw_momentum: float | None = None, yaw_momentum_step: bool = False,
+            **kw):  # fmt: skip
     entry = registry("physics")[solver]
     gain = default_compensate(correct=correct) if compensate is None else compensate
     options = {"compensate": gain, "correct": correct, "track": track}
@@ -157,10 +159,32 @@ def run_one(robot, solver: str, commands, variation=None, limits=None, window=No
         options["play"] = play_of(play, variation)
     if limits is not None:
         options.update(limits=limits, window=window)
-    r = drive_sim(robot, entry.make(robot), commands, variation, walker_options=options,
+    controller = (entry.make(robot) if yaw_momentum is None else
+                  with_yaw_momentum(robot, solver, yaw_momentum, yaw_momentum_step))  # fmt: skip
+    r = drive_sim(robot, controller, commands, variation, walker_options=options,
                   finish=finish, **kw)  # fmt: skip
     r.update(errors(r, commands))
     return r
+
+
+def with_yaw_momentum(robot, solver: str, weight: float, step: bool = False):
+    """The solver's stack (a wqp-/hqp- entry's file) with a yaw-momentum task
+    (:class:`wbc.tasks.YawMomentumTask`, target 0: no vertical angular momentum) at
+    ``weight`` in its last level; ``step``: its target the reference torso's yaw step
+    (the task's ``follow``)."""
+    import tomllib
+
+    from wbc.stacks import build_stack, stack_file
+    from wbc.walking.controller import StackController
+
+    entry = registry("physics")[solver]
+    kind, backend = solver.split("-", 1)
+    spec = tomllib.loads(stack_file(entry.stack).read_text())
+    spec["solver"] = {"wqp": "weighted", "hqp": "hierarchical"}[kind]
+    spec["levels"][-1]["tasks"] = [*spec["levels"][-1]["tasks"],
+                                   {"type": "yaw_momentum", "weight": weight,
+                                    "follow": step}]  # fmt: skip
+    return StackController(build_stack(spec, robot, backend=backend), solver)
 
 
 def play_of(play: str | float, variation=None) -> float:
@@ -416,6 +440,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--flatten-band", type=float, default=None, metavar="DEG",
                     help="with --flatten: the tilt's dead band (Walker(flatten_band=DEG); "
                          "default 0)")  # fmt: skip
+    ap.add_argument("--yaw-momentum", type=float, default=None, metavar="W",
+                    help="a yaw-momentum task (the step's vertical angular momentum about the "
+                         "CoM, as the locked body's turn) at weight W in the stack's last level "
+                         "(wbc.tasks.YawMomentumTask; default off)")  # fmt: skip
+    ap.add_argument("--yaw-momentum-step", action="store_true",
+                    help="with --yaw-momentum: its target the reference torso's yaw step a "
+                         "tick (default 0)")  # fmt: skip
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plots", type=Path)
     args = ap.parse_args(argv)
@@ -470,6 +501,8 @@ def main(argv: list[str] | None = None) -> int:
         "flat_liftoff": args.flat_liftoff,
         "flatten": args.flatten,
         "flatten_band": args.flatten_band,
+        "yaw_momentum": args.yaw_momentum,
+        "yaw_momentum_step": args.yaw_momentum_step,
         "start_yaw": math.radians(args.start_yaw),
         "params": None
         if not args.plain_closing

@@ -102,6 +102,7 @@ def record(args) -> None:
             imu = sim.site_pose("imu")
             soles = [sim.site_pose(f) for f in SOLES.values()]
             odo = self.odometry
+            wrench = [sim.floor_wrench(b, s.translation) for b, s in zip(feet, soles, strict=True)]
             rows.append({
                 "t": sim.time, "acc": np.array(a, float), "gyro": np.array(w, float),
                 "links": np.array(links, float), "double": e.support == SUPPORT_DOUBLE,
@@ -120,6 +121,10 @@ def record(args) -> None:
                 "est_R": np.array(stab.last.rotation) if stab.last is not None else np.eye(3),
                 "true_R": imu.rotation.copy(), "true_p": imu.translation.copy(),
                 "soles": np.array([np.r_[s.translation, yaw_of(s.rotation)] for s in soles]),
+                "wrench": np.array([np.r_[F, M] for F, M, _ in wrench]),
+                "capacity": np.array([c for _, _, c in wrench]),
+                "momenta": branch_momenta(sim, branches), "com": sim.com(),
+                "points": np.array([np.count_nonzero(sim.contacts()[2] == b) for b in feet]),
             })  # fmt: skip
             return q
 
@@ -128,10 +133,17 @@ def record(args) -> None:
                 landings.append((sims[-1].time, step.side))
             return super()._landed(step)
 
+    feet: list[int] = []
+    branches: np.ndarray = np.zeros(0, int)
+
     class Sampled(odometer):
         def __init__(self, sim) -> None:
+            nonlocal branches
             super().__init__(sim)
             sims.append(sim)
+            mj = sim.mj
+            feet[:] = [mj.mj_name2id(sim.model, mj.mjtObj.mjOBJ_BODY, b) for b in sim.robot_feet()]
+            branches = body_branches(sim.model, sim.root, feet)
 
     drive_sim_module.Walker = Probed
     drive_sim_module.Odometer = Sampled
@@ -143,7 +155,9 @@ def record(args) -> None:
                       flat_liftoff=args.flat_liftoff, encoder_rest=args.encoder_rest,
                       rest_rotation=args.rest_rotation, yaw_rest=args.yaw_rest,
                       flatten=args.flatten, calibrate_settle=args.calibrate_settle,
-                      gyro_trim=args.gyro_trim, rest_periods=args.rest_periods)  # fmt: skip
+                      gyro_trim=args.gyro_trim, rest_periods=args.rest_periods,
+                      yaw_momentum=args.yaw_momentum,
+                      yaw_momentum_step=args.yaw_momentum_step)  # fmt: skip
     stab = walkers[-1].stabilizer
     imu = stab.imu
     while not hasattr(imu, "gyro_bias") and hasattr(imu, "imu"):
@@ -163,6 +177,52 @@ def record(args) -> None:
     out["landing_side"] = np.array([0 if s == "left" else 1 for _, s in landings])
     out["acc_noise"] = np.array(variation.imu.get("acc_noise", 0.0))
     np.savez(args.out, **out)
+
+
+BRANCHES = ("torso", "left leg", "right leg", "upper")  # (the root, the soles', the rest)
+
+
+def body_branches(model, root: int, feet: list[int]) -> np.ndarray:
+    """Each body's branch (an index into :data:`BRANCHES`): the root's child it hangs from —
+    the left sole's, the right sole's, any other (arms, head) —, the root itself 0, the world
+    −1."""
+    out = np.full(model.nbody, -1)
+    for b in range(1, model.nbody):
+        top = b
+        while model.body_parentid[top] not in (root, 0):
+            top = int(model.body_parentid[top])
+        if b == root:
+            out[b] = 0
+        else:
+            legs = [2 if f else 1 for f in range(2) if _hangs_from(model, feet[f], top)]
+            out[b] = legs[0] if legs else 3
+    return out
+
+
+def _hangs_from(model, body: int, top: int) -> bool:
+    while body > 0:
+        if body == top:
+            return True
+        body = int(model.body_parentid[body])
+    return False
+
+
+def branch_momenta(sim, branches: np.ndarray) -> np.ndarray:
+    """Per branch (:data:`BRANCHES`), its angular momentum about the world origin and its
+    linear momentum (4 x 6, world axes): ``Σ m_b c_b × v_b + R_b I_b R_bᵀ ω_b``, ``Σ m_b v_b``
+    over its bodies (MuJoCo's velocities at each body's centre of mass)."""
+    mj, m, d = sim.mj, sim.model, sim.data
+    out = np.zeros((len(BRANCHES), 6))
+    vel = np.zeros(6)
+    for b in range(1, m.nbody):
+        if branches[b] < 0:
+            continue
+        mj.mj_objectVelocity(m, d, mj.mjtObj.mjOBJ_BODY, b, vel, 0)
+        R, c, mass = d.ximat[b].reshape(3, 3), d.xipos[b], m.body_mass[b]
+        spin = R @ (m.body_inertia[b] * (R.T @ vel[:3]))
+        out[branches[b], :3] += mass * np.cross(c, vel[3:]) + spin
+        out[branches[b], 3:] += mass * vel[3:]
+    return out
 
 
 def intervals(d: dict) -> list[tuple[int, int, int]]:
@@ -409,6 +469,71 @@ def heading(f: str, every: float = 2.0) -> None:
           f"{cols['frame'][end] - cols['cmd'][end]:+.2f}")  # fmt: skip
 
 
+def yaw(f: str, spin_deg: float = 5.0, first: int = 8) -> None:
+    """Per single support of a recording, the stance sole's turn against the floor's yaw moment
+    on it (about its site; the simulator's contact forces, sampled at the ticks), the share of
+    its ticks on an edge (≤ 2 contact points) or a corner (1), and the vertical angular
+    momentum each branch gains about the whole body's CoM: their sum, dL_z/dt, is the free
+    yaw moment the sole must resist (the horizontal force of an inverted pendulum, along
+    CoM − CoP, has no moment about the vertical through the CoM)."""
+    d = dict(np.load(f))
+    if "wrench" not in d:
+        raise SystemExit(f"{f}: recorded without contact forces (record it again)")
+    t, dt = d["t"], float(np.median(np.diff(d["t"])))
+    mom, g = d["momenta"], d["com"][:, None, :]  # (n, branch, 6), (n, 1, 3)
+    Lz = mom[:, :, 2] - (g[..., 0] * mom[:, :, 4] - g[..., 1] * mom[:, :, 3])  # about the CoM
+    rate = np.diff(Lz.sum(axis=1)) / np.diff(t)  # the free yaw moment, tick to tick
+    rows = []
+    for side, _a, b, c, _e in contacts(d):
+        if c - b < first + 2:
+            continue
+        mz = d["wrench"][b:c, side, 5]
+        yaw_s = np.unwrap(d["soles"][b : c + 1, side, 3])
+        stance_b, swing_b = 1 + side, 2 - side
+        order = (0, stance_b, swing_b, 3)  # torso, stance leg, swing leg, upper
+        gain_first = [Lz[b + first, j] - Lz[b, j] for j in order]
+        gain_all = [Lz[c, j] - Lz[b, j] for j in order]
+        pts = d["points"][b:c, side]
+        rows.append((t[b], side, math.degrees(yaw_s[-1] - yaw_s[0]),
+                     math.degrees(yaw_s[first] - yaw_s[0]), mz[:first].sum() * dt,
+                     np.abs(rate[b:c]).max(), np.abs(mz).max(), np.mean(pts <= 2),
+                     np.mean(pts <= 1),
+                     *gain_first, *gain_all))  # fmt: skip
+    R = np.array(rows)
+    spin = np.abs(R[:, 2]) > spin_deg
+    print(
+        f"{f}: {len(R)} single supports, {int(spin.sum())} turn > {spin_deg:g} deg (moments "
+        "N·mm: the floor's about the stance sole's site, sampled; momenta N·mm·s about the CoM)"
+    )
+    print(
+        "   t s  side  turn° (first) | impulse first, peak |dL_G/dt| | peak |Mz|, edge, corner "
+        "first | ΔL_G first: torso stance swing upper | ΔL_G all: torso stance swing upper"
+    )
+    for r in R:
+        mark = "*" if abs(r[2]) > spin_deg else " "
+        print(f"{mark}{r[0]:6.2f}  {'LR'[int(r[1])]}  {r[2]:+6.1f} ({r[3]:+5.1f}) | "
+              f"{1e3 * r[4]:+6.2f} {1e3 * r[5]:6.1f} | {1e3 * r[6]:6.1f} {r[7]:5.2f} "
+              f"{r[8]:5.2f} | "
+              + " ".join(f"{1e3 * v:+6.2f}" for v in r[9:13]) + " | "
+              + " ".join(f"{1e3 * v:+6.2f}" for v in r[13:17]))  # fmt: skip
+    for name, m in (("spinning", spin), ("the rest", ~spin)):
+        if not m.any():
+            continue
+        Q = R[m]
+        print(
+            f"  {name} ({int(m.sum())}): |turn| {np.abs(Q[:, 2]).mean():.1f}°, |impulse| "
+            f"first {1e3 * np.abs(Q[:, 4]).mean():.2f}, peak |dL_G/dt| {1e3 * Q[:, 5].mean():.1f}, "
+            f"peak |Mz| {1e3 * Q[:, 6].mean():.1f} (on an edge {Q[:, 7].mean():.2f}, a corner "
+            f"{Q[:, 8].mean():.2f}); |ΔL_G| first torso/stance/swing/upper "
+            + "/".join(f"{1e3 * np.abs(Q[:, j]).mean():.2f}" for j in range(9, 13))
+            + "; all "
+            + "/".join(f"{1e3 * np.abs(Q[:, j]).mean():.2f}" for j in range(13, 17))
+        )
+    net = R[:, 13:17].sum(axis=1)
+    c = np.corrcoef(R[:, 2], net)[0, 1]
+    print(f"  correlation of the turn with the whole body's ΔL_G {c:+.2f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sequence", type=int, default=13)
@@ -453,6 +578,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="per recording, the outer loop's heading against the simulator's "
                          "every 2 s (the command's, the walking frame's, the soles', the "
                          "gyro's torso; the bias learnt)")  # fmt: skip
+    ap.add_argument("--yaw-momentum", type=float, default=None, metavar="W",
+                    help="a yaw-momentum task at weight W for the recorded run")  # fmt: skip
+    ap.add_argument("--yaw-momentum-step", action="store_true",
+                    help="with --yaw-momentum: its target the torso's yaw step")  # fmt: skip
+    ap.add_argument("--yaw", nargs="+", default=None, metavar="FILE",
+                    help="per recording, each single support's turn against the floor's yaw "
+                         "moment on the stance sole, its friction's reach and each branch's "
+                         "vertical angular momentum gained")  # fmt: skip
     ap.add_argument("--analyse", nargs="+", default=None, metavar="FILE",
                     help="analyse these recordings instead of running")  # fmt: skip
     ap.add_argument("--phases", nargs="+", default=None, metavar="FILE",
@@ -460,7 +593,10 @@ def main(argv: list[str] | None = None) -> int:
                          "(its landing's double support, its single support, the double "
                          "support before its lift-off): sums and mean lengths")  # fmt: skip
     args = ap.parse_args(argv)
-    if args.edges:
+    if args.yaw:
+        for f in args.yaw:
+            yaw(f)
+    elif args.edges:
         for f in args.edges:
             edges(f)
     elif args.heading:

@@ -158,23 +158,54 @@ class Simulation:
         """Servo torques of the last step (N·m, joint direction)."""
         return self.servos.torque.copy()
 
-    def contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Floor contacts: points (k, 3), normal forces (k,) and the body of each point."""
+    def _floor_contacts(self):
+        """Each floor contact: (the MuJoCo contact, its force in the contact frame (6: normal,
+        two tangents, then torsion and rolling), the other geom's body)."""
         mj, m, d = self.mj, self.model, self.data
-        pts, fz, body = [], [], []
-        f6 = np.zeros(6)
         for i in range(d.ncon):
             c = d.contact[i]
             if self.floor not in (c.geom1, c.geom2):
                 continue
+            f6 = np.zeros(6)
             mj.mj_contactForce(m, d, i, f6)
             other = c.geom2 if c.geom1 == self.floor else c.geom1
+            yield c, f6, int(m.geom_bodyid[other])
+
+    def contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Floor contacts: points (k, 3), normal forces (k,) and the body of each point."""
+        pts, fz, body = [], [], []
+        for c, f6, b in self._floor_contacts():
             pts.append(c.pos.copy())
             fz.append(f6[0])
-            body.append(m.geom_bodyid[other])
+            body.append(b)
         if not pts:
             return np.zeros((0, 3)), np.zeros(0), np.zeros(0, int)
         return np.array(pts), np.array(fz), np.array(body)
+
+    def floor_wrench(self, body: int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """The floor's wrench on ``body`` (world axes): force F (3), moment M (3) about
+        ``point`` (``Σ (p_i − point) × f_i`` plus the contacts' torsion, condim ≥ 4), and the
+        largest yaw moment its friction could resist about the contacts' centre of pressure,
+        ``Σ μ_i f_n,i |p_i − cop|`` (each point sliding on a circle about it)."""
+        pts, fs, fn, mu, torsion = [], [], [], [], np.zeros(3)
+        for c, f6, b in self._floor_contacts():
+            if b != body:
+                continue
+            frame = c.frame.reshape(3, 3)  # rows: the normal (floor → body's geom), tangents
+            sign = 1.0 if c.geom1 == self.floor else -1.0
+            pts.append(c.pos.copy())
+            fs.append(sign * (frame.T @ f6[:3]))
+            fn.append(f6[0])
+            mu.append(c.friction[0])
+            if c.dim >= 4:
+                torsion += sign * f6[3] * frame[0]
+        if not pts:
+            return np.zeros(3), np.zeros(3), 0.0
+        P, F, N = np.array(pts), np.array(fs), np.array(fn)
+        M = np.cross(P - point, F).sum(axis=0) + torsion
+        cop = (P * N[:, None]).sum(axis=0) / max(N.sum(), 1e-12)
+        reach = np.linalg.norm((P - cop)[:, :2], axis=1)
+        return F.sum(axis=0), M, float((np.array(mu) * N * reach).sum())
 
     def cop(self) -> np.ndarray | None:
         """Centre of pressure on the floor (x, y) from the contact forces; None in the air."""

@@ -13,6 +13,7 @@ from .frame_position import FramePositionTask
 from .frame_task import FrameTask
 from .frame_tilt import FrameTiltTask
 from .limit_damping import JointLimitDampingTask
+from .momentum import YawMomentumTask
 from .posture import DampingTask, PostureTask
 from .relative_position import RelativeFramePositionTask
 from .task import Objective, Task
@@ -35,4 +36,5 @@ __all__ = [
     "SwingFootOrientationTask",
     "Task",
     "TorsoOrientationTask",
+    "YawMomentumTask",
 ]

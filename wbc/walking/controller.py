@@ -11,6 +11,7 @@ import numpy as np
 from ..compiled.checks import entry as check_entry
 from ..compiled.targets import copy_targets
 from ..exceptions import WbcError
+from ..geometry import wrap_angle
 from ..model import Kinematics, Robot
 from ..stacks import ControlStack
 from ..tasks import (
@@ -20,6 +21,7 @@ from ..tasks import (
     FramePoseTask,
     FramePositionTask,
     SwingFootOrientationTask,
+    YawMomentumTask,
 )
 from ..tasks.task import ROTATION_TOL
 from .handover import SwitchHandover
@@ -145,6 +147,8 @@ class StackController(Controller):
             for t in stack.tasks()
             if isinstance(t, FrameOrientationTask) and t.frame_id == torso and t not in swing_tasks
         ]
+        self._yaw_steps = [t for t in stack.tasks() if isinstance(t, YawMomentumTask) and t.follow]
+        self._torso_yaw: float | None = None  # (the last tick's reference: a yaw step's start)
         self._kin = Kinematics(robot)
         # each contact task with the sole role its frame follows (None: its own frame)
         self._contacts = [
@@ -330,6 +334,10 @@ class StackController(Controller):
                 targets.phase, targets.support, targets.swing, self._kin, anchors
             )
         self.control.lower_swing_floor(targets.swing_floor)  # (0 but in a caught landing)
+        if self._yaw_steps:
+            last, self._torso_yaw = self._torso_yaw, targets.torso_yaw
+            for task in self._yaw_steps:
+                task.set_target(0.0 if last is None else wrap_angle(targets.torso_yaw - last))
         if targets.contacts_move:
             soles = {"l_sole": targets.l_sole, "r_sole": targets.r_sole}
             for task, _ in self._contacts:
