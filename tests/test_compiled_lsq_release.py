@@ -62,7 +62,7 @@ def test_a_start_with_the_weak_bounds_released_reaches_the_same_minimiser(m):
         n, p = A.shape[1], B.shape[0]
         space = level_space(m, n, p)
         state = np.zeros(n, np.int8)
-        status, _, x = _solve(A, a, B, r, ridge, lower, upper, state, space)
+        status, _, _ = _solve(A, a, B, r, ridge, lower, upper, state, space)
         assert status == OK
         marks = state.copy()
         mark_weak(marks, space[0][3], lower, upper, 0.3)
