@@ -6,6 +6,7 @@ Capture a walk with the option on (its marks are in each tick's warm sets), then
     python benchmarks/cascade_replay.py --capture OUT.pkl --trajectory walk10 \
         --stack walk_strict --release-small 0.03
     python benchmarks/release_small.py OUT.pkl [--ticks N]
+    NUMBA_DISABLE_JIT=1 python benchmarks/release_small.py OUT.pkl --calls 305,310
 
 Each tick's ``solve_level_in`` subproblems (the kernels as Python, in a child process with
 ``NUMBA_DISABLE_JIT=1``: :func:`cascade_replay.counts`) with the capture's ratio
@@ -65,10 +66,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("path", help="a capture made with --release-small R")
     parser.add_argument("--ticks", type=int, default=0, help="the first N ticks only")
+    parser.add_argument(
+        "--calls", metavar="I,J,...",
+        help="each solve_level_in call of these solves, on and off (kernels as Python)",
+    )  # fmt: skip
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     with open(args.path, "rb") as f:
         cap = pickle.load(f)
+    if args.calls:
+        which = [int(i) for i in args.calls.split(",")]
+        for name, ts in variants(cap["ticks"]).items():
+            calls = R.counts(ts, which)  # (needs NUMBA_DISABLE_JIT=1)
+            for i in which:
+                print(i, name, [(c["level"], c["m"], c["cont"], c["count"], c["kinds"])
+                                for c in calls[i]])  # fmt: skip
+            print(name, "subproblems", sum(c["count"] for i in which for c in calls[i]))
+        return
     upto = args.ticks or len(cap["ticks"])
     if args.child:
         _counted(args.path, args.child, upto)
