@@ -52,9 +52,13 @@ ARGS = (
 WRITTEN = ("states", "working", "h_eff", "achieved", "dq", "q_next")
 
 
-def capture(trajectory: str, stack: str, robot_name: str = "bioloid") -> dict:
+def capture(
+    trajectory: str, stack: str, robot_name: str = "bioloid", release_small: float = 0.0
+) -> dict:
     """Walk ``trajectory`` with ``tasks/<stack>.toml`` (hierarchical, compiled) and keep each
-    tick's cascade inputs and answer: {"ticks": [dict per tick], "support": per tick, ...}."""
+    tick's cascade inputs and answer: {"ticks": [dict per tick], "support": per tick, ...}.
+    ``release_small``: the solver's option (:mod:`wbc.compiled.lsq_release`; its marks in the
+    captured states, which a checkout without it reads as the last tick's set)."""
     from wbc import load_robot
     from wbc.bench.trajectories import build
     from wbc.solvers.carry import CarriedRows
@@ -116,6 +120,8 @@ def capture(trajectory: str, stack: str, robot_name: str = "bioloid") -> dict:
         controller = StackController(
             build_stack({**walk_spec(True, stack), "solver": "hierarchical"}, robot)
         )
+        if release_small:
+            controller.solver.release_small = release_small
         rec = run(controller, robot, ref, on_tick=lambda i, q, t: done.__setitem__(0, i + 1))
     finally:
         for cls, name, own in saved:
@@ -489,6 +495,10 @@ def main() -> None:
         "--footprint", action="store_true",
         help="the bytes of each call's inputs and work arrays, its allocations, the code's",
     )  # fmt: skip
+    parser.add_argument(
+        "--release-small", type=float, default=0.0, metavar="R",
+        help="capture with the solver's release_small = R (wbc.compiled.lsq_release)",
+    )  # fmt: skip
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--which", default="", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -496,7 +506,7 @@ def main() -> None:
         _child(args.path, args.child, args.reps, args.which, args.cold)
         return
     if args.capture:
-        cap = capture(args.trajectory, args.stack, args.robot)
+        cap = capture(args.trajectory, args.stack, args.robot, args.release_small)
         with open(args.capture, "wb") as f:
             pickle.dump(cap, f)
         st = {x["status"] for x in cap["ticks"]}

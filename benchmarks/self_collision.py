@@ -209,6 +209,10 @@ def main() -> int:
     parser.add_argument(
         "--limit-on", action="store_true", help="ours with the limit only (not without it)"
     )
+    parser.add_argument(
+        "--release-small", type=float, nargs="+", default=[], metavar="R",
+        help="also ours with the solver's release_small = R (wbc.compiled.lsq_release)",
+    )  # fmt: skip
     args = parser.parse_args()
     if args.cpu:  # every controller's tick timer (wbc.walking.loop reads time.perf_counter)
         time.perf_counter = time.process_time
@@ -230,9 +234,11 @@ def table(robot, trajectory: str, args) -> None:
     json.dump(pairs, tmp)
     tmp.close()
 
-    def ours(spec: dict, kind: str, rehearse: bool = True, warm: bool | None = None):
+    def ours(spec: dict, kind: str, rehearse: bool = True, warm: bool | None = None, release=0.0):
         def make():
             controller = StackController(build_stack({**spec, "solver": kind}, robot))
+            if release:
+                controller.solver.release_small = release
             if not rehearse:
                 controller.solver.rehearse_switch = False
             if warm is not None:
@@ -262,6 +268,10 @@ def table(robot, trajectory: str, args) -> None:
                     spec = walk_spec(True, stack)
                     walk_limit(spec)["common_frame"] = False
                     makers[f"{label}, world frame"] = ours(spec, kind)
+                for release in args.release_small if on else ():
+                    makers[f"{label}, release_small {release:g}"] = ours(
+                        walk_spec(True, stack), kind, release=release
+                    )
                 if on and args.no_rehearse:
                     makers[f"{label}, no rehearsal"] = ours(walk_spec(True, stack), kind, False)
                 if on and args.rows_before:

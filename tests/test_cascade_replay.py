@@ -90,3 +90,42 @@ def _dump(captured) -> str:
     pickle.dump(captured, f)
     f.close()
     return f.name
+
+
+def test_the_weak_bounds_marked_and_released_keep_the_answers(captured):
+    """``release_small`` (``params[5]``, :mod:`wbc.compiled.lsq_release`): a tick solved with
+    it marks weakly held bounds in the last level's carried set (with 0, main's path, never);
+    the next tick started from that marked set, the marks released, gives the captured Δq
+    (main's start) within 1e-12, on every tick where the capture carried that set."""
+    from wbc.compiled.ticks import cascade_solve
+
+    ticks = captured["ticks"]
+    space = R.work_space(ticks)
+    last = len(ticks[0]["level_rows"]) - 1  # (states[L]: the last level's set without rows)
+    i_states, i_dq = R.ARGS.index("states"), R.ARGS.index("dq")
+
+    def solved(tick, ratio, states=None):
+        params = tick["params"].copy()
+        params[5] = ratio
+        args = R.call_args(dict(tick, params=params), space)
+        if states is not None:
+            args[i_states] = states.copy()
+        cascade_solve(*args)
+        return args[i_states], args[i_dq]
+
+    chained = 0
+    for t in range(len(ticks) - 1):
+        off, _ = solved(ticks[t], 0.0)
+        assert not (np.abs(off) == 2).any()
+        on, _ = solved(ticks[t], 0.03)
+        nxt = ticks[t + 1]
+        if not (np.abs(on[last]) == 2).any() or ticks[t + 1]["tick"] != ticks[t]["tick"] + 1:
+            continue
+        if not np.array_equal(np.sign(on[last]), nxt["states"][last]):
+            continue  # (the set the next tick started from is not this one's: forgotten)
+        states = nxt["states"].copy()
+        states[last] = on[last]
+        _, dq = solved(nxt, 0.03, states)
+        assert np.abs(dq - nxt["dq_out"]).max() <= 1e-12
+        chained += 1
+    assert chained >= 20

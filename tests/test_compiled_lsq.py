@@ -498,7 +498,8 @@ ONE_SPECIALISATION = """
 import json
 from numba.core.registry import CPUDispatcher
 from wbc import load_robot
-from wbc.compiled import lsq, lsq_linalg, lsq_multipliers, lsq_subproblem, lsq_update, space, ticks
+from wbc.compiled import lsq, lsq_linalg, lsq_multipliers, lsq_release, lsq_subproblem, lsq_update
+from wbc.compiled import space, ticks
 from wbc.limits import collision_kernels, collision_packed
 from wbc.stacks import load_stack
 from wbc.tasks import thesis_orientation
@@ -507,8 +508,8 @@ compile_part("weighted")  # a weighted and a hierarchical solve, compiled in thi
 compile_part("hierarchical")
 robot = load_robot()  # (the thesis's orientation rows, on the numpy path)
 load_stack("vat", robot, compiled=False).solver.step(robot.configuration("walk_ready"), 0.01)
-modules = (lsq, lsq_subproblem, lsq_update, lsq_linalg, lsq_multipliers, space, ticks,
-           collision_kernels, collision_packed, thesis_orientation)
+modules = (lsq, lsq_subproblem, lsq_update, lsq_linalg, lsq_multipliers, lsq_release, space,
+           ticks, collision_kernels, collision_packed, thesis_orientation)
 print(json.dumps({
     f"{m.__name__}.{k}": len(v.signatures)
     for m in modules for k, v in vars(m).items()
@@ -542,7 +543,8 @@ def test_each_kernel_compiles_once(tmp_path):
         "lsq_subproblem._rank_with", "lsq_subproblem._dependency", "lsq_linalg._pivoted_qr_rows",
         "lsq_linalg._reflect_rows", "lsq_linalg._reflect_vector", "lsq_linalg._reflect_columns",
         "lsq_linalg._reflect_columns2", "lsq_linalg._cholesky_solve", "lsq_update._updated",
-        "lsq_multipliers.equality_multipliers_in",
+        "lsq_multipliers.equality_multipliers_in", "lsq_release.release_marked",
+        "lsq_release.mark_weak",
     ):  # fmt: skip
         assert counts[f"wbc.compiled.{name}"] == 1, name
     # (the proximal steps call the solver in the level's work space: the allocating wrapper

@@ -36,6 +36,7 @@ from .lsq import (
     solve_level_in,
 )
 from .lsq_multipliers import equality_multipliers_in
+from .lsq_release import mark_weak, release_marked
 from .proximal import proximal_level
 from .space import (
     LEVEL_FLOATS,
@@ -517,6 +518,7 @@ def _cascade(
     rows_free = g_rows[n_levels] == 0 or (defer_soft and params[0] > 0.0)
     # PDAS's budget: the stack's (its solver's ``pdas_ties``: lsq.PDAS_TIES or 0)
     ties = np.int64(params[4]) if params.shape[0] > 4 else np.int64(0)
+    weak = params[5] if params.shape[0] > 5 else 0.0  # (``lsq_release``: 0 off)
     # (params[0] = 2: the rows join the last level's solve with the levels above deferred;
     # they are checked after it)
     joining = params[0] > 1.0
@@ -579,6 +581,8 @@ def _cascade(
             elif (r1 > r0 or last) and not warm:
                 if direct and free:  # (its set without the rows at the last tick)
                     states[k, :] = states[n_levels]
+                    if weak > 0.0:
+                        release_marked(states[k])
                 status = _level(
                     A, a, B, r, mu, not last, lower, upper, states[k], dq, space, np.bool_(False),
                     ties, previous,
@@ -586,6 +590,8 @@ def _cascade(
                 cont = status == OK
                 if direct and free:
                     states[n_levels, :] = states[k]
+                    if weak > 0.0 and status == OK:
+                        mark_weak(states[n_levels], space[0][3], lower, upper, weak)
                 if direct and status == OK:
                     free_x[:] = dq
                     free_state[:] = states[k]
@@ -671,7 +677,8 @@ def cascade_solve(
     rows too, 2 with the rows joining that solve, 3 and that solve not tried after a
     tick whose answer was degenerate (else 0), μ, tolerance of hard levels,
     tolerance of the inequality rows, and if given PDAS's budget of ties
-    (:data:`~wbc.compiled.lsq.PDAS_TIES` or 0: the stack's ``pdas_ties``; else 0)]; q ⊕ Δq
+    (:data:`~wbc.compiled.lsq.PDAS_TIES` or 0: the stack's ``pdas_ties``; else 0), and if
+    given the ratio of :mod:`~wbc.compiled.lsq_release` (0: off)]; q ⊕ Δq
     into ``q_next``; ``fspace``, ``ispace``: the work space (float64, int64:
     :mod:`wbc.compiled.space`, allocated here if smaller than the tick needs).
 
@@ -780,6 +787,7 @@ refresh(
         Path(__file__).with_name(f)
         for f in (
             "lsq.py lsq_subproblem.py lsq_update.py lsq_linalg.py lsq_multipliers.py proximal.py "
+            "lsq_release.py "
             "space.py integrate.py"
         ).split()
     ],

@@ -70,6 +70,7 @@ class HierarchicalQP(StackSolver):
         carry_at_switch: bool = False,
         defer_rows_join: bool = True,
         skip_degenerate: bool = True,
+        release_small: float = 0.0,
     ) -> None:
         if method not in METHODS:
             raise ConfigurationError(
@@ -118,6 +119,12 @@ class HierarchicalQP(StackSolver):
         #: same answer. On by default (``skip_degenerate = false`` in a stack file turns it
         #: off; benchmarks/self_collision.md, 2026-12-07 seventeenth session)
         self.skip_degenerate = bool(skip_degenerate)
+        #: the compiled cascade's last level without its rows starts each tick with the bounds
+        #: the last tick held with a multiplier below this share of its largest released
+        #: (:mod:`wbc.compiled.lsq_release`; ``cascade_solve``'s ``params[5]``): the same
+        #: minimiser, on another path (Δq up to rounding). 0: off, the default
+        #: (benchmarks/self_collision.md, 2026-12-07 twenty-third session)
+        self.release_small = check_number("release_small", release_small, (0.0, 1.0))
         self._backends: list[QPBackend] = []
         self._key = None
         self._problems: list[LevelProblem] = []

@@ -362,8 +362,9 @@ class _Plan:
         #: [1 to defer the levels above with inequality rows too, 2 with the rows joining, 3
         #: and not after a degenerate answer (``defer_with_rows``, ``defer_rows_join``,
         #: ``skip_degenerate``), else 0, μ, hard tolerance,
-        #: tolerance of the inequality rows, PDAS's ties (the solver's ``pdas_ties``)]
-        self.params = np.zeros(5)
+        #: tolerance of the inequality rows, PDAS's ties (the solver's ``pdas_ties``), the
+        #: share of the weakly held bounds released (its ``release_small``)]
+        self.params = np.zeros(6)
         self.lower = scratch.get("lower", (nv,))  # (the tick's bounds: filled first)
         self.upper = scratch.get("upper", (nv,))
         self.dq = scratch.get("dq", (nv,))
@@ -626,6 +627,7 @@ class _Plan:
             solver.hard_tol,
             CONSTRAINT_TOL,
             getattr(solver, "pdas_budget", 0),  # (the weighted QP: none)
+            getattr(solver, "release_small", 0.0),
         )
         self._dt = dt
         self._mu, self._hard_tol = solver.regularization, solver.hard_tol
