@@ -130,3 +130,26 @@ def test_a_walking_controller_sets_the_followed_target_to_the_yaw_step(robot, fo
     steps = np.r_[0.0, np.diff(yaws)] if follow else np.full(len(yaws), 0.002)
     assert np.abs(np.array(seen) - steps).max() < 1e-12
     assert not follow or np.abs(steps).max() > 1e-4  # (the walk turns in these ticks)
+
+
+def test_a_new_walk_on_the_same_controller_starts_without_a_yaw_step(robot):
+    """A second walk run by the same controller asks no yaw step at its first tick (the last
+    walk's final yaw is forgotten at the start, as after the first tick's rehearsal)."""
+    from wbc.bench.trajectories import build
+    from wbc.stacks import build_stack, stack_file
+    from wbc.walking.loop import Session, StackController
+
+    spec = tomllib.loads(stack_file("walk").read_text())
+    spec["levels"][-1]["tasks"] = [
+        *spec["levels"][-1]["tasks"],
+        {"type": "yaw_momentum", "weight": 0.3, "follow": True},
+    ]
+    controller = StackController(build_stack(spec, robot))
+    (task,) = [t for t in controller.control.stack.tasks() if isinstance(t, YawMomentumTask)]
+    ref = build("turn", robot)
+    session = Session(controller, robot, ref)
+    for i in range(len(ref.t) // 2):
+        session.tick(i)
+    assert abs(controller._torso_yaw or 0.0) > 0.05  # (the first walk turned)
+    Session(controller, robot, ref).tick(0)
+    assert task.target[0] == 0.0
