@@ -50,8 +50,9 @@ from wbc import load_robot
 from wbc.balance import best_compensate
 from wbc.balance import stabilizer as stab_mod
 from wbc.balance import stepping as step_mod
+from wbc.balance.live import loop_rate
+from wbc.balance.margin import default_sized_gains
 from wbc.balance.retime import HoldParams
-from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
@@ -95,7 +96,8 @@ def trace(
                   for role in ("hip_roll", "shoulder_roll", "ankle_roll", "knee", "hip_pitch",
                                "ankle_pitch")
                   if (j := roles.get(side, role)) is not None}  # fmt: skip
-    spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
+    base = default_sized_gains(robot, ff, 1.0 / loop_rate(ref))[0]  # (as pushes.py's)
+    spec = ClosedLoopSpec(entry.make, ref, replace(base, **gains), True, True,
                           SteppingParams(**stepping), HoldParams())  # fmt: skip
     if not fall:  # the fall detector off: does the robot come back by itself?
         spec = replace(spec, fall=None)
