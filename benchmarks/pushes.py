@@ -2,10 +2,12 @@
 
 The largest 10 ms torso impulse survived (N·s, bisection over 0–3 N·s as ``wbc bench
 --physics --push``: :func:`wbc.bench.physics.largest_push`), on ``walk10``, per solver, for
-the plan played open loop (``open``), the closed loop (compliance ×0.5, ``Gains()``: with
-the hip strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
+the plan played open loop (``open``), the closed loop (the feed-forward at the robot's best,
+the closed loop's default gains sized to its servos — the Bioloid's and the OP3's ``Gains()``,
+Kokone's torso terms ×0.025, :func:`wbc.balance.margin.default_sized_gains` —: with the hip
+strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
 placement from the measured DCM (``step``, :mod:`wbc.balance.stepping`), and both without the
-hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it), the
+hip strategy (``nohip``, ``nohipstep``: ``k_hip`` 0, the closed loop before it), the
 plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
 (:func:`wbc.balance.capture.capture_bounds`) and the angular-momentum (hip strategy) bound
@@ -29,7 +31,10 @@ the nominal run's figures, the LIPM capturability bounds
         '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
         # the push caught in its own step: the trigger and the lift (issue 30)
     python benchmarks/pushes.py --robot kokone --solvers hqp-daqp --trajectory lateral_wb \
-        --loops step --directions forward --gains sized  # the gains sized to its servos
+        --loops step --directions forward  # the closed loops' gains sized to its servos
+    python benchmarks/pushes.py --robot kokone --solvers wqp-daqp --trajectory walk10_wb \
+        --loops step --step-on-commands --stepping '{"band_x": 0.04, "band_y": 0.026}' \
+        --directions forward backward toward away  # step adjustment on its commanded joints
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
