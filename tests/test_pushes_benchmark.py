@@ -56,3 +56,29 @@ def test_the_closed_loops_gains_start_from_the_robots_sized_default(pushes):
     assert spec.gains == Gains(k_p=2.0)
     spec, _ = pushes.loop_spec("step", entry, ref, {}, "sized", {}, 1.0, {}, kokone)
     assert spec.gains is None  # (closed_loop sizes it: the same gains)
+
+
+def test_step_on_commands_reaches_the_closed_loop():
+    """ClosedLoopSpec.step_on_commands (pushes.py --step-on-commands): Kokone's SSC-32 reads no
+    positions, so its closed loop drops step adjustment unless asked (with dead bands given:
+    it states none); asked, the step adjuster runs."""
+    pytest.importorskip("mujoco")
+    from dataclasses import replace
+
+    from wbc.balance.stepping import SteppingParams
+    from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
+    from wbc.bench.solvers import registry
+    from wbc.bench.trajectories import build
+    from wbc.model import load_robot
+
+    kokone = load_robot("kokone")
+    ref = build("walk10", kokone)  # (a dynamic walk: the adjuster re-plans those)
+    bands = SteppingParams(band_x=0.04, band_y=0.026)
+    spec = ClosedLoopSpec(registry()["hqp-daqp"].make, ref, None, stepping=bands, calibrate_s=0.0)
+    stepping = {}
+    for on in (False, True):
+        _, loop = play_closed_loop(replace(spec, step_on_commands=on), kokone, compensate=1.0,
+                                   duration=0.1, settle=0.0)  # fmt: skip
+        stepping[on] = loop.stepping
+    assert stepping[False] is None and stepping[True] is not None
+    assert stepping[True].bands == (0.04, 0.026)
