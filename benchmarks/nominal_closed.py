@@ -34,7 +34,7 @@ def main() -> None:
     for walk in args:
         rec = plan("wqp-daqp", walk, robot)
         ref = traj.build(walk, robot)
-        spec, comp = loop_spec("step", entry, ref, stepping, gains, {}, ff, None)
+        spec, comp = loop_spec("step", entry, ref, stepping, gains, {}, ff, None, robot)
         r = simulate(rec, robot, compensate=comp, closed=spec)
         print(json.dumps({"walk": walk, "gains": gains, "stepping": stepping, "fell": r["fell"],
                           "dev_deg": round(r["orientation_dev_max_deg"], 2),

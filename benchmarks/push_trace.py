@@ -50,8 +50,9 @@ from wbc import load_robot
 from wbc.balance import best_compensate
 from wbc.balance import stabilizer as stab_mod
 from wbc.balance import stepping as step_mod
+from wbc.balance.live import loop_rate
+from wbc.balance.margin import default_sized_gains
 from wbc.balance.retime import HoldParams
-from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
 from wbc.bench import trajectories as traj
 from wbc.bench.closed_loop import ClosedLoopSpec, play_closed_loop
@@ -71,9 +72,11 @@ def trace(
     offset: float,
     fall: bool = True,
     robot_name: str = "bioloid",
+    on_commands: bool = False,
 ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """(the run's summary and re-plans, a row per tick) of one push (``robot_name``: as
-    ``pushes.py --robot``: its stack.toml and feed-forward gain)."""
+    ``pushes.py --robot``: its stack.toml, feed-forward gain and sized gains;
+    ``on_commands``: step adjustment on a bus that reads no positions too)."""
     robot = load_robot(robot_name)
     if robot_name == "bioloid":
         entry = select(["wqp-daqp"], None, "tick")[0][0]
@@ -95,8 +98,10 @@ def trace(
                   for role in ("hip_roll", "shoulder_roll", "ankle_roll", "knee", "hip_pitch",
                                "ankle_pitch")
                   if (j := roles.get(side, role)) is not None}  # fmt: skip
-    spec = ClosedLoopSpec(entry.make, ref, Gains(**gains), True, True,
+    base = default_sized_gains(robot, ff, 1.0 / loop_rate(ref))[0]  # (as pushes.py's)
+    spec = ClosedLoopSpec(entry.make, ref, replace(base, **gains), True, True,
                           SteppingParams(**stepping), HoldParams())  # fmt: skip
+    spec = replace(spec, step_on_commands=on_commands)
     if not fall:  # the fall detector off: does the robot come back by itself?
         spec = replace(spec, fall=None)
     sims: list[Any] = []
@@ -238,6 +243,11 @@ def main() -> None:
     p.add_argument("--ticks", type=int, default=40, help="ticks printed after the push")
     p.add_argument("--no-fall", action="store_true", help="the fall detector off")
     p.add_argument(
+        "--step-on-commands",
+        action="store_true",
+        help="step adjustment on a bus that reads no positions too (as pushes.py's)",
+    )
+    p.add_argument(
         "--dcm",
         action="store_true",
         help="the DCM estimate's parts against the simulator's (dcm_table)",
@@ -249,7 +259,7 @@ def main() -> None:
     )
     a = p.parse_args()
     summary, rows = trace(a.impulse, a.direction, a.stepping, a.gains, a.walk, a.offset,
-                          not a.no_fall, a.robot)  # fmt: skip
+                          not a.no_fall, a.robot, a.step_on_commands)  # fmt: skip
     print(json.dumps(summary))
     # the push starts at the first tick whose simulated DCM error jumps (the walk's clock
     # starts after the calibration and soft start: find it in the simulator's time)

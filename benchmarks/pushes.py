@@ -2,10 +2,12 @@
 
 The largest 10 ms torso impulse survived (N·s, bisection over 0–3 N·s as ``wbc bench
 --physics --push``: :func:`wbc.bench.physics.largest_push`), on ``walk10``, per solver, for
-the plan played open loop (``open``), the closed loop (compliance ×0.5, ``Gains()``: with
-the hip strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
+the plan played open loop (``open``), the closed loop (the feed-forward at the robot's best,
+the closed loop's default gains sized to its servos — the Bioloid's and the OP3's ``Gains()``,
+Kokone's torso terms ×0.025, :func:`wbc.balance.margin.default_sized_gains` —: with the hip
+strategy, :mod:`wbc.balance.stabilizer`; ``closed``), the closed loop with step
 placement from the measured DCM (``step``, :mod:`wbc.balance.stepping`), and both without the
-hip strategy (``nohip``, ``nohipstep``: ``Gains(k_hip=0)``, the closed loop before it), the
+hip strategy (``nohip``, ``nohipstep``: ``k_hip`` 0, the closed loop before it), the
 plan open loop with the feed-forward ×0.5 (``openff``: the default loop's comparison); plus
 the nominal run's figures, the LIPM capturability bounds
 (:func:`wbc.balance.capture.capture_bounds`) and the angular-momentum (hip strategy) bound
@@ -29,7 +31,10 @@ the nominal run's figures, the LIPM capturability bounds
         '{"trigger_jump": 0.018, "landing": 1, "landing_catch": 0.02, "lift": 0.015}'
         # the push caught in its own step: the trigger and the lift (issue 30)
     python benchmarks/pushes.py --robot kokone --solvers hqp-daqp --trajectory lateral_wb \
-        --loops step --directions forward --gains sized  # the gains sized to its servos
+        --loops step --directions forward  # the closed loops' gains sized to its servos
+    python benchmarks/pushes.py --robot kokone --solvers wqp-daqp --trajectory walk10_wb \
+        --loops step --step-on-commands --stepping '{"band_x": 0.04, "band_y": 0.026}' \
+        --directions forward backward toward away  # step adjustment on its commanded joints
     python benchmarks/pushes.py --solvers wqp-daqp --safety 0.83   # goals at one push
     python benchmarks/pushes.py --solvers wqp-daqp --grid 0.7 0.95 0.025  # survival per impulse
 """
@@ -45,6 +50,8 @@ from wbc.balance import best_compensate
 from wbc.balance.angular import hip_strategy_bound, point_push_bound
 from wbc.balance.capture import capture_bounds
 from wbc.balance.fall import FallParams
+from wbc.balance.live import loop_rate
+from wbc.balance.margin import default_sized_gains
 from wbc.balance.retime import HoldParams
 from wbc.balance.stabilizer import Gains
 from wbc.balance.stepping import SteppingParams
@@ -73,32 +80,44 @@ def loop_spec(
     hold: dict | None = None,
     compensate: float = 0.5,
     fall: dict | str | None = None,
+    robot=None,
+    on_commands: bool = False,
 ) -> tuple[ClosedLoopSpec | None, float]:
     """(closed-loop spec or None for the open loop, compliance gain) of one loop name
     (``stepping``: SteppingParams keywords of the ``step`` loop, and of the ``steps`` loop
     over RECOVERY_STEPS;
-    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops, or "sized"
-    (Gains() sized to the servos: the closed loop's default); ``hold``:
+    ``gains``: Gains keywords of the ``closed``, ``step`` and ``steps`` loops over the closed
+    loop's default on ``robot`` (:func:`~wbc.balance.margin.default_sized_gains`: sized to
+    its servos — Kokone's torso gains ×0.025; the Bioloid's and the OP3's ``Gains()`` as
+    they are; without ``robot``, ``Gains()``), or "sized" (no gains given: the closed loop
+    sizes its default itself); ``hold``:
     HoldParams keywords of those loops' lift-off hold; ``compensate``: the feed-forward gain
     of the loops with it, the robot's measured best; ``fall``: FallParams keywords of their
-    fall detector, ``"off"`` none)."""
+    fall detector, ``"off"`` none; ``on_commands``: the stepping loops step on a bus that reads
+    no positions too, ``closed_loop(step_on_commands=True)``)."""
     if loop == "open":
         return None, 0.0
     if loop == "openff":  # the plan played open loop with the feed-forward (x0.5 here)
         return None, compensate
-    g: Gains | None = None  # (the closed loop's default: Gains() sized to the servos)
+    base = Gains()  # the closed loop's default (sized to the robot's servos)
+    if robot is not None:
+        base = default_sized_gains(robot, compensate, 1.0 / loop_rate(ref))[0]
+    g: Gains | None = None  # ("sized": closed_loop sizes its default itself)
     if loop in ("nohip", "nohipstep"):
-        g = Gains(k_hip=0.0)
+        g = replace(base, k_hip=0.0)
     elif not isinstance(gains, str):
-        g = Gains(**(gains or {}))
+        g = replace(base, **(gains or {}))
     step = SteppingParams(**(stepping or {})) if loop in ("step", "nohipstep") else None
     if loop == "steps":
         step = SteppingParams(**{**RECOVERY_STEPS, **(stepping or {})})
     if loop == "before":  # the closed loop before the narrower sway and the lift-off hold
-        spec = ClosedLoopSpec(entry.make, ref, Gains(transfer=0.0), True, True, None, None)
+        spec = ClosedLoopSpec(entry.make, ref, replace(base, transfer=0.0), True, True, None,
+                              None)  # fmt: skip
         return spec, compensate
     spec = ClosedLoopSpec(entry.make, ref, g, True, True, step,
                           HoldParams(**(hold or {})))  # fmt: skip
+    if on_commands and step is not None:
+        spec = replace(spec, step_on_commands=True)
     if fall == "off":  # no fall detector: a run ends only by falling (45°)
         spec = replace(spec, fall=None)
     elif fall:
@@ -125,8 +144,14 @@ def main() -> None:
     ap.add_argument(
         "--gains",
         default="{}",
-        help='JSON of Gains keywords (closed, step, steps), or "sized": the closed loop\'s '
-        "default, Gains() sized to the robot's servos (Kokone's)",
+        help="JSON of Gains keywords (closed, step, steps) over the closed loop's default, "
+        "sized to the robot's servos (Kokone's x0.025), or \"sized\": none given",
+    )
+    ap.add_argument(
+        "--step-on-commands",
+        action="store_true",
+        help="the stepping loops step on a bus that reads no positions too (Kokone's SSC-32: "
+        "the DCM from the IMU and the commanded joints; closed_loop's step_on_commands)",
     )
     ap.add_argument(
         "--hold", default="{}", help="JSON of HoldParams keywords (the lift-off hold's)"
@@ -206,6 +231,7 @@ def main() -> None:
             spec, comp = loop_spec(
                 loop, entry, ref, json.loads(args.stepping), gains_arg(args.gains),
                 json.loads(args.hold), ff, "off" if args.fall == "off" else json.loads(args.fall),
+                robot, args.step_on_commands,
             )  # fmt: skip
             started = time.perf_counter()
             nominal = simulate(rec, robot, compensate=comp, closed=spec)
@@ -299,7 +325,9 @@ def screen(args) -> None:
     fall's time (s) — a screen beside the bisections, at the points just above them; then
     ``/Nf`` (N walking ticks whose solve failed: the last configuration held), ``/Nr`` (N
     ticks relaxed), ``/Nl`` (N ticks of the stack's ``landing_fallback``) and ``/Nb`` (N ticks
-    braced, its ``brace``), if any."""
+    braced, its ``brace``), if any; ``replans``: the step adjuster's re-plans per push (None:
+    no step adjustment ran — a robot with no dead bands of its own, or a bus that reads no
+    positions: :func:`wbc.balance.live.closed_loop`)."""
     from wbc.bench.pushes import PUSH_DURATION, push_direction
     from wbc.bench.sim_record import mid_single_support
 
@@ -314,8 +342,8 @@ def screen(args) -> None:
         for loop in args.loops:
             spec, comp = loop_spec(loop, entry, ref, json.loads(args.stepping),
                                    gains_arg(args.gains), json.loads(args.hold), ff,
-                                   fall)  # fmt: skip
-            out = []
+                                   fall, robot, args.step_on_commands)  # fmt: skip
+            out, replans = [], []
             for item in args.screen:
                 d, ns, off = item.split(":")
                 push = (t + float(off), push_direction(rec, d) * float(ns) / PUSH_DURATION,
@@ -324,8 +352,10 @@ def screen(args) -> None:
                 held = "".join(f"/{r[k]}{k[0]}" for k in ("failed_solves", "relaxed_solves",
                                "landing_fallbacks", "braced_ticks") if r.get(k))  # fmt: skip
                 out.append(f"{item}={'UP' if not r['fell'] else round(r['fall_time_s'], 2)}{held}")
+                replans.append(r.get("replans"))  # (None: no step adjustment ran)
             print(json.dumps({"solver": solver, "loop": loop, "stepping": args.stepping,
-                              "gains": args.gains, "screen": out}), flush=True)  # fmt: skip
+                              "gains": args.gains, "screen": out, "replans": replans}),
+                  flush=True)  # fmt: skip
 
 
 def grid(args) -> None:
@@ -345,7 +375,7 @@ def grid(args) -> None:
         rec = plan(solver, args.trajectory, robot)
         u, t = push_direction(rec, "lateral"), mid_single_support(rec)
         for loop in args.loops:
-            spec, comp = loop_spec(loop, entry, ref)
+            spec, comp = loop_spec(loop, entry, ref, robot=robot)
             up = []
             for j in impulses:
                 push = (t, u * j / PUSH_DURATION, PUSH_DURATION)
@@ -371,7 +401,7 @@ def safety(args) -> None:
         u = push_direction(rec, args.safety_direction)
         push = (mid_single_support(rec), u * args.safety / PUSH_DURATION, PUSH_DURATION)
         for loop in [lp for lp in args.loops if lp != "open"] or ["closed", "step"]:
-            spec, _ = loop_spec(loop, entry, ref, json.loads(args.stepping))
+            spec, _ = loop_spec(loop, entry, ref, json.loads(args.stepping), robot=robot)
             result, cl = play_closed_loop(spec, robot, push=push, compensate=0.5)
             rec_fig = physics_record(rec, result, robot, ref)
             lim = result.deploy.limits

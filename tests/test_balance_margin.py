@@ -12,6 +12,7 @@ from wbc.balance.margin import (
     DESIGN_PLANT,
     TOLERANCE,
     _spread,
+    default_sized_gains,
     gain_margin,
     torso_gains,
     torso_plant,
@@ -64,6 +65,18 @@ def test_kokones_hobby_servos_scale_the_torso_term_to_the_design_margin():
         # the hip strategy closes its loop through the same plant: the same factor
         assert g.k_hip == pytest.approx(Gains().k_hip * scale)
         assert g.max_hip == Gains().max_hip and g.max_tilt == Gains().max_tilt
+
+
+def test_the_closed_loops_default_is_sized_per_robot():
+    """default_sized_gains: the feed-forward's default gains (default_gains) through
+    torso_gains, one definition for closed_loop and the push benchmarks: the Bioloid's and the
+    OP3's as they are, Kokone's scaled (with or without the feed-forward)."""
+    for name in ("bioloid", "op3", "kokone"):
+        robot = load_robot(name)
+        for comp in (0.0, 0.5, 1.0):
+            g, scale = default_sized_gains(robot, comp, 0.01)
+            assert (g, scale) == torso_gains(default_gains(comp), robot, 0.01)
+            assert (scale == 1.0 and g == default_gains(comp)) is (name != "kokone"), name
 
 
 def test_a_robot_without_a_servo_model_keeps_the_gains(monkeypatch):

@@ -43,7 +43,7 @@ from ..walking.loop import Controller, Session
 from ..walking.reference import WalkingReference
 from .fall import FallDetector, FallParams
 from .goal_probe import GoalProbe, ProbeResult, probe_joints
-from .margin import torso_gains
+from .margin import default_sized_gains
 from .retime import HoldParams, PhaseHold
 from .stabilizer import Gains, Stabilizer, default_gains
 from .stance_lift import LiftedStabilizer, final_double_start, identified_soft
@@ -237,6 +237,11 @@ def loop_share(loop: Sequence[float] | np.ndarray, solve: Sequence[float] | np.n
     return float(np.median(fb / np.maximum(fb + sv, 1e-12)))
 
 
+def loop_rate(ref: WalkingReference) -> float:
+    """The closed loop's deployment rate (Hz) on ``ref``: its tick's, at most 100 Hz."""
+    return min(100.0, 1.0 / ref.dt)
+
+
 @dataclass
 class ClosedLoop:
     """What :func:`closed_loop` built: ``deployment.run()`` runs it."""
@@ -321,7 +326,7 @@ def closed_loop(
         from . import best_compensate
 
         compensate = best_compensate(robot) if enabled else 0.0
-    rate = min(100.0, 1.0 / ref.dt)
+    rate = loop_rate(ref)
     commanded = enabled and not bus.can_read  # IMU + commanded joints (module docstring)
     if commanded:
         if imu is None:
@@ -352,8 +357,8 @@ def closed_loop(
     if enabled and not commanded and not config.read:
         raise ConfigurationError("the closed loop reads the servos' present positions: use --read")
     if gains is None and enabled:  # the defaults, sized to the servos' margin (explicit win)
-        gains, scale = torso_gains(
-            default_gains(compensate), robot, 1.0 / (config.rate if config is not None else rate)
+        gains, scale = default_sized_gains(
+            robot, compensate, 1.0 / (config.rate if config is not None else rate)
         )
         if scale < 1.0:
             out(f"closed loop: torso gains and hip strategy x{scale:.3f} (the servos leave "

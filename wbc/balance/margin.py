@@ -51,6 +51,7 @@ import pinocchio as pin
 from ..exceptions import WbcError
 from ..model import Robot
 from ..roles import joint_axis
+from .gains import default_gains
 from .stabilizer import Gains
 
 
@@ -168,3 +169,13 @@ def _spread(plant: TorsoPlant, corner: bool) -> TorsoPlant:
         return plant
     stiff, damp = SPREAD
     return replace(plant, stiffness=plant.stiffness * stiff, damping=plant.damping * damp)
+
+
+def default_sized_gains(robot: Robot, compensate: float, dt: float) -> tuple[Gains, float]:
+    """The closed loop's default gains on ``robot`` at a ``dt`` s tick, and the factor
+    applied: :func:`~wbc.balance.gains.default_gains` for the feed-forward gain
+    ``compensate``, sized to its servos by :func:`torso_gains` (the one definition
+    :func:`wbc.balance.live.closed_loop` uses when given no gains, and the push benchmarks'
+    base: the design robot's gains as they are tip Kokone over unpushed,
+    benchmarks/pushes.md)."""
+    return torso_gains(default_gains(compensate), robot, dt)

@@ -46,6 +46,8 @@ class ClosedLoopSpec:
     #: the feed-forward's servo model (wbc.balance.live.closed_loop's ``servo``)
     servo: Any = None
     calibrate_s: float | None = None  # s at rest before the walk (None: closed_loop's default)
+    #: step adjustment on a bus that reads no positions too (closed_loop's step_on_commands)
+    step_on_commands: bool = False
 
 
 def _default_fall():
@@ -76,7 +78,7 @@ def play_closed_loop(
     :class:`wbc.sim.log.PlayResult` and the loop (its per-tick costs, limit excursions).
     ``duration`` (s): only the walk's first seconds (None: all of it); ``on_tick`` sees the
     simulation after every logged tick (a live viewer)."""
-    from ..balance.live import closed_loop
+    from ..balance.live import closed_loop, loop_rate
     from ..servos.sources import CallableSource
     from ..sim.bus import SimImu, sim_bus
     from ..sim.log import PlayResult, SimLogger
@@ -95,7 +97,7 @@ def play_closed_loop(
             log_only(bus)
             on_tick(sim)
 
-    rate = min(100.0, 1.0 / spec.ref.dt)  # (closed_loop's deployment rate)
+    rate = loop_rate(spec.ref)  # (closed_loop's deployment rate)
     bus = sim_bus(sim, rate, latency_ticks=v.latency_ticks if v else 0, on_tick=logger)
     imu = None
     if spec.use_imu:
@@ -108,7 +110,8 @@ def play_closed_loop(
     loop = closed_loop(bus, robot, spec.make(robot), spec.ref, imu, spec.gains, spec.enabled,
                        compensate, correct, out=lambda _line: None, duration=duration,
                        stepping=spec.stepping, hold=spec.hold, fall=spec.fall,
-                       servo=spec.servo, **cal)  # fmt: skip
+                       servo=spec.servo, step_on_commands=spec.step_on_commands,
+                       **cal)  # fmt: skip
     dep = loop.deployment
     start = sim.time
     if push is not None:  # timed from the playback's first target (after any soft start)
