@@ -5,7 +5,10 @@ error counted by message (its first tick, the push's rise then).
         --loops step --gains '{"push_rise": 0.015}' --screen away:1.1:0 away:1.2:0
 
 Prints pushes.py's screen line, then ``FAIL count first_tick dz | message`` per distinct
-message (its first 160 characters; the residuals differ tick by tick, so most are one each).
+message (its first 160 characters; the residuals differ tick by tick, so most are one each),
+then ``KNEES first_tick`` and the left and right legs' room to rise (mm) on the commanded
+configuration at that tick, their knees straight (:class:`wbc.balance.push_rise.KneeRoom`,
+bend 0), and the least room each leg had while the rise was up in that run.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import runpy
 import sys
 from pathlib import Path
 
+from wbc.balance.push_rise import KneeRoom
 from wbc.walking import loop
 
 
@@ -22,9 +26,20 @@ def main() -> None:
     fails: collections.Counter[str] = collections.Counter()
     first: dict[str, tuple[int, float | None, str]] = {}
     tick = loop.Session.tick
+    knees: dict[int, KneeRoom] = {}
+    least: dict[int, list[float]] = {}  # (per session: the least room while risen)
+    at_fail: dict[int, tuple[int, float, float]] = {}
 
     def traced(self, i: int):
         q = tick(self, i)
+        rise = getattr(self.stabilizer, "_rise", None)
+        if rise is not None and rise.dz > 0:
+            k = knees.setdefault(id(self.robot), KneeRoom(self.robot, 0.0))
+            rooms = [k.room(q, (s,))[1] * 1e3 for s in ("l_sole", "r_sole")]
+            low = least.setdefault(id(self), [float("inf")] * 2)
+            least[id(self)] = [min(a, b) for a, b in zip(low, rooms, strict=True)]
+            if self.failed and id(self) not in at_fail:
+                at_fail[id(self)] = (i, *rooms)
         if self.failed:
             msg = str(self.failure)[:300]
             key = f"{type(self.failure).__name__}: {msg[:160]}"
@@ -42,6 +57,12 @@ def main() -> None:
         for key, n in fails.most_common():
             i, dz, msg = first[key]
             print(f"FAIL {n} {i} {dz} | {msg}")
+        for key, low in least.items():
+            i, left, right = at_fail.get(key, (-1, float("nan"), float("nan")))
+            print(
+                f"KNEES {i} room at it L {left:.1f} R {right:.1f} mm; "
+                f"least while risen L {low[0]:.1f} R {low[1]:.1f} mm"
+            )
 
 
 if __name__ == "__main__":

@@ -197,6 +197,11 @@ class Gains:
     #: N·s); the Bioloid's screen 3 and 4 of 5 (0.015 alone 5, main 2): off (issue 30,
     #: benchmarks/pushes.md)
     rise_room: float = 0.0
+    #: rad: the push's rise capped each tick so that the commanded configuration's loaded
+    #: knees stay at least this bent (the CoM target at most the loaded legs' room to rise
+    #: above the commanded CoM, read from the commanded ``q``, the torso's roll included:
+    #: :class:`wbc.balance.push_rise.KneeRoom`; 0: not capped)
+    rise_knee: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -431,6 +436,7 @@ class Gains:
             "counter_under",
             "push_rise",
             "rise_room",
+            "rise_knee",
             "transfer",
             "step_yaw",
             "max_step_yaw",
