@@ -8,17 +8,23 @@ Prints pushes.py's screen line, then ``FAIL count first_tick dz | message`` per 
 message (its first 160 characters; the residuals differ tick by tick, so most are one each),
 then ``KNEES first_tick`` and the left and right legs' room to rise (mm) on the commanded
 configuration at that tick, their knees straight (:class:`wbc.balance.push_rise.KneeRoom`,
-bend 0), and the least room each leg had while the rise was up in that run.
+bend 0), and the least room each leg had while the rise was up in that run; at the first
+failed tick of a run with the rise up, ``LIMITS`` (the joints within 2° of a limit) and
+``PAIRS`` (each self-collision constraint's pairs within its trigger at its last rows, mm).
 """
 
 from __future__ import annotations
 
 import collections
+import gc
 import runpy
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from wbc.balance.push_rise import KneeRoom
+from wbc.limits.self_collision import SelfCollisionConstraint
 from wbc.walking import loop
 
 
@@ -40,6 +46,22 @@ def main() -> None:
             least[id(self)] = [min(a, b) for a, b in zip(low, rooms, strict=True)]
             if self.failed and id(self) not in at_fail:
                 at_fail[id(self)] = (i, *rooms)
+                r, j = self.robot, q[7:]
+                near = [
+                    f"{r.joint_names[n]} {np.degrees(j[n]):+.1f}° ({lim})"
+                    for n in range(len(j))
+                    for lim, v in (("min", r.q_min[n]), ("max", r.q_max[n]))
+                    if abs(j[n] - v) < 0.035
+                ]
+                print(f"LIMITS {i}: joints within 2° of a limit: {', '.join(near) or 'none'}")
+                for c in gc.get_objects():  # (the run's self-collision rows: their last pairs)
+                    if isinstance(c, SelfCollisionConstraint) and c.robot is r:
+                        w = c.last
+                        close = [
+                            f"{'/'.join(c.pair_links[k])} {d * 1e3:.1f}"
+                            for k, d in zip(w.index, w.distance, strict=True)
+                        ]
+                        print(f"PAIRS {i} (mm): {', '.join(close) or 'none'}")
         if self.failed:
             msg = str(self.failure)[:300]
             key = f"{type(self.failure).__name__}: {msg[:160]}"

@@ -84,13 +84,14 @@ def test_the_com_target_rises_only_after_the_push_trigger(robot, rise):
         {"push_rise": -0.01},
         {"rise_room": -0.5},
         {"rise_knee": -0.1},
+        {"rise_hold": -1.0},
         {"rise_time": 0.0},
         {"rise_back": float("nan")},
     ],
 )
 def test_bad_rise_gains_are_refused(kw):
     with pytest.raises(
-        ConfigurationError, match=r"push_rise|rise_room|rise_knee|rise_time|rise_back"
+        ConfigurationError, match=r"push_rise|rise_room|rise_knee|rise_hold|rise_time|rise_back"
     ):
         Gains(**kw).check()
 
@@ -239,3 +240,29 @@ def test_the_rise_stops_at_the_commanded_legs_room(robot):
     for _ in range(6):
         out = tick(free, 0.005, t)
     assert out[2] - com[2] == pytest.approx(0.05, abs=1e-12)
+
+
+def test_the_rise_is_held_at_most_rise_hold_then_lowered_while_still_pushed():
+    """``hold``: the offset comes down ``hold`` s after the trigger though the push lasts, is
+    not raised again while it lasts, and rises again on the next trigger."""
+    r = PushRise()
+    up = [r.update(True, DT, 0.012, 0.03, 0.3, hold=0.05) for _ in range(7)]
+    assert up == pytest.approx([0.004, 0.008, 0.012, 0.012, 0.012, 0.0116, 0.0112])
+    assert r.update(True, DT, 0.012, 0.03, 0.3, hold=0.05) == pytest.approx(0.0108)
+    assert r.update(False, DT, 0.012, 0.03, 0.3, hold=0.05) == pytest.approx(0.0104)
+    assert r.update(True, DT, 0.012, 0.03, 0.3, hold=0.05) == pytest.approx(0.0104)
+    r.update(True, DT, 0.012, 0.03, 0.3, hold=0.05)
+    assert r.update(True, DT, 0.012, 0.03, 0.3, hold=0.05) == pytest.approx(0.012)
+
+
+def test_rise_hold_reaches_the_stabilizer(robot):
+    """``Gains.rise_hold`` 0.05: the stabilizer's rise comes down after 5 ticks of a latched
+    push trigger (without it, held)."""
+    _, com, tick = _left_stance(robot)
+    held = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=0.012))
+    short = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=0.012, rise_hold=0.05))
+    for stab in (held, short):
+        for _ in range(3):
+            tick(stab, -0.03)
+    last = [[tick(s, 0.005)[2] - com[2] for s in (held, short)] for _ in range(8)][-1]
+    assert last == pytest.approx([0.012, 0.0108])

@@ -202,6 +202,9 @@ class Gains:
     #: above the commanded CoM, read from the commanded ``q``, the torso's roll included:
     #: :class:`wbc.balance.push_rise.KneeRoom`; 0: not capped)
     rise_knee: float = 0.0
+    #: s: the push's rise held at most this long from the trigger, then lowered (over
+    #: ``rise_back``) even while the trigger or the kick lasts (0: held while they last)
+    rise_hold: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -437,6 +440,7 @@ class Gains:
             "push_rise",
             "rise_room",
             "rise_knee",
+            "rise_hold",
             "transfer",
             "step_yaw",
             "max_step_yaw",

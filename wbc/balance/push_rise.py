@@ -10,7 +10,8 @@ speed). Lowering instead loses it (benchmarks/pushes.md, twenty-second session).
 :class:`PushRise` (``Gains.push_rise`` m; 0: off): from the tick the hip strategy's push
 trigger fires (``hip_jump``) the CoM target's height is raised to ``push_rise`` within
 ``rise_time`` s, held while the trigger is latched or the push's kick lasts (until the hip
-strategy's roll is back to 0), then lowered back at ``push_rise / rise_back`` m/s.
+strategy's roll is back to 0; at most ``rise_hold`` s from the trigger when > 0), then lowered
+back at ``push_rise / rise_back`` m/s.
 
 The rise is clipped to the loaded legs' room (``rise_room`` > 0: that share of it; 0: not
 clipped): with the pelvis model of :class:`~wbc.walking.legs.LegGeometry` a hip ``d_v`` above
@@ -153,15 +154,19 @@ class PushRise:
         rise_time: float,
         back: float,
         cap: float = np.inf,
+        hold: float = np.inf,
     ) -> float:
         """The height offset (m) for this tick: ``rise × min(t / rise_time, 1)`` ``t`` s after
-        the trigger while ``pushed`` (never lower than it already is), else back toward 0 at
-        ``rise / back`` m/s; never above ``cap`` (m; the legs' room), nor below 0."""
+        the trigger while ``pushed`` and ``t`` ≤ ``hold`` (never lower than it already is),
+        else back toward 0 at ``rise / back`` m/s (raised again only after ``pushed`` has
+        ended); never above ``cap`` (m; the legs' room), nor below 0."""
         if pushed:
             self.since += dt
-            self.dz = max(self.dz, rise * min(self.since / rise_time, 1.0))
         else:
             self.since = 0.0
+        if pushed and self.since <= hold:
+            self.dz = max(self.dz, rise * min(self.since / rise_time, 1.0))
+        else:
             self.dz = max(self.dz - rise * dt / back, 0.0)
         self.dz = max(min(self.dz, cap), 0.0)
         return self.dz
@@ -180,7 +185,8 @@ class PushRise:
         of which ``g.rise_room`` is used when > 0; ``cap``: the most it may be, m, e.g.
         :class:`KneeRoom`'s; ``com`` itself when the offset is 0)."""
         cap = min(cap, g.rise_room * room if g.rise_room > 0 else np.inf)
-        dz = self.update(pushed, dt, g.push_rise, g.rise_time, g.rise_back, cap)
+        hold = g.rise_hold if g.rise_hold > 0 else np.inf
+        dz = self.update(pushed, dt, g.push_rise, g.rise_time, g.rise_back, cap, hold)
         if dz == 0.0:
             return com
         out = np.array(com, dtype=float)
