@@ -10,7 +10,8 @@ then ``KNEES first_tick`` and the left and right legs' room to rise (mm) on the 
 configuration at that tick, their knees straight (:class:`wbc.balance.push_rise.KneeRoom`,
 bend 0), and the least room each leg had while the rise was up in that run; at the first
 failed tick of a run with the rise up, ``LIMITS`` (the joints within 2° of a limit) and
-``PAIRS`` (each self-collision constraint's pairs within its trigger at its last rows, mm).
+``PAIRS`` (each self-collision constraint's pairs within its trigger at its last rows, mm);
+``RISE``: the ticks the push trigger started (the phase) and the rise came back to 0.
 """
 
 from __future__ import annotations
@@ -36,9 +37,20 @@ def main() -> None:
     least: dict[int, list[float]] = {}  # (per session: the least room while risen)
     at_fail: dict[int, tuple[int, float, float]] = {}
 
+    spans: dict[int, list[str]] = {}  # (per session: the rise's starts and ends, ticks)
+    was: dict[int, tuple[float, float]] = {}
+
     def traced(self, i: int):
         q = tick(self, i)
         rise = getattr(self.stabilizer, "_rise", None)
+        if rise is not None:
+            dz0, since0 = was.get(id(self), (0.0, 0.0))
+            log = spans.setdefault(id(self), [])
+            if rise.since > 0 and since0 == 0:
+                log.append(f"trigger {i} ({self.targets(i).phase})")
+            if rise.dz == 0 and dz0 > 0:
+                log.append(f"down {i}")
+            was[id(self)] = (rise.dz, rise.since)
         if rise is not None and rise.dz > 0:
             k = knees.setdefault(id(self.robot), KneeRoom(self.robot, 0.0))
             rooms = [k.room(q, (s,))[1] * 1e3 for s in ("l_sole", "r_sole")]
@@ -79,6 +91,8 @@ def main() -> None:
         for key, n in fails.most_common():
             i, dz, msg = first[key]
             print(f"FAIL {n} {i} {dz} | {msg}")
+        for log in spans.values():
+            print("RISE " + ", ".join(log))
         for key, low in least.items():
             i, left, right = at_fail.get(key, (-1, float("nan"), float("nan")))
             print(
