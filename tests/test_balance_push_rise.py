@@ -266,3 +266,20 @@ def test_rise_hold_reaches_the_stabilizer(robot):
             tick(stab, -0.03)
     last = [[tick(s, 0.005)[2] - com[2] for s in (held, short)] for _ in range(8)][-1]
     assert last == pytest.approx([0.012, 0.0108])
+
+
+def test_rise_single_lowers_the_rise_in_double_support(robot):
+    """``Gains.rise_single``: the rise held in single support comes down from the double
+    support on (at ``push_rise / rise_back`` m/s) though the trigger is latched; without it,
+    held."""
+    t, com, tick = _left_stance(robot)
+    double = t.replace(phase="double")
+    held = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=0.012))
+    single = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=0.012, rise_single=1))
+    for stab in (held, single):
+        for _ in range(3):
+            tick(stab, -0.03, t)
+        for _ in range(4):
+            assert tick(stab, 0.005, t)[2] - com[2] == pytest.approx(0.012)
+    out = [[tick(s, 0.005, double)[2] - com[2] for s in (held, single)] for _ in range(2)]
+    assert out == pytest.approx([[0.012, 0.0116], [0.012, 0.0112]])

@@ -205,6 +205,9 @@ class Gains:
     #: s: the push's rise held at most this long from the trigger, then lowered (over
     #: ``rise_back``) even while the trigger or the kick lasts (0: held while they last)
     rise_hold: float = 0.0
+    #: 1: the push's rise held only in single support: lowered (over ``rise_back``) from
+    #: the next double support on (0: held through it)
+    rise_single: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -441,6 +444,7 @@ class Gains:
             "rise_room",
             "rise_knee",
             "rise_hold",
+            "rise_single",
             "transfer",
             "step_yaw",
             "max_step_yaw",

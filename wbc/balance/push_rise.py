@@ -10,8 +10,8 @@ speed). Lowering instead loses it (benchmarks/pushes.md, twenty-second session).
 :class:`PushRise` (``Gains.push_rise`` m; 0: off): from the tick the hip strategy's push
 trigger fires (``hip_jump``) the CoM target's height is raised to ``push_rise`` within
 ``rise_time`` s, held while the trigger is latched or the push's kick lasts (until the hip
-strategy's roll is back to 0; at most ``rise_hold`` s from the trigger when > 0), then lowered
-back at ``push_rise / rise_back`` m/s.
+strategy's roll is back to 0; at most ``rise_hold`` s from the trigger when > 0; only in
+single support with ``rise_single``), then lowered back at ``push_rise / rise_back`` m/s.
 
 The rise is clipped to the loaded legs' room (``rise_room`` > 0: that share of it; 0: not
 clipped): with the pelvis model of :class:`~wbc.walking.legs.LegGeometry` a hip ``d_v`` above
@@ -179,13 +179,17 @@ class PushRise:
         g: Gains,
         room: float = np.inf,
         cap: float = np.inf,
+        double: bool = False,
     ) -> np.ndarray:
         """``com`` (the CoM target, world) raised by this tick's offset (``g``: the
         :class:`~wbc.balance.gains.Gains`; ``room``: the loaded legs' room, :func:`leg_room`,
         of which ``g.rise_room`` is used when > 0; ``cap``: the most it may be, m, e.g.
-        :class:`KneeRoom`'s; ``com`` itself when the offset is 0)."""
+        :class:`KneeRoom`'s; ``double``: a double support, where ``g.rise_single`` > 0 lowers
+        it; ``com`` itself when the offset is 0)."""
         cap = min(cap, g.rise_room * room if g.rise_room > 0 else np.inf)
         hold = g.rise_hold if g.rise_hold > 0 else np.inf
+        if g.rise_single > 0 and double:  # (rise_single: lowered from the landing on)
+            hold = min(hold, 0.0)
         dz = self.update(pushed, dt, g.push_rise, g.rise_time, g.rise_back, cap, hold)
         if dz == 0.0:
             return com

@@ -641,7 +641,8 @@ class Stabilizer:
         if g.rise_knee > 0 and q_cmd is not None and targets is not None:
             if pushed or self._rise.dz > 0:
                 cap = self._rise.knee_cap(self.robot, g.rise_knee, q_cmd, targets, com)
-        return self._rise.raised(com, pushed, dt, g, room, cap)
+        double = targets is not None and targets.phase == "double"
+        return self._rise.raised(com, pushed, dt, g, room, cap, double)
 
     def _torso_sample(self, reading):
         """``reading`` in the torso frame with the calibration applied (the start-up
