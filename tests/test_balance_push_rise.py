@@ -270,8 +270,8 @@ def test_rise_hold_reaches_the_stabilizer(robot):
 
 def test_rise_single_lowers_the_rise_in_double_support(robot):
     """``Gains.rise_single``: the rise held in single support comes down from the double
-    support on (at ``push_rise / rise_back`` m/s) though the trigger is latched; without it,
-    held."""
+    support on (at ``push_rise / rise_back`` m/s) though the trigger is latched, and goes on
+    down in the next single support; without it, held."""
     t, com, tick = _left_stance(robot)
     double = t.replace(phase="double")
     held = Stabilizer(robot, 0.2, lambda: None, None, Gains(push_rise=0.012))
@@ -284,3 +284,5 @@ def test_rise_single_lowers_the_rise_in_double_support(robot):
         assert up == pytest.approx(0.012)
     out = [[tick(s, 0.005, double)[2] - com[2] for s in (held, single)] for _ in range(2)]
     assert np.ravel(out) == pytest.approx([0.012, 0.0116, 0.012, 0.0112])
+    again = [tick(s, 0.005, t)[2] - com[2] for s in (held, single)]  # (single support again:
+    assert again == pytest.approx([0.012, 0.0108])  # not raised again while still pushed)

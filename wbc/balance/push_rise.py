@@ -128,11 +128,12 @@ class PushRise:
     """The rise's state for one walk (:meth:`raised`, called by
     :meth:`Stabilizer.adjust <wbc.balance.stabilizer.Stabilizer.adjust>`)."""
 
-    __slots__ = ("dz", "knee", "since")
+    __slots__ = ("done", "dz", "knee", "since")
 
     def __init__(self) -> None:
         self.dz = 0.0  # m: the CoM target's height offset now
         self.since = 0.0  # s since the push trigger fired (0: not pushed)
+        self.done = False  # (lowered before the trigger ended: hold, rise_single)
         self.knee: KneeRoom | None = None  # (rise_knee's, built at its first use)
 
     def knee_cap(
@@ -163,10 +164,11 @@ class PushRise:
         if pushed:
             self.since += dt
         else:
-            self.since = 0.0
-        if pushed and self.since <= hold:
+            self.since, self.done = 0.0, False
+        if pushed and not self.done and self.since <= hold:
             self.dz = max(self.dz, rise * min(self.since / rise_time, 1.0))
         else:
+            self.done = pushed  # (lowered while pushed: not raised again until it ends)
             self.dz = max(self.dz - rise * dt / back, 0.0)
         self.dz = max(min(self.dz, cap), 0.0)
         return self.dz
