@@ -12,6 +12,7 @@ bend 0), and the least room each leg had while the rise was up in that run; at t
 failed tick of a run with the rise up, ``LIMITS`` (the joints within 2° of a limit) and
 ``PAIRS`` (each self-collision constraint's pairs within its trigger at its last rows, mm);
 ``RISE``: the ticks the push trigger started (the phase) and the rise came back to 0.
+``--at TICK ...`` (last on the line): ``LIMITS`` and ``PAIRS`` at those ticks of every run.
 """
 
 from __future__ import annotations
@@ -29,7 +30,31 @@ from wbc.limits.self_collision import SelfCollisionConstraint
 from wbc.walking import loop
 
 
+def _report(session, i: int, q: np.ndarray) -> None:
+    """Print the joints of ``q`` within 2° of a limit (``LIMITS``) and each self-collision
+    constraint's pairs within its trigger at its last rows (``PAIRS``, mm) at tick ``i``."""
+    r, j = session.robot, q[7:]
+    near = [
+        f"{r.joint_names[n]} {np.degrees(j[n]):+.1f}° ({lim})"
+        for n in range(len(j))
+        for lim, v in (("min", r.q_min[n]), ("max", r.q_max[n]))
+        if abs(j[n] - v) < 0.035
+    ]
+    print(f"LIMITS {i}: joints within 2° of a limit: {', '.join(near) or 'none'}")
+    for c in gc.get_objects():  # (the run's self-collision rows: their last pairs)
+        if isinstance(c, SelfCollisionConstraint) and c.robot is r:
+            w = c.last
+            close = [
+                f"{'/'.join(c.pair_links[k])} {d * 1e3:.1f}"
+                for k, d in zip(w.index, w.distance, strict=True)
+            ]
+            print(f"PAIRS {i} (mm): {', '.join(close) or 'none'}")
+
+
 def main() -> None:
+    args = sys.argv[1:]  # (--at TICK ...: LIMITS and PAIRS at those ticks too, any run)
+    at = {int(a) for a in args[args.index("--at") + 1 :]} if "--at" in args else set()
+    rest = args[: args.index("--at")] if "--at" in args else args
     fails: collections.Counter[str] = collections.Counter()
     first: dict[str, tuple[int, float | None, str]] = {}
     tick = loop.Session.tick
@@ -42,6 +67,8 @@ def main() -> None:
 
     def traced(self, i: int):
         q = tick(self, i)
+        if i in at:
+            _report(self, i, q)
         rise = getattr(self.stabilizer, "_rise", None)
         if rise is not None:
             dz0, since0 = was.get(id(self), (0.0, 0.0))
@@ -58,22 +85,7 @@ def main() -> None:
             least[id(self)] = [min(a, b) for a, b in zip(low, rooms, strict=True)]
             if self.failed and id(self) not in at_fail:
                 at_fail[id(self)] = (i, *rooms)
-                r, j = self.robot, q[7:]
-                near = [
-                    f"{r.joint_names[n]} {np.degrees(j[n]):+.1f}° ({lim})"
-                    for n in range(len(j))
-                    for lim, v in (("min", r.q_min[n]), ("max", r.q_max[n]))
-                    if abs(j[n] - v) < 0.035
-                ]
-                print(f"LIMITS {i}: joints within 2° of a limit: {', '.join(near) or 'none'}")
-                for c in gc.get_objects():  # (the run's self-collision rows: their last pairs)
-                    if isinstance(c, SelfCollisionConstraint) and c.robot is r:
-                        w = c.last
-                        close = [
-                            f"{'/'.join(c.pair_links[k])} {d * 1e3:.1f}"
-                            for k, d in zip(w.index, w.distance, strict=True)
-                        ]
-                        print(f"PAIRS {i} (mm): {', '.join(close) or 'none'}")
+                _report(self, i, q)
         if self.failed:
             msg = str(self.failure)[:300]
             key = f"{type(self.failure).__name__}: {msg[:160]}"
@@ -84,7 +96,7 @@ def main() -> None:
         return q
 
     loop.Session.tick = traced  # type: ignore[method-assign]
-    sys.argv = ["pushes.py", *sys.argv[1:]]
+    sys.argv = ["pushes.py", *rest]
     try:
         runpy.run_path(str(Path(__file__).with_name("pushes.py")), run_name="__main__")
     finally:
