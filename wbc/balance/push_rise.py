@@ -35,6 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 if TYPE_CHECKING:
+    from ..model import Robot
     from ..walking.legs import LegGeometry
     from ..walking.tick_targets import TickTargets
     from .gains import Gains
@@ -77,7 +78,7 @@ class KneeRoom:
 
     __slots__ = ("_data", "_ids", "_model", "bend", "reach")
 
-    def __init__(self, robot, bend: float) -> None:
+    def __init__(self, robot: Robot, bend: float) -> None:
         model = self._model = robot.model
         self._data = pin.Data(model)
         roles = robot.roles
@@ -90,7 +91,7 @@ class KneeRoom:
         self.bend = bend
         self.reach = self.bent_reach(robot, bend)
 
-    def bent_reach(self, robot, bend: float) -> float:
+    def bent_reach(self, robot: Robot, bend: float) -> float:
         """The left hip-to-ankle distance (m) with the knee ``bend`` rad from its straightest
         (the knee's value of largest distance within its limits), bent the way it bends at
         the standing pose."""
@@ -103,7 +104,7 @@ class KneeRoom:
         keep = float(np.clip(straight + np.sign(stand - straight) * bend, lo, hi))
         return self._distance(robot, k, keep)
 
-    def _distance(self, robot, k: int, value: float) -> float:
+    def _distance(self, robot: Robot, k: int, value: float) -> float:
         q = robot.neutral().copy()
         q[7 + k] = value
         pin.forwardKinematics(self._model, self._data, q)
@@ -137,7 +138,7 @@ class PushRise:
         self.knee: KneeRoom | None = None  # (rise_knee's, built at its first use)
 
     def knee_cap(
-        self, robot, bend: float, q: np.ndarray, targets: TickTargets, com: np.ndarray
+        self, robot: Robot, bend: float, q: np.ndarray, targets: TickTargets, com: np.ndarray
     ) -> float:
         """The most (m) the CoM target ``com`` may rise this tick so that it is no more than
         the loaded legs' room (their knees ``bend`` rad from straight, :class:`KneeRoom`)
