@@ -197,6 +197,23 @@ class Gains:
     #: N·s); the Bioloid's screen 3 and 4 of 5 (0.015 alone 5, main 2): off (issue 30,
     #: benchmarks/pushes.md)
     rise_room: float = 0.0
+    #: rad: the push's rise capped each tick so that the commanded configuration's loaded
+    #: knees stay at least this bent (the CoM target at most the loaded legs' room to rise
+    #: above the commanded CoM, read from the commanded ``q``, the torso's roll included:
+    #: :class:`wbc.balance.push_rise.KneeRoom`; 0: not capped). On the OP3 the failed
+    #: solves are not at straight knees (the landed leg 9.7 mm from straight at the first):
+    #: 0.1 and 0.3 change nothing there: off (issue 30, benchmarks/pushes.md)
+    rise_knee: float = 0.0
+    #: s: the push's rise held at most this long from the trigger, then lowered (over
+    #: ``rise_back``) even while the trigger or the kick lasts (0: held while they last).
+    #: 0.1 with ``rise_back`` 0.15 (the rise gone before the OP3's catch step lands): no
+    #: failed solve on the OP3, but one of its away survivors lost (1.4 N·s) and the
+    #: Bioloid's screen 3 of 5 (``push_rise`` alone 5, main 2): off (benchmarks/pushes.md)
+    rise_hold: float = 0.0
+    #: 1: the push's rise held only in single support: lowered (over ``rise_back``) from
+    #: the next double support on (0: held through it). The OP3's first failed solve is
+    #: that double support's first tick: it fails as without (off; benchmarks/pushes.md)
+    rise_single: float = 0.0
     #: 1/s: the state estimate's tilt pulled toward the stance legs' kinematics (the stance
     #: sole flat; :class:`~wbc.balance.estimator.StateEstimator` ``kin_gain``) besides the
     #: accelerometer's 0.2 /s: a gyro bias the calibration at rest leaves (the body rocking
@@ -431,6 +448,9 @@ class Gains:
             "counter_under",
             "push_rise",
             "rise_room",
+            "rise_knee",
+            "rise_hold",
+            "rise_single",
             "transfer",
             "step_yaw",
             "max_step_yaw",

@@ -598,7 +598,7 @@ class Stabilizer:
             com = self._shifted(targets, com_vel_ref, est, e, dt)
         g = self.gains
         if g.push_rise > 0:  # (the CoM target raised after a push away: push_rise)
-            com = self._push_rise(com, float(dt), targets)
+            com = self._push_rise(com, float(dt), targets, q_cmd)
         out = targets.retarget(com, o[2:5])
         if g.step_yaw > 0:  # the footsteps take the measured heading error (step_yaw)
             read = joints if present is None else np.where(np.isfinite(present), present, joints)
@@ -624,19 +624,25 @@ class Stabilizer:
                   k, float(dt), H, self._fb[_B_JUMP : _B_JUMP + 5], R[:, 2].copy())  # fmt: skip
         return H
 
-    def _push_rise(self, com: np.ndarray, dt: float, targets=None) -> np.ndarray:
+    def _push_rise(self, com: np.ndarray, dt: float, targets=None, q_cmd=None) -> np.ndarray:
         """``com`` raised by ``push_rise`` (:class:`~wbc.balance.push_rise.PushRise`) while
         the hip strategy's push trigger is latched or the push's kick lasts (with
         ``rise_room``: at most that share of ``targets``' loaded legs' room,
-        :func:`~wbc.balance.push_rise.leg_room`)."""
+        :func:`~wbc.balance.push_rise.leg_room`; with ``rise_knee``: at most the room of
+        the commanded ``q_cmd``'s loaded legs above its CoM, :class:`~.push_rise.KneeRoom`)."""
         fb = self._fb
         pushed = fb[_B_JUMP + 2] > 0.5 or fb[_B_JUMP + 4] > 0.5
-        room = np.inf
-        if self.gains.rise_room > 0 and targets is not None and (pushed or self._rise.dz > 0):
+        room, g = np.inf, self.gains
+        if g.rise_room > 0 and targets is not None and (pushed or self._rise.dz > 0):
             if self._legs is None:  # (gains swapped in after the start: Walker's)
                 self._legs = LegGeometry.from_robot(self.robot, self.robot.configuration("stand"))
             room = leg_room(self._legs, targets, com)
-        return self._rise.raised(com, pushed, dt, self.gains, room)
+        cap = np.inf
+        if g.rise_knee > 0 and q_cmd is not None and targets is not None:
+            if pushed or self._rise.dz > 0:
+                cap = self._rise.knee_cap(self.robot, g.rise_knee, q_cmd, targets, com)
+        double = targets is not None and targets.phase == "double"
+        return self._rise.raised(com, pushed, dt, g, room, cap, double)
 
     def _torso_sample(self, reading):
         """``reading`` in the torso frame with the calibration applied (the start-up
