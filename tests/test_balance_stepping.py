@@ -1170,6 +1170,24 @@ def test_a_catch_of_a_push_backward_reaches_further_with_back_shift(robot, walk1
         SteppingParams(back_shift=-0.1).check()
 
 
+def test_the_catchs_later_swings_reach_back_later(robot, walk10):
+    """``back_later``: the carried swings after the triggered one reach that far (the legs'
+    own reach still bounds the landing); the triggered swing keeps ``back_shift``; 0: every
+    carried swing ``back_shift``; past the carried swings, ``max_shift``."""
+    params = SteppingParams(back_later=0.14)
+    adj, off = _triggered(robot, walk10, params), _triggered(robot, walk10, SteppingParams())
+    i = MID + params.hold_ticks + 1
+    j = int(adj.phase_of[i])
+    later = [ph for ph in adj.phases[j + 1 :] if ph.kind == "single"]
+    second, beyond = later[0].i0 + 1, later[params.catch_swings].i0 + 1
+    assert adj.trigger.carried(second) and not adj.trigger.carried(beyond)
+    assert adj.reach(i) == off.reach(i) == (0.1, 0.8)
+    assert adj.reach(second) == (0.14, 0.8) and off.reach(second) == (0.1, 0.8)
+    assert adj.reach(beyond) == off.reach(beyond) == (params.max_shift, params.max_foot_speed)
+    with pytest.raises(ConfigurationError, match="back_later"):
+        SteppingParams(back_later=-0.1).check()
+
+
 def test_a_catch_of_a_push_backward_lowers_the_swings_floor_at_its_landing(robot, walk10):
     """``landing_floor``: in a swing the catch of a push backward carries, over its last
     ``landing_floor`` share (smoothstep in), the swing's ground clearance comes down to the
