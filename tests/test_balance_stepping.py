@@ -1188,6 +1188,25 @@ def test_the_catchs_later_swings_reach_back_later(robot, walk10):
         SteppingParams(back_later=-0.1).check()
 
 
+def test_the_catchs_later_swing_is_stretched_with_stretch_later(robot, walk10):
+    """``stretch_later``: a re-plan of the catch's next (carried) swing that asks more than
+    its time left covers slows the clock as the triggered swing's does (``stretch``); 0:
+    that swing runs at the reference's pace."""
+    rates = []
+    for flag in (1.0, 0.0):
+        adj = _triggered(robot, walk10, SteppingParams(stretch=0.5, stretch_later=flag))
+        j = int(adj.phase_of[MID])
+        ph = next(p for p in adj.phases[j + 1 :] if p.kind == "single")
+        i = ph.i0 + (ph.i1 - ph.i0) // 3
+        assert adj.trigger.carried(i) and not adj.trigger.triggered(i)
+        ref = adj.current
+        assert adj.update(ref, i, dcm(ref, i, adj.omega) + [-0.2, 0.0]) is not None
+        rates.append(adj.stretched.rate(int(adj.phase_of[i])))
+    assert 1.0 / 1.5 <= rates[0] < 1.0 and rates[1] is None  # (the change: to back_shift)
+    with pytest.raises(ConfigurationError, match="stretch_later"):
+        SteppingParams(stretch_later=-1.0).check()
+
+
 def test_a_catch_of_a_push_backward_lowers_the_swings_floor_at_its_landing(robot, walk10):
     """``landing_floor``: in a swing the catch of a push backward carries, over its last
     ``landing_floor`` share (smoothstep in), the swing's ground clearance comes down to the

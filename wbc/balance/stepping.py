@@ -725,7 +725,8 @@ class StepAdjuster:
             room = speed / bend_rate(sw, at, ref.dt, self.swing)
             change = total - incs[j]
             n = math.hypot(change[0], change[1])
-            if sw is ph and self.trigger.triggered(i) and not self.trigger.forward:
+            later = p.stretch_later > 0 and self.trigger.carried(i)  # (stretch_later)
+            if sw is ph and (self.trigger.triggered(i) or later) and not self.trigger.forward:
                 room = self.stretched.room(int(self.phase_of[i]), room, n)  # (stretch)
             if n > room:
                 total = incs[j] + change * (room / n)

@@ -56,6 +56,10 @@ class SteppingParams:
     #: and were cut at ``back_shift``; the legs' own reach (``feasible_shift``) still bounds
     #: them (issue 30, benchmarks/pushes.md)
     back_later: float = 0.0
+    #: 1: the catch's later carried swings stretched as the triggered one (``stretch``: the
+    #: clock slowed while their re-planned landing is beyond the room their time left gives;
+    #: 0: only the triggered swing)
+    stretch_later: float = 0.0
     hold_ticks: int = 3  # ticks between two re-plans
     #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
@@ -357,7 +361,7 @@ class SteppingParams:
     def check(self) -> SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
-            "back_shift", "back_foot_speed", "back_later",
+            "back_shift", "back_foot_speed", "back_later", "stretch_later",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
             "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
