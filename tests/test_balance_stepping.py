@@ -1191,7 +1191,8 @@ def test_the_catchs_later_swings_reach_back_later(robot, walk10):
 def test_the_catchs_later_swing_is_stretched_with_stretch_later(robot, walk10):
     """``stretch_later``: a re-plan of the catch's next (carried) swing that asks more than
     its time left covers slows the clock as the triggered swing's does (``stretch``); 0:
-    that swing runs at the reference's pace."""
+    that swing runs at the reference's pace (on by default)."""
+    assert SteppingParams().stretch_later == 1.0
     rates = []
     for flag in (1.0, 0.0):
         adj = _triggered(robot, walk10, SteppingParams(stretch=0.5, stretch_later=flag))
