@@ -704,3 +704,51 @@ def test_the_com_shift_kernel_gives_the_numpy_formulas_bits():
         k = np.array([k_dcm, k_x, k_y, k_lean, limit, omega0])
         got = _com_shift(com, vel, dcm, R, k, dt, integral, h, e)
         assert np.array_equal(got, want) and np.array_equal(integral, want_i)
+
+
+def test_support_down_estimates_on_the_loaded_sole(robot):
+    """``Gains.support_down``: in a double support whose left sole is still 11.8 mm up and
+    swinging (its hip pitching 0.03 rad a tick), the estimate stands on the right sole alone:
+    the same base, CoM velocity and DCM as the plan's single support on the right, bit for
+    bit. Off (0), the double support averages in the swinging sole: its velocity read is
+    another. Both soles down (standing), it changes nothing."""
+    from test_balance_estimator import lifted_left
+
+    q0 = lifted_left(robot)
+    names = list(robot.joint_names)
+    left, right = robot.frame_placement(q0, "l_sole"), robot.frame_placement(q0, "r_sole")
+    plan_left = pin.SE3(left.rotation, left.translation * [1.0, 1.0, 0.0])  # planned down
+    R = robot.frame_placement(q0, "torso").rotation
+    double = targets_at(robot, q0, "double").replace(l_sole=plan_left)
+    single = TickTargets(0, 0.0, "single", "r_sole", "l_sole", double.com, plan_left,
+                         right, 0.0, R, plan_left.translation.copy(),
+                         plan_left.rotation.copy())  # fmt: skip
+
+    def run(gains, targets, swing=0.03):
+        q = q0.copy()
+        stab = Stabilizer(robot, 0.2, lambda: q[7:].copy(), StillImu(R), gains)
+        stab.estimator.reset(R)
+        out = []
+        for k in range(7):  # (a first tick on the right sole: the estimate started)
+            q[7 + names.index("l_hip_pitch")] += swing
+            stab.adjust(targets if k else single, np.zeros(3), q, 0.01)
+            out.append(np.r_[stab.last.base, stab.last.com_vel, stab.last.dcm])
+        return np.array(out), stab
+
+    on, stab = run(Gains(support_down=0.003), double)
+    assert stab.estimator.loaded(q0[7:], None, 0.003) == 1  # the right sole carries
+    assert stab.estimator.loaded(q0[7:], None, 0.02) == -1  # within a 20 mm band: both
+    assert np.array_equal(on, run(Gains(), single)[0])
+    off = run(Gains(), double)[0]
+    assert np.max(np.abs(off[:, 3:5] - on[:, 3:5])) > 0.05  # m/s: the swinging sole's share
+    q = standing(robot)
+    t = targets_at(robot, q, "double")
+    outs = []
+    for g in (Gains(), Gains(support_down=0.003)):
+        stab = stabilizer(robot, q, R, g)
+        for _ in range(3):
+            stab.adjust(t, np.zeros(3), q, 0.01)
+        outs.append(np.r_[stab.last.base, stab.last.com_vel, stab.last.dcm])
+    assert np.array_equal(outs[0], outs[1])
+    with pytest.raises(ConfigurationError, match="support_down"):
+        Gains(support_down=-0.01).check()

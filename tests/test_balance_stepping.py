@@ -1170,6 +1170,44 @@ def test_a_catch_of_a_push_backward_reaches_further_with_back_shift(robot, walk1
         SteppingParams(back_shift=-0.1).check()
 
 
+def test_the_catchs_later_swings_reach_back_later(robot, walk10):
+    """``back_later``: the carried swings after the triggered one reach that far (the legs'
+    own reach still bounds the landing); the triggered swing keeps ``back_shift``; 0: every
+    carried swing ``back_shift``; past the carried swings, ``max_shift``."""
+    params = SteppingParams(back_later=0.14)
+    adj, off = _triggered(robot, walk10, params), _triggered(robot, walk10, SteppingParams())
+    i = MID + params.hold_ticks + 1
+    j = int(adj.phase_of[i])
+    later = [ph for ph in adj.phases[j + 1 :] if ph.kind == "single"]
+    second, beyond = later[0].i0 + 1, later[params.catch_swings].i0 + 1
+    assert adj.trigger.carried(second) and not adj.trigger.carried(beyond)
+    assert adj.reach(i) == off.reach(i) == (0.1, 0.8)
+    assert adj.reach(second) == (0.14, 0.8) and off.reach(second) == (0.1, 0.8)
+    assert adj.reach(beyond) == off.reach(beyond) == (params.max_shift, params.max_foot_speed)
+    with pytest.raises(ConfigurationError, match="back_later"):
+        SteppingParams(back_later=-0.1).check()
+
+
+def test_the_catchs_later_swing_is_stretched_with_stretch_later(robot, walk10):
+    """``stretch_later``: a re-plan of the catch's next (carried) swing that asks more than
+    its time left covers slows the clock as the triggered swing's does (``stretch``); 0:
+    that swing runs at the reference's pace (on by default)."""
+    assert SteppingParams().stretch_later == 1.0
+    rates = []
+    for flag in (1.0, 0.0):
+        adj = _triggered(robot, walk10, SteppingParams(stretch=0.5, stretch_later=flag))
+        j = int(adj.phase_of[MID])
+        ph = next(p for p in adj.phases[j + 1 :] if p.kind == "single")
+        i = ph.i0 + (ph.i1 - ph.i0) // 3
+        assert adj.trigger.carried(i) and not adj.trigger.triggered(i)
+        ref = adj.current
+        assert adj.update(ref, i, dcm(ref, i, adj.omega) + [-0.2, 0.0]) is not None
+        rates.append(adj.stretched.rate(int(adj.phase_of[i])))
+    assert 1.0 / 1.5 <= rates[0] < 1.0 and rates[1] is None  # (the change: to back_shift)
+    with pytest.raises(ConfigurationError, match="stretch_later"):
+        SteppingParams(stretch_later=-1.0).check()
+
+
 def test_a_catch_of_a_push_backward_lowers_the_swings_floor_at_its_landing(robot, walk10):
     """``landing_floor``: in a swing the catch of a push backward carries, over its last
     ``landing_floor`` share (smoothstep in), the swing's ground clearance comes down to the

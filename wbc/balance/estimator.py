@@ -741,6 +741,16 @@ class StateEstimator:
                 out[s] = anchor
         return out[0], (out[1] if len(stance) > 1 else out[0])
 
+    def loaded(self, joints: np.ndarray, fallback: np.ndarray | None, band: float) -> int:
+        """In a double support, the sole (SOLE_FRAMES index) the estimate stands on: -1 both
+        (the plan's), else the one whose lowest point is more than ``band`` below the other's
+        (:meth:`sole_heights`, from the last estimate): the other is still in the air (a
+        caught landing's sole, moving with the swing, would halve the CoM velocity read)."""
+        if self.last is None:
+            return -1
+        h = self.sole_heights(joints, fallback)
+        return -1 if abs(h[0] - h[1]) <= band else int(h[1] < h[0])
+
     def _up(self, name: str, joints: np.ndarray, fallback: np.ndarray | None) -> bool:
         """True when sole ``name``'s lowest point stands more than ``anchor_down`` above the
         other sole's (:meth:`sole_heights`, from the last estimate)."""

@@ -236,6 +236,13 @@ class Gains:
     #: moves no push beyond rounding and loses a ringing plant with the feed-forward
     #: (benchmarks/pushes.md, issue 30's seventh pass): off
     contact_band: float = 0.0
+    #: m (0: off): in a double support, a planned sole whose lowest point stands more than
+    #: this above the other's is left out of the state estimate (base, CoM velocity, DCM:
+    #: :meth:`~wbc.balance.estimator.StateEstimator.loaded`) until it is down; the
+    #: feedback's support (hip strategy, fall detector) stays the plan's. After a caught
+    #: landing the landed sole is still in the air 2–4 ticks, moving back with the swing:
+    #: averaged in, it halves the CoM velocity read (issue 30)
+    support_down: float = 0.0
     #: 1: the estimate's kinematic terms (base, CoM, its velocity, the DCM) use the filter's
     #: rotation of the tick the joints were read (a tick before the IMU sample: the
     #: deployment reads right after the goals; StateEstimator ``joint_lag``); 0: this tick's.
@@ -428,6 +435,7 @@ class Gains:
             "anchor_band",
             "anchor_down",
             "contact_band",
+            "support_down",
             "joint_lag",
             "real_step",
             "k_hip",

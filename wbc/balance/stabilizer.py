@@ -272,6 +272,11 @@ def _feedback_tick(
     :func:`~wbc.balance.servo_lag.servo_lag`'s state (the joints read against ``fallback``,
     the goals they follow: ``τ`` into ``fb[_B_LAG]``; empty: not measured)."""
     model = consts[_K_SIZE + _L_SIZE :]
+    est, k0 = select % 16, 0  # (+16 (1 + k): the estimate on sole k alone, support_down)
+    if select >= 16:
+        k0 = select // 16 - 1
+        est = est - 4 + k0
+    select = select % 16
     imu = select >= 8
     w, a = np.empty(3), np.empty(3)
     if imu and fb[_B_CAL] > 0.5:  # the start-up calibration (wbc.imu.calibrate)
@@ -289,7 +294,7 @@ def _feedback_tick(
         S[1, k // 4, k % 4] = soles[16 - first + k]
     anchor0, anchor1 = S[0], S[1]
     y_norm = soles[33] if side == 1 else soles[32] if side == 0 else 1.0
-    _estimate(model, joints, fallback, w, a, dt, select, anchor0, anchor1, state, values)
+    _estimate(model, joints, fallback, w, a, dt, est, S[k0], S[1 - k0], state, values)
     if lag.shape[0] > 0:  # (an empty state: the lag not read, not measured)
         fb[_B_LAG] = servo_lag(joints, fallback, dt, lag)
     R = np.empty((3, 3))
@@ -563,6 +568,10 @@ class Stabilizer:
             select, soles = estimator.contact(
                 select, soles, joints if present is None else present, joints
             )
+        if double and self.gains.support_down > 0:  # (the estimate on the loaded sole; off)
+            k = estimator.loaded(joints if present is None else present, joints,
+                                 self.gains.support_down)  # fmt: skip
+            select += 0 if k < 0 or select % 8 != 4 else 16 * (1 + k)
         values, o = np.empty((8, 3)), np.empty((6, 3))  # (fresh: the estimate is kept)
         consts = self._consts()  # (packed again when the gains or the detector changed)
         packed = self._packed

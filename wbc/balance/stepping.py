@@ -575,7 +575,8 @@ class StepAdjuster:
         if (p.back_shift > 0 or p.back_foot_speed > 0) and (
             self.trigger.carried(i) and not self.trigger.forward
         ):
-            return p.back_shift or p.max_shift, p.back_foot_speed or p.max_foot_speed
+            later = p.back_later if not self.trigger.triggered(i) else 0.0  # (back_later)
+            return later or p.back_shift or p.max_shift, p.back_foot_speed or p.max_foot_speed
         return p.max_shift, p.max_foot_speed
 
     def _swing_phase(self, k: int) -> Phase:
@@ -724,7 +725,8 @@ class StepAdjuster:
             room = speed / bend_rate(sw, at, ref.dt, self.swing)
             change = total - incs[j]
             n = math.hypot(change[0], change[1])
-            if sw is ph and self.trigger.triggered(i) and not self.trigger.forward:
+            later = p.stretch_later > 0 and self.trigger.carried(i)  # (stretch_later)
+            if sw is ph and (self.trigger.triggered(i) or later) and not self.trigger.forward:
                 room = self.stretched.room(int(self.phase_of[i]), room, n)  # (stretch)
             if n > room:
                 total = incs[j] + change * (room / n)

@@ -51,6 +51,18 @@ class SteppingParams:
     #: speed); after a push forward measured worse (0.852 → 0.688 N·s), kept there
     back_shift: float = 0.1
     back_foot_speed: float = 0.8
+    #: m (0: ``back_shift``): the reach of the catch's later swings (the carried ones after
+    #: the triggered swing): their re-plans wanted 110–140 mm after a 0.80 N·s push at 0 ms
+    #: and were cut at ``back_shift``; the legs' own reach (``feasible_shift``) still bounds
+    #: them (issue 30, benchmarks/pushes.md)
+    back_later: float = 0.0
+    #: 1: the catch's later carried swings stretched as the triggered one (``stretch``: the
+    #: clock slowed while their re-planned landing is beyond the room their time left gives;
+    #: 0: only the triggered swing). On by default: of 80 backward pushes 50 against 48
+    #: (held out 32 of 47 against 31), none of the old default's lost; forward, toward, away
+    #: at their bounds, the nominal walks, 20 plants and the OP3's backward screen unchanged
+    #: (issue 30, benchmarks/pushes.md, twenty-third session)
+    stretch_later: float = 1.0
     hold_ticks: int = 3  # ticks between two re-plans
     #: a catch re-plans the step it starts in and episode_steps − 1 after it (0: every later
     #: step, which keeps the walk rocking sideways after a push), then rests rest_steps steps
@@ -352,7 +364,7 @@ class SteppingParams:
     def check(self) -> SteppingParams:
         for name in (
             "threshold", "gain", "min_remaining", "min_clearance", "max_shift", "max_foot_speed",
-            "back_shift", "back_foot_speed",
+            "back_shift", "back_foot_speed", "back_later", "stretch_later",
             "band_x", "band_y", "settle", "baseline_tau", "landing", "landing_band",
             "landing_lateral", "landing_blend", "landing_catch", "landing_tau", "landing_tilt",
             "landing_depth", "landing_floor", "landing_turn", "back_torso", "back_runaway",
