@@ -9,17 +9,14 @@ Jacobian of its rotation error; this one is the body-frame form (Pinocchio's ``l
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
-from ..compiled.rows import frame_jacobian, log3
+from ..compiled.rows import LOG_SERIES_ANGLE, frame_jacobian, log3, log_coefficients
 from .frame_pose import FramePoseTask
 
-#: below this angle (rad) the coefficients of the logarithm's linear part are their Taylor
-#: expansions (the closed forms lose digits to ``1 − cos θ``; the expansions' first neglected
-#: terms, θ⁶/30240 and θ⁴/30240, are below 1e-22 and 4e-17 here)
-TAYLOR_ANGLE = 1e-3
+#: below this angle (rad) the coefficients of the logarithm's linear part are their series
+#: (:func:`wbc.compiled.rows.log_coefficients`)
+TAYLOR_ANGLE = LOG_SERIES_ANGLE
 
 
 @njit(cache=True)
@@ -46,14 +43,7 @@ def local_pose_rows(
         R[0, 2] * p[0] + R[1, 2] * p[1] + R[2, 2] * p[2]
     )
     # V(ω)⁻¹ t = α t − ½ ω × t + β (ω·t) ω (Pinocchio's log6)
-    th2 = theta * theta
-    if theta < TAYLOR_ANGLE:
-        alpha = 1.0 - th2 / 12.0 - th2 * th2 / 720.0
-        beta = 1.0 / 12.0 + th2 / 720.0
-    else:
-        st, ct = math.sin(theta), math.cos(theta)
-        alpha = theta * st / (2.0 * (1.0 - ct))
-        beta = 1.0 / th2 - st / (2.0 * theta * (1.0 - ct))
+    alpha, beta = log_coefficients(theta)
     w0, w1, w2 = e[3], e[4], e[5]
     bwt = beta * (w0 * t0 + w1 * t1 + w2 * t2)
     e[0] = alpha * t0 - 0.5 * (w1 * t2 - w2 * t1) + bwt * w0
